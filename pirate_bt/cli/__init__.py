@@ -1,0 +1,121 @@
+"""The ``pirate-bt`` command.
+
+Verbs live in their own modules and are imported only when chosen, so
+``pirate-bt --help`` starts fast. Each verb module has ``configure(parser)`` and
+``run(args) -> int``. Errors become one line each on stderr and the exit codes
+of DESIGN.md: 0 success, 1 the tree or mission failed (robot left safe), 2 invalid
+input, 3 link or hardware error. ``--debug`` shows tracebacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+__all__ = ["COMMANDS", "main"]
+
+# verb -> (module, one-line help). Later issues add their verbs here.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "validate": ("pirate_bt.cli.validate", "check robot descriptions and other pirate_bt files"),
+    "schema": ("pirate_bt.cli.schema", "print the JSON Schema of a file kind"),
+    "robot": ("pirate_bt.cli.robot", "show a robot description's board table, or draw it"),
+    "demo": ("pirate_bt.cli.demo", "the main job: run the showcase and write its outputs"),
+}
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_INPUT = 2
+EXIT_LINK = 3
+
+
+def _version() -> str:
+    from pirate_bt import __version__
+
+    return __version__
+
+
+def _top_parser() -> argparse.ArgumentParser:
+    verbs = "\n".join(f"  {name:<10} {text}" for name, (_, text) in COMMANDS.items())
+    parser = argparse.ArgumentParser(
+        prog="pirate-bt",
+        description="Behaviour-tree autonomy for the PIRATE pipe-inspection robot.",
+        epilog=f"commands:\n{verbs}\n\nexit codes: 0 ok, 1 failed (robot safe), 2 bad input,"
+        " 3 link/hardware error\n'pirate-bt COMMAND --help' shows a command's options.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"pirate-bt {_version()}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks and debug logs")
+    parser.add_argument(
+        "--log",
+        action="append",
+        default=[],
+        metavar="SUBSYSTEM=LEVEL",
+        help="log level per subsystem, e.g. --log link=debug (repeatable)",
+    )
+    parser.add_argument("command", nargs="?", choices=sorted(COMMANDS), metavar="COMMAND")
+    return parser
+
+
+def _configure_logging(specs: Sequence[str], debug: bool) -> None:
+    logging.basicConfig(
+        level=logging.DEBUG if debug else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+        stream=sys.stderr,
+    )
+    for spec in specs:
+        name, _, level = spec.partition("=")
+        level_no = logging.getLevelName(level.upper() or "INFO")
+        if not name or not isinstance(level_no, int):
+            raise SystemExit(f"pirate-bt: error: bad --log {spec!r}; write e.g. link=debug")
+        logger_name = name if name.startswith("pirate_bt") else f"pirate_bt.{name}"
+        logging.getLogger(logger_name).setLevel(level_no)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    top = _top_parser()
+    # Split global options from the verb and its own arguments.
+    split = next((i for i, a in enumerate(args_list) if a in COMMANDS), len(args_list))
+    top_args = top.parse_args(args_list[: split + 1] if split < len(args_list) else args_list)
+    if top_args.command is None:
+        top.print_help(sys.stderr)
+        return EXIT_INPUT
+    debug: bool = top_args.debug
+    module_name, text = COMMANDS[top_args.command]
+    module = importlib.import_module(module_name)
+    sub = argparse.ArgumentParser(prog=f"pirate-bt {top_args.command}", description=text)
+    module.configure(sub)
+    try:
+        args = sub.parse_args(args_list[split + 1 :])
+    except SystemExit as exc:
+        return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
+    args.debug = debug
+    _configure_logging(top_args.log, debug)
+    from pirate_bt.errors import PirateError
+
+    try:
+        code: int = module.run(args)
+        return code
+    except PirateError as exc:
+        if debug:
+            raise
+        for line in str(exc).splitlines() or [type(exc).__name__]:
+            print(f"pirate-bt: {line}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("pirate-bt: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:
+        if debug:
+            raise
+        print(
+            f"pirate-bt: internal error: {type(exc).__name__}: {exc} (rerun with --debug)",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED

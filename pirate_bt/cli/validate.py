@@ -1,0 +1,40 @@
+"""``pirate-bt validate FILE...``: check files, one located line per problem."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pirate_bt.errors import PirateError, ValidationFailed
+from pirate_bt.filekinds import KINDS, validate_file
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("files", nargs="+", metavar="FILE", help="files to check")
+    parser.add_argument(
+        "--kind",
+        choices=sorted(KINDS),
+        help="the kind of every file (default: detect from suffix and keys)",
+    )
+    parser.add_argument("-q", "--quiet", action="store_true", help="print problems only")
+
+
+def run(args: argparse.Namespace) -> int:
+    worst = 0
+    for path in args.files:
+        try:
+            validate_file(path, args.kind)
+        except ValidationFailed as exc:
+            for error in exc.errors:
+                print(str(error), file=sys.stderr)
+            worst = max(worst, exc.exit_code)
+        except KeyError as exc:
+            print(f"{path}: {exc.args[0]}", file=sys.stderr)
+            worst = max(worst, 2)
+        except PirateError as exc:
+            print(f"{path}: {exc}", file=sys.stderr)
+            worst = max(worst, exc.exit_code)
+        else:
+            if not args.quiet:
+                print(f"{path}: ok")
+    return worst

@@ -1,0 +1,57 @@
+"""Load and validate robot descriptions with located errors."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.resources import default_robot_path
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, pydantic_errors
+
+__all__ = ["load_robot", "robot_from_data", "robot_from_document"]
+
+_FILE_CONTEXT = {"units_required": True, "defer_cross_checks": True}
+
+
+def robot_from_document(doc: YamlDocument) -> RobotDescription:
+    """Validate a loaded YAML document as a robot description.
+
+    Raises:
+        ValidationFailed: every problem, each at ``file:line:column``.
+    """
+    if not isinstance(doc.data, dict):
+        raise ValidationFailed(
+            [doc.locator.error((), "a robot description must be a mapping of keys")]
+        )
+    try:
+        robot = RobotDescription.model_validate(doc.data, context=_FILE_CONTEXT)
+    except ValidationError as exc:
+        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
+    problems = robot.cross_check()
+    if problems:
+        raise ValidationFailed(
+            sorted(
+                (doc.locator.error(path, msg) for path, msg in problems),
+                key=lambda e: (e.location.line, e.location.column),
+            )
+        )
+    return robot
+
+
+def robot_from_data(data: Mapping[str, Any], name: str = "<data>") -> RobotDescription:
+    """Validate plain data (as from a YAML file, units required) as a robot description."""
+    return robot_from_document(YamlDocument(dict(data), Locator(name)))
+
+
+def load_robot(path: str | Path | None = None) -> RobotDescription:
+    """Load a robot description file; ``None`` loads the bundled 2018 robot.
+
+    Raises:
+        ValidationFailed: the file cannot be read or does not validate.
+    """
+    return robot_from_document(load_yaml(path if path is not None else default_robot_path()))

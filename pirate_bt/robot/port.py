@@ -1,0 +1,98 @@
+"""The seam between the link and everything above it.
+
+:class:`RobotPort` is what the protective layer (and only the protective layer)
+holds: the latest :class:`~pirate_bt.robot.state.RobotState`, a way to send
+:class:`~pirate_bt.robot.commands.MotorCommand` objects, the e-stop, and link
+health as figures. ``pirate_bt.link`` implements it over a real or simulated
+bridge; tests implement it with fakes. Everything crossing it is in SI units.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.state import RobotState
+
+__all__ = ["LinkHealth", "RobotPort"]
+
+
+@dataclass(frozen=True, slots=True)
+class LinkHealth:
+    """Link figures at one moment.
+
+    Attributes:
+        connected: The handshake succeeded and the link has not been declared lost.
+        last_heard_s: Clock time of the last valid frame from the bridge (``-inf`` if never).
+        rtt_s: Smoothed request/response round-trip time (``nan`` before the first ack).
+        loss_ratio: Share of requests that needed a retry or failed, recent window.
+        crc_errors: Frames rejected for a bad CRC or framing, since connect.
+        retries: Requests sent again after an ack timeout, since connect.
+        failed: Requests given up on after all retries, since connect.
+        duplicates: Duplicate or out-of-date frames ignored, since connect.
+        estopped: The bridge reports its e-stop latched.
+    """
+
+    connected: bool
+    last_heard_s: float = -math.inf
+    rtt_s: float = math.nan
+    loss_ratio: float = 0.0
+    crc_errors: int = 0
+    retries: int = 0
+    failed: int = 0
+    duplicates: int = 0
+    estopped: bool = False
+
+    def silent_for(self, now_s: float) -> float:
+        """Seconds since the bridge was last heard."""
+        return now_s - self.last_heard_s
+
+
+@runtime_checkable
+class RobotPort(Protocol):
+    """A connected robot (real or simulated), seen in SI units."""
+
+    @property
+    def robot(self) -> RobotDescription:
+        """The description the link was opened with."""
+        ...
+
+    def poll(self) -> None:
+        """Process pending input and due retries/heartbeats without blocking.
+
+        Raises:
+            LinkLost: nothing valid heard for longer than the configured time.
+        """
+        ...
+
+    def state(self) -> RobotState | None:
+        """The latest state snapshot, or ``None`` before the first state frame."""
+        ...
+
+    def send(self, commands: Sequence[MotorCommand]) -> None:
+        """Send setpoints (acked and retried by the link; idempotent on the bridge).
+
+        Raises:
+            LinkError: the link is lost or the commands could not be delivered.
+        """
+        ...
+
+    def estop(self) -> None:
+        """Send an e-stop ahead of every queue; never raises for a busy link."""
+        ...
+
+    def reset_estop(self) -> None:
+        """Release a latched e-stop on the bridge (operator action)."""
+        ...
+
+    def health(self) -> LinkHealth:
+        """Current link figures."""
+        ...
+
+    def close(self) -> None:
+        """Stop drives if possible, then release the transport."""
+        ...

@@ -1,0 +1,205 @@
+"""Immutable robot state snapshots in SI units, built from raw state-frame values.
+
+The link hands up one raw int16 per state channel (see
+:meth:`~pirate_bt.robot.description.RobotDescription.state_channels`), or ``None``
+where the bridge flagged a reading as not fresh. :class:`StateBuilder` turns that
+into a :class:`RobotState`: every channel as a :class:`Reading` with the time it
+was last fresh, plus role-based views (joint angles by bend module, clamp forces,
+rotation, IMU, drive speeds, motor currents, camera and front tilt).
+
+A snapshot never changes after it is built, so the tree, the supervisor and the
+trace can all hold the same one without copying or locking.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+from pirate_bt.robot.description import (
+    MotorFunction,
+    RobotDescription,
+    Role,
+    SensorKind,
+)
+
+__all__ = ["Reading", "RobotState", "StateBuilder"]
+
+_EMPTY: Mapping[str, float] = MappingProxyType({})
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One value in SI units and the clock time at which it was last fresh."""
+
+    value: float
+    stamp_s: float
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """What the robot reported, in SI units; immutable.
+
+    Attributes:
+        stamp_s: Clock time at which the state frame arrived.
+        readings: Every channel by name (``bend_1_angle``, ``imu.roll``,
+            ``bend_1_drive.current``) with its value and freshness stamp.
+        joint_angle_rad: Bend joint angle by bend module name.
+        clamp_force_n: Spring (normal) force by bend module name.
+        rotation_rad: Angle between the halves, if the rotation sensor has reported.
+        imu_rad: IMU axes (``roll``, ``pitch``, ``yaw``) in radians.
+        drive_velocity_mps: Measured wheel speed by drive motor name.
+        motor_current_a: Measured current by motor name.
+        camera_tilt_rad: Camera tilt, if reported.
+        camera_pan_rad: Camera pan, if reported.
+        front_tilt_rad: Front module tilt, if reported.
+    """
+
+    stamp_s: float
+    readings: Mapping[str, Reading]
+    joint_angle_rad: Mapping[str, float] = field(default_factory=lambda: _EMPTY)
+    clamp_force_n: Mapping[str, float] = field(default_factory=lambda: _EMPTY)
+    rotation_rad: float | None = None
+    imu_rad: Mapping[str, float] = field(default_factory=lambda: _EMPTY)
+    drive_velocity_mps: Mapping[str, float] = field(default_factory=lambda: _EMPTY)
+    motor_current_a: Mapping[str, float] = field(default_factory=lambda: _EMPTY)
+    camera_tilt_rad: float | None = None
+    camera_pan_rad: float | None = None
+    front_tilt_rad: float | None = None
+
+    def value(self, name: str) -> float:
+        """The value of channel ``name`` (``KeyError`` if it never reported)."""
+        return self.readings[name].value
+
+    def age_s(self, name: str, now_s: float) -> float:
+        """Seconds since channel ``name`` was last fresh; ``inf`` if never."""
+        reading = self.readings.get(name)
+        return math.inf if reading is None else now_s - reading.stamp_s
+
+    def oldest_stamp(self, names: Sequence[str]) -> float:
+        """The oldest freshness stamp among ``names`` (``-inf`` if any never reported)."""
+        stamps = [self.readings[n].stamp_s if n in self.readings else -math.inf for n in names]
+        return min(stamps, default=self.stamp_s)
+
+    def mean_drive_velocity_mps(self) -> float:
+        """Mean measured wheel speed over the drive motors (0 when none reported)."""
+        values = list(self.drive_velocity_mps.values())
+        return sum(values) / len(values) if values else 0.0
+
+
+class StateBuilder:
+    """Turns raw state-frame values into :class:`RobotState` snapshots.
+
+    Args:
+        robot: The robot description whose state layout the frames follow.
+    """
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self.robot = robot
+        self._channels = robot.state_channels()
+        self._joint: dict[str, str] = {}
+        self._spring: dict[str, str] = {}
+        for module in robot.all_bend_modules():
+            self._joint[module.name] = robot.sensor_of(module.name, SensorKind.ANGLE).name
+            with contextlib.suppress(KeyError):
+                self._spring[module.name] = robot.sensor_of(module.name, SensorKind.SPRING).name
+        rot = robot.rotational_module().name
+        self._rotation = robot.sensor_of(rot, SensorKind.ANGLE).name
+        imu = robot.imu()
+        self._imu = {axis: f"{imu.name}.{axis}" for axis in imu.axes} if imu else {}
+        self._velocity = {
+            m.name: f"{m.name}.velocity" for m in robot.drive_motors() if m.feedback.velocity
+        }
+        self._current = {
+            m.name: f"{m.name}.current" for _, m in robot.motors() if m.feedback.current
+        }
+        self._by_function: dict[MotorFunction, str] = {}
+        for board, motor in robot.motors():
+            if motor.function in (
+                MotorFunction.CAMERA_TILT,
+                MotorFunction.CAMERA_PAN,
+                MotorFunction.TILT,
+            ):
+                module = robot.module(board.module)
+                try:
+                    sensor = robot.sensor_of(module.name, SensorKind.ANGLE)
+                except KeyError:
+                    continue
+                # A board with a motor and an angle sensor on the same slot reads that motor.
+                for s in board.sensors:
+                    if s.slot == motor.slot and s.kind is SensorKind.ANGLE:
+                        sensor = s
+                if module.role is Role.FRONT:
+                    self._by_function[motor.function] = sensor.name
+
+    @property
+    def channel_names(self) -> list[str]:
+        return [c.name for c in self._channels]
+
+    def build(
+        self,
+        raw: Sequence[int | None],
+        stamp_s: float,
+        previous: RobotState | None = None,
+    ) -> RobotState:
+        """Build a snapshot from one frame's raw values.
+
+        Args:
+            raw: One value per state channel, in layout order; ``None`` where the
+                bridge flagged the reading as not fresh (the previous reading is
+                kept with its old stamp, so freshness checks see its age).
+            stamp_s: Clock time at which the frame arrived.
+            previous: The snapshot before this one, if any.
+
+        Raises:
+            ValueError: ``raw`` does not have one value per channel.
+        """
+        if len(raw) != len(self._channels):
+            raise ValueError(f"expected {len(self._channels)} raw values, got {len(raw)}")
+        readings: dict[str, Reading] = {}
+        old = previous.readings if previous is not None else {}
+        for spec, value in zip(self._channels, raw, strict=True):
+            if value is None:
+                if spec.name in old:
+                    readings[spec.name] = old[spec.name]
+            else:
+                readings[spec.name] = Reading(spec.conversion.to_si(value), stamp_s)
+        return self.from_readings(readings, stamp_s)
+
+    def from_readings(self, readings: Mapping[str, Reading], stamp_s: float) -> RobotState:
+        """Build a snapshot from SI readings by channel name (simulators and tests)."""
+
+        def pick(table: Mapping[str, str]) -> Mapping[str, float]:
+            return MappingProxyType(
+                {key: readings[ch].value for key, ch in table.items() if ch in readings}
+            )
+
+        def one(name: str | None) -> float | None:
+            return readings[name].value if name is not None and name in readings else None
+
+        return RobotState(
+            stamp_s=stamp_s,
+            readings=MappingProxyType(dict(readings)),
+            joint_angle_rad=pick(self._joint),
+            clamp_force_n=pick(self._spring),
+            rotation_rad=one(self._rotation),
+            imu_rad=pick(self._imu),
+            drive_velocity_mps=pick(self._velocity),
+            motor_current_a=pick(self._current),
+            camera_tilt_rad=one(self._by_function.get(MotorFunction.CAMERA_TILT)),
+            camera_pan_rad=one(self._by_function.get(MotorFunction.CAMERA_PAN)),
+            front_tilt_rad=one(self._by_function.get(MotorFunction.TILT)),
+        )
+
+    def encode(self, values: Mapping[str, float]) -> list[int | None]:
+        """SI values by channel name -> raw values in layout order (``None`` if absent).
+
+        This is the inverse of :meth:`build`, for the simulated bridge and tests.
+        """
+        return [
+            spec.conversion.to_raw(values[spec.name]) if spec.name in values else None
+            for spec in self._channels
+        ]

@@ -1,0 +1,281 @@
+"""Quantities with units, parsed once at load time into SI floats.
+
+Files say ``90 deg``, ``80 mm/s``, ``0.6 N*m``, ``250 ms`` or ``63 mm``; the code
+above the loaders only ever sees floats in SI units (radians for angles), with the
+unit in the name (``angle_rad``, ``velocity_mps``). A unit expression is a product
+of unit names, each with an optional integer power, joined by ``*``, ``·`` or
+``/`` (``/`` divides by the next name only): ``m/s^2``, ``N*m``, ``rad/s``.
+
+The dimension of every field is fixed by the schema, so ``angle: 90 mm`` is an
+error that names both dimensions instead of a silently wrong robot.
+
+Why not pint: importing it costs about 0.2 s, which alone would blow the CLI's
+0.3 s cold-start budget, and we need only a few dozen units with fixed
+dimensions (see ``docs/performance.md``).
+
+In files a dimensioned number must carry its unit (``angle: 90`` is refused,
+because 90 rad is never what anybody meant). In Python code numbers are taken as
+SI: ``BendParams(angle=1.57)`` is 1.57 rad.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Annotated, Any, Final
+
+from pydantic import BeforeValidator, ValidationInfo, WithJsonSchema
+
+from pirate_bt.errors import UnitError
+
+__all__ = [
+    "DIMENSIONS",
+    "Acceleration",
+    "Angle",
+    "AngularVelocity",
+    "Current",
+    "Dimensionless",
+    "Duration",
+    "Force",
+    "Frequency",
+    "Length",
+    "Torque",
+    "Velocity",
+    "format_quantity",
+    "parse_quantity",
+    "quantity_type",
+    "units_of",
+]
+
+# Dimension vectors: exponents of (metre, second, kilogram, ampere, radian).
+_Dim = tuple[int, int, int, int, int]
+
+DIMENSIONS: Final[dict[str, _Dim]] = {
+    "dimensionless": (0, 0, 0, 0, 0),
+    "length": (1, 0, 0, 0, 0),
+    "time": (0, 1, 0, 0, 0),
+    "angle": (0, 0, 0, 0, 1),
+    "velocity": (1, -1, 0, 0, 0),
+    "angular_velocity": (0, -1, 0, 0, 1),
+    "acceleration": (1, -2, 0, 0, 0),
+    "force": (1, -2, 1, 0, 0),
+    "torque": (2, -2, 1, 0, 0),
+    "frequency": (0, -1, 0, 0, 0),
+    "current": (0, 0, 0, 1, 0),
+    "mass": (0, 0, 1, 0, 0),
+}
+
+_M: Final = DIMENSIONS["length"]
+_S: Final = DIMENSIONS["time"]
+_KG: Final = DIMENSIONS["mass"]
+_A: Final = DIMENSIONS["current"]
+_RAD: Final = DIMENSIONS["angle"]
+_ONE: Final = DIMENSIONS["dimensionless"]
+_N: Final = DIMENSIONS["force"]
+_HZ: Final = DIMENSIONS["frequency"]
+
+# name -> (factor to SI, dimension)
+_UNITS: Final[dict[str, tuple[float, _Dim]]] = {
+    "m": (1.0, _M),
+    "cm": (1e-2, _M),
+    "mm": (1e-3, _M),
+    "um": (1e-6, _M),
+    "km": (1e3, _M),
+    "s": (1.0, _S),
+    "ms": (1e-3, _S),
+    "us": (1e-6, _S),
+    "min": (60.0, _S),
+    "h": (3600.0, _S),
+    "kg": (1.0, _KG),
+    "g": (1e-3, _KG),
+    "A": (1.0, _A),
+    "mA": (1e-3, _A),
+    "rad": (1.0, _RAD),
+    "mrad": (1e-3, _RAD),
+    "deg": (math.pi / 180.0, _RAD),
+    "°": (math.pi / 180.0, _RAD),
+    "rev": (2 * math.pi, _RAD),
+    "rpm": (2 * math.pi / 60.0, (0, -1, 0, 0, 1)),
+    "N": (1.0, _N),
+    "mN": (1e-3, _N),
+    "Nm": (1.0, DIMENSIONS["torque"]),
+    "Hz": (1.0, _HZ),
+    "kHz": (1e3, _HZ),
+    "%": (1e-2, _ONE),
+    "1": (1.0, _ONE),
+}
+
+_DISPLAY: Final[dict[str, tuple[str, float]]] = {
+    "length": ("m", 1.0),
+    "time": ("s", 1.0),
+    "angle": ("deg", 180.0 / math.pi),
+    "velocity": ("mm/s", 1e3),
+    "angular_velocity": ("deg/s", 180.0 / math.pi),
+    "acceleration": ("m/s^2", 1.0),
+    "force": ("N", 1.0),
+    "torque": ("N*m", 1.0),
+    "frequency": ("Hz", 1.0),
+    "current": ("A", 1.0),
+    "mass": ("kg", 1.0),
+    "dimensionless": ("", 1.0),
+}
+
+_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_QUANTITY_RE: Final = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>.*?)\s*$")
+_TERM_RE: Final = re.compile(r"^(?P<name>[A-Za-z°%]+|1)(?:\^(?P<pow>[+-]?\d+))?$")
+_QUANTITY_PATTERN: Final = rf"^\s*{_NUMBER}\s*[A-Za-z°%0-9*·/^ +-]*$"
+
+
+def _article(noun: str) -> str:
+    return ("an " if noun[:1] in "aeiou" else "a ") + noun.replace("_", " ")
+
+
+def _dim_name(dim: _Dim) -> str:
+    for name, vec in DIMENSIONS.items():
+        if vec == dim:
+            return name
+    return "unit " + "·".join(
+        f"{b}^{p}" for b, p in zip(("m", "s", "kg", "A", "rad"), dim, strict=True) if p
+    )
+
+
+def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
+    factor = 1.0
+    dim = [0, 0, 0, 0, 0]
+    text = expr.replace("·", "*").replace(" ", "")
+    if not text:
+        return 1.0, _ONE
+    sign = 1
+    token = ""
+    pieces: list[tuple[int, str]] = []
+    for ch in text + "*":
+        if ch in "*/":
+            if not token:
+                raise UnitError(f"malformed unit in {original!r}")
+            pieces.append((sign, token))
+            token = ""
+            sign = -1 if ch == "/" else 1
+        else:
+            token += ch
+    for sgn, piece in pieces:
+        match = _TERM_RE.match(piece)
+        if match is None or match["name"] not in _UNITS:
+            name = match["name"] if match else piece
+            raise UnitError(f"unknown unit {name!r} in {original!r}; known: {', '.join(_UNITS)}")
+        power = sgn * int(match["pow"] or 1)
+        unit_factor, unit_dim = _UNITS[match["name"]]
+        factor *= unit_factor**power
+        for i, exponent in enumerate(unit_dim):
+            dim[i] += exponent * power
+    return factor, (dim[0], dim[1], dim[2], dim[3], dim[4])
+
+
+def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) -> float:
+    """Turn ``value`` into an SI float of the given dimension.
+
+    Args:
+        value: A string such as ``"90 deg"``, or a number (taken as SI).
+        dimension: One of :data:`DIMENSIONS`, e.g. ``"angle"``.
+        require_unit: Refuse a bare number for a dimensioned quantity (the rule
+            for files); planner code passes numbers in SI.
+
+    Returns:
+        The value in SI units (radians for angles).
+
+    Raises:
+        UnitError: unknown unit, malformed text, or the wrong dimension.
+    """
+    if dimension not in DIMENSIONS:
+        raise ValueError(f"unknown dimension {dimension!r}")
+    if isinstance(value, bool):
+        raise UnitError(f"expected {_article(dimension)} quantity, got {value!r}")
+    if isinstance(value, int | float):
+        if require_unit and dimension != "dimensionless" and value != 0:
+            unit = _DISPLAY[dimension][0]
+            raise UnitError(f"{value!r} needs a unit: write it as e.g. '{value} {unit}'")
+        result = float(value)
+    elif isinstance(value, str):
+        match = _QUANTITY_RE.match(value)
+        if match is None:
+            raise UnitError(f"not a quantity: {value!r} (expected e.g. '90 deg', '80 mm/s')")
+        factor, dim = _parse_unit(match["unit"], value)
+        expected = DIMENSIONS[dimension]
+        if dim != expected:
+            raise UnitError(
+                f"{value!r} is {_article(_dim_name(dim))}, but {_article(dimension)} is expected"
+                f" (e.g. '1 {_DISPLAY[dimension][0] or '1'}')"
+            )
+        result = float(match["num"]) * factor
+    else:
+        raise UnitError(
+            f"expected {_article(dimension)} quantity such as '1 {_DISPLAY[dimension][0]}'"
+        )
+    if not math.isfinite(result):
+        raise UnitError(f"{value!r} is not a finite number")
+    return result
+
+
+def format_quantity(value_si: float, dimension: str, digits: int = 4) -> str:
+    """Format an SI value for people, e.g. ``format_quantity(1.5708, "angle") == "90 deg"``."""
+    unit, scale = _DISPLAY[dimension]
+    shown = f"{value_si * scale:.{digits}g}"
+    return f"{shown} {unit}".strip()
+
+
+def units_of(dimension: str) -> list[str]:
+    """List the single unit names whose dimension is ``dimension``."""
+    want = DIMENSIONS[dimension]
+    return [name for name, (_, dim) in _UNITS.items() if dim == want]
+
+
+def _validator(dimension: str) -> Any:
+    def validate(value: object, info: ValidationInfo) -> float:
+        context = info.context if isinstance(info.context, dict) else {}
+        try:
+            return parse_quantity(
+                value, dimension, require_unit=bool(context.get("units_required", False))
+            )
+        except UnitError as exc:
+            # pydantic wraps ValueError into a located validation error.
+            raise ValueError(str(exc)) from None
+
+    return validate
+
+
+def _json_schema(dimension: str) -> dict[str, Any]:
+    unit = _DISPLAY[dimension][0]
+    return {
+        "anyOf": [
+            {
+                "type": "string",
+                "pattern": _QUANTITY_PATTERN,
+                "description": f"{_article(dimension)} with its unit, e.g. '1 {unit}'",
+            },
+            {"type": "number", "description": "SI value (only 0 is allowed without a unit)"},
+        ]
+    }
+
+
+def quantity_type(dimension: str) -> Any:
+    """An ``Annotated[float, ...]`` type that parses a quantity of ``dimension``."""
+    return Annotated[
+        float, BeforeValidator(_validator(dimension)), WithJsonSchema(_json_schema(dimension))
+    ]
+
+
+def _q(dimension: str) -> tuple[BeforeValidator, WithJsonSchema]:
+    return BeforeValidator(_validator(dimension)), WithJsonSchema(_json_schema(dimension))
+
+
+# Spelled out (not built by quantity_type) so that type checkers see plain floats.
+Length = Annotated[float, *_q("length")]
+Duration = Annotated[float, *_q("time")]
+Angle = Annotated[float, *_q("angle")]
+Velocity = Annotated[float, *_q("velocity")]
+AngularVelocity = Annotated[float, *_q("angular_velocity")]
+Acceleration = Annotated[float, *_q("acceleration")]
+Force = Annotated[float, *_q("force")]
+Torque = Annotated[float, *_q("torque")]
+Frequency = Annotated[float, *_q("frequency")]
+Current = Annotated[float, *_q("current")]
+Dimensionless = Annotated[float, *_q("dimensionless")]

@@ -1,0 +1,202 @@
+"""Load YAML files so that every later error can point at ``file:line:column``.
+
+Parsing text and validating data are separate steps (as pydantic-over-YAML
+projects do it): :func:`load_yaml` turns a file into plain Python data plus a
+:class:`Locator` that maps a path inside that data (``("boards", 3, "id")``) back
+to where it was written. Validators then raise with a path, and
+:func:`pydantic_errors` translates pydantic's error locations into
+:class:`~pirate_bt.errors.LocatedError` objects.
+
+The loader refuses what ``yaml.safe_load`` would quietly accept or crash on:
+a directory, an empty file, a binary file, bytes that are not UTF-8, and a key
+written twice in one mapping (PyYAML keeps the last one and loses the first).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import ValidationError
+
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+
+__all__ = ["Locator", "YamlDocument", "load_yaml", "load_yaml_text", "pydantic_errors"]
+
+PathKey = tuple[str | int, ...]
+
+
+@dataclass
+class Locator:
+    """Maps a path into the loaded data to its place in the file."""
+
+    file: str
+    marks: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
+
+    def locate(self, path: Sequence[str | int]) -> SourceLocation:
+        """The place of ``path``, or of its deepest written ancestor.
+
+        Path elements that are not in the file (pydantic's union tags, a missing
+        key) are skipped, so the location is always a real place in the file.
+        """
+        best = self.marks.get((), (1, 1))
+        current: PathKey = ()
+        for element in path:
+            candidate = (*current, element)
+            if candidate in self.marks:
+                current = candidate
+                best = self.marks[candidate]
+        return SourceLocation(self.file, best[0], best[1])
+
+    def error(self, path: Sequence[str | int], message: str) -> LocatedError:
+        """A :class:`LocatedError` for ``path``."""
+        return LocatedError(message, self.locate(path))
+
+
+@dataclass
+class YamlDocument:
+    """Plain data loaded from YAML, with its :class:`Locator`."""
+
+    data: Any
+    locator: Locator
+
+    @property
+    def file(self) -> str:
+        return self.locator.file
+
+
+def _mark(node: yaml.Node) -> tuple[int, int]:
+    return node.start_mark.line + 1, node.start_mark.column + 1
+
+
+def _walk(node: yaml.Node, path: PathKey, locator: Locator, errors: list[LocatedError]) -> None:
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, yaml.Node] = {}
+        for key_node, value_node in node.value:
+            key = key_node.value if isinstance(key_node, yaml.ScalarNode) else str(key_node)
+            if key in seen:
+                first = seen[key].start_mark.line + 1
+                errors.append(
+                    LocatedError(
+                        f"duplicate key {key!r} (first written on line {first})",
+                        SourceLocation(locator.file, *_mark(key_node)),
+                    )
+                )
+            seen[key] = key_node
+            locator.marks[(*path, key)] = _mark(key_node)
+            _walk(value_node, (*path, key), locator, errors)
+    elif isinstance(node, yaml.SequenceNode):
+        for index, item in enumerate(node.value):
+            locator.marks[(*path, index)] = _mark(item)
+            _walk(item, (*path, index), locator, errors)
+
+
+def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
+    """Parse YAML ``text``; see :func:`load_yaml`.
+
+    Raises:
+        ValidationFailed: on a syntax error, an empty document or a duplicate key.
+    """
+    locator = Locator(file)
+    loc = SourceLocation(file)
+    if "\x00" in text:
+        raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
+    if not text.strip():
+        raise ValidationFailed([LocatedError("file is empty", loc)])
+    loader = yaml.SafeLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            raise ValidationFailed([LocatedError("file holds no YAML document", loc)])
+        # Walk before constructing: construction flattens merge keys (<<) in place.
+        locator.marks[()] = _mark(node)
+        errors: list[LocatedError] = []
+        _walk(node, (), locator, errors)
+        if errors:
+            raise ValidationFailed(errors)
+        data = loader.construct_document(node)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = SourceLocation(file, mark.line + 1, mark.column + 1) if mark is not None else loc
+        problem = exc.problem or exc.context or "invalid YAML"
+        raise ValidationFailed([LocatedError(f"YAML syntax error: {problem}", where)]) from None
+    except yaml.YAMLError as exc:  # pragma: no cover - PyYAML marks nearly everything
+        raise ValidationFailed([LocatedError(f"YAML error: {exc}", loc)]) from None
+    finally:
+        loader.dispose()
+    return YamlDocument(data, locator)
+
+
+def load_yaml(path: str | Path) -> YamlDocument:
+    """Read and parse a YAML file, keeping where every value was written.
+
+    Raises:
+        ValidationFailed: the file is missing, a directory, binary, not UTF-8,
+            empty, or not valid YAML; each error is located.
+    """
+    p = Path(path)
+    name = str(path)
+    loc = SourceLocation(name)
+    if p.is_dir():
+        raise ValidationFailed([LocatedError("is a directory, not a file", loc)])
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise ValidationFailed([LocatedError("no such file", loc)]) from None
+    except OSError as exc:
+        raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", loc)]) from None
+    if b"\x00" in raw:
+        raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        before = raw[: exc.start]
+        line = before.count(b"\n") + 1
+        column = exc.start - (before.rfind(b"\n") + 1) + 1
+        raise ValidationFailed(
+            [
+                LocatedError(
+                    f"not UTF-8 text (byte 0x{raw[exc.start]:02x})",
+                    SourceLocation(name, line, column),
+                )
+            ]
+        ) from None
+    return load_yaml_text(text, name)
+
+
+def _describe(error: Any) -> str:
+    msg = str(error["msg"])
+    kind = error.get("type", "")
+    loc = error.get("loc", ())
+    if kind == "extra_forbidden" and loc:
+        return f"unknown key {loc[-1]!r}"
+    if kind == "missing" and loc:
+        return f"missing required key {loc[-1]!r}"
+    for prefix in ("Value error, ", "Assertion failed, "):
+        if msg.startswith(prefix):
+            msg = msg[len(prefix) :]
+    if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
+        where = ".".join(str(p) for p in loc if not isinstance(p, int))
+        if where:
+            return f"{where.split('.')[-1]}: {msg}"
+    return msg
+
+
+def pydantic_errors(exc: ValidationError, locator: Locator) -> list[LocatedError]:
+    """Translate pydantic's errors into located ones, in file order."""
+    errors = [locator.error(e["loc"], _describe(e)) for e in exc.errors()]
+    errors.sort(key=lambda e: (e.location.line, e.location.column))
+    return _unique(errors)
+
+
+def _unique(errors: Iterable[LocatedError]) -> list[LocatedError]:
+    seen: set[str] = set()
+    out: list[LocatedError] = []
+    for e in errors:
+        if str(e) not in seen:
+            seen.add(str(e))
+            out.append(e)
+    return out
