@@ -1,0 +1,1 @@
+"""Behaviour trees as YAML files: format, registry, static checks, build to py_trees."""
