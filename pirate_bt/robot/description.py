@@ -35,6 +35,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationInfo,
+    field_validator,
     model_validator,
 )
 
@@ -66,6 +67,7 @@ __all__ = [
     "MotorFunction",
     "RobotDescription",
     "Role",
+    "SafetyConfig",
     "Sensor",
     "SensorKind",
     "SetpointSlot",
@@ -143,6 +145,20 @@ RawRange = Annotated[
 ]
 
 
+def _check_raw_range(raw: tuple[int, int]) -> tuple[int, int]:
+    lo, hi = raw
+    if not -32768 <= lo < hi <= 32767:
+        raise ValueError(f"raw range [{lo}, {hi}] must be increasing and fit in int16")
+    return raw
+
+
+def _check_zero_raw(zero_raw: int, info: ValidationInfo) -> int:
+    raw = info.data.get("raw")
+    if raw is not None and not raw[0] <= zero_raw <= raw[1]:
+        raise ValueError(f"zero_raw {zero_raw} lies outside the raw range [{raw[0]}, {raw[1]}]")
+    return zero_raw
+
+
 class Conversion(_Model):
     """Linear raw<->SI conversion: ``si = (raw - zero_raw) * per_raw``."""
 
@@ -150,16 +166,17 @@ class Conversion(_Model):
     zero_raw: int = Field(0, description="raw value that means zero")
     per_raw: float = Field(description="SI value of one raw step, with its unit")
 
-    @model_validator(mode="after")
-    def _check(self) -> Conversion:
-        lo, hi = self.raw
-        if not -32768 <= lo < hi <= 32767:
-            raise ValueError(f"raw range [{lo}, {hi}] must be increasing and fit in int16")
-        if not lo <= self.zero_raw <= hi:
-            raise ValueError(f"zero_raw {self.zero_raw} lies outside the raw range [{lo}, {hi}]")
-        if self.per_raw == 0 or not math.isfinite(self.per_raw):
+    _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
+    _zero_ok = field_validator("zero_raw")(
+        classmethod(lambda cls, v, info: _check_zero_raw(v, info))
+    )
+
+    @field_validator("per_raw")
+    @classmethod
+    def _per_raw_ok(cls, value: float) -> float:
+        if value == 0 or not math.isfinite(value):
             raise ValueError("per_raw must be a non-zero finite quantity")
-        return self
+        return value
 
     def to_si(self, raw: int) -> float:
         """The SI value of a raw reading."""
@@ -309,6 +326,11 @@ class _Sensor(_Model):
     period: Duration = Field(gt=0, description="expected time between fresh readings")
     assumption: bool = False
 
+    _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
+    _zero_ok = field_validator("zero_raw")(
+        classmethod(lambda cls, v, info: _check_zero_raw(v, info))
+    )
+
     def conversion(self) -> Conversion:
         raise NotImplementedError
 
@@ -446,6 +468,29 @@ class MotionConfig(_Model):
     assumption: bool = False
 
 
+class SafetyConfig(_Model):
+    """Parameters of the protective layer (``pirate_bt.safety``); every field has a default."""
+
+    stale_after_periods: float = Field(
+        10.0, gt=1, description="a reading older than this many sensor periods is stale"
+    )
+    max_link_silence: Duration = Field(
+        0.5, gt=0, description="longest time without a valid frame before the link counts as lost"
+    )
+    max_refusals: int = Field(
+        5, ge=1, description="consecutive refused tree commands that put the robot in safe state"
+    )
+    rate_window: Duration = Field(
+        0.1, gt=0, description="longest time step a rate-of-change limit allows in one command"
+    )
+    angle_tolerance: Angle = Field(
+        0.03, ge=0, description="slack on clamp-contact and front-clear angle comparisons"
+    )
+    release_force_fraction: Dimensionless = Field(
+        0.2, ge=0, le=1, description="below this share of the minimum clamp force a half is free"
+    )
+
+
 class BridgeConfig(_Model):
     """The PIRATEbay bridge and its serial line."""
 
@@ -494,6 +539,7 @@ class RobotDescription(_Model):
     clamp: ClampConfig
     motion: MotionConfig
     bridge: BridgeConfig
+    safety: SafetyConfig = SafetyConfig()
 
     _index: _Index = PrivateAttr()
 
