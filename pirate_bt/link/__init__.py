@@ -1,0 +1,61 @@
+"""The PIRATEbay link: wire protocol codec, transports, session, fault injection.
+
+See ``docs/protocol.md`` for the byte-exact protocol. Nothing above this package
+sees a byte or a raw integer.
+"""
+
+from pirate_bt.link.codec import (
+    PROTOCOL_VERSION,
+    Ack,
+    AckStatus,
+    BoardCounters,
+    BoardStatus,
+    BridgeFlags,
+    BridgeHeartbeat,
+    BulkSetpoints,
+    Counters,
+    CountersRequest,
+    EStop,
+    EStopReset,
+    FrameCodec,
+    FrameDecoder,
+    Heartbeat,
+    Hello,
+    HelloReply,
+    Message,
+    MsgType,
+    Nack,
+    NackCode,
+    Setpoint,
+    State,
+    WireLayout,
+    seq_newer,
+)
+
+__all__ = [
+    "PROTOCOL_VERSION",
+    "Ack",
+    "AckStatus",
+    "BoardCounters",
+    "BoardStatus",
+    "BridgeFlags",
+    "BridgeHeartbeat",
+    "BulkSetpoints",
+    "Counters",
+    "CountersRequest",
+    "EStop",
+    "EStopReset",
+    "FrameCodec",
+    "FrameDecoder",
+    "Heartbeat",
+    "Hello",
+    "HelloReply",
+    "Message",
+    "MsgType",
+    "Nack",
+    "NackCode",
+    "Setpoint",
+    "State",
+    "WireLayout",
+    "seq_newer",
+]

@@ -1,0 +1,912 @@
+"""The PIRATEbay frame codec: messages <-> bytes, both directions, no I/O.
+
+A frame on the wire is ``COBS(header + payload + crc) + 0x00``. The 0x00
+delimiter lets a receiver that lost bytes resynchronise at the next zero; COBS
+(Consistent Overhead Byte Stuffing) removes every zero from the body at a cost
+of one byte for frames up to 254 bytes. The body is::
+
+    offset  size  field
+    0       1     version   protocol version (PROTOCOL_VERSION); stays at offset 0 forever
+    1       1     type      MsgType; bit 7 set = bridge -> host
+    2       2     seq       uint16 little-endian sequence number
+    4       1     arg       board id (SETPOINT) or status flags (STATE, BRIDGE_HEARTBEAT), else 0
+    5       n     payload   layout per type (see docs/protocol.md)
+    5+n     2     crc       CRC-16/XMODEM of bytes [0, 5+n), little-endian
+
+All integers are little-endian. ``docs/protocol.md`` is the byte-exact
+specification; ``tests/data/link_vectors.json`` holds shared test vectors.
+
+Two payloads depend on the robot: the STATE frame (one int16 per state channel,
+a fresh bitmask, a 4-bit status per board) and the BULK_SETPOINTS frame (one
+mode byte and one int16 per motor). Their sizes come from a :class:`WireLayout`
+built from the robot description, so a :class:`FrameCodec` is made per robot::
+
+    codec = FrameCodec(WireLayout.from_robot(robot))
+    wire = codec.encode(Heartbeat(seq=7))          # bytes ready to write
+    decoder = FrameDecoder(codec)
+    for item in decoder.feed(chunk):               # Message or FrameError, never raises
+        ...
+
+Both ends use this module: the host encodes the host -> bridge messages
+(:class:`Hello`, :class:`Setpoint`, :class:`BulkSetpoints`, :class:`Heartbeat`,
+:class:`EStop`, :class:`EStopReset`, :class:`CountersRequest`) and decodes the
+bridge -> host ones (:class:`HelloReply`, :class:`State`, :class:`Ack`,
+:class:`Nack`, :class:`Counters`, :class:`BridgeHeartbeat`); a simulated bridge
+does the opposite with the same :meth:`FrameCodec.encode` and
+:class:`FrameDecoder`. :func:`seq_newer` is the serial-number comparison both ends
+use for duplicates.
+
+Hot-path choices: precompiled :class:`struct.Struct` objects, the C CRC in
+:func:`binascii.crc_hqx`, and COBS done with :meth:`bytes.split` / ``bytes.join``
+rather than a byte loop.
+"""
+
+from __future__ import annotations
+
+import binascii
+import struct
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from enum import IntEnum, IntFlag
+from typing import ClassVar
+
+from pirate_bt.errors import FrameError
+from pirate_bt.robot.description import ControlMode, RobotDescription
+
+__all__ = [
+    "HEADER_BYTES",
+    "MAX_BODY_BYTES",
+    "MAX_PAYLOAD_BYTES",
+    "MAX_WIRE_BYTES",
+    "MODE_CODES",
+    "MODE_KEEP",
+    "PROTOCOL_VERSION",
+    "Ack",
+    "AckStatus",
+    "BoardCounters",
+    "BoardStatus",
+    "BridgeFlags",
+    "BridgeHeartbeat",
+    "BulkSetpoints",
+    "Counters",
+    "CountersRequest",
+    "EStop",
+    "EStopReset",
+    "FrameCodec",
+    "FrameDecoder",
+    "Heartbeat",
+    "Hello",
+    "HelloReply",
+    "Message",
+    "MsgType",
+    "Nack",
+    "NackCode",
+    "Setpoint",
+    "State",
+    "WireLayout",
+    "byte_time_s",
+    "cobs_decode",
+    "cobs_encode",
+    "crc16",
+    "frame_time_s",
+    "seq_newer",
+]
+
+PROTOCOL_VERSION = 1
+"""Protocol version carried in byte 0 of every frame."""
+
+HEADER_BYTES = 5
+MAX_BODY_BYTES = 254
+"""Largest body (header + payload + CRC) before COBS; COBS then adds exactly one byte."""
+MAX_PAYLOAD_BYTES = MAX_BODY_BYTES - HEADER_BYTES - 2
+MAX_WIRE_BYTES = MAX_BODY_BYTES + 2
+"""Largest frame on the wire: COBS overhead byte and the 0x00 delimiter included."""
+
+_HEADER = struct.Struct("<BBHB")
+_CRC = struct.Struct("<H")
+_U16 = struct.Struct("<H")
+_HELLO = struct.Struct("<I")
+_HELLO_REPLY = struct.Struct("<IBBHH")
+_SETPOINT = struct.Struct("<BBh")
+_ACK = struct.Struct("<BB")
+_COUNTERS_HEAD = struct.Struct("<IIIII")
+_BOARD_COUNTERS = struct.Struct("<BIII")
+
+
+class MsgType(IntEnum):
+    """Message type codes; bit 7 set means the bridge sent it."""
+
+    HELLO = 0x01
+    SETPOINT = 0x02
+    BULK_SETPOINTS = 0x03
+    HEARTBEAT = 0x04
+    ESTOP = 0x05
+    ESTOP_RESET = 0x06
+    COUNTERS_REQUEST = 0x07
+    HELLO_REPLY = 0x81
+    STATE = 0x82
+    ACK = 0x83
+    NACK = 0x84
+    COUNTERS = 0x85
+    BRIDGE_HEARTBEAT = 0x86
+
+
+class AckStatus(IntEnum):
+    """What the bridge did with an acknowledged request."""
+
+    APPLIED = 0
+    """First copy: the request took effect."""
+    DUPLICATE = 1
+    """Same sequence number as the last applied request: not applied again."""
+    STALE = 2
+    """Older than the last applied request: not applied (a newer one overtook it)."""
+
+
+class NackCode(IntEnum):
+    """Why the bridge refused a request."""
+
+    UNKNOWN_TYPE = 1
+    BAD_LENGTH = 2
+    BAD_LAYOUT = 3
+    BAD_BOARD = 4
+    BAD_SLOT = 5
+    BAD_MODE = 6
+    OUT_OF_RANGE = 7
+    ESTOP_LATCHED = 8
+    BUS_ERROR = 9
+    NOT_READY = 10
+
+
+class BridgeFlags(IntFlag):
+    """Bridge status bits in the ``arg`` byte of STATE and BRIDGE_HEARTBEAT frames."""
+
+    NONE = 0
+    ESTOP = 0x01
+    """The e-stop is latched: all motors off until ESTOP_RESET."""
+    WATCHDOG = 0x02
+    """The host was silent for the watchdog period: drives stopped, clamps held."""
+    BUS_FAULT = 0x04
+    """The RS485 bus failed a whole poll cycle."""
+
+
+class BoardStatus(IntFlag):
+    """Per-board status nibble in the STATE frame."""
+
+    NONE = 0
+    ONLINE = 0x1
+    """The board answered its last poll."""
+    FAULT = 0x2
+    """The board reports an H-bridge fault or over-current."""
+    TIMEOUT = 0x4
+    """The board missed its last poll (its readings are not fresh)."""
+    MOTORS_OFF = 0x8
+    """The board's motors are switched off (e-stop or watchdog)."""
+
+
+MODE_CODES: dict[ControlMode, int] = {
+    ControlMode.PWM: 0,
+    ControlMode.TORQUE: 1,
+    ControlMode.POSITION: 2,
+    ControlMode.VELOCITY: 3,
+}
+"""Wire code of each control mode."""
+MODE_KEEP = 0xFF
+"""BULK_SETPOINTS mode code meaning "leave this motor as it is" (``None`` in Python)."""
+_MODE_BY_CODE: dict[int, ControlMode] = {v: k for k, v in MODE_CODES.items()}
+
+
+def crc16(data: bytes) -> int:
+    """CRC-16/XMODEM: poly 0x1021, init 0x0000, no reflection, xorout 0; check 0x31C3.
+
+    Args:
+        data: The bytes to checksum.
+
+    Returns:
+        The 16-bit CRC.
+    """
+    return binascii.crc_hqx(data, 0)
+
+
+def seq_newer(a: int, b: int) -> bool:
+    """True when sequence number ``a`` is newer than ``b`` (RFC 1982 serial arithmetic, 16 bit).
+
+    Args:
+        a: A sequence number (0..65535).
+        b: Another one.
+
+    Returns:
+        ``True`` if ``a`` follows ``b`` by 1..32767 steps modulo 65536.
+    """
+    return 0 < ((a - b) & 0xFFFF) < 0x8000
+
+
+def byte_time_s(baud: int) -> float:
+    """Seconds one byte takes on an 8N1 line (10 bit times).
+
+    Args:
+        baud: Line rate in bit/s.
+
+    Returns:
+        The duration of one byte in seconds.
+    """
+    return 10.0 / baud
+
+
+def frame_time_s(n_bytes: int, baud: int) -> float:
+    """Seconds ``n_bytes`` of wire frame take on an 8N1 line.
+
+    Args:
+        n_bytes: Wire bytes, COBS overhead and delimiter included.
+        baud: Line rate in bit/s.
+
+    Returns:
+        The transmission time in seconds.
+    """
+    return n_bytes * 10.0 / baud
+
+
+def cobs_encode(data: bytes) -> bytes:
+    """COBS-encode ``data``: the result has no zero byte and is 1 + len//254 bytes longer.
+
+    Args:
+        data: Any bytes.
+
+    Returns:
+        The encoded bytes, without the 0x00 delimiter.
+    """
+    out: list[bytes] = []
+    chunks = data.split(b"\x00")
+    last = len(chunks) - 1
+    for i, chunk in enumerate(chunks):
+        while len(chunk) >= 254:
+            out.append(b"\xff")
+            out.append(chunk[:254])
+            chunk = chunk[254:]
+            if not chunk and i == last:
+                return b"".join(out)
+        out.append(bytes((len(chunk) + 1,)))
+        out.append(chunk)
+    return b"".join(out)
+
+
+def cobs_decode(data: bytes) -> bytes:
+    """Decode one COBS block sequence (delimiter already removed).
+
+    Args:
+        data: Encoded bytes.
+
+    Returns:
+        The decoded bytes.
+
+    Raises:
+        FrameError: ``cobs``, when the encoding is invalid (a zero byte, or a code
+            pointing past the end).
+    """
+    n = len(data)
+    if n == 0:
+        raise FrameError("cobs", "empty frame")
+    if 0 in data:
+        raise FrameError("cobs", "zero byte inside frame")
+    out: list[bytes] = []
+    i = 0
+    while i < n:
+        code = data[i]
+        end = i + code
+        if end > n:
+            raise FrameError("cobs", f"block code {code} at {i} runs past the end ({n} bytes)")
+        out.append(data[i + 1 : end])
+        if code != 0xFF and end < n:
+            out.append(b"\x00")
+        i = end
+    return b"".join(out)
+
+
+# --- messages -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Hello:
+    """Host -> bridge: start a session; the bridge answers with :class:`HelloReply`.
+
+    The bridge resets its duplicate filter to ``seq`` and counters stay as they are.
+    """
+
+    TYPE: ClassVar[MsgType] = MsgType.HELLO
+    seq: int
+    layout_digest: int
+
+
+@dataclass(frozen=True, slots=True)
+class Setpoint:
+    """Host -> bridge: one motor's setpoint. ``mode`` is never ``None`` here."""
+
+    TYPE: ClassVar[MsgType] = MsgType.SETPOINT
+    seq: int
+    board: int
+    slot: int
+    mode: ControlMode
+    raw_value: int
+
+
+@dataclass(frozen=True, slots=True)
+class BulkSetpoints:
+    """Host -> bridge: every motor in layout order; ``None`` mode = keep that motor as it is.
+
+    Acknowledged by the ``ack_seq`` field of the next :class:`State` frame (or a
+    :class:`Nack`), not by an :class:`Ack` frame, to keep the 100 Hz cycle small.
+    """
+
+    TYPE: ClassVar[MsgType] = MsgType.BULK_SETPOINTS
+    seq: int
+    modes: tuple[ControlMode | None, ...]
+    raw_values: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Heartbeat:
+    """Host -> bridge: "I am alive"; feeds the watchdog; answered with an :class:`Ack`."""
+
+    TYPE: ClassVar[MsgType] = MsgType.HEARTBEAT
+    seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class EStop:
+    """Host -> bridge: latch the e-stop (all motors off). Always applied, whatever ``seq``."""
+
+    TYPE: ClassVar[MsgType] = MsgType.ESTOP
+    seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class EStopReset:
+    """Host -> bridge: release a latched e-stop (operator action)."""
+
+    TYPE: ClassVar[MsgType] = MsgType.ESTOP_RESET
+    seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class CountersRequest:
+    """Host -> bridge: ask for :class:`Counters` (sent back with the same ``seq``)."""
+
+    TYPE: ClassVar[MsgType] = MsgType.COUNTERS_REQUEST
+    seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class HelloReply:
+    """Bridge -> host: answer to :class:`Hello` (same ``seq``), with the bridge's layout."""
+
+    TYPE: ClassVar[MsgType] = MsgType.HELLO_REPLY
+    seq: int
+    layout_digest: int
+    n_channels: int
+    n_motors: int
+    watchdog_ms: int
+    firmware: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class State:
+    """Bridge -> host: every state channel in one frame, sent every state period.
+
+    Attributes:
+        seq: The bridge's own frame counter (out-of-date frames are detected with it).
+        flags: :class:`BridgeFlags`.
+        ack_seq: ``seq`` of the last BULK_SETPOINTS the bridge accepted (0 before any).
+        fresh_mask: Bit ``i`` set = channel ``i`` holds a fresh reading.
+        board_status: One :class:`BoardStatus` nibble per board, in board-id order.
+        raw_values: One int16 per channel in layout order (meaningless where not fresh).
+    """
+
+    TYPE: ClassVar[MsgType] = MsgType.STATE
+    seq: int
+    flags: BridgeFlags
+    ack_seq: int
+    fresh_mask: int
+    board_status: tuple[int, ...]
+    raw_values: tuple[int, ...]
+
+    def readings(self) -> list[int | None]:
+        """The raw values with ``None`` where the channel is not fresh."""
+        mask = self.fresh_mask
+        return [v if (mask >> i) & 1 else None for i, v in enumerate(self.raw_values)]
+
+
+@dataclass(frozen=True, slots=True)
+class Ack:
+    """Bridge -> host: request ``seq`` (of type ``acked_type``) was received intact."""
+
+    TYPE: ClassVar[MsgType] = MsgType.ACK
+    seq: int
+    acked_type: int
+    status: AckStatus = AckStatus.APPLIED
+
+
+@dataclass(frozen=True, slots=True)
+class Nack:
+    """Bridge -> host: request ``seq`` was refused with ``error``; it had no effect."""
+
+    TYPE: ClassVar[MsgType] = MsgType.NACK
+    seq: int
+    acked_type: int
+    error: NackCode
+
+
+@dataclass(frozen=True, slots=True)
+class BoardCounters:
+    """RS485 figures for one PICO board, since the bridge started."""
+
+    board: int
+    timeouts: int = 0
+    crc_errors: int = 0
+    retries: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Counters:
+    """Bridge -> host: the bridge's error counters, answer to :class:`CountersRequest`."""
+
+    TYPE: ClassVar[MsgType] = MsgType.COUNTERS
+    seq: int
+    rx_frames: int = 0
+    crc_errors: int = 0
+    frame_errors: int = 0
+    duplicates: int = 0
+    watchdog_trips: int = 0
+    boards: tuple[BoardCounters, ...] = field(default=())
+
+
+@dataclass(frozen=True, slots=True)
+class BridgeHeartbeat:
+    """Bridge -> host: sent when the bridge has sent nothing for a heartbeat period."""
+
+    TYPE: ClassVar[MsgType] = MsgType.BRIDGE_HEARTBEAT
+    seq: int
+    flags: BridgeFlags = BridgeFlags.NONE
+
+
+Message = (
+    Hello
+    | Setpoint
+    | BulkSetpoints
+    | Heartbeat
+    | EStop
+    | EStopReset
+    | CountersRequest
+    | HelloReply
+    | State
+    | Ack
+    | Nack
+    | Counters
+    | BridgeHeartbeat
+)
+"""Any decoded frame."""
+
+
+# --- layout ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class WireLayout:
+    """The robot-dependent sizes of the STATE and BULK_SETPOINTS payloads.
+
+    Attributes:
+        n_channels: int16 channels in the state frame.
+        n_motors: Motors in the bulk setpoint frame.
+        n_boards: Boards (one status nibble each).
+        digest: 32-bit layout digest both ends compare at hello time.
+    """
+
+    n_channels: int
+    n_motors: int
+    n_boards: int
+    digest: int
+
+    @classmethod
+    def from_robot(cls, robot: RobotDescription) -> WireLayout:
+        """The layout of ``robot``'s wire frames.
+
+        Args:
+            robot: A validated robot description.
+
+        Returns:
+            Its wire layout.
+
+        Raises:
+            ValueError: the state or bulk frame would exceed the maximum frame size.
+        """
+        return cls(
+            n_channels=len(robot.state_channels()),
+            n_motors=len(robot.setpoint_slots()),
+            n_boards=len(robot.board_ids()),
+            digest=robot.layout_digest(),
+        )
+
+    def __post_init__(self) -> None:
+        if self.state_payload_bytes > MAX_PAYLOAD_BYTES:
+            raise ValueError(
+                f"{self.n_channels} channels and {self.n_boards} boards need a "
+                f"{self.state_payload_bytes}-byte state payload (max {MAX_PAYLOAD_BYTES})"
+            )
+        if self.bulk_payload_bytes > MAX_PAYLOAD_BYTES:
+            raise ValueError(f"{self.n_motors} motors do not fit one bulk setpoint frame")
+
+    @property
+    def mask_bytes(self) -> int:
+        """Bytes of the fresh bitmask: ceil(n_channels / 8)."""
+        return (self.n_channels + 7) // 8
+
+    @property
+    def status_bytes(self) -> int:
+        """Bytes of board status: ceil(n_boards / 2), two nibbles per byte."""
+        return (self.n_boards + 1) // 2
+
+    @property
+    def state_payload_bytes(self) -> int:
+        """STATE payload: ack_seq, fresh mask, board status, channels."""
+        return 2 + self.mask_bytes + self.status_bytes + 2 * self.n_channels
+
+    @property
+    def bulk_payload_bytes(self) -> int:
+        """BULK_SETPOINTS payload: one mode byte and one int16 per motor."""
+        return 3 * self.n_motors
+
+    def wire_bytes(self, payload_bytes: int) -> int:
+        """Worst-case wire size of a frame with ``payload_bytes`` of payload.
+
+        Args:
+            payload_bytes: Payload size.
+
+        Returns:
+            Header + payload + CRC + COBS overhead + delimiter.
+        """
+        body = HEADER_BYTES + payload_bytes + 2
+        return body + (body + 253) // 254 + 1
+
+
+# --- codec ----------------------------------------------------------------------------------
+
+_FIXED_PAYLOAD: dict[int, int] = {
+    MsgType.HELLO: _HELLO.size,
+    MsgType.SETPOINT: _SETPOINT.size,
+    MsgType.HEARTBEAT: 0,
+    MsgType.ESTOP: 0,
+    MsgType.ESTOP_RESET: 0,
+    MsgType.COUNTERS_REQUEST: 0,
+    MsgType.HELLO_REPLY: _HELLO_REPLY.size,
+    MsgType.ACK: _ACK.size,
+    MsgType.NACK: _ACK.size,
+    MsgType.BRIDGE_HEARTBEAT: 0,
+}
+
+
+class FrameCodec:
+    """Encodes and decodes frames for one wire layout. Stateless and thread-safe.
+
+    Args:
+        layout: The robot's wire layout (sizes of STATE and BULK_SETPOINTS).
+    """
+
+    def __init__(self, layout: WireLayout) -> None:
+        self.layout = layout
+        n, m = layout.n_channels, layout.n_motors
+        self._state = struct.Struct(f"<H{layout.mask_bytes}s{layout.status_bytes}s{n}h")
+        self._bulk = struct.Struct("<" + "Bh" * m)
+        self._channels = range(n)
+
+    @classmethod
+    def for_robot(cls, robot: RobotDescription) -> FrameCodec:
+        """A codec for ``robot``'s layout.
+
+        Args:
+            robot: A validated robot description.
+
+        Returns:
+            The codec.
+        """
+        return cls(WireLayout.from_robot(robot))
+
+    # encode ------------------------------------------------------------------------------
+
+    def encode(self, msg: Message) -> bytes:
+        """The wire bytes of ``msg``: COBS-encoded body followed by the 0x00 delimiter.
+
+        Args:
+            msg: Any message.
+
+        Returns:
+            Bytes ready to write to the line.
+
+        Raises:
+            ValueError: a field is out of range for its wire type, or a layout-dependent
+                message does not match this codec's layout.
+        """
+        arg, payload = self.encode_payload(msg)
+        body = _HEADER.pack(PROTOCOL_VERSION, msg.TYPE, msg.seq, arg) + payload
+        body += _CRC.pack(binascii.crc_hqx(body, 0))
+        return cobs_encode(body) + b"\x00"
+
+    def encode_payload(self, msg: Message) -> tuple[int, bytes]:
+        """The header ``arg`` byte and the payload of ``msg`` (no header, CRC or COBS).
+
+        Args:
+            msg: Any message.
+
+        Returns:
+            ``(arg, payload)``.
+
+        Raises:
+            ValueError: see :meth:`encode`.
+        """
+        try:
+            return self._encode_payload(msg)
+        except struct.error as exc:
+            raise ValueError(f"cannot encode {msg!r}: {exc}") from None
+
+    def _encode_payload(self, msg: Message) -> tuple[int, bytes]:
+        if isinstance(msg, State):
+            lay = self.layout
+            if len(msg.raw_values) != lay.n_channels or len(msg.board_status) != lay.n_boards:
+                raise ValueError("state frame does not match the layout")
+            status = bytearray(lay.status_bytes)
+            for i, nib in enumerate(msg.board_status):
+                if not 0 <= nib <= 0xF:
+                    raise ValueError(f"board status {nib} is not a nibble")
+                status[i >> 1] |= nib << (4 * (i & 1))
+            mask = (msg.fresh_mask & ((1 << lay.n_channels) - 1)).to_bytes(lay.mask_bytes, "little")
+            payload = self._state.pack(msg.ack_seq, mask, bytes(status), *msg.raw_values)
+            return int(msg.flags), payload
+        if isinstance(msg, BulkSetpoints):
+            if len(msg.modes) != self.layout.n_motors or len(msg.raw_values) != len(msg.modes):
+                raise ValueError("bulk setpoint frame does not match the layout")
+            flat: list[int] = []
+            for mode, raw in zip(msg.modes, msg.raw_values, strict=True):
+                flat.append(MODE_KEEP if mode is None else MODE_CODES[mode])
+                flat.append(raw)
+            return 0, self._bulk.pack(*flat)
+        if isinstance(msg, Setpoint):
+            return msg.board, _SETPOINT.pack(msg.slot, MODE_CODES[msg.mode], msg.raw_value)
+        if isinstance(msg, Heartbeat | EStop | EStopReset | CountersRequest):
+            return 0, b""
+        if isinstance(msg, BridgeHeartbeat):
+            return int(msg.flags), b""
+        if isinstance(msg, Hello):
+            return 0, _HELLO.pack(msg.layout_digest)
+        if isinstance(msg, HelloReply):
+            return 0, _HELLO_REPLY.pack(
+                msg.layout_digest, msg.n_channels, msg.n_motors, msg.watchdog_ms, msg.firmware
+            )
+        if isinstance(msg, Ack):
+            return 0, _ACK.pack(msg.acked_type, msg.status)
+        if isinstance(msg, Nack):
+            return 0, _ACK.pack(msg.acked_type, msg.error)
+        if isinstance(msg, Counters):
+            parts = [
+                _COUNTERS_HEAD.pack(
+                    msg.rx_frames,
+                    msg.crc_errors,
+                    msg.frame_errors,
+                    msg.duplicates,
+                    msg.watchdog_trips,
+                )
+            ]
+            parts += [
+                _BOARD_COUNTERS.pack(b.board, b.timeouts, b.crc_errors, b.retries)
+                for b in msg.boards
+            ]
+            payload = b"".join(parts)
+            if len(payload) > MAX_PAYLOAD_BYTES:
+                raise ValueError(f"{len(msg.boards)} boards do not fit one counters frame")
+            return 0, payload
+        raise ValueError(f"not a message: {msg!r}")  # pragma: no cover - exhaustive above
+
+    # decode ------------------------------------------------------------------------------
+
+    def decode(self, encoded: bytes) -> Message:
+        """Decode one frame's COBS bytes (without the 0x00 delimiter).
+
+        Args:
+            encoded: The bytes between two delimiters.
+
+        Returns:
+            The message.
+
+        Raises:
+            FrameError: with ``reason`` one of ``oversize``, ``cobs``, ``short``, ``crc``,
+                ``version``, ``type``, ``length``, ``value`` (see docs/protocol.md).
+        """
+        if len(encoded) > MAX_WIRE_BYTES - 1:
+            raise FrameError("oversize", f"{len(encoded)} bytes before the delimiter")
+        return self.decode_body(cobs_decode(encoded))
+
+    def decode_body(self, body: bytes) -> Message:
+        """Decode a frame body (after COBS decoding): header, payload and CRC.
+
+        Args:
+            body: Header + payload + CRC.
+
+        Returns:
+            The message.
+
+        Raises:
+            FrameError: see :meth:`decode`.
+        """
+        n = len(body)
+        if n < HEADER_BYTES + 2:
+            raise FrameError("short", f"{n} bytes, need at least {HEADER_BYTES + 2}")
+        if n > MAX_BODY_BYTES:
+            raise FrameError("oversize", f"{n}-byte body (max {MAX_BODY_BYTES})")
+        (crc,) = _CRC.unpack_from(body, n - 2)
+        if binascii.crc_hqx(memoryview(body)[: n - 2], 0) != crc:
+            raise FrameError("crc", f"CRC mismatch (frame says {crc:#06x})")
+        version, code, seq, arg = _HEADER.unpack_from(body)
+        if version != PROTOCOL_VERSION:
+            raise FrameError("version", f"protocol version {version}, expected {PROTOCOL_VERSION}")
+        payload = body[HEADER_BYTES : n - 2]
+        try:
+            kind = MsgType(code)
+        except ValueError:
+            raise FrameError("type", f"unknown message type {code:#04x}") from None
+        return self._decode_payload(kind, seq, arg, payload)
+
+    def _decode_payload(self, kind: MsgType, seq: int, arg: int, payload: bytes) -> Message:
+        size = len(payload)
+        if kind is MsgType.STATE:
+            lay = self.layout
+            if size != lay.state_payload_bytes:
+                raise FrameError(
+                    "length", f"state payload {size} bytes, layout needs {lay.state_payload_bytes}"
+                )
+            ack_seq, mask, status, *values = self._state.unpack(payload)
+            nibbles = tuple((status[i >> 1] >> (4 * (i & 1))) & 0xF for i in range(lay.n_boards))
+            return State(
+                seq,
+                BridgeFlags(arg),
+                ack_seq,
+                int.from_bytes(mask, "little") & ((1 << lay.n_channels) - 1),
+                nibbles,
+                tuple(values),
+            )
+        if kind is MsgType.BULK_SETPOINTS:
+            if size != self.layout.bulk_payload_bytes:
+                raise FrameError(
+                    "length",
+                    f"bulk payload {size} bytes, layout needs {self.layout.bulk_payload_bytes}",
+                )
+            flat = self._bulk.unpack(payload)
+            modes: list[ControlMode | None] = []
+            for code in flat[0::2]:
+                if code == MODE_KEEP:
+                    modes.append(None)
+                else:
+                    mode = _MODE_BY_CODE.get(code)
+                    if mode is None:
+                        raise FrameError("value", f"unknown mode code {code}")
+                    modes.append(mode)
+            return BulkSetpoints(seq, tuple(modes), tuple(flat[1::2]))
+        if kind is MsgType.COUNTERS:
+            head = _COUNTERS_HEAD.size
+            if size < head or (size - head) % _BOARD_COUNTERS.size:
+                raise FrameError("length", f"counters payload of {size} bytes")
+            boards = tuple(
+                BoardCounters(*vals) for vals in _BOARD_COUNTERS.iter_unpack(payload[head:])
+            )
+            rx, crc, framing, dups, trips = _COUNTERS_HEAD.unpack_from(payload)
+            return Counters(seq, rx, crc, framing, dups, trips, boards)
+        want = _FIXED_PAYLOAD[kind]
+        if size != want:
+            raise FrameError("length", f"{kind.name} payload {size} bytes, expected {want}")
+        if kind is MsgType.HEARTBEAT:
+            return Heartbeat(seq)
+        if kind is MsgType.SETPOINT:
+            slot, code, raw = _SETPOINT.unpack(payload)
+            mode = _MODE_BY_CODE.get(code)
+            if mode is None:
+                raise FrameError("value", f"unknown mode code {code}")
+            return Setpoint(seq, arg, slot, mode, raw)
+        if kind is MsgType.ACK or kind is MsgType.NACK:
+            acked, status = _ACK.unpack(payload)
+            if kind is MsgType.ACK:
+                if status > max(AckStatus):
+                    raise FrameError("value", f"unknown ack status {status}")
+                return Ack(seq, acked, AckStatus(status))
+            try:
+                return Nack(seq, acked, NackCode(status))
+            except ValueError:
+                raise FrameError("value", f"unknown nack code {status}") from None
+        if kind is MsgType.HELLO:
+            return Hello(seq, *_HELLO.unpack(payload))
+        if kind is MsgType.HELLO_REPLY:
+            return HelloReply(seq, *_HELLO_REPLY.unpack(payload))
+        if kind is MsgType.ESTOP:
+            return EStop(seq)
+        if kind is MsgType.ESTOP_RESET:
+            return EStopReset(seq)
+        if kind is MsgType.COUNTERS_REQUEST:
+            return CountersRequest(seq)
+        return BridgeHeartbeat(seq, BridgeFlags(arg & 0xFF))
+
+
+class FrameDecoder:
+    """Streaming decoder: feed it bytes as they arrive, get messages and frame errors back.
+
+    Bytes are collected up to each 0x00 delimiter. A frame longer than the maximum
+    is reported once as ``oversize`` and skipped up to the next delimiter, so a
+    lost delimiter costs at most two frames. Empty frames (two delimiters in a row,
+    which a sender may use to flush the line) are ignored silently.
+
+    Args:
+        codec: The codec for the robot's layout.
+    """
+
+    def __init__(self, codec: FrameCodec) -> None:
+        self.codec = codec
+        self._buf = bytearray()
+        self._overflow = False
+
+    def reset(self) -> None:
+        """Forget any partial frame (after draining stale bytes)."""
+        self._buf.clear()
+        self._overflow = False
+
+    @property
+    def pending_bytes(self) -> int:
+        """Bytes of an unfinished frame held."""
+        return len(self._buf)
+
+    def feed(self, data: bytes) -> list[Message | FrameError]:
+        """Add received bytes; return every frame they complete, in order.
+
+        Never raises for any input: a bad frame comes back as a :class:`FrameError`.
+
+        Args:
+            data: Bytes read from the line (any length, any content).
+
+        Returns:
+            Decoded messages and frame errors, in arrival order.
+        """
+        return list(self.iter_feed(data))
+
+    def iter_feed(self, data: bytes) -> Iterator[Message | FrameError]:
+        """Like :meth:`feed`, as a generator."""
+        if not data:
+            return
+        parts = data.split(b"\x00")
+        limit = MAX_WIRE_BYTES - 1
+        for part in parts[:-1]:
+            if self._overflow:
+                self._overflow = False
+                self._buf.clear()
+                continue
+            if self._buf:
+                self._buf += part
+                frame = bytes(self._buf)
+                self._buf.clear()
+            else:
+                frame = part
+            if not frame:
+                continue
+            if len(frame) > limit:
+                yield FrameError("oversize", f"{len(frame)} bytes before the delimiter")
+                continue
+            try:
+                yield self.codec.decode(frame)
+            except FrameError as exc:
+                yield exc
+            except Exception as exc:  # defensive: the decoder contract is FrameError only
+                yield FrameError("internal", f"{type(exc).__name__}: {exc}")
+        tail = parts[-1]
+        if self._overflow:
+            return
+        self._buf += tail
+        if len(self._buf) > limit:
+            self._buf.clear()
+            self._overflow = True
+            yield FrameError("oversize", f"more than {limit} bytes without a delimiter")
+
+
+def encode_many(codec: FrameCodec, msgs: Sequence[Message]) -> bytes:
+    """Concatenate the wire bytes of several messages (tests and simulators)."""
+    return b"".join(codec.encode(m) for m in msgs)
