@@ -62,6 +62,14 @@ KINDS: dict[str, FileKind] = {
         loader="pirate_bt.robot.loader:load_robot",
         schema="pirate_bt.robot.schema:robot_schema",
     ),
+    "network": FileKind(
+        name="network",
+        title="pipe network",
+        marker_keys=("segments",),
+        suffixes=(),
+        loader="pirate_bt.pipes.loader:load_network",
+        schema="pirate_bt.pipes.loader:network_schema",
+    ),
 }
 
 

@@ -1,0 +1,70 @@
+"""Load and validate pipe network files with located errors."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from pirate_bt.errors import ConfigurationError, ValidationFailed
+from pirate_bt.pipes.model import NetworkSpec
+from pirate_bt.pipes.network import Network
+from pirate_bt.resources import bundled
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, pydantic_errors
+
+__all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
+
+_FILE_CONTEXT = {"units_required": True}
+
+
+def network_from_document(doc: YamlDocument) -> Network:
+    """Validate a loaded YAML document as a pipe network.
+
+    Raises:
+        ValidationFailed: every problem, each at ``file:line:column``.
+    """
+    if not isinstance(doc.data, dict):
+        raise ValidationFailed([doc.locator.error((), "a pipe network must be a mapping of keys")])
+    try:
+        spec = NetworkSpec.model_validate(doc.data, context=_FILE_CONTEXT)
+    except ValidationError as exc:
+        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
+    problems = spec.cross_check()
+    if problems:
+        raise ValidationFailed(
+            sorted(
+                (doc.locator.error(path, msg) for path, msg in problems),
+                key=lambda e: (e.location.line, e.location.column),
+            )
+        )
+    try:
+        return Network(spec, doc.file)
+    except ConfigurationError as exc:
+        raise ValidationFailed([doc.locator.error(("segments",), str(exc))]) from None
+
+
+def network_from_data(data: Mapping[str, Any], name: str = "<data>") -> Network:
+    """Validate plain data (as from a YAML file, units required) as a pipe network."""
+    return network_from_document(YamlDocument(dict(data), Locator(name)))
+
+
+def load_network(path: str | Path) -> Network:
+    """Load a pipe network file; a bare name such as ``lab`` loads a bundled scenario.
+
+    Raises:
+        ValidationFailed: the file cannot be read or does not validate.
+    """
+    p = Path(path)
+    if not p.exists() and p.parent == Path(".") and not p.suffix:
+        p = bundled("scenarios", str(path))
+    return network_from_document(load_yaml(p))
+
+
+def network_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of ``scenarios/*.yaml`` pipe networks."""
+    schema = NetworkSpec.model_json_schema(mode="validation")
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["title"] = "pirate_bt pipe network"
+    return schema
