@@ -624,7 +624,10 @@ class FrameCodec:
                 message does not match this codec's layout.
         """
         arg, payload = self.encode_payload(msg)
-        body = _HEADER.pack(PROTOCOL_VERSION, msg.TYPE, msg.seq, arg) + payload
+        try:
+            body = _HEADER.pack(PROTOCOL_VERSION, msg.TYPE, msg.seq, arg) + payload
+        except struct.error as exc:
+            raise ValueError(f"cannot encode {msg!r}: {exc}") from None
         body += _CRC.pack(binascii.crc_hqx(body, 0))
         return cobs_encode(body) + b"\x00"
 
