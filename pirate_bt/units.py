@@ -9,9 +9,9 @@ of unit names, each with an optional integer power, joined by ``*``, ``·`` or
 The dimension of every field is fixed by the schema, so ``angle: 90 mm`` is an
 error that names both dimensions instead of a silently wrong robot.
 
-Why not pint: importing it costs about 0.2 s, which alone would blow the CLI's
-0.3 s cold-start budget, and we need only a few dozen units with fixed
-dimensions (see ``docs/performance.md``).
+Why not pint: importing it and building its registry costs about 0.4 s, which
+alone would blow the CLI's 0.3 s cold-start budget, and we need only a few dozen
+units with fixed dimensions (see ``docs/performance.md``).
 
 In files a dimensioned number must carry its unit (``angle: 90`` is refused,
 because 90 rad is never what anybody meant). In Python code numbers are taken as
@@ -200,6 +200,11 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
             raise UnitError(f"not a quantity: {value!r} (expected e.g. '90 deg', '80 mm/s')")
         factor, dim = _parse_unit(match["unit"], value)
         expected = DIMENSIONS[dimension]
+        if not match["unit"] and dimension != "dimensionless":
+            if float(match["num"]) == 0:
+                return 0.0
+            unit = _DISPLAY[dimension][0]
+            raise UnitError(f"{value!r} needs a unit: write it as e.g. '{value} {unit}'")
         if dim != expected:
             raise UnitError(
                 f"{value!r} is {_article(_dim_name(dim))}, but {_article(dimension)} is expected"

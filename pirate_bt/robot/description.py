@@ -163,6 +163,7 @@ class Conversion(_Model):
     """Linear raw<->SI conversion: ``si = (raw - zero_raw) * per_raw``."""
 
     raw: RawRange
+    """[min, max] raw integer range on the wire (int16)"""
     zero_raw: int = Field(0, description="raw value that means zero")
     per_raw: float = Field(description="SI value of one raw step, with its unit")
 
@@ -198,39 +199,48 @@ class PwmConversion(Conversion):
     """PWM duty: ``per_raw`` is the duty fraction of one raw step (e.g. ``0.392 %``)."""
 
     per_raw: Dimensionless
+    """duty fraction of one raw step, e.g. `0.392 %`"""
 
 
 class TorqueConversion(Conversion):
     """Torque setpoint: ``per_raw`` in N·m per raw step."""
 
     per_raw: Torque
+    """torque of one raw step, e.g. `1 mN*m`"""
 
 
 class PositionConversion(Conversion):
     """Position setpoint or angle reading: ``per_raw`` is an angle per raw step."""
 
     per_raw: Angle
+    """angle of one raw step, e.g. `0.0879 deg`"""
 
 
 class VelocityConversion(Conversion):
     """Wheel velocity: ``per_raw`` in m/s per raw step."""
 
     per_raw: Velocity
+    """speed of one raw step, e.g. `0.1 mm/s`"""
 
 
 class CurrentConversion(Conversion):
     """Motor current: ``per_raw`` in A per raw step."""
 
     per_raw: Current
+    """current of one raw step, e.g. `4 mA`"""
 
 
 class ModeTable(_Model):
     """The control modes a motor accepts, each with its raw range and conversion."""
 
     pwm: PwmConversion | None = None
+    """open-loop duty cycle"""
     torque: TorqueConversion | None = None
+    """torque setpoint (clamping)"""
     position: PositionConversion | None = None
+    """angle setpoint, closed on the board"""
     velocity: VelocityConversion | None = None
+    """wheel speed setpoint, closed on the board"""
 
     def get(self, mode: ControlMode) -> Conversion | None:
         value: Conversion | None = getattr(self, mode.value)
@@ -250,7 +260,9 @@ class AngleRange(_Limit):
     """Allowed joint angle range."""
 
     min: Angle
+    """lower end"""
     max: Angle
+    """upper end"""
 
     @model_validator(mode="after")
     def _order(self) -> AngleRange:
@@ -263,34 +275,43 @@ class TorqueMax(_Limit):
     """Largest torque magnitude."""
 
     max: Torque = Field(gt=0)
+    """largest torque magnitude"""
 
 
 class VelocityMax(_Limit):
     """Largest linear speed (drive motors)."""
 
     max: Velocity = Field(gt=0)
+    """largest speed"""
 
 
 class AngularVelocityMax(_Limit):
     """Largest joint speed; also the largest rate of change of a position setpoint."""
 
     max: AngularVelocity = Field(gt=0)
+    """largest joint speed"""
 
 
 class AccelerationMax(_Limit):
     """Largest rate of change of a velocity setpoint."""
 
     max: Acceleration = Field(gt=0)
+    """largest acceleration"""
 
 
 class MotorLimits(_Model):
     """Hard limits the protective layer enforces, each with its policy."""
 
     angle: AngleRange | None = None
+    """joint angle range"""
     torque: TorqueMax | None = None
+    """largest torque"""
     velocity: VelocityMax | None = None
+    """largest wheel speed (drive motors)"""
     angular_velocity: AngularVelocityMax | None = None
+    """largest joint speed / setpoint rate"""
     acceleration: AccelerationMax | None = None
+    """largest change of a velocity setpoint per second"""
 
 
 class Feedback(_Model):
@@ -305,10 +326,15 @@ class Motor(_Model):
 
     slot: int = Field(ge=0, le=1, description="motor connector on the PICO board (0 or 1)")
     name: Name
+    """unique lower_snake_case name"""
     function: MotorFunction
+    """what the motor moves"""
     modes: ModeTable
+    """control modes the board offers for this motor"""
     limits: MotorLimits = MotorLimits()
+    """hard limits enforced by the protective layer"""
     feedback: Feedback = Feedback()
+    """readings the H-bridge reports back"""
     assumption: bool = Field(False, description="true when the values are not public")
 
     @model_validator(mode="after")
@@ -321,10 +347,14 @@ class Motor(_Model):
 class _Sensor(_Model):
     slot: int = Field(ge=0, le=1, description="sensor connector on the PICO board (0 or 1)")
     name: Name
+    """unique lower_snake_case name"""
     raw: RawRange
+    """[min, max] raw integer range on the wire (int16)"""
     zero_raw: int = 0
+    """raw value that means zero"""
     period: Duration = Field(gt=0, description="expected time between fresh readings")
     assumption: bool = False
+    """true when the values are not public"""
 
     _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
     _zero_ok = field_validator("zero_raw")(
@@ -348,7 +378,9 @@ class AngleSensor(_Sensor):
     """A joint or module angle encoder."""
 
     kind: Literal[SensorKind.ANGLE]
+    """an angle encoder"""
     per_raw: Angle
+    """angle of one raw step, e.g. `0.0879 deg`"""
 
     def conversion(self) -> Conversion:
         return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
@@ -358,7 +390,9 @@ class SpringSensor(_Sensor):
     """A spring deflection sensor that reads the wheel's normal force."""
 
     kind: Literal[SensorKind.SPRING]
+    """a spring (normal force) sensor"""
     per_raw: Force
+    """force of one raw step, e.g. `50 mN`"""
 
     def conversion(self) -> Conversion:
         return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
@@ -368,8 +402,11 @@ class ImuSensor(_Sensor):
     """An inertial unit reporting roll, pitch and yaw of its module."""
 
     kind: Literal[SensorKind.IMU]
+    """an inertial unit"""
     per_raw: Angle
+    """angle of one raw step, e.g. `0.0879 deg`"""
     axes: tuple[str, ...] = ("roll", "pitch", "yaw")
+    """channel names, one int16 each"""
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -388,34 +425,44 @@ class Board(_Model):
     id: int = Field(ge=1, le=254, description="RS485 address of the board")
     module: Name = Field(description="name of the module the board sits in")
     motors: list[Motor] = Field(default_factory=list, max_length=2)
+    """motors on slots 0 and 1"""
     sensors: list[Sensor] = Field(default_factory=list, max_length=2)
+    """sensors on slots 0 and 1"""
 
 
 class Module(_Model):
     """One module of the chain, front to rear."""
 
     name: Name
+    """unique lower_snake_case name"""
     role: Role
+    """what the module does"""
     half: Half | None = Field(
         description="the half the module belongs to; null for the rotational module"
     )
     length: Length = Field(gt=0, description="length along the pipe axis")
     wheel_radius: Length | None = Field(None, gt=0)
+    """drive wheel radius (modules with wheels)"""
     assumption: bool = False
+    """true when the values are not public"""
 
 
 class ContactPoint(_Model):
     """Joint angle at which the wheels touch the wall, for one pipe diameter."""
 
     diameter: Length = Field(gt=0)
+    """internal pipe diameter"""
     angle: Angle = Field(gt=0)
+    """joint angle at wall contact"""
 
 
 class Band(_Model):
     """An angle band [min, max]."""
 
     min: Angle
+    """lower end"""
     max: Angle
+    """upper end"""
 
     @model_validator(mode="after")
     def _order(self) -> Band:
@@ -441,6 +488,7 @@ class ClampConfig(_Model):
         description="front tilt angle that moves the front module clear before a front clamp"
     )
     assumption: bool = False
+    """true when the values are not public"""
 
     def contact_angle(self, diameter_m: float) -> float:
         """Wall-contact angle for a pipe diameter, linearly interpolated and held at the ends."""
@@ -458,14 +506,24 @@ class MotionConfig(_Model):
     """Motion and physics parameters shared by the simulator and the protective layer."""
 
     nominal_speed: Velocity = Field(gt=0)
+    """cruise speed of a straight run"""
     friction_coefficient: Dimensionless = Field(gt=0, le=2)
+    """wheel-wall friction; traction = friction x normal force"""
     alignment_tolerance: Angle = Field(gt=0, description="bend-plane alignment needed at a bend")
     steer_angle: Angle = Field(gt=0, description="joint angle that counts as steered into a bend")
     max_unclamped_slope: Angle = Field(
         ge=0, description="steepest pipe in which both halves may be unclamped"
     )
     over_torque_time: Duration = Field(gt=0, description="time above torque limit = damage")
+    weight: Force = Field(15.0, gt=0, description="robot weight (gravity load on slopes)")
+    drive_free_current: Current = Field(0.15, ge=0, description="drive current, wheels free")
+    drive_stall_current: Current = Field(1.5, gt=0, description="drive current, wheels blocked")
+    position_hold_torque: Torque = Field(
+        0.4, gt=0, description="torque a position-mode joint presses with when held by the wall"
+    )
+    slide_speed: Velocity = Field(0.2, gt=0, description="speed of an unclamped robot sliding")
     assumption: bool = False
+    """true when the values are not public"""
 
 
 class SafetyConfig(_Model):
@@ -489,12 +547,16 @@ class SafetyConfig(_Model):
     release_force_fraction: Dimensionless = Field(
         0.2, ge=0, le=1, description="below this share of the minimum clamp force a half is free"
     )
+    clamp_force_fraction: Dimensionless = Field(
+        0.9, gt=0, le=1, description="from this share of the minimum clamp force a half holds"
+    )
 
 
 class BridgeConfig(_Model):
     """The PIRATEbay bridge and its serial line."""
 
     baud: int = Field(115200, ge=1200, le=4_000_000)
+    """serial line speed (bit/s)"""
     state_period: Duration = Field(gt=0, description="time between state frames")
     watchdog: Duration = Field(gt=0, description="bridge stops drives when the host is silent")
     reset_time: Duration = Field(ge=0, description="Arduino reset after DTR toggles on open")
@@ -526,8 +588,11 @@ class RobotDescription(_Model):
     """A whole robot: modules front to rear, boards, and parameters."""
 
     schema_version: Literal[1] = 1
+    """version of this file format"""
     name: str = Field(min_length=1)
+    """the robot's name"""
     description: str = ""
+    """free text"""
     assumptions: list[str] = Field(
         default_factory=list, description="values in this file that are not public, and why"
     )
@@ -535,7 +600,9 @@ class RobotDescription(_Model):
         default_factory=dict, description="free space for YAML anchors; ignored"
     )
     modules: list[Module] = Field(min_length=3)
+    """modules front to rear"""
     boards: list[Board] = Field(min_length=1)
+    """PICO boards on the RS485 bus"""
     clamp: ClampConfig
     motion: MotionConfig
     bridge: BridgeConfig

@@ -1,0 +1,42 @@
+"""Located YAML loading."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.yamlfile import load_yaml, load_yaml_text
+
+
+def test_locates_nested_values_and_falls_back_to_parents() -> None:
+    doc = load_yaml_text("a: 1\nb:\n  - x: 2\n    y: 3\n", "f.yaml")
+    assert doc.data == {"a": 1, "b": [{"x": 2, "y": 3}]}
+    assert str(doc.locator.locate(("b", 0, "y"))) == "f.yaml:4:5"
+    assert str(doc.locator.locate(("b", 0, "missing"))) == "f.yaml:3:5"
+
+
+def test_merge_keys_are_not_duplicates() -> None:
+    doc = load_yaml_text("base: &b {x: 1, y: 2}\nitem: {<<: *b, y: 3}\n")
+    assert doc.data["item"] == {"x": 1, "y": 3}
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "message"),
+    [
+        ("a: 1\na: 2\n", ":2:1:", "duplicate key 'a' (first written on line 1)"),
+        ("a: [1,\n", ":2:1:", "YAML syntax error"),
+        ("", ":1:1:", "file is empty"),
+        ("a: b: c\n", ":1:5:", "mapping values are not allowed"),
+    ],
+)
+def test_bad_text_is_located(text: str, where: str, message: str) -> None:
+    with pytest.raises(ValidationFailed) as info:
+        load_yaml_text(text, "f.yaml")
+    assert where in str(info.value) and message in str(info.value)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(ValidationFailed, match="no such file"):
+        load_yaml(tmp_path / "nope.yaml")
