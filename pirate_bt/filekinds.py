@@ -70,6 +70,14 @@ KINDS: dict[str, FileKind] = {
         loader="pirate_bt.pipes.loader:load_network",
         schema="pirate_bt.pipes.loader:network_schema",
     ),
+    "tree": FileKind(
+        name="tree",
+        title="behaviour tree",
+        marker_keys=("root",),
+        suffixes=(),
+        loader="pirate_bt.treefile.loader:validate_tree_file",
+        schema="pirate_bt.treefile.schema:tree_schema",
+    ),
 }
 
 

@@ -1,0 +1,829 @@
+"""Load a YAML behaviour tree, check it, and build the py_trees tree.
+
+Loading runs in three steps, so that every problem in a file is reported at
+once, each at ``file:line:column``:
+
+1. **Read** every file the tree uses (the tree file and the files its subtrees
+   name), substitute parameters, and turn each node into a :class:`NodeSpec`:
+   its class from the registry, its parameters validated by the class's pydantic
+   model and checked against the robot's limits.
+2. **Check** the whole spec tree: duplicate sibling names, blackboard keys read
+   but never written (or not declared), and children that can never run (a
+   warning).
+3. **Build** the behaviours with each class's ``from_params``; nothing touches
+   hardware here (behaviours acquire it in ``setup()``).
+
+The format is described in ``docs/trees.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Final
+
+import py_trees
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from pirate_bt.behaviours.base import BuildContext, NodeMixin, Outcome
+from pirate_bt.clock import Clock, WallClock
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param
+from pirate_bt.treefile.registry import Registry, UnknownNode, default_registry
+from pirate_bt.yamlfile import Locator, YamlDocument, _describe, load_yaml
+
+__all__ = [
+    "BlackboardDecl",
+    "LoadedTree",
+    "NodeSpec",
+    "build",
+    "load_tree",
+    "validate_tree_file",
+]
+
+_log = logging.getLogger("pirate_bt.treefile")
+
+PathKey = tuple[str | int, ...]
+
+COMPOSITES: Final = ("sequence", "selector", "parallel")
+_COMMON_KEYS: Final = frozenset({"type", "name", "description"})
+_STRUCT_KEYS: Final[dict[str, frozenset[str]]] = {
+    "sequence": frozenset({"memory", "children"}),
+    "selector": frozenset({"memory", "children"}),
+    "parallel": frozenset({"policy", "synchronise", "selected", "children"}),
+    "eternal_guard": frozenset({"conditions", "child"}),
+    "subtree": frozenset({"ref", "params"}),
+}
+_TOP_KEYS: Final = frozenset({"name", "description", "params", "blackboard", "root", "subtrees"})
+_SUBTREE_KEYS: Final = frozenset({"description", "params", "root"})
+
+
+class BlackboardDecl(BaseModel):
+    """A blackboard key a tree file uses."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    type: str = Field(
+        "any", description="informative type (boolean, number, integer, string, angle, ...)"
+    )
+    default: Any = Field(None, description="value written before the first tick")
+    external: bool = Field(False, description="written by planner code, not by the tree")
+    description: str = ""
+
+
+@dataclass
+class NodeSpec:
+    """A validated node, before it is built.
+
+    Attributes:
+        node_type: The node type (``sequence``, ``wait``, ...).
+        name: The node's name (unique among its siblings).
+        location: Where the node is written.
+        cls: The registered class (``None`` for structural nodes).
+        params: Validated parameters (registered nodes) or structural options.
+        children: Child specs (composites, decorators, guards).
+        conditions: Guard conditions of an ``eternal_guard``.
+        explicit_name: The name was written in the file.
+    """
+
+    node_type: str
+    name: str
+    location: SourceLocation
+    cls: type[NodeMixin] | None = None
+    params: Any = None
+    children: list[NodeSpec] = field(default_factory=list)
+    conditions: list[NodeSpec] = field(default_factory=list)
+    explicit_name: bool = False
+
+    def walk(self) -> Iterator[NodeSpec]:
+        """This spec and all below it, depth first."""
+        yield self
+        for c in (*self.conditions, *self.children):
+            yield from c.walk()
+
+
+@dataclass
+class LoadedTree:
+    """A tree loaded from YAML (or a dict) and built.
+
+    Attributes:
+        name: The tree's name.
+        root: The root behaviour.
+        spec: The validated spec tree (for drawing and analysis).
+        params: The resolved top-level parameters (substituted values).
+        blackboard: Declared blackboard keys of every file used.
+        warnings: Located warnings (children that can never run, ...).
+        files: Every file read, the tree file first.
+        needs_robot: Some node talks to the robot.
+    """
+
+    name: str
+    root: py_trees.behaviour.Behaviour
+    spec: NodeSpec
+    params: dict[str, Any]
+    blackboard: dict[str, BlackboardDecl]
+    warnings: list[LocatedError]
+    files: list[str]
+    needs_robot: bool
+
+    def blackboard_defaults(self) -> dict[str, Any]:
+        """Declared keys with a default value."""
+        return {k: d.default for k, d in self.blackboard.items() if d.default is not None}
+
+    def write_blackboard_defaults(self) -> None:
+        """Write every declared default to the py_trees blackboard."""
+        for key, value in self.blackboard_defaults().items():
+            py_trees.blackboard.Blackboard.set(f"/{key}", value)
+
+    def behaviour_tree(self) -> py_trees.trees.BehaviourTree:
+        """A fresh ``py_trees.trees.BehaviourTree`` over :attr:`root`."""
+        return py_trees.trees.BehaviourTree(self.root)
+
+
+# -- reading -------------------------------------------------------------------------
+
+
+@dataclass
+class _Env:
+    """Where we are while reading: the document, the parameters, the include chain."""
+
+    doc: YamlDocument
+    values: dict[str, Any]
+    chain: tuple[str, ...]
+
+
+class _Reader:
+    def __init__(
+        self,
+        registry: Registry,
+        robot: RobotDescription | None,
+        units_required: bool,
+        base_dir: Path,
+    ) -> None:
+        self.registry = registry
+        self.robot = robot
+        self.units_required = units_required
+        self.base_dir = base_dir
+        self.errors: list[LocatedError] = []
+        self.warnings: list[LocatedError] = []
+        self.docs: dict[str, YamlDocument] = {}
+        self.blackboard: dict[str, tuple[BlackboardDecl, SourceLocation]] = {}
+        self.headers_read: set[str] = set()
+
+    # -- helpers
+
+    def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
+        self.errors.append(doc.locator.error(path, message))
+
+    def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
+        key = str(path.resolve())
+        if key in self.docs:
+            return self.docs[key]
+        if not path.is_file():
+            self.error(doc, at, f"subtree file {str(path)!r} not found")
+            return None
+        try:
+            loaded = load_yaml(path)
+        except ValidationFailed as exc:
+            self.errors.extend(exc.errors)
+            return None
+        self.docs[key] = loaded
+        return loaded
+
+    def header(self, doc: YamlDocument) -> bool:
+        """Check a file's top level and record its blackboard; False if unusable."""
+        data = doc.data
+        if not isinstance(data, dict):
+            self.error(doc, (), "a tree file is a mapping with a 'root' key")
+            return False
+        if doc.file in self.headers_read:
+            return True
+        self.headers_read.add(doc.file)
+        for key in data:
+            if key not in _TOP_KEYS:
+                self.error(doc, (key,), _unknown_key(key, _TOP_KEYS))
+        if "name" in data and not isinstance(data["name"], str):
+            self.error(doc, ("name",), "name: must be text")
+        board = data.get("blackboard", {})
+        if board is None:
+            board = {}
+        if not isinstance(board, dict):
+            self.error(doc, ("blackboard",), "blackboard: a mapping of key -> declaration")
+            return True
+        for key, decl in board.items():
+            where: PathKey = ("blackboard", key)
+            if not isinstance(key, str) or not key.isidentifier():
+                self.error(doc, where, f"blackboard key {key!r} must be an identifier")
+                continue
+            try:
+                parsed = BlackboardDecl.model_validate({} if decl is None else decl)
+            except ValidationError as exc:
+                for e in exc.errors():
+                    self.error(doc, (*where, *e["loc"]), _describe(e))
+                continue
+            loc = doc.locator.locate(where)
+            previous = self.blackboard.get(key)
+            if previous is not None and previous[0].type != parsed.type:
+                self.error(
+                    doc,
+                    where,
+                    f"blackboard key {key!r} declared as {parsed.type} here"
+                    f" but as {previous[0].type} at {previous[1]}",
+                )
+                continue
+            if previous is None or parsed.default is not None or parsed.external:
+                self.blackboard[key] = (parsed, loc)
+        return True
+
+    def declared_params(
+        self, doc: YamlDocument, where: PathKey, raw: Any
+    ) -> dict[str, ParamDecl] | None:
+        if raw is None:
+            return {}
+        if not isinstance(raw, dict):
+            self.error(doc, where, "params: a mapping of name -> {type, default}")
+            return None
+        out: dict[str, ParamDecl] = {}
+        for name, decl in raw.items():
+            at = (*where, name)
+            if not isinstance(name, str) or not name.isidentifier():
+                self.error(doc, at, f"parameter name {name!r} must be an identifier")
+                continue
+            if isinstance(decl, str):
+                decl = {"type": decl}
+            try:
+                parsed = ParamDecl.model_validate(decl)
+            except ValidationError as exc:
+                for e in exc.errors():
+                    self.error(doc, (*at, *e["loc"]), _describe(e))
+                continue
+            if parsed.default is not None:
+                try:
+                    coerce_param(parsed, parsed.default)
+                except ValueError as exc:
+                    self.error(doc, (*at, "default"), f"default: {exc}")
+                    continue
+            out[name] = parsed
+        return out
+
+    def bind(
+        self,
+        doc: YamlDocument,
+        where: PathKey,
+        decls: dict[str, ParamDecl],
+        given: Mapping[str, Any],
+        given_at: Any,
+        from_text: bool = False,
+    ) -> dict[str, Any] | None:
+        """Values for declared parameters from the caller; None on error."""
+        values: dict[str, Any] = {}
+        ok = True
+        for name, value in given.items():
+            if name not in decls:
+                known = ", ".join(decls) or "none declared"
+                self.errors.append(
+                    _at(given_at(name), f"unknown parameter {name!r} (parameters: {known})")
+                )
+                ok = False
+                continue
+            try:
+                values[name] = coerce_param(decls[name], value, from_text=from_text)
+            except ValueError as exc:
+                self.errors.append(_at(given_at(name), f"parameter {name!r}: {exc}"))
+                ok = False
+        for name, decl in decls.items():
+            if name in values:
+                continue
+            if decl.default is None:
+                self.error(doc, where, f"parameter {name!r} has no default and was not given")
+                ok = False
+            else:
+                values[name] = coerce_param(decl, decl.default)
+        return values if ok else None
+
+    def subst(self, env: _Env, value: Any, path: PathKey) -> Any:
+        if isinstance(value, str):
+            if value.startswith("$$"):
+                return value[1:]
+            match = PARAM_RE.match(value)
+            if match:
+                name = match["name"]
+                if name in env.values:
+                    return env.values[name]
+                known = ", ".join(f"${n}" for n in env.values) or "none declared"
+                self.error(env.doc, path, f"unknown parameter ${name} (parameters: {known})")
+                return None
+            if value.startswith("$"):
+                self.error(env.doc, path, f"{value!r}: write $name, or $$ for a literal $")
+            return value
+        if isinstance(value, dict):
+            return {k: self.subst(env, v, (*path, k)) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self.subst(env, v, (*path, i)) for i, v in enumerate(value)]
+        return value
+
+    # -- trees
+
+    def tree(self, env: _Env, where: PathKey, body: Mapping[str, Any]) -> NodeSpec | None:
+        if "root" not in body:
+            self.error(env.doc, where, "missing required key 'root'")
+            return None
+        return self.node(env, (*where, "root"), body["root"])
+
+    def node(self, env: _Env, path: PathKey, raw: Any) -> NodeSpec | None:
+        doc = env.doc
+        if isinstance(raw, str):
+            raw = {"type": raw}
+        if not isinstance(raw, dict):
+            self.error(doc, path, "a node is a mapping with a 'type' key, or a node type name")
+            return None
+        kind = raw.get("type")
+        if kind is None:
+            self.error(doc, path, "node without 'type'")
+            return None
+        if not isinstance(kind, str):
+            self.error(doc, (*path, "type"), "type: must be a node type name")
+            return None
+        loc = doc.locator.locate(path)
+        name = raw.get("name")
+        if name is not None and not (isinstance(name, str) and name.strip()):
+            self.error(doc, (*path, "name"), "name: must be non-empty text")
+            return None
+        if isinstance(name, str) and "/" in name:
+            self.error(doc, (*path, "name"), "name: must not contain '/' (used in node paths)")
+            return None
+        spec = NodeSpec(node_type=kind, name=name or kind, location=loc, explicit_name=bool(name))
+        if kind in _STRUCT_KEYS:
+            for key in raw:
+                if key not in _COMMON_KEYS and key not in _STRUCT_KEYS[kind]:
+                    self.error(doc, (*path, key), _unknown_key(key, _STRUCT_KEYS[kind]))
+            if kind == "subtree":
+                return self.subtree(env, path, raw, spec)
+            if kind == "eternal_guard":
+                return self.guard(env, path, raw, spec)
+            return self.composite(env, path, raw, spec)
+        try:
+            cls = self.registry.get(kind)
+        except UnknownNode as exc:
+            self.error(doc, (*path, "type"), str(exc))
+            return None
+        except ImportError as exc:
+            self.error(doc, (*path, "type"), f"node type {kind!r} cannot be loaded: {exc}")
+            return None
+        spec.cls = cls
+        raw_params = {k: v for k, v in raw.items() if k not in _COMMON_KEYS and k not in ("child",)}
+        raw_params = self.subst(env, raw_params, path)
+        try:
+            spec.params = cls.Params.model_validate(
+                raw_params, context={"units_required": self.units_required}
+            )
+        except ValidationError as exc:
+            for e in exc.errors():
+                self.error(doc, (*path, *e["loc"]), f"{kind}: {_describe(e)}")
+            spec.params = None
+        if spec.params is not None and self.robot is not None:
+            for problem in cls.check_limits(spec.params, self.robot):
+                field_name, sep, _ = problem.partition(":")
+                at = (*path, field_name) if sep and field_name in raw else path
+                self.error(doc, at, f"{kind}: {problem}")
+        if cls.kind == "decorator":
+            if "child" not in raw:
+                self.error(doc, path, f"decorator {kind!r} needs a 'child'")
+                return None
+            child = self.node(env, (*path, "child"), raw["child"])
+            if child is None:
+                return None
+            spec.children = [child]
+        elif "child" in raw:
+            self.error(doc, (*path, "child"), f"{kind!r} is a leaf and takes no child")
+        return spec if spec.params is not None else None
+
+    def children(self, env: _Env, path: PathKey, raw: Any, key: str) -> list[NodeSpec] | None:
+        items = raw.get(key)
+        if not isinstance(items, list) or not items:
+            self.error(env.doc, (*path, key) if key in raw else path, f"needs a list of {key}")
+            return None
+        out: list[NodeSpec] = []
+        ok = True
+        for i, item in enumerate(items):
+            child = self.node(env, (*path, key, i), item)
+            if child is None:
+                ok = False
+            else:
+                out.append(child)
+        if not ok:
+            return None
+        _dedupe(out, self, env.doc)
+        return out
+
+    def composite(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        opts = self.subst(env, {k: v for k, v in raw.items() if k != "children"}, path)
+        kind = spec.node_type
+        if kind in ("sequence", "selector"):
+            memory = opts.get("memory", kind == "sequence")
+            if not isinstance(memory, bool):
+                self.error(env.doc, (*path, "memory"), "memory: must be true or false")
+                return None
+            spec.params = {"memory": memory}
+        else:
+            policy = opts.get("policy", "all")
+            if policy not in ("all", "one", "selected"):
+                self.error(env.doc, (*path, "policy"), "policy: one of all, one, selected")
+                return None
+            sync = opts.get("synchronise", policy != "one")
+            if not isinstance(sync, bool):
+                self.error(env.doc, (*path, "synchronise"), "synchronise: must be true or false")
+                return None
+            selected = opts.get("selected")
+            if (policy == "selected") != (selected is not None):
+                self.error(
+                    env.doc, path, "policy 'selected' and a 'selected' list of names go together"
+                )
+                return None
+            if selected is not None and not (
+                isinstance(selected, list)
+                and selected
+                and all(isinstance(s, str) for s in selected)
+            ):
+                self.error(env.doc, (*path, "selected"), "selected: a list of child names")
+                return None
+            spec.params = {"policy": policy, "synchronise": sync, "selected": selected}
+        kids = self.children(env, path, raw, "children")
+        if kids is None:
+            return None
+        spec.children = kids
+        if kind == "parallel" and spec.params["selected"]:
+            names = {c.name for c in kids}
+            for s in spec.params["selected"]:
+                if s not in names:
+                    self.error(env.doc, (*path, "selected"), f"selected: no child named {s!r}")
+                    return None
+        return spec
+
+    def guard(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        conditions = self.children(env, path, raw, "conditions")
+        if "child" not in raw:
+            self.error(env.doc, path, "eternal_guard needs a 'child'")
+            return None
+        child = self.node(env, (*path, "child"), raw["child"])
+        if conditions is None or child is None:
+            return None
+        spec.conditions = conditions
+        spec.children = [child]
+        _dedupe([*conditions, child], self, env.doc)
+        return spec
+
+    def subtree(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        doc = env.doc
+        ref = raw.get("ref")
+        if not isinstance(ref, str) or not ref:
+            self.error(doc, (*path, "ref") if "ref" in raw else path, "subtree needs a 'ref'")
+            return None
+        file_part, hash_sign, tree_name = ref.partition("#")
+        if file_part.endswith((".yaml", ".yml")):
+            base = Path(doc.file).parent if doc.file not in ("<dict>",) else self.base_dir
+            target_doc = self.read_file(base / file_part, doc, (*path, "ref"))
+            if target_doc is None or not self.header(target_doc):
+                return None
+            name = tree_name if hash_sign else ""
+        elif hash_sign:
+            self.error(doc, (*path, "ref"), f"ref {ref!r}: write FILE.yaml#NAME or NAME")
+            return None
+        else:
+            target_doc, name = doc, file_part
+        target = target_doc.data
+        if name:
+            subtrees = target.get("subtrees") or {}
+            if not isinstance(subtrees, dict) or name not in subtrees:
+                import difflib
+
+                known = list(subtrees) if isinstance(subtrees, dict) else []
+                close = difflib.get_close_matches(name, known, n=2)
+                hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+                where = f" in {target_doc.file}" if target_doc is not doc else ""
+                self.error(doc, (*path, "ref"), f"no subtree named {name!r}{where}{hint}")
+                return None
+            body = subtrees[name]
+            body_path: PathKey = ("subtrees", name)
+            if not isinstance(body, dict):
+                self.error(target_doc, body_path, "a subtree is a mapping with 'root'")
+                return None
+            for key in body:
+                if key not in _SUBTREE_KEYS:
+                    self.error(target_doc, (*body_path, key), _unknown_key(key, _SUBTREE_KEYS))
+        else:
+            body, body_path = target, ()
+        ident = f"{target_doc.file}#{name}" if name else target_doc.file
+        if ident in env.chain:
+            loop = " -> ".join([*env.chain[env.chain.index(ident) :], ident])
+            self.error(doc, (*path, "ref"), f"recursive subtree: {loop}")
+            return None
+        decls = self.declared_params(target_doc, (*body_path, "params"), body.get("params"))
+        given = raw.get("params") or {}
+        if not isinstance(given, dict):
+            self.error(doc, (*path, "params"), "params: a mapping of name -> value")
+            return None
+        given = self.subst(env, given, (*path, "params"))
+        if decls is None:
+            return None
+
+        def given_at(name: str) -> SourceLocation:
+            return doc.locator.locate((*path, "params", name))
+
+        values = self.bind(doc, path, decls, given, given_at)
+        if values is None:
+            return None
+        inner = _Env(target_doc, values, (*env.chain, ident))
+        result = self.tree(inner, body_path, body)
+        if result is None:
+            return None
+        if spec.explicit_name:
+            result.name = spec.name
+            result.explicit_name = True
+        return result
+
+
+def _at(location: SourceLocation, message: str) -> LocatedError:
+    return LocatedError(message, location)
+
+
+def _unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
+    return f"unknown key {key!r}{hint}"
+
+
+def _dedupe(children: list[NodeSpec], reader: _Reader, doc: YamlDocument) -> None:
+    """Sibling names must be unique (node paths name nodes); number unnamed duplicates."""
+    explicit: dict[str, NodeSpec] = {}
+    for child in children:
+        if child.explicit_name:
+            first = explicit.get(child.name)
+            if first is not None:
+                reader.errors.append(
+                    LocatedError(
+                        f"duplicate node name {child.name!r} among siblings"
+                        f" (first at {first.location})",
+                        child.location,
+                    )
+                )
+            explicit[child.name] = child
+    used = set(explicit)
+    counts: dict[str, int] = {}
+    for child in children:
+        if child.explicit_name:
+            continue
+        base = child.name
+        n = counts.get(base, 0)
+        name = base
+        while name in used:
+            n += 1
+            name = f"{base} {n + 1 if n else ''}".strip() if n else base
+        counts[base] = n
+        child.name = name
+        used.add(name)
+
+
+# -- checks ----------------------------------------------------------------------------
+
+
+def _describe_outcomes(outcomes: frozenset[Outcome]) -> str:
+    if outcomes == frozenset({"success"}):
+        return "always succeeds"
+    if outcomes == frozenset({"failure"}):
+        return "always fails"
+    if outcomes == frozenset({"running"}):
+        return "never finishes"
+    return "/".join(sorted(outcomes))
+
+
+def _outcomes(spec: NodeSpec, warnings: list[LocatedError]) -> frozenset[Outcome]:
+    """Statuses ``spec`` can end a tick with; warns about children that never run."""
+    if spec.cls is not None:
+        if spec.cls.kind == "decorator":
+            inner = _outcomes(spec.children[0], warnings)
+            return spec.cls.decorated_outcomes(spec.params, inner)
+        return spec.cls.outcomes(spec.params)
+    child_out = [(c, _outcomes(c, warnings)) for c in spec.children]
+    if spec.node_type == "eternal_guard":
+        cond_ok = all("success" in _outcomes(c, warnings) for c in spec.conditions)
+        out: set[Outcome] = set(child_out[0][1]) if cond_ok else set()
+        return frozenset(out | {"failure"})
+    if spec.node_type == "parallel":
+        out = set()
+        for _, o in child_out:
+            out |= {x for x in o if x != "success"}
+        policy = spec.params["policy"]
+        if (policy == "one" and any("success" in o for _, o in child_out)) or (
+            policy != "one" and all("success" in o for _, o in child_out)
+        ):
+            out.add("success")
+        if len(child_out) > 1 or "running" in out:
+            out.add("running")
+        return frozenset(out)
+    go_on: Outcome = "success" if spec.node_type == "sequence" else "failure"
+    result: set[Outcome] = set()
+    blocker: tuple[NodeSpec, frozenset[Outcome]] | None = None
+    for child, outs in child_out:
+        if blocker is not None:
+            warnings.append(
+                LocatedError(
+                    f"warning: {child.name!r} can never run: {blocker[0].name!r} before it in"
+                    f" {spec.node_type} {spec.name!r} {_describe_outcomes(blocker[1])}",
+                    child.location,
+                )
+            )
+            continue
+        result |= outs - {go_on}
+        if go_on not in outs:
+            blocker = (child, outs)
+    if blocker is None:
+        result.add(go_on)
+    return frozenset(result)
+
+
+def _check_blackboard(
+    root: NodeSpec,
+    declared: dict[str, tuple[BlackboardDecl, SourceLocation]],
+    errors: list[LocatedError],
+) -> None:
+    writes: set[str] = {k for k, (d, _) in declared.items() if d.default is not None or d.external}
+    reads: list[tuple[str, NodeSpec]] = []
+    for spec in root.walk():
+        if spec.cls is None or spec.params is None:
+            continue
+        for key in spec.cls.blackboard_writes(spec.params):
+            if key not in declared:
+                errors.append(
+                    LocatedError(
+                        f"blackboard key {key!r} is written but not declared", spec.location
+                    )
+                )
+            writes.add(key)
+        reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
+    for key, spec in reads:
+        if key not in declared:
+            errors.append(
+                LocatedError(
+                    f"blackboard key {key!r} is read but not declared under 'blackboard:'",
+                    spec.location,
+                )
+            )
+        elif key not in writes:
+            errors.append(
+                LocatedError(
+                    f"blackboard key {key!r} is read but never written (no node writes it,"
+                    " it has no default and is not marked external)",
+                    spec.location,
+                )
+            )
+
+
+# -- building -----------------------------------------------------------------------------
+
+
+def build(spec: NodeSpec, context: BuildContext) -> py_trees.behaviour.Behaviour:
+    """Build the behaviour of a validated spec tree (no hardware is touched).
+
+    Raises:
+        ValueError: a node's ``from_params`` refused its parameters.
+    """
+    if spec.cls is not None:
+        child = build(spec.children[0], context) if spec.children else None
+        return spec.cls.from_params(spec.name, spec.params, context, child)
+    children = [build(c, context) for c in spec.children]
+    if spec.node_type == "sequence":
+        return py_trees.composites.Sequence(spec.name, spec.params["memory"], children)
+    if spec.node_type == "selector":
+        return py_trees.composites.Selector(spec.name, spec.params["memory"], children)
+    if spec.node_type == "eternal_guard":
+        conditions = [build(c, context) for c in spec.conditions]
+        return py_trees.composites.Sequence(spec.name, False, [*conditions, *children])
+    policy: py_trees.common.ParallelPolicy.Base
+    if spec.params["policy"] == "one":
+        policy = py_trees.common.ParallelPolicy.SuccessOnOne()
+    elif spec.params["policy"] == "all":
+        policy = py_trees.common.ParallelPolicy.SuccessOnAll(spec.params["synchronise"])
+    else:
+        chosen = [c for c in children if c.name in spec.params["selected"]]
+        policy = py_trees.common.ParallelPolicy.SuccessOnSelected(
+            chosen, spec.params["synchronise"]
+        )
+    return py_trees.composites.Parallel(spec.name, policy, children)
+
+
+# -- public API ------------------------------------------------------------------------------
+
+
+def load_tree(
+    source: str | Path | Mapping[str, Any],
+    *,
+    robot: RobotDescription | None = None,
+    params: Mapping[str, Any] | None = None,
+    params_from_text: bool = False,
+    clock: Clock | None = None,
+    supervisor: Any = None,
+    registry: Registry | None = None,
+    units_required: bool | None = None,
+) -> LoadedTree:
+    """Load, check and build a behaviour tree.
+
+    Args:
+        source: A tree file, or the same structure as a mapping (planner code).
+        robot: The robot description; parameters are checked against its limits.
+            ``None`` skips the limit checks.
+        params: Values for the tree's declared parameters (numbers are SI unless
+            ``params_from_text``).
+        params_from_text: ``params`` are command-line texts (``{"roll": "90 deg"}``).
+        clock: The clock behaviours read (default: the wall clock).
+        supervisor: The safety supervisor, handed to nodes that command the robot.
+        registry: Node types allowed (default: :func:`default_registry`).
+        units_required: Refuse bare numbers for quantities; default true for files
+            and false for mappings (where numbers are SI).
+
+    Returns:
+        The built tree with its warnings (also logged).
+
+    Raises:
+        ValidationFailed: every problem found, each at ``file:line:column``.
+    """
+    reg = registry or default_registry()
+    if isinstance(source, Mapping):
+        doc = YamlDocument(dict(source), Locator("<dict>"))
+        base_dir = Path.cwd()
+        strict = False if units_required is None else units_required
+    else:
+        doc = load_yaml(source)
+        base_dir = Path(source).parent
+        strict = True if units_required is None else units_required
+    reader = _Reader(reg, robot, strict, base_dir)
+    if not reader.header(doc):
+        raise ValidationFailed(reader.errors)
+    if doc.file != "<dict>":
+        reader.docs[str(Path(doc.file).resolve())] = doc
+    data: dict[str, Any] = doc.data
+    decls = reader.declared_params(doc, ("params",), data.get("params"))
+    given = dict(params or {})
+    cli_loc = SourceLocation("--param")
+    spec: NodeSpec | None = None
+    values: dict[str, Any] | None = None
+    if decls is not None:
+        values = reader.bind(doc, ("params",), decls, given, lambda _n: cli_loc, params_from_text)
+    if values is not None:
+        env = _Env(doc, values, (doc.file,))
+        spec = reader.tree(env, (), data)
+    if spec is not None and not reader.errors:
+        if not spec.explicit_name:
+            name = data.get("name")
+            spec.name = name if isinstance(name, str) and name else spec.name
+        _check_blackboard(spec, reader.blackboard, reader.errors)
+        _outcomes(spec, reader.warnings)
+    if reader.errors or spec is None or values is None:
+        errors = reader.errors or [LocatedError("tree could not be read", SourceLocation(doc.file))]
+        raise ValidationFailed(_unique(errors))
+    context = BuildContext(robot=robot, clock=clock or WallClock(), supervisor=supervisor)
+    try:
+        root = build(spec, context)
+    except (ValueError, TypeError) as exc:
+        raise ValidationFailed([LocatedError(f"cannot build: {exc}", spec.location)]) from None
+    for warning in reader.warnings:
+        _log.warning("%s", warning)
+    name = data.get("name") if isinstance(data.get("name"), str) else None
+    return LoadedTree(
+        name=name or (Path(doc.file).stem if doc.file != "<dict>" else spec.name),
+        root=root,
+        spec=spec,
+        params=values,
+        blackboard={k: d for k, (d, _) in reader.blackboard.items()},
+        warnings=reader.warnings,
+        files=[doc.file, *(d.file for d in reader.docs.values() if d.file != doc.file)],
+        needs_robot=any(s.cls is not None and s.cls.needs_robot for s in spec.walk()),
+    )
+
+
+def _unique(errors: list[LocatedError]) -> list[LocatedError]:
+    seen: set[str] = set()
+    out: list[LocatedError] = []
+    for e in errors:
+        if str(e) not in seen:
+            seen.add(str(e))
+            out.append(e)
+    return out
+
+
+def validate_tree_file(path: str | Path) -> LoadedTree:
+    """Validate a tree file against the default robot description (``pirate-bt validate``)."""
+    from pirate_bt.robot.loader import load_robot
+
+    return load_tree(path, robot=load_robot())

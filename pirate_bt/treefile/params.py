@@ -1,0 +1,127 @@
+"""Tree parameters: declared with a type, given by the caller, substituted as whole values.
+
+A tree (or a named subtree) declares its parameters::
+
+    params:
+      roll: {type: angle, default: 0 deg, description: bend-plane roll}
+
+and uses them as a whole value anywhere in a node's keys: ``angle: $roll``.
+There is no string interpolation and no expression: a value is either exactly
+``$name`` or it is left alone (``$$text`` writes the literal ``$text``). The
+node's own parameter model then validates the substituted value, so a parameter
+is checked twice: against its declared type when given, and against the node
+that uses it.
+
+Quantities are substituted as text in SI units (``"1.5707963267948966 rad"``), so
+a node that requires a unit in files still gets one.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Final, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from pirate_bt.errors import UnitError
+from pirate_bt.units import parse_quantity
+
+__all__ = ["PARAM_RE", "SI_UNITS", "ParamDecl", "ParamType", "coerce_param"]
+
+PARAM_RE: Final = re.compile(r"^\$(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
+
+# parameter type -> (units dimension, SI unit written after the number)
+SI_UNITS: Final[dict[str, tuple[str, str]]] = {
+    "length": ("length", "m"),
+    "duration": ("time", "s"),
+    "angle": ("angle", "rad"),
+    "velocity": ("velocity", "m/s"),
+    "angular_velocity": ("angular_velocity", "rad/s"),
+    "acceleration": ("acceleration", "m/s^2"),
+    "force": ("force", "N"),
+    "torque": ("torque", "N*m"),
+    "frequency": ("frequency", "Hz"),
+    "current": ("current", "A"),
+}
+
+ParamType = Literal[
+    "length",
+    "duration",
+    "angle",
+    "velocity",
+    "angular_velocity",
+    "acceleration",
+    "force",
+    "torque",
+    "frequency",
+    "current",
+    "number",
+    "integer",
+    "boolean",
+    "string",
+]
+
+
+class ParamDecl(BaseModel):
+    """One declared tree parameter."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    type: ParamType = Field(description="the parameter's type; quantities need a unit")
+    default: Any = Field(None, description="value used when the caller gives none")
+    description: str = Field("", description="what the parameter means")
+
+
+def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any:
+    """Check ``value`` against ``decl`` and return the value to substitute.
+
+    Args:
+        decl: The declaration.
+        value: The given value (a number is SI for a quantity unless it came from a file).
+        from_text: The value is command-line text (``--param roll=90deg``).
+
+    Returns:
+        The substituted value: a quantity as SI text with its unit, else a plain value.
+
+    Raises:
+        ValueError: the value does not fit the type.
+    """
+    kind = decl.type
+    if kind in SI_UNITS:
+        dimension, unit = SI_UNITS[kind]
+        try:
+            si = parse_quantity(value, dimension, require_unit=isinstance(value, str) or from_text)
+        except UnitError as exc:
+            raise ValueError(str(exc)) from None
+        return f"{si!r} {unit}"
+    if from_text and isinstance(value, str):
+        return _from_text(kind, value)
+    if kind == "boolean" and isinstance(value, bool):
+        return value
+    if kind == "integer" and isinstance(value, int) and not isinstance(value, bool):
+        return value
+    if kind == "number" and isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    if kind == "string" and isinstance(value, str):
+        return value
+    raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {value!r}")
+
+
+def _from_text(kind: str, text: str) -> Any:
+    try:
+        if kind == "integer":
+            return int(text)
+        if kind == "number":
+            return float(text)
+    except ValueError:
+        raise ValueError(
+            f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {text!r}"
+        ) from None
+    if kind == "boolean":
+        lowered = text.strip().lower()
+        if lowered in ("true", "yes", "1", "on"):
+            return True
+        if lowered in ("false", "no", "0", "off"):
+            return False
+        raise ValueError(f"expected true or false, got {text!r}")
+    return text
