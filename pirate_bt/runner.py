@@ -1,0 +1,354 @@
+"""The tick loop: rate, clock, exception safety and the safe stop.
+
+:class:`Runner` ticks a ``py_trees`` tree at a fixed period on the injected
+clock until the root returns SUCCESS or FAILURE, or a time limit passes. On a
+:class:`~pirate_bt.clock.SimClock` the sleep between ticks advances simulated
+time (and with it the simulator), so runs are fast and deterministic; with
+``realtime=True`` the runner also waits in wall time, for watching a simulated run.
+
+What py_trees leaves to its user, the runner does:
+
+- **Exceptions.** If a behaviour raises, the runner records the failing node's
+  path (``root/approach/clamp front``) and the traceback, stops every RUNNING
+  node (deepest first, so ``terminate()`` cancels motion), calls the safe-state
+  callback (the supervisor's "stop drives, hold clamps") and ends with failure.
+- **Ctrl-C.** A ``KeyboardInterrupt`` during a tick or a wait is handled the
+  same way; finish hooks still run, so traces are written.
+- **Any non-success end** (failure, time limit) also stops running nodes and
+  calls the safe state: the robot is left safe whenever a run does not succeed.
+- **Tick budget.** Each tick's duration (wall time, ``time.perf_counter``) is
+  compared with a budget (default: the period); overruns are counted and listed.
+
+Hooks: ``pre_tick`` hooks run before each tick (poll the robot link here),
+``post_tick`` hooks after (the trace writer), ``finish`` hooks once with the
+:class:`RunResult`. A hook that raises is treated like a behaviour that raises.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from pirate_bt.clock import Clock
+
+__all__ = ["Overrun", "RunResult", "Runner", "StopReason", "TickInfo", "node_path"]
+
+_log = logging.getLogger("pirate_bt.runner")
+
+
+class StopReason(enum.StrEnum):
+    """Why a run ended."""
+
+    SUCCESS = "success"
+    FAILURE = "failure"
+    TIME_LIMIT = "time_limit"
+    EXCEPTION = "exception"
+    INTERRUPTED = "interrupted"
+
+
+@dataclass(frozen=True, slots=True)
+class Overrun:
+    """A tick that took longer than the budget."""
+
+    tick: int
+    duration_s: float
+    budget_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class TickInfo:
+    """What a hook sees.
+
+    Attributes:
+        tick: Tick number, from 1.
+        time_s: Clock time at the start of the tick (seconds since the run began).
+        tree: The ``py_trees`` tree (visit it for node statuses).
+        status: The root's status after the tick (``None`` in pre-tick hooks).
+        duration_s: Wall time the tick took (``None`` in pre-tick hooks).
+    """
+
+    tick: int
+    time_s: float
+    tree: py_trees.trees.BehaviourTree
+    status: Status | None = None
+    duration_s: float | None = None
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """How a run ended.
+
+    Attributes:
+        outcome: ``"success"`` or ``"failure"`` (every non-success end is a failure).
+        reason: Why it ended, as a :class:`StopReason`.
+        message: One line for people.
+        ticks: Ticks completed or attempted.
+        sim_time_s: Clock time the run took (simulated time on a SimClock).
+        wall_time_s: Wall time the run took.
+        failing_node: Path of the node that raised (``None`` if none raised).
+        error: The exception that ended the run, if any.
+        traceback: Its formatted traceback.
+        overruns: Ticks over budget (at most ``max_overruns_kept`` listed).
+        overrun_count: All ticks over budget.
+        max_tick_s: Longest tick (wall time).
+        mean_tick_s: Mean tick (wall time).
+        safe_state_called: The safe-state callback ran.
+        stopped_nodes: Paths of the RUNNING nodes the runner stopped.
+    """
+
+    outcome: str
+    reason: StopReason
+    message: str
+    ticks: int
+    sim_time_s: float
+    wall_time_s: float
+    failing_node: str | None = None
+    error: BaseException | None = None
+    traceback: str | None = None
+    overruns: tuple[Overrun, ...] = ()
+    overrun_count: int = 0
+    max_tick_s: float = 0.0
+    mean_tick_s: float = 0.0
+    safe_state_called: bool = False
+    stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "success"
+
+
+Hook = Callable[[TickInfo], None]
+
+
+def node_path(node: py_trees.behaviour.Behaviour) -> str:
+    """The node's path from the root, names joined by ``/``."""
+    names: list[str] = []
+    current: py_trees.behaviour.Behaviour | None = node
+    while current is not None:
+        names.append(current.name)
+        current = current.parent
+    return "/".join(reversed(names))
+
+
+def _culprit(exc: BaseException, root: py_trees.behaviour.Behaviour) -> str | None:
+    """The deepest behaviour of this tree whose method is on the traceback."""
+    members = {id(n) for n in root.iterate()}
+    found: py_trees.behaviour.Behaviour | None = None
+    tb = exc.__traceback__
+    while tb is not None:
+        candidate = tb.tb_frame.f_locals.get("self")
+        if isinstance(candidate, py_trees.behaviour.Behaviour) and id(candidate) in members:
+            found = candidate
+        tb = tb.tb_next
+    return node_path(found) if found is not None else None
+
+
+class Runner:
+    """Ticks a tree until it finishes, a time limit passes, or something goes wrong.
+
+    Args:
+        tree: A ``BehaviourTree``, a root behaviour, or a
+            :class:`~pirate_bt.treefile.LoadedTree` (its blackboard defaults are
+            written before the first tick).
+        clock: The injected clock (tick times, time limit, sleeping).
+        period_s: Time between tick starts.
+        max_time_s: Stop with failure after this much clock time (``None``: no limit).
+        tick_budget_s: Longest acceptable tick in wall time (default: ``period_s``).
+        safe_state: Called when a run ends without success (the supervisor's safe state).
+        realtime: On a simulated clock, also wait in wall time so the run can be watched.
+        setup_timeout_s: Passed to ``BehaviourTree.setup``.
+        max_overruns_kept: How many overruns to list in the result.
+    """
+
+    def __init__(
+        self,
+        tree: Any,
+        *,
+        clock: Clock,
+        period_s: float = 0.05,
+        max_time_s: float | None = None,
+        tick_budget_s: float | None = None,
+        safe_state: Callable[[], None] | None = None,
+        realtime: bool = False,
+        setup_timeout_s: float = 15.0,
+        max_overruns_kept: int = 100,
+    ) -> None:
+        if period_s <= 0:
+            raise ValueError(f"period must be positive, got {period_s}")
+        self._loaded = None
+        if isinstance(tree, py_trees.trees.BehaviourTree):
+            self.tree = tree
+        elif isinstance(tree, py_trees.behaviour.Behaviour):
+            self.tree = py_trees.trees.BehaviourTree(tree)
+        elif hasattr(tree, "behaviour_tree"):
+            self._loaded = tree
+            self.tree = tree.behaviour_tree()
+        else:
+            raise TypeError(f"cannot run {type(tree).__name__}; give a behaviour or a tree")
+        self.clock = clock
+        self.period_s = period_s
+        self.max_time_s = max_time_s
+        self.tick_budget_s = period_s if tick_budget_s is None else tick_budget_s
+        self.safe_state = safe_state
+        self.realtime = realtime
+        self.setup_timeout_s = setup_timeout_s
+        self.max_overruns_kept = max_overruns_kept
+        self.pre_tick: list[Hook] = []
+        self.post_tick: list[Hook] = []
+        self.finish: list[Callable[[RunResult], None]] = []
+
+    def add_pre_tick(self, hook: Hook) -> None:
+        """Run ``hook(info)`` before every tick (e.g. poll the robot link)."""
+        self.pre_tick.append(hook)
+
+    def add_post_tick(self, hook: Hook) -> None:
+        """Run ``hook(info)`` after every tick (e.g. the trace writer)."""
+        self.post_tick.append(hook)
+
+    def add_finish(self, hook: Callable[[RunResult], None]) -> None:
+        """Run ``hook(result)`` once when the run has ended (flush and close files)."""
+        self.finish.append(hook)
+
+    # -- the loop
+
+    def run(self) -> RunResult:
+        """Set the tree up and tick it to the end; never raises for a behaviour's error.
+
+        Returns:
+            The :class:`RunResult`; ``outcome`` is ``"failure"`` for every end but success.
+        """
+        wall0 = time.perf_counter()
+        start_s = self.clock.now()
+        ticks = 0
+        durations_total = 0.0
+        max_tick = 0.0
+        overruns: list[Overrun] = []
+        overrun_count = 0
+        reason: StopReason
+        message: str
+        error: BaseException | None = None
+        tb_text: str | None = None
+        failing: str | None = None
+        root = self.tree.root
+        try:
+            if self._loaded is not None:
+                self._loaded.write_blackboard_defaults()
+            self.tree.setup(timeout=self.setup_timeout_s)
+            next_s = start_s
+            while True:
+                now_s = self.clock.now()
+                elapsed_s = now_s - start_s
+                if self.max_time_s is not None and elapsed_s >= self.max_time_s:
+                    reason = StopReason.TIME_LIMIT
+                    message = f"time limit of {self.max_time_s:g} s reached after {ticks} ticks"
+                    break
+                ticks += 1
+                info = TickInfo(ticks, elapsed_s, self.tree)
+                for hook in self.pre_tick:
+                    hook(info)
+                t0 = time.perf_counter()
+                self.tree.tick()
+                duration = time.perf_counter() - t0
+                durations_total += duration
+                max_tick = max(max_tick, duration)
+                if duration > self.tick_budget_s:
+                    overrun_count += 1
+                    if len(overruns) < self.max_overruns_kept:
+                        overruns.append(Overrun(ticks, duration, self.tick_budget_s))
+                status = root.status
+                done = TickInfo(ticks, elapsed_s, self.tree, status, duration)
+                for hook in self.post_tick:
+                    hook(done)
+                if status == Status.SUCCESS:
+                    reason, message = StopReason.SUCCESS, f"tree succeeded after {ticks} ticks"
+                    break
+                if status == Status.FAILURE:
+                    reason, message = StopReason.FAILURE, f"tree failed after {ticks} ticks"
+                    break
+                next_s += self.period_s
+                self._wait_until(next_s)
+        except KeyboardInterrupt as exc:
+            reason, message, error = StopReason.INTERRUPTED, "interrupted (Ctrl-C)", exc
+        except Exception as exc:
+            error = exc
+            failing = _culprit(exc, root)
+            tb_text = "".join(traceback.format_exception(exc))
+            reason = StopReason.EXCEPTION
+            where = f" in {failing}" if failing else ""
+            message = f"{type(exc).__name__}{where}: {exc}"
+            _log.error("run ended by an exception%s:\n%s", where, tb_text)
+        stopped: tuple[str, ...] = ()
+        safe_called = False
+        if reason is not StopReason.SUCCESS:
+            stopped = self._stop_running(root)
+            safe_called = self._call_safe_state()
+        self._shutdown()
+        result = RunResult(
+            outcome="success" if reason is StopReason.SUCCESS else "failure",
+            reason=reason,
+            message=message,
+            ticks=ticks,
+            sim_time_s=self.clock.now() - start_s,
+            wall_time_s=time.perf_counter() - wall0,
+            failing_node=failing,
+            error=error,
+            traceback=tb_text,
+            overruns=tuple(overruns),
+            overrun_count=overrun_count,
+            max_tick_s=max_tick,
+            mean_tick_s=durations_total / ticks if ticks else 0.0,
+            safe_state_called=safe_called,
+            stopped_nodes=stopped,
+        )
+        for on_finish in self.finish:
+            try:
+                on_finish(result)
+            except Exception:
+                _log.exception("finish hook failed")
+        return result
+
+    def _wait_until(self, when_s: float) -> None:
+        delay = when_s - self.clock.now()
+        if delay <= 0:
+            return
+        if self.realtime and self.clock.is_simulated:
+            time.sleep(delay)
+        self.clock.sleep(delay)
+
+    def _stop_running(self, root: py_trees.behaviour.Behaviour) -> tuple[str, ...]:
+        """Stop every RUNNING node, deepest first (py_trees leaves them running)."""
+        running = [n for n in root.iterate() if n.status == Status.RUNNING]
+        stopped: list[str] = []
+        for node in running:  # iterate() yields children before their parents
+            if node.status != Status.RUNNING:
+                continue  # already stopped through a parent
+            try:
+                node.stop(Status.INVALID)
+            except Exception:
+                _log.exception("terminate() of %s raised", node_path(node))
+            stopped.append(node_path(node))
+        return tuple(stopped)
+
+    def _call_safe_state(self) -> bool:
+        if self.safe_state is None:
+            return False
+        try:
+            self.safe_state()
+        except BaseException:
+            _log.exception("safe-state callback raised")
+            return False
+        return True
+
+    def _shutdown(self) -> None:
+        try:
+            self.tree.shutdown()
+        except Exception:
+            _log.exception("tree shutdown raised")
