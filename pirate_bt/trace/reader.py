@@ -1,0 +1,382 @@
+"""Read a trace back and rebuild the tree and robot at any tick.
+
+A trace file stores only what changed in each tick (see
+:mod:`pirate_bt.trace.writer`). :func:`read_trace` loads the records into a
+:class:`Trace`; :meth:`Trace.frame_at` and :meth:`Trace.frames` replay the
+changes to give the *whole* picture at a tick: every node's status and
+feedback message, the blackboard, the robot state, link health and simulator
+counters, plus the commands and events of that tick.
+
+Readers are picked by file suffix from :data:`READERS`, like the writers.
+A reader tolerates a cut-off last line (a run killed mid-write): the complete
+ticks before it are returned and :attr:`Trace.truncated` is set. Any other bad
+line is an :class:`~pirate_bt.errors.LocatedError` naming the file and line.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import zlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any, ClassVar, cast
+
+import py_trees
+
+from pirate_bt.errors import InputError, LocatedError, SourceLocation
+from pirate_bt.robot.state import RobotState
+from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
+from pirate_bt.trace.structure import TreeStructure
+from pirate_bt.trace.writer import suffix_of
+
+__all__ = [
+    "READERS",
+    "GzipJsonLinesReader",
+    "JsonLinesReader",
+    "TickFrame",
+    "TickRecord",
+    "Trace",
+    "TraceFormatReader",
+    "read_trace",
+]
+
+
+class TraceFormatReader:
+    """Yields ``(line_number, record)`` from a trace file; subclasses implement ``_open``.
+
+    Args:
+        path: The trace file.
+    """
+
+    suffixes: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.truncated = False
+
+    def _open(self) -> IO[bytes]:
+        raise NotImplementedError
+
+    def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
+        yield from stream
+
+    def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        try:
+            stream = self._open()
+        except OSError as exc:
+            raise InputError(f"{self.path}: cannot read trace: {exc.strerror or exc}") from None
+        with stream:
+            pending: tuple[int, bytes] | None = None
+            for number, line in enumerate(self._lines(stream), start=1):
+                if pending is not None:
+                    yield pending[0], self._decode(*pending, last=False)
+                pending = (number, line)
+            if pending is not None:
+                number, line = pending
+                if line.strip():
+                    try:
+                        yield number, self._decode(number, line, last=True)
+                    except _CutOff:
+                        self.truncated = True
+
+    def _decode(self, number: int, line: bytes, last: bool) -> dict[str, Any]:
+        try:
+            record = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            if last and not line.endswith(b"\n"):
+                raise _CutOff from None
+            column = getattr(exc, "colno", 1)
+            raise LocatedError(
+                f"not a trace record: {getattr(exc, 'msg', exc)}",
+                SourceLocation(str(self.path), number, column),
+            ) from None
+        if not isinstance(record, dict) or not isinstance(record.get("type"), str):
+            raise LocatedError(
+                "not a trace record: expected a JSON object with a 'type'",
+                SourceLocation(str(self.path), number),
+            )
+        return record
+
+
+class _CutOff(Exception):
+    """The last line of a file was cut off mid-record."""
+
+
+class JsonLinesReader(TraceFormatReader):
+    """Reads plain JSON Lines traces (``.jsonl``)."""
+
+    suffixes = (".jsonl", ".ndjson")
+
+    def _open(self) -> IO[bytes]:
+        return open(self.path, "rb")
+
+
+class GzipJsonLinesReader(TraceFormatReader):
+    """Reads gzip-compressed JSON Lines traces (``.jsonl.gz``), even if cut off."""
+
+    suffixes = (".jsonl.gz",)
+
+    def _open(self) -> IO[bytes]:
+        return cast(IO[bytes], gzip.open(self.path, "rb"))
+
+    def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
+        try:
+            yield from stream
+        except (EOFError, zlib.error, gzip.BadGzipFile):
+            # A killed writer leaves no gzip trailer; everything flushed is intact.
+            self.truncated = True
+
+
+#: File suffix -> format reader class; the longest matching suffix wins.
+READERS: dict[str, type[TraceFormatReader]] = {
+    suffix: cls for cls in (JsonLinesReader, GzipJsonLinesReader) for suffix in cls.suffixes
+}
+
+
+@dataclass(frozen=True)
+class TickRecord:
+    """One ``tick`` record as stored: only what changed (see the writer's docstring)."""
+
+    n: int
+    t_s: float
+    status: Mapping[str, str] = field(default_factory=dict)
+    feedback: Mapping[str, str] = field(default_factory=dict)
+    bb: Mapping[str, Any] = field(default_factory=dict)
+    bb_unset: tuple[str, ...] = ()
+    state: Mapping[str, Any] = field(default_factory=dict)
+    full: bool = False
+    commands: tuple[Mapping[str, Any], ...] = ()
+    link: Mapping[str, Any] = field(default_factory=dict)
+    sim: Mapping[str, Any] = field(default_factory=dict)
+    events: tuple[Mapping[str, Any], ...] = ()
+    line: int = 0
+
+
+@dataclass(frozen=True)
+class TickFrame:
+    """Everything known at the end of one tick, rebuilt from the changes.
+
+    Attributes:
+        n: Tick number (0 is before the first tick).
+        t_s: Seconds since the trace started, at the last recorded change.
+        status: Status code (``S``/``F``/``R``/``I``) of every node by id.
+        feedback: Feedback message of every node by id.
+        blackboard: Every blackboard key's value.
+        state: Flat robot state values (see :func:`~pirate_bt.trace.records.flatten_state`).
+        link: Link health fields.
+        sim: Simulator counters.
+        commands: Commands of this very tick (empty if the tick wrote no record).
+        events: Events of this very tick.
+    """
+
+    n: int
+    t_s: float
+    status: Mapping[str, str]
+    feedback: Mapping[str, str]
+    blackboard: Mapping[str, Any]
+    state: Mapping[str, Any]
+    link: Mapping[str, Any]
+    sim: Mapping[str, Any]
+    commands: tuple[Mapping[str, Any], ...] = ()
+    events: tuple[Mapping[str, Any], ...] = ()
+
+    def statuses(self) -> dict[str, py_trees.common.Status]:
+        """Every node's status as a py_trees ``Status``."""
+        return {node_id: CODE_STATUS[code] for node_id, code in self.status.items()}
+
+    def robot_state(self) -> RobotState | None:
+        """The robot state as a :class:`RobotState` (``None`` before the first state)."""
+        if not self.state:
+            return None
+        return state_from_flat(self.state, self.t_s)
+
+
+class Trace:
+    """A trace read back: header, tick records and end record.
+
+    Attributes:
+        path: The file it was read from.
+        header: The header record.
+        structure: The tree's structure from the header.
+        ticks: The tick records, in order.
+        end: The end record, or ``None`` if the run did not finish writing.
+        truncated: The last line was cut off (a killed run).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        header: Mapping[str, Any],
+        ticks: list[TickRecord],
+        end: Mapping[str, Any] | None,
+        truncated: bool,
+    ) -> None:
+        self.path = path
+        self.header = header
+        self.structure = TreeStructure.from_json(header["tree"])
+        self.ticks = ticks
+        self.end = end
+        self.truncated = truncated
+
+    @property
+    def last_tick(self) -> int:
+        """The number of the last tick the run reached."""
+        if self.end is not None:
+            return int(self.end.get("n", 0))
+        return self.ticks[-1].n if self.ticks else 0
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds from the header to the last tick."""
+        if self.end is not None:
+            return float(self.end.get("t_s", 0.0))
+        return self.ticks[-1].t_s if self.ticks else 0.0
+
+    @property
+    def outcome(self) -> str:
+        """The run's outcome, or ``incomplete`` when there is no end record."""
+        return str(self.end["outcome"]) if self.end is not None else "incomplete"
+
+    def frames(self) -> Iterator[TickFrame]:
+        """The whole picture after every recorded tick, in order (tick 0 first)."""
+        status = {n.id: "I" for n in self.structure}
+        feedback = {n.id: "" for n in self.structure}
+        bb: dict[str, Any] = {}
+        state: dict[str, Any] = {}
+        link: dict[str, Any] = {}
+        sim: dict[str, Any] = {}
+        yield TickFrame(0, 0.0, dict(status), dict(feedback), {}, {}, {}, {})
+        for tick in self.ticks:
+            status.update(tick.status)
+            feedback.update(tick.feedback)
+            bb.update(tick.bb)
+            for key in tick.bb_unset:
+                bb.pop(key, None)
+            if tick.full:
+                state = dict(tick.state)
+            else:
+                state.update(tick.state)
+            link.update(tick.link)
+            sim.update(tick.sim)
+            yield TickFrame(
+                tick.n,
+                tick.t_s,
+                dict(status),
+                dict(feedback),
+                dict(bb),
+                dict(state),
+                dict(link),
+                dict(sim),
+                tick.commands,
+                tick.events,
+            )
+
+    def frame_at(self, n: int) -> TickFrame:
+        """The whole picture at the end of tick ``n`` (0 is before the first tick).
+
+        A tick that wrote no record changed nothing, so it shows the frame of the
+        last recorded tick before it, renumbered.
+
+        Raises:
+            InputError: ``n`` is negative or beyond the last tick.
+        """
+        if n < 0 or n > self.last_tick:
+            raise InputError(f"{self.path}: no tick {n}; the trace has ticks 0 to {self.last_tick}")
+        found: TickFrame | None = None
+        for frame in self.frames():
+            if frame.n > n:
+                break
+            found = frame
+        assert found is not None
+        if found.n != n:
+            return TickFrame(
+                n,
+                found.t_s,
+                found.status,
+                found.feedback,
+                found.blackboard,
+                found.state,
+                found.link,
+                found.sim,
+            )
+        return found
+
+    def statuses_at(self, n: int) -> dict[str, py_trees.common.Status]:
+        """Every node's status at the end of tick ``n``."""
+        return self.frame_at(n).statuses()
+
+    def robot_state_at(self, n: int) -> RobotState | None:
+        """The robot state at the end of tick ``n`` (``None`` if none was recorded yet)."""
+        return self.frame_at(n).robot_state()
+
+
+def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecord:
+    try:
+        return TickRecord(
+            n=int(record["n"]),
+            t_s=float(record["t_s"]),
+            status=dict(record.get("status", {})),
+            feedback=dict(record.get("feedback", {})),
+            bb=dict(record.get("bb", {})),
+            bb_unset=tuple(record.get("bb_unset", ())),
+            state=dict(record.get("state", {})),
+            full=bool(record.get("full", False)),
+            commands=tuple(record.get("commands", ())),
+            link=dict(record.get("link", {})),
+            sim=dict(record.get("sim", {})),
+            events=tuple(record.get("events", ())),
+            line=line,
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LocatedError(
+            f"bad tick record: {type(exc).__name__}: {exc}", SourceLocation(str(where), line)
+        ) from None
+
+
+def read_trace(path: str | Path) -> Trace:
+    """Read a trace file; its format is chosen by suffix (see :data:`READERS`).
+
+    Raises:
+        InputError: unknown suffix or unreadable file.
+        LocatedError: a record that is not valid, with file and line.
+    """
+    reader = READERS[suffix_of(path, READERS)](path)
+    where = Path(path)
+    header: dict[str, Any] | None = None
+    ticks: list[TickRecord] = []
+    end: dict[str, Any] | None = None
+    for line, record in reader:
+        kind = record["type"]
+        loc = SourceLocation(str(where), line)
+        if header is None:
+            if kind != "header" or record.get("format") != FORMAT_NAME:
+                raise LocatedError(f"not a {FORMAT_NAME} file: the first record is no header", loc)
+            version = record.get("version")
+            if not isinstance(version, int) or version > TRACE_VERSION:
+                raise LocatedError(
+                    f"trace format version {version!r} is newer than this reader"
+                    f" ({TRACE_VERSION}); update pirate_bt",
+                    loc,
+                )
+            if not isinstance(record.get("tree"), dict) or not record["tree"].get("nodes"):
+                raise LocatedError("the header has no tree", loc)
+            header = record
+        elif kind == "tick":
+            if end is not None:
+                raise LocatedError("a tick after the end record", loc)
+            tick = _tick_record(record, line, where)
+            if ticks and tick.n <= ticks[-1].n:
+                raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
+            ticks.append(tick)
+        elif kind == "end":
+            end = record
+        else:
+            raise LocatedError(f"unknown record type {kind!r}", loc)
+    if header is None:
+        raise InputError(f"{where}: empty trace (no header)")
+    try:
+        return Trace(where, header, ticks, end, reader.truncated)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LocatedError(f"bad tree in header: {exc}", SourceLocation(str(where), 1)) from None

@@ -1,0 +1,210 @@
+"""Trees as text with statuses, and trace summaries, for terminals and logs.
+
+The same drawing serves ``pirate-bt trace show`` (a tick read back from a
+trace) and the live view (the tree while it runs): one line per node, indented
+by depth, a status mark, the node's name and class, and its feedback message.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from pirate_bt.trace.reader import Trace
+from pirate_bt.trace.structure import TreeStructure
+
+__all__ = ["NodeSummary", "TraceSummary", "format_summary", "summarise", "tree_text"]
+
+STATUS_WORD = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING", "I": "-"}
+_MARK_UNICODE = {"S": "✔", "F": "✘", "R": "▶", "I": "·"}
+_MARK_ASCII = {"S": "+", "F": "x", "R": "*", "I": "."}
+_KIND_TAG = {"composite": "", "decorator": "^", "guard": "!", "leaf": ""}
+_ANSI = {"S": "\x1b[32m", "F": "\x1b[31m", "R": "\x1b[33m", "I": "\x1b[2m"}
+_RESET = "\x1b[0m"
+
+
+def tree_text(
+    structure: TreeStructure,
+    status: Mapping[str, str],
+    feedback: Mapping[str, str] | None = None,
+    *,
+    ascii_only: bool = False,
+    colour: bool = False,
+    collapse: bool = False,
+) -> list[str]:
+    """The tree as lines of text, one node per line.
+
+    Args:
+        structure: The tree's structure.
+        status: Status code (``S``/``F``/``R``/``I``) by node id; missing is ``I``.
+        feedback: Feedback message by node id.
+        ascii_only: Use ``+ x * .`` instead of Unicode marks.
+        colour: Colour lines with ANSI escapes by status.
+        collapse: Hide the children of nodes that are not RUNNING (compact live view).
+    """
+    marks = _MARK_ASCII if ascii_only else _MARK_UNICODE
+    feedback = feedback or {}
+    lines: list[str] = []
+    hidden: set[str] = set()
+    for node in structure:
+        if node.parent is not None and node.parent in hidden:
+            hidden.add(node.id)
+            continue
+        code = status.get(node.id, "I")
+        if collapse and code != "R" and node.children:
+            hidden.add(node.id)
+        tag = _KIND_TAG.get(node.kind, "")
+        kind = f"{tag}{node.type}" if node.type != node.name else tag
+        label = f"{node.name} [{kind}]" if kind else node.name
+        line = f"{'    ' * node.depth}{marks.get(code, '?')} {label}"
+        if code != "I":
+            line += f"  {STATUS_WORD[code]}"
+        message = feedback.get(node.id, "")
+        if message:
+            line += f"  -- {message}"
+        if colour:
+            line = f"{_ANSI.get(code, '')}{line}{_RESET}"
+        lines.append(line)
+    return lines
+
+
+@dataclass
+class NodeSummary:
+    """What one node did over a run.
+
+    Attributes:
+        runs: Times the node started RUNNING.
+        successes: Times it turned SUCCESS.
+        failures: Times it turned FAILURE.
+        running_s: Total seconds spent RUNNING.
+    """
+
+    runs: int = 0
+    successes: int = 0
+    failures: int = 0
+    running_s: float = 0.0
+
+
+@dataclass
+class TraceSummary:
+    """A run at a glance (``pirate-bt trace summary``)."""
+
+    path: str
+    tree: str
+    outcome: str
+    ticks: int
+    duration_s: float
+    truncated: bool
+    nodes: dict[str, NodeSummary]
+    commands: int = 0
+    clips: int = 0
+    refusals: list[dict[str, Any]] = field(default_factory=list)
+    faults: list[dict[str, Any]] = field(default_factory=list)
+    header: Mapping[str, Any] = field(default_factory=dict)
+
+
+def summarise(trace: Trace) -> TraceSummary:
+    """Count what every node did, and collect refusals and faults.
+
+    Counts are of status *changes*: a condition that succeeds tick after tick
+    counts once, since a trace stores only what changed.
+    """
+    nodes = {n.id: NodeSummary() for n in trace.structure}
+    running_since: dict[str, float] = {}
+    summary = TraceSummary(
+        path=str(trace.path),
+        tree=trace.structure.name,
+        outcome=trace.outcome,
+        ticks=trace.last_tick,
+        duration_s=trace.duration_s,
+        truncated=trace.truncated,
+        nodes=nodes,
+        header=trace.header,
+    )
+    for tick in trace.ticks:
+        for node_id, code in tick.status.items():
+            entry = nodes.get(node_id)
+            if entry is None:
+                continue
+            started = running_since.pop(node_id, None)
+            if started is not None:
+                entry.running_s += tick.t_s - started
+            if code == "R":
+                entry.runs += 1
+                running_since[node_id] = tick.t_s
+            elif code == "S":
+                entry.successes += 1
+            elif code == "F":
+                entry.failures += 1
+        for command in tick.commands:
+            summary.commands += 1
+            verdict = command.get("verdict")
+            if verdict == "clip":
+                summary.clips += 1
+            elif verdict == "refuse":
+                summary.refusals.append({"tick": tick.n, **command})
+        for event in tick.events:
+            if event.get("kind") in ("fault", "estop", "exception"):
+                summary.faults.append({"tick": tick.n, **event})
+    for node_id, started in running_since.items():
+        nodes[node_id].running_s += trace.duration_s - started
+    if trace.end is not None and trace.end.get("error"):
+        error = trace.end["error"]
+        summary.faults.append({"tick": trace.last_tick, "kind": "exception", **error})
+    return summary
+
+
+def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
+    """A summary as lines of text."""
+    header = summary.header
+    robot = header.get("robot") or {}
+    outcome = summary.outcome
+    if summary.truncated or outcome == "incomplete":
+        outcome += " (no end record: the run was cut off)"
+    lines = [
+        f"trace     {summary.path}",
+        f"tree      {summary.tree} ({len(structure)} nodes)",
+        f"outcome   {outcome}",
+        f"ticks     {summary.ticks}",
+        f"duration  {summary.duration_s:.3f} s",
+    ]
+    if robot.get("name") or robot.get("digest"):
+        digest = str(robot.get("digest") or "")[:12]
+        lines.append(f"robot     {robot.get('name') or '?'} (digest {digest or '?'})")
+    if header.get("scenario") or header.get("seed") is not None:
+        lines.append(f"scenario  {header.get('scenario') or '-'}, seed {header.get('seed')}")
+    lines.append(
+        f"commands  {summary.commands} ({summary.clips} clipped, {len(summary.refusals)} refused)"
+    )
+    width = max((len(n.name) + 4 * n.depth for n in structure), default=4)
+    lines.append("")
+    lines.append(f"{'node':<{width}}  {'runs':>5} {'ok':>5} {'fail':>5} {'running':>10}")
+    for node in structure:
+        entry = summary.nodes[node.id]
+        name = f"{'    ' * node.depth}{node.name}"
+        lines.append(
+            f"{name:<{width}}  {entry.runs:>5} {entry.successes:>5} {entry.failures:>5}"
+            f" {entry.running_s:>9.3f}s"
+        )
+    if summary.refusals:
+        lines.append("")
+        lines.append("refusals:")
+        for refusal in summary.refusals:
+            who = structure.node(refusal["node"]).name if refusal.get("node") in structure else "?"
+            lines.append(
+                f"  tick {refusal['tick']}: {who}: {refusal.get('motor')}"
+                f" {refusal.get('mode')} {refusal.get('requested')}"
+                f" refused ({refusal.get('reason', '?')}) {refusal.get('detail', '')}".rstrip()
+            )
+    if summary.faults:
+        lines.append("")
+        lines.append("faults:")
+        for fault in summary.faults:
+            text = fault.get("message") or fault.get("exception") or ""
+            node_id = fault.get("node")
+            where = ""
+            if isinstance(node_id, str) and node_id in structure:
+                where = f" at {structure.node(node_id).name}"
+            lines.append(f"  tick {fault['tick']}: {fault.get('kind')}{where}: {text}")
+    return lines
