@@ -23,6 +23,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "schema": ("pirate_bt.cli.schema", "print the JSON Schema of a file kind"),
     "robot": ("pirate_bt.cli.robot", "show a robot description's board table, or draw it"),
     "demo": ("pirate_bt.cli.demo", "the main job: run the showcase and write its outputs"),
+    "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
 }
 
 EXIT_OK = 0
