@@ -18,6 +18,7 @@ Typical use with plain py_trees::
     trace.statuses_at(42)
 """
 
+from pirate_bt.trace.attach import attach_live_view, attach_trace
 from pirate_bt.trace.live import LiveView, live_view_hook
 from pirate_bt.trace.reader import READERS, TickFrame, TickRecord, Trace, read_trace
 from pirate_bt.trace.records import (
@@ -45,6 +46,8 @@ __all__ = [
     "TraceEvent",
     "TraceRecorder",
     "TreeStructure",
+    "attach_live_view",
+    "attach_trace",
     "format_summary",
     "live_view_hook",
     "open_writer",

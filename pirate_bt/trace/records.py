@@ -69,34 +69,54 @@ _DECIMALS = 6
 
 @dataclass(frozen=True, slots=True)
 class CommandRecord:
-    """One command a behaviour asked for, and the supervisor's verdict.
+    """One command a behaviour (or operator) asked for, and the supervisor's verdict.
 
     Attributes:
-        node: The path id of the behaviour that asked (``None`` if unknown).
-        motor: Motor name.
-        mode: Control mode (``torque``, ``velocity``, ``position``, ``pwm``).
-        requested: The value asked for, in the mode's SI unit.
+        command: The command in short form, e.g. ``clamp(front, 0.5 N·m)``.
         verdict: ``pass``, ``clip`` or ``refuse``.
-        sent: The value sent after clipping (``None`` when refused).
         reason: Machine-readable reason for a clip or a refusal.
         detail: The reason in words.
+        sent: Motor commands actually sent, as ``(motor, mode, value)`` in SI units.
+        source: Who asked: ``tree``, ``operator`` or ``supervisor``.
+        node: The path id of the behaviour that asked, if known.
     """
 
-    motor: str
-    mode: str
-    requested: float
+    command: str
     verdict: str
-    sent: float | None = None
     reason: str | None = None
     detail: str | None = None
+    sent: tuple[tuple[str, str, float], ...] = ()
+    source: str | None = None
     node: str | None = None
 
     def __post_init__(self) -> None:
         if self.verdict not in VERDICTS:
             raise ValueError(f"verdict must be one of {VERDICTS}, not {self.verdict!r}")
 
+    @classmethod
+    def from_verdict(cls, verdict: Any, node: str | None = None) -> CommandRecord:
+        """Record a :class:`pirate_bt.safety.verdict.Verdict` (read via its ``to_record()``)."""
+        data = verdict.to_record()
+        sent = tuple((str(m), str(mode), float(v)) for m, mode, v in data.get("sent", ()))
+        return cls(
+            command=str(data["command"]),
+            verdict=str(data["outcome"]),
+            reason=None if data.get("reason") is None else str(data["reason"]),
+            detail=str(data["detail"]) if data.get("detail") else None,
+            sent=sent,
+            source=None if data.get("source") is None else str(data["source"]),
+            node=node,
+        )
+
     def to_json(self) -> dict[str, Any]:
-        return {k: jsonable(v) for k, v in asdict(self).items() if v is not None}
+        out: dict[str, Any] = {"command": self.command, "verdict": self.verdict}
+        for key in ("reason", "detail", "source", "node"):
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = value
+        if self.sent:
+            out["sent"] = [[m, mode, jsonable(v)] for m, mode, v in self.sent]
+        return out
 
 
 @dataclass(frozen=True, slots=True)

@@ -149,7 +149,8 @@ def summarise(trace: Trace) -> TraceSummary:
                 summary.faults.append({"tick": tick.n, **event})
     for node_id, started in running_since.items():
         nodes[node_id].running_s += trace.duration_s - started
-    if trace.end is not None and trace.end.get("error"):
+    already = any(f.get("kind") == "exception" for f in summary.faults)
+    if trace.end is not None and trace.end.get("error") and not already:
         error = trace.end["error"]
         summary.faults.append({"tick": trace.last_tick, "kind": "exception", **error})
     return summary
@@ -193,8 +194,7 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         for refusal in summary.refusals:
             who = structure.node(refusal["node"]).name if refusal.get("node") in structure else "?"
             lines.append(
-                f"  tick {refusal['tick']}: {who}: {refusal.get('motor')}"
-                f" {refusal.get('mode')} {refusal.get('requested')}"
+                f"  tick {refusal['tick']}: {who}: {refusal.get('command')}"
                 f" refused ({refusal.get('reason', '?')}) {refusal.get('detail', '')}".rstrip()
             )
     if summary.faults:

@@ -33,10 +33,11 @@ One JSON object per line, UTF-8, ``\\n``-terminated. Every object has a
     ``I`` for SUCCESS/FAILURE/RUNNING/INVALID), ``feedback`` (node id ->
     message), ``bb`` (blackboard key -> new value), ``bb_unset`` (keys removed),
     ``state`` (flat state name -> value, e.g. ``joint_angle_rad.bend_1``;
-    every value when ``full`` is true), ``commands`` (list of ``motor``,
-    ``mode``, ``requested``, ``verdict`` pass/clip/refuse, ``sent``, ``reason``,
-    ``detail``, ``node``), ``link`` (changed link-health fields), ``sim``
-    (changed simulator counters), ``events`` (``kind``, ``message``, ``node``).
+    every value when ``full`` is true), ``commands`` (list of ``command``
+    short form, ``verdict`` pass/clip/refuse, ``reason``, ``detail``, ``sent``
+    ``[motor, mode, value]`` triples, ``source``, ``node``), ``link`` (changed
+    link-health fields), ``sim`` (changed simulator counters), ``events``
+    (``kind``, ``message``, ``node``).
 
 ``end`` (last line, once, absent if the run was killed)
     ``n`` last tick, ``t_s``, ``outcome`` (success/failure/error/interrupted/

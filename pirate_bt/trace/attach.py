@@ -1,0 +1,131 @@
+"""Attach a trace and a live view to a :class:`pirate_bt.runner.Runner`.
+
+The runner calls post-tick hooks with a ``TickInfo`` and finish hooks with a
+``RunResult``. :func:`attach_trace` opens a :class:`TraceRecorder` on the
+runner's tree and clock, records each tick from a post-tick hook (asking an
+optional ``extras`` callable for the state, verdicts, link health and
+simulator counters of the tick), and writes the end record from a finish hook,
+mapping the runner's stop reason onto the trace's outcome. The runner is
+duck-typed (``tree``, ``clock``, ``period_s``, ``add_post_tick``,
+``add_finish``), so this module does not import it.
+
+What ``pirate-bt run`` does::
+
+    runner = Runner(loaded, clock=clock, period_s=0.01)
+    attach_trace(runner, "run.jsonl", extras=lambda info: TickExtras(state=port.state()))
+    attach_live_view(runner, quiet=args.quiet)
+    result = runner.run()
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TextIO
+
+from pirate_bt.trace.live import LiveView, live_view_hook
+from pirate_bt.trace.records import TickExtras, TraceEvent
+from pirate_bt.trace.structure import TreeStructure
+from pirate_bt.trace.writer import TraceFormatWriter, TraceRecorder
+
+__all__ = ["attach_live_view", "attach_trace", "node_id_for_path", "outcome_of_result"]
+
+_REASON_OUTCOME = {
+    "success": "success",
+    "failure": "failure",
+    "time_limit": "failure",
+    "exception": "error",
+    "interrupted": "interrupted",
+}
+
+
+def node_id_for_path(structure: TreeStructure, name_path: str) -> str | None:
+    """The path id of the node at a name path (``root/approach/clamp front``), if unique."""
+    paths: dict[str, list[str]] = {}
+    names: dict[str, str] = {}
+    for node in structure:
+        names[node.id] = node.name if node.parent is None else f"{names[node.parent]}/{node.name}"
+        paths.setdefault(names[node.id], []).append(node.id)
+    found = paths.get(name_path, [])
+    return found[0] if len(found) == 1 else None
+
+
+def outcome_of_result(result: Any) -> str:
+    """The trace outcome for a runner's ``RunResult``."""
+    reason = str(getattr(result, "reason", ""))
+    return _REASON_OUTCOME.get(reason, "success" if result.outcome == "success" else "failure")
+
+
+def attach_trace(
+    runner: Any,
+    destination: str | Path | TraceFormatWriter,
+    *,
+    extras: Callable[[Any], TickExtras | None] | None = None,
+    **options: Any,
+) -> TraceRecorder:
+    """Record every tick of ``runner`` into a trace.
+
+    The header is written now; ticks from the runner's post-tick hook; the end
+    record from its finish hook (also when the run raised or was interrupted).
+
+    Args:
+        runner: A :class:`pirate_bt.runner.Runner` (not yet run).
+        destination: The trace file (format by suffix) or a format writer.
+        extras: Called with the runner's ``TickInfo`` after each tick; returns
+            what else happened in it (state, verdicts, link health, counters).
+        **options: Passed to :class:`TraceRecorder` (``robot``, ``scenario``,
+            ``seed``, ``full_state``, ``readings``, ``every_tick``, ``meta``...).
+
+    Returns:
+        The recorder (already closed when ``runner.run()`` returns).
+    """
+    options.setdefault("tick_period_s", runner.period_s)
+    recorder = TraceRecorder(destination, runner.tree, clock=runner.clock, **options)
+
+    def post_tick(info: Any) -> None:
+        recorder.record_tick(extras(info) if extras is not None else None)
+
+    def finish(result: Any) -> None:
+        failing = getattr(result, "failing_node", None)
+        node = node_id_for_path(recorder.structure, failing) if failing else None
+        if getattr(result, "ticks", 0) > recorder.ticks:
+            # The last tick raised before the post-tick hooks: record how it left the tree.
+            kind = "exception" if getattr(result, "error", None) is not None else "note"
+            message = str(getattr(result, "message", "the tick did not complete"))
+            recorder.record_tick(TickExtras(events=(TraceEvent(kind, message, node),)))
+        recorder.close(
+            outcome_of_result(result),
+            reason=getattr(result, "message", None),
+            error_node=node,
+            exception=getattr(result, "error", None) if failing or node else None,
+        )
+
+    runner.add_post_tick(post_tick)
+    runner.add_finish(finish)
+    return recorder
+
+
+def attach_live_view(
+    runner: Any,
+    stream: TextIO | None = None,
+    *,
+    quiet: bool = False,
+    **options: Any,
+) -> LiveView | None:
+    """Show ``runner``'s tree live on ``stream`` (standard error by default).
+
+    Args:
+        runner: A :class:`pirate_bt.runner.Runner`.
+        stream: Where to draw.
+        quiet: Attach nothing (``--quiet``).
+        **options: Passed to :class:`LiveView` (``interval_s``, ``redraw``, ``ascii_only``).
+
+    Returns:
+        The live view, or ``None`` when ``quiet``.
+    """
+    if quiet:
+        return None
+    view = live_view_hook(runner.tree, stream, clock=runner.clock, **options)
+    assert isinstance(view, LiveView)
+    runner.add_post_tick(view)
+    return view
