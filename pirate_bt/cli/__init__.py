@@ -22,6 +22,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "validate": ("pirate_bt.cli.validate", "check robot descriptions and other pirate_bt files"),
     "schema": ("pirate_bt.cli.schema", "print the JSON Schema of a file kind"),
     "robot": ("pirate_bt.cli.robot", "show a robot description's board table, or draw it"),
+    "render": ("pirate_bt.cli.render", "draw a tree (.dot/.svg/.png), coloured by a trace tick"),
+    "trace": ("pirate_bt.cli.trace", "read a trace back: summary, show a tick, plot"),
     "demo": ("pirate_bt.cli.demo", "the main job: run the showcase and write its outputs"),
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
 }

@@ -74,6 +74,8 @@ def _label(node: NodeInfo, status: str | None, feedback: str) -> str:
     if node.type and node.type != node.name:
         rows.append(f'<font point-size="8">{html.escape(node.type)}</font>')
     for key, value in node.params.items():
+        if value is None:
+            continue
         rows.append(
             f'<font point-size="8">{html.escape(str(key))}: '
             f"{html.escape(_param_text(value))}</font>"

@@ -83,7 +83,7 @@ class TraceFormatReader:
 
     def _decode(self, number: int, line: bytes, last: bool) -> dict[str, Any]:
         try:
-            record = json.loads(line)
+            record = json.loads(line.rstrip(b"\r\n"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             if last and not line.endswith(b"\n"):
                 raise _CutOff from None

@@ -1,0 +1,72 @@
+"""``pirate-bt render TREE -o OUT``: draw a tree, optionally coloured by a trace tick.
+
+``TREE`` is a tree file (YAML), or a trace file, whose header holds the tree's
+shape. With ``--trace T --tick N`` each node is filled by its status at tick N.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from pirate_bt.errors import InputError
+
+_TRACE_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson")
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("tree", type=Path, help="tree file (.yaml) or trace file (.jsonl)")
+    parser.add_argument(
+        "-o", "--output", type=Path, required=True, help="diagram (.dot, .svg or .png)"
+    )
+    parser.add_argument("--trace", type=Path, help="colour nodes by status from this trace")
+    parser.add_argument("--tick", type=int, help="tick of --trace to show (default: the last)")
+
+
+def _is_trace(path: Path) -> bool:
+    return path.name.lower().endswith(_TRACE_SUFFIXES)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pirate_bt.render.tree import render_tree
+    from pirate_bt.trace.reader import Trace, read_trace
+    from pirate_bt.trace.structure import TreeStructure, tree_structure
+
+    if args.tick is not None and args.trace is None and not _is_trace(args.tree):
+        raise InputError("--tick needs --trace (or a trace file as TREE)")
+    trace: Trace | None = None
+    structure: TreeStructure
+    if _is_trace(args.tree):
+        trace = read_trace(args.tree)
+        structure = trace.structure
+    else:
+        from pirate_bt.treefile import load_tree
+
+        loaded = load_tree(args.tree)
+        structure = tree_structure(loaded.root, name=loaded.name)
+    if args.trace is not None:
+        trace = read_trace(args.trace)
+        for node in structure:
+            recorded = node.id in trace.structure and trace.structure.node(node.id).name
+            if recorded != node.name:
+                raise InputError(
+                    f"{args.trace} is not a trace of {args.tree}: node {node.id} is"
+                    f" {node.name!r} in the tree but {recorded or 'missing'!r} in the trace"
+                )
+    status = feedback = None
+    title = None
+    if trace is not None and (args.trace is not None or args.tick is not None):
+        tick = trace.last_tick if args.tick is None else args.tick
+        frame = trace.frame_at(tick)
+        status, feedback = frame.status, frame.feedback
+        title = f"tick {frame.n} at {frame.t_s:.3f} s"
+    try:
+        written = render_tree(structure, args.output, status, feedback, title)
+    except FileNotFoundError as exc:
+        print(f"pirate-bt: {exc}", file=sys.stderr)
+        return 0
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    print(f"drew {written}")
+    return 0

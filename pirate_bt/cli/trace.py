@@ -1,0 +1,86 @@
+"""``pirate-bt trace summary|show|plot|schema``: read a run back from its trace."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    subs = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    summary = subs.add_parser(
+        "summary", help="outcome, duration, per-node counts, refusals, faults"
+    )
+    summary.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    show = subs.add_parser("show", help="the tree with statuses at one tick")
+    show.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    show.add_argument("--tick", type=int, help="tick number (default: the last; 0 is before)")
+    show.add_argument("--state", action="store_true", help="also print state, link and blackboard")
+    show.add_argument("--ascii", action="store_true", help="ASCII status marks only")
+    plot = subs.add_parser("plot", help="joints, clamps, speed and rotation over time")
+    plot.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    plot.add_argument("-o", "--output", type=Path, required=True, help="picture (.png, .svg)")
+    subs.add_parser("schema", help="print the JSON Schema of one trace record")
+
+
+def _summary(args: argparse.Namespace) -> int:
+    from pirate_bt.trace.reader import read_trace
+    from pirate_bt.trace.text import format_summary, summarise
+
+    trace = read_trace(args.trace)
+    print("\n".join(format_summary(summarise(trace), trace.structure)))
+    return 0
+
+
+def _show(args: argparse.Namespace) -> int:
+    from pirate_bt.trace.reader import read_trace
+    from pirate_bt.trace.text import tree_text
+
+    trace = read_trace(args.trace)
+    tick = trace.last_tick if args.tick is None else args.tick
+    frame = trace.frame_at(tick)
+    print(f"{trace.structure.name}: tick {frame.n} of {trace.last_tick}, t = {frame.t_s:.3f} s")
+    print(
+        "\n".join(tree_text(trace.structure, frame.status, frame.feedback, ascii_only=args.ascii))
+    )
+    if args.state:
+        for title, values in (
+            ("state", frame.state),
+            ("link", frame.link),
+            ("sim", frame.sim),
+            ("blackboard", frame.blackboard),
+        ):
+            if values:
+                print(f"{title}:")
+                for key in sorted(values):
+                    print(f"  {key} = {json.dumps(values[key], ensure_ascii=False)}")
+        for command in frame.commands:
+            print(f"command: {json.dumps(command, ensure_ascii=False)}")
+        for event in frame.events:
+            print(f"event: {json.dumps(event, ensure_ascii=False)}")
+    return 0
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from pirate_bt.render.plot import plot_trace
+    from pirate_bt.trace.reader import read_trace
+
+    trace = read_trace(args.trace)
+    print(f"plotted {plot_trace(trace, args.output)}")
+    return 0
+
+
+def _schema(args: argparse.Namespace) -> int:
+    from pirate_bt.trace.records import trace_schema
+
+    print(json.dumps(trace_schema(), indent=2, ensure_ascii=False))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    actions = {"summary": _summary, "show": _show, "plot": _plot, "schema": _schema}
+    code = actions[args.action](args)
+    sys.stdout.flush()
+    return code
