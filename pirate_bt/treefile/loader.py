@@ -247,6 +247,7 @@ class _Reader:
             self.error(doc, where, "params: a mapping of name -> {type, default}")
             return None
         out: dict[str, ParamDecl] = {}
+        before = len(self.errors)
         for name, decl in raw.items():
             at = (*where, name)
             if not isinstance(name, str) or not name.isidentifier():
@@ -267,7 +268,7 @@ class _Reader:
                     self.error(doc, (*at, "default"), f"default: {exc}")
                     continue
             out[name] = parsed
-        return out
+        return out if len(self.errors) == before else None
 
     def bind(
         self,
