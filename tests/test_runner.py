@@ -1,0 +1,168 @@
+"""The runner: rate, stop conditions, exception safety, Ctrl-C, hooks and tick budget."""
+
+from __future__ import annotations
+
+import py_trees
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.runner import Runner, StopReason, TickInfo
+
+
+class Motion(py_trees.behaviour.Behaviour):
+    """Runs forever; records whether terminate() cancelled it."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.terminated_with: Status | None = None
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        self.terminated_with = new_status
+
+
+class Boom(py_trees.behaviour.Behaviour):
+    """Raises on its n-th tick (or KeyboardInterrupt with ``interrupt``)."""
+
+    def __init__(self, name: str, on_tick: int, interrupt: bool = False) -> None:
+        super().__init__(name)
+        self.count = 0
+        self.on_tick = on_tick
+        self.interrupt = interrupt
+
+    def update(self) -> Status:
+        self.count += 1
+        if self.count >= self.on_tick:
+            if self.interrupt:
+                raise KeyboardInterrupt
+            raise ValueError("sensor exploded")
+        return Status.RUNNING
+
+
+def _tree(boom: Boom) -> tuple[py_trees.behaviour.Behaviour, Motion]:
+    motion = Motion("drive")
+    work = py_trees.composites.Parallel(
+        "work", py_trees.common.ParallelPolicy.SuccessOnAll(), [motion, boom]
+    )
+    return py_trees.composites.Sequence("mission", True, [work]), motion
+
+
+def test_an_exception_stops_running_nodes_and_calls_the_safe_state() -> None:
+    root, motion = _tree(Boom("check", on_tick=3))
+    safe: list[str] = []
+    result = Runner(root, clock=SimClock(), safe_state=lambda: safe.append("safe")).run()
+    assert result.outcome == "failure"
+    assert result.reason is StopReason.EXCEPTION
+    assert result.failing_node == "mission/work/check"
+    assert "sensor exploded" in (result.traceback or "")
+    assert isinstance(result.error, ValueError)
+    assert motion.terminated_with == Status.INVALID
+    assert "mission/work/drive" in result.stopped_nodes
+    assert all(n.status != Status.RUNNING for n in root.iterate())
+    assert safe == ["safe"] and result.safe_state_called
+    assert result.ticks == 3
+
+
+def test_ctrl_c_ends_in_the_safe_state_and_runs_finish_hooks() -> None:
+    root, motion = _tree(Boom("check", on_tick=2, interrupt=True))
+    safe: list[str] = []
+    finished = []
+    runner = Runner(root, clock=SimClock(), safe_state=lambda: safe.append("safe"))
+    runner.add_finish(finished.append)
+    result = runner.run()
+    assert result.reason is StopReason.INTERRUPTED and result.outcome == "failure"
+    assert motion.terminated_with == Status.INVALID
+    assert safe == ["safe"]
+    assert finished == [result]
+
+
+def test_ctrl_c_while_waiting_between_ticks() -> None:
+    class Interrupting(SimClock):
+        def sleep(self, seconds: float) -> None:
+            raise KeyboardInterrupt
+
+    root, motion = _tree(Boom("check", on_tick=99))
+    safe: list[str] = []
+    result = Runner(root, clock=Interrupting(), safe_state=lambda: safe.append("safe")).run()
+    assert result.reason is StopReason.INTERRUPTED
+    assert motion.terminated_with == Status.INVALID and safe == ["safe"]
+
+
+def test_time_limit_on_the_simulated_clock() -> None:
+    clock = SimClock()
+    motion = Motion("drive")
+    safe: list[str] = []
+    result = Runner(
+        motion, clock=clock, period_s=0.1, max_time_s=2.0, safe_state=lambda: safe.append("x")
+    ).run()
+    assert result.reason is StopReason.TIME_LIMIT
+    assert result.ticks == 20
+    assert abs(result.sim_time_s - 2.0) < 1e-9
+    assert motion.terminated_with == Status.INVALID and safe == ["x"]
+
+
+def test_success_does_not_call_the_safe_state_and_hooks_see_every_tick() -> None:
+    clock = SimClock()
+    queue = py_trees.behaviours.StatusQueue(
+        "q", [Status.RUNNING, Status.RUNNING, Status.SUCCESS], Status.SUCCESS
+    )
+    seen_pre: list[TickInfo] = []
+    seen_post: list[TickInfo] = []
+    safe: list[str] = []
+    runner = Runner(queue, clock=clock, period_s=0.5, safe_state=lambda: safe.append("x"))
+    runner.add_pre_tick(seen_pre.append)
+    runner.add_post_tick(seen_post.append)
+    result = runner.run()
+    assert result.succeeded and result.reason is StopReason.SUCCESS
+    assert [i.tick for i in seen_pre] == [1, 2, 3]
+    assert [i.time_s for i in seen_post] == [0.0, 0.5, 1.0]
+    assert [i.status for i in seen_post] == [Status.RUNNING, Status.RUNNING, Status.SUCCESS]
+    assert all(i.status is None for i in seen_pre)
+    assert safe == []
+
+
+def test_a_failing_hook_is_handled_like_a_failing_behaviour() -> None:
+    def broken(_info: TickInfo) -> None:
+        raise ConnectionError("link gone")
+
+    motion = Motion("drive")
+    runner = Runner(motion, clock=SimClock(), safe_state=lambda: None)
+    runner.add_pre_tick(broken)
+    result = runner.run()
+    assert result.reason is StopReason.EXCEPTION and result.failing_node is None
+    assert result.safe_state_called
+
+
+def test_tick_overruns_are_reported() -> None:
+    clock = SimClock()
+    queue = py_trees.behaviours.StatusQueue("q", [Status.RUNNING] * 3, Status.SUCCESS)
+    result = Runner(queue, clock=clock, period_s=0.1, tick_budget_s=0.0).run()
+    assert result.overrun_count == result.ticks == 4
+    assert result.overruns[0].tick == 1 and result.max_tick_s > 0
+
+
+def test_a_safe_state_that_raises_still_ends_the_run() -> None:
+    def bad() -> None:
+        raise RuntimeError("cannot")
+
+    result = Runner(Motion("m"), clock=SimClock(), max_time_s=0.2, safe_state=bad).run()
+    assert result.outcome == "failure" and not result.safe_state_called
+
+
+def test_run_cli_runs_a_tree_of_generic_leaves(tmp_path: object) -> None:
+    from pathlib import Path
+
+    from pirate_bt.cli import main
+
+    folder = Path(str(tmp_path))
+    ok = folder / "ok.yaml"
+    ok.write_text("root: {type: wait, duration: 2 s}\n", encoding="utf-8")
+    assert main(["run", str(ok)]) == 0
+    bad = folder / "bad.yaml"
+    bad.write_text("root: failure\n", encoding="utf-8")
+    assert main(["run", str(bad)]) == 1
+    slow = folder / "slow.yaml"
+    slow.write_text("root: {type: wait, duration: 1 h}\n", encoding="utf-8")
+    assert main(["run", str(slow), "--max-time", "10 s"]) == 1
