@@ -1,0 +1,162 @@
+"""Diagrams and plots of trees and traces, and the trace/render command lines."""
+
+from __future__ import annotations
+
+import io
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import py_trees
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.render import plot_trace, render_tree, tree_graph
+from pirate_bt.render.plot import plot_series
+from pirate_bt.trace import live_view_hook, read_trace, tree_structure
+from tests.test_trace import make_tree, run_and_record
+
+SVG = "{http://www.w3.org/2000/svg}"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture
+def trace_path(tmp_path: Path) -> Path:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    return path
+
+
+def svg_nodes(path: Path) -> dict[str, ET.Element]:
+    root = ET.parse(path).getroot()
+    return {g.get("id", ""): g for g in root.iter(f"{SVG}g") if g.get("class") == "node"}
+
+
+def test_svg_parses_and_contains_every_node(tmp_path: Path) -> None:
+    tree = make_tree()
+    out = render_tree(tree, tmp_path / "tree.svg")
+    nodes = svg_nodes(out)
+    structure = tree_structure(tree)
+    assert set(nodes) == {n.id for n in structure}
+    for node in structure:
+        texts = [t.text for t in nodes[node.id].iter(f"{SVG}text")]
+        assert node.name in texts
+    assert (tmp_path / "tree.dot").exists()
+
+
+def test_kinds_are_styled_apart() -> None:
+    source = tree_graph(make_tree())
+    assert 'shape="house"' in source  # the Timeout guard
+    assert 'shape="octagon"' in source  # the selector
+    assert "duration_s: 5" in source  # parameters are shown
+
+
+def test_coloured_by_status_at_a_tick(trace_path: Path, tmp_path: Path) -> None:
+    trace = read_trace(trace_path)
+    frame = trace.frame_at(3)
+    out = render_tree(trace.structure, tmp_path / "t3.svg", frame.status, frame.feedback)
+    nodes = svg_nodes(out)
+    fills = {node_id: next(iter(g.iter(f"{SVG}polygon")), None) for node_id, g in nodes.items()}
+    root_shape = fills["0"]
+    assert root_shape is not None and root_shape.get("fill") == "#fcd34d"  # RUNNING
+    assert "RUNNING" in ET.tostring(nodes["0"], encoding="unicode")
+
+
+def test_missing_dot_writes_dot_file_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    with pytest.raises(FileNotFoundError, match="Graphviz 'dot' is not installed"):
+        render_tree(make_tree(), tmp_path / "a.svg")
+    assert (tmp_path / "a.dot").read_text().startswith("digraph")
+    trace = tmp_path / "run.jsonl"
+    run_and_record(trace)
+    assert main(["render", str(trace), "-o", str(tmp_path / "b.png")]) == 0
+    assert "not installed" in capsys.readouterr().err
+    assert (tmp_path / "b.dot").exists() and not (tmp_path / "b.png").exists()
+
+
+def test_plot_is_a_nontrivial_png(trace_path: Path, tmp_path: Path) -> None:
+    trace = read_trace(trace_path)
+    series = plot_series(trace)
+    assert [s.name for s in series.steps] == [
+        "clamp rear",
+        "within 5 s",
+        "bend or retry",
+        "unclamp",
+    ]
+    out = plot_trace(trace, tmp_path / "plot.png")
+    data = out.read_bytes()
+    assert data[:8] == PNG_MAGIC
+    assert len(data) > 20_000
+
+
+def test_live_view_lines_and_redraw() -> None:
+    tree = make_tree()
+    stream = io.StringIO()
+    tree.add_post_tick_handler(live_view_hook(tree, stream, redraw=False, ascii_only=True))
+    for _ in range(14):
+        tree.tick()
+    lines = stream.getvalue().splitlines()
+    assert lines[0].endswith("pab > clamp rear")
+    assert "step 2/4: within 5 s" in lines[1]
+    assert lines[-1].endswith("pab: SUCCESS")
+    tty = io.StringIO()
+    hook = live_view_hook(make_tree(), tty, redraw=True, interval_s=0.0)
+    hook(None)
+    hook(None)
+    assert "\x1b[" in tty.getvalue()
+    quiet = io.StringIO()
+    live_view_hook(tree, quiet, quiet=True)(None)
+    assert quiet.getvalue() == ""
+
+
+def test_cli_trace_commands(
+    trace_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["trace", "summary", str(trace_path)]) == 0
+    out = capsys.readouterr().out
+    assert "outcome   success" in out and "rotate_needs_one_clamped" in out
+    assert main(["trace", "show", str(trace_path), "--tick", "3", "--state"]) == 0
+    out = capsys.readouterr().out
+    assert "tick 3 of 14" in out and "clamp rear" in out and "joint_angle_rad.bend_1" in out
+    assert main(["trace", "plot", str(trace_path), "-o", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").read_bytes()[:8] == PNG_MAGIC
+    assert main(["trace", "schema"]) == 0
+    assert '"pirate-bt-trace"' in capsys.readouterr().out
+
+
+def test_cli_render_from_trace_with_tick(
+    trace_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "t.svg"
+    assert main(["render", str(trace_path), "--tick", "5", "-o", str(out)]) == 0
+    assert set(svg_nodes(out)) == {n.id for n in read_trace(trace_path).structure}
+
+
+def test_cli_render_tree_file(tmp_path: Path) -> None:
+    tree_file = Path(__file__).parents[1] / "trees" / "examples" / "patrol.yaml"
+    if not tree_file.exists():
+        pytest.skip("no example tree file")
+    out = tmp_path / "patrol.svg"
+    assert main(["render", str(tree_file), "-o", str(out)]) == 0
+    assert "0" in svg_nodes(out)
+
+
+def test_cli_errors_are_one_line_exit_2(
+    trace_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.jsonl"
+    lines = trace_path.read_text().splitlines()
+    bad.write_text("\n".join([lines[0], "garbage", *lines[1:]]) + "\n")
+    assert main(["trace", "summary", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{bad}:2:" in err[0]
+    assert main(["trace", "show", str(trace_path), "--tick", "999"]) == 2
+    assert main(["render", str(trace_path), "-o", str(tmp_path / "x.gif")]) == 2
+    assert "use .dot, .svg or .png" in capsys.readouterr().err
+
+
+def test_python_api_accepts_root_behaviour() -> None:
+    root = py_trees.behaviours.Success("only")
+    assert '"0"' in tree_graph(root)

@@ -1,0 +1,327 @@
+"""Trace writing and reading: round trip against the live tree, crashes, cut-off files."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+from typing import Any
+
+import py_trees
+import pytest
+from py_trees.behaviours import StatusQueue
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import InputError, LocatedError
+from pirate_bt.robot.port import LinkHealth
+from pirate_bt.robot.state import Reading, RobotState
+from pirate_bt.trace import (
+    CommandRecord,
+    TickExtras,
+    TraceEvent,
+    TraceRecorder,
+    attach_trace,
+    read_trace,
+    summarise,
+    trace_schema,
+    tree_structure,
+)
+from pirate_bt.trace.records import state_from_flat
+from pirate_bt.trace.structure import iter_with_ids
+
+DATA = Path(__file__).parent / "data" / "traces"
+FORMATS = [".jsonl", ".jsonl.gz"]
+
+
+def make_tree() -> py_trees.trees.BehaviourTree:
+    """A small PAB-like tree: steps under a root sequence, a guard, a selector."""
+    py_trees.blackboard.Blackboard.clear()
+    r, s, f = Status.RUNNING, Status.SUCCESS, Status.FAILURE
+    root = py_trees.composites.Sequence(
+        "pab",
+        memory=True,
+        children=[
+            StatusQueue("clamp rear", [r, r, s], s),
+            py_trees.decorators.Timeout(
+                "within 5 s", StatusQueue("drive", [r, r, r, s], s), duration=5.0
+            ),
+            py_trees.composites.Selector(
+                "bend or retry",
+                memory=False,
+                children=[StatusQueue("bend", [r, f], f), StatusQueue("fallback", [r, s], s)],
+            ),
+            StatusQueue("unclamp", [r, r, s], s),
+        ],
+    )
+    return py_trees.trees.BehaviourTree(root)
+
+
+def state(t_s: float, angle_rad: float) -> RobotState:
+    readings = {"bend_1_angle": Reading(angle_rad, t_s)}
+    return RobotState(
+        stamp_s=t_s,
+        readings=readings,
+        joint_angle_rad={"bend_1": angle_rad, "bend_2": 0.1},
+        clamp_force_n={"bend_1": 2.0 * angle_rad},
+        rotation_rad=0.0,
+        drive_velocity_mps={"bend_1_drive": 0.08},
+    )
+
+
+def live_statuses(tree: py_trees.trees.BehaviourTree) -> dict[str, Status]:
+    return {node_id: node.status for node_id, node in iter_with_ids(tree)}
+
+
+def run_and_record(path: Path, ticks: int = 14, **options: Any) -> list[dict[str, Status]]:
+    tree = make_tree()
+    clock = SimClock()
+    live: list[dict[str, Status]] = [live_statuses(tree)]
+    bb = py_trees.blackboard.Client(name="test")
+    bb.register_key("progress", access=py_trees.common.Access.WRITE)
+    with TraceRecorder(path, tree, clock=clock, scenario="straight", seed=7, **options) as rec:
+        for n in range(1, ticks + 1):
+            clock.advance(0.01)
+            tree.tick()
+            bb.progress = n // 3
+            commands = [CommandRecord("drive(80 mm/s)", "pass", sent=(("d", "velocity", 0.08),))]
+            if n == 5:
+                commands.append(
+                    CommandRecord("rotate(1 rad)", "refuse", "rotate_needs_one_clamped", "no")
+                )
+            rec.record_tick(
+                TickExtras(
+                    state=state(clock.now(), 0.1 * min(n, 10)),
+                    commands=commands,
+                    link=LinkHealth(connected=True, retries=n // 4),
+                    sim={"frames": n * 2},
+                    events=(TraceEvent("fault", "crc burst"),) if n == 9 else (),
+                )
+            )
+            live.append(live_statuses(tree))
+    return live
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_matches_live_tree_on_every_tick(tmp_path: Path, suffix: str) -> None:
+    path = tmp_path / f"run{suffix}"
+    live = run_and_record(path)
+    trace = read_trace(path)
+    assert trace.outcome == "success"
+    assert trace.last_tick == len(live) - 1
+    assert not trace.truncated
+    for n, expected in enumerate(live):
+        assert trace.statuses_at(n) == expected, f"tick {n}"
+    frame = trace.frame_at(12)
+    assert frame.state["joint_angle_rad.bend_1"] == pytest.approx(1.0)
+    assert frame.link["retries"] == 3
+    assert frame.sim["frames"] == 24
+    assert frame.blackboard["/progress"] == 4
+    robot_state = trace.robot_state_at(3)
+    assert robot_state is not None
+    assert robot_state.joint_angle_rad["bend_1"] == pytest.approx(0.3)
+    assert robot_state.mean_drive_velocity_mps() == pytest.approx(0.08)
+
+
+def test_only_changes_are_written(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    ticks = [r for r in lines if r["type"] == "tick"]
+    # bend_2 never changes: written once, on the first tick only
+    assert sum("joint_angle_rad.bend_2" in t.get("state", {}) for t in ticks) == 1
+    assert sum("0.0" in t.get("status", {}) for t in ticks) == 2  # RUNNING, then SUCCESS
+
+
+def test_full_state_option_records_every_value(tmp_path: Path) -> None:
+    path = tmp_path / "full.jsonl"
+    run_and_record(path, full_state=True, readings=True)
+    ticks = [json.loads(x) for x in path.read_text().splitlines()[1:-1]]
+    assert all(t["full"] and "joint_angle_rad.bend_2" in t["state"] for t in ticks)
+    assert "readings.bend_1_angle" in ticks[0]["state"]
+    assert read_trace(path).frame_at(14).state["joint_angle_rad.bend_1"] == pytest.approx(1.0)
+
+
+def test_header_structure_and_schema(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    records = [json.loads(x) for x in path.read_text().splitlines()]
+    header = records[0]
+    assert header["format"] == "pirate-bt-trace" and header["version"] == 1
+    assert header["scenario"] == "straight" and header["seed"] == 7
+    assert {"pirate_bt", "py_trees", "python"} <= set(header["software"])
+    kinds = {n["name"]: n["kind"] for n in header["tree"]["nodes"]}
+    assert kinds == {
+        "pab": "composite",
+        "clamp rear": "leaf",
+        "within 5 s": "guard",
+        "drive": "leaf",
+        "bend or retry": "composite",
+        "bend": "leaf",
+        "fallback": "leaf",
+        "unclamp": "leaf",
+    }
+    schema = trace_schema()
+    defs = schema["$defs"]
+    for record in records:
+        part = defs[record["type"]]
+        assert set(part["required"]) <= set(record)
+        if part.get("additionalProperties") is False:
+            assert set(record) <= set(part["properties"]), record
+
+
+def test_ids_are_stable_across_builds() -> None:
+    first = tree_structure(make_tree())
+    second = tree_structure(make_tree())
+    assert [n.to_json() for n in first] == [n.to_json() for n in second]
+    assert [n.id for n in first][:3] == ["0", "0.0", "0.1"]
+
+
+def test_summary_counts_refusals_and_faults(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    trace = read_trace(path)
+    summary = summarise(trace)
+    by_name = {trace.structure.node(i).name: s for i, s in summary.nodes.items()}
+    assert by_name["clamp rear"].runs == 1 and by_name["clamp rear"].successes == 1
+    assert by_name["clamp rear"].running_s == pytest.approx(0.02)
+    assert by_name["bend"].failures == 1
+    assert [r["reason"] for r in summary.refusals] == ["rotate_needs_one_clamped"]
+    assert [f["message"] for f in summary.faults] == ["crc burst"]
+    assert summary.commands == 15
+
+
+def test_cut_off_last_line_is_tolerated(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    data = path.read_bytes()
+    lines = data.splitlines(keepends=True)
+    cut = b"".join(lines[:-2]) + lines[-2][: len(lines[-2]) // 2]  # no end, half a tick
+    path.write_bytes(cut)
+    trace = read_trace(path)
+    assert trace.truncated
+    assert trace.outcome == "incomplete"
+    assert trace.ticks[-1].n == json.loads(lines[-3])["n"]
+
+
+def test_bad_line_in_the_middle_names_file_and_line(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    run_and_record(path)
+    lines = path.read_text().splitlines(keepends=True)
+    lines[3] = "{not json\n"
+    path.write_text("".join(lines))
+    with pytest.raises(LocatedError) as info:
+        read_trace(path)
+    assert f"{path}:4:" in str(info.value)
+
+
+def test_not_a_trace_and_unknown_suffix(tmp_path: Path) -> None:
+    path = tmp_path / "x.jsonl"
+    path.write_text('{"type": "tick", "n": 1, "t_s": 0}\n')
+    with pytest.raises(LocatedError, match="first record is no header"):
+        read_trace(path)
+    with pytest.raises(InputError, match="unknown trace format"):
+        read_trace(tmp_path / "x.csv")
+    with pytest.raises(InputError, match="cannot read"):
+        read_trace(tmp_path / "missing.jsonl")
+    with pytest.raises(InputError, match="no tick 99"):
+        run_and_record(tmp_path / "ok.jsonl")
+        read_trace(tmp_path / "ok.jsonl").frame_at(99)
+
+
+def test_reference_trace_reads() -> None:
+    trace = read_trace(DATA / "pab_v1.jsonl")
+    assert trace.outcome == "success"
+    assert trace.frame_at(trace.last_tick).status["0"] == "S"
+
+
+WRITER_SCRIPT = textwrap.dedent(
+    """
+    import sys, time, py_trees
+    from py_trees.behaviours import StatusQueue
+    from py_trees.common import Status
+    from pirate_bt.clock import SimClock
+    from pirate_bt.trace import TraceRecorder
+    root = py_trees.composites.Sequence("root", memory=True, children=[
+        StatusQueue("a", [Status.RUNNING] * 1000000, Status.SUCCESS)])
+    tree = py_trees.trees.BehaviourTree(root)
+    clock = SimClock()
+    rec = TraceRecorder(sys.argv[1], tree, clock=clock, every_tick=True)
+    n = 0
+    while True:
+        clock.advance(0.01)
+        tree.tick()
+        rec.record_tick()
+        n += 1
+        if n == 50:
+            print("ready", flush=True)
+    """
+)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_sigkill_leaves_every_complete_tick(tmp_path: Path, suffix: str) -> None:
+    path = tmp_path / f"killed{suffix}"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", WRITER_SCRIPT, str(path)],
+        stdout=subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])},
+    )
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == b"ready"
+        time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait(timeout=10)
+    assert proc.returncode == -signal.SIGKILL
+    trace = read_trace(path)
+    assert trace.end is None and trace.outcome == "incomplete"
+    assert len(trace.ticks) >= 50
+    assert [t.n for t in trace.ticks] == list(range(1, len(trace.ticks) + 1))
+    assert trace.frame_at(trace.last_tick).status == {"0": "R", "0.0": "R"}
+    if suffix == ".jsonl.gz":
+        with pytest.raises(EOFError):
+            gzip.decompress(path.read_bytes())  # no trailer: the stream really was cut
+
+
+def test_attach_trace_to_runner(tmp_path: Path) -> None:
+    from pirate_bt.runner import Runner
+
+    class Boom(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            raise RuntimeError("boom")
+
+    root = py_trees.composites.Sequence(
+        "root",
+        memory=True,
+        children=[StatusQueue("a", [Status.RUNNING], Status.SUCCESS), Boom("b")],
+    )
+    clock = SimClock()
+    runner = Runner(root, clock=clock, period_s=0.01)
+    seen: list[int] = []
+    attach_trace(runner, tmp_path / "r.jsonl", extras=lambda info: seen.append(info.tick) or None)
+    result = runner.run()
+    trace = read_trace(tmp_path / "r.jsonl")
+    assert trace.last_tick == result.ticks == 2
+    assert seen == [1]
+    assert trace.outcome == "error"
+    assert trace.end is not None and trace.end["error"]["node"] == "0.1"
+    assert trace.header["tick_period_s"] == 0.01
+    assert summarise(trace).faults[0]["node"] == "0.1"
+
+
+def test_state_from_flat_round_trip() -> None:
+    from pirate_bt.trace.records import flatten_state
+
+    original = state(1.0, 0.5)
+    rebuilt = state_from_flat(flatten_state(original, readings=True), 1.0)
+    assert rebuilt.joint_angle_rad == dict(original.joint_angle_rad)
+    assert rebuilt.clamp_force_n == dict(original.clamp_force_n)
+    assert rebuilt.value("bend_1_angle") == 0.5
