@@ -1,0 +1,347 @@
+"""The state invariants, as small pure functions over one snapshot.
+
+The supervisor first turns a command into an :class:`Intent` - which halves it
+clamps or releases, whether it rotates, drives or tilts the front module, and
+which sensor channels a decision about it relies on. Each invariant is then a
+function ``(CheckContext, Intent) -> Problem | None``; the first problem refuses
+the command. They read the robot description for every number, so a robot with
+other clamp angles or another slope threshold needs a new file, not new code.
+
+A half's clamp state comes from its sensors (joint angles; spring forces where
+the description has spring sensors) combined with what the supervisor last asked
+of that half, see :func:`half_states`.
+
+To add a check, write a function with the :data:`Check` signature and pass it to
+:meth:`~pirate_bt.safety.supervisor.Supervisor.add_check` (or append it to
+:data:`INVARIANTS` for every supervisor); see docs/safety.md.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import Half, MotorFunction, RobotDescription, SensorKind
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.commands import Command
+from pirate_bt.safety.verdict import Reason
+
+__all__ = [
+    "INVARIANTS",
+    "Check",
+    "CheckContext",
+    "ClampState",
+    "HalfTarget",
+    "Intent",
+    "Problem",
+    "check_front_clear",
+    "check_other_half_clamped",
+    "check_rotate_one_clamped",
+    "check_steep_pipe",
+    "check_transitioning",
+    "classify_half",
+    "front_tilt_channel",
+    "half_states",
+    "is_steep",
+    "stale_channels",
+]
+
+
+class ClampState(StrEnum):
+    """What a half is doing with the wall."""
+
+    CLAMPED = "clamped"
+    UNCLAMPED = "unclamped"
+    TRANSITIONING = "transitioning"
+    """Between unclamped and clamped, or on its way from one to the other."""
+    UNKNOWN = "unknown"
+    """A reading the classification needs is missing."""
+
+
+class HalfTarget(StrEnum):
+    """What the supervisor last asked a half to do."""
+
+    CLAMP = "clamp"
+    RELEASE = "release"
+
+
+@dataclass(frozen=True, slots=True)
+class Problem:
+    """Why an invariant refuses a command."""
+
+    reason: Reason
+    detail: str
+
+
+@dataclass(frozen=True)
+class Intent:
+    """What a command would do to the robot, in terms the invariants reason about.
+
+    Attributes:
+        command: The command asked for.
+        motor_commands: Its expansion into motor commands (before limits).
+        clamps: Halves it clamps.
+        releases: Halves whose clamp it loosens (unclamp, bend, a low torque).
+        rotates: It moves the rotational joint.
+        drive_mps: Requested wheel speed if it drives (``None`` otherwise).
+        front_tilt_rad: Requested front tilt if it tilts the front module.
+        stop: It only stops drives.
+        channels: Sensor channels the decision relies on (checked for freshness).
+    """
+
+    command: Command
+    motor_commands: tuple[MotorCommand, ...]
+    clamps: frozenset[Half] = frozenset()
+    releases: frozenset[Half] = frozenset()
+    rotates: bool = False
+    drive_mps: float | None = None
+    front_tilt_rad: float | None = None
+    stop: bool = False
+    channels: tuple[str, ...] = ()
+
+    @property
+    def moves(self) -> bool:
+        """True when the command can move a joint or the wheels."""
+        return bool(
+            self.clamps
+            or self.releases
+            or self.rotates
+            or (self.drive_mps is not None and self.drive_mps != 0.0)
+            or self.front_tilt_rad is not None
+        )
+
+
+@dataclass(frozen=True)
+class CheckContext:
+    """Everything an invariant may look at.
+
+    Attributes:
+        robot: The robot description.
+        state: The current snapshot.
+        now_s: Clock time of the decision.
+        halves: Clamp state of each half.
+    """
+
+    robot: RobotDescription
+    state: RobotState
+    now_s: float
+    halves: Mapping[Half, ClampState] = field(default_factory=dict)
+
+
+Check = Callable[[CheckContext, Intent], Problem | None]
+"""An invariant: ``None`` when the command may go, else the :class:`Problem`."""
+
+
+def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> ClampState:
+    """A half's clamp state from its sensors alone.
+
+    With spring sensors on every bend module of the half, the normal force decides:
+    at least ``clamp_force_fraction`` of the minimum clamp force (``min_torque /
+    lever_arm``) on every wheel with every joint at or beyond the smallest
+    wall-contact angle is clamped; below ``release_force_fraction`` of it
+    everywhere is unclamped. Without springs the joint angles decide: all beyond
+    the smallest contact angle is clamped, all below ``unclamped_below`` is
+    unclamped. Anything else is transitioning.
+    """
+    clamp = robot.clamp
+    tol = robot.safety.angle_tolerance
+    modules = [m.name for m in robot.bend_modules(half)]
+    angles: list[float] = []
+    for name in modules:
+        angle = state.joint_angle_rad.get(name)
+        if angle is None:
+            return ClampState.UNKNOWN
+        angles.append(abs(angle))
+    contact_min = min(p.angle for p in clamp.contact_angles) - tol
+    at_wall = all(a >= contact_min for a in angles)
+    forces = [state.clamp_force_n.get(name) for name in modules]
+    if all(f is not None for f in forces) and forces:
+        min_force = clamp.min_torque / clamp.lever_arm
+        values = [abs(f) for f in forces if f is not None]
+        if at_wall and all(f >= robot.safety.clamp_force_fraction * min_force for f in values):
+            return ClampState.CLAMPED
+        if all(f < robot.safety.release_force_fraction * min_force for f in values):
+            return ClampState.UNCLAMPED
+        return ClampState.TRANSITIONING
+    if at_wall:
+        return ClampState.CLAMPED
+    if all(a < clamp.unclamped_below for a in angles):
+        return ClampState.UNCLAMPED
+    return ClampState.TRANSITIONING
+
+
+def half_states(
+    robot: RobotDescription, state: RobotState, targets: Mapping[Half, HalfTarget]
+) -> dict[Half, ClampState]:
+    """Each half's clamp state: its sensors, corrected by what it was last asked to do.
+
+    A half asked to clamp that is not yet clamped, or asked to release that still
+    holds, is transitioning even if its sensors alone would say otherwise.
+    """
+    out: dict[Half, ClampState] = {}
+    for half in Half:
+        sensed = classify_half(robot, state, half)
+        target = targets.get(half)
+        if (target is HalfTarget.CLAMP and sensed is ClampState.UNCLAMPED) or (
+            target is HalfTarget.RELEASE and sensed is ClampState.CLAMPED
+        ):
+            sensed = ClampState.TRANSITIONING
+        out[half] = sensed
+    return out
+
+
+def front_tilt_channel(robot: RobotDescription) -> str | None:
+    """The state channel that reads the front tilt (``None`` if the robot has no tilt motor)."""
+    front = robot.modules[0].name
+    try:
+        motor = robot.motor_of(front, MotorFunction.TILT)
+    except KeyError:
+        return None
+    board = robot.board_of(motor.name)
+    for sensor in board.sensors:
+        if sensor.slot == motor.slot and sensor.kind is SensorKind.ANGLE:
+            return sensor.name
+    try:
+        return robot.sensor_of(front, SensorKind.ANGLE).name
+    except KeyError:
+        return None
+
+
+def is_steep(robot: RobotDescription, state: RobotState) -> bool:
+    """True when the pipe is steeper than ``motion.max_unclamped_slope``.
+
+    Without an IMU pitch reading the pipe is taken as steep: the check then
+    errs on the side of keeping a half clamped.
+    """
+    pitch = state.imu_rad.get("pitch")
+    return pitch is None or abs(pitch) > robot.motion.max_unclamped_slope
+
+
+def stale_channels(
+    robot: RobotDescription, state: RobotState, names: tuple[str, ...], now_s: float
+) -> list[tuple[str, float]]:
+    """``(channel, age_s)`` for each of ``names`` older than its freshness limit.
+
+    A channel is stale when its last fresh reading is older than
+    ``safety.stale_after_periods`` times its sensor period.
+    """
+    periods = {c.name: c.period_s for c in robot.state_channels()}
+    factor = robot.safety.stale_after_periods
+    out: list[tuple[str, float]] = []
+    for name in names:
+        period = periods.get(name) or robot.bridge.state_period
+        age = state.age_s(name, now_s)
+        if not math.isfinite(age) or age > factor * period:
+            out.append((name, age))
+    return out
+
+
+# -- the invariants ----------------------------------------------------------
+
+
+def check_steep_pipe(ctx: CheckContext, intent: Intent) -> Problem | None:
+    """Never both halves unclamped in a pipe steeper than ``motion.max_unclamped_slope``."""
+    if not intent.moves or not is_steep(ctx.robot, ctx.state):
+        return None
+    clamped = {h for h, s in ctx.halves.items() if s is ClampState.CLAMPED}
+    pitch = ctx.state.imu_rad.get("pitch")
+    where = "no pitch reading" if pitch is None else f"pitch {math.degrees(pitch):.1f}°"
+    limit = math.degrees(ctx.robot.motion.max_unclamped_slope)
+    if intent.releases and not (clamped - intent.releases):
+        return Problem(
+            Reason.STEEP_PIPE_UNCLAMPED,
+            f"releasing the {'/'.join(sorted(intent.releases))} half would leave no half"
+            f" clamped in a steep pipe ({where} > {limit:.1f}°)",
+        )
+    if not clamped and not intent.clamps:
+        return Problem(
+            Reason.STEEP_PIPE_UNCLAMPED,
+            f"no half is clamped in a steep pipe ({where} > {limit:.1f}°): clamp first",
+        )
+    return None
+
+
+def check_other_half_clamped(ctx: CheckContext, intent: Intent) -> Problem | None:
+    """A half may unclamp or bend only while the other half is clamped."""
+    for half in sorted(intent.releases):
+        other = ctx.halves.get(half.other, ClampState.UNKNOWN)
+        if other is not ClampState.CLAMPED:
+            return Problem(
+                Reason.OTHER_HALF_NOT_CLAMPED,
+                f"the {half} half may unclamp or bend only while the {half.other} half is"
+                f" clamped (it is {other})",
+            )
+    return None
+
+
+def check_rotate_one_clamped(ctx: CheckContext, intent: Intent) -> Problem | None:
+    """Rotation only with exactly one half clamped and the other free."""
+    if not intent.rotates:
+        return None
+    states = dict(ctx.halves)
+    clamped = [h for h, s in states.items() if s is ClampState.CLAMPED]
+    if len(clamped) != 1:
+        return Problem(
+            Reason.ROTATE_NEEDS_ONE_CLAMPED,
+            f"rotation needs exactly one half clamped ({len(clamped)} are:"
+            f" front {states.get(Half.FRONT)}, rear {states.get(Half.REAR)})",
+        )
+    free = clamped[0].other
+    if states.get(free) is not ClampState.UNCLAMPED:
+        return Problem(
+            Reason.HALF_TRANSITIONING,
+            f"rotation needs the {free} half free, but it is {states.get(free)}",
+        )
+    return None
+
+
+def check_transitioning(ctx: CheckContext, intent: Intent) -> Problem | None:
+    """No drive while a half is between unclamped and clamped."""
+    if intent.drive_mps is None or intent.drive_mps == 0.0:
+        return None
+    for half, state in sorted(ctx.halves.items()):
+        if state in (ClampState.TRANSITIONING, ClampState.UNKNOWN):
+            return Problem(
+                Reason.HALF_TRANSITIONING,
+                f"no drive while the {half} half is {state} (between unclamped and clamped)",
+            )
+    return None
+
+
+def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
+    """The front module must be clear before the front half clamps, and stay clear after."""
+    if front_tilt_channel(ctx.robot) is None:
+        return None
+    clear = ctx.robot.clamp.front_clear_angle - ctx.robot.safety.angle_tolerance
+    if Half.FRONT in intent.clamps:
+        tilt = ctx.state.front_tilt_rad
+        if tilt is None or abs(tilt) < clear:
+            shown = "unknown" if tilt is None else f"{math.degrees(tilt):.1f}°"
+            return Problem(
+                Reason.FRONT_NOT_CLEAR,
+                f"move the front module clear (|tilt| >= "
+                f"{math.degrees(ctx.robot.clamp.front_clear_angle):.1f}°, it is {shown})"
+                " before the front half clamps",
+            )
+    if intent.front_tilt_rad is not None and abs(intent.front_tilt_rad) < clear:
+        front = ctx.halves.get(Half.FRONT, ClampState.UNKNOWN)
+        if front is not ClampState.UNCLAMPED:
+            return Problem(
+                Reason.FRONT_NOT_CLEAR,
+                f"the front module may leave its clear position only while the front half is"
+                f" unclamped (it is {front})",
+            )
+    return None
+
+
+INVARIANTS: list[Check] = [
+    check_steep_pipe,
+    check_other_half_clamped,
+    check_rotate_one_clamped,
+    check_transitioning,
+    check_front_clear,
+]
+"""The invariants every supervisor starts with, in the order they are checked."""

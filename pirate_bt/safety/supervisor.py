@@ -1,0 +1,904 @@
+"""The Supervisor: the one object that sends commands to the robot.
+
+Every command - from a tree, from planner code, from an operator - goes through
+:meth:`Supervisor.command`, which checks it in this order and stops at the first
+refusal:
+
+1. **authority** - the mode (e-stop latched, tree paused in manual, step not
+   confirmed in supervised, operator not in control) and the safe state;
+2. **link** - connected, not e-stopped on the bridge, heard from recently;
+3. **expansion** - the command names a real role or motor in a mode it allows;
+4. **freshness** - every sensor reading the decision relies on is recent;
+5. **state invariants** - :data:`~pirate_bt.safety.checks.INVARIANTS`;
+6. **static limits** - angle range, torque, speed, and rate of change from the
+   robot description, each clipped or refused by that limit's policy.
+
+The answer is a :class:`~pirate_bt.safety.verdict.Verdict`: pass, clip (with the
+commands as sent) or refuse (with a :class:`~pirate_bt.safety.verdict.Reason`).
+:meth:`Supervisor.command` returns refusals; :meth:`Supervisor.require` raises
+them as :class:`~pirate_bt.errors.CommandRefused`. Either way a refusal never
+looks like success. ``Stop`` always passes.
+
+The runner calls :meth:`Supervisor.tick` once per tick before ticking the tree:
+it applies due operator actions, polls the link, and enters the safe state on
+link loss or stale data. :meth:`Supervisor.safe_state` stops the drives and
+holds the clamps (joint setpoints are left as they are, so the boards keep
+holding); :meth:`Supervisor.estop` always passes, stops everything on the bridge
+and latches until an operator resets it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import threading
+from collections.abc import Iterable
+from dataclasses import replace
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import CommandRefused, EStopLatched, LinkError
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import (
+    ControlMode,
+    Half,
+    LimitPolicy,
+    Motor,
+    MotorFunction,
+    RobotDescription,
+    Role,
+    SensorKind,
+)
+from pirate_bt.robot.port import LinkHealth, RobotPort
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import (
+    INVARIANTS,
+    Check,
+    CheckContext,
+    ClampState,
+    HalfTarget,
+    Intent,
+    Problem,
+    front_tilt_channel,
+    half_states,
+    stale_channels,
+)
+from pirate_bt.safety.commands import (
+    Bend,
+    Clamp,
+    Command,
+    Drive,
+    MoveFrontClear,
+    Raw,
+    Rotate,
+    Stop,
+    Tilt,
+    Unclamp,
+)
+from pirate_bt.safety.operator import (
+    Confirm,
+    Confirmation,
+    Deny,
+    EStop,
+    Mode,
+    OperatorAction,
+    OperatorCommand,
+    OperatorInput,
+    ResetEStop,
+    Resume,
+    SafeStop,
+    SetMode,
+)
+from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict, VerdictListener, VerdictLog
+
+__all__ = ["Supervisor"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+# Refusals that say "not now, not you" rather than "this command is wrong"; they do
+# not count towards the repeated-refusal limit.
+_AUTHORITY = frozenset(
+    {
+        Reason.ESTOP_LATCHED,
+        Reason.SAFE_STATE,
+        Reason.TREE_PAUSED,
+        Reason.NOT_CONFIRMED,
+        Reason.OPERATOR_NOT_IN_CONTROL,
+    }
+)
+# Motor functions whose commands no invariant is about (lights, cameras).
+_FREE_FUNCTIONS = frozenset(
+    {MotorFunction.LEDS, MotorFunction.CAMERA_TILT, MotorFunction.CAMERA_PAN}
+)
+
+
+class Supervisor:
+    """Checks every command against limits, invariants and authority; the only sender.
+
+    Args:
+        port: The connected robot (real or simulated). Only the supervisor calls its
+            ``send``/``estop``.
+        clock: The clock every freshness and rate check reads.
+        mode: The mode to start in.
+        inputs: Operator input sources drained at the start of every :meth:`tick`.
+        checks: The state invariants (default :data:`~pirate_bt.safety.checks.INVARIANTS`).
+        log_size: How many verdicts :attr:`verdicts` keeps.
+    """
+
+    def __init__(
+        self,
+        port: RobotPort,
+        clock: Clock,
+        *,
+        mode: Mode = Mode.AUTONOMOUS,
+        inputs: Iterable[OperatorInput] = (),
+        checks: Iterable[Check] | None = None,
+        log_size: int = 1000,
+    ) -> None:
+        self.port = port
+        self.robot: RobotDescription = port.robot
+        self.clock = clock
+        self.verdicts = VerdictLog(log_size)
+        self._checks: list[Check] = list(INVARIANTS if checks is None else checks)
+        self._inputs: list[OperatorInput] = list(inputs)
+        self._mode = Mode.ESTOP if mode is Mode.ESTOP else mode
+        self._tick = 0
+        self._seq = 0
+        self._safe_reason: str | None = None
+        self._estop_reason: str | None = None
+        self._refusals = 0
+        self._targets: dict[Half, HalfTarget] = {}
+        self._last_setpoint: dict[str, tuple[ControlMode, float, float]] = {}
+        self._pending: list[str] = []
+        self._decided: dict[str, Confirmation] = {}
+        self._granted: set[str] = set()
+        self._lock = threading.RLock()
+        self._tilt_channel = front_tilt_channel(self.robot)
+        self._base_channels = self._safety_channels()
+
+    # -- what the layers above read ---------------------------------------
+
+    @property
+    def mode(self) -> Mode:
+        """Who is in charge now."""
+        return self._mode
+
+    @property
+    def tick_count(self) -> int:
+        """How many times :meth:`tick` has run."""
+        return self._tick
+
+    @property
+    def tree_paused(self) -> bool:
+        """True when the runner must not tick the tree (``MANUAL`` or ``ESTOP``)."""
+        return self._mode in (Mode.MANUAL, Mode.ESTOP)
+
+    @property
+    def in_safe_state(self) -> bool:
+        """True from :meth:`safe_state` until :class:`~pirate_bt.safety.operator.Resume`."""
+        return self._safe_reason is not None
+
+    @property
+    def safe_state_reason(self) -> str | None:
+        return self._safe_reason
+
+    @property
+    def estopped(self) -> bool:
+        return self._mode is Mode.ESTOP
+
+    def state(self) -> RobotState | None:
+        """The latest snapshot from the port (read-only for behaviours)."""
+        return self.port.state()
+
+    def health(self) -> LinkHealth:
+        """The link's figures."""
+        return self.port.health()
+
+    def half_states(self) -> dict[Half, ClampState]:
+        """Each half's clamp state as the invariants see it now (``UNKNOWN`` without state)."""
+        state = self.port.state()
+        if state is None:
+            return dict.fromkeys(Half, ClampState.UNKNOWN)
+        return half_states(self.robot, state, self._targets)
+
+    def stale_channels(self) -> list[tuple[str, float]]:
+        """Safety-relevant channels whose readings are too old, with their ages."""
+        state = self.port.state()
+        if state is None:
+            return [(name, math.inf) for name in self._base_channels]
+        return stale_channels(self.robot, state, self._base_channels, self.clock.now())
+
+    def link_problem(self) -> Problem | None:
+        """Why the link is not fit for commands now, or ``None``."""
+        health = self.port.health()
+        if health.estopped:
+            return Problem(Reason.ESTOP_LATCHED, "the bridge reports its e-stop latched")
+        if not health.connected:
+            return Problem(Reason.LINK_DOWN, "the link to the robot is not connected")
+        silent = health.silent_for(self.clock.now())
+        if silent > self.robot.safety.max_link_silence:
+            return Problem(
+                Reason.LINK_SILENT,
+                f"nothing heard from the bridge for {silent:.3f} s"
+                f" (allowed {self.robot.safety.max_link_silence:.3f} s)",
+            )
+        return None
+
+    def add_listener(self, listener: VerdictListener) -> None:
+        """Call ``listener(verdict)`` for every verdict from now on (the trace uses this)."""
+        self.verdicts.add_listener(listener)
+
+    def verdicts_since(self, tick: int) -> list[Verdict]:
+        """Every kept verdict from supervisor tick ``tick`` on."""
+        return self.verdicts.since(tick=tick)
+
+    def add_check(self, check: Check) -> None:
+        """Add a state invariant, checked after the built-in ones."""
+        self._checks.append(check)
+
+    def add_input(self, source: OperatorInput) -> None:
+        """Drain ``source`` for operator actions at the start of every tick."""
+        self._inputs.append(source)
+
+    # -- the tick --------------------------------------------------------------
+
+    def tick(self) -> None:
+        """Once per runner tick, before the tree: operator actions, link, freshness.
+
+        Operator actions due now are applied first, so a takeover or hand-back takes
+        effect before the tree is next ticked. Then the link is polled; link loss,
+        a silent link or stale safety readings put the robot in its safe state, and
+        an e-stop reported by the bridge latches ``ESTOP``.
+        """
+        with self._lock:
+            self._tick += 1
+            now = self.clock.now()
+            for source in tuple(self._inputs):
+                for action in source.poll(self._tick, now):
+                    self.apply(action)
+            try:
+                self.port.poll()
+            except LinkError as exc:
+                if not self.in_safe_state:
+                    self.safe_state(f"link lost: {exc}")
+                return
+            problem = self.link_problem()
+            if problem is not None and problem.reason is Reason.ESTOP_LATCHED:
+                if self._mode is not Mode.ESTOP:
+                    self.estop("the bridge reports its e-stop latched")
+                return
+            if problem is not None:
+                if not self.in_safe_state:
+                    self.safe_state(f"{problem.reason}: {problem.detail}")
+                return
+            state = self.port.state()
+            if state is None:
+                return
+            stale = stale_channels(self.robot, state, self._base_channels, now)
+            if stale and not self.in_safe_state:
+                names = ", ".join(f"{n} ({a:.3f} s)" for n, a in stale[:4])
+                self.safe_state(f"stale data: {names}")
+
+    # -- commands ------------------------------------------------------------
+
+    def command(self, command: Command, *, source: Source = Source.TREE) -> Verdict:
+        """Check ``command``; send it (or its clipped form) unless refused.
+
+        Args:
+            command: Any :data:`~pirate_bt.safety.commands.Command`.
+            source: Who asks (``TREE`` for behaviours and planner code).
+
+        Returns:
+            The verdict, also logged and appended to :attr:`verdicts`. A refused
+            command returns a verdict with ``ok == False``; the caller must fail.
+        """
+        with self._lock:
+            verdict = self._decide(command, source, send=True)
+            return self._record(verdict)
+
+    def check(self, command: Command, *, source: Source = Source.TREE) -> Verdict:
+        """What :meth:`command` would decide, without sending or recording anything."""
+        with self._lock:
+            return self._decide(command, source, send=False)
+
+    def require(self, command: Command, *, source: Source = Source.TREE) -> Verdict:
+        """Like :meth:`command`, but a refusal raises.
+
+        Raises:
+            EStopLatched: the e-stop is latched.
+            CommandRefused: any other refusal; ``reason`` is the
+                :class:`~pirate_bt.safety.verdict.Reason` value.
+        """
+        verdict = self.command(command, source=source)
+        if verdict.refused:
+            assert verdict.reason is not None
+            if verdict.reason is Reason.ESTOP_LATCHED:
+                raise EStopLatched(verdict.detail)
+            raise CommandRefused(verdict.reason.value, verdict.detail, command)
+        return verdict
+
+    # Convenience forms the motion primitives call.
+
+    def clamp(self, half: Half, torque_nm: float, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Clamp(half, torque_nm), source=source)
+
+    def unclamp(self, half: Half, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Unclamp(half), source=source)
+
+    def drive(self, velocity_mps: float, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Drive(velocity_mps), source=source)
+
+    def bend(self, module: str, angle_rad: float, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Bend(module, angle_rad), source=source)
+
+    def rotate(self, angle_rad: float, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Rotate(angle_rad), source=source)
+
+    def tilt(self, angle_rad: float, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Tilt(angle_rad), source=source)
+
+    def move_front_clear(self, sign: int = 1, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(MoveFrontClear(sign), source=source)
+
+    def stop(self, *, source: Source = Source.TREE) -> Verdict:
+        return self.command(Stop(), source=source)
+
+    # -- safe state and e-stop ----------------------------------------------
+
+    def safe_state(self, reason: str) -> None:
+        """Stop the drives and hold the clamps; refuse tree commands until resumed.
+
+        Called by the supervisor itself (stale data, link loss, repeated refusals),
+        by the runner when a behaviour raises, and by an operator stop. Never raises:
+        a stop that cannot be delivered is logged.
+        """
+        with self._lock:
+            first = self._safe_reason is None
+            self._safe_reason = reason
+            if first:
+                log.warning("safe state: %s", reason)
+            sent = self._send_stop()
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    Stop(),
+                    Source.SUPERVISOR,
+                    sent=sent,
+                    reason=Reason.SAFE_STATE,
+                    detail=f"safe state: {reason}",
+                )
+            )
+
+    def estop(self, reason: str = "e-stop") -> None:
+        """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""
+        with self._lock:
+            try:
+                self.port.estop()
+            except Exception:  # the e-stop must never be the thing that fails
+                log.exception("e-stop could not be sent")
+            self._mode = Mode.ESTOP
+            self._estop_reason = reason
+            self._granted.clear()
+            log.error("E-STOP: %s", reason)
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    Stop(),
+                    Source.SUPERVISOR,
+                    reason=Reason.ESTOP_LATCHED,
+                    detail=f"e-stop: {reason}",
+                )
+            )
+
+    def reset_estop(self) -> None:
+        """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``."""
+        with self._lock:
+            if self._mode is not Mode.ESTOP:
+                return
+            self.port.reset_estop()
+            self._mode = Mode.MANUAL
+            self._estop_reason = None
+            log.warning("e-stop reset by the operator; mode manual")
+
+    # -- operator authority ---------------------------------------------------
+
+    def set_mode(self, mode: Mode) -> None:
+        """Change who is in charge; takes effect for the very next command.
+
+        Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
+        ``SUPERVISED``) also leaves the safe state. ``ESTOP`` is :meth:`estop`;
+        leaving ``ESTOP`` needs :meth:`reset_estop`.
+        """
+        with self._lock:
+            if mode is Mode.ESTOP:
+                self.estop("operator set mode estop")
+                return
+            if self._mode is Mode.ESTOP:
+                log.warning("mode %s ignored: the e-stop is latched (reset it first)", mode)
+                return
+            if mode is self._mode:
+                return
+            old, self._mode = self._mode, mode
+            log.warning("mode %s -> %s", old, mode)
+            if mode is Mode.MANUAL:
+                self._send_stop()
+            else:
+                self._safe_reason = None
+                self._refusals = 0
+
+    def resume(self) -> None:
+        """Leave the safe state (operator action)."""
+        with self._lock:
+            if self._safe_reason is not None:
+                log.warning("safe state left by the operator (was: %s)", self._safe_reason)
+            self._safe_reason = None
+            self._refusals = 0
+
+    def apply(self, action: OperatorAction) -> Verdict | None:
+        """Apply one operator action now; returns the verdict for a command action."""
+        with self._lock:
+            match action:
+                case SetMode(mode):
+                    self.set_mode(mode)
+                case EStop(reason):
+                    self.estop(reason)
+                case ResetEStop():
+                    self.reset_estop()
+                case SafeStop(reason):
+                    self.safe_state(reason)
+                case Resume():
+                    self.resume()
+                case Confirm(step):
+                    self.confirm(step)
+                case Deny(step):
+                    self.deny(step)
+                case OperatorCommand(command):
+                    return self.command(command, source=Source.OPERATOR)
+            return None
+
+    def request_confirmation(self, step: str) -> Confirmation:
+        """Ask to start ``step`` (a primitive calls this before it moves).
+
+        In ``AUTONOMOUS`` the answer is ``GRANTED`` at once. In ``SUPERVISED`` the
+        step waits (``PENDING``) until an operator confirms or denies it; call again
+        each tick. ``MANUAL`` answers ``PENDING`` (the tree is paused), ``ESTOP``
+        ``DENIED``. A granted step lets the tree's commands through until
+        :meth:`end_step`, which the primitive calls when it terminates.
+        """
+        with self._lock:
+            if self._mode is Mode.ESTOP:
+                return Confirmation.DENIED
+            decided = self._decided.get(step)
+            if decided is not None:
+                return decided
+            if self._mode is Mode.AUTONOMOUS:
+                self._decided[step] = Confirmation.GRANTED
+                self._granted.add(step)
+                return Confirmation.GRANTED
+            if step not in self._pending:
+                self._pending.append(step)
+                log.info("waiting for the operator to confirm %r", step)
+            return Confirmation.PENDING
+
+    def end_step(self, step: str) -> None:
+        """Forget ``step``'s confirmation; the next request for it asks again."""
+        with self._lock:
+            self._decided.pop(step, None)
+            self._granted.discard(step)
+            if step in self._pending:
+                self._pending.remove(step)
+
+    def pending_confirmations(self) -> list[str]:
+        """Steps waiting for the operator, oldest first."""
+        return list(self._pending)
+
+    def confirm(self, step: str | None = None) -> str | None:
+        """Grant ``step`` (or the oldest pending one); returns the step granted."""
+        return self._decide_step(step, Confirmation.GRANTED)
+
+    def deny(self, step: str | None = None) -> str | None:
+        """Deny ``step`` (or the oldest pending one); returns the step denied."""
+        return self._decide_step(step, Confirmation.DENIED)
+
+    def close(self) -> None:
+        """Stop the drives and close the port."""
+        with self._lock:
+            self._send_stop()
+            self.port.close()
+
+    # -- internals -------------------------------------------------------------
+
+    def _decide_step(self, step: str | None, answer: Confirmation) -> str | None:
+        with self._lock:
+            if step is None:
+                if not self._pending:
+                    return None
+                step = self._pending[0]
+            if step in self._pending:
+                self._pending.remove(step)
+            self._decided[step] = answer
+            if answer is Confirmation.GRANTED:
+                self._granted.add(step)
+            else:
+                self._granted.discard(step)
+            log.warning("operator %s %r", answer, step)
+            return step
+
+    def _record(self, verdict: Verdict) -> Verdict:
+        self._seq += 1
+        verdict = replace(verdict, seq=self._seq, tick=self._tick, stamp_s=self.clock.now())
+        self.verdicts.append(verdict)
+        if verdict.source is Source.TREE:
+            if verdict.ok:
+                self._refusals = 0
+            elif verdict.reason not in _AUTHORITY:
+                self._refusals += 1
+                if self._refusals >= self.robot.safety.max_refusals and not self.in_safe_state:
+                    self.safe_state(f"{self._refusals} refused commands in a row")
+        return verdict
+
+    def _send_stop(self) -> tuple[MotorCommand, ...]:
+        now = self.clock.now()
+        cmds = tuple(
+            MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()
+        )
+        try:
+            self.port.send(cmds)
+        except LinkError as exc:
+            log.error("could not send stop: %s", exc)
+            return ()
+        for c in cmds:
+            self._last_setpoint[c.motor] = (c.mode, 0.0, now)
+        return cmds
+
+    def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
+        return Verdict(Outcome.REFUSE, command, source, reason=reason, detail=detail)
+
+    def _decide(self, command: Command, source: Source, *, send: bool) -> Verdict:
+        now = self.clock.now()
+        if isinstance(command, Stop):
+            sent = self._send_stop() if send else ()
+            return Verdict(Outcome.PASS, command, source, sent=sent)
+        # 1. authority
+        if self._mode is Mode.ESTOP:
+            return self._refuse(
+                command, source, Reason.ESTOP_LATCHED, f"e-stop latched ({self._estop_reason})"
+            )
+        if source is Source.OPERATOR and self._mode is not Mode.MANUAL:
+            return self._refuse(
+                command,
+                source,
+                Reason.OPERATOR_NOT_IN_CONTROL,
+                f"take over (mode manual) before driving by hand; mode is {self._mode}",
+            )
+        if source is Source.TREE:
+            if self._mode is Mode.MANUAL:
+                return self._refuse(
+                    command, source, Reason.TREE_PAUSED, "the operator has taken over (manual)"
+                )
+            if self._safe_reason is not None:
+                return self._refuse(
+                    command, source, Reason.SAFE_STATE, f"in safe state: {self._safe_reason}"
+                )
+            if self._mode is Mode.SUPERVISED and not self._granted:
+                return self._refuse(
+                    command,
+                    source,
+                    Reason.NOT_CONFIRMED,
+                    "supervised mode: no step has been confirmed by the operator",
+                )
+        # 2. link
+        problem = self.link_problem()
+        if problem is not None:
+            return self._refuse(command, source, problem.reason, problem.detail)
+        # 3. expansion
+        state = self.port.state()
+        expanded = self._expand(command, state)
+        if isinstance(expanded, Problem):
+            return self._refuse(command, source, expanded.reason, expanded.detail)
+        intent = expanded
+        # 4. freshness
+        if intent.moves or intent.channels:
+            if state is None:
+                return self._refuse(command, source, Reason.NO_STATE, "no state received yet")
+            stale = stale_channels(self.robot, state, intent.channels, now)
+            if stale:
+                names = ", ".join(
+                    f"{n} ({'never' if not math.isfinite(a) else f'{a:.3f} s'})" for n, a in stale
+                )
+                return self._refuse(
+                    command, source, Reason.STALE_STATE, f"readings too old: {names}"
+                )
+        # 5. invariants
+        if state is not None and intent.moves:
+            ctx = CheckContext(
+                self.robot, state, now, half_states(self.robot, state, self._targets)
+            )
+            for check in self._checks:
+                found = check(ctx, intent)
+                if found is not None:
+                    return self._refuse(command, source, found.reason, found.detail)
+        # 6. static limits
+        out: list[MotorCommand] = []
+        clips: list[tuple[Reason, str]] = []
+        for mc in intent.motor_commands:
+            limited = self._limit(mc, state, now)
+            if isinstance(limited, Problem):
+                return self._refuse(command, source, limited.reason, limited.detail)
+            value, notes = limited
+            clips.extend(notes)
+            out.append(mc if value == mc.value else MotorCommand(mc.motor, mc.mode, value))
+        sent = tuple(out)
+        if send:
+            try:
+                self.port.send(sent)
+            except LinkError as exc:
+                self.safe_state(f"link error while sending: {exc}")
+                return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
+            for mc in sent:
+                self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
+            for half in intent.clamps:
+                self._targets[half] = HalfTarget.CLAMP
+            for half in intent.releases:
+                self._targets[half] = HalfTarget.RELEASE
+        if clips:
+            return Verdict(
+                Outcome.CLIP,
+                command,
+                source,
+                sent=sent,
+                reason=clips[0][0],
+                detail="; ".join(d for _, d in clips),
+                clips=tuple(r for r, _ in clips),
+            )
+        return Verdict(Outcome.PASS, command, source, sent=sent)
+
+    # -- expansion: high-level command -> intent ------------------------------
+
+    def _safety_channels(self) -> tuple[str, ...]:
+        """Channels every motion decision relies on: joints, springs, IMU pitch."""
+        names: list[str] = []
+        for module in self.robot.all_bend_modules():
+            names.append(self.robot.sensor_of(module.name, SensorKind.ANGLE).name)
+            with contextlib.suppress(KeyError):
+                names.append(self.robot.sensor_of(module.name, SensorKind.SPRING).name)
+        imu = self.robot.imu()
+        if imu is not None and "pitch" in imu.axes:
+            names.append(f"{imu.name}.pitch")
+        return tuple(names)
+
+    def _rotation_channel(self) -> str:
+        return self.robot.sensor_of(self.robot.rotational_module().name, SensorKind.ANGLE).name
+
+    def _half_commands(
+        self, half: Half, mode: ControlMode, value: float
+    ) -> tuple[MotorCommand, ...]:
+        return tuple(
+            MotorCommand(self.robot.joint_motor(m.name).name, mode, value)
+            for m in self.robot.bend_modules(half)
+        )
+
+    def _expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
+        base = self._base_channels
+        values = [
+            getattr(command, f)
+            for f in ("torque_nm", "velocity_mps", "angle_rad")
+            if hasattr(command, f)
+        ]
+        if isinstance(command, Raw):
+            values.append(command.command.value)
+        if not all(math.isfinite(v) for v in values):
+            return Problem(Reason.NOT_FINITE, "command values must be finite numbers")
+        match command:
+            case Clamp(half, torque):
+                if torque < self.robot.clamp.min_torque:
+                    return Problem(
+                        Reason.CLAMP_TORQUE_TOO_LOW,
+                        f"clamp torque {torque:g} N·m is below the minimum that holds"
+                        f" ({self.robot.clamp.min_torque:g} N·m)",
+                    )
+                chans = base + (
+                    (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
+                )
+                return Intent(
+                    command,
+                    self._half_commands(half, ControlMode.TORQUE, torque),
+                    clamps=frozenset({half}),
+                    channels=chans,
+                )
+            case Unclamp(half, angle):
+                return Intent(
+                    command,
+                    self._half_commands(half, ControlMode.POSITION, angle),
+                    releases=frozenset({half}),
+                    channels=base,
+                )
+            case Bend(module, angle):
+                try:
+                    mod = self.robot.module(module)
+                    motor = self.robot.joint_motor(module)
+                except KeyError:
+                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
+                if mod.role is not Role.BEND or mod.half is None:
+                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
+                return Intent(
+                    command,
+                    (MotorCommand(motor.name, ControlMode.POSITION, angle),),
+                    releases=frozenset({mod.half}),
+                    channels=base,
+                )
+            case Rotate(angle):
+                return Intent(
+                    command,
+                    (MotorCommand(self.robot.rotate_motor().name, ControlMode.POSITION, angle),),
+                    rotates=True,
+                    channels=(*base, self._rotation_channel()),
+                )
+            case Tilt(angle):
+                return self._tilt_intent(command, angle)
+            case MoveFrontClear(sign):
+                angle = math.copysign(self.robot.clamp.front_clear_angle, sign or 1)
+                return self._tilt_intent(command, angle)
+            case Drive(v):
+                cmds = tuple(
+                    MotorCommand(m.name, ControlMode.VELOCITY, v) for m in self.robot.drive_motors()
+                )
+                return Intent(command, cmds, drive_mps=v, stop=v == 0.0, channels=base)
+            case Raw(mc):
+                return self._raw_intent(command, mc)
+        return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # pragma: no cover
+
+    def _tilt_motor(self) -> Motor | None:
+        try:
+            return self.robot.motor_of(self.robot.modules[0].name, MotorFunction.TILT)
+        except KeyError:
+            return None
+
+    def _tilt_intent(self, command: Command, angle: float) -> Intent | Problem:
+        motor = self._tilt_motor()
+        if motor is None or self._tilt_channel is None:
+            return Problem(Reason.UNKNOWN_TARGET, "this robot has no front tilt motor")
+        return Intent(
+            command,
+            (MotorCommand(motor.name, ControlMode.POSITION, angle),),
+            front_tilt_rad=angle,
+            channels=(*self._base_channels, self._tilt_channel),
+        )
+
+    def _raw_intent(self, command: Raw, mc: MotorCommand) -> Intent | Problem:
+        try:
+            motor = self.robot.motor(mc.motor)
+        except KeyError:
+            return Problem(Reason.UNKNOWN_TARGET, f"unknown motor {mc.motor!r}")
+        if motor.modes.get(mc.mode) is None:
+            return Problem(Reason.MODE_NOT_ALLOWED, f"motor {motor.name!r} has no {mc.mode} mode")
+        fn = motor.function
+        if fn in _FREE_FUNCTIONS:
+            return Intent(command, (mc,))
+        base = self._base_channels
+        allowed = {
+            MotorFunction.BEND: (ControlMode.TORQUE, ControlMode.POSITION),
+            MotorFunction.DRIVE: (ControlMode.VELOCITY,),
+            MotorFunction.ROTATE: (ControlMode.POSITION,),
+            MotorFunction.TILT: (ControlMode.POSITION,),
+        }[fn]
+        if mc.mode not in allowed:
+            return Problem(
+                Reason.MODE_NOT_ALLOWED,
+                f"{fn} motor {motor.name!r} accepts only"
+                f" {', '.join(m.value for m in allowed)} through the supervisor",
+            )
+        if fn is MotorFunction.BEND:
+            half = self.robot.module_of(motor.name).half
+            assert half is not None
+            if mc.mode is ControlMode.TORQUE and mc.value >= self.robot.clamp.min_torque:
+                chans = base + (
+                    (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
+                )
+                return Intent(command, (mc,), clamps=frozenset({half}), channels=chans)
+            return Intent(command, (mc,), releases=frozenset({half}), channels=base)
+        if fn is MotorFunction.DRIVE:
+            return Intent(command, (mc,), drive_mps=mc.value, stop=mc.value == 0.0, channels=base)
+        if fn is MotorFunction.ROTATE:
+            return Intent(command, (mc,), rotates=True, channels=(*base, self._rotation_channel()))
+        intent = self._tilt_intent(command, mc.value)
+        return intent if isinstance(intent, Problem) else replace(intent, motor_commands=(mc,))
+
+    # -- static limits ------------------------------------------------------------
+
+    def _measured(self, motor: Motor, state: RobotState | None) -> float | None:
+        if state is None:
+            return None
+        fn = motor.function
+        if fn is MotorFunction.BEND:
+            return state.joint_angle_rad.get(self.robot.module_of(motor.name).name)
+        if fn is MotorFunction.ROTATE:
+            return state.rotation_rad
+        if fn is MotorFunction.TILT:
+            return state.front_tilt_rad
+        if fn is MotorFunction.CAMERA_TILT:
+            return state.camera_tilt_rad
+        if fn is MotorFunction.CAMERA_PAN:
+            return state.camera_pan_rad
+        if fn is MotorFunction.DRIVE:
+            return state.drive_velocity_mps.get(motor.name)
+        return None
+
+    def _limit(
+        self, mc: MotorCommand, state: RobotState | None, now: float
+    ) -> tuple[float, list[tuple[Reason, str]]] | Problem:
+        """Apply every static limit of ``mc``'s motor: ``(value, clips)`` or a refusal."""
+        motor = self.robot.motor(mc.motor)
+        lim = motor.limits
+        value = mc.value
+        notes: list[tuple[Reason, str]] = []
+
+        def bound(
+            reason: Reason, policy: LimitPolicy, lo: float, hi: float, what: str
+        ) -> Problem | None:
+            nonlocal value
+            if lo <= value <= hi:
+                return None
+            text = f"{motor.name}: {what} {value:g} outside [{lo:g}, {hi:g}]"
+            if policy is LimitPolicy.REFUSE:
+                return Problem(reason, text)
+            value = min(max(value, lo), hi)
+            notes.append((reason, f"{text}, clipped to {value:g}"))
+            return None
+
+        window = self.robot.safety.rate_window
+        last = self._last_setpoint.get(mc.motor)
+        if last is not None and last[0] is mc.mode:
+            reference: float | None = last[1]
+            dt = min(max(now - last[2], 0.0), window)
+        else:
+            reference = self._measured(motor, state)
+            dt = window
+        problem: Problem | None = None
+        if mc.mode is ControlMode.POSITION:
+            if lim.angle is not None:
+                problem = bound(
+                    Reason.ANGLE_LIMIT, lim.angle.policy, lim.angle.min, lim.angle.max, "angle"
+                )
+            if problem is None and lim.angular_velocity is not None and reference is not None:
+                step = lim.angular_velocity.max * dt
+                problem = bound(
+                    Reason.ANGULAR_RATE_LIMIT,
+                    lim.angular_velocity.policy,
+                    reference - step,
+                    reference + step,
+                    f"angle step from {reference:g} in {dt:g} s: target",
+                )
+        elif mc.mode is ControlMode.TORQUE:
+            if lim.torque is not None:
+                problem = bound(
+                    Reason.TORQUE_LIMIT,
+                    lim.torque.policy,
+                    -lim.torque.max,
+                    lim.torque.max,
+                    "torque",
+                )
+        elif mc.mode is ControlMode.VELOCITY:
+            if lim.velocity is not None:
+                problem = bound(
+                    Reason.VELOCITY_LIMIT,
+                    lim.velocity.policy,
+                    -lim.velocity.max,
+                    lim.velocity.max,
+                    "velocity",
+                )
+            ref = reference or 0.0
+            # Slowing down is never limited: stopping must always be possible.
+            speeding = abs(value) > abs(ref) or (value * ref < 0)
+            if problem is None and lim.acceleration is not None and speeding:
+                step = lim.acceleration.max * dt
+                problem = bound(
+                    Reason.ACCELERATION_LIMIT,
+                    lim.acceleration.policy,
+                    ref - step,
+                    ref + step,
+                    f"velocity change from {ref:g} in {dt:g} s: target",
+                )
+        if problem is not None:
+            return problem
+        return value, notes

@@ -1,0 +1,184 @@
+"""Verdicts: what the supervisor decided about one command, and where they are kept.
+
+A :class:`Verdict` is pass, clip or refuse. A refusal carries a machine-readable
+:class:`Reason` (a string enum, stable across versions, safe to match in code
+and in traces) and a sentence for people. A clip carries the commands as they
+were actually sent. Every verdict is logged on the ``pirate_bt.safety`` logger
+and appended to a bounded :class:`VerdictLog`, which the trace reads with
+:meth:`VerdictLog.since` or by subscribing a listener.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.safety.commands import Command, describe
+
+__all__ = ["Outcome", "Reason", "Source", "Verdict", "VerdictListener", "VerdictLog"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+
+class Outcome(StrEnum):
+    """The three verdicts."""
+
+    PASS = "pass"
+    CLIP = "clip"
+    REFUSE = "refuse"
+
+
+class Source(StrEnum):
+    """Who asked for a command."""
+
+    TREE = "tree"
+    """A behaviour tree, a motion primitive or planner code (autonomy)."""
+    OPERATOR = "operator"
+    """A person: teleop or a scripted operator."""
+    SUPERVISOR = "supervisor"
+    """The supervisor itself (safe state, takeover stop)."""
+
+
+class Reason(StrEnum):
+    """Machine-readable reasons for clip and refuse verdicts (see docs/safety.md)."""
+
+    # authority
+    ESTOP_LATCHED = "estop_latched"
+    SAFE_STATE = "safe_state"
+    TREE_PAUSED = "tree_paused"
+    NOT_CONFIRMED = "not_confirmed"
+    OPERATOR_NOT_IN_CONTROL = "operator_not_in_control"
+    # link and data
+    LINK_DOWN = "link_down"
+    LINK_SILENT = "link_silent"
+    LINK_ERROR = "link_error"
+    NO_STATE = "no_state"
+    STALE_STATE = "stale_state"
+    # static limits
+    UNKNOWN_TARGET = "unknown_target"
+    MODE_NOT_ALLOWED = "mode_not_allowed"
+    NOT_FINITE = "not_finite"
+    ANGLE_LIMIT = "angle_limit"
+    TORQUE_LIMIT = "torque_limit"
+    VELOCITY_LIMIT = "velocity_limit"
+    ANGULAR_RATE_LIMIT = "angular_rate_limit"
+    ACCELERATION_LIMIT = "acceleration_limit"
+    CLAMP_TORQUE_TOO_LOW = "clamp_torque_too_low"
+    # state invariants
+    OTHER_HALF_NOT_CLAMPED = "other_half_not_clamped"
+    ROTATE_NEEDS_ONE_CLAMPED = "rotate_needs_one_clamped"
+    HALF_TRANSITIONING = "half_transitioning"
+    FRONT_NOT_CLEAR = "front_not_clear"
+    STEEP_PIPE_UNCLAMPED = "steep_pipe_unclamped"
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """The supervisor's decision on one command.
+
+    Attributes:
+        outcome: pass, clip or refuse.
+        command: The command as asked for.
+        source: Who asked.
+        sent: The motor commands actually sent (empty for a refusal or a dry run).
+        reason: Why it was clipped or refused; ``None`` for a plain pass.
+        detail: One sentence for people.
+        stamp_s: Clock time of the decision.
+        tick: The supervisor's tick counter at the decision.
+        seq: Position in the supervisor's verdict sequence (starts at 1).
+        clips: Every limit that clipped the command (the first one is ``reason``).
+    """
+
+    outcome: Outcome
+    command: Command
+    source: Source
+    sent: tuple[MotorCommand, ...] = ()
+    reason: Reason | None = None
+    detail: str = ""
+    stamp_s: float = 0.0
+    tick: int = 0
+    seq: int = 0
+    clips: tuple[Reason, ...] = field(default_factory=tuple)
+
+    @property
+    def ok(self) -> bool:
+        """True for pass and clip: the command (or its clipped form) went out."""
+        return self.outcome is not Outcome.REFUSE
+
+    @property
+    def refused(self) -> bool:
+        return self.outcome is Outcome.REFUSE
+
+    def to_record(self) -> dict[str, object]:
+        """A JSON-ready dict for traces."""
+        return {
+            "seq": self.seq,
+            "tick": self.tick,
+            "t": self.stamp_s,
+            "source": self.source.value,
+            "command": describe(self.command),
+            "outcome": self.outcome.value,
+            "reason": self.reason.value if self.reason else None,
+            "detail": self.detail,
+            "sent": [[c.motor, c.mode.value, c.value] for c in self.sent],
+        }
+
+    def __str__(self) -> str:
+        text = f"{self.outcome.upper()} {describe(self.command)} [{self.source}]"
+        if self.reason is not None:
+            text += f" {self.reason}: {self.detail}"
+        return text
+
+
+VerdictListener = Callable[[Verdict], None]
+
+
+class VerdictLog:
+    """The last ``maxlen`` verdicts, with listeners called on every new one.
+
+    Args:
+        maxlen: How many verdicts to keep.
+    """
+
+    def __init__(self, maxlen: int = 1000) -> None:
+        self._items: deque[Verdict] = deque(maxlen=maxlen)
+        self._listeners: list[VerdictListener] = []
+
+    def append(self, verdict: Verdict) -> None:
+        self._items.append(verdict)
+        level = logging.WARNING if verdict.refused else logging.INFO
+        if verdict.source is Source.SUPERVISOR:
+            level = logging.WARNING
+        log.log(level, "%s", verdict)
+        for listener in tuple(self._listeners):
+            listener(verdict)
+
+    def add_listener(self, listener: VerdictListener) -> None:
+        """Call ``listener(verdict)`` for every verdict from now on."""
+        self._listeners.append(listener)
+
+    def remove_listener(self, listener: VerdictListener) -> None:
+        if listener in self._listeners:
+            self._listeners.remove(listener)
+
+    def since(self, *, tick: int | None = None, seq: int | None = None) -> list[Verdict]:
+        """Verdicts from ``tick`` on (inclusive), or after sequence number ``seq``."""
+        out: Sequence[Verdict] = self._items
+        if tick is not None:
+            out = [v for v in out if v.tick >= tick]
+        if seq is not None:
+            out = [v for v in out if v.seq > seq]
+        return list(out)
+
+    def last(self) -> Verdict | None:
+        return self._items[-1] if self._items else None
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __iter__(self) -> Iterator[Verdict]:
+        return iter(tuple(self._items))
