@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import Literal
 
@@ -99,6 +99,8 @@ class Piece:
         tangent: Unit direction of travel at the start.
         up: Unit cross-section "up" reference at the start.
         origin: 3-D position of the start (metres; the main line starts at 0).
+        opening_m: Tees: distance of the middle of the branch opening (the opening is
+            one diameter wide); ``None`` for other pieces.
     """
 
     segment: str
@@ -113,10 +115,17 @@ class Piece:
     tangent: Vec3
     up: Vec3
     origin: Vec3
+    opening_m: float | None = None
 
     @property
     def length_m(self) -> float:
         return self.end_m - self.start_m
+
+    def over_opening(self, s_m: float) -> bool:
+        """True when ``s_m`` lies over a tee's branch opening (one diameter wide)."""
+        if self.opening_m is None:
+            return False
+        return abs(s_m - self.opening_m) <= self.diameter_start_m / 2
 
     @property
     def is_turn(self) -> bool:
@@ -281,10 +290,13 @@ class _Builder:
                 roll = seg.branch.roll_rad
                 choice = choices.get(name, "straight")
                 taken[name] = choice
+                opening = cur.s_m + length / 2
                 if choice == "straight":
                     pieces.append(cur.straight(name, PieceKind.TEE, length, roll_rad=roll))
+                    pieces[-1] = replace(pieces[-1], opening_m=opening)
                     continue
                 pieces.append(cur.straight(name, PieceKind.TEE, length / 2, roll_rad=roll))
+                pieces[-1] = replace(pieces[-1], opening_m=opening)
                 radius = seg.branch.radius if seg.branch.radius is not None else cur.diameter_m
                 pieces.append(cur.turn(name, PieceKind.TEE_TURN, roll, math.pi / 2, radius))
                 self._line(seg.branch.segments, f"{name}-b", cur, pieces, choices, taken)
