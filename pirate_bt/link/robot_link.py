@@ -1,0 +1,308 @@
+"""``RobotLink``: the link seen in SI units, implementing :class:`~pirate_bt.robot.port.RobotPort`.
+
+This is where raw integers stop. Incoming STATE frames become
+:class:`~pirate_bt.robot.state.RobotState` snapshots through
+:class:`~pirate_bt.robot.state.StateBuilder`; outgoing
+:class:`~pirate_bt.robot.commands.MotorCommand` objects become raw setpoints
+through :class:`~pirate_bt.robot.commands.CommandCodec` and go out as one
+BULK_SETPOINTS frame carrying the full desired table (motors never commanded are
+sent as "keep"). Because every bulk frame is a superset of the one before, a
+newer one may replace an older one in flight without losing anything.
+
+:func:`open_link` opens a URL (with optional faults), runs the handshake and
+returns a ready :class:`RobotLink`; :func:`wrap_link` does the same for an
+already-open serial-like object or byte link.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import LinkError, LinkTimeout
+from pirate_bt.link.codec import FrameCodec
+from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
+from pirate_bt.link.session import Outcome, Request, Session, SessionConfig
+from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
+from pirate_bt.robot.commands import CommandCodec, MotorCommand
+from pirate_bt.robot.description import ControlMode, RobotDescription
+from pirate_bt.robot.port import LinkHealth
+from pirate_bt.robot.state import RobotState, StateBuilder
+
+__all__ = ["RobotLink", "open_link", "wrap_link"]
+
+_log = logging.getLogger(__name__)
+
+
+class RobotLink:
+    """A connected robot over the PIRATEbay protocol, in SI units (a ``RobotPort``).
+
+    Use :func:`open_link` or :func:`wrap_link` to make one.
+
+    Args:
+        robot: The robot description.
+        session: A session after a successful handshake.
+    """
+
+    def __init__(self, robot: RobotDescription, session: Session) -> None:
+        self._robot = robot
+        self.session = session
+        self._states = StateBuilder(robot)
+        self._commands = CommandCodec(robot)
+        slots = robot.setpoint_slots()
+        self._slot_index = {(s.board, s.slot): s.index for s in slots}
+        self._modes: list[ControlMode | None] = [None] * len(slots)
+        self._raw: list[int] = [0] * len(slots)
+        self._snapshot: RobotState | None = None
+        self._snapshot_seq: int | None = None
+        self._last_bulk: Request | None = None
+
+    @property
+    def robot(self) -> RobotDescription:
+        """The description the link was opened with."""
+        return self._robot
+
+    def poll(self) -> None:
+        """Process pending input and due retries/heartbeats without blocking.
+
+        Raises:
+            LinkLost: nothing valid heard for longer than the configured time.
+        """
+        if self.session.threaded:
+            self.session.check_reader()
+        else:
+            self.session.poll()
+
+    def state(self) -> RobotState | None:
+        """The latest state snapshot, or ``None`` before the first state frame."""
+        latest = self.session.latest_state()
+        if latest is None:
+            return None
+        frame, arrived_s = latest
+        if frame.seq != self._snapshot_seq:
+            self._snapshot = self._states.build(frame.readings(), arrived_s, self._snapshot)
+            self._snapshot_seq = frame.seq
+        return self._snapshot
+
+    def send(self, commands: Sequence[MotorCommand]) -> None:
+        """Merge ``commands`` into the desired setpoints and send them in one frame.
+
+        Does not wait for the ack (the session retries in the background of
+        :meth:`poll`); use :meth:`send_and_wait` to wait.
+
+        Raises:
+            InputError: unknown motor or unsupported mode.
+            LinkLost: the link is lost.
+            LinkError: an earlier setpoint frame was refused or never acknowledged.
+        """
+        self.session.ensure_alive()
+        self._raise_failures()
+        for command in commands:
+            raw = self._commands.to_raw(command)
+            i = self._slot_index[(raw.board, raw.slot)]
+            self._modes[i] = raw.mode
+            self._raw[i] = raw.raw_value
+        self._last_bulk = self.session.send_bulk(self._modes, self._raw)
+
+    def send_and_wait(
+        self, commands: Sequence[MotorCommand], timeout_s: float | None = None
+    ) -> None:
+        """Like :meth:`send`, then wait for the bridge's ack.
+
+        Args:
+            commands: Setpoints in SI units.
+            timeout_s: Longest wait (default: the retry budget).
+
+        Raises:
+            LinkTimeout: no outcome within ``timeout_s``.
+            LinkError: refused, failed or lost.
+        """
+        self.send(commands)
+        assert self._last_bulk is not None
+        req = self.session.wait(self._last_bulk, timeout_s)
+        if req.outcome is not Outcome.ACKED:
+            self.session.take_failures()
+            raise LinkError(f"setpoints not delivered: {req.outcome.value} {req.nack or ''}")
+
+    def _raise_failures(self) -> None:
+        failures = self.session.take_failures()
+        if failures:
+            last = failures[-1]
+            why = f"refused ({last.nack.name})" if last.nack else "not acknowledged"
+            raise LinkError(
+                f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
+                f"seq {last.seq} {why} after {last.tries} tries"
+            )
+
+    def estop(self) -> None:
+        """Send an e-stop ahead of every queue; never raises for a busy link."""
+        try:
+            self.session.estop()
+        except LinkError as exc:  # e.g. closed: nothing more can be done here
+            _log.error("e-stop not sent: %s", exc)
+
+    def reset_estop(self) -> None:
+        """Release a latched e-stop on the bridge and wait for the ack.
+
+        Raises:
+            LinkError: the bridge refused or did not answer.
+        """
+        req = self.session.wait(self.session.estop_reset())
+        self.session.take_failures()
+        if req.outcome is not Outcome.ACKED:
+            raise LinkError(f"e-stop reset {req.outcome.value} {req.nack or ''}".strip())
+
+    def health(self) -> LinkHealth:
+        """Current link figures."""
+        s = self.session.stats()
+        return LinkHealth(
+            connected=s.connected,
+            last_heard_s=s.last_heard_s,
+            rtt_s=s.rtt_s,
+            loss_ratio=s.loss_ratio,
+            crc_errors=s.crc_errors,
+            retries=s.retries,
+            failed=s.failed,
+            duplicates=s.duplicates,
+            estopped=s.estopped,
+        )
+
+    def close(self) -> None:
+        """Stop the drive motors if the link still works, then release the transport."""
+        stop = [
+            MotorCommand(m.name, ControlMode.VELOCITY, 0.0)
+            for m in self._robot.drive_motors()
+            if m.modes.velocity is not None
+        ]
+        if stop and self.session.stats().connected:
+            try:
+                self.send_and_wait(stop, timeout_s=self.session.config.give_up_s)
+            except LinkError as exc:
+                _log.warning("could not stop the drives on close: %s", exc)
+        self.session.close()
+
+    def __enter__(self) -> RobotLink:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def wrap_link(
+    link: ByteLink | SerialLike,
+    robot: RobotDescription,
+    clock: Clock,
+    *,
+    faults: FaultSpec | str | None = None,
+    config: SessionConfig | None = None,
+    reset_wait_s: float = 0.0,
+    threaded: bool = False,
+) -> RobotLink:
+    """Handshake over an already-open link and return a :class:`RobotLink`.
+
+    Args:
+        link: A byte link (``Transport``, ``MemoryLink``, ...) or an open pyserial object
+            (opened with ``timeout=0`` and a ``write_timeout``).
+        robot: The robot description.
+        clock: The clock all timing reads.
+        faults: Faults to inject (a spec or its text).
+        config: Session timing (default: derived from the robot).
+        reset_wait_s: Time to wait for a bridge reset before the handshake.
+        threaded: Drive the session from a reader thread (real ports, wall clock).
+
+    Returns:
+        The connected link.
+
+    Raises:
+        ProtocolMismatch: other protocol version or layout.
+        LinkTimeout: no answer to HELLO.
+        InputError: a malformed fault spec.
+    """
+    byte_link: ByteLink
+    if isinstance(link, Transport) or hasattr(link, "read_available"):
+        byte_link = link  # type: ignore[assignment]
+    else:
+        byte_link = Transport(link, baud=robot.bridge.baud)
+    if isinstance(faults, str):
+        faults = parse_fault_spec(faults)
+    if faults is not None and faults.active:
+        byte_link = FaultyLink(byte_link, faults, clock)
+    codec = FrameCodec.for_robot(robot)
+    cfg = config or SessionConfig.from_robot(robot)
+    try:
+        handshake(
+            byte_link,
+            codec,
+            clock,
+            seq=1,
+            reset_wait_s=reset_wait_s,
+            reply_timeout_s=max(cfg.ack_timeout_s * 4, 0.1),
+            step_s=cfg.poll_step_s,
+        )
+    except BaseException:
+        byte_link.close()
+        raise
+    session = Session(byte_link, codec, clock, cfg, first_seq=2)
+    if threaded:
+        session.start_reader(cfg.poll_step_s)
+    return RobotLink(robot, session)
+
+
+def open_link(
+    url: str,
+    robot: RobotDescription,
+    clock: Clock,
+    *,
+    faults: FaultSpec | str | None = None,
+    config: SessionConfig | None = None,
+    reset_wait_s: float | None = None,
+    threaded: bool | None = None,
+    write_timeout_s: float | None = None,
+) -> RobotLink:
+    """Open ``url`` (any pyserial URL), connect and return a :class:`RobotLink`.
+
+    Fault options in the URL (``?faults=drop=0.1&fault_seed=3``) are applied unless
+    ``faults`` is given.
+
+    Args:
+        url: Device path or pyserial URL (``loop://``, ``socket://``, ``spy://``, a
+            registered simulator scheme, ...).
+        robot: The robot description (layout, baud, reset time, watchdog).
+        clock: The clock all timing reads.
+        faults: Faults to inject (a spec or its text).
+        config: Session timing (default: derived from the robot).
+        reset_wait_s: Wait for the Arduino's DTR reset; default ``bridge.reset_time``
+            for device paths and 0 for URLs.
+        threaded: Use a reader thread; default: for device paths on a wall clock.
+        write_timeout_s: Longest a write may block (default from the baud rate).
+
+    Returns:
+        The connected link.
+
+    Raises:
+        LinkError: cannot open, other protocol/layout (``ProtocolMismatch``) or no
+            answer (``LinkTimeout``).
+        InputError: a malformed fault spec.
+    """
+    clean_url, url_faults = split_fault_url(url)
+    if faults is None:
+        faults = url_faults
+    real = is_real_port(clean_url)
+    if reset_wait_s is None:
+        reset_wait_s = robot.bridge.reset_time if real else 0.0
+    if threaded is None:
+        threaded = real and not clock.is_simulated
+    transport = Transport.open(clean_url, baud=robot.bridge.baud, write_timeout_s=write_timeout_s)
+    try:
+        return wrap_link(
+            transport,
+            robot,
+            clock,
+            faults=faults,
+            config=config,
+            reset_wait_s=reset_wait_s,
+            threaded=threaded,
+        )
+    except LinkTimeout as exc:
+        raise LinkTimeout(f"{clean_url}: {exc}") from exc

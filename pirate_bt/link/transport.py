@@ -1,0 +1,302 @@
+"""Byte transports on pyserial URLs, and the connect handshake.
+
+One small class, :class:`Transport`, wraps anything pyserial's
+:func:`serial.serial_for_url` opens: a real port (``/dev/ttyACM0``, ``COM3``),
+``loop://``, ``socket://host:port``, ``spy://...`` and any scheme registered in
+``serial.protocol_handler_packages`` (the simulator registers its own). The
+port is opened with ``timeout=0`` so :meth:`Transport.read_available` never
+blocks, and with a ``write_timeout`` always set so a wedged line cannot hang a
+caller. Blocking reads loop on the injected :class:`~pirate_bt.clock.Clock`, so
+with a simulated clock "waiting" advances simulated time.
+
+:func:`handshake` is the connect sequence of ``docs/protocol.md``: wait out the
+Arduino's DTR reset (real ports only), drain stale bytes, send ``HELLO`` and check
+the reply's protocol version and layout digest.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from typing import Protocol, runtime_checkable
+
+import serial
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import FrameError, LinkError, LinkTimeout, ProtocolMismatch
+from pirate_bt.link.codec import (
+    MAX_WIRE_BYTES,
+    PROTOCOL_VERSION,
+    FrameCodec,
+    FrameDecoder,
+    Hello,
+    HelloReply,
+    frame_time_s,
+)
+
+__all__ = [
+    "ByteLink",
+    "SerialLike",
+    "Transport",
+    "handshake",
+    "is_real_port",
+]
+
+_log = logging.getLogger(__name__)
+
+_VIRTUAL_PREFIXES = ("loop://", "socket://", "spy://", "rfc2217://", "hwgrep://", "alt://")
+
+
+def is_real_port(url: str) -> bool:
+    """True when ``url`` names a device (no ``scheme://``): opening it resets an Arduino.
+
+    Args:
+        url: A pyserial URL or device path.
+
+    Returns:
+        Whether a DTR reset is to be expected.
+    """
+    return "://" not in url
+
+
+@runtime_checkable
+class SerialLike(Protocol):
+    """What :class:`Transport` needs of a pyserial object (``serial.SerialBase``)."""
+
+    def read(self, size: int = 1) -> bytes: ...
+
+    def write(self, data: bytes | memoryview, /) -> int | None: ...
+
+    def close(self) -> None: ...
+
+    def reset_input_buffer(self) -> None: ...
+
+
+class ByteLink(Protocol):
+    """The byte-level interface the session uses (a :class:`Transport` or a fault wrapper)."""
+
+    @property
+    def baud(self) -> int: ...
+
+    def read_available(self) -> bytes: ...
+
+    def write(self, data: bytes) -> None: ...
+
+    def drain_input(self) -> int: ...
+
+    def close(self) -> None: ...
+
+
+class Transport:
+    """A pyserial port with non-blocking reads and bounded writes.
+
+    Args:
+        port: An open pyserial object (anything with ``read``/``write``/``close``/
+            ``reset_input_buffer``); set ``timeout=0`` and a ``write_timeout`` on it,
+            or use :meth:`open`.
+        baud: Line rate, used for timing figures.
+        real_port: The port is a device whose opening resets an Arduino.
+        url: The URL it was opened with, for messages.
+    """
+
+    def __init__(
+        self, port: SerialLike, *, baud: int, real_port: bool = False, url: str = ""
+    ) -> None:
+        self.port = port
+        self._baud = baud
+        self.real_port = real_port
+        self.url = url or repr(port)
+        self.bytes_in = 0
+        self.bytes_out = 0
+        self._closed = False
+
+    @classmethod
+    def open(
+        cls,
+        url: str,
+        *,
+        baud: int,
+        write_timeout_s: float | None = None,
+    ) -> Transport:
+        """Open ``url`` with :func:`serial.serial_for_url`.
+
+        Args:
+            url: Device path or pyserial URL.
+            baud: Line rate in bit/s.
+            write_timeout_s: Longest a write may block; default: 4 maximum frames at
+                ``baud`` plus 50 ms.
+
+        Returns:
+            The open transport.
+
+        Raises:
+            LinkError: the port cannot be opened.
+        """
+        if write_timeout_s is None:
+            write_timeout_s = 4 * frame_time_s(MAX_WIRE_BYTES, baud) + 0.05
+        try:
+            port = serial.serial_for_url(
+                url, baudrate=baud, timeout=0, write_timeout=write_timeout_s
+            )
+        except (serial.SerialException, ValueError, OSError) as exc:
+            raise LinkError(f"cannot open {url}: {exc}") from exc
+        _log.info("opened %s at %d baud", url, baud)
+        return cls(port, baud=baud, real_port=is_real_port(url), url=url)
+
+    @property
+    def baud(self) -> int:
+        """Line rate in bit/s."""
+        return self._baud
+
+    def read_available(self) -> bytes:
+        """Whatever bytes have arrived, without blocking (``b""`` if none).
+
+        Raises:
+            LinkError: the port failed (unplugged, closed).
+        """
+        try:
+            data = self.port.read(4096)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"read from {self.url} failed: {exc}") from exc
+        if data:
+            self.bytes_in += len(data)
+            return bytes(data)
+        return b""
+
+    def read(self, n_bytes: int, timeout_s: float, clock: Clock, step_s: float = 0.001) -> bytes:
+        """Up to ``n_bytes`` bytes, waiting at most ``timeout_s`` of ``clock`` time.
+
+        Short reads are collected until ``n_bytes`` arrived or the time is up.
+
+        Args:
+            n_bytes: Bytes wanted.
+            timeout_s: Longest wait.
+            clock: The clock to wait on.
+            step_s: Polling interval.
+
+        Returns:
+            The bytes read (fewer than ``n_bytes`` on timeout).
+
+        Raises:
+            LinkError: the port failed.
+        """
+        deadline = clock.now() + timeout_s
+        out = bytearray()
+        while True:
+            out += self.read_available()[: n_bytes - len(out)]
+            if len(out) >= n_bytes or clock.now() >= deadline:
+                return bytes(out)
+            clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
+
+    def write(self, data: bytes) -> None:
+        """Write all of ``data``; partial writes are continued.
+
+        Raises:
+            LinkTimeout: the write did not complete within the write timeout.
+            LinkError: the port failed.
+        """
+        view = memoryview(data)
+        stalls = 0
+        while view:
+            try:
+                n = self.port.write(view)
+            except serial.SerialTimeoutException as exc:
+                raise LinkTimeout(f"write to {self.url} timed out") from exc
+            except (serial.SerialException, OSError) as exc:
+                raise LinkError(f"write to {self.url} failed: {exc}") from exc
+            written = len(view) if n is None else n
+            if written == 0:
+                stalls += 1
+                if stalls > 3:
+                    raise LinkTimeout(f"write to {self.url} made no progress")
+            self.bytes_out += written
+            view = view[written:]
+
+    def drain_input(self) -> int:
+        """Discard every byte received so far; return how many were read and dropped."""
+        dropped = 0
+        with contextlib.suppress(serial.SerialException, OSError, AttributeError):
+            self.port.reset_input_buffer()
+        while chunk := self.read_available():
+            dropped += len(chunk)
+        return dropped
+
+    def close(self) -> None:
+        """Close the port (idempotent)."""
+        if not self._closed:
+            self._closed = True
+            try:
+                self.port.close()
+            except (serial.SerialException, OSError) as exc:
+                _log.warning("closing %s: %s", self.url, exc)
+
+    def __repr__(self) -> str:
+        return f"Transport({self.url!r}, baud={self._baud})"
+
+
+def handshake(
+    link: ByteLink,
+    codec: FrameCodec,
+    clock: Clock,
+    *,
+    seq: int = 1,
+    reset_wait_s: float = 0.0,
+    reply_timeout_s: float = 0.25,
+    attempts: int = 4,
+    step_s: float = 0.001,
+) -> HelloReply:
+    """Connect: wait out a reset, drain stale bytes, exchange HELLO, check the reply.
+
+    Args:
+        link: An open transport.
+        codec: The codec of the host's robot layout.
+        clock: Clock to wait on (a simulated clock advances while waiting).
+        seq: Sequence number of the HELLO.
+        reset_wait_s: Time the bridge needs after the port opened (DTR reset); 0 for
+            virtual ports.
+        reply_timeout_s: Wait per HELLO attempt.
+        attempts: HELLOs sent before giving up.
+        step_s: Polling interval.
+
+    Returns:
+        The bridge's reply.
+
+    Raises:
+        ProtocolMismatch: the bridge speaks another protocol version or layout.
+        LinkTimeout: no reply after all attempts.
+        LinkError: the port failed.
+    """
+    if reset_wait_s > 0:
+        _log.info("waiting %.2f s for the bridge to reset", reset_wait_s)
+        clock.sleep(reset_wait_s)
+    dropped = link.drain_input()
+    if dropped:
+        _log.info("drained %d stale bytes", dropped)
+    decoder = FrameDecoder(codec)
+    hello = Hello(seq, codec.layout.digest)
+    wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
+    for attempt in range(1, attempts + 1):
+        link.write(wire)
+        deadline = clock.now() + reply_timeout_s
+        while clock.now() < deadline:
+            for item in decoder.feed(link.read_available()):
+                if isinstance(item, FrameError):
+                    if item.reason == "version":
+                        raise ProtocolMismatch(
+                            f"bridge speaks another protocol version ({item.detail}); "
+                            f"host speaks {PROTOCOL_VERSION}"
+                        )
+                    continue
+                if isinstance(item, HelloReply) and item.seq == seq:
+                    if item.layout_digest != codec.layout.digest:
+                        raise ProtocolMismatch(
+                            f"bridge layout {item.layout_digest:#010x} "
+                            f"({item.n_channels} channels, {item.n_motors} motors) differs from "
+                            f"the robot description's {codec.layout.digest:#010x} "
+                            f"({codec.layout.n_channels} channels, {codec.layout.n_motors} motors)"
+                        )
+                    _log.info("bridge answered HELLO (attempt %d)", attempt)
+                    return item
+            clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
+        _log.warning("no HELLO reply (attempt %d of %d)", attempt, attempts)
+    raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries)")

@@ -1,0 +1,278 @@
+"""Session and RobotLink against a scripted bridge: in memory on a SimClock, and over a pty."""
+
+from __future__ import annotations
+
+import collections
+import os
+
+import pytest
+
+from pirate_bt.clock import SimClock, WallClock
+from pirate_bt.errors import LinkError, LinkLost, LinkTimeout, ProtocolMismatch
+from pirate_bt.link import (
+    BulkSetpoints,
+    EStop,
+    FrameCodec,
+    NackCode,
+    Outcome,
+    RobotLink,
+    Setpoint,
+    open_link,
+    wrap_link,
+)
+from pirate_bt.link.testing import FdPort, ScriptedBridge, memory_pair
+from pirate_bt.robot import ControlMode, MotorCommand, RobotPort, load_robot
+
+ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+FAULTS = "drop=0.1,corrupt=0.03,dup=0.05,reorder=0.03,delay=2ms,jitter=3ms"
+
+
+def connect(faults: str | None = None, seed: int = 0) -> tuple[RobotLink, ScriptedBridge, SimClock]:
+    clock = SimClock()
+    host, far = memory_pair()
+    bridge = ScriptedBridge(far, CODEC)
+    clock.add_listener(bridge.step)
+    spec = f"{faults},seed={seed}" if faults else None
+    return wrap_link(host, ROBOT, clock, faults=spec), bridge, clock
+
+
+def check_exactly_once(link: RobotLink, bridge: ScriptedBridge, n: int) -> collections.Counter[str]:
+    session = link.session
+    requests = []
+    for i in range(n):
+        req = session.send_setpoint(22, 1, ControlMode.VELOCITY, i)
+        session.wait(req)
+        requests.append(req)
+    applied = collections.Counter(m.seq for m in bridge.applied if isinstance(m, Setpoint))
+    outcomes: collections.Counter[str] = collections.Counter()
+    for req in requests:
+        assert req.done, req  # never silently dropped
+        outcomes[req.outcome.value] += 1
+        assert applied[req.seq] <= 1  # never twice
+        if req.outcome is Outcome.ACKED:
+            assert applied[req.seq] == 1  # acked means applied, exactly once
+        else:
+            assert req.outcome is Outcome.FAILED
+    assert set(applied) <= {r.seq for r in requests}
+    return outcomes
+
+
+def test_robot_link_is_a_robot_port() -> None:
+    link, _, _ = connect()
+    assert isinstance(link, RobotPort)
+    assert link.robot is ROBOT
+    assert link.health().connected
+
+
+def test_state_arrives_in_si_units() -> None:
+    link, bridge, clock = connect()
+    channels = ROBOT.state_channels()
+    bridge.raw_values = [
+        c.conversion.to_raw(0.5) if c.dimension == "angle" else 0 for c in channels
+    ]
+    clock.sleep(0.02)
+    link.poll()
+    state = link.state()
+    assert state is not None
+    first_angle = next(c for c in channels if c.dimension == "angle")
+    assert state.value(first_angle.name) == pytest.approx(0.5, abs=0.01)
+    assert state.stamp_s == pytest.approx(clock.now(), abs=0.011)
+
+
+def test_send_becomes_one_bulk_frame_with_keep_for_the_rest() -> None:
+    link, bridge, _ = connect()
+    motor = ROBOT.drive_motors()[0].name
+    link.send_and_wait([MotorCommand(motor, ControlMode.VELOCITY, 0.02)])
+    bulks = [m for m in bridge.applied if isinstance(m, BulkSetpoints)]
+    assert len(bulks) == 1
+    assert sum(m is not None for m in bulks[0].modes) == 1
+    assert link.health().rtt_s > 0
+
+
+def test_clean_link_delivers_everything_once() -> None:
+    link, bridge, _ = connect()
+    outcomes = check_exactly_once(link, bridge, 50)
+    assert outcomes == {"acked": 50}
+    assert link.health().retries == 0
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_faulty_link_never_twice_never_silent(seed: int) -> None:
+    link, bridge, _ = connect(FAULTS, seed)
+    outcomes = check_exactly_once(link, bridge, 150)
+    health = link.health()
+    assert outcomes["acked"] >= 140
+    assert health.retries > 0 and health.crc_errors > 0
+
+
+def test_bulk_setpoints_supersede_and_are_acked_by_state() -> None:
+    link, bridge, clock = connect(FAULTS, 5)
+    motor = ROBOT.drive_motors()[0].name
+    for i in range(200):
+        link.send([MotorCommand(motor, ControlMode.VELOCITY, 0.001 * i)])
+        clock.sleep(0.01)
+        link.poll()
+    link.send_and_wait([MotorCommand(motor, ControlMode.VELOCITY, 0.0)])
+    seqs = [m.seq for m in bridge.applied if isinstance(m, BulkSetpoints)]
+    assert len(seqs) == len(set(seqs))  # never applied twice
+    assert seqs == sorted(seqs)  # never an older one after a newer one
+    stats = link.session.stats()
+    assert stats.failed == 0 and stats.superseded + stats.sent > 0
+
+
+def test_link_loss_detected_in_time() -> None:
+    link, bridge, clock = connect()
+    clock.sleep(0.05)
+    link.poll()
+    bridge.silent = True
+    silent_from = clock.now()
+    with pytest.raises(LinkLost):
+        while True:
+            link.poll()
+            clock.sleep(0.001)
+    timeout = link.session.config.link_timeout_s
+    assert clock.now() - silent_from <= timeout + 0.02
+    assert not link.health().connected
+    with pytest.raises(LinkLost):
+        link.send([])
+
+
+def test_estop_skips_the_queue() -> None:
+    link, bridge, clock = connect()
+    session = link.session
+    queued = [session.send_setpoint(22, 1, ControlMode.VELOCITY, i) for i in range(5)]
+    link.estop()
+    for req in queued:
+        session.wait(req)
+    kinds = [type(m).__name__ for m in bridge.applied]
+    # the first setpoint was already on the wire; the e-stop overtakes the other four
+    assert kinds[:2] == ["Setpoint", "EStop"]
+    assert [r.outcome for r in queued[1:]] == [Outcome.NACKED] * 4
+    assert all(r.nack is NackCode.ESTOP_LATCHED for r in queued[1:])
+    clock.sleep(0.02)
+    link.poll()
+    assert link.health().estopped
+    with pytest.raises(LinkError, match="refused"):
+        link.send([])
+    link.reset_estop()
+    clock.sleep(0.02)
+    link.poll()
+    assert not link.health().estopped
+
+
+def test_waits_are_bounded() -> None:
+    link, bridge, clock = connect()
+    bridge.silent = True
+    session = link.session
+    req = session.send_setpoint(22, 1, ControlMode.VELOCITY, 1)
+    start = clock.now()
+    with pytest.raises(LinkTimeout):
+        session.wait(req, timeout_s=0.01)
+    assert clock.now() - start <= 0.01 + 1e-9
+    session.wait(req)
+    assert req.outcome is Outcome.FAILED and req.tries == session.config.max_retries + 1
+    assert clock.now() - start <= session.config.give_up_s + 0.01
+
+
+def test_heartbeats_keep_the_watchdog_fed() -> None:
+    link, bridge, clock = connect()
+    for _ in range(100):
+        clock.sleep(0.01)
+        link.poll()
+    assert not bridge.watchdog
+    assert link.session.stats().watchdog is False
+    assert link.health().silent_for(clock.now()) < 0.02
+
+
+def test_duplicate_state_frames_are_counted() -> None:
+    link, _, clock = connect("dup=0.5,direction=rx", 4)
+    for _ in range(50):
+        clock.sleep(0.01)
+        link.poll()
+    assert link.health().duplicates > 10
+
+
+def test_counters_request() -> None:
+    link, _, _ = connect()
+    req = link.session.wait(link.session.request_counters())
+    assert req.reply is not None and req.reply.rx_frames >= 2
+    assert len(req.reply.boards) == len(ROBOT.board_ids())
+
+
+def test_handshake_refuses_other_layout_and_version() -> None:
+    for attr, value in (("layout_digest", 0x1234), ("version", 2)):
+        clock = SimClock()
+        host, far = memory_pair()
+        bridge = ScriptedBridge(far, CODEC)
+        setattr(bridge, attr, value)
+        clock.add_listener(bridge.step)
+        with pytest.raises(ProtocolMismatch):
+            wrap_link(host, ROBOT, clock)
+
+
+def test_handshake_times_out_on_a_silent_bridge() -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    bridge = ScriptedBridge(far, CODEC)
+    bridge.silent = True
+    clock.add_listener(bridge.step)
+    with pytest.raises(LinkTimeout):
+        wrap_link(host, ROBOT, clock)
+    assert clock.now() < 2.0
+
+
+def test_close_stops_the_drives() -> None:
+    link, bridge, _ = connect()
+    link.close()
+    last = bridge.applied[-1]
+    assert isinstance(last, BulkSetpoints)
+    assert ControlMode.VELOCITY in last.modes and set(last.raw_values) == {0}
+
+
+# --- over a pty, with a bridge thread on the far end -----------------------------------------
+
+
+def pty_link(faults: str | None) -> tuple[RobotLink, ScriptedBridge, int]:
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    bridge = ScriptedBridge(FdPort(master), CODEC)
+    clock = WallClock()
+    bridge.start(clock)
+    link = open_link(path, ROBOT, clock, faults=faults, reset_wait_s=0.0, threaded=True)
+    return link, bridge, slave
+
+
+def test_pty_with_faults_exactly_once() -> None:
+    link, bridge, slave = pty_link(FAULTS + ",seed=11")
+    try:
+        outcomes = check_exactly_once(link, bridge, 60)
+        assert outcomes["acked"] >= 55
+        assert link.state() is not None
+    finally:
+        link.close()
+        bridge.stop()
+        os.close(slave)
+        bridge.port.close()
+
+
+def test_pty_link_loss_with_reader_thread() -> None:
+    link, bridge, slave = pty_link(None)
+    try:
+        bridge.silent = True
+        clock = WallClock()
+        start = clock.now()
+        with pytest.raises(LinkLost):
+            while clock.now() - start < 2.0:
+                link.poll()
+                clock.sleep(0.005)
+        assert clock.now() - start < link.session.config.link_timeout_s + 0.2
+    finally:
+        link.close()
+        bridge.stop()
+        os.close(slave)
+        bridge.port.close()
+
+
+def test_estop_message_type_is_out_of_band() -> None:
+    assert EStop.TYPE < 0x80
