@@ -57,7 +57,7 @@ def _type(prop: dict[str, Any]) -> str:
 
 def _unit_hint(prop: dict[str, Any]) -> str:
     for option in prop.get("anyOf", []):
-        text = option.get("description", "")
+        text = str(option.get("description", ""))
         if "with its unit" in text:
             return text.split(" with its unit")[0]
     return ""
