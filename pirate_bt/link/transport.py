@@ -109,6 +109,7 @@ class Transport:
         self.bytes_in = 0
         self.bytes_out = 0
         self._closed = False
+        self._held = b""
 
     @classmethod
     def open(
@@ -154,14 +155,15 @@ class Transport:
         Raises:
             LinkError: the port failed (unplugged, closed).
         """
+        held, self._held = self._held, b""
         try:
             data = self.port.read(4096)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"read from {self.url} failed: {exc}") from exc
         if data:
             self.bytes_in += len(data)
-            return bytes(data)
-        return b""
+            return held + bytes(data)
+        return held
 
     def read(self, n_bytes: int, timeout_s: float, clock: Clock, step_s: float = 0.001) -> bytes:
         """Up to ``n_bytes`` bytes, waiting at most ``timeout_s`` of ``clock`` time.
@@ -183,7 +185,10 @@ class Transport:
         deadline = clock.now() + timeout_s
         out = bytearray()
         while True:
-            out += self.read_available()[: n_bytes - len(out)]
+            chunk = self.read_available()
+            take = n_bytes - len(out)
+            out += chunk[:take]
+            self._held = chunk[take:]  # a short read keeps the rest for the next call
             if len(out) >= n_bytes or clock.now() >= deadline:
                 return bytes(out)
             clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
@@ -214,7 +219,8 @@ class Transport:
 
     def drain_input(self) -> int:
         """Discard every byte received so far; return how many were read and dropped."""
-        dropped = 0
+        dropped = len(self._held)
+        self._held = b""
         with contextlib.suppress(serial.SerialException, OSError, AttributeError):
             self.port.reset_input_buffer()
         while chunk := self.read_available():
