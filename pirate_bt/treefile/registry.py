@@ -75,6 +75,13 @@ BUILTIN_NODES: Final[dict[str, str]] = {
     "success_is_running": f"{_BASIC}:SuccessIsRunning",
     "timeout": f"{_BASIC}:Timeout",
     # guards (pirate_bt.behaviours.guards) — added by the safety layer
+    "failure_if": "pirate_bt.behaviours.guards:FailureIf",
+    "is_clamped": "pirate_bt.behaviours.guards:IsClamped",
+    "link_healthy": "pirate_bt.behaviours.guards:LinkHealthy",
+    "mode_is": "pirate_bt.behaviours.guards:ModeIs",
+    "skip_if": "pirate_bt.behaviours.guards:SkipIf",
+    "state_fresh": "pirate_bt.behaviours.guards:StateFresh",
+    "while": "pirate_bt.behaviours.guards:While",
     # motion primitives — added by the primitives issue
 }
 
