@@ -22,6 +22,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import cache
 from importlib import resources
+from math import isfinite
 from typing import Any
 
 import py_trees
@@ -160,8 +161,10 @@ class TickExtras:
 
 
 def _round(value: float) -> float | str:
-    rounded = jsonable(round(value, _DECIMALS) if isinstance(value, float) else value)
-    assert isinstance(rounded, float | int | str)
+    if isfinite(value):
+        return round(value, _DECIMALS)
+    rounded = jsonable(float(value))
+    assert isinstance(rounded, str)
     return rounded
 
 
@@ -238,9 +241,16 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
     )
 
 
+_LINK_FIELDS = tuple(LinkHealth.__dataclass_fields__)
+
+
 def link_health_values(health: LinkHealth) -> dict[str, Any]:
     """Link health as flat JSON values, floats rounded."""
-    return {k: _round(v) if isinstance(v, float) else v for k, v in asdict(health).items()}
+    out: dict[str, Any] = {}
+    for name in _LINK_FIELDS:
+        value = getattr(health, name)
+        out[name] = _round(value) if isinstance(value, float) else value
+    return out
 
 
 @cache

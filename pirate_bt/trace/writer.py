@@ -79,6 +79,8 @@ from pirate_bt.trace.structure import TreeStructure, iter_with_ids, jsonable, tr
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.robot.port import LinkHealth
+    from pirate_bt.robot.state import RobotState
 
 __all__ = [
     "WRITERS",
@@ -274,13 +276,14 @@ class TraceRecorder:
         self.blackboard = blackboard
         self._nodes = [node for _, node in iter_with_ids(tree)]
         self._ids = [node_id for node_id, _ in iter_with_ids(tree)]
-        invalid = STATUS_CODE[py_trees.common.Status.INVALID]
-        self._status = [invalid] * len(self._nodes)
+        self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
         self._feedback = [""] * len(self._nodes)
         self._bb: dict[str, Any] = {}
         self._state: dict[str, Any] = {}
         self._link: dict[str, Any] = {}
         self._sim: dict[str, Any] = {}
+        self._last_link: LinkHealth | None = None
+        self._last_state: RobotState | None = None
         self._tick = 0
         self._t_s = 0.0
         self._closed = False
@@ -329,10 +332,10 @@ class TraceRecorder:
         feedback: dict[str, str] = {}
         prev_status, prev_feedback, ids = self._status, self._feedback, self._ids
         for index, node in enumerate(self._nodes):
-            code = STATUS_CODE[node.status]
-            if code != prev_status[index]:
-                prev_status[index] = code
-                status[ids[index]] = code
+            current = node.status
+            if current is not prev_status[index]:
+                prev_status[index] = current
+                status[ids[index]] = STATUS_CODE[current]
             message = node.feedback_message
             if message != prev_feedback[index]:
                 prev_feedback[index] = message
@@ -371,7 +374,8 @@ class TraceRecorder:
         return changed
 
     def _extras(self, extras: TickExtras, record: dict[str, Any]) -> None:
-        if extras.state is not None:
+        if extras.state is not None and (self.full_state or extras.state is not self._last_state):
+            self._last_state = extras.state
             flat = flatten_state(extras.state, readings=self.readings)
             if self.full_state:
                 self._state = flat
@@ -383,7 +387,8 @@ class TraceRecorder:
                     record["state"] = changed
         if extras.commands:
             record["commands"] = [c.to_json() for c in extras.commands]
-        if extras.link is not None:
+        if extras.link is not None and extras.link != self._last_link:
+            self._last_link = extras.link
             changed = self._changes(self._link, link_health_values(extras.link))
             if changed:
                 record["link"] = changed

@@ -1,0 +1,190 @@
+"""Trace figures: overhead per tick for a 50-node tree, and trace size per hour.
+
+Run: ``.venv/bin/python benchmarks/bench_trace.py``. Prints the figures that
+``docs/performance.md`` quotes under "Trace".
+
+Overhead: a 50-node tree (a root sequence of 7 PAB-like steps, each a guard
+over a selector/sequence of leaves) is ticked with and without a
+:class:`~pirate_bt.trace.TraceRecorder`; with tracing, every tick also records
+a robot state snapshot (16 values), one command verdict and link health, as a
+real run does. The figure is the extra time per tick over ticking alone.
+
+Size per hour: a simulated PAB run at the default 10 ms tick (= the 10 ms state
+period of the bridge) is written for 60 s of simulated time and scaled to an
+hour. Assumptions, stated because they drive the figure: the robot is always
+doing one step; the joints and clamp forces of the moving half change every
+tick (a sensor reading moves by at least one raw count per 10 ms while a joint
+bends), wheel speeds and the currents of the running motors are noisy and
+change every tick, and everything else (the idle half, the IMU at rest,
+rotation when not rotating) keeps its value, since readings are quantised to
+raw counts. Statuses change only at step boundaries; feedback messages change
+when a step reports progress (once per 100 ms here).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import py_trees
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.robot.port import LinkHealth
+from pirate_bt.robot.state import Reading, RobotState
+from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder
+
+STEPS = 7
+TICK_S = 0.01
+
+
+class Step(py_trees.behaviour.Behaviour):
+    """A leaf that runs for ``ticks`` ticks, reporting progress every 10 ticks."""
+
+    def __init__(self, name: str, ticks: int) -> None:
+        super().__init__(name)
+        self.ticks = ticks
+        self.count = 0
+
+    def initialise(self) -> None:
+        self.count = 0
+
+    def update(self) -> Status:
+        self.count += 1
+        if self.count % 10 == 0:
+            self.feedback_message = f"{self.count}/{self.ticks}"
+        return Status.SUCCESS if self.count >= self.ticks else Status.RUNNING
+
+
+def fifty_node_tree(step_ticks: int = 200) -> py_trees.trees.BehaviourTree:
+    """1 root + 7 x (guard + sequence + selector with 2 leaves + 2 leaves) = 50 nodes."""
+    steps = []
+    for i in range(STEPS):
+        parts: list[py_trees.behaviour.Behaviour] = [
+            py_trees.composites.Selector(
+                f"ready {i}",
+                memory=False,
+                children=[
+                    py_trees.behaviours.Failure(f"clamped {i}?"),
+                    py_trees.behaviours.Success(f"clamp {i}"),
+                ],
+            ),
+            py_trees.behaviours.Success(f"link ok {i}?"),
+            Step(f"act {i}", step_ticks),
+        ]
+        seq = py_trees.composites.Sequence(f"step {i}", memory=True, children=parts)
+        steps.append(py_trees.decorators.Timeout(f"guard {i}", seq, duration=1e9))
+    root = py_trees.composites.Sequence("pab", memory=True, children=steps)
+    tree = py_trees.trees.BehaviourTree(root)
+    assert sum(1 for _ in root.iterate()) == 50
+    return tree
+
+
+def robot_state(n: int, t_s: float) -> RobotState:
+    """A plausible state: one half moving, noisy drive speeds and currents."""
+    step = (n // 200) % STEPS
+    moving = "front" if step % 2 == 0 else "rear"
+    joints = {}
+    forces = {}
+    for module, half in (
+        ("bend_1", "front"),
+        ("bend_2", "front"),
+        ("bend_3", "rear"),
+        ("bend_4", "rear"),
+    ):
+        if half == moving:
+            joints[module] = 1.4 * (1 - math.exp(-(n % 200) / 50))
+            forces[module] = 8.0 * (1 - math.exp(-(n % 200) / 40))
+        else:
+            joints[module] = 1.57
+            forces[module] = 9.5
+    noise = ((n * 7919) % 13 - 6) * 1e-3
+    drives = {f"bend_{k}_drive": 0.08 + noise for k in range(1, 5)}
+    currents = {"bend_1_drive": 0.4 + noise, "bend_2_drive": 0.41 + noise}
+    return RobotState(
+        stamp_s=t_s,
+        readings={"bend_1_angle": Reading(joints["bend_1"], t_s)},
+        joint_angle_rad=joints,
+        clamp_force_n=forces,
+        rotation_rad=0.0,
+        imu_rad={"roll": 0.0, "pitch": 0.02, "yaw": 0.0},
+        drive_velocity_mps=drives,
+        motor_current_a=currents,
+    )
+
+
+def time_ticks(
+    tree: py_trees.trees.BehaviourTree, ticks: int, recorder: TraceRecorder | None
+) -> float:
+    clock = SimClock()
+    # The snapshots exist in a real run whether or not it is traced: build them up front.
+    extras = [
+        TickExtras(
+            state=robot_state(n, n * TICK_S),
+            commands=(CommandRecord("drive(80 mm/s)", "pass"),),
+            link=LinkHealth(connected=True, retries=n // 1000),
+        )
+        for n in range(1, ticks + 1)
+    ]
+    start = time.perf_counter()
+    for n in range(1, ticks + 1):
+        clock.advance(TICK_S)
+        tree.tick()
+        if recorder is not None:
+            recorder.record_tick(extras[n - 1], time_s=clock.now())
+    return (time.perf_counter() - start) / ticks
+
+
+def overhead(ticks: int = 1400, repeats: int = 7) -> tuple[float, float]:
+    """Median seconds per tick without and with tracing."""
+    plain: list[float] = []
+    traced: list[float] = []
+    with tempfile.TemporaryDirectory() as folder:
+        for r in range(repeats):
+            tree = fifty_node_tree()
+            plain.append(time_ticks(tree, ticks, None))
+            tree = fifty_node_tree()
+            with TraceRecorder(Path(folder) / f"b{r}.jsonl", tree, clock=SimClock()) as rec:
+                traced.append(time_ticks(tree, ticks, rec))
+    return statistics.median(plain), statistics.median(traced)
+
+
+def size_per_hour(suffix: str, seconds: float = 60.0) -> float:
+    """Bytes per hour of a simulated run written as ``suffix``."""
+    ticks = int(seconds / TICK_S)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"run{suffix}"
+        tree = fifty_node_tree(step_ticks=200)
+        clock = SimClock()
+        with TraceRecorder(path, tree, clock=clock) as rec:
+            for n in range(1, ticks + 1):
+                clock.advance(TICK_S)
+                tree.tick()
+                if tree.root.status != Status.RUNNING:
+                    tree.root.stop(Status.INVALID)  # start the PAB again
+                rec.record_tick(
+                    TickExtras(
+                        state=robot_state(n, clock.now()),
+                        commands=(CommandRecord("drive(80 mm/s)", "pass"),) if n % 10 == 0 else (),
+                        link=LinkHealth(connected=True, retries=n // 3000),
+                    )
+                )
+        return path.stat().st_size * 3600.0 / seconds
+
+
+def main() -> None:
+    plain_s, traced_s = overhead()
+    extra = (traced_s - plain_s) / plain_s * 100
+    print(f"50-node tree, tick alone:        {plain_s * 1e6:8.1f} us/tick")
+    print(f"50-node tree, tick + trace:      {traced_s * 1e6:8.1f} us/tick")
+    print(f"trace overhead:                  {extra:8.1f} %  (target <= 15 %)")
+    for suffix in (".jsonl", ".jsonl.gz"):
+        size = size_per_hour(suffix)
+        print(f"trace size per hour ({suffix:<9}): {size / 1e6:8.1f} MB  (10 ms ticks)")
+
+
+if __name__ == "__main__":
+    main()
