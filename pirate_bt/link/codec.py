@@ -44,6 +44,7 @@ rather than a byte loop.
 from __future__ import annotations
 
 import binascii
+import itertools
 import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -566,6 +567,10 @@ class WireLayout:
         return body + (body + 253) // 254 + 1
 
 
+_TYPE_BY_CODE: dict[int, MsgType] = {int(t): t for t in MsgType}
+_FLAGS: tuple[BridgeFlags, ...] = tuple(BridgeFlags(i) for i in range(256))
+_NIBBLES: tuple[tuple[int, int], ...] = tuple((b & 0xF, b >> 4) for b in range(256))
+
 # --- codec ----------------------------------------------------------------------------------
 
 _FIXED_PAYLOAD: dict[int, int] = {
@@ -748,10 +753,9 @@ class FrameCodec:
         if version != PROTOCOL_VERSION:
             raise FrameError("version", f"protocol version {version}, expected {PROTOCOL_VERSION}")
         payload = body[HEADER_BYTES : n - 2]
-        try:
-            kind = MsgType(code)
-        except ValueError:
-            raise FrameError("type", f"unknown message type {code:#04x}") from None
+        kind = _TYPE_BY_CODE.get(code)
+        if kind is None:
+            raise FrameError("type", f"unknown message type {code:#04x}")
         return self._decode_payload(kind, seq, arg, payload)
 
     def _decode_payload(self, kind: MsgType, seq: int, arg: int, payload: bytes) -> Message:
@@ -763,13 +767,13 @@ class FrameCodec:
                     "length", f"state payload {size} bytes, layout needs {lay.state_payload_bytes}"
                 )
             ack_seq, mask, status, *values = self._state.unpack(payload)
-            nibbles = tuple((status[i >> 1] >> (4 * (i & 1))) & 0xF for i in range(lay.n_boards))
+            nibbles = tuple(itertools.chain.from_iterable(map(_NIBBLES.__getitem__, status)))
             return State(
                 seq,
-                BridgeFlags(arg),
+                _FLAGS[arg],
                 ack_seq,
                 int.from_bytes(mask, "little") & ((1 << lay.n_channels) - 1),
-                nibbles,
+                nibbles[: lay.n_boards],
                 tuple(values),
             )
         if kind is MsgType.BULK_SETPOINTS:
@@ -829,7 +833,7 @@ class FrameCodec:
             return EStopReset(seq)
         if kind is MsgType.COUNTERS_REQUEST:
             return CountersRequest(seq)
-        return BridgeHeartbeat(seq, BridgeFlags(arg & 0xFF))
+        return BridgeHeartbeat(seq, _FLAGS[arg])
 
 
 class FrameDecoder:

@@ -1,0 +1,153 @@
+"""Link figures: codec speed, frames/s and request RTT over a pty, and the 10 ms slot budget.
+
+Run with ``.venv/bin/python benchmarks/bench_link.py``; it prints a Markdown table
+(the one in ``docs/performance.md``, section Link). Wall-clock figures depend on
+the machine; nothing here is a timed assertion in the test suite.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import sys
+import threading
+import time
+import timeit
+
+from pirate_bt.clock import WallClock
+from pirate_bt.link import (
+    BridgeFlags,
+    BulkSetpoints,
+    FrameCodec,
+    FrameDecoder,
+    SessionConfig,
+    State,
+    Transport,
+    WireLayout,
+    open_link,
+)
+from pirate_bt.link.codec import frame_time_s
+from pirate_bt.link.testing import FdPort, ScriptedBridge
+from pirate_bt.robot import ControlMode, load_robot
+
+
+def per_call_us(fn: object, number: int = 20_000, repeat: int = 5) -> float:
+    """Best-of-``repeat`` time per call in microseconds."""
+    best = min(timeit.repeat(fn, number=number, repeat=repeat))  # type: ignore[arg-type]
+    return best / number * 1e6
+
+
+def main() -> None:
+    robot = load_robot()
+    layout = WireLayout.from_robot(robot)
+    codec = FrameCodec(layout)
+    n = layout.n_channels
+    state = State(
+        1234,
+        BridgeFlags.NONE,
+        77,
+        (1 << n) - 1,
+        (1,) * layout.n_boards,
+        tuple((i * 1237) % 4000 - 2000 for i in range(n)),
+    )
+    bulk = BulkSetpoints(
+        55,
+        tuple([ControlMode.TORQUE, ControlMode.VELOCITY] * (layout.n_motors // 2)),
+        tuple(range(-8, layout.n_motors - 8)),
+    )
+    state_wire, bulk_wire = codec.encode(state), codec.encode(bulk)
+    decoder = FrameDecoder(codec)
+    rows: list[tuple[str, str]] = []
+    enc_state = per_call_us(lambda: codec.encode(state))
+    dec_state = per_call_us(lambda: decoder.feed(state_wire))
+    enc_bulk = per_call_us(lambda: codec.encode(bulk))
+    dec_bulk = per_call_us(lambda: decoder.feed(bulk_wire))
+    rows += [
+        ("state frame encode (76 B)", f"{enc_state:.1f} µs"),
+        ("state frame decode, streaming (76 B)", f"{dec_state:.1f} µs"),
+        ("bulk setpoint encode (57 B)", f"{enc_bulk:.1f} µs"),
+        ("bulk setpoint decode, streaming (57 B)", f"{dec_bulk:.1f} µs"),
+    ]
+
+    # frames per second through a pty (no baud limit on a pty: this is host CPU + OS)
+    master, slave = os.openpty()
+    far = FdPort(master)
+    host = Transport.open(os.ttyname(slave), baud=robot.bridge.baud)
+    count = 20_000
+    blob = state_wire * 100
+
+    def writer() -> None:
+        for _ in range(count // 100):
+            far.write(blob)
+
+    got = 0
+    decoder = FrameDecoder(codec)
+    t0 = time.perf_counter()
+    thread = threading.Thread(target=writer)
+    thread.start()
+    while got < count and time.perf_counter() - t0 < 30:
+        data = host.read_available()
+        if data:
+            got += sum(1 for m in decoder.feed(data) if isinstance(m, State))
+    elapsed = time.perf_counter() - t0
+    thread.join()
+    host.close()
+    far.close()
+    os.close(slave)
+    rows.append(("state frames/s received and decoded over a pty", f"{got / elapsed:,.0f}"))
+
+    # request/response RTT over a pty with a scripted bridge thread
+    master, slave = os.openpty()
+    bridge = ScriptedBridge(FdPort(master), codec, state_period_s=robot.bridge.state_period)
+    clock = WallClock()
+    bridge.start(clock, period_s=0.0001)
+    cfg = SessionConfig.from_robot(robot, poll_step_s=0.0001)
+    link = open_link(os.ttyname(slave), robot, clock, config=cfg, reset_wait_s=0, threaded=False)
+    rtts = []
+    for i in range(1000):
+        t = time.perf_counter()
+        link.session.wait(link.session.send_setpoint(22, 1, ControlMode.VELOCITY, i % 100))
+        rtts.append(time.perf_counter() - t)
+    link.close()
+    bridge.stop()
+    bridge.port.close()
+    os.close(slave)
+    rtts.sort()
+    p99 = rtts[int(0.99 * len(rtts)) - 1]
+    rows.append(
+        ("SETPOINT → ACK RTT over a pty, median", f"{statistics.median(rtts) * 1e3:.2f} ms")
+    )
+    rows.append(("SETPOINT → ACK RTT over a pty, p99", f"{p99 * 1e3:.2f} ms"))
+
+    baud, slot = robot.bridge.baud, robot.bridge.state_period
+    s_bytes = layout.wire_bytes(layout.state_payload_bytes)
+    b_bytes = layout.wire_bytes(layout.bulk_payload_bytes)
+    rows.append(
+        (
+            f"line share of a {slot * 1e3:.0f} ms cycle at {baud} baud, state in ({s_bytes} B)",
+            f"{frame_time_s(s_bytes, baud) / slot:.1%}",
+        )
+    )
+    rows.append(
+        (
+            f"line share of a {slot * 1e3:.0f} ms cycle at {baud} baud, bulk out ({b_bytes} B)",
+            f"{frame_time_s(b_bytes, baud) / slot:.1%}",
+        )
+    )
+    cpu = enc_bulk + dec_state
+    rows.append(
+        (
+            "host CPU per cycle (encode bulk + decode state)",
+            f"{cpu:.1f} µs = {cpu / (slot * 1e6):.2%} of the slot",
+        )
+    )
+
+    print(f"Python {sys.version.split()[0]} on {platform.machine()}, {os.cpu_count()} cores\n")
+    print("| figure | value |\n|---|---|")
+    for name, value in rows:
+        print(f"| {name} | {value} |")
+
+
+if __name__ == "__main__":
+    main()
