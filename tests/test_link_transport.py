@@ -146,3 +146,21 @@ def test_delay_waits_on_the_injected_clock() -> None:
     clock.sleep(0.001)
     link.read_available()
     assert FrameDecoder(CODEC).feed(far.read_available()) == [Heartbeat(1)]
+
+
+def test_socket_url() -> None:
+    import socket
+
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+    t = Transport.open(f"socket://127.0.0.1:{port}", baud=115200)
+    conn, _ = server.accept()
+    try:
+        t.write(CODEC.encode(Heartbeat(5)))
+        conn.sendall(conn.recv(100))  # echo
+        got = t.read(len(CODEC.encode(Heartbeat(5))), 1.0, WallClock())
+        assert FrameDecoder(CODEC).feed(got) == [Heartbeat(5)]
+    finally:
+        t.close()
+        conn.close()
+        server.close()
