@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "trace": ("pirate_bt.cli.trace", "read a trace back: summary, show a tick, plot"),
     "demo": ("pirate_bt.cli.demo", "the main job: run the showcase and write its outputs"),
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
+    "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
 }
 
 EXIT_OK = 0

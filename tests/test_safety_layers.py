@@ -1,0 +1,94 @@
+"""The import rule, the teleop session and the factory's helpers."""
+
+from __future__ import annotations
+
+import ast
+import io
+from pathlib import Path
+
+from pirate_bt.cli.teleop import TeleopSession
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkTimeout
+from pirate_bt.robot import Half, load_robot
+from pirate_bt.safety import Mode, Reason, Supervisor
+from pirate_bt.safety.factory import wait_for_state
+from pirate_bt.safety.testing import FakePort
+
+PACKAGE = Path(__file__).resolve().parent.parent / "pirate_bt"
+ABOVE_SAFETY = ("behaviours", "treefile", "runner", "trace", "render", "task", "cli")
+
+
+def _imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+        elif (
+            isinstance(node, ast.Call)
+            and getattr(node.func, "attr", "") == "import_module"
+            and node.args
+            and isinstance(node.args[0], ast.Constant)
+        ):
+            found.add(str(node.args[0].value))
+    return found
+
+
+def test_nothing_above_safety_imports_the_link() -> None:
+    offenders = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        top = rel.parts[0].removesuffix(".py")
+        if top not in ABOVE_SAFETY:
+            continue
+        for name in _imports(path):
+            if name == "pirate_bt.link" or name.startswith("pirate_bt.link."):
+                offenders.append(f"{rel}: {name}")
+    assert not offenders, "only safety/ and sim/ may import pirate_bt.link: " + "; ".join(offenders)
+
+
+def test_the_rule_scanner_sees_imports(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.py"
+    bad.write_text("from pirate_bt.link import open_link\nimport pirate_bt.link.session\n")
+    assert {"pirate_bt.link", "pirate_bt.link.session"} <= _imports(bad)
+
+
+def test_teleop_keys_go_through_the_supervisor() -> None:
+    robot = load_robot()
+    clock = SimClock()
+    port = FakePort(robot, clock, physics=True)
+    sup = Supervisor(port, clock, mode=Mode.MANUAL)
+    out = io.StringIO()
+    session = TeleopSession(sup, out)
+    for key in "a" + "r" + "F" + "a" + "w?" + "e" + "w" + "x" + "q":
+        session.step()
+        if not session.press(key):
+            break
+        clock.advance(0.05)
+    text = out.getvalue()
+    assert Reason.ROTATE_NEEDS_ONE_CLAMPED.value in text  # 'a' before any clamp
+    assert port.half_clamped(Half.REAR)
+    assert "e-stop" in text and Reason.ESTOP_LATCHED.value in text
+    assert sup.mode is Mode.MANUAL  # 'x' reset the e-stop
+    assert len(port.violations) == 0
+
+
+def test_wait_for_state_times_out() -> None:
+    robot = load_robot()
+    clock = SimClock()
+
+    class Silent(FakePort):
+        def state(self):  # type: ignore[no-untyped-def]
+            return None
+
+    port = Silent(robot, clock)
+    try:
+        wait_for_state(port, clock, 0.1)
+    except LinkTimeout:
+        pass
+    else:  # pragma: no cover
+        raise AssertionError("expected LinkTimeout")
+    wait_for_state(FakePort(robot, clock), clock, 0.1)
