@@ -269,6 +269,13 @@ class PipeRobotModel:
                 [self._module_offset[b.name] for b in bends],
             )
         self._drives = [m for m in self._motors.values() if m.function is MotorFunction.DRIVE]
+        self._aux_joints = [
+            m
+            for m in self._motors.values()
+            if m.function
+            in (MotorFunction.TILT, MotorFunction.CAMERA_TILT, MotorFunction.CAMERA_PAN)
+        ]
+        self._torqued = [m for m in self._motors.values() if m.torque_limit < math.inf]
         self._rotate = self._motors[robot.rotate_motor().name]
         rot_module = robot.rotational_module().name
         self._rot_offset = self._module_offset[rot_module]
@@ -280,6 +287,10 @@ class PipeRobotModel:
         self._front_tilt = tilt[0] if tilt else None
         self._front_pressed_since: float | None = None
         self._channels = self._channel_table()
+        self._contact_cache: dict[float, float] = {}
+        self._walls: dict[str, float | None] = {}
+        self._walls_at = math.nan
+        self._walls_path: Path | None = None
         start = network.spec.start
         if start_m is None:
             start_m = start.position if start.position is not None else self.length_m
@@ -331,12 +342,15 @@ class PipeRobotModel:
         if dt_s <= 0:
             return
         self.time_s += dt_s
+        self._update_walls()
         self._step_joints(dt_s)
         self._update_contacts()
         self._step_rotation(dt_s)
         self._step_drives(dt_s)
+        before = self.s_m
         self._step_motion(dt_s)
-        self._update_contacts()
+        if self.s_m != before:
+            self._update_contacts()
         self._check_torques()
 
     def _joint_target(self, m: _Motor) -> tuple[float, float]:
@@ -357,8 +371,8 @@ class PipeRobotModel:
     def _step_joints(self, dt_s: float) -> None:
         hold = self.robot.motion.position_hold_torque
         for half in self._halves.values():
-            for j, off in zip(half.joints, half.joint_offsets_m, strict=True):
-                wall = self._wall_angle(self.s_m - off)
+            for j in half.joints:
+                wall = self._walls[j.name]
                 target, torque = self._joint_target(j)
                 if j.stalled:
                     j.torque_nm = (
@@ -385,27 +399,36 @@ class PipeRobotModel:
                 else:
                     j.press_nm = 0.0
                     j.torque_nm = torque if j.mode is not ControlMode.POSITION else 0.0
-        for m in self._motors.values():
-            if m.function in (
-                MotorFunction.TILT,
-                MotorFunction.CAMERA_TILT,
-                MotorFunction.CAMERA_PAN,
-            ):
-                if m.stalled:
-                    continue
-                target, torque = self._joint_target(m)
-                step = m.rate_max * dt_s
-                m.angle_rad += max(-step, min(step, target - m.angle_rad))
-                m.torque_nm = torque
+        for m in self._aux_joints:
+            if m.stalled or (m.mode is None and m.torque_nm == 0.0):
+                continue
+            target, torque = self._joint_target(m)
+            step = m.rate_max * dt_s
+            m.angle_rad += max(-step, min(step, target - m.angle_rad))
+            m.torque_nm = torque
 
     def _wall_angle(self, s_m: float) -> float | None:
         """Joint angle at which the wheels touch the wall at ``s_m``; None over a tee opening."""
         piece = self.path.piece_at(s_m)
         if piece.opening_m is not None and piece.over_opening(s_m):
             return None
-        return self.robot.clamp.contact_angle(piece.diameter_at(s_m))
+        diameter = piece.diameter_at(s_m)
+        angle = self._contact_cache.get(diameter)
+        if angle is None:
+            angle = self._contact_cache[diameter] = self.robot.clamp.contact_angle(diameter)
+        return angle
+
+    def _update_walls(self) -> None:
+        if self.s_m == self._walls_at and self.path is self._walls_path:
+            return
+        self._walls_at = self.s_m
+        self._walls_path = self.path
+        for half in self._halves.values():
+            for j, off in zip(half.joints, half.joint_offsets_m, strict=True):
+                self._walls[j.name] = self._wall_angle(self.s_m - off)
 
     def _update_contacts(self) -> None:
+        self._update_walls()
         clamp = self.robot.clamp
         lever = clamp.lever_arm
         for half in self._halves.values():
@@ -413,8 +436,8 @@ class PipeRobotModel:
             ok = bool(half.joints)
             sign = 0.0
             opening = False
-            for j, off in zip(half.joints, half.joint_offsets_m, strict=True):
-                if self._wall_angle(self.s_m - off) is None:
+            for j in half.joints:
+                if self._walls[j.name] is None:
                     opening = True
                 force += j.press_nm / lever
                 if j.press_nm < clamp.min_torque - 1e-12:
@@ -624,7 +647,7 @@ class PipeRobotModel:
 
     def _check_torques(self) -> None:
         over_time = self.robot.motion.over_torque_time
-        for m in self._motors.values():
+        for m in self._torqued:
             if m.torque_nm > m.torque_limit + 1e-9:
                 if m.over_since_s is None:
                     m.over_since_s = self.time_s

@@ -1,0 +1,78 @@
+"""Faults the simulator injects, written in a network file or on the command line.
+
+In a network file faults are a list under ``faults:`` (see
+:class:`~pirate_bt.pipes.model.FaultSpec`). On the command line and in Python a
+fault is one short string::
+
+    KIND[:TARGET]@AT[+DURATION]
+
+    motor_stall:bend_1_drive@3s+2s      a drive motor blocked for 2 s from t = 3 s
+    sensor_dropout:bend_3_spring@5s     a spring sensor that stops reporting
+    sensor_stuck:rotation_angle@1s+4s   a sensor frozen at its value for 4 s
+    board_reset:22@10s                  board 22 reboots (motors off, no readings)
+    link_loss@12s+500ms                 nothing in or out for half a second
+
+Times are quantities with units. These faults act on the simulated boards and
+physics; the link layer's byte faults (drop, corrupt, duplicate, delay) are
+added on the host side through the URL (``?faults=...``).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import get_args
+
+from pirate_bt.errors import InputError, UnitError
+from pirate_bt.pipes.model import FaultKind, FaultSpec
+from pirate_bt.units import parse_quantity
+
+__all__ = ["FAULT_KINDS", "format_fault", "parse_fault"]
+
+FAULT_KINDS: tuple[str, ...] = get_args(FaultKind)
+
+_FAULT_RE = re.compile(
+    r"^\s*(?P<kind>[a-z_]+)(?::(?P<target>[A-Za-z0-9_.]+))?\s*@\s*(?P<at>[^+]+?)"
+    r"(?:\s*\+\s*(?P<duration>.+?))?\s*$"
+)
+
+
+def parse_fault(text: str) -> FaultSpec:
+    """Parse ``KIND[:TARGET]@AT[+DURATION]`` into a :class:`FaultSpec`.
+
+    Args:
+        text: The fault, e.g. ``"board_reset:22@10s"``.
+
+    Returns:
+        The fault.
+
+    Raises:
+        InputError: malformed text, an unknown kind, a missing target or a bad time.
+    """
+    match = _FAULT_RE.match(text)
+    if match is None:
+        raise InputError(
+            f"bad fault {text!r}; write KIND[:TARGET]@AT[+DURATION], e.g. link_loss@5s+1s"
+        )
+    kind = match["kind"]
+    if kind not in FAULT_KINDS:
+        raise InputError(f"unknown fault kind {kind!r}; known: {', '.join(FAULT_KINDS)}")
+    target = match["target"]
+    if kind != "link_loss" and target is None:
+        raise InputError(f"fault {kind} needs a target: {kind}:NAME@AT")
+    try:
+        at = parse_quantity(match["at"], "time")
+        duration = (
+            parse_quantity(match["duration"], "time") if match["duration"] is not None else None
+        )
+    except UnitError as exc:
+        raise InputError(f"bad fault {text!r}: {exc}") from None
+    if at < 0 or (duration is not None and duration <= 0):
+        raise InputError(f"bad fault {text!r}: times must be positive")
+    return FaultSpec(kind=kind, at=at, duration=duration, target=target)
+
+
+def format_fault(fault: FaultSpec) -> str:
+    """The text form of a fault (inverse of :func:`parse_fault`)."""
+    target = f":{fault.target}" if fault.target else ""
+    duration = f"+{fault.duration:g}s" if fault.duration is not None else ""
+    return f"{fault.kind}{target}@{fault.at:g}s{duration}"

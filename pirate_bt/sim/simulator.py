@@ -1,0 +1,200 @@
+"""The simulator facade: a robot in a network behind a bridge, reachable by URL.
+
+Create one per test or run::
+
+    clock = SimClock()
+    sim = Simulator("lab", robot, seed=1, clock=clock)     # or a Network object
+    link = open_link(sim.url, robot, clock)                # sim.url == "sim://sim-1"
+    ...
+    sim.counters(), sim.truth(), sim.events()
+
+In process, the simulator listens to the shared :class:`~pirate_bt.clock.SimClock`:
+whenever host code sleeps or waits on that clock, the simulated world moves by
+the same time, one state period per physics step. Nothing runs between clock
+advances, so a run is a pure function of the host's actions, the network and
+the seed.
+
+The URL scheme ``sim://NAME`` is served by :mod:`pirate_bt.sim.protocol_sim`,
+registered with pyserial when this package is imported; NAME is looked up in
+an in-process registry that :class:`Simulator` fills and :meth:`Simulator.close`
+empties.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import threading
+from collections.abc import Iterable
+from pathlib import Path
+
+import serial
+
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.pipes import FaultSpec, Network, load_network
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.sim.bridge import SimBridge
+from pirate_bt.sim.counters import SimCounters, SimEvent
+from pirate_bt.sim.faults import parse_fault
+from pirate_bt.sim.model import PipeRobotModel, SensorNoise, SimTruth
+
+__all__ = ["SCHEME", "Simulator", "lookup"]
+
+_log = logging.getLogger(__name__)
+
+SCHEME = "sim"
+"""URL scheme of in-process simulators: ``sim://NAME``."""
+
+_REGISTRY: dict[str, Simulator] = {}
+_REGISTRY_LOCK = threading.Lock()
+_NAMES = itertools.count(1)
+
+if "pirate_bt.sim" not in serial.protocol_handler_packages:
+    serial.protocol_handler_packages.append("pirate_bt.sim")
+
+
+def lookup(name: str) -> Simulator:
+    """The registered simulator called ``name``.
+
+    Raises:
+        KeyError: no simulator of that name is open in this process.
+    """
+    with _REGISTRY_LOCK:
+        sim = _REGISTRY.get(name)
+    if sim is None:
+        raise KeyError(f"no simulator named {name!r} in this process (open: {sorted(_REGISTRY)})")
+    return sim
+
+
+class Simulator:
+    """PIRATE in a pipe network behind a simulated PIRATEbay, on a shared clock.
+
+    Args:
+        network: A :class:`~pirate_bt.pipes.Network`, a file path, or a bundled name.
+        robot: The robot description (default: the bundled 2018 robot).
+        seed: Seed for sensor noise; equal seeds and equal host actions give equal runs.
+        clock: The simulated clock shared with the host (default: a new one).
+        noise: Sensor noise (default: none).
+        faults: Faults to inject, as :class:`FaultSpec` or text
+            (``"board_reset:22@10s"``), on top of those in the network file.
+        name: Registry name, the NAME of ``sim://NAME`` (default: ``sim-N``).
+        start_m: Front-tip distance along the main line at the start.
+
+    Raises:
+        ConfigurationError: a fault names something the robot lacks, or the name is taken.
+        ValidationFailed: the network file does not validate.
+    """
+
+    def __init__(
+        self,
+        network: Network | str | Path,
+        robot: RobotDescription | None = None,
+        *,
+        seed: int = 0,
+        clock: SimClock | None = None,
+        noise: SensorNoise | None = None,
+        faults: Iterable[FaultSpec | str] = (),
+        name: str | None = None,
+        start_m: float | None = None,
+    ) -> None:
+        if robot is None:
+            from pirate_bt.robot import load_robot
+
+            robot = load_robot()
+        if not isinstance(network, Network):
+            network = load_network(network)
+        self.robot = robot
+        self.network = network
+        self.clock = clock if clock is not None else SimClock()
+        self.seed = seed
+        self.model = PipeRobotModel(robot, network, seed=seed, noise=noise, start_m=start_m)
+        self.bridge = SimBridge(self.model, start_s=self.clock.now())
+        self.model.time_s = self.clock.now()
+        self._lock = threading.RLock()
+        self.bridge.schedule(network.faults)
+        self.schedule(faults)
+        self.name = name or f"sim-{next(_NAMES)}"
+        with _REGISTRY_LOCK:
+            if self.name in _REGISTRY:
+                raise ConfigurationError(f"a simulator named {self.name!r} is already open")
+            _REGISTRY[self.name] = self
+        self.clock.add_listener(self._on_clock)
+        self._closed = False
+        _log.info("simulator %s: %s in %s, seed %d", self.name, robot.name, network.name, seed)
+
+    @property
+    def url(self) -> str:
+        """The pyserial URL that reaches this simulator's bridge in this process."""
+        return f"{SCHEME}://{self.name}"
+
+    def schedule(self, faults: Iterable[FaultSpec | str]) -> None:
+        """Inject faults at their simulated times (``FaultSpec`` or ``KIND[:TARGET]@AT[+DUR]``).
+
+        Raises:
+            InputError: malformed fault text.
+            ConfigurationError: unknown motor, channel or board.
+        """
+        specs = [parse_fault(f) if isinstance(f, str) else f for f in faults]
+        with self._lock:
+            self.bridge.schedule(specs)
+
+    def _on_clock(self, now_s: float) -> None:
+        with self._lock:
+            self.bridge.advance_to(now_s)
+
+    def advance_to(self, now_s: float) -> None:
+        """Run the world up to ``now_s`` (the clock listener does this in process)."""
+        self._on_clock(now_s)
+
+    # -- bytes (used by the sim:// port and the pty/TCP server) ----------------------
+
+    def write(self, data: bytes) -> None:
+        """Bytes from the host to the bridge."""
+        with self._lock:
+            self.bridge.receive(data)
+
+    def read(self, size: int = -1) -> bytes:
+        """Bytes from the bridge to the host (up to ``size``; all when negative)."""
+        with self._lock:
+            return self.bridge.read(size)
+
+    @property
+    def in_waiting(self) -> int:
+        return self.bridge.pending_bytes
+
+    # -- oracles --------------------------------------------------------------------
+
+    def counters(self) -> SimCounters:
+        """Violations, damage, stuck events, distance, and frame counters so far."""
+        with self._lock:
+            return self.bridge.counters()
+
+    def truth(self) -> SimTruth:
+        """Ground truth now: positions, segments, rolls, clamps, joint angles."""
+        with self._lock:
+            return self.model.truth()
+
+    def events(self) -> list[SimEvent]:
+        """Every event so far, in time order."""
+        with self._lock:
+            return list(self.model.events)
+
+    def close(self) -> None:
+        """Stop listening to the clock and free the name (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        self.clock.remove_listener(self._on_clock)
+        with _REGISTRY_LOCK:
+            if _REGISTRY.get(self.name) is self:
+                del _REGISTRY[self.name]
+
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Simulator({self.name!r}, {self.network.name!r}, seed={self.seed})"
