@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("pirate_bt.cli.render", "draw a tree (.dot/.svg/.png), coloured by a trace tick"),
     "trace": ("pirate_bt.cli.trace", "read a trace back: summary, show a tick, plot"),
     "demo": ("pirate_bt.cli.demo", "the main job: run the showcase and write its outputs"),
+    "sim": ("pirate_bt.cli.sim", "serve the simulator on a pty or TCP port, in real time"),
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
 }

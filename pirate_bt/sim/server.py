@@ -1,0 +1,174 @@
+"""The simulator in real time on a pseudo-terminal or a TCP port, for a separate host process.
+
+``pirate-bt sim --pty`` prints a device path such as ``/dev/pts/7``; the host
+opens it like the USB serial port of a real PIRATEbay (``--port /dev/pts/7``).
+``pirate-bt sim --tcp 5760`` listens on 127.0.0.1 only; the host opens
+``socket://127.0.0.1:5760``. Either way the host's link code is the one that
+drives the robot, unchanged.
+
+Here the simulator's own :class:`~pirate_bt.clock.SimClock` is advanced from the
+wall clock (times ``speed``), every ``tick_s``: bytes from the host go to the
+bridge as they arrive, state frames go out as the simulated time passes them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import select
+import socket
+import threading
+import time
+import tty
+
+from pirate_bt.sim.simulator import Simulator
+
+__all__ = ["SimServer"]
+
+_log = logging.getLogger(__name__)
+
+
+class SimServer:
+    """Serves one :class:`Simulator` on a pty or a TCP port, in real time.
+
+    Args:
+        sim: The simulator (its clock is advanced by the server).
+        speed: Simulated seconds per wall second (1.0 = real time).
+        tick_s: Wall time between steps of the serving loop.
+    """
+
+    def __init__(self, sim: Simulator, *, speed: float = 1.0, tick_s: float = 0.002) -> None:
+        if speed <= 0:
+            raise ValueError("speed must be positive")
+        self.sim = sim
+        self.speed = speed
+        self.tick_s = tick_s
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._master: int | None = None
+        self._slave: int | None = None
+        self._listener: socket.socket | None = None
+        self._client: socket.socket | None = None
+        self.device: str | None = None
+        self.address: tuple[str, int] | None = None
+
+    # -- endpoints ------------------------------------------------------------------
+
+    def open_pty(self) -> str:
+        """Create the pseudo-terminal and return the device path a host opens."""
+        master, slave = os.openpty()
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        self._master, self._slave = master, slave
+        self.device = os.ttyname(slave)
+        return self.device
+
+    def open_tcp(self, port: int, host: str = "127.0.0.1") -> tuple[str, int]:
+        """Listen on ``host:port`` (loopback by default; port 0 picks a free one)."""
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind((host, port))
+        listener.listen(1)
+        listener.setblocking(False)
+        self._listener = listener
+        name = listener.getsockname()
+        self.address = (str(name[0]), int(name[1]))
+        return self.address
+
+    # -- loop -----------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Serve in a background thread until :meth:`stop`."""
+        self._thread = threading.Thread(target=self.serve_forever, name="pirate-sim", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop serving and close the endpoints."""
+        self._stop.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self.close()
+
+    def serve_forever(self, duration_s: float | None = None) -> None:
+        """Serve until :meth:`stop` (or for ``duration_s`` wall seconds)."""
+        clock = self.sim.clock
+        wall0 = time.monotonic()
+        sim0 = clock.now()
+        while not self._stop.is_set():
+            wall = time.monotonic() - wall0
+            if duration_s is not None and wall >= duration_s:
+                break
+            incoming = self._read()
+            if incoming:
+                self.sim.write(incoming)
+            clock.advance_to(sim0 + wall * self.speed)
+            outgoing = self.sim.read()
+            if outgoing:
+                self._write(outgoing)
+            self._wait(self.tick_s)
+
+    def _wait(self, timeout_s: float) -> None:
+        fds: list[int | socket.socket] = []
+        if self._master is not None:
+            fds.append(self._master)
+        if self._client is not None:
+            fds.append(self._client)
+        elif self._listener is not None:
+            fds.append(self._listener)
+        if fds:
+            with contextlib.suppress(OSError, ValueError):
+                select.select(fds, [], [], timeout_s)
+        else:
+            time.sleep(timeout_s)
+
+    def _read(self) -> bytes:
+        if self._master is not None:
+            try:
+                return os.read(self._master, 4096)
+            except (BlockingIOError, OSError):
+                return b""
+        if self._listener is not None and self._client is None:
+            try:
+                client, peer = self._listener.accept()
+            except (BlockingIOError, OSError):
+                return b""
+            client.setblocking(False)
+            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self._client = client
+            _log.info("host connected from %s:%d", *peer)
+        if self._client is not None:
+            try:
+                data = self._client.recv(4096)
+            except BlockingIOError:
+                return b""
+            except OSError:
+                data = b""
+            if not data:
+                _log.info("host disconnected")
+                self._client.close()
+                self._client = None
+            return data
+        return b""
+
+    def _write(self, data: bytes) -> None:
+        if self._master is not None:
+            with contextlib.suppress(BlockingIOError, OSError):
+                os.write(self._master, data)  # a full pty drops bytes, like a full UART
+        elif self._client is not None:
+            with contextlib.suppress(BlockingIOError, OSError):
+                self._client.sendall(data)
+        # with no host connected, the bridge talks to nobody
+
+    def close(self) -> None:
+        """Close every endpoint (idempotent)."""
+        for fd in (self._master, self._slave):
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self._master = self._slave = None
+        for sock in (self._client, self._listener):
+            if sock is not None:
+                with contextlib.suppress(OSError):
+                    sock.close()
+        self._client = self._listener = None

@@ -1,0 +1,80 @@
+"""The simulator in real time on TCP and on a pty, with the host's link unchanged."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+from pirate_bt.clock import WallClock
+from pirate_bt.link import open_link
+from pirate_bt.robot import load_robot
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.server import SimServer
+
+ROBOT = load_robot()
+
+
+def exercise(url: str, sim: Simulator) -> None:
+    clock = WallClock()
+    link = open_link(url, ROBOT, clock, reset_wait_s=0.0)
+    try:
+        link.send([MotorCommand("bend_3_joint", ControlMode.POSITION, 0.4)])
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            link.poll()
+            time.sleep(0.005)
+        state = link.state()
+        assert state is not None
+        assert abs(state.joint_angle_rad["bend_3"] - 0.4) < 0.01
+    finally:
+        link.close()
+    counters = sim.counters()
+    assert counters.commands_executed >= 1
+    assert counters.state_frames_sent > 50
+
+
+def test_tcp_server_serves_a_host_link() -> None:
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        assert host == "127.0.0.1"
+        server.start()
+        try:
+            exercise(f"socket://{host}:{port}", sim)
+        finally:
+            server.stop()
+
+
+def test_pty_server_serves_a_host_link() -> None:
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim)
+        device = server.open_pty()
+        assert device.startswith("/dev/")
+        server.start()
+        try:
+            exercise(device, sim)
+        finally:
+            server.stop()
+
+
+def test_cli_prints_where_to_connect() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "sim", "straight", "--tcp", "0", "--duration", "0.3"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("socket://127.0.0.1:")
+    assert "simulated" in proc.stderr
+    bad = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "sim", "--fault", "meteor@1s", "--duration", "0.1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert bad.returncode == 2
+    assert "unknown fault kind" in bad.stderr
