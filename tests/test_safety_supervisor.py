@@ -338,3 +338,9 @@ def test_every_verdict_is_kept_with_tick_and_sequence(sup: Supervisor, port: Fak
     record = seen[1].to_record()
     assert record["outcome"] == "refuse" and record["reason"] == "rotate_needs_one_clamped"
     assert sup.verdicts.since(seq=1) == [seen[1]]
+
+
+def test_front_module_may_not_swing_through_the_clamp_zone(sup: Supervisor, port: FakePort) -> None:
+    port.clamp_half(Half.FRONT)  # tilt starts at +clear
+    assert sup.command(Tilt(-2.0)).reason is Reason.FRONT_NOT_CLEAR  # found by the property test
+    assert sup.command(Tilt(1.5)).ok  # further out on the same side

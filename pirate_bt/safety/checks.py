@@ -326,9 +326,19 @@ def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
                 f"{math.degrees(ctx.robot.clamp.front_clear_angle):.1f}°, it is {shown})"
                 " before the front half clamps",
             )
-    if intent.front_tilt_rad is not None and abs(intent.front_tilt_rad) < clear:
+    target = intent.front_tilt_rad
+    if target is not None:
         front = ctx.halves.get(Half.FRONT, ClampState.UNKNOWN)
-        if front is not ClampState.UNCLAMPED:
+        now = ctx.state.front_tilt_rad
+        # The module moves from where it is to the target (rate-limited on the way), so
+        # the whole path must stay clear: same side, both ends beyond the clear angle.
+        path_clear = (
+            now is not None
+            and abs(target) >= clear
+            and abs(now) >= clear
+            and math.copysign(1.0, target) == math.copysign(1.0, now)
+        )
+        if front is not ClampState.UNCLAMPED and not path_clear:
             return Problem(
                 Reason.FRONT_NOT_CLEAR,
                 f"the front module may leave its clear position only while the front half is"
