@@ -259,3 +259,13 @@ def test_unknown_simulator_name_is_refused() -> None:
     with pytest.raises(serial.SerialException, match="no simulator named"):
         serial.serial_for_url("sim://nobody")
     assert math.isfinite(ROBOT.bridge.watchdog)
+
+
+def test_fast_state_encoding_matches_state_builder(clock: SimClock) -> None:
+    with Simulator("bend-up", ROBOT, clock=clock, noise=SensorNoise.typical(), seed=2) as sim:
+        sim.model.command(MotorCommand("bend_3_joint", ControlMode.TORQUE, 0.6))
+        clock.advance(0.5)
+        values = sim.model.reading_values()
+        names = [c.name for c in ROBOT.state_channels()]
+        expected = sim.bridge.encode_readings(dict(zip(names, values, strict=True)))
+        assert sim.bridge._encode(values) == expected

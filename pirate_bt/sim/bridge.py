@@ -61,9 +61,12 @@ from pirate_bt.robot.state import StateBuilder
 from pirate_bt.sim.counters import EventKind, SimCounters
 from pirate_bt.sim.model import PipeRobotModel
 
-__all__ = ["FIRMWARE_VERSION", "SimBridge"]
+__all__ = ["FIRMWARE_VERSION", "MAX_PENDING_BYTES", "SimBridge"]
 
 _log = logging.getLogger(__name__)
+
+MAX_PENDING_BYTES = 1 << 16
+"""Bytes the bridge queues for a host that does not read before it drops state frames."""
 
 FIRMWARE_VERSION = 0x5100
 """Firmware number the simulated bridge reports in HELLO_REPLY."""
@@ -119,6 +122,13 @@ class SimBridge:
         self._ack_seq = 0
         self._state_seq = 0
         self._last_raw = [0] * len(self._channels)
+        self._all_fresh = (1 << len(self._channels)) - 1
+        # The robot's raw<->SI conversion of each channel, unpacked for the 100 Hz path;
+        # equivalent to StateBuilder.encode (tests check it).
+        self._conversions = [
+            (c.conversion.zero_raw, 1.0 / c.conversion.per_raw, *c.conversion.raw)
+            for c in robot.state_channels()
+        ]
         self.estopped = False
         self.watchdog_tripped = False
         self._armed = False  # the watchdog runs once the host has said hello
@@ -132,6 +142,7 @@ class SimBridge:
         self.commands_executed = 0
         self.state_frames_sent = 0
         self.watchdog_trips = 0
+        self.state_frames_unread = 0
         # faults
         self._pending: list[FaultSpec] = []
         self._active: list[_ActiveFault] = []
@@ -406,22 +417,29 @@ class SimBridge:
     def _send_state(self) -> None:
         if self._link_lost:
             return
-        readings = self.model.readings()
+        if len(self._out) > MAX_PENDING_BYTES:
+            # nobody reads: like a full serial buffer, newer frames are lost
+            self.state_frames_unread += 1
+            return
+        values = self.model.reading_values()
         for index, frozen in self._stuck.items():
-            readings[self._channels[index]] = frozen
-        raw = self._states.encode(readings)
-        last = self._last_raw
-        mask = 0
-        resetting = self._resetting
-        dropout = self._dropout
-        for i, raw_value in enumerate(raw):
-            if raw_value is None or i in dropout or self._channel_board[i] in resetting:
-                continue
-            last[i] = raw_value
-            mask |= 1 << i
+            values[index] = frozen
+        if self._resetting or self._dropout:
+            last = self._last_raw
+            mask = 0
+            resetting = self._resetting
+            dropout = self._dropout
+            for i, raw_value in enumerate(self._encode(values)):
+                if i in dropout or self._channel_board[i] in resetting:
+                    continue
+                last[i] = raw_value
+                mask |= 1 << i
+        else:
+            self._last_raw = last = self._encode(values)
+            mask = self._all_fresh
         status = []
         for board in self._boards:
-            nibble = BoardStatus.TIMEOUT if board in resetting else BoardStatus.ONLINE
+            nibble = BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE
             if self.estopped:
                 nibble |= BoardStatus.MOTORS_OFF
             status.append(int(nibble))
@@ -435,6 +453,18 @@ class SimBridge:
             State(self._state_seq, flags, self._ack_seq, mask, tuple(status), tuple(last))
         )
         self.state_frames_sent += 1
+
+    def _encode(self, values: list[float]) -> list[int]:
+        """SI readings -> raw int16 values with the robot's conversions (saturating)."""
+        out: list[int] = []
+        for value, (zero, inv, lo, hi) in zip(values, self._conversions, strict=True):
+            raw = round(value * inv + zero)
+            out.append(lo if raw < lo else hi if raw > hi else raw)
+        return out
+
+    def encode_readings(self, readings: dict[str, float]) -> list[int | None]:
+        """The robot's :meth:`StateBuilder.encode` of SI readings by channel name."""
+        return self._states.encode(readings)
 
     # -- figures --------------------------------------------------------------------
 

@@ -89,6 +89,9 @@ class SensorNoise:
         return cls(angle_rad=0.002, force_n=0.05, velocity_mps=0.0002, current_a=0.005)
 
 
+_NO_NOISE = SensorNoise()
+
+
 @dataclass(frozen=True, slots=True)
 class HalfTruth:
     """Ground truth of one half.
@@ -167,6 +170,8 @@ class _Motor:
     accel_max: float = math.inf
     torque_limit: float = math.inf
     stall_torque: float = 1.0
+    settled: tuple[object, ...] | None = None
+    """The inputs of a step after which the joint stood still (lets later steps skip it)."""
 
 
 @dataclass
@@ -287,10 +292,13 @@ class PipeRobotModel:
         self._front_tilt = tilt[0] if tilt else None
         self._front_pressed_since: float | None = None
         self._channels = self._channel_table()
+        self._channel_names = [name for name, _, _ in self._channels]
         self._contact_cache: dict[float, float] = {}
         self._walls: dict[str, float | None] = {}
         self._walls_at = math.nan
         self._walls_path: Path | None = None
+        self._tees_path: Path | None = None
+        self._tees: list[Piece] = []
         start = network.spec.start
         if start_m is None:
             start_m = start.position if start.position is not None else self.length_m
@@ -331,6 +339,11 @@ class PipeRobotModel:
     def set_stalled(self, motor: str, stalled: bool) -> None:
         """Block a motor (fault injection): it neither turns nor moves its joint."""
         self._motors[motor].stalled = stalled
+
+    def half_extent_m(self, half: Half) -> tuple[float, float]:
+        """Distances of a half's leading and trailing ends behind the front tip."""
+        h = self._halves[half]
+        return h.lead_offset_m, h.trail_offset_m
 
     def motor_names(self) -> list[str]:
         return list(self._motors)
@@ -373,6 +386,9 @@ class PipeRobotModel:
         for half in self._halves.values():
             for j in half.joints:
                 wall = self._walls[j.name]
+                key = (j.mode, j.value, wall, j.angle_rad, j.stalled)
+                if key == j.settled:
+                    continue  # nothing moved and nothing changed since the last step
                 target, torque = self._joint_target(j)
                 if j.stalled:
                     j.torque_nm = (
@@ -399,6 +415,8 @@ class PipeRobotModel:
                 else:
                     j.press_nm = 0.0
                     j.torque_nm = torque if j.mode is not ControlMode.POSITION else 0.0
+                if j.angle_rad == blocked_target:
+                    j.settled = (j.mode, j.value, wall, j.angle_rad, j.stalled)
         for m in self._aux_joints:
             if m.stalled or (m.mode is None and m.torque_nm == 0.0):
                 continue
@@ -606,9 +624,11 @@ class PipeRobotModel:
     def _decide_tees(self) -> None:
         """Choose straight or branch when the front tip passes the middle of a tee."""
         changed = False
-        for piece in self.path.pieces:
-            if piece.opening_m is None:
-                continue
+        if self._tees_path is not self.path:
+            self._tees_path = self.path
+            self._tees = [p for p in self.path.pieces if p.opening_m is not None]
+        for piece in self._tees:
+            assert piece.opening_m is not None
             decided = piece.segment in self._choices
             if decided and self.s_m < piece.opening_m - 1e-9:
                 # backed out before the opening: the tee is undecided again
@@ -768,13 +788,18 @@ class PipeRobotModel:
 
     def readings(self) -> dict[str, float]:
         """Every state channel's SI value (with noise), by channel name."""
+        return dict(zip(self._channel_names, self.reading_values(), strict=True))
+
+    def reading_values(self) -> list[float]:
+        """Every state channel's SI value (with noise), in the state frame's channel order."""
         motors = self._motors
         noise = self.noise
+        noisy = noise != _NO_NOISE
         gauss = self._rng.gauss
-        out: dict[str, float] = {}
+        out: list[float] = []
         imu: dict[str, float] | None = None
         lever = self.robot.clamp.lever_arm
-        for name, kind, source in self._channels:
+        for _name, kind, source in self._channels:
             if kind == "angle":
                 value = motors[source].angle_rad
                 sigma = noise.angle_rad
@@ -794,7 +819,7 @@ class PipeRobotModel:
                 sigma = noise.angle_rad
             else:
                 value, sigma = 0.0, 0.0
-            out[name] = value + gauss(0.0, sigma) if sigma > 0 else value
+            out.append(value + gauss(0.0, sigma) if noisy and sigma > 0 else value)
         return out
 
     # -- truth ----------------------------------------------------------------------

@@ -1,0 +1,83 @@
+"""Simulator figures: simulated seconds per wall second for a scripted drive through the lab.
+
+Run: ``.venv/bin/python benchmarks/bench_sim.py``. Prints the figures that
+``docs/performance.md`` quotes under "Simulator".
+
+The drive is :class:`~pirate_bt.sim.script.ScriptedDrive` through the main path
+of ``scenarios/lab.yaml`` (29.6 m, five bends, two tees passed straight, a
+reducer, a riser): about 456 s of simulated time with the default robot, so
+45 600 physics steps and as many STATE frames at the default 10 ms state period.
+Each configuration runs three times; the best run is reported (the machine is
+shared, the best run is the least disturbed).
+
+- ``sim + wire``: the scripted drive commands the model directly; every STATE
+  frame is still encoded by the simulated bridge and read off the in-process
+  ``sim://`` port by a raw reader (no decoding). This is the simulator's own cost.
+- ``sim + host link``: the same drive through a host ``RobotLink`` opened on the
+  ``sim://`` URL (setpoint frames, acks, heartbeats, every STATE frame decoded by
+  the host's session). This is what a test or a tree run pays in process.
+"""
+
+from __future__ import annotations
+
+import time
+
+import serial
+
+from pirate_bt.clock import SimClock
+from pirate_bt.link import open_link
+from pirate_bt.robot import load_robot
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.script import LinkSink, ModelSink, ScriptedDrive
+
+ROBOT = load_robot()
+RUNS = 3
+
+
+class DrainingSink(ModelSink):
+    """Commands into the model; waiting advances 10 ms at a time and drains the port."""
+
+    def __init__(self, sim: Simulator) -> None:
+        super().__init__(sim)
+        self.port = serial.serial_for_url(sim.url, timeout=0)
+        self.bytes_read = 0
+
+    def wait(self, seconds: float) -> None:
+        clock = self.sim.clock
+        end = clock.now() + seconds
+        while clock.now() < end - 1e-9:
+            clock.advance(min(0.01, end - clock.now()))
+            self.bytes_read += len(self.port.read(1 << 16))
+
+
+def run(with_link: bool) -> tuple[float, float, int]:
+    clock = SimClock()
+    with Simulator("lab", ROBOT, clock=clock) as sim:
+        start = time.perf_counter()
+        if with_link:
+            link = open_link(sim.url, ROBOT, clock)
+            sink: ModelSink | LinkSink = LinkSink(link, clock)
+        else:
+            sink = DrainingSink(sim)
+        drive = ScriptedDrive(sim, sink)
+        drive.run_path()
+        wall = time.perf_counter() - start
+        counters = sim.counters()
+        assert counters.stuck_events == 0 and counters.violation_count == 0
+        return clock.now(), wall, counters.state_frames_sent
+
+
+def main() -> None:
+    print(f"scripted drive through lab.yaml, state period {ROBOT.bridge.state_period * 1e3:g} ms")
+    for label, with_link in (("sim + wire", False), ("sim + host link", True)):
+        best = min((run(with_link) for _ in range(RUNS)), key=lambda r: r[1] / r[0])
+        simulated, wall, frames = best
+        print(
+            f"{label:16s} {simulated:7.1f} s simulated in {wall:6.2f} s wall ="
+            f" {simulated / wall:6.0f}x real time ({frames} state frames,"
+            f" {wall / frames * 1e6:5.1f} us per 10 ms step)"
+        )
+
+
+if __name__ == "__main__":
+    main()
