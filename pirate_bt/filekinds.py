@@ -78,6 +78,14 @@ KINDS: dict[str, FileKind] = {
         loader="pirate_bt.treefile.loader:validate_tree_file",
         schema="pirate_bt.treefile.schema:tree_schema",
     ),
+    "route": FileKind(
+        name="route",
+        title="route",
+        marker_keys=(),
+        suffixes=(".route",),
+        loader="pirate_bt.task.route:validate_route_file",
+        schema="pirate_bt.task.route:route_schema",
+    ),
 }
 
 
