@@ -182,6 +182,7 @@ class Path:
 
     pieces: tuple[Piece, ...]
     choices: Mapping[str, TeeChoice] = field(default_factory=dict)
+    _hint: list[int] = field(default_factory=lambda: [0], compare=False, repr=False)
 
     @property
     def length_m(self) -> float:
@@ -199,6 +200,10 @@ class Path:
     def index_at(self, s_m: float) -> int:
         """Index of the piece holding distance ``s_m`` (ends belong to the next piece)."""
         pieces = self.pieces
+        hint = self._hint[0]
+        piece = pieces[hint]
+        if piece.start_m <= s_m < piece.end_m:
+            return hint  # the common case: the same piece as the last question
         lo, hi = 0, len(pieces) - 1
         if s_m <= pieces[0].start_m:
             return 0
@@ -210,6 +215,7 @@ class Path:
                 lo = mid + 1
             else:
                 hi = mid
+        self._hint[0] = lo
         return lo
 
     def piece_at(self, s_m: float) -> Piece:

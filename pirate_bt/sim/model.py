@@ -33,6 +33,7 @@ Conventions (also in ``docs/simulator.md``):
 
 from __future__ import annotations
 
+import bisect
 import logging
 import math
 import random
@@ -81,6 +82,9 @@ class SensorNoise:
     angle_rad: float = 0.0
     force_n: float = 0.0
     velocity_mps: float = 0.0
+    """Wheel speed the board's velocity loop drives toward the setpoint."""
+    measured_mps: float = 0.0
+    """Wheel speed the encoder reads (0 when the wheel is blocked)."""
     current_a: float = 0.0
 
     @classmethod
@@ -156,6 +160,9 @@ class _Motor:
     value: float = 0.0
     angle_rad: float = 0.0
     velocity_mps: float = 0.0
+    """Wheel speed the board's velocity loop drives toward the setpoint."""
+    measured_mps: float = 0.0
+    """Wheel speed the encoder reads (0 when the wheel is blocked)."""
     current_a: float = 0.0
     torque_nm: float = 0.0
     """Torque the motor applies right now (against the wall, or stalled)."""
@@ -274,6 +281,8 @@ class PipeRobotModel:
                 [self._module_offset[b.name] for b in bends],
             )
         self._drives = [m for m in self._motors.values() if m.function is MotorFunction.DRIVE]
+        self._front = self._halves[Half.FRONT]
+        self._rear = self._halves[Half.REAR]
         self._aux_joints = [
             m
             for m in self._motors.values()
@@ -297,6 +306,11 @@ class PipeRobotModel:
         self._walls: dict[str, float | None] = {}
         self._walls_at = math.nan
         self._walls_path: Path | None = None
+        self._wall_spans: dict[str, tuple[float, float]] = {}
+        self._slope_cache: dict[int, float] = {}
+        self._turns_path: Path | None = None
+        self._turns: list[Piece] = []
+        self._turn_ends: list[float] = []
         self._tees_path: Path | None = None
         self._tees: list[Piece] = []
         start = network.spec.start
@@ -440,10 +454,19 @@ class PipeRobotModel:
         if self.s_m == self._walls_at and self.path is self._walls_path:
             return
         self._walls_at = self.s_m
+        path_changed = self.path is not self._walls_path
         self._walls_path = self.path
+        spans = self._wall_spans
         for half in self._halves.values():
             for j, off in zip(half.joints, half.joint_offsets_m, strict=True):
-                self._walls[j.name] = self._wall_angle(self.s_m - off)
+                at = self.s_m - off
+                span = spans.get(j.name)
+                if not path_changed and span is not None and span[0] <= at < span[1]:
+                    continue  # same plain piece of constant diameter: same wall
+                self._walls[j.name] = self._wall_angle(at)
+                piece = self.path.piece_at(at)
+                plain = piece.opening_m is None and piece.diameter_start_m == piece.diameter_end_m
+                spans[j.name] = (piece.start_m, piece.end_m) if plain else (0.0, 0.0)
 
     def _update_contacts(self) -> None:
         self._update_walls()
@@ -500,28 +523,50 @@ class PipeRobotModel:
 
     def _step_drives(self, dt_s: float) -> None:
         for m in self._drives:
-            target = m.value if m.mode is ControlMode.VELOCITY else 0.0
-            if m.mode is ControlMode.PWM:
+            mode = m.mode
+            if mode is ControlMode.VELOCITY:
+                target = m.value
+            elif mode is ControlMode.PWM:
                 target = m.value * self.robot.motion.nominal_speed
+            else:
+                target = 0.0
             if m.stalled:
                 target = 0.0
+            delta = target - m.velocity_mps
+            if delta == 0.0:
+                continue
             step = m.accel_max * dt_s
-            m.velocity_mps += max(-step, min(step, target - m.velocity_mps))
+            m.velocity_mps = (
+                target
+                if -step <= delta <= step
+                else m.velocity_mps + (step if delta > 0 else -step)
+            )
 
     def _step_motion(self, dt_s: float) -> None:
         motion = self.robot.motion
-        clamped = [h for h in self._halves.values() if h.clamped]
-        wheels = [m for h in clamped for m in h.drives if not m.stalled]
-        v_cmd = sum(m.velocity_mps for m in wheels) / len(wheels) if wheels else 0.0
-        any_cmd = any(abs(m.velocity_mps) > 1e-6 for m in self._drives)
-        slope = self.path.slope_at(self.s_m - self._rot_offset)
+        front, rear = self._front, self._rear
+        clamped = [h for h in (front, rear) if h.clamped]
+        v_sum = 0.0
+        n_wheels = 0
+        for h in clamped:
+            for m in h.drives:
+                if not m.stalled:
+                    v_sum += m.velocity_mps
+                    n_wheels += 1
+        v_cmd = v_sum / n_wheels if n_wheels else 0.0
+        any_cmd = False
+        for m in self._drives:
+            if m.velocity_mps > 1e-6 or m.velocity_mps < -1e-6:
+                any_cmd = True
+                break
         moved = 0.0
         was_sliding, was_slipping = self.sliding, self.slipping
         self.sliding = False
         self.slipping = False
-        stuck_now = {Half.FRONT: False, Half.REAR: False}
+        stuck_front = stuck_rear = False
         load_ratio = 0.0
         if not clamped:
+            slope = self._slope_at(self.s_m - self._rot_offset)
             if abs(slope) > motion.max_unclamped_slope:
                 self.sliding = True
                 direction = -1.0 if slope > 0 else 1.0
@@ -533,49 +578,64 @@ class PipeRobotModel:
                     )
             elif any_cmd:
                 self.slipping = True
-        elif abs(v_cmd) > 1e-9:
+        elif v_cmd > 1e-9 or v_cmd < -1e-9:
+            slope = self._slope_at(self.s_m - self._rot_offset)
             traction = motion.friction_coefficient * sum(h.force_n for h in clamped)
-            drag = self.network.tether_drag_per_m * max(self.s_m - self.length_m, 0.0)
-            load = (drag if v_cmd > 0 else 0.0) + motion.weight * math.sin(slope) * math.copysign(
-                1.0, v_cmd
-            )
+            load = motion.weight * math.sin(slope) * (1.0 if v_cmd > 0 else -1.0)
+            if v_cmd > 0:
+                load += self.network.tether_drag_per_m * max(self.s_m - self.length_m, 0.0)
             load_ratio = max(load, 0.0) / traction if traction > 0 else 1.0
             if traction <= load:
                 self.slipping = True
             else:
-                want = v_cmd * dt_s
-                moved, stuck_now = self._gate_turns(want)
+                moved, stuck_front, stuck_rear = self._gate_turns(v_cmd * dt_s)
                 moved = self._limit_to_path(moved)
-        elif any_cmd:
-            load_ratio = 0.0
         self.velocity_mps = moved / dt_s
-        self.s_m += moved
-        self._tally.distance_m += abs(moved)
+        if moved:
+            self.s_m += moved
+            self._tally.distance_m += abs(moved)
         if self.slipping and not was_slipping:
             self._tally.slip_events += 1
             self._event(EventKind.SLIP, f"traction too low at {self.s_m:.3f} m")
-        for half in self._halves.values():
-            now = stuck_now[half.half]
+        for half, now in ((front, stuck_front), (rear, stuck_rear)):
             if now and not half.stuck:
                 self._tally.stuck_events += 1
-                piece = self.path.next_turn(self.s_m - half.lead_offset_m - 1e-9)
+                point = self.s_m - (half.lead_offset_m if v_cmd > 0 else half.trail_offset_m)
+                piece = self.path.next_turn(point - 1e-9) if v_cmd > 0 else None
+                if piece is None:
+                    turns = self._turns_between(point - 1e-6, point + 1e-6)
+                    piece = turns[0] if turns else None
                 where = piece.segment if piece is not None else "?"
                 self._event(EventKind.STUCK, f"{half.half}:{where}")
                 _log.info("%s half stuck at %s", half.half, where)
             half.stuck = now
-        self._decide_tees()
-        self._drive_feedback(load_ratio, any(stuck_now.values()))
+        if (self._tees and moved) or self._tees_path is not self.path:
+            self._decide_tees()
+        self._drive_feedback(load_ratio, stuck_front or stuck_rear)
+
+    def _slope_at(self, s_m: float) -> float:
+        piece = self.path.piece_at(s_m)
+        if piece.is_turn:
+            return self.path.slope_at(s_m)
+        slope = self._slope_cache.get(id(piece))
+        if slope is None:
+            slope = self._slope_cache[id(piece)] = self.path.slope_at(s_m)
+        return slope
 
     def _limit_to_path(self, ds: float) -> float:
         lo = self.length_m
         hi = self.path.length_m
         return min(max(self.s_m + ds, lo), hi) - self.s_m
 
-    def _gate_turns(self, ds: float) -> tuple[float, dict[Half, bool]]:
-        """Limit a move so that no half enters or moves in a turn it may not use."""
-        stuck = {Half.FRONT: False, Half.REAR: False}
+    def _gate_turns(self, ds: float) -> tuple[float, bool, bool]:
+        """Limit a move so that no half enters or moves in a turn it may not use.
+
+        Returns:
+            ``(allowed move, front stuck, rear stuck)``.
+        """
+        stuck = [False, False]
         allowed = ds
-        for half in self._halves.values():
+        for i, half in enumerate((self._front, self._rear)):
             point = self.s_m - (half.lead_offset_m if ds > 0 else half.trail_offset_m)
             target = point + ds
             lo, hi = (point, target) if ds > 0 else (target, point)
@@ -590,18 +650,20 @@ class PipeRobotModel:
                     limit = edge - point
                 if abs(limit) < abs(allowed):
                     allowed = limit
-                stuck[half.half] = True
+                stuck[i] = True
                 break
-        return allowed, stuck
+        return allowed, stuck[0], stuck[1]
 
     def _turns_between(self, lo: float, hi: float) -> list[Piece]:
-        path = self.path
+        if self._turns_path is not self.path:
+            self._turns_path = self.path
+            self._turns = [p for p in self.path.pieces if p.is_turn]
+            self._turn_ends = [p.end_m for p in self._turns]
         out: list[Piece] = []
-        for piece in path.pieces[path.index_at(lo) :]:
+        for piece in self._turns[bisect.bisect_right(self._turn_ends, lo) :]:
             if piece.start_m >= hi:
                 break
-            if piece.is_turn and piece.end_m > lo:
-                out.append(piece)
+            out.append(piece)
         return out
 
     def _may_use_turn(self, half: _Half, piece: Piece) -> bool:
@@ -650,20 +712,24 @@ class PipeRobotModel:
     def _drive_feedback(self, load_ratio: float, stuck: bool) -> None:
         motion = self.robot.motion
         free, stall = motion.drive_free_current, motion.drive_stall_current
+        slipping = self.slipping
         for m in self._drives:
-            commanded = abs(m.velocity_mps) > 1e-6
+            v = m.velocity_mps
             if m.stalled:
                 m.current_a = stall if (m.mode is not None and m.value != 0) else 0.0
-                m.velocity_mps = 0.0
-                continue
-            if not commanded:
+                m.velocity_mps = m.measured_mps = 0.0
+            elif -1e-6 < v < 1e-6:
                 m.current_a = 0.0
+                m.measured_mps = v
             elif stuck:
-                m.current_a = stall
-            elif self.slipping:
+                m.current_a = stall  # blocked wheels: no speed, stall current
+                m.measured_mps = 0.0
+            elif slipping:
                 m.current_a = free
+                m.measured_mps = v
             else:
                 m.current_a = free + (stall - free) * min(load_ratio, 1.0)
+                m.measured_mps = v
 
     def _check_torques(self) -> None:
         over_time = self.robot.motion.over_torque_time
@@ -807,7 +873,7 @@ class PipeRobotModel:
                 value = motors[source].press_nm / lever
                 sigma = noise.force_n
             elif kind == "velocity":
-                value = motors[source].velocity_mps
+                value = motors[source].measured_mps
                 sigma = noise.velocity_mps
             elif kind == "current":
                 value = motors[source].current_a
