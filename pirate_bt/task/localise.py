@@ -1,0 +1,285 @@
+"""Where the robot believes it is: drive odometry, corrected at recognised features.
+
+The belief is one number, the distance of the robot's front tip along the
+mission's path (the same coordinate the planner and the simulator use). Between
+features it is dead reckoning: the mean measured wheel speed of the drive
+motors, integrated over the state frames' time stamps. Wheels that slip make
+the belief run ahead of the truth; that drift is what the features correct.
+
+Features are recognised from the robot's own sensors, never from the plan's
+progress:
+
+- **Turns** (bends and turns into a T-joint's branch) from the IMU. The IMU sits
+  on the rotational module, so its pitch and yaw give the pipe's direction
+  there. When that direction has swung by half the turn's angle since the last
+  straight, the rotational module is at the middle of the turn: the belief
+  snaps to the map's position of that middle plus the module's offset behind
+  the front tip.
+- **T-joints passed straight through** from the joint angles: over the branch
+  opening a bend module finds no wall, so a joint pressed outward swings past
+  the wall-contact angle for the local diameter. The belief snaps so that
+  module is at the opening. A tee passed without clamping over it is not felt,
+  and that is not an error.
+
+Belief and map *disagree* when a turn is felt where the map has none within
+the search window, or the belief passes the far end of a turn's window without
+the turn being felt. The window is ``window_m`` plus ``drift_per_m`` for every
+metre driven since the last fix. A disagreement sets :attr:`Localiser.mismatch`;
+the mission clears the ``map_ok`` blackboard key, the tree's guard fails and the
+runner leaves the robot in its safe state with that reason.
+
+Bounds the tests check on the simulator (``docs/missions.md``): right after a
+fix the belief is within 0.10 m of the truth, and between fixes the error grows
+by at most 2 cm per metre driven plus 0.10 m.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.state import RobotState
+from pirate_bt.task.planner import MapFeature, MissionPlan
+
+__all__ = [
+    "DRIFT_PER_M",
+    "FIX_BOUND_M",
+    "Fix",
+    "Localiser",
+    "imu_tangent",
+]
+
+_log = logging.getLogger(__name__)
+
+FIX_BOUND_M = 0.10
+"""Stated bound: belief error right after a feature fix (metres)."""
+
+DRIFT_PER_M = 0.02
+"""Stated bound: growth of the belief error per metre driven between fixes."""
+
+_OPENING_MARGIN_RAD = 0.15
+_UNEXPECTED_TURN_RAD = math.radians(30.0)
+
+Vec3 = tuple[float, float, float]
+
+
+def imu_tangent(imu_rad: dict[str, float] | None) -> Vec3 | None:
+    """The pipe's direction at the IMU, from its pitch and yaw (``None`` without an IMU)."""
+    if not imu_rad or "pitch" not in imu_rad or "yaw" not in imu_rad:
+        return None
+    pitch, yaw = imu_rad["pitch"], imu_rad["yaw"]
+    return (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
+
+
+def _angle(a: Vec3, b: Vec3) -> float:
+    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    return math.acos(max(-1.0, min(1.0, dot)))
+
+
+@dataclass(frozen=True, slots=True)
+class Fix:
+    """One correction of the belief at a recognised feature.
+
+    Attributes:
+        time_s: Clock time of the fix.
+        feature: Segment id of the feature.
+        how: ``imu`` (a turn) or ``joints`` (a T-joint's opening).
+        before_m: Belief just before the fix.
+        after_m: Belief after it.
+        truth_m: Simulator truth at the fix, when known.
+    """
+
+    time_s: float
+    feature: str
+    how: str
+    before_m: float
+    after_m: float
+    truth_m: float | None = None
+
+    @property
+    def error_after_m(self) -> float | None:
+        """Belief minus truth after the fix."""
+        return None if self.truth_m is None else self.after_m - self.truth_m
+
+    @property
+    def correction_m(self) -> float:
+        return self.after_m - self.before_m
+
+
+class Localiser:
+    """Keeps the belief of the robot's position on the mission's path.
+
+    Feed it every new state with :meth:`update` (the mission does so after each
+    tick).
+
+    Args:
+        plan: The mission plan (its path, start and features).
+        robot: The robot description (module lengths, clamp contact angles).
+        window_m: Base half-width of the window in which a feature is searched.
+        drift_per_m: Added to the window per metre driven since the last fix.
+        truth: Returns the simulator's front-tip truth, when simulated (for the
+            trace and the report; never used for the belief).
+    """
+
+    def __init__(
+        self,
+        plan: MissionPlan,
+        robot: RobotDescription,
+        *,
+        window_m: float = 0.3,
+        drift_per_m: float = 0.05,
+        truth: Callable[[], float | None] | None = None,
+    ) -> None:
+        self.plan = plan
+        self.robot = robot
+        self.window_m = window_m
+        self.drift_per_m = drift_per_m
+        self._truth = truth
+        self.belief_m = plan.start_m
+        self.fixes: list[Fix] = []
+        self.mismatch: str | None = None
+        self.distance_m = 0.0
+        self.since_fix_m = 0.0
+        self._last_stamp: float | None = None
+        self._last_state: RobotState | None = None
+        self._heading_ref: Vec3 | None = None
+        self._settle_after_m: float | None = None
+        self._pending = list(plan.features)
+        offsets: dict[str, float] = {}
+        behind = 0.0
+        for module in robot.modules:
+            offsets[module.name] = behind + module.length / 2
+            behind += module.length
+        self._offset = offsets
+        self._imu_offset_m = offsets[robot.rotational_module().name]
+        self._bend_offsets = {m.name: offsets[m.name] for m in robot.all_bend_modules()}
+        self.truth_m: float | None = None
+
+    # -- reading
+
+    @property
+    def error_m(self) -> float | None:
+        """Belief minus truth (``None`` without a simulator)."""
+        return None if self.truth_m is None else self.belief_m - self.truth_m
+
+    def window(self) -> float:
+        """Half-width of the feature search window now."""
+        return self.window_m + self.drift_per_m * self.since_fix_m
+
+    def values(self) -> dict[str, float]:
+        """Belief, truth and error for the trace (``task.*`` keys)."""
+        out = {"task.belief_m": round(self.belief_m, 4), "task.fixes": float(len(self.fixes))}
+        if self.truth_m is not None:
+            out["task.truth_m"] = round(self.truth_m, 4)
+            out["task.error_m"] = round(self.belief_m - self.truth_m, 4)
+        return out
+
+    # -- updating
+
+    def update(self, state: RobotState | None) -> None:
+        """Take one state snapshot into the belief (a repeated snapshot is ignored)."""
+        if self._truth is not None:
+            self.truth_m = self._truth()
+        if state is None or state is self._last_state:
+            return
+        self._last_state = state
+        if self._last_stamp is not None:
+            dt = max(0.0, state.stamp_s - self._last_stamp)
+            ds = state.mean_drive_velocity_mps() * dt
+            self.belief_m += ds
+            self.distance_m += abs(ds)
+            self.since_fix_m += abs(ds)
+        self._last_stamp = state.stamp_s
+        if self.mismatch is None:
+            self._recognise(state)
+
+    def _recognise(self, state: RobotState) -> None:
+        tangent = imu_tangent(dict(state.imu_rad))
+        imu_m = self.belief_m - self._imu_offset_m
+        if tangent is not None:
+            if self._heading_ref is None:
+                self._heading_ref = tangent
+            elif self._settle_after_m is not None:
+                if imu_m > self._settle_after_m:
+                    self._heading_ref = tangent
+                    self._settle_after_m = None
+            else:
+                self._turns(tangent, imu_m, state)
+        self._openings(state)
+        self._missed(imu_m)
+
+    def _next_turn(self) -> MapFeature | None:
+        for feature in self._pending:
+            if feature.angle_rad > 0:
+                return feature
+        return None
+
+    def _turns(self, tangent: Vec3, imu_m: float, state: RobotState) -> None:
+        assert self._heading_ref is not None
+        swung = _angle(tangent, self._heading_ref)
+        turn = self._next_turn()
+        window = self.window()
+        near = turn is not None and turn.start_m - window <= imu_m <= turn.end_m + window
+        if turn is not None and near and swung >= turn.angle_rad / 2:
+            middle = (turn.start_m + turn.end_m) / 2
+            self._fix(turn, "imu", middle + self._imu_offset_m, state.stamp_s)
+            self._settle_after_m = turn.end_m + 0.02
+            return
+        if swung >= _UNEXPECTED_TURN_RAD and not near:
+            self.mismatch = (
+                f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
+                f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
+                f" {window:.2f} m"
+            )
+            _log.warning("%s", self.mismatch)
+
+    def _openings(self, state: RobotState) -> None:
+        tee = next((f for f in self._pending if f.kind == "tee"), None)
+        if tee is None:
+            return
+        opening_m = (tee.start_m + tee.end_m) / 2
+        window = self.window()
+        clamp = self.robot.clamp
+        for module, offset in self._bend_offsets.items():
+            angle = state.joint_angle_rad.get(module)
+            if angle is None:
+                continue
+            here_m = self.belief_m - offset
+            if abs(here_m - opening_m) > window:
+                continue
+            wall_rad = clamp.contact_angle(self.plan.path.diameter_at(max(here_m, 0.0)))
+            if abs(angle) > wall_rad + _OPENING_MARGIN_RAD:
+                self._fix(tee, "joints", opening_m + offset, state.stamp_s)
+                return
+
+    def _missed(self, imu_m: float) -> None:
+        turn = self._next_turn()
+        if turn is None or self.mismatch is not None:
+            return
+        # Tees passed straight through are silent unless clamped over: drop them once passed.
+        while self._pending and self._pending[0].angle_rad == 0:
+            tee = self._pending[0]
+            if self.belief_m - self.plan.robot_length_m > tee.end_m + self.window():
+                self._pending.pop(0)
+            else:
+                break
+        if imu_m > turn.end_m + self.window():
+            self.mismatch = (
+                f"belief and map disagree: the map has {turn.segment!r} at"
+                f" {turn.start_m:.2f}-{turn.end_m:.2f} m, but no turn was felt by"
+                f" {self.belief_m:.2f} m (believed)"
+            )
+            _log.warning("%s", self.mismatch)
+
+    def _fix(self, feature: MapFeature, how: str, after_m: float, time_s: float) -> None:
+        fix = Fix(time_s, feature.segment, how, self.belief_m, after_m, self.truth_m)
+        self.fixes.append(fix)
+        _log.info(
+            "fix at %s (%s): belief %.3f -> %.3f m", feature.segment, how, fix.before_m, after_m
+        )
+        self.belief_m = after_m
+        self.since_fix_m = 0.0
+        self._pending = [f for f in self._pending if f is not feature]
