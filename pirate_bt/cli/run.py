@@ -94,40 +94,82 @@ def _resolve(ref: str) -> Any:
     return getattr(importlib.import_module(module_name), attr)
 
 
+def split_faults(text: str | None) -> tuple[list[str], str | None]:
+    """Split ``--faults`` into simulator faults and a link fault spec.
+
+    Items are separated by ``;`` or whitespace. An item with ``@`` is a simulator
+    fault (``motor_stall:bend_3_drive@5s+2s``); the others are link byte faults
+    (``drop=0.05,corrupt=0.01``), joined into one spec for the host side.
+
+    Returns:
+        ``(simulator faults, link fault spec or None)``.
+    """
+    sim_faults: list[str] = []
+    link_parts: list[str] = []
+    for item in (text or "").replace(";", " ").split():
+        (sim_faults if "@" in item else link_parts).append(item)
+    return sim_faults, (",".join(link_parts) or None)
+
+
 def connect(args: argparse.Namespace, robot: Any, needs_robot: bool) -> Connection:
     """Open the simulator or the robot link and the supervisor, as the tree needs.
 
-    This is the one place where ``pirate-bt run`` reaches below the tree layer.
-    It expects ``pirate_bt.sim.open_sim(network, robot=, clock=, seed=, faults=)``
-    and ``pirate_bt.link.open_link(url, robot=, clock=)``, each returning a
-    :class:`~pirate_bt.robot.port.RobotPort` with a ``close()`` method, and
-    ``pirate_bt.safety.supervisor.Supervisor(port, clock)``.
+    This is the one place where ``pirate-bt run`` reaches below the tree layer. With
+    ``--port`` it opens ``pirate_bt.link.open_link(url, robot, clock)`` on a wall
+    clock. Otherwise it starts an in-process ``pirate_bt.sim.Simulator`` on the
+    network ``--sim`` (a file or a bundled name; default ``straight``) on a
+    simulated clock, with the simulator faults of ``--faults`` (``KIND:TARGET@AT``),
+    and reaches it through the same link (``sim://NAME``) with the link faults of
+    ``--faults`` (``drop=0.05,corrupt=0.01``; seeded from ``--seed``). Either way
+    the port is wrapped in ``pirate_bt.safety.supervisor.Supervisor(port, clock)``
+    once its first state has arrived.
 
     Raises:
         LinkError: the tree needs a robot and none can be reached.
+        InputError: a malformed fault.
     """
     simulated = args.port is None
     clock: Clock = SimClock() if simulated else WallClock()
     if not needs_robot:
         return Connection(clock=clock, description="no robot needed by this tree")
+    closers: list[Callable[[], None]] = []
+
+    def close() -> None:
+        for closer in reversed(closers):
+            closer()
+
     try:
+        from pirate_bt.safety.factory import wait_for_state
         from pirate_bt.safety.supervisor import Supervisor
 
+        open_link = _resolve("pirate_bt.link:open_link")
         if simulated:
-            open_sim = _resolve("pirate_bt.sim:open_sim")
-            port = open_sim(args.sim, robot=robot, clock=clock, seed=args.seed, faults=args.faults)
-            what = f"simulator: {args.sim or 'default network'}"
+            assert isinstance(clock, SimClock)
+            simulator_cls = _resolve("pirate_bt.sim:Simulator")
+            sim_faults, link_faults = split_faults(args.faults)
+            if link_faults is not None and "seed=" not in link_faults:
+                link_faults += f",seed={args.seed}"
+            network = args.sim or "straight"
+            sim = simulator_cls(network, robot, seed=args.seed, clock=clock, faults=sim_faults)
+            closers.append(sim.close)
+            port = open_link(sim.url, robot, clock, faults=link_faults)
+            what = f"simulator: {network}"
         else:
-            open_link = _resolve("pirate_bt.link:open_link")
-            port = open_link(args.port, robot=robot, clock=clock)
+            port = open_link(args.port, robot, clock)
             what = f"robot at {args.port}"
+        closers.append(port.close)
+        wait_for_state(port, clock, 5.0)
     except (ImportError, AttributeError) as exc:
+        close()
         part = "simulator" if simulated else "link"
         raise LinkError(
             f"cannot connect: this tree needs a robot, but the {part} is not available ({exc})"
         ) from None
+    except BaseException:
+        close()
+        raise
     supervisor = Supervisor(port, clock)
-    return Connection(clock=clock, supervisor=supervisor, close=port.close, description=what)
+    return Connection(clock=clock, supervisor=supervisor, close=close, description=what)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -83,6 +83,15 @@ BUILTIN_NODES: Final[dict[str, str]] = {
     "state_fresh": "pirate_bt.behaviours.guards:StateFresh",
     "while": "pirate_bt.behaviours.guards:While",
     # motion primitives — added by the primitives issue
+    "align_roll": "pirate_bt.behaviours.primitives:AlignRoll",
+    "bend": "pirate_bt.behaviours.primitives:Bend",
+    "clamp": "pirate_bt.behaviours.primitives:Clamp",
+    "confirm": "pirate_bt.behaviours.primitives:Confirm",
+    "drive": "pirate_bt.behaviours.primitives:Drive",
+    "move_front_clear": "pirate_bt.behaviours.primitives:MoveFrontClear",
+    "rotate": "pirate_bt.behaviours.primitives:Rotate",
+    "safe_state": "pirate_bt.behaviours.primitives:SafeState",
+    "unclamp": "pirate_bt.behaviours.primitives:Unclamp",
 }
 
 

@@ -1,0 +1,877 @@
+"""Motion primitives: the smallest meaningful actions of PIRATE, as py_trees leaves.
+
+A primitive asks the safety supervisor for one effect - clamp a half, release it,
+drive, bend a module, rotate the halves, move the front module clear - and then
+*watches the sensors* until the effect is confirmed. It never trusts that a command
+did what it asked:
+
+- ``clamp`` is done when every bend joint of the half has reached the wall and its
+  spring reads the force the torque should give;
+- ``unclamp``, ``bend``, ``rotate``, ``align_roll`` and ``move_front_clear`` are
+  done when the joint angles are within a tolerance of their targets;
+- ``drive`` is done when the wheel odometry has covered a distance, or when a
+  feature of the pipe shows itself in the sensors (the robot is blocked at a turn
+  it may not take, or a half has crossed a tee's opening).
+
+Position setpoints are rate-limited by the supervisor (it clips a step that is too
+big), so a primitive re-sends its command every tick until the supervisor passes
+it unclipped. Every primitive has a ``timeout`` on the injected clock and fails -
+with the reason in ``feedback_message`` - on a refusal, a timeout or a stall (a
+drive motor drawing stall current without turning). When a primitive is
+interrupted or fails, ``terminate()`` leaves the robot safe: drives are stopped
+and clamps are held as they are.
+
+Two nodes complete the set: ``confirm`` (a decorator: the operator confirms the
+step before its child runs, in SUPERVISED mode; granted at once in AUTONOMOUS), and
+``safe_state`` (the end of a recovery branch: the supervisor's "stop the drives,
+hold the clamps", with the reason of the primitive that failed last).
+
+Primitives reach the robot only through ``context.supervisor`` (layer rule), read
+every number about the robot from its description, and acquire the supervisor in
+``setup()`` so a tree builds and draws with no robot attached.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterator
+from typing import Any, ClassVar, Literal
+
+import py_trees
+from py_trees.common import Status
+from pydantic import Field
+
+from pirate_bt.behaviours.base import (
+    BuildContext,
+    GuardDecorator,
+    Leaf,
+    NodeParams,
+    Outcome,
+)
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.robot.description import Half, RobotDescription, Role
+from pirate_bt.robot.state import RobotState
+from pirate_bt.units import Angle, Current, Duration, Length, Torque, Velocity
+
+__all__ = [
+    "AlignRoll",
+    "Bend",
+    "Clamp",
+    "Confirm",
+    "Drive",
+    "MoveFrontClear",
+    "Primitive",
+    "Rotate",
+    "SafeState",
+    "Unclamp",
+    "last_failure",
+]
+
+_log = logging.getLogger("pirate_bt.behaviours.primitives")
+
+_SUCCESS_FAILURE: frozenset[Outcome] = frozenset({"success", "failure", "running"})
+_SETTLE_TICKS = 2
+"""Consecutive ticks a condition must hold before a primitive believes it."""
+
+
+def _wrap(angle_rad: float) -> float:
+    return math.remainder(angle_rad, 2 * math.pi)
+
+
+def _deg(angle_rad: float) -> str:
+    return f"{math.degrees(angle_rad):.1f}°"
+
+
+class Primitive(Leaf):
+    """Common machinery: supervisor, timeout, verdict handling, failure reasons.
+
+    Subclasses implement :meth:`step` (one tick of work on a fresh state, returning
+    a status) and may override :meth:`start` and :meth:`stop_motion`.
+    """
+
+    needs_robot: ClassVar[bool] = True
+    verb: ClassVar[str] = "primitive"
+
+    def __init__(self, name: str, params: NodeParams, context: BuildContext) -> None:
+        super().__init__(name, params, context)
+        self.supervisor: Any = None
+        self.failed_at_s: float | None = None
+        self.failure_reason = ""
+        self._start_s = math.nan
+        self._timeout_s: float = getattr(params, "timeout", 30.0)
+        self._refusal: Any = None
+
+    @classmethod
+    def outcomes(cls, params: Any) -> frozenset[Outcome]:
+        return _SUCCESS_FAILURE
+
+    # -- lifecycle ---------------------------------------------------------------
+
+    def setup(self, **kwargs: Any) -> None:
+        """Take the supervisor from the build context (the only road to the robot).
+
+        Raises:
+            ConfigurationError: the tree was built without a robot connection.
+        """
+        if self.context.supervisor is None:
+            raise ConfigurationError(
+                f"{self.name}: the {self.verb} primitive needs a robot (no supervisor)"
+            )
+        self.supervisor = self.context.supervisor
+
+    @property
+    def robot(self) -> RobotDescription:
+        robot: RobotDescription = self.supervisor.robot
+        return robot
+
+    def now(self) -> float:
+        return self.context.clock.now()
+
+    def initialise(self) -> None:
+        if self.supervisor is None:
+            self.setup()
+        self._start_s = self.now()
+        self.failed_at_s = None
+        self.failure_reason = ""
+        self.feedback_message = ""
+        self.start()
+
+    def update(self) -> Status:
+        state: RobotState | None = self.supervisor.state()
+        elapsed_s = self.now() - self._start_s
+        if state is None:
+            if elapsed_s > self._timeout_s:
+                return self.fail(f"timeout: no robot state within {self._timeout_s:g} s")
+            self.feedback_message = "waiting for the robot's state"
+            return Status.RUNNING
+        status = self.step(state)
+        if status is Status.RUNNING and elapsed_s > self._timeout_s:
+            return self.fail(
+                f"timeout: not done after {self._timeout_s:g} s ({self.feedback_message})"
+            )
+        return status
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status is not Status.SUCCESS and self.supervisor is not None:
+            self.stop_motion()
+
+    # -- hooks -------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Called when the primitive starts (after the supervisor is known)."""
+
+    def step(self, state: RobotState) -> Status:  # pragma: no cover - abstract
+        """One tick of work on the latest state; returns the status."""
+        raise NotImplementedError
+
+    def stop_motion(self) -> None:
+        """Leave the robot safe when interrupted: by default nothing moves on (joints
+        hold their last setpoint, which the rate limit keeps close to where they are)."""
+
+    # -- helpers -------------------------------------------------------------------
+
+    def fail(self, reason: str) -> Status:
+        """Record ``reason`` (``feedback_message``, log, :func:`last_failure`) and fail."""
+        self.feedback_message = reason
+        self.failure_reason = reason
+        self.failed_at_s = self.now()
+        _log.warning("%s failed: %s", self.name, reason)
+        return Status.FAILURE
+
+    def send(self, command: Any) -> tuple[bool, bool]:
+        """Ask the supervisor for ``command``.
+
+        Returns:
+            ``(ok, done)``: ``ok`` is False for a refusal (the reason is recorded by
+            :meth:`refused`); ``done`` is True when it went out unclipped.
+        """
+        verdict = self.supervisor.command(command)
+        if verdict.refused:
+            self._refusal = verdict
+            return False, False
+        return True, verdict.outcome.value == "pass"
+
+    def refused(self) -> Status:
+        verdict = self._refusal
+        reason = verdict.reason.value if verdict.reason is not None else "refused"
+        return self.fail(f"refused {_describe(verdict.command)}: {reason}: {verdict.detail}")
+
+
+def _describe(command: Any) -> str:
+    from pirate_bt.safety.commands import describe
+
+    return describe(command)
+
+
+def _commands() -> Any:
+    # Imported lazily: building or drawing a tree must not need the safety layer.
+    from pirate_bt.safety import commands
+
+    return commands
+
+
+def last_failure(node: py_trees.behaviour.Behaviour) -> str | None:
+    """The reason of the primitive that failed last in ``node``'s tree, if any."""
+    root = node
+    while root.parent is not None:
+        root = root.parent
+    latest: tuple[float, str] | None = None
+    for n in root.iterate():
+        found: tuple[float, str] | None = None
+        if isinstance(n, Primitive) and n.failed_at_s is not None:
+            found = (n.failed_at_s, f"{n.name}: {n.failure_reason}")
+        elif isinstance(n, Confirm) and n.denied_at_s is not None:
+            found = (n.denied_at_s, f"{n.name}: {n.feedback_message}")
+        if found is not None and (latest is None or found[0] >= latest[0]):
+            latest = found
+    return latest[1] if latest else None
+
+
+# -- clamp and release -----------------------------------------------------------
+
+
+class ClampParams(NodeParams):
+    half: Half = Field(description="which half clamps: front or rear")
+    torque: Torque = Field(gt=0, description="joint torque pressing the wheels on the wall")
+    timeout: Duration = Field(5.0, gt=0, description="fail if not clamped within this time")
+
+
+def _joint_torque_limit(robot: RobotDescription) -> float | None:
+    limits = [
+        robot.joint_motor(m.name).limits.torque
+        for m in robot.all_bend_modules()
+        if robot.joint_motor(m.name).limits.torque is not None
+    ]
+    return min(lim.max for lim in limits if lim is not None) if limits else None
+
+
+class Clamp(Primitive):
+    """Clamp ``half`` at ``torque``; success when every joint is at the wall and its spring
+    reads the force the torque gives (or, without springs, the angle is in the wall range).
+
+    Fails at once when a joint swings past every wall-contact angle (no wall there: the
+    half is over a tee's opening) and on refusal or timeout.
+    """
+
+    Params = ClampParams
+    verb = "clamp"
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        problems: list[str] = []
+        if params.torque < robot.clamp.min_torque:
+            problems.append(
+                f"torque: {params.torque:g} N*m is below the minimum clamp torque"
+                f" {robot.clamp.min_torque:g} N*m"
+            )
+        limit = _joint_torque_limit(robot)
+        if limit is not None and params.torque > limit:
+            problems.append(
+                f"torque: {params.torque:g} N*m is above the bend joints' limit {limit:g} N*m"
+            )
+        return problems
+
+    def start(self) -> None:
+        self._sent = False
+        self._held = 0
+
+    def step(self, state: RobotState) -> Status:
+        p: ClampParams = self.params  # type: ignore[assignment]
+        if not self._sent:
+            ok, _ = self.send(_commands().Clamp(p.half, p.torque))
+            if not ok:
+                return self.refused()
+            self._sent = True
+        robot = self.robot
+        clamp = robot.clamp
+        tol = robot.safety.angle_tolerance
+        wall_min = min(c.angle for c in clamp.contact_angles) - tol
+        wall_max = max(c.angle for c in clamp.contact_angles) + 4 * tol
+        need_force = robot.safety.clamp_force_fraction * p.torque / clamp.lever_arm
+        ok_all = True
+        shown: list[str] = []
+        for module in robot.bend_modules(p.half):
+            angle = state.joint_angle_rad.get(module.name)
+            if angle is None:
+                ok_all = False
+                continue
+            force = state.clamp_force_n.get(module.name)
+            shown.append(
+                f"{module.name} {_deg(angle)}" + (f" {force:.1f} N" if force is not None else "")
+            )
+            if abs(angle) > wall_max:
+                return self.fail(
+                    f"no wall: {module.name} swung to {_deg(angle)}, past every wall-contact"
+                    f" angle (the {p.half} half is over an opening?)"
+                )
+            if abs(angle) < wall_min or (force is not None and abs(force) < need_force):
+                ok_all = False
+        self.feedback_message = f"clamping {p.half}: " + ", ".join(shown)
+        self._held = self._held + 1 if ok_all else 0
+        return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+
+class UnclampParams(NodeParams):
+    half: Half = Field(description="which half releases: front or rear")
+    tolerance: Angle = Field(0.05, gt=0, description="joint angle counted as straight")
+    timeout: Duration = Field(5.0, gt=0, description="fail if not released within this time")
+
+
+class Unclamp(Primitive):
+    """Release ``half``: its joints back to straight; success when every joint is within
+    ``tolerance`` of 0 (and its springs read no force)."""
+
+    Params = UnclampParams
+    verb = "unclamp"
+
+    def start(self) -> None:
+        self._done_sending = False
+        self._held = 0
+
+    def step(self, state: RobotState) -> Status:
+        p: UnclampParams = self.params  # type: ignore[assignment]
+        if not self._done_sending:
+            ok, done = self.send(_commands().Unclamp(p.half))
+            if not ok:
+                return self.refused()
+            self._done_sending = done
+        return self._settle(state, p.half, p.tolerance)
+
+    def _settle(self, state: RobotState, half: Half, tol: float) -> Status:
+        robot = self.robot
+        release = robot.safety.release_force_fraction * robot.clamp.min_torque
+        release /= robot.clamp.lever_arm
+        ok_all = self._done_sending
+        shown: list[str] = []
+        for module in robot.bend_modules(half):
+            angle = state.joint_angle_rad.get(module.name)
+            force = state.clamp_force_n.get(module.name)
+            if angle is None or abs(angle) > tol or (force is not None and abs(force) > release):
+                ok_all = False
+            if angle is not None:
+                shown.append(f"{module.name} {_deg(angle)}")
+        self.feedback_message = f"releasing {half}: " + ", ".join(shown)
+        self._held = self._held + 1 if ok_all else 0
+        return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+
+# -- joints --------------------------------------------------------------------------
+
+
+class BendParams(NodeParams):
+    module: str = Field(
+        description="a bend module (bend_1), or a half (front, rear) for all of its bend modules"
+    )
+    angle: Angle = Field(description="joint angle; positive bends toward the bending direction")
+    sign_from: str | None = Field(
+        None,
+        description="blackboard key holding +1 or -1 (written by align_roll): the angle's sign",
+    )
+    tolerance: Angle = Field(0.05, gt=0, description="how close counts as reached")
+    timeout: Duration = Field(5.0, gt=0, description="fail if not reached within this time")
+
+
+def _bend_targets(robot: RobotDescription, module: str) -> list[str]:
+    if module in (Half.FRONT.value, Half.REAR.value):
+        return [m.name for m in robot.bend_modules(Half(module))]
+    mod = robot.module(module)
+    if mod.role is not Role.BEND:
+        raise KeyError(module)
+    return [mod.name]
+
+
+class Bend(Primitive):
+    """Set the joint angle of a bend module (or of both of a half's) and wait until reached.
+
+    With ``sign_from`` the angle is multiplied by the sign on the blackboard, so a
+    tree can steer a half toward a turn whose side ``align_roll`` chose.
+    """
+
+    Params = BendParams
+    verb = "bend"
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        try:
+            modules = _bend_targets(robot, params.module)
+        except KeyError:
+            names = [m.name for m in robot.all_bend_modules()]
+            return [f"module: {params.module!r} is not a bend module or a half ({names})"]
+        problems: list[str] = []
+        for name in modules:
+            lim = robot.joint_motor(name).limits.angle
+            if lim is not None and not (lim.min <= params.angle <= lim.max):
+                problems.append(
+                    f"angle: {_deg(params.angle)} is beyond {name}'s range"
+                    f" [{_deg(lim.min)}, {_deg(lim.max)}]"
+                )
+            if lim is not None and params.sign_from and not lim.min <= -params.angle <= lim.max:
+                problems.append(f"angle: -{_deg(params.angle)} is beyond {name}'s range")
+        return problems
+
+    @classmethod
+    def blackboard_reads(cls, params: Any) -> tuple[str, ...]:
+        return (params.sign_from,) if params.sign_from else ()
+
+    def start(self) -> None:
+        p: BendParams = self.params  # type: ignore[assignment]
+        self._modules = _bend_targets(self.robot, p.module)
+        self._target = p.angle
+        self._sign_error = ""
+        if p.sign_from:
+            sign = _read_blackboard(p.sign_from)
+            if sign not in (1, -1, 1.0, -1.0):
+                self._sign_error = f"blackboard {p.sign_from!r} is {sign!r}, not +1 or -1"
+            else:
+                self._target = p.angle * float(sign)
+        self._done_sending = False
+        self._held = 0
+
+    def step(self, state: RobotState) -> Status:
+        p: BendParams = self.params  # type: ignore[assignment]
+        if self._sign_error:
+            return self.fail(self._sign_error)
+        if not self._done_sending:
+            done_all = True
+            for name in self._modules:
+                ok, done = self.send(_commands().Bend(name, self._target))
+                if not ok:
+                    return self.refused()
+                done_all = done_all and done
+            self._done_sending = done_all
+        ok_all = self._done_sending
+        shown: list[str] = []
+        for name in self._modules:
+            angle = state.joint_angle_rad.get(name)
+            if angle is None or abs(angle - self._target) > p.tolerance:
+                ok_all = False
+            if angle is not None:
+                shown.append(f"{name} {_deg(angle)}")
+        self.feedback_message = f"bending to {_deg(self._target)}: " + ", ".join(shown)
+        self._held = self._held + 1 if ok_all else 0
+        return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+
+def _read_blackboard(key: str) -> Any:
+    storage = py_trees.blackboard.Blackboard.storage
+    name = key if key.startswith("/") else "/" + key
+    return storage.get(name)
+
+
+def _write_blackboard(key: str, value: Any) -> None:
+    name = key if key.startswith("/") else "/" + key
+    py_trees.blackboard.Blackboard.set(name, value)
+
+
+class RotateParams(NodeParams):
+    angle: Angle = Field(description="angle between the halves (front minus rear)")
+    tolerance: Angle = Field(0.05, gt=0, description="how close counts as reached")
+    timeout: Duration = Field(10.0, gt=0, description="fail if not reached within this time")
+
+
+def _rotate_range_problem(robot: RobotDescription, angle: float, field: str) -> list[str]:
+    lim = robot.rotate_motor().limits.angle
+    if lim is not None and not lim.min <= angle <= lim.max:
+        return [
+            f"{field}: {_deg(angle)} is beyond the rotation range [{_deg(lim.min)},"
+            f" {_deg(lim.max)}]"
+        ]
+    return []
+
+
+class _Rotation(Primitive):
+    """Drive the rotational joint to ``self._target`` and wait for the sensor."""
+
+    verb = "rotate"
+    _target: float
+    _tolerance: float
+    _done_sending: bool
+    _held: int
+
+    def _rotate_to(self, state: RobotState) -> Status:
+        if not self._done_sending:
+            ok, done = self.send(_commands().Rotate(self._target))
+            if not ok:
+                return self.refused()
+            self._done_sending = done
+        rotation = state.rotation_rad
+        reached = (
+            self._done_sending
+            and rotation is not None
+            and abs(rotation - self._target) <= self._tolerance
+        )
+        shown = _deg(rotation) if rotation is not None else "unknown"
+        self.feedback_message = f"rotating to {_deg(self._target)}: at {shown}"
+        self._held = self._held + 1 if reached else 0
+        return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+
+class Rotate(_Rotation):
+    """Set the angle between the two halves; exactly one half must be clamped."""
+
+    Params = RotateParams
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        return _rotate_range_problem(robot, params.angle, "angle")
+
+    def start(self) -> None:
+        p: RotateParams = self.params  # type: ignore[assignment]
+        self._target = p.angle
+        self._tolerance = p.tolerance
+        self._done_sending = False
+        self._held = 0
+
+    def step(self, state: RobotState) -> Status:
+        return self._rotate_to(state)
+
+
+class AlignRollParams(NodeParams):
+    roll: Angle = Field(
+        description="roll of the turn's plane: 0 up, 90 deg right, 180 deg down, -90 deg left"
+    )
+    sign_key: str = Field(
+        "steer_sign", description="blackboard key for the steering sign (+1 or -1) chosen"
+    )
+    tolerance: Angle = Field(0.05, gt=0, description="how close counts as reached")
+    timeout: Duration = Field(10.0, gt=0, description="fail if not aligned within this time")
+
+
+class AlignRoll(_Rotation):
+    """Rotate the (free) front half so that its bending plane lies in a turn's plane.
+
+    The rear half must be clamped; its roll is the IMU's roll (the IMU sits in the
+    rotational module, rigid with the rear half). The bending plane is aligned with a
+    turn of roll ``r`` when the half's roll is ``r`` (steer with positive joint angles)
+    or ``r + 180°`` (steer with negative angles); the smaller rotation that stays in
+    the joint's range is chosen, and its sign is written to ``sign_key`` for ``bend``.
+    """
+
+    Params = AlignRollParams
+
+    @classmethod
+    def blackboard_writes(cls, params: Any) -> tuple[str, ...]:
+        return (params.sign_key,)
+
+    def start(self) -> None:
+        self._target = math.nan
+        self._tolerance = self.params.tolerance  # type: ignore[attr-defined]
+        self._done_sending = False
+        self._held = 0
+
+    def _choose(self, state: RobotState) -> str | None:
+        p: AlignRollParams = self.params  # type: ignore[assignment]
+        rear_roll = state.imu_rad.get("roll")
+        if rear_roll is None:
+            return "no IMU roll reading: cannot tell the rear half's roll"
+        lim = self.robot.rotate_motor().limits.angle
+        lo, hi = (lim.min, lim.max) if lim is not None else (-math.pi, math.pi)
+        candidates = sorted(
+            (
+                (_wrap(p.roll + offset - rear_roll), sign)
+                for offset, sign in ((0, 1), (math.pi, -1))
+            ),
+            key=lambda c: (round(abs(c[0]), 6), -c[1]),
+        )
+        for rotation, sign in candidates:
+            if lo <= rotation <= hi:
+                self._target = rotation
+                _write_blackboard(p.sign_key, sign)
+                return None
+        return f"no rotation within [{_deg(lo)}, {_deg(hi)}] aligns with roll {_deg(p.roll)}"
+
+    def step(self, state: RobotState) -> Status:
+        if math.isnan(self._target):
+            problem = self._choose(state)
+            if problem is not None:
+                return self.fail(problem)
+        return self._rotate_to(state)
+
+
+class MoveFrontClearParams(NodeParams):
+    side: Literal["positive", "negative"] = Field(
+        "positive", description="to which side the front module swings out of the way"
+    )
+    timeout: Duration = Field(5.0, gt=0, description="fail if not clear within this time")
+
+
+class MoveFrontClear(Primitive):
+    """Tilt the front module out of the way (``clamp.front_clear_angle``): it must be clear
+    before the front half clamps, or the bend modules push on it."""
+
+    Params = MoveFrontClearParams
+    verb = "move_front_clear"
+
+    def start(self) -> None:
+        self._done_sending = False
+        self._held = 0
+
+    def step(self, state: RobotState) -> Status:
+        p: MoveFrontClearParams = self.params  # type: ignore[assignment]
+        sign = 1 if p.side == "positive" else -1
+        if not self._done_sending:
+            ok, done = self.send(_commands().MoveFrontClear(sign))
+            if not ok:
+                return self.refused()
+            self._done_sending = done
+        tilt = state.front_tilt_rad
+        need = self.robot.clamp.front_clear_angle - self.robot.safety.angle_tolerance
+        clear = tilt is not None and tilt * sign >= need
+        self.feedback_message = f"front tilt {_deg(tilt) if tilt is not None else 'unknown'}"
+        self._held = self._held + 1 if (clear and self._done_sending) else 0
+        return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+
+# -- drive ------------------------------------------------------------------------------
+
+Until = Literal["distance", "blocked", "opening_passed"]
+
+
+class DriveParams(NodeParams):
+    velocity: Velocity = Field(description="wheel speed; negative drives backwards")
+    distance: Length | None = Field(
+        None, gt=0, description="odometry distance that completes the drive (until: distance)"
+    )
+    until: Until = Field(
+        "distance",
+        description=(
+            "what completes the drive: 'distance' travelled; 'blocked' (every drive draws"
+            " stall current: the leading half is held at a turn it may not take);"
+            " 'opening_passed' (the rear half lost the wall over a tee's opening and found"
+            " it again behind it)"
+        ),
+    )
+    max_distance: Length = Field(
+        3.0, gt=0, description="fail when no feature was found within this distance"
+    )
+    stall_current: Current | None = Field(
+        None, gt=0, description="current counted as stalled (default 80 % of the stall current)"
+    )
+    stall_time: Duration = Field(0.5, gt=0, description="how long a stall lasts before failing")
+    timeout: Duration = Field(120.0, gt=0, description="fail if not done within this time")
+
+
+class Drive(Primitive):
+    """Drive every wheel at ``velocity`` until a distance or a feature; stop at the end.
+
+    Odometry integrates the mean measured wheel speed. A drive motor drawing at least
+    ``stall_current`` while turning at less than a fifth of the commanded speed for
+    ``stall_time`` is a stall (failure). Every motor drawing stall current while the
+    wheels turn means the robot is held by the pipe: success for ``until: blocked``,
+    a failure otherwise. ``terminate()`` always stops the drives.
+    """
+
+    Params = DriveParams
+    verb = "drive"
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        problems: list[str] = []
+        if params.velocity == 0:
+            problems.append("velocity: must not be 0")
+        if params.until == "distance" and params.distance is None:
+            problems.append("distance: required with until: distance")
+        for motor in robot.drive_motors():
+            lim = motor.limits.velocity
+            if lim is not None and abs(params.velocity) > lim.max:
+                problems.append(
+                    f"velocity: {params.velocity * 1000:g} mm/s is above {motor.name}'s limit"
+                    f" {lim.max * 1000:g} mm/s"
+                )
+                break
+        return problems
+
+    def start(self) -> None:
+        self._at_speed = False
+        self._odometry_m = 0.0
+        self._last_s = self.now()
+        self._stall_since: dict[str, float] = {}
+        self._blocked_since: float | None = None
+        self._lost_wall = False
+        self._slow_since: float | None = None
+
+    def stop_motion(self) -> None:
+        self.supervisor.stop()
+
+    def terminate(self, new_status: Status) -> None:
+        if self.supervisor is not None:
+            self.supervisor.stop()
+
+    def _half_off_wall(self, state: RobotState, half: Half) -> bool:
+        clamp = self.robot.clamp
+        beyond = max(c.angle for c in clamp.contact_angles) + 4 * self.robot.safety.angle_tolerance
+        return any(
+            abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
+            for m in self.robot.bend_modules(half)
+        )
+
+    def step(self, state: RobotState) -> Status:
+        p: DriveParams = self.params  # type: ignore[assignment]
+        now = self.now()
+        dt = max(now - self._last_s, 0.0)
+        self._last_s = now
+        speed = state.mean_drive_velocity_mps()
+        self._odometry_m += speed * dt
+        travelled = abs(self._odometry_m)
+        if not self._at_speed:
+            ok, done = self.send(_commands().Drive(p.velocity))
+            if not ok:
+                return self.refused()
+            self._at_speed = done
+        robot = self.robot
+        stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
+        currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in robot.drive_motors()}
+        speeds = {m.name: state.drive_velocity_mps.get(m.name, 0.0) for m in robot.drive_motors()}
+        self.feedback_message = (
+            f"drove {travelled:.3f} m at {speed * 1000:.0f} mm/s"
+            f" (max current {max(currents.values(), default=0.0):.2f} A)"
+        )
+        # a stall: a motor drawing stall current without turning
+        for name, current in currents.items():
+            turning = abs(speeds[name]) >= 0.2 * abs(p.velocity)
+            if current >= stall_a and not turning:
+                since = self._stall_since.setdefault(name, now)
+                if now - since >= p.stall_time:
+                    return self.fail(
+                        f"stall: {name} draws {current:.2f} A at {speeds[name] * 1000:.0f} mm/s"
+                        f" for {now - since:.2f} s (commanded {p.velocity * 1000:g} mm/s)"
+                    )
+            else:
+                self._stall_since.pop(name, None)
+        # blocked: every wheel turns against the pipe at stall current
+        if currents and all(c >= stall_a for c in currents.values()):
+            if self._blocked_since is None:
+                self._blocked_since = now
+            if now - self._blocked_since >= min(p.stall_time, 0.3):
+                if p.until == "blocked":
+                    self.feedback_message = f"blocked after {travelled:.3f} m"
+                    return Status.SUCCESS
+                return self.fail(
+                    f"blocked: every drive draws stall current after {travelled:.3f} m"
+                    " (a turn the robot may not take?)"
+                )
+        else:
+            self._blocked_since = None
+        if p.until == "distance" and p.distance is not None and travelled >= p.distance:
+            return Status.SUCCESS
+        if p.until == "opening_passed":
+            off = self._half_off_wall(state, Half.REAR)
+            if off:
+                self._lost_wall = True
+            elif self._lost_wall:
+                self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
+                return Status.SUCCESS
+        if p.until != "distance" and travelled >= p.max_distance:
+            return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")
+        # the bridge's watchdog may have stopped the wheels: ask again
+        if self._at_speed and abs(speed) < 0.2 * abs(p.velocity):
+            if self._slow_since is None:
+                self._slow_since = now
+            elif now - self._slow_since >= 0.5 and max(currents.values(), default=0.0) < stall_a:
+                self._at_speed = False
+                self._slow_since = None
+        else:
+            self._slow_since = None
+        return Status.RUNNING
+
+
+# -- confirmation and safe state -----------------------------------------------------
+
+
+class ConfirmParams(NodeParams):
+    step: str = Field(min_length=1, description="the step's name shown to the operator")
+
+
+class Confirm(GuardDecorator):
+    """A confirmation point: the operator confirms ``step`` before the child runs.
+
+    In SUPERVISED mode the node is RUNNING (the child does not start) until the
+    operator confirms the step, and fails if they deny it; in AUTONOMOUS mode it is
+    granted at once. The grant lasts while the child runs and ends with it.
+    """
+
+    Params = ConfirmParams
+    needs_robot: ClassVar[bool] = True
+
+    def __init__(
+        self,
+        name: str,
+        child: py_trees.behaviour.Behaviour,
+        params: ConfirmParams,
+        context: BuildContext,
+    ) -> None:
+        super().__init__(name, child, params, context)
+        self.step = params.step
+        self._granted = False
+        self.denied_at_s: float | None = None
+
+    @classmethod
+    def decorated_outcomes(
+        cls, params: Any, child_outcomes: frozenset[Outcome]
+    ) -> frozenset[Outcome]:
+        return child_outcomes | {"failure", "running"}
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        sup = self.context.supervisor
+        if self.status != Status.RUNNING:
+            self._granted = False
+            self.denied_at_s = None
+        if not self._granted and sup is not None:
+            answer = sup.request_confirmation(self.step).value
+            if answer == "granted":
+                self._granted = True
+            elif answer == "denied":
+                self.feedback_message = f"the operator denied {self.step!r}"
+                self.denied_at_s = self.context.clock.now()
+                sup.end_step(self.step)
+                self.stop(Status.FAILURE)
+                yield self
+                return
+            else:
+                if self.status != Status.RUNNING:
+                    self.initialise()
+                self.status = Status.RUNNING
+                self.feedback_message = f"waiting for the operator to confirm {self.step!r}"
+                yield self
+                return
+        yield from super().tick()
+
+    def update(self) -> Status:
+        self.feedback_message = self.decorated.feedback_message
+        return self.decorated.status
+
+    def terminate(self, new_status: Status) -> None:
+        sup = self.context.supervisor
+        if new_status != Status.RUNNING and self._granted and sup is not None:
+            sup.end_step(self.step)
+            self._granted = False
+
+
+class SafeStateParams(NodeParams):
+    reason: str = Field("recovery", description="why the tree puts the robot in its safe state")
+
+
+class SafeState(Leaf):
+    """Put the robot in its safe state (drives stopped, clamps held); always succeeds.
+
+    The end of a recovery branch: the reason given to the supervisor includes the
+    reason of the primitive that failed last, so it shows in the log and the trace.
+    """
+
+    Params = SafeStateParams
+    needs_robot: ClassVar[bool] = True
+
+    @classmethod
+    def outcomes(cls, params: Any) -> frozenset[Outcome]:
+        return frozenset({"success"})
+
+    def update(self) -> Status:
+        p: SafeStateParams = self.params  # type: ignore[assignment]
+        cause = last_failure(self)
+        reason = f"{p.reason}: {cause}" if cause else p.reason
+        self.feedback_message = reason
+        sup = self.context.supervisor
+        if sup is not None:
+            sup.safe_state(reason)
+        return Status.SUCCESS
