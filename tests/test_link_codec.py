@@ -238,3 +238,99 @@ def test_oversize_then_resync() -> None:
     assert [e.reason for e in out if isinstance(e, FrameError)] == ["oversize"]
     good = c.Heartbeat(3)
     assert decoder.feed(b"\x01\x00" + CODEC.encode(good)) == [good]
+
+
+# --- fast paths (STATE frame, COBS) agree with the general ones -------------------------------
+
+
+def _reference_cobs_encode(data: bytes) -> bytes:
+    """COBS by the textbook byte loop, to check the split-based encoder against."""
+    out, block = bytearray(), bytearray()
+    for byte in data:
+        if byte == 0:
+            out += bytes((len(block) + 1,)) + block
+            block.clear()
+        else:
+            block.append(byte)
+            if len(block) == 254:
+                out += b"\xff" + block
+                block.clear()
+    if block or not data or data[-1] == 0 or len(data) % 254:
+        out += bytes((len(block) + 1,)) + block
+    return bytes(out)
+
+
+@given(st.binary(min_size=1, max_size=600))
+def test_cobs_matches_the_byte_loop(data: bytes) -> None:
+    expected = _reference_cobs_encode(data)
+    assert c.cobs_decode(expected) == data
+    if len(data) < 254:  # every frame body; longer runs may end in another valid form
+        assert c.cobs_encode(data) == expected
+
+
+def test_cobs_decode_long_runs_and_bad_codes() -> None:
+    for data in (b"\x01" * 253, b"\x01" * 254, b"\x01" * 255, b"\x01" * 254 + b"\x00\x02"):
+        assert c.cobs_decode(c.cobs_encode(data)) == data
+    with pytest.raises(FrameError, match="runs past the end"):
+        c.cobs_decode(b"\x05\x01\x02")
+    with pytest.raises(FrameError, match="runs past the end"):
+        c.cobs_decode(b"\x02\x01\x09")
+    with pytest.raises(FrameError, match="zero byte"):
+        c.cobs_decode(b"\x02\x00")
+
+
+states = st.builds(
+    c.State,
+    seqs,
+    st.builds(c.BridgeFlags, st.integers(0, 7)),
+    seqs,
+    st.integers(0, (1 << n_ch) - 1),
+    st.tuples(*[st.integers(0, 15)] * n_b),
+    st.tuples(*[i16] * n_ch),
+)
+
+
+@given(states)
+def test_state_fast_path_matches_general_decode(msg: c.State) -> None:
+    body = c.cobs_decode(CODEC.encode(msg)[:-1])
+    arg, payload = CODEC.encode_payload(msg)
+    header = c._HEADER.pack(c.PROTOCOL_VERSION, c.MsgType.STATE, msg.seq, arg)
+    assert body[:-2] == header + payload  # encode: one pack == header + payload packs
+    general = CODEC._decode_payload(c.MsgType.STATE, msg.seq, arg, payload)
+    fast = CODEC.decode_body(body)
+    assert type(fast) is c.State and fast == general == msg
+    assert hash(fast) == hash(msg) and repr(fast) == repr(msg)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fast.seq = 1  # type: ignore[misc]
+
+
+def test_state_board_status_cache_follows_changes() -> None:
+    decoder = c.FrameDecoder(CODEC)
+    for status in [(1,) * n_b, (2,) * n_b, (1,) * n_b, tuple(range(n_b))] * 2:
+        msg = c.State(9, c.BridgeFlags.ESTOP, 3, 5, status, (7,) * n_ch)
+        assert decoder.feed(CODEC.encode(msg)) == [msg]
+    # a tuple that was encoded before is still checked the first time it is invalid
+    with pytest.raises(ValueError, match="nibble"):
+        CODEC.encode(c.State(9, c.BridgeFlags.NONE, 3, 5, (16,) * n_b, (7,) * n_ch))
+    with pytest.raises(ValueError, match="layout"):
+        CODEC.encode(c.State(9, c.BridgeFlags.NONE, 3, 5, (1,) * n_b, (7,) * (n_ch - 1)))
+    with pytest.raises(ValueError):
+        CODEC.encode(c.State(9, c.BridgeFlags.NONE, 3, 5, (1,) * n_b, (40000,) * n_ch))
+
+
+def test_state_fast_path_keeps_error_order() -> None:
+    msg = c.State(9, c.BridgeFlags.NONE, 3, 5, (1,) * n_b, (7,) * n_ch)
+    body = bytearray(c.cobs_decode(CODEC.encode(msg)[:-1]))
+    bad_crc = bytes(body[:-1]) + bytes((body[-1] ^ 1,))
+    body[0] = c.PROTOCOL_VERSION + 1
+    body[-2:] = c._CRC.pack(c.crc16(bytes(body[:-2])))
+    for wire, reason in ((bad_crc, "crc"), (bytes(body), "version")):
+        out = c.FrameDecoder(CODEC).feed(c.cobs_encode(wire) + b"\x00")
+        assert len(out) == 1 and isinstance(out[0], FrameError) and out[0].reason == reason
+
+
+def test_iter_feed_matches_feed() -> None:
+    msgs = [c.Heartbeat(1), c.State(2, c.BridgeFlags.NONE, 1, 3, (1,) * n_b, (4,) * n_ch)]
+    wire = c.encode_many(CODEC, msgs) + b"\x00\x07garbage"
+    assert list(c.FrameDecoder(CODEC).iter_feed(wire)) == c.FrameDecoder(CODEC).feed(wire)
+    assert list(c.FrameDecoder(CODEC).iter_feed(b"")) == []
