@@ -123,6 +123,9 @@ class SimBridge:
         self._state_seq = 0
         self._last_raw = [0] * len(self._channels)
         self._all_fresh = (1 << len(self._channels)) - 1
+        self._encoded_from: list[float] = []
+        self._all_online = tuple(int(BoardStatus.ONLINE) for _ in self._boards)
+        self._encoded: list[int] = []
         # The robot's raw<->SI conversion of each channel, unpacked for the 100 Hz path;
         # equivalent to StateBuilder.encode (tests check it).
         self._conversions = [
@@ -437,12 +440,16 @@ class SimBridge:
         else:
             self._last_raw = last = self._encode(values)
             mask = self._all_fresh
-        status = []
-        for board in self._boards:
-            nibble = BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE
-            if self.estopped:
-                nibble |= BoardStatus.MOTORS_OFF
-            status.append(int(nibble))
+        if self._resetting or self.estopped:
+            status: tuple[int, ...] = tuple(
+                int(
+                    (BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE)
+                    | (BoardStatus.MOTORS_OFF if self.estopped else BoardStatus.NONE)
+                )
+                for board in self._boards
+            )
+        else:
+            status = self._all_online
         flags = BridgeFlags.NONE
         if self.estopped:
             flags |= BridgeFlags.ESTOP
@@ -450,17 +457,26 @@ class SimBridge:
             flags |= BridgeFlags.WATCHDOG
         self._state_seq = (self._state_seq + 1) & 0xFFFF
         self._out += self.codec.encode(
-            State(self._state_seq, flags, self._ack_seq, mask, tuple(status), tuple(last))
+            State(self._state_seq, flags, self._ack_seq, mask, status, tuple(last))
         )
         self.state_frames_sent += 1
 
     def _encode(self, values: list[float]) -> list[int]:
         """SI readings -> raw int16 values with the robot's conversions (saturating)."""
-        out: list[int] = []
-        for value, (zero, inv, lo, hi) in zip(values, self._conversions, strict=True):
+        previous = self._encoded_from
+        if len(previous) != len(values):
+            previous = [math.nan] * len(values)
+        out = self._encoded or [0] * len(values)
+        out = list(out)
+        for i, value in enumerate(values):
+            if value == previous[i]:
+                continue  # unchanged channel: same raw value as last frame
+            zero, inv, lo, hi = self._conversions[i]
             raw = round(value * inv + zero)
-            out.append(lo if raw < lo else hi if raw > hi else raw)
-        return out
+            out[i] = lo if raw < lo else hi if raw > hi else raw
+        self._encoded_from = values
+        self._encoded = out
+        return list(out)
 
     def encode_readings(self, readings: dict[str, float]) -> list[int | None]:
         """The robot's :meth:`StateBuilder.encode` of SI readings by channel name."""

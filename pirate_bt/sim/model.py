@@ -37,7 +37,7 @@ import bisect
 import logging
 import math
 import random
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
@@ -302,6 +302,11 @@ class PipeRobotModel:
         self._front_pressed_since: float | None = None
         self._channels = self._channel_table()
         self._channel_names = [name for name, _, _ in self._channels]
+        self._getters = [self._getter(kind, source) for _, kind, source in self._channels]
+        self._sigmas = [self._sigma(kind) for _, kind, _ in self._channels]
+        self._imu_now: dict[str, float] | None = None
+        self._imu_key: tuple[float, float] | None = None
+        self._imu_value: dict[str, float] = {}
         self._contact_cache: dict[float, float] = {}
         self._walls: dict[str, float | None] = {}
         self._walls_at = math.nan
@@ -370,14 +375,14 @@ class PipeRobotModel:
             return
         self.time_s += dt_s
         self._update_walls()
-        self._step_joints(dt_s)
-        self._update_contacts()
+        if self._step_joints(dt_s):
+            self._update_contacts()
         self._step_rotation(dt_s)
         self._step_drives(dt_s)
         before = self.s_m
         self._step_motion(dt_s)
-        if self.s_m != before:
-            self._update_contacts()
+        if self.s_m != before and self._update_walls():
+            self._contacts()
         self._check_torques()
 
     def _joint_target(self, m: _Motor) -> tuple[float, float]:
@@ -395,14 +400,17 @@ class PipeRobotModel:
             return (m.angle_max if m.value > 0 else m.angle_min), torque
         return m.angle_rad, 0.0  # off: limp, the gears hold the angle
 
-    def _step_joints(self, dt_s: float) -> None:
+    def _step_joints(self, dt_s: float) -> bool:
+        """Step every joint; True when a bend joint may have changed (contacts need a look)."""
         hold = self.robot.motion.position_hold_torque
+        changed = False
         for half in self._halves.values():
             for j in half.joints:
                 wall = self._walls[j.name]
                 key = (j.mode, j.value, wall, j.angle_rad, j.stalled)
                 if key == j.settled:
                     continue  # nothing moved and nothing changed since the last step
+                changed = True
                 target, torque = self._joint_target(j)
                 if j.stalled:
                     j.torque_nm = (
@@ -438,6 +446,7 @@ class PipeRobotModel:
             step = m.rate_max * dt_s
             m.angle_rad += max(-step, min(step, target - m.angle_rad))
             m.torque_nm = torque
+        return changed
 
     def _wall_angle(self, s_m: float) -> float | None:
         """Joint angle at which the wheels touch the wall at ``s_m``; None over a tee opening."""
@@ -450,9 +459,11 @@ class PipeRobotModel:
             angle = self._contact_cache[diameter] = self.robot.clamp.contact_angle(diameter)
         return angle
 
-    def _update_walls(self) -> None:
+    def _update_walls(self) -> bool:
+        """Recompute the wall angle under each bend joint; True when one changed."""
         if self.s_m == self._walls_at and self.path is self._walls_path:
-            return
+            return False
+        changed = False
         self._walls_at = self.s_m
         path_changed = self.path is not self._walls_path
         self._walls_path = self.path
@@ -463,13 +474,20 @@ class PipeRobotModel:
                 span = spans.get(j.name)
                 if not path_changed and span is not None and span[0] <= at < span[1]:
                     continue  # same plain piece of constant diameter: same wall
-                self._walls[j.name] = self._wall_angle(at)
+                wall = self._wall_angle(at)
+                if wall != self._walls.get(j.name, math.nan):
+                    changed = True
+                self._walls[j.name] = wall
                 piece = self.path.piece_at(at)
                 plain = piece.opening_m is None and piece.diameter_start_m == piece.diameter_end_m
                 spans[j.name] = (piece.start_m, piece.end_m) if plain else (0.0, 0.0)
+        return changed or path_changed
 
     def _update_contacts(self) -> None:
         self._update_walls()
+        self._contacts()
+
+    def _contacts(self) -> None:
         clamp = self.robot.clamp
         lever = clamp.lever_arm
         for half in self._halves.values():
@@ -858,35 +876,54 @@ class PipeRobotModel:
 
     def reading_values(self) -> list[float]:
         """Every state channel's SI value (with noise), in the state frame's channel order."""
-        motors = self._motors
-        noise = self.noise
-        noisy = noise != _NO_NOISE
-        gauss = self._rng.gauss
-        out: list[float] = []
-        imu: dict[str, float] | None = None
+        self._imu_now = None
+        values = [get() for get in self._getters]
+        if self.noise != _NO_NOISE:
+            gauss = self._rng.gauss
+            values = [
+                v + gauss(0.0, sigma) if sigma > 0 else v
+                for v, sigma in zip(values, self._sigmas, strict=True)
+            ]
+        return values
+
+    def _getter(self, kind: str, source: str) -> Callable[[], float]:
         lever = self.robot.clamp.lever_arm
-        for _name, kind, source in self._channels:
-            if kind == "angle":
-                value = motors[source].angle_rad
-                sigma = noise.angle_rad
-            elif kind == "spring":
-                value = motors[source].press_nm / lever
-                sigma = noise.force_n
-            elif kind == "velocity":
-                value = motors[source].measured_mps
-                sigma = noise.velocity_mps
-            elif kind == "current":
-                value = motors[source].current_a
-                sigma = noise.current_a
-            elif kind == "imu":
-                if imu is None:
-                    imu = self._imu()
-                value = imu.get(source, 0.0)
-                sigma = noise.angle_rad
-            else:
-                value, sigma = 0.0, 0.0
-            out.append(value + gauss(0.0, sigma) if noisy and sigma > 0 else value)
-        return out
+        if kind == "imu":
+            return lambda: self._imu_once().get(source, 0.0)
+        if kind == "zero":
+            return lambda: 0.0
+        m = self._motors[source]
+        if kind == "angle":
+            return lambda: m.angle_rad
+        if kind == "spring":
+            return lambda: m.press_nm / lever
+        if kind == "velocity":
+            return lambda: m.measured_mps
+        return lambda: m.current_a
+
+    def _sigma(self, kind: str) -> float:
+        noise = self.noise
+        return {
+            "angle": noise.angle_rad,
+            "imu": noise.angle_rad,
+            "spring": noise.force_n,
+            "velocity": noise.velocity_mps,
+            "current": noise.current_a,
+        }.get(kind, 0.0)
+
+    def _imu_once(self) -> dict[str, float]:
+        if self._imu_now is None:
+            self._imu_now = self._imu_cached()
+        return self._imu_now
+
+    def _imu_cached(self) -> dict[str, float]:
+        s = self.s_m - self._rot_offset
+        piece = self.path.piece_at(s)
+        key = (id(piece) if not piece.is_turn else s, self._rear.roll_rad)
+        if key != self._imu_key:
+            self._imu_key = key
+            self._imu_value = self._imu()
+        return self._imu_value
 
     # -- truth ----------------------------------------------------------------------
 
