@@ -325,3 +325,50 @@ def test_state_from_flat_round_trip() -> None:
     assert rebuilt.joint_angle_rad == dict(original.joint_angle_rad)
     assert rebuilt.clamp_force_n == dict(original.clamp_force_n)
     assert rebuilt.value("bend_1_angle") == 0.5
+
+
+def test_state_changes_match_flatten_state_diff() -> None:
+    """The fast state diff gives what comparing flatten_state() values would."""
+    import math
+    import random
+
+    from pirate_bt.trace.records import StateChanges, flatten_state
+
+    rng = random.Random(7)
+    for readings in (False, True):
+        fast = StateChanges(readings=readings)
+        slow: dict[str, object] = {}
+        for n in range(300):
+            pick = [0.1, 0.1000000001, -0.0, 0.0, math.nan, math.inf, 2.5, 1]
+            joints = {f"bend_{k}": rng.choice(pick) for k in range(1, 3 + n % 2)}
+            state = RobotState(
+                stamp_s=n * 0.01,
+                readings={"a": Reading(rng.choice(pick), 0.0)},
+                joint_angle_rad=joints,
+                clamp_force_n={"bend_1": rng.choice(pick)},
+                rotation_rad=rng.choice([None, 0.5, 0.25]),
+                imu_rad={"roll": 0.0},
+            )
+            flat = flatten_state(state, readings=readings)
+            expected = {k: v for k, v in flat.items() if slow.get(k, slow) != v}
+            slow.update(expected)
+            got = fast.changes(state)
+            assert list(got) == list(expected)
+            assert all(
+                got[k] == expected[k] or (got[k] != got[k] and expected[k] != expected[k])
+                for k in got
+            )
+
+
+def test_jsonl_writer_writes_each_record_to_the_kernel(tmp_path: Path) -> None:
+    """Each record is on disk (readable by another reader) as soon as write() returns."""
+    from pirate_bt.trace.writer import JsonLinesWriter
+
+    out = JsonLinesWriter(tmp_path / "t.jsonl")
+    out.write({"type": "tick", "n": 1, "t_s": 0.01, "feedback": {"0": "é"}})
+    assert (tmp_path / "t.jsonl").read_text("utf-8") == (
+        '{"type":"tick","n":1,"t_s":0.01,"feedback":{"0":"é"}}\n'
+    )
+    with pytest.raises(ValueError):
+        out.write({"type": "tick", "x": float("nan")})
+    out.close()

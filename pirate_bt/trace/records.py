@@ -39,6 +39,7 @@ __all__ = [
     "TRACE_VERSION",
     "VERDICTS",
     "CommandRecord",
+    "StateChanges",
     "TickExtras",
     "TraceEvent",
     "flatten_state",
@@ -111,10 +112,15 @@ class CommandRecord:
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"command": self.command, "verdict": self.verdict}
-        for key in ("reason", "detail", "source", "node"):
-            value = getattr(self, key)
-            if value is not None:
-                out[key] = value
+        # Spelled out (not a getattr loop): one command per tick is on the trace's hot path.
+        if self.reason is not None:
+            out["reason"] = self.reason
+        if self.detail is not None:
+            out["detail"] = self.detail
+        if self.source is not None:
+            out["source"] = self.source
+        if self.node is not None:
+            out["node"] = self.node
         if self.sent:
             out["sent"] = [[m, mode, jsonable(v)] for m, mode, v in self.sent]
         return out
@@ -168,6 +174,11 @@ def _round(value: float) -> float | str:
     return rounded
 
 
+_VIEWS = ("joint_angle_rad", "clamp_force_n", "imu_rad", "drive_velocity_mps", "motor_current_a")
+_SINGLES = ("rotation_rad", "camera_tilt_rad", "camera_pan_rad", "front_tilt_rad")
+_MISSING: Any = object()
+
+
 def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
     """A state snapshot as flat ``name -> value`` pairs, for change detection.
 
@@ -178,17 +189,11 @@ def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
     ``readings.<channel>`` too. ``stamp_s`` is not included (each tick has a time).
     """
     flat: dict[str, Any] = {}
-    for view in (
-        "joint_angle_rad",
-        "clamp_force_n",
-        "imu_rad",
-        "drive_velocity_mps",
-        "motor_current_a",
-    ):
+    for view in _VIEWS:
         mapping: Mapping[str, float] = getattr(state, view)
         for key, value in mapping.items():
             flat[f"{view}.{key}"] = _round(value)
-    for single in ("rotation_rad", "camera_tilt_rad", "camera_pan_rad", "front_tilt_rad"):
+    for single in _SINGLES:
         value = getattr(state, single)
         if value is not None:
             flat[single] = _round(value)
@@ -196,6 +201,82 @@ def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
         for name, reading in state.readings.items():
             flat[f"readings.{name}"] = _round(reading.value)
     return flat
+
+
+class StateChanges:
+    """The :func:`flatten_state` values that changed since the last snapshot, found cheaply.
+
+    Same result as comparing ``flatten_state(state)`` with the values recorded so
+    far (a name that disappears, such as an unreported rotation, is not a change),
+    but built for the trace's hot path: a snapshot's raw values are gathered into
+    one tuple, so an unchanged snapshot costs one tuple comparison, and only the
+    values that differ from the previous snapshot are rounded and named.
+
+    Args:
+        readings: Also track every raw channel (``readings.<channel>``).
+    """
+
+    def __init__(self, readings: bool = False) -> None:
+        self.readings = readings
+        self.values: dict[str, Any] = {}
+        """Flat name -> last recorded (rounded) value."""
+        self._keys: tuple[tuple[str, ...], ...] = ()
+        self._names: tuple[str, ...] = ()
+        self._raw: tuple[Any, ...] = ()
+
+    def changes(self, state: RobotState) -> dict[str, Any]:
+        """Record ``state`` and return the flat values that changed (possibly empty)."""
+        views = (
+            state.joint_angle_rad,
+            state.clamp_force_n,
+            state.imu_rad,
+            state.drive_velocity_mps,
+            state.motor_current_a,
+        )
+        singles = (
+            state.rotation_rad,
+            state.camera_tilt_rad,
+            state.camera_pan_rad,
+            state.front_tilt_rad,
+        )
+        if self.readings:
+            keys = (*map(tuple, views), tuple(state.readings))
+            raw = (
+                *[v for view in views for v in view.values()],
+                *singles,
+                *[reading.value for reading in state.readings.values()],
+            )
+        else:
+            keys = tuple(map(tuple, views))
+            raw = (*[v for view in views for v in view.values()], *singles)
+        changed: dict[str, Any] = {}
+        values = self.values
+        if keys != self._keys:
+            # New names (first snapshot, or a sensor appeared): compare every value.
+            self._keys = keys
+            names = [f"{view}.{key}" for view, ks in zip(_VIEWS, keys, strict=False) for key in ks]
+            names += _SINGLES
+            if self.readings:
+                names += [f"readings.{name}" for name in keys[-1]]
+            self._names = tuple(names)
+            previous: tuple[Any, ...] = (_MISSING,) * len(raw)
+        elif raw == self._raw:
+            return changed
+        else:
+            previous = self._raw
+        self._raw = raw
+        for name, value, before in zip(self._names, raw, previous, strict=True):
+            if value is None or value is before or value == before:
+                continue
+            # -inf < v < inf is false for nan and the infinities: those take _round's spelling.
+            rounded = round(value, _DECIMALS) if -_INF < value < _INF else _round(value)
+            if values.get(name, _MISSING) != rounded:
+                values[name] = rounded
+                changed[name] = rounded
+        return changed
+
+
+_INF = float("inf")
 
 
 def _number(value: Any) -> float:

@@ -46,6 +46,9 @@ One JSON object per line, UTF-8, ``\\n``-terminated. Every object has a
 Crash safety: each record is written as one line and flushed at once, so a
 run killed with SIGKILL leaves every complete tick on disk and at most one cut
 line, which the reader skips. ``sync=True`` also fsyncs each tick (power loss).
+The plain ``.jsonl`` writer hands each line to the kernel with one ``os.write``
+on an unbuffered file (no Python buffer to flush, no background thread that a
+SIGKILL could stop with ticks still queued).
 """
 
 from __future__ import annotations
@@ -53,6 +56,7 @@ from __future__ import annotations
 import gzip
 import json
 import logging
+import operator
 import os
 import platform
 import zlib
@@ -71,6 +75,7 @@ from pirate_bt.trace.records import (
     OUTCOMES,
     STATUS_CODE,
     TRACE_VERSION,
+    StateChanges,
     TickExtras,
     flatten_state,
     link_health_values,
@@ -95,6 +100,16 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 _MISSING: Any = object()
+
+# One encoder built once: json.dumps with keyword arguments builds a new JSONEncoder
+# on every call. Records hold fresh plain data (no cycles), so the check is skipped.
+_encode_json = json.JSONEncoder(
+    separators=(",", ":"), ensure_ascii=False, allow_nan=False, check_circular=False
+).encode
+_PLAIN_TYPES = frozenset({str, int, bool, type(None)})
+"""Blackboard value types that :func:`jsonable` returns unchanged."""
+_get_status = operator.attrgetter("status")
+_get_feedback = operator.attrgetter("feedback_message")
 
 TreeLike = py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour
 
@@ -123,8 +138,7 @@ class TraceFormatWriter:
 
     def write(self, record: Mapping[str, Any]) -> None:
         """Write one record as one line and flush it to the operating system."""
-        line = json.dumps(record, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-        self._file.write(line.encode("utf-8") + b"\n")
+        self._file.write((_encode_json(record) + "\n").encode("utf-8"))
         self._flush()
         if self.sync:
             os.fsync(self._file.fileno())
@@ -141,7 +155,18 @@ class JsonLinesWriter(TraceFormatWriter):
     suffixes = (".jsonl", ".ndjson")
 
     def _open(self) -> IO[bytes]:
-        return open(self.path, "wb")
+        # Unbuffered: each record goes to the kernel in write(), nothing waits in Python.
+        return open(self.path, "wb", buffering=0)
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        """Write one record as one line with one ``os.write`` (the kernel has it on return)."""
+        data = (_encode_json(record) + "\n").encode("utf-8")
+        fd = self._file.fileno()
+        written = os.write(fd, data)
+        while written < len(data):  # a regular file takes it all; a pipe or a full disk may not
+            written += os.write(fd, data[written:])
+        if self.sync:
+            os.fsync(fd)
 
 
 class GzipJsonLinesWriter(TraceFormatWriter):
@@ -279,7 +304,7 @@ class TraceRecorder:
         self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
         self._feedback = [""] * len(self._nodes)
         self._bb: dict[str, Any] = {}
-        self._state: dict[str, Any] = {}
+        self._state_changes = StateChanges(readings=readings)
         self._link: dict[str, Any] = {}
         self._sim: dict[str, Any] = {}
         self._last_link: LinkHealth | None = None
@@ -328,22 +353,27 @@ class TraceRecorder:
         now = self.clock.now() if time_s is None else time_s
         self._t_s = round(now - self._start_s, 6)
         record: dict[str, Any] = {"type": "tick", "n": self._tick, "t_s": self._t_s}
-        status: dict[str, str] = {}
-        feedback: dict[str, str] = {}
-        prev_status, prev_feedback, ids = self._status, self._feedback, self._ids
-        for index, node in enumerate(self._nodes):
-            current = node.status
-            if current is not prev_status[index]:
-                prev_status[index] = current
-                status[ids[index]] = STATUS_CODE[current]
-            message = node.feedback_message
-            if message != prev_feedback[index]:
-                prev_feedback[index] = message
-                feedback[ids[index]] = message
-        if status:
-            record["status"] = status
-        if feedback:
-            record["feedback"] = feedback
+        # Every node is read every tick (a node that was not ticked can still change, when
+        # its parent stops it), but through map + attrgetter and one C-level list
+        # comparison; the per-node Python loop runs only when something differs.
+        statuses = list(map(_get_status, self._nodes))
+        if statuses != self._status:
+            ids, previous = self._ids, self._status
+            record["status"] = {
+                ids[i]: STATUS_CODE[current]
+                for i, current in enumerate(statuses)
+                if current is not previous[i]
+            }
+            self._status = statuses
+        messages = list(map(_get_feedback, self._nodes))
+        if messages != self._feedback:
+            ids, before = self._ids, self._feedback
+            feedback = {
+                ids[i]: message for i, message in enumerate(messages) if message != before[i]
+            }
+            if feedback:
+                record["feedback"] = feedback
+            self._feedback = messages
         if self.blackboard:
             self._blackboard_changes(record)
         if extras is not None:
@@ -353,9 +383,11 @@ class TraceRecorder:
 
     def _blackboard_changes(self, record: dict[str, Any]) -> None:
         storage = py_trees.blackboard.Blackboard.storage
+        if not storage and not self._bb:
+            return
         changed: dict[str, Any] = {}
         for key, value in storage.items():
-            encoded = jsonable(value)
+            encoded = value if type(value) in _PLAIN_TYPES else jsonable(value)
             if key not in self._bb or self._bb[key] != encoded:
                 self._bb[key] = encoded
                 changed[key] = encoded
@@ -376,20 +408,20 @@ class TraceRecorder:
     def _extras(self, extras: TickExtras, record: dict[str, Any]) -> None:
         if extras.state is not None and (self.full_state or extras.state is not self._last_state):
             self._last_state = extras.state
-            flat = flatten_state(extras.state, readings=self.readings)
             if self.full_state:
-                self._state = flat
+                flat = flatten_state(extras.state, readings=self.readings)
                 record["state"] = flat
                 record["full"] = True
             else:
-                changed = self._changes(self._state, flat)
+                changed = self._state_changes.changes(extras.state)
                 if changed:
                     record["state"] = changed
         if extras.commands:
             record["commands"] = [c.to_json() for c in extras.commands]
-        if extras.link is not None and extras.link != self._last_link:
-            self._last_link = extras.link
-            changed = self._changes(self._link, link_health_values(extras.link))
+        link = extras.link
+        if link is not None and link is not self._last_link and link != self._last_link:
+            self._last_link = link
+            changed = self._changes(self._link, link_health_values(link))
             if changed:
                 record["link"] = changed
         if extras.sim is not None:
