@@ -86,6 +86,14 @@ KINDS: dict[str, FileKind] = {
         loader="pirate_bt.task.route:validate_route_file",
         schema="pirate_bt.task.route:route_schema",
     ),
+    "trace": FileKind(
+        name="trace",
+        title="trace",
+        marker_keys=(),
+        suffixes=(".jsonl", ".ndjson", ".jsonl.gz"),
+        loader="pirate_bt.trace.reader:read_trace",
+        schema="pirate_bt.trace.records:trace_schema",
+    ),
 }
 
 
@@ -108,7 +116,7 @@ def detect_kind(path: str | Path) -> FileKind:
     """
     p = Path(path)
     for kind in KINDS.values():
-        if p.suffix in kind.suffixes:
+        if any(p.name.endswith(suffix) for suffix in kind.suffixes):
             return kind
     from pirate_bt.yamlfile import load_yaml
 

@@ -117,3 +117,23 @@ def test_reference_page_is_in_step_with_the_schema() -> None:
         "docs/reference/robot-description.md is stale: run "
         "'python -m pirate_bt.robot.reference > docs/reference/robot-description.md'"
     )
+
+
+@pytest.mark.parametrize("kind", sorted(__import__("pirate_bt.filekinds").filekinds.KINDS))
+def test_every_file_kind_has_a_schema(kind: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["schema", kind]) == 0
+    schema = json.loads(capsys.readouterr().out)
+    assert isinstance(schema, dict) and schema
+
+
+def test_validate_detects_traces_by_suffix(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = REPO / "tests/data/traces/pab_v1.jsonl"
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"bad": 1}\n')
+    assert main(["validate", str(good)]) == 0
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{bad}:1:1: not a trace record")
+    assert err.count(str(bad)) == 1

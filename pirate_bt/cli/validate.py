@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pirate_bt.errors import PirateError, ValidationFailed
+from pirate_bt.errors import LocatedError, PirateError, ValidationFailed
 from pirate_bt.filekinds import KINDS, validate_file
 
 
@@ -27,6 +27,9 @@ def run(args: argparse.Namespace) -> int:
         except ValidationFailed as exc:
             for error in exc.errors:
                 print(str(error), file=sys.stderr)
+            worst = max(worst, exc.exit_code)
+        except LocatedError as exc:
+            print(str(exc), file=sys.stderr)
             worst = max(worst, exc.exit_code)
         except KeyError as exc:
             print(f"{path}: {exc.args[0]}", file=sys.stderr)
