@@ -169,3 +169,12 @@ def test_file_kind_and_schema() -> None:
     schema = json_schema("network")
     assert schema["title"] == "pirate_bt pipe network"
     assert "segments" in schema["required"]
+
+
+def test_cli_validate_and_schema(tmp_path: Path) -> None:
+    from pirate_bt.cli import main
+
+    assert main(["validate", str(data_dir("scenarios") / "lab.yaml")]) == 0
+    bad = write(tmp_path, "name: x\ndiameter: 63 mm\nsegments:\n  - {type: bend}\n")
+    assert main(["validate", "--kind", "network", str(bad)]) == 2
+    assert main(["schema", "network"]) == 0

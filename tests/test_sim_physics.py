@@ -388,3 +388,21 @@ def test_same_seed_same_noise() -> None:
         d.clamp(Half.REAR)
     assert a.model.readings() == b.model.readings()
     assert a.model.readings() != c.model.readings()
+
+
+def test_imu_reads_the_rear_half_attitude() -> None:
+    net = network_from_data(
+        {
+            "name": "tilted",
+            "diameter": "63 mm",
+            "slope": "20 deg",
+            "start": {"roll": "30 deg"},
+            "segments": [{"type": "straight", "length": "2 m"}],
+        }
+    )
+    d = Driver(net)  # type: ignore[arg-type]
+    readings = d.model.readings()
+    assert math.degrees(readings["imu.pitch"]) == pytest.approx(20.0)
+    assert math.degrees(readings["imu.roll"]) == pytest.approx(30.0)
+    assert math.degrees(readings["imu.yaw"]) == pytest.approx(0.0)
+    assert readings["rotation_angle"] == 0.0
