@@ -17,6 +17,7 @@ from pirate_bt.task.planner import (
     mission_tree_spec,
     plan_goal,
     plan_route,
+    rear_lead_m,
     robot_length_m,
 )
 from pirate_bt.task.route import load_route, parse_route
@@ -49,14 +50,14 @@ def test_lab_route_is_a_full_inspection(robot: RobotDescription) -> None:
     plan = plan_route(route, load_network_for(route, None), robot)
     bends = [p for p in plan.pabs if p.pab == "bend"]
     tees = [p for p in plan.pabs if p.pab == "t-joint"]
-    assert [b.feature for b in bends] == ["bend-a", "bend-b", "bend-c", "bend-d", "bend-e"]
+    assert [b.feature for b in bends] == ["bend-a", "bend-b", "bend-c", "bend-d"]
     assert [t.params["direction"] for t in tees] == ["straight", "straight"]
     # Rolls come from the map, in the simulator's convention (0 up, +90 right).
     rolls = [math.degrees(b.params["roll"]) for b in bends]
-    assert rolls == pytest.approx([90, -90, 180, 0, 0])
+    assert rolls == pytest.approx([90, -90, 180, 0])
     assert any(p.inspect for p in plan.pabs)
-    # It reaches the end of the main line, the top of the riser.
-    assert plan.end_m == pytest.approx(plan.path.length_m - plan.contract.end_margin_m)
+    # It ends in run-g, at the foot of the riser.
+    assert plan.path.piece_at(plan.end_m).segment == "run-g"
     assert plan.distance_m > 25
 
 
@@ -66,9 +67,11 @@ def test_auto_approach_and_robot_clears_the_bend(robot: RobotDescription) -> Non
     bend_piece = next(p for p in plan.path.pieces if p.segment == "bend")
     approach = plan.pabs[1]
     assert approach.end_m == pytest.approx(bend_piece.start_m - plan.contract.approach_m)
+    c = plan.contract
     assert plan.pabs[2].end_m == pytest.approx(
-        bend_piece.end_m + robot_length_m(robot) + plan.contract.clear_m
+        bend_piece.start_m + rear_lead_m(robot) + c.follow_m + c.turn_overrun_m
     )
+    assert plan.pabs[2].end_m > bend_piece.end_m + robot_length_m(robot)
     assert plan.features[0].segment == "bend" and plan.features[0].kind == "bend"
 
 

@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sim": ("pirate_bt.cli.sim", "serve the simulator on a pty or TCP port, in real time"),
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
+    "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
 }
 
 EXIT_OK = 0

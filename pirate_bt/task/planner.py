@@ -87,6 +87,18 @@ class PabContract:
         slow_factor: ``slowly`` and ``inspect`` drive at this fraction of the
             nominal speed (when the straight PAB takes a speed).
         tee_ways: The ways the T-joint PAB can take.
+        follow_m: A turn PAB (``trees/lib/turn.yaml``) drives the front half in until
+            the rear half blocks at the turn's start, then the rear half this far
+            (its ``follow`` parameter): it ends with the front tip at the turn's
+            start + the rear half's lead offset + ``follow_m`` + ``turn_overrun_m``.
+        turn_overrun_m: Measured on the simulator: how far past the turn's start
+            the rear half is when the drive reports it blocked.
+        tee_exit_m: The straight-through T-joint PAB ends (``until: opening_passed``)
+            with the front tip at the opening + the rear half's lead offset + this
+            (measured on the simulator).
+        tee_clear_m: After a straight-through T-joint, the mission drives on this
+            far so that the last rear bend module is off the opening before the next
+            PAB clamps (the PAB ends while it is still over it).
     """
 
     approach_m: float = 0.05
@@ -94,6 +106,10 @@ class PabContract:
     end_margin_m: float = 0.05
     slow_factor: float = 0.5
     tee_ways: tuple[str, ...] = ("left", "right", "straight")
+    follow_m: float = 0.55
+    turn_overrun_m: float = 0.01
+    tee_exit_m: float = 0.07
+    tee_clear_m: float = 0.10
 
 
 @dataclass(frozen=True)
@@ -101,7 +117,8 @@ class PlannedPab:
     """One PAB of the chain.
 
     Attributes:
-        pab: ``straight``, ``bend``, ``t-joint`` or ``pause``.
+        pab: ``straight``, ``bend``, ``t-joint``, ``pause`` (a ``wait`` node) or
+            ``drive`` (the ``drive`` primitive, to clear a tee's opening).
         params: Its parameters in SI units (``distance`` m, ``roll`` rad,
             ``direction``, ``duration`` s, ``slow``).
         step: The route command it serves.
@@ -192,6 +209,18 @@ def robot_length_m(robot: RobotDescription) -> float:
     return sum(m.length for m in robot.modules)
 
 
+def rear_lead_m(robot: RobotDescription) -> float:
+    """How far the rear half's first module starts behind the front tip."""
+    from pirate_bt.robot.description import Half
+
+    behind = 0.0
+    for module in robot.modules:
+        if module.half is Half.REAR:
+            return behind
+        behind += module.length
+    return behind
+
+
 def direction_name(roll_rad: float) -> str | None:
     """``up``/``right``/``down``/``left`` when ``roll_rad`` is within 10° of one."""
     for direction, roll in DIRECTION_ROLL_RAD.items():
@@ -235,11 +264,17 @@ class _Walker:
     """Walks a route along the map, one command at a time."""
 
     def __init__(
-        self, route: Route, network: Network, length_m: float, contract: PabContract
+        self,
+        route: Route,
+        network: Network,
+        length_m: float,
+        rear_lead_m: float,
+        contract: PabContract,
     ) -> None:
         self.route = route
         self.network = network
         self.length_m = length_m
+        self.rear_lead_m = rear_lead_m
         self.contract = contract
         self.choices: dict[str, TeeChoice] = {}
         self.path = network.path({})
@@ -395,7 +430,7 @@ class _Walker:
                 )
         self.approach(step, feature)
         start = self.s_m
-        end = feature.end_m + self.length_m + self.contract.clear_m
+        end = self._turn_exit_m(feature)
         self._check_room(step, feature, end)
         self.pabs.append(
             PlannedPab(
@@ -451,8 +486,12 @@ class _Walker:
         else:
             passed = self.path.pieces[self.path.index_at(feature.start_m + _TOL_M)]
         start = self.s_m
-        end = passed.end_m + self.length_m + self.contract.clear_m
-        self._check_room(step, passed, end)
+        if way == "straight":
+            assert feature.opening_m is not None
+            end = feature.opening_m + self.rear_lead_m + self.contract.tee_exit_m
+        else:
+            end = self._turn_exit_m(passed)
+        self._check_room(step, passed, end + self.contract.tee_clear_m)
         self.pabs.append(
             PlannedPab(
                 "t-joint",
@@ -467,6 +506,28 @@ class _Walker:
         self.driven_m += end - start
         self.passed.append(passed)
         self.s_m = end
+        if way == "straight":
+            clear = self.contract.tee_clear_m
+            self.pabs.append(
+                PlannedPab(
+                    "drive",
+                    {"distance": clear},
+                    step,
+                    end,
+                    end + clear,
+                    note=f"clear the opening {clear:.2f} m",
+                )
+            )
+            self.driven_m += clear
+            self.s_m = end + clear
+
+    def _turn_exit_m(self, turn: Piece) -> float:
+        return (
+            turn.start_m
+            + self.rear_lead_m
+            + self.contract.follow_m
+            + (self.contract.turn_overrun_m)
+        )
 
     def _check_room(self, step: RouteStep, feature: Piece, end_m: float) -> None:
         if end_m > self.path.length_m + _TOL_M:
@@ -582,7 +643,7 @@ def plan_route(
         LocatedError: the route does not fit the network, at the route's line.
     """
     contract = contract or PabContract()
-    walker = _Walker(route, network, robot_length_m(robot), contract)
+    walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
     handlers = {
         StepKind.FORWARD: walker.forward,
         StepKind.INSPECT: walker.forward,
@@ -705,14 +766,41 @@ def mission_tree_spec(
         if pab.pab == "pause":
             children.append({"type": "wait", "name": name, "duration": pab.params["duration"]})
             continue
+        if pab.pab == "drive":
+            # Release the rear half first: the T-joint PAB ends with its last joint
+            # still swung out over the opening, where the supervisor refuses to drive.
+            release = folder / "lib" / "release-rear.yaml"
+            children.append(
+                {
+                    "type": "sequence",
+                    "name": name,
+                    "children": [
+                        {"type": "subtree", "name": "release rear", "ref": str(release.resolve())},
+                        {
+                            "type": "drive",
+                            "name": "drive on",
+                            "velocity": nominal_speed_mps or 0.08,
+                            "distance": pab.params["distance"],
+                        },
+                    ],
+                }
+            )
+            continue
         path = _pab_file(folder, pab.pab)
         if pab.pab not in declared:
             declared[pab.pab] = _declared_params(path)
         params = {k: v for k, v in pab.params.items() if k != "slow"}
+        speed = nominal_speed_mps
         if pab.params.get("slow") and nominal_speed_mps is not None:
+            speed = nominal_speed_mps * plan.contract.slow_factor
+        if params.get("distance", 0.0) < 0:
+            # Backwards: the straight PAB drives a positive distance at a negative velocity.
+            params["distance"] = -params["distance"]
+            speed = -(speed or 0.08)
+        if speed is not None and speed != nominal_speed_mps:
             for key in ("speed", "velocity"):
                 if key in declared[pab.pab]:
-                    params[key] = nominal_speed_mps * plan.contract.slow_factor
+                    params[key] = speed
         node: dict[str, Any] = {
             "type": "subtree",
             "name": name,

@@ -1,0 +1,265 @@
+"""``pirate-bt mission ROUTE``: plan a route on its network and run it.
+
+The route is parsed and planned first (exit 2 with ``file:line:column`` when it
+is malformed or does not fit its network); then it runs as one tree on the
+built-in simulator (``--sim NETWORK``, the default, or the route's ``network``
+line) or on a robot (``--port URL``, with the map from ``--network`` or the
+route). With ``--output DIR`` the trace, the tree diagram, the plots and the
+mission report are written there. Exit codes: 0 the mission succeeded; 1 it
+failed and the robot was left in its safe state; 2 invalid input; 3 link error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+from pirate_bt.errors import InputError, LinkError
+from pirate_bt.units import parse_quantity
+
+__all__ = ["MissionOutputs", "configure", "execute", "run"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("route", metavar="ROUTE", help="the route file (.route)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--sim",
+        metavar="NETWORK",
+        help="run on the built-in simulator in this network (default: the route's network)",
+    )
+    where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
+    parser.add_argument("--network", metavar="NETWORK", help="the map, with --port")
+    parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
+    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
+    parser.add_argument(
+        "--faults",
+        metavar="SPEC",
+        help="simulator faults, comma-separated KIND[:TARGET]@AT[+DURATION],"
+        " e.g. motor_stall:bend_1_drive@30s+5s",
+    )
+    parser.add_argument("--output", type=Path, metavar="DIR", help="write trace, plots, report")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no live view, no plan")
+    parser.add_argument("--plan", action="store_true", help="print the plan and stop")
+    parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
+    parser.add_argument("--max-time", metavar="TIME", help="time limit (default: from the plan)")
+    parser.add_argument("--realtime", action="store_true", help="pace a simulated run to wall time")
+
+
+@dataclass
+class MissionOutputs:
+    """What :func:`execute` produced.
+
+    Attributes:
+        code: The exit code.
+        result: The mission result (``None`` with ``--plan``).
+        files: Files written into the output folder.
+        wall_time_s: Wall time of the run.
+    """
+
+    code: int
+    result: Any = None
+    files: tuple[Path, ...] = ()
+    wall_time_s: float = 0.0
+
+
+def _quantity(text: str, dimension: str, option: str) -> float:
+    try:
+        return parse_quantity(text, dimension)
+    except InputError as exc:
+        raise InputError(f"{option}: {exc}") from None
+
+
+def execute(
+    args: argparse.Namespace,
+    *,
+    out: TextIO | None = None,
+    extra_sections: list[tuple[str, list[str]]] | None = None,
+    extra_pictures: list[tuple[str, str]] | None = None,
+    live: bool | None = None,
+) -> MissionOutputs:
+    """Plan and run a mission from parsed command-line arguments (shared with ``demo``).
+
+    Raises:
+        InputError: a malformed route, a route that does not fit, a bad option.
+        LinkError: cannot reach the robot.
+    """
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.task.planner import load_network_for, plan_route
+    from pirate_bt.task.route import load_route
+
+    stream = out or sys.stdout
+    rate_hz = _quantity(args.rate, "frequency", "--rate")
+    max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
+    if rate_hz <= 0:
+        raise InputError("--rate must be positive")
+    robot = load_robot(args.robot)
+    route = load_route(args.route)
+    network = load_network_for(route, args.sim or getattr(args, "network", None))
+    plan = plan_route(route, network, robot)
+    if not args.quiet or args.plan:
+        print(
+            f"route {route.source} in network {network.name}: {len(plan.pabs)} PABs,"
+            f" {plan.distance_m:.2f} m",
+            file=stream,
+        )
+        for line in plan.describe():
+            print(f"  {line}", file=stream)
+    if args.plan:
+        return MissionOutputs(0)
+    output: Path | None = args.output
+    trace_path = output / "trace.jsonl" if output is not None else None
+    show_live = (not args.quiet) if live is None else live
+    started = time.perf_counter()
+    if args.port is not None:
+        result = _run_on_port(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
+    else:
+        result = _run_on_sim(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
+    wall = time.perf_counter() - started
+    files: list[Path] = []
+    if output is not None:
+        files = _write_outputs(result, output, wall, extra_sections or [], extra_pictures or [])
+    run = result.run
+    summary = (
+        f"mission {route.name}: {'SUCCESS' if result.succeeded else 'FAILED'} - {result.reason}"
+        f" ({run.ticks} ticks, {run.sim_time_s:.1f} s clock, {wall:.1f} s wall;"
+        f" believed at {result.belief_m:.2f} m"
+        + (f", truly {result.truth_m:.2f} m" if result.truth_m is not None else "")
+        + ")"
+    )
+    if result.succeeded:
+        print(summary, file=stream)
+        code = 0
+    else:
+        print(f"pirate-bt: {summary}", file=sys.stderr)
+        code = 3 if isinstance(run.error, LinkError) else 1
+    for path in files:
+        print(f"wrote {path}", file=stream)
+    return MissionOutputs(code, result, tuple(files), wall)
+
+
+def _faults(text: str | None) -> list[str]:
+    return [f.strip() for f in (text or "").split(",") if f.strip()]
+
+
+def _run_on_sim(
+    args: argparse.Namespace,
+    plan: Any,
+    robot: Any,
+    trace_path: Path | None,
+    live: bool,
+    rate_hz: float,
+    max_time_s: float | None,
+) -> Any:
+    from pirate_bt.clock import SimClock
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.sim import Simulator
+    from pirate_bt.task.mission import run_mission
+
+    clock = SimClock()
+    sim = Simulator(plan.network, robot, seed=args.seed, clock=clock, faults=_faults(args.faults))
+    try:
+        supervisor = open_supervisor(robot, url=sim.url, clock=clock)
+        try:
+            return run_mission(
+                plan,
+                robot,
+                supervisor,
+                clock,
+                truth=lambda: sim.truth().front_m,
+                counters=sim.counters,
+                trace_path=trace_path,
+                scenario=plan.network.name,
+                seed=args.seed,
+                live=live,
+                period_s=1.0 / rate_hz,
+                max_time_s=max_time_s,
+                realtime=args.realtime,
+            )
+        finally:
+            supervisor.close()
+    finally:
+        sim.close()
+
+
+def _run_on_port(
+    args: argparse.Namespace,
+    plan: Any,
+    robot: Any,
+    trace_path: Path | None,
+    live: bool,
+    rate_hz: float,
+    max_time_s: float | None,
+) -> Any:
+    from pirate_bt.clock import WallClock
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.task.mission import run_mission
+
+    if args.faults:
+        raise InputError("--faults needs the simulator")
+    clock = WallClock()
+    supervisor = open_supervisor(robot, url=args.port, clock=clock)
+    try:
+        return run_mission(
+            plan,
+            robot,
+            supervisor,
+            clock,
+            trace_path=trace_path,
+            scenario=plan.network.name,
+            live=live,
+            period_s=1.0 / rate_hz,
+            max_time_s=max_time_s,
+        )
+    finally:
+        supervisor.close()
+
+
+def _write_outputs(
+    result: Any,
+    output: Path,
+    wall_time_s: float,
+    extra_sections: list[tuple[str, list[str]]],
+    extra_pictures: list[tuple[str, str]],
+) -> list[Path]:
+    from pirate_bt.task.report import plot_belief, write_report
+
+    output.mkdir(parents=True, exist_ok=True)
+    files: list[Path] = []
+    pictures: list[tuple[str, str]] = []
+    if result.trace_path is not None and result.trace_path.exists():
+        files.append(result.trace_path)
+        try:
+            from pirate_bt.render.plot import plot_trace
+            from pirate_bt.trace import read_trace
+
+            plotted = plot_trace(read_trace(result.trace_path), output / "plot.png")
+            files.append(plotted)
+            pictures.append(("Joints, clamps and speed", plotted.name))
+        except Exception as exc:  # a missing plot must not lose the report
+            print(f"pirate-bt: no trace plot: {exc}", file=sys.stderr)
+    belief = plot_belief(result, output / "belief.png")
+    if belief is not None:
+        files.append(belief)
+        pictures.append(("Belief and truth", belief.name))
+    try:
+        from pirate_bt.render.tree import render_tree
+
+        drawn = render_tree(result.tree, output / "tree.svg", title=result.plan.route.name)
+        files.append(drawn)
+        pictures.append(("Mission tree", drawn.name))
+    except FileNotFoundError as exc:
+        print(f"pirate-bt: {exc}", file=sys.stderr)
+        dot = output / "tree.dot"
+        if dot.exists():
+            files.append(dot)
+    files += write_report(result, output, [*pictures, *extra_pictures], extra_sections, wall_time_s)
+    return files
+
+
+def run(args: argparse.Namespace) -> int:
+    return execute(args).code
