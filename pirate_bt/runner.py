@@ -102,6 +102,7 @@ class RunResult:
         mean_tick_s: Mean tick (wall time).
         safe_state_called: The safe-state callback ran.
         stopped_nodes: Paths of the RUNNING nodes the runner stopped.
+        paused_ticks: Ticks skipped because the tree was paused (an operator in MANUAL).
     """
 
     outcome: str
@@ -119,6 +120,7 @@ class RunResult:
     mean_tick_s: float = 0.0
     safe_state_called: bool = False
     stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
+    paused_ticks: int = 0
 
     @property
     def succeeded(self) -> bool:
@@ -166,6 +168,11 @@ class Runner:
         realtime: On a simulated clock, also wait in wall time so the run can be watched.
         setup_timeout_s: Passed to ``BehaviourTree.setup``.
         max_overruns_kept: How many overruns to list in the result.
+        paused: Asked after the pre-tick hooks of every tick; while it answers
+            ``True`` the tree is not ticked (its RUNNING nodes keep their state) but
+            the post-tick hooks still run, so a trace shows the pause. The
+            supervisor's ``tree_paused`` (an operator in MANUAL mode) goes here;
+            the time limit keeps counting.
     """
 
     def __init__(
@@ -180,6 +187,7 @@ class Runner:
         realtime: bool = False,
         setup_timeout_s: float = 15.0,
         max_overruns_kept: int = 100,
+        paused: Callable[[], bool] | None = None,
     ) -> None:
         if period_s <= 0:
             raise ValueError(f"period must be positive, got {period_s}")
@@ -201,6 +209,7 @@ class Runner:
         self.realtime = realtime
         self.setup_timeout_s = setup_timeout_s
         self.max_overruns_kept = max_overruns_kept
+        self.paused = paused
         self.pre_tick: list[Hook] = []
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
@@ -232,6 +241,7 @@ class Runner:
         max_tick = 0.0
         overruns: list[Overrun] = []
         overrun_count = 0
+        paused_ticks = 0
         reason: StopReason
         message: str
         error: BaseException | None = None
@@ -254,6 +264,14 @@ class Runner:
                 info = TickInfo(ticks, elapsed_s, self.tree)
                 for hook in self.pre_tick:
                     hook(info)
+                if self.paused is not None and self.paused():
+                    paused_ticks += 1
+                    held = TickInfo(ticks, elapsed_s, self.tree, root.status, 0.0)
+                    for hook in self.post_tick:
+                        hook(held)
+                    next_s += self.period_s
+                    self._wait_until(next_s)
+                    continue
                 t0 = time.perf_counter()
                 self.tree.tick()
                 duration = time.perf_counter() - t0
@@ -307,6 +325,7 @@ class Runner:
             mean_tick_s=durations_total / ticks if ticks else 0.0,
             safe_state_called=safe_called,
             stopped_nodes=stopped,
+            paused_ticks=paused_ticks,
         )
         for on_finish in self.finish:
             try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import py_trees
+import pytest
 from py_trees.common import Status
 
 from pirate_bt.clock import SimClock
@@ -166,3 +167,21 @@ def test_run_cli_runs_a_tree_of_generic_leaves(tmp_path: object) -> None:
     slow = folder / "slow.yaml"
     slow.write_text("root: {type: wait, duration: 1 h}\n", encoding="utf-8")
     assert main(["run", str(slow), "--max-time", "10 s"]) == 1
+
+
+def test_a_paused_tree_is_not_ticked_but_hooks_still_run() -> None:
+    """An operator in MANUAL pauses the tree: no tick reaches it, time still passes."""
+    counter = py_trees.behaviours.TickCounter("count", duration=3, completion_status=Status.SUCCESS)
+    paused_at = {2, 3, 4}
+    seen: list[tuple[int, Status]] = []
+    clock = SimClock()
+    runner = Runner(counter, clock=clock, period_s=0.1, paused=lambda: len(seen) + 1 in paused_at)
+    runner.add_post_tick(lambda info: seen.append((info.tick, info.status)))
+    result = runner.run()
+    assert result.succeeded
+    assert result.paused_ticks == 3
+    # TickCounter(duration=3) needs 4 ticks of work; ticks 2-4 were held, so 7 in all.
+    assert result.ticks == 7
+    assert counter.counter == 4  # ticked only when not paused
+    assert [s for _, s in seen] == [Status.RUNNING] * 6 + [Status.SUCCESS]
+    assert result.sim_time_s == pytest.approx(0.6)
