@@ -1,0 +1,89 @@
+"""Mission figures: wall time of the full demo mission and its speed-up over real time.
+
+Run: ``.venv/bin/python benchmarks/bench_mission.py [RUNS]``. Prints the figures
+that ``docs/performance.md`` quotes under "Missions and demo".
+
+The mission is the demo's: ``scenarios/lab.route`` planned on the lab network
+and run as one tree on the in-process simulator (simulated clock, 20 Hz ticks,
+100 Hz state frames through the real wire protocol and the supervisor), with
+the trace written, as ``pirate-bt demo`` does, but without the live view and
+the pictures. Wall time is measured around the run only (planning takes a few
+milliseconds); the speed-up is simulated mission time over wall time. Median
+and range over RUNS runs (default 3).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def one_run(out_dir: Path) -> tuple[float, float, int]:
+    from pirate_bt.clock import SimClock
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.sim import Simulator
+    from pirate_bt.task.mission import run_mission
+    from pirate_bt.task.planner import load_network_for, plan_route
+    from pirate_bt.task.route import load_route
+
+    robot = load_robot()
+    route = load_route(REPO / "scenarios" / "lab.route")
+    plan = plan_route(route, load_network_for(route, None), robot)
+    clock = SimClock()
+    with Simulator(plan.network, robot, clock=clock) as sim:
+        supervisor = open_supervisor(robot, url=sim.url, clock=clock)
+        try:
+            started = time.perf_counter()
+            result = run_mission(
+                plan,
+                robot,
+                supervisor,
+                clock,
+                truth=lambda: sim.truth().front_m,
+                counters=sim.counters,
+                trace_path=out_dir / "trace.jsonl",
+            )
+            wall = time.perf_counter() - started
+        finally:
+            supervisor.close()
+    if not result.succeeded:
+        sys.exit(f"the mission failed: {result.reason}")
+    return wall, result.run.sim_time_s, result.run.ticks
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="?", type=int, default=3)
+    runs = parser.parse_args().runs
+    walls: list[float] = []
+    sim_s = 0.0
+    ticks = 0
+    for _ in range(runs):
+        with tempfile.TemporaryDirectory() as tmp:
+            wall, sim_s, ticks = one_run(Path(tmp))
+        walls.append(wall)
+    median = statistics.median(walls)
+    print(
+        f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}"
+    )
+    print(
+        f"lab mission: {sim_s:.0f} s simulated, {ticks} ticks;"
+        f" wall {median:.1f} s (range {min(walls):.1f}-{max(walls):.1f} s over {runs} runs)"
+    )
+    print(
+        f"speed-up over real time: {sim_s / median:.0f}x"
+        f" (range {sim_s / max(walls):.0f}-{sim_s / min(walls):.0f}x)"
+    )
+    print(f"wall time per tick: {median / ticks * 1e3:.2f} ms")
+
+
+if __name__ == "__main__":
+    main()
