@@ -334,11 +334,14 @@ def test_drive_until_opening_passed() -> None:
     rig = drive_rig()
     node = rig.node(Drive, DriveParams(velocity=0.08, until="opening_passed"))
     rig.run(node, ticks=10)
-    rig.port.set(bend_3_angle=math.radians(110), bend_3_spring=0.0)
-    rig.run(node, ticks=5)
-    assert node.status == Status.RUNNING
-    rig.port.clamp_half(Half.REAR, 0.7)
-    assert rig.run(node) == Status.SUCCESS
+    # the opening passes under bend_3, then under bend_4
+    for module in ("bend_3", "bend_4"):
+        rig.port.set(**{f"{module}_angle": math.radians(110), f"{module}_spring": 0.0})
+        rig.run(node, ticks=5)
+        assert node.status == Status.RUNNING
+        rig.port.clamp_half(Half.REAR, 0.7)
+        rig.run(node, ticks=5)
+    assert node.status == Status.SUCCESS
 
 
 def test_interrupted_drive_stops_the_wheels() -> None:
@@ -425,3 +428,12 @@ def test_safe_state_carries_the_reason_of_the_failed_primitive() -> None:
 def test_primitive_base_is_abstract() -> None:
     assert issubclass(Clamp, Primitive)
     assert Primitive.outcomes(None) == frozenset({"success", "failure", "running"})
+
+
+def test_drive_until_the_front_half_is_over_an_opening() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, until="front_opening"))
+    rig.run(node, ticks=10)
+    assert node.status == Status.RUNNING
+    rig.port.set(bend_1_angle=math.radians(110), bend_1_spring=0.0)
+    assert rig.run(node) == Status.SUCCESS

@@ -625,7 +625,7 @@ class MoveFrontClear(Primitive):
 
 # -- drive ------------------------------------------------------------------------------
 
-Until = Literal["distance", "blocked", "opening_passed"]
+Until = Literal["distance", "blocked", "front_opening", "opening_passed"]
 
 
 class DriveParams(NodeParams):
@@ -638,6 +638,8 @@ class DriveParams(NodeParams):
         description=(
             "what completes the drive: 'distance' travelled; 'blocked' (every drive draws"
             " stall current: the leading half is held at a turn it may not take);"
+            " 'front_opening' (a front joint swung past every wall-contact angle: the"
+            " front half is over a tee's opening);"
             " 'opening_passed' (the rear half lost the wall over a tee's opening and found"
             " it again behind it)"
         ),
@@ -684,11 +686,13 @@ class Drive(Primitive):
 
     def start(self) -> None:
         self._at_speed = False
+        self._resend = False
         self._odometry_m = 0.0
         self._last_s = self.now()
         self._stall_since: dict[str, float] = {}
         self._blocked_since: float | None = None
-        self._lost_wall = False
+        self._lost_wall: dict[str, bool] = {}
+        self._found_wall: set[str] = set()
         self._slow_since: float | None = None
 
     def stop_motion(self) -> None:
@@ -698,13 +702,14 @@ class Drive(Primitive):
         if self.supervisor is not None:
             self.supervisor.stop()
 
-    def _half_off_wall(self, state: RobotState, half: Half) -> bool:
+    def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
+        """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
         clamp = self.robot.clamp
-        beyond = max(c.angle for c in clamp.contact_angles) + 4 * self.robot.safety.angle_tolerance
-        return any(
-            abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
+        beyond = max(c.angle for c in clamp.contact_angles) + 2 * self.robot.safety.angle_tolerance
+        return {
+            m.name: abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
             for m in self.robot.bend_modules(half)
-        )
+        }
 
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
@@ -715,10 +720,14 @@ class Drive(Primitive):
         self._odometry_m += speed * dt
         travelled = abs(self._odometry_m)
         if not self._at_speed:
-            ok, done = self.send(_commands().Drive(p.velocity))
-            if not ok:
-                return self.refused()
-            self._at_speed = done
+            command = _commands().Drive(p.velocity)
+            if self._resend and self.supervisor.check(command).refused:
+                pass  # asking again now would be refused: keep going, ask again later
+            else:
+                ok, done = self.send(command)
+                if not ok:
+                    return self.refused()
+                self._at_speed = done
         robot = self.robot
         stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
         currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in robot.drive_motors()}
@@ -755,11 +764,18 @@ class Drive(Primitive):
             self._blocked_since = None
         if p.until == "distance" and p.distance is not None and travelled >= p.distance:
             return Status.SUCCESS
+        if p.until == "front_opening" and any(self._off_wall(state, Half.FRONT).values()):
+            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
+            return Status.SUCCESS
         if p.until == "opening_passed":
-            off = self._half_off_wall(state, Half.REAR)
-            if off:
-                self._lost_wall = True
-            elif self._lost_wall:
+            # every rear joint must have swung off the wall over the opening and be back
+            for name, off in self._off_wall(state, Half.REAR).items():
+                if off:
+                    self._lost_wall[name] = True
+                elif self._lost_wall.get(name):
+                    self._found_wall.add(name)
+            rear = {m.name for m in robot.bend_modules(Half.REAR)}
+            if self._found_wall >= rear:
                 self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
                 return Status.SUCCESS
         if p.until != "distance" and travelled >= p.max_distance:
@@ -770,6 +786,7 @@ class Drive(Primitive):
                 self._slow_since = now
             elif now - self._slow_since >= 0.5 and max(currents.values(), default=0.0) < stall_a:
                 self._at_speed = False
+                self._resend = True
                 self._slow_since = None
         else:
             self._slow_since = None
