@@ -86,15 +86,15 @@ def test_robot_draw_writes_dot_even_without_graphviz(
 
 
 @pytest.mark.skipif(not __import__("shutil").which("dot"), reason="Graphviz dot not installed")
-def test_demo_draws_the_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_robot_draws_every_module_as_svg(tmp_path: Path) -> None:
     import xml.etree.ElementTree as ET
 
-    assert main(["demo", "--output", str(tmp_path)]) == 0
+    assert main(["robot", "--draw", str(tmp_path / "robot.svg")]) == 0
     svg = ET.parse(tmp_path / "robot.svg").getroot()
     text = " ".join(t.text or "" for t in svg.iter() if t.tag.endswith("text"))
     for module in ("front", "bend_1", "rotational", "bend_4", "rear"):
         assert module in text
-    assert "validated" in capsys.readouterr().out
+    assert "board 25" in text and (tmp_path / "robot.dot").exists()
 
 
 def test_internal_errors_are_one_line(
