@@ -9,12 +9,12 @@ Loaders are named as ``module:function`` and imported only when used.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import InputError, LocatedError, SourceLocation, ValidationFailed
 
 __all__ = ["KINDS", "FileKind", "detect_kind", "get_kind", "json_schema", "validate_file"]
 
@@ -39,8 +39,8 @@ class FileKind:
     loader: str
     schema: str
 
-    def load(self, path: str | Path) -> Any:
-        return _resolve(self.loader)(path)
+    def load(self, path: str | Path, **options: Any) -> Any:
+        return _resolve(self.loader)(path, **options)
 
     def json_schema(self) -> dict[str, Any]:
         result: dict[str, Any] = _resolve(self.schema)()
@@ -138,9 +138,28 @@ def detect_kind(path: str | Path) -> FileKind:
     )
 
 
-def validate_file(path: str | Path, kind: str | None = None) -> Any:
-    """Validate one file, detecting its kind unless given; return the loaded object."""
+def validate_file(
+    path: str | Path, kind: str | None = None, params: Mapping[str, str] | None = None
+) -> Any:
+    """Validate one file, detecting its kind unless given; return the loaded object.
+
+    Args:
+        path: The file.
+        kind: Its kind (default: detected from the suffix or the top-level keys).
+        params: Tree parameters as command-line texts (``{"roll": "90 deg"}``); only
+            behaviour trees take parameters.
+
+    Raises:
+        ValidationFailed: the file does not validate (each error located).
+        InputError: parameters given for a file that is not a tree.
+    """
     file_kind = get_kind(kind) if kind else detect_kind(path)
+    if params:
+        if file_kind.name != "tree":
+            raise InputError(
+                f"{path}: --param applies to behaviour trees, not to a {file_kind.title}"
+            )
+        return file_kind.load(path, params=params)
     return file_kind.load(path)
 
 

@@ -22,6 +22,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--trace", type=Path, help="colour nodes by status from this trace")
     parser.add_argument("--tick", type=int, help="tick of --trace to show (default: the last)")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a tree parameter, e.g. --param roll=90deg (repeatable; a parameter not given"
+        " takes the tree's declared example)",
+    )
 
 
 def _is_trace(path: Path) -> bool:
@@ -41,9 +49,12 @@ def run(args: argparse.Namespace) -> int:
         trace = read_trace(args.tree)
         structure = trace.structure
     else:
+        from pirate_bt.cli.run import parse_params
         from pirate_bt.treefile import load_tree
 
-        loaded = load_tree(args.tree)
+        loaded = load_tree(
+            args.tree, params=parse_params(args.param), params_from_text=True, use_examples=True
+        )
         structure = tree_structure(loaded.root, name=loaded.name)
     if args.trace is not None:
         trace = read_trace(args.trace)

@@ -16,14 +16,25 @@ def configure(parser: argparse.ArgumentParser) -> None:
         choices=sorted(KINDS),
         help="the kind of every file (default: detect from suffix and keys)",
     )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a tree parameter, e.g. --param roll=90deg (repeatable; trees only; a parameter"
+        " not given takes the tree's declared example)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print problems only")
 
 
 def run(args: argparse.Namespace) -> int:
+    from pirate_bt.cli.run import parse_params
+
+    params = parse_params(args.param)
     worst = 0
     for path in args.files:
         try:
-            validate_file(path, args.kind)
+            validate_file(path, args.kind, params)
         except ValidationFailed as exc:
             for error in exc.errors:
                 print(str(error), file=sys.stderr)

@@ -261,12 +261,21 @@ class _Reader:
                 for e in exc.errors():
                     self.error(doc, (*at, *e["loc"]), _describe(e))
                 continue
-            if parsed.default is not None:
-                try:
-                    coerce_param(parsed, parsed.default)
-                except ValueError as exc:
-                    self.error(doc, (*at, "default"), f"default: {exc}")
+            if parsed.choices is not None and parsed.type != "string":
+                self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
+                continue
+            bad = False
+            for key in ("default", "example"):
+                value = getattr(parsed, key)
+                if value is None:
                     continue
+                try:
+                    coerce_param(parsed, value)
+                except ValueError as exc:
+                    self.error(doc, (*at, key), f"{key}: {exc}")
+                    bad = True
+            if bad:
+                continue
             out[name] = parsed
         return out if len(self.errors) == before else None
 
@@ -278,8 +287,13 @@ class _Reader:
         given: Mapping[str, Any],
         given_at: Any,
         from_text: bool = False,
+        use_examples: bool = False,
     ) -> dict[str, Any] | None:
-        """Values for declared parameters from the caller; None on error."""
+        """Values for declared parameters from the caller; None on error.
+
+        With ``use_examples`` (checking or drawing a tree, never running it) a
+        parameter the caller did not give takes its declared ``example``.
+        """
         values: dict[str, Any] = {}
         ok = True
         for name, value in given.items():
@@ -298,11 +312,16 @@ class _Reader:
         for name, decl in decls.items():
             if name in values:
                 continue
-            if decl.default is None:
-                self.error(doc, where, f"parameter {name!r} has no default and was not given")
-                ok = False
-            else:
+            if decl.default is not None:
                 values[name] = coerce_param(decl, decl.default)
+            elif use_examples and decl.example is not None:
+                values[name] = coerce_param(decl, decl.example)
+            else:
+                hint = (
+                    " (declare an 'example' to check the tree without it)" if use_examples else ""
+                )
+                self.error(doc, where, f"parameter {name!r} has no default and was not given{hint}")
+                ok = False
         return values if ok else None
 
     def subst(self, env: _Env, value: Any, path: PathKey) -> Any:
@@ -737,6 +756,7 @@ def load_tree(
     supervisor: Any = None,
     registry: Registry | None = None,
     units_required: bool | None = None,
+    use_examples: bool = False,
 ) -> LoadedTree:
     """Load, check and build a behaviour tree.
 
@@ -752,6 +772,8 @@ def load_tree(
         registry: Node types allowed (default: :func:`default_registry`).
         units_required: Refuse bare numbers for quantities; default true for files
             and false for mappings (where numbers are SI).
+        use_examples: A parameter given no value and with no default takes its
+            declared ``example`` (for checking and drawing a tree, never running it).
 
     Returns:
         The built tree with its warnings (also logged).
@@ -780,7 +802,9 @@ def load_tree(
     spec: NodeSpec | None = None
     values: dict[str, Any] | None = None
     if decls is not None:
-        values = reader.bind(doc, ("params",), decls, given, lambda _n: cli_loc, params_from_text)
+        values = reader.bind(
+            doc, ("params",), decls, given, lambda _n: cli_loc, params_from_text, use_examples
+        )
     if values is not None:
         env = _Env(doc, values, (doc.file,))
         spec = reader.tree(env, (), data)
@@ -823,8 +847,14 @@ def _unique(errors: list[LocatedError]) -> list[LocatedError]:
     return out
 
 
-def validate_tree_file(path: str | Path) -> LoadedTree:
-    """Validate a tree file against the default robot description (``pirate-bt validate``)."""
+def validate_tree_file(path: str | Path, params: Mapping[str, str] | None = None) -> LoadedTree:
+    """Validate a tree file against the default robot description (``pirate-bt validate``).
+
+    Parameters without a default take ``params`` (command-line texts), else their
+    declared ``example``.
+    """
     from pirate_bt.robot.loader import load_robot
 
-    return load_tree(path, robot=load_robot())
+    return load_tree(
+        path, robot=load_robot(), params=params, params_from_text=True, use_examples=True
+    )

@@ -69,6 +69,14 @@ class ParamDecl(BaseModel):
 
     type: ParamType = Field(description="the parameter's type; quantities need a unit")
     default: Any = Field(None, description="value used when the caller gives none")
+    example: Any = Field(
+        None,
+        description="value used to check or draw the tree when the caller gives none"
+        " (pirate-bt validate / render); never used to run it",
+    )
+    choices: list[str] | None = Field(
+        None, min_length=1, description="the allowed values of a string parameter"
+    )
     description: str = Field("", description="what the parameter means")
 
 
@@ -95,7 +103,7 @@ def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any
             raise ValueError(str(exc)) from None
         return f"{si!r} {unit}"
     if from_text and isinstance(value, str):
-        return _from_text(kind, value)
+        return _choice(decl, _from_text(kind, value))
     if kind == "boolean" and isinstance(value, bool):
         return value
     if kind == "integer" and isinstance(value, int) and not isinstance(value, bool):
@@ -103,8 +111,14 @@ def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any
     if kind == "number" and isinstance(value, int | float) and not isinstance(value, bool):
         return float(value)
     if kind == "string" and isinstance(value, str):
-        return value
+        return _choice(decl, value)
     raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {value!r}")
+
+
+def _choice(decl: ParamDecl, value: Any) -> Any:
+    if decl.choices is not None and value not in decl.choices:
+        raise ValueError(f"expected one of {', '.join(decl.choices)}, got {value!r}")
+    return value
 
 
 def _from_text(kind: str, text: str) -> Any:
