@@ -92,3 +92,43 @@ def test_wait_for_state_times_out() -> None:
     else:  # pragma: no cover
         raise AssertionError("expected LinkTimeout")
     wait_for_state(FakePort(robot, clock), clock, 0.1)
+
+
+def test_open_supervisor_starts_the_simulator_by_default() -> None:
+    from pirate_bt.clock import SimClock as _SimClock
+    from pirate_bt.errors import ConfigurationError
+    from pirate_bt.safety import Clamp
+    from pirate_bt.safety.factory import open_supervisor
+
+    sup = open_supervisor(network="straight", seed=2)
+    try:
+        assert isinstance(sup.clock, _SimClock) and sup.simulator is not None
+        assert sup.simulator.network.name == "straight"
+        assert sup.command(Clamp(Half.REAR, 0.5)).ok
+        for _ in range(25):
+            sup.clock.sleep(0.05)
+            sup.tick()
+        assert sup.half_states()[Half.REAR].value == "clamped"
+        assert sup.simulator.truth().halves[Half.REAR].clamped
+    finally:
+        sup.close()
+    sup.close()  # idempotent
+    try:
+        open_supervisor(url="loop://", network="straight")
+    except ConfigurationError:
+        pass
+    else:  # pragma: no cover
+        raise AssertionError("simulator options with a URL must be refused")
+
+
+def test_teleop_defaults_to_the_simulator(capsys: object) -> None:
+    import argparse
+
+    from pirate_bt.cli import teleop
+
+    parser = argparse.ArgumentParser()
+    teleop.configure(parser)
+    args = parser.parse_args(["--sim", "straight", "--seed", "1", "--keys", "r" + "." * 25 + "?"])
+    assert teleop.run(args) == 0
+    out = capsys.readouterr().out  # type: ignore[attr-defined]
+    assert "rear clamped" in out

@@ -9,10 +9,11 @@ import pytest
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import CommandRefused, EStopLatched
 from pirate_bt.robot import ControlMode, Half, MotorCommand, load_robot
-from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.description import RobotDescription, SensorKind
 from pirate_bt.safety import (
     Bend,
     Clamp,
+    ClampState,
     Drive,
     MoveFrontClear,
     Outcome,
@@ -344,3 +345,56 @@ def test_front_module_may_not_swing_through_the_clamp_zone(sup: Supervisor, port
     port.clamp_half(Half.FRONT)  # tilt starts at +clear
     assert sup.command(Tilt(-2.0)).reason is Reason.FRONT_NOT_CLEAR  # found by the property test
     assert sup.command(Tilt(1.5)).ok  # further out on the same side
+
+
+# -- found by the simulator-backed property test and by its review ----------------
+
+
+def _front_joint() -> str:
+    return ROBOT.joint_motor(ROBOT.bend_modules(Half.FRONT)[0].name).name
+
+
+@pytest.mark.parametrize("torque_nm", [0.2, -0.5])
+def test_any_torque_on_a_front_joint_needs_the_front_module_clear(
+    sup: Supervisor, port: FakePort, torque_nm: float
+) -> None:
+    # A torque-mode joint swings until the wall stops it and then presses, whatever the
+    # size or sign of the torque: the front module must be clear first.
+    port.clamp_half(Half.REAR)
+    port.set_tilt(0.0)
+    raw = Raw(MotorCommand(_front_joint(), ControlMode.TORQUE, torque_nm))
+    assert sup.command(raw).reason is Reason.FRONT_NOT_CLEAR
+    port.set_tilt(ROBOT.clamp.front_clear_angle)
+    assert sup.command(raw).ok
+
+
+def test_a_front_bend_to_the_wall_needs_the_front_module_clear(
+    sup: Supervisor, port: FakePort
+) -> None:
+    port.clamp_half(Half.REAR)
+    port.set_tilt(0.0)
+    front = ROBOT.bend_modules(Half.FRONT)[0].name
+    wall = min(p.angle for p in ROBOT.clamp.contact_angles)
+    assert sup.check(Bend(front, wall)).reason is Reason.FRONT_NOT_CLEAR
+    assert sup.check(Unclamp(Half.FRONT, -wall)).reason is Reason.FRONT_NOT_CLEAR
+    assert sup.check(Bend(front, 0.6)).ok  # steering stays far from the wall
+
+
+def test_a_torque_against_the_clamped_side_is_a_release(sup: Supervisor, port: FakePort) -> None:
+    # The joint swings off the wall on its way to the other side: with nothing else
+    # holding in a steep pipe the robot would fall.
+    port.set_pitch(math.radians(90))
+    port.clamp_half(Half.REAR)  # joints at +contact angle
+    rear = ROBOT.joint_motor(ROBOT.bend_modules(Half.REAR)[0].name).name
+    flip = Raw(MotorCommand(rear, ControlMode.TORQUE, -0.5))
+    assert sup.check(flip).reason is Reason.STEEP_PIPE_UNCLAMPED
+    assert sup.check(Raw(MotorCommand(rear, ControlMode.TORQUE, 0.5))).ok  # same side
+
+
+def test_joints_at_the_wall_on_opposite_sides_do_not_clamp(sup: Supervisor, port: FakePort) -> None:
+    port.clamp_half(Half.REAR)
+    first, _ = (m.name for m in ROBOT.bend_modules(Half.REAR))
+    port.set(**{ROBOT.sensor_of(first, SensorKind.ANGLE).name: -1.45})
+    assert sup.half_states()[Half.REAR] is not ClampState.CLAMPED
+    # the simulator would spin the robot: no half really holds
+    assert sup.check(Rotate(0.1)).reason is Reason.ROTATE_NEEDS_ONE_CLAMPED

@@ -21,7 +21,9 @@ e / x  e-stop / reset the e-stop
 ?      show state;  q  quit
 ====== ==========================================
 
-``--keys`` plays a string of keys, one per tick, without a terminal (for scripts).
+Without ``--port`` the session drives the built-in simulator (``--sim NETWORK``,
+default the straight pipe; ``--seed N``), paced to the terminal. ``--keys`` plays a
+string of keys, one per tick, without a terminal (for scripts).
 """
 
 from __future__ import annotations
@@ -155,7 +157,15 @@ class TeleopSession:
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", metavar="URL", help="serial device or URL (default: simulator)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--sim",
+        metavar="NETWORK",
+        help="drive the built-in simulator in this pipe network, a file or a bundled name"
+        " (the default, in the straight pipe)",
+    )
+    where.add_argument("--port", metavar="URL", help="a real robot: serial device or URL")
+    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument("--rate", type=float, default=20.0, help="ticks per second (default 20)")
     parser.add_argument("--keys", help="play these keys, one per tick, then quit (no terminal)")
@@ -180,7 +190,12 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.safety.factory import open_supervisor
 
     robot = load_robot(args.robot)
-    sup = open_supervisor(robot, url=args.port, mode=Mode.MANUAL)
+    if args.port is not None:
+        sup = open_supervisor(robot, url=args.port, mode=Mode.MANUAL)
+    else:
+        sup = open_supervisor(robot, network=args.sim, seed=args.seed, mode=Mode.MANUAL)
+    # The simulator's world moves only with its clock: pace it to the terminal.
+    simulated = sup.clock.is_simulated
     session = TeleopSession(sup, sys.stdout)
     period_s = 1.0 / max(args.rate, 1.0)
     try:
@@ -199,6 +214,8 @@ def run(args: argparse.Namespace) -> int:
                 ready, _, _ = select.select([sys.stdin], [], [], period_s)
                 if ready and not session.press(sys.stdin.read(1)):
                     break
+                if simulated:
+                    sup.clock.sleep(period_s)
         return 0
     finally:
         sup.close()

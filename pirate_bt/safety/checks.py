@@ -85,6 +85,9 @@ class Intent:
         motor_commands: Its expansion into motor commands (before limits).
         clamps: Halves it clamps.
         releases: Halves whose clamp it loosens (unclamp, bend, a low torque).
+        presses: Halves whose wheels it may push against the wall: any torque on
+            a bend joint (a joint in torque mode swings until the wall stops it) or
+            a position target at or beyond the smallest wall-contact angle.
         rotates: It moves the rotational joint.
         drive_mps: Requested wheel speed if it drives (``None`` otherwise).
         front_tilt_rad: Requested front tilt if it tilts the front module.
@@ -96,6 +99,7 @@ class Intent:
     motor_commands: tuple[MotorCommand, ...]
     clamps: frozenset[Half] = frozenset()
     releases: frozenset[Half] = frozenset()
+    presses: frozenset[Half] = frozenset()
     rotates: bool = False
     drive_mps: float | None = None
     front_tilt_rad: float | None = None
@@ -156,7 +160,10 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
             return ClampState.UNKNOWN
         angles.append(abs(angle))
     contact_min = min(p.angle for p in clamp.contact_angles) - tol
-    at_wall = all(a >= contact_min for a in angles)
+    # The wheels of a pair press opposite walls only when its joints bend the same way;
+    # joints at the wall on opposite sides do not hold the half.
+    signs = {math.copysign(1.0, state.joint_angle_rad[name]) for name in modules}
+    at_wall = all(a >= contact_min for a in angles) and len(signs) <= 1
     forces = [state.clamp_force_n.get(name) for name in modules]
     if all(f is not None for f in forces) and forces:
         min_force = clamp.min_torque / clamp.lever_arm
@@ -312,11 +319,15 @@ def check_transitioning(ctx: CheckContext, intent: Intent) -> Problem | None:
 
 
 def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
-    """The front module must be clear before the front half clamps, and stay clear after."""
+    """The front module must be clear before the front half presses the wall, and stay clear.
+
+    Pressing includes more than a clamp: any torque on a front bend joint, and a
+    position target at the wall, push the front wheels on the wall too.
+    """
     if front_tilt_channel(ctx.robot) is None:
         return None
     clear = ctx.robot.clamp.front_clear_angle - ctx.robot.safety.angle_tolerance
-    if Half.FRONT in intent.clamps:
+    if Half.FRONT in intent.clamps or Half.FRONT in intent.presses:
         tilt = ctx.state.front_tilt_rad
         if tilt is None or abs(tilt) < clear:
             shown = "unknown" if tilt is None else f"{math.degrees(tilt):.1f}°"
@@ -324,7 +335,7 @@ def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
                 Reason.FRONT_NOT_CLEAR,
                 f"move the front module clear (|tilt| >= "
                 f"{math.degrees(ctx.robot.clamp.front_clear_angle):.1f}°, it is {shown})"
-                " before the front half clamps",
+                " before the front half clamps or presses the wall",
             )
     target = intent.front_tilt_rad
     if target is not None:

@@ -2,18 +2,26 @@
 
 :func:`open_supervisor` is how the runner, the teleop and planner code get a
 robot: it opens the link (``pirate_bt.link.open_link``) for a serial device or
-pyserial URL - or the built-in simulator when no URL is given - waits for the
-first state frame, and returns the :class:`~pirate_bt.safety.supervisor.Supervisor`
-that owns it. Nothing above ``safety/`` imports ``pirate_bt.link``.
+pyserial URL - or, when no URL is given, starts the built-in simulator
+(:class:`pirate_bt.sim.Simulator`) in this process on a simulated clock and
+reaches it through the same link (``sim://NAME``) - waits for the first state
+frame, and returns the :class:`~pirate_bt.safety.supervisor.Supervisor` that owns
+it. Nothing above ``safety/`` imports ``pirate_bt.link``; planner code gets a
+simulated robot in one call::
+
+    sup = open_supervisor(network="riser", seed=3)
+    sup.clock.sleep(0.05)          # the simulated world moves with the clock
+    sup.simulator.counters()       # the simulator's oracles
+    sup.close()                    # stops the drives, closes the link and the simulator
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Iterable
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from pirate_bt.clock import Clock, WallClock
+from pirate_bt.clock import Clock, SimClock, WallClock
 from pirate_bt.errors import ConfigurationError, LinkTimeout
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.loader import load_robot
@@ -21,7 +29,13 @@ from pirate_bt.robot.port import RobotPort
 from pirate_bt.safety.operator import Mode, OperatorInput
 from pirate_bt.safety.supervisor import Supervisor
 
-__all__ = ["open_supervisor", "wait_for_state"]
+if TYPE_CHECKING:
+    from pirate_bt.pipes import FaultSpec, Network
+
+__all__ = ["DEFAULT_NETWORK", "open_supervisor", "wait_for_state"]
+
+DEFAULT_NETWORK = "straight"
+"""The bundled pipe network the simulator starts in when none is given."""
 
 
 def wait_for_state(port: RobotPort, clock: Clock, timeout_s: float) -> None:
@@ -41,16 +55,6 @@ def wait_for_state(port: RobotPort, clock: Clock, timeout_s: float) -> None:
         clock.sleep(step)
 
 
-def _simulator_url() -> str:
-    # The simulator registers its own URL scheme; looked up by name so that safety
-    # works (and type-checks) without it.
-    sim = importlib.import_module("pirate_bt.sim")
-    url = getattr(sim, "DEFAULT_URL", None) or getattr(sim, "SIM_URL", None)
-    if not isinstance(url, str):
-        raise ConfigurationError("the built-in simulator is not available; give a port URL")
-    return url
-
-
 def open_supervisor(
     robot: RobotDescription | None = None,
     *,
@@ -59,33 +63,79 @@ def open_supervisor(
     mode: Mode = Mode.AUTONOMOUS,
     inputs: Iterable[OperatorInput] = (),
     state_timeout_s: float = 5.0,
+    network: Network | str | Path | None = None,
+    seed: int = 0,
+    sim_faults: Iterable[FaultSpec | str] = (),
     **link_options: Any,
 ) -> Supervisor:
-    """Open the robot at ``url`` (default: the built-in simulator) behind a supervisor.
+    """Open the robot at ``url`` (default: an in-process simulator) behind a supervisor.
+
+    With ``url=None`` a :class:`pirate_bt.sim.Simulator` is started in ``network``
+    on a :class:`~pirate_bt.clock.SimClock` (the world moves only when that clock
+    is advanced, e.g. by ``clock.sleep``), opened through the link like any port,
+    and kept as :attr:`Supervisor.simulator`; :meth:`Supervisor.close` closes it.
 
     Args:
         robot: The robot description (default: the bundled 2018 robot).
-        url: Serial device or pyserial URL; ``None`` for the simulator.
-        clock: The clock (default: wall clock).
+        url: Serial device or pyserial URL; ``None`` for the built-in simulator.
+        clock: The clock (default: a new ``SimClock`` for the simulator, else the wall
+            clock). The simulator needs a ``SimClock``.
         mode: The mode the supervisor starts in.
         inputs: Operator input sources.
         state_timeout_s: How long to wait for the first state frame.
+        network: Simulator only: a pipe network, a file or a bundled name (default
+            :data:`DEFAULT_NETWORK`).
+        seed: Simulator only: its random seed.
+        sim_faults: Simulator only: faults it injects (``"board_reset:22@10s"``).
         **link_options: Passed to ``pirate_bt.link.open_link`` (``faults``, ``config``, ...).
 
     Returns:
         A supervisor holding the connected port.
 
     Raises:
+        ConfigurationError: simulator options with a ``url``, or the simulator on a
+            clock that is not a ``SimClock``.
         LinkError: cannot connect, or no state in time.
     """
     from pirate_bt.link import open_link
 
     robot = robot if robot is not None else load_robot()
-    clock = clock if clock is not None else WallClock()
-    port = open_link(url if url is not None else _simulator_url(), robot, clock, **link_options)
+    if url is not None:
+        if network is not None or seed != 0 or tuple(sim_faults):
+            raise ConfigurationError("network, seed and sim_faults apply to the simulator only")
+        clock = clock if clock is not None else WallClock()
+        port = open_link(url, robot, clock, **link_options)
+        try:
+            wait_for_state(port, clock, state_timeout_s)
+        except BaseException:
+            port.close()
+            raise
+        return Supervisor(port, clock, mode=mode, inputs=inputs)
+
+    from pirate_bt.sim import Simulator
+
+    clock = clock if clock is not None else SimClock()
+    if not isinstance(clock, SimClock):
+        raise ConfigurationError(
+            "the built-in simulator runs on a SimClock; pass one (or none) or give a port URL"
+        )
+    sim = Simulator(
+        network if network is not None else DEFAULT_NETWORK,
+        robot,
+        seed=seed,
+        clock=clock,
+        faults=sim_faults,
+    )
     try:
-        wait_for_state(port, clock, state_timeout_s)
+        port = open_link(sim.url, robot, clock, **link_options)
+        try:
+            wait_for_state(port, clock, state_timeout_s)
+        except BaseException:
+            port.close()
+            raise
     except BaseException:
-        port.close()
+        sim.close()
         raise
-    return Supervisor(port, clock, mode=mode, inputs=inputs)
+    sup = Supervisor(port, clock, mode=mode, inputs=inputs)
+    sup.attach_simulator(sim)
+    return sup

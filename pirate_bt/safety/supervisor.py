@@ -35,6 +35,7 @@ import math
 import threading
 from collections.abc import Iterable
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import CommandRefused, EStopLatched, LinkError
@@ -90,6 +91,9 @@ from pirate_bt.safety.operator import (
     SetMode,
 )
 from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict, VerdictListener, VerdictLog
+
+if TYPE_CHECKING:
+    from pirate_bt.sim import Simulator
 
 __all__ = ["Supervisor"]
 
@@ -155,6 +159,9 @@ class Supervisor:
         self._lock = threading.RLock()
         self._tilt_channel = front_tilt_channel(self.robot)
         self._base_channels = self._safety_channels()
+        self._closed = False
+        self.simulator: Simulator | None = None
+        """The in-process simulator behind the port, when there is one."""
 
     # -- what the layers above read ---------------------------------------
 
@@ -500,11 +507,26 @@ class Supervisor:
         """Deny ``step`` (or the oldest pending one); returns the step denied."""
         return self._decide_step(step, Confirmation.DENIED)
 
+    def attach_simulator(self, simulator: Simulator) -> None:
+        """Keep the in-process simulator behind the port; :meth:`close` closes it too.
+
+        :func:`~pirate_bt.safety.factory.open_supervisor` calls this; tests and
+        planner code read the simulator's oracles through :attr:`simulator`.
+        """
+        self.simulator = simulator
+
     def close(self) -> None:
-        """Stop the drives and close the port."""
+        """Stop the drives, close the port and, if attached, the simulator (idempotent)."""
         with self._lock:
-            self._send_stop()
-            self.port.close()
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                self._send_stop()
+                self.port.close()
+            finally:
+                if self.simulator is not None:
+                    self.simulator.close()
 
     # -- internals -------------------------------------------------------------
 
@@ -678,6 +700,35 @@ class Supervisor:
             for m in self.robot.bend_modules(half)
         )
 
+    def _presses(self, half: Half, mode: ControlMode, value: float) -> frozenset[Half]:
+        """``{half}`` when a bend setpoint may push the half's wheels on the wall."""
+        if mode is ControlMode.TORQUE:
+            return frozenset({half}) if value != 0.0 else frozenset()
+        wall = min(p.angle for p in self.robot.clamp.contact_angles)
+        if abs(value) >= wall - self.robot.safety.angle_tolerance:
+            return frozenset({half})
+        return frozenset()
+
+    def _reverses(
+        self, half: Half, modules: list[str], torque_nm: float, state: RobotState | None
+    ) -> frozenset[Half]:
+        """``{half}`` when a torque would swing a joint across to the other side.
+
+        A joint bent one way that is driven the other way leaves the wall on its way
+        across, so the half lets go before it clamps again: that is a release too.
+        Without a reading the worst case is assumed.
+        """
+        tol = self.robot.safety.angle_tolerance
+        for name in modules:
+            angle = state.joint_angle_rad.get(name) if state is not None else None
+            if angle is None or (abs(angle) > tol and angle * torque_nm < 0):
+                return frozenset({half})
+        return frozenset()
+
+    def _front_channels(self, presses: frozenset[Half]) -> tuple[str, ...]:
+        """The front tilt channel when the front half may press the wall (checked fresh)."""
+        return (self._tilt_channel,) if Half.FRONT in presses and self._tilt_channel else ()
+
     def _expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
         base = self._base_channels
         values = [
@@ -700,10 +751,12 @@ class Supervisor:
                 chans = base + (
                     (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
                 )
+                modules = [m.name for m in self.robot.bend_modules(half)]
                 return Intent(
                     command,
                     self._half_commands(half, ControlMode.TORQUE, torque),
                     clamps=frozenset({half}),
+                    releases=self._reverses(half, modules, torque, state),
                     channels=chans,
                 )
             case Unclamp(half, angle):
@@ -711,7 +764,8 @@ class Supervisor:
                     command,
                     self._half_commands(half, ControlMode.POSITION, angle),
                     releases=frozenset({half}),
-                    channels=base,
+                    presses=(presses := self._presses(half, ControlMode.POSITION, angle)),
+                    channels=base + self._front_channels(presses),
                 )
             case Bend(module, angle):
                 try:
@@ -725,7 +779,8 @@ class Supervisor:
                     command,
                     (MotorCommand(motor.name, ControlMode.POSITION, angle),),
                     releases=frozenset({mod.half}),
-                    channels=base,
+                    presses=(presses := self._presses(mod.half, ControlMode.POSITION, angle)),
+                    channels=base + self._front_channels(presses),
                 )
             case Rotate(angle):
                 return Intent(
@@ -745,7 +800,7 @@ class Supervisor:
                 )
                 return Intent(command, cmds, drive_mps=v, stop=v == 0.0, channels=base)
             case Raw(mc):
-                return self._raw_intent(command, mc)
+                return self._raw_intent(command, mc, state)
         return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # pragma: no cover
 
     def _tilt_motor(self) -> Motor | None:
@@ -765,7 +820,9 @@ class Supervisor:
             channels=(*self._base_channels, self._tilt_channel),
         )
 
-    def _raw_intent(self, command: Raw, mc: MotorCommand) -> Intent | Problem:
+    def _raw_intent(
+        self, command: Raw, mc: MotorCommand, state: RobotState | None
+    ) -> Intent | Problem:
         try:
             motor = self.robot.motor(mc.motor)
         except KeyError:
@@ -791,12 +848,23 @@ class Supervisor:
         if fn is MotorFunction.BEND:
             half = self.robot.module_of(motor.name).half
             assert half is not None
-            if mc.mode is ControlMode.TORQUE and mc.value >= self.robot.clamp.min_torque:
-                chans = base + (
-                    (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
+            presses = self._presses(half, mc.mode, mc.value)
+            chans = base + self._front_channels(presses)
+            # A joint presses the wall in either sign: a negative torque clamps too, but a
+            # torque against the side the joint is on swings it off the wall first.
+            if mc.mode is ControlMode.TORQUE and abs(mc.value) >= self.robot.clamp.min_torque:
+                module = self.robot.module_of(motor.name).name
+                return Intent(
+                    command,
+                    (mc,),
+                    clamps=frozenset({half}),
+                    releases=self._reverses(half, [module], mc.value, state),
+                    presses=presses,
+                    channels=chans,
                 )
-                return Intent(command, (mc,), clamps=frozenset({half}), channels=chans)
-            return Intent(command, (mc,), releases=frozenset({half}), channels=base)
+            return Intent(
+                command, (mc,), releases=frozenset({half}), presses=presses, channels=chans
+            )
         if fn is MotorFunction.DRIVE:
             return Intent(command, (mc,), drive_mps=mc.value, stop=mc.value == 0.0, channels=base)
         if fn is MotorFunction.ROTATE:
