@@ -398,3 +398,20 @@ def test_joints_at_the_wall_on_opposite_sides_do_not_clamp(sup: Supervisor, port
     assert sup.half_states()[Half.REAR] is not ClampState.CLAMPED
     # the simulator would spin the robot: no half really holds
     assert sup.check(Rotate(0.1)).reason is Reason.ROTATE_NEEDS_ONE_CLAMPED
+
+
+def test_a_clamp_that_swings_steered_joints_across_ends_clamped(
+    sup: Supervisor, port: FakePort
+) -> None:
+    """Regression: a half steered one way (-40 deg for a down bend) and then clamped with
+    a positive torque swings across, so the clamp is checked as a release on the way;
+    once the sensors say clamped, the half is clamped - not 'transitioning' for ever,
+    which refused every later release of the other half in the down bend."""
+    port.clamp_half(Half.REAR)
+    port.free_half(Half.FRONT, angle_rad=-0.7)
+    port.set_pitch(math.radians(-24))  # down the bend: steep
+    verdict = sup.clamp(Half.FRONT, 0.7)
+    assert verdict.ok
+    port.clamp_half(Half.FRONT, 0.7)
+    assert sup.half_states()[Half.FRONT] is ClampState.CLAMPED
+    assert sup.unclamp(Half.REAR).ok

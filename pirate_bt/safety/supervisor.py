@@ -659,10 +659,13 @@ class Supervisor:
                 return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
             for mc in sent:
                 self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
+            # A clamp whose torque swings a joint across (a reversal) lets go on the way,
+            # which the checks above treat as a release; what the half is asked to end
+            # in is still the clamp, so the clamp target wins.
+            for half in intent.releases - intent.clamps:
+                self._targets[half] = HalfTarget.RELEASE
             for half in intent.clamps:
                 self._targets[half] = HalfTarget.CLAMP
-            for half in intent.releases:
-                self._targets[half] = HalfTarget.RELEASE
         if clips:
             return Verdict(
                 Outcome.CLIP,
