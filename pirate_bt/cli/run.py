@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -32,13 +31,16 @@ class Connection:
         clock: The clock the tree and the runner read.
         supervisor: The safety supervisor (``None`` when no robot is attached).
         close: Releases the link and the simulator.
-        description: One line for people (``simulator: straight.yaml``).
+        description: One line for people (``simulator: straight``).
+        simulator: The in-process simulator, when simulated (its counters go
+            into the trace).
     """
 
     clock: Clock
     supervisor: Any = None
     close: Callable[[], None] = field(default=lambda: None)
     description: str = "no robot"
+    simulator: Any = None
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -65,6 +67,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
     parser.add_argument("--realtime", action="store_true", help="pace a simulated run to wall time")
+    parser.add_argument(
+        "--trace", metavar="FILE", help="write a tick-by-tick trace (.jsonl or .jsonl.gz)"
+    )
+    parser.add_argument("--quiet", action="store_true", help="no live view of the tree")
 
 
 def _quantity(text: str, dimension: str, option: str) -> float:
@@ -89,11 +95,6 @@ def parse_params(items: list[str]) -> dict[str, str]:
     return out
 
 
-def _resolve(ref: str) -> Any:
-    module_name, _, attr = ref.partition(":")
-    return getattr(importlib.import_module(module_name), attr)
-
-
 def split_faults(text: str | None) -> tuple[list[str], str | None]:
     """Split ``--faults`` into simulator faults and a link fault spec.
 
@@ -112,64 +113,82 @@ def split_faults(text: str | None) -> tuple[list[str], str | None]:
 
 
 def connect(args: argparse.Namespace, robot: Any, needs_robot: bool) -> Connection:
-    """Open the simulator or the robot link and the supervisor, as the tree needs.
+    """Open the simulator or the robot behind the supervisor, as the tree needs.
 
-    This is the one place where ``pirate-bt run`` reaches below the tree layer. With
-    ``--port`` it opens ``pirate_bt.link.open_link(url, robot, clock)`` on a wall
-    clock. Otherwise it starts an in-process ``pirate_bt.sim.Simulator`` on the
-    network ``--sim`` (a file or a bundled name; default ``straight``) on a
-    simulated clock, with the simulator faults of ``--faults`` (``KIND:TARGET@AT``),
-    and reaches it through the same link (``sim://NAME``) with the link faults of
-    ``--faults`` (``drop=0.05,corrupt=0.01``; seeded from ``--seed``). Either way
-    the port is wrapped in ``pirate_bt.safety.supervisor.Supervisor(port, clock)``
-    once its first state has arrived.
+    This is the one place where ``pirate-bt run`` reaches below the tree layer, and
+    it does so only through the protective layer's factory,
+    :func:`pirate_bt.safety.factory.open_supervisor`, which opens the link itself.
+    With ``--port`` the robot is reached on a wall clock. Otherwise an in-process
+    simulator runs the network ``--sim`` (a file or a bundled name; default
+    ``straight``) on a simulated clock, with the simulator faults of ``--faults``
+    (``KIND:TARGET@AT``) and the link faults (``drop=0.05,corrupt=0.01``, seeded
+    from ``--seed``) on the host side of the same wire protocol.
 
     Raises:
-        LinkError: the tree needs a robot and none can be reached.
-        InputError: a malformed fault.
+        LinkError: the robot cannot be reached.
+        InputError: a malformed fault, or simulator faults with ``--port``.
     """
     simulated = args.port is None
     clock: Clock = SimClock() if simulated else WallClock()
     if not needs_robot:
         return Connection(clock=clock, description="no robot needed by this tree")
-    closers: list[Callable[[], None]] = []
+    from pirate_bt.safety.factory import open_supervisor
 
-    def close() -> None:
-        for closer in reversed(closers):
-            closer()
+    sim_faults, link_faults = split_faults(args.faults)
+    options: dict[str, Any] = {}
+    if link_faults is not None:
+        options["faults"] = (
+            link_faults if "seed=" in link_faults else f"{link_faults},seed={args.seed}"
+        )
+    if simulated:
+        network = args.sim or "straight"
+        supervisor = open_supervisor(
+            robot, clock=clock, network=network, seed=args.seed, sim_faults=sim_faults, **options
+        )
+        what = f"simulator: {network}"
+    else:
+        if sim_faults:
+            raise InputError(
+                "--faults: simulator faults (KIND:TARGET@AT) need the simulator, not --port"
+            )
+        supervisor = open_supervisor(robot, url=args.port, clock=clock, **options)
+        what = f"robot at {args.port}"
+    return Connection(
+        clock=clock,
+        supervisor=supervisor,
+        close=supervisor.close,
+        description=what,
+        simulator=supervisor.simulator,
+    )
 
-    try:
-        from pirate_bt.safety.factory import wait_for_state
-        from pirate_bt.safety.supervisor import Supervisor
 
-        open_link = _resolve("pirate_bt.link:open_link")
-        if simulated:
-            assert isinstance(clock, SimClock)
-            simulator_cls = _resolve("pirate_bt.sim:Simulator")
-            sim_faults, link_faults = split_faults(args.faults)
-            if link_faults is not None and "seed=" not in link_faults:
-                link_faults += f",seed={args.seed}"
-            network = args.sim or "straight"
-            sim = simulator_cls(network, robot, seed=args.seed, clock=clock, faults=sim_faults)
-            closers.append(sim.close)
-            port = open_link(sim.url, robot, clock, faults=link_faults)
-            what = f"simulator: {network}"
-        else:
-            port = open_link(args.port, robot, clock)
-            what = f"robot at {args.port}"
-        closers.append(port.close)
-        wait_for_state(port, clock, 5.0)
-    except (ImportError, AttributeError) as exc:
-        close()
-        part = "simulator" if simulated else "link"
-        raise LinkError(
-            f"cannot connect: this tree needs a robot, but the {part} is not available ({exc})"
-        ) from None
-    except BaseException:
-        close()
-        raise
-    supervisor = Supervisor(port, clock)
-    return Connection(clock=clock, supervisor=supervisor, close=close, description=what)
+def _safe_state(supervisor: Any) -> None:
+    """Safe state at the end of a failed run, keeping the reason a PAB gave first."""
+    reason = supervisor.safe_state_reason if supervisor.in_safe_state else None
+    supervisor.safe_state(reason or "tree run ended without success")
+
+
+def _observe(runner: Any, args: argparse.Namespace, robot: Any, connection: Connection) -> None:
+    """Attach the live view (unless ``--quiet``) and the trace (with ``--trace``)."""
+    from pirate_bt.trace import attach_live_view, attach_trace, supervised_extras
+
+    attach_live_view(runner, quiet=args.quiet)
+    if not args.trace:
+        return
+    extras = None
+    supervisor, simulator = connection.supervisor, connection.simulator
+    if supervisor is not None:
+        extras = supervised_extras(
+            supervisor, counters=simulator.counters if simulator is not None else None
+        )
+    attach_trace(
+        runner,
+        args.trace,
+        extras=extras,
+        robot=robot,
+        scenario=(args.sim or "straight") if args.port is None else args.port,
+        seed=args.seed if args.port is None else None,
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -199,19 +218,20 @@ def run(args: argparse.Namespace) -> int:
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
             realtime=args.realtime,
-            safe_state=(
-                (lambda: supervisor.safe_state("tree run ended without success"))
-                if supervisor is not None
-                else None
-            ),
+            safe_state=(lambda: _safe_state(supervisor)) if supervisor is not None else None,
+            paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
         )
         if supervisor is not None:
             runner.add_pre_tick(lambda _info: supervisor.tick())
+        _observe(runner, args, robot, connection)
         result = runner.run()
     finally:
         connection.close()
+    why = result.message
+    if connection.supervisor is not None and connection.supervisor.safe_state_reason:
+        why = f"{result.message}: {connection.supervisor.safe_state_reason}"
     summary = (
-        f"{tree.name}: {result.outcome.upper()} - {result.message}"
+        f"{tree.name}: {result.outcome.upper()} - {why}"
         f" ({connection.description}; {result.ticks} ticks, {result.sim_time_s:.2f} s clock,"
         f" {result.wall_time_s:.2f} s wall"
         + (f", {result.overrun_count} tick overruns" if result.overrun_count else "")

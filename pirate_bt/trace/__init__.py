@@ -18,7 +18,12 @@ Typical use with plain py_trees::
     trace.statuses_at(42)
 """
 
-from pirate_bt.trace.attach import attach_live_view, attach_trace
+from pirate_bt.trace.attach import (
+    attach_live_view,
+    attach_trace,
+    counter_values,
+    supervised_extras,
+)
 from pirate_bt.trace.live import LiveView, live_view_hook
 from pirate_bt.trace.reader import READERS, TickFrame, TickRecord, Trace, read_trace
 from pirate_bt.trace.records import (
@@ -48,11 +53,13 @@ __all__ = [
     "TreeStructure",
     "attach_live_view",
     "attach_trace",
+    "counter_values",
     "format_summary",
     "live_view_hook",
     "open_writer",
     "read_trace",
     "summarise",
+    "supervised_extras",
     "trace_schema",
     "tree_structure",
     "tree_text",

@@ -28,7 +28,14 @@ from pirate_bt.trace.records import TickExtras, TraceEvent
 from pirate_bt.trace.structure import TreeStructure
 from pirate_bt.trace.writer import TraceFormatWriter, TraceRecorder
 
-__all__ = ["attach_live_view", "attach_trace", "node_id_for_path", "outcome_of_result"]
+__all__ = [
+    "attach_live_view",
+    "attach_trace",
+    "counter_values",
+    "node_id_for_path",
+    "outcome_of_result",
+    "supervised_extras",
+]
 
 _REASON_OUTCOME = {
     "success": "success",
@@ -129,3 +136,65 @@ def attach_live_view(
     assert isinstance(view, LiveView)
     runner.add_post_tick(view)
     return view
+
+
+def counter_values(counters: Any) -> dict[str, float]:
+    """Simulator counters (a ``SimCounters`` or anything with those attributes) as numbers.
+
+    Missing attributes are left out, so a counters object from another simulator
+    version still gives what it has.
+    """
+    if counters is None:
+        return {}
+    fields = {
+        "distance_m": "distance_m",
+        "stuck_events": "stuck_events",
+        "slip_events": "slip_events",
+        "violations": "violation_count",
+        "damage": "damage_count",
+        "frames_dropped": "frames_dropped",
+        "frames_rejected": "frames_rejected",
+        "watchdog_trips": "watchdog_trips",
+    }
+    out: dict[str, float] = {}
+    for key, attr in fields.items():
+        value = getattr(counters, attr, None)
+        if isinstance(value, int | float):
+            out[key] = float(value)
+    return out
+
+
+def supervised_extras(
+    supervisor: Any,
+    *,
+    counters: Callable[[], Any] | None = None,
+    more: Callable[[], dict[str, float]] | None = None,
+) -> Callable[[Any], TickExtras]:
+    """An ``extras`` callable for :func:`attach_trace` that reads a supervisor.
+
+    Each tick it records the supervisor's latest state, every verdict given since
+    the last tick (the supervisor's listener API, so none is missed or repeated),
+    link health, and — when ``counters`` is given — the simulator's counters plus
+    any values from ``more`` (e.g. a localiser's belief). The supervisor is
+    duck-typed (``state()``, ``health()``, ``add_listener(fn)``), so this module
+    does not import the protective layer.
+    """
+    from pirate_bt.trace.records import CommandRecord
+
+    verdicts: list[Any] = []
+    supervisor.add_listener(verdicts.append)
+
+    def extras(_info: Any) -> TickExtras:
+        records = [CommandRecord.from_verdict(v) for v in verdicts]
+        verdicts.clear()
+        sim = counter_values(counters()) if counters is not None else {}
+        if more is not None:
+            sim.update(more())
+        return TickExtras(
+            state=supervisor.state(),
+            commands=records,
+            link=supervisor.health(),
+            sim=sim or None,
+        )
+
+    return extras

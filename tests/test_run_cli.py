@@ -1,0 +1,62 @@
+"""`pirate-bt run`: connected through the protective layer, traced, watched, honest exit codes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.trace import read_trace
+
+REPO = Path(__file__).resolve().parent.parent
+STRAIGHT = str(REPO / "trees" / "straight.yaml")
+
+
+def test_run_writes_a_trace_with_verdicts_and_simulator_counters(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    trace_path = tmp_path / "run.jsonl"
+    code = main(
+        ["run", STRAIGHT, "--param", "distance=0.3m", "--quiet", "--trace", str(trace_path)]
+    )
+    assert code == 0, capsys.readouterr().err
+    assert "straight: SUCCESS" in capsys.readouterr().out
+    trace = read_trace(trace_path)
+    assert trace.outcome == "success"
+    commands = [c for f in trace.frames() for c in (f.commands or ())]
+    assert any("clamp(rear" in str(c) for c in commands)
+    last = trace.frame_at(trace.last_tick)
+    assert last.sim is not None and last.sim["violations"] == 0.0
+    assert last.sim["distance_m"] >= 0.3
+
+
+def test_live_view_shows_the_tree_unless_quiet(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", STRAIGHT, "--param", "distance=0.1m"]) == 0
+    assert "drive straight" in capsys.readouterr().err
+    assert main(["run", STRAIGHT, "--param", "distance=0.1m", "--quiet"]) == 0
+    assert "drive straight" not in capsys.readouterr().err
+
+
+def test_a_failed_run_says_why_and_leaves_the_robot_safe(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code = main(
+        [
+            "run", STRAIGHT, "--param", "distance=1.5m", "--quiet",
+            "--faults", "motor_stall:bend_3_drive@5s+20s",
+        ]
+    )  # fmt: skip
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "FAILURE" in err and "stall: bend_3_drive" in err
+
+
+def test_connection_errors_and_misplaced_faults(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", STRAIGHT, "--param", "distance=1m", "--port", "/dev/no-such-port"]) == 3
+    assert "cannot open /dev/no-such-port" in capsys.readouterr().err
+    code = main(
+        ["run", STRAIGHT, "--param", "distance=1m", "--port", "loop://", "--faults", "x:y@1s"]
+    )
+    assert code == 2
+    assert "need the simulator" in capsys.readouterr().err
