@@ -17,6 +17,7 @@ already-open serial-like object or byte link.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 
 from pirate_bt.clock import Clock
@@ -237,7 +238,11 @@ def wrap_link(
             clock,
             seq=1,
             reset_wait_s=reset_wait_s,
-            reply_timeout_s=max(cfg.ack_timeout_s * 4, 0.1),
+            # HELLO is resent every ack timeout, well inside the watchdog, so a lost
+            # reply does not silence the host long enough to trip it; 16 tries, and
+            # at least 0.4 s in all.
+            reply_timeout_s=cfg.ack_timeout_s,
+            attempts=max(16, math.ceil(0.4 / cfg.ack_timeout_s)),
             step_s=cfg.poll_step_s,
         )
     except BaseException:
