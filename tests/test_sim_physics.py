@@ -324,6 +324,31 @@ def test_over_torque_needs_time_above_the_limit() -> None:
     assert d.model.counters().damage == {"over_torque:bend_3_joint": 1}
 
 
+def test_a_stalled_joint_in_torque_mode_applies_the_commanded_torque() -> None:
+    """The board closes the torque loop: a joint blocked at the wall is no over-torque."""
+    d = Driver()
+    d.clamp(Half.FRONT)  # CLAMP_NM = 0.7 N*m, within the 0.8 N*m limit
+    d.model.set_stalled("bend_1_joint", True)  # stalled against the wall
+    d.run(2.0)
+    assert d.model.counters().damage_count == 0
+    assert d.model.truth().torque_nm["bend_1_joint"] == pytest.approx(CLAMP_NM)
+    # a commanded torque over the limit is damage, stalled or not
+    d.cmd("bend_1_joint", ControlMode.TORQUE, 0.9)
+    d.run(1.0)
+    assert d.model.counters().damage == {"over_torque:bend_1_joint": 1}
+
+
+def test_a_stalled_joint_in_pwm_mode_applies_its_share_of_the_stall_torque() -> None:
+    d = Driver()
+    d.model.set_stalled("bend_3_joint", True)
+    d.cmd("bend_3_joint", ControlMode.PWM, 0.5)  # 0.5 x 1.023 N*m, within the limit
+    d.run(1.0)
+    assert d.model.counters().damage_count == 0
+    d.cmd("bend_3_joint", ControlMode.PWM, 1.0)  # full duty into a blocked motor
+    d.run(1.0)
+    assert d.model.counters().damage == {"over_torque:bend_3_joint": 1}
+
+
 def test_front_clamp_needs_the_front_module_clear() -> None:
     d = Driver()
     d.joints(Half.FRONT, ControlMode.TORQUE, CLAMP_NM)  # front tilt still at 0

@@ -134,6 +134,8 @@ class SimTruth:
         sliding: The robot slides back, unclamped in a steep pipe.
         diameter_m: Pipe diameter at the rotational module.
         slope_rad: Pipe slope at the rotational module.
+        torque_nm: Torque each torque-limited motor applies now (what the over-torque
+            rule looks at).
     """
 
     time_s: float
@@ -149,6 +151,7 @@ class SimTruth:
     sliding: bool
     diameter_m: float
     slope_rad: float
+    torque_nm: Mapping[str, float]
 
 
 @dataclass
@@ -413,9 +416,14 @@ class PipeRobotModel:
                 changed = True
                 target, torque = self._joint_target(j)
                 if j.stalled:
-                    j.torque_nm = (
-                        j.stall_torque if j.mode is not None and target != j.angle_rad else 0
-                    )
+                    # Blocked where it stands, but the board still closes its loop: in
+                    # torque mode the motor applies the commanded torque (PWM: its share
+                    # of the stall torque), so a stall alone is no over-torque. Only a
+                    # position loop that cannot reach its setpoint saturates.
+                    if j.mode is ControlMode.POSITION:
+                        j.torque_nm = j.stall_torque if target != j.angle_rad else 0.0
+                    else:
+                        j.torque_nm = torque
                     j.press_nm = 0.0
                     continue
                 limit = wall if wall is not None else math.inf
@@ -963,4 +971,5 @@ class PipeRobotModel:
             sliding=self.sliding,
             diameter_m=path.diameter_at(s_rot),
             slope_rad=path.slope_at(s_rot),
+            torque_nm=MappingProxyType({m.name: m.torque_nm for m in self._torqued}),
         )
