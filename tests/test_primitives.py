@@ -302,7 +302,23 @@ def test_drive_fails_on_a_stalled_motor() -> None:
 
 
 def blocked(rig: Rig) -> None:
-    rig.port.set(**{f"{m.name.replace('.', '__')}__current": 1.5 for m in ROBOT.drive_motors()})
+    # As on the simulator: held by the pipe, every wheel stands at stall current.
+    for m in ROBOT.drive_motors():
+        rig.port.set(**{f"{m.name}__current": 1.5, f"{m.name}__velocity": 0.0})
+
+
+def test_heavy_load_at_speed_is_not_blocked() -> None:
+    # A long tether up a riser: nearly stall current, but the robot climbs at speed.
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, distance=0.4))
+    rig.run(node, ticks=5)
+    rig.port.set(**{f"{m.name}__current": 1.35 for m in ROBOT.drive_motors()})
+    assert rig.run(node) == Status.SUCCESS
+    until = rig.node(Drive, DriveParams(velocity=0.08, until="blocked", max_distance=0.3))
+    rig.run(until, ticks=5)
+    rig.port.set(**{f"{m.name}__current": 1.35 for m in ROBOT.drive_motors()})
+    assert rig.run(until) == Status.FAILURE
+    assert "no feature (blocked) within 0.3 m" in until.feedback_message
 
 
 def test_drive_until_blocked_succeeds_when_every_wheel_pushes() -> None:
@@ -337,6 +353,23 @@ def test_drive_until_opening_passed() -> None:
     # the opening passes under bend_3, then under bend_4
     for module in ("bend_3", "bend_4"):
         rig.port.set(**{f"{module}_angle": math.radians(110), f"{module}_spring": 0.0})
+        rig.run(node, ticks=5)
+        assert node.status == Status.RUNNING
+        rig.port.clamp_half(Half.REAR, 0.7)
+        rig.run(node, ticks=5)
+    assert node.status == Status.SUCCESS
+
+
+def test_drive_until_opening_passed_waits_until_the_joint_is_back_at_the_wall() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, until="opening_passed"))
+    rig.run(node, ticks=10)
+    for module in ("bend_3", "bend_4"):
+        rig.port.set(**{f"{module}_angle": math.radians(110), f"{module}_spring": 0.0})
+        rig.run(node, ticks=5)
+        # swinging back, below the off-wall threshold but not at the wall yet: the
+        # module may still be at the edge of the opening
+        rig.port.set(**{f"{module}_angle": math.radians(100)})
         rig.run(node, ticks=5)
         assert node.status == Status.RUNNING
         rig.port.clamp_half(Half.REAR, 0.7)

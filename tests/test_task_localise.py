@@ -81,7 +81,7 @@ def test_belief_error_stays_within_the_stated_bounds(robot: RobotDescription, sl
     loc = Localiser(plan, robot)
     samples = drive(loc, robot, plan.path, plan.start_m, plan.end_m, slip=slip)
     assert loc.mismatch is None
-    assert [f.feature for f in loc.fixes] == ["bend-a", "bend-b", "bend-c", "bend-d"]
+    assert [f.feature for f in loc.fixes] == ["bend-a", "bend-b", "bend-c", "bend-d", "bend-e"]
     for fix in loc.fixes:
         assert fix.error_after_m is not None
         assert abs(fix.error_after_m) <= FIX_BOUND_M, fix

@@ -50,14 +50,15 @@ def test_lab_route_is_a_full_inspection(robot: RobotDescription) -> None:
     plan = plan_route(route, load_network_for(route, None), robot)
     bends = [p for p in plan.pabs if p.pab == "bend"]
     tees = [p for p in plan.pabs if p.pab == "t-joint"]
-    assert [b.feature for b in bends] == ["bend-a", "bend-b", "bend-c", "bend-d"]
+    assert [b.feature for b in bends] == ["bend-a", "bend-b", "bend-c", "bend-d", "bend-e"]
     assert [t.params["direction"] for t in tees] == ["straight", "straight"]
     # Rolls come from the map, in the simulator's convention (0 up, +90 right).
     rolls = [math.degrees(b.params["roll"]) for b in bends]
-    assert rolls == pytest.approx([90, -90, 180, 0])
+    assert rolls == pytest.approx([90, -90, 180, 0, 0])
     assert any(p.inspect for p in plan.pabs)
-    # It ends in run-g, at the foot of the riser.
-    assert plan.path.piece_at(plan.end_m).segment == "run-g"
+    # It ends at the top of the riser, the end of the main.
+    assert plan.path.piece_at(plan.end_m).segment == "riser"
+    assert plan.end_m == pytest.approx(plan.path.length_m - plan.contract.end_margin_m)
     assert plan.distance_m > 25
 
 
@@ -142,3 +143,31 @@ def test_mission_tree_is_one_sequence_of_subtrees(tmp_path: Path, robot: RobotDe
     assert bend["ref"].endswith("bend.yaml") and "(line 6)" in bend["name"]
     names = [c["name"] for c in children]
     assert len(set(names)) == len(names) and not any("/" in n for n in names)
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.name for p in SHIPPED])
+def test_legs_leave_a_margin_before_every_feature(path: Path, robot: RobotDescription) -> None:
+    # A few centimetres of drift must never drive the robot into a feature: every leg
+    # ends at least min_margin_m before the next feature it does not pass itself (the
+    # PAB that passes the feature senses the rest).
+    route = load_route(path)
+    plan = plan_route(route, load_network_for(route, None), robot)
+    margin = plan.contract.min_margin_m
+    for pab in plan.pabs:
+        ahead = [
+            f.start_m
+            for f in plan.features
+            if f.segment != pab.feature and f.start_m > pab.start_m + 1e-6
+        ]
+        if ahead:
+            assert pab.end_m <= min(ahead) - margin + 1e-6, (pab.note, pab.end_m, min(ahead))
+
+
+def test_straight_through_tee_needs_no_extra_leg(robot: RobotDescription) -> None:
+    plan = plan_text("at the T-joint go straight\nforward 1 m\n", "t-joint", robot)
+    assert [p.pab for p in plan.pabs] == ["straight", "t-joint", "straight"]
+    tee = next(p for p in plan.path.pieces if p.segment == "tee")
+    assert tee.opening_m is not None
+    assert plan.pabs[1].end_m == pytest.approx(
+        tee.opening_m + rear_lead_m(robot) + plan.contract.tee_exit_m
+    )

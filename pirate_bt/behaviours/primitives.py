@@ -640,8 +640,8 @@ class DriveParams(NodeParams):
             " stall current: the leading half is held at a turn it may not take);"
             " 'front_opening' (a front joint swung past every wall-contact angle: the"
             " front half is over a tee's opening);"
-            " 'opening_passed' (the rear half lost the wall over a tee's opening and found"
-            " it again behind it)"
+            " 'opening_passed' (every rear joint, pressing the wall, swung off it over a"
+            " tee's opening and is back at the wall behind it)"
         ),
     )
     max_distance: Length = Field(
@@ -660,8 +660,10 @@ class Drive(Primitive):
     Odometry integrates the mean measured wheel speed. A drive motor drawing at least
     ``stall_current`` while turning at less than a fifth of the commanded speed for
     ``stall_time`` is a stall (failure). Every motor drawing stall current while the
-    wheels turn means the robot is held by the pipe: success for ``until: blocked``,
-    a failure otherwise. ``terminate()`` always stops the drives.
+    robot makes no progress (mean wheel speed below a fifth of the command) means
+    the robot is held by the pipe: success for ``until: blocked``, a failure
+    otherwise. A heavy load that the wheels still carry (nearly stall current at
+    speed) is neither. ``terminate()`` always stops the drives.
     """
 
     Params = DriveParams
@@ -693,6 +695,7 @@ class Drive(Primitive):
         self._blocked_since: float | None = None
         self._lost_wall: dict[str, bool] = {}
         self._found_wall: set[str] = set()
+        self._back_ticks: dict[str, int] = {}
         self._slow_since: float | None = None
 
     def stop_motion(self) -> None:
@@ -710,6 +713,41 @@ class Drive(Primitive):
             m.name: abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
             for m in self.robot.bend_modules(half)
         }
+
+    def _opening_passed(self, state: RobotState) -> bool:
+        """True once every rear bend module has crossed an opening and is at the wall again.
+
+        A pressing joint swings past every wall-contact angle over the opening (lost)
+        and is pushed back by the wall behind it. It counts as past the opening only
+        when it is back *at the wall* - within the contact range and, with a spring
+        sensor, pressing on it, for ``_SETTLE_TICKS`` ticks - not as soon as it swings
+        back below the off-wall threshold, when the module may still be at the edge of
+        the opening. A joint
+        that swings out again (a second opening, noise) must come back again.
+        """
+        robot = self.robot
+        clamp = robot.clamp
+        tol = robot.safety.angle_tolerance
+        wall_max = max(c.angle for c in clamp.contact_angles) + tol
+        wall_min = min(c.angle for c in clamp.contact_angles) - tol
+        pressing_n = robot.safety.clamp_force_fraction * clamp.min_torque / clamp.lever_arm
+        rear = [m.name for m in robot.bend_modules(Half.REAR)]
+        for name, off in self._off_wall(state, Half.REAR).items():
+            angle = state.joint_angle_rad.get(name)
+            force = state.clamp_force_n.get(name)
+            if off:
+                self._lost_wall[name] = True
+                self._back_ticks[name] = 0
+                self._found_wall.discard(name)
+            elif self._lost_wall.get(name) and angle is not None:
+                # at the wall: in the contact range and, with a spring, pressing on it
+                at_wall = wall_min <= abs(angle) <= wall_max and (
+                    force is None or abs(force) >= pressing_n
+                )
+                self._back_ticks[name] = self._back_ticks.get(name, 0) + 1 if at_wall else 0
+                if self._back_ticks[name] >= _SETTLE_TICKS:
+                    self._found_wall.add(name)
+        return bool(rear) and self._found_wall >= set(rear)
 
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
@@ -748,8 +786,11 @@ class Drive(Primitive):
                     )
             else:
                 self._stall_since.pop(name, None)
-        # blocked: every wheel turns against the pipe at stall current
-        if currents and all(c >= stall_a for c in currents.values()):
+        # blocked: every wheel pushes against the pipe at stall current and the robot
+        # makes no progress. Current alone is not enough: a heavy load (a long tether up
+        # a riser) draws nearly stall current while the robot climbs at full speed.
+        progressing = abs(speed) >= 0.2 * abs(p.velocity)
+        if currents and all(c >= stall_a for c in currents.values()) and not progressing:
             if self._blocked_since is None:
                 self._blocked_since = now
             if now - self._blocked_since >= min(p.stall_time, 0.3):
@@ -767,17 +808,9 @@ class Drive(Primitive):
         if p.until == "front_opening" and any(self._off_wall(state, Half.FRONT).values()):
             self.feedback_message = f"front half over an opening after {travelled:.3f} m"
             return Status.SUCCESS
-        if p.until == "opening_passed":
-            # every rear joint must have swung off the wall over the opening and be back
-            for name, off in self._off_wall(state, Half.REAR).items():
-                if off:
-                    self._lost_wall[name] = True
-                elif self._lost_wall.get(name):
-                    self._found_wall.add(name)
-            rear = {m.name for m in robot.bend_modules(Half.REAR)}
-            if self._found_wall >= rear:
-                self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
-                return Status.SUCCESS
+        if p.until == "opening_passed" and self._opening_passed(state):
+            self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
+            return Status.SUCCESS
         if p.until != "distance" and travelled >= p.max_distance:
             return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")
         # the bridge's watchdog may have stopped the wheels: ask again

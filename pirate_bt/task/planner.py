@@ -78,11 +78,22 @@ _DIRECTION_TOL_RAD = math.radians(10.0)
 class PabContract:
     """Where the PAB trees expect the robot and where they leave it.
 
+    Two kinds of numbers live here. *Margins* are the planner's choice: how far
+    before a feature a planned leg stops, so that a few centimetres of drift never
+    drive the robot into it (the next PAB absorbs the margin: a turn PAB drives
+    ``until: blocked``, a straight-through T-joint ``until: front_opening``).
+    *Measured* numbers belong to the PAB trees in ``trees/``; they are derived on
+    the simulator by :func:`pirate_bt.task.calibrate.calibrate`, and
+    ``tests/test_task_contract.py`` fails when one drifts from its measurement
+    (``python -m pirate_bt.task.calibrate`` prints them).
+
     Attributes:
-        approach_m: A turn or T-joint PAB starts with the front tip this far before
-            the feature's start.
-        clear_m: A turn or T-joint PAB ends with the rear tip this far past the
-            feature's end.
+        approach_m: Margin: a leg up to a bend or T-joint ends with the front tip this
+            far before the feature's start (the PAB then drives the rest, sensing it).
+        min_margin_m: Margin: no planned leg, and no PAB that ends before another
+            feature, leaves the front tip closer than this to that feature's start.
+            Between ``min_margin_m`` and ``approach_m`` the approach leg is left out.
+        clear_m: ``go to SEGMENT`` drives until the rear tip is this far into it.
         end_margin_m: ``forward to the end`` stops the front tip this short of the end.
         slow_factor: ``slowly`` and ``inspect`` drive at this fraction of the
             nominal speed (when the straight PAB takes a speed).
@@ -91,25 +102,26 @@ class PabContract:
             the rear half blocks at the turn's start, then the rear half this far
             (its ``follow`` parameter): it ends with the front tip at the turn's
             start + the rear half's lead offset + ``follow_m`` + ``turn_overrun_m``.
-        turn_overrun_m: Measured on the simulator: how far past the turn's start
-            the rear half is when the drive reports it blocked.
-        tee_exit_m: The straight-through T-joint PAB ends (``until: opening_passed``)
-            with the front tip at the opening + the rear half's lead offset + this
-            (measured on the simulator).
-        tee_clear_m: After a straight-through T-joint, the mission drives on this
-            far so that the last rear bend module is off the opening before the next
-            PAB clamps (the PAB ends while it is still over it).
+        straight_overrun_m: Measured: the straight PAB drives this much further than
+            its distance (it stops on the first tick past it).
+        turn_overrun_m: Measured: see ``follow_m`` (worst of the four bend
+            orientations and the turn into a tee's branch).
+        tee_exit_m: Measured: the straight-through T-joint PAB
+            (``trees/lib/tee-straight.yaml``) ends with the front tip at the middle
+            of the opening + the rear half's lead offset + this, every bend module
+            past the opening.
     """
 
-    approach_m: float = 0.05
+    approach_m: float = 0.25
+    min_margin_m: float = 0.10
     clear_m: float = 0.05
     end_margin_m: float = 0.05
     slow_factor: float = 0.5
     tee_ways: tuple[str, ...] = ("left", "right", "straight")
     follow_m: float = 0.55
-    turn_overrun_m: float = 0.01
-    tee_exit_m: float = 0.07
-    tee_clear_m: float = 0.10
+    straight_overrun_m: float = 0.0
+    turn_overrun_m: float = 0.006
+    tee_exit_m: float = 0.400
 
 
 @dataclass(frozen=True)
@@ -117,8 +129,7 @@ class PlannedPab:
     """One PAB of the chain.
 
     Attributes:
-        pab: ``straight``, ``bend``, ``t-joint``, ``pause`` (a ``wait`` node) or
-            ``drive`` (the ``drive`` primitive, to clear a tee's opening).
+        pab: ``straight``, ``bend``, ``t-joint`` or ``pause`` (a ``wait`` node).
         params: Its parameters in SI units (``distance`` m, ``roll`` rad,
             ``direction``, ``duration`` s, ``slow``).
         step: The route command it serves.
@@ -316,7 +327,8 @@ class _Walker:
         slow = step.slowly or inspect
         if slow:
             params["slow"] = True
-        end = self.s_m + distance_m
+        overrun = math.copysign(self.contract.straight_overrun_m, distance_m)
+        end = self.s_m + distance_m + overrun
         self.pabs.append(
             PlannedPab("straight", params, step, self.s_m, end, inspect=inspect, note=note)
         )
@@ -394,12 +406,19 @@ class _Walker:
         self.straight(step, -distance, f"back {distance:.2f} m to the start")
 
     def approach(self, step: RouteStep, feature: Piece) -> None:
+        """Drive up to ``approach_m`` before ``feature``; nothing when already within it.
+
+        The PAB that passes the feature senses it (``until: blocked`` or
+        ``until: front_opening``), so it absorbs whatever margin is left.
+        """
         target = feature.start_m - self.contract.approach_m
         gap = target - self.s_m
-        if gap < -self.contract.approach_m - _TOL_M:
+        if self.s_m > feature.start_m - self.contract.min_margin_m + _TOL_M:
             raise LocatedError(
-                f"'{step.text}' cannot be planned: the robot is already {-gap:.2f} m into"
-                f" {feature.segment!r} (two features closer than the robot is long?)",
+                f"'{step.text}' cannot be planned: the robot would be only"
+                f" {feature.start_m - self.s_m:.2f} m before {feature.segment!r}, less than"
+                f" the {self.contract.min_margin_m:.2f} m margin (two features closer than"
+                " the robot is long?)",
                 step.location,
             )
         if gap > _TOL_M:
@@ -491,7 +510,7 @@ class _Walker:
             end = feature.opening_m + self.rear_lead_m + self.contract.tee_exit_m
         else:
             end = self._turn_exit_m(passed)
-        self._check_room(step, passed, end + self.contract.tee_clear_m)
+        self._check_room(step, passed, end)
         self.pabs.append(
             PlannedPab(
                 "t-joint",
@@ -506,27 +525,10 @@ class _Walker:
         self.driven_m += end - start
         self.passed.append(passed)
         self.s_m = end
-        if way == "straight":
-            clear = self.contract.tee_clear_m
-            self.pabs.append(
-                PlannedPab(
-                    "drive",
-                    {"distance": clear},
-                    step,
-                    end,
-                    end + clear,
-                    note=f"clear the opening {clear:.2f} m",
-                )
-            )
-            self.driven_m += clear
-            self.s_m = end + clear
 
     def _turn_exit_m(self, turn: Piece) -> float:
         return (
-            turn.start_m
-            + self.rear_lead_m
-            + self.contract.follow_m
-            + (self.contract.turn_overrun_m)
+            turn.start_m + self.rear_lead_m + self.contract.follow_m + self.contract.turn_overrun_m
         )
 
     def _check_room(self, step: RouteStep, feature: Piece, end_m: float) -> None:
@@ -541,7 +543,7 @@ class _Walker:
             if piece is feature or piece.start_m < feature.end_m - _TOL_M:
                 continue
             if piece.kind in (PieceKind.BEND, PieceKind.TEE):
-                if end_m > piece.start_m - self.contract.approach_m + _TOL_M:
+                if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
                     raise LocatedError(
                         f"'{step.text}' cannot be planned: {feature.segment!r} and"
                         f" {piece.segment!r} are closer than the robot is long"
@@ -765,26 +767,6 @@ def mission_tree_spec(
         name = pab.label(index)
         if pab.pab == "pause":
             children.append({"type": "wait", "name": name, "duration": pab.params["duration"]})
-            continue
-        if pab.pab == "drive":
-            # Release the rear half first: the T-joint PAB ends with its last joint
-            # still swung out over the opening, where the supervisor refuses to drive.
-            release = folder / "lib" / "release-rear.yaml"
-            children.append(
-                {
-                    "type": "sequence",
-                    "name": name,
-                    "children": [
-                        {"type": "subtree", "name": "release rear", "ref": str(release.resolve())},
-                        {
-                            "type": "drive",
-                            "name": "drive on",
-                            "velocity": nominal_speed_mps or 0.08,
-                            "distance": pab.params["distance"],
-                        },
-                    ],
-                }
-            )
             continue
         path = _pab_file(folder, pab.pab)
         if pab.pab not in declared:
