@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["DATA_KINDS", "bundled", "data_dir", "default_robot_path"]
+__all__ = ["DATA_KINDS", "bundled", "data_dir", "default_robot_path", "find_file"]
 
 DATA_KINDS = ("hardware", "trees", "scenarios")
 _PACKAGE = Path(__file__).resolve().parent
@@ -38,3 +38,17 @@ def bundled(kind: str, name: str) -> Path:
 def default_robot_path() -> Path:
     """The default robot description (the 2018 robot)."""
     return bundled("hardware", "pirate.yaml")
+
+
+def find_file(kind: str, name: str | Path) -> Path:
+    """A user-named file: the path itself if it exists, else the bundled file of that name.
+
+    ``pirate-bt run bend.yaml`` then works from any folder with an installed
+    library, while a path that exists always wins. A name that is neither is
+    returned unchanged, so the caller's "no such file" error names what was typed.
+    """
+    path = Path(name)
+    if path.exists() or path.is_absolute() or len(path.parts) > 1:
+        return path
+    candidate = bundled(kind, path.name)
+    return candidate if candidate.exists() else path

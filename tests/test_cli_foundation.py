@@ -137,3 +137,17 @@ def test_validate_detects_traces_by_suffix(
     err = capsys.readouterr().err
     assert err.startswith(f"{bad}:1:1: not a trace record")
     assert err.count(str(bad)) == 1
+
+
+def test_bundled_trees_and_routes_are_found_by_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from pirate_bt.resources import find_file
+
+    monkeypatch.chdir(tmp_path)  # outside the repository, as an installed library is
+    assert find_file("trees", "bend.yaml") == REPO / "trees" / "bend.yaml"
+    assert find_file("scenarios", "lab.route") == REPO / "scenarios" / "lab.route"
+    (tmp_path / "bend.yaml").write_text("mine")
+    assert find_file("trees", "bend.yaml") == Path("bend.yaml")  # a real file wins
+    assert find_file("trees", "nope.yaml") == Path("nope.yaml")
+    assert find_file("trees", "sub/bend.yaml") == Path("sub/bend.yaml")

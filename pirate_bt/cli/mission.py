@@ -98,7 +98,9 @@ def execute(
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
     robot = load_robot(args.robot)
-    route = load_route(args.route)
+    from pirate_bt.resources import find_file
+
+    route = load_route(find_file("scenarios", args.route))
     network = load_network_for(route, args.sim or getattr(args, "network", None))
     plan = plan_route(route, network, robot)
     if not args.quiet or args.plan:

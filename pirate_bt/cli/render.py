@@ -50,10 +50,14 @@ def run(args: argparse.Namespace) -> int:
         structure = trace.structure
     else:
         from pirate_bt.cli.run import parse_params
+        from pirate_bt.resources import find_file
         from pirate_bt.treefile import load_tree
 
         loaded = load_tree(
-            args.tree, params=parse_params(args.param), params_from_text=True, use_examples=True
+            find_file("trees", args.tree),
+            params=parse_params(args.param),
+            params_from_text=True,
+            use_examples=True,
         )
         structure = tree_structure(loaded.root, name=loaded.name)
     if args.trace is not None:

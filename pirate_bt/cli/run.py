@@ -204,7 +204,10 @@ def run(args: argparse.Namespace) -> int:
     params = parse_params(args.param)
     robot = load_robot(args.robot)
     # Check the tree (exit 2) before connecting; build it on the run's clock after.
-    checked = load_tree(args.tree, robot=robot, params=params, params_from_text=True)
+    from pirate_bt.resources import find_file
+
+    tree_path = find_file("trees", args.tree)
+    checked = load_tree(tree_path, robot=robot, params=params, params_from_text=True)
     connection = connect(args, robot, checked.needs_robot)
     try:
         context = BuildContext(
