@@ -27,8 +27,10 @@ that the tree stops (and the runner puts the robot in its safe state) when
 belief and map disagree.
 
 Where each PAB leaves the robot is a contract with the PAB trees, kept in one
-place (:class:`PabContract`): a turn PAB starts with the front tip
-``approach_m`` before the turn and ends when the rear tip is ``clear_m`` past it.
+place (:class:`PabContract`): legs up to a feature stop ``approach_m`` before it
+(a margin the sensing PAB absorbs), and each PAB ends where the simulator says
+it does (:mod:`pirate_bt.task.calibrate` measures it; a test keeps the
+constants honest).
 """
 
 from __future__ import annotations
