@@ -73,3 +73,21 @@ def test_validate_and_render_take_params(
     out = tmp_path / "go.dot"
     assert main(["render", str(tree_file), "--param", "way=right", "-o", str(out)]) == 0
     assert "note way" in out.read_text()
+
+
+def test_a_bad_value_is_one_error_not_two(
+    tree_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["validate", "--param", "way=up", str(tree_file)]) == 2
+    err = capsys.readouterr().err
+    assert "expected one of left, right, straight" in err
+    assert "was not given" not in err
+
+
+def test_every_shipped_tree_validates_without_parameters(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    repo = Path(__file__).resolve().parent.parent
+    trees = sorted((repo / "trees").rglob("*.yaml"))
+    assert len(trees) >= 10
+    assert main(["validate", "-q", *map(str, trees)]) == 0, capsys.readouterr().err

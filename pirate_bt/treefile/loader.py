@@ -310,7 +310,7 @@ class _Reader:
                 self.errors.append(_at(given_at(name), f"parameter {name!r}: {exc}"))
                 ok = False
         for name, decl in decls.items():
-            if name in values:
+            if name in values or name in given:  # given but invalid: reported above
                 continue
             if decl.default is not None:
                 values[name] = coerce_param(decl, decl.default)
