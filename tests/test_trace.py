@@ -372,3 +372,109 @@ def test_jsonl_writer_writes_each_record_to_the_kernel(tmp_path: Path) -> None:
     with pytest.raises(ValueError):
         out.write({"type": "tick", "x": float("nan")})
     out.close()
+
+
+def test_state_changes_name_moving_between_views_is_a_new_layout() -> None:
+    """The same names in another view are new values, not an unchanged snapshot."""
+    from pirate_bt.trace.records import StateChanges
+
+    fast = StateChanges()
+    first = RobotState(stamp_s=0.0, readings={}, joint_angle_rad={"bend_1": 0.5})
+    moved = RobotState(stamp_s=0.01, readings={}, clamp_force_n={"bend_1": 0.5})
+    assert fast.changes(first) == {"joint_angle_rad.bend_1": 0.5}
+    assert fast.changes(moved) == {"clamp_force_n.bend_1": 0.5}
+
+
+def test_link_and_counters_written_only_when_they_change(tmp_path: Path) -> None:
+    """A fresh LinkHealth (nan rtt) each tick and sub-µ noise are no change; real ones are."""
+    import math
+
+    tree = make_tree()
+    clock = SimClock()
+    counters = {"frames": 0.0, "distance_m": 0.1}
+    with TraceRecorder(tmp_path / "t.jsonl", tree, clock=clock, blackboard=False) as rec:
+        for n in range(1, 9):
+            clock.advance(0.01)
+            counters["distance_m"] = 0.1 + (1e-9 * n if n < 5 else 0.5)  # mutated in place
+            if n == 6:
+                counters["new"] = 1
+            health = LinkHealth(
+                connected=True,
+                rtt_s=math.nan if n < 3 else 0.05,
+                last_heard_s=-math.inf,
+                retries=n // 4,
+            )
+            rec.record_tick(TickExtras(link=health, sim=counters))
+    lines = (tmp_path / "t.jsonl").read_text("utf-8").splitlines()
+    ticks = {r["n"]: r for r in map(json.loads, lines) if r["type"] == "tick"}
+    links = {n: r["link"] for n, r in ticks.items() if "link" in r}
+    sims = {n: r["sim"] for n, r in ticks.items() if "sim" in r}
+    assert read_trace(tmp_path / "t.jsonl").frame_at(8).link["retries"] == 2
+    assert links[1] == {
+        "connected": True,
+        "last_heard_s": "-inf",
+        "rtt_s": "nan",
+        "loss_ratio": 0.0,
+        "crc_errors": 0,
+        "retries": 0,
+        "failed": 0,
+        "duplicates": 0,
+        "estopped": False,
+    }
+    assert {n: v for n, v in links.items() if n > 1} == {
+        3: {"rtt_s": 0.05},
+        4: {"retries": 1},
+        8: {"retries": 2},
+    }
+    assert sims == {1: {"frames": 0.0, "distance_m": 0.1}, 5: {"distance_m": 0.6}, 6: {"new": 1}}
+
+
+def test_supervised_extras_reads_verdicts_and_counters_once() -> None:
+    """Each verdict is recorded once; counters are re-read every tick, missing ones tolerated."""
+    from types import SimpleNamespace
+
+    from pirate_bt.trace import supervised_extras
+
+    class Verdict:
+        def to_record(self) -> dict[str, object]:
+            return {
+                "command": "drive(80 mm/s)",
+                "outcome": "clip",
+                "reason": "speed_limit",
+                "detail": "",
+                "source": "tree",
+                "sent": [["d", "velocity", 1]],
+            }
+
+    listeners: list[Any] = []
+    supervisor = SimpleNamespace(
+        add_listener=listeners.append,
+        state=lambda: None,
+        health=lambda: LinkHealth(connected=True),
+    )
+    full = SimpleNamespace(
+        distance_m=0.0,
+        stuck_events=0,
+        slip_events=0,
+        violation_count=0,
+        damage_count=0,
+        frames_dropped=0,
+        frames_rejected=0,
+        watchdog_trips=0,
+    )
+    box = [full]
+    extras = supervised_extras(supervisor, counters=lambda: box[0], more=lambda: {"belief_m": 1.0})
+    listeners[0](Verdict())
+    first = extras(None)
+    assert first.commands == (
+        CommandRecord(
+            "drive(80 mm/s)", "clip", "speed_limit", None, (("d", "velocity", 1.0),), "tree"
+        ),
+    )
+    assert first.sim is not None and first.sim["distance_m"] == 0.0
+    assert first.sim["belief_m"] == 1.0
+    assert extras(None).commands == ()
+    full.distance_m = 0.25  # the same counters object, changed
+    assert extras(None).sim == {**first.sim, "distance_m": 0.25}
+    box[0] = SimpleNamespace(distance_m=0.5, stuck_events=None)  # an older simulator
+    assert extras(None).sim == {"distance_m": 0.5, "belief_m": 1.0}

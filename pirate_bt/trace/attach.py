@@ -20,6 +20,7 @@ What ``pirate-bt run`` does::
 from __future__ import annotations
 
 from collections.abc import Callable
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -138,6 +139,20 @@ def attach_live_view(
     return view
 
 
+#: Trace name -> attribute of a ``SimCounters``.
+_COUNTER_FIELDS = {
+    "distance_m": "distance_m",
+    "stuck_events": "stuck_events",
+    "slip_events": "slip_events",
+    "violations": "violation_count",
+    "damage": "damage_count",
+    "frames_dropped": "frames_dropped",
+    "frames_rejected": "frames_rejected",
+    "watchdog_trips": "watchdog_trips",
+}
+_counter_raw = attrgetter(*_COUNTER_FIELDS.values())
+
+
 def counter_values(counters: Any) -> dict[str, float]:
     """Simulator counters (a ``SimCounters`` or anything with those attributes) as numbers.
 
@@ -146,22 +161,39 @@ def counter_values(counters: Any) -> dict[str, float]:
     """
     if counters is None:
         return {}
-    fields = {
-        "distance_m": "distance_m",
-        "stuck_events": "stuck_events",
-        "slip_events": "slip_events",
-        "violations": "violation_count",
-        "damage": "damage_count",
-        "frames_dropped": "frames_dropped",
-        "frames_rejected": "frames_rejected",
-        "watchdog_trips": "watchdog_trips",
-    }
     out: dict[str, float] = {}
-    for key, attr in fields.items():
+    for key, attr in _COUNTER_FIELDS.items():
         value = getattr(counters, attr, None)
         if isinstance(value, int | float):
             out[key] = float(value)
     return out
+
+
+class _CounterCache:
+    """:func:`counter_values`, rebuilt only when a counter moved.
+
+    Read every tick, but most ticks change one counter (distance while driving) or
+    none: one C-level ``attrgetter`` call and a tuple comparison decide, and the
+    dict is rebuilt only when the tuple differs. The same dict is handed out while
+    nothing changes; callers must not mutate it.
+    """
+
+    def __init__(self) -> None:
+        self._raw: tuple[Any, ...] | None = None
+        self._values: dict[str, float] = {}
+
+    def __call__(self, counters: Any) -> dict[str, float]:
+        if counters is None:
+            return {}
+        try:
+            raw = _counter_raw(counters)
+        except AttributeError:  # a simulator without some counters: the slow, tolerant way
+            self._raw = None
+            return counter_values(counters)
+        if raw != self._raw:
+            self._raw = raw
+            self._values = counter_values(counters)
+        return self._values
 
 
 def supervised_extras(
@@ -183,18 +215,22 @@ def supervised_extras(
 
     verdicts: list[Any] = []
     supervisor.add_listener(verdicts.append)
+    from_verdict = CommandRecord.from_verdict
+    sim_values = _CounterCache()
+    state, health = supervisor.state, supervisor.health
 
     def extras(_info: Any) -> TickExtras:
-        records = [CommandRecord.from_verdict(v) for v in verdicts]
-        verdicts.clear()
-        sim = counter_values(counters()) if counters is not None else {}
+        # Runs every tick: no list is built for a tick without verdicts, and the
+        # counters dict is reused while no counter moved (see _CounterCache).
+        records: tuple[CommandRecord, ...] = ()
+        if verdicts:
+            records = tuple(map(from_verdict, verdicts))
+            verdicts.clear()
+        sim: dict[str, float] | None = None
+        if counters is not None:
+            sim = sim_values(counters())
         if more is not None:
-            sim.update(more())
-        return TickExtras(
-            state=supervisor.state(),
-            commands=records,
-            link=supervisor.health(),
-            sim=sim or None,
-        )
+            sim = {**sim, **more()} if sim else more()
+        return TickExtras(state=state(), commands=records, link=health(), sim=sim or None)
 
     return extras

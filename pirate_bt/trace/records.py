@@ -22,7 +22,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import cache
 from importlib import resources
+from itertools import compress
 from math import isfinite
+from operator import attrgetter, ne
 from typing import Any
 
 import py_trees
@@ -34,15 +36,19 @@ from pirate_bt.trace.structure import jsonable
 __all__ = [
     "CODE_STATUS",
     "FORMAT_NAME",
+    "LINK_FIELDS",
     "OUTCOMES",
     "STATUS_CODE",
     "TRACE_VERSION",
     "VERDICTS",
     "CommandRecord",
+    "FieldChanges",
     "StateChanges",
     "TickExtras",
     "TraceEvent",
+    "encode_value",
     "flatten_state",
+    "link_health_raw",
     "link_health_values",
     "state_from_flat",
     "trace_schema",
@@ -99,14 +105,25 @@ class CommandRecord:
     def from_verdict(cls, verdict: Any, node: str | None = None) -> CommandRecord:
         """Record a :class:`pirate_bt.safety.verdict.Verdict` (read via its ``to_record()``)."""
         data = verdict.to_record()
-        sent = tuple((str(m), str(mode), float(v)) for m, mode, v in data.get("sent", ()))
+        # On the trace's hot path when a behaviour re-sends a setpoint every tick: each
+        # value is looked up once, and str()/float() run only on what is not one already.
+        reason, detail, source = data.get("reason"), data.get("detail"), data.get("source")
+        sent = tuple(
+            (
+                m if type(m) is str else str(m),
+                mode if type(mode) is str else str(mode),
+                v if type(v) is float else float(v),
+            )
+            for m, mode, v in data.get("sent", ())
+        )
+        command, outcome = data["command"], data["outcome"]
         return cls(
-            command=str(data["command"]),
-            verdict=str(data["outcome"]),
-            reason=None if data.get("reason") is None else str(data["reason"]),
-            detail=str(data["detail"]) if data.get("detail") else None,
+            command=command if type(command) is str else str(command),
+            verdict=outcome if type(outcome) is str else str(outcome),
+            reason=None if reason is None else str(reason),
+            detail=str(detail) if detail else None,
             sent=sent,
-            source=None if data.get("source") is None else str(data["source"]),
+            source=None if source is None else str(source),
             node=node,
         )
 
@@ -220,44 +237,61 @@ class StateChanges:
         self.readings = readings
         self.values: dict[str, Any] = {}
         """Flat name -> last recorded (rounded) value."""
-        self._keys: tuple[tuple[str, ...], ...] = ()
+        self._keys: tuple[str | None, ...] = ()
         self._names: tuple[str, ...] = ()
         self._raw: tuple[Any, ...] = ()
 
     def changes(self, state: RobotState) -> dict[str, Any]:
         """Record ``state`` and return the flat values that changed (possibly empty)."""
-        views = (
-            state.joint_angle_rad,
-            state.clamp_force_n,
-            state.imu_rad,
-            state.drive_velocity_mps,
-            state.motor_current_a,
+        # Runs every tick: tuple displays with * unpacking gather the key names and raw
+        # values in C, with no per-value Python loop. In ``keys`` a None (never a name)
+        # ends each view, so a name that moves from one view to another is a new layout.
+        joints, forces, imu = state.joint_angle_rad, state.clamp_force_n, state.imu_rad
+        drives, currents = state.drive_velocity_mps, state.motor_current_a
+        keys: tuple[str | None, ...] = (
+            *joints,
+            None,
+            *forces,
+            None,
+            *imu,
+            None,
+            *drives,
+            None,
+            *currents,
+            None,
         )
-        singles = (
+        raw: tuple[Any, ...] = (
+            *joints.values(),
+            *forces.values(),
+            *imu.values(),
+            *drives.values(),
+            *currents.values(),
             state.rotation_rad,
             state.camera_tilt_rad,
             state.camera_pan_rad,
             state.front_tilt_rad,
         )
         if self.readings:
-            keys = (*map(tuple, views), tuple(state.readings))
-            raw = (
-                *[v for view in views for v in view.values()],
-                *singles,
-                *[reading.value for reading in state.readings.values()],
-            )
-        else:
-            keys = tuple(map(tuple, views))
-            raw = (*[v for view in views for v in view.values()], *singles)
+            keys += tuple(state.readings)
+            raw += tuple([reading.value for reading in state.readings.values()])
         changed: dict[str, Any] = {}
         values = self.values
         if keys != self._keys:
             # New names (first snapshot, or a sensor appeared): compare every value.
             self._keys = keys
-            names = [f"{view}.{key}" for view, ks in zip(_VIEWS, keys, strict=False) for key in ks]
-            names += _SINGLES
-            if self.readings:
-                names += [f"readings.{name}" for name in keys[-1]]
+            names: list[str] = []
+            views = iter(_VIEWS)
+            view = next(views)
+            for index, key in enumerate(keys):
+                if key is None:
+                    view = next(views, "")
+                    if not view:  # past the last view: the readings, if any
+                        names += _SINGLES
+                        if self.readings:
+                            names += [f"readings.{name}" for name in keys[index + 1 :]]
+                        break
+                else:
+                    names.append(f"{view}.{key}")
             self._names = tuple(names)
             previous: tuple[Any, ...] = (_MISSING,) * len(raw)
         elif raw == self._raw:
@@ -265,8 +299,9 @@ class StateChanges:
         else:
             previous = self._raw
         self._raw = raw
-        for name, value, before in zip(self._names, raw, previous, strict=True):
-            if value is None or value is before or value == before:
+        # map(ne) marks the raw values that differ (in C); only those are rounded and named.
+        for name, value in compress(zip(self._names, raw, strict=True), map(ne, raw, previous)):
+            if value is None:
                 continue
             # -inf < v < inf is false for nan and the infinities: those take _round's spelling.
             rounded = round(value, _DECIMALS) if -_INF < value < _INF else _round(value)
@@ -274,6 +309,51 @@ class StateChanges:
                 values[name] = rounded
                 changed[name] = rounded
         return changed
+
+
+class FieldChanges:
+    """The values of a fixed list of named fields that changed since the last call.
+
+    For link health and simulator counters, which the trace reads every tick but
+    which change rarely (or one field at a time): the raw values arrive as one
+    tuple, so an unchanged reading costs one tuple comparison, and only fields
+    whose raw value differs are encoded (floats rounded, as in :func:`_round`)
+    and compared with what was recorded.
+
+    Args:
+        names: The field names, in the order of the tuples given to :meth:`changes`.
+    """
+
+    def __init__(self, names: Sequence[str]) -> None:
+        self.names = tuple(names)
+        self.values: dict[str, Any] = {}
+        """Field name -> last recorded (encoded) value."""
+        self._raw: tuple[Any, ...] = (_MISSING,) * len(self.names)
+
+    def changes(self, raw: tuple[Any, ...]) -> dict[str, Any]:
+        """Record ``raw`` (one value per name) and return the encoded values that changed."""
+        previous = self._raw
+        if raw == previous:
+            return {}
+        self._raw = raw
+        changed: dict[str, Any] = {}
+        values = self.values
+        for name, value in compress(zip(self.names, raw, strict=True), map(ne, raw, previous)):
+            encoded = encode_value(value)
+            if values.get(name, _MISSING) != encoded:
+                values[name] = encoded
+                changed[name] = encoded
+        return changed
+
+
+def encode_value(value: Any) -> Any:
+    """A counter or health value as JSON: floats rounded (non-finite as strings)."""
+    kind = type(value)
+    if kind is float:
+        return round(value, _DECIMALS) if -_INF < value < _INF else _round(value)
+    if kind is int or kind is bool or kind is str or value is None:
+        return value
+    return jsonable(round(value, _DECIMALS) if isinstance(value, float) else value)
 
 
 _INF = float("inf")
@@ -322,13 +402,21 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
     )
 
 
-_LINK_FIELDS = tuple(LinkHealth.__dataclass_fields__)
+#: The fields of :class:`LinkHealth`, in the order of :func:`link_health_raw`.
+LINK_FIELDS: tuple[str, ...] = tuple(LinkHealth.__dataclass_fields__)
+_link_raw = attrgetter(*LINK_FIELDS)
+
+
+def link_health_raw(health: LinkHealth) -> tuple[Any, ...]:
+    """Link health as a tuple of raw values, in ``LinkHealth`` field order (one C call)."""
+    raw: tuple[Any, ...] = _link_raw(health)
+    return raw
 
 
 def link_health_values(health: LinkHealth) -> dict[str, Any]:
     """Link health as flat JSON values, floats rounded."""
     out: dict[str, Any] = {}
-    for name in _LINK_FIELDS:
+    for name in LINK_FIELDS:
         value = getattr(health, name)
         out[name] = _round(value) if isinstance(value, float) else value
     return out

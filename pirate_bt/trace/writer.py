@@ -62,6 +62,7 @@ import platform
 import zlib
 from collections.abc import Callable, Mapping
 from datetime import UTC, datetime
+from itertools import compress, repeat
 from pathlib import Path
 from types import TracebackType
 from typing import IO, TYPE_CHECKING, Any, ClassVar, cast
@@ -72,13 +73,16 @@ from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import InputError
 from pirate_bt.trace.records import (
     FORMAT_NAME,
+    LINK_FIELDS,
     OUTCOMES,
     STATUS_CODE,
     TRACE_VERSION,
+    FieldChanges,
     StateChanges,
     TickExtras,
+    encode_value,
     flatten_state,
-    link_health_values,
+    link_health_raw,
 )
 from pirate_bt.trace.structure import TreeStructure, iter_with_ids, jsonable, tree_structure
 
@@ -110,6 +114,8 @@ _PLAIN_TYPES = frozenset({str, int, bool, type(None)})
 """Blackboard value types that :func:`jsonable` returns unchanged."""
 _get_status = operator.attrgetter("status")
 _get_feedback = operator.attrgetter("feedback_message")
+_is_not = operator.is_not
+_ne = operator.ne
 
 TreeLike = py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour
 
@@ -305,8 +311,9 @@ class TraceRecorder:
         self._feedback = [""] * len(self._nodes)
         self._bb: dict[str, Any] = {}
         self._state_changes = StateChanges(readings=readings)
-        self._link: dict[str, Any] = {}
+        self._link = FieldChanges(LINK_FIELDS)
         self._sim: dict[str, Any] = {}
+        self._sim_raw: dict[str, Any] = {}
         self._last_link: LinkHealth | None = None
         self._last_state: RobotState | None = None
         self._tick = 0
@@ -355,24 +362,26 @@ class TraceRecorder:
         record: dict[str, Any] = {"type": "tick", "n": self._tick, "t_s": self._t_s}
         # Every node is read every tick (a node that was not ticked can still change, when
         # its parent stops it), but through map + attrgetter and one C-level list
-        # comparison; the per-node Python loop runs only when something differs.
+        # comparison. When something differs, map(is_not/ne) marks the changed nodes and
+        # compress picks their ids and values, all in C: py_trees' Timeout rewrites its
+        # feedback every tick, so this path runs every tick too, not only at step ends.
         statuses = list(map(_get_status, self._nodes))
         if statuses != self._status:
-            ids, previous = self._ids, self._status
-            record["status"] = {
-                ids[i]: STATUS_CODE[current]
-                for i, current in enumerate(statuses)
-                if current is not previous[i]
-            }
+            flags = list(map(_is_not, statuses, self._status))
+            record["status"] = dict(
+                zip(
+                    compress(self._ids, flags),
+                    map(STATUS_CODE.__getitem__, compress(statuses, flags)),
+                    strict=True,
+                )
+            )
             self._status = statuses
         messages = list(map(_get_feedback, self._nodes))
         if messages != self._feedback:
-            ids, before = self._ids, self._feedback
-            feedback = {
-                ids[i]: message for i, message in enumerate(messages) if message != before[i]
-            }
-            if feedback:
-                record["feedback"] = feedback
+            flags = list(map(_ne, messages, self._feedback))
+            record["feedback"] = dict(
+                zip(compress(self._ids, flags), compress(messages, flags), strict=True)
+            )
             self._feedback = messages
         if self.blackboard:
             self._blackboard_changes(record)
@@ -399,37 +408,50 @@ class TraceRecorder:
         if unset:
             record["bb_unset"] = unset
 
-    @staticmethod
-    def _changes(previous: dict[str, Any], current: Mapping[str, Any]) -> dict[str, Any]:
-        changed = {k: v for k, v in current.items() if previous.get(k, _MISSING) != v}
-        previous.update(changed)
+    def _sim_changes(self, sim: Mapping[str, Any]) -> dict[str, Any]:
+        # Names may come and go (a localiser adds its own), so this is a dict diff, not a
+        # FieldChanges tuple. An unchanged mapping costs one C-level dict comparison;
+        # otherwise map(ne) over the values and the last raw values (looked up in C)
+        # marks what moved, and only those are rounded and compared with the record.
+        raw = self._sim_raw
+        if sim == raw:
+            return {}
+        changed: dict[str, Any] = {}
+        values = self._sim
+        moved = map(_ne, sim.values(), map(raw.get, sim, repeat(_MISSING)))
+        for key in compress(list(sim), moved):
+            value = raw[key] = sim[key]
+            name = key if type(key) is str else str(key)
+            encoded = encode_value(value)
+            if values.get(name, _MISSING) != encoded:
+                values[name] = encoded
+                changed[name] = encoded
         return changed
 
     def _extras(self, extras: TickExtras, record: dict[str, Any]) -> None:
-        if extras.state is not None and (self.full_state or extras.state is not self._last_state):
-            self._last_state = extras.state
+        state = extras.state
+        if state is not None and (self.full_state or state is not self._last_state):
+            self._last_state = state
             if self.full_state:
-                flat = flatten_state(extras.state, readings=self.readings)
+                flat = flatten_state(state, readings=self.readings)
                 record["state"] = flat
                 record["full"] = True
             else:
-                changed = self._state_changes.changes(extras.state)
+                changed = self._state_changes.changes(state)
                 if changed:
                     record["state"] = changed
         if extras.commands:
             record["commands"] = [c.to_json() for c in extras.commands]
         link = extras.link
-        if link is not None and link is not self._last_link and link != self._last_link:
+        if link is not None and link is not self._last_link:
+            # Link health is a fresh object every tick whose rtt may be nan (nan != nan makes
+            # dataclass == useless); its fields as one tuple compare cheaply instead.
             self._last_link = link
-            changed = self._changes(self._link, link_health_values(link))
+            changed = self._link.changes(link_health_raw(link))
             if changed:
                 record["link"] = changed
         if extras.sim is not None:
-            sim = {
-                str(k): jsonable(round(v, 6) if isinstance(v, float) else v)
-                for k, v in extras.sim.items()
-            }
-            changed = self._changes(self._sim, sim)
+            changed = self._sim_changes(extras.sim)
             if changed:
                 record["sim"] = changed
         if extras.events:
