@@ -242,9 +242,74 @@ def size_per_hour(suffix: str, seconds: float = 60.0) -> float:
         return path.stat().st_size * 3600.0 / seconds
 
 
+def simulated_run(tree_file: str, network: str, params: dict[str, str], trace: bool) -> float:
+    """Wall seconds per tick of a whole simulated run: tree, supervisor, link, simulator.
+
+    This is the tick a user of ``pirate-bt run --trace`` pays for in simulation: the
+    runner ticks the tree at 20 Hz, the supervisor checks every command, the link
+    encodes and decodes frames, and the in-process simulator steps its physics.
+    """
+    from pirate_bt.robot import load_robot
+    from pirate_bt.runner import Runner
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.trace import attach_trace, supervised_extras
+    from pirate_bt.treefile import load_tree
+
+    repo = Path(__file__).resolve().parent.parent
+    robot = load_robot()
+    clock = SimClock()
+    sup = open_supervisor(robot, clock=clock, network=network, seed=1)
+    try:
+        loaded = load_tree(
+            repo / tree_file,
+            robot=robot,
+            clock=clock,
+            supervisor=sup,
+            params=params,
+            params_from_text=True,
+        )
+        runner = Runner(loaded, clock=clock, period_s=0.05, max_time_s=300)
+        runner.add_pre_tick(lambda _info: sup.tick())
+        with tempfile.TemporaryDirectory() as tmp:
+            if trace:
+                counters = sup.simulator.counters if sup.simulator is not None else None
+                attach_trace(
+                    runner,
+                    Path(tmp) / "run.jsonl",
+                    extras=supervised_extras(sup, counters=counters),
+                    robot=robot,
+                )
+            start = time.perf_counter()
+            result = runner.run()
+            wall = time.perf_counter() - start
+        if not result.succeeded:
+            raise RuntimeError(f"{tree_file} did not succeed: {result.message}")
+        return wall / result.ticks
+    finally:
+        sup.close()
+
+
+def report_simulated(name: str, tree_file: str, network: str, params: dict[str, str]) -> None:
+    off, on = [], []
+    for _ in range(5):
+        off.append(simulated_run(tree_file, network, params, trace=False))
+        on.append(simulated_run(tree_file, network, params, trace=True))
+    base, traced = statistics.median(off), statistics.median(on)
+    print(
+        f"{name:<34} tick {base * 1e6:7.0f} us -> {traced * 1e6:7.0f} us with trace:"
+        f" {(traced - base) * 1e6:+6.0f} us, {100 * (traced - base) / base:+5.1f} %"
+        f"  (ranges {min(off) * 1e6:.0f}-{max(off) * 1e6:.0f} / "
+        f"{min(on) * 1e6:.0f}-{max(on) * 1e6:.0f} us)"
+    )
+
+
 def main() -> None:
     report("50-node tree, tree.tick()", *overhead())
     report("50-node tree, Runner", *overhead(runner=True))
+    report_simulated("bend PAB, simulated run", "trees/bend.yaml", "bend-right", {"roll": "90 deg"})
+    report_simulated(
+        "straight PAB, simulated run", "trees/straight.yaml", "straight", {"distance": "1.5 m"}
+    )
     for suffix in (".jsonl", ".jsonl.gz"):
         size = size_per_hour(suffix)
         print(f"trace size per hour ({suffix:<9}): {size / 1e6:8.1f} MB  (10 ms ticks)")
