@@ -155,6 +155,7 @@ class Request:
         "ack_status",
         "acked_at_s",
         "created_s",
+        "first_sent_s",
         "msg",
         "nack",
         "outcome",
@@ -167,6 +168,7 @@ class Request:
         self.msg = msg
         self.created_s = created_s
         self.sent_at_s = math.nan
+        self.first_sent_s = math.nan
         self.acked_at_s = math.nan
         self.tries = 0
         self.outcome = Outcome.PENDING
@@ -178,6 +180,11 @@ class Request:
     def seq(self) -> int:
         """The request's sequence number."""
         return self.msg.seq
+
+    def next_try_s(self, ack_timeout_s: float) -> float:
+        """When the next try (or the give-up) is due: the schedule is anchored at the first
+        send, so a late poll does not push every later retry back (``nan``: not sent)."""
+        return self.first_sent_s + self.tries * ack_timeout_s
 
     @property
     def done(self) -> bool:
@@ -274,6 +281,7 @@ class Session:
         self._reader_error: BaseException | None = None
         self.last_hello_reply: HelloReply | None = None
         self._pending_failures: list[Request] = []
+        self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
 
     # --- public -----------------------------------------------------------------------------
 
@@ -328,6 +336,7 @@ class Session:
                 self._transmit(req)
             except LinkError as exc:
                 _log.error("e-stop write failed (will retry): %s", exc)
+                self._due_s = -math.inf
             return req
 
     def estop_reset(self) -> Request:
@@ -418,10 +427,13 @@ class Session:
             data = self.link.read_available()
             now = self.clock.now()
             if data:
+                handle = self._handle
                 for item in self._decoder.feed(data):
-                    self._handle(item, now)
-            self._check_alive(now)
-            self._service(now)
+                    handle(item, now)
+            if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
+                self._check_alive(now)
+            if now >= self._due_s:  # most polls (one per state frame) have nothing due
+                self._service(now)
 
     def stats(self) -> SessionStats:
         """Current figures."""
@@ -541,9 +553,14 @@ class Session:
         now = self.clock.now()
         if req.tries:
             self.retries += 1
+        else:
+            req.first_sent_s = now
         req.tries += 1
         req.sent_at_s = now
         self._last_sent_s = now
+        due = req.next_try_s(self.config.ack_timeout_s)
+        if due < self._due_s:
+            self._due_s = due
         self.link.write(self.codec.encode(req.msg))
 
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -569,15 +586,17 @@ class Session:
     def _service(self, now: float) -> None:
         cfg = self.config
         # retries and give-ups; the e-stop and other out-of-band requests first
+        timeout = cfg.ack_timeout_s
         for req in list(self._oob.values()):
-            if now - req.sent_at_s >= cfg.ack_timeout_s or math.isnan(req.sent_at_s):
+            due = req.next_try_s(timeout)
+            if now >= due or due != due:  # due, or never written (nan)
                 if isinstance(req.msg, Heartbeat) or req.tries > cfg.max_retries:
                     del self._oob[req.seq]
                     self._finish(req, Outcome.FAILED, now)
                 else:
                     self._transmit(req)
         ordered = self._ordered
-        if ordered is not None and now - ordered.sent_at_s >= cfg.ack_timeout_s:
+        if ordered is not None and now >= ordered.next_try_s(timeout):
             if ordered.tries > cfg.max_retries:
                 self._ordered = None
                 self._finish(ordered, Outcome.FAILED, now)
@@ -592,6 +611,14 @@ class Session:
             hb = Request(Heartbeat(self._seq()), now)
             self._oob[hb.seq] = hb
             self._transmit(hb)
+        # the next time anything above can be due (a conservative bound: acks only delay it)
+        due = self._last_sent_s + cfg.heartbeat_period_s
+        for req in self._oob.values():
+            next_s = req.next_try_s(timeout)
+            due = min(due, now if next_s != next_s else next_s)  # nan: not written yet
+        if self._ordered is not None:
+            due = min(due, self._ordered.next_try_s(timeout))
+        self._due_s = due
 
     def _settle(self, req: Request, outcome: Outcome, now: float) -> None:
         if outcome is Outcome.ACKED and req.tries == 1:
@@ -604,6 +631,10 @@ class Session:
         self._finish(req, outcome, now)
 
     def _handle(self, item: Message | FrameError, now: float) -> None:
+        if type(item) is State:  # the common case first: one every state period
+            self._last_heard_s = now
+            self._on_state(item, now)
+            return
         if isinstance(item, FrameError):
             self.crc_errors += 1
             _log.debug("dropped frame: %s", item)
@@ -613,22 +644,7 @@ class Session:
             return
         self._last_heard_s = now
         if isinstance(item, State):
-            if self._state is not None and not seq_newer(item.seq, self._state.seq):
-                self.duplicates += 1
-                return
-            self._state = item
-            self._state_at_s = now
-            self._flags = item.flags
-            ordered = self._ordered
-            if (
-                ordered is not None
-                and isinstance(ordered.msg, BulkSetpoints)
-                and (item.ack_seq == ordered.seq or seq_newer(item.ack_seq, ordered.seq))
-            ):
-                self._ordered = None
-                ordered.ack_status = AckStatus.APPLIED
-                self._settle(ordered, Outcome.ACKED, now)
-                self._service(now)
+            self._on_state(item, now)
             return
         if isinstance(item, Ack | Nack | Counters):
             req = self._match(item.seq)
@@ -645,7 +661,8 @@ class Session:
                 req.reply = item
                 outcome = Outcome.ACKED
             self._settle(req, outcome, now)
-            self._service(now)
+            if self._ordered is None and self._queue:  # the next queued request may go
+                self._service(now)
             return
         if isinstance(item, BridgeHeartbeat):
             self._flags = item.flags
@@ -653,6 +670,25 @@ class Session:
         if isinstance(item, HelloReply):
             self.last_hello_reply = item
             return
+
+    def _on_state(self, item: State, now: float) -> None:
+        last = self._state
+        if last is not None and not seq_newer(item.seq, last.seq):
+            self.duplicates += 1
+            return
+        self._state = item
+        self._state_at_s = now
+        self._flags = item.flags
+        ordered = self._ordered
+        if (
+            ordered is not None
+            and isinstance(ordered.msg, BulkSetpoints)
+            and (item.ack_seq == ordered.seq or seq_newer(item.ack_seq, ordered.seq))
+        ):
+            self._ordered = None
+            ordered.ack_status = AckStatus.APPLIED
+            self._settle(ordered, Outcome.ACKED, now)
+            self._service(now)
 
     def _match(self, seq: int) -> Request | None:
         req = self._oob.pop(seq, None)

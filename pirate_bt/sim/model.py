@@ -37,7 +37,7 @@ import bisect
 import logging
 import math
 import random
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
@@ -94,6 +94,15 @@ class SensorNoise:
 
 
 _NO_NOISE = SensorNoise()
+
+
+class _Zero:
+    """Source of a channel that reads 0 (and the slot an IMU channel fills later)."""
+
+    value = 0.0
+
+
+_ZERO = _Zero()
 
 
 @dataclass(frozen=True, slots=True)
@@ -305,9 +314,8 @@ class PipeRobotModel:
         self._front_pressed_since: float | None = None
         self._channels = self._channel_table()
         self._channel_names = [name for name, _, _ in self._channels]
-        self._getters = [self._getter(kind, source) for _, kind, source in self._channels]
+        self._sources, self._spring_index, self._imu_index = self._reading_sources()
         self._sigmas = [self._sigma(kind) for _, kind, _ in self._channels]
-        self._imu_now: dict[str, float] | None = None
         self._imu_key: tuple[float, float] | None = None
         self._imu_value: dict[str, float] = {}
         self._contact_cache: dict[float, float] = {}
@@ -884,8 +892,16 @@ class PipeRobotModel:
 
     def reading_values(self) -> list[float]:
         """Every state channel's SI value (with noise), in the state frame's channel order."""
-        self._imu_now = None
-        values = [get() for get in self._getters]
+        # Called once per state period: plain attribute reads in one comprehension (no
+        # Python call per channel), then the few channels that need arithmetic.
+        values = [getattr(obj, attr) for obj, attr in self._sources]
+        lever = self.robot.clamp.lever_arm
+        for i in self._spring_index:
+            values[i] = values[i] / lever  # press torque -> normal force
+        if self._imu_index:
+            imu = self._imu_cached()
+            for i, key in self._imu_index:
+                values[i] = imu.get(key, 0.0)
         if self.noise != _NO_NOISE:
             gauss = self._rng.gauss
             values = [
@@ -894,20 +910,26 @@ class PipeRobotModel:
             ]
         return values
 
-    def _getter(self, kind: str, source: str) -> Callable[[], float]:
-        lever = self.robot.clamp.lever_arm
-        if kind == "imu":
-            return lambda: self._imu_once().get(source, 0.0)
-        if kind == "zero":
-            return lambda: 0.0
-        m = self._motors[source]
-        if kind == "angle":
-            return lambda: m.angle_rad
-        if kind == "spring":
-            return lambda: m.press_nm / lever
-        if kind == "velocity":
-            return lambda: m.measured_mps
-        return lambda: m.current_a
+    def _reading_sources(
+        self,
+    ) -> tuple[list[tuple[object, str]], list[int], list[tuple[int, str]]]:
+        """(object, attribute) read for each channel; spring and IMU channel indices."""
+        sources: list[tuple[object, str]] = []
+        springs: list[int] = []
+        imu: list[tuple[int, str]] = []
+        attr = {"angle": "angle_rad", "velocity": "measured_mps", "current": "current_a"}
+        for i, (_, kind, source) in enumerate(self._channels):
+            if kind == "imu":
+                imu.append((i, source))
+                sources.append((_ZERO, "value"))
+            elif kind == "zero":
+                sources.append((_ZERO, "value"))
+            elif kind == "spring":
+                springs.append(i)
+                sources.append((self._motors[source], "press_nm"))
+            else:
+                sources.append((self._motors[source], attr[kind]))
+        return sources, springs, imu
 
     def _sigma(self, kind: str) -> float:
         noise = self.noise
@@ -918,11 +940,6 @@ class PipeRobotModel:
             "velocity": noise.velocity_mps,
             "current": noise.current_a,
         }.get(kind, 0.0)
-
-    def _imu_once(self) -> dict[str, float]:
-        if self._imu_now is None:
-            self._imu_now = self._imu_cached()
-        return self._imu_now
 
     def _imu_cached(self) -> dict[str, float]:
         s = self.s_m - self._rot_offset
