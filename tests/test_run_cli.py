@@ -60,3 +60,12 @@ def test_connection_errors_and_misplaced_faults(capsys: pytest.CaptureFixture[st
     )
     assert code == 2
     assert "need the simulator" in capsys.readouterr().err
+
+
+def test_pab_steps_are_the_confirmation_points(tmp_path: Path) -> None:
+    """Plots shade a PAB's steps: every step sits behind a confirm node."""
+    trace_path = tmp_path / "run.jsonl"
+    args = ["run", STRAIGHT, "--param", "distance=0.2m", "--quiet", "--trace", str(trace_path)]
+    assert main(args) == 0
+    steps = [node.name for node in read_trace(trace_path).structure.steps()]
+    assert steps[:2] == ["hold", "confirm drive"]

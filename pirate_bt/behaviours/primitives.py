@@ -843,6 +843,8 @@ class Confirm(GuardDecorator):
 
     Params = ConfirmParams
     needs_robot: ClassVar[bool] = True
+    pab_step: ClassVar[bool] = True
+    """Every PAB step sits behind a confirmation point: traces and plots show them as steps."""
 
     def __init__(
         self,
