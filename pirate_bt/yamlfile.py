@@ -17,16 +17,24 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import yaml
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 
-__all__ = ["Locator", "YamlDocument", "load_yaml", "load_yaml_text", "pydantic_errors"]
+__all__ = [
+    "Locator",
+    "YamlDocument",
+    "load_yaml",
+    "load_yaml_text",
+    "pydantic_errors",
+    "validate_document",
+]
 
 PathKey = tuple[str | int, ...]
+ModelT = TypeVar("ModelT", bound=BaseModel)
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
@@ -206,3 +214,40 @@ def _unique(errors: Iterable[LocatedError]) -> list[LocatedError]:
             seen.add(str(e))
             out.append(e)
     return out
+
+
+def validate_document(
+    doc: YamlDocument, model: type[ModelT], what: str, context: dict[str, Any]
+) -> ModelT:
+    """Validate a loaded YAML document as ``model``, every problem at its place.
+
+    The shape and each field come from pydantic; then, when the model has a
+    ``cross_check()`` returning ``(path, message)`` pairs (rules that span the
+    file), those are located too. The model should defer its own cross-check
+    raising when ``context`` says ``defer_cross_checks``.
+
+    Args:
+        doc: The loaded document.
+        model: The pydantic model of the file kind.
+        what: What people call the file kind ("a pipe network").
+        context: The pydantic validation context (``units_required`` for files).
+
+    Raises:
+        ValidationFailed: every problem, in file order.
+    """
+    if not isinstance(doc.data, dict):
+        raise ValidationFailed([doc.locator.error((), f"{what} must be a mapping of keys")])
+    try:
+        value = model.model_validate(doc.data, context=context)
+    except ValidationError as exc:
+        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
+    cross_check = getattr(value, "cross_check", None)
+    problems: list[tuple[PathKey, str]] = cross_check() if callable(cross_check) else []
+    if problems:
+        raise ValidationFailed(
+            sorted(
+                (doc.locator.error(path, msg) for path, msg in problems),
+                key=lambda e: (e.location.line, e.location.column),
+            )
+        )
+    return value

@@ -6,13 +6,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
 from pirate_bt.errors import ConfigurationError, ValidationFailed
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network
 from pirate_bt.resources import bundled
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, pydantic_errors
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
 
 __all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
 
@@ -25,20 +23,7 @@ def network_from_document(doc: YamlDocument) -> Network:
     Raises:
         ValidationFailed: every problem, each at ``file:line:column``.
     """
-    if not isinstance(doc.data, dict):
-        raise ValidationFailed([doc.locator.error((), "a pipe network must be a mapping of keys")])
-    try:
-        spec = NetworkSpec.model_validate(doc.data, context=_FILE_CONTEXT)
-    except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
-    problems = spec.cross_check()
-    if problems:
-        raise ValidationFailed(
-            sorted(
-                (doc.locator.error(path, msg) for path, msg in problems),
-                key=lambda e: (e.location.line, e.location.column),
-            )
-        )
+    spec = validate_document(doc, NetworkSpec, "a pipe network", _FILE_CONTEXT)
     try:
         return Network(spec, doc.file)
     except ConfigurationError as exc:

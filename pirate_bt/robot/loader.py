@@ -6,12 +6,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
-from pirate_bt.errors import ValidationFailed
 from pirate_bt.resources import default_robot_path
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, pydantic_errors
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
 
 __all__ = ["load_robot", "robot_from_data", "robot_from_document"]
 
@@ -24,23 +21,7 @@ def robot_from_document(doc: YamlDocument) -> RobotDescription:
     Raises:
         ValidationFailed: every problem, each at ``file:line:column``.
     """
-    if not isinstance(doc.data, dict):
-        raise ValidationFailed(
-            [doc.locator.error((), "a robot description must be a mapping of keys")]
-        )
-    try:
-        robot = RobotDescription.model_validate(doc.data, context=_FILE_CONTEXT)
-    except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
-    problems = robot.cross_check()
-    if problems:
-        raise ValidationFailed(
-            sorted(
-                (doc.locator.error(path, msg) for path, msg in problems),
-                key=lambda e: (e.location.line, e.location.column),
-            )
-        )
-    return robot
+    return validate_document(doc, RobotDescription, "a robot description", _FILE_CONTEXT)
 
 
 def robot_from_data(data: Mapping[str, Any], name: str = "<data>") -> RobotDescription:
