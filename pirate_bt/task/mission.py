@@ -32,6 +32,7 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult
 from pirate_bt.task.localise import Fix, Localiser
 from pirate_bt.task.planner import MAP_OK_KEY, MissionPlan, mission_tree_spec
+from pirate_bt.trace.attach import counter_values
 
 __all__ = ["MissionResult", "Sample", "TimelineEntry", "estimate_time_s", "run_mission"]
 
@@ -128,21 +129,6 @@ def estimate_time_s(plan: MissionPlan, nominal_speed_mps: float) -> float:
     return float(2.0 * plan.distance_m / slow + 120.0 * features + pauses + 60.0)
 
 
-def _sim_values(counters: Any) -> dict[str, float]:
-    if counters is None:
-        return {}
-    return {
-        "distance_m": float(counters.distance_m),
-        "stuck_events": float(counters.stuck_events),
-        "slip_events": float(counters.slip_events),
-        "violations": float(counters.violation_count),
-        "damage": float(counters.damage_count),
-        "frames_dropped": float(counters.frames_dropped),
-        "frames_rejected": float(counters.frames_rejected),
-        "watchdog_trips": float(counters.watchdog_trips),
-    }
-
-
 def run_mission(
     plan: MissionPlan,
     robot: RobotDescription,
@@ -205,8 +191,6 @@ def run_mission(
     start_s = clock.now()
     timeline: list[TimelineEntry] = []
     samples: list[Sample] = []
-    verdicts: list[Any] = []
-    supervisor.add_listener(verdicts.append)
     route_node = runner.tree.root.children[-1]
     current: list[str | None] = [None]
     blackboard = py_trees.blackboard.Client(name="localiser")
@@ -233,17 +217,9 @@ def run_mission(
     runner.add_pre_tick(before)
     runner.add_post_tick(after)
     if trace_path is not None:
-        from pirate_bt.trace import CommandRecord, TickExtras, attach_trace
+        from pirate_bt.trace import attach_trace, supervised_extras
 
-        def extras(_info: Any) -> TickExtras:
-            records = [CommandRecord.from_verdict(v) for v in verdicts]
-            verdicts.clear()
-            sim = _sim_values(counters() if counters is not None else None)
-            sim.update(localiser.values())
-            return TickExtras(
-                state=supervisor.state(), commands=records, link=supervisor.health(), sim=sim
-            )
-
+        extras = supervised_extras(supervisor, counters=counters, more=localiser.values)
         trace_path.parent.mkdir(parents=True, exist_ok=True)
         attach_trace(
             runner,
@@ -277,7 +253,7 @@ def run_mission(
         belief_m=localiser.belief_m,
         truth_m=localiser.truth_m,
         odometry_m=localiser.distance_m,
-        sim=_sim_values(counters() if counters is not None else None),
+        sim=counter_values(counters() if counters is not None else None),
         trace_path=trace_path,
         tree=runner.tree,
         mismatch=localiser.mismatch,
