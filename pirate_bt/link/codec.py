@@ -649,6 +649,8 @@ class FrameCodec:
         self._n_boards = layout.n_boards
         self._status_to_wire: dict[tuple[int, ...], bytes] = {}
         self._status_from_wire: dict[bytes, tuple[int, ...]] = {}
+        self._state_key: tuple[object, ...] | None = None
+        self._state_template = bytearray()
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> FrameCodec:
@@ -687,6 +689,52 @@ class FrameCodec:
                 raise ValueError(f"cannot encode {msg!r}: {exc}") from None
         body += _CRC.pack(binascii.crc_hqx(body, 0))
         return cobs_encode(body) + b"\x00"
+
+    def encode_state(
+        self,
+        seq: int,
+        flags: BridgeFlags,
+        ack_seq: int,
+        fresh_mask: int,
+        board_status: tuple[int, ...],
+        raw_values: tuple[int, ...],
+    ) -> bytes:
+        """The wire bytes of ``State(seq, flags, ack_seq, fresh_mask, board_status, raw_values)``.
+
+        Same bytes as :meth:`encode` of that message, without building it: a simulated
+        bridge sends one every state period and most differ from the previous one only
+        in ``seq``.
+
+        Args:
+            seq: Frame sequence number.
+            flags: Bridge flags.
+            ack_seq: Last host sequence number applied.
+            fresh_mask: Bit per channel whose value is fresh.
+            board_status: Status nibble per board.
+            raw_values: Raw value per state channel.
+
+        Returns:
+            Bytes ready to write to the line.
+
+        Raises:
+            ValueError: see :meth:`encode`.
+        """
+        # The packed body without the seq is kept and reused while the other fields are
+        # equal (one C-level tuple comparison, items compared by identity first), so an
+        # unchanged frame costs a two-byte patch, the CRC and COBS instead of a 30-field
+        # pack and a State object.
+        key = (flags, ack_seq, fresh_mask, board_status, raw_values)
+        if key != self._state_key:
+            self._state_template = bytearray(
+                self._state_body_of(State(0, flags, ack_seq, fresh_mask, board_status, raw_values))
+            )
+            self._state_key = key
+        body = self._state_template
+        if not 0 <= seq <= 0xFFFF:
+            raise ValueError(f"cannot encode state seq {seq}")
+        body[2] = seq & 0xFF
+        body[3] = seq >> 8
+        return cobs_encode(bytes(body) + _CRC.pack(binascii.crc_hqx(body, 0))) + b"\x00"
 
     def _status_wire(self, board_status: tuple[int, ...]) -> bytes:
         """The board-status bytes of a STATE frame, cached (checked once per distinct tuple)."""

@@ -51,7 +51,6 @@ from pirate_bt.link.codec import (
     Nack,
     NackCode,
     Setpoint,
-    State,
     seq_newer,
 )
 from pirate_bt.pipes import FaultSpec
@@ -126,6 +125,7 @@ class SimBridge:
         self._encoded_from: list[float] = []
         self._all_online = tuple(int(BoardStatus.ONLINE) for _ in self._boards)
         self._encoded: list[int] = []
+        self._raw_tuple: tuple[int, ...] | None = None
         # The robot's raw<->SI conversion of each channel, unpacked for the 100 Hz path;
         # equivalent to StateBuilder.encode (tests check it).
         self._conversions = [
@@ -437,8 +437,17 @@ class SimBridge:
                     continue
                 last[i] = raw_value
                 mask |= 1 << i
+            raw = tuple(last)
+            self._raw_tuple = None  # the next unfaulted frame encodes afresh
+        elif values == self._encoded_from and self._raw_tuple is not None:
+            # Nothing changed since the last frame (the common case when the robot waits
+            # or drives through a plain piece): the raw values are the same tuple, which
+            # lets the codec reuse the packed frame.
+            raw = self._raw_tuple
+            mask = self._all_fresh
         else:
             self._last_raw = last = self._encode(values)
+            raw = self._raw_tuple = tuple(last)
             mask = self._all_fresh
         if self._resetting or self.estopped:
             status: tuple[int, ...] = tuple(
@@ -456,8 +465,8 @@ class SimBridge:
         if self.watchdog_tripped:
             flags |= BridgeFlags.WATCHDOG
         self._state_seq = (self._state_seq + 1) & 0xFFFF
-        self._out += self.codec.encode(
-            State(self._state_seq, flags, self._ack_seq, mask, status, tuple(last))
+        self._out += self.codec.encode_state(
+            self._state_seq, flags, self._ack_seq, mask, status, raw
         )
         self.state_frames_sent += 1
 
