@@ -25,6 +25,7 @@ from pirate_bt.link import (
 )
 from pirate_bt.link.testing import FdPort, ScriptedBridge, memory_pair
 from pirate_bt.robot import ControlMode, MotorCommand, RobotPort, load_robot
+from pirate_bt.robot.port import LinkHealth
 
 ROBOT = load_robot()
 CODEC = FrameCodec.for_robot(ROBOT)
@@ -356,3 +357,55 @@ def test_pty_link_loss_with_reader_thread() -> None:
 
 def test_estop_message_type_is_out_of_band() -> None:
     assert EStop.TYPE < 0x80
+
+
+def _same_figures(a: object, b: object) -> bool:
+    """Dataclass field values equal, nan equal to nan."""
+    from dataclasses import astuple
+
+    return all(
+        x == y or (isinstance(x, float) and x != x and y != y)
+        for x, y in zip(astuple(a), astuple(b), strict=True)  # type: ignore[call-overload]
+    )
+
+
+def test_health_is_cached_until_a_figure_changes() -> None:
+    link, bridge, clock = connect(FAULTS, seed=4)
+    first = link.health()
+    assert link.health() is first  # nothing happened in between
+    moves = [MotorCommand("bend_3_joint", ControlMode.TORQUE, 0.1 * (i % 5)) for i in range(120)]
+    seen = {id(first)}
+    for command in moves:
+        link.send([command])
+        clock.advance(0.01)
+        link.poll()
+        health = link.health()
+        # Never stale: always the figures the session reports, built under its lock.
+        s = link.session.stats()
+        expected = LinkHealth(
+            connected=s.connected,
+            last_heard_s=s.last_heard_s,
+            rtt_s=s.rtt_s,
+            loss_ratio=s.loss_ratio,
+            crc_errors=s.crc_errors,
+            retries=s.retries,
+            failed=s.failed,
+            duplicates=s.duplicates,
+            estopped=s.estopped,
+        )
+        assert _same_figures(health, expected)
+        assert link.health() is health
+        seen.add(id(health))
+    assert len(seen) > 1
+    check_exactly_once(link, bridge, 60)  # requests that need retries: the loss ratio moves
+    health = link.health()
+    assert health.retries > 0 and health.loss_ratio == link.session.stats().loss_ratio > 0
+    # A figure changed behind the cache's back is still seen.
+    before = link.health()
+    link.session.retries += 1
+    link.session.crc_errors += 2
+    after = link.health()
+    assert after is not before
+    assert (after.retries, after.crc_errors) == (before.retries + 1, before.crc_errors + 2)
+    link.session.close()
+    assert link.health().connected is False

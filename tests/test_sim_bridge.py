@@ -294,3 +294,35 @@ def test_fast_state_encoding_matches_state_builder(clock: SimClock) -> None:
         names = [c.name for c in ROBOT.state_channels()]
         expected = sim.bridge.encode_readings(dict(zip(names, values, strict=True)))
         assert sim.bridge._encode(values) == expected
+
+
+def test_counters_are_cached_until_a_figure_changes(clock: SimClock) -> None:
+    with Simulator("straight", ROBOT, clock=clock, seed=2) as sim:
+        link = open_link(sim.url, ROBOT, clock, faults="drop=0.05,corrupt=0.05,seed=2")
+        first = sim.counters()
+        assert sim.counters() is first  # nothing happened in between
+        link.send([MotorCommand(f"bend_{i}_joint", ControlMode.TORQUE, 0.6) for i in (3, 4)])
+        drive = [MotorCommand(m.name, ControlMode.VELOCITY, 0.02) for m in ROBOT.drive_motors()]
+        for n in range(300):
+            if n == 50:
+                link.send(drive)
+            clock.advance(0.01)
+            link.poll()
+            counters = sim.counters()
+            # Never stale: always what the bridge and model report now.
+            assert counters == sim.bridge.counters()
+            assert sim.counters() is counters
+        assert counters.distance_m > 0 and counters.frames_rejected > 0
+        # Figures changed without the clock moving are still seen.
+        before = sim.counters()
+        sim.bridge.nacks += 1
+        sim.model._violation("sliding", "injected by the test")
+        after = sim.counters()
+        assert after is not before
+        assert after.frames_rejected == before.frames_rejected + 1
+        assert after.violations == {
+            **before.violations,
+            "sliding": before.violations.get("sliding", 0) + 1,
+        }
+        assert after == sim.bridge.counters()
+        link.close()

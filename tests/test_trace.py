@@ -478,3 +478,24 @@ def test_supervised_extras_reads_verdicts_and_counters_once() -> None:
     assert extras(None).sim == {**first.sim, "distance_m": 0.25}
     box[0] = SimpleNamespace(distance_m=0.5, stuck_events=None)  # an older simulator
     assert extras(None).sim == {"distance_m": 0.5, "belief_m": 1.0}
+
+
+def test_counter_cache_skips_only_unchanged_frozen_snapshots() -> None:
+    from types import SimpleNamespace
+
+    from pirate_bt.sim.counters import SimCounters
+    from pirate_bt.trace.attach import _CounterCache
+
+    cache = _CounterCache()
+    frozen = SimCounters(distance_m=1.0)
+    values = cache(frozen)
+    assert cache(frozen) is values and values["distance_m"] == 1.0
+    assert cache(SimCounters(distance_m=2.0))["distance_m"] == 2.0
+    # A mutable object handed out again is read again: a change is never hidden.
+    mutable = SimpleNamespace(**{f: 0 for f in ("stuck_events", "slip_events")})
+    for name in ("frames_dropped", "frames_rejected", "watchdog_trips"):
+        setattr(mutable, name, 0)
+    mutable.distance_m, mutable.violation_count, mutable.damage_count = 3.0, 0, 0
+    assert cache(mutable)["distance_m"] == 3.0
+    mutable.distance_m = 4.0
+    assert cache(mutable)["distance_m"] == 4.0

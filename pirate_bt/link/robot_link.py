@@ -19,12 +19,14 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
+from operator import attrgetter
+from typing import Any
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkTimeout
-from pirate_bt.link.codec import FrameCodec
+from pirate_bt.link.codec import BridgeFlags, FrameCodec
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
-from pirate_bt.link.session import Outcome, Request, Session, SessionConfig
+from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
 from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -34,6 +36,22 @@ from pirate_bt.robot.state import RobotState, StateBuilder
 __all__ = ["RobotLink", "open_link", "wrap_link"]
 
 _log = logging.getLogger(__name__)
+
+# The session figures health() is made of, read in one C call. ``completed`` is there
+# because every request that enters the loss window also bumps it, so the loss ratio
+# (a sum over the window) is only recomputed when it moved.
+_HEALTH_FIGURES = attrgetter(
+    "_lost",
+    "_closed",
+    "_last_heard_s",
+    "_rtt_s",
+    "crc_errors",
+    "retries",
+    "failed",
+    "duplicates",
+    "completed",
+    "_flags",
+)
 
 
 class RobotLink:
@@ -58,6 +76,10 @@ class RobotLink:
         self._snapshot: RobotState | None = None
         self._snapshot_seq: int | None = None
         self._last_bulk: Request | None = None
+        self._health_figures: tuple[Any, ...] | None = None
+        self._health = LinkHealth(connected=False)
+        self._loss_completed = -1
+        self._loss_ratio = 0.0
 
     @property
     def robot(self) -> RobotDescription:
@@ -155,19 +177,40 @@ class RobotLink:
             raise LinkError(f"e-stop reset {req.outcome.value} {req.nack or ''}".strip())
 
     def health(self) -> LinkHealth:
-        """Current link figures."""
-        s = self.session.stats()
-        return LinkHealth(
-            connected=s.connected,
-            last_heard_s=s.last_heard_s,
-            rtt_s=s.rtt_s,
-            loss_ratio=s.loss_ratio,
-            crc_errors=s.crc_errors,
-            retries=s.retries,
-            failed=s.failed,
-            duplicates=s.duplicates,
-            estopped=s.estopped,
+        """Current link figures.
+
+        Read every tick by the supervisor and the trace, so it is cheap: while no
+        figure changed the same (immutable) ``LinkHealth`` is returned again, and a
+        caller may compare with ``is`` to skip its own diffing. A changed figure always
+        gives a new object; nothing is cached across a change.
+        """
+        session = self.session
+        if session.threaded:
+            # A reader thread mutates the session: take its consistent, locked snapshot.
+            return _health_of(session.stats())
+        # Polled session: only this thread changes the figures, so they can be read
+        # without the lock and without building a SessionStats first.
+        figures = _HEALTH_FIGURES(session)
+        if figures == self._health_figures:
+            return self._health
+        lost, closed, heard_s, rtt_s, crc, retries, failed, dups, completed, flags = figures
+        if completed != self._loss_completed:
+            recent = session._recent
+            self._loss_ratio = (sum(recent) / len(recent)) if recent else 0.0
+            self._loss_completed = completed
+        self._health_figures = figures
+        self._health = LinkHealth(
+            connected=not (lost or closed),
+            last_heard_s=heard_s,
+            rtt_s=rtt_s,
+            loss_ratio=self._loss_ratio,
+            crc_errors=crc,
+            retries=retries,
+            failed=failed,
+            duplicates=dups,
+            estopped=bool(flags & BridgeFlags.ESTOP),
         )
+        return self._health
 
     def close(self) -> None:
         """Stop the drive motors if the link still works, then release the transport."""
@@ -188,6 +231,20 @@ class RobotLink:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _health_of(s: SessionStats) -> LinkHealth:
+    return LinkHealth(
+        connected=s.connected,
+        last_heard_s=s.last_heard_s,
+        rtt_s=s.rtt_s,
+        loss_ratio=s.loss_ratio,
+        crc_errors=s.crc_errors,
+        retries=s.retries,
+        failed=s.failed,
+        duplicates=s.duplicates,
+        estopped=s.estopped,
+    )
 
 
 def wrap_link(

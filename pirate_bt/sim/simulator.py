@@ -25,8 +25,11 @@ from __future__ import annotations
 import itertools
 import logging
 import threading
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+from operator import attrgetter
 from pathlib import Path
+from types import MappingProxyType
+from typing import Any
 
 import serial
 
@@ -49,6 +52,20 @@ SCHEME = "sim"
 _REGISTRY: dict[str, Simulator] = {}
 _REGISTRY_LOCK = threading.Lock()
 _NAMES = itertools.count(1)
+
+# The figures counters() is made of, each read in one C call: the model's physics tally
+# and the bridge's link counters (the same sources as ``SimBridge.counters``).
+_PHYSICS_FIGURES = attrgetter("stuck_events", "slip_events", "distance_m", "slide_m")
+_BRIDGE_FIGURES = attrgetter(
+    "rx_frames",
+    "crc_errors",
+    "frame_errors",
+    "nacks",
+    "frames_dropped",
+    "commands_executed",
+    "state_frames_sent",
+    "watchdog_trips",
+)
 
 if "pirate_bt.sim" not in serial.protocol_handler_packages:
     serial.protocol_handler_packages.append("pirate_bt.sim")
@@ -112,6 +129,10 @@ class Simulator:
         self.bridge = SimBridge(self.model, start_s=self.clock.now())
         self.model.time_s = self.clock.now()
         self._lock = threading.RLock()
+        self._counters = SimCounters()
+        self._counter_figures: tuple[Any, ...] | None = None
+        self._violations: Mapping[str, int] = MappingProxyType({})
+        self._damage: Mapping[str, int] = MappingProxyType({})
         self.bridge.schedule(network.faults)
         self.schedule(faults)
         self.name = name or f"sim-{next(_NAMES)}"
@@ -166,9 +187,47 @@ class Simulator:
     # -- oracles --------------------------------------------------------------------
 
     def counters(self) -> SimCounters:
-        """Violations, damage, stuck events, distance, and frame counters so far."""
+        """Violations, damage, stuck events, distance, and frame counters so far.
+
+        Read every tick by traces, so it is cheap: the figures are read as two tuples
+        and compared with the last snapshot's; while none changed, the same immutable
+        snapshot is returned (compare with ``is`` to skip work). Otherwise one new
+        snapshot is built, reusing the violation and damage mappings when those did
+        not change. Equal to ``bridge.counters()`` at every moment.
+        """
         with self._lock:
-            return self.bridge.counters()
+            # The tally is the model's own mutable record (``model.counters()`` copies
+            # it); reading it here saves building a second snapshot every tick.
+            tally = self.model._tally
+            bridge = self.bridge
+            figures = (_PHYSICS_FIGURES(tally), _BRIDGE_FIGURES(bridge))
+            violations, damage = tally.violations, tally.damage
+            same_maps = violations == self._violations and damage == self._damage
+            if figures == self._counter_figures and same_maps:
+                return self._counters
+            if not same_maps:
+                self._violations = MappingProxyType(dict(violations))
+                self._damage = MappingProxyType(dict(damage))
+            (
+                (stuck, slips, distance_m, slide_m),
+                (rx, crc, framing, nacks, dropped, run, sent, trips),
+            ) = figures
+            self._counter_figures = figures
+            self._counters = SimCounters(
+                violations=self._violations,
+                damage=self._damage,
+                stuck_events=stuck,
+                slip_events=slips,
+                distance_m=distance_m,
+                slide_m=slide_m,
+                frames_received=rx,
+                frames_rejected=crc + framing + nacks,
+                frames_dropped=dropped,
+                commands_executed=run,
+                state_frames_sent=sent,
+                watchdog_trips=trips,
+            )
+            return self._counters
 
     def truth(self) -> SimTruth:
         """Ground truth now: positions, segments, rolls, clamps, joint angles."""

@@ -169,30 +169,47 @@ def counter_values(counters: Any) -> dict[str, float]:
     return out
 
 
+def _immutable(kind: type) -> bool:
+    params = getattr(kind, "__dataclass_params__", None)
+    return bool(getattr(params, "frozen", False))
+
+
 class _CounterCache:
     """:func:`counter_values`, rebuilt only when a counter moved.
 
     Read every tick, but most ticks change one counter (distance while driving) or
-    none: one C-level ``attrgetter`` call and a tuple comparison decide, and the
-    dict is rebuilt only when the tuple differs. The same dict is handed out while
-    nothing changes; callers must not mutate it.
+    none. A frozen snapshot handed out again (``Simulator.counters`` returns the same
+    one while nothing changed) is recognised by identity alone; otherwise one C-level
+    ``attrgetter`` call and a tuple comparison decide, and the dict is rebuilt only
+    when the tuple differs. The same dict is handed out while nothing changes; callers
+    must not mutate it.
     """
 
     def __init__(self) -> None:
         self._raw: tuple[Any, ...] | None = None
         self._values: dict[str, float] = {}
+        self._last: Any = None
+        self._frozen: dict[type, bool] = {}
 
     def __call__(self, counters: Any) -> dict[str, float]:
         if counters is None:
             return {}
+        if counters is self._last:
+            return self._values
         try:
             raw = _counter_raw(counters)
         except AttributeError:  # a simulator without some counters: the slow, tolerant way
-            self._raw = None
+            self._raw = self._last = None
             return counter_values(counters)
         if raw != self._raw:
             self._raw = raw
             self._values = counter_values(counters)
+        # Identity stands for "unchanged" only for objects that cannot change.
+        kind = type(counters)
+        frozen = self._frozen.get(kind)
+        if frozen is None:
+            frozen = self._frozen[kind] = _immutable(kind)
+        self._last = counters if frozen else None
         return self._values
 
 
