@@ -597,6 +597,7 @@ class WireLayout:
 
 _TYPE_BY_CODE: dict[int, MsgType] = {int(t): t for t in MsgType}
 _STATE_CODE = int(MsgType.STATE)
+_ACK_STATUS: dict[int, AckStatus] = {int(s): s for s in AckStatus}
 _STATUS_CACHE = 64
 """Distinct board-status patterns a codec remembers (bounded, for a misbehaving peer)."""
 _new_object = object.__new__
@@ -650,6 +651,8 @@ class FrameCodec:
         self._status_to_wire: dict[tuple[int, ...], bytes] = {}
         self._status_from_wire: dict[bytes, tuple[int, ...]] = {}
         self._state_key: tuple[object, ...] | None = None
+        self._state_rest = b""
+        self._state_last: State | None = None
         self._state_template = bytearray()
 
     @classmethod
@@ -681,6 +684,15 @@ class FrameCodec:
         """
         if type(msg) is State:
             body = self._state_body_of(msg)
+        elif type(msg) is Heartbeat or type(msg) is Ack:
+            # A heartbeat and its ack every few state periods: header (+ two bytes)
+            # packed here, without the isinstance chain of encode_payload.
+            try:
+                body = _HEADER.pack(PROTOCOL_VERSION, msg.TYPE, msg.seq, 0)
+                if type(msg) is Ack:
+                    body += _ACK.pack(msg.acked_type, msg.status)
+            except struct.error as exc:
+                raise ValueError(f"cannot encode {msg!r}: {exc}") from None
         else:
             arg, payload = self.encode_payload(msg)
             try:
@@ -861,6 +873,21 @@ class FrameCodec:
 
     def _state_from_body(self, body: bytes) -> State:
         """A STATE frame whose length and CRC are checked, from one unpack of its body."""
+        # Consecutive STATE frames mostly differ only in their seq (bytes 2-3) and CRC:
+        # then the fields decoded last time are reused (immutable, so shared safely)
+        # and only the seq is read.
+        rest = body[4:-2]
+        if rest == self._state_rest and body[0] == PROTOCOL_VERSION:
+            last = self._state_last
+            assert last is not None  # set together with _state_rest
+            msg: State = _new_object(State)
+            _SET_STATE_SEQ(msg, body[2] | body[3] << 8)
+            _SET_STATE_FLAGS(msg, last.flags)
+            _SET_STATE_ACK_SEQ(msg, last.ack_seq)
+            _SET_STATE_FRESH_MASK(msg, last.fresh_mask)
+            _SET_STATE_BOARD_STATUS(msg, last.board_status)
+            _SET_STATE_RAW_VALUES(msg, last.raw_values)
+            return msg
         fields = self._state_body.unpack_from(body)
         if fields[0] != PROTOCOL_VERSION:
             raise FrameError(
@@ -875,13 +902,15 @@ class FrameCodec:
             self._status_from_wire[fields[6]] = nibbles
         # A frozen dataclass's __init__ sets each field through object.__setattr__; the
         # slot descriptors do the same work in half the time (same class, same fields).
-        msg: State = _new_object(State)
+        msg = _new_object(State)
         _SET_STATE_SEQ(msg, fields[2])
         _SET_STATE_FLAGS(msg, _FLAGS[fields[3]])
         _SET_STATE_ACK_SEQ(msg, fields[4])
         _SET_STATE_FRESH_MASK(msg, int.from_bytes(fields[5], "little") & self._mask_all)
         _SET_STATE_BOARD_STATUS(msg, nibbles)
         _SET_STATE_RAW_VALUES(msg, fields[7:])
+        self._state_rest = rest
+        self._state_last = msg
         return msg
 
     def decode_body(self, body: bytes) -> Message:
@@ -973,9 +1002,10 @@ class FrameCodec:
         if kind is MsgType.ACK or kind is MsgType.NACK:
             acked, status = _ACK.unpack(payload)
             if kind is MsgType.ACK:
-                if status > max(AckStatus):
+                ack_status = _ACK_STATUS.get(status)
+                if ack_status is None:
                     raise FrameError("value", f"unknown ack status {status}")
-                return Ack(seq, acked, AckStatus(status))
+                return Ack(seq, acked, ack_status)
             try:
                 return Nack(seq, acked, NackCode(status))
             except ValueError:
