@@ -7,8 +7,8 @@ The drive is :class:`~pirate_bt.sim.script.ScriptedDrive` through the main path
 of ``scenarios/lab.yaml`` (29.6 m, five bends, two tees passed straight, a
 reducer, a riser): about 456 s of simulated time with the default robot, so
 45 600 physics steps and as many STATE frames at the default 10 ms state period.
-Each configuration runs three times; the best run is reported (the machine is
-shared, the best run is the least disturbed).
+Each configuration runs five times; the median and the range are reported (the
+machine is shared: the range shows how much other jobs disturbed the runs).
 
 - ``sim + wire``: the scripted drive commands the model directly; every STATE
   frame is still encoded by the simulated bridge and read off the in-process
@@ -20,6 +20,7 @@ shared, the best run is the least disturbed).
 
 from __future__ import annotations
 
+import statistics
 import time
 
 import serial
@@ -31,7 +32,7 @@ from pirate_bt.sim import Simulator
 from pirate_bt.sim.script import LinkSink, ModelSink, ScriptedDrive
 
 ROBOT = load_robot()
-RUNS = 3
+RUNS = 5
 
 
 class DrainingSink(ModelSink):
@@ -70,12 +71,15 @@ def run(with_link: bool) -> tuple[float, float, int]:
 def main() -> None:
     print(f"scripted drive through lab.yaml, state period {ROBOT.bridge.state_period * 1e3:g} ms")
     for label, with_link in (("sim + wire", False), ("sim + host link", True)):
-        best = min((run(with_link) for _ in range(RUNS)), key=lambda r: r[1] / r[0])
-        simulated, wall, frames = best
+        runs = [run(with_link) for _ in range(RUNS)]
+        speeds = sorted(simulated / wall for simulated, wall, _ in runs)
+        per_step = sorted(wall / frames * 1e6 for _, wall, frames in runs)
         print(
-            f"{label:16s} {simulated:7.1f} s simulated in {wall:6.2f} s wall ="
-            f" {simulated / wall:6.0f}x real time ({frames} state frames,"
-            f" {wall / frames * 1e6:5.1f} us per 10 ms step)"
+            f"{label:16s} {runs[0][0]:7.1f} s simulated, {runs[0][2]} state frames:"
+            f" median {statistics.median(speeds):4.0f}x real time"
+            f" ({speeds[0]:.0f}-{speeds[-1]:.0f}x over {RUNS} runs),"
+            f" {statistics.median(per_step):5.1f} us per 10 ms step"
+            f" ({per_step[0]:.1f}-{per_step[-1]:.1f})"
         )
 
 
