@@ -27,9 +27,11 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 __all__ = [
     "Locator",
     "YamlDocument",
+    "describe_error",
     "load_yaml",
     "load_yaml_text",
     "pydantic_errors",
+    "unique_errors",
     "validate_document",
 ]
 
@@ -181,7 +183,8 @@ def load_yaml(path: str | Path) -> YamlDocument:
     return load_yaml_text(text, name)
 
 
-def _describe(error: Any) -> str:
+def describe_error(error: Any) -> str:
+    """One pydantic error as a short sentence, e.g. ``unknown key 'x'``."""
     msg = str(error["msg"])
     kind = error.get("type", "")
     loc = error.get("loc", ())
@@ -201,12 +204,13 @@ def _describe(error: Any) -> str:
 
 def pydantic_errors(exc: ValidationError, locator: Locator) -> list[LocatedError]:
     """Translate pydantic's errors into located ones, in file order."""
-    errors = [locator.error(e["loc"], _describe(e)) for e in exc.errors()]
+    errors = [locator.error(e["loc"], describe_error(e)) for e in exc.errors()]
     errors.sort(key=lambda e: (e.location.line, e.location.column))
-    return _unique(errors)
+    return unique_errors(errors)
 
 
-def _unique(errors: Iterable[LocatedError]) -> list[LocatedError]:
+def unique_errors(errors: Iterable[LocatedError]) -> list[LocatedError]:
+    """``errors`` without repeats (the same message at the same place), order kept."""
     seen: set[str] = set()
     out: list[LocatedError] = []
     for e in errors:

@@ -33,7 +33,13 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param
 from pirate_bt.treefile.registry import Registry, UnknownNode, default_registry
-from pirate_bt.yamlfile import Locator, YamlDocument, _describe, load_yaml
+from pirate_bt.yamlfile import (
+    Locator,
+    YamlDocument,
+    describe_error,
+    load_yaml,
+    unique_errors,
+)
 
 __all__ = [
     "BlackboardDecl",
@@ -222,7 +228,7 @@ class _Reader:
                 parsed = BlackboardDecl.model_validate({} if decl is None else decl)
             except ValidationError as exc:
                 for e in exc.errors():
-                    self.error(doc, (*where, *e["loc"]), _describe(e))
+                    self.error(doc, (*where, *e["loc"]), describe_error(e))
                 continue
             loc = doc.locator.locate(where)
             previous = self.blackboard.get(key)
@@ -259,7 +265,7 @@ class _Reader:
                 parsed = ParamDecl.model_validate(decl)
             except ValidationError as exc:
                 for e in exc.errors():
-                    self.error(doc, (*at, *e["loc"]), _describe(e))
+                    self.error(doc, (*at, *e["loc"]), describe_error(e))
                 continue
             if parsed.choices is not None and parsed.type != "string":
                 self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
@@ -402,7 +408,7 @@ class _Reader:
             )
         except ValidationError as exc:
             for e in exc.errors():
-                self.error(doc, (*path, *e["loc"]), f"{kind}: {_describe(e)}")
+                self.error(doc, (*path, *e["loc"]), f"{kind}: {describe_error(e)}")
             spec.params = None
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
@@ -816,7 +822,7 @@ def load_tree(
         _outcomes(spec, reader.warnings)
     if reader.errors or spec is None or values is None:
         errors = reader.errors or [LocatedError("tree could not be read", SourceLocation(doc.file))]
-        raise ValidationFailed(_unique(errors))
+        raise ValidationFailed(unique_errors(errors))
     context = BuildContext(robot=robot, clock=clock or WallClock(), supervisor=supervisor)
     try:
         root = build(spec, context)
@@ -835,16 +841,6 @@ def load_tree(
         files=[doc.file, *(d.file for d in reader.docs.values() if d.file != doc.file)],
         needs_robot=any(s.cls is not None and s.cls.needs_robot for s in spec.walk()),
     )
-
-
-def _unique(errors: list[LocatedError]) -> list[LocatedError]:
-    seen: set[str] = set()
-    out: list[LocatedError] = []
-    for e in errors:
-        if str(e) not in seen:
-            seen.add(str(e))
-            out.append(e)
-    return out
 
 
 def validate_tree_file(path: str | Path, params: Mapping[str, str] | None = None) -> LoadedTree:
