@@ -29,7 +29,6 @@ def one_run(out_dir: Path) -> tuple[float, float, int]:
     from pirate_bt.clock import SimClock
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.sim import Simulator
     from pirate_bt.task.mission import run_mission
     from pirate_bt.task.planner import load_network_for, plan_route
     from pirate_bt.task.route import load_route
@@ -38,22 +37,23 @@ def one_run(out_dir: Path) -> tuple[float, float, int]:
     route = load_route(REPO / "scenarios" / "lab.route")
     plan = plan_route(route, load_network_for(route, None), robot)
     clock = SimClock()
-    with Simulator(plan.network, robot, clock=clock) as sim:
-        supervisor = open_supervisor(robot, url=sim.url, clock=clock)
-        try:
-            started = time.perf_counter()
-            result = run_mission(
-                plan,
-                robot,
-                supervisor,
-                clock,
-                truth=lambda: sim.truth().front_m,
-                counters=sim.counters,
-                trace_path=out_dir / "trace.jsonl",
-            )
-            wall = time.perf_counter() - started
-        finally:
-            supervisor.close()
+    supervisor = open_supervisor(robot, clock=clock, network=plan.network)
+    sim = supervisor.simulator
+    assert sim is not None
+    try:
+        started = time.perf_counter()
+        result = run_mission(
+            plan,
+            robot,
+            supervisor,
+            clock,
+            truth=lambda: sim.truth().front_m,
+            counters=sim.counters,
+            trace_path=out_dir / "trace.jsonl",
+        )
+        wall = time.perf_counter() - started
+    finally:
+        supervisor.close()
     if not result.succeeded:
         sys.exit(f"the mission failed: {result.reason}")
     return wall, result.run.sim_time_s, result.run.ticks

@@ -69,3 +69,17 @@ def test_pab_steps_are_the_confirmation_points(tmp_path: Path) -> None:
     assert main(args) == 0
     steps = [node.name for node in read_trace(trace_path).structure.steps()]
     assert steps[:2] == ["hold", "confirm drive"]
+
+
+def test_faults_mean_the_same_in_run_and_mission() -> None:
+    from pirate_bt.cli.run import split_faults
+
+    assert split_faults("motor_stall:bend_1_drive@30s+5s,board_reset:22@10s") == (
+        ["motor_stall:bend_1_drive@30s+5s", "board_reset:22@10s"],
+        None,
+    )
+    assert split_faults("drop=0.05,corrupt=0.01; link_loss@12s+500ms") == (
+        ["link_loss@12s+500ms"],
+        "drop=0.05,corrupt=0.01",
+    )
+    assert split_faults(None) == ([], None)

@@ -39,8 +39,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--faults",
         metavar="SPEC",
-        help="simulator faults, comma-separated KIND[:TARGET]@AT[+DURATION],"
-        " e.g. motor_stall:bend_1_drive@30s+5s",
+        help="simulator faults KIND[:TARGET]@AT[+DURATION] and link faults KEY=VALUE,"
+        " comma-separated, e.g. motor_stall:bend_1_drive@30s+5s,drop=0.05",
     )
     parser.add_argument("--output", type=Path, metavar="DIR", help="write trace, plots, report")
     parser.add_argument("-q", "--quiet", action="store_true", help="no live view, no plan")
@@ -117,10 +117,7 @@ def execute(
     trace_path = output / "trace.jsonl" if output is not None else None
     show_live = (not args.quiet) if live is None else live
     started = time.perf_counter()
-    if args.port is not None:
-        result = _run_on_port(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
-    else:
-        result = _run_on_sim(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
+    result = _run(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
@@ -144,11 +141,7 @@ def execute(
     return MissionOutputs(code, result, tuple(files), wall)
 
 
-def _faults(text: str | None) -> list[str]:
-    return [f.strip() for f in (text or "").split(",") if f.strip()]
-
-
-def _run_on_sim(
+def _run(
     args: argparse.Namespace,
     plan: Any,
     robot: Any,
@@ -157,68 +150,35 @@ def _run_on_sim(
     rate_hz: float,
     max_time_s: float | None,
 ) -> Any:
-    from pirate_bt.clock import SimClock
-    from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.sim import Simulator
+    """Run the plan on the simulator (the route's network) or on ``--port``.
+
+    Connecting is :func:`pirate_bt.cli.run.connect`'s job, as for ``pirate-bt run``:
+    the robot is reached only through the protective layer, and ``--faults`` means
+    the same in both commands.
+    """
+    from pirate_bt.cli.run import connect
     from pirate_bt.task.mission import run_mission
 
-    clock = SimClock()
-    sim = Simulator(plan.network, robot, seed=args.seed, clock=clock, faults=_faults(args.faults))
-    try:
-        supervisor = open_supervisor(robot, url=sim.url, clock=clock)
-        try:
-            return run_mission(
-                plan,
-                robot,
-                supervisor,
-                clock,
-                truth=lambda: sim.truth().front_m,
-                counters=sim.counters,
-                trace_path=trace_path,
-                scenario=plan.network.name,
-                seed=args.seed,
-                live=live,
-                period_s=1.0 / rate_hz,
-                max_time_s=max_time_s,
-                realtime=args.realtime,
-            )
-        finally:
-            supervisor.close()
-    finally:
-        sim.close()
-
-
-def _run_on_port(
-    args: argparse.Namespace,
-    plan: Any,
-    robot: Any,
-    trace_path: Path | None,
-    live: bool,
-    rate_hz: float,
-    max_time_s: float | None,
-) -> Any:
-    from pirate_bt.clock import WallClock
-    from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.task.mission import run_mission
-
-    if args.faults:
-        raise InputError("--faults needs the simulator")
-    clock = WallClock()
-    supervisor = open_supervisor(robot, url=args.port, clock=clock)
+    connection = connect(args, robot, needs_robot=True, network=plan.network)
+    sim = connection.simulator
     try:
         return run_mission(
             plan,
             robot,
-            supervisor,
-            clock,
+            connection.supervisor,
+            connection.clock,
+            truth=(lambda: sim.truth().front_m) if sim is not None else None,
+            counters=sim.counters if sim is not None else None,
             trace_path=trace_path,
             scenario=plan.network.name,
+            seed=args.seed if sim is not None else None,
             live=live,
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
+            realtime=args.realtime,
         )
     finally:
-        supervisor.close()
+        connection.close()
 
 
 def _write_outputs(

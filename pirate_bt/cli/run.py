@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import re
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -98,21 +99,25 @@ def parse_params(items: list[str]) -> dict[str, str]:
 def split_faults(text: str | None) -> tuple[list[str], str | None]:
     """Split ``--faults`` into simulator faults and a link fault spec.
 
-    Items are separated by ``;`` or whitespace. An item with ``@`` is a simulator
-    fault (``motor_stall:bend_3_drive@5s+2s``); the others are link byte faults
-    (``drop=0.05,corrupt=0.01``), joined into one spec for the host side.
+    Items are separated by ``,``, ``;`` or whitespace. An item with ``@`` is a
+    simulator fault (``motor_stall:bend_3_drive@5s+2s``); the others are link byte
+    faults (``drop=0.05``, ``corrupt=0.01``), joined into one spec for the host side.
+    So ``motor_stall:bend_1_drive@30s+5s,drop=0.05,corrupt=0.01`` gives both kinds.
 
     Returns:
         ``(simulator faults, link fault spec or None)``.
     """
     sim_faults: list[str] = []
     link_parts: list[str] = []
-    for item in (text or "").replace(";", " ").split():
-        (sim_faults if "@" in item else link_parts).append(item)
+    for item in re.split(r"[,;\s]+", text or ""):
+        if item:
+            (sim_faults if "@" in item else link_parts).append(item)
     return sim_faults, (",".join(link_parts) or None)
 
 
-def connect(args: argparse.Namespace, robot: Any, needs_robot: bool) -> Connection:
+def connect(
+    args: argparse.Namespace, robot: Any, needs_robot: bool, network: Any = None
+) -> Connection:
     """Open the simulator or the robot behind the supervisor, as the tree needs.
 
     This is the one place where ``pirate-bt run`` reaches below the tree layer, and
@@ -123,6 +128,13 @@ def connect(args: argparse.Namespace, robot: Any, needs_robot: bool) -> Connecti
     ``straight``) on a simulated clock, with the simulator faults of ``--faults``
     (``KIND:TARGET@AT``) and the link faults (``drop=0.05,corrupt=0.01``, seeded
     from ``--seed``) on the host side of the same wire protocol.
+
+    Args:
+        args: The parsed options (``sim``, ``port``, ``seed``, ``faults``).
+        robot: The robot description.
+        needs_robot: Whether the tree commands a robot at all.
+        network: The simulator's network (a ``Network`` or a name), overriding
+            ``--sim``; a mission passes the map it planned on.
 
     Raises:
         LinkError: the robot cannot be reached.
@@ -141,11 +153,11 @@ def connect(args: argparse.Namespace, robot: Any, needs_robot: bool) -> Connecti
             link_faults if "seed=" in link_faults else f"{link_faults},seed={args.seed}"
         )
     if simulated:
-        network = args.sim or "straight"
+        network = network if network is not None else (args.sim or "straight")
         supervisor = open_supervisor(
             robot, clock=clock, network=network, seed=args.seed, sim_faults=sim_faults, **options
         )
-        what = f"simulator: {network}"
+        what = f"simulator: {getattr(network, 'name', network)}"
     else:
         if sim_faults:
             raise InputError(
