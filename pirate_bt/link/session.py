@@ -345,12 +345,7 @@ class Session:
         Raises:
             LinkLost: the link was declared lost.
         """
-        with self._lock:
-            self._check_alive()
-            req = Request(EStopReset(self._seq()), self.clock.now())
-            self._oob[req.seq] = req
-            self._transmit(req)
-            return req
+        return self._out_of_band(EStopReset)
 
     def request_counters(self) -> Request:
         """Ask the bridge for its counters; the reply lands in :attr:`Request.reply`.
@@ -358,9 +353,13 @@ class Session:
         Raises:
             LinkLost: the link was declared lost.
         """
+        return self._out_of_band(CountersRequest)
+
+    def _out_of_band(self, message: type[EStopReset] | type[CountersRequest]) -> Request:
+        """Send a request outside the setpoint order, tracked by its seq until answered."""
         with self._lock:
             self._check_alive()
-            req = Request(CountersRequest(self._seq()), self.clock.now())
+            req = Request(message(self._seq()), self.clock.now())
             self._oob[req.seq] = req
             self._transmit(req)
             return req
