@@ -33,15 +33,17 @@ class Connection:
         supervisor: The safety supervisor (``None`` when no robot is attached).
         close: Releases the link and the simulator.
         description: One line for people (``simulator: straight``).
-        simulator: The in-process simulator, when simulated (its counters go
-            into the trace).
     """
 
     clock: Clock
     supervisor: Any = None
     close: Callable[[], None] = field(default=lambda: None)
     description: str = "no robot"
-    simulator: Any = None
+
+    @property
+    def simulator(self) -> Any:
+        """The in-process simulator behind the supervisor, if simulated (else ``None``)."""
+        return getattr(self.supervisor, "simulator", None)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -170,7 +172,6 @@ def connect(
         supervisor=supervisor,
         close=supervisor.close,
         description=what,
-        simulator=supervisor.simulator,
     )
 
 
