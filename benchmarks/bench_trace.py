@@ -37,6 +37,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import py_trees
 from py_trees.common import Status
@@ -130,15 +131,7 @@ def time_ticks(
     tree: py_trees.trees.BehaviourTree, ticks: int, recorder: TraceRecorder | None
 ) -> float:
     clock = SimClock()
-    # The snapshots exist in a real run whether or not it is traced: build them up front.
-    extras = [
-        TickExtras(
-            state=robot_state(n, n * TICK_S),
-            commands=(CommandRecord("drive(80 mm/s)", "pass"),),
-            link=LinkHealth(connected=True, retries=n // 1000),
-        )
-        for n in range(1, ticks + 1)
-    ]
+    extras = _extras_for(ticks)
     start = time.perf_counter()
     for n in range(1, ticks + 1):
         clock.advance(TICK_S)
@@ -148,11 +141,9 @@ def time_ticks(
     return (time.perf_counter() - start) / ticks
 
 
-def time_runner_ticks(ticks: int, traced: Path | None) -> float:
-    """Wall seconds per tick of the 50-node tree run by the Runner, optionally traced."""
-    tree = fifty_node_tree(step_ticks=10 * ticks)  # never finishes inside the run
-    clock = SimClock()
-    extras = [
+def _extras_for(ticks: int) -> list[TickExtras]:
+    # The snapshots exist in a real run whether or not it is traced: built up front.
+    return [
         TickExtras(
             state=robot_state(n, n * TICK_S),
             commands=(CommandRecord("drive(80 mm/s)", "pass"),),
@@ -160,10 +151,29 @@ def time_runner_ticks(ticks: int, traced: Path | None) -> float:
         )
         for n in range(1, ticks + 2)
     ]
+
+
+def issue6_tree(clock: SimClock) -> Any:
+    """The 50-node tree of the tree-engine figure (``bench_trees.py``), loaded from YAML."""
+    from bench_trees import _yaml_tree
+
+    from pirate_bt.treefile import load_tree
+
+    return load_tree(_yaml_tree(), clock=clock)
+
+
+def time_runner_ticks(ticks: int, traced: Path | None, tree_kind: str = "sparse") -> float:
+    """Wall seconds per tick of a 50-node tree run by the Runner, optionally traced."""
+    clock = SimClock()
+    if tree_kind == "issue6":
+        tree: Any = issue6_tree(clock)
+    else:
+        tree = fifty_node_tree(step_ticks=10 * ticks)  # never finishes inside the run
+    extras = _extras_for(ticks)
     runner = Runner(tree, clock=clock, period_s=TICK_S, max_time_s=ticks * TICK_S)
     recorder = None
     if traced is not None:
-        recorder = TraceRecorder(traced, tree, clock=clock)
+        recorder = TraceRecorder(traced, runner.tree, clock=clock)
         rec = recorder
 
         def hook(_info: object) -> None:
@@ -179,7 +189,7 @@ def time_runner_ticks(ticks: int, traced: Path | None) -> float:
 
 
 def overhead(
-    ticks: int = 1400, repeats: int = 15, runner: bool = False
+    ticks: int = 1400, repeats: int = 15, runner: bool = False, tree_kind: str = "sparse"
 ) -> tuple[list[float], list[float]]:
     """Seconds per tick without and with tracing, one value per run (runs alternate)."""
     plain: list[float] = []
@@ -188,8 +198,8 @@ def overhead(
         for r in range(repeats):
             path = Path(folder) / f"b{r}.jsonl"
             if runner:
-                plain.append(time_runner_ticks(ticks, None))
-                traced.append(time_runner_ticks(ticks, path))
+                plain.append(time_runner_ticks(ticks, None, tree_kind))
+                traced.append(time_runner_ticks(ticks, path, tree_kind))
                 continue
             tree = fifty_node_tree()
             plain.append(time_ticks(tree, ticks, None))
@@ -304,8 +314,9 @@ def report_simulated(name: str, tree_file: str, network: str, params: dict[str, 
 
 
 def main() -> None:
-    report("50-node tree, tree.tick()", *overhead())
-    report("50-node tree, Runner", *overhead(runner=True))
+    report("50-node tree (issue 6), Runner", *overhead(runner=True, tree_kind="issue6"))
+    report("sparse 50-node tree, tree.tick()", *overhead())
+    report("sparse 50-node tree, Runner", *overhead(runner=True))
     report_simulated("bend PAB, simulated run", "trees/bend.yaml", "bend-right", {"roll": "90 deg"})
     report_simulated(
         "straight PAB, simulated run", "trees/straight.yaml", "straight", {"distance": "1.5 m"}
