@@ -22,15 +22,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import cache
 from importlib import resources
-from itertools import compress
-from math import isfinite
-from operator import attrgetter, ne
+from operator import attrgetter
 from typing import Any
 
 import py_trees
 
 from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import Reading, RobotState
+from pirate_bt.trace.sink import SINGLES, VIEWS, FieldChanges, StateDiff, round_value
+from pirate_bt.trace.sink import encode_value as _encode_value
 from pirate_bt.trace.structure import jsonable
 
 __all__ = [
@@ -51,6 +51,7 @@ __all__ = [
     "link_health_raw",
     "link_health_values",
     "state_from_flat",
+    "state_layout",
     "trace_schema",
 ]
 
@@ -68,11 +69,6 @@ CODE_STATUS: Mapping[str, py_trees.common.Status] = {v: k for k, v in STATUS_COD
 
 VERDICTS = ("pass", "clip", "refuse")
 OUTCOMES = ("success", "failure", "error", "interrupted", "running")
-
-# Floats in state, link and counter values are rounded to this many decimals:
-# 1 µrad, 1 µm/s, 1 µN are far below any sensor's resolution, and rounding
-# keeps noise in the last bits from counting as a change.
-_DECIMALS = 6
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,17 +179,9 @@ class TickExtras:
     events: Sequence[TraceEvent] = field(default_factory=tuple)
 
 
-def _round(value: float) -> float | str:
-    if isfinite(value):
-        return round(value, _DECIMALS)
-    rounded = jsonable(float(value))
-    assert isinstance(rounded, str)
-    return rounded
-
-
-_VIEWS = ("joint_angle_rad", "clamp_force_n", "imu_rad", "drive_velocity_mps", "motor_current_a")
-_SINGLES = ("rotation_rad", "camera_tilt_rad", "camera_pan_rad", "front_tilt_rad")
-_MISSING: Any = object()
+_round = round_value
+_VIEWS = VIEWS
+_SINGLES = SINGLES
 
 
 def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
@@ -220,14 +208,54 @@ def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
     return flat
 
 
+def state_layout(
+    state: RobotState, readings: bool = False
+) -> tuple[tuple[str | None, ...], tuple[Any, ...]]:
+    """A snapshot's layout and raw values (see :func:`pirate_bt.trace.sink.layout_names`).
+
+    Runs every traced tick: tuple displays with ``*`` unpacking gather the keys and
+    values in C, with no per-value Python loop. In the keys a ``None`` (never a name)
+    ends each view, so a name that moves from one view to another is a new layout.
+    """
+    joints, forces, imu = state.joint_angle_rad, state.clamp_force_n, state.imu_rad
+    drives, currents = state.drive_velocity_mps, state.motor_current_a
+    keys: tuple[str | None, ...] = (
+        *joints,
+        None,
+        *forces,
+        None,
+        *imu,
+        None,
+        *drives,
+        None,
+        *currents,
+        None,
+    )
+    raw: tuple[Any, ...] = (
+        *joints.values(),
+        *forces.values(),
+        *imu.values(),
+        *drives.values(),
+        *currents.values(),
+        state.rotation_rad,
+        state.camera_tilt_rad,
+        state.camera_pan_rad,
+        state.front_tilt_rad,
+    )
+    if readings:
+        keys += tuple(state.readings)
+        raw += tuple([reading.value for reading in state.readings.values()])
+    return keys, raw
+
+
 class StateChanges:
     """The :func:`flatten_state` values that changed since the last snapshot, found cheaply.
 
     Same result as comparing ``flatten_state(state)`` with the values recorded so
     far (a name that disappears, such as an unreported rotation, is not a change),
-    but built for the trace's hot path: a snapshot's raw values are gathered into
-    one tuple, so an unchanged snapshot costs one tuple comparison, and only the
-    values that differ from the previous snapshot are rounded and named.
+    but built for the trace's hot path: :func:`state_layout` gathers a snapshot's
+    raw values into one tuple, and a :class:`~pirate_bt.trace.sink.StateDiff`
+    rounds and names only those that moved.
 
     Args:
         readings: Also track every raw channel (``readings.<channel>``).
@@ -235,128 +263,32 @@ class StateChanges:
 
     def __init__(self, readings: bool = False) -> None:
         self.readings = readings
-        self.values: dict[str, Any] = {}
+        self._diff = StateDiff(readings=readings)
+        self._keys: tuple[str | None, ...] | None = None
+
+    @property
+    def values(self) -> dict[str, Any]:
         """Flat name -> last recorded (rounded) value."""
-        self._keys: tuple[str | None, ...] = ()
-        self._names: tuple[str, ...] = ()
-        self._raw: tuple[Any, ...] = ()
+        return self._diff.values
+
+    def _raw(self, state: RobotState) -> tuple[Any, ...]:
+        keys, raw = state_layout(state, self.readings)
+        if keys != self._keys:
+            self._keys = keys
+            self._diff.set_layout(keys)
+        return raw
 
     def changes(self, state: RobotState) -> dict[str, Any]:
         """Record ``state`` and return the flat values that changed (possibly empty)."""
-        # Runs every tick: tuple displays with * unpacking gather the key names and raw
-        # values in C, with no per-value Python loop. In ``keys`` a None (never a name)
-        # ends each view, so a name that moves from one view to another is a new layout.
-        joints, forces, imu = state.joint_angle_rad, state.clamp_force_n, state.imu_rad
-        drives, currents = state.drive_velocity_mps, state.motor_current_a
-        keys: tuple[str | None, ...] = (
-            *joints,
-            None,
-            *forces,
-            None,
-            *imu,
-            None,
-            *drives,
-            None,
-            *currents,
-            None,
-        )
-        raw: tuple[Any, ...] = (
-            *joints.values(),
-            *forces.values(),
-            *imu.values(),
-            *drives.values(),
-            *currents.values(),
-            state.rotation_rad,
-            state.camera_tilt_rad,
-            state.camera_pan_rad,
-            state.front_tilt_rad,
-        )
-        if self.readings:
-            keys += tuple(state.readings)
-            raw += tuple([reading.value for reading in state.readings.values()])
-        changed: dict[str, Any] = {}
-        values = self.values
-        if keys != self._keys:
-            # New names (first snapshot, or a sensor appeared): compare every value.
-            self._keys = keys
-            names: list[str] = []
-            views = iter(_VIEWS)
-            view = next(views)
-            for index, key in enumerate(keys):
-                if key is None:
-                    view = next(views, "")
-                    if not view:  # past the last view: the readings, if any
-                        names += _SINGLES
-                        if self.readings:
-                            names += [f"readings.{name}" for name in keys[index + 1 :]]
-                        break
-                else:
-                    names.append(f"{view}.{key}")
-            self._names = tuple(names)
-            previous: tuple[Any, ...] = (_MISSING,) * len(raw)
-        elif raw == self._raw:
-            return changed
-        else:
-            previous = self._raw
-        self._raw = raw
-        # map(ne) marks the raw values that differ (in C); only those are rounded and named.
-        for name, value in compress(zip(self._names, raw, strict=True), map(ne, raw, previous)):
-            if value is None:
-                continue
-            # -inf < v < inf is false for nan and the infinities: those take _round's spelling.
-            rounded = round(value, _DECIMALS) if -_INF < value < _INF else _round(value)
-            if values.get(name, _MISSING) != rounded:
-                values[name] = rounded
-                changed[name] = rounded
-        return changed
+        indices, rounded, _ = self._diff.diff(self._raw(state))
+        return dict(zip(map(self._diff.names.__getitem__, indices), rounded, strict=True))
+
+    def changes_json(self, state: RobotState) -> str:
+        """Record ``state``; the changes as the members of a JSON object, or ``""``."""
+        return self._diff.diff_json(self._raw(state))
 
 
-class FieldChanges:
-    """The values of a fixed list of named fields that changed since the last call.
-
-    For link health and simulator counters, which the trace reads every tick but
-    which change rarely (or one field at a time): the raw values arrive as one
-    tuple, so an unchanged reading costs one tuple comparison, and only fields
-    whose raw value differs are encoded (floats rounded, as in :func:`_round`)
-    and compared with what was recorded.
-
-    Args:
-        names: The field names, in the order of the tuples given to :meth:`changes`.
-    """
-
-    def __init__(self, names: Sequence[str]) -> None:
-        self.names = tuple(names)
-        self.values: dict[str, Any] = {}
-        """Field name -> last recorded (encoded) value."""
-        self._raw: tuple[Any, ...] = (_MISSING,) * len(self.names)
-
-    def changes(self, raw: tuple[Any, ...]) -> dict[str, Any]:
-        """Record ``raw`` (one value per name) and return the encoded values that changed."""
-        previous = self._raw
-        if raw == previous:
-            return {}
-        self._raw = raw
-        changed: dict[str, Any] = {}
-        values = self.values
-        for name, value in compress(zip(self.names, raw, strict=True), map(ne, raw, previous)):
-            encoded = encode_value(value)
-            if values.get(name, _MISSING) != encoded:
-                values[name] = encoded
-                changed[name] = encoded
-        return changed
-
-
-def encode_value(value: Any) -> Any:
-    """A counter or health value as JSON: floats rounded (non-finite as strings)."""
-    kind = type(value)
-    if kind is float:
-        return round(value, _DECIMALS) if -_INF < value < _INF else _round(value)
-    if kind is int or kind is bool or kind is str or value is None:
-        return value
-    return jsonable(round(value, _DECIMALS) if isinstance(value, float) else value)
-
-
-_INF = float("inf")
+encode_value = _encode_value
 
 
 def _number(value: Any) -> float:

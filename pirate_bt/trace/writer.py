@@ -53,19 +53,15 @@ SIGKILL could stop with ticks still queued).
 
 from __future__ import annotations
 
-import gzip
-import json
 import logging
 import operator
-import os
 import platform
-import zlib
 from collections.abc import Callable, Mapping
 from datetime import UTC, datetime
-from itertools import compress, repeat
+from itertools import compress
 from pathlib import Path
 from types import TracebackType
-from typing import IO, TYPE_CHECKING, Any, ClassVar, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import py_trees
 
@@ -77,12 +73,24 @@ from pirate_bt.trace.records import (
     OUTCOMES,
     STATUS_CODE,
     TRACE_VERSION,
-    FieldChanges,
-    StateChanges,
+    CommandRecord,
     TickExtras,
-    encode_value,
-    flatten_state,
     link_health_raw,
+    state_layout,
+)
+from pirate_bt.trace.sink import (
+    LINE,
+    SETUP,
+    TICK,
+    WRITER_CLASSES,
+    GzipJsonLinesWriter,
+    JsonLinesWriter,
+    SinkError,
+    SinkProcess,
+    TickEncoder,
+    TraceFormatWriter,
+    encode_json,
+    encode_value,
 )
 from pirate_bt.trace.structure import TreeStructure, iter_with_ids, jsonable, tree_structure
 
@@ -95,6 +103,7 @@ __all__ = [
     "WRITERS",
     "GzipJsonLinesWriter",
     "JsonLinesWriter",
+    "SinkError",
     "TraceFormatWriter",
     "TraceRecorder",
     "open_writer",
@@ -103,100 +112,19 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_MISSING: Any = object()
-
-# One encoder built once: json.dumps with keyword arguments builds a new JSONEncoder
-# on every call. Records hold fresh plain data (no cycles), so the check is skipped.
-_encode_json = json.JSONEncoder(
-    separators=(",", ":"), ensure_ascii=False, allow_nan=False, check_circular=False
-).encode
 _PLAIN_TYPES = frozenset({str, int, bool, type(None)})
 """Blackboard value types that :func:`jsonable` returns unchanged."""
+_IMMUTABLE_TYPES = _PLAIN_TYPES | {float}
+"""Blackboard value types that cannot change without a new write."""
 _get_status = operator.attrgetter("status")
 _get_feedback = operator.attrgetter("feedback_message")
 _is_not = operator.is_not
 _ne = operator.ne
+_code = STATUS_CODE.__getitem__
+_COMMANDS_MAX = 4096
+"""Most distinct command records whose JSON text a recorder keeps."""
 
 TreeLike = py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour
-
-
-class TraceFormatWriter:
-    """Writes trace records to a file in one format; subclasses implement ``_open``.
-
-    Args:
-        path: Where to write (created or truncated).
-        sync: Also ``fsync`` after every record, for power loss (slower).
-    """
-
-    suffixes: ClassVar[tuple[str, ...]] = ()
-
-    def __init__(self, path: str | Path, sync: bool = False) -> None:
-        self.path = Path(path)
-        self.sync = sync
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = self._open()
-
-    def _open(self) -> IO[bytes]:
-        raise NotImplementedError
-
-    def _flush(self) -> None:
-        self._file.flush()
-
-    def write(self, record: Mapping[str, Any]) -> None:
-        """Write one record as one line and flush it to the operating system."""
-        self._file.write((_encode_json(record) + "\n").encode("utf-8"))
-        self._flush()
-        if self.sync:
-            os.fsync(self._file.fileno())
-
-    def close(self) -> None:
-        """Flush and close the file (idempotent)."""
-        if not self._file.closed:
-            self._file.close()
-
-
-class JsonLinesWriter(TraceFormatWriter):
-    """Plain JSON Lines (``.jsonl``); the record layout is in the module docstring."""
-
-    suffixes = (".jsonl", ".ndjson")
-
-    def _open(self) -> IO[bytes]:
-        # Unbuffered: each record goes to the kernel in write(), nothing waits in Python.
-        return open(self.path, "wb", buffering=0)
-
-    def write(self, record: Mapping[str, Any]) -> None:
-        """Write one record as one line with one ``os.write`` (the kernel has it on return)."""
-        data = (_encode_json(record) + "\n").encode("utf-8")
-        fd = self._file.fileno()
-        written = os.write(fd, data)
-        while written < len(data):  # a regular file takes it all; a pipe or a full disk may not
-            written += os.write(fd, data[written:])
-        if self.sync:
-            os.fsync(fd)
-
-
-class GzipJsonLinesWriter(TraceFormatWriter):
-    """Gzip-compressed JSON Lines (``.jsonl.gz``), sync-flushed per record.
-
-    A sync flush ends each record on a byte boundary of the deflate stream, so a
-    killed run still decompresses up to its last complete tick.
-    """
-
-    suffixes = (".jsonl.gz",)
-
-    def _open(self) -> IO[bytes]:
-        self._raw = open(self.path, "wb")  # noqa: SIM115 - closed by close()
-        return cast(IO[bytes], gzip.GzipFile(fileobj=self._raw, mode="wb", compresslevel=6))
-
-    def _flush(self) -> None:
-        assert isinstance(self._file, gzip.GzipFile)
-        self._file.flush(zlib.Z_SYNC_FLUSH)
-        self._raw.flush()
-
-    def close(self) -> None:
-        super().close()
-        if not self._raw.closed:
-            self._raw.close()
 
 
 #: File suffix -> format writer class; the longest matching suffix wins.
@@ -228,6 +156,19 @@ def open_writer(path: str | Path, sync: bool = False) -> TraceFormatWriter:
     return WRITERS[suffix_of(path, WRITERS)](path, sync=sync)
 
 
+def _plain(value: Any) -> Any:
+    """``value`` with only what ``marshal`` carries (a float subclass becomes a float...)."""
+    if type(value) in _IMMUTABLE_TYPES:
+        return value
+    if isinstance(value, tuple | list):
+        return type(value)(map(_plain, value)) if type(value) in (tuple, list) else list(value)
+    if isinstance(value, Mapping):
+        return {_plain(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, float):
+        return float(value)
+    return encode_value(value)
+
+
 def _software() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -256,9 +197,16 @@ class TraceRecorder:
     tick (or attach :meth:`post_tick_handler`), then :meth:`close`. Used as a
     context manager it closes with outcome ``error`` if the block raises.
 
+    Each tick is *captured* in the caller's thread (what changed, as plain values)
+    and *encoded and written* by a writer process (``background``, the default
+    for the built-in formats) or in-process; see :mod:`pirate_bt.trace.sink`.
+    Either way the file holds the same bytes, and every tick handed over before a
+    crash (even SIGKILL) is written. :meth:`close` returns once everything is on
+    disk.
+
     Args:
         destination: A path (the format is chosen by suffix) or an open
-            :class:`TraceFormatWriter`.
+            :class:`TraceFormatWriter` (always written in-process).
         tree: The tree (a ``BehaviourTree`` or its root behaviour). Its shape
             must not change during the run.
         robot: The robot description, for its name and digest.
@@ -273,6 +221,14 @@ class TraceRecorder:
         blackboard: Record blackboard writes.
         sync: fsync every record (see :class:`TraceFormatWriter`).
         meta: Free-form JSON values for the header.
+        background: Encode and write in a writer process: ``None`` (default) when
+            the format allows it, falling back to in-process if the process cannot
+            start; ``True`` to insist; ``False`` for in-process.
+
+    Raises:
+        InputError: unknown file suffix.
+        OSError: the file cannot be created.
+        SinkError: ``background=True`` and the writer process cannot start.
     """
 
     def __init__(
@@ -292,13 +248,31 @@ class TraceRecorder:
         blackboard: bool = True,
         sync: bool = False,
         meta: Mapping[str, Any] | None = None,
+        background: bool | None = None,
     ) -> None:
-        self._out = (
-            destination
-            if isinstance(destination, TraceFormatWriter)
-            else open_writer(destination, sync=sync)
-        )
-        self.path = self._out.path
+        self._out: TraceFormatWriter | None = None
+        self._sink: SinkProcess | None = None
+        self._encoder: TickEncoder | None = None
+        if isinstance(destination, TraceFormatWriter):
+            if background:
+                raise ValueError("an open format writer is written in-process (background=False)")
+            self._out = destination
+        else:
+            writer = WRITERS[suffix_of(destination, WRITERS)]
+            if background is not False and WRITER_CLASSES.get(writer.__name__) is writer:
+                try:
+                    self._sink = SinkProcess(destination, writer.__name__, sync=sync)
+                except SinkError as exc:
+                    if background:
+                        raise
+                    logger.warning("%s; writing the trace in-process", exc)
+            elif background:
+                raise ValueError(f"{writer.__name__} has no writer process; use background=False")
+            if self._sink is None:
+                self._out = writer(destination, sync=sync)
+        self.path = self._out.path if self._out is not None else Path(cast(str | Path, destination))
+        self.background = self._sink is not None
+        """Whether a writer process encodes and writes this trace."""
         self.clock: Clock = clock or WallClock()
         self.structure: TreeStructure = tree_structure(tree)
         self.full_state = full_state
@@ -306,21 +280,36 @@ class TraceRecorder:
         self.every_tick = every_tick
         self.blackboard = blackboard
         self._nodes = [node for _, node in iter_with_ids(tree)]
-        self._ids = [node_id for node_id, _ in iter_with_ids(tree)]
+        ids = [node_id for node_id, _ in iter_with_ids(tree)]
+        self._indices = range(len(self._nodes))
         self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
-        self._feedback = [""] * len(self._nodes)
+        self._feedback: list[Any] = [""] * len(self._nodes)
         self._bb: dict[str, Any] = {}
-        self._state_changes = StateChanges(readings=readings)
-        self._link = FieldChanges(LINK_FIELDS)
-        self._sim: dict[str, Any] = {}
-        self._sim_raw: dict[str, Any] = {}
-        self._last_link: LinkHealth | None = None
+        self._bb_raw: dict[str, Any] = {}
+        self._bb_immutable = True
+        self._layout: tuple[str | None, ...] | None = None
+        self._state_raw: tuple[Any, ...] | None = None
         self._last_state: RobotState | None = None
+        self._last_link: LinkHealth | None = None
+        self._link_raw: tuple[Any, ...] | None = None
+        self._sim_raw: dict[Any, Any] | None = None
+        self._commands: dict[CommandRecord, str] = {}
         self._tick = 0
         self._t_s = 0.0
         self._closed = False
         self._start_s = self.clock.now()
         self._root = self._nodes[0]
+        setup = (SETUP, ids, every_tick, full_state, readings, list(LINK_FIELDS))
+        if self._sink is not None:
+            self._sink.send(setup)
+        else:
+            self._encoder = TickEncoder(
+                ids,
+                every_tick=every_tick,
+                full_state=full_state,
+                readings=readings,
+                link_fields=LINK_FIELDS,
+            )
         header: dict[str, Any] = {
             "type": "header",
             "format": FORMAT_NAME,
@@ -340,7 +329,7 @@ class TraceRecorder:
             "readings": readings,
             "meta": jsonable(dict(meta or {})),
         }
-        self._out.write(header)
+        self._write_line(encode_json(header) + "\n")
 
     @property
     def ticks(self) -> int:
@@ -353,47 +342,111 @@ class TraceRecorder:
         Args:
             extras: State, commands, link health, counters and events of the tick.
             time_s: The tick's clock time; defaults to ``clock.now()``.
+
+        Raises:
+            RuntimeError: the trace is closed.
+            SinkError: the writer process has failed (its reason is in the message).
         """
         if self._closed:
             raise RuntimeError(f"trace {self.path} is closed")
         self._tick += 1
         now = self.clock.now() if time_s is None else time_s
-        self._t_s = round(now - self._start_s, 6)
-        record: dict[str, Any] = {"type": "tick", "n": self._tick, "t_s": self._t_s}
+        t_s = self._t_s = round(now - self._start_s, 6)
+        # Capture only: what moved since the last tick, as plain values (the writer
+        # compares with what it recorded, rounds and encodes; see sink.TickEncoder).
         # Every node is read every tick (a node that was not ticked can still change, when
-        # its parent stops it), but through map + attrgetter and one C-level list
-        # comparison. When something differs, map(is_not/ne) marks the changed nodes and
-        # compress picks their ids and values, all in C: py_trees' Timeout rewrites its
-        # feedback every tick, so this path runs every tick too, not only at step ends.
+        # its parent stops it), through map + attrgetter and one C-level list comparison;
+        # map(is_not/ne) and compress pick out the nodes that changed, all in C (py_trees'
+        # Timeout rewrites its feedback every tick, so that path runs every tick too).
+        status = feedback = None
         statuses = list(map(_get_status, self._nodes))
         if statuses != self._status:
             flags = list(map(_is_not, statuses, self._status))
-            record["status"] = dict(
-                zip(
-                    compress(self._ids, flags),
-                    map(STATUS_CODE.__getitem__, compress(statuses, flags)),
-                    strict=True,
-                )
-            )
+            codes = map(_code, compress(statuses, flags))
+            status = list(zip(compress(self._indices, flags), codes, strict=True))
             self._status = statuses
         messages = list(map(_get_feedback, self._nodes))
         if messages != self._feedback:
             flags = list(map(_ne, messages, self._feedback))
-            record["feedback"] = dict(
-                zip(compress(self._ids, flags), compress(messages, flags), strict=True)
+            feedback = list(
+                zip(compress(self._indices, flags), compress(messages, flags), strict=True)
             )
             self._feedback = messages
-        if self.blackboard:
-            self._blackboard_changes(record)
+        bb = self._blackboard_changes() if self.blackboard else None
+        keys = raw = commands = link = sim = events = None
         if extras is not None:
-            self._extras(extras, record)
-        if self.every_tick or len(record) > 3:
-            self._out.write(record)
+            state = extras.state
+            if state is not None and (self.full_state or state is not self._last_state):
+                self._last_state = state
+                layout, values = state_layout(state, self.readings)
+                if layout != self._layout:
+                    self._layout = keys = layout
+                if self.full_state or keys is not None or values != self._state_raw:
+                    self._state_raw = raw = values
+            if extras.commands:
+                commands = list(map(self._command_json, extras.commands))
+            health = extras.link
+            if health is not None and health is not self._last_link:
+                # A fresh object every tick whose rtt may be nan (nan != nan makes dataclass
+                # == useless): its fields as one tuple compare cheaply instead.
+                self._last_link = health
+                values = link_health_raw(health)
+                if values != self._link_raw:
+                    self._link_raw = link = values
+            if extras.sim is not None and extras.sim != self._sim_raw:
+                self._sim_raw = sim = dict(extras.sim)  # a copy: the caller may mutate its own
+            if extras.events:
+                events = ',"events":' + encode_json([e.to_json() for e in extras.events])
+        message = (
+            TICK,
+            self._tick,
+            t_s,
+            status,
+            feedback,
+            bb,
+            keys,
+            raw,
+            commands,
+            link,
+            sim,
+            events,
+        )
+        if self._sink is not None:
+            try:
+                self._sink.send(message)
+            except ValueError:  # something marshal cannot carry, such as a numpy float
+                self._sink.send(_plain(message))
+        else:
+            assert self._encoder is not None and self._out is not None
+            line = self._encoder.encode(message)
+            if line is not None:
+                self._out.write_line(line)
 
-    def _blackboard_changes(self, record: dict[str, Any]) -> None:
+    def _write_line(self, line: str) -> None:
+        if self._sink is not None:
+            self._sink.send((LINE, line))
+        else:
+            assert self._out is not None
+            self._out.write_line(line)
+
+    def _command_json(self, command: CommandRecord) -> str:
+        # A behaviour re-sends the same setpoint tick after tick, each time as a new but
+        # equal record: its text is looked up (one hash, one comparison), not re-encoded.
+        cache = self._commands
+        try:
+            text = cache.get(command)
+        except TypeError:  # a hand-made record holding something unhashable
+            return encode_json(command.to_json())
+        if text is None:
+            if len(cache) >= _COMMANDS_MAX:
+                cache.clear()
+            text = cache[command] = encode_json(command.to_json())
+        return text
+
+    def _blackboard_changes(self) -> str | None:
         storage = py_trees.blackboard.Blackboard.storage
-        if not storage and not self._bb:
-            return
+        if self._bb_immutable and storage == self._bb_raw:
+            return None  # nothing written since the last tick, and no value could change in place
         changed: dict[str, Any] = {}
         for key, value in storage.items():
             encoded = value if type(value) in _PLAIN_TYPES else jsonable(value)
@@ -403,59 +456,14 @@ class TraceRecorder:
         unset = [key for key in self._bb if key not in storage]
         for key in unset:
             del self._bb[key]
+        self._bb_raw = dict(storage)
+        self._bb_immutable = all(map(_IMMUTABLE_TYPES.__contains__, map(type, storage.values())))
+        text = ""
         if changed:
-            record["bb"] = changed
+            text += ',"bb":' + encode_json(changed)
         if unset:
-            record["bb_unset"] = unset
-
-    def _sim_changes(self, sim: Mapping[str, Any]) -> dict[str, Any]:
-        # Names may come and go (a localiser adds its own), so this is a dict diff, not a
-        # FieldChanges tuple. An unchanged mapping costs one C-level dict comparison;
-        # otherwise map(ne) over the values and the last raw values (looked up in C)
-        # marks what moved, and only those are rounded and compared with the record.
-        raw = self._sim_raw
-        if sim == raw:
-            return {}
-        changed: dict[str, Any] = {}
-        values = self._sim
-        moved = map(_ne, sim.values(), map(raw.get, sim, repeat(_MISSING)))
-        for key in compress(list(sim), moved):
-            value = raw[key] = sim[key]
-            name = key if type(key) is str else str(key)
-            encoded = encode_value(value)
-            if values.get(name, _MISSING) != encoded:
-                values[name] = encoded
-                changed[name] = encoded
-        return changed
-
-    def _extras(self, extras: TickExtras, record: dict[str, Any]) -> None:
-        state = extras.state
-        if state is not None and (self.full_state or state is not self._last_state):
-            self._last_state = state
-            if self.full_state:
-                flat = flatten_state(state, readings=self.readings)
-                record["state"] = flat
-                record["full"] = True
-            else:
-                changed = self._state_changes.changes(state)
-                if changed:
-                    record["state"] = changed
-        if extras.commands:
-            record["commands"] = [c.to_json() for c in extras.commands]
-        link = extras.link
-        if link is not None and link is not self._last_link:
-            # Link health is a fresh object every tick whose rtt may be nan (nan != nan makes
-            # dataclass == useless); its fields as one tuple compare cheaply instead.
-            self._last_link = link
-            changed = self._link.changes(link_health_raw(link))
-            if changed:
-                record["link"] = changed
-        if extras.sim is not None:
-            changed = self._sim_changes(extras.sim)
-            if changed:
-                record["sim"] = changed
-        if extras.events:
-            record["events"] = [e.to_json() for e in extras.events]
+            text += ',"bb_unset":' + encode_json(unset)
+        return text or None
 
     def post_tick_handler(
         self, extras: Callable[[], TickExtras | None] | None = None
@@ -510,9 +518,12 @@ class TraceRecorder:
             )
             record["error"] = {"node": error_node, "exception": text}
         try:
-            self._out.write(record)
+            self._write_line(encode_json(record) + "\n")
         finally:
-            self._out.close()
+            if self._sink is not None:
+                self._sink.close()  # waits until the writer process has written everything
+            if self._out is not None:
+                self._out.close()
         logger.debug("trace %s closed after %d ticks (%s)", self.path, self._tick, outcome)
 
     def __enter__(self) -> TraceRecorder:
