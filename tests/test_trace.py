@@ -108,10 +108,13 @@ def run_and_record(path: Path, ticks: int = 14, **options: Any) -> list[dict[str
     return live
 
 
+@pytest.mark.parametrize("background", [None, False], ids=["process", "inprocess"])
 @pytest.mark.parametrize("suffix", FORMATS)
-def test_round_trip_matches_live_tree_on_every_tick(tmp_path: Path, suffix: str) -> None:
+def test_round_trip_matches_live_tree_on_every_tick(
+    tmp_path: Path, suffix: str, background: bool | None
+) -> None:
     path = tmp_path / f"run{suffix}"
-    live = run_and_record(path)
+    live = run_and_record(path, background=background)
     trace = read_trace(path)
     assert trace.outcome == "success"
     assert trace.last_tick == len(live) - 1
@@ -252,7 +255,8 @@ WRITER_SCRIPT = textwrap.dedent(
         StatusQueue("a", [Status.RUNNING] * 1000000, Status.SUCCESS)])
     tree = py_trees.trees.BehaviourTree(root)
     clock = SimClock()
-    rec = TraceRecorder(sys.argv[1], tree, clock=clock, every_tick=True)
+    background = {"none": None, "false": False}[sys.argv[2]]
+    rec = TraceRecorder(sys.argv[1], tree, clock=clock, every_tick=True, background=background)
     n = 0
     while True:
         clock.advance(0.01)
@@ -260,35 +264,73 @@ WRITER_SCRIPT = textwrap.dedent(
         rec.record_tick()
         n += 1
         if n == 50:
-            print("ready", flush=True)
+            print("ready", rec.background, flush=True)
     """
 )
 
 
+def writer_processes(path: Path) -> list[int]:
+    """Pids of trace writer processes writing ``path`` (their command line names it)."""
+    pids = []
+    for proc in Path("/proc").iterdir():
+        if proc.name.isdigit():
+            try:
+                argv = (proc / "cmdline").read_bytes().split(b"\0")
+            except OSError:
+                continue
+            if str(path).encode() in argv and any(a.endswith(b"sink.py") for a in argv):
+                pids.append(int(proc.name))
+    return pids
+
+
+def wait_for_writers(path: Path, timeout_s: float = 10.0) -> None:
+    """Wait until no writer process is writing ``path`` any more."""
+    deadline = time.monotonic() + timeout_s
+    while writer_processes(path):
+        assert time.monotonic() < deadline, f"the writer of {path} did not finish"
+        time.sleep(0.02)
+
+
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="needs /proc")
+@pytest.mark.parametrize("background", ["none", "false"])
 @pytest.mark.parametrize("suffix", FORMATS)
-def test_sigkill_leaves_every_complete_tick(tmp_path: Path, suffix: str) -> None:
+@pytest.mark.parametrize("group", [False, True], ids=["pid", "group"])
+def test_sigkill_leaves_every_complete_tick(
+    tmp_path: Path, suffix: str, background: str, group: bool
+) -> None:
+    """SIGKILL to the run (or to its whole process group) loses no tick handed over."""
     path = tmp_path / f"killed{suffix}"
     proc = subprocess.Popen(
-        [sys.executable, "-c", WRITER_SCRIPT, str(path)],
+        [sys.executable, "-c", WRITER_SCRIPT, str(path), background],
         stdout=subprocess.PIPE,
         env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])},
+        start_new_session=True,
     )
     try:
         assert proc.stdout is not None
-        assert proc.stdout.readline().strip() == b"ready"
+        ready = proc.stdout.readline().split()
+        assert ready == [b"ready", b"True" if background == "none" else b"False"]
         time.sleep(0.05)
-        proc.send_signal(signal.SIGKILL)
+        if group:
+            os.killpg(proc.pid, signal.SIGKILL)
+        else:
+            proc.send_signal(signal.SIGKILL)
     finally:
         proc.wait(timeout=10)
     assert proc.returncode == -signal.SIGKILL
+    # The writer process outlives the run (its own session), writes what it was handed
+    # and exits; in-process writing leaves nothing behind.
+    wait_for_writers(path)
     trace = read_trace(path)
     assert trace.end is None and trace.outcome == "incomplete"
     assert len(trace.ticks) >= 50
     assert [t.n for t in trace.ticks] == list(range(1, len(trace.ticks) + 1))
     assert trace.frame_at(trace.last_tick).status == {"0": "R", "0.0": "R"}
-    if suffix == ".jsonl.gz":
+    if suffix == ".jsonl.gz" and background == "false":
         with pytest.raises(EOFError):
             gzip.decompress(path.read_bytes())  # no trailer: the stream really was cut
+    elif suffix == ".jsonl.gz":
+        gzip.decompress(path.read_bytes())  # the writer process closed the stream properly
 
 
 def test_attach_trace_to_runner(tmp_path: Path) -> None:

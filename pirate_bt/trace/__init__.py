@@ -33,6 +33,7 @@ from pirate_bt.trace.records import (
     TraceEvent,
     trace_schema,
 )
+from pirate_bt.trace.sink import SinkError
 from pirate_bt.trace.structure import NodeInfo, TreeStructure, tree_structure
 from pirate_bt.trace.text import format_summary, summarise, tree_text
 from pirate_bt.trace.writer import WRITERS, TraceRecorder, open_writer
@@ -44,6 +45,7 @@ __all__ = [
     "CommandRecord",
     "LiveView",
     "NodeInfo",
+    "SinkError",
     "TickExtras",
     "TickFrame",
     "TickRecord",

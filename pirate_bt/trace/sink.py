@@ -587,6 +587,7 @@ class SinkProcess:
         except (ImportError, OSError):
             pass
         self._closed = False
+        self._reason: str | None = None
 
     @property
     def pid(self) -> int:
@@ -635,15 +636,16 @@ class SinkProcess:
             self._proc.stderr.close()
 
     def _failure(self) -> str:
-        code = self._proc.wait(5)
-        detail = ""
-        if self._proc.stderr is not None:
-            lines = self._proc.stderr.read().decode("utf-8", "replace").strip().splitlines()
-            self._proc.stderr.close()
-            detail = lines[-1] if lines else ""
-        return (
-            f"{self.path}: the trace writer failed (exit {code}){': ' + detail if detail else ''}"
-        )
+        if self._reason is None:
+            code = self._proc.wait(5)
+            detail = ""
+            if self._proc.stderr is not None:
+                text = self._proc.stderr.read().decode("utf-8", "replace").strip()
+                self._proc.stderr.close()
+                detail = text.splitlines()[-1] if text else ""
+            because = f": {detail}" if detail else ""
+            self._reason = f"{self.path}: the trace writer failed (exit {code}){because}"
+        return self._reason
 
 
 def _messages(fd: int) -> Any:
