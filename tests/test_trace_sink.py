@@ -16,6 +16,7 @@ from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import Reading, RobotState
 from pirate_bt.trace import TickExtras, TraceRecorder, read_trace
 from pirate_bt.trace.sink import (
+    END,
     LINE,
     SETUP,
     SinkError,
@@ -127,6 +128,8 @@ def test_serve_writes_ticks_and_lines(tmp_path: Path) -> None:
         (2, 1, 0.01, [(0, "R"), (1, "R")], None, None, None, None, None, None, None, None),
         (2, 2, 0.02, None, None, None, None, None, None, None, None, None),  # nothing: no line
         (2, 3, 0.03, None, [(1, "50 %")], None, None, None, None, [True], None, None),
+        (END, '{"type":"end"}\n'),
+        (LINE, "after the end: never written\n"),
     ]
     for message in messages:
         payload = marshal.dumps(message)
@@ -142,6 +145,7 @@ def test_serve_writes_ticks_and_lines(tmp_path: Path) -> None:
         '{"type":"header"}',
         '{"type":"tick","n":1,"t_s":0.01,"status":{"0":"R","0.0":"R"}}',
         '{"type":"tick","n":3,"t_s":0.03,"feedback":{"0.0":"50 %"},"link":{"connected":true}}',
+        '{"type":"end"}',
     ]
 
 

@@ -31,6 +31,9 @@ Messages (tuples; the first item says which):
     items of the link-health tuples.
 ``(LINE, text)``
     A whole record, already encoded (the header and the end record).
+``(END, text)``
+    The end record, already encoded: the writer process writes it, closes the file
+    and exits at once (the pipe closing without it means the run was cut off).
 ``(TICK, n, t_s, status, feedback, bb, state_keys, state_raw, commands, link, sim, events)``
     One tick: ``status`` is a list of ``(index, code)``, ``feedback`` a list of
     ``(index, message)``, ``bb`` and ``events`` the JSON members already encoded
@@ -54,7 +57,6 @@ import math
 import os
 import signal
 import struct
-import subprocess
 import sys
 import time
 import zlib
@@ -63,9 +65,13 @@ from enum import Enum
 from itertools import compress, repeat
 from operator import is_not, itemgetter, ne
 from pathlib import Path
-from typing import IO, Any, ClassVar, cast
+from typing import IO, TYPE_CHECKING, Any, ClassVar, cast
+
+if TYPE_CHECKING:
+    pass
 
 __all__ = [
+    "END",
     "LINE",
     "SETUP",
     "TICK",
@@ -84,7 +90,7 @@ __all__ = [
     "rounded_json",
 ]
 
-SETUP, LINE, TICK = 0, 1, 2
+SETUP, LINE, TICK, END = 0, 1, 2, 3
 
 # Floats in state, link and counter values are rounded to this many decimals:
 # 1 µrad, 1 µm/s, 1 µN are far below any sensor's resolution, and rounding
@@ -523,8 +529,9 @@ WRITER_CLASSES: dict[str, type[TraceFormatWriter]] = {
 # --- the writer process ------------------------------------------------------------
 
 _LENGTH = struct.Struct("<I")
-_POLL_S = 0.01
-"""How long the writer process sleeps after draining the pipe (no wake-up per tick)."""
+_POLL_S = 0.002
+"""How long the writer process sleeps after draining the pipe: it is not woken by every
+tick's write, and it notices the end of a run within this time."""
 _PIPE_BYTES = 1 << 20
 
 
@@ -553,6 +560,8 @@ class SinkProcess:
             raise ValueError(f"no writer class {writer!r} for a writer process")
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        import subprocess  # here, not at the top: the writer process itself never needs it
+
         fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
         try:
             if not Path(__file__).is_file() or not sys.executable:
@@ -588,6 +597,7 @@ class SinkProcess:
             pass
         self._closed = False
         self._reason: str | None = None
+        self._stderr = b""
 
     @property
     def pid(self) -> int:
@@ -614,7 +624,8 @@ class SinkProcess:
         """Close the pipe and wait until the writer process has written everything.
 
         Raises:
-            SinkError: the writer process failed (its message is included).
+            SinkError: the writer process failed (its message is included), or did
+                not finish within ``timeout_s``.
         """
         if self._closed:
             return
@@ -622,27 +633,40 @@ class SinkProcess:
         assert self._proc.stdin is not None
         with contextlib.suppress(BrokenPipeError):
             self._proc.stdin.close()
-        try:
-            code = self._proc.wait(timeout_s)
-        except subprocess.TimeoutExpired:
+        # Its standard error closes when it exits: wait for that end of file, not with
+        # Popen.wait(timeout), which polls with growing sleeps and overshoots by ms.
+        if not self._drain_stderr(timeout_s):
             self._proc.kill()
             self._proc.wait()
-            raise SinkError(
-                f"{self.path}: the trace writer did not finish in {timeout_s:g} s"
-            ) from None
-        if code != 0:
+            raise SinkError(f"{self.path}: the trace writer did not finish in {timeout_s:g} s")
+        if self._proc.wait() != 0:
             raise SinkError(self._failure())
-        if self._proc.stderr is not None:
-            self._proc.stderr.close()
+
+    def _drain_stderr(self, timeout_s: float) -> bool:
+        """Read the writer's standard error to its end; ``False`` if that took too long."""
+        import select
+
+        stream = self._proc.stderr
+        if stream is None or stream.closed:
+            return True
+        fd = stream.fileno()
+        deadline = time.monotonic() + timeout_s
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fd], [], [], left)[0]:
+                return False
+            chunk = os.read(fd, 65536)
+            if not chunk:
+                stream.close()
+                return True
+            self._stderr += chunk
 
     def _failure(self) -> str:
         if self._reason is None:
+            self._drain_stderr(5.0)
             code = self._proc.wait(5)
-            detail = ""
-            if self._proc.stderr is not None:
-                text = self._proc.stderr.read().decode("utf-8", "replace").strip()
-                self._proc.stderr.close()
-                detail = text.splitlines()[-1] if text else ""
+            text = self._stderr.decode("utf-8", "replace").strip()
+            detail = text.splitlines()[-1] if text else ""
             because = f": {detail}" if detail else ""
             self._reason = f"{self.path}: the trace writer failed (exit {code}){because}"
         return self._reason
@@ -682,6 +706,9 @@ def serve(fd_in: int, out: TraceFormatWriter) -> None:
                 out.write_line(line)
         elif kind == LINE:
             out.write_line(message[1])
+        elif kind == END:
+            out.write_line(message[1])
+            return
         elif kind == SETUP:
             _, ids, every_tick, full_state, readings, link_fields = message
             encoder = TickEncoder(
@@ -712,4 +739,6 @@ def main(argv: Sequence[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    status = main(sys.argv)
+    sys.stderr.flush()
+    os._exit(status)  # the file is closed: no interpreter teardown to wait for

@@ -79,6 +79,7 @@ from pirate_bt.trace.records import (
     state_layout,
 )
 from pirate_bt.trace.sink import (
+    END,
     LINE,
     SETUP,
     TICK,
@@ -518,7 +519,10 @@ class TraceRecorder:
             )
             record["error"] = {"node": error_node, "exception": text}
         try:
-            self._write_line(encode_json(record) + "\n")
+            if self._sink is not None:
+                self._sink.send((END, encode_json(record) + "\n"))
+            else:
+                self._write_line(encode_json(record) + "\n")
         finally:
             if self._sink is not None:
                 self._sink.close()  # waits until the writer process has written everything
