@@ -151,6 +151,8 @@ _COUNTER_FIELDS = {
     "watchdog_trips": "watchdog_trips",
 }
 _counter_raw = attrgetter(*_COUNTER_FIELDS.values())
+_COUNTER_KEYS = tuple(_COUNTER_FIELDS)
+_NUMBER_TYPES = frozenset({int, float, bool})
 
 
 def counter_values(counters: Any) -> dict[str, float]:
@@ -203,7 +205,10 @@ class _CounterCache:
             return counter_values(counters)
         if raw != self._raw:
             self._raw = raw
-            self._values = counter_values(counters)
+            if _NUMBER_TYPES.issuperset(map(type, raw)):  # the usual case: C-level zip and map
+                self._values = dict(zip(_COUNTER_KEYS, map(float, raw), strict=True))
+            else:
+                self._values = counter_values(counters)
         # Identity stands for "unchanged" only for objects that cannot change.
         kind = type(counters)
         frozen = self._frozen.get(kind)

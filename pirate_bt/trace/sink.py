@@ -30,16 +30,18 @@ Messages (tuples; the first item says which):
     of ticks refer to nodes by index into this list. ``link_fields`` names the
     items of the link-health tuples.
 ``(LINE, text)``
-    A whole record, already encoded (the header and the end record).
+    A whole record, already encoded (the header; the end record in-process).
 ``(END, text)``
     The end record, already encoded: the writer process writes it, closes the file
     and exits at once (the pipe closing without it means the run was cut off).
 ``(TICK, n, t_s, status, feedback, bb, state_keys, state_raw, commands, link, sim, events)``
-    One tick: ``status`` is a list of ``(index, code)``, ``feedback`` a list of
-    ``(index, message)``, ``bb`` and ``events`` the JSON members already encoded
-    (``,"bb":{...}``), ``state_keys``/``state_raw`` the state's layout (``None``
-    when unchanged) and raw values (``None`` when not given or unchanged),
-    ``commands`` a list of JSON texts, ``link`` the raw link-health tuple and
+    One tick: ``t_s`` is the seconds since the header (not yet rounded),
+    ``status`` a list of ``(index, code)``, ``feedback`` a list of
+    ``(index, message)``, ``bb`` and ``events`` the JSON members already
+    encoded (``,"bb":{...}``), ``state_keys``/``state_raw`` the state's layout
+    (``None`` when unchanged) and raw values (``None`` when not given or
+    unchanged), ``commands`` a list of JSON texts, ``link`` the raw
+    link-health tuple and
     ``sim`` the counters (``None`` when unchanged or not given).
 
 On the pipe each message is a 4-byte little-endian length and its ``marshal``
@@ -418,6 +420,7 @@ class TickEncoder:
             parts.append(events)
         if not parts and not self.every_tick:
             return None
+        t_s = round(t_s, DECIMALS)
         time_text = repr(t_s) if type(t_s) is float and -_INF < t_s < _INF else encode_json(t_s)
         return f'{{"type":"tick","n":{n},"t_s":{time_text}{"".join(parts)}}}\n'
 

@@ -352,7 +352,7 @@ class TraceRecorder:
             raise RuntimeError(f"trace {self.path} is closed")
         self._tick += 1
         now = self.clock.now() if time_s is None else time_s
-        t_s = self._t_s = round(now - self._start_s, 6)
+        t_s = self._t_s = now - self._start_s  # rounded by the encoder
         # Capture only: what moved since the last tick, as plain values (the writer
         # compares with what it recorded, rounds and encodes; see sink.TickEncoder).
         # Every node is read every tick (a node that was not ticked can still change, when
@@ -506,7 +506,7 @@ class TraceRecorder:
         record: dict[str, Any] = {
             "type": "end",
             "n": self._tick,
-            "t_s": self._t_s,
+            "t_s": round(self._t_s, 6),
             "outcome": outcome,
         }
         if reason:
