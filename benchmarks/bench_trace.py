@@ -322,6 +322,30 @@ def report_simulated(
     )
 
 
+def report_mission(pairs: int = 3) -> None:
+    """The demo's whole lab mission with and without its trace, and the trace's size."""
+    from bench_mission import one_run
+
+    pct: list[float] = []
+    size = sim_s = 0.0
+    for _ in range(pairs):
+        with tempfile.TemporaryDirectory() as tmp:
+            off, sim_s, ticks = one_run(Path(tmp), trace=False)
+        with tempfile.TemporaryDirectory() as tmp:
+            on, _, _ = one_run(Path(tmp), trace=True)
+            size = (Path(tmp) / "trace.jsonl").stat().st_size
+        pct.append((on - off) / off * 100)
+        print(
+            f"lab mission ({ticks} ticks, {sim_s:.0f} s simulated): {off:.2f} s -> {on:.2f} s"
+            f" with trace, {(on - off) / ticks * 1e6:+.0f} us/tick, {pct[-1]:+.1f} %"
+        )
+    print(
+        f"lab mission, overhead: median {statistics.median(pct):+.1f} % over {pairs} pairs"
+        f" (target <= 15 %); trace {size / 1e6:.1f} MB = {size * 3600 / sim_s / 1e6:.1f} MB"
+        " per hour of PAB runs (20 Hz ticks, 100 Hz state)"
+    )
+
+
 def main() -> None:
     report("50-node tree (issue 6), Runner", *overhead(runner=True, tree_kind="issue6"))
     report("sparse 50-node tree, tree.tick()", *overhead())
@@ -330,6 +354,7 @@ def main() -> None:
     report_simulated(
         "straight PAB, simulated run", "trees/straight.yaml", "straight", {"distance": "1.5 m"}
     )
+    report_mission()
     for suffix in (".jsonl", ".jsonl.gz"):
         size = size_per_hour(suffix)
         print(f"trace size per hour ({suffix:<9}): {size / 1e6:8.1f} MB  (10 ms ticks)")

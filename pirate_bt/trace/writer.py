@@ -191,6 +191,64 @@ def _outcome_of(status: py_trees.common.Status) -> str:
     }.get(status, "interrupted")
 
 
+_TRACK_ABOVE = 100
+"""Trees with more nodes than this are read through a :class:`_NodeTracker`."""
+_DENSE_TICKS = 20
+"""Ticks in a row with most nodes touched after which the tracker is taken off."""
+
+
+class _NodeTracker:
+    """Notes the index of every node that is ticked or stopped, into ``touched``.
+
+    py_trees changes a node's status and feedback message only in its ``tick()``
+    (the generator its parent or the tree runs) and its ``stop()`` (called by its
+    parent, or by the tree on shutdown). Each node gets instance attributes that
+    shadow those two methods: a call notes the node and calls the method. The
+    class and the method code are untouched; :meth:`restore` removes the wrappers.
+    """
+
+    def __init__(self, nodes: list[py_trees.behaviour.Behaviour], touched: set[int]) -> None:
+        self._saved: list[tuple[py_trees.behaviour.Behaviour, Any, Any]] = []
+        note = touched.add
+        for index, node in enumerate(nodes):
+            own = vars(node)
+            self._saved.append((node, own.get("tick", _UNSET), own.get("stop", _UNSET)))
+            tick, stop = node.tick, node.stop
+
+            def ticked(
+                _tick: Callable[[], Any] = tick, _index: int = index, _note: Any = note
+            ) -> Any:
+                _note(_index)
+                return _tick()
+
+            def stopped(
+                *args: Any,
+                _stop: Callable[..., None] = stop,
+                _index: int = index,
+                _note: Any = note,
+                **kwargs: Any,
+            ) -> None:
+                _note(_index)
+                _stop(*args, **kwargs)
+
+            setattr(node, "tick", ticked)  # noqa: B010 - an instance attribute, on purpose
+            setattr(node, "stop", stopped)  # noqa: B010
+
+    def restore(self) -> None:
+        """Take the wrappers off (idempotent)."""
+        for node, tick, stop in self._saved:
+            own = vars(node)
+            for name, before in (("tick", tick), ("stop", stop)):
+                if before is _UNSET:
+                    own.pop(name, None)
+                else:
+                    own[name] = before
+        self._saved = []
+
+
+_UNSET: Any = object()
+
+
 class TraceRecorder:
     """Writes the trace of one run of one tree.
 
@@ -225,6 +283,13 @@ class TraceRecorder:
         background: Encode and write in a writer process: ``None`` (default) when
             the format allows it, falling back to in-process if the process cannot
             start; ``True`` to insist; ``False`` for in-process.
+        track_nodes: Read only the nodes ticked or stopped since the last tick,
+            instead of every node: ``None`` (default) for trees of more than 100
+            nodes, where most nodes are idle in any one tick (and dropped after 20
+            ticks in a row in which most nodes ticked). It wraps each node's
+            ``tick`` and ``stop`` for the run (undone by :meth:`close`), so a status
+            or feedback message set from outside a node's own ``tick``/``stop`` (by
+            another node, say) is not seen until that node next ticks or stops.
 
     Raises:
         InputError: unknown file suffix.
@@ -250,6 +315,7 @@ class TraceRecorder:
         sync: bool = False,
         meta: Mapping[str, Any] | None = None,
         background: bool | None = None,
+        track_nodes: bool | None = None,
     ) -> None:
         self._out: TraceFormatWriter | None = None
         self._sink: SinkProcess | None = None
@@ -285,6 +351,12 @@ class TraceRecorder:
         self._indices = range(len(self._nodes))
         self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
         self._feedback: list[Any] = [""] * len(self._nodes)
+        self._touched: set[int] | None = None
+        self._tracker: _NodeTracker | None = None
+        self._dense = 0
+        if track_nodes or (track_nodes is None and len(self._nodes) > _TRACK_ABOVE):
+            self._touched = set()
+            self._tracker = _NodeTracker(self._nodes, self._touched)
         self._bb: dict[str, Any] = {}
         self._bb_raw: dict[str, Any] = {}
         self._bb_immutable = True
@@ -360,19 +432,32 @@ class TraceRecorder:
         # map(is_not/ne) and compress pick out the nodes that changed, all in C (py_trees'
         # Timeout rewrites its feedback every tick, so that path runs every tick too).
         status = feedback = None
-        statuses = list(map(_get_status, self._nodes))
-        if statuses != self._status:
-            flags = list(map(_is_not, statuses, self._status))
-            codes = map(_code, compress(statuses, flags))
-            status = list(zip(compress(self._indices, flags), codes, strict=True))
-            self._status = statuses
-        messages = list(map(_get_feedback, self._nodes))
-        if messages != self._feedback:
-            flags = list(map(_ne, messages, self._feedback))
-            feedback = list(
-                zip(compress(self._indices, flags), compress(messages, flags), strict=True)
-            )
-            self._feedback = messages
+        touched = self._touched
+        if touched is not None and self._tick > 1:
+            # A big tree: only the nodes ticked or stopped since the last record can have
+            # changed (see _NodeTracker), usually a few dozen of hundreds.
+            status, feedback = self._touched_changes(sorted(touched))
+            # Most nodes ticked in every tick (a big parallel): reading them all is cheaper.
+            self._dense = self._dense + 1 if len(touched) * 2 > len(self._nodes) else 0
+            touched.clear()
+            if self._dense >= _DENSE_TICKS:
+                self._stop_tracking()
+        else:
+            if touched is not None:
+                touched.clear()
+            statuses = list(map(_get_status, self._nodes))
+            if statuses != self._status:
+                flags = list(map(_is_not, statuses, self._status))
+                codes = map(_code, compress(statuses, flags))
+                status = list(zip(compress(self._indices, flags), codes, strict=True))
+                self._status = statuses
+            messages = list(map(_get_feedback, self._nodes))
+            if messages != self._feedback:
+                flags = list(map(_ne, messages, self._feedback))
+                feedback = list(
+                    zip(compress(self._indices, flags), compress(messages, flags), strict=True)
+                )
+                self._feedback = messages
         bb = self._blackboard_changes() if self.blackboard else None
         keys = raw = commands = link = sim = events = None
         if extras is not None:
@@ -422,6 +507,29 @@ class TraceRecorder:
             line = self._encoder.encode(message)
             if line is not None:
                 self._out.write_line(line)
+
+    def _stop_tracking(self) -> None:
+        if self._tracker is not None:
+            self._tracker.restore()
+            self._tracker = self._touched = None
+
+    def _touched_changes(
+        self, indices: list[int]
+    ) -> tuple[list[tuple[int, str]] | None, list[tuple[int, Any]] | None]:
+        nodes, statuses, messages = self._nodes, self._status, self._feedback
+        status: list[tuple[int, str]] = []
+        feedback: list[tuple[int, Any]] = []
+        for index in indices:
+            node = nodes[index]
+            value = node.status
+            if value is not statuses[index]:
+                statuses[index] = value
+                status.append((index, _code(value)))
+            message = node.feedback_message
+            if message != messages[index]:
+                messages[index] = message
+                feedback.append((index, message))
+        return status or None, feedback or None
 
     def _write_line(self, line: str) -> None:
         if self._sink is not None:
@@ -499,6 +607,7 @@ class TraceRecorder:
         if self._closed:
             return
         self._closed = True
+        self._stop_tracking()
         if outcome is None:
             outcome = "error" if exception is not None else _outcome_of(self._root.status)
         if outcome not in OUTCOMES:

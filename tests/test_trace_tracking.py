@@ -1,0 +1,161 @@
+"""Big trees: the recorder reads only the nodes ticked or stopped since the last tick."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import py_trees
+import pytest
+from py_trees.behaviours import StatusQueue
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.trace import TraceRecorder, read_trace
+from pirate_bt.trace.structure import iter_with_ids
+from tests.test_trace import run_and_record
+
+R, S, F = Status.RUNNING, Status.SUCCESS, Status.FAILURE
+
+
+def big_tree(steps: int = 30) -> py_trees.trees.BehaviourTree:
+    """A mission-like tree: a memory sequence of steps, each a selector with a retry."""
+    children = []
+    for i in range(steps):
+        first = StatusQueue(f"try {i}", [R, F] if i % 3 == 0 else [R, R, S], S)
+        retry = StatusQueue(f"retry {i}", [R, S], S)
+        pick = py_trees.composites.Selector(f"step {i}", memory=False, children=[first, retry])
+        check = StatusQueue(f"check {i}", [S], S)
+        children.append(
+            py_trees.composites.Sequence(f"leg {i}", memory=True, children=[pick, check])
+        )
+    root = py_trees.composites.Sequence("mission", memory=True, children=children)
+    return py_trees.trees.BehaviourTree(root)
+
+
+def dense_tree(groups: int = 30) -> py_trees.trees.BehaviourTree:
+    """Every node ticks every tick: a parallel over sequences of always-running leaves."""
+    seqs = [
+        py_trees.composites.Sequence(
+            f"g{g}",
+            memory=False,
+            children=[StatusQueue(f"s{g}", [S], S), StatusQueue(f"r{g}", [R], R)],
+        )
+        for g in range(groups)
+    ]
+    policy = py_trees.common.ParallelPolicy.SuccessOnAll()
+    return py_trees.trees.BehaviourTree(py_trees.composites.Parallel("all", policy, seqs))
+
+
+def record(
+    path: Path, tree: py_trees.trees.BehaviourTree, ticks: int, **options: object
+) -> tuple[TraceRecorder, list[dict[str, Status]]]:
+    clock = SimClock()
+    live = [{i: n.status for i, n in iter_with_ids(tree)}]
+    rec = TraceRecorder(path, tree, clock=clock, **options)  # type: ignore[arg-type]
+    for _ in range(ticks):
+        clock.advance(0.05)
+        tree.tick()
+        rec.record_tick()
+        live.append({i: node.status for i, node in iter_with_ids(tree)})
+    rec.close()
+    return rec, live
+
+
+def test_big_trees_are_tracked_by_default_and_match_the_live_tree(tmp_path: Path) -> None:
+    tree = big_tree()
+    assert sum(1 for _ in tree.root.iterate()) > 100
+    rec, live = record(tmp_path / "big.jsonl", tree, 150)
+    assert rec._tracker is None  # taken off at close
+    trace = read_trace(tmp_path / "big.jsonl")
+    assert trace.outcome == "success"
+    for n, expected in enumerate(live[: trace.last_tick + 1]):
+        assert trace.statuses_at(n) == expected, f"tick {n}"
+
+
+def test_tracked_and_polled_traces_are_the_same(tmp_path: Path) -> None:
+    record(tmp_path / "tracked.jsonl", big_tree(), 150, track_nodes=True)
+    record(tmp_path / "polled.jsonl", big_tree(), 150, track_nodes=False)
+    tracked = (tmp_path / "tracked.jsonl").read_text().splitlines()[1:]
+    polled = (tmp_path / "polled.jsonl").read_text().splitlines()[1:]
+    assert tracked == polled
+    run_and_record(tmp_path / "small-tracked.jsonl", track_nodes=True)
+    run_and_record(tmp_path / "small-polled.jsonl", track_nodes=False)
+    for name in ("small-tracked", "small-polled"):
+        trace = read_trace(tmp_path / f"{name}.jsonl")
+        assert trace.outcome == "success" and trace.last_tick == 14
+
+
+def test_wrappers_come_off_at_close(tmp_path: Path) -> None:
+    tree = big_tree(3)
+    nodes = list(tree.root.iterate())
+    rec = TraceRecorder(tmp_path / "t.jsonl", tree, clock=SimClock(), track_nodes=True)
+    assert all("tick" in vars(n) and "stop" in vars(n) for n in nodes)
+    tree.tick()
+    rec.record_tick()
+    rec.close()
+    assert not any("tick" in vars(n) or "stop" in vars(n) for n in nodes)
+    tree.tick()  # the tree still ticks as a plain py_trees tree
+
+
+def test_stopped_nodes_are_seen(tmp_path: Path) -> None:
+    """A stop from outside a tick (an interrupt) turns nodes INVALID in the next record."""
+    tree = big_tree()
+    clock = SimClock()
+    with TraceRecorder(tmp_path / "s.jsonl", tree, clock=clock, track_nodes=True) as rec:
+        for _ in range(3):
+            clock.advance(0.05)
+            tree.tick()
+            rec.record_tick()
+        tree.root.stop(Status.INVALID)
+        rec.record_tick()
+    last = read_trace(tmp_path / "s.jsonl").frame_at(4).status
+    assert set(last.values()) == {"I"}
+
+
+def test_dense_trees_drop_the_tracker(tmp_path: Path) -> None:
+    tree = dense_tree()
+    path = tmp_path / "dense.jsonl"
+    clock = SimClock()
+    rec = TraceRecorder(path, tree, clock=clock, track_nodes=True, every_tick=True)
+    live = []
+    for _ in range(30):
+        clock.advance(0.05)
+        tree.tick()
+        rec.record_tick()
+        live.append({i: n.status for i, n in iter_with_ids(tree)})
+    assert rec._tracker is None  # most nodes ticked 20 ticks in a row
+    assert not any("tick" in vars(n) for n in tree.root.iterate())
+    rec.close()
+    trace = read_trace(path)
+    for n, expected in enumerate(live, start=1):
+        assert trace.statuses_at(n) == expected
+
+
+@pytest.mark.parametrize("steps, tracked", [(3, False), (30, True)])
+def test_default_tracks_only_big_trees(tmp_path: Path, steps: int, tracked: bool) -> None:
+    rec = TraceRecorder(tmp_path / "t.jsonl", big_tree(steps), clock=SimClock())
+    try:
+        assert (rec._tracker is not None) is tracked
+    finally:
+        rec.close()
+    lines = [json.loads(x) for x in (tmp_path / "t.jsonl").read_text().splitlines()]
+    assert lines[-1]["type"] == "end"
+
+
+def test_a_write_from_outside_is_seen_when_the_node_next_ticks(tmp_path: Path) -> None:
+    """The documented limit of tracking: only a node's own tick/stop marks it."""
+    tree = big_tree()
+    last_leg = tree.root.children[-1]
+    clock = SimClock()
+    with TraceRecorder(tmp_path / "w.jsonl", tree, clock=clock, track_nodes=True) as rec:
+        clock.advance(0.05)
+        tree.tick()
+        rec.record_tick()
+        last_leg.feedback_message = "set from outside"
+        clock.advance(0.05)
+        tree.tick()
+        rec.record_tick()
+    trace = read_trace(tmp_path / "w.jsonl")
+    leg_id = next(i for i, n in iter_with_ids(tree) if n is last_leg)
+    assert trace.frame_at(2).feedback.get(leg_id, "") == ""
