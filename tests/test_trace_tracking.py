@@ -159,3 +159,28 @@ def test_a_write_from_outside_is_seen_when_the_node_next_ticks(tmp_path: Path) -
     trace = read_trace(tmp_path / "w.jsonl")
     leg_id = next(i for i, n in iter_with_ids(tree) if n is last_leg)
     assert trace.frame_at(2).feedback.get(leg_id, "") == ""
+
+
+def test_a_raising_node_is_named_in_a_tracked_trace(tmp_path: Path) -> None:
+    """The wrappers do not hide the culprit from the runner, nor the last tick."""
+    from pirate_bt.runner import Runner
+    from pirate_bt.trace import attach_trace
+
+    class Boom(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            raise RuntimeError("boom")
+
+    tree = big_tree()
+    tree.root.children[0].children[1] = Boom("boom")  # replaces "check 0"
+    tree.root.children[0].children[1].parent = tree.root.children[0]
+    clock = SimClock()
+    runner = Runner(tree, clock=clock, period_s=0.05)
+    recorder = attach_trace(runner, tmp_path / "boom.jsonl")
+    assert recorder._tracker is not None
+    result = runner.run()
+    assert result.failing_node is not None and result.failing_node.endswith("leg 0/boom")
+    trace = read_trace(tmp_path / "boom.jsonl")
+    assert trace.outcome == "error"
+    assert trace.end is not None and trace.end["error"]["node"] == "0.0.1"
+    assert trace.last_tick == result.ticks
+    assert not any("tick" in vars(n) for n in tree.root.iterate())
