@@ -25,7 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 
 
-def one_run(out_dir: Path, trace: bool = True) -> tuple[float, float, int]:
+def one_run(out_dir: Path, trace: bool = True, suffix: str = ".jsonl") -> tuple[float, float, int]:
     from pirate_bt.clock import SimClock
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.safety.factory import open_supervisor
@@ -49,7 +49,7 @@ def one_run(out_dir: Path, trace: bool = True) -> tuple[float, float, int]:
             clock,
             truth=lambda: sim.truth().front_m,
             counters=sim.counters,
-            trace_path=out_dir / "trace.jsonl" if trace else None,
+            trace_path=out_dir / f"trace{suffix}" if trace else None,
         )
         wall = time.perf_counter() - started
     finally:

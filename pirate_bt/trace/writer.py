@@ -122,6 +122,7 @@ _get_feedback = operator.attrgetter("feedback_message")
 _is_not = operator.is_not
 _ne = operator.ne
 _code = STATUS_CODE.__getitem__
+_command_fields = operator.attrgetter(*CommandRecord.__dataclass_fields__)
 _COMMANDS_MAX = 4096
 """Most distinct command records whose JSON text a recorder keeps."""
 
@@ -366,7 +367,7 @@ class TraceRecorder:
         self._last_link: LinkHealth | None = None
         self._link_raw: tuple[Any, ...] | None = None
         self._sim_raw: dict[Any, Any] | None = None
-        self._commands: dict[CommandRecord, str] = {}
+        self._commands: dict[tuple[Any, ...], str] = {}
         self._tick = 0
         self._t_s = 0.0
         self._closed = False
@@ -540,16 +541,18 @@ class TraceRecorder:
 
     def _command_json(self, command: CommandRecord) -> str:
         # A behaviour re-sends the same setpoint tick after tick, each time as a new but
-        # equal record: its text is looked up (one hash, one comparison), not re-encoded.
+        # equal record: its text is looked up by its fields (read, hashed and compared
+        # as one tuple, in C), not re-encoded.
         cache = self._commands
+        key = _command_fields(command)
         try:
-            text = cache.get(command)
+            text = cache.get(key)
         except TypeError:  # a hand-made record holding something unhashable
             return encode_json(command.to_json())
         if text is None:
             if len(cache) >= _COMMANDS_MAX:
                 cache.clear()
-            text = cache[command] = encode_json(command.to_json())
+            text = cache[key] = encode_json(command.to_json())
         return text
 
     def _blackboard_changes(self) -> str | None:
