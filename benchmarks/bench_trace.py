@@ -194,7 +194,7 @@ def time_runner_ticks(ticks: int, traced: Path | None, tree_kind: str = "sparse"
 
 
 def overhead(
-    ticks: int = 1400, repeats: int = 15, runner: bool = False, tree_kind: str = "sparse"
+    ticks: int = 5000, repeats: int = 15, runner: bool = False, tree_kind: str = "sparse"
 ) -> tuple[list[float], list[float]]:
     """Seconds per tick without and with tracing, one value per run (runs alternate)."""
     plain: list[float] = []
@@ -305,7 +305,7 @@ def simulated_run(tree_file: str, network: str, params: dict[str, str], trace: b
 
 
 def report_simulated(
-    name: str, tree_file: str, network: str, params: dict[str, str], pairs: int = 9
+    name: str, tree_file: str, network: str, params: dict[str, str], pairs: int = 15
 ) -> None:
     """Median and quartiles of the per-pair overhead of alternating untraced/traced runs."""
     off, on = [], []
@@ -319,6 +319,31 @@ def report_simulated(
         f"{name:<30} tick {base * 1e6:5.0f} us -> {traced * 1e6:5.0f} us with trace:"
         f" {(traced - base) * 1e6:+5.0f} us; per pair {q2:+5.1f} % (quartiles {q1:+.1f}"
         f" to {q3:+.1f} %, {pairs} pairs; target <= 15 %)"
+    )
+
+
+def report_open_close(runs: int = 15) -> None:
+    """What a run pays once: opening a trace (the writer process starts) and closing it."""
+    opened, closed = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        for r in range(runs):
+            tree = fifty_node_tree()
+            clock = SimClock()
+            start = time.perf_counter()
+            rec = TraceRecorder(Path(folder) / f"oc{r}.jsonl", tree, clock=clock)
+            opened.append(time.perf_counter() - start)
+            for _ in range(100):
+                clock.advance(TICK_S)
+                tree.tick()
+                rec.record_tick()
+            time.sleep(0.1)  # a run goes on for a while: the writer process is up
+            start = time.perf_counter()
+            rec.close()
+            closed.append(time.perf_counter() - start)
+    print(
+        f"open a trace (writer process starts): {statistics.median(opened) * 1e3:.1f} ms;"
+        f" close it (everything on disk): {statistics.median(closed) * 1e3:.1f} ms"
+        f" (medians of {runs})"
     )
 
 
@@ -358,6 +383,7 @@ def main() -> None:
     report_simulated(
         "straight PAB, simulated run", "trees/straight.yaml", "straight", {"distance": "1.5 m"}
     )
+    report_open_close()
     report_mission()
     for suffix in (".jsonl", ".jsonl.gz"):
         size = size_per_hour(suffix)
