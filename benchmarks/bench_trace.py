@@ -260,8 +260,39 @@ def size_per_hour(suffix: str, seconds: float = 60.0) -> float:
         return path.stat().st_size * 3600.0 / seconds
 
 
-def simulated_run(tree_file: str, network: str, params: dict[str, str], trace: bool) -> float:
-    """Wall seconds per tick of a whole simulated run: tree, supervisor, link, simulator.
+class _PostTickTimer:
+    """Times the runner's post-tick hooks (where the trace is recorded), per run."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self._run = Runner.run
+
+    def __enter__(self) -> _PostTickTimer:
+        timer, run = self, self._run
+
+        def timed_run(runner: Runner) -> Any:
+            hooks = list(runner.post_tick)
+
+            def post(info: Any) -> None:
+                start = time.perf_counter()
+                for hook in hooks:
+                    hook(info)
+                timer.seconds += time.perf_counter() - start
+
+            runner.post_tick = [post]
+            return run(runner)
+
+        Runner.run = timed_run  # type: ignore[method-assign]
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        Runner.run = self._run  # type: ignore[method-assign]
+
+
+def simulated_run(
+    tree_file: str, network: str, params: dict[str, str], trace: bool
+) -> tuple[float, float]:
+    """Wall seconds per tick of a whole simulated run, and of those in the post-tick hooks.
 
     This is the tick a user of ``pirate-bt run --trace`` pays for in simulation: the
     runner ticks the tree at 20 Hz, the supervisor checks every command, the link
@@ -298,11 +329,12 @@ def simulated_run(tree_file: str, network: str, params: dict[str, str], trace: b
                     robot=robot,
                 )
             start = time.perf_counter()
-            result = runner.run()
+            with _PostTickTimer() as hooks:
+                result = runner.run()
             wall = time.perf_counter() - start
         if not result.succeeded:
             raise RuntimeError(f"{tree_file} did not succeed: {result.message}")
-        return wall / result.ticks
+        return wall / result.ticks, hooks.seconds / result.ticks
     finally:
         sup.close()
 
@@ -311,18 +343,21 @@ def report_simulated(
     name: str, tree_file: str, network: str, params: dict[str, str], pairs: int = 15
 ) -> None:
     """Median and quartiles of the per-pair overhead of alternating untraced/traced runs."""
-    off, on = [], []
+    off, on, hook_off, hook_on = [], [], [], []
     for pair in range(pairs):  # ABBA order, as in overhead()
         for traced_now in (False, True) if pair % 2 == 0 else (True, False):
-            seconds = simulated_run(tree_file, network, params, trace=traced_now)
+            seconds, in_hooks = simulated_run(tree_file, network, params, trace=traced_now)
             (on if traced_now else off).append(seconds)
+            (hook_on if traced_now else hook_off).append(in_hooks)
     base, traced = statistics.median(off), statistics.median(on)
     pct = sorted((b - a) / a * 100 for a, b in zip(off, on, strict=True))
     q1, q2, q3 = statistics.quantiles(pct, n=4)
+    in_hook = statistics.median(hook_on) - statistics.median(hook_off)
     print(
         f"{name:<30} tick {base * 1e6:5.0f} us -> {traced * 1e6:5.0f} us with trace:"
         f" {(traced - base) * 1e6:+5.0f} us; per pair {q2:+5.1f} % (quartiles {q1:+.1f}"
-        f" to {q3:+.1f} %, {pairs} pairs; target <= 15 %)"
+        f" to {q3:+.1f} %, {pairs} pairs; target <= 15 %); in the post-tick hooks"
+        f" {in_hook * 1e6:+.0f} us, {in_hook / base * 100:+.1f} %"
     )
 
 
@@ -349,35 +384,6 @@ def report_open_close(runs: int = 15) -> None:
         f" close it (everything on disk): {statistics.median(closed) * 1e3:.1f} ms"
         f" (medians of {runs})"
     )
-
-
-class _PostTickTimer:
-    """Times the runner's post-tick hooks (where the trace is recorded), per run."""
-
-    def __init__(self) -> None:
-        self.seconds = 0.0
-        self._run = Runner.run
-
-    def __enter__(self) -> _PostTickTimer:
-        timer, run = self, self._run
-
-        def timed_run(runner: Runner) -> Any:
-            hooks = list(runner.post_tick)
-
-            def post(info: Any) -> None:
-                start = time.perf_counter()
-                for hook in hooks:
-                    hook(info)
-                timer.seconds += time.perf_counter() - start
-
-            runner.post_tick = [post]
-            return run(runner)
-
-        Runner.run = timed_run  # type: ignore[method-assign]
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        Runner.run = self._run  # type: ignore[method-assign]
 
 
 def report_mission(pairs: int = 5) -> None:
