@@ -150,7 +150,7 @@ def test_serve_writes_ticks_and_lines(tmp_path: Path) -> None:
 
 
 def test_encoder_state_noise_below_a_micro_unit_is_no_change() -> None:
-    encoder = TickEncoder(["0"])
+    encoder = TickEncoder(["0"], link_fields=["connected"])
     keys = ("bend_1", None, None, None, None, None)
     base = (None,) * 4
 

@@ -78,6 +78,7 @@ __all__ = [
     "SETUP",
     "TICK",
     "WRITER_CLASSES",
+    "CounterChanges",
     "FieldChanges",
     "GzipJsonLinesWriter",
     "JsonLinesWriter",
@@ -340,39 +341,27 @@ class CounterChanges:
 
 # --- tick records ------------------------------------------------------------------
 
-LINK_FIELDS = (
-    "connected",
-    "last_heard_s",
-    "rtt_s",
-    "loss_ratio",
-    "crc_errors",
-    "retries",
-    "failed",
-    "duplicates",
-    "estopped",
-)
-"""The fields of a link-health reading, in the order of its raw tuple."""
-
 
 class TickEncoder:
     """Turns tick messages into tick records' JSON text (``None``: nothing to write).
 
     Args:
         node_ids: Path ids of the tree's nodes, depth first.
+        link_fields: Names of the fields of the link-health tuples
+            (``pirate_bt.trace.records.LINK_FIELDS``).
         every_tick: Give a line for every tick, even one where nothing changed.
         full_state: Give every state value in every tick that has a state.
         readings: The state layouts include the raw channels.
-        link_fields: Names of the fields of the link-health tuples.
     """
 
     def __init__(
         self,
         node_ids: Sequence[str],
         *,
+        link_fields: Sequence[str],
         every_tick: bool = False,
         full_state: bool = False,
         readings: bool = False,
-        link_fields: Sequence[str] = LINK_FIELDS,
     ) -> None:
         self.every_tick = every_tick
         self.full_state = full_state
