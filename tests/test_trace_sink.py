@@ -182,3 +182,19 @@ def test_readings_layout_change_mid_run(tmp_path: Path) -> None:
         late = RobotState(stamp_s=0.01, readings={"imu.roll": Reading(0.2, 0.01)})
         rec.record_tick(TickExtras(state=late))
     assert read_trace(path).frame_at(2).state == {"readings.imu.roll": 0.2}
+
+
+def test_falls_back_to_in_process_when_no_process_can_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    import pirate_bt.trace.sink as sink
+
+    monkeypatch.setattr(sink.sys, "executable", "")
+    with pytest.raises(SinkError, match="no interpreter"):
+        TraceRecorder(tmp_path / "strict.jsonl", make_tree(), background=True)
+    with TraceRecorder(tmp_path / "t.jsonl", make_tree(), clock=SimClock()) as rec:
+        assert not rec.background
+        rec.record_tick(TickExtras(link=LinkHealth(connected=True)))
+    assert "writing the trace in-process" in caplog.text
+    trace = read_trace(tmp_path / "t.jsonl")
+    assert trace.end is not None and trace.frame_at(1).link["connected"] is True

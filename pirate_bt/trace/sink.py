@@ -575,7 +575,7 @@ class SinkProcess:
                 pass_fds=(fd,),
                 start_new_session=True,  # a signal to the run's process group spares it
             )
-        except OSError as exc:
+        except (OSError, ValueError) as exc:  # ValueError: no pass_fds (not POSIX)
             raise SinkError(f"{self.path}: cannot start a trace writer process: {exc}") from exc
         finally:
             os.close(fd)
