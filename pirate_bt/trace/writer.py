@@ -428,10 +428,11 @@ class TraceRecorder:
         t_s = self._t_s = now - self._start_s  # rounded by the encoder
         # Capture only: what moved since the last tick, as plain values (the writer
         # compares with what it recorded, rounds and encodes; see sink.TickEncoder).
-        # Every node is read every tick (a node that was not ticked can still change, when
-        # its parent stops it), through map + attrgetter and one C-level list comparison;
-        # map(is_not/ne) and compress pick out the nodes that changed, all in C (py_trees'
-        # Timeout rewrites its feedback every tick, so that path runs every tick too).
+        # In a small tree every node is read every tick (a node that was not ticked can
+        # still change, when its parent stops it), through map + attrgetter and one C-level
+        # list comparison; map(is_not/ne) and compress pick out the nodes that changed, all
+        # in C (py_trees' Timeout rewrites its feedback every tick, so that path runs every
+        # tick too). A big tree is read where it moved: see _NodeTracker.
         status = feedback = None
         touched = self._touched
         if touched is not None and self._tick > 1:
