@@ -163,6 +163,12 @@ def counter_values(counters: Any) -> dict[str, float]:
     """
     if counters is None:
         return {}
+    try:
+        raw = _counter_raw(counters)
+    except AttributeError:
+        raw = None
+    if raw is not None and _NUMBER_TYPES.issuperset(map(type, raw)):
+        return dict(zip(_COUNTER_KEYS, map(float, raw), strict=True))  # all there, in C
     out: dict[str, float] = {}
     for key, attr in _COUNTER_FIELDS.items():
         value = getattr(counters, attr, None)
@@ -205,10 +211,7 @@ class _CounterCache:
             return counter_values(counters)
         if raw != self._raw:
             self._raw = raw
-            if _NUMBER_TYPES.issuperset(map(type, raw)):  # the usual case: C-level zip and map
-                self._values = dict(zip(_COUNTER_KEYS, map(float, raw), strict=True))
-            else:
-                self._values = counter_values(counters)
+            self._values = counter_values(counters)
         # Identity stands for "unchanged" only for objects that cannot change.
         kind = type(counters)
         frozen = self._frozen.get(kind)

@@ -29,8 +29,14 @@ import py_trees
 
 from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import Reading, RobotState
-from pirate_bt.trace.sink import SINGLES, VIEWS, FieldChanges, StateDiff, round_value
-from pirate_bt.trace.sink import encode_value as _encode_value
+from pirate_bt.trace.sink import (
+    SINGLES,
+    VIEWS,
+    FieldChanges,
+    StateDiff,
+    encode_value,
+    round_value,
+)
 from pirate_bt.trace.structure import jsonable
 
 __all__ = [
@@ -179,11 +185,6 @@ class TickExtras:
     events: Sequence[TraceEvent] = field(default_factory=tuple)
 
 
-_round = round_value
-_VIEWS = VIEWS
-_SINGLES = SINGLES
-
-
 def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
     """A state snapshot as flat ``name -> value`` pairs, for change detection.
 
@@ -194,17 +195,17 @@ def flatten_state(state: RobotState, readings: bool = False) -> dict[str, Any]:
     ``readings.<channel>`` too. ``stamp_s`` is not included (each tick has a time).
     """
     flat: dict[str, Any] = {}
-    for view in _VIEWS:
+    for view in VIEWS:
         mapping: Mapping[str, float] = getattr(state, view)
         for key, value in mapping.items():
-            flat[f"{view}.{key}"] = _round(value)
-    for single in _SINGLES:
+            flat[f"{view}.{key}"] = round_value(value)
+    for single in SINGLES:
         value = getattr(state, single)
         if value is not None:
-            flat[single] = _round(value)
+            flat[single] = round_value(value)
     if readings:
         for name, reading in state.readings.items():
-            flat[f"readings.{name}"] = _round(reading.value)
+            flat[f"readings.{name}"] = round_value(reading.value)
     return flat
 
 
@@ -288,9 +289,6 @@ class StateChanges:
         return self._diff.diff_json(self._raw(state))
 
 
-encode_value = _encode_value
-
-
 def _number(value: Any) -> float:
     return float(value) if isinstance(value, int | float | str) else float("nan")
 
@@ -350,7 +348,7 @@ def link_health_values(health: LinkHealth) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in LINK_FIELDS:
         value = getattr(health, name)
-        out[name] = _round(value) if isinstance(value, float) else value
+        out[name] = round_value(value) if isinstance(value, float) else value
     return out
 
 

@@ -62,7 +62,7 @@ import struct
 import sys
 import time
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from enum import Enum
 from itertools import compress, repeat
 from operator import is_not, itemgetter, ne
@@ -89,6 +89,7 @@ __all__ = [
     "TraceFormatWriter",
     "encode_value",
     "layout_names",
+    "nonfinite_text",
     "round_value",
     "rounded_json",
 ]
@@ -122,11 +123,14 @@ _NUMBERS_MAX = 1 << 16
 # --- values ------------------------------------------------------------------------
 
 
+def nonfinite_text(value: float) -> str:
+    """How the trace spells a number strict JSON has no spelling for: ``nan``, ``inf``, ``-inf``."""
+    return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+
+
 def round_value(value: float) -> float | str:
     """A float rounded to 6 decimals; ``nan``, ``inf``, ``-inf`` as those strings."""
-    if math.isfinite(value):
-        return round(value, DECIMALS)
-    return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return round(value, DECIMALS) if math.isfinite(value) else nonfinite_text(value)
 
 
 def encode_value(value: Any) -> Any:
@@ -304,14 +308,8 @@ class FieldChanges:
         if raw == previous:
             return {}
         self._raw = raw
-        changed: dict[str, Any] = {}
-        values = self.values
-        for name, value in compress(zip(self.names, raw, strict=True), map(ne, raw, previous)):
-            encoded = encode_value(value)
-            if values.get(name, _MISSING) != encoded:
-                values[name] = encoded
-                changed[name] = encoded
-        return changed
+        moved = compress(zip(self.names, raw, strict=True), map(ne, raw, previous))
+        return _record(self.values, moved)
 
 
 class CounterChanges:
@@ -319,6 +317,7 @@ class CounterChanges:
 
     def __init__(self) -> None:
         self.values: dict[str, Any] = {}
+        """Counter name -> last recorded (encoded) value."""
         self._raw: dict[Any, Any] = {}
 
     def changes(self, sim: Mapping[Any, Any]) -> dict[str, Any]:
@@ -326,17 +325,21 @@ class CounterChanges:
         raw = self._raw
         if sim == raw:
             return {}
-        changed: dict[str, Any] = {}
-        values = self.values
-        moved = map(ne, sim.values(), map(raw.get, sim, repeat(_MISSING)))
-        for key in compress(list(sim), moved):
-            value = raw[key] = sim[key]
-            name = key if type(key) is str else str(key)
-            encoded = encode_value(value)
-            if values.get(name, _MISSING) != encoded:
-                values[name] = encoded
-                changed[name] = encoded
-        return changed
+        keys = list(compress(list(sim), map(ne, sim.values(), map(raw.get, sim, repeat(_MISSING)))))
+        raw.update(zip(keys, map(sim.__getitem__, keys), strict=True))
+        names = [key if type(key) is str else str(key) for key in keys]
+        return _record(self.values, zip(names, map(sim.__getitem__, keys), strict=True))
+
+
+def _record(values: dict[str, Any], moved: Iterable[tuple[str, Any]]) -> dict[str, Any]:
+    """Encode the raw values that moved; keep and return those that differ from ``values``."""
+    changed: dict[str, Any] = {}
+    for name, value in moved:
+        encoded = encode_value(value)
+        if values.get(name, _MISSING) != encoded:
+            values[name] = encoded
+            changed[name] = encoded
+    return changed
 
 
 # --- tick records ------------------------------------------------------------------

@@ -35,6 +35,8 @@ from typing import Any
 
 import py_trees
 
+from pirate_bt.trace.sink import nonfinite_text
+
 __all__ = [
     "NODE_KINDS",
     "NodeInfo",
@@ -194,9 +196,7 @@ def jsonable(value: Any) -> Any:
     if value is None or isinstance(value, bool | int | str):
         return value
     if isinstance(value, float):
-        if math.isfinite(value):
-            return value
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+        return value if math.isfinite(value) else nonfinite_text(value)
     if isinstance(value, Enum):
         return jsonable(value.value)
     if isinstance(value, Mapping):

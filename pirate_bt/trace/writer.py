@@ -162,8 +162,10 @@ def _plain(value: Any) -> Any:
     """``value`` with only what ``marshal`` carries (a float subclass becomes a float...)."""
     if type(value) in _IMMUTABLE_TYPES:
         return value
-    if isinstance(value, tuple | list):
-        return type(value)(map(_plain, value)) if type(value) in (tuple, list) else list(value)
+    if isinstance(value, tuple):
+        return tuple(map(_plain, value))
+    if isinstance(value, list):
+        return list(map(_plain, value))
     if isinstance(value, Mapping):
         return {_plain(k): _plain(v) for k, v in value.items()}
     if isinstance(value, float):
@@ -199,7 +201,7 @@ _DENSE_TICKS = 20
 
 
 class _NodeTracker:
-    """Notes the index of every node that is ticked or stopped, into ``touched``.
+    """Notes the index of every node that is ticked or stopped, in :attr:`touched`.
 
     py_trees changes a node's status and feedback message only in its ``tick()``
     (the generator its parent or the tree runs) and its ``stop()`` (called by its
@@ -208,9 +210,11 @@ class _NodeTracker:
     class and the method code are untouched; :meth:`restore` removes the wrappers.
     """
 
-    def __init__(self, nodes: list[py_trees.behaviour.Behaviour], touched: set[int]) -> None:
+    def __init__(self, nodes: list[py_trees.behaviour.Behaviour]) -> None:
+        self.touched: set[int] = set()
+        """Indices of the nodes ticked or stopped since the caller last cleared it."""
         self._saved: list[tuple[py_trees.behaviour.Behaviour, Any, Any]] = []
-        note = touched.add
+        note = self.touched.add
         for index, node in enumerate(nodes):
             own = vars(node)
             self._saved.append((node, own.get("tick", _UNSET), own.get("stop", _UNSET)))
@@ -352,12 +356,10 @@ class TraceRecorder:
         self._indices = range(len(self._nodes))
         self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
         self._feedback: list[Any] = [""] * len(self._nodes)
-        self._touched: set[int] | None = None
         self._tracker: _NodeTracker | None = None
         self._dense = 0
         if track_nodes or (track_nodes is None and len(self._nodes) > _TRACK_ABOVE):
-            self._touched = set()
-            self._tracker = _NodeTracker(self._nodes, self._touched)
+            self._tracker = _NodeTracker(self._nodes)
         self._bb: dict[str, Any] = {}
         self._bb_raw: dict[str, Any] = {}
         self._bb_immutable = True
@@ -434,7 +436,7 @@ class TraceRecorder:
         # in C (py_trees' Timeout rewrites its feedback every tick, so that path runs every
         # tick too). A big tree is read where it moved: see _NodeTracker.
         status = feedback = None
-        touched = self._touched
+        touched = self._tracker.touched if self._tracker is not None else None
         if touched is not None and self._tick > 1:
             # A big tree: only the nodes ticked or stopped since the last record can have
             # changed (see _NodeTracker), usually a few dozen of hundreds.
@@ -513,7 +515,7 @@ class TraceRecorder:
     def _stop_tracking(self) -> None:
         if self._tracker is not None:
             self._tracker.restore()
-            self._tracker = self._touched = None
+            self._tracker = None
 
     def _touched_changes(
         self, indices: list[int]
