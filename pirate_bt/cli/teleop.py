@@ -1,45 +1,35 @@
-"""``pirate-bt teleop``: drive the robot (or the simulator) with single keys.
+"""``pirate-bt teleop``: the operator console, full screen, every key checked.
 
 Every key becomes an operator action on the supervisor, so what you type goes
-through exactly the checks a tree's commands do; each verdict that is not a
-plain pass is shown. The session starts in manual mode (the operator is in
-control). Keys:
-
-====== ==========================================
-key    action
-====== ==========================================
-w / s  faster forwards / backwards (20 mm/s steps)
-space  stop the drives
-f / F  clamp / unclamp the front half
-r / R  clamp / unclamp the rear half
-a / d  rotate the halves -5° / +5°
-[ / ]  bend the front pair -5° / +5°
-c / v  move the front module clear / back to 0°
-m / o  take over (manual) / hand back (autonomous)
-p      safe state;  u  leave it
-e / x  e-stop / reset the e-stop
-?      show state;  q  quit
-====== ==========================================
+through exactly the checks a tree's commands do. The session starts in manual
+mode (the operator is in control). On a terminal the console fills the screen
+and stays put: a status panel updated every tick, the running tree when one is
+attached (``--tree``), a condensed verdict log, the steps a supervised tree is
+waiting on, and the keys (see :data:`pirate_bt.cli.console.app.KEY_HELP`).
 
 Without ``--port`` the session drives the built-in simulator (``--sim NETWORK``,
 default the straight pipe; ``--seed N``), paced to the terminal. ``--keys`` plays a
-string of keys, one per tick, without a terminal (for scripts).
+string of keys, one per tick, without a terminal (for scripts), and prints one
+line per verdict that was not a plain pass.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
+import logging
 import math
-import select
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import TextIO
 
-from pirate_bt.robot.description import Half
+from pirate_bt.cli.console.view import millimetres_per_s, verdict_text
+from pirate_bt.errors import InputError
+from pirate_bt.robot.description import Half, MotorFunction, RobotDescription
 from pirate_bt.safety import (
     Bend,
     Clamp,
+    Confirm,
+    Deny,
     Drive,
     EStop,
     Mode,
@@ -70,10 +60,11 @@ class TeleopSession:
 
     Args:
         supervisor: The supervisor to act through.
-        out: Where verdicts and messages are written.
+        out: Where ``--keys`` scripts see verdicts and state (``None``: nowhere;
+            the full-screen console reads the supervisor's verdicts itself).
     """
 
-    def __init__(self, supervisor: Supervisor, out: TextIO) -> None:
+    def __init__(self, supervisor: Supervisor, out: TextIO | None = None) -> None:
         self.sup = supervisor
         self.out = out
         self.velocity_mps = 0.0
@@ -83,19 +74,51 @@ class TeleopSession:
         limit = robot.joint_motor(robot.all_bend_modules()[0].name).limits.torque
         torque = robot.clamp.min_torque * 1.5
         self.clamp_torque_nm = min(torque, limit.max) if limit is not None else torque
-        supervisor.add_listener(self._show)
+        # The drive keys stop at the slowest drive motor's limit, so the setpoint
+        # shown is one the supervisor would pass, not one it clips every tick.
+        speeds = [
+            m.limits.velocity.max
+            for _, m in robot.motors()
+            if m.function is MotorFunction.DRIVE and m.limits.velocity is not None
+        ]
+        self.max_velocity_mps = min(speeds) if speeds else math.inf
+        self._printed: str | None = None
+        self._repeats = 0
+        if out is not None:
+            supervisor.add_listener(self._show)
 
     def _show(self, verdict: Verdict) -> None:
-        if verdict.reason is not None or verdict.source is not Source.OPERATOR:
-            print(f"  {verdict}", file=self.out)
+        if self.out is None or (verdict.reason is None and verdict.source is Source.OPERATOR):
+            return
+        text = verdict_text(verdict)
+        if text == self._printed:
+            self._repeats += 1
+            return
+        self.flush()
+        self._printed = text
+        print(f"  {text}", file=self.out)
+
+    def flush(self) -> None:
+        """Write how often the last verdict line repeated (scripts fold repeats)."""
+        if self.out is not None and self._repeats:
+            times = "once" if self._repeats == 1 else f"{self._repeats} times"
+            print(f"  (the same {times} more)", file=self.out)
+        self._repeats = 0
+        self._printed = None
+
+    def _speed(self, step: float) -> float:
+        limit = self.max_velocity_mps
+        self.velocity_mps = max(-limit, min(limit, round(self.velocity_mps + step, 6)))
+        return self.velocity_mps
 
     def actions(self, key: str) -> Iterator[OperatorAction]:
         """The operator actions for one key."""
         robot = self.sup.robot
         front = [m.name for m in robot.bend_modules(Half.FRONT)]
         if key in "ws":
-            self.velocity_mps += SPEED_STEP_MPS if key == "w" else -SPEED_STEP_MPS
-            yield OperatorCommand(Drive(self.velocity_mps))
+            yield OperatorCommand(
+                Drive(self._speed(SPEED_STEP_MPS if key == "w" else -SPEED_STEP_MPS))
+            )
         elif key == " ":
             self.velocity_mps = 0.0
             yield OperatorCommand(Stop())
@@ -120,6 +143,10 @@ class TeleopSession:
             yield SetMode(Mode.MANUAL)
         elif key == "o":
             yield SetMode(Mode.AUTONOMOUS)
+        elif key == "y":
+            yield Confirm()
+        elif key == "n":
+            yield Deny()
         elif key == "p":
             yield SafeStop("operator stop (teleop)")
         elif key == "u":
@@ -148,12 +175,13 @@ class TeleopSession:
             self.sup.apply(OperatorCommand(Drive(self.velocity_mps)))
 
     def show_state(self) -> None:
+        if self.out is None:
+            return
+        self.flush()
         halves = ", ".join(f"{h} {s}" for h, s in self.sup.half_states().items())
         extra = f" safe state: {self.sup.safe_state_reason}" if self.sup.in_safe_state else ""
-        print(
-            f"  mode {self.sup.mode}; {halves}; drive {self.velocity_mps * 1000:g} mm/s{extra}",
-            file=self.out,
-        )
+        drive = millimetres_per_s(self.velocity_mps)
+        print(f"  mode {self.sup.mode}; {halves}; drive {drive}{extra}", file=self.out)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -168,54 +196,111 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument("--rate", type=float, default=20.0, help="ticks per second (default 20)")
+    parser.add_argument(
+        "--tree",
+        metavar="TREE",
+        help="run this tree under the console, in supervised mode unless --mode says otherwise",
+    )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a tree parameter (repeatable), as for 'pirate-bt run'",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=[m.value for m in (Mode.MANUAL, Mode.SUPERVISED, Mode.AUTONOMOUS)],
+        help="the mode to start in (default: manual; supervised with --tree)",
+    )
     parser.add_argument("--keys", help="play these keys, one per tick, then quit (no terminal)")
 
 
-@contextlib.contextmanager
-def _raw_terminal() -> Iterator[None]:
-    import termios
-    import tty
+def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
+    sup = session.sup
+    for key in keys:
+        session.step()
+        if not session.press(key):
+            break
+        sup.clock.sleep(period_s)
+    session.show_state()
+    session.flush()
+    return 0
 
-    fd = sys.stdin.fileno()
-    old = termios.tcgetattr(fd)
-    try:
-        tty.setcbreak(fd)
-        yield
-    finally:
-        termios.tcsetattr(fd, termios.TCSADRAIN, old)
+
+def _runner_factory(
+    args: argparse.Namespace, robot: RobotDescription, sup: Supervisor, period_s: float
+) -> Callable[[], object] | None:
+    """Checks ``--tree`` now (exit 2 on a bad tree) and returns how to build its runner."""
+    if args.tree is None:
+        return None
+    import dataclasses
+
+    from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.cli.run import parse_params
+    from pirate_bt.resources import find_file
+    from pirate_bt.runner import Runner
+    from pirate_bt.treefile import build, load_tree
+
+    checked = load_tree(
+        find_file("trees", args.tree),
+        robot=robot,
+        params=parse_params(args.param),
+        params_from_text=True,
+    )
+
+    def factory() -> Runner:
+        context = BuildContext(robot=robot, clock=sup.clock, supervisor=sup)
+        tree = dataclasses.replace(checked, root=build(checked.spec, context))
+        reason = "tree run ended without success (console)"
+        return Runner(
+            tree,
+            clock=sup.clock,
+            period_s=period_s,
+            safe_state=lambda: sup.safe_state(sup.safe_state_reason or reason),
+            paused=lambda: bool(sup.tree_paused),
+            # py_trees times setup out with a signal, which only the main thread
+            # may set; the console runs the tree in its engine thread. Its
+            # "infinite" (sys.float_info.max) is the value that skips the signal.
+            setup_timeout_s=sys.float_info.max,
+        )
+
+    return factory
 
 
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.safety.factory import open_supervisor
 
+    if args.rate <= 0:
+        raise InputError(f"--rate must be positive, got {args.rate:g}")
     robot = load_robot(args.robot)
+    period_s = 1.0 / args.rate
+    mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
+    if args.tree is not None and args.keys is not None:
+        raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
+    if args.keys is None and not sys.stdin.isatty():
+        raise InputError("the console needs a terminal; use --keys KEYS in scripts")
+    safety_log = logging.getLogger("pirate_bt.safety")
+    if safety_log.level == logging.NOTSET:
+        # The console shows every verdict itself; the log would say each twice.
+        safety_log.setLevel(logging.ERROR)
     if args.port is not None:
-        sup = open_supervisor(robot, url=args.port, mode=Mode.MANUAL)
+        sup = open_supervisor(robot, url=args.port, mode=mode)
+        where = f"robot at {args.port}"
     else:
-        sup = open_supervisor(robot, network=args.sim, seed=args.seed, mode=Mode.MANUAL)
-    # The simulator's world moves only with its clock: pace it to the terminal.
-    simulated = sup.clock.is_simulated
-    session = TeleopSession(sup, sys.stdout)
-    period_s = 1.0 / max(args.rate, 1.0)
+        sup = open_supervisor(robot, network=args.sim, seed=args.seed, mode=mode)
+        where = f"simulator: {args.sim or 'straight'}"
     try:
         if args.keys is not None:
-            for key in args.keys:
-                session.step()
-                if not session.press(key):
-                    break
-                sup.clock.sleep(period_s)
-            session.show_state()
-            return 0
-        print(__doc__.split("Keys:")[1].split("``--keys``")[0].rstrip(), file=sys.stdout)
-        with _raw_terminal():
-            while True:
-                session.step()
-                ready, _, _ = select.select([sys.stdin], [], [], period_s)
-                if ready and not session.press(sys.stdin.read(1)):
-                    break
-                if simulated:
-                    sup.clock.sleep(period_s)
+            return _run_keys(TeleopSession(sup, sys.stdout), args.keys, period_s)
+        factory = _runner_factory(args, robot, sup, period_s)
+        from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
+
+        engine = ConsoleEngine(TeleopSession(sup), period_s=period_s, runner_factory=factory)
+        OperatorConsole(engine, title=f"pirate-bt teleop - {where}").run()
+        if engine.finished:
+            print(engine.finished)
         return 0
     finally:
         sup.close()
