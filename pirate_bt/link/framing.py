@@ -17,6 +17,7 @@ __all__ = [
     "MAX_BODY_BYTES",
     "MAX_PAYLOAD_BYTES",
     "MAX_WIRE_BYTES",
+    "PROTOCOL_MINOR",
     "PROTOCOL_VERSION",
     "byte_time_s",
     "cobs_decode",
@@ -27,7 +28,9 @@ __all__ = [
 ]
 
 PROTOCOL_VERSION = 1
-"""Protocol version carried in byte 0 of every frame."""
+"""Protocol major version, carried in byte 0 of every frame."""
+PROTOCOL_MINOR = 1
+"""Protocol minor version, carried in HELLO and HELLO_REPLY (1.1: docs/protocol.md)."""
 
 HEADER_BYTES = 5
 MAX_BODY_BYTES = 254

@@ -5,12 +5,65 @@ Both ends derive it from the robot description (``docs/protocol.md``, Layout).
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
+from enum import StrEnum
 
 from pirate_bt.link.framing import HEADER_BYTES, MAX_PAYLOAD_BYTES
-from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.description import ControlMode, Motor, MotorFunction, RobotDescription
 
-__all__ = ["WireLayout"]
+__all__ = ["StopRole", "WireLayout", "layout_text", "stop_role"]
+
+
+class StopRole(StrEnum):
+    """What a stop does to a motor (docs/protocol.md, Stop category)."""
+
+    DRIVE = "drive"
+    """Velocity 0 at once."""
+    ROTATE = "rotate"
+    """PWM 0 (brake) at once."""
+    BEND = "bend"
+    """Unchanged: the clamps keep holding."""
+    OTHER = "other"
+    """PWM 0 (brake)."""
+
+
+def stop_role(motor: Motor) -> StopRole:
+    """The stop role of ``motor``, from its function in the robot description."""
+    function = motor.function
+    if function is MotorFunction.DRIVE:
+        return StopRole.DRIVE
+    if function is MotorFunction.ROTATE:
+        return StopRole.ROTATE
+    if function is MotorFunction.BEND:
+        return StopRole.BEND
+    return StopRole.OTHER
+
+
+def layout_text(robot: RobotDescription) -> str:
+    """The text whose SHA-256 gives the layout digest (docs/protocol.md, Layout).
+
+    Args:
+        robot: A validated robot description.
+
+    Returns:
+        ``C|M``: channels as ``board:name``, motors as ``board:slot:role:modes``.
+    """
+    channels = ";".join(f"{c.board}:{c.name}" for c in robot.state_channels())
+    motors = []
+    for s in robot.setpoint_slots():
+        modes = ",".join(
+            f"{mode.value}={conv.raw[0]}..{conv.raw[1]}"
+            for mode in ControlMode
+            if (conv := s.motor.modes.get(mode)) is not None
+        )
+        motors.append(f"{s.board}:{s.slot}:{stop_role(s.motor).value}:{modes}")
+    return channels + "|" + ";".join(motors)
+
+
+def digest_of(text: str) -> int:
+    """The first 4 bytes (big-endian) of SHA-256 over ``text``."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "big")
 
 
 @dataclass(frozen=True, slots=True)

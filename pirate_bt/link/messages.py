@@ -10,9 +10,11 @@ from dataclasses import dataclass, field
 from enum import IntEnum, IntFlag
 from typing import ClassVar
 
+from pirate_bt.link.framing import PROTOCOL_MINOR
 from pirate_bt.robot.description import ControlMode
 
 __all__ = [
+    "MODE_BY_CODE",
     "MODE_CODES",
     "MODE_KEEP",
     "Ack",
@@ -62,9 +64,9 @@ class AckStatus(IntEnum):
     APPLIED = 0
     """First copy: the request took effect."""
     DUPLICATE = 1
-    """Same sequence number as the last applied request: not applied again."""
+    """Same seq as the last ordered request, which was applied: not applied again."""
     STALE = 2
-    """Older than the last applied request: not applied (a newer one overtook it)."""
+    """Older than the last ordered request: **not applied** (the host reports a failure)."""
 
 
 class NackCode(IntEnum):
@@ -87,11 +89,13 @@ class BridgeFlags(IntFlag):
 
     NONE = 0
     ESTOP = 0x01
-    """The e-stop is latched: all motors off until ESTOP_RESET."""
+    """The e-stop is latched (from boot, or by ESTOP): setpoints refused until ESTOP_RESET."""
     WATCHDOG = 0x02
-    """The host was silent for the watchdog period: drives stopped, clamps held."""
+    """The host was silent for the watchdog period: the stop category applied, clamps held."""
     BUS_FAULT = 0x04
     """The RS485 bus failed a whole poll cycle."""
+    NO_SESSION = 0x08
+    """No HELLO was accepted since the bridge booted (it was reset)."""
 
 
 class BoardStatus(IntFlag):
@@ -105,7 +109,7 @@ class BoardStatus(IntFlag):
     TIMEOUT = 0x4
     """The board missed its last poll (its readings are not fresh)."""
     MOTORS_OFF = 0x8
-    """The board's motors are switched off (e-stop or watchdog)."""
+    """The board's motors are held by a stop and no setpoint for it was applied since."""
 
 
 MODE_CODES: dict[ControlMode, int] = {
@@ -117,7 +121,9 @@ MODE_CODES: dict[ControlMode, int] = {
 """Wire code of each control mode."""
 MODE_KEEP = 0xFF
 """BULK_SETPOINTS mode code meaning "leave this motor as it is" (``None`` in Python)."""
-_MODE_BY_CODE: dict[int, ControlMode] = {v: k for k, v in MODE_CODES.items()}
+MODE_BY_CODE: dict[int, ControlMode] = {v: k for k, v in MODE_CODES.items()}
+"""Control mode of each wire code (``keep`` and unknown codes absent)."""
+_MODE_BY_CODE = MODE_BY_CODE
 
 
 # --- messages -------------------------------------------------------------------------------
@@ -127,12 +133,15 @@ _MODE_BY_CODE: dict[int, ControlMode] = {v: k for k, v in MODE_CODES.items()}
 class Hello:
     """Host -> bridge: start a session; the bridge answers with :class:`HelloReply`.
 
-    The bridge resets its duplicate filter to ``seq`` and counters stay as they are.
+    A new session: the bridge's duplicate filter starts at ``seq``, ``ack_seq`` at 0,
+    the setpoints at the stop category; the e-stop latch and the counters stay.
+    A bridge with another digest or minor version answers ``NACK BAD_LAYOUT``.
     """
 
     TYPE: ClassVar[MsgType] = MsgType.HELLO
     seq: int
     layout_digest: int
+    minor: int = PROTOCOL_MINOR
 
 
 @dataclass(frozen=True, slots=True)
@@ -204,6 +213,13 @@ class HelloReply:
     n_motors: int
     watchdog_ms: int
     firmware: int = 0
+    minor: int = PROTOCOL_MINOR
+    boot_id: int = 0
+    """Chosen at each boot of the bridge; a change between hellos means it was reset."""
+    sessions: int = 1
+    """Hellos accepted since boot, this one included (saturates at 255)."""
+    flags: BridgeFlags = BridgeFlags.NONE
+    """Bridge flags after the hello (the header's ``arg``)."""
 
 
 @dataclass(frozen=True, slots=True)
