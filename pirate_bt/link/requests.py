@@ -21,6 +21,7 @@ from pirate_bt.link.messages import (
     EStop,
     EStopReset,
     Heartbeat,
+    Hello,
     NackCode,
     Setpoint,
 )
@@ -28,6 +29,7 @@ from pirate_bt.robot.description import RobotDescription
 
 __all__ = [
     "HEARTBEATS_PER_WATCHDOG",
+    "SESSION_RENEW_GAP",
     "Outcome",
     "Request",
     "SessionConfig",
@@ -38,7 +40,11 @@ __all__ = [
 HEARTBEATS_PER_WATCHDOG = 10
 """Host heartbeat period = watchdog / this (docs/protocol.md, Timing)."""
 
-Tracked = Setpoint | BulkSetpoints | Heartbeat | EStop | EStopReset | CountersRequest
+Tracked = Setpoint | BulkSetpoints | Heartbeat | EStop | EStopReset | CountersRequest | Hello
+
+SESSION_RENEW_GAP = 16384
+"""The host starts a new session before its ordered counter runs this far ahead of the
+last seq the bridge answered (docs/protocol.md, Sequence numbers)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,6 +108,10 @@ class Outcome(enum.Enum):
     """No ack after every retry; it may or may not have been applied, and at most once."""
     SUPERSEDED = "superseded"
     """A newer bulk setpoint (a superset of it) replaced it before it was acked."""
+    STALE = "stale"
+    """The bridge answered ``ACK STALE``: older than a request it handled, **not applied**."""
+    CANCELLED = "cancelled"
+    """An e-stop went out before it was acknowledged; the bridge will not apply it."""
 
 
 class Request:
@@ -168,6 +178,10 @@ class SessionStats:
         sent: Requests completed (any outcome).
         estopped: The bridge reports its e-stop latched.
         watchdog: The bridge reports its watchdog tripped.
+        bridge_resets: Bridge resets seen in the middle of the session.
+        sessions: Sessions started (the connect's included).
+        stale: Requests the bridge answered ``STALE`` (not applied).
+        cancelled: Requests cancelled by an e-stop.
     """
 
     connected: bool
@@ -182,3 +196,7 @@ class SessionStats:
     sent: int
     estopped: bool
     watchdog: bool
+    bridge_resets: int = 0
+    sessions: int = 1
+    stale: int = 0
+    cancelled: int = 0

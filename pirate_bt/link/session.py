@@ -1,22 +1,31 @@
-"""The link session: acks, retries, heartbeats, duplicates, link loss, e-stop first.
+"""The link session: acks, retries, heartbeats, duplicates, sessions, link loss, e-stop first.
 
 A :class:`Session` sits on a connected byte link (after :func:`~pirate_bt.link.transport.handshake`)
 and does everything ``docs/protocol.md`` asks of the host:
 
 - decodes incoming frames and keeps the latest ``STATE`` with its arrival time,
   dropping (and counting) duplicate and out-of-date ones by sequence number;
-- sends requests **stop-and-wait**: one tracked request in flight, acknowledged by
+- numbers requests from two counters: the **ordered** one (``SETPOINT``,
+  ``BULK_SETPOINTS``, ``ESTOP``, ``ESTOP_RESET``, ``HELLO``), which the bridge's
+  duplicate filter follows, and the **untracked** one (``HEARTBEAT``,
+  ``COUNTERS_REQUEST``), which it never compares. Heartbeats therefore cannot age
+  the filter, however long the session;
+- sends ordered requests **stop-and-wait**: one in flight, acknowledged by type and
   sequence number, retried with the *same* sequence number after an ack timeout
   derived from the baud rate, and given up after a bounded number of retries.
-  Every request ends in exactly one :class:`Outcome`; none is dropped silently;
+  Every request ends in exactly one :class:`Outcome`; none is dropped silently, and
+  an ``ACK STALE`` is a failure, never an acknowledgement;
 - a newer bulk setpoint supersedes an older one that is queued or in flight (it
   carries the full desired table, so nothing is lost);
-- an e-stop is written at once, ahead of the queue and of anything in flight;
+- an e-stop is written at once, ahead of the queue and of anything in flight, and
+  cancels every queued or in-flight setpoint and e-stop reset;
 - keeps the bridge's watchdog fed: whenever no frame at all has gone out for a
   heartbeat period (a tenth of the watchdog), it sends a ``HEARTBEAT``, whatever
   else is queued or in flight. Heartbeats are never retried and never wait for one
-  another: a lost one is simply followed by the next a period later, so at 5 % frame
-  loss the bridge would need about ten frames in a row to vanish before it trips;
+  another;
+- sees a bridge reset (``NO_SESSION`` in a ``STATE``, a new boot id) and starts a
+  new session with a ``HELLO``, failing what was in flight; starts one too before
+  its ordered counter runs :data:`SESSION_RENEW_GAP` ahead of the bridge;
 - declares the link lost (:class:`~pirate_bt.errors.LinkLost`) when nothing valid
   was heard for the link timeout;
 - keeps health figures (RTT, loss ratio, CRC errors, retries, last heard).
@@ -39,8 +48,9 @@ import threading
 from collections.abc import Sequence
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import FrameError, LinkError, LinkLost, LinkTimeout
+from pirate_bt.errors import FrameError, LinkError, LinkLost, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import (
+    PROTOCOL_MINOR,
     Ack,
     AckStatus,
     BridgeFlags,
@@ -53,8 +63,10 @@ from pirate_bt.link.codec import (
     FrameCodec,
     FrameDecoder,
     Heartbeat,
+    Hello,
     HelloReply,
     Message,
+    MsgType,
     Nack,
     Setpoint,
     State,
@@ -62,6 +74,7 @@ from pirate_bt.link.codec import (
 )
 from pirate_bt.link.requests import (
     HEARTBEATS_PER_WATCHDOG,
+    SESSION_RENEW_GAP,
     Outcome,
     Request,
     SessionConfig,
@@ -72,6 +85,7 @@ from pirate_bt.robot.description import ControlMode
 
 __all__ = [
     "HEARTBEATS_PER_WATCHDOG",
+    "SESSION_RENEW_GAP",
     "Outcome",
     "Request",
     "Session",
@@ -80,6 +94,15 @@ __all__ = [
 ]
 
 _log = logging.getLogger(__name__)
+
+HELLO_TRIES = 16
+"""Tries of a mid-session HELLO before the link is declared lost."""
+
+_ORDERED = (Setpoint, BulkSetpoints, EStopReset)
+
+
+def _next(seq: int) -> int:
+    return (seq + 1) & 0xFFFF or 1
 
 
 class Session:
@@ -90,7 +113,8 @@ class Session:
         codec: The codec for the robot's layout.
         clock: The clock every timeout reads.
         config: Timing; see :meth:`SessionConfig.from_robot`.
-        first_seq: The sequence number after the HELLO's.
+        first_seq: The ordered sequence number after the HELLO's.
+        hello_reply: The handshake's reply (its boot id tells a later reset apart).
     """
 
     def __init__(
@@ -101,6 +125,7 @@ class Session:
         config: SessionConfig | None = None,
         *,
         first_seq: int = 2,
+        hello_reply: HelloReply | None = None,
     ) -> None:
         self.link = link
         self.codec = codec
@@ -109,13 +134,19 @@ class Session:
         self._decoder = FrameDecoder(codec)
         self._lock = threading.RLock()
         self._next_seq = first_seq & 0xFFFF or 1
+        self._next_useq = 1
+        # the last ordered seq the bridge answered (the HELLO's, to start with)
+        self._answered = (self._next_seq - 1) & 0xFFFF
         self._queue: collections.deque[Request] = collections.deque()
-        self._ordered: Request | None = None  # the one SETPOINT/BULK in flight
-        self._oob: dict[int, Request] = {}  # e-stop, reset, heartbeat, counters in flight
+        self._ordered: Request | None = None  # the one SETPOINT/BULK/ESTOP_RESET in flight
+        self._oob: dict[tuple[int, int], Request] = {}  # (type, seq): e-stop, heartbeat, counters
+        self._hello: Request | None = None  # a mid-session HELLO in flight
+        self._protocol_error: LinkError | None = None
         now = clock.now()
         self._last_sent_s = now
         self._last_heard_s = now  # the handshake reply was heard just now
         self._state: State | None = None
+        self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
         self._state_at_s = -math.inf
         self._rtt_s = math.nan
         self.rtt_samples: collections.deque[float] = collections.deque(maxlen=10_000)
@@ -125,15 +156,19 @@ class Session:
         self.failed = 0
         self.duplicates = 0
         self.superseded = 0
+        self.stale = 0
+        self.cancelled = 0
         self.completed = 0
         self.unexpected = 0
-        self._flags = BridgeFlags.NONE
+        self.bridge_resets = 0
+        self.sessions = 1
+        self._flags = BridgeFlags.NONE if hello_reply is None else hello_reply.flags
         self._lost = False
         self._closed = False
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
         self._reader_error: BaseException | None = None
-        self.last_hello_reply: HelloReply | None = None
+        self.last_hello_reply: HelloReply | None = hello_reply
         self._pending_failures: list[Request] = []
         self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
 
@@ -182,10 +217,20 @@ class Session:
             return self._submit(BulkSetpoints(self._seq(), tuple(modes), tuple(raw_values)))
 
     def estop(self) -> Request:
-        """Write an e-stop now, ahead of every queue; never raises for a busy link."""
+        """Write an e-stop now, ahead of every queue; never raises for a busy link.
+
+        Every queued or in-flight setpoint and e-stop reset is cancelled
+        (:attr:`Outcome.CANCELLED`): the e-stop takes a newer ordered seq, so the
+        bridge would answer a late copy of any of them ``STALE`` anyway.
+        """
         with self._lock:
-            req = Request(EStop(self._seq()), self.clock.now())
-            self._oob[req.seq] = req
+            now = self.clock.now()
+            for req in [*self._queue, *([self._ordered] if self._ordered else [])]:
+                self._finish(req, Outcome.CANCELLED, now)
+            self._queue.clear()
+            self._ordered = None
+            req = Request(EStop(self._seq()), now)
+            self._oob[(MsgType.ESTOP, req.seq)] = req
             try:
                 self._transmit(req)
             except LinkError as exc:
@@ -194,12 +239,13 @@ class Session:
             return req
 
     def estop_reset(self) -> Request:
-        """Send an e-stop reset (out of band, like the e-stop).
+        """Queue an e-stop reset (an ordered request, like a setpoint).
 
         Raises:
             LinkLost: the link was declared lost.
         """
-        return self._out_of_band(EStopReset)
+        with self._lock:
+            return self._submit(EStopReset(self._seq()))
 
     def request_counters(self) -> Request:
         """Ask the bridge for its counters; the reply lands in :attr:`Request.reply`.
@@ -207,14 +253,10 @@ class Session:
         Raises:
             LinkLost: the link was declared lost.
         """
-        return self._out_of_band(CountersRequest)
-
-    def _out_of_band(self, message: type[EStopReset] | type[CountersRequest]) -> Request:
-        """Send a request outside the setpoint order, tracked by its seq until answered."""
         with self._lock:
             self._check_alive()
-            req = Request(message(self._seq()), self.clock.now())
-            self._oob[req.seq] = req
+            req = Request(CountersRequest(self._useq()), self.clock.now())
+            self._oob[(MsgType.COUNTERS_REQUEST, req.seq)] = req
             self._transmit(req)
             return req
 
@@ -225,8 +267,8 @@ class Session:
 
         Args:
             request: A handle from this session.
-            timeout_s: Longest wait; default: the request's whole retry budget plus
-                one step.
+            timeout_s: Longest wait; default: the request's whole retry budget, plus a
+                queue's worth when it waits behind another request.
 
         Returns:
             ``request`` (check :attr:`Request.outcome`).
@@ -236,7 +278,8 @@ class Session:
             LinkLost: the link was declared lost while waiting.
         """
         if timeout_s is None:
-            timeout_s = self.config.give_up_s + 2 * self.config.poll_step_s
+            queued = 1 + len(self._queue) + (self._ordered is not None) + (self._hello is not None)
+            timeout_s = queued * self.config.give_up_s + 2 * self.config.poll_step_s
         deadline = self.clock.now() + timeout_s
         while not request.done:
             if self._reader is None:
@@ -256,13 +299,13 @@ class Session:
 
         Raises:
             LinkLost: the link was declared lost.
-            LinkError: the session is closed.
+            LinkError: the session is closed, or the bridge refused a new session.
         """
         with self._lock:
             self._check_alive()
 
     def take_failures(self) -> list[Request]:
-        """Requests that failed or were refused since the last call (oldest first)."""
+        """Requests that failed, were refused or came back stale since the last call."""
         with self._lock:
             out, self._pending_failures = self._pending_failures, []
             return out
@@ -285,6 +328,8 @@ class Session:
                     handle(item, now)
             if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
                 self._check_alive(now)
+            if self._protocol_error is not None:
+                raise self._protocol_error
             if now >= self._due_s:  # most polls (one per state frame) have nothing due
                 self._service(now)
 
@@ -305,6 +350,10 @@ class Session:
                 sent=self.completed,
                 estopped=bool(self._flags & BridgeFlags.ESTOP),
                 watchdog=bool(self._flags & BridgeFlags.WATCHDOG),
+                bridge_resets=self.bridge_resets,
+                sessions=self.sessions,
+                stale=self.stale,
+                cancelled=self.cancelled,
             )
 
     def start_reader(self, period_s: float = 0.001) -> None:
@@ -351,14 +400,7 @@ class Session:
         with self._lock:
             if self._closed:
                 return
-            now = self.clock.now()
-            for req in [*self._queue, *self._oob.values()] + (
-                [self._ordered] if self._ordered else []
-            ):
-                self._finish(req, Outcome.FAILED, now)
-            self._queue.clear()
-            self._oob.clear()
-            self._ordered = None
+            self._fail_all(self.clock.now())
             self._closed = True
             self.link.close()
 
@@ -371,34 +413,47 @@ class Session:
 
     def _seq(self) -> int:
         seq = self._next_seq
-        self._next_seq = (seq + 1) & 0xFFFF or 1
+        self._next_seq = _next(seq)
         return seq
+
+    def _useq(self) -> int:
+        seq = self._next_useq
+        self._next_useq = _next(seq)
+        return seq
+
+    def _fail_all(self, now: float) -> None:
+        pending = [*self._queue, *self._oob.values()]
+        for req in (self._ordered, self._hello):
+            if req is not None:
+                pending.append(req)
+        for req in pending:
+            self._finish(req, Outcome.FAILED, now)
+        self._queue.clear()
+        self._oob.clear()
+        self._ordered = None
+        self._hello = None
 
     def _check_alive(self, now: float | None = None) -> None:
         if self._lost:
             raise LinkLost(f"nothing heard from the bridge for over {self.config.link_timeout_s} s")
         if self._closed:
             raise LinkError("session closed")
+        if self._protocol_error is not None:
+            raise self._protocol_error
         if now is None:
             return
         if now - self._last_heard_s > self.config.link_timeout_s:
             self._lost = True
             silent = now - self._last_heard_s
             _log.error("link lost: bridge silent for %.3f s", silent)
-            for req in [*self._queue, *self._oob.values()] + (
-                [self._ordered] if self._ordered else []
-            ):
-                self._finish(req, Outcome.FAILED, now)
-            self._queue.clear()
-            self._oob.clear()
-            self._ordered = None
+            self._fail_all(now)
             raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
 
-    def _submit(self, msg: Setpoint | BulkSetpoints) -> Request:
+    def _submit(self, msg: Setpoint | BulkSetpoints | EStopReset) -> Request:
         self._check_alive()
         req = Request(msg, self.clock.now())
         self._queue.append(req)
-        if self._ordered is None:
+        if self._ordered is None and self._hello is None:
             self._service(self.clock.now())
         return req
 
@@ -425,29 +480,61 @@ class Session:
         if outcome is Outcome.SUPERSEDED:
             self.superseded += 1
             return
+        if outcome is Outcome.CANCELLED:
+            self.cancelled += 1
+            return
+        if outcome is Outcome.STALE:
+            self.stale += 1
+            _log.warning("%r: the bridge answered STALE (not applied)", req)
         if outcome is Outcome.FAILED:
-            self.failed += 1
             if isinstance(req.msg, Heartbeat):
                 # expected now and then on a lossy line; the next one is already due
                 _log.debug("%r not acknowledged", req)
-            else:
-                _log.warning("%r gave up after %d tries", req, req.tries)
-        if outcome in (Outcome.FAILED, Outcome.NACKED) and not isinstance(req.msg, Heartbeat):
+                return
+            self.failed += 1
+            _log.warning("%r gave up after %d tries", req, req.tries)
+        if outcome in (Outcome.FAILED, Outcome.NACKED, Outcome.STALE) and not isinstance(
+            req.msg, Heartbeat | Hello
+        ):
             self._pending_failures.append(req)
         self._recent.append(outcome is Outcome.FAILED or req.tries > 1)
+
+    def _start_session(self, now: float, why: str) -> None:
+        """Send a HELLO: a new session on the bridge (after a reset, or a long gap)."""
+        _log.warning("starting a new session: %s", why)
+        self._fail_all_ordered(now)
+        self._hello = Request(Hello(self._seq(), self.codec.layout.digest, PROTOCOL_MINOR), now)
+        self._transmit(self._hello)
+
+    def _fail_all_ordered(self, now: float) -> None:
+        for req in [*self._queue, *([self._ordered] if self._ordered else [])]:
+            self._finish(req, Outcome.FAILED, now)
+        self._queue.clear()
+        self._ordered = None
 
     def _service(self, now: float) -> None:
         cfg = self.config
         # retries and give-ups; the e-stop and other out-of-band requests first
         timeout = cfg.ack_timeout_s
-        for req in list(self._oob.values()):
+        for key, req in list(self._oob.items()):
             due = req.next_try_s(timeout)
             if now >= due or due != due:  # due, or never written (nan)
-                if isinstance(req.msg, Heartbeat) or req.tries > cfg.max_retries:
-                    del self._oob[req.seq]
+                if not isinstance(req.msg, EStop | CountersRequest) or req.tries > cfg.max_retries:
+                    del self._oob[key]
                     self._finish(req, Outcome.FAILED, now)
                 else:
                     self._transmit(req)
+        hello = self._hello
+        if hello is not None and now >= hello.next_try_s(timeout):
+            if hello.tries >= HELLO_TRIES:
+                self._hello = None
+                self._finish(hello, Outcome.FAILED, now)
+                self._lost = True
+                self._fail_all(now)
+                raise LinkLost(
+                    f"the bridge did not answer a new session's HELLO ({hello.tries} tries)"
+                )
+            self._transmit(hello)
         ordered = self._ordered
         if ordered is not None and now >= ordered.next_try_s(timeout):
             if ordered.tries > cfg.max_retries:
@@ -455,22 +542,26 @@ class Session:
                 self._finish(ordered, Outcome.FAILED, now)
             else:
                 self._transmit(ordered)
-        if self._ordered is None and self._queue:
-            self._ordered = self._queue.popleft()
-            self._transmit(self._ordered)
+        if self._ordered is None and self._hello is None:
+            if ((self._next_seq - self._answered) & 0xFFFF) >= SESSION_RENEW_GAP:
+                self._start_session(now, "the bridge has answered no ordered request for long")
+            elif self._queue:
+                self._ordered = self._queue.popleft()
+                self._transmit(self._ordered)
         # Keep-alive, independent of what is in flight: a retried request whose frames
         # are lost must not hold heartbeats back, and any frame feeds the watchdog.
         if now - self._last_sent_s >= cfg.heartbeat_period_s:
-            hb = Request(Heartbeat(self._seq()), now)
-            self._oob[hb.seq] = hb
+            hb = Request(Heartbeat(self._useq()), now)
+            self._oob[(MsgType.HEARTBEAT, hb.seq)] = hb
             self._transmit(hb)
         # the next time anything above can be due (a conservative bound: acks only delay it)
         due = self._last_sent_s + cfg.heartbeat_period_s
         for req in self._oob.values():
             next_s = req.next_try_s(timeout)
             due = min(due, now if next_s != next_s else next_s)  # nan: not written yet
-        if self._ordered is not None:
-            due = min(due, self._ordered.next_try_s(timeout))
+        for pending in (self._ordered, self._hello):
+            if pending is not None:
+                due = min(due, pending.next_try_s(timeout))
         self._due_s = due
 
     def _settle(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -498,35 +589,102 @@ class Session:
         self._last_heard_s = now
         if isinstance(item, State):
             self._on_state(item, now)
-            return
-        if isinstance(item, Ack | Nack | Counters):
-            req = self._match(item.seq)
+        elif isinstance(item, Ack | Nack):
+            self._on_answer(item, now)
+        elif isinstance(item, Counters):
+            req = self._oob.pop((MsgType.COUNTERS_REQUEST, item.seq), None)
             if req is None:
                 self.duplicates += 1
                 return
-            if isinstance(item, Ack):
-                req.ack_status = item.status
-                outcome = Outcome.ACKED
-            elif isinstance(item, Nack):
-                req.nack = item.error
+            req.reply = item
+            self._settle(req, Outcome.ACKED, now)
+        elif isinstance(item, BridgeHeartbeat):
+            self._flags = item.flags
+            if item.flags & BridgeFlags.NO_SESSION:
+                self._bridge_reset(now)
+        elif isinstance(item, HelloReply):
+            self._on_hello_reply(item, now)
+
+    def _on_answer(self, item: Ack | Nack, now: float) -> None:
+        kind = item.acked_type
+        ordered = self._ordered
+        if ordered is not None and ordered.seq == item.seq and kind == ordered.msg.TYPE:
+            self._ordered = None
+            self._answered = item.seq
+            if isinstance(item, Nack):
+                ordered.nack = item.error
                 outcome = Outcome.NACKED
             else:
-                req.reply = item
-                outcome = Outcome.ACKED
-            self._settle(req, outcome, now)
-            if self._ordered is None and self._queue:  # the next queued request may go
+                ordered.ack_status = item.status
+                outcome = Outcome.STALE if item.status is AckStatus.STALE else Outcome.ACKED
+            self._settle(ordered, outcome, now)
+            if self._queue:  # the next queued request may go
                 self._service(now)
             return
-        if isinstance(item, BridgeHeartbeat):
-            self._flags = item.flags
+        hello = self._hello
+        if hello is not None and isinstance(item, Nack) and hello.seq == item.seq:
+            self._refused_session(hello, f"the bridge refused a new session: {item.error.name}")
             return
-        if isinstance(item, HelloReply):
-            self.last_hello_reply = item
+        req = self._oob.pop((kind, item.seq), None)
+        if req is None:
+            self.duplicates += 1  # a late answer to a retried or given-up request
             return
+        if isinstance(item, Nack):
+            req.nack = item.error
+            self._settle(req, Outcome.NACKED, now)
+        else:
+            req.ack_status = item.status
+            self._settle(req, Outcome.ACKED, now)
+            if kind == MsgType.ESTOP and seq_newer(item.seq, self._answered):
+                self._answered = item.seq
+
+    def _refused_session(self, hello: Request, why: str) -> None:
+        self._hello = None
+        self._finish(hello, Outcome.NACKED, self.clock.now())
+        self._protocol_error = ProtocolMismatch(why)
+        _log.error("%s", why)
+
+    def _on_hello_reply(self, item: HelloReply, now: float) -> None:
+        hello = self._hello
+        if hello is None or item.seq != hello.seq:
+            self.duplicates += 1
+            return
+        layout = self.codec.layout
+        if item.layout_digest != layout.digest or item.minor != PROTOCOL_MINOR:
+            self._refused_session(hello, "the bridge answered a new session with another layout")
+            return
+        previous = self.last_hello_reply
+        if previous is not None and previous.boot_id != item.boot_id:
+            _log.warning("the bridge was reset (boot id %d -> %d)", previous.boot_id, item.boot_id)
+        self.last_hello_reply = item
+        self._flags = item.flags
+        self._hello = None
+        self._answered = item.seq
+        self._accept_any_state = True
+        self.sessions += 1
+        self._settle(hello, Outcome.ACKED, now)
+        if item.flags & BridgeFlags.ESTOP:
+            _log.warning("new session: the bridge's e-stop is latched (reset it to move)")
+        self._service(now)
+
+    def _bridge_reset(self, now: float) -> None:
+        if self._hello is not None:
+            return  # a new session is already on its way
+        self.bridge_resets += 1
+        _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
+        self._start_session(now, "the bridge was reset")
 
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
-        if last is not None and not seq_newer(item.seq, last.seq):
+        if item.flags & BridgeFlags.NO_SESSION:
+            self._flags = item.flags
+            self._bridge_reset(now)
+            return
+        if self._accept_any_state:
+            if self._hello is not None:
+                return  # a state of the old session, before the new one's reply
+            self._accept_any_state = False
+        elif last is not None and not seq_newer(item.seq, last.seq):
             self.duplicates += 1
             return
         self._state = item
@@ -536,18 +694,10 @@ class Session:
         if (
             ordered is not None
             and isinstance(ordered.msg, BulkSetpoints)
-            and (item.ack_seq == ordered.seq or seq_newer(item.ack_seq, ordered.seq))
+            and item.ack_seq == ordered.seq
         ):
             self._ordered = None
+            self._answered = ordered.seq
             ordered.ack_status = AckStatus.APPLIED
             self._settle(ordered, Outcome.ACKED, now)
             self._service(now)
-
-    def _match(self, seq: int) -> Request | None:
-        req = self._oob.pop(seq, None)
-        if req is not None:
-            return req
-        if self._ordered is not None and self._ordered.seq == seq:
-            req, self._ordered = self._ordered, None
-            return req
-        return None

@@ -296,6 +296,7 @@ class SimBridge:
     def _boot(self) -> None:
         self.boot_id = (self.boot_id + 1) & 0xFFFF
         self.sessions = 0
+        self._session_seq = 0
         self.no_session = True
         self.estopped = True
         self.watchdog_tripped = False
@@ -387,9 +388,11 @@ class SimBridge:
         self._last_seq = seq
         self._last_answer = None
         self._ack_seq = 0
+        if self.no_session or seq != self._session_seq:  # a retried HELLO is the same session
+            self.sessions = min(self.sessions + 1, 255)
+        self._session_seq = seq
         self.no_session = False
         self.watchdog_tripped = False
-        self.sessions = min(self.sessions + 1, 255)
         self._apply_stop()
         self._send(
             HelloReply(
