@@ -353,7 +353,10 @@ def test_state_fast_path_keeps_error_order() -> None:
 
 
 def test_iter_feed_matches_feed() -> None:
-    msgs = [c.Heartbeat(1), c.State(2, c.BridgeFlags.NONE, 1, 3, (1,) * n_b, (4,) * n_ch)]
+    msgs: list[c.Message] = [
+        c.Heartbeat(1),
+        c.State(2, c.BridgeFlags.NONE, 1, 3, (1,) * n_b, (4,) * n_ch),
+    ]
     wire = c.encode_many(CODEC, msgs) + b"\x00\x07garbage"
     assert list(c.FrameDecoder(CODEC).iter_feed(wire)) == c.FrameDecoder(CODEC).feed(wire)
     assert list(c.FrameDecoder(CODEC).iter_feed(b"")) == []
