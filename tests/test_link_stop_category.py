@@ -18,7 +18,7 @@ from pirate_bt.link import open_link
 from pirate_bt.pipes import Network, load_network
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.commands import MotorCommand
-from pirate_bt.robot.description import ControlMode, Half
+from pirate_bt.robot.description import ControlMode, Half, Motor
 from pirate_bt.safety.commands import Clamp, Command, MoveFrontClear
 from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.supervisor import Supervisor
@@ -144,7 +144,7 @@ def test_estop_stops_a_rotation_in_torque_mode() -> None:
         link.close()
 
 
-def _joints(half: Half) -> list[object]:
+def _joints(half: Half) -> list[Motor]:
     names = {m.name for m in ROBOT.bend_modules(half)}
     return [m for b in ROBOT.boards if b.module in names for m in b.motors if m.function == "bend"]
 
