@@ -470,3 +470,72 @@ def test_health_is_cached_until_a_figure_changes() -> None:
     assert (after.retries, after.crc_errors) == (before.retries + 1, before.crc_errors + 2)
     link.session.close()
     assert link.health().connected is False
+
+
+# --- sessions, bridge resets, stale answers (protocol 1.1) ------------------------------------
+
+
+def test_a_bridge_reset_mid_session_is_seen_and_the_latch_kept() -> None:
+    link, bridge, clock = connect()
+    drive = ROBOT.drive_motors()[0].name
+    link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    bridge.bridge.reset()  # a brown-out: the bridge boots again, latched
+    in_flight = link.session.send_bulk([None] * CODEC.layout.n_motors, [0] * CODEC.layout.n_motors)
+    for _ in range(20):
+        clock.sleep(0.01)
+        link.poll()
+    stats = link.session.stats()
+    assert stats.bridge_resets == 1 and stats.sessions == 2
+    assert in_flight.outcome in (Outcome.FAILED, Outcome.NACKED)  # never counted as delivered
+    assert link.health().estopped  # the session does not release a latch it did not see set
+    with pytest.raises(LinkError):
+        link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    link.reset_estop()
+    link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    assert link.state() is not None
+
+
+def test_a_stale_answer_is_a_failure_never_an_ack() -> None:
+    link, _, _ = connect()
+    session = link.session
+    session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 1))
+    session._next_seq = 2  # white box: a request numbered below what the bridge has seen
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 2))
+    assert req.outcome is Outcome.STALE
+    assert session.take_failures() == [req]
+    assert session.stats().stale == 1
+
+
+def test_a_long_unanswered_stretch_starts_a_new_session() -> None:
+    link, _, clock = connect()
+    session = link.session
+    session._next_seq = (session._answered + 16_384) & 0xFFFF  # white box: 16 384 lost
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 3))
+    assert req.outcome is Outcome.FAILED  # queued when the session was renewed: reported
+    assert session.take_failures() == [req]
+    clock.sleep(0.02)
+    link.poll()
+    assert session.stats().sessions == 2
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 4))
+    assert req.outcome is Outcome.ACKED
+
+
+def test_connect_keeps_a_latch_left_by_an_earlier_session() -> None:
+    clock = SimClock()
+    sim_bridge = bridge_for(ROBOT)
+    host, far = memory_pair()
+    first = BridgeOnPort(far, sim_bridge)
+    clock.add_listener(first.step)
+    link = wrap_link(host, ROBOT, clock)
+    assert not link.health().estopped  # the boot latch was released by the connect
+    link.estop()
+    clock.sleep(0.05)
+    link.session.close()
+    clock.remove_listener(first.step)
+    host, far = memory_pair()
+    second = BridgeOnPort(far, sim_bridge)  # another host process, the same bridge
+    clock.add_listener(second.step)
+    link = wrap_link(host, ROBOT, clock)
+    clock.sleep(0.05)
+    link.poll()
+    assert link.health().estopped  # an operator's e-stop outlives the host that set it

@@ -126,6 +126,8 @@ class InboundMixin:
             else:
                 ordered.ack_status = item.status
                 outcome = Outcome.STALE if item.status is AckStatus.STALE else Outcome.ACKED
+                if outcome is Outcome.ACKED and kind == MsgType.ESTOP_RESET:
+                    self._flags &= ~BridgeFlags.ESTOP  # released now; the next STATE says so too
             self._settle(ordered, outcome, now)
             if self._queue:  # the next queued request may go
                 self._service(now)
@@ -144,8 +146,10 @@ class InboundMixin:
         else:
             req.ack_status = item.status
             self._settle(req, Outcome.ACKED, now)
-            if kind == MsgType.ESTOP and seq_newer(item.seq, self._answered):
-                self._answered = item.seq
+            if kind == MsgType.ESTOP:
+                self._flags |= BridgeFlags.ESTOP
+                if seq_newer(item.seq, self._answered):
+                    self._answered = item.seq
 
     def _refused_session(self, hello: Request, why: str) -> None:
         self._hello = None

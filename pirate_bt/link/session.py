@@ -486,7 +486,10 @@ class Session(InboundMixin):
                 _log.debug("%r not acknowledged", req)
                 return
             self.failed += 1
-            _log.warning("%r gave up after %d tries", req, req.tries)
+            if req.tries:
+                _log.warning("%r gave up after %d tries", req, req.tries)
+            else:
+                _log.warning("%r not sent: the session ended or a new one started", req)
         if outcome in (Outcome.FAILED, Outcome.NACKED, Outcome.STALE) and not isinstance(
             req.msg, Heartbeat | Hello
         ):

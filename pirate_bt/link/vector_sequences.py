@@ -271,6 +271,19 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
             ],
         },
         {
+            "name": "new_host_same_hello_seq",
+            "description": "a second host starts with the same HELLO seq after the first one "
+            "e-stopped: a new session (sessions 2), the latch kept, so the second host does "
+            "not take it for a boot latch",
+            "steps": [
+                *start,
+                step(EStop(3), ack(3, MsgType.ESTOP)),
+                step(Hello(1, digest), reply(1, 2, e)),
+                step(Hello(1, digest), reply(1, 2, e)),
+                step(sp(2, 100), nack(2, sp_t, NackCode.ESTOP_LATCHED)),
+            ],
+        },
+        {
             "name": "bridge_reset",
             "description": "a DTR reset loses the session: NO_SESSION and the latch are back, "
             "ack_seq 0, ordered requests NOT_READY until a HELLO",

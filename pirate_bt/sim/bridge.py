@@ -296,7 +296,6 @@ class SimBridge:
     def _boot(self) -> None:
         self.boot_id = (self.boot_id + 1) & 0xFFFF
         self.sessions = 0
-        self._session_seq = 0
         self.no_session = True
         self.estopped = True
         self.watchdog_tripped = False
@@ -384,13 +383,15 @@ class SimBridge:
         if digest != self.codec.layout.digest or minor != PROTOCOL_MINOR:
             self._nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)
             return
+        # a retried HELLO (its reply was lost: the same seq, nothing handled since) is the
+        # same session; any other HELLO starts a new one
+        retry = not self.no_session and seq == self._last_seq and self._last_answer is None
+        if not retry:
+            self.sessions = min(self.sessions + 1, 255)
         # a new session: filter, ack_seq, setpoints at the stop; latch and counters kept
         self._last_seq = seq
         self._last_answer = None
         self._ack_seq = 0
-        if self.no_session or seq != self._session_seq:  # a retried HELLO is the same session
-            self.sessions = min(self.sessions + 1, 255)
-        self._session_seq = seq
         self.no_session = False
         self.watchdog_tripped = False
         self._apply_stop()
