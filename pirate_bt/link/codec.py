@@ -46,7 +46,6 @@ from __future__ import annotations
 import binascii
 import itertools
 import struct
-from dataclasses import dataclass
 
 from pirate_bt.errors import FrameError
 from pirate_bt.link.framing import (
@@ -93,7 +92,6 @@ from pirate_bt.robot.description import ControlMode, RobotDescription
 
 __all__ = [
     "HEADER_BYTES",
-    "HOST_TYPES",
     "MAX_BODY_BYTES",
     "MAX_PAYLOAD_BYTES",
     "MAX_WIRE_BYTES",
@@ -121,8 +119,6 @@ __all__ = [
     "MsgType",
     "Nack",
     "NackCode",
-    "RawFrame",
-    "RawFrameDecoder",
     "Setpoint",
     "State",
     "WireLayout",
@@ -144,42 +140,6 @@ _SETPOINT = struct.Struct("<BBh")
 _ACK = struct.Struct("<BB")
 _COUNTERS_HEAD = struct.Struct("<IIIII")
 _BOARD_COUNTERS = struct.Struct("<BIII")
-
-
-@dataclass(frozen=True, slots=True)
-class RawFrame:
-    """A frame that passed the framing, CRC and version checks, not yet interpreted.
-
-    What a bridge works on (``docs/protocol.md``, Checks, steps 3-6): it answers a
-    bad type or length with a ``NACK`` instead of dropping the frame, so it needs
-    the header of a frame whose payload is wrong.
-
-    Attributes:
-        type: The type byte (any value).
-        seq: The sequence number.
-        arg: The ``arg`` byte.
-        payload: The payload bytes.
-    """
-
-    type: int
-    seq: int
-    arg: int
-    payload: bytes
-
-
-HOST_TYPES: frozenset[int] = frozenset(
-    int(t)
-    for t in (
-        MsgType.HELLO,
-        MsgType.SETPOINT,
-        MsgType.BULK_SETPOINTS,
-        MsgType.HEARTBEAT,
-        MsgType.ESTOP,
-        MsgType.ESTOP_RESET,
-        MsgType.COUNTERS_REQUEST,
-    )
-)
-"""The seven host -> bridge type codes; a bridge answers any other with UNKNOWN_TYPE."""
 
 
 _TYPE_BY_CODE: dict[int, MsgType] = {int(t): t for t in MsgType}
@@ -446,62 +406,6 @@ class FrameCodec:
             return 0, payload
         raise ValueError(f"not a message: {msg!r}")  # pragma: no cover - exhaustive above
 
-    # bridge side ---------------------------------------------------------------------------
-
-    def parse_raw(self, body: bytes) -> RawFrame:
-        """Check a body's size, CRC and version (steps 1-2 of the bridge's checks).
-
-        Args:
-            body: Header + payload + CRC (after COBS decoding).
-
-        Returns:
-            The frame's header fields and payload.
-
-        Raises:
-            FrameError: ``short``, ``oversize``, ``crc`` or ``version``.
-        """
-        n = len(body)
-        if n < HEADER_BYTES + 2:
-            raise FrameError("short", f"{n} bytes, need at least {HEADER_BYTES + 2}")
-        if n > MAX_BODY_BYTES:
-            raise FrameError("oversize", f"{n}-byte body (max {MAX_BODY_BYTES})")
-        (crc,) = _CRC.unpack_from(body, n - 2)
-        if binascii.crc_hqx(memoryview(body)[: n - 2], 0) != crc:
-            raise FrameError("crc", f"CRC mismatch (frame says {crc:#06x})")
-        version, code, seq, arg = _HEADER.unpack_from(body)
-        if version != PROTOCOL_VERSION:
-            raise FrameError("version", f"protocol version {version}, expected {PROTOCOL_VERSION}")
-        return RawFrame(code, seq, arg, bytes(body[HEADER_BYTES : n - 2]))
-
-    def host_payload_bytes(self, kind: int) -> int:
-        """The payload length of host -> bridge type ``kind`` in this layout.
-
-        Raises:
-            KeyError: not a host -> bridge type.
-        """
-        if kind == MsgType.BULK_SETPOINTS:
-            return self.layout.bulk_payload_bytes
-        if kind not in HOST_TYPES:
-            raise KeyError(kind)
-        return _FIXED_PAYLOAD[kind]
-
-    @staticmethod
-    def unpack_hello(payload: bytes) -> tuple[int, int]:
-        """``(layout_digest, minor)`` of a HELLO payload of the right length."""
-        digest, minor = _HELLO.unpack(payload)
-        return digest, minor
-
-    @staticmethod
-    def unpack_setpoint(payload: bytes) -> tuple[int, int, int]:
-        """``(slot, mode_code, raw_value)`` of a SETPOINT payload of the right length."""
-        slot, code, raw = _SETPOINT.unpack(payload)
-        return slot, code, raw
-
-    def unpack_bulk(self, payload: bytes) -> list[tuple[int, int]]:
-        """``(mode_code, raw_value)`` per motor of a BULK_SETPOINTS payload of the right length."""
-        flat = self._bulk.unpack(payload)
-        return list(zip(flat[0::2], flat[1::2], strict=True))
-
     # decode ------------------------------------------------------------------------------
 
     def decode(self, encoded: bytes) -> Message:
@@ -679,4 +583,4 @@ class FrameCodec:
 
 
 # Re-exported here: the decoder was part of this module.
-from pirate_bt.link.decoder import FrameDecoder, RawFrameDecoder, encode_many  # noqa: E402
+from pirate_bt.link.decoder import FrameDecoder, encode_many  # noqa: E402

@@ -6,11 +6,11 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
 from pirate_bt.errors import FrameError
-from pirate_bt.link.codec import FrameCodec, RawFrame
+from pirate_bt.link.codec import FrameCodec
 from pirate_bt.link.framing import MAX_WIRE_BYTES, cobs_decode
 from pirate_bt.link.messages import Message
 
-__all__ = ["FrameDecoder", "RawFrameDecoder", "encode_many"]
+__all__ = ["FrameDecoder", "encode_many"]
 
 _T = TypeVar("_T")
 
@@ -103,23 +103,3 @@ class FrameDecoder:
 def encode_many(codec: FrameCodec, msgs: Sequence[Message]) -> bytes:
     """Concatenate the wire bytes of several messages (tests and simulators)."""
     return b"".join(codec.encode(m) for m in msgs)
-
-
-class RawFrameDecoder(FrameDecoder):
-    """The bridge side's streaming decoder: frames checked up to the version, not interpreted.
-
-    Like :class:`FrameDecoder`, but each good frame comes back as a
-    :class:`~pirate_bt.link.codec.RawFrame` (steps 1-2 of the bridge's checks in
-    ``docs/protocol.md``), so a bridge can answer a bad type or length itself.
-    """
-
-    def feed_raw(self, data: bytes) -> list[RawFrame | FrameError]:
-        """Add received bytes; return every frame they complete, in order (never raises).
-
-        Args:
-            data: Bytes read from the line.
-
-        Returns:
-            Raw frames and frame errors, in arrival order.
-        """
-        return self._feed(data, self.codec.parse_raw)

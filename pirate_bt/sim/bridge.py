@@ -3,7 +3,7 @@
 :class:`SimBridge` is what the host's link talks to. It takes bytes
 (:meth:`SimBridge.receive`), checks each frame in the order ``docs/protocol.md``
 gives (framing, CRC, version with the link's
-:class:`~pirate_bt.link.decoder.RawFrameDecoder`; then type, length, and the
+:class:`~pirate_bt.link.raw.RawFrameDecoder`; then type, length, and the
 rules of each type), applies setpoints to the
 :class:`~pirate_bt.sim.model.PipeRobotModel` through the robot's
 :class:`~pirate_bt.robot.commands.CommandCodec` (raw -> SI, exactly as the real
@@ -32,11 +32,9 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
 
-from pirate_bt.errors import ConfigurationError, FrameError
+from pirate_bt.errors import FrameError
 from pirate_bt.link.codec import (
-    HOST_TYPES,
     MODE_KEEP,
     PROTOCOL_MINOR,
     Ack,
@@ -51,16 +49,16 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     NackCode,
-    RawFrame,
-    RawFrameDecoder,
     seq_newer,
 )
 from pirate_bt.link.layout import StopRole, stop_role
 from pirate_bt.link.messages import MODE_BY_CODE
+from pirate_bt.link.raw import HOST_TYPES, HostPayloads, RawFrame, RawFrameDecoder
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot.commands import CommandCodec, MotorCommand, RawSetpoint
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.state import StateBuilder
+from pirate_bt.sim.bridge_faults import ActiveFault, FaultsMixin
 from pirate_bt.sim.counters import EventKind, SimCounters
 from pirate_bt.sim.model import PipeRobotModel
 
@@ -88,15 +86,7 @@ def _stop_commands(robot: RobotDescription) -> list[MotorCommand]:
     return out
 
 
-@dataclass
-class _ActiveFault:
-    spec: FaultSpec
-    end_s: float
-    started: bool = False
-    frozen: float | None = None
-
-
-class SimBridge:
+class SimBridge(FaultsMixin):
     """The simulated bridge: bytes in, bytes out, physics stepped per state period.
 
     Args:
@@ -112,6 +102,7 @@ class SimBridge:
         self.robot = robot
         self.codec = FrameCodec.for_robot(robot)
         self._decoder = RawFrameDecoder(self.codec)
+        self._payloads = HostPayloads(self.codec.layout)
         self._commands = CommandCodec(robot)
         self._states = StateBuilder(robot)
         self._channels = [c.name for c in robot.state_channels()]
@@ -156,91 +147,9 @@ class SimBridge:
         self._boot()
         # faults
         self._pending: list[FaultSpec] = []
-        self._active: list[_ActiveFault] = []
+        self._active: list[ActiveFault] = []
         self._dropout: set[int] = set()
         self._stuck: dict[int, float] = {}
-
-    # -- faults ---------------------------------------------------------------------
-
-    def check_fault(self, fault: FaultSpec) -> None:
-        """Check that a fault's target exists on this robot.
-
-        Raises:
-            ConfigurationError: unknown motor, channel or board.
-        """
-        target = fault.target
-        if fault.kind == "motor_stall":
-            if target not in self.model.motor_names():
-                raise ConfigurationError(f"fault {fault.kind}: unknown motor {target!r}")
-        elif fault.kind in ("sensor_dropout", "sensor_stuck"):
-            if target not in self._channel_index:
-                raise ConfigurationError(f"fault {fault.kind}: unknown state channel {target!r}")
-        elif fault.kind == "board_reset" and (
-            target is None or not target.isdigit() or int(target) not in self._boards
-        ):
-            raise ConfigurationError(f"fault board_reset: unknown board {target!r}")
-
-    def schedule(self, faults: Iterable[FaultSpec]) -> None:
-        """Add faults to inject at their simulated times.
-
-        Raises:
-            ConfigurationError: a fault names a motor, channel or board the robot lacks.
-        """
-        for fault in faults:
-            self.check_fault(fault)
-            self._pending.append(fault)
-        self._pending.sort(key=lambda f: f.at)
-
-    def _update_faults(self, now_s: float) -> None:
-        while self._pending and self._pending[0].at <= now_s:
-            spec = self._pending.pop(0)
-            duration = spec.duration
-            if duration is None:
-                duration = self.robot.bridge.reset_time if spec.kind == "board_reset" else math.inf
-            fault = _ActiveFault(spec, spec.at + duration)
-            self._active.append(fault)
-            self._start_fault(fault)
-        for fault in [f for f in self._active if f.end_s <= now_s]:
-            self._active.remove(fault)
-            self._end_fault(fault)
-
-    def _start_fault(self, fault: _ActiveFault) -> None:
-        spec = fault.spec
-        target = spec.target or ""
-        self.model.record(EventKind.FAULT, f"start {spec.kind} {target}".strip())
-        _log.info("fault %s %s starts at %.3f s", spec.kind, target, self.now_s)
-        if spec.kind == "motor_stall":
-            self.model.set_stalled(target, True)
-        elif spec.kind == "sensor_dropout":
-            self._dropout.add(self._channel_index[target])
-        elif spec.kind == "sensor_stuck":
-            index = self._channel_index[target]
-            self._stuck[index] = self.model.readings()[target]
-        elif spec.kind == "board_reset":
-            board = int(target)
-            self._resetting.add(board)
-            self._status_cache = None
-            names = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
-            self.model.motors_off(names)
-        elif spec.kind == "link_loss":
-            self._link_lost = True
-
-    def _end_fault(self, fault: _ActiveFault) -> None:
-        spec = fault.spec
-        target = spec.target or ""
-        self.model.record(EventKind.FAULT, f"end {spec.kind} {target}".strip())
-        if spec.kind == "motor_stall":
-            self.model.set_stalled(target, False)
-        elif spec.kind == "sensor_dropout":
-            self._dropout.discard(self._channel_index[target])
-        elif spec.kind == "sensor_stuck":
-            self._stuck.pop(self._channel_index[target], None)
-        elif spec.kind == "board_reset":
-            self._resetting.discard(int(target))
-            self._status_cache = None
-        elif spec.kind == "link_loss":
-            self._link_lost = False
-            self._decoder.reset()
 
     # -- bytes ----------------------------------------------------------------------
 
@@ -333,7 +242,7 @@ class SimBridge:
             self._nack(seq, kind, NackCode.UNKNOWN_TYPE)
             return
         # 5. length
-        if len(frame.payload) != self.codec.host_payload_bytes(kind):
+        if len(frame.payload) != self._payloads.size(kind):
             self._nack(seq, kind, NackCode.BAD_LENGTH)
             return
         # 6. by type
@@ -379,7 +288,7 @@ class SimBridge:
         )
 
     def _hello(self, seq: int, payload: bytes) -> None:
-        digest, minor = self.codec.unpack_hello(payload)
+        digest, minor = self._payloads.hello(payload)
         if digest != self.codec.layout.digest or minor != PROTOCOL_MINOR:
             self._nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)
             return
@@ -476,7 +385,7 @@ class SimBridge:
 
     def _setpoint(self, frame: RawFrame) -> AckStatus | NackCode:
         board = frame.arg
-        slot, code, raw_value = self.codec.unpack_setpoint(frame.payload)
+        slot, code, raw_value = self._payloads.setpoint(frame.payload)
         if board not in self._boards:
             return NackCode.BAD_BOARD
         if (board, slot) not in self._motor_at:
@@ -492,9 +401,7 @@ class SimBridge:
 
     def _bulk(self, seq: int, payload: bytes) -> AckStatus | NackCode:
         commands: list[tuple[MotorCommand, int]] = []
-        for slot, (code, raw_value) in zip(
-            self._slots, self.codec.unpack_bulk(payload), strict=True
-        ):
+        for slot, (code, raw_value) in zip(self._slots, self._payloads.bulk(payload), strict=True):
             if code == MODE_KEEP:
                 continue
             result = self._check(slot.board, slot.slot, code, raw_value)
