@@ -179,8 +179,8 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
         },
         {
             "name": "duplicates",
-            "description": "a duplicate gets the first copy's answer again, an older seq STALE; "
-            "a duplicate or stale bulk gets an ACK frame",
+            "description": "a duplicate gets the first copy's answer again, an older seq (or "
+            "the same seq with another type) STALE; a duplicate or stale bulk gets an ACK frame",
             "steps": [
                 *start,
                 step(sp(3, 100), ack(3, sp_t)),
@@ -194,6 +194,7 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
                 step(sp(5, 30000), nack(5, sp_t, NackCode.OUT_OF_RANGE)),
                 step(sp(4, 100), ack(4, sp_t, stale)),
                 step(sp(6, 100), ack(6, sp_t)),
+                step(EStopReset(6), ack(6, reset_t, stale)),
                 wait(0.03, ack_seq=4),
             ],
         },
@@ -233,6 +234,8 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
                 wait(0.03, flags=0, board_status_set=off),
                 step(EStopReset(9), ack(9, reset_t)),
                 step(sp(10, 100), ack(10, sp_t)),
+                step(EStop(11), ack(11, MsgType.ESTOP)),
+                step(sp(11, 100), ack(11, sp_t, stale)),
             ],
         },
         {

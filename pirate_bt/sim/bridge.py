@@ -209,6 +209,7 @@ class SimBridge(FaultsMixin):
         self.estopped = True
         self.watchdog_tripped = False
         self._last_seq: int | None = None
+        self._last_kind: MsgType | None = None
         self._last_answer: AckStatus | NackCode | None = None
         self._ack_seq = 0
         self._state_seq = 0
@@ -294,11 +295,12 @@ class SimBridge(FaultsMixin):
             return
         # a retried HELLO (its reply was lost: the same seq, nothing handled since) is the
         # same session; any other HELLO starts a new one
-        retry = not self.no_session and seq == self._last_seq and self._last_answer is None
+        retry = not self.no_session and seq == self._last_seq and self._last_kind is None
         if not retry:
             self.sessions = min(self.sessions + 1, 255)
         # a new session: filter, ack_seq, setpoints at the stop; latch and counters kept
         self._last_seq = seq
+        self._last_kind = None
         self._last_answer = None
         self._ack_seq = 0
         self.no_session = False
@@ -324,6 +326,7 @@ class SimBridge(FaultsMixin):
         self._apply_stop()
         if self._last_seq is not None and seq_newer(seq, self._last_seq):
             self._last_seq = seq
+            self._last_kind = MsgType.ESTOP
             self._last_answer = AckStatus.APPLIED
         self._record_applied(MsgType.ESTOP, seq)
         self._send(Ack(seq, MsgType.ESTOP))
@@ -338,7 +341,7 @@ class SimBridge(FaultsMixin):
         if not seq_newer(seq, last):
             self.duplicates += 1
             answer = self._last_answer
-            if seq != last:
+            if seq != last or kind is not self._last_kind:
                 self._send(Ack(seq, kind, AckStatus.STALE))
             elif isinstance(answer, NackCode):
                 self._nack(seq, kind, answer)
@@ -346,6 +349,7 @@ class SimBridge(FaultsMixin):
                 self._send(Ack(seq, kind, AckStatus.DUPLICATE))
             return
         self._last_seq = seq
+        self._last_kind = kind
         if kind is MsgType.SETPOINT:
             result = self._setpoint(frame)
         elif kind is MsgType.BULK_SETPOINTS:

@@ -27,6 +27,9 @@ from pirate_bt.link.testing import FdPort
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge_port import BridgeOnPort, bridge_for
 
+REAL_TIME_PATIENCE_S = 1.0
+"""Longest wait for answers that are due from a real-time bridge."""
+
 
 class BridgeUnderTest(Protocol):
     """A bridge seen through its bytes only.
@@ -174,10 +177,22 @@ class Wire:
                 answers.append(item)
         return answers
 
-    def ask(self, msg: Message | bytes, timeout_s: float = 0.05) -> list[Message]:
-        """Send a message (or raw bytes) and return the answers within ``timeout_s``."""
+    def ask(
+        self, msg: Message | bytes, timeout_s: float = 0.05, expect: int | None = None
+    ) -> list[Message]:
+        """Send a message (or raw bytes) and return the answers within ``timeout_s``.
+
+        On a real-time bridge, when ``expect`` answers are known to be due, it waits
+        for them up to a second (a loaded machine delays them), then ``timeout_s``
+        more for any extra answer.
+        """
         if isinstance(msg, bytes):
             self.bridge.write(msg)
         else:
             self.send(msg)
-        return self.collect(timeout_s)
+        answers = self.collect(timeout_s)
+        if expect is not None and not self.bridge.virtual_time:
+            deadline = time.monotonic() + REAL_TIME_PATIENCE_S
+            while len(answers) < expect and time.monotonic() < deadline:
+                answers += self.collect(0.01)
+        return answers

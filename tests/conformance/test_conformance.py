@@ -68,12 +68,12 @@ def run_sequence(wire: Wire, sequence: dict[str, Any]) -> None:
         answers = []
         if "advance_s" in step:
             answers += wire.collect(step["advance_s"])
-        if "send" in step:
-            answers += wire.ask(message_from_json(step["send"]))
-        elif "send_hex" in step:
-            answers += wire.ask(bytes.fromhex(step["send_hex"]))
-        got = [message_to_json(a) for a in answers]
         want = step["expect"]
+        if "send" in step:
+            answers += wire.ask(message_from_json(step["send"]), expect=len(want))
+        elif "send_hex" in step:
+            answers += wire.ask(bytes.fromhex(step["send_hex"]), expect=len(want))
+        got = [message_to_json(a) for a in answers]
         assert len(got) == len(want) and all(map(_matches, got, want)), f"{where}\n  got  {got}"
         check = step.get("state")
         if check:
@@ -94,14 +94,16 @@ def run_sequence(wire: Wire, sequence: dict[str, Any]) -> None:
 
 def start_session(wire: Wire, hello_seq: int = 1) -> HelloReply:
     """HELLO, then release the boot latch."""
-    (reply,) = wire.ask(Hello(hello_seq, wire.codec.layout.digest))
+    (reply,) = wire.ask(Hello(hello_seq, wire.codec.layout.digest), expect=1)
     assert isinstance(reply, HelloReply)
-    assert wire.ask(EStopReset(hello_seq + 1)) == [Ack(hello_seq + 1, MsgType.ESTOP_RESET)]
+    assert wire.ask(EStopReset(hello_seq + 1), expect=1) == [
+        Ack(hello_seq + 1, MsgType.ESTOP_RESET)
+    ]
     return reply
 
 
 def counters(wire: Wire, seq: int) -> Counters:
-    (reply,) = wire.ask(CountersRequest(seq))
+    (reply,) = wire.ask(CountersRequest(seq), expect=1)
     assert isinstance(reply, Counters) and reply.seq == seq
     return reply
 
@@ -159,7 +161,7 @@ def test_hello_reply_fields(bridge: BridgeUnderTest) -> None:
     bridge.reset()
     wire.decoder.reset()
     wire.collect(0.05)
-    (again,) = wire.ask(Hello(9, lay.digest))
+    (again,) = wire.ask(Hello(9, lay.digest), expect=1)
     assert isinstance(again, HelloReply)
     assert again.boot_id != reply.boot_id  # the host tells a reset apart
     assert again.sessions == 1
@@ -191,7 +193,7 @@ def test_oversize_and_garbage_then_resync(bridge: BridgeUnderTest) -> None:
     assert wire.ask(b"\x07garbage\x00") == []  # still skipping: part of the oversize frame
     assert wire.ask(b"\x07garbage\x00") == []  # a frame of its own: bad COBS
     assert wire.ask(cobs_encode(b"\x01" * 255) + b"\x00") == []  # a 255-byte body
-    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
+    assert wire.ask(bend_setpoint(wire, 3), expect=1) == [Ack(3, MsgType.SETPOINT)]
     after = counters(wire, 101)
     assert after.frame_errors - before.frame_errors >= 3
 
@@ -202,7 +204,7 @@ def test_bytes_split_anywhere_make_the_same_frame(bridge: BridgeUnderTest) -> No
     frame = wire.codec.encode(bend_setpoint(wire, 3))
     for byte in frame[:-1]:
         bridge.write(bytes((byte,)))
-    assert wire.ask(frame[-1:]) == [Ack(3, MsgType.SETPOINT)]
+    assert wire.ask(frame[-1:], expect=1) == [Ack(3, MsgType.SETPOINT)]
 
 
 # --- counters ----------------------------------------------------------------------------------
@@ -211,9 +213,11 @@ def test_bytes_split_anywhere_make_the_same_frame(bridge: BridgeUnderTest) -> No
 def test_counters_count_since_boot(bridge: BridgeUnderTest) -> None:
     wire = Wire(bridge)
     start_session(wire)
-    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
-    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT, AckStatus.DUPLICATE)]
-    assert wire.ask(bend_setpoint(wire, 2)) == [Ack(2, MsgType.SETPOINT, AckStatus.STALE)]
+    assert wire.ask(bend_setpoint(wire, 3), expect=1) == [Ack(3, MsgType.SETPOINT)]
+    assert wire.ask(bend_setpoint(wire, 3), expect=1) == [
+        Ack(3, MsgType.SETPOINT, AckStatus.DUPLICATE)
+    ]
+    assert wire.ask(bend_setpoint(wire, 2), expect=1) == [Ack(2, MsgType.SETPOINT, AckStatus.STALE)]
     bad = bytearray(wire.codec.encode(Heartbeat(5)))
     bad[3] ^= 0x10
     wire.ask(bytes(bad))
@@ -243,12 +247,12 @@ def test_board_that_stops_answering(bridge: BridgeUnderTest) -> None:
     assert wire.state is not None
     index = sorted(bridge.robot.board_ids()).index(sp.board)
     assert wire.state.board_status[index] & BoardStatus.TIMEOUT
-    assert wire.ask(sp) == [Nack(3, MsgType.SETPOINT, NackCode.BUS_ERROR)]
-    assert wire.ask(EStop(4)) == [Ack(4, MsgType.ESTOP)]
-    assert wire.ask(EStopReset(5)) == [Nack(5, MsgType.ESTOP_RESET, NackCode.NOT_READY)]
+    assert wire.ask(sp, expect=1) == [Nack(3, MsgType.SETPOINT, NackCode.BUS_ERROR)]
+    assert wire.ask(EStop(4), expect=1) == [Ack(4, MsgType.ESTOP)]
+    assert wire.ask(EStopReset(5), expect=1) == [Nack(5, MsgType.ESTOP_RESET, NackCode.NOT_READY)]
     wire.collect(1.1)  # the board answers again
-    assert wire.ask(EStopReset(6)) == [Ack(6, MsgType.ESTOP_RESET)]
-    assert wire.ask(bend_setpoint(wire, 7)) == [Ack(7, MsgType.SETPOINT)]
+    assert wire.ask(EStopReset(6), expect=1) == [Ack(6, MsgType.ESTOP_RESET)]
+    assert wire.ask(bend_setpoint(wire, 7), expect=1) == [Ack(7, MsgType.SETPOINT)]
 
 
 # --- hours of traffic, in virtual time -----------------------------------------------------------
@@ -265,14 +269,14 @@ def test_heartbeats_through_whole_wraps_never_age_the_filter(
     """
     wire = Wire(virtual_bridge)
     start_session(wire)
-    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
+    assert wire.ask(bend_setpoint(wire, 3), expect=1) == [Ack(3, MsgType.SETPOINT)]
     seq = 0
     for _ in range(6600):
         burst = b"".join(wire.codec.encode(Heartbeat((seq + i) % 65535 + 1)) for i in range(10))
         seq += 10
         answers = wire.ask(burst, timeout_s=0.01)
         assert len(answers) == 10 and all(isinstance(a, Ack) for a in answers)
-    assert wire.ask(bend_setpoint(wire, 4)) == [Ack(4, MsgType.SETPOINT)]
+    assert wire.ask(bend_setpoint(wire, 4), expect=1) == [Ack(4, MsgType.SETPOINT)]
     wire.collect(0.02)
     assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
 
