@@ -360,3 +360,14 @@ def test_iter_feed_matches_feed() -> None:
     wire = c.encode_many(CODEC, msgs) + b"\x00\x07garbage"
     assert list(c.FrameDecoder(CODEC).iter_feed(wire)) == c.FrameDecoder(CODEC).feed(wire)
     assert list(c.FrameDecoder(CODEC).iter_feed(b"")) == []
+
+
+def test_layout_digest_covers_roles_modes_and_ranges() -> None:
+    from pirate_bt.link.layout import StopRole, digest_of, layout_text, stop_role
+
+    text = layout_text(ROBOT)
+    assert digest_of(text) == ROBOT.layout_digest() == LAYOUT.digest
+    assert "22:1:drive:pwm=-255..255,velocity=-1200..1200" in text.split("|")[1].split(";")
+    roles = {s.motor.name: stop_role(s.motor) for s in ROBOT.setpoint_slots()}
+    assert roles["bend_1_joint"] is StopRole.BEND and roles["rotate"] is StopRole.ROTATE
+    assert roles["bend_1_drive"] is StopRole.DRIVE and roles["front_leds"] is StopRole.OTHER
