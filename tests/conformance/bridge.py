@@ -17,6 +17,7 @@ import contextlib
 import os
 import select
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 from pirate_bt.clock import WallClock
@@ -98,27 +99,41 @@ class InProcessSimBridge:
         pass
 
 
-class PtySimBridge:
-    """The simulated bridge on the far end of a pty, in real time (as simavr will be)."""
+class PtyBridge:
+    """Any bridge behind a pseudo-terminal (or serial device), in real time.
+
+    The firmware in simavr plugs in through this: its harness exposes a pty, and a
+    ``reset`` callable reboots the simulated AVR (the DTR reset).
+
+    Args:
+        name: For test ids.
+        robot: The robot description the bridge was built for.
+        device: The device path the host side opens (``/dev/pts/N``).
+        reset: Reboots the bridge.
+        close: Releases whatever runs the bridge (called after the device is closed).
+    """
 
     virtual_time = False
 
-    def __init__(self, robot: RobotDescription) -> None:
-        self.name = "sim-pty"
-        self.robot = robot
-        clock = WallClock()
-        self._master, self._slave = os.openpty()
-        self._host = os.open(os.ttyname(self._slave), os.O_RDWR | os.O_NOCTTY)
+    def __init__(
+        self,
+        name: str,
+        robot: RobotDescription,
+        device: str,
+        reset: Callable[[], None],
+        close: Callable[[], None] = lambda: None,
+    ) -> None:
         import tty
 
-        tty.setraw(self._host)
-        self._port = BridgeOnPort(
-            FdPort(self._master), bridge_for(robot, start_s=clock.now(), record_applied=False)
-        )
-        self._port.start(clock, period_s=0.0005)
+        self.name = name
+        self.robot = robot
+        self._reset = reset
+        self._close = close
+        self._fd = os.open(device, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self._fd)
 
     def write(self, data: bytes) -> None:
-        os.write(self._host, data)
+        os.write(self._fd, data)
 
     def read(self, timeout_s: float) -> bytes:
         deadline = time.monotonic() + timeout_s
@@ -127,22 +142,45 @@ class PtySimBridge:
             left = deadline - time.monotonic()
             if left <= 0:
                 return bytes(out)
-            ready, _, _ = select.select([self._host], [], [], left)
+            ready, _, _ = select.select([self._fd], [], [], left)
             if ready:
-                out += os.read(self._host, 65536)
+                out += os.read(self._fd, 65536)
 
     def advance(self, seconds: float) -> None:
         time.sleep(seconds)
 
     def reset(self) -> None:
-        with self._port._lock:  # the far end reboots between two of its steps
-            self._port.bridge.reset()
+        self._reset()
 
     def close(self) -> None:
-        self._port.stop()
-        for fd in (self._host, self._slave, self._master):
+        with contextlib.suppress(OSError):
+            os.close(self._fd)
+        self._close()
+
+
+def pty_sim_bridge(robot: RobotDescription) -> PtyBridge:
+    """The simulated bridge on the far end of a pty, in real time (as simavr will be)."""
+    import tty
+
+    clock = WallClock()
+    master, slave = os.openpty()
+    tty.setraw(slave)  # before the bridge writes: a cooked pty would echo its frames back
+    port = BridgeOnPort(
+        FdPort(master), bridge_for(robot, start_s=clock.now(), record_applied=False)
+    )
+    port.start(clock, period_s=0.0005)
+
+    def reset() -> None:
+        with port._lock:  # the far end reboots between two of its steps
+            port.bridge.reset()
+
+    def close() -> None:
+        port.stop()
+        for fd in (slave, master):
             with contextlib.suppress(OSError):
                 os.close(fd)
+
+    return PtyBridge("sim-pty", robot, os.ttyname(slave), reset, close)
 
 
 class Wire:

@@ -2,7 +2,9 @@
 
 Add an implementation here (one entry in ``BRIDGES``): a factory that takes the
 robot description and returns a :class:`~conformance.bridge.BridgeUnderTest`.
-The firmware in simavr, on a pty in real time, plugs in the same way.
+The firmware in simavr, on a pty in real time, plugs in the same way: start its
+harness, then return ``PtyBridge("simavr", robot, harness_pty_path, reset=...,
+close=...)`` (``conformance.bridge.PtyBridge``).
 """
 
 from __future__ import annotations
@@ -11,13 +13,13 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from conformance.bridge import BridgeUnderTest, InProcessSimBridge, PtySimBridge
+from conformance.bridge import BridgeUnderTest, InProcessSimBridge, pty_sim_bridge
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
 
 BRIDGES: dict[str, Callable[[RobotDescription], BridgeUnderTest]] = {
     "sim": InProcessSimBridge,
-    "sim-pty": PtySimBridge,
+    "sim-pty": pty_sim_bridge,
 }
 
 
