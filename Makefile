@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test lint typecheck unit docs bench graphviz venv clean
+.PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain
 
 venv: $(STAMP)
 
@@ -27,6 +27,24 @@ graphviz:
 		echo "warning: Graphviz 'dot' is missing; install it (Debian: sudo apt-get install graphviz) to render .svg/.png (.dot files are still written)"; \
 	fi
 
+# Debian's gcc-avr and avr-libc build the bridge firmware; install them when missing
+# and we may (root + apt-get), as for Graphviz.
+avr-toolchain:
+	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ]; then :; \
+	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian's gcc-avr, binutils-avr and avr-libc (avr-gcc is missing)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-avr binutils-avr avr-libc >/dev/null; \
+	else \
+		echo "warning: avr-gcc is missing; install it (Debian: sudo apt-get install gcc-avr binutils-avr avr-libc) to build firmware/piratebay"; \
+	fi
+
+# The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
+# flash and SRAM use (firmware/piratebay/build/).
+firmware: $(STAMP) avr-toolchain
+	$(MAKE) -C firmware/piratebay ROBOT=$(abspath $(or $(ROBOT),hardware/pirate.yaml)) \
+		PIRATE_BT=$(abspath $(BIN)/pirate-bt)
+
 lint: $(STAMP)
 	$(BIN)/ruff check pirate_bt tests benchmarks
 	$(BIN)/ruff format --check pirate_bt tests benchmarks
@@ -34,7 +52,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy --strict pirate_bt
 
-unit: $(STAMP) graphviz
+unit: $(STAMP) graphviz avr-toolchain
 	$(BIN)/pytest
 
 docs: $(STAMP)
