@@ -1,60 +1,17 @@
 /* PIRATEbay bridge firmware: the host link (USART0, wire protocol v1.1) in front of
  * the PICO boards' RS485 bus (USART1), on an ATmega2560 at 16 MHz.
  *
- * One cooperative main loop, nothing blocks: bytes from the host are handled as
- * they arrive (ESTOP takes effect in the same turn), the board bus advances one
- * step, every state period a STATE frame is encoded and a new poll cycle starts,
- * the host watchdog is checked every turn, and the next frame is handed to the
- * UART when it is free. The AVR's own watchdog resets the chip if a turn ever
- * takes longer than 120 ms; the bridge then boots latched. */
+ * The AVR's own watchdog (mcu.c) resets the chip if a turn of the loop ever takes
+ * longer than 120 ms; the bridge then boots latched, and pb_debug.mcu_resets counts
+ * it. */
 #include <avr/interrupt.h>
 
-#include "mcu.h"
-#include "poller.h"
-#include "protocol.h"
-#include "safety.h"
-#include "timer.h"
-#include "txq.h"
-#include "uart.h"
-
-/* At most this many host bytes per turn, so the bus and the tick stay served even
- * at full line rate. */
-#define RX_BURST 32u
+#include "bridge.h"
 
 int main(void) {
-    mcu_init();
-    timer_init();
-    uart0_init(PB_BAUD);
-    poller_init();
-    txq_init();
-    uint32_t now = 0;
-    protocol_init(now);
-    safety_init(now);
+    bridge_init();
     sei();
-
-    uint32_t next_period = PB_STATE_PERIOD_MS;
     for (;;) {
-        mcu_feed();
-        now = timer_ms();
-        for (uint8_t i = 0; i < RX_BURST; i++) {
-            int16_t c = uart0_getc();
-            if (c < 0) {
-                break;
-            }
-            protocol_rx_byte((uint8_t)c, now);
-        }
-        poller_run();
-        safety_watchdog_check(now);
-        if ((int32_t)(now - next_period) >= 0) {
-            next_period += PB_STATE_PERIOD_MS;
-            if ((int32_t)(now - next_period) >= 0) {
-                next_period = now + PB_STATE_PERIOD_MS; /* fell behind: back on a grid */
-            }
-            protocol_send_state();
-            poller_period(now);
-            mcu_stack_check();
-            pb_debug.rx_overruns = uart0_rx_overruns();
-        }
-        txq_pump(now, protocol_flags());
+        bridge_turn();
     }
 }

@@ -286,19 +286,17 @@ static void ordered(uint8_t type, uint16_t seq, uint8_t arg, const uint8_t *payl
         send_nack(seq, type, NACK_NOT_READY);
         return;
     }
-    if (seq == br.last && br.answer != NO_ANSWER) {
-        br.duplicates++;
-        if (br.answer == 0) {
-            send_ack(seq, type, ACK_DUPLICATE);
-        } else {
-            send_nack(seq, type, br.answer);
-        }
-        return;
-    }
     if (!seq_newer(seq, br.last)) {
-        /* older, or the hello's own seq: not applied */
+        /* not applied again: the same seq gets the first copy's answer (a hello's own
+         * seq counts as applied, as in the reference bridge), an older one STALE */
         br.duplicates++;
-        send_ack(seq, type, ACK_STALE);
+        if (seq != br.last) {
+            send_ack(seq, type, ACK_STALE);
+        } else if (br.answer != 0 && br.answer != NO_ANSWER) {
+            send_nack(seq, type, br.answer);
+        } else {
+            send_ack(seq, type, ACK_DUPLICATE);
+        }
         return;
     }
     br.last = seq;
