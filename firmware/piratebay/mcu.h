@@ -33,7 +33,7 @@ extern struct pb_debug pb_debug;
  * the cycle counter at each. */
 #define PB_MARK_STATE_BEGIN 0x01u
 #define PB_MARK_STATE_END 0x81u
-#define PB_MARK_BULK_BEGIN 0x02u
+#define PB_MARK_FRAME_END 0x02u /* a host frame's 0x00 taken from the ring */
 #define PB_MARK_BULK_END 0x82u
 #define PB_MARK_ESTOP 0x03u
 #define PB_MARK_BUS_STOP 0x04u

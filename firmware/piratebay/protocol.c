@@ -224,7 +224,6 @@ static uint8_t setpoint(uint8_t board_id, const uint8_t *payload) {
 }
 
 static uint8_t bulk(uint16_t seq, const uint8_t *payload) {
-    PB_MARK(PB_MARK_BULK_BEGIN);
     const uint8_t *e = payload;
     for (uint8_t i = 0; i < PB_N_MOTORS; i++, e += 3) {
         if (e[0] == PB_MODE_KEEP) {
@@ -372,7 +371,11 @@ static void handle(const uint8_t *body, uint8_t len, uint32_t now_ms) {
 }
 
 void protocol_rx_byte(uint8_t byte, uint32_t now_ms) {
-    uint16_t t0 = byte == 0 ? timer_ticks() : 0;
+    uint16_t t0 = 0;
+    if (byte == 0) {
+        PB_MARK(PB_MARK_FRAME_END); /* decoding starts: a BULK's cycles count from here */
+        t0 = timer_ticks();
+    }
     switch (frame_rx_byte(&rx, byte)) {
     case FRAME_MORE:
         return;

@@ -40,8 +40,8 @@ static const uint8_t *volatile tx0_ptr;
 static volatile uint16_t tx0_left;
 
 void uart0_init(uint32_t baud) {
+    UCSR0A = _BV(U2X0); /* before UBRR0: simavr computes the baud rate when UBRR is written */
     UBRR0 = ubrr_u2x(baud);
-    UCSR0A = _BV(U2X0);
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
     UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
@@ -116,8 +116,8 @@ static volatile uint16_t tx1_done_at;
 void uart1_init(uint32_t baud) {
     RS485_DE_DDR |= _BV(RS485_DE_BIT);
     RS485_DE_PORT &= (uint8_t)~_BV(RS485_DE_BIT);
-    UBRR1 = ubrr_u2x(baud);
     UCSR1A = _BV(U2X1);
+    UBRR1 = ubrr_u2x(baud);
     UCSR1C = _BV(UCSZ11) | _BV(UCSZ10);
     UCSR1B = _BV(RXEN1) | _BV(TXEN1) | _BV(RXCIE1) | _BV(TXCIE1);
 }
