@@ -78,32 +78,28 @@ static bool time_left_for(const struct pb_board *board) {
 static void send_stops(void) {
     struct pb_setpoint sp[PB_MAX_BOARD_MOTORS ? PB_MAX_BOARD_MOTORS : 1];
     for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
-        struct pb_board board;
-        layout_board(b, &board);
+        const struct pb_board *board = layout_board(b);
         bool any = false;
-        for (uint8_t k = 0; k < board.n_motors; k++) {
-            struct pb_motor m;
-            layout_motor((uint8_t)(board.first_motor + k), &m);
-            if (m.role == PB_ROLE_BEND) {
+        for (uint8_t k = 0; k < board->n_motors; k++) {
+            if (layout_motor((uint8_t)(board->first_motor + k))->role == PB_ROLE_BEND) {
                 sp[k].mode = PB_MODE_KEEP;
                 sp[k].raw = 0;
             } else {
-                sp[k] = safety_setpoints[board.first_motor + k];
+                sp[k] = safety_setpoints[board->first_motor + k];
                 any = true;
             }
         }
         if (any) {
-            board_bus_stop(&board, sp);
+            board_bus_stop(board, sp);
         }
     }
 }
 
 static void start(uint8_t index) {
-    struct pb_board board;
-    layout_board(index, &board);
+    const struct pb_board *board = layout_board(index);
     poll.current = index;
     poll.busy = true;
-    board_bus_exchange(&board, &safety_setpoints[board.first_motor]);
+    board_bus_exchange(board, &safety_setpoints[board->first_motor]);
 }
 
 static void finish_cycle(void) {
@@ -113,13 +109,12 @@ static void finish_cycle(void) {
 
 static void done(enum bus_result result, const struct bus_reply *reply) {
     uint8_t b = poll.current;
-    struct pb_board board;
-    layout_board(b, &board);
+    const struct pb_board *board = layout_board(b);
     if (result == BUS_OK) {
-        memcpy(&poll.readings[board.first_channel], reply->readings,
-               (size_t)board.n_channels * sizeof(int16_t));
-        for (uint8_t k = 0; k < board.n_channels; k++) {
-            uint8_t ch = (uint8_t)(board.first_channel + k);
+        memcpy(&poll.readings[board->first_channel], reply->readings,
+               (size_t)board->n_channels * sizeof(int16_t));
+        for (uint8_t k = 0; k < board->n_channels; k++) {
+            uint8_t ch = (uint8_t)(board->first_channel + k);
             poll.fresh_now[ch >> 3] |= (uint8_t)(1u << (ch & 7u));
         }
         uint8_t s = BOARD_ONLINE;
@@ -137,7 +132,7 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
         } else {
             poll.counters[b].timeouts++;
         }
-        if (!poll.retried && !poll.stop_pending && time_left_for(&board)) {
+        if (!poll.retried && !poll.stop_pending && time_left_for(board)) {
             poll.retried = true;
             poll.counters[b].retries++;
             start(b);
@@ -175,9 +170,7 @@ void poller_run(void) {
     if (poll.cycle_done || poll.busy) {
         return;
     }
-    struct pb_board board;
-    layout_board(poll.next, &board);
-    if (!time_left_for(&board) && poll.polled > 0) {
+    if (!time_left_for(layout_board(poll.next)) && poll.polled > 0) {
         return; /* the rest of the cycle goes on in the next period */
     }
     poll.retried = false;

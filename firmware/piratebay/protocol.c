@@ -151,10 +151,8 @@ static void send_counters(uint16_t seq) {
     put_u32(p + 16, safety_watchdog_trips());
     uint8_t *q = p + 20;
     for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
-        struct pb_board board;
-        layout_board(b, &board);
         const struct board_counters *c = poller_counters(b);
-        q[0] = board.id;
+        q[0] = layout_board(b)->id;
         put_u32(q + 1, c->timeouts);
         put_u32(q + 5, c->crc_errors);
         put_u32(q + 9, c->retries);
@@ -191,26 +189,22 @@ static uint8_t setpoint(uint8_t board_id, const uint8_t *payload) {
     if (b < 0) {
         return NACK_BAD_BOARD;
     }
-    struct pb_board board;
-    layout_board((uint8_t)b, &board);
+    const struct pb_board *board = layout_board((uint8_t)b);
     uint8_t slot = payload[0];
     uint8_t mode = payload[1];
     int16_t raw = (int16_t)get_u16(payload + 2);
-    if (slot > 7u || !(board.slot_mask & (1u << slot))) {
+    if (slot > 7u || !(board->slot_mask & (1u << slot))) {
         return NACK_BAD_SLOT;
     }
-    uint8_t index = board.first_motor;
-    struct pb_motor m;
-    for (;; index++) {
-        layout_motor(index, &m);
-        if (m.slot == slot) {
-            break;
-        }
+    uint8_t index = board->first_motor;
+    while (layout_motor(index)->slot != slot) {
+        index++;
     }
-    if (!layout_mode_ok(&m, mode)) {
+    const struct pb_motor *m = layout_motor(index);
+    if (!layout_mode_ok(m, mode)) {
         return NACK_BAD_MODE;
     }
-    if (!layout_raw_ok(&m, mode, raw)) {
+    if (!layout_raw_ok(m, mode, raw)) {
         return NACK_OUT_OF_RANGE;
     }
     if (safety_estopped()) {
@@ -229,12 +223,11 @@ static uint8_t bulk(uint16_t seq, const uint8_t *payload) {
         if (e[0] == PB_MODE_KEEP) {
             continue;
         }
-        struct pb_motor m;
-        layout_motor(i, &m);
-        if (!layout_mode_ok(&m, e[0])) {
+        const struct pb_motor *m = layout_motor(i);
+        if (!layout_mode_ok(m, e[0])) {
             return NACK_BAD_MODE;
         }
-        if (!layout_raw_ok(&m, e[0], (int16_t)get_u16(e + 1))) {
+        if (!layout_raw_ok(m, e[0], (int16_t)get_u16(e + 1))) {
             return NACK_OUT_OF_RANGE;
         }
     }
@@ -246,9 +239,7 @@ static uint8_t bulk(uint16_t seq, const uint8_t *payload) {
         if (e[0] == PB_MODE_KEEP) {
             continue;
         }
-        struct pb_motor m;
-        layout_motor(i, &m);
-        if (board_unreachable(m.board_index)) {
+        if (board_unreachable(layout_motor(i)->board_index)) {
             return NACK_BUS_ERROR;
         }
     }

@@ -4,7 +4,7 @@
  * The numbers come from build/layout.h, generated from the robot description
  * (`pirate-bt robot header hardware/pirate.yaml -o build/layout.h`, run by the
  * Makefile), so the hardware YAML stays the single source of truth. This file owns
- * the types; robot_layout.c puts the tables in flash. */
+ * the types; robot_layout.c holds the tables. */
 #ifndef PB_ROBOT_LAYOUT_H
 #define PB_ROBOT_LAYOUT_H
 
@@ -55,8 +55,9 @@ static_assert(PB_N_BOARDS >= 1 && PB_N_BOARDS <= 17, "COUNTERS fits 17 boards at
 static_assert(PB_N_MOTORS <= 82, "BULK_SETPOINTS payload fits 247 bytes");
 static_assert(PB_MAX_BOARD_MOTORS <= 2 && PB_MAX_BOARD_CHANNELS <= 12, "PICO board size");
 
-void layout_board(uint8_t index, struct pb_board *out);
-void layout_motor(uint8_t index, struct pb_motor *out);
+/* Entry `index` of the board and motor tables. */
+const struct pb_board *layout_board(uint8_t index);
+const struct pb_motor *layout_motor(uint8_t index);
 /* Index of board `id` in the layout, or -1 when the robot has no such board. */
 int8_t layout_board_index(uint8_t id);
 /* True when the motor accepts `mode` and `raw` lies in that mode's raw range. */

@@ -26,12 +26,11 @@ void safety_init(uint32_t now_ms) {
 
 void safety_stop(void) {
     for (uint8_t i = 0; i < PB_N_MOTORS; i++) {
-        struct pb_motor m;
-        layout_motor(i, &m);
-        if (m.role == PB_ROLE_BEND) {
+        uint8_t role = layout_motor(i)->role;
+        if (role == PB_ROLE_BEND) {
             continue; /* the clamps keep holding */
         }
-        safety_setpoints[i].mode = m.role == PB_ROLE_DRIVE ? PB_MODE_VELOCITY : PB_MODE_PWM;
+        safety_setpoints[i].mode = role == PB_ROLE_DRIVE ? PB_MODE_VELOCITY : PB_MODE_PWM;
         safety_setpoints[i].raw = 0;
     }
     for (uint8_t i = 0; i < sizeof safe.motors_off; i++) {
@@ -74,8 +73,7 @@ bool safety_motors_off(uint8_t board_index) {
 }
 
 void safety_apply(uint8_t motor, struct pb_setpoint setpoint) {
-    struct pb_motor m;
-    layout_motor(motor, &m);
+    uint8_t b = layout_motor(motor)->board_index;
     safety_setpoints[motor] = setpoint;
-    safe.motors_off[m.board_index >> 3] &= (uint8_t)~(1u << (m.board_index & 7u));
+    safe.motors_off[b >> 3] &= (uint8_t)~(1u << (b & 7u));
 }

@@ -118,8 +118,7 @@ static void board_frame(void) {
     if (b < 0 || body[1] != 0x01u || !board_online[b]) {
         return; /* STOP, or nobody home */
     }
-    struct pb_board board;
-    layout_board((uint8_t)b, &board);
+    struct pb_board board = *layout_board((uint8_t)b);
     uint8_t reply[40];
     uint8_t k = 0;
     reply[k++] = board.id;
