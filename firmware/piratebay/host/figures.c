@@ -9,6 +9,13 @@
  *   make -C firmware/piratebay figures      (needs libsimavr-dev, libelf-dev)
  *   build/figures build/piratebay.elf 0x$(avr-nm build/piratebay.elf | awk '/ pb_debug$/{print $1}')
  *
+ * With a third argument SECONDS it then soaks the firmware for that long (simulated
+ * time) in random bytes and corrupted copies of a SETPOINT frame at full line rate
+ * (115200 baud, no gap): every corruption is one CRC-16 is sure to catch (1 to 3
+ * flipped bits, or a burst of up to 16 bits), so the SETPOINT's distinctive value
+ * must never reach the bus. It reports MCU resets, the longest gap between STATE
+ * frames, corrupted frames applied, and whether HELLO is answered afterwards.
+ *
  * Prints one `name value` line per figure. */
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
@@ -52,6 +59,71 @@ static bool estop_armed;     /* measuring one ESTOP */
 static uint64_t estop_last_byte; /* cycle its last byte was handed to the USART */
 static bool stop_queued_seen, stop_on_bus_seen;
 
+/* the soak */
+static bool soaking;
+static uint32_t rng_state = 14;
+static uint64_t soak_bytes, soak_applied, last_state_cycle, max_state_gap, hello_replies;
+static uint8_t poison[FRAME_MAX_WIRE];
+static uint16_t poison_len;
+static const int16_t POISON_RAW = 777;
+static uint8_t poison_board;
+
+static uint32_t rnd(void) {
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 17;
+    rng_state ^= rng_state << 5;
+    return rng_state;
+}
+
+/* One chunk of noise: random bytes, or the poison frame with a corruption CRC-16
+ * always detects. */
+static void noise_chunk(void) {
+    uint8_t chunk[FRAME_MAX_WIRE];
+    uint16_t n;
+    if (rnd() % 2 == 0) {
+        n = (uint16_t)(1u + rnd() % 40u);
+        for (uint16_t i = 0; i < n; i++) {
+            chunk[i] = (uint8_t)rnd();
+        }
+    } else {
+        memcpy(chunk, poison, poison_len);
+        n = poison_len;
+        uint16_t body_bits = (uint16_t)((n - 1u) * 8u); /* the delimiter stays */
+        if (rnd() % 2 == 0) {
+            uint32_t flips = 1u + rnd() % 3u; /* 1-3 distinct bits */
+            uint16_t done[3];
+            for (uint32_t f = 0; f < flips; f++) {
+                uint16_t bit;
+                bool again;
+                do {
+                    bit = (uint16_t)(rnd() % body_bits);
+                    again = false;
+                    for (uint32_t g = 0; g < f; g++) {
+                        again = again || done[g] == bit;
+                    }
+                } while (again);
+                done[f] = bit;
+                chunk[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+            }
+        } else {
+            uint16_t len = (uint16_t)(2u + rnd() % 15u); /* a burst of 2..16 bits */
+            uint16_t start = (uint16_t)(rnd() % (body_bits - len + 1u));
+            chunk[start / 8u] ^= (uint8_t)(1u << (start % 8u));
+            uint16_t end = (uint16_t)(start + len - 1u);
+            chunk[end / 8u] ^= (uint8_t)(1u << (end % 8u));
+            for (uint16_t bit = (uint16_t)(start + 1u); bit < end; bit++) {
+                if (rnd() % 2) {
+                    chunk[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+                }
+            }
+        }
+    }
+    for (uint16_t i = 0; i < n; i++) {
+        hostq[hostq_head++ & 0xFFFFu] = chunk[i];
+    }
+    soak_bytes += n;
+}
+
 static void add(struct stat *s, uint64_t v) {
     if (s->n == 0 || v < s->min) {
         s->min = v;
@@ -73,9 +145,31 @@ static void send_frame(uint8_t type, uint16_t seq, uint8_t arg, const uint8_t *p
     }
 }
 
+/* simavr's USART has a small input FIFO: feed it only while it says XON, so the
+ * line runs at its full rate and no byte is dropped. */
+static bool host_xoff;
+static void host_xon_irq(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq;
+    (void)value;
+    (void)param;
+    host_xoff = false;
+}
+static void host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq;
+    (void)value;
+    (void)param;
+    host_xoff = true;
+}
+
 static avr_cycle_count_t feed_host(avr_t *a, avr_cycle_count_t when, void *param) {
     (void)a;
     (void)param;
+    if (host_xoff) {
+        return when + HOST_BYTE_CYCLES / 4u;
+    }
+    if (soaking && hostq_head - hostq_tail < 64u) {
+        noise_chunk();
+    }
     if (hostq_tail != hostq_head) {
         avr_raise_irq(host_in, hostq[hostq_tail++ & 0xFFFFu]);
         if (hostq_tail == hostq_head && estop_armed && estop_last_byte == 0) {
@@ -108,6 +202,16 @@ static void host_out(avr_irq_t *irq, uint32_t value, void *param) {
     host_raw_n = 0;
     if (n >= (int16_t)FRAME_MIN_BODY) {
         host_frames[body[1]]++;
+        if (body[1] == 0x82u) {
+            if (soaking && last_state_cycle && avr->cycle - last_state_cycle > max_state_gap) {
+                max_state_gap = avr->cycle - last_state_cycle;
+            }
+            last_state_cycle = avr->cycle;
+        }
+        if (body[1] == 0x81u && n == (int16_t)(FRAME_MIN_BODY + 14u) &&
+            get_u32(body + FRAME_HEADER_BYTES) == PB_LAYOUT_DIGEST) {
+            hello_replies++;
+        }
     }
 }
 
@@ -130,6 +234,13 @@ static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
     bus_raw_n = 0;
     if (n < 4 || body[1] != 0x01u) {
         return;
+    }
+    if (body[0] == poison_board) {
+        for (int16_t k = 2; k + 3 <= n - 2; k += 3) {
+            if (body[k] == PB_MODE_VELOCITY && (int16_t)get_u16(body + k + 1) == POISON_RAW) {
+                soak_applied++;
+            }
+        }
     }
     int8_t b = layout_board_index(body[0]);
     if (b < 0) {
@@ -191,8 +302,8 @@ static void print(const char *name, const struct stat *s, double scale) {
 }
 
 int main(int argc, char **argv) {
-    if (argc != 3) {
-        fprintf(stderr, "usage: figures PIRATEBAY.elf PB_DEBUG_ADDRESS\n");
+    if (argc != 3 && argc != 4) {
+        fprintf(stderr, "usage: figures PIRATEBAY.elf PB_DEBUG_ADDRESS [SOAK_SECONDS]\n");
         return 2;
     }
     elf_firmware_t fw;
@@ -216,6 +327,10 @@ int main(int argc, char **argv) {
                             host_out, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_OUTPUT),
                             bus_out, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+                            host_xon_irq, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+                            host_xoff_irq, NULL);
     avr_register_io_write(avr, GPIOR0_DATA, marker, NULL);
     avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
     avr_cycle_timer_register(avr, BUS_BYTE_CYCLES, feed_bus, NULL);
@@ -262,6 +377,43 @@ int main(int argc, char **argv) {
         run_ms(25);
     }
 
+    double soak_s = argc == 4 ? atof(argv[3]) : 0.0;
+    if (soak_s > 0) {
+        /* the poison: a valid SETPOINT of the first drive motor at a distinctive speed,
+         * sent only corrupted */
+        uint8_t drive = 0;
+        while (drive < PB_N_MOTORS && layout_motor(drive)->role != PB_ROLE_DRIVE) {
+            drive++;
+        }
+        if (drive == PB_N_MOTORS) {
+            fprintf(stderr, "figures: the robot has no drive motor to soak with\n");
+            return 2;
+        }
+        const struct pb_motor *m = layout_motor(drive);
+        poison_board = layout_board(m->board_index)->id;
+        uint8_t body[FRAME_MAX_BODY];
+        body[FRAME_HEADER_BYTES] = m->slot;
+        body[FRAME_HEADER_BYTES + 1] = PB_MODE_VELOCITY;
+        put_u16(body + FRAME_HEADER_BYTES + 2, (uint16_t)POISON_RAW);
+        poison_len = frame_encode(body, 0x02, (uint16_t)(seq + 1000u), poison_board, 4, poison);
+        send_frame(0x06, seq++, 0, NULL, 0); /* released: a poison would be accepted */
+        run_ms(20);
+        last_state_cycle = 0;
+        soaking = true;
+        run_ms(soak_s * 1000.0);
+        soaking = false;
+        hostq_tail = hostq_head;
+        hello_replies = 0;
+        uint8_t flush = 0;
+        hostq[hostq_head++ & 0xFFFFu] = flush;
+        send_frame(0x01, seq++, 0, hello, 5);
+        run_ms(30);
+        printf("soak_seconds %.1f\nsoak_bytes %llu\nsoak_max_state_gap_ms %.2f\n"
+               "soak_corrupted_applied %llu\nsoak_hello_answered %llu\n",
+               soak_s, (unsigned long long)soak_bytes, (double)max_state_gap / (HZ / 1000.0),
+               (unsigned long long)soak_applied, (unsigned long long)hello_replies);
+    }
+
     const uint8_t *d = avr->data + debug_at;
     unsigned magic = d[0] | d[1] << 8;
     unsigned resets = d[2] | d[3] << 8;
@@ -275,5 +427,7 @@ int main(int argc, char **argv) {
            (unsigned long long)host_frames[0x83], (unsigned long long)host_frames[0x84]);
     printf("debug_magic 0x%04x\nmcu_resets %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n",
            magic, resets, 0x21FFu - stack_low, 0x21FFu - stack_bottom);
-    return magic == PB_DEBUG_MAGIC ? 0 : 1;
+    bool ok = magic == PB_DEBUG_MAGIC && resets == 0 && soak_applied == 0 &&
+              (soak_s <= 0 || hello_replies == 1);
+    return ok ? 0 : 1;
 }
