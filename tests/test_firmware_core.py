@@ -15,23 +15,20 @@ from __future__ import annotations
 
 import binascii
 import ctypes
-import os
 import random
 import shutil
 import struct
-import subprocess
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from firmware_host import build_host_library
 
 from pirate_bt.link.codec import cobs_decode, cobs_encode
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.loader import load_robot
 
-FIRMWARE = Path(__file__).resolve().parents[1] / "firmware" / "piratebay"
 VECTORS = Path(__file__).parent / "data" / "link_vectors.json"
 
 HELLO, SETPOINT, BULK, HEARTBEAT, ESTOP, ESTOP_RESET, COUNTERS_REQUEST = range(1, 8)
@@ -70,19 +67,12 @@ def parse(wire: bytes) -> list[Frame]:
 
 @pytest.fixture(scope="module")
 def library(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    if shutil.which("cc") is None or shutil.which("make") is None:
-        pytest.skip("no host C compiler (cc) or make: the firmware core cannot be built")
-    build = tmp_path_factory.mktemp("fw-host")
-    generator = f"{sys.executable} -m pirate_bt"
-    result = subprocess.run(
-        ["make", "-s", "-C", str(FIRMWARE), "host", f"BUILD={build}", f"PIRATE_BT={generator}"],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "MAKEFLAGS": ""},
-        check=False,
-    )
-    assert result.returncode == 0, result.stderr
-    return build / "libpiratebay_host.so"
+    try:
+        return build_host_library(tmp_path_factory.mktemp("fw-host"))
+    except RuntimeError as exc:
+        if "no host C compiler" in str(exc):
+            pytest.skip(f"{exc}: the firmware core cannot be built")
+        raise
 
 
 class Bridge:
@@ -205,6 +195,8 @@ def test_hello_reply_reports_the_layout_and_the_first_session(bridge: Bridge) ->
     digest, nch, nmot, wd, _fw, minor, _boot, sessions = struct.unpack("<IBBHHBHB", reply.payload)
     assert (digest, nch, nmot, wd, minor, sessions) == (bridge.digest, 28, 16, 250, 1, 1)
     assert reply.arg & F_ESTOP and not reply.arg & F_NO_SESSION
+    assert struct.unpack("<IBBHHBHB", bridge.hello(seq=9).payload)[-1] == 2
+    # a retried hello (same seq, its reply lost) is the same session
     assert struct.unpack("<IBBHHBHB", bridge.hello(seq=9).payload)[-1] == 2
 
 
@@ -470,3 +462,30 @@ def test_random_bytes_and_mutated_frames_change_nothing(bridge: Bridge) -> None:
     bridge.write(b"\x00")
     reply = bridge.hello(7)
     assert reply.kind == HELLO_REPLY and reply.seq == 7
+
+
+# -- the conformance suite's adapter ----------------------------------------------------
+
+
+def test_adapter_resets_disconnects_and_reconnects_a_board(library: Path, tmp_path: Path) -> None:
+    from firmware_host import FirmwareHostBridge
+
+    robot = load_robot()
+    under_test = FirmwareHostBridge(robot, library, tmp_path)
+    hello = frame(HELLO, 1, payload=struct.pack("<IB", robot.layout_digest(), 1))
+    under_test.write(hello)
+    first = [f for f in parse(under_test.read(0.03)) if f.kind == HELLO_REPLY]
+    under_test.disconnect_board(26, 0.1)
+    states = [f for f in parse(under_test.read(0.03)) if f.kind == STATE]
+    j = sorted(robot.board_ids()).index(26)
+    status = states[-1].payload[2 + 4 + j // 2] >> (4 * (j % 2)) & 0xF
+    assert status & TIMEOUT
+    states = [f for f in parse(under_test.read(0.1)) if f.kind == STATE]
+    status = states[-1].payload[2 + 4 + j // 2] >> (4 * (j % 2)) & 0xF
+    assert status & ONLINE and not status & TIMEOUT
+    under_test.reset()
+    under_test.write(hello)
+    second = [f for f in parse(under_test.read(0.03)) if f.kind == HELLO_REPLY]
+    boot = [struct.unpack("<IBBHHBHB", f.payload)[6] for f in (*first, *second)]
+    assert len(boot) == 2 and boot[0] != boot[1]
+    under_test.close()

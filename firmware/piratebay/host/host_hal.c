@@ -27,6 +27,7 @@
 #include "../uart.h"
 
 #define TURN_US 20u
+#define IDLE_TURN_US 200u
 #define BYTE_US_HOST (10000000.0 / PB_BAUD)
 
 static uint64_t now_us;
@@ -166,11 +167,15 @@ void fw_write(const uint8_t *p, uint32_t n) {
     }
 }
 
+/* Turns every 20 us while bytes are moving; every 200 us when the line is idle
+ * (an hour of virtual time then takes seconds). */
 void fw_run_us(uint32_t us) {
     uint64_t end = now_us + us;
     while (now_us < end) {
         bridge_turn();
-        now_us += TURN_US;
+        bool idle = rx0_tail == rx0_head && !uart0_tx_busy();
+        uint64_t step = idle ? IDLE_TURN_US : TURN_US;
+        now_us = now_us + step < end ? now_us + step : end;
     }
 }
 
