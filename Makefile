@@ -27,16 +27,18 @@ graphviz:
 		echo "warning: Graphviz 'dot' is missing; install it (Debian: sudo apt-get install graphviz) to render .svg/.png (.dot files are still written)"; \
 	fi
 
-# Debian's gcc-avr and avr-libc build the bridge firmware; install them when missing
-# and we may (root + apt-get), as for Graphviz.
+# Debian's gcc-avr and avr-libc build the bridge firmware (and the host's gcc its
+# unit-test build); install them when missing and we may (root + apt-get), as for
+# Graphviz.
 avr-toolchain:
-	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ]; then :; \
+	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ] \
+		&& command -v cc >/dev/null 2>&1; then :; \
 	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
-		echo "installing Debian's gcc-avr, binutils-avr and avr-libc (avr-gcc is missing)"; \
+		echo "installing Debian's gcc-avr, binutils-avr, avr-libc and gcc (a compiler is missing)"; \
 		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
-		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-avr binutils-avr avr-libc >/dev/null; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-avr binutils-avr avr-libc gcc >/dev/null; \
 	else \
-		echo "warning: avr-gcc is missing; install it (Debian: sudo apt-get install gcc-avr binutils-avr avr-libc) to build firmware/piratebay"; \
+		echo "warning: avr-gcc or cc is missing; install them (Debian: sudo apt-get install gcc-avr binutils-avr avr-libc gcc) to build firmware/piratebay"; \
 	fi
 
 # The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
