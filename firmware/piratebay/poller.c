@@ -146,8 +146,6 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
     if (poll.next >= PB_N_BOARDS) {
         poll.next = 0;
         finish_cycle();
-    } else if (poll.polled >= PB_N_BOARDS) {
-        finish_cycle();
     }
 }
 

@@ -47,9 +47,11 @@ void uart0_init(uint32_t baud) {
 }
 
 ISR(USART0_RX_vect) {
-    uint8_t status = UCSR0A;
+    uint8_t status = UCSR0A; /* before UDR0: its error flags belong to this byte */
     uint8_t byte = UDR0;
-    (void)status;
+    if (status & _BV(DOR0)) {
+        rx0_overruns++; /* the hardware lost a byte before this one */
+    }
     uint8_t next = (uint8_t)(rx0_head + 1u);
     if (next == rx0_tail) {
         rx0_overruns++;

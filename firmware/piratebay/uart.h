@@ -8,7 +8,7 @@
 
 #define UART0_RX_RING 256u /* 22 ms of line at 115200 baud */
 #define UART1_RX_RING 64u
-#define UART1_TX_RING 128u /* a STOP to every board back to back */
+#define UART1_TX_RING 256u /* a STOP to every board back to back, then a request */
 
 void uart0_init(uint32_t baud);
 /* Next received byte, or -1. */
@@ -18,7 +18,7 @@ bool uart0_tx_busy(void);
 /* Send n bytes straight from `p` (no copy): the buffer must stay untouched until
  * uart0_tx_busy() is false. Call only when not busy. */
 void uart0_send(const uint8_t *p, uint16_t n);
-/* Bytes lost because the receive ring was full. */
+/* Bytes lost: the receive ring was full, or the USART overran. */
 uint16_t uart0_rx_overruns(void);
 
 void uart1_init(uint32_t baud);
