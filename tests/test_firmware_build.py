@@ -6,6 +6,7 @@ Needs Debian's gcc-avr and avr-libc (``make test`` installs them where it may, a
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import subprocess
@@ -84,3 +85,40 @@ def test_bad_robot_description_stops_the_build(tmp_path: Path) -> None:
     assert "bad.yaml:" in result.stderr
     assert not (tmp_path / "build" / "piratebay.elf").exists()
     assert not (tmp_path / "build" / "layout.h").exists()
+
+
+def test_avr_build_runs_in_simavr(tmp_path: Path) -> None:
+    """The AVR build itself, run in simavr at 16 MHz (firmware/piratebay/host/figures.c):
+    a session, 200 bulk setpoints, 40 e-stops, then 2 s of noise at full line rate."""
+    pkg = shutil.which("pkg-config")
+    if pkg is None or subprocess.run([pkg, "--exists", "simavr"], check=False).returncode:
+        pytest.skip("libsimavr-dev missing: install it (Debian: apt-get install libsimavr-dev)")
+    result = subprocess.run(
+        [
+            "make",
+            "-s",
+            "-C",
+            str(FIRMWARE),
+            "figures",
+            "SOAK=2",
+            f"BUILD={tmp_path}",
+            f"PIRATE_BT={sys.executable} -m pirate_bt",
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MAKEFLAGS": ""},
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    figures = {}
+    for line in result.stdout.splitlines():
+        name, _, value = line.partition(" ")
+        with contextlib.suppress(ValueError):
+            figures[name] = float(value)
+    assert figures["bulk_decode_apply_cycles_n"] == 200  # every bulk applied
+    assert figures["estop_to_stop_on_bus_us_n"] == 40  # every e-stop reached the bus
+    assert figures["estop_to_stop_on_bus_us_max"] < 2500
+    assert figures["mcu_resets"] == 0
+    assert figures["soak_corrupted_applied"] == 0 and figures["soak_hello_answered"] == 1
+    assert figures["soak_max_state_gap_ms"] < 15
+    assert 0 < figures["stack_high_water_bytes"] < 1024

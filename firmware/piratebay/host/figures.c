@@ -6,7 +6,7 @@
  * readings; the host link is fed at 115200 baud. Not the simavr harness of
  * `pirate-bt sim --firmware` (no pty, no physics): a measuring stick.
  *
- *   make -C firmware/piratebay figures      (needs libsimavr-dev, libelf-dev)
+ *   make -C firmware/piratebay figures      (needs libsimavr-dev)
  *   build/figures build/piratebay.elf 0x$(avr-nm build/piratebay.elf | awk '/ pb_debug$/{print $1}')
  *
  * With a third argument SECONDS it then soaks the firmware for that long (simulated
