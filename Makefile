@@ -27,18 +27,19 @@ graphviz:
 		echo "warning: Graphviz 'dot' is missing; install it (Debian: sudo apt-get install graphviz) to render .svg/.png (.dot files are still written)"; \
 	fi
 
-# Debian's gcc-avr and avr-libc build the bridge firmware (and the host's gcc its
-# unit-test build); install them when missing and we may (root + apt-get), as for
-# Graphviz.
+# Debian's gcc-avr and avr-libc build the bridge firmware, the host's gcc its
+# unit-test build, libsimavr-dev (with pkg-config) runs it in simavr; install what is
+# missing when we may (root + apt-get), as for Graphviz.
+AVR_PACKAGES := gcc-avr binutils-avr avr-libc gcc libsimavr-dev pkg-config
 avr-toolchain:
 	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ] \
-		&& command -v cc >/dev/null 2>&1; then :; \
+		&& command -v cc >/dev/null 2>&1 && pkg-config --exists simavr 2>/dev/null; then :; \
 	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
-		echo "installing Debian's gcc-avr, binutils-avr, avr-libc and gcc (a compiler is missing)"; \
+		echo "installing Debian's $(AVR_PACKAGES) (some are missing)"; \
 		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
-		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-avr binutils-avr avr-libc gcc >/dev/null; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(AVR_PACKAGES) >/dev/null; \
 	else \
-		echo "warning: avr-gcc or cc is missing; install them (Debian: sudo apt-get install gcc-avr binutils-avr avr-libc gcc) to build firmware/piratebay"; \
+		echo "warning: the AVR toolchain or simavr is missing; install them (Debian: sudo apt-get install $(AVR_PACKAGES)) to build and simulate firmware/piratebay"; \
 	fi
 
 # The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
