@@ -489,3 +489,61 @@ def test_adapter_resets_disconnects_and_reconnects_a_board(library: Path, tmp_pa
     boot = [struct.unpack("<IBBHHBHB", f.payload)[6] for f in (*first, *second)]
     assert len(boot) == 2 and boot[0] != boot[1]
     under_test.close()
+
+
+def test_garbled_replies_count_as_crc_errors_and_the_board_times_out(bridge: Bridge) -> None:
+    j = bridge.boards.index(23)
+    bridge.lib.fw_board(j, 2, 0)
+    bridge.run(35)
+    _, fresh, _, status, _ = bridge.state(bridge.states()[-1])
+    assert status[j] & TIMEOUT and not any(
+        fresh >> c.index & 1 for c in bridge.channels if c.board == 23
+    )
+    counters = bridge.ask(frame(COUNTERS_REQUEST, 9))[0]
+    board, timeouts, crc, retries = struct.unpack(
+        "<BIII", counters.payload[20 + 13 * j : 33 + 13 * j]
+    )
+    assert board == 23 and crc >= 4 and timeouts == 0 and retries >= 2
+
+
+def test_every_board_gets_polled_when_most_of_the_bus_is_dead(bridge: Bridge) -> None:
+    """Eight silent boards take 1.5 ms each (and a retry): more than a period. The
+    cycle goes on in the next period, so the last board is still polled."""
+    for board in bridge.boards[:-1]:
+        bridge.board(board, online=False)
+    bridge.run(150)
+    bridge.read()
+    states = [bridge.state(s) for s in bridge.states(100)]
+    last = bridge.boards[-1]
+    rear = [c.index for c in bridge.channels if c.board == last]
+    assert any(all(fresh >> i & 1 for i in rear) for _, fresh, _, _, _ in states)
+    assert all(st[-1] & ONLINE for _, _, _, st, _ in states)
+    assert not any(flags & F_BUS_FAULT for _, _, flags, _, _ in states)
+
+
+def test_firmware_cobs_matches_the_host_codec(library: Path) -> None:
+    lib = ctypes.CDLL(str(library))
+    rng = random.Random(7)
+    cases = [
+        b"",
+        b"\x00",
+        b"\x00\x00",
+        b"\x11" * 254,
+        b"\x11" * 253 + b"\x00",
+        b"\x00" + b"\x22" * 253,
+    ]
+    cases += [
+        bytes(rng.choice((0, 0, rng.randrange(256))) for _ in range(rng.randrange(1, 255)))
+        for _ in range(300)
+    ]
+    out = ctypes.create_string_buffer(300)
+    back = ctypes.create_string_buffer(300)
+    for body in cases:
+        n = lib.cobs_encode(body, len(body), out)
+        assert out.raw[:n] == cobs_encode(body), body.hex()
+        if n > 0 and body:
+            m = lib.cobs_decode(out, n, back, 254)
+            assert back.raw[:m] == body
+    # a receiver accepts a trailing 0x01 after a full block and adds nothing
+    assert lib.cobs_decode(b"\xff" + b"\x11" * 254 + b"\x01", 256, back, 254) == 254
+    assert lib.cobs_decode(b"\x05\x01\x02", 3, back, 254) == -1  # code past the end

@@ -9,7 +9,8 @@
  *   fw_write(bytes, n)               host -> bridge bytes
  *   fw_run_us(us)                    let virtual time pass, running main-loop turns
  *   fw_read(buf, cap)                bridge -> host bytes sent so far
- *   fw_board(index, online, status)  a board answers or not, with a status byte
+ *   fw_board(index, online, status)  a board answers (1), does not (0), or answers
+ *                                    with a broken CRC (2), with a status byte
  *   fw_reading(channel, raw)         the value the boards report for a channel
  *   fw_bus_log(buf, cap)             every frame the bridge sent on the bus, decoded
  */
@@ -119,6 +120,7 @@ static void board_frame(void) {
     if (b < 0 || body[1] != 0x01u || !board_online[b]) {
         return; /* STOP, or nobody home */
     }
+    bool garble = board_online[b] == 2; /* answers, but with a broken CRC */
     struct pb_board board = *layout_board((uint8_t)b);
     uint8_t reply[40];
     uint8_t k = 0;
@@ -129,7 +131,7 @@ static void board_frame(void) {
         put_u16(reply + k, (uint16_t)board_readings[board.first_channel + c]);
         k = (uint8_t)(k + 2u);
     }
-    put_u16(reply + k, crc16_xmodem(reply, k));
+    put_u16(reply + k, (uint16_t)(crc16_xmodem(reply, k) ^ (garble ? 0x0100u : 0u)));
     k = (uint8_t)(k + 2u);
     uint8_t wire[48];
     uint16_t w = cobs_encode(reply, k, wire);
