@@ -23,6 +23,8 @@
 
 static_assert(4u + 3u * PB_MAX_BOARD_MOTORS <= BODY_MAX, "a request fits 32 bytes");
 static_assert(5u + 2u * PB_MAX_BOARD_CHANNELS <= BODY_MAX, "a reply fits 32 bytes");
+static_assert(BUS_REPLY_TIMEOUT_US >= 100u && BUS_REPLY_TIMEOUT_US <= 30000u,
+              "the reply timeout is counted on the 16-bit 2 MHz timer");
 static_assert((PB_N_BOARDS + 1u) * (6u + 3u * PB_MAX_BOARD_MOTORS) < UART1_TX_RING,
               "a STOP to every board and the next request fit the transmit ring");
 
