@@ -26,7 +26,7 @@ void bridge_init(void) {
     poller_init();
     txq_init();
     uint32_t now = timer_ms();
-    protocol_init(now);
+    protocol_init();
     safety_init(now);
     next_period = now + PB_STATE_PERIOD_MS;
 }

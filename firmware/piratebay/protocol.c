@@ -65,7 +65,7 @@ static bool seq_newer(uint16_t a, uint16_t b) {
     return d != 0 && d < 0x8000u;
 }
 
-void protocol_init(uint32_t now_ms) {
+void protocol_init(void) {
     frame_rx_init(&rx);
     br.session = false;
     br.sessions = 0;
@@ -73,7 +73,6 @@ void protocol_init(uint32_t now_ms) {
     br.answer = NO_ANSWER;
     br.ack_seq = 0;
     br.rx_frames = br.crc_errors = br.frame_errors = br.duplicates = 0;
-    (void)now_ms;
 }
 
 uint8_t protocol_flags(void) {

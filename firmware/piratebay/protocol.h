@@ -17,7 +17,7 @@
 #define PB_FIRMWARE_VERSION 0x0100u /* release 1.0, high byte major */
 #endif
 
-void protocol_init(uint32_t now_ms);
+void protocol_init(void);
 /* One byte from the host link. */
 void protocol_rx_byte(uint8_t byte, uint32_t now_ms);
 /* Encode this period's STATE. */
