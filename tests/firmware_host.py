@@ -24,7 +24,11 @@ from pirate_bt.robot.description import RobotDescription
 
 __all__ = ["FIRMWARE", "FirmwareHostBridge", "build_host_library"]
 
-FIRMWARE = Path(__file__).resolve().parents[1] / "firmware" / "piratebay"
+FIRMWARE = next(
+    p / "firmware" / "piratebay"
+    for p in Path(__file__).resolve().parents
+    if (p / "firmware" / "piratebay" / "Makefile").exists()
+)
 
 _built: dict[tuple[Path, Path], Path] = {}
 
