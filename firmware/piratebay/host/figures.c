@@ -359,6 +359,25 @@ int main(int argc, char **argv) {
         send_frame(0x03, seq++, 0, bulk, 3 * PB_N_MOTORS);
         run_ms(10);
     }
+    /* the other requests, so the stack's high-water mark covers every path: a
+     * setpoint per motor, a refused one, counters, a mid-session hello, bad frames */
+    for (uint8_t i = 0; i < PB_N_MOTORS; i++) {
+        const struct pb_motor *m = layout_motor(i);
+        uint8_t sp[4] = {m->slot, bulk[3 * i], bulk[3 * i + 1], bulk[3 * i + 2]};
+        send_frame(0x02, seq++, layout_board(m->board_index)->id, sp, 4);
+        run_ms(2);
+    }
+    uint8_t refused[4] = {7, 0, 0, 0};
+    send_frame(0x02, seq++, 0xEE, refused, 4);
+    send_frame(0x07, 1, 0, NULL, 0);
+    run_ms(20);
+    send_frame(0x01, seq++, 0, hello, 5);
+    send_frame(0x42, 2, 0, NULL, 0);
+    hostq[hostq_head++ & 0xFFFFu] = 0x05; /* a COBS code past the end */
+    hostq[hostq_head++ & 0xFFFFu] = 0x00;
+    run_ms(20);
+    send_frame(0x06, seq++, 0, NULL, 0);
+    run_ms(20);
     /* 40 e-stops at spread phases of the state period and the bus cycle */
     srand(14);
     for (int i = 0; i < 40; i++) {
