@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test lint typecheck unit docs bench graphviz venv clean
+.PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain
 
 venv: $(STAMP)
 
@@ -27,6 +27,27 @@ graphviz:
 		echo "warning: Graphviz 'dot' is missing; install it (Debian: sudo apt-get install graphviz) to render .svg/.png (.dot files are still written)"; \
 	fi
 
+# Debian's gcc-avr and avr-libc build the bridge firmware, the host's gcc its
+# unit-test build, libsimavr-dev (with pkg-config) runs it in simavr; install what is
+# missing when we may (root + apt-get), as for Graphviz.
+AVR_PACKAGES := gcc-avr binutils-avr avr-libc gcc libsimavr-dev pkg-config
+avr-toolchain:
+	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ] \
+		&& command -v cc >/dev/null 2>&1 && pkg-config --exists simavr 2>/dev/null; then :; \
+	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian's $(AVR_PACKAGES) (some are missing)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(AVR_PACKAGES) >/dev/null; \
+	else \
+		echo "warning: the AVR toolchain or simavr is missing; install them (Debian: sudo apt-get install $(AVR_PACKAGES)) to build and simulate firmware/piratebay"; \
+	fi
+
+# The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
+# flash and SRAM use (firmware/piratebay/build/).
+firmware: $(STAMP) avr-toolchain
+	$(MAKE) -C firmware/piratebay ROBOT=$(abspath $(or $(ROBOT),hardware/pirate.yaml)) \
+		PIRATE_BT=$(abspath $(BIN)/pirate-bt)
+
 lint: $(STAMP)
 	$(BIN)/ruff check pirate_bt tests benchmarks
 	$(BIN)/ruff format --check pirate_bt tests benchmarks
@@ -34,7 +55,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy --strict pirate_bt
 
-unit: $(STAMP) graphviz
+unit: $(STAMP) graphviz avr-toolchain
 	$(BIN)/pytest
 
 docs: $(STAMP)

@@ -1,4 +1,8 @@
-"""``pirate-bt robot``: print a robot description's board table and draw it."""
+"""``pirate-bt robot``: print a robot description's board table and draw it.
+
+``pirate-bt robot header ROBOT.yaml -o layout.h`` writes the robot's wire layout
+as the C header the PIRATEbay firmware is built with (``firmware/piratebay/``).
+"""
 
 from __future__ import annotations
 
@@ -15,6 +19,14 @@ _HEAD = ("board", "module", "motor 0", "motor 1", "sensor 0", "sensor 1")
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", type=Path, help="robot description (default: bundled)")
     parser.add_argument("--draw", type=Path, metavar="OUT", help="draw to OUT (.dot/.svg/.png)")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION")
+    header = actions.add_parser(
+        "header", help="write the wire layout as a C header for the bridge firmware"
+    )
+    header.add_argument("description", type=Path, nargs="?", help="robot description")
+    header.add_argument(
+        "-o", "--output", type=Path, metavar="OUT", help="header file (default: stdout)"
+    )
 
 
 def format_table(rows: list[tuple[str, ...]]) -> str:
@@ -26,7 +38,23 @@ def format_table(rows: list[tuple[str, ...]]) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
+def _header(args: argparse.Namespace) -> int:
+    from pirate_bt.robot.header import render_header, write_header
+
+    path = args.description or args.robot
+    robot = load_robot(path)
+    source = str(path) if path is not None else "the bundled robot description"
+    if args.output is None:
+        sys.stdout.write(render_header(robot, source))
+    else:
+        write_header(robot, args.output, source)
+        print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "action", None) == "header":
+        return _header(args)
     robot = load_robot(args.robot)
     print(f"{robot.name}: {len(robot.modules)} modules, {len(robot.boards)} boards")
     print(format_table(board_table(robot)))

@@ -1,0 +1,138 @@
+/* The board bus of docs/board-bus.md, bridge (master) side. Rewrite this file,
+ * and only this file, for another board protocol; keep board_bus.h.
+ *
+ * A frame is COBS(addr, cmd, payload, CRC-16/XMODEM little-endian) 0x00, at
+ * 500 kbaud 8N1 on RS485. EXCHANGE (0x01) carries the board's setpoints and is
+ * answered by EXCHANGE_REPLY (0x81): status, then the board's state channels as
+ * int16. STOP (0x02) carries setpoints too and is not answered. */
+#include "board_bus.h"
+
+#include "cobs.h"
+#include "crc.h"
+#include "frame.h"
+#include "mcu.h"
+#include "timer.h"
+#include "uart.h"
+
+#define CMD_EXCHANGE 0x01u
+#define CMD_STOP 0x02u
+#define CMD_REPLY 0x81u
+#define BODY_MAX 32u
+#define WIRE_MAX (COBS_MAX_ENCODED(BODY_MAX) + 1u)
+#define BYTE_US (10000000UL / BUS_BAUD) /* one 8N1 byte on the line */
+
+static_assert(4u + 3u * PB_MAX_BOARD_MOTORS <= BODY_MAX, "a request fits 32 bytes");
+static_assert(5u + 2u * PB_MAX_BOARD_CHANNELS <= BODY_MAX, "a reply fits 32 bytes");
+static_assert(BUS_REPLY_TIMEOUT_US >= 100u && BUS_REPLY_TIMEOUT_US <= 30000u,
+              "the reply timeout is counted on the 16-bit 2 MHz timer");
+static_assert((PB_N_BOARDS + 1u) * (6u + 3u * PB_MAX_BOARD_MOTORS) < UART1_TX_RING,
+              "a STOP to every board and the next request fit the transmit ring");
+
+static struct {
+    bool waiting;
+    uint8_t addr;
+    uint8_t n_channels;
+    uint8_t rx_n;
+    bool rx_overflow;
+    uint8_t rx_raw[WIRE_MAX];
+    uint8_t body[BODY_MAX];
+    uint8_t wire[WIRE_MAX];
+} bus;
+
+void board_bus_init(void) {
+    uart1_init(BUS_BAUD);
+    bus.waiting = false;
+}
+
+bool board_bus_idle(void) { return !bus.waiting; }
+
+uint16_t board_bus_exchange_us(const struct pb_board *board) {
+    uint16_t request = (uint16_t)(4u + 3u * board->n_motors + 2u);
+    uint16_t reply = (uint16_t)(5u + 2u * board->n_channels + 2u);
+    return (uint16_t)((request + reply) * BYTE_US + BUS_REPLY_TIMEOUT_US);
+}
+
+static void send(uint8_t addr, uint8_t cmd, uint8_t n_motors,
+                 const struct pb_setpoint *setpoints) {
+    uint8_t n = 0;
+    bus.body[n++] = addr;
+    bus.body[n++] = cmd;
+    for (uint8_t i = 0; i < n_motors; i++) {
+        bus.body[n++] = setpoints[i].mode;
+        put_u16(bus.body + n, (uint16_t)setpoints[i].raw);
+        n = (uint8_t)(n + 2u);
+    }
+    put_u16(bus.body + n, crc16_xmodem(bus.body, n));
+    n = (uint8_t)(n + 2u);
+    uint8_t w = (uint8_t)cobs_encode(bus.body, n, bus.wire);
+    bus.wire[w++] = 0;
+    uart1_write(bus.wire, w);
+}
+
+void board_bus_exchange(const struct pb_board *board, const struct pb_setpoint *setpoints) {
+    uart1_rx_flush();
+    bus.addr = board->id;
+    bus.n_channels = board->n_channels;
+    bus.rx_n = 0;
+    bus.rx_overflow = false;
+    bus.waiting = true;
+    send(board->id, CMD_EXCHANGE, board->n_motors, setpoints);
+}
+
+void board_bus_stop(const struct pb_board *board, const struct pb_setpoint *setpoints) {
+    PB_MARK(PB_MARK_BUS_STOP);
+    send(board->id, CMD_STOP, board->n_motors, setpoints);
+}
+
+/* Check a complete reply frame (delimiter removed) and fill `reply`. */
+static bool take_reply(struct bus_reply *reply) {
+    int16_t len = cobs_decode(bus.rx_raw, bus.rx_n, bus.body, BODY_MAX);
+    uint8_t want = (uint8_t)(5u + 2u * bus.n_channels);
+    if (len != (int16_t)want) {
+        return false;
+    }
+    if (crc16_xmodem(bus.body, (uint16_t)(want - 2u)) != get_u16(bus.body + want - 2u)) {
+        return false;
+    }
+    if (bus.body[0] != bus.addr || bus.body[1] != CMD_REPLY) {
+        return false;
+    }
+    reply->status = bus.body[2];
+    for (uint8_t i = 0; i < bus.n_channels; i++) {
+        reply->readings[i] = (int16_t)get_u16(bus.body + 3u + 2u * i);
+    }
+    return true;
+}
+
+enum bus_result board_bus_poll(struct bus_reply *reply) {
+    if (!bus.waiting) {
+        return BUS_TIMEOUT;
+    }
+    uint16_t sent_at;
+    if (!uart1_tx_done(&sent_at)) {
+        return BUS_BUSY;
+    }
+    int16_t c;
+    while ((c = uart1_getc()) >= 0) {
+        if (c != 0) {
+            if (bus.rx_n < WIRE_MAX) {
+                bus.rx_raw[bus.rx_n++] = (uint8_t)c;
+            } else {
+                bus.rx_overflow = true;
+            }
+            continue;
+        }
+        if (bus.rx_n == 0 && !bus.rx_overflow) {
+            continue; /* a lone delimiter */
+        }
+        bus.waiting = false;
+        bool ok = !bus.rx_overflow && take_reply(reply);
+        return ok ? BUS_OK : BUS_BAD_REPLY;
+    }
+    uint16_t waited = (uint16_t)(timer_ticks() - sent_at);
+    if (waited > (uint16_t)(BUS_REPLY_TIMEOUT_US * TIMER_TICKS_PER_US)) {
+        bus.waiting = false;
+        return BUS_TIMEOUT;
+    }
+    return BUS_BUSY;
+}

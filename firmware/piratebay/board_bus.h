@@ -1,0 +1,58 @@
+/* The board bus port: how the bridge talks to one PICO board.
+ *
+ * This is the seam for another board protocol. The rest of the firmware (which
+ * board to poll when, retries, timeouts counted, what the readings mean) only
+ * calls the five functions below; board_bus.c implements them for the bus of
+ * docs/board-bus.md (COBS frames with CRC-16 over RS485 on USART1). A team whose
+ * PICO boards speak something else rewrites board_bus.c, and nothing else.
+ *
+ * Exactly one exchange is in progress at a time: board_bus_exchange() starts it,
+ * board_bus_poll() is called from the main loop until it stops answering
+ * BUS_BUSY. Nothing here may block: the host link is served in the same loop. */
+#ifndef PB_BOARD_BUS_H
+#define PB_BOARD_BUS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "robot_layout.h"
+
+#ifndef BUS_BAUD
+#define BUS_BAUD 500000UL
+#endif
+/* Give up on a reply this long after the request's last byte left the line. */
+#ifndef BUS_REPLY_TIMEOUT_US
+#define BUS_REPLY_TIMEOUT_US 1500u
+#endif
+
+/* Board status bits of a reply (the board's own view). */
+#define BUS_STATUS_FAULT 0x01u
+#define BUS_STATUS_MOTORS_OFF 0x02u
+
+enum bus_result {
+    BUS_BUSY = 0,  /* still sending or waiting */
+    BUS_OK,        /* the board answered; the reply is filled in */
+    BUS_TIMEOUT,   /* no reply in time */
+    BUS_BAD_REPLY, /* a reply arrived but failed its checks (CRC, address, length) */
+};
+
+struct bus_reply {
+    uint8_t status; /* BUS_STATUS_* */
+    int16_t readings[PB_MAX_BOARD_CHANNELS + 1]; /* this board's channels, layout order */
+};
+
+void board_bus_init(void);
+/* Send `board` its setpoints (one per motor, slot order) and start waiting for its
+ * readings. */
+void board_bus_exchange(const struct pb_board *board, const struct pb_setpoint *setpoints);
+/* Progress of the current exchange. */
+enum bus_result board_bus_poll(struct bus_reply *reply);
+/* Send `board` setpoints to apply at once, expecting no reply (the stop category);
+ * several may be queued back to back. Call only when board_bus_idle(). */
+void board_bus_stop(const struct pb_board *board, const struct pb_setpoint *setpoints);
+/* True when no exchange is in progress. */
+bool board_bus_idle(void);
+/* Worst-case duration of one exchange, in microseconds (for scheduling). */
+uint16_t board_bus_exchange_us(const struct pb_board *board);
+
+#endif

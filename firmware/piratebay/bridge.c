@@ -1,0 +1,57 @@
+/* One cooperative main loop, nothing blocks: bytes from the host are handled as
+ * they arrive (ESTOP takes effect in the same turn), the board bus advances one
+ * step, the host watchdog is checked every turn, every state period a STATE frame
+ * is encoded and a new poll cycle starts, and the next frame is handed to the UART
+ * when it is free. */
+#include "bridge.h"
+
+#include "mcu.h"
+#include "poller.h"
+#include "protocol.h"
+#include "safety.h"
+#include "timer.h"
+#include "txq.h"
+#include "uart.h"
+
+/* At most this many host bytes per turn, so the bus and the tick stay served even
+ * at full line rate (a turn is far shorter than the 32 byte times it covers). */
+#define RX_BURST 32u
+
+static uint32_t next_period;
+
+void bridge_init(void) {
+    mcu_init();
+    timer_init();
+    uart0_init(PB_BAUD);
+    poller_init();
+    txq_init();
+    uint32_t now = timer_ms();
+    protocol_init();
+    safety_init(now);
+    next_period = now + PB_STATE_PERIOD_MS;
+}
+
+void bridge_turn(void) {
+    mcu_feed();
+    uint32_t now = timer_ms();
+    for (uint8_t i = 0; i < RX_BURST; i++) {
+        int16_t c = uart0_getc();
+        if (c < 0) {
+            break;
+        }
+        protocol_rx_byte((uint8_t)c, now);
+    }
+    poller_run();
+    safety_watchdog_check(now);
+    if ((int32_t)(now - next_period) >= 0) {
+        next_period += PB_STATE_PERIOD_MS;
+        if ((int32_t)(now - next_period) >= 0) {
+            next_period = now + PB_STATE_PERIOD_MS; /* fell behind: back on a grid */
+        }
+        poller_period(now); /* closes the period: its readings go into this STATE */
+        protocol_send_state();
+        mcu_stack_check();
+        pb_debug.rx_overruns = uart0_rx_overruns();
+    }
+    txq_pump(now, protocol_flags());
+}

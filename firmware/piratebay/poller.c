@@ -1,0 +1,176 @@
+#include "poller.h"
+
+#include <string.h>
+
+#include "board_bus.h"
+#include "safety.h"
+#include "timer.h"
+
+#define MARGIN_US 300u /* keep clear of the next period's start */
+
+static struct {
+    int16_t readings[PB_N_CHANNELS ? PB_N_CHANNELS : 1];
+    uint8_t fresh_now[FRESH_BYTES ? FRESH_BYTES : 1];
+    uint8_t fresh_done[FRESH_BYTES ? FRESH_BYTES : 1];
+    uint8_t status[PB_N_BOARDS];
+    struct board_counters counters[PB_N_BOARDS];
+    bool bus_fault;
+    bool stop_pending;
+    /* the cycle */
+    uint8_t next;        /* board to poll next */
+    uint8_t polled;      /* boards polled this cycle */
+    bool any_ok;         /* a board answered this cycle */
+    bool cycle_done;
+    bool busy;           /* an exchange is in progress */
+    bool retried;
+    uint8_t current;
+    uint32_t period_ms;  /* start of the current period */
+    uint16_t period_ticks;
+} poll;
+
+void poller_init(void) {
+    memset(&poll, 0, sizeof poll);
+    poll.cycle_done = true;
+    board_bus_init();
+}
+
+void poller_request_stop(void) { poll.stop_pending = true; }
+
+const uint8_t *poller_fresh(void) { return poll.fresh_done; }
+
+const int16_t *poller_readings(void) { return poll.readings; }
+
+uint8_t poller_board_status(uint8_t index) { return poll.status[index]; }
+
+bool poller_bus_fault(void) { return poll.bus_fault; }
+
+const struct board_counters *poller_counters(uint8_t index) { return &poll.counters[index]; }
+
+void poller_period(uint32_t now_ms) {
+    memcpy(poll.fresh_done, poll.fresh_now, sizeof poll.fresh_done);
+    memset(poll.fresh_now, 0, sizeof poll.fresh_now);
+    poll.period_ms = now_ms;
+    poll.period_ticks = timer_ticks();
+    if (poll.cycle_done) {
+        poll.cycle_done = false;
+        poll.next = 0;
+        poll.polled = 0;
+        poll.any_ok = false;
+    }
+    /* else: the last cycle is late (boards timing out); it goes on from where it
+     * is, so every board gets its turn. */
+}
+
+/* Microseconds since the period began (saturating past 30 ms). */
+static uint32_t period_elapsed_us(void) {
+    uint32_t ms = timer_ms() - poll.period_ms;
+    if (ms >= 30u) {
+        return ms * 1000u;
+    }
+    return (uint16_t)(timer_ticks() - poll.period_ticks) / TIMER_TICKS_PER_US;
+}
+
+static bool time_left_for(const struct pb_board *board) {
+    uint32_t need = period_elapsed_us() + board_bus_exchange_us(board) + MARGIN_US;
+    return need <= (uint32_t)PB_STATE_PERIOD_MS * 1000u;
+}
+
+static void send_stops(void) {
+    struct pb_setpoint sp[PB_MAX_BOARD_MOTORS ? PB_MAX_BOARD_MOTORS : 1];
+    for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
+        const struct pb_board *board = layout_board(b);
+        bool any = false;
+        for (uint8_t k = 0; k < board->n_motors; k++) {
+            if (layout_motor((uint8_t)(board->first_motor + k))->role == PB_ROLE_BEND) {
+                sp[k].mode = PB_MODE_KEEP;
+                sp[k].raw = 0;
+            } else {
+                sp[k] = safety_setpoints[board->first_motor + k];
+                any = true;
+            }
+        }
+        if (any) {
+            board_bus_stop(board, sp);
+        }
+    }
+}
+
+static void start(uint8_t index) {
+    const struct pb_board *board = layout_board(index);
+    poll.current = index;
+    poll.busy = true;
+    board_bus_exchange(board, &safety_setpoints[board->first_motor]);
+}
+
+static void finish_cycle(void) {
+    poll.cycle_done = true;
+    poll.bus_fault = poll.polled > 0 && !poll.any_ok;
+}
+
+static void done(enum bus_result result, const struct bus_reply *reply) {
+    uint8_t b = poll.current;
+    const struct pb_board *board = layout_board(b);
+    if (result == BUS_OK) {
+        memcpy(&poll.readings[board->first_channel], reply->readings,
+               (size_t)board->n_channels * sizeof(int16_t));
+        for (uint8_t k = 0; k < board->n_channels; k++) {
+            uint8_t ch = (uint8_t)(board->first_channel + k);
+            poll.fresh_now[ch >> 3] |= (uint8_t)(1u << (ch & 7u));
+        }
+        uint8_t s = BOARD_ONLINE;
+        if (reply->status & BUS_STATUS_FAULT) {
+            s |= BOARD_FAULT;
+        }
+        if (reply->status & BUS_STATUS_MOTORS_OFF) {
+            s |= BOARD_MOTORS_OFF;
+        }
+        poll.status[b] = s;
+        poll.any_ok = true;
+    } else {
+        if (result == BUS_BAD_REPLY) {
+            poll.counters[b].crc_errors++;
+        } else {
+            poll.counters[b].timeouts++;
+        }
+        if (!poll.retried && !poll.stop_pending && time_left_for(board)) {
+            poll.retried = true;
+            poll.counters[b].retries++;
+            start(b);
+            return;
+        }
+        poll.status[b] = BOARD_TIMEOUT;
+    }
+    poll.busy = false;
+    poll.polled++;
+    poll.next = (uint8_t)(b + 1u);
+    if (poll.next >= PB_N_BOARDS) {
+        poll.next = 0;
+        finish_cycle();
+    }
+}
+
+void poller_run(void) {
+    if (poll.busy) {
+        struct bus_reply reply;
+        enum bus_result r = board_bus_poll(&reply);
+        if (r == BUS_BUSY) {
+            return;
+        }
+        done(r, &reply);
+        if (poll.busy) {
+            return; /* retrying */
+        }
+    }
+    if (poll.stop_pending && board_bus_idle()) {
+        poll.stop_pending = false;
+        send_stops();
+    }
+    if (poll.cycle_done || poll.busy) {
+        return;
+    }
+    if (!time_left_for(layout_board(poll.next)) && poll.polled > 0) {
+        return; /* the rest of the cycle goes on in the next period */
+    }
+    poll.retried = false;
+    start(poll.next);
+}

@@ -1,0 +1,27 @@
+/* The bridge side of wire protocol v1.1 (docs/protocol.md): the checks every
+ * received frame goes through, in order; sessions (HELLO), the duplicate filter
+ * with remembered answers, SETPOINT and BULK_SETPOINTS (all or nothing), the
+ * e-stop and its reset, heartbeats, COUNTERS; and the STATE frame. */
+#ifndef PB_PROTOCOL_H
+#define PB_PROTOCOL_H
+
+#include <stdint.h>
+
+/* Bridge flags (arg of STATE, BRIDGE_HEARTBEAT, HELLO_REPLY). */
+#define FLAG_ESTOP 0x01u
+#define FLAG_WATCHDOG 0x02u
+#define FLAG_BUS_FAULT 0x04u
+#define FLAG_NO_SESSION 0x08u
+
+#ifndef PB_FIRMWARE_VERSION
+#define PB_FIRMWARE_VERSION 0x0100u /* release 1.0, high byte major */
+#endif
+
+void protocol_init(void);
+/* One byte from the host link. */
+void protocol_rx_byte(uint8_t byte, uint32_t now_ms);
+/* Encode this period's STATE. */
+void protocol_send_state(void);
+uint8_t protocol_flags(void);
+
+#endif
