@@ -78,6 +78,7 @@ class FirmwareHostBridge:
     """
 
     virtual_time = True
+    line_limited = True
 
     def __init__(self, robot: RobotDescription, library: Path, workdir: Path) -> None:
         self.name = "firmware-host"

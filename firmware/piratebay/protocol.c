@@ -53,6 +53,7 @@ static struct {
     bool session;       /* a HELLO was accepted since boot */
     uint8_t sessions;   /* saturating at 255 */
     uint16_t last;      /* seq of the last ordered request handled */
+    uint8_t last_type;  /* its type (T_ESTOP for an e-stop; 0 after a hello) */
     uint8_t answer;     /* what it got: 0 applied, a NACK code, NO_ANSWER after a hello */
     uint16_t ack_seq;   /* last BULK_SETPOINTS applied in this session */
     uint32_t rx_frames, crc_errors, frame_errors, duplicates;
@@ -69,6 +70,7 @@ void protocol_init(void) {
     br.session = false;
     br.sessions = 0;
     br.last = 0;
+    br.last_type = 0;
     br.answer = NO_ANSWER;
     br.ack_seq = 0;
     br.rx_frames = br.crc_errors = br.frame_errors = br.duplicates = 0;
@@ -178,6 +180,7 @@ static void hello(uint16_t seq, const uint8_t *payload) {
         br.sessions++;
     }
     br.last = seq;
+    br.last_type = 0;
     br.answer = NO_ANSWER;
     br.ack_seq = 0;
     br.session = true;
@@ -279,12 +282,12 @@ static void ordered(uint8_t type, uint16_t seq, uint8_t arg, const uint8_t *payl
         return;
     }
     if (!seq_newer(seq, br.last)) {
-        /* not applied again: the same seq gets the first copy's answer (a hello's own
-         * seq counts as applied, as in the reference bridge), an older one STALE */
+        /* not applied again: the same seq and type get the first copy's answer; an
+         * older seq, the same seq with another type, or a hello's seq: STALE */
         br.duplicates++;
-        if (seq != br.last) {
+        if (seq != br.last || type != br.last_type || br.answer == NO_ANSWER) {
             send_ack(seq, type, ACK_STALE);
-        } else if (br.answer != 0 && br.answer != NO_ANSWER) {
+        } else if (br.answer != 0) {
             send_nack(seq, type, br.answer);
         } else {
             send_ack(seq, type, ACK_DUPLICATE);
@@ -292,6 +295,7 @@ static void ordered(uint8_t type, uint16_t seq, uint8_t arg, const uint8_t *payl
         return;
     }
     br.last = seq;
+    br.last_type = type;
     uint8_t code;
     if (type == T_SETPOINT) {
         code = setpoint(arg, payload);
@@ -353,6 +357,7 @@ static void handle(const uint8_t *body, uint8_t len, uint32_t now_ms) {
         PB_MARK(PB_MARK_ESTOP);
         if (br.session && seq_newer(seq, br.last)) {
             br.last = seq;
+            br.last_type = T_ESTOP;
             br.answer = 0;
         }
         send_ack(seq, T_ESTOP, ACK_APPLIED);

@@ -40,11 +40,17 @@ class BridgeUnderTest(Protocol):
         robot: The robot description the bridge was built for (its layout).
         virtual_time: :meth:`advance` moves a virtual clock (hours take seconds);
             false for a real-time bridge, where it sleeps.
+        line_limited: Its serial line runs at the robot's baud rate both ways and
+            at most a few answers wait (a real bridge); a test must then not ask
+            for more answers per state period than the line carries. The
+            reference bridge has no line model (false), so the long tests run
+            faster against it.
     """
 
     name: str
     robot: RobotDescription
     virtual_time: bool
+    line_limited: bool
 
     def write(self, data: bytes) -> None:
         """Bytes to the bridge."""
@@ -66,6 +72,7 @@ class InProcessSimBridge:
     """The simulated bridge in process, bytes in and out, on a virtual clock."""
 
     virtual_time = True
+    line_limited = False
 
     def __init__(self, robot: RobotDescription) -> None:
         self.name = "sim"
@@ -114,6 +121,7 @@ class PtyBridge:
     """
 
     virtual_time = False
+    line_limited = True
 
     def __init__(
         self,

@@ -9,7 +9,9 @@ close=...)`` (``conformance.bridge.PtyBridge``).
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 
@@ -17,9 +19,24 @@ from conformance.bridge import BridgeUnderTest, InProcessSimBridge, pty_sim_brid
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
 
+
+def _firmware_host(robot: RobotDescription) -> BridgeUnderTest:
+    """The firmware's own C (firmware/piratebay), built for this machine, in virtual time."""
+    from firmware_host import FIRMWARE, FirmwareHostBridge, build_host_library
+
+    tmp = Path(tempfile.mkdtemp(prefix="pirate-fw-"))
+    try:
+        # Inside this checkout (git-ignored), so make never mixes two checkouts' objects.
+        library = build_host_library(FIRMWARE / "build" / "conformance-host")
+    except RuntimeError as exc:
+        pytest.skip(f"cannot build the firmware for the host: {exc}")
+    return FirmwareHostBridge(robot, library, tmp)  # type: ignore[return-value]
+
+
 BRIDGES: dict[str, Callable[[RobotDescription], BridgeUnderTest]] = {
     "sim": InProcessSimBridge,
     "sim-pty": pty_sim_bridge,
+    "firmware-host": _firmware_host,
 }
 
 

@@ -46,6 +46,7 @@ from pirate_bt.link import (
     Setpoint,
 )
 from pirate_bt.link.codec import cobs_encode
+from pirate_bt.link.layout import WireLayout
 from pirate_bt.link.vectors import message_from_json, message_to_json
 from pirate_bt.robot.description import ControlMode
 
@@ -258,6 +259,18 @@ def test_board_that_stops_answering(bridge: BridgeUnderTest) -> None:
 # --- hours of traffic, in virtual time -----------------------------------------------------------
 
 
+def _answers_per_period(bridge: BridgeUnderTest) -> int:
+    """How many 11-byte answers (an ACK on the wire) one state period's line carries
+    beside the STATE frame, for a bridge whose line is modelled; else 10."""
+    if not bridge.line_limited:
+        return 10
+    robot = bridge.robot
+    line_bytes = robot.bridge.baud / 10 * robot.bridge.state_period
+    layout = WireLayout.from_robot(robot)
+    state_bytes = layout.wire_bytes(layout.state_payload_bytes)
+    return max(1, int((line_bytes - state_bytes) // 11))
+
+
 def test_heartbeats_through_whole_wraps_never_age_the_filter(
     virtual_bridge: BridgeUnderTest,
 ) -> None:
@@ -270,12 +283,13 @@ def test_heartbeats_through_whole_wraps_never_age_the_filter(
     wire = Wire(virtual_bridge)
     start_session(wire)
     assert wire.ask(bend_setpoint(wire, 3), expect=1) == [Ack(3, MsgType.SETPOINT)]
+    per = _answers_per_period(virtual_bridge)
     seq = 0
-    for _ in range(6600):
-        burst = b"".join(wire.codec.encode(Heartbeat((seq + i) % 65535 + 1)) for i in range(10))
-        seq += 10
+    for _ in range(-(-66_000 // per)):
+        burst = b"".join(wire.codec.encode(Heartbeat((seq + i) % 65535 + 1)) for i in range(per))
+        seq += per
         answers = wire.ask(burst, timeout_s=0.01)
-        assert len(answers) == 10 and all(isinstance(a, Ack) for a in answers)
+        assert len(answers) == per and all(isinstance(a, Ack) for a in answers)
     assert wire.ask(bend_setpoint(wire, 4), expect=1) == [Ack(4, MsgType.SETPOINT)]
     wire.collect(0.02)
     assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
@@ -287,14 +301,19 @@ def test_hours_of_setpoints_wrap_the_ordered_counter(virtual_bridge: BridgeUnder
     wire = Wire(virtual_bridge)
     start_session(wire)
     seq = 2
-    for burst in range(60):
+    # A burst the line can carry: a line-limited bridge answers a few per state period.
+    size = 1100 if not virtual_bridge.line_limited else _answers_per_period(virtual_bridge)
+    period_s = virtual_bridge.robot.bridge.state_period
+    bursts = -(-66_000 // size)
+    for burst in range(bursts):
         frames = []
-        for _ in range(1100):
+        for _ in range(size):
             seq = seq % 65535 + 1
-            frames.append(wire.codec.encode(bend_setpoint(wire, seq, raw=burst)))
-        answers = wire.ask(b"".join(frames), timeout_s=0.02)
-        assert [a.status for a in answers if isinstance(a, Ack)] == [AckStatus.APPLIED] * 1100
-        assert len(wire.ask(Heartbeat(burst + 1), timeout_s=0.02)) == 1
-    assert seq == (2 + 60 * 1100 - 1) % 65535 + 1
+            frames.append(wire.codec.encode(bend_setpoint(wire, seq, raw=burst % 60)))
+        answers = wire.ask(b"".join(frames), timeout_s=max(0.02, period_s))
+        assert [a.status for a in answers if isinstance(a, Ack)] == [AckStatus.APPLIED] * size
+        if burst % 100 == 0:
+            assert len(wire.ask(Heartbeat(burst // 100 + 1), timeout_s=0.02)) == 1
+    assert seq == (2 + bursts * size - 1) % 65535 + 1
     wire.collect(0.02)
     assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
