@@ -28,8 +28,9 @@ from pirate_bt.link import (
     open_link,
 )
 from pirate_bt.link.codec import frame_time_s
-from pirate_bt.link.testing import FdPort, ScriptedBridge
+from pirate_bt.link.testing import FdPort
 from pirate_bt.robot import ControlMode, load_robot
+from pirate_bt.sim.bridge_port import BridgeOnPort, bridge_for
 
 
 def per_call_us(fn: object, number: int = 20_000, repeat: int = 15) -> float:
@@ -101,10 +102,10 @@ def main() -> None:
     os.close(slave)
     rows.append(("state frames/s received and decoded over a pty", f"{got / elapsed:,.0f}"))
 
-    # request/response RTT over a pty with a scripted bridge thread
+    # request/response RTT over a pty with the reference bridge in a thread
     master, slave = os.openpty()
-    bridge = ScriptedBridge(FdPort(master), codec, state_period_s=robot.bridge.state_period)
     clock = WallClock()
+    bridge = BridgeOnPort(FdPort(master), bridge_for(robot, start_s=clock.now()))
     bridge.start(clock, period_s=0.0001)
     cfg = SessionConfig.from_robot(robot, poll_step_s=0.0001)
     link = open_link(os.ttyname(slave), robot, clock, config=cfg, reset_wait_s=0, threaded=False)
@@ -115,7 +116,7 @@ def main() -> None:
         rtts.append(time.perf_counter() - t)
     link.close()
     bridge.stop()
-    bridge.port.close()
+    os.close(master)
     os.close(slave)
     rtts.sort()
     p99 = rtts[int(0.99 * len(rtts)) - 1]

@@ -5,9 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import random
-from enum import Enum
 from pathlib import Path
-from typing import Any
 
 import pytest
 from hypothesis import given
@@ -15,76 +13,89 @@ from hypothesis import strategies as st
 
 from pirate_bt.errors import FrameError
 from pirate_bt.link import codec as c
+from pirate_bt.link.vectors import dumps, message_from_json, message_to_json
 from pirate_bt.robot import ControlMode, load_robot
 
 VECTORS = Path(__file__).parent / "data" / "link_vectors.json"
 ROBOT = load_robot()
 LAYOUT = c.WireLayout.from_robot(ROBOT)
 CODEC = c.FrameCodec(LAYOUT)
-TYPES = {cls.TYPE.name: cls for cls in c.Message.__args__}  # type: ignore[attr-defined]
-
-
-def message_to_json(msg: c.Message) -> dict[str, Any]:
-    """A message as plain JSON (enums by value, ``None`` modes as null)."""
-
-    def plain(value: Any) -> Any:
-        if isinstance(value, Enum):
-            return value.value
-        if dataclasses.is_dataclass(value) and not isinstance(value, type):
-            return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
-        if isinstance(value, tuple | list):
-            return [plain(v) for v in value]
-        return value
-
-    out: dict[str, Any] = {"type": msg.TYPE.name}
-    out.update(plain(msg))
-    return out
-
-
-def message_from_json(data: dict[str, Any]) -> c.Message:
-    """Inverse of :func:`message_to_json`."""
-    fields = dict(data)
-    cls = TYPES[fields.pop("type")]
-    if cls is c.BulkSetpoints:
-        fields["modes"] = tuple(None if m is None else ControlMode(m) for m in fields["modes"])
-        fields["raw_values"] = tuple(fields["raw_values"])
-    elif cls is c.Setpoint:
-        fields["mode"] = ControlMode(fields["mode"])
-    elif cls is c.State:
-        fields["flags"] = c.BridgeFlags(fields["flags"])
-        fields["board_status"] = tuple(fields["board_status"])
-        fields["raw_values"] = tuple(fields["raw_values"])
-    elif cls is c.BridgeHeartbeat:
-        fields["flags"] = c.BridgeFlags(fields["flags"])
-    elif cls is c.Ack:
-        fields["status"] = c.AckStatus(fields["status"])
-    elif cls is c.Nack:
-        fields["error"] = c.NackCode(fields["error"])
-    elif cls is c.Counters:
-        fields["boards"] = tuple(c.BoardCounters(**b) for b in fields["boards"])
-    msg: c.Message = cls(**fields)
-    return msg
 
 
 def test_crc_is_xmodem() -> None:
     assert c.crc16(b"123456789") == 0x31C3
 
 
+def test_vectors_file_is_current() -> None:
+    """The committed JSON is what ``python -m pirate_bt.link.vectors`` writes today."""
+    assert VECTORS.read_text() == dumps(ROBOT)
+
+
 def test_vectors_decode_and_reencode() -> None:
     data = json.loads(VECTORS.read_text())
     assert data["protocol_version"] == c.PROTOCOL_VERSION
-    assert data["layout"]["digest"] == LAYOUT.digest
+    assert data["protocol_minor"] == c.PROTOCOL_MINOR
+    assert data["layout"]["digest"] == LAYOUT.digest == 0x9B54EA48  # docs/protocol.md
     assert data["layout"]["n_channels"] == LAYOUT.n_channels
     for case in data["good"]:
         wire = bytes.fromhex(case["hex"])
         msg = message_from_json(case["message"])
         assert CODEC.encode(msg) == wire, case["name"]
         assert c.FrameDecoder(CODEC).feed(wire) == [msg], case["name"]
+        assert message_to_json(msg) == case["message"]
     for case in data["bad"]:
         out = c.FrameDecoder(CODEC).feed(bytes.fromhex(case["hex"]))
         assert len(out) == 1, case["name"]
         assert isinstance(out[0], FrameError), case["name"]
         assert out[0].reason == case["reason"], case["name"]
+
+
+def test_vectors_cover_every_type_status_and_code() -> None:
+    data = json.loads(VECTORS.read_text())
+    messages = [case["message"] for case in data["good"]]
+    assert {m["type"] for m in messages} == {t.name for t in c.MsgType}
+    assert {m["status"] for m in messages if m["type"] == "ACK"} == {int(s) for s in c.AckStatus}
+    assert {m["error"] for m in messages if m["type"] == "NACK"} == {int(e) for e in c.NackCode}
+    reasons = {case["reason"] for case in data["bad"]}
+    assert reasons == {"oversize", "cobs", "short", "crc", "version", "type", "length", "value"}
+    names = {s["name"] for s in data["sequences"]}
+    assert {
+        "handshake",
+        "duplicates",
+        "wrap",
+        "estop_and_reset",
+        "watchdog_trip_and_recovery",
+        "mid_session_hello",
+        "bridge_reset",
+        "nacks",
+    } <= names
+
+
+def test_cobs_vectors() -> None:
+    data = json.loads(VECTORS.read_text())
+    for case in data["cobs"]:
+        body, encoded = bytes.fromhex(case["body"]), bytes.fromhex(case["encoded"])
+        assert c.cobs_decode(encoded) == body, case["name"]
+        assert 0 not in encoded
+        if not case.get("decode_only"):
+            assert c.cobs_encode(body) == encoded, case["name"]
+    by_name = {case["name"]: case for case in data["cobs"]}
+    block = bytes.fromhex(by_name["non_zero_254"]["encoded"])
+    assert block[0] == 0xFF and len(block) == 255  # one full block, no trailing 0x01
+
+
+def test_stream_vectors() -> None:
+    data = json.loads(VECTORS.read_text())
+    for case in data["streams"]:
+        decoder = c.FrameDecoder(CODEC)
+        out: list[c.Message | FrameError] = []
+        for chunk in case["chunks"]:
+            out += decoder.feed(bytes.fromhex(chunk))
+        got = [
+            {"error": item.reason} if isinstance(item, FrameError) else message_to_json(item)
+            for item in out
+        ]
+        assert got == case["expect"], case["name"]
 
 
 def test_state_frame_fits_the_slot() -> None:
@@ -105,7 +116,7 @@ modes = st.sampled_from(list(ControlMode))
 n_ch, n_m, n_b = LAYOUT.n_channels, LAYOUT.n_motors, LAYOUT.n_boards
 
 messages = st.one_of(
-    st.builds(c.Hello, seqs, u32),
+    st.builds(c.Hello, seqs, u32, u8),
     st.builds(c.Setpoint, seqs, st.integers(1, 254), st.integers(0, 1), modes, i16),
     st.builds(
         c.BulkSetpoints,
@@ -117,11 +128,23 @@ messages = st.one_of(
     st.builds(c.EStop, seqs),
     st.builds(c.EStopReset, seqs),
     st.builds(c.CountersRequest, seqs),
-    st.builds(c.HelloReply, seqs, u32, u8, u8, st.integers(0, 0xFFFF), st.integers(0, 0xFFFF)),
+    st.builds(
+        c.HelloReply,
+        seqs,
+        u32,
+        u8,
+        u8,
+        st.integers(0, 0xFFFF),
+        st.integers(0, 0xFFFF),
+        u8,
+        st.integers(0, 0xFFFF),
+        u8,
+        st.builds(c.BridgeFlags, st.integers(0, 15)),
+    ),
     st.builds(
         c.State,
         seqs,
-        st.builds(c.BridgeFlags, st.integers(0, 7)),
+        st.builds(c.BridgeFlags, st.integers(0, 15)),
         seqs,
         st.integers(0, (1 << n_ch) - 1),
         st.tuples(*[st.integers(0, 15)] * n_b),
@@ -139,7 +162,7 @@ messages = st.one_of(
         u32,
         st.lists(st.builds(c.BoardCounters, u8, u32, u32, u32), max_size=17).map(tuple),
     ),
-    st.builds(c.BridgeHeartbeat, seqs, st.builds(c.BridgeFlags, st.integers(0, 7))),
+    st.builds(c.BridgeHeartbeat, seqs, st.builds(c.BridgeFlags, st.integers(0, 15))),
 )
 
 
@@ -282,7 +305,7 @@ def test_cobs_decode_long_runs_and_bad_codes() -> None:
 states = st.builds(
     c.State,
     seqs,
-    st.builds(c.BridgeFlags, st.integers(0, 7)),
+    st.builds(c.BridgeFlags, st.integers(0, 15)),
     seqs,
     st.integers(0, (1 << n_ch) - 1),
     st.tuples(*[st.integers(0, 15)] * n_b),
@@ -330,7 +353,10 @@ def test_state_fast_path_keeps_error_order() -> None:
 
 
 def test_iter_feed_matches_feed() -> None:
-    msgs = [c.Heartbeat(1), c.State(2, c.BridgeFlags.NONE, 1, 3, (1,) * n_b, (4,) * n_ch)]
+    msgs: list[c.Message] = [
+        c.Heartbeat(1),
+        c.State(2, c.BridgeFlags.NONE, 1, 3, (1,) * n_b, (4,) * n_ch),
+    ]
     wire = c.encode_many(CODEC, msgs) + b"\x00\x07garbage"
     assert list(c.FrameDecoder(CODEC).iter_feed(wire)) == c.FrameDecoder(CODEC).feed(wire)
     assert list(c.FrameDecoder(CODEC).iter_feed(b"")) == []

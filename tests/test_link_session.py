@@ -1,21 +1,21 @@
-"""Session and RobotLink against a scripted bridge: in memory on a SimClock, and over a pty."""
+"""Session and RobotLink against the reference bridge: in memory on a SimClock, and over a pty."""
 
 from __future__ import annotations
 
 import collections
 import os
+from pathlib import Path
 
 import pytest
 
 from pirate_bt.clock import SimClock, WallClock
 from pirate_bt.errors import LinkError, LinkLost, LinkTimeout, ProtocolMismatch
 from pirate_bt.link import (
-    BulkSetpoints,
     ByteLink,
     EStop,
     FrameCodec,
     FrameDecoder,
-    NackCode,
+    MsgType,
     Outcome,
     RobotLink,
     SessionConfig,
@@ -23,32 +23,35 @@ from pirate_bt.link import (
     open_link,
     wrap_link,
 )
-from pirate_bt.link.testing import FdPort, ScriptedBridge, memory_pair
+from pirate_bt.link.testing import FdPort, memory_pair
 from pirate_bt.robot import ControlMode, MotorCommand, RobotPort, load_robot
 from pirate_bt.robot.port import LinkHealth
+from pirate_bt.sim.bridge_port import BridgeOnPort, bridge_for
 
 ROBOT = load_robot()
 CODEC = FrameCodec.for_robot(ROBOT)
 FAULTS = "drop=0.1,corrupt=0.03,dup=0.05,reorder=0.03,delay=2ms,jitter=3ms"
 
 
-def connect(faults: str | None = None, seed: int = 0) -> tuple[RobotLink, ScriptedBridge, SimClock]:
+def connect(faults: str | None = None, seed: int = 0) -> tuple[RobotLink, BridgeOnPort, SimClock]:
     clock = SimClock()
     host, far = memory_pair()
-    bridge = ScriptedBridge(far, CODEC)
+    bridge = BridgeOnPort(far, bridge_for(ROBOT))
     clock.add_listener(bridge.step)
     spec = f"{faults},seed={seed}" if faults else None
     return wrap_link(host, ROBOT, clock, faults=spec), bridge, clock
 
 
-def check_exactly_once(link: RobotLink, bridge: ScriptedBridge, n: int) -> collections.Counter[str]:
+def check_exactly_once(link: RobotLink, bridge: BridgeOnPort, n: int) -> collections.Counter[str]:
     session = link.session
     requests = []
     for i in range(n):
         req = session.send_setpoint(22, 1, ControlMode.VELOCITY, i)
         session.wait(req)
         requests.append(req)
-    applied = collections.Counter(m.seq for m in bridge.applied if isinstance(m, Setpoint))
+    applied = collections.Counter(
+        seq for kind, seq in applied_of(bridge) if kind == MsgType.SETPOINT
+    )
     outcomes: collections.Counter[str] = collections.Counter()
     for req in requests:
         assert req.done, req  # never silently dropped
@@ -62,6 +65,12 @@ def check_exactly_once(link: RobotLink, bridge: ScriptedBridge, n: int) -> colle
     return outcomes
 
 
+def applied_of(bridge: BridgeOnPort) -> list[tuple[MsgType, int]]:
+    applied = bridge.bridge.applied
+    assert applied is not None
+    return applied
+
+
 def test_robot_link_is_a_robot_port() -> None:
     link, _, _ = connect()
     assert isinstance(link, RobotPort)
@@ -70,27 +79,24 @@ def test_robot_link_is_a_robot_port() -> None:
 
 
 def test_state_arrives_in_si_units() -> None:
-    link, bridge, clock = connect()
-    channels = ROBOT.state_channels()
-    bridge.raw_values = [
-        c.conversion.to_raw(0.5) if c.dimension == "angle" else 0 for c in channels
-    ]
-    clock.sleep(0.02)
+    link, _bridge, clock = connect()
+    link.send_and_wait([MotorCommand("bend_1_joint", ControlMode.POSITION, 0.5)])
+    clock.sleep(1.0)
     link.poll()
     state = link.state()
     assert state is not None
-    first_angle = next(c for c in channels if c.dimension == "angle")
-    assert state.value(first_angle.name) == pytest.approx(0.5, abs=0.01)
+    assert state.value("bend_1_angle") == pytest.approx(0.5, abs=0.01)
     assert state.stamp_s == pytest.approx(clock.now(), abs=0.011)
 
 
 def test_send_becomes_one_bulk_frame_with_keep_for_the_rest() -> None:
     link, bridge, _ = connect()
     motor = ROBOT.drive_motors()[0].name
+    executed = bridge.bridge.commands_executed
     link.send_and_wait([MotorCommand(motor, ControlMode.VELOCITY, 0.02)])
-    bulks = [m for m in bridge.applied if isinstance(m, BulkSetpoints)]
+    bulks = [seq for kind, seq in applied_of(bridge) if kind == MsgType.BULK_SETPOINTS]
     assert len(bulks) == 1
-    assert sum(m is not None for m in bulks[0].modes) == 1
+    assert bridge.bridge.commands_executed == executed + 1  # every other motor: keep
     assert link.health().rtt_s > 0
 
 
@@ -118,7 +124,7 @@ def test_bulk_setpoints_supersede_and_are_acked_by_state() -> None:
         clock.sleep(0.01)
         link.poll()
     link.send_and_wait([MotorCommand(motor, ControlMode.VELOCITY, 0.0)])
-    seqs = [m.seq for m in bridge.applied if isinstance(m, BulkSetpoints)]
+    seqs = [seq for kind, seq in applied_of(bridge) if kind == MsgType.BULK_SETPOINTS]
     assert len(seqs) == len(set(seqs))  # never applied twice
     assert seqs == sorted(seqs)  # never an older one after a newer one
     stats = link.session.stats()
@@ -142,27 +148,39 @@ def test_link_loss_detected_in_time() -> None:
         link.send([])
 
 
-def test_estop_skips_the_queue() -> None:
+def test_estop_skips_the_queue_and_cancels_it() -> None:
     link, bridge, clock = connect()
     session = link.session
     queued = [session.send_setpoint(22, 1, ControlMode.VELOCITY, i) for i in range(5)]
     link.estop()
-    for req in queued:
-        session.wait(req)
-    kinds = [type(m).__name__ for m in bridge.applied]
-    # the first setpoint was already on the wire; the e-stop overtakes the other four
-    assert kinds[:2] == ["Setpoint", "EStop"]
-    assert [r.outcome for r in queued[1:]] == [Outcome.NACKED] * 4
-    assert all(r.nack is NackCode.ESTOP_LATCHED for r in queued[1:])
-    clock.sleep(0.02)
+    assert [r.outcome for r in queued] == [Outcome.CANCELLED] * 5
+    clock.sleep(0.05)
     link.poll()
+    kinds = [kind for kind, _ in applied_of(bridge)]
+    # the boot latch's release, then the first setpoint (already on the wire), then the
+    # e-stop; the four queued ones never went out
+    assert kinds == [MsgType.ESTOP_RESET, MsgType.SETPOINT, MsgType.ESTOP]
     assert link.health().estopped
-    with pytest.raises(LinkError, match="refused"):
-        link.send([])
+    assert session.take_failures() == []  # cancelled by the caller's own e-stop
+    with pytest.raises(LinkError, match="ESTOP_LATCHED"):
+        link.send_and_wait([])
     link.reset_estop()
     clock.sleep(0.02)
     link.poll()
     assert not link.health().estopped
+
+
+def test_estop_cancels_a_reset_in_flight() -> None:
+    link, _bridge, clock = connect()
+    session = link.session
+    link.estop()
+    session.wait(link.session.estop_reset())  # the operator resets...
+    reset = session.estop_reset()  # ...and resets again, but an e-stop overtakes it
+    link.estop()
+    assert reset.outcome is Outcome.CANCELLED
+    clock.sleep(0.1)
+    link.poll()
+    assert link.health().estopped  # the newer e-stop stands
 
 
 def test_waits_are_bounded() -> None:
@@ -184,12 +202,15 @@ def test_heartbeats_keep_the_watchdog_fed() -> None:
     for _ in range(100):
         clock.sleep(0.01)
         link.poll()
-    assert not bridge.watchdog
+    assert not bridge.bridge.watchdog_tripped
     assert link.session.stats().watchdog is False
     assert link.health().silent_for(clock.now()) < 0.02
 
 
 LOSSY = "drop=0.05,corrupt=0.01"
+SLOW_STATE = ROBOT.model_copy(
+    update={"bridge": ROBOT.bridge.model_copy(update={"state_period": 0.05})}
+)
 
 
 def test_a_lossy_line_never_trips_the_watchdog() -> None:
@@ -202,15 +223,15 @@ def test_a_lossy_line_never_trips_the_watchdog() -> None:
     for seed in range(12):
         clock = SimClock()
         host, far = memory_pair()
-        bridge = ScriptedBridge(far, CODEC, state_period_s=0.05)  # STATE rate is beside the point
+        bridge = BridgeOnPort(far, bridge_for(SLOW_STATE))  # STATE rate is beside the point
         clock.add_listener(bridge.step)
         link = wrap_link(host, ROBOT, clock, faults=f"{LOSSY},seed={seed}")
         link.send([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.08)])
         for _ in range(6000):
             clock.sleep(0.01)
             link.poll()
-        assert bridge.counters["watchdog_trips"] == 0, f"seed {seed}"
-        assert any(isinstance(m, BulkSetpoints) for m in bridge.applied), f"seed {seed}"
+        assert bridge.bridge.watchdog_trips == 0, f"seed {seed}"
+        assert any(k == MsgType.BULK_SETPOINTS for k, _ in applied_of(bridge)), f"seed {seed}"
         assert link.health().connected
 
 
@@ -246,7 +267,7 @@ def test_retried_setpoints_do_not_starve_heartbeats() -> None:
     """
     clock = SimClock()
     host, far = memory_pair()
-    bridge = ScriptedBridge(far, CODEC)
+    bridge = BridgeOnPort(far, bridge_for(ROBOT))
     clock.add_listener(bridge.step)
     lossy = _NoSetpoints(host)
     session = wrap_link(lossy, ROBOT, clock).session
@@ -255,8 +276,8 @@ def test_retried_setpoints_do_not_starve_heartbeats() -> None:
         assert req.outcome is Outcome.FAILED and req.tries == session.config.max_retries + 1
     assert clock.now() > 8 * session.config.give_up_s
     assert lossy.lost == 8 * (session.config.max_retries + 1)
-    assert bridge.counters["watchdog_trips"] == 0
-    assert not bridge.applied
+    assert bridge.bridge.watchdog_trips == 0
+    assert MsgType.SETPOINT not in [kind for kind, _ in applied_of(bridge)]
 
 
 def test_heartbeat_period_is_well_inside_the_watchdog() -> None:
@@ -281,21 +302,58 @@ def test_counters_request() -> None:
     assert len(req.reply.boards) == len(ROBOT.board_ids())
 
 
+class _Answers:
+    """A far end that answers every frame with the same bytes (a misbehaving bridge)."""
+
+    def __init__(self, port: ByteLink, wire: bytes) -> None:
+        self.port = port
+        self.wire = wire
+
+    def step(self, now_s: float) -> None:
+        if self.port.read_available():
+            self.port.write(self.wire)
+
+
+def _with_version(wire: bytes, version: int) -> bytes:
+    import binascii
+
+    from pirate_bt.link.codec import cobs_decode, cobs_encode
+
+    body = bytearray(cobs_decode(wire[:-1]))
+    body[0] = version
+    body[-2:] = binascii.crc_hqx(bytes(body[:-2]), 0).to_bytes(2, "little")
+    return cobs_encode(bytes(body)) + b"\x00"
+
+
 def test_handshake_refuses_other_layout_and_version() -> None:
-    for attr, value in (("layout_digest", 0x1234), ("version", 2)):
+    # a bridge built for another layout: NACK BAD_LAYOUT
+    other = load_robot(Path(__file__).parents[1] / "hardware/variants/pirate-rear-imu.yaml")
+    assert other.layout_digest() != ROBOT.layout_digest()
+    clock = SimClock()
+    host, far = memory_pair()
+    clock.add_listener(BridgeOnPort(far, bridge_for(load_robot())).step)
+    with pytest.raises(ProtocolMismatch, match="BAD_LAYOUT"):
+        wrap_link(host, other, clock)
+    # a bridge of another major version, and one of another minor version
+    from pirate_bt.link import HelloReply
+
+    lay = CODEC.layout
+    reply = HelloReply(1, lay.digest, lay.n_channels, lay.n_motors, 250, 0x0100, 1, 7, 1)
+    for wire, match in (
+        (_with_version(CODEC.encode(reply), 2), "version"),
+        (CODEC.encode(HelloReply(1, lay.digest, lay.n_channels, lay.n_motors, 250, 0, 2)), "1.2"),
+    ):
         clock = SimClock()
         host, far = memory_pair()
-        bridge = ScriptedBridge(far, CODEC)
-        setattr(bridge, attr, value)
-        clock.add_listener(bridge.step)
-        with pytest.raises(ProtocolMismatch):
+        clock.add_listener(_Answers(far, wire).step)
+        with pytest.raises(ProtocolMismatch, match=match):
             wrap_link(host, ROBOT, clock)
 
 
 def test_handshake_times_out_on_a_silent_bridge() -> None:
     clock = SimClock()
     host, far = memory_pair()
-    bridge = ScriptedBridge(far, CODEC)
+    bridge = BridgeOnPort(far, bridge_for(ROBOT))
     bridge.silent = True
     clock.add_listener(bridge.step)
     with pytest.raises(LinkTimeout):
@@ -304,21 +362,24 @@ def test_handshake_times_out_on_a_silent_bridge() -> None:
 
 
 def test_close_stops_the_drives() -> None:
-    link, bridge, _ = connect()
+    link, bridge, clock = connect()
+    drive = ROBOT.drive_motors()[0].name
+    link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.05)])
+    clock.sleep(0.5)
     link.close()
-    last = bridge.applied[-1]
-    assert isinstance(last, BulkSetpoints)
-    assert ControlMode.VELOCITY in last.modes and set(last.raw_values) == {0}
+    assert applied_of(bridge)[-1][0] == MsgType.BULK_SETPOINTS
+    clock.sleep(0.5)
+    assert bridge.bridge.model.truth().velocity_mps == 0.0
 
 
 # --- over a pty, with a bridge thread on the far end -----------------------------------------
 
 
-def pty_link(faults: str | None) -> tuple[RobotLink, ScriptedBridge, int]:
+def pty_link(faults: str | None) -> tuple[RobotLink, BridgeOnPort, int]:
     master, slave = os.openpty()
     path = os.ttyname(slave)
-    bridge = ScriptedBridge(FdPort(master), CODEC)
     clock = WallClock()
+    bridge = BridgeOnPort(FdPort(master), bridge_for(ROBOT, start_s=clock.now()))
     bridge.start(clock)
     link = open_link(path, ROBOT, clock, faults=faults, reset_wait_s=0.0, threaded=True)
     return link, bridge, slave
@@ -334,7 +395,7 @@ def test_pty_with_faults_exactly_once() -> None:
         link.close()
         bridge.stop()
         os.close(slave)
-        bridge.port.close()
+        bridge.port.close()  # type: ignore[attr-defined]
 
 
 def test_pty_link_loss_with_reader_thread() -> None:
@@ -352,7 +413,7 @@ def test_pty_link_loss_with_reader_thread() -> None:
         link.close()
         bridge.stop()
         os.close(slave)
-        bridge.port.close()
+        bridge.port.close()  # type: ignore[attr-defined]
 
 
 def test_estop_message_type_is_out_of_band() -> None:
@@ -409,3 +470,72 @@ def test_health_is_cached_until_a_figure_changes() -> None:
     assert (after.retries, after.crc_errors) == (before.retries + 1, before.crc_errors + 2)
     link.session.close()
     assert link.health().connected is False
+
+
+# --- sessions, bridge resets, stale answers (protocol 1.1) ------------------------------------
+
+
+def test_a_bridge_reset_mid_session_is_seen_and_the_latch_kept() -> None:
+    link, bridge, clock = connect()
+    drive = ROBOT.drive_motors()[0].name
+    link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    bridge.bridge.reset()  # a brown-out: the bridge boots again, latched
+    in_flight = link.session.send_bulk([None] * CODEC.layout.n_motors, [0] * CODEC.layout.n_motors)
+    for _ in range(20):
+        clock.sleep(0.01)
+        link.poll()
+    stats = link.session.stats()
+    assert stats.bridge_resets == 1 and stats.sessions == 2
+    assert in_flight.outcome in (Outcome.FAILED, Outcome.NACKED)  # never counted as delivered
+    assert link.health().estopped  # the session does not release a latch it did not see set
+    with pytest.raises(LinkError):
+        link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    link.reset_estop()
+    link.send_and_wait([MotorCommand(drive, ControlMode.VELOCITY, 0.02)])
+    assert link.state() is not None
+
+
+def test_a_stale_answer_is_a_failure_never_an_ack() -> None:
+    link, _, _ = connect()
+    session = link.session
+    session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 1))
+    session._next_seq = 2  # white box: a request numbered below what the bridge has seen
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 2))
+    assert req.outcome is Outcome.STALE
+    assert session.take_failures() == [req]
+    assert session.stats().stale == 1
+
+
+def test_a_long_unanswered_stretch_starts_a_new_session() -> None:
+    link, _, clock = connect()
+    session = link.session
+    session._next_seq = (session._answered + 16_384) & 0xFFFF  # white box: 16 384 lost
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 3))
+    assert req.outcome is Outcome.FAILED  # queued when the session was renewed: reported
+    assert session.take_failures() == [req]
+    clock.sleep(0.02)
+    link.poll()
+    assert session.stats().sessions == 2
+    req = session.wait(session.send_setpoint(22, 1, ControlMode.VELOCITY, 4))
+    assert req.outcome is Outcome.ACKED
+
+
+def test_connect_keeps_a_latch_left_by_an_earlier_session() -> None:
+    clock = SimClock()
+    sim_bridge = bridge_for(ROBOT)
+    host, far = memory_pair()
+    first = BridgeOnPort(far, sim_bridge)
+    clock.add_listener(first.step)
+    link = wrap_link(host, ROBOT, clock)
+    assert not link.health().estopped  # the boot latch was released by the connect
+    link.estop()
+    clock.sleep(0.05)
+    link.session.close()
+    clock.remove_listener(first.step)
+    host, far = memory_pair()
+    second = BridgeOnPort(far, sim_bridge)  # another host process, the same bridge
+    clock.add_listener(second.step)
+    link = wrap_link(host, ROBOT, clock)
+    clock.sleep(0.05)
+    link.poll()
+    assert link.health().estopped  # an operator's e-stop outlives the host that set it

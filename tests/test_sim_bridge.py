@@ -15,6 +15,7 @@ from pirate_bt.link import (
     AckStatus,
     BridgeFlags,
     EStop,
+    EStopReset,
     FrameCodec,
     FrameDecoder,
     Heartbeat,
@@ -163,18 +164,21 @@ def test_raw_protocol_answers(sim: Simulator, clock: SimClock) -> None:
     (reply,) = host.replies()
     assert isinstance(reply, HelloReply)
     assert reply.layout_digest == ROBOT.layout_digest()
+    assert reply.flags & BridgeFlags.ESTOP and reply.sessions == 1  # booted latched
+    host.send(EStopReset(2))
+    assert host.replies() == [Ack(2, 0x06, AckStatus.APPLIED)]
     raw = CommandCodec(ROBOT).to_raw(MotorCommand("bend_1_joint", ControlMode.POSITION, 0.5))
-    setpoint = Setpoint(2, raw.board, raw.slot, raw.mode, raw.raw_value)
+    setpoint = Setpoint(3, raw.board, raw.slot, raw.mode, raw.raw_value)
     host.send(setpoint)
     host.send(setpoint)  # a retry after a lost ack
-    host.send(Setpoint(3, 99, 0, ControlMode.POSITION, 0))
-    host.send(Setpoint(4, raw.board, 0, ControlMode.VELOCITY, 0))
-    host.send(Heartbeat(5))
+    host.send(Setpoint(4, 99, 0, ControlMode.POSITION, 0))
+    host.send(Setpoint(5, raw.board, 0, ControlMode.VELOCITY, 0))
+    host.send(Heartbeat(5))  # untracked: its own counter, never filtered
     assert host.replies() == [
-        Ack(2, 0x02, AckStatus.APPLIED),
-        Ack(2, 0x02, AckStatus.DUPLICATE),
-        Nack(3, 0x02, NackCode.BAD_BOARD),
-        Nack(4, 0x02, NackCode.BAD_MODE),
+        Ack(3, 0x02, AckStatus.APPLIED),
+        Ack(3, 0x02, AckStatus.DUPLICATE),
+        Nack(4, 0x02, NackCode.BAD_BOARD),
+        Nack(5, 0x02, NackCode.BAD_MODE),
         Ack(5, 0x04, AckStatus.APPLIED),
     ]
     clock.advance(1.0)
@@ -188,6 +192,8 @@ def test_raw_protocol_answers(sim: Simulator, clock: SimClock) -> None:
     clock.advance(0.02)
     states = [m for m in host.receive() if isinstance(m, State)]
     assert states and states[-1].flags & BridgeFlags.ESTOP
+    # the e-stop held the bend joint where it was (the clamps keep holding)
+    assert sim.truth().joint_angle_rad["bend_1_joint"] == pytest.approx(0.5, abs=0.002)
     counters = sim.counters()
     assert counters.frames_rejected == 4  # two NACKs, a CRC error, the NACK under e-stop
     assert counters.commands_executed == 1

@@ -46,12 +46,48 @@ from __future__ import annotations
 import binascii
 import itertools
 import struct
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
-from enum import IntEnum, IntFlag
-from typing import ClassVar
 
 from pirate_bt.errors import FrameError
+from pirate_bt.link.framing import (
+    HEADER_BYTES,
+    MAX_BODY_BYTES,
+    MAX_PAYLOAD_BYTES,
+    MAX_WIRE_BYTES,
+    PROTOCOL_MINOR,
+    PROTOCOL_VERSION,
+    byte_time_s,
+    cobs_decode,
+    cobs_encode,
+    crc16,
+    frame_time_s,
+    seq_newer,
+)
+from pirate_bt.link.layout import WireLayout
+from pirate_bt.link.messages import (
+    _MODE_BY_CODE,
+    MODE_CODES,
+    MODE_KEEP,
+    Ack,
+    AckStatus,
+    BoardCounters,
+    BoardStatus,
+    BridgeFlags,
+    BridgeHeartbeat,
+    BulkSetpoints,
+    Counters,
+    CountersRequest,
+    EStop,
+    EStopReset,
+    Heartbeat,
+    Hello,
+    HelloReply,
+    Message,
+    MsgType,
+    Nack,
+    NackCode,
+    Setpoint,
+    State,
+)
 from pirate_bt.robot.description import ControlMode, RobotDescription
 
 __all__ = [
@@ -61,6 +97,7 @@ __all__ = [
     "MAX_WIRE_BYTES",
     "MODE_CODES",
     "MODE_KEEP",
+    "PROTOCOL_MINOR",
     "PROTOCOL_VERSION",
     "Ack",
     "AckStatus",
@@ -89,510 +126,20 @@ __all__ = [
     "cobs_decode",
     "cobs_encode",
     "crc16",
+    "encode_many",
     "frame_time_s",
     "seq_newer",
 ]
 
-PROTOCOL_VERSION = 1
-"""Protocol version carried in byte 0 of every frame."""
-
-HEADER_BYTES = 5
-MAX_BODY_BYTES = 254
-"""Largest body (header + payload + CRC) before COBS; COBS then adds exactly one byte."""
-MAX_PAYLOAD_BYTES = MAX_BODY_BYTES - HEADER_BYTES - 2
-MAX_WIRE_BYTES = MAX_BODY_BYTES + 2
-"""Largest frame on the wire: COBS overhead byte and the 0x00 delimiter included."""
-
 _HEADER = struct.Struct("<BBHB")
 _CRC = struct.Struct("<H")
 _U16 = struct.Struct("<H")
-_HELLO = struct.Struct("<I")
-_HELLO_REPLY = struct.Struct("<IBBHH")
+_HELLO = struct.Struct("<IB")
+_HELLO_REPLY = struct.Struct("<IBBHHBHB")
 _SETPOINT = struct.Struct("<BBh")
 _ACK = struct.Struct("<BB")
 _COUNTERS_HEAD = struct.Struct("<IIIII")
 _BOARD_COUNTERS = struct.Struct("<BIII")
-
-
-class MsgType(IntEnum):
-    """Message type codes; bit 7 set means the bridge sent it."""
-
-    HELLO = 0x01
-    SETPOINT = 0x02
-    BULK_SETPOINTS = 0x03
-    HEARTBEAT = 0x04
-    ESTOP = 0x05
-    ESTOP_RESET = 0x06
-    COUNTERS_REQUEST = 0x07
-    HELLO_REPLY = 0x81
-    STATE = 0x82
-    ACK = 0x83
-    NACK = 0x84
-    COUNTERS = 0x85
-    BRIDGE_HEARTBEAT = 0x86
-
-
-class AckStatus(IntEnum):
-    """What the bridge did with an acknowledged request."""
-
-    APPLIED = 0
-    """First copy: the request took effect."""
-    DUPLICATE = 1
-    """Same sequence number as the last applied request: not applied again."""
-    STALE = 2
-    """Older than the last applied request: not applied (a newer one overtook it)."""
-
-
-class NackCode(IntEnum):
-    """Why the bridge refused a request."""
-
-    UNKNOWN_TYPE = 1
-    BAD_LENGTH = 2
-    BAD_LAYOUT = 3
-    BAD_BOARD = 4
-    BAD_SLOT = 5
-    BAD_MODE = 6
-    OUT_OF_RANGE = 7
-    ESTOP_LATCHED = 8
-    BUS_ERROR = 9
-    NOT_READY = 10
-
-
-class BridgeFlags(IntFlag):
-    """Bridge status bits in the ``arg`` byte of STATE and BRIDGE_HEARTBEAT frames."""
-
-    NONE = 0
-    ESTOP = 0x01
-    """The e-stop is latched: all motors off until ESTOP_RESET."""
-    WATCHDOG = 0x02
-    """The host was silent for the watchdog period: drives stopped, clamps held."""
-    BUS_FAULT = 0x04
-    """The RS485 bus failed a whole poll cycle."""
-
-
-class BoardStatus(IntFlag):
-    """Per-board status nibble in the STATE frame."""
-
-    NONE = 0
-    ONLINE = 0x1
-    """The board answered its last poll."""
-    FAULT = 0x2
-    """The board reports an H-bridge fault or over-current."""
-    TIMEOUT = 0x4
-    """The board missed its last poll (its readings are not fresh)."""
-    MOTORS_OFF = 0x8
-    """The board's motors are switched off (e-stop or watchdog)."""
-
-
-MODE_CODES: dict[ControlMode, int] = {
-    ControlMode.PWM: 0,
-    ControlMode.TORQUE: 1,
-    ControlMode.POSITION: 2,
-    ControlMode.VELOCITY: 3,
-}
-"""Wire code of each control mode."""
-MODE_KEEP = 0xFF
-"""BULK_SETPOINTS mode code meaning "leave this motor as it is" (``None`` in Python)."""
-_MODE_BY_CODE: dict[int, ControlMode] = {v: k for k, v in MODE_CODES.items()}
-
-
-def crc16(data: bytes) -> int:
-    """CRC-16/XMODEM: poly 0x1021, init 0x0000, no reflection, xorout 0; check 0x31C3.
-
-    Args:
-        data: The bytes to checksum.
-
-    Returns:
-        The 16-bit CRC.
-    """
-    return binascii.crc_hqx(data, 0)
-
-
-def seq_newer(a: int, b: int) -> bool:
-    """True when sequence number ``a`` is newer than ``b`` (RFC 1982 serial arithmetic, 16 bit).
-
-    Args:
-        a: A sequence number (0..65535).
-        b: Another one.
-
-    Returns:
-        ``True`` if ``a`` follows ``b`` by 1..32767 steps modulo 65536.
-    """
-    return 0 < ((a - b) & 0xFFFF) < 0x8000
-
-
-def byte_time_s(baud: int) -> float:
-    """Seconds one byte takes on an 8N1 line (10 bit times).
-
-    Args:
-        baud: Line rate in bit/s.
-
-    Returns:
-        The duration of one byte in seconds.
-    """
-    return 10.0 / baud
-
-
-def frame_time_s(n_bytes: int, baud: int) -> float:
-    """Seconds ``n_bytes`` of wire frame take on an 8N1 line.
-
-    Args:
-        n_bytes: Wire bytes, COBS overhead and delimiter included.
-        baud: Line rate in bit/s.
-
-    Returns:
-        The transmission time in seconds.
-    """
-    return n_bytes * 10.0 / baud
-
-
-# One-byte COBS code for each block length, so encoding does not build a bytes per block.
-_COBS_CODE: tuple[bytes, ...] = tuple(bytes((i,)) for i in range(256))
-
-
-def cobs_encode(data: bytes) -> bytes:
-    """COBS-encode ``data``: the result has no zero byte and is 1 + len//254 bytes longer.
-
-    Args:
-        data: Any bytes.
-
-    Returns:
-        The encoded bytes, without the 0x00 delimiter.
-    """
-    if len(data) < 254:
-        # Every frame body is at most 254 bytes, so no block reaches the 0xFF code and
-        # each zero-free run becomes (length + 1) + run: one C split, one loop turn per run.
-        out: list[bytes] = []
-        for chunk in data.split(b"\x00"):
-            out += (_COBS_CODE[len(chunk) + 1], chunk)
-        return b"".join(out)
-    out = []
-    chunks = data.split(b"\x00")
-    last = len(chunks) - 1
-    for i, chunk in enumerate(chunks):
-        while len(chunk) >= 254:
-            out.append(b"\xff")
-            out.append(chunk[:254])
-            chunk = chunk[254:]
-            if not chunk and i == last:
-                return b"".join(out)
-        out.append(_COBS_CODE[len(chunk) + 1])
-        out.append(chunk)
-    return b"".join(out)
-
-
-def cobs_decode(data: bytes) -> bytes:
-    """Decode one COBS block sequence (delimiter already removed).
-
-    Args:
-        data: Encoded bytes.
-
-    Returns:
-        The decoded bytes.
-
-    Raises:
-        FrameError: ``cobs``, when the encoding is invalid (a zero byte, or a code
-            pointing past the end).
-    """
-    n = len(data)
-    if n == 0:
-        raise FrameError("cobs", "empty frame")
-    if 0 in data:
-        raise FrameError("cobs", "zero byte inside frame")
-    # Fast path: each code byte stands where the decoded data has a zero (the first one
-    # stands before the data), so overwriting the codes with zeros in a copy and
-    # dropping byte 0 decodes the frame with one loop turn per block and no joins. A
-    # 0xFF code (a 254-byte run, no zero after it) breaks that rule: the block walk
-    # below handles it.
-    buf = bytearray(data)
-    i = 0
-    while i < n:
-        code = buf[i]
-        if code == 0xFF:
-            break
-        buf[i] = 0
-        i += code
-    else:
-        if i == n:
-            del buf[0]
-            return bytes(buf)
-    out: list[bytes] = []
-    i = 0
-    while i < n:
-        code = data[i]
-        end = i + code
-        if end > n:
-            raise FrameError("cobs", f"block code {code} at {i} runs past the end ({n} bytes)")
-        out.append(data[i + 1 : end])
-        if code != 0xFF and end < n:
-            out.append(b"\x00")
-        i = end
-    return b"".join(out)
-
-
-# --- messages -------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class Hello:
-    """Host -> bridge: start a session; the bridge answers with :class:`HelloReply`.
-
-    The bridge resets its duplicate filter to ``seq`` and counters stay as they are.
-    """
-
-    TYPE: ClassVar[MsgType] = MsgType.HELLO
-    seq: int
-    layout_digest: int
-
-
-@dataclass(frozen=True, slots=True)
-class Setpoint:
-    """Host -> bridge: one motor's setpoint. ``mode`` is never ``None`` here."""
-
-    TYPE: ClassVar[MsgType] = MsgType.SETPOINT
-    seq: int
-    board: int
-    slot: int
-    mode: ControlMode
-    raw_value: int
-
-
-@dataclass(frozen=True, slots=True)
-class BulkSetpoints:
-    """Host -> bridge: every motor in layout order; ``None`` mode = keep that motor as it is.
-
-    Acknowledged by the ``ack_seq`` field of the next :class:`State` frame (or a
-    :class:`Nack`), not by an :class:`Ack` frame, to keep the 100 Hz cycle small.
-    """
-
-    TYPE: ClassVar[MsgType] = MsgType.BULK_SETPOINTS
-    seq: int
-    modes: tuple[ControlMode | None, ...]
-    raw_values: tuple[int, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class Heartbeat:
-    """Host -> bridge: "I am alive"; feeds the watchdog; answered with an :class:`Ack`."""
-
-    TYPE: ClassVar[MsgType] = MsgType.HEARTBEAT
-    seq: int
-
-
-@dataclass(frozen=True, slots=True)
-class EStop:
-    """Host -> bridge: latch the e-stop (all motors off). Always applied, whatever ``seq``."""
-
-    TYPE: ClassVar[MsgType] = MsgType.ESTOP
-    seq: int
-
-
-@dataclass(frozen=True, slots=True)
-class EStopReset:
-    """Host -> bridge: release a latched e-stop (operator action)."""
-
-    TYPE: ClassVar[MsgType] = MsgType.ESTOP_RESET
-    seq: int
-
-
-@dataclass(frozen=True, slots=True)
-class CountersRequest:
-    """Host -> bridge: ask for :class:`Counters` (sent back with the same ``seq``)."""
-
-    TYPE: ClassVar[MsgType] = MsgType.COUNTERS_REQUEST
-    seq: int
-
-
-@dataclass(frozen=True, slots=True)
-class HelloReply:
-    """Bridge -> host: answer to :class:`Hello` (same ``seq``), with the bridge's layout."""
-
-    TYPE: ClassVar[MsgType] = MsgType.HELLO_REPLY
-    seq: int
-    layout_digest: int
-    n_channels: int
-    n_motors: int
-    watchdog_ms: int
-    firmware: int = 0
-
-
-@dataclass(frozen=True, slots=True)
-class State:
-    """Bridge -> host: every state channel in one frame, sent every state period.
-
-    Attributes:
-        seq: The bridge's own frame counter (out-of-date frames are detected with it).
-        flags: :class:`BridgeFlags`.
-        ack_seq: ``seq`` of the last BULK_SETPOINTS the bridge accepted (0 before any).
-        fresh_mask: Bit ``i`` set = channel ``i`` holds a fresh reading.
-        board_status: One :class:`BoardStatus` nibble per board, in board-id order.
-        raw_values: One int16 per channel in layout order (meaningless where not fresh).
-    """
-
-    TYPE: ClassVar[MsgType] = MsgType.STATE
-    seq: int
-    flags: BridgeFlags
-    ack_seq: int
-    fresh_mask: int
-    board_status: tuple[int, ...]
-    raw_values: tuple[int, ...]
-
-    def readings(self) -> list[int | None]:
-        """The raw values with ``None`` where the channel is not fresh."""
-        mask = self.fresh_mask
-        return [v if (mask >> i) & 1 else None for i, v in enumerate(self.raw_values)]
-
-
-@dataclass(frozen=True, slots=True)
-class Ack:
-    """Bridge -> host: request ``seq`` (of type ``acked_type``) was received intact."""
-
-    TYPE: ClassVar[MsgType] = MsgType.ACK
-    seq: int
-    acked_type: int
-    status: AckStatus = AckStatus.APPLIED
-
-
-@dataclass(frozen=True, slots=True)
-class Nack:
-    """Bridge -> host: request ``seq`` was refused with ``error``; it had no effect."""
-
-    TYPE: ClassVar[MsgType] = MsgType.NACK
-    seq: int
-    acked_type: int
-    error: NackCode
-
-
-@dataclass(frozen=True, slots=True)
-class BoardCounters:
-    """RS485 figures for one PICO board, since the bridge started."""
-
-    board: int
-    timeouts: int = 0
-    crc_errors: int = 0
-    retries: int = 0
-
-
-@dataclass(frozen=True, slots=True)
-class Counters:
-    """Bridge -> host: the bridge's error counters, answer to :class:`CountersRequest`."""
-
-    TYPE: ClassVar[MsgType] = MsgType.COUNTERS
-    seq: int
-    rx_frames: int = 0
-    crc_errors: int = 0
-    frame_errors: int = 0
-    duplicates: int = 0
-    watchdog_trips: int = 0
-    boards: tuple[BoardCounters, ...] = field(default=())
-
-
-@dataclass(frozen=True, slots=True)
-class BridgeHeartbeat:
-    """Bridge -> host: sent when the bridge has sent nothing for a heartbeat period."""
-
-    TYPE: ClassVar[MsgType] = MsgType.BRIDGE_HEARTBEAT
-    seq: int
-    flags: BridgeFlags = BridgeFlags.NONE
-
-
-Message = (
-    Hello
-    | Setpoint
-    | BulkSetpoints
-    | Heartbeat
-    | EStop
-    | EStopReset
-    | CountersRequest
-    | HelloReply
-    | State
-    | Ack
-    | Nack
-    | Counters
-    | BridgeHeartbeat
-)
-"""Any decoded frame."""
-
-
-# --- layout ---------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class WireLayout:
-    """The robot-dependent sizes of the STATE and BULK_SETPOINTS payloads.
-
-    Attributes:
-        n_channels: int16 channels in the state frame.
-        n_motors: Motors in the bulk setpoint frame.
-        n_boards: Boards (one status nibble each).
-        digest: 32-bit layout digest both ends compare at hello time.
-    """
-
-    n_channels: int
-    n_motors: int
-    n_boards: int
-    digest: int
-
-    @classmethod
-    def from_robot(cls, robot: RobotDescription) -> WireLayout:
-        """The layout of ``robot``'s wire frames.
-
-        Args:
-            robot: A validated robot description.
-
-        Returns:
-            Its wire layout.
-
-        Raises:
-            ValueError: the state or bulk frame would exceed the maximum frame size.
-        """
-        return cls(
-            n_channels=len(robot.state_channels()),
-            n_motors=len(robot.setpoint_slots()),
-            n_boards=len(robot.board_ids()),
-            digest=robot.layout_digest(),
-        )
-
-    def __post_init__(self) -> None:
-        if self.state_payload_bytes > MAX_PAYLOAD_BYTES:
-            raise ValueError(
-                f"{self.n_channels} channels and {self.n_boards} boards need a "
-                f"{self.state_payload_bytes}-byte state payload (max {MAX_PAYLOAD_BYTES})"
-            )
-        if self.bulk_payload_bytes > MAX_PAYLOAD_BYTES:
-            raise ValueError(f"{self.n_motors} motors do not fit one bulk setpoint frame")
-
-    @property
-    def mask_bytes(self) -> int:
-        """Bytes of the fresh bitmask: ceil(n_channels / 8)."""
-        return (self.n_channels + 7) // 8
-
-    @property
-    def status_bytes(self) -> int:
-        """Bytes of board status: ceil(n_boards / 2), two nibbles per byte."""
-        return (self.n_boards + 1) // 2
-
-    @property
-    def state_payload_bytes(self) -> int:
-        """STATE payload: ack_seq, fresh mask, board status, channels."""
-        return 2 + self.mask_bytes + self.status_bytes + 2 * self.n_channels
-
-    @property
-    def bulk_payload_bytes(self) -> int:
-        """BULK_SETPOINTS payload: one mode byte and one int16 per motor."""
-        return 3 * self.n_motors
-
-    def wire_bytes(self, payload_bytes: int) -> int:
-        """Worst-case wire size of a frame with ``payload_bytes`` of payload.
-
-        Args:
-            payload_bytes: Payload size.
-
-        Returns:
-            Header + payload + CRC + COBS overhead + delimiter.
-        """
-        body = HEADER_BYTES + payload_bytes + 2
-        return body + (body + 253) // 254 + 1
 
 
 _TYPE_BY_CODE: dict[int, MsgType] = {int(t): t for t in MsgType}
@@ -823,10 +370,17 @@ class FrameCodec:
         if isinstance(msg, BridgeHeartbeat):
             return int(msg.flags), b""
         if isinstance(msg, Hello):
-            return 0, _HELLO.pack(msg.layout_digest)
+            return 0, _HELLO.pack(msg.layout_digest, msg.minor)
         if isinstance(msg, HelloReply):
-            return 0, _HELLO_REPLY.pack(
-                msg.layout_digest, msg.n_channels, msg.n_motors, msg.watchdog_ms, msg.firmware
+            return int(msg.flags), _HELLO_REPLY.pack(
+                msg.layout_digest,
+                msg.n_channels,
+                msg.n_motors,
+                msg.watchdog_ms,
+                msg.firmware,
+                msg.minor,
+                msg.boot_id,
+                msg.sessions,
             )
         if isinstance(msg, Ack):
             return 0, _ACK.pack(msg.acked_type, msg.status)
@@ -1013,7 +567,12 @@ class FrameCodec:
         if kind is MsgType.HELLO:
             return Hello(seq, *_HELLO.unpack(payload))
         if kind is MsgType.HELLO_REPLY:
-            return HelloReply(seq, *_HELLO_REPLY.unpack(payload))
+            digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions = _HELLO_REPLY.unpack(
+                payload
+            )
+            return HelloReply(
+                seq, digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions, _FLAGS[arg]
+            )
         if kind is MsgType.ESTOP:
             return EStop(seq)
         if kind is MsgType.ESTOP_RESET:
@@ -1023,89 +582,5 @@ class FrameCodec:
         return BridgeHeartbeat(seq, _FLAGS[arg])
 
 
-class FrameDecoder:
-    """Streaming decoder: feed it bytes as they arrive, get messages and frame errors back.
-
-    Bytes are collected up to each 0x00 delimiter. A frame longer than the maximum
-    is reported once as ``oversize`` and skipped up to the next delimiter, so a
-    lost delimiter costs at most two frames. Empty frames (two delimiters in a row,
-    which a sender may use to flush the line) are ignored silently.
-
-    Args:
-        codec: The codec for the robot's layout.
-    """
-
-    def __init__(self, codec: FrameCodec) -> None:
-        self.codec = codec
-        self._buf = bytearray()
-        self._overflow = False
-
-    def reset(self) -> None:
-        """Forget any partial frame (after draining stale bytes)."""
-        self._buf.clear()
-        self._overflow = False
-
-    @property
-    def pending_bytes(self) -> int:
-        """Bytes of an unfinished frame held."""
-        return len(self._buf)
-
-    def feed(self, data: bytes) -> list[Message | FrameError]:
-        """Add received bytes; return every frame they complete, in order.
-
-        Never raises for any input: a bad frame comes back as a :class:`FrameError`.
-
-        Args:
-            data: Bytes read from the line (any length, any content).
-
-        Returns:
-            Decoded messages and frame errors, in arrival order.
-        """
-        out: list[Message | FrameError] = []
-        if not data:
-            return out
-        # A plain loop filling a list, with the codec's two steps called directly: a
-        # generator and the extra decode() layer cost about a microsecond per frame.
-        decode_body = self.codec.decode_body
-        parts = data.split(b"\x00")
-        limit = MAX_WIRE_BYTES - 1
-        for part in parts[:-1]:
-            if self._overflow:
-                self._overflow = False
-                self._buf.clear()
-                continue
-            if self._buf:
-                self._buf += part
-                frame = bytes(self._buf)
-                self._buf.clear()
-            else:
-                frame = part
-            if not frame:
-                continue
-            if len(frame) > limit:
-                out.append(FrameError("oversize", f"{len(frame)} bytes before the delimiter"))
-                continue
-            try:
-                out.append(decode_body(cobs_decode(frame)))
-            except FrameError as exc:
-                out.append(exc)
-            except Exception as exc:  # defensive: the decoder contract is FrameError only
-                out.append(FrameError("internal", f"{type(exc).__name__}: {exc}"))
-        tail = parts[-1]
-        if self._overflow:
-            return out
-        self._buf += tail
-        if len(self._buf) > limit:
-            self._buf.clear()
-            self._overflow = True
-            out.append(FrameError("oversize", f"more than {limit} bytes without a delimiter"))
-        return out
-
-    def iter_feed(self, data: bytes) -> Iterator[Message | FrameError]:
-        """Like :meth:`feed`, as an iterator (the bytes are all decoded at the first step)."""
-        return iter(self.feed(data))
-
-
-def encode_many(codec: FrameCodec, msgs: Sequence[Message]) -> bytes:
-    """Concatenate the wire bytes of several messages (tests and simulators)."""
-    return b"".join(codec.encode(m) for m in msgs)
+# Re-exported here: the decoder was part of this module.
+from pirate_bt.link.decoder import FrameDecoder, encode_many  # noqa: E402

@@ -146,13 +146,19 @@ class RobotLink:
         req = self.session.wait(self._last_bulk, timeout_s)
         if req.outcome is not Outcome.ACKED:
             self.session.take_failures()
-            raise LinkError(f"setpoints not delivered: {req.outcome.value} {req.nack or ''}")
+            why = req.nack.name if req.nack else ""
+            raise LinkError(f"setpoints not delivered: {req.outcome.value} {why}".strip())
 
     def _raise_failures(self) -> None:
         failures = self.session.take_failures()
         if failures:
             last = failures[-1]
-            why = f"refused ({last.nack.name})" if last.nack else "not acknowledged"
+            if last.nack:
+                why = f"refused ({last.nack.name})"
+            elif last.outcome is Outcome.STALE:
+                why = "answered STALE (not applied)"
+            else:
+                why = "not acknowledged"
             raise LinkError(
                 f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
                 f"seq {last.seq} {why} after {last.tries} tries"
@@ -174,7 +180,8 @@ class RobotLink:
         req = self.session.wait(self.session.estop_reset())
         self.session.take_failures()
         if req.outcome is not Outcome.ACKED:
-            raise LinkError(f"e-stop reset {req.outcome.value} {req.nack or ''}".strip())
+            why = req.nack.name if req.nack else ""
+            raise LinkError(f"e-stop reset {req.outcome.value} {why}".strip())
 
     def health(self) -> LinkHealth:
         """Current link figures.
@@ -256,8 +263,14 @@ def wrap_link(
     config: SessionConfig | None = None,
     reset_wait_s: float = 0.0,
     threaded: bool = False,
+    release_boot_latch: bool = True,
 ) -> RobotLink:
     """Handshake over an already-open link and return a :class:`RobotLink`.
+
+    The bridge boots latched (docs/protocol.md, Boot). A latch that comes from boot
+    (the hello is the first session since the bridge booted, which is what the DTR
+    reset of a port opening gives) is released here, as part of the deliberate start;
+    a latch an earlier session left on a bridge that was not reset stays.
 
     Args:
         link: A byte link (``Transport``, ``MemoryLink``, ...) or an open pyserial object
@@ -268,6 +281,7 @@ def wrap_link(
         config: Session timing (default: derived from the robot).
         reset_wait_s: Time to wait for a bridge reset before the handshake.
         threaded: Drive the session from a reader thread (real ports, wall clock).
+        release_boot_latch: Release a latch that comes from the bridge's boot.
 
     Returns:
         The connected link.
@@ -289,7 +303,7 @@ def wrap_link(
     codec = FrameCodec.for_robot(robot)
     cfg = config or SessionConfig.from_robot(robot)
     try:
-        handshake(
+        reply = handshake(
             byte_link,
             codec,
             clock,
@@ -305,9 +319,23 @@ def wrap_link(
     except BaseException:
         byte_link.close()
         raise
-    session = Session(byte_link, codec, clock, cfg, first_seq=2)
+    session = Session(byte_link, codec, clock, cfg, first_seq=2, hello_reply=reply)
     if threaded:
         session.start_reader(cfg.poll_step_s)
+    if reply.flags & BridgeFlags.ESTOP:
+        if release_boot_latch and reply.sessions == 1:
+            req = session.wait(session.estop_reset())
+            session.take_failures()
+            if req.outcome is Outcome.ACKED:
+                _log.info("released the latch the bridge booted with")
+            else:
+                _log.warning(
+                    "the bridge's boot latch was not released: %s %s",
+                    req.outcome.value,
+                    req.nack.name if req.nack else "",
+                )
+        else:
+            _log.warning("the bridge's e-stop is latched (from an earlier session); reset it")
     return RobotLink(robot, session)
 
 
@@ -321,6 +349,7 @@ def open_link(
     reset_wait_s: float | None = None,
     threaded: bool | None = None,
     write_timeout_s: float | None = None,
+    release_boot_latch: bool = True,
 ) -> RobotLink:
     """Open ``url`` (any pyserial URL), connect and return a :class:`RobotLink`.
 
@@ -338,6 +367,8 @@ def open_link(
             for device paths and 0 for URLs.
         threaded: Use a reader thread; default: for device paths on a wall clock.
         write_timeout_s: Longest a write may block (default from the baud rate).
+        release_boot_latch: Release a latch that comes from the bridge's boot (the DTR
+            reset of this very opening); see :func:`wrap_link`.
 
     Returns:
         The connected link.
@@ -365,6 +396,7 @@ def open_link(
             config=config,
             reset_wait_s=reset_wait_s,
             threaded=threaded,
+            release_boot_latch=release_boot_latch,
         )
     except LinkTimeout as exc:
         raise LinkTimeout(f"{clean_url}: {exc}") from exc

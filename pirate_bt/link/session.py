@@ -1,22 +1,31 @@
-"""The link session: acks, retries, heartbeats, duplicates, link loss, e-stop first.
+"""The link session: acks, retries, heartbeats, duplicates, sessions, link loss, e-stop first.
 
 A :class:`Session` sits on a connected byte link (after :func:`~pirate_bt.link.transport.handshake`)
 and does everything ``docs/protocol.md`` asks of the host:
 
 - decodes incoming frames and keeps the latest ``STATE`` with its arrival time,
   dropping (and counting) duplicate and out-of-date ones by sequence number;
-- sends requests **stop-and-wait**: one tracked request in flight, acknowledged by
+- numbers requests from two counters: the **ordered** one (``SETPOINT``,
+  ``BULK_SETPOINTS``, ``ESTOP``, ``ESTOP_RESET``, ``HELLO``), which the bridge's
+  duplicate filter follows, and the **untracked** one (``HEARTBEAT``,
+  ``COUNTERS_REQUEST``), which it never compares. Heartbeats therefore cannot age
+  the filter, however long the session;
+- sends ordered requests **stop-and-wait**: one in flight, acknowledged by type and
   sequence number, retried with the *same* sequence number after an ack timeout
   derived from the baud rate, and given up after a bounded number of retries.
-  Every request ends in exactly one :class:`Outcome`; none is dropped silently;
+  Every request ends in exactly one :class:`Outcome`; none is dropped silently, and
+  an ``ACK STALE`` is a failure, never an acknowledgement;
 - a newer bulk setpoint supersedes an older one that is queued or in flight (it
   carries the full desired table, so nothing is lost);
-- an e-stop is written at once, ahead of the queue and of anything in flight;
+- an e-stop is written at once, ahead of the queue and of anything in flight, and
+  cancels every queued or in-flight setpoint and e-stop reset;
 - keeps the bridge's watchdog fed: whenever no frame at all has gone out for a
   heartbeat period (a tenth of the watchdog), it sends a ``HEARTBEAT``, whatever
   else is queued or in flight. Heartbeats are never retried and never wait for one
-  another: a lost one is simply followed by the next a period later, so at 5 % frame
-  loss the bridge would need about ten frames in a row to vanish before it trips;
+  another;
+- sees a bridge reset (``NO_SESSION`` in a ``STATE``, a new boot id) and starts a
+  new session with a ``HELLO``, failing what was in flight; starts one too before
+  its ordered counter runs :data:`SESSION_RENEW_GAP` ahead of the bridge;
 - declares the link lost (:class:`~pirate_bt.errors.LinkLost`) when nothing valid
   was heard for the link timeout;
 - keeps health figures (RTT, loss ratio, CRC errors, retries, last heard).
@@ -33,43 +42,44 @@ deterministic. On a real port :meth:`Session.start_reader` runs the same
 from __future__ import annotations
 
 import collections
-import enum
 import logging
 import math
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import FrameError, LinkError, LinkLost, LinkTimeout
+from pirate_bt.errors import LinkError, LinkLost, LinkTimeout
 from pirate_bt.link.codec import (
-    MAX_WIRE_BYTES,
-    Ack,
-    AckStatus,
+    PROTOCOL_MINOR,
     BridgeFlags,
-    BridgeHeartbeat,
     BulkSetpoints,
-    Counters,
     CountersRequest,
     EStop,
     EStopReset,
     FrameCodec,
     FrameDecoder,
     Heartbeat,
+    Hello,
     HelloReply,
-    Message,
-    Nack,
-    NackCode,
+    MsgType,
     Setpoint,
     State,
-    frame_time_s,
-    seq_newer,
+)
+from pirate_bt.link.inbound import InboundMixin
+from pirate_bt.link.requests import (
+    HEARTBEATS_PER_WATCHDOG,
+    SESSION_RENEW_GAP,
+    Outcome,
+    Request,
+    SessionConfig,
+    SessionStats,
 )
 from pirate_bt.link.transport import ByteLink
-from pirate_bt.robot.description import ControlMode, RobotDescription
+from pirate_bt.robot.description import ControlMode
 
 __all__ = [
     "HEARTBEATS_PER_WATCHDOG",
+    "SESSION_RENEW_GAP",
     "Outcome",
     "Request",
     "Session",
@@ -79,156 +89,17 @@ __all__ = [
 
 _log = logging.getLogger(__name__)
 
-HEARTBEATS_PER_WATCHDOG = 10
-"""Host heartbeat period = watchdog / this (docs/protocol.md, Timing)."""
+HELLO_TRIES = 16
+"""Tries of a mid-session HELLO before the link is declared lost."""
 
-Tracked = Setpoint | BulkSetpoints | Heartbeat | EStop | EStopReset | CountersRequest
-
-
-@dataclass(frozen=True, slots=True)
-class SessionConfig:
-    """Timing of a session; :meth:`from_robot` derives it from the bridge settings.
-
-    Attributes:
-        ack_timeout_s: Wait for an ack before a retry.
-        max_retries: Retries after the first try (so ``max_retries + 1`` tries in all).
-        heartbeat_period_s: Send a heartbeat when no frame was sent for this long; keep
-            it well below the bridge watchdog (default: a tenth of it), because every
-            frame may be lost and the bridge trips when all frames of one watchdog
-            period are.
-        link_timeout_s: Declare the link lost when nothing valid was heard for this long.
-        poll_step_s: Sleep between polls while a caller waits.
-        loss_window: Requests over which the loss ratio is computed.
-    """
-
-    ack_timeout_s: float = 0.06
-    max_retries: int = 3
-    heartbeat_period_s: float = 0.025
-    link_timeout_s: float = 0.5
-    poll_step_s: float = 0.001
-    loss_window: int = 100
-
-    @classmethod
-    def from_robot(cls, robot: RobotDescription, **overrides: float) -> SessionConfig:
-        """Timing from the robot's bridge settings (see docs/protocol.md, Timing).
-
-        Args:
-            robot: The robot description.
-            **overrides: Field values to use instead of the derived ones.
-
-        Returns:
-            The configuration.
-        """
-        bridge = robot.bridge
-        ack = 2 * frame_time_s(MAX_WIRE_BYTES, bridge.baud) + bridge.state_period + 0.005
-        base = cls(
-            ack_timeout_s=ack,
-            heartbeat_period_s=bridge.watchdog / HEARTBEATS_PER_WATCHDOG,
-            link_timeout_s=max(0.5, 2 * bridge.watchdog),
-        )
-        return replace(base, **overrides)  # type: ignore[arg-type]
-
-    @property
-    def give_up_s(self) -> float:
-        """Longest time a request stays in flight before it fails."""
-        return self.ack_timeout_s * (self.max_retries + 1)
+_ORDERED = (Setpoint, BulkSetpoints, EStopReset)
 
 
-class Outcome(enum.Enum):
-    """How a request ended."""
-
-    PENDING = "pending"
-    ACKED = "acked"
-    """The bridge acknowledged it (see :attr:`Request.ack_status`)."""
-    NACKED = "nacked"
-    """The bridge refused it (see :attr:`Request.nack`); it had no effect."""
-    FAILED = "failed"
-    """No ack after every retry; it may or may not have been applied, and at most once."""
-    SUPERSEDED = "superseded"
-    """A newer bulk setpoint (a superset of it) replaced it before it was acked."""
+def _next(seq: int) -> int:
+    return (seq + 1) & 0xFFFF or 1
 
 
-class Request:
-    """One tracked request and its fate. Read it; only the session changes it."""
-
-    __slots__ = (
-        "ack_status",
-        "acked_at_s",
-        "created_s",
-        "first_sent_s",
-        "msg",
-        "nack",
-        "outcome",
-        "reply",
-        "sent_at_s",
-        "tries",
-    )
-
-    def __init__(self, msg: Tracked, created_s: float) -> None:
-        self.msg = msg
-        self.created_s = created_s
-        self.sent_at_s = math.nan
-        self.first_sent_s = math.nan
-        self.acked_at_s = math.nan
-        self.tries = 0
-        self.outcome = Outcome.PENDING
-        self.ack_status: AckStatus | None = None
-        self.nack: NackCode | None = None
-        self.reply: Counters | None = None
-
-    @property
-    def seq(self) -> int:
-        """The request's sequence number."""
-        return self.msg.seq
-
-    def next_try_s(self, ack_timeout_s: float) -> float:
-        """When the next try (or the give-up) is due: the schedule is anchored at the first
-        send, so a late poll does not push every later retry back (``nan``: not sent)."""
-        return self.first_sent_s + self.tries * ack_timeout_s
-
-    @property
-    def done(self) -> bool:
-        """The request has an outcome."""
-        return self.outcome is not Outcome.PENDING
-
-    def __repr__(self) -> str:
-        return f"Request({type(self.msg).__name__} seq={self.seq} {self.outcome.value})"
-
-
-@dataclass(frozen=True, slots=True)
-class SessionStats:
-    """Session figures at one moment (raw counts; ``RobotLink.health`` maps them).
-
-    Attributes:
-        connected: Not declared lost and not closed.
-        last_heard_s: Clock time of the last valid frame (``-inf`` if never).
-        rtt_s: Smoothed round-trip time of first-try acks (``nan`` before one).
-        loss_ratio: Share of the recent requests that needed a retry or failed.
-        crc_errors: Frames rejected (CRC or framing).
-        retries: Requests sent again.
-        failed: Requests given up.
-        duplicates: Duplicate or out-of-date frames ignored.
-        superseded: Bulk setpoints replaced by a newer one before their ack.
-        sent: Requests completed (any outcome).
-        estopped: The bridge reports its e-stop latched.
-        watchdog: The bridge reports its watchdog tripped.
-    """
-
-    connected: bool
-    last_heard_s: float
-    rtt_s: float
-    loss_ratio: float
-    crc_errors: int
-    retries: int
-    failed: int
-    duplicates: int
-    superseded: int
-    sent: int
-    estopped: bool
-    watchdog: bool
-
-
-class Session:
+class Session(InboundMixin):
     """Request tracking and liveness over a connected byte link.
 
     Args:
@@ -236,7 +107,8 @@ class Session:
         codec: The codec for the robot's layout.
         clock: The clock every timeout reads.
         config: Timing; see :meth:`SessionConfig.from_robot`.
-        first_seq: The sequence number after the HELLO's.
+        first_seq: The ordered sequence number after the HELLO's.
+        hello_reply: The handshake's reply (its boot id tells a later reset apart).
     """
 
     def __init__(
@@ -247,6 +119,7 @@ class Session:
         config: SessionConfig | None = None,
         *,
         first_seq: int = 2,
+        hello_reply: HelloReply | None = None,
     ) -> None:
         self.link = link
         self.codec = codec
@@ -255,13 +128,19 @@ class Session:
         self._decoder = FrameDecoder(codec)
         self._lock = threading.RLock()
         self._next_seq = first_seq & 0xFFFF or 1
+        self._next_useq = 1
+        # the last ordered seq the bridge answered (the HELLO's, to start with)
+        self._answered = (self._next_seq - 1) & 0xFFFF
         self._queue: collections.deque[Request] = collections.deque()
-        self._ordered: Request | None = None  # the one SETPOINT/BULK in flight
-        self._oob: dict[int, Request] = {}  # e-stop, reset, heartbeat, counters in flight
+        self._ordered: Request | None = None  # the one SETPOINT/BULK/ESTOP_RESET in flight
+        self._oob: dict[tuple[int, int], Request] = {}  # (type, seq): e-stop, heartbeat, counters
+        self._hello: Request | None = None  # a mid-session HELLO in flight
+        self._protocol_error: LinkError | None = None
         now = clock.now()
         self._last_sent_s = now
         self._last_heard_s = now  # the handshake reply was heard just now
         self._state: State | None = None
+        self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
         self._state_at_s = -math.inf
         self._rtt_s = math.nan
         self.rtt_samples: collections.deque[float] = collections.deque(maxlen=10_000)
@@ -271,15 +150,19 @@ class Session:
         self.failed = 0
         self.duplicates = 0
         self.superseded = 0
+        self.stale = 0
+        self.cancelled = 0
         self.completed = 0
         self.unexpected = 0
-        self._flags = BridgeFlags.NONE
+        self.bridge_resets = 0
+        self.sessions = 1
+        self._flags = BridgeFlags.NONE if hello_reply is None else hello_reply.flags
         self._lost = False
         self._closed = False
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
         self._reader_error: BaseException | None = None
-        self.last_hello_reply: HelloReply | None = None
+        self.last_hello_reply: HelloReply | None = hello_reply
         self._pending_failures: list[Request] = []
         self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
 
@@ -328,10 +211,20 @@ class Session:
             return self._submit(BulkSetpoints(self._seq(), tuple(modes), tuple(raw_values)))
 
     def estop(self) -> Request:
-        """Write an e-stop now, ahead of every queue; never raises for a busy link."""
+        """Write an e-stop now, ahead of every queue; never raises for a busy link.
+
+        Every queued or in-flight setpoint and e-stop reset is cancelled
+        (:attr:`Outcome.CANCELLED`): the e-stop takes a newer ordered seq, so the
+        bridge would answer a late copy of any of them ``STALE`` anyway.
+        """
         with self._lock:
-            req = Request(EStop(self._seq()), self.clock.now())
-            self._oob[req.seq] = req
+            now = self.clock.now()
+            for req in [*self._queue, *([self._ordered] if self._ordered else [])]:
+                self._finish(req, Outcome.CANCELLED, now)
+            self._queue.clear()
+            self._ordered = None
+            req = Request(EStop(self._seq()), now)
+            self._oob[(MsgType.ESTOP, req.seq)] = req
             try:
                 self._transmit(req)
             except LinkError as exc:
@@ -340,12 +233,13 @@ class Session:
             return req
 
     def estop_reset(self) -> Request:
-        """Send an e-stop reset (out of band, like the e-stop).
+        """Queue an e-stop reset (an ordered request, like a setpoint).
 
         Raises:
             LinkLost: the link was declared lost.
         """
-        return self._out_of_band(EStopReset)
+        with self._lock:
+            return self._submit(EStopReset(self._seq()))
 
     def request_counters(self) -> Request:
         """Ask the bridge for its counters; the reply lands in :attr:`Request.reply`.
@@ -353,14 +247,10 @@ class Session:
         Raises:
             LinkLost: the link was declared lost.
         """
-        return self._out_of_band(CountersRequest)
-
-    def _out_of_band(self, message: type[EStopReset] | type[CountersRequest]) -> Request:
-        """Send a request outside the setpoint order, tracked by its seq until answered."""
         with self._lock:
             self._check_alive()
-            req = Request(message(self._seq()), self.clock.now())
-            self._oob[req.seq] = req
+            req = Request(CountersRequest(self._useq()), self.clock.now())
+            self._oob[(MsgType.COUNTERS_REQUEST, req.seq)] = req
             self._transmit(req)
             return req
 
@@ -371,8 +261,8 @@ class Session:
 
         Args:
             request: A handle from this session.
-            timeout_s: Longest wait; default: the request's whole retry budget plus
-                one step.
+            timeout_s: Longest wait; default: the request's whole retry budget, plus a
+                queue's worth when it waits behind another request.
 
         Returns:
             ``request`` (check :attr:`Request.outcome`).
@@ -382,7 +272,8 @@ class Session:
             LinkLost: the link was declared lost while waiting.
         """
         if timeout_s is None:
-            timeout_s = self.config.give_up_s + 2 * self.config.poll_step_s
+            queued = 1 + len(self._queue) + (self._ordered is not None) + (self._hello is not None)
+            timeout_s = queued * self.config.give_up_s + 2 * self.config.poll_step_s
         deadline = self.clock.now() + timeout_s
         while not request.done:
             if self._reader is None:
@@ -402,13 +293,13 @@ class Session:
 
         Raises:
             LinkLost: the link was declared lost.
-            LinkError: the session is closed.
+            LinkError: the session is closed, or the bridge refused a new session.
         """
         with self._lock:
             self._check_alive()
 
     def take_failures(self) -> list[Request]:
-        """Requests that failed or were refused since the last call (oldest first)."""
+        """Requests that failed, were refused or came back stale since the last call."""
         with self._lock:
             out, self._pending_failures = self._pending_failures, []
             return out
@@ -431,6 +322,8 @@ class Session:
                     handle(item, now)
             if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
                 self._check_alive(now)
+            if self._protocol_error is not None:
+                raise self._protocol_error
             if now >= self._due_s:  # most polls (one per state frame) have nothing due
                 self._service(now)
 
@@ -451,6 +344,10 @@ class Session:
                 sent=self.completed,
                 estopped=bool(self._flags & BridgeFlags.ESTOP),
                 watchdog=bool(self._flags & BridgeFlags.WATCHDOG),
+                bridge_resets=self.bridge_resets,
+                sessions=self.sessions,
+                stale=self.stale,
+                cancelled=self.cancelled,
             )
 
     def start_reader(self, period_s: float = 0.001) -> None:
@@ -497,14 +394,7 @@ class Session:
         with self._lock:
             if self._closed:
                 return
-            now = self.clock.now()
-            for req in [*self._queue, *self._oob.values()] + (
-                [self._ordered] if self._ordered else []
-            ):
-                self._finish(req, Outcome.FAILED, now)
-            self._queue.clear()
-            self._oob.clear()
-            self._ordered = None
+            self._fail_all(self.clock.now())
             self._closed = True
             self.link.close()
 
@@ -517,34 +407,47 @@ class Session:
 
     def _seq(self) -> int:
         seq = self._next_seq
-        self._next_seq = (seq + 1) & 0xFFFF or 1
+        self._next_seq = _next(seq)
         return seq
+
+    def _useq(self) -> int:
+        seq = self._next_useq
+        self._next_useq = _next(seq)
+        return seq
+
+    def _fail_all(self, now: float) -> None:
+        pending = [*self._queue, *self._oob.values()]
+        for req in (self._ordered, self._hello):
+            if req is not None:
+                pending.append(req)
+        for req in pending:
+            self._finish(req, Outcome.FAILED, now)
+        self._queue.clear()
+        self._oob.clear()
+        self._ordered = None
+        self._hello = None
 
     def _check_alive(self, now: float | None = None) -> None:
         if self._lost:
             raise LinkLost(f"nothing heard from the bridge for over {self.config.link_timeout_s} s")
         if self._closed:
             raise LinkError("session closed")
+        if self._protocol_error is not None:
+            raise self._protocol_error
         if now is None:
             return
         if now - self._last_heard_s > self.config.link_timeout_s:
             self._lost = True
             silent = now - self._last_heard_s
             _log.error("link lost: bridge silent for %.3f s", silent)
-            for req in [*self._queue, *self._oob.values()] + (
-                [self._ordered] if self._ordered else []
-            ):
-                self._finish(req, Outcome.FAILED, now)
-            self._queue.clear()
-            self._oob.clear()
-            self._ordered = None
+            self._fail_all(now)
             raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
 
-    def _submit(self, msg: Setpoint | BulkSetpoints) -> Request:
+    def _submit(self, msg: Setpoint | BulkSetpoints | EStopReset) -> Request:
         self._check_alive()
         req = Request(msg, self.clock.now())
         self._queue.append(req)
-        if self._ordered is None:
+        if self._ordered is None and self._hello is None:
             self._service(self.clock.now())
         return req
 
@@ -571,29 +474,64 @@ class Session:
         if outcome is Outcome.SUPERSEDED:
             self.superseded += 1
             return
+        if outcome is Outcome.CANCELLED:
+            self.cancelled += 1
+            return
+        if outcome is Outcome.STALE:
+            self.stale += 1
+            _log.warning("%r: the bridge answered STALE (not applied)", req)
         if outcome is Outcome.FAILED:
-            self.failed += 1
             if isinstance(req.msg, Heartbeat):
                 # expected now and then on a lossy line; the next one is already due
                 _log.debug("%r not acknowledged", req)
-            else:
+                return
+            self.failed += 1
+            if req.tries:
                 _log.warning("%r gave up after %d tries", req, req.tries)
-        if outcome in (Outcome.FAILED, Outcome.NACKED) and not isinstance(req.msg, Heartbeat):
+            else:
+                _log.warning("%r not sent: the session ended or a new one started", req)
+        if outcome in (Outcome.FAILED, Outcome.NACKED, Outcome.STALE) and not isinstance(
+            req.msg, Heartbeat | Hello
+        ):
             self._pending_failures.append(req)
         self._recent.append(outcome is Outcome.FAILED or req.tries > 1)
+
+    def _start_session(self, now: float, why: str) -> None:
+        """Send a HELLO: a new session on the bridge (after a reset, or a long gap)."""
+        _log.warning("starting a new session: %s", why)
+        self._fail_all_ordered(now)
+        self._hello = Request(Hello(self._seq(), self.codec.layout.digest, PROTOCOL_MINOR), now)
+        self._transmit(self._hello)
+
+    def _fail_all_ordered(self, now: float) -> None:
+        for req in [*self._queue, *([self._ordered] if self._ordered else [])]:
+            self._finish(req, Outcome.FAILED, now)
+        self._queue.clear()
+        self._ordered = None
 
     def _service(self, now: float) -> None:
         cfg = self.config
         # retries and give-ups; the e-stop and other out-of-band requests first
         timeout = cfg.ack_timeout_s
-        for req in list(self._oob.values()):
+        for key, req in list(self._oob.items()):
             due = req.next_try_s(timeout)
             if now >= due or due != due:  # due, or never written (nan)
-                if isinstance(req.msg, Heartbeat) or req.tries > cfg.max_retries:
-                    del self._oob[req.seq]
+                if not isinstance(req.msg, EStop | CountersRequest) or req.tries > cfg.max_retries:
+                    del self._oob[key]
                     self._finish(req, Outcome.FAILED, now)
                 else:
                     self._transmit(req)
+        hello = self._hello
+        if hello is not None and now >= hello.next_try_s(timeout):
+            if hello.tries >= HELLO_TRIES:
+                self._hello = None
+                self._finish(hello, Outcome.FAILED, now)
+                self._lost = True
+                self._fail_all(now)
+                raise LinkLost(
+                    f"the bridge did not answer a new session's HELLO ({hello.tries} tries)"
+                )
+            self._transmit(hello)
         ordered = self._ordered
         if ordered is not None and now >= ordered.next_try_s(timeout):
             if ordered.tries > cfg.max_retries:
@@ -601,99 +539,24 @@ class Session:
                 self._finish(ordered, Outcome.FAILED, now)
             else:
                 self._transmit(ordered)
-        if self._ordered is None and self._queue:
-            self._ordered = self._queue.popleft()
-            self._transmit(self._ordered)
+        if self._ordered is None and self._hello is None:
+            if ((self._next_seq - self._answered) & 0xFFFF) >= SESSION_RENEW_GAP:
+                self._start_session(now, "the bridge has answered no ordered request for long")
+            elif self._queue:
+                self._ordered = self._queue.popleft()
+                self._transmit(self._ordered)
         # Keep-alive, independent of what is in flight: a retried request whose frames
         # are lost must not hold heartbeats back, and any frame feeds the watchdog.
         if now - self._last_sent_s >= cfg.heartbeat_period_s:
-            hb = Request(Heartbeat(self._seq()), now)
-            self._oob[hb.seq] = hb
+            hb = Request(Heartbeat(self._useq()), now)
+            self._oob[(MsgType.HEARTBEAT, hb.seq)] = hb
             self._transmit(hb)
         # the next time anything above can be due (a conservative bound: acks only delay it)
         due = self._last_sent_s + cfg.heartbeat_period_s
         for req in self._oob.values():
             next_s = req.next_try_s(timeout)
             due = min(due, now if next_s != next_s else next_s)  # nan: not written yet
-        if self._ordered is not None:
-            due = min(due, self._ordered.next_try_s(timeout))
+        for pending in (self._ordered, self._hello):
+            if pending is not None:
+                due = min(due, pending.next_try_s(timeout))
         self._due_s = due
-
-    def _settle(self, req: Request, outcome: Outcome, now: float) -> None:
-        if outcome is Outcome.ACKED and req.tries == 1:
-            sample = now - req.sent_at_s
-            self.rtt_samples.append(sample)
-            # Karn: only first-try samples; smoothed like TCP's SRTT (alpha = 1/8)
-            self._rtt_s = (
-                sample if math.isnan(self._rtt_s) else self._rtt_s + (sample - self._rtt_s) / 8
-            )
-        self._finish(req, outcome, now)
-
-    def _handle(self, item: Message | FrameError, now: float) -> None:
-        if type(item) is State:  # the common case first: one every state period
-            self._last_heard_s = now
-            self._on_state(item, now)
-            return
-        if isinstance(item, FrameError):
-            self.crc_errors += 1
-            _log.debug("dropped frame: %s", item)
-            return
-        if item.TYPE < 0x80:
-            self.unexpected += 1  # our own frames (loop://) or a confused peer
-            return
-        self._last_heard_s = now
-        if isinstance(item, State):
-            self._on_state(item, now)
-            return
-        if isinstance(item, Ack | Nack | Counters):
-            req = self._match(item.seq)
-            if req is None:
-                self.duplicates += 1
-                return
-            if isinstance(item, Ack):
-                req.ack_status = item.status
-                outcome = Outcome.ACKED
-            elif isinstance(item, Nack):
-                req.nack = item.error
-                outcome = Outcome.NACKED
-            else:
-                req.reply = item
-                outcome = Outcome.ACKED
-            self._settle(req, outcome, now)
-            if self._ordered is None and self._queue:  # the next queued request may go
-                self._service(now)
-            return
-        if isinstance(item, BridgeHeartbeat):
-            self._flags = item.flags
-            return
-        if isinstance(item, HelloReply):
-            self.last_hello_reply = item
-            return
-
-    def _on_state(self, item: State, now: float) -> None:
-        last = self._state
-        if last is not None and not seq_newer(item.seq, last.seq):
-            self.duplicates += 1
-            return
-        self._state = item
-        self._state_at_s = now
-        self._flags = item.flags
-        ordered = self._ordered
-        if (
-            ordered is not None
-            and isinstance(ordered.msg, BulkSetpoints)
-            and (item.ack_seq == ordered.seq or seq_newer(item.ack_seq, ordered.seq))
-        ):
-            self._ordered = None
-            ordered.ack_status = AckStatus.APPLIED
-            self._settle(ordered, Outcome.ACKED, now)
-            self._service(now)
-
-    def _match(self, seq: int) -> Request | None:
-        req = self._oob.pop(seq, None)
-        if req is not None:
-            return req
-        if self._ordered is not None and self._ordered.seq == seq:
-            req, self._ordered = self._ordered, None
-            return req
-        return None

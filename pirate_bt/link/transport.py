@@ -26,11 +26,15 @@ from pirate_bt.clock import Clock
 from pirate_bt.errors import FrameError, LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import (
     MAX_WIRE_BYTES,
+    PROTOCOL_MINOR,
     PROTOCOL_VERSION,
     FrameCodec,
     FrameDecoder,
     Hello,
     HelloReply,
+    MsgType,
+    Nack,
+    NackCode,
     frame_time_s,
 )
 
@@ -279,7 +283,7 @@ def handshake(
     if dropped:
         _log.info("drained %d stale bytes", dropped)
     decoder = FrameDecoder(codec)
-    hello = Hello(seq, codec.layout.digest)
+    hello = Hello(seq, codec.layout.digest, PROTOCOL_MINOR)
     wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
     for attempt in range(1, attempts + 1):
         link.write(wire)
@@ -293,15 +297,44 @@ def handshake(
                             f"host speaks {PROTOCOL_VERSION}"
                         )
                     continue
+                if isinstance(item, Nack) and item.seq == seq and item.acked_type == MsgType.HELLO:
+                    if item.error is NackCode.BAD_LENGTH:
+                        raise ProtocolMismatch(
+                            "the bridge does not understand this HELLO (BAD_LENGTH): it speaks "
+                            f"another protocol minor version; host speaks "
+                            f"{PROTOCOL_VERSION}.{PROTOCOL_MINOR}"
+                        )
+                    raise ProtocolMismatch(
+                        f"the bridge refused the layout digest {codec.layout.digest:#010x} or "
+                        f"protocol {PROTOCOL_VERSION}.{PROTOCOL_MINOR} ({item.error.name}): it was "
+                        "built for another robot description or protocol version"
+                    )
                 if isinstance(item, HelloReply) and item.seq == seq:
-                    if item.layout_digest != codec.layout.digest:
+                    if item.minor != PROTOCOL_MINOR:
+                        raise ProtocolMismatch(
+                            f"bridge speaks protocol {PROTOCOL_VERSION}.{item.minor}; "
+                            f"host speaks {PROTOCOL_VERSION}.{PROTOCOL_MINOR}"
+                        )
+                    if (
+                        item.layout_digest != codec.layout.digest
+                        or item.n_channels != codec.layout.n_channels
+                        or item.n_motors != codec.layout.n_motors
+                    ):
                         raise ProtocolMismatch(
                             f"bridge layout {item.layout_digest:#010x} "
                             f"({item.n_channels} channels, {item.n_motors} motors) differs from "
                             f"the robot description's {codec.layout.digest:#010x} "
                             f"({codec.layout.n_channels} channels, {codec.layout.n_motors} motors)"
                         )
-                    _log.info("bridge answered HELLO (attempt %d)", attempt)
+                    _log.info(
+                        "bridge answered HELLO (attempt %d): firmware %#06x, boot id %d, "
+                        "session %d, flags %s",
+                        attempt,
+                        item.firmware,
+                        item.boot_id,
+                        item.sessions,
+                        item.flags,
+                    )
                     return item
             clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
         _log.warning("no HELLO reply (attempt %d of %d)", attempt, attempts)

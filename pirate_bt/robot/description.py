@@ -825,9 +825,27 @@ class RobotDescription(_Model):
         return sorted(b.id for b in self.boards)
 
     def layout_digest(self) -> int:
-        """A 32-bit digest of the wire layout; both ends compare it at hello time."""
+        """A 32-bit digest of the wire layout; both ends compare it at hello time.
+
+        Covers the channel order and, per motor, its stop role, modes and raw ranges
+        (docs/protocol.md, Layout; ``pirate_bt.link.layout.layout_text`` spells it out).
+        """
         text = ";".join(f"{c.board}:{c.name}" for c in self._index.channels)
-        text += "|" + ";".join(f"{s.board}:{s.slot}" for s in self._index.setpoints)
+        motors = []
+        for s in self._index.setpoints:
+            f = s.motor.function
+            role = (
+                f.value
+                if f in (MotorFunction.DRIVE, MotorFunction.ROTATE, MotorFunction.BEND)
+                else "other"
+            )
+            modes = ",".join(
+                f"{mode.value}={c.raw[0]}..{c.raw[1]}"
+                for mode in ControlMode
+                if (c := s.motor.modes.get(mode)) is not None
+            )
+            motors.append(f"{s.board}:{s.slot}:{role}:{modes}")
+        text += "|" + ";".join(motors)
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "big")
 
     def digest(self) -> str:

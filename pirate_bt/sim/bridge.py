@@ -1,21 +1,26 @@
-"""The simulated PIRATEbay bridge and its PICO boards, at the byte level.
+"""The simulated PIRATEbay bridge and its PICO boards, at the byte level: the reference bridge.
 
 :class:`SimBridge` is what the host's link talks to. It takes bytes
-(:meth:`SimBridge.receive`), decodes them with the link's own
-:class:`~pirate_bt.link.codec.FrameDecoder`, applies setpoints to the
+(:meth:`SimBridge.receive`), checks each frame in the order ``docs/protocol.md``
+gives (framing, CRC, version with the link's
+:class:`~pirate_bt.link.raw.RawFrameDecoder`; then type, length, and the
+rules of each type), applies setpoints to the
 :class:`~pirate_bt.sim.model.PipeRobotModel` through the robot's
 :class:`~pirate_bt.robot.commands.CommandCodec` (raw -> SI, exactly as the real
 boards' conversions are described), and queues answers (ACK, NACK, HELLO_REPLY,
 COUNTERS) for the host to read (:meth:`SimBridge.read`). Time moves only in
 :meth:`SimBridge.advance_to`: the physics steps once per state period and a
 STATE frame (SI readings -> raw with :meth:`StateBuilder.encode`) goes out at
-each step.
+each step. :meth:`SimBridge.reset` is a bridge reset (the DTR reset of a port
+opening).
 
-It follows ``docs/protocol.md``: the duplicate filter on sequence numbers, the
-all-or-nothing bulk setpoint acknowledged by the next STATE's ``ack_seq``, the
-latched e-stop, and the watchdog (no valid frame for ``bridge.watchdog``: all
-drives stop, clamps stay as they are, the WATCHDOG flag is set until the host
-is heard again).
+It follows the protocol page to the letter, and the conformance suite
+(``tests/conformance/``) checks it through its bytes: sessions, the duplicate
+filter on the ordered sequence numbers with replayed answers, the all-or-nothing
+bulk setpoint acknowledged by the next STATE's ``ack_seq``, the latched e-stop
+(also from boot), the watchdog armed from boot, and the stop category on every
+stop: drives velocity 0, rotation and other motors PWM 0 (brake), bend joints
+unchanged so the clamps keep holding.
 
 Faults are applied here too: a stalled motor, a sensor that drops out or
 sticks, a board that resets (motors off, readings missing for
@@ -27,36 +32,33 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
 
-from pirate_bt.errors import ConfigurationError, FrameError, InputError
+from pirate_bt.errors import FrameError
 from pirate_bt.link.codec import (
+    MODE_KEEP,
+    PROTOCOL_MINOR,
     Ack,
     AckStatus,
     BoardCounters,
     BoardStatus,
     BridgeFlags,
-    BulkSetpoints,
     Counters,
-    CountersRequest,
-    EStop,
-    EStopReset,
     FrameCodec,
-    FrameDecoder,
-    Heartbeat,
-    Hello,
     HelloReply,
     Message,
     MsgType,
     Nack,
     NackCode,
-    Setpoint,
     seq_newer,
 )
+from pirate_bt.link.layout import StopRole, stop_role
+from pirate_bt.link.messages import MODE_BY_CODE
+from pirate_bt.link.raw import HOST_TYPES, HostPayloads, RawFrame, RawFrameDecoder
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot.commands import CommandCodec, MotorCommand, RawSetpoint
-from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.state import StateBuilder
+from pirate_bt.sim.bridge_faults import ActiveFault, FaultsMixin
 from pirate_bt.sim.counters import EventKind, SimCounters
 from pirate_bt.sim.model import PipeRobotModel
 
@@ -67,29 +69,24 @@ _log = logging.getLogger(__name__)
 MAX_PENDING_BYTES = 1 << 16
 """Bytes the bridge queues for a host that does not read before it drops state frames."""
 
-FIRMWARE_VERSION = 0x5100
-"""Firmware number the simulated bridge reports in HELLO_REPLY."""
-
-_HOST_TYPES = (
-    MsgType.HELLO,
-    MsgType.SETPOINT,
-    MsgType.BULK_SETPOINTS,
-    MsgType.HEARTBEAT,
-    MsgType.ESTOP,
-    MsgType.ESTOP_RESET,
-    MsgType.COUNTERS_REQUEST,
-)
+FIRMWARE_VERSION = 0x5101
+"""Firmware number the simulated bridge reports in HELLO_REPLY (0x5000-0x5FFF: simulated)."""
 
 
-@dataclass
-class _ActiveFault:
-    spec: FaultSpec
-    end_s: float
-    started: bool = False
-    frozen: float | None = None
+def _stop_commands(robot: RobotDescription) -> list[MotorCommand]:
+    """The stop category's setpoints (docs/protocol.md): bend joints are not commanded."""
+    out = []
+    for slot in robot.setpoint_slots():
+        motor = slot.motor
+        role = stop_role(motor)
+        if role is StopRole.DRIVE and motor.modes.velocity is not None:
+            out.append(MotorCommand(motor.name, ControlMode.VELOCITY, 0.0))
+        elif role in (StopRole.ROTATE, StopRole.OTHER) and motor.modes.pwm is not None:
+            out.append(MotorCommand(motor.name, ControlMode.PWM, 0.0))
+    return out
 
 
-class SimBridge:
+class SimBridge(FaultsMixin):
     """The simulated bridge: bytes in, bytes out, physics stepped per state period.
 
     Args:
@@ -97,12 +94,15 @@ class SimBridge:
         start_s: Clock time at which the bridge starts.
     """
 
-    def __init__(self, model: PipeRobotModel, start_s: float = 0.0) -> None:
+    def __init__(
+        self, model: PipeRobotModel, start_s: float = 0.0, *, record_applied: bool = False
+    ) -> None:
         robot: RobotDescription = model.robot
         self.model = model
         self.robot = robot
         self.codec = FrameCodec.for_robot(robot)
-        self._decoder = FrameDecoder(self.codec)
+        self._decoder = RawFrameDecoder(self.codec)
+        self._payloads = HostPayloads(self.codec.layout)
         self._commands = CommandCodec(robot)
         self._states = StateBuilder(robot)
         self._channels = [c.name for c in robot.state_channels()]
@@ -110,129 +110,46 @@ class SimBridge:
         self._channel_board = [c.board for c in robot.state_channels()]
         self._boards = robot.board_ids()
         self._slots = robot.setpoint_slots()
-        self._slot_board = [s.board for s in self._slots]
+        self._motor_at = {(s.board, s.slot): s.motor for s in self._slots}
+        self._stop_commands = _stop_commands(robot)
         self.period_s = robot.bridge.state_period
         self.watchdog_s = robot.bridge.watchdog
         self.now_s = start_s
-        self._next_frame_s = start_s + self.period_s
-        self._last_rx_s = start_s
         self._out = bytearray()
-        self._last_seq: int | None = None
-        self._ack_seq = 0
-        self._state_seq = 0
         self._last_raw = [0] * len(self._channels)
         self._all_fresh = (1 << len(self._channels)) - 1
         self._encoded_from: list[float] = []
-        self._all_online = tuple(int(BoardStatus.ONLINE) for _ in self._boards)
         self._encoded: list[int] = []
         self._raw_tuple: tuple[int, ...] | None = None
+        self._status_cache: tuple[int, ...] | None = None
         # The robot's raw<->SI conversion of each channel, unpacked for the 100 Hz path;
         # equivalent to StateBuilder.encode (tests check it).
         self._conversions = [
             (c.conversion.zero_raw, 1.0 / c.conversion.per_raw, *c.conversion.raw)
             for c in robot.state_channels()
         ]
-        self.estopped = False
-        self.watchdog_tripped = False
-        self._armed = False  # the watchdog runs once the host has said hello
-        # counters
         self.rx_frames = 0
         self.crc_errors = 0
         self.frame_errors = 0
         self.duplicates = 0
+        self.watchdog_trips = 0
+        self.applied: list[tuple[MsgType, int]] | None = [] if record_applied else None
+        """Every ordered request applied, as (type, seq), when ``record_applied``."""
+        # figures of the simulator that survive a bridge reset
         self.nacks = 0
         self.frames_dropped = 0
         self.commands_executed = 0
         self.state_frames_sent = 0
-        self.watchdog_trips = 0
         self.state_frames_unread = 0
+        self.boot_id = 0
+        self._resetting: set[int] = set()
+        self._link_lost = False
+        self._boot()
         # faults
         self._pending: list[FaultSpec] = []
-        self._active: list[_ActiveFault] = []
-        self._link_lost = False
-        self._resetting: set[int] = set()
+        self._active: list[ActiveFault] = []
         self._dropout: set[int] = set()
         self._stuck: dict[int, float] = {}
-
-    # -- faults ---------------------------------------------------------------------
-
-    def check_fault(self, fault: FaultSpec) -> None:
-        """Check that a fault's target exists on this robot.
-
-        Raises:
-            ConfigurationError: unknown motor, channel or board.
-        """
-        target = fault.target
-        if fault.kind == "motor_stall":
-            if target not in self.model.motor_names():
-                raise ConfigurationError(f"fault {fault.kind}: unknown motor {target!r}")
-        elif fault.kind in ("sensor_dropout", "sensor_stuck"):
-            if target not in self._channel_index:
-                raise ConfigurationError(f"fault {fault.kind}: unknown state channel {target!r}")
-        elif fault.kind == "board_reset" and (
-            target is None or not target.isdigit() or int(target) not in self._boards
-        ):
-            raise ConfigurationError(f"fault board_reset: unknown board {target!r}")
-
-    def schedule(self, faults: Iterable[FaultSpec]) -> None:
-        """Add faults to inject at their simulated times.
-
-        Raises:
-            ConfigurationError: a fault names a motor, channel or board the robot lacks.
-        """
-        for fault in faults:
-            self.check_fault(fault)
-            self._pending.append(fault)
-        self._pending.sort(key=lambda f: f.at)
-
-    def _update_faults(self, now_s: float) -> None:
-        while self._pending and self._pending[0].at <= now_s:
-            spec = self._pending.pop(0)
-            duration = spec.duration
-            if duration is None:
-                duration = self.robot.bridge.reset_time if spec.kind == "board_reset" else math.inf
-            fault = _ActiveFault(spec, spec.at + duration)
-            self._active.append(fault)
-            self._start_fault(fault)
-        for fault in [f for f in self._active if f.end_s <= now_s]:
-            self._active.remove(fault)
-            self._end_fault(fault)
-
-    def _start_fault(self, fault: _ActiveFault) -> None:
-        spec = fault.spec
-        target = spec.target or ""
-        self.model.record(EventKind.FAULT, f"start {spec.kind} {target}".strip())
-        _log.info("fault %s %s starts at %.3f s", spec.kind, target, self.now_s)
-        if spec.kind == "motor_stall":
-            self.model.set_stalled(target, True)
-        elif spec.kind == "sensor_dropout":
-            self._dropout.add(self._channel_index[target])
-        elif spec.kind == "sensor_stuck":
-            index = self._channel_index[target]
-            self._stuck[index] = self.model.readings()[target]
-        elif spec.kind == "board_reset":
-            board = int(target)
-            self._resetting.add(board)
-            names = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
-            self.model.motors_off(names)
-        elif spec.kind == "link_loss":
-            self._link_lost = True
-
-    def _end_fault(self, fault: _ActiveFault) -> None:
-        spec = fault.spec
-        target = spec.target or ""
-        self.model.record(EventKind.FAULT, f"end {spec.kind} {target}".strip())
-        if spec.kind == "motor_stall":
-            self.model.set_stalled(target, False)
-        elif spec.kind == "sensor_dropout":
-            self._dropout.discard(self._channel_index[target])
-        elif spec.kind == "sensor_stuck":
-            self._stuck.pop(self._channel_index[target], None)
-        elif spec.kind == "board_reset":
-            self._resetting.discard(int(target))
-        elif spec.kind == "link_loss":
-            self._link_lost = False
-            self._decoder.reset()
 
     # -- bytes ----------------------------------------------------------------------
 
@@ -243,14 +160,13 @@ class SimBridge:
         if self._link_lost:
             self.frames_dropped += data.count(0)
             return
-        for item in self._decoder.iter_feed(data):
-            if isinstance(item, FrameError):
+        for item in self._decoder.feed_raw(data):
+            if isinstance(item, FrameError):  # steps 1-2: dropped, counted, not answered
                 if item.reason == "crc":
                     self.crc_errors += 1
                 else:
                     self.frame_errors += 1
                 continue
-            self.rx_frames += 1
             self._handle(item)
 
     def read(self, size: int = -1) -> bytes:
@@ -272,126 +188,260 @@ class SimBridge:
         if not self._link_lost:
             self._out += self.codec.encode(msg)
 
+    # -- boot -----------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """A bridge reset (the DTR reset of a port opening, a brown-out): boot again.
+
+        Everything the bridge held is lost: the session, the duplicate filter,
+        ``ack_seq``, the counters, bytes queued either way. It boots latched, with
+        ``NO_SESSION`` set, a new boot id, and the stop category applied (the physical
+        robot, and the setpoints its boards hold, stay as they are).
+        """
+        self._out.clear()
+        self._decoder.reset()
+        self._boot()
+
+    def _boot(self) -> None:
+        self.boot_id = (self.boot_id + 1) & 0xFFFF
+        self.sessions = 0
+        self.no_session = True
+        self.estopped = True
+        self.watchdog_tripped = False
+        self._last_seq: int | None = None
+        self._last_answer: AckStatus | NackCode | None = None
+        self._ack_seq = 0
+        self._state_seq = 0
+        self._last_rx_s = self.now_s
+        self._next_frame_s = self.now_s + self.period_s
+        # COUNTERS count since boot; the simulator's own figures run on across resets
+        self._boot_base = self._totals()
+        self._board_timeouts = dict.fromkeys(self._boards, 0)
+        self._apply_stop()
+
+    def _apply_stop(self) -> None:
+        """The stop category: drives velocity 0, rotate and other PWM 0, bend unchanged."""
+        for command in self._stop_commands:
+            self.model.command(command)
+        self._motors_off = set(self._boards)
+        self._status_cache = None
+
     # -- messages -------------------------------------------------------------------
 
-    def _handle(self, msg: Message) -> None:
-        if msg.TYPE not in _HOST_TYPES:
-            self._nack(msg.seq, msg.TYPE, NackCode.UNKNOWN_TYPE)
-            return
+    def _handle(self, frame: RawFrame) -> None:
+        """Steps 3-6 of docs/protocol.md, Checks, in order."""
+        # 3. accept: count, feed the watchdog, release a trip
+        self.rx_frames += 1
         self._last_rx_s = self.now_s
         if self.watchdog_tripped:
             self.watchdog_tripped = False
             _log.info("host heard again at %.3f s; watchdog released", self.now_s)
-        if isinstance(msg, Hello):
-            self._armed = True
-            self._last_seq = msg.seq
-            self._send(
-                HelloReply(
-                    msg.seq,
-                    self.codec.layout.digest,
-                    self.codec.layout.n_channels,
-                    self.codec.layout.n_motors,
-                    round(self.watchdog_s * 1000),
-                    FIRMWARE_VERSION,
-                )
-            )
-        elif isinstance(msg, Heartbeat):
-            self._send(Ack(msg.seq, MsgType.HEARTBEAT))
-        elif isinstance(msg, EStop):
-            self.estopped = True
-            self.model.motors_off()
-            self._send(Ack(msg.seq, MsgType.ESTOP))
-        elif isinstance(msg, EStopReset):
-            self.estopped = False
-            self._send(Ack(msg.seq, MsgType.ESTOP_RESET))
-        elif isinstance(msg, CountersRequest):
-            self._send(
-                Counters(
-                    msg.seq,
-                    self.rx_frames,
-                    self.crc_errors,
-                    self.frame_errors,
-                    self.duplicates,
-                    self.watchdog_trips,
-                    tuple(BoardCounters(b) for b in self._boards),
-                )
-            )
-        elif isinstance(msg, Setpoint):
-            self._setpoint(msg)
-        elif isinstance(msg, BulkSetpoints):
-            self._bulk(msg)
+        kind, seq = frame.type, frame.seq
+        # 4. type
+        if kind not in HOST_TYPES:
+            self._nack(seq, kind, NackCode.UNKNOWN_TYPE)
+            return
+        # 5. length
+        if len(frame.payload) != self._payloads.size(kind):
+            self._nack(seq, kind, NackCode.BAD_LENGTH)
+            return
+        # 6. by type
+        if kind == MsgType.HEARTBEAT:
+            self._send(Ack(seq, MsgType.HEARTBEAT))
+        elif kind == MsgType.COUNTERS_REQUEST:
+            self._send_counters(seq)
+        elif kind == MsgType.HELLO:
+            self._hello(seq, frame.payload)
+        elif kind == MsgType.ESTOP:
+            self._estop(seq)
+        else:
+            self._ordered(MsgType(kind), seq, frame)
 
     def _nack(self, seq: int, kind: int, code: NackCode) -> None:
         self.nacks += 1
         self._send(Nack(seq, kind, code))
 
-    def _dedupe(self, seq: int, kind: MsgType) -> bool:
-        """True when the request is new; answers duplicates and stale requests itself."""
+    def _totals(self) -> tuple[int, int, int, int, int]:
+        return (
+            self.rx_frames,
+            self.crc_errors,
+            self.frame_errors,
+            self.duplicates,
+            self.watchdog_trips,
+        )
+
+    def _send_counters(self, seq: int) -> None:
+        rx, crc, framing, dups, trips = (
+            (total - base) & 0xFFFFFFFF
+            for total, base in zip(self._totals(), self._boot_base, strict=True)
+        )
+        self._send(
+            Counters(
+                seq,
+                rx,
+                crc,
+                framing,
+                dups,
+                trips,
+                tuple(BoardCounters(b, self._board_timeouts[b] & 0xFFFFFFFF) for b in self._boards),
+            )
+        )
+
+    def _hello(self, seq: int, payload: bytes) -> None:
+        digest, minor = self._payloads.hello(payload)
+        if digest != self.codec.layout.digest or minor != PROTOCOL_MINOR:
+            self._nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)
+            return
+        # a retried HELLO (its reply was lost: the same seq, nothing handled since) is the
+        # same session; any other HELLO starts a new one
+        retry = not self.no_session and seq == self._last_seq and self._last_answer is None
+        if not retry:
+            self.sessions = min(self.sessions + 1, 255)
+        # a new session: filter, ack_seq, setpoints at the stop; latch and counters kept
+        self._last_seq = seq
+        self._last_answer = None
+        self._ack_seq = 0
+        self.no_session = False
+        self.watchdog_tripped = False
+        self._apply_stop()
+        self._send(
+            HelloReply(
+                seq,
+                self.codec.layout.digest,
+                self.codec.layout.n_channels,
+                self.codec.layout.n_motors,
+                round(self.watchdog_s * 1000),
+                FIRMWARE_VERSION,
+                PROTOCOL_MINOR,
+                self.boot_id,
+                self.sessions,
+                self._flags(),
+            )
+        )
+
+    def _estop(self, seq: int) -> None:
+        self.estopped = True
+        self._apply_stop()
+        if self._last_seq is not None and seq_newer(seq, self._last_seq):
+            self._last_seq = seq
+            self._last_answer = AckStatus.APPLIED
+        self._record_applied(MsgType.ESTOP, seq)
+        self._send(Ack(seq, MsgType.ESTOP))
+
+    def _ordered(self, kind: MsgType, seq: int, frame: RawFrame) -> None:
+        """SETPOINT, BULK_SETPOINTS, ESTOP_RESET: session, duplicate filter, checks."""
+        if self.no_session:
+            self._nack(seq, kind, NackCode.NOT_READY)
+            return
         last = self._last_seq
-        if last is None or seq_newer(seq, last):
-            return True
-        self.duplicates += 1
-        status = AckStatus.DUPLICATE if seq == last else AckStatus.STALE
+        assert last is not None  # set by every accepted hello
+        if not seq_newer(seq, last):
+            self.duplicates += 1
+            answer = self._last_answer
+            if seq != last:
+                self._send(Ack(seq, kind, AckStatus.STALE))
+            elif isinstance(answer, NackCode):
+                self._nack(seq, kind, answer)
+            else:
+                self._send(Ack(seq, kind, AckStatus.DUPLICATE))
+            return
+        self._last_seq = seq
         if kind is MsgType.SETPOINT:
-            self._send(Ack(seq, kind, status))
-        return False
-
-    def _convert(self, raw: RawSetpoint) -> MotorCommand | NackCode:
-        try:
-            command = self._commands.to_si(raw)
-        except InputError:
-            if raw.board not in self._boards:
-                return NackCode.BAD_BOARD
-            if not any(s.board == raw.board and s.slot == raw.slot for s in self._slots):
-                return NackCode.BAD_SLOT
-            return NackCode.BAD_MODE
-        conversion = self.robot.motor(command.motor).modes.get(raw.mode)
-        assert conversion is not None
-        lo, hi = conversion.raw
-        if not lo <= raw.raw_value <= hi:
-            return NackCode.OUT_OF_RANGE
-        return command
-
-    def _setpoint(self, msg: Setpoint) -> None:
-        if self.estopped:
-            self._nack(msg.seq, MsgType.SETPOINT, NackCode.ESTOP_LATCHED)
-            return
-        result = self._convert(RawSetpoint(msg.board, msg.slot, msg.mode, msg.raw_value))
+            result = self._setpoint(frame)
+        elif kind is MsgType.BULK_SETPOINTS:
+            result = self._bulk(seq, frame.payload)
+        else:
+            result = self._estop_reset()
+        self._last_answer = result
         if isinstance(result, NackCode):
-            self._nack(msg.seq, MsgType.SETPOINT, result)
+            self._nack(seq, kind, result)
             return
-        if not self._dedupe(msg.seq, MsgType.SETPOINT):
-            return
-        self._last_seq = msg.seq
-        self._apply(result, msg.board)
-        self._send(Ack(msg.seq, MsgType.SETPOINT))
+        self._record_applied(kind, seq)
+        if kind is not MsgType.BULK_SETPOINTS:  # a bulk is acknowledged by ack_seq
+            self._send(Ack(seq, kind, AckStatus.APPLIED))
 
-    def _bulk(self, msg: BulkSetpoints) -> None:
+    def _record_applied(self, kind: MsgType, seq: int) -> None:
+        if self.applied is not None:
+            self.applied.append((kind, seq))
+
+    def _check(self, board: int, slot: int, code: int, raw_value: int) -> MotorCommand | NackCode:
+        """Mode and range of one entry (BAD_MODE, OUT_OF_RANGE); board and slot known."""
+        motor = self._motor_at[(board, slot)]
+        mode = MODE_BY_CODE.get(code)
+        conversion = None if mode is None else motor.modes.get(mode)
+        if mode is None or conversion is None:
+            return NackCode.BAD_MODE
+        lo, hi = conversion.raw
+        if not lo <= raw_value <= hi:
+            return NackCode.OUT_OF_RANGE
+        return self._commands.to_si(RawSetpoint(board, slot, mode, raw_value))
+
+    def _deliverable(self, boards: Iterable[int]) -> NackCode | None:
         if self.estopped:
-            self._nack(msg.seq, MsgType.BULK_SETPOINTS, NackCode.ESTOP_LATCHED)
-            return
+            return NackCode.ESTOP_LATCHED
+        if any(b in self._resetting for b in boards):
+            return NackCode.BUS_ERROR  # the board is rebooting: it misses its polls
+        return None
+
+    def _setpoint(self, frame: RawFrame) -> AckStatus | NackCode:
+        board = frame.arg
+        slot, code, raw_value = self._payloads.setpoint(frame.payload)
+        if board not in self._boards:
+            return NackCode.BAD_BOARD
+        if (board, slot) not in self._motor_at:
+            return NackCode.BAD_SLOT
+        result = self._check(board, slot, code, raw_value)
+        if isinstance(result, NackCode):
+            return result
+        refused = self._deliverable((board,))
+        if refused is not None:
+            return refused
+        self._apply(result, board)
+        return AckStatus.APPLIED
+
+    def _bulk(self, seq: int, payload: bytes) -> AckStatus | NackCode:
         commands: list[tuple[MotorCommand, int]] = []
-        for slot, mode, raw_value in zip(self._slots, msg.modes, msg.raw_values, strict=True):
-            if mode is None:
+        for slot, (code, raw_value) in zip(self._slots, self._payloads.bulk(payload), strict=True):
+            if code == MODE_KEEP:
                 continue
-            result = self._convert(RawSetpoint(slot.board, slot.slot, mode, raw_value))
+            result = self._check(slot.board, slot.slot, code, raw_value)
             if isinstance(result, NackCode):
-                self._nack(msg.seq, MsgType.BULK_SETPOINTS, result)
-                return
+                return result
             commands.append((result, slot.board))
-        if not self._dedupe(msg.seq, MsgType.BULK_SETPOINTS):
-            return
-        self._last_seq = msg.seq
-        self._ack_seq = msg.seq
+        refused = self._deliverable({board for _, board in commands})
+        if refused is not None:
+            return refused
         for command, board in commands:
             self._apply(command, board)
+        self._ack_seq = seq
+        return AckStatus.APPLIED
+
+    def _estop_reset(self) -> AckStatus | NackCode:
+        if not self.estopped:
+            return AckStatus.APPLIED
+        if self._resetting:  # a board in TIMEOUT: no confirming its motors are held
+            return NackCode.NOT_READY
+        self.estopped = False
+        self._status_cache = None
+        _log.info("e-stop reset at %.3f s", self.now_s)
+        return AckStatus.APPLIED
 
     def _apply(self, command: MotorCommand, board: int) -> None:
-        if board in self._resetting:
-            self.frames_dropped += 1  # the board is rebooting and misses it
-            return
         self.model.command(command)
         self.commands_executed += 1
+        if board in self._motors_off:
+            self._motors_off.discard(board)
+            self._status_cache = None
+
+    def _flags(self) -> BridgeFlags:
+        flags = BridgeFlags.NONE
+        if self.estopped:
+            flags |= BridgeFlags.ESTOP
+        if self.watchdog_tripped:
+            flags |= BridgeFlags.WATCHDOG
+        if self.no_session:
+            flags |= BridgeFlags.NO_SESSION
+        return flags
 
     # -- time -----------------------------------------------------------------------
 
@@ -402,20 +452,24 @@ class SimBridge:
             self.now_s = t
             self._update_faults(t)
             self._watchdog(t)
+            for board in self._resetting:
+                self._board_timeouts[board] += 1
             self.model.step(self.period_s)
             self._send_state()
             self._next_frame_s = t + self.period_s
         self.now_s = max(self.now_s, now_s)
 
     def _watchdog(self, now_s: float) -> None:
-        if not self._armed or self.watchdog_tripped:
+        # armed from boot: no valid host frame for a whole period trips it
+        if self.watchdog_tripped or now_s - self._last_rx_s <= self.watchdog_s:
             return
-        if now_s - self._last_rx_s > self.watchdog_s:
-            self.watchdog_tripped = True
-            self.watchdog_trips += 1
-            self.model.stop_drives()
-            self.model.record(EventKind.WATCHDOG, "host silent: drives stopped, clamps held")
-            _log.warning("watchdog: host silent for %.3f s", now_s - self._last_rx_s)
+        self.watchdog_tripped = True
+        self.watchdog_trips += 1
+        self._apply_stop()
+        self.model.record(
+            EventKind.WATCHDOG, "host silent: drives and rotation stopped, clamps held"
+        )
+        _log.warning("watchdog: host silent for %.3f s", now_s - self._last_rx_s)
 
     def _send_state(self) -> None:
         if self._link_lost:
@@ -449,21 +503,16 @@ class SimBridge:
             self._last_raw = last = self._encode(values)
             raw = self._raw_tuple = tuple(last)
             mask = self._all_fresh
-        if self._resetting or self.estopped:
-            status: tuple[int, ...] = tuple(
+        status = self._status_cache
+        if status is None:
+            status = self._status_cache = tuple(
                 int(
                     (BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE)
-                    | (BoardStatus.MOTORS_OFF if self.estopped else BoardStatus.NONE)
+                    | (BoardStatus.MOTORS_OFF if board in self._motors_off else BoardStatus.NONE)
                 )
                 for board in self._boards
             )
-        else:
-            status = self._all_online
-        flags = BridgeFlags.NONE
-        if self.estopped:
-            flags |= BridgeFlags.ESTOP
-        if self.watchdog_tripped:
-            flags |= BridgeFlags.WATCHDOG
+        flags = self._flags()
         self._state_seq = (self._state_seq + 1) & 0xFFFF
         self._out += self.codec.encode_state(
             self._state_seq, flags, self._ack_seq, mask, status, raw

@@ -1,0 +1,216 @@
+"""What the session does with each frame the bridge sends (docs/protocol.md, host rules).
+
+:class:`InboundMixin` holds the receive side of :class:`~pirate_bt.link.session.Session`:
+answers matched to their request by type and seq (``ACK STALE`` is a failure, never
+an acknowledgement), a bulk setpoint acknowledged only by a ``STATE`` whose
+``ack_seq`` equals its seq, a new session's ``HELLO_REPLY``, and a bridge reset seen
+in a ``STATE`` with ``NO_SESSION``. The send side, the retries and the heartbeats
+stay in the session.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import math
+
+from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
+from pirate_bt.link.codec import (
+    PROTOCOL_MINOR,
+    Ack,
+    AckStatus,
+    BridgeFlags,
+    BridgeHeartbeat,
+    BulkSetpoints,
+    Counters,
+    FrameCodec,
+    HelloReply,
+    Message,
+    MsgType,
+    Nack,
+    State,
+    seq_newer,
+)
+from pirate_bt.link.requests import Outcome, Request
+
+__all__ = ["InboundMixin"]
+
+_log = logging.getLogger("pirate_bt.link.session")
+
+
+class InboundMixin:
+    """The receive side of a session (mixed into :class:`~pirate_bt.link.session.Session`)."""
+
+    # set by the session
+    codec: FrameCodec
+    last_hello_reply: HelloReply | None
+    rtt_samples: collections.deque[float]
+    crc_errors: int
+    duplicates: int
+    unexpected: int
+    sessions: int
+    bridge_resets: int
+    _last_heard_s: float
+    _oob: dict[tuple[int, int], Request]
+    _ordered: Request | None
+    _hello: Request | None
+    _queue: collections.deque[Request]
+    _answered: int
+    _flags: BridgeFlags
+    _protocol_error: LinkError | None
+    _accept_any_state: bool
+    _state: State | None
+    _state_at_s: float
+    _rtt_s: float
+
+    # the send side, in the session
+    def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
+        raise NotImplementedError
+
+    def _service(self, now: float) -> None:
+        raise NotImplementedError
+
+    def _start_session(self, now: float, why: str) -> None:
+        raise NotImplementedError
+
+    def _settle(self, req: Request, outcome: Outcome, now: float) -> None:
+        if outcome is Outcome.ACKED and req.tries == 1:
+            sample = now - req.sent_at_s
+            self.rtt_samples.append(sample)
+            # Karn: only first-try samples; smoothed like TCP's SRTT (alpha = 1/8)
+            self._rtt_s = (
+                sample if math.isnan(self._rtt_s) else self._rtt_s + (sample - self._rtt_s) / 8
+            )
+        self._finish(req, outcome, now)
+
+    def _handle(self, item: Message | FrameError, now: float) -> None:
+        if type(item) is State:  # the common case first: one every state period
+            self._last_heard_s = now
+            self._on_state(item, now)
+            return
+        if isinstance(item, FrameError):
+            self.crc_errors += 1
+            _log.debug("dropped frame: %s", item)
+            return
+        if item.TYPE < 0x80:
+            self.unexpected += 1  # our own frames (loop://) or a confused peer
+            return
+        self._last_heard_s = now
+        if isinstance(item, State):
+            self._on_state(item, now)
+        elif isinstance(item, Ack | Nack):
+            self._on_answer(item, now)
+        elif isinstance(item, Counters):
+            req = self._oob.pop((MsgType.COUNTERS_REQUEST, item.seq), None)
+            if req is None:
+                self.duplicates += 1
+                return
+            req.reply = item
+            self._settle(req, Outcome.ACKED, now)
+        elif isinstance(item, BridgeHeartbeat):
+            self._flags = item.flags
+            if item.flags & BridgeFlags.NO_SESSION:
+                self._bridge_reset(now)
+        elif isinstance(item, HelloReply):
+            self._on_hello_reply(item, now)
+
+    def _on_answer(self, item: Ack | Nack, now: float) -> None:
+        kind = item.acked_type
+        ordered = self._ordered
+        if ordered is not None and ordered.seq == item.seq and kind == ordered.msg.TYPE:
+            self._ordered = None
+            self._answered = item.seq
+            if isinstance(item, Nack):
+                ordered.nack = item.error
+                outcome = Outcome.NACKED
+            else:
+                ordered.ack_status = item.status
+                outcome = Outcome.STALE if item.status is AckStatus.STALE else Outcome.ACKED
+                if outcome is Outcome.ACKED and kind == MsgType.ESTOP_RESET:
+                    self._flags &= ~BridgeFlags.ESTOP  # released now; the next STATE says so too
+            self._settle(ordered, outcome, now)
+            if self._queue:  # the next queued request may go
+                self._service(now)
+            return
+        hello = self._hello
+        if hello is not None and isinstance(item, Nack) and hello.seq == item.seq:
+            self._refused_session(hello, f"the bridge refused a new session: {item.error.name}")
+            return
+        req = self._oob.pop((kind, item.seq), None)
+        if req is None:
+            self.duplicates += 1  # a late answer to a retried or given-up request
+            return
+        if isinstance(item, Nack):
+            req.nack = item.error
+            self._settle(req, Outcome.NACKED, now)
+        else:
+            req.ack_status = item.status
+            self._settle(req, Outcome.ACKED, now)
+            if kind == MsgType.ESTOP:
+                self._flags |= BridgeFlags.ESTOP
+                if seq_newer(item.seq, self._answered):
+                    self._answered = item.seq
+
+    def _refused_session(self, hello: Request, why: str) -> None:
+        self._hello = None
+        self._finish(hello, Outcome.NACKED, self._last_heard_s)
+        self._protocol_error = ProtocolMismatch(why)
+        _log.error("%s", why)
+
+    def _on_hello_reply(self, item: HelloReply, now: float) -> None:
+        hello = self._hello
+        if hello is None or item.seq != hello.seq:
+            self.duplicates += 1
+            return
+        layout = self.codec.layout
+        if item.layout_digest != layout.digest or item.minor != PROTOCOL_MINOR:
+            self._refused_session(hello, "the bridge answered a new session with another layout")
+            return
+        previous = self.last_hello_reply
+        if previous is not None and previous.boot_id != item.boot_id:
+            _log.warning("the bridge was reset (boot id %d -> %d)", previous.boot_id, item.boot_id)
+        self.last_hello_reply = item
+        self._flags = item.flags
+        self._hello = None
+        self._answered = item.seq
+        self._accept_any_state = True
+        self.sessions += 1
+        self._settle(hello, Outcome.ACKED, now)
+        if item.flags & BridgeFlags.ESTOP:
+            _log.warning("new session: the bridge's e-stop is latched (reset it to move)")
+        self._service(now)
+
+    def _bridge_reset(self, now: float) -> None:
+        if self._hello is not None:
+            return  # a new session is already on its way
+        self.bridge_resets += 1
+        _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
+        self._start_session(now, "the bridge was reset")
+
+    def _on_state(self, item: State, now: float) -> None:
+        last = self._state
+        if item.flags & BridgeFlags.NO_SESSION:
+            self._flags = item.flags
+            self._bridge_reset(now)
+            return
+        if self._accept_any_state:
+            if self._hello is not None:
+                return  # a state of the old session, before the new one's reply
+            self._accept_any_state = False
+        elif last is not None and not seq_newer(item.seq, last.seq):
+            self.duplicates += 1
+            return
+        self._state = item
+        self._state_at_s = now
+        self._flags = item.flags
+        ordered = self._ordered
+        if (
+            ordered is not None
+            and isinstance(ordered.msg, BulkSetpoints)
+            and item.ack_seq == ordered.seq
+        ):
+            self._ordered = None
+            self._answered = ordered.seq
+            ordered.ack_status = AckStatus.APPLIED
+            self._settle(ordered, Outcome.ACKED, now)
+            self._service(now)

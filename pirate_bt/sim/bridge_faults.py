@@ -1,0 +1,135 @@
+"""Faults of the simulated bridge and its boards: stalls, sensor dropouts, board resets, link loss.
+
+:class:`FaultsMixin` is the fault side of :class:`~pirate_bt.sim.bridge.SimBridge`:
+it checks a fault's target against the robot, keeps the schedule, and starts and
+ends each fault at its simulated time (a stalled motor, a sensor that drops out or
+sticks, a board that resets: motors off, readings missing, setpoints refused with
+``BUS_ERROR`` for ``bridge.reset_time``; link loss: nothing in, nothing out).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.link.raw import RawFrameDecoder
+from pirate_bt.pipes import FaultSpec
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.sim.counters import EventKind
+from pirate_bt.sim.model import PipeRobotModel
+
+__all__ = ["ActiveFault", "FaultsMixin"]
+
+_log = logging.getLogger("pirate_bt.sim.bridge")
+
+
+@dataclass
+class ActiveFault:
+    """A fault that has started, and when it ends."""
+
+    spec: FaultSpec
+    end_s: float
+    started: bool = False
+    frozen: float | None = None
+
+
+class FaultsMixin:
+    """The fault side of the simulated bridge (mixed into ``SimBridge``)."""
+
+    # set by the bridge
+    model: PipeRobotModel
+    robot: RobotDescription
+    now_s: float
+    _channel_index: dict[str, int]
+    _boards: list[int]
+    _decoder: RawFrameDecoder
+    _pending: list[FaultSpec]
+    _active: list[ActiveFault]
+    _resetting: set[int]
+    _dropout: set[int]
+    _stuck: dict[int, float]
+    _link_lost: bool
+    _status_cache: tuple[int, ...] | None
+
+    def check_fault(self, fault: FaultSpec) -> None:
+        """Check that a fault's target exists on this robot.
+
+        Raises:
+            ConfigurationError: unknown motor, channel or board.
+        """
+        target = fault.target
+        if fault.kind == "motor_stall":
+            if target not in self.model.motor_names():
+                raise ConfigurationError(f"fault {fault.kind}: unknown motor {target!r}")
+        elif fault.kind in ("sensor_dropout", "sensor_stuck"):
+            if target not in self._channel_index:
+                raise ConfigurationError(f"fault {fault.kind}: unknown state channel {target!r}")
+        elif fault.kind == "board_reset" and (
+            target is None or not target.isdigit() or int(target) not in self._boards
+        ):
+            raise ConfigurationError(f"fault board_reset: unknown board {target!r}")
+
+    def schedule(self, faults: Iterable[FaultSpec]) -> None:
+        """Add faults to inject at their simulated times.
+
+        Raises:
+            ConfigurationError: a fault names a motor, channel or board the robot lacks.
+        """
+        for fault in faults:
+            self.check_fault(fault)
+            self._pending.append(fault)
+        self._pending.sort(key=lambda f: f.at)
+
+    def _update_faults(self, now_s: float) -> None:
+        while self._pending and self._pending[0].at <= now_s:
+            spec = self._pending.pop(0)
+            duration = spec.duration
+            if duration is None:
+                duration = self.robot.bridge.reset_time if spec.kind == "board_reset" else math.inf
+            fault = ActiveFault(spec, spec.at + duration)
+            self._active.append(fault)
+            self._start_fault(fault)
+        for fault in [f for f in self._active if f.end_s <= now_s]:
+            self._active.remove(fault)
+            self._end_fault(fault)
+
+    def _start_fault(self, fault: ActiveFault) -> None:
+        spec = fault.spec
+        target = spec.target or ""
+        self.model.record(EventKind.FAULT, f"start {spec.kind} {target}".strip())
+        _log.info("fault %s %s starts at %.3f s", spec.kind, target, self.now_s)
+        if spec.kind == "motor_stall":
+            self.model.set_stalled(target, True)
+        elif spec.kind == "sensor_dropout":
+            self._dropout.add(self._channel_index[target])
+        elif spec.kind == "sensor_stuck":
+            index = self._channel_index[target]
+            self._stuck[index] = self.model.readings()[target]
+        elif spec.kind == "board_reset":
+            board = int(target)
+            self._resetting.add(board)
+            self._status_cache = None
+            names = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+            self.model.motors_off(names)
+        elif spec.kind == "link_loss":
+            self._link_lost = True
+
+    def _end_fault(self, fault: ActiveFault) -> None:
+        spec = fault.spec
+        target = spec.target or ""
+        self.model.record(EventKind.FAULT, f"end {spec.kind} {target}".strip())
+        if spec.kind == "motor_stall":
+            self.model.set_stalled(target, False)
+        elif spec.kind == "sensor_dropout":
+            self._dropout.discard(self._channel_index[target])
+        elif spec.kind == "sensor_stuck":
+            self._stuck.pop(self._channel_index[target], None)
+        elif spec.kind == "board_reset":
+            self._resetting.discard(int(target))
+            self._status_cache = None
+        elif spec.kind == "link_loss":
+            self._link_lost = False
+            self._decoder.reset()

@@ -1,0 +1,296 @@
+"""Conformance of a bridge to docs/protocol.md, through its bytes only.
+
+Every test takes the ``bridge`` fixture (``conftest.py``): an object of the
+:class:`~conformance.bridge.BridgeUnderTest` protocol with
+
+- ``name``, ``robot`` (the layout it was built for), ``virtual_time``;
+- ``write(data)``: bytes to the bridge; ``read(timeout_s)``: the bytes it sent
+  within that time;
+- ``advance(seconds)``: let time pass (virtual when ``virtual_time``, else a sleep);
+- ``reset()``: a DTR reset; ``close()``;
+- optionally ``disconnect_board(board, seconds)``: a board stops answering (tests
+  that need it skip where it is missing).
+
+Tests never touch a bridge's objects. Tests that need hours of virtual time take
+``virtual_bridge`` and skip, with the reason, on a real-time bridge (the firmware
+in simavr on a pty). The request/response sequences come from the shared vectors
+(``tests/data/link_vectors.json``), so every implementation is held to the same
+expected bytes.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from conformance.bridge import BridgeUnderTest, Wire
+from pirate_bt.link import (
+    Ack,
+    AckStatus,
+    BoardStatus,
+    BridgeFlags,
+    Counters,
+    CountersRequest,
+    EStop,
+    EStopReset,
+    Heartbeat,
+    Hello,
+    HelloReply,
+    MsgType,
+    Nack,
+    NackCode,
+    Setpoint,
+)
+from pirate_bt.link.codec import cobs_encode
+from pirate_bt.link.vectors import message_from_json, message_to_json
+from pirate_bt.robot.description import ControlMode
+
+VECTORS = json.loads((Path(__file__).parents[1] / "data" / "link_vectors.json").read_text())
+SEQUENCES = {s["name"]: s for s in VECTORS["sequences"]}
+
+
+def _matches(got: dict[str, Any], want: dict[str, Any]) -> bool:
+    return all(got.get(key) == value for key, value in want.items())
+
+
+def run_sequence(wire: Wire, sequence: dict[str, Any]) -> None:
+    """Play one vector sequence and check every answer and STATE it names."""
+    for number, step in enumerate(sequence["steps"], 1):
+        where = f"{sequence['name']} step {number}: {step}"
+        if step.get("reset"):
+            wire.bridge.reset()
+            wire.decoder.reset()
+            wire.state = None
+        answers = []
+        if "advance_s" in step:
+            answers += wire.collect(step["advance_s"])
+        if "send" in step:
+            answers += wire.ask(message_from_json(step["send"]))
+        elif "send_hex" in step:
+            answers += wire.ask(bytes.fromhex(step["send_hex"]))
+        got = [message_to_json(a) for a in answers]
+        want = step["expect"]
+        assert len(got) == len(want) and all(map(_matches, got, want)), f"{where}\n  got  {got}"
+        check = step.get("state")
+        if check:
+            if "send" in step or "send_hex" in step:
+                wire.collect(0.03)
+            state = wire.state
+            assert state is not None, f"{where}: no STATE received"
+            if "flags" in check:
+                assert int(state.flags) == check["flags"], f"{where}: flags {state.flags!r}"
+            if "ack_seq" in check:
+                assert state.ack_seq == check["ack_seq"], f"{where}: ack_seq {state.ack_seq}"
+            if "board_status_set" in check:
+                bits = check["board_status_set"]
+                assert all(s & bits == bits for s in state.board_status), (
+                    f"{where}: board status {state.board_status}"
+                )
+
+
+def start_session(wire: Wire, hello_seq: int = 1) -> HelloReply:
+    """HELLO, then release the boot latch."""
+    (reply,) = wire.ask(Hello(hello_seq, wire.codec.layout.digest))
+    assert isinstance(reply, HelloReply)
+    assert wire.ask(EStopReset(hello_seq + 1)) == [Ack(hello_seq + 1, MsgType.ESTOP_RESET)]
+    return reply
+
+
+def counters(wire: Wire, seq: int) -> Counters:
+    (reply,) = wire.ask(CountersRequest(seq))
+    assert isinstance(reply, Counters) and reply.seq == seq
+    return reply
+
+
+def bend_setpoint(wire: Wire, seq: int, raw: int = 100) -> Setpoint:
+    slot = next(s for s in wire.bridge.robot.setpoint_slots() if s.motor.function == "bend")
+    return Setpoint(seq, slot.board, slot.slot, ControlMode.POSITION, raw)
+
+
+# --- the shared sequences --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", sorted(SEQUENCES))
+def test_vector_sequence(bridge: BridgeUnderTest, name: str) -> None:
+    run_sequence(Wire(bridge), SEQUENCES[name])
+
+
+# --- what the bridge sends -------------------------------------------------------------------
+
+
+def test_state_frames_from_boot_every_period(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    first = wire.collect(0.0)
+    assert first == []
+    seqs = []
+    for _ in range(10):
+        wire.collect(0.1)
+        assert wire.state is not None
+        seqs.append(wire.state.seq)
+    assert not wire.errors
+    period = bridge.robot.bridge.state_period
+    received = wire.states
+    if bridge.virtual_time:
+        assert received == pytest.approx(1.0 / period, abs=2)
+    else:
+        assert received >= 0.5 / period  # real time on a loaded machine: at least half
+    assert all(0 < (b - a) & 0xFFFF < 40 for a, b in itertools.pairwise(seqs))
+    assert wire.state is not None and wire.state.flags == BridgeFlags.ESTOP | (
+        BridgeFlags.NO_SESSION | BridgeFlags.WATCHDOG
+    )
+
+
+def test_hello_reply_fields(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    reply = start_session(wire)
+    lay = wire.codec.layout
+    assert (reply.layout_digest, reply.n_channels, reply.n_motors) == (
+        lay.digest,
+        lay.n_channels,
+        lay.n_motors,
+    )
+    assert reply.watchdog_ms == round(bridge.robot.bridge.watchdog * 1000)
+    assert reply.minor == 1 and reply.sessions == 1
+    assert reply.flags == BridgeFlags.ESTOP  # booted latched; NO_SESSION cleared by the HELLO
+    bridge.reset()
+    wire.decoder.reset()
+    wire.collect(0.05)
+    (again,) = wire.ask(Hello(9, lay.digest))
+    assert isinstance(again, HelloReply)
+    assert again.boot_id != reply.boot_id  # the host tells a reset apart
+    assert again.sessions == 1
+
+
+# --- malformed input ---------------------------------------------------------------------------
+
+
+def test_bad_frames_are_dropped_unanswered_and_counted(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    start_session(wire)
+    before = counters(wire, 100)
+    drop = [
+        case for case in VECTORS["bad"] if case["reason"] in ("crc", "cobs", "short", "version")
+    ]
+    for case in drop:
+        assert wire.ask(bytes.fromhex(case["hex"])) == [], case["name"]
+    after = counters(wire, 101)
+    assert after.crc_errors - before.crc_errors == 1
+    assert after.frame_errors - before.frame_errors == len(drop) - 1
+    assert after.rx_frames - before.rx_frames == 1  # only the counters request itself
+
+
+def test_oversize_and_garbage_then_resync(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    start_session(wire)
+    before = counters(wire, 100)
+    assert wire.ask(b"\x01" * 300) == []  # no delimiter for 300 bytes
+    assert wire.ask(b"\x07garbage\x00") == []  # still skipping: part of the oversize frame
+    assert wire.ask(b"\x07garbage\x00") == []  # a frame of its own: bad COBS
+    assert wire.ask(cobs_encode(b"\x01" * 255) + b"\x00") == []  # a 255-byte body
+    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
+    after = counters(wire, 101)
+    assert after.frame_errors - before.frame_errors >= 3
+
+
+def test_bytes_split_anywhere_make_the_same_frame(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    start_session(wire)
+    frame = wire.codec.encode(bend_setpoint(wire, 3))
+    for byte in frame[:-1]:
+        bridge.write(bytes((byte,)))
+    assert wire.ask(frame[-1:]) == [Ack(3, MsgType.SETPOINT)]
+
+
+# --- counters ----------------------------------------------------------------------------------
+
+
+def test_counters_count_since_boot(bridge: BridgeUnderTest) -> None:
+    wire = Wire(bridge)
+    start_session(wire)
+    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
+    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT, AckStatus.DUPLICATE)]
+    assert wire.ask(bend_setpoint(wire, 2)) == [Ack(2, MsgType.SETPOINT, AckStatus.STALE)]
+    bad = bytearray(wire.codec.encode(Heartbeat(5)))
+    bad[3] ^= 0x10
+    wire.ask(bytes(bad))
+    reply = counters(wire, 6)
+    assert reply.rx_frames == 6  # HELLO, reset, three setpoints, this request
+    assert (reply.crc_errors, reply.duplicates) == (1, 2)
+    assert [b.board for b in reply.boards] == sorted(bridge.robot.board_ids())
+    assert len(wire.codec.encode(reply)) == 146  # the longest reply, for the default robot
+    bridge.reset()
+    wire.decoder.reset()
+    wire.collect(0.02)
+    assert counters(wire, 7).rx_frames == 1  # counted since the new boot
+
+
+# --- a board that stops answering ---------------------------------------------------------------
+
+
+def test_board_that_stops_answering(bridge: BridgeUnderTest) -> None:
+    disconnect = getattr(bridge, "disconnect_board", None)
+    if disconnect is None:
+        pytest.skip(f"{bridge.name} cannot disconnect a board")
+    wire = Wire(bridge)
+    start_session(wire)
+    sp = bend_setpoint(wire, 3)
+    disconnect(sp.board, 1.0)
+    wire.collect(0.03)
+    assert wire.state is not None
+    index = sorted(bridge.robot.board_ids()).index(sp.board)
+    assert wire.state.board_status[index] & BoardStatus.TIMEOUT
+    assert wire.ask(sp) == [Nack(3, MsgType.SETPOINT, NackCode.BUS_ERROR)]
+    assert wire.ask(EStop(4)) == [Ack(4, MsgType.ESTOP)]
+    assert wire.ask(EStopReset(5)) == [Nack(5, MsgType.ESTOP_RESET, NackCode.NOT_READY)]
+    wire.collect(1.1)  # the board answers again
+    assert wire.ask(EStopReset(6)) == [Ack(6, MsgType.ESTOP_RESET)]
+    assert wire.ask(bend_setpoint(wire, 7)) == [Ack(7, MsgType.SETPOINT)]
+
+
+# --- hours of traffic, in virtual time -----------------------------------------------------------
+
+
+def test_heartbeats_through_whole_wraps_never_age_the_filter(
+    virtual_bridge: BridgeUnderTest,
+) -> None:
+    """66 000 heartbeats (more than a whole 16-bit wrap: 27 minutes at the host's idle
+    rate of one per 25 ms), then a setpoint with the next ordered seq is applied.
+
+    Heartbeats go 10 per state period (90 bytes of the line's 115 per 10 ms), so the
+    count takes 70 s of virtual time instead of half an hour.
+    """
+    wire = Wire(virtual_bridge)
+    start_session(wire)
+    assert wire.ask(bend_setpoint(wire, 3)) == [Ack(3, MsgType.SETPOINT)]
+    seq = 0
+    for _ in range(6600):
+        burst = b"".join(wire.codec.encode(Heartbeat((seq + i) % 65535 + 1)) for i in range(10))
+        seq += 10
+        answers = wire.ask(burst, timeout_s=0.01)
+        assert len(answers) == 10 and all(isinstance(a, Ack) for a in answers)
+    assert wire.ask(bend_setpoint(wire, 4)) == [Ack(4, MsgType.SETPOINT)]
+    wire.collect(0.02)
+    assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
+
+
+def test_hours_of_setpoints_wrap_the_ordered_counter(virtual_bridge: BridgeUnderTest) -> None:
+    """66 000 ordered requests (almost an hour at 20 a second) wrap the ordered counter;
+    every one is applied, in order. Sent in bursts, so they take a few virtual seconds."""
+    wire = Wire(virtual_bridge)
+    start_session(wire)
+    seq = 2
+    for burst in range(60):
+        frames = []
+        for _ in range(1100):
+            seq = seq % 65535 + 1
+            frames.append(wire.codec.encode(bend_setpoint(wire, seq, raw=burst)))
+        answers = wire.ask(b"".join(frames), timeout_s=0.02)
+        assert [a.status for a in answers if isinstance(a, Ack)] == [AckStatus.APPLIED] * 1100
+        assert len(wire.ask(Heartbeat(burst + 1), timeout_s=0.02)) == 1
+    assert seq == (2 + 60 * 1100 - 1) % 65535 + 1
+    wire.collect(0.02)
+    assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
