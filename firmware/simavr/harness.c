@@ -69,6 +69,8 @@ static avr_t *avr;
 static avr_irq_t *host_in, *bus_in;
 static int master = -1;
 static bool host_open, host_xoff, stop_requested;
+static bool reset_expected = true; /* the power-on start */
+static uint64_t unexpected_resets;
 static unsigned boot_ms;
 static uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
 static uint32_t debug_at;   /* pb_debug's SRAM address, 0 when not found */
@@ -201,6 +203,7 @@ static void reset_mcu(void) {
     avr_cycle_timer_cancel(avr, feed_bus, NULL);
     avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
     dtr_resets++;
+    reset_expected = true;
     host_xoff = false;
     busq_tail = busq_head;
     bus_frame_n = 0;
@@ -366,7 +369,11 @@ static void run_until(uint64_t target) {
             avr_cycle_timer_process(avr);
             continue;
         }
+        if (avr->pc == 0 && !reset_expected) {
+            unexpected_resets++; /* the reset vector, not by us: watchdog, crash, jump */
+        }
         int state = avr_run(avr);
+        reset_expected = false;
         if (state == cpu_Done || state == cpu_Crashed) {
             fprintf(stderr, "pirate-simavr: the AVR %s at cycle %llu (pc 0x%05x)\n",
                     state == cpu_Crashed ? "crashed" : "stopped",
@@ -472,14 +479,14 @@ static int put_stat(char *out, size_t size, const char *name, const struct tally
 
 static int figures_text(char *out, size_t size) {
     int k = snprintf(out, size,
-                     "cycles %llu\nsimulated_s %.3f\ndtr_resets %llu\nmcu_resets %u\n"
-                     "unexpected_resets %lld\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
+                     "cycles %llu\nsimulated_s %.3f\ndtr_resets %llu\n"
+                     "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
                      "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
                      "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
                      "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\n",
                      (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
-                     (unsigned long long)dtr_resets, debug_u16(2),
-                     (long long)debug_u16(2) - (long long)dtr_resets,
+                     (unsigned long long)dtr_resets,
+                     (unsigned long long)unexpected_resets, debug_u16(2),
                      debug_at ? RAMEND - debug_u16(6) : 0u, debug_at ? RAMEND - debug_u16(8) : 0u,
                      debug_u16(0), (unsigned long long)lag_events,
                      (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
