@@ -17,7 +17,9 @@
  *    with a bad CRC, or a board without a reply (a silent board) gets none.
  *
  * Channel records, both ways: type u8, length u16 LE, payload.
- *   harness -> boards: 'P' pty path | 'F' cycle u64 LE, frame bytes (COBS, no 0x00)
+ *   harness -> boards: 'P' pty path | 'F' cycle u64 LE, frame bytes (COBS, no 0x00;
+ *                      a frame repeating the last one to its address is not sent)
+ *                      | 'T' cycle u64 LE: the time, once per 10 ms
  *                      | 'S' figures, text "name value\n" lines | 'R' cycle u64: MCU reset
  *   boards -> harness: 'U' addr u8, reply (wire bytes with the 0x00; none = silent)
  *                      | 'Q' ask for figures | 'X' reset the MCU now (a DTR edge)
@@ -79,6 +81,9 @@ static uint8_t hostq[RING], busq[4096], host_out_buf[RING];
 static unsigned hostq_head, hostq_tail, busq_head, busq_tail, host_out_n;
 static uint8_t bus_frame[256];
 static uint8_t replies[256][64];
+static uint8_t last_frame[256][64]; /* per address: the last frame told to the boards */
+static uint8_t last_frame_len[256];
+static uint64_t bus_repeats, last_tick;
 static uint8_t reply_len[256];
 static uint64_t bus_replies, bus_unanswered;
 static unsigned bus_frame_n;
@@ -207,6 +212,7 @@ static void reset_mcu(void) {
     host_xoff = false;
     busq_tail = busq_head;
     bus_frame_n = 0;
+    memset(last_frame_len, 0, sizeof last_frame_len);
     hostq_tail = hostq_head; /* the bootloader eats what arrives meanwhile */
     boot_until = avr->cycle + (uint64_t)boot_ms * (HZ / 1000u);
     estop_waiting = false;
@@ -349,10 +355,23 @@ static void marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
     }
 }
 
-/* The bridge finished a bus frame: answer it, and tell the boards. */
+/* The bridge finished a bus frame: answer it, and tell the boards unless it repeats
+ * the last frame to that address byte for byte (the same setpoints: nothing to
+ * apply; the 'T' ticks carry the time). */
 static void exchange(void) {
     bus_frame_ready = false;
     answer(bus_frame, bus_frame_n);
+    uint8_t addr = bus_frame_n >= 2 ? bus_frame[1] : 0; /* COBS code, then addr (or 0) */
+    if (bus_frame_n <= sizeof last_frame[0]) {
+        if (last_frame_len[addr] == bus_frame_n &&
+            memcmp(last_frame[addr], bus_frame, bus_frame_n) == 0) {
+            bus_repeats++;
+            bus_frame_n = 0;
+            return;
+        }
+        memcpy(last_frame[addr], bus_frame, bus_frame_n);
+        last_frame_len[addr] = (uint8_t)bus_frame_n;
+    }
     uint8_t payload[8 + sizeof bus_frame];
     put_u64(payload, bus_frame_cycle);
     memcpy(payload + 8, bus_frame, bus_frame_n);
@@ -483,7 +502,7 @@ static int figures_text(char *out, size_t size) {
                      "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
                      "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
                      "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
-                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\n",
+                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n",
                      (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
                      (unsigned long long)dtr_resets,
                      (unsigned long long)unexpected_resets, debug_u16(2),
@@ -492,7 +511,7 @@ static int figures_text(char *out, size_t size) {
                      (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
                      (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
                      debug_u16(18), (unsigned long long)bus_replies,
-                     (unsigned long long)bus_unanswered);
+                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats);
     k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);
@@ -594,6 +613,12 @@ int main(int argc, char **argv) {
         }
         uint64_t slice = avr->cycle + HZ / 1000u;
         run_until(target < slice ? target : slice);
+        if (avr->cycle - last_tick >= HZ / 100u) {
+            last_tick = avr->cycle;
+            uint8_t p[8];
+            put_u64(p, avr->cycle);
+            send_record('T', p, 8);
+        }
     }
     char text[2048];
     figures_text(text, sizeof text);

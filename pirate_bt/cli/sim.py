@@ -137,7 +137,8 @@ def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
         f" firmware: {int(f.get('unexpected_resets', 0))} unexpected MCU resets,"
         f" {int(f.get('dtr_resets', 0))} DTR resets, stack high-water"
         f" {int(f.get('stack_high_water_bytes', 0))} B, {bridge.boards.exchanges} board"
-        f" exchanges, {bridge.boards.stops} stops",
+        f" exchanges, {bridge.boards.stops} stops, {int(f.get('lag_events', 0))} times"
+        " behind real time",
         file=sys.stderr,
     )
     return 0

@@ -18,8 +18,9 @@ cannot keep simavr in real time.
 :class:`FirmwareBridge` runs the harness as a child process and serves its board
 bus from a thread. The channel is the harness's stdin/stdout, records of
 ``type u8, length u16 LE, payload`` (documented in ``firmware/simavr/harness.c``):
-the harness sends ``P`` (the host pty's path), ``F`` (a bus frame and its cycle),
-``R`` (an MCU reset) and ``S`` (figures); it receives ``U`` (a board's current
+the harness sends ``P`` (the host pty's path), ``F`` (a bus frame and its cycle;
+not sent when it repeats the last frame to that board byte for byte), ``T`` (the
+MCU's cycle count, every 10 ms), ``R`` (an MCU reset) and ``S`` (figures); it receives ``U`` (a board's current
 reply), ``Q`` (ask for figures) and ``X`` (reset the MCU, as a DTR edge does).
 
 The harness answers an ``EXCHANGE`` itself, at once, with the board's latest
@@ -351,6 +352,11 @@ class FirmwareBridge:
                         self._push_replies()
                 except Exception as exc:  # a bug in the boards must not stop the bus
                     _log.exception("board bus: %s", exc)
+            elif kind == ord("T"):
+                boards.advance_to(int.from_bytes(payload[:8], "little") / BUS_CLOCK_HZ)
+                if boards.steps != steps:
+                    steps = boards.steps
+                    self._push_replies()
             elif kind == ord("S"):
                 self._figures.put(_parse_figures(payload))
             elif kind == ord("R"):
