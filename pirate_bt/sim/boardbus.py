@@ -40,6 +40,7 @@ import queue
 import struct
 import subprocess
 import threading
+import time
 from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
@@ -266,7 +267,8 @@ class FirmwareBridge:
         """Start the harness; return the pty path a host opens.
 
         Raises:
-            LinkError: the harness failed to start (libsimavr missing, a bad ELF).
+            InputError: the harness cannot read the ELF.
+            LinkError: the harness failed to start (libsimavr missing).
         """
         cmd = [str(self.harness), "--boot-ms", str(self.boot_ms), "--speed", str(self.speed)]
         cmd.append(str(self.elf))
@@ -286,6 +288,9 @@ class FirmwareBridge:
         record = self._read_record(proc.stdout)
         if record is None or record[0] != ord("P"):
             proc.wait(timeout=timeout_s)
+            time.sleep(0.05)  # the stderr reader takes the last line
+            if proc.returncode == 2:  # the harness's usage error: a bad ELF
+                raise InputError(self._start_failure(proc.returncode))
             raise LinkError(self._start_failure(proc.returncode))
         self.device = record[1].decode()
         self._thread = threading.Thread(target=self._serve, name="pirate-boardbus", daemon=True)
