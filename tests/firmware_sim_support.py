@@ -103,13 +103,19 @@ class HostEnd:
                         out.append(item)
         return out
 
-    def hello(self, timeout_s: float = 1.0) -> HelloReply | None:
-        """Send HELLO (after a 0x00 that ends any half-received frame); the reply or None."""
-        seq = self.next_seq()
-        self.write(b"\x00" + self.codec.encode(Hello(seq, self.codec.layout.digest, PROTOCOL_MINOR)))
-        for msg in self.read(timeout_s):
-            if isinstance(msg, HelloReply) and msg.seq == seq:
-                return msg
+    def hello(self, timeout_s: float = 0.5, attempts: int = 6) -> HelloReply | None:
+        """HELLO (after a 0x00 that ends any half-received frame), retried as a host does.
+
+        Returns:
+            The reply, or None when none came.
+        """
+        for _ in range(attempts):
+            seq = self.next_seq()
+            hello = Hello(seq, self.codec.layout.digest, PROTOCOL_MINOR)
+            self.write(b"\x00" + self.codec.encode(hello))
+            for msg in self.read(timeout_s):
+                if isinstance(msg, HelloReply) and msg.seq == seq:
+                    return msg
         return None
 
     def close(self) -> None:

@@ -212,6 +212,7 @@ static void reset_mcu(void) {
     host_xoff = false;
     busq_tail = busq_head;
     bus_frame_n = 0;
+    host_out_n = 0; /* bytes of the old boot not yet on the pty: lost with the reset */
     memset(last_frame_len, 0, sizeof last_frame_len);
     hostq_tail = hostq_head; /* the bootloader eats what arrives meanwhile */
     boot_until = avr->cycle + (uint64_t)boot_ms * (HZ / 1000u);

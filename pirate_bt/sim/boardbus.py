@@ -20,8 +20,9 @@ bus from a thread. The channel is the harness's stdin/stdout, records of
 ``type u8, length u16 LE, payload`` (documented in ``firmware/simavr/harness.c``):
 the harness sends ``P`` (the host pty's path), ``F`` (a bus frame and its cycle;
 not sent when it repeats the last frame to that board byte for byte), ``T`` (the
-MCU's cycle count, every 10 ms), ``R`` (an MCU reset) and ``S`` (figures); it receives ``U`` (a board's current
-reply), ``Q`` (ask for figures) and ``X`` (reset the MCU, as a DTR edge does).
+MCU's cycle count, every 10 ms), ``R`` (an MCU reset) and ``S`` (figures); it
+receives ``U`` (a board's current reply), ``Q`` (ask for figures) and ``X``
+(reset the MCU, as a DTR edge does).
 
 The harness answers an ``EXCHANGE`` itself, at once, with the board's latest
 reply; this module refreshes every board's reply once per state period, after
@@ -396,9 +397,27 @@ class FirmwareBridge:
         except queue.Empty:
             raise LinkError(self._error or "the simavr harness does not answer") from None
 
-    def reset_mcu(self) -> None:
-        """Reset the MCU now, as a DTR edge does."""
+    def set_silent(self, board: int, silent: bool) -> None:
+        """Make a board stop answering its polls (``silent``) or answer again."""
+        if silent:
+            self.boards.silent.add(board)
+        else:
+            self.boards.silent.discard(board)
+        self._push_replies()
+
+    def reset_mcu(self, timeout_s: float = 2.0) -> None:
+        """Reset the MCU now, as a DTR edge does; returns once the harness has done it.
+
+        Raises:
+            LinkError: the harness did not reset within ``timeout_s``.
+        """
+        seen = self.mcu_resets_seen
         self._send("X")
+        deadline = time.monotonic() + timeout_s
+        while self.mcu_resets_seen == seen:
+            if time.monotonic() > deadline:
+                raise LinkError(self._error or "the simavr harness did not reset the MCU")
+            time.sleep(0.001)
 
     def close(self) -> None:
         """Stop the harness (its last figures land in :attr:`final_figures`); idempotent."""

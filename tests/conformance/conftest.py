@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from conformance.bridge import BridgeUnderTest, InProcessSimBridge, PtySimBridge
+from conformance.simavr_bridge import SimavrBridge, available
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
 
@@ -19,6 +20,8 @@ BRIDGES: dict[str, Callable[[RobotDescription], BridgeUnderTest]] = {
     "sim": InProcessSimBridge,
     "sim-pty": PtySimBridge,
 }
+if available() is None:  # the AVR build in simavr (firmware/simavr), where it can run
+    BRIDGES["firmware-simavr"] = SimavrBridge
 
 
 @pytest.fixture(params=sorted(BRIDGES))
