@@ -49,12 +49,24 @@ class SimavrBridge:
         self._fd = os.open(device, os.O_RDWR | os.O_NOCTTY)  # the DTR edge: a fresh boot
         tty.setraw(self._fd)
         self._timers: list[threading.Timer] = []
+        self._pending = b""
         self._settle()
 
     def _settle(self) -> None:
-        """Wait until the reset is done and drop what the old boot still sent."""
+        """Wait until the reset is done and drop what came before, up to a frame's end.
+
+        The drain may cut the first frame of the new boot: its tail, up to its 0x00,
+        goes too, so the tests start on a frame boundary.
+        """
         time.sleep(0.05)
-        self.read(0.0)
+        self._pending = b""
+        data = self.read(0.0)
+        while not data.endswith(b"\x00"):
+            more = self.read(0.05)
+            if not more:
+                break
+            data += more
+        self._pending = data[data.rfind(b"\x00") + 1 :]
 
     def write(self, data: bytes) -> None:
         view = memoryview(data)
@@ -63,7 +75,8 @@ class SimavrBridge:
 
     def read(self, timeout_s: float) -> bytes:
         deadline = time.monotonic() + timeout_s
-        out = bytearray()
+        out = bytearray(self._pending)
+        self._pending = b""
         while True:
             ready, _, _ = select.select([self._fd], [], [], max(0.0, deadline - time.monotonic()))
             if ready:
