@@ -196,8 +196,12 @@ def test_hello_reply_reports_the_layout_and_the_first_session(bridge: Bridge) ->
     assert (digest, nch, nmot, wd, minor, sessions) == (bridge.digest, 28, 16, 250, 1, 1)
     assert reply.arg & F_ESTOP and not reply.arg & F_NO_SESSION
     assert struct.unpack("<IBBHHBHB", bridge.hello(seq=9).payload)[-1] == 2
-    # a retried hello (same seq, its reply lost) is the same session
+    # a retried hello (same seq, its reply lost, nothing handled since) is the same
+    # session; after an ordered request, the same seq is a new host's new session
     assert struct.unpack("<IBBHHBHB", bridge.hello(seq=9).payload)[-1] == 2
+    assert bridge.ask(frame(ESTOP_RESET, 10)) == [ack(10, ESTOP_RESET)]
+    assert bridge.ask(frame(ESTOP, 11)) == [ack(11, ESTOP)]
+    assert struct.unpack("<IBBHHBHB", bridge.hello(seq=9).payload)[-1] == 3
 
 
 def test_hello_with_another_layout_or_version_is_refused(bridge: Bridge) -> None:

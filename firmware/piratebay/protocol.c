@@ -52,7 +52,6 @@ static struct frame_rx rx;
 static struct {
     bool session;       /* a HELLO was accepted since boot */
     uint8_t sessions;   /* saturating at 255 */
-    uint16_t session_seq; /* seq of the HELLO that started the session */
     uint16_t last;      /* seq of the last ordered request handled */
     uint8_t answer;     /* what it got: 0 applied, a NACK code, NO_ANSWER after a hello */
     uint16_t ack_seq;   /* last BULK_SETPOINTS applied in this session */
@@ -172,12 +171,12 @@ static void hello(uint16_t seq, const uint8_t *payload) {
         send_nack(seq, T_HELLO, NACK_BAD_LAYOUT);
         return;
     }
-    /* a HELLO with the seq that started this session is a retry whose reply was
-     * lost: the same session, not counted again */
-    if ((!br.session || seq != br.session_seq) && br.sessions < 255u) {
+    /* a retried HELLO (its reply was lost: the same seq, no ordered request handled
+     * since) is the same session; any other starts a new one */
+    bool retry = br.session && seq == br.last && br.answer == NO_ANSWER;
+    if (!retry && br.sessions < 255u) {
         br.sessions++;
     }
-    br.session_seq = seq;
     br.last = seq;
     br.answer = NO_ANSWER;
     br.ack_seq = 0;
