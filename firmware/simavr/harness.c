@@ -448,7 +448,9 @@ static void service_pty(void) {
         uint8_t buf[4096];
         ssize_t r = read(master, buf, sizeof buf);
         for (ssize_t i = 0; i < r; i++) {
-            if (hostq_head - hostq_tail < RING) {
+            if (avr->cycle < boot_until) {
+                host_bytes_dropped++; /* the bootloader eats them */
+            } else if (hostq_head - hostq_tail < RING) {
                 hostq[hostq_head++ % RING] = buf[i];
                 host_bytes_in++;
             } else {

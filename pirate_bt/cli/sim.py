@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import signal
 import sys
 import time
 from typing import TYPE_CHECKING
@@ -102,6 +103,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
     """``--firmware``: the ELF in simavr on a pty, the boards in Python."""
     from pirate_bt.pipes import load_network
@@ -119,6 +124,7 @@ def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
     noise = SensorNoise.typical() if args.noise else None
     model = PipeRobotModel(robot, network, seed=args.seed, noise=noise)
     bridge = FirmwareBridge(args.firmware, model, boot_ms=args.boot_ms, speed=args.speed)
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated server still reports
     print(bridge.start(), flush=True)
     try:
         with contextlib.suppress(KeyboardInterrupt):
