@@ -47,6 +47,7 @@ from firmware_sim_support import (
     poison_for,
     release,
     soak,
+    wait_line_drained,
 )
 
 from pirate_bt.link.messages import BulkSetpoints, EStop, EStopReset
@@ -137,6 +138,7 @@ def main() -> int:
         t0 = time.monotonic()
         sent = soak(host, poison, args.soak)
         wall = time.monotonic() - t0
+        drained_s = wait_line_drained(bridge)
         reply = host.hello()
         f = bridge.figures()
         hello_ok = reply is not None and reply.layout_digest == host.codec.layout.digest
@@ -145,7 +147,8 @@ def main() -> int:
             f"soak             {wall:7.1f} s, {sent} bytes ({sent / wall:.0f} B/s);"
             f" unexpected MCU resets {f['unexpected_resets']:.0f};"
             f" corrupted frames applied {applied}; HELLO after: {'ok' if hello_ok else 'NONE'};"
-            f" lag events {f['lag_events']:.0f}"
+            f" lag events {f['lag_events']:.0f} (the MCU caught up with the line in"
+            f" {drained_s:.1f} s)"
         )
         print(
             f"stack high-water {f['stack_high_water_bytes']:7.0f} B"

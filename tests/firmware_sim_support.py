@@ -22,6 +22,7 @@ from pathlib import Path
 from pirate_bt.link.codec import PROTOCOL_MINOR, FrameCodec, FrameDecoder
 from pirate_bt.link.messages import EStopReset, Hello, HelloReply, Message, Setpoint
 from pirate_bt.robot.description import ControlMode, RobotDescription
+from pirate_bt.sim.boardbus import FirmwareBridge
 
 ROOT = Path(__file__).resolve().parents[1]
 ELF = ROOT / "firmware" / "piratebay" / "build" / "piratebay.elf"
@@ -194,6 +195,18 @@ def soak(host: HostEnd, poison: Poison, seconds: float, seed: int = 14) -> int:
         if ready:
             os.read(host.fd, 65536)
     return sent
+
+
+def wait_line_drained(bridge: FirmwareBridge, timeout_s: float = 20.0) -> float:
+    """Wait until the harness has fed the MCU every byte the host wrote; returns the wait.
+
+    A 115200-baud line cannot fall behind, but the harness can: when the host machine
+    stalls it (a lag event), the bytes the host wrote meanwhile queue for the MCU.
+    """
+    start = time.monotonic()
+    while bridge.figures()["host_queue_bytes"] > 0 and time.monotonic() - start < timeout_s:
+        time.sleep(0.05)
+    return time.monotonic() - start
 
 
 def release(host: HostEnd) -> bool:

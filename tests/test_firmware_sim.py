@@ -30,6 +30,7 @@ from firmware_sim_support import (
     poison_for,
     release,
     soak,
+    wait_line_drained,
 )
 
 from pirate_bt.link.codec import MODE_CODES, MODE_KEEP, cobs_decode, cobs_encode, crc16
@@ -294,6 +295,7 @@ def test_noise_at_line_rate_neither_resets_nor_applies_a_corrupted_frame() -> No
             assert release(host)  # now an intact poison frame would be applied
             sent = soak(host, poison, seconds=6.0)
             assert sent > 6 * 11_000
+            wait_line_drained(bridge)
             reply = host.hello()
             assert reply is not None
             assert reply.layout_digest == host.codec.layout.digest

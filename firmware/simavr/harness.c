@@ -505,7 +505,8 @@ static int figures_text(char *out, size_t size) {
                      "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
                      "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
                      "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
-                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n",
+                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
+                     "host_queue_bytes %u\n",
                      (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
                      (unsigned long long)dtr_resets,
                      (unsigned long long)unexpected_resets, debug_u16(2),
@@ -514,7 +515,8 @@ static int figures_text(char *out, size_t size) {
                      (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
                      (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
                      debug_u16(18), (unsigned long long)bus_replies,
-                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats);
+                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats,
+                     hostq_head - hostq_tail);
     k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);
