@@ -469,7 +469,7 @@ static void service_pty(void) {
     }
 }
 
-/* Records from the boards that arrive while no answer is awaited ('Q', 'X'). */
+/* Records from the boards ('U', 'Q', 'X'), whenever they arrive. */
 static void service_channel(void) {
     struct pollfd p = {.fd = STDIN_FILENO, .events = POLLIN};
     while (poll(&p, 1, 0) > 0) {
