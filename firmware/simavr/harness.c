@@ -23,6 +23,9 @@
  *                      | 'S' figures, text "name value\n" lines | 'R' cycle u64: MCU reset
  *   boards -> harness: 'U' addr u8, reply (wire bytes with the 0x00; none = silent)
  *                      | 'Q' ask for figures | 'X' reset the MCU now (a DTR edge)
+ *                      | 'H' hold: the MCU's clock stops (the pty is still served);
+ *                        answered 'h' cycle u64 once the pty has all the MCU sent
+ *                      | 'G' go on from a hold, paced from now
  * stdin closed or SIGTERM: print the figures on stderr and exit 0.
  *
  * Figures come from the firmware's GPIOR0 markers (docs/firmware.md) and its
@@ -72,6 +75,9 @@ static avr_irq_t *host_in, *bus_in;
 static int master = -1;
 static bool host_open, host_xoff, stop_requested;
 static bool reset_expected = true; /* the power-on start */
+static bool held;                  /* 'H': the MCU's clock stands still until 'G' */
+static double wall0;               /* pacing: wall time at cycle0 */
+static uint64_t cycle0;
 static uint64_t unexpected_resets;
 static unsigned boot_ms;
 static uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
@@ -187,6 +193,15 @@ static void handle_record(char type, const uint8_t *payload, uint16_t n) {
         send_record('S', (const uint8_t *)text, (uint16_t)len);
     } else if (type == 'X') {
         reset_mcu();
+    } else if (type == 'H') {
+        held = true; /* what the MCU sent is on the pty already (service_pty ran) */
+        uint8_t p[8];
+        put_u64(p, avr->cycle);
+        send_record('h', p, 8);
+    } else if (type == 'G' && held) {
+        held = false;
+        wall0 = now_s();
+        cycle0 = avr->cycle;
     }
 }
 
@@ -599,11 +614,24 @@ int main(int argc, char **argv) {
 
     /* Paced to the wall clock in 1 ms slices; when the host machine falls behind by
      * more than MAX_LAG_CYCLES the reference moves (a lag event), never a burst. */
-    double wall0 = now_s();
-    uint64_t cycle0 = avr->cycle;
+    wall0 = now_s();
+    cycle0 = avr->cycle;
     while (!stop_requested) {
         service_pty();
+        if (avr->cycle - last_tick >= HZ / 100u) {
+            /* after the pty got what the MCU sent up to now: a reader that waits for
+             * this time has the bytes too */
+            last_tick = avr->cycle;
+            uint8_t p[8];
+            put_u64(p, avr->cycle);
+            send_record('T', p, 8);
+        }
         service_channel();
+        if (held) {
+            struct timespec nap = {0, 500000};
+            nanosleep(&nap, NULL);
+            continue;
+        }
         uint64_t target = cycle0 + (uint64_t)((now_s() - wall0) * speed * HZ);
         if (target > avr->cycle + MAX_LAG_CYCLES) {
             lag_events++;
@@ -618,12 +646,6 @@ int main(int argc, char **argv) {
         }
         uint64_t slice = avr->cycle + HZ / 1000u;
         run_until(target < slice ? target : slice);
-        if (avr->cycle - last_tick >= HZ / 100u) {
-            last_tick = avr->cycle;
-            uint8_t p[8];
-            put_u64(p, avr->cycle);
-            send_record('T', p, 8);
-        }
     }
     char text[2048];
     figures_text(text, sizeof text);

@@ -21,8 +21,9 @@ bus from a thread. The channel is the harness's stdin/stdout, records of
 the harness sends ``P`` (the host pty's path), ``F`` (a bus frame and its cycle;
 not sent when it repeats the last frame to that board byte for byte), ``T`` (the
 MCU's cycle count, every 10 ms), ``R`` (an MCU reset) and ``S`` (figures); it
-receives ``U`` (a board's current reply), ``Q`` (ask for figures) and ``X``
-(reset the MCU, as a DTR edge does).
+receives ``U`` (a board's current reply), ``Q`` (ask for figures), ``X``
+(reset the MCU, as a DTR edge does), ``H`` and ``G`` (hold the MCU's clock, and
+go on).
 
 The harness answers an ``EXCHANGE`` itself, at once, with the board's latest
 reply; this module refreshes every board's reply once per state period, after
@@ -252,6 +253,9 @@ class FirmwareBridge:
         self.speed = speed
         self.device: str | None = None
         self.mcu_resets_seen = 0
+        self._holds = 0
+        self.mcu_time_s = 0.0
+        """The MCU's clock (cycles / 16 MHz) as last reported, within 10 ms."""
         self._proc: subprocess.Popen[bytes] | None = None
         self._thread: threading.Thread | None = None
         self._write_lock = threading.Lock()
@@ -355,6 +359,7 @@ class FirmwareBridge:
             kind, payload = record
             if kind == ord("F"):
                 cycle = int.from_bytes(payload[:8], "little")
+                self.mcu_time_s = cycle / BUS_CLOCK_HZ
                 try:
                     boards.handle(cycle / BUS_CLOCK_HZ, payload[8:])
                     if boards.steps != steps:
@@ -363,10 +368,14 @@ class FirmwareBridge:
                 except Exception as exc:  # a bug in the boards must not stop the bus
                     _log.exception("board bus: %s", exc)
             elif kind == ord("T"):
-                boards.advance_to(int.from_bytes(payload[:8], "little") / BUS_CLOCK_HZ)
+                self.mcu_time_s = int.from_bytes(payload[:8], "little") / BUS_CLOCK_HZ
+                boards.advance_to(self.mcu_time_s)
                 if boards.steps != steps:
                     steps = boards.steps
                     self._push_replies()
+            elif kind == ord("h"):
+                self.mcu_time_s = int.from_bytes(payload[:8], "little") / BUS_CLOCK_HZ
+                self._holds += 1
             elif kind == ord("S"):
                 self._figures.put(_parse_figures(payload))
             elif kind == ord("R"):
@@ -404,6 +413,39 @@ class FirmwareBridge:
         else:
             self.boards.silent.discard(board)
         self._push_replies()
+
+    def hold(self, timeout_s: float = 5.0) -> None:
+        """Stop the MCU's clock; returns once stopped, with everything it sent on the pty.
+
+        The pty is still served while held (host bytes queue for the MCU, an open
+        still resets it).
+
+        Raises:
+            LinkError: the harness did not answer within ``timeout_s``.
+        """
+        holds = self._holds
+        self._send("H")
+        deadline = time.monotonic() + timeout_s
+        while self._holds == holds:
+            if time.monotonic() > deadline:
+                raise LinkError(self._error or "the simavr harness did not hold")
+            time.sleep(0.0005)
+
+    def go(self) -> None:
+        """Let the MCU's clock run again after :meth:`hold`, paced from now."""
+        self._send("G")
+
+    def wait_resets(self, count: int, timeout_s: float = 5.0) -> None:
+        """Wait until the harness has reported ``count`` MCU resets in all.
+
+        Raises:
+            LinkError: it did not within ``timeout_s``.
+        """
+        deadline = time.monotonic() + timeout_s
+        while self.mcu_resets_seen < count:
+            if time.monotonic() > deadline:
+                raise LinkError(self._error or "the simavr harness did not reset the MCU")
+            time.sleep(0.001)
 
     def reset_mcu(self, timeout_s: float = 2.0) -> None:
         """Reset the MCU now, as a DTR edge does; returns once the harness has done it.
