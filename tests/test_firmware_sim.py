@@ -223,7 +223,7 @@ def firmware_sim(request: pytest.FixtureRequest) -> Iterator[tuple[str, subproce
         yield device, proc
     finally:
         proc.terminate()
-        proc.wait(timeout=15)
+        proc.wait(timeout=30)
 
 
 def _high_priority() -> None:
@@ -234,7 +234,7 @@ def _high_priority() -> None:
 
 def _summary(proc: subprocess.Popen[str]) -> str:
     proc.terminate()
-    _, err = proc.communicate(timeout=15)
+    _, err = proc.communicate(timeout=30)
     return err
 
 
@@ -248,9 +248,20 @@ PABS = [
 @pytest.mark.slow
 @pytest.mark.parametrize(("firmware_sim", "tree", "param"), PABS, indirect=["firmware_sim"])
 def test_pab_runs_through_the_firmware(
-    firmware_sim: tuple[str, subprocess.Popen[str]], tree: str, param: str
+    firmware_sim: tuple[str, subprocess.Popen[str]], tree: str, param: str, tmp_path: Path
 ) -> None:
+    """The host's freshness limit is relaxed from 100 to 500 ms here, and only here.
+
+    Three real-time processes (harness, boards, host) share a loaded 2-core CI
+    machine; a 100 ms stall of any of them ends the PAB in a safe state that has
+    nothing to do with the firmware. The limit is host-side only (not in the wire
+    layout): the firmware, its watchdog and the physics are unchanged.
+    """
     device, proc = firmware_sim
+    robot = tmp_path / "pirate.yaml"
+    text = (ROOT / "hardware" / "pirate.yaml").read_text()
+    assert "stale_after_periods: 10" in text
+    robot.write_text(text.replace("stale_after_periods: 10", "stale_after_periods: 50"))
     done = subprocess.run(
         [
             sys.executable,
@@ -258,6 +269,8 @@ def test_pab_runs_through_the_firmware(
             "pirate_bt",
             "run",
             str(ROOT / "trees" / tree),
+            "--robot",
+            str(robot),
             "--port",
             device,
             "--param",

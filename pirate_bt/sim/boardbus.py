@@ -468,7 +468,7 @@ class FirmwareBridge:
             return
         if proc.poll() is None:
             with contextlib.suppress(LinkError):
-                self.final_figures = self.figures(timeout_s=2.0)
+                self.final_figures = self.figures(timeout_s=5.0)
         if proc.stdin is not None:
             with contextlib.suppress(OSError):
                 proc.stdin.close()
