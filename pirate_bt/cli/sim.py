@@ -3,15 +3,25 @@
 Prints where a host can connect (a device path, or a ``socket://`` URL) on the
 first line of stdout, then serves until interrupted or ``--duration`` has
 passed, and prints the simulator's counters when it stops.
+
+With ``--firmware PATH.elf`` the bridge is the real PIRATEbay firmware in simavr
+(``firmware/simavr/``) on a pty, and only the boards on its RS485 bus are
+simulated in Python (:mod:`pirate_bt.sim.boardbus`), with the same physics.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import signal
 import sys
+import time
+from typing import TYPE_CHECKING
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LinkError
+
+if TYPE_CHECKING:
+    from pirate_bt.robot.description import RobotDescription
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -42,6 +52,20 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=float, metavar="SECONDS", help="stop after this many wall seconds"
     )
+    parser.add_argument(
+        "--firmware",
+        metavar="ELF",
+        help="run this bridge firmware (piratebay.elf) in simavr on the pty instead of"
+        " the Python bridge; needs `make -C firmware/simavr`",
+    )
+    parser.add_argument(
+        "--boot-ms",
+        type=int,
+        default=500,
+        metavar="MS",
+        help="with --firmware: bootloader time after the DTR reset a host's open causes"
+        " (default 500; the host waits the robot's reset_time)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     if args.speed <= 0:
         raise InputError("--speed must be positive")
     robot = load_robot(args.robot)
+    if args.firmware is not None:
+        return _run_firmware(args, robot)
     noise = SensorNoise.typical() if args.noise else None
     sim = Simulator(args.network, robot, seed=args.seed, noise=noise, faults=args.fault)
     server = SimServer(sim, speed=args.speed)
@@ -72,6 +98,53 @@ def run(args: argparse.Namespace) -> int:
         f" {c.violation_count} violations, {c.damage_count} damage, {c.stuck_events} stuck,"
         f" {c.frames_received} frames in, {c.frames_rejected} rejected,"
         f" {c.commands_executed} commands",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
+    """``--firmware``: the ELF in simavr on a pty, the boards in Python."""
+    from pirate_bt.pipes import load_network
+    from pirate_bt.sim import SensorNoise
+    from pirate_bt.sim.boardbus import FirmwareBridge
+    from pirate_bt.sim.model import PipeRobotModel
+
+    if args.tcp is not None:
+        raise InputError("--firmware serves on a pty only (the Arduino's USB serial); drop --tcp")
+    if args.fault:
+        raise InputError("--fault is not supported with --firmware (the bridge is the firmware)")
+    if args.boot_ms < 0:
+        raise InputError("--boot-ms must not be negative")
+    network = load_network(args.network)
+    noise = SensorNoise.typical() if args.noise else None
+    model = PipeRobotModel(robot, network, seed=args.seed, noise=noise)
+    bridge = FirmwareBridge(args.firmware, model, boot_ms=args.boot_ms, speed=args.speed)
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated server still reports
+    print(bridge.start(), flush=True)
+    try:
+        with contextlib.suppress(KeyboardInterrupt):
+            deadline = None if args.duration is None else time.monotonic() + args.duration
+            while bridge.running and (deadline is None or time.monotonic() < deadline):
+                time.sleep(0.05)
+    finally:
+        bridge.close()
+    if bridge.error is not None:
+        raise LinkError(bridge.error)
+    c = model.counters()
+    f = bridge.final_figures or {}
+    print(
+        f"simulated {model.time_s:.1f} s: {c.distance_m:.2f} m travelled,"
+        f" {c.violation_count} violations, {c.damage_count} damage, {c.stuck_events} stuck;"
+        f" firmware: {int(f.get('unexpected_resets', 0))} unexpected MCU resets,"
+        f" {int(f.get('dtr_resets', 0))} DTR resets, stack high-water"
+        f" {int(f.get('stack_high_water_bytes', 0))} B, {bridge.boards.exchanges} board"
+        f" exchanges, {bridge.boards.stops} stops, {int(f.get('lag_events', 0))} times"
+        " behind real time",
         file=sys.stderr,
     )
     return 0

@@ -2,9 +2,10 @@
 
 Add an implementation here (one entry in ``BRIDGES``): a factory that takes the
 robot description and returns a :class:`~conformance.bridge.BridgeUnderTest`.
-The firmware in simavr, on a pty in real time, plugs in the same way: start its
-harness, then return ``PtyBridge("simavr", robot, harness_pty_path, reset=...,
-close=...)`` (``conformance.bridge.PtyBridge``).
+Four are registered: the reference bridge in process (``sim``) and on a pty
+(``sim-pty``), the firmware's C built for this machine (``firmware-host``,
+virtual time at the line's rate) and the AVR build in simavr on a pty in real
+time (``firmware-simavr``, where the toolchain is installed).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from conformance.bridge import BridgeUnderTest, InProcessSimBridge, pty_sim_bridge
+from conformance.simavr_bridge import SimavrBridge, available
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
 
@@ -38,6 +40,8 @@ BRIDGES: dict[str, Callable[[RobotDescription], BridgeUnderTest]] = {
     "sim-pty": pty_sim_bridge,
     "firmware-host": _firmware_host,
 }
+if available() is None:  # the AVR build in simavr (firmware/simavr), where it can run
+    BRIDGES["firmware-simavr"] = SimavrBridge
 
 
 @pytest.fixture(params=sorted(BRIDGES))
