@@ -261,6 +261,7 @@ class FirmwareBridge:
         self._write_lock = threading.Lock()
         self._figures: queue.Queue[dict[str, float]] = queue.Queue()
         self._error: str | None = None
+        self._closing = False
         self._stderr_tail = b""
         self.final_figures: dict[str, float] | None = None
 
@@ -337,7 +338,8 @@ class FirmwareBridge:
                 proc.stdin.write(data)
                 proc.stdin.flush()
             except (BrokenPipeError, ValueError, OSError):
-                self._error = self._error or "the simavr harness stopped"
+                if not self._closing:  # close() shuts the pipe under the serving thread
+                    self._error = self._error or "the simavr harness stopped"
 
     def _push_replies(self) -> None:
         out = bytearray()
@@ -469,6 +471,7 @@ class FirmwareBridge:
         if proc.poll() is None:
             with contextlib.suppress(LinkError):
                 self.final_figures = self.figures(timeout_s=5.0)
+        self._closing = True
         if proc.stdin is not None:
             with contextlib.suppress(OSError):
                 proc.stdin.close()
