@@ -9,7 +9,12 @@ to where it was written. Validators then raise with a path, and
 
 The loader refuses what ``yaml.safe_load`` would quietly accept or crash on:
 a directory, an empty file, a binary file, bytes that are not UTF-8, and a key
-written twice in one mapping (PyYAML keeps the last one and loses the first).
+written twice in one mapping (PyYAML keeps the last one and loses the first),
+and aliases that expand to more than :data:`MAX_NODES` values (the "billion
+laughs" file: a few lines of nested ``*alias`` lists that expand to 10⁹
+values). Aliases are counted on the composed node graph, where an alias is one
+shared node, before anything is expanded: the check costs time and memory in
+proportion to the file, not to what it would expand to.
 """
 
 from __future__ import annotations
@@ -36,6 +41,12 @@ __all__ = [
 ]
 
 PathKey = tuple[str | int, ...]
+
+MAX_NODES = 100_000
+"""The most values (scalars, lists, mappings) a file may expand to, aliases included.
+
+The largest bundled file expands to a few thousand; a real file that needs more
+is not one a person writes."""
 ModelT = TypeVar("ModelT", bound=BaseModel)
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -87,6 +98,45 @@ def _mark(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
+def _check_expansion(root: yaml.Node, file: str) -> None:
+    """Refuse a node graph whose aliases expand to more than :data:`MAX_NODES` values.
+
+    Each node's expanded size is computed once (memoised on the node, which an
+    alias shares), so a bomb is found in time linear in the file. The error
+    points at the smallest mapping or list that expands past the limit.
+    """
+    sizes: dict[int, int] = {}
+    # Iterative post-order: a deep file must not hit Python's recursion limit.
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, children_done = stack.pop()
+        if id(node) in sizes:
+            continue
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            sizes[id(node)] = 1
+            continue
+        if not children_done:
+            stack.append((node, True))
+            stack.extend((c, False) for c in children if id(c) not in sizes)
+            continue
+        size = 1 + sum(sizes.get(id(c), 1) for c in children)
+        if size > MAX_NODES:
+            raise ValidationFailed(
+                [
+                    LocatedError(
+                        f"YAML aliases expand this to more than {MAX_NODES} values"
+                        " (an alias bomb?); write the values out or use fewer aliases",
+                        SourceLocation(file, *_mark(node)),
+                    )
+                ]
+            )
+        sizes[id(node)] = size
+
+
 def _walk(node: yaml.Node, path: PathKey, locator: Locator, errors: list[LocatedError]) -> None:
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, yaml.Node] = {}
@@ -127,6 +177,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         node = loader.get_single_node()
         if node is None:
             raise ValidationFailed([LocatedError("file holds no YAML document", loc)])
+        _check_expansion(node, file)
         # Walk before constructing: construction flattens merge keys (<<) in place.
         locator.marks[()] = _mark(node)
         errors: list[LocatedError] = []
