@@ -474,11 +474,18 @@ class Band(_Model):
         return self.min <= angle_rad <= self.max
 
 
+_HOLD_SLACK = 1e-9
+
+
 class ClampConfig(_Model):
     """How a half clamps: joint torque presses the wheels against the wall."""
 
     nominal_band: Band = Field(description="joint angles at which a clamp counts as nominal")
-    min_torque: Torque = Field(gt=0, description="least joint torque that holds a clamp")
+    min_torque: Torque = Field(
+        gt=0,
+        description="least joint torque that holds a clamp: the one threshold of 'clamped',"
+        " read by the simulator (torque) and the protective layer (spring force)",
+    )
     lever_arm: Length = Field(gt=0, description="normal force = joint torque / lever arm")
     contact_angles: list[ContactPoint] = Field(
         min_length=2, description="wall-contact joint angle against pipe diameter (interpolated)"
@@ -489,6 +496,24 @@ class ClampConfig(_Model):
     )
     assumption: bool = False
     """true when the values are not public"""
+
+    @property
+    def holding_force_n(self) -> float:
+        """The wall normal force of one joint pressing with :attr:`min_torque`."""
+        return self.min_torque / self.lever_arm
+
+    def holds(self, torque_nm: float) -> bool:
+        """Whether a joint pressing the wall with ``torque_nm`` holds its half.
+
+        This is the one meaning of "clamped": the simulator asks it of each joint's
+        press torque, the protective layer asks :meth:`holds_force` of each spring
+        reading. A relative slack of 1e-9 absorbs float rounding only.
+        """
+        return abs(torque_nm) >= self.min_torque * (1.0 - _HOLD_SLACK)
+
+    def holds_force(self, force_n: float) -> bool:
+        """Whether a wheel's wall normal force ``force_n`` shows a holding joint."""
+        return abs(force_n) >= self.holding_force_n * (1.0 - _HOLD_SLACK)
 
     def contact_angle(self, diameter_m: float) -> float:
         """Wall-contact angle for a pipe diameter, linearly interpolated and held at the ends."""
@@ -548,7 +573,11 @@ class SafetyConfig(_Model):
         0.2, ge=0, le=1, description="below this share of the minimum clamp force a half is free"
     )
     clamp_force_fraction: Dimensionless = Field(
-        0.9, gt=0, le=1, description="from this share of the minimum clamp force a half holds"
+        0.9,
+        gt=0,
+        le=1,
+        description="share of a clamp's commanded force a clamp step waits to read (sensor"
+        " slack); whether a half holds is clamp.min_torque alone",
     )
 
 
