@@ -83,7 +83,16 @@ from pirate_bt.safety.operator import (
     SafeStop,
     SetMode,
 )
-from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict, VerdictListener, VerdictLog
+from pirate_bt.safety.verdict import (
+    Outcome,
+    Reason,
+    Source,
+    Verdict,
+    VerdictListener,
+    VerdictLog,
+    current_issuer,
+    node_path,
+)
 
 if TYPE_CHECKING:
     from pirate_bt.sim import Simulator
@@ -537,7 +546,16 @@ class Supervisor:
 
     def _record(self, verdict: Verdict) -> Verdict:
         self._seq += 1
-        verdict = replace(verdict, seq=self._seq, tick=self._tick, stamp_s=self.clock.now())
+        issuer = current_issuer() if verdict.source is Source.TREE else None
+        node, node_name = node_path(issuer) if issuer is not None else (None, None)
+        verdict = replace(
+            verdict,
+            seq=self._seq,
+            tick=self._tick,
+            stamp_s=self.clock.now(),
+            node=node,
+            node_name=node_name,
+        )
         self.verdicts.append(verdict)
         if verdict.source is Source.TREE:
             if verdict.ok:
