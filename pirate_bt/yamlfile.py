@@ -19,7 +19,7 @@ proportion to the file, not to what it would expand to.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -38,6 +38,7 @@ __all__ = [
     "pydantic_errors",
     "unique_errors",
     "validate_document",
+    "validation_problems",
 ]
 
 PathKey = tuple[str | int, ...]
@@ -234,6 +235,25 @@ def load_yaml(path: str | Path) -> YamlDocument:
     return load_yaml_text(text, name)
 
 
+# What a value of each shape is called, for "should be ..." when no union branch fits.
+_SHAPES = {
+    "model_type": "a mapping of keys",
+    "model_attributes_type": "a mapping of keys",
+    "dict_type": "a mapping of keys",
+    "list_type": "a list",
+    "tuple_type": "a list",
+    "set_type": "a list",
+    "string_type": "text",
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "bool_type": "true or false",
+    "bool_parsing": "true or false",
+    "none_required": "empty",
+}
+
+
 def describe_error(error: Any) -> str:
     """One pydantic error as a short sentence, e.g. ``unknown key 'x'``."""
     msg = str(error["msg"])
@@ -246,6 +266,9 @@ def describe_error(error: Any) -> str:
     for prefix in ("Value error, ", "Assertion failed, "):
         if msg.startswith(prefix):
             msg = msg[len(prefix) :]
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        # pydantic's own wording names classes ("instance of Motor"): say the shape.
+        msg = f"should be {_SHAPES[kind]}"
     if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
         where = ".".join(str(p) for p in loc if not isinstance(p, int))
         if where:
@@ -253,9 +276,88 @@ def describe_error(error: Any) -> str:
     return msg
 
 
-def pydantic_errors(exc: ValidationError, locator: Locator) -> list[LocatedError]:
-    """Translate pydantic's errors into located ones, in file order."""
-    errors = [locator.error(e["loc"], describe_error(e)) for e in exc.errors()]
+_NO_DATA = object()
+
+
+def _real_path(data: Any, loc: Sequence[str | int], kind: str) -> tuple[PathKey, bool, bool]:
+    """``loc`` without pydantic's union-member tags; whether it had any; whether it ends on one.
+
+    pydantic names the branch of a union it tried inside the location
+    (``list[function-after[_check(), Comparison]]``). Walking the input data
+    tells which elements are real keys and indices; the others are tags, except
+    the last element of a missing or unknown key, which names the key.
+    """
+    if data is _NO_DATA:
+        return tuple(loc), False, False
+    path: list[str | int] = []
+    tagged = ends_on_tag = False
+    current = data
+    for i, element in enumerate(loc):
+        last = i == len(loc) - 1
+        if (isinstance(current, Mapping) and element in current) or (
+            isinstance(current, list)
+            and isinstance(element, int)
+            and not isinstance(element, bool)
+            and 0 <= element < len(current)
+        ):
+            path.append(element)
+            current = current[element]  # type: ignore[index]
+        elif last and kind in ("missing", "extra_forbidden"):
+            path.append(element)
+        else:
+            tagged = True
+            ends_on_tag = last
+    return tuple(path), tagged, ends_on_tag
+
+
+def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tuple[PathKey, str]]:
+    """pydantic's errors as ``(path into data, message)``: one clear message per problem.
+
+    Union branches that failed only because the value has another shape (the
+    list branch of "a comparison or a list of comparisons" given a mapping) are
+    dropped when another branch says what is wrong; when every branch failed on
+    shape, one message says which shapes are allowed. Locations and messages
+    never carry pydantic's internal names.
+
+    Args:
+        exc: The validation error.
+        data: The input that was validated (to tell real keys from union tags);
+            without it every location element is taken as a key.
+    """
+    entries = []
+    for e in exc.errors():
+        kind = str(e.get("type", ""))
+        path, tagged, ends_on_tag = _real_path(data, e["loc"], kind)
+        entries.append((path, tagged and ends_on_tag and kind in _SHAPES, tagged, e))
+    # Paths where some union branch failed on something other than shape.
+    substantive = [path for path, shape, tagged, _ in entries if tagged and not shape]
+    shapes: dict[PathKey, list[str]] = {}
+    for path, shape, _, e in entries:
+        if shape:
+            shapes.setdefault(path, []).append(_SHAPES[str(e["type"])])
+    out: list[tuple[PathKey, str]] = []
+    for path, shape, _, e in entries:
+        if shape:
+            if any(p[: len(path)] == path for p in substantive):
+                continue  # another branch of the same union says what is wrong
+            name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
+            out.append((path, f"{name}: should be {' or '.join(dict.fromkeys(shapes[path]))}"))
+            continue
+        out.append((path, describe_error({**e, "loc": path})))
+    return list(dict.fromkeys(out))
+
+
+def pydantic_errors(
+    exc: ValidationError, locator: Locator, data: Any = _NO_DATA
+) -> list[LocatedError]:
+    """Translate pydantic's errors into located ones, in file order.
+
+    Args:
+        exc: The validation error.
+        locator: Where each path of the file was written.
+        data: The validated input, to tell keys from pydantic's union tags.
+    """
+    errors = [locator.error(path, msg) for path, msg in validation_problems(exc, data)]
     errors.sort(key=lambda e: (e.location.line, e.location.column))
     return unique_errors(errors)
 
@@ -295,7 +397,7 @@ def validate_document(
     try:
         value = model.model_validate(doc.data, context=context)
     except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
+        raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data)) from None
     cross_check = getattr(value, "cross_check", None)
     problems: list[tuple[PathKey, str]] = cross_check() if callable(cross_check) else []
     if problems:

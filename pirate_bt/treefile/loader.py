@@ -36,9 +36,9 @@ from pirate_bt.treefile.registry import Registry, UnknownNode, default_registry
 from pirate_bt.yamlfile import (
     Locator,
     YamlDocument,
-    describe_error,
     load_yaml,
     unique_errors,
+    validation_problems,
 )
 
 __all__ = [
@@ -225,10 +225,12 @@ class _Reader:
                 self.error(doc, where, f"blackboard key {key!r} must be an identifier")
                 continue
             try:
-                parsed = BlackboardDecl.model_validate({} if decl is None else decl)
+                decl = {} if decl is None else decl
+                parsed = BlackboardDecl.model_validate(decl)
             except ValidationError as exc:
-                for e in exc.errors():
-                    self.error(doc, (*where, *e["loc"]), describe_error(e))
+                for at_key, msg in validation_problems(exc, decl):
+                    msg = msg if at_key else f"blackboard key {key!r}: {msg}"
+                    self.error(doc, (*where, *at_key), msg)
                 continue
             loc = doc.locator.locate(where)
             previous = self.blackboard.get(key)
@@ -264,8 +266,8 @@ class _Reader:
             try:
                 parsed = ParamDecl.model_validate(decl)
             except ValidationError as exc:
-                for e in exc.errors():
-                    self.error(doc, (*at, *e["loc"]), describe_error(e))
+                for loc, msg in validation_problems(exc, decl):
+                    self.error(doc, (*at, *loc), msg if loc else f"parameter {name!r}: {msg}")
                 continue
             if parsed.choices is not None and parsed.type != "string":
                 self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
@@ -407,8 +409,8 @@ class _Reader:
                 raw_params, context={"units_required": self.units_required}
             )
         except ValidationError as exc:
-            for e in exc.errors():
-                self.error(doc, (*path, *e["loc"]), f"{kind}: {describe_error(e)}")
+            for at_key, msg in validation_problems(exc, raw_params):
+                self.error(doc, (*path, *at_key), f"{kind}: {msg}")
             spec.params = None
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
