@@ -218,7 +218,8 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         lines.append("refusals:")
         for refusal in summary.refusals:
             node_id = refusal.get("node")
-            who = node_names(structure, node_id) if node_id in structure else "-"
+            known = isinstance(node_id, str) and node_id in structure
+            who = node_names(structure, str(node_id)) if known else "-"
             lines.append(
                 f"  tick {refusal['tick']}: {who}: {refusal.get('command')}"
                 f" refused ({refusal.get('reason', '?')}) {refusal.get('detail', '')}".rstrip()
