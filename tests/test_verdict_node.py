@@ -99,3 +99,20 @@ def test_old_traces_without_nodes_still_summarise(capsys: pytest.CaptureFixture[
         assert main(["trace", "summary", str(path)]) == 0
     out = capsys.readouterr().out
     assert ": ?:" not in out
+
+
+def test_a_safe_state_a_node_asks_for_names_the_node(tmp_path: Path) -> None:
+    tree = tmp_path / "stop.yaml"
+    tree.write_text(
+        "name: stop\nroot:\n  type: sequence\n  name: stop\n  children:\n"
+        "    - {type: wait, name: settle, duration: 50 ms}\n"
+        "    - {type: safe_state, name: give up here, reason: test}\n"
+    )
+    trace_path = tmp_path / "run.jsonl"
+    main(["run", str(tree), "--quiet", "--trace", str(trace_path)])
+    trace = read_trace(trace_path)
+    stop_id = next(n.id for n in trace.structure if n.name == "give up here")
+    commands = [c for f in trace.frames() for c in (f.commands or ())]
+    from_supervisor = [c for c in commands if c.get("source") == "supervisor"]
+    assert from_supervisor, commands
+    assert all(c.get("node") == stop_id for c in from_supervisor)

@@ -546,7 +546,8 @@ class Supervisor:
 
     def _record(self, verdict: Verdict) -> Verdict:
         self._seq += 1
-        issuer = current_issuer() if verdict.source is Source.TREE else None
+        # A node whose code is running asked for this (or, for a supervisor stop, caused it).
+        issuer = current_issuer() if verdict.source is not Source.OPERATOR else None
         node, node_name = node_path(issuer) if issuer is not None else (None, None)
         verdict = replace(
             verdict,
