@@ -11,7 +11,7 @@ The loader refuses what ``yaml.safe_load`` would quietly accept or crash on:
 a directory, an empty file, a binary file, bytes that are not UTF-8, and a key
 written twice in one mapping (PyYAML keeps the last one and loses the first),
 and aliases that expand to more than :data:`MAX_NODES` values (the "billion
-laughs" file: a few lines of nested ``*alias`` lists that expand to 10⁹
+laughs" file: a few lines of nested ``*alias`` lists that expand to hundreds of millions of
 values). Aliases are counted on the composed node graph, where an alias is one
 shared node, before anything is expanded: the check costs time and memory in
 proportion to the file, not to what it would expand to.
