@@ -9,12 +9,17 @@ to where it was written. Validators then raise with a path, and
 
 The loader refuses what ``yaml.safe_load`` would quietly accept or crash on:
 a directory, an empty file, a binary file, bytes that are not UTF-8, and a key
-written twice in one mapping (PyYAML keeps the last one and loses the first).
+written twice in one mapping (PyYAML keeps the last one and loses the first),
+and aliases that expand to more than :data:`MAX_NODES` values (the "billion
+laughs" file: a few lines of nested ``*alias`` lists that expand to hundreds of millions of
+values). Aliases are counted on the composed node graph, where an alias is one
+shared node, before anything is expanded: the check costs time and memory in
+proportion to the file, not to what it would expand to.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -33,9 +38,16 @@ __all__ = [
     "pydantic_errors",
     "unique_errors",
     "validate_document",
+    "validation_problems",
 ]
 
 PathKey = tuple[str | int, ...]
+
+MAX_NODES = 100_000
+"""The most values (scalars, lists, mappings) a file may expand to, aliases included.
+
+The largest bundled file expands to a few thousand; a real file that needs more
+is not one a person writes."""
 ModelT = TypeVar("ModelT", bound=BaseModel)
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -87,6 +99,45 @@ def _mark(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
+def _check_expansion(root: yaml.Node, file: str) -> None:
+    """Refuse a node graph whose aliases expand to more than :data:`MAX_NODES` values.
+
+    Each node's expanded size is computed once (memoised on the node, which an
+    alias shares), so a bomb is found in time linear in the file. The error
+    points at the smallest mapping or list that expands past the limit.
+    """
+    sizes: dict[int, int] = {}
+    # Iterative post-order: a deep file must not hit Python's recursion limit.
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, children_done = stack.pop()
+        if id(node) in sizes:
+            continue
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            sizes[id(node)] = 1
+            continue
+        if not children_done:
+            stack.append((node, True))
+            stack.extend((c, False) for c in children if id(c) not in sizes)
+            continue
+        size = 1 + sum(sizes.get(id(c), 1) for c in children)
+        if size > MAX_NODES:
+            raise ValidationFailed(
+                [
+                    LocatedError(
+                        f"YAML aliases expand this to more than {MAX_NODES} values"
+                        " (an alias bomb?); write the values out or use fewer aliases",
+                        SourceLocation(file, *_mark(node)),
+                    )
+                ]
+            )
+        sizes[id(node)] = size
+
+
 def _walk(node: yaml.Node, path: PathKey, locator: Locator, errors: list[LocatedError]) -> None:
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, yaml.Node] = {}
@@ -127,6 +178,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         node = loader.get_single_node()
         if node is None:
             raise ValidationFailed([LocatedError("file holds no YAML document", loc)])
+        _check_expansion(node, file)
         # Walk before constructing: construction flattens merge keys (<<) in place.
         locator.marks[()] = _mark(node)
         errors: list[LocatedError] = []
@@ -183,6 +235,25 @@ def load_yaml(path: str | Path) -> YamlDocument:
     return load_yaml_text(text, name)
 
 
+# What a value of each shape is called, for "should be ..." when no union branch fits.
+_SHAPES = {
+    "model_type": "a mapping of keys",
+    "model_attributes_type": "a mapping of keys",
+    "dict_type": "a mapping of keys",
+    "list_type": "a list",
+    "tuple_type": "a list",
+    "set_type": "a list",
+    "string_type": "text",
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "bool_type": "true or false",
+    "bool_parsing": "true or false",
+    "none_required": "empty",
+}
+
+
 def describe_error(error: Any) -> str:
     """One pydantic error as a short sentence, e.g. ``unknown key 'x'``."""
     msg = str(error["msg"])
@@ -195,6 +266,9 @@ def describe_error(error: Any) -> str:
     for prefix in ("Value error, ", "Assertion failed, "):
         if msg.startswith(prefix):
             msg = msg[len(prefix) :]
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        # pydantic's own wording names classes ("instance of Motor"): say the shape.
+        msg = f"should be {_SHAPES[kind]}"
     if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
         where = ".".join(str(p) for p in loc if not isinstance(p, int))
         if where:
@@ -202,9 +276,88 @@ def describe_error(error: Any) -> str:
     return msg
 
 
-def pydantic_errors(exc: ValidationError, locator: Locator) -> list[LocatedError]:
-    """Translate pydantic's errors into located ones, in file order."""
-    errors = [locator.error(e["loc"], describe_error(e)) for e in exc.errors()]
+_NO_DATA = object()
+
+
+def _real_path(data: Any, loc: Sequence[str | int], kind: str) -> tuple[PathKey, bool, bool]:
+    """``loc`` without pydantic's union-member tags; whether it had any; whether it ends on one.
+
+    pydantic names the branch of a union it tried inside the location
+    (``list[function-after[_check(), Comparison]]``). Walking the input data
+    tells which elements are real keys and indices; the others are tags, except
+    the last element of a missing or unknown key, which names the key.
+    """
+    if data is _NO_DATA:
+        return tuple(loc), False, False
+    path: list[str | int] = []
+    tagged = ends_on_tag = False
+    current = data
+    for i, element in enumerate(loc):
+        last = i == len(loc) - 1
+        if (isinstance(current, Mapping) and element in current) or (
+            isinstance(current, list)
+            and isinstance(element, int)
+            and not isinstance(element, bool)
+            and 0 <= element < len(current)
+        ):
+            path.append(element)
+            current = current[element]  # type: ignore[index]
+        elif last and kind in ("missing", "extra_forbidden"):
+            path.append(element)
+        else:
+            tagged = True
+            ends_on_tag = last
+    return tuple(path), tagged, ends_on_tag
+
+
+def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tuple[PathKey, str]]:
+    """pydantic's errors as ``(path into data, message)``: one clear message per problem.
+
+    Union branches that failed only because the value has another shape (the
+    list branch of "a comparison or a list of comparisons" given a mapping) are
+    dropped when another branch says what is wrong; when every branch failed on
+    shape, one message says which shapes are allowed. Locations and messages
+    never carry pydantic's internal names.
+
+    Args:
+        exc: The validation error.
+        data: The input that was validated (to tell real keys from union tags);
+            without it every location element is taken as a key.
+    """
+    entries = []
+    for e in exc.errors():
+        kind = str(e.get("type", ""))
+        path, tagged, ends_on_tag = _real_path(data, e["loc"], kind)
+        entries.append((path, tagged and ends_on_tag and kind in _SHAPES, tagged, e))
+    # Paths where some union branch failed on something other than shape.
+    substantive = [path for path, shape, tagged, _ in entries if tagged and not shape]
+    shapes: dict[PathKey, list[str]] = {}
+    for path, shape, _, e in entries:
+        if shape:
+            shapes.setdefault(path, []).append(_SHAPES[str(e["type"])])
+    out: list[tuple[PathKey, str]] = []
+    for path, shape, _, e in entries:
+        if shape:
+            if any(p[: len(path)] == path for p in substantive):
+                continue  # another branch of the same union says what is wrong
+            name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
+            out.append((path, f"{name}: should be {' or '.join(dict.fromkeys(shapes[path]))}"))
+            continue
+        out.append((path, describe_error({**e, "loc": path})))
+    return list(dict.fromkeys(out))
+
+
+def pydantic_errors(
+    exc: ValidationError, locator: Locator, data: Any = _NO_DATA
+) -> list[LocatedError]:
+    """Translate pydantic's errors into located ones, in file order.
+
+    Args:
+        exc: The validation error.
+        locator: Where each path of the file was written.
+        data: The validated input, to tell keys from pydantic's union tags.
+    """
+    errors = [locator.error(path, msg) for path, msg in validation_problems(exc, data)]
     errors.sort(key=lambda e: (e.location.line, e.location.column))
     return unique_errors(errors)
 
@@ -244,7 +397,7 @@ def validate_document(
     try:
         value = model.model_validate(doc.data, context=context)
     except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator)) from None
+        raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data)) from None
     cross_check = getattr(value, "cross_check", None)
     problems: list[tuple[PathKey, str]] = cross_check() if callable(cross_check) else []
     if problems:

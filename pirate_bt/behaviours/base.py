@@ -45,7 +45,7 @@ The contract (mix :class:`NodeMixin` into a ``py_trees`` behaviour, or subclass
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -53,6 +53,7 @@ import py_trees
 from pydantic import BaseModel, ConfigDict
 
 from pirate_bt.clock import Clock, WallClock
+from pirate_bt.safety.verdict import issuing
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -177,6 +178,23 @@ class Leaf(NodeMixin, py_trees.behaviour.Behaviour):
         super().__init__(name=name)
         self.params = params
         self.context = context
+
+    # Every verdict names the node that asked: the node's own code (initialise,
+    # update, terminate) runs inside ``issuing(self)``, so the supervisor learns the
+    # caller without any primitive passing it. The block is left at each yield, so
+    # the rest of the tree never runs under this node's name.
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        steps = super().tick()
+        while True:
+            with issuing(self):
+                node = next(steps, None)
+            if node is None:
+                return
+            yield node
+
+    def stop(self, new_status: py_trees.common.Status = py_trees.common.Status.INVALID) -> None:
+        with issuing(self):
+            super().stop(new_status)
 
 
 class GuardDecorator(NodeMixin, py_trees.decorators.Decorator):

@@ -22,6 +22,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
     plot = subs.add_parser("plot", help="joints, clamps, speed and rotation over time")
     plot.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
     plot.add_argument("-o", "--output", type=Path, required=True, help="picture (.png, .svg)")
+    plot.add_argument(
+        "--from",
+        dest="start",
+        metavar="SECONDS",
+        type=float,
+        help="zoom: start at this many seconds of trace time (adds the PAB steps)",
+    )
+    plot.add_argument(
+        "--to", dest="end", metavar="SECONDS", type=float, help="zoom: end at this time"
+    )
     subs.add_parser("schema", help="print the JSON Schema of one trace record")
 
 
@@ -68,7 +78,8 @@ def _plot(args: argparse.Namespace) -> int:
     from pirate_bt.trace.reader import read_trace
 
     trace = read_trace(args.trace)
-    print(f"plotted {plot_trace(trace, args.output)}")
+    out = plot_trace(trace, args.output, start_s=args.start, end_s=args.end)
+    print(f"plotted {out}")
     return 0
 
 

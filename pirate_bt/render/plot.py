@@ -2,9 +2,18 @@
 
 Four panels share the time axis: bend joint angles (deg), clamp (spring)
 forces (N), mean wheel speed (mm/s) and the rotation between the halves (deg).
-Behind them, the active PAB step is shaded: the step node that was RUNNING at
-each moment, where steps are the nodes marked ``pab_step`` or else the
-children of the root (a PAB tree is a root sequence of steps).
+
+Behind them the run is shaded by **PAB**, named in a strip above the panels.
+Steps are the nodes marked ``pab_step`` (or else the children of the root); a
+PAB is a child of the nodes that hold all the steps (a mission's route
+sequence holds one child per PAB; a single PAB's tree has its steps as PABs).
+A label is written only where it fits: in full, else as the PAB's number
+(listed under the plot), else not at all, so the plot stays legible at any
+mission length. A zoomed plot (``start_s``/``end_s``) adds a second strip with
+the finer steps, labelled by the same rule.
+
+The series are built in one pass over the trace's change records (not over
+rebuilt frames): each tick costs a dictionary update and one row of values.
 
 matplotlib is optional (the ``plot`` extra). It is imported only inside
 :func:`plot_trace`, with the non-interactive Agg backend, so nothing else in the
@@ -14,15 +23,16 @@ library pays for it.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.trace.reader import Trace
+from pirate_bt.trace.structure import NodeInfo, TreeStructure
 
-__all__ = ["PlotSeries", "StepSpan", "plot_series", "plot_trace"]
+__all__ = ["PlotSeries", "StepSpan", "pab_nodes", "plot_series", "plot_trace", "strip_labels"]
 
 _PANELS = (
     ("joint_angle_rad.", "joint angle (deg)", 180.0 / math.pi),
@@ -31,6 +41,9 @@ _PANELS = (
     ("rotation_rad", "rotation (deg)", 180.0 / math.pi),
 )
 _STEP_COLOURS = ("#dbeafe", "#dcfce7", "#fef3c7", "#fce7f3", "#e0e7ff", "#ccfbf1")
+_LABEL_PT = 7.0
+# Width of one character of the label font, in points (a generous average).
+_CHAR_PT = 0.62 * _LABEL_PT
 
 
 @dataclass(frozen=True)
@@ -48,79 +61,265 @@ class PlotSeries:
     """Time series taken from a trace, in SI units.
 
     Attributes:
-        t_s: Time of each sample (one per recorded tick).
+        times: Per series, the times its value changed (within the window; the
+            first is the window's start when the value was known before it).
         values: Series by flat state name (``joint_angle_rad.bend_1``), plus
-            ``speed`` (mean drive speed in m/s); ``nan`` before a value is known.
-        steps: The active PAB steps over time.
+            ``speed`` (mean drive speed in m/s): ``values[k][i]`` holds from
+            ``times[k][i]`` until the next change.
+        steps: The active PAB steps over time (the finer level).
+        pabs: The active PABs over time (the level the plot shades and names).
+        start_s: Start of the window.
+        end_s: End of the window.
     """
 
-    t_s: list[float] = field(default_factory=list)
+    times: dict[str, list[float]] = field(default_factory=dict)
     values: dict[str, list[float]] = field(default_factory=dict)
     steps: list[StepSpan] = field(default_factory=list)
+    pabs: list[StepSpan] = field(default_factory=list)
+    start_s: float = 0.0
+    end_s: float = 0.0
 
 
 def _as_float(value: Any) -> float:
+    if type(value) is float:
+        return value
     try:
         return float(value)
     except (TypeError, ValueError):
         return math.nan
 
 
-def plot_series(trace: Trace) -> PlotSeries:
-    """Collect the series a plot needs from ``trace`` (no matplotlib needed)."""
-    series = PlotSeries()
-    steps = trace.structure.steps()
-    active: tuple[str, str, float] | None = None
-    for frame in trace.frames():
-        if frame.n == 0:
+def pab_nodes(structure: TreeStructure) -> list[NodeInfo]:
+    """The PABs of a tree: the children of the steps' deepest common ancestor that hold steps.
+
+    A mission's route sequence holds one child per PAB; in a single PAB's tree
+    the steps themselves come out (their common ancestor's children are the steps).
+    """
+    steps = structure.steps()
+    if not steps:
+        return []
+    chains = [_ancestry(structure, s) for s in steps]
+    common = 0
+    while all(len(c) > common + 1 for c in chains) and len({c[common] for c in chains}) == 1:
+        common += 1
+    if len({c[common] for c in chains}) == 1:
+        return steps  # one step, or steps nested in one another
+    return [structure.node(i) for i in dict.fromkeys(c[common] for c in chains)]
+
+
+def _ancestry(structure: TreeStructure, node: NodeInfo) -> list[str]:
+    """Ids from the root down to ``node``."""
+    chain: list[str] = []
+    current: str | None = node.id
+    while current is not None:
+        chain.append(current)
+        current = structure.node(current).parent
+    return chain[::-1]
+
+
+class _Spans:
+    """Which of a set of nodes is RUNNING, from status changes, as spans over time."""
+
+    def __init__(self, nodes: list[NodeInfo]) -> None:
+        self.order = {n.id: i for i, n in enumerate(nodes)}
+        self.names = {n.id: n.name for n in nodes}
+        self.running: set[str] = set()
+        self.active: tuple[str, float] | None = None
+        self.spans: list[StepSpan] = []
+
+    def update(self, status: Any, t_s: float) -> None:
+        changed = False
+        for node_id, code in status.items():
+            if node_id in self.order:
+                changed = True
+                if code == "R":
+                    self.running.add(node_id)
+                else:
+                    self.running.discard(node_id)
+        if not changed:
+            return
+        first = min(self.running, key=self.order.__getitem__) if self.running else None
+        if self.active is not None and self.active[0] != first:
+            self.close(t_s)
+        if first is not None and self.active is None:
+            self.active = (first, t_s)
+
+    def close(self, t_s: float) -> None:
+        if self.active is not None:
+            node_id, start = self.active
+            self.spans.append(StepSpan(node_id, self.names[node_id], start, t_s))
+            self.active = None
+
+
+def _clip(spans: list[StepSpan], start_s: float, end_s: float) -> list[StepSpan]:
+    return [
+        StepSpan(s.node, s.name, max(s.start_s, start_s), min(s.end_s, end_s))
+        for s in spans
+        if s.end_s > start_s and s.start_s < end_s
+    ]
+
+
+def plot_series(
+    trace: Trace, start_s: float | None = None, end_s: float | None = None
+) -> PlotSeries:
+    """Collect the series a plot needs from ``trace`` (no matplotlib needed).
+
+    One pass over the trace's change records: a value costs work only when it
+    changes, whatever the length of the run.
+
+    Args:
+        trace: The trace.
+        start_s: Start of the window in seconds of trace time (default: the start).
+        end_s: End of the window (default: the end of the trace).
+    """
+    lo = 0.0 if start_s is None else start_s
+    hi = trace.duration_s if end_s is None else end_s
+    steps = _Spans(trace.structure.steps())
+    pabs = _Spans(pab_nodes(trace.structure))
+    times: dict[str, list[float]] = {}
+    values: dict[str, list[float]] = {}
+    before: dict[str, float] = {}  # the value each key had when the window opens
+    drives: dict[str, float] = {}
+    speed_t: list[float] = []
+    speed_v: list[float] = []
+    for tick in trace.ticks:
+        t = tick.t_s
+        if t > hi:
+            break
+        if tick.status:
+            steps.update(tick.status, t)
+            pabs.update(tick.status, t)
+        changes = tick.state
+        if not changes and not tick.full:
             continue
-        series.t_s.append(frame.t_s)
-        index = len(series.t_s) - 1
-        speeds: list[float] = []
-        for key, value in frame.state.items():
-            number = _as_float(value)
+        if tick.full:
+            drives.clear()
+        moved = False
+        for key, raw in changes.items():
+            value = _as_float(raw)
             if key.startswith("drive_velocity_mps."):
-                speeds.append(number)
-            column = series.values.setdefault(key, [math.nan] * index)
-            column.append(number)
-        speed_column = series.values.setdefault("speed", [math.nan] * index)
-        speed_column.append(sum(speeds) / len(speeds) if speeds else math.nan)
-        for column in series.values.values():
-            if len(column) < index + 1:
-                column.append(column[-1] if column else math.nan)
-        running = next((s for s in steps if frame.status.get(s.id) == "R"), None)
-        if active is not None and (running is None or running.id != active[0]):
-            series.steps.append(StepSpan(active[0], active[1], active[2], frame.t_s))
-            active = None
-        if running is not None and active is None:
-            active = (running.id, running.name, frame.t_s)
-    if active is not None:
-        series.steps.append(StepSpan(active[0], active[1], active[2], trace.duration_s))
+                drives[key] = value
+                moved = True
+            if t < lo:
+                before[key] = value
+                continue
+            column = values.get(key)
+            if column is None:
+                times[key], values[key] = [t], [value]
+            else:
+                times[key].append(t)
+                column.append(value)
+        if moved and drives:
+            mean = math.fsum(drives.values()) / len(drives)
+            if t < lo:
+                before["speed"] = mean
+            else:
+                speed_t.append(t)
+                speed_v.append(mean)
+    if speed_t or "speed" in before:
+        times["speed"], values["speed"] = speed_t, speed_v
+    for key, value in before.items():
+        times.setdefault(key, []).insert(0, lo)
+        values.setdefault(key, []).insert(0, value)
+    steps.close(trace.duration_s)
+    pabs.close(trace.duration_s)
+    series = PlotSeries(times=times, values=values, start_s=lo, end_s=hi)
+    series.steps = _clip(steps.spans, lo, hi)
+    series.pabs = _clip(pabs.spans, lo, hi)
     return series
 
 
-def _shade(axes: Iterable[Any], steps: list[StepSpan]) -> None:
+def _fits(text: str, span_s: float, px_per_s: float, dpi: float) -> bool:
+    return span_s * px_per_s >= (len(text) * _CHAR_PT + 4) * dpi / 72.0
+
+
+def _number(name: str, position: int) -> str:
+    digits = name.split(" ", 1)[0]
+    return digits if digits.isdigit() else str(position)
+
+
+def strip_labels(
+    spans: list[StepSpan], px_per_s: float, dpi: float = 100.0
+) -> list[tuple[StepSpan, str | None]]:
+    """The label each span gets: its name if it fits, else its number, else nothing.
+
+    A span's number is the one its name starts with (a mission's PABs are named
+    ``03 bend right (line 6)``), else its position among the spans.
+
+    Args:
+        spans: The spans, in time order.
+        px_per_s: Pixels per second of the plot's time axis.
+        dpi: The picture's resolution (the label font is sized in points).
+    """
+    out: list[tuple[StepSpan, str | None]] = []
+    for number, span in enumerate(spans, start=1):
+        width = max(span.end_s - span.start_s, 1e-6)
+        if _fits(span.name, width, px_per_s, dpi):
+            out.append((span, span.name))
+        elif _fits(short := _number(span.name, number), width, px_per_s, dpi):
+            out.append((span, short))
+        else:
+            out.append((span, None))
+    return out
+
+
+def _strip(ax: Any, spans: list[StepSpan], px_per_s: float, dpi: float, what: str) -> list[str]:
+    """Draw ``spans`` as labelled bands on a strip axis; return the legend of numbered ones."""
+    ax.set_yticks([])
+    ax.set_ylim(0, 1)
+    ax.set_ylabel(what, fontsize=8, rotation=0, ha="right", va="center")
+    for side in ("top", "right", "left"):
+        ax.spines[side].set_visible(False)
     colours: dict[str, str] = {}
-    for span in steps:
+    legend: list[str] = []
+    for span, label in strip_labels(spans, px_per_s, dpi):
         colour = colours.setdefault(span.node, _STEP_COLOURS[len(colours) % len(_STEP_COLOURS)])
-        for ax in axes:
-            ax.axvspan(span.start_s, max(span.end_s, span.start_s + 1e-6), color=colour, lw=0)
+        width = max(span.end_s - span.start_s, 1e-6)
+        ax.axvspan(span.start_s, span.start_s + width, color=colour, lw=0)
+        ax.axvline(span.start_s, color="0.6", lw=0.5)
+        if label is None:
+            continue
+        if label != span.name:
+            legend.append(span.name if span.name.startswith(label) else f"{label} {span.name}")
+        middle = span.start_s + width / 2
+        ax.text(middle, 0.5, label, ha="center", va="center", fontsize=_LABEL_PT, clip_on=True)
+    return legend
 
 
-def plot_trace(trace: Trace, out: str | Path, title: str | None = None) -> Path:
+def plot_trace(
+    trace: Trace,
+    out: str | Path,
+    title: str | None = None,
+    *,
+    start_s: float | None = None,
+    end_s: float | None = None,
+) -> Path:
     """Draw the joints, clamps, speed and rotation of a run to a PNG (or SVG/PDF) file.
 
     Args:
         trace: The trace, from :func:`~pirate_bt.trace.reader.read_trace`.
         out: The picture's path; the format follows the suffix (``.png`` usually).
         title: A title; defaults to the tree's name and outcome.
+        start_s: Zoom: the first second of trace time to draw (default: the start).
+        end_s: Zoom: the last second (default: the end). A zoomed plot also
+            shows the PAB steps.
 
     Returns:
         ``out`` as a path.
 
     Raises:
         ConfigurationError: matplotlib is not installed.
+        InputError: the window is empty or outside the trace.
     """
+    duration = trace.duration_s
+    lo = 0.0 if start_s is None else start_s
+    hi = duration if end_s is None else end_s
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo < 0 or hi <= lo or lo >= duration:
+        raise InputError(
+            f"plot window {lo:g}-{hi:g} s is empty or outside the trace (0-{duration:g} s)"
+        )
+    hi = min(hi, duration)
+    zoomed = start_s is not None or end_s is not None
     try:
         import matplotlib
 
@@ -130,12 +329,33 @@ def plot_trace(trace: Trace, out: str | Path, title: str | None = None) -> Path:
         raise ConfigurationError(
             "plotting needs matplotlib: pip install 'pirate-bt[plot]'"
         ) from None
-    series = plot_series(trace)
+    series = plot_series(trace, lo, hi)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(len(_PANELS), 1, sharex=True, figsize=(10, 8.5), dpi=100)
+    strips = 2 if zoomed and series.steps != series.pabs else 1
+    ratios = [0.28] * strips + [1.0] * len(_PANELS)
+    dpi = 100.0
+    fig, all_axes = plt.subplots(
+        strips + len(_PANELS),
+        1,
+        sharex=True,
+        figsize=(12, 2.2 + 1.9 * len(_PANELS) + 0.3 * strips),
+        dpi=dpi,
+        gridspec_kw={"height_ratios": ratios, "hspace": 0.08},
+    )
     try:
-        _shade(axes, series.steps)
+        axes = all_axes[strips:]
+        fig.subplots_adjust(left=0.09, right=0.98, top=0.94)
+        plot_px = fig.get_figwidth() * dpi * (0.98 - 0.09)
+        px_per_s = plot_px / max(hi - lo, 1e-9)
+        legend = _strip(all_axes[0], series.pabs, px_per_s, dpi, "PAB")
+        if strips == 2:
+            _strip(all_axes[1], series.steps, px_per_s, dpi, "step")
+        colours: dict[str, str] = {}
+        for span in series.pabs:
+            colour = colours.setdefault(span.node, _STEP_COLOURS[len(colours) % len(_STEP_COLOURS)])
+            for ax in axes:
+                ax.axvspan(span.start_s, max(span.end_s, span.start_s + 1e-6), color=colour, lw=0)
         for ax, (prefix, label, scale) in zip(axes, _PANELS, strict=True):
             keys = sorted(
                 k
@@ -143,28 +363,36 @@ def plot_trace(trace: Trace, out: str | Path, title: str | None = None) -> Path:
                 if k == prefix or (prefix.endswith(".") and k.startswith(prefix))
             )
             for key in keys:
+                # Held until the next change, and to the end of the window.
+                xs = [*series.times[key], hi]
                 ys = [v * scale for v in series.values[key]]
-                ax.plot(series.t_s, ys, lw=1.2, label=key.partition(".")[2] or key)
-            if not keys:
+                ys.append(ys[-1])
+                ax.plot(
+                    xs,
+                    ys,
+                    lw=1.0,
+                    drawstyle="steps-post",
+                    label=key.partition(".")[2] or key,
+                )
+            if not keys or all(math.isnan(v) for k in keys for v in series.values[k]):
                 ax.text(0.5, 0.5, "not recorded", transform=ax.transAxes, ha="center", color="0.5")
             elif len(keys) > 1:
                 ax.legend(loc="upper right", fontsize=7, ncols=min(4, len(keys)))
             ax.set_ylabel(label, fontsize=9)
             ax.grid(True, alpha=0.3)
-        top = axes[0]
-        for span in series.steps:
-            top.annotate(
-                span.name,
-                xy=((span.start_s + span.end_s) / 2, 1.0),
-                xycoords=("data", "axes fraction"),
-                ha="center",
-                va="bottom",
-                fontsize=7,
-                rotation=20,
-            )
+        axes[-1].set_xlim(lo, hi)
         axes[-1].set_xlabel("time (s)")
-        fig.suptitle(title or f"{trace.structure.name}: {trace.outcome}", y=0.995)
-        fig.tight_layout()
+        window = f" ({lo:g}-{hi:g} s)" if zoomed else ""
+        fig.suptitle(title or f"{trace.structure.name}: {trace.outcome}{window}", y=0.99)
+        bottom = 0.06
+        if legend:
+            text = "PABs too short to name here: " + "   ".join(legend)
+            wrapped = textwrap.fill(text, width=int(plot_px / (_CHAR_PT * dpi / 72.0)))
+            lines = wrapped.count("\n") + 1
+            height_in = fig.get_figheight()
+            bottom = 0.06 + lines * (_LABEL_PT + 3) / 72.0 / height_in
+            fig.text(0.09, 0.01, wrapped, fontsize=_LABEL_PT, va="bottom", ha="left")
+        fig.subplots_adjust(bottom=bottom)
         fig.savefig(out)
     finally:
         plt.close(fig)

@@ -22,544 +22,98 @@ can point at ``file:line:column``.
 from __future__ import annotations
 
 import hashlib
-import itertools
-import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from enum import StrEnum
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 from pydantic import (
-    BaseModel,
-    ConfigDict,
     Field,
     PrivateAttr,
     ValidationInfo,
-    field_validator,
     model_validator,
 )
 
-from pirate_bt.units import (
-    Acceleration,
-    Angle,
-    AngularVelocity,
-    Current,
-    Dimensionless,
-    Duration,
-    Force,
-    Length,
-    Torque,
-    Velocity,
+from pirate_bt.robot.configs import (
+    Band,
+    BridgeConfig,
+    ClampConfig,
+    ContactPoint,
+    MotionConfig,
+    SafetyConfig,
+)
+from pirate_bt.robot.parts import (
+    AccelerationMax,
+    AngleRange,
+    AngleSensor,
+    AngularVelocityMax,
+    Board,
+    ControlMode,
+    Conversion,
+    CurrentConversion,
+    Feedback,
+    Half,
+    ImuSensor,
+    LimitPolicy,
+    ModeTable,
+    Module,
+    Motor,
+    MotorFunction,
+    MotorLimits,
+    Name,
+    PositionConversion,
+    PwmConversion,
+    RawRange,
+    Role,
+    Sensor,
+    SensorKind,
+    SpringSensor,
+    TorqueConversion,
+    TorqueMax,
+    VelocityConversion,
+    VelocityMax,
+    _Model,
 )
 
 __all__ = [
+    "AccelerationMax",
+    "AngleRange",
+    "AngleSensor",
+    "AngularVelocityMax",
+    "Band",
     "Board",
     "BridgeConfig",
     "ChannelSpec",
     "ClampConfig",
+    "ContactPoint",
     "ControlMode",
     "Conversion",
+    "CurrentConversion",
+    "Feedback",
     "Half",
+    "ImuSensor",
     "LimitPolicy",
+    "ModeTable",
     "Module",
     "MotionConfig",
     "Motor",
     "MotorFunction",
+    "MotorLimits",
+    "Name",
+    "PositionConversion",
+    "PwmConversion",
+    "RawRange",
     "RobotDescription",
     "Role",
     "SafetyConfig",
     "Sensor",
     "SensorKind",
     "SetpointSlot",
+    "SpringSensor",
+    "TorqueConversion",
+    "TorqueMax",
+    "VelocityConversion",
+    "VelocityMax",
 ]
-
-Name = Annotated[
-    str,
-    Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=40, description="lower_snake_case name"),
-]
-
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
-
-
-class Half(StrEnum):
-    """The two halves of the robot, each a "V" of two bend modules."""
-
-    FRONT = "front"
-    REAR = "rear"
-
-    @property
-    def other(self) -> Half:
-        return Half.REAR if self is Half.FRONT else Half.FRONT
-
-
-class Role(StrEnum):
-    """What a module does; higher layers find modules by role, never by board id."""
-
-    FRONT = "front"
-    BEND = "bend"
-    ROTATIONAL = "rotational"
-    REAR = "rear"
-
-
-class MotorFunction(StrEnum):
-    """What a motor moves."""
-
-    BEND = "bend"
-    DRIVE = "drive"
-    ROTATE = "rotate"
-    TILT = "tilt"
-    CAMERA_TILT = "camera_tilt"
-    CAMERA_PAN = "camera_pan"
-    LEDS = "leds"
-
-
-class ControlMode(StrEnum):
-    """How a PICO board drives a motor (the board closes the loop)."""
-
-    PWM = "pwm"
-    TORQUE = "torque"
-    POSITION = "position"
-    VELOCITY = "velocity"
-
-
-class SensorKind(StrEnum):
-    """What a sensor measures; fixes the dimension of its conversion."""
-
-    ANGLE = "angle"
-    SPRING = "spring"
-    IMU = "imu"
-
-
-class LimitPolicy(StrEnum):
-    """What the protective layer does with a command outside a limit."""
-
-    CLIP = "clip"
-    REFUSE = "refuse"
-
-
-RawRange = Annotated[
-    tuple[int, int],
-    Field(description="[min, max] raw integer range on the wire (int16)"),
-]
-
-
-def _check_raw_range(raw: tuple[int, int]) -> tuple[int, int]:
-    lo, hi = raw
-    if not -32768 <= lo < hi <= 32767:
-        raise ValueError(f"raw range [{lo}, {hi}] must be increasing and fit in int16")
-    return raw
-
-
-def _check_zero_raw(zero_raw: int, info: ValidationInfo) -> int:
-    raw = info.data.get("raw")
-    if raw is not None and not raw[0] <= zero_raw <= raw[1]:
-        raise ValueError(f"zero_raw {zero_raw} lies outside the raw range [{raw[0]}, {raw[1]}]")
-    return zero_raw
-
-
-class Conversion(_Model):
-    """Linear raw<->SI conversion: ``si = (raw - zero_raw) * per_raw``."""
-
-    raw: RawRange
-    """[min, max] raw integer range on the wire (int16)"""
-    zero_raw: int = Field(0, description="raw value that means zero")
-    per_raw: float = Field(description="SI value of one raw step, with its unit")
-
-    _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
-    _zero_ok = field_validator("zero_raw")(
-        classmethod(lambda cls, v, info: _check_zero_raw(v, info))
-    )
-
-    @field_validator("per_raw")
-    @classmethod
-    def _per_raw_ok(cls, value: float) -> float:
-        if value == 0 or not math.isfinite(value):
-            raise ValueError("per_raw must be a non-zero finite quantity")
-        return value
-
-    def to_si(self, raw: int) -> float:
-        """The SI value of a raw reading."""
-        return (raw - self.zero_raw) * self.per_raw
-
-    def to_raw(self, value_si: float) -> int:
-        """The nearest raw value, saturated to the raw range."""
-        raw = round(value_si / self.per_raw + self.zero_raw)
-        lo, hi = self.raw
-        return lo if raw < lo else hi if raw > hi else raw
-
-    @property
-    def si_range(self) -> tuple[float, float]:
-        a, b = self.to_si(self.raw[0]), self.to_si(self.raw[1])
-        return (a, b) if a <= b else (b, a)
-
-
-class PwmConversion(Conversion):
-    """PWM duty: ``per_raw`` is the duty fraction of one raw step (e.g. ``0.392 %``)."""
-
-    per_raw: Dimensionless
-    """duty fraction of one raw step, e.g. `0.392 %`"""
-
-
-class TorqueConversion(Conversion):
-    """Torque setpoint: ``per_raw`` in N·m per raw step."""
-
-    per_raw: Torque
-    """torque of one raw step, e.g. `1 mN*m`"""
-
-
-class PositionConversion(Conversion):
-    """Position setpoint or angle reading: ``per_raw`` is an angle per raw step."""
-
-    per_raw: Angle
-    """angle of one raw step, e.g. `0.0879 deg`"""
-
-
-class VelocityConversion(Conversion):
-    """Wheel velocity: ``per_raw`` in m/s per raw step."""
-
-    per_raw: Velocity
-    """speed of one raw step, e.g. `0.1 mm/s`"""
-
-
-class CurrentConversion(Conversion):
-    """Motor current: ``per_raw`` in A per raw step."""
-
-    per_raw: Current
-    """current of one raw step, e.g. `4 mA`"""
-
-
-class ModeTable(_Model):
-    """The control modes a motor accepts, each with its raw range and conversion."""
-
-    pwm: PwmConversion | None = None
-    """open-loop duty cycle"""
-    torque: TorqueConversion | None = None
-    """torque setpoint (clamping)"""
-    position: PositionConversion | None = None
-    """angle setpoint, closed on the board"""
-    velocity: VelocityConversion | None = None
-    """wheel speed setpoint, closed on the board"""
-
-    def get(self, mode: ControlMode) -> Conversion | None:
-        value: Conversion | None = getattr(self, mode.value)
-        return value
-
-    def available(self) -> list[ControlMode]:
-        return [m for m in ControlMode if self.get(m) is not None]
-
-
-class _Limit(_Model):
-    policy: LimitPolicy = Field(
-        LimitPolicy.REFUSE, description="clip the command to the limit, or refuse it"
-    )
-
-
-class AngleRange(_Limit):
-    """Allowed joint angle range."""
-
-    min: Angle
-    """lower end"""
-    max: Angle
-    """upper end"""
-
-    @model_validator(mode="after")
-    def _order(self) -> AngleRange:
-        if self.min >= self.max:
-            raise ValueError("angle limit: min must be below max")
-        return self
-
-
-class TorqueMax(_Limit):
-    """Largest torque magnitude."""
-
-    max: Torque = Field(gt=0)
-    """largest torque magnitude"""
-
-
-class VelocityMax(_Limit):
-    """Largest linear speed (drive motors)."""
-
-    max: Velocity = Field(gt=0)
-    """largest speed"""
-
-
-class AngularVelocityMax(_Limit):
-    """Largest joint speed; also the largest rate of change of a position setpoint."""
-
-    max: AngularVelocity = Field(gt=0)
-    """largest joint speed"""
-
-
-class AccelerationMax(_Limit):
-    """Largest rate of change of a velocity setpoint."""
-
-    max: Acceleration = Field(gt=0)
-    """largest acceleration"""
-
-
-class MotorLimits(_Model):
-    """Hard limits the protective layer enforces, each with its policy."""
-
-    angle: AngleRange | None = None
-    """joint angle range"""
-    torque: TorqueMax | None = None
-    """largest torque"""
-    velocity: VelocityMax | None = None
-    """largest wheel speed (drive motors)"""
-    angular_velocity: AngularVelocityMax | None = None
-    """largest joint speed / setpoint rate"""
-    acceleration: AccelerationMax | None = None
-    """largest change of a velocity setpoint per second"""
-
-
-class Feedback(_Model):
-    """Readings a motor's H-bridge reports back."""
-
-    velocity: VelocityConversion | None = Field(None, description="measured wheel speed")
-    current: CurrentConversion | None = Field(None, description="measured motor current")
-
-
-class Motor(_Model):
-    """One motor on a board slot."""
-
-    slot: int = Field(ge=0, le=1, description="motor connector on the PICO board (0 or 1)")
-    name: Name
-    """unique lower_snake_case name"""
-    function: MotorFunction
-    """what the motor moves"""
-    modes: ModeTable
-    """control modes the board offers for this motor"""
-    limits: MotorLimits = MotorLimits()
-    """hard limits enforced by the protective layer"""
-    feedback: Feedback = Feedback()
-    """readings the H-bridge reports back"""
-    assumption: bool = Field(False, description="true when the values are not public")
-
-    @model_validator(mode="after")
-    def _has_mode(self) -> Motor:
-        if not self.modes.available():
-            raise ValueError(f"motor {self.name!r} declares no control mode")
-        return self
-
-
-class _Sensor(_Model):
-    slot: int = Field(ge=0, le=1, description="sensor connector on the PICO board (0 or 1)")
-    name: Name
-    """unique lower_snake_case name"""
-    raw: RawRange
-    """[min, max] raw integer range on the wire (int16)"""
-    zero_raw: int = 0
-    """raw value that means zero"""
-    period: Duration = Field(gt=0, description="expected time between fresh readings")
-    assumption: bool = False
-    """true when the values are not public"""
-
-    _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
-    _zero_ok = field_validator("zero_raw")(
-        classmethod(lambda cls, v, info: _check_zero_raw(v, info))
-    )
-
-    def conversion(self) -> Conversion:
-        raise NotImplementedError
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return ("value",)
-
-    def channel_names(self) -> list[str]:
-        """State-frame channel names: ``name`` or ``name.channel``."""
-        chans = self.channels
-        return [self.name] if chans == ("value",) else [f"{self.name}.{c}" for c in chans]
-
-
-class AngleSensor(_Sensor):
-    """A joint or module angle encoder."""
-
-    kind: Literal[SensorKind.ANGLE]
-    """an angle encoder"""
-    per_raw: Angle
-    """angle of one raw step, e.g. `0.0879 deg`"""
-
-    def conversion(self) -> Conversion:
-        return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
-
-
-class SpringSensor(_Sensor):
-    """A spring deflection sensor that reads the wheel's normal force."""
-
-    kind: Literal[SensorKind.SPRING]
-    """a spring (normal force) sensor"""
-    per_raw: Force
-    """force of one raw step, e.g. `50 mN`"""
-
-    def conversion(self) -> Conversion:
-        return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
-
-
-class ImuSensor(_Sensor):
-    """An inertial unit reporting roll, pitch and yaw of its module."""
-
-    kind: Literal[SensorKind.IMU]
-    """an inertial unit"""
-    per_raw: Angle
-    """angle of one raw step, e.g. `0.0879 deg`"""
-    axes: tuple[str, ...] = ("roll", "pitch", "yaw")
-    """channel names, one int16 each"""
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return self.axes
-
-    def conversion(self) -> Conversion:
-        return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
-
-
-Sensor = Annotated[AngleSensor | SpringSensor | ImuSensor, Field(discriminator="kind")]
-
-
-class Board(_Model):
-    """A PICO board: up to two motors and two sensors, on one module."""
-
-    id: int = Field(ge=1, le=254, description="RS485 address of the board")
-    module: Name = Field(description="name of the module the board sits in")
-    motors: list[Motor] = Field(default_factory=list, max_length=2)
-    """motors on slots 0 and 1"""
-    sensors: list[Sensor] = Field(default_factory=list, max_length=2)
-    """sensors on slots 0 and 1"""
-
-
-class Module(_Model):
-    """One module of the chain, front to rear."""
-
-    name: Name
-    """unique lower_snake_case name"""
-    role: Role
-    """what the module does"""
-    half: Half | None = Field(
-        description="the half the module belongs to; null for the rotational module"
-    )
-    length: Length = Field(gt=0, description="length along the pipe axis")
-    wheel_radius: Length | None = Field(None, gt=0)
-    """drive wheel radius (modules with wheels)"""
-    assumption: bool = False
-    """true when the values are not public"""
-
-
-class ContactPoint(_Model):
-    """Joint angle at which the wheels touch the wall, for one pipe diameter."""
-
-    diameter: Length = Field(gt=0)
-    """internal pipe diameter"""
-    angle: Angle = Field(gt=0)
-    """joint angle at wall contact"""
-
-
-class Band(_Model):
-    """An angle band [min, max]."""
-
-    min: Angle
-    """lower end"""
-    max: Angle
-    """upper end"""
-
-    @model_validator(mode="after")
-    def _order(self) -> Band:
-        if self.min >= self.max:
-            raise ValueError("band: min must be below max")
-        return self
-
-    def contains(self, angle_rad: float) -> bool:
-        return self.min <= angle_rad <= self.max
-
-
-class ClampConfig(_Model):
-    """How a half clamps: joint torque presses the wheels against the wall."""
-
-    nominal_band: Band = Field(description="joint angles at which a clamp counts as nominal")
-    min_torque: Torque = Field(gt=0, description="least joint torque that holds a clamp")
-    lever_arm: Length = Field(gt=0, description="normal force = joint torque / lever arm")
-    contact_angles: list[ContactPoint] = Field(
-        min_length=2, description="wall-contact joint angle against pipe diameter (interpolated)"
-    )
-    unclamped_below: Angle = Field(description="joint angle below which a half is unclamped")
-    front_clear_angle: Angle = Field(
-        description="front tilt angle that moves the front module clear before a front clamp"
-    )
-    assumption: bool = False
-    """true when the values are not public"""
-
-    def contact_angle(self, diameter_m: float) -> float:
-        """Wall-contact angle for a pipe diameter, linearly interpolated and held at the ends."""
-        pts = self.contact_angles
-        if diameter_m <= pts[0].diameter:
-            return pts[0].angle
-        for a, b in itertools.pairwise(pts):
-            if diameter_m <= b.diameter:
-                t = (diameter_m - a.diameter) / (b.diameter - a.diameter)
-                return a.angle + t * (b.angle - a.angle)
-        return pts[-1].angle
-
-
-class MotionConfig(_Model):
-    """Motion and physics parameters shared by the simulator and the protective layer."""
-
-    nominal_speed: Velocity = Field(gt=0)
-    """cruise speed of a straight run"""
-    friction_coefficient: Dimensionless = Field(gt=0, le=2)
-    """wheel-wall friction; traction = friction x normal force"""
-    alignment_tolerance: Angle = Field(gt=0, description="bend-plane alignment needed at a bend")
-    steer_angle: Angle = Field(gt=0, description="joint angle that counts as steered into a bend")
-    max_unclamped_slope: Angle = Field(
-        ge=0, description="steepest pipe in which both halves may be unclamped"
-    )
-    over_torque_time: Duration = Field(gt=0, description="time above torque limit = damage")
-    weight: Force = Field(15.0, gt=0, description="robot weight (gravity load on slopes)")
-    drive_free_current: Current = Field(0.15, ge=0, description="drive current, wheels free")
-    drive_stall_current: Current = Field(1.5, gt=0, description="drive current, wheels blocked")
-    position_hold_torque: Torque = Field(
-        0.4, gt=0, description="torque a position-mode joint presses with when held by the wall"
-    )
-    slide_speed: Velocity = Field(0.2, gt=0, description="speed of an unclamped robot sliding")
-    assumption: bool = False
-    """true when the values are not public"""
-
-
-class SafetyConfig(_Model):
-    """Parameters of the protective layer (``pirate_bt.safety``); every field has a default."""
-
-    stale_after_periods: float = Field(
-        10.0, gt=1, description="a reading older than this many sensor periods is stale"
-    )
-    max_link_silence: Duration = Field(
-        0.5, gt=0, description="longest time without a valid frame before the link counts as lost"
-    )
-    max_refusals: int = Field(
-        5, ge=1, description="consecutive refused tree commands that put the robot in safe state"
-    )
-    rate_window: Duration = Field(
-        0.1, gt=0, description="longest time step a rate-of-change limit allows in one command"
-    )
-    angle_tolerance: Angle = Field(
-        0.03, ge=0, description="slack on clamp-contact and front-clear angle comparisons"
-    )
-    release_force_fraction: Dimensionless = Field(
-        0.2, ge=0, le=1, description="below this share of the minimum clamp force a half is free"
-    )
-    clamp_force_fraction: Dimensionless = Field(
-        0.9, gt=0, le=1, description="from this share of the minimum clamp force a half holds"
-    )
-
-
-class BridgeConfig(_Model):
-    """The PIRATEbay bridge and its serial line."""
-
-    baud: int = Field(115200, ge=1200, le=4_000_000)
-    """serial line speed (bit/s)"""
-    state_period: Duration = Field(gt=0, description="time between state frames")
-    watchdog: Duration = Field(gt=0, description="bridge stops drives when the host is silent")
-    reset_time: Duration = Field(ge=0, description="Arduino reset after DTR toggles on open")
 
 
 @dataclass(frozen=True, slots=True)

@@ -143,9 +143,10 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     """A half's clamp state from its sensors alone.
 
     With spring sensors on every bend module of the half, the normal force decides:
-    at least ``clamp_force_fraction`` of the minimum clamp force (``min_torque /
-    lever_arm``) on every wheel with every joint at or beyond the smallest
-    wall-contact angle is clamped; below ``release_force_fraction`` of it
+    at least the holding force (``min_torque / lever_arm``: the simulator's own
+    threshold, see :meth:`~pirate_bt.robot.description.ClampConfig.holds_force`)
+    on every wheel with every joint at or beyond the smallest wall-contact angle
+    is clamped; below ``release_force_fraction`` of it
     everywhere is unclamped. Without springs the joint angles decide: all beyond
     the smallest contact angle is clamped, all below ``unclamped_below`` is
     unclamped. Anything else is transitioning.
@@ -166,9 +167,9 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     at_wall = all(a >= contact_min for a in angles) and len(signs) <= 1
     forces = [state.clamp_force_n.get(name) for name in modules]
     if all(f is not None for f in forces) and forces:
-        min_force = clamp.min_torque / clamp.lever_arm
+        min_force = clamp.holding_force_n
         values = [abs(f) for f in forces if f is not None]
-        if at_wall and all(f >= robot.safety.clamp_force_fraction * min_force for f in values):
+        if at_wall and all(clamp.holds_force(f) for f in values):
             return ClampState.CLAMPED
         if all(f < robot.safety.release_force_fraction * min_force for f in values):
             return ClampState.UNCLAMPED

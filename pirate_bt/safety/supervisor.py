@@ -29,7 +29,6 @@ and latches until an operator resets it.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 import threading
@@ -43,12 +42,7 @@ from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
-    LimitPolicy,
-    Motor,
-    MotorFunction,
     RobotDescription,
-    Role,
-    SensorKind,
 )
 from pirate_bt.robot.port import LinkHealth, RobotPort
 from pirate_bt.robot.state import RobotState
@@ -58,9 +52,7 @@ from pirate_bt.safety.checks import (
     CheckContext,
     ClampState,
     HalfTarget,
-    Intent,
     Problem,
-    front_tilt_channel,
     half_states,
     stale_channels,
 )
@@ -70,12 +62,13 @@ from pirate_bt.safety.commands import (
     Command,
     Drive,
     MoveFrontClear,
-    Raw,
     Rotate,
     Stop,
     Tilt,
     Unclamp,
 )
+from pirate_bt.safety.expand import Expander
+from pirate_bt.safety.limits import limit
 from pirate_bt.safety.operator import (
     Confirm,
     Confirmation,
@@ -90,7 +83,16 @@ from pirate_bt.safety.operator import (
     SafeStop,
     SetMode,
 )
-from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict, VerdictListener, VerdictLog
+from pirate_bt.safety.verdict import (
+    Outcome,
+    Reason,
+    Source,
+    Verdict,
+    VerdictListener,
+    VerdictLog,
+    current_issuer,
+    node_path,
+)
 
 if TYPE_CHECKING:
     from pirate_bt.sim import Simulator
@@ -109,10 +111,6 @@ _AUTHORITY = frozenset(
         Reason.NOT_CONFIRMED,
         Reason.OPERATOR_NOT_IN_CONTROL,
     }
-)
-# Motor functions whose commands no invariant is about (lights, cameras).
-_FREE_FUNCTIONS = frozenset(
-    {MotorFunction.LEDS, MotorFunction.CAMERA_TILT, MotorFunction.CAMERA_PAN}
 )
 
 
@@ -157,8 +155,8 @@ class Supervisor:
         self._decided: dict[str, Confirmation] = {}
         self._granted: set[str] = set()
         self._lock = threading.RLock()
-        self._tilt_channel = front_tilt_channel(self.robot)
-        self._base_channels = self._safety_channels()
+        self._expander = Expander(self.robot)
+        self._base_channels = self._expander.base_channels
         self._closed = False
         self.simulator: Simulator | None = None
         """The in-process simulator behind the port, when there is one."""
@@ -548,7 +546,17 @@ class Supervisor:
 
     def _record(self, verdict: Verdict) -> Verdict:
         self._seq += 1
-        verdict = replace(verdict, seq=self._seq, tick=self._tick, stamp_s=self.clock.now())
+        # A node whose code is running asked for this (or, for a supervisor stop, caused it).
+        issuer = current_issuer() if verdict.source is not Source.OPERATOR else None
+        node, node_name = node_path(issuer) if issuer is not None else (None, None)
+        verdict = replace(
+            verdict,
+            seq=self._seq,
+            tick=self._tick,
+            stamp_s=self.clock.now(),
+            node=node,
+            node_name=node_name,
+        )
         self.verdicts.append(verdict)
         if verdict.source is Source.TREE:
             if verdict.ok:
@@ -615,7 +623,7 @@ class Supervisor:
             return self._refuse(command, source, problem.reason, problem.detail)
         # 3. expansion
         state = self.port.state()
-        expanded = self._expand(command, state)
+        expanded = self._expander.expand(command, state)
         if isinstance(expanded, Problem):
             return self._refuse(command, source, expanded.reason, expanded.detail)
         intent = expanded
@@ -644,7 +652,7 @@ class Supervisor:
         out: list[MotorCommand] = []
         clips: list[tuple[Reason, str]] = []
         for mc in intent.motor_commands:
-            limited = self._limit(mc, state, now)
+            limited = limit(self.robot, self._last_setpoint, mc, state, now)
             if isinstance(limited, Problem):
                 return self._refuse(command, source, limited.reason, limited.detail)
             value, notes = limited
@@ -677,299 +685,3 @@ class Supervisor:
                 clips=tuple(r for r, _ in clips),
             )
         return Verdict(Outcome.PASS, command, source, sent=sent)
-
-    # -- expansion: high-level command -> intent ------------------------------
-
-    def _safety_channels(self) -> tuple[str, ...]:
-        """Channels every motion decision relies on: joints, springs, IMU pitch."""
-        names: list[str] = []
-        for module in self.robot.all_bend_modules():
-            names.append(self.robot.sensor_of(module.name, SensorKind.ANGLE).name)
-            with contextlib.suppress(KeyError):
-                names.append(self.robot.sensor_of(module.name, SensorKind.SPRING).name)
-        imu = self.robot.imu()
-        if imu is not None and "pitch" in imu.axes:
-            names.append(f"{imu.name}.pitch")
-        return tuple(names)
-
-    def _rotation_channel(self) -> str:
-        return self.robot.sensor_of(self.robot.rotational_module().name, SensorKind.ANGLE).name
-
-    def _half_commands(
-        self, half: Half, mode: ControlMode, value: float
-    ) -> tuple[MotorCommand, ...]:
-        return tuple(
-            MotorCommand(self.robot.joint_motor(m.name).name, mode, value)
-            for m in self.robot.bend_modules(half)
-        )
-
-    def _presses(self, half: Half, mode: ControlMode, value: float) -> frozenset[Half]:
-        """``{half}`` when a bend setpoint may push the half's wheels on the wall."""
-        if mode is ControlMode.TORQUE:
-            return frozenset({half}) if value != 0.0 else frozenset()
-        wall = min(p.angle for p in self.robot.clamp.contact_angles)
-        if abs(value) >= wall - self.robot.safety.angle_tolerance:
-            return frozenset({half})
-        return frozenset()
-
-    def _reverses(
-        self, half: Half, modules: list[str], torque_nm: float, state: RobotState | None
-    ) -> frozenset[Half]:
-        """``{half}`` when a torque would swing a joint across to the other side.
-
-        A joint bent one way that is driven the other way leaves the wall on its way
-        across, so the half lets go before it clamps again: that is a release too.
-        Without a reading the worst case is assumed.
-        """
-        tol = self.robot.safety.angle_tolerance
-        for name in modules:
-            angle = state.joint_angle_rad.get(name) if state is not None else None
-            if angle is None or (abs(angle) > tol and angle * torque_nm < 0):
-                return frozenset({half})
-        return frozenset()
-
-    def _front_channels(self, presses: frozenset[Half]) -> tuple[str, ...]:
-        """The front tilt channel when the front half may press the wall (checked fresh)."""
-        return (self._tilt_channel,) if Half.FRONT in presses and self._tilt_channel else ()
-
-    def _expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
-        base = self._base_channels
-        values = [
-            getattr(command, f)
-            for f in ("torque_nm", "velocity_mps", "angle_rad")
-            if hasattr(command, f)
-        ]
-        if isinstance(command, Raw):
-            values.append(command.command.value)
-        if not all(math.isfinite(v) for v in values):
-            return Problem(Reason.NOT_FINITE, "command values must be finite numbers")
-        match command:
-            case Clamp(half, torque):
-                if torque < self.robot.clamp.min_torque:
-                    return Problem(
-                        Reason.CLAMP_TORQUE_TOO_LOW,
-                        f"clamp torque {torque:g} N·m is below the minimum that holds"
-                        f" ({self.robot.clamp.min_torque:g} N·m)",
-                    )
-                chans = base + (
-                    (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
-                )
-                modules = [m.name for m in self.robot.bend_modules(half)]
-                return Intent(
-                    command,
-                    self._half_commands(half, ControlMode.TORQUE, torque),
-                    clamps=frozenset({half}),
-                    releases=self._reverses(half, modules, torque, state),
-                    channels=chans,
-                )
-            case Unclamp(half, angle):
-                return Intent(
-                    command,
-                    self._half_commands(half, ControlMode.POSITION, angle),
-                    releases=frozenset({half}),
-                    presses=(presses := self._presses(half, ControlMode.POSITION, angle)),
-                    channels=base + self._front_channels(presses),
-                )
-            case Bend(module, angle):
-                try:
-                    mod = self.robot.module(module)
-                    motor = self.robot.joint_motor(module)
-                except KeyError:
-                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
-                if mod.role is not Role.BEND or mod.half is None:
-                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
-                return Intent(
-                    command,
-                    (MotorCommand(motor.name, ControlMode.POSITION, angle),),
-                    releases=frozenset({mod.half}),
-                    presses=(presses := self._presses(mod.half, ControlMode.POSITION, angle)),
-                    channels=base + self._front_channels(presses),
-                )
-            case Rotate(angle):
-                return Intent(
-                    command,
-                    (MotorCommand(self.robot.rotate_motor().name, ControlMode.POSITION, angle),),
-                    rotates=True,
-                    channels=(*base, self._rotation_channel()),
-                )
-            case Tilt(angle):
-                return self._tilt_intent(command, angle)
-            case MoveFrontClear(sign):
-                angle = math.copysign(self.robot.clamp.front_clear_angle, sign or 1)
-                return self._tilt_intent(command, angle)
-            case Drive(v):
-                cmds = tuple(
-                    MotorCommand(m.name, ControlMode.VELOCITY, v) for m in self.robot.drive_motors()
-                )
-                return Intent(command, cmds, drive_mps=v, stop=v == 0.0, channels=base)
-            case Raw(mc):
-                return self._raw_intent(command, mc, state)
-        return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # pragma: no cover
-
-    def _tilt_motor(self) -> Motor | None:
-        try:
-            return self.robot.motor_of(self.robot.modules[0].name, MotorFunction.TILT)
-        except KeyError:
-            return None
-
-    def _tilt_intent(self, command: Command, angle: float) -> Intent | Problem:
-        motor = self._tilt_motor()
-        if motor is None or self._tilt_channel is None:
-            return Problem(Reason.UNKNOWN_TARGET, "this robot has no front tilt motor")
-        return Intent(
-            command,
-            (MotorCommand(motor.name, ControlMode.POSITION, angle),),
-            front_tilt_rad=angle,
-            channels=(*self._base_channels, self._tilt_channel),
-        )
-
-    def _raw_intent(
-        self, command: Raw, mc: MotorCommand, state: RobotState | None
-    ) -> Intent | Problem:
-        try:
-            motor = self.robot.motor(mc.motor)
-        except KeyError:
-            return Problem(Reason.UNKNOWN_TARGET, f"unknown motor {mc.motor!r}")
-        if motor.modes.get(mc.mode) is None:
-            return Problem(Reason.MODE_NOT_ALLOWED, f"motor {motor.name!r} has no {mc.mode} mode")
-        fn = motor.function
-        if fn in _FREE_FUNCTIONS:
-            return Intent(command, (mc,))
-        base = self._base_channels
-        allowed = {
-            MotorFunction.BEND: (ControlMode.TORQUE, ControlMode.POSITION),
-            MotorFunction.DRIVE: (ControlMode.VELOCITY,),
-            MotorFunction.ROTATE: (ControlMode.POSITION,),
-            MotorFunction.TILT: (ControlMode.POSITION,),
-        }[fn]
-        if mc.mode not in allowed:
-            return Problem(
-                Reason.MODE_NOT_ALLOWED,
-                f"{fn} motor {motor.name!r} accepts only"
-                f" {', '.join(m.value for m in allowed)} through the supervisor",
-            )
-        if fn is MotorFunction.BEND:
-            half = self.robot.module_of(motor.name).half
-            assert half is not None
-            presses = self._presses(half, mc.mode, mc.value)
-            chans = base + self._front_channels(presses)
-            # A joint presses the wall in either sign: a negative torque clamps too, but a
-            # torque against the side the joint is on swings it off the wall first.
-            if mc.mode is ControlMode.TORQUE and abs(mc.value) >= self.robot.clamp.min_torque:
-                module = self.robot.module_of(motor.name).name
-                return Intent(
-                    command,
-                    (mc,),
-                    clamps=frozenset({half}),
-                    releases=self._reverses(half, [module], mc.value, state),
-                    presses=presses,
-                    channels=chans,
-                )
-            return Intent(
-                command, (mc,), releases=frozenset({half}), presses=presses, channels=chans
-            )
-        if fn is MotorFunction.DRIVE:
-            return Intent(command, (mc,), drive_mps=mc.value, stop=mc.value == 0.0, channels=base)
-        if fn is MotorFunction.ROTATE:
-            return Intent(command, (mc,), rotates=True, channels=(*base, self._rotation_channel()))
-        intent = self._tilt_intent(command, mc.value)
-        return intent if isinstance(intent, Problem) else replace(intent, motor_commands=(mc,))
-
-    # -- static limits ------------------------------------------------------------
-
-    def _measured(self, motor: Motor, state: RobotState | None) -> float | None:
-        if state is None:
-            return None
-        fn = motor.function
-        if fn is MotorFunction.BEND:
-            return state.joint_angle_rad.get(self.robot.module_of(motor.name).name)
-        if fn is MotorFunction.ROTATE:
-            return state.rotation_rad
-        if fn is MotorFunction.TILT:
-            return state.front_tilt_rad
-        if fn is MotorFunction.CAMERA_TILT:
-            return state.camera_tilt_rad
-        if fn is MotorFunction.CAMERA_PAN:
-            return state.camera_pan_rad
-        if fn is MotorFunction.DRIVE:
-            return state.drive_velocity_mps.get(motor.name)
-        return None
-
-    def _limit(
-        self, mc: MotorCommand, state: RobotState | None, now: float
-    ) -> tuple[float, list[tuple[Reason, str]]] | Problem:
-        """Apply every static limit of ``mc``'s motor: ``(value, clips)`` or a refusal."""
-        motor = self.robot.motor(mc.motor)
-        lim = motor.limits
-        value = mc.value
-        notes: list[tuple[Reason, str]] = []
-
-        def bound(
-            reason: Reason, policy: LimitPolicy, lo: float, hi: float, what: str
-        ) -> Problem | None:
-            nonlocal value
-            if lo <= value <= hi:
-                return None
-            text = f"{motor.name}: {what} {value:g} outside [{lo:g}, {hi:g}]"
-            if policy is LimitPolicy.REFUSE:
-                return Problem(reason, text)
-            value = min(max(value, lo), hi)
-            notes.append((reason, f"{text}, clipped to {value:g}"))
-            return None
-
-        window = self.robot.safety.rate_window
-        last = self._last_setpoint.get(mc.motor)
-        if last is not None and last[0] is mc.mode:
-            reference: float | None = last[1]
-            dt = min(max(now - last[2], 0.0), window)
-        else:
-            reference = self._measured(motor, state)
-            dt = window
-        problem: Problem | None = None
-        if mc.mode is ControlMode.POSITION:
-            if lim.angle is not None:
-                problem = bound(
-                    Reason.ANGLE_LIMIT, lim.angle.policy, lim.angle.min, lim.angle.max, "angle"
-                )
-            if problem is None and lim.angular_velocity is not None and reference is not None:
-                step = lim.angular_velocity.max * dt
-                problem = bound(
-                    Reason.ANGULAR_RATE_LIMIT,
-                    lim.angular_velocity.policy,
-                    reference - step,
-                    reference + step,
-                    f"angle step from {reference:g} in {dt:g} s: target",
-                )
-        elif mc.mode is ControlMode.TORQUE:
-            if lim.torque is not None:
-                problem = bound(
-                    Reason.TORQUE_LIMIT,
-                    lim.torque.policy,
-                    -lim.torque.max,
-                    lim.torque.max,
-                    "torque",
-                )
-        elif mc.mode is ControlMode.VELOCITY:
-            if lim.velocity is not None:
-                problem = bound(
-                    Reason.VELOCITY_LIMIT,
-                    lim.velocity.policy,
-                    -lim.velocity.max,
-                    lim.velocity.max,
-                    "velocity",
-                )
-            ref = reference or 0.0
-            # Slowing down is never limited: stopping must always be possible.
-            speeding = abs(value) > abs(ref) or (value * ref < 0)
-            if problem is None and lim.acceleration is not None and speeding:
-                step = lim.acceleration.max * dt
-                problem = bound(
-                    Reason.ACCELERATION_LIMIT,
-                    lim.acceleration.policy,
-                    ref - step,
-                    ref + step,
-                    f"velocity change from {ref:g} in {dt:g} s: target",
-                )
-        if problem is not None:
-            return problem
-        return value, notes

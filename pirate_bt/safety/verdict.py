@@ -6,6 +6,11 @@ and in traces) and a sentence for people. A clip carries the commands as they
 were actually sent. Every verdict is logged on the ``pirate_bt.safety`` logger
 and appended to a bounded :class:`VerdictLog`, which the trace reads with
 :meth:`VerdictLog.since` or by subscribing a listener.
+
+A verdict on a tree's command names the node that asked for it: the behaviour
+layer runs each node's own code inside :func:`issuing` (a context variable, so
+no primitive passes anything by hand), and the supervisor stamps the node's
+path onto the verdict.
 """
 
 from __future__ import annotations
@@ -13,15 +18,69 @@ from __future__ import annotations
 import logging
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.safety.commands import Command, describe
 
-__all__ = ["Outcome", "Reason", "Source", "Verdict", "VerdictListener", "VerdictLog"]
+__all__ = [
+    "Outcome",
+    "Reason",
+    "Source",
+    "Verdict",
+    "VerdictListener",
+    "VerdictLog",
+    "current_issuer",
+    "issuing",
+    "node_path",
+]
 
 log = logging.getLogger("pirate_bt.safety")
+
+_ISSUER: ContextVar[Any] = ContextVar("pirate_bt_issuer", default=None)
+
+
+@contextmanager
+def issuing(node: Any) -> Iterator[None]:
+    """Run a block on behalf of ``node``: verdicts given inside it name the node.
+
+    Nests (a decorator's child runs inside its parent's block) and is per thread
+    and per task, as a :class:`~contextvars.ContextVar` is.
+    """
+    token = _ISSUER.set(node)
+    try:
+        yield
+    finally:
+        _ISSUER.reset(token)
+
+
+def current_issuer() -> Any:
+    """The node whose code is running now (see :func:`issuing`), or ``None``."""
+    return _ISSUER.get()
+
+
+def node_path(node: Any) -> tuple[str, str]:
+    """``(path id, path of names)`` of a py_trees behaviour, e.g. ``("0.2.1", "a/b/c")``.
+
+    The path id is the one traces use (``0`` for the root, then child indices).
+    Duck-typed on ``name``, ``parent`` and ``children``, so this layer does not
+    import py_trees.
+    """
+    ids: list[str] = []
+    names: list[str] = []
+    while node is not None:
+        names.append(str(node.name))
+        parent = getattr(node, "parent", None)
+        if parent is None:
+            ids.append("0")
+        else:
+            ids.append(str(next(i for i, c in enumerate(parent.children) if c is node)))
+        node = parent
+    return ".".join(reversed(ids)), "/".join(reversed(names))
 
 
 class Outcome(StrEnum):
@@ -91,6 +150,9 @@ class Verdict:
         tick: The supervisor's tick counter at the decision.
         seq: Position in the supervisor's verdict sequence (starts at 1).
         clips: Every limit that clipped the command (the first one is ``reason``).
+        node: Path id (``0.2.1``, as in traces) of the tree node that asked, when a
+            node asked (see :func:`issuing`).
+        node_name: The same node as a path of names from the root.
     """
 
     outcome: Outcome
@@ -103,6 +165,8 @@ class Verdict:
     tick: int = 0
     seq: int = 0
     clips: tuple[Reason, ...] = field(default_factory=tuple)
+    node: str | None = None
+    node_name: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -125,10 +189,12 @@ class Verdict:
             "reason": self.reason.value if self.reason else None,
             "detail": self.detail,
             "sent": [[c.motor, c.mode.value, c.value] for c in self.sent],
+            "node": self.node,
         }
 
     def __str__(self) -> str:
-        text = f"{self.outcome.upper()} {describe(self.command)} [{self.source}]"
+        who = f"{self.source}: {self.node_name}" if self.node_name else str(self.source)
+        text = f"{self.outcome.upper()} {describe(self.command)} [{who}]"
         if self.reason is not None:
             text += f" {self.reason}: {self.detail}"
         return text

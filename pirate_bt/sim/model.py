@@ -515,7 +515,7 @@ class PipeRobotModel:
                 if self._walls[j.name] is None:
                     opening = True
                 force += j.press_nm / lever
-                if j.press_nm < clamp.min_torque - 1e-12:
+                if not clamp.holds(j.press_nm):
                     ok = False
                 if sign == 0.0:
                     sign = math.copysign(1.0, j.angle_rad)

@@ -126,7 +126,7 @@ class CommandRecord:
             detail=str(detail) if detail else None,
             sent=sent,
             source=None if source is None else str(source),
-            node=node,
+            node=node if node is not None else data.get("node"),
         )
 
     def to_json(self) -> dict[str, Any]:

@@ -14,7 +14,14 @@ from typing import Any
 from pirate_bt.trace.reader import Trace
 from pirate_bt.trace.structure import TreeStructure
 
-__all__ = ["NodeSummary", "TraceSummary", "format_summary", "summarise", "tree_text"]
+__all__ = [
+    "NodeSummary",
+    "TraceSummary",
+    "format_summary",
+    "node_names",
+    "summarise",
+    "tree_text",
+]
 
 STATUS_WORD = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING", "I": "-"}
 _MARK_UNICODE = {"S": "✔", "F": "✘", "R": "▶", "I": "·"}
@@ -74,7 +81,8 @@ class NodeSummary:
     """What one node did over a run.
 
     Attributes:
-        runs: Times the node started RUNNING.
+        runs: Times the node started (turned RUNNING, or finished within the tick
+            it started in).
         successes: Times it turned SUCCESS.
         failures: Times it turned FAILURE.
         running_s: Total seconds spent RUNNING.
@@ -108,10 +116,14 @@ def summarise(trace: Trace) -> TraceSummary:
     """Count what every node did, and collect refusals and faults.
 
     Counts are of status *changes*: a condition that succeeds tick after tick
-    counts once, since a trace stores only what changed.
+    counts once, since a trace stores only what changed. A run starts whenever a
+    node turns RUNNING, SUCCESS or FAILURE from anything but RUNNING, so a node
+    that finishes within the tick it started in (a refused command, a condition)
+    counts as a run too: ``runs`` is never below ``ok + fail``.
     """
     nodes = {n.id: NodeSummary() for n in trace.structure}
     running_since: dict[str, float] = {}
+    last_code: dict[str, str] = {}
     summary = TraceSummary(
         path=str(trace.path),
         tree=trace.structure.name,
@@ -130,8 +142,10 @@ def summarise(trace: Trace) -> TraceSummary:
             started = running_since.pop(node_id, None)
             if started is not None:
                 entry.running_s += tick.t_s - started
-            if code == "R":
+            if code in ("R", "S", "F") and last_code.get(node_id) != "R":
                 entry.runs += 1
+            last_code[node_id] = code
+            if code == "R":
                 running_since[node_id] = tick.t_s
             elif code == "S":
                 entry.successes += 1
@@ -154,6 +168,17 @@ def summarise(trace: Trace) -> TraceSummary:
         error = trace.end["error"]
         summary.faults.append({"tick": trace.last_tick, "kind": "exception", **error})
     return summary
+
+
+def node_names(structure: TreeStructure, node_id: str) -> str:
+    """A node as its path of names from the root, e.g. ``bend/steer front/unclamp front``."""
+    names: list[str] = []
+    current: str | None = node_id
+    while current is not None:
+        node = structure.node(current)
+        names.append(node.name)
+        current = node.parent
+    return "/".join(reversed(names))
 
 
 def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
@@ -192,7 +217,9 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         lines.append("")
         lines.append("refusals:")
         for refusal in summary.refusals:
-            who = structure.node(refusal["node"]).name if refusal.get("node") in structure else "?"
+            node_id = refusal.get("node")
+            known = isinstance(node_id, str) and node_id in structure
+            who = node_names(structure, str(node_id)) if known else "-"
             lines.append(
                 f"  tick {refusal['tick']}: {who}: {refusal.get('command')}"
                 f" refused ({refusal.get('reason', '?')}) {refusal.get('detail', '')}".rstrip()

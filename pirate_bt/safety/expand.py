@@ -1,0 +1,263 @@
+"""Expansion: a high-level command becomes the motor commands it means.
+
+:class:`Expander` turns a :class:`~pirate_bt.safety.commands.Command` into an
+:class:`~pirate_bt.safety.checks.Intent` (the motor commands, which halves it
+clamps, releases or presses, the sensor channels the decision relies on) or a
+:class:`~pirate_bt.safety.checks.Problem` when the command names nothing real.
+The :class:`~pirate_bt.safety.supervisor.Supervisor` checks the intent next.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import replace
+
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import (
+    ControlMode,
+    Half,
+    Motor,
+    MotorFunction,
+    RobotDescription,
+    Role,
+    SensorKind,
+)
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import Intent, Problem, front_tilt_channel
+from pirate_bt.safety.commands import (
+    Bend,
+    Clamp,
+    Command,
+    Drive,
+    MoveFrontClear,
+    Raw,
+    Rotate,
+    Tilt,
+    Unclamp,
+)
+from pirate_bt.safety.verdict import Reason
+
+__all__ = ["Expander"]
+
+# Motor functions whose commands no invariant is about (lights, cameras).
+_FREE_FUNCTIONS = frozenset(
+    {MotorFunction.LEDS, MotorFunction.CAMERA_TILT, MotorFunction.CAMERA_PAN}
+)
+
+
+class Expander:
+    """Expands commands for one robot description.
+
+    Args:
+        robot: The robot the commands are for.
+    """
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self.robot = robot
+        self._tilt_channel = front_tilt_channel(robot)
+        self._base_channels = self._safety_channels()
+
+    @property
+    def base_channels(self) -> tuple[str, ...]:
+        """Channels every motion decision relies on."""
+        return self._base_channels
+
+    def expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
+        """The intent of ``command`` in ``state``, or the problem that stops it."""
+        return self._expand(command, state)
+
+    def _safety_channels(self) -> tuple[str, ...]:
+        """Channels every motion decision relies on: joints, springs, IMU pitch."""
+        names: list[str] = []
+        for module in self.robot.all_bend_modules():
+            names.append(self.robot.sensor_of(module.name, SensorKind.ANGLE).name)
+            with contextlib.suppress(KeyError):
+                names.append(self.robot.sensor_of(module.name, SensorKind.SPRING).name)
+        imu = self.robot.imu()
+        if imu is not None and "pitch" in imu.axes:
+            names.append(f"{imu.name}.pitch")
+        return tuple(names)
+
+    def _rotation_channel(self) -> str:
+        return self.robot.sensor_of(self.robot.rotational_module().name, SensorKind.ANGLE).name
+
+    def _half_commands(
+        self, half: Half, mode: ControlMode, value: float
+    ) -> tuple[MotorCommand, ...]:
+        return tuple(
+            MotorCommand(self.robot.joint_motor(m.name).name, mode, value)
+            for m in self.robot.bend_modules(half)
+        )
+
+    def _presses(self, half: Half, mode: ControlMode, value: float) -> frozenset[Half]:
+        """``{half}`` when a bend setpoint may push the half's wheels on the wall."""
+        if mode is ControlMode.TORQUE:
+            return frozenset({half}) if value != 0.0 else frozenset()
+        wall = min(p.angle for p in self.robot.clamp.contact_angles)
+        if abs(value) >= wall - self.robot.safety.angle_tolerance:
+            return frozenset({half})
+        return frozenset()
+
+    def _reverses(
+        self, half: Half, modules: list[str], torque_nm: float, state: RobotState | None
+    ) -> frozenset[Half]:
+        """``{half}`` when a torque would swing a joint across to the other side.
+
+        A joint bent one way that is driven the other way leaves the wall on its way
+        across, so the half lets go before it clamps again: that is a release too.
+        Without a reading the worst case is assumed.
+        """
+        tol = self.robot.safety.angle_tolerance
+        for name in modules:
+            angle = state.joint_angle_rad.get(name) if state is not None else None
+            if angle is None or (abs(angle) > tol and angle * torque_nm < 0):
+                return frozenset({half})
+        return frozenset()
+
+    def _front_channels(self, presses: frozenset[Half]) -> tuple[str, ...]:
+        """The front tilt channel when the front half may press the wall (checked fresh)."""
+        return (self._tilt_channel,) if Half.FRONT in presses and self._tilt_channel else ()
+
+    def _expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
+        base = self._base_channels
+        values = [
+            getattr(command, f)
+            for f in ("torque_nm", "velocity_mps", "angle_rad")
+            if hasattr(command, f)
+        ]
+        if isinstance(command, Raw):
+            values.append(command.command.value)
+        if not all(math.isfinite(v) for v in values):
+            return Problem(Reason.NOT_FINITE, "command values must be finite numbers")
+        match command:
+            case Clamp(half, torque):
+                if torque < self.robot.clamp.min_torque:
+                    return Problem(
+                        Reason.CLAMP_TORQUE_TOO_LOW,
+                        f"clamp torque {torque:g} N·m is below the minimum that holds"
+                        f" ({self.robot.clamp.min_torque:g} N·m)",
+                    )
+                chans = base + (
+                    (self._tilt_channel,) if half is Half.FRONT and self._tilt_channel else ()
+                )
+                modules = [m.name for m in self.robot.bend_modules(half)]
+                return Intent(
+                    command,
+                    self._half_commands(half, ControlMode.TORQUE, torque),
+                    clamps=frozenset({half}),
+                    releases=self._reverses(half, modules, torque, state),
+                    channels=chans,
+                )
+            case Unclamp(half, angle):
+                return Intent(
+                    command,
+                    self._half_commands(half, ControlMode.POSITION, angle),
+                    releases=frozenset({half}),
+                    presses=(presses := self._presses(half, ControlMode.POSITION, angle)),
+                    channels=base + self._front_channels(presses),
+                )
+            case Bend(module, angle):
+                try:
+                    mod = self.robot.module(module)
+                    motor = self.robot.joint_motor(module)
+                except KeyError:
+                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
+                if mod.role is not Role.BEND or mod.half is None:
+                    return Problem(Reason.UNKNOWN_TARGET, f"{module!r} is not a bend module")
+                return Intent(
+                    command,
+                    (MotorCommand(motor.name, ControlMode.POSITION, angle),),
+                    releases=frozenset({mod.half}),
+                    presses=(presses := self._presses(mod.half, ControlMode.POSITION, angle)),
+                    channels=base + self._front_channels(presses),
+                )
+            case Rotate(angle):
+                return Intent(
+                    command,
+                    (MotorCommand(self.robot.rotate_motor().name, ControlMode.POSITION, angle),),
+                    rotates=True,
+                    channels=(*base, self._rotation_channel()),
+                )
+            case Tilt(angle):
+                return self._tilt_intent(command, angle)
+            case MoveFrontClear(sign):
+                angle = math.copysign(self.robot.clamp.front_clear_angle, sign or 1)
+                return self._tilt_intent(command, angle)
+            case Drive(v):
+                cmds = tuple(
+                    MotorCommand(m.name, ControlMode.VELOCITY, v) for m in self.robot.drive_motors()
+                )
+                return Intent(command, cmds, drive_mps=v, stop=v == 0.0, channels=base)
+            case Raw(mc):
+                return self._raw_intent(command, mc, state)
+        return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # pragma: no cover
+
+    def _tilt_motor(self) -> Motor | None:
+        try:
+            return self.robot.motor_of(self.robot.modules[0].name, MotorFunction.TILT)
+        except KeyError:
+            return None
+
+    def _tilt_intent(self, command: Command, angle: float) -> Intent | Problem:
+        motor = self._tilt_motor()
+        if motor is None or self._tilt_channel is None:
+            return Problem(Reason.UNKNOWN_TARGET, "this robot has no front tilt motor")
+        return Intent(
+            command,
+            (MotorCommand(motor.name, ControlMode.POSITION, angle),),
+            front_tilt_rad=angle,
+            channels=(*self._base_channels, self._tilt_channel),
+        )
+
+    def _raw_intent(
+        self, command: Raw, mc: MotorCommand, state: RobotState | None
+    ) -> Intent | Problem:
+        try:
+            motor = self.robot.motor(mc.motor)
+        except KeyError:
+            return Problem(Reason.UNKNOWN_TARGET, f"unknown motor {mc.motor!r}")
+        if motor.modes.get(mc.mode) is None:
+            return Problem(Reason.MODE_NOT_ALLOWED, f"motor {motor.name!r} has no {mc.mode} mode")
+        fn = motor.function
+        if fn in _FREE_FUNCTIONS:
+            return Intent(command, (mc,))
+        base = self._base_channels
+        allowed = {
+            MotorFunction.BEND: (ControlMode.TORQUE, ControlMode.POSITION),
+            MotorFunction.DRIVE: (ControlMode.VELOCITY,),
+            MotorFunction.ROTATE: (ControlMode.POSITION,),
+            MotorFunction.TILT: (ControlMode.POSITION,),
+        }[fn]
+        if mc.mode not in allowed:
+            return Problem(
+                Reason.MODE_NOT_ALLOWED,
+                f"{fn} motor {motor.name!r} accepts only"
+                f" {', '.join(m.value for m in allowed)} through the supervisor",
+            )
+        if fn is MotorFunction.BEND:
+            half = self.robot.module_of(motor.name).half
+            assert half is not None
+            presses = self._presses(half, mc.mode, mc.value)
+            chans = base + self._front_channels(presses)
+            # A joint presses the wall in either sign: a negative torque clamps too, but a
+            # torque against the side the joint is on swings it off the wall first.
+            if mc.mode is ControlMode.TORQUE and abs(mc.value) >= self.robot.clamp.min_torque:
+                module = self.robot.module_of(motor.name).name
+                return Intent(
+                    command,
+                    (mc,),
+                    clamps=frozenset({half}),
+                    releases=self._reverses(half, [module], mc.value, state),
+                    presses=presses,
+                    channels=chans,
+                )
+            return Intent(
+                command, (mc,), releases=frozenset({half}), presses=presses, channels=chans
+            )
+        if fn is MotorFunction.DRIVE:
+            return Intent(command, (mc,), drive_mps=mc.value, stop=mc.value == 0.0, channels=base)
+        if fn is MotorFunction.ROTATE:
+            return Intent(command, (mc,), rotates=True, channels=(*base, self._rotation_channel()))
+        intent = self._tilt_intent(command, mc.value)
+        return intent if isinstance(intent, Problem) else replace(intent, motor_commands=(mc,))

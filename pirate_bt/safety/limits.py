@@ -1,0 +1,124 @@
+"""Static limits: angle range, torque, speed and rate of change per motor.
+
+Each limit of a motor in the robot description is clipped or refused by that
+limit's policy; :func:`limit` applies them all to one motor command.
+"""
+
+from __future__ import annotations
+
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import (
+    ControlMode,
+    LimitPolicy,
+    Motor,
+    MotorFunction,
+    RobotDescription,
+)
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import Problem
+from pirate_bt.safety.verdict import Reason
+
+__all__ = ["limit", "measured"]
+
+
+def measured(robot: RobotDescription, motor: Motor, state: RobotState | None) -> float | None:
+    if state is None:
+        return None
+    fn = motor.function
+    if fn is MotorFunction.BEND:
+        return state.joint_angle_rad.get(robot.module_of(motor.name).name)
+    if fn is MotorFunction.ROTATE:
+        return state.rotation_rad
+    if fn is MotorFunction.TILT:
+        return state.front_tilt_rad
+    if fn is MotorFunction.CAMERA_TILT:
+        return state.camera_tilt_rad
+    if fn is MotorFunction.CAMERA_PAN:
+        return state.camera_pan_rad
+    if fn is MotorFunction.DRIVE:
+        return state.drive_velocity_mps.get(motor.name)
+    return None
+
+
+def limit(
+    robot: RobotDescription,
+    last_setpoint: dict[str, tuple[ControlMode, float, float]],
+    mc: MotorCommand,
+    state: RobotState | None,
+    now: float,
+) -> tuple[float, list[tuple[Reason, str]]] | Problem:
+    """Apply every static limit of ``mc``'s motor: ``(value, clips)`` or a refusal."""
+    motor = robot.motor(mc.motor)
+    lim = motor.limits
+    value = mc.value
+    notes: list[tuple[Reason, str]] = []
+
+    def bound(
+        reason: Reason, policy: LimitPolicy, lo: float, hi: float, what: str
+    ) -> Problem | None:
+        nonlocal value
+        if lo <= value <= hi:
+            return None
+        text = f"{motor.name}: {what} {value:g} outside [{lo:g}, {hi:g}]"
+        if policy is LimitPolicy.REFUSE:
+            return Problem(reason, text)
+        value = min(max(value, lo), hi)
+        notes.append((reason, f"{text}, clipped to {value:g}"))
+        return None
+
+    window = robot.safety.rate_window
+    last = last_setpoint.get(mc.motor)
+    if last is not None and last[0] is mc.mode:
+        reference: float | None = last[1]
+        dt = min(max(now - last[2], 0.0), window)
+    else:
+        reference = measured(robot, motor, state)
+        dt = window
+    problem: Problem | None = None
+    if mc.mode is ControlMode.POSITION:
+        if lim.angle is not None:
+            problem = bound(
+                Reason.ANGLE_LIMIT, lim.angle.policy, lim.angle.min, lim.angle.max, "angle"
+            )
+        if problem is None and lim.angular_velocity is not None and reference is not None:
+            step = lim.angular_velocity.max * dt
+            problem = bound(
+                Reason.ANGULAR_RATE_LIMIT,
+                lim.angular_velocity.policy,
+                reference - step,
+                reference + step,
+                f"angle step from {reference:g} in {dt:g} s: target",
+            )
+    elif mc.mode is ControlMode.TORQUE:
+        if lim.torque is not None:
+            problem = bound(
+                Reason.TORQUE_LIMIT,
+                lim.torque.policy,
+                -lim.torque.max,
+                lim.torque.max,
+                "torque",
+            )
+    elif mc.mode is ControlMode.VELOCITY:
+        if lim.velocity is not None:
+            problem = bound(
+                Reason.VELOCITY_LIMIT,
+                lim.velocity.policy,
+                -lim.velocity.max,
+                lim.velocity.max,
+                "velocity",
+            )
+        ref = reference or 0.0
+        # Slowing down is never limited: stopping must always be possible.
+        speeding = abs(value) > abs(ref) or (value * ref < 0)
+        if problem is None and lim.acceleration is not None and speeding:
+            step = lim.acceleration.max * dt
+            problem = bound(
+                Reason.ACCELERATION_LIMIT,
+                lim.acceleration.policy,
+                ref - step,
+                ref + step,
+                f"velocity change from {ref:g} in {dt:g} s: target",
+            )
+    if problem is not None:
+        return problem
+    return value, notes

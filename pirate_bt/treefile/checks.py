@@ -1,0 +1,106 @@
+"""Static checks of a whole spec tree: outcomes, blackboard keys.
+
+Step 2 of loading (see :mod:`pirate_bt.treefile.loader`): what each node can
+return (to warn about children that can never run) and whether every
+blackboard key read is written or declared.
+"""
+
+from __future__ import annotations
+
+from pirate_bt.behaviours.base import Outcome
+from pirate_bt.errors import LocatedError, SourceLocation
+from pirate_bt.treefile.spec import BlackboardDecl, NodeSpec
+
+# -- checks ----------------------------------------------------------------------------
+
+
+def _describe_outcomes(outcomes: frozenset[Outcome]) -> str:
+    if outcomes == frozenset({"success"}):
+        return "always succeeds"
+    if outcomes == frozenset({"failure"}):
+        return "always fails"
+    if outcomes == frozenset({"running"}):
+        return "never finishes"
+    return "/".join(sorted(outcomes))
+
+
+def _outcomes(spec: NodeSpec, warnings: list[LocatedError]) -> frozenset[Outcome]:
+    """Statuses ``spec`` can end a tick with; warns about children that never run."""
+    if spec.cls is not None:
+        if spec.cls.kind == "decorator":
+            inner = _outcomes(spec.children[0], warnings)
+            return spec.cls.decorated_outcomes(spec.params, inner)
+        return spec.cls.outcomes(spec.params)
+    child_out = [(c, _outcomes(c, warnings)) for c in spec.children]
+    if spec.node_type == "eternal_guard":
+        cond_ok = all("success" in _outcomes(c, warnings) for c in spec.conditions)
+        out: set[Outcome] = set(child_out[0][1]) if cond_ok else set()
+        return frozenset(out | {"failure"})
+    if spec.node_type == "parallel":
+        out = set()
+        for _, o in child_out:
+            out |= {x for x in o if x != "success"}
+        policy = spec.params["policy"]
+        if (policy == "one" and any("success" in o for _, o in child_out)) or (
+            policy != "one" and all("success" in o for _, o in child_out)
+        ):
+            out.add("success")
+        if len(child_out) > 1 or "running" in out:
+            out.add("running")
+        return frozenset(out)
+    go_on: Outcome = "success" if spec.node_type == "sequence" else "failure"
+    result: set[Outcome] = set()
+    blocker: tuple[NodeSpec, frozenset[Outcome]] | None = None
+    for child, outs in child_out:
+        if blocker is not None:
+            warnings.append(
+                LocatedError(
+                    f"warning: {child.name!r} can never run: {blocker[0].name!r} before it in"
+                    f" {spec.node_type} {spec.name!r} {_describe_outcomes(blocker[1])}",
+                    child.location,
+                )
+            )
+            continue
+        result |= outs - {go_on}
+        if go_on not in outs:
+            blocker = (child, outs)
+    if blocker is None:
+        result.add(go_on)
+    return frozenset(result)
+
+
+def _check_blackboard(
+    root: NodeSpec,
+    declared: dict[str, tuple[BlackboardDecl, SourceLocation]],
+    errors: list[LocatedError],
+) -> None:
+    writes: set[str] = {k for k, (d, _) in declared.items() if d.default is not None or d.external}
+    reads: list[tuple[str, NodeSpec]] = []
+    for spec in root.walk():
+        if spec.cls is None or spec.params is None:
+            continue
+        for key in spec.cls.blackboard_writes(spec.params):
+            if key not in declared:
+                errors.append(
+                    LocatedError(
+                        f"blackboard key {key!r} is written but not declared", spec.location
+                    )
+                )
+            writes.add(key)
+        reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
+    for key, spec in reads:
+        if key not in declared:
+            errors.append(
+                LocatedError(
+                    f"blackboard key {key!r} is read but not declared under 'blackboard:'",
+                    spec.location,
+                )
+            )
+        elif key not in writes:
+            errors.append(
+                LocatedError(
+                    f"blackboard key {key!r} is read but never written (no node writes it,"
+                    " it has no default and is not marked external)",
+                    spec.location,
+                )
+            )

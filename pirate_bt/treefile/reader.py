@@ -1,0 +1,511 @@
+"""Reading a tree file: every file it uses, parameters substituted, into node specs.
+
+Step 1 of loading (see :mod:`pirate_bt.treefile.loader`): the reader turns each
+node into a :class:`~pirate_bt.treefile.spec.NodeSpec`, its class from the
+registry and its parameters validated, and collects every problem at its place.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param
+from pirate_bt.treefile.registry import Registry, UnknownNode
+from pirate_bt.treefile.spec import (
+    _COMMON_KEYS,
+    _STRUCT_KEYS,
+    _SUBTREE_KEYS,
+    _TOP_KEYS,
+    BlackboardDecl,
+    NodeSpec,
+    PathKey,
+)
+from pirate_bt.yamlfile import (
+    YamlDocument,
+    load_yaml,
+    validation_problems,
+)
+
+_log = logging.getLogger("pirate_bt.treefile")
+
+
+# -- reading -------------------------------------------------------------------------
+
+
+@dataclass
+class _Env:
+    """Where we are while reading: the document, the parameters, the include chain."""
+
+    doc: YamlDocument
+    values: dict[str, Any]
+    chain: tuple[str, ...]
+
+
+class _Reader:
+    def __init__(
+        self,
+        registry: Registry,
+        robot: RobotDescription | None,
+        units_required: bool,
+        base_dir: Path,
+    ) -> None:
+        self.registry = registry
+        self.robot = robot
+        self.units_required = units_required
+        self.base_dir = base_dir
+        self.errors: list[LocatedError] = []
+        self.warnings: list[LocatedError] = []
+        self.docs: dict[str, YamlDocument] = {}
+        self.blackboard: dict[str, tuple[BlackboardDecl, SourceLocation]] = {}
+        self.headers_read: set[str] = set()
+
+    # -- helpers
+
+    def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
+        self.errors.append(doc.locator.error(path, message))
+
+    def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
+        key = str(path.resolve())
+        if key in self.docs:
+            return self.docs[key]
+        if not path.is_file():
+            self.error(doc, at, f"subtree file {str(path)!r} not found")
+            return None
+        try:
+            loaded = load_yaml(path)
+        except ValidationFailed as exc:
+            self.errors.extend(exc.errors)
+            return None
+        self.docs[key] = loaded
+        return loaded
+
+    def header(self, doc: YamlDocument) -> bool:
+        """Check a file's top level and record its blackboard; False if unusable."""
+        data = doc.data
+        if not isinstance(data, dict):
+            self.error(doc, (), "a tree file is a mapping with a 'root' key")
+            return False
+        if doc.file in self.headers_read:
+            return True
+        self.headers_read.add(doc.file)
+        for key in data:
+            if key not in _TOP_KEYS:
+                self.error(doc, (key,), _unknown_key(key, _TOP_KEYS))
+        if "name" in data and not isinstance(data["name"], str):
+            self.error(doc, ("name",), "name: must be text")
+        board = data.get("blackboard", {})
+        if board is None:
+            board = {}
+        if not isinstance(board, dict):
+            self.error(doc, ("blackboard",), "blackboard: a mapping of key -> declaration")
+            return True
+        for key, decl in board.items():
+            where: PathKey = ("blackboard", key)
+            if not isinstance(key, str) or not key.isidentifier():
+                self.error(doc, where, f"blackboard key {key!r} must be an identifier")
+                continue
+            try:
+                decl = {} if decl is None else decl
+                parsed = BlackboardDecl.model_validate(decl)
+            except ValidationError as exc:
+                for at_key, msg in validation_problems(exc, decl):
+                    msg = msg if at_key else f"blackboard key {key!r}: {msg}"
+                    self.error(doc, (*where, *at_key), msg)
+                continue
+            loc = doc.locator.locate(where)
+            previous = self.blackboard.get(key)
+            if previous is not None and previous[0].type != parsed.type:
+                self.error(
+                    doc,
+                    where,
+                    f"blackboard key {key!r} declared as {parsed.type} here"
+                    f" but as {previous[0].type} at {previous[1]}",
+                )
+                continue
+            if previous is None or parsed.default is not None or parsed.external:
+                self.blackboard[key] = (parsed, loc)
+        return True
+
+    def declared_params(
+        self, doc: YamlDocument, where: PathKey, raw: Any
+    ) -> dict[str, ParamDecl] | None:
+        if raw is None:
+            return {}
+        if not isinstance(raw, dict):
+            self.error(doc, where, "params: a mapping of name -> {type, default}")
+            return None
+        out: dict[str, ParamDecl] = {}
+        before = len(self.errors)
+        for name, decl in raw.items():
+            at = (*where, name)
+            if not isinstance(name, str) or not name.isidentifier():
+                self.error(doc, at, f"parameter name {name!r} must be an identifier")
+                continue
+            if isinstance(decl, str):
+                decl = {"type": decl}
+            try:
+                parsed = ParamDecl.model_validate(decl)
+            except ValidationError as exc:
+                for loc, msg in validation_problems(exc, decl):
+                    self.error(doc, (*at, *loc), msg if loc else f"parameter {name!r}: {msg}")
+                continue
+            if parsed.choices is not None and parsed.type != "string":
+                self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
+                continue
+            bad = False
+            for key in ("default", "example"):
+                value = getattr(parsed, key)
+                if value is None:
+                    continue
+                try:
+                    coerce_param(parsed, value)
+                except ValueError as exc:
+                    self.error(doc, (*at, key), f"{key}: {exc}")
+                    bad = True
+            if bad:
+                continue
+            out[name] = parsed
+        return out if len(self.errors) == before else None
+
+    def bind(
+        self,
+        doc: YamlDocument,
+        where: PathKey,
+        decls: dict[str, ParamDecl],
+        given: Mapping[str, Any],
+        given_at: Any,
+        from_text: bool = False,
+        use_examples: bool = False,
+    ) -> dict[str, Any] | None:
+        """Values for declared parameters from the caller; None on error.
+
+        With ``use_examples`` (checking or drawing a tree, never running it) a
+        parameter the caller did not give takes its declared ``example``.
+        """
+        values: dict[str, Any] = {}
+        ok = True
+        for name, value in given.items():
+            if name not in decls:
+                known = ", ".join(decls) or "none declared"
+                self.errors.append(
+                    _at(given_at(name), f"unknown parameter {name!r} (parameters: {known})")
+                )
+                ok = False
+                continue
+            try:
+                values[name] = coerce_param(decls[name], value, from_text=from_text)
+            except ValueError as exc:
+                self.errors.append(_at(given_at(name), f"parameter {name!r}: {exc}"))
+                ok = False
+        for name, decl in decls.items():
+            if name in values or name in given:  # given but invalid: reported above
+                continue
+            if decl.default is not None:
+                values[name] = coerce_param(decl, decl.default)
+            elif use_examples and decl.example is not None:
+                values[name] = coerce_param(decl, decl.example)
+            else:
+                hint = (
+                    " (declare an 'example' to check the tree without it)" if use_examples else ""
+                )
+                self.error(doc, where, f"parameter {name!r} has no default and was not given{hint}")
+                ok = False
+        return values if ok else None
+
+    def subst(self, env: _Env, value: Any, path: PathKey) -> Any:
+        if isinstance(value, str):
+            if value.startswith("$$"):
+                return value[1:]
+            match = PARAM_RE.match(value)
+            if match:
+                name = match["name"]
+                if name in env.values:
+                    return env.values[name]
+                known = ", ".join(f"${n}" for n in env.values) or "none declared"
+                self.error(env.doc, path, f"unknown parameter ${name} (parameters: {known})")
+                return None
+            if value.startswith("$"):
+                self.error(env.doc, path, f"{value!r}: write $name, or $$ for a literal $")
+            return value
+        if isinstance(value, dict):
+            return {k: self.subst(env, v, (*path, k)) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self.subst(env, v, (*path, i)) for i, v in enumerate(value)]
+        return value
+
+    # -- trees
+
+    def tree(self, env: _Env, where: PathKey, body: Mapping[str, Any]) -> NodeSpec | None:
+        if "root" not in body:
+            self.error(env.doc, where, "missing required key 'root'")
+            return None
+        return self.node(env, (*where, "root"), body["root"])
+
+    def node(self, env: _Env, path: PathKey, raw: Any) -> NodeSpec | None:
+        doc = env.doc
+        if isinstance(raw, str):
+            raw = {"type": raw}
+        if not isinstance(raw, dict):
+            self.error(doc, path, "a node is a mapping with a 'type' key, or a node type name")
+            return None
+        kind = raw.get("type")
+        if kind is None:
+            self.error(doc, path, "node without 'type'")
+            return None
+        if not isinstance(kind, str):
+            self.error(doc, (*path, "type"), "type: must be a node type name")
+            return None
+        loc = doc.locator.locate(path)
+        name = raw.get("name")
+        if name is not None and not (isinstance(name, str) and name.strip()):
+            self.error(doc, (*path, "name"), "name: must be non-empty text")
+            return None
+        if isinstance(name, str) and "/" in name:
+            self.error(doc, (*path, "name"), "name: must not contain '/' (used in node paths)")
+            return None
+        spec = NodeSpec(node_type=kind, name=name or kind, location=loc, explicit_name=bool(name))
+        if kind in _STRUCT_KEYS:
+            for key in raw:
+                if key not in _COMMON_KEYS and key not in _STRUCT_KEYS[kind]:
+                    self.error(doc, (*path, key), _unknown_key(key, _STRUCT_KEYS[kind]))
+            if kind == "subtree":
+                return self.subtree(env, path, raw, spec)
+            if kind == "eternal_guard":
+                return self.guard(env, path, raw, spec)
+            return self.composite(env, path, raw, spec)
+        try:
+            cls = self.registry.get(kind)
+        except UnknownNode as exc:
+            self.error(doc, (*path, "type"), str(exc))
+            return None
+        except ImportError as exc:
+            self.error(doc, (*path, "type"), f"node type {kind!r} cannot be loaded: {exc}")
+            return None
+        spec.cls = cls
+        raw_params = {k: v for k, v in raw.items() if k not in _COMMON_KEYS and k not in ("child",)}
+        raw_params = self.subst(env, raw_params, path)
+        try:
+            spec.params = cls.Params.model_validate(
+                raw_params, context={"units_required": self.units_required}
+            )
+        except ValidationError as exc:
+            for at_key, msg in validation_problems(exc, raw_params):
+                self.error(doc, (*path, *at_key), f"{kind}: {msg}")
+            spec.params = None
+        if spec.params is not None and self.robot is not None:
+            for problem in cls.check_limits(spec.params, self.robot):
+                field_name, sep, _ = problem.partition(":")
+                at = (*path, field_name) if sep and field_name in raw else path
+                self.error(doc, at, f"{kind}: {problem}")
+        if cls.kind == "decorator":
+            if "child" not in raw:
+                self.error(doc, path, f"decorator {kind!r} needs a 'child'")
+                return None
+            child = self.node(env, (*path, "child"), raw["child"])
+            if child is None:
+                return None
+            spec.children = [child]
+        elif "child" in raw:
+            self.error(doc, (*path, "child"), f"{kind!r} is a leaf and takes no child")
+        return spec if spec.params is not None else None
+
+    def children(self, env: _Env, path: PathKey, raw: Any, key: str) -> list[NodeSpec] | None:
+        items = raw.get(key)
+        if not isinstance(items, list) or not items:
+            self.error(env.doc, (*path, key) if key in raw else path, f"needs a list of {key}")
+            return None
+        out: list[NodeSpec] = []
+        ok = True
+        for i, item in enumerate(items):
+            child = self.node(env, (*path, key, i), item)
+            if child is None:
+                ok = False
+            else:
+                out.append(child)
+        if not ok:
+            return None
+        _dedupe(out, self, env.doc)
+        return out
+
+    def composite(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        opts = self.subst(env, {k: v for k, v in raw.items() if k != "children"}, path)
+        kind = spec.node_type
+        if kind in ("sequence", "selector"):
+            memory = opts.get("memory", kind == "sequence")
+            if not isinstance(memory, bool):
+                self.error(env.doc, (*path, "memory"), "memory: must be true or false")
+                return None
+            spec.params = {"memory": memory}
+        else:
+            policy = opts.get("policy", "all")
+            if policy not in ("all", "one", "selected"):
+                self.error(env.doc, (*path, "policy"), "policy: one of all, one, selected")
+                return None
+            sync = opts.get("synchronise", policy != "one")
+            if not isinstance(sync, bool):
+                self.error(env.doc, (*path, "synchronise"), "synchronise: must be true or false")
+                return None
+            selected = opts.get("selected")
+            if (policy == "selected") != (selected is not None):
+                self.error(
+                    env.doc, path, "policy 'selected' and a 'selected' list of names go together"
+                )
+                return None
+            if selected is not None and not (
+                isinstance(selected, list)
+                and selected
+                and all(isinstance(s, str) for s in selected)
+            ):
+                self.error(env.doc, (*path, "selected"), "selected: a list of child names")
+                return None
+            spec.params = {"policy": policy, "synchronise": sync, "selected": selected}
+        kids = self.children(env, path, raw, "children")
+        if kids is None:
+            return None
+        spec.children = kids
+        if kind == "parallel" and spec.params["selected"]:
+            names = {c.name for c in kids}
+            for s in spec.params["selected"]:
+                if s not in names:
+                    self.error(env.doc, (*path, "selected"), f"selected: no child named {s!r}")
+                    return None
+        return spec
+
+    def guard(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        conditions = self.children(env, path, raw, "conditions")
+        if "child" not in raw:
+            self.error(env.doc, path, "eternal_guard needs a 'child'")
+            return None
+        child = self.node(env, (*path, "child"), raw["child"])
+        if conditions is None or child is None:
+            return None
+        spec.conditions = conditions
+        spec.children = [child]
+        _dedupe([*conditions, child], self, env.doc)
+        return spec
+
+    def subtree(
+        self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
+    ) -> NodeSpec | None:
+        doc = env.doc
+        ref = raw.get("ref")
+        if not isinstance(ref, str) or not ref:
+            self.error(doc, (*path, "ref") if "ref" in raw else path, "subtree needs a 'ref'")
+            return None
+        file_part, hash_sign, tree_name = ref.partition("#")
+        if file_part.endswith((".yaml", ".yml")):
+            base = Path(doc.file).parent if doc.file not in ("<dict>",) else self.base_dir
+            target_doc = self.read_file(base / file_part, doc, (*path, "ref"))
+            if target_doc is None or not self.header(target_doc):
+                return None
+            name = tree_name if hash_sign else ""
+        elif hash_sign:
+            self.error(doc, (*path, "ref"), f"ref {ref!r}: write FILE.yaml#NAME or NAME")
+            return None
+        else:
+            target_doc, name = doc, file_part
+        target = target_doc.data
+        if name:
+            subtrees = target.get("subtrees") or {}
+            if not isinstance(subtrees, dict) or name not in subtrees:
+                import difflib
+
+                known = list(subtrees) if isinstance(subtrees, dict) else []
+                close = difflib.get_close_matches(name, known, n=2)
+                hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+                where = f" in {target_doc.file}" if target_doc is not doc else ""
+                self.error(doc, (*path, "ref"), f"no subtree named {name!r}{where}{hint}")
+                return None
+            body = subtrees[name]
+            body_path: PathKey = ("subtrees", name)
+            if not isinstance(body, dict):
+                self.error(target_doc, body_path, "a subtree is a mapping with 'root'")
+                return None
+            for key in body:
+                if key not in _SUBTREE_KEYS:
+                    self.error(target_doc, (*body_path, key), _unknown_key(key, _SUBTREE_KEYS))
+        else:
+            body, body_path = target, ()
+        ident = f"{target_doc.file}#{name}" if name else target_doc.file
+        if ident in env.chain:
+            loop = " -> ".join([*env.chain[env.chain.index(ident) :], ident])
+            self.error(doc, (*path, "ref"), f"recursive subtree: {loop}")
+            return None
+        decls = self.declared_params(target_doc, (*body_path, "params"), body.get("params"))
+        given = raw.get("params") or {}
+        if not isinstance(given, dict):
+            self.error(doc, (*path, "params"), "params: a mapping of name -> value")
+            return None
+        given = self.subst(env, given, (*path, "params"))
+        if decls is None:
+            return None
+
+        def given_at(name: str) -> SourceLocation:
+            return doc.locator.locate((*path, "params", name))
+
+        values = self.bind(doc, path, decls, given, given_at)
+        if values is None:
+            return None
+        inner = _Env(target_doc, values, (*env.chain, ident))
+        result = self.tree(inner, body_path, body)
+        if result is None:
+            return None
+        if spec.explicit_name:
+            result.name = spec.name
+            result.explicit_name = True
+        return result
+
+
+def _at(location: SourceLocation, message: str) -> LocatedError:
+    return LocatedError(message, location)
+
+
+def _unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
+    return f"unknown key {key!r}{hint}"
+
+
+def _dedupe(children: list[NodeSpec], reader: _Reader, doc: YamlDocument) -> None:
+    """Sibling names must be unique (node paths name nodes); number unnamed duplicates."""
+    explicit: dict[str, NodeSpec] = {}
+    for child in children:
+        if child.explicit_name:
+            first = explicit.get(child.name)
+            if first is not None:
+                reader.errors.append(
+                    LocatedError(
+                        f"duplicate node name {child.name!r} among siblings"
+                        f" (first at {first.location})",
+                        child.location,
+                    )
+                )
+            explicit[child.name] = child
+    used = set(explicit)
+    counts: dict[str, int] = {}
+    for child in children:
+        if child.explicit_name:
+            continue
+        base = child.name
+        n = counts.get(base, 0)
+        name = base
+        while name in used:
+            n += 1
+            name = f"{base} {n + 1 if n else ''}".strip() if n else base
+        counts[base] = n
+        child.name = name
+        used.add(name)

@@ -1,0 +1,114 @@
+"""What a tree file becomes: node specs, blackboard declarations, the loaded tree.
+
+The data the reader (:mod:`pirate_bt.treefile.reader`) produces and the loader
+(:mod:`pirate_bt.treefile.loader`) builds from, plus the keys each part of a
+tree file allows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any, Final
+
+import py_trees
+from pydantic import BaseModel, ConfigDict, Field
+
+from pirate_bt.behaviours.base import NodeMixin
+from pirate_bt.errors import LocatedError, SourceLocation
+
+PathKey = tuple[str | int, ...]
+
+COMPOSITES: Final = ("sequence", "selector", "parallel")
+_COMMON_KEYS: Final = frozenset({"type", "name", "description"})
+_STRUCT_KEYS: Final[dict[str, frozenset[str]]] = {
+    "sequence": frozenset({"memory", "children"}),
+    "selector": frozenset({"memory", "children"}),
+    "parallel": frozenset({"policy", "synchronise", "selected", "children"}),
+    "eternal_guard": frozenset({"conditions", "child"}),
+    "subtree": frozenset({"ref", "params"}),
+}
+_TOP_KEYS: Final = frozenset({"name", "description", "params", "blackboard", "root", "subtrees"})
+_SUBTREE_KEYS: Final = frozenset({"description", "params", "root"})
+
+
+class BlackboardDecl(BaseModel):
+    """A blackboard key a tree file uses."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    type: str = Field(
+        "any", description="informative type (boolean, number, integer, string, angle, ...)"
+    )
+    default: Any = Field(None, description="value written before the first tick")
+    external: bool = Field(False, description="written by planner code, not by the tree")
+    description: str = ""
+
+
+@dataclass
+class NodeSpec:
+    """A validated node, before it is built.
+
+    Attributes:
+        node_type: The node type (``sequence``, ``wait``, ...).
+        name: The node's name (unique among its siblings).
+        location: Where the node is written.
+        cls: The registered class (``None`` for structural nodes).
+        params: Validated parameters (registered nodes) or structural options.
+        children: Child specs (composites, decorators, guards).
+        conditions: Guard conditions of an ``eternal_guard``.
+        explicit_name: The name was written in the file.
+    """
+
+    node_type: str
+    name: str
+    location: SourceLocation
+    cls: type[NodeMixin] | None = None
+    params: Any = None
+    children: list[NodeSpec] = field(default_factory=list)
+    conditions: list[NodeSpec] = field(default_factory=list)
+    explicit_name: bool = False
+
+    def walk(self) -> Iterator[NodeSpec]:
+        """This spec and all below it, depth first."""
+        yield self
+        for c in (*self.conditions, *self.children):
+            yield from c.walk()
+
+
+@dataclass
+class LoadedTree:
+    """A tree loaded from YAML (or a dict) and built.
+
+    Attributes:
+        name: The tree's name.
+        root: The root behaviour.
+        spec: The validated spec tree (for drawing and analysis).
+        params: The resolved top-level parameters (substituted values).
+        blackboard: Declared blackboard keys of every file used.
+        warnings: Located warnings (children that can never run, ...).
+        files: Every file read, the tree file first.
+        needs_robot: Some node talks to the robot.
+    """
+
+    name: str
+    root: py_trees.behaviour.Behaviour
+    spec: NodeSpec
+    params: dict[str, Any]
+    blackboard: dict[str, BlackboardDecl]
+    warnings: list[LocatedError]
+    files: list[str]
+    needs_robot: bool
+
+    def blackboard_defaults(self) -> dict[str, Any]:
+        """Declared keys with a default value."""
+        return {k: d.default for k, d in self.blackboard.items() if d.default is not None}
+
+    def write_blackboard_defaults(self) -> None:
+        """Write every declared default to the py_trees blackboard."""
+        for key, value in self.blackboard_defaults().items():
+            py_trees.blackboard.Blackboard.set(f"/{key}", value)
+
+    def behaviour_tree(self) -> py_trees.trees.BehaviourTree:
+        """A fresh ``py_trees.trees.BehaviourTree`` over :attr:`root`."""
+        return py_trees.trees.BehaviourTree(self.root)
