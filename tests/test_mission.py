@@ -87,7 +87,7 @@ def test_demo_inspects_the_lab_network(tmp_path: Path, capsys: pytest.CaptureFix
 
 def test_route_that_does_not_fit_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     route = REPO / "scenarios" / "bend-left.route"
-    assert main(["mission", str(route), "--sim", "bend-right", "--quiet"]) == 2
+    assert main(["mission", str(route), "--network", "bend-right", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert f"{route}:5:1: " in err and "turns right, not left" in err
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
+import py_trees
 from py_trees.common import Status
 from pydantic import Field
 
@@ -43,6 +44,22 @@ class DriveParams(NodeParams):
     max_distance: Length = Field(
         3.0, gt=0, description="fail when no feature was found within this distance"
     )
+    distance_key: str | None = Field(
+        None,
+        pattern=r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$",
+        description=(
+            "blackboard key holding the distance in metres, read when the drive starts"
+            " (instead of 'distance'; a planner writes it from the robot's belief);"
+            " a value of 1 mm or less completes the drive at once; empty: not used"
+        ),
+    )
+    stop_at_feature: bool = Field(
+        False,
+        description=(
+            "with until: distance, also complete the drive (early) when a feature shows:"
+            " blocked at a turn, or a front joint off the wall over an opening"
+        ),
+    )
     stall_current: Current | None = Field(
         None, gt=0, description="current counted as stalled (default 80 % of the stall current)"
     )
@@ -70,7 +87,7 @@ class Drive(Primitive):
         problems: list[str] = []
         if params.velocity == 0:
             problems.append("velocity: must not be 0")
-        if params.until == "distance" and params.distance is None:
+        if params.until == "distance" and params.distance is None and not params.distance_key:
             problems.append("distance: required with until: distance")
         for motor in robot.drive_motors():
             lim = motor.limits.velocity
@@ -82,7 +99,23 @@ class Drive(Primitive):
                 break
         return problems
 
+    @classmethod
+    def blackboard_reads(cls, params: Any) -> tuple[str, ...]:
+        return (params.distance_key.lstrip("/"),) if params.distance_key else ()
+
     def start(self) -> None:
+        p: DriveParams = self.params  # type: ignore[assignment]
+        self._distance_m = p.distance
+        self._bad_distance: str | None = None
+        self.sensed: str | None = None
+        """What ended the drive early (``blocked``, ``front_opening``), if anything."""
+        if p.distance_key:
+            name = p.distance_key if p.distance_key.startswith("/") else "/" + p.distance_key
+            value = py_trees.blackboard.Blackboard.storage.get(name)
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                self._distance_m = float(value)
+            else:
+                self._bad_distance = f"blackboard {p.distance_key!r} holds {value!r}, not metres"
         self._at_speed = False
         self._resend = False
         self._odometry_m = 0.0
@@ -147,6 +180,12 @@ class Drive(Primitive):
 
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
+        if self._bad_distance is not None:
+            return self.fail(self._bad_distance)
+        target = self._distance_m
+        if p.until == "distance" and target is not None and target <= 1e-3:
+            self.feedback_message = "nothing to drive"
+            return Status.SUCCESS
         now = self.now()
         dt = max(now - self._last_s, 0.0)
         self._last_s = now
@@ -190,8 +229,9 @@ class Drive(Primitive):
             if self._blocked_since is None:
                 self._blocked_since = now
             if now - self._blocked_since >= min(p.stall_time, 0.3):
-                if p.until == "blocked":
+                if p.until == "blocked" or p.stop_at_feature:
                     self.feedback_message = f"blocked after {travelled:.3f} m"
+                    self.sensed = "blocked"
                     return Status.SUCCESS
                 return self.fail(
                     f"blocked: every drive draws stall current after {travelled:.3f} m"
@@ -199,10 +239,12 @@ class Drive(Primitive):
                 )
         else:
             self._blocked_since = None
-        if p.until == "distance" and p.distance is not None and travelled >= p.distance:
+        if p.until == "distance" and target is not None and travelled >= target:
             return Status.SUCCESS
-        if p.until == "front_opening" and any(self._off_wall(state, Half.FRONT).values()):
+        front_opening = p.until == "front_opening" or p.stop_at_feature
+        if front_opening and any(self._off_wall(state, Half.FRONT).values()):
             self.feedback_message = f"front half over an opening after {travelled:.3f} m"
+            self.sensed = "front_opening"
             return Status.SUCCESS
         if p.until == "opening_passed" and self._opening_passed(state):
             self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"

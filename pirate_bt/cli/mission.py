@@ -1,11 +1,13 @@
 """``pirate-bt mission ROUTE``: plan a route on its network and run it.
 
-The route is parsed and planned first (exit 2 with ``file:line:column`` when it
-is malformed or does not fit its network); then it runs as one tree on the
-built-in simulator (``--sim NETWORK``, the default, or the route's ``network``
-line) or on a robot (``--port URL``, with the map from ``--network`` or the
-route). With ``--output DIR`` the trace, the tree diagram, the plots and the
-mission report are written there. Exit codes: 0 the mission succeeded; 1 it
+The route is parsed and planned on the map first (exit 2 with
+``file:line:column`` when it is malformed or does not fit the map); then it runs
+as one tree on the built-in simulator or on a robot (``--port URL``). The map is
+``--network MAP`` or the route's ``network`` line (or ``--sim`` when neither is
+given); the simulator runs ``--sim TRUTH`` (default: the map). With a TRUTH
+other than the map (``pirate-bt network perturb``), the mission plans on a
+drawing and runs on the pipe as built. With ``--output DIR`` the trace, the
+tree diagram, the plots and the mission report are written there. Exit codes: 0 the mission succeeded; 1 it
 failed and the robot was left in its safe state; 2 invalid input; 3 link error.
 """
 
@@ -30,10 +32,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument(
         "--sim",
         metavar="NETWORK",
-        help="run on the built-in simulator in this network (default: the route's network)",
+        help="run the built-in simulator in this network, the truth (default: the map)",
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
-    parser.add_argument("--network", metavar="NETWORK", help="the map, with --port")
+    parser.add_argument(
+        "--network",
+        metavar="MAP",
+        help="the map the mission plans on (default: the route's network line)",
+    )
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument(
@@ -101,11 +107,16 @@ def execute(
     from pirate_bt.resources import find_file
 
     route = load_route(find_file("scenarios", args.route))
-    network = load_network_for(route, args.sim or getattr(args, "network", None))
+    map_name = getattr(args, "network", None) or (None if route.network else args.sim)
+    network = load_network_for(route, map_name, option="--network" if map_name else "--sim")
+    truth = network
+    if args.sim not in (None, map_name, route.network):
+        truth = load_network_for(route, args.sim, option="--sim")
     plan = plan_route(route, network, robot)
     if not args.quiet or args.plan:
+        on = f" (simulator: {truth.name})" if truth is not network else ""
         print(
-            f"route {route.source} in network {network.name}: {len(plan.pabs)} PABs,"
+            f"route {route.source} on map {network.name}{on}: {len(plan.pabs)} PABs,"
             f" {plan.distance_m:.2f} m",
             file=stream,
         )
@@ -117,7 +128,7 @@ def execute(
     trace_path = output / "trace.jsonl" if output is not None else None
     show_live = (not args.quiet) if live is None else live
     started = time.perf_counter()
-    result = _run(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
+    result = _run(args, plan, robot, truth, trace_path, show_live, rate_hz, max_time_s)
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
@@ -145,21 +156,22 @@ def _run(
     args: argparse.Namespace,
     plan: Any,
     robot: Any,
+    truth: Any,
     trace_path: Path | None,
     live: bool,
     rate_hz: float,
     max_time_s: float | None,
 ) -> Any:
-    """Run the plan on the simulator (the route's network) or on ``--port``.
+    """Run the plan on the simulator (in ``truth``) or on ``--port``.
 
     Connecting is :func:`pirate_bt.cli.run.connect`'s job, as for ``pirate-bt run``:
     the robot is reached only through the protective layer, and ``--faults`` means
     the same in both commands.
     """
     from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import run_mission
+    from pirate_bt.task.mission import run_mission, truth_on_map
 
-    connection = connect(args, robot, needs_robot=True, network=plan.network)
+    connection = connect(args, robot, needs_robot=True, network=truth)
     sim = connection.simulator
     try:
         return run_mission(
@@ -167,10 +179,14 @@ def _run(
             robot,
             connection.supervisor,
             connection.clock,
-            truth=(lambda: sim.truth().front_m) if sim is not None else None,
+            truth=(
+                (lambda: truth_on_map(plan, sim.model.path, sim.model.s_m))
+                if sim is not None
+                else None
+            ),
             counters=sim.counters if sim is not None else None,
             trace_path=trace_path,
-            scenario=plan.network.name,
+            scenario=truth.name,
             seed=args.seed if sim is not None else None,
             live=live,
             period_s=1.0 / rate_hz,

@@ -11,8 +11,8 @@ The defaults (``docs/networks.md``):
 
 - a straight's length by at most ±10 % and at most ±0.5 m (tees and reducers keep
   their length: they are fittings);
-- a straight's slope by at most ±3° (vertical runs keep theirs: a slope cannot
-  be set on a vertical run, the bend before it sets its direction);
+- a straight's slope by at most ±3° (vertical runs, risers and drops, are laid
+  plumb: they stay vertical whatever the tilt of the run before them);
 - every diameter given (the network's, a straight's, a reducer's) by at most ±5 %,
   and never outside what the robot can clamp (51-120 mm for the bundled robot).
 
@@ -156,9 +156,10 @@ def perturb_network(
                 length = seg.length + rng.uniform(-1.0, 1.0) * change
                 drawn = slopes.get(seg_name, seg.slope or 0.0)
                 tilt = rng.uniform(-1.0, 1.0) * bounds.slope_rad
-                slope = seg.slope
                 if abs(drawn) < _VERTICAL:
                     slope = max(-_VERTICAL, min(_VERTICAL, drawn + tilt))
+                else:  # risers and drops are set plumb, whatever the run before them
+                    slope = math.copysign(math.pi / 2, drawn)
                 out.append(
                     seg.model_copy(
                         update={

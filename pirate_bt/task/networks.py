@@ -38,7 +38,7 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
     raise FileNotFoundError(f"no network {name!r}; bundled networks: {', '.join(bundled)}")
 
 
-def load_network_for(route: Route, sim: str | None) -> Network:
+def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") -> Network:
     """The network a mission runs in: ``--sim`` if given, else the route's ``network`` line.
 
     Raises:
@@ -56,5 +56,5 @@ def load_network_for(route: Route, sim: str | None) -> Network:
         path = resolve_network_path(name, base)
     except FileNotFoundError as exc:
         where = route.network_location if sim is None and route.network_location else None
-        raise LocatedError(str(exc), where or SourceLocation("--sim")) from None
+        raise LocatedError(str(exc), where or SourceLocation(option)) from None
     return load_network(path)

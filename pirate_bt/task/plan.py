@@ -19,6 +19,7 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.route import Route, RouteStep
 
 __all__ = [
+    "LEG_DISTANCE_KEY",
     "MAP_OK_KEY",
     "PAB_FILES",
     "MapFeature",
@@ -32,6 +33,9 @@ __all__ = [
 
 MAP_OK_KEY = "map_ok"
 """Blackboard key the localiser clears when belief and map disagree."""
+
+LEG_DISTANCE_KEY = "leg_distance"
+"""Blackboard key the mission writes, when a straight leg starts, with its distance (m)."""
 
 PAB_FILES: dict[str, str] = {
     "straight": "straight.yaml",
@@ -107,6 +111,11 @@ class PlannedPab:
         feature: Segment id of the feature it passes, if any.
         inspect: Cameras on: part of an inspection.
         note: One line for people.
+        absolute: A straight that goes *to a place on the map* (up to a feature, to
+            the end, to a segment, back to the start): at run time it drives from the
+            belief to ``end_m``. Otherwise it drives the route's distance from
+            wherever it starts. Either way a forward leg keeps its margin before the
+            next feature as far as the map's tolerance lets the robot know it.
     """
 
     pab: str
@@ -117,6 +126,7 @@ class PlannedPab:
     feature: str | None = None
     inspect: bool = False
     note: str = ""
+    absolute: bool = False
 
     def label(self, index: int) -> str:
         """A tree node name: ``03 bend right (line 4)``."""

@@ -137,7 +137,13 @@ class _Walker:
     # -- planning steps
 
     def straight(
-        self, step: RouteStep, distance_m: float, note: str, *, inspect: bool = False
+        self,
+        step: RouteStep,
+        distance_m: float,
+        note: str,
+        *,
+        inspect: bool = False,
+        absolute: bool = False,
     ) -> None:
         params: dict[str, Any] = {"distance": distance_m}
         slow = step.slowly or inspect
@@ -146,7 +152,16 @@ class _Walker:
         overrun = math.copysign(self.contract.straight_overrun_m, distance_m)
         end = self.s_m + distance_m + overrun
         self.pabs.append(
-            PlannedPab("straight", params, step, self.s_m, end, inspect=inspect, note=note)
+            PlannedPab(
+                "straight",
+                params,
+                step,
+                self.s_m,
+                end,
+                inspect=inspect,
+                note=note,
+                absolute=absolute,
+            )
         )
         self.driven_m += abs(distance_m)
         self.s_m = end
@@ -163,7 +178,9 @@ class _Walker:
                 raise LocatedError(
                     f"'{step.text}': the robot is already at the end of the line", step.location
                 )
-            self.straight(step, room, f"{verb} {room:.2f} m to the end", inspect=inspect)
+            self.straight(
+                step, room, f"{verb} {room:.2f} m to the end", inspect=inspect, absolute=True
+            )
             return
         if step.distance_m > room + _TOL_M:
             if feature is not None:
@@ -219,7 +236,7 @@ class _Walker:
         distance = self.s_m - self.start_m
         if distance < _TOL_M:
             return
-        self.straight(step, -distance, f"back {distance:.2f} m to the start")
+        self.straight(step, -distance, f"back {distance:.2f} m to the start", absolute=True)
 
     def approach(self, step: RouteStep, feature: Piece) -> None:
         """Drive up to ``approach_m`` before ``feature``; nothing when already within it.
@@ -238,7 +255,7 @@ class _Walker:
                 step.location,
             )
         if gap > _TOL_M:
-            self.straight(step, gap, f"approach {gap:.2f} m")
+            self.straight(step, gap, f"approach {gap:.2f} m", absolute=True)
 
     def bend(self, step: RouteStep) -> None:
         feature = self.next_feature()
@@ -427,7 +444,9 @@ class _Walker:
         last = goal.end_m - (self.contract.end_margin_m if is_end else self.contract.approach_m)
         target = min(goal.start_m + self.length_m + self.contract.clear_m, last)
         if target > self.s_m + _TOL_M:
-            self.straight(step, target - self.s_m, f"straight {target - self.s_m:.2f} m")
+            self.straight(
+                step, target - self.s_m, f"straight {target - self.s_m:.2f} m", absolute=True
+            )
 
 
 def _direction(name: str) -> Any:

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import ConfigurationError
-from pirate_bt.task.plan import MAP_OK_KEY, PAB_FILES, MissionPlan
+from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, PAB_FILES, MissionPlan
 
 __all__ = ["mission_tree_spec"]
 
@@ -68,6 +68,11 @@ def mission_tree_spec(
             # Backwards: the straight PAB drives a positive distance at a negative velocity.
             params["distance"] = -params["distance"]
             speed = -(speed or 0.08)
+        if pab.pab == "straight" and "distance_key" in declared[pab.pab]:
+            # the mission writes the leg's distance from its belief when the leg starts
+            params["distance_key"] = LEG_DISTANCE_KEY
+            if pab.end_m > pab.start_m and "stop_at_feature" in declared[pab.pab]:
+                params["stop_at_feature"] = True
         if speed is not None and speed != nominal_speed_mps:
             for key in ("speed", "velocity"):
                 if key in declared[pab.pab]:
