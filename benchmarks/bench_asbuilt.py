@@ -19,6 +19,7 @@ wall time but not the results, which depend on the seeds only.
 from __future__ import annotations
 
 import argparse
+import logging
 import statistics
 import sys
 import time
@@ -31,6 +32,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 def run_case(seed: int, scale: float) -> dict[str, Any]:
     """One variant: a plain record (picklable) of how the mission went."""
+    logging.disable(logging.WARNING)
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import AsBuiltBounds, perturb_network
     from pirate_bt.task.mission import simulate_mission
@@ -65,6 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="process pool size")
     parser.add_argument("--first-seed", type=int, default=1)
     args = parser.parse_args(argv)
+    logging.disable(logging.WARNING)
     scales = [float(s) for s in args.scales.split(",")]
     started = time.perf_counter()
     rows: list[dict[str, Any]] = []

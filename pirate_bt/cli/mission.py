@@ -7,8 +7,9 @@ as one tree on the built-in simulator or on a robot (``--port URL``). The map is
 given); the simulator runs ``--sim TRUTH`` (default: the map). With a TRUTH
 other than the map (``pirate-bt network perturb``), the mission plans on a
 drawing and runs on the pipe as built. With ``--output DIR`` the trace, the
-tree diagram, the plots and the mission report are written there. Exit codes: 0 the mission succeeded; 1 it
-failed and the robot was left in its safe state; 2 invalid input; 3 link error.
+tree diagram, the plots and the mission report are written there. Exit codes:
+0 the mission succeeded; 1 it failed and the robot was left in its safe state;
+2 invalid input; 3 link error.
 """
 
 from __future__ import annotations
