@@ -192,6 +192,12 @@ class Drive(Primitive):
         speed = state.mean_drive_velocity_mps()
         self._odometry_m += speed * dt
         travelled = abs(self._odometry_m)
+        # checked before (re)sending: a front half already over an opening is done at once
+        front_opening = p.until == "front_opening" or p.stop_at_feature
+        if front_opening and any(self._off_wall(state, Half.FRONT).values()):
+            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
+            self.sensed = "front_opening"
+            return Status.SUCCESS
         if not self._at_speed:
             command = _commands().Drive(p.velocity)
             if self._resend and self.supervisor.check(command).refused:
@@ -240,11 +246,6 @@ class Drive(Primitive):
         else:
             self._blocked_since = None
         if p.until == "distance" and target is not None and travelled >= target:
-            return Status.SUCCESS
-        front_opening = p.until == "front_opening" or p.stop_at_feature
-        if front_opening and any(self._off_wall(state, Half.FRONT).values()):
-            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
-            self.sensed = "front_opening"
             return Status.SUCCESS
         if p.until == "opening_passed" and self._opening_passed(state):
             self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"

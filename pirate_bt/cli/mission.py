@@ -170,21 +170,21 @@ def _run(
     the same in both commands.
     """
     from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import run_mission, truth_on_map
+    from pirate_bt.task.mission import carry_on, run_mission, truth_on_map
 
     connection = connect(args, robot, needs_robot=True, network=truth)
     sim = connection.simulator
+
+    def truth_for(p: Any) -> Any:
+        return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
+
     try:
-        return run_mission(
+        result = run_mission(
             plan,
             robot,
             connection.supervisor,
             connection.clock,
-            truth=(
-                (lambda: truth_on_map(plan, sim.model.path, sim.model.s_m))
-                if sim is not None
-                else None
-            ),
+            truth=truth_for(plan),
             counters=sim.counters if sim is not None else None,
             trace_path=trace_path,
             scenario=truth.name,
@@ -193,6 +193,15 @@ def _run(
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
             realtime=args.realtime,
+        )
+        return carry_on(
+            result,
+            robot,
+            connection.supervisor,
+            connection.clock,
+            truth_for=truth_for,
+            counters=sim.counters if sim is not None else None,
+            period_s=1.0 / rate_hz,
         )
     finally:
         connection.close()

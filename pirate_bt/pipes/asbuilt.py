@@ -253,11 +253,14 @@ def insert_tee(
     *,
     tee_id: str = "extra-tee",
     name: str | None = None,
+    keep_length: bool = False,
 ) -> NetworkSpec:
     """The network with a tee nobody drew, ``at_m`` into the straight ``segment_id``.
 
-    The straight is split around the tee (so the line's length grows by the tee's);
-    the branch is a capped stub pointing ``direction``.
+    The straight is split around the tee (so the line's length grows by the tee's,
+    unless ``keep_length``: then the tee takes its length from the straight after
+    it, as when a map is corrected where a robot found a tee); the branch is a
+    capped stub pointing ``direction``.
 
     Raises:
         ConfigurationError: no such straight, or ``at_m`` leaves no pipe on a side.
@@ -270,11 +273,18 @@ def insert_tee(
             raise ConfigurationError(
                 f"insert a tee: {at_m:g} m is not within {segment_id!r} ({seg.length:g} m)"
             )
+        tee_m = 3.0 * (seg.diameter or spec.diameter)
+        rest_m = seg.length - at_m - (tee_m if keep_length else 0.0)
+        if rest_m <= 0.0:
+            raise ConfigurationError(
+                f"insert a tee: no pipe left in {segment_id!r} after a tee at {at_m:g} m"
+            )
         first = seg.model_copy(update={"length": at_m})
-        rest = StraightSpec(type="straight", id=f"{segment_id}-after", length=seg.length - at_m)
+        rest = StraightSpec(type="straight", id=f"{segment_id}-after", length=rest_m)
         tee = TeeSpec(
             type="tee",
             id=tee_id,
+            length=tee_m,
             branch=TeeBranchSpec.model_validate({"direction": direction}),
         )
         return [first, tee, rest]

@@ -136,6 +136,9 @@ class Disagreement:
         evidence: The sensor readings behind it, for people.
         window_m: The tolerance it was searched within.
         feature: The map feature's segment id, if any.
+        sensed_at_m: Where on the map the sensed feature is (an opening: where the
+            module that felt it is), if anything was sensed there.
+        sensed_by: The module whose sensor felt it.
     """
 
     time_s: float
@@ -145,6 +148,8 @@ class Disagreement:
     evidence: str
     window_m: float
     feature: str | None = None
+    sensed_at_m: float | None = None
+    sensed_by: str | None = None
 
     def describe(self) -> str:
         """One line: ``belief and map disagree at 4.62 m: ...``."""
@@ -326,7 +331,6 @@ class Localiser:
         opening_m = (tee.start_m + tee.end_m) / 2 if tee is not None else None
         window = self.window()
         clamp = self.robot.clamp
-        wall_max = max(c.angle for c in clamp.contact_angles)
         for module, offset in self._bend_offsets.items():
             angle = state.joint_angle_rad.get(module)
             if angle is None:
@@ -346,7 +350,7 @@ class Localiser:
             if (
                 self.tees_felt
                 and at_wall_before
-                and abs(angle) > wall_max + _OPENING_MARGIN_RAD
+                and off_wall
                 and not quiet
                 and not self._near_turn(here_m)
             ):
@@ -363,6 +367,8 @@ class Localiser:
                     f" past the wall-contact angle {math.degrees(wall_rad):.0f} deg",
                     window,
                     None,
+                    sensed_at_m=here_m,
+                    sensed_by=module,
                 )
                 return
 
@@ -439,6 +445,9 @@ class Localiser:
         evidence: str,
         window_m: float,
         near: MapFeature | None,
+        *,
+        sensed_at_m: float | None = None,
+        sensed_by: str | None = None,
     ) -> None:
         feature = expected or near
         self.disagreement = Disagreement(
@@ -449,6 +458,8 @@ class Localiser:
             evidence,
             window_m,
             feature.segment if feature is not None else None,
+            sensed_at_m,
+            sensed_by,
         )
         _log.warning("%s", self.mismatch)
 

@@ -82,7 +82,8 @@ class PabContract:
         tee_exit_m: Measured: the straight-through T-joint PAB
             (``trees/lib/tee-straight.yaml``) ends with the front tip at the middle
             of the opening + the rear half's lead offset + this, every bend module
-            past the opening.
+            past the opening (its rear half drives until it has sensed the opening
+            passed, so this is where the rear joints find the wall again).
     """
 
     approach_m: float = 0.25
@@ -94,7 +95,7 @@ class PabContract:
     follow_m: float = 0.55
     straight_overrun_m: float = 0.0
     turn_overrun_m: float = 0.006
-    tee_exit_m: float = 0.400
+    tee_exit_m: float = 0.144
 
 
 @dataclass(frozen=True)

@@ -73,6 +73,7 @@ __all__ = [
     "load_network_for",
     "mission_tree_spec",
     "plan_goal",
+    "plan_return",
     "plan_route",
     "rear_lead_m",
     "resolve_network_path",
@@ -464,6 +465,8 @@ def plan_route(
     network: Network,
     robot: RobotDescription,
     contract: PabContract | None = None,
+    *,
+    start_m: float | None = None,
 ) -> MissionPlan:
     """Plan a route on a network.
 
@@ -472,6 +475,8 @@ def plan_route(
         network: The map.
         robot: The robot description (its length sets where PABs leave it).
         contract: Where the PABs expect and leave the robot.
+        start_m: Plan from here (front tip on the main path; default: the network's
+            start), e.g. from the belief when a mission re-plans.
 
     Returns:
         The plan: the PAB chain, the path, the features passed.
@@ -481,6 +486,8 @@ def plan_route(
     """
     contract = contract or PabContract()
     walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
+    if start_m is not None:
+        walker.start_m = walker.s_m = start_m
     handlers = {
         StepKind.FORWARD: walker.forward,
         StepKind.INSPECT: walker.forward,
@@ -533,6 +540,63 @@ def plan_goal(
 
     route = parse_route(f"go to {segment}\n", f"<goal {segment}>", name=f"to {segment}")
     return plan_route(route, network, robot, contract)
+
+
+def plan_return(plan: MissionPlan, belief_m: float, felt: list[str]) -> MissionPlan:
+    """The way back to the start after a mission stopped at ``belief_m``.
+
+    The way back is the pipe as the robot sensed it, not as the map has it: a
+    feature the map has but the robot never felt (a bend that was never built)
+    is no obstacle. The PABs do not drive backwards through a bend or T-joint
+    yet, so a way back through a feature the robot did pass (``felt``) cannot be
+    planned.
+
+    Args:
+        plan: The mission's plan.
+        belief_m: Where the robot believes it is.
+        felt: Segment ids of the features the robot passed and felt (its fixes).
+
+    Raises:
+        LocatedError: the way back passes a felt feature.
+    """
+    from pirate_bt.errors import SourceLocation
+    from pirate_bt.task.route import parse_route
+
+    route = parse_route("return to start\n", f"<return from {plan.route.name}>", name="return")
+    step = route.steps[0]
+    if felt:
+        raise LocatedError(
+            f"cannot return to the start: the way back passes {felt[-1]!r}, and the PABs do"
+            " not drive backwards through a bend or T-joint yet (pull the robot back by its"
+            " tether)",
+            SourceLocation(plan.route.source),
+        )
+    distance = belief_m - plan.start_m
+    pabs: tuple[PlannedPab, ...] = ()
+    if distance > _TOL_M:
+        pabs = (
+            PlannedPab(
+                "straight",
+                {"distance": -distance},
+                step,
+                belief_m,
+                plan.start_m,
+                note=f"back {distance:.2f} m to the start",
+                absolute=True,
+            ),
+        )
+    return MissionPlan(
+        route=route,
+        network=plan.network,
+        path=plan.path,
+        pabs=pabs,
+        features=(),
+        start_m=belief_m,
+        end_m=plan.start_m,
+        distance_m=abs(distance),
+        robot_length_m=plan.robot_length_m,
+        contract=plan.contract,
+    )
 
 
 def validate_route_file(path: str | Path) -> Route:
