@@ -19,11 +19,12 @@ wall time but not the results, which depend on the seeds only.
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scales", default="1,2", help="bound scales, comma-separated")
     parser.add_argument("--workers", type=int, default=2, help="process pool size")
     parser.add_argument("--first-seed", type=int, default=1)
+    parser.add_argument("--rows", type=Path, help="also append every case as JSON lines here")
     args = parser.parse_args(argv)
     logging.disable(logging.WARNING)
     scales = [float(s) for s in args.scales.split(",")]
@@ -74,12 +76,15 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [
             pool.submit(run_case, seed, scale)
-            for scale in scales
             for seed in range(args.first_seed, args.first_seed + args.variants)
+            for scale in scales
         ]
-        for future in futures:
+        for future in as_completed(futures):
             row = future.result()
             rows.append(row)
+            if args.rows is not None:
+                with args.rows.open("a", encoding="utf-8") as handle:
+                    handle.write(json.dumps(row) + "\n")
             if not row["ok"]:
                 print(f"  x{row['scale']:g} seed {row['seed']}: {row['reason']}", file=sys.stderr)
     wall = time.perf_counter() - started
