@@ -41,6 +41,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="MAP",
         help="the map the mission plans on (default: the route's network line)",
     )
+    parser.add_argument(
+        "--map-tolerance",
+        default="10%",
+        metavar="FRACTION",
+        help="how far the map's lengths may be off, per metre from the last feature"
+        " (default 10%%; 0 for a map known to be exact)",
+    )
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument(
@@ -81,6 +88,17 @@ def _quantity(text: str, dimension: str, option: str) -> float:
         raise InputError(f"{option}: {exc}") from None
 
 
+def _fraction(text: str, option: str) -> float:
+    body = str(text).strip()
+    try:
+        value = float(body[:-1]) / 100.0 if body.endswith("%") else float(body)
+    except ValueError:
+        raise InputError(f"{option}: {text!r} is not a fraction (write e.g. 10% or 0.1)") from None
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: {text!r} must be at least 0 and below 100%")
+    return value
+
+
 def execute(
     args: argparse.Namespace,
     *,
@@ -104,6 +122,7 @@ def execute(
     max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
+    tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     from pirate_bt.resources import find_file
 
@@ -129,7 +148,7 @@ def execute(
     trace_path = output / "trace.jsonl" if output is not None else None
     show_live = (not args.quiet) if live is None else live
     started = time.perf_counter()
-    result = _run(args, plan, robot, truth, trace_path, show_live, rate_hz, max_time_s)
+    result = _run(args, plan, robot, truth, trace_path, show_live, rate_hz, max_time_s, tolerance)
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
@@ -162,6 +181,7 @@ def _run(
     live: bool,
     rate_hz: float,
     max_time_s: float | None,
+    tolerance: float,
 ) -> Any:
     """Run the plan on the simulator (in ``truth``) or on ``--port``.
 
@@ -193,6 +213,7 @@ def _run(
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
             realtime=args.realtime,
+            map_tolerance=tolerance,
         )
         return carry_on(
             result,
@@ -202,6 +223,7 @@ def _run(
             truth_for=truth_for,
             counters=sim.counters if sim is not None else None,
             period_s=1.0 / rate_hz,
+            map_tolerance=tolerance,
         )
     finally:
         connection.close()

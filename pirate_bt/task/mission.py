@@ -31,7 +31,7 @@ from pirate_bt.clock import Clock
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult
-from pirate_bt.task.localise import Disagreement, Fix, Localiser
+from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
 from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
@@ -232,6 +232,7 @@ def run_mission(
     max_time_s: float | None = None,
     realtime: bool = False,
     belief_m: float | None = None,
+    map_tolerance: float = MAP_FRACTION,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -253,6 +254,9 @@ def run_mission(
         realtime: Pace a simulated run to wall time.
         belief_m: Where the robot is believed to be at the start (default: the plan's
             start; a re-planned mission starts from the belief it stopped with).
+        map_tolerance: How far the map's lengths may be off, as a fraction of the
+            distance from the last fix (default 10 %; 0 for a map known to be exact):
+            features are searched within it, and forward legs stop short by it.
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -275,7 +279,7 @@ def run_mission(
         realtime=realtime,
         safe_state=lambda: supervisor.safe_state(reason_box[0]),
     )
-    localiser = Localiser(plan, robot, truth=truth, tees_felt=True)
+    localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
     pabs = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
@@ -343,8 +347,6 @@ def run_mission(
     reason = result.message
     if localiser.mismatch is not None:
         reason = localiser.mismatch
-    if localiser.disagreement is not None:
-        reason = localiser.disagreement.describe()
     end = clock.now() - start_s
     timeline.append(
         TimelineEntry(end, f"end: {result.outcome}", localiser.belief_m, localiser.truth_m)
@@ -424,6 +426,7 @@ def simulate_mission(
     period_s: float = 0.05,
     max_time_s: float | None = None,
     return_on_stop: bool = False,
+    map_tolerance: float = MAP_FRACTION,
 ) -> MissionResult:
     """Plan a route on ``map`` and run it on the simulator in ``truth``: the plain API.
 
@@ -442,6 +445,7 @@ def simulate_mission(
         trace_path: Write a trace here.
         period_s: Tick period.
         max_time_s: Time limit (default: from the plan).
+        map_tolerance: How far the map's lengths may be off (see :func:`run_mission`).
         return_on_stop: When the mission stops short (a disagreement, a failed PAB),
             leave the safe state as an operator would and drive back to the start
             (:func:`~pirate_bt.task.planner.plan_return`); the way back is
@@ -497,6 +501,7 @@ def simulate_mission(
             seed=seed,
             period_s=period_s,
             max_time_s=max_time_s,
+            map_tolerance=map_tolerance,
         )
         result = carry_on(
             result,
@@ -506,6 +511,7 @@ def simulate_mission(
             truth_for=lambda p: _truth(p, sim),
             counters=sim.counters,
             period_s=period_s,
+            map_tolerance=map_tolerance,
         )
         if return_on_stop and not result.succeeded:
             result.returned = _return(result, robot, supervisor, clock, sim)
@@ -526,6 +532,7 @@ def carry_on(
     truth_for: Callable[[MissionPlan], Callable[[], float | None]] | None = None,
     counters: Callable[[], Any] | None = None,
     period_s: float = 0.05,
+    map_tolerance: float = MAP_FRACTION,
 ) -> MissionResult:
     """After a stop, re-plan and go on where the route still has one clear meaning.
 
@@ -548,6 +555,7 @@ def carry_on(
             counters=counters,
             period_s=period_s,
             belief_m=result.belief_m,
+            map_tolerance=map_tolerance,
         )
         result = joined(result, more, note)
     return result
