@@ -161,6 +161,8 @@ def execute(
         + (f", truly {result.truth_m:.2f} m" if result.truth_m is not None else "")
         + ")"
     )
+    for note in result.replans:
+        print(f"pirate-bt: {note}", file=sys.stderr)
     if result.succeeded:
         print(summary, file=stream)
         code = 0

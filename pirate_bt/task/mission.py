@@ -643,7 +643,7 @@ def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
                     leg.step.kind,
                     leg.step.location,
                     f"{leg.step.text} (the rest, {left:.2f} m)",
-                    distance_m=left,
+                    distance_m=round(left, 3),
                     slowly=leg.step.slowly,
                 )
             )

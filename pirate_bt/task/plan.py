@@ -83,7 +83,8 @@ class PabContract:
             (``trees/lib/tee-straight.yaml``) ends with the front tip at the middle
             of the opening + the rear half's lead offset + this, every bend module
             past the opening (its rear half drives until it has sensed the opening
-            passed, so this is where the rear joints find the wall again).
+            passed, then both halves drive 150 mm more so every module clears the
+            tee: the end is anchored on the sensed opening).
     """
 
     approach_m: float = 0.25
@@ -95,7 +96,7 @@ class PabContract:
     follow_m: float = 0.55
     straight_overrun_m: float = 0.0
     turn_overrun_m: float = 0.006
-    tee_exit_m: float = 0.144
+    tee_exit_m: float = 0.295
 
 
 @dataclass(frozen=True)
