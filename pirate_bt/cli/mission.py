@@ -192,7 +192,8 @@ def _run(
     the same in both commands.
     """
     from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import carry_on, run_mission, truth_on_map
+    from pirate_bt.task.mission import run_mission, truth_on_map
+    from pirate_bt.task.replan import carry_on
 
     connection = connect(args, robot, needs_robot=True, network=truth)
     sim = connection.simulator
