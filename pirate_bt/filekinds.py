@@ -83,7 +83,7 @@ KINDS: dict[str, FileKind] = {
         title="route",
         marker_keys=(),
         suffixes=(".route",),
-        loader="pirate_bt.task.route:validate_route_file",
+        loader="pirate_bt.task.planner:validate_route_file",
         schema="pirate_bt.task.route:route_schema",
     ),
     "trace": FileKind(

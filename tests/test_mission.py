@@ -51,8 +51,12 @@ def check_clean_success(outputs: MissionOutputs) -> None:
     assert result.max_fix_error_m is None or result.max_fix_error_m <= FIX_BOUND_M
     # ...and (no slip in these networks) within it over the whole run too.
     assert result.max_error_m is not None and result.max_error_m <= FIX_BOUND_M
-    # It ended where the plan said, within the bound.
-    assert result.truth_m == pytest.approx(result.plan.end_m, abs=FIX_BOUND_M)
+    # It ended where the plan said, within the bound, less what the legs kept back
+    # in case the map's lengths are off (each such leg says so).
+    kept_back = sum(leg.planned_m - leg.driven_m for leg in result.legs if leg.why)
+    assert all(leg.driven_m <= leg.planned_m + 1e-9 for leg in result.legs if leg.why)
+    assert result.plan.end_m - kept_back - FIX_BOUND_M <= result.truth_m
+    assert result.truth_m <= result.plan.end_m + FIX_BOUND_M
 
 
 @pytest.mark.parametrize("route", SHORT, ids=[p.stem for p in SHORT])
@@ -87,7 +91,7 @@ def test_demo_inspects_the_lab_network(tmp_path: Path, capsys: pytest.CaptureFix
 
 def test_route_that_does_not_fit_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     route = REPO / "scenarios" / "bend-left.route"
-    assert main(["mission", str(route), "--sim", "bend-right", "--quiet"]) == 2
+    assert main(["mission", str(route), "--network", "bend-right", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert f"{route}:5:1: " in err and "turns right, not left" in err
 

@@ -1,5 +1,8 @@
 """Motion primitives: the smallest meaningful actions of PIRATE, as py_trees leaves.
 
+The drive lives in :mod:`pirate_bt.behaviours.drive`, the common base in
+:mod:`pirate_bt.behaviours.primitive`; both are re-exported here.
+
 A primitive asks the safety supervisor for one effect - clamp a half, release it,
 drive, bend a module, rotate the halves, move the front module clear - and then
 *watches the sensors* until the effect is confirmed. It never trusts that a command
@@ -33,7 +36,6 @@ every number about the robot from its description, and acquire the supervisor in
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Iterator
 from typing import Any, ClassVar, Literal
@@ -49,10 +51,17 @@ from pirate_bt.behaviours.base import (
     NodeParams,
     Outcome,
 )
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.behaviours.drive import Drive, DriveParams
+from pirate_bt.behaviours.primitive import (
+    _SETTLE_TICKS,
+    Primitive,
+    _commands,
+    _deg,
+    _wrap,
+)
 from pirate_bt.robot.description import Half, RobotDescription, Role
 from pirate_bt.robot.state import RobotState
-from pirate_bt.units import Angle, Current, Duration, Length, Torque, Velocity
+from pirate_bt.units import Angle, Duration, Torque
 
 __all__ = [
     "AlignRoll",
@@ -60,6 +69,7 @@ __all__ = [
     "Clamp",
     "Confirm",
     "Drive",
+    "DriveParams",
     "MoveFrontClear",
     "Primitive",
     "Rotate",
@@ -67,148 +77,6 @@ __all__ = [
     "Unclamp",
     "last_failure",
 ]
-
-_log = logging.getLogger("pirate_bt.behaviours.primitives")
-
-_SUCCESS_FAILURE: frozenset[Outcome] = frozenset({"success", "failure", "running"})
-_SETTLE_TICKS = 2
-"""Consecutive ticks a condition must hold before a primitive believes it."""
-
-
-def _wrap(angle_rad: float) -> float:
-    return math.remainder(angle_rad, 2 * math.pi)
-
-
-def _deg(angle_rad: float) -> str:
-    return f"{math.degrees(angle_rad):.1f}°"
-
-
-class Primitive(Leaf):
-    """Common machinery: supervisor, timeout, verdict handling, failure reasons.
-
-    Subclasses implement :meth:`step` (one tick of work on a fresh state, returning
-    a status) and may override :meth:`start` and :meth:`stop_motion`.
-    """
-
-    needs_robot: ClassVar[bool] = True
-    verb: ClassVar[str] = "primitive"
-
-    def __init__(self, name: str, params: NodeParams, context: BuildContext) -> None:
-        super().__init__(name, params, context)
-        self.supervisor: Any = None
-        self.failed_at_s: float | None = None
-        self.failure_reason = ""
-        self._start_s = math.nan
-        self._timeout_s: float = getattr(params, "timeout", 30.0)
-        self._refusal: Any = None
-
-    @classmethod
-    def outcomes(cls, params: Any) -> frozenset[Outcome]:
-        return _SUCCESS_FAILURE
-
-    # -- lifecycle ---------------------------------------------------------------
-
-    def setup(self, **kwargs: Any) -> None:
-        """Take the supervisor from the build context (the only road to the robot).
-
-        Raises:
-            ConfigurationError: the tree was built without a robot connection.
-        """
-        if self.context.supervisor is None:
-            raise ConfigurationError(
-                f"{self.name}: the {self.verb} primitive needs a robot (no supervisor)"
-            )
-        self.supervisor = self.context.supervisor
-
-    @property
-    def robot(self) -> RobotDescription:
-        robot: RobotDescription = self.supervisor.robot
-        return robot
-
-    def now(self) -> float:
-        return self.context.clock.now()
-
-    def initialise(self) -> None:
-        if self.supervisor is None:
-            self.setup()
-        self._start_s = self.now()
-        self.failed_at_s = None
-        self.failure_reason = ""
-        self.feedback_message = ""
-        self.start()
-
-    def update(self) -> Status:
-        state: RobotState | None = self.supervisor.state()
-        elapsed_s = self.now() - self._start_s
-        if state is None:
-            if elapsed_s > self._timeout_s:
-                return self.fail(f"timeout: no robot state within {self._timeout_s:g} s")
-            self.feedback_message = "waiting for the robot's state"
-            return Status.RUNNING
-        status = self.step(state)
-        if status is Status.RUNNING and elapsed_s > self._timeout_s:
-            return self.fail(
-                f"timeout: not done after {self._timeout_s:g} s ({self.feedback_message})"
-            )
-        return status
-
-    def terminate(self, new_status: Status) -> None:
-        if new_status is not Status.SUCCESS and self.supervisor is not None:
-            self.stop_motion()
-
-    # -- hooks -------------------------------------------------------------------
-
-    def start(self) -> None:
-        """Called when the primitive starts (after the supervisor is known)."""
-
-    def step(self, state: RobotState) -> Status:  # pragma: no cover - abstract
-        """One tick of work on the latest state; returns the status."""
-        raise NotImplementedError
-
-    def stop_motion(self) -> None:
-        """Leave the robot safe when interrupted: by default nothing moves on (joints
-        hold their last setpoint, which the rate limit keeps close to where they are)."""
-
-    # -- helpers -------------------------------------------------------------------
-
-    def fail(self, reason: str) -> Status:
-        """Record ``reason`` (``feedback_message``, log, :func:`last_failure`) and fail."""
-        self.feedback_message = reason
-        self.failure_reason = reason
-        self.failed_at_s = self.now()
-        _log.warning("%s failed: %s", self.name, reason)
-        return Status.FAILURE
-
-    def send(self, command: Any) -> tuple[bool, bool]:
-        """Ask the supervisor for ``command``.
-
-        Returns:
-            ``(ok, done)``: ``ok`` is False for a refusal (the reason is recorded by
-            :meth:`refused`); ``done`` is True when it went out unclipped.
-        """
-        verdict = self.supervisor.command(command)
-        if verdict.refused:
-            self._refusal = verdict
-            return False, False
-        return True, verdict.outcome.value == "pass"
-
-    def refused(self) -> Status:
-        verdict = self._refusal
-        reason = verdict.reason.value if verdict.reason is not None else "refused"
-        return self.fail(f"refused {_describe(verdict.command)}: {reason}: {verdict.detail}")
-
-
-def _describe(command: Any) -> str:
-    from pirate_bt.safety.commands import describe
-
-    return describe(command)
-
-
-def _commands() -> Any:
-    # Imported lazily: building or drawing a tree must not need the safety layer.
-    from pirate_bt.safety import commands
-
-    return commands
 
 
 def last_failure(node: py_trees.behaviour.Behaviour) -> str | None:
@@ -621,209 +489,6 @@ class MoveFrontClear(Primitive):
         self.feedback_message = f"front tilt {_deg(tilt) if tilt is not None else 'unknown'}"
         self._held = self._held + 1 if (clear and self._done_sending) else 0
         return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
-
-
-# -- drive ------------------------------------------------------------------------------
-
-Until = Literal["distance", "blocked", "front_opening", "opening_passed"]
-
-
-class DriveParams(NodeParams):
-    velocity: Velocity = Field(description="wheel speed; negative drives backwards")
-    distance: Length | None = Field(
-        None, gt=0, description="odometry distance that completes the drive (until: distance)"
-    )
-    until: Until = Field(
-        "distance",
-        description=(
-            "what completes the drive: 'distance' travelled; 'blocked' (every drive draws"
-            " stall current: the leading half is held at a turn it may not take);"
-            " 'front_opening' (a front joint swung past every wall-contact angle: the"
-            " front half is over a tee's opening);"
-            " 'opening_passed' (every rear joint, pressing the wall, swung off it over a"
-            " tee's opening and is back at the wall behind it)"
-        ),
-    )
-    max_distance: Length = Field(
-        3.0, gt=0, description="fail when no feature was found within this distance"
-    )
-    stall_current: Current | None = Field(
-        None, gt=0, description="current counted as stalled (default 80 % of the stall current)"
-    )
-    stall_time: Duration = Field(0.5, gt=0, description="how long a stall lasts before failing")
-    timeout: Duration = Field(120.0, gt=0, description="fail if not done within this time")
-
-
-class Drive(Primitive):
-    """Drive every wheel at ``velocity`` until a distance or a feature; stop at the end.
-
-    Odometry integrates the mean measured wheel speed. A drive motor drawing at least
-    ``stall_current`` while turning at less than a fifth of the commanded speed for
-    ``stall_time`` is a stall (failure). Every motor drawing stall current while the
-    robot makes no progress (mean wheel speed below a fifth of the command) means
-    the robot is held by the pipe: success for ``until: blocked``, a failure
-    otherwise. A heavy load that the wheels still carry (nearly stall current at
-    speed) is neither. ``terminate()`` always stops the drives.
-    """
-
-    Params = DriveParams
-    verb = "drive"
-
-    @classmethod
-    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
-        problems: list[str] = []
-        if params.velocity == 0:
-            problems.append("velocity: must not be 0")
-        if params.until == "distance" and params.distance is None:
-            problems.append("distance: required with until: distance")
-        for motor in robot.drive_motors():
-            lim = motor.limits.velocity
-            if lim is not None and abs(params.velocity) > lim.max:
-                problems.append(
-                    f"velocity: {params.velocity * 1000:g} mm/s is above {motor.name}'s limit"
-                    f" {lim.max * 1000:g} mm/s"
-                )
-                break
-        return problems
-
-    def start(self) -> None:
-        self._at_speed = False
-        self._resend = False
-        self._odometry_m = 0.0
-        self._last_s = self.now()
-        self._stall_since: dict[str, float] = {}
-        self._blocked_since: float | None = None
-        self._lost_wall: dict[str, bool] = {}
-        self._found_wall: set[str] = set()
-        self._back_ticks: dict[str, int] = {}
-        self._slow_since: float | None = None
-
-    def stop_motion(self) -> None:
-        self.supervisor.stop()
-
-    def terminate(self, new_status: Status) -> None:
-        if self.supervisor is not None:
-            self.supervisor.stop()
-
-    def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
-        """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
-        clamp = self.robot.clamp
-        beyond = max(c.angle for c in clamp.contact_angles) + 2 * self.robot.safety.angle_tolerance
-        return {
-            m.name: abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
-            for m in self.robot.bend_modules(half)
-        }
-
-    def _opening_passed(self, state: RobotState) -> bool:
-        """True once every rear bend module has crossed an opening and is at the wall again.
-
-        A pressing joint swings past every wall-contact angle over the opening (lost)
-        and is pushed back by the wall behind it. It counts as past the opening only
-        when it is back *at the wall* - within the contact range and, with a spring
-        sensor, pressing on it, for ``_SETTLE_TICKS`` ticks - not as soon as it swings
-        back below the off-wall threshold, when the module may still be at the edge of
-        the opening. A joint
-        that swings out again (a second opening, noise) must come back again.
-        """
-        robot = self.robot
-        clamp = robot.clamp
-        tol = robot.safety.angle_tolerance
-        wall_max = max(c.angle for c in clamp.contact_angles) + tol
-        wall_min = min(c.angle for c in clamp.contact_angles) - tol
-        pressing_n = robot.safety.clamp_force_fraction * clamp.min_torque / clamp.lever_arm
-        rear = [m.name for m in robot.bend_modules(Half.REAR)]
-        for name, off in self._off_wall(state, Half.REAR).items():
-            angle = state.joint_angle_rad.get(name)
-            force = state.clamp_force_n.get(name)
-            if off:
-                self._lost_wall[name] = True
-                self._back_ticks[name] = 0
-                self._found_wall.discard(name)
-            elif self._lost_wall.get(name) and angle is not None:
-                # at the wall: in the contact range and, with a spring, pressing on it
-                at_wall = wall_min <= abs(angle) <= wall_max and (
-                    force is None or abs(force) >= pressing_n
-                )
-                self._back_ticks[name] = self._back_ticks.get(name, 0) + 1 if at_wall else 0
-                if self._back_ticks[name] >= _SETTLE_TICKS:
-                    self._found_wall.add(name)
-        return bool(rear) and self._found_wall >= set(rear)
-
-    def step(self, state: RobotState) -> Status:
-        p: DriveParams = self.params  # type: ignore[assignment]
-        now = self.now()
-        dt = max(now - self._last_s, 0.0)
-        self._last_s = now
-        speed = state.mean_drive_velocity_mps()
-        self._odometry_m += speed * dt
-        travelled = abs(self._odometry_m)
-        if not self._at_speed:
-            command = _commands().Drive(p.velocity)
-            if self._resend and self.supervisor.check(command).refused:
-                pass  # asking again now would be refused: keep going, ask again later
-            else:
-                ok, done = self.send(command)
-                if not ok:
-                    return self.refused()
-                self._at_speed = done
-        robot = self.robot
-        stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
-        currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in robot.drive_motors()}
-        speeds = {m.name: state.drive_velocity_mps.get(m.name, 0.0) for m in robot.drive_motors()}
-        self.feedback_message = (
-            f"drove {travelled:.3f} m at {speed * 1000:.0f} mm/s"
-            f" (max current {max(currents.values(), default=0.0):.2f} A)"
-        )
-        # a stall: a motor drawing stall current without turning
-        for name, current in currents.items():
-            turning = abs(speeds[name]) >= 0.2 * abs(p.velocity)
-            if current >= stall_a and not turning:
-                since = self._stall_since.setdefault(name, now)
-                if now - since >= p.stall_time:
-                    return self.fail(
-                        f"stall: {name} draws {current:.2f} A at {speeds[name] * 1000:.0f} mm/s"
-                        f" for {now - since:.2f} s (commanded {p.velocity * 1000:g} mm/s)"
-                    )
-            else:
-                self._stall_since.pop(name, None)
-        # blocked: every wheel pushes against the pipe at stall current and the robot
-        # makes no progress. Current alone is not enough: a heavy load (a long tether up
-        # a riser) draws nearly stall current while the robot climbs at full speed.
-        progressing = abs(speed) >= 0.2 * abs(p.velocity)
-        if currents and all(c >= stall_a for c in currents.values()) and not progressing:
-            if self._blocked_since is None:
-                self._blocked_since = now
-            if now - self._blocked_since >= min(p.stall_time, 0.3):
-                if p.until == "blocked":
-                    self.feedback_message = f"blocked after {travelled:.3f} m"
-                    return Status.SUCCESS
-                return self.fail(
-                    f"blocked: every drive draws stall current after {travelled:.3f} m"
-                    " (a turn the robot may not take?)"
-                )
-        else:
-            self._blocked_since = None
-        if p.until == "distance" and p.distance is not None and travelled >= p.distance:
-            return Status.SUCCESS
-        if p.until == "front_opening" and any(self._off_wall(state, Half.FRONT).values()):
-            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
-            return Status.SUCCESS
-        if p.until == "opening_passed" and self._opening_passed(state):
-            self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
-            return Status.SUCCESS
-        if p.until != "distance" and travelled >= p.max_distance:
-            return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")
-        # the bridge's watchdog may have stopped the wheels: ask again
-        if self._at_speed and abs(speed) < 0.2 * abs(p.velocity):
-            if self._slow_since is None:
-                self._slow_since = now
-            elif now - self._slow_since >= 0.5 and max(currents.values(), default=0.0) < stall_a:
-                self._at_speed = False
-                self._resend = True
-                self._slow_since = None
-        else:
-            self._slow_since = None
-        return Status.RUNNING
 
 
 # -- confirmation and safe state -----------------------------------------------------

@@ -1,12 +1,15 @@
 """``pirate-bt mission ROUTE``: plan a route on its network and run it.
 
-The route is parsed and planned first (exit 2 with ``file:line:column`` when it
-is malformed or does not fit its network); then it runs as one tree on the
-built-in simulator (``--sim NETWORK``, the default, or the route's ``network``
-line) or on a robot (``--port URL``, with the map from ``--network`` or the
-route). With ``--output DIR`` the trace, the tree diagram, the plots and the
-mission report are written there. Exit codes: 0 the mission succeeded; 1 it
-failed and the robot was left in its safe state; 2 invalid input; 3 link error.
+The route is parsed and planned on the map first (exit 2 with
+``file:line:column`` when it is malformed or does not fit the map); then it runs
+as one tree on the built-in simulator or on a robot (``--port URL``). The map is
+``--network MAP`` or the route's ``network`` line (or ``--sim`` when neither is
+given); the simulator runs ``--sim TRUTH`` (default: the map). With a TRUTH
+other than the map (``pirate-bt network perturb``), the mission plans on a
+drawing and runs on the pipe as built. With ``--output DIR`` the trace, the
+tree diagram, the plots and the mission report are written there. Exit codes:
+0 the mission succeeded; 1 it failed and the robot was left in its safe state;
+2 invalid input; 3 link error.
 """
 
 from __future__ import annotations
@@ -30,10 +33,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument(
         "--sim",
         metavar="NETWORK",
-        help="run on the built-in simulator in this network (default: the route's network)",
+        help="run the built-in simulator in this network, the truth (default: the map)",
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
-    parser.add_argument("--network", metavar="NETWORK", help="the map, with --port")
+    parser.add_argument(
+        "--network",
+        metavar="MAP",
+        help="the map the mission plans on (default: the route's network line)",
+    )
+    parser.add_argument(
+        "--map-tolerance",
+        default="10%",
+        metavar="FRACTION",
+        help="how far the map's lengths may be off, per metre from the last feature"
+        " (default 10%%; 0 for a map known to be exact)",
+    )
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument(
@@ -74,6 +88,17 @@ def _quantity(text: str, dimension: str, option: str) -> float:
         raise InputError(f"{option}: {exc}") from None
 
 
+def _fraction(text: str, option: str) -> float:
+    body = str(text).strip()
+    try:
+        value = float(body[:-1]) / 100.0 if body.endswith("%") else float(body)
+    except ValueError:
+        raise InputError(f"{option}: {text!r} is not a fraction (write e.g. 10% or 0.1)") from None
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: {text!r} must be at least 0 and below 100%")
+    return value
+
+
 def execute(
     args: argparse.Namespace,
     *,
@@ -97,15 +122,21 @@ def execute(
     max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
+    tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     from pirate_bt.resources import find_file
 
     route = load_route(find_file("scenarios", args.route))
-    network = load_network_for(route, args.sim or getattr(args, "network", None))
+    map_name = getattr(args, "network", None) or (None if route.network else args.sim)
+    network = load_network_for(route, map_name, option="--network" if map_name else "--sim")
+    truth = network
+    if args.sim not in (None, map_name, route.network):
+        truth = load_network_for(route, args.sim, option="--sim")
     plan = plan_route(route, network, robot)
     if not args.quiet or args.plan:
+        on = f" (simulator: {truth.name})" if truth is not network else ""
         print(
-            f"route {route.source} in network {network.name}: {len(plan.pabs)} PABs,"
+            f"route {route.source} on map {network.name}{on}: {len(plan.pabs)} PABs,"
             f" {plan.distance_m:.2f} m",
             file=stream,
         )
@@ -117,7 +148,7 @@ def execute(
     trace_path = output / "trace.jsonl" if output is not None else None
     show_live = (not args.quiet) if live is None else live
     started = time.perf_counter()
-    result = _run(args, plan, robot, trace_path, show_live, rate_hz, max_time_s)
+    result = _run(args, plan, robot, truth, trace_path, show_live, rate_hz, max_time_s, tolerance)
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
@@ -130,6 +161,8 @@ def execute(
         + (f", truly {result.truth_m:.2f} m" if result.truth_m is not None else "")
         + ")"
     )
+    for note in result.replans:
+        print(f"pirate-bt: {note}", file=sys.stderr)
     if result.succeeded:
         print(summary, file=stream)
         code = 0
@@ -145,37 +178,55 @@ def _run(
     args: argparse.Namespace,
     plan: Any,
     robot: Any,
+    truth: Any,
     trace_path: Path | None,
     live: bool,
     rate_hz: float,
     max_time_s: float | None,
+    tolerance: float,
 ) -> Any:
-    """Run the plan on the simulator (the route's network) or on ``--port``.
+    """Run the plan on the simulator (in ``truth``) or on ``--port``.
 
     Connecting is :func:`pirate_bt.cli.run.connect`'s job, as for ``pirate-bt run``:
     the robot is reached only through the protective layer, and ``--faults`` means
     the same in both commands.
     """
     from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import run_mission
+    from pirate_bt.task.mission import run_mission, truth_on_map
+    from pirate_bt.task.replan import carry_on
 
-    connection = connect(args, robot, needs_robot=True, network=plan.network)
+    connection = connect(args, robot, needs_robot=True, network=truth)
     sim = connection.simulator
+
+    def truth_for(p: Any) -> Any:
+        return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
+
     try:
-        return run_mission(
+        result = run_mission(
             plan,
             robot,
             connection.supervisor,
             connection.clock,
-            truth=(lambda: sim.truth().front_m) if sim is not None else None,
+            truth=truth_for(plan),
             counters=sim.counters if sim is not None else None,
             trace_path=trace_path,
-            scenario=plan.network.name,
+            scenario=truth.name,
             seed=args.seed if sim is not None else None,
             live=live,
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
             realtime=args.realtime,
+            map_tolerance=tolerance,
+        )
+        return carry_on(
+            result,
+            robot,
+            connection.supervisor,
+            connection.clock,
+            truth_for=truth_for,
+            counters=sim.counters if sim is not None else None,
+            period_s=1.0 / rate_hz,
+            map_tolerance=tolerance,
         )
     finally:
         connection.close()

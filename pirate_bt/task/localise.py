@@ -21,12 +21,16 @@ progress:
   module is at the opening. A tee passed without clamping over it is not felt,
   and that is not an error.
 
-Belief and map *disagree* when a turn is felt where the map has none within
-the search window, or the belief passes the far end of a turn's window without
-the turn being felt. The window is ``window_m`` plus ``drift_per_m`` for every
-metre driven since the last fix. A disagreement sets :attr:`Localiser.mismatch`;
-the mission clears the ``map_ok`` blackboard key, the tree's guard fails and the
-runner leaves the robot in its safe state with that reason.
+Belief and map *disagree* when a turn (or, with ``tees_felt``, a tee's
+opening) is felt where the map has none within the search window, or the belief
+passes the far end of a feature's window without the feature being felt. The
+window is the *tolerance* around where the map puts a feature: ``window_m``
+(0.3 m) plus ``drift_per_m`` + ``map_fraction`` (2 % + 10 %) of every metre
+driven since the last fix, so a map whose straights are off by up to 10 % still
+fits. A disagreement sets :attr:`Localiser.mismatch` (one line) and
+:attr:`Localiser.disagreement` (where, what was expected, what was sensed, the
+sensor evidence); the mission clears the ``map_ok`` blackboard key, the tree's
+guard fails and the runner leaves the robot in its safe state with that reason.
 
 Bounds the tests check on the simulator (``docs/missions.md``): right after a
 fix the belief is within 0.10 m of the truth, and between fixes the error grows
@@ -47,6 +51,9 @@ from pirate_bt.task.planner import MapFeature, MissionPlan
 __all__ = [
     "DRIFT_PER_M",
     "FIX_BOUND_M",
+    "MAP_FRACTION",
+    "WINDOW_M",
+    "Disagreement",
     "Fix",
     "Localiser",
     "imu_tangent",
@@ -59,6 +66,12 @@ FIX_BOUND_M = 0.10
 
 DRIFT_PER_M = 0.02
 """Stated bound: growth of the belief error per metre driven between fixes."""
+
+WINDOW_M = 0.3
+"""Stated tolerance: a feature is searched this far either side of where the map has it ..."""
+
+MAP_FRACTION = 0.10
+"""... plus this fraction (and :data:`DRIFT_PER_M`) of the distance driven since the last fix."""
 
 _OPENING_MARGIN_RAD = 0.15
 _UNEXPECTED_TURN_RAD = math.radians(30.0)
@@ -109,6 +122,51 @@ class Fix:
         return self.after_m - self.before_m
 
 
+@dataclass(frozen=True, slots=True)
+class Disagreement:
+    """Where belief and map parted.
+
+    Attributes:
+        time_s: Clock time it was found.
+        belief_m: The belief then (on the map's path).
+        expected: The feature the map has there (``"bend 'bend-a' at 4.00-4.14 m"``),
+            or ``None`` when the map has none.
+        sensed: What the sensors found (``"a turn of 88 deg"``, ``"an opening"``), or
+            ``None`` when they found nothing.
+        evidence: The sensor readings behind it, for people.
+        window_m: The tolerance it was searched within.
+        feature: The map feature's segment id, if any.
+        sensed_at_m: Where on the map the sensed feature is (an opening: where the
+            module that felt it is), if anything was sensed there.
+        sensed_by: The module whose sensor felt it.
+    """
+
+    time_s: float
+    belief_m: float
+    expected: str | None
+    sensed: str | None
+    evidence: str
+    window_m: float
+    feature: str | None = None
+    sensed_at_m: float | None = None
+    sensed_by: str | None = None
+
+    def describe(self) -> str:
+        """One line: ``belief and map disagree at 4.62 m: ...``."""
+        expected = self.expected or "no feature"
+        sensed = self.sensed or "nothing"
+        return (
+            f"belief and map disagree at {self.belief_m:.2f} m (believed): the map has"
+            f" {expected} within {self.window_m:.2f} m, the robot sensed {sensed}"
+            f" ({self.evidence})"
+        )
+
+
+def _where(feature: MapFeature) -> str:
+    what = {"bend": "the bend", "tee": "the T-joint", "tee_turn": "the turn into"}[feature.kind]
+    return f"{what} {feature.segment!r} at {feature.start_m:.2f}-{feature.end_m:.2f} m"
+
+
 class Localiser:
     """Keeps the belief of the robot's position on the mission's path.
 
@@ -122,6 +180,12 @@ class Localiser:
         drift_per_m: Added to the window per metre driven since the last fix.
         truth: Returns the simulator's front-tip truth, when simulated (for the
             trace and the report; never used for the belief).
+        map_fraction: Added to the window per metre driven since the last fix, for
+            a map whose lengths are off (0 for a map known to be exact).
+        tees_felt: Tees passed straight through must be felt (the straight-through
+            T-joint PAB presses the front half over the opening, so they are): a tee
+            not felt within its window is a disagreement, and so is an opening felt
+            where the map has no tee.
     """
 
     def __init__(
@@ -129,11 +193,20 @@ class Localiser:
         plan: MissionPlan,
         robot: RobotDescription,
         *,
-        window_m: float = 0.3,
-        drift_per_m: float = 0.05,
+        window_m: float = WINDOW_M,
+        drift_per_m: float = DRIFT_PER_M,
         truth: Callable[[], float | None] | None = None,
+        map_fraction: float = MAP_FRACTION,
+        tees_felt: bool = False,
     ) -> None:
         self.plan = plan
+        self.map_fraction = map_fraction
+        self.tees_felt = tees_felt
+        self.disagreement: Disagreement | None = None
+        self.last_fix_m = plan.start_m
+        """Belief right after the last fix (the start before the first)."""
+        self._quiet_until_m: float | None = None
+        self._at_wall: dict[str, bool] = {}
         self.robot = robot
         self.window_m = window_m
         self.drift_per_m = drift_per_m
@@ -167,7 +240,15 @@ class Localiser:
 
     def window(self) -> float:
         """Half-width of the feature search window now."""
-        return self.window_m + self.drift_per_m * self.since_fix_m
+        return self.window_m + (self.drift_per_m + self.map_fraction) * self.since_fix_m
+
+    def uncertainty_m(self, ahead_m: float) -> float:
+        """How far a feature ``ahead_m`` past the last fix may really be from the map's place.
+
+        What the map's lengths may be off by, plus odometry drift: the margin a leg
+        keeps so that it stops before the feature even when the map is off.
+        """
+        return (self.drift_per_m + self.map_fraction) * max(ahead_m, 0.0)
 
     def values(self) -> dict[str, float]:
         """Belief, truth and error for the trace (``task.*`` keys)."""
@@ -209,7 +290,7 @@ class Localiser:
             else:
                 self._turns(tangent, imu_m, state)
         self._openings(state)
-        self._missed(imu_m)
+        self._missed(imu_m, state)
 
     def _next_turn(self) -> MapFeature | None:
         for feature in self._pending:
@@ -234,13 +315,20 @@ class Localiser:
                 f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
                 f" {window:.2f} m"
             )
-            _log.warning("%s", self.mismatch)
+            self._disagree(
+                state.stamp_s,
+                None,
+                f"a turn of {math.degrees(swung):.0f} deg",
+                f"IMU pitch {math.degrees(state.imu_rad.get('pitch', 0.0)):.1f} deg, yaw"
+                f" {math.degrees(state.imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
+                f" module ({imu_m:.2f} m)",
+                window,
+                turn,
+            )
 
     def _openings(self, state: RobotState) -> None:
         tee = next((f for f in self._pending if f.kind == "tee"), None)
-        if tee is None:
-            return
-        opening_m = (tee.start_m + tee.end_m) / 2
+        opening_m = (tee.start_m + tee.end_m) / 2 if tee is not None else None
         window = self.window()
         clamp = self.robot.clamp
         for module, offset in self._bend_offsets.items():
@@ -248,31 +336,132 @@ class Localiser:
             if angle is None:
                 continue
             here_m = self.belief_m - offset
-            if abs(here_m - opening_m) > window:
-                continue
+            at_wall_before = self._at_wall.get(module, False)
             wall_rad = clamp.contact_angle(self.plan.path.diameter_at(max(here_m, 0.0)))
-            if abs(angle) > wall_rad + _OPENING_MARGIN_RAD:
-                self._fix(tee, "joints", opening_m + offset, state.stamp_s)
+            self._at_wall[module] = abs(abs(angle) - wall_rad) <= _OPENING_MARGIN_RAD
+            off_wall = abs(angle) > wall_rad + _OPENING_MARGIN_RAD
+            if tee is not None and opening_m is not None and abs(here_m - opening_m) <= window:
+                if off_wall:
+                    self._fix(tee, "joints", opening_m + offset, state.stamp_s)
+                    self._quiet_until_m = tee.end_m + self.plan.robot_length_m + 0.05
+                    return
+                continue
+            quiet = self._quiet_until_m is not None and self.belief_m <= self._quiet_until_m
+            if (
+                self.tees_felt
+                and at_wall_before
+                and off_wall
+                and not quiet
+                and not self._near_turn(here_m)
+            ):
+                self.mismatch = (
+                    f"belief and map disagree: an opening was felt at {here_m:.2f} m"
+                    f" (believed, by {module}), where the map has no T-joint within"
+                    f" {window:.2f} m"
+                )
+                self._disagree(
+                    state.stamp_s,
+                    tee if tee is not None and opening_m is not None else None,
+                    "an opening (a T-joint?)",
+                    f"{module}'s joint swung from the wall to {math.degrees(abs(angle)):.0f} deg,"
+                    f" past the wall-contact angle {math.degrees(wall_rad):.0f} deg",
+                    window,
+                    None,
+                    sensed_at_m=here_m,
+                    sensed_by=module,
+                )
                 return
 
-    def _missed(self, imu_m: float) -> None:
-        turn = self._next_turn()
-        if turn is None or self.mismatch is not None:
+    def _near_turn(self, at_m: float) -> bool:
+        """Whether ``at_m`` is within a turn of the path (or the tolerance around one)."""
+        window = self.window()
+        for piece in self.plan.path.pieces:
+            if piece.angle_rad > 0 and piece.start_m - window <= at_m <= piece.end_m + window:
+                return True
+        return False
+
+    def _missed(self, imu_m: float, state: RobotState) -> None:
+        if self.mismatch is not None:
             return
-        # Tees passed straight through are silent unless clamped over: drop them once passed.
+        # Tees passed straight through are silent unless clamped over: drop them once
+        # passed (when they must be felt, an unfelt one is a disagreement).
         while self._pending and self._pending[0].angle_rad == 0:
             tee = self._pending[0]
+            opening_m = (tee.start_m + tee.end_m) / 2
+            first_joint_m = self.belief_m - min(self._bend_offsets.values())
+            if self.tees_felt and first_joint_m > opening_m + self.window():
+                self.mismatch = (
+                    f"belief and map disagree: the map has {tee.segment!r} at"
+                    f" {tee.start_m:.2f}-{tee.end_m:.2f} m, but no opening was felt by"
+                    f" {self.belief_m:.2f} m (believed)"
+                )
+                joints = ", ".join(
+                    f"{m} {math.degrees(abs(state.joint_angle_rad.get(m, 0.0))):.0f} deg"
+                    for m in self._bend_offsets
+                )
+                self._disagree(
+                    state.stamp_s,
+                    tee,
+                    None,
+                    f"no bend joint swung off the wall; joints {joints}",
+                    self.window(),
+                    None,
+                )
+                return
             if self.belief_m - self.plan.robot_length_m > tee.end_m + self.window():
                 self._pending.pop(0)
             else:
                 break
+        turn = self._next_turn()
+        if turn is None:
+            return
         if imu_m > turn.end_m + self.window():
             self.mismatch = (
                 f"belief and map disagree: the map has {turn.segment!r} at"
                 f" {turn.start_m:.2f}-{turn.end_m:.2f} m, but no turn was felt by"
                 f" {self.belief_m:.2f} m (believed)"
             )
-            _log.warning("%s", self.mismatch)
+            swung = (
+                _angle(imu_tangent(dict(state.imu_rad)) or self._heading_ref, self._heading_ref)
+                if self._heading_ref is not None
+                else 0.0
+            )
+            self._disagree(
+                state.stamp_s,
+                turn,
+                None,
+                f"the IMU swung {math.degrees(swung):.0f} deg of the"
+                f" {math.degrees(turn.angle_rad):.0f} deg turn, the rotational module at"
+                f" {imu_m:.2f} m",
+                self.window(),
+                None,
+            )
+
+    def _disagree(
+        self,
+        time_s: float,
+        expected: MapFeature | None,
+        sensed: str | None,
+        evidence: str,
+        window_m: float,
+        near: MapFeature | None,
+        *,
+        sensed_at_m: float | None = None,
+        sensed_by: str | None = None,
+    ) -> None:
+        feature = expected or near
+        self.disagreement = Disagreement(
+            time_s,
+            self.belief_m,
+            _where(expected) if expected is not None else None,
+            sensed,
+            evidence,
+            window_m,
+            feature.segment if feature is not None else None,
+            sensed_at_m,
+            sensed_by,
+        )
+        _log.warning("%s", self.mismatch)
 
     def _fix(self, feature: MapFeature, how: str, after_m: float, time_s: float) -> None:
         fix = Fix(time_s, feature.segment, how, self.belief_m, after_m, self.truth_m)
@@ -281,5 +470,6 @@ class Localiser:
             "fix at %s (%s): belief %.3f -> %.3f m", feature.segment, how, fix.before_m, after_m
         )
         self.belief_m = after_m
+        self.last_fix_m = after_m
         self.since_fix_m = 0.0
         self._pending = [f for f in self._pending if f is not feature]

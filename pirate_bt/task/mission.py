@@ -13,8 +13,14 @@ on the supervisor and the run's clock, and runs it with the
   the link's health and, under ``sim``, the simulator's counters and the
   ``task.belief_m`` / ``task.truth_m`` / ``task.error_m`` values.
 
+Each straight leg's distance is re-computed from the belief when it starts
+(:func:`leg_distance_m`, written to the ``leg_distance`` blackboard key).
+
 The mission reaches the robot only through the supervisor; creating the
-simulator or opening a port is the caller's business (``pirate-bt mission``).
+simulator or opening a port is the caller's business (``pirate-bt mission``),
+except in :func:`simulate_mission`, the plain API that plans on a map and runs
+the simulator in a truth. Going on after a stop (re-plan, return to start) is
+:mod:`pirate_bt.task.replan`.
 """
 
 from __future__ import annotations
@@ -28,13 +34,25 @@ from typing import Any, TextIO
 import py_trees
 
 from pirate_bt.clock import Clock
+from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult
-from pirate_bt.task.localise import Fix, Localiser
-from pirate_bt.task.planner import MAP_OK_KEY, MissionPlan, mission_tree_spec
+from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
+from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
+from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
 
-__all__ = ["MissionResult", "Sample", "TimelineEntry", "estimate_time_s", "run_mission"]
+__all__ = [
+    "Leg",
+    "MissionResult",
+    "Sample",
+    "TimelineEntry",
+    "estimate_time_s",
+    "run_mission",
+    "simulate_mission",
+    "truth_of",
+    "truth_on_map",
+]
 
 _log = logging.getLogger(__name__)
 
@@ -54,6 +72,70 @@ class TimelineEntry:
     label: str
     belief_m: float
     truth_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """A straight leg as run: its distance re-computed from the belief when it started.
+
+    Attributes:
+        label: The PAB's node name.
+        planned_m: The distance the plan had (negative backwards).
+        driven_m: The distance it was given when it started, from the belief.
+        belief_m: The belief when it started.
+        why: Why the two differ, for people (empty when they do not).
+    """
+
+    label: str
+    planned_m: float
+    driven_m: float
+    belief_m: float
+    why: str = ""
+
+
+def leg_distance_m(
+    plan: MissionPlan, pab: PlannedPab, belief_m: float, localiser: Localiser
+) -> tuple[float, str]:
+    """The distance a straight leg drives when it starts at ``belief_m``, and why.
+
+    A leg *to a place* (:attr:`PlannedPab.absolute`) drives from the belief to that
+    place; a route's ``forward``/``inspect``/``back`` drives its own distance. A
+    forward leg then stops short of the next feature on the map by the planner's
+    margin plus what the map may be off by since the last fix
+    (:meth:`Localiser.uncertainty_m`): it keeps its margin from where the feature
+    really is, as far as the robot can know it. The PAB that passes the feature
+    senses it, and drives the rest.
+
+    Returns:
+        ``(metres, why)``: negative backwards; ``why`` says what shortened it.
+    """
+    planned = pab.end_m - pab.start_m
+    distance = pab.end_m - belief_m if pab.absolute else planned
+    if planned < 0:
+        return min(distance, 0.0), ""
+    why = ""
+    contract = plan.contract
+    feature = next(
+        (
+            p
+            for p in plan.path.pieces
+            if p.kind in (PieceKind.BEND, PieceKind.TEE) and p.start_m > belief_m + 1e-3
+        ),
+        None,
+    )
+    if feature is not None:
+        slack = localiser.uncertainty_m(feature.start_m - localiser.last_fix_m)
+        limit = feature.start_m - contract.min_margin_m - slack
+        what = f"{feature.segment!r} may be {slack:.2f} m nearer than the map has it"
+    else:
+        end = plan.path.length_m
+        slack = localiser.uncertainty_m(end - localiser.last_fix_m)
+        limit = end - contract.end_margin_m - slack
+        what = f"the end of the pipe may be {slack:.2f} m nearer than the map has it"
+    if distance > limit - belief_m + 1e-3:
+        distance = limit - belief_m
+        why = f"shortened: {what}"
+    return max(distance, 0.0), why
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +181,14 @@ class MissionResult:
     mismatch: str | None = None
     start_s: float = 0.0
     """Clock time at the start of the run (fix times are clock times)."""
+    disagreement: Disagreement | None = None
+    """Where belief and map parted, when they did (the mission then stopped safe)."""
+    legs: list[Leg] = field(default_factory=list)
+    """The straight legs as run, with the distances re-computed from the belief."""
+    replans: list[str] = field(default_factory=list)
+    """Where the mission re-planned after a disagreement with one clear meaning."""
+    returned: MissionResult | None = None
+    """The way back to the start after a stop, when it was asked for."""
 
     @property
     def succeeded(self) -> bool:
@@ -146,6 +236,8 @@ def run_mission(
     period_s: float = 0.05,
     max_time_s: float | None = None,
     realtime: bool = False,
+    belief_m: float | None = None,
+    map_tolerance: float = MAP_FRACTION,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -165,6 +257,11 @@ def run_mission(
         period_s: Tick period.
         max_time_s: Time limit (default: :func:`estimate_time_s`).
         realtime: Pace a simulated run to wall time.
+        belief_m: Where the robot is believed to be at the start (default: the plan's
+            start; a re-planned mission starts from the belief it stopped with).
+        map_tolerance: How far the map's lengths may be off, as a fraction of the
+            distance from the last fix (default 10 %; 0 for a map known to be exact):
+            features are searched within it, and forward legs stop short by it.
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -187,7 +284,11 @@ def run_mission(
         realtime=realtime,
         safe_state=lambda: supervisor.safe_state(reason_box[0]),
     )
-    localiser = Localiser(plan, robot, truth=truth)
+    localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
+    if belief_m is not None:
+        localiser.belief_m = localiser.last_fix_m = belief_m
+    pabs = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
+    legs: list[Leg] = []
     start_s = clock.now()
     timeline: list[TimelineEntry] = []
     samples: list[Sample] = []
@@ -195,6 +296,17 @@ def run_mission(
     current: list[str | None] = [None]
     blackboard = py_trees.blackboard.Client(name="localiser")
     blackboard.register_key(MAP_OK_KEY, access=py_trees.common.Access.WRITE)
+    blackboard.register_key(LEG_DISTANCE_KEY, access=py_trees.common.Access.WRITE)
+    blackboard.set(LEG_DISTANCE_KEY, None)
+
+    def start_leg(name: str) -> None:
+        pab = pabs.get(name)
+        if pab is None or pab.pab != "straight":
+            blackboard.set(LEG_DISTANCE_KEY, None)  # a stale distance must never be driven
+            return
+        metres, why = leg_distance_m(plan, pab, localiser.belief_m, localiser)
+        legs.append(Leg(name, pab.end_m - pab.start_m, metres, localiser.belief_m, why))
+        blackboard.set(LEG_DISTANCE_KEY, abs(metres))
 
     def before(_info: Any) -> None:
         supervisor.tick()
@@ -209,6 +321,7 @@ def run_mission(
         name = child.name if child is not None and child.status.name == "RUNNING" else None
         if name is not None and name != current[0]:
             timeline.append(TimelineEntry(now, name, localiser.belief_m, localiser.truth_m))
+            start_leg(name)
         current[0] = name or current[0]
         if localiser.mismatch is not None and blackboard.get(MAP_OK_KEY):
             reason_box[0] = localiser.mismatch
@@ -258,4 +371,161 @@ def run_mission(
         tree=runner.tree,
         mismatch=localiser.mismatch,
         start_s=start_s,
+        disagreement=localiser.disagreement,
+        legs=legs,
     )
+
+
+NetworkLike = Any
+"""A ``Network``, a ``NetworkSpec``, a file path or a bundled name (``"lab"``)."""
+
+
+def _as_network(value: NetworkLike, base: Path | None) -> Any:
+    from pirate_bt.pipes import Network, NetworkSpec, load_network
+    from pirate_bt.task.networks import resolve_network_path
+
+    if isinstance(value, Network):
+        return value
+    if isinstance(value, NetworkSpec):
+        return Network(value, f"<{value.name}>")
+    return load_network(resolve_network_path(str(value), base))
+
+
+def truth_on_map(plan: MissionPlan, truth_path: Any, truth_m: float) -> float:
+    """Where a truth position lies on the map, counted from the same feature.
+
+    The simulator's front tip (metres along the true pipe) is put on the map at the
+    same distance past the start of the same segment (the same ids in both), so
+    after a fix at a feature the belief and this agree when the localiser is right,
+    whatever the map got wrong about the pipe before that feature. A segment the map
+    does not have (a tee nobody drew) counts from the last segment both have.
+
+    Args:
+        plan: The plan (its path is the map's).
+        truth_path: The simulator's path (the pipe really taken).
+        truth_m: The front tip along ``truth_path``.
+    """
+    pieces = truth_path.pieces
+    index = truth_path.index_at(truth_m)
+    on_map = {p.segment: p for p in plan.path.pieces}
+    for k in range(index, -1, -1):
+        piece = pieces[k]
+        mapped = on_map.get(piece.segment)
+        if mapped is not None and mapped.kind is piece.kind:
+            offset = truth_m - piece.start_m
+            if piece.length_m > 0 and piece.angle_rad > 0:
+                offset *= mapped.length_m / piece.length_m
+            return float(mapped.start_m + offset)
+    return truth_m
+
+
+def simulate_mission(
+    route: Any,
+    *,
+    map: NetworkLike | None = None,
+    truth: NetworkLike | None = None,
+    robot: RobotDescription | None = None,
+    seed: int = 0,
+    faults: str | None = None,
+    trace_path: Path | None = None,
+    period_s: float = 0.05,
+    max_time_s: float | None = None,
+    return_on_stop: bool = False,
+    map_tolerance: float = MAP_FRACTION,
+) -> MissionResult:
+    """Plan a route on ``map`` and run it on the simulator in ``truth``: the plain API.
+
+    The planner and the localiser know only the map; the simulator runs the truth
+    (an as-built variant, see :mod:`pirate_bt.pipes.asbuilt`). This is what
+    ``pirate-bt mission ROUTE --sim TRUTH --network MAP`` does, without output.
+
+    Args:
+        route: A :class:`~pirate_bt.task.route.Route` or a route file.
+        map: The map (default: the route's ``network`` line).
+        truth: The network the simulator runs (default: the map).
+        robot: The robot description (default: bundled).
+        seed: The simulator's seed (and the link faults').
+        faults: Faults as ``pirate-bt mission --faults`` takes them (simulator faults
+            ``KIND[:TARGET]@AT[+DURATION]`` and link faults ``KEY=VALUE``).
+        trace_path: Write a trace here.
+        period_s: Tick period.
+        max_time_s: Time limit (default: from the plan).
+        map_tolerance: How far the map's lengths may be off (see :func:`run_mission`).
+        return_on_stop: When the mission stops short (a disagreement, a failed PAB),
+            leave the safe state as an operator would and drive back to the start
+            (:func:`~pirate_bt.task.planner.plan_return`); the way back is
+            ``result.returned`` (``None`` when it cannot be planned: then
+            ``result.replans`` says why).
+
+    Returns:
+        The mission result (``result.truth_m`` and the fixes' truths are on the map,
+        see :func:`truth_on_map`; ``result.sim`` holds the simulator's counters).
+
+    Raises:
+        LocatedError: the route does not fit the map.
+        ValidationFailed: a malformed route or network.
+        LinkError: the simulator cannot be reached.
+    """
+    import re
+
+    from pirate_bt.clock import SimClock
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.task.networks import load_network_for
+    from pirate_bt.task.planner import plan_route
+    from pirate_bt.task.replan import carry_on, return_to_start
+    from pirate_bt.task.route import Route, load_route
+
+    route = route if isinstance(route, Route) else load_route(route)
+    base = Path(route.source).parent if not route.source.startswith("<") else None
+    robot = robot or load_robot()
+    the_map = _as_network(map, base) if map is not None else load_network_for(route, None)
+    the_truth = _as_network(truth, base) if truth is not None else the_map
+    plan = plan_route(route, the_map, robot)
+    items = [i for i in re.split(r"[,;\s]+", faults or "") if i]
+    sim_faults = [i for i in items if "@" in i]
+    link = ",".join(i for i in items if "@" not in i)
+    options: dict[str, Any] = {}
+    if link:
+        options["faults"] = link if "seed=" in link else f"{link},seed={seed}"
+    clock = SimClock()
+    supervisor = open_supervisor(
+        robot, clock=clock, network=the_truth, seed=seed, sim_faults=sim_faults, **options
+    )
+    sim = supervisor.simulator
+    assert sim is not None
+    try:
+        result = run_mission(
+            plan,
+            robot,
+            supervisor,
+            clock,
+            truth=truth_of(plan, sim),
+            counters=sim.counters,
+            trace_path=trace_path,
+            scenario=the_truth.name,
+            seed=seed,
+            period_s=period_s,
+            max_time_s=max_time_s,
+            map_tolerance=map_tolerance,
+        )
+        result = carry_on(
+            result,
+            robot,
+            supervisor,
+            clock,
+            truth_for=lambda p: truth_of(p, sim),
+            counters=sim.counters,
+            period_s=period_s,
+            map_tolerance=map_tolerance,
+        )
+        if return_on_stop and not result.succeeded:
+            result.returned = return_to_start(result, robot, supervisor, clock, sim)
+        return result
+    finally:
+        supervisor.close()
+
+
+def truth_of(plan: MissionPlan, sim: Any) -> Callable[[], float | None]:
+    """The simulator's front tip, on ``plan``'s map (:func:`truth_on_map`)."""
+    return lambda: truth_on_map(plan, sim.model.path, sim.model.s_m)

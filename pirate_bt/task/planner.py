@@ -31,21 +31,36 @@ place (:class:`PabContract`): legs up to a feature stop ``approach_m`` before it
 (a margin the sensing PAB absorbs), and each PAB ends where the simulator says
 it does (:mod:`pirate_bt.task.calibrate` measures it; a test keeps the
 constants honest).
+
+The plan's types live in :mod:`pirate_bt.task.plan`, the tree it runs as in
+:mod:`pirate_bt.task.tree`; both are re-exported here.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError, LocatedError, SourceLocation
-from pirate_bt.pipes import DIRECTION_ROLL_RAD, Network, Piece, PieceKind, TeeChoice, load_network
+from pirate_bt.errors import LocatedError
+from pirate_bt.pipes import DIRECTION_ROLL_RAD, Network, Piece, PieceKind, TeeChoice
 from pirate_bt.pipes import Path as PipePath
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.task.route import Route, RouteStep, StepKind
+from pirate_bt.task.networks import load_network_for, resolve_network_path
+from pirate_bt.task.plan import (
+    _DIRECTION_TOL_RAD,
+    MAP_OK_KEY,
+    PAB_FILES,
+    MapFeature,
+    MissionPlan,
+    PabContract,
+    PlannedPab,
+    direction_name,
+    rear_lead_m,
+    robot_length_m,
+)
+from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
+from pirate_bt.task.tree import mission_tree_spec
 
 __all__ = [
     "MAP_OK_KEY",
@@ -55,222 +70,22 @@ __all__ = [
     "PabContract",
     "PlannedPab",
     "direction_name",
+    "load_network_for",
     "mission_tree_spec",
     "plan_goal",
+    "plan_return",
     "plan_route",
+    "rear_lead_m",
     "resolve_network_path",
     "robot_length_m",
+    "validate_route_file",
 ]
 
-MAP_OK_KEY = "map_ok"
-"""Blackboard key the localiser clears when belief and map disagree."""
-
-PAB_FILES: dict[str, str] = {
-    "straight": "straight.yaml",
-    "bend": "bend.yaml",
-    "t-joint": "t-joint.yaml",
-}
-"""PAB name -> tree file in the bundled ``trees/`` folder."""
-
 _TOL_M = 1e-3
-_DIRECTION_TOL_RAD = math.radians(10.0)
-
-
-@dataclass(frozen=True)
-class PabContract:
-    """Where the PAB trees expect the robot and where they leave it.
-
-    Two kinds of numbers live here. *Margins* are the planner's choice: how far
-    before a feature a planned leg stops, so that a few centimetres of drift never
-    drive the robot into it (the next PAB absorbs the margin: a turn PAB drives
-    ``until: blocked``, a straight-through T-joint ``until: front_opening``).
-    *Measured* numbers belong to the PAB trees in ``trees/``; they are derived on
-    the simulator by :func:`pirate_bt.task.calibrate.calibrate`, and
-    ``tests/test_task_contract.py`` fails when one drifts from its measurement
-    (``python -m pirate_bt.task.calibrate`` prints them).
-
-    Attributes:
-        approach_m: Margin: a leg up to a bend or T-joint ends with the front tip this
-            far before the feature's start (the PAB then drives the rest, sensing it).
-        min_margin_m: Margin: no planned leg, and no PAB that ends before another
-            feature, leaves the front tip closer than this to that feature's start.
-            Between ``min_margin_m`` and ``approach_m`` the approach leg is left out.
-        clear_m: ``go to SEGMENT`` drives until the rear tip is this far into it.
-        end_margin_m: ``forward to the end`` stops the front tip this short of the end.
-        slow_factor: ``slowly`` and ``inspect`` drive at this fraction of the
-            nominal speed (when the straight PAB takes a speed).
-        tee_ways: The ways the T-joint PAB can take.
-        follow_m: A turn PAB (``trees/lib/turn.yaml``) drives the front half in until
-            the rear half blocks at the turn's start, then the rear half this far
-            (its ``follow`` parameter): it ends with the front tip at the turn's
-            start + the rear half's lead offset + ``follow_m`` + ``turn_overrun_m``.
-        straight_overrun_m: Measured: the straight PAB drives this much further than
-            its distance (it stops on the first tick past it).
-        turn_overrun_m: Measured: see ``follow_m`` (worst of the four bend
-            orientations and the turn into a tee's branch).
-        tee_exit_m: Measured: the straight-through T-joint PAB
-            (``trees/lib/tee-straight.yaml``) ends with the front tip at the middle
-            of the opening + the rear half's lead offset + this, every bend module
-            past the opening.
-    """
-
-    approach_m: float = 0.25
-    min_margin_m: float = 0.10
-    clear_m: float = 0.05
-    end_margin_m: float = 0.05
-    slow_factor: float = 0.5
-    tee_ways: tuple[str, ...] = ("left", "right", "straight")
-    follow_m: float = 0.55
-    straight_overrun_m: float = 0.0
-    turn_overrun_m: float = 0.006
-    tee_exit_m: float = 0.400
-
-
-@dataclass(frozen=True)
-class PlannedPab:
-    """One PAB of the chain.
-
-    Attributes:
-        pab: ``straight``, ``bend``, ``t-joint`` or ``pause`` (a ``wait`` node).
-        params: Its parameters in SI units (``distance`` m, ``roll`` rad,
-            ``direction``, ``duration`` s, ``slow``).
-        step: The route command it serves.
-        start_m: Front-tip position (along ``MissionPlan.path``) when it starts.
-        end_m: Front-tip position when it ends.
-        feature: Segment id of the feature it passes, if any.
-        inspect: Cameras on: part of an inspection.
-        note: One line for people.
-    """
-
-    pab: str
-    params: Mapping[str, Any]
-    step: RouteStep
-    start_m: float
-    end_m: float
-    feature: str | None = None
-    inspect: bool = False
-    note: str = ""
-
-    def label(self, index: int) -> str:
-        """A tree node name: ``03 bend right (line 4)``."""
-        return f"{index:02d} {self.note} (line {self.step.line})".replace("/", "-")
-
-
-@dataclass(frozen=True)
-class MapFeature:
-    """A feature the robot passes, where the map has it.
-
-    Attributes:
-        segment: Its segment id.
-        kind: ``bend``, ``tee`` (straight through) or ``tee_turn`` (into the branch).
-        start_m: Where it starts along the plan's path.
-        end_m: Where it ends.
-        angle_rad: How far the pipe turns over it (0 through a tee).
-        roll_rad: Roll of the turn (or of the tee's branch).
-    """
-
-    segment: str
-    kind: str
-    start_m: float
-    end_m: float
-    angle_rad: float
-    roll_rad: float
-
-
-@dataclass(frozen=True)
-class MissionPlan:
-    """A route planned on a network.
-
-    Attributes:
-        route: The route.
-        network: The map.
-        path: The way through the network (with every T-joint choice made).
-        pabs: The chain of PABs.
-        features: Features passed, in order (for the localiser).
-        start_m: Front tip at the start.
-        end_m: Front tip at the end (expected).
-        distance_m: Distance driven, forwards and backwards.
-        robot_length_m: Front tip to rear tip.
-        contract: The PAB contract used.
-    """
-
-    route: Route
-    network: Network
-    path: PipePath
-    pabs: tuple[PlannedPab, ...]
-    features: tuple[MapFeature, ...]
-    start_m: float
-    end_m: float
-    distance_m: float
-    robot_length_m: float
-    contract: PabContract = field(default_factory=PabContract)
-
-    @property
-    def choices(self) -> Mapping[str, TeeChoice]:
-        return self.path.choices
-
-    def describe(self) -> list[str]:
-        """One line per PAB, for people and reports."""
-        return [
-            f"{i:2d}. {p.note:<34} {p.start_m:7.2f} -> {p.end_m:7.2f} m   ({p.step.describe()})"
-            for i, p in enumerate(self.pabs, start=1)
-        ]
-
-
-def robot_length_m(robot: RobotDescription) -> float:
-    """Front tip to rear tip: the modules end to end."""
-    return sum(m.length for m in robot.modules)
-
-
-def rear_lead_m(robot: RobotDescription) -> float:
-    """How far the rear half's first module starts behind the front tip."""
-    from pirate_bt.robot.description import Half
-
-    behind = 0.0
-    for module in robot.modules:
-        if module.half is Half.REAR:
-            return behind
-        behind += module.length
-    return behind
-
-
-def direction_name(roll_rad: float) -> str | None:
-    """``up``/``right``/``down``/``left`` when ``roll_rad`` is within 10° of one."""
-    for direction, roll in DIRECTION_ROLL_RAD.items():
-        if abs(math.remainder(roll_rad - roll, 2 * math.pi)) <= _DIRECTION_TOL_RAD:
-            return direction.value
-    return None
 
 
 def _roll_text(roll_rad: float) -> str:
     return direction_name(roll_rad) or f"roll {math.degrees(roll_rad):.0f} deg"
-
-
-def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
-    """The network file a route or ``--sim`` names.
-
-    ``lab`` is looked up next to the route (``lab.yaml``), then among the bundled
-    scenarios; a name ending in ``.yaml`` is a path (relative to ``base_dir``).
-
-    Raises:
-        FileNotFoundError: no such network, with the bundled names.
-    """
-    from pirate_bt.resources import data_dir
-
-    candidates: list[Path] = []
-    plain = Path(name)
-    if plain.suffix in (".yaml", ".yml"):
-        candidates.append(plain if plain.is_absolute() else (base_dir or Path.cwd()) / plain)
-        candidates.append(plain)
-    else:
-        if base_dir is not None:
-            candidates.append(base_dir / f"{name}.yaml")
-        candidates.append(data_dir("scenarios") / f"{name}.yaml")
-    for candidate in candidates:
-        if candidate.is_file():
-            return candidate
-    bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
-    raise FileNotFoundError(f"no network {name!r}; bundled networks: {', '.join(bundled)}")
 
 
 class _Walker:
@@ -323,7 +138,13 @@ class _Walker:
     # -- planning steps
 
     def straight(
-        self, step: RouteStep, distance_m: float, note: str, *, inspect: bool = False
+        self,
+        step: RouteStep,
+        distance_m: float,
+        note: str,
+        *,
+        inspect: bool = False,
+        absolute: bool = False,
     ) -> None:
         params: dict[str, Any] = {"distance": distance_m}
         slow = step.slowly or inspect
@@ -332,7 +153,16 @@ class _Walker:
         overrun = math.copysign(self.contract.straight_overrun_m, distance_m)
         end = self.s_m + distance_m + overrun
         self.pabs.append(
-            PlannedPab("straight", params, step, self.s_m, end, inspect=inspect, note=note)
+            PlannedPab(
+                "straight",
+                params,
+                step,
+                self.s_m,
+                end,
+                inspect=inspect,
+                note=note,
+                absolute=absolute,
+            )
         )
         self.driven_m += abs(distance_m)
         self.s_m = end
@@ -349,7 +179,9 @@ class _Walker:
                 raise LocatedError(
                     f"'{step.text}': the robot is already at the end of the line", step.location
                 )
-            self.straight(step, room, f"{verb} {room:.2f} m to the end", inspect=inspect)
+            self.straight(
+                step, room, f"{verb} {room:.2f} m to the end", inspect=inspect, absolute=True
+            )
             return
         if step.distance_m > room + _TOL_M:
             if feature is not None:
@@ -405,7 +237,7 @@ class _Walker:
         distance = self.s_m - self.start_m
         if distance < _TOL_M:
             return
-        self.straight(step, -distance, f"back {distance:.2f} m to the start")
+        self.straight(step, -distance, f"back {distance:.2f} m to the start", absolute=True)
 
     def approach(self, step: RouteStep, feature: Piece) -> None:
         """Drive up to ``approach_m`` before ``feature``; nothing when already within it.
@@ -424,7 +256,7 @@ class _Walker:
                 step.location,
             )
         if gap > _TOL_M:
-            self.straight(step, gap, f"approach {gap:.2f} m")
+            self.straight(step, gap, f"approach {gap:.2f} m", absolute=True)
 
     def bend(self, step: RouteStep) -> None:
         feature = self.next_feature()
@@ -613,7 +445,9 @@ class _Walker:
         last = goal.end_m - (self.contract.end_margin_m if is_end else self.contract.approach_m)
         target = min(goal.start_m + self.length_m + self.contract.clear_m, last)
         if target > self.s_m + _TOL_M:
-            self.straight(step, target - self.s_m, f"straight {target - self.s_m:.2f} m")
+            self.straight(
+                step, target - self.s_m, f"straight {target - self.s_m:.2f} m", absolute=True
+            )
 
 
 def _direction(name: str) -> Any:
@@ -631,6 +465,8 @@ def plan_route(
     network: Network,
     robot: RobotDescription,
     contract: PabContract | None = None,
+    *,
+    start_m: float | None = None,
 ) -> MissionPlan:
     """Plan a route on a network.
 
@@ -639,6 +475,8 @@ def plan_route(
         network: The map.
         robot: The robot description (its length sets where PABs leave it).
         contract: Where the PABs expect and leave the robot.
+        start_m: Plan from here (front tip on the main path; default: the network's
+            start), e.g. from the belief when a mission re-plans.
 
     Returns:
         The plan: the PAB chain, the path, the features passed.
@@ -648,6 +486,8 @@ def plan_route(
     """
     contract = contract or PabContract()
     walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
+    if start_m is not None:
+        walker.start_m = walker.s_m = start_m
     handlers = {
         StepKind.FORWARD: walker.forward,
         StepKind.INSPECT: walker.forward,
@@ -702,125 +542,80 @@ def plan_goal(
     return plan_route(route, network, robot, contract)
 
 
-def load_network_for(route: Route, sim: str | None) -> Network:
-    """The network a mission runs in: ``--sim`` if given, else the route's ``network`` line.
+def plan_return(plan: MissionPlan, belief_m: float, felt: list[str]) -> MissionPlan:
+    """The way back to the start after a mission stopped at ``belief_m``.
 
-    Raises:
-        LocatedError: neither is given, or the named network does not exist.
-        ValidationFailed: the network file does not validate.
-    """
-    name = sim or route.network
-    if name is None:
-        raise LocatedError(
-            "the route names no network; add a line 'network NAME' or give --sim NETWORK",
-            SourceLocation(route.source),
-        )
-    base = Path(route.source).parent if not route.source.startswith("<") else None
-    try:
-        path = resolve_network_path(name, base)
-    except FileNotFoundError as exc:
-        where = route.network_location if sim is None and route.network_location else None
-        raise LocatedError(str(exc), where or SourceLocation("--sim")) from None
-    return load_network(path)
-
-
-def _pab_file(trees_dir: Path, pab: str) -> Path:
-    path = trees_dir / PAB_FILES[pab]
-    if not path.is_file():
-        raise ConfigurationError(
-            f"the PAB tree {path} is missing; the mission needs {', '.join(PAB_FILES.values())}"
-        )
-    return path
-
-
-def _declared_params(path: Path) -> set[str]:
-    from pirate_bt.yamlfile import load_yaml
-
-    data = load_yaml(path).data
-    params = data.get("params") if isinstance(data, dict) else None
-    return set(params) if isinstance(params, dict) else set()
-
-
-def mission_tree_spec(
-    plan: MissionPlan,
-    trees_dir: Path | None = None,
-    nominal_speed_mps: float | None = None,
-) -> dict[str, Any]:
-    """The plan as one tree, in the mapping form of :func:`pirate_bt.treefile.load_tree`.
-
-    The root is an ``eternal_guard`` on ``map_ok`` around a sequence of subtree
-    references, one per PAB, named ``NN what (line L)``.
+    The way back is the pipe as the robot sensed it, not as the map has it: a
+    feature the map has but the robot never felt (a bend that was never built)
+    is no obstacle. The PABs do not drive backwards through a bend or T-joint
+    yet, so a way back through a feature the robot did pass (``felt``) cannot be
+    planned.
 
     Args:
-        plan: The mission plan.
-        trees_dir: Where the PAB trees are (default: the bundled ``trees/``).
-        nominal_speed_mps: The robot's cruise speed; with it, slow straights pass
-            ``speed`` when the straight PAB declares that parameter.
+        plan: The mission's plan.
+        belief_m: Where the robot believes it is.
+        felt: Segment ids of the features the robot passed and felt (its fixes).
 
     Raises:
-        ConfigurationError: a PAB tree file is missing.
+        LocatedError: the way back passes a felt feature.
     """
-    from pirate_bt.resources import data_dir
+    from pirate_bt.errors import SourceLocation
+    from pirate_bt.task.route import parse_route
 
-    folder = trees_dir or data_dir("trees")
-    declared: dict[str, set[str]] = {}
-    children: list[dict[str, Any]] = []
-    for index, pab in enumerate(plan.pabs, start=1):
-        name = pab.label(index)
-        if pab.pab == "pause":
-            children.append({"type": "wait", "name": name, "duration": pab.params["duration"]})
-            continue
-        path = _pab_file(folder, pab.pab)
-        if pab.pab not in declared:
-            declared[pab.pab] = _declared_params(path)
-        params = {k: v for k, v in pab.params.items() if k != "slow"}
-        speed = nominal_speed_mps
-        if pab.params.get("slow") and nominal_speed_mps is not None:
-            speed = nominal_speed_mps * plan.contract.slow_factor
-        if params.get("distance", 0.0) < 0:
-            # Backwards: the straight PAB drives a positive distance at a negative velocity.
-            params["distance"] = -params["distance"]
-            speed = -(speed or 0.08)
-        if speed is not None and speed != nominal_speed_mps:
-            for key in ("speed", "velocity"):
-                if key in declared[pab.pab]:
-                    params[key] = speed
-        node: dict[str, Any] = {
-            "type": "subtree",
-            "name": name,
-            "ref": str(path.resolve()),
-            "params": params,
-        }
-        if pab.inspect:
-            node = {
-                "type": "sequence",
-                "name": name,
-                "children": [
-                    {
-                        "type": "log",
-                        "name": "inspect",
-                        "message": f"inspecting {pab.start_m:.2f}-{pab.end_m:.2f} m",
-                    },
-                    {**node, "name": "drive"},
-                ],
-            }
-        children.append(node)
-    return {
-        "name": f"mission {plan.route.name}",
-        "description": f"route {plan.route.source} in network {plan.network.name}",
-        "blackboard": {MAP_OK_KEY: {"type": "boolean", "default": True, "external": True}},
-        "root": {
-            "type": "eternal_guard",
-            "name": "mission",
-            "conditions": [
-                {
-                    "type": "check_blackboard",
-                    "name": "belief fits the map",
-                    "key": MAP_OK_KEY,
-                    "op": "==",
-                    "value": True,
-                }
-            ],
-            "child": {"type": "sequence", "name": "route", "children": children},
-        },
-    }
+    route = parse_route("return to start\n", f"<return from {plan.route.name}>", name="return")
+    step = route.steps[0]
+    if felt:
+        raise LocatedError(
+            f"cannot return to the start: the way back passes {felt[-1]!r}, and the PABs do"
+            " not drive backwards through a bend or T-joint yet (pull the robot back by its"
+            " tether)",
+            SourceLocation(plan.route.source),
+        )
+    distance = belief_m - plan.start_m
+    pabs: tuple[PlannedPab, ...] = ()
+    if distance > _TOL_M:
+        pabs = (
+            PlannedPab(
+                "straight",
+                {"distance": -distance},
+                step,
+                belief_m,
+                plan.start_m,
+                note=f"back {distance:.2f} m to the start",
+                absolute=True,
+            ),
+        )
+    return MissionPlan(
+        route=route,
+        network=plan.network,
+        path=plan.path,
+        pabs=pabs,
+        features=(),
+        start_m=belief_m,
+        end_m=plan.start_m,
+        distance_m=abs(distance),
+        robot_length_m=plan.robot_length_m,
+        contract=plan.contract,
+    )
+
+
+def validate_route_file(path: str | Path) -> Route:
+    """Check a route (``pirate-bt validate``).
+
+    Words, spelling and units first; when the route names its network, it is
+    also planned on that network with the bundled robot, so a route that does
+    not fit (a "turn up" where the bend turns left) fails at its line.
+
+    Raises:
+        ValidationFailed: every problem, each at ``file:line:column``.
+    """
+    from pirate_bt.errors import ValidationFailed
+    from pirate_bt.robot.loader import load_robot
+
+    route = load_route(path)
+    if route.network is not None:
+        try:
+            plan_route(route, load_network_for(route, None), load_robot())
+        except LocatedError as exc:
+            raise ValidationFailed([exc]) from None
+    return route

@@ -44,6 +44,53 @@ def plan_lines(plan: MissionPlan) -> list[str]:
     return _table(("#", "PAB", "from (m)", "to (m)", "line", "route command"), rows)
 
 
+def map_and_pipe_lines(result: MissionResult) -> list[str]:
+    """Where map and pipe differed: the disagreement, re-planned legs, fix corrections."""
+    lines = ["", "## Map and pipe", ""]
+    d = result.disagreement
+    if d is not None:
+        lines += [
+            "Belief and map **disagreed**; the mission stopped in the safe state.",
+            "",
+            f"- **Where:** {d.belief_m:.2f} m along the map (believed),"
+            f" {d.time_s - result.start_s:.1f} s into the run",
+            f"- **Map expected:** {d.expected or 'no feature'} (searched within"
+            f" {d.window_m:.2f} m)",
+            f"- **Robot sensed:** {d.sensed or 'nothing'}",
+            f"- **Evidence:** {d.evidence}",
+            "",
+        ]
+    for note in result.replans:
+        lines += [f"- **Re-planned:** {note}"]
+    if result.replans:
+        lines.append("")
+    shortened = [leg for leg in result.legs if leg.why]
+    if shortened:
+        lines.append(
+            "Legs whose distance, re-computed from the belief when they started, differs"
+            " from the plan:"
+        )
+        lines.append("")
+        lines += _table(
+            ("leg", "planned", "driven", "from (belief)", "why"),
+            [
+                (leg.label, _m(leg.planned_m), _m(leg.driven_m), _m(leg.belief_m), leg.why)
+                for leg in shortened
+            ],
+        )
+        lines.append("")
+    if result.fixes:
+        worst = max(result.fixes, key=lambda f: abs(f.correction_m))
+        lines.append(
+            f"Largest correction at a feature: {worst.correction_m:+.3f} m at"
+            f" {worst.feature!r} (the pipe before it differs from the map by about that much,"
+            " plus odometry drift)."
+        )
+    elif d is None:
+        lines.append("No feature fix, no disagreement.")
+    return lines
+
+
 def report_lines(
     result: MissionResult,
     pictures: Sequence[tuple[str, str]] = (),
@@ -129,6 +176,7 @@ def report_lines(
         f"Largest error after a fix: {_m(result.max_fix_error_m, 3)};"
         f" largest error over the run: {_m(result.max_error_m, 3)}.",
     ]
+    lines += map_and_pipe_lines(result)
     if result.sim:
         lines += ["", "## Simulator counters", ""]
         lines += _table(("counter", "value"), [(k, f"{v:g}") for k, v in result.sim.items()])

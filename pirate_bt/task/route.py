@@ -33,9 +33,9 @@ or left out, so ``then at the next bend turn right`` reads as well):
 
 ``#`` starts a comment. Parsing is one step (words, units, spelling); whether a
 route fits its network (is there a bend where it says "turn"?) is the
-planner's job (:mod:`pirate_bt.task.planner`). Every problem is reported as
-``file:line:column`` with the nearest valid words, so "forwrad 2 m" says
-"did you mean 'forward'?".
+planner's job (:mod:`pirate_bt.task.planner`, which also checks route files for
+``pirate-bt validate``). Every problem is reported as ``file:line:column``
+with the nearest valid words, so "forwrad 2 m" says "did you mean 'forward'?".
 """
 
 from __future__ import annotations
@@ -60,7 +60,6 @@ __all__ = [
     "load_route",
     "parse_route",
     "route_schema",
-    "validate_route_file",
 ]
 
 
@@ -465,28 +464,6 @@ def load_route(path: str | Path) -> Route:
             [LocatedError(f"cannot read the route: {exc}", SourceLocation(str(path)))]
         ) from None
     return parse_route(text, str(path))
-
-
-def validate_route_file(path: str | Path) -> Route:
-    """Check a route (``pirate-bt validate``).
-
-    Words, spelling and units first; when the route names its network, it is
-    also planned on that network with the bundled robot, so a route that does
-    not fit (a "turn up" where the bend turns left) fails at its line.
-
-    Raises:
-        ValidationFailed: every problem, each at ``file:line:column``.
-    """
-    route = load_route(path)
-    if route.network is not None:
-        from pirate_bt.robot.loader import load_robot
-        from pirate_bt.task.planner import load_network_for, plan_route
-
-        try:
-            plan_route(route, load_network_for(route, None), load_robot())
-        except LocatedError as exc:
-            raise ValidationFailed([exc]) from None
-    return route
 
 
 def route_schema() -> dict[str, Any]:

@@ -1,0 +1,265 @@
+"""The ``drive`` primitive: drive every wheel until a distance or a feature of the pipe.
+
+A drive ends when the wheel odometry has covered a distance, or when a feature
+shows itself in the sensors: the robot is blocked at a turn it may not take, a
+front joint swings off the wall over a tee's opening, or the rear joints have
+crossed an opening and are back at the wall.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import py_trees
+from py_trees.common import Status
+from pydantic import Field
+
+from pirate_bt.behaviours.base import NodeParams
+from pirate_bt.behaviours.primitive import _SETTLE_TICKS, Primitive, _commands
+from pirate_bt.robot.description import Half, RobotDescription
+from pirate_bt.robot.state import RobotState
+from pirate_bt.units import Current, Duration, Length, Velocity
+
+__all__ = ["Drive", "DriveParams", "Until"]
+
+Until = Literal["distance", "blocked", "front_opening", "opening_passed"]
+
+
+class DriveParams(NodeParams):
+    velocity: Velocity = Field(description="wheel speed; negative drives backwards")
+    distance: Length | None = Field(
+        None, gt=0, description="odometry distance that completes the drive (until: distance)"
+    )
+    until: Until = Field(
+        "distance",
+        description=(
+            "what completes the drive: 'distance' travelled; 'blocked' (every drive draws"
+            " stall current: the leading half is held at a turn it may not take);"
+            " 'front_opening' (a front joint swung past every wall-contact angle: the"
+            " front half is over a tee's opening);"
+            " 'opening_passed' (every rear joint, pressing the wall, swung off it over a"
+            " tee's opening and is back at the wall behind it)"
+        ),
+    )
+    max_distance: Length = Field(
+        3.0, gt=0, description="fail when no feature was found within this distance"
+    )
+    distance_key: str | None = Field(
+        None,
+        pattern=r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$",
+        description=(
+            "blackboard key holding the distance in metres, read when the drive starts"
+            " (instead of 'distance'; a planner writes it from the robot's belief);"
+            " a value of 1 mm or less completes the drive at once; empty: not used"
+        ),
+    )
+    stop_at_feature: bool = Field(
+        False,
+        description=(
+            "with until: distance, also complete the drive (early) when a feature shows:"
+            " blocked at a turn, or a front joint off the wall over an opening"
+        ),
+    )
+    stall_current: Current | None = Field(
+        None, gt=0, description="current counted as stalled (default 80 % of the stall current)"
+    )
+    stall_time: Duration = Field(0.5, gt=0, description="how long a stall lasts before failing")
+    timeout: Duration = Field(120.0, gt=0, description="fail if not done within this time")
+
+
+class Drive(Primitive):
+    """Drive every wheel at ``velocity`` until a distance or a feature; stop at the end.
+
+    Odometry integrates the mean measured wheel speed. A drive motor drawing at least
+    ``stall_current`` while turning at less than a fifth of the commanded speed for
+    ``stall_time`` is a stall (failure). Every motor drawing stall current while the
+    robot makes no progress (mean wheel speed below a fifth of the command) means
+    the robot is held by the pipe: success for ``until: blocked``, a failure
+    otherwise. A heavy load that the wheels still carry (nearly stall current at
+    speed) is neither. ``terminate()`` always stops the drives.
+    """
+
+    Params = DriveParams
+    verb = "drive"
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        problems: list[str] = []
+        if params.velocity == 0:
+            problems.append("velocity: must not be 0")
+        if params.until == "distance" and params.distance is None and not params.distance_key:
+            problems.append("distance: required with until: distance")
+        for motor in robot.drive_motors():
+            lim = motor.limits.velocity
+            if lim is not None and abs(params.velocity) > lim.max:
+                problems.append(
+                    f"velocity: {params.velocity * 1000:g} mm/s is above {motor.name}'s limit"
+                    f" {lim.max * 1000:g} mm/s"
+                )
+                break
+        return problems
+
+    @classmethod
+    def blackboard_reads(cls, params: Any) -> tuple[str, ...]:
+        return (params.distance_key.lstrip("/"),) if params.distance_key else ()
+
+    def start(self) -> None:
+        p: DriveParams = self.params  # type: ignore[assignment]
+        self._distance_m = p.distance
+        self._bad_distance: str | None = None
+        self.sensed: str | None = None
+        """What ended the drive early (``blocked``, ``front_opening``), if anything."""
+        if p.distance_key:
+            name = p.distance_key if p.distance_key.startswith("/") else "/" + p.distance_key
+            value = py_trees.blackboard.Blackboard.storage.get(name)
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                self._distance_m = float(value)
+            else:
+                self._bad_distance = f"blackboard {p.distance_key!r} holds {value!r}, not metres"
+        self._at_speed = False
+        self._resend = False
+        self._odometry_m = 0.0
+        self._last_s = self.now()
+        self._stall_since: dict[str, float] = {}
+        self._blocked_since: float | None = None
+        self._lost_wall: dict[str, bool] = {}
+        self._found_wall: set[str] = set()
+        self._back_ticks: dict[str, int] = {}
+        self._slow_since: float | None = None
+
+    def stop_motion(self) -> None:
+        self.supervisor.stop()
+
+    def terminate(self, new_status: Status) -> None:
+        if self.supervisor is not None:
+            self.supervisor.stop()
+
+    def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
+        """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
+        clamp = self.robot.clamp
+        beyond = max(c.angle for c in clamp.contact_angles) + 2 * self.robot.safety.angle_tolerance
+        return {
+            m.name: abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
+            for m in self.robot.bend_modules(half)
+        }
+
+    def _opening_passed(self, state: RobotState) -> bool:
+        """True once every rear bend module has crossed an opening and is at the wall again.
+
+        A pressing joint swings past every wall-contact angle over the opening (lost)
+        and is pushed back by the wall behind it. It counts as past the opening only
+        when it is back *at the wall* - within the contact range and, with a spring
+        sensor, pressing on it, for ``_SETTLE_TICKS`` ticks - not as soon as it swings
+        back below the off-wall threshold, when the module may still be at the edge of
+        the opening. A joint
+        that swings out again (a second opening, noise) must come back again.
+        """
+        robot = self.robot
+        clamp = robot.clamp
+        tol = robot.safety.angle_tolerance
+        wall_max = max(c.angle for c in clamp.contact_angles) + tol
+        wall_min = min(c.angle for c in clamp.contact_angles) - tol
+        pressing_n = robot.safety.clamp_force_fraction * clamp.min_torque / clamp.lever_arm
+        rear = [m.name for m in robot.bend_modules(Half.REAR)]
+        for name, off in self._off_wall(state, Half.REAR).items():
+            angle = state.joint_angle_rad.get(name)
+            force = state.clamp_force_n.get(name)
+            if off:
+                self._lost_wall[name] = True
+                self._back_ticks[name] = 0
+                self._found_wall.discard(name)
+            elif self._lost_wall.get(name) and angle is not None:
+                # at the wall: in the contact range and, with a spring, pressing on it
+                at_wall = wall_min <= abs(angle) <= wall_max and (
+                    force is None or abs(force) >= pressing_n
+                )
+                self._back_ticks[name] = self._back_ticks.get(name, 0) + 1 if at_wall else 0
+                if self._back_ticks[name] >= _SETTLE_TICKS:
+                    self._found_wall.add(name)
+        return bool(rear) and self._found_wall >= set(rear)
+
+    def step(self, state: RobotState) -> Status:
+        p: DriveParams = self.params  # type: ignore[assignment]
+        if self._bad_distance is not None:
+            return self.fail(self._bad_distance)
+        target = self._distance_m
+        if p.until == "distance" and target is not None and target <= 1e-3:
+            self.feedback_message = "nothing to drive"
+            return Status.SUCCESS
+        now = self.now()
+        dt = max(now - self._last_s, 0.0)
+        self._last_s = now
+        speed = state.mean_drive_velocity_mps()
+        self._odometry_m += speed * dt
+        travelled = abs(self._odometry_m)
+        # checked before (re)sending: a front half already over an opening is done at once
+        front_opening = p.until == "front_opening" or p.stop_at_feature
+        if front_opening and any(self._off_wall(state, Half.FRONT).values()):
+            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
+            self.sensed = "front_opening"
+            return Status.SUCCESS
+        if not self._at_speed:
+            command = _commands().Drive(p.velocity)
+            if self._resend and self.supervisor.check(command).refused:
+                pass  # asking again now would be refused: keep going, ask again later
+            else:
+                ok, done = self.send(command)
+                if not ok:
+                    return self.refused()
+                self._at_speed = done
+        robot = self.robot
+        stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
+        currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in robot.drive_motors()}
+        speeds = {m.name: state.drive_velocity_mps.get(m.name, 0.0) for m in robot.drive_motors()}
+        self.feedback_message = (
+            f"drove {travelled:.3f} m at {speed * 1000:.0f} mm/s"
+            f" (max current {max(currents.values(), default=0.0):.2f} A)"
+        )
+        # a stall: a motor drawing stall current without turning
+        for name, current in currents.items():
+            turning = abs(speeds[name]) >= 0.2 * abs(p.velocity)
+            if current >= stall_a and not turning:
+                since = self._stall_since.setdefault(name, now)
+                if now - since >= p.stall_time:
+                    return self.fail(
+                        f"stall: {name} draws {current:.2f} A at {speeds[name] * 1000:.0f} mm/s"
+                        f" for {now - since:.2f} s (commanded {p.velocity * 1000:g} mm/s)"
+                    )
+            else:
+                self._stall_since.pop(name, None)
+        # blocked: every wheel pushes against the pipe at stall current and the robot
+        # makes no progress. Current alone is not enough: a heavy load (a long tether up
+        # a riser) draws nearly stall current while the robot climbs at full speed.
+        progressing = abs(speed) >= 0.2 * abs(p.velocity)
+        if currents and all(c >= stall_a for c in currents.values()) and not progressing:
+            if self._blocked_since is None:
+                self._blocked_since = now
+            if now - self._blocked_since >= min(p.stall_time, 0.3):
+                if p.until == "blocked" or p.stop_at_feature:
+                    self.feedback_message = f"blocked after {travelled:.3f} m"
+                    self.sensed = "blocked"
+                    return Status.SUCCESS
+                return self.fail(
+                    f"blocked: every drive draws stall current after {travelled:.3f} m"
+                    " (a turn the robot may not take?)"
+                )
+        else:
+            self._blocked_since = None
+        if p.until == "distance" and target is not None and travelled >= target:
+            return Status.SUCCESS
+        if p.until == "opening_passed" and self._opening_passed(state):
+            self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
+            return Status.SUCCESS
+        if p.until != "distance" and travelled >= p.max_distance:
+            return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")
+        # the bridge's watchdog may have stopped the wheels: ask again
+        if self._at_speed and abs(speed) < 0.2 * abs(p.velocity):
+            if self._slow_since is None:
+                self._slow_since = now
+            elif now - self._slow_since >= 0.5 and max(currents.values(), default=0.0) < stall_a:
+                self._at_speed = False
+                self._resend = True
+                self._slow_since = None
+        else:
+            self._slow_since = None
+        return Status.RUNNING

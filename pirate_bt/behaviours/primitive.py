@@ -1,0 +1,164 @@
+"""The motion primitives' common base: ask the supervisor, watch the sensors, fail safe.
+
+:class:`Primitive` holds what every primitive of :mod:`pirate_bt.behaviours.primitives`
+and :mod:`pirate_bt.behaviours.drive` shares: the supervisor acquired in ``setup()``,
+a timeout on the injected clock, the failure reason, re-sending a command until the
+supervisor passes it unclipped, and stopping motion when interrupted.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any, ClassVar
+
+from py_trees.common import Status
+
+from pirate_bt.behaviours.base import BuildContext, Leaf, NodeParams, Outcome
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.state import RobotState
+
+__all__ = ["Primitive"]
+
+_log = logging.getLogger("pirate_bt.behaviours.primitives")
+
+_SUCCESS_FAILURE: frozenset[Outcome] = frozenset({"success", "failure", "running"})
+_SETTLE_TICKS = 2
+"""Consecutive ticks a condition must hold before a primitive believes it."""
+
+
+def _wrap(angle_rad: float) -> float:
+    return math.remainder(angle_rad, 2 * math.pi)
+
+
+def _deg(angle_rad: float) -> str:
+    return f"{math.degrees(angle_rad):.1f}°"
+
+
+class Primitive(Leaf):
+    """Common machinery: supervisor, timeout, verdict handling, failure reasons.
+
+    Subclasses implement :meth:`step` (one tick of work on a fresh state, returning
+    a status) and may override :meth:`start` and :meth:`stop_motion`.
+    """
+
+    needs_robot: ClassVar[bool] = True
+    verb: ClassVar[str] = "primitive"
+
+    def __init__(self, name: str, params: NodeParams, context: BuildContext) -> None:
+        super().__init__(name, params, context)
+        self.supervisor: Any = None
+        self.failed_at_s: float | None = None
+        self.failure_reason = ""
+        self._start_s = math.nan
+        self._timeout_s: float = getattr(params, "timeout", 30.0)
+        self._refusal: Any = None
+
+    @classmethod
+    def outcomes(cls, params: Any) -> frozenset[Outcome]:
+        return _SUCCESS_FAILURE
+
+    # -- lifecycle ---------------------------------------------------------------
+
+    def setup(self, **kwargs: Any) -> None:
+        """Take the supervisor from the build context (the only road to the robot).
+
+        Raises:
+            ConfigurationError: the tree was built without a robot connection.
+        """
+        if self.context.supervisor is None:
+            raise ConfigurationError(
+                f"{self.name}: the {self.verb} primitive needs a robot (no supervisor)"
+            )
+        self.supervisor = self.context.supervisor
+
+    @property
+    def robot(self) -> RobotDescription:
+        robot: RobotDescription = self.supervisor.robot
+        return robot
+
+    def now(self) -> float:
+        return self.context.clock.now()
+
+    def initialise(self) -> None:
+        if self.supervisor is None:
+            self.setup()
+        self._start_s = self.now()
+        self.failed_at_s = None
+        self.failure_reason = ""
+        self.feedback_message = ""
+        self.start()
+
+    def update(self) -> Status:
+        state: RobotState | None = self.supervisor.state()
+        elapsed_s = self.now() - self._start_s
+        if state is None:
+            if elapsed_s > self._timeout_s:
+                return self.fail(f"timeout: no robot state within {self._timeout_s:g} s")
+            self.feedback_message = "waiting for the robot's state"
+            return Status.RUNNING
+        status = self.step(state)
+        if status is Status.RUNNING and elapsed_s > self._timeout_s:
+            return self.fail(
+                f"timeout: not done after {self._timeout_s:g} s ({self.feedback_message})"
+            )
+        return status
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status is not Status.SUCCESS and self.supervisor is not None:
+            self.stop_motion()
+
+    # -- hooks -------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Called when the primitive starts (after the supervisor is known)."""
+
+    def step(self, state: RobotState) -> Status:  # pragma: no cover - abstract
+        """One tick of work on the latest state; returns the status."""
+        raise NotImplementedError
+
+    def stop_motion(self) -> None:
+        """Leave the robot safe when interrupted: by default nothing moves on (joints
+        hold their last setpoint, which the rate limit keeps close to where they are)."""
+
+    # -- helpers -------------------------------------------------------------------
+
+    def fail(self, reason: str) -> Status:
+        """Record ``reason`` (``feedback_message``, log, :func:`last_failure`) and fail."""
+        self.feedback_message = reason
+        self.failure_reason = reason
+        self.failed_at_s = self.now()
+        _log.warning("%s failed: %s", self.name, reason)
+        return Status.FAILURE
+
+    def send(self, command: Any) -> tuple[bool, bool]:
+        """Ask the supervisor for ``command``.
+
+        Returns:
+            ``(ok, done)``: ``ok`` is False for a refusal (the reason is recorded by
+            :meth:`refused`); ``done`` is True when it went out unclipped.
+        """
+        verdict = self.supervisor.command(command)
+        if verdict.refused:
+            self._refusal = verdict
+            return False, False
+        return True, verdict.outcome.value == "pass"
+
+    def refused(self) -> Status:
+        verdict = self._refusal
+        reason = verdict.reason.value if verdict.reason is not None else "refused"
+        return self.fail(f"refused {_describe(verdict.command)}: {reason}: {verdict.detail}")
+
+
+def _describe(command: Any) -> str:
+    from pirate_bt.safety.commands import describe
+
+    return describe(command)
+
+
+def _commands() -> Any:
+    # Imported lazily: building or drawing a tree must not need the safety layer.
+    from pirate_bt.safety import commands
+
+    return commands

@@ -1,0 +1,142 @@
+"""``pirate-bt network perturb|remove|add-tee``: as-built variants of a drawn network.
+
+``perturb MAP --seed N`` writes a network with the same features whose straight
+lengths, slopes and diameters differ within stated bounds (``docs/networks.md``);
+``remove MAP FEATURE`` one without a tee or bend that was never built;
+``add-tee MAP SEGMENT AT`` one with a tee nobody drew. Each writes the network
+file to ``-o OUT`` (nothing is written when the input is bad) or to standard
+output. Give the result to ``pirate-bt mission ROUTE --sim OUT --network MAP``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.units import parse_quantity
+
+__all__ = ["configure", "run"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    subs = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    perturb = subs.add_parser(
+        "perturb", help="an as-built variant: lengths, slopes, diameters within bounds"
+    )
+    perturb.add_argument("map", metavar="MAP", help="the drawn network (file or bundled name)")
+    perturb.add_argument("--seed", type=int, required=True, help="which variant")
+    perturb.add_argument(
+        "--length", default="10%", metavar="FRACTION", help="straight length change (default 10%%)"
+    )
+    perturb.add_argument(
+        "--length-max", default="0.5 m", metavar="LENGTH", help="... at most (default 0.5 m)"
+    )
+    perturb.add_argument(
+        "--slope", default="3 deg", metavar="ANGLE", help="slope change (default 3 deg)"
+    )
+    perturb.add_argument(
+        "--diameter", default="5%", metavar="FRACTION", help="diameter change (default 5%%)"
+    )
+    perturb.add_argument(
+        "--scale", type=float, default=1.0, help="multiply every bound (e.g. 2 for twice)"
+    )
+    perturb.add_argument("--robot", metavar="FILE", help="robot whose clamp range bounds diameters")
+    remove = subs.add_parser("remove", help="without a tee or bend (never built)")
+    remove.add_argument("map", metavar="MAP")
+    remove.add_argument("feature", metavar="FEATURE", help="the tee's or bend's segment id")
+    add = subs.add_parser("add-tee", help="with a tee nobody drew")
+    add.add_argument("map", metavar="MAP")
+    add.add_argument("segment", metavar="SEGMENT", help="the straight the tee sits in")
+    add.add_argument("at", metavar="AT", help="how far into the straight, e.g. 1.5m")
+    add.add_argument("--direction", default="left", choices=("up", "down", "left", "right"))
+    add.add_argument("--id", default="extra-tee", help="the new tee's id")
+    for sub in (perturb, remove, add):
+        sub.add_argument("-o", "--output", type=Path, metavar="OUT", help="network file to write")
+
+
+def _fraction(text: str, option: str) -> float:
+    body = text.strip()
+    try:
+        value = float(body[:-1]) / 100.0 if body.endswith("%") else float(body)
+    except ValueError:
+        raise InputError(f"{option}: {text!r} is not a fraction (write e.g. 10% or 0.1)") from None
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: {text!r} must be at least 0 and below 100%")
+    return value
+
+
+def _quantity(text: str, dimension: str, option: str) -> float:
+    try:
+        value = parse_quantity(text, dimension)
+    except InputError as exc:
+        raise InputError(f"{option}: {exc}") from None
+    if value < 0:
+        raise InputError(f"{option}: {text!r} must not be negative")
+    return value
+
+
+def _bounds(args: argparse.Namespace) -> Any:
+    from pirate_bt.pipes.asbuilt import AsBuiltBounds
+    from pirate_bt.robot.loader import load_robot
+
+    points = load_robot(args.robot).clamp.contact_angles
+    if args.scale <= 0 or not math.isfinite(args.scale):
+        raise InputError("--scale must be a positive number")
+    return AsBuiltBounds(
+        length_fraction=_fraction(args.length, "--length"),
+        length_max_m=_quantity(args.length_max, "length", "--length-max"),
+        slope_rad=_quantity(args.slope, "angle", "--slope"),
+        diameter_fraction=_fraction(args.diameter, "--diameter"),
+        diameter_min_m=points[0].diameter,
+        diameter_max_m=points[-1].diameter,
+    ).scaled(args.scale)
+
+
+def _write(text: str, output: Path | None) -> None:
+    if output is None:
+        sys.stdout.write(text)
+        return
+    output.parent.mkdir(parents=True, exist_ok=True)
+    # write beside it and rename: no half-written network file
+    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", dir=output.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, output)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    print(f"wrote {output}", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pirate_bt.pipes import load_network
+    from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
+    from pirate_bt.resources import find_file
+
+    network = load_network(find_file("scenarios", args.map))
+    try:
+        if args.action == "perturb":
+            bounds = _bounds(args)
+            spec = perturb_network(network.spec, args.seed, bounds)
+            header = (
+                f"As-built variant {args.seed} of {network.source}: {bounds.describe()}.\n"
+                f"Written by: pirate-bt network perturb {args.map} --seed {args.seed}"
+            )
+        elif args.action == "remove":
+            spec = remove_feature(network.spec, args.feature)
+            header = f"{network.source} without {args.feature} (never built)."
+        else:
+            at_m = _quantity(args.at, "length", "AT")
+            spec = insert_tee(network.spec, args.segment, at_m, args.direction, tee_id=args.id)
+            header = f"{network.source} with a tee nobody drew ({args.id} in {args.segment})."
+    except ConfigurationError as exc:
+        raise InputError(str(exc)) from None
+    _write(network_yaml(spec, header), args.output)
+    return 0

@@ -1,0 +1,376 @@
+"""As-built variants of a drawn network: the pipe as it was really laid.
+
+Drawings of buried pipe are rarely exact. :func:`perturb_network` draws one
+*as-built* variant of a network: the same features in the same order, with the
+same ids, whose straight lengths, slopes and diameters differ from the drawing
+within :class:`AsBuiltBounds`, from a seed (the same seed gives the same
+variant). A mission can then run the simulator on the variant (the truth) while
+it plans on the drawing (the map).
+
+The defaults (``docs/networks.md``):
+
+- a straight's length by at most ±10 % and at most ±0.5 m (tees and reducers keep
+  their length: they are fittings);
+- a straight's slope by at most ±3° (vertical runs, risers and drops, are laid
+  plumb: they stay vertical whatever the tilt of the run before them);
+- every diameter given (the network's, a straight's, a reducer's) by at most ±5 %,
+  and never outside what the robot can clamp (51-120 mm for the bundled robot).
+
+Three edits make drawings that are wrong in kind, for the disagreement tests:
+:func:`remove_feature` (a tee or a bend that was never built) and
+:func:`insert_tee` (a tee nobody drew). :func:`network_yaml` writes any of them
+as a network file.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.pipes.model import (
+    BendSpec,
+    NetworkSpec,
+    ReducerSpec,
+    SegmentSpec,
+    StraightSpec,
+    TeeBranchSpec,
+    TeeSpec,
+)
+from pirate_bt.pipes.network import Network
+
+__all__ = [
+    "AsBuiltBounds",
+    "insert_tee",
+    "network_yaml",
+    "perturb_network",
+    "remove_feature",
+]
+
+_VERTICAL = math.radians(60.0)
+"""Runs steeper than this are vertical for the perturbation: their slope is kept."""
+
+
+@dataclass(frozen=True)
+class AsBuiltBounds:
+    """How far an as-built network may differ from its drawing.
+
+    Attributes:
+        length_fraction: A straight's length changes by at most this fraction.
+        length_max_m: ... and by at most this many metres.
+        slope_rad: A non-vertical straight's slope changes by at most this much.
+        diameter_fraction: A diameter changes by at most this fraction ...
+        diameter_min_m: ... and stays at least this (the smallest pipe the robot clamps)
+        diameter_max_m: ... and at most this (the largest).
+    """
+
+    length_fraction: float = 0.10
+    length_max_m: float = 0.5
+    slope_rad: float = math.radians(3.0)
+    diameter_fraction: float = 0.05
+    diameter_min_m: float = 0.051
+    diameter_max_m: float = 0.120
+
+    def __post_init__(self) -> None:
+        for name in ("length_fraction", "length_max_m", "slope_rad", "diameter_fraction"):
+            if getattr(self, name) < 0:
+                raise ConfigurationError(f"as-built bounds: {name} must not be negative")
+        if self.length_fraction >= 1.0:
+            raise ConfigurationError("as-built bounds: length_fraction must be below 1")
+        if self.diameter_min_m > self.diameter_max_m:
+            raise ConfigurationError("as-built bounds: diameter_min_m is above diameter_max_m")
+
+    def scaled(self, factor: float) -> AsBuiltBounds:
+        """The same bounds ``factor`` times as wide (the clampable range stays)."""
+        return replace(
+            self,
+            length_fraction=min(self.length_fraction * factor, 0.9),
+            length_max_m=self.length_max_m * factor,
+            slope_rad=self.slope_rad * factor,
+            diameter_fraction=self.diameter_fraction * factor,
+        )
+
+    def describe(self) -> str:
+        """One line for people and reports."""
+        return (
+            f"straights ±{self.length_fraction * 100:g} % (at most ±{self.length_max_m:g} m),"
+            f" slopes ±{math.degrees(self.slope_rad):g} deg, diameters"
+            f" ±{self.diameter_fraction * 100:g} % within"
+            f" {self.diameter_min_m * 1000:g}-{self.diameter_max_m * 1000:g} mm"
+        )
+
+
+def _names(segments: Sequence[SegmentSpec], prefix: str) -> list[str]:
+    return [seg.id or f"{prefix}-{i + 1}" for i, seg in enumerate(segments)]
+
+
+def _slopes(network: Network) -> dict[str, float]:
+    """The drawn slope of every straight (by segment name), over every way through."""
+    out: dict[str, float] = {}
+    for path in network.paths():
+        for piece in path.pieces:
+            if piece.segment not in out and piece.length_m > 0:
+                tangent = path.tangent_at((piece.start_m + piece.end_m) / 2)
+                out[piece.segment] = math.asin(max(-1.0, min(1.0, tangent[2])))
+    return out
+
+
+def perturb_network(
+    spec: NetworkSpec,
+    seed: int,
+    bounds: AsBuiltBounds | None = None,
+    *,
+    name: str | None = None,
+) -> NetworkSpec:
+    """One as-built variant of a drawn network.
+
+    Args:
+        spec: The drawing.
+        seed: Which variant (the same seed gives the same variant).
+        bounds: How far it may differ (default :class:`AsBuiltBounds`).
+        name: The variant's name (default ``NAME-asbuilt-SEED``).
+
+    Returns:
+        A network with the same features and ids, lengths, slopes and diameters drawn
+        uniformly within the bounds.
+
+    Raises:
+        ConfigurationError: the drawing's geometry cannot be built.
+    """
+    bounds = bounds or AsBuiltBounds()
+    rng = random.Random(seed)
+    slopes = _slopes(Network(spec))
+
+    def diameter(value: float) -> float:
+        d = value * (1.0 + rng.uniform(-1.0, 1.0) * bounds.diameter_fraction)
+        return min(max(d, bounds.diameter_min_m), bounds.diameter_max_m)
+
+    def line(segments: Sequence[SegmentSpec], prefix: str) -> list[SegmentSpec]:
+        out: list[SegmentSpec] = []
+        for seg, seg_name in zip(segments, _names(segments, prefix), strict=True):
+            if isinstance(seg, StraightSpec):
+                change = min(seg.length * bounds.length_fraction, bounds.length_max_m)
+                length = seg.length + rng.uniform(-1.0, 1.0) * change
+                drawn = slopes.get(seg_name, seg.slope or 0.0)
+                tilt = rng.uniform(-1.0, 1.0) * bounds.slope_rad
+                if abs(drawn) < _VERTICAL:
+                    slope = max(-_VERTICAL, min(_VERTICAL, drawn + tilt))
+                else:  # risers and drops are set plumb, whatever the run before them
+                    slope = math.copysign(math.pi / 2, drawn)
+                out.append(
+                    seg.model_copy(
+                        update={
+                            "length": length,
+                            "slope": slope,
+                            "diameter": (
+                                diameter(seg.diameter) if seg.diameter is not None else None
+                            ),
+                        }
+                    )
+                )
+            elif isinstance(seg, ReducerSpec):
+                out.append(seg.model_copy(update={"diameter": diameter(seg.diameter)}))
+            elif isinstance(seg, TeeSpec):
+                branch = seg.branch.model_copy(
+                    update={"segments": line(seg.branch.segments, f"{seg_name}-b")}
+                )
+                out.append(seg.model_copy(update={"branch": branch}))
+            else:
+                out.append(seg)
+        return out
+
+    variant = spec.model_copy(
+        update={
+            "name": name or f"{spec.name}-asbuilt-{seed}",
+            "description": f"as-built variant {seed} of {spec.name} ({bounds.describe()})",
+            "diameter": diameter(spec.diameter),
+            "segments": line(spec.segments, "main"),
+        }
+    )
+    Network(variant)  # fail here, not in the simulator, on impossible geometry
+    return variant
+
+
+def _edit(
+    spec: NetworkSpec, segment_id: str, edit: Any, what: str, name: str | None
+) -> NetworkSpec:
+    found = [False]
+
+    def line(segments: Sequence[SegmentSpec], prefix: str) -> list[SegmentSpec]:
+        out: list[SegmentSpec] = []
+        for seg, seg_name in zip(segments, _names(segments, prefix), strict=True):
+            if seg_name == segment_id:
+                found[0] = True
+                out.extend(edit(seg))
+                continue
+            if isinstance(seg, TeeSpec):
+                branch = seg.branch.model_copy(
+                    update={"segments": line(seg.branch.segments, f"{seg_name}-b")}
+                )
+                seg = seg.model_copy(update={"branch": branch})
+            out.append(seg)
+        return out
+
+    segments = line(spec.segments, "main")
+    if not found[0]:
+        raise ConfigurationError(f"{what}: the network {spec.name!r} has no {segment_id!r}")
+    variant = spec.model_copy(
+        update={"name": name or f"{spec.name}-{what.replace(' ', '-')}", "segments": segments}
+    )
+    Network(variant)
+    return variant
+
+
+def remove_feature(spec: NetworkSpec, segment_id: str, *, name: str | None = None) -> NetworkSpec:
+    """The network without a tee or a bend: one that was drawn but never built.
+
+    A tee becomes straight pipe of its length (its branch goes); a bend is taken out,
+    so the line goes on in the direction it had before the bend.
+
+    Raises:
+        ConfigurationError: no such segment, or it is not a tee or a bend.
+    """
+
+    def edit(seg: SegmentSpec) -> list[SegmentSpec]:
+        if isinstance(seg, TeeSpec):
+            length = seg.length if seg.length is not None else 3.0 * spec.diameter
+            return [StraightSpec(type="straight", id=seg.id, length=length)]
+        if isinstance(seg, BendSpec):
+            return []
+        raise ConfigurationError(f"remove {segment_id!r}: it is a {seg.type}, not a tee or a bend")
+
+    return _edit(spec, segment_id, edit, f"without {segment_id}", name)
+
+
+def insert_tee(
+    spec: NetworkSpec,
+    segment_id: str,
+    at_m: float,
+    direction: str = "left",
+    *,
+    tee_id: str = "extra-tee",
+    name: str | None = None,
+    keep_length: bool = False,
+) -> NetworkSpec:
+    """The network with a tee nobody drew, ``at_m`` into the straight ``segment_id``.
+
+    The straight is split around the tee (so the line's length grows by the tee's,
+    unless ``keep_length``: then the tee takes its length from the straight after
+    it, as when a map is corrected where a robot found a tee); the branch is a
+    capped stub pointing ``direction``.
+
+    Raises:
+        ConfigurationError: no such straight, or ``at_m`` leaves no pipe on a side.
+    """
+
+    def edit(seg: SegmentSpec) -> list[SegmentSpec]:
+        if not isinstance(seg, StraightSpec):
+            raise ConfigurationError(f"insert a tee: {segment_id!r} is a {seg.type}")
+        if not 0.0 < at_m < seg.length:
+            raise ConfigurationError(
+                f"insert a tee: {at_m:g} m is not within {segment_id!r} ({seg.length:g} m)"
+            )
+        tee_m = 3.0 * (seg.diameter or spec.diameter)
+        rest_m = seg.length - at_m - (tee_m if keep_length else 0.0)
+        if rest_m <= 0.0:
+            raise ConfigurationError(
+                f"insert a tee: no pipe left in {segment_id!r} after a tee at {at_m:g} m"
+            )
+        first = seg.model_copy(update={"length": at_m})
+        rest = StraightSpec(type="straight", id=f"{segment_id}-after", length=rest_m)
+        tee = TeeSpec(
+            type="tee",
+            id=tee_id,
+            length=tee_m,
+            branch=TeeBranchSpec.model_validate({"direction": direction}),
+        )
+        return [first, tee, rest]
+
+    return _edit(spec, segment_id, edit, f"with {tee_id}", name)
+
+
+def _len(value: float) -> str:
+    return f"{value * 1000:.1f} mm" if value < 1.0 else f"{value:.4f} m"
+
+
+def _deg(value: float) -> str:
+    return f"{math.degrees(value):.3f} deg"
+
+
+def _segment_data(seg: SegmentSpec) -> dict[str, Any]:
+    out: dict[str, Any] = {"id": seg.id} if seg.id is not None else {}
+    out["type"] = seg.type
+    if isinstance(seg, StraightSpec):
+        out["length"] = _len(seg.length)
+        if seg.diameter is not None:
+            out["diameter"] = _len(seg.diameter)
+        if seg.slope is not None:
+            out["slope"] = _deg(seg.slope)
+    elif isinstance(seg, ReducerSpec):
+        out["diameter"] = _len(seg.diameter)
+        out["length"] = _len(seg.length)
+    elif isinstance(seg, BendSpec):
+        out.update(_turn_data(seg))
+        out["radius"] = _len(seg.radius)
+        if abs(seg.angle - math.pi / 2) > 1e-9:
+            out["angle"] = _deg(seg.angle)
+    else:
+        if seg.length is not None:
+            out["length"] = _len(seg.length)
+        branch: dict[str, Any] = _turn_data(seg.branch)
+        if seg.branch.radius is not None:
+            branch["radius"] = _len(seg.branch.radius)
+        branch["segments"] = [_segment_data(s) for s in seg.branch.segments]
+        out["branch"] = branch
+    return out
+
+
+def _turn_data(turn: BendSpec | TeeBranchSpec) -> dict[str, Any]:
+    if turn.direction is not None:
+        return {"direction": turn.direction.value}
+    assert turn.roll is not None
+    return {"roll": _deg(turn.roll)}
+
+
+def network_yaml(spec: NetworkSpec, header: str = "") -> str:
+    """A network as a network file (units written out, so it loads and validates).
+
+    Args:
+        spec: The network.
+        header: Comment lines to put on top (``#`` is added).
+    """
+    import yaml
+
+    data: dict[str, Any] = {
+        "schema_version": spec.schema_version,
+        "name": spec.name,
+        "description": spec.description,
+        "diameter": _len(spec.diameter),
+    }
+    if spec.slope:
+        data["slope"] = _deg(spec.slope)
+    data["tether_drag_per_metre"] = f"{spec.tether_drag_per_metre:g} N"
+    start: dict[str, Any] = {"roll": _deg(spec.start.roll)}
+    if spec.start.position is not None:
+        start["position"] = _len(spec.start.position)
+    data["start"] = start
+    data["segments"] = [_segment_data(s) for s in spec.segments]
+    if spec.faults:
+        data["faults"] = [
+            {
+                k: v
+                for k, v in {
+                    "kind": f.kind,
+                    "at": f"{f.at:g} s",
+                    "duration": f"{f.duration:g} s" if f.duration is not None else None,
+                    "target": f.target,
+                }.items()
+                if v is not None
+            }
+            for f in spec.faults
+        ]
+    comment = "".join(f"# {line}\n" for line in header.splitlines())
+    return comment + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=100)

@@ -1,0 +1,60 @@
+"""Which network a mission runs in, and which it plans on: names resolved to files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pirate_bt.errors import LocatedError, SourceLocation
+from pirate_bt.pipes import Network, load_network
+from pirate_bt.task.route import Route
+
+__all__ = ["load_network_for", "resolve_network_path"]
+
+
+def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
+    """The network file a route or ``--sim`` names.
+
+    ``lab`` is looked up next to the route (``lab.yaml``), then among the bundled
+    scenarios; a name ending in ``.yaml`` is a path (relative to ``base_dir``).
+
+    Raises:
+        FileNotFoundError: no such network, with the bundled names.
+    """
+    from pirate_bt.resources import data_dir
+
+    candidates: list[Path] = []
+    plain = Path(name)
+    if plain.suffix in (".yaml", ".yml"):
+        candidates.append(plain if plain.is_absolute() else (base_dir or Path.cwd()) / plain)
+        candidates.append(plain)
+    else:
+        if base_dir is not None:
+            candidates.append(base_dir / f"{name}.yaml")
+        candidates.append(data_dir("scenarios") / f"{name}.yaml")
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
+    raise FileNotFoundError(f"no network {name!r}; bundled networks: {', '.join(bundled)}")
+
+
+def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") -> Network:
+    """The network a mission runs in: ``--sim`` if given, else the route's ``network`` line.
+
+    Raises:
+        LocatedError: neither is given, or the named network does not exist.
+        ValidationFailed: the network file does not validate.
+    """
+    name = sim or route.network
+    if name is None:
+        raise LocatedError(
+            "the route names no network; add a line 'network NAME' or give --sim NETWORK",
+            SourceLocation(route.source),
+        )
+    base = Path(route.source).parent if not route.source.startswith("<") else None
+    try:
+        path = resolve_network_path(name, base)
+    except FileNotFoundError as exc:
+        where = route.network_location if sim is None and route.network_location else None
+        raise LocatedError(str(exc), where or SourceLocation(option)) from None
+    return load_network(path)
