@@ -13,16 +13,19 @@ on its bus answer every poll at once with fixed readings.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import fcntl
 import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 from pirate_bt.robot.description import RobotDescription
 
-__all__ = ["FIRMWARE", "FirmwareHostBridge", "build_host_library"]
+__all__ = ["FIRMWARE", "FirmwareHostBridge", "build_host_library", "build_lock"]
 
 FIRMWARE = next(
     p / "firmware" / "piratebay"
@@ -31,6 +34,23 @@ FIRMWARE = next(
 )
 
 _built: dict[tuple[Path, Path], Path] = {}
+
+
+@contextlib.contextmanager
+def build_lock() -> Iterator[None]:
+    """One firmware build at a time on this checkout, across test processes.
+
+    Tests run in parallel workers may ask make for the same outputs at once; make
+    itself does not lock, so two would write the same objects.
+    """
+    lock_dir = FIRMWARE / "build"
+    lock_dir.mkdir(parents=True, exist_ok=True)
+    with open(lock_dir / ".build.lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def build_host_library(build: Path, robot_file: Path | None = None) -> Path:
@@ -45,7 +65,16 @@ def build_host_library(build: Path, robot_file: Path | None = None) -> Path:
         return _built[key]
     if shutil.which("cc") is None or shutil.which("make") is None:
         raise RuntimeError("no host C compiler (cc) or make")
-    result = subprocess.run(
+    with build_lock():
+        result = _make_host(build, robot)
+    if result.returncode != 0:
+        raise RuntimeError(f"building the firmware host library failed:\n{result.stderr}")
+    _built[key] = build / "libpiratebay_host.so"
+    return _built[key]
+
+
+def _make_host(build: Path, robot: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
         [
             "make",
             "-s",
@@ -61,10 +90,6 @@ def build_host_library(build: Path, robot_file: Path | None = None) -> Path:
         env={**os.environ, "MAKEFLAGS": ""},
         check=False,
     )
-    if result.returncode != 0:
-        raise RuntimeError(f"building the firmware host library failed:\n{result.stderr}")
-    _built[key] = build / "libpiratebay_host.so"
-    return _built[key]
 
 
 class FirmwareHostBridge:

@@ -53,12 +53,15 @@ def build() -> tuple[Path, Path]:
     global _built
     if _built is not None:
         return _built
+    from firmware_host import build_lock
+
     env = {**os.environ, "MAKEFLAGS": ""}
     for cmd in (
         ["make", "-s", "-C", str(ELF.parents[1]), f"PIRATE_BT={sys.executable} -m pirate_bt"],
         ["make", "-s", "-C", str(HARNESS.parents[1])],
     ):
-        done = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+        with build_lock():
+            done = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
         if done.returncode != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{done.stdout}\n{done.stderr}")
     _built = (ELF, HARNESS)
