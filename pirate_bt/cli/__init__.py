@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
     "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
+    "campaign": ("pirate_bt.cli.campaign", "run many seeded runs locally or on Dask; report"),
 }
 
 EXIT_OK = 0
