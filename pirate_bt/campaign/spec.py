@@ -17,7 +17,7 @@ grid, seeds), so case ids are the same wherever the campaign runs.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -81,7 +81,7 @@ class SeedRange(BaseModel):
     count: int = Field(1, ge=1, le=1_000_000, description="how many seeds")
 
 
-_Rates = list[float]
+_Rates = list[Annotated[float, Field(ge=0.0, le=1.0)]]
 
 
 def _rates(description: str) -> Any:
@@ -99,13 +99,13 @@ class LinkAxes(BaseModel):
     corrupt: _Rates = _rates("probability one byte of a frame is changed")
     dup: _Rates = _rates("probability a frame is delivered twice")
 
-    @model_validator(mode="after")
-    def _probabilities(self) -> LinkAxes:
-        for key in ("drop", "corrupt", "dup"):
-            for rate in getattr(self, key):
-                if not 0.0 <= rate <= 1.0:
-                    raise ValueError(f"{key} rate {rate} is not a probability (0..1)")
-        return self
+
+def _one_default() -> list[str | None]:
+    return [None]
+
+
+def _no_faults() -> list[list[str]]:
+    return [[]]
 
 
 class CampaignSpec(BaseModel):
@@ -117,12 +117,12 @@ class CampaignSpec(BaseModel):
     description: str = Field("", description="what the campaign shows, for people")
     runs: list[RunItem] = Field(min_length=1, description="trees or routes to run")
     robots: list[str | None] = Field(
-        default_factory=lambda: [None],
+        default_factory=_one_default,
         min_length=1,
         description="robot description files (null: the bundled robot)",
     )
     maps: list[str | None] = Field(
-        default_factory=lambda: [None],
+        default_factory=_one_default,
         min_length=1,
         description="routes only: simulated truth networks differing from the map"
         " (null: the truth is the map)",
@@ -130,7 +130,7 @@ class CampaignSpec(BaseModel):
     seeds: SeedRange = Field(default_factory=SeedRange, description="simulator and link seeds")
     link: LinkAxes = Field(default_factory=LinkAxes, description="link fault rates to sweep")
     sim_faults: list[list[str]] = Field(
-        default_factory=lambda: [[]],
+        default_factory=_no_faults,
         min_length=1,
         description="lists of simulator faults; each list is one point of the axis",
     )
