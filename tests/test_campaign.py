@@ -256,3 +256,22 @@ def test_report_files(tmp_path: Path) -> None:
     csv_lines = (tmp_path / "results.csv").read_text().splitlines()
     assert len(csv_lines) == 31 and "retries" in csv_lines[0]
     assert main(["campaign", "report", str(tmp_path / "results.csv")]) == 2
+
+
+def test_a_bad_tree_parameter_stops_the_campaign_before_any_case(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = _write(tmp_path, SMALL.replace("distance: 0.2 m", "distanse: 0.2 m"))
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--output", str(out), "--quiet"]) == 2
+    assert "unknown parameter 'distanse'" in capsys.readouterr().err
+    assert not (out / "results.jsonl").exists()
+
+
+def test_read_rows_keeps_one_row_per_case(tmp_path: Path) -> None:
+    path = tmp_path / "results.jsonl"
+    path.write_text(
+        '{"id": "a", "outcome": "success"}\n{"id": "b"}\n{"id": "a", "outcome": "error"}\n{"id',
+        encoding="utf-8",
+    )
+    assert read_rows(path) == [{"id": "a", "outcome": "success"}, {"id": "b"}]

@@ -16,7 +16,7 @@ from typing import Any
 
 from pirate_bt.campaign.spec import CampaignSpec
 
-__all__ = ["Case", "expand", "group_key"]
+__all__ = ["Case", "check_runs", "expand", "group_key"]
 
 Case = dict[str, Any]
 
@@ -89,3 +89,28 @@ def group_key(row: dict[str, Any]) -> str:
     parts.append(f"drop={row.get('drop', 0):g} corrupt={row.get('corrupt', 0):g}")
     parts[-1] += f" dup={row.get('dup', 0):g}"
     return " ".join(parts)
+
+
+def check_runs(cases: list[Case]) -> None:
+    """Load every distinct tree (with its parameters) and route once, before any case runs.
+
+    Bad input is the campaign's fault, not a case outcome: it stops the campaign
+    with exit 2 and a located error instead of a thousand ``error`` rows.
+
+    Raises:
+        ValidationFailed: a tree or route does not validate.
+        ConfigurationError: a file is missing.
+    """
+    from pirate_bt.filekinds import validate_file
+    from pirate_bt.resources import find_file
+
+    seen: set[str] = set()
+    for case in cases:
+        key = json.dumps([case["tree"], case["route"], case["params"]], sort_keys=True)
+        if key in seen:
+            continue
+        seen.add(key)
+        if case["tree"]:
+            validate_file(find_file("trees", case["tree"]), "tree", case["params"] or None)
+        else:
+            validate_file(find_file("scenarios", case["route"]), "route")

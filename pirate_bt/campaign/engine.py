@@ -159,17 +159,26 @@ def make_executor(
 
 
 def read_rows(path: Path) -> list[dict[str, Any]]:
-    """The records of a results file; a cut last line (an interrupted write) is skipped."""
+    """The records of a results file, one per case id (the first written).
+
+    A cut line (an interrupted write) is skipped, and so is a second row for a
+    case id (two campaigns appending to one folder by mistake).
+    """
     rows: list[dict[str, Any]] = []
     if not path.exists():
         return rows
+    seen: set[object] = set()
     for line in path.read_text(encoding="utf-8").splitlines():
         if not line.strip():
             continue
         try:
-            rows.append(json.loads(line))
+            row = json.loads(line)
         except ValueError:
             _log.warning("%s: skipped a cut line", path)
+            continue
+        if isinstance(row, dict) and row.get("id") not in seen:
+            seen.add(row.get("id"))
+            rows.append(row)
     return rows
 
 
@@ -216,7 +225,9 @@ def run_cases(
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
     results.write_text(text, encoding="utf-8")
     trace_dir = str((output / "traces").resolve())
-    todo = [c for c in cases if c["id"] not in done]
+    # Seed-major order: every group gets its first seeds before any gets its last,
+    # so a campaign stopped early still covers the whole matrix evenly.
+    todo = sorted((c for c in cases if c["id"] not in done), key=lambda c: (c["seed"], c["index"]))
     rows = list(old)
     futures: dict[Future[dict[str, Any]], dict[str, Any]] = {}
     try:

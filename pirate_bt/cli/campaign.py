@@ -75,6 +75,9 @@ def run(args: argparse.Namespace) -> int:
     spec_path = Path(args.spec)
     spec = load_campaign(spec_path)
     cases = expand(spec, spec_path.parent)
+    from pirate_bt.campaign.cases import check_runs
+
+    check_runs(cases)
     if args.case_timeout:
         try:
             limit = parse_quantity(args.case_timeout, "time")
