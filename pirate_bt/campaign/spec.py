@@ -19,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
 from pirate_bt.errors import UnitError
 from pirate_bt.units import parse_quantity
@@ -100,11 +100,25 @@ class LinkAxes(BaseModel):
     dup: _Rates = _rates("probability a frame is delivered twice")
 
 
+def _fault(text: str) -> str:
+    from pirate_bt.errors import InputError
+    from pirate_bt.sim.faults import parse_fault
+
+    try:
+        parse_fault(text)
+    except InputError as exc:
+        raise ValueError(str(exc)) from None
+    return text
+
+
+_Fault = Annotated[str, AfterValidator(_fault)]
+
+
 def _one_default() -> list[str | None]:
     return [None]
 
 
-def _no_faults() -> list[list[str]]:
+def _no_faults() -> list[list[_Fault]]:
     return [[]]
 
 
@@ -129,7 +143,7 @@ class CampaignSpec(BaseModel):
     )
     seeds: SeedRange = Field(default_factory=SeedRange, description="simulator and link seeds")
     link: LinkAxes = Field(default_factory=LinkAxes, description="link fault rates to sweep")
-    sim_faults: list[list[str]] = Field(
+    sim_faults: list[list[_Fault]] = Field(
         default_factory=_no_faults,
         min_length=1,
         description="lists of simulator faults; each list is one point of the axis",
@@ -150,15 +164,6 @@ class CampaignSpec(BaseModel):
                 raise ValueError(f"{key}: {exc}") from None
             if value <= 0:
                 raise ValueError(f"{key} must be positive")
-        from pirate_bt.errors import InputError
-        from pirate_bt.sim.faults import parse_fault
-
-        for faults in self.sim_faults:
-            for text in faults:
-                try:
-                    parse_fault(text)
-                except InputError as exc:
-                    raise ValueError(f"sim_faults: {exc}") from None
         if any(m is not None for m in self.maps) and any(r.tree for r in self.runs):
             raise ValueError("'maps' (truth differing from the map) apply to routes only")
         return self
