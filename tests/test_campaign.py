@@ -179,8 +179,12 @@ def test_interrupt_then_resume_runs_each_case_once(tmp_path: Path) -> None:
     assert (out / "report.md").exists() and (out / "results.csv").exists()
 
 
-def test_local_and_dask_cluster_give_the_same_rows(tmp_path: Path) -> None:
+def test_local_and_dask_cluster_give_the_same_rows(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     distributed = pytest.importorskip("distributed")
+    (tmp_path / "campaign_helper.py").write_text(HELPER, encoding="utf-8")
+    monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
     spec_path = _write(tmp_path, SMALL)
     spec = load_campaign(spec_path)
     cases = expand(spec, tmp_path)
@@ -193,6 +197,16 @@ def test_local_and_dask_cluster_give_the_same_rows(tmp_path: Path) -> None:
             ["campaign", str(spec_path), "--scheduler", cluster.scheduler_address, "--quiet",
              "--output", str(tmp_path / "dask")]
         ) == 0  # fmt: skip
+        # The same isolation on the cluster: a hang is killed, a raise recorded.
+        with make_executor(scheduler=cluster.scheduler_address) as (executor, what):
+            assert "Dask cluster" in what
+            odd = run_cases(
+                _fake_cases(["hang", "raise", "ok"], timeout_s=5.0),
+                tmp_path / "odd",
+                executor,
+                target="campaign_helper:behave",
+            )
+        assert [r["outcome"] for r in odd] == ["timeout", "error", "success"]
     dask_rows = read_rows(tmp_path / "dask" / "results.jsonl")
     assert len(local) == 4
     assert _strip(sorted(dask_rows, key=lambda r: r["index"])) == _strip(local)
