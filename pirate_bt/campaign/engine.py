@@ -223,7 +223,9 @@ def run_cases(
     done = {r["id"] for r in old}
     # Rewrite without a cut last line, so every appended row starts on its own line.
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
-    results.write_text(text, encoding="utf-8")
+    part = results.with_name(results.name + ".part")
+    part.write_text(text, encoding="utf-8")
+    os.replace(part, results)  # never half a results file, even if stopped right here
     trace_dir = str((output / "traces").resolve())
     # Seed-major order: every group gets its first seeds before any gets its last,
     # so a campaign stopped early still covers the whole matrix evenly.
