@@ -197,8 +197,12 @@ def test_local_and_dask_cluster_give_the_same_rows(
             ["campaign", str(spec_path), "--scheduler", cluster.scheduler_address, "--quiet",
              "--output", str(tmp_path / "dask")]
         ) == 0  # fmt: skip
-        # The same isolation on the cluster: a hang is killed, a raise recorded.
-        with make_executor(scheduler=cluster.scheduler_address) as (executor, what):
+        # The same isolation on the cluster (reached by its scheduler file this time):
+        # a hang is killed, a raise recorded.
+        scheduler_file = tmp_path / "scheduler.json"
+        with distributed.Client(cluster) as client:
+            client.write_scheduler_file(str(scheduler_file))
+        with make_executor(scheduler_file=str(scheduler_file)) as (executor, what):
             assert "Dask cluster" in what
             odd = run_cases(
                 _fake_cases(["hang", "raise", "ok"], timeout_s=5.0),
