@@ -86,6 +86,14 @@ KINDS: dict[str, FileKind] = {
         loader="pirate_bt.task.planner:validate_route_file",
         schema="pirate_bt.task.route:route_schema",
     ),
+    "campaign": FileKind(
+        name="campaign",
+        title="campaign",
+        marker_keys=("runs",),
+        suffixes=(".campaign.yaml", ".campaign.yml"),
+        loader="pirate_bt.campaign.spec:load_campaign",
+        schema="pirate_bt.campaign.spec:campaign_schema",
+    ),
     "trace": FileKind(
         name="trace",
         title="trace",

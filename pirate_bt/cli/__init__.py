@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
     "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
     "network": ("pirate_bt.cli.network", "as-built variants of a pipe network (perturb, edit)"),
+    "campaign": ("pirate_bt.cli.campaign", "run many seeded runs locally or on Dask; report"),
 }
 
 EXIT_OK = 0

@@ -204,11 +204,60 @@ def _observe(runner: Any, args: argparse.Namespace, robot: Any, connection: Conn
     )
 
 
-def run(args: argparse.Namespace) -> int:
+def run_tree(
+    checked: Any,
+    robot: Any,
+    connection: Connection,
+    *,
+    period_s: float,
+    max_time_s: float,
+    realtime: bool = False,
+    observe: Callable[[Any], None] | None = None,
+) -> tuple[Any, Any]:
+    """Build a checked tree on the connection's clock and run it to its end.
+
+    Shared by ``pirate-bt run`` and campaigns. A failed run is a result, not an
+    exception; the caller closes the connection.
+
+    Args:
+        checked: The loaded tree (``load_tree``), not yet built.
+        robot: The robot description.
+        connection: What :func:`connect` returned.
+        period_s: Tick period.
+        max_time_s: Time limit on the run's clock.
+        realtime: Pace a simulated run to wall time.
+        observe: Called with the runner before it runs (live view, trace).
+
+    Returns:
+        ``(the built tree, the runner's RunResult)``.
+    """
     from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.runner import Runner
+    from pirate_bt.treefile import build
+
+    context = BuildContext(robot=robot, clock=connection.clock, supervisor=connection.supervisor)
+    tree = dataclasses.replace(checked, root=build(checked.spec, context))
+    supervisor = connection.supervisor
+    runner = Runner(
+        tree,
+        clock=connection.clock,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        realtime=realtime,
+        safe_state=(lambda: _safe_state(supervisor)) if supervisor is not None else None,
+        paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
+    )
+    if supervisor is not None:
+        runner.add_pre_tick(lambda _info: supervisor.tick())
+    if observe is not None:
+        observe(runner)
+    return tree, runner.run()
+
+
+def run(args: argparse.Namespace) -> int:
     from pirate_bt.robot.loader import load_robot
-    from pirate_bt.runner import Runner, StopReason
-    from pirate_bt.treefile import build, load_tree
+    from pirate_bt.runner import StopReason
+    from pirate_bt.treefile import load_tree
 
     max_time_s = _quantity(args.max_time, "time", "--max-time")
     rate_hz = _quantity(args.rate, "frequency", "--rate")
@@ -223,24 +272,15 @@ def run(args: argparse.Namespace) -> int:
     checked = load_tree(tree_path, robot=robot, params=params, params_from_text=True)
     connection = connect(args, robot, checked.needs_robot)
     try:
-        context = BuildContext(
-            robot=robot, clock=connection.clock, supervisor=connection.supervisor
-        )
-        tree = dataclasses.replace(checked, root=build(checked.spec, context))
-        supervisor = connection.supervisor
-        runner = Runner(
-            tree,
-            clock=connection.clock,
+        tree, result = run_tree(
+            checked,
+            robot,
+            connection,
             period_s=1.0 / rate_hz,
             max_time_s=max_time_s,
             realtime=args.realtime,
-            safe_state=(lambda: _safe_state(supervisor)) if supervisor is not None else None,
-            paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
+            observe=lambda runner: _observe(runner, args, robot, connection),
         )
-        if supervisor is not None:
-            runner.add_pre_tick(lambda _info: supervisor.tick())
-        _observe(runner, args, robot, connection)
-        result = runner.run()
     finally:
         connection.close()
     why = result.message

@@ -1,0 +1,254 @@
+"""Running cases in isolation on a ``concurrent.futures`` executor, locally or on Dask.
+
+One code path: the campaign submits :func:`run_isolated` for every case to an
+executor, a :class:`~concurrent.futures.ProcessPoolExecutor` on this machine or
+``distributed.Client.get_executor()`` on a Dask cluster, and writes each record
+as it comes back. :func:`run_isolated` starts one child process per case (in its
+own session) and waits for it at most the case's wall-time limit; a hung case's
+whole process group is killed, a crashed one is recorded with its exit status,
+and the executor's worker is never the one that hangs or dies. The price is a
+Python start per case (measured in docs/performance.md).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.campaign.case import error_record
+from pirate_bt.errors import InputError
+
+__all__ = [
+    "DEFAULT_TARGET",
+    "RESULTS_NAME",
+    "make_executor",
+    "read_rows",
+    "run_cases",
+    "run_isolated",
+]
+
+_log = logging.getLogger(__name__)
+
+DEFAULT_TARGET = "pirate_bt.campaign.case:run_case"
+RESULTS_NAME = "results.jsonl"
+
+
+def run_isolated(
+    case: dict[str, Any], trace_dir: str | None, target: str = DEFAULT_TARGET
+) -> dict[str, Any]:
+    """Run one case in a child process and return its record, whatever happens there.
+
+    A plain function of plain arguments: this is what goes to the executor.
+
+    Args:
+        case: The case (its ``timeout_s`` is the wall-time limit).
+        trace_dir: Where the case may keep its trace.
+        target: ``module:function`` the child calls (tests point it elsewhere).
+
+    Returns:
+        The child's record, or an ``error``/``timeout`` record made here.
+    """
+    started = time.perf_counter()
+    request = json.dumps({"target": target, "case": case, "trace_dir": trace_dir})
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    child = subprocess.Popen(
+        [sys.executable, "-m", "pirate_bt.campaign.child"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        env=env,
+    )
+    try:
+        out, err = child.communicate(request, timeout=float(case["timeout_s"]))
+    except subprocess.TimeoutExpired:
+        _kill(child)
+        child.communicate()
+        limit = float(case["timeout_s"])
+        return error_record(
+            case,
+            "timeout",
+            f"killed after its {limit:g} s wall-time limit",
+            time.perf_counter() - started,
+        )
+    except BaseException:
+        _kill(child)
+        raise
+    wall = time.perf_counter() - started
+    if child.returncode == 0:
+        try:
+            record: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
+            return record
+        except (ValueError, IndexError):
+            pass
+    if child.returncode < 0:
+        status = f"killed by {signal.Signals(-child.returncode).name}"
+    else:
+        status = f"exit status {child.returncode}"
+    last = next((ln for ln in reversed(err.strip().splitlines()) if ln.strip()), "no message")
+    return error_record(case, "error", f"case process died ({status}): {last[-300:]}", wall)
+
+
+def _kill(child: subprocess.Popen[str]) -> None:
+    """Kill the child's whole process group (a trace writer goes with it)."""
+    try:
+        os.killpg(child.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        child.kill()
+
+
+@contextmanager
+def make_executor(
+    workers: int | None = None, scheduler: str | None = None, scheduler_file: str | None = None
+) -> Iterator[tuple[Executor, str]]:
+    """The executor cases go to, and one line saying what it is.
+
+    Args:
+        workers: Local worker processes (default: the number of cores).
+        scheduler: A Dask scheduler address (``tcp://host:8786``).
+        scheduler_file: A Dask scheduler file (as ``dask-scheduler --scheduler-file``
+            writes, and dask-jobqueue set-ups share).
+
+    Raises:
+        InputError: Dask is asked for but not installed, or cannot be reached.
+    """
+    if scheduler is None and scheduler_file is None:
+        count = workers or os.cpu_count() or 1
+        pool = ProcessPoolExecutor(max_workers=count)
+        try:
+            yield pool, f"{count} local worker{'s' if count != 1 else ''}"
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        return
+    try:
+        # Typed as Any: distributed ships no type information for its Client.
+        distributed: Any = importlib.import_module("distributed")
+    except ImportError:
+        raise InputError(
+            "--scheduler needs Dask's distributed;"
+            " install it with: pip install 'pirate-bt[cluster]'"
+        ) from None
+    try:
+        client: Any = (
+            distributed.Client(scheduler, timeout="10s")
+            if scheduler is not None
+            else distributed.Client(scheduler_file=scheduler_file, timeout="10s")
+        )
+    except (OSError, TimeoutError, ValueError) as exc:
+        where = scheduler or scheduler_file
+        raise InputError(f"cannot reach the Dask scheduler at {where}: {exc}") from None
+    try:
+        executor = client.get_executor(pure=False)
+        nworkers = len(client.scheduler_info().get("workers", {}))
+        yield executor, f"Dask cluster at {client.scheduler.address} ({nworkers} workers)"
+        executor.shutdown(wait=False)
+    finally:
+        client.close()
+
+
+def read_rows(path: Path) -> list[dict[str, Any]]:
+    """The records of a results file, one per case id (the first written).
+
+    A cut line (an interrupted write) is skipped, and so is a second row for a
+    case id (two campaigns appending to one folder by mistake).
+    """
+    rows: list[dict[str, Any]] = []
+    if not path.exists():
+        return rows
+    seen: set[object] = set()
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except ValueError:
+            _log.warning("%s: skipped a cut line", path)
+            continue
+        if isinstance(row, dict) and row.get("id") not in seen:
+            seen.add(row.get("id"))
+            rows.append(row)
+    return rows
+
+
+def run_cases(
+    cases: list[dict[str, Any]],
+    output: Path,
+    executor: Executor,
+    *,
+    resume: bool = False,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    target: str = DEFAULT_TARGET,
+) -> list[dict[str, Any]]:
+    """Run the cases not yet in ``output/results.jsonl`` and append one row each.
+
+    Rows are written in the order cases finish, each line flushed at once, so an
+    interruption loses only the cases in flight. ``KeyboardInterrupt`` cancels
+    the cases not started and propagates.
+
+    Args:
+        cases: The cases.
+        output: The campaign's folder.
+        executor: Where the cases run.
+        resume: Skip the cases whose ids already have a row.
+        on_record: Called with every new record (the progress bar).
+        target: The case function (``module:function``).
+
+    Returns:
+        Every row of the campaign (old and new), in case order.
+
+    Raises:
+        InputError: the folder holds results and ``resume`` is off.
+    """
+    output.mkdir(parents=True, exist_ok=True)
+    results = output / RESULTS_NAME
+    old = read_rows(results)
+    if old and not resume:
+        raise InputError(
+            f"{results} holds {len(old)} results already; use --resume, or another --output"
+        )
+    wanted = {c["id"] for c in cases}
+    old = [r for r in old if r.get("id") in wanted]
+    done = {r["id"] for r in old}
+    # Rewrite without a cut last line, so every appended row starts on its own line.
+    text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
+    part = results.with_name(results.name + ".part")
+    part.write_text(text, encoding="utf-8")
+    os.replace(part, results)  # never half a results file, even if stopped right here
+    trace_dir = str((output / "traces").resolve())
+    # Seed-major order: every group gets its first seeds before any gets its last,
+    # so a campaign stopped early still covers the whole matrix evenly.
+    todo = sorted((c for c in cases if c["id"] not in done), key=lambda c: (c["seed"], c["index"]))
+    rows = list(old)
+    futures: dict[Future[dict[str, Any]], dict[str, Any]] = {}
+    try:
+        for case in todo:
+            futures[executor.submit(run_isolated, case, trace_dir, target)] = case
+        with results.open("a", encoding="utf-8") as sink:
+            for future in as_completed(futures):
+                case = futures[future]
+                try:
+                    record = future.result()
+                except Exception as exc:  # a lost worker, not the case's own doing
+                    record = error_record(case, "error", f"worker lost: {exc}", 0.0)
+                sink.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+                sink.flush()
+                rows.append(record)
+                if on_record is not None:
+                    on_record(record)
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
+    return sorted(rows, key=lambda r: int(r.get("index", 0)))

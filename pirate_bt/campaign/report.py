@@ -1,0 +1,196 @@
+"""The campaign report: per-group statistics as Markdown and HTML, rows as CSV, plots.
+
+Written at the end of every campaign and by ``pirate-bt campaign report
+RESULTS``. Each file is written beside its final name and renamed into place,
+so an interrupted report never leaves half a file.
+"""
+
+from __future__ import annotations
+
+import csv
+import html
+import io
+import json
+import os
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.campaign.stats import GroupStats, group_stats, percentile
+
+__all__ = ["CSV_COLUMNS", "write_report"]
+
+CSV_COLUMNS = (
+    "id", "index", "run", "tree", "route", "network", "map", "robot", "params", "sim_faults",
+    "drop", "corrupt", "dup", "seed", "outcome", "reason", "failing_node", "sim_time_s",
+    "wall_time_s", "ticks", "refusals", "crc_errors", "retries", "failed", "duplicates",
+    "violations", "damage", "trace",
+)  # fmt: skip
+
+
+def _replace(path: Path, text: str | bytes) -> Path:
+    tmp = path.with_name(path.name + ".part")
+    if isinstance(text, bytes):
+        tmp.write_bytes(text)
+    else:
+        tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def _csv(rows: Sequence[dict[str, Any]]) -> str:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, extrasaction="ignore")
+    writer.writeheader()
+    for row in rows:
+        flat = dict(row)
+        flat.update((row.get("link") or {}).items())
+        flat["params"] = json.dumps(row.get("params") or {}, sort_keys=True)
+        flat["sim_faults"] = " ".join(row.get("sim_faults") or [])
+        writer.writerow(flat)
+    return buf.getvalue()
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.1f} %"
+
+
+def _seconds(x: float | None) -> str:
+    return "-" if x is None else f"{x:.1f}"
+
+
+def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
+    head = ["group", "runs", "success", "95 % Wilson", "failed safe", "errors", "timeouts"]
+    head += ["violations", "damage", "p50 s", "p95 s"]
+    out = [head]
+    for g in groups:
+        low, high = g.interval
+        out.append(
+            [
+                g.key,
+                str(g.n),
+                _pct(g.success_rate),
+                f"{100 * low:.1f}–{100 * high:.1f} %",
+                _pct(g.failed_safe_rate),
+                str(g.errors),
+                str(g.timeouts),
+                str(g.violations),
+                str(g.damage),
+                _seconds(percentile(g.sim_times_s, 50)),
+                _seconds(percentile(g.sim_times_s, 95)),
+            ]
+        )
+    return out
+
+
+def _top(groups: Sequence[GroupStats], attr: str, n: int = 8) -> list[tuple[str, int]]:
+    total: Counter[str] = Counter()
+    for g in groups:
+        total.update(getattr(g, attr))
+    return total.most_common(n)
+
+
+def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
+    """Success rate against each swept link fault rate, one line per run."""
+    swept = [k for k in ("drop", "corrupt", "dup") if len({r.get(k) for r in rows}) > 1]
+    if not swept:
+        return []
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pirate_bt.campaign.stats import wilson_interval
+
+    files: list[Path] = []
+    for key in swept:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for run in sorted({str(r.get("run")) for r in rows}):
+            mine = [r for r in rows if str(r.get("run")) == run]
+            xs = sorted({float(r.get(key) or 0.0) for r in mine})
+            rates, lows, highs = [], [], []
+            for x in xs:
+                at = [r for r in mine if float(r.get(key) or 0.0) == x]
+                ok = sum(r.get("outcome") == "success" for r in at)
+                low, high = wilson_interval(ok, len(at))
+                rates.append(ok / len(at))
+                lows.append(low)
+                highs.append(high)
+            ax.plot([100 * x for x in xs], rates, marker="o", label=run)
+            ax.fill_between([100 * x for x in xs], lows, highs, alpha=0.2)
+        ax.set_xlabel(f"{key} rate (%)")
+        ax.set_ylabel("success rate (95 % Wilson band)")
+        ax.set_ylim(0, 1.02)
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        target = folder / f"success_vs_{key}.png"
+        tmp = folder / f".success_vs_{key}.part.png"
+        fig.savefig(tmp, dpi=100)
+        plt.close(fig)
+        os.replace(tmp, target)
+        files.append(target)
+    return files
+
+
+def write_report(
+    rows: Sequence[dict[str, Any]], folder: Path, title: str = "campaign", command: str = ""
+) -> list[Path]:
+    """Write ``report.md``, ``report.html``, ``results.csv`` and the plots into ``folder``.
+
+    Args:
+        rows: The campaign's rows.
+        folder: Where to write.
+        title: The report's title.
+        command: The command that reproduces the campaign (shown in the report).
+
+    Returns:
+        The files written.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    ordered = sorted(rows, key=lambda r: int(r.get("index", 0)))
+    groups = group_stats(ordered)
+    files = [_replace(folder / "results.csv", _csv(ordered))]
+    plots = _plots(ordered, folder)
+    table = _table(groups)
+    counts = Counter(str(r.get("outcome")) for r in ordered)
+    summary = ", ".join(f"{counts[k]} {k}" for k in ("success", "failed-safe", "error", "timeout"))
+    md = [f"# {title}", "", f"{len(ordered)} runs: {summary}.", ""]
+    if command:
+        md += ["Reproduce with:", "", f"    {command}", ""]
+    md += ["| " + " | ".join(table[0]) + " |", "|" + "---|" * len(table[0])]
+    md += ["| " + " | ".join(row) + " |" for row in table[1:]]
+    reasons, nodes = _top(groups, "reasons"), _top(groups, "nodes")
+    md += ["", "## Most frequent failure reasons", ""]
+    md += [f"- {n} × {text}" for text, n in reasons] or ["- none"]
+    md += ["", "## Most frequent failing nodes", ""]
+    md += [f"- {n} × `{text}`" for text, n in nodes] or ["- none"]
+    if plots:
+        md += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
+    files.append(_replace(folder / "report.md", "\n".join(md) + "\n"))
+    esc = html.escape
+    cells = "".join(f"<th>{esc(c)}</th>" for c in table[0])
+    body = [f"<h1>{esc(title)}</h1>", f"<p>{len(ordered)} runs: {esc(summary)}.</p>"]
+    if command:
+        body.append(f"<p>Reproduce with: <code>{esc(command)}</code></p>")
+    body.append(f"<table><tr>{cells}</tr>")
+    for row in table[1:]:
+        body.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>")
+    body.append("</table><h2>Most frequent failure reasons</h2><ul>")
+    body += [f"<li>{n} × {esc(t)}</li>" for t, n in reasons] or ["<li>none</li>"]
+    body.append("</ul><h2>Most frequent failing nodes</h2><ul>")
+    body += [f"<li>{n} × <code>{esc(t)}</code></li>" for t, n in nodes] or ["<li>none</li>"]
+    body.append("</ul>")
+    body += [f'<h2>{esc(p.stem)}</h2><img src="{esc(p.name)}">' for p in plots]
+    style = (
+        "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
+        "td:first-child{text-align:left}"
+    )
+    page = (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
+        f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n"
+    )
+    files.append(_replace(folder / "report.html", page))
+    return [*files, *plots]

@@ -1,0 +1,98 @@
+"""Statistics of campaign rows: rates with Wilson intervals, percentiles, groups."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from pirate_bt.campaign.cases import group_key
+
+__all__ = ["GroupStats", "group_stats", "percentile", "wilson_interval"]
+
+Z95 = 1.959963984540054
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """The Wilson score interval of a binomial proportion (95 % by default).
+
+    Unlike the normal approximation it stays inside [0, 1] and is honest at 0 or
+    n successes, which is where a safety case lives (0 violations in n runs).
+
+    Returns:
+        ``(low, high)``; ``(0.0, 1.0)`` when ``n`` is 0.
+    """
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def percentile(values: Sequence[float], q: float) -> float | None:
+    """The ``q``-th percentile (0..100) with linear interpolation; ``None`` if empty."""
+    if not values:
+        return None
+    ordered = sorted(values)
+    pos = (len(ordered) - 1) * q / 100.0
+    low = math.floor(pos)
+    high = min(low + 1, len(ordered) - 1)
+    return ordered[low] + (ordered[high] - ordered[low]) * (pos - low)
+
+
+@dataclass
+class GroupStats:
+    """One group of the matrix (every parameter but the seed)."""
+
+    key: str
+    params: dict[str, Any]
+    n: int = 0
+    success: int = 0
+    failed_safe: int = 0
+    errors: int = 0
+    timeouts: int = 0
+    violations: int = 0
+    damage: int = 0
+    sim_times_s: list[float] = field(default_factory=list)
+    reasons: Counter[str] = field(default_factory=Counter)
+    nodes: Counter[str] = field(default_factory=Counter)
+
+    @property
+    def success_rate(self) -> float:
+        return self.success / self.n if self.n else 0.0
+
+    @property
+    def failed_safe_rate(self) -> float:
+        return self.failed_safe / self.n if self.n else 0.0
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return wilson_interval(self.success, self.n)
+
+
+def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
+    """Rows gathered by group, in the order groups first appear by case index."""
+    groups: dict[str, GroupStats] = {}
+    for row in sorted(rows, key=lambda r: int(r.get("index", 0))):
+        key = group_key(row)
+        params = {k: row.get(k) for k in ("run", "map", "robot", "drop", "corrupt", "dup")}
+        g = groups.setdefault(key, GroupStats(key=key, params=params))
+        g.n += 1
+        outcome = row.get("outcome")
+        g.success += outcome == "success"
+        g.failed_safe += outcome == "failed-safe"
+        g.errors += outcome == "error"
+        g.timeouts += outcome == "timeout"
+        g.violations += int(row.get("violations") or 0)
+        g.damage += int(row.get("damage") or 0)
+        if row.get("sim_time_s") is not None:
+            g.sim_times_s.append(float(row["sim_time_s"]))
+        if outcome != "success":
+            g.reasons[str(row.get("reason"))[:120]] += 1
+            if row.get("failing_node"):
+                g.nodes[str(row["failing_node"])] += 1
+    return list(groups.values())
