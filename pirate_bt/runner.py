@@ -30,7 +30,8 @@ import enum
 import logging
 import time
 import traceback
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +40,7 @@ from py_trees.common import Status
 
 from pirate_bt.clock import Clock
 
-__all__ = ["Overrun", "RunResult", "Runner", "StopReason", "TickInfo", "node_path"]
+__all__ = ["Overrun", "RunResult", "Runner", "StopReason", "TickInfo", "node_path", "tick_tree"]
 
 _log = logging.getLogger("pirate_bt.runner")
 
@@ -138,6 +139,49 @@ def node_path(node: py_trees.behaviour.Behaviour) -> str:
         names.append(current.name)
         current = current.parent
     return "/".join(reversed(names))
+
+
+def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
+    """Tick ``tree`` once, as ``BehaviourTree.tick()`` does, at the cost of what runs.
+
+    py_trees' ``BehaviourTree.tick()`` runs the tree's pre-tick handlers, initialises
+    its visitors, ticks the root (showing every ticked node to the visitors that are
+    not ``full``), then walks *every* node of the tree for the ``full`` visitors,
+    finalises the visitors, runs the post-tick handlers and counts the tick. The
+    walk happens even when no visitor is ``full``, so a tick costs the size of the
+    tree, not the nodes that ran. This does the same steps through the same public
+    attributes (``pre_tick_handlers``, ``visitors``, ``post_tick_handlers``,
+    ``count``) and walks the whole tree only when a ``full`` visitor asks for it:
+    a user's visitors and handlers see exactly what ``BehaviourTree.tick()``
+    would show them.
+    """
+    for handler in tree.pre_tick_handlers:
+        handler(tree)
+    visitors = tree.visitors
+    for visitor in visitors:
+        visitor.initialise()
+    root = tree.root
+    if visitors:
+        for node in root.tick():
+            for visitor in [v for v in visitors if not v.full]:
+                node.visit(visitor)
+        full = [v for v in visitors if v.full]
+        if full:
+            for node in root.iterate():
+                for visitor in full:
+                    node.visit(visitor)
+        for visitor in visitors:
+            visitor.finalise()
+    else:
+        _exhaust(root.tick())
+    for handler in tree.post_tick_handlers:
+        handler(tree)
+    tree.count += 1
+
+
+def _exhaust(iterator: Iterator[Any]) -> None:
+    """Run a generator to its end in C (``collections.deque`` with no room)."""
+    deque(iterator, maxlen=0)
 
 
 def _culprit(exc: BaseException, root: py_trees.behaviour.Behaviour) -> str | None:
@@ -273,7 +317,7 @@ class Runner:
                     self._wait_until(next_s)
                     continue
                 t0 = time.perf_counter()
-                self.tree.tick()
+                tick_tree(self.tree)
                 duration = time.perf_counter() - t0
                 durations_total += duration
                 max_tick = max(max_tick, duration)

@@ -185,3 +185,76 @@ def test_a_paused_tree_is_not_ticked_but_hooks_still_run() -> None:
     assert counter.counter == 4  # ticked only when not paused
     assert [s for _, s in seen] == [Status.RUNNING] * 6 + [Status.SUCCESS]
     assert result.sim_time_s == pytest.approx(0.6)
+
+
+class _Log(py_trees.visitors.VisitorBase):
+    """A visitor that writes down everything py_trees shows it."""
+
+    def __init__(self, log: list[tuple[object, ...]], tag: str, full: bool) -> None:
+        super().__init__(full=full)
+        self.log, self.tag = log, tag
+
+    def initialise(self) -> None:
+        self.log.append((self.tag, "initialise"))
+
+    def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        self.log.append((self.tag, behaviour.name, behaviour.status.value))
+
+    def finalise(self) -> None:
+        self.log.append((self.tag, "finalise"))
+
+
+def _selector_tree() -> py_trees.behaviour.Behaviour:
+    from py_trees.behaviours import StatusQueue
+
+    R, S, F = Status.RUNNING, Status.SUCCESS, Status.FAILURE
+    first = StatusQueue("first", [F, F, R, R, S], S)
+    later = StatusQueue("later", [R, R, R, S], S)
+    pick = py_trees.composites.Selector("pick", memory=False, children=[first, later])
+    check = StatusQueue("check", [R, S], S)
+    return py_trees.composites.Sequence("root", memory=True, children=[pick, check])
+
+
+def _watched(log: list[tuple[object, ...]]) -> py_trees.trees.BehaviourTree:
+    tree = py_trees.trees.BehaviourTree(_selector_tree())
+    tree.visitors.append(_Log(log, "partial", full=False))
+    tree.visitors.append(_Log(log, "full", full=True))
+    tree.add_pre_tick_handler(lambda t: log.append(("pre", t.count)))
+    tree.add_post_tick_handler(lambda t: log.append(("post", t.count, t.root.status.value)))
+    return tree
+
+
+def test_visitors_and_handlers_see_what_behaviour_tree_tick_shows_them() -> None:
+    """The runner ticks the active path only, yet a user's visitors see no difference."""
+    expected: list[tuple[object, ...]] = []
+    plain = _watched(expected)
+    plain.setup()
+    while plain.root.status not in (Status.SUCCESS, Status.FAILURE):
+        plain.tick()
+    seen: list[tuple[object, ...]] = []
+    watched = _watched(seen)
+    result = Runner(watched, clock=SimClock(), period_s=0.05).run()
+    assert result.succeeded and result.ticks == plain.count
+    assert seen == expected
+    assert watched.count == plain.count
+    assert any(entry[0] == "full" and entry[1] == "later" for entry in seen)
+
+
+def test_the_runner_does_not_walk_idle_nodes() -> None:
+    """Without a full visitor, a tick touches only the nodes that run."""
+    walked: list[int] = []
+
+    class Counting(py_trees.composites.Sequence):
+        def iterate(self, direct_descendants: bool = False):  # type: ignore[no-untyped-def]
+            walked.append(1)
+            return super().iterate(direct_descendants)
+
+    idle = [py_trees.behaviours.Success(f"idle {i}") for i in range(50)]
+    root = Counting("root", memory=True, children=[py_trees.behaviours.Running("busy"), *idle])
+    runner = Runner(root, clock=SimClock(), period_s=0.05, max_time_s=1.0)
+    during: list[int] = []
+    runner.add_post_tick(lambda _info: during.append(len(walked)))
+    runner.run()
+    assert len(during) == 20
+    # Set-up walks the tree once; py_trees' BehaviourTree.tick() would walk it every tick.
+    assert during[0] == during[-1]

@@ -1,4 +1,4 @@
-"""Big trees: the recorder reads only the nodes ticked or stopped since the last tick."""
+"""The recorder reads only where the tree moved: nodes ticked, nodes stopped, the root."""
 
 from __future__ import annotations
 
@@ -65,8 +65,8 @@ def record(
 def test_big_trees_are_tracked_by_default_and_match_the_live_tree(tmp_path: Path) -> None:
     tree = big_tree()
     assert sum(1 for _ in tree.root.iterate()) > 100
-    rec, live = record(tmp_path / "big.jsonl", tree, 150)
-    assert rec._tracker is None  # taken off at close
+    _rec, live = record(tmp_path / "big.jsonl", tree, 150)
+    assert not tree.visitors  # its visitor is taken off at close
     trace = read_trace(tmp_path / "big.jsonl")
     assert trace.outcome == "success"
     for n, expected in enumerate(live[: trace.last_tick + 1]):
@@ -86,16 +86,40 @@ def test_tracked_and_polled_traces_are_the_same(tmp_path: Path) -> None:
         assert trace.outcome == "success" and trace.last_tick == 14
 
 
-def test_wrappers_come_off_at_close(tmp_path: Path) -> None:
+def test_the_visitor_comes_off_at_close_and_nothing_is_patched(tmp_path: Path) -> None:
     tree = big_tree(3)
     nodes = list(tree.root.iterate())
     rec = TraceRecorder(tmp_path / "t.jsonl", tree, clock=SimClock(), track_nodes=True)
-    assert all("tick" in vars(n) and "stop" in vars(n) for n in nodes)
+    assert len(tree.visitors) == 1
     tree.tick()
     rec.record_tick()
     rec.close()
+    assert tree.visitors == []
     assert not any("tick" in vars(n) or "stop" in vars(n) for n in nodes)
     tree.tick()  # the tree still ticks as a plain py_trees tree
+
+
+def test_track_nodes_needs_a_tree_with_visitors(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="BehaviourTree"):
+        TraceRecorder(tmp_path / "t.jsonl", big_tree(3).root, clock=SimClock(), track_nodes=True)
+
+
+def test_a_stop_by_a_parent_that_did_not_tick_the_child_is_seen(tmp_path: Path) -> None:
+    """A selector's higher-priority child takes over: the lower one is stopped, not ticked."""
+    urgent = StatusQueue("urgent", [F, F, R, R], R)
+    chore = StatusQueue("chore", [R], R)
+    root = py_trees.composites.Selector("pick", memory=False, children=[urgent, chore])
+    tree = py_trees.trees.BehaviourTree(root)
+    clock = SimClock()
+    with TraceRecorder(tmp_path / "p.jsonl", tree, clock=clock, track_nodes=True) as rec:
+        for _ in range(4):
+            clock.advance(0.05)
+            tree.tick()
+            rec.record_tick()
+    trace = read_trace(tmp_path / "p.jsonl")
+    assert trace.frame_at(2).status["0.1"] == "R"
+    assert trace.frame_at(3).status["0.1"] == "I"  # stopped by the selector at tick 3
+    assert trace.frame_at(3).status["0.0"] == "R"
 
 
 def test_stopped_nodes_are_seen(tmp_path: Path) -> None:
@@ -113,7 +137,7 @@ def test_stopped_nodes_are_seen(tmp_path: Path) -> None:
     assert set(last.values()) == {"I"}
 
 
-def test_dense_trees_drop_the_tracker(tmp_path: Path) -> None:
+def test_dense_trees_are_read_whole(tmp_path: Path) -> None:
     tree = dense_tree()
     path = tmp_path / "dense.jsonl"
     clock = SimClock()
@@ -124,19 +148,19 @@ def test_dense_trees_drop_the_tracker(tmp_path: Path) -> None:
         tree.tick()
         rec.record_tick()
         live.append({i: n.status for i, n in iter_with_ids(tree)})
-    assert rec._tracker is None  # most nodes ticked 20 ticks in a row
-    assert not any("tick" in vars(n) for n in tree.root.iterate())
+    assert tree.visitors == []  # most nodes ticked 20 ticks in a row: read whole
     rec.close()
     trace = read_trace(path)
     for n, expected in enumerate(live, start=1):
         assert trace.statuses_at(n) == expected
 
 
-@pytest.mark.parametrize("steps, tracked", [(3, False), (30, True)])
-def test_default_tracks_only_big_trees(tmp_path: Path, steps: int, tracked: bool) -> None:
-    rec = TraceRecorder(tmp_path / "t.jsonl", big_tree(steps), clock=SimClock())
+@pytest.mark.parametrize("as_tree, follows", [(True, True), (False, False)])
+def test_default_follows_a_behaviour_tree(tmp_path: Path, as_tree: bool, follows: bool) -> None:
+    tree = big_tree(3)
+    rec = TraceRecorder(tmp_path / "t.jsonl", tree if as_tree else tree.root, clock=SimClock())
     try:
-        assert (rec._tracker is not None) is tracked
+        assert (len(tree.visitors) == 1) is follows
     finally:
         rec.close()
     lines = [json.loads(x) for x in (tmp_path / "t.jsonl").read_text().splitlines()]
@@ -162,7 +186,7 @@ def test_a_write_from_outside_is_seen_when_the_node_next_ticks(tmp_path: Path) -
 
 
 def test_a_raising_node_is_named_in_a_tracked_trace(tmp_path: Path) -> None:
-    """The wrappers do not hide the culprit from the runner, nor the last tick."""
+    """Following the ticks hides neither the culprit from the runner nor the last tick."""
     from pirate_bt.runner import Runner
     from pirate_bt.trace import attach_trace
 
@@ -175,12 +199,11 @@ def test_a_raising_node_is_named_in_a_tracked_trace(tmp_path: Path) -> None:
     tree.root.children[0].children[1].parent = tree.root.children[0]
     clock = SimClock()
     runner = Runner(tree, clock=clock, period_s=0.05)
-    recorder = attach_trace(runner, tmp_path / "boom.jsonl")
-    assert recorder._tracker is not None
+    attach_trace(runner, tmp_path / "boom.jsonl")
     result = runner.run()
     assert result.failing_node is not None and result.failing_node.endswith("leg 0/boom")
     trace = read_trace(tmp_path / "boom.jsonl")
     assert trace.outcome == "error"
     assert trace.end is not None and trace.end["error"]["node"] == "0.0.1"
     assert trace.last_tick == result.ticks
-    assert not any("tick" in vars(n) for n in tree.root.iterate())
+    assert tree.visitors == []

@@ -194,64 +194,25 @@ def _outcome_of(status: py_trees.common.Status) -> str:
     }.get(status, "interrupted")
 
 
-_TRACK_ABOVE = 100
-"""Trees with more nodes than this are read through a :class:`_NodeTracker`."""
 _DENSE_TICKS = 20
-"""Ticks in a row with most nodes touched after which the tracker is taken off."""
+"""Ticks in a row with most nodes ticked after which the recorder reads every node."""
 
 
-class _NodeTracker:
-    """Notes the index of every node that is ticked or stopped, in :attr:`touched`.
+class TickedNodes(py_trees.visitors.VisitorBase):
+    """A py_trees visitor that notes every node ticked, for :class:`TraceRecorder`.
 
-    py_trees changes a node's status and feedback message only in its ``tick()``
-    (the generator its parent or the tree runs) and its ``stop()`` (called by its
-    parent, or by the tree on shutdown). Each node gets instance attributes that
-    shadow those two methods: a call notes the node and calls the method. The
-    class and the method code are untouched; :meth:`restore` removes the wrappers.
+    Not ``full``: ``BehaviourTree.tick()`` (and :func:`pirate_bt.runner.tick_tree`)
+    show it each node as that node's tick yields, which is exactly the set of nodes
+    ticked. The list is kept until the recorder reads and clears it.
     """
 
-    def __init__(self, nodes: list[py_trees.behaviour.Behaviour]) -> None:
-        self.touched: set[int] = set()
-        """Indices of the nodes ticked or stopped since the caller last cleared it."""
-        self._saved: list[tuple[py_trees.behaviour.Behaviour, Any, Any]] = []
-        note = self.touched.add
-        for index, node in enumerate(nodes):
-            own = vars(node)
-            self._saved.append((node, own.get("tick", _UNSET), own.get("stop", _UNSET)))
-            tick, stop = node.tick, node.stop
-
-            def ticked(
-                _tick: Callable[[], Any] = tick, _index: int = index, _note: Any = note
-            ) -> Any:
-                _note(_index)
-                return _tick()
-
-            def stopped(
-                *args: Any,
-                _stop: Callable[..., None] = stop,
-                _index: int = index,
-                _note: Any = note,
-                **kwargs: Any,
-            ) -> None:
-                _note(_index)
-                _stop(*args, **kwargs)
-
-            setattr(node, "tick", ticked)  # noqa: B010 - an instance attribute, on purpose
-            setattr(node, "stop", stopped)  # noqa: B010
-
-    def restore(self) -> None:
-        """Take the wrappers off (idempotent)."""
-        for node, tick, stop in self._saved:
-            own = vars(node)
-            for name, before in (("tick", tick), ("stop", stop)):
-                if before is _UNSET:
-                    own.pop(name, None)
-                else:
-                    own[name] = before
-        self._saved = []
+    def __init__(self) -> None:
+        super().__init__(full=False)
+        self.nodes: list[py_trees.behaviour.Behaviour] = []
+        self.run = self.nodes.append  # type: ignore[assignment]  # one C call a node
 
 
-_UNSET: Any = object()
+_INVALID = py_trees.common.Status.INVALID
 
 
 class TraceRecorder:
@@ -288,13 +249,18 @@ class TraceRecorder:
         background: Encode and write in a writer process: ``None`` (default) when
             the format allows it, falling back to in-process if the process cannot
             start; ``True`` to insist; ``False`` for in-process.
-        track_nodes: Read only the nodes ticked or stopped since the last tick,
-            instead of every node: ``None`` (default) for trees of more than 100
-            nodes, where most nodes are idle in any one tick (and dropped after 20
-            ticks in a row in which most nodes ticked). It wraps each node's
-            ``tick`` and ``stop`` for the run (undone by :meth:`close`), so a status
-            or feedback message set from outside a node's own ``tick``/``stop`` (by
-            another node, say) is not seen until that node next ticks or stops.
+        track_nodes: Read only the nodes that moved in a tick instead of every
+            node: ``None`` (default) and ``True`` when ``tree`` is a
+            ``BehaviourTree`` (the recorder adds a :class:`TickedNodes` visitor to
+            its ``visitors``, taken off by :meth:`close`), ``False`` to read every
+            node every tick. What is read: the nodes ticked, and under each of them
+            the children that were live (not INVALID) and are not any more -- the
+            nodes a parent stopped -- down to where nothing changed; and the root,
+            so that a stop from outside the tick (an interrupt, the runner's safe
+            stop) is seen. A status or feedback message written into a node from
+            outside its own tick and stop (by another node, say) shows when that
+            node next moves. After 20 ticks in a row in which most nodes ticked (a
+            big parallel), the recorder reads every node instead, which is cheaper.
 
     Raises:
         InputError: unknown file suffix.
@@ -356,10 +322,26 @@ class TraceRecorder:
         self._indices = range(len(self._nodes))
         self._status = [py_trees.common.Status.INVALID] * len(self._nodes)
         self._feedback: list[Any] = [""] * len(self._nodes)
-        self._tracker: _NodeTracker | None = None
         self._dense = 0
-        if track_nodes or (track_nodes is None and len(self._nodes) > _TRACK_ABOVE):
-            self._tracker = _NodeTracker(self._nodes)
+        self._ticked = TickedNodes()
+        self._visited: py_trees.trees.BehaviourTree | None = None
+        if track_nodes is not False:
+            if isinstance(tree, py_trees.trees.BehaviourTree):
+                tree.visitors.append(self._ticked)
+                self._visited = tree
+            elif track_nodes:
+                raise ValueError("track_nodes=True needs a BehaviourTree (its visitors)")
+        index_of = {id(node): index for index, node in enumerate(self._nodes)}
+        self._index_of = index_of
+        self._children: list[tuple[int, ...]] = [
+            tuple(index_of[id(child)] for child in node.children) for node in self._nodes
+        ]
+        self._live: list[set[int]] = [set() for _ in self._nodes]
+        """Per node: its children whose recorded status is not INVALID."""
+        self._parent: list[int] = [-1] * len(self._nodes)
+        for index, children in enumerate(self._children):
+            for child in children:
+                self._parent[child] = index
         self._bb: dict[str, Any] = {}
         self._bb_raw: dict[str, Any] = {}
         self._bb_immutable = True
@@ -430,31 +412,31 @@ class TraceRecorder:
         t_s = self._t_s = now - self._start_s  # rounded by the encoder
         # Capture only: what moved since the last tick, as plain values (the writer
         # compares with what it recorded, rounds and encodes; see sink.TickEncoder).
-        # In a small tree every node is read every tick (a node that was not ticked can
-        # still change, when its parent stops it), through map + attrgetter and one C-level
-        # list comparison; map(is_not/ne) and compress pick out the nodes that changed, all
-        # in C (py_trees' Timeout rewrites its feedback every tick, so that path runs every
-        # tick too). A big tree is read where it moved: see _NodeTracker.
+        # The tree is read where it moved (see track_nodes and _moved_changes), or
+        # whole when the recorder cannot follow the ticks.
         status = feedback = None
-        touched = self._tracker.touched if self._tracker is not None else None
-        if touched is not None and self._tick > 1:
-            # A big tree: only the nodes ticked or stopped since the last record can have
-            # changed (see _NodeTracker), usually a few dozen of hundreds.
-            status, feedback = self._touched_changes(sorted(touched))
+        ticked = self._ticked.nodes
+        if self._visited is not None and self._tick > 1:
+            # Read where the tree moved: the nodes ticked, the ones their parents
+            # stopped, and the root (see track_nodes).
+            count = len(ticked)
+            status, feedback = self._moved_changes(ticked)
+            ticked.clear()
             # Most nodes ticked in every tick (a big parallel): reading them all is cheaper.
-            self._dense = self._dense + 1 if len(touched) * 2 > len(self._nodes) else 0
-            touched.clear()
+            self._dense = self._dense + 1 if count * 2 > len(self._nodes) else 0
             if self._dense >= _DENSE_TICKS:
-                self._stop_tracking()
+                self._stop_following()
         else:
-            if touched is not None:
-                touched.clear()
+            ticked.clear()
+            # Every node, through map + attrgetter and one C-level list comparison;
+            # map(is_not/ne) and compress pick out the nodes that changed, all in C.
             statuses = list(map(_get_status, self._nodes))
             if statuses != self._status:
                 flags = list(map(_is_not, statuses, self._status))
                 codes = map(_code, compress(statuses, flags))
                 status = list(zip(compress(self._indices, flags), codes, strict=True))
                 self._status = statuses
+                self._relive()
             messages = list(map(_get_feedback, self._nodes))
             if messages != self._feedback:
                 flags = list(map(_ne, messages, self._feedback))
@@ -512,28 +494,79 @@ class TraceRecorder:
             if line is not None:
                 self._out.write_line(line)
 
-    def _stop_tracking(self) -> None:
-        if self._tracker is not None:
-            self._tracker.restore()
-            self._tracker = None
+    def _stop_following(self) -> None:
+        tree, self._visited = self._visited, None
+        if tree is not None:
+            tree.visitors[:] = [v for v in tree.visitors if v is not self._ticked]
+        self._ticked.nodes.clear()
 
-    def _touched_changes(
-        self, indices: list[int]
+    def _relive(self) -> None:
+        """Rebuild every node's set of live children from the recorded statuses."""
+        statuses = self._status
+        for index, children in enumerate(self._children):
+            self._live[index] = {c for c in children if statuses[c] is not _INVALID}
+
+    def _moved_changes(
+        self, ticked: list[py_trees.behaviour.Behaviour]
     ) -> tuple[list[tuple[int, str]] | None, list[tuple[int, Any]] | None]:
-        nodes, statuses, messages = self._nodes, self._status, self._feedback
+        """Status and feedback changes of the nodes that moved since the last record.
+
+        py_trees changes a node's status in its own tick, or in a ``stop()`` that its
+        parent (or the tree, from outside a tick) calls; a stop turns a node INVALID,
+        so a node that was INVALID and not ticked cannot have changed. Read: every
+        ticked node; each live child of a ticked node that was not ticked itself; and
+        the root. A stopped node's children are all read in turn (their stop may have
+        written a feedback message), and so on down while nodes changed.
+        """
+        nodes, live, children, index_of = self._nodes, self._live, self._children, self._index_of
+        moved = [index_of[id(node)] for node in ticked if id(node) in index_of]
+        moved_set = set(moved)
+        # Live children of ticked nodes that were not ticked themselves, and the root.
+        pending = [c for index in moved for c in live[index] if c not in moved_set]
+        if 0 not in moved_set:
+            pending.append(0)
         status: list[tuple[int, str]] = []
         feedback: list[tuple[int, Any]] = []
-        for index in indices:
-            node = nodes[index]
-            value = node.status
-            if value is not statuses[index]:
-                statuses[index] = value
-                status.append((index, _code(value)))
-            message = node.feedback_message
-            if message != messages[index]:
-                messages[index] = message
-                feedback.append((index, message))
+        for index in moved:
+            self._read(index, nodes[index], status, feedback)
+        seen: set[int] = set()
+        while pending:
+            index = pending.pop()
+            if index in seen or index in moved_set:
+                continue
+            seen.add(index)
+            if self._read(index, nodes[index], status, feedback):
+                pending.extend(children[index])  # stopped from outside its own tick
+        if len(status) > 1:
+            status.sort()
+        if len(feedback) > 1:
+            feedback.sort()
         return status or None, feedback or None
+
+    def _read(
+        self,
+        index: int,
+        node: py_trees.behaviour.Behaviour,
+        status: list[tuple[int, str]],
+        feedback: list[tuple[int, Any]],
+    ) -> bool:
+        """Note node ``index``'s changes in ``status``/``feedback``; whether its status moved."""
+        message = node.feedback_message
+        if message != self._feedback[index]:
+            self._feedback[index] = message
+            feedback.append((index, message))
+        value = node.status
+        if value is self._status[index]:
+            return False
+        self._status[index] = value
+        status.append((index, _code(value)))
+        up = self._parent[index]
+        if up >= 0:
+            if value is _INVALID:
+                self._live[up].discard(index)
+            else:
+                self._live[up].add(index)
+        return True
 
     def _write_line(self, line: str) -> None:
         if self._sink is not None:
@@ -613,7 +646,7 @@ class TraceRecorder:
         if self._closed:
             return
         self._closed = True
-        self._stop_tracking()
+        self._stop_following()
         if outcome is None:
             outcome = "error" if exception is not None else _outcome_of(self._root.status)
         if outcome not in OUTCOMES:
