@@ -1,0 +1,304 @@
+"""Scaling figures: what one tick costs as the tree grows, and missions at scale.
+
+Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--only PART ...]``.
+Prints the figures that ``docs/performance.md`` quotes under "Scale".
+
+Parts:
+
+``ticks``
+    A mission-shaped tree: a root sequence (with memory) of K copies of the same
+    31-node PAB-shaped subtree (a sequence of five steps, each a selector of a
+    "try" sequence -- a check, two actions -- and a recovery leaf), only the first
+    copy active (its first action runs for ever). K = 1, 10, 100 gives 32, 311 and
+    3,101 nodes with the same active path. Per-tick wall time on the
+    :class:`pirate_bt.runner.Runner` with a simulated clock, without and with a
+    trace (the default writer process, to a temporary ``.jsonl``), and of
+    py_trees' ``root.tick()`` alone. Median of five alternating runs.
+``sparse``
+    The trace overhead on the sparse 50-node tree of ``bench_trace.py`` (a root
+    sequence of 7 PAB-like steps, one active), ticked by the runner: extra time
+    per tick with the trace, in % of the untraced tick (median of 15 ABBA pairs).
+``mission``
+    ``pirate-bt mission scenarios/lab.route --sim lab --quiet`` in process (no
+    outputs): simulated seconds over wall seconds, median of three.
+``long``
+    A 220-PAB route (``scenarios/lab-long.route``: the lab main out and back five
+    times, on ``scenarios/lab-loop.yaml``): the time and the peak memory
+    (``tracemalloc``) to plan it and build and validate its tree, the node count,
+    and the runner's per-tick cost on that tree against the lab mission's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import platform
+import statistics
+import sys
+import tempfile
+import time
+import tracemalloc
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.runner import Runner
+from pirate_bt.trace import attach_trace
+
+REPO = Path(__file__).resolve().parent.parent
+WARM_UP = 100
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+
+class Action(py_trees.behaviour.Behaviour):
+    """A leaf that runs for ``ticks`` ticks (for ever with ``None``), with progress."""
+
+    def __init__(self, name: str, ticks: int | None) -> None:
+        super().__init__(name)
+        self.ticks = ticks
+        self.count = 0
+
+    def initialise(self) -> None:
+        self.count = 0
+
+    def update(self) -> Status:
+        self.count += 1
+        if self.count % 10 == 0:
+            self.feedback_message = f"{self.count} ticks"
+        if self.ticks is not None and self.count >= self.ticks:
+            return Status.SUCCESS
+        return Status.RUNNING
+
+
+def pab_subtree(k: int) -> py_trees.behaviour.Behaviour:
+    """31 nodes: sequence of 5 x selector(sequence(check, act, act), recover)."""
+    steps = []
+    for s in range(5):
+        attempt = py_trees.composites.Sequence(
+            f"try {k}.{s}",
+            memory=True,
+            children=[
+                py_trees.behaviours.Success(f"check {k}.{s}"),
+                Action(f"act {k}.{s}", None if (k, s) == (0, 0) else 3),
+                Action(f"confirm {k}.{s}", 2),
+            ],
+        )
+        steps.append(
+            py_trees.composites.Selector(
+                f"step {k}.{s}",
+                memory=False,
+                children=[attempt, py_trees.behaviours.Failure(f"recover {k}.{s}")],
+            )
+        )
+    return py_trees.composites.Sequence(f"pab {k}", memory=True, children=steps)
+
+
+def mission_tree(copies: int) -> py_trees.behaviour.Behaviour:
+    children = [pab_subtree(k) for k in range(copies)]
+    return py_trees.composites.Sequence("mission", memory=True, children=children)
+
+
+def count_nodes(root: py_trees.behaviour.Behaviour) -> int:
+    return sum(1 for _ in root.iterate())
+
+
+def runner_us_per_tick(copies: int, ticks: int, trace_dir: Path | None) -> float:
+    clock = SimClock()
+    runner = Runner(mission_tree(copies), clock=clock, period_s=0.01, max_time_s=ticks * 0.01)
+    if trace_dir is not None:
+        attach_trace(runner, trace_dir / f"scale-{copies}.jsonl")
+    # Steady state: from the end of tick 100 to the end of the last tick, hooks (the
+    # trace) included; set-up, the trace's header and closing are one-off costs.
+    marks: dict[int, float] = {}
+
+    def mark(info: Any) -> None:
+        if info.tick == WARM_UP or info.tick == ticks:
+            marks[info.tick] = time.perf_counter()
+
+    runner.add_post_tick(mark)
+    gc.collect()
+    runner.run()
+    return (marks[ticks] - marks[WARM_UP]) / (ticks - WARM_UP) * 1e6
+
+
+def plain_us_per_tick(copies: int, ticks: int) -> float:
+    root = mission_tree(copies)
+    root.setup_with_descendants()
+    for _ in root.tick():  # the first tick initialises every step on the way
+        pass
+    started = time.perf_counter()
+    for _ in range(ticks):
+        for _ in root.tick():
+            pass
+    return (time.perf_counter() - started) / ticks * 1e6
+
+
+def median_of(runs: int, fn: Callable[[], float]) -> tuple[float, float, float]:
+    values = [fn() for _ in range(runs)]
+    return statistics.median(values), min(values), max(values)
+
+
+def part_ticks(quick: bool) -> None:
+    ticks = 500 if quick else 3000
+    runs = 3 if quick else 5
+    print(f"\n# per-tick cost against tree size ({ticks} ticks a run, median of {runs})")
+    print("| nodes | Runner, µs/tick | Runner + trace, µs/tick | py_trees root.tick(), µs/tick |")
+    print("|---|---|---|---|")
+    table: dict[int, tuple[float, float, float]] = {}
+    for copies in (1, 10, 100):
+        nodes = count_nodes(mission_tree(copies))
+        plain_r: list[float] = []
+        traced_r: list[float] = []
+        bare_r: list[float] = []
+        with tempfile.TemporaryDirectory() as tmp:
+            for _ in range(runs):
+                plain_r.append(runner_us_per_tick(copies, ticks, None))
+                traced_r.append(runner_us_per_tick(copies, ticks, Path(tmp)))
+                bare_r.append(plain_us_per_tick(copies, ticks))
+        row = (statistics.median(plain_r), statistics.median(traced_r), statistics.median(bare_r))
+        table[nodes] = row
+        print(f"| {nodes:,} | {row[0]:.1f} | {row[1]:.1f} | {row[2]:.1f} |")
+    small, large = min(table), max(table)
+    print(
+        f"ratio {large:,} / {small} nodes: runner {table[large][0] / table[small][0]:.2f}x,"
+        f" runner + trace {table[large][1] / table[small][1]:.2f}x (target <= 1.3x)"
+    )
+
+
+def part_sparse(quick: bool) -> None:
+    import bench_trace
+
+    pairs = 5 if quick else 15
+    ticks = 1000 if quick else 5000
+    plain: list[float] = []
+    traced: list[float] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(pairs):
+            order = (False, True) if i % 2 == 0 else (True, False)
+            for on in order:
+                path = Path(tmp) / f"sparse-{i}.jsonl" if on else None
+                value = bench_trace.time_runner_ticks(ticks, path, "sparse")
+                (traced if on else plain).append(value)
+    extra = [(t - p) / p * 100 for p, t in zip(plain, traced, strict=True)]
+    print(f"\n# trace overhead on the sparse 50-node tree ({pairs} ABBA pairs, {ticks} ticks)")
+    print(
+        f"untraced {statistics.median(plain) * 1e6:.1f} µs/tick, traced"
+        f" {statistics.median(traced) * 1e6:.1f} µs/tick: +{statistics.median(extra):.1f} %"
+        f" (range {min(extra):+.1f} to {max(extra):+.1f} %; target <= 15 %)"
+    )
+
+
+def lab_mission_once(route_path: Path, network: str | None = None) -> tuple[float, float, int]:
+    from pirate_bt.clock import SimClock as Clock
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.task.mission import run_mission
+    from pirate_bt.task.planner import load_network_for, plan_route
+    from pirate_bt.task.route import load_route
+
+    robot = load_robot()
+    route = load_route(route_path)
+    plan = plan_route(route, load_network_for(route, network), robot)
+    clock = Clock()
+    supervisor = open_supervisor(robot, clock=clock, network=plan.network)
+    sim = supervisor.simulator
+    assert sim is not None
+    try:
+        started = time.perf_counter()
+        result = run_mission(
+            plan,
+            robot,
+            supervisor,
+            clock,
+            truth=lambda: sim.truth().front_m,
+            counters=sim.counters,
+        )
+        wall = time.perf_counter() - started
+    finally:
+        supervisor.close()
+    if not result.succeeded:
+        raise SystemExit(f"the mission failed: {result.reason}")
+    return wall, result.run.sim_time_s, result.run.ticks
+
+
+def part_mission(quick: bool) -> None:
+    runs = 1 if quick else 3
+    walls: list[float] = []
+    sim_s = 0.0
+    ticks = 0
+    for _ in range(runs):
+        wall, sim_s, ticks = lab_mission_once(REPO / "scenarios" / "lab.route")
+        walls.append(wall)
+    median = statistics.median(walls)
+    print(f"\n# the lab mission end to end (no outputs, median of {runs})")
+    print(
+        f"{sim_s:.0f} s simulated, {ticks} ticks, wall {median:.2f} s"
+        f" (range {min(walls):.2f}-{max(walls):.2f}): {sim_s / median:.0f}x real time"
+        f" (target >= 100x); {median / ticks * 1e6:.0f} µs per tick"
+    )
+
+
+def build_route_tree(route_path: Path) -> tuple[int, Any]:
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.task.planner import load_network_for, plan_route
+    from pirate_bt.task.route import load_route
+    from pirate_bt.task.tree import mission_tree as build_mission_tree
+
+    robot = load_robot()
+    route = load_route(route_path)
+    plan = plan_route(route, load_network_for(route, None), robot)
+    tree = build_mission_tree(plan, robot)
+    return len(plan.steps), tree
+
+
+def part_long(quick: bool) -> None:
+    route = REPO / "scenarios" / "lab-long.route"
+    runs = 1 if quick else 3
+    times: list[float] = []
+    peaks: list[float] = []
+    pabs = nodes = 0
+    for _ in range(runs):
+        gc.collect()
+        tracemalloc.start()
+        started = time.perf_counter()
+        pabs, tree = build_route_tree(route)
+        times.append(time.perf_counter() - started)
+        peaks.append(tracemalloc.get_traced_memory()[1] / 1e6)
+        tracemalloc.stop()
+        root = getattr(tree, "root", tree)
+        nodes = count_nodes(root)
+    print("\n# a 220-PAB route: plan, build and validate its tree")
+    print(
+        f"{route.name}: {pabs} PABs, {nodes:,} nodes; {statistics.median(times):.2f} s"
+        f" (range {min(times):.2f}-{max(times):.2f}), peak {max(peaks):.0f} MB (tracemalloc)"
+        " (targets < 2 s, < 200 MB)"
+    )
+    for path in (REPO / "scenarios" / "lab.route", route):
+        wall, sim_s, ticks = lab_mission_once(path)
+        print(
+            f"{path.name}: {ticks} ticks, {sim_s:.0f} s simulated in {wall:.1f} s wall:"
+            f" {wall / ticks * 1e6:.0f} µs per tick, {sim_s / wall:.0f}x real time"
+        )
+        if quick:
+            break
+
+
+PARTS = {"ticks": part_ticks, "sparse": part_sparse, "mission": part_mission, "long": part_long}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer and shorter runs")
+    parser.add_argument("--only", nargs="*", choices=sorted(PARTS), help="parts to run")
+    args = parser.parse_args()
+    print(f"machine: {platform.machine()}, Python {platform.python_version()}")
+    for name in args.only or list(PARTS):
+        PARTS[name](args.quick)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,31 @@
+"""Faster must not mean different: recorded runs give the same wire bytes and trace.
+
+The digests in ``tests/data/golden/runs.json`` were recorded before the tick-cost
+work of issue 15 (the runner ticking the active path only, the trace reading only
+where the tree moved, the cheaper simulator and link steps); see
+``tests/golden_runs.py`` for what is recorded and how to regenerate it.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.golden_runs import GOLDEN, RUNS, record
+
+EXPECTED = json.loads(GOLDEN.read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize("name", sorted(RUNS))
+def test_a_recorded_run_is_byte_for_byte_the_same(name: str) -> None:
+    got = record(name)
+    want = EXPECTED[name]
+    assert got["exit_code"] == want["exit_code"] == 0
+    # Sizes first: a differing size says more than a differing digest.
+    assert (got["wire_out_bytes"], got["wire_in_bytes"]) == (
+        want["wire_out_bytes"],
+        want["wire_in_bytes"],
+    )
+    assert got["trace_records"] == want["trace_records"]
+    assert got == want
