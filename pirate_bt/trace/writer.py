@@ -133,6 +133,10 @@ TreeLike = py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour
 WRITERS: dict[str, type[TraceFormatWriter]] = {
     suffix: cls for cls in (JsonLinesWriter, GzipJsonLinesWriter) for suffix in cls.suffixes
 }
+# MCAP for Foxglove (pirate_bt.interop; imports the mcap package only when a file is opened).
+from pirate_bt.interop.mcap_writer import McapTraceWriter  # noqa: E402
+
+WRITERS[".mcap"] = McapTraceWriter
 
 
 def suffix_of(path: str | Path, table: Mapping[str, object]) -> str:

@@ -1,0 +1,175 @@
+"""Traces as MCAP files, for Foxglove and Lichtblick.
+
+MCAP is the log container Foxglove, Lichtblick and ROS 2 read. A pirate_bt run
+becomes one MCAP file with a JSON-Schema channel per topic (the robot state, the
+tree's statuses, the supervisor's verdicts, link health, the simulator's truth,
+the localisation belief, log lines; see :mod:`pirate_bt.interop.foxglove_topics`),
+messages in the ``json`` encoding, log times on the run's clock.
+
+Two ways in:
+
+- :func:`export_mcap` converts a finished trace (``.jsonl``, ``.jsonl.gz``):
+  ``pirate-bt trace export RUN.jsonl -o RUN.mcap``. The file is written beside
+  the target under a temporary name and renamed into place, so an error leaves
+  nothing half-written. It is chunked, LZ4-compressed and indexed.
+- :class:`McapTraceWriter` writes a run directly (``--trace RUN.mcap``; it is
+  registered by suffix in :data:`pirate_bt.trace.WRITERS`). It runs in the run's
+  process, like any format writer the trace's writer process does not know.
+  While the run goes on the file is *unchunked*: each tick's messages go to the
+  kernel with one ``os.write`` before the tick returns, so a run killed with
+  SIGKILL leaves every complete tick on disk, at most one cut record at the end
+  and no summary (:func:`read_mcap_records` and Foxglove read such a file; the
+  ``mcap`` CLI's ``recover`` command turns it into an indexed one). When the run
+  ends, :meth:`McapTraceWriter.close` writes the summary and then rewrites the
+  file chunked, compressed and indexed (renamed into place; if that fails, the
+  unchunked file is kept and the reason logged).
+
+:func:`read_mcap_records` turns a file back into the trace's records, and
+:class:`McapTraceReader` offers them to :func:`pirate_bt.trace.read_trace`'s
+table of readers.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any, ClassVar
+
+from pirate_bt.errors import InputError
+from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
+
+# The trace package first: its table of writers imports mcap_writer.
+from pirate_bt.trace.reader import READERS, TraceFormatReader
+from pirate_bt.trace.writer import suffix_of
+
+from pirate_bt.interop.mcap_writer import (  # isort: skip
+    McapTraceWriter,
+    _Channels,
+    _chunked_writer,
+    compact_mcap,
+    load_mcap,
+    write_atomically,
+)
+
+__all__ = [
+    "McapTraceReader",
+    "McapTraceWriter",
+    "compact_mcap",
+    "export_mcap",
+    "read_mcap_messages",
+    "read_mcap_records",
+]
+
+
+def export_mcap(trace_path: Path, out_path: Path) -> Path:
+    """Convert a trace file (any suffix :func:`pirate_bt.trace.read_trace` reads) to MCAP.
+
+    Every record is kept (see :func:`read_mcap_records`). A trace cut off by a
+    crash converts up to its last complete tick.
+
+    Args:
+        trace_path: The trace.
+        out_path: The MCAP file to write (replaced only once it is complete).
+
+    Returns:
+        ``out_path``.
+
+    Raises:
+        InputError: the trace cannot be read, is not a trace, or has a bad record.
+        ConfigurationError: the ``mcap`` package is missing.
+    """
+    load_mcap()
+    reader = READERS[suffix_of(trace_path, READERS)](trace_path)
+    records = iter(reader)
+
+    def fill(stream: IO[bytes]) -> None:
+        writer = _chunked_writer(stream)
+        channels = _Channels(writer)
+        mapper = TopicMapper()
+        first = True
+        for line, record in records:
+            if first and record.get("type") != "header":
+                raise InputError(f"{trace_path}:{line}: not a trace: the first record is no header")
+            first = False
+            try:
+                messages = mapper.messages(record)
+            except (ValueError, TypeError, AttributeError) as exc:
+                raise InputError(
+                    f"{trace_path}:{line}: cannot convert this record: {exc}"
+                ) from None
+            for message in messages:
+                channels.add(writer, message)
+        if first:
+            raise InputError(f"{trace_path}: empty trace (no header)")
+        writer.finish()
+
+    return write_atomically(Path(out_path), fill)
+
+
+# --- reading -----------------------------------------------------------------------
+
+
+def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
+    """Every JSON message of an MCAP file, in file order, as ``(topic, message)``.
+
+    Reads with the ``mcap`` library's stream reader, so a file without a summary
+    (a run that was killed) reads too, up to its last complete record.
+
+    Returns:
+        The messages, and whether the file was cut off (no footer).
+
+    Raises:
+        InputError: the file cannot be read or is not MCAP.
+        ConfigurationError: the ``mcap`` package is missing.
+    """
+    load_mcap()
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, Footer, Message
+    from mcap.stream_reader import StreamReader
+
+    channels: dict[int, str] = {}
+    out: list[tuple[str, dict[str, Any]]] = []
+    complete = False
+    try:
+        with open(path, "rb") as stream:
+            try:
+                for record in StreamReader(stream, skip_magic=False).records:
+                    if isinstance(record, Channel):
+                        channels[record.id] = record.topic
+                    elif isinstance(record, Message):
+                        topic = channels.get(record.channel_id)
+                        if topic is not None:
+                            out.append((topic, json.loads(record.data)))
+                    elif isinstance(record, Footer):
+                        complete = True
+            except (McapError, EOFError, ValueError) as exc:
+                if not out and not channels:
+                    raise InputError(f"{path}: not an MCAP file: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return out, not complete
+
+
+def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
+    """The trace records an MCAP file written by pirate_bt holds (see :func:`export_mcap`).
+
+    Raises:
+        InputError: the file cannot be read or is not MCAP.
+    """
+    messages, _ = read_mcap_messages(path)
+    return list(records_from_messages(messages))
+
+
+class McapTraceReader(TraceFormatReader):
+    """Reads a pirate_bt MCAP file back as trace records, for ``READERS`` (``.mcap``).
+
+    Records are numbered from 1 in order (an MCAP file has no lines).
+    """
+
+    suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
+
+    def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        messages, cut = read_mcap_messages(self.path)
+        self.truncated = cut
+        yield from enumerate(records_from_messages(messages), start=1)

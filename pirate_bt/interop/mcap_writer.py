@@ -1,0 +1,269 @@
+"""The MCAP format writer behind ``--trace RUN.mcap`` (see :mod:`pirate_bt.interop.mcap_trace`).
+
+:data:`pirate_bt.trace.WRITERS` maps ``.mcap`` to :class:`McapTraceWriter`, so the
+trace package imports this module while it loads; import the writer from
+:mod:`pirate_bt.interop.mcap_trace` (or after :mod:`pirate_bt.trace`), not
+from here first. It needs only the standard library until a file is opened,
+when it imports ``mcap`` (the ``foxglove`` extra).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any, ClassVar
+
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.interop.foxglove_topics import (
+    TOPICS,
+    TopicMapper,
+    TopicMessage,
+    encode_message,
+    missing_extra,
+    schema_of,
+)
+from pirate_bt.trace.sink import TraceFormatWriter
+
+if TYPE_CHECKING:
+    from mcap.writer import Writer
+
+__all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write_atomically"]
+
+logger = logging.getLogger(__name__)
+
+CHUNK_BYTES = 1 << 20
+"""Uncompressed size of one chunk in a compacted or exported file."""
+
+
+def load_mcap() -> Any:
+    try:
+        import mcap.exceptions
+        import mcap.records
+        import mcap.stream_reader
+        import mcap.writer
+    except ImportError:
+        raise ConfigurationError(missing_extra("MCAP", "mcap")) from None
+    return mcap
+
+
+def _library() -> str:
+    from pirate_bt import __version__
+
+    return f"pirate_bt {__version__}"
+
+
+class _Channels:
+    """A schema and a channel per topic on an MCAP writer."""
+
+    def __init__(self, writer: Writer) -> None:
+        self.ids: dict[str, int] = {}
+        for topic in TOPICS:
+            name, schema = schema_of(topic)
+            schema_id = writer.register_schema(
+                name=name, encoding="jsonschema", data=json.dumps(schema).encode("utf-8")
+            )
+            self.ids[topic] = writer.register_channel(
+                topic=topic, message_encoding="json", schema_id=schema_id
+            )
+        self.sequence = 0
+
+    def add(self, writer: Writer, message: TopicMessage) -> None:
+        self.sequence += 1
+        writer.add_message(
+            channel_id=self.ids[message.topic],
+            log_time=message.log_time_ns,
+            publish_time=message.log_time_ns,
+            data=encode_message(message.message),
+            sequence=self.sequence,
+        )
+
+
+def _chunked_writer(stream: IO[bytes]) -> Writer:
+    mcap = load_mcap()
+    writer: Writer = mcap.writer.Writer(
+        stream, chunk_size=CHUNK_BYTES, compression=mcap.writer.CompressionType.LZ4
+    )
+    writer.start(profile="", library=_library())
+    return writer
+
+
+def write_atomically(out_path: Path, fill: Any) -> Path:
+    """Call ``fill(stream)`` on a temporary file beside ``out_path``, then rename it."""
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    fd, temp = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".part", dir=out_path.parent)
+    try:
+        with open(fd, "wb") as stream:
+            fill(stream)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, out_path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temp)
+        raise
+    return out_path
+
+
+# --- writing a run directly --------------------------------------------------------
+
+
+class _Buffer:
+    """A write-only stream that keeps what is written until :meth:`take`."""
+
+    def __init__(self) -> None:
+        self.parts: list[bytes] = []
+        self.position = 0
+
+    def write(self, data: bytes) -> int:
+        self.parts.append(bytes(data))
+        self.position += len(data)
+        return len(data)
+
+    def tell(self) -> int:
+        return self.position
+
+    def flush(self) -> None:
+        pass
+
+    def take(self) -> bytes:
+        data = b"".join(self.parts)
+        self.parts.clear()
+        return data
+
+
+class McapTraceWriter(TraceFormatWriter):
+    """Writes a run's trace as MCAP (``.mcap``), tick by tick, in the run's process.
+
+    See the module docstring for what is on disk while the run goes on and after
+    it ends.
+
+    Args:
+        path: The MCAP file (created or truncated).
+        sync: Also fsync after every tick (power loss).
+        fd: An open file descriptor to write to instead.
+        compact: Rewrite the file chunked, compressed and indexed when it closes.
+
+    Raises:
+        ConfigurationError: the ``mcap`` package is missing.
+        OSError: the file cannot be created.
+    """
+
+    suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
+
+    def __init__(
+        self, path: str | Path, sync: bool = False, fd: int | None = None, compact: bool = True
+    ) -> None:
+        mcap = load_mcap()
+        self.compact = compact
+        self._buffer = _Buffer()
+        super().__init__(path, sync=sync, fd=fd)
+        self._writer: Writer = mcap.writer.Writer(
+            self._buffer,  # type: ignore[arg-type] - a stream with write() and tell()
+            use_chunking=False,
+            compression=mcap.writer.CompressionType.NONE,
+        )
+        self._writer.start(profile="", library=_library())
+        self._channels = _Channels(self._writer)
+        self._mapper = TopicMapper()
+        self._finished = False
+        self._emit()
+
+    def _open(self, fd: int | None) -> IO[bytes]:
+        if fd is not None:
+            return open(fd, "wb", buffering=0)
+        return open(self.path, "wb", buffering=0)
+
+    def _emit(self) -> None:
+        data = self._buffer.take()
+        if not data:
+            return
+        out = self._file.fileno()
+        written = os.write(out, data)
+        while written < len(data):
+            written += os.write(out, data[written:])
+        if self.sync:
+            os.fsync(out)
+
+    def write_line(self, line: str) -> None:
+        """Map one record (its JSON text) to messages and write them with one ``os.write``."""
+        self.write_record(json.loads(line))
+
+    def write(self, record: Any) -> None:
+        """Write one record given as data."""
+        self.write_record(record)
+
+    def write_record(self, record: Any) -> None:
+        """Write the messages of one record; they are in the kernel's hands on return."""
+        for message in self._mapper.messages(record):
+            self._channels.add(self._writer, message)
+        self._emit()
+
+    def close(self) -> None:
+        """Write the summary, close the file and compact it (idempotent)."""
+        if self._file.closed:
+            return
+        try:
+            if not self._finished:
+                self._finished = True
+                self._writer.finish()
+                self._emit()
+        finally:
+            super().close()
+        if self.compact:
+            try:
+                compact_mcap(self.path)
+            except Exception as exc:  # the unchunked file is complete and readable
+                logger.warning("%s: kept unchunked, could not compact it: %s", self.path, exc)
+
+
+def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
+    """Rewrite an MCAP file of pirate_bt's chunked, LZ4-compressed and indexed.
+
+    Also recovers a file cut off by a crash (up to its last complete record).
+
+    Args:
+        path: The file to read.
+        out_path: Where to write (default: replace ``path``, atomically).
+
+    Returns:
+        The file written.
+    """
+    mcap = load_mcap()
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    def fill(stream: IO[bytes]) -> None:
+        writer = _chunked_writer(stream)
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        with open(path, "rb") as source:
+            try:
+                for record in StreamReader(source).records:
+                    if isinstance(record, Schema) and record.id not in schemas:
+                        schemas[record.id] = writer.register_schema(
+                            record.name, record.encoding, record.data
+                        )
+                    elif isinstance(record, Channel) and record.id not in channels:
+                        channels[record.id] = writer.register_channel(
+                            record.topic,
+                            record.message_encoding,
+                            schemas.get(record.schema_id, 0),
+                            dict(record.metadata),
+                        )
+                    elif isinstance(record, Message) and record.channel_id in channels:
+                        writer.add_message(
+                            channels[record.channel_id],
+                            record.log_time,
+                            record.data,
+                            record.publish_time,
+                            record.sequence,
+                        )
+            except (mcap.exceptions.McapError, EOFError):
+                pass  # a cut-off end: keep what was complete
+        writer.finish()
+
+    return write_atomically(Path(out_path or path), fill)
