@@ -1,0 +1,199 @@
+"""A small, hostile-input-safe XML reader and an atomic file writer.
+
+BehaviorTree.CPP files come from other people's tools, so they are read with
+expat directly, not with a general-purpose tree builder:
+
+- a ``<!DOCTYPE>`` is refused outright: a BT.CPP file never needs one, and
+  without it there are no entity declarations, so no "billion laughs"
+  expansion and no external entity can be read;
+- the file size, the number of elements and the nesting depth are bounded;
+- every element keeps the line and column where it starts, so that any later
+  problem is reported as ``file:line:column: message``.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Final
+from xml.parsers import expat
+
+from pirate_bt.errors import InputError, LocatedError, SourceLocation
+
+__all__ = [
+    "MAX_DEPTH",
+    "MAX_ELEMENTS",
+    "MAX_XML_BYTES",
+    "XmlElement",
+    "parse_xml",
+    "write_atomic",
+]
+
+MAX_XML_BYTES: Final = 16 * 1024 * 1024
+"""The largest XML file read (the biggest tree a person edits is a few hundred kB)."""
+MAX_ELEMENTS: Final = 200_000
+"""The most elements a file may hold."""
+MAX_DEPTH: Final = 256
+"""The deepest nesting of elements."""
+
+
+@dataclass
+class XmlElement:
+    """One element: its tag, attributes (in file order), children and place."""
+
+    tag: str
+    attrs: dict[str, str]
+    location: SourceLocation
+    children: list[XmlElement] = field(default_factory=list)
+    text: str = ""
+
+    def error(self, message: str) -> LocatedError:
+        """A located error at this element."""
+        return LocatedError(message, self.location)
+
+
+class _Refused(Exception):
+    def __init__(self, message: str, line: int, column: int) -> None:
+        super().__init__(message)
+        self.message = message
+        self.line = line
+        self.column = column
+
+
+def parse_xml(path: Path) -> XmlElement:
+    """Read ``path`` into :class:`XmlElement` objects.
+
+    Raises:
+        InputError: the file cannot be read, or is too large.
+        LocatedError: malformed XML, a DOCTYPE or entity, or limits exceeded.
+    """
+    try:
+        size = path.stat().st_size
+        if size > MAX_XML_BYTES:
+            raise InputError(
+                f"{path}: {size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be"
+            )
+        data = path.read_bytes()
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, not an XML file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return parse_xml_bytes(data, str(path))
+
+
+def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
+    """Parse XML bytes; ``file`` names the source in error messages (see :func:`parse_xml`)."""
+    parser = expat.ParserCreate()
+    stack: list[XmlElement] = []
+    roots: list[XmlElement] = []
+    count = 0
+
+    def here() -> tuple[int, int]:
+        return parser.CurrentLineNumber, parser.CurrentColumnNumber + 1
+
+    def refuse(message: str) -> None:
+        raise _Refused(message, *here())
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        nonlocal count
+        count += 1
+        if count > MAX_ELEMENTS:
+            refuse(f"more than {MAX_ELEMENTS} elements")
+        if len(stack) >= MAX_DEPTH:
+            refuse(f"elements nested deeper than {MAX_DEPTH} levels")
+        line, column = here()
+        element = XmlElement(tag, dict(attrs), SourceLocation(file, line, column))
+        if stack:
+            stack[-1].children.append(element)
+        else:
+            roots.append(element)
+        stack.append(element)
+
+    def end(tag: str) -> None:
+        stack.pop()
+
+    def chars(text: str) -> None:
+        if stack:
+            stack[-1].text += text
+
+    def doctype(*_args: object) -> None:
+        refuse("a DOCTYPE is not allowed in a BehaviorTree.CPP file (no DTDs, no entities)")
+
+    def entity(*_args: object) -> None:
+        refuse("entity declarations are not allowed")
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = chars
+    parser.StartDoctypeDeclHandler = doctype
+    parser.EntityDeclHandler = entity
+    parser.ExternalEntityRefHandler = lambda *_a: refuse("external entities are not allowed")  # type: ignore[assignment,return-value]
+    try:
+        parser.Parse(data, True)
+    except _Refused as exc:
+        raise LocatedError(exc.message, SourceLocation(file, exc.line, exc.column)) from None
+    except expat.ExpatError as exc:
+        message = expat.ErrorString(exc.code) if exc.code is not None else str(exc)
+        raise LocatedError(
+            f"not well-formed XML: {message}", SourceLocation(file, exc.lineno, exc.offset + 1)
+        ) from None
+    if not roots:
+        raise LocatedError("no XML element found", SourceLocation(file))
+    return roots[0]
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path: Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file beside it, then rename.
+
+    A reader (or a crash) never sees a half-written file: either the old file or
+    the whole new one.
+
+    Raises:
+        InputError: the folder does not exist or cannot be written.
+    """
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as stream:
+            stream.write(text)
+        os.chmod(tmp_name, 0o666 & ~_umask())
+        os.replace(tmp_name, path)
+    except OSError as exc:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_atomic_bytes(path: Path, data: bytes) -> Path:
+    """Like :func:`write_atomic`, for bytes."""
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(data)
+        os.chmod(tmp_name, 0o666 & ~_umask())
+        os.replace(tmp_name, path)
+    except OSError as exc:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    return path
