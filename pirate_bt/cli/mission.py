@@ -15,8 +15,10 @@ tree diagram, the plots and the mission report are written there. Exit codes:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -57,6 +59,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " comma-separated, e.g. motor_stall:bend_1_drive@30s+5s,drop=0.05",
     )
     parser.add_argument("--output", type=Path, metavar="DIR", help="write trace, plots, report")
+    parser.add_argument(
+        "--trace",
+        type=Path,
+        metavar="FILE",
+        help="write the trace here (.jsonl, .jsonl.gz or .mcap) instead of DIR/trace.jsonl",
+    )
+    from pirate_bt.interop.foxglove_option import add_foxglove_option
+
+    add_foxglove_option(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no live view, no plan")
     parser.add_argument("--plan", action="store_true", help="print the plan and stop")
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
@@ -146,9 +157,29 @@ def execute(
         return MissionOutputs(0)
     output: Path | None = args.output
     trace_path = output / "trace.jsonl" if output is not None else None
+    if getattr(args, "trace", None) is not None:
+        trace_path = args.trace
     show_live = (not args.quiet) if live is None else live
+    from pirate_bt.cli.run import open_foxglove
+
+    foxglove = open_foxglove(args)
     started = time.perf_counter()
-    result = _run(args, plan, robot, truth, trace_path, show_live, rate_hz, max_time_s, tolerance)
+    try:
+        result = _run(
+            args,
+            plan,
+            robot,
+            truth,
+            trace_path,
+            show_live,
+            rate_hz,
+            max_time_s,
+            tolerance,
+            foxglove,
+        )
+    finally:
+        if foxglove is not None:
+            foxglove.close()
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
@@ -184,6 +215,7 @@ def _run(
     rate_hz: float,
     max_time_s: float | None,
     tolerance: float,
+    foxglove: Any = None,
 ) -> Any:
     """Run the plan on the simulator (in ``truth``) or on ``--port``.
 
@@ -192,8 +224,7 @@ def _run(
     the same in both commands.
     """
     from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import run_mission, truth_on_map
-    from pirate_bt.task.replan import carry_on
+    from pirate_bt.task.mission import truth_on_map
 
     connection = connect(args, robot, needs_robot=True, network=truth)
     sim = connection.simulator
@@ -201,6 +232,82 @@ def _run(
     def truth_for(p: Any) -> Any:
         return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
 
+    with contextlib.ExitStack() as stack:
+        if foxglove is not None:
+            stack.enter_context(
+                _foxglove_on_runners(foxglove, connection, robot, truth.name, args.seed)
+            )
+        return _run_and_carry_on(
+            args,
+            plan,
+            robot,
+            truth,
+            trace_path,
+            live,
+            rate_hz,
+            max_time_s,
+            tolerance,
+            connection,
+            truth_for,
+        )
+
+
+@contextlib.contextmanager
+def _foxglove_on_runners(
+    server: Any, connection: Any, robot: Any, scenario: str, seed: int
+) -> Iterator[None]:
+    """Serve every runner the mission makes (the mission, a re-plan, the way back) live.
+
+    ``run_mission`` makes its runner itself and takes no observer, so for the
+    mission's duration its ``Runner`` is a subclass that attaches the Foxglove
+    recorder when made. The localiser's belief is not in the live view (it lives
+    inside ``run_mission``); it is in ``--trace`` files.
+    """
+    import pirate_bt.task.mission as mission_module
+    from pirate_bt.interop.foxglove_live import attach_foxglove
+    from pirate_bt.trace import supervised_extras
+
+    base: Any = getattr(mission_module, "Runner")  # noqa: B009 - patched below
+    sim = connection.simulator
+
+    class ServedRunner(base):  # type: ignore[misc]
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            attach_foxglove(
+                self,
+                server,
+                extras=supervised_extras(
+                    connection.supervisor, counters=sim.counters if sim is not None else None
+                ),
+                robot=robot,
+                scenario=scenario,
+                seed=seed if sim is not None else None,
+            )
+
+    setattr(mission_module, "Runner", ServedRunner)  # noqa: B010
+    try:
+        yield
+    finally:
+        setattr(mission_module, "Runner", base)  # noqa: B010
+
+
+def _run_and_carry_on(
+    args: argparse.Namespace,
+    plan: Any,
+    robot: Any,
+    truth: Any,
+    trace_path: Path | None,
+    live: bool,
+    rate_hz: float,
+    max_time_s: float | None,
+    tolerance: float,
+    connection: Any,
+    truth_for: Any,
+) -> Any:
+    from pirate_bt.task.mission import run_mission
+    from pirate_bt.task.replan import carry_on
+
+    sim = connection.simulator
     try:
         result = run_mission(
             plan,

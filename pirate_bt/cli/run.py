@@ -71,9 +71,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
     parser.add_argument("--realtime", action="store_true", help="pace a simulated run to wall time")
     parser.add_argument(
-        "--trace", metavar="FILE", help="write a tick-by-tick trace (.jsonl or .jsonl.gz)"
+        "--trace", metavar="FILE", help="write a tick-by-tick trace (.jsonl, .jsonl.gz or .mcap)"
     )
     parser.add_argument("--quiet", action="store_true", help="no live view of the tree")
+    from pirate_bt.interop.foxglove_option import add_foxglove_option
+
+    add_foxglove_option(parser)
 
 
 def _quantity(text: str, dimension: str, option: str) -> float:
@@ -181,11 +184,50 @@ def _safe_state(supervisor: Any) -> None:
     supervisor.safe_state(reason or "tree run ended without success")
 
 
-def _observe(runner: Any, args: argparse.Namespace, robot: Any, connection: Connection) -> None:
-    """Attach the live view (unless ``--quiet``) and the trace (with ``--trace``)."""
+def open_foxglove(args: argparse.Namespace) -> Any:
+    """The Foxglove server of ``--foxglove [HOST:PORT]``, or ``None`` without the option.
+
+    Raises:
+        InputError: a bad address, or the port is taken.
+        ConfigurationError: the ``foxglove`` extra is missing.
+    """
+    if getattr(args, "foxglove", None) is None:
+        return None
+    from pirate_bt.interop.foxglove_live import FoxgloveServer, parse_address
+
+    host, port = parse_address(args.foxglove)
+    server = FoxgloveServer(host, port)
+    print(f"pirate-bt: Foxglove live view on {server.url}", file=sys.stderr)
+    return server
+
+
+def _observe(
+    runner: Any,
+    args: argparse.Namespace,
+    robot: Any,
+    connection: Connection,
+    foxglove: Any = None,
+) -> None:
+    """Attach the live view (unless ``--quiet``), the trace (``--trace``), Foxglove."""
     from pirate_bt.trace import attach_live_view, attach_trace, supervised_extras
 
     attach_live_view(runner, quiet=args.quiet)
+    if foxglove is not None:
+        from pirate_bt.interop.foxglove_live import attach_foxglove
+
+        sim = connection.simulator
+        attach_foxglove(
+            runner,
+            foxglove,
+            extras=supervised_extras(
+                connection.supervisor, counters=sim.counters if sim is not None else None
+            )
+            if connection.supervisor is not None
+            else None,
+            robot=robot,
+            scenario=(args.sim or "straight") if args.port is None else args.port,
+            seed=args.seed if args.port is None else None,
+        )
     if not args.trace:
         return
     extras = None
@@ -270,19 +312,24 @@ def run(args: argparse.Namespace) -> int:
 
     tree_path = find_file("trees", args.tree)
     checked = load_tree(tree_path, robot=robot, params=params, params_from_text=True)
-    connection = connect(args, robot, checked.needs_robot)
+    foxglove = open_foxglove(args)
     try:
-        tree, result = run_tree(
-            checked,
-            robot,
-            connection,
-            period_s=1.0 / rate_hz,
-            max_time_s=max_time_s,
-            realtime=args.realtime,
-            observe=lambda runner: _observe(runner, args, robot, connection),
-        )
+        connection = connect(args, robot, checked.needs_robot)
+        try:
+            tree, result = run_tree(
+                checked,
+                robot,
+                connection,
+                period_s=1.0 / rate_hz,
+                max_time_s=max_time_s,
+                realtime=args.realtime,
+                observe=lambda runner: _observe(runner, args, robot, connection, foxglove),
+            )
+        finally:
+            connection.close()
     finally:
-        connection.close()
+        if foxglove is not None:
+            foxglove.close()
     why = result.message
     if connection.supervisor is not None and connection.supervisor.safe_state_reason:
         why = f"{result.message}: {connection.supervisor.safe_state_reason}"

@@ -15,7 +15,7 @@ import logging
 import os
 import tempfile
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any, ClassVar
+from typing import IO, Any, ClassVar
 
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.interop.foxglove_topics import (
@@ -27,9 +27,6 @@ from pirate_bt.interop.foxglove_topics import (
     schema_of,
 )
 from pirate_bt.trace.sink import TraceFormatWriter
-
-if TYPE_CHECKING:
-    from mcap.writer import Writer
 
 __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write_atomically"]
 
@@ -59,7 +56,7 @@ def _library() -> str:
 class _Channels:
     """A schema and a channel per topic on an MCAP writer."""
 
-    def __init__(self, writer: Writer) -> None:
+    def __init__(self, writer: Any) -> None:
         self.ids: dict[str, int] = {}
         for topic in TOPICS:
             name, schema = schema_of(topic)
@@ -71,7 +68,7 @@ class _Channels:
             )
         self.sequence = 0
 
-    def add(self, writer: Writer, message: TopicMessage) -> None:
+    def add(self, writer: Any, message: TopicMessage) -> None:
         self.sequence += 1
         writer.add_message(
             channel_id=self.ids[message.topic],
@@ -82,9 +79,9 @@ class _Channels:
         )
 
 
-def _chunked_writer(stream: IO[bytes]) -> Writer:
+def _chunked_writer(stream: IO[bytes]) -> Any:
     mcap = load_mcap()
-    writer: Writer = mcap.writer.Writer(
+    writer: Any = mcap.writer.Writer(
         stream, chunk_size=CHUNK_BYTES, compression=mcap.writer.CompressionType.LZ4
     )
     writer.start(profile="", library=_library())
@@ -96,6 +93,12 @@ def write_atomically(out_path: Path, fill: Any) -> Path:
     out_path.parent.mkdir(parents=True, exist_ok=True)
     fd, temp = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".part", dir=out_path.parent)
     try:
+        if out_path.exists():
+            os.chmod(temp, out_path.stat().st_mode & 0o777)
+        else:  # what open() would have given: mkstemp makes it private
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(temp, 0o666 & ~mask)
         with open(fd, "wb") as stream:
             fill(stream)
             stream.flush()
@@ -161,8 +164,8 @@ class McapTraceWriter(TraceFormatWriter):
         self.compact = compact
         self._buffer = _Buffer()
         super().__init__(path, sync=sync, fd=fd)
-        self._writer: Writer = mcap.writer.Writer(
-            self._buffer,  # type: ignore[arg-type] - a stream with write() and tell()
+        self._writer: Any = mcap.writer.Writer(
+            self._buffer,  # a stream with write() and tell() is enough
             use_chunking=False,
             compression=mcap.writer.CompressionType.NONE,
         )
