@@ -329,6 +329,8 @@ class PipeRobotModel:
         self._turn_ends: list[float] = []
         self._tees_path: Path | None = None
         self._tees: list[Piece] = []
+        self._tees_calm = (math.inf, -math.inf)
+        """An interval of s_m in which no tee changes (see _decide_tees)."""
         start = network.spec.start
         if start_m is None:
             start_m = start.position if start.position is not None else self.length_m
@@ -723,6 +725,10 @@ class PipeRobotModel:
         if self._tees_path is not self.path:
             self._tees_path = self.path
             self._tees = [p for p in self.path.pieces if p.opening_m is not None]
+            self._tees_calm = (math.inf, -math.inf)
+        low, high = self._tees_calm
+        if low <= self.s_m < high:
+            return  # no tee can be decided or undecided until s_m leaves [low, high)
         for piece in self._tees:
             assert piece.opening_m is not None
             decided = piece.segment in self._choices
@@ -742,6 +748,19 @@ class PipeRobotModel:
                 break
         if changed:
             self.path = self.network.path(self._choices)
+            self._tees_calm = (math.inf, -math.inf)
+        else:
+            # Nothing changed at s_m: nothing will while s_m stays above the opening of
+            # every tee decided and below that of every tee undecided (this method is
+            # the only one that changes the choices; a new path resets the interval).
+            low, high = -math.inf, math.inf
+            for piece in self._tees:
+                assert piece.opening_m is not None
+                if piece.segment in self._choices:
+                    low = max(low, piece.opening_m - 1e-9)
+                else:
+                    high = min(high, piece.opening_m + 1e-9)
+            self._tees_calm = (low, high)
 
     def _drive_feedback(self, load_ratio: float, stuck: bool) -> None:
         motion = self.robot.motion
