@@ -66,6 +66,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="with --firmware: bootloader time after the DTR reset a host's open causes"
         " (default 500; the host waits the robot's reset_time)",
     )
+    from pirate_bt.interop.foxglove_option import add_foxglove_option
+
+    add_foxglove_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,8 +82,16 @@ def run(args: argparse.Namespace) -> int:
     if args.firmware is not None:
         return _run_firmware(args, robot)
     noise = SensorNoise.typical() if args.noise else None
+    from pirate_bt.cli.run import open_foxglove
+
+    foxglove = open_foxglove(args)
     sim = Simulator(args.network, robot, seed=args.seed, noise=noise, faults=args.fault)
     server = SimServer(sim, speed=args.speed)
+    halt = None
+    if foxglove is not None:
+        from pirate_bt.interop.foxglove_live import publish_simulator
+
+        halt = publish_simulator(foxglove, sim)
     try:
         if args.tcp is not None:
             host, port = server.open_tcp(args.tcp)
@@ -90,6 +101,10 @@ def run(args: argparse.Namespace) -> int:
         with contextlib.suppress(KeyboardInterrupt):
             server.serve_forever(args.duration)
     finally:
+        if halt is not None:
+            halt()
+        if foxglove is not None:
+            foxglove.close()
         server.close()
         sim.close()
     c = sim.counters()

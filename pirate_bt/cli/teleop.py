@@ -20,7 +20,7 @@ import logging
 import math
 import sys
 from collections.abc import Callable, Iterator
-from typing import TextIO
+from typing import Any, TextIO
 
 from pirate_bt.cli.console.view import millimetres_per_s, verdict_text
 from pirate_bt.errors import InputError
@@ -214,6 +214,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="the mode to start in (default: manual; supervised with --tree)",
     )
     parser.add_argument("--keys", help="play these keys, one per tick, then quit (no terminal)")
+    from pirate_bt.interop.foxglove_option import add_foxglove_option
+
+    add_foxglove_option(parser)
 
 
 def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
@@ -270,7 +273,6 @@ def _runner_factory(
 
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.robot.loader import load_robot
-    from pirate_bt.safety.factory import open_supervisor
 
     if args.rate <= 0:
         raise InputError(f"--rate must be positive, got {args.rate:g}")
@@ -285,6 +287,21 @@ def run(args: argparse.Namespace) -> int:
     if safety_log.level == logging.NOTSET:
         # The console shows every verdict itself; the log would say each twice.
         safety_log.setLevel(logging.ERROR)
+    from pirate_bt.cli.run import open_foxglove
+
+    foxglove = open_foxglove(args)
+    try:
+        return _run_session(args, robot, mode, period_s, foxglove)
+    finally:
+        if foxglove is not None:
+            foxglove.close()
+
+
+def _run_session(
+    args: argparse.Namespace, robot: RobotDescription, mode: Mode, period_s: float, foxglove: Any
+) -> int:
+    from pirate_bt.safety.factory import open_supervisor
+
     if args.port is not None:
         sup = open_supervisor(robot, url=args.port, mode=mode)
         where = f"robot at {args.port}"
@@ -292,12 +309,23 @@ def run(args: argparse.Namespace) -> int:
         sup = open_supervisor(robot, network=args.sim, seed=args.seed, mode=mode)
         where = f"simulator: {args.sim or 'straight'}"
     try:
+        session = TeleopSession(sup, sys.stdout if args.keys is not None else None)
+        if foxglove is not None:
+            from pirate_bt.interop.foxglove_live import serve_supervisor
+
+            publish, step = serve_supervisor(foxglove, sup, robot=robot), session.step
+
+            def served_step() -> None:
+                step()
+                publish()
+
+            session.step = served_step  # type: ignore[method-assign]
         if args.keys is not None:
-            return _run_keys(TeleopSession(sup, sys.stdout), args.keys, period_s)
+            return _run_keys(session, args.keys, period_s)
         factory = _runner_factory(args, robot, sup, period_s)
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
-        engine = ConsoleEngine(TeleopSession(sup), period_s=period_s, runner_factory=factory)
+        engine = ConsoleEngine(session, period_s=period_s, runner_factory=factory)
         OperatorConsole(engine, title=f"pirate-bt teleop - {where}").run()
         if engine.finished:
             print(engine.finished)

@@ -64,6 +64,7 @@ __all__ = [
     "attach_foxglove",
     "parse_address",
     "publish_simulator",
+    "serve_supervisor",
 ]
 
 logger = logging.getLogger(__name__)
@@ -388,3 +389,38 @@ def publish_simulator(
         thread.join(timeout=2.0)
 
     return halt
+
+
+def serve_supervisor(
+    server: FoxgloveServer, supervisor: Any, *, name: str = "teleop", robot: Any = None
+) -> Callable[[], None]:
+    """A function to call once per tick that publishes a supervisor's state, verdicts, link.
+
+    For ``pirate-bt teleop``, where the operator drives and no tree may run: the
+    records come from a recorder over a one-node tree named ``name``. Errors are
+    logged and switch the live view off; they never reach the caller.
+    """
+    import py_trees
+
+    from pirate_bt.trace.attach import supervised_extras
+
+    simulator = getattr(supervisor, "simulator", None)
+    extras = supervised_extras(
+        supervisor, counters=simulator.counters if simulator is not None else None
+    )
+    root = py_trees.behaviours.Running(name=name)
+    recorder = TraceRecorder(
+        LiveWriter(server), root, clock=supervisor.clock, background=False, robot=robot
+    )
+    alive = [True]
+
+    def tick() -> None:
+        if not alive[0]:
+            return
+        try:
+            recorder.record_tick(extras(None))
+        except Exception:
+            alive[0] = False
+            logger.exception("Foxglove live view: recording a tick failed; it is switched off")
+
+    return tick
