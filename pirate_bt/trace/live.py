@@ -72,6 +72,8 @@ class LiveView:
         self._last_draw = -float("inf")
         self._last_line = ""
         self._steps = self.structure.steps()
+        step_ids = {step.id for step in self._steps}
+        self._step_nodes = [(i, n) for i, n in self._nodes if i in step_ids]
 
     def __call__(self, tree: object = None) -> None:
         """Note one tick (the signature of a py_trees post-tick handler)."""
@@ -126,28 +128,27 @@ class LiveView:
         self._drawn_lines = len(lines)
 
     def _line(self) -> None:
-        status, feedback = self._snapshot()
-        path = [
-            self.structure.node(node_id)
-            for node_id, code in status.items()
-            if code == "R"
-            and not any(status.get(c) == "R" for c in self.structure.node(node_id).children)
-        ]
-        if path:
-            leaf = path[0]
-            chain = []
-            node_id: str | None = leaf.id
-            while node_id is not None:
-                chain.append(self.structure.node(node_id).name)
-                node_id = self.structure.node(node_id).parent
-            message = feedback.get(leaf.id, "")
-            text = " > ".join(reversed(chain)) + (f" -- {message}" if message else "")
+        # Runs every tick: follow the running path down from the root (the first
+        # RUNNING child at each level) instead of reading every node.
+        node = self._nodes[0][1]
+        running = py_trees.common.Status.RUNNING
+        if node.status is running:
+            chain = [node.name]
+            while True:
+                child = next((c for c in node.children if c.status is running), None)
+                if child is None:
+                    break
+                node = child
+                chain.append(node.name)
+            message = node.feedback_message
+            key = " > ".join(chain)
+            text = key + (f" -- {message}" if message else "")
         else:
-            root = self.structure.root
-            text = f"{root.name}: {STATUS_WORD[status[root.id]]}"
-        key = text.partition(" -- ")[0]
+            text = key = f"{node.name}: {STATUS_WORD[STATUS_CODE[node.status]]}"
         if key != self._last_line:
             self._last_line = key
+            status = {node_id: STATUS_CODE[n.status] for node_id, n in self._step_nodes}
+            status[self.structure.root.id] = STATUS_CODE[self._nodes[0][1].status]
             self.stream.write(f"[{self._progress(status)}] {text}\n")
             self.stream.flush()
 
