@@ -91,8 +91,15 @@ def test_avr_build_runs_in_simavr(tmp_path: Path) -> None:
     """The AVR build itself, run in simavr at 16 MHz (firmware/piratebay/host/figures.c):
     a session, 200 bulk setpoints, 40 e-stops, then 2 s of noise at full line rate."""
     pkg = shutil.which("pkg-config")
-    if pkg is None or subprocess.run([pkg, "--exists", "simavr"], check=False).returncode:
-        pytest.skip("libsimavr-dev missing: install it (Debian: apt-get install libsimavr-dev)")
+    if pkg is None:
+        pytest.skip("pkg-config missing (Debian: apt-get install pkg-config libsimavr-dev)")
+    check = subprocess.run(
+        [pkg, "--print-errors", "--exists", "simavr"], capture_output=True, text=True, check=False
+    )
+    if check.returncode:
+        # Debian's libsimavr-dev does not pull in libelf-dev, which simavr.pc requires
+        why = check.stderr.strip().splitlines()[-1] if check.stderr.strip() else "not found"
+        pytest.skip(f"simavr unusable ({why}): apt-get install libsimavr-dev libelf-dev")
     result = subprocess.run(
         [
             "make",

@@ -345,6 +345,41 @@ def test_estop_stops_drives_and_rotation_at_once_and_bend_joints_hold(bridge: Br
     assert bridge.ask(setpoint(5, 22, 1, VELOCITY, 9)) == [nack(5, SETPOINT, ESTOP_LATCHED)]
 
 
+def test_a_rotate_motor_without_pwm_keeps_its_setpoint_on_a_stop(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    """The stop category's exception (docs/protocol.md): a rotate or other motor whose
+    description lists no pwm mode is not commanded by a stop; it keeps its setpoint."""
+    robot_file = tmp_path_factory.mktemp("no-pwm") / "pirate.yaml"
+    text = (Path(__file__).parents[1] / "hardware" / "pirate.yaml").read_text()
+    rotate = "        function: rotate\n        assumption: true\n        modes: *joint_modes\n"
+    assert text.count(rotate) == 1
+    robot_file.write_text(
+        text.replace(
+            rotate,
+            "        function: rotate\n        assumption: true\n        modes:\n"
+            "          torque: {raw: [-1023, 1023], per_raw: 1 mN*m}\n"
+            "          position: {raw: [-2048, 2047], per_raw: 0.087890625 deg}\n",
+        )
+    )
+    try:
+        library = build_host_library(tmp_path_factory.mktemp("fw-host-no-pwm"), robot_file)
+    except RuntimeError as exc:
+        if "no host C compiler" in str(exc):
+            pytest.skip(f"{exc}: the firmware core cannot be built")
+        raise
+    bridge = Bridge(library, load_robot(robot_file))
+    bridge.start()
+    assert bridge.ask(setpoint(3, 25, 0, PWM, 5)) == [nack(3, SETPOINT, BAD_MODE)]
+    assert bridge.ask(setpoint(4, 25, 0, TORQUE, 200)) == [ack(4, SETPOINT)]
+    bridge.run(12)
+    bridge.bus()
+    assert bridge.ask(frame(ESTOP, 5), ms=1) == [ack(5, ESTOP)]
+    stops = _stops(bridge.bus())
+    assert stops[25] == bytes([TORQUE]) + struct.pack("<h", 200) + bytes([VELOCITY, 0, 0])
+    assert stops[21] == bytes([PWM, 0, 0, PWM, 0, 0])  # the others as always
+
+
 def test_estop_reset_is_refused_while_a_board_is_silent(bridge: Bridge) -> None:
     bridge.start()
     bridge.ask(frame(ESTOP, 3))

@@ -325,3 +325,98 @@ def test_noise_at_line_rate_neither_resets_nor_applies_a_corrupted_frame() -> No
             assert poison.key() in bridge.boards.applied
         finally:
             host.close()
+
+
+# -- the stop category in a vertical pipe, through the firmware (issue 19, item 1) ------
+
+
+@needs_simavr
+@pytest.mark.slow
+def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -> None:
+    """Halfway up the riser, both halves clamped through the firmware: the safe state,
+    a watchdog trip (the host falls silent) and an e-stop each leave the robot where it
+    is, clamped (the firmware's stop category: bend joints keep their setpoints).
+
+    Real time, with the host's freshness limit relaxed as for the PABs above.
+    """
+    from pirate_bt.pipes import Network
+    from pirate_bt.robot import load_robot as load
+    from pirate_bt.robot.description import Half
+    from pirate_bt.safety.commands import Clamp, Command, MoveFrontClear
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.safety.verdict import Outcome
+
+    elf, harness = build()
+    text = (ROOT / "hardware" / "pirate.yaml").read_text()
+    robot_file = tmp_path / "pirate.yaml"
+    robot_file.write_text(text.replace("stale_after_periods: 10", "stale_after_periods: 50"))
+    robot = load(robot_file)
+    riser = load_network("riser")
+    halfway_up = Network(
+        riser.spec.model_copy(
+            update={"start": riser.spec.start.model_copy(update={"position": 2.6})}
+        ),
+        "riser (start 2.6 m)",
+    )
+    model = PipeRobotModel(robot, halfway_up)
+    tick_s = 0.05
+    with FirmwareBridge(elf, model, harness=harness) as bridge:
+        sup = open_supervisor(robot, url=bridge.start())
+        try:
+
+            def until(command: Command, done: object) -> None:
+                deadline = time.monotonic() + 10.0
+                while not done():  # type: ignore[operator]
+                    assert time.monotonic() < deadline, command
+                    assert sup.command(command).outcome in (Outcome.PASS, Outcome.CLIP)
+                    time.sleep(tick_s)
+                    sup.tick()
+
+            def clamped(half: Half) -> object:
+                return lambda: sup.half_states()[half].value == "clamped"
+
+            def run(seconds: float) -> None:
+                for _ in range(round(seconds / tick_s)):
+                    time.sleep(tick_s)
+                    sup.tick()
+
+            def holds(seconds: float, *, poll: bool = True) -> None:
+                before = model.truth().front_m
+                if poll:
+                    run(seconds)
+                else:
+                    time.sleep(seconds)  # the host is silent: nothing polled or sent
+                truth = model.truth()
+                assert truth.front_m == pytest.approx(before, abs=1e-3)
+                assert truth.halves[Half.FRONT].clamped and truth.halves[Half.REAR].clamped
+
+            def tilt() -> float:
+                state = sup.state()
+                value = state.front_tilt_rad if state is not None else None
+                return value if value is not None else 0.0
+
+            run(0.5)  # every channel read at least once before the first command
+            until(Clamp(Half.REAR, 0.6), clamped(Half.REAR))
+            clear = robot.clamp.front_clear_angle
+            until(MoveFrontClear(), lambda: abs(tilt()) >= clear)
+            until(Clamp(Half.FRONT, 0.6), clamped(Half.FRONT))
+            run(0.5)
+            truth = model.truth()
+            assert truth.halves[Half.FRONT].clamped and truth.halves[Half.REAR].clamped
+            assert truth.slope_rad == pytest.approx(1.5708, abs=0.01)  # vertical
+            # (in real time the physics runs while the host connects: it slid before clamping)
+            slid_m = model.counters().slide_m
+            sup.safe_state("test")
+            holds(2.0)
+            holds(2.0, poll=False)  # 2 s without a host frame: the firmware's watchdog trips
+            run(0.3)
+            session = sup.port.session  # type: ignore[attr-defined]
+            reply = session.wait(session.request_counters(), timeout_s=2.0).reply
+            assert reply is not None and reply.watchdog_trips == 1
+            sup.estop("test")
+            holds(2.0)
+            assert sup.port.health().estopped
+            assert model.counters().slide_m == slid_m
+        finally:
+            sup.close()
+        assert bridge.figures()["unexpected_resets"] == 0

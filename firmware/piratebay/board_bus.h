@@ -2,7 +2,7 @@
  *
  * This is the seam for another board protocol. The rest of the firmware (which
  * board to poll when, retries, timeouts counted, what the readings mean) only
- * calls the five functions below; board_bus.c implements them for the bus of
+ * calls the six functions below; board_bus.c implements them for the bus of
  * docs/board-bus.md (COBS frames with CRC-16 over RS485 on USART1). A team whose
  * PICO boards speak something else rewrites board_bus.c, and nothing else.
  *

@@ -26,11 +26,15 @@ void safety_init(uint32_t now_ms) {
 
 void safety_stop(void) {
     for (uint8_t i = 0; i < PB_N_MOTORS; i++) {
-        uint8_t role = layout_motor(i)->role;
-        if (role == PB_ROLE_BEND) {
+        const struct pb_motor *m = layout_motor(i);
+        if (m->role == PB_ROLE_BEND) {
             continue; /* the clamps keep holding */
         }
-        safety_setpoints[i].mode = role == PB_ROLE_DRIVE ? PB_MODE_VELOCITY : PB_MODE_PWM;
+        uint8_t mode = m->role == PB_ROLE_DRIVE ? PB_MODE_VELOCITY : PB_MODE_PWM;
+        if (!layout_mode_ok(m, mode)) {
+            continue; /* a rotate or other motor that lists no pwm keeps its setpoint */
+        }
+        safety_setpoints[i].mode = mode;
         safety_setpoints[i].raw = 0;
     }
     for (uint8_t i = 0; i < sizeof safe.motors_off; i++) {

@@ -40,12 +40,13 @@ from pirate_bt.link import (
     Heartbeat,
     Hello,
     HelloReply,
+    Message,
     MsgType,
     Nack,
     NackCode,
     Setpoint,
 )
-from pirate_bt.link.codec import cobs_encode
+from pirate_bt.link.codec import cobs_encode, crc16
 from pirate_bt.link.layout import WireLayout
 from pirate_bt.link.vectors import message_from_json, message_to_json
 from pirate_bt.robot.description import ControlMode
@@ -206,6 +207,57 @@ def test_bytes_split_anywhere_make_the_same_frame(bridge: BridgeUnderTest) -> No
     for byte in frame[:-1]:
         bridge.write(bytes((byte,)))
     assert wire.ask(frame[-1:], expect=1) == [Ack(3, MsgType.SETPOINT)]
+
+
+# --- the watchdog -------------------------------------------------------------------------------
+
+
+def test_every_intact_frame_feeds_the_watchdog_and_nothing_else_does(
+    bridge: BridgeUnderTest,
+) -> None:
+    """Fed by every frame that passes the CRC and version checks, whatever its fate
+    (refused, stale, duplicate, unknown type); a frame with a bad CRC feeds nothing."""
+    wire = Wire(bridge)
+    start_session(wire)
+    watchdog_s = bridge.robot.bridge.watchdog
+    digest = wire.codec.layout.digest
+
+    def unknown(seq: int) -> bytes:
+        body = bytes((1, 0x42)) + seq.to_bytes(2, "little") + b"\x00"
+        return cobs_encode(body + crc16(body).to_bytes(2, "little")) + b"\x00"
+
+    refused: list[tuple[Message | bytes, Message]] = []
+    for i in range(3):
+        seq = 10 + 2 * i
+        refused += [
+            (unknown(seq), Nack(seq, 0x42, NackCode.UNKNOWN_TYPE)),
+            (Hello(seq, digest ^ 1), Nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)),
+            (
+                Setpoint(seq, 99, 0, ControlMode.PWM, 0),
+                Nack(seq, MsgType.SETPOINT, NackCode.BAD_BOARD),
+            ),
+            (
+                Setpoint(seq, 99, 0, ControlMode.PWM, 0),
+                Nack(seq, MsgType.SETPOINT, NackCode.BAD_BOARD),
+            ),
+            (bend_setpoint(wire, seq - 1), Ack(seq - 1, MsgType.SETPOINT, AckStatus.STALE)),
+        ]
+    # refused frames only, for several watchdog periods: it never trips
+    for msg, answer in refused:
+        assert wire.ask(msg, expect=1) == [answer]
+        wire.collect(watchdog_s / 10)
+        assert wire.state is not None and wire.state.flags == BridgeFlags.NONE
+    assert counters(wire, 90).watchdog_trips == 0
+    # frames with a bad CRC only: it trips
+    bad = bytearray(wire.codec.encode(Heartbeat(91)))
+    bad[3] ^= 0x10
+    for _ in range(8):
+        assert wire.ask(bytes(bad), timeout_s=watchdog_s / 4) == []
+    assert wire.state is not None and wire.state.flags == BridgeFlags.WATCHDOG
+    reply = counters(wire, 92)  # an intact frame: fed again
+    assert (reply.watchdog_trips, reply.crc_errors) == (1, 8)
+    wire.collect(0.03)
+    assert wire.state.flags == BridgeFlags.NONE
 
 
 # --- counters ----------------------------------------------------------------------------------
