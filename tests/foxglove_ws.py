@@ -15,6 +15,7 @@ renamed) and ``foxglove.websocket.v1`` (the older name).
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import socket
@@ -42,10 +43,11 @@ class FoxgloveClient:
     ) -> None:
         self.sock = socket.create_connection((host, port), timeout=timeout_s)
         key = base64.b64encode(os.urandom(16)).decode()
+        offered = ", ".join(subprotocols)
         request = (
             f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
             f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-            f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {', '.join(subprotocols)}\r\n\r\n"
+            f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {offered}\r\n\r\n"
         )
         self.sock.sendall(request.encode())
         response = b""
@@ -134,7 +136,7 @@ class FoxgloveClient:
             self.sock.settimeout(max(0.01, deadline - time.monotonic()))
             try:
                 opcode, data = self.receive()
-            except (TimeoutError, socket.timeout):
+            except TimeoutError:
                 return
             self._handle(opcode, data)
 
@@ -175,8 +177,6 @@ class FoxgloveClient:
         return [m for t, _, m in self.messages if t == topic]
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(OSError):
             self._send(8, struct.pack(">H", 1000))
-        except OSError:
-            pass
         self.sock.close()
