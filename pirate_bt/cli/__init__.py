@@ -31,6 +31,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
     "network": ("pirate_bt.cli.network", "as-built variants of a pipe network (perturb, edit)"),
     "campaign": ("pirate_bt.cli.campaign", "run many seeded runs locally or on Dask; report"),
+    "export": ("pirate_bt.cli.export", "write a tree in another tool's format (BT.CPP XML)"),
+    "import": ("pirate_bt.cli.importer", "read a tree from another tool's format (BT.CPP XML)"),
 }
 
 EXIT_OK = 0

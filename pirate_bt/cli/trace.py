@@ -1,4 +1,4 @@
-"""``pirate-bt trace summary|show|plot|schema``: read a run back from its trace."""
+"""``pirate-bt trace summary|show|plot|schema|export``: read a run back from its trace."""
 
 from __future__ import annotations
 
@@ -33,6 +33,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--to", dest="end", metavar="SECONDS", type=float, help="zoom: end at this time"
     )
     subs.add_parser("schema", help="print the JSON Schema of one trace record")
+    export = subs.add_parser(
+        "export", help="write the trace for other tools: .btlog (Groot2), .mcap (Foxglove)"
+    )
+    export.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    export.add_argument(
+        "-o", "--output", type=Path, required=True, help="file to write; its suffix picks the format"
+    )
 
 
 def _summary(args: argparse.Namespace) -> int:
@@ -90,8 +97,40 @@ def _schema(args: argparse.Namespace) -> int:
     return 0
 
 
+# output suffix -> (module, function); the function takes (trace_path, out_path)
+# and returns the file written. Imported only when chosen.
+EXPORTS: dict[str, tuple[str, str]] = {
+    ".btlog": ("pirate_bt.interop.btlog", "export_btlog"),
+    ".mcap": ("pirate_bt.interop.mcap_trace", "export_mcap"),
+}
+
+
+def _export(args: argparse.Namespace) -> int:
+    import importlib
+
+    from pirate_bt.errors import InputError
+
+    suffix = args.output.suffix.lower()
+    if suffix not in EXPORTS:
+        raise InputError(
+            f"{args.output}: unknown export format {suffix or '(no suffix)'!r};"
+            f" known: {', '.join(EXPORTS)}"
+        )
+    module_name, function = EXPORTS[suffix]
+    export = getattr(importlib.import_module(module_name), function)
+    written = export(args.trace, args.output)
+    print(f"wrote {written}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
-    actions = {"summary": _summary, "show": _show, "plot": _plot, "schema": _schema}
+    actions = {
+        "summary": _summary,
+        "show": _show,
+        "plot": _plot,
+        "schema": _schema,
+        "export": _export,
+    }
     code = actions[args.action](args)
     sys.stdout.flush()
     return code

@@ -50,10 +50,10 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from pirate_bt.behaviours.base import NodeMixin
-from pirate_bt.errors import InputError, LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import InputError, LocatedError, ValidationFailed
 from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml, write_atomic
 from pirate_bt.treefile.params import PARAM_RE, SI_UNITS, ParamType
-from pirate_bt.treefile.registry import Registry, UnknownNode, default_registry
+from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.yamlfile import YamlDocument, load_yaml, validation_problems
 
 __all__ = [
@@ -621,8 +621,11 @@ def tree_to_xml(
     exporter = _Exporter(reg, node_models(reg))
     exporter.root_doc = exporter.document(source)
     main_id = exporter.tree(exporter.root_doc, "", loaded.name)
-    if main_id != loaded.name:  # the name is a node type's: keep it beside the ID
-        exporter.trees[0].set("_name", loaded.name)
+    written_name = exporter.root_doc.data.get("name")
+    if not isinstance(written_name, str):  # the file has no name: say so (empty)
+        exporter.trees[0].set("_name", "")
+    elif main_id != written_name:  # the name is a node type's: keep it beside the ID
+        exporter.trees[0].set("_name", written_name)
     root = ET.Element("root", {"BTCPP_format": BTCPP_FORMAT, "main_tree_to_execute": main_id})
     board = {
         key: decl.model_dump(exclude_defaults=True) for key, decl in loaded.blackboard.items()
@@ -731,7 +734,10 @@ class _Importer:
             )
         self.check_cycles(main)
         main_tree = self.trees[main]
-        out: dict[str, Any] = {"name": main_tree.attrs.get("_name") or main}
+        out: dict[str, Any] = {}
+        written_name = main_tree.attrs.get("_name", main)
+        if written_name:  # empty: the tree file had no name (it takes the file's)
+            out["name"] = written_name
         if "_description" in main_tree.attrs:
             out["description"] = main_tree.attrs["_description"]
         params = self.params(main)

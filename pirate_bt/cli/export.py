@@ -1,0 +1,53 @@
+"""``pirate-bt export TARGET ...``: write a tree in another tool's format.
+
+Targets are rows of :data:`TARGETS` (name -> module, function, help), imported
+only when chosen, so adding a format is one module and one row. Today:
+
+- ``btcpp``: BehaviorTree.CPP v4 XML, which Groot2 opens
+  (:func:`pirate_bt.interop.btcpp.export_xml`).
+
+Traces are exported with ``pirate-bt trace export`` (``.btlog``, ``.mcap``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+from pathlib import Path
+
+# target -> (module, function, one-line help); the function takes
+# (tree_path, out_path, params) and returns the file written.
+TARGETS: dict[str, tuple[str, str, str]] = {
+    "btcpp": (
+        "pirate_bt.interop.btcpp",
+        "export_xml",
+        "BehaviorTree.CPP v4 XML (Groot2 opens it)",
+    ),
+}
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    subs = parser.add_subparsers(dest="target", required=True, metavar="TARGET")
+    for name, (_module, _function, text) in TARGETS.items():
+        sub = subs.add_parser(name, help=text, description=text)
+        sub.add_argument("tree", type=Path, help="tree file (.yaml)")
+        sub.add_argument("-o", "--output", type=Path, required=True, help="file to write")
+        sub.add_argument(
+            "--param",
+            action="append",
+            default=[],
+            metavar="KEY=VALUE",
+            help="a tree parameter (repeatable); written as the main tree's port default."
+            " A parameter not given takes its default, else its declared example",
+        )
+
+
+def run(args: argparse.Namespace) -> int:
+    from pirate_bt.cli.run import parse_params
+    from pirate_bt.resources import find_file
+
+    module_name, function, _text = TARGETS[args.target]
+    export = getattr(importlib.import_module(module_name), function)
+    written = export(find_file("trees", args.tree), args.output, parse_params(args.param))
+    print(f"wrote {written}")
+    return 0

@@ -1,0 +1,43 @@
+"""``pirate-bt import SOURCE FILE -o TREE.yaml``: read a tree from another tool's format.
+
+Sources are rows of :data:`SOURCES` (name -> module, function, help), imported
+only when chosen. Today:
+
+- ``btcpp``: BehaviorTree.CPP v4 XML, as Groot2 saves it
+  (:func:`pirate_bt.interop.btcpp.import_xml`).
+
+The tree file is checked with the tree loader before it is written; a file that
+cannot be converted is reported at its ``file:line:column`` and nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+from pathlib import Path
+
+# source -> (module, function, one-line help); the function takes
+# (source_path, out_path) and returns the file written.
+SOURCES: dict[str, tuple[str, str, str]] = {
+    "btcpp": (
+        "pirate_bt.interop.btcpp",
+        "import_xml",
+        "BehaviorTree.CPP v4 XML (as Groot2 saves it)",
+    ),
+}
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    subs = parser.add_subparsers(dest="source", required=True, metavar="SOURCE")
+    for name, (_module, _function, text) in SOURCES.items():
+        sub = subs.add_parser(name, help=text, description=text)
+        sub.add_argument("file", type=Path, help="file to read")
+        sub.add_argument("-o", "--output", type=Path, required=True, help="tree file (.yaml)")
+
+
+def run(args: argparse.Namespace) -> int:
+    module_name, function, _text = SOURCES[args.source]
+    convert = getattr(importlib.import_module(module_name), function)
+    written = convert(args.file, args.output)
+    print(f"wrote {written}")
+    return 0

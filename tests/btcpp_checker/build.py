@@ -1,0 +1,159 @@
+"""Build the BT.CPP port checker (``checker.cpp``) once, into a cache keyed by its inputs.
+
+The checker is compiled against the BehaviorTree.CPP headers of the
+``behaviortreepy`` source distribution and linked against the BehaviorTree.CPP
+that the installed ``behaviortreepy`` wheel already carries (its extension module
+exports BT.CPP's symbols), so nothing of BT.CPP is recompiled: one C++ file,
+about 5 s. The result is cached under ``tests/btcpp_checker/build/<hash>/``
+(ignored by git), keyed by the checker's source, the headers and the extension.
+
+Run it by hand with ``python tests/btcpp_checker/build.py`` (prints the path).
+
+The source distribution is found at ``$PIRATE_BT_BTCPP_SDIST``, in the cache,
+or at ``/tmp/btsrc/behaviortreepy-<version>.tar.gz``; failing those it is
+fetched with ``pip download`` (the ordinary client) into the cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tarfile
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+CACHE = HERE / "build"
+SOURCE = HERE / "checker.cpp"
+
+
+class Unavailable(Exception):
+    """The checker cannot be built here (no compiler, no bindings, no sources)."""
+
+
+def _extension() -> Path:
+    try:
+        import behaviortreepy
+    except ImportError:
+        raise Unavailable("behaviortreepy is not installed (pip install pirate-bt[btcpp])") from None
+    found = sorted(Path(behaviortreepy.__file__).parent.glob("_behaviortreepy*.so"))
+    if not found:
+        raise Unavailable("behaviortreepy has no compiled extension to link against")
+    return found[0]
+
+
+def _sdist() -> Path:
+    version = importlib.metadata.version("behaviortreepy")
+    name = f"behaviortreepy-{version}.tar.gz"
+    for candidate in (
+        os.environ.get("PIRATE_BT_BTCPP_SDIST"),
+        str(CACHE / name),
+        f"/tmp/btsrc/{name}",
+    ):
+        if candidate and Path(candidate).is_file():
+            return Path(candidate)
+    CACHE.mkdir(parents=True, exist_ok=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
+         "-d", str(CACHE), f"behaviortreepy=={version}"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    if result.returncode != 0 or not (CACHE / name).is_file():
+        raise Unavailable(f"cannot fetch the {name} source distribution: {result.stderr[-300:]}")
+    return CACHE / name
+
+
+def _headers(sdist: Path, into: Path) -> tuple[Path, Path]:
+    """Extract BT.CPP's include/ and tinyxml2.h from the source distribution."""
+    include, tinyxml = into / "include", into / "tinyxml2"
+    if include.is_dir() and (tinyxml / "tinyxml2.h").is_file():
+        return include, tinyxml
+    into.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=into.parent))
+    with tarfile.open(sdist) as archive:
+        members = [
+            m
+            for m in archive.getmembers()
+            if (m.isfile() or m.isdir())
+            and ("/BehaviorTree.CPP/include/" in m.name or m.name.endswith("tinyxml2/tinyxml2.h"))
+        ]
+        archive.extractall(staging, members=members, filter="data")
+    (staging / "include").mkdir(exist_ok=True)
+    (staging / "tinyxml2").mkdir(exist_ok=True)
+    for found in staging.glob("*/BehaviorTree.CPP/include/*"):
+        shutil.move(str(found), staging / "include" / found.name)
+    for found in staging.glob("*/BehaviorTree.CPP/3rdparty/tinyxml2/tinyxml2.h"):
+        shutil.move(str(found), staging / "tinyxml2" / "tinyxml2.h")
+    into.mkdir(parents=True, exist_ok=True)
+    for part in ("include", "tinyxml2"):
+        if not (into / part).exists():
+            os.replace(staging / part, into / part)
+    shutil.rmtree(staging, ignore_errors=True)
+    return include, tinyxml
+
+
+def _uses_new_abi(extension: Path) -> bool:
+    # The wheel is built for manylinux2014 (old std::string ABI) or newer; follow it.
+    return b"_ZN2BT19BehaviorTreeFactory18createTreeFromTextERKNSt7__cxx11" in (
+        extension.read_bytes()
+    )
+
+
+def build_checker() -> Path:
+    """The checker executable, built if the cache has none for these inputs.
+
+    Raises:
+        Unavailable: no C++ compiler, bindings or sources.
+    """
+    compiler = shutil.which("g++") or shutil.which("c++")
+    if compiler is None:
+        raise Unavailable("no C++ compiler (g++)")
+    extension = _extension()
+    sdist = _sdist()
+    digest = hashlib.sha256()
+    for part in (SOURCE.read_bytes(), extension.read_bytes(), sdist.read_bytes()):
+        digest.update(hashlib.sha256(part).digest())
+    target_dir = CACHE / digest.hexdigest()[:16]
+    binary = target_dir / "btcpp_checker"
+    if binary.is_file():
+        return binary
+    target_dir.mkdir(parents=True, exist_ok=True)
+    include, tinyxml = _headers(sdist, CACHE / "headers" / sdist.stem)
+    libs = extension.parent.parent / "behaviortreepy.libs"
+    libdir = sysconfig.get_config_var("LIBDIR")
+    scratch = target_dir / f"btcpp_checker.{os.getpid()}.tmp"
+    command = [
+        compiler,
+        "-std=c++17",
+        "-O0",
+        f"-D_GLIBCXX_USE_CXX11_ABI={1 if _uses_new_abi(extension) else 0}",
+        f"-I{include}",
+        f"-I{tinyxml}",
+        str(SOURCE),
+        "-o",
+        str(scratch),
+        str(extension),
+        f"-Wl,-rpath,{extension.parent}",
+        f"-Wl,-rpath-link,{libs}",
+        # the extension refers to Python's objects (never used here): link libpython
+        f"-L{libdir}",
+        f"-lpython{sysconfig.get_config_var('LDVERSION')}",
+        f"-Wl,-rpath,{libdir}",
+        "-Wl,--allow-shlib-undefined",
+    ]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    if result.returncode != 0:
+        raise Unavailable(f"the checker does not build: {result.stderr[-2000:]}")
+    os.replace(scratch, binary)  # other test processes see a whole binary or none
+    return binary
+
+
+if __name__ == "__main__":
+    print(build_checker())
