@@ -1,0 +1,276 @@
+"""A run live in Foxglove: a real WebSocket client subscribes and sees the robot and the tree."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from foxglove_ws import FoxgloveClient
+
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+from pirate_bt.interop.foxglove_live import FoxgloveServer, attach_foxglove, parse_address
+from pirate_bt.interop.foxglove_topics import TOPICS
+
+ROOT = Path(__file__).resolve().parent.parent
+PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def _connect(port: int, timeout_s: float = 20.0) -> FoxgloveClient:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            return FoxgloveClient("127.0.0.1", port)
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
+
+
+def _simulated_run(observe: Any, realtime: bool = True, distance: str = "0.05m") -> Any:
+    """``pirate-bt run trees/straight.yaml`` in-process, with ``observe(runner, connection)``."""
+    from argparse import Namespace
+
+    from pirate_bt.cli.run import connect, run_tree
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.treefile import load_tree
+
+    robot = load_robot(None)
+    checked = load_tree(
+        ROOT / "trees" / "straight.yaml",
+        robot=robot,
+        params={"distance": distance},
+        params_from_text=True,
+    )
+    args = Namespace(port=None, sim=None, seed=0, faults=None)
+    connection = connect(args, robot, checked.needs_robot)
+    try:
+        return run_tree(
+            checked,
+            robot,
+            connection,
+            period_s=0.05,
+            max_time_s=60.0,
+            realtime=realtime,
+            observe=lambda runner: observe(runner, connection),
+        )[1]
+    finally:
+        connection.close()
+
+
+def _observer(server: FoxgloveServer) -> Any:
+    from pirate_bt.trace import supervised_extras
+
+    def observe(runner: Any, connection: Any) -> None:
+        sim = connection.simulator
+        extras = supervised_extras(connection.supervisor, counters=sim.counters)
+        attach_foxglove(runner, server, extras=extras)
+
+    return observe
+
+
+def test_client_sees_state_and_tree_while_the_run_goes_on() -> None:
+    with FoxgloveServer(port=0) as server:
+        client = _connect(server.port)
+        assert client.subprotocol in ("foxglove.sdk.v1", "foxglove.websocket.v1")
+        assert client.wait_for(lambda c: set(TOPICS) <= set(c.channels), 10)
+        channel = client.channels["/pirate/state"]
+        assert (channel["encoding"], channel["schemaEncoding"]) == ("json", "jsonschema")
+        assert channel["schemaName"] == "pirate.RobotState"
+        client.subscribe("/pirate/state", "/pirate/tree", "/pirate/run", "/pirate/end")
+        assert client.wait_for(lambda _: server.subscriptions >= 4, 10)
+        # py_trees sets signal handlers: the run stays in the main thread, the client reads
+        # in another and notes when each message arrived.
+        arrivals: list[tuple[str, float]] = []
+        stop = threading.Event()
+
+        def read() -> None:
+            while not stop.is_set():
+                before = len(client.messages)
+                client.pump(0.05)
+                now = time.monotonic()
+                arrivals.extend((topic, now) for topic, _, _ in client.messages[before:])
+
+        reader = threading.Thread(target=read, daemon=True)
+        reader.start()
+        result = _simulated_run(_observer(server))
+        ended = time.monotonic()
+        time.sleep(0.5)
+        stop.set()
+        reader.join(5)
+        client.close()
+    during = [topic for topic, when in arrivals if when < ended]
+    assert during.count("/pirate/state") >= 3 and during.count("/pirate/tree") >= 2
+    assert result.outcome == "success"
+    state = client.of("/pirate/state")[-1]
+    assert set(state["joint_angle_rad"]) >= {"bend_1", "bend_4"} and "speed_mps" in state
+    tree = client.of("/pirate/tree")
+    assert tree[0]["status"][0] == {
+        "id": "0",
+        "name": tree[0]["status"][0]["name"],
+        "path": tree[0]["status"][0]["name"],
+        "status": "RUNNING",
+    }
+    assert any(m["active"] for m in tree)
+    assert client.of("/pirate/run")[0]["format"] == "pirate-bt-trace"
+    assert client.of("/pirate/end")[0]["outcome"] == "success"
+    times = [t for topic, t, _ in client.messages if topic == "/pirate/state"]
+    assert times == sorted(times)
+
+
+def test_late_subscriber_gets_the_run_and_a_tree_snapshot() -> None:
+    with FoxgloveServer(port=0) as server:
+        result = _simulated_run(_observer(server), realtime=False)
+        assert result.outcome == "success"
+        client = _connect(server.port)
+        client.wait_for(lambda c: "/pirate/run" in c.channels, 10)
+        client.subscribe("/pirate/run", "/pirate/tree", "/pirate/state")
+        client.wait_for(lambda _: server.subscriptions >= 3, 10)
+        # Latched topics are re-sent with the next record: a teleop-like tick here.
+        server.publish_record({"type": "tick", "n": 10_000, "t_s": 1.0})
+        assert client.wait_for(lambda c: c.of("/pirate/run") and c.of("/pirate/tree"), 10)
+        client.close()
+    snapshot = client.of("/pirate/tree")[0]
+    assert snapshot["snapshot"] is True
+    assert {e["status"] for e in snapshot["status"]} == {"SUCCESS"}
+
+
+def test_a_client_that_vanishes_mid_run_does_not_hurt_the_run() -> None:
+    port = _free_port()
+    proc = subprocess.Popen(
+        [
+            PIRATE_BT,
+            "run",
+            "trees/straight.yaml",
+            "--param",
+            "distance=0.05m",
+            "--realtime",
+            "--quiet",
+            "--foxglove",
+            f"127.0.0.1:{port}",
+        ],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    client = _connect(port)
+    client.wait_for(lambda c: "/pirate/state" in c.channels, 10)
+    client.subscribe(*TOPICS)
+    assert client.wait_for(lambda c: len(c.of("/pirate/state")) >= 2, 20)
+    client.sock.close()  # gone without a goodbye, mid-run
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "SUCCESS" in out
+    assert f"Foxglove live view on ws://127.0.0.1:{port}" in err
+
+
+def test_a_slow_client_never_slows_the_tick() -> None:
+    """A client that subscribes and never reads: the run takes as long as without one."""
+    with FoxgloveServer(port=0, message_backlog_size=16) as server:
+        client = _connect(server.port)
+        client.wait_for(lambda c: "/pirate/state" in c.channels, 10)
+        client.subscribe(*TOPICS)
+        client.wait_for(lambda _: server.subscriptions >= len(TOPICS), 10)
+        client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        started = time.monotonic()
+        result = _simulated_run(_observer(server), realtime=False, distance="0.5m")
+        took = time.monotonic() - started
+        client.sock.close()
+    assert result.outcome == "success"
+    assert server.enabled
+    assert took < 20
+
+
+def test_a_publishing_error_switches_the_view_off_not_the_run(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    with FoxgloveServer(port=0) as server:
+
+        class Broken:
+            def has_sinks(self) -> bool:
+                raise RuntimeError("socket exploded")
+
+        server._channels["/pirate/state"] = Broken()
+        result = _simulated_run(_observer(server), realtime=False)
+    assert result.outcome == "success"
+    assert not server.enabled
+    assert "publishing failed" in caplog.text
+
+
+def test_port_taken_is_one_clear_line(capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code = main(["run", "trees/straight.yaml", "--param", "distance=0.05m", "--quiet",
+                     "--foxglove", f"127.0.0.1:{port}"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and "the port is taken" in err[0] and str(port) in err[0]
+
+
+def test_addresses() -> None:
+    assert parse_address(None) == ("127.0.0.1", 8765)
+    assert parse_address("0.0.0.0:9000") == ("0.0.0.0", 9000)
+    assert parse_address("9001") == ("127.0.0.1", 9001)
+    assert parse_address("[::1]:9002") == ("::1", 9002)
+    assert parse_address("robot.local") == ("robot.local", 8765)
+    with pytest.raises(InputError, match="port must be a number"):
+        parse_address("127.0.0.1:99999")
+
+
+def test_missing_sdk_is_one_clear_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("foxglove", "foxglove.websocket"):
+        monkeypatch.setitem(sys.modules, name, None)  # import fails as if not installed
+    code = main(["run", "trees/straight.yaml", "--param", "distance=0.05m", "--quiet",
+                 "--foxglove"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert err == [
+        "pirate-bt: --foxglove needs the 'foxglove-sdk' package: pip install 'pirate-bt[foxglove]'"
+    ]
+
+
+def test_sim_and_teleop_serve_too() -> None:
+    port = _free_port()
+    proc = subprocess.Popen(
+        [PIRATE_BT, "sim", "--tcp", "0", "--duration", "3", "--foxglove", f"127.0.0.1:{port}"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    client = _connect(port)
+    client.wait_for(lambda c: "/pirate/sim" in c.channels, 10)
+    client.subscribe("/pirate/sim")
+    assert client.wait_for(lambda c: len(c.of("/pirate/sim")) >= 2, 10)
+    client.close()
+    proc.communicate(timeout=30)
+    assert proc.returncode == 0
+    assert {"front_m", "joint_angle_rad"} <= set(client.of("/pirate/sim")[-1]["truth"])
+    # teleop --keys: the operator's verdicts and the state, one tick per key.
+    port = _free_port()
+    done = subprocess.run(
+        [PIRATE_BT, "teleop", "--keys", "w" * 20, "--foxglove", f"127.0.0.1:{port}"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert f"ws://127.0.0.1:{port}" in done.stderr
