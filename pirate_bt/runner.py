@@ -162,8 +162,11 @@ def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
         visitor.initialise()
     root = tree.root
     if visitors:
+        # BehaviourTree.tick() picks the visitors that are not full once per node; once
+        # per tick is the same unless a node edits the tree's visitors mid-tick.
+        partial = [v for v in visitors if not v.full]
         for node in root.tick():
-            for visitor in [v for v in visitors if not v.full]:
+            for visitor in partial:
                 node.visit(visitor)
         full = [v for v in visitors if v.full]
         if full:
