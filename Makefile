@@ -29,8 +29,9 @@ graphviz:
 
 # Debian's gcc-avr and avr-libc build the bridge firmware, the host's gcc its
 # unit-test build, libsimavr-dev (with pkg-config) runs it in simavr; install what is
-# missing when we may (root + apt-get), as for Graphviz.
-AVR_PACKAGES := gcc-avr binutils-avr avr-libc gcc libsimavr-dev pkg-config
+# missing when we may (root + apt-get), as for Graphviz. libelf-dev: simavr.pc requires
+# libelf, so without it pkg-config says simavr is missing and the simavr tests skip.
+AVR_PACKAGES := gcc-avr binutils-avr avr-libc gcc libsimavr-dev libelf-dev pkg-config
 avr-toolchain:
 	@if command -v avr-gcc >/dev/null 2>&1 && [ -f /usr/lib/avr/include/avr/io.h ] \
 		&& command -v cc >/dev/null 2>&1 && pkg-config --exists simavr 2>/dev/null; then :; \

@@ -35,9 +35,18 @@ def missing_toolchain() -> str | None:
     for tool in ("avr-gcc", "cc", "make", "pkg-config"):
         if shutil.which(tool) is None:
             return f"{tool} missing (Debian: apt-get install gcc-avr avr-libc libsimavr-dev)"
-    ok = subprocess.run(["pkg-config", "--exists", "simavr"], check=False).returncode == 0
-    if not ok:
-        return "libsimavr-dev missing (Debian: apt-get install libsimavr-dev pkg-config)"
+    found = subprocess.run(
+        ["pkg-config", "--print-errors", "--exists", "simavr"],
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    if found.returncode != 0:
+        why = " ".join(found.stderr.split()) or "simavr.pc not found"
+        return (
+            f"simavr not usable through pkg-config ({why}); Debian: apt-get install"
+            " libsimavr-dev libelf-dev pkg-config (make test installs them as root)"
+        )
     return None
 
 
