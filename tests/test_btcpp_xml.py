@@ -77,9 +77,7 @@ def checker() -> Path:
 
 
 def _check(checker: Path, xml_path: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [str(checker), str(xml_path)], capture_output=True, text=True, timeout=60
-    )
+    return subprocess.run([str(checker), str(xml_path)], capture_output=True, text=True, timeout=60)
 
 
 # -- every shipped tree -----------------------------------------------------------------
@@ -132,9 +130,7 @@ def test_bt_cpp_checker_refuses_an_undeclared_port(checker: Path, tmp_path: Path
     assert "grip" in result.stdout
 
 
-def test_bt_cpp_checker_refuses_a_count_that_is_not_a_number(
-    checker: Path, tmp_path: Path
-) -> None:
+def test_bt_cpp_checker_refuses_a_count_that_is_not_a_number(checker: Path, tmp_path: Path) -> None:
     xml = tree_to_xml(ROOT / "trees/lib/clamp-rear.yaml")
     bad = tmp_path / "bad.xml"
     bad.write_text(xml.replace('num_attempts="2"', 'num_attempts="twice"'))
@@ -250,8 +246,20 @@ def test_a_node_registered_from_python_appears_in_the_model(tmp_path: Path) -> N
 
 def test_param_values_become_the_main_tree_port_defaults(tmp_path: Path) -> None:
     out = tmp_path / "bend.xml"
-    assert main(["export", "btcpp", str(ROOT / "trees/bend.yaml"), "-o", str(out),
-                 "--param", "roll=-90deg"]) == 0
+    assert (
+        main(
+            [
+                "export",
+                "btcpp",
+                str(ROOT / "trees/bend.yaml"),
+                "-o",
+                str(out),
+                "--param",
+                "roll=-90deg",
+            ]
+        )
+        == 0
+    )
     root = ET.parse(out).getroot()
     port = root.find("TreeNodesModel/SubTree[@ID='bend_2']/input_port[@name='roll']")
     assert port is not None and port.get("default") == "-90deg"
@@ -320,9 +328,7 @@ def test_malformed_xml_is_located(tmp_path: Path, capsys: Any) -> None:
 
 
 def test_an_entity_expansion_bomb_is_refused_before_expanding(tmp_path: Path, capsys: Any) -> None:
-    lol = "".join(
-        f'<!ENTITY l{i} "{("&l" + str(i - 1) + ";") * 10}">' for i in range(1, 10)
-    )
+    lol = "".join(f'<!ENTITY l{i} "{("&l" + str(i - 1) + ";") * 10}">' for i in range(1, 10))
     bomb = f'<?xml version="1.0"?>\n<!DOCTYPE root [<!ENTITY l0 "lol">{lol}]>\n<root>&l9;</root>'
     _assert_refused(tmp_path, bomb, capsys, r"in\.xml:2:\d+: a DOCTYPE is not allowed")
 
@@ -343,8 +349,10 @@ def test_deep_nesting_is_refused(tmp_path: Path, capsys: Any) -> None:
 def test_unknown_node_type_names_close_ones(tmp_path: Path, capsys: Any) -> None:
     line = _assert_refused(
         tmp_path,
-        _doc('<BehaviorTree ID="T">\n  <Sequence>\n    <clamb half="front"/>\n  </Sequence>\n'
-             "</BehaviorTree>"),
+        _doc(
+            '<BehaviorTree ID="T">\n  <Sequence>\n    <clamb half="front"/>\n  </Sequence>\n'
+            "</BehaviorTree>"
+        ),
         capsys,
         r"in\.xml:4:5: unknown node type 'clamb'; did you mean 'clamp'",
     )
@@ -372,8 +380,10 @@ def test_scripts_are_refused(tmp_path: Path, capsys: Any) -> None:
 def test_missing_tree_id_is_refused(tmp_path: Path, capsys: Any) -> None:
     _assert_refused(
         tmp_path,
-        _doc('<BehaviorTree ID="T"><AlwaysSuccess/></BehaviorTree>\n'
-             "<BehaviorTree><AlwaysSuccess/></BehaviorTree>"),
+        _doc(
+            '<BehaviorTree ID="T"><AlwaysSuccess/></BehaviorTree>\n'
+            "<BehaviorTree><AlwaysSuccess/></BehaviorTree>"
+        ),
         capsys,
         r"in\.xml:3:1: <BehaviorTree> without an ID",
     )
@@ -382,9 +392,11 @@ def test_missing_tree_id_is_refused(tmp_path: Path, capsys: Any) -> None:
 def test_subtrees_that_include_each_other_are_refused(tmp_path: Path, capsys: Any) -> None:
     _assert_refused(
         tmp_path,
-        _doc('<BehaviorTree ID="T"><SubTree ID="A"/></BehaviorTree>\n'
-             '<BehaviorTree ID="A"><SubTree ID="B"/></BehaviorTree>\n'
-             '<BehaviorTree ID="B"><Sequence><SubTree ID="A"/></Sequence></BehaviorTree>'),
+        _doc(
+            '<BehaviorTree ID="T"><SubTree ID="A"/></BehaviorTree>\n'
+            '<BehaviorTree ID="A"><SubTree ID="B"/></BehaviorTree>\n'
+            '<BehaviorTree ID="B"><Sequence><SubTree ID="A"/></Sequence></BehaviorTree>'
+        ),
         capsys,
         r"in\.xml:4:\d+: recursive subtree: A -> B -> A",
     )
@@ -393,8 +405,10 @@ def test_subtrees_that_include_each_other_are_refused(tmp_path: Path, capsys: An
 def test_a_missing_subtree_is_refused(tmp_path: Path, capsys: Any) -> None:
     _assert_refused(
         tmp_path,
-        _doc('<BehaviorTree ID="T"><SubTree ID="Reprot"/></BehaviorTree>\n'
-             '<BehaviorTree ID="Report"><AlwaysSuccess/></BehaviorTree>'),
+        _doc(
+            '<BehaviorTree ID="T"><SubTree ID="Reprot"/></BehaviorTree>\n'
+            '<BehaviorTree ID="Report"><AlwaysSuccess/></BehaviorTree>'
+        ),
         capsys,
         r"<SubTree ID='Reprot'>: no such <BehaviorTree>; did you mean 'Report'",
     )
@@ -417,8 +431,10 @@ def test_unknown_port_and_bad_values_are_located(tmp_path: Path, capsys: Any) ->
     (tmp_path / "in.xml").unlink()
     _assert_refused(
         tmp_path,
-        _doc('<BehaviorTree ID="T">\n<RetryUntilSuccessful num_attempts="-1"><AlwaysSuccess/>'
-             "</RetryUntilSuccessful></BehaviorTree>"),
+        _doc(
+            '<BehaviorTree ID="T">\n<RetryUntilSuccessful num_attempts="-1"><AlwaysSuccess/>'
+            "</RetryUntilSuccessful></BehaviorTree>"
+        ),
         capsys,
         r"num_attempts='-1': pirate_bt's retry needs a count of at least 1",
     )
@@ -427,7 +443,8 @@ def test_unknown_port_and_bad_values_are_located(tmp_path: Path, capsys: Any) ->
 def test_version_3_files_are_refused(tmp_path: Path, capsys: Any) -> None:
     _assert_refused(
         tmp_path,
-        '<root main_tree_to_execute="T"><BehaviorTree ID="T"><AlwaysSuccess/></BehaviorTree></root>',
+        '<root main_tree_to_execute="T">'
+        '<BehaviorTree ID="T"><AlwaysSuccess/></BehaviorTree></root>',
         capsys,
         r'in\.xml:1:1: missing BTCPP_format="4"',
     )

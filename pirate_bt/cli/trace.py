@@ -38,7 +38,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     export.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
     export.add_argument(
-        "-o", "--output", type=Path, required=True, help="file to write; its suffix picks the format"
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        help="file to write; its suffix picks the format",
     )
 
 

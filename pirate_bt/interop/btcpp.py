@@ -292,8 +292,13 @@ _PARALLEL_MODEL: Final = NodeModel(
     "parallel",
     "Control",
     (
-        PortModel("policy", "string", "success on all, one or selected children", "all",
-                  ("all", "one", "selected")),
+        PortModel(
+            "policy",
+            "string",
+            "success on all, one or selected children",
+            "all",
+            ("all", "one", "selected"),
+        ),
         PortModel("synchronise", "boolean", "children that succeeded are not ticked again", ""),
         PortModel("selected", "json", "with policy selected: the names of the children", ""),
     ),
@@ -347,7 +352,7 @@ def encode_value(value: Any, port_type: str) -> str:
             value = value[1:]
         if (value.startswith("{") and value.endswith("}")) or value.startswith("json:"):
             return _json(value)  # would read as a pointer or as JSON
-        return value
+        return str(value)
     if isinstance(value, bool):
         return ("true" if value else "false") if port_type == "boolean" else _json(value)
     if isinstance(value, int) and port_type in ("integer", "number"):
@@ -494,8 +499,10 @@ class _Exporter:
         if kind == "eternal_guard":
             tag = "ReactiveSequence"
             kids = [*raw["conditions"], raw["child"]]
-            paths = [*((*path, "conditions", i) for i in range(len(raw["conditions"]))),
-                     (*path, "child")]
+            paths = [
+                *((*path, "conditions", i) for i in range(len(raw["conditions"]))),
+                (*path, "child"),
+            ]
             attrs[_HINT] = "eternal_guard"
         else:
             kids = raw["children"]
@@ -504,7 +511,8 @@ class _Exporter:
                 memory = raw.get("memory", kind == "sequence")
                 if not isinstance(memory, bool):
                     raise _located(
-                        doc, (*path, "memory"),
+                        doc,
+                        (*path, "memory"),
                         "memory: a parameter cannot choose between BT.CPP's node types;"
                         " write true or false",
                     )
@@ -544,8 +552,11 @@ class _Exporter:
         kind: str = raw["type"]
         model = self.models[kind]
         params = {k: v for k, v in raw.items() if k not in ("type", "name", "description", "child")}
-        tag, renames = kind, {}
-        if kind in TO_BTCPP and (kind != "oneshot" or params.get("on", "completion") == "completion"):
+        tag: str = kind
+        renames: dict[str, str] = {}
+        if kind in TO_BTCPP and (
+            kind != "oneshot" or params.get("on", "completion") == "completion"
+        ):
             tag, renames = TO_BTCPP[kind]
             if kind == "oneshot":
                 params = {"then_skip": False}
@@ -576,9 +587,7 @@ def _model_element(model: NodeModel) -> ET.Element:
     return element
 
 
-def _subtree_model(
-    tree_id: str, decls: Mapping[str, Any], given: Mapping[str, str]
-) -> ET.Element:
+def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, str]) -> ET.Element:
     element = ET.Element("SubTree", {"ID": tree_id})
     for name, decl in decls.items():
         decl = {"type": decl} if isinstance(decl, str) else dict(decl)
@@ -627,9 +636,7 @@ def tree_to_xml(
     elif main_id != written_name:  # the name is a node type's: keep it beside the ID
         exporter.trees[0].set("_name", written_name)
     root = ET.Element("root", {"BTCPP_format": BTCPP_FORMAT, "main_tree_to_execute": main_id})
-    board = {
-        key: decl.model_dump(exclude_defaults=True) for key, decl in loaded.blackboard.items()
-    }
+    board = {key: decl.model_dump(exclude_defaults=True) for key, decl in loaded.blackboard.items()}
     if board:
         exporter.trees[0].set("_blackboard", _json(board))
     root.extend(exporter.trees)
@@ -685,7 +692,7 @@ class _Importer:
                 f"BTCPP_format={fmt!r}: only BehaviorTree.CPP version 4 files are read"
                 " (convert version 3 files with BT.CPP's convert_v3_to_v4.py)"
                 if fmt
-                else "missing BTCPP_format=\"4\" on <root>"
+                else 'missing BTCPP_format="4" on <root>'
             )
         models_seen = False
         for child in root.children:
@@ -782,7 +789,9 @@ class _Importer:
                 self.subtree_models[model_id] = model
             elif model_id not in self.models:
                 # A node type of another program: fine as long as no tree uses it.
-                _log.info("%s: node model %r is not a pirate_bt node type", model.location, model_id)
+                _log.info(
+                    "%s: node model %r is not a pirate_bt node type", model.location, model_id
+                )
 
     def check_cycles(self, main: str) -> None:
         state: dict[str, int] = {}  # 1: on the stack, 2: done
@@ -977,7 +986,7 @@ class _Importer:
         if tag == "RunOnce":
             if ports.get("then_skip", "true").lower() not in ("false", "0"):
                 raise element.error(
-                    "<RunOnce> without then_skip=\"false\" returns SKIPPED after the first"
+                    '<RunOnce> without then_skip="false" returns SKIPPED after the first'
                     " run, a status pirate_bt does not have"
                 )
             out["child"] = self.only_child(element)

@@ -150,7 +150,8 @@ class _TreeWriter:
         elif kind is not None:
             model = self.models[kind]
             params = {_ADAPTED_PARAMS.get(k, k): v for k, v in params.items()}
-            tag, renames = kind, {}
+            tag = kind
+            renames: dict[str, str] = {}
             if kind in TO_BTCPP and kind != "oneshot":
                 tag, renames = TO_BTCPP[kind]
             else:
@@ -194,7 +195,9 @@ def structure_xml(structure: TreeStructure, registry: Registry | None = None) ->
         model = writer.used[name]
         entry = ET.SubElement(models, model.category, {"ID": model.id})
         for port in model.ports:
-            port_element = ET.SubElement(entry, "input_port", {"name": port.name, "type": port.type})
+            port_element = ET.SubElement(
+                entry, "input_port", {"name": port.name, "type": port.type}
+            )
             port_element.text = port.description or None
     ET.indent(root, space="    ")
     return ET.tostring(root, "unicode")
@@ -252,12 +255,15 @@ def trace_transitions(trace: Any) -> list[Transition]:
 def btlog_bytes(xml: str, start_us: int, transitions: Iterable[Transition]) -> bytes:
     """The bytes of a ``.btlog`` file (see the module docstring)."""
     body = xml.encode("utf-8")
-    parts = [MAGIC, bytes([PROTOCOL]), struct.pack("<i", len(body)), body,
-             struct.pack("<q", start_us)]
+    parts = [
+        MAGIC,
+        bytes([PROTOCOL]),
+        struct.pack("<i", len(body)),
+        body,
+        struct.pack("<q", start_us),
+    ]
     for t in transitions:
-        parts.append(
-            t.time_us.to_bytes(6, "little") + struct.pack("<H", t.uid) + bytes([t.status])
-        )
+        parts.append(t.time_us.to_bytes(6, "little") + struct.pack("<H", t.uid) + bytes([t.status]))
     return b"".join(parts)
 
 

@@ -40,7 +40,9 @@ def _extension() -> Path:
     try:
         import behaviortreepy
     except ImportError:
-        raise Unavailable("behaviortreepy is not installed (pip install pirate-bt[btcpp])") from None
+        raise Unavailable(
+            "behaviortreepy is not installed (pip install pirate-bt[btcpp])"
+        ) from None
     found = sorted(Path(behaviortreepy.__file__).parent.glob("_behaviortreepy*.so"))
     if not found:
         raise Unavailable("behaviortreepy has no compiled extension to link against")
@@ -59,8 +61,18 @@ def _sdist() -> Path:
             return Path(candidate)
     CACHE.mkdir(parents=True, exist_ok=True)
     result = subprocess.run(
-        [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
-         "-d", str(CACHE), f"behaviortreepy=={version}"],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "download",
+            "--no-deps",
+            "--no-binary",
+            ":all:",
+            "-d",
+            str(CACHE),
+            f"behaviortreepy=={version}",
+        ],
         capture_output=True,
         text=True,
         timeout=300,
