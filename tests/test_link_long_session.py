@@ -115,3 +115,49 @@ def test_long_session_every_command_applied_or_reported(sup: Supervisor) -> None
     assert applied == 20
     assert sim.counters().watchdog_trips == 0
     assert sup.port.health().failed == 0
+
+
+@pytest.mark.slow
+def test_a_long_mission_on_a_lossy_link_loses_no_command(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The whole lab mission (about 560 s, thousands of setpoints) over a link that drops
+    5 % and corrupts 1 % of frames: every setpoint the host counts as acknowledged was
+    applied by the bridge, and every other one ended as a reported failure or was
+    superseded by a newer bulk."""
+    from pathlib import Path
+
+    from pirate_bt.link.messages import MsgType
+    from pirate_bt.link.requests import Outcome as LinkOutcome
+    from pirate_bt.link.session import Session
+    from pirate_bt.sim.bridge import SimBridge
+    from pirate_bt.task.mission import simulate_mission
+
+    applied: list[tuple[MsgType, int]] = []
+    monkeypatch.setattr(
+        SimBridge, "_record_applied", lambda _self, kind, seq: applied.append((kind, seq))
+    )
+    ended: list[tuple[str, int, LinkOutcome]] = []
+    tries: list[int] = []
+    finish = Session._finish
+
+    def noting_finish(self: Session, req: object, outcome: LinkOutcome, now: float) -> None:
+        if not req.done:  # type: ignore[attr-defined]
+            ended.append((type(req.msg).__name__, req.seq, outcome))  # type: ignore[attr-defined]
+            tries.append(req.tries)  # type: ignore[attr-defined]
+        finish(self, req, outcome, now)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Session, "_finish", noting_finish)
+    route = Path(__file__).resolve().parent.parent / "scenarios" / "lab.route"
+    result = simulate_mission(route, faults="drop=0.05,corrupt=0.01", seed=5)
+    assert result.run.sim_time_s > 100  # a long run, whatever its outcome
+    setpoints = [(name, seq, o) for name, seq, o in ended if name in ("Setpoint", "BulkSetpoints")]
+    assert 300 < len(setpoints) < 65_536  # many, and no sequence wrap to confuse the check
+    done = {seq for kind, seq in applied if kind in (MsgType.SETPOINT, MsgType.BULK_SETPOINTS)}
+    acked = [seq for _, seq, o in setpoints if o is LinkOutcome.ACKED]
+    assert acked and all(seq in done for seq in acked), "a setpoint acknowledged, not applied"
+    others = {o for _, _, o in setpoints if o is not LinkOutcome.ACKED}
+    reported = {LinkOutcome.FAILED, LinkOutcome.NACKED, LinkOutcome.STALE}
+    assert others <= reported | {LinkOutcome.SUPERSEDED, LinkOutcome.CANCELLED}
+    # The faults were real: requests were lost and sent again.
+    assert max(tries) > 1
