@@ -1,0 +1,152 @@
+"""Foxglove figures: MCAP size per hour, and the cost of ``--trace RUN.mcap`` and ``--foxglove``.
+
+Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS]`` (default 3 ABBA pairs).
+
+- **Size per hour**: the lab mission (``pirate-bt mission scenarios/lab.route
+  --sim lab --quiet --trace X``) written once per suffix (``.jsonl``,
+  ``.jsonl.gz``, ``.mcap``), scaled from its simulated duration to an hour. The
+  ``.mcap`` is the file as the run leaves it (compacted: chunked, LZ4, indexed);
+  the size of the unchunked file before compaction, which is what a killed run
+  leaves, is measured from the recorder's writer with compaction off.
+- **Overhead**: wall time of the whole command (start-up included, the same on
+  both sides) against the same command without a trace, in ABBA order (off, on,
+  on, off) repeated, so that a noisy, shared machine hits both alike. The figure
+  is the extra wall time per run, median and range over the pairs, also as % of
+  the untraced run. For ``--foxglove`` one client (``tests/foxglove_ws.py``,
+  standard library) connects as soon as the port opens, subscribes to every
+  topic and reads everything until the run ends.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))
+MISSION = [PIRATE_BT, "mission", "scenarios/lab.route", "--sim", "lab", "--quiet"]
+
+
+def _run(extra: list[str]) -> float:
+    started = time.perf_counter()
+    subprocess.run([*MISSION, *extra], cwd=ROOT, check=True, capture_output=True)
+    return time.perf_counter() - started
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def _run_with_client() -> tuple[float, int]:
+    from foxglove_ws import FoxgloveClient
+
+    from pirate_bt.interop.foxglove_topics import TOPICS
+
+    port = _free_port()
+    received = [0]
+    started = time.perf_counter()
+    proc = subprocess.Popen(
+        [*MISSION, "--foxglove", f"127.0.0.1:{port}"],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+    def client() -> None:
+        while proc.poll() is None:
+            try:
+                fox = FoxgloveClient("127.0.0.1", port)
+                break
+            except OSError:
+                time.sleep(0.01)
+        else:
+            return
+        fox.wait_for(lambda c: set(TOPICS) <= set(c.channels), 5)
+        fox.subscribe(*TOPICS)
+        try:
+            while proc.poll() is None:
+                fox.pump(0.1)
+        except ConnectionError:
+            pass
+        received[0] = len(fox.messages)
+
+    reader = threading.Thread(target=client, daemon=True)
+    reader.start()
+    proc.wait()
+    took = time.perf_counter() - started
+    reader.join(5)
+    if proc.returncode != 0:
+        raise RuntimeError(f"mission failed with --foxglove (exit {proc.returncode})")
+    return took, received[0]
+
+
+def sizes() -> None:
+    print("Size per hour of the lab mission (20 Hz ticks):")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        files = {suffix: out / f"lab{suffix}" for suffix in (".jsonl", ".jsonl.gz", ".mcap")}
+        for path in files.values():
+            _run(["--trace", str(path)])
+        end = json.loads(files[".jsonl"].read_text().splitlines()[-1])
+        hours = float(end["t_s"]) / 3600.0
+        # The unchunked file a killed run leaves: the same records, compaction off.
+        from pirate_bt.interop.mcap_trace import McapTraceWriter
+
+        raw = McapTraceWriter(out / "raw.mcap", compact=False)
+        for line in files[".jsonl"].read_text().splitlines():
+            raw.write_line(line + "\n")
+        raw.close()
+        rows = [(s, p.stat().st_size) for s, p in files.items()]
+        rows.append((".mcap unchunked (while running)", (out / "raw.mcap").stat().st_size))
+        base = files[".jsonl"].stat().st_size
+        print(f"  mission: {end['t_s']:.0f} s simulated, {end['n']} ticks")
+        for name, size in rows:
+            print(
+                f"  {name:34s} {size / 1e6:7.2f} MB per run, {size / hours / 1e6:7.1f} MB/h"
+                f"  ({size / base:.2f} x .jsonl)"
+            )
+
+
+def overhead(pairs: int) -> None:
+    print(f"Overhead on the lab mission (wall time per run, {pairs} ABBA pairs):")
+    with tempfile.TemporaryDirectory() as tmp:
+        trace = str(Path(tmp) / "lab.mcap")
+        for name in ("--trace RUN.mcap", "--foxglove, one client"):
+            base: list[float] = []
+            extra: list[float] = []
+            messages = 0
+            for _ in range(pairs):
+                for on in (False, True, True, False):
+                    if not on:
+                        base.append(_run([]))
+                    elif name.startswith("--trace"):
+                        extra.append(_run(["--trace", trace]))
+                    else:
+                        took, messages = _run_with_client()
+                        extra.append(took)
+            diffs = [
+                (extra[2 * i] + extra[2 * i + 1] - base[2 * i] - base[2 * i + 1]) / 2
+                for i in range(pairs)
+            ]
+            plain = statistics.median(base)
+            median = statistics.median(diffs)
+            print(
+                f"  {name:24s} +{median:5.2f} s (range {min(diffs):+.2f} to {max(diffs):+.2f} s)"
+                f" on {plain:.2f} s untraced (median), {100 * median / plain:+.0f} %"
+                + (f"; client received {messages} messages" if messages else "")
+            )
+
+
+if __name__ == "__main__":
+    sizes()
+    overhead(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
