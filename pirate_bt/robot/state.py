@@ -100,6 +100,9 @@ class StateBuilder:
     def __init__(self, robot: RobotDescription) -> None:
         self.robot = robot
         self._channels = robot.state_channels()
+        self._scales = [
+            (c.name, c.conversion.zero_raw, c.conversion.per_raw) for c in self._channels
+        ]
         self._joint: dict[str, str] = {}
         self._spring: dict[str, str] = {}
         for module in robot.all_bend_modules():
@@ -161,12 +164,13 @@ class StateBuilder:
             raise ValueError(f"expected {len(self._channels)} raw values, got {len(raw)}")
         readings: dict[str, Reading] = {}
         old = previous.readings if previous is not None else {}
-        for spec, value in zip(self._channels, raw, strict=True):
+        # Runs for every STATE frame: the conversion (RawConversion.to_si) inlined.
+        for (name, zero, per), value in zip(self._scales, raw, strict=True):
             if value is None:
-                if spec.name in old:
-                    readings[spec.name] = old[spec.name]
+                if name in old:
+                    readings[name] = old[name]
             else:
-                readings[spec.name] = Reading(spec.conversion.to_si(value), stamp_s)
+                readings[name] = Reading((value - zero) * per, stamp_s)
         return self.from_readings(readings, stamp_s)
 
     def from_readings(self, readings: Mapping[str, Reading], stamp_s: float) -> RobotState:
