@@ -488,6 +488,7 @@ class TopicMapper:
             self._children[node_id] = [str(c) for c in node.get("children") or []]
         self._root = str(nodes[0].get("id")) if nodes else None
         self.statuses: dict[str, str] = {}
+        self._active: str | None = None
         self.feedback: dict[str, Any] = {}
         self.state: dict[str, Any] = {}
         self.link: dict[str, Any] = {}
@@ -576,7 +577,9 @@ class TopicMapper:
                     {"id": node_id, "name": self._names.get(node_id, ""), "feedback": text}
                     for node_id, text in feedback.items()
                 ]
-            tree["active"] = self.active()
+            if status or self._active is None:  # only a status change moves it
+                self._active = self.active()
+            tree["active"] = self._active
             out.append(TopicMessage(TREE, when, tree))
         bb, unset = record.get("bb"), record.get("bb_unset")
         if bb or unset:

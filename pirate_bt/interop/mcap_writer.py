@@ -13,6 +13,7 @@ import contextlib
 import json
 import logging
 import os
+import struct
 import tempfile
 from pathlib import Path
 from typing import IO, Any, ClassVar
@@ -32,12 +33,16 @@ __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write
 
 logger = logging.getLogger(__name__)
 
+_MESSAGE = struct.Struct("<BQHIQQ")
+"""An MCAP Message record's opcode, length, channel, sequence, log and publish time."""
+_MAGIC = b"\x89MCAP0\r\n"
 CHUNK_BYTES = 1 << 20
 """Uncompressed size of one chunk in a compacted or exported file."""
 
 
 def load_mcap() -> Any:
     try:
+        import mcap.data_stream
         import mcap.exceptions
         import mcap.records
         import mcap.stream_reader
@@ -164,14 +169,23 @@ class McapTraceWriter(TraceFormatWriter):
         self.compact = compact
         self._buffer = _Buffer()
         super().__init__(path, sync=sync, fd=fd)
-        self._writer: Any = mcap.writer.Writer(
-            self._buffer,  # a stream with write() and tell() is enough
-            use_chunking=False,
-            compression=mcap.writer.CompressionType.NONE,
-        )
-        self._writer.start(profile="", library=_library())
-        self._channels = _Channels(self._writer)
+        # The start of an unchunked MCAP file: magic, header, a schema and a channel per
+        # topic, each record written as it comes (no chunk to lose in a crash).
+        records = mcap.records
+        builder = mcap.data_stream.RecordBuilder()
+        records.Header(profile="", library=_library()).write(builder)
+        self._ids: dict[str, int] = {}
+        for number, topic in enumerate(TOPICS, start=1):
+            name, schema = schema_of(topic)
+            data = json.dumps(schema).encode("utf-8")
+            records.Schema(id=number, name=name, encoding="jsonschema", data=data).write(builder)
+            records.Channel(
+                id=number, topic=topic, message_encoding="json", schema_id=number, metadata={}
+            ).write(builder)
+            self._ids[topic] = number
+        self._buffer.write(_MAGIC + builder.end())
         self._mapper = TopicMapper()
+        self._sequence = 0
         self._finished = False
         self._emit()
 
@@ -201,8 +215,16 @@ class McapTraceWriter(TraceFormatWriter):
 
     def write_record(self, record: Any) -> None:
         """Write the messages of one record; they are in the kernel's hands on return."""
+        # Message records are packed here, one struct each: the mcap Writer builds them
+        # field by field in Python, several times slower, and this runs in the tick.
+        parts = self._buffer.parts
+        ids, pack = self._ids, _MESSAGE.pack
         for message in self._mapper.messages(record):
-            self._channels.add(self._writer, message)
+            data = encode_message(message.message)
+            self._sequence += 1
+            when = message.log_time_ns
+            parts.append(pack(5, 22 + len(data), ids[message.topic], self._sequence, when, when))
+            parts.append(data)
         self._emit()
 
     def close(self) -> None:
@@ -212,7 +234,15 @@ class McapTraceWriter(TraceFormatWriter):
         try:
             if not self._finished:
                 self._finished = True
-                self._writer.finish()
+                # The end of an MCAP file without a summary section (the messages did not
+                # go through the Writer, whose summary would not count them); compacting
+                # writes the full summary and indexes.
+                mcap = load_mcap()
+                builder = mcap.data_stream.RecordBuilder()
+                mcap.records.DataEnd(0).write(builder)
+                mcap.records.Footer(0, 0, 0).write(builder)
+                self._buffer.write(builder.end())
+                self._buffer.write(_MAGIC)
                 self._emit()
         finally:
             super().close()
