@@ -91,7 +91,8 @@ static uint8_t last_frame[256][64]; /* per address: the last frame told to the b
 static uint8_t last_frame_len[256];
 static uint64_t bus_repeats, last_tick;
 static uint8_t reply_len[256];
-static uint64_t bus_replies, bus_unanswered;
+static uint64_t bus_replies, bus_unanswered; /* EXCHANGEs: answered, not (silent board) */
+static uint64_t bus_stops;                    /* STOPs with a good CRC */
 static unsigned bus_frame_n;
 static bool bus_frame_ready;
 static uint64_t bus_frame_cycle;
@@ -339,7 +340,10 @@ static void answer(const uint8_t *frame, unsigned n) {
         return;
     }
     if (body[1] != 0x01u) {
-        return; /* STOP: applied silently */
+        if (body[1] == 0x02u) {
+            bus_stops++; /* STOP: applied silently */
+        }
+        return;
     }
     uint8_t addr = body[0];
     if (!reply_len[addr]) {
@@ -521,7 +525,7 @@ static int figures_text(char *out, size_t size) {
                      "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
                      "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
                      "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
-                     "host_queue_bytes %u\n",
+                     "bus_stops %llu\nhost_queue_bytes %u\n",
                      (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
                      (unsigned long long)dtr_resets,
                      (unsigned long long)unexpected_resets, debug_u16(2),
@@ -531,7 +535,7 @@ static int figures_text(char *out, size_t size) {
                      (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
                      debug_u16(18), (unsigned long long)bus_replies,
                      (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats,
-                     hostq_head - hostq_tail);
+                     (unsigned long long)bus_stops, hostq_head - hostq_tail);
     k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);

@@ -110,7 +110,9 @@ class BoardBus:
         self._next_step_s = self.now_s + self.period_s
         self._raw: list[int] | None = None
         self.steps = 0
-        # figures
+        # figures: the frames this object handled. Behind the simavr harness that is
+        # not every frame on the bus (a frame repeating the last one to its board is
+        # not forwarded); the harness's own figures (bus_replies, bus_stops) count all.
         self.exchanges = 0
         self.stops = 0
         self.bad_frames = 0
