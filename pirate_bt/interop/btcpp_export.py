@@ -1,0 +1,293 @@
+"""BehaviorTree.CPP v4 XML export: a pirate_bt tree file (and the files it uses) as XML.
+
+:func:`tree_to_xml` and :func:`export_xml`, re-exported by
+:mod:`pirate_bt.interop.btcpp`.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import LocatedError
+from pirate_bt.interop.btcpp_models import (
+    _BTCPP_BUILTINS,
+    _HINT,
+    _PARALLEL_MODEL,
+    BTCPP_FORMAT,
+    TO_BTCPP,
+    NodeModel,
+    _json,
+    encode_value,
+    node_models,
+)
+from pirate_bt.interop.btcpp_xml import write_atomic
+from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.yamlfile import YamlDocument, load_yaml
+
+__all__ = ["export_xml", "tree_to_xml"]
+
+
+def _located(doc: YamlDocument, path: tuple[str | int, ...], message: str) -> LocatedError:
+    return LocatedError(message, doc.locator.locate(path))
+
+
+class _Exporter:
+    """Walks the tree files (as written, before parameters are substituted)."""
+
+    def __init__(self, registry: Registry, models: dict[str, NodeModel]) -> None:
+        self.registry = registry
+        self.models = models
+        self.docs: dict[str, YamlDocument] = {}
+        self.ids: dict[str, str] = {}  # file#name -> BehaviorTree ID
+        self.trees: list[ET.Element] = []
+        self.params: dict[str, tuple[YamlDocument, tuple[str | int, ...], Any]] = {}
+        self.taken = set(models) | set(_BTCPP_BUILTINS)
+
+    def document(self, path: Path) -> YamlDocument:
+        key = str(path.resolve())
+        if key not in self.docs:
+            self.docs[key] = load_yaml(path)
+        return self.docs[key]
+
+    def tree(self, doc: YamlDocument, name: str, tree_id: str | None = None) -> str:
+        ident = f"{Path(doc.file).resolve()}#{name}"
+        if ident in self.ids:
+            return self.ids[ident]
+        data = doc.data
+        if not tree_id:
+            if name:
+                tree_id = name if doc is self.root_doc else f"{self.file_id(doc)}.{name}"
+            else:
+                tree_id = self.file_id(doc)
+        base, n = tree_id, 1
+        while tree_id in self.taken:
+            n += 1
+            tree_id = f"{base}_{n}"
+        self.taken.add(tree_id)
+        self.ids[ident] = tree_id
+        prefix: tuple[str | int, ...] = ("subtrees", name) if name else ()
+        body = data["subtrees"][name] if name else data
+        element = ET.Element("BehaviorTree", {"ID": tree_id})
+        if isinstance(body.get("description"), str):
+            element.set("_description", body["description"])
+        self.trees.append(element)
+        self.params[tree_id] = (doc, (*prefix, "params"), body.get("params") or {})
+        element.append(self.node(doc, (*prefix, "root"), body["root"]))
+        return tree_id
+
+    def file_id(self, doc: YamlDocument) -> str:
+        name = doc.data.get("name")
+        return name if isinstance(name, str) and name else Path(doc.file).stem
+
+    def node(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
+        if isinstance(raw, str):
+            raw = {"type": raw}
+        kind: str = raw["type"]
+        if kind == "subtree":
+            element = self.subtree(doc, path, raw)
+        elif kind in ("sequence", "selector", "parallel", "eternal_guard"):
+            element = self.composite(doc, path, raw)
+        else:
+            element = self.registered(doc, path, raw)
+        if isinstance(raw.get("description"), str):
+            element.set("_description", raw["description"])
+        return element
+
+    def subtree(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
+        ref: str = raw["ref"]
+        file_part, hash_sign, tree_name = ref.partition("#")
+        if file_part.endswith((".yaml", ".yml")):
+            target = self.document(Path(doc.file).parent / file_part)
+            name = tree_name if hash_sign else ""
+        else:
+            target, name = doc, file_part
+        tree_id = self.tree(target, name)
+        element = ET.Element("SubTree", {"ID": tree_id})
+        if raw.get("name"):
+            element.set("name", raw["name"])
+        decls = self.declared(target, name)
+        for key, value in (raw.get("params") or {}).items():
+            element.set(key, encode_value(value, decls.get(key, "string")))
+        return element
+
+    def declared(self, doc: YamlDocument, name: str) -> dict[str, str]:
+        body = doc.data["subtrees"][name] if name else doc.data
+        out: dict[str, str] = {}
+        for key, decl in (body.get("params") or {}).items():
+            out[key] = decl if isinstance(decl, str) else str(decl.get("type", "string"))
+        return out
+
+    def composite(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
+        kind = raw["type"]
+        attrs: dict[str, str] = {}
+        if kind == "eternal_guard":
+            tag = "ReactiveSequence"
+            kids = [*raw["conditions"], raw["child"]]
+            paths = [
+                *((*path, "conditions", i) for i in range(len(raw["conditions"]))),
+                (*path, "child"),
+            ]
+            attrs[_HINT] = "eternal_guard"
+        else:
+            kids = raw["children"]
+            paths = [(*path, "children", i) for i in range(len(kids))]
+            if kind in ("sequence", "selector"):
+                memory = raw.get("memory", kind == "sequence")
+                if not isinstance(memory, bool):
+                    raise _located(
+                        doc,
+                        (*path, "memory"),
+                        "memory: a parameter cannot choose between BT.CPP's node types;"
+                        " write true or false",
+                    )
+                tag = {
+                    ("sequence", True): "Sequence",
+                    ("sequence", False): "ReactiveSequence",
+                    ("selector", True): "Fallback",
+                    ("selector", False): "ReactiveFallback",
+                }[(kind, memory)]
+            else:
+                tag, attrs = self.parallel(raw)
+        element = ET.Element(tag)
+        if raw.get("name"):
+            element.set("name", raw["name"])
+        for key, value in attrs.items():
+            element.set(key, value)
+        for kid_path, kid in zip(paths, kids, strict=True):
+            element.append(self.node(doc, kid_path, kid))
+        return element
+
+    def parallel(self, raw: Mapping[str, Any]) -> tuple[str, dict[str, str]]:
+        policy = raw.get("policy", "all")
+        sync = raw.get("synchronise", policy != "one")
+        if "selected" not in raw:
+            if policy == "all" and sync is True:
+                return "Parallel", {"success_count": "-1", "failure_count": "1"}
+            if policy == "one" and sync is False:
+                return "Parallel", {"success_count": "1", "failure_count": "1"}
+        attrs: dict[str, str] = {}
+        for key in ("policy", "synchronise", "selected"):
+            if key in raw:
+                port = _PARALLEL_MODEL.port(key)
+                attrs[key] = encode_value(raw[key], port.type if port else "string")
+        return "parallel", attrs
+
+    def registered(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
+        kind: str = raw["type"]
+        model = self.models[kind]
+        params = {k: v for k, v in raw.items() if k not in ("type", "name", "description", "child")}
+        tag: str = kind
+        renames: dict[str, str] = {}
+        if kind in TO_BTCPP and (
+            kind != "oneshot" or params.get("on", "completion") == "completion"
+        ):
+            tag, renames = TO_BTCPP[kind]
+            if kind == "oneshot":
+                params = {"then_skip": False}
+        element = ET.Element(tag)
+        if raw.get("name"):
+            element.set("name", raw["name"])
+        for key, value in params.items():
+            port = model.port(key)
+            port_type = port.type if port else "boolean"
+            element.set(renames.get(key, key), encode_value(value, port_type))
+        if "child" in raw:
+            element.append(self.node(doc, (*path, "child"), raw["child"]))
+        return element
+
+    root_doc: YamlDocument
+
+
+def _model_element(model: NodeModel) -> ET.Element:
+    element = ET.Element(model.category, {"ID": model.id})
+    for port in model.ports:
+        attrs = {"name": port.name, "type": port.type}
+        if port.default is not None:
+            attrs["default"] = port.default
+        if port.choices:
+            attrs["choices"] = ";".join(port.choices)
+        child = ET.SubElement(element, "input_port", attrs)
+        child.text = port.description or None
+    return element
+
+
+def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, str]) -> ET.Element:
+    element = ET.Element("SubTree", {"ID": tree_id})
+    for name, decl in decls.items():
+        decl = {"type": decl} if isinstance(decl, str) else dict(decl)
+        kind = str(decl.get("type", "string"))
+        attrs = {"name": name, "type": kind}
+        if name in given:
+            attrs["default"] = given[name]
+        elif decl.get("default") is not None:
+            attrs["default"] = encode_value(decl["default"], kind)
+        if decl.get("example") is not None:
+            attrs["example"] = encode_value(decl["example"], kind)
+        if decl.get("choices"):
+            attrs["choices"] = _json(list(decl["choices"]))
+        port = ET.SubElement(element, "input_port", attrs)
+        port.text = str(decl["description"]) if decl.get("description") else None
+    return element
+
+
+def tree_to_xml(
+    path: str | Path,
+    params: Mapping[str, str] | None = None,
+    registry: Registry | None = None,
+) -> str:
+    """The tree file at ``path`` (and every file it uses) as BT.CPP v4 XML text.
+
+    The tree is checked first, with the loader (a parameter without a default
+    takes ``params``, then its ``example``). Values given in ``params`` become
+    the defaults of the main tree's ports.
+
+    Raises:
+        ValidationFailed: the tree does not load.
+        LocatedError: the tree uses something XML cannot say.
+    """
+    from pirate_bt.treefile import load_tree
+
+    reg = registry or default_registry()
+    source = Path(path)
+    given = dict(params or {})
+    loaded = load_tree(source, params=given, params_from_text=True, use_examples=True, registry=reg)
+    exporter = _Exporter(reg, node_models(reg))
+    exporter.root_doc = exporter.document(source)
+    main_id = exporter.tree(exporter.root_doc, "", loaded.name)
+    written_name = exporter.root_doc.data.get("name")
+    if not isinstance(written_name, str):  # the file has no name: say so (empty)
+        exporter.trees[0].set("_name", "")
+    elif main_id != written_name:  # the name is a node type's: keep it beside the ID
+        exporter.trees[0].set("_name", written_name)
+    root = ET.Element("root", {"BTCPP_format": BTCPP_FORMAT, "main_tree_to_execute": main_id})
+    board = {key: decl.model_dump(exclude_defaults=True) for key, decl in loaded.blackboard.items()}
+    if board:
+        exporter.trees[0].set("_blackboard", _json(board))
+    root.extend(exporter.trees)
+    models = ET.SubElement(root, "TreeNodesModel")
+    for name in sorted(exporter.models):
+        models.append(_model_element(exporter.models[name]))
+    for element in exporter.trees:
+        tree_id = element.get("ID", "")
+        _doc, _where, decls = exporter.params[tree_id]
+        models.append(_subtree_model(tree_id, decls, given if tree_id == main_id else {}))
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, "unicode") + "\n"
+
+
+def export_xml(
+    tree_path: str | Path,
+    out_path: str | Path,
+    params: Mapping[str, str] | None = None,
+    registry: Registry | None = None,
+) -> Path:
+    """Write ``tree_path`` as BT.CPP v4 XML to ``out_path`` (atomically); see :func:`tree_to_xml`.
+
+    Returns:
+        The file written.
+    """
+    text = tree_to_xml(tree_path, params, registry)
+    return write_atomic(Path(out_path), text)

@@ -1,0 +1,509 @@
+"""BehaviorTree.CPP v4 XML import: an XML file as a pirate_bt tree file, checked as it is read.
+
+:func:`xml_to_tree` and :func:`import_xml`, re-exported by
+:mod:`pirate_bt.interop.btcpp`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import ValidationError
+
+from pirate_bt.errors import InputError, ValidationFailed
+from pirate_bt.interop.btcpp_models import (
+    _BTCPP_BUILTINS,
+    _HINT,
+    _MODEL_TAGS,
+    _PARAM_TYPES,
+    _SCRIPT_ATTRS,
+    BTCPP_FORMAT,
+    FROM_BTCPP,
+    TO_BTCPP,
+    decode_value,
+    node_models,
+)
+from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
+from pirate_bt.treefile.params import PARAM_RE
+from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.yamlfile import validation_problems
+
+__all__ = ["import_xml", "xml_to_tree"]
+
+# The logger keeps the name it had before the split (pirate_bt.interop.btcpp).
+_log = logging.getLogger("pirate_bt.interop.btcpp")
+
+
+def _suggest(name: str, known: list[str]) -> str:
+    close = difflib.get_close_matches(name, known, n=2)
+    return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+
+
+class _Importer:
+    def __init__(self, root: XmlElement, registry: Registry) -> None:
+        self.root = root
+        self.registry = registry
+        self.models = node_models(registry)
+        self.trees: dict[str, XmlElement] = {}
+        self.subtree_models: dict[str, XmlElement] = {}
+
+    def read(self) -> dict[str, Any]:
+        root = self.root
+        if root.tag != "root":
+            raise root.error(f"expected <root>, found <{root.tag}>")
+        fmt = root.attrs.get("BTCPP_format")
+        if fmt != BTCPP_FORMAT:
+            raise root.error(
+                f"BTCPP_format={fmt!r}: only BehaviorTree.CPP version 4 files are read"
+                " (convert version 3 files with BT.CPP's convert_v3_to_v4.py)"
+                if fmt
+                else 'missing BTCPP_format="4" on <root>'
+            )
+        models_seen = False
+        for child in root.children:
+            if child.tag == "BehaviorTree":
+                tree_id = child.attrs.get("ID")
+                if not tree_id:
+                    raise child.error("<BehaviorTree> without an ID")
+                if tree_id in self.trees:
+                    raise child.error(
+                        f"a second <BehaviorTree ID={tree_id!r}> (first at"
+                        f" {self.trees[tree_id].location})"
+                    )
+                if tree_id in self.models or tree_id in _BTCPP_BUILTINS:
+                    raise child.error(f"tree ID {tree_id!r} is the name of a node type")
+                if len(child.children) != 1:
+                    raise child.error(
+                        f"<BehaviorTree ID={tree_id!r}> must have exactly one child,"
+                        f" not {len(child.children)}"
+                    )
+                self.trees[tree_id] = child
+            elif child.tag == "TreeNodesModel":
+                if models_seen:
+                    raise child.error("a second <TreeNodesModel>")
+                models_seen = True
+                self.read_models(child)
+            elif child.tag == "include":
+                raise child.error("<include> is not supported: put every tree in one file")
+            else:
+                raise child.error(
+                    f"unexpected <{child.tag}> under <root>; expected <BehaviorTree>"
+                    " or <TreeNodesModel>"
+                )
+        if not self.trees:
+            raise root.error("no <BehaviorTree> in the file")
+        main = root.attrs.get("main_tree_to_execute")
+        if main is None:
+            if len(self.trees) > 1:
+                raise root.error(
+                    "several <BehaviorTree> and no main_tree_to_execute to say which one runs"
+                )
+            main = next(iter(self.trees))
+        elif main not in self.trees:
+            raise root.error(
+                f"main_tree_to_execute={main!r}: no such <BehaviorTree>"
+                + _suggest(main, list(self.trees))
+            )
+        self.check_cycles(main)
+        main_tree = self.trees[main]
+        out: dict[str, Any] = {}
+        written_name = main_tree.attrs.get("_name", main)
+        if written_name:  # empty: the tree file had no name (it takes the file's)
+            out["name"] = written_name
+        if "_description" in main_tree.attrs:
+            out["description"] = main_tree.attrs["_description"]
+        params = self.params(main)
+        if params:
+            out["params"] = params
+        if "_blackboard" in main_tree.attrs:
+            try:
+                board = decode_value(main_tree.attrs["_blackboard"], "json")
+            except ValueError as exc:
+                raise main_tree.error(f"_blackboard: {exc}") from None
+            if not isinstance(board, dict):
+                raise main_tree.error("_blackboard: a JSON object of key -> declaration")
+            out["blackboard"] = board
+        out["root"] = self.node(main_tree.children[0])
+        subtrees: dict[str, Any] = {}
+        for tree_id, element in self.trees.items():
+            if tree_id == main:
+                continue
+            body: dict[str, Any] = {}
+            if "_description" in element.attrs:
+                body["description"] = element.attrs["_description"]
+            params = self.params(tree_id)
+            if params:
+                body["params"] = params
+            body["root"] = self.node(element.children[0])
+            subtrees[tree_id] = body
+        if subtrees:
+            out["subtrees"] = subtrees
+        return out
+
+    def read_models(self, models: XmlElement) -> None:
+        for model in models.children:
+            if model.tag not in _MODEL_TAGS:
+                raise model.error(
+                    f"unexpected <{model.tag}> in <TreeNodesModel>; expected one of"
+                    f" {', '.join(_MODEL_TAGS)}"
+                )
+            model_id = model.attrs.get("ID")
+            if not model_id:
+                raise model.error(f"<{model.tag}> in <TreeNodesModel> without an ID")
+            if model.tag == "SubTree":
+                self.subtree_models[model_id] = model
+            elif model_id not in self.models:
+                # A node type of another program: fine as long as no tree uses it.
+                _log.info(
+                    "%s: node model %r is not a pirate_bt node type", model.location, model_id
+                )
+
+    def check_cycles(self, main: str) -> None:
+        state: dict[str, int] = {}  # 1: on the stack, 2: done
+
+        def visit(tree_id: str, chain: list[str]) -> None:
+            state[tree_id] = 1
+            stack = [self.trees[tree_id]]
+            while stack:
+                element = stack.pop()
+                stack.extend(element.children)
+                if element.tag != "SubTree":
+                    continue
+                target = element.attrs.get("ID")
+                if not target:
+                    raise element.error("<SubTree> without an ID")
+                if target not in self.trees:
+                    raise element.error(
+                        f"<SubTree ID={target!r}>: no such <BehaviorTree>"
+                        + _suggest(target, list(self.trees))
+                    )
+                if state.get(target) == 1:
+                    loop = " -> ".join([*chain[chain.index(target) :], target])
+                    raise element.error(f"recursive subtree: {loop}")
+                if state.get(target) is None:
+                    visit(target, [*chain, target])
+            state[tree_id] = 2
+
+        visit(main, [main])
+        for tree_id in self.trees:
+            if tree_id not in state:
+                visit(tree_id, [tree_id])
+
+    def params(self, tree_id: str) -> dict[str, Any]:
+        model = self.subtree_models.get(tree_id)
+        if model is None:
+            return {}
+        out: dict[str, Any] = {}
+        for port in model.children:
+            if port.tag != "input_port":
+                raise port.error(
+                    f"<{port.tag}>: a pirate_bt subtree takes input ports (its parameters) only"
+                )
+            name = port.attrs.get("name", "")
+            if not name.isidentifier():
+                raise port.error(f"port name {name!r} must be an identifier")
+            kind = port.attrs.get("type", "string")
+            if kind not in _PARAM_TYPES:
+                raise port.error(
+                    f"port {name!r}: type {kind!r} is not a pirate_bt parameter type"
+                    f" ({', '.join(sorted(_PARAM_TYPES))})"
+                )
+            decl: dict[str, Any] = {"type": kind}
+            try:
+                for key in ("default", "example"):
+                    if key in port.attrs:
+                        decl[key] = decode_value(port.attrs[key], kind, name)
+                if "choices" in port.attrs:
+                    decl["choices"] = decode_value(port.attrs["choices"], "json")
+            except ValueError as exc:
+                raise port.error(f"port {name!r}: {exc}") from None
+            description = port.attrs.get("description") or port.text.strip()
+            if description:
+                decl["description"] = description
+            out[name] = decl
+        return out
+
+    def node(self, element: XmlElement) -> dict[str, Any]:
+        tag = element.tag
+        attrs = dict(element.attrs)
+        if tag in ("Action", "Condition", "Control", "Decorator"):
+            tag = attrs.pop("ID", "")
+            if not tag:
+                raise element.error(f"<{element.tag}> without an ID")
+        for key in attrs:
+            if key in _SCRIPT_ATTRS:
+                raise element.error(
+                    f"{key}: BT.CPP scripts are not supported; use pirate_bt's guard"
+                    " decorators (skip_if, failure_if, while)"
+                )
+        out: dict[str, Any] = {}
+        name = attrs.pop("name", None)
+        description = attrs.pop("_description", None)
+        hint = attrs.pop(_HINT, None)
+        ports = {k: v for k, v in attrs.items() if not k.startswith("_") and k != "ID"}
+        if tag == "SubTree":
+            out = self.subtree(element, ports, name)
+        elif tag in FROM_BTCPP and tag not in self.models:
+            out = self.builtin(element, tag, ports, name, hint)
+        elif tag in self.models:
+            out = self.registered(element, tag, ports, name)
+        elif tag in _BTCPP_BUILTINS:
+            raise element.error(
+                f"BT.CPP node {tag!r} has no pirate_bt counterpart (see docs/interop.md)"
+            )
+        else:
+            known = sorted({*self.models, *FROM_BTCPP})
+            raise element.error(f"unknown node type {tag!r}" + _suggest(tag, known))
+        if description is not None:
+            out["description"] = description
+        return out
+
+    def named(self, kind: str, name: str | None) -> dict[str, Any]:
+        return {"type": kind, "name": name} if name is not None else {"type": kind}
+
+    def subtree(
+        self, element: XmlElement, ports: dict[str, str], name: str | None
+    ) -> dict[str, Any]:
+        if element.children:
+            raise element.error("<SubTree> must not have children")
+        target = element.attrs.get("ID", "")
+        if element.attrs.get("_autoremap") not in (None, "false", "0"):
+            raise element.error("_autoremap is not supported: remap each port explicitly")
+        declared = self.params(target)
+        out = self.named("subtree", name)
+        out["ref"] = target
+        given: dict[str, Any] = {}
+        for key, text in ports.items():
+            decl = declared.get(key)
+            if decl is None:
+                known = ", ".join(declared) or "none declared"
+                raise element.error(
+                    f"<SubTree ID={target!r}>: port {key!r} is not a parameter of {target!r}"
+                    f" (parameters: {known}; declare them in <TreeNodesModel>)"
+                )
+            try:
+                given[key] = decode_value(text, decl["type"], key)
+            except ValueError as exc:
+                raise element.error(f"{key}: {exc}") from None
+        if given:
+            out["params"] = given
+        return out
+
+    def children(self, element: XmlElement, least: int) -> list[dict[str, Any]]:
+        if len(element.children) < least:
+            raise element.error(f"<{element.tag}> needs at least {least} child(ren)")
+        return [self.node(child) for child in element.children]
+
+    def only_child(self, element: XmlElement) -> dict[str, Any]:
+        if len(element.children) != 1:
+            raise element.error(
+                f"<{element.tag}> is a decorator: exactly one child, not {len(element.children)}"
+            )
+        return self.node(element.children[0])
+
+    def builtin(
+        self,
+        element: XmlElement,
+        tag: str,
+        ports: dict[str, str],
+        name: str | None,
+        hint: str | None,
+    ) -> dict[str, Any]:
+        kind = FROM_BTCPP[tag]
+        allowed = {
+            "Parallel": {"success_count", "failure_count"},
+            "RetryUntilSuccessful": {"num_attempts"},
+            "Repeat": {"num_cycles"},
+            "RunOnce": {"then_skip"},
+        }.get(tag, set())
+        for key in ports:
+            if key not in allowed:
+                known = ", ".join(sorted(allowed)) or "none"
+                raise element.error(f"<{tag}> has no port {key!r} (ports: {known})")
+        if hint == "eternal_guard" and tag == "ReactiveSequence":
+            kids = self.children(element, 2)
+            out = self.named("eternal_guard", name)
+            out["conditions"] = kids[:-1]
+            out["child"] = kids[-1]
+            return out
+        if hint is not None:
+            raise element.error(f"{_HINT}={hint!r} is only known on a <ReactiveSequence>")
+        out = self.named(kind, name)
+        if tag in ("Sequence", "ReactiveSequence", "Fallback", "ReactiveFallback"):
+            memory = tag in ("Sequence", "Fallback")
+            if memory != (kind == "sequence"):
+                out["memory"] = memory
+            out["children"] = self.children(element, 1)
+            return out
+        if tag == "Parallel":
+            counts = (ports.get("success_count", "-1"), ports.get("failure_count", "1"))
+            if counts == ("-1", "1"):
+                pass  # policy: all, synchronised (the defaults)
+            elif counts == ("1", "1"):
+                out["policy"] = "one"
+            else:
+                raise element.error(
+                    f"<Parallel success_count={counts[0]!r} failure_count={counts[1]!r}>:"
+                    " pirate_bt's parallel succeeds on all (-1, 1) or one (1, 1) child"
+                )
+            out["children"] = self.children(element, 1)
+            return out
+        if tag == "RunOnce":
+            if ports.get("then_skip", "true").lower() not in ("false", "0"):
+                raise element.error(
+                    '<RunOnce> without then_skip="false" returns SKIPPED after the first'
+                    " run, a status pirate_bt does not have"
+                )
+            out["child"] = self.only_child(element)
+            return out
+        renames = {btcpp: ours for ours, btcpp in TO_BTCPP[kind][1].items()}
+        for key, text in ports.items():
+            try:
+                value = decode_value(text, "integer", key)
+            except ValueError as exc:
+                raise element.error(f"{key}: {exc}") from None
+            if isinstance(value, int) and value < 1:
+                raise element.error(
+                    f"{key}={text!r}: pirate_bt's {kind} needs a count of at least 1"
+                )
+            out[renames[key]] = value
+        if self.models[kind].category == "Decorator":
+            out["child"] = self.only_child(element)
+        elif element.children:
+            raise element.error(f"<{tag}> is a leaf and takes no children")
+        return out
+
+    def registered(
+        self, element: XmlElement, kind: str, ports: dict[str, str], name: str | None
+    ) -> dict[str, Any]:
+        model = self.models[kind]
+        out = self.named(kind, name)
+        params: dict[str, Any] = {}
+        for key, text in ports.items():
+            port = model.port(key)
+            if port is None:
+                known = ", ".join(p.name for p in model.ports) or "none"
+                raise element.error(
+                    f"{kind}: unknown port {key!r} (ports: {known})"
+                    + _suggest(key, [p.name for p in model.ports])
+                )
+            try:
+                params[key] = decode_value(text, port.type, key)
+            except ValueError as exc:
+                raise element.error(f"{kind}: {key}: {exc}") from None
+        if kind != "parallel":
+            self.check_params(element, kind, params)
+        out.update(params)
+        if model.category == "Decorator":
+            out["child"] = self.only_child(element)
+        elif model.category == "Control":
+            out["children"] = self.children(element, 1)
+        elif element.children:
+            raise element.error(f"{kind!r} is a leaf and takes no children")
+        return out
+
+    def check_params(self, element: XmlElement, kind: str, params: dict[str, Any]) -> None:
+        """Validate a node's parameters here, where the XML can be pointed at."""
+        if _has_reference(params):
+            return  # checked when the converted tree is loaded, with the values bound
+        cls = self.registry.get(kind)
+        try:
+            cls.Params.model_validate(params, context={"units_required": True})
+        except ValidationError as exc:
+            problems = validation_problems(exc, params)
+            where, message = problems[0] if problems else ((), str(exc))
+            field = ".".join(str(p) for p in where)
+            raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
+
+
+def _has_reference(value: Any) -> bool:
+    if isinstance(value, str):
+        return PARAM_RE.match(value) is not None
+    if isinstance(value, dict):
+        return any(_has_reference(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_has_reference(v) for v in value)
+    return False
+
+
+def xml_to_tree(path: str | Path, registry: Registry | None = None) -> dict[str, Any]:
+    """Read a BT.CPP v4 XML file into the mapping of a pirate_bt tree file.
+
+    Raises:
+        InputError: the file cannot be read.
+        LocatedError: anything that cannot become a pirate_bt tree, located.
+    """
+    root = parse_xml(Path(path))
+    return _Importer(root, registry or default_registry()).read()
+
+
+class _Dumper(yaml.SafeDumper):
+    pass
+
+
+def _str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
+    style = "|" if "\n" in value else None
+    return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
+
+
+_Dumper.add_representer(str, _str)
+
+
+def import_xml(
+    xml_path: str | Path, out_path: str | Path, registry: Registry | None = None
+) -> Path:
+    """Convert a BT.CPP v4 XML file to a pirate_bt tree file, checked before it appears.
+
+    The YAML is written beside ``out_path`` under a temporary name, loaded with
+    the tree loader, and only then renamed to ``out_path``: a file that does not
+    load is never left behind.
+
+    Returns:
+        The file written.
+
+    Raises:
+        LocatedError: the XML cannot be converted (at the XML's line and column).
+        InputError: the converted tree does not load (the loader's message).
+    """
+    from pirate_bt.treefile import load_tree
+
+    reg = registry or default_registry()
+    source = Path(xml_path)
+    data = xml_to_tree(source, reg)
+    text = (
+        f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
+        + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
+    )
+    out = Path(out_path)
+    folder = out.parent if str(out.parent) else Path(".")
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".yaml", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
+    tmp = Path(tmp_name)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as stream:
+            stream.write(text)
+        try:
+            load_tree(tmp, use_examples=True, registry=reg)
+        except ValidationFailed as exc:
+            first = exc.errors[0]
+            raise InputError(
+                f"{source}: the converted tree does not load: {first.message}"
+                + (f" (and {len(exc.errors) - 1} more)" if len(exc.errors) > 1 else "")
+            ) from None
+        mask = os.umask(0o022)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, out)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    return out

@@ -1,0 +1,361 @@
+"""BehaviorTree.CPP v4 node models and port values: what export and import share.
+
+The mapping tables between pirate_bt and BT.CPP node types (:data:`TO_BTCPP`,
+:data:`FROM_BTCPP`, BT.CPP's built-in IDs), the node and port models derived from
+the registry (:func:`node_models`), and the encoding of YAML values as port text
+and back (:func:`encode_value`, :func:`decode_value`). The public names are
+re-exported by :mod:`pirate_bt.interop.btcpp`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, Final, get_args
+
+from pydantic import BaseModel
+
+from pirate_bt.behaviours.base import NodeMixin
+from pirate_bt.errors import InputError
+from pirate_bt.treefile.params import PARAM_RE, SI_UNITS, ParamType
+from pirate_bt.treefile.registry import Registry, default_registry
+
+__all__ = [
+    "BTCPP_FORMAT",
+    "FROM_BTCPP",
+    "TO_BTCPP",
+    "NodeModel",
+    "PortModel",
+    "decode_value",
+    "encode_value",
+    "node_models",
+]
+
+BTCPP_FORMAT: Final = "4"
+
+#: pirate_bt node type -> (BT.CPP node ID, our parameter -> BT.CPP port), for the
+#: registered nodes whose behaviour BT.CPP's built-in node shares. Composites
+#: (sequence, selector, parallel, eternal_guard) are chosen by their options in
+#: :func:`_composite`. ``docs/interop.md`` explains each row, and the rows left out.
+TO_BTCPP: Final[dict[str, tuple[str, dict[str, str]]]] = {
+    "success": ("AlwaysSuccess", {}),
+    "failure": ("AlwaysFailure", {}),
+    "inverter": ("Inverter", {}),
+    "failure_is_success": ("ForceSuccess", {}),
+    "success_is_failure": ("ForceFailure", {}),
+    "retry": ("RetryUntilSuccessful", {"attempts": "num_attempts"}),
+    "repeat": ("Repeat", {"times": "num_cycles"}),
+    "oneshot": ("RunOnce", {}),  # only with on: completion (then_skip="false")
+}
+
+#: BT.CPP node ID -> pirate_bt node type, for reading XML back.
+FROM_BTCPP: Final[dict[str, str]] = {
+    "Sequence": "sequence",
+    "ReactiveSequence": "sequence",
+    "Fallback": "selector",
+    "ReactiveFallback": "selector",
+    "Parallel": "parallel",
+    **{btcpp: ours for ours, (btcpp, _) in TO_BTCPP.items()},
+}
+
+# BT.CPP's built-in node IDs (4.8): none of our tree IDs may take one of these names.
+_BTCPP_BUILTINS: Final = frozenset(
+    {
+        "AlwaysFailure",
+        "AlwaysSuccess",
+        "AsyncFallback",
+        "AsyncSequence",
+        "Delay",
+        "EntryUpdated",
+        "Fallback",
+        "ForceFailure",
+        "ForceSuccess",
+        "IfThenElse",
+        "Inverter",
+        "KeepRunningUntilFailure",
+        "LoopBool",
+        "LoopDouble",
+        "LoopInt",
+        "LoopString",
+        "ManualSelector",
+        "Parallel",
+        "ParallelAll",
+        "Precondition",
+        "ReactiveFallback",
+        "ReactiveSequence",
+        "Repeat",
+        "RetryUntilSuccessful",
+        "RunOnce",
+        "Script",
+        "ScriptCondition",
+        "Sequence",
+        "SequenceWithMemory",
+        "SetBlackboard",
+        "SkipUnlessUpdated",
+        "Sleep",
+        "SubTree",
+        "Switch2",
+        "Switch3",
+        "Switch4",
+        "Switch5",
+        "Switch6",
+        "Timeout",
+        "TryCatch",
+        "UnsetBlackboard",
+        "WaitValueUpdate",
+        "WasEntryUpdated",
+        "WhileDoElse",
+    }
+)
+# BT.CPP's pre- and post-condition script attributes: pirate_bt has no scripts.
+_SCRIPT_ATTRS: Final = frozenset(
+    {"_failureIf", "_successIf", "_skipIf", "_while", "_onHalted", "_onFailure", "_onSuccess"}
+    | {"_post"}
+)
+_MODEL_TAGS: Final = ("Action", "Condition", "Control", "Decorator", "SubTree")
+_HINT: Final = "_pirate_bt"  # marks a ReactiveSequence that was an eternal_guard
+_DIMENSION_TYPE: Final = {dim: kind for kind, (dim, _) in SI_UNITS.items()}
+_PARAM_TYPES: Final = frozenset(get_args(ParamType))
+
+
+# -- node models ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PortModel:
+    """One port (parameter) of a node type.
+
+    Attributes:
+        name: The parameter's name.
+        type: ``integer``, ``number``, ``boolean``, ``string``, a quantity
+            (``angle``, ``duration``, ``torque``, ...), ``scalar`` (any of the
+            first four) or ``json`` (a list or mapping, written with ``json:``).
+        description: What the parameter means.
+        default: The default as port text, or ``None`` if the port is required.
+        choices: The allowed values of a string port, if limited.
+    """
+
+    name: str
+    type: str
+    description: str = ""
+    default: str | None = None
+    choices: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class NodeModel:
+    """A node type as BT.CPP's ``<TreeNodesModel>`` declares it.
+
+    Attributes:
+        id: The node ID (the pirate_bt type name).
+        category: ``Action``, ``Condition``, ``Decorator`` or ``Control``.
+        ports: The input ports.
+        description: The node class's first docstring line.
+    """
+
+    id: str
+    category: str
+    ports: tuple[PortModel, ...]
+    description: str = ""
+
+    def port(self, name: str) -> PortModel | None:
+        """The port called ``name``, if there is one."""
+        return next((p for p in self.ports if p.name == name), None)
+
+
+def _quantity_schemas() -> dict[str, str]:
+    from pirate_bt.units import _DISPLAY, _json_schema
+
+    return {json.dumps(_json_schema(dim), sort_keys=True): dim for dim in _DISPLAY}
+
+
+def _schema_type(prop: Mapping[str, Any], defs: Mapping[str, Any]) -> tuple[str, tuple[str, ...]]:
+    """(port type, choices) of one property of a parameter model's JSON schema."""
+    quantity = _quantity_schemas().get(json.dumps(dict(prop), sort_keys=True))
+    if quantity is None and "anyOf" in prop:
+        bare = {k: v for k, v in prop.items() if k in ("anyOf",)}
+        quantity = _quantity_schemas().get(json.dumps(bare, sort_keys=True))
+    if quantity is not None:
+        return _DIMENSION_TYPE.get(quantity, quantity), ()
+    if "$ref" in prop:
+        return _schema_type(defs[str(prop["$ref"]).rsplit("/", 1)[-1]], defs)
+    if "allOf" in prop and len(prop["allOf"]) == 1:
+        return _schema_type(prop["allOf"][0], defs)
+    if "anyOf" in prop:
+        options = [o for o in prop["anyOf"] if o.get("type") != "null"]
+        if len(options) == 1:
+            return _schema_type(options[0], defs)
+        kinds = [o.get("type") for o in options]
+        if all(k in ("boolean", "integer", "number", "string") for k in kinds) and all(
+            "$ref" not in o for o in options
+        ):
+            return "scalar", ()
+        return "json", ()
+    if "enum" in prop:
+        return "string", tuple(str(e) for e in prop["enum"])
+    kind = prop.get("type")
+    if kind in ("integer", "number", "boolean", "string"):
+        return str(kind), ()
+    return "json", ()
+
+
+def _default_text(value: Any, port_type: str) -> str | None:
+    if value is None:
+        return None
+    if port_type in SI_UNITS and isinstance(value, int | float) and not isinstance(value, bool):
+        return f"{value!r} {SI_UNITS[port_type][1]}"
+    return encode_value(value, port_type)
+
+
+def _plain(value: Any) -> Any:
+    """A default value as plain JSON data (enums by value, models dumped)."""
+    if isinstance(value, Enum):
+        return value.value
+    if isinstance(value, BaseModel):
+        return value.model_dump(mode="json")
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _ports(params: type[BaseModel]) -> tuple[PortModel, ...]:
+    schema = params.model_json_schema()
+    defs = schema.get("$defs", {})
+    out: list[PortModel] = []
+    for name, info in params.model_fields.items():
+        prop = schema.get("properties", {}).get(name, {})
+        port_type, choices = _schema_type(prop, defs)
+        default = (
+            None
+            if info.is_required()
+            else _default_text(_plain(info.get_default(call_default_factory=True)), port_type)
+        )
+        if not info.is_required() and default is None:
+            default = ""  # optional with no value: an empty default keeps the port optional
+        out.append(PortModel(name, port_type, info.description or "", default, choices))
+    return tuple(out)
+
+
+def _category(cls: type[NodeMixin]) -> str:
+    if cls.kind == "decorator":
+        return "Decorator"
+    try:
+        outcomes = cls.outcomes(None)
+    except Exception:  # outcomes that depend on the parameters: an action
+        return "Action"
+    return "Condition" if outcomes == frozenset({"success", "failure"}) else "Action"
+
+
+_PARALLEL_MODEL: Final = NodeModel(
+    "parallel",
+    "Control",
+    (
+        PortModel(
+            "policy",
+            "string",
+            "success on all, one or selected children",
+            "all",
+            ("all", "one", "selected"),
+        ),
+        PortModel("synchronise", "boolean", "children that succeeded are not ticked again", ""),
+        PortModel("selected", "json", "with policy selected: the names of the children", ""),
+    ),
+    "py_trees' Parallel (the policies BT.CPP's Parallel does not share)",
+)
+
+
+def node_models(registry: Registry | None = None) -> dict[str, NodeModel]:
+    """Every pirate_bt node type as a BT.CPP node model, derived from the registry.
+
+    Each registered class gives its category (decorator, condition or action)
+    and one port per field of its ``Params`` model, typed and described from
+    that model. ``parallel`` is added as a control node (for the policies that
+    BT.CPP's ``Parallel`` does not share).
+
+    Raises:
+        InputError: a registered node class cannot be imported.
+    """
+    reg = registry or default_registry()
+    models: dict[str, NodeModel] = {}
+    for name in reg.names():
+        try:
+            cls = reg.get(name)
+        except ImportError as exc:
+            raise InputError(f"node type {name!r} cannot be loaded: {exc}") from None
+        doc = (cls.__doc__ or "").strip().splitlines()
+        models[name] = NodeModel(name, _category(cls), _ports(cls.Params), doc[0] if doc else "")
+    models["parallel"] = _PARALLEL_MODEL
+    return models
+
+
+# -- values ----------------------------------------------------------------------------
+
+
+def _json(value: Any) -> str:
+    return "json:" + json.dumps(value, ensure_ascii=False, separators=(",", ":"))
+
+
+def encode_value(value: Any, port_type: str) -> str:
+    """A YAML value as BT.CPP port text.
+
+    ``$name`` becomes ``{name}`` (a blackboard pointer: the subtree's port);
+    ``$$text`` the literal ``$text``; a plain value its text when the port's type
+    says how to read it back, else ``json:`` and the value as JSON.
+    """
+    if isinstance(value, str):
+        match = PARAM_RE.match(value)
+        if match:
+            return "{" + match["name"] + "}"
+        if value.startswith("$$"):
+            value = value[1:]
+        if (value.startswith("{") and value.endswith("}")) or value.startswith("json:"):
+            return _json(value)  # would read as a pointer or as JSON
+        return str(value)
+    if isinstance(value, bool):
+        return ("true" if value else "false") if port_type == "boolean" else _json(value)
+    if isinstance(value, int) and port_type in ("integer", "number"):
+        return str(value)
+    if isinstance(value, float) and port_type == "number" and math.isfinite(value):
+        return repr(value)
+    return _json(value)
+
+
+def decode_value(text: str, port_type: str, port: str = "") -> Any:
+    """BT.CPP port text as the YAML value (the inverse of :func:`encode_value`).
+
+    Raises:
+        ValueError: the text does not fit the port's type.
+    """
+    if text.startswith("json:"):
+        try:
+            return json.loads(text[5:])
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"bad json: value: {exc.msg}") from None
+    if len(text) >= 3 and text[0] == "{" and text[-1] == "}":
+        name = port if text == "{=}" else text[1:-1]
+        if not name.isidentifier():
+            raise ValueError(f"blackboard pointer {text!r}: pirate_bt parameters are identifiers")
+        return "$" + name
+    if text.startswith("$"):
+        return "$" + text
+    if port_type == "integer":
+        try:
+            return int(text)
+        except ValueError:
+            raise ValueError(f"expected an integer, got {text!r}") from None
+    if port_type == "number":
+        try:
+            return float(text)
+        except ValueError:
+            raise ValueError(f"expected a number, got {text!r}") from None
+    if port_type == "boolean":
+        lowered = text.strip().lower()
+        if lowered in ("true", "1"):
+            return True
+        if lowered in ("false", "0"):
+            return False
+        raise ValueError(f"expected true or false, got {text!r}")
+    return text
