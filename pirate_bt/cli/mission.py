@@ -15,10 +15,9 @@ tree diagram, the plots and the mission report are written there. Exit codes:
 from __future__ import annotations
 
 import argparse
-import contextlib
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -232,63 +231,50 @@ def _run(
     def truth_for(p: Any) -> Any:
         return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
 
-    with contextlib.ExitStack() as stack:
-        if foxglove is not None:
-            stack.enter_context(
-                _foxglove_on_runners(foxglove, connection, robot, truth.name, args.seed)
-            )
-        return _run_and_carry_on(
-            args,
-            plan,
-            robot,
-            truth,
-            trace_path,
-            live,
-            rate_hz,
-            max_time_s,
-            tolerance,
-            connection,
-            truth_for,
-        )
+    observe = None
+    if foxglove is not None:
+        observe = _foxglove_observer(foxglove, connection, robot, truth.name, args.seed)
+    return _run_and_carry_on(
+        args,
+        plan,
+        robot,
+        truth,
+        trace_path,
+        live,
+        rate_hz,
+        max_time_s,
+        tolerance,
+        connection,
+        truth_for,
+        observe,
+    )
 
 
-@contextlib.contextmanager
-def _foxglove_on_runners(
+def _foxglove_observer(
     server: Any, connection: Any, robot: Any, scenario: str, seed: int
-) -> Iterator[None]:
-    """Serve every runner the mission makes (the mission, a re-plan, the way back) live.
-
-    ``run_mission`` makes its runner itself and takes no observer, so for the
-    mission's duration its ``Runner`` is a subclass that attaches the Foxglove
-    recorder when made. The localiser's belief is not in the live view (it lives
-    inside ``run_mission``); it is in ``--trace`` files.
-    """
-    import pirate_bt.task.mission as mission_module
+) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
+    """Serve every runner the mission makes (the mission, a re-plan, the way back) live,
+    with the localiser's belief beside the supervisor's state, verdicts and link."""
     from pirate_bt.interop.foxglove_live import attach_foxglove
     from pirate_bt.trace import supervised_extras
 
-    base: Any = getattr(mission_module, "Runner")  # noqa: B009 - patched below
     sim = connection.simulator
 
-    class ServedRunner(base):  # type: ignore[misc]
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            attach_foxglove(
-                self,
-                server,
-                extras=supervised_extras(
-                    connection.supervisor, counters=sim.counters if sim is not None else None
-                ),
-                robot=robot,
-                scenario=scenario,
-                seed=seed if sim is not None else None,
-            )
+    def observe(runner: Any, localiser_values: Callable[[], dict[str, float]]) -> None:
+        attach_foxglove(
+            runner,
+            server,
+            extras=supervised_extras(
+                connection.supervisor,
+                counters=sim.counters if sim is not None else None,
+                more=localiser_values,
+            ),
+            robot=robot,
+            scenario=scenario,
+            seed=seed if sim is not None else None,
+        )
 
-    setattr(mission_module, "Runner", ServedRunner)  # noqa: B010
-    try:
-        yield
-    finally:
-        setattr(mission_module, "Runner", base)  # noqa: B010
+    return observe
 
 
 def _run_and_carry_on(
@@ -303,6 +289,7 @@ def _run_and_carry_on(
     tolerance: float,
     connection: Any,
     truth_for: Any,
+    observe: Any = None,
 ) -> Any:
     from pirate_bt.task.mission import run_mission
     from pirate_bt.task.replan import carry_on
@@ -324,6 +311,7 @@ def _run_and_carry_on(
             max_time_s=max_time_s,
             realtime=args.realtime,
             map_tolerance=tolerance,
+            observe=observe,
         )
         return carry_on(
             result,
@@ -334,6 +322,7 @@ def _run_and_carry_on(
             counters=sim.counters if sim is not None else None,
             period_s=1.0 / rate_hz,
             map_tolerance=tolerance,
+            observe=observe,
         )
     finally:
         connection.close()

@@ -1,9 +1,7 @@
 """The MCAP format writer behind ``--trace RUN.mcap`` (see :mod:`pirate_bt.interop.mcap_trace`).
 
-:data:`pirate_bt.trace.WRITERS` maps ``.mcap`` to :class:`McapTraceWriter`, so the
-trace package imports this module while it loads; import the writer from
-:mod:`pirate_bt.interop.mcap_trace` (or after :mod:`pirate_bt.trace`), not
-from here first. It needs only the standard library until a file is opened,
+:data:`pirate_bt.trace.WRITERS` maps ``.mcap`` to a function that imports this
+module when a file is opened. It needs only the standard library until then,
 when it imports ``mcap`` (the ``foxglove`` extra).
 """
 

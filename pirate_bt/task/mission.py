@@ -93,6 +93,10 @@ class Leg:
     why: str = ""
 
 
+Observer = Callable[[Runner, Callable[[], dict[str, float]]], None]
+"""What :func:`run_mission`'s ``observe`` is: ``observe(runner, localiser_values)``."""
+
+
 def leg_distance_m(
     plan: MissionPlan, pab: PlannedPab, belief_m: float, localiser: Localiser
 ) -> tuple[float, str]:
@@ -238,6 +242,7 @@ def run_mission(
     realtime: bool = False,
     belief_m: float | None = None,
     map_tolerance: float = MAP_FRACTION,
+    observe: Observer | None = None,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -262,6 +267,9 @@ def run_mission(
         map_tolerance: How far the map's lengths may be off, as a fraction of the
             distance from the last fix (default 10 %; 0 for a map known to be exact):
             features are searched within it, and forward legs stop short by it.
+        observe: Called with the runner, before it runs, and a function giving the
+            localiser's figures of the moment (belief, truth, last fix) as numbers:
+            attach more hooks here (a live Foxglove view, say).
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -347,6 +355,8 @@ def run_mission(
         from pirate_bt.trace import attach_live_view
 
         attach_live_view(runner, live_stream)
+    if observe is not None:
+        observe(runner, localiser.values)
     result = runner.run()
     localiser.update(supervisor.state())
     reason = result.message

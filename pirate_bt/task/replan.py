@@ -15,7 +15,7 @@ from typing import Any
 from pirate_bt.clock import Clock
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.localise import MAP_FRACTION
-from pirate_bt.task.mission import MissionResult, run_mission, truth_of
+from pirate_bt.task.mission import MissionResult, Observer, run_mission, truth_of
 from pirate_bt.task.plan import MissionPlan
 
 __all__ = ["carry_on", "joined", "replan_after", "return_to_start"]
@@ -33,6 +33,7 @@ def carry_on(
     counters: Callable[[], Any] | None = None,
     period_s: float = 0.05,
     map_tolerance: float = MAP_FRACTION,
+    observe: Observer | None = None,
 ) -> MissionResult:
     """After a stop, re-plan and go on where the route still has one clear meaning.
 
@@ -56,6 +57,7 @@ def carry_on(
             period_s=period_s,
             belief_m=result.belief_m,
             map_tolerance=map_tolerance,
+            observe=observe,
         )
         result = joined(result, more, note)
     return result
@@ -180,7 +182,12 @@ def joined(first: MissionResult, then: MissionResult, note: str) -> MissionResul
 
 
 def return_to_start(
-    result: MissionResult, robot: RobotDescription, supervisor: Any, clock: Clock, sim: Any
+    result: MissionResult,
+    robot: RobotDescription,
+    supervisor: Any,
+    clock: Clock,
+    sim: Any,
+    observe: Observer | None = None,
 ) -> MissionResult | None:
     from pirate_bt.errors import LocatedError
     from pirate_bt.task.planner import plan_return
@@ -199,4 +206,5 @@ def return_to_start(
         clock,
         truth=truth_of(back, sim),
         counters=sim.counters,
+        observe=observe,
     )

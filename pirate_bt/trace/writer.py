@@ -129,14 +129,23 @@ _COMMANDS_MAX = 4096
 TreeLike = py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour
 
 
-#: File suffix -> format writer class; the longest matching suffix wins.
-WRITERS: dict[str, type[TraceFormatWriter]] = {
+def _mcap_writer(path: str | Path, sync: bool = False) -> TraceFormatWriter:
+    """MCAP for Foxglove (:class:`pirate_bt.interop.mcap_writer.McapTraceWriter`).
+
+    Imported when a file is opened, not when this module loads: the interop module
+    builds on this package, so importing it here would make a cycle.
+    """
+    from pirate_bt.interop.mcap_writer import McapTraceWriter
+
+    return McapTraceWriter(path, sync=sync)
+
+
+#: File suffix -> format writer (a class, or a callable that opens one); the longest
+#: matching suffix wins.
+WRITERS: dict[str, Callable[..., TraceFormatWriter]] = {
     suffix: cls for cls in (JsonLinesWriter, GzipJsonLinesWriter) for suffix in cls.suffixes
 }
-# MCAP for Foxglove (pirate_bt.interop; imports the mcap package only when a file is opened).
-from pirate_bt.interop.mcap_writer import McapTraceWriter  # noqa: E402
-
-WRITERS[".mcap"] = McapTraceWriter
+WRITERS[".mcap"] = _mcap_writer
 
 
 def suffix_of(path: str | Path, table: Mapping[str, object]) -> str:
@@ -301,15 +310,16 @@ class TraceRecorder:
             self._out = destination
         else:
             writer = WRITERS[suffix_of(destination, WRITERS)]
-            if background is not False and WRITER_CLASSES.get(writer.__name__) is writer:
+            name = getattr(writer, "__name__", type(writer).__name__)
+            if background is not False and WRITER_CLASSES.get(name) is writer:
                 try:
-                    self._sink = SinkProcess(destination, writer.__name__, sync=sync)
+                    self._sink = SinkProcess(destination, name, sync=sync)
                 except SinkError as exc:
                     if background:
                         raise
                     logger.warning("%s; writing the trace in-process", exc)
             elif background:
-                raise ValueError(f"{writer.__name__} has no writer process; use background=False")
+                raise ValueError(f"{name} has no writer process; use background=False")
             if self._sink is None:
                 self._out = writer(destination, sync=sync)
         self.path = self._out.path if self._out is not None else Path(cast(str | Path, destination))
