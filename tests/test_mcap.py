@@ -316,3 +316,18 @@ def test_layout_reads_only_what_a_run_publishes(mission_mcap: Path) -> None:
         field = path[len(topic) :].lstrip(".")
         if field:
             assert _resolve(by_topic.get(topic, []), field), f"{path}: not in any message"
+
+
+def test_trace_commands_read_an_mcap_file_as_they_read_jsonl(
+    run_trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``trace summary``, ``show`` and ``plot`` take a ``.mcap`` file too, with the same text."""
+    out = export_mcap(run_trace, tmp_path / "run.mcap")
+    texts = []
+    for path in (run_trace, out):
+        assert main(["trace", "summary", str(path)]) == 0
+        assert main(["trace", "show", str(path), "--tick", "5", "--ascii"]) == 0
+        texts.append(capsys.readouterr().out.replace(str(path), "TRACE"))
+    assert texts[0] == texts[1]
+    assert main(["trace", "plot", str(out), "-o", str(tmp_path / "run.png")]) == 0
+    assert (tmp_path / "run.png").stat().st_size > 0

@@ -18,7 +18,7 @@ from __future__ import annotations
 import gzip
 import json
 import zlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, ClassVar, cast
@@ -130,9 +130,19 @@ class GzipJsonLinesReader(TraceFormatReader):
 
 
 #: File suffix -> format reader class; the longest matching suffix wins.
-READERS: dict[str, type[TraceFormatReader]] = {
+def _mcap_reader(path: str | Path) -> TraceFormatReader:
+    """MCAP files written by pirate_bt (:class:`pirate_bt.interop.mcap_trace.McapTraceReader`),
+    imported when one is read (the interop package builds on this one)."""
+    from pirate_bt.interop.mcap_trace import McapTraceReader
+
+    return McapTraceReader(path)
+
+
+#: File suffix -> reader (a class, or a callable that makes one); the longest suffix wins.
+READERS: dict[str, Callable[[str | Path], TraceFormatReader]] = {
     suffix: cls for cls in (JsonLinesReader, GzipJsonLinesReader) for suffix in cls.suffixes
 }
+READERS[".mcap"] = _mcap_reader
 
 
 @dataclass(frozen=True)
