@@ -274,3 +274,56 @@ def test_sim_and_teleop_serve_too() -> None:
     )
     assert done.returncode == 0, done.stderr
     assert f"ws://127.0.0.1:{port}" in done.stderr
+
+
+def test_a_mission_serves_the_localiser_belief_live() -> None:
+    """A mission's live view carries ``/pirate/localisation`` (belief and truth), from the
+    runner of each leg of it, while it runs."""
+    from pirate_bt.task.mission import simulate_mission
+    from pirate_bt.trace import supervised_extras
+
+    with FoxgloveServer(port=0) as server:
+        client = _connect(server.port)
+        assert client.wait_for(lambda c: "/pirate/localisation" in c.channels, 10)
+        client.subscribe("/pirate/localisation", "/pirate/state")
+        assert client.wait_for(lambda _: server.subscriptions >= 2, 10)
+        stop = threading.Event()
+
+        def read() -> None:
+            while not stop.is_set():
+                client.pump(0.05)
+
+        reader = threading.Thread(target=read, daemon=True)
+        reader.start()
+        runners: list[Any] = []
+
+        def observe(runner: Any, localiser_values: Any) -> None:
+            runners.append(runner)
+            attach_foxglove(
+                runner, server, extras=supervised_extras(_Quiet(), more=localiser_values)
+            )
+
+        result = simulate_mission(ROOT / "scenarios" / "straight.route", observe=observe)
+        time.sleep(0.5)
+        stop.set()
+        reader.join(5)
+        client.close()
+    assert result.succeeded and len(runners) == 1
+    beliefs = client.of("/pirate/localisation")
+    assert len(beliefs) >= 3
+    last = beliefs[-1]
+    assert abs(last["belief_m"] - result.belief_m) < 1e-3
+    assert abs(last["truth_m"] - result.truth_m) < 0.05
+
+
+class _Quiet:
+    """A supervisor stand-in with nothing to say (the test looks at the belief only)."""
+
+    def add_listener(self, _listener: Any) -> None:
+        return None
+
+    def state(self) -> None:
+        return None
+
+    def health(self) -> None:
+        return None

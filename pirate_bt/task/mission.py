@@ -441,6 +441,7 @@ def simulate_mission(
     period_s: float = 0.05,
     max_time_s: float | None = None,
     return_on_stop: bool = False,
+    observe: Observer | None = None,
     map_tolerance: float = MAP_FRACTION,
 ) -> MissionResult:
     """Plan a route on ``map`` and run it on the simulator in ``truth``: the plain API.
@@ -466,6 +467,8 @@ def simulate_mission(
             (:func:`~pirate_bt.task.planner.plan_return`); the way back is
             ``result.returned`` (``None`` when it cannot be planned: then
             ``result.replans`` says why).
+        observe: Called with each runner the mission makes and the localiser's
+            figures (see :func:`run_mission`).
 
     Returns:
         The mission result (``result.truth_m`` and the fixes' truths are on the map,
@@ -518,6 +521,7 @@ def simulate_mission(
             period_s=period_s,
             max_time_s=max_time_s,
             map_tolerance=map_tolerance,
+            observe=observe,
         )
         result = carry_on(
             result,
@@ -528,9 +532,12 @@ def simulate_mission(
             counters=sim.counters,
             period_s=period_s,
             map_tolerance=map_tolerance,
+            observe=observe,
         )
         if return_on_stop and not result.succeeded:
-            result.returned = return_to_start(result, robot, supervisor, clock, sim)
+            result.returned = return_to_start(
+                result, robot, supervisor, clock, sim, observe=observe
+            )
         return result
     finally:
         supervisor.close()
