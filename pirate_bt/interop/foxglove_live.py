@@ -41,9 +41,8 @@ from pirate_bt.interop.foxglove_option import (
     add_foxglove_option,
     parse_address,
 )
+from pirate_bt.interop.foxglove_schemas import RUN, SIM
 from pirate_bt.interop.foxglove_topics import (
-    RUN,
-    SIM,
     TOPICS,
     TopicMapper,
     TopicMessage,
