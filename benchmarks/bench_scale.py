@@ -194,7 +194,8 @@ def part_sparse(quick: bool) -> None:
     )
 
 
-def lab_mission_once(route_path: Path, network: str | None = None) -> tuple[float, float, int]:
+def run_route(route_path: Path, max_time_s: float | None = None) -> tuple[Any, int]:
+    """A route's mission on the in-process simulator, no outputs: (the result, PABs)."""
     from pirate_bt.clock import SimClock as Clock
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.safety.factory import open_supervisor
@@ -204,13 +205,12 @@ def lab_mission_once(route_path: Path, network: str | None = None) -> tuple[floa
 
     robot = load_robot()
     route = load_route(route_path)
-    plan = plan_route(route, load_network_for(route, network), robot)
+    plan = plan_route(route, load_network_for(route, None), robot)
     clock = Clock()
     supervisor = open_supervisor(robot, clock=clock, network=plan.network)
     sim = supervisor.simulator
     assert sim is not None
     try:
-        started = time.perf_counter()
         result = run_mission(
             plan,
             robot,
@@ -218,13 +218,19 @@ def lab_mission_once(route_path: Path, network: str | None = None) -> tuple[floa
             clock,
             truth=lambda: sim.truth().front_m,
             counters=sim.counters,
+            max_time_s=max_time_s,
         )
-        wall = time.perf_counter() - started
     finally:
         supervisor.close()
+    return result, len(plan.pabs)
+
+
+def lab_mission_once(route_path: Path) -> tuple[float, float, int]:
+    """The whole mission: wall seconds (the runner's), simulated seconds, ticks."""
+    result, _ = run_route(route_path)
     if not result.succeeded:
         raise SystemExit(f"the mission failed: {result.reason}")
-    return wall, result.run.sim_time_s, result.run.ticks
+    return result.run.wall_time_s, result.run.sim_time_s, result.run.ticks
 
 
 def part_mission(quick: bool) -> None:
@@ -262,36 +268,13 @@ def build_route_tree(route_path: Path) -> tuple[int, Any]:
 
 
 def mission_window(route_path: Path, seconds: float) -> tuple[float, int, int]:
-    """The first ``seconds`` of a route's mission: wall seconds, ticks, tree nodes."""
-    from pirate_bt.clock import SimClock as Clock
-    from pirate_bt.robot.loader import load_robot
-    from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.task.mission import run_mission
-    from pirate_bt.task.planner import load_network_for, plan_route
-    from pirate_bt.task.route import load_route
+    """The first ``seconds`` of a route's mission: wall seconds, ticks, PABs.
 
-    robot = load_robot()
-    route = load_route(route_path)
-    plan = plan_route(route, load_network_for(route, None), robot)
-    clock = Clock()
-    supervisor = open_supervisor(robot, clock=clock, network=plan.network)
-    sim = supervisor.simulator
-    assert sim is not None
-    try:
-        result = run_mission(
-            plan,
-            robot,
-            supervisor,
-            clock,
-            truth=lambda: sim.truth().front_m,
-            counters=sim.counters,
-            max_time_s=seconds,
-        )
-    finally:
-        supervisor.close()
-    # The runner's wall time: every tick with its hooks (supervisor, simulator, link,
-    # localiser); not the loading of the tree, which part_long times on its own.
-    return result.run.wall_time_s, result.run.ticks, len(plan.pabs)
+    The runner's wall time: every tick with its hooks (supervisor, simulator, link,
+    localiser); not the loading of the tree, which part_long times on its own.
+    """
+    result, pabs = run_route(route_path, max_time_s=seconds)
+    return result.run.wall_time_s, result.run.ticks, pabs
 
 
 def part_long(quick: bool) -> None:

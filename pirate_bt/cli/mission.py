@@ -231,71 +231,13 @@ def _run(
     def truth_for(p: Any) -> Any:
         return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
 
-    observe = None
-    if foxglove is not None:
-        observe = _foxglove_observer(foxglove, connection, robot, truth.name, args.seed)
-    return _run_and_carry_on(
-        args,
-        plan,
-        robot,
-        truth,
-        trace_path,
-        live,
-        rate_hz,
-        max_time_s,
-        tolerance,
-        connection,
-        truth_for,
-        observe,
-    )
-
-
-def _foxglove_observer(
-    server: Any, connection: Any, robot: Any, scenario: str, seed: int
-) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
-    """Serve every runner the mission makes (the mission, a re-plan, the way back) live,
-    with the localiser's belief beside the supervisor's state, verdicts and link."""
-    from pirate_bt.interop.foxglove_live import attach_foxglove
-    from pirate_bt.trace import supervised_extras
-
-    sim = connection.simulator
-
-    def observe(runner: Any, localiser_values: Callable[[], dict[str, float]]) -> None:
-        attach_foxglove(
-            runner,
-            server,
-            extras=supervised_extras(
-                connection.supervisor,
-                counters=sim.counters if sim is not None else None,
-                more=localiser_values,
-            ),
-            robot=robot,
-            scenario=scenario,
-            seed=seed if sim is not None else None,
-        )
-
-    return observe
-
-
-def _run_and_carry_on(
-    args: argparse.Namespace,
-    plan: Any,
-    robot: Any,
-    truth: Any,
-    trace_path: Path | None,
-    live: bool,
-    rate_hz: float,
-    max_time_s: float | None,
-    tolerance: float,
-    connection: Any,
-    truth_for: Any,
-    observe: Any = None,
-) -> Any:
     from pirate_bt.task.mission import run_mission
     from pirate_bt.task.replan import carry_on
 
-    sim = connection.simulator
     try:
+        observe = None
+        if foxglove is not None:
+            observe = _foxglove_observer(foxglove, connection, robot, truth.name, args.seed)
         result = run_mission(
             plan,
             robot,
@@ -326,6 +268,33 @@ def _run_and_carry_on(
         )
     finally:
         connection.close()
+
+
+def _foxglove_observer(
+    server: Any, connection: Any, robot: Any, scenario: str, seed: int
+) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
+    """Serve every runner the mission makes (the mission, a re-plan, the way back) live,
+    with the localiser's belief beside the supervisor's state, verdicts and link."""
+    from pirate_bt.interop.foxglove_live import attach_foxglove
+    from pirate_bt.trace import supervised_extras
+
+    sim = connection.simulator
+
+    def observe(runner: Any, localiser_values: Callable[[], dict[str, float]]) -> None:
+        attach_foxglove(
+            runner,
+            server,
+            extras=supervised_extras(
+                connection.supervisor,
+                counters=sim.counters if sim is not None else None,
+                more=localiser_values,
+            ),
+            robot=robot,
+            scenario=scenario,
+            seed=seed if sim is not None else None,
+        )
+
+    return observe
 
 
 def _write_outputs(
