@@ -237,8 +237,9 @@ class TraceRecorder:
             start; ``True`` to insist; ``False`` for in-process.
         track_nodes: Read only the nodes that moved in a tick instead of every
             node: ``None`` (default) and ``True`` when ``tree`` is a
-            ``BehaviourTree`` (the recorder adds a :class:`~pirate_bt.trace.nodes.TickedNodes` visitor to
-            its ``visitors``, taken off by :meth:`close`), ``False`` to read every
+            ``BehaviourTree`` (the recorder adds a
+            :class:`~pirate_bt.trace.nodes.TickedNodes` visitor to its ``visitors``,
+            taken off by :meth:`close`), ``False`` to read every
             node every tick. What is read: the nodes ticked, and under each of them
             the children that were live (not INVALID) and are not any more -- the
             nodes a parent stopped -- down to where nothing changed; and the root,
