@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Any
 
 import py_trees
-from py_trees.common import Status
 
 from pirate_bt.clock import SimClock
 from pirate_bt.runner import Runner
@@ -53,27 +52,10 @@ from pirate_bt.trace import attach_trace
 
 REPO = Path(__file__).resolve().parent.parent
 WARM_UP = 100
+FOREVER = 10**12
+"""Ticks of the one action that keeps the first PAB running."""
 sys.path.insert(0, str(REPO / "benchmarks"))
-
-
-class Action(py_trees.behaviour.Behaviour):
-    """A leaf that runs for ``ticks`` ticks (for ever with ``None``), with progress."""
-
-    def __init__(self, name: str, ticks: int | None) -> None:
-        super().__init__(name)
-        self.ticks = ticks
-        self.count = 0
-
-    def initialise(self) -> None:
-        self.count = 0
-
-    def update(self) -> Status:
-        self.count += 1
-        if self.count % 10 == 0:
-            self.feedback_message = f"{self.count} ticks"
-        if self.ticks is not None and self.count >= self.ticks:
-            return Status.SUCCESS
-        return Status.RUNNING
+from bench_trace import Step  # noqa: E402 - a leaf that runs N ticks, with progress
 
 
 def pab_subtree(k: int) -> py_trees.behaviour.Behaviour:
@@ -85,8 +67,8 @@ def pab_subtree(k: int) -> py_trees.behaviour.Behaviour:
             memory=True,
             children=[
                 py_trees.behaviours.Success(f"check {k}.{s}"),
-                Action(f"act {k}.{s}", None if (k, s) == (0, 0) else 3),
-                Action(f"confirm {k}.{s}", 2),
+                Step(f"act {k}.{s}", FOREVER if (k, s) == (0, 0) else 3),
+                Step(f"confirm {k}.{s}", 2),
             ],
         )
         steps.append(
@@ -196,33 +178,10 @@ def part_sparse(quick: bool) -> None:
 
 def run_route(route_path: Path, max_time_s: float | None = None) -> tuple[Any, int]:
     """A route's mission on the in-process simulator, no outputs: (the result, PABs)."""
-    from pirate_bt.clock import SimClock as Clock
-    from pirate_bt.robot.loader import load_robot
-    from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.task.mission import run_mission
-    from pirate_bt.task.planner import load_network_for, plan_route
-    from pirate_bt.task.route import load_route
+    from pirate_bt.task.mission import simulate_mission
 
-    robot = load_robot()
-    route = load_route(route_path)
-    plan = plan_route(route, load_network_for(route, None), robot)
-    clock = Clock()
-    supervisor = open_supervisor(robot, clock=clock, network=plan.network)
-    sim = supervisor.simulator
-    assert sim is not None
-    try:
-        result = run_mission(
-            plan,
-            robot,
-            supervisor,
-            clock,
-            truth=lambda: sim.truth().front_m,
-            counters=sim.counters,
-            max_time_s=max_time_s,
-        )
-    finally:
-        supervisor.close()
-    return result, len(plan.pabs)
+    result = simulate_mission(route_path, max_time_s=max_time_s)
+    return result, len(result.plan.pabs)
 
 
 def lab_mission_once(route_path: Path) -> tuple[float, float, int]:
