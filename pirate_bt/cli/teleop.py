@@ -84,6 +84,8 @@ class TeleopSession:
         self.max_velocity_mps = min(speeds) if speeds else math.inf
         self._printed: str | None = None
         self._repeats = 0
+        self.after_step: list[Callable[[], None]] = []
+        """Called after every :meth:`step`."""
         if out is not None:
             supervisor.add_listener(self._show)
 
@@ -169,10 +171,13 @@ class TeleopSession:
         return True
 
     def step(self) -> None:
-        """One tick: supervisor housekeeping, then keep the drive setpoint alive."""
+        """One tick: supervisor housekeeping, keep the drive setpoint alive, then the
+        :attr:`after_step` hooks (a live Foxglove view, say)."""
         self.sup.tick()
         if self.velocity_mps != 0.0 and self.sup.mode is Mode.MANUAL:
             self.sup.apply(OperatorCommand(Drive(self.velocity_mps)))
+        for hook in self.after_step:
+            hook()
 
     def show_state(self) -> None:
         if self.out is None:
@@ -313,13 +318,7 @@ def _run_session(
         if foxglove is not None:
             from pirate_bt.interop.foxglove_live import serve_supervisor
 
-            publish, step = serve_supervisor(foxglove, sup, robot=robot), session.step
-
-            def served_step() -> None:
-                step()
-                publish()
-
-            session.step = served_step  # type: ignore[method-assign]
+            session.after_step.append(serve_supervisor(foxglove, sup, robot=robot))
         if args.keys is not None:
             return _run_keys(session, args.keys, period_s)
         factory = _runner_factory(args, robot, sup, period_s)
