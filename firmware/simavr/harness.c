@@ -33,196 +33,48 @@
  * cycles to encode a STATE and to decode and apply a BULK_SETPOINTS, and the time
  * from an ESTOP frame's last byte to the first STOP byte on the board bus.
  */
-#define _GNU_SOURCE
-#include <errno.h>
-#include <fcntl.h>
-#include <poll.h>
-#include <signal.h>
-#include <simavr/avr_uart.h>
-#include <simavr/sim_avr.h>
-#include <simavr/sim_cycle_timers.h>
-#include <simavr/sim_elf.h>
-#include <simavr/sim_io.h>
-#include <stdbool.h>
-#include <stdint.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include <termios.h>
-#include <time.h>
-#include <unistd.h>
+#include "harness.h"
 
-#define HZ 16000000u
-#define HOST_BAUD 115200u
-#define HOST_BYTE_CYCLES ((HZ * 10u + HOST_BAUD / 2u) / HOST_BAUD)
-#define BUS_BAUD 500000u
-#define BUS_BYTE_CYCLES (HZ * 10u / BUS_BAUD)
-#define BUS_TURNAROUND_CYCLES (HZ / 50000u) /* 20 us */
-#define GPIOR0_DATA 0x3Eu
-#define RAMEND 0x21FFu
-#define MAX_LAG_CYCLES (HZ / 5u) /* behind the wall clock by more: give up catching up */
-#define RING 65536u
-
-enum { MARK_STATE_BEGIN = 0x01, MARK_STATE_END = 0x81, MARK_FRAME_END = 0x02,
-       MARK_BULK_END = 0x82, MARK_ESTOP = 0x03, MARK_BUS_STOP = 0x04 };
-
-struct tally {
-    uint64_t n, sum, min, max;
-};
-
-static avr_t *avr;
-static avr_irq_t *host_in, *bus_in;
-static int master = -1;
-static bool host_open, host_xoff, stop_requested;
+avr_t *avr;
+avr_irq_t *host_in, *bus_in;
+bool host_open, host_xoff, stop_requested;
 static bool reset_expected = true; /* the power-on start */
-static bool held;                  /* 'H': the MCU's clock stands still until 'G' */
-static double wall0;               /* pacing: wall time at cycle0 */
-static uint64_t cycle0;
-static uint64_t unexpected_resets;
+bool held;                  /* 'H': the MCU's clock stands still until 'G' */
+double wall0;               /* pacing: wall time at cycle0 */
+uint64_t cycle0;
+uint64_t unexpected_resets;
 static unsigned boot_ms;
-static uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
-static uint32_t debug_at;   /* pb_debug's SRAM address, 0 when not found */
+uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
+uint32_t debug_at;   /* pb_debug's SRAM address, 0 when not found */
 
-static uint8_t hostq[RING], busq[4096], host_out_buf[RING];
-static unsigned hostq_head, hostq_tail, busq_head, busq_tail, host_out_n;
-static uint8_t bus_frame[256];
-static uint8_t replies[256][64];
-static uint8_t last_frame[256][64]; /* per address: the last frame told to the boards */
-static uint8_t last_frame_len[256];
-static uint64_t bus_repeats, last_tick;
-static uint8_t reply_len[256];
-static uint64_t bus_replies, bus_unanswered; /* EXCHANGEs: answered, not (silent board) */
-static uint64_t bus_stops;                    /* STOPs with a good CRC */
-static unsigned bus_frame_n;
-static bool bus_frame_ready;
-static uint64_t bus_frame_cycle;
+uint8_t hostq[RING], busq[4096], host_out_buf[RING];
+unsigned hostq_head, hostq_tail, busq_head, busq_tail, host_out_n;
+uint8_t replies[256][64];
+uint8_t last_frame_len[256];
+uint64_t bus_repeats, last_tick;
+uint8_t reply_len[256];
+uint64_t bus_replies, bus_unanswered; /* EXCHANGEs: answered, not (silent board) */
+uint64_t bus_stops;                    /* STOPs with a good CRC */
+unsigned bus_frame_n;
+bool bus_frame_ready;
 
-static uint64_t mark_at[256], last_host_delimiter, estop_byte_at;
-static bool estop_waiting;
-static struct tally state_cycles, bulk_cycles, estop_us;
-static uint64_t dtr_resets, lag_events, bus_frames, host_bytes_in, host_bytes_dropped, frames_out;
+uint64_t mark_at[256], last_host_delimiter, estop_byte_at;
+bool estop_waiting;
+uint64_t dtr_resets, lag_events, bus_frames, host_bytes_in, host_bytes_dropped, frames_out;
 
-static void add(struct tally *s, uint64_t v) {
-    if (s->n == 0 || v < s->min) {
-        s->min = v;
-    }
-    if (v > s->max) {
-        s->max = v;
-    }
-    s->n++;
-    s->sum += v;
-}
-
-static double now_s(void) {
+double harness_now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
-/* -- the channel to the boards ---------------------------------------------------- */
-
-static void write_all(int fd, const uint8_t *p, size_t n) {
-    while (n > 0) {
-        ssize_t w = write(fd, p, n);
-        if (w < 0) {
-            if (errno == EINTR) {
-                continue;
-            }
-            exit(0); /* the board simulator is gone: so are we */
-        }
-        p += w;
-        n -= (size_t)w;
-    }
-}
-
-static void send_record(char type, const uint8_t *payload, uint16_t n) {
-    uint8_t head[3] = {(uint8_t)type, (uint8_t)(n & 0xFFu), (uint8_t)(n >> 8)};
-    write_all(STDOUT_FILENO, head, 3);
-    if (n) {
-        write_all(STDOUT_FILENO, payload, n);
-    }
-}
-
-static void put_u64(uint8_t *p, uint64_t v) {
-    for (int i = 0; i < 8; i++) {
-        p[i] = (uint8_t)(v >> (8 * i));
-    }
-}
-
-/* Reads one record from stdin (blocking). False at end of input. */
-static bool read_record(char *type, uint8_t *payload, uint16_t *n) {
-    uint8_t head[3];
-    size_t got = 0;
-    while (got < 3) {
-        ssize_t r = read(STDIN_FILENO, head + got, 3 - got);
-        if (r <= 0) {
-            if (r < 0 && errno == EINTR) {
-                continue;
-            }
-            return false;
-        }
-        got += (size_t)r;
-    }
-    *type = (char)head[0];
-    *n = (uint16_t)(head[1] | head[2] << 8);
-    got = 0;
-    while (got < *n) {
-        ssize_t r = read(STDIN_FILENO, payload + got, *n - got);
-        if (r <= 0) {
-            if (r < 0 && errno == EINTR) {
-                continue;
-            }
-            return false;
-        }
-        got += (size_t)r;
-    }
-    return true;
-}
-
-static int figures_text(char *out, size_t size);
-
-static void reset_mcu(void);
-
-/* Handles one record from the boards. */
-static void handle_record(char type, const uint8_t *payload, uint16_t n) {
-    if (type == 'U' && n >= 1 && n - 1u <= sizeof replies[0]) {
-        memcpy(replies[payload[0]], payload + 1, n - 1u);
-        reply_len[payload[0]] = (uint8_t)(n - 1u);
-    } else if (type == 'Q') {
-        char text[2048];
-        int len = figures_text(text, sizeof text);
-        send_record('S', (const uint8_t *)text, (uint16_t)len);
-    } else if (type == 'X') {
-        reset_mcu();
-    } else if (type == 'H') {
-        held = true; /* what the MCU sent is on the pty already (service_pty ran) */
-        uint8_t p[8];
-        put_u64(p, avr->cycle);
-        send_record('h', p, 8);
-    } else if (type == 'G' && held) {
-        held = false;
-        wall0 = now_s();
-        cycle0 = avr->cycle;
-    }
-}
-
 /* -- the MCU ---------------------------------------------------------------------- */
 
-static uint16_t debug_u16(unsigned offset) {
-    if (!debug_at) {
-        return 0;
-    }
-    return (uint16_t)(avr->data[debug_at + offset] | avr->data[debug_at + offset + 1] << 8);
-}
-
-static avr_cycle_count_t feed_host(avr_t *a, avr_cycle_count_t when, void *param);
-static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param);
-
-static void reset_mcu(void) {
+void harness_reset_mcu(void) {
     avr_reset(avr); /* also clears simavr's cycle timers: ours start again */
-    avr_cycle_timer_cancel(avr, feed_host, NULL);
-    avr_cycle_timer_cancel(avr, feed_bus, NULL);
-    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
+    avr_cycle_timer_cancel(avr, harness_feed_host, NULL);
+    avr_cycle_timer_cancel(avr, harness_feed_bus, NULL);
+    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, harness_feed_host, NULL);
     dtr_resets++;
     reset_expected = true;
     host_xoff = false;
@@ -234,169 +86,8 @@ static void reset_mcu(void) {
     boot_until = avr->cycle + (uint64_t)boot_ms * (HZ / 1000u);
     estop_waiting = false;
     uint8_t p[8];
-    put_u64(p, avr->cycle);
-    send_record('R', p, 8);
-}
-
-static void host_xon(avr_irq_t *irq, uint32_t value, void *param) {
-    (void)irq, (void)value, (void)param;
-    host_xoff = false;
-}
-
-static void host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param) {
-    (void)irq, (void)value, (void)param;
-    host_xoff = true;
-}
-
-static avr_cycle_count_t feed_host(avr_t *a, avr_cycle_count_t when, void *param) {
-    (void)a, (void)param;
-    if (host_xoff || avr->cycle < boot_until) {
-        return when + HOST_BYTE_CYCLES / 4u;
-    }
-    if (hostq_tail != hostq_head) {
-        uint8_t byte = hostq[hostq_tail++ % RING];
-        avr_raise_irq(host_in, byte);
-        if (byte == 0) {
-            last_host_delimiter = when;
-        }
-    }
-    return when + HOST_BYTE_CYCLES;
-}
-
-static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
-    (void)a, (void)param;
-    if (busq_tail != busq_head) {
-        avr_raise_irq(bus_in, busq[busq_tail++ % sizeof busq]);
-        return when + BUS_BYTE_CYCLES;
-    }
-    return 0; /* idle until the next answer */
-}
-
-static void host_out(avr_irq_t *irq, uint32_t value, void *param) {
-    (void)irq, (void)param;
-    if (value == 0) {
-        frames_out++;
-    }
-    if (host_open && host_out_n < sizeof host_out_buf) {
-        host_out_buf[host_out_n++] = (uint8_t)value;
-    }
-}
-
-static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
-    (void)irq, (void)param;
-    if (value != 0) {
-        if (bus_frame_n < sizeof bus_frame) {
-            bus_frame[bus_frame_n++] = (uint8_t)value;
-        }
-        return;
-    }
-    bus_frame_ready = true; /* reported between two instructions, see run_until */
-    bus_frame_cycle = avr->cycle;
-    bus_frames++;
-}
-
-static uint16_t crc16_xmodem(const uint8_t *p, unsigned n) {
-    uint16_t crc = 0;
-    while (n--) {
-        crc ^= (uint16_t)(*p++ << 8);
-        for (int i = 0; i < 8; i++) {
-            crc = (uint16_t)(crc & 0x8000u ? ((unsigned)crc << 1) ^ 0x1021u : (unsigned)crc << 1);
-        }
-    }
-    return crc;
-}
-
-/* COBS-decodes a bus frame; returns its length, or -1 if malformed. */
-static int cobs_decode(const uint8_t *in, unsigned n, uint8_t *out, unsigned size) {
-    unsigned i = 0, k = 0;
-    while (i < n) {
-        unsigned code = in[i++];
-        if (code == 0 || i + code - 1u > n) {
-            return -1;
-        }
-        for (unsigned j = 1; j < code; j++) {
-            if (k >= size) {
-                return -1;
-            }
-            out[k++] = in[i++];
-        }
-        if (code < 0xFFu && i < n) {
-            if (k >= size) {
-                return -1;
-            }
-            out[k++] = 0;
-        }
-    }
-    return (int)k;
-}
-
-/* The boards' side of a request: an EXCHANGE with a good CRC to a board that has a
- * reply gets it, 20 us after the request's 0x00. */
-static void answer(const uint8_t *frame, unsigned n) {
-    uint8_t body[64];
-    int k = cobs_decode(frame, n, body, sizeof body);
-    if (k < 4 || crc16_xmodem(body, (unsigned)k - 2u) !=
-                     (uint16_t)(body[k - 2] | body[k - 1] << 8)) {
-        return;
-    }
-    if (body[1] != 0x01u) {
-        if (body[1] == 0x02u) {
-            bus_stops++; /* STOP: applied silently */
-        }
-        return;
-    }
-    uint8_t addr = body[0];
-    if (!reply_len[addr]) {
-        bus_unanswered++;
-        return;
-    }
-    bus_replies++;
-    for (unsigned i = 0; i < reply_len[addr]; i++) {
-        busq[busq_head++ % sizeof busq] = replies[addr][i];
-    }
-    avr_cycle_timer_cancel(avr, feed_bus, NULL);
-    avr_cycle_timer_register(avr, BUS_TURNAROUND_CYCLES, feed_bus, NULL);
-}
-
-static void marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
-    (void)param;
-    a->data[addr] = value;
-    mark_at[value] = a->cycle;
-    if (value == MARK_STATE_END) {
-        add(&state_cycles, a->cycle - mark_at[MARK_STATE_BEGIN]);
-    } else if (value == MARK_BULK_END) {
-        add(&bulk_cycles, a->cycle - mark_at[MARK_FRAME_END]);
-    } else if (value == MARK_ESTOP) {
-        estop_waiting = true;
-        estop_byte_at = last_host_delimiter;
-    } else if (value == MARK_BUS_STOP && estop_waiting) {
-        estop_waiting = false;
-        add(&estop_us, a->cycle - estop_byte_at);
-    }
-}
-
-/* The bridge finished a bus frame: answer it, and tell the boards unless it repeats
- * the last frame to that address byte for byte (the same setpoints: nothing to
- * apply; the 'T' ticks carry the time). */
-static void exchange(void) {
-    bus_frame_ready = false;
-    answer(bus_frame, bus_frame_n);
-    uint8_t addr = bus_frame_n >= 2 ? bus_frame[1] : 0; /* COBS code, then addr (or 0) */
-    if (bus_frame_n <= sizeof last_frame[0]) {
-        if (last_frame_len[addr] == bus_frame_n &&
-            memcmp(last_frame[addr], bus_frame, bus_frame_n) == 0) {
-            bus_repeats++;
-            bus_frame_n = 0;
-            return;
-        }
-        memcpy(last_frame[addr], bus_frame, bus_frame_n);
-        last_frame_len[addr] = (uint8_t)bus_frame_n;
-    }
-    uint8_t payload[8 + sizeof bus_frame];
-    put_u64(payload, bus_frame_cycle);
-    memcpy(payload + 8, bus_frame, bus_frame_n);
-    send_record('F', payload, (uint16_t)(8 + bus_frame_n));
-    bus_frame_n = 0;
+    harness_put_u64(p, avr->cycle);
+    harness_send_record('R', p, 8);
 }
 
 /* Runs the core until `target` cycles, stopping for every bus frame. */
@@ -420,126 +111,9 @@ static void run_until(uint64_t target) {
             exit(4);
         }
         if (bus_frame_ready) {
-            exchange();
+            harness_exchange();
         }
     }
-}
-
-/* -- the pty ----------------------------------------------------------------------- */
-
-static void open_pty(void) {
-    master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
-    if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0) {
-        perror("pirate-simavr: cannot create a pty");
-        exit(3);
-    }
-    const char *name = ptsname(master);
-    int slave = open(name, O_RDWR | O_NOCTTY);
-    if (slave < 0) {
-        perror("pirate-simavr: cannot open the pty");
-        exit(3);
-    }
-    struct termios t;
-    tcgetattr(slave, &t);
-    cfmakeraw(&t);
-    cfsetspeed(&t, B115200);
-    tcsetattr(slave, TCSANOW, &t);
-    close(slave); /* from now on POLLHUP on the master means: no host has it open */
-    send_record('P', (const uint8_t *)name, (uint16_t)strlen(name));
-}
-
-/* Moves bytes between the pty and the queues; an open is a DTR edge. */
-static void service_pty(void) {
-    struct pollfd p = {.fd = master, .events = POLLIN};
-    poll(&p, 1, 0);
-    bool open_now = !(p.revents & POLLHUP);
-    if (open_now && !host_open) {
-        host_open = true;
-        reset_mcu();
-    } else if (!open_now && host_open) {
-        host_open = false;
-        host_out_n = 0;
-    }
-    if (!host_open) {
-        return;
-    }
-    if (p.revents & POLLIN) {
-        uint8_t buf[4096];
-        ssize_t r = read(master, buf, sizeof buf);
-        for (ssize_t i = 0; i < r; i++) {
-            if (avr->cycle < boot_until) {
-                host_bytes_dropped++; /* the bootloader eats them */
-            } else if (hostq_head - hostq_tail < RING) {
-                hostq[hostq_head++ % RING] = buf[i];
-                host_bytes_in++;
-            } else {
-                host_bytes_dropped++;
-            }
-        }
-    }
-    if (host_out_n) {
-        ssize_t w = write(master, host_out_buf, host_out_n);
-        if (w > 0) {
-            memmove(host_out_buf, host_out_buf + w, host_out_n - (size_t)w);
-            host_out_n -= (unsigned)w;
-        } else if (w < 0 && errno == EAGAIN) {
-            host_out_n = 0; /* a host that does not read loses bytes, as on a real UART */
-        }
-    }
-}
-
-/* Records from the boards ('U', 'Q', 'X'), whenever they arrive. */
-static void service_channel(void) {
-    struct pollfd p = {.fd = STDIN_FILENO, .events = POLLIN};
-    while (poll(&p, 1, 0) > 0) {
-        if (p.revents & (POLLHUP | POLLERR) && !(p.revents & POLLIN)) {
-            stop_requested = true;
-            return;
-        }
-        static uint8_t in[65536];
-        char type;
-        uint16_t n;
-        if (!read_record(&type, in, &n)) {
-            stop_requested = true;
-            return;
-        }
-        handle_record(type, in, n);
-    }
-}
-
-/* -- figures ----------------------------------------------------------------------- */
-
-static int put_stat(char *out, size_t size, const char *name, const struct tally *s, double scale) {
-    if (s->n == 0) {
-        return snprintf(out, size, "%s_n 0\n", name);
-    }
-    return snprintf(out, size, "%s_n %llu\n%s_mean %.1f\n%s_min %.1f\n%s_max %.1f\n", name,
-                    (unsigned long long)s->n, name, (double)s->sum / (double)s->n / scale, name,
-                    (double)s->min / scale, name, (double)s->max / scale);
-}
-
-static int figures_text(char *out, size_t size) {
-    int k = snprintf(out, size,
-                     "cycles %llu\nsimulated_s %.3f\ndtr_resets %llu\n"
-                     "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
-                     "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
-                     "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
-                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
-                     "bus_stops %llu\nhost_queue_bytes %u\n",
-                     (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
-                     (unsigned long long)dtr_resets,
-                     (unsigned long long)unexpected_resets, debug_u16(2),
-                     debug_at ? RAMEND - debug_u16(6) : 0u, debug_at ? RAMEND - debug_u16(8) : 0u,
-                     debug_u16(0), (unsigned long long)lag_events,
-                     (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
-                     (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
-                     debug_u16(18), (unsigned long long)bus_replies,
-                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats,
-                     (unsigned long long)bus_stops, hostq_head - hostq_tail);
-    k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
-    k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
-    k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);
-    return k;
 }
 
 static void on_signal(int sig) {
@@ -601,46 +175,46 @@ int main(int argc, char **argv) {
     host_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     bus_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_INPUT);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
-                            host_out, NULL);
+                            harness_host_out, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_OUTPUT),
-                            bus_out, NULL);
+                            harness_bus_out, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
-                            host_xon, NULL);
+                            harness_host_xon, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
-                            host_xoff_irq, NULL);
-    avr_register_io_write(avr, GPIOR0_DATA, marker, NULL);
-    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
+                            harness_host_xoff_irq, NULL);
+    avr_register_io_write(avr, GPIOR0_DATA, harness_marker, NULL);
+    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, harness_feed_host, NULL);
 
     signal(SIGTERM, on_signal);
     signal(SIGINT, on_signal);
     signal(SIGPIPE, SIG_IGN);
-    open_pty();
+    harness_open_pty();
 
     /* Paced to the wall clock in 1 ms slices; when the host machine falls behind by
      * more than MAX_LAG_CYCLES the reference moves (a lag event), never a burst. */
-    wall0 = now_s();
+    wall0 = harness_now_s();
     cycle0 = avr->cycle;
     while (!stop_requested) {
-        service_pty();
+        harness_service_pty();
         if (avr->cycle - last_tick >= HZ / 100u) {
             /* after the pty got what the MCU sent up to now: a reader that waits for
              * this time has the bytes too */
             last_tick = avr->cycle;
             uint8_t p[8];
-            put_u64(p, avr->cycle);
-            send_record('T', p, 8);
+            harness_put_u64(p, avr->cycle);
+            harness_send_record('T', p, 8);
         }
-        service_channel();
+        harness_service_channel();
         if (held) {
             struct timespec nap = {0, 500000};
             nanosleep(&nap, NULL);
             continue;
         }
-        uint64_t target = cycle0 + (uint64_t)((now_s() - wall0) * speed * HZ);
+        uint64_t target = cycle0 + (uint64_t)((harness_now_s() - wall0) * speed * HZ);
         if (target > avr->cycle + MAX_LAG_CYCLES) {
             lag_events++;
             cycle0 = avr->cycle;
-            wall0 = now_s();
+            wall0 = harness_now_s();
             continue;
         }
         if (avr->cycle >= target) {
@@ -652,7 +226,7 @@ int main(int argc, char **argv) {
         run_until(target < slice ? target : slice);
     }
     char text[2048];
-    figures_text(text, sizeof text);
+    harness_figures_text(text, sizeof text);
     fputs(text, stderr);
     return 0;
 }

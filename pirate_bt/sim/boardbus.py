@@ -399,7 +399,7 @@ class FirmwareBridge:
         return self._proc is not None and self._proc.poll() is None
 
     def figures(self, timeout_s: float = 5.0) -> dict[str, float]:
-        """The harness's figures now (cycles, resets, stack, markers; see harness.c).
+        """The harness's figures now (cycles, resets, stack, markers; see figures.c).
 
         Raises:
             LinkError: the harness does not answer.

@@ -1,0 +1,115 @@
+/* pirate-simavr: USART1, the board bus: frames out, the boards' replies in (see harness.c). */
+#include "harness.h"
+
+static uint8_t bus_frame[256];
+static uint8_t last_frame[256][64]; /* per address: the last frame told to the boards */
+static uint64_t bus_frame_cycle;
+
+avr_cycle_count_t harness_feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
+    (void)a, (void)param;
+    if (busq_tail != busq_head) {
+        avr_raise_irq(bus_in, busq[busq_tail++ % sizeof busq]);
+        return when + BUS_BYTE_CYCLES;
+    }
+    return 0; /* idle until the next answer */
+}
+
+void harness_bus_out(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq, (void)param;
+    if (value != 0) {
+        if (bus_frame_n < sizeof bus_frame) {
+            bus_frame[bus_frame_n++] = (uint8_t)value;
+        }
+        return;
+    }
+    bus_frame_ready = true; /* reported between two instructions, see run_until */
+    bus_frame_cycle = avr->cycle;
+    bus_frames++;
+}
+
+static uint16_t crc16_xmodem(const uint8_t *p, unsigned n) {
+    uint16_t crc = 0;
+    while (n--) {
+        crc ^= (uint16_t)(*p++ << 8);
+        for (int i = 0; i < 8; i++) {
+            crc = (uint16_t)(crc & 0x8000u ? ((unsigned)crc << 1) ^ 0x1021u : (unsigned)crc << 1);
+        }
+    }
+    return crc;
+}
+
+/* COBS-decodes a bus frame; returns its length, or -1 if malformed. */
+static int cobs_decode(const uint8_t *in, unsigned n, uint8_t *out, unsigned size) {
+    unsigned i = 0, k = 0;
+    while (i < n) {
+        unsigned code = in[i++];
+        if (code == 0 || i + code - 1u > n) {
+            return -1;
+        }
+        for (unsigned j = 1; j < code; j++) {
+            if (k >= size) {
+                return -1;
+            }
+            out[k++] = in[i++];
+        }
+        if (code < 0xFFu && i < n) {
+            if (k >= size) {
+                return -1;
+            }
+            out[k++] = 0;
+        }
+    }
+    return (int)k;
+}
+
+/* The boards' side of a request: an EXCHANGE with a good CRC to a board that has a
+ * reply gets it, 20 us after the request's 0x00. */
+static void answer(const uint8_t *frame, unsigned n) {
+    uint8_t body[64];
+    int k = cobs_decode(frame, n, body, sizeof body);
+    if (k < 4 || crc16_xmodem(body, (unsigned)k - 2u) !=
+                     (uint16_t)(body[k - 2] | body[k - 1] << 8)) {
+        return;
+    }
+    if (body[1] != 0x01u) {
+        if (body[1] == 0x02u) {
+            bus_stops++; /* STOP: applied silently */
+        }
+        return;
+    }
+    uint8_t addr = body[0];
+    if (!reply_len[addr]) {
+        bus_unanswered++;
+        return;
+    }
+    bus_replies++;
+    for (unsigned i = 0; i < reply_len[addr]; i++) {
+        busq[busq_head++ % sizeof busq] = replies[addr][i];
+    }
+    avr_cycle_timer_cancel(avr, harness_feed_bus, NULL);
+    avr_cycle_timer_register(avr, BUS_TURNAROUND_CYCLES, harness_feed_bus, NULL);
+}
+
+/* The bridge finished a bus frame: answer it, and tell the boards unless it repeats
+ * the last frame to that address byte for byte (the same setpoints: nothing to
+ * apply; the 'T' ticks carry the time). */
+void harness_exchange(void) {
+    bus_frame_ready = false;
+    answer(bus_frame, bus_frame_n);
+    uint8_t addr = bus_frame_n >= 2 ? bus_frame[1] : 0; /* COBS code, then addr (or 0) */
+    if (bus_frame_n <= sizeof last_frame[0]) {
+        if (last_frame_len[addr] == bus_frame_n &&
+            memcmp(last_frame[addr], bus_frame, bus_frame_n) == 0) {
+            bus_repeats++;
+            bus_frame_n = 0;
+            return;
+        }
+        memcpy(last_frame[addr], bus_frame, bus_frame_n);
+        last_frame_len[addr] = (uint8_t)bus_frame_n;
+    }
+    uint8_t payload[8 + sizeof bus_frame];
+    harness_put_u64(payload, bus_frame_cycle);
+    memcpy(payload + 8, bus_frame, bus_frame_n);
+    harness_send_record('F', payload, (uint16_t)(8 + bus_frame_n));
+    bus_frame_n = 0;
+}

@@ -1,0 +1,78 @@
+/* pirate-simavr: the figures, from the GPIOR0 markers and pb_debug (see harness.c). */
+#include "harness.h"
+
+struct tally {
+    uint64_t n, sum, min, max;
+};
+
+static struct tally state_cycles, bulk_cycles, estop_us;
+
+static void add(struct tally *s, uint64_t v) {
+    if (s->n == 0 || v < s->min) {
+        s->min = v;
+    }
+    if (v > s->max) {
+        s->max = v;
+    }
+    s->n++;
+    s->sum += v;
+}
+
+static uint16_t debug_u16(unsigned offset) {
+    if (!debug_at) {
+        return 0;
+    }
+    return (uint16_t)(avr->data[debug_at + offset] | avr->data[debug_at + offset + 1] << 8);
+}
+
+void harness_marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
+    (void)param;
+    a->data[addr] = value;
+    mark_at[value] = a->cycle;
+    if (value == MARK_STATE_END) {
+        add(&state_cycles, a->cycle - mark_at[MARK_STATE_BEGIN]);
+    } else if (value == MARK_BULK_END) {
+        add(&bulk_cycles, a->cycle - mark_at[MARK_FRAME_END]);
+    } else if (value == MARK_ESTOP) {
+        estop_waiting = true;
+        estop_byte_at = last_host_delimiter;
+    } else if (value == MARK_BUS_STOP && estop_waiting) {
+        estop_waiting = false;
+        add(&estop_us, a->cycle - estop_byte_at);
+    }
+}
+
+/* -- figures ----------------------------------------------------------------------- */
+
+static int put_stat(char *out, size_t size, const char *name, const struct tally *s, double scale) {
+    if (s->n == 0) {
+        return snprintf(out, size, "%s_n 0\n", name);
+    }
+    return snprintf(out, size, "%s_n %llu\n%s_mean %.1f\n%s_min %.1f\n%s_max %.1f\n", name,
+                    (unsigned long long)s->n, name, (double)s->sum / (double)s->n / scale, name,
+                    (double)s->min / scale, name, (double)s->max / scale);
+}
+
+int harness_figures_text(char *out, size_t size) {
+    int k = snprintf(out, size,
+                     "cycles %llu\nsimulated_s %.3f\ndtr_resets %llu\n"
+                     "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
+                     "debug_magic 0x%04x\nlag_events %llu\nbus_frames %llu\n"
+                     "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
+                     "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
+                     "bus_stops %llu\nhost_queue_bytes %u\n",
+                     (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
+                     (unsigned long long)dtr_resets,
+                     (unsigned long long)unexpected_resets, debug_u16(2),
+                     debug_at ? RAMEND - debug_u16(6) : 0u, debug_at ? RAMEND - debug_u16(8) : 0u,
+                     debug_u16(0), (unsigned long long)lag_events,
+                     (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
+                     (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
+                     debug_u16(18), (unsigned long long)bus_replies,
+                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats,
+                     (unsigned long long)bus_stops, hostq_head - hostq_tail);
+    k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
+    k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
+    k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);
+    return k;
+}
