@@ -185,6 +185,10 @@ class Supervisor:
 
     @property
     def safe_state_reason(self) -> str | None:
+        """Why the robot is in its safe state: the *first* cause given since it entered
+        it (a later :meth:`safe_state` call, such as the runner's at the end of a failed
+        run, stops the robot again but does not overwrite the cause); ``None`` when not
+        in the safe state."""
         return self._safe_reason
 
     @property
@@ -355,13 +359,17 @@ class Supervisor:
 
         Called by the supervisor itself (stale data, link loss, repeated refusals),
         by the runner when a behaviour raises, and by an operator stop. Never raises:
-        a stop that cannot be delivered is logged.
+        a stop that cannot be delivered is logged. The first reason given is kept
+        (:attr:`safe_state_reason`) until the operator resumes: the first cause of a
+        failure survives every later stop.
         """
         with self._lock:
             first = self._safe_reason is None
-            self._safe_reason = reason
             if first:
+                self._safe_reason = reason
                 log.warning("safe state: %s", reason)
+            else:
+                log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)
             sent = self._send_stop()
             self._record(
                 Verdict(
