@@ -48,6 +48,10 @@ import itertools
 import struct
 
 from pirate_bt.errors import FrameError
+
+# Re-exported here: the decoder was part of this module. decoder.py sits below this
+# one (it never imports it), so the arrow runs one way.
+from pirate_bt.link.decoder import FrameDecoder, encode_many
 from pirate_bt.link.framing import (
     HEADER_BYTES,
     MAX_BODY_BYTES,
@@ -580,7 +584,3 @@ class FrameCodec:
         if kind is MsgType.COUNTERS_REQUEST:
             return CountersRequest(seq)
         return BridgeHeartbeat(seq, _FLAGS[arg])
-
-
-# Re-exported here: the decoder was part of this module.
-from pirate_bt.link.decoder import FrameDecoder, encode_many  # noqa: E402

@@ -1,18 +1,35 @@
-"""The streaming frame decoder: bytes as they arrive in, messages and frame errors out."""
+"""The streaming frame decoder: bytes as they arrive in, messages and frame errors out.
+
+This module sits below :mod:`pirate_bt.link.codec` and does not import it: the
+decoder needs only a codec's two frame steps, spelled out as :class:`MessageCodec`
+(which :class:`~pirate_bt.link.codec.FrameCodec` satisfies). ``codec`` re-exports
+:class:`FrameDecoder` and :func:`encode_many`.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from typing import TypeVar
+from typing import Protocol, TypeVar
 
 from pirate_bt.errors import FrameError
-from pirate_bt.link.codec import FrameCodec
 from pirate_bt.link.framing import MAX_WIRE_BYTES, cobs_decode
 from pirate_bt.link.messages import Message
 
-__all__ = ["FrameDecoder", "encode_many"]
+__all__ = ["FrameDecoder", "MessageCodec", "encode_many"]
 
 _T = TypeVar("_T")
+
+
+class MessageCodec(Protocol):
+    """What the decoder needs of a codec (:class:`~pirate_bt.link.codec.FrameCodec`)."""
+
+    def encode(self, msg: Message) -> bytes:
+        """The wire bytes of ``msg``, delimiter included."""
+        ...
+
+    def decode_body(self, body: bytes) -> Message:
+        """The message of a COBS-decoded frame body (raises :class:`FrameError`)."""
+        ...
 
 
 class FrameDecoder:
@@ -27,7 +44,7 @@ class FrameDecoder:
         codec: The codec for the robot's layout.
     """
 
-    def __init__(self, codec: FrameCodec) -> None:
+    def __init__(self, codec: MessageCodec) -> None:
         self.codec = codec
         self._buf = bytearray()
         self._overflow = False
@@ -100,6 +117,6 @@ class FrameDecoder:
         return iter(self.feed(data))
 
 
-def encode_many(codec: FrameCodec, msgs: Sequence[Message]) -> bytes:
+def encode_many(codec: MessageCodec, msgs: Sequence[Message]) -> bytes:
     """Concatenate the wire bytes of several messages (tests and simulators)."""
     return b"".join(codec.encode(m) for m in msgs)

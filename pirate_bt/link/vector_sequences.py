@@ -11,6 +11,7 @@ from typing import Any
 
 from pirate_bt.link.codec import FrameCodec
 from pirate_bt.link.framing import PROTOCOL_MINOR, cobs_encode, crc16
+from pirate_bt.link.message_json import message_to_json
 from pirate_bt.link.messages import (
     MODE_CODES,
     Ack,
@@ -79,12 +80,6 @@ def bulk_payload(robot: RobotDescription, entries: dict[int, tuple[int, int]]) -
     return bytes(out)
 
 
-def _json(msg: Message) -> dict[str, Any]:
-    from pirate_bt.link.vectors import message_to_json
-
-    return message_to_json(msg)
-
-
 def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]]:
     """The request/response sequences for ``robot``'s bridge.
 
@@ -97,7 +92,7 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
     """
     lay = codec.layout
     digest = lay.digest
-    j = _json
+    j = message_to_json
     slots = robot.setpoint_slots()
     bend = next(s for s in slots if s.motor.function == "bend")
     drive = next(s for s in slots if s.motor.function == "drive")
