@@ -1,0 +1,125 @@
+"""The format writers of traces: the file formats a trace record is written in.
+
+Split out of :mod:`pirate_bt.trace.sink` (which re-exports every name here):
+:class:`TraceFormatWriter` and the two formats a writer process can run,
+:class:`JsonLinesWriter` and :class:`GzipJsonLinesWriter` (:data:`WRITER_CLASSES`).
+Other formats (MCAP, the live Foxglove view) subclass :class:`TraceFormatWriter`
+elsewhere and run in-process.
+
+Like the rest of the writer process, this module needs only the standard library;
+from ``pirate_bt`` it imports only :mod:`pirate_bt.trace.sink_encode`.
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+import zlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import IO, Any, ClassVar, cast
+
+from pirate_bt.trace.sink_encode import encode_json
+
+__all__ = ["WRITER_CLASSES", "GzipJsonLinesWriter", "JsonLinesWriter", "TraceFormatWriter"]
+
+
+class TraceFormatWriter:
+    """Writes trace records to a file in one format; subclasses implement ``_open``.
+
+    Args:
+        path: Where to write (created or truncated).
+        sync: Also ``fsync`` after every record, for power loss (slower).
+        fd: An open file descriptor for ``path`` to write to instead of opening it.
+    """
+
+    suffixes: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, path: str | Path, sync: bool = False, fd: int | None = None) -> None:
+        self.path = Path(path)
+        self.sync = sync
+        if fd is None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file = self._open(fd)
+
+    def _open(self, fd: int | None) -> IO[bytes]:
+        raise NotImplementedError
+
+    def _flush(self) -> None:
+        self._file.flush()
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        """Write one record as one line and flush it to the operating system."""
+        self.write_line(encode_json(record) + "\n")
+
+    def write_line(self, line: str) -> None:
+        """Write one record given as its JSON text, ``\\n``-terminated, and flush it.
+
+        The recorder hands tick records over this way (it assembles their text
+        directly). A writer of a format that is not JSON text overrides this to
+        decode the line (``json.loads``) and store the record its own way.
+        """
+        self._file.write(line.encode("utf-8"))
+        self._flush()
+        if self.sync:
+            os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        """Flush and close the file (idempotent)."""
+        if not self._file.closed:
+            self._file.close()
+
+
+class JsonLinesWriter(TraceFormatWriter):
+    """Plain JSON Lines (``.jsonl``); each line goes to the kernel with one ``os.write``."""
+
+    suffixes = (".jsonl", ".ndjson")
+
+    def _open(self, fd: int | None) -> IO[bytes]:
+        # Unbuffered: each record goes to the kernel in write(), nothing waits in Python.
+        if fd is not None:
+            return open(fd, "wb", buffering=0)
+        return open(self.path, "wb", buffering=0)
+
+    def write_line(self, line: str) -> None:
+        """Write one line with one ``os.write`` (the kernel has it on return)."""
+        data = line.encode("utf-8")
+        fd = self._file.fileno()
+        written = os.write(fd, data)
+        while written < len(data):  # a regular file takes it all; a pipe or a full disk may not
+            written += os.write(fd, data[written:])
+        if self.sync:
+            os.fsync(fd)
+
+
+class GzipJsonLinesWriter(TraceFormatWriter):
+    """Gzip-compressed JSON Lines (``.jsonl.gz``), sync-flushed per record.
+
+    A sync flush ends each record on a byte boundary of the deflate stream, so a
+    killed run still decompresses up to its last complete tick.
+    """
+
+    suffixes = (".jsonl.gz",)
+
+    def _open(self, fd: int | None) -> IO[bytes]:
+        if fd is not None:
+            self._raw = open(fd, "wb")  # noqa: SIM115 - closed by close()
+        else:
+            self._raw = open(self.path, "wb")  # noqa: SIM115 - closed by close()
+        return cast(IO[bytes], gzip.GzipFile(fileobj=self._raw, mode="wb", compresslevel=6))
+
+    def _flush(self) -> None:
+        assert isinstance(self._file, gzip.GzipFile)
+        self._file.flush(zlib.Z_SYNC_FLUSH)
+        self._raw.flush()
+
+    def close(self) -> None:
+        super().close()
+        if not self._raw.closed:
+            self._raw.close()
+
+
+WRITER_CLASSES: dict[str, type[TraceFormatWriter]] = {
+    cls.__name__: cls for cls in (JsonLinesWriter, GzipJsonLinesWriter)
+}
+"""The format writers a writer process can run, by class name."""
