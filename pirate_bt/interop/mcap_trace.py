@@ -13,7 +13,7 @@ Two ways in:
   the target under a temporary name and renamed into place, so an error leaves
   nothing half-written. It is chunked, LZ4-compressed and indexed.
 - :class:`McapTraceWriter` writes a run directly (``--trace RUN.mcap``; it is
-  registered by suffix in :data:`pirate_bt.trace.WRITERS`). It runs in the run's
+  registered for ``.mcap`` in :data:`pirate_bt.trace.WRITERS`). It runs in the run's
   process, like any format writer the trace's writer process does not know.
   While the run goes on the file is *unchunked*: each tick's messages go to the
   kernel with one ``os.write`` before the tick returns, so a run killed with
@@ -27,6 +27,13 @@ Two ways in:
 :func:`read_mcap_records` turns a file back into the trace's records, and
 :class:`McapTraceReader` offers them to :func:`pirate_bt.trace.read_trace`'s
 table of readers.
+
+The format registers itself: importing this module calls :func:`register`, and
+pirate-bt's ``pirate_bt.trace_formats`` entry point (``mcap =
+"pirate_bt.interop.mcap_trace:register"``) makes :mod:`pirate_bt.trace` load it
+the first time it meets a suffix it does not know, so the trace package never
+imports this one. Neither needs the ``mcap`` package: it is imported when a file
+is opened, and its absence is one clear line then.
 """
 
 from __future__ import annotations
@@ -38,12 +45,7 @@ from typing import IO, Any, ClassVar
 
 from pirate_bt.errors import InputError
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
-
-# The trace package first: its table of writers imports mcap_writer.
-from pirate_bt.trace.reader import READERS, TraceFormatReader
-from pirate_bt.trace.writer import suffix_of
-
-from pirate_bt.interop.mcap_writer import (  # isort: skip
+from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
     _Channels,
     _chunked_writer,
@@ -51,6 +53,8 @@ from pirate_bt.interop.mcap_writer import (  # isort: skip
     load_mcap,
     write_atomically,
 )
+from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
+from pirate_bt.trace.writer import register_writer
 
 __all__ = [
     "McapTraceReader",
@@ -59,6 +63,7 @@ __all__ = [
     "export_mcap",
     "read_mcap_messages",
     "read_mcap_records",
+    "register",
 ]
 
 
@@ -80,7 +85,7 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
         ConfigurationError: the ``mcap`` package is missing.
     """
     load_mcap()
-    reader = READERS[suffix_of(trace_path, READERS)](trace_path)
+    reader = open_reader(trace_path)
     records = iter(reader)
 
     def fill(stream: IO[bytes]) -> None:
@@ -162,7 +167,7 @@ def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
 
 
 class McapTraceReader(TraceFormatReader):
-    """Reads a pirate_bt MCAP file back as trace records, for ``READERS`` (``.mcap``).
+    """Reads a pirate_bt MCAP file back as trace records (registered for ``.mcap``).
 
     Records are numbered from 1 in order (an MCAP file has no lines).
     """
@@ -173,3 +178,18 @@ class McapTraceReader(TraceFormatReader):
         messages, cut = read_mcap_messages(self.path)
         self.truncated = cut
         yield from enumerate(records_from_messages(messages), start=1)
+
+
+def register() -> None:
+    """Register ``.mcap`` with :mod:`pirate_bt.trace`'s writers and readers.
+
+    Called when this module is imported, and by the ``pirate_bt.trace_formats``
+    entry point; calling it again changes nothing.
+    """
+    for suffix in McapTraceReader.suffixes:
+        register_reader(suffix, McapTraceReader)
+    for suffix in McapTraceWriter.suffixes:
+        register_writer(suffix, McapTraceWriter)
+
+
+register()

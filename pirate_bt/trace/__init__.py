@@ -24,8 +24,18 @@ from pirate_bt.trace.attach import (
     counter_values,
     supervised_extras,
 )
+from pirate_bt.trace.formats import ENTRY_POINT_GROUP, load_format_entry_points
 from pirate_bt.trace.live import LiveView, live_view_hook
-from pirate_bt.trace.reader import READERS, TickFrame, TickRecord, Trace, read_trace
+from pirate_bt.trace.reader import (
+    READERS,
+    TickFrame,
+    TickRecord,
+    Trace,
+    TraceFormatReader,
+    open_reader,
+    read_trace,
+    register_reader,
+)
 from pirate_bt.trace.records import (
     TRACE_VERSION,
     CommandRecord,
@@ -36,9 +46,16 @@ from pirate_bt.trace.records import (
 from pirate_bt.trace.sink import SinkError
 from pirate_bt.trace.structure import NodeInfo, TreeStructure, tree_structure
 from pirate_bt.trace.text import format_summary, summarise, tree_text
-from pirate_bt.trace.writer import WRITERS, TraceRecorder, open_writer
+from pirate_bt.trace.writer import (
+    WRITERS,
+    TraceFormatWriter,
+    TraceRecorder,
+    open_writer,
+    register_writer,
+)
 
 __all__ = [
+    "ENTRY_POINT_GROUP",
     "READERS",
     "TRACE_VERSION",
     "WRITERS",
@@ -51,6 +68,8 @@ __all__ = [
     "TickRecord",
     "Trace",
     "TraceEvent",
+    "TraceFormatReader",
+    "TraceFormatWriter",
     "TraceRecorder",
     "TreeStructure",
     "attach_live_view",
@@ -58,8 +77,12 @@ __all__ = [
     "counter_values",
     "format_summary",
     "live_view_hook",
+    "load_format_entry_points",
+    "open_reader",
     "open_writer",
     "read_trace",
+    "register_reader",
+    "register_writer",
     "summarise",
     "supervised_extras",
     "trace_schema",

@@ -7,7 +7,9 @@ changes to give the *whole* picture at a tick: every node's status and
 feedback message, the blackboard, the robot state, link health and simulator
 counters, plus the commands and events of that tick.
 
-Readers are picked by file suffix from :data:`READERS`, like the writers.
+Readers are picked by file suffix from :data:`READERS`, like the writers;
+:func:`register_reader` adds one (formats above this package register
+themselves, see :mod:`pirate_bt.trace.formats`).
 A reader tolerates a cut-off last line (a run killed mid-write): the complete
 ticks before it are returned and :attr:`Trace.truncated` is set. Any other bad
 line is an :class:`~pirate_bt.errors.LocatedError` naming the file and line.
@@ -27,19 +29,22 @@ import py_trees
 
 from pirate_bt.errors import InputError, LocatedError, SourceLocation
 from pirate_bt.robot.state import RobotState
+from pirate_bt.trace.formats import register_format, suffix_of
 from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
 from pirate_bt.trace.structure import TreeStructure
-from pirate_bt.trace.writer import suffix_of
 
 __all__ = [
     "READERS",
     "GzipJsonLinesReader",
     "JsonLinesReader",
+    "ReaderFactory",
     "TickFrame",
     "TickRecord",
     "Trace",
     "TraceFormatReader",
+    "open_reader",
     "read_trace",
+    "register_reader",
 ]
 
 
@@ -129,20 +134,50 @@ class GzipJsonLinesReader(TraceFormatReader):
             self.truncated = True
 
 
-#: File suffix -> format reader class; the longest matching suffix wins.
-def _mcap_reader(path: str | Path) -> TraceFormatReader:
-    """MCAP files written by pirate_bt (:class:`pirate_bt.interop.mcap_trace.McapTraceReader`),
-    imported when one is read (the interop package builds on this one)."""
-    from pirate_bt.interop.mcap_trace import McapTraceReader
-
-    return McapTraceReader(path)
-
+ReaderFactory = Callable[[str | Path], TraceFormatReader]
+"""Makes the reader of one file: a :class:`TraceFormatReader` subclass, or a callable."""
 
 #: File suffix -> reader (a class, or a callable that makes one); the longest suffix wins.
-READERS: dict[str, Callable[[str | Path], TraceFormatReader]] = {
+#: Add rows with :func:`register_reader`; ``.mcap`` is registered by
+#: :mod:`pirate_bt.interop.mcap_trace` (through the ``pirate_bt.trace_formats``
+#: entry points, loaded the first time a suffix is not found here).
+READERS: dict[str, ReaderFactory] = {
     suffix: cls for cls in (JsonLinesReader, GzipJsonLinesReader) for suffix in cls.suffixes
 }
-READERS[".mcap"] = _mcap_reader
+
+
+def register_reader(suffix: str, factory: ReaderFactory, *, replace: bool = False) -> None:
+    """Read files whose name ends with ``suffix`` with ``factory(path)``.
+
+    ``factory`` returns a :class:`TraceFormatReader`: an iterable of
+    ``(number, record)`` pairs, the records being the JSON objects of
+    ``docs/formats/trace.md``, which sets ``truncated`` if the file was cut off.
+    Registering the same factory twice is a no-op. Example::
+
+        class Bz2TraceReader(TraceFormatReader):  # JSON Lines, bzip2-compressed
+            def _open(self):
+                return bz2.open(self.path, "rb")
+
+        register_reader(".jsonl.bz2", Bz2TraceReader)
+        read_trace("run.jsonl.bz2")
+
+    A reader of a format that is not JSON Lines overrides ``__iter__`` instead.
+
+    Raises:
+        ValueError: ``suffix`` does not start with a dot, or another factory has
+            it (unless ``replace``).
+    """
+    register_format(READERS, suffix, factory, replace=replace)
+
+
+def open_reader(path: str | Path) -> TraceFormatReader:
+    """A format reader for ``path``, chosen by its suffix (see :data:`READERS`).
+
+    Raises:
+        InputError: unknown suffix (the message lists the known ones).
+        ConfigurationError: the suffix needs an optional part that is not installed.
+    """
+    return READERS[suffix_of(path, READERS)](path)
 
 
 @dataclass(frozen=True)
@@ -350,9 +385,10 @@ def read_trace(path: str | Path) -> Trace:
 
     Raises:
         InputError: unknown suffix or unreadable file.
+        ConfigurationError: the suffix needs an optional part that is not installed.
         LocatedError: a record that is not valid, with file and line.
     """
-    reader = READERS[suffix_of(path, READERS)](path)
+    reader = open_reader(path)
     where = Path(path)
     header: dict[str, Any] | None = None
     ticks: list[TickRecord] = []
