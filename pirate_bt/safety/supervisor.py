@@ -25,6 +25,17 @@ link loss or stale data. :meth:`Supervisor.safe_state` stops the drives and
 holds the clamps (joint setpoints are left as they are, so the boards keep
 holding); :meth:`Supervisor.estop` always passes, stops everything on the bridge
 and latches until an operator resets it.
+
+The class is split along its seams, one mixin per module:
+
+- :mod:`pirate_bt.safety.supervisor_decide` (:class:`DecisionMixin`): the
+  checks above in order, sending, recording verdicts, counting refusals, the
+  drive stop.
+- :mod:`pirate_bt.safety.supervisor_authority` (:class:`AuthorityMixin`): the
+  safe state, the e-stop, modes, operator actions and step confirmations.
+
+This module keeps :class:`Supervisor` itself: its construction, what the layers
+above read, the tick, the command entry points, the simulator and closing.
 """
 
 from __future__ import annotations
@@ -33,12 +44,10 @@ import logging
 import math
 import threading
 from collections.abc import Iterable
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import CommandRefused, EStopLatched, LinkError
-from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -49,7 +58,6 @@ from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import (
     INVARIANTS,
     Check,
-    CheckContext,
     ClampState,
     HalfTarget,
     Problem,
@@ -68,30 +76,19 @@ from pirate_bt.safety.commands import (
     Unclamp,
 )
 from pirate_bt.safety.expand import Expander
-from pirate_bt.safety.limits import limit
 from pirate_bt.safety.operator import (
-    Confirm,
     Confirmation,
-    Deny,
-    EStop,
     Mode,
-    OperatorAction,
-    OperatorCommand,
     OperatorInput,
-    ResetEStop,
-    Resume,
-    SafeStop,
-    SetMode,
 )
+from pirate_bt.safety.supervisor_authority import AuthorityMixin
+from pirate_bt.safety.supervisor_decide import DecisionMixin
 from pirate_bt.safety.verdict import (
-    Outcome,
     Reason,
     Source,
     Verdict,
     VerdictListener,
     VerdictLog,
-    current_issuer,
-    node_path,
 )
 
 if TYPE_CHECKING:
@@ -101,20 +98,8 @@ __all__ = ["Supervisor"]
 
 log = logging.getLogger("pirate_bt.safety")
 
-# Refusals that say "not now, not you" rather than "this command is wrong"; they do
-# not count towards the repeated-refusal limit.
-_AUTHORITY = frozenset(
-    {
-        Reason.ESTOP_LATCHED,
-        Reason.SAFE_STATE,
-        Reason.TREE_PAUSED,
-        Reason.NOT_CONFIRMED,
-        Reason.OPERATOR_NOT_IN_CONTROL,
-    }
-)
 
-
-class Supervisor:
+class Supervisor(AuthorityMixin, DecisionMixin):
     """Checks every command against limits, invariants and authority; the only sender.
 
     Args:
@@ -352,167 +337,6 @@ class Supervisor:
     def stop(self, *, source: Source = Source.TREE) -> Verdict:
         return self.command(Stop(), source=source)
 
-    # -- safe state and e-stop ----------------------------------------------
-
-    def safe_state(self, reason: str) -> None:
-        """Stop the drives and hold the clamps; refuse tree commands until resumed.
-
-        Called by the supervisor itself (stale data, link loss, repeated refusals),
-        by the runner when a behaviour raises, and by an operator stop. Never raises:
-        a stop that cannot be delivered is logged. The first reason given is kept
-        (:attr:`safe_state_reason`) until the operator resumes: the first cause of a
-        failure survives every later stop.
-        """
-        with self._lock:
-            first = self._safe_reason is None
-            if first:
-                self._safe_reason = reason
-                log.warning("safe state: %s", reason)
-            else:
-                log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)
-            sent = self._send_stop()
-            self._record(
-                Verdict(
-                    Outcome.PASS,
-                    Stop(),
-                    Source.SUPERVISOR,
-                    sent=sent,
-                    reason=Reason.SAFE_STATE,
-                    detail=f"safe state: {reason}",
-                )
-            )
-
-    def estop(self, reason: str = "e-stop") -> None:
-        """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""
-        with self._lock:
-            try:
-                self.port.estop()
-            except Exception:  # the e-stop must never be the thing that fails
-                log.exception("e-stop could not be sent")
-            self._mode = Mode.ESTOP
-            self._estop_reason = reason
-            self._granted.clear()
-            log.error("E-STOP: %s", reason)
-            self._record(
-                Verdict(
-                    Outcome.PASS,
-                    Stop(),
-                    Source.SUPERVISOR,
-                    reason=Reason.ESTOP_LATCHED,
-                    detail=f"e-stop: {reason}",
-                )
-            )
-
-    def reset_estop(self) -> None:
-        """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``."""
-        with self._lock:
-            if self._mode is not Mode.ESTOP:
-                return
-            self.port.reset_estop()
-            self._mode = Mode.MANUAL
-            self._estop_reason = None
-            log.warning("e-stop reset by the operator; mode manual")
-
-    # -- operator authority ---------------------------------------------------
-
-    def set_mode(self, mode: Mode) -> None:
-        """Change who is in charge; takes effect for the very next command.
-
-        Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
-        ``SUPERVISED``) also leaves the safe state. ``ESTOP`` is :meth:`estop`;
-        leaving ``ESTOP`` needs :meth:`reset_estop`.
-        """
-        with self._lock:
-            if mode is Mode.ESTOP:
-                self.estop("operator set mode estop")
-                return
-            if self._mode is Mode.ESTOP:
-                log.warning("mode %s ignored: the e-stop is latched (reset it first)", mode)
-                return
-            if mode is self._mode:
-                return
-            old, self._mode = self._mode, mode
-            log.warning("mode %s -> %s", old, mode)
-            if mode is Mode.MANUAL:
-                self._send_stop()
-            else:
-                self._safe_reason = None
-                self._refusals = 0
-
-    def resume(self) -> None:
-        """Leave the safe state (operator action)."""
-        with self._lock:
-            if self._safe_reason is not None:
-                log.warning("safe state left by the operator (was: %s)", self._safe_reason)
-            self._safe_reason = None
-            self._refusals = 0
-
-    def apply(self, action: OperatorAction) -> Verdict | None:
-        """Apply one operator action now; returns the verdict for a command action."""
-        with self._lock:
-            match action:
-                case SetMode(mode):
-                    self.set_mode(mode)
-                case EStop(reason):
-                    self.estop(reason)
-                case ResetEStop():
-                    self.reset_estop()
-                case SafeStop(reason):
-                    self.safe_state(reason)
-                case Resume():
-                    self.resume()
-                case Confirm(step):
-                    self.confirm(step)
-                case Deny(step):
-                    self.deny(step)
-                case OperatorCommand(command):
-                    return self.command(command, source=Source.OPERATOR)
-            return None
-
-    def request_confirmation(self, step: str) -> Confirmation:
-        """Ask to start ``step`` (a primitive calls this before it moves).
-
-        In ``AUTONOMOUS`` the answer is ``GRANTED`` at once. In ``SUPERVISED`` the
-        step waits (``PENDING``) until an operator confirms or denies it; call again
-        each tick. ``MANUAL`` answers ``PENDING`` (the tree is paused), ``ESTOP``
-        ``DENIED``. A granted step lets the tree's commands through until
-        :meth:`end_step`, which the primitive calls when it terminates.
-        """
-        with self._lock:
-            if self._mode is Mode.ESTOP:
-                return Confirmation.DENIED
-            decided = self._decided.get(step)
-            if decided is not None:
-                return decided
-            if self._mode is Mode.AUTONOMOUS:
-                self._decided[step] = Confirmation.GRANTED
-                self._granted.add(step)
-                return Confirmation.GRANTED
-            if step not in self._pending:
-                self._pending.append(step)
-                log.info("waiting for the operator to confirm %r", step)
-            return Confirmation.PENDING
-
-    def end_step(self, step: str) -> None:
-        """Forget ``step``'s confirmation; the next request for it asks again."""
-        with self._lock:
-            self._decided.pop(step, None)
-            self._granted.discard(step)
-            if step in self._pending:
-                self._pending.remove(step)
-
-    def pending_confirmations(self) -> list[str]:
-        """Steps waiting for the operator, oldest first."""
-        return list(self._pending)
-
-    def confirm(self, step: str | None = None) -> str | None:
-        """Grant ``step`` (or the oldest pending one); returns the step granted."""
-        return self._decide_step(step, Confirmation.GRANTED)
-
-    def deny(self, step: str | None = None) -> str | None:
-        """Deny ``step`` (or the oldest pending one); returns the step denied."""
-        return self._decide_step(step, Confirmation.DENIED)
-
     def attach_simulator(self, simulator: Simulator) -> None:
         """Keep the in-process simulator behind the port; :meth:`close` closes it too.
 
@@ -533,163 +357,3 @@ class Supervisor:
             finally:
                 if self.simulator is not None:
                     self.simulator.close()
-
-    # -- internals -------------------------------------------------------------
-
-    def _decide_step(self, step: str | None, answer: Confirmation) -> str | None:
-        with self._lock:
-            if step is None:
-                if not self._pending:
-                    return None
-                step = self._pending[0]
-            if step in self._pending:
-                self._pending.remove(step)
-            self._decided[step] = answer
-            if answer is Confirmation.GRANTED:
-                self._granted.add(step)
-            else:
-                self._granted.discard(step)
-            log.warning("operator %s %r", answer, step)
-            return step
-
-    def _record(self, verdict: Verdict) -> Verdict:
-        self._seq += 1
-        # A node whose code is running asked for this (or, for a supervisor stop, caused it).
-        issuer = current_issuer() if verdict.source is not Source.OPERATOR else None
-        node, node_name = node_path(issuer) if issuer is not None else (None, None)
-        verdict = replace(
-            verdict,
-            seq=self._seq,
-            tick=self._tick,
-            stamp_s=self.clock.now(),
-            node=node,
-            node_name=node_name,
-        )
-        self.verdicts.append(verdict)
-        if verdict.source is Source.TREE:
-            if verdict.ok:
-                self._refusals = 0
-            elif verdict.reason not in _AUTHORITY:
-                self._refusals += 1
-                if self._refusals >= self.robot.safety.max_refusals and not self.in_safe_state:
-                    self.safe_state(f"{self._refusals} refused commands in a row")
-        return verdict
-
-    def _send_stop(self) -> tuple[MotorCommand, ...]:
-        now = self.clock.now()
-        cmds = tuple(
-            MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()
-        )
-        try:
-            self.port.send(cmds)
-        except LinkError as exc:
-            log.error("could not send stop: %s", exc)
-            return ()
-        for c in cmds:
-            self._last_setpoint[c.motor] = (c.mode, 0.0, now)
-        return cmds
-
-    def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
-        return Verdict(Outcome.REFUSE, command, source, reason=reason, detail=detail)
-
-    def _decide(self, command: Command, source: Source, *, send: bool) -> Verdict:
-        now = self.clock.now()
-        if isinstance(command, Stop):
-            sent = self._send_stop() if send else ()
-            return Verdict(Outcome.PASS, command, source, sent=sent)
-        # 1. authority
-        if self._mode is Mode.ESTOP:
-            return self._refuse(
-                command, source, Reason.ESTOP_LATCHED, f"e-stop latched ({self._estop_reason})"
-            )
-        if source is Source.OPERATOR and self._mode is not Mode.MANUAL:
-            return self._refuse(
-                command,
-                source,
-                Reason.OPERATOR_NOT_IN_CONTROL,
-                f"take over (mode manual) before driving by hand; mode is {self._mode}",
-            )
-        if source is Source.TREE:
-            if self._mode is Mode.MANUAL:
-                return self._refuse(
-                    command, source, Reason.TREE_PAUSED, "the operator has taken over (manual)"
-                )
-            if self._safe_reason is not None:
-                return self._refuse(
-                    command, source, Reason.SAFE_STATE, f"in safe state: {self._safe_reason}"
-                )
-            if self._mode is Mode.SUPERVISED and not self._granted:
-                return self._refuse(
-                    command,
-                    source,
-                    Reason.NOT_CONFIRMED,
-                    "supervised mode: no step has been confirmed by the operator",
-                )
-        # 2. link
-        problem = self.link_problem()
-        if problem is not None:
-            return self._refuse(command, source, problem.reason, problem.detail)
-        # 3. expansion
-        state = self.port.state()
-        expanded = self._expander.expand(command, state)
-        if isinstance(expanded, Problem):
-            return self._refuse(command, source, expanded.reason, expanded.detail)
-        intent = expanded
-        # 4. freshness
-        if intent.moves or intent.channels:
-            if state is None:
-                return self._refuse(command, source, Reason.NO_STATE, "no state received yet")
-            stale = stale_channels(self.robot, state, intent.channels, now)
-            if stale:
-                names = ", ".join(
-                    f"{n} ({'never' if not math.isfinite(a) else f'{a:.3f} s'})" for n, a in stale
-                )
-                return self._refuse(
-                    command, source, Reason.STALE_STATE, f"readings too old: {names}"
-                )
-        # 5. invariants
-        if state is not None and intent.moves:
-            ctx = CheckContext(
-                self.robot, state, now, half_states(self.robot, state, self._targets)
-            )
-            for check in self._checks:
-                found = check(ctx, intent)
-                if found is not None:
-                    return self._refuse(command, source, found.reason, found.detail)
-        # 6. static limits
-        out: list[MotorCommand] = []
-        clips: list[tuple[Reason, str]] = []
-        for mc in intent.motor_commands:
-            limited = limit(self.robot, self._last_setpoint, mc, state, now)
-            if isinstance(limited, Problem):
-                return self._refuse(command, source, limited.reason, limited.detail)
-            value, notes = limited
-            clips.extend(notes)
-            out.append(mc if value == mc.value else MotorCommand(mc.motor, mc.mode, value))
-        sent = tuple(out)
-        if send:
-            try:
-                self.port.send(sent)
-            except LinkError as exc:
-                self.safe_state(f"link error while sending: {exc}")
-                return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
-            for mc in sent:
-                self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
-            # A clamp whose torque swings a joint across (a reversal) lets go on the way,
-            # which the checks above treat as a release; what the half is asked to end
-            # in is still the clamp, so the clamp target wins.
-            for half in intent.releases - intent.clamps:
-                self._targets[half] = HalfTarget.RELEASE
-            for half in intent.clamps:
-                self._targets[half] = HalfTarget.CLAMP
-        if clips:
-            return Verdict(
-                Outcome.CLIP,
-                command,
-                source,
-                sent=sent,
-                reason=clips[0][0],
-                detail="; ".join(d for _, d in clips),
-                clips=tuple(r for r, _ in clips),
-            )
-        return Verdict(Outcome.PASS, command, source, sent=sent)

@@ -1,0 +1,228 @@
+"""Who may command the robot now: modes, the safe state, the e-stop, confirmations.
+
+:class:`AuthorityMixin` is the authority side of
+:class:`~pirate_bt.safety.supervisor.Supervisor`: entering and leaving the safe
+state (:meth:`~AuthorityMixin.safe_state`, :meth:`~AuthorityMixin.resume`), the
+latched e-stop (:meth:`~AuthorityMixin.estop`, :meth:`~AuthorityMixin.reset_estop`),
+the mode (:meth:`~AuthorityMixin.set_mode`), operator actions
+(:meth:`~AuthorityMixin.apply`) and the step confirmations of ``SUPERVISED``
+mode (:meth:`~AuthorityMixin.request_confirmation` and the rest). What these
+decide is what the first check of every command (authority) reads.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from typing import TYPE_CHECKING
+
+from pirate_bt.safety.commands import Command, Stop
+from pirate_bt.safety.operator import (
+    Confirm,
+    Confirmation,
+    Deny,
+    EStop,
+    Mode,
+    OperatorAction,
+    OperatorCommand,
+    ResetEStop,
+    Resume,
+    SafeStop,
+    SetMode,
+)
+from pirate_bt.safety.supervisor_decide import DecisionMixin
+from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
+
+__all__ = ["AuthorityMixin"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+
+class AuthorityMixin(DecisionMixin):
+    """The authority side of the supervisor (mixed into ``Supervisor``)."""
+
+    # set by the supervisor
+    _pending: list[str]
+    _decided: dict[str, Confirmation]
+    _lock: threading.RLock
+
+    if TYPE_CHECKING:  # defined by the supervisor
+
+        def command(self, command: Command, *, source: Source = Source.TREE) -> Verdict: ...
+
+    # -- safe state and e-stop ----------------------------------------------
+
+    def safe_state(self, reason: str) -> None:
+        """Stop the drives and hold the clamps; refuse tree commands until resumed.
+
+        Called by the supervisor itself (stale data, link loss, repeated refusals),
+        by the runner when a behaviour raises, and by an operator stop. Never raises:
+        a stop that cannot be delivered is logged. The first reason given is kept
+        (:attr:`safe_state_reason`) until the operator resumes: the first cause of a
+        failure survives every later stop.
+        """
+        with self._lock:
+            first = self._safe_reason is None
+            if first:
+                self._safe_reason = reason
+                log.warning("safe state: %s", reason)
+            else:
+                log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)
+            sent = self._send_stop()
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    Stop(),
+                    Source.SUPERVISOR,
+                    sent=sent,
+                    reason=Reason.SAFE_STATE,
+                    detail=f"safe state: {reason}",
+                )
+            )
+
+    def estop(self, reason: str = "e-stop") -> None:
+        """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""
+        with self._lock:
+            try:
+                self.port.estop()
+            except Exception:  # the e-stop must never be the thing that fails
+                log.exception("e-stop could not be sent")
+            self._mode = Mode.ESTOP
+            self._estop_reason = reason
+            self._granted.clear()
+            log.error("E-STOP: %s", reason)
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    Stop(),
+                    Source.SUPERVISOR,
+                    reason=Reason.ESTOP_LATCHED,
+                    detail=f"e-stop: {reason}",
+                )
+            )
+
+    def reset_estop(self) -> None:
+        """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``."""
+        with self._lock:
+            if self._mode is not Mode.ESTOP:
+                return
+            self.port.reset_estop()
+            self._mode = Mode.MANUAL
+            self._estop_reason = None
+            log.warning("e-stop reset by the operator; mode manual")
+
+    # -- operator authority ---------------------------------------------------
+
+    def set_mode(self, mode: Mode) -> None:
+        """Change who is in charge; takes effect for the very next command.
+
+        Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
+        ``SUPERVISED``) also leaves the safe state. ``ESTOP`` is :meth:`estop`;
+        leaving ``ESTOP`` needs :meth:`reset_estop`.
+        """
+        with self._lock:
+            if mode is Mode.ESTOP:
+                self.estop("operator set mode estop")
+                return
+            if self._mode is Mode.ESTOP:
+                log.warning("mode %s ignored: the e-stop is latched (reset it first)", mode)
+                return
+            if mode is self._mode:
+                return
+            old, self._mode = self._mode, mode
+            log.warning("mode %s -> %s", old, mode)
+            if mode is Mode.MANUAL:
+                self._send_stop()
+            else:
+                self._safe_reason = None
+                self._refusals = 0
+
+    def resume(self) -> None:
+        """Leave the safe state (operator action)."""
+        with self._lock:
+            if self._safe_reason is not None:
+                log.warning("safe state left by the operator (was: %s)", self._safe_reason)
+            self._safe_reason = None
+            self._refusals = 0
+
+    def apply(self, action: OperatorAction) -> Verdict | None:
+        """Apply one operator action now; returns the verdict for a command action."""
+        with self._lock:
+            match action:
+                case SetMode(mode):
+                    self.set_mode(mode)
+                case EStop(reason):
+                    self.estop(reason)
+                case ResetEStop():
+                    self.reset_estop()
+                case SafeStop(reason):
+                    self.safe_state(reason)
+                case Resume():
+                    self.resume()
+                case Confirm(step):
+                    self.confirm(step)
+                case Deny(step):
+                    self.deny(step)
+                case OperatorCommand(command):
+                    return self.command(command, source=Source.OPERATOR)
+            return None
+
+    def request_confirmation(self, step: str) -> Confirmation:
+        """Ask to start ``step`` (a primitive calls this before it moves).
+
+        In ``AUTONOMOUS`` the answer is ``GRANTED`` at once. In ``SUPERVISED`` the
+        step waits (``PENDING``) until an operator confirms or denies it; call again
+        each tick. ``MANUAL`` answers ``PENDING`` (the tree is paused), ``ESTOP``
+        ``DENIED``. A granted step lets the tree's commands through until
+        :meth:`end_step`, which the primitive calls when it terminates.
+        """
+        with self._lock:
+            if self._mode is Mode.ESTOP:
+                return Confirmation.DENIED
+            decided = self._decided.get(step)
+            if decided is not None:
+                return decided
+            if self._mode is Mode.AUTONOMOUS:
+                self._decided[step] = Confirmation.GRANTED
+                self._granted.add(step)
+                return Confirmation.GRANTED
+            if step not in self._pending:
+                self._pending.append(step)
+                log.info("waiting for the operator to confirm %r", step)
+            return Confirmation.PENDING
+
+    def end_step(self, step: str) -> None:
+        """Forget ``step``'s confirmation; the next request for it asks again."""
+        with self._lock:
+            self._decided.pop(step, None)
+            self._granted.discard(step)
+            if step in self._pending:
+                self._pending.remove(step)
+
+    def pending_confirmations(self) -> list[str]:
+        """Steps waiting for the operator, oldest first."""
+        return list(self._pending)
+
+    def confirm(self, step: str | None = None) -> str | None:
+        """Grant ``step`` (or the oldest pending one); returns the step granted."""
+        return self._decide_step(step, Confirmation.GRANTED)
+
+    def deny(self, step: str | None = None) -> str | None:
+        """Deny ``step`` (or the oldest pending one); returns the step denied."""
+        return self._decide_step(step, Confirmation.DENIED)
+
+    def _decide_step(self, step: str | None, answer: Confirmation) -> str | None:
+        with self._lock:
+            if step is None:
+                if not self._pending:
+                    return None
+                step = self._pending[0]
+            if step in self._pending:
+                self._pending.remove(step)
+            self._decided[step] = answer
+            if answer is Confirmation.GRANTED:
+                self._granted.add(step)
+            else:
+                self._granted.discard(step)
+            log.warning("operator %s %r", answer, step)
+            return step

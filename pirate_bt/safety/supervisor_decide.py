@@ -1,0 +1,231 @@
+"""How the Supervisor decides on a command, records the verdict and sends a stop.
+
+:class:`DecisionMixin` is the command side of
+:class:`~pirate_bt.safety.supervisor.Supervisor`: ``_decide`` runs the six checks
+in the order the supervisor's module docstring gives (authority, link,
+expansion, freshness, state invariants, static limits) and sends what passes;
+``_record`` numbers and stamps a verdict, keeps it, and counts repeated
+refusals towards the safe state; ``_send_stop`` stops the drives.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import LinkError
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode, Half, RobotDescription
+from pirate_bt.robot.port import RobotPort
+from pirate_bt.safety.checks import (
+    Check,
+    CheckContext,
+    HalfTarget,
+    Problem,
+    half_states,
+    stale_channels,
+)
+from pirate_bt.safety.commands import Command, Stop
+from pirate_bt.safety.expand import Expander
+from pirate_bt.safety.limits import limit
+from pirate_bt.safety.operator import Mode
+from pirate_bt.safety.verdict import (
+    Outcome,
+    Reason,
+    Source,
+    Verdict,
+    VerdictLog,
+    current_issuer,
+    node_path,
+)
+
+__all__ = ["DecisionMixin"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+# Refusals that say "not now, not you" rather than "this command is wrong"; they do
+# not count towards the repeated-refusal limit.
+_AUTHORITY = frozenset(
+    {
+        Reason.ESTOP_LATCHED,
+        Reason.SAFE_STATE,
+        Reason.TREE_PAUSED,
+        Reason.NOT_CONFIRMED,
+        Reason.OPERATOR_NOT_IN_CONTROL,
+    }
+)
+
+
+class DecisionMixin:
+    """The command side of the supervisor (mixed into ``Supervisor``)."""
+
+    # set by the supervisor
+    port: RobotPort
+    robot: RobotDescription
+    clock: Clock
+    verdicts: VerdictLog
+    _checks: list[Check]
+    _mode: Mode
+    _tick: int
+    _seq: int
+    _safe_reason: str | None
+    _estop_reason: str | None
+    _refusals: int
+    _targets: dict[Half, HalfTarget]
+    _last_setpoint: dict[str, tuple[ControlMode, float, float]]
+    _granted: set[str]
+    _expander: Expander
+
+    if TYPE_CHECKING:  # defined by the supervisor and its authority side
+
+        @property
+        def in_safe_state(self) -> bool: ...
+
+        def safe_state(self, reason: str) -> None: ...
+
+        def link_problem(self) -> Problem | None: ...
+
+    def _record(self, verdict: Verdict) -> Verdict:
+        self._seq += 1
+        # A node whose code is running asked for this (or, for a supervisor stop, caused it).
+        issuer = current_issuer() if verdict.source is not Source.OPERATOR else None
+        node, node_name = node_path(issuer) if issuer is not None else (None, None)
+        verdict = replace(
+            verdict,
+            seq=self._seq,
+            tick=self._tick,
+            stamp_s=self.clock.now(),
+            node=node,
+            node_name=node_name,
+        )
+        self.verdicts.append(verdict)
+        if verdict.source is Source.TREE:
+            if verdict.ok:
+                self._refusals = 0
+            elif verdict.reason not in _AUTHORITY:
+                self._refusals += 1
+                if self._refusals >= self.robot.safety.max_refusals and not self.in_safe_state:
+                    self.safe_state(f"{self._refusals} refused commands in a row")
+        return verdict
+
+    def _send_stop(self) -> tuple[MotorCommand, ...]:
+        now = self.clock.now()
+        cmds = tuple(
+            MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()
+        )
+        try:
+            self.port.send(cmds)
+        except LinkError as exc:
+            log.error("could not send stop: %s", exc)
+            return ()
+        for c in cmds:
+            self._last_setpoint[c.motor] = (c.mode, 0.0, now)
+        return cmds
+
+    def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
+        return Verdict(Outcome.REFUSE, command, source, reason=reason, detail=detail)
+
+    def _decide(self, command: Command, source: Source, *, send: bool) -> Verdict:
+        now = self.clock.now()
+        if isinstance(command, Stop):
+            sent = self._send_stop() if send else ()
+            return Verdict(Outcome.PASS, command, source, sent=sent)
+        # 1. authority
+        if self._mode is Mode.ESTOP:
+            return self._refuse(
+                command, source, Reason.ESTOP_LATCHED, f"e-stop latched ({self._estop_reason})"
+            )
+        if source is Source.OPERATOR and self._mode is not Mode.MANUAL:
+            return self._refuse(
+                command,
+                source,
+                Reason.OPERATOR_NOT_IN_CONTROL,
+                f"take over (mode manual) before driving by hand; mode is {self._mode}",
+            )
+        if source is Source.TREE:
+            if self._mode is Mode.MANUAL:
+                return self._refuse(
+                    command, source, Reason.TREE_PAUSED, "the operator has taken over (manual)"
+                )
+            if self._safe_reason is not None:
+                return self._refuse(
+                    command, source, Reason.SAFE_STATE, f"in safe state: {self._safe_reason}"
+                )
+            if self._mode is Mode.SUPERVISED and not self._granted:
+                return self._refuse(
+                    command,
+                    source,
+                    Reason.NOT_CONFIRMED,
+                    "supervised mode: no step has been confirmed by the operator",
+                )
+        # 2. link
+        problem = self.link_problem()
+        if problem is not None:
+            return self._refuse(command, source, problem.reason, problem.detail)
+        # 3. expansion
+        state = self.port.state()
+        expanded = self._expander.expand(command, state)
+        if isinstance(expanded, Problem):
+            return self._refuse(command, source, expanded.reason, expanded.detail)
+        intent = expanded
+        # 4. freshness
+        if intent.moves or intent.channels:
+            if state is None:
+                return self._refuse(command, source, Reason.NO_STATE, "no state received yet")
+            stale = stale_channels(self.robot, state, intent.channels, now)
+            if stale:
+                names = ", ".join(
+                    f"{n} ({'never' if not math.isfinite(a) else f'{a:.3f} s'})" for n, a in stale
+                )
+                return self._refuse(
+                    command, source, Reason.STALE_STATE, f"readings too old: {names}"
+                )
+        # 5. invariants
+        if state is not None and intent.moves:
+            ctx = CheckContext(
+                self.robot, state, now, half_states(self.robot, state, self._targets)
+            )
+            for check in self._checks:
+                found = check(ctx, intent)
+                if found is not None:
+                    return self._refuse(command, source, found.reason, found.detail)
+        # 6. static limits
+        out: list[MotorCommand] = []
+        clips: list[tuple[Reason, str]] = []
+        for mc in intent.motor_commands:
+            limited = limit(self.robot, self._last_setpoint, mc, state, now)
+            if isinstance(limited, Problem):
+                return self._refuse(command, source, limited.reason, limited.detail)
+            value, notes = limited
+            clips.extend(notes)
+            out.append(mc if value == mc.value else MotorCommand(mc.motor, mc.mode, value))
+        sent = tuple(out)
+        if send:
+            try:
+                self.port.send(sent)
+            except LinkError as exc:
+                self.safe_state(f"link error while sending: {exc}")
+                return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
+            for mc in sent:
+                self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
+            # A clamp whose torque swings a joint across (a reversal) lets go on the way,
+            # which the checks above treat as a release; what the half is asked to end
+            # in is still the clamp, so the clamp target wins.
+            for half in intent.releases - intent.clamps:
+                self._targets[half] = HalfTarget.RELEASE
+            for half in intent.clamps:
+                self._targets[half] = HalfTarget.CLAMP
+        if clips:
+            return Verdict(
+                Outcome.CLIP,
+                command,
+                source,
+                sent=sent,
+                reason=clips[0][0],
+                detail="; ".join(d for _, d in clips),
+                clips=tuple(r for r, _ in clips),
+            )
+        return Verdict(Outcome.PASS, command, source, sent=sent)
