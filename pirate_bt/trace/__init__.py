@@ -16,6 +16,7 @@ Typical use with plain py_trees::
             tree.tick()
     trace = read_trace("run.jsonl")
     trace.statuses_at(42)
+    trace.first_tick("*/clamp rear", "SUCCESS")   # queries: see pirate_bt.trace.query
 """
 
 from pirate_bt.trace.attach import (
@@ -26,6 +27,7 @@ from pirate_bt.trace.attach import (
 )
 from pirate_bt.trace.formats import ENTRY_POINT_GROUP, load_format_entry_points
 from pirate_bt.trace.live import LiveView, live_view_hook
+from pirate_bt.trace.query import Failure, FeedbackChange, NodeLookupError, StatusChange
 from pirate_bt.trace.reader import (
     READERS,
     TickFrame,
@@ -60,9 +62,13 @@ __all__ = [
     "TRACE_VERSION",
     "WRITERS",
     "CommandRecord",
+    "Failure",
+    "FeedbackChange",
     "LiveView",
     "NodeInfo",
+    "NodeLookupError",
     "SinkError",
+    "StatusChange",
     "TickExtras",
     "TickFrame",
     "TickRecord",

@@ -30,6 +30,7 @@ import py_trees
 from pirate_bt.errors import InputError, LocatedError, SourceLocation
 from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.formats import register_format, suffix_of
+from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
 from pirate_bt.trace.structure import TreeStructure
 
@@ -238,8 +239,14 @@ class TickFrame:
         return state_from_flat(self.state, self.t_s)
 
 
-class Trace:
+class Trace(TraceQueries):
     """A trace read back: header, tick records and end record.
+
+    Besides replaying ticks (:meth:`frame_at`, :meth:`statuses_at`), it answers
+    questions about nodes by name (see :mod:`pirate_bt.trace.query`):
+    :meth:`nodes`, :meth:`node`, :meth:`statuses`, :meth:`status_at`,
+    :meth:`first_tick`, :meth:`feedback`, :meth:`failures`, :attr:`outcome` and
+    :attr:`why`.
 
     Attributes:
         path: The file it was read from.
@@ -281,7 +288,16 @@ class Trace:
 
     @property
     def outcome(self) -> str:
-        """The run's outcome, or ``incomplete`` when there is no end record."""
+        """The run's outcome, or ``incomplete`` when there is no end record.
+
+        One of ``success``, ``failure``, ``error``, ``interrupted``, ``running``
+        (the end record's words) or ``incomplete``; :attr:`why` says why.
+
+        Example::
+
+            >>> read_trace("run.jsonl").outcome
+            'success'
+        """
         return str(self.end["outcome"]) if self.end is not None else "incomplete"
 
     def frames(self) -> Iterator[TickFrame]:
