@@ -1,11 +1,22 @@
-/* pirate-simavr: USART1, the board bus: frames out, the boards' replies in (see harness.c). */
+/* pirate-simavr: USART1, the board bus: frames out, the boards' replies in (see harness.c).
+ * Calls channel.c only. */
 #include "harness.h"
 
+static avr_t *mcu;
+static avr_irq_t *bus_in;
+static uint8_t busq[4096];
+static unsigned busq_head, busq_tail;
+static uint8_t replies[256][64]; /* per address: the board's latest reply ('U') */
+static uint8_t reply_len[256];
 static uint8_t bus_frame[256];
+static unsigned bus_frame_n;
+static bool bus_frame_ready;
 static uint8_t last_frame[256][64]; /* per address: the last frame told to the boards */
+static uint8_t last_frame_len[256];
 static uint64_t bus_frame_cycle;
+static struct bus_stats stats;
 
-avr_cycle_count_t harness_feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
+static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
     (void)a, (void)param;
     if (busq_tail != busq_head) {
         avr_raise_irq(bus_in, busq[busq_tail++ % sizeof busq]);
@@ -14,7 +25,7 @@ avr_cycle_count_t harness_feed_bus(avr_t *a, avr_cycle_count_t when, void *param
     return 0; /* idle until the next answer */
 }
 
-void harness_bus_out(avr_irq_t *irq, uint32_t value, void *param) {
+static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq, (void)param;
     if (value != 0) {
         if (bus_frame_n < sizeof bus_frame) {
@@ -22,9 +33,36 @@ void harness_bus_out(avr_irq_t *irq, uint32_t value, void *param) {
         }
         return;
     }
-    bus_frame_ready = true; /* reported between two instructions, see run_until */
-    bus_frame_cycle = avr->cycle;
-    bus_frames++;
+    bus_frame_ready = true; /* reported between two instructions: bus_service */
+    bus_frame_cycle = mcu->cycle;
+    stats.frames++;
+}
+
+void bus_init(avr_t *avr) {
+    mcu = avr;
+    uint32_t flags = 0; /* no stdio echo, no pacing by simavr itself */
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('1'), &flags);
+    bus_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_OUTPUT),
+                            bus_out, NULL);
+}
+
+void bus_reset(void) {
+    avr_cycle_timer_cancel(mcu, feed_bus, NULL);
+    busq_tail = busq_head;
+    bus_frame_n = 0;
+    memset(last_frame_len, 0, sizeof last_frame_len);
+}
+
+void bus_set_reply(uint8_t addr, const uint8_t *reply, uint16_t n) {
+    if (n <= sizeof replies[0]) {
+        memcpy(replies[addr], reply, n);
+        reply_len[addr] = (uint8_t)n;
+    }
+}
+
+const struct bus_stats *bus_stats(void) {
+    return &stats;
 }
 
 static uint16_t crc16_xmodem(const uint8_t *p, unsigned n) {
@@ -73,34 +111,34 @@ static void answer(const uint8_t *frame, unsigned n) {
     }
     if (body[1] != 0x01u) {
         if (body[1] == 0x02u) {
-            bus_stops++; /* STOP: applied silently */
+            stats.stops++; /* STOP: applied silently */
         }
         return;
     }
     uint8_t addr = body[0];
     if (!reply_len[addr]) {
-        bus_unanswered++;
+        stats.unanswered++;
         return;
     }
-    bus_replies++;
+    stats.replies++;
     for (unsigned i = 0; i < reply_len[addr]; i++) {
         busq[busq_head++ % sizeof busq] = replies[addr][i];
     }
-    avr_cycle_timer_cancel(avr, harness_feed_bus, NULL);
-    avr_cycle_timer_register(avr, BUS_TURNAROUND_CYCLES, harness_feed_bus, NULL);
+    avr_cycle_timer_cancel(mcu, feed_bus, NULL);
+    avr_cycle_timer_register(mcu, BUS_TURNAROUND_CYCLES, feed_bus, NULL);
 }
 
 /* The bridge finished a bus frame: answer it, and tell the boards unless it repeats
  * the last frame to that address byte for byte (the same setpoints: nothing to
  * apply; the 'T' ticks carry the time). */
-void harness_exchange(void) {
+static void exchange(void) {
     bus_frame_ready = false;
     answer(bus_frame, bus_frame_n);
     uint8_t addr = bus_frame_n >= 2 ? bus_frame[1] : 0; /* COBS code, then addr (or 0) */
     if (bus_frame_n <= sizeof last_frame[0]) {
         if (last_frame_len[addr] == bus_frame_n &&
             memcmp(last_frame[addr], bus_frame, bus_frame_n) == 0) {
-            bus_repeats++;
+            stats.repeats++;
             bus_frame_n = 0;
             return;
         }
@@ -108,8 +146,14 @@ void harness_exchange(void) {
         last_frame_len[addr] = (uint8_t)bus_frame_n;
     }
     uint8_t payload[8 + sizeof bus_frame];
-    harness_put_u64(payload, bus_frame_cycle);
+    channel_put_u64(payload, bus_frame_cycle);
     memcpy(payload + 8, bus_frame, bus_frame_n);
-    harness_send_record('F', payload, (uint16_t)(8 + bus_frame_n));
+    channel_send_record('F', payload, (uint16_t)(8 + bus_frame_n));
     bus_frame_n = 0;
+}
+
+void bus_service(void) {
+    if (bus_frame_ready) {
+        exchange();
+    }
 }

@@ -1,4 +1,5 @@
-/* pirate-simavr: the channel to the board simulator on stdin/stdout (see harness.c). */
+/* pirate-simavr: the channel to the board simulator on stdin/stdout (see harness.c).
+ * The bottom file: it calls no other; what a record means is its caller's business. */
 #include "harness.h"
 
 /* -- the channel to the boards ---------------------------------------------------- */
@@ -17,7 +18,7 @@ static void write_all(int fd, const uint8_t *p, size_t n) {
     }
 }
 
-void harness_send_record(char type, const uint8_t *payload, uint16_t n) {
+void channel_send_record(char type, const uint8_t *payload, uint16_t n) {
     uint8_t head[3] = {(uint8_t)type, (uint8_t)(n & 0xFFu), (uint8_t)(n >> 8)};
     write_all(STDOUT_FILENO, head, 3);
     if (n) {
@@ -25,7 +26,7 @@ void harness_send_record(char type, const uint8_t *payload, uint16_t n) {
     }
 }
 
-void harness_put_u64(uint8_t *p, uint64_t v) {
+void channel_put_u64(uint8_t *p, uint64_t v) {
     for (int i = 0; i < 8; i++) {
         p[i] = (uint8_t)(v >> (8 * i));
     }
@@ -61,44 +62,21 @@ static bool read_record(char *type, uint8_t *payload, uint16_t *n) {
     return true;
 }
 
-/* Handles one record from the boards. */
-static void handle_record(char type, const uint8_t *payload, uint16_t n) {
-    if (type == 'U' && n >= 1 && n - 1u <= sizeof replies[0]) {
-        memcpy(replies[payload[0]], payload + 1, n - 1u);
-        reply_len[payload[0]] = (uint8_t)(n - 1u);
-    } else if (type == 'Q') {
-        char text[2048];
-        int len = harness_figures_text(text, sizeof text);
-        harness_send_record('S', (const uint8_t *)text, (uint16_t)len);
-    } else if (type == 'X') {
-        harness_reset_mcu();
-    } else if (type == 'H') {
-        held = true; /* what the MCU sent is on the pty already (harness_service_pty ran) */
-        uint8_t p[8];
-        harness_put_u64(p, avr->cycle);
-        harness_send_record('h', p, 8);
-    } else if (type == 'G' && held) {
-        held = false;
-        wall0 = harness_now_s();
-        cycle0 = avr->cycle;
-    }
-}
-
-/* Records from the boards ('U', 'Q', 'X'), whenever they arrive. */
-void harness_service_channel(void) {
+/* Records from the boards, whenever they arrive, each to `handle`. False at the end
+ * of the channel (stdin closed or unreadable). */
+bool channel_service(channel_handler handle) {
     struct pollfd p = {.fd = STDIN_FILENO, .events = POLLIN};
     while (poll(&p, 1, 0) > 0) {
         if (p.revents & (POLLHUP | POLLERR) && !(p.revents & POLLIN)) {
-            stop_requested = true;
-            return;
+            return false;
         }
         static uint8_t in[65536];
         char type;
         uint16_t n;
         if (!read_record(&type, in, &n)) {
-            stop_requested = true;
-            return;
+            return false;
         }
-        handle_record(type, in, n);
+        handle(type, in, n);
     }
+    return true;
 }

@@ -1,5 +1,11 @@
-/* pirate-simavr: the figures, from the GPIOR0 markers and pb_debug (see harness.c). */
+/* pirate-simavr: the figures, from the GPIOR0 markers and pb_debug (see harness.c).
+ * Calls host.c and bus.c only, for their counts. */
 #include "harness.h"
+
+static avr_t *mcu;
+static uint32_t debug_at; /* pb_debug's SRAM address, 0 when not found */
+static uint64_t mark_at[256], estop_byte_at;
+static bool estop_waiting;
 
 struct tally {
     uint64_t n, sum, min, max;
@@ -22,10 +28,10 @@ static uint16_t debug_u16(unsigned offset) {
     if (!debug_at) {
         return 0;
     }
-    return (uint16_t)(avr->data[debug_at + offset] | avr->data[debug_at + offset + 1] << 8);
+    return (uint16_t)(mcu->data[debug_at + offset] | mcu->data[debug_at + offset + 1] << 8);
 }
 
-void harness_marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
+static void marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
     (void)param;
     a->data[addr] = value;
     mark_at[value] = a->cycle;
@@ -35,11 +41,21 @@ void harness_marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param) {
         add(&bulk_cycles, a->cycle - mark_at[MARK_FRAME_END]);
     } else if (value == MARK_ESTOP) {
         estop_waiting = true;
-        estop_byte_at = last_host_delimiter;
+        estop_byte_at = host_stats()->last_delimiter;
     } else if (value == MARK_BUS_STOP && estop_waiting) {
         estop_waiting = false;
         add(&estop_us, a->cycle - estop_byte_at);
     }
+}
+
+void figures_init(avr_t *avr, uint32_t debug_address) {
+    mcu = avr;
+    debug_at = debug_address;
+    avr_register_io_write(avr, GPIOR0_DATA, marker, NULL);
+}
+
+void figures_reset(void) {
+    estop_waiting = false;
 }
 
 /* -- figures ----------------------------------------------------------------------- */
@@ -53,7 +69,9 @@ static int put_stat(char *out, size_t size, const char *name, const struct tally
                     (double)s->min / scale, name, (double)s->max / scale);
 }
 
-int harness_figures_text(char *out, size_t size) {
+int figures_text(char *out, size_t size, const struct mcu_stats *m) {
+    const struct host_stats *host = host_stats();
+    const struct bus_stats *bus = bus_stats();
     int k = snprintf(out, size,
                      "cycles %llu\nsimulated_s %.3f\ndtr_resets %llu\n"
                      "unexpected_resets %llu\nfirmware_reset_count %u\nstack_high_water_bytes %u\nstack_room_bytes %u\n"
@@ -61,16 +79,16 @@ int harness_figures_text(char *out, size_t size) {
                      "host_bytes_in %llu\nhost_bytes_dropped %llu\nhost_frames_out %llu\n"
                      "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
                      "bus_stops %llu\nhost_queue_bytes %u\n",
-                     (unsigned long long)avr->cycle, (double)avr->cycle / HZ,
-                     (unsigned long long)dtr_resets,
-                     (unsigned long long)unexpected_resets, debug_u16(2),
+                     (unsigned long long)mcu->cycle, (double)mcu->cycle / HZ,
+                     (unsigned long long)m->dtr_resets,
+                     (unsigned long long)m->unexpected_resets, debug_u16(2),
                      debug_at ? RAMEND - debug_u16(6) : 0u, debug_at ? RAMEND - debug_u16(8) : 0u,
-                     debug_u16(0), (unsigned long long)lag_events,
-                     (unsigned long long)bus_frames, (unsigned long long)host_bytes_in,
-                     (unsigned long long)host_bytes_dropped, (unsigned long long)frames_out,
-                     debug_u16(18), (unsigned long long)bus_replies,
-                     (unsigned long long)bus_unanswered, (unsigned long long)bus_repeats,
-                     (unsigned long long)bus_stops, hostq_head - hostq_tail);
+                     debug_u16(0), (unsigned long long)m->lag_events,
+                     (unsigned long long)bus->frames, (unsigned long long)host->bytes_in,
+                     (unsigned long long)host->bytes_dropped, (unsigned long long)host->frames_out,
+                     debug_u16(18), (unsigned long long)bus->replies,
+                     (unsigned long long)bus->unanswered, (unsigned long long)bus->repeats,
+                     (unsigned long long)bus->stops, host_queue_bytes());
     k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);

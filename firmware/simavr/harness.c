@@ -32,37 +32,41 @@
  * pb_debug record (found by symbol in the ELF): MCU resets, stack high-water mark,
  * cycles to encode a STATE and to decode and apply a BULK_SETPOINTS, and the time
  * from an ESTOP frame's last byte to the first STOP byte on the board bus.
+ *
+ * The files and who calls whom, a DAG (harness.h declares each file's functions in
+ * this order, bottom first):
+ *
+ *   harness.c  main, the MCU (reset, run_until, pacing), the boards' records
+ *      |  \      -> figures.c, host.c, bus.c, channel.c
+ *      |  figures.c  markers, tallies, the figures text  -> host.c, bus.c
+ *      |   /    \
+ *    host.c    bus.c  USART0 on the pty | USART1, the board bus  -> channel.c
+ *         \    /
+ *       channel.c  records on stdin/stdout  -> nothing
+ *
+ * No file reads or writes another's variables: each keeps its own state and lends
+ * counts out through functions (host_stats, bus_stats; harness.c hands figures_text
+ * its own). Where a lower file has news for a higher one it calls a function the
+ * higher one handed down: host.c calls the `on_open` that harness.c gave host_init()
+ * at the pty's DTR edge (harness.c resets the MCU, and with it host.c, bus.c and
+ * figures.c), and channel_service() gives each record from the boards to harness.c's
+ * handler. bus.c answers a finished frame when harness.c calls bus_service() between
+ * two instructions.
  */
 #include "harness.h"
 
-avr_t *avr;
-avr_irq_t *host_in, *bus_in;
-bool host_open, host_xoff, stop_requested;
+static avr_t *avr;
+static bool stop_requested;
 static bool reset_expected = true; /* the power-on start */
-bool held;                  /* 'H': the MCU's clock stands still until 'G' */
-double wall0;               /* pacing: wall time at cycle0 */
-uint64_t cycle0;
-uint64_t unexpected_resets;
+static bool held;                  /* 'H': the MCU's clock stands still until 'G' */
+static double wall0;               /* pacing: wall time at cycle0 */
+static uint64_t cycle0;
 static unsigned boot_ms;
-uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
-uint32_t debug_at;   /* pb_debug's SRAM address, 0 when not found */
+static uint64_t boot_until; /* MCU held in reset (bootloader) until this cycle */
+static uint64_t last_tick;
+static struct mcu_stats mcu_stats;
 
-uint8_t hostq[RING], busq[4096], host_out_buf[RING];
-unsigned hostq_head, hostq_tail, busq_head, busq_tail, host_out_n;
-uint8_t replies[256][64];
-uint8_t last_frame_len[256];
-uint64_t bus_repeats, last_tick;
-uint8_t reply_len[256];
-uint64_t bus_replies, bus_unanswered; /* EXCHANGEs: answered, not (silent board) */
-uint64_t bus_stops;                    /* STOPs with a good CRC */
-unsigned bus_frame_n;
-bool bus_frame_ready;
-
-uint64_t mark_at[256], last_host_delimiter, estop_byte_at;
-bool estop_waiting;
-uint64_t dtr_resets, lag_events, bus_frames, host_bytes_in, host_bytes_dropped, frames_out;
-
-double harness_now_s(void) {
+static double now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
@@ -70,24 +74,41 @@ double harness_now_s(void) {
 
 /* -- the MCU ---------------------------------------------------------------------- */
 
-void harness_reset_mcu(void) {
+static void reset_mcu(void) {
     avr_reset(avr); /* also clears simavr's cycle timers: ours start again */
-    avr_cycle_timer_cancel(avr, harness_feed_host, NULL);
-    avr_cycle_timer_cancel(avr, harness_feed_bus, NULL);
-    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, harness_feed_host, NULL);
-    dtr_resets++;
+    mcu_stats.dtr_resets++;
     reset_expected = true;
-    host_xoff = false;
-    busq_tail = busq_head;
-    bus_frame_n = 0;
-    host_out_n = 0; /* bytes of the old boot not yet on the pty: lost with the reset */
-    memset(last_frame_len, 0, sizeof last_frame_len);
-    hostq_tail = hostq_head; /* the bootloader eats what arrives meanwhile */
     boot_until = avr->cycle + (uint64_t)boot_ms * (HZ / 1000u);
-    estop_waiting = false;
+    host_reset(boot_until); /* its feeding restarts; what arrives meanwhile is eaten */
+    bus_reset();
+    figures_reset();
     uint8_t p[8];
-    harness_put_u64(p, avr->cycle);
-    harness_send_record('R', p, 8);
+    channel_put_u64(p, avr->cycle);
+    channel_send_record('R', p, 8);
+}
+
+/* Handles one record from the boards. */
+static void handle_record(char type, const uint8_t *payload, uint16_t n) {
+    if (type == 'U') {
+        if (n >= 1) {
+            bus_set_reply(payload[0], payload + 1, (uint16_t)(n - 1u));
+        }
+    } else if (type == 'Q') {
+        char text[2048];
+        int len = figures_text(text, sizeof text, &mcu_stats);
+        channel_send_record('S', (const uint8_t *)text, (uint16_t)len);
+    } else if (type == 'X') {
+        reset_mcu();
+    } else if (type == 'H') {
+        held = true; /* what the MCU sent is on the pty already (host_service_pty ran) */
+        uint8_t p[8];
+        channel_put_u64(p, avr->cycle);
+        channel_send_record('h', p, 8);
+    } else if (type == 'G' && held) {
+        held = false;
+        wall0 = now_s();
+        cycle0 = avr->cycle;
+    }
 }
 
 /* Runs the core until `target` cycles, stopping for every bus frame. */
@@ -100,7 +121,8 @@ static void run_until(uint64_t target) {
             continue;
         }
         if (avr->pc == 0 && !reset_expected) {
-            unexpected_resets++; /* the reset vector, not by us: watchdog, crash, jump */
+            /* the reset vector, not by us: watchdog, crash, jump */
+            mcu_stats.unexpected_resets++;
         }
         int state = avr_run(avr);
         reset_expected = false;
@@ -110,9 +132,7 @@ static void run_until(uint64_t target) {
                     (unsigned long long)avr->cycle, (unsigned)avr->pc);
             exit(4);
         }
-        if (bus_frame_ready) {
-            harness_exchange();
-        }
+        bus_service();
     }
 }
 
@@ -164,57 +184,47 @@ int main(int argc, char **argv) {
     avr->frequency = HZ;
     avr->log = 0;
     avr_load_firmware(avr, &fw);
-    debug_at = find_symbol(&fw, "pb_debug");
+    uint32_t debug_at = find_symbol(&fw, "pb_debug"); /* its SRAM address, 0: none */
     if (!debug_at) {
         fprintf(stderr, "pirate-simavr: no pb_debug in %s: resets and stack not measured\n",
                 elf);
     }
-    uint32_t flags = 0; /* no stdio echo, no pacing by simavr itself */
-    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
-    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('1'), &flags);
-    host_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
-    bus_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_INPUT);
-    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
-                            harness_host_out, NULL);
-    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('1'), UART_IRQ_OUTPUT),
-                            harness_bus_out, NULL);
-    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
-                            harness_host_xon, NULL);
-    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
-                            harness_host_xoff_irq, NULL);
-    avr_register_io_write(avr, GPIOR0_DATA, harness_marker, NULL);
-    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, harness_feed_host, NULL);
+    host_init(avr, reset_mcu);
+    bus_init(avr);
+    figures_init(avr, debug_at);
 
     signal(SIGTERM, on_signal);
     signal(SIGINT, on_signal);
     signal(SIGPIPE, SIG_IGN);
-    harness_open_pty();
+    host_open_pty();
 
     /* Paced to the wall clock in 1 ms slices; when the host machine falls behind by
      * more than MAX_LAG_CYCLES the reference moves (a lag event), never a burst. */
-    wall0 = harness_now_s();
+    wall0 = now_s();
     cycle0 = avr->cycle;
     while (!stop_requested) {
-        harness_service_pty();
+        host_service_pty();
         if (avr->cycle - last_tick >= HZ / 100u) {
             /* after the pty got what the MCU sent up to now: a reader that waits for
              * this time has the bytes too */
             last_tick = avr->cycle;
             uint8_t p[8];
-            harness_put_u64(p, avr->cycle);
-            harness_send_record('T', p, 8);
+            channel_put_u64(p, avr->cycle);
+            channel_send_record('T', p, 8);
         }
-        harness_service_channel();
+        if (!channel_service(handle_record)) {
+            stop_requested = true;
+        }
         if (held) {
             struct timespec nap = {0, 500000};
             nanosleep(&nap, NULL);
             continue;
         }
-        uint64_t target = cycle0 + (uint64_t)((harness_now_s() - wall0) * speed * HZ);
+        uint64_t target = cycle0 + (uint64_t)((now_s() - wall0) * speed * HZ);
         if (target > avr->cycle + MAX_LAG_CYCLES) {
-            lag_events++;
+            mcu_stats.lag_events++;
             cycle0 = avr->cycle;
-            wall0 = harness_now_s();
+            wall0 = now_s();
             continue;
         }
         if (avr->cycle >= target) {
@@ -226,7 +236,7 @@ int main(int argc, char **argv) {
         run_until(target < slice ? target : slice);
     }
     char text[2048];
-    harness_figures_text(text, sizeof text);
+    figures_text(text, sizeof text, &mcu_stats);
     fputs(text, stderr);
     return 0;
 }

@@ -1,6 +1,8 @@
-/* pirate-simavr: what its files share (harness.c has the overview and the channel's
- * records; host.c the pty, bus.c the board bus, channel.c the board simulator's
- * channel, figures.c the figures). */
+/* pirate-simavr: the interfaces of its files, bottom to top (harness.c has the
+ * overview, the channel's records and the file graph). A file calls only the
+ * sections above its own; no state is shared between files: each file keeps its
+ * own and lends it out through the functions below, and where a lower file must
+ * tell a higher one something it calls a function the higher one registered. */
 #ifndef PIRATE_SIMAVR_HARNESS_H
 #define PIRATE_SIMAVR_HARNESS_H
 
@@ -37,53 +39,47 @@
 enum { MARK_STATE_BEGIN = 0x01, MARK_STATE_END = 0x81, MARK_FRAME_END = 0x02,
        MARK_BULK_END = 0x82, MARK_ESTOP = 0x03, MARK_BUS_STOP = 0x04 };
 
-/* harness.c: the state, the MCU and its pacing */
-extern avr_t *avr;
-extern avr_irq_t *host_in, *bus_in;
-extern bool host_open, host_xoff, stop_requested;
-extern bool held;
-extern double wall0;
-extern uint64_t cycle0;
-extern uint64_t unexpected_resets;
-extern uint64_t boot_until;
-extern uint32_t debug_at;
-extern uint8_t hostq[RING], busq[4096], host_out_buf[RING];
-extern unsigned hostq_head, hostq_tail, busq_head, busq_tail, host_out_n;
-extern uint8_t replies[256][64];
-extern uint8_t last_frame_len[256];
-extern uint64_t bus_repeats, last_tick;
-extern uint8_t reply_len[256];
-extern uint64_t bus_replies, bus_unanswered;
-extern uint64_t bus_stops;
-extern unsigned bus_frame_n;
-extern bool bus_frame_ready;
-extern uint64_t mark_at[256], last_host_delimiter, estop_byte_at;
-extern bool estop_waiting;
-extern uint64_t dtr_resets, lag_events, bus_frames, host_bytes_in, host_bytes_dropped, frames_out;
+/* channel.c (calls no other file): the records to and from the board simulator */
+typedef void (*channel_handler)(char type, const uint8_t *payload, uint16_t n);
+void channel_send_record(char type, const uint8_t *payload, uint16_t n);
+void channel_put_u64(uint8_t *p, uint64_t v);
+/* Hands every record that has arrived to `handle`; false once stdin is closed. */
+bool channel_service(channel_handler handle);
 
-double harness_now_s(void);
-void harness_reset_mcu(void);
+/* host.c (calls channel.c): USART0 on the pty */
+struct host_stats {
+    uint64_t bytes_in, bytes_dropped, frames_out;
+    uint64_t last_delimiter; /* cycle at which the last host 0x00 entered the MCU */
+};
+/* Wires USART0; `on_open` is called when a host opens the pty (the DTR edge). */
+void host_init(avr_t *avr, void (*on_open)(void));
+/* After an MCU reset: queues emptied, feeding restarted, bytes before `boot_until` lost. */
+void host_reset(uint64_t boot_until);
+void host_open_pty(void);
+void host_service_pty(void);
+const struct host_stats *host_stats(void);
+unsigned host_queue_bytes(void);
 
-/* host.c: USART0 on the pty */
-void harness_host_xon(avr_irq_t *irq, uint32_t value, void *param);
-void harness_host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param);
-avr_cycle_count_t harness_feed_host(avr_t *a, avr_cycle_count_t when, void *param);
-void harness_host_out(avr_irq_t *irq, uint32_t value, void *param);
-void harness_open_pty(void);
-void harness_service_pty(void);
+/* bus.c (calls channel.c): USART1, the board bus */
+struct bus_stats {
+    uint64_t frames, replies, unanswered, repeats, stops;
+};
+void bus_init(avr_t *avr);
+void bus_reset(void);
+/* The board `addr`'s reply to an EXCHANGE (n == 0: silent; longer than 64: ignored). */
+void bus_set_reply(uint8_t addr, const uint8_t *reply, uint16_t n);
+/* Answers and forwards the frame the bridge finished, if any (between instructions). */
+void bus_service(void);
+const struct bus_stats *bus_stats(void);
 
-/* bus.c: USART1, the board bus */
-avr_cycle_count_t harness_feed_bus(avr_t *a, avr_cycle_count_t when, void *param);
-void harness_bus_out(avr_irq_t *irq, uint32_t value, void *param);
-void harness_exchange(void);
+/* figures.c (calls host.c and bus.c): markers, tallies, the figures text */
+struct mcu_stats {
+    uint64_t dtr_resets, unexpected_resets, lag_events;
+};
+void figures_init(avr_t *avr, uint32_t debug_at);
+void figures_reset(void);
+int figures_text(char *out, size_t size, const struct mcu_stats *mcu);
 
-/* channel.c: the records to and from the board simulator */
-void harness_send_record(char type, const uint8_t *payload, uint16_t n);
-void harness_put_u64(uint8_t *p, uint64_t v);
-void harness_service_channel(void);
-
-/* figures.c */
-void harness_marker(avr_t *a, avr_io_addr_t addr, uint8_t value, void *param);
-int harness_figures_text(char *out, size_t size);
+/* harness.c (calls all of the above): the MCU, its reset and pacing, main */
 
 #endif

@@ -1,46 +1,87 @@
-/* pirate-simavr: USART0, the host side: the MCU's serial port on a pty (see harness.c). */
+/* pirate-simavr: USART0, the host side: the MCU's serial port on a pty (see harness.c).
+ * Calls channel.c only; tells harness.c of a DTR edge through the `on_open` it gave. */
 #include "harness.h"
 
+static avr_t *mcu;
+static avr_irq_t *host_in;
+static void (*opened)(void);
 static int master = -1;
+static bool host_open, host_xoff;
+static uint64_t boot_until; /* bytes from the host before this cycle: the bootloader's */
+static uint8_t hostq[RING], host_out_buf[RING];
+static unsigned hostq_head, hostq_tail, host_out_n;
+static struct host_stats stats;
 
-void harness_host_xon(avr_irq_t *irq, uint32_t value, void *param) {
+static void host_xon(avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq, (void)value, (void)param;
     host_xoff = false;
 }
 
-void harness_host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param) {
+static void host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq, (void)value, (void)param;
     host_xoff = true;
 }
 
-avr_cycle_count_t harness_feed_host(avr_t *a, avr_cycle_count_t when, void *param) {
+static avr_cycle_count_t feed_host(avr_t *a, avr_cycle_count_t when, void *param) {
     (void)a, (void)param;
-    if (host_xoff || avr->cycle < boot_until) {
+    if (host_xoff || mcu->cycle < boot_until) {
         return when + HOST_BYTE_CYCLES / 4u;
     }
     if (hostq_tail != hostq_head) {
         uint8_t byte = hostq[hostq_tail++ % RING];
         avr_raise_irq(host_in, byte);
         if (byte == 0) {
-            last_host_delimiter = when;
+            stats.last_delimiter = when;
         }
     }
     return when + HOST_BYTE_CYCLES;
 }
 
-void harness_host_out(avr_irq_t *irq, uint32_t value, void *param) {
+static void host_out(avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq, (void)param;
     if (value == 0) {
-        frames_out++;
+        stats.frames_out++;
     }
     if (host_open && host_out_n < sizeof host_out_buf) {
         host_out_buf[host_out_n++] = (uint8_t)value;
     }
 }
 
+void host_init(avr_t *avr, void (*on_open)(void)) {
+    mcu = avr;
+    opened = on_open;
+    uint32_t flags = 0; /* no stdio echo, no pacing by simavr itself */
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    host_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
+                            host_out, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+                            host_xon, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+                            host_xoff_irq, NULL);
+    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
+}
+
+void host_reset(uint64_t until) {
+    avr_cycle_timer_cancel(mcu, feed_host, NULL);
+    avr_cycle_timer_register(mcu, HOST_BYTE_CYCLES, feed_host, NULL);
+    host_xoff = false;
+    host_out_n = 0; /* bytes of the old boot not yet on the pty: lost with the reset */
+    hostq_tail = hostq_head; /* the bootloader eats what arrives meanwhile */
+    boot_until = until;
+}
+
+const struct host_stats *host_stats(void) {
+    return &stats;
+}
+
+unsigned host_queue_bytes(void) {
+    return hostq_head - hostq_tail;
+}
+
 /* -- the pty ----------------------------------------------------------------------- */
 
-void harness_open_pty(void) {
+void host_open_pty(void) {
     master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
     if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0) {
         perror("pirate-simavr: cannot create a pty");
@@ -58,17 +99,17 @@ void harness_open_pty(void) {
     cfsetspeed(&t, B115200);
     tcsetattr(slave, TCSANOW, &t);
     close(slave); /* from now on POLLHUP on the master means: no host has it open */
-    harness_send_record('P', (const uint8_t *)name, (uint16_t)strlen(name));
+    channel_send_record('P', (const uint8_t *)name, (uint16_t)strlen(name));
 }
 
 /* Moves bytes between the pty and the queues; an open is a DTR edge. */
-void harness_service_pty(void) {
+void host_service_pty(void) {
     struct pollfd p = {.fd = master, .events = POLLIN};
     poll(&p, 1, 0);
     bool open_now = !(p.revents & POLLHUP);
     if (open_now && !host_open) {
         host_open = true;
-        harness_reset_mcu();
+        opened(); /* the MCU resets: host_reset() runs before the bytes below are read */
     } else if (!open_now && host_open) {
         host_open = false;
         host_out_n = 0;
@@ -80,13 +121,13 @@ void harness_service_pty(void) {
         uint8_t buf[4096];
         ssize_t r = read(master, buf, sizeof buf);
         for (ssize_t i = 0; i < r; i++) {
-            if (avr->cycle < boot_until) {
-                host_bytes_dropped++; /* the bootloader eats them */
+            if (mcu->cycle < boot_until) {
+                stats.bytes_dropped++; /* the bootloader eats them */
             } else if (hostq_head - hostq_tail < RING) {
                 hostq[hostq_head++ % RING] = buf[i];
-                host_bytes_in++;
+                stats.bytes_in++;
             } else {
-                host_bytes_dropped++;
+                stats.bytes_dropped++;
             }
         }
     }
