@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -11,6 +12,7 @@ import py_trees
 import pytest
 
 from pirate_bt.cli import main
+from pirate_bt.errors import InputError
 from pirate_bt.render import plot_trace, render_tree, tree_graph
 from pirate_bt.render.plot import plot_series
 from pirate_bt.trace import live_view_hook, read_trace, tree_structure
@@ -160,3 +162,95 @@ def test_cli_errors_are_one_line_exit_2(
 def test_python_api_accepts_root_behaviour() -> None:
     root = py_trees.behaviours.Success("only")
     assert '"0"' in tree_graph(root)
+
+
+# --- render_tree takes what users have: a tree file, a LoadedTree, a tree, a trace ---------
+
+ROOT = Path(__file__).resolve().parents[1]
+STRAIGHT = ROOT / "trees" / "straight.yaml"
+DRIVE, CLAMP_REAR_HALF = "0.0.1.0", "0.0.0.0.0.0"
+
+
+def dot_nodes(source: str) -> dict[str, dict[str, str]]:
+    """Every node statement of ``dot`` source: id -> its fill colour and label."""
+    found = {}
+    for node_id, attrs in re.findall(r'^  "([\d.]+)" \[(.*)\];$', source, re.MULTILINE):
+        fill = re.search(r'fillcolor="([^"]+)"', attrs)
+        label = re.search(r"label=<(.*)>$", attrs)
+        found[node_id] = {
+            "fill": fill.group(1) if fill else "",
+            "label": label.group(1) if label else "",
+        }
+    return found
+
+
+@pytest.fixture(scope="module")
+def straight_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("straight") / "run.jsonl"
+    run = ["run", str(STRAIGHT), "--param", "distance=0.2m", "--quiet", "--sim", "straight"]
+    assert main([*run, "--trace", str(path)]) == 0
+    return path
+
+
+def test_render_tree_from_a_tree_file_a_loaded_tree_or_a_behaviour_tree(tmp_path: Path) -> None:
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.treefile import load_tree
+
+    by_path = render_tree(STRAIGHT, tmp_path / "path.dot").read_text()
+    nodes = dot_nodes(by_path)
+    assert len(nodes) == 15
+    assert nodes["0"]["label"].startswith("<b>straight</b>")
+    assert nodes[DRIVE]["label"].startswith("<b>drive straight</b>")
+    assert "<b>clamp rear half</b>" in nodes[CLAMP_REAR_HALF]["label"]
+    assert 'label="straight"' in by_path  # the tree's name is the caption
+    assert nodes[DRIVE]["fill"] == "#e5e7eb"  # no trace: filled by kind (leaf)
+    # The same drawing as the command line's, and as a bundled tree's name gives.
+    assert main(["render", str(STRAIGHT), "-o", str(tmp_path / "cli.dot")]) == 0
+    assert (tmp_path / "cli.dot").read_text() == by_path
+    assert tree_graph("straight") == by_path
+    loaded = load_tree(STRAIGHT, robot=load_robot(), use_examples=True)
+    assert render_tree(loaded, tmp_path / "loaded.dot").read_text() == by_path
+    assert tree_graph(loaded.behaviour_tree()) == by_path
+    assert tree_graph(loaded.root) == by_path
+    # Parameters of a tree file, as on the command line.
+    far = dot_nodes(tree_graph(str(STRAIGHT), params={"distance": "1.5 m"}))
+    assert "distance: 1.5<" in far[DRIVE]["label"]
+
+
+def test_render_tree_coloured_by_a_trace_at_a_tick(straight_run: Path, tmp_path: Path) -> None:
+    trace = read_trace(straight_run)
+    driving = trace.first_tick("drive straight", "RUNNING")
+    assert driving is not None
+    ran = {"distance": "0.2m"}  # as the run was (the header keeps the parameters used)
+    out = render_tree(STRAIGHT, tmp_path / "tick.dot", trace=straight_run, tick=driving, params=ran)
+    source = out.read_text()
+    nodes = dot_nodes(source)
+    assert nodes[DRIVE]["fill"] == "#fcd34d"  # RUNNING
+    assert "RUNNING" in nodes[DRIVE]["label"]
+    assert nodes[CLAMP_REAR_HALF]["fill"] == "#86efac"  # SUCCESS: clamped before driving
+    assert nodes["0.1"]["fill"] == "#ffffff"  # the recovery never ran
+    assert f"straight: tick {driving} at " in source
+    # A Trace object, a trace as the tree, or the CLI's --trace --tick: the same picture.
+    assert tree_graph(STRAIGHT, trace=trace, tick=driving, params=ran) == source
+    assert tree_graph(straight_run, tick=driving) == source
+    assert tree_graph(trace, tick=driving) == source
+    cli = tmp_path / "cli.dot"
+    args = ["render", str(STRAIGHT), "--trace", str(straight_run), "--tick", str(driving)]
+    assert main([*args, "--param", "distance=0.2m", "-o", str(cli)]) == 0
+    assert cli.read_text() == source
+    # Without a tick: the last one, where the whole tree succeeded.
+    last = dot_nodes(tree_graph(STRAIGHT, trace=trace, title="done"))
+    assert last["0"]["fill"] == last[DRIVE]["fill"] == "#86efac"
+
+
+def test_render_tree_refuses_what_does_not_fit(straight_run: Path, tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="tick needs a trace"):
+        tree_graph(STRAIGHT, tick=3)
+    with pytest.raises(InputError, match="not a trace of tree 'bend'"):
+        render_tree(ROOT / "trees" / "bend.yaml", tmp_path / "b.dot", trace=straight_run)
+    with pytest.raises(ValueError, match="not both"):
+        tree_graph(STRAIGHT, {"0": "S"}, trace=straight_run)
+    with pytest.raises(InputError, match="no tick 9999"):
+        tree_graph(STRAIGHT, trace=straight_run, tick=9999)
+    with pytest.raises(TypeError, match="not int"):
+        tree_graph(42)  # type: ignore[arg-type]

@@ -21,6 +21,18 @@ trace), the fill is the status: green SUCCESS, red FAILURE, amber RUNNING,
 white not ticked. Each node's parameters are listed under its name, and the
 Graphviz node id is the trace's path id (``0.1.2``), which SVG output keeps as
 the ``id`` of the node's group.
+
+Both functions take a tree as users have it: a tree file (loaded offline and
+checked against the bundled robot, parameters not given taking their declared
+examples as in ``pirate-bt render``), a
+:class:`~pirate_bt.treefile.LoadedTree`, a py_trees ``BehaviourTree`` or root
+behaviour, a :class:`~pirate_bt.trace.TreeStructure`, or a trace (a file or a
+:class:`~pirate_bt.trace.Trace`, whose header holds the tree). ``trace=`` and
+``tick=`` colour it by status at a tick::
+
+    render_tree("trees/straight.yaml", "straight.svg")
+    render_tree("trees/straight.yaml", "tick50.svg", trace="run.jsonl", tick=50)
+    render_tree(load_tree("trees/bend.yaml", use_examples=True), "bend.png")  # treefile
 """
 
 from __future__ import annotations
@@ -29,13 +41,41 @@ import html
 import json
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import py_trees
 
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.robot.diagram import write_diagram
+from pirate_bt.trace.formats import suffix_of
+from pirate_bt.trace.reader import READERS, Trace, read_trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure, tree_structure
 
-__all__ = ["KIND_STYLE", "STATUS_FILL", "render_tree", "tree_graph", "write_diagram"]
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.treefile.spec import LoadedTree
+
+    TreeSource: TypeAlias = (
+        str
+        | Path
+        | LoadedTree
+        | py_trees.trees.BehaviourTree
+        | py_trees.behaviour.Behaviour
+        | TreeStructure
+        | Trace
+    )
+    """What :func:`render_tree` and :func:`tree_graph` draw (see the module docstring)."""
+
+__all__ = [
+    "KIND_STYLE",
+    "STATUS_FILL",
+    "render_tree",
+    "tree_graph",
+    "write_diagram",
+]
+
 
 #: kind -> Graphviz node attributes.
 KIND_STYLE: Mapping[str, Mapping[str, str]] = {
@@ -99,26 +139,139 @@ def _attrs(attrs: Mapping[str, str]) -> str:
     return ", ".join(out)
 
 
+def _is_trace_file(path: str | Path) -> bool:
+    if Path(path).name.lower().endswith((".yaml", ".yml")):
+        return False
+    try:
+        suffix_of(path, READERS)
+    except (InputError, ConfigurationError):
+        return False
+    return True
+
+
+def _load_tree_file(
+    path: str | Path,
+    params: Mapping[str, Any] | None,
+    robot: RobotDescription | str | Path | None,
+) -> LoadedTree:
+    """A tree file loaded offline, as ``pirate-bt render`` does (parameters not given
+    take the tree's declared examples), checked against ``robot`` (default: bundled)."""
+    from pirate_bt.resources import find_file
+    from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.treefile import load_tree
+
+    found = find_file("trees", path)
+    if not found.exists() and not found.suffix:
+        with_suffix = find_file("trees", f"{path}.yaml")
+        found = with_suffix if with_suffix.exists() else found
+    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
+    given = dict(params or {})
+    return load_tree(
+        found,
+        robot=description,
+        params=given,
+        params_from_text=bool(given) and all(isinstance(v, str) for v in given.values()),
+        use_examples=True,
+    )
+
+
+def _structure_and_trace(
+    tree: TreeSource,
+    params: Mapping[str, Any] | None,
+    robot: RobotDescription | str | Path | None,
+) -> tuple[TreeStructure, Trace | None]:
+    """The structure to draw, and the trace ``tree`` itself is (if it is one)."""
+    from pirate_bt.treefile.spec import LoadedTree
+
+    if isinstance(tree, str | Path):
+        is_trace = _is_trace_file(tree)
+        tree = read_trace(tree) if is_trace else _load_tree_file(tree, params, robot)
+    if isinstance(tree, Trace):
+        return tree.structure, tree
+    if isinstance(tree, TreeStructure):
+        return tree, None
+    if isinstance(tree, LoadedTree):
+        return tree_structure(tree.root, name=tree.name), None
+    if isinstance(tree, py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour):
+        return tree_structure(tree), None
+    raise TypeError(
+        "render_tree draws a tree file path, a LoadedTree, a py_trees BehaviourTree or"
+        f" Behaviour, a TreeStructure or a Trace, not {type(tree).__name__}"
+    )
+
+
+def _check_trace_fits(structure: TreeStructure, trace: Trace) -> None:
+    for node in structure:
+        recorded = node.id in trace.structure and trace.structure.node(node.id).name
+        if recorded != node.name:
+            raise InputError(
+                f"{trace.path} is not a trace of tree {structure.name!r}: node {node.id} is"
+                f" {node.name!r} in the tree but {recorded or 'missing'!r} in the trace"
+            )
+
+
 def tree_graph(
-    tree: TreeStructure | py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour,
+    tree: TreeSource,
     status: Mapping[str, str] | None = None,
     feedback: Mapping[str, str] | None = None,
     title: str | None = None,
+    *,
+    trace: str | Path | Trace | None = None,
+    tick: int | None = None,
+    params: Mapping[str, Any] | None = None,
+    robot: RobotDescription | str | Path | None = None,
 ) -> str:
     """Graphviz ``dot`` source of a tree.
 
     Args:
-        tree: A tree structure (e.g. from a trace header), a ``BehaviourTree``
-            or a root behaviour.
+        tree: What to draw: a tree file path (or a bundled tree's name, such
+            as ``"bend"``), loaded offline (no link, no simulator) and drawn as
+            ``pirate-bt render`` draws it; a ``LoadedTree``; a ``BehaviourTree``
+            or its root behaviour; a ``TreeStructure``; or a trace (a path or a
+            ``Trace``), whose header holds the tree.
         status: Status code (``S``/``F``/``R``/``I``) by node id, to colour by
-            status; ``None`` colours by kind.
+            status; ``None`` colours by kind (or by ``trace``).
         feedback: Feedback message by node id, shown with the status.
-        title: A caption (for example ``tick 42 at 4.200 s``).
+        title: A caption; with ``trace`` it defaults to ``tick N at T s``.
+        trace: A trace of this tree (a path or a ``Trace``): colour each node by
+            its status at ``tick``, and show its feedback message.
+        tick: The tick of ``trace`` (or of ``tree``, when it is a trace) to
+            colour by; default: the last tick when ``trace`` is given.
+        params: The tree file's parameters (strings are read as on the command
+            line, ``{"distance": "0.5 m"}``); parameters not given take the
+            tree's declared examples. Only for a tree file.
+        robot: The robot description (or its file) a tree file is checked
+            against; default: the bundled robot.
 
     Returns:
         The ``dot`` source.
+
+    Raises:
+        InputError: ``tick`` without a trace, a tick the trace does not have, or
+            a trace of another tree.
+        ValueError: ``status`` or ``feedback`` given together with ``trace``.
+        ValidationFailed: the tree file does not validate.
+
+    Example::
+
+        source = tree_graph("trees/straight.yaml", trace="run.jsonl", tick=50)
     """
-    structure = tree if isinstance(tree, TreeStructure) else tree_structure(tree)
+    structure, own_trace = _structure_and_trace(tree, params, robot)
+    if trace is not None and (status is not None or feedback is not None):
+        raise ValueError("give status and feedback, or a trace to take them from, not both")
+    run = read_trace(trace) if isinstance(trace, str | Path) else trace
+    if run is not None:
+        _check_trace_fits(structure, run)
+    elif tick is not None:
+        if own_trace is None:
+            raise InputError("tick needs a trace: pass trace=..., or a trace as the tree")
+        run = own_trace
+    if run is not None:
+        frame = run.frame_at(run.last_tick if tick is None else tick)
+        status, feedback = frame.status, frame.feedback
+        if title is None:
+            title = f"tick {frame.n} at {frame.t_s:.3f} s"
     feedback = feedback or {}
     caption = structure.name if title is None else f"{structure.name}: {title}"
     lines = [
@@ -149,13 +302,27 @@ def tree_graph(
 
 
 def render_tree(
-    tree: TreeStructure | py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour,
+    tree: TreeSource,
     out: str | Path,
     status: Mapping[str, str] | None = None,
     feedback: Mapping[str, str] | None = None,
     title: str | None = None,
+    *,
+    trace: str | Path | Trace | None = None,
+    tick: int | None = None,
+    params: Mapping[str, Any] | None = None,
+    robot: RobotDescription | str | Path | None = None,
 ) -> Path:
     """Draw a tree to ``out`` (``.dot``, ``.svg`` or ``.png`` by suffix).
+
+    ``tree`` is a tree file path, a ``LoadedTree``, a ``BehaviourTree`` or root
+    behaviour, a ``TreeStructure`` or a trace; ``trace`` and ``tick`` colour it
+    by status at that tick. Every argument is as in :func:`tree_graph`.
+
+    Example::
+
+        render_tree("trees/straight.yaml", "straight.svg", params={"distance": "1 m"})
+        render_tree(loaded, "tick50.png", trace="run.jsonl", tick=50)
 
     Returns:
         The path written (the ``.dot`` file if Graphviz was not needed).
@@ -164,5 +331,16 @@ def render_tree(
         FileNotFoundError: Graphviz ``dot`` is missing; the ``.dot`` file was
             written beside ``out`` all the same.
         ValueError: an unsupported suffix.
+        InputError: see :func:`tree_graph`.
     """
-    return write_diagram(tree_graph(tree, status, feedback, title), Path(out))
+    source = tree_graph(
+        tree,
+        status,
+        feedback,
+        title,
+        trace=trace,
+        tick=tick,
+        params=params,
+        robot=robot,
+    )
+    return write_diagram(source, Path(out))
