@@ -23,12 +23,22 @@ its kind of failure, so the CLI never has to guess::
 
 A timeout is also a :class:`TimeoutError`, so generic code that already handles
 timeouts keeps working (the same choice python-can makes).
+
+Problems in input are located: :class:`LocatedError` names the ``file:line:column``
+of one problem and :class:`ValidationFailed` carries every problem of one input.
+Input written in Python (a node built with ``Clamp.build(...)``, parameters given
+to ``load_tree(...)``) is located at the caller's source line, found with
+:func:`caller_location`.
 """
 
 from __future__ import annotations
 
+import os
+import sys
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
+from types import FrameType
 
 __all__ = [
     "CommandRefused",
@@ -47,6 +57,7 @@ __all__ = [
     "SourceLocation",
     "UnitError",
     "ValidationFailed",
+    "caller_location",
 ]
 
 
@@ -64,7 +75,19 @@ class InputError(PirateError):
 
 @dataclass(frozen=True, slots=True)
 class SourceLocation:
-    """A place in a text file; line and column count from 1."""
+    """A place in a text file (or in Python source); line and column count from 1.
+
+    ``str()`` gives ``file:line:column``, the form editors and terminals link to.
+
+    Attributes:
+        file: The file as shown to people: the path as given (relative paths stay
+            relative), or a pseudo-file for input that is not in a file, such as
+            ``--param`` (a command-line option) or ``<dict>`` (a tree given as a
+            mapping).
+        line: The line, from 1 (1 when the problem concerns the whole input).
+        column: The column, from 1 (1 when only the line is known, as for Python
+            callers).
+    """
 
     file: str
     line: int = 1
@@ -75,7 +98,22 @@ class SourceLocation:
 
 
 class LocatedError(InputError):
-    """One problem at one place in a file, printed as ``file:line:column: message``."""
+    """One problem at one place, printed as ``file:line:column: message``.
+
+    Args:
+        message: What is wrong, for people (see ``message`` below).
+        location: Where it is.
+
+    Attributes:
+        message: What is wrong, without the location; by convention it starts
+            with what it is about (``"clamp: torque: 50 N*m is above the bend
+            joints' limit 0.8 N*m"``: the node type in a file or the node's name in
+            Python, then the parameter).
+        location: The :class:`SourceLocation` of the problem.
+
+    ``str(error)`` is ``f"{location}: {message}"``, e.g.
+    ``trees/t.yaml:4:34: clamp: torque: 50 N*m is above the bend joints' limit 0.8 N*m``.
+    """
 
     def __init__(self, message: str, location: SourceLocation) -> None:
         self.message = message
@@ -84,13 +122,77 @@ class LocatedError(InputError):
 
 
 class ValidationFailed(InputError):
-    """A file has one or more located problems; ``errors`` lists all of them."""
+    """An input has one or more located problems; ``errors`` lists all of them.
+
+    Loaders collect every problem they find before raising, so one run shows them
+    all; each problem keeps its own location (a tree and its subtree files, or a
+    Python caller, may all appear).
+
+    Args:
+        errors: The problems, at least one.
+
+    Attributes:
+        errors: A tuple of :class:`LocatedError`, in the order found (files:
+            usually file order), without repeats when the loader removed them.
+
+    ``str(exc)`` is the errors' ``str()`` one per line, so printing the exception
+    prints every ``file:line:column: message``.
+
+    Raises:
+        ValueError: ``errors`` is empty.
+    """
 
     def __init__(self, errors: Iterable[LocatedError]) -> None:
         self.errors: tuple[LocatedError, ...] = tuple(errors)
         if not self.errors:
             raise ValueError("ValidationFailed needs at least one error")
         super().__init__("\n".join(str(e) for e in self.errors))
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def _inside(filename: str, *directories: str) -> bool:
+    path = os.path.abspath(filename)
+    return any(path.startswith(d + os.sep) for d in directories)
+
+
+def caller_location(
+    *, skip: str | Path | tuple[str | Path, ...] | None = None
+) -> SourceLocation | None:
+    """The place in Python source of the code that called into the library.
+
+    Walks the stack outward from the function that calls this one, past every
+    frame whose file is under ``skip``, and returns the first other frame's file
+    and line (column 1). The file is shown relative to the working directory when
+    it is under it.
+
+    Args:
+        skip: The directory (or directories) whose frames are passed over
+            (default: the whole ``pirate_bt`` package).
+
+    Returns:
+        The caller's place, or ``None`` when that frame is ``pirate_bt``'s own code
+        (the library called itself, for instance a command-line command) or the
+        stack ran out.
+    """
+    if skip is None:
+        skip = _PACKAGE_DIR
+    directories = tuple(os.path.abspath(d) for d in (skip if isinstance(skip, tuple) else (skip,)))
+    frame: FrameType | None = sys._getframe(1)
+    while frame is not None and _inside(frame.f_code.co_filename, *directories):
+        frame = frame.f_back
+    if frame is None or _inside(frame.f_code.co_filename, _PACKAGE_DIR):
+        return None
+    filename = frame.f_code.co_filename
+    if os.path.isabs(filename):
+        try:
+            relative = os.path.relpath(filename)
+        except ValueError:  # another drive (Windows)
+            relative = filename
+        if not relative.startswith(os.pardir + os.sep):
+            filename = relative
+    return SourceLocation(filename, frame.f_lineno, 1)
 
 
 class UnitError(InputError):

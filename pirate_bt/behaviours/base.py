@@ -25,6 +25,10 @@ The contract (mix :class:`NodeMixin` into a ``py_trees`` behaviour, or subclass
     leaf and ``cls(name, child, params, context)`` for a decorator.
     Acquire hardware in ``setup()``, never in ``__init__``: a tree must build and
     draw with no robot attached (``context.supervisor`` may be ``None``).
+    ``params`` is checked first, exactly as the YAML loader checks a node (see
+    :meth:`NodeMixin.checked_params`), also when a subclass overrides
+    ``from_params``: the override is wrapped so that it always receives a
+    checked instance of ``Params``.
 ``check_limits(params, robot) -> list[str]``
     Problems with the parameters against the :class:`~pirate_bt.robot.RobotDescription`
     (for example an angle beyond a joint's limit). Start each message with the
@@ -41,18 +45,30 @@ The contract (mix :class:`NodeMixin` into a ``py_trees`` behaviour, or subclass
 (``robot``, may be ``None`` for a pure-logic tree), the injected ``clock``, and the
 ``supervisor`` (the :mod:`pirate_bt.safety` supervisor, the only road to the robot;
 ``None`` when building offline).
+
+Planner code builds nodes in Python with the same checks as a file::
+
+    clamp = Clamp.build("clamp front", context, half="front", torque="0.5 N*m")
+
+Numbers are SI, text with a unit is parsed (``"90 deg"``), and every problem -
+an unknown key, a wrong unit, a torque beyond the robot's limit (when
+``context.robot`` is set) - raises :class:`~pirate_bt.errors.ValidationFailed`
+located at the caller's line: ``planner.py:12:1: clamp front: torque: 50 N*m is
+above the bend joints' limit 0.8 N*m``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+import functools
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import py_trees
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from pirate_bt.clock import Clock, WallClock
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
 from pirate_bt.safety.verdict import issuing
 
 if TYPE_CHECKING:
@@ -68,6 +84,7 @@ __all__ = [
     "NodeMixin",
     "NodeParams",
     "Outcome",
+    "params_problems",
 ]
 
 NodeKind = Literal["leaf", "decorator"]
@@ -111,6 +128,13 @@ class NodeMixin:
     kind: ClassVar[NodeKind] = "leaf"
     needs_robot: ClassVar[bool] = False
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # A class that writes its own from_params still gets checked parameters.
+        own = cls.__dict__.get("from_params")
+        if isinstance(own, classmethod):
+            cls.from_params = classmethod(_checking(own.__func__))  # type: ignore[method-assign,assignment]
+
     @classmethod
     def from_params(
         cls,
@@ -119,23 +143,103 @@ class NodeMixin:
         context: BuildContext,
         child: py_trees.behaviour.Behaviour | None = None,
     ) -> py_trees.behaviour.Behaviour:
-        """Build the behaviour from validated parameters.
+        """Build the behaviour from parameters, checked exactly as the YAML loader checks them.
 
         Args:
             name: The node's name in the tree.
-            params: An instance of ``cls.Params``.
-            context: Robot, clock and supervisor.
+            params: An instance of ``cls.Params``, or a mapping of its keys (numbers
+                are SI, text with a unit is parsed: ``{"torque": "0.5 N*m"}``);
+                ``None`` is no keys.
+            context: Robot, clock and supervisor; with ``context.robot`` set the
+                parameters are also checked against the robot's limits.
             child: The decorated child (decorators only).
 
         Returns:
             The behaviour.
+
+        Raises:
+            ValidationFailed: the parameters are invalid or beyond the robot's
+                limits, each problem located at the caller's line.
+            ValueError: a decorator without a child.
         """
+        checked = cls.checked_params(name, params, context.robot)
         factory: Callable[..., py_trees.behaviour.Behaviour] = cls  # type: ignore[assignment]
         if cls.kind == "decorator":
             if child is None:
                 raise ValueError(f"decorator {name!r} needs a child")
-            return factory(name, child, params, context)
-        return factory(name, params, context)
+            return factory(name, child, checked, context)
+        return factory(name, checked, context)
+
+    @classmethod
+    def build(
+        cls,
+        name: str,
+        context: BuildContext | None = None,
+        *,
+        child: py_trees.behaviour.Behaviour | None = None,
+        **params: Any,
+    ) -> py_trees.behaviour.Behaviour:
+        """Build the behaviour from keyword parameters (planner code).
+
+        ``Clamp.build("clamp front", ctx, half="front", torque="0.5 N*m")`` is
+        ``Clamp.from_params("clamp front", {"half": "front", "torque": "0.5 N*m"},
+        ctx)``: the same checks, the same errors.
+
+        Args:
+            name: The node's name in the tree.
+            context: Robot, clock and supervisor (default: an offline
+                ``BuildContext()``: no robot, so no limit checks, and the wall clock).
+            child: The decorated child (decorators only).
+            **params: The node's parameters, as in a file (numbers are SI).
+
+        Raises:
+            ValidationFailed: as :meth:`from_params`.
+        """
+        return cls.from_params(name, params, context or BuildContext(), child)
+
+    @classmethod
+    def checked_params(
+        cls, name: str, params: Any, robot: RobotDescription | None = None
+    ) -> NodeParams:
+        """``params`` validated by ``cls.Params`` and checked against ``robot``'s limits.
+
+        The same checks as a node in a YAML file, with the same messages, each
+        prefixed with the node's name (a file prefixes the node type and points at
+        the key instead) and located at the first caller outside ``pirate_bt``.
+
+        Args:
+            name: The node's name, for the messages.
+            params: An instance of ``cls.Params`` (taken as it is, then checked
+                against the robot), or a mapping of its keys (``None``: no keys).
+            robot: The robot description; ``None`` skips the limit checks.
+
+        Returns:
+            The parameters as an instance of ``cls.Params`` (quantities in SI).
+
+        Raises:
+            ValidationFailed: every problem found.
+        """
+        checked: NodeParams | None = None
+        problems: list[str] = []
+        if isinstance(params, cls.Params):
+            checked = params
+        elif params is None or isinstance(params, Mapping):
+            data = dict(params or {})
+            try:
+                checked = cls.Params.model_validate(data)
+            except ValidationError as exc:
+                problems = params_problems(exc, data)
+        else:
+            problems = [
+                f"parameters: expected {cls.Params.__name__} or a mapping of its keys,"
+                f" got {type(params).__name__}"
+            ]
+        if checked is not None and robot is not None:
+            problems = cls.check_limits(checked, robot)
+        if problems or checked is None:
+            where = caller_location() or SourceLocation("<python>")
+            raise ValidationFailed(LocatedError(f"{name}: {p}", where) for p in problems)
+        return checked
 
     @classmethod
     def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
@@ -163,6 +267,52 @@ class NodeMixin:
     ) -> frozenset[Outcome]:
         """For decorators: the statuses given the child's; default: anything."""
         return ALL_OUTCOMES
+
+
+def _checking(
+    build: Callable[..., py_trees.behaviour.Behaviour],
+) -> Callable[..., py_trees.behaviour.Behaviour]:
+    """Wrap a class's own ``from_params`` so that it receives checked parameters."""
+
+    @functools.wraps(build)
+    def from_params(
+        cls: type[NodeMixin],
+        name: str,
+        params: Any,
+        context: BuildContext,
+        child: py_trees.behaviour.Behaviour | None = None,
+        **kwargs: Any,
+    ) -> py_trees.behaviour.Behaviour:
+        checked = cls.checked_params(name, params, context.robot)
+        return build(cls, name, checked, context, child, **kwargs)
+
+    return from_params
+
+
+def params_problems(exc: ValidationError, data: Any) -> list[str]:
+    """A node's pydantic errors as the YAML loader words them, each naming its key.
+
+    A file's message points at the key, so it need not name it (``Input should be
+    greater than 0`` at ``torque:``); in Python the key is put in front
+    (``torque: Input should be greater than 0``) unless the message already names
+    it (``unknown key 'torq'``, ``half: Input should be 'front' or 'rear'``).
+
+    Args:
+        exc: The validation error of ``Params.model_validate(data)``.
+        data: The validated mapping.
+    """
+    from pirate_bt.yamlfile import validation_problems  # only on the error path
+
+    out: list[str] = []
+    for path, message in validation_problems(exc, data):
+        if path and not (message.startswith(f"{path[-1]}:") or f"key {str(path[-1])!r}" in message):
+            where = "".join(
+                f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))
+                for i, p in enumerate(path)
+            )
+            message = f"{where}: {message}"
+        out.append(message)
+    return out
 
 
 class Leaf(NodeMixin, py_trees.behaviour.Behaviour):

@@ -11,7 +11,9 @@ once, each at ``file:line:column``:
    but never written (or not declared), and children that can never run (a
    warning).
 3. **Build** the behaviours with each class's ``from_params``; nothing touches
-   hardware here (behaviours acquire it in ``setup()``).
+   hardware here (behaviours acquire it in ``setup()``). ``from_params`` checks
+   its parameters again (it does so for nodes built in Python); after step 1
+   that finds nothing, so a file's messages are only those of step 1.
 
 The format is described in ``docs/trees.md``.
 """
@@ -27,7 +29,7 @@ import py_trees
 
 from pirate_bt.behaviours.base import BuildContext
 from pirate_bt.clock import Clock, WallClock
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.checks import _check_blackboard, _outcomes
 from pirate_bt.treefile.reader import _Env, _Reader
@@ -107,6 +109,7 @@ def load_tree(
     registry: Registry | None = None,
     units_required: bool | None = None,
     use_examples: bool = False,
+    params_origin: str | SourceLocation | None = None,
 ) -> LoadedTree:
     """Load, check and build a behaviour tree.
 
@@ -124,6 +127,13 @@ def load_tree(
             and false for mappings (where numbers are SI).
         use_examples: A parameter given no value and with no default takes its
             declared ``example`` (for checking and drawing a tree, never running it).
+        params_origin: Where ``params`` came from, for their errors' locations: a
+            pseudo-file name (``"--param"`` for command-line options gives
+            ``--param:1:1``) or a :class:`~pirate_bt.errors.SourceLocation`.
+            Default: the caller's file and line when ``load_tree`` is called, directly
+            or through :mod:`pirate_bt.api`, from code outside ``pirate_bt``
+            (``planner.py:12:1: parameter 'roll': ...``); else ``--param`` (the
+            library's own commands).
 
     Returns:
         The built tree with its warnings (also logged).
@@ -148,12 +158,12 @@ def load_tree(
     data: dict[str, Any] = doc.data
     decls = reader.declared_params(doc, ("params",), data.get("params"))
     given = dict(params or {})
-    cli_loc = SourceLocation("--param")
+    given_loc = _params_location(params_origin) if given else SourceLocation("--param")
     spec: NodeSpec | None = None
     values: dict[str, Any] | None = None
     if decls is not None:
         values = reader.bind(
-            doc, ("params",), decls, given, lambda _n: cli_loc, params_from_text, use_examples
+            doc, ("params",), decls, given, lambda _n: given_loc, params_from_text, use_examples
         )
     if values is not None:
         env = _Env(doc, values, (doc.file,))
@@ -184,6 +194,20 @@ def load_tree(
         warnings=reader.warnings,
         files=[doc.file, *(d.file for d in reader.docs.values() if d.file != doc.file)],
         needs_robot=any(s.cls is not None and s.cls.needs_robot for s in spec.walk()),
+    )
+
+
+def _params_location(origin: str | SourceLocation | None) -> SourceLocation:
+    """Where the caller's ``params`` were written (see ``load_tree``'s ``params_origin``)."""
+    if isinstance(origin, SourceLocation):
+        return origin
+    if origin is not None:
+        return SourceLocation(origin)
+    # Past the loader and the Python API (pirate_bt.api): a planner's own call, or
+    # None when pirate_bt's own code (a command) called.
+    package = Path(__file__).parent.parent
+    return caller_location(skip=(package / "treefile", package / "api")) or SourceLocation(
+        "--param"
     )
 
 
