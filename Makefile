@@ -52,6 +52,7 @@ firmware: $(STAMP) avr-toolchain
 lint: $(STAMP)
 	$(BIN)/ruff check pirate_bt tests benchmarks
 	$(BIN)/ruff format --check pirate_bt tests benchmarks
+	$(BIN)/lint-imports --no-cache
 
 typecheck: $(STAMP)
 	$(BIN)/mypy --strict pirate_bt
