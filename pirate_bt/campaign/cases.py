@@ -1,9 +1,15 @@
-"""Expanding a campaign's matrix into cases: plain, picklable, ordered.
+"""Expanding a campaign's matrix into cases: plain, picklable, ordered, bounded.
 
 A case is a plain ``dict`` of JSON values (so it crosses a process pipe, a
 pickle or a Dask scheduler unchanged). Its ``id`` is its position in the
-expansion plus a short digest of its parameters, so ``--resume`` can tell a
-finished case from one of an edited spec.
+expansion plus a short digest of its parameters (``000042-1f3a9c0d``), so
+``--resume`` can tell a finished case from one of an edited spec; it is a safe
+file name whatever the spec says (see :mod:`pirate_bt.campaign.paths`).
+
+Before anything is built, :func:`check_size` counts the cases from the axes'
+lengths (the seed range by its count) and refuses a matrix larger than
+``max_cases``; :func:`expand` does the same first. :func:`check_inputs` checks
+that every file the spec names exists and is a file.
 """
 
 from __future__ import annotations
@@ -11,56 +17,129 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.campaign.spec import CampaignSpec
+from pirate_bt.campaign.spec import CampaignSpec, SpecSource, spec_source
+from pirate_bt.errors import ConfigurationError
 
-__all__ = ["Case", "check_runs", "expand", "group_key"]
+__all__ = [
+    "DEFAULT_MAX_CASES",
+    "Case",
+    "check_inputs",
+    "check_runs",
+    "check_size",
+    "expand",
+    "group_key",
+]
 
 Case = dict[str, Any]
+
+DEFAULT_MAX_CASES = 100_000
+"""The most cases a campaign may expand to unless the caller allows more."""
 
 # The parameters that define a group: every case parameter but the seed.
 GROUP_FIELDS = ("run", "robot", "map", "sim_faults", "drop", "corrupt", "dup")
 
 
+def _source(spec: CampaignSpec) -> SpecSource:
+    return spec_source(spec) or SpecSource(f"campaign {spec.name!r}", Path("."))
+
+
+def _is_file(path: Path) -> bool:
+    try:
+        return path.is_file()
+    except (OSError, ValueError):  # a name too long for the file system
+        return False
+
+
 def _resolve(name: str | None, base: Path) -> str | None:
-    """A path relative to the campaign file, when it exists there; else as written."""
+    """A path relative to the campaign file, when a file is there; else as written."""
     if name is None:
         return None
     candidate = base / name
-    return str(candidate.resolve()) if candidate.exists() else name
+    return str(candidate.resolve()) if _is_file(candidate) else name
 
 
-def expand(spec: CampaignSpec, base: Path | None = None) -> list[Case]:
+def check_size(spec: CampaignSpec, max_cases: int = DEFAULT_MAX_CASES) -> int:
+    """How many cases ``spec`` expands to, counted from its axes without expanding them.
+
+    Args:
+        spec: The campaign.
+        max_cases: The most cases allowed.
+
+    Returns:
+        The number of cases.
+
+    Raises:
+        InputError: more than ``max_cases``; one line naming the spec's file and
+            the place of its longest axis (``big.campaign.yaml:9:17: the campaign
+            expands to 1,000,000,000 cases, more than the limit of 100,000
+            (max_cases): ...``). A :class:`~pirate_bt.errors.LocatedError` for a file.
+        ValueError: ``max_cases`` is below 1.
+    """
+    if max_cases < 1:
+        raise ValueError("max_cases must be at least 1")
+    total = spec.size()
+    if total <= max_cases:
+        return total
+    axes = spec.axes()
+    longest, _ = max(axes, key=lambda axis: axis[1])
+    factors = " × ".join(f"{'.'.join(path)} {n:,}" for path, n in axes if n > 1)
+    raise _source(spec).error(
+        longest,
+        f"the campaign expands to {total:,} cases, more than the limit of {max_cases:,}"
+        f" (max_cases): {factors}",
+    )
+
+
+def expand(
+    spec: CampaignSpec, base: Path | None = None, *, max_cases: int = DEFAULT_MAX_CASES
+) -> list[Case]:
     """Every case of the matrix, in a fixed order.
 
     Args:
         spec: The campaign.
         base: The campaign file's folder; file names resolve against it first,
-            then as given (the working folder, then the bundled files).
+            then as given (the working folder, then the bundled files). Default:
+            the folder the spec was loaded from (the working folder for data).
+        max_cases: The most cases allowed (:func:`check_size`, checked first).
 
     Returns:
         The cases.
+
+    Raises:
+        InputError: the matrix has more than ``max_cases`` cases.
     """
-    folder = base or Path(".")
+    check_size(spec, max_cases)
+    folder = base if base is not None else _source(spec).base
     max_time_s = spec.quantity("max_time", "time")
     timeout_s = spec.quantity("case_timeout", "time")
     period_s = 1.0 / spec.quantity("rate", "frequency")
     link_grid = list(itertools.product(spec.link.drop, spec.link.corrupt, spec.link.dup))
+    # One resolved string per name, shared by every case that names it.
+    resolved: dict[str | None, str | None] = {}
+
+    def resolve(name: str | None) -> str | None:
+        if name not in resolved:
+            resolved[name] = _resolve(name, folder)
+        return resolved[name]
+
     cases: list[Case] = []
     axes = itertools.product(spec.runs, spec.robots, spec.maps, spec.sim_faults, link_grid)
     for run, robot, truth, sim_faults, (drop, corrupt, dup) in axes:
+        params = {k: str(v) for k, v in sorted(run.params.items())}
         for seed in range(spec.seeds.start, spec.seeds.start + spec.seeds.count):
             case: Case = {
                 "index": len(cases),
                 "run": run.label,
-                "tree": _resolve(run.tree, folder),
-                "route": _resolve(run.route, folder),
-                "network": _resolve(run.network, folder),
-                "params": {k: str(v) for k, v in sorted(run.params.items())},
-                "robot": _resolve(robot, folder),
-                "map": _resolve(truth, folder),
+                "tree": resolve(run.tree),
+                "route": resolve(run.route),
+                "network": resolve(run.network),
+                "params": dict(params),
+                "robot": resolve(robot),
+                "map": resolve(truth),
                 "sim_faults": list(sim_faults),
                 "drop": drop,
                 "corrupt": corrupt,
@@ -72,9 +151,103 @@ def expand(spec: CampaignSpec, base: Path | None = None) -> list[Case]:
                 "keep_traces": spec.keep_traces,
             }
             digest = hashlib.sha256(json.dumps(case, sort_keys=True).encode()).hexdigest()
+            # The index and a hex digest: always a safe file name (traces/ID).
             case["id"] = f"{case['index']:06d}-{digest[:8]}"
             cases.append(case)
     return cases
+
+
+def _bare(name: str) -> bool:
+    return "/" not in name and "\\" not in name
+
+
+def _input_problem(kind: str, name: str, route: str | None = None) -> str | None:
+    """Why the input file ``name`` of ``kind`` cannot be used, or ``None`` if it can.
+
+    Each kind is looked up as the code that loads it does: a tree or a route as a
+    path, else a bundled file; a tree's network as a path, else a bundled network;
+    a route's network or truth map next to the route, then among the bundled
+    networks; a robot as a path.
+    """
+    from pirate_bt.resources import bundled, find_file
+
+    shown = name if len(name) <= 80 else name[:77] + "..."
+    what = f"{kind} {shown!r}"
+    try:
+        if kind == "tree":
+            path = find_file("trees", name)
+        elif kind == "route":
+            path = find_file("scenarios", name)
+        elif kind in ("network", "map") and route is not None:
+            from pirate_bt.task.networks import resolve_network_path
+
+            route_path = find_file("scenarios", route)
+            try:
+                path = resolve_network_path(name, route_path.parent)
+            except FileNotFoundError as exc:
+                return f"{what}: {exc}"
+        elif kind == "network":
+            path = Path(name)
+            if not path.exists() and path.parent == Path(".") and not path.suffix:
+                path = bundled("scenarios", name)
+        else:
+            path = Path(name)
+        if path.is_file():
+            return None
+        if path.is_dir():
+            return f"{what}: {path} is a directory, not a file"
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        return f"{what}: cannot use this name: {reason}"
+    nor = f", nor a bundled {kind}" if kind in ("tree", "route", "network") and _bare(name) else ""
+    return f"{what}: no such file{nor}"
+
+
+def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
+    """Check that every file the spec names (trees, routes, networks, maps, robots) is a file.
+
+    Names resolve as in :func:`expand`. Every problem is reported, each at its
+    place in the spec (``file:line:column`` for a file).
+
+    Raises:
+        InputError: a named file is missing or is not a file
+            (:class:`~pirate_bt.errors.ValidationFailed` for a file).
+    """
+    source = _source(spec)
+    folder = base if base is not None else source.base
+    problems: list[tuple[Sequence[str | int], str]] = []
+    checked: dict[tuple[str, str, str | None], str | None] = {}
+
+    def check(path: Sequence[str | int], kind: str, name: str, route: str | None = None) -> bool:
+        key = (kind, name, route)
+        if key not in checked:
+            checked[key] = _input_problem(kind, str(_resolve(name, folder)), route)
+        problem = checked[key]
+        if problem is not None:
+            problems.append((path, problem))
+        return problem is None
+
+    routes: list[str] = []
+    for i, run in enumerate(spec.runs):
+        route: str | None = None
+        if run.route is not None:
+            if not check(("runs", i, "route"), "route", run.route):
+                continue  # its network and maps are looked up next to it
+            route = _resolve(run.route, folder)
+            routes.append(str(route))
+        elif run.tree is not None:
+            check(("runs", i, "tree"), "tree", run.tree)
+        if run.network is not None:
+            check(("runs", i, "network"), "network", run.network, route)
+    for i, robot in enumerate(spec.robots):
+        if robot is not None:
+            check(("robots", i), "robot", robot)
+    for i, truth in enumerate(spec.maps):
+        if truth is not None:
+            for near in dict.fromkeys(routes):
+                check(("maps", i), "map", truth, near)
+    if problems:
+        raise source.errors(problems)
 
 
 def group_key(row: dict[str, Any]) -> str:
@@ -99,13 +272,27 @@ def check_runs(cases: list[Case]) -> None:
 
     Raises:
         ValidationFailed: a tree or route does not validate.
-        ConfigurationError: a file is missing.
+        ConfigurationError: a named file (tree, route, network, map, robot) is
+            missing or not a file.
     """
     from pirate_bt.filekinds import validate_file
     from pirate_bt.resources import find_file
 
     seen: set[str] = set()
+    files: dict[tuple[str, str, str | None], str | None] = {}
     for case in cases:
+        route = case.get("route")
+        names = [("tree", case.get("tree"), None), ("route", route, None)]
+        names += [("network", case.get("network"), route), ("map", case.get("map"), route)]
+        names += [("robot", case.get("robot"), None)]
+        for kind, name, near in names:  # a route before its network and map
+            if name is None:
+                continue
+            file_key = (kind, str(name), near)
+            if file_key not in files:
+                files[file_key] = _input_problem(kind, str(name), near)
+            if files[file_key] is not None:
+                raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
         key = json.dumps([case["tree"], case["route"], case["params"]], sort_keys=True)
         if key in seen:
             continue

@@ -8,10 +8,16 @@ own session) and waits for it at most the case's wall-time limit; a hung case's
 whole process group is killed, a crashed one is recorded with its exit status,
 and the executor's worker is never the one that hangs or dies. The price is a
 Python start per case (measured in docs/performance.md).
+
+The only names joined onto the output folder are fixed ones and case ids, and a
+case id must be a safe file name (:func:`pirate_bt.campaign.paths.safe_name`):
+:func:`run_cases` refuses a case list with another id before any case runs, and
+:func:`run_isolated` makes such a case an ``error`` without starting it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import logging
@@ -27,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.case import error_record
+from pirate_bt.campaign.paths import is_safe_name, safe_name
 from pirate_bt.errors import InputError
 
 __all__ = [
@@ -53,13 +60,18 @@ def run_isolated(
 
     Args:
         case: The case (its ``timeout_s`` is the wall-time limit).
-        trace_dir: Where the case may keep its trace.
+        trace_dir: Where the case may keep its trace (``traces/ID``); ``None``: none.
         target: ``module:function`` the child calls (tests point it elsewhere).
 
     Returns:
-        The child's record, or an ``error``/``timeout`` record made here.
+        The child's record, or an ``error``/``timeout`` record made here (an
+        ``error`` without a child for a case whose id is not a safe file name).
     """
     started = time.perf_counter()
+    if trace_dir is not None and not is_safe_name(case.get("id")):
+        return error_record(
+            case, "error", f"case id {str(case.get('id'))[:60]!r} is not a safe file name", 0.0
+        )
     request = json.dumps({"target": target, "case": case, "trace_dir": trace_dir})
     env = dict(os.environ, PYTHONHASHSEED="0")
     child = subprocess.Popen(
@@ -184,7 +196,7 @@ def read_rows(path: Path) -> list[dict[str, Any]]:
 
 def run_cases(
     cases: list[dict[str, Any]],
-    output: Path,
+    output: Path | None,
     executor: Executor,
     *,
     resume: bool = False,
@@ -198,8 +210,10 @@ def run_cases(
     the cases not started and propagates.
 
     Args:
-        cases: The cases.
-        output: The campaign's folder.
+        cases: The cases; each ``id`` must be a safe file name (it names the
+            case's trace under ``output/traces/``).
+        output: The campaign's folder; ``None`` writes nothing (no results file,
+            no traces) and keeps the rows in memory only.
         executor: Where the cases run.
         resume: Skip the cases whose ids already have a row.
         on_record: Called with every new record (the progress bar).
@@ -209,8 +223,15 @@ def run_cases(
         Every row of the campaign (old and new), in case order.
 
     Raises:
-        InputError: the folder holds results and ``resume`` is off.
+        InputError: the folder holds results and ``resume`` is off; ``resume``
+            without a folder; a case id that is not a safe file name.
     """
+    for case in cases:
+        safe_name(case.get("id"), "case id")
+    if output is None:
+        if resume:
+            raise InputError("resume needs an output folder to resume from")
+        return _collect(cases, [], executor, None, None, on_record, target)
     output.mkdir(parents=True, exist_ok=True)
     results = output / RESULTS_NAME
     old = read_rows(results)
@@ -220,13 +241,26 @@ def run_cases(
         )
     wanted = {c["id"] for c in cases}
     old = [r for r in old if r.get("id") in wanted]
-    done = {r["id"] for r in old}
     # Rewrite without a cut last line, so every appended row starts on its own line.
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
     part = results.with_name(results.name + ".part")
     part.write_text(text, encoding="utf-8")
     os.replace(part, results)  # never half a results file, even if stopped right here
     trace_dir = str((output / "traces").resolve())
+    return _collect(cases, old, executor, results, trace_dir, on_record, target)
+
+
+def _collect(
+    cases: list[dict[str, Any]],
+    old: list[dict[str, Any]],
+    executor: Executor,
+    results: Path | None,
+    trace_dir: str | None,
+    on_record: Callable[[dict[str, Any]], None] | None,
+    target: str,
+) -> list[dict[str, Any]]:
+    """Submit the cases not in ``old``, gather their records (appended to ``results``)."""
+    done = {r["id"] for r in old}
     # Seed-major order: every group gets its first seeds before any gets its last,
     # so a campaign stopped early still covers the whole matrix evenly.
     todo = sorted((c for c in cases if c["id"] not in done), key=lambda c: (c["seed"], c["index"]))
@@ -235,15 +269,17 @@ def run_cases(
     try:
         for case in todo:
             futures[executor.submit(run_isolated, case, trace_dir, target)] = case
-        with results.open("a", encoding="utf-8") as sink:
+        with contextlib.ExitStack() as stack:
+            sink = stack.enter_context(results.open("a", encoding="utf-8")) if results else None
             for future in as_completed(futures):
                 case = futures[future]
                 try:
                     record = future.result()
                 except Exception as exc:  # a lost worker, not the case's own doing
                     record = error_record(case, "error", f"worker lost: {exc}", 0.0)
-                sink.write(json.dumps(record, allow_nan=False, default=str) + "\n")
-                sink.flush()
+                if sink is not None:
+                    sink.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+                    sink.flush()
                 rows.append(record)
                 if on_record is not None:
                     on_record(record)

@@ -2,7 +2,9 @@
 
 Written at the end of every campaign and by ``pirate-bt campaign report
 RESULTS``. Each file is written beside its final name and renamed into place,
-so an interrupted report never leaves half a file.
+so an interrupted report never leaves half a file. Only fixed names are joined
+onto the report's folder; the spec's texts (the title, run and group names) are
+escaped where they are shown (HTML, plot labels) and never name a file.
 """
 
 from __future__ import annotations
@@ -117,7 +119,10 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
                 rates.append(ok / len(at))
                 lows.append(low)
                 highs.append(high)
-            ax.plot([100 * x for x in xs], rates, marker="o", label=run)
+            # A run's name is the spec's text: shown as written, never as mathtext
+            # (a '$' would make matplotlib parse it, and fail on a stray '\frac').
+            label = run.replace("$", r"\$")
+            ax.plot([100 * x for x in xs], rates, marker="o", label=label)
             ax.fill_between([100 * x for x in xs], lows, highs, alpha=0.2)
         ax.set_xlabel(f"{key} rate (%)")
         ax.set_ylabel("success rate (95 % Wilson band)")

@@ -12,29 +12,112 @@ A campaign is the cross product of its axes::
 Every combination except the seed is a *group*; the report gives one row per
 group. The order of expansion is fixed (runs, robots, maps, sim faults, link
 grid, seeds), so case ids are the same wherever the campaign runs.
+
+A spec comes from a file (:func:`load_campaign`) or from plain data
+(:func:`campaign_from_data`). Either way its size is bounded before anything is
+built: the file's bytes (:data:`MAX_SPEC_BYTES`), every text and list (the
+``MAX_*`` constants below, checked by the model) and, in
+:func:`pirate_bt.campaign.cases.check_size`, the number of cases the matrix
+expands to, counted without expanding it. :func:`spec_source` tells where a
+spec came from, so later checks can point at ``file:line:column``.
 """
 
 from __future__ import annotations
 
+import os
+import weakref
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    StringConstraints,
+    ValidationError,
+    model_validator,
+)
 
-from pirate_bt.errors import UnitError
+from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
-from pirate_bt.yamlfile import load_yaml, validate_document
+from pirate_bt.yamlfile import Locator, load_yaml, validate_document, validation_problems
 
 __all__ = [
+    "MAX_AXIS",
+    "MAX_FAULTS",
+    "MAX_FILE_NAME",
+    "MAX_LABEL",
+    "MAX_NAME",
+    "MAX_PARAMS",
+    "MAX_SEED",
+    "MAX_SPEC_BYTES",
     "CampaignSpec",
     "LinkAxes",
     "RunItem",
     "SeedRange",
+    "SpecSource",
+    "campaign_from_data",
     "campaign_schema",
     "load_campaign",
+    "spec_source",
 ]
 
 _STRICT = ConfigDict(extra="forbid", frozen=True)
+
+MAX_SPEC_BYTES = 1_000_000
+"""The largest campaign file read (the shipped ones are under 1 kB)."""
+MAX_AXIS = 1_000
+"""The most entries of one axis list (runs, robots, maps, sim_faults, each link rate list)."""
+MAX_FAULTS = 64
+"""The most simulator faults in one point of the ``sim_faults`` axis."""
+MAX_PARAMS = 64
+"""The most parameters of one run."""
+MAX_NAME = 100
+"""The longest campaign name (it names the default output folder, ``campaign-NAME``)."""
+MAX_LABEL = 200
+"""The longest run name, parameter value or fault text."""
+MAX_FILE_NAME = 4096
+"""The longest file reference (a tree, route, network or robot): PATH_MAX on Linux."""
+MAX_SEED = 10**15
+"""The largest first seed and seed count (seeds stay exact integers in any JSON
+reader); the number of cases is bounded by ``max_cases`` long before."""
+
+
+def _printable(text: str) -> str:
+    if any(ord(c) < 32 or ord(c) == 127 for c in text):
+        raise ValueError("control characters (NUL, newline, tab, ...) are not allowed here")
+    return text
+
+
+def _campaign_name(text: str) -> str:
+    _printable(text)
+    if "/" in text or "\\" in text:
+        raise ValueError("not a path: the campaign's name may not hold '/' or '\\'")
+    return text
+
+
+_Name = Annotated[
+    str, StringConstraints(min_length=1, max_length=MAX_NAME), AfterValidator(_campaign_name)
+]
+_Label = Annotated[str, StringConstraints(max_length=MAX_LABEL), AfterValidator(_printable)]
+_FileName = Annotated[
+    str, StringConstraints(min_length=1, max_length=MAX_FILE_NAME), AfterValidator(_printable)
+]
+_Quantity = Annotated[str, StringConstraints(max_length=64)]
+_ParamKey = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL)]
+
+
+def _short(value: str | int | float) -> str | int | float:
+    # After the union, so that a long text is refused as text (not read as a number).
+    if isinstance(value, str) and len(value) > MAX_LABEL:
+        raise ValueError(f"a parameter has at most {MAX_LABEL} characters, not {len(value):,}")
+    return value
+
+
+_ParamValue = Annotated[str | int | float, AfterValidator(_short)]
 
 
 class RunItem(BaseModel):
@@ -45,16 +128,18 @@ class RunItem(BaseModel):
 
     model_config = _STRICT
 
-    name: str | None = Field(None, description="label in the report (default: the file's stem)")
-    tree: str | None = Field(None, description="a behaviour tree file or bundled name")
-    route: str | None = Field(None, description="a route file (.route) or bundled name")
-    network: str | None = Field(
+    name: _Label | None = Field(None, description="label in the report (default: the file's stem)")
+    tree: _FileName | None = Field(None, description="a behaviour tree file or bundled name")
+    route: _FileName | None = Field(None, description="a route file (.route) or bundled name")
+    network: _FileName | None = Field(
         None,
         description="the pipe network (tree: the simulated world, default straight;"
         " route: the map, default the route's own network)",
     )
-    params: dict[str, str | int | float] = Field(
-        default_factory=dict, description="tree parameters as texts, e.g. roll: 90 deg"
+    params: dict[_ParamKey, _ParamValue] = Field(
+        default_factory=dict,
+        max_length=MAX_PARAMS,
+        description="tree parameters as texts, e.g. roll: 90 deg",
     )
 
     @model_validator(mode="after")
@@ -77,8 +162,13 @@ class SeedRange(BaseModel):
 
     model_config = _STRICT
 
-    start: int = Field(0, ge=0, description="first seed")
-    count: int = Field(1, ge=1, le=1_000_000, description="how many seeds")
+    start: int = Field(0, ge=0, le=MAX_SEED, description="first seed")
+    count: int = Field(
+        1,
+        ge=1,
+        le=MAX_SEED,
+        description="how many seeds (a range: the campaign's max_cases bounds the expansion)",
+    )
 
 
 _Rates = list[Annotated[float, Field(ge=0.0, le=1.0)]]
@@ -86,7 +176,10 @@ _Rates = list[Annotated[float, Field(ge=0.0, le=1.0)]]
 
 def _rates(description: str) -> Any:
     return Field(
-        default_factory=lambda: [0.0], min_length=1, description=description + " (0..1, a list)"
+        default_factory=lambda: [0.0],
+        min_length=1,
+        max_length=MAX_AXIS,
+        description=description + " (0..1, a list)",
     )
 
 
@@ -111,10 +204,10 @@ def _fault(text: str) -> str:
     return text
 
 
-_Fault = Annotated[str, AfterValidator(_fault)]
+_Fault = Annotated[str, StringConstraints(max_length=MAX_LABEL), AfterValidator(_fault)]
 
 
-def _one_default() -> list[str | None]:
+def _one_default() -> list[_FileName | None]:
     return [None]
 
 
@@ -127,30 +220,42 @@ class CampaignSpec(BaseModel):
 
     model_config = _STRICT
 
-    name: str = Field(description="the campaign's name (report title)")
-    description: str = Field("", description="what the campaign shows, for people")
-    runs: list[RunItem] = Field(min_length=1, description="trees or routes to run")
-    robots: list[str | None] = Field(
+    name: _Name = Field(
+        description="the campaign's name (report title, default output folder campaign-NAME):"
+        " no '/', '\\' or control characters"
+    )
+    description: str = Field(
+        "", max_length=10_000, description="what the campaign shows, for people"
+    )
+    runs: list[RunItem] = Field(
+        min_length=1, max_length=MAX_AXIS, description="trees or routes to run"
+    )
+    robots: list[_FileName | None] = Field(
         default_factory=_one_default,
         min_length=1,
+        max_length=MAX_AXIS,
         description="robot description files (null: the bundled robot)",
     )
-    maps: list[str | None] = Field(
+    maps: list[_FileName | None] = Field(
         default_factory=_one_default,
         min_length=1,
+        max_length=MAX_AXIS,
         description="routes only: simulated truth networks differing from the map"
         " (null: the truth is the map)",
     )
     seeds: SeedRange = Field(default_factory=SeedRange, description="simulator and link seeds")
     link: LinkAxes = Field(default_factory=LinkAxes, description="link fault rates to sweep")
-    sim_faults: list[list[_Fault]] = Field(
+    sim_faults: list[Annotated[list[_Fault], Field(max_length=MAX_FAULTS)]] = Field(
         default_factory=_no_faults,
         min_length=1,
+        max_length=MAX_AXIS,
         description="lists of simulator faults; each list is one point of the axis",
     )
-    max_time: str = Field("600 s", description="simulated time limit of one run")
-    case_timeout: str = Field("300 s", description="wall-time limit of one case (then killed)")
-    rate: str = Field("20 Hz", description="tick rate")
+    max_time: _Quantity = Field("600 s", description="simulated time limit of one run")
+    case_timeout: _Quantity = Field(
+        "300 s", description="wall-time limit of one case (then killed)"
+    )
+    rate: _Quantity = Field("20 Hz", description="tick rate")
     keep_traces: Literal["failures", "all", "none"] = Field(
         "failures", description="which runs keep a trace: failures (not success), all or none"
     )
@@ -172,30 +277,148 @@ class CampaignSpec(BaseModel):
         """A limit in SI units (``max_time`` → seconds)."""
         return parse_quantity(getattr(self, key), dimension)
 
+    def axes(self) -> list[tuple[tuple[str, ...], int]]:
+        """Each axis of the matrix as ``(its key path in the file, its length)``.
+
+        The seed axis counts its range (``seeds.count``): nothing is expanded.
+        """
+        return [
+            (("runs",), len(self.runs)),
+            (("robots",), len(self.robots)),
+            (("maps",), len(self.maps)),
+            (("sim_faults",), len(self.sim_faults)),
+            (("link", "drop"), len(self.link.drop)),
+            (("link", "corrupt"), len(self.link.corrupt)),
+            (("link", "dup"), len(self.link.dup)),
+            (("seeds", "count"), self.seeds.count),
+        ]
+
     def size(self) -> int:
-        """How many cases the matrix expands into."""
-        link = len(self.link.drop) * len(self.link.corrupt) * len(self.link.dup)
-        return (
-            len(self.runs)
-            * len(self.robots)
-            * len(self.maps)
-            * len(self.sim_faults)
-            * link
-            * self.seeds.count
-        )
+        """How many cases the matrix expands into (the product of the axes, computed)."""
+        total = 1
+        for _path, length in self.axes():
+            total *= length
+        return total
 
 
 _CONTEXT: dict[str, Any] = {}
 
 
+@dataclass(frozen=True)
+class SpecSource:
+    """Where a spec came from, to word later errors about it.
+
+    Attributes:
+        name: The file, or ``campaign spec`` for one given as data.
+        base: The folder relative file names resolve against first (the file's
+            folder; the working folder for data).
+        locator: Where each key was written (files only).
+    """
+
+    name: str
+    base: Path
+    locator: Locator | None = None
+
+    def where(self, path: Sequence[str | int]) -> str:
+        """``file:line:column`` of a key path, or ``campaign spec: runs[0].tree`` for data."""
+        if self.locator is not None:
+            return str(self.locator.locate(path))
+        return f"{self.name}: {_dotted(path)}" if path else self.name
+
+    def error(self, path: Sequence[str | int], message: str) -> InputError:
+        """One problem at a key path: a :class:`LocatedError` for a file."""
+        if self.locator is not None:
+            return self.locator.error(path, message)
+        return InputError(f"{self.where(path)}: {message}")
+
+    def errors(self, problems: Sequence[tuple[Sequence[str | int], str]]) -> InputError:
+        """Several problems as one error (one line each)."""
+        found = [self.error(path, message) for path, message in problems]
+        located = [e for e in found if isinstance(e, LocatedError)]
+        if located and len(located) == len(found):
+            return found[0] if len(found) == 1 else ValidationFailed(located)
+        return found[0] if len(found) == 1 else InputError("\n".join(map(str, found)))
+
+
+def _dotted(path: Sequence[str | int]) -> str:
+    out = ""
+    for element in path:
+        out += f"[{element}]" if isinstance(element, int) else f".{element}"
+    return out.lstrip(".")
+
+
+# Where each spec came from, beside the (frozen, compared-by-value) model itself.
+_SOURCES: dict[int, SpecSource] = {}
+
+
+def _remember(spec: CampaignSpec, source: SpecSource) -> CampaignSpec:
+    _SOURCES[id(spec)] = source
+    weakref.finalize(spec, _SOURCES.pop, id(spec), None)
+    return spec
+
+
+def spec_source(spec: CampaignSpec) -> SpecSource | None:
+    """Where ``spec`` was loaded from (:func:`load_campaign`, :func:`campaign_from_data`).
+
+    ``None`` for a model built some other way.
+    """
+    return _SOURCES.get(id(spec))
+
+
 def load_campaign(path: str | Path) -> CampaignSpec:
     """Load and check a campaign file.
+
+    A file larger than :data:`MAX_SPEC_BYTES` is refused before it is read.
 
     Raises:
         ValidationFailed: the file does not parse or validate (each error located).
     """
-    doc = load_yaml(Path(path))
-    return validate_document(doc, CampaignSpec, "a campaign", _CONTEXT)
+    p = Path(path)
+    try:
+        size = p.stat().st_size if p.is_file() else 0
+    except (OSError, ValueError):
+        size = 0  # load_yaml words the problem
+    if size > MAX_SPEC_BYTES:
+        raise ValidationFailed(
+            [
+                LocatedError(
+                    f"the file has {size:,} bytes, more than the {MAX_SPEC_BYTES:,}"
+                    " a campaign file may have",
+                    SourceLocation(str(path)),
+                )
+            ]
+        )
+    doc = load_yaml(p)
+    spec = validate_document(doc, CampaignSpec, "a campaign", _CONTEXT)
+    return _remember(spec, SpecSource(str(path), p.parent, doc.locator))
+
+
+def campaign_from_data(
+    data: Mapping[str, Any],
+    *,
+    base: str | os.PathLike[str] | None = None,
+    name: str = "campaign spec",
+) -> CampaignSpec:
+    """Check plain data (a mapping, as a campaign file loads) as a campaign.
+
+    Args:
+        data: The campaign, as YAML would load it.
+        base: The folder relative file names resolve against first (default: the
+            working folder; then the bundled files, as for a file).
+        name: What error messages call the spec.
+
+    Raises:
+        InputError: the data does not validate; one line per problem, each
+            naming its key (``campaign spec: runs[0].tree: ...``).
+    """
+    source = SpecSource(name, Path(base) if base is not None else Path("."))
+    if not isinstance(data, Mapping):
+        raise source.error((), "a campaign must be a mapping of keys")
+    try:
+        spec = CampaignSpec.model_validate(dict(data), context=_CONTEXT)
+    except ValidationError as exc:
+        raise source.errors(validation_problems(exc, dict(data))) from None
+    return _remember(spec, source)
 
 
 def campaign_schema() -> dict[str, Any]:

@@ -1,0 +1,78 @@
+"""Names that become paths under a campaign's output folder: checked or made safe.
+
+A campaign writes under one folder (``OUTPUT/``): ``results.jsonl``, the report
+files and ``traces/CASE_ID[.jsonl]``. Only two kinds of name are ever joined
+onto it: fixed names (``results.jsonl``, ``report.md``, ``success_vs_drop.png``)
+and case ids. A case id must be a *safe name* (:func:`safe_name`): one path
+component of letters, digits, ``.``, ``_`` and ``-``, starting with a letter or
+digit, at most :data:`MAX_SAFE_NAME` characters; anything else (``../x``, an
+absolute path, a NUL byte, a 10 kB name) is refused before a case runs. Names
+written by people (a campaign's name, a run's name) are never joined as they
+are: :func:`slug` turns them into a safe name where one is needed, such as the
+default output folder ``campaign-NAME``.
+
+Input files a spec names (trees, routes, networks, robots) are inputs, not
+outputs: they may be anywhere, and :func:`pirate_bt.campaign.cases.check_inputs`
+checks that each exists and is a file.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from pirate_bt.errors import InputError
+
+__all__ = ["MAX_SAFE_NAME", "inside", "is_safe_name", "safe_name", "slug"]
+
+MAX_SAFE_NAME = 128
+"""The longest safe name (well under the 255 bytes of a file name)."""
+
+_SAFE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+_UNSAFE_RUN = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def is_safe_name(name: object) -> bool:
+    """Whether ``name`` is a safe name (see the module's text)."""
+    return (
+        isinstance(name, str)
+        and 0 < len(name) <= MAX_SAFE_NAME
+        and _SAFE.fullmatch(name) is not None
+    )
+
+
+def safe_name(name: object, what: str = "name") -> str:
+    """``name`` itself if it is a safe name.
+
+    Raises:
+        InputError: it is not; the message shows the name (shortened) and the rule.
+    """
+    if is_safe_name(name):
+        return str(name)
+    shown = repr(name)
+    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    raise InputError(
+        f"{what} {shown} is not a safe file name (letters, digits, '.', '_', '-',"
+        f" starting with a letter or digit, at most {MAX_SAFE_NAME} characters)"
+    )
+
+
+def slug(text: str, max_length: int = 64, default: str = "campaign") -> str:
+    """A safe name made from ``text``: other characters become ``-``, shortened.
+
+    ``slug("../../etc/x")`` is ``"etc-x"``; an empty result is ``default``.
+    """
+    out = _UNSAFE_RUN.sub("-", text)[:max_length].strip("-._")
+    return out if out and _SAFE.fullmatch(out) else default
+
+
+def inside(folder: Path, name: str, what: str = "name") -> Path:
+    """``folder / name`` for a safe ``name``: always a direct child of ``folder``.
+
+    Raises:
+        InputError: ``name`` is not a safe name.
+    """
+    path = folder / safe_name(name, what)
+    if path.parent != folder:  # pragma: no cover - a safe name is one component
+        raise InputError(f"{what} {name!r} leaves {folder}")
+    return path

@@ -1,0 +1,317 @@
+"""A whole campaign from Python: :func:`run_campaign` and its :class:`CampaignResult`.
+
+``pirate-bt campaign SPEC`` is this function with options parsed and results
+printed::
+
+    from pirate_bt.campaign import run_campaign
+
+    result = run_campaign(
+        {"name": "smoke", "runs": [{"tree": "straight", "params": {"distance": "0.2 m"}}],
+         "seeds": {"count": 3}},
+        workers=2,
+    )
+    print(result.counts["success"], result.groups[0].interval)
+
+The order is fixed so that a bad spec costs nothing: the spec is checked, its
+size is counted from its axes (:func:`~pirate_bt.campaign.cases.check_size`),
+its input files are checked, the cases are expanded and their trees and routes
+validated, and only then does an executor start and a file get written.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import Executor
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from pirate_bt.campaign.case import OUTCOMES
+from pirate_bt.campaign.cases import (
+    DEFAULT_MAX_CASES,
+    check_inputs,
+    check_runs,
+    check_size,
+    expand,
+)
+from pirate_bt.campaign.engine import DEFAULT_TARGET, make_executor, run_cases
+from pirate_bt.campaign.paths import slug
+from pirate_bt.campaign.spec import (
+    CampaignSpec,
+    SpecSource,
+    campaign_from_data,
+    load_campaign,
+    spec_source,
+)
+from pirate_bt.campaign.stats import GroupStats, group_stats
+from pirate_bt.errors import InputError
+
+__all__ = ["CampaignResult", "SpecInput", "default_output", "load_spec", "run_campaign"]
+
+SpecInput = str | os.PathLike[str] | Mapping[str, Any] | CampaignSpec
+"""What :func:`run_campaign` takes as a spec: a file, plain data or a model."""
+
+
+@dataclass(frozen=True)
+class CampaignResult:
+    """What a campaign did.
+
+    Attributes:
+        name: The campaign's name.
+        rows: One record per case (the rows of ``results.jsonl``), in case order;
+            with ``resume``, the rows of earlier runs too.
+        groups: Per-group statistics (every parameter but the seed), in the
+            order groups first appear: runs, success rate and its 95 % Wilson
+            interval (``interval``), failed-safe rate, errors, timeouts,
+            violations, damage, simulated times, failure reasons and nodes.
+        counts: Cases per outcome; every outcome of
+            :data:`~pirate_bt.campaign.case.OUTCOMES` is a key (0 if none).
+        violations: Simulator invariant violations, summed over the cases.
+        damage: Simulator damage events, summed over the cases.
+        output: The folder written, or ``None`` when nothing was written.
+        report_path: ``OUTPUT/report.md``, or ``None`` without an output folder.
+        files: The report files written (``report.md``, ``report.html``,
+            ``results.csv``, plots); empty without an output folder.
+        executor: What ran the cases (``2 local workers``, ``Dask cluster at ...``).
+        wall_s: Wall time of the whole call, in seconds.
+    """
+
+    name: str
+    rows: tuple[dict[str, Any], ...]
+    groups: tuple[GroupStats, ...]
+    counts: Mapping[str, int]
+    violations: int
+    damage: int
+    output: Path | None
+    report_path: Path | None
+    files: tuple[Path, ...]
+    executor: str
+    wall_s: float
+
+    @property
+    def cases(self) -> int:
+        """How many cases have a row."""
+        return len(self.rows)
+
+    @property
+    def succeeded(self) -> bool:
+        """Whether the campaign is clean: at least one case, every case ``success``,
+        and no simulator violation or damage in any of them.
+
+        ``False`` as soon as one case failed safe, errored or timed out. (The
+        command's exit status does not depend on it: 0 means the campaign ran.)
+        """
+        return (
+            bool(self.rows)
+            and self.counts.get("success", 0) == len(self.rows)
+            and self.violations == 0
+            and self.damage == 0
+        )
+
+    def summary(self) -> str:
+        """One line: ``N runs: S success, F failed safe, E error, T timeout``."""
+        c = self.counts
+        return (
+            f"{len(self.rows)} runs: {c['success']} success, {c['failed-safe']} failed safe,"
+            f" {c['error']} error, {c['timeout']} timeout"
+        )
+
+
+def default_output(spec: CampaignSpec) -> Path:
+    """The command's default output folder, ``campaign-NAME``, with NAME as a safe name."""
+    return Path(f"campaign-{slug(spec.name)}")
+
+
+def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> CampaignSpec:
+    """A checked :class:`CampaignSpec` from a file, plain data or a model.
+
+    Args:
+        spec: A ``.campaign.yaml`` path, a mapping as the YAML would load, or a model.
+        base: For data and models: the folder relative file names resolve
+            against first (default: the working folder). Ignored for a file
+            (its own folder).
+
+    Raises:
+        InputError: the spec does not load or validate (located for a file).
+    """
+    if isinstance(spec, CampaignSpec):
+        if base is None:
+            return spec
+        # The same model, with the folder its names resolve against.
+        return campaign_from_data(spec.model_dump(), base=base)
+    if isinstance(spec, Mapping):
+        return campaign_from_data(spec, base=base)
+    if isinstance(spec, (str, os.PathLike)):
+        return load_campaign(Path(spec))
+    raise TypeError(f"a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}")
+
+
+def _timeout(value: str | float | None) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, (int, float)):
+        seconds = float(value)
+    else:
+        from pirate_bt.units import parse_quantity
+
+        try:
+            seconds = parse_quantity(value, "time")
+        except Exception as exc:
+            raise InputError(f"case_timeout: {exc}") from None
+    if not seconds > 0:
+        raise InputError(f"case_timeout must be positive, not {value!r}")
+    return seconds
+
+
+@contextmanager
+def _given(executor: Executor) -> Iterator[tuple[Executor, str]]:
+    yield executor, f"the given executor ({type(executor).__name__})"
+
+
+def run_campaign(
+    spec: SpecInput,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    scheduler_file: str | os.PathLike[str] | None = None,
+    executor: Executor | None = None,
+    output: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    case_timeout: str | float | None = None,
+    max_cases: int = DEFAULT_MAX_CASES,
+    base: str | os.PathLike[str] | None = None,
+    progress: bool = False,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    echo: Callable[[str], None] | None = None,
+    command: str | None = None,
+    target: str = DEFAULT_TARGET,
+) -> CampaignResult:
+    """Run a campaign: every case in its own process, then the statistics and the report.
+
+    Args:
+        spec: A ``*.campaign.yaml`` path, a mapping (as the YAML would load), or a
+            :class:`CampaignSpec`. Relative file names in a file resolve against
+            its folder, then as given (the working folder), then the bundled
+            files; in data or a model, against ``base`` (default: the working
+            folder), then the bundled files.
+        workers: Local worker processes (default: one per core); ignored with a
+            scheduler or an executor.
+        scheduler: A Dask scheduler address (``tcp://host:8786``) instead.
+        scheduler_file: A Dask scheduler file instead.
+        executor: A ``concurrent.futures`` executor of your own instead (it is not
+            shut down here).
+        output: The folder for ``results.jsonl``, ``traces/`` and the report.
+            ``None`` (the default) writes nothing at all: no rows, no traces, no
+            report; the result holds the rows and statistics.
+        resume: Run only the cases without a row in ``output`` (needs ``output``);
+            without it an output folder that holds results is refused.
+        case_timeout: Wall-time limit per case, overriding the spec's
+            (``"90 s"`` or seconds).
+        max_cases: The most cases the spec may expand to; counted from its axes
+            before anything is built (see :func:`~pirate_bt.campaign.cases.check_size`).
+        base: Where relative names of a spec given as data resolve.
+        progress: Show a progress bar (tqdm, on standard error).
+        on_record: Called with each case's record as it arrives.
+        echo: Called with one line before the cases start
+            (``campaign NAME: N cases on WHAT -> OUTPUT``); the command passes ``print``.
+        command: The command that reproduces the campaign, for the report (default
+            for a file: ``pirate-bt campaign FILE [--workers N]``).
+        target: The case function each case process calls (``module:function``);
+            tests point it elsewhere.
+
+    Returns:
+        The :class:`CampaignResult`.
+
+    Raises:
+        InputError: a bad spec or option (one line each, located in a file): it
+            does not validate, it expands past ``max_cases``, a named input file is
+            missing or not a file, a tree or route does not validate, the output
+            folder holds results without ``resume``, Dask is missing or unreachable.
+        ConfigurationError: a named input file is missing (seen in the cases).
+        KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``output``,
+            cases in flight are not recorded; run again with ``resume=True``.
+    """
+    started = time.perf_counter()
+    if workers is not None and workers < 1:
+        raise InputError("workers must be at least 1")
+    if max_cases < 1:
+        raise InputError("max_cases must be at least 1")
+    where_to = {"scheduler": scheduler, "scheduler_file": scheduler_file, "executor": executor}
+    chosen = [name for name, value in where_to.items() if value is not None]
+    if len(chosen) > 1:
+        raise InputError(f"give at most one of {' and '.join(chosen)}")
+    if resume and output is None:
+        raise InputError("resume needs an output folder")
+    model = load_spec(spec, base)
+    source = spec_source(model) or SpecSource(f"campaign {model.name!r}", Path(base or "."))
+    count = check_size(model, max_cases)  # before anything is built
+    timeout_s = _timeout(case_timeout)
+    check_inputs(model, source.base)
+    cases = expand(model, source.base, max_cases=max_cases)
+    check_runs(cases)
+    if timeout_s is not None:
+        for case in cases:
+            case["timeout_s"] = timeout_s
+    folder = Path(output) if output is not None else None
+    if command is None and isinstance(spec, (str, os.PathLike)):
+        command = f"pirate-bt campaign {shlex.quote(str(spec))}"
+        command += f" --workers {workers}" if workers else ""
+    counts: Counter[str] = Counter()
+    where = (
+        _given(executor)
+        if executor is not None
+        else make_executor(
+            workers, scheduler, None if scheduler_file is None else str(scheduler_file)
+        )
+    )
+    with where as (pool, what):
+        if echo is not None:
+            echo(
+                f"campaign {model.name}: {count} cases on {what} -> {folder or 'no output folder'}"
+            )
+        from tqdm import tqdm
+
+        bar: Any = tqdm(total=count, unit="case", file=sys.stderr, disable=not progress, ncols=100)
+
+        def record(row: dict[str, Any]) -> None:
+            counts[str(row.get("outcome"))] += 1
+            bar.update(1)
+            bar.set_postfix_str(
+                f"ok {counts['success']} safe {counts['failed-safe']}"
+                f" err {counts['error']} t/o {counts['timeout']}",
+                refresh=False,
+            )
+            if on_record is not None:
+                on_record(row)
+
+        try:
+            rows = run_cases(cases, folder, pool, resume=resume, on_record=record, target=target)
+        finally:
+            bar.close()
+    files: list[Path] = []
+    if folder is not None:
+        from pirate_bt.campaign.report import write_report
+
+        files = write_report(rows, folder, title=model.name, command=command or "")
+    total = Counter({k: 0 for k in OUTCOMES})
+    total.update(str(r.get("outcome")) for r in rows)
+    return CampaignResult(
+        name=model.name,
+        rows=tuple(rows),
+        groups=tuple(group_stats(rows)),
+        counts=MappingProxyType(dict(total)),
+        violations=sum(int(r.get("violations") or 0) for r in rows),
+        damage=sum(int(r.get("damage") or 0) for r in rows),
+        output=folder,
+        report_path=folder / "report.md" if folder is not None else None,
+        files=tuple(files),
+        executor=what,
+        wall_s=time.perf_counter() - started,
+    )
