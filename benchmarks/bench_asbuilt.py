@@ -36,12 +36,12 @@ def run_case(seed: int, scale: float) -> dict[str, Any]:
     logging.disable(logging.WARNING)
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import AsBuiltBounds, perturb_network
-    from pirate_bt.task.mission import simulate_mission
+    from pirate_bt import simulate_mission
 
     drawing = load_network(REPO / "scenarios" / "lab.yaml")
     truth = perturb_network(drawing.spec, seed, AsBuiltBounds().scaled(scale))
     started = time.perf_counter()
-    result = simulate_mission(REPO / "scenarios" / "lab.route", map=drawing, truth=truth, seed=seed)
+    result = simulate_mission(REPO / "scenarios" / "lab.route", network=drawing, truth=truth, seed=seed)
     return {
         "seed": seed,
         "scale": scale,

@@ -178,9 +178,9 @@ def part_sparse(quick: bool) -> None:
 
 def run_route(route_path: Path, max_time_s: float | None = None) -> tuple[Any, int]:
     """A route's mission on the in-process simulator, no outputs: (the result, PABs)."""
-    from pirate_bt.task.mission import simulate_mission
+    from pirate_bt import simulate_mission
 
-    result = simulate_mission(route_path, max_time_s=max_time_s)
+    result = simulate_mission(route_path, max_time=max_time_s)
     return result, len(result.plan.pabs)
 
 

@@ -1,9 +1,149 @@
 """pirate_bt: behaviour-tree autonomy for the PIRATE pipe-inspection robot.
 
-Light on import: the command line starts in well under 0.3 s because heavy
-modules (py_trees, pydantic models, graphviz) are imported where they are used.
+The front door for planner code (see ``docs/api.md``)::
+
+    import pirate_bt
+
+    result = pirate_bt.simulate_tree("bend", network="bend-right", params={"roll": "90 deg"},
+                                     faults="motor_stall:bend_3_drive@5s+20s")
+    print(result.status, result.why, result.failing_node)
+
+    mission = pirate_bt.simulate_mission("lab.route")
+    for pab in mission.pabs:
+        print(pab.label, pab.outcome, pab.why)
+
+Names are imported lazily, on first use: ``import pirate_bt`` and the command
+line stay light (py_trees, pydantic models and graphviz load only when needed).
+The library logs through ``logging`` under ``pirate_bt`` and adds only a
+``NullHandler``: configure logging in your program to see its records.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
 
-__all__ = ["__version__"]
+import importlib
+import logging
+from typing import TYPE_CHECKING, Any
+
+from pirate_bt._version import __version__
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
+
+# public name -> the module that defines it
+_EXPORTS: dict[str, str] = {
+    # running trees and missions
+    "simulate_tree": "pirate_bt.api.trees",
+    "run_tree": "pirate_bt.api.trees",
+    "load_tree": "pirate_bt.api.running",
+    "connect": "pirate_bt.api.connection",
+    "Connection": "pirate_bt.api.connection",
+    "plan_route": "pirate_bt.api.missions",
+    "simulate_mission": "pirate_bt.api.missions",
+    "run_mission": "pirate_bt.api.missions",
+    "load_network": "pirate_bt.api.missions",
+    "write_mission_outputs": "pirate_bt.api.missions",
+    "run_campaign": "pirate_bt.campaign",
+    # results
+    "RunResult": "pirate_bt.api.results",
+    "MissionResult": "pirate_bt.task.mission",
+    "PabOutcome": "pirate_bt.task.outcome",
+    "Counters": "pirate_bt.safety.tally",
+    "CampaignResult": "pirate_bt.campaign",
+    "MissionPlan": "pirate_bt.task.plan",
+    "StopReason": "pirate_bt.runner",
+    # files
+    "load_robot": "pirate_bt.robot.loader",
+    "load_route": "pirate_bt.task.route",
+    "read_trace": "pirate_bt.trace.reader",
+    "render_tree": "pirate_bt.render.tree",
+    # building trees in Python
+    "BuildContext": "pirate_bt.behaviours.base",
+    # errors
+    "PirateError": "pirate_bt.errors",
+    "InputError": "pirate_bt.errors",
+    "LocatedError": "pirate_bt.errors",
+    "ValidationFailed": "pirate_bt.errors",
+    "LinkError": "pirate_bt.errors",
+    "SafetyError": "pirate_bt.errors",
+    "ConfigurationError": "pirate_bt.errors",
+}
+
+__all__ = [
+    "BuildContext",
+    "CampaignResult",
+    "ConfigurationError",
+    "Connection",
+    "Counters",
+    "InputError",
+    "LinkError",
+    "LocatedError",
+    "MissionPlan",
+    "MissionResult",
+    "PabOutcome",
+    "PirateError",
+    "RunResult",
+    "SafetyError",
+    "StopReason",
+    "ValidationFailed",
+    "__version__",
+    "connect",
+    "load_network",
+    "load_robot",
+    "load_route",
+    "load_tree",
+    "plan_route",
+    "read_trace",
+    "render_tree",
+    "run_campaign",
+    "run_mission",
+    "run_tree",
+    "simulate_mission",
+    "simulate_tree",
+    "write_mission_outputs",
+]
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pirate_bt' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
+    from pirate_bt.api.connection import Connection, connect
+    from pirate_bt.api.missions import (
+        load_network,
+        plan_route,
+        run_mission,
+        simulate_mission,
+        write_mission_outputs,
+    )
+    from pirate_bt.api.results import RunResult
+    from pirate_bt.api.running import load_tree
+    from pirate_bt.api.trees import run_tree, simulate_tree
+    from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.campaign import CampaignResult, run_campaign
+    from pirate_bt.errors import (
+        ConfigurationError,
+        InputError,
+        LinkError,
+        LocatedError,
+        PirateError,
+        SafetyError,
+        ValidationFailed,
+    )
+    from pirate_bt.render.tree import render_tree
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.runner import StopReason
+    from pirate_bt.safety.tally import Counters
+    from pirate_bt.task.mission import MissionResult
+    from pirate_bt.task.outcome import PabOutcome
+    from pirate_bt.task.plan import MissionPlan
+    from pirate_bt.task.route import load_route
+    from pirate_bt.trace.reader import read_trace

@@ -131,7 +131,7 @@ def test_a_long_mission_on_a_lossy_link_loses_no_command(
     from pirate_bt.link.requests import Outcome as LinkOutcome
     from pirate_bt.link.session import Session
     from pirate_bt.sim.bridge import SimBridge
-    from pirate_bt.task.mission import simulate_mission
+    from pirate_bt import simulate_mission
 
     applied: list[tuple[MsgType, int]] = []
     monkeypatch.setattr(

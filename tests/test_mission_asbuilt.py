@@ -29,7 +29,7 @@ from pirate_bt.pipes.asbuilt import (
     remove_feature,
 )
 from pirate_bt.pipes.model import StraightSpec
-from pirate_bt.task.mission import simulate_mission
+from pirate_bt import simulate_mission
 from pirate_bt.task.report import report_lines
 
 REPO = Path(__file__).resolve().parent.parent
@@ -126,7 +126,7 @@ def _lab_case(seed: int) -> tuple[int, bool, str, float, float, list[float]]:
     logging.disable(logging.WARNING)
     drawing = load_network(REPO / "scenarios" / "lab.yaml")
     truth = perturb_network(drawing.spec, seed)
-    result = simulate_mission(LAB_ROUTE, map=drawing, truth=truth, seed=seed)
+    result = simulate_mission(LAB_ROUTE, network=drawing, truth=truth, seed=seed)
     errors = [abs(f.error_after_m) for f in result.fixes if f.error_after_m is not None]
     return (
         seed,
@@ -158,7 +158,7 @@ def test_missing_tee_stops_safe_with_a_report_and_returns_to_start() -> None:
     truth = remove_feature(drawing.spec, "tee")
     result = simulate_mission(
         REPO / "scenarios" / "t-joint-straight.route",
-        map=drawing,
+        network=drawing,
         truth=truth,
         return_on_stop=True,
     )

@@ -1,8 +1,11 @@
 """One case: a plain function of a plain case that returns a plain record.
 
-:func:`run_case` runs one tree (with ``pirate-bt run``'s own functions) or one
-route (with ``pirate-bt mission``'s) on the simulator and returns a ``dict`` of
-JSON values. It is what the per-case child process calls (see
+:func:`run_case` runs one tree (:func:`pirate_bt.simulate_tree`) or one route
+(:func:`pirate_bt.simulate_mission`) on the simulator through the public API and
+returns a ``dict`` of JSON values: the case's parameters, the outcome, the first
+cause (``reason``) and where (``failing_node``), and the run's
+:class:`~pirate_bt.safety.tally.Counters` as flat keys. It is what the per-case
+child process calls (see
 :mod:`pirate_bt.campaign.engine`); it never raises for a run that fails,
 because a failure is an outcome.
 
@@ -14,7 +17,6 @@ its wall-time limit, set by the engine).
 
 from __future__ import annotations
 
-import argparse
 import shutil
 import time
 import traceback
@@ -33,6 +35,21 @@ def _base(case: dict[str, Any]) -> dict[str, Any]:
     return record
 
 
+_COUNTER_KEYS = (
+    "violations",
+    "damage",
+    "refusals",
+    "clips",
+    "safe_states",
+    "retries",
+    "link_failures",
+    "crc_errors",
+    "duplicates",
+    "frames_dropped",
+    "overruns",
+)
+
+
 def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float) -> dict[str, Any]:
     """The record of a case that produced no result of its own (crash, hang, raise)."""
     record = _base(case)
@@ -43,10 +60,7 @@ def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float)
         sim_time_s=None,
         wall_time_s=round(wall_s, 3),
         ticks=None,
-        refusals=None,
-        link={},
-        violations=None,
-        damage=None,
+        **dict.fromkeys(_COUNTER_KEYS),
         violation_kinds={},
         damage_kinds={},
         trace=None,
@@ -54,138 +68,79 @@ def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float)
     return record
 
 
-def _link_faults(case: dict[str, Any]) -> str:
+def _faults(case: dict[str, Any]) -> str:
     parts = [f"{k}={case[k]:g}" for k in ("drop", "corrupt", "dup") if case.get(k)]
     return ",".join([*case.get("sim_faults", []), *parts])
 
 
-def _figures(supervisor: Any, simulator: Any) -> dict[str, Any]:
-    health = supervisor.health()
-    link = {
-        "crc_errors": health.crc_errors,
-        "retries": health.retries,
-        "failed": health.failed,
-        "duplicates": health.duplicates,
-        "loss_ratio": round(health.loss_ratio, 4),
-    }
-    out: dict[str, Any] = {"link": link}
-    if simulator is not None:
-        counters = simulator.counters()
-        out.update(
-            violations=counters.violation_count,
-            damage=counters.damage_count,
-            violation_kinds=dict(sorted(counters.violations.items())),
-            damage_kinds=dict(sorted(counters.damage.items())),
-            frames_dropped=counters.frames_dropped,
-        )
-    return out
-
-
-def _outcome(result: Any, supervisor: Any) -> str:
+def _outcome(succeeded: bool, safe: bool, error: BaseException | None) -> str:
+    """``success``; ``failed-safe`` (failed, robot left safe); ``error`` (a node raised,
+    the link was lost, or the robot was not left safe)."""
     from pirate_bt.errors import LinkError
-    from pirate_bt.runner import StopReason
 
-    if result.succeeded:
+    if succeeded:
         return "success"
-    if result.reason is StopReason.EXCEPTION and not isinstance(result.error, LinkError):
+    if error is not None and not isinstance(error, LinkError):
         return "error"
-    return "failed-safe" if supervisor.in_safe_state else "error"
+    return "failed-safe" if safe and not isinstance(error, LinkError) else "error"
 
 
-def _tree_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
-    from pirate_bt.cli.run import connect, run_tree
-    from pirate_bt.resources import find_file
-    from pirate_bt.robot.loader import load_robot
-    from pirate_bt.trace import attach_trace, supervised_extras
-    from pirate_bt.treefile import load_tree
-
-    robot = load_robot(case["robot"])
-    checked = load_tree(
-        find_file("trees", case["tree"]), robot=robot, params=case["params"], params_from_text=True
-    )
-    network = case["network"] or "straight"
-    args = argparse.Namespace(
-        port=None, sim=network, seed=case["seed"], faults=_link_faults(case) or None
-    )
-    connection = connect(args, robot, needs_robot=True)
-    supervisor, simulator = connection.supervisor, connection.simulator
-    refusals = [0]
-    supervisor.add_listener(lambda v: refusals.__setitem__(0, refusals[0] + (not v.ok)))
-
-    def observe(runner: Any) -> None:
-        if trace is not None:
-            extras = supervised_extras(supervisor, counters=simulator.counters)
-            attach_trace(
-                runner, trace, extras=extras, robot=robot, scenario=network, seed=case["seed"]
-            )
-
-    try:
-        _tree, result = run_tree(
-            checked,
-            robot,
-            connection,
-            period_s=case["period_s"],
-            max_time_s=case["max_time_s"],
-            observe=observe,
-        )
-        figures = _figures(supervisor, simulator)
-    finally:
-        connection.close()
-    reason = result.message
-    if supervisor.safe_state_reason:
-        reason = f"{result.message}: {supervisor.safe_state_reason}"
+def _body(result: Any, safe: bool) -> dict[str, Any]:
+    """The row fields every case has, from a ``RunResult`` or a ``MissionResult``."""
+    error = result.error if hasattr(result, "error") else result.run.error
     return {
-        "outcome": _outcome(result, supervisor),
-        "reason": reason,
+        "outcome": _outcome(result.succeeded, safe, error),
+        "reason": result.why,
         "failing_node": result.failing_node,
         "sim_time_s": round(result.sim_time_s, 3),
         "ticks": result.ticks,
-        "refusals": refusals[0],
-        **figures,
+        **result.counters.as_dict(),
     }
+
+
+def _tree_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
+    from pirate_bt.api.trees import simulate_tree
+
+    result = simulate_tree(
+        case["tree"],
+        network=case["network"] or "straight",
+        params=case["params"],
+        seed=case["seed"],
+        faults=_faults(case) or None,
+        trace=trace,
+        robot=case["robot"],
+        max_time=case["max_time_s"],
+        rate=1.0 / case["period_s"],
+    )
+    return _body(result, result.safe_state)
 
 
 def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
-    from pirate_bt.cli import mission
+    from pirate_bt.api.missions import simulate_mission
+    from pirate_bt.resources import find_file
+    from pirate_bt.task.route import load_route
 
-    argv = [case["route"], "--seed", str(case["seed"]), "--quiet"]
-    argv += ["--rate", f"{1.0 / case['period_s']:g} Hz", "--max-time", f"{case['max_time_s']:g} s"]
-    if case["robot"]:
-        argv += ["--robot", case["robot"]]
+    route = load_route(find_file("scenarios", case["route"]))
+    # as `pirate-bt mission ROUTE --sim NETWORK` (and `--network NETWORK --sim MAP` with
+    # the spec's `maps` axis, whose entries are the pipe as built: the simulator's truth)
     if case["map"]:
-        argv += ["--sim", case["map"]]
-    if case["network"]:
-        argv += ["--network" if case["map"] else "--sim", case["network"]]
-    faults = _link_faults(case)
-    if faults:
-        argv += ["--faults", faults]
-    if output is not None:
-        argv += ["--output", str(output)]
-    parser = argparse.ArgumentParser()
-    mission.configure(parser)
-    args = parser.parse_args(argv)
-    if case["map"] and not hasattr(args, "map_tolerance"):
-        from pirate_bt.errors import InputError
-
-        raise InputError("maps: this pirate_bt's missions cannot run a truth other than the map")
-    import io
-
-    outputs = mission.execute(args, out=io.StringIO(), live=False)
-    result = outputs.result
-    run = result.run
-    return {
-        "outcome": "success"
-        if result.succeeded
-        else ("failed-safe" if outputs.code == 1 else "error"),
-        "reason": result.reason,
-        "failing_node": run.failing_node,
-        "sim_time_s": round(run.sim_time_s, 3),
-        "ticks": run.ticks,
-        "refusals": None,
-        "link": {},
-        "violations": int(result.sim.get("violations", 0)),
-        "damage": int(result.sim.get("damage", 0)),
-    }
+        network, truth = case["network"], case["map"]
+    elif route.network:
+        network, truth = None, case["network"]
+    else:
+        network, truth = case["network"], None
+    result = simulate_mission(
+        route,
+        network=network,
+        truth=truth,
+        seed=case["seed"],
+        faults=_faults(case) or None,
+        output=output,
+        robot=case["robot"],
+        max_time=case["max_time_s"],
+        rate=1.0 / case["period_s"],
+    )
+    return _body(result, result.safe_state)
 
 
 def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, Any]:

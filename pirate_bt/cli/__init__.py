@@ -42,7 +42,7 @@ EXIT_LINK = 3
 
 
 def _version() -> str:
-    from pirate_bt import __version__
+    from pirate_bt._version import __version__
 
     return __version__
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -158,35 +157,47 @@ def execute(
     trace_path = output / "trace.jsonl" if output is not None else None
     if getattr(args, "trace", None) is not None:
         trace_path = args.trace
-    show_live = (not args.quiet) if live is None else live
+    from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
     from pirate_bt.cli.run import open_foxglove
 
-    foxglove = open_foxglove(args)
+    server = open_foxglove(args)
+    options: dict[str, Any] = {
+        "faults": args.faults,
+        "trace": trace_path,
+        "robot": robot,
+        "max_time": max_time_s,
+        "rate": rate_hz,
+        "map_tolerance": tolerance,
+        "live": (not args.quiet) if live is None else live,
+        "foxglove": server,
+    }
     started = time.perf_counter()
     try:
-        result = _run(
-            args,
-            plan,
-            robot,
-            truth,
-            trace_path,
-            show_live,
-            rate_hz,
-            max_time_s,
-            tolerance,
-            foxglove,
-        )
+        if args.port is not None:
+            result = run_mission(plan, port=args.port, **options)
+        else:
+            result = simulate_mission(
+                plan, truth=truth, seed=args.seed, realtime=args.realtime, **options
+            )
     finally:
-        if foxglove is not None:
-            foxglove.close()
+        if server is not None:
+            server.close()
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:
-        files = _write_outputs(result, output, wall, extra_sections or [], extra_pictures or [])
+        files = write_mission_outputs(
+            result,
+            output,
+            wall_s=wall,
+            extra_sections=extra_sections or [],
+            extra_pictures=extra_pictures or [],
+            warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
+        )
     run = result.run
+    where = f" at {result.failing_node}" if result.failing_node else ""
     summary = (
-        f"mission {route.name}: {'SUCCESS' if result.succeeded else 'FAILED'} - {result.reason}"
-        f" ({run.ticks} ticks, {run.sim_time_s:.1f} s clock, {wall:.1f} s wall;"
+        f"mission {route.name}: {'SUCCESS' if result.succeeded else 'FAILED'} - {result.why}"
+        f"{where} ({run.ticks} ticks, {run.sim_time_s:.1f} s clock, {wall:.1f} s wall;"
         f" believed at {result.belief_m:.2f} m"
         + (f", truly {result.truth_m:.2f} m" if result.truth_m is not None else "")
         + ")"
@@ -202,141 +213,6 @@ def execute(
     for path in files:
         print(f"wrote {path}", file=stream)
     return MissionOutputs(code, result, tuple(files), wall)
-
-
-def _run(
-    args: argparse.Namespace,
-    plan: Any,
-    robot: Any,
-    truth: Any,
-    trace_path: Path | None,
-    live: bool,
-    rate_hz: float,
-    max_time_s: float | None,
-    tolerance: float,
-    foxglove: Any = None,
-) -> Any:
-    """Run the plan on the simulator (in ``truth``) or on ``--port``.
-
-    Connecting is :func:`pirate_bt.cli.run.connect`'s job, as for ``pirate-bt run``:
-    the robot is reached only through the protective layer, and ``--faults`` means
-    the same in both commands.
-    """
-    from pirate_bt.cli.run import connect
-    from pirate_bt.task.mission import truth_on_map
-
-    connection = connect(args, robot, needs_robot=True, network=truth)
-    sim = connection.simulator
-
-    def truth_for(p: Any) -> Any:
-        return (lambda: truth_on_map(p, sim.model.path, sim.model.s_m)) if sim else None
-
-    from pirate_bt.task.mission import run_mission
-    from pirate_bt.task.replan import carry_on
-
-    try:
-        observe = None
-        if foxglove is not None:
-            observe = _foxglove_observer(foxglove, connection, robot, truth.name, args.seed)
-        result = run_mission(
-            plan,
-            robot,
-            connection.supervisor,
-            connection.clock,
-            truth=truth_for(plan),
-            counters=sim.counters if sim is not None else None,
-            trace_path=trace_path,
-            scenario=truth.name,
-            seed=args.seed if sim is not None else None,
-            live=live,
-            period_s=1.0 / rate_hz,
-            max_time_s=max_time_s,
-            realtime=args.realtime,
-            map_tolerance=tolerance,
-            observe=observe,
-        )
-        return carry_on(
-            result,
-            robot,
-            connection.supervisor,
-            connection.clock,
-            truth_for=truth_for,
-            counters=sim.counters if sim is not None else None,
-            period_s=1.0 / rate_hz,
-            map_tolerance=tolerance,
-            observe=observe,
-        )
-    finally:
-        connection.close()
-
-
-def _foxglove_observer(
-    server: Any, connection: Any, robot: Any, scenario: str, seed: int
-) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
-    """Serve every runner the mission makes (the mission, a re-plan, the way back) live,
-    with the localiser's belief beside the supervisor's state, verdicts and link."""
-    from pirate_bt.interop.foxglove_live import attach_foxglove
-    from pirate_bt.trace import supervised_extras
-
-    sim = connection.simulator
-
-    def observe(runner: Any, localiser_values: Callable[[], dict[str, float]]) -> None:
-        attach_foxglove(
-            runner,
-            server,
-            extras=supervised_extras(
-                connection.supervisor,
-                counters=sim.counters if sim is not None else None,
-                more=localiser_values,
-            ),
-            robot=robot,
-            scenario=scenario,
-            seed=seed if sim is not None else None,
-        )
-
-    return observe
-
-
-def _write_outputs(
-    result: Any,
-    output: Path,
-    wall_time_s: float,
-    extra_sections: list[tuple[str, list[str]]],
-    extra_pictures: list[tuple[str, str]],
-) -> list[Path]:
-    from pirate_bt.task.report import plot_belief, write_report
-
-    output.mkdir(parents=True, exist_ok=True)
-    files: list[Path] = []
-    pictures: list[tuple[str, str]] = []
-    if result.trace_path is not None and result.trace_path.exists():
-        files.append(result.trace_path)
-        try:
-            from pirate_bt.render.plot import plot_trace
-            from pirate_bt.trace import read_trace
-
-            plotted = plot_trace(read_trace(result.trace_path), output / "plot.png")
-            files.append(plotted)
-            pictures.append(("Joints, clamps and speed", plotted.name))
-        except Exception as exc:  # a missing plot must not lose the report
-            print(f"pirate-bt: no trace plot: {exc}", file=sys.stderr)
-    belief = plot_belief(result, output / "belief.png")
-    if belief is not None:
-        files.append(belief)
-        pictures.append(("Belief and truth", belief.name))
-    try:
-        from pirate_bt.render.tree import render_tree
-
-        drawn = render_tree(result.tree, output / "tree.svg", title=result.plan.route.name)
-        files.append(drawn)
-        pictures.append(("Mission tree", drawn.name))
-    except FileNotFoundError as exc:
-        print(f"pirate-bt: {exc}", file=sys.stderr)
-        dot = output / "tree.dot"
-        if dot.exists():
-            files.append(dot)
-    files += write_report(result, output, [*pictures, *extra_pictures], extra_sections, wall_time_s)
-    return files
 
 
 def run(args: argparse.Namespace) -> int:

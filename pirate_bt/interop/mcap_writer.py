@@ -51,7 +51,7 @@ def load_mcap() -> Any:
 
 
 def _library() -> str:
-    from pirate_bt import __version__
+    from pirate_bt._version import __version__
 
     return f"pirate_bt {__version__}"
 

@@ -17,10 +17,10 @@ Each straight leg's distance is re-computed from the belief when it starts
 (:func:`leg_distance_m`, written to the ``leg_distance`` blackboard key).
 
 The mission reaches the robot only through the supervisor; creating the
-simulator or opening a port is the caller's business (``pirate-bt mission``),
-except in :func:`simulate_mission`, the plain API that plans on a map and runs
-the simulator in a truth. Going on after a stop (re-plan, return to start) is
-:mod:`pirate_bt.task.replan`.
+simulator or opening a port is the caller's business: the public API's
+(:func:`pirate_bt.simulate_mission`, :func:`pirate_bt.run_mission`), which
+``pirate-bt mission`` calls. Going on after a stop (re-plan, return to start)
+is :mod:`pirate_bt.task.replan`.
 """
 
 from __future__ import annotations
@@ -33,11 +33,14 @@ from typing import Any, TextIO
 
 import py_trees
 
+from pirate_bt.behaviours.cause import path_of as route_path
 from pirate_bt.clock import Clock
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult
+from pirate_bt.safety.tally import Counters, VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
+from pirate_bt.task.outcome import PabOutcome, explain_run, map_cause, pab_outcomes
 from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
@@ -49,7 +52,6 @@ __all__ = [
     "TimelineEntry",
     "estimate_time_s",
     "run_mission",
-    "simulate_mission",
     "truth_of",
     "truth_on_map",
 ]
@@ -193,10 +195,47 @@ class MissionResult:
     """Where the mission re-planned after a disagreement with one clear meaning."""
     returned: MissionResult | None = None
     """The way back to the start after a stop, when it was asked for."""
+    pabs: list[PabOutcome] = field(default_factory=list)
+    """One entry per step of the plan: its outcome, start and end, and why it failed."""
+    why: str = ""
+    """The first cause of the end, for people: the failing PAB's own cause (``stall:
+    bend_3_drive draws 1.50 A ...``), or the map disagreement that stopped the mission."""
+    failing_node: str | None = None
+    """Path of the node where the mission failed (``None`` on success)."""
+    counters: Counters = field(default_factory=Counters)
+    """Refusals, clips, link figures and, when simulated, violations and damage."""
+    wall_s: float = 0.0
+    """Wall time the run took."""
+    safe_state: bool = False
+    """The robot was left in its safe state (drives stopped, clamps held)."""
 
     @property
     def succeeded(self) -> bool:
         return self.run.succeeded
+
+    @property
+    def status(self) -> str:
+        """``"success"`` or ``"failure"``."""
+        return self.run.outcome
+
+    @property
+    def ticks(self) -> int:
+        return self.run.ticks
+
+    @property
+    def error(self) -> BaseException | None:
+        """The exception that ended the run, if one did (a lost link: ``LinkError``)."""
+        return self.run.error
+
+    @property
+    def sim_time_s(self) -> float:
+        """Clock time the mission took (simulated time on the simulator)."""
+        return self.run.sim_time_s
+
+    @property
+    def failed_pab(self) -> PabOutcome | None:
+        """The PAB that failed or was stopped, if one was."""
+        return next((p for p in self.pabs if p.outcome in ("failure", "stopped")), None)
 
     @property
     def final_error_m(self) -> float | None:
@@ -357,12 +396,23 @@ def run_mission(
         attach_live_view(runner, live_stream)
     if observe is not None:
         observe(runner, localiser.values)
-    result = runner.run()
+    tally = VerdictTally(supervisor)
+    try:
+        result = runner.run()
+    finally:
+        tally.detach()
     localiser.update(supervisor.state())
-    reason = result.message
-    if localiser.mismatch is not None:
-        reason = localiser.mismatch
     end = clock.now() - start_s
+    outcomes = pab_outcomes(
+        route_node,
+        {label: pab.pab for label, pab in pabs.items()},
+        [(e.label, e.time_s) for e in timeline],
+        end,
+        run=result,
+        safe=tally.first_safe_state,
+        stopped_by=localiser.mismatch,
+    )
+    reason, failing = _why(result, runner.tree.root, outcomes, plan, localiser, tally)
     timeline.append(
         TimelineEntry(end, f"end: {result.outcome}", localiser.belief_m, localiser.truth_m)
     )
@@ -383,22 +433,36 @@ def run_mission(
         start_s=start_s,
         disagreement=localiser.disagreement,
         legs=legs,
+        pabs=outcomes,
+        why=reason,
+        failing_node=failing,
+        counters=tally.counters(overruns=result.overrun_count),
+        wall_s=result.wall_time_s,
+        safe_state=bool(supervisor.in_safe_state),
     )
 
 
-NetworkLike = Any
-"""A ``Network``, a ``NetworkSpec``, a file path or a bundled name (``"lab"``)."""
-
-
-def _as_network(value: NetworkLike, base: Path | None) -> Any:
-    from pirate_bt.pipes import Network, NetworkSpec, load_network
-    from pirate_bt.task.networks import resolve_network_path
-
-    if isinstance(value, Network):
-        return value
-    if isinstance(value, NetworkSpec):
-        return Network(value, f"<{value.name}>")
-    return load_network(resolve_network_path(str(value), base))
+def _why(
+    run: RunResult,
+    root: Any,
+    outcomes: list[PabOutcome],
+    plan: MissionPlan,
+    localiser: Localiser,
+    tally: VerdictTally,
+) -> tuple[str, str | None]:
+    """The mission's first cause and the node it happened at (see :mod:`.outcome`)."""
+    if run.succeeded:
+        return f"mission completed: {len(outcomes)} PABs, {run.message}", None
+    stopped = next((p for p in outcomes if p.outcome in ("failure", "stopped")), None)
+    if localiser.mismatch is not None:
+        route = root.children[-1]
+        where = f"{route_path(route)}/{stopped.label}" if stopped is not None else None
+        return localiser.mismatch, where
+    if stopped is not None and stopped.outcome == "failure":
+        piece = plan.path.piece_at(localiser.belief_m) if plan.path.pieces else None
+        named = map_cause(stopped, piece, localiser.belief_m)
+        return named or stopped.why, stopped.failing_node or stopped.label
+    return explain_run(run, root, tally.first_safe_state)
 
 
 def truth_on_map(plan: MissionPlan, truth_path: Any, truth_m: float) -> float:
@@ -427,120 +491,6 @@ def truth_on_map(plan: MissionPlan, truth_path: Any, truth_m: float) -> float:
                 offset *= mapped.length_m / piece.length_m
             return float(mapped.start_m + offset)
     return truth_m
-
-
-def simulate_mission(
-    route: Any,
-    *,
-    map: NetworkLike | None = None,
-    truth: NetworkLike | None = None,
-    robot: RobotDescription | None = None,
-    seed: int = 0,
-    faults: str | None = None,
-    trace_path: Path | None = None,
-    period_s: float = 0.05,
-    max_time_s: float | None = None,
-    return_on_stop: bool = False,
-    observe: Observer | None = None,
-    map_tolerance: float = MAP_FRACTION,
-) -> MissionResult:
-    """Plan a route on ``map`` and run it on the simulator in ``truth``: the plain API.
-
-    The planner and the localiser know only the map; the simulator runs the truth
-    (an as-built variant, see :mod:`pirate_bt.pipes.asbuilt`). This is what
-    ``pirate-bt mission ROUTE --sim TRUTH --network MAP`` does, without output.
-
-    Args:
-        route: A :class:`~pirate_bt.task.route.Route` or a route file.
-        map: The map (default: the route's ``network`` line).
-        truth: The network the simulator runs (default: the map).
-        robot: The robot description (default: bundled).
-        seed: The simulator's seed (and the link faults').
-        faults: Faults as ``pirate-bt mission --faults`` takes them (simulator faults
-            ``KIND[:TARGET]@AT[+DURATION]`` and link faults ``KEY=VALUE``).
-        trace_path: Write a trace here.
-        period_s: Tick period.
-        max_time_s: Time limit (default: from the plan).
-        map_tolerance: How far the map's lengths may be off (see :func:`run_mission`).
-        return_on_stop: When the mission stops short (a disagreement, a failed PAB),
-            leave the safe state as an operator would and drive back to the start
-            (:func:`~pirate_bt.task.planner.plan_return`); the way back is
-            ``result.returned`` (``None`` when it cannot be planned: then
-            ``result.replans`` says why).
-        observe: Called with each runner the mission makes and the localiser's
-            figures (see :func:`run_mission`).
-
-    Returns:
-        The mission result (``result.truth_m`` and the fixes' truths are on the map,
-        see :func:`truth_on_map`; ``result.sim`` holds the simulator's counters).
-
-    Raises:
-        LocatedError: the route does not fit the map.
-        ValidationFailed: a malformed route or network.
-        LinkError: the simulator cannot be reached.
-    """
-    import re
-
-    from pirate_bt.clock import SimClock
-    from pirate_bt.robot.loader import load_robot
-    from pirate_bt.safety.factory import open_supervisor
-    from pirate_bt.task.networks import load_network_for
-    from pirate_bt.task.planner import plan_route
-    from pirate_bt.task.replan import carry_on, return_to_start
-    from pirate_bt.task.route import Route, load_route
-
-    route = route if isinstance(route, Route) else load_route(route)
-    base = Path(route.source).parent if not route.source.startswith("<") else None
-    robot = robot or load_robot()
-    the_map = _as_network(map, base) if map is not None else load_network_for(route, None)
-    the_truth = _as_network(truth, base) if truth is not None else the_map
-    plan = plan_route(route, the_map, robot)
-    items = [i for i in re.split(r"[,;\s]+", faults or "") if i]
-    sim_faults = [i for i in items if "@" in i]
-    link = ",".join(i for i in items if "@" not in i)
-    options: dict[str, Any] = {}
-    if link:
-        options["faults"] = link if "seed=" in link else f"{link},seed={seed}"
-    clock = SimClock()
-    supervisor = open_supervisor(
-        robot, clock=clock, network=the_truth, seed=seed, sim_faults=sim_faults, **options
-    )
-    sim = supervisor.simulator
-    assert sim is not None
-    try:
-        result = run_mission(
-            plan,
-            robot,
-            supervisor,
-            clock,
-            truth=truth_of(plan, sim),
-            counters=sim.counters,
-            trace_path=trace_path,
-            scenario=the_truth.name,
-            seed=seed,
-            period_s=period_s,
-            max_time_s=max_time_s,
-            map_tolerance=map_tolerance,
-            observe=observe,
-        )
-        result = carry_on(
-            result,
-            robot,
-            supervisor,
-            clock,
-            truth_for=lambda p: truth_of(p, sim),
-            counters=sim.counters,
-            period_s=period_s,
-            map_tolerance=map_tolerance,
-            observe=observe,
-        )
-        if return_on_stop and not result.succeeded:
-            result.returned = return_to_start(
-                result, robot, supervisor, clock, sim, observe=observe
-            )
-        return result
-    finally:
-        supervisor.close()
 
 
 def truth_of(plan: MissionPlan, sim: Any) -> Callable[[], float | None]:

@@ -175,6 +175,19 @@ def joined(first: MissionResult, then: MissionResult, note: str) -> MissionResul
         samples=[*first.samples, *(replace(x, time_s=x.time_s + offset) for x in then.samples)],
         odometry_m=first.odometry_m + then.odometry_m,
         start_s=first.start_s,
+        pabs=[
+            *(p for p in first.pabs if p.outcome != "not run"),
+            *(
+                replace(
+                    p,
+                    start_s=None if p.start_s is None else p.start_s + offset,
+                    end_s=None if p.end_s is None else p.end_s + offset,
+                )
+                for p in then.pabs
+            ),
+        ],
+        counters=first.counters + then.counters,
+        wall_s=first.wall_s + then.wall_s,
         replans=[*first.replans, f"{note} ({first.disagreement.describe()})"]
         if first.disagreement is not None
         else [*first.replans, note],

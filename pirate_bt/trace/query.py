@@ -29,16 +29,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import py_trees
 
 from pirate_bt.errors import InputError
 from pirate_bt.trace.records import STATUS_CODE
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
-
-if TYPE_CHECKING:
-    from pirate_bt.trace.reader import TickRecord
 
 __all__ = [
     "STATUS_WORDS",
@@ -134,7 +131,7 @@ class NodeLookupError(InputError, KeyError):
 class _Index:
     """Per-node status and feedback changes, built once from the tick records."""
 
-    def __init__(self, structure: TreeStructure, ticks: Sequence[TickRecord]) -> None:
+    def __init__(self, structure: TreeStructure, ticks: Sequence[Any]) -> None:
         self.paths: dict[str, str] = {}
         for node in structure:
             parent = self.paths.get(node.parent) if node.parent is not None else None
@@ -178,7 +175,7 @@ class TraceQueries:
 
     path: Path
     structure: TreeStructure
-    ticks: list[TickRecord]
+    ticks: list[Any]  # the reader's TickRecords (not imported: no circle)
     end: Mapping[str, Any] | None
     _query_index: _Index | None = None
 

@@ -191,7 +191,7 @@ def _plain(value: Any) -> Any:
 def _software() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
-    from pirate_bt import __version__
+    from pirate_bt._version import __version__
 
     out = {"pirate_bt": __version__, "python": platform.python_version()}
     try:

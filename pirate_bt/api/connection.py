@@ -1,0 +1,240 @@
+"""``connect(target)``: a supervised robot, real or simulated, its clock and a runner.
+
+Everything a planner runs reaches the robot through this one door, and only
+through the protective layer (:func:`pirate_bt.safety.factory.open_supervisor`
+opens the link itself). The target says where the robot is:
+
+- ``"sim"`` or ``"sim:NETWORK"`` - the built-in simulator in a pipe network (a
+  bundled name such as ``"lab"`` or a file), on a simulated clock;
+- a network file (``"scenarios/bend-right.yaml"``) or a loaded ``Network`` - the same;
+- a pyserial URL or port (``"/dev/ttyACM0"``, ``"COM3"``, ``"socket://host:7000"``,
+  ``"rfc2217://..."``) - a real PIRATEbay bridge, on the wall clock.
+
+Faults are written as on the command line: simulator faults
+``KIND[:TARGET]@AT[+DURATION]`` (``"motor_stall:bend_3_drive@5s+20s"``) and link
+faults ``KEY=VALUE`` (``"drop=0.05,corrupt=0.01"``), comma-separated.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING, Any
+
+from pirate_bt.api.options import load_robot_like, parse_target, split_faults
+from pirate_bt.api.running import as_loaded, run_on
+from pirate_bt.clock import Clock, SimClock, WallClock
+from pirate_bt.errors import InputError
+
+if TYPE_CHECKING:
+    from pirate_bt.api.results import RunResult
+    from pirate_bt.robot.description import RobotDescription
+
+__all__ = ["Connection", "connect"]
+
+_log = logging.getLogger("pirate_bt.api")
+
+
+class Connection:
+    """A robot behind its supervisor, with the clock every run on it reads.
+
+    Made by :func:`connect`; use it as a context manager so the link closes (and the
+    robot is left in its safe state if anything went wrong) whatever happens::
+
+        with pirate_bt.connect("sim:bend-right") as robot:
+            result = robot.run("trees/bend.yaml", params={"roll": "90 deg"})
+            print(result.why)
+
+    Attributes:
+        robot: The robot description.
+        clock: The clock trees on this connection read (simulated on the simulator).
+        supervisor: The protective layer, the only road to the robot.
+        simulated: True on the built-in simulator.
+        target: What was connected to (a network name or a port URL).
+        seed: The simulator's seed (``None`` on a real robot).
+        description: One line for people (``simulator: bend-right``).
+        tally: Counts the supervisor's verdicts and the link's figures since the
+            connection opened (:meth:`counters`).
+    """
+
+    def __init__(
+        self,
+        robot: RobotDescription,
+        clock: Clock,
+        supervisor: Any,
+        *,
+        simulated: bool,
+        target: str,
+        seed: int | None,
+        description: str,
+    ) -> None:
+        self.robot = robot
+        self.clock = clock
+        self.supervisor = supervisor
+        self.simulated = simulated
+        self.target = target
+        self.seed = seed
+        self.description = description
+        self._closed = False
+        from pirate_bt.safety.tally import VerdictTally
+
+        self.tally = VerdictTally(supervisor, from_open=True)
+
+    @property
+    def simulator(self) -> Any:
+        """The in-process simulator behind the supervisor (``None`` on a real robot)."""
+        return getattr(self.supervisor, "simulator", None)
+
+    def context(self) -> Any:
+        """The :class:`~pirate_bt.behaviours.BuildContext` for behaviours built in Python
+        on this connection (its robot, clock and supervisor)."""
+        from pirate_bt.behaviours.base import BuildContext
+
+        return BuildContext(robot=self.robot, clock=self.clock, supervisor=self.supervisor)
+
+    def load_tree(self, tree: Any, *, params: Mapping[str, Any] | None = None) -> Any:
+        """Load and check a tree for this connection (a path, a bundled name, a mapping).
+
+        Raises:
+            ValidationFailed: the tree does not validate against this robot.
+        """
+        return as_loaded(tree, self.robot, params)
+
+    def run(
+        self,
+        tree: Any,
+        *,
+        params: Mapping[str, Any] | None = None,
+        max_time: str | float = "600 s",
+        rate: str | float = "20 Hz",
+        trace: str | Path | None = None,
+        realtime: bool = False,
+        live: bool = False,
+        observe: Callable[[Any, Connection | None], None] | None = None,
+    ) -> RunResult:
+        """Run a tree on this connection to its end (see :func:`pirate_bt.simulate_tree`).
+
+        A failed run is a result, not an exception; the robot is then left in its
+        safe state and :attr:`RunResult.why` says why.
+        """
+        return run_on(
+            self,
+            tree,
+            params=params,
+            max_time=max_time,
+            rate=rate,
+            trace=trace,
+            realtime=realtime,
+            live=live,
+            observe=observe,
+        )
+
+    def counters(self) -> Any:
+        """The counters since the connection opened (:class:`~pirate_bt.safety.tally.Counters`)."""
+        return self.tally.counters()
+
+    def close(self) -> None:
+        """Close the link (and the simulator). Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        self.supervisor.close()
+
+    def __enter__(self) -> Connection:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc is not None and not self._closed:
+            # planner code raised with the robot in an unknown state: stop it safely
+            self.supervisor.safe_state(f"planner code raised {type(exc).__name__}: {exc}")
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<Connection {self.description}{' (closed)' if self._closed else ''}>"
+
+
+def connect(
+    target: Any = "sim",
+    *,
+    robot: Any = None,
+    seed: int = 0,
+    faults: str | Iterable[str] | None = None,
+) -> Connection:
+    """Open a supervised robot: the simulator or a real PIRATEbay bridge.
+
+    Args:
+        target: ``"sim"``, ``"sim:NETWORK"``, a network file or ``Network``, or a
+            serial port / pyserial URL (see the module docstring).
+        robot: The robot description: a loaded one, a file, or ``None`` for the
+            bundled ``hardware/pirate.yaml``.
+        seed: The simulator's seed (and the link faults'); ignored on a real robot.
+        faults: Simulator and link faults, as the command line's ``--faults``.
+
+    Returns:
+        The :class:`Connection`; close it (or use ``with``).
+
+    Raises:
+        InputError: a malformed target or fault, or simulator faults on a real port.
+        ValidationFailed: a robot description or network that does not validate.
+        LinkError: the robot cannot be reached.
+
+    Example::
+
+        with pirate_bt.connect("sim:lab", faults="drop=0.05") as robot:
+            print(robot.description)
+    """
+    from pirate_bt.safety.factory import open_supervisor
+
+    kind, where = parse_target(target)
+    description = load_robot_like(robot)
+    sim_faults, link_faults = split_faults(faults)
+    options: dict[str, Any] = {}
+    if link_faults is not None:
+        options["faults"] = link_faults if "seed=" in link_faults else f"{link_faults},seed={seed}"
+    if kind == "sim":
+        network = _network_for(where)
+        clock: Clock = SimClock()
+        supervisor = open_supervisor(
+            description, clock=clock, network=network, seed=seed, sim_faults=sim_faults, **options
+        )
+        name = str(getattr(network, "name", network))
+        connection = Connection(
+            description,
+            clock,
+            supervisor,
+            simulated=True,
+            target=name,
+            seed=seed,
+            description=f"simulator: {name}",
+        )
+    else:
+        if sim_faults:
+            raise InputError(
+                "faults: simulator faults (KIND:TARGET@AT) need the simulator, not a port"
+            )
+        clock = WallClock()
+        supervisor = open_supervisor(description, url=where, clock=clock, **options)
+        connection = Connection(
+            description,
+            clock,
+            supervisor,
+            simulated=False,
+            target=where,
+            seed=None,
+            description=f"robot at {where}",
+        )
+    return connection
+
+
+def _network_for(where: Any) -> Any:
+    """A network name or file as the simulator factory takes it (a bundled name, a path)."""
+    if isinstance(where, Path):
+        return str(where)
+    return where

@@ -1,0 +1,402 @@
+"""Plan and run missions: :func:`plan_route`, :func:`simulate_mission`, :func:`run_mission`.
+
+A route (``scenarios/lab.route``: plain words an operator writes) is planned on a
+map into one chain of partial autonomous behaviours (PABs) and run as one tree,
+with the localiser beside it. On the simulator, the pipe the robot really runs in
+(``truth``) may differ from the map: an as-built variant
+(:func:`pirate_bt.pipes.asbuilt.perturb_network`). The result lists every PAB
+with its outcome and cause, and names the first cause of a stop
+(:class:`~pirate_bt.task.mission.MissionResult`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.api.connection import Connection, connect
+from pirate_bt.api.live import FoxgloveOption, chain, foxglove_server, mission_observer
+from pirate_bt.api.options import load_robot_like, quantity
+from pirate_bt.task.localise import MAP_FRACTION
+
+__all__ = [
+    "load_network",
+    "plan_route",
+    "run_mission",
+    "simulate_mission",
+    "write_mission_outputs",
+]
+
+MissionObserver = Callable[[Any, Callable[[], dict[str, float]]], None]
+
+
+def load_network(network: Any, *, base: str | Path | None = None) -> Any:
+    """A pipe network: a bundled name (``"lab"``), a file, a ``NetworkSpec`` or a ``Network``.
+
+    Args:
+        network: What to load.
+        base: The folder a relative name is looked up in first (a route's folder).
+
+    Raises:
+        InputError: no such network (the error lists the bundled names).
+        ValidationFailed: the file does not validate, each error at ``file:line:column``.
+    """
+    from pirate_bt.errors import InputError
+    from pirate_bt.pipes import Network, NetworkSpec
+    from pirate_bt.pipes import load_network as load_file
+    from pirate_bt.task.networks import resolve_network_path
+
+    if isinstance(network, Network):
+        return network
+    if isinstance(network, NetworkSpec):
+        return Network(network, f"<{network.name}>")
+    try:
+        path = resolve_network_path(str(network), Path(base) if base is not None else None)
+    except FileNotFoundError as exc:
+        raise InputError(str(exc)) from None
+    return load_file(path)
+
+
+def _route(route: Any) -> Any:
+    from pirate_bt.task.route import Route, load_route
+
+    if isinstance(route, Route):
+        return route
+    from pirate_bt.api.options import find
+
+    return load_route(find("scenarios", route, ".route"))
+
+
+def _base(route: Any) -> Path | None:
+    return Path(route.source).parent if not route.source.startswith("<") else None
+
+
+def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> Any:
+    """Plan a route on a map into a chain of PABs.
+
+    Args:
+        route: A route file (``"scenarios/lab.route"``, or a bundled name ``"lab"``)
+            or a parsed :class:`~pirate_bt.task.route.Route`.
+        network: The map (default: the route's ``network`` line).
+        robot: The robot description (default: bundled).
+
+    Returns:
+        The :class:`~pirate_bt.task.planner.MissionPlan` (``plan.describe()`` lists it).
+
+    Raises:
+        LocatedError: the route does not fit the map, at the route's line.
+        ValidationFailed: a malformed route or network.
+
+    Example::
+
+        plan = pirate_bt.plan_route("lab.route")
+        print("\\n".join(plan.describe()))
+    """
+    from pirate_bt.task.networks import load_network_for
+    from pirate_bt.task.planner import plan_route as plan
+
+    parsed = _route(route)
+    description = load_robot_like(robot)
+    if network is None:
+        the_map = load_network_for(parsed, None)
+    else:
+        the_map = load_network(network, base=_base(parsed))
+    return plan(parsed, the_map, description)
+
+
+def _plan(plan_or_route: Any, network: Any, robot: Any) -> Any:
+    from pirate_bt.task.plan import MissionPlan
+
+    if isinstance(plan_or_route, MissionPlan):
+        if network is not None:
+            from pirate_bt.errors import InputError
+
+            raise InputError("network: a plan is already planned on its map; give a route")
+        return plan_or_route
+    return plan_route(plan_or_route, network=network, robot=robot)
+
+
+def _mission(
+    connection: Connection,
+    plan: Any,
+    *,
+    trace: str | Path | None,
+    period_s: float,
+    max_time_s: float | None,
+    map_tolerance: float,
+    live: bool,
+    realtime: bool,
+    observe: MissionObserver | None,
+    return_on_stop: bool,
+) -> Any:
+    """Run a plan on an open connection, re-plan where it may, come back if asked."""
+    from pirate_bt.task.mission import run_mission as run_plan
+    from pirate_bt.task.mission import truth_of
+    from pirate_bt.task.replan import carry_on, return_to_start
+
+    sim = connection.simulator
+
+    def truth_for(p: Any) -> Any:
+        return truth_of(p, sim) if sim is not None else None
+
+    result = run_plan(
+        plan,
+        connection.robot,
+        connection.supervisor,
+        connection.clock,
+        truth=truth_for(plan),
+        counters=sim.counters if sim is not None else None,
+        trace_path=Path(trace) if trace is not None else None,
+        scenario=connection.target,
+        seed=connection.seed,
+        live=live,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        realtime=realtime,
+        map_tolerance=map_tolerance,
+        observe=observe,
+    )
+    result = carry_on(
+        result,
+        connection.robot,
+        connection.supervisor,
+        connection.clock,
+        truth_for=truth_for,
+        counters=sim.counters if sim is not None else None,
+        period_s=period_s,
+        map_tolerance=map_tolerance,
+        observe=observe,
+    )
+    if return_on_stop and not result.succeeded and sim is not None:
+        result.returned = return_to_start(
+            result, connection.robot, connection.supervisor, connection.clock, sim, observe=observe
+        )
+    return result
+
+
+def _options(rate: str | float, max_time: str | float | None, map_tolerance: float) -> Any:
+    from pirate_bt.errors import InputError
+
+    rate_hz = quantity(rate, "frequency", "rate")
+    if rate_hz <= 0:
+        raise InputError("rate must be positive")
+    max_time_s = quantity(max_time, "time", "max_time") if max_time is not None else None
+    if max_time_s is not None and max_time_s <= 0:
+        raise InputError("max_time must be positive")
+    if not 0.0 <= map_tolerance < 1.0:
+        raise InputError(f"map_tolerance: {map_tolerance!r} must be at least 0 and below 1")
+    return 1.0 / rate_hz, max_time_s
+
+
+def simulate_mission(
+    plan_or_route: Any,
+    *,
+    network: Any = None,
+    truth: Any = None,
+    seed: int = 0,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    output: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float | None = None,
+    rate: str | float = "20 Hz",
+    map_tolerance: float = MAP_FRACTION,
+    return_on_stop: bool = False,
+    live: bool = False,
+    realtime: bool = False,
+    foxglove: FoxgloveOption = None,
+    observe: MissionObserver | None = None,
+) -> Any:
+    """Plan a route on a map (unless given a plan) and run it on the simulator.
+
+    The planner and the localiser know only the map; the simulator runs ``truth``.
+
+    Args:
+        plan_or_route: A route (file, bundled name or ``Route``) or a ``MissionPlan``
+            from :func:`plan_route` (not planned again).
+        network: The map (default: the route's ``network`` line). Not with a plan.
+        truth: The network the simulator runs (default: the map): an as-built variant.
+        seed: The simulator's seed (and the link faults').
+        faults: As ``pirate-bt mission --faults``: ``"motor_stall:bend_1_drive@30s+5s"``,
+            ``"drop=0.05,corrupt=0.01"``.
+        trace: Write the trace here (default: ``output/trace.jsonl`` with ``output``).
+        output: Write the trace, plots, tree diagram and ``report.md``/``.html`` here.
+        robot: The robot description (default: bundled).
+        max_time: Time limit (default: generous, from the plan).
+        rate: Tick rate.
+        map_tolerance: How far the map's lengths may be off per metre from the last
+            feature (0.1 = 10 %; 0 for a map known to be exact).
+        return_on_stop: After a stop, leave the safe state and drive back to the start
+            (``result.returned``).
+        live: Draw the tree live on standard error.
+        realtime: Pace the simulated run to wall time.
+        foxglove: Serve the run live to Foxglove (``"HOST:PORT"``, ``True`` or a server).
+        observe: ``observe(runner, localiser_values)`` for each runner the mission makes.
+
+    Returns:
+        The :class:`~pirate_bt.task.mission.MissionResult`: ``status``, ``why``,
+        ``failing_node``, ``pabs`` (one :class:`~pirate_bt.task.outcome.PabOutcome` per
+        step), ``counters``, belief and truth. A failed mission is a result.
+
+    Raises:
+        LocatedError: the route does not fit the map.
+        ValidationFailed: a malformed route or network.
+        InputError: a malformed option or fault.
+        LinkError: the simulator cannot be reached.
+
+    Example::
+
+        result = pirate_bt.simulate_mission("lab.route", seed=3)
+        for pab in result.pabs:
+            print(pab.label, pab.outcome, pab.why)
+    """
+    description = load_robot_like(robot)
+    plan = _plan(plan_or_route, network, description)
+    period_s, max_time_s = _options(rate, max_time, map_tolerance)
+    world = plan.network if truth is None else load_network(truth, base=_base(plan.route))
+    out = Path(output) if output is not None else None
+    trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
+    started = time.perf_counter()
+    with (
+        foxglove_server(foxglove) as server,
+        connect(world, robot=description, seed=seed, faults=faults) as connection,
+    ):
+        live_view = mission_observer(server, connection, description) if server else None
+        result = _mission(
+            connection,
+            plan,
+            trace=trace_path,
+            period_s=period_s,
+            max_time_s=max_time_s,
+            map_tolerance=map_tolerance,
+            live=live,
+            realtime=realtime,
+            observe=chain(live_view, observe),
+            return_on_stop=return_on_stop,
+        )
+    if out is not None:
+        write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
+    return result
+
+
+def run_mission(
+    plan_or_route: Any,
+    *,
+    port: str,
+    network: Any = None,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    output: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float | None = None,
+    rate: str | float = "20 Hz",
+    map_tolerance: float = MAP_FRACTION,
+    live: bool = False,
+    foxglove: FoxgloveOption = None,
+    observe: MissionObserver | None = None,
+) -> Any:
+    """Run a mission on a real robot at ``port``, as :func:`simulate_mission` does.
+
+    Args:
+        port: A serial port or pyserial URL (``"/dev/ttyACM0"``).
+        faults: Link faults only (``"drop=0.05"``).
+
+    The other arguments are :func:`simulate_mission`'s; there is no truth (the
+    result's ``truth_m`` is ``None``) and no way back is driven automatically.
+
+    Example::
+
+        result = pirate_bt.run_mission("lab.route", port="/dev/ttyACM0")
+        print(result.why)
+    """
+    from pirate_bt.api.options import parse_target
+    from pirate_bt.errors import InputError
+
+    if parse_target(port)[0] != "port":
+        raise InputError(f"port: {port!r} is not a serial port or pyserial URL")
+    description = load_robot_like(robot)
+    plan = _plan(plan_or_route, network, description)
+    period_s, max_time_s = _options(rate, max_time, map_tolerance)
+    out = Path(output) if output is not None else None
+    trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
+    started = time.perf_counter()
+    with (
+        foxglove_server(foxglove) as server,
+        connect(port, robot=description, faults=faults) as connection,
+    ):
+        live_view = mission_observer(server, connection, description) if server else None
+        result = _mission(
+            connection,
+            plan,
+            trace=trace_path,
+            period_s=period_s,
+            max_time_s=max_time_s,
+            map_tolerance=map_tolerance,
+            live=live,
+            realtime=False,
+            observe=chain(live_view, observe),
+            return_on_stop=False,
+        )
+    if out is not None:
+        write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
+    return result
+
+
+def write_mission_outputs(
+    result: Any,
+    output: str | Path,
+    *,
+    wall_s: float | None = None,
+    extra_sections: Sequence[tuple[str, list[str]]] = (),
+    extra_pictures: Sequence[tuple[str, str]] = (),
+    warn: Callable[[str], None] | None = None,
+) -> list[Path]:
+    """Write a mission's plots, tree diagram and report (``report.md``, ``report.html``).
+
+    A plot or diagram that cannot be made (no Graphviz ``dot``, no matplotlib) is
+    reported through ``warn`` and left out; the report is always written.
+
+    Returns:
+        The files written (the trace first, when there is one).
+    """
+    import logging
+
+    log = warn or logging.getLogger("pirate_bt.api").warning
+    from pirate_bt.task.report import plot_belief, write_report
+
+    out = Path(output)
+    out.mkdir(parents=True, exist_ok=True)
+    files: list[Path] = []
+    pictures: list[tuple[str, str]] = []
+    if result.trace_path is not None and result.trace_path.exists():
+        files.append(result.trace_path)
+        try:
+            from pirate_bt.render.plot import plot_trace
+            from pirate_bt.trace import read_trace
+
+            plotted = plot_trace(read_trace(result.trace_path), out / "plot.png")
+            files.append(plotted)
+            pictures.append(("Joints, clamps and speed", plotted.name))
+        except Exception as exc:  # a missing plot must not lose the report
+            log(f"no trace plot: {exc}")
+    belief = plot_belief(result, out / "belief.png")
+    if belief is not None:
+        files.append(belief)
+        pictures.append(("Belief and truth", belief.name))
+    try:
+        from pirate_bt.render.tree import render_tree
+
+        drawn = render_tree(result.tree, out / "tree.svg", title=result.plan.route.name)
+        files.append(drawn)
+        pictures.append(("Mission tree", drawn.name))
+    except FileNotFoundError as exc:
+        log(str(exc))
+        dot = out / "tree.dot"
+        if dot.exists():
+            files.append(dot)
+    files += write_report(
+        result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
+    )
+    return files

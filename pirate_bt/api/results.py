@@ -1,0 +1,107 @@
+"""What a tree run returns: :class:`RunResult`, which says why.
+
+Missions return :class:`~pirate_bt.task.mission.MissionResult` (the same fields,
+plus one :class:`~pirate_bt.task.outcome.PabOutcome` per step of the plan); both
+carry one :class:`~pirate_bt.safety.tally.Counters` type.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import LinkError
+from pirate_bt.runner import RunResult as LoopResult
+from pirate_bt.runner import StopReason
+from pirate_bt.safety.tally import Counters
+
+__all__ = ["RunResult", "exit_code"]
+
+
+def exit_code(succeeded: bool, error: BaseException | None) -> int:
+    """The command line's exit code for a run: 0 success, 3 link error, 1 failure."""
+    if succeeded:
+        return 0
+    return 3 if isinstance(error, LinkError) else 1
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """How a tree run ended, and why.
+
+    Attributes:
+        tree: The tree's name.
+        status: ``"success"`` or ``"failure"`` (every end but success is a failure).
+        stop: How the run stopped (``success``, ``failure``, ``time_limit``,
+            ``exception``, ``interrupted``).
+        why: The first cause, for people: the deepest failure a behaviour recorded
+            (``stall: bend_3_drive draws 1.50 A at 0 mm/s for 0.55 s (commanded 80
+            mm/s)``), the supervisor's own stop (``link lost``), an exception, or a
+            time limit with the node still running. On success, the runner's line.
+        failing_node: The path of the node where it failed (``bend/pass bend/front
+            into turn``), or ``None``.
+        sim_time_s: Clock time the run took (simulated on the simulator).
+        wall_s: Wall time the run took.
+        ticks: Ticks run.
+        counters: Refusals, clips, link figures and, simulated, violations and damage.
+        safe_state: The robot was left in its safe state (drives stopped, clamps held).
+        target: Where it ran (``simulator: bend-right``, ``robot at /dev/ttyACM0``,
+            ``no robot``).
+        trace_path: The trace written, if any.
+        error: The exception that ended the run, if one did.
+        traceback: Its formatted traceback.
+        loop: The runner's own result (tick durations, overruns, stopped nodes).
+    """
+
+    tree: str
+    status: str
+    stop: StopReason
+    why: str
+    failing_node: str | None
+    sim_time_s: float
+    wall_s: float
+    ticks: int
+    counters: Counters = field(default_factory=Counters)
+    safe_state: bool = False
+    target: str = "no robot"
+    trace_path: Path | None = None
+    error: BaseException | None = None
+    traceback: str | None = None
+    loop: LoopResult | None = field(default=None, repr=False)
+
+    @property
+    def succeeded(self) -> bool:
+        return self.status == "success"
+
+    @property
+    def exit_code(self) -> int:
+        """What ``pirate-bt run`` exits with: 0 success, 1 failure, 3 link error."""
+        return exit_code(self.succeeded, self.error)
+
+    def summary(self) -> str:
+        """One line for people, as ``pirate-bt run`` prints it."""
+        where = f" at {self.failing_node}" if self.failing_node and not self.succeeded else ""
+        overruns = self.loop.overrun_count if self.loop is not None else 0
+        return (
+            f"{self.tree}: {self.status.upper()} - {self.why}{where}"
+            f" ({self.target}; {self.ticks} ticks, {self.sim_time_s:.2f} s clock,"
+            f" {self.wall_s:.2f} s wall" + (f", {overruns} tick overruns" if overruns else "") + ")"
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON values (campaign rows, ``--json``)."""
+        return {
+            "tree": self.tree,
+            "status": self.status,
+            "stop": str(self.stop),
+            "why": self.why,
+            "failing_node": self.failing_node,
+            "sim_time_s": round(self.sim_time_s, 3),
+            "wall_s": round(self.wall_s, 3),
+            "ticks": self.ticks,
+            "safe_state": self.safe_state,
+            "target": self.target,
+            "trace": str(self.trace_path) if self.trace_path is not None else None,
+            "counters": self.counters.as_dict(),
+        }

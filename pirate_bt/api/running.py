@@ -1,0 +1,313 @@
+"""Load a tree for a run, bind it to a connection, run it and explain how it ended.
+
+The machinery under :func:`pirate_bt.simulate_tree`, :func:`pirate_bt.run_tree` and
+:meth:`pirate_bt.Connection.run`. A tree is a YAML file (or a bundled name such as
+``"bend"``), a mapping of the same structure, a :class:`~pirate_bt.treefile.LoadedTree`,
+or a ``py_trees`` behaviour built in Python. A YAML tree is checked against the
+robot before anything connects (:class:`~pirate_bt.errors.ValidationFailed`, every
+error at ``file:line:column``), then built on the connection's clock and
+supervisor. A behaviour built in Python without a supervisor
+(``BuildContext(robot=robot)``) is bound to the connection when it runs: every node
+whose context has no supervisor gets the connection's robot, clock and supervisor.
+
+Each run is supervised exactly like ``pirate-bt run``: the supervisor ticks before
+the tree; an operator's MANUAL mode pauses it; any end but success stops running
+nodes and leaves the robot in its safe state, keeping the first cause; the result
+says why (:class:`~pirate_bt.api.results.RunResult`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import py_trees
+
+from pirate_bt.api.options import quantity
+from pirate_bt.api.results import RunResult
+from pirate_bt.clock import SimClock
+from pirate_bt.task.outcome import END_OF_RUN, explain_run
+
+if TYPE_CHECKING:
+    from pirate_bt.robot.description import RobotDescription
+
+__all__ = ["Observer", "as_loaded", "load_tree", "needs_robot", "run_on"]
+
+Observer = Callable[[Any, Any], None]
+"""``observe(runner, connection)``: called before a run starts, to attach more hooks
+(``connection`` is ``None`` for a tree that needs no robot)."""
+
+
+def as_loaded(
+    tree: Any, robot: RobotDescription | None, params: Mapping[str, Any] | None = None
+) -> Any:
+    """A tree as the runner takes it: a checked ``LoadedTree``, or the behaviour itself.
+
+    Args:
+        tree: A path or bundled name, a mapping, a ``LoadedTree``, a behaviour or a
+            ``BehaviourTree``.
+        robot: The robot description the tree is checked against.
+        params: The tree's parameters (YAML trees only): strings are read as on the
+            command line (``"90 deg"``), numbers are SI.
+
+    Raises:
+        ValidationFailed: the tree or a parameter does not validate.
+        InputError: parameters for a tree that is not YAML, or an unknown kind of tree.
+    """
+    from pirate_bt.errors import InputError
+    from pirate_bt.treefile import LoadedTree, load_tree
+
+    if isinstance(tree, LoadedTree | py_trees.behaviour.Behaviour | py_trees.trees.BehaviourTree):
+        if params:
+            raise InputError(
+                f"params: given for an already built tree ({type(tree).__name__});"
+                " give them to load_tree, or pass the tree's file"
+            )
+        return tree
+    if isinstance(tree, Mapping):
+        source: Any = tree
+    elif isinstance(tree, str | Path):
+        from pirate_bt.api.options import find
+
+        source = find("trees", tree, ".yaml")
+    else:
+        raise InputError(
+            f"cannot run a {type(tree).__name__}: give a tree file, a mapping, a LoadedTree"
+            " or a py_trees behaviour"
+        )
+    given = dict(params or {})
+    from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    return load_tree(source, robot=robot, params=given, params_from_text=from_text)
+
+
+def _root(tree: Any) -> py_trees.behaviour.Behaviour:
+    if isinstance(tree, py_trees.trees.BehaviourTree):
+        root: py_trees.behaviour.Behaviour = tree.root
+        return root
+    if isinstance(tree, py_trees.behaviour.Behaviour):
+        return tree
+    root = tree.root
+    return root
+
+
+def needs_robot(tree: Any) -> bool:
+    """True when some node of ``tree`` talks to the robot."""
+    if hasattr(tree, "needs_robot") and not isinstance(tree, py_trees.behaviour.Behaviour):
+        return bool(tree.needs_robot)
+    return any(getattr(n, "needs_robot", False) for n in _root(tree).iterate())
+
+
+def _name(tree: Any) -> str:
+    name = getattr(tree, "name", None)
+    if isinstance(tree, py_trees.trees.BehaviourTree):
+        name = tree.root.name
+    return str(name or "tree")
+
+
+def _bind(root: py_trees.behaviour.Behaviour, connection: Any, clock: Any) -> None:
+    """Give nodes built without a supervisor the connection's robot, clock and supervisor."""
+    from pirate_bt.behaviours.base import BuildContext
+
+    for node in root.iterate():
+        context = getattr(node, "context", None)
+        if not isinstance(context, BuildContext) or context.supervisor is not None:
+            continue
+        node.context = dataclasses.replace(  # type: ignore[attr-defined]
+            context,
+            robot=context.robot if connection is None else connection.robot,
+            clock=clock,
+            supervisor=None if connection is None else connection.supervisor,
+        )
+
+
+def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
+    """The tree built (a ``LoadedTree``) or bound (a behaviour) on the run's clock."""
+    from pirate_bt.treefile import LoadedTree
+
+    if isinstance(tree, LoadedTree):
+        from pirate_bt.behaviours.base import BuildContext
+        from pirate_bt.treefile import build
+
+        context = BuildContext(
+            robot=robot,
+            clock=clock,
+            supervisor=None if connection is None else connection.supervisor,
+        )
+        return dataclasses.replace(tree, root=build(tree.spec, context))
+    _bind(_root(tree), connection, clock)
+    return tree
+
+
+def run_on(
+    connection: Any,
+    tree: Any,
+    *,
+    params: Mapping[str, Any] | None = None,
+    max_time: str | float = "600 s",
+    rate: str | float = "20 Hz",
+    trace: str | Path | None = None,
+    realtime: bool = False,
+    live: bool = False,
+    observe: Observer | None = None,
+    robot: Any = None,
+    trace_meta: Mapping[str, Any] | None = None,
+    count_from_open: bool = False,
+) -> RunResult:
+    """Run ``tree`` on an open connection (``None``: a tree that needs no robot, on a
+    simulated clock); see :func:`simulate_tree` for the arguments.
+
+    The result's counters count this run only, unless ``count_from_open``: then they
+    count from the moment the connection opened (its handshake's retries included),
+    for a connection opened for this one run."""
+    from pirate_bt.errors import InputError
+    from pirate_bt.runner import Runner
+    from pirate_bt.safety.tally import Counters, VerdictTally
+
+    max_time_s = quantity(max_time, "time", "max_time")
+    rate_hz = quantity(rate, "frequency", "rate")
+    if rate_hz <= 0 or max_time_s <= 0:
+        raise InputError("rate and max_time must be positive")
+    if connection is not None:
+        robot = connection.robot
+    checked = as_loaded(tree, robot, params)
+    clock = connection.clock if connection is not None else SimClock()
+    built = _build_on(checked, connection, clock, robot)
+    supervisor = connection.supervisor if connection is not None else None
+
+    def safe_state() -> None:
+        # keep the cause a PAB or the supervisor gave first
+        assert supervisor is not None
+        supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN)
+
+    runner = Runner(
+        built,
+        clock=clock,
+        period_s=1.0 / rate_hz,
+        max_time_s=max_time_s,
+        realtime=realtime,
+        safe_state=safe_state if supervisor is not None else None,
+        paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
+    )
+    tally = VerdictTally(supervisor) if supervisor is not None else None
+    counting = tally
+    if count_from_open and connection is not None:
+        counting = connection.tally
+    if supervisor is not None:
+        runner.add_pre_tick(lambda _info: supervisor.tick())
+    if live:
+        from pirate_bt.trace import attach_live_view
+
+        attach_live_view(runner)
+    trace_path = Path(trace) if trace is not None else None
+    if trace_path is not None:
+        _attach_trace(runner, trace_path, connection, robot, trace_meta)
+    if observe is not None:
+        observe(runner, connection)
+    try:
+        loop = runner.run()
+    finally:
+        if tally is not None:
+            tally.detach()
+    first_stop = tally.first_safe_state if tally is not None else None
+    why, failing = explain_run(loop, runner.tree.root, first_stop)
+    return RunResult(
+        tree=_name(checked),
+        status=loop.outcome,
+        stop=loop.reason,
+        why=why,
+        failing_node=failing,
+        sim_time_s=loop.sim_time_s,
+        wall_s=loop.wall_time_s,
+        ticks=loop.ticks,
+        counters=counting.counters(overruns=loop.overrun_count)
+        if counting is not None
+        else Counters(overruns=loop.overrun_count),
+        safe_state=bool(supervisor is not None and supervisor.in_safe_state),
+        target=connection.description if connection is not None else "no robot",
+        trace_path=trace_path,
+        error=loop.error,
+        traceback=loop.traceback,
+        loop=loop,
+    )
+
+
+def _attach_trace(
+    runner: Any,
+    path: Path,
+    connection: Any,
+    robot: Any,
+    meta: Mapping[str, Any] | None,
+) -> None:
+    from pirate_bt.trace import attach_trace, supervised_extras
+
+    extras = None
+    if connection is not None:
+        sim = connection.simulator
+        extras = supervised_extras(
+            connection.supervisor, counters=sim.counters if sim is not None else None
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    options: dict[str, Any] = {}
+    if meta:
+        options["meta"] = dict(meta)
+    attach_trace(
+        runner,
+        path,
+        extras=extras,
+        robot=robot,
+        scenario=connection.target if connection is not None else None,
+        seed=connection.seed if connection is not None else None,
+        **options,
+    )
+
+
+def load_tree(
+    tree: Any,
+    *,
+    robot: Any = None,
+    params: Mapping[str, Any] | None = None,
+    check_robot: bool = True,
+    **options: Any,
+) -> Any:
+    """Load and check a YAML tree (a file, a bundled name such as ``"bend"``, or a mapping).
+
+    Unlike :func:`pirate_bt.treefile.load_tree`, the tree is checked against the
+    bundled robot when no ``robot`` is given (``check_robot=False`` skips the limit
+    checks, for a tree of generic leaves drawn offline). Parameters are read as on
+    the command line when they are strings (``{"roll": "90 deg"}``); numbers are SI.
+    Build it on a robot with :meth:`Connection.run` or :func:`simulate_tree`.
+
+    Args:
+        tree: The tree.
+        robot: The robot description (a loaded one, a file; default: bundled).
+        params: The tree's parameters.
+        check_robot: Check against the robot's limits.
+        **options: Passed to :func:`pirate_bt.treefile.load_tree` (``registry``,
+            ``use_examples``, ``clock``, ``supervisor``).
+
+    Returns:
+        The :class:`~pirate_bt.treefile.LoadedTree`.
+
+    Raises:
+        ValidationFailed: every problem, each at ``file:line:column``.
+
+    Example::
+
+        tree = pirate_bt.load_tree("bend", params={"roll": "90 deg"})
+        print(tree.name, tree.needs_robot)
+    """
+    from pirate_bt.api.options import load_robot_like
+    from pirate_bt.treefile import load_tree as load
+
+    description = load_robot_like(robot) if check_robot else None
+    if isinstance(tree, Mapping):
+        source: Any = tree
+    else:
+        from pirate_bt.api.options import find
+
+        source = find("trees", tree, ".yaml")
+    given = dict(params or {})
+    from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    return load(source, robot=description, params=given, params_from_text=from_text, **options)

@@ -1,0 +1,135 @@
+"""Run a behaviour tree on the simulator or a robot: :func:`simulate_tree`, :func:`run_tree`.
+
+See :mod:`pirate_bt.api.running` for what a tree may be and how a run is supervised.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.api.connection import connect
+from pirate_bt.api.options import load_robot_like, parse_target
+from pirate_bt.api.results import RunResult
+from pirate_bt.api.running import Observer, as_loaded, needs_robot, run_on
+
+__all__ = ["run_tree", "simulate_tree"]
+
+
+def simulate_tree(
+    tree: Any,
+    *,
+    network: Any = "straight",
+    params: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float = "600 s",
+    rate: str | float = "20 Hz",
+    realtime: bool = False,
+    live: bool = False,
+    observe: Observer | None = None,
+) -> RunResult:
+    """Run a tree on the built-in simulator, to its end, and say why it ended.
+
+    Args:
+        tree: A tree file or bundled name (``"bend"``), a mapping, a ``LoadedTree``,
+            or a ``py_trees`` behaviour built in Python.
+        network: The pipe network the simulator runs: a bundled name (``"lab"``), a
+            file, or a ``Network``.
+        params: The tree's parameters, as on the command line (``{"roll": "90 deg"}``;
+            numbers are SI).
+        seed: The simulator's seed (and the link faults').
+        faults: ``"motor_stall:bend_3_drive@5s+20s"``, ``"drop=0.05,corrupt=0.01"``.
+        trace: Write a tick-by-tick trace here (``.jsonl``, ``.jsonl.gz``, ``.mcap``).
+        robot: The robot description (a loaded one, a file, or ``None``: bundled).
+        max_time: Time limit on the run's clock (``"600 s"`` or seconds).
+        rate: Tick rate (``"20 Hz"`` or hertz).
+        realtime: Pace the simulated run to wall time (to watch it).
+        live: Draw the tree live on standard error.
+        observe: ``observe(runner, connection)`` before the run: attach more hooks.
+
+    Returns:
+        The :class:`RunResult`; a failed run is a result, not an exception.
+
+    Raises:
+        ValidationFailed: the tree or a parameter does not validate (before anything
+            connects).
+        InputError: a malformed option or fault.
+        LinkError: the simulator cannot be reached.
+
+    Example::
+
+        import pirate_bt
+        result = pirate_bt.simulate_tree("bend", network="bend-right",
+                                         params={"roll": "90 deg"},
+                                         faults="motor_stall:bend_3_drive@5s+20s")
+        print(result.status, result.why, result.failing_node)
+    """
+    description = load_robot_like(robot)
+    checked = as_loaded(tree, description, params)
+    options: dict[str, Any] = {
+        "max_time": max_time,
+        "rate": rate,
+        "trace": trace,
+        "realtime": realtime,
+        "live": live,
+        "observe": observe,
+    }
+    if not needs_robot(checked):
+        return run_on(None, checked, robot=description, **options)
+    with connect(
+        f"sim:{network}" if isinstance(network, str) else network,
+        robot=description,
+        seed=seed,
+        faults=faults,
+    ) as connection:
+        return run_on(connection, checked, count_from_open=True, **options)
+
+
+def run_tree(
+    tree: Any,
+    *,
+    port: str,
+    params: Mapping[str, Any] | None = None,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float = "600 s",
+    rate: str | float = "20 Hz",
+    live: bool = False,
+    observe: Observer | None = None,
+) -> RunResult:
+    """Run a tree on a real robot (a PIRATEbay bridge at ``port``), as :func:`simulate_tree`.
+
+    Args:
+        port: A serial port or pyserial URL (``"/dev/ttyACM0"``, ``"socket://host:7000"``).
+        faults: Link faults only (``"drop=0.05"``), for testing a link.
+
+    The other arguments are :func:`simulate_tree`'s. Runs on the wall clock.
+
+    Example::
+
+        result = pirate_bt.run_tree("straight", port="/dev/ttyACM0",
+                                    params={"distance": "1 m"})
+    """
+    from pirate_bt.errors import InputError
+
+    kind, _ = parse_target(port)
+    if kind != "port":
+        raise InputError(f"port: {port!r} is not a serial port or pyserial URL")
+    description = load_robot_like(robot)
+    checked = as_loaded(tree, description, params)
+    with connect(port, robot=description, faults=faults) as connection:
+        return run_on(
+            connection,
+            checked,
+            max_time=max_time,
+            rate=rate,
+            trace=trace,
+            live=live,
+            observe=observe,
+            count_from_open=True,
+        )

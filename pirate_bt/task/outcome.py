@@ -1,0 +1,209 @@
+"""Why a run or a mission ended, and how each PAB of a mission went.
+
+A failed tree says ``tree failed after 2012 ticks``; what a planner needs is the
+first cause (``stall: bend_3_drive draws 1.50 A at 0 mm/s for 0.55 s``) and where
+it happened. :func:`explain_run` finds it from the run's result, the tree (the
+failures its behaviours recorded, :mod:`pirate_bt.behaviours.cause`) and the
+supervisor's first safe-state entry (:class:`~pirate_bt.safety.tally.VerdictTally`):
+
+1. a behaviour that raised: its exception, at its node;
+2. the supervisor stopping the robot on its own (link lost, stale data, refused
+   commands in a row, an e-stop): its reason, at the node running then;
+3. a behaviour that failed (the latest one at or before the robot was stopped):
+   its reason, at its node;
+4. a time limit: the limit, and the node still running;
+5. otherwise the runner's own line.
+
+For a mission, :func:`pab_outcomes` gives one :class:`PabOutcome` per step of the
+plan, and :func:`map_cause` names a map disagreement as the cause of a stop, what
+ever gave it away: the localiser's mismatch (a turn or an opening where the map
+has none, a feature missing), or a PAB blocked by the pipe where the map said it
+could go on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import py_trees
+
+from pirate_bt.behaviours.cause import failure_cause, path_of
+from pirate_bt.runner import RunResult, StopReason
+from pirate_bt.safety.tally import SafeStateEntry
+
+__all__ = ["END_OF_RUN", "PabOutcome", "explain_run", "map_cause", "pab_outcomes"]
+
+END_OF_RUN = "tree run ended without success"
+"""The safe-state reason a runner gives when nothing gave one before it."""
+
+_GENERIC = (END_OF_RUN, "mission ended without success")
+
+
+@dataclass(frozen=True, slots=True)
+class PabOutcome:
+    """How one step of a mission's plan went.
+
+    Attributes:
+        label: The PAB's node name (``03 bend right (line 6)``).
+        kind: ``straight``, ``bend``, ``t-joint`` or ``pause``.
+        outcome: ``success``, ``failure`` (it ended the mission), ``stopped`` (it was
+            running when something above it ended the mission: a map disagreement,
+            a time limit, an operator) or ``not run``.
+        start_s: Clock time it started, since the start of the mission (``None``
+            if it never ran).
+        end_s: Clock time it ended (``None`` if it never ran).
+        why: Why it failed or was stopped (empty when it succeeded or never ran).
+        failing_node: Path of the node inside it that failed, if one did.
+    """
+
+    label: str
+    kind: str
+    outcome: str
+    start_s: float | None
+    end_s: float | None
+    why: str = ""
+    failing_node: str | None = None
+
+    @property
+    def duration_s(self) -> float | None:
+        if self.start_s is None or self.end_s is None:
+            return None
+        return self.end_s - self.start_s
+
+
+def _find(root: py_trees.behaviour.Behaviour, path: str) -> py_trees.behaviour.Behaviour | None:
+    for node in root.iterate():
+        if path_of(node) == path:
+            return node
+    return None
+
+
+def _tree_stop(root: py_trees.behaviour.Behaviour, safe: SafeStateEntry | None) -> bool:
+    """True when the safe state came from the tree itself (a recovery's safe-state leaf)."""
+    if safe is None or safe.node is None:
+        return False
+    from pirate_bt.behaviours.primitives import SafeState
+
+    return isinstance(_find(root, safe.node), SafeState)
+
+
+def explain_run(
+    run: RunResult,
+    root: py_trees.behaviour.Behaviour,
+    safe: SafeStateEntry | None = None,
+) -> tuple[str, str | None]:
+    """The first cause of a run's end and the node it happened at.
+
+    Args:
+        run: The runner's result.
+        root: The tree's root (or the subtree to explain).
+        safe: The supervisor's first safe-state entry during the run, if any.
+
+    Returns:
+        ``(why, failing_node)``; for a success ``(run.message, None)``.
+    """
+    if run.reason is StopReason.SUCCESS:
+        return run.message, None
+    if run.reason is StopReason.EXCEPTION:
+        return run.message, run.failing_node
+    if safe is not None and safe.reason in _GENERIC:
+        safe = None  # the runner's own stop at the end: no cause of its own
+    if safe is not None and not _tree_stop(root, safe):
+        # the supervisor stopped the robot on its own: that came first
+        return safe.reason, safe.node
+    cause = failure_cause(root, before_s=safe.time_s if safe is not None else None)
+    if cause is not None and cause.time_s is not None:
+        return cause.reason, cause.node
+    if safe is not None:
+        return safe.reason, safe.node
+    if run.reason is StopReason.TIME_LIMIT:
+        running = max(run.stopped_nodes, key=lambda p: p.count("/"), default=None)
+        if running is not None:
+            return f"{run.message}; {running} was still running", running
+        return run.message, None
+    if cause is not None:
+        return cause.reason, cause.node
+    return run.message, None
+
+
+def pab_outcomes(
+    route_node: py_trees.behaviour.Behaviour,
+    kinds: dict[str, str],
+    starts: Sequence[tuple[str, float]],
+    end_s: float,
+    *,
+    run: RunResult,
+    safe: SafeStateEntry | None,
+    stopped_by: str | None = None,
+) -> list[PabOutcome]:
+    """One outcome per child of the mission's route sequence.
+
+    Args:
+        route_node: The sequence whose children are the PABs.
+        kinds: PAB kind by label.
+        starts: ``(label, start time)`` in the order the PABs started.
+        end_s: When the mission ended (same clock origin as ``starts``).
+        run: The runner's result.
+        safe: The supervisor's first safe-state entry.
+        stopped_by: Why the mission stopped from above the PABs (a map
+            disagreement), if it did.
+    """
+    started = dict(starts)
+    order = [label for label, _ in starts]
+    out: list[PabOutcome] = []
+    last = order[-1] if order else None
+    for child in route_node.children:
+        label = child.name
+        kind = kinds.get(label, "")
+        if label not in started:
+            out.append(PabOutcome(label, kind, "not run", None, None))
+            continue
+        start = round(started[label], 4)
+        later = [started[x] for x in order[order.index(label) + 1 :]]
+        end = round(later[0] if later else end_s, 4)
+        if label != last or run.succeeded:
+            out.append(PabOutcome(label, kind, "success", start, end))
+            continue
+        if stopped_by is not None:
+            out.append(PabOutcome(label, kind, "stopped", start, end, stopped_by))
+            continue
+        why, node = explain_run(run, child, safe)
+        if (
+            run.reason is StopReason.EXCEPTION
+            and node is not None
+            and not node.startswith(path_of(child))
+        ):
+            node = None
+        outcome = (
+            "failure" if run.reason in (StopReason.FAILURE, StopReason.EXCEPTION) else "stopped"
+        )
+        out.append(PabOutcome(label, kind, outcome, start, end, why, node))
+    return out
+
+
+def map_cause(pab: PabOutcome, piece: Any, belief_m: float) -> str | None:
+    """A PAB's failure named as a map disagreement, when the pipe blocked the robot where
+    the map said it could go on (``None`` when the failure says nothing about the map).
+
+    A drive *blocked* (every wheel at stall current, no progress) is the pipe in the
+    way: a turn the map does not have, a tee's branch where it has a bend. One motor
+    drawing stall current alone is a motor's trouble, not the map's.
+
+    Args:
+        pab: The PAB that failed.
+        piece: The map's piece at the belief (a ``PathPiece``), or ``None``.
+        belief_m: Where the robot believed it was.
+    """
+    if pab.outcome != "failure" or not pab.why.startswith("blocked"):
+        return None
+    if piece is not None:
+        kind = getattr(piece.kind, "value", str(piece.kind))
+        has = f"a {kind} ({piece.segment!r})"
+    else:
+        has = "no pipe"
+    return (
+        f"map disagreement at {belief_m:.2f} m: the pipe blocked the robot where the map has"
+        f" {has} ({pab.label}: {pab.why})"
+    )
