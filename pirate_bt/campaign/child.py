@@ -12,6 +12,8 @@ import importlib
 import json
 import sys
 
+__all__ = ["main"]
+
 
 def main() -> int:
     request = json.loads(sys.stdin.read())

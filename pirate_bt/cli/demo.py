@@ -26,6 +26,8 @@ from pirate_bt.resources import bundled, default_robot_path
 from pirate_bt.robot.diagram import board_table, robot_graph, write_diagram
 from pirate_bt.robot.loader import load_robot
 
+__all__ = ["configure", "run"]
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

@@ -15,6 +15,8 @@ import argparse
 import importlib
 from pathlib import Path
 
+__all__ = ["TARGETS", "configure", "run"]
+
 # target -> (module, function, one-line help); the function takes
 # (tree_path, out_path, params) and returns the file written.
 TARGETS: dict[str, tuple[str, str, str]] = {

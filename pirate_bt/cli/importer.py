@@ -16,6 +16,8 @@ import argparse
 import importlib
 from pathlib import Path
 
+__all__ = ["SOURCES", "configure", "run"]
+
 # source -> (module, function, one-line help); the function takes
 # (source_path, out_path) and returns the file written.
 SOURCES: dict[str, tuple[str, str, str]] = {

@@ -12,6 +12,8 @@ from pathlib import Path
 
 from pirate_bt.errors import InputError
 
+__all__ = ["configure", "run"]
+
 _TRACE_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson")
 
 

@@ -13,6 +13,8 @@ from pathlib import Path
 from pirate_bt.robot.diagram import board_table, robot_graph, write_diagram
 from pirate_bt.robot.loader import load_robot
 
+__all__ = ["configure", "format_table", "run"]
+
 _HEAD = ("board", "module", "motor 0", "motor 1", "sensor 0", "sensor 1")
 
 

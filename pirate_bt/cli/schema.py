@@ -7,6 +7,8 @@ import json
 
 from pirate_bt.filekinds import KINDS, json_schema
 
+__all__ = ["configure", "run"]
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kind", choices=sorted(KINDS), help="file kind")

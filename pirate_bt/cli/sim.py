@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING
 
 from pirate_bt.errors import InputError, LinkError
 
+__all__ = ["configure", "run"]
+
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
 

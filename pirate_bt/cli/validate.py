@@ -8,6 +8,8 @@ import sys
 from pirate_bt.errors import LocatedError, PirateError, ValidationFailed
 from pirate_bt.filekinds import KINDS, validate_file
 
+__all__ = ["configure", "run"]
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("files", nargs="+", metavar="FILE", help="files to check")

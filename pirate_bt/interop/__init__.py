@@ -8,3 +8,5 @@
 Each module imports its optional dependency only when used and says which extra
 to install when it is missing.
 """
+
+__all__ = []

@@ -26,6 +26,8 @@ from pirate_bt.units import (
     Velocity,
 )
 
+__all__ = ["Band", "BridgeConfig", "ClampConfig", "ContactPoint", "MotionConfig", "SafetyConfig"]
+
 
 class ContactPoint(_Model):
     """Joint angle at which the wheels touch the wall, for one pipe diameter."""

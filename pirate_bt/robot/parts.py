@@ -33,6 +33,38 @@ from pirate_bt.units import (
     Velocity,
 )
 
+__all__ = [
+    "AccelerationMax",
+    "AngleRange",
+    "AngleSensor",
+    "AngularVelocityMax",
+    "Board",
+    "ControlMode",
+    "Conversion",
+    "CurrentConversion",
+    "Feedback",
+    "Half",
+    "ImuSensor",
+    "LimitPolicy",
+    "ModeTable",
+    "Module",
+    "Motor",
+    "MotorFunction",
+    "MotorLimits",
+    "Name",
+    "PositionConversion",
+    "PwmConversion",
+    "RawRange",
+    "Role",
+    "Sensor",
+    "SensorKind",
+    "SpringSensor",
+    "TorqueConversion",
+    "TorqueMax",
+    "VelocityConversion",
+    "VelocityMax",
+]
+
 Name = Annotated[
     str,
     Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=40, description="lower_snake_case name"),

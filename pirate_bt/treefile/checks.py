@@ -11,6 +11,8 @@ from pirate_bt.behaviours.base import Outcome
 from pirate_bt.errors import LocatedError, SourceLocation
 from pirate_bt.treefile.spec import BlackboardDecl, NodeSpec
 
+__all__ = []
+
 # -- checks ----------------------------------------------------------------------------
 
 

@@ -34,6 +34,8 @@ from pirate_bt.yamlfile import (
     validation_problems,
 )
 
+__all__ = []
+
 _log = logging.getLogger("pirate_bt.treefile")
 
 

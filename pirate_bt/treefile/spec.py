@@ -17,6 +17,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from pirate_bt.behaviours.base import NodeMixin
 from pirate_bt.errors import LocatedError, SourceLocation
 
+__all__ = ["COMPOSITES", "BlackboardDecl", "LoadedTree", "NodeSpec", "PathKey"]
+
 PathKey = tuple[str | int, ...]
 
 COMPOSITES: Final = ("sequence", "selector", "parallel")
