@@ -26,6 +26,7 @@ from pirate_bt.safety.commands import (
     Unclamp,
     describe,
 )
+from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.operator import (
     Confirm,
     Confirmation,
@@ -42,6 +43,7 @@ from pirate_bt.safety.operator import (
     SetMode,
 )
 from pirate_bt.safety.supervisor import Supervisor
+from pirate_bt.safety.tally import Counters, SafeStateEntry, VerdictTally
 from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict, VerdictLog
 
 __all__ = [
@@ -54,6 +56,7 @@ __all__ = [
     "Command",
     "Confirm",
     "Confirmation",
+    "Counters",
     "Deny",
     "Drive",
     "EStop",
@@ -70,6 +73,7 @@ __all__ = [
     "ResetEStop",
     "Resume",
     "Rotate",
+    "SafeStateEntry",
     "SafeStop",
     "ScriptedOperator",
     "SetMode",
@@ -80,5 +84,7 @@ __all__ = [
     "Unclamp",
     "Verdict",
     "VerdictLog",
+    "VerdictTally",
     "describe",
+    "open_supervisor",
 ]

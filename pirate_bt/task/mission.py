@@ -459,8 +459,8 @@ def _why(
         where = f"{route_path(route)}/{stopped.label}" if stopped is not None else None
         return localiser.mismatch, where
     if stopped is not None and stopped.outcome == "failure":
-        piece = plan.path.piece_at(localiser.belief_m) if plan.path.pieces else None
-        named = map_cause(stopped, piece, localiser.belief_m)
+        planned = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
+        named = map_cause(stopped, planned.get(stopped.label), localiser.belief_m)
         return named or stopped.why, stopped.failing_node or stopped.label
     return explain_run(run, root, tally.first_safe_state)
 

@@ -183,27 +183,31 @@ def pab_outcomes(
     return out
 
 
-def map_cause(pab: PabOutcome, piece: Any, belief_m: float) -> str | None:
+def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
     """A PAB's failure named as a map disagreement, when the pipe blocked the robot where
     the map said it could go on (``None`` when the failure says nothing about the map).
 
     A drive *blocked* (every wheel at stall current, no progress) is the pipe in the
-    way: a turn the map does not have, a tee's branch where it has a bend. One motor
-    drawing stall current alone is a motor's trouble, not the map's.
+    way: a turn the map does not have, a tee's branch where it has a bend, a bend
+    that is not the one drawn. One motor drawing stall current alone is a motor's
+    trouble, not the map's.
 
     Args:
         pab: The PAB that failed.
-        piece: The map's piece at the belief (a ``PathPiece``), or ``None``.
+        planned: The plan's :class:`~pirate_bt.task.plan.PlannedPab` for it, if known.
         belief_m: Where the robot believed it was.
     """
     if pab.outcome != "failure" or not pab.why.startswith("blocked"):
         return None
-    if piece is not None:
-        kind = getattr(piece.kind, "value", str(piece.kind))
-        has = f"a {kind} ({piece.segment!r})"
+    where = f"map disagreement at {belief_m:.2f} m (believed): the pipe blocked the robot"
+    feature = getattr(planned, "feature", None)
+    if planned is not None and feature and pab.kind in ("bend", "t-joint"):
+        drawn = "bend" if pab.kind == "bend" else "T-joint"
+        what = f" at what the map has as {drawn} {feature!r}: the pipe there is not as drawn"
+    elif planned is not None:
+        what = (
+            f" where the map has clear pipe from {planned.start_m:.2f} m to {planned.end_m:.2f} m"
+        )
     else:
-        has = "no pipe"
-    return (
-        f"map disagreement at {belief_m:.2f} m: the pipe blocked the robot where the map has"
-        f" {has} ({pab.label}: {pab.why})"
-    )
+        what = " where the map has it pass"
+    return f"{where}{what} ({pab.label}: {pab.why})"

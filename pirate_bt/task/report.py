@@ -111,7 +111,7 @@ def report_lines(
     lines = [
         f"# Mission report: {plan.route.name}",
         "",
-        f"- **Outcome:** {outcome} - {result.reason}",
+        f"- **Outcome:** {outcome} - {result.why or result.reason}",
         f"- **Route:** `{plan.route.source}` ({len(plan.route.steps)} commands)",
         f"- **Network:** {plan.network.name} ({plan.network.total_length_m():.1f} m of pipe;"
         f" path taken {plan.path.length_m:.1f} m: {' > '.join(plan.path.segments)})",
@@ -134,11 +134,40 @@ def report_lines(
     ]
     if result.mismatch:
         lines.append(f"- **Map mismatch:** {result.mismatch}")
-    if run.failing_node:
-        lines.append(f"- **Failing node:** `{run.failing_node}`")
+    failing = result.failing_node or run.failing_node
+    if failing:
+        lines.append(f"- **Failing node:** `{failing}`")
+    c = result.counters
+    lines.append(
+        f"- **Counters:** {c.refusals} refused, {c.clips} clipped, {c.safe_states} safe states;"
+        f" link: {c.retries} retries, {c.link_failures} failed, {c.crc_errors} CRC errors"
+        + (
+            f"; simulator: {c.violations} violations, {c.damage} damage"
+            if result.truth_m is not None
+            else ""
+        )
+    )
     lines += ["", "## Route", "", "```text"]
     lines += [f"{s.line:3d}  {s.text}" for s in plan.route.steps]
     lines += ["```", "", "## Plan", "", *plan_lines(plan)]
+    if result.pabs:
+        lines += ["", "## PABs", ""]
+        lines += _table(
+            ("step", "kind", "outcome", "start (s)", "end (s)", "why"),
+            [
+                (
+                    p.label,
+                    p.kind,
+                    p.outcome,
+                    "" if p.start_s is None else f"{p.start_s:.1f}",
+                    "" if p.end_s is None else f"{p.end_s:.1f}",
+                    (p.why + (f" (at `{p.failing_node}`)" if p.failing_node else "")).replace(
+                        "|", "/"
+                    ),
+                )
+                for p in result.pabs
+            ],
+        )
     lines += ["", "## Timeline", ""]
     lines += _table(
         ("time (s)", "step", "belief (m)", "truth (m)"),
