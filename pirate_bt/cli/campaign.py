@@ -1,5 +1,9 @@
 """``pirate-bt campaign SPEC``: run a campaign locally or on a Dask cluster, then report.
 
+The command parses its options, calls :func:`pirate_bt.campaign.run_campaign`
+and prints what it did: the line naming the cases and where they run, a
+progress bar, the outcome counts and the report files written.
+
 ``pirate-bt campaign report RESULTS`` writes the report again from a results
 file (or the folder holding it). Every case runs in its own process; a crash,
 a hang (killed after ``case_timeout``) or an exception is that case's outcome.
@@ -13,11 +17,13 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
-from collections import Counter
 from pathlib import Path
-from typing import Any
 
+from pirate_bt.campaign.cases import DEFAULT_MAX_CASES
 from pirate_bt.errors import InputError
+from pirate_bt.units import parse_quantity
+
+__all__ = ["configure", "run"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -37,6 +43,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="skip the cases already done")
     parser.add_argument(
         "--case-timeout", metavar="TIME", help="wall-time limit per case (overrides the file)"
+    )
+    parser.add_argument(
+        "--max-cases",
+        type=int,
+        default=DEFAULT_MAX_CASES,
+        metavar="N",
+        help=f"refuse a spec that expands to more cases (default: {DEFAULT_MAX_CASES:,})",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -61,67 +74,66 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _case_timeout(text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        seconds = parse_quantity(text, "time")
+    except Exception as exc:
+        raise InputError(f"--case-timeout: {exc}") from None
+    if not seconds > 0:
+        raise InputError(f"--case-timeout must be positive, not {text!r}")
+    return seconds
+
+
 def run(args: argparse.Namespace) -> int:
     if args.spec == "report":
         return _report(args)
     if args.results:
         raise InputError(f"unexpected argument {args.results!r}")
-    from pirate_bt.campaign import expand, load_campaign, make_executor, run_cases
-    from pirate_bt.campaign.report import write_report
-    from pirate_bt.units import parse_quantity
+    from pirate_bt.campaign import default_output, load_spec, run_campaign
 
     if args.workers is not None and args.workers < 1:
         raise InputError("--workers must be at least 1")
-    spec_path = Path(args.spec)
-    spec = load_campaign(spec_path)
-    cases = expand(spec, spec_path.parent)
-    from pirate_bt.campaign.cases import check_runs
-
-    check_runs(cases)
-    if args.case_timeout:
-        try:
-            limit = parse_quantity(args.case_timeout, "time")
-        except Exception as exc:
-            raise InputError(f"--case-timeout: {exc}") from None
-        for case in cases:
-            case["timeout_s"] = limit
-    output: Path = args.output or Path(f"campaign-{spec.name}")
-    counts: Counter[str] = Counter()
-    bar: Any = None
-    with make_executor(args.workers, args.scheduler, args.scheduler_file) as (executor, what):
-        print(f"campaign {spec.name}: {len(cases)} cases on {what} -> {output}")
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(cases), unit="case", file=sys.stderr, disable=args.quiet, ncols=100)
-
-        def progress(record: dict[str, Any]) -> None:
-            counts[str(record.get("outcome"))] += 1
-            bar.update(1)
-            bar.set_postfix_str(
-                f"ok {counts['success']} safe {counts['failed-safe']}"
-                f" err {counts['error']} t/o {counts['timeout']}",
-                refresh=False,
-            )
-
-        try:
-            rows = run_cases(cases, output, executor, resume=args.resume, on_record=progress)
-        except KeyboardInterrupt:
-            bar.close()
-            print(
-                f"pirate-bt: campaign interrupted; {output}/results.jsonl keeps the cases done;"
-                " run again with --resume",
-                file=sys.stderr,
-            )
-            return 130
-        bar.close()
-    command = f"pirate-bt campaign {shlex.quote(str(spec_path))}"
+    if args.max_cases < 1:
+        raise InputError("--max-cases must be at least 1")
+    case_timeout = _case_timeout(args.case_timeout)
+    spec = load_spec(args.spec)
+    output: Path = args.output or default_output(spec)
+    command = f"pirate-bt campaign {shlex.quote(str(Path(args.spec)))}"
     if args.workers:
         command += f" --workers {args.workers}"
-    total = Counter(str(r.get("outcome")) for r in rows)
-    print(
-        f"campaign {spec.name}: {len(rows)} runs: {total['success']} success,"
-        f" {total['failed-safe']} failed safe, {total['error']} error, {total['timeout']} timeout"
-    )
-    for written in write_report(rows, output, title=spec.name, command=command):
+    started = False
+
+    def echo(line: str) -> None:
+        nonlocal started
+        started = True  # the cases are about to start: an interruption from now keeps rows
+        print(line, flush=True)
+
+    try:
+        result = run_campaign(
+            spec,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            scheduler_file=args.scheduler_file,
+            output=output,
+            resume=args.resume,
+            case_timeout=case_timeout,
+            max_cases=args.max_cases,
+            progress=not args.quiet,
+            echo=echo,
+            command=command,
+        )
+    except KeyboardInterrupt:
+        if not started:
+            raise
+        print(
+            f"pirate-bt: campaign interrupted; {output}/results.jsonl keeps the cases done;"
+            " run again with --resume",
+            file=sys.stderr,
+        )
+        return 130
+    print(f"campaign {result.name}: {result.summary()}")
+    for written in result.files:
         print(f"wrote {written}")
     return 0
