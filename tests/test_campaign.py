@@ -269,7 +269,7 @@ def test_report_files(tmp_path: Path) -> None:
         {"id": f"{i:06d}-a", "index": i, "run": run, "drop": drop, "corrupt": 0.0, "dup": 0.0,
          "seed": i, "outcome": "success" if i % 3 else "failed-safe", "reason": "clamp lost",
          "failing_node": None, "sim_time_s": 40.0, "violations": 0, "damage": 0,
-         "link": {"retries": 2}}
+         "retries": 2}
         for i, (run, drop) in enumerate(
             [(r, d) for r in ("bend", "t-joint") for d in (0.0, 0.1, 0.2) for _ in range(5)]
         )

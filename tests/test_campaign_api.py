@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import os
 import shutil
@@ -26,9 +27,11 @@ from pirate_bt.campaign import (
     run_isolated,
 )
 from pirate_bt.campaign.paths import slug
+from pirate_bt.campaign.report import CSV_COLUMNS
 from pirate_bt.campaign.stats import wilson_interval
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, LocatedError, ValidationFailed
+from pirate_bt.safety.tally import Counters
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -128,6 +131,64 @@ def test_a_spec_file_with_hostile_names_writes_only_inside_its_output(tmp_path: 
     assert "pirate-bt campaign" in (out / "report.md").read_text(encoding="utf-8")
     loaded = load_campaign(spec)
     assert loaded.name == "..  evil .." and default_output(loaded) == Path("campaign-evil")
+
+
+STALL = """\
+name: stall
+runs:
+  - {name: bend, tree: bend, network: bend-right, params: {roll: 90 deg}}
+sim_faults:
+  - ["motor_stall:bend_3_drive@5s+20s"]
+max_time: 120 s
+case_timeout: 120 s
+"""
+
+
+def test_a_failing_case_row_has_its_first_cause_and_node(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The bend PAB with its third drive stalled, through the command: the row, the report."""
+    spec = tmp_path / "stall.campaign.yaml"
+    spec.write_text(STALL, encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--workers", "1", "--output", str(out), "--quiet"]) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        f"campaign stall: 1 cases on 1 local worker -> {out}",
+        "campaign stall: 1 runs: 0 success, 1 failed safe, 0 error, 0 timeout",
+        *(f"wrote {out / name}" for name in ("results.csv", "report.md", "report.html")),
+    ]
+    (row,) = read_rows(out / "results.jsonl")
+    assert row["outcome"] == "failed-safe", row
+    assert row["reason"].startswith("stall: bend_3_drive draws "), row["reason"]
+    assert row["failing_node"] == "bend/pass bend/confirm enter/front into turn"
+    assert "link" not in row
+    assert {f.name for f in dataclasses.fields(Counters)} <= set(row)
+    assert row["safe_states"] == 1 and (row["violations"], row["damage"]) == (0, 0)
+    md = (out / "report.md").read_text(encoding="utf-8")
+    reasons = md.split("## Most frequent failure reasons\n\n", 1)[1]
+    assert reasons.startswith(f"- 1 × {row['reason']}\n")
+    assert f"- 1 × `{row['failing_node']}`" in md
+    assert "| safe states | 1 | 1 |  |" in md
+    with (out / "results.csv").open(encoding="utf-8") as f:
+        (csv_row,) = csv.DictReader(f)
+    assert csv_row["reason"] == row["reason"] and csv_row["safe_states"] == "1"
+
+
+def test_the_command_takes_max_cases(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = tmp_path / "stall.campaign.yaml"
+    spec.write_text(STALL.replace("name: stall", "name: s\nseeds: {count: 4}"), "utf-8")
+    assert main(["campaign", str(spec), "--max-cases", "3", "--output", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err == (
+        f"pirate-bt: {spec}:2:9: the campaign expands to 4 cases, more than the limit of 3"
+        " (max_cases): seeds.count 4\n"
+    )
+    assert main(["campaign", str(spec), "--max-cases", "0"]) == 2
+    assert main(["campaign", str(spec), "--case-timeout", "0 s"]) == 2
+    assert capsys.readouterr().err == (
+        "pirate-bt: --max-cases must be at least 1\n"
+        "pirate-bt: --case-timeout must be positive, not '0 s'\n"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stall.campaign.yaml"]
 
 
 # --- the size bound ----------------------------------------------------------------
@@ -341,6 +402,39 @@ def test_options_are_checked(tmp_path: Path) -> None:
     with pytest.raises(TypeError):
         run_campaign(42)  # type: ignore[arg-type]
     assert os.listdir(tmp_path) == []
+
+
+def test_the_csv_has_every_counter() -> None:
+    assert {f.name for f in dataclasses.fields(Counters)} <= set(CSV_COLUMNS)
+    assert not {"link", "failed", "loss_ratio"} & set(CSV_COLUMNS)
+
+
+def test_reasons_that_differ_only_in_numbers_count_as_one(tmp_path: Path) -> None:
+    stall = "stall: bend_3_drive draws 1.50 A at 0 mm/s for {} s (commanded 80 mm/s)"
+    reasons = [
+        stall.format("0.55"),
+        stall.format("0.50"),
+        stall.format("0.55"),
+        stall.format("0.55").replace("bend_3", "bend_1"),
+        "RuntimeError: boom",
+    ]
+    rows = [
+        {"id": f"{i:06d}-a", "index": i, "run": "bend", "drop": 0.0, "corrupt": 0.0, "dup": 0.0,
+         "seed": i, "outcome": "failed-safe", "reason": reason, "failing_node": "bend/pass",
+         "retries": i, "violations": 0, "damage": 1, "damage_kinds": {"over-torque": 1}}
+        for i, reason in enumerate(reasons)
+    ]  # fmt: skip
+    from pirate_bt.campaign.report import write_report
+
+    write_report(rows, tmp_path, title="t")
+    md = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert md.split("## Most frequent failure reasons\n\n", 1)[1].split("\n\n")[0] == (
+        f"- 3 × {stall.format('0.50–0.55')}\n"
+        f"- 1 × {stall.format('0.55').replace('bend_3', 'bend_1')}\n"
+        "- 1 × RuntimeError: boom"
+    )
+    assert "| retries | 10 | 4 |  |" in md
+    assert "| damage | 5 | 5 | over-torque 5 |" in md
 
 
 def test_run_names_are_labels_not_mathtext_or_files(tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ import html
 import io
 import json
 import os
+import re
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -26,9 +27,21 @@ __all__ = ["CSV_COLUMNS", "write_report"]
 CSV_COLUMNS = (
     "id", "index", "run", "tree", "route", "network", "map", "robot", "params", "sim_faults",
     "drop", "corrupt", "dup", "seed", "outcome", "reason", "failing_node", "sim_time_s",
-    "wall_time_s", "ticks", "refusals", "crc_errors", "retries", "failed", "duplicates",
-    "violations", "damage", "trace",
+    "wall_time_s", "ticks", "violations", "damage", "refusals", "clips", "safe_states",
+    "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
+    "violation_kinds", "damage_kinds", "trace",
 )  # fmt: skip
+"""The columns of ``results.csv``: the case, its outcome and first cause, and the run's
+counters (:class:`~pirate_bt.safety.tally.Counters`; the kinds as JSON objects)."""
+
+_COUNTERS = (
+    ("violations", "violations"), ("damage", "damage"), ("refusals", "refusals"),
+    ("clips", "clips"), ("safe_states", "safe states"), ("retries", "retries"),
+    ("link_failures", "link failures"), ("crc_errors", "CRC errors"),
+    ("duplicates", "duplicates"), ("frames_dropped", "frames dropped"), ("overruns", "overruns"),
+)  # fmt: skip
+"""The counters the report sums, with their names in it."""
+_KINDS = {"violations": "violation_kinds", "damage": "damage_kinds"}
 
 
 def _replace(path: Path, text: str | bytes) -> Path:
@@ -47,8 +60,8 @@ def _csv(rows: Sequence[dict[str, Any]]) -> str:
     writer.writeheader()
     for row in rows:
         flat = dict(row)
-        flat.update((row.get("link") or {}).items())
-        flat["params"] = json.dumps(row.get("params") or {}, sort_keys=True)
+        for key in ("params", "violation_kinds", "damage_kinds"):
+            flat[key] = json.dumps(row.get(key) or {}, sort_keys=True)
         flat["sim_faults"] = " ".join(row.get("sim_faults") or [])
         writer.writerow(flat)
     return buf.getvalue()
@@ -91,6 +104,55 @@ def _top(groups: Sequence[GroupStats], attr: str, n: int = 8) -> list[tuple[str,
     for g in groups:
         total.update(getattr(g, attr))
     return total.most_common(n)
+
+
+# A number standing alone ("0.55 s", "seq 17", "40.0°"), not part of a name (bend_3_drive).
+_NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?![\w.])")
+
+
+def _top_reasons(groups: Sequence[GroupStats], n: int = 8) -> list[tuple[str, int]]:
+    """The most frequent failure reasons, causes that differ only in numbers as one.
+
+    ``stall: bend_3_drive ... for 0.50 s`` and ``... for 0.55 s`` are the same cause:
+    they count together and read ``for 0.50–0.55 s``; a number that does not vary is
+    shown as written.
+    """
+    clusters: dict[str, Counter[str]] = {}
+    for g in groups:
+        for text, count in g.reasons.items():
+            clusters.setdefault(_NUMBER.sub("#", text), Counter())[text] += count
+    shown: Counter[str] = Counter()
+    for texts in clusters.values():
+        shown[_merged(list(texts))] += sum(texts.values())
+    return shown.most_common(n)
+
+
+def _merged(texts: list[str]) -> str:
+    """One text for texts alike but for their numbers: each varying number as a range."""
+    first = texts[0]
+    if len(texts) == 1:
+        return first
+    columns = zip(*(_NUMBER.findall(t) for t in texts), strict=True)
+    ranges = []
+    for column in columns:
+        low, high = min(column, key=float), max(column, key=float)
+        ranges.append(low if float(low) == float(high) else f"{low}–{high}")
+    parts = iter(ranges)
+    return _NUMBER.sub(lambda _: next(parts), first)
+
+
+def _counters(rows: Sequence[dict[str, Any]]) -> list[list[str]]:
+    """Each counter summed over the runs, how many runs counted any, and by kind."""
+    out = [["counter", "total", "runs with any", "by kind"]]
+    for key, label in _COUNTERS:
+        values = [int(r.get(key) or 0) for r in rows]
+        kinds: Counter[str] = Counter()
+        if key in _KINDS:
+            for r in rows:
+                kinds.update(r.get(_KINDS[key]) or {})
+        by_kind = ", ".join(f"{k} {v}" for k, v in sorted(kinds.items()))
+        out.append([label, str(sum(values)), str(sum(v > 0 for v in values)), by_kind])
+    return out
 
 
 def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
@@ -159,6 +221,7 @@ def write_report(
     files = [_replace(folder / "results.csv", _csv(ordered))]
     plots = _plots(ordered, folder)
     table = _table(groups)
+    counters = _counters(ordered)
     counts = Counter(str(r.get("outcome")) for r in ordered)
     summary = ", ".join(f"{counts[k]} {k}" for k in ("success", "failed-safe", "error", "timeout"))
     md = [f"# {title}", "", f"{len(ordered)} runs: {summary}.", ""]
@@ -166,11 +229,14 @@ def write_report(
         md += ["Reproduce with:", "", f"    {command}", ""]
     md += ["| " + " | ".join(table[0]) + " |", "|" + "---|" * len(table[0])]
     md += ["| " + " | ".join(row) + " |" for row in table[1:]]
-    reasons, nodes = _top(groups, "reasons"), _top(groups, "nodes")
+    reasons, nodes = _top_reasons(groups), _top(groups, "nodes")
     md += ["", "## Most frequent failure reasons", ""]
     md += [f"- {n} × {text}" for text, n in reasons] or ["- none"]
     md += ["", "## Most frequent failing nodes", ""]
     md += [f"- {n} × `{text}`" for text, n in nodes] or ["- none"]
+    md += ["", "## Counters over all runs", ""]
+    md += ["| " + " | ".join(row) + " |" for row in counters[:1]]
+    md += ["|---|---|---|---|"] + ["| " + " | ".join(row) + " |" for row in counters[1:]]
     if plots:
         md += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     files.append(_replace(folder / "report.md", "\n".join(md) + "\n"))
@@ -186,7 +252,11 @@ def write_report(
     body += [f"<li>{n} × {esc(t)}</li>" for t, n in reasons] or ["<li>none</li>"]
     body.append("</ul><h2>Most frequent failing nodes</h2><ul>")
     body += [f"<li>{n} × <code>{esc(t)}</code></li>" for t, n in nodes] or ["<li>none</li>"]
-    body.append("</ul>")
+    body.append("</ul><h2>Counters over all runs</h2><table>")
+    body.append("<tr>" + "".join(f"<th>{esc(c)}</th>" for c in counters[0]) + "</tr>")
+    for row in counters[1:]:
+        body.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>")
+    body.append("</table>")
     body += [f'<h2>{esc(p.stem)}</h2><img src="{esc(p.name)}">' for p in plots]
     style = (
         "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
