@@ -34,14 +34,16 @@ REPO = Path(__file__).resolve().parent.parent
 def run_case(seed: int, scale: float) -> dict[str, Any]:
     """One variant: a plain record (picklable) of how the mission went."""
     logging.disable(logging.WARNING)
+    from pirate_bt import simulate_mission
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import AsBuiltBounds, perturb_network
-    from pirate_bt import simulate_mission
 
     drawing = load_network(REPO / "scenarios" / "lab.yaml")
     truth = perturb_network(drawing.spec, seed, AsBuiltBounds().scaled(scale))
     started = time.perf_counter()
-    result = simulate_mission(REPO / "scenarios" / "lab.route", network=drawing, truth=truth, seed=seed)
+    result = simulate_mission(
+        REPO / "scenarios" / "lab.route", network=drawing, truth=truth, seed=seed
+    )
     return {
         "seed": seed,
         "scale": scale,

@@ -127,11 +127,11 @@ def test_a_long_mission_on_a_lossy_link_loses_no_command(
     superseded by a newer bulk."""
     from pathlib import Path
 
+    from pirate_bt import simulate_mission
     from pirate_bt.link.messages import MsgType
     from pirate_bt.link.requests import Outcome as LinkOutcome
     from pirate_bt.link.session import Session
     from pirate_bt.sim.bridge import SimBridge
-    from pirate_bt import simulate_mission
 
     applied: list[tuple[MsgType, int]] = []
     monkeypatch.setattr(

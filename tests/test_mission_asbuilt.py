@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 import yaml
 
+from pirate_bt import simulate_mission
 from pirate_bt.cli import main
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.pipes import PieceKind, load_network, network_from_data
@@ -29,7 +30,6 @@ from pirate_bt.pipes.asbuilt import (
     remove_feature,
 )
 from pirate_bt.pipes.model import StraightSpec
-from pirate_bt import simulate_mission
 from pirate_bt.task.report import report_lines
 
 REPO = Path(__file__).resolve().parent.parent
