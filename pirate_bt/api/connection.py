@@ -178,7 +178,7 @@ def connect(
         faults: Simulator and link faults, as the command line's ``--faults``.
 
     Returns:
-        The :class:`Connection`; close it (or use ``with``).
+        Connection: The open connection; close it (or use ``with``).
 
     Raises:
         InputError: a malformed target or fault, or simulator faults on a real port.

@@ -39,9 +39,17 @@ def load_network(network: Any, *, base: str | Path | None = None) -> Any:
         network: What to load.
         base: The folder a relative name is looked up in first (a route's folder).
 
+    Returns:
+        pirate_bt.pipes.Network: The network.
+
     Raises:
         InputError: no such network (the error lists the bundled names).
         ValidationFailed: the file does not validate, each error at ``file:line:column``.
+
+    Example::
+
+        network = pirate_bt.load_network("bend-right")
+        print(network)   # Network('bend-right', 3 segments, 0 tees)
     """
     from pirate_bt.errors import InputError
     from pirate_bt.pipes import Network, NetworkSpec
@@ -83,7 +91,7 @@ def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> Any:
         robot: The robot description (default: bundled).
 
     Returns:
-        The :class:`~pirate_bt.task.planner.MissionPlan` (``plan.describe()`` lists it).
+        pirate_bt.task.plan.MissionPlan: The plan (``plan.describe()`` lists it).
 
     Raises:
         LocatedError: the route does not fit the map, at the route's line.
@@ -236,9 +244,9 @@ def simulate_mission(
         observe: ``observe(runner, localiser_values)`` for each runner the mission makes.
 
     Returns:
-        The :class:`~pirate_bt.task.mission.MissionResult`: ``status``, ``why``,
-        ``failing_node``, ``pabs`` (one :class:`~pirate_bt.task.outcome.PabOutcome` per
-        step), ``counters``, belief and truth. A failed mission is a result.
+        pirate_bt.task.mission.MissionResult: ``status``, ``why``, ``failing_node``,
+            ``pabs`` (one :class:`~pirate_bt.task.outcome.PabOutcome` per step),
+            ``counters``, belief and truth. A failed mission is a result.
 
     Raises:
         LocatedError: the route does not fit the map.

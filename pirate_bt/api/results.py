@@ -52,6 +52,14 @@ class RunResult:
         error: The exception that ended the run, if one did.
         traceback: Its formatted traceback.
         loop: The runner's own result (tick durations, overruns, stopped nodes).
+
+    Example::
+
+        result = pirate_bt.simulate_tree("straight", params={"distance": "0.2 m"})
+        if not result.succeeded:
+            print(f"{result.why} at {result.failing_node}")
+        print(result.summary())             # the line `pirate-bt run` prints
+        print(result.counters.refusals, result.safe_state)
     """
 
     tree: str
@@ -72,6 +80,7 @@ class RunResult:
 
     @property
     def succeeded(self) -> bool:
+        """True when the tree succeeded (``status == "success"``)."""
         return self.status == "success"
 
     @property

@@ -288,7 +288,8 @@ def load_tree(
             ``use_examples``, ``clock``, ``supervisor``).
 
     Returns:
-        The :class:`~pirate_bt.treefile.LoadedTree`.
+        pirate_bt.treefile.LoadedTree: The checked tree (``root``, ``params``,
+            ``needs_robot``, ``warnings``...).
 
     Raises:
         ValidationFailed: every problem, each at ``file:line:column``.

@@ -52,7 +52,8 @@ def simulate_tree(
         observe: ``observe(runner, connection)`` before the run: attach more hooks.
 
     Returns:
-        The :class:`RunResult`; a failed run is a result, not an exception.
+        RunResult: How the run ended and why; a failed run is a result, not an
+            exception.
 
     Raises:
         ValidationFailed: the tree or a parameter does not validate (before anything
@@ -114,6 +115,7 @@ def run_tree(
 
         result = pirate_bt.run_tree("straight", port="/dev/ttyACM0",
                                     params={"distance": "1 m"})
+        print(result.summary())
     """
     from pirate_bt.errors import InputError
 

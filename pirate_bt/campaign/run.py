@@ -227,7 +227,7 @@ def run_campaign(
             tests point it elsewhere.
 
     Returns:
-        The :class:`CampaignResult`.
+        CampaignResult: The rows, per-group statistics and counts.
 
     Raises:
         InputError: a bad spec or option (one line each, located in a file): it
@@ -237,6 +237,20 @@ def run_campaign(
         ConfigurationError: a named input file is missing (seen in the cases).
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``output``,
             cases in flight are not recorded; run again with ``resume=True``.
+
+    Example::
+
+        result = pirate_bt.run_campaign(
+            {"name": "smoke", "seeds": {"count": 20}, "link": {"drop": [0.0, 0.1]},
+             "runs": [{"tree": "straight", "params": {"distance": "0.2 m"}}]},
+            workers=2,                      # output=None: nothing written
+        )
+        print(result.summary())             # 40 runs: S success, F failed safe, ...
+        for group in result.groups:
+            print(group.key, group.success_rate, group.interval)
+
+    The cases run in worker processes: where they are spawned (macOS, Windows),
+    call it under ``if __name__ == "__main__":``.
     """
     started = time.perf_counter()
     if workers is not None and workers < 1:

@@ -322,7 +322,7 @@ def render_tree(
     Example::
 
         render_tree("trees/straight.yaml", "straight.svg", params={"distance": "1 m"})
-        render_tree(loaded, "tick50.png", trace="run.jsonl", tick=50)
+        render_tree("bend", "tick120.svg", trace="bend.jsonl", tick=120)  # by status
 
     Returns:
         The path written (the ``.dot`` file if Graphviz was not needed).

@@ -34,5 +34,12 @@ def load_robot(path: str | Path | None = None) -> RobotDescription:
 
     Raises:
         ValidationFailed: the file cannot be read or does not validate.
+
+    Example::
+
+        robot = pirate_bt.load_robot()                  # hardware/pirate.yaml
+        print(robot.name)                               # PIRATE 2018
+        result = pirate_bt.simulate_tree("straight", robot=robot,
+                                         params={"distance": "1 m"})
     """
     return robot_from_document(load_yaml(path if path is not None else default_robot_path()))

@@ -43,6 +43,14 @@ class Counters:
         overruns: Ticks that took longer than their budget (wall time).
         violation_kinds: ``violations`` by kind.
         damage_kinds: ``damage`` by kind.
+
+    Example::
+
+        result = pirate_bt.simulate_tree("straight", params={"distance": "0.2 m"},
+                                         faults="drop=0.1")
+        c = result.counters
+        print(c.violations, c.refusals, c.clips, c.retries)
+        print(c.as_dict())                  # plain JSON values
     """
 
     violations: int = 0

@@ -56,6 +56,13 @@ class PabOutcome:
         end_s: Clock time it ended (``None`` if it never ran).
         why: Why it failed or was stopped (empty when it succeeded or never ran).
         failing_node: Path of the node inside it that failed, if one did.
+
+    Example::
+
+        mission = pirate_bt.simulate_mission("scenarios/bend-right.route")
+        for pab in mission.pabs:
+            print(pab.label, pab.kind, pab.outcome, pab.start_s, pab.end_s, pab.why)
+        # 03 bend right (bend) (line 5) bend success 18.05 39.8
     """
 
     label: str
@@ -68,6 +75,7 @@ class PabOutcome:
 
     @property
     def duration_s(self) -> float | None:
+        """Clock time it ran (``None`` if it never ran)."""
         if self.start_s is None or self.end_s is None:
             return None
         return self.end_s - self.start_s

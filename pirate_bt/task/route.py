@@ -453,8 +453,17 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
 def load_route(path: str | Path) -> Route:
     """Read and parse a route file.
 
+    ``path`` is a file path only; :func:`pirate_bt.plan_route` and
+    :func:`pirate_bt.simulate_mission` also find a bundled route (``"lab.route"``).
+
     Raises:
         ValidationFailed: the file cannot be read or a line is malformed.
+
+    Example::
+
+        route = pirate_bt.load_route("scenarios/lab.route")
+        print(route.network, [step.text for step in route.steps][:2])
+        # lab ['inspect 3 m', 'at the bend turn right']
     """
     p = Path(path)
     try:

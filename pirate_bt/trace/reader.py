@@ -399,10 +399,22 @@ def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecor
 def read_trace(path: str | Path) -> Trace:
     """Read a trace file; its format is chosen by suffix (see :data:`READERS`).
 
+    Returns:
+        Trace: The trace, with its queries (see :class:`Trace`).
+
     Raises:
         InputError: unknown suffix or unreadable file.
         ConfigurationError: the suffix needs an optional part that is not installed.
         LocatedError: a record that is not valid, with file and line.
+
+    Example::
+
+        pirate_bt.simulate_tree("bend", network="bend-right", params={"roll": "90 deg"},
+                                faults="motor_stall:bend_3_drive@5s+20s", trace="bend.jsonl")
+        trace = pirate_bt.read_trace("bend.jsonl")
+        first = trace.failures()[0]              # where the run first went wrong
+        print(first.tick, first.path, first.feedback)
+        print(trace.first_tick("front into turn", "RUNNING"))
     """
     reader = open_reader(path)
     where = Path(path)
