@@ -50,8 +50,8 @@ firmware: $(STAMP) avr-toolchain
 		PIRATE_BT=$(abspath $(BIN)/pirate-bt)
 
 lint: $(STAMP)
-	$(BIN)/ruff check pirate_bt tests benchmarks
-	$(BIN)/ruff format --check pirate_bt tests benchmarks
+	$(BIN)/ruff check pirate_bt tests benchmarks examples
+	$(BIN)/ruff format --check pirate_bt tests benchmarks examples
 	$(BIN)/lint-imports --no-cache
 
 typecheck: $(STAMP)
