@@ -52,7 +52,7 @@ _EXPORTS: dict[str, str] = {
     "StopReason": "pirate_bt.runner",
     # files
     "load_robot": "pirate_bt.robot.loader",
-    "load_route": "pirate_bt.task.route",
+    "load_route": "pirate_bt.api.missions",
     "read_trace": "pirate_bt.trace.reader",
     "render_tree": "pirate_bt.render.tree",
     # building trees in Python
@@ -119,6 +119,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.api.connection import Connection, connect
     from pirate_bt.api.missions import (
         load_network,
+        load_route,
         plan_route,
         run_mission,
         simulate_mission,
@@ -145,5 +146,4 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.outcome import PabOutcome
     from pirate_bt.task.plan import MissionPlan
-    from pirate_bt.task.route import load_route
     from pirate_bt.trace.reader import read_trace

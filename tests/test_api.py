@@ -356,3 +356,20 @@ def test_every_module_says_what_it_exports() -> None:
         mod = importlib.import_module(module)
         missing = [n for n in mod.__all__ if not hasattr(mod, n)]
         assert not missing, f"{module}.__all__ names {missing}, which it does not define"
+
+
+def test_bundled_names_mean_the_right_file() -> None:
+    # "lab" as a route is scenarios/lab.route, not the network lab.yaml
+    assert pirate_bt.load_route("lab").source.endswith("lab.route")
+    assert pirate_bt.plan_route("lab").route.source.endswith("lab.route")
+    with pytest.raises(InputError, match="no network 'nowhere'; bundled networks: "):
+        pirate_bt.simulate_tree("straight", network="nowhere", params={"distance": "1 m"})
+
+
+def test_a_trace_keeps_the_first_cause(tmp_path: Path) -> None:
+    path = tmp_path / "bend.jsonl"
+    result = pirate_bt.simulate_tree(
+        "bend", network="bend-right", params={"roll": "90 deg"}, faults=STALL, trace=path
+    )
+    trace = pirate_bt.read_trace(path)
+    assert trace.outcome == "failure" and trace.why == result.why

@@ -16,6 +16,7 @@ campaigns stand on these functions; see ``docs/api.md``.
 from pirate_bt.api.connection import Connection, connect
 from pirate_bt.api.missions import (
     load_network,
+    load_route,
     plan_route,
     run_mission,
     simulate_mission,
@@ -37,6 +38,7 @@ __all__ = [
     "RunResult",
     "connect",
     "load_network",
+    "load_route",
     "load_tree",
     "plan_route",
     "run_mission",

@@ -23,14 +23,16 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.api.options import load_robot_like, parse_target, split_faults
+from pirate_bt.api.options import load_robot_like, network_name, parse_target, split_faults
 from pirate_bt.api.running import as_loaded, run_on
 from pirate_bt.clock import Clock, SimClock, WallClock
 from pirate_bt.errors import InputError
 
 if TYPE_CHECKING:
     from pirate_bt.api.results import RunResult
+    from pirate_bt.behaviours.base import BuildContext
     from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.safety.tally import Counters
 
 __all__ = ["Connection", "connect"]
 
@@ -87,7 +89,7 @@ class Connection:
         """The in-process simulator behind the supervisor (``None`` on a real robot)."""
         return getattr(self.supervisor, "simulator", None)
 
-    def context(self) -> Any:
+    def context(self) -> BuildContext:
         """The :class:`~pirate_bt.behaviours.BuildContext` for behaviours built in Python
         on this connection (its robot, clock and supervisor)."""
         from pirate_bt.behaviours.base import BuildContext
@@ -131,7 +133,7 @@ class Connection:
             observe=observe,
         )
 
-    def counters(self) -> Any:
+    def counters(self) -> Counters:
         """The counters since the connection opened (:class:`~pirate_bt.safety.tally.Counters`)."""
         return self.tally.counters()
 
@@ -204,7 +206,7 @@ def connect(
         supervisor = open_supervisor(
             description, clock=clock, network=network, seed=seed, sim_faults=sim_faults, **options
         )
-        name = str(getattr(network, "name", network))
+        name = str(where) if isinstance(where, str | Path) else str(getattr(where, "name", where))
         connection = Connection(
             description,
             clock,
@@ -234,7 +236,11 @@ def connect(
 
 
 def _network_for(where: Any) -> Any:
-    """A network name or file as the simulator factory takes it (a bundled name, a path)."""
-    if isinstance(where, Path):
-        return str(where)
+    """A ``Network`` as it is; a name or file resolved (a bundled name, a path).
+
+    Raises:
+        InputError: no such network, listing the bundled ones.
+    """
+    if isinstance(where, str | Path):
+        return str(network_name(where))
     return where

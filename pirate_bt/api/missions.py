@@ -14,15 +14,22 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pirate_bt.api.connection import Connection, connect
 from pirate_bt.api.live import FoxgloveOption, chain, foxglove_server, mission_observer
 from pirate_bt.api.options import load_robot_like, quantity
 from pirate_bt.task.localise import MAP_FRACTION
 
+if TYPE_CHECKING:
+    from pirate_bt.pipes import Network
+    from pirate_bt.task.mission import MissionResult
+    from pirate_bt.task.plan import MissionPlan
+    from pirate_bt.task.route import Route
+
 __all__ = [
     "load_network",
+    "load_route",
     "plan_route",
     "run_mission",
     "simulate_mission",
@@ -32,7 +39,7 @@ __all__ = [
 MissionObserver = Callable[[Any, Callable[[], dict[str, float]]], None]
 
 
-def load_network(network: Any, *, base: str | Path | None = None) -> Any:
+def load_network(network: Any, *, base: str | Path | None = None) -> Network:
     """A pipe network: a bundled name (``"lab"``), a file, a ``NetworkSpec`` or a ``Network``.
 
     Args:
@@ -67,21 +74,36 @@ def load_network(network: Any, *, base: str | Path | None = None) -> Any:
     return load_file(path)
 
 
-def _route(route: Any) -> Any:
-    from pirate_bt.task.route import Route, load_route
+def load_route(route: Any) -> Route:
+    """A route: a file, a bundled name (``"lab"`` or ``"lab.route"``), or a ``Route``.
+
+    Raises:
+        ValidationFailed: the file cannot be read or a line is malformed, each
+            error at ``file:line:column``.
+
+    Example::
+
+        route = pirate_bt.load_route("lab")
+        print(route.network, [step.text for step in route.steps][:2])
+    """
+    from pirate_bt.task.route import Route
+    from pirate_bt.task.route import load_route as load_file
 
     if isinstance(route, Route):
         return route
     from pirate_bt.api.options import find
 
-    return load_route(find("scenarios", route, ".route"))
+    return load_file(find("scenarios", route, ".route"))
+
+
+_route = load_route
 
 
 def _base(route: Any) -> Path | None:
     return Path(route.source).parent if not route.source.startswith("<") else None
 
 
-def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> Any:
+def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> MissionPlan:
     """Plan a route on a map into a chain of PABs.
 
     Args:
@@ -114,7 +136,7 @@ def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> Any:
     return plan(parsed, the_map, description)
 
 
-def _plan(plan_or_route: Any, network: Any, robot: Any) -> Any:
+def _plan(plan_or_route: Any, network: Any, robot: Any) -> MissionPlan:
     from pirate_bt.task.plan import MissionPlan
 
     if isinstance(plan_or_route, MissionPlan):
@@ -138,7 +160,7 @@ def _mission(
     realtime: bool,
     observe: MissionObserver | None,
     return_on_stop: bool,
-) -> Any:
+) -> MissionResult:
     """Run a plan on an open connection, re-plan where it may, come back if asked."""
     from pirate_bt.task.mission import run_mission as run_plan
     from pirate_bt.task.mission import truth_of
@@ -184,7 +206,9 @@ def _mission(
     return result
 
 
-def _options(rate: str | float, max_time: str | float | None, map_tolerance: float) -> Any:
+def _options(
+    rate: str | float, max_time: str | float | None, map_tolerance: float
+) -> tuple[float, float | None]:
     from pirate_bt.errors import InputError
 
     rate_hz = quantity(rate, "frequency", "rate")
@@ -216,7 +240,7 @@ def simulate_mission(
     realtime: bool = False,
     foxglove: FoxgloveOption = None,
     observe: MissionObserver | None = None,
-) -> Any:
+) -> MissionResult:
     """Plan a route on a map (unless given a plan) and run it on the simulator.
 
     The planner and the localiser know only the map; the simulator runs ``truth``.
@@ -304,7 +328,7 @@ def run_mission(
     live: bool = False,
     foxglove: FoxgloveOption = None,
     observe: MissionObserver | None = None,
-) -> Any:
+) -> MissionResult:
     """Run a mission on a real robot at ``port``, as :func:`simulate_mission` does.
 
     Args:

@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_NETWORK",
     "find",
     "load_robot_like",
+    "network_name",
     "parse_target",
     "quantity",
     "split_faults",
@@ -123,12 +124,30 @@ def load_robot_like(robot: Any) -> RobotDescription:
 
 def find(kind: str, name: str | Path, suffix: str) -> Path:
     """A user-named file: the path if it exists, else a bundled file of that name, with
-    ``suffix`` added when the name has none (``"bend"`` → the bundled ``trees/bend.yaml``)."""
-    from pirate_bt.resources import find_file
+    ``suffix`` added when the name has none (``"bend"`` → the bundled ``trees/bend.yaml``,
+    ``"lab"`` as a route → ``scenarios/lab.route``, not the network ``lab.yaml``)."""
+    from pirate_bt.resources import data_dir
 
-    found = find_file(kind, name)
-    if not found.exists() and not Path(name).suffix:
-        with_suffix = find_file(kind, f"{name}{suffix}")
-        if with_suffix.exists():
-            return with_suffix
-    return found
+    path = Path(name)
+    if path.exists() or path.is_absolute() or len(path.parts) > 1:
+        return path
+    folder = data_dir(kind)
+    if not path.suffix and (folder / f"{name}{suffix}").exists():
+        return folder / f"{name}{suffix}"
+    if (folder / path.name).exists():
+        return folder / path.name
+    return path
+
+
+def network_name(name: str | Path) -> Path:
+    """The network file a name means (a path, or a bundled network), for the simulator.
+
+    Raises:
+        InputError: no such network; the error lists the bundled ones.
+    """
+    from pirate_bt.task.networks import resolve_network_path
+
+    try:
+        return resolve_network_path(str(name), None)
+    except FileNotFoundError as exc:
+        raise InputError(str(exc)) from None

@@ -90,7 +90,8 @@ class RunResult:
 
     def summary(self) -> str:
         """One line for people, as ``pirate-bt run`` prints it."""
-        where = f" at {self.failing_node}" if self.failing_node and not self.succeeded else ""
+        node = self.failing_node
+        where = f" at {node}" if node and not self.succeeded and node not in self.why else ""
         overruns = self.loop.overrun_count if self.loop is not None else 0
         return (
             f"{self.tree}: {self.status.upper()} - {self.why}{where}"

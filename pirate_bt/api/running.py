@@ -32,6 +32,7 @@ from pirate_bt.task.outcome import END_OF_RUN, explain_run
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.treefile import LoadedTree
 
 __all__ = ["Observer", "as_loaded", "load_tree", "needs_robot", "run_on"]
 
@@ -202,7 +203,12 @@ def run_on(
         attach_live_view(runner)
     trace_path = Path(trace) if trace is not None else None
     if trace_path is not None:
-        _attach_trace(runner, trace_path, connection, robot, trace_meta)
+
+        def end_reason(loop: Any) -> str:
+            first = tally.first_safe_state if tally is not None else None
+            return explain_run(loop, runner.tree.root, first)[0]
+
+        _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
         observe(runner, connection)
     try:
@@ -239,6 +245,7 @@ def _attach_trace(
     connection: Any,
     robot: Any,
     meta: Mapping[str, Any] | None,
+    why: Callable[[Any], str],
 ) -> None:
     from pirate_bt.trace import attach_trace, supervised_extras
 
@@ -256,6 +263,7 @@ def _attach_trace(
         runner,
         path,
         extras=extras,
+        why=why,
         robot=robot,
         scenario=connection.target if connection is not None else None,
         seed=connection.seed if connection is not None else None,
@@ -270,7 +278,7 @@ def load_tree(
     params: Mapping[str, Any] | None = None,
     check_robot: bool = True,
     **options: Any,
-) -> Any:
+) -> LoadedTree:
     """Load and check a YAML tree (a file, a bundled name such as ``"bend"``, or a mapping).
 
     Unlike :func:`pirate_bt.treefile.load_tree`, the tree is checked against the

@@ -39,7 +39,9 @@ class Counters:
         link_failures: Link requests given up on after every retry.
         crc_errors: Frames rejected for a bad CRC or framing.
         duplicates: Duplicate or out-of-date frames ignored.
-        frames_dropped: Host frames the simulator lost to an injected fault.
+        frames_dropped: Host frames the simulator's bridge lost (a simulator fault such
+            as ``link_loss@3s+1s`` or a resetting board). Link byte faults injected on
+            the host side (``drop=0.05``) show as ``retries`` and ``crc_errors`` instead.
         overruns: Ticks that took longer than their budget (wall time).
         violation_kinds: ``violations`` by kind.
         damage_kinds: ``damage`` by kind.

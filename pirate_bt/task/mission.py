@@ -211,6 +211,7 @@ class MissionResult:
 
     @property
     def succeeded(self) -> bool:
+        """True when every PAB of the plan succeeded."""
         return self.run.succeeded
 
     @property
@@ -220,6 +221,7 @@ class MissionResult:
 
     @property
     def ticks(self) -> int:
+        """Ticks the mission tree ran."""
         return self.run.ticks
 
     @property
@@ -239,6 +241,7 @@ class MissionResult:
 
     @property
     def final_error_m(self) -> float | None:
+        """Belief minus truth at the end (``None`` without a simulator)."""
         return None if self.truth_m is None else self.belief_m - self.truth_m
 
     @property
@@ -376,6 +379,12 @@ def run_mission(
 
     runner.add_pre_tick(before)
     runner.add_post_tick(after)
+    tally = VerdictTally(supervisor)
+
+    def why(run: RunResult) -> str:
+        first = tally.first_safe_state
+        return localiser.mismatch or explain_run(run, runner.tree.root, first)[0]
+
     if trace_path is not None:
         from pirate_bt.trace import attach_trace, supervised_extras
 
@@ -385,6 +394,7 @@ def run_mission(
             runner,
             trace_path,
             extras=extras,
+            why=why,
             robot=robot,
             scenario=scenario,
             seed=seed,
@@ -396,7 +406,6 @@ def run_mission(
         attach_live_view(runner, live_stream)
     if observe is not None:
         observe(runner, localiser.values)
-    tally = VerdictTally(supervisor)
     try:
         result = runner.run()
     finally:

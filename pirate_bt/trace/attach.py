@@ -19,6 +19,7 @@ What ``pirate-bt run`` does::
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from operator import attrgetter
 from pathlib import Path
@@ -28,6 +29,8 @@ from pirate_bt.trace.live import LiveView, live_view_hook
 from pirate_bt.trace.records import TickExtras, TraceEvent
 from pirate_bt.trace.structure import TreeStructure
 from pirate_bt.trace.writer import TraceFormatWriter, TraceRecorder
+
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "attach_live_view",
@@ -69,6 +72,7 @@ def attach_trace(
     destination: str | Path | TraceFormatWriter,
     *,
     extras: Callable[[Any], TickExtras | None] | None = None,
+    why: Callable[[Any], str | None] | None = None,
     **options: Any,
 ) -> TraceRecorder:
     """Record every tick of ``runner`` into a trace.
@@ -81,6 +85,9 @@ def attach_trace(
         destination: The trace file (format by suffix) or a format writer.
         extras: Called with the runner's ``TickInfo`` after each tick; returns
             what else happened in it (state, verdicts, link health, counters).
+        why: Called with the runner's result at the end; its answer is the end
+            record's ``reason`` (the first cause, where the caller knows it better
+            than the runner's ``tree failed after N ticks``).
         **options: Passed to :class:`TraceRecorder` (``robot``, ``scenario``,
             ``seed``, ``full_state``, ``readings``, ``every_tick``, ``meta``...).
 
@@ -101,9 +108,15 @@ def attach_trace(
             kind = "exception" if getattr(result, "error", None) is not None else "note"
             message = str(getattr(result, "message", "the tick did not complete"))
             recorder.record_tick(TickExtras(events=(TraceEvent(kind, message, node),)))
+        reason = getattr(result, "message", None)
+        if why is not None:
+            try:
+                reason = why(result) or reason
+            except Exception:  # the cause is a courtesy; the end record must be written
+                _log.exception("explaining the run's end failed")
         recorder.close(
             outcome_of_result(result),
-            reason=getattr(result, "message", None),
+            reason=reason,
             error_node=node,
             exception=getattr(result, "error", None) if failing or node else None,
         )
