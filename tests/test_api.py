@@ -373,3 +373,15 @@ def test_a_trace_keeps_the_first_cause(tmp_path: Path) -> None:
     )
     trace = pirate_bt.read_trace(path)
     assert trace.outcome == "failure" and trace.why == result.why
+
+
+def test_a_runner_of_your_own_is_supervised_and_manual_mode_pauses_it() -> None:
+    tree = {"name": "pause", "root": {"type": "wait", "name": "wait", "duration": "0.5 s"}}
+    with pirate_bt.connect("sim", mode="manual") as robot:
+        runner = robot.runner(tree, max_time="2 s")
+        loop = runner.run()
+        # the operator holds the robot: the tree never ticks, the time limit still counts
+        assert loop.paused_ticks == loop.ticks and loop.reason is pirate_bt.StopReason.TIME_LIMIT
+        assert robot.supervisor.in_safe_state  # a run that did not succeed ends safe
+    with pytest.raises(InputError, match="mode: 'sideways' is not one of"):
+        pirate_bt.connect("sim", mode="sideways")

@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from pirate_bt.api.results import RunResult
     from pirate_bt.behaviours.base import BuildContext
     from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.runner import Runner
     from pirate_bt.safety.tally import Counters
 
 __all__ = ["Connection", "connect"]
@@ -133,6 +134,36 @@ class Connection:
             observe=observe,
         )
 
+    def runner(
+        self,
+        tree: Any,
+        *,
+        params: Mapping[str, Any] | None = None,
+        rate: str | float = "20 Hz",
+        max_time: str | float | None = None,
+        setup_timeout_s: float = 15.0,
+    ) -> Runner:
+        """A supervised :class:`~pirate_bt.runner.Runner` for ``tree``, not yet run (for a
+        loop of your own; :meth:`run` runs one to its end and explains it).
+
+        Raises:
+            ValidationFailed: the tree does not validate against this robot.
+        """
+        from pirate_bt.api.options import quantity
+        from pirate_bt.api.running import supervised_runner
+
+        rate_hz = quantity(rate, "frequency", "rate")
+        if rate_hz <= 0:
+            raise InputError("rate must be positive")
+        limit = quantity(max_time, "time", "max_time") if max_time is not None else None
+        return supervised_runner(
+            self,
+            as_loaded(tree, self.robot, params),
+            period_s=1.0 / rate_hz,
+            max_time_s=limit,
+            setup_timeout_s=setup_timeout_s,
+        )
+
     def counters(self) -> Counters:
         """The counters since the connection opened (:class:`~pirate_bt.safety.tally.Counters`)."""
         return self.tally.counters()
@@ -168,6 +199,7 @@ def connect(
     robot: Any = None,
     seed: int = 0,
     faults: str | Iterable[str] | None = None,
+    mode: str = "autonomous",
 ) -> Connection:
     """Open a supervised robot: the simulator or a real PIRATEbay bridge.
 
@@ -178,6 +210,9 @@ def connect(
             bundled ``hardware/pirate.yaml``.
         seed: The simulator's seed (and the link faults'); ignored on a real robot.
         faults: Simulator and link faults, as the command line's ``--faults``.
+        mode: Who is in charge at the start: ``"autonomous"`` (trees run),
+            ``"supervised"`` (every PAB step waits for an operator's confirmation) or
+            ``"manual"`` (the operator drives; trees are paused).
 
     Returns:
         Connection: The open connection; close it (or use ``with``).
@@ -193,8 +228,14 @@ def connect(
             print(robot.description)
     """
     from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.safety.operator import Mode
 
     kind, where = parse_target(target)
+    try:
+        start_mode = Mode(mode)
+    except ValueError:
+        names = ", ".join(m.value for m in Mode if m is not Mode.ESTOP)
+        raise InputError(f"mode: {mode!r} is not one of {names}") from None
     description = load_robot_like(robot)
     sim_faults, link_faults = split_faults(faults)
     options: dict[str, Any] = {}
@@ -204,7 +245,13 @@ def connect(
         network = _network_for(where)
         clock: Clock = SimClock()
         supervisor = open_supervisor(
-            description, clock=clock, network=network, seed=seed, sim_faults=sim_faults, **options
+            description,
+            clock=clock,
+            network=network,
+            seed=seed,
+            sim_faults=sim_faults,
+            mode=start_mode,
+            **options,
         )
         name = str(where) if isinstance(where, str | Path) else str(getattr(where, "name", where))
         connection = Connection(
@@ -222,7 +269,9 @@ def connect(
                 "faults: simulator faults (KIND:TARGET@AT) need the simulator, not a port"
             )
         clock = WallClock()
-        supervisor = open_supervisor(description, url=where, clock=clock, **options)
+        supervisor = open_supervisor(
+            description, url=where, clock=clock, mode=start_mode, **options
+        )
         connection = Connection(
             description,
             clock,

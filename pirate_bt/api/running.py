@@ -32,9 +32,10 @@ from pirate_bt.task.outcome import END_OF_RUN, explain_run
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.runner import Runner
     from pirate_bt.treefile import LoadedTree
 
-__all__ = ["Observer", "as_loaded", "load_tree", "needs_robot", "run_on"]
+__all__ = ["Observer", "as_loaded", "load_tree", "needs_robot", "run_on", "supervised_runner"]
 
 Observer = Callable[[Any, Any], None]
 """``observe(runner, connection)``: called before a run starts, to attach more hooks
@@ -141,6 +142,63 @@ def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
     return tree
 
 
+def supervised_runner(
+    connection: Any,
+    tree: Any,
+    *,
+    clock: Any = None,
+    robot: Any = None,
+    period_s: float = 0.05,
+    max_time_s: float | None = None,
+    realtime: bool = False,
+    setup_timeout_s: float = 15.0,
+) -> Runner:
+    """A :class:`~pirate_bt.runner.Runner` for ``tree`` wired to ``connection`` as every
+    run is, not yet run: built (or bound) on the connection's clock and supervisor, the
+    supervisor ticked before the tree, the tree paused while an operator holds the robot
+    (MANUAL or ESTOP), and any end but success leaving the robot in its safe state with
+    the first cause kept. For loops of your own (an operator console, a custom runner).
+
+    Args:
+        connection: An open :class:`~pirate_bt.api.connection.Connection` (``None``: a
+            tree that needs no robot).
+        tree: A checked tree (:func:`as_loaded`) or a behaviour.
+        clock: The clock without a connection (default: a new simulated one).
+        robot: The robot description without a connection.
+        period_s: Tick period.
+        max_time_s: Time limit (``None``: none).
+        realtime: Pace a simulated run to wall time.
+        setup_timeout_s: py_trees' setup timeout (``sys.float_info.max`` skips its
+            signal, which only the main thread may set).
+    """
+    from pirate_bt.runner import Runner
+
+    if connection is not None:
+        clock, robot = connection.clock, connection.robot
+    clock = clock if clock is not None else SimClock()
+    built = _build_on(tree, connection, clock, robot)
+    supervisor = connection.supervisor if connection is not None else None
+
+    def safe_state() -> None:
+        # keep the cause a PAB or the supervisor gave first
+        assert supervisor is not None
+        supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN)
+
+    runner = Runner(
+        built,
+        clock=clock,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        realtime=realtime,
+        safe_state=safe_state if supervisor is not None else None,
+        paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
+        setup_timeout_s=setup_timeout_s,
+    )
+    if supervisor is not None:
+        runner.add_pre_tick(lambda _info: supervisor.tick())
+    return runner
+
+
 def run_on(
     connection: Any,
     tree: Any,
@@ -163,7 +221,6 @@ def run_on(
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
     from pirate_bt.errors import InputError
-    from pirate_bt.runner import Runner
     from pirate_bt.safety.tally import Counters, VerdictTally
 
     max_time_s = quantity(max_time, "time", "max_time")
@@ -174,29 +231,20 @@ def run_on(
         robot = connection.robot
     checked = as_loaded(tree, robot, params)
     clock = connection.clock if connection is not None else SimClock()
-    built = _build_on(checked, connection, clock, robot)
     supervisor = connection.supervisor if connection is not None else None
-
-    def safe_state() -> None:
-        # keep the cause a PAB or the supervisor gave first
-        assert supervisor is not None
-        supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN)
-
-    runner = Runner(
-        built,
+    runner = supervised_runner(
+        connection,
+        checked,
         clock=clock,
+        robot=robot,
         period_s=1.0 / rate_hz,
         max_time_s=max_time_s,
         realtime=realtime,
-        safe_state=safe_state if supervisor is not None else None,
-        paused=(lambda: bool(supervisor.tree_paused)) if supervisor is not None else None,
     )
     tally = VerdictTally(supervisor) if supervisor is not None else None
     counting = tally
     if count_from_open and connection is not None:
         counting = connection.tally
-    if supervisor is not None:
-        runner.add_pre_tick(lambda _info: supervisor.tick())
     if live:
         from pirate_bt.trace import attach_live_view
 

@@ -237,41 +237,29 @@ def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
 
 
 def _runner_factory(
-    args: argparse.Namespace, robot: RobotDescription, sup: Supervisor, period_s: float
+    args: argparse.Namespace, robot: RobotDescription, connection: Any, period_s: float
 ) -> Callable[[], object] | None:
-    """Checks ``--tree`` now (exit 2 on a bad tree) and returns how to build its runner."""
+    """Checks ``--tree`` now (exit 2 on a bad tree) and returns how to build its runner
+    (:meth:`pirate_bt.Connection.runner`: supervised as every run is)."""
     if args.tree is None:
         return None
-    import dataclasses
-
-    from pirate_bt.behaviours.base import BuildContext
     from pirate_bt.cli.run import parse_params
     from pirate_bt.resources import find_file
-    from pirate_bt.runner import Runner
-    from pirate_bt.treefile import build, load_tree
+    from pirate_bt.treefile import load_tree
 
     checked = load_tree(
         find_file("trees", args.tree),
         robot=robot,
         params=parse_params(args.param),
         params_from_text=True,
+        params_origin="--param",
     )
 
-    def factory() -> Runner:
-        context = BuildContext(robot=robot, clock=sup.clock, supervisor=sup)
-        tree = dataclasses.replace(checked, root=build(checked.spec, context))
-        reason = "tree run ended without success (console)"
-        return Runner(
-            tree,
-            clock=sup.clock,
-            period_s=period_s,
-            safe_state=lambda: sup.safe_state(sup.safe_state_reason or reason),
-            paused=lambda: bool(sup.tree_paused),
-            # py_trees times setup out with a signal, which only the main thread
-            # may set; the console runs the tree in its engine thread. Its
-            # "infinite" (sys.float_info.max) is the value that skips the signal.
-            setup_timeout_s=sys.float_info.max,
-        )
+    def factory() -> object:
+        # py_trees times setup out with a signal, which only the main thread may set;
+        # the console runs the tree in its engine thread. Its "infinite"
+        # (sys.float_info.max) is the value that skips the signal.
+        return connection.runner(checked, rate=1.0 / period_s, setup_timeout_s=sys.float_info.max)
 
     return factory
 
@@ -305,14 +293,17 @@ def run(args: argparse.Namespace) -> int:
 def _run_session(
     args: argparse.Namespace, robot: RobotDescription, mode: Mode, period_s: float, foxglove: Any
 ) -> int:
-    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.api.connection import connect
 
-    if args.port is not None:
-        sup = open_supervisor(robot, url=args.port, mode=mode)
-        where = f"robot at {args.port}"
-    else:
-        sup = open_supervisor(robot, network=args.sim, seed=args.seed, mode=mode)
-        where = f"simulator: {args.sim or 'straight'}"
+    target = args.port if args.port is not None else f"sim:{args.sim or 'straight'}"
+    connection = connect(
+        target,
+        robot=robot,
+        seed=args.seed if args.port is None else 0,
+        mode=mode.value,
+    )
+    sup = connection.supervisor
+    where = connection.description
     try:
         session = TeleopSession(sup, sys.stdout if args.keys is not None else None)
         if foxglove is not None:
@@ -321,7 +312,7 @@ def _run_session(
             session.after_step.append(serve_supervisor(foxglove, sup, robot=robot))
         if args.keys is not None:
             return _run_keys(session, args.keys, period_s)
-        factory = _runner_factory(args, robot, sup, period_s)
+        factory = _runner_factory(args, robot, connection, period_s)
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
         engine = ConsoleEngine(session, period_s=period_s, runner_factory=factory)
@@ -330,4 +321,4 @@ def _run_session(
             print(engine.finished)
         return 0
     finally:
-        sup.close()
+        connection.close()
