@@ -428,6 +428,15 @@ def write_mission_outputs(
         dot = out / "tree.dot"
         if dot.exists():
             files.append(dot)
+    if result.coverage is not None:
+        try:
+            from pirate_bt.render.tree import render_tree
+
+            drawn = render_tree(result.tree, out / "coverage.svg", coverage=result.coverage)
+            files.append(drawn)
+            pictures.append(("Coverage (how often each node ran)", drawn.name))
+        except FileNotFoundError:  # no dot: said once above; coverage.dot stays
+            pass
     files += write_report(
         result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
     )

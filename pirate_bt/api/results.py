@@ -15,6 +15,7 @@ from pirate_bt.errors import LinkError
 from pirate_bt.runner import RunResult as LoopResult
 from pirate_bt.runner import StopReason
 from pirate_bt.safety.tally import Counters
+from pirate_bt.trace.coverage import Coverage
 
 __all__ = ["RunResult", "exit_code"]
 
@@ -52,6 +53,9 @@ class RunResult:
         error: The exception that ended the run, if one did.
         traceback: Its formatted traceback.
         loop: The runner's own result (tick durations, overruns, stopped nodes).
+        coverage: Per node, what it did (ticks, transitions, successes, failures,
+            halts, skips), counted as BehaviorTree.CPP's ``TreeObserver`` does:
+            ``coverage.never_ran()``, ``coverage.never_failed(("guard", "condition"))``.
 
     Example::
 
@@ -77,6 +81,7 @@ class RunResult:
     error: BaseException | None = None
     traceback: str | None = None
     loop: LoopResult | None = field(default=None, repr=False)
+    coverage: Coverage | None = field(default=None, repr=False)
 
     @property
     def succeeded(self) -> bool:
@@ -114,4 +119,5 @@ class RunResult:
             "target": self.target,
             "trace": str(self.trace_path) if self.trace_path is not None else None,
             "counters": self.counters.as_dict(),
+            "coverage": self.coverage.as_dict() if self.coverage is not None else None,
         }

@@ -241,6 +241,9 @@ def run_on(
         max_time_s=max_time_s,
         realtime=realtime,
     )
+    from pirate_bt.trace.coverage import attach_coverage
+
+    coverage = attach_coverage(runner, _name(checked))
     tally = VerdictTally(supervisor) if supervisor is not None else None
     counting = tally
     if count_from_open and connection is not None:
@@ -284,6 +287,7 @@ def run_on(
         error=loop.error,
         traceback=loop.traceback,
         loop=loop,
+        coverage=coverage.coverage(),
     )
 
 

@@ -3,8 +3,10 @@
 :func:`run_case` runs one tree (:func:`pirate_bt.simulate_tree`) or one route
 (:func:`pirate_bt.simulate_mission`) on the simulator through the public API and
 returns a ``dict`` of JSON values: the case's parameters, the outcome, the first
-cause (``reason``) and where (``failing_node``), and the run's
-:class:`~pirate_bt.safety.tally.Counters` as flat keys. It is what the per-case
+cause (``reason``) and where (``failing_node``), the run's
+:class:`~pirate_bt.safety.tally.Counters` as flat keys, and its ``coverage``
+(:meth:`pirate_bt.trace.coverage.Coverage.as_dict`: per node path, ticks,
+transitions, successes, failures, halts and skips). It is what the per-case
 child process calls (see
 :mod:`pirate_bt.campaign.engine`); it never raises for a run that fails,
 because a failure is an outcome.
@@ -63,6 +65,7 @@ def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float)
         **dict.fromkeys(_COUNTER_KEYS),
         violation_kinds={},
         damage_kinds={},
+        coverage=None,
         trace=None,
     )
     return record
@@ -95,6 +98,7 @@ def _body(result: Any, safe: bool) -> dict[str, Any]:
         "sim_time_s": round(result.sim_time_s, 3),
         "ticks": result.ticks,
         **result.counters.as_dict(),
+        "coverage": result.coverage.as_dict() if result.coverage is not None else None,
     }
 
 

@@ -155,6 +155,38 @@ def _counters(rows: Sequence[dict[str, Any]]) -> list[list[str]]:
     return out
 
 
+def _coverage(rows: Sequence[dict[str, Any]], limit: int = 15) -> list[tuple[str, list[str]]]:
+    """Per tree or route, its coverage over every run that recorded one: how many nodes
+    ran, which never ran in any run, which guards never failed in any run.
+
+    Returns:
+        ``(tree or route, lines)`` pairs, the lines plain text (Markdown-safe).
+    """
+    from pirate_bt.trace.coverage import GUARDS, merge_coverage
+
+    by_tree: dict[str, list[dict[str, Any]]] = {}
+    for row in rows:
+        data = row.get("coverage")
+        if isinstance(data, dict):
+            by_tree.setdefault(str(row.get("tree") or row.get("route") or "?"), []).append(data)
+    out: list[tuple[str, list[str]]] = []
+    for name, items in by_tree.items():
+        merged = merge_coverage(items)
+        if merged is None:
+            continue
+        lines = [f"{merged.summary()}."]
+        for title, found in (
+            ("never ran in any run", merged.never_ran()),
+            ("guards and conditions that never failed in any run", merged.never_failed(GUARDS)),
+        ):
+            shown = [n.path for n in found[:limit]]
+            more = [f"... and {len(found) - limit} more"] if len(found) > limit else []
+            lines.append(f"{len(found)} {title}" + (":" if found else "."))
+            lines += [f"- {text}" for text in [*shown, *more]]
+        out.append((name, lines))
+    return out
+
+
 def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
     """Success rate against each swept link fault rate, one line per run."""
     swept = [k for k in ("drop", "corrupt", "dup") if len({r.get(k) for r in rows}) > 1]
@@ -237,6 +269,13 @@ def write_report(
     md += ["", "## Counters over all runs", ""]
     md += ["| " + " | ".join(row) + " |" for row in counters[:1]]
     md += ["|---|---|---|---|"] + ["| " + " | ".join(row) + " |" for row in counters[1:]]
+    coverage = _coverage(ordered)
+    if coverage:
+        md += ["", "## Coverage over all runs", ""]
+        md += ["Per node, as BehaviorTree.CPP's TreeObserver counts it (`Coverage`)."]
+        for name, lines in coverage:
+            md += ["", f"### {name}", ""]
+            md += [line if line.startswith("- ") else f"{line}\n" for line in lines]
     if plots:
         md += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     files.append(_replace(folder / "report.md", "\n".join(md) + "\n"))
@@ -257,6 +296,21 @@ def write_report(
     for row in counters[1:]:
         body.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>")
     body.append("</table>")
+    if coverage:
+        body.append("<h2>Coverage over all runs</h2>")
+        for name, lines in coverage:
+            body.append(f"<h3>{esc(name)}</h3>")
+            items: list[str] = []
+            for line in lines:
+                if line.startswith("- "):
+                    items.append(f"<li><code>{esc(line[2:])}</code></li>")
+                    continue
+                if items:
+                    body += ["<ul>", *items, "</ul>"]
+                    items = []
+                body.append(f"<p>{esc(line)}</p>")
+            if items:
+                body += ["<ul>", *items, "</ul>"]
     body += [f'<h2>{esc(p.stem)}</h2><img src="{esc(p.name)}">' for p in plots]
     style = (
         "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"

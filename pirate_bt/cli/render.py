@@ -1,7 +1,9 @@
 """``pirate-bt render TREE -o OUT``: draw a tree, optionally coloured by a trace tick.
 
 ``TREE`` is a tree file (YAML), or a trace file, whose header holds the tree's
-shape. With ``--trace T --tick N`` each node is filled by its status at tick N.
+shape. With ``--trace T --tick N`` each node is filled by its status at tick N;
+with ``--coverage`` by how often it ran in the trace's run (a band of tick counts;
+white: never ran), the counts under its name.
 """
 
 from __future__ import annotations
@@ -25,6 +27,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trace", type=Path, help="colour nodes by status from this trace")
     parser.add_argument("--tick", type=int, help="tick of --trace to show (default: the last)")
     parser.add_argument(
+        "--coverage",
+        action="store_true",
+        help="colour nodes by how often they ran in the trace's run (needs a trace)",
+    )
+    parser.add_argument(
         "--param",
         action="append",
         default=[],
@@ -45,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.tick is not None and args.trace is None and not _is_trace(args.tree):
         raise InputError("--tick needs --trace (or a trace file as TREE)")
+    if args.coverage and args.trace is None and not _is_trace(args.tree):
+        raise InputError("--coverage needs --trace (or a trace file as TREE)")
+    if args.coverage and args.tick is not None:
+        raise InputError("--coverage colours by the whole run: leave out --tick")
     trace: Trace | None = None
     structure: TreeStructure
     if _is_trace(args.tree):
@@ -73,13 +84,22 @@ def run(args: argparse.Namespace) -> int:
                 )
     status = feedback = None
     title = None
-    if trace is not None and (args.trace is not None or args.tick is not None):
+    coverage = None
+    if args.coverage:
+        assert trace is not None
+        coverage = trace.coverage
+        if coverage is None:
+            raise InputError(
+                f"{args.trace or args.tree}: the trace has no coverage (cut off, or written"
+                " before pirate_bt counted it)"
+            )
+    elif trace is not None and (args.trace is not None or args.tick is not None):
         tick = trace.last_tick if args.tick is None else args.tick
         frame = trace.frame_at(tick)
         status, feedback = frame.status, frame.feedback
         title = f"tick {frame.n} at {frame.t_s:.3f} s"
     try:
-        written = render_tree(structure, args.output, status, feedback, title)
+        written = render_tree(structure, args.output, status, feedback, title, coverage=coverage)
     except FileNotFoundError as exc:
         print(f"pirate-bt: {exc}", file=sys.stderr)
         return 0

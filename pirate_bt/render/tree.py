@@ -47,6 +47,7 @@ import py_trees
 
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.robot.diagram import write_diagram
+from pirate_bt.trace.coverage import Coverage, NodeCoverage
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.reader import READERS, Trace, read_trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure, tree_structure
@@ -69,6 +70,7 @@ if TYPE_CHECKING:
     """What :func:`render_tree` and :func:`tree_graph` draw (see the module docstring)."""
 
 __all__ = [
+    "COVERAGE_BANDS",
     "KIND_STYLE",
     "STATUS_FILL",
     "render_tree",
@@ -94,6 +96,15 @@ STATUS_FILL: Mapping[str, str] = {
     "I": "#ffffff",
 }
 _STATUS_WORD = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING", "I": "not ticked"}
+
+#: (fewest ticks, fill colour, words) per band of a node's tick count, for coverage.
+COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
+    (0, "#ffffff", "never ran"),
+    (1, "#dbeafe", "1-9 ticks"),
+    (10, "#93c5fd", "10-99 ticks"),
+    (100, "#3b82f6", "100-999 ticks"),
+    (1000, "#1d4ed8", "1000+ ticks"),
+)
 _MAX_PARAM_CHARS = 40
 
 
@@ -109,7 +120,19 @@ def _param_text(value: object) -> str:
     return text
 
 
-def _label(node: NodeInfo, status: str | None, feedback: str) -> str:
+def _band(ticks: int) -> tuple[int, str, str]:
+    return [band for band in COVERAGE_BANDS if ticks >= band[0]][-1]
+
+
+def _coverage_row(seen: NodeCoverage) -> str:
+    parts = [f"ticks {seen.ticks}", f"ok {seen.successes}", f"fail {seen.failures}"]
+    parts += [f"{name} {n}" for name, n in (("halts", seen.halts), ("skips", seen.skips)) if n]
+    return f'<font point-size="8"><i>{html.escape(" · ".join(parts))}</i></font>'
+
+
+def _label(
+    node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
+) -> str:
     rows = [f"<b>{html.escape(node.name)}</b>"]
     if node.type and node.type != node.name:
         rows.append(f'<font point-size="8">{html.escape(node.type)}</font>')
@@ -126,6 +149,8 @@ def _label(node: NodeInfo, status: str | None, feedback: str) -> str:
         if len(text) > _MAX_PARAM_CHARS:
             text = text[: _MAX_PARAM_CHARS - 1] + "…"
         rows.append(f'<font point-size="8"><i>{html.escape(text)}</i></font>')
+    if seen is not None:
+        rows.append(_coverage_row(seen))
     return "<" + "<br/>".join(rows) + ">"
 
 
@@ -211,6 +236,33 @@ def _check_trace_fits(structure: TreeStructure, trace: Trace) -> None:
             )
 
 
+def _coverage_by_node(
+    structure: TreeStructure, coverage: Coverage | None
+) -> dict[str, NodeCoverage]:
+    """The coverage of each node of ``structure``, by path id (or by name path).
+
+    Raises:
+        InputError: a coverage of another tree.
+    """
+    if coverage is None:
+        return {}
+    ids = coverage.by_id()
+    if ids and all(n.id in ids for n in structure):
+        return ids
+    from pirate_bt.trace.coverage import name_paths
+
+    nodes = list(structure)
+    index = {n.id: i for i, n in enumerate(nodes)}
+    paths = name_paths([n.name for n in nodes], [index.get(n.parent or "", -1) for n in nodes])
+    by_path = {n.path: n for n in coverage}
+    found = {n.id: by_path[p] for n, p in zip(nodes, paths, strict=True) if p in by_path}
+    if not found:
+        raise InputError(
+            f"the coverage of tree {coverage.tree!r} has no node of {structure.name!r}"
+        )
+    return found
+
+
 def tree_graph(
     tree: TreeSource,
     status: Mapping[str, str] | None = None,
@@ -221,6 +273,7 @@ def tree_graph(
     tick: int | None = None,
     params: Mapping[str, Any] | None = None,
     robot: RobotDescription | str | Path | None = None,
+    coverage: Coverage | None = None,
 ) -> str:
     """Graphviz ``dot`` source of a tree.
 
@@ -243,6 +296,11 @@ def tree_graph(
             tree's declared examples. Only for a tree file.
         robot: The robot description (or its file) a tree file is checked
             against; default: the bundled robot.
+        coverage: A run's (or a campaign's) :class:`~pirate_bt.trace.coverage.Coverage`
+            of this tree (``result.coverage``, ``read_trace(path).coverage``): fill
+            each node by its band of tick counts (:data:`COVERAGE_BANDS`, white for
+            a node that never ran) and list its ticks, successes and failures.
+            Not with statuses.
 
     Returns:
         The ``dot`` source.
@@ -260,6 +318,8 @@ def tree_graph(
     structure, own_trace = _structure_and_trace(tree, params, robot)
     if trace is not None and (status is not None or feedback is not None):
         raise ValueError("give status and feedback, or a trace to take them from, not both")
+    if coverage is not None and (status is not None or trace is not None or tick is not None):
+        raise ValueError("colour by coverage or by status, not both")
     run = read_trace(trace) if isinstance(trace, str | Path) else trace
     if run is not None:
         _check_trace_fits(structure, run)
@@ -273,6 +333,9 @@ def tree_graph(
         if title is None:
             title = f"tick {frame.n} at {frame.t_s:.3f} s"
     feedback = feedback or {}
+    seen = _coverage_by_node(structure, coverage)
+    if coverage is not None and title is None:
+        title = f"coverage: {coverage.summary()} (white: never ran; darker: more ticks)"
     caption = structure.name if title is None else f"{structure.name}: {title}"
     lines = [
         "digraph tree {",
@@ -286,13 +349,23 @@ def tree_graph(
         if node.kind == "composite":
             attrs["shape"] = _COMPOSITE_SHAPE.get(node.type, attrs["shape"])
         code = None if status is None else status.get(node.id, "I")
+        counted = seen.get(node.id) if coverage is not None else None
         if code is not None:
             attrs["fillcolor"] = STATUS_FILL.get(code, STATUS_FILL["I"])
             attrs["tooltip"] = f"{node.id} {_STATUS_WORD.get(code, code)}"
+        elif coverage is not None:
+            ticks = counted.ticks if counted is not None else 0
+            _, colour, words = _band(ticks)
+            attrs["fillcolor"] = colour
+            attrs["tooltip"] = f"{node.id} {words}"
+            if ticks >= 100:
+                attrs["fontcolor"] = "white"
+            if not ticks:
+                attrs["style"] = attrs.get("style", "filled") + ",dashed"
         else:
             attrs["tooltip"] = f"{node.id} {node.kind}"
         attrs["id"] = node.id
-        attrs["label"] = _label(node, code, feedback.get(node.id, ""))
+        attrs["label"] = _label(node, code, feedback.get(node.id, ""), counted)
         lines.append(f'  "{node.id}" [{_attrs(attrs)}];')
     for node in structure:
         for child in node.children:
@@ -312,17 +385,20 @@ def render_tree(
     tick: int | None = None,
     params: Mapping[str, Any] | None = None,
     robot: RobotDescription | str | Path | None = None,
+    coverage: Coverage | None = None,
 ) -> Path:
     """Draw a tree to ``out`` (``.dot``, ``.svg`` or ``.png`` by suffix).
 
     ``tree`` is a tree file path, a ``LoadedTree``, a ``BehaviourTree`` or root
     behaviour, a ``TreeStructure`` or a trace; ``trace`` and ``tick`` colour it
-    by status at that tick. Every argument is as in :func:`tree_graph`.
+    by status at that tick; ``coverage`` by how often each node ran. Every argument
+    is as in :func:`tree_graph`.
 
     Example::
 
         render_tree("trees/straight.yaml", "straight.svg", params={"distance": "1 m"})
         render_tree("bend", "tick120.svg", trace="bend.jsonl", tick=120)  # by status
+        render_tree(result.tree, "coverage.svg", coverage=result.coverage)  # by count
 
     Returns:
         The path written (the ``.dot`` file if Graphviz was not needed).
@@ -342,5 +418,6 @@ def render_tree(
         tick=tick,
         params=params,
         robot=robot,
+        coverage=coverage,
     )
     return write_diagram(source, Path(out))

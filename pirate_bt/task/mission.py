@@ -44,6 +44,7 @@ from pirate_bt.task.outcome import PabOutcome, explain_run, map_cause, pab_outco
 from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
+from pirate_bt.trace.coverage import Coverage, attach_coverage
 
 __all__ = [
     "Leg",
@@ -208,6 +209,9 @@ class MissionResult:
     """Wall time the run took."""
     safe_state: bool = False
     """The robot was left in its safe state (drives stopped, clamps held)."""
+    coverage: Coverage | None = None
+    """Per node of the mission's tree, what it did (ticks, transitions, successes,
+    failures, halts, skips), counted as BehaviorTree.CPP's ``TreeObserver`` does."""
 
     @property
     def succeeded(self) -> bool:
@@ -334,6 +338,7 @@ def run_mission(
         realtime=realtime,
         safe_state=lambda: supervisor.safe_state(reason_box[0]),
     )
+    coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
@@ -448,6 +453,7 @@ def run_mission(
         counters=tally.counters(overruns=result.overrun_count),
         wall_s=result.wall_time_s,
         safe_state=bool(supervisor.in_safe_state),
+        coverage=coverage.coverage(),
     )
 
 

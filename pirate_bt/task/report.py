@@ -21,8 +21,9 @@ from pathlib import Path
 from pirate_bt.task.localise import DRIFT_PER_M, FIX_BOUND_M
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.planner import MissionPlan
+from pirate_bt.trace.coverage import GUARDS, Coverage
 
-__all__ = ["plot_belief", "report_lines", "write_report"]
+__all__ = ["coverage_section", "plot_belief", "report_lines", "write_report"]
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> list[str]:
@@ -209,11 +210,31 @@ def report_lines(
     if result.sim:
         lines += ["", "## Simulator counters", ""]
         lines += _table(("counter", "value"), [(k, f"{v:g}") for k, v in result.sim.items()])
+    if result.coverage is not None:
+        lines += coverage_section(result.coverage)
     for title, name in pictures:
         lines += ["", f"## {title}", "", f"![{title}]({name})"]
     for heading, body in extra:
         lines += ["", f"## {heading}", "", *body]
     return [*lines, ""]
+
+
+def coverage_section(coverage: Coverage, limit: int = 20) -> list[str]:
+    """The report's coverage section: how many nodes ran, which never did, which guards
+    never failed (per node as BT.CPP's ``TreeObserver`` counts; see
+    :mod:`pirate_bt.trace.coverage`)."""
+    lines = ["", "## Coverage", "", f"{coverage.summary()}."]
+    for title, found in (
+        ("Never ran", coverage.never_ran()),
+        ("Guards and conditions that never failed", coverage.never_failed(GUARDS)),
+    ):
+        if not found:
+            continue
+        lines += ["", f"{title} ({len(found)}):", ""]
+        lines += [f"- `{n.path}`" for n in found[:limit]]
+        if len(found) > limit:
+            lines.append(f"- ... and {len(found) - limit} more")
+    return lines
 
 
 def _inline(text: str) -> str:

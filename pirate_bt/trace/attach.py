@@ -78,7 +78,8 @@ def attach_trace(
     """Record every tick of ``runner`` into a trace.
 
     The header is written now; ticks from the runner's post-tick hook; the end
-    record from its finish hook (also when the run raised or was interrupted).
+    record from its finish hook (also when the run raised or was interrupted),
+    with the run's coverage (:func:`~pirate_bt.trace.coverage.attach_coverage`).
 
     Args:
         runner: A :class:`pirate_bt.runner.Runner` (not yet run).
@@ -94,7 +95,10 @@ def attach_trace(
     Returns:
         The recorder (already closed when ``runner.run()`` returns).
     """
+    from pirate_bt.trace.coverage import attach_coverage
+
     options.setdefault("tick_period_s", runner.period_s)
+    coverage = attach_coverage(runner)
     recorder = TraceRecorder(destination, runner.tree, clock=runner.clock, **options)
 
     def post_tick(info: Any) -> None:
@@ -114,11 +118,22 @@ def attach_trace(
                 reason = why(result) or reason
             except Exception:  # the cause is a courtesy; the end record must be written
                 _log.exception("explaining the run's end failed")
+        counts: dict[str, Any] | None = None
+        try:
+            coverage.finish(result)
+            seen = coverage.coverage()
+            counts = {
+                "counts": {n.id: n.counts() for n in seen},
+                "conditions": [n.id for n in seen if n.kind == "condition"],
+            }
+        except Exception:  # coverage is a courtesy too
+            _log.exception("counting the run's coverage failed")
         recorder.close(
             outcome_of_result(result),
             reason=reason,
             error_node=node,
             exception=getattr(result, "error", None) if failing or node else None,
+            coverage=counts,
         )
 
     runner.add_post_tick(post_tick)

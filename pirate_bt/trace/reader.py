@@ -29,6 +29,7 @@ import py_trees
 
 from pirate_bt.errors import InputError, LocatedError, SourceLocation
 from pirate_bt.robot.state import RobotState
+from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.formats import register_format, suffix_of
 from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
@@ -299,6 +300,39 @@ class Trace(TraceQueries):
             'success'
         """
         return str(self.end["outcome"]) if self.end is not None else "incomplete"
+
+    @property
+    def coverage(self) -> Coverage | None:
+        """What each node did in the run (:class:`~pirate_bt.trace.coverage.Coverage`),
+        from the end record; ``None`` for a trace without one (cut off, or older).
+
+        Example::
+
+            >>> [n.path for n in read_trace("run.jsonl").coverage.never_ran()]
+            ['straight/recover']
+        """
+        recorded = self.end.get("coverage") if self.end is not None else None
+        if not isinstance(recorded, Mapping) or not isinstance(recorded.get("counts"), Mapping):
+            return None
+        counts = recorded["counts"]
+        conditions = set(recorded.get("conditions") or ())
+        nodes = list(self.structure)
+        index = {n.id: i for i, n in enumerate(nodes)}
+        parents = [index[n.parent] if n.parent is not None else -1 for n in nodes]
+        paths = name_paths([n.name for n in nodes], parents)
+        return Coverage(
+            self.structure.name,
+            tuple(
+                NodeCoverage(
+                    path,
+                    n.id,
+                    n.type,
+                    "condition" if n.id in conditions else n.kind,
+                    *map(int, counts.get(n.id, [0] * 6)),
+                )
+                for path, n in zip(paths, nodes, strict=True)
+            ),
+        )
 
     def frames(self) -> Iterator[TickFrame]:
         """The whole picture after every recorded tick, in order (tick 0 first)."""

@@ -11,12 +11,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from pirate_bt.trace.coverage import GUARDS, Coverage
 from pirate_bt.trace.reader import Trace
 from pirate_bt.trace.structure import TreeStructure
 
 __all__ = [
     "NodeSummary",
     "TraceSummary",
+    "coverage_lines",
     "format_summary",
     "node_names",
     "summarise",
@@ -110,6 +112,8 @@ class TraceSummary:
     refusals: list[dict[str, Any]] = field(default_factory=list)
     faults: list[dict[str, Any]] = field(default_factory=list)
     header: Mapping[str, Any] = field(default_factory=dict)
+    coverage: Coverage | None = None
+    """What each node did, as BT.CPP's ``TreeObserver`` counts it (from the end record)."""
 
 
 def summarise(trace: Trace) -> TraceSummary:
@@ -133,6 +137,7 @@ def summarise(trace: Trace) -> TraceSummary:
         truncated=trace.truncated,
         nodes=nodes,
         header=trace.header,
+        coverage=trace.coverage,
     )
     for tick in trace.ticks:
         for node_id, code in tick.status.items():
@@ -181,6 +186,22 @@ def node_names(structure: TreeStructure, node_id: str) -> str:
     return "/".join(reversed(names))
 
 
+def coverage_lines(coverage: Coverage, limit: int = 12) -> list[str]:
+    """What a run's (or a campaign's) coverage says, in a few lines: how many nodes ran,
+    which never did, and which guards never failed (their failure branch never ran)."""
+    lines = [f"coverage  {coverage.summary()}"]
+    for title, found in (
+        ("never ran", coverage.never_ran()),
+        ("guards and conditions that never failed", coverage.never_failed(GUARDS)),
+    ):
+        if not found:
+            continue
+        shown = ", ".join(n.path for n in found[:limit])
+        more = f" and {len(found) - limit} more" if len(found) > limit else ""
+        lines.append(f"  {title} ({len(found)}): {shown}{more}")
+    return lines
+
+
 def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
     """A summary as lines of text."""
     header = summary.header
@@ -204,15 +225,23 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         f"commands  {summary.commands} ({summary.clips} clipped, {len(summary.refusals)} refused)"
     )
     width = max((len(n.name) + 4 * n.depth for n in structure), default=4)
+    coverage = summary.coverage.by_id() if summary.coverage is not None else {}
+    extra = f" {'ticks':>7} {'trans':>6} {'halts':>5} {'skips':>5}" if coverage else ""
     lines.append("")
-    lines.append(f"{'node':<{width}}  {'runs':>5} {'ok':>5} {'fail':>5} {'running':>10}")
+    lines.append(f"{'node':<{width}}  {'runs':>5} {'ok':>5} {'fail':>5} {'running':>10}{extra}")
     for node in structure:
         entry = summary.nodes[node.id]
         name = f"{'    ' * node.depth}{node.name}"
+        counts = ""
+        seen = coverage.get(node.id)
+        if seen is not None:
+            counts = f" {seen.ticks:>7} {seen.transitions:>6} {seen.halts:>5} {seen.skips:>5}"
         lines.append(
             f"{name:<{width}}  {entry.runs:>5} {entry.successes:>5} {entry.failures:>5}"
-            f" {entry.running_s:>9.3f}s"
+            f" {entry.running_s:>9.3f}s{counts}"
         )
+    if summary.coverage is not None:
+        lines += ["", *coverage_lines(summary.coverage)]
     if summary.refusals:
         lines.append("")
         lines.append("refusals:")

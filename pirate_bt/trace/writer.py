@@ -502,6 +502,7 @@ class TraceRecorder:
         reason: str | None = None,
         error_node: str | None = None,
         exception: BaseException | str | None = None,
+        coverage: Mapping[str, Any] | None = None,
     ) -> None:
         """Write the end record and close the file (idempotent).
 
@@ -511,6 +512,9 @@ class TraceRecorder:
             reason: Why the run ended, in words.
             error_node: Path id of the node that raised, for a crash.
             exception: The exception that ended the run, for a crash.
+            coverage: ``{"counts": {node id: [ticks, transitions, successes,
+                failures, halts, skips]}, "conditions": [node ids]}`` (see
+                :mod:`pirate_bt.trace.coverage`).
         """
         if self._closed:
             return
@@ -535,6 +539,8 @@ class TraceRecorder:
                 else exception
             )
             record["error"] = {"node": error_node, "exception": text}
+        if coverage:
+            record["coverage"] = dict(coverage)
         try:
             if self._sink is not None:
                 self._sink.send((END, encode_json(record) + "\n"))
