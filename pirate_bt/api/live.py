@@ -1,10 +1,15 @@
-"""Live outputs of a run, as options of the API: the Foxglove WebSocket view.
+"""Live outputs of a run, as options of the API: the Foxglove WebSocket view, ROS 2.
 
 ``foxglove="127.0.0.1:8765"`` (or ``True`` for that default, or an open
 :class:`~pirate_bt.interop.foxglove_live.FoxgloveServer`) on :func:`pirate_bt.simulate_tree`,
 :func:`pirate_bt.run_tree`, :func:`pirate_bt.simulate_mission` and
 :func:`pirate_bt.run_mission` serves the run live. A server the API opened is
 closed when the run ends; one the caller passed stays open.
+
+``ros2="tcp/127.0.0.1:7447"`` (or ``True`` for that default, or an open
+:class:`~pirate_bt.interop.ros2_live.Ros2Node`) shows the run on a ROS 2 graph
+over Zenoh, with ``ros_domain_id=`` and ``ros_namespace=``; the node's e-stop
+topic reaches the run's supervisor as an operator e-stop (``docs/ros2.md``).
 """
 
 from __future__ import annotations
@@ -13,7 +18,16 @@ import contextlib
 from collections.abc import Callable, Iterator
 from typing import Any
 
-__all__ = ["FoxgloveOption", "foxglove_server", "mission_observer", "tree_observer"]
+__all__ = [
+    "FoxgloveOption",
+    "Ros2Option",
+    "foxglove_server",
+    "mission_observer",
+    "ros2_mission_observer",
+    "ros2_node",
+    "ros2_tree_observer",
+    "tree_observer",
+]
 
 FoxgloveOption = str | bool | Any | None
 """``None``/``False``: off; ``True``: the default address; ``"HOST:PORT"``; or a server."""
@@ -87,6 +101,79 @@ def mission_observer(
             robot=robot,
             scenario=connection.target,
             seed=connection.seed,
+        )
+
+    return observe
+
+
+Ros2Option = str | bool | Any | None
+"""``None``/``False``: off; ``True``: rmw_zenoh's router on this machine; ``"tcp/HOST:PORT"``;
+or an open :class:`~pirate_bt.interop.ros2_live.Ros2Node`."""
+
+
+@contextlib.contextmanager
+def ros2_node(
+    option: Ros2Option, *, domain_id: int | None = None, namespace: str | None = None
+) -> Iterator[Any]:
+    """The ROS 2 node for a ``ros2=`` option (``None`` when off), closed at the end if
+    opened here.
+
+    Raises:
+        InputError: a bad endpoint, domain id or namespace.
+        ConfigurationError: the ``ros2`` extra is missing.
+    """
+    if option is None or option is False:
+        yield None
+        return
+    if not isinstance(option, str | bool):
+        yield option
+        return
+    from pirate_bt.interop.ros2_live import DEFAULT_ENDPOINT, DEFAULT_NAMESPACE, Ros2Node
+
+    node = Ros2Node(
+        option if isinstance(option, str) else DEFAULT_ENDPOINT,
+        domain_id=domain_id,
+        namespace=DEFAULT_NAMESPACE if namespace is None else namespace,
+    )
+    try:
+        yield node
+    finally:
+        node.close()
+
+
+def ros2_tree_observer(node: Any, robot: Any) -> Callable[[Any, Any], None]:
+    """``observe(runner, connection)`` showing a tree run on the ROS 2 graph through ``node``;
+    the connection's supervisor drains the node's e-stop topic."""
+    from pirate_bt.interop.ros2_live import attach_ros2
+
+    def observe(runner: Any, connection: Any) -> None:
+        sim = connection.simulator if connection is not None else None
+        attach_ros2(
+            runner,
+            node,
+            supervisor=connection.supervisor if connection is not None else None,
+            counters=sim.counters if sim is not None else None,
+            robot=robot,
+        )
+
+    return observe
+
+
+def ros2_mission_observer(
+    node: Any, connection: Any, robot: Any
+) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
+    """``observe(runner, localiser_values)`` showing every runner of a mission on ROS 2."""
+    from pirate_bt.interop.ros2_live import attach_ros2
+
+    def observe(runner: Any, localiser_values: Callable[[], dict[str, float]]) -> None:
+        sim = connection.simulator
+        attach_ros2(
+            runner,
+            node,
+            supervisor=connection.supervisor,
+            counters=sim.counters if sim is not None else None,
+            more=localiser_values,
+            robot=robot,
         )
 
     return observe

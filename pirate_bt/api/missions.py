@@ -17,7 +17,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pirate_bt.api.connection import Connection, connect
-from pirate_bt.api.live import FoxgloveOption, chain, foxglove_server, mission_observer
+from pirate_bt.api.live import (
+    FoxgloveOption,
+    Ros2Option,
+    chain,
+    foxglove_server,
+    mission_observer,
+    ros2_mission_observer,
+    ros2_node,
+)
 from pirate_bt.api.options import load_robot_like, quantity
 from pirate_bt.task.localise import MAP_FRACTION
 
@@ -240,6 +248,9 @@ def simulate_mission(
     realtime: bool = False,
     foxglove: FoxgloveOption = None,
     observe: MissionObserver | None = None,
+    ros2: Ros2Option = None,
+    ros_domain_id: int | None = None,
+    ros_namespace: str | None = None,
 ) -> MissionResult:
     """Plan a route on a map (unless given a plan) and run it on the simulator.
 
@@ -266,6 +277,9 @@ def simulate_mission(
         realtime: Pace the simulated run to wall time.
         foxglove: Serve the run live to Foxglove (``"HOST:PORT"``, ``True`` or a server).
         observe: ``observe(runner, localiser_values)`` for each runner the mission makes.
+        ros2: Show the run on a ROS 2 graph over Zenoh (``"tcp/HOST:PORT"``, ``True``
+            or an open ``Ros2Node``; docs/ros2.md), with ``ros_domain_id`` and
+            ``ros_namespace``; its ``estop`` topic e-stops through the supervisor.
 
     Returns:
         pirate_bt.task.mission.MissionResult: ``status``, ``why``, ``failing_node``,
@@ -293,9 +307,11 @@ def simulate_mission(
     started = time.perf_counter()
     with (
         foxglove_server(foxglove) as server,
+        ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         connect(world, robot=description, seed=seed, faults=faults) as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
+        ros2_view = ros2_mission_observer(node, connection, description) if node else None
         result = _mission(
             connection,
             plan,
@@ -305,7 +321,7 @@ def simulate_mission(
             map_tolerance=map_tolerance,
             live=live,
             realtime=realtime,
-            observe=chain(live_view, observe),
+            observe=chain(live_view, ros2_view, observe),
             return_on_stop=return_on_stop,
         )
     if out is not None:
@@ -328,6 +344,9 @@ def run_mission(
     live: bool = False,
     foxglove: FoxgloveOption = None,
     observe: MissionObserver | None = None,
+    ros2: Ros2Option = None,
+    ros_domain_id: int | None = None,
+    ros_namespace: str | None = None,
 ) -> MissionResult:
     """Run a mission on a real robot at ``port``, as :func:`simulate_mission` does.
 
@@ -356,9 +375,11 @@ def run_mission(
     started = time.perf_counter()
     with (
         foxglove_server(foxglove) as server,
+        ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         connect(port, robot=description, faults=faults) as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
+        ros2_view = ros2_mission_observer(node, connection, description) if node else None
         result = _mission(
             connection,
             plan,
@@ -368,7 +389,7 @@ def run_mission(
             map_tolerance=map_tolerance,
             live=live,
             realtime=False,
-            observe=chain(live_view, observe),
+            observe=chain(live_view, ros2_view, observe),
             return_on_stop=False,
         )
     if out is not None:

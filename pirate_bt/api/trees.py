@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.connection import connect
+from pirate_bt.api.live import Ros2Option, chain, ros2_node, ros2_tree_observer
 from pirate_bt.api.options import load_robot_like, parse_target
 from pirate_bt.api.results import RunResult
 from pirate_bt.api.running import Observer, as_loaded, needs_robot, run_on
@@ -31,6 +32,9 @@ def simulate_tree(
     realtime: bool = False,
     live: bool = False,
     observe: Observer | None = None,
+    ros2: Ros2Option = None,
+    ros_domain_id: int | None = None,
+    ros_namespace: str | None = None,
 ) -> RunResult:
     """Run a tree on the built-in simulator, to its end, and say why it ended.
 
@@ -50,6 +54,11 @@ def simulate_tree(
         realtime: Pace the simulated run to wall time (to watch it).
         live: Draw the tree live on standard error.
         observe: ``observe(runner, connection)`` before the run: attach more hooks.
+        ros2: Show the run on a ROS 2 graph over Zenoh (``"tcp/HOST:PORT"`` of a
+            router, ``True`` for rmw_zenoh's default, or an open ``Ros2Node``); its
+            ``estop`` topic e-stops the robot through the supervisor (docs/ros2.md).
+        ros_domain_id: The ROS domain (default: ``ROS_DOMAIN_ID``, else 0).
+        ros_namespace: The namespace of the node and its topics (default ``/pirate``).
 
     Returns:
         RunResult: How the run ended and why; a failed run is a result, not an
@@ -71,23 +80,24 @@ def simulate_tree(
     """
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
-    options: dict[str, Any] = {
-        "max_time": max_time,
-        "rate": rate,
-        "trace": trace,
-        "realtime": realtime,
-        "live": live,
-        "observe": observe,
-    }
-    if not needs_robot(checked):
-        return run_on(None, checked, robot=description, **options)
-    with connect(
-        f"sim:{network}" if isinstance(network, str) else network,
-        robot=description,
-        seed=seed,
-        faults=faults,
-    ) as connection:
-        return run_on(connection, checked, count_from_open=True, **options)
+    with ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node:
+        options: dict[str, Any] = {
+            "max_time": max_time,
+            "rate": rate,
+            "trace": trace,
+            "realtime": realtime,
+            "live": live,
+            "observe": chain(ros2_tree_observer(node, description) if node else None, observe),
+        }
+        if not needs_robot(checked):
+            return run_on(None, checked, robot=description, **options)
+        with connect(
+            f"sim:{network}" if isinstance(network, str) else network,
+            robot=description,
+            seed=seed,
+            faults=faults,
+        ) as connection:
+            return run_on(connection, checked, count_from_open=True, **options)
 
 
 def run_tree(
@@ -102,6 +112,9 @@ def run_tree(
     rate: str | float = "20 Hz",
     live: bool = False,
     observe: Observer | None = None,
+    ros2: Ros2Option = None,
+    ros_domain_id: int | None = None,
+    ros_namespace: str | None = None,
 ) -> RunResult:
     """Run a tree on a real robot (a PIRATEbay bridge at ``port``), as :func:`simulate_tree`.
 
@@ -124,7 +137,10 @@ def run_tree(
         raise InputError(f"port: {port!r} is not a serial port or pyserial URL")
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
-    with connect(port, robot=description, faults=faults) as connection:
+    with (
+        ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
+        connect(port, robot=description, faults=faults) as connection,
+    ):
         return run_on(
             connection,
             checked,
@@ -132,6 +148,6 @@ def run_tree(
             rate=rate,
             trace=trace,
             live=live,
-            observe=observe,
+            observe=chain(ros2_tree_observer(node, description) if node else None, observe),
             count_from_open=True,
         )

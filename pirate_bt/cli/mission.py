@@ -66,6 +66,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.foxglove_option import add_foxglove_option
 
     add_foxglove_option(parser)
+    from pirate_bt.interop.ros2_option import add_ros2_options
+
+    add_ros2_options(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no live view, no plan")
     parser.add_argument("--plan", action="store_true", help="print the plan and stop")
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
@@ -158,9 +161,15 @@ def execute(
     if getattr(args, "trace", None) is not None:
         trace_path = args.trace
     from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
-    from pirate_bt.cli.run import open_foxglove
+    from pirate_bt.cli.run import open_foxglove, open_ros2
 
     server = open_foxglove(args)
+    try:
+        node = open_ros2(args)
+    except BaseException:
+        if server is not None:
+            server.close()
+        raise
     options: dict[str, Any] = {
         "faults": args.faults,
         "trace": trace_path,
@@ -170,6 +179,7 @@ def execute(
         "map_tolerance": tolerance,
         "live": (not args.quiet) if live is None else live,
         "foxglove": server,
+        "ros2": node,
     }
     started = time.perf_counter()
     try:
@@ -182,6 +192,8 @@ def execute(
     finally:
         if server is not None:
             server.close()
+        if node is not None:
+            node.close()
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:

@@ -20,7 +20,7 @@ from pirate_bt.api.options import split_faults
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
-__all__ = ["configure", "open_foxglove", "parse_params", "run", "split_faults"]
+__all__ = ["configure", "open_foxglove", "open_ros2", "parse_params", "run", "split_faults"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -54,6 +54,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.foxglove_option import add_foxglove_option
 
     add_foxglove_option(parser)
+    from pirate_bt.interop.ros2_option import add_ros2_options
+
+    add_ros2_options(parser)
 
 
 def _quantity(text: str, dimension: str, option: str) -> float:
@@ -95,6 +98,26 @@ def open_foxglove(args: argparse.Namespace) -> Any:
     return server
 
 
+def open_ros2(args: argparse.Namespace) -> Any:
+    """The ROS 2 node of ``--ros2 [ENDPOINT]``, or ``None`` without the option.
+
+    Raises:
+        InputError: a bad endpoint, domain id or namespace.
+        ConfigurationError: the ``ros2`` extra is missing.
+    """
+    if getattr(args, "ros2", None) is None:
+        return None
+    from pirate_bt.interop.ros2_live import Ros2Node
+
+    node = Ros2Node(args.ros2, domain_id=args.ros_domain_id, namespace=args.ros_namespace)
+    print(
+        f"pirate-bt: ROS 2 node {node.namespace}/{node.name} on Zenoh {node.endpoint},"
+        f" domain {node.domain_id} (e-stop: {node.fq_estop})",
+        file=sys.stderr,
+    )
+    return node
+
+
 def run(args: argparse.Namespace) -> int:
     """Parse, check the tree (exit 2 before connecting), call the API, print."""
     from pirate_bt.api.live import tree_observer
@@ -118,6 +141,12 @@ def run(args: argparse.Namespace) -> int:
         params_origin="--param",
     )
     server = open_foxglove(args)
+    try:
+        node = open_ros2(args)
+    except BaseException:
+        if server is not None:
+            server.close()
+        raise
     options: dict[str, Any] = {
         "faults": args.faults,
         "trace": args.trace,
@@ -126,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
         "rate": rate_hz,
         "live": not args.quiet,
         "observe": tree_observer(server, robot) if server is not None else None,
+        "ros2": node,
     }
     try:
         if args.port is not None:
@@ -141,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if server is not None:
             server.close()
+        if node is not None:
+            node.close()
     if result.succeeded:
         print(result.summary())
         return 0

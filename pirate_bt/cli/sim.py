@@ -71,6 +71,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.foxglove_option import add_foxglove_option
 
     add_foxglove_option(parser)
+    from pirate_bt.interop.ros2_option import add_ros2_options
+
+    add_ros2_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -84,9 +87,15 @@ def run(args: argparse.Namespace) -> int:
     if args.firmware is not None:
         return _run_firmware(args, robot)
     noise = SensorNoise.typical() if args.noise else None
-    from pirate_bt.cli.run import open_foxglove
+    from pirate_bt.cli.run import open_foxglove, open_ros2
 
     foxglove = open_foxglove(args)
+    try:
+        ros2 = open_ros2(args)
+    except BaseException:
+        if foxglove is not None:
+            foxglove.close()
+        raise
     sim = Simulator(args.network, robot, seed=args.seed, noise=noise, faults=args.fault)
     server = SimServer(sim, speed=args.speed)
     halt = None
@@ -94,6 +103,11 @@ def run(args: argparse.Namespace) -> int:
         from pirate_bt.interop.foxglove_live import publish_simulator
 
         halt = publish_simulator(foxglove, sim)
+    halt_ros2 = None
+    if ros2 is not None:
+        from pirate_bt.interop.ros2_live import publish_simulator as publish_ros2
+
+        halt_ros2 = publish_ros2(ros2, sim)
     try:
         if args.tcp is not None:
             host, port = server.open_tcp(args.tcp)
@@ -107,6 +121,10 @@ def run(args: argparse.Namespace) -> int:
             halt()
         if foxglove is not None:
             foxglove.close()
+        if halt_ros2 is not None:
+            halt_ros2()
+        if ros2 is not None:
+            ros2.close()
         server.close()
         sim.close()
     c = sim.counters()

@@ -222,6 +222,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.foxglove_option import add_foxglove_option
 
     add_foxglove_option(parser)
+    from pirate_bt.interop.ros2_option import add_ros2_options
+
+    add_ros2_options(parser)
 
 
 def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
@@ -280,18 +283,27 @@ def run(args: argparse.Namespace) -> int:
     if safety_log.level == logging.NOTSET:
         # The console shows every verdict itself; the log would say each twice.
         safety_log.setLevel(logging.ERROR)
-    from pirate_bt.cli.run import open_foxglove
+    from pirate_bt.cli.run import open_foxglove, open_ros2
 
     foxglove = open_foxglove(args)
+    node = None
     try:
-        return _run_session(args, robot, mode, period_s, foxglove)
+        node = open_ros2(args)
+        return _run_session(args, robot, mode, period_s, foxglove, node)
     finally:
         if foxglove is not None:
             foxglove.close()
+        if node is not None:
+            node.close()
 
 
 def _run_session(
-    args: argparse.Namespace, robot: RobotDescription, mode: Mode, period_s: float, foxglove: Any
+    args: argparse.Namespace,
+    robot: RobotDescription,
+    mode: Mode,
+    period_s: float,
+    foxglove: Any,
+    ros2: Any = None,
 ) -> int:
     from pirate_bt.api.connection import connect
 
@@ -310,6 +322,11 @@ def _run_session(
             from pirate_bt.interop.foxglove_live import serve_supervisor
 
             session.after_step.append(serve_supervisor(foxglove, sup, robot=robot))
+        if ros2 is not None:
+            # The supervisor drains the graph's e-stop topic like the console's e-stop key.
+            from pirate_bt.interop.ros2_live import serve_supervisor as serve_ros2
+
+            session.after_step.append(serve_ros2(ros2, sup, robot=robot))
         if args.keys is not None:
             return _run_keys(session, args.keys, period_s)
         factory = _runner_factory(args, robot, connection, period_s)
