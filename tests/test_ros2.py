@@ -401,3 +401,71 @@ def test_a_failing_publisher_never_reaches_the_tick(router: int) -> None:
         node.close()
     assert result.succeeded
     assert calls.is_set() and not node.enabled
+
+
+# --- rosbag2 --------------------------------------------------------------------------------------
+
+
+def test_a_mission_exports_to_a_rosbag2_directory_that_rosbags_reads_back_whole(
+    tmp_path: Path,
+) -> None:
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    from pirate_bt.cli import main
+    from pirate_bt.interop.rosbag2 import read_rosbag2_records
+
+    trace_path = tmp_path / "run.jsonl"
+    result = pirate_bt.simulate_mission("bend-right", trace=trace_path)
+    assert result.succeeded
+    bag = tmp_path / "run_bag"
+    assert main(["trace", "export", str(trace_path), "-o", f"{bag}/"]) == 0
+    assert sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "run_bag.mcap"]
+    lines = [json.loads(line) for line in trace_path.read_text().splitlines() if line.strip()]
+    assert read_rosbag2_records(bag) == lines  # every record, whole
+
+    jazzy = get_typestore(Stores.ROS2_JAZZY)
+    trace = pirate_bt.read_trace(trace_path)
+    with AnyReader([bag], default_typestore=jazzy) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == {
+            rmw_zenoh.qualified_name("/pirate", t): ty
+            for t, ty in {**TOPIC_TYPES, "trace": "std_msgs/msg/String"}.items()
+            if t != "/clock"
+        }
+        import yaml
+
+        meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        assert meta["storage_identifier"] == "mcap"
+        for topic in meta["topics_with_message_count"]:
+            info = topic["topic_metadata"]
+            assert info["serialization_format"] == "cdr"
+            if not info["type"].startswith("py_trees"):
+                assert info["type_description_hash"] == jazzy.hash_rihs01(info["type"])
+        by_tick: dict[float, int] = {}
+        counts: dict[str, int] = {}
+        trace_msgs = [c for c in reader.connections if c.topic == "/pirate/trace"]
+        start_ns = 0
+        for c, stamp, raw in reader.messages(connections=trace_msgs):
+            record = json.loads(reader.deserialize(raw, c.msgtype).data)
+            if record["type"] == "header":
+                start_ns = stamp
+            elif record["type"] == "tick":
+                by_tick[round((stamp - start_ns) / 1e9, 6)] = record["n"]
+        for c, stamp, raw in reader.messages():
+            counts[c.topic] = counts.get(c.topic, 0) + 1
+            message = reader.deserialize(raw, c.msgtype)
+            if c.topic == "/pirate/joint_states":
+                n = by_tick[round((stamp - start_ns) / 1e9, 6)]
+                state = trace.frame_at(n).state
+                for name, position in zip(message.name, message.position, strict=True):
+                    key = f"joint_angle_rad.{name}"
+                    if key in state:
+                        assert position == pytest.approx(state[key], abs=1e-9)
+            elif c.topic == "/pirate/tree/snapshots":
+                n = int(message.statistics.count)
+                codes = {1: "I", 2: "R", 3: "S", 4: "F"}
+                status = trace.frame_at(n).status
+                for info, behaviour in zip(trace.structure, message.behaviours, strict=True):
+                    assert codes[behaviour.status] == status.get(info.id, "I")
+        assert counts["/pirate/trace"] == len(lines)
+        assert counts["/pirate/joint_states"] > 10 and counts["/pirate/tree/snapshots"] > 10

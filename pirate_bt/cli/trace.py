@@ -36,15 +36,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     subs.add_parser("schema", help="print the JSON Schema of one trace record")
     export = subs.add_parser(
-        "export", help="write the trace for other tools: .btlog (Groot2), .mcap (Foxglove)"
+        "export",
+        help="write the trace for other tools: .btlog (Groot2), .mcap (Foxglove),"
+        " RUN_bag/ (a rosbag2 directory for ROS 2)",
     )
     export.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
     export.add_argument(
         "-o",
         "--output",
-        type=Path,
         required=True,
-        help="file to write; its suffix picks the format",
+        help="file to write; its suffix picks the format (a name ending in / or _bag:"
+        " a rosbag2 directory)",
     )
 
 
@@ -115,7 +117,13 @@ def _export(args: argparse.Namespace) -> int:
     import importlib
 
     from pirate_bt.errors import InputError
+    from pirate_bt.interop.rosbag2 import export_rosbag2, is_bag_path
 
+    target = str(args.output)
+    if is_bag_path(target):
+        print(f"wrote {export_rosbag2(args.trace, Path(target))}")
+        return 0
+    args.output = Path(target)
     suffix = args.output.suffix.lower()
     if suffix not in EXPORTS:
         raise InputError(

@@ -1,0 +1,183 @@
+"""Traces as rosbag2 directories: ``ros2 bag play``, ``ros2 bag info`` and Foxglove open them.
+
+``pirate-bt trace export RUN.jsonl -o RUN_bag/`` (a name ending in ``/`` or
+``_bag``, or an existing empty directory) writes a rosbag2 bag: a directory
+with ``metadata.yaml`` and one MCAP file, every message in CDR. It holds the
+topics the live ROS 2 output shows (:mod:`pirate_bt.interop.ros2_topics`, under
+the namespace, ``/pirate`` by default), each written when its content changed,
+stamped with the run's clock (the trace's ``created_utc`` plus ``t_s``), and one
+more topic, ``<namespace>/trace`` (``std_msgs/msg/String``): every record of the
+trace as its JSON text, so the bag holds the whole run and
+:func:`read_rosbag2_records` gives the trace back record for record. There is no
+``/clock`` in a bag; ``ros2 bag play --clock`` publishes one.
+
+The bag is written beside the target under a temporary name and renamed into
+place when complete: an error leaves nothing half-written. Bags are written with
+`rosbags <https://gitlab.com/ternaris/rosbags>`_ (storage ``mcap``, bag format
+version 9, the RIHS01 type hashes in the metadata).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
+from pirate_bt.interop.ros2_topics import (
+    CLOCK,
+    Ros2Mapper,
+    frames_from_records,
+    start_ns_of,
+)
+from pirate_bt.interop.ros2_types import missing, serialize, type_hash, typestore
+
+__all__ = ["TRACE_TOPIC", "export_rosbag2", "is_bag_path", "read_rosbag2_records"]
+
+TRACE_TOPIC = "trace"
+"""The topic (relative to the namespace) that holds every trace record as JSON text."""
+
+
+def is_bag_path(text: str | Path) -> bool:
+    """Whether an export target names a rosbag2 directory (see the module docstring)."""
+    raw = str(text)
+    if raw.endswith(("/", os.sep)) or raw.rstrip("/").endswith("_bag"):
+        return True
+    path = Path(raw)
+    return path.is_dir() and not any(path.iterdir())
+
+
+def _rosbags() -> Any:
+    try:
+        from rosbags import rosbag2
+    except ImportError:
+        raise ConfigurationError(missing("a rosbag2 export", "rosbags")) from None
+    return rosbag2
+
+
+def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_NAMESPACE) -> Path:
+    """Convert a trace file to a rosbag2 directory (MCAP storage, CDR).
+
+    Args:
+        trace_path: The trace (any suffix :func:`pirate_bt.trace.read_trace` reads).
+        out_dir: The bag directory to write; it must not exist, or be empty.
+        namespace: The namespace of the topics.
+
+    Returns:
+        ``out_dir``.
+
+    Raises:
+        InputError: the trace cannot be read or is not a trace; ``out_dir`` is not empty.
+        ConfigurationError: ``rosbags`` is missing.
+    """
+    from pirate_bt.interop.rmw_zenoh import qualified_name
+    from pirate_bt.trace.reader import open_reader
+    from pirate_bt.trace.structure import TreeStructure
+
+    rosbag2 = _rosbags()
+    out = Path(str(out_dir).rstrip("/") or ".")
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"{out}: exists and is not an empty directory; rosbag2 writes a new one")
+    store = typestore()
+    records = iter(open_reader(Path(trace_path)))
+    temp = Path(
+        tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else ".")
+    )
+    bag = temp / out.name
+    try:
+        with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:
+            connections: dict[str, Any] = {}
+
+            def connection(topic: str, type_name: str) -> Any:
+                if topic not in connections:
+                    connections[topic] = writer.add_connection(
+                        qualified_name(namespace, topic),
+                        type_name,
+                        typestore=store,
+                        rihs01=type_hash(type_name),
+                    )
+                return connections[topic]
+
+            mapper: Ros2Mapper | None = None
+            start_ns = 0
+            first = True
+            string_type = "std_msgs/msg/String"
+            current = [0]
+
+            def numbered() -> Iterator[Any]:
+                for line, record in records:
+                    current[0] = line  # frames_from_records yields once per record, in order
+                    yield record
+
+            for record, frame in frames_from_records(numbered()):
+                line = current[0]
+                if first and record.get("type") != "header":
+                    raise InputError(
+                        f"{trace_path}:{line}: not a trace: the first record is no header"
+                    )
+                if record.get("type") == "header":
+                    structure = TreeStructure.from_json(
+                        record.get("tree") or {"name": "", "nodes": []}
+                    )
+                    start_ns = start_ns_of(record)
+                    mapper = Ros2Mapper(
+                        structure,
+                        start_ns,
+                        hardware_id=str((record.get("robot") or {}).get("name") or "pirate"),
+                        period_s=float(record.get("tick_period_s") or 0.0),
+                    )
+                first = False
+                when = start_ns + round(float(record.get("t_s") or 0.0) * 1e9)
+                text = json.dumps(record, ensure_ascii=False, separators=(",", ":"))
+                message = store.types[string_type](data=text)
+                writer.write(
+                    connection(TRACE_TOPIC, string_type), when, serialize(message, string_type)
+                )
+                if frame is None or mapper is None:
+                    continue
+                for out_message in mapper.messages(frame, changed=True):
+                    if out_message.topic == CLOCK:
+                        continue
+                    writer.write(
+                        connection(out_message.topic, out_message.type_name),
+                        out_message.stamp_ns,
+                        serialize(out_message.message, out_message.type_name),
+                    )
+            if first:
+                raise InputError(f"{trace_path}: empty trace (no header)")
+        if out.exists():
+            out.rmdir()
+        bag.rename(out)
+    finally:
+        shutil.rmtree(temp, ignore_errors=True)
+    return out
+
+
+def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> list[dict[str, Any]]:
+    """The trace records a bag written by :func:`export_rosbag2` holds, in order.
+
+    Raises:
+        InputError: not a bag, or no trace topic in it.
+        ConfigurationError: ``rosbags`` is missing.
+    """
+    from pirate_bt.interop.rmw_zenoh import qualified_name
+
+    rosbag2 = _rosbags()
+    topic = qualified_name(namespace, TRACE_TOPIC)
+    store = typestore()
+    try:
+        with rosbag2.Reader(Path(bag)) as reader:
+            chosen = [c for c in reader.connections if c.topic == topic]
+            if not chosen:
+                raise InputError(f"{bag}: no {topic} topic (not exported by pirate-bt?)")
+            return [
+                json.loads(store.deserialize_cdr(raw, c.msgtype).data)
+                for c, _, raw in reader.messages(connections=chosen)
+            ]
+    except rosbag2.ReaderError as exc:
+        raise InputError(f"{bag}: not a readable rosbag2 bag: {exc}") from None
