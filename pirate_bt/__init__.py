@@ -42,6 +42,9 @@ _EXPORTS: dict[str, str] = {
     "load_network": "pirate_bt.api.missions",
     "write_mission_outputs": "pirate_bt.api.missions",
     "run_campaign": "pirate_bt.campaign",
+    # live views of your own runners
+    "attach_groot2": "pirate_bt.interop.groot2_server",
+    "Groot2Server": "pirate_bt.interop.groot2_server",
     # results
     "RunResult": "pirate_bt.api.results",
     "MissionResult": "pirate_bt.task.mission",
@@ -73,6 +76,7 @@ __all__ = [
     "ConfigurationError",
     "Connection",
     "Counters",
+    "Groot2Server",
     "InputError",
     "LinkError",
     "LocatedError",
@@ -85,6 +89,7 @@ __all__ = [
     "StopReason",
     "ValidationFailed",
     "__version__",
+    "attach_groot2",
     "connect",
     "load_network",
     "load_robot",
@@ -139,6 +144,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         SafetyError,
         ValidationFailed,
     )
+    from pirate_bt.interop.groot2_server import Groot2Server, attach_groot2
     from pirate_bt.render.tree import render_tree
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason

@@ -10,6 +10,11 @@ closed when the run ends; one the caller passed stays open.
 :class:`~pirate_bt.interop.ros2_live.Ros2Node`) shows the run on a ROS 2 graph
 over Zenoh, with ``ros_domain_id=`` and ``ros_namespace=``; the node's e-stop
 topic reaches the run's supervisor as an operator e-stop (``docs/ros2.md``).
+
+``groot2="127.0.0.1:1667"`` (or ``True`` for that default, or an open
+:class:`~pirate_bt.interop.groot2_server.Groot2Server`) serves the run live to
+Groot2 (``docs/interop-groot2.md``); :func:`pirate_bt.attach_groot2` does it for a
+runner of your own.
 """
 
 from __future__ import annotations
@@ -20,8 +25,12 @@ from typing import Any
 
 __all__ = [
     "FoxgloveOption",
+    "Groot2Option",
     "Ros2Option",
     "foxglove_server",
+    "groot2_mission_observer",
+    "groot2_server",
+    "groot2_tree_observer",
     "mission_observer",
     "ros2_mission_observer",
     "ros2_node",
@@ -175,6 +184,72 @@ def ros2_mission_observer(
             more=localiser_values,
             robot=robot,
         )
+
+    return observe
+
+
+Groot2Option = str | int | bool | Any | None
+"""``None``/``False``: off; ``True``: 127.0.0.1:1667; ``"HOST:PORT"`` or a port; or an open
+:class:`~pirate_bt.interop.groot2_server.Groot2Server`."""
+
+
+@contextlib.contextmanager
+def groot2_server(option: Groot2Option) -> Iterator[Any]:
+    """The Groot2 server for a ``groot2=`` option (``None`` when off), closed at the end if
+    opened here.
+
+    Raises:
+        InputError: a bad address, or a port is taken.
+        ConfigurationError: the ``groot2`` extra is missing.
+    """
+    if option is None or option is False:
+        yield None
+        return
+    if not isinstance(option, str | bool | int):
+        yield option
+        return
+    from pirate_bt.interop.groot2_server import Groot2Server, parse_groot2_address
+
+    text = None if option is True else str(option)
+    host, port = parse_groot2_address(text)
+    server = Groot2Server(host, port)
+    try:
+        yield server
+    finally:
+        server.close()
+
+
+def _robot_of(connection: Any) -> str | None:
+    """Where a connection runs when that is a robot (``None``: a simulator, or none)."""
+    if connection is None or connection.simulator is not None:
+        return None
+    return str(connection.description)
+
+
+def groot2_tree_observer(server: Any) -> Callable[[Any, Any], None]:
+    """``observe(runner, connection)`` serving a tree run to Groot2 on ``server``."""
+    from pirate_bt.interop.groot2_server import attach_groot2
+
+    def observe(runner: Any, connection: Any) -> None:
+        attach_groot2(
+            runner,
+            server,
+            supervisor=connection.supervisor if connection is not None else None,
+            robot=_robot_of(connection),
+        )
+
+    return observe
+
+
+def groot2_mission_observer(
+    server: Any, connection: Any
+) -> Callable[[Any, Callable[[], dict[str, float]]], None]:
+    """``observe(runner, localiser_values)`` serving every runner of a mission to Groot2
+    (the mission, a re-plan, the way back: each a new tree for Groot2)."""
+    from pirate_bt.interop.groot2_server import attach_groot2
+
+    def observe(runner: Any, _localiser_values: Callable[[], dict[str, float]]) -> None:
+        attach_groot2(runner, server, supervisor=connection.supervisor, robot=_robot_of(connection))
 
     return observe
 

@@ -19,9 +19,12 @@ from typing import TYPE_CHECKING, Any
 from pirate_bt.api.connection import Connection, connect
 from pirate_bt.api.live import (
     FoxgloveOption,
+    Groot2Option,
     Ros2Option,
     chain,
     foxglove_server,
+    groot2_mission_observer,
+    groot2_server,
     mission_observer,
     ros2_mission_observer,
     ros2_node,
@@ -251,6 +254,7 @@ def simulate_mission(
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
+    groot2: Groot2Option = None,
 ) -> MissionResult:
     """Plan a route on a map (unless given a plan) and run it on the simulator.
 
@@ -280,6 +284,9 @@ def simulate_mission(
         ros2: Show the run on a ROS 2 graph over Zenoh (``"tcp/HOST:PORT"``, ``True``
             or an open ``Ros2Node``; docs/ros2.md), with ``ros_domain_id`` and
             ``ros_namespace``; its ``estop`` topic e-stops through the supervisor.
+        groot2: Serve the run live to Groot2 (``"HOST:PORT"``, a port, ``True`` for
+            127.0.0.1:1667, or an open ``Groot2Server``; docs/interop-groot2.md):
+            each runner of the mission (a re-plan, the way back) is a new tree there.
 
     Returns:
         pirate_bt.task.mission.MissionResult: ``status``, ``why``, ``failing_node``,
@@ -308,10 +315,12 @@ def simulate_mission(
     with (
         foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
+        groot2_server(groot2) as groot2_view,
         connect(world, robot=description, seed=seed, faults=faults) as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
         ros2_view = ros2_mission_observer(node, connection, description) if node else None
+        groot2_live = groot2_mission_observer(groot2_view, connection) if groot2_view else None
         result = _mission(
             connection,
             plan,
@@ -321,7 +330,7 @@ def simulate_mission(
             map_tolerance=map_tolerance,
             live=live,
             realtime=realtime,
-            observe=chain(live_view, ros2_view, observe),
+            observe=chain(live_view, ros2_view, groot2_live, observe),
             return_on_stop=return_on_stop,
         )
     if out is not None:
@@ -347,6 +356,7 @@ def run_mission(
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
+    groot2: Groot2Option = None,
 ) -> MissionResult:
     """Run a mission on a real robot at ``port``, as :func:`simulate_mission` does.
 
@@ -376,10 +386,12 @@ def run_mission(
     with (
         foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
+        groot2_server(groot2) as groot2_view,
         connect(port, robot=description, faults=faults) as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
         ros2_view = ros2_mission_observer(node, connection, description) if node else None
+        groot2_live = groot2_mission_observer(groot2_view, connection) if groot2_view else None
         result = _mission(
             connection,
             plan,
@@ -389,7 +401,7 @@ def run_mission(
             map_tolerance=map_tolerance,
             live=live,
             realtime=False,
-            observe=chain(live_view, ros2_view, observe),
+            observe=chain(live_view, ros2_view, groot2_live, observe),
             return_on_stop=False,
         )
     if out is not None:

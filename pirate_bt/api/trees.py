@@ -10,7 +10,15 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.connection import connect
-from pirate_bt.api.live import Ros2Option, chain, ros2_node, ros2_tree_observer
+from pirate_bt.api.live import (
+    Groot2Option,
+    Ros2Option,
+    chain,
+    groot2_server,
+    groot2_tree_observer,
+    ros2_node,
+    ros2_tree_observer,
+)
 from pirate_bt.api.options import load_robot_like, parse_target
 from pirate_bt.api.results import RunResult
 from pirate_bt.api.running import Observer, as_loaded, needs_robot, run_on
@@ -35,6 +43,7 @@ def simulate_tree(
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
+    groot2: Groot2Option = None,
 ) -> RunResult:
     """Run a tree on the built-in simulator, to its end, and say why it ended.
 
@@ -59,6 +68,8 @@ def simulate_tree(
             ``estop`` topic e-stops the robot through the supervisor (docs/ros2.md).
         ros_domain_id: The ROS domain (default: ``ROS_DOMAIN_ID``, else 0).
         ros_namespace: The namespace of the node and its topics (default ``/pirate``).
+        groot2: Serve the run live to Groot2 (``"HOST:PORT"``, a port, ``True`` for
+            127.0.0.1:1667, or an open ``Groot2Server``; docs/interop-groot2.md).
 
     Returns:
         RunResult: How the run ended and why; a failed run is a result, not an
@@ -80,14 +91,21 @@ def simulate_tree(
     """
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
-    with ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node:
+    with (
+        ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
+        groot2_server(groot2) as groot2_view,
+    ):
         options: dict[str, Any] = {
             "max_time": max_time,
             "rate": rate,
             "trace": trace,
             "realtime": realtime,
             "live": live,
-            "observe": chain(ros2_tree_observer(node, description) if node else None, observe),
+            "observe": chain(
+                ros2_tree_observer(node, description) if node else None,
+                groot2_tree_observer(groot2_view) if groot2_view else None,
+                observe,
+            ),
         }
         if not needs_robot(checked):
             return run_on(None, checked, robot=description, **options)
@@ -115,6 +133,7 @@ def run_tree(
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
+    groot2: Groot2Option = None,
 ) -> RunResult:
     """Run a tree on a real robot (a PIRATEbay bridge at ``port``), as :func:`simulate_tree`.
 
@@ -122,7 +141,10 @@ def run_tree(
         port: A serial port or pyserial URL (``"/dev/ttyACM0"``, ``"socket://host:7000"``).
         faults: Link faults only (``"drop=0.05"``), for testing a link.
 
-    The other arguments are :func:`simulate_tree`'s. Runs on the wall clock.
+    The other arguments are :func:`simulate_tree`'s. Runs on the wall clock. With
+    ``groot2``, Groot2 may set breakpoints but not replace a node's result (refused
+    against a robot), and a client that falls silent at a breakpoint ends the run in
+    the safe state.
 
     Example::
 
@@ -139,6 +161,7 @@ def run_tree(
     checked = as_loaded(tree, description, params)
     with (
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
+        groot2_server(groot2) as groot2_view,
         connect(port, robot=description, faults=faults) as connection,
     ):
         return run_on(
@@ -148,6 +171,10 @@ def run_tree(
             rate=rate,
             trace=trace,
             live=live,
-            observe=chain(ros2_tree_observer(node, description) if node else None, observe),
+            observe=chain(
+                ros2_tree_observer(node, description) if node else None,
+                groot2_tree_observer(groot2_view) if groot2_view else None,
+                observe,
+            ),
             count_from_open=True,
         )

@@ -69,6 +69,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.ros2_option import add_ros2_options
 
     add_ros2_options(parser)
+    from pirate_bt.interop.groot2_option import add_groot2_option
+
+    add_groot2_option(parser)
     parser.add_argument("-q", "--quiet", action="store_true", help="no live view, no plan")
     parser.add_argument("--plan", action="store_true", help="print the plan and stop")
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
@@ -161,7 +164,7 @@ def execute(
     if getattr(args, "trace", None) is not None:
         trace_path = args.trace
     from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
-    from pirate_bt.cli.run import open_foxglove, open_ros2
+    from pirate_bt.cli.run import open_foxglove, open_groot2, open_ros2
 
     server = open_foxglove(args)
     try:
@@ -169,6 +172,13 @@ def execute(
     except BaseException:
         if server is not None:
             server.close()
+        raise
+    try:
+        groot2 = open_groot2(args)
+    except BaseException:
+        for opened in (server, node):
+            if opened is not None:
+                opened.close()
         raise
     options: dict[str, Any] = {
         "faults": args.faults,
@@ -180,6 +190,7 @@ def execute(
         "live": (not args.quiet) if live is None else live,
         "foxglove": server,
         "ros2": node,
+        "groot2": groot2,
     }
     started = time.perf_counter()
     try:
@@ -194,6 +205,8 @@ def execute(
             server.close()
         if node is not None:
             node.close()
+        if groot2 is not None:
+            groot2.close()
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:

@@ -20,7 +20,15 @@ from pirate_bt.api.options import split_faults
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
-__all__ = ["configure", "open_foxglove", "open_ros2", "parse_params", "run", "split_faults"]
+__all__ = [
+    "configure",
+    "open_foxglove",
+    "open_groot2",
+    "open_ros2",
+    "parse_params",
+    "run",
+    "split_faults",
+]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -57,6 +65,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.ros2_option import add_ros2_options
 
     add_ros2_options(parser)
+    from pirate_bt.interop.groot2_option import add_groot2_option
+
+    add_groot2_option(parser)
 
 
 def _quantity(text: str, dimension: str, option: str) -> float:
@@ -118,6 +129,27 @@ def open_ros2(args: argparse.Namespace) -> Any:
     return node
 
 
+def open_groot2(args: argparse.Namespace) -> Any:
+    """The Groot2 server of ``--groot2 [HOST:]PORT``, or ``None`` without the option.
+
+    Raises:
+        InputError: a bad address, or a port is taken.
+        ConfigurationError: the ``groot2`` extra is missing.
+    """
+    if getattr(args, "groot2", None) is None:
+        return None
+    from pirate_bt.interop.groot2_server import Groot2Server, parse_groot2_address
+
+    host, port = parse_groot2_address(args.groot2)
+    server = Groot2Server(host, port)
+    print(
+        f"pirate-bt: Groot2 live view on {server.address} (and {server.port + 1});"
+        " in Groot2: Monitor, Connect",
+        file=sys.stderr,
+    )
+    return server
+
+
 def run(args: argparse.Namespace) -> int:
     """Parse, check the tree (exit 2 before connecting), call the API, print."""
     from pirate_bt.api.live import tree_observer
@@ -147,6 +179,13 @@ def run(args: argparse.Namespace) -> int:
         if server is not None:
             server.close()
         raise
+    try:
+        groot2 = open_groot2(args)
+    except BaseException:
+        for opened in (server, node):
+            if opened is not None:
+                opened.close()
+        raise
     options: dict[str, Any] = {
         "faults": args.faults,
         "trace": args.trace,
@@ -156,6 +195,7 @@ def run(args: argparse.Namespace) -> int:
         "live": not args.quiet,
         "observe": tree_observer(server, robot) if server is not None else None,
         "ros2": node,
+        "groot2": groot2,
     }
     try:
         if args.port is not None:
@@ -173,6 +213,8 @@ def run(args: argparse.Namespace) -> int:
             server.close()
         if node is not None:
             node.close()
+        if groot2 is not None:
+            groot2.close()
     if result.succeeded:
         print(result.summary())
         return 0

@@ -225,6 +225,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.interop.ros2_option import add_ros2_options
 
     add_ros2_options(parser)
+    from pirate_bt.interop.groot2_option import add_groot2_option
+
+    add_groot2_option(parser)
 
 
 def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
@@ -240,7 +243,11 @@ def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
 
 
 def _runner_factory(
-    args: argparse.Namespace, robot: RobotDescription, connection: Any, period_s: float
+    args: argparse.Namespace,
+    robot: RobotDescription,
+    connection: Any,
+    period_s: float,
+    groot2: Any = None,
 ) -> Callable[[], object] | None:
     """Checks ``--tree`` now (exit 2 on a bad tree) and returns how to build its runner
     (:meth:`pirate_bt.Connection.runner`: supervised as every run is)."""
@@ -262,7 +269,12 @@ def _runner_factory(
         # py_trees times setup out with a signal, which only the main thread may set;
         # the console runs the tree in its engine thread. Its "infinite"
         # (sys.float_info.max) is the value that skips the signal.
-        return connection.runner(checked, rate=1.0 / period_s, setup_timeout_s=sys.float_info.max)
+        runner = connection.runner(checked, rate=1.0 / period_s, setup_timeout_s=sys.float_info.max)
+        if groot2 is not None:
+            from pirate_bt.api.live import groot2_tree_observer
+
+            groot2_tree_observer(groot2)(runner, connection)
+        return runner
 
     return factory
 
@@ -283,18 +295,20 @@ def run(args: argparse.Namespace) -> int:
     if safety_log.level == logging.NOTSET:
         # The console shows every verdict itself; the log would say each twice.
         safety_log.setLevel(logging.ERROR)
-    from pirate_bt.cli.run import open_foxglove, open_ros2
+    if getattr(args, "groot2", None) is not None and args.tree is None:
+        raise InputError("--groot2 shows a running tree: give it one with --tree TREE")
+    from pirate_bt.cli.run import open_foxglove, open_groot2, open_ros2
 
     foxglove = open_foxglove(args)
-    node = None
+    node = groot2 = None
     try:
         node = open_ros2(args)
-        return _run_session(args, robot, mode, period_s, foxglove, node)
+        groot2 = open_groot2(args)
+        return _run_session(args, robot, mode, period_s, foxglove, node, groot2)
     finally:
-        if foxglove is not None:
-            foxglove.close()
-        if node is not None:
-            node.close()
+        for opened in (foxglove, node, groot2):
+            if opened is not None:
+                opened.close()
 
 
 def _run_session(
@@ -304,6 +318,7 @@ def _run_session(
     period_s: float,
     foxglove: Any,
     ros2: Any = None,
+    groot2: Any = None,
 ) -> int:
     from pirate_bt.api.connection import connect
 
@@ -329,7 +344,7 @@ def _run_session(
             session.after_step.append(serve_ros2(ros2, sup, robot=robot))
         if args.keys is not None:
             return _run_keys(session, args.keys, period_s)
-        factory = _runner_factory(args, robot, connection, period_s)
+        factory = _runner_factory(args, robot, connection, period_s, groot2)
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
         engine = ConsoleEngine(session, period_s=period_s, runner_factory=factory)

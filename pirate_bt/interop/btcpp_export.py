@@ -24,10 +24,14 @@ from pirate_bt.interop.btcpp_models import (
     node_models,
 )
 from pirate_bt.interop.btcpp_xml import write_atomic
+from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
-from pirate_bt.yamlfile import YamlDocument, load_yaml
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
 
 __all__ = ["export_xml", "tree_to_xml"]
+
+_MAPPING = "<dict>"
+"""The file name of a tree given as a mapping (as the loader names it)."""
 
 
 def _located(doc: YamlDocument, path: tuple[str | int, ...], message: str) -> LocatedError:
@@ -78,6 +82,13 @@ class _Exporter:
         element.append(self.node(doc, (*prefix, "root"), body["root"]))
         return tree_id
 
+    def value(self, doc: YamlDocument, value: Any, port_type: str) -> str:
+        """A value as port text; a mapping's numbers are SI, so they get their unit."""
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if doc.file == _MAPPING and number and port_type in SI_UNITS:
+            return f"{value!r} {SI_UNITS[port_type][1]}"
+        return encode_value(value, port_type)
+
     def file_id(self, doc: YamlDocument) -> str:
         name = doc.data.get("name")
         return name if isinstance(name, str) and name else Path(doc.file).stem
@@ -110,7 +121,7 @@ class _Exporter:
             element.set("name", raw["name"])
         decls = self.declared(target, name)
         for key, value in (raw.get("params") or {}).items():
-            element.set(key, encode_value(value, decls.get(key, "string")))
+            element.set(key, self.value(doc, value, decls.get(key, "string")))
         return element
 
     def declared(self, doc: YamlDocument, name: str) -> dict[str, str]:
@@ -193,7 +204,7 @@ class _Exporter:
         for key, value in params.items():
             port = model.port(key)
             port_type = port.type if port else "boolean"
-            element.set(renames.get(key, key), encode_value(value, port_type))
+            element.set(renames.get(key, key), self.value(doc, value, port_type))
         if "child" in raw:
             element.append(self.node(doc, (*path, "child"), raw["child"]))
         return element
@@ -234,7 +245,7 @@ def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, s
 
 
 def tree_to_xml(
-    path: str | Path,
+    path: str | Path | Mapping[str, Any],
     params: Mapping[str, str] | None = None,
     registry: Registry | None = None,
 ) -> str:
@@ -242,7 +253,10 @@ def tree_to_xml(
 
     The tree is checked first, with the loader (a parameter without a default
     takes ``params``, then its ``example``). Values given in ``params`` become
-    the defaults of the main tree's ports.
+    the defaults of the main tree's ports. ``path`` may also be a tree as a
+    mapping (planner code, a mission's tree): its numbers are SI and are written
+    with their unit (``2.0 s``); its subtree files are found from the current
+    folder, as the loader finds them.
 
     Raises:
         ValidationFailed: the tree does not load.
@@ -251,11 +265,14 @@ def tree_to_xml(
     from pirate_bt.treefile import load_tree
 
     reg = registry or default_registry()
-    source = Path(path)
     given = dict(params or {})
+    source: Path | Mapping[str, Any] = path if isinstance(path, Mapping) else Path(path)
     loaded = load_tree(source, params=given, params_from_text=True, use_examples=True, registry=reg)
     exporter = _Exporter(reg, node_models(reg))
-    exporter.root_doc = exporter.document(source)
+    if isinstance(source, Mapping):
+        exporter.root_doc = YamlDocument(dict(source), Locator(_MAPPING))
+    else:
+        exporter.root_doc = exporter.document(source)
     main_id = exporter.tree(exporter.root_doc, "", loaded.name)
     written_name = exporter.root_doc.data.get("name")
     if not isinstance(written_name, str):  # the file has no name: say so (empty)

@@ -194,6 +194,7 @@ def load_tree(
         warnings=reader.warnings,
         files=[doc.file, *(d.file for d in reader.docs.values() if d.file != doc.file)],
         needs_robot=any(s.cls is not None and s.cls.needs_robot for s in spec.walk()),
+        source=source if isinstance(source, Mapping) else Path(source),
     )
 
 

@@ -7,8 +7,9 @@ tree file allows.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Final
 
 import py_trees
@@ -91,6 +92,9 @@ class LoadedTree:
         warnings: Located warnings (children that can never run, ...).
         files: Every file read, the tree file first.
         needs_robot: Some node talks to the robot.
+        source: What it was loaded from: the tree file's path, or the mapping
+            (``None`` for a tree put together otherwise). The Groot2 server exports
+            it again to show the tree with its subtrees.
     """
 
     name: str
@@ -101,6 +105,7 @@ class LoadedTree:
     warnings: list[LocatedError]
     files: list[str]
     needs_robot: bool
+    source: Path | Mapping[str, Any] | None = field(default=None, repr=False)
 
     def blackboard_defaults(self) -> dict[str, Any]:
         """Declared keys with a default value."""
