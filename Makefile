@@ -7,7 +7,8 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain
+.PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain \
+	flash fuses avrdude
 
 venv: $(STAMP)
 
@@ -44,10 +45,32 @@ avr-toolchain:
 	fi
 
 # The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
-# flash and SRAM use (firmware/piratebay/build/).
+# flash and SRAM use (firmware/piratebay/build/); and the simavr harness that runs it
+# (firmware/simavr/build/), where libsimavr is installed.
+FIRMWARE_ROBOT = ROBOT=$(abspath $(or $(ROBOT),hardware/pirate.yaml)) \
+	PIRATE_BT=$(abspath $(BIN)/pirate-bt)
 firmware: $(STAMP) avr-toolchain
-	$(MAKE) -C firmware/piratebay ROBOT=$(abspath $(or $(ROBOT),hardware/pirate.yaml)) \
-		PIRATE_BT=$(abspath $(BIN)/pirate-bt)
+	$(MAKE) -C firmware/piratebay $(FIRMWARE_ROBOT)
+	@if pkg-config --exists simavr 2>/dev/null; then $(MAKE) -C firmware/simavr; \
+	else echo "note: libsimavr-dev missing: the simavr harness is not built"; fi
+
+# Flash the bridge through the Mega's bootloader: `make flash PORT=/dev/ttyACM0`.
+# `make fuses` sets its fuses (brown-out 4.3 V) with an ISP programmer
+# (PROGRAMMER=usbasp ISP_PORT=usb by default). docs/firmware.md, Flash. avrdude is
+# installed when missing and we may, as the toolchain is.
+FLASH_PACKAGES := avrdude
+avrdude:
+	@if command -v avrdude >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian's $(FLASH_PACKAGES)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(FLASH_PACKAGES) >/dev/null; \
+	else echo "warning: avrdude is missing (Debian: sudo apt-get install avrdude)"; fi
+flash: firmware avrdude
+	$(MAKE) -C firmware/piratebay $(FIRMWARE_ROBOT) flash PORT=$(PORT)
+fuses: avrdude
+	$(MAKE) -C firmware/piratebay fuses $(if $(PROGRAMMER),PROGRAMMER=$(PROGRAMMER)) \
+		$(if $(ISP_PORT),ISP_PORT=$(ISP_PORT))
 
 lint: $(STAMP)
 	$(BIN)/ruff check pirate_bt tests benchmarks examples

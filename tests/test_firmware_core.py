@@ -330,8 +330,9 @@ def test_estop_stops_drives_and_rotation_at_once_and_bend_joints_hold(bridge: Br
     bridge.bus()
     assert bridge.ask(frame(ESTOP, 4), ms=1) == [ack(4, ESTOP)]
     stops = _stops(bridge.bus())
-    assert stops[22] == bytes([KEEP, 0, 0, VELOCITY, 0, 0])  # bend keeps, drive velocity 0
-    assert stops[25] == bytes([PWM, 0, 0, VELOCITY, 0, 0])  # rotate: pwm 0 = brake
+    # board bus 2: a STOP speaks the board's own modes: bend keeps, a drive brakes
+    assert stops[22] == bytes([KEEP, 0, 0, PWM, 0, 0])
+    assert stops[25] == bytes([PWM, 0, 0, PWM, 0, 0])  # rotate: pwm 0 = brake
     assert stops[21] == bytes([PWM, 0, 0, PWM, 0, 0])  # tilt and LEDs: brake
     assert 27 in stops and all(b in stops for b in (20, 23, 24, 26, 28))
     states = bridge.states(12)
@@ -376,7 +377,7 @@ def test_a_rotate_motor_without_pwm_keeps_its_setpoint_on_a_stop(
     bridge.bus()
     assert bridge.ask(frame(ESTOP, 5), ms=1) == [ack(5, ESTOP)]
     stops = _stops(bridge.bus())
-    assert stops[25] == bytes([TORQUE]) + struct.pack("<h", 200) + bytes([VELOCITY, 0, 0])
+    assert stops[25] == bytes([TORQUE]) + struct.pack("<h", 200) + bytes([PWM, 0, 0])
     assert stops[21] == bytes([PWM, 0, 0, PWM, 0, 0])  # the others as always
 
 
@@ -402,7 +403,7 @@ def test_watchdog_trips_after_silence_and_the_next_frame_clears_it(bridge: Bridg
     bridge.run(30)
     flags = bridge.state(bridge.states()[-1])[2]
     assert flags & F_WATCHDOG and not flags & F_ESTOP
-    assert _stops(bridge.bus())[22] == bytes([KEEP, 0, 0, VELOCITY, 0, 0])
+    assert _stops(bridge.bus())[22] == bytes([KEEP, 0, 0, PWM, 0, 0])
     assert bridge.ask(frame(HEARTBEAT, 50)) == [ack(50, HEARTBEAT)]
     assert not bridge.state(bridge.states()[-1])[2] & F_WATCHDOG
     counters = bridge.ask(frame(COUNTERS_REQUEST, 51))[0]

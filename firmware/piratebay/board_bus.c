@@ -1,10 +1,13 @@
-/* The board bus of docs/board-bus.md, bridge (master) side. Rewrite this file,
- * and only this file, for another board protocol; keep board_bus.h.
+/* The board bus of docs/board-bus.md (version 2), bridge (master) side. Rewrite this
+ * file, and only this file, for another board protocol; keep board_bus.h.
  *
  * A frame is COBS(addr, cmd, payload, CRC-16/XMODEM little-endian) 0x00, at
  * 500 kbaud 8N1 on RS485. EXCHANGE (0x01) carries the board's setpoints and is
  * answered by EXCHANGE_REPLY (0x81): status, then the board's state channels as
- * int16. STOP (0x02) carries setpoints too and is not answered. */
+ * int16. STOP (0x02) carries setpoints too and is not answered. A reply with a byte
+ * the USART flagged (framing error, overrun) is a bad reply. After a timeout or a bad
+ * reply the line must be quiet for GUARD_US (the longest legal frame) before the next
+ * request: a board answering late finishes before anyone else speaks. */
 #include "board_bus.h"
 
 #include "cobs.h"
@@ -20,6 +23,7 @@
 #define BODY_MAX 32u
 #define WIRE_MAX (COBS_MAX_ENCODED(BODY_MAX) + 1u)
 #define BYTE_US (10000000UL / BUS_BAUD) /* one 8N1 byte on the line */
+#define GUARD_US (WIRE_MAX * BYTE_US)     /* the longest legal frame: 680 us */
 
 static_assert(4u + 3u * PB_MAX_BOARD_MOTORS <= BODY_MAX, "a request fits 32 bytes");
 static_assert(5u + 2u * PB_MAX_BOARD_CHANNELS <= BODY_MAX, "a reply fits 32 bytes");
@@ -30,6 +34,8 @@ static_assert((PB_N_BOARDS + 1u) * (6u + 3u * PB_MAX_BOARD_MOTORS) < UART1_TX_RI
 
 static struct {
     bool waiting;
+    bool guard;         /* after a failed exchange: wait for a quiet line */
+    uint16_t guard_from; /* timer_ticks() the quiet time counts from */
     uint8_t addr;
     uint8_t n_channels;
     uint8_t rx_n;
@@ -42,9 +48,26 @@ static struct {
 void board_bus_init(void) {
     uart1_init(BUS_BAUD);
     bus.waiting = false;
+    bus.guard = false;
 }
 
-bool board_bus_idle(void) { return !bus.waiting; }
+bool board_bus_idle(void) {
+    if (bus.waiting) {
+        return false;
+    }
+    if (bus.guard) {
+        /* quiet since the failure and since the last byte heard, whichever is later */
+        uint16_t now = timer_ticks();
+        uint16_t since_rx = (uint16_t)(now - uart1_last_rx());
+        uint16_t since_fail = (uint16_t)(now - bus.guard_from);
+        uint16_t quiet = since_rx < since_fail ? since_rx : since_fail;
+        if (quiet < (uint16_t)(GUARD_US * TIMER_TICKS_PER_US)) {
+            return false;
+        }
+        bus.guard = false;
+    }
+    return true;
+}
 
 uint16_t board_bus_exchange_us(const struct pb_board *board) {
     uint16_t request = (uint16_t)(4u + 3u * board->n_motors + 2u);
@@ -52,7 +75,9 @@ uint16_t board_bus_exchange_us(const struct pb_board *board) {
     return (uint16_t)((request + reply) * BYTE_US + BUS_REPLY_TIMEOUT_US);
 }
 
-static void send(uint8_t addr, uint8_t cmd, uint8_t n_motors,
+uint16_t board_bus_guard_us(void) { return GUARD_US; }
+
+static bool send(uint8_t addr, uint8_t cmd, uint8_t n_motors,
                  const struct pb_setpoint *setpoints) {
     uint8_t n = 0;
     bus.body[n++] = addr;
@@ -66,7 +91,7 @@ static void send(uint8_t addr, uint8_t cmd, uint8_t n_motors,
     n = (uint8_t)(n + 2u);
     uint8_t w = (uint8_t)cobs_encode(bus.body, n, bus.wire);
     bus.wire[w++] = 0;
-    uart1_write(bus.wire, w);
+    return uart1_write(bus.wire, w);
 }
 
 void board_bus_exchange(const struct pb_board *board, const struct pb_setpoint *setpoints) {
@@ -76,12 +101,18 @@ void board_bus_exchange(const struct pb_board *board, const struct pb_setpoint *
     bus.rx_n = 0;
     bus.rx_overflow = false;
     bus.waiting = true;
-    send(board->id, CMD_EXCHANGE, board->n_motors, setpoints);
+    if (!send(board->id, CMD_EXCHANGE, board->n_motors, setpoints)) {
+        /* no room (the transmit ring holds far more than a STOP to every board and a
+         * request, static_assert above): the exchange fails as a timeout, counted */
+        bus.waiting = false;
+        bus.guard = true;
+        bus.guard_from = timer_ticks();
+    }
 }
 
-void board_bus_stop(const struct pb_board *board, const struct pb_setpoint *setpoints) {
+bool board_bus_stop(const struct pb_board *board, const struct pb_setpoint *setpoints) {
     PB_MARK(PB_MARK_BUS_STOP);
-    send(board->id, CMD_STOP, board->n_motors, setpoints);
+    return send(board->id, CMD_STOP, board->n_motors, setpoints);
 }
 
 /* Check a complete reply frame (delimiter removed) and fill `reply`. */
@@ -104,6 +135,13 @@ static bool take_reply(struct bus_reply *reply) {
     return true;
 }
 
+static enum bus_result failed(enum bus_result result) {
+    bus.waiting = false;
+    bus.guard = true;
+    bus.guard_from = timer_ticks();
+    return result;
+}
+
 enum bus_result board_bus_poll(struct bus_reply *reply) {
     if (!bus.waiting) {
         return BUS_TIMEOUT;
@@ -114,9 +152,13 @@ enum bus_result board_bus_poll(struct bus_reply *reply) {
     }
     int16_t c;
     while ((c = uart1_getc()) >= 0) {
-        if (c != 0) {
+        if (c & UART_RX_ERROR) {
+            bus.rx_overflow = true; /* a damaged byte: the reply is dropped */
+        }
+        uint8_t byte = (uint8_t)c;
+        if (byte != 0) {
             if (bus.rx_n < WIRE_MAX) {
-                bus.rx_raw[bus.rx_n++] = (uint8_t)c;
+                bus.rx_raw[bus.rx_n++] = byte;
             } else {
                 bus.rx_overflow = true;
             }
@@ -125,14 +167,15 @@ enum bus_result board_bus_poll(struct bus_reply *reply) {
         if (bus.rx_n == 0 && !bus.rx_overflow) {
             continue; /* a lone delimiter */
         }
-        bus.waiting = false;
-        bool ok = !bus.rx_overflow && take_reply(reply);
-        return ok ? BUS_OK : BUS_BAD_REPLY;
+        if (!bus.rx_overflow && take_reply(reply)) {
+            bus.waiting = false;
+            return BUS_OK;
+        }
+        return failed(BUS_BAD_REPLY);
     }
     uint16_t waited = (uint16_t)(timer_ticks() - sent_at);
     if (waited > (uint16_t)(BUS_REPLY_TIMEOUT_US * TIMER_TICKS_PER_US)) {
-        bus.waiting = false;
-        return BUS_TIMEOUT;
+        return failed(BUS_TIMEOUT);
     }
     return BUS_BUSY;
 }

@@ -39,7 +39,7 @@ void bridge_turn(void) {
         if (c < 0) {
             break;
         }
-        protocol_rx_byte((uint8_t)c, now);
+        protocol_rx_byte((uint8_t)c, (c & UART_RX_ERROR) != 0, now);
     }
     poller_run();
     safety_watchdog_check(now);
@@ -51,7 +51,13 @@ void bridge_turn(void) {
         poller_period(now); /* closes the period: its readings go into this STATE */
         protocol_send_state();
         mcu_stack_check();
-        pb_debug.rx_overruns = uart0_rx_overruns();
+        struct uart_line_stats line;
+        uart_line_stats(&line);
+        pb_debug.rx_overruns = (uint16_t)(line.host_overrun + line.host_ring_full);
+        pb_debug.host_framing = line.host_framing;
+        pb_debug.bus_framing = line.bus_framing;
+        pb_debug.bus_overrun = (uint16_t)(line.bus_overrun + line.bus_ring_full);
+        pb_debug.bus_echo = line.bus_echo;
     }
     txq_pump(now, protocol_flags());
 }

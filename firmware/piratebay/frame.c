@@ -6,14 +6,16 @@
 void frame_rx_init(struct frame_rx *rx) {
     rx->n = 0;
     rx->oversize = false;
+    rx->damaged = false;
     rx->body_len = 0;
 }
 
 static enum frame_result finish(struct frame_rx *rx) {
     uint16_t n = rx->n;
-    bool oversize = rx->oversize;
+    bool oversize = rx->oversize || rx->damaged;
     rx->n = 0;
     rx->oversize = false;
+    rx->damaged = false;
     if (oversize) {
         return FRAME_BAD_FRAME;
     }
@@ -39,7 +41,10 @@ static enum frame_result finish(struct frame_rx *rx) {
     return FRAME_OK;
 }
 
-enum frame_result frame_rx_byte(struct frame_rx *rx, uint8_t byte) {
+enum frame_result frame_rx_byte(struct frame_rx *rx, uint8_t byte, bool damaged) {
+    if (damaged) {
+        rx->damaged = true; /* a damaged 0x00 still ends the frame it damaged */
+    }
     if (byte == 0) {
         return finish(rx);
     }

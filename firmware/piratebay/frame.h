@@ -26,20 +26,22 @@ enum frame_result {
     FRAME_MORE = 0,   /* no complete frame yet (or an empty frame, ignored) */
     FRAME_OK,         /* a frame passed COBS, length, CRC and version */
     FRAME_BAD_CRC,    /* dropped: CRC mismatch */
-    FRAME_BAD_FRAME,  /* dropped: oversize, cobs, short or version */
+    FRAME_BAD_FRAME,  /* dropped: oversize, cobs, short, version, or damaged on the line */
 };
 
 struct frame_rx {
     uint8_t raw[FRAME_MAX_RAW];
     uint16_t n;
     bool oversize;
+    bool damaged; /* a byte of it arrived damaged or was lost on the line */
     uint8_t body[FRAME_MAX_BODY];
     uint8_t body_len; /* valid after FRAME_OK: header + payload + CRC */
 };
 
 void frame_rx_init(struct frame_rx *rx);
-/* Feed one received byte. */
-enum frame_result frame_rx_byte(struct frame_rx *rx, uint8_t byte);
+/* Feed one received byte; `damaged`: the line flagged it (framing error, overrun,
+ * lost before it), so the frame it belongs to is dropped as a bad frame. */
+enum frame_result frame_rx_byte(struct frame_rx *rx, uint8_t byte, bool damaged);
 
 /* Header field access on a received body. */
 static inline uint8_t frame_type(const uint8_t *body) { return body[1]; }

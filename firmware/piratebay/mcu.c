@@ -1,24 +1,50 @@
 #include "mcu.h"
 
 #include <avr/eeprom.h>
+#include <avr/fuse.h>
 #include <avr/io.h>
 #include <avr/wdt.h>
 
+#include "pins.h"
+
 #define STACK_PAINT 0xC5u
-#define BOOT_ID_EEPROM ((uint16_t *)0)
+/* One byte: a count of power-ons, the high byte of the boot id (docs/firmware.md). */
+#define POWER_COUNT_EEPROM ((uint8_t *)0)
+
+/* The fuses this firmware is built for, in the ELF's .fuse section (`make fuses` writes
+ * the same values with an ISP programmer; the Makefile is their one source): the
+ * 16 MHz crystal, the 8 KB bootloader section and its reset vector as on a stock Mega,
+ * and brown-out detection at 4.3 V instead of the stock 2.7 V: 16 MHz is specified
+ * for 4.5-5.5 V, so the chip is held in reset before it runs out of its spec. */
+#ifndef PB_LFUSE
+#define PB_LFUSE 0xFF
+#define PB_HFUSE 0xD8
+#define PB_EFUSE 0xFC
+#endif
+FUSES = {.low = PB_LFUSE, .high = PB_HFUSE, .extended = PB_EFUSE};
 
 /* .noinit survives a reset that is not a power-on: the reset count lives there. */
 struct pb_debug pb_debug __attribute__((section(".noinit")));
 
 static uint8_t mcusr_at_boot __attribute__((section(".noinit")));
+static uint16_t boot_id_kept __attribute__((section(".noinit")));
 static uint16_t boot_id;
 static uint8_t *stack_scan;
 
 extern uint8_t __heap_start; /* end of .bss and .noinit (linker symbol) */
 
-/* Before anything else runs: save and clear MCUSR and stop a watchdog that may
- * still run after a watchdog reset (avr-libc FAQ), then paint the free SRAM
- * between the end of the data and the stack pointer. */
+/* The very first instructions after the reset vector, before the C runtime: the RS485
+ * driver-enable pin becomes an output at the reset value of its PORT bit, 0 (the
+ * driver off). Until here (a few cycles) and through the bootloader the board's
+ * pull-down on DE holds it low. */
+void mcu_pins_early(void) __attribute__((naked, used, section(".init0")));
+void mcu_pins_early(void) {
+    __asm__ volatile("sbi %0, %1" ::"I"(_SFR_IO_ADDR(RS485_DE_DDR)), "I"(RS485_DE_BIT));
+}
+
+/* Before anything else runs in C: save and clear MCUSR and stop a watchdog that may
+ * still run after a watchdog reset (avr-libc FAQ), then paint the free SRAM between
+ * the end of the data and the stack pointer. */
 void mcu_early(void) __attribute__((naked, used, section(".init3")));
 void mcu_early(void) {
     mcusr_at_boot = MCUSR;
@@ -33,7 +59,8 @@ void mcu_early(void) {
 
 void mcu_init(void) {
     uint8_t cause = mcusr_at_boot;
-    if ((cause & _BV(PORF)) || pb_debug.magic != PB_DEBUG_MAGIC) {
+    bool power_on = (cause & _BV(PORF)) || pb_debug.magic != PB_DEBUG_MAGIC;
+    if (power_on) {
         /* power-on (or a first boot): .noinit holds garbage */
         pb_debug.magic = PB_DEBUG_MAGIC;
         pb_debug.mcu_resets = 0;
@@ -47,10 +74,23 @@ void mcu_init(void) {
     pb_debug.state_cycles_last = pb_debug.state_cycles_max = 0;
     pb_debug.bulk_cycles_last = pb_debug.bulk_cycles_max = 0;
     pb_debug.rx_overruns = 0;
+    pb_debug.host_framing = pb_debug.bus_framing = pb_debug.bus_overrun = 0;
+    pb_debug.bus_echo = pb_debug.board_own_stops = pb_debug.estop_input_trips = 0;
     stack_scan = (uint8_t *)SP;
 
-    boot_id = (uint16_t)(eeprom_read_word(BOOT_ID_EEPROM) + 1u);
-    eeprom_update_word(BOOT_ID_EEPROM, boot_id);
+    /* The boot id differs from the previous boot's without wearing the EEPROM: its
+     * high byte counts power-ons (one EEPROM byte written per power-on: 100 000
+     * cycles last 27 years at ten a day), its low byte the resets since (DTR, the
+     * watchdog, brown-out), kept in .noinit. A host connects with a DTR reset, so
+     * the old scheme (a word written at every boot) wore the EEPROM per connection. */
+    if (power_on) {
+        uint8_t powers = (uint8_t)(eeprom_read_byte(POWER_COUNT_EEPROM) + 1u);
+        eeprom_update_byte(POWER_COUNT_EEPROM, powers);
+        boot_id = (uint16_t)powers << 8;
+    } else {
+        boot_id = (uint16_t)((boot_id_kept & 0xFF00u) | ((boot_id_kept + 1u) & 0x00FFu));
+    }
+    boot_id_kept = boot_id;
 
     wdt_enable(WDTO_120MS);
 }

@@ -1,11 +1,14 @@
-/* The microcontroller itself: the AVR's hardware watchdog (last resort against a
- * hung main loop), reset causes (MCUSR) and a count of MCU resets, the boot id
- * kept in EEPROM, the painted stack and its high-water mark, and the debug record
- * and GPIOR0 markers a simulator harness reads (docs/firmware.md). */
+/* The microcontroller itself: the RS485 driver held off from the first instructions
+ * after reset, the fuses (brown-out detection), the AVR's hardware watchdog (last
+ * resort against a hung main loop), reset causes (MCUSR) and a count of MCU resets,
+ * the boot id (one EEPROM write per power-on, none per DTR reset), the painted stack
+ * and its high-water mark, and the debug record and GPIOR0 markers a simulator
+ * harness reads (docs/firmware.md). */
 #ifndef PB_MCU_H
 #define PB_MCU_H
 
 #include <assert.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #define PB_DEBUG_MAGIC 0x5042u /* "PB" */
@@ -22,10 +25,16 @@ struct pb_debug {
     uint16_t state_cycles_max;
     uint16_t bulk_cycles_last;  /* decoding and applying one BULK_SETPOINTS frame */
     uint16_t bulk_cycles_max;
-    uint16_t rx_overruns;       /* host-link bytes lost to a full receive ring */
+    uint16_t rx_overruns;       /* host-link bytes lost (hardware overrun or a full ring) */
+    uint16_t host_framing;      /* host-link framing errors */
+    uint16_t bus_framing;       /* board-bus framing errors */
+    uint16_t bus_overrun;       /* board-bus bytes lost (hardware overrun or a full ring) */
+    uint16_t bus_echo;          /* board-bus bytes heard while the bridge drove the bus */
+    uint16_t board_own_stops;   /* replies of a board holding its own stop (master silent) */
+    uint16_t estop_input_trips; /* the hardware e-stop input tripped the latch */
 };
 
-static_assert(sizeof(struct pb_debug) == 20, "pb_debug layout is read by the harness");
+static_assert(sizeof(struct pb_debug) == 32, "pb_debug layout is read by the harness");
 
 extern struct pb_debug pb_debug;
 

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "board_bus.h"
+#include "mcu.h"
 #include "safety.h"
 #include "timer.h"
 
@@ -16,12 +17,14 @@ static struct {
     struct board_counters counters[PB_N_BOARDS];
     bool bus_fault;
     bool stop_pending;
+    uint8_t stop_next;   /* board whose STOP goes out next */
     /* the cycle */
     uint8_t next;        /* board to poll next */
     uint8_t polled;      /* boards polled this cycle */
     bool any_ok;         /* a board answered this cycle */
     bool cycle_done;
     bool busy;           /* an exchange is in progress */
+    bool retry;          /* retry `current` once the bus is clear */
     bool retried;
     uint8_t current;
     uint32_t period_ms;  /* start of the current period */
@@ -34,7 +37,10 @@ void poller_init(void) {
     board_bus_init();
 }
 
-void poller_request_stop(void) { poll.stop_pending = true; }
+void poller_request_stop(void) {
+    poll.stop_pending = true;
+    poll.stop_next = 0;
+}
 
 const uint8_t *poller_fresh(void) { return poll.fresh_done; }
 
@@ -70,29 +76,41 @@ static uint32_t period_elapsed_us(void) {
     return (uint16_t)(timer_ticks() - poll.period_ticks) / TIMER_TICKS_PER_US;
 }
 
-static bool time_left_for(const struct pb_board *board) {
-    uint32_t need = period_elapsed_us() + board_bus_exchange_us(board) + MARGIN_US;
+/* Time left in this period for a whole exchange with `board`, after `wait_us`. */
+static bool time_left_for(const struct pb_board *board, uint16_t wait_us) {
+    uint32_t need = period_elapsed_us() + wait_us + board_bus_exchange_us(board) + MARGIN_US;
     return need <= (uint32_t)PB_STATE_PERIOD_MS * 1000u;
 }
 
+/* The STOP to every board (board bus 2), in the board's own modes: a drive brakes
+ * (pwm 0) rather than being handed a velocity loop, rotate and other motors get their
+ * stop setpoint (pwm 0 = brake, or the setpoint they keep), bend joints keep theirs.
+ * Every board gets one, even an all-keep one: a STOP also ends a board's own stop.
+ * Resumable: a STOP that does not fit the transmit buffer goes out on a later turn. */
 static void send_stops(void) {
     struct pb_setpoint sp[PB_MAX_BOARD_MOTORS ? PB_MAX_BOARD_MOTORS : 1];
-    for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
+    for (uint8_t b = poll.stop_next; b < PB_N_BOARDS; b++) {
         const struct pb_board *board = layout_board(b);
-        bool any = false;
         for (uint8_t k = 0; k < board->n_motors; k++) {
-            if (layout_motor((uint8_t)(board->first_motor + k))->role == PB_ROLE_BEND) {
+            uint8_t i = (uint8_t)(board->first_motor + k);
+            const struct pb_motor *m = layout_motor(i);
+            if (m->role == PB_ROLE_BEND) {
                 sp[k].mode = PB_MODE_KEEP;
                 sp[k].raw = 0;
+            } else if (m->role == PB_ROLE_DRIVE && layout_mode_ok(m, PB_MODE_PWM)) {
+                sp[k].mode = PB_MODE_PWM;
+                sp[k].raw = 0;
             } else {
-                sp[k] = safety_setpoints[board->first_motor + k];
-                any = true;
+                sp[k] = safety_setpoints[i];
             }
         }
-        if (any) {
-            board_bus_stop(board, sp);
+        if (!board_bus_stop(board, sp)) {
+            poll.stop_next = b;
+            return;
         }
     }
+    poll.stop_pending = false;
+    poll.stop_next = 0;
 }
 
 static void start(uint8_t index) {
@@ -126,16 +144,23 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
         }
         poll.status[b] = s;
         poll.any_ok = true;
+        if (reply->status & BUS_STATUS_OWN_STOP) {
+            /* the board stopped itself (it heard no master for its silence time):
+             * the whole robot stops, and the STOP to every board ends its own stop */
+            pb_debug.board_own_stops++;
+            safety_stop();
+        }
     } else {
         if (result == BUS_BAD_REPLY) {
             poll.counters[b].crc_errors++;
         } else {
             poll.counters[b].timeouts++;
         }
-        if (!poll.retried && !poll.stop_pending && time_left_for(board)) {
+        if (!poll.retried && !poll.stop_pending && time_left_for(board, board_bus_guard_us())) {
             poll.retried = true;
             poll.counters[b].retries++;
-            start(b);
+            poll.retry = true; /* once the line has been quiet for a whole reply */
+            poll.busy = false;
             return;
         }
         poll.status[b] = BOARD_TIMEOUT;
@@ -157,18 +182,25 @@ void poller_run(void) {
             return;
         }
         done(r, &reply);
-        if (poll.busy) {
-            return; /* retrying */
+    }
+    if (!board_bus_idle()) {
+        return; /* quiet time after a failed exchange */
+    }
+    if (poll.stop_pending) {
+        send_stops();
+        if (poll.stop_pending) {
+            return;
         }
     }
-    if (poll.stop_pending && board_bus_idle()) {
-        poll.stop_pending = false;
-        send_stops();
+    if (poll.retry) {
+        poll.retry = false;
+        start(poll.current);
+        return;
     }
     if (poll.cycle_done || poll.busy) {
         return;
     }
-    if (!time_left_for(layout_board(poll.next)) && poll.polled > 0) {
+    if (!time_left_for(layout_board(poll.next), 0) && poll.polled > 0) {
         return; /* the rest of the cycle goes on in the next period */
     }
     poll.retried = false;

@@ -368,13 +368,13 @@ static void handle(const uint8_t *body, uint8_t len, uint32_t now_ms) {
     }
 }
 
-void protocol_rx_byte(uint8_t byte, uint32_t now_ms) {
+void protocol_rx_byte(uint8_t byte, bool damaged, uint32_t now_ms) {
     uint16_t t0 = 0;
     if (byte == 0) {
         PB_MARK(PB_MARK_FRAME_END); /* decoding starts: a BULK's cycles count from here */
         t0 = timer_ticks();
     }
-    switch (frame_rx_byte(&rx, byte)) {
+    switch (frame_rx_byte(&rx, byte, damaged)) {
     case FRAME_MORE:
         return;
     case FRAME_BAD_CRC:

@@ -5,6 +5,7 @@
 #ifndef PB_PROTOCOL_H
 #define PB_PROTOCOL_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 /* Bridge flags (arg of STATE, BRIDGE_HEARTBEAT, HELLO_REPLY). */
@@ -18,8 +19,8 @@
 #endif
 
 void protocol_init(void);
-/* One byte from the host link. */
-void protocol_rx_byte(uint8_t byte, uint32_t now_ms);
+/* One byte from the host link; `damaged`: the USART flagged it (its frame is dropped). */
+void protocol_rx_byte(uint8_t byte, bool damaged, uint32_t now_ms);
 /* Encode this period's STATE. */
 void protocol_send_state(void);
 uint8_t protocol_flags(void);

@@ -1,12 +1,16 @@
 /* USART0 (host link) and USART1 (RS485 board bus) drivers for the ATmega2560.
  *
- * Receive: each byte lands in a ring from the RX-complete interrupt; the main loop
- * takes it with uartN_getc(). Transmit on USART0 is zero-copy: the data-register-
- * empty interrupt walks the caller's frame buffer, so a 256-byte frame needs no
- * second copy. USART1 copies into a small ring (several STOP frames go out back to
- * back) and drives the RS485 transceiver's driver-enable pin (PD4) high while it
- * sends; the TX-complete interrupt drops it and stamps the time, from which the
- * board bus counts its reply timeout. */
+ * Receive: each byte lands in a ring from the RX-complete interrupt, with its status
+ * read first (UCSRnA belongs to the byte in UDRn): a framing error, a data overrun
+ * before it, or a byte lost to a full ring marks it (a bit per ring entry), and the
+ * main loop drops the frame it belongs to. Transmit on USART0 is zero-copy: the
+ * data-register-empty interrupt walks the caller's frame buffer, so a 256-byte frame
+ * needs no second copy. USART1 copies into a ring (several STOP frames go out back to
+ * back; a frame that does not fit is refused whole) and drives the RS485 module: DE
+ * high and /RE high while it sends (no echo), both low once the last stop bit has
+ * left (the TX-complete interrupt, which stamps the time the board bus counts its
+ * reply timeout from). A byte heard while DE is high (a module whose /RE is tied low)
+ * is our own echo: counted and discarded. */
 #include "uart.h"
 
 #include <assert.h>
@@ -15,27 +19,56 @@
 #include <avr/io.h>
 #include <util/atomic.h>
 
+#include "layout.h" /* generated: PB_BAUD, the host line rate */
+#include "pins.h"
 #include "timer.h"
-
-#define RS485_DE_DDR DDRD
-#define RS485_DE_PORT PORTD
-#define RS485_DE_BIT PD4
 
 static_assert(UART0_RX_RING == 256, "uint8_t indices wrap at 256");
 static_assert((UART1_RX_RING & (UART1_RX_RING - 1)) == 0, "power of two");
 static_assert((UART1_TX_RING & (UART1_TX_RING - 1)) == 0, "power of two");
 
-/* UBRR for double speed (U2X): F_CPU / (8 * baud) - 1, rounded. */
-static uint16_t ubrr_u2x(uint32_t baud) {
-    return (uint16_t)((F_CPU + 4u * baud) / (8u * baud) - 1u);
+/* UBRR for double speed (U2X): F_CPU / (8 * baud) - 1, rounded; the rate it gives. */
+#define UBRR_U2X(baud) ((F_CPU + 4UL * (baud)) / (8UL * (baud)) - 1UL)
+#define ACTUAL_BAUD(baud) (F_CPU / (8UL * (UBRR_U2X(baud) + 1UL)))
+/* The AVR's deviation from the nominal rate, in units of 0.01 %. */
+#define BAUD_ERROR_BP(baud) \
+    ((long)((ACTUAL_BAUD(baud) * 10000ULL + (baud) / 2u) / (baud)) - 10000L)
+
+/* Board bus: 500 kbaud is exact at 16 MHz (UBRR 3, U2X), on the bridge and on every
+ * PICO board alike. */
+static_assert(ACTUAL_BAUD(500000UL) == 500000UL, "the board bus rate is exact");
+static_assert(UBRR_U2X(PB_BAUD) <= 4095u, "the host baud rate is too low for UBRR");
+#if PB_HOST_LINK_ADAPTER
+/* An adapter makes the nominal rate; ours must be within 1 % of it (115200 gives
+ * +2.1 %: choose 250000, 500000 or 1000000 for 0 %, or 76800 for +0.16 %). */
+static_assert(BAUD_ERROR_BP(PB_BAUD) >= -100 && BAUD_ERROR_BP(PB_BAUD) <= 100,
+              "host baud rate more than 1 % off at 16 MHz: see docs/firmware.md, Baud rates");
+#endif
+
+static uint16_t ubrr_u2x(uint32_t baud) { return (uint16_t)UBRR_U2X(baud); }
+
+static volatile struct uart_line_stats stats;
+
+static inline void mark(volatile uint8_t *bits, uint8_t index, bool bad) {
+    uint8_t m = (uint8_t)(1u << (index & 7u));
+    if (bad) {
+        bits[index >> 3] |= m;
+    } else {
+        bits[index >> 3] &= (uint8_t)~m;
+    }
+}
+
+static inline bool marked(const volatile uint8_t *bits, uint8_t index) {
+    return (bits[index >> 3] >> (index & 7u)) & 1u;
 }
 
 /* ---- USART0: host link ---------------------------------------------------------- */
 
 static volatile uint8_t rx0_buf[UART0_RX_RING];
+static volatile uint8_t rx0_bad[UART0_RX_RING / 8];
 static volatile uint8_t rx0_head;
 static volatile uint8_t rx0_tail;
-static volatile uint16_t rx0_overruns;
+static volatile bool rx0_lost; /* a byte was lost: the next one stored carries the mark */
 static const uint8_t *volatile tx0_ptr;
 static volatile uint16_t tx0_left;
 
@@ -49,15 +82,25 @@ void uart0_init(uint32_t baud) {
 ISR(USART0_RX_vect) {
     uint8_t status = UCSR0A; /* before UDR0: its error flags belong to this byte */
     uint8_t byte = UDR0;
-    if (status & _BV(DOR0)) {
-        rx0_overruns++; /* the hardware lost a byte before this one */
+    bool bad = rx0_lost;
+    if (status & _BV(FE0)) {
+        stats.host_framing++;
+        bad = true;
     }
-    uint8_t next = (uint8_t)(rx0_head + 1u);
+    if (status & _BV(DOR0)) {
+        stats.host_overrun++; /* the hardware lost a byte before this one */
+        bad = true;
+    }
+    uint8_t head = rx0_head;
+    uint8_t next = (uint8_t)(head + 1u);
     if (next == rx0_tail) {
-        rx0_overruns++;
+        stats.host_ring_full++;
+        rx0_lost = true;
         return;
     }
-    rx0_buf[rx0_head] = byte;
+    rx0_buf[head] = byte;
+    mark(rx0_bad, head, bad);
+    rx0_lost = false;
     rx0_head = next;
 }
 
@@ -76,9 +119,12 @@ int16_t uart0_getc(void) {
     if (tail == rx0_head) {
         return -1;
     }
-    uint8_t byte = rx0_buf[tail];
+    int16_t value = rx0_buf[tail];
+    if (marked(rx0_bad, tail)) {
+        value |= UART_RX_ERROR;
+    }
     rx0_tail = (uint8_t)(tail + 1u);
-    return byte;
+    return value;
 }
 
 bool uart0_tx_busy(void) {
@@ -98,26 +144,31 @@ void uart0_send(const uint8_t *p, uint16_t n) {
     UCSR0B |= _BV(UDRIE0);
 }
 
-uint16_t uart0_rx_overruns(void) {
-    uint16_t n;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = rx0_overruns; }
-    return n;
-}
-
 /* ---- USART1: RS485 board bus ---------------------------------------------------- */
 
 static volatile uint8_t rx1_buf[UART1_RX_RING];
+static volatile uint8_t rx1_bad[UART1_RX_RING / 8];
 static volatile uint8_t rx1_head;
 static volatile uint8_t rx1_tail;
+static volatile bool rx1_lost;
+static volatile uint16_t rx1_at;
 static volatile uint8_t tx1_buf[UART1_TX_RING];
 static volatile uint8_t tx1_head;
 static volatile uint8_t tx1_tail;
 static volatile bool tx1_done = true;
 static volatile uint16_t tx1_done_at;
 
+static inline bool driving(void) { return (RS485_DE_PORT & _BV(RS485_DE_BIT)) != 0; }
+
 void uart1_init(uint32_t baud) {
-    RS485_DE_DDR |= _BV(RS485_DE_BIT);
+    /* DE is an output driven low from the first instructions (mcu.c, .init0); /RE low:
+     * listen. The pull-up on RXD1 keeps the line idle-high whenever the module's
+     * receiver output is off (while we send, or before the module is powered). */
     RS485_DE_PORT &= (uint8_t)~_BV(RS485_DE_BIT);
+    RS485_DE_DDR |= _BV(RS485_DE_BIT);
+    RS485_RE_PORT &= (uint8_t)~_BV(RS485_RE_BIT);
+    RS485_RE_DDR |= _BV(RS485_RE_BIT);
+    RS485_RX_PORT |= _BV(RS485_RX_BIT);
     UCSR1A = _BV(U2X1);
     UBRR1 = ubrr_u2x(baud);
     UCSR1C = _BV(UCSZ11) | _BV(UCSZ10);
@@ -125,12 +176,32 @@ void uart1_init(uint32_t baud) {
 }
 
 ISR(USART1_RX_vect) {
+    uint8_t status = UCSR1A;
     uint8_t byte = UDR1;
-    uint8_t next = (uint8_t)((rx1_head + 1u) & (UART1_RX_RING - 1u));
-    if (next == rx1_tail) {
-        return; /* a reply longer than any board sends: the frame check drops it */
+    rx1_at = timer_ticks();
+    if (driving()) {
+        stats.bus_echo++; /* our own transmission, heard through the module */
+        return;
     }
-    rx1_buf[rx1_head] = byte;
+    bool bad = rx1_lost;
+    if (status & _BV(FE1)) {
+        stats.bus_framing++;
+        bad = true;
+    }
+    if (status & _BV(DOR1)) {
+        stats.bus_overrun++;
+        bad = true;
+    }
+    uint8_t head = rx1_head;
+    uint8_t next = (uint8_t)((head + 1u) & (UART1_RX_RING - 1u));
+    if (next == rx1_tail) {
+        stats.bus_ring_full++; /* longer than any reply: the frame is dropped */
+        rx1_lost = true;
+        return;
+    }
+    rx1_buf[head] = byte;
+    mark(rx1_bad, head, bad);
+    rx1_lost = false;
     rx1_head = next;
 }
 
@@ -147,6 +218,7 @@ ISR(USART1_UDRE_vect) {
 ISR(USART1_TX_vect) {
     if (tx1_tail == tx1_head) {
         RS485_DE_PORT &= (uint8_t)~_BV(RS485_DE_BIT); /* release the bus */
+        RS485_RE_PORT &= (uint8_t)~_BV(RS485_RE_BIT); /* and listen */
         tx1_done_at = timer_ticks();
         tx1_done = true;
     }
@@ -157,13 +229,19 @@ int16_t uart1_getc(void) {
     if (tail == rx1_head) {
         return -1;
     }
-    uint8_t byte = rx1_buf[tail];
+    int16_t value = rx1_buf[tail];
+    if (marked(rx1_bad, tail)) {
+        value |= UART_RX_ERROR;
+    }
     rx1_tail = (uint8_t)((tail + 1u) & (UART1_RX_RING - 1u));
-    return byte;
+    return value;
 }
 
 void uart1_rx_flush(void) {
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { rx1_tail = rx1_head; }
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        rx1_tail = rx1_head;
+        rx1_lost = false;
+    }
 }
 
 uint16_t uart1_tx_free(void) {
@@ -174,23 +252,28 @@ uint16_t uart1_tx_free(void) {
     return (uint16_t)(UART1_TX_RING - 1u - used);
 }
 
-void uart1_write(const uint8_t *p, uint8_t n) {
+bool uart1_write(const uint8_t *p, uint8_t n) {
     if (n == 0) {
-        return;
+        return true;
     }
+    bool fits;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        RS485_DE_PORT |= _BV(RS485_DE_BIT);
-        tx1_done = false;
-        for (uint8_t i = 0; i < n; i++) {
-            uint8_t next = (uint8_t)((tx1_head + 1u) & (UART1_TX_RING - 1u));
-            if (next == tx1_tail) {
-                break;
+        uint8_t used = (uint8_t)((tx1_head - tx1_tail) & (UART1_TX_RING - 1u));
+        fits = n <= UART1_TX_RING - 1u - used;
+        if (fits) {
+            RS485_RE_PORT |= _BV(RS485_RE_BIT); /* receiver off: no echo */
+            RS485_DE_PORT |= _BV(RS485_DE_BIT);
+            tx1_done = false;
+            for (uint8_t i = 0; i < n; i++) {
+                tx1_buf[tx1_head] = p[i];
+                tx1_head = (uint8_t)((tx1_head + 1u) & (UART1_TX_RING - 1u));
             }
-            tx1_buf[tx1_head] = p[i];
-            tx1_head = next;
         }
     }
-    UCSR1B |= _BV(UDRIE1);
+    if (fits) {
+        UCSR1B |= _BV(UDRIE1);
+    }
+    return fits;
 }
 
 bool uart1_tx_done(uint16_t *at) {
@@ -200,4 +283,22 @@ bool uart1_tx_done(uint16_t *at) {
         *at = tx1_done_at;
     }
     return done;
+}
+
+uint16_t uart1_last_rx(void) {
+    uint16_t at;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { at = rx1_at; }
+    return at;
+}
+
+void uart_line_stats(struct uart_line_stats *out) {
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        out->host_framing = stats.host_framing;
+        out->host_overrun = stats.host_overrun;
+        out->host_ring_full = stats.host_ring_full;
+        out->bus_framing = stats.bus_framing;
+        out->bus_overrun = stats.bus_overrun;
+        out->bus_ring_full = stats.bus_ring_full;
+        out->bus_echo = stats.bus_echo;
+    }
 }

@@ -14,6 +14,7 @@ static bool bus_frame_ready;
 static uint8_t last_frame[256][64]; /* per address: the last frame told to the boards */
 static uint8_t last_frame_len[256];
 static uint64_t bus_frame_cycle;
+static uint64_t line_free_at; /* the cycle the last byte written leaves the shift register */
 static struct bus_stats stats;
 
 static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
@@ -27,6 +28,10 @@ static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param)
 
 static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq, (void)param;
+    /* simavr reports a byte when it is written to UDR1; on the line it starts once the
+     * byte before it has left the shift register */
+    uint64_t start = line_free_at > mcu->cycle ? line_free_at : mcu->cycle;
+    line_free_at = start + BUS_BYTE_CYCLES;
     if (value != 0) {
         if (bus_frame_n < sizeof bus_frame) {
             bus_frame[bus_frame_n++] = (uint8_t)value;
@@ -34,7 +39,7 @@ static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
         return;
     }
     bus_frame_ready = true; /* reported between two instructions: bus_service */
-    bus_frame_cycle = mcu->cycle;
+    bus_frame_cycle = line_free_at; /* its last stop bit */
     stats.frames++;
 }
 
@@ -51,6 +56,7 @@ void bus_reset(void) {
     avr_cycle_timer_cancel(mcu, feed_bus, NULL);
     busq_tail = busq_head;
     bus_frame_n = 0;
+    line_free_at = 0;
     memset(last_frame_len, 0, sizeof last_frame_len);
 }
 
@@ -101,7 +107,7 @@ static int cobs_decode(const uint8_t *in, unsigned n, uint8_t *out, unsigned siz
 }
 
 /* The boards' side of a request: an EXCHANGE with a good CRC to a board that has a
- * reply gets it, 20 us after the request's 0x00. */
+ * reply gets it, 20 us after the request's 0x00 has left the line. */
 static void answer(const uint8_t *frame, unsigned n) {
     uint8_t body[64];
     int k = cobs_decode(frame, n, body, sizeof body);
@@ -125,7 +131,9 @@ static void answer(const uint8_t *frame, unsigned n) {
         busq[busq_head++ % sizeof busq] = replies[addr][i];
     }
     avr_cycle_timer_cancel(mcu, feed_bus, NULL);
-    avr_cycle_timer_register(mcu, BUS_TURNAROUND_CYCLES, feed_bus, NULL);
+    /* the board's turnaround counts from the end of the request's last stop bit */
+    avr_cycle_timer_register(mcu, line_free_at - mcu->cycle + BUS_TURNAROUND_CYCLES, feed_bus,
+                             NULL);
 }
 
 /* The bridge finished a bus frame: answer it, and tell the boards unless it repeats

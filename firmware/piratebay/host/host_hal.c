@@ -7,12 +7,15 @@
  *
  *   fw_boot()                        reset (as DTR does): a new boot
  *   fw_write(bytes, n)               host -> bridge bytes
+ *   fw_write_damaged(byte)           one host byte the USART flags (framing error)
  *   fw_run_us(us)                    let virtual time pass, running main-loop turns
  *   fw_read(buf, cap)                bridge -> host bytes sent so far
  *   fw_board(index, online, status)  a board answers (1), does not (0), or answers
  *                                    with a broken CRC (2), with a status byte
  *   fw_reading(channel, raw)         the value the boards report for a channel
  *   fw_bus_log(buf, cap)             every frame the bridge sent on the bus, decoded
+ *   fw_bus_times(out, cap)           the virtual time (us) each of those frames ended
+ *   fw_debug(out)                    the pb_debug record
  */
 #include <stdbool.h>
 #include <stdint.h>
@@ -47,6 +50,7 @@ void mcu_init(void) {
 }
 void mcu_feed(void) {}
 uint16_t mcu_boot_id(void) { return boot_count; }
+
 void mcu_stack_check(void) {}
 void mcu_record_cycles(uint16_t *last, uint16_t *max, uint16_t ticks) {
     *last = ticks;
@@ -56,7 +60,7 @@ void mcu_record_cycles(uint16_t *last, uint16_t *max, uint16_t ticks) {
 }
 
 /* ---- USART0: host link ---- */
-static uint8_t rx0[1 << 16];
+static uint16_t rx0[1 << 16];
 static uint32_t rx0_head, rx0_tail;
 static uint8_t tx0[1 << 16];
 static uint32_t tx0_n;
@@ -76,7 +80,8 @@ void uart0_send(const uint8_t *p, uint16_t n) {
     }
     tx0_busy_until = now_us + (uint64_t)(n * BYTE_US_HOST + 0.5);
 }
-uint16_t uart0_rx_overruns(void) { return 0; }
+static struct uart_line_stats line;
+void uart_line_stats(struct uart_line_stats *out) { *out = line; }
 
 /* ---- USART1: the bus, with boards on it ---- */
 static uint8_t board_online[PB_N_BOARDS];
@@ -88,6 +93,8 @@ static uint8_t bus_raw[64];
 static uint8_t bus_raw_n;
 static uint8_t bus_log[1 << 16];
 static uint32_t bus_log_n;
+static uint64_t bus_times[1 << 12];
+static uint32_t bus_times_n;
 
 void uart1_init(uint32_t baud) { (void)baud; }
 int16_t uart1_getc(void) {
@@ -103,6 +110,7 @@ bool uart1_tx_done(uint16_t *at) {
     *at = tx1_done_at;
     return true;
 }
+uint16_t uart1_last_rx(void) { return tx1_done_at; }
 
 static void board_frame(void) {
     uint8_t body[64];
@@ -115,6 +123,9 @@ static void board_frame(void) {
         bus_log[bus_log_n++] = (uint8_t)n;
         memcpy(bus_log + bus_log_n, body, (size_t)n);
         bus_log_n += (uint32_t)n;
+        if (bus_times_n < sizeof bus_times / sizeof bus_times[0]) {
+            bus_times[bus_times_n++] = now_us;
+        }
     }
     int8_t b = layout_board_index(body[0]);
     if (b < 0 || body[1] != 0x01u || !board_online[b]) {
@@ -141,7 +152,7 @@ static void board_frame(void) {
     }
 }
 
-void uart1_write(const uint8_t *p, uint8_t n) {
+bool uart1_write(const uint8_t *p, uint8_t n) {
     tx1_done_at = timer_ticks();
     for (uint8_t i = 0; i < n; i++) {
         if (p[i] == 0) {
@@ -151,6 +162,7 @@ void uart1_write(const uint8_t *p, uint8_t n) {
             bus_raw[bus_raw_n++] = p[i];
         }
     }
+    return true;
 }
 
 /* ---- the API for ctypes ---- */
@@ -167,6 +179,11 @@ void fw_write(const uint8_t *p, uint32_t n) {
     for (uint32_t i = 0; i < n; i++) {
         rx0[rx0_head++ & 0xFFFFu] = p[i];
     }
+}
+
+void fw_write_damaged(uint8_t byte) {
+    line.host_framing++;
+    rx0[rx0_head++ & 0xFFFFu] = (uint16_t)(byte | UART_RX_ERROR);
 }
 
 /* Turns every 20 us while bytes are moving; every 200 us when the line is idle
@@ -208,5 +225,14 @@ uint32_t fw_bus_log(uint8_t *out, uint32_t cap) {
     bus_log_n = 0;
     return n;
 }
+
+uint32_t fw_bus_times(uint64_t *out, uint32_t cap) {
+    uint32_t n = bus_times_n < cap ? bus_times_n : cap;
+    memcpy(out, bus_times, n * sizeof *out);
+    bus_times_n = 0;
+    return n;
+}
+
+void fw_debug(struct pb_debug *out) { *out = pb_debug; }
 
 uint64_t fw_now_us(void) { return now_us; }
