@@ -156,5 +156,9 @@ class FirmwareHostBridge:
         self._down[index] = self.now_us + round(seconds * 1e6)
         self.advance(self.robot.bridge.state_period)
 
+    def set_estop_input(self, pressed: bool) -> None:
+        """The hardware e-stop contact opens (pressed) or closes."""
+        self._lib.fw_estop_input(int(pressed))
+
     def close(self) -> None:
         self._copy.unlink(missing_ok=True)

@@ -23,15 +23,22 @@ import pytest
 from test_firmware_core import (
     COUNTERS_REQUEST,
     ESTOP,
+    ESTOP_RESET,
+    F_ESTOP,
     HEARTBEAT,
+    HELLO,
     KEEP,
     MOTORS_OFF,
+    NACK,
+    NOT_READY,
     PWM,
     VELOCITY,
     Bridge,
+    Frame,
     ack,
     frame,
     library,  # noqa: F401  (a fixture)
+    nack,
     setpoint,
 )
 
@@ -203,3 +210,63 @@ def test_the_elf_holds_de_low_from_its_first_instruction_and_carries_its_fuses()
     ).stdout
     assert fuses == bytes([0xFF, 0xD8, 0xFC])  # brown-out at 4.3 V
 
+
+# -- the hardware e-stop input (protocol 1.2) -------------------------------------------
+
+F_ESTOP_INPUT = 0x10
+HELLO_12 = 2
+
+
+def _hello(bridge: BenchBridge, seq: int, minor: int) -> Frame:
+    (reply,) = bridge.ask(frame(HELLO, seq, payload=struct.pack("<IB", bridge.digest, minor)))
+    return reply
+
+
+def test_the_input_trips_after_two_samples_and_ignores_a_shorter_spike(
+    bridge: BenchBridge,
+) -> None:
+    bridge.run(25)
+    reply = _hello(bridge, 1, HELLO_12)
+    assert struct.unpack("<IBBHHBHB", reply.payload)[5] == 2  # the session speaks 1.2
+    assert bridge.ask(frame(ESTOP_RESET, 2)) == [ack(2, ESTOP_RESET)]
+    bridge.bus()
+    # a spike shorter than a sample period: nothing happens
+    bridge.lib.fw_estop_input(1)
+    bridge.run(0.9)
+    bridge.lib.fw_estop_input(0)
+    bridge.run(20)
+    assert not bridge.state(bridge.states()[-1])[2] & F_ESTOP
+    assert bridge.debug().estop_input_trips == 0
+    # held open: tripped within 2 ms, the stop on the bus at once
+    bridge.bus_timed()
+    bridge.lib.fw_estop_input(1)
+    start = bridge.lib_now_us()
+    bridge.run(5)
+    stops = [t for t, body in bridge.bus_timed() if body[1] == 0x02]
+    assert stops and stops[0] - start <= 2_000 + 2_500  # two samples + an exchange in flight
+    flags = bridge.state(bridge.states()[-1])[2]
+    assert flags & F_ESTOP and flags & F_ESTOP_INPUT
+    assert bridge.debug().estop_input_trips == 1 and bridge.lib.fw_led() == 1
+    # latched until the host resets it, and not while the contact is open
+    assert bridge.ask(frame(ESTOP_RESET, 3)) == [nack(3, ESTOP_RESET, NOT_READY)]
+    bridge.lib.fw_estop_input(0)
+    bridge.run(30)  # closed, but not for 50 ms yet
+    assert bridge.ask(frame(ESTOP_RESET, 4)) == [nack(4, ESTOP_RESET, NOT_READY)]
+    bridge.run(40)
+    assert bridge.state(bridge.states()[-1])[2] & F_ESTOP_INPUT  # still latched
+    assert bridge.ask(frame(ESTOP_RESET, 5)) == [ack(5, ESTOP_RESET)]
+    flags = bridge.state(bridge.states()[-1])[2]
+    assert not flags & (F_ESTOP | F_ESTOP_INPUT)
+    bridge.run(2)
+    assert bridge.lib.fw_led() == 0
+
+
+def test_a_1_1_session_sees_the_latch_but_never_the_new_flag(bridge: BenchBridge) -> None:
+    bridge.run(25)
+    reply = _hello(bridge, 1, 1)
+    assert struct.unpack("<IBBHHBHB", reply.payload)[5] == 1
+    bridge.lib.fw_estop_input(1)
+    bridge.run(25)
+    flags = bridge.state(bridge.states()[-1])[2]
+    assert flags & F_ESTOP and not flags & 0xF0
+    assert _hello(bridge, 2, 3).kind == NACK  # minor 3: BAD_LAYOUT

@@ -1,10 +1,12 @@
 /* One cooperative main loop, nothing blocks: bytes from the host are handled as
- * they arrive (ESTOP takes effect in the same turn), the board bus advances one
+ * they arrive (ESTOP takes effect in the same turn), the hardware e-stop input is
+ * sampled every millisecond (a trip too takes effect in its turn), the board bus advances one
  * step, the host watchdog is checked every turn, every state period a STATE frame
  * is encoded and a new poll cycle starts, and the next frame is handed to the UART
  * when it is free. */
 #include "bridge.h"
 
+#include "estop_input.h"
 #include "mcu.h"
 #include "poller.h"
 #include "protocol.h"
@@ -28,6 +30,7 @@ void bridge_init(void) {
     uint32_t now = timer_ms();
     protocol_init();
     safety_init(now);
+    estop_input_init();
     next_period = now + PB_STATE_PERIOD_MS;
 }
 
@@ -41,6 +44,7 @@ void bridge_turn(void) {
         }
         protocol_rx_byte((uint8_t)c, (c & UART_RX_ERROR) != 0, now);
     }
+    estop_input_poll(now); /* a trip latches before the bus is served: same turn */
     poller_run();
     safety_watchdog_check(now);
     if ((int32_t)(now - next_period) >= 0) {

@@ -9,7 +9,8 @@
 #include <stdint.h>
 
 #define PB_PROTOCOL_VERSION 1u
-#define PB_PROTOCOL_MINOR 1u
+#define PB_PROTOCOL_MINOR 2u     /* the highest minor spoken; a HELLO may ask for 1 or 2 */
+#define PB_PROTOCOL_MINOR_MIN 1u
 #define FRAME_HEADER_BYTES 5u
 #define FRAME_CRC_BYTES 2u
 #define FRAME_MIN_BODY (FRAME_HEADER_BYTES + FRAME_CRC_BYTES)

@@ -97,6 +97,23 @@ void mcu_init(void) {
 
 void mcu_feed(void) { wdt_reset(); }
 
+void mcu_estop_input_init(void) {
+    ESTOP_DDR &= (uint8_t)~_BV(ESTOP_BIT);
+    ESTOP_PORT |= _BV(ESTOP_BIT); /* pull-up: an open contact reads high */
+    LED_PORT &= (uint8_t)~_BV(LED_BIT);
+    LED_DDR |= _BV(LED_BIT);
+}
+
+bool mcu_estop_input_open(void) { return (ESTOP_PIN & _BV(ESTOP_BIT)) != 0; }
+
+void mcu_led(bool on) {
+    if (on) {
+        LED_PORT |= _BV(LED_BIT);
+    } else {
+        LED_PORT &= (uint8_t)~_BV(LED_BIT);
+    }
+}
+
 uint16_t mcu_boot_id(void) { return boot_id; }
 
 void mcu_stack_check(void) {

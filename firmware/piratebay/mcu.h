@@ -46,6 +46,7 @@ extern struct pb_debug pb_debug;
 #define PB_MARK_BULK_END 0x82u
 #define PB_MARK_ESTOP 0x03u
 #define PB_MARK_BUS_STOP 0x04u
+#define PB_MARK_ESTOP_INPUT 0x05u /* the hardware e-stop input tripped the latch */
 
 #ifdef __AVR__
 #include <avr/io.h>
@@ -62,6 +63,12 @@ void mcu_feed(void);
 uint16_t mcu_boot_id(void);
 /* Update pb_debug.stack_low from the painted stack (cheap; call every period). */
 void mcu_stack_check(void);
+/* The hardware e-stop input's pin (pull-up on) and the LED (off). */
+void mcu_estop_input_init(void);
+/* The e-stop input reads open (high): pressed, or its wire is broken. */
+bool mcu_estop_input_open(void);
+/* The LED on (the e-stop is latched) or off. */
+void mcu_led(bool on);
 /* Cycle figures: elapsed timer ticks (0.5 us = 8 cycles) into pb_debug. */
 void mcu_record_cycles(uint16_t *last, uint16_t *max, uint16_t ticks);
 

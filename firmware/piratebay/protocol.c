@@ -3,6 +3,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 
+#include "estop_input.h"
 #include "frame.h"
 #include "mcu.h"
 #include "poller.h"
@@ -51,6 +52,7 @@ static struct frame_rx rx;
 
 static struct {
     bool session;       /* a HELLO was accepted since boot */
+    uint8_t minor;      /* the session's protocol minor (its HELLO's); 1 before any */
     uint8_t sessions;   /* saturating at 255 */
     uint16_t last;      /* seq of the last ordered request handled */
     uint8_t last_type;  /* its type (T_ESTOP for an e-stop; 0 after a hello) */
@@ -68,6 +70,7 @@ static bool seq_newer(uint16_t a, uint16_t b) {
 void protocol_init(void) {
     frame_rx_init(&rx);
     br.session = false;
+    br.minor = PB_PROTOCOL_MINOR_MIN;
     br.sessions = 0;
     br.last = 0;
     br.last_type = 0;
@@ -89,6 +92,9 @@ uint8_t protocol_flags(void) {
     }
     if (!br.session) {
         f |= FLAG_NO_SESSION;
+    }
+    if (br.minor >= 2u && estop_input_active()) {
+        f |= FLAG_ESTOP_INPUT; /* a 1.1 session keeps bits 4-7 at 0 */
     }
     return f;
 }
@@ -134,7 +140,7 @@ static void send_hello_reply(uint16_t seq) {
     p[5] = PB_N_MOTORS;
     put_u16(p + 6, PB_WATCHDOG_MS);
     put_u16(p + 8, PB_FIRMWARE_VERSION);
-    p[10] = PB_PROTOCOL_MINOR;
+    p[10] = br.minor;
     put_u16(p + 11, mcu_boot_id());
     p[13] = br.sessions;
     txq_answer_commit(T_HELLO_REPLY, seq, protocol_flags(), HELLO_REPLY_PAYLOAD);
@@ -169,7 +175,9 @@ static bool board_unreachable(uint8_t board_index) {
 }
 
 static void hello(uint16_t seq, const uint8_t *payload) {
-    if (get_u32(payload) != PB_LAYOUT_DIGEST || payload[4] != PB_PROTOCOL_MINOR) {
+    uint8_t minor = payload[4];
+    if (get_u32(payload) != PB_LAYOUT_DIGEST || minor < PB_PROTOCOL_MINOR_MIN ||
+        minor > PB_PROTOCOL_MINOR) {
         send_nack(seq, T_HELLO, NACK_BAD_LAYOUT);
         return;
     }
@@ -184,6 +192,7 @@ static void hello(uint16_t seq, const uint8_t *payload) {
     br.answer = NO_ANSWER;
     br.ack_seq = 0;
     br.session = true;
+    br.minor = minor; /* the session speaks what its host asked for */
     safety_watchdog_clear();
     safety_stop(); /* a session starts from the stopped state; the latch stays */
     send_hello_reply(seq);
@@ -263,8 +272,8 @@ static uint8_t estop_reset(void) {
     if (!safety_estopped()) {
         return 0;
     }
-    if (poller_bus_fault()) {
-        return NACK_NOT_READY;
+    if (poller_bus_fault() || estop_input_pressed()) {
+        return NACK_NOT_READY; /* the button is still pressed: the latch stays */
     }
     for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
         if (poller_board_status(b) & (BOARD_FAULT | BOARD_TIMEOUT)) {
@@ -272,6 +281,7 @@ static uint8_t estop_reset(void) {
         }
     }
     safety_estop_release(); /* the motors stay in their stop setpoints */
+    estop_input_reset();
     return 0;
 }
 

@@ -1,4 +1,4 @@
-/* The bridge side of wire protocol v1.1 (docs/protocol.md): the checks every
+/* The bridge side of wire protocol v1.2 (docs/protocol.md; a 1.1 host gets 1.1): the checks every
  * received frame goes through, in order; sessions (HELLO), the duplicate filter
  * with remembered answers, SETPOINT and BULK_SETPOINTS (all or nothing), the
  * e-stop and its reset, heartbeats, COUNTERS; and the STATE frame. */
@@ -13,6 +13,7 @@
 #define FLAG_WATCHDOG 0x02u
 #define FLAG_BUS_FAULT 0x04u
 #define FLAG_NO_SESSION 0x08u
+#define FLAG_ESTOP_INPUT 0x10u /* protocol 1.2: the hardware e-stop input */
 
 #ifndef PB_FIRMWARE_VERSION
 #define PB_FIRMWARE_VERSION 0x0100u /* release 1.0, high byte major */

@@ -26,6 +26,8 @@
  *                      | 'H' hold: the MCU's clock stops (the pty is still served);
  *                        answered 'h' cycle u64 once the pty has all the MCU sent
  *                      | 'G' go on from a hold, paced from now
+ *                      | 'E' u8: the hardware e-stop contact on D22 (PA0) opens (1,
+ *                        pressed) or closes (0; the default: a closed contact to GND)
  * stdin closed or SIGTERM: print the figures on stderr and exit 0.
  *
  * Figures come from the firmware's GPIOR0 markers (docs/firmware.md) and its
@@ -87,6 +89,14 @@ static void reset_mcu(void) {
     channel_send_record('R', p, 8);
 }
 
+/* The e-stop contact between PA0 (Mega D22) and GND: closed holds the pin low against
+ * the firmware's pull-up, open lets the pull-up win. */
+static void set_estop_input(bool open) {
+    avr_ioport_external_t ext = {.name = 'A', .mask = 0x01, .value = open ? 0x01 : 0x00};
+    avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &ext);
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('A'), 0), open ? 1 : 0);
+}
+
 /* Handles one record from the boards. */
 static void handle_record(char type, const uint8_t *payload, uint16_t n) {
     if (type == 'U') {
@@ -104,6 +114,8 @@ static void handle_record(char type, const uint8_t *payload, uint16_t n) {
         uint8_t p[8];
         channel_put_u64(p, avr->cycle);
         channel_send_record('h', p, 8);
+    } else if (type == 'E' && n >= 1) {
+        set_estop_input(payload[0] != 0);
     } else if (type == 'G' && held) {
         held = false;
         wall0 = now_s();
@@ -189,6 +201,7 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pirate-simavr: no pb_debug in %s: resets and stack not measured\n",
                 elf);
     }
+    set_estop_input(false); /* a closed contact: the e-stop is not pressed */
     host_init(avr, reset_mcu);
     bus_init(avr);
     figures_init(avr, debug_at);

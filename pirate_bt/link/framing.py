@@ -18,6 +18,7 @@ __all__ = [
     "MAX_PAYLOAD_BYTES",
     "MAX_WIRE_BYTES",
     "PROTOCOL_MINOR",
+    "PROTOCOL_MINOR_MAX",
     "PROTOCOL_VERSION",
     "byte_time_s",
     "cobs_decode",
@@ -30,7 +31,11 @@ __all__ = [
 PROTOCOL_VERSION = 1
 """Protocol major version, carried in byte 0 of every frame."""
 PROTOCOL_MINOR = 1
-"""Protocol minor version, carried in HELLO and HELLO_REPLY (1.1: docs/protocol.md)."""
+"""Protocol minor version the host asks for by default, carried in HELLO and HELLO_REPLY
+(1.1: docs/protocol.md). A session speaks the minor of its HELLO."""
+PROTOCOL_MINOR_MAX = 2
+"""Highest minor version known here: 1.2 adds the bridge flag ``ESTOP_INPUT`` (the
+hardware e-stop input). A host asks for it with ``SessionConfig(protocol_minor=2)``."""
 
 HEADER_BYTES = 5
 MAX_BODY_BYTES = 254

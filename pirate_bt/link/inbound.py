@@ -24,6 +24,7 @@ from pirate_bt.link.codec import (
     BulkSetpoints,
     Counters,
     FrameCodec,
+    Hello,
     HelloReply,
     Message,
     MsgType,
@@ -163,7 +164,8 @@ class InboundMixin:
             self.duplicates += 1
             return
         layout = self.codec.layout
-        if item.layout_digest != layout.digest or item.minor != PROTOCOL_MINOR:
+        asked = hello.msg.minor if isinstance(hello.msg, Hello) else PROTOCOL_MINOR
+        if item.layout_digest != layout.digest or item.minor != asked:
             self._refused_session(hello, "the bridge answered a new session with another layout")
             return
         previous = self.last_hello_reply

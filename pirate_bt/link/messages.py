@@ -96,6 +96,9 @@ class BridgeFlags(IntFlag):
     """The RS485 bus failed a whole poll cycle."""
     NO_SESSION = 0x08
     """No HELLO was accepted since the bridge booted (it was reset)."""
+    ESTOP_INPUT = 0x10
+    """Protocol 1.2 sessions only: the bridge's hardware e-stop input is pressed, or it
+    latched the e-stop and no ESTOP_RESET released it since (a 1.1 bridge never sets it)."""
 
 
 class BoardStatus(IntFlag):
@@ -135,7 +138,9 @@ class Hello:
 
     A new session: the bridge's duplicate filter starts at ``seq``, ``ack_seq`` at 0,
     the setpoints at the stop category; the e-stop latch and the counters stay.
-    A bridge with another digest or minor version answers ``NACK BAD_LAYOUT``.
+    A bridge with another digest, or a minor version it does not speak, answers
+    ``NACK BAD_LAYOUT``; a 1.2 bridge speaks 1.1 and 1.2, and the session then speaks
+    the minor asked for.
     """
 
     TYPE: ClassVar[MsgType] = MsgType.HELLO

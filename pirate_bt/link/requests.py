@@ -12,7 +12,12 @@ import enum
 import math
 from dataclasses import dataclass, replace
 
-from pirate_bt.link.framing import MAX_WIRE_BYTES, frame_time_s
+from pirate_bt.link.framing import (
+    MAX_WIRE_BYTES,
+    PROTOCOL_MINOR,
+    PROTOCOL_MINOR_MAX,
+    frame_time_s,
+)
 from pirate_bt.link.messages import (
     AckStatus,
     BulkSetpoints,
@@ -61,6 +66,10 @@ class SessionConfig:
         link_timeout_s: Declare the link lost when nothing valid was heard for this long.
         poll_step_s: Sleep between polls while a caller waits.
         loss_window: Requests over which the loss ratio is computed.
+        protocol_minor: The protocol minor version the host asks for in HELLO: 1
+            (default), or 2 to be told of the bridge's hardware e-stop input
+            (``BridgeFlags.ESTOP_INPUT``; docs/protocol.md, Versions). A bridge that
+            does not speak it refuses the session.
     """
 
     ack_timeout_s: float = 0.06
@@ -69,6 +78,7 @@ class SessionConfig:
     link_timeout_s: float = 0.5
     poll_step_s: float = 0.001
     loss_window: int = 100
+    protocol_minor: int = PROTOCOL_MINOR
 
     @classmethod
     def from_robot(cls, robot: RobotDescription, **overrides: float) -> SessionConfig:
@@ -89,6 +99,13 @@ class SessionConfig:
             link_timeout_s=max(0.5, 2 * bridge.watchdog),
         )
         return replace(base, **overrides)  # type: ignore[arg-type]
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.protocol_minor <= PROTOCOL_MINOR_MAX:
+            raise ValueError(
+                f"protocol_minor {self.protocol_minor}: this host speaks 1.1 to "
+                f"1.{PROTOCOL_MINOR_MAX}"
+            )
 
     @property
     def give_up_s(self) -> float:
@@ -182,6 +199,8 @@ class SessionStats:
         sessions: Sessions started (the connect's included).
         stale: Requests the bridge answered ``STALE`` (not applied).
         cancelled: Requests cancelled by an e-stop.
+        estop_input: The bridge reports its hardware e-stop input pressed, or that the
+            input latched the e-stop (protocol 1.2 sessions only; always false in 1.1).
     """
 
     connected: bool
@@ -200,3 +219,4 @@ class SessionStats:
     sessions: int = 1
     stale: int = 0
     cancelled: int = 0
+    estop_input: bool = False

@@ -315,6 +315,7 @@ def wrap_link(
             reply_timeout_s=cfg.ack_timeout_s,
             attempts=max(16, math.ceil(0.4 / cfg.ack_timeout_s)),
             step_s=cfg.poll_step_s,
+            minor=cfg.protocol_minor,
         )
     except BaseException:
         byte_link.close()

@@ -50,7 +50,6 @@ from collections.abc import Sequence
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkLost, LinkTimeout
 from pirate_bt.link.codec import (
-    PROTOCOL_MINOR,
     BridgeFlags,
     BulkSetpoints,
     CountersRequest,
@@ -348,6 +347,7 @@ class Session(InboundMixin):
                 sessions=self.sessions,
                 stale=self.stale,
                 cancelled=self.cancelled,
+                estop_input=bool(self._flags & BridgeFlags.ESTOP_INPUT),
             )
 
     def start_reader(self, period_s: float = 0.001) -> None:
@@ -500,7 +500,8 @@ class Session(InboundMixin):
         """Send a HELLO: a new session on the bridge (after a reset, or a long gap)."""
         _log.warning("starting a new session: %s", why)
         self._fail_all_ordered(now)
-        self._hello = Request(Hello(self._seq(), self.codec.layout.digest, PROTOCOL_MINOR), now)
+        hello = Hello(self._seq(), self.codec.layout.digest, self.config.protocol_minor)
+        self._hello = Request(hello, now)
         self._transmit(self._hello)
 
     def _fail_all_ordered(self, now: float) -> None:

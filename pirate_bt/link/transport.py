@@ -179,6 +179,7 @@ class Transport:
             timeout_s: Longest wait.
             clock: The clock to wait on.
             step_s: Polling interval.
+        minor: The protocol minor version to ask for (1, or 2 for the e-stop input flag).
 
         Returns:
             The bytes read (fewer than ``n_bytes`` on timeout).
@@ -254,6 +255,7 @@ def handshake(
     reply_timeout_s: float = 0.25,
     attempts: int = 4,
     step_s: float = 0.001,
+    minor: int = PROTOCOL_MINOR,
 ) -> HelloReply:
     """Connect: wait out a reset, drain stale bytes, exchange HELLO, check the reply.
 
@@ -283,7 +285,7 @@ def handshake(
     if dropped:
         _log.info("drained %d stale bytes", dropped)
     decoder = FrameDecoder(codec)
-    hello = Hello(seq, codec.layout.digest, PROTOCOL_MINOR)
+    hello = Hello(seq, codec.layout.digest, minor)
     wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
     for attempt in range(1, attempts + 1):
         link.write(wire)
@@ -302,18 +304,18 @@ def handshake(
                         raise ProtocolMismatch(
                             "the bridge does not understand this HELLO (BAD_LENGTH): it speaks "
                             f"another protocol minor version; host speaks "
-                            f"{PROTOCOL_VERSION}.{PROTOCOL_MINOR}"
+                            f"{PROTOCOL_VERSION}.{minor}"
                         )
                     raise ProtocolMismatch(
                         f"the bridge refused the layout digest {codec.layout.digest:#010x} or "
-                        f"protocol {PROTOCOL_VERSION}.{PROTOCOL_MINOR} ({item.error.name}): it was "
+                        f"protocol {PROTOCOL_VERSION}.{minor} ({item.error.name}): it was "
                         "built for another robot description or protocol version"
                     )
                 if isinstance(item, HelloReply) and item.seq == seq:
-                    if item.minor != PROTOCOL_MINOR:
+                    if item.minor != minor:
                         raise ProtocolMismatch(
                             f"bridge speaks protocol {PROTOCOL_VERSION}.{item.minor}; "
-                            f"host speaks {PROTOCOL_VERSION}.{PROTOCOL_MINOR}"
+                            f"host speaks {PROTOCOL_VERSION}.{minor}"
                         )
                     if (
                         item.layout_digest != codec.layout.digest

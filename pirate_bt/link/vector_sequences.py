@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from pirate_bt.link.codec import FrameCodec
-from pirate_bt.link.framing import PROTOCOL_MINOR, cobs_encode, crc16
+from pirate_bt.link.framing import PROTOCOL_MINOR, PROTOCOL_MINOR_MAX, cobs_encode, crc16
 from pirate_bt.link.message_json import message_to_json
 from pirate_bt.link.messages import (
     MODE_CODES,
@@ -97,12 +97,13 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
     bend = next(s for s in slots if s.motor.function == "bend")
     drive = next(s for s in slots if s.motor.function == "drive")
     e = int(BridgeFlags.ESTOP)
+    ei = int(BridgeFlags.ESTOP_INPUT)
     w = int(BridgeFlags.WATCHDOG)
     ns = int(BridgeFlags.NO_SESSION)
     off = int(BoardStatus.MOTORS_OFF)
     wd = robot.bridge.watchdog
 
-    def reply(seq: int, sessions: int, flags: int) -> dict[str, Any]:
+    def reply(seq: int, sessions: int, flags: int, minor: int = PROTOCOL_MINOR) -> dict[str, Any]:
         return {
             "type": "HELLO_REPLY",
             "seq": seq,
@@ -110,7 +111,7 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
             "n_channels": lay.n_channels,
             "n_motors": lay.n_motors,
             "watchdog_ms": round(wd * 1000),
-            "minor": PROTOCOL_MINOR,
+            "minor": minor,
             "sessions": sessions,
             "flags": flags,
         }
@@ -135,6 +136,10 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
         if state:
             out["state"] = state
         return out
+
+    def button(pressed: bool, seconds: float, **state: int) -> dict[str, Any]:
+        """The hardware e-stop input pressed or released, then ``seconds`` pass."""
+        return {"estop_input": pressed, **wait(seconds, **state)}
 
     start = [
         step(Hello(1, digest), reply(1, 1, e)),
@@ -295,6 +300,53 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
             ],
         },
         {
+            "name": "minor_versions",
+            "description": "protocol 1.2: a bridge that speaks 1.2 also speaks 1.1; each "
+            "session speaks the minor its HELLO asked for, and says so in HELLO_REPLY",
+            "steps": [
+                step(Hello(1, digest, 2), reply(1, 1, e, minor=2)),
+                wait(0.03, flags=e),
+                step(Hello(2, digest, 1), reply(2, 2, e, minor=1)),
+                step(EStopReset(3), ack(3, reset_t)),
+                step(Hello(4, digest, 2), reply(4, 3, 0, minor=2)),
+                wait(0.03, flags=0),
+            ],
+        },
+        {
+            "name": "estop_input",
+            "description": "protocol 1.2, a bridge with a hardware e-stop input: pressing it "
+            "latches the e-stop (stop category, MOTORS_OFF) and sets ESTOP_INPUT; ESTOP_RESET "
+            "is NOT_READY while it is pressed; released, the latch stays until a reset, which "
+            "clears both flags",
+            "needs": "estop_input",
+            "steps": [
+                step(Hello(1, digest, 2), reply(1, 1, e, minor=2)),
+                step(EStopReset(2), ack(2, reset_t)),
+                step(sp(3, 100), ack(3, sp_t)),
+                button(True, 0.03, flags=e | ei, board_status_set=off),
+                step(sp(4, 100), nack(4, sp_t, NackCode.ESTOP_LATCHED)),
+                step(EStopReset(5), nack(5, reset_t, NackCode.NOT_READY)),
+                button(False, 0.1, flags=e | ei, board_status_set=off),
+                step(EStopReset(6), ack(6, reset_t)),
+                wait(0.03, flags=0, board_status_set=off),
+                step(sp(7, 100), ack(7, sp_t)),
+            ],
+        },
+        {
+            "name": "estop_input_in_a_1_1_session",
+            "description": "the hardware e-stop input in a 1.1 session: the same latch and the "
+            "same refused reset, but no ESTOP_INPUT flag (bits 4-7 stay 0 in 1.1)",
+            "needs": "estop_input",
+            "steps": [
+                *start,
+                button(True, 0.03, flags=e, board_status_set=off),
+                step(EStopReset(3), nack(3, reset_t, NackCode.NOT_READY)),
+                button(False, 0.1, flags=e),
+                step(EStopReset(4), ack(4, reset_t)),
+                wait(0.03, flags=0),
+            ],
+        },
+        {
             "name": "nacks",
             "description": "every NACK a bridge sends for bytes alone (BUS_ERROR needs a board "
             "that stops answering), in the order of the checks",
@@ -305,7 +357,7 @@ def sequences(codec: FrameCodec, robot: RobotDescription) -> list[dict[str, Any]
                 ),
                 step(Hello(2, digest ^ 1), nack(2, MsgType.HELLO, NackCode.BAD_LAYOUT)),
                 step(
-                    Hello(3, digest, PROTOCOL_MINOR + 1),
+                    Hello(3, digest, PROTOCOL_MINOR_MAX + 1),
                     nack(3, MsgType.HELLO, NackCode.BAD_LAYOUT),
                 ),
                 raw(

@@ -18,10 +18,12 @@ Sections:
   step ``send`` (a message) or ``send_hex`` (raw bytes) and ``expect`` the exact
   answers in order (``STATE`` and ``BRIDGE_HEARTBEAT`` frames aside), each as the
   fields that must match (a field left out may be anything); ``advance_s`` lets
-  time pass first; ``reset`` reboots the bridge (DTR); ``state`` checks the newest
-  ``STATE`` received by the end of the step (``flags`` exactly, ``flags_set``
-  and ``flags_clear`` as bit masks, ``ack_seq``, ``board_status_set`` bits on every
-  board).
+  time pass first; ``reset`` reboots the bridge (DTR); ``estop_input`` presses
+  (true) or releases (false) the bridge's hardware e-stop input first; ``state``
+  checks the newest ``STATE`` received by the end of the step (``flags`` exactly,
+  ``flags_set`` and ``flags_clear`` as bit masks, ``ack_seq``, ``board_status_set``
+  bits on every board). A sequence with ``needs: "estop_input"`` applies only to a
+  bridge that has that input (protocol 1.2, docs/firmware.md).
 """
 
 from __future__ import annotations

@@ -418,6 +418,10 @@ class FirmwareBridge:
             self.boards.silent.discard(board)
         self._push_replies()
 
+    def set_estop_input(self, pressed: bool) -> None:
+        """Open (``pressed``) or close the hardware e-stop contact on the bridge's D22."""
+        self._send("E", bytes((int(pressed),)))
+
     def hold(self, timeout_s: float = 5.0) -> None:
         """Stop the MCU's clock; returns once stopped, with everything it sent on the pty.
 

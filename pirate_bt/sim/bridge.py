@@ -37,6 +37,7 @@ from pirate_bt.errors import FrameError
 from pirate_bt.link.codec import (
     MODE_KEEP,
     PROTOCOL_MINOR,
+    PROTOCOL_MINOR_MAX,
     Ack,
     AckStatus,
     BoardCounters,
@@ -142,6 +143,9 @@ class SimBridge(FaultsMixin):
         self.state_frames_sent = 0
         self.state_frames_unread = 0
         self.boot_id = 0
+        self.estop_input = False
+        """The hardware e-stop input is pressed (see :meth:`set_estop_input`)."""
+        self._input_tripped = False
         self._resetting: set[int] = set()
         self._link_lost = False
         self._boot()
@@ -208,6 +212,8 @@ class SimBridge(FaultsMixin):
         self.no_session = True
         self.estopped = True
         self.watchdog_tripped = False
+        self._minor = PROTOCOL_MINOR  # until a HELLO says otherwise
+        self._input_tripped = self.estop_input
         self._last_seq: int | None = None
         self._last_kind: MsgType | None = None
         self._last_answer: AckStatus | NackCode | None = None
@@ -290,7 +296,7 @@ class SimBridge(FaultsMixin):
 
     def _hello(self, seq: int, payload: bytes) -> None:
         digest, minor = self._payloads.hello(payload)
-        if digest != self.codec.layout.digest or minor != PROTOCOL_MINOR:
+        if digest != self.codec.layout.digest or not 1 <= minor <= PROTOCOL_MINOR_MAX:
             self._nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)
             return
         # a retried HELLO (its reply was lost: the same seq, nothing handled since) is the
@@ -305,6 +311,7 @@ class SimBridge(FaultsMixin):
         self._ack_seq = 0
         self.no_session = False
         self.watchdog_tripped = False
+        self._minor = minor  # the session speaks what its host asked for
         self._apply_stop()
         self._send(
             HelloReply(
@@ -314,7 +321,7 @@ class SimBridge(FaultsMixin):
                 self.codec.layout.n_motors,
                 round(self.watchdog_s * 1000),
                 FIRMWARE_VERSION,
-                PROTOCOL_MINOR,
+                minor,
                 self.boot_id,
                 self.sessions,
                 self._flags(),
@@ -425,7 +432,10 @@ class SimBridge(FaultsMixin):
             return AckStatus.APPLIED
         if self._resetting:  # a board in TIMEOUT: no confirming its motors are held
             return NackCode.NOT_READY
+        if self.estop_input:  # the button is still pressed
+            return NackCode.NOT_READY
         self.estopped = False
+        self._input_tripped = False
         self._status_cache = None
         _log.info("e-stop reset at %.3f s", self.now_s)
         return AckStatus.APPLIED
@@ -445,7 +455,24 @@ class SimBridge(FaultsMixin):
             flags |= BridgeFlags.WATCHDOG
         if self.no_session:
             flags |= BridgeFlags.NO_SESSION
+        if self._minor >= 2 and (self.estop_input or self._input_tripped):
+            flags |= BridgeFlags.ESTOP_INPUT  # 1.2 only: a 1.1 session keeps bits 4-7 at 0
         return flags
+
+    def set_estop_input(self, pressed: bool) -> None:
+        """Press (or release) the bridge's hardware e-stop input (docs/firmware.md).
+
+        Pressing it latches the e-stop and applies the stop category, as ``ESTOP``
+        does; ``ESTOP_RESET`` is refused (``NOT_READY``) while it stays pressed. In a
+        1.2 session the bridge flag ``ESTOP_INPUT`` reports it until a reset releases
+        the latch. (The firmware debounces its pin; this input is already clean.)
+        """
+        if pressed and not self.estop_input:
+            self.estopped = True
+            self._input_tripped = True
+            self._apply_stop()
+            _log.warning("hardware e-stop input pressed at %.3f s", self.now_s)
+        self.estop_input = pressed
 
     # -- time -----------------------------------------------------------------------
 

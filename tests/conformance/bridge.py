@@ -102,6 +102,10 @@ class InProcessSimBridge:
         self._bridge.schedule([fault])
         self.advance(self._bridge.period_s)
 
+    def set_estop_input(self, pressed: bool) -> None:
+        """Optional capability: press or release the hardware e-stop input (protocol 1.2)."""
+        self._bridge.set_estop_input(pressed)
+
     def close(self) -> None:
         pass
 

@@ -119,6 +119,10 @@ class SimavrBridge:
         self._silent_until[board] = self._bridge.mcu_time_s + seconds
         self.advance(self.robot.bridge.state_period)
 
+    def set_estop_input(self, pressed: bool) -> None:
+        """The e-stop contact on the bridge's D22 opens (pressed) or closes."""
+        self._bridge.set_estop_input(pressed)
+
     def close(self) -> None:
         with contextlib.suppress(OSError):
             os.close(self._fd)

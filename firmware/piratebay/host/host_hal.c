@@ -16,6 +16,8 @@
  *   fw_bus_log(buf, cap)             every frame the bridge sent on the bus, decoded
  *   fw_bus_times(out, cap)           the virtual time (us) each of those frames ended
  *   fw_debug(out)                    the pb_debug record
+ *   fw_estop_input(open)             the e-stop contact opens (1) or closes (0)
+ *   fw_led()                         the LED (lit while the e-stop is latched)
  */
 #include <stdbool.h>
 #include <stdint.h>
@@ -50,7 +52,11 @@ void mcu_init(void) {
 }
 void mcu_feed(void) {}
 uint16_t mcu_boot_id(void) { return boot_count; }
-
+static bool estop_open;
+void mcu_estop_input_init(void) {}
+bool mcu_estop_input_open(void) { return estop_open; }
+static bool led;
+void mcu_led(bool on) { led = on; }
 void mcu_stack_check(void) {}
 void mcu_record_cycles(uint16_t *last, uint16_t *max, uint16_t ticks) {
     *last = ticks;
@@ -234,5 +240,9 @@ uint32_t fw_bus_times(uint64_t *out, uint32_t cap) {
 }
 
 void fw_debug(struct pb_debug *out) { *out = pb_debug; }
+
+void fw_estop_input(uint8_t open) { estop_open = open != 0; }
+
+uint8_t fw_led(void) { return led; }
 
 uint64_t fw_now_us(void) { return now_us; }
