@@ -72,6 +72,11 @@ logger = logging.getLogger(__name__)
 
 ESTOP = "estop"
 """The e-stop topic, relative to the namespace."""
+DUTY = 0.02
+"""The share of wall time the worker may spend: after each frame it rests 49 times as
+long as the frame took (the slot keeps only the newest frame meanwhile)."""
+TREE_PERIOD_S = 1.0
+"""At most one tree snapshot per this many wall seconds (each is the whole tree)."""
 
 _LATCHED = {TREE}
 """Topics late joiners get the last message of (TRANSIENT_LOCAL, depth 1, like
@@ -207,7 +212,9 @@ class Ros2Node:
         self._tokens: list[Any] = []
         self._subscriber: Any = None
         self._supervisors: list[Any] = []
-        self._slot: tuple[Any, Frame] | None = None
+        self._slot: tuple[Any, Frame, bool] | None = None
+        self._hurry = threading.Event()
+        self._next_tree = 0.0
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._idle = threading.Event()
@@ -339,13 +346,18 @@ class Ros2Node:
 
     # --- publishing --------------------------------------------------------------------------
 
-    def offer(self, mapper: Any, frame: Frame) -> None:
-        """Hand one frame to the worker; it replaces one the worker has not taken yet."""
+    def offer(self, mapper: Any, frame: Frame, *, final: bool = False) -> None:
+        """Hand one frame to the worker; it replaces one the worker has not taken yet.
+
+        A ``final`` frame (a run's last) goes out at once, tree and all.
+        """
         if not self.enabled:
             return
         with self._lock:
-            self._slot = (mapper, frame)
+            self._slot = (mapper, frame, final)
             self._idle.clear()
+        if final:
+            self._hurry.set()
         self._wake.set()
 
     def flush(self, timeout_s: float = 2.0) -> bool:
@@ -373,10 +385,16 @@ class Ros2Node:
                     return
                 self._idle.set()
                 continue
-            mapper, frame = item
+            mapper, frame, final = item
+            started = time.perf_counter()
             try:
-                for message in mapper().messages(frame, changed=(TREE,), clock=True):
+                tree = final or started >= self._next_tree
+                messages = mapper().messages(frame, changed=(TREE,), clock=True, tree=tree)
+                for message in messages:
                     self._publish(message)
+                if any(m.topic == TREE for m in messages):
+                    spent = time.perf_counter() - started
+                    self._next_tree = time.perf_counter() + max(TREE_PERIOD_S, spent / DUTY)
             except Exception:
                 self.enabled = False
                 logger.exception("ROS 2 output: publishing failed; it is switched off")
@@ -385,6 +403,11 @@ class Ros2Node:
                     self._idle.set()
                 else:
                     self._wake.set()
+            # Keep to the duty cycle: rest in proportion to the work just done (a final
+            # frame or close cuts the rest short).
+            rest = (time.perf_counter() - started) * (1.0 / DUTY - 1.0)
+            if not self._closed and self._hurry.wait(rest):
+                self._hurry.clear()
 
     def _publish(self, message: Any) -> None:
         from pirate_bt.interop.ros2_types import serialize
@@ -404,10 +427,11 @@ class Ros2Node:
         """Publish what is pending, withdraw the node from the graph, close (idempotent)."""
         if self._closed:
             return
-        self.flush(1.0)
+        self.flush(2.0)
         self._closed = True
+        self._hurry.set()
         self._wake.set()
-        self._thread.join(timeout=2.0)
+        self._thread.join(timeout=10.0)
         for endpoint in self._endpoints.values():
             with contextlib.suppress(Exception):
                 endpoint.token.undeclare()
@@ -590,7 +614,7 @@ def attach_ros2(
 
     def finish(result: Any) -> None:
         try:
-            node.offer(mapper, capture.frame(int(getattr(result, "ticks", 0))))
+            node.offer(mapper, capture.frame(int(getattr(result, "ticks", 0))), final=True)
             node.flush()
         except Exception:
             logger.exception("ROS 2 output: the last frame failed")

@@ -237,7 +237,12 @@ class Ros2Mapper:
         return self.types["std_msgs/msg/Header"](stamp=self.stamp(t_s), frame_id=self.frame_id)
 
     def messages(
-        self, frame: Frame, *, changed: bool | Collection[str] = False, clock: bool = False
+        self,
+        frame: Frame,
+        *,
+        changed: bool | Collection[str] = False,
+        clock: bool = False,
+        tree: bool = True,
     ) -> list[Ros2Message]:
         """The messages of one frame.
 
@@ -247,6 +252,7 @@ class Ros2Mapper:
                 was last time: a bag stores changes; the live output sends every topic
                 of each frame it gets but the tree, which goes out when it changed.
             clock: Add ``/clock``.
+            tree: Include the tree snapshot (when there is one to send).
         """
         out: list[Ros2Message] = []
         ns = self.start_ns + round(frame.t_s * 1e9)
@@ -269,7 +275,7 @@ class Ros2Mapper:
         tree_key = (tuple(frame.statuses.items()), tuple(frame.feedback.items()))
         moved = tree_key != self._last_tree
         only_changes = changed is True or (changed is not False and TREE in changed)
-        if frame.statuses and (moved or not only_changes):
+        if tree and frame.statuses and (moved or not only_changes):
             self._last_tree = tree_key
             out.append(Ros2Message(TREE, TOPIC_TYPES[TREE], ns, self._tree(frame, moved)))
         if clock:
