@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
 .PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain \
-	flash fuses avrdude
+	flash fuses avrdude zmq-dev
 
 venv: $(STAMP)
 
@@ -42,6 +42,20 @@ avr-toolchain:
 		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(AVR_PACKAGES) >/dev/null; \
 	else \
 		echo "warning: the AVR toolchain or simavr is missing; install them (Debian: sudo apt-get install $(AVR_PACKAGES)) to build and simulate firmware/piratebay"; \
+	fi
+
+# Debian's libzmq3-dev and cppzmq-dev build the Groot2 oracle's client (BT.CPP's own
+# protocol header on cppzmq: tests/groot2_oracle, built once and cached by the tests);
+# install them when missing and we may (root + apt-get), as for Graphviz.
+ZMQ_PACKAGES := libzmq3-dev cppzmq-dev
+zmq-dev:
+	@if [ -f /usr/include/zmq.h ] && [ -f /usr/include/zmq.hpp ]; then :; \
+	elif [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian's $(ZMQ_PACKAGES) (some are missing)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(ZMQ_PACKAGES) >/dev/null; \
+	else \
+		echo "warning: libzmq3-dev or cppzmq-dev is missing; install them (Debian: sudo apt-get install $(ZMQ_PACKAGES)) for the Groot2 oracle tests (they skip without)"; \
 	fi
 
 # The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
@@ -80,7 +94,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy --strict pirate_bt
 
-unit: $(STAMP) graphviz avr-toolchain
+unit: $(STAMP) graphviz avr-toolchain zmq-dev
 	$(BIN)/pytest
 
 docs: $(STAMP)

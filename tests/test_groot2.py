@@ -135,13 +135,11 @@ def test_transitions_are_9_bytes_each() -> None:
 
 def test_hooks_are_read_strictly_and_dumped_as_bt_cpp_dumps_them() -> None:
     hooks = proto.parse_hooks(
-        b'[{"uid":3,"position":0,"mode":1,"enabled":true,"once":false,'
-        b'"desired_status":"FAILURE"}]'
+        b'[{"uid":3,"position":0,"mode":1,"enabled":true,"once":false,"desired_status":"FAILURE"}]'
     )
     assert hooks[0].uid == 3 and hooks[0].mode == 1 and hooks[0].desired_status == "FAILURE"
     assert proto.hooks_json(hooks) == (
-        b'[{"desired_status":"FAILURE","enabled":true,"mode":1,"once":false,"position":0,'
-        b'"uid":3}]'
+        b'[{"desired_status":"FAILURE","enabled":true,"mode":1,"once":false,"position":0,"uid":3}]'
     )
     for bad in (
         b"not json",

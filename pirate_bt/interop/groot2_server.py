@@ -124,6 +124,12 @@ class _Run:
     recorder: CoverageRecorder | None = None
     installed: dict[int, Any] = field(default_factory=dict)
     """py_trees node index -> what its instance ``tick`` was before the hook (or None)."""
+    parents: list[int] = field(default_factory=list)
+    """py_trees node index -> its parent's (-1 for the root)."""
+    midtick: set[int] = field(default_factory=set)
+    """Nodes shown as they were in the middle of a tick (at a breakpoint)."""
+    inner_idle: dict[int, bool] = field(default_factory=dict)
+    """Subtree roots' UIDs -> whether BT.CPP has them IDLE (for the transitions)."""
 
 
 class Groot2Server:
@@ -268,6 +274,11 @@ class Groot2Server:
             for index, code in enumerate(recorder.shown):
                 if code:
                     self._set_codes(run, status, index, code)
+        index_of = {id(node): i for i, node in enumerate(run.nodes)}
+        run.parents = [-1] * len(run.nodes)
+        for i, node in enumerate(run.nodes):
+            for child in node.children:
+                run.parents[index_of[id(child)]] = i
         with self._cond:
             self._detach_locked()
             self._run = run
@@ -293,17 +304,30 @@ class Groot2Server:
         try:
             with self._cond:
                 status = self._status
+                if run.midtick and run.recorder is not None:
+                    shown = run.recorder.shown
+                    for index in run.midtick:
+                        self._set_codes(run, status, index, shown[index])
+                    run.midtick.clear()
                 for index, code in codes.items():
                     self._set_codes(run, status, index, code)
                 if self._recording and events:
                     now_us = (time.perf_counter_ns() - self._record_t0_ns) // 1000
                     add = self._transitions.append
                     inner = run.served.inner
+                    idle = run.inner_idle
                     for index, value in events:
                         for uid in run.served.uids_of.get(index, ()):
-                            add((now_us, uid, value))
-                            if uid in inner and value in (2, 3):
-                                add((now_us, uid, 0))
+                            if uid not in inner:
+                                add((now_us, uid, value))
+                            elif value or not idle.get(uid, True):
+                                # a subtree's root: reset by its SubTree node when it
+                                # finishes, so it is idle already when the call is reset
+                                add((now_us, uid, value))
+                                idle[uid] = value == 0
+                                if value in (2, 3):
+                                    add((now_us, uid, 0))
+                                    idle[uid] = True
         except Exception:
             self.enabled = False
             logger.exception("Groot2: updating the statuses failed; the live view is off")
@@ -397,6 +421,7 @@ class Groot2Server:
             self._notices.append([pack_request(RequestType.BREAKPOINT_REACHED), b"%d" % hook.uid])
             if hook.mode == BREAKPOINT:
                 self._held = hook
+                self._show_midtick(run, node)
         if hook.mode == BREAKPOINT:
             outcome = self._hold(run, hook, node)
             if outcome is not None:
@@ -410,6 +435,30 @@ class Groot2Server:
             if status is not None and run.robot is not None:
                 return None  # refused when set; never against a robot
             return status
+
+    def _show_midtick(self, run: _Run, node: py_trees.behaviour.Behaviour) -> None:
+        """Show the tree as BT.CPP would while it waits at ``node`` in the middle of a
+        tick: the node's ancestors RUNNING (BT.CPP's composites and decorators turn
+        RUNNING before they tick a child), the nodes already ticked with their result.
+        The tick's end shows them as it left them."""
+        recorder = run.recorder
+        if recorder is None:
+            return
+        index = recorder.index_of(node)
+        if index is None:
+            return
+        status = self._status
+        for done in recorder.ticked_so_far():
+            code = {Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}.get(done.status)
+            where = recorder.index_of(done)
+            if code is not None and where is not None:
+                self._set_codes(run, status, where, code)
+                run.midtick.add(where)
+        up = run.parents[index] if index < len(run.parents) else -1
+        while up >= 0:
+            self._set_codes(run, status, up, 1)
+            run.midtick.add(up)
+            up = run.parents[up]
 
     def _hold(self, run: _Run, hook: Hook, node: py_trees.behaviour.Behaviour) -> Status | None:
         """Wait at a breakpoint; the supervisor keeps ticking. Returns FAILURE when the

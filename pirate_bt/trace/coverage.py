@@ -413,6 +413,16 @@ class CoverageRecorder:
         self._events: list[tuple[int, int]] = []
         self._finished = False
 
+    # -- reading the tick in progress
+
+    def index_of(self, node: py_trees.behaviour.Behaviour) -> int | None:
+        """The node's index (depth first, as in traces), or ``None`` if not of this tree."""
+        return self._index_of.get(id(node))
+
+    def ticked_so_far(self) -> list[py_trees.behaviour.Behaviour]:
+        """The nodes whose tick has ended so far in the tick in progress."""
+        return list(self._visitor.nodes)
+
     # -- listening
 
     def add_listener(self, listener: Listener, transitions: bool = True) -> None:
