@@ -6,8 +6,10 @@ only when chosen. Today:
 - ``btcpp``: BehaviorTree.CPP v4 XML, as Groot2 saves it
   (:func:`pirate_bt.interop.btcpp.import_xml`).
 
-The tree file is checked with the tree loader before it is written; a file that
-cannot be converted is reported at its ``file:line:column`` and nothing is written.
+The tree file is checked with the tree loader, against the robot (``--robot
+FILE``, default the bundled one: its limits, units and node types), before it is
+written; anything that cannot be converted or that the loader refuses is
+reported at its ``file:line:column`` in the source file and nothing is written.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from pathlib import Path
 __all__ = ["SOURCES", "configure", "run"]
 
 # source -> (module, function, one-line help); the function takes
-# (source_path, out_path) and returns the file written.
+# (source_path, out_path, robot=FILE_OR_NONE) and returns the file written.
 SOURCES: dict[str, tuple[str, str, str]] = {
     "btcpp": (
         "pirate_bt.interop.btcpp",
@@ -35,11 +37,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         sub = subs.add_parser(name, help=text, description=text)
         sub.add_argument("file", type=Path, help="file to read")
         sub.add_argument("-o", "--output", type=Path, required=True, help="tree file (.yaml)")
+        sub.add_argument(
+            "--robot",
+            metavar="FILE",
+            help="robot description the tree must fit (default: bundled)",
+        )
 
 
 def run(args: argparse.Namespace) -> int:
     module_name, function, _text = SOURCES[args.source]
     convert = getattr(importlib.import_module(module_name), function)
-    written = convert(args.file, args.output)
+    written = convert(args.file, args.output, robot=args.robot)
     print(f"wrote {written}")
     return 0

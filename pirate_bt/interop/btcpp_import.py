@@ -16,7 +16,7 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
-from pirate_bt.errors import InputError, ValidationFailed
+from pirate_bt.errors import InputError, LocatedError, SourceLocation, ValidationFailed
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -52,6 +52,8 @@ class _Importer:
         self.models = node_models(registry)
         self.trees: dict[str, XmlElement] = {}
         self.subtree_models: dict[str, XmlElement] = {}
+        self.origin: dict[int, XmlElement] = {}
+        """``id()`` of each mapping made (a node, a tree, a parameter) -> its element."""
 
     def read(self) -> dict[str, Any]:
         root = self.root
@@ -113,6 +115,7 @@ class _Importer:
         self.check_cycles(main)
         main_tree = self.trees[main]
         out: dict[str, Any] = {}
+        self.origin[id(out)] = main_tree
         written_name = main_tree.attrs.get("_name", main)
         if written_name:  # empty: the tree file had no name (it takes the file's)
             out["name"] = written_name
@@ -135,6 +138,7 @@ class _Importer:
             if tree_id == main:
                 continue
             body: dict[str, Any] = {}
+            self.origin[id(body)] = element
             if "_description" in element.attrs:
                 body["description"] = element.attrs["_description"]
             params = self.params(tree_id)
@@ -215,6 +219,7 @@ class _Importer:
                     f" ({', '.join(sorted(_PARAM_TYPES))})"
                 )
             decl: dict[str, Any] = {"type": kind}
+            self.origin[id(decl)] = port
             try:
                 for key in ("default", "example"):
                     if key in port.attrs:
@@ -262,7 +267,23 @@ class _Importer:
             raise element.error(f"unknown node type {tag!r}" + _suggest(tag, known))
         if description is not None:
             out["description"] = description
+        self.origin[id(out)] = element
         return out
+
+    def locations(self, data: Any) -> dict[tuple[str | int, ...], SourceLocation]:
+        """Where in the XML each mapping of ``data`` (:meth:`read`'s) comes from, by path."""
+        found: dict[tuple[str | int, ...], SourceLocation] = {}
+        stack: list[tuple[tuple[str | int, ...], Any]] = [((), data)]
+        while stack:
+            path, value = stack.pop()
+            if isinstance(value, dict):
+                element = self.origin.get(id(value))
+                if element is not None:
+                    found[path] = element.location
+                stack.extend(((*path, k), v) for k, v in value.items())
+            elif isinstance(value, list):
+                stack.extend(((*path, i), v) for i, v in enumerate(value))
+        return found
 
     def named(self, kind: str, name: str | None) -> dict[str, Any]:
         return {"type": kind, "name": name} if name is not None else {"type": kind}
@@ -439,8 +460,46 @@ def xml_to_tree(path: str | Path, registry: Registry | None = None) -> dict[str,
         InputError: the file cannot be read.
         LocatedError: anything that cannot become a pirate_bt tree, located.
     """
-    root = parse_xml(Path(path))
-    return _Importer(root, registry or default_registry()).read()
+    return _read(Path(path), registry or default_registry())[0]
+
+
+def _read(
+    path: Path, registry: Registry
+) -> tuple[dict[str, Any], dict[tuple[str | int, ...], SourceLocation]]:
+    importer = _Importer(parse_xml(path), registry)
+    data = importer.read()
+    return data, importer.locations(data)
+
+
+def _in_xml(
+    errors: tuple[LocatedError, ...],
+    yaml_file: Path,
+    where: dict[tuple[str | int, ...], SourceLocation],
+) -> list[LocatedError]:
+    """The loader's errors about the converted YAML, each at the XML element it came
+    from (the element of the node, subtree or parameter the YAML place is part of)."""
+    from pirate_bt.yamlfile import load_yaml
+
+    marks = load_yaml(yaml_file).locator.marks
+    by_place: dict[tuple[int, int], tuple[str | int, ...]] = {}
+    for key_path, place in marks.items():
+        if len(key_path) >= len(by_place.get(place, ())):
+            by_place[place] = key_path
+    places = sorted(by_place)
+    out: list[LocatedError] = []
+    for error in errors:
+        loc = error.location
+        if loc is None or Path(loc.file).resolve() != yaml_file.resolve():
+            out.append(error)
+            continue
+        here = (loc.line or 1, loc.column or 1)
+        before = [p for p in places if p <= here]
+        path = by_place[before[-1]] if before else ()
+        while path and path not in where:
+            path = path[:-1]
+        target = where.get(path)
+        out.append(LocatedError(error.message, target) if target is not None else error)
+    return out
 
 
 class _Dumper(yaml.SafeDumper):
@@ -456,26 +515,42 @@ _Dumper.add_representer(str, _str)
 
 
 def import_xml(
-    xml_path: str | Path, out_path: str | Path, registry: Registry | None = None
+    xml_path: str | Path,
+    out_path: str | Path,
+    registry: Registry | None = None,
+    robot: Any = None,
 ) -> Path:
     """Convert a BT.CPP v4 XML file to a pirate_bt tree file, checked before it appears.
 
     The YAML is written beside ``out_path`` under a temporary name, loaded with
-    the tree loader, and only then renamed to ``out_path``: a file that does not
-    load is never left behind.
+    the tree loader against the robot (its limits, units and node types, as
+    ``pirate-bt validate`` and ``run`` check a tree), and only then renamed to
+    ``out_path``: a file that does not load is never left behind. Every problem
+    the loader finds is reported at the XML element it comes from.
+
+    Args:
+        xml_path: The XML file.
+        out_path: The tree file to write.
+        registry: Node types allowed (default: pirate_bt's).
+        robot: The robot description the tree must fit (a loaded one or its file;
+            default: the bundled robot).
 
     Returns:
         The file written.
 
     Raises:
         LocatedError: the XML cannot be converted (at the XML's line and column).
-        InputError: the converted tree does not load (the loader's message).
+        ValidationFailed: the converted tree does not load for the robot, each
+            problem at ``xml_file:line:column``.
     """
+    from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.robot.loader import load_robot
     from pirate_bt.treefile import load_tree
 
     reg = registry or default_registry()
+    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     source = Path(xml_path)
-    data = xml_to_tree(source, reg)
+    data, where = _read(source, reg)
     text = (
         f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
         + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
@@ -491,13 +566,9 @@ def import_xml(
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             stream.write(text)
         try:
-            load_tree(tmp, use_examples=True, registry=reg)
+            load_tree(tmp, robot=description, use_examples=True, registry=reg)
         except ValidationFailed as exc:
-            first = exc.errors[0]
-            raise InputError(
-                f"{source}: the converted tree does not load: {first.message}"
-                + (f" (and {len(exc.errors) - 1} more)" if len(exc.errors) > 1 else "")
-            ) from None
+            raise ValidationFailed(_in_xml(exc.errors, tmp, where)) from None
         mask = os.umask(0o022)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
