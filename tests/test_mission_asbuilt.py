@@ -1,11 +1,13 @@
 """Missions that survive a wrong map: plan on the drawing, run on the pipe as built.
 
-The lab route runs on 50 seeded as-built variants of the lab network (a
-process pool of 2, about 2-5 minutes of wall time on the 2-core machine: the
-one slow test here). A missing tee, a missing bend and a tee nobody drew each
-run on the small networks: the first two stop in the safe state with a report
-that says where belief and map parted, and the robot can then return to the
-start; the extra tee is passed straight through after a re-plan.
+The lab route runs on 20 seeded as-built variants of the lab network (seeds
+1-20, in 4 tests of 5 that the suite's workers share, each test's missions in a
+process of its own: about 20 s of CPU per test, the slow tests here; the
+200-variant figures are ``benchmarks/bench_asbuilt.py``'s, in docs/missions.md).
+A missing tee, a missing bend and a tee nobody drew each run on the small
+networks: the first two stop in the safe state with a report that says where
+belief and map parted, and the robot can then return to the start; the extra
+tee is passed straight through after a re-plan.
 """
 
 from __future__ import annotations
@@ -117,7 +119,10 @@ def test_network_perturb_command(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert "--slope" in err and "--length" in err and "not a tee or a bend" in err
 
 
-# -- the lab route on 50 as-built variants ---------------------------------------------
+# -- the lab route on 20 as-built variants ---------------------------------------------
+
+VARIANT_SEEDS = range(1, 21)
+CHUNK = 5
 
 
 def _lab_case(seed: int) -> tuple[int, bool, str, float, float, list[float]]:
@@ -138,9 +143,14 @@ def _lab_case(seed: int) -> tuple[int, bool, str, float, float, list[float]]:
     )
 
 
-def test_lab_route_succeeds_on_50_asbuilt_variants() -> None:
-    with ProcessPoolExecutor(2) as pool:
-        outcomes = list(pool.map(_lab_case, range(1, 51)))
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "first", VARIANT_SEEDS[::CHUNK], ids=lambda s: f"seeds-{s}-{s + CHUNK - 1}"
+)
+def test_lab_route_succeeds_on_asbuilt_variants(first: int) -> None:
+    # a process of its own (logging switched off there, no state left behind here)
+    with ProcessPoolExecutor(1) as pool:
+        outcomes = list(pool.map(_lab_case, range(first, first + CHUNK)))
     failed = [(seed, reason) for seed, ok, reason, *_ in outcomes if not ok]
     assert not failed, failed
     for seed, _, _, violations, damage, errors in outcomes:
