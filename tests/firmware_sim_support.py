@@ -180,19 +180,30 @@ def corrupt(frame: bytes, rng: random.Random) -> bytes:
     return bytes(body) + b"\x00"
 
 
+def soak_bytes(seconds: float) -> int:
+    """What ``seconds`` of a 115200-baud line carries: the bytes :func:`soak` sends."""
+    return int(seconds * LINE_BYTES_PER_S)
+
+
 def soak(host: HostEnd, poison: Poison, seconds: float, seed: int = 14) -> int:
     """Random bytes and corrupted poison frames at the full line rate; returns bytes sent.
 
     Written in 10 ms chunks of the line's rate (115.2 bytes), so the pty carries what
     a 115200-baud line would, no more; what the bridge sends back is read and dropped.
+    Sends :func:`soak_bytes` of ``seconds`` in all: when the machine stalls the host
+    (or the harness, whose pty then fills), the line catches up afterwards, so the
+    amount does not depend on the machine's speed. Gives up at 3 x ``seconds`` + 10 s
+    (then fewer bytes were sent).
     """
     rng = random.Random(seed)
     seq = 1000
     sent = 0
+    total = soak_bytes(seconds)
+    give_up_s = 3 * seconds + 10
     start = time.monotonic()
     pending = bytearray()
-    while (elapsed := time.monotonic() - start) < seconds:
-        due = int(elapsed * LINE_BYTES_PER_S) - sent
+    while sent < total and (elapsed := time.monotonic() - start) < give_up_s:
+        due = min(int(elapsed * LINE_BYTES_PER_S), total) - sent
         while len(pending) < due:
             if rng.random() < 0.5:
                 pending += rng.randbytes(rng.randint(1, 40))

@@ -30,6 +30,7 @@ from firmware_sim_support import (
     poison_for,
     release,
     soak,
+    soak_bytes,
     wait_line_drained,
 )
 
@@ -238,6 +239,27 @@ def _summary(proc: subprocess.Popen[str]) -> str:
     return err
 
 
+def _relaxed_robot(folder: Path) -> Path:
+    """The robot description with the host's own time limits relaxed, for real time.
+
+    Freshness 10 -> 50 state periods (100 -> 500 ms) and link silence 500 ms -> 2 s.
+    Three real-time processes (harness, boards, host) share a loaded 2-core machine;
+    a stall of any of them past these limits ends the run in a safe state that has
+    nothing to do with the firmware. Both limits are the host's only (not in the wire
+    layout): the firmware, its watchdog and the physics are unchanged.
+    """
+    text = (ROOT / "hardware" / "pirate.yaml").read_text()
+    for limit in ("stale_after_periods: 10", "max_link_silence: 500 ms"):
+        assert limit in text, limit
+    path = folder / "pirate.yaml"
+    path.write_text(
+        text.replace("stale_after_periods: 10", "stale_after_periods: 50").replace(
+            "max_link_silence: 500 ms", "max_link_silence: 2 s"
+        )
+    )
+    return path
+
+
 PABS = [
     pytest.param("straight", "straight.yaml", "distance=1m", id="straight"),
     pytest.param("bend-right", "bend.yaml", "roll=90deg", id="bend-right"),
@@ -250,18 +272,9 @@ PABS = [
 def test_pab_runs_through_the_firmware(
     firmware_sim: tuple[str, subprocess.Popen[str]], tree: str, param: str, tmp_path: Path
 ) -> None:
-    """The host's freshness limit is relaxed from 100 to 500 ms here, and only here.
-
-    Three real-time processes (harness, boards, host) share a loaded 2-core CI
-    machine; a 100 ms stall of any of them ends the PAB in a safe state that has
-    nothing to do with the firmware. The limit is host-side only (not in the wire
-    layout): the firmware, its watchdog and the physics are unchanged.
-    """
+    """With the host's time limits relaxed (:func:`_relaxed_robot`), here and in the riser."""
     device, proc = firmware_sim
-    robot = tmp_path / "pirate.yaml"
-    text = (ROOT / "hardware" / "pirate.yaml").read_text()
-    assert "stale_after_periods: 10" in text
-    robot.write_text(text.replace("stale_after_periods: 10", "stale_after_periods: 50"))
+    robot = _relaxed_robot(tmp_path)
     done = subprocess.run(
         [
             sys.executable,
@@ -307,9 +320,9 @@ def test_noise_at_line_rate_neither_resets_nor_applies_a_corrupted_frame() -> No
             assert host.hello() is not None
             assert release(host)  # now an intact poison frame would be applied
             sent = soak(host, poison, seconds=6.0)
-            assert sent > 6 * 11_000
-            wait_line_drained(bridge)
-            reply = host.hello()
+            assert sent == soak_bytes(6.0)  # all of 6 s of the line, however slow the machine
+            wait_line_drained(bridge, timeout_s=60.0)  # a bound: the harness may lag
+            reply = host.hello(timeout_s=1.0, attempts=10)
             assert reply is not None
             assert reply.layout_digest == host.codec.layout.digest
             figures = bridge.figures()
@@ -337,7 +350,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
     a watchdog trip (the host falls silent) and an e-stop each leave the robot where it
     is, clamped (the firmware's stop category: bend joints keep their setpoints).
 
-    Real time, with the host's freshness limit relaxed as for the PABs above.
+    Real time, with the host's time limits relaxed as for the PABs above.
     """
     from pirate_bt.pipes import Network
     from pirate_bt.robot import load_robot as load
@@ -347,10 +360,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
     from pirate_bt.safety.verdict import Outcome
 
     elf, harness = build()
-    text = (ROOT / "hardware" / "pirate.yaml").read_text()
-    robot_file = tmp_path / "pirate.yaml"
-    robot_file.write_text(text.replace("stale_after_periods: 10", "stale_after_periods: 50"))
-    robot = load(robot_file)
+    robot = load(_relaxed_robot(tmp_path))
     riser = load_network("riser")
     halfway_up = Network(
         riser.spec.model_copy(
@@ -365,7 +375,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
         try:
 
             def until(command: Command, done: object) -> None:
-                deadline = time.monotonic() + 10.0
+                deadline = time.monotonic() + 30.0  # a bound only: seconds when all is well
                 while not done():  # type: ignore[operator]
                     assert time.monotonic() < deadline, command
                     assert sup.command(command).outcome in (Outcome.PASS, Outcome.CLIP)
@@ -395,7 +405,14 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
                 value = state.front_tilt_rad if state is not None else None
                 return value if value is not None else 0.0
 
-            run(0.5)  # every channel read at least once before the first command
+            # every channel read at least once before the first supervisor tick (the
+            # firmware reads its boards in turn; a loaded machine may take a while)
+            deadline = time.monotonic() + 30.0
+            while sup.stale_channels():
+                assert time.monotonic() < deadline, sup.stale_channels()
+                sup.port.poll()
+                time.sleep(tick_s)
+            run(0.5)
             until(Clamp(Half.REAR, 0.6), clamped(Half.REAR))
             clear = robot.clamp.front_clear_angle
             until(MoveFrontClear(), lambda: abs(tilt()) >= clear)
@@ -411,7 +428,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
             holds(2.0, poll=False)  # 2 s without a host frame: the firmware's watchdog trips
             run(0.3)
             session = sup.port.session  # type: ignore[attr-defined]
-            reply = session.wait(session.request_counters(), timeout_s=2.0).reply
+            reply = session.wait(session.request_counters(), timeout_s=10.0).reply
             assert reply is not None and reply.watchdog_trips == 1
             sup.estop("test")
             holds(2.0)
