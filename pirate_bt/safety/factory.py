@@ -17,6 +17,7 @@ simulated robot in one call::
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -39,20 +40,35 @@ DEFAULT_NETWORK = "straight"
 
 
 def wait_for_state(port: RobotPort, clock: Clock, timeout_s: float) -> None:
-    """Poll ``port`` until its first state snapshot arrives.
+    """Poll ``port`` until its first state snapshot arrives, then until every channel of
+    the robot has been heard once (or ``timeout_s`` has passed since the start).
+
+    A bridge polls its boards in turn, so its first STATE frames may carry only some
+    channels fresh. Starting a run then would meet readings that were never received,
+    and the protective layer would stop at once on "stale data". Waiting for one whole
+    poll cycle (tens of milliseconds) avoids it; a board that never answers is not an
+    error here: the supervisor names its channels stale, as it should.
 
     Raises:
-        LinkTimeout: no state within ``timeout_s`` of ``clock``.
+        LinkTimeout: no state at all within ``timeout_s`` of ``clock``.
     """
-    deadline = clock.now() + timeout_s
+    start = clock.now()
+    deadline = start + timeout_s
     step = port.robot.bridge.state_period
     while port.state() is None:
         port.poll()
         if port.state() is not None:
-            return
+            break
         if clock.now() >= deadline:
             raise LinkTimeout(f"no state from the robot within {timeout_s:g} s")
         clock.sleep(step)
+    names = [c.name for c in port.robot.state_channels()]
+    while clock.now() < deadline:
+        state = port.state()
+        if state is None or all(math.isfinite(state.age_s(n, clock.now())) for n in names):
+            return
+        clock.sleep(step)
+        port.poll()
 
 
 def open_supervisor(
