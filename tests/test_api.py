@@ -385,3 +385,19 @@ def test_a_runner_of_your_own_is_supervised_and_manual_mode_pauses_it() -> None:
         assert robot.supervisor.in_safe_state  # a run that did not succeed ends safe
     with pytest.raises(InputError, match="mode: 'sideways' is not one of"):
         pirate_bt.connect("sim", mode="sideways")
+
+
+def test_an_estop_during_a_run_is_its_first_cause() -> None:
+    def observe(runner: Any, connection: Any) -> None:
+        def stop_at_tick_40(info: Any) -> None:
+            if info.tick == 40:
+                connection.supervisor.estop("operator pressed the mushroom")
+
+        runner.add_pre_tick(stop_at_tick_40)
+
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "2 m"}, max_time="10 s", observe=observe
+    )
+    assert not result.succeeded
+    assert result.why == "e-stop: operator pressed the mushroom"
+    assert result.counters.estops == 1

@@ -43,6 +43,7 @@ _COUNTER_KEYS = (
     "refusals",
     "clips",
     "safe_states",
+    "estops",
     "retries",
     "link_failures",
     "crc_errors",

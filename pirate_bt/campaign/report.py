@@ -28,7 +28,7 @@ CSV_COLUMNS = (
     "id", "index", "run", "tree", "route", "network", "map", "robot", "params", "sim_faults",
     "drop", "corrupt", "dup", "seed", "outcome", "reason", "failing_node", "sim_time_s",
     "wall_time_s", "ticks", "violations", "damage", "refusals", "clips", "safe_states",
-    "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
+    "estops", "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
     "violation_kinds", "damage_kinds", "trace",
 )  # fmt: skip
 """The columns of ``results.csv``: the case, its outcome and first cause, and the run's

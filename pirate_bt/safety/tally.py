@@ -35,6 +35,7 @@ class Counters:
         clips: Commands the supervisor clipped to a limit and sent.
         safe_states: Times the robot entered its safe state (a stop repeated while
             already in it counts once).
+        estops: E-stops (the operator's, the bridge's input, the ROS graph's).
         retries: Link requests sent again after an acknowledgement timeout.
         link_failures: Link requests given up on after every retry.
         crc_errors: Frames rejected for a bad CRC or framing.
@@ -60,6 +61,7 @@ class Counters:
     refusals: int = 0
     clips: int = 0
     safe_states: int = 0
+    estops: int = 0
     retries: int = 0
     link_failures: int = 0
     crc_errors: int = 0
@@ -94,6 +96,7 @@ class Counters:
                     "refusals",
                     "clips",
                     "safe_states",
+                    "estops",
                     "retries",
                     "link_failures",
                     "crc_errors",
@@ -109,7 +112,7 @@ class Counters:
 
 @dataclass(frozen=True, slots=True)
 class SafeStateEntry:
-    """The supervisor putting the robot in its safe state.
+    """The supervisor putting the robot in its safe state (or an e-stop latching).
 
     Attributes:
         time_s: Clock time.
@@ -139,6 +142,7 @@ class VerdictTally:
         self.refusals = 0
         self.clips = 0
         self.safe_states = 0
+        self.estops = 0
         self.first_safe_state: SafeStateEntry | None = None
         self._in_safe_state = bool(supervisor.in_safe_state)
         # link and simulator figures already counted before this tally started
@@ -152,6 +156,13 @@ class VerdictTally:
             self.refusals += 1
         elif verdict.outcome is Outcome.CLIP:
             self.clips += 1
+        if verdict.reason is Reason.ESTOP_LATCHED and verdict.outcome is Outcome.PASS:
+            # the e-stop itself (a command refused under it is a REFUSE with this reason)
+            self.estops += 1
+            if self.first_safe_state is None:
+                self.first_safe_state = SafeStateEntry(
+                    verdict.stamp_s, verdict.detail or "e-stop", verdict.node_name
+                )
         if verdict.reason is Reason.SAFE_STATE and verdict.source is Source.SUPERVISOR:
             if not self._in_safe_state:
                 self.safe_states += 1
@@ -205,6 +216,7 @@ class VerdictTally:
             refusals=self.refusals,
             clips=self.clips,
             safe_states=self.safe_states,
+            estops=self.estops,
             retries=since("retries"),
             link_failures=since("link_failures"),
             crc_errors=since("crc_errors"),
