@@ -266,8 +266,9 @@ def test_a_run_serves_its_tree_statuses_blackboard_and_transitions(server: Groot
 def test_subtrees_are_served_as_bt_cpp_instantiates_them(server: Groot2Server) -> None:
     tree = pirate_bt.load_tree("bend", params={"roll": "90 deg"})
     runner = Runner(tree, clock=SimClock())
-    served = attach_groot2(runner, server)
-    assert served.expanded
+    attach_groot2(runner, server)
+    served = server.served()
+    assert served is not None and served.expanded
     client = Client(server.port)
     try:
         xml = client.tree()
@@ -292,8 +293,9 @@ def test_a_tree_built_in_python_is_served_as_it_runs(server: Groot2Server) -> No
     root = py_trees.composites.Sequence(
         "root", memory=True, children=[py_trees.behaviours.Success("a")]
     )
-    served = attach_groot2(Runner(root, clock=SimClock()), server)
-    assert not served.expanded and served.order == (1, 2)
+    attach_groot2(Runner(root, clock=SimClock()), server)
+    served = server.served()
+    assert served is not None and not served.expanded and served.order == (1, 2)
     client = Client(server.port)
     try:
         xml = client.tree()

@@ -173,9 +173,16 @@ class Session:
         self.results = _Results()
         self.tree.visitors.append(self.results)
         self.ours = Groot2Server(port=0)
-        self.served = self.ours.serve(
-            self.tree, source=self.loaded.source, name=self.loaded.name, recorder=self.recorder
+        self.ours.serve(
+            self.tree,
+            source=self.loaded.source,
+            name=self.loaded.name,
+            checked=self.loaded,
+            recorder=self.recorder,
         )
+        served = self.ours.served()
+        assert served is not None
+        self.served = served
         assert self.served.expanded
         xml = tmp / "oracle.xml"
         xml.write_text(tree_to_xml(TREE), encoding="utf-8")

@@ -248,6 +248,7 @@ def tree_to_xml(
     path: str | Path | Mapping[str, Any],
     params: Mapping[str, str] | None = None,
     registry: Registry | None = None,
+    checked: Any = None,
 ) -> str:
     """The tree file at ``path`` (and every file it uses) as BT.CPP v4 XML text.
 
@@ -256,7 +257,9 @@ def tree_to_xml(
     the defaults of the main tree's ports. ``path`` may also be a tree as a
     mapping (planner code, a mission's tree): its numbers are SI and are written
     with their unit (``2.0 s``); its subtree files are found from the current
-    folder, as the loader finds them.
+    folder, as the loader finds them. ``checked``: the
+    :class:`~pirate_bt.treefile.LoadedTree` of ``path``, already loaded and
+    checked by the caller, which is then not loaded again.
 
     Raises:
         ValidationFailed: the tree does not load.
@@ -267,7 +270,11 @@ def tree_to_xml(
     reg = registry or default_registry()
     given = dict(params or {})
     source: Path | Mapping[str, Any] = path if isinstance(path, Mapping) else Path(path)
-    loaded = load_tree(source, params=given, params_from_text=True, use_examples=True, registry=reg)
+    loaded = checked
+    if loaded is None:
+        loaded = load_tree(
+            source, params=given, params_from_text=True, use_examples=True, registry=reg
+        )
     exporter = _Exporter(reg, node_models(reg))
     if isinstance(source, Mapping):
         exporter.root_doc = YamlDocument(dict(source), Locator(_MAPPING))

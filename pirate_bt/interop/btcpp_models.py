@@ -285,10 +285,23 @@ def node_models(registry: Registry | None = None) -> dict[str, NodeModel]:
             cls = reg.get(name)
         except ImportError as exc:
             raise InputError(f"node type {name!r} cannot be loaded: {exc}") from None
-        doc = (cls.__doc__ or "").strip().splitlines()
-        models[name] = NodeModel(name, _category(cls), _ports(cls.Params), doc[0] if doc else "")
+        models[name] = _class_model(name, cls)
     models["parallel"] = _PARALLEL_MODEL
     return models
+
+
+_CLASS_MODELS: dict[tuple[str, int], tuple[type[NodeMixin], NodeModel]] = {}
+
+
+def _class_model(name: str, cls: type[NodeMixin]) -> NodeModel:
+    """One node type's model (a class's parameter model does not change: kept)."""
+    kept = _CLASS_MODELS.get((name, id(cls)))
+    if kept is not None and kept[0] is cls:
+        return kept[1]
+    doc = (cls.__doc__ or "").strip().splitlines()
+    model = NodeModel(name, _category(cls), _ports(cls.Params), doc[0] if doc else "")
+    _CLASS_MODELS[(name, id(cls))] = (cls, model)
+    return model
 
 
 # -- values ----------------------------------------------------------------------------

@@ -108,6 +108,21 @@ def _load() -> tuple[Any, Any]:
 
 
 @dataclass
+class _Pending:
+    """A tree to serve, until a client first asks for it."""
+
+    tree: py_trees.trees.BehaviourTree
+    source: Any
+    name: str | None
+    checked: Any
+    recorder: CoverageRecorder | None
+    period_s: float
+    clock: Any
+    supervisor: Any
+    robot: str | None
+
+
+@dataclass
 class _Run:
     """The tree being served and what its hooks need."""
 
@@ -167,6 +182,7 @@ class Groot2Server:
             raise
         self._cond = threading.Condition()
         self._run: _Run | None = None
+        self._pending: _Pending | None = None
         self._status = bytearray()
         self._hooks: dict[tuple[int, int], Hook] = {}
         self._generation = 0
@@ -234,59 +250,86 @@ class Groot2Server:
         *,
         source: Any = None,
         name: str | None = None,
+        checked: Any = None,
         recorder: CoverageRecorder | None = None,
         period_s: float = 0.05,
         clock: Any = None,
         supervisor: Any = None,
         robot: str | None = None,
-    ) -> ServedTree:
+    ) -> None:
         """Serve ``tree`` from now on (a new tree UUID: Groot2 loads it again).
 
-        Most callers want :func:`attach_groot2`. The statuses follow ``recorder``;
-        hooks are installed before each tick by :meth:`apply_hooks`.
+        Most callers want :func:`attach_groot2`. What Groot2 sees is made when a
+        client first asks (in the server's thread: nothing is spent on a run nobody
+        watches); the statuses follow ``recorder``; hooks are installed before each
+        tick by :meth:`apply_hooks`.
 
         Args:
             tree: The running tree.
             source: What it was loaded from (a tree file or mapping), to show subtrees.
             name: Its name.
+            checked: Its ``LoadedTree``, if there is one (spares loading it again).
             recorder: Its coverage recorder (the statuses as BT.CPP shows them).
             period_s: The tick period (how often a held breakpoint ticks the supervisor).
             clock: The run's clock.
             supervisor: The run's supervisor (``None``: a tree with no robot).
             robot: Where the run is, when that is a robot and not a simulator.
         """
-        served = served_tree(tree, source, name)
+        pending = _Pending(
+            tree, source, name, checked, recorder, period_s, clock, supervisor, robot
+        )
+        with self._cond:
+            self._detach_locked()
+            self._run = None
+            self._pending = pending
+            self._status = bytearray()
+            self._transitions.clear()
+        if recorder is not None:
+            recorder.add_listener(self._on_tick)
+
+    def served(self) -> ServedTree | None:
+        """What is served (the XML, the UIDs), made now if no client asked yet;
+        ``None`` before :meth:`serve`."""
+        run = self._build()
+        return run.served if run is not None else None
+
+    def _build(self) -> _Run | None:
+        """The served tree's run, made on the first request (outside the lock: the
+        tick thread never waits for it)."""
+        with self._cond:
+            if self._run is not None or self._pending is None:
+                return self._run
+            pending = self._pending
+        served = served_tree(pending.tree, pending.source, pending.name, pending.checked)
+        nodes = [node for _, node in iter_with_ids(pending.tree)]
         run = _Run(
             served=served,
             uuid=new_tree_uuid(),
             offset={uid: 3 * i + 2 for i, uid in enumerate(served.order)},
-            nodes=[node for _, node in iter_with_ids(tree)],
-            period_s=period_s,
-            clock=clock,
-            supervisor=supervisor,
-            robot=robot,
-            recorder=recorder,
+            nodes=nodes,
+            period_s=pending.period_s,
+            clock=pending.clock,
+            supervisor=pending.supervisor,
+            robot=pending.robot,
+            recorder=pending.recorder,
         )
+        index_of = {id(node): i for i, node in enumerate(nodes)}
+        run.parents = [-1] * len(nodes)
+        for i, node in enumerate(nodes):
+            for child in node.children:
+                run.parents[index_of[id(child)]] = i
         status = bytearray(3 * len(served.order))
         for i, uid in enumerate(served.order):
             status[3 * i : 3 * i + 2] = uid.to_bytes(2, "little")
-        if recorder is not None:
-            for index, code in enumerate(recorder.shown):
-                if code:
-                    self._set_codes(run, status, index, code)
-        index_of = {id(node): i for i, node in enumerate(run.nodes)}
-        run.parents = [-1] * len(run.nodes)
-        for i, node in enumerate(run.nodes):
-            for child in node.children:
-                run.parents[index_of[id(child)]] = i
         with self._cond:
-            self._detach_locked()
-            self._run = run
-            self._status = status
-            self._transitions.clear()
-        if recorder is not None:
-            recorder.add_listener(self._on_tick)
-        return served
+            if self._pending is not pending:  # another tree since: serve that one
+                return self._run
+            if run.recorder is not None:  # under the lock: the listener waits for us
+                for index, code in enumerate(list(run.recorder.shown)):
+                    if code:
+                        self._set_codes(run, status, index, code)
+            self._run, self._pending, self._status = run, None, status
+        return run
 
     def _set_codes(self, run: _Run, status: bytearray, index: int, code: int) -> None:
         inner = run.served.inner
@@ -337,11 +380,12 @@ class Groot2Server:
         statuses stay served until :meth:`close` or the next :meth:`serve`."""
         with self._cond:
             self._remove_all_locked()
-            run = self._run
+            run, pending = self._run, self._pending
         if run is not None:
             self._uninstall(run, set(run.installed))
-            if run.recorder is not None:
-                run.recorder.remove_listener(self._on_tick)
+        recorder = run.recorder if run is not None else pending.recorder if pending else None
+        if recorder is not None:
+            recorder.remove_listener(self._on_tick)
 
     def _detach_locked(self) -> None:
         self._remove_all_locked()
@@ -551,7 +595,7 @@ class Groot2Server:
         header = unpack_request(parts[0]) if parts else None
         if header is None:
             return _error(WRONG_HEADER)
-        run = self._run
+        run = self._build()
         if run is None:
             return _error("no tree is running yet")
         reply = [reply_header(header, run.uuid)]
@@ -741,7 +785,7 @@ def attach_groot2(
     robot: str | None = None,
     source: Any = None,
     name: str | None = None,
-) -> ServedTree:
+) -> None:
     """Serve ``runner``'s tree on ``server`` while it runs (any tree, any runner).
 
     The statuses come from the runner's coverage recorder
@@ -762,8 +806,8 @@ def attach_groot2(
             ``LoadedTree.source``), to show its subtrees.
         name: The tree's name.
 
-    Returns:
-        What is served (the XML, the UIDs).
+    What Groot2 sees is made when a client first asks (``server.served()`` makes
+    it at once: the XML, the UIDs).
 
     Example::
 
@@ -778,10 +822,11 @@ def attach_groot2(
     if name is None and loaded is not None:
         name = getattr(loaded, "name", None)
     recorder = attach_coverage(runner, name)
-    served = server.serve(
+    server.serve(
         runner.tree,
         source=source,
         name=name,
+        checked=loaded if source is getattr(loaded, "source", None) else None,
         recorder=recorder,
         period_s=runner.period_s,
         clock=runner.clock,
@@ -790,4 +835,3 @@ def attach_groot2(
     )
     runner.add_pre_tick(server.apply_hooks)
     runner.add_finish(lambda _result: server.finish())
-    return served

@@ -268,6 +268,7 @@ def served_tree(
     tree: py_trees.trees.BehaviourTree,
     source: str | Path | Mapping[str, Any] | None = None,
     name: str | None = None,
+    checked: Any = None,
 ) -> ServedTree:
     """What to serve for ``tree`` (see the module docstring).
 
@@ -276,6 +277,8 @@ def served_tree(
         source: What it was loaded from (a tree file or a mapping), to show its
             subtrees; ``None``: the running tree as it is.
         name: The tree's name, for the one-tree form.
+        checked: The ``LoadedTree`` of ``source``, if the caller has it (spares
+            loading it again to export it).
 
     Raises:
         InputError: a tree of more than 65,535 nodes.
@@ -284,7 +287,7 @@ def served_tree(
         from pirate_bt.interop.btcpp import tree_to_xml
 
         try:
-            return _from_export(tree, tree_to_xml(source))
+            return _from_export(tree, tree_to_xml(source, checked=checked))
         except Exception as exc:  # any reason the export does not fit: show the tree as run
             logger.info("Groot2: showing the tree as it runs, without subtrees (%s)", exc)
     return _flat(tree, name)
