@@ -59,12 +59,14 @@ zmq-dev:
 	fi
 
 # The PIRATEbay bridge firmware: layout header from the robot description, ELF, HEX,
-# flash and SRAM use (firmware/piratebay/build/); and the simavr harness that runs it
-# (firmware/simavr/build/), where libsimavr is installed.
+# flash and SRAM use (firmware/piratebay/build/); the reference PICO board firmware
+# (firmware/pico/build/); and the simavr harness that runs them (firmware/simavr/build/),
+# where libsimavr is installed.
 FIRMWARE_ROBOT = ROBOT=$(abspath $(or $(ROBOT),hardware/pirate.yaml)) \
 	PIRATE_BT=$(abspath $(BIN)/pirate-bt)
 firmware: $(STAMP) avr-toolchain
 	$(MAKE) -C firmware/piratebay $(FIRMWARE_ROBOT)
+	$(MAKE) -C firmware/pico $(FIRMWARE_ROBOT)
 	@if pkg-config --exists simavr 2>/dev/null; then $(MAKE) -C firmware/simavr; \
 	else echo "note: libsimavr-dev missing: the simavr harness is not built"; fi
 

@@ -39,7 +39,13 @@ from pirate_bt.pipes import load_network
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import ControlMode
 from pirate_bt.robot.state import StateBuilder
-from pirate_bt.sim.boardbus import CMD_EXCHANGE, CMD_STOP, BoardBus, FirmwareBridge
+from pirate_bt.sim.boardbus import (
+    CMD_EXCHANGE,
+    CMD_STOP,
+    STATUS_MOTORS_OFF,
+    BoardBus,
+    FirmwareBridge,
+)
 from pirate_bt.sim.model import PipeRobotModel
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,7 +85,8 @@ def test_exchange_reply_is_the_boards_slice_of_the_readings(boards: BoardBus) ->
         assert wire.endswith(b"\x00")
         body = cobs_decode(wire[:-1])
         assert crc16(body[:-2]) == int.from_bytes(body[-2:], "little")
-        assert body[:3] == bytes((board, CMD_EXCHANGE | 0x80, 0))
+        # status MOTORS_OFF: nothing was commanded yet, the keeps leave the motors off
+        assert body[:3] == bytes((board, CMD_EXCHANGE | 0x80, STATUS_MOTORS_OFF))
         values = list(struct.unpack(f"<{(len(body) - 5) // 2}h", body[3:-2]))
         mine = [expected[i] for i, c in enumerate(channels) if c.board == board]
         assert values == mine

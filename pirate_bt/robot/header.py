@@ -13,10 +13,20 @@ bridge's periods and baud rate, and the layout digest the host compares at hello
 time. SI conversions, limits and geometry stay on the host. Tables come out as
 initializer lists (``PB_BOARD_TABLE``, ``PB_MOTOR_TABLE``) so that the firmware
 owns its struct types and where the tables live (flash, on the AVR).
+
+The reference PICO board firmware (``firmware/pico/``) is built from the same
+header. It also needs to know what produces each of its channels and how its
+closed loops scale: ``PB_CHANNEL_IO_TABLE`` (the source of every state channel: a
+sensor connector's ADC, an IMU axis, a motor's encoder or current sense, with the
+raw range the ADC spans) and ``PB_MOTOR_IO_TABLE`` (per motor: the angle channel a
+position loop closes on and its scale, the duty that holds a joint at the position
+hold torque, the wheel circumference and the velocity feedback's raw unit). The
+bridge ignores both.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -26,9 +36,13 @@ from pirate_bt.errors import ConfigurationError
 from pirate_bt.robot.description import ControlMode, MotorFunction, RobotDescription
 
 __all__ = [
+    "CHANNEL_SOURCES",
     "MODE_ORDER",
     "STOP_ROLES",
     "BoardSlice",
+    "ChannelIO",
+    "MotorIO",
+    "board_io",
     "board_slices",
     "render_header",
     "stop_role",
@@ -47,6 +61,130 @@ STOP_ROLES: tuple[str, ...] = ("drive", "rotate", "bend", "other")
 """Stop roles in the order of their C codes (``PB_ROLE_DRIVE`` = 0, ...)."""
 
 _INT16 = (-32768, 32767)
+
+CHANNEL_SOURCES: tuple[str, ...] = (
+    "adc",
+    "imu_roll",
+    "imu_pitch",
+    "imu_yaw",
+    "velocity",
+    "current",
+)
+"""What produces a state channel on its PICO board, in the order of their C codes
+(``PB_SRC_ADC`` = 0, ...)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelIO:
+    """What produces one state channel on its PICO board (``firmware/pico/``)."""
+
+    index: int
+    board_index: int
+    source: str
+    slot: int
+    raw_lo: int
+    raw_hi: int
+    zero_raw: int
+    scale_q16: int
+    """IMU axes only: raw units per IMU LSB (1/16 degree), times 65536."""
+
+
+@dataclass(frozen=True, slots=True)
+class MotorIO:
+    """What the PICO board's closed loops need to know of one motor."""
+
+    index: int
+    angle_channel: int
+    """Layout index of the angle channel on the motor's slot (-1: none)."""
+    position_q16: int
+    """Angle-sensor raw units per position raw unit, times 65536."""
+    hold_duty: int
+    """Largest duty (of 255) of the position loop: the position hold torque."""
+    circumference_um: int
+    """Wheel circumference of the motor's module (0: no wheel)."""
+    velocity_per_raw_um_s: int
+    """One raw unit of the velocity feedback, in µm/s (0: no velocity feedback)."""
+
+
+def board_io(robot: RobotDescription) -> tuple[list[ChannelIO], list[MotorIO]]:
+    """The PICO boards' I/O tables (see the module docstring).
+
+    Raises:
+        ConfigurationError: an IMU with other axes than roll, pitch, yaw.
+    """
+    channels = robot.state_channels()
+    boards = sorted(robot.boards, key=lambda b: b.id)
+    out_channels: list[ChannelIO] = []
+    for bi, board in enumerate(boards):
+        for sensor in sorted(board.sensors, key=lambda s: s.slot):
+            conv = sensor.conversion()
+            lo, hi = conv.raw
+            if sensor.kind == "imu":
+                scale = round(math.radians(1 / 16) / conv.per_raw * 65536)
+                for axis in sensor.channels:
+                    if axis not in ("roll", "pitch", "yaw"):
+                        raise ConfigurationError(f"IMU {sensor.name!r}: axis {axis!r} unknown")
+                    out_channels.append(
+                        ChannelIO(
+                            len(out_channels),
+                            bi,
+                            f"imu_{axis}",
+                            sensor.slot,
+                            lo,
+                            hi,
+                            conv.zero_raw,
+                            scale,
+                        )
+                    )
+            else:
+                out_channels.append(
+                    ChannelIO(len(out_channels), bi, "adc", sensor.slot, lo, hi, conv.zero_raw, 0)
+                )
+        for motor in sorted(board.motors, key=lambda m: m.slot):
+            for key in ("velocity", "current"):
+                fb = getattr(motor.feedback, key)
+                if fb is not None:
+                    lo, hi = fb.raw
+                    out_channels.append(
+                        ChannelIO(len(out_channels), bi, key, motor.slot, lo, hi, fb.zero_raw, 0)
+                    )
+    # the same order as the wire layout (robot.state_channels), by construction
+    assert len(out_channels) == len(channels)
+    assert all(
+        c.board_index == [b.id for b in boards].index(s.board)
+        for c, s in zip(out_channels, channels, strict=True)
+    )
+    hold_nm = robot.motion.position_hold_torque
+    out_motors: list[MotorIO] = []
+    for slot in robot.setpoint_slots():
+        motor = slot.motor
+        board = next(b for b in boards if b.id == slot.board)
+        angle = next((s for s in board.sensors if s.slot == slot.slot and s.kind == "angle"), None)
+        angle_channel, position_q16 = -1, 0
+        position = motor.modes.position
+        if angle is not None and position is not None:
+            angle_channel = next(
+                c.index
+                for c in out_channels
+                if c.source == "adc"
+                and c.slot == slot.slot
+                and c.board_index == boards.index(board)
+            )
+            position_q16 = round(position.per_raw / angle.conversion().per_raw * 65536)
+        torque = motor.modes.torque
+        hold_duty = 255
+        if torque is not None:
+            stall_nm = max(abs(v) for v in torque.si_range)
+            hold_duty = max(1, min(255, round(255 * hold_nm / stall_nm)))
+        module = robot.module(board.module)
+        radius = module.wheel_radius
+        circumference = round(2 * math.pi * radius * 1e6) if radius else 0
+        velocity = motor.feedback.velocity
+        per_raw = round(velocity.per_raw * 1e6) if velocity is not None else 0
+        out_motors.append(
+            MotorIO(slot.index, angle_channel, position_q16, hold_duty, circumference, per_raw)
+        )
+    return out_channels, out_motors
 
 
 def stop_role(function: MotorFunction) -> str:
@@ -183,8 +321,45 @@ def render_header(robot: RobotDescription, source: str = "") -> str:
             f"    {{{board_index[m.board]}, {m.slot}, PB_ROLE_{role}, 0x{mask:X},"
             f" {{{', '.join(ranges)}}}}}, /* {m.board}:{m.slot} {m.motor.name} */ \\"
         )
-    lines += ["}", "", "#endif /* PB_GENERATED_LAYOUT_H */", ""]
+    lines += ["}", ""]
+    lines += _board_io_lines(robot)
+    lines += ["#endif /* PB_GENERATED_LAYOUT_H */", ""]
     return "\n".join(lines)
+
+
+def _board_io_lines(robot: RobotDescription) -> list[str]:
+    """The PICO boards' I/O tables as C (firmware/pico/; the bridge ignores them)."""
+    channels, motors = board_io(robot)
+    lines = [
+        "/* The reference PICO firmware's board I/O (firmware/pico/, docs/board-bus.md).",
+        " * Channel sources: */",
+        *(f"#define PB_SRC_{name.upper()} {code}" for code, name in enumerate(CHANNEL_SOURCES)),
+        "",
+        "/* State channels in wire order: {board index, source, slot (sensor or motor",
+        " *   connector), raw lo, raw hi, zero raw, IMU raw per 1/16 degree (Q16)}. An ADC",
+        " *   channel spans [raw lo, raw hi] over the ADC's 0..1023. */",
+        "#define PB_CHANNEL_IO_TABLE { \\",
+    ]
+    for c in channels:
+        lines.append(
+            f"    {{{c.board_index}, PB_SRC_{c.source.upper()}, {c.slot}, {c.raw_lo},"
+            f" {c.raw_hi}, {c.zero_raw}, {c.scale_q16}}}, \\"
+        )
+    lines += [
+        "}",
+        "",
+        "/* Motors in wire order: {angle channel of the position loop (-1: none), angle raw",
+        " *   per position raw (Q16), duty limit of the position loop (of 255: the position",
+        " *   hold torque), wheel circumference (um), velocity feedback raw unit (um/s)}. */",
+        "#define PB_MOTOR_IO_TABLE { \\",
+    ]
+    for m in motors:
+        lines.append(
+            f"    {{{m.angle_channel}, {m.position_q16}, {m.hold_duty}, {m.circumference_um},"
+            f" {m.velocity_per_raw_um_s}}}, \\"
+        )
+    lines += ["}", ""]
+    return lines
 
 
 def write_header(robot: RobotDescription, out: Path, source: str = "") -> Path:

@@ -17,6 +17,7 @@
  * frames, corrupted frames applied, and whether HELLO is answered afterwards.
  *
  * Prints one `name value` line per figure. */
+#include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_cycle_timers.h>
@@ -318,6 +319,10 @@ int main(int argc, char **argv) {
     avr->frequency = HZ;
     avr->log = 0;
     avr_load_firmware(avr, &fw);
+    /* the hardware e-stop input (D22, PA0): a closed contact holds it low against the
+     * firmware's pull-up: not pressed */
+    avr_ioport_external_t closed = {.name = 'A', .mask = 0x01, .value = 0x00};
+    avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &closed);
     uint32_t flags = 0;
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('1'), &flags);

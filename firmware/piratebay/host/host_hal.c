@@ -15,6 +15,8 @@
  *   fw_reading(channel, raw)         the value the boards report for a channel
  *   fw_bus_log(buf, cap)             every frame the bridge sent on the bus, decoded
  *   fw_bus_times(out, cap)           the virtual time (us) each of those frames ended
+ *   fw_board_reply(index, bytes, n)  a board answers every EXCHANGE with these wire
+ *                                    bytes (n = 0: as fw_board and fw_reading say)
  *   fw_debug(out)                    the pb_debug record
  *   fw_estop_input(open)             the e-stop contact opens (1) or closes (0)
  *   fw_led()                         the LED (lit while the e-stop is latched)
@@ -95,6 +97,8 @@ static uint8_t board_status_byte[PB_N_BOARDS];
 static int16_t board_readings[PB_N_CHANNELS ? PB_N_CHANNELS : 1];
 static uint8_t rx1[256];
 static uint16_t rx1_head, rx1_tail;
+static uint8_t fixed_reply[PB_N_BOARDS][64];
+static uint8_t fixed_len[PB_N_BOARDS];
 static uint8_t bus_raw[64];
 static uint8_t bus_raw_n;
 static uint8_t bus_log[1 << 16];
@@ -136,6 +140,12 @@ static void board_frame(void) {
     int8_t b = layout_board_index(body[0]);
     if (b < 0 || body[1] != 0x01u || !board_online[b]) {
         return; /* STOP, or nobody home */
+    }
+    if (fixed_len[b]) {
+        for (uint8_t i = 0; i < fixed_len[b]; i++) {
+            rx1[rx1_head++ & 0xFFu] = fixed_reply[b][i];
+        }
+        return;
     }
     bool garble = board_online[b] == 2; /* answers, but with a broken CRC */
     struct pb_board board = *layout_board((uint8_t)b);
@@ -216,6 +226,13 @@ void fw_board(uint8_t index, uint8_t online, uint8_t status) {
     if (index < PB_N_BOARDS) {
         board_online[index] = online;
         board_status_byte[index] = status;
+    }
+}
+
+void fw_board_reply(uint8_t index, const uint8_t *p, uint8_t n) {
+    if (index < PB_N_BOARDS && n <= sizeof fixed_reply[0]) {
+        memcpy(fixed_reply[index], p, n);
+        fixed_len[index] = n;
     }
 }
 

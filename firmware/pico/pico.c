@@ -1,0 +1,53 @@
+#include "pico.h"
+
+#include "board.h"
+#include "bus.h"
+#include "hal.h"
+#include "motors.h"
+#include "sensors.h"
+
+/* used, externally visible: a harness reads it by symbol; link-time optimisation must
+ * neither drop it nor its stores */
+struct pico_debug pico_debug __attribute__((used, externally_visible));
+
+static uint32_t last_ms;
+
+void pico_init(void) {
+    hal_init();
+    board_load(hal_board_id());
+    bool warm = hal_warm_boot();
+    sensors_init();
+    motors_init(warm);
+    last_ms = hal_ms();
+    bus_init(last_ms);
+    pico_debug.magic = PICO_DEBUG_MAGIC;
+    pico_debug.last_mcusr = hal_reset_cause();
+    pico_debug.resets = 0;
+    pico_debug.board_id = board.id;
+    pico_debug.known = board.known;
+    pico_debug.warm = warm;
+}
+
+void pico_turn(void) {
+    hal_feed();
+    bus_poll();
+    uint32_t now = hal_ms();
+    if (now == last_ms) {
+        return;
+    }
+    last_ms = now;
+    sensors_tick(now);
+    bus_tick(now);
+    motors_tick();
+    const struct bus_counts *c = bus_counts();
+    pico_debug.exchanges = c->exchanges;
+    pico_debug.stops = c->stops;
+    pico_debug.bad_frames = c->bad;
+    pico_debug.own_stops = c->own_stops;
+    pico_debug.refused = c->refused;
+    pico_debug.others = c->others;
+    pico_debug.own_stop = bus_own_stop();
+    pico_debug.stack_low = hal_stack_low();
+    /* the LED: on while stopped by itself, blinking when the id is not the layout's */
+    hal_led(board.known ? bus_own_stop() : (now & 256u) != 0);
+}

@@ -1,0 +1,114 @@
+#include "sensors.h"
+
+#include <string.h>
+
+#include "hal.h"
+
+#define RING (VELOCITY_WINDOW_MS / 10u)
+
+static struct {
+    int16_t value[PICO_MAX_CHANNELS];
+    int16_t speed[PICO_MAX_MOTORS];
+    int16_t counts[PICO_MAX_MOTORS][RING]; /* encoder count every 10 ms */
+    uint8_t ring_at;
+    uint32_t last_10ms;
+} s;
+
+void sensors_init(void) {
+    memset(&s, 0, sizeof s);
+    for (uint8_t k = 0; k < PICO_MAX_MOTORS; k++) {
+        for (uint8_t i = 0; i < RING; i++) {
+            s.counts[k][i] = hal_encoder(k);
+        }
+    }
+}
+
+static int16_t clamp(int32_t v, int16_t lo, int16_t hi) {
+    return v < lo ? lo : v > hi ? hi : (int16_t)v;
+}
+
+/* Motor k's speed in its velocity feedback's raw unit, from the encoder's counts over
+ * the last 40 ms: counts/s x circumference / counts per revolution. */
+static void speeds(void) {
+    uint8_t oldest = (uint8_t)((s.ring_at + 1u) % RING);
+    for (uint8_t k = 0; k < board.n_motors && k < PICO_MAX_MOTORS; k++) {
+        int16_t now = hal_encoder(board.motor[k].slot);
+        int16_t counts = (int16_t)(now - s.counts[k][oldest]);
+        s.counts[k][oldest] = now;
+        const struct pico_motor_io *io = &board.motor_io[k];
+        if (io->velocity_um_s == 0 || io->circumference_um == 0) {
+            s.speed[k] = 0;
+            continue;
+        }
+        int32_t num = (int32_t)counts * (int32_t)(1000u / VELOCITY_WINDOW_MS) *
+                      (int32_t)io->circumference_um;
+        int32_t den = ENCODER_CPR * (int32_t)io->velocity_um_s;
+        s.speed[k] = (int16_t)((num + (num >= 0 ? den / 2 : -den / 2)) / den);
+    }
+    s.ring_at = oldest;
+}
+
+/* The motor index (in this board's slot order) of slot `slot`. */
+static uint8_t motor_of(uint8_t slot) {
+    for (uint8_t k = 0; k < board.n_motors; k++) {
+        if (board.motor[k].slot == slot) {
+            return k;
+        }
+    }
+    return 0;
+}
+
+void sensors_tick(uint32_t now_ms) {
+    if ((uint32_t)(now_ms - s.last_10ms) >= 10u) {
+        s.last_10ms = now_ms;
+        speeds();
+    }
+    int16_t imu[3] = {0, 0, 0};
+    bool have_imu = false;
+    for (uint8_t c = 0; c < board.n_channels; c++) {
+        uint8_t src = board.channel[c].source;
+        if (src == PB_SRC_IMU_ROLL || src == PB_SRC_IMU_PITCH || src == PB_SRC_IMU_YAW) {
+            have_imu = hal_imu(imu); /* a board without an IMU never starts the TWI */
+            break;
+        }
+    }
+    for (uint8_t c = 0; c < board.n_channels; c++) {
+        const struct pico_channel *ch = &board.channel[c];
+        int32_t v;
+        switch (ch->source) {
+        case PB_SRC_ADC:
+        case PB_SRC_CURRENT: {
+            uint8_t input = ch->source == PB_SRC_ADC ? HAL_ADC_SENSOR(ch->slot)
+                                                     : HAL_ADC_CURRENT(ch->slot);
+            int32_t span = (int32_t)ch->raw_hi - ch->raw_lo + 1;
+            v = ch->raw_lo + (int32_t)hal_adc(input) * span / 1024;
+            break;
+        }
+        case PB_SRC_IMU_ROLL:
+        case PB_SRC_IMU_PITCH:
+        case PB_SRC_IMU_YAW: {
+            if (!have_imu) {
+                continue; /* keep the last value (0 before any) */
+            }
+            /* the IMU gives heading (yaw), roll, pitch in that register order */
+            uint8_t axis = ch->source == PB_SRC_IMU_YAW ? 0u
+                           : ch->source == PB_SRC_IMU_ROLL ? 1u
+                                                            : 2u;
+            int64_t q = (int64_t)imu[axis] * ch->scale_q16;
+            v = ch->zero_raw + (int32_t)((q + (q >= 0 ? 32768 : -32768)) / 65536);
+            break;
+        }
+        case PB_SRC_VELOCITY:
+            v = s.speed[motor_of(ch->slot)];
+            break;
+        default:
+            v = 0;
+            break;
+        }
+        s.value[c] = clamp(v, ch->raw_lo, ch->raw_hi);
+    }
+}
+
+int16_t sensors_channel(uint8_t c) { return c < PICO_MAX_CHANNELS ? s.value[c] : 0; }
+
+int16_t sensors_speed(uint8_t k) { return k < PICO_MAX_MOTORS ? s.speed[k] : 0; }
