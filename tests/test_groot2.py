@@ -421,6 +421,7 @@ def _robot_run(server: Groot2Server, work: Callable[[Client, int], None]) -> tup
     root = py_trees.composites.Sequence("root", memory=True, children=[action])
     runner = Runner(root, clock=SimClock(), period_s=0.02, max_time_s=60)
     supervisor = _Supervisor()
+    runner.add_pre_tick(lambda _info: supervisor.tick())  # as every run pirate_bt wires
     attach_groot2(runner, server, supervisor=supervisor, robot="robot at /dev/ttyTEST")
     hooked = threading.Event()
 
@@ -474,3 +475,51 @@ def test_the_command_line_serves_a_run(tmp_path: Path) -> None:
 
     assert main(["run", str(REPLAY), "--quiet", "--groot2", f"127.0.0.1:{port}"]) == 0
     assert main(["run", str(REPLAY), "--quiet", "--groot2", "host:99999"]) == 2
+
+
+def test_an_operator_e_stop_works_while_a_breakpoint_holds_the_tree(server: Groot2Server) -> None:
+    """``teleop --tree T --groot2``: the console's keys still reach the supervisor while
+    the tree waits at a breakpoint (the runner's pre-tick hooks keep running)."""
+    import sys
+
+    from pirate_bt.cli.console import ConsoleEngine
+    from pirate_bt.cli.teleop import TeleopSession
+
+    with pirate_bt.connect("sim:straight", mode="autonomous") as robot:
+
+        def factory() -> Any:
+            runner = robot.runner(
+                "straight", params={"distance": "0.2 m"}, setup_timeout_s=sys.float_info.max
+            )
+            attach_groot2(runner, server, supervisor=robot.supervisor)
+            return runner
+
+        engine = ConsoleEngine(
+            TeleopSession(robot.supervisor),
+            period_s=0.05,
+            wall_period_s=0.002,
+            runner_factory=factory,
+        )
+        thread = threading.Thread(target=engine.run, args=(lambda _s: None,), daemon=True)
+        client = Client(server.port)
+        try:
+            thread.start()
+            deadline = time.monotonic() + 30
+            while client.ask("S")[0] == b"error" and time.monotonic() < deadline:
+                time.sleep(0.01)
+            uid = uid_of(client.tree(), "drive straight")
+            assert len(client.hook(uid)) == 1
+            assert client.notice(60) is not None
+            engine.press("e")
+            while not robot.supervisor.estopped and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert robot.supervisor.estopped  # applied while the tree waits
+            assert client.statuses()[uid] == 0  # still waiting at the breakpoint
+            assert client.unlock(uid)[0][:2] == b"\x02U"
+            while engine.finished is None and time.monotonic() < deadline:
+                time.sleep(0.01)
+        finally:
+            engine.quit()
+            thread.join(10)
+            client.close()
+        assert engine.result is not None and not engine.result.succeeded

@@ -22,9 +22,10 @@ Requests larger than 1 MiB are dropped by ZeroMQ before they are read.
 next tick (never from the server's thread). A *breakpoint* holds the tick
 thread at its node as BT.CPP's does, but never the supervisor: the drives are
 stopped at once (clamps and joints hold, as when an operator takes over), and
-while the tree waits the supervisor is ticked every period (link polled,
-bridge watchdog fed, freshness checked), on a simulator with simulated time
-moving on. A hook that *replaces* a node's result (mode 1, or unlocking a
+while the tree waits the runner's pre-tick hooks run every period: the
+supervisor's tick (operator input and e-stops applied, link polled, bridge
+watchdog fed, freshness checked) and an operator console's keys; on a
+simulator simulated time moves on. A hook that *replaces* a node's result (mode 1, or unlocking a
 breakpoint with SUCCESS or FAILURE) is allowed on the simulator only; against a
 robot it is refused with an error reply that says so. A replaced node that was
 RUNNING is halted first (its motion cancelled).
@@ -120,6 +121,7 @@ class _Pending:
     clock: Any
     supervisor: Any
     robot: str | None
+    keep_alive: Callable[[], None] | None
 
 
 @dataclass
@@ -137,6 +139,8 @@ class _Run:
     robot: str | None = None
     """Where the run is, when that is a robot (replacing results is refused there)."""
     recorder: CoverageRecorder | None = None
+    keep_alive: Callable[[], None] | None = None
+    """What runs every period while a breakpoint holds the tree."""
     installed: dict[int, Any] = field(default_factory=dict)
     """py_trees node index -> what its instance ``tick`` was before the hook (or None)."""
     parents: list[int] = field(default_factory=list)
@@ -198,6 +202,8 @@ class Groot2Server:
         self._heard = False
         self.requests = 0
         """Requests answered so far."""
+        self.last_info: object = None
+        """What the runner last handed :meth:`apply_hooks` (its ``TickInfo``)."""
         self.enabled = True
         """False once the server failed (the run goes on without it)."""
         self._stop = threading.Event()
@@ -256,6 +262,7 @@ class Groot2Server:
         clock: Any = None,
         supervisor: Any = None,
         robot: str | None = None,
+        keep_alive: Callable[[], None] | None = None,
     ) -> None:
         """Serve ``tree`` from now on (a new tree UUID: Groot2 loads it again).
 
@@ -274,9 +281,11 @@ class Groot2Server:
             clock: The run's clock.
             supervisor: The run's supervisor (``None``: a tree with no robot).
             robot: Where the run is, when that is a robot and not a simulator.
+            keep_alive: Called every ``period_s`` while a breakpoint holds the tree
+                (the runner's pre-tick hooks: the supervisor's tick).
         """
         pending = _Pending(
-            tree, source, name, checked, recorder, period_s, clock, supervisor, robot
+            tree, source, name, checked, recorder, period_s, clock, supervisor, robot, keep_alive
         )
         with self._cond:
             self._detach_locked()
@@ -312,6 +321,7 @@ class Groot2Server:
             supervisor=pending.supervisor,
             robot=pending.robot,
             recorder=pending.recorder,
+            keep_alive=pending.keep_alive,
         )
         index_of = {id(node): i for i, node in enumerate(nodes)}
         run.parents = [-1] * len(nodes)
@@ -394,8 +404,9 @@ class Groot2Server:
 
     # -- hooks on the tick thread
 
-    def apply_hooks(self, _info: object = None) -> None:
+    def apply_hooks(self, info: object = None) -> None:
         """Install and remove hook wrappers to match the hooks set (a pre-tick hook)."""
+        self.last_info = info
         run = self._run
         if run is None:
             return
@@ -505,28 +516,36 @@ class Groot2Server:
             up = run.parents[up]
 
     def _hold(self, run: _Run, hook: Hook, node: py_trees.behaviour.Behaviour) -> Status | None:
-        """Wait at a breakpoint; the supervisor keeps ticking. Returns FAILURE when the
-        client fell silent against a robot (the fail-safe), else ``None``."""
+        """Wait at a breakpoint while the runner's housekeeping goes on. Returns FAILURE
+        when the client fell silent against a robot (the fail-safe), else ``None``.
+
+        Every period the run's ``keep_alive`` runs (the runner's pre-tick hooks: the
+        supervisor's tick, an operator console's keys), and on a simulator simulated
+        time moves on. What those raise (an operator quitting, a link error) ends the
+        wait and reaches the runner, as from a pre-tick hook.
+        """
         supervisor = run.supervisor
         logger.warning("Groot2: breakpoint at %s (%s); the tree waits", node.name, hook.uid)
         if supervisor is not None:
             _stop_drives(supervisor)
         clock = run.clock
-        while True:
-            with self._cond:
-                if hook.ready or not hook.enabled or self._silent:
-                    hook.ready = False
-                    silent, self._held = self._silent, None
-                    self._silent = False
-                    break
-                self._cond.wait(timeout=run.period_s)
-            try:
-                if supervisor is not None:
-                    supervisor.tick()
+        silent = False
+        try:
+            while True:
+                with self._cond:
+                    if hook.ready or not hook.enabled or self._silent:
+                        hook.ready = False
+                        silent = self._silent
+                        break
+                    self._cond.wait(timeout=run.period_s)
+                if run.keep_alive is not None:
+                    run.keep_alive()
                 if clock is not None and clock.is_simulated:
                     clock.sleep(run.period_s)
-            except Exception:
-                logger.exception("Groot2: keeping the supervisor ticking failed")
+        finally:
+            with self._cond:
+                self._held = None
+                self._silent = False
         if silent and run.robot is not None:
             reason = (
                 f"Groot2 client silent for {self.heartbeat_s:g} s while the tree waited at"
@@ -796,8 +815,11 @@ def attach_groot2(
     Args:
         runner: A :class:`pirate_bt.runner.Runner` (not yet run).
         server: The server.
-        supervisor: The run's supervisor: ticked while a breakpoint holds the tree,
-            and the one that stops the drives (``None``: a tree with no robot).
+        supervisor: The run's supervisor: the one that stops the drives at a
+            breakpoint and, against a robot, takes the robot to its safe state when
+            the client falls silent there (``None``: a tree with no robot). While a
+            breakpoint holds the tree, the runner's pre-tick hooks keep running every
+            period (in every runner pirate_bt wires, they tick the supervisor).
         robot: Where the run is when that is a real robot (``"robot at
             /dev/ttyACM0"``): replacing results is then refused, and a silent
             client at a breakpoint ends the run in the safe state. ``None``: the
@@ -822,6 +844,12 @@ def attach_groot2(
     if name is None and loaded is not None:
         name = getattr(loaded, "name", None)
     recorder = attach_coverage(runner, name)
+
+    def keep_alive() -> None:  # the runner's pre-tick hooks, but for ours
+        for hook in list(runner.pre_tick):
+            if hook != server.apply_hooks:
+                hook(server.last_info)
+
     server.serve(
         runner.tree,
         source=source,
@@ -832,6 +860,7 @@ def attach_groot2(
         clock=runner.clock,
         supervisor=supervisor,
         robot=robot,
+        keep_alive=keep_alive,
     )
     runner.add_pre_tick(server.apply_hooks)
     runner.add_finish(lambda _result: server.finish())
