@@ -154,17 +154,17 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     clamp = robot.clamp
     tol = robot.safety.angle_tolerance
     modules = [m.name for m in robot.bend_modules(half)]
-    angles: list[float] = []
+    signed: list[float] = []
     for name in modules:
         angle = state.joint_angle_rad.get(name)
         if angle is None:
             return ClampState.UNKNOWN
-        angles.append(abs(angle))
+        signed.append(angle)
+    angles = [abs(a) for a in signed]
     contact_min = min(p.angle for p in clamp.contact_angles) - tol
     # The wheels of a pair press opposite walls only when its joints bend the same way;
     # joints at the wall on opposite sides do not hold the half.
-    signs = {math.copysign(1.0, state.joint_angle_rad[name]) for name in modules}
-    at_wall = all(a >= contact_min for a in angles) and len(signs) <= 1
+    at_wall = all(a >= contact_min for a in signed) or all(a <= -contact_min for a in signed)
     forces = [state.clamp_force_n.get(name) for name in modules]
     if all(f is not None for f in forces) and forces:
         min_force = clamp.holding_force_n

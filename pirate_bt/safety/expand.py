@@ -90,12 +90,15 @@ class Expander:
             for m in self.robot.bend_modules(half)
         )
 
-    def _presses(self, half: Half, mode: ControlMode, value: float) -> frozenset[Half]:
-        """``{half}`` when a bend setpoint may push the half's wheels on the wall."""
-        if mode is ControlMode.TORQUE:
-            return frozenset({half}) if value != 0.0 else frozenset()
+    def _torque_presses(self, half: Half, torque_nm: float) -> frozenset[Half]:
+        """``{half}`` when a bend joint torque may push the half's wheels on the wall: any
+        torque does, since a joint in torque mode swings until the wall stops it."""
+        return frozenset({half}) if torque_nm != 0.0 else frozenset()
+
+    def _position_presses(self, half: Half, angle_rad: float) -> frozenset[Half]:
+        """``{half}`` when a bend joint target is at or beyond the smallest wall-contact angle."""
         wall = min(p.angle for p in self.robot.clamp.contact_angles)
-        if abs(value) >= wall - self.robot.safety.angle_tolerance:
+        if abs(angle_rad) >= wall - self.robot.safety.angle_tolerance:
             return frozenset({half})
         return frozenset()
 
@@ -109,9 +112,10 @@ class Expander:
         Without a reading the worst case is assumed.
         """
         tol = self.robot.safety.angle_tolerance
+        pushes = math.copysign(1.0, torque_nm)
         for name in modules:
             angle = state.joint_angle_rad.get(name) if state is not None else None
-            if angle is None or (abs(angle) > tol and angle * torque_nm < 0):
+            if angle is None or (abs(angle) > tol and math.copysign(1.0, angle) != pushes):
                 return frozenset({half})
         return frozenset()
 
@@ -154,7 +158,7 @@ class Expander:
                     command,
                     self._half_commands(half, ControlMode.POSITION, angle),
                     releases=frozenset({half}),
-                    presses=(presses := self._presses(half, ControlMode.POSITION, angle)),
+                    presses=(presses := self._position_presses(half, angle)),
                     channels=base + self._front_channels(presses),
                 )
             case Bend(module, angle):
@@ -169,7 +173,7 @@ class Expander:
                     command,
                     (MotorCommand(motor.name, ControlMode.POSITION, angle),),
                     releases=frozenset({mod.half}),
-                    presses=(presses := self._presses(mod.half, ControlMode.POSITION, angle)),
+                    presses=(presses := self._position_presses(mod.half, angle)),
                     channels=base + self._front_channels(presses),
                 )
             case Rotate(angle):
@@ -182,7 +186,8 @@ class Expander:
             case Tilt(angle):
                 return self._tilt_intent(command, angle)
             case MoveFrontClear(sign):
-                angle = math.copysign(self.robot.clamp.front_clear_angle, sign or 1)
+                clear = self.robot.clamp.front_clear_angle
+                angle = clear if sign >= 0 else -clear
                 return self._tilt_intent(command, angle)
             case Drive(v):
                 cmds = tuple(
@@ -238,7 +243,11 @@ class Expander:
         if fn is MotorFunction.BEND:
             half = self.robot.module_of(motor.name).half
             assert half is not None
-            presses = self._presses(half, mc.mode, mc.value)
+            presses = (
+                self._torque_presses(half, mc.value)
+                if mc.mode is ControlMode.TORQUE
+                else self._position_presses(half, mc.value)
+            )
             chans = base + self._front_channels(presses)
             # A joint presses the wall in either sign: a negative torque clamps too, but a
             # torque against the side the joint is on swings it off the wall first.

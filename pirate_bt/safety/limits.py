@@ -108,8 +108,10 @@ def limit(
                 "velocity",
             )
         ref = reference or 0.0
-        # Slowing down is never limited: stopping must always be possible.
-        speeding = abs(value) > abs(ref) or (value * ref < 0)
+        # Slowing down is never limited: stopping must always be possible. A reversal
+        # (the wheels told to turn the other way) is a speed-up.
+        faster = abs(value) > abs(ref)  # pragma: no mutate (>=: an equal speed is inside any bound)
+        speeding = faster or (value * ref < 0)
         if problem is None and lim.acceleration is not None and speeding:
             step = lim.acceleration.max * dt
             problem = bound(

@@ -201,7 +201,7 @@ class DecisionMixin:
                 return self._refuse(command, source, limited.reason, limited.detail)
             value, notes = limited
             clips.extend(notes)
-            out.append(mc if value == mc.value else MotorCommand(mc.motor, mc.mode, value))
+            out.append(MotorCommand(mc.motor, mc.mode, value))
         sent = tuple(out)
         if send:
             try:
