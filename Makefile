@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
 .PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain \
-	flash fuses avrdude zmq-dev
+	flash fuses avrdude zmq-dev mutation mutation-python
 
 venv: $(STAMP)
 
@@ -107,8 +107,19 @@ test: lint typecheck unit docs
 demo: $(STAMP) graphviz
 	$(BIN)/pirate-bt demo --output $(DEMO_OUT)
 
+# Mutation testing (docs/testing.md), not part of `make test`: mutmut on the protective
+# layer and the wire (mutants/ keeps every result, so a run resumes; rm -rf mutants for a
+# fresh one). At most MUTATION_CHILDREN test processes at a time (the project's machine
+# has 2 cores).
+MUTATION_CHILDREN ?= 2
+mutation: mutation-python
+
+mutation-python: $(STAMP)
+	$(BIN)/python tests/mutation/run.py --children $(MUTATION_CHILDREN)
+
 bench: $(STAMP) graphviz
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) site dist build $(DEMO_OUT) .mypy_cache .ruff_cache .pytest_cache .hypothesis
+	rm -rf $(VENV) site dist build $(DEMO_OUT) .mypy_cache .ruff_cache .pytest_cache .hypothesis \
+		mutants
