@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
 .PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain \
-	flash fuses avrdude zmq-dev mutation mutation-python
+	flash fuses avrdude zmq-dev mutation mutation-python mutation-firmware
 
 venv: $(STAMP)
 
@@ -109,13 +109,16 @@ demo: $(STAMP) graphviz
 
 # Mutation testing (docs/testing.md), not part of `make test`: mutmut on the protective
 # layer and the wire (mutants/ keeps every result, so a run resumes; rm -rf mutants for a
-# fresh one). At most MUTATION_CHILDREN test processes at a time (the project's machine
-# has 2 cores).
+# fresh one), then the bridge firmware's fixed catalogue of operator mutations. At most
+# MUTATION_CHILDREN test processes at a time (the project's machine has 2 cores).
 MUTATION_CHILDREN ?= 2
-mutation: mutation-python
+mutation: mutation-python mutation-firmware
 
 mutation-python: $(STAMP)
 	$(BIN)/python tests/mutation/run.py --children $(MUTATION_CHILDREN)
+
+mutation-firmware: $(STAMP) avr-toolchain
+	$(BIN)/python tests/mutation/firmware.py --jobs $(MUTATION_CHILDREN)
 
 bench: $(STAMP) graphviz
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
