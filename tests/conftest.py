@@ -7,6 +7,7 @@ Profiles: ``ci`` (default; bounded and deterministic) and ``long`` for soak runs
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -38,15 +39,18 @@ def repo() -> Path:
 # on the 2-core machine), none (in process, no start-up cost) when the command line
 # names test files or tests. ``-n N`` on the command line overrides it.
 
-REAL_TIME_SIMAVR = "simavr"
-"""The xdist group of the tests that run the AVR firmware in simavr in real time.
+REAL_TIME = "real-time"
+"""The xdist group of the tests whose bridge runs against the wall clock.
 
-Each runs the harness (most of a core), the Python boards and a host process against
-the wall clock; two at once on two cores starve each other. One worker runs them
-all, one after another, while the other runs the rest.
+The AVR firmware in simavr (the harness takes most of a core, beside the Python
+boards and a host process) and the conformance suite's simulated bridge on a pty
+(its watchdog trips when the test falls silent for 250 ms). Two at once on two cores
+starve each other: one worker runs them all, one after another, at a higher priority
+(_real_time_ahead), while the other runs the rest.
 """
 
 _SIMAVR_MODULES = {"test_firmware_sim.py", "test_firmware_sim_summary.py"}
+_REAL_TIME_BRIDGES = {"firmware-simavr", "sim-pty"}
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
@@ -58,23 +62,49 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     return os.cpu_count() or 1
 
 
-def _runs_simavr(item: pytest.Item) -> bool:
+def _runs_in_real_time(item: pytest.Item) -> bool:
     if item.path.name in _SIMAVR_MODULES:
         return True
     if item.path.name == "test_firmware_build.py" and "simavr" in item.name:
         return True
     callspec = getattr(item, "callspec", None)
-    return callspec is not None and callspec.params.get("bridge") == "firmware-simavr"
+    return callspec is not None and callspec.params.get("bridge") in _REAL_TIME_BRIDGES
 
 
 @pytest.hookimpl(trylast=True)  # after any shuffling plugin (pytest-randomly)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The simavr tests into one xdist group; the ``slow`` tests first.
+    """The real-time tests into one xdist group; the ``slow`` tests first.
 
     Long tests first (a stable sort, the rest keep their order) so that no long test
     starts last on one worker while the other has nothing left to do.
     """
     for item in items:
-        if _runs_simavr(item):
-            item.add_marker(pytest.mark.xdist_group(REAL_TIME_SIMAVR))
+        if _runs_in_real_time(item):
+            item.add_marker(pytest.mark.xdist_group(REAL_TIME))
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
+@pytest.fixture(autouse=True)
+def _real_time_ahead(request: pytest.FixtureRequest) -> Iterator[None]:
+    """The real-time tests ahead of the CPU-bound tests on the other worker.
+
+    The test's process and everything it starts meanwhile (the harness, the Python
+    boards, the host) run at nice -10 where that is allowed (root, as in CI), and the
+    worker goes back to its own priority afterwards. The link's limits (500 ms of
+    bridge silence, from the firmware's 250 ms watchdog) are real time: a bridge or a
+    host starved by a busy core would trip them for reasons that have nothing to do
+    with what is tested.
+    """
+    group = request.node.get_closest_marker("xdist_group")
+    if group is None or group.args[:1] != (REAL_TIME,):
+        yield
+        return
+    try:
+        os.nice(-10)
+    except OSError:
+        yield
+        return
+    try:
+        yield
+    finally:
+        os.nice(10)

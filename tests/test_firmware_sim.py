@@ -247,23 +247,18 @@ def _summary(proc: subprocess.Popen[str]) -> str:
 
 
 def _relaxed_robot(folder: Path) -> Path:
-    """The robot description with the host's own time limits relaxed, for real time.
+    """The robot description with the host's freshness limit relaxed from 100 to 500 ms.
 
-    Freshness 10 -> 50 state periods (100 -> 500 ms) and link silence 500 ms -> 2 s.
-    Three real-time processes (harness, boards, host) share a loaded 2-core machine;
-    a stall of any of them past these limits ends the run in a safe state that has
-    nothing to do with the firmware. Both limits are the host's only (not in the wire
-    layout): the firmware, its watchdog and the physics are unchanged.
+    Three real-time processes (harness, boards, host) share a loaded 2-core CI
+    machine; a 100 ms stall of any of them ends the run in a safe state that has
+    nothing to do with the firmware. The limit is host-side only (not in the wire
+    layout): the firmware, its watchdog and the physics are unchanged. (The link's
+    own 500 ms silence limit follows from the firmware's watchdog and stays.)
     """
     text = (ROOT / "hardware" / "pirate.yaml").read_text()
-    for limit in ("stale_after_periods: 10", "max_link_silence: 500 ms"):
-        assert limit in text, limit
+    assert "stale_after_periods: 10" in text
     path = folder / "pirate.yaml"
-    path.write_text(
-        text.replace("stale_after_periods: 10", "stale_after_periods: 50").replace(
-            "max_link_silence: 500 ms", "max_link_silence: 2 s"
-        )
-    )
+    path.write_text(text.replace("stale_after_periods: 10", "stale_after_periods: 50"))
     return path
 
 
@@ -279,7 +274,7 @@ PABS = [
 def test_pab_runs_through_the_firmware(
     firmware_sim: tuple[str, subprocess.Popen[str]], tree: str, param: str, tmp_path: Path
 ) -> None:
-    """With the host's time limits relaxed (:func:`_relaxed_robot`), here and in the riser."""
+    """With the host's freshness limit relaxed (:func:`_relaxed_robot`), as in the riser."""
     device, proc = firmware_sim
     robot = _relaxed_robot(tmp_path)
     done = subprocess.run(
@@ -357,7 +352,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
     a watchdog trip (the host falls silent) and an e-stop each leave the robot where it
     is, clamped (the firmware's stop category: bend joints keep their setpoints).
 
-    Real time, with the host's time limits relaxed as for the PABs above.
+    Real time, with the host's freshness limit relaxed as for the PABs above.
     """
     from pirate_bt.pipes import Network
     from pirate_bt.robot import load_robot as load
