@@ -118,6 +118,15 @@ def test_plot_cli_whole_and_zoomed(mission: Path, tmp_path: Path) -> None:
     assert main(["trace", "plot", str(mission), "-o", str(whole)]) == 0
     assert main(["trace", "plot", str(mission), "-o", str(zoom), "--from", "10", "--to", "30"]) == 0
     assert whole.read_bytes()[:8] == PNG_MAGIC and zoom.read_bytes()[:8] == PNG_MAGIC
+    # The command draws what the API draws for the same window, and the window matters.
+    trace = read_trace(mission)
+    plot_trace(trace, tmp_path / "api_whole.png")
+    plot_trace(trace, tmp_path / "api_zoom.png", start_s=10.0, end_s=30.0)
+    assert whole.read_bytes() == (tmp_path / "api_whole.png").read_bytes()
+    assert zoom.read_bytes() == (tmp_path / "api_zoom.png").read_bytes()
+    assert zoom.read_bytes() != whole.read_bytes()
+    plot_trace(trace, tmp_path / "api_other.png", start_s=10.0, end_s=31.0)
+    assert zoom.read_bytes() != (tmp_path / "api_other.png").read_bytes()
 
 
 @pytest.mark.parametrize(("start", "end"), [(30.0, 10.0), (1e6, None), (-1.0, 5.0)])

@@ -142,7 +142,18 @@ def test_cli_render_tree_file(tmp_path: Path) -> None:
         pytest.skip("no example tree file")
     out = tmp_path / "patrol.svg"
     assert main(["render", str(tree_file), "-o", str(out)]) == 0
-    assert "0" in svg_nodes(out)
+    from pirate_bt.treefile.loader import load_tree
+
+    structure = tree_structure(load_tree(tree_file).root)
+    nodes = svg_nodes(out)
+    assert set(nodes) == {n.id for n in structure}  # every node of the file, nothing else
+    for node in structure:
+        texts = [t.text for t in nodes[node.id].iter(f"{SVG}text")]
+        assert node.name in texts, node.id
+    groups = ET.parse(out).getroot().iter(f"{SVG}g")
+    edges = {g.findtext(f"{SVG}title") for g in groups if g.get("class") == "edge"}
+    expected = {f"{n.parent}->{n.id}" for n in structure if n.parent is not None}
+    assert edges == expected
 
 
 def test_cli_errors_are_one_line_exit_2(
@@ -161,7 +172,11 @@ def test_cli_errors_are_one_line_exit_2(
 
 def test_python_api_accepts_root_behaviour() -> None:
     root = py_trees.behaviours.Success("only")
-    assert '"0"' in tree_graph(root)
+    source = tree_graph(root)
+    nodes = re.findall(r'^\s*"([^"]+)" \[', source, re.M)
+    assert nodes == ["0"]  # one node, the root, with its name and class
+    assert 'label=<<b>only</b><br/><font point-size="8">Success</font>>' in source
+    assert "->" not in source  # and no edge
 
 
 # --- render_tree takes what users have: a tree file, a LoadedTree, a tree, a trace ---------
