@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import struct
+import sys
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -480,8 +481,6 @@ def test_the_command_line_serves_a_run(tmp_path: Path) -> None:
 def test_an_operator_e_stop_works_while_a_breakpoint_holds_the_tree(server: Groot2Server) -> None:
     """``teleop --tree T --groot2``: the console's keys still reach the supervisor while
     the tree waits at a breakpoint (the runner's pre-tick hooks keep running)."""
-    import sys
-
     from pirate_bt.cli.console import ConsoleEngine
     from pirate_bt.cli.teleop import TeleopSession
 
@@ -523,3 +522,13 @@ def test_an_operator_e_stop_works_while_a_breakpoint_holds_the_tree(server: Groo
             thread.join(10)
             client.close()
         assert engine.result is not None and not engine.result.succeeded
+
+
+def test_without_the_extra_the_error_says_what_to_install(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from pirate_bt.errors import ConfigurationError
+
+    monkeypatch.setitem(sys.modules, "zmq", None)  # as if pyzmq were not installed
+    with pytest.raises(ConfigurationError, match=r"pip install 'pirate-bt\[groot2\]'"):
+        Groot2Server(port=0)

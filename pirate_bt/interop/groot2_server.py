@@ -190,6 +190,7 @@ class Groot2Server:
         self._status = bytearray()
         self._hooks: dict[tuple[int, int], Hook] = {}
         self._generation = 0
+        self._applied = 0
         self._held: Hook | None = None
         self._silent = False
         self._recording = False
@@ -202,6 +203,8 @@ class Groot2Server:
         self._heard = False
         self.requests = 0
         """Requests answered so far."""
+        self.cpu_s = 0.0
+        """CPU time the server's thread has used so far (seconds)."""
         self.last_info: object = None
         """What the runner last handed :meth:`apply_hooks` (its ``TickInfo``)."""
         self.enabled = True
@@ -352,8 +355,8 @@ class Groot2Server:
     def _on_tick(self, codes: Mapping[int, int], events: Sequence[tuple[int, int]]) -> None:
         """The coverage recorder's listener: runs in the tick thread after each tick."""
         run = self._run
-        if run is None or not self.enabled:
-            return
+        if run is None or not self.enabled or not (codes or run.midtick or self._recording):
+            return  # a tick that changed no status, and nobody records transitions
         try:
             with self._cond:
                 status = self._status
@@ -408,9 +411,10 @@ class Groot2Server:
         """Install and remove hook wrappers to match the hooks set (a pre-tick hook)."""
         self.last_info = info
         run = self._run
-        if run is None:
-            return
+        if run is None or self._generation == self._applied:
+            return  # the common tick: no hook changed since the last (no lock taken)
         with self._cond:
+            self._applied = self._generation
             wanted = {run.served.node_of[uid] for (_, uid) in self._hooks}
         current = set(run.installed)
         if wanted == current:
@@ -565,8 +569,9 @@ class Groot2Server:
         poller = zmq.Poller()
         poller.register(self._rep, zmq.POLLIN)
         while not self._stop.is_set():
+            self.cpu_s = time.thread_time()
             try:
-                ready = dict(poller.poll(20))
+                ready = dict(poller.poll(50))
                 self._publish()
                 self._heartbeat()
                 if self._rep not in ready:
