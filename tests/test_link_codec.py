@@ -251,8 +251,9 @@ def test_mutation_soak_seeded() -> None:
                 assert item.reason != "internal"
             elif CODEC.encode(item) not in frames:
                 accepted_bad += 1
-    # A random corruption slips past a 16-bit CRC with probability ~1/65536 per frame.
-    assert accepted_bad <= 1
+    # A random corruption slips past a 16-bit CRC with probability ~1/65536 per frame, so
+    # none of these 3000 may; an 8-bit check (the CRC's low byte alone) lets one through.
+    assert accepted_bad == 0
 
 
 def test_oversize_then_resync() -> None:
