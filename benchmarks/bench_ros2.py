@@ -1,6 +1,7 @@
 """What ``--ros2`` costs on the lab mission, as ratios within one run of this script.
 
-Run: ``.venv/bin/python benchmarks/bench_ros2.py [PAIRS]`` (default 4 ABBA pairs).
+Run: ``.venv/bin/python benchmarks/bench_ros2.py [PAIRS]`` (default 4 ABBA pairs), and
+``.venv/bin/python benchmarks/bench_ros2.py --estop [COUNT]`` for the e-stop's latency.
 
 The lab mission (``pirate-bt mission scenarios/lab.route --sim lab --quiet``)
 is run as a command without and with ``--ros2 tcp/127.0.0.1:PORT``, in ABBA
@@ -17,13 +18,26 @@ Two figures per pair, each as *on / off - 1*:
 - **run**: the mission's own wall time as the command reports it (``s wall``
   in its summary), which leaves out start-up.
 
-Printed: the median and range over the pairs, and the messages received.
+Also the CPU time (user and system) of the command with its child processes,
+the publishing process included, as seconds added per run (the median over the
+pairs): what ``--ros2`` costs the machine rather than the run.
+
+Printed: the median and range over the pairs, the load average before and
+after, and the messages received.
+
+``--estop``: a simulated run (the straight pipe, paced to wall time, 20 Hz) with
+the node, and COUNT ``std_msgs/Bool`` ``true`` messages put on ``/pirate/estop``
+by a Zenoh publisher in this process, 0.2 s apart; for each, how long it took
+to reach the publishing process, to be queued for the supervisor in the run's
+process, and to be applied by the supervisor's next tick (median and maximum).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import re
+import resource
 import socket
 import statistics
 import subprocess
@@ -45,20 +59,22 @@ def _free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-def _run(extra: list[str]) -> tuple[float, float]:
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run(extra: list[str]) -> tuple[float, float, float]:
+    cpu = _cpu()
     started = time.perf_counter()
     done = subprocess.run([*MISSION, *extra], cwd=ROOT, check=True, capture_output=True, text=True)
     command = time.perf_counter() - started
     found = _WALL.search(done.stdout + done.stderr)
-    return command, float(found.group(1)) if found else float("nan")
+    return command, float(found.group(1)) if found else float("nan"), _cpu() - cpu
 
 
-def _consumer(port: int) -> tuple[Any, list[Any], dict[str, list[Any]]]:
+def _router(port: int) -> Any:
     import zenoh
-    from zenoh_ros2_sdk import ROS2Subscriber, message_registry
-
-    from pirate_bt.interop.rmw_zenoh import qualified_name
-    from pirate_bt.interop.ros2_topics import TOPIC_TYPES
 
     config = zenoh.Config()
     for key, value in (
@@ -67,7 +83,16 @@ def _consumer(port: int) -> tuple[Any, list[Any], dict[str, list[Any]]]:
         ("scouting/multicast/enabled", False),
     ):
         config.insert_json5(key, json.dumps(value))
-    router = zenoh.open(config)
+    return zenoh.open(config)
+
+
+def _consumer(port: int) -> tuple[Any, list[Any], dict[str, list[Any]]]:
+    from zenoh_ros2_sdk import ROS2Subscriber, message_registry
+
+    from pirate_bt.interop.rmw_zenoh import qualified_name
+    from pirate_bt.interop.ros2_topics import TOPIC_TYPES
+
+    router = _router(port)
     message_registry._registry = message_registry.MessageRegistry(
         str(ROOT / "tests" / "data" / "ros2_msgs")
     )
@@ -92,9 +117,11 @@ def main(pairs: int) -> None:
     port = _free_port()
     router, subs, got = _consumer(port)
     on = ["--ros2", f"tcp/127.0.0.1:{port}"]
+    load = os.getloadavg()
     _run([])  # warm the file cache
     command: list[float] = []
     run: list[float] = []
+    cpu: list[float] = []
     for _ in range(pairs):
         a1 = _run([])
         b1 = _run(on)
@@ -102,9 +129,12 @@ def main(pairs: int) -> None:
         a2 = _run([])
         command.append((b1[0] + b2[0]) / (a1[0] + a2[0]) - 1.0)
         run.append((b1[1] + b2[1]) / (a1[1] + a2[1]) - 1.0)
+        cpu.append((b1[2] + b2[2] - a1[2] - a2[2]) / 2)
         print(
             f"pair: off {a1[0]:.2f}/{a2[0]:.2f} s, on {b1[0]:.2f}/{b2[0]:.2f} s (command);"
-            f" run {a1[1]:.2f}/{a2[1]:.2f} vs {b1[1]:.2f}/{b2[1]:.2f} s",
+            f" run {a1[1]:.2f}/{a2[1]:.2f} vs {b1[1]:.2f}/{b2[1]:.2f} s;"
+            f" CPU {a1[2]:.2f}/{a2[2]:.2f} vs {b1[2]:.2f}/{b2[2]:.2f} s;"
+            f" load {os.getloadavg()[0]:.2f}",
             flush=True,
         )
     time.sleep(0.5)
@@ -122,8 +152,86 @@ def main(pairs: int) -> None:
     print(f"--ros2 on the lab mission, {pairs} ABBA pairs, one subscriber on every topic:")
     print(f"  whole command: {figure(command)}")
     print(f"  the run itself: {figure(run)}")
+    print(f"  CPU added per run (all processes): {statistics.median(cpu):+.3f} s")
     print(f"  messages received by the independent client: {received} over {2 * pairs} runs")
+    after = os.getloadavg()
+    print(
+        f"  load average (1, 5, 15 min) before {load[0]:.2f} {load[1]:.2f} {load[2]:.2f},"
+        f" after {after[0]:.2f} {after[1]:.2f} {after[2]:.2f} on {os.cpu_count()} CPUs"
+    )
+
+
+def estop_latency(count: int) -> None:
+    """See the module docstring (``--estop``)."""
+    import threading
+
+    import pirate_bt
+    from pirate_bt.interop import rmw_zenoh
+    from pirate_bt.interop.ros2_cdr import bool_message
+    from pirate_bt.interop.ros2_live import Ros2Node
+    from pirate_bt.interop.ros2_types import dds_type_name, type_hash
+
+    port = _free_port()
+    router = _router(port)
+    node = Ros2Node(f"tcp/127.0.0.1:{port}")
+    assert node.wait_ready() and node.estop is not None
+    estop = node.estop
+    key = rmw_zenoh.data_key(
+        0, "/pirate/estop", dds_type_name("std_msgs/msg/Bool"), type_hash("std_msgs/msg/Bool")
+    )
+    publisher = router.declare_publisher(key)
+    rows: list[tuple[float, float, float]] = []
+    warmed = threading.Event()
+
+    def press() -> None:
+        while estop.received == 0:  # until routing is up (each one is an e-stop too)
+            publisher.put(bool_message(True))
+            time.sleep(0.05)
+        warmed.set()
+        for _ in range(count):
+            time.sleep(0.2)
+            before = estop.estops
+            sent = time.monotonic_ns()
+            publisher.put(bool_message(True))
+            deadline = time.monotonic() + 5.0
+            while estop.estops == before and time.monotonic() < deadline:
+                time.sleep(0.0005)
+            if estop.estops > before:
+                rows.append(
+                    (
+                        (estop.heard_ns - sent) / 1e6,
+                        (estop.queued_ns - sent) / 1e6,
+                        (estop.drained_ns - sent) / 1e6,
+                    )
+                )
+
+    thread = threading.Thread(target=press, daemon=True)
+    load = os.getloadavg()
+    thread.start()
+    # An e-stop latches and the tree's step runs on (its commands refused) to the limit.
+    pirate_bt.simulate_tree(
+        "straight",
+        params={"distance": "10 m"},
+        ros2=node,
+        realtime=True,
+        max_time=f"{count * 0.2 + 8:.0f} s",
+    )
+    thread.join()
+    node.close()
+    publisher.undeclare()
+    router.close()
+    print(f"e-stop from the graph, {len(rows)} of {count} (20 Hz run paced to wall time):")
+    for index, label in enumerate(
+        ("reached the publishing process", "queued in the run's process", "applied by a tick")
+    ):
+        values = sorted(r[index] for r in rows)
+        if values:
+            print(f"  {label}: median {statistics.median(values):.2f} ms, max {values[-1]:.2f} ms")
+    print(f"  load average before {load[0]:.2f}, after {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 4)
+    if len(sys.argv) > 1 and sys.argv[1] == "--estop":
+        estop_latency(int(sys.argv[2]) if len(sys.argv) > 2 else 20)
+    else:
+        main(int(sys.argv[1]) if len(sys.argv) > 1 else 4)

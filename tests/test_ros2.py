@@ -44,7 +44,13 @@ from pirate_bt.interop import rmw_zenoh  # noqa: E402
 from pirate_bt.interop.ros2_live import Ros2Node  # noqa: E402
 from pirate_bt.interop.ros2_option import parse_endpoint  # noqa: E402
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES  # noqa: E402
-from pirate_bt.interop.ros2_types import DEFINITIONS, dds_type_name, type_hash  # noqa: E402
+from pirate_bt.interop.ros2_types import (  # noqa: E402
+    DEFINITIONS,
+    TYPE_HASHES,
+    dds_type_name,
+    rosbags_type_hash,
+    type_hash,
+)
 
 MSGS = Path(__file__).parent / "data" / "ros2_msgs"
 
@@ -123,6 +129,15 @@ def test_type_hashes_agree_with_rosbags_jazzy_and_the_sdk() -> None:
     )
     for name in {*TOPIC_TYPES.values(), "std_msgs/msg/Bool"}:
         assert type_hash(name) == _sdk_hash(name), name
+
+
+def test_the_hash_table_is_what_rosbags_computes_from_the_definitions() -> None:
+    """Publishing reads the hashes from a table; rosbags recomputes every entry here."""
+    assert set(TYPE_HASHES) == set(DEFINITIONS)
+    computed = {name: rosbags_type_hash(name) for name in DEFINITIONS}
+    assert computed == TYPE_HASHES, "\n".join(
+        f'    "{name}": "{value}",' for name, value in computed.items()
+    )
 
 
 def test_keys_and_tokens_follow_the_design_document() -> None:
@@ -290,10 +305,127 @@ def _ns(stamp: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
+def _rosbags_agrees(data: bytes, type_name: str) -> Any:
+    """rosbags decodes ``data`` and, encoding what it decoded, writes the same bytes."""
+    from pirate_bt.interop.ros2_types import typestore
+
+    store = typestore()
+    message = store.deserialize_cdr(data, type_name)
+    assert bytes(store.serialize_cdr(message, type_name)) == data, type_name
+    return message
+
+
+def test_our_cdr_is_rosbags_cdr_byte_for_byte(tmp_path: Path) -> None:
+    """Every message of a run (and of a frame with every odd value) as rosbags writes it."""
+    from pirate_bt.interop.ros2_topics import Frame, Ros2Mapper, frames_from_records
+    from pirate_bt.trace.structure import TreeStructure
+
+    trace_path = tmp_path / "run.jsonl"
+    result = pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, trace=trace_path)
+    assert result.succeeded
+    lines = [json.loads(line) for line in trace_path.read_text().splitlines() if line.strip()]
+    seen: dict[str, int] = {}
+    mapper: Any = None
+    for record, frame in frames_from_records(lines):
+        if record.get("type") == "header":
+            structure = TreeStructure.from_json(record["tree"])
+            mapper = Ros2Mapper(structure, 1_700_000_000 * 10**9, period_s=0.05)
+        if frame is None:
+            continue
+        for message in mapper.messages(frame, changed=True, clock=True):
+            _rosbags_agrees(message.data, message.type_name)
+            seen[message.topic] = seen.get(message.topic, 0) + 1
+    assert set(seen) >= {"joint_states", "imu", "clamp_forces", "diagnostics", "tree/snapshots"}
+
+    # Odd values: NaN and infinities, text beyond ASCII, empty sequences, a 9-byte
+    # string (padding before the next length), every diagnostic status, a tree with
+    # feedback, a blackboard and parameters.
+    structure = TreeStructure.from_json(
+        {
+            "name": "tree",
+            "nodes": [
+                {"id": "0", "name": "root", "type": "Sequence", "kind": "composite",
+                 "parent": None, "children": ["0.0", "0.1"]},
+                {"id": "0.0", "name": "größe", "type": "Timeout", "kind": "guard",
+                 "parent": "0", "children": ["0.0.0"], "params": {"duration": 1.5}},
+                {"id": "0.0.0", "name": "clamp", "type": "Clamp", "kind": "leaf",
+                 "parent": "0.0", "children": []},
+                {"id": "0.1", "name": "drive 12345", "type": "Drive", "kind": "leaf",
+                 "parent": "0", "children": []},
+            ],
+        }
+    )  # fmt: skip
+    mapper = Ros2Mapper(structure, 1_700_000_123 * 10**9, hardware_id="π", period_s=0.05)
+    frame = Frame(
+        n=7,
+        t_s=12.345678,
+        state={
+            "joint_angle_rad.bend_1": math.nan,
+            "joint_angle_rad.bend_2": -0.5,
+            "rotation_rad": 1.25,
+            "drive_velocity_mps.d1": math.inf,
+            "clamp_force_n.bend_1": 12.5,
+            "imu_rad.roll": 0.1,
+            "imu_rad.pitch": -0.2,
+            "imu_rad.yaw": 3.0,
+            "motor_current_a.rotate": 0.75,
+        },
+        link={"connected": True, "loss_ratio": 0.25, "rtt_s": None},
+        sim={"damage": 1, "violations": 0},
+        task={"belief_m": 2.5, "truth_m": 2.4},
+        statuses={"0": "R", "0.0": "R", "0.0.0": "R", "0.1": "I"},
+        feedback={"0.0.0": "clamping… 5 N"},
+        blackboard={"x": 1.5, "name": "ünïcode", "list": [1, 2]},
+        supervisor={"mode": "estop", "safe_state": "stale data", "last_verdict": None},
+    )
+    messages = {m.topic: m for m in mapper.messages(frame, clock=True)}
+    assert set(messages) == set(TOPIC_TYPES)
+    decoded = {t: _rosbags_agrees(m.data, m.type_name) for t, m in messages.items()}
+    joints = decoded["joint_states"]
+    assert list(joints.name) == ["bend_1", "bend_2", "rotation", "d1"]
+    assert math.isnan(joints.position[0]) and joints.position[1] == -0.5
+    assert joints.velocity[3] == math.inf and len(joints.effort) == 0
+    assert (joints.header.stamp.sec, joints.header.stamp.nanosec) == (1_700_000_135, 345_678_000)
+    assert list(decoded["clamp_forces"].effort) == [12.5]
+    assert decoded["imu"].orientation_covariance[0] == 0.0
+    assert decoded["imu"].angular_velocity_covariance[0] == -1.0
+    statuses = decoded["diagnostics"].status
+    assert [s.level for s in statuses] == [1, 2, 0, 1]
+    assert statuses[0].hardware_id == "π"
+    assert decoded["localisation/truth"].point.x == 2.4
+    tree = decoded["tree/snapshots"]
+    assert [b.name for b in tree.behaviours] == ["root", "größe", "clamp", "drive 12345"]
+    assert [b.status for b in tree.behaviours] == [2, 2, 2, 1]
+    assert tree.behaviours[2].message == "clamping… 5 N"
+    assert json.loads(tree.behaviours[1].additional_detail) == {"duration": 1.5}
+    assert bytes(tree.behaviours[0].tip_id.uuid) == bytes(tree.behaviours[2].own_id.uuid)
+    assert {kv.key: kv.value for kv in tree.blackboard_on_visited_path}["name"] == "ünïcode"
+    assert tree.statistics.count == 7
+    assert tree.statistics.tick_interval == pytest.approx(0.05)
+
+
+def test_the_publishing_process_needs_no_numpy_rosbags_or_py_trees() -> None:
+    import subprocess
+
+    from pirate_bt.interop import ros2_process
+
+    probe = (
+        "import runpy, sys; runpy.run_path(sys.argv[1], run_name='probe');"
+        " print(sorted({m.split('.')[0] for m in sys.modules}"
+        " & {'numpy', 'rosbags', 'py_trees', 'zenoh'}))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-I", "-c", probe, ros2_process.__file__],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert done.stdout.strip() == "[]"  # zenoh comes when the process runs, the rest never
+
+
 def test_joint_state_bytes_decode_by_hand() -> None:
     """The CDR of one JointState, read with struct alone (no rosbags on this side)."""
     from pirate_bt.interop.ros2_topics import Frame, Ros2Mapper
-    from pirate_bt.interop.ros2_types import serialize
     from pirate_bt.trace.structure import TreeStructure
 
     mapper = Ros2Mapper(TreeStructure(name="t", nodes=()), 1_700_000_000 * 10**9)
@@ -301,7 +433,7 @@ def test_joint_state_bytes_decode_by_hand() -> None:
         n=1, t_s=1.5, state={"joint_angle_rad.bend_1": 0.25, "drive_velocity_mps.d": 0.08}
     )
     (message,) = [m for m in mapper.messages(frame) if m.topic == "joint_states"]
-    data = serialize(message.message, message.type_name)
+    data = message.data
     assert data[:4] == b"\x00\x01\x00\x00"  # CDR, little-endian
     body = data[4:]
     sec, nanosec, length = struct.unpack_from("<iII", body, 0)
@@ -385,22 +517,85 @@ def test_a_false_estop_changes_nothing_and_nothing_else_is_subscribed(router: in
         node.close()
 
 
-def test_a_failing_publisher_never_reaches_the_tick(router: int) -> None:
+def test_a_failing_publisher_never_reaches_the_tick(
+    router: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Publishing raises in the node's process: the output switches off, the run succeeds,
+    and the e-stop subscription stays."""
+    from zenoh_ros2_sdk import ROS2Publisher
+
+    monkeypatch.setattr(Ros2Node, "_PROCESS_OPTIONS", {"fail_publishing": True})
+    node = Ros2Node(f"tcp/127.0.0.1:{router}", rate_hz=1000.0)
+    publisher = None
+    try:
+        assert node.wait_ready()
+        result = pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, ros2=node)
+        deadline = time.monotonic() + 10.0
+        while node.enabled and time.monotonic() < deadline:
+            time.sleep(0.02)  # the process says so over the pipe
+        assert not node.enabled and node.published == 0
+        publisher = ROS2Publisher(
+            topic="/pirate/estop",
+            msg_type="std_msgs/msg/Bool",
+            router_ip="127.0.0.1",
+            router_port=router,
+            domain_id=0,
+        )
+        assert node.estop is not None
+        while node.estop.received == 0 and time.monotonic() < deadline + 10.0:
+            publisher.publish(data=True)  # until routing is up
+            time.sleep(0.05)
+        assert node.estop.received > 0  # the e-stop still comes through
+    finally:
+        if publisher is not None:
+            publisher.close()
+        node.close()
+    assert result.succeeded
+
+
+def test_a_failing_hand_over_never_reaches_the_tick(router: int) -> None:
     node = Ros2Node(f"tcp/127.0.0.1:{router}", rate_hz=1000.0)
     calls = threading.Event()
 
-    def broken(message: Any) -> None:
+    def broken(*args: Any, **kwargs: Any) -> None:
         calls.set()
-        raise RuntimeError("the network is on fire")
+        raise RuntimeError("the pipe is on fire")
 
     try:
         assert node.wait_ready()
-        node._publish = broken  # type: ignore[method-assign]
+        node.offer = broken  # type: ignore[method-assign]
         result = pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, ros2=node)
     finally:
         node.close()
     assert result.succeeded
     assert calls.is_set() and not node.enabled
+
+
+def test_frames_are_dropped_and_counted_when_the_process_lags() -> None:
+    """A stopped publishing process never holds up the run: the pipe fills, frames are
+    dropped and counted, and once the process goes on, so does the output."""
+    import os
+    import signal
+
+    from pirate_bt.interop.ros2_topics import TreeShape
+
+    node = Ros2Node(f"tcp/127.0.0.1:{_free_port()}")  # nothing listens there; no matter
+    try:
+        assert node.wait_ready()
+        run = node.begin(TreeShape("t", ()), 0, "pirate", 0.05)
+        big = {f"joint_angle_rad.j{i}": float(i) for i in range(2000)}
+        os.kill(node.pid, signal.SIGSTOP)
+        try:
+            for n in range(2000):  # 2000 frames of ~40 kB: far more than the pipe holds
+                node.offer(run, (n, n * 0.05, big, None, None, None, None, None, None, None))
+                if node.dropped:
+                    break
+        finally:
+            os.kill(node.pid, signal.SIGCONT)
+        assert node.dropped > 0 and node.enabled
+        assert node.flush()
+    finally:
+        node.close()
 
 
 # --- rosbag2 --------------------------------------------------------------------------------------

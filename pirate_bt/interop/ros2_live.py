@@ -1,33 +1,37 @@
 """A run on a ROS 2 graph, over Zenoh, with no ROS installed.
 
 ``--ros2 [ENDPOINT]`` on ``pirate-bt run|mission|teleop|sim`` (and ``ros2=`` in
-the API) opens a :class:`Ros2Node`: a Zenoh session (``eclipse-zenoh``, the
-``ros2`` extra) that connects to a Zenoh router, by default rmw_zenoh's
+the API) opens a :class:`Ros2Node`: a process of its own
+(:mod:`pirate_bt.interop.ros2_process`) with a Zenoh session (``eclipse-zenoh``,
+the ``ros2`` extra) that connects to a Zenoh router, by default rmw_zenoh's
 ``tcp/127.0.0.1:7447`` (``ros2 run rmw_zenoh_cpp rmw_zenohd``), and behaves as a
 ROS 2 node there by following rmw_zenoh's conventions
 (:mod:`pirate_bt.interop.rmw_zenoh`): every node on that router whose middleware
 is ``rmw_zenoh_cpp`` sees our topics (:mod:`pirate_bt.interop.ros2_topics`) in
 ``ros2 topic list``, RViz, PlotJuggler or py_trees_ros's tree watcher.
 
-**The robot comes first.** The tick does almost nothing: a post-tick hook looks
-at the wall clock and, at most ``rate_hz`` times a wall-clock second (20 by
-default), copies what the tools are shown (the state snapshot, link health,
-counters, every node's status) into a single slot. A worker thread takes the
-slot, builds the messages, serialises them and hands them to Zenoh, which sends
-from its own threads. A slot the worker has not taken yet is overwritten by the
-next one, so nothing queues up: a simulated run that goes a hundred times faster
-than real time is shown at the rate, its messages stamped with the run's clock;
-a real robot's run at 20 Hz is shown tick by tick. Any error in the worker is
-logged once and switches the output off; it never reaches the tick.
+**The robot comes first.** The node's process starts when the option is opened
+and sets itself up while the run is prepared. In the tick, a post-tick hook
+looks at the wall clock and, at most ``rate_hz`` times a wall-clock second (20
+by default), reads what the tools are shown (the state snapshot, link health,
+counters, the supervisor's mode and last verdict; every node's status, feedback
+and the blackboard at most once a second) and hands it to the node's process as
+plain values over a pipe (:meth:`Ros2Node.offer`). That process builds the
+messages, encodes them and hands them to Zenoh, on another core; when it lags,
+frames are dropped, never queued in the run. A simulated run that goes a hundred
+times faster than real time is shown at the rate, its messages stamped with the
+run's clock; a real robot's run at 20 Hz is shown tick by tick. Any error in the
+output is logged once and switches it off; it never reaches the tick.
 
 **Nothing from the graph moves the robot.** The node subscribes to one topic,
-``<namespace>/estop`` (``std_msgs/msg/Bool``). ``true`` there becomes an operator
-:class:`~pirate_bt.safety.operator.EStop` on an
-:class:`~pirate_bt.safety.operator.OperatorInput` that the supervisor drains at
-the start of its next tick, exactly like the console's e-stop key: it latches,
-stops the drives and the rotation, keeps the clamps holding, and only an
-operator at the console releases it. ``false`` does nothing (an e-stop is not
-released from the graph). No other topic, service or parameter is offered.
+``<namespace>/estop`` (``std_msgs/msg/Bool``). ``true`` there comes back over
+the pipe and becomes an operator :class:`~pirate_bt.safety.operator.EStop` on
+an :class:`~pirate_bt.safety.operator.OperatorInput` (:class:`EStopInput`)
+that the supervisor drains at the start of its next tick, exactly like the
+console's e-stop key: it latches, stops the drives and the rotation, keeps the
+clamps holding, and only an operator at the console releases it. ``false`` does
+nothing (an e-stop is not released from the graph). No other topic, service or
+parameter is offered.
 """
 
 from __future__ import annotations
@@ -45,12 +49,13 @@ from pirate_bt.interop.ros2_option import (
     add_ros2_options,
     parse_endpoint,
 )
-from pirate_bt.interop.ros2_topics import Frame
+from pirate_bt.interop.ros2_topics import TreeShape
 
 __all__ = [
     "DEFAULT_ENDPOINT",
     "DEFAULT_NAMESPACE",
     "ESTOP",
+    "TREE_PERIOD_S",
     "EStopInput",
     "Ros2Node",
     "add_ros2_options",
@@ -62,12 +67,20 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+TREE_PERIOD_S = 1.0
+"""Every node's status, feedback and the blackboard are read at most once per this many
+wall seconds (and at a run's end): the tree topic shows no more than that."""
+
 
 # --- capturing frames (the tick's side) ---------------------------------------------------------
 
 
 class _Capture:
-    """Reads a frame from the running objects; the cheap part, in the tick's thread."""
+    """Reads a frame's values from the running objects, in the tick's thread.
+
+    Only plain values are made here (what ``marshal`` carries); the rest is the
+    node's process's work.
+    """
 
     def __init__(
         self,
@@ -83,7 +96,7 @@ class _Capture:
         from pirate_bt.trace.records import STATUS_CODE
         from pirate_bt.trace.structure import iter_with_ids
 
-        self._nodes = list(iter_with_ids(tree)) if tree is not None else []
+        self._nodes = [node for _, node in iter_with_ids(tree)] if tree is not None else []
         self._code = STATUS_CODE
         self._storage = py_trees.blackboard.Blackboard.storage
         self.clock = clock
@@ -92,79 +105,77 @@ class _Capture:
         self.counters = counters
         self.more = more
         self.last_verdict: Any = None
-        self.n = 0
+        self._verdict_seen: Any = None
+        self._verdict_values: dict[str, Any] = {}
         if supervisor is not None:
             supervisor.add_listener(self._verdict)
 
     def _verdict(self, verdict: Any) -> None:
         self.last_verdict = verdict  # one assignment per verdict: the whole cost in the tick
 
-    def frame(self, n: int | None = None, statuses: Mapping[str, str] | None = None) -> Frame:
+    def values(
+        self, n: int, *, tree: bool, statuses: tuple[str, ...] | None = None
+    ) -> tuple[Any, ...]:
+        """``FRAME``'s values from ``n`` on (:mod:`pirate_bt.interop.ros2_process`); the
+        tree's three only with ``tree``."""
         from pirate_bt.trace.attach import counter_values
         from pirate_bt.trace.records import flatten_state, link_health_values
-        from pirate_bt.trace.structure import jsonable
 
-        code = self._code
-        if statuses is None:
-            statuses = {node_id: code[node.status] for node_id, node in self._nodes}
-        feedback = {
-            node_id: str(node.feedback_message)
-            for node_id, node in self._nodes
-            if node.feedback_message
-        }
-        frame = Frame(
-            n=self.n if n is None else n,
-            t_s=round(self.clock.now() - self.start_s, 6),
-            statuses=statuses,
-            feedback=feedback,
-            blackboard={str(k): jsonable(v) for k, v in self._storage.items()},
-        )
+        state: Any = None
+        link: Any = None
+        supervisor: Any = None
         sup = self.supervisor
         if sup is not None:
-            state = sup.state()
-            if state is not None:
-                frame.state = flatten_state(state)
-            frame.link = link_health_values(sup.health())
-            info: dict[str, Any] = {
+            snapshot = sup.state()
+            if snapshot is not None:
+                state = flatten_state(snapshot)
+            link = link_health_values(sup.health())
+            supervisor = {
                 "mode": str(getattr(sup.mode, "value", sup.mode)),
                 "safe_state": sup.safe_state_reason,
             }
             verdict = self.last_verdict
             if verdict is not None:
-                record = verdict.to_record()
-                info.update(
-                    last_command=record.get("command"),
-                    last_verdict=record.get("outcome"),
-                    last_reason=record.get("reason"),
-                    last_detail=record.get("detail"),
-                    last_source=record.get("source"),
-                )
-            frame.supervisor = info
-        if self.counters is not None:
-            frame.sim = counter_values(self.counters())
+                if verdict is not self._verdict_seen:
+                    record = verdict.to_record()
+                    self._verdict_seen = verdict
+                    self._verdict_values = {
+                        "last_command": record.get("command"),
+                        "last_verdict": record.get("outcome"),
+                        "last_reason": record.get("reason"),
+                        "last_detail": record.get("detail"),
+                        "last_source": record.get("source"),
+                    }
+                supervisor.update(self._verdict_values)
+        sim = counter_values(self.counters()) if self.counters is not None else None
+        task = None
         if self.more is not None:
-            values = self.more()
-            frame.task = {k.removeprefix("task."): v for k, v in values.items()}
-        return frame
+            task = {k.removeprefix("task."): v for k, v in self.more().items()}
+        feedback: Any = None
+        blackboard: Any = None
+        if tree:
+            from pirate_bt.trace.structure import jsonable
+
+            nodes = self._nodes
+            if statuses is None:
+                code = self._code
+                statuses = tuple([code[node.status] for node in nodes])
+            feedback = tuple(
+                [
+                    (i, str(node.feedback_message))
+                    for i, node in enumerate(nodes)
+                    if node.feedback_message
+                ]
+            )
+            blackboard = {str(k): jsonable(v) for k, v in self._storage.items()}
+        else:
+            statuses = None
+        t_s = round(self.clock.now() - self.start_s, 6)
+        return (n, t_s, state, link, sim, task, supervisor, statuses, feedback, blackboard)
 
 
-def _mapper_factory(structure: Any, start_ns: int, robot: Any, period_s: float) -> Any:
-    name = getattr(robot, "name", None) or "pirate"
-
-    def make() -> Any:
-        from pirate_bt.interop.ros2_topics import Ros2Mapper
-
-        return Ros2Mapper(structure, start_ns, hardware_id=str(name), period_s=period_s)
-
-    holder: dict[str, Any] = {}
-
-    def get() -> Any:
-        # Called by the worker: the mapper (numpy, rosbags) is built off the tick, once.
-        if "mapper" not in holder:
-            holder["mapper"] = make()
-        return holder["mapper"]
-
-    return get
+def _hardware_id(robot: Any) -> str:
+    return str(getattr(robot, "name", None) or "pirate")
 
 
 def attach_ros2(
@@ -179,10 +190,11 @@ def attach_ros2(
 ) -> None:
     """Show ``runner``'s run on the ROS 2 graph through ``node`` (see the module docstring).
 
-    Waits (at most ``ready_timeout_s``) until the node is set up, so that the
-    e-stop topic is heard from the first tick; then attaches a post-tick hook
-    that hands the worker a frame at most ``rate_hz`` times a wall-clock second,
-    and a finish hook that hands it the last one and waits for it to go out.
+    Waits (at most ``ready_timeout_s``) until the node's process is set up, so that
+    the e-stop topic is heard from the first tick (it started when the node was
+    opened, so it usually is by now); then attaches a post-tick hook that hands
+    the node a frame at most ``rate_hz`` times a wall-clock second, and a finish
+    hook that hands it the last one.
 
     Args:
         runner: A :class:`pirate_bt.runner.Runner` (not yet run).
@@ -192,10 +204,13 @@ def attach_ros2(
         more: Extra values (a mission's localiser: ``task.belief_m``...).
         robot: The robot description (its name is the diagnostics' hardware id).
         ready_timeout_s: How long to wait for the node's set-up.
+
+    Raises:
+        InputError: the node's Zenoh session could not be opened (a bad endpoint).
     """
     from pirate_bt.trace.structure import tree_structure
 
-    if not node.wait_ready(ready_timeout_s):
+    if not node.check_opened(ready_timeout_s):
         logger.warning("ROS 2 output: the node is not set up; this run is not shown")
     node.attach_supervisor(supervisor)
     if not node.enabled:
@@ -204,9 +219,10 @@ def attach_ros2(
         runner.tree, runner.clock, supervisor=supervisor, counters=counters, more=more
     )
     start_ns = int(time.time()) * 1_000_000_000
-    mapper = _mapper_factory(tree_structure(runner.tree), start_ns, robot, runner.period_s)
+    shape = TreeShape.of(tree_structure(runner.tree))
+    run = node.begin(shape, start_ns, _hardware_id(robot), runner.period_s)
     period_s = node.period_s
-    due = [0.0]
+    due = [0.0, 0.0]  # the next frame, the next tree
     clock = time.perf_counter
 
     def post_tick(info: Any) -> None:
@@ -214,16 +230,18 @@ def attach_ros2(
         if now < due[0]:
             return
         due[0] = now + period_s
+        tree = now >= due[1]
+        if tree:
+            due[1] = now + TREE_PERIOD_S
         try:
-            node.offer(mapper, capture.frame(info.tick))
+            node.offer(run, capture.values(info.tick, tree=tree))
         except Exception:
             node.enabled = False
             logger.exception("ROS 2 output: reading the run failed; it is switched off")
 
     def finish(result: Any) -> None:
         try:
-            node.offer(mapper, capture.frame(int(getattr(result, "ticks", 0))), final=True)
-            node.flush()
+            node.offer(run, capture.values(int(getattr(result, "ticks", 0)), tree=True), final=True)
         except Exception:
             logger.exception("ROS 2 output: the last frame failed")
 
@@ -240,7 +258,7 @@ def serve_supervisor(node: Ros2Node, supervisor: Any, *, robot: Any = None) -> C
 
     from pirate_bt.trace.structure import tree_structure
 
-    if not node.wait_ready():
+    if not node.check_opened():
         logger.warning("ROS 2 output: the node is not set up; the console is not shown")
     node.attach_supervisor(supervisor)
     simulator = getattr(supervisor, "simulator", None)
@@ -251,8 +269,9 @@ def serve_supervisor(node: Ros2Node, supervisor: Any, *, robot: Any = None) -> C
         supervisor=supervisor,
         counters=simulator.counters if simulator is not None else None,
     )
-    mapper = _mapper_factory(tree_structure(root), int(time.time()) * 1_000_000_000, robot, 0.0)
-    due = [0.0]
+    shape = TreeShape.of(tree_structure(root))
+    run = node.begin(shape, int(time.time()) * 1_000_000_000, _hardware_id(robot), 0.0)
+    due = [0.0, 0.0]
     steps = [0]
 
     def tick() -> None:
@@ -261,8 +280,11 @@ def serve_supervisor(node: Ros2Node, supervisor: Any, *, robot: Any = None) -> C
         if now < due[0] or not node.enabled:
             return
         due[0] = now + node.period_s
+        tree = now >= due[1]
+        if tree:
+            due[1] = now + TREE_PERIOD_S
         try:
-            node.offer(mapper, capture.frame(steps[0], {"0": "R"}))
+            node.offer(run, capture.values(steps[0], tree=tree, statuses=("R",)))
         except Exception:
             node.enabled = False
             logger.exception("ROS 2 output: reading the console failed; it is switched off")
@@ -280,13 +302,12 @@ def publish_simulator(node: Ros2Node, simulator: Any) -> Callable[[], None]:
         A function that stops the thread.
     """
     from pirate_bt.trace.attach import counter_values
-    from pirate_bt.trace.structure import TreeStructure
 
-    node.wait_ready()
+    node.check_opened()
     stop = threading.Event()
     clock0 = simulator.clock.now()
     start_ns = int(time.time()) * 1_000_000_000
-    mapper = _mapper_factory(TreeStructure(name="sim", nodes=()), start_ns, None, 0.0)
+    run = node.begin(TreeShape("sim", ()), start_ns, "pirate", 0.0)
 
     def loop() -> None:
         n = 0
@@ -306,7 +327,7 @@ def publish_simulator(node: Ros2Node, simulator: Any) -> Callable[[], None]:
                     slope_rad=truth.slope_rad,
                 )
                 t_s = round(simulator.clock.now() - clock0, 6)
-                node.offer(mapper, Frame(n=n, t_s=t_s, state=state, sim=sim))
+                node.offer(run, (n, t_s, state, None, sim, None, None, None, None, None))
             except Exception:
                 logger.exception("ROS 2 output: reading the simulator failed; stopped")
                 return

@@ -1,65 +1,86 @@
-"""The ROS 2 node of ``--ros2``: a Zenoh session that behaves as a ROS 2 node.
+"""The ROS 2 node of ``--ros2``, as the run's process sees it: a child process and a pipe.
 
-:class:`Ros2Node` connects to a Zenoh router (rmw_zenoh's conventions,
-:mod:`pirate_bt.interop.rmw_zenoh`), declares the publishers of
-:mod:`pirate_bt.interop.ros2_topics` and their liveliness tokens, and subscribes
-to the e-stop topic (:class:`EStopInput`, drained by the supervisor). A worker
-thread builds, serialises and publishes the frames handed to :meth:`Ros2Node.offer`.
-What is captured from a run, and when, is :mod:`pirate_bt.interop.ros2_live`.
+:class:`Ros2Node` starts the publishing process
+(:mod:`pirate_bt.interop.ros2_process`) at once and returns: the process imports
+Zenoh, opens the session, declares the publishers, their liveliness tokens and
+the e-stop subscription while the run is still being prepared, and says when it
+is ready (:meth:`Ros2Node.wait_ready`). From then on the run's process only
+hands over frames (:meth:`Ros2Node.offer`: one ``marshal`` and one
+non-blocking ``os.write``); the type store, the messages, their CDR and Zenoh
+are the other process's work, on another core, never in the run's interpreter.
+
+The pipe is bounded (1 MiB): when the publishing process lags so far behind that
+a frame does not fit, the frame is dropped and counted (:attr:`Ros2Node.dropped`),
+never waited for. A thread of the run's process waits (blocked in ``os.read``,
+holding no lock) for what the publishing process sends back: that it is ready,
+that publishing failed (the output is then switched off; the run goes on), and
+every ``std_msgs/Bool`` on the e-stop topic, which :class:`EStopInput` queues
+for the supervisor's next tick.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import json
 import logging
+import os
+import select
+import subprocess
+import sys
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
-from typing import Any
+from pathlib import Path
+from typing import Any, ClassVar
 
 from pirate_bt.errors import ConfigurationError, InputError
-from pirate_bt.interop import rmw_zenoh
+from pirate_bt.interop import rmw_zenoh, ros2_process
 from pirate_bt.interop.ros2_option import (
     DEFAULT_ENDPOINT,
     DEFAULT_NAMESPACE,
     domain_from_env,
     parse_endpoint,
 )
-from pirate_bt.interop.ros2_topics import TOPIC_TYPES, TREE, Frame
+from pirate_bt.interop.ros2_process import BOOL, CLOSED, FAILED, FLUSHED, OFF, READY
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
 
-__all__ = ["DUTY", "ESTOP", "TREE_PERIOD_S", "EStopInput", "Ros2Node"]
+__all__ = ["ESTOP", "EStopInput", "Ros2Node"]
 
 logger = logging.getLogger(__name__)
 
 ESTOP = "estop"
 """The e-stop topic, relative to the namespace."""
-DUTY = 0.02
-"""The share of wall time the worker may spend: after each frame it rests 49 times as
-long as the frame took (the slot keeps only the newest frame meanwhile)."""
-TREE_PERIOD_S = 1.0
-"""At most one tree snapshot per this many wall seconds (each is the whole tree)."""
 
-_LATCHED = {TREE}
-"""Topics late joiners get the last message of (TRANSIENT_LOCAL, depth 1, like
-py_trees_ros's snapshot streams)."""
+_PIPE_BYTES = 1 << 20
+_SCRIPT = Path(ros2_process.__file__).resolve()
 
 
-def _load_zenoh() -> Any:
+def _plain(value: Any) -> Any:
+    """``value`` with everything ``marshal`` cannot carry turned into what it can."""
+    if value is None or type(value) in (bool, int, float, str, bytes):
+        return value
+    if isinstance(value, bool):
+        return bool(value)
+    if isinstance(value, int | float):
+        return float(value)
+    if isinstance(value, str):
+        return str(value)
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return tuple(_plain(v) for v in value)
     try:
-        import zenoh
-    except ImportError:
-        raise ConfigurationError(missing("--ros2", "eclipse-zenoh")) from None
-    return zenoh
+        return float(value)
+    except (TypeError, ValueError):
+        return str(value)
 
 
 class EStopInput:
-    """The e-stop topic as an operator input (see the module docstring).
+    """The e-stop topic as an operator input (see :mod:`pirate_bt.interop.ros2_live`).
 
-    Zenoh's threads :meth:`push`; the supervisor's tick :meth:`poll`\\ s.
+    The node's reader thread :meth:`push`\\ es; the supervisor's tick :meth:`poll`\\ s.
     """
 
     def __init__(self, topic: str) -> None:
@@ -69,39 +90,38 @@ class EStopInput:
         """``std_msgs/Bool`` messages received (``true`` or not)."""
         self.estops = 0
         """E-stops handed to a supervisor so far."""
+        self.heard_ns = 0
+        """When the last ``true`` reached the publishing process (``time.monotonic_ns``)."""
+        self.queued_ns = 0
+        """When the last ``true`` was queued here, in this process."""
+        self.drained_ns = 0
+        """When a supervisor last took an e-stop from here."""
 
-    def push(self, data: bool) -> None:
-        """One ``std_msgs/Bool`` arrived."""
+    def push(self, data: bool, heard_ns: int = 0) -> None:
+        """One ``std_msgs/Bool`` arrived (``heard_ns``: when, if known)."""
         self.received += 1
         if data:
+            self.heard_ns = heard_ns
+            self.queued_ns = time.monotonic_ns()
             self._due.append(EStop(f"ROS 2 e-stop on {self.topic}"))
 
     def poll(self, tick: int, now_s: float) -> list[OperatorAction]:
+        if not self._due:
+            return []
         due: list[OperatorAction] = []
         while self._due:
             due.append(self._due.popleft())
         self.estops += len(due)
+        self.drained_ns = time.monotonic_ns()
         return due
 
 
-@dataclass
-class _Endpoint:
-    topic: str
-    type_name: str
-    key: str
-    gid: bytes
-    publisher: Any
-    token: Any
-    sequence: int = 0
-
-
 class Ros2Node:
-    """One ROS 2 node over Zenoh (rmw_zenoh's conventions) publishing pirate_bt's topics.
+    """One ROS 2 node over Zenoh (rmw_zenoh's conventions), run by a process of its own.
 
-    The Zenoh session opens at once (it connects to ``endpoint`` as a peer, and
-    keeps trying in the background if nothing listens there yet); the type hashes,
-    publishers, liveliness tokens and the e-stop subscription are set up by the
-    node's worker thread (:meth:`wait_ready`).
+    The publishing process starts at once and sets itself up in the background:
+    :meth:`wait_ready` waits for it. Frames go to it with :meth:`begin` and
+    :meth:`offer` (:mod:`pirate_bt.interop.ros2_live` does both).
 
     Args:
         endpoint: A Zenoh endpoint (``tcp/HOST:PORT``), usually a router's.
@@ -114,9 +134,12 @@ class Ros2Node:
             the loopback, on a port the system picks).
 
     Raises:
-        ConfigurationError: ``eclipse-zenoh`` or ``rosbags`` is missing.
+        ConfigurationError: ``eclipse-zenoh`` is missing, or no process can be started.
         InputError: a bad endpoint, domain id or namespace.
     """
+
+    _PROCESS_OPTIONS: ClassVar[dict[str, Any]] = {}
+    """More settings for the publishing process (the tests' ``fail_publishing``)."""
 
     def __init__(
         self,
@@ -129,11 +152,8 @@ class Ros2Node:
         estop: bool = True,
         listen: tuple[str, ...] = ("tcp/127.0.0.1:0",),
     ) -> None:
-        zenoh = _load_zenoh()
-        try:
-            import rosbags  # noqa: F401
-        except ImportError:
-            raise ConfigurationError(missing("--ros2", "rosbags")) from None
+        if importlib.util.find_spec("zenoh") is None:
+            raise ConfigurationError(missing("--ros2", "eclipse-zenoh"))
         self.endpoint = parse_endpoint(endpoint)
         self.domain_id = domain_from_env() if domain_id is None else int(domain_id)
         if not 0 <= self.domain_id <= 232:
@@ -148,147 +168,138 @@ class Ros2Node:
         if rate_hz <= 0:
             raise InputError("the ROS 2 rate must be positive")
         self.period_s = 1.0 / rate_hz
-        config = zenoh.Config()
-        for key, value in (
-            ("mode", "peer"),
-            ("connect/endpoints", [self.endpoint]),
-            ("listen/endpoints", list(listen)),
-            ("scouting/multicast/enabled", False),
-            # Advanced publishers (the latched tree topic) sequence by timestamp.
-            ("timestamping/enabled", True),
-            # Return at once instead of waiting half a second for scouted peers: the
-            # session goes on connecting (and reconnecting) in the background.
-            ("open/return_conditions/connect_scouted", False),
-        ):
-            config.insert_json5(key, json.dumps(value))
-        try:
-            self.session = zenoh.open(config)
-        except Exception as exc:  # zenoh's own error type for a bad endpoint or config
-            raise InputError(
-                f"--ros2 {self.endpoint}: cannot open a Zenoh session: {exc}"
-            ) from None
-        self.session_id = str(self.session.zid())
         self.estop = EStopInput(self.fq_estop) if estop else None
         self.enabled = True
-        """False once publishing failed (the run goes on without the ROS 2 output)."""
+        """False once the output failed (the run goes on without it)."""
+        self.session_id = ""
+        """The Zenoh session's id (once ready)."""
         self.published = 0
-        """Messages handed to Zenoh so far."""
-        self._endpoints: dict[str, _Endpoint] = {}
-        self._tokens: list[Any] = []
-        self._subscriber: Any = None
+        """Messages handed to Zenoh so far (as of the last flush or close)."""
+        self.dropped = 0
+        """Frames dropped because the publishing process lagged (the pipe was full)."""
+        self.failure: tuple[str, str] | None = None
+        """``(kind, text)`` when the publishing process could not set up (see ``FAILED``)."""
         self._supervisors: list[Any] = []
-        self._slot: tuple[Any, Frame, bool] | None = None
-        self._hurry = threading.Event()
-        self._next_tree = 0.0
-        self._lock = threading.Lock()
-        self._wake = threading.Event()
-        self._idle = threading.Event()
-        self._idle.set()
         self._ready = threading.Event()
+        self._lock = threading.Lock()
+        self._flushed = threading.Condition()
+        self._flush_asked = 0
+        self._flush_answered = 0
+        self._tail = b""
+        self._runs = 0
         self._closed = False
-        self._setup_error: BaseException | None = None
-        self._thread = threading.Thread(target=self._work, name="pirate-ros2", daemon=True)
-        self._thread.start()
+        # Frames go in on the process's standard input, which it reads every period
+        # (it does not wait on it: see ros2_process._batches); a byte on this pipe wakes
+        # it at once for what must not wait.
+        wake_r, self._wake_fd = os.pipe()
+        os.set_blocking(self._wake_fd, False)
+        config = {
+            "wake_fd": wake_r,
+            "poll_s": self.period_s,
+            "endpoint": self.endpoint,
+            "listen": list(listen),
+            "domain_id": self.domain_id,
+            "namespace": self.namespace,
+            "name": name,
+            "fq_estop": self.fq_estop,
+            "estop": estop,
+            **self._PROCESS_OPTIONS,
+        }
+        try:
+            self._proc = subprocess.Popen(
+                # -I: no user site, no PYTHON* variables, no script folder on the path.
+                [sys.executable, "-I", str(_SCRIPT), json.dumps(config)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                pass_fds=(wake_r,),
+                start_new_session=True,  # a signal to the run's process group spares it
+            )
+        except OSError as exc:
+            os.close(self._wake_fd)
+            raise ConfigurationError(f"--ros2: cannot start the ROS 2 process: {exc}") from None
+        finally:
+            os.close(wake_r)
+        assert self._proc.stdin is not None and self._proc.stdout is not None
+        self._fd = self._proc.stdin.fileno()
+        try:  # room for a lag of many frames; beyond it frames are dropped
+            import fcntl
+
+            fcntl.fcntl(self._fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), _PIPE_BYTES)
+        except (ImportError, OSError):
+            pass
+        os.set_blocking(self._fd, False)
+        self._reader = threading.Thread(
+            target=self._read, args=(self._proc.stdout.fileno(),), name="pirate-ros2", daemon=True
+        )
+        self._reader.start()
         logger.info(
-            "ROS 2 node %s/%s on Zenoh %s, domain %d",
+            "ROS 2 node %s/%s on Zenoh %s, domain %d (process %d)",
             self.namespace,
             name,
             self.endpoint,
             self.domain_id,
+            self._proc.pid,
         )
 
-    # --- set-up (worker thread) ------------------------------------------------------------
+    @property
+    def pid(self) -> int:
+        """The publishing process's id."""
+        return self._proc.pid
 
-    def _setup(self) -> None:
-        from pirate_bt.interop.ros2_types import dds_type_name, type_hash, typestore
+    # --- what the publishing process says ---------------------------------------------------
 
-        zenoh = _load_zenoh()
-        typestore()
-        liveliness = self.session.liveliness()
-        self._tokens.append(
-            liveliness.declare_token(
-                rmw_zenoh.node_token(self.domain_id, self.session_id, 0, self.namespace, self.name)
+    def _read(self, fd: int) -> None:
+        buffer = bytearray()
+        while True:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:
+                chunk = b""
+            if not chunk:
+                break
+            buffer += chunk
+            for message in ros2_process.decode_messages(buffer):
+                try:
+                    self._heard(message)
+                except Exception:  # this thread must not die
+                    logger.exception("ROS 2 output: a message from its process failed")
+        if not self._ready.is_set():
+            self.failure = self.failure or ("setup", "the ROS 2 process ended before it was ready")
+        if not self._closed and self.enabled:
+            self.enabled = False
+            logger.warning(
+                "ROS 2 output: its process ended (exit %s); the run is no longer shown and the"
+                " e-stop topic no longer reaches it",
+                self._proc.poll(),
             )
-        )
-        entity = 0
-        for topic, type_name in TOPIC_TYPES.items():
-            entity += 1
-            fq = rmw_zenoh.qualified_name(self.namespace, topic)
-            dds, digest = dds_type_name(type_name), type_hash(type_name)
-            key = rmw_zenoh.data_key(self.domain_id, fq, dds, digest)
-            latched = topic in _LATCHED
-            qos = rmw_zenoh.Qos(
-                durability=rmw_zenoh.TRANSIENT_LOCAL if latched else rmw_zenoh.VOLATILE,
-                depth=1 if latched else 10,
-            )
-            token_key = rmw_zenoh.endpoint_token(
-                self.domain_id,
-                self.session_id,
-                0,
-                entity,
-                "MP",
-                self.namespace,
-                self.name,
-                fq,
-                dds,
-                digest,
-                qos,
-            )
-            if latched:
-                import zenoh.ext
+        self._ready.set()
+        with self._flushed:
+            self._flush_answered = self._flush_asked
+            self._flushed.notify_all()
 
-                publisher = zenoh.ext.declare_advanced_publisher(
-                    self.session,
-                    key,
-                    cache=zenoh.ext.CacheConfig(max_samples=1),
-                    publisher_detection=True,
-                )
-            else:
-                publisher = self.session.declare_publisher(
-                    key, congestion_control=zenoh.CongestionControl.DROP
-                )
-            token = liveliness.declare_token(token_key)
-            self._endpoints[topic] = _Endpoint(
-                topic, type_name, key, rmw_zenoh.entity_gid(token_key), publisher, token
-            )
-        if self.estop is not None:
-            entity += 1
-            type_name = "std_msgs/msg/Bool"
-            dds, digest = dds_type_name(type_name), type_hash(type_name)
-            key = rmw_zenoh.data_key(self.domain_id, self.fq_estop, dds, digest)
-            qos = rmw_zenoh.Qos(depth=10)
-            self._tokens.append(
-                liveliness.declare_token(
-                    rmw_zenoh.endpoint_token(
-                        self.domain_id,
-                        self.session_id,
-                        0,
-                        entity,
-                        "MS",
-                        self.namespace,
-                        self.name,
-                        self.fq_estop,
-                        dds,
-                        digest,
-                        qos,
-                    )
-                )
-            )
-            self._subscriber = self.session.declare_subscriber(key, self._on_estop)
-
-    def _on_estop(self, sample: Any) -> None:
-        estop = self.estop
-        if estop is None:
-            return
-        try:
-            payload = bytes(sample.payload.to_bytes())
-            # CDR: 4-byte encapsulation header, then the bool as one byte.
-            if len(payload) < 5:
-                logger.warning("ROS 2 e-stop: a message too short to be a std_msgs/Bool")
-                return
-            estop.push(payload[4] != 0)
-        except Exception:  # Zenoh's thread must not die; the supervisor never sees this
-            logger.exception("ROS 2 e-stop: reading a message failed")
+    def _heard(self, message: tuple[Any, ...]) -> None:
+        kind = message[0]
+        if kind == BOOL:
+            if self.estop is not None:
+                self.estop.push(bool(message[1]), int(message[2]))
+        elif kind == READY:
+            self.session_id = str(message[1])
+            self._ready.set()
+        elif kind == FAILED:
+            self.failure = (str(message[2]), str(message[1]))
+            self.enabled = False
+            logger.error("ROS 2 output: %s; it is switched off", message[1])
+            self._ready.set()
+        elif kind == OFF:
+            self.enabled = False
+            logger.error("ROS 2 output: publishing failed (%s); it is switched off", message[1])
+        elif kind == FLUSHED:
+            self.published = int(message[2])
+            with self._flushed:
+                self._flush_answered = max(self._flush_answered, int(message[1]))
+                self._flushed.notify_all()
+        elif kind == CLOSED:
+            self.published = int(message[1])
 
     def wait_ready(self, timeout_s: float = 10.0) -> bool:
         """Wait until the publishers, tokens and the e-stop subscription exist.
@@ -296,7 +307,21 @@ class Ros2Node:
         Returns:
             True when ready; False on time-out or when the set-up failed (logged).
         """
-        return self._ready.wait(timeout_s) and self._setup_error is None
+        return self._ready.wait(timeout_s) and self.failure is None
+
+    def check_opened(self, timeout_s: float = 10.0) -> bool:
+        """:meth:`wait_ready`, raising what the user can fix.
+
+        Raises:
+            InputError: the Zenoh session could not be opened (a bad endpoint).
+            ConfigurationError: the publishing process could not import Zenoh.
+        """
+        ready = self.wait_ready(timeout_s)
+        if self.failure is not None and self.failure[0] == "input":
+            raise InputError(f"--ros2 {self.endpoint}: {self.failure[1]}")
+        if self.failure is not None and self.failure[0] == "config":
+            raise ConfigurationError(missing("--ros2", "eclipse-zenoh"))
+        return ready
 
     # --- supervisors -------------------------------------------------------------------------
 
@@ -309,109 +334,116 @@ class Ros2Node:
         self._supervisors.append(supervisor)
         supervisor.add_input(self.estop)
 
-    # --- publishing --------------------------------------------------------------------------
+    # --- handing over ------------------------------------------------------------------------
 
-    def offer(self, mapper: Any, frame: Frame, *, final: bool = False) -> None:
-        """Hand one frame to the worker; it replaces one the worker has not taken yet.
-
-        A ``final`` frame (a run's last) goes out at once, tree and all.
-        """
-        if not self.enabled:
-            return
-        with self._lock:
-            self._slot = (mapper, frame, final)
-            self._idle.clear()
-        if final:
-            self._hurry.set()
-        self._wake.set()
-
-    def flush(self, timeout_s: float = 2.0) -> bool:
-        """Wait until the worker has published everything offered (True) or time is up."""
-        return self._idle.wait(timeout_s)
-
-    def _work(self) -> None:
-        try:
-            self._setup()
-        except BaseException as exc:
-            self._setup_error = exc
-            self.enabled = False
-            logger.exception("ROS 2 output: setting up the node failed; it is switched off")
-            self._ready.set()
-            self._idle.set()
-            return
-        self._ready.set()
-        while True:
-            self._wake.wait()
-            self._wake.clear()
-            with self._lock:
-                item, self._slot = self._slot, None
-            if item is None:
-                if self._closed:
-                    return
-                self._idle.set()
-                continue
-            mapper, frame, final = item
-            started = time.perf_counter()
-            try:
-                tree = final or started >= self._next_tree
-                messages = mapper().messages(frame, changed=(TREE,), clock=True, tree=tree)
-                for message in messages:
-                    self._publish(message)
-                if any(m.topic == TREE for m in messages):
-                    spent = time.perf_counter() - started
-                    self._next_tree = time.perf_counter() + max(TREE_PERIOD_S, spent / DUTY)
-            except Exception:
-                self.enabled = False
-                logger.exception("ROS 2 output: publishing failed; it is switched off")
-            with self._lock:
-                if self._slot is None:
-                    self._idle.set()
-                else:
-                    self._wake.set()
-            # Keep to the duty cycle: rest in proportion to the work just done (a final
-            # frame or close cuts the rest short).
-            rest = (time.perf_counter() - started) * (1.0 / DUTY - 1.0)
-            if not self._closed and self._hurry.wait(rest):
-                self._hurry.clear()
-
-    def _publish(self, message: Any) -> None:
-        from pirate_bt.interop.ros2_types import serialize
-
-        endpoint = self._endpoints.get(message.topic)
-        if endpoint is None:
-            return
-        payload = serialize(message.message, message.type_name)
-        endpoint.sequence += 1
-        endpoint.publisher.put(
-            payload,
-            attachment=rmw_zenoh.attachment(endpoint.sequence, time.time_ns(), endpoint.gid),
+    def begin(self, shape: Any, start_ns: int, hardware_id: str, period_s: float) -> int:
+        """Announce a run's tree (a :class:`~pirate_bt.interop.ros2_topics.TreeShape`) and
+        clock; returns the run number its frames are offered under."""
+        self._runs += 1
+        run = self._runs
+        self._send(
+            (ros2_process.SETUP, run, shape.to_wire(), int(start_ns), hardware_id, period_s),
+            keep=True,
         )
-        self.published += 1
+        return run
 
-    def close(self) -> None:
-        """Publish what is pending, withdraw the node from the graph, close (idempotent)."""
+    def offer(self, run: int, values: tuple[Any, ...], *, final: bool = False) -> None:
+        """Hand one frame of ``run`` over: ``values`` are ``FRAME``'s from ``n`` on
+        (:mod:`pirate_bt.interop.ros2_process`). A frame that does not fit in the pipe is
+        dropped and counted; a ``final`` one (a run's last) is waited for, and goes out at
+        once with the tree."""
+        if self.enabled:
+            self._send((ros2_process.FRAME, run, final, *values), keep=final)
+            if final:
+                self._wake()
+
+    def _wake(self) -> None:
+        with self._lock, contextlib.suppress(OSError):  # full: it is woken already
+            if not self._closed:
+                os.write(self._wake_fd, b"!")
+
+    def _send(self, message: tuple[Any, ...], *, keep: bool) -> None:
+        """Write ``message`` to the pipe without blocking, unless ``keep``: then it is
+        written whole, waiting (at most 5 s) for room."""
+        if self._closed or not self.enabled:
+            return
+        try:
+            data = ros2_process.encode_message(message)
+        except ValueError:  # a value marshal does not carry (a subclass, numpy...)
+            data = ros2_process.encode_message(_plain(message))
+        with self._lock:
+            try:
+                if self._tail and not self._write_tail(keep):
+                    self.dropped += 1  # the last frame is still going in: this one is dropped
+                    return
+                written = self._write(data)
+                if written == 0 and not keep:
+                    self.dropped += 1
+                    return
+                self._tail = data[written:]
+                if keep:
+                    self._write_tail(True)
+            except BrokenPipeError:
+                self.enabled = False
+                logger.warning("ROS 2 output: its process has gone; it is switched off")
+            except TimeoutError:
+                self.enabled = False
+                logger.warning("ROS 2 output: its process stopped reading; it is switched off")
+
+    def _write(self, data: bytes) -> int:
+        try:
+            return os.write(self._fd, data)
+        except BlockingIOError:
+            return 0
+
+    def _write_tail(self, wait: bool) -> bool:
+        """Write what is left of a message; True once it is all written."""
+        deadline = time.monotonic() + 5.0
+        while self._tail:
+            self._tail = self._tail[self._write(self._tail) :]
+            if not self._tail or not wait:
+                break
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError
+            select.select([], [self._fd], [], left)
+        return not self._tail
+
+    def flush(self, timeout_s: float = 5.0) -> bool:
+        """Wait until the publishing process has published everything offered (True) or
+        time is up (False)."""
+        if self._closed or not self.enabled:
+            return True  # nothing is waiting to go out
+        with self._flushed:
+            self._flush_asked += 1
+            token = self._flush_asked
+        self._send((ros2_process.FLUSH, token), keep=True)
+        self._wake()
+        with self._flushed:
+            return self._flushed.wait_for(lambda: self._flush_answered >= token, timeout_s)
+
+    def close(self, timeout_s: float = 10.0) -> None:
+        """Let the publishing process publish what it has, withdraw the node from the graph
+        and exit; wait for that (idempotent)."""
         if self._closed:
             return
-        self.flush(2.0)
-        self._closed = True
-        self._hurry.set()
-        self._wake.set()
-        self._thread.join(timeout=10.0)
-        for endpoint in self._endpoints.values():
-            with contextlib.suppress(Exception):
-                endpoint.token.undeclare()
-            with contextlib.suppress(Exception):
-                endpoint.publisher.undeclare()
-        for token in self._tokens:
-            with contextlib.suppress(Exception):
-                token.undeclare()
-        if self._subscriber is not None:
-            with contextlib.suppress(Exception):
-                self._subscriber.undeclare()
+        with self._lock:
+            with contextlib.suppress(OSError, TimeoutError):
+                self._write_tail(True)
+            self._closed = True
+            assert self._proc.stdin is not None
+            with contextlib.suppress(OSError):
+                self._proc.stdin.close()  # the end of its input: it finishes and exits
+            os.close(self._wake_fd)  # which wakes it
+        self._reader.join(timeout_s)
         try:
-            self.session.close()
-        except Exception:  # pragma: no cover - closing must not fail a run's end
-            logger.exception("ROS 2 output: closing the Zenoh session failed")
+            self._proc.wait(max(0.1, timeout_s / 10))
+        except subprocess.TimeoutExpired:
+            logger.warning("ROS 2 output: its process did not finish; it is stopped")
+            self._proc.kill()
+            self._proc.wait()
+        if self._proc.stdout is not None:
+            self._proc.stdout.close()
 
     def __enter__(self) -> Ros2Node:
         return self

@@ -32,6 +32,11 @@ Every stamp is on the run's clock: the wall time the run started (whole
 seconds, as a trace header's ``created_utc``) plus the seconds since, so a
 simulated run of ten minutes spans ten minutes in RViz or a bag however fast it
 ran, and ``/clock`` lets tools with ``use_sim_time`` follow it.
+
+Messages come out as CDR bytes (:mod:`pirate_bt.interop.ros2_cdr`). This module
+imports nothing outside the standard library but that, so the publishing
+process (:mod:`pirate_bt.interop.ros2_process`) loads it in milliseconds; a
+tree's shape reaches it as a :class:`TreeShape`.
 """
 
 from __future__ import annotations
@@ -39,13 +44,12 @@ from __future__ import annotations
 import json
 import math
 import uuid
-from collections.abc import Collection, Iterable, Iterator, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
-from pirate_bt.interop.ros2_types import typestore
-from pirate_bt.trace.structure import TreeStructure
+from pirate_bt.interop import ros2_cdr as cdr
 
 __all__ = [
     "CLAMP_FORCES",
@@ -60,6 +64,8 @@ __all__ = [
     "Frame",
     "Ros2Mapper",
     "Ros2Message",
+    "ShapeNode",
+    "TreeShape",
     "frames_from_records",
     "start_ns_of",
 ]
@@ -130,13 +136,88 @@ class Ros2Message:
         topic: The topic, relative to the namespace (``/clock`` is absolute).
         type_name: Its ROS 2 type.
         stamp_ns: When, on the run's clock, in ns since the Unix epoch.
-        message: The message (a rosbags type store object).
+        data: The message in CDR, with its encapsulation header.
     """
 
     topic: str
     type_name: str
     stamp_ns: int
-    message: Any
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class ShapeNode:
+    """One node of a :class:`TreeShape` (the fields of a trace's ``NodeInfo`` we show)."""
+
+    id: str
+    name: str
+    type: str
+    kind: str
+    parent: str | None
+    children: tuple[str, ...]
+    params: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class TreeShape:
+    """A tree's nodes in depth-first order: what the tree topic shows of its structure.
+
+    :meth:`of` reads it from a :class:`pirate_bt.trace.structure.TreeStructure`;
+    :meth:`to_wire` and :meth:`from_wire` carry it to the publishing process as
+    plain values (``marshal`` can send them).
+    """
+
+    name: str
+    nodes: tuple[ShapeNode, ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_by_id", {n.id: n for n in self.nodes})
+
+    def node(self, node_id: str) -> ShapeNode:
+        """The node with ``node_id`` (``KeyError`` if there is none)."""
+        by_id: dict[str, ShapeNode] = self._by_id  # type: ignore[attr-defined]
+        return by_id[node_id]
+
+    def __iter__(self) -> Iterator[ShapeNode]:
+        return iter(self.nodes)
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    @classmethod
+    def of(cls, structure: Any) -> TreeShape:
+        """The shape of a ``TreeStructure`` (or a ``TreeShape``, returned as it is)."""
+        if isinstance(structure, TreeShape):
+            return structure
+        return cls(
+            str(structure.name),
+            tuple(
+                ShapeNode(n.id, n.name, n.type, n.kind, n.parent, tuple(n.children), dict(n.params))
+                for n in structure
+            ),
+        )
+
+    def to_wire(self) -> tuple[Any, ...]:
+        """Plain values: ``(name, ((id, name, type, kind, parent, children, params), ...))``."""
+        return (
+            self.name,
+            tuple(
+                (n.id, n.name, n.type, n.kind, n.parent, n.children, dict(n.params))
+                for n in self.nodes
+            ),
+        )
+
+    @classmethod
+    def from_wire(cls, data: Sequence[Any]) -> TreeShape:
+        """The inverse of :meth:`to_wire`."""
+        name, nodes = data
+        return cls(
+            str(name),
+            tuple(
+                ShapeNode(str(i), str(n), str(t), str(k), p, tuple(str(c) for c in ch), dict(pa))
+                for i, n, t, k, p, ch, pa in nodes
+            ),
+        )
 
 
 def start_ns_of(header: Mapping[str, Any]) -> int:
@@ -193,10 +274,10 @@ _ZERO_UUID = bytes(16)
 
 
 class Ros2Mapper:
-    """Turns :class:`Frame` values into :class:`Ros2Message` values.
+    """Turns :class:`Frame` values into :class:`Ros2Message` values (CDR bytes).
 
     Args:
-        structure: The tree's shape (its nodes by path id).
+        structure: The tree's shape: a :class:`TreeShape` or a trace's ``TreeStructure``.
         start_ns: The run's start, ns since the Unix epoch (stamps are this plus ``t_s``).
         frame_id: The ``frame_id`` of stamped messages.
         hardware_id: The diagnostics' hardware id (the robot's name).
@@ -205,36 +286,27 @@ class Ros2Mapper:
 
     def __init__(
         self,
-        structure: TreeStructure,
+        structure: Any,
         start_ns: int,
         *,
         frame_id: str = "pirate",
         hardware_id: str = "pirate",
         period_s: float = 0.0,
     ) -> None:
-        import numpy
-
-        self._np = numpy
-        self.store = typestore()
-        self.types = self.store.types
-        self.structure = structure
+        self.structure = TreeShape.of(structure)
         self.start_ns = start_ns
         self.frame_id = frame_id
         self.hardware_id = hardware_id
         self.period_s = period_s
-        self._uuids = {n.id: node_uuid(structure.name, n.id) for n in structure}
+        self._uuids = {n.id: node_uuid(self.structure.name, n.id) for n in self.structure}
+        self._fixed: dict[str, tuple[bytes, bytes, bytes]] | None = None
         self._last_tree: tuple[Any, ...] | None = None
         self._last: dict[str, Any] = {}
 
-    def stamp(self, t_s: float) -> Any:
-        """A ``builtin_interfaces/Time`` at ``t_s`` seconds into the run."""
+    def stamp(self, t_s: float) -> cdr.Stamp:
+        """A ``builtin_interfaces/Time`` ``(sec, nanosec)`` at ``t_s`` seconds into the run."""
         ns = self.start_ns + round(t_s * 1e9)
-        return self.types["builtin_interfaces/msg/Time"](
-            sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000
-        )
-
-    def _header(self, t_s: float) -> Any:
-        return self.types["std_msgs/msg/Header"](stamp=self.stamp(t_s), frame_id=self.frame_id)
+        return ns // 1_000_000_000, ns % 1_000_000_000
 
     def messages(
         self,
@@ -279,8 +351,7 @@ class Ros2Mapper:
             self._last_tree = tree_key
             out.append(Ros2Message(TREE, TOPIC_TYPES[TREE], ns, self._tree(frame, moved)))
         if clock:
-            message = self.types["rosgraph_msgs/msg/Clock"](clock=self.stamp(frame.t_s))
-            out.append(Ros2Message(CLOCK, TOPIC_TYPES[CLOCK], ns, message))
+            out.append(Ros2Message(CLOCK, TOPIC_TYPES[CLOCK], ns, cdr.clock(self.stamp(frame.t_s))))
         return out
 
     # --- the state ---------------------------------------------------------------------
@@ -300,7 +371,7 @@ class Ros2Mapper:
             if k.startswith(("joint_angle_rad.", "drive_velocity_mps.")) or k in _JOINT_SINGLES
         )
 
-    def _joint_states(self, frame: Frame) -> Any:
+    def _joint_states(self, frame: Frame) -> bytes:
         names: list[str] = []
         position: list[float] = []
         velocity: list[float] = []
@@ -317,55 +388,39 @@ class Ros2Mapper:
             names.append(name)
             position.append(math.nan)
             velocity.append(_number(value))
-        np = self._np
-        return self.types["sensor_msgs/msg/JointState"](
-            header=self._header(frame.t_s),
-            name=names,
-            position=np.array(position, dtype=np.float64),
-            velocity=np.array(velocity, dtype=np.float64),
-            effort=np.array([], dtype=np.float64),
-        )
+        return cdr.joint_state(self.stamp(frame.t_s), self.frame_id, names, position, velocity, ())
 
     def _clamp_key(self, frame: Frame) -> Any:
         forces = self._view(frame.state, "clamp_force_n")
         return tuple(forces) or None
 
-    def _clamp_forces(self, frame: Frame) -> Any:
+    def _clamp_forces(self, frame: Frame) -> bytes:
         forces = self._view(frame.state, "clamp_force_n")
-        np = self._np
-        empty = np.array([], dtype=np.float64)
-        return self.types["sensor_msgs/msg/JointState"](
-            header=self._header(frame.t_s),
-            name=[name for name, _ in forces],
-            position=empty,
-            velocity=empty,
-            effort=np.array([_number(v) for _, v in forces], dtype=np.float64),
+        return cdr.joint_state(
+            self.stamp(frame.t_s),
+            self.frame_id,
+            [name for name, _ in forces],
+            (),
+            (),
+            [_number(v) for _, v in forces],
         )
 
     def _imu_key(self, frame: Frame) -> Any:
         imu = tuple(self._view(frame.state, "imu_rad"))
         return imu or None
 
-    def _imu(self, frame: Frame) -> Any:
+    def _imu(self, frame: Frame) -> bytes:
         imu = dict(self._view(frame.state, "imu_rad"))
-        x, y, z, w = _quaternion(
+        orientation = _quaternion(
             _number(imu.get("roll", 0.0)),
             _number(imu.get("pitch", 0.0)),
             _number(imu.get("yaw", 0.0)),
         )
-        np = self._np
-        unknown = np.zeros(9, dtype=np.float64)
-        none = np.zeros(9, dtype=np.float64)
-        none[0] = -1.0  # REP-145 / sensor_msgs: "no estimate for this element"
-        t = self.types
-        return t["sensor_msgs/msg/Imu"](
-            header=self._header(frame.t_s),
-            orientation=t["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w),
-            orientation_covariance=unknown,
-            angular_velocity=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
-            angular_velocity_covariance=none,
-            linear_acceleration=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
-            linear_acceleration_covariance=none.copy(),
+        unknown = (0.0,) * 9
+        none = (-1.0,) + (0.0,) * 8  # REP-145 / sensor_msgs: "no estimate for this element"
+        zero = (0.0, 0.0, 0.0)
+        return cdr.imu(
+            self.stamp(frame.t_s), self.frame_id, orientation, unknown, zero, none, zero, none
         )
 
     # --- diagnostics ---------------------------------------------------------------------
@@ -382,17 +437,10 @@ class Ros2Mapper:
 
     def _status(
         self, level: int, name: str, message: str, values: Iterable[tuple[str, Any]]
-    ) -> Any:
-        t = self.types
-        return t["diagnostic_msgs/msg/DiagnosticStatus"](
-            level=level,
-            name=name,
-            message=message,
-            hardware_id=self.hardware_id,
-            values=[t["diagnostic_msgs/msg/KeyValue"](key=k, value=_text(v)) for k, v in values],
-        )
+    ) -> cdr.DiagnosticStatus:
+        return level, name, message, self.hardware_id, [(k, _text(v)) for k, v in values]
 
-    def _diagnostics(self, frame: Frame) -> Any:
+    def _diagnostics(self, frame: Frame) -> bytes:
         statuses = []
         link = frame.link
         if link:
@@ -424,9 +472,7 @@ class Ros2Mapper:
             damage = _number(frame.sim.get("damage", 0)) + _number(frame.sim.get("violations", 0))
             level, message = (_WARN, "violations or damage") if damage > 0 else (_OK, "simulated")
             statuses.append(self._status(level, "pirate_bt: simulator", message, frame.sim.items()))
-        return self.types["diagnostic_msgs/msg/DiagnosticArray"](
-            header=self._header(frame.t_s), status=statuses
-        )
+        return cdr.diagnostic_array(self.stamp(frame.t_s), self.frame_id, statuses)
 
     # --- localisation ----------------------------------------------------------------------
 
@@ -436,37 +482,56 @@ class Ros2Mapper:
     def _truth_key(self, frame: Frame) -> Any:
         return frame.task.get("truth_m")
 
-    def _point(self, frame: Frame, x: Any) -> Any:
-        t = self.types
-        header = t["std_msgs/msg/Header"](stamp=self.stamp(frame.t_s), frame_id="route")
-        point = t["geometry_msgs/msg/Point"](x=_number(x), y=0.0, z=0.0)
-        return t["geometry_msgs/msg/PointStamped"](header=header, point=point)
+    def _point(self, frame: Frame, x: Any) -> bytes:
+        return cdr.point_stamped(self.stamp(frame.t_s), "route", (_number(x), 0.0, 0.0))
 
-    def _belief(self, frame: Frame) -> Any:
+    def _belief(self, frame: Frame) -> bytes:
         return self._point(frame, frame.task.get("belief_m"))
 
-    def _truth(self, frame: Frame) -> Any:
+    def _truth(self, frame: Frame) -> bytes:
         return self._point(frame, frame.task.get("truth_m"))
 
     # --- the tree ---------------------------------------------------------------------------
 
-    def _tree(self, frame: Frame, changed: bool) -> Any:
-        t = self.types
-        uuid_type = t["unique_identifier_msgs/msg/UUID"]
-        np = self._np
+    def _fixed_parts(self) -> dict[str, tuple[bytes, bytes, bytes]]:
+        """Each behaviour's parts that are the same in every snapshot (made once)."""
+        if self._fixed is None:
+            uuids = self._uuids
+
+            def as_uuid(node_id: str | None) -> bytes:
+                return uuids.get(node_id, _ZERO_UUID) if node_id is not None else _ZERO_UUID
+
+            self._fixed = {
+                info.id: cdr.behaviour_parts(
+                    info.name,
+                    info.type,
+                    as_uuid(info.id),
+                    as_uuid(info.parent),
+                    [as_uuid(c) for c in info.children],
+                    _behaviour_type(info.kind, info.type),
+                    json.dumps(dict(info.params), default=str) if info.params else "",
+                    _NOT_A_BLACKBOX,
+                )
+                for info in self.structure
+            }
+        return self._fixed
+
+    def _tree(self, frame: Frame, changed: bool) -> bytes:
+        fixed = self._fixed_parts()
         uuids = self._uuids
         statuses = frame.statuses
+        feedback = frame.feedback
+        structure = self.structure
 
-        def as_uuid(node_id: str | None) -> Any:
-            raw = uuids.get(node_id, _ZERO_UUID) if node_id is not None else _ZERO_UUID
-            return uuid_type(uuid=np.frombuffer(raw, dtype=np.uint8).copy())
+        def as_uuid(node_id: str | None) -> bytes:
+            return uuids.get(node_id, _ZERO_UUID) if node_id is not None else _ZERO_UUID
 
         tips: dict[str, str | None] = {}
 
         def tip(node_id: str) -> str | None:
             if node_id in tips:
                 return tips[node_id]
-            info = self.structure.node(node_id)
+            info = structure.node(node_id)
             status = statuses.get(node_id, "I")
             found: str | None = None
             if status != "I":
@@ -477,49 +542,26 @@ class Ros2Mapper:
             return found
 
         behaviours = []
-        for info in self.structure:
+        for info in structure:
             status = statuses.get(info.id, "I")
-            current = _current_child(info.children, statuses)
-            params = dict(info.params)
             behaviours.append(
-                t["py_trees_ros_interfaces/msg/Behaviour"](
-                    name=info.name,
-                    class_name=info.type,
-                    own_id=as_uuid(info.id),
-                    parent_id=as_uuid(info.parent),
-                    tip_id=as_uuid(tip(info.id)),
-                    child_ids=[as_uuid(c) for c in info.children],
-                    current_child_id=as_uuid(current),
-                    type=_behaviour_type(info.kind, info.type),
-                    additional_detail=json.dumps(params, default=str) if params else "",
-                    blackbox_level=_NOT_A_BLACKBOX,
-                    status=_STATUS.get(status, 1),
-                    message=str(frame.feedback.get(info.id, "")),
-                    is_active=status != "I",
-                    blackboard_access=[],
+                cdr.behaviour(
+                    fixed[info.id],
+                    as_uuid(tip(info.id)),
+                    as_uuid(_current_child(info.children, statuses)),
+                    _STATUS.get(status, 1),
+                    str(feedback.get(info.id, "")),
+                    status != "I",
                 )
             )
-        blackboard = [
-            t["diagnostic_msgs/msg/KeyValue"](key=str(k), value=_text(v))
-            for k, v in sorted(frame.blackboard.items())
-        ]
-        period = float(self.period_s)
-        statistics = t["py_trees_ros_interfaces/msg/Statistics"](
-            count=int(frame.n),
-            stamp=self.stamp(frame.t_s),
-            tick_duration=0.0,
-            tick_duration_average=0.0,
-            tick_duration_variance=0.0,
-            tick_interval=period,
-            tick_interval_average=period,
-            tick_interval_variance=0.0,
-        )
-        return t["py_trees_ros_interfaces/msg/BehaviourTree"](
-            behaviours=behaviours,
-            changed=changed,
-            blackboard_on_visited_path=blackboard,
-            blackboard_activity=[],
-            statistics=statistics,
+        blackboard = [(str(k), _text(v)) for k, v in sorted(frame.blackboard.items())]
+        return cdr.behaviour_tree(
+            behaviours,
+            changed,
+            blackboard,
+            int(frame.n),
+            self.stamp(frame.t_s),
+            float(self.period_s),
         )
 
 

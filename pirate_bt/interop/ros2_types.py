@@ -3,20 +3,23 @@
 A ROS 2 message on the wire is the message in CDR (little-endian, with the
 4-byte encapsulation header), and a topic is matched by its type's *name* as DDS
 spells it (``sensor_msgs::msg::dds_::JointState_``) and its *type hash*
-(``RIHS01_`` and a SHA-256 over the type's description, REP-2016). Both are
-made here with `rosbags <https://gitlab.com/ternaris/rosbags>`_: its type store
-serialises messages to CDR and computes RIHS01 hashes (``hash_rihs01``); we do
-neither by hand.
+(``RIHS01_`` and a SHA-256 over the type's description, REP-2016).
 
 The definitions below are the field lists of the standard messages we use
 (``common_interfaces``, ``rcl_interfaces``, ``unique_identifier_msgs``, as in
 ROS 2 Jazzy) and of ``py_trees_ros_interfaces`` 2.1 (the messages py_trees_ros's
 tree watcher and viewer read), without their comments. Only the fields and
-their types enter a type hash, so these lists decide our hashes:
-``tests/test_ros2.py`` checks every standard one against rosbags' own Jazzy type
-store and against an independent ROS-2-over-Zenoh client's hash code. They are
-parsed into an otherwise empty type store, which costs a few milliseconds
-instead of the 0.2 s of loading rosbags' whole Jazzy store.
+their types enter a type hash, so these lists decide our hashes.
+
+Publishing needs neither numpy nor `rosbags <https://gitlab.com/ternaris/rosbags>`_:
+the CDR is :mod:`pirate_bt.interop.ros2_cdr`, and the hashes are the table
+:data:`TYPE_HASHES`, computed once by rosbags from :data:`DEFINITIONS`
+(:func:`rosbags_type_hash`). ``tests/test_ros2.py`` recomputes every entry with
+rosbags, and holds the standard ones against rosbags' own Jazzy type store and an
+independent ROS-2-over-Zenoh client's hash code. rosbags' type store
+(:func:`typestore`, parsed from :data:`DEFINITIONS` in a few milliseconds
+instead of the 0.2 s of its whole Jazzy store) serves the rosbag2 writer and
+reader and the tests.
 """
 
 from __future__ import annotations
@@ -30,8 +33,10 @@ from pirate_bt.errors import ConfigurationError
 __all__ = [
     "DEFINITIONS",
     "EXTRA_HINT",
+    "TYPE_HASHES",
     "dds_type_name",
     "missing",
+    "rosbags_type_hash",
     "serialize",
     "type_hash",
     "typestore",
@@ -105,6 +110,72 @@ DEFINITIONS: dict[str, str] = {
     ),
 }
 
+#: ROS 2 type name -> its RIHS01 type hash: :func:`rosbags_type_hash` of each of
+#: :data:`DEFINITIONS`, written out so that publishing needs no rosbags (the tests
+#: recompute every entry; change a definition, run them, and copy what they print).
+TYPE_HASHES: dict[str, str] = {
+    "builtin_interfaces/msg/Time": (
+        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197"
+    ),
+    "std_msgs/msg/Header": (
+        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01"
+    ),
+    "std_msgs/msg/Bool": (
+        "RIHS01_feb91e995ff9ebd09c0cb3d2aed18b11077585839fb5db80193b62d74528f6c9"
+    ),
+    "std_msgs/msg/String": (
+        "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+    ),
+    "rosgraph_msgs/msg/Clock": (
+        "RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564"
+    ),
+    "geometry_msgs/msg/Point": (
+        "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881"
+    ),
+    "geometry_msgs/msg/PointStamped": (
+        "RIHS01_4c0296af86e01e562e9e0405d138a01537247580076c58ea38d7923ac1045897"
+    ),
+    "geometry_msgs/msg/Quaternion": (
+        "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684"
+    ),
+    "geometry_msgs/msg/Vector3": (
+        "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d"
+    ),
+    "sensor_msgs/msg/JointState": (
+        "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"
+    ),
+    "sensor_msgs/msg/Imu": (
+        "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b"
+    ),
+    "diagnostic_msgs/msg/KeyValue": (
+        "RIHS01_d68081eaa540288c5440753baecef0c4e16e81a5f78ad68902ded5100413bb42"
+    ),
+    "diagnostic_msgs/msg/DiagnosticStatus": (
+        "RIHS01_b0e3e692ea2d54a8af2f4ef1930e81556a2db55216b771f8a7d2724ed47bf0e4"
+    ),
+    "diagnostic_msgs/msg/DiagnosticArray": (
+        "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e"
+    ),
+    "unique_identifier_msgs/msg/UUID": (
+        "RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437"
+    ),
+    "py_trees_ros_interfaces/msg/KeyValue": (
+        "RIHS01_c680be290238ebb510a3110c658c225d342d0d2ce9967c47a39cb832463aa9e6"
+    ),
+    "py_trees_ros_interfaces/msg/ActivityItem": (
+        "RIHS01_28c7d519bcdd437b108a2571669ef7e48a0ff005dcaf2f990d775fac820f6da9"
+    ),
+    "py_trees_ros_interfaces/msg/Statistics": (
+        "RIHS01_6afd684b110c2e82e17d9755673ecb90beacea2e87babe4fa15e82f9a9355807"
+    ),
+    "py_trees_ros_interfaces/msg/Behaviour": (
+        "RIHS01_591a951497cabdf423bafa33b69bc9de974154a3d52b53fccacbfdc911d9e772"
+    ),
+    "py_trees_ros_interfaces/msg/BehaviourTree": (
+        "RIHS01_fbea5f031e37fdce7feb9f63dd16665db8d2a8f4150d907bd4b5c1f93ed49afa"
+    ),
+}
+
 _lock = threading.Lock()
 
 
@@ -133,9 +204,18 @@ def typestore() -> Any:
         return store
 
 
-@cache
 def type_hash(type_name: str) -> str:
-    """The RIHS01 type hash of ``type_name`` (``RIHS01_`` + 64 hex digits), by rosbags."""
+    """The RIHS01 type hash of ``type_name`` (``RIHS01_`` + 64 hex digits), from the table.
+
+    Raises:
+        KeyError: not one of :data:`DEFINITIONS`.
+    """
+    return TYPE_HASHES[type_name]
+
+
+@cache
+def rosbags_type_hash(type_name: str) -> str:
+    """The RIHS01 type hash of ``type_name`` as rosbags computes it from :data:`DEFINITIONS`."""
     return str(typestore().hash_rihs01(type_name))
 
 

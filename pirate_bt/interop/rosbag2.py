@@ -14,7 +14,9 @@ trace as its JSON text, so the bag holds the whole run and
 The bag is written beside the target under a temporary name and renamed into
 place when complete: an error leaves nothing half-written. Bags are written with
 `rosbags <https://gitlab.com/ternaris/rosbags>`_ (storage ``mcap``, bag format
-version 9, the RIHS01 type hashes in the metadata).
+version 9, the RIHS01 type hashes in the metadata); the messages are the live
+output's own CDR (:mod:`pirate_bt.interop.ros2_cdr`), which the tests read back
+with rosbags.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
 from pirate_bt.interop.ros2_topics import (
     CLOCK,
@@ -35,7 +38,7 @@ from pirate_bt.interop.ros2_topics import (
     frames_from_records,
     start_ns_of,
 )
-from pirate_bt.interop.ros2_types import missing, serialize, type_hash, typestore
+from pirate_bt.interop.ros2_types import missing, type_hash, typestore
 
 __all__ = ["TRACE_TOPIC", "export_rosbag2", "is_bag_path", "read_rosbag2_records"]
 
@@ -134,10 +137,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                 first = False
                 when = start_ns + round(float(record.get("t_s") or 0.0) * 1e9)
                 text = json.dumps(record, ensure_ascii=False, separators=(",", ":"))
-                message = store.types[string_type](data=text)
-                writer.write(
-                    connection(TRACE_TOPIC, string_type), when, serialize(message, string_type)
-                )
+                writer.write(connection(TRACE_TOPIC, string_type), when, string_message(text))
                 if frame is None or mapper is None:
                     continue
                 for out_message in mapper.messages(frame, changed=True):
@@ -146,7 +146,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                     writer.write(
                         connection(out_message.topic, out_message.type_name),
                         out_message.stamp_ns,
-                        serialize(out_message.message, out_message.type_name),
+                        out_message.data,
                     )
             if first:
                 raise InputError(f"{trace_path}: empty trace (no header)")
