@@ -184,6 +184,8 @@ def test_names_and_endpoints() -> None:
         parse_endpoint("foo/1")
     with pytest.raises(InputError):
         parse_endpoint("host:99999")
+    with pytest.raises(InputError):
+        parse_endpoint("unixsock-stream/")
     assert rmw_zenoh.qualified_name("/pirate", "tree/snapshots") == "/pirate/tree/snapshots"
     assert rmw_zenoh.qualified_name("", "/clock") == "/clock"
     with pytest.raises(ValueError):
@@ -569,6 +571,18 @@ def test_a_failing_hand_over_never_reaches_the_tick(router: int) -> None:
         node.close()
     assert result.succeeded
     assert calls.is_set() and not node.enabled
+
+
+def test_a_session_that_cannot_open_is_an_input_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Zenoh refuses the endpoint in the node's process: the run's side hears it and says so."""
+    monkeypatch.setattr(Ros2Node, "_PROCESS_OPTIONS", {"endpoint": "unixsock-stream/"})
+    node = Ros2Node("tcp/127.0.0.1:7447")
+    try:
+        with pytest.raises(InputError, match="cannot open a Zenoh session"):
+            node.check_opened()
+        assert not node.enabled and not node.wait_ready()
+    finally:
+        node.close()
 
 
 def test_frames_are_dropped_and_counted_when_the_process_lags() -> None:

@@ -40,6 +40,8 @@ def parse_endpoint(text: str | None) -> str:
     if protocol not in _PROTOCOLS:
         raise InputError(f"--ros2 {text}: unknown Zenoh protocol {protocol!r} (tcp/HOST:PORT)")
     if protocol == "unixsock-stream":
+        if not address:
+            raise InputError(f"--ros2 {text}: a unix socket needs a path (unixsock-stream/PATH)")
         return text
     if address.isdigit():
         host, port = "127.0.0.1", address
