@@ -39,9 +39,10 @@ to the run's process (standard output)
     ``(FLUSHED, token, published)``; ``(CLOSED, published)`` last.
 
 When more frames wait than it has published, it publishes the newest frame of
-each run and drops the older ones (a frame's tree is carried over to the newer
-frame when that one has none), and after each batch it rests 49 times as long
-as the batch took (a 2 % duty cycle of one core, however big the tree).
+each run and drops the older ones (but the newest that holds the tree, which
+goes out with the values it was read with), and after each batch it rests 49
+times as long as the batch took (a 2 % duty cycle of one core, however big the
+tree).
 """
 
 from __future__ import annotations
@@ -296,18 +297,23 @@ class Node:
 
     def handle(self, batch: Sequence[tuple[Any, ...]]) -> None:
         """Publish a batch of messages, the newest frame of each run (module docstring)."""
+        # A frame is left out when a newer one of its run follows, unless it holds the
+        # tree and no newer one does (a tree goes out with the frame it was read in).
         newest: set[int] = set()
+        newest_tree: set[int] = set()
         superseded: set[int] = set()
         for index in range(len(batch) - 1, -1, -1):
-            kind = batch[index][0]
-            if kind == FLUSH:
+            message = batch[index]
+            if message[0] == FLUSH:
                 newest.clear()
-            elif kind == FRAME:
-                run = batch[index][1]
-                if run in newest:
+                newest_tree.clear()
+            elif message[0] == FRAME:
+                run, has_tree = message[1], message[10] is not None
+                if run in newest and (not has_tree or run in newest_tree):
                     superseded.add(index)
                 newest.add(run)
-        carried: dict[int, tuple[Any, Any, Any]] = {}
+                if has_tree:
+                    newest_tree.add(run)
         for index, message in enumerate(batch):
             kind = message[0]
             if kind == SETUP:
@@ -319,22 +325,12 @@ class Node:
                 self.mappers[run] = (mapper, tuple(n.id for n in tree))
                 for old in [r for r in self.mappers if r < run - 3]:
                     del self.mappers[old]  # the runs before the last few are over
-            elif kind == FRAME:
-                run = message[1]
-                parts = message[10:13]
-                if parts[0] is None:
-                    parts = carried.pop(run, parts)
-                else:
-                    carried.pop(run, None)
-                if index in superseded:
-                    if parts[0] is not None:
-                        carried[run] = parts
-                    continue
-                self._frame(message, parts)
+            elif kind == FRAME and index not in superseded:
+                self._frame(message)
             elif kind == FLUSH:
                 self.out.send((FLUSHED, message[1], self.published))
 
-    def _frame(self, message: tuple[Any, ...], parts: tuple[Any, Any, Any]) -> None:
+    def _frame(self, message: tuple[Any, ...]) -> None:
         if not self.enabled:
             return
         _, run, _final, n, t_s, state, link, sim, task, supervisor = message[:10]
@@ -342,7 +338,7 @@ class Node:
         if found is None:
             return
         mapper, ids = found
-        statuses, feedback, blackboard = parts
+        statuses, feedback, blackboard = message[10:13]
         frame = Frame(
             n=int(n),
             t_s=float(t_s),
