@@ -118,8 +118,10 @@ def test_drive_velocity_alone_is_the_mean_of_the_wheels(sup: Supervisor, port: F
     for i, name in enumerate(motors):
         port.set(**{f"{name}.velocity": 0.01 * (i + 1)})
     mean = sum(0.01 * (i + 1) for i in range(len(motors))) / len(motors)
-    guard = failure_if(Once(), {"state": "drive_velocity", "op": "==", "value": mean}, sup)
-    assert tick(guard) == Status.FAILURE
+    child = Once()
+    guard = skip_if(child, {"state": "drive_velocity", "op": "==", "value": mean}, sup)
+    assert tick(guard) == Status.SUCCESS and child.count == 0  # skipped: it holds
+    assert guard.feedback_message == f"drive_velocity == {mean}"
 
 
 @pytest.mark.parametrize(
@@ -374,3 +376,50 @@ def test_a_guard_whose_child_finishes_ends_with_the_child_status(sup: Supervisor
     guard.terminate = ends.append  # type: ignore[method-assign]
     assert tick(guard) == Status.SUCCESS and child.count == 1
     assert ends == [Status.SUCCESS]
+
+
+def test_a_guard_reads_the_blackboard_as_itself() -> None:
+    guard = skip_if(Once(), {"blackboard": "/go", "value": True}, name="go?")
+    assert "go?" in py_trees.blackboard.Blackboard.clients.values()
+    assert guard.evaluator.client.name == "go?"
+
+
+def test_a_context_whose_supervisor_is_something_else_is_no_robot() -> None:
+    from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.behaviours.guards import IsClampedParams, PreconditionParams
+
+    context = BuildContext(supervisor=object())  # e.g. a port handed over by mistake
+    node = IsClamped("clamped?", IsClampedParams(half=Half.REAR), context)
+    assert tick(node) == Status.FAILURE and node.feedback_message == "no robot attached"
+    params = PreconditionParams(condition={"state": "mode", "value": "manual"})
+    guard = SkipIf("skip?", Once(), params, context)
+    assert tick(guard) == Status.FAILURE and guard.feedback_message == "no robot attached"
+
+
+def test_a_guard_starts_once_per_run_of_its_child(sup: Supervisor, port: FakePort) -> None:
+    """``initialise()`` runs when the guard starts, not on the ticks while the child runs."""
+
+    class Counted(While):
+        starts = 0
+
+        def initialise(self) -> None:
+            type(self).starts += 1
+
+    class Twice(py_trees.behaviour.Behaviour):
+        def __init__(self) -> None:
+            super().__init__("twice")
+            self.n = 0
+
+        def update(self) -> Status:
+            self.n += 1
+            return Status.SUCCESS if self.n % 2 == 0 else Status.RUNNING
+
+    from pirate_bt.behaviours.guards import PreconditionParams
+
+    params = PreconditionParams(condition={"state": "mode", "value": "autonomous"})
+    from pirate_bt.behaviours.base import BuildContext
+
+    context = BuildContext(robot=ROBOT, clock=sup.clock, supervisor=sup)
+    guard = Counted("counted", Twice(), params, context)
+    assert [tick(guard) for _ in range(4)] == [Status.RUNNING, Status.SUCCESS] * 2
+    assert Counted.starts == 2

@@ -402,3 +402,22 @@ def test_a_clamped_front_half_keeps_the_module_exactly_clear(
         "the front module may leave its clear position only while the front half is"
         " unclamped (it is clamped)"
     )
+
+
+def test_a_release_of_both_halves_names_both(port: FakePort) -> None:
+    port.set_pitch(math.radians(30))
+    port.clamp_half(Half.FRONT)
+    port.clamp_half(Half.REAR)
+    state = port.state()
+    assert state is not None
+    both = frozenset(Half)
+    from pirate_bt.safety.checks import Intent
+
+    ctx = CheckContext(
+        ROBOT, state, 0.0, {Half.FRONT: ClampState.CLAMPED, Half.REAR: ClampState.CLAMPED}
+    )
+    found = check_steep_pipe(ctx, Intent(Unclamp(Half.REAR), (), releases=both))
+    assert found is not None and found.detail == (
+        "releasing the front/rear half would leave no half clamped in a steep pipe"
+        " (pitch 30.0° > 10.0°)"
+    )

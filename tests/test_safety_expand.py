@@ -442,3 +442,57 @@ def test_an_unclamp_moves_only_its_own_half(sup: Supervisor, port: FakePort) -> 
     v = sup.command(Unclamp(Half.REAR))
     assert [c.motor for c in v.sent] == ["bend_3_joint", "bend_4_joint"]
     assert all(c.mode is ControlMode.POSITION for c in v.sent)
+
+
+def test_a_raw_tilt_is_judged_like_a_tilt(sup: Supervisor, port: FakePort) -> None:
+    """With the front half clamped the module may not leave its clear position, by hand too."""
+    port.clamp_half(Half.REAR)
+    port.clamp_half(Half.FRONT)
+    assert sup.check(Tilt(0.0)).reason is Reason.FRONT_NOT_CLEAR
+    v = sup.check(raw("front_tilt", ControlMode.POSITION, 0.0))
+    assert v.reason is Reason.FRONT_NOT_CLEAR
+    assert intent(raw("front_tilt", ControlMode.POSITION, 0.5)).front_tilt_rad == 0.5
+
+
+def test_a_raw_tilt_without_a_tilt_reading_is_no_target(tmp_path: Path) -> None:
+    robot = load_robot(
+        robot_variant(
+            tmp_path,
+            (
+                "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: front_tilt_angle}\n",
+                "    sensors: []\n",
+            ),
+            (
+                "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: camera_tilt_angle}\n"
+                "      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n",
+                "    sensors: []\n",
+            ),
+        )
+    )
+    found = Expander(robot).expand(
+        raw("front_tilt", ControlMode.POSITION, 0.5), FakePort(robot, SimClock()).state()
+    )
+    assert isinstance(found, Problem)
+    assert (found.reason, found.detail) == (
+        Reason.UNKNOWN_TARGET,
+        "this robot has no front tilt motor",
+    )
+
+
+def test_a_raw_tilt_commands_the_motor_it_names(tmp_path: Path) -> None:
+    """A tilt motor on another module than the front: a raw command goes to that motor."""
+    robot = load_robot(
+        robot_variant(
+            tmp_path,
+            (
+                "        name: rear_leds\n        function: leds\n        modes:\n"
+                "          pwm: {raw: [0, 255], per_raw: 0.392156862745098 %}",
+                "        name: rear_tilt\n        function: tilt\n        modes:\n"
+                "          position: {raw: [-2048, 2047], per_raw: 0.087890625 deg}",
+            ),
+        )
+    )
+    mc = MotorCommand("rear_tilt", ControlMode.POSITION, 0.25)
+    found = Expander(robot).expand(Raw(mc), FakePort(robot, SimClock()).state())
+    assert isinstance(found, Intent)
+    assert found.motor_commands == (mc,) and found.front_tilt_rad == 0.25

@@ -116,7 +116,7 @@ _MISSING = object()
 def _dimension(path: str) -> str | None:
     if path in STATE_VALUES:
         return STATE_VALUES[path]
-    prefix, dot, rest = path.partition(".")
+    prefix, dot, rest = path.partition(".")  # pragma: no mutate (every state value has one dot)
     if dot and rest:
         for key, dim in STATE_VALUES.items():
             if key.startswith(prefix + ".<"):
@@ -128,7 +128,11 @@ def _parse(raw: Scalar, dimension: str | None) -> Scalar:
     if dimension is None or isinstance(raw, bool):
         return raw
     try:
-        return parse_quantity(raw, dimension, require_unit=isinstance(raw, str))
+        return parse_quantity(
+            raw,
+            dimension,
+            require_unit=isinstance(raw, str),  # pragma: no mutate (None acts as False)
+        )
     except UnitError as exc:
         raise ValueError(str(exc)) from None
 
@@ -182,11 +186,11 @@ def _state_value(path: str, sup: Supervisor) -> object:
     if path == "link.healthy":
         return sup.link_problem() is None
     if path.startswith("half."):
-        return sup.half_states()[Half(path.split(".", 1)[1])].value
+        return sup.half_states()[Half(path.removeprefix("half."))].value
     state: RobotState | None = sup.state()
     if state is None:
         return _MISSING
-    prefix, _, rest = path.partition(".")
+    prefix, _, rest = path.partition(".")  # pragma: no mutate (every state value has one dot)
     table: Any
     if path == "rotation":
         return _MISSING if state.rotation_rad is None else state.rotation_rad
@@ -219,7 +223,12 @@ class _Evaluator:
 
     def evaluate(self, sup: Supervisor | None) -> tuple[bool | None, str]:
         """``(all hold, message)``; ``None`` when a value is missing."""
-        for comparison, constant in zip(self.comparisons, self.values, strict=True):
+        pairs = zip(
+            self.comparisons,
+            self.values,
+            strict=True,  # pragma: no mutate (one list is made from the other)
+        )
+        for comparison, constant in pairs:
             if comparison.key is not None:
                 if not self.client.exists(comparison.key):
                     return None, f"blackboard {comparison.key} is not set"
@@ -433,7 +442,8 @@ def _comparisons(
     condition: Comparison | dict[str, Any] | Sequence[Comparison | dict[str, Any]],
 ) -> Any:
     items = [condition] if isinstance(condition, Comparison | dict) else list(condition)
-    return [c if isinstance(c, Comparison) else Comparison.model_validate(c) for c in items]
+    # model_validate returns a Comparison as it is and checks a dict
+    return [Comparison.model_validate(c) for c in items]
 
 
 def is_clamped(supervisor: Supervisor | None, half: Half, name: str = "") -> IsClamped:
