@@ -532,3 +532,28 @@ def test_without_the_extra_the_error_says_what_to_install(
     monkeypatch.setitem(sys.modules, "zmq", None)  # as if pyzmq were not installed
     with pytest.raises(ConfigurationError, match=r"pip install 'pirate-bt\[groot2\]'"):
         Groot2Server(port=0)
+
+
+def test_a_post_hook_replaces_the_result_after_the_node_ran(server: Groot2Server) -> None:
+    """BT.CPP 4.10's post-tick hooks: the node runs, then its result is replaced."""
+    first = py_trees.behaviours.Success("first")
+    root = py_trees.composites.Sequence(
+        "root", memory=True, children=[first, py_trees.behaviours.Success("second")]
+    )
+    runner = Runner(root, clock=SimClock(), max_time_s=5)
+    attach_groot2(runner, server)
+    client = Client(server.port)
+    try:
+        hook = {"uid": 2, "position": 1, "mode": 1, "enabled": True, "once": True}
+        hook["desired_status"] = "FAILURE"
+        assert len(client.ask("I", json.dumps(hook).encode())) == 1
+        dumped = json.loads(client.ask("D")[1])
+        assert [(h["uid"], h["position"]) for h in dumped] == [(2, 1)]
+        result = runner.run()
+        assert not result.succeeded
+        assert "replaced by Groot2" in first.feedback_message
+        assert client.ask("D")[1] == b"[]"  # once: removed after it fired
+        statuses = client.statuses()
+        assert statuses[2] == proto.IDLE_FROM + 3 and statuses[3] == 0  # second never ran
+    finally:
+        client.close()

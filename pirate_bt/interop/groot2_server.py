@@ -619,7 +619,11 @@ class Groot2Server:
         header = unpack_request(parts[0]) if parts else None
         if header is None:
             return _error(WRONG_HEADER)
-        run = self._build()
+        try:
+            run = self._build()
+        except Exception as exc:  # a tree that cannot be shown must not stop the server
+            logger.exception("Groot2: cannot serve this tree")
+            return _error(f"cannot serve this tree: {exc}")
         if run is None:
             return _error("no tree is running yet")
         reply = [reply_header(header, run.uuid)]
