@@ -203,6 +203,7 @@ class Ros2Node:
             "name": name,
             "fq_estop": self.fq_estop,
             "estop": estop,
+            "sys_path": list(sys.path),
             **self._PROCESS_OPTIONS,
         }
         try:

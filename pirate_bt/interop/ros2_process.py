@@ -437,6 +437,8 @@ def main(argv: Sequence[str]) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
     config = json.loads(argv[1])
     out = _Output(sys.stdout.fileno())
+    if config.get("sys_path"):
+        sys.path[:] = config["sys_path"]  # find Zenoh where the run's process found it
     try:
         import zenoh
     except ImportError as exc:
