@@ -319,7 +319,8 @@ def _rosbags_agrees(data: bytes, type_name: str) -> Any:
 
 def test_our_cdr_is_rosbags_cdr_byte_for_byte(tmp_path: Path) -> None:
     """Every message of a run (and of a frame with every odd value) as rosbags writes it."""
-    from pirate_bt.interop.ros2_topics import Frame, Ros2Mapper, frames_from_records
+    from pirate_bt.interop.ros2_topics import Frame, Ros2Mapper
+    from pirate_bt.interop.rosbag2 import frames_from_records
     from pirate_bt.trace.structure import TreeStructure
 
     trace_path = tmp_path / "run.jsonl"

@@ -5,9 +5,9 @@ state (flat, as the trace names it: ``joint_angle_rad.bend_1``...), link health,
 simulator counters, the localiser's belief, every node's status and feedback
 message, the blackboard and what the supervisor last decided. Live runs capture
 frames from the running objects (:mod:`pirate_bt.interop.ros2_live`); a trace
-gives one frame per tick record (:func:`frames_from_records`, for
-:mod:`pirate_bt.interop.rosbag2`). :class:`Ros2Mapper` turns a frame into
-messages, so both carry the same topics with the same values.
+gives one frame per tick record (:func:`pirate_bt.interop.rosbag2.frames_from_records`).
+:class:`Ros2Mapper` turns a frame into messages, so both carry the same topics
+with the same values.
 
 Topics (names relative to the namespace, ``/pirate`` by default):
 
@@ -46,7 +46,6 @@ import math
 import uuid
 from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Any
 
 from pirate_bt.interop import ros2_cdr as cdr
@@ -66,8 +65,6 @@ __all__ = [
     "Ros2Message",
     "ShapeNode",
     "TreeShape",
-    "frames_from_records",
-    "start_ns_of",
 ]
 
 JOINT_STATES = "joint_states"
@@ -95,7 +92,6 @@ _STATUS = {"I": 1, "R": 2, "S": 3, "F": 4}
 _OK, _WARN, _ERROR = 0, 1, 2
 _NOT_A_BLACKBOX = 4
 _JOINT_SINGLES = ("rotation_rad", "front_tilt_rad", "camera_tilt_rad", "camera_pan_rad")
-_TASK = "task."
 
 
 @dataclass
@@ -218,17 +214,6 @@ class TreeShape:
                 for i, n, t, k, p, ch, pa in nodes
             ),
         )
-
-
-def start_ns_of(header: Mapping[str, Any]) -> int:
-    """The run's start in ns since the Unix epoch, from a trace header's ``created_utc``."""
-    text = header.get("created_utc")
-    if isinstance(text, str):
-        try:
-            return int(datetime.fromisoformat(text).timestamp()) * 1_000_000_000
-        except ValueError:
-            pass
-    return 0
 
 
 def _number(value: Any) -> float:
@@ -586,77 +571,3 @@ def _behaviour_type(kind: str, class_name: str) -> int:
         if word in class_name:
             return code
     return 0
-
-
-def frames_from_records(records: Iterable[Mapping[str, Any]]) -> Iterator[tuple[Any, Frame | None]]:
-    """One frame per tick record of a trace, values accumulated as the trace says.
-
-    Yields ``(record, frame)`` pairs; a header yields ``(header, None)`` first. The
-    supervisor's part is read from the verdicts (``commands``): the last one, the
-    reason of the last safe state (cleared by an operator's resume), and ``estop``
-    as the mode once an e-stop latched.
-    """
-    state: dict[str, Any] = {}
-    link: dict[str, Any] = {}
-    sim: dict[str, Any] = {}
-    task: dict[str, Any] = {}
-    statuses: dict[str, str] = {}
-    feedback: dict[str, str] = {}
-    blackboard: dict[str, Any] = {}
-    supervisor: dict[str, Any] = {}
-    for record in records:
-        kind = record.get("type")
-        if kind == "header":
-            state, link, sim, task = {}, {}, {}, {}
-            statuses, feedback, blackboard, supervisor = {}, {}, {}, {}
-            yield record, None
-            continue
-        if kind != "tick":
-            yield record, None
-            continue
-        if record.get("status"):
-            statuses.update(record["status"])
-        if record.get("feedback"):
-            feedback.update(record["feedback"])
-        if record.get("bb"):
-            blackboard.update(record["bb"])
-        for key in record.get("bb_unset") or ():
-            blackboard.pop(key, None)
-        if record.get("state") is not None:
-            if record.get("full"):
-                state = dict(record["state"])
-            else:
-                state.update(record["state"])
-        if record.get("link") is not None:
-            link.update(record["link"])
-        for key, value in (record.get("sim") or {}).items():
-            if key.startswith(_TASK):
-                task[key[len(_TASK) :]] = value
-            else:
-                sim[key] = value
-        for command in record.get("commands") or ():
-            supervisor["last_command"] = command.get("command")
-            supervisor["last_verdict"] = command.get("verdict")
-            supervisor["last_reason"] = command.get("reason")
-            supervisor["last_detail"] = command.get("detail")
-            supervisor["last_source"] = command.get("source")
-            reason = command.get("reason")
-            if command.get("source") == "supervisor" and reason == "safe_state":
-                supervisor["safe_state"] = command.get("detail") or "safe state"
-            if reason == "estop_latched" and command.get("source") == "supervisor":
-                supervisor["mode"] = "estop"
-        yield (
-            record,
-            Frame(
-                n=int(record.get("n", 0)),
-                t_s=_number(record.get("t_s", 0.0)),
-                state=dict(state),
-                link=dict(link),
-                sim=dict(sim),
-                task=dict(task),
-                statuses=dict(statuses),
-                feedback=dict(feedback),
-                blackboard=dict(blackboard),
-                supervisor=dict(supervisor),
-            ),
-        )

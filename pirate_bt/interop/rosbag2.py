@@ -25,25 +25,115 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
-from pirate_bt.interop.ros2_topics import (
-    CLOCK,
-    Ros2Mapper,
-    frames_from_records,
-    start_ns_of,
-)
+from pirate_bt.interop.ros2_topics import CLOCK, Frame, Ros2Mapper, _number
 from pirate_bt.interop.ros2_types import missing, type_hash, typestore
 
-__all__ = ["TRACE_TOPIC", "export_rosbag2", "is_bag_path", "read_rosbag2_records"]
+__all__ = [
+    "TRACE_TOPIC",
+    "export_rosbag2",
+    "frames_from_records",
+    "is_bag_path",
+    "read_rosbag2_records",
+    "start_ns_of",
+]
 
 TRACE_TOPIC = "trace"
 """The topic (relative to the namespace) that holds every trace record as JSON text."""
+
+_TASK = "task."
+
+
+def start_ns_of(header: Mapping[str, Any]) -> int:
+    """The run's start in ns since the Unix epoch, from a trace header's ``created_utc``."""
+    text = header.get("created_utc")
+    if isinstance(text, str):
+        try:
+            return int(datetime.fromisoformat(text).timestamp()) * 1_000_000_000
+        except ValueError:
+            pass
+    return 0
+
+
+def frames_from_records(records: Iterable[Mapping[str, Any]]) -> Iterator[tuple[Any, Frame | None]]:
+    """One frame per tick record of a trace, values accumulated as the trace says.
+
+    Yields ``(record, frame)`` pairs; a header yields ``(header, None)`` first. The
+    supervisor's part is read from the verdicts (``commands``): the last one, the
+    reason of the last safe state (cleared by an operator's resume), and ``estop``
+    as the mode once an e-stop latched.
+    """
+    state: dict[str, Any] = {}
+    link: dict[str, Any] = {}
+    sim: dict[str, Any] = {}
+    task: dict[str, Any] = {}
+    statuses: dict[str, str] = {}
+    feedback: dict[str, str] = {}
+    blackboard: dict[str, Any] = {}
+    supervisor: dict[str, Any] = {}
+    for record in records:
+        kind = record.get("type")
+        if kind == "header":
+            state, link, sim, task = {}, {}, {}, {}
+            statuses, feedback, blackboard, supervisor = {}, {}, {}, {}
+            yield record, None
+            continue
+        if kind != "tick":
+            yield record, None
+            continue
+        if record.get("status"):
+            statuses.update(record["status"])
+        if record.get("feedback"):
+            feedback.update(record["feedback"])
+        if record.get("bb"):
+            blackboard.update(record["bb"])
+        for key in record.get("bb_unset") or ():
+            blackboard.pop(key, None)
+        if record.get("state") is not None:
+            if record.get("full"):
+                state = dict(record["state"])
+            else:
+                state.update(record["state"])
+        if record.get("link") is not None:
+            link.update(record["link"])
+        for key, value in (record.get("sim") or {}).items():
+            if key.startswith(_TASK):
+                task[key[len(_TASK) :]] = value
+            else:
+                sim[key] = value
+        for command in record.get("commands") or ():
+            supervisor["last_command"] = command.get("command")
+            supervisor["last_verdict"] = command.get("verdict")
+            supervisor["last_reason"] = command.get("reason")
+            supervisor["last_detail"] = command.get("detail")
+            supervisor["last_source"] = command.get("source")
+            reason = command.get("reason")
+            if command.get("source") == "supervisor" and reason == "safe_state":
+                supervisor["safe_state"] = command.get("detail") or "safe state"
+            if reason == "estop_latched" and command.get("source") == "supervisor":
+                supervisor["mode"] = "estop"
+        yield (
+            record,
+            Frame(
+                n=int(record.get("n", 0)),
+                t_s=_number(record.get("t_s", 0.0)),
+                state=dict(state),
+                link=dict(link),
+                sim=dict(sim),
+                task=dict(task),
+                statuses=dict(statuses),
+                feedback=dict(feedback),
+                blackboard=dict(blackboard),
+                supervisor=dict(supervisor),
+            ),
+        )
 
 
 def is_bag_path(text: str | Path) -> bool:
