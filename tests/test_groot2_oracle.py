@@ -28,11 +28,11 @@ process; 4.10 also has post-tick hooks), that is not asked of it.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import queue
 import socket
 import subprocess
-import sys
 import threading
 import xml.etree.ElementTree as ET
 from collections import Counter
@@ -62,11 +62,13 @@ pytestmark = pytest.mark.xdist_group("groot2_oracle")
 
 @pytest.fixture(scope="module")
 def programs() -> tuple[Path, Path]:
-    sys.path.insert(0, str(ROOT / "tests" / "groot2_oracle"))
-    try:
-        import build as oracle_build  # type: ignore[import-not-found]
-    finally:
-        sys.path.pop(0)
+    # Loaded under its own name: tests/btcpp_checker's build.py is imported as `build`.
+    spec = importlib.util.spec_from_file_location(
+        "groot2_oracle_build", ROOT / "tests" / "groot2_oracle" / "build.py"
+    )
+    assert spec is not None and spec.loader is not None
+    oracle_build = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(oracle_build)
     try:
         client, reference = oracle_build.build_oracle()
     except oracle_build.Unavailable as exc:
