@@ -163,3 +163,19 @@ def test_node_paths() -> None:
     assert node_path(root) == ("0", "root")
     assert node_path(first) == ("0.0", "root/first")
     assert node_path(leaf) == ("0.1.0", "root/second/leaf")
+
+
+def test_the_log_keeps_a_thousand_verdicts_by_default() -> None:
+    log = VerdictLog()
+    for seq in range(1, 1002):
+        log.append(refusal(seq=seq))
+    assert len(log) == 1000 and next(iter(log)).seq == 2
+
+
+def test_a_log_handler_gets_the_verdict_itself(caplog: pytest.LogCaptureFixture) -> None:
+    """Handlers may read the Verdict object from the record's args (structured logging)."""
+    caplog.set_level(logging.INFO, logger="pirate_bt.safety")
+    verdict = refusal()
+    VerdictLog().append(verdict)
+    (record,) = caplog.records
+    assert record.msg == "%s" and record.args == (verdict,)
