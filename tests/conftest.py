@@ -53,6 +53,7 @@ _SIMAVR_MODULES = {"test_firmware_sim.py", "test_firmware_sim_summary.py"}
 _REAL_TIME_BRIDGES = {"firmware-simavr", "sim-pty"}
 
 
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist's
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     names_tests = any("::" in arg or arg.endswith(".py") for arg in config.invocation_params.args)
     if names_tests:
