@@ -557,3 +557,13 @@ def test_a_post_hook_replaces_the_result_after_the_node_ran(server: Groot2Server
         assert statuses[2] == proto.IDLE_FROM + 3 and statuses[3] == 0  # second never ran
     finally:
         client.close()
+
+
+def test_mission_and_teleop_take_the_option() -> None:
+    from pirate_bt.cli import main
+
+    with Groot2Server(port=0) as probe:
+        port = probe.port
+    assert main(["mission", "straight.route", "--quiet", "--groot2", f"127.0.0.1:{port}"]) == 0
+    # teleop serves a tree it runs: without --tree there is none to show
+    assert main(["teleop", "--keys", "q", "--groot2", str(port)]) == 2
