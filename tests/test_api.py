@@ -401,3 +401,11 @@ def test_an_estop_during_a_run_is_its_first_cause() -> None:
     assert not result.succeeded
     assert result.why == "e-stop: operator pressed the mushroom"
     assert result.counters.estops == 1
+
+
+def test_the_api_reference_documents_every_public_name() -> None:
+    page = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    documented = {line.split()[1].rsplit(".", 1)[-1] for line in page.splitlines()
+                  if line.startswith("::: ")}  # fmt: skip
+    missing = sorted(set(pirate_bt.__all__) - documented)
+    assert not missing, f"docs/api.md has no reference for {missing}"
