@@ -35,6 +35,12 @@ RUNNING is halted first (its motion cancelled).
 a breakpoint goes on; against a robot it does not go on unattended: the
 supervisor puts the robot in its safe state and the held node fails, so the
 run ends there.
+
+**Its parts.** The served run and the state the parts share:
+:mod:`pirate_bt.interop.groot2_run`; the hooks on the tick thread:
+:mod:`pirate_bt.interop.groot2_hooks`; the requests:
+:mod:`pirate_bt.interop.groot2_requests`. Here: the sockets, the statuses after
+each tick, the server thread, and :func:`attach_groot2`.
 """
 
 from __future__ import annotations
@@ -45,39 +51,52 @@ import errno
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import py_trees
-from py_trees.common import Status
 
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import ConfigurationError as ConfigurationError
+from pirate_bt.errors import InputError
+from pirate_bt.interop.groot2_hooks import _replace as _replace
+from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
 from pirate_bt.interop.groot2_option import DEFAULT_HOST, parse_groot2_address
-from pirate_bt.interop.groot2_protocol import (
-    DEFAULT_PORT,
-    ERROR,
-    IDLE_FROM,
-    NOT_FOUND,
-    NOT_RECOGNIZED,
-    TWO_PARTS,
-    WRONG_HEADER,
-    Hook,
-    HookError,
-    RequestType,
-    hooks_json,
-    new_tree_uuid,
-    pack_request,
-    pack_transitions,
-    parse_hooks,
-    parse_remove,
-    parse_unlock,
-    reply_header,
-    unpack_request,
-)
-from pirate_bt.interop.groot2_tree import ServedTree, served_tree
+from pirate_bt.interop.groot2_protocol import DEFAULT_PORT, Hook
+from pirate_bt.interop.groot2_protocol import ERROR as ERROR
+from pirate_bt.interop.groot2_protocol import IDLE_FROM as IDLE_FROM
+from pirate_bt.interop.groot2_protocol import NOT_FOUND as NOT_FOUND
+from pirate_bt.interop.groot2_protocol import NOT_RECOGNIZED as NOT_RECOGNIZED
+from pirate_bt.interop.groot2_protocol import TWO_PARTS as TWO_PARTS
+from pirate_bt.interop.groot2_protocol import WRONG_HEADER as WRONG_HEADER
+from pirate_bt.interop.groot2_protocol import HookError as HookError
+from pirate_bt.interop.groot2_protocol import RequestType as RequestType
+from pirate_bt.interop.groot2_protocol import hooks_json as hooks_json
+from pirate_bt.interop.groot2_protocol import new_tree_uuid as new_tree_uuid
+from pirate_bt.interop.groot2_protocol import pack_request as pack_request
+from pirate_bt.interop.groot2_protocol import pack_transitions as pack_transitions
+from pirate_bt.interop.groot2_protocol import parse_hooks as parse_hooks
+from pirate_bt.interop.groot2_protocol import parse_remove as parse_remove
+from pirate_bt.interop.groot2_protocol import parse_unlock as parse_unlock
+from pirate_bt.interop.groot2_protocol import reply_header as reply_header
+from pirate_bt.interop.groot2_protocol import unpack_request as unpack_request
+from pirate_bt.interop.groot2_requests import _TWO_PART as _TWO_PART
+from pirate_bt.interop.groot2_requests import _error as _error
+from pirate_bt.interop.groot2_requests import _live_blackboard as _live_blackboard
+from pirate_bt.interop.groot2_requests import _refusal as _refusal
+from pirate_bt.interop.groot2_requests import _Requests
+from pirate_bt.interop.groot2_run import _REPLACED as _REPLACED
+from pirate_bt.interop.groot2_run import BREAKPOINT as BREAKPOINT
+from pirate_bt.interop.groot2_run import INSTALL_HINT as INSTALL_HINT
+from pirate_bt.interop.groot2_run import MAX_REQUEST_BYTES, TRANSITIONS_KEPT, _load, _Pending
+from pirate_bt.interop.groot2_run import POST as POST
+from pirate_bt.interop.groot2_run import PRE as PRE
+from pirate_bt.interop.groot2_run import REPLACE as REPLACE
+from pirate_bt.interop.groot2_run import _Run as _Run
+from pirate_bt.interop.groot2_tree import ServedTree
+from pirate_bt.interop.groot2_tree import served_tree as served_tree
 from pirate_bt.trace.coverage import CoverageRecorder, attach_coverage
-from pirate_bt.trace.structure import iter_with_ids, jsonable
+from pirate_bt.trace.structure import iter_with_ids as iter_with_ids
+from pirate_bt.trace.structure import jsonable as jsonable
 
 __all__ = [
     "DEFAULT_HOST",
@@ -89,69 +108,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-INSTALL_HINT = "pip install 'pirate-bt[groot2]'"
-MAX_REQUEST_BYTES = 1 << 20
-TRANSITIONS_KEPT = 1000
-PRE, POST = 0, 1
-BREAKPOINT, REPLACE = 0, 1
-_REPLACED = {"SUCCESS": Status.SUCCESS, "FAILURE": Status.FAILURE}
 
-
-def _load() -> tuple[Any, Any]:
-    try:
-        import msgpack
-        import zmq
-    except ImportError as exc:
-        raise ConfigurationError(
-            f"--groot2 needs {exc.name or 'pyzmq and msgpack'}: {INSTALL_HINT}"
-        ) from None
-    return zmq, msgpack
-
-
-@dataclass
-class _Pending:
-    """A tree to serve, until a client first asks for it."""
-
-    tree: py_trees.trees.BehaviourTree
-    source: Any
-    name: str | None
-    checked: Any
-    recorder: CoverageRecorder | None
-    period_s: float
-    clock: Any
-    supervisor: Any
-    robot: str | None
-    keep_alive: Callable[[], None] | None
-
-
-@dataclass
-class _Run:
-    """The tree being served and what its hooks need."""
-
-    served: ServedTree
-    uuid: bytes
-    offset: dict[int, int]
-    """UID -> index of its status byte."""
-    nodes: list[py_trees.behaviour.Behaviour]
-    period_s: float
-    clock: Any
-    supervisor: Any = None
-    robot: str | None = None
-    """Where the run is, when that is a robot (replacing results is refused there)."""
-    recorder: CoverageRecorder | None = None
-    keep_alive: Callable[[], None] | None = None
-    """What runs every period while a breakpoint holds the tree."""
-    installed: dict[int, Any] = field(default_factory=dict)
-    """py_trees node index -> what its instance ``tick`` was before the hook (or None)."""
-    parents: list[int] = field(default_factory=list)
-    """py_trees node index -> its parent's (-1 for the root)."""
-    midtick: set[int] = field(default_factory=set)
-    """Nodes shown as they were in the middle of a tick (at a breakpoint)."""
-    inner_idle: dict[int, bool] = field(default_factory=dict)
-    """Subtree roots' UIDs -> whether BT.CPP has them IDLE (for the transitions)."""
-
-
-class Groot2Server:
+class Groot2Server(_Requests):
     """Groot2's live view of a running tree (see the module docstring).
 
     Args:
@@ -305,53 +263,6 @@ class Groot2Server:
         run = self._build()
         return run.served if run is not None else None
 
-    def _build(self) -> _Run | None:
-        """The served tree's run, made on the first request (outside the lock: the
-        tick thread never waits for it)."""
-        with self._cond:
-            if self._run is not None or self._pending is None:
-                return self._run
-            pending = self._pending
-        served = served_tree(pending.tree, pending.source, pending.name, pending.checked)
-        nodes = [node for _, node in iter_with_ids(pending.tree)]
-        run = _Run(
-            served=served,
-            uuid=new_tree_uuid(),
-            offset={uid: 3 * i + 2 for i, uid in enumerate(served.order)},
-            nodes=nodes,
-            period_s=pending.period_s,
-            clock=pending.clock,
-            supervisor=pending.supervisor,
-            robot=pending.robot,
-            recorder=pending.recorder,
-            keep_alive=pending.keep_alive,
-        )
-        index_of = {id(node): i for i, node in enumerate(nodes)}
-        run.parents = [-1] * len(nodes)
-        for i, node in enumerate(nodes):
-            for child in node.children:
-                run.parents[index_of[id(child)]] = i
-        status = bytearray(3 * len(served.order))
-        for i, uid in enumerate(served.order):
-            status[3 * i : 3 * i + 2] = uid.to_bytes(2, "little")
-        with self._cond:
-            if self._pending is not pending:  # another tree since: serve that one
-                return self._run
-            if run.recorder is not None:  # under the lock: the listener waits for us
-                for index, code in enumerate(list(run.recorder.shown)):
-                    if code:
-                        self._set_codes(run, status, index, code)
-            self._run, self._pending, self._status = run, None, status
-        return run
-
-    def _set_codes(self, run: _Run, status: bytearray, index: int, code: int) -> None:
-        inner = run.served.inner
-        for uid in run.served.uids_of.get(index, ()):
-            shown = code
-            if uid in inner and code in (2, 3):
-                shown = IDLE_FROM + code  # the SubTree node resets its child when it finishes
-            status[run.offset[uid]] = shown
-
     def _on_tick(self, codes: Mapping[int, int], events: Sequence[tuple[int, int]]) -> None:
         """The coverage recorder's listener: runs in the tick thread after each tick."""
         run = self._run
@@ -405,163 +316,6 @@ class Groot2Server:
         self._held = None
         self._silent = False
 
-    # -- hooks on the tick thread
-
-    def apply_hooks(self, info: object = None) -> None:
-        """Install and remove hook wrappers to match the hooks set (a pre-tick hook)."""
-        self.last_info = info
-        run = self._run
-        if run is None or self._generation == self._applied:
-            return  # the common tick: no hook changed since the last (no lock taken)
-        with self._cond:
-            self._applied = self._generation
-            wanted = {run.served.node_of[uid] for (_, uid) in self._hooks}
-        current = set(run.installed)
-        if wanted == current:
-            return
-        self._uninstall(run, current - wanted)
-        for index in wanted - current:
-            node = run.nodes[index]
-            run.installed[index] = node.__dict__.get("tick")
-            original = type(node).tick.__get__(node)
-            node.tick = self._hooked(run, index, node, original)  # type: ignore[method-assign]
-
-    def _uninstall(self, run: _Run, indices: set[int]) -> None:
-        for index in indices:
-            node = run.nodes[index]
-            before = run.installed.pop(index, None)
-            if before is None:
-                node.__dict__.pop("tick", None)
-            else:
-                node.tick = before  # type: ignore[method-assign]
-
-    def _hooked(
-        self,
-        run: _Run,
-        index: int,
-        node: py_trees.behaviour.Behaviour,
-        original: Callable[[], Iterator[py_trees.behaviour.Behaviour]],
-    ) -> Callable[[], Iterator[py_trees.behaviour.Behaviour]]:
-        uids = run.served.uids_of.get(index, ())
-
-        def tick() -> Iterator[py_trees.behaviour.Behaviour]:
-            replaced = self._fire(run, uids, PRE, node)
-            if replaced is not None:
-                _replace(node, replaced)
-                yield node
-                return
-            done = False
-            for n in original():
-                if n is node and not done:
-                    done = True
-                    replaced = self._fire(run, uids, POST, node)
-                    if replaced is not None:
-                        _replace(node, replaced)
-                yield n
-
-        return tick
-
-    def _fire(
-        self, run: _Run, uids: Sequence[int], position: int, node: py_trees.behaviour.Behaviour
-    ) -> Status | None:
-        """Run the hook at ``position`` of a node's UIDs: the result that replaces the
-        node's, or ``None`` to let it run."""
-        with self._cond:
-            hook = next(
-                (
-                    h
-                    for uid in uids
-                    if (h := self._hooks.get((position, uid))) is not None and h.enabled
-                ),
-                None,
-            )
-            if hook is None:
-                return None
-            self._notices.append([pack_request(RequestType.BREAKPOINT_REACHED), b"%d" % hook.uid])
-            if hook.mode == BREAKPOINT:
-                self._held = hook
-                self._show_midtick(run, node)
-        if hook.mode == BREAKPOINT:
-            outcome = self._hold(run, hook, node)
-            if outcome is not None:
-                return outcome
-        with self._cond:
-            if not hook.enabled:
-                return None
-            status = _REPLACED.get(hook.desired_status)
-            if hook.once:
-                self._remove_locked(hook.position, hook.uid)
-            if status is not None and run.robot is not None:
-                return None  # refused when set; never against a robot
-            return status
-
-    def _show_midtick(self, run: _Run, node: py_trees.behaviour.Behaviour) -> None:
-        """Show the tree as BT.CPP would while it waits at ``node`` in the middle of a
-        tick: the node's ancestors RUNNING (BT.CPP's composites and decorators turn
-        RUNNING before they tick a child), the nodes already ticked with their result.
-        The tick's end shows them as it left them."""
-        recorder = run.recorder
-        if recorder is None:
-            return
-        index = recorder.index_of(node)
-        if index is None:
-            return
-        status = self._status
-        for done in recorder.ticked_so_far():
-            code = {Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}.get(done.status)
-            where = recorder.index_of(done)
-            if code is not None and where is not None:
-                self._set_codes(run, status, where, code)
-                run.midtick.add(where)
-        up = run.parents[index] if index < len(run.parents) else -1
-        while up >= 0:
-            self._set_codes(run, status, up, 1)
-            run.midtick.add(up)
-            up = run.parents[up]
-
-    def _hold(self, run: _Run, hook: Hook, node: py_trees.behaviour.Behaviour) -> Status | None:
-        """Wait at a breakpoint while the runner's housekeeping goes on. Returns FAILURE
-        when the client fell silent against a robot (the fail-safe), else ``None``.
-
-        Every period the run's ``keep_alive`` runs (the runner's pre-tick hooks: the
-        supervisor's tick, an operator console's keys), and on a simulator simulated
-        time moves on. What those raise (an operator quitting, a link error) ends the
-        wait and reaches the runner, as from a pre-tick hook.
-        """
-        supervisor = run.supervisor
-        logger.warning("Groot2: breakpoint at %s (%s); the tree waits", node.name, hook.uid)
-        if supervisor is not None:
-            _stop_drives(supervisor)
-        clock = run.clock
-        silent = False
-        try:
-            while True:
-                with self._cond:
-                    if hook.ready or not hook.enabled or self._silent:
-                        hook.ready = False
-                        silent = self._silent
-                        break
-                    self._cond.wait(timeout=run.period_s)
-                if run.keep_alive is not None:
-                    run.keep_alive()
-                if clock is not None and clock.is_simulated:
-                    clock.sleep(run.period_s)
-        finally:
-            with self._cond:
-                self._held = None
-                self._silent = False
-        if silent and run.robot is not None:
-            reason = (
-                f"Groot2 client silent for {self.heartbeat_s:g} s while the tree waited at"
-                f" a breakpoint ({node.name})"
-            )
-            if supervisor is not None:
-                supervisor.safe_state(reason)
-            node.feedback_message = reason
-            return Status.FAILURE
-        logger.warning("Groot2: the tree goes on from %s", node.name)
-        return None
-
     # -- the server thread
 
     def _serve(self) -> None:
@@ -612,136 +366,6 @@ class Groot2Server:
                 self._silent = True
             self._cond.notify_all()
 
-    def _answer(self, parts: list[bytes]) -> list[bytes]:
-        self._last_request = time.monotonic()
-        self._heard = True
-        self.requests += 1
-        header = unpack_request(parts[0]) if parts else None
-        if header is None:
-            return _error(WRONG_HEADER)
-        try:
-            run = self._build()
-        except Exception as exc:  # a tree that cannot be shown must not stop the server
-            logger.exception("Groot2: cannot serve this tree")
-            return _error(f"cannot serve this tree: {exc}")
-        if run is None:
-            return _error("no tree is running yet")
-        reply = [reply_header(header, run.uuid)]
-        kind = header.type
-        try:
-            if kind == RequestType.FULLTREE:
-                reply.append(run.served.xml.encode("utf-8"))
-            elif kind == RequestType.STATUS:
-                with self._cond:
-                    reply.append(bytes(self._status))
-            elif kind in _TWO_PART:
-                if len(parts) != 2:
-                    return _error(TWO_PARTS)
-                more = _TWO_PART[kind](self, run, parts[1])
-                if isinstance(more, str):
-                    return _error(more)
-                reply += more
-            elif kind == RequestType.HOOKS_DUMP:
-                with self._cond:
-                    reply.append(hooks_json(list(self._hooks.values())))
-            elif kind == RequestType.REMOVE_ALL_HOOKS:
-                with self._cond:
-                    self._remove_all_locked()
-            elif kind == RequestType.DISABLE_ALL_HOOKS:
-                with self._cond:
-                    for hook in self._hooks.values():
-                        hook.enabled = False
-                    self._cond.notify_all()
-            elif kind == RequestType.GET_TRANSITIONS:
-                with self._cond:
-                    taken = list(self._transitions)
-                    self._transitions.clear()
-                reply.append(pack_transitions(taken))
-            else:
-                return _error(NOT_RECOGNIZED)
-        except HookError as exc:
-            return _error(str(exc))
-        except Exception as exc:  # never let a request take the server down
-            logger.exception("Groot2: answering a request failed")
-            return _error(f"Unknown error while processing request: {exc}")
-        return reply
-
-    def _blackboard(self, run: _Run, names: bytes) -> list[bytes]:
-        wanted = names.decode("utf-8", "replace").split(";")
-        dump: dict[str, Any] = {}
-        for name in wanted:
-            if name == "":  # the main tree's instance: the live blackboard
-                dump[name] = _live_blackboard()
-            elif name in run.served.subtrees:
-                dump[name] = dict(run.served.subtrees[name])
-        packed: bytes = self._msgpack.packb(jsonable(dump) if dump else None, use_bin_type=True)
-        return [packed]
-
-    def _insert(self, run: _Run, text: bytes) -> list[bytes] | str:
-        hooks = parse_hooks(text)
-        if run.robot is not None and any(h.mode == REPLACE for h in hooks):
-            return _refusal(run)
-        with self._cond:
-            for hook in hooks:
-                key = (hook.position, hook.uid)
-                current = self._hooks.get(key)
-                if current is not None:
-                    was_breakpoint = current.mode == BREAKPOINT
-                    current.update(hook)
-                    if was_breakpoint and current.mode == REPLACE:
-                        current.ready = True
-                        self._cond.notify_all()
-                elif hook.uid in run.served.node_of:  # BT.CPP ignores an unknown node
-                    self._hooks[key] = hook
-            self._generation += 1
-        return []
-
-    def _remove(self, run: _Run, text: bytes) -> list[bytes] | str:
-        uid, position = parse_remove(text)
-        with self._cond:
-            if uid not in run.served.node_of or (position, uid) not in self._hooks:
-                return NOT_FOUND
-            self._remove_locked(position, uid)
-        return []
-
-    def _unlock(self, run: _Run, text: bytes) -> list[bytes] | str:
-        uid, position, status, remove = parse_unlock(text)
-        with self._cond:
-            hook = self._hooks.get((position, uid))
-            if uid not in run.served.node_of or hook is None:
-                return NOT_FOUND
-            if run.robot is not None and status in _REPLACED:
-                return _refusal(run)
-            hook.desired_status = status
-            hook.once = hook.once or remove
-            if hook.mode == BREAKPOINT:
-                hook.ready = True
-                self._cond.notify_all()
-        return []
-
-    def _record(self, run: _Run, command: bytes) -> list[bytes]:
-        if command == b"start":
-            with self._cond:
-                self._record_t0_ns = time.perf_counter_ns()
-                self._transitions.clear()
-                self._recording = True
-            return [str(time.time_ns() // 1000).encode()]
-        if command == b"stop":
-            with self._cond:
-                self._recording = False
-        return []
-
-    def _remove_locked(self, position: int, uid: int) -> None:
-        hook = self._hooks.pop((position, uid), None)
-        if hook is not None:
-            hook.enabled = False
-            self._generation += 1
-            self._cond.notify_all()
-
-    def _remove_all_locked(self) -> None:
-        for position, uid in list(self._hooks):
-            self._remove_locked(position, uid)
-
     # -- the end
 
     def close(self) -> None:
@@ -759,50 +383,6 @@ class Groot2Server:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-_TWO_PART: dict[int, Callable[[Groot2Server, _Run, bytes], Any]] = {
-    RequestType.BLACKBOARD: Groot2Server._blackboard,
-    RequestType.HOOK_INSERT: Groot2Server._insert,
-    RequestType.HOOK_REMOVE: Groot2Server._remove,
-    RequestType.BREAKPOINT_UNLOCK: Groot2Server._unlock,
-    RequestType.TOGGLE_RECORDING: Groot2Server._record,
-}
-
-
-def _error(message: str) -> list[bytes]:
-    return [ERROR, message.encode("utf-8")]
-
-
-def _refusal(run: _Run) -> str:
-    return (
-        f"refused: replacing a node's result is allowed on the simulator only, and this"
-        f" run is on a robot ({run.robot}); unlock with another status to let the node run"
-    )
-
-
-def _live_blackboard() -> dict[str, Any]:
-    """The py_trees blackboard, keys without their leading ``/``."""
-    storage = dict(py_trees.blackboard.Blackboard.storage)
-    return {key.lstrip("/"): value for key, value in storage.items()}
-
-
-def _stop_drives(supervisor: Any) -> None:
-    """Stop the drives as an operator takeover does (clamps and joints hold)."""
-    try:
-        from pirate_bt.safety import Source, Stop
-
-        supervisor.command(Stop(), source=Source.SUPERVISOR)
-    except Exception:
-        logger.exception("Groot2: stopping the drives at a breakpoint failed")
-
-
-def _replace(node: py_trees.behaviour.Behaviour, status: Status) -> None:
-    """Give ``node`` a result without running it (halting it first if it runs)."""
-    if node.status == Status.RUNNING:
-        node.stop(Status.INVALID)
-    node.status = status
-    node.feedback_message = f"result replaced by Groot2: {status.name}"
 
 
 def attach_groot2(

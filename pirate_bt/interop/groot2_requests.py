@@ -1,0 +1,185 @@
+"""Groot2's requests, answered in the server's thread.
+
+:meth:`_Requests._answer` turns one request (its header, and for some a second
+part) into its reply: the tree's XML, the statuses, the blackboards, the hooks
+set, inserted, removed or unlocked, the recorded transitions; or an error reply
+(:func:`_error`), which never takes the server down. The wire format itself is
+:mod:`pirate_bt.interop.groot2_protocol`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import py_trees
+
+from pirate_bt.interop.groot2_hooks import _Hooks
+from pirate_bt.interop.groot2_protocol import (
+    ERROR,
+    NOT_FOUND,
+    NOT_RECOGNIZED,
+    TWO_PARTS,
+    WRONG_HEADER,
+    HookError,
+    RequestType,
+    hooks_json,
+    pack_transitions,
+    parse_hooks,
+    parse_remove,
+    parse_unlock,
+    reply_header,
+    unpack_request,
+)
+from pirate_bt.interop.groot2_run import _REPLACED, BREAKPOINT, REPLACE, _Run, logger
+from pirate_bt.trace.structure import jsonable
+
+
+class _Requests(_Hooks):
+    """The request half of :class:`~pirate_bt.interop.groot2_server.Groot2Server`."""
+
+    def _answer(self, parts: list[bytes]) -> list[bytes]:
+        self._last_request = time.monotonic()
+        self._heard = True
+        self.requests += 1
+        header = unpack_request(parts[0]) if parts else None
+        if header is None:
+            return _error(WRONG_HEADER)
+        try:
+            run = self._build()
+        except Exception as exc:  # a tree that cannot be shown must not stop the server
+            logger.exception("Groot2: cannot serve this tree")
+            return _error(f"cannot serve this tree: {exc}")
+        if run is None:
+            return _error("no tree is running yet")
+        reply = [reply_header(header, run.uuid)]
+        kind = header.type
+        try:
+            if kind == RequestType.FULLTREE:
+                reply.append(run.served.xml.encode("utf-8"))
+            elif kind == RequestType.STATUS:
+                with self._cond:
+                    reply.append(bytes(self._status))
+            elif kind in _TWO_PART:
+                if len(parts) != 2:
+                    return _error(TWO_PARTS)
+                more = _TWO_PART[kind](self, run, parts[1])
+                if isinstance(more, str):
+                    return _error(more)
+                reply += more
+            elif kind == RequestType.HOOKS_DUMP:
+                with self._cond:
+                    reply.append(hooks_json(list(self._hooks.values())))
+            elif kind == RequestType.REMOVE_ALL_HOOKS:
+                with self._cond:
+                    self._remove_all_locked()
+            elif kind == RequestType.DISABLE_ALL_HOOKS:
+                with self._cond:
+                    for hook in self._hooks.values():
+                        hook.enabled = False
+                    self._cond.notify_all()
+            elif kind == RequestType.GET_TRANSITIONS:
+                with self._cond:
+                    taken = list(self._transitions)
+                    self._transitions.clear()
+                reply.append(pack_transitions(taken))
+            else:
+                return _error(NOT_RECOGNIZED)
+        except HookError as exc:
+            return _error(str(exc))
+        except Exception as exc:  # never let a request take the server down
+            logger.exception("Groot2: answering a request failed")
+            return _error(f"Unknown error while processing request: {exc}")
+        return reply
+
+    def _blackboard(self, run: _Run, names: bytes) -> list[bytes]:
+        wanted = names.decode("utf-8", "replace").split(";")
+        dump: dict[str, Any] = {}
+        for name in wanted:
+            if name == "":  # the main tree's instance: the live blackboard
+                dump[name] = _live_blackboard()
+            elif name in run.served.subtrees:
+                dump[name] = dict(run.served.subtrees[name])
+        packed: bytes = self._msgpack.packb(jsonable(dump) if dump else None, use_bin_type=True)
+        return [packed]
+
+    def _insert(self, run: _Run, text: bytes) -> list[bytes] | str:
+        hooks = parse_hooks(text)
+        if run.robot is not None and any(h.mode == REPLACE for h in hooks):
+            return _refusal(run)
+        with self._cond:
+            for hook in hooks:
+                key = (hook.position, hook.uid)
+                current = self._hooks.get(key)
+                if current is not None:
+                    was_breakpoint = current.mode == BREAKPOINT
+                    current.update(hook)
+                    if was_breakpoint and current.mode == REPLACE:
+                        current.ready = True
+                        self._cond.notify_all()
+                elif hook.uid in run.served.node_of:  # BT.CPP ignores an unknown node
+                    self._hooks[key] = hook
+            self._generation += 1
+        return []
+
+    def _remove(self, run: _Run, text: bytes) -> list[bytes] | str:
+        uid, position = parse_remove(text)
+        with self._cond:
+            if uid not in run.served.node_of or (position, uid) not in self._hooks:
+                return NOT_FOUND
+            self._remove_locked(position, uid)
+        return []
+
+    def _unlock(self, run: _Run, text: bytes) -> list[bytes] | str:
+        uid, position, status, remove = parse_unlock(text)
+        with self._cond:
+            hook = self._hooks.get((position, uid))
+            if uid not in run.served.node_of or hook is None:
+                return NOT_FOUND
+            if run.robot is not None and status in _REPLACED:
+                return _refusal(run)
+            hook.desired_status = status
+            hook.once = hook.once or remove
+            if hook.mode == BREAKPOINT:
+                hook.ready = True
+                self._cond.notify_all()
+        return []
+
+    def _record(self, run: _Run, command: bytes) -> list[bytes]:
+        if command == b"start":
+            with self._cond:
+                self._record_t0_ns = time.perf_counter_ns()
+                self._transitions.clear()
+                self._recording = True
+            return [str(time.time_ns() // 1000).encode()]
+        if command == b"stop":
+            with self._cond:
+                self._recording = False
+        return []
+
+
+_TWO_PART: dict[int, Callable[[_Requests, _Run, bytes], Any]] = {
+    RequestType.BLACKBOARD: _Requests._blackboard,
+    RequestType.HOOK_INSERT: _Requests._insert,
+    RequestType.HOOK_REMOVE: _Requests._remove,
+    RequestType.BREAKPOINT_UNLOCK: _Requests._unlock,
+    RequestType.TOGGLE_RECORDING: _Requests._record,
+}
+
+
+def _error(message: str) -> list[bytes]:
+    return [ERROR, message.encode("utf-8")]
+
+
+def _refusal(run: _Run) -> str:
+    return (
+        f"refused: replacing a node's result is allowed on the simulator only, and this"
+        f" run is on a robot ({run.robot}); unlock with another status to let the node run"
+    )
+
+
+def _live_blackboard() -> dict[str, Any]:
+    """The py_trees blackboard, keys without their leading ``/``."""
+    storage = dict(py_trees.blackboard.Blackboard.storage)
+    return {key.lstrip("/"): value for key, value in storage.items()}
