@@ -10,6 +10,7 @@ error anywhere in a body (header, payload or either CRC byte) must come back as 
 from __future__ import annotations
 
 import binascii
+import dataclasses
 import struct
 
 import pytest
@@ -393,3 +394,83 @@ def test_a_decoder_that_breaks_is_a_frame_error_not_an_exception() -> None:
     out = c.FrameDecoder(Broken()).feed(b"\x02\x05\x00")
     assert len(out) == 1 and isinstance(out[0], FrameError)
     assert (out[0].reason, out[0].detail) == ("internal", "KeyError: 'surprise'")
+
+
+def test_a_new_codec_reads_and_writes_every_message() -> None:
+    """A codec made here, not at import: its own structs and masks, not a shared one's."""
+    codec = c.FrameCodec(LAYOUT)
+    decoder = c.FrameDecoder(codec)
+    wire = c.encode_many(codec, SAMPLES)
+    assert wire == c.encode_many(CODEC, SAMPLES)
+    assert decoder.feed(wire) == SAMPLES
+    state = SAMPLES[0]
+    assert isinstance(state, c.State)
+    arg, payload = codec.encode_payload(state)
+    assert arg == state.flags and c.FrameCodec.for_robot(ROBOT).encode_payload(state) == (
+        arg,
+        payload,
+    )
+    assert body_of(state)[5:-2] == payload
+    assert codec._decode_payload(c.MsgType.STATE, state.seq, arg, payload) == state
+
+
+def test_fresh_bits_beyond_the_channels_are_never_sent_nor_read() -> None:
+    codec = c.FrameCodec(LAYOUT)
+    full = (1 << (8 * LAYOUT.mask_bytes)) - 1
+    assert 8 * LAYOUT.mask_bytes > N_CH  # there are spare bits to test
+    sent = c.State(1, c.BridgeFlags.NONE, 0, full, (1,) * N_B, (0,) * N_CH)
+    body = c.cobs_decode(codec.encode(sent)[:-1])
+    assert int.from_bytes(body[7 : 7 + LAYOUT.mask_bytes], "little") == (1 << N_CH) - 1
+    spare = bytearray(body[:-2])
+    spare[7 : 7 + LAYOUT.mask_bytes] = full.to_bytes(LAYOUT.mask_bytes, "little")
+    got = c.FrameCodec(LAYOUT).decode_body(with_crc(bytes(spare)))
+    assert isinstance(got, c.State) and got.fresh_mask == (1 << N_CH) - 1
+
+
+def test_consecutive_states_that_differ_in_one_byte_each_decode_right() -> None:
+    codec = c.FrameCodec(LAYOUT)
+    base = c.State(1, c.BridgeFlags.NONE, 2, 3, (1,) * N_B, (0,) * N_CH)
+    changes = [
+        dict(raw_values=(0,) * (N_CH - 1) + (1,)),  # the byte before the CRC
+        dict(raw_values=(0,) * (N_CH - 1) + (256,)),
+        dict(ack_seq=3),
+        dict(flags=c.BridgeFlags.ESTOP),
+        dict(board_status=(2,) + (1,) * (N_B - 1)),
+        dict(fresh_mask=4),
+    ]
+    for seq, change in enumerate(changes, 2):
+        for msg in (
+            dataclasses.replace(base, seq=seq),
+            dataclasses.replace(base, seq=seq + 100, **change),
+        ):
+            assert codec.decode_body(c.cobs_decode(codec.encode(msg)[:-1])) == msg
+
+
+def test_the_largest_frame_on_the_wire_is_read() -> None:
+    """255 bytes between delimiters is the limit, not past it (an unknown type, for size)."""
+    body = with_crc(bytes([1, 0x7F, 0, 0, 0]) + b"\x01" * 247)
+    encoded = c.cobs_encode(body)
+    assert len(body) == c.MAX_BODY_BYTES and len(encoded) == c.MAX_WIRE_BYTES - 1
+    with pytest.raises(FrameError) as caught:
+        CODEC.decode(encoded)
+    assert caught.value.reason == "type"
+
+
+def test_a_state_of_another_version_is_refused_with_the_version() -> None:
+    codec = c.FrameCodec(LAYOUT)
+    body = bytearray(body_of(SAMPLES[0])[:-2])
+    codec.decode_body(with_crc(bytes(body)))  # the fast path now knows this frame
+    body[0] = 3
+    with pytest.raises(FrameError) as caught:
+        codec.decode_body(with_crc(bytes(body)))
+    assert (caught.value.reason, caught.value.detail) == (
+        "version",
+        "protocol version 3, expected 1",
+    )
+
+
+def test_encoding_a_bad_state_says_why() -> None:
+    with pytest.raises(ValueError, match=r"^state frame does not match the layout$"):
+        CODEC.encode(c.State(1, c.BridgeFlags.NONE, 0, 0, (1,) * N_B, (0,) * (N_CH + 1)))
+    with pytest.raises(ValueError, match=r"^cannot encode State\(seq=70000, "):
+        CODEC.encode(c.State(70000, c.BridgeFlags.NONE, 0, 0, (1,) * N_B, (0,) * N_CH))

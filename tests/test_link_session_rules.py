@@ -550,16 +550,18 @@ def test_a_bridge_reset_starts_a_new_session_and_fails_what_was_in_flight(
 ) -> None:
     caplog.set_level(logging.WARNING, logger=LOG)
     wire = Wire(hello=reply())
+    wire.answer(state(40000))  # the old session's states had got far
+    wire.poll()
     req, _ = setpoint(wire)
     waiting, _ = setpoint(wire)
     wire.poll(0.01)
-    wire.answer(state(40, flags=BridgeFlags.NO_SESSION | BridgeFlags.ESTOP))
+    wire.answer(state(40001, flags=BridgeFlags.NO_SESSION | BridgeFlags.ESTOP))
     wire.poll()
     for r in (req, waiting):
         assert (r.outcome, r.acked_at_s, r.tries) == (Outcome.FAILED, wire.clock.now(), r.tries)
     hello = wire.sent()[-1]
     assert isinstance(hello, Hello) and hello.seq == waiting.seq + 1 and hello.minor == 1
-    assert wire.session.latest_state() is None  # the reset's state is not taken
+    assert wire.session.latest_state()[0].seq == 40000  # type: ignore[index]
     stats = wire.session.stats()
     assert (stats.bridge_resets, stats.estopped, stats.sessions) == (1, True, 1)
     assert messages(caplog) == [
@@ -576,10 +578,14 @@ def test_a_bridge_reset_starts_a_new_session_and_fails_what_was_in_flight(
     _, later_msg = setpoint(wire)
     wire.poll()
     assert wire.sent() == []
-    wire.answer(state(2), reply(seq=hello.seq, boot_id=8, sessions=2))
+    caplog.clear()
+    wire.poll(0.02)
+    wire.answer(state(39000), reply(seq=hello.seq, boot_id=8, sessions=2))  # old: dropped
     wire.poll()
-    assert wire.session.latest_state() is None  # a state of the old session, before the reply
+    assert wire.session.latest_state()[0].seq == 40000  # type: ignore[index]
     assert wire.sent() == [later_msg]
+    assert messages(caplog) == [(logging.WARNING, "the bridge was reset (boot id 7 -> 8)")]
+    assert list(wire.session.rtt_samples) == [pytest.approx(0.02)]  # the HELLO's round trip
     assert wire.session.last_hello_reply == reply(seq=hello.seq, boot_id=8, sessions=2)
     assert wire.session.stats().sessions == 2 and not wire.session.stats().estopped
     wire.answer(state(1))  # the new session's first state, whatever its seq
@@ -589,7 +595,51 @@ def test_a_bridge_reset_starts_a_new_session_and_fails_what_was_in_flight(
     wire.answer(state(1), state(0xFFF0))
     wire.poll()
     assert wire.session.latest_state()[0].seq == 1  # type: ignore[index]
-    assert wire.session.stats().duplicates == 2
+    assert wire.session.stats().duplicates == 3
+    # another reset, another session: both counted
+    wire.answer(BridgeHeartbeat(9, BridgeFlags.NO_SESSION))
+    wire.poll()
+    assert wire.session.stats().bridge_resets == 2
+
+
+def test_a_session_opened_without_a_reply_takes_a_new_one() -> None:
+    wire = Wire(hello=None)
+    wire.answer(BridgeHeartbeat(3, BridgeFlags.NO_SESSION))
+    wire.poll()
+    hello = wire.sent()[-1]
+    assert isinstance(hello, Hello)
+    wire.answer(reply(seq=hello.seq, boot_id=3))
+    wire.poll()
+    assert wire.session.stats().sessions == 2
+    assert wire.session.last_hello_reply == reply(seq=hello.seq, boot_id=3)
+
+
+def test_the_hardware_estop_input_flag_is_reported() -> None:
+    wire = Wire()
+    wire.answer(state(1, flags=BridgeFlags.WATCHDOG))
+    wire.poll()
+    assert not wire.session.stats().estop_input
+    wire.answer(state(2, flags=BridgeFlags.ESTOP_INPUT))
+    wire.poll()
+    assert wire.session.stats().estop_input
+
+
+def test_the_reader_polls_every_millisecond() -> None:
+    slept: list[float] = []
+
+    class Recording(WallClock):
+        def sleep(self, seconds: float) -> None:
+            slept.append(seconds)
+            super().sleep(seconds)
+
+    host, _ = memory_pair()
+    session = Session(host, CODEC, Recording(), CONFIG, first_seq=2, hello_reply=reply())
+    session.start_reader()
+    deadline = time.monotonic() + 30.0
+    while len(slept) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    session.stop_reader()
+    assert slept[:3] == [0.001] * 3
 
 
 def test_a_new_session_reply_from_a_rebooted_bridge_is_logged(
@@ -648,7 +698,10 @@ def test_a_new_session_on_another_layout_or_version_is_refused(
         wire.session.send_setpoint(22, 1, ControlMode.VELOCITY, 0)
 
 
-def test_a_refused_new_session_names_the_bridge_s_reason() -> None:
+def test_a_refused_new_session_names_the_bridge_s_reason(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.ERROR, logger=LOG)
     wire = Wire(hello=reply())
     wire.answer(BridgeHeartbeat(3, BridgeFlags.NO_SESSION))
     wire.poll()
@@ -660,6 +713,7 @@ def test_a_refused_new_session_names_the_bridge_s_reason() -> None:
     wire.answer(Nack(hello.seq, MsgType.HELLO, NackCode.BAD_LAYOUT))
     with pytest.raises(ProtocolMismatch, match=r"^the bridge refused a new session: BAD_LAYOUT$"):
         wire.poll()
+    assert (logging.ERROR, "the bridge refused a new session: BAD_LAYOUT") in messages(caplog)
     assert (hello.outcome, hello.acked_at_s) == (Outcome.NACKED, wire.clock.now())
 
 

@@ -191,22 +191,22 @@ class FrameCodec:
         n, m = layout.n_channels, layout.n_motors
         self._state = struct.Struct(f"<H{layout.mask_bytes}s{layout.status_bytes}s{n}h")
         self._bulk = struct.Struct("<" + "Bh" * m)
-        self._channels = range(n)
         # The STATE frame is most of the traffic (every 10 ms), so it has its own paths:
         # one Struct for header + payload (one pack / one unpack instead of four), the
         # masks precomputed, and the board-status bytes cached both ways, since the
         # status of the boards rarely changes from one frame to the next.
         self._state_body = struct.Struct(f"<BBHBH{layout.mask_bytes}s{layout.status_bytes}s{n}h")
-        self._state_body_bytes = self._state_body.size + 2
+        self._state_body_bytes = self._state_body.size + 2  # pragma: no mutate (a fast path)
         self._mask_all = (1 << n) - 1
         self._mask_bytes = layout.mask_bytes
         self._n_boards = layout.n_boards
         self._status_to_wire: dict[tuple[int, ...], bytes] = {}
         self._status_from_wire: dict[bytes, tuple[int, ...]] = {}
-        self._state_key: tuple[object, ...] | None = None
-        self._state_rest = b""
-        self._state_last: State | None = None
-        self._state_template = bytearray()
+        # The caches start empty: whatever these hold first, the first frame misses them.
+        self._state_key: tuple[object, ...] | None = None  # pragma: no mutate (a cache)
+        self._state_rest = b""  # pragma: no mutate (a cache)
+        self._state_last: State | None = None  # pragma: no mutate (a cache)
+        self._state_template = bytearray()  # pragma: no mutate (a cache)
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> FrameCodec:
@@ -290,10 +290,16 @@ class FrameCodec:
         # pack and a State object.
         key = (flags, ack_seq, fresh_mask, board_status, raw_values)
         if key != self._state_key:
-            self._state_template = bytearray(
-                self._state_body_of(State(0, flags, ack_seq, fresh_mask, board_status, raw_values))
+            template = State(
+                0,  # pragma: no mutate (the seq bytes are written below, per frame)
+                flags,
+                ack_seq,
+                fresh_mask,
+                board_status,
+                raw_values,
             )
-            self._state_key = key
+            self._state_template = bytearray(self._state_body_of(template))
+            self._state_key = key  # pragma: no mutate (a cache)
         body = self._state_template
         if not 0 <= seq <= 0xFFFF:
             raise ValueError(f"cannot encode state seq {seq}")
@@ -303,7 +309,7 @@ class FrameCodec:
 
     def _status_wire(self, board_status: tuple[int, ...]) -> bytes:
         """The board-status bytes of a STATE frame, cached (checked once per distinct tuple)."""
-        wire = self._status_to_wire.get(board_status)
+        wire = self._status_to_wire.get(board_status)  # pragma: no mutate (a cache)
         if wire is None:
             status = bytearray(self.layout.status_bytes)
             for i, nib in enumerate(board_status):
@@ -313,7 +319,7 @@ class FrameCodec:
             wire = bytes(status)
             if len(self._status_to_wire) >= _STATUS_CACHE:
                 self._status_to_wire.clear()
-            self._status_to_wire[board_status] = wire
+            self._status_to_wire[board_status] = wire  # pragma: no mutate (a cache)
         return wire
 
     def _state_body_of(self, msg: State) -> bytes:
@@ -433,11 +439,13 @@ class FrameCodec:
 
     def _state_from_body(self, body: bytes) -> State:
         """A STATE frame whose length and CRC are checked, from one unpack of its body."""
+        if body[0] != PROTOCOL_VERSION:
+            raise FrameError("version", f"protocol version {body[0]}, expected {PROTOCOL_VERSION}")
         # Consecutive STATE frames mostly differ only in their seq (bytes 2-3) and CRC:
         # then the fields decoded last time are reused (immutable, so shared safely)
         # and only the seq is read.
         rest = body[4:-2]
-        if rest == self._state_rest and body[0] == PROTOCOL_VERSION:
+        if rest == self._state_rest:
             last = self._state_last
             assert last is not None  # set together with _state_rest
             msg: State = _new_object(State)
@@ -449,17 +457,13 @@ class FrameCodec:
             _SET_STATE_RAW_VALUES(msg, last.raw_values)
             return msg
         fields = self._state_body.unpack_from(body)
-        if fields[0] != PROTOCOL_VERSION:
-            raise FrameError(
-                "version", f"protocol version {fields[0]}, expected {PROTOCOL_VERSION}"
-            )
-        nibbles = self._status_from_wire.get(fields[6])
+        nibbles = self._status_from_wire.get(fields[6])  # pragma: no mutate (a cache)
         if nibbles is None:
             nibbles = tuple(itertools.chain.from_iterable(map(_NIBBLES.__getitem__, fields[6])))
             nibbles = nibbles[: self._n_boards]
             if len(self._status_from_wire) >= _STATUS_CACHE:
                 self._status_from_wire.clear()
-            self._status_from_wire[fields[6]] = nibbles
+            self._status_from_wire[fields[6]] = nibbles  # pragma: no mutate (a cache)
         # A frozen dataclass's __init__ sets each field through object.__setattr__; the
         # slot descriptors do the same work in half the time (same class, same fields).
         msg = _new_object(State)
@@ -469,7 +473,7 @@ class FrameCodec:
         _SET_STATE_FRESH_MASK(msg, int.from_bytes(fields[5], "little") & self._mask_all)
         _SET_STATE_BOARD_STATUS(msg, nibbles)
         _SET_STATE_RAW_VALUES(msg, fields[7:])
-        self._state_rest = rest
+        self._state_rest = rest  # pragma: no mutate (a cache)
         self._state_last = msg
         return msg
 

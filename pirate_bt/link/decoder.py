@@ -52,7 +52,7 @@ class FrameDecoder:
     def reset(self) -> None:
         """Forget any partial frame (after draining stale bytes)."""
         self._buf.clear()
-        self._overflow = False
+        self._overflow = False  # pragma: no mutate (None is falsy as False is)
 
     @property
     def pending_bytes(self) -> int:

@@ -16,7 +16,6 @@ import math
 
 from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
 from pirate_bt.link.codec import (
-    PROTOCOL_MINOR,
     Ack,
     AckStatus,
     BridgeFlags,
@@ -153,10 +152,10 @@ class InboundMixin:
                     self._answered = item.seq
 
     def _refused_session(self, hello: Request, why: str) -> None:
-        self._hello = None
+        self._hello = None  # pragma: no mutate (refused: every call raises before reading it)
         self._finish(hello, Outcome.NACKED, self._last_heard_s)
         self._protocol_error = ProtocolMismatch(why)
-        _log.error("%s", why)
+        _log.error(why)
 
     def _on_hello_reply(self, item: HelloReply, now: float) -> None:
         hello = self._hello
@@ -164,7 +163,8 @@ class InboundMixin:
             self.duplicates += 1
             return
         layout = self.codec.layout
-        asked = hello.msg.minor if isinstance(hello.msg, Hello) else PROTOCOL_MINOR
+        assert isinstance(hello.msg, Hello)  # a new session's request is always a HELLO
+        asked = hello.msg.minor
         if item.layout_digest != layout.digest or item.minor != asked:
             self._refused_session(hello, "the bridge answered a new session with another layout")
             return
@@ -198,7 +198,7 @@ class InboundMixin:
         if self._accept_any_state:
             if self._hello is not None:
                 return  # a state of the old session, before the new one's reply
-            self._accept_any_state = False
+            self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         elif last is not None and not seq_newer(item.seq, last.seq):
             self.duplicates += 1
             return

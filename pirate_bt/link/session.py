@@ -385,7 +385,7 @@ class Session(InboundMixin):
         """Stop the reader thread (if any) and wait for it."""
         if self._reader is not None:
             self._reader_stop.set()
-            self._reader.join(timeout=1.0)
+            self._reader.join(timeout=1.0)  # pragma: no mutate (it stops within one poll)
             self._reader = None
 
     def close(self) -> None:
@@ -424,8 +424,9 @@ class Session(InboundMixin):
             self._finish(req, Outcome.FAILED, now)
         self._queue.clear()
         self._oob.clear()
-        self._ordered = None
-        self._hello = None
+        # the session is over (closed or lost): nothing reads these two again
+        self._ordered = None  # pragma: no mutate (the session is over)
+        self._hello = None  # pragma: no mutate (the session is over)
 
     def _check_alive(self, now: float | None = None) -> None:
         if self._lost:
@@ -501,7 +502,10 @@ class Session(InboundMixin):
         _log.warning("starting a new session: %s", why)
         self._fail_all_ordered(now)
         hello = Hello(self._seq(), self.codec.layout.digest, self.config.protocol_minor)
-        self._hello = Request(hello, now)
+        self._hello = Request(
+            hello,
+            now,  # pragma: no mutate (an internal request's time: nothing reads it)
+        )
         self._transmit(self._hello)
 
     def _fail_all_ordered(self, now: float) -> None:
