@@ -46,7 +46,7 @@ from pirate_bt.robot.loader import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 ELF = ROOT / "firmware" / "piratebay" / "build" / "piratebay.elf"
-GUARD_US = 34 * 20  # the longest legal bus frame at 500 kbaud
+GUARD_US = 34 * 10  # the longest legal bus frame at 1 Mbaud
 TIMEOUT_US = 1500
 
 

@@ -110,6 +110,7 @@ static void frame(void) {
         bus.counts.stops++;
         bus.own_stop = false; /* the master took over the stop */
         apply(bus.body + 2);
+        motors_tick(); /* a stop reaches the H-bridge now, not at the next tick */
         return;
     }
     bus.counts.exchanges++;
@@ -137,6 +138,10 @@ void bus_poll(void) {
         }
         if (bus.damaged) {
             bus.counts.bad++;
+        } else if (bus.n > 1 && board.known && bus.raw[0] > 1u && bus.raw[1] != board.id) {
+            /* another board's frame (its address is the first byte after the COBS code,
+             * never 0): not even decoded, so a busy bus costs little */
+            bus.counts.others++;
         } else if (bus.n > 0 && board.known) {
             frame();
         }

@@ -15,6 +15,12 @@
 static struct motor_state state[PICO_MAX_MOTORS];
 static int32_t integral_q16[PICO_MAX_MOTORS];
 static int16_t duty_now[PICO_MAX_MOTORS];
+/* Worked out once per setpoint, not every millisecond (a 32-bit division costs the AVR
+ * some 600 cycles): pwm and torque's duty, position's target in angle raw units,
+ * velocity's feed-forward duty. */
+static int32_t derived[PICO_MAX_MOTORS];
+
+static void derive(uint8_t k);
 
 /* What a watchdog or brown-out reset must not lose: the joints' setpoints. */
 static struct {
@@ -53,6 +59,7 @@ void motors_init(bool warm) {
         } else if (kept) {
             state[k].mode = PB_MODE_PWM; /* the others brake */
         }
+        derive(k);
     }
     save();
 }
@@ -62,6 +69,33 @@ static int16_t range_top(const struct pb_motor *m, uint8_t mode) {
     int16_t hi = m->range[mode].hi;
     int16_t a = lo < 0 ? (int16_t)-lo : lo;
     return a > hi ? a : hi;
+}
+
+static int16_t limit(int32_t v, int16_t top);
+static int16_t range_top(const struct pb_motor *m, uint8_t mode);
+
+static void derive(uint8_t k) {
+    const struct pb_motor *m = &board.motor[k];
+    int16_t raw = state[k].raw;
+    switch (state[k].mode) {
+    case PB_MODE_PWM:
+    case PB_MODE_TORQUE:
+    case PB_MODE_VELOCITY: {
+        int16_t top = range_top(m, state[k].mode);
+        derived[k] = top > 0 ? limit((int32_t)raw * 255 / top, 255) : 0;
+        break;
+    }
+    case PB_MODE_POSITION: {
+        int8_t c = board.angle_channel[k];
+        derived[k] = c < 0 ? 0
+                           : board.channel[c].zero_raw +
+                                 ((int32_t)raw * board.motor_io[k].position_q16) / 65536;
+        break;
+    }
+    default:
+        derived[k] = 0;
+        break;
+    }
 }
 
 bool motors_set(uint8_t k, uint8_t mode, int16_t raw) {
@@ -78,8 +112,12 @@ bool motors_set(uint8_t k, uint8_t mode, int16_t raw) {
     if (state[k].mode != mode) {
         integral_q16[k] = 0;
     }
+    if (state[k].mode == mode && state[k].raw == raw) {
+        return true; /* the same setpoint again (every poll): nothing to work out */
+    }
     state[k].mode = mode;
     state[k].raw = raw;
+    derive(k);
     save();
     return true;
 }
@@ -97,6 +135,7 @@ void motors_stop(void) {
             state[k].mode = PB_MODE_VELOCITY; /* 0 is a brake too */
             state[k].raw = 0;
         }
+        derive(k);
     }
     save();
 }
@@ -120,22 +159,17 @@ static int16_t limit(int32_t v, int16_t top) {
 
 /* The duty of motor k this millisecond; 0 means brake (unless it is off). */
 static int16_t control(uint8_t k) {
-    const struct pb_motor *m = &board.motor[k];
     int16_t raw = state[k].raw;
     switch (state[k].mode) {
     case PB_MODE_PWM:
-    case PB_MODE_TORQUE: {
-        int16_t top = range_top(m, state[k].mode);
-        return top > 0 ? limit((int32_t)raw * 255 / top, 255) : 0;
-    }
+    case PB_MODE_TORQUE:
+        return (int16_t)derived[k];
     case PB_MODE_POSITION: {
         int8_t c = board.angle_channel[k];
         if (c < 0) {
             return 0;
         }
-        const struct pico_channel *ch = &board.channel[c];
-        int32_t target = ch->zero_raw + ((int32_t)raw * board.motor_io[k].position_q16) / 65536;
-        int32_t error = target - sensors_channel((uint8_t)c);
+        int32_t error = derived[k] - sensors_channel((uint8_t)c);
         if (error >= -POSITION_DEADBAND && error <= POSITION_DEADBAND) {
             return 0;
         }
@@ -146,13 +180,12 @@ static int16_t control(uint8_t k) {
             integral_q16[k] = 0;
             return 0; /* velocity 0 is a brake, not a loop */
         }
-        int16_t top = range_top(m, PB_MODE_VELOCITY);
         int32_t error = (int32_t)raw - sensors_speed(k);
         int32_t i = integral_q16[k] + error * VELOCITY_KI_Q16;
         i = i > DUTY_Q16 ? DUTY_Q16 : i < -DUTY_Q16 ? -DUTY_Q16 : i;
         integral_q16[k] = i;
-        int32_t ff = top > 0 ? (int32_t)raw * 255 / top : 0;
-        return limit(ff + (error * VELOCITY_KP_Q16 + i) / 65536, 255);
+        /* >> 16 of a signed value: rounds toward minus infinity, a bias below one duty */
+        return limit(derived[k] + ((error * VELOCITY_KP_Q16 + i) >> 16), 255);
     }
     default:
         return 0;

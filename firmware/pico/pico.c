@@ -29,16 +29,18 @@ void pico_init(void) {
 }
 
 void pico_turn(void) {
-    hal_feed();
     bus_poll();
     uint32_t now = hal_ms();
     if (now == last_ms) {
         return;
     }
     last_ms = now;
+    hal_feed(); /* once a millisecond: plenty against the 60 ms watchdog */
     sensors_tick(now);
+    bus_poll(); /* between the steps of the tick: a request is answered in time */
     bus_tick(now);
     motors_tick();
+    bus_poll();
     const struct bus_counts *c = bus_counts();
     pico_debug.exchanges = c->exchanges;
     pico_debug.stops = c->stops;

@@ -2,7 +2,7 @@
  * file, and only this file, for another board protocol; keep board_bus.h.
  *
  * A frame is COBS(addr, cmd, payload, CRC-16/XMODEM little-endian) 0x00, at
- * 500 kbaud 8N1 on RS485. EXCHANGE (0x01) carries the board's setpoints and is
+ * 1 Mbaud 8N1 on RS485. EXCHANGE (0x01) carries the board's setpoints and is
  * answered by EXCHANGE_REPLY (0x81): status, then the board's state channels as
  * int16. STOP (0x02) carries setpoints too and is not answered. A reply with a byte
  * the USART flagged (framing error, overrun) is a bad reply. After a timeout or a bad
@@ -23,8 +23,12 @@
 #define BODY_MAX 32u
 #define WIRE_MAX (COBS_MAX_ENCODED(BODY_MAX) + 1u)
 #define BYTE_US (10000000UL / BUS_BAUD) /* one 8N1 byte on the line */
-#define GUARD_US (WIRE_MAX * BYTE_US)     /* the longest legal frame: 680 us */
+#define GUARD_US (WIRE_MAX * BYTE_US)     /* the longest legal frame: 340 us */
 
+/* The bus rate is exact at 16 MHz (U2X: F_CPU / 8 / (UBRR + 1)), on the bridge and on
+ * every PICO board: 1 Mbaud is UBRR 1. */
+static_assert(F_CPU % (8UL * BUS_BAUD) == 0 && F_CPU / (8UL * BUS_BAUD) >= 1,
+              "the board bus rate must be exact at 16 MHz");
 static_assert(4u + 3u * PB_MAX_BOARD_MOTORS <= BODY_MAX, "a request fits 32 bytes");
 static_assert(5u + 2u * PB_MAX_BOARD_CHANNELS <= BODY_MAX, "a reply fits 32 bytes");
 static_assert(BUS_REPLY_TIMEOUT_US >= 100u && BUS_REPLY_TIMEOUT_US <= 30000u,
@@ -61,7 +65,9 @@ bool board_bus_idle(void) {
         uint16_t since_rx = (uint16_t)(now - uart1_last_rx());
         uint16_t since_fail = (uint16_t)(now - bus.guard_from);
         uint16_t quiet = since_rx < since_fail ? since_rx : since_fail;
-        if (quiet < (uint16_t)(GUARD_US * TIMER_TICKS_PER_US)) {
+        uint16_t guard = (uint16_t)(GUARD_US * TIMER_TICKS_PER_US);
+        if (quiet < guard) {
+            timer_wake_at((uint16_t)(now + guard - quiet));
             return false;
         }
         bus.guard = false;
@@ -174,8 +180,10 @@ enum bus_result board_bus_poll(struct bus_reply *reply) {
         return failed(BUS_BAD_REPLY);
     }
     uint16_t waited = (uint16_t)(timer_ticks() - sent_at);
-    if (waited > (uint16_t)(BUS_REPLY_TIMEOUT_US * TIMER_TICKS_PER_US)) {
+    uint16_t timeout = (uint16_t)(BUS_REPLY_TIMEOUT_US * TIMER_TICKS_PER_US);
+    if (waited > timeout) {
         return failed(BUS_TIMEOUT);
     }
+    timer_wake_at((uint16_t)(sent_at + timeout + 1u)); /* a reply byte wakes us sooner */
     return BUS_BUSY;
 }

@@ -21,7 +21,7 @@
 #include "robot_layout.h"
 
 #ifndef BUS_BAUD
-#define BUS_BAUD 500000UL
+#define BUS_BAUD 1000000UL
 #endif
 /* Give up on a reply this long after the request's last byte left the line. */
 #ifndef BUS_REPLY_TIMEOUT_US

@@ -2,10 +2,13 @@
 
 #include <avr/eeprom.h>
 #include <avr/fuse.h>
+#include <avr/interrupt.h>
 #include <avr/io.h>
+#include <avr/sleep.h>
 #include <avr/wdt.h>
 
 #include "pins.h"
+#include "uart.h"
 
 #define STACK_PAINT 0xC5u
 /* One byte: a count of power-ons, the high byte of the boot id (docs/firmware.md). */
@@ -92,10 +95,22 @@ void mcu_init(void) {
     }
     boot_id_kept = boot_id;
 
+    set_sleep_mode(SLEEP_MODE_IDLE);
     wdt_enable(WDTO_120MS);
 }
 
 void mcu_feed(void) { wdt_reset(); }
+
+void mcu_idle(void) {
+    cli();
+    if (!uart_rx_pending()) {
+        sleep_enable();
+        sei();
+        sleep_cpu(); /* the instruction after sei runs first: no wake-up is lost */
+        sleep_disable();
+    }
+    sei();
+}
 
 void mcu_estop_input_init(void) {
     ESTOP_DDR &= (uint8_t)~_BV(ESTOP_BIT);

@@ -59,6 +59,8 @@ extern struct pb_debug pb_debug;
 void mcu_init(void);
 /* Feed the hardware watchdog (once per main-loop turn). */
 void mcu_feed(void);
+/* Idle sleep until the next interrupt, unless received bytes wait (then at once). */
+void mcu_idle(void);
 /* This boot's id (differs from the previous boot's). */
 uint16_t mcu_boot_id(void);
 /* Update pb_debug.stack_low from the painted stack (cheap; call every period). */

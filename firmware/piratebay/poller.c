@@ -6,6 +6,7 @@
 #include "mcu.h"
 #include "safety.h"
 #include "timer.h"
+#include "uart.h"
 
 #define MARGIN_US 300u /* keep clear of the next period's start */
 
@@ -175,6 +176,10 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
 }
 
 void poller_run(void) {
+    if (!poll.busy) {
+        uart1_rx_flush(); /* bytes between exchanges answer nothing (and would keep the
+                           * main loop from sleeping) */
+    }
     if (poll.busy) {
         struct bus_reply reply;
         enum bus_result r = board_bus_poll(&reply);

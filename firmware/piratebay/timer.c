@@ -22,6 +22,17 @@ void timer_init(void) {
 
 ISR(TIMER0_COMPA_vect) { ms++; }
 
+/* Only wakes the main loop; disarms itself. */
+ISR(TIMER1_COMPA_vect) { TIMSK1 &= (uint8_t)~_BV(OCIE1A); }
+
+void timer_wake_at(uint16_t ticks) {
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        OCR1A = ticks;
+        TIFR1 = _BV(OCF1A);
+        TIMSK1 |= _BV(OCIE1A);
+    }
+}
+
 uint32_t timer_ms(void) {
     uint32_t now;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = ms; }

@@ -64,5 +64,7 @@ uint16_t uart1_last_rx(void);
 
 /* A copy of the line counters. */
 void uart_line_stats(struct uart_line_stats *out);
+/* Received bytes wait in either ring (call with interrupts off, before sleeping). */
+bool uart_rx_pending(void);
 
 #endif

@@ -80,3 +80,16 @@ bool channel_service(channel_handler handle) {
     }
     return true;
 }
+
+/* One record from the boards, waiting for it, to `handle`. False at the end of the
+ * channel. (pirate-chain runs in lockstep with Python: it waits for every step.) */
+bool channel_wait(channel_handler handle) {
+    static uint8_t in[65536];
+    char type;
+    uint16_t n;
+    if (!read_record(&type, in, &n)) {
+        return false;
+    }
+    handle(type, in, n);
+    return true;
+}

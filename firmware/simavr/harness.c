@@ -11,7 +11,7 @@
  *    frame the bridge sends goes out stamped with the AVR cycle at which its 0x00
  *    left, so the board physics advances in step with the MCU's clock. The answer
  *    to an EXCHANGE is the board's latest reply, which the board simulator updates
- *    once per state period ('U'): the harness sends it at 500 kbaud 20 us after the
+ *    once per state period ('U'): the harness sends it at 1 Mbaud 20 us after the
  *    request, so the firmware never waits on the host machine's scheduler (real
  *    boards, too, answer with readings sampled before the request). A STOP, a frame
  *    with a bad CRC, or a board without a reply (a silent board) gets none.
@@ -78,6 +78,7 @@ static double now_s(void) {
 
 static void reset_mcu(void) {
     avr_reset(avr); /* also clears simavr's cycle timers: ours start again */
+    no_level_polling(avr);
     mcu_stats.dtr_resets++;
     reset_expected = true;
     boot_until = avr->cycle + (uint64_t)boot_ms * (HZ / 1000u);
@@ -196,6 +197,7 @@ int main(int argc, char **argv) {
     avr->frequency = HZ;
     avr->log = 0;
     avr_load_firmware(avr, &fw);
+    no_level_polling(avr);
     uint32_t debug_at = find_symbol(&fw, "pb_debug"); /* its SRAM address, 0: none */
     if (!debug_at) {
         fprintf(stderr, "pirate-simavr: no pb_debug in %s: resets and stack not measured\n",

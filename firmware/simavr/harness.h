@@ -11,6 +11,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
@@ -29,7 +30,7 @@
 #define HZ 16000000u
 #define HOST_BAUD 115200u
 #define HOST_BYTE_CYCLES ((HZ * 10u + HOST_BAUD / 2u) / HOST_BAUD)
-#define BUS_BAUD 500000u
+#define BUS_BAUD 1000000u
 #define BUS_BYTE_CYCLES (HZ * 10u / BUS_BAUD)
 #define BUS_TURNAROUND_CYCLES (HZ / 50000u) /* 20 us */
 #define GPIOR0_DATA 0x3Eu
@@ -39,6 +40,17 @@
 
 enum { MARK_STATE_BEGIN = 0x01, MARK_STATE_END = 0x81, MARK_FRAME_END = 0x02,
        MARK_BULK_END = 0x82, MARK_ESTOP = 0x03, MARK_BUS_STOP = 0x04 };
+
+/* simavr polls a level-triggered external interrupt pin every cycle while it is low
+ * (a new poll at every write to its port, whether or not the interrupt is enabled):
+ * the bridge's RS485 DE and /RE (INT4, INT5) and the PICO's DE (INT0) are low most of
+ * the time. The firmwares use no external interrupt; turn the polling off after every
+ * reset (a reset turns it on again). */
+static inline void no_level_polling(avr_t *avr) {
+    for (uint8_t i = 0; i < 8; i++) {
+        avr_extint_set_strict_lvl_trig(avr, i, 0);
+    }
+}
 
 /* channel.c (calls no other file): the records to and from the board simulator */
 typedef void (*channel_handler)(char type, const uint8_t *payload, uint16_t n);

@@ -17,6 +17,7 @@
  * frames, corrupted frames applied, and whether HELLO is answered afterwards.
  *
  * Prints one `name value` line per figure. */
+#include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
@@ -35,7 +36,8 @@
 
 #define HZ 16000000u
 #define HOST_BYTE_CYCLES (HZ / (PB_BAUD / 10u))
-#define BUS_BYTE_CYCLES (HZ / 50000u)
+/* one byte at 1 Mbaud, as simavr times it (11 bit times: it counts a parity bit) */
+#define BUS_BYTE_CYCLES (HZ / 100000u * 11u / 10u)
 #define GPIOR0_DATA 0x3E
 
 static avr_t *avr;
@@ -180,10 +182,12 @@ static avr_cycle_count_t feed_host(avr_t *a, avr_cycle_count_t when, void *param
     return when + HOST_BYTE_CYCLES;
 }
 
+static uint64_t bus_reply_at; /* a board answers 20 us after the request has left */
+
 static avr_cycle_count_t feed_bus(avr_t *a, avr_cycle_count_t when, void *param) {
     (void)a;
     (void)param;
-    if (busq_tail != busq_head) {
+    if (busq_tail != busq_head && when >= bus_reply_at) {
         avr_raise_irq(bus_in, busq[busq_tail++ & 0xFFFu]);
     }
     return when + BUS_BYTE_CYCLES;
@@ -247,6 +251,7 @@ static void bus_out(avr_irq_t *irq, uint32_t value, void *param) {
     if (b < 0) {
         return;
     }
+    bus_reply_at = avr->cycle + BUS_BYTE_CYCLES + HZ / 50000u;
     struct pb_board board = *layout_board((uint8_t)b);
     uint8_t reply[40];
     uint8_t k = 0;
@@ -323,6 +328,11 @@ int main(int argc, char **argv) {
      * firmware's pull-up: not pressed */
     avr_ioport_external_t closed = {.name = 'A', .mask = 0x01, .value = 0x00};
     avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &closed);
+    /* simavr polls a low level-triggered interrupt pin every cycle (DE and /RE are
+     * INT4 and INT5, low most of the time); the firmware uses no external interrupt */
+    for (uint8_t i = 0; i < 8; i++) {
+        avr_extint_set_strict_lvl_trig(avr, i, 0);
+    }
     uint32_t flags = 0;
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('1'), &flags);

@@ -45,6 +45,7 @@ static uint16_t boot_count;
 void timer_init(void) {}
 uint32_t timer_ms(void) { return (uint32_t)(now_us / 1000u); }
 uint16_t timer_ticks(void) { return (uint16_t)(now_us * TIMER_TICKS_PER_US); }
+void timer_wake_at(uint16_t ticks) { (void)ticks; }
 
 /* ---- mcu ---- */
 struct pb_debug pb_debug;

@@ -1,0 +1,501 @@
+/* pirate-chain: the whole embedded chain in simavr, in virtual time.
+ *
+ * The PIRATEbay bridge ELF on an ATmega2560 and one reference PICO ELF per board on
+ * ATmega328ps (each with its board id in EEPROM), all at 16 MHz, on one simulated
+ * RS485 line (chain_line.c: drivers, receivers, collisions). The physics is Python's:
+ * it sends each step's pin inputs (ADC readings, encoder counts, the IMU's angles)
+ * and receives the H-bridges' outputs (chain_board.c). The host link (the bridge's
+ * USART0) is carried in the same records, at 115200 baud: no pty, no wall clock.
+ * Nothing runs between records, so a run is a pure function of its inputs, and
+ * however slow the machine, no deadline is missed: the chain runs in virtual time.
+ *
+ * The cores run in lockstep slices of 10 us (QUANTUM_CYCLES); a sleeping core is
+ * fenced at the slice's end so that it never runs ahead of the others.
+ *
+ *   pirate-chain BRIDGE.elf PICO.elf ID [ID...]
+ *
+ * Records, both ways: type u8, length u16 LE, payload.
+ *   chain -> Python: 'P' text "boards ID..." once ready
+ *                    'a' step done: cycle u64; host bytes out (u16 n, bytes); then per
+ *                        board, per motor slot 0 and 1: drive u8 (0 off, 1 brake, 2 run),
+ *                        mean duty while running over the step i16
+ *                    'w' a watch ended: start cycle u64, then per watched motor the
+ *                        cycle u64 its output first read off or brake after the start
+ *                    'S' figures, "name value" lines
+ *   Python -> chain: 'A' advance: until cycle u64; host bytes (u16 n, bytes); then per
+ *                        board: adc[4] u16, encoder[2] i32 (the counts to reach by
+ *                        `until`), imu[3] i16 (heading, roll, pitch), fault u8
+ *                    'E' u8: the bridge's e-stop contact (D22) opens (1) or closes (0)
+ *                    'K' halt the bridge's core (killed: it neither runs nor drives)
+ *                    'X' reset the bridge's core (a DTR edge)
+ *                    'W' watch: kind u8 (0: from the end of the next host frame fed to
+ *                        the bridge after the frames queued now and `skip` more, 1: from
+ *                        now), skip u8, n u8, then n x (board index u8, slot u8)
+ *                    'Q' figures
+ * stdin closed: exit 0. */
+#include "chain.h"
+
+#define MAX_CORES CHAIN_NODES
+#define HOST_RING 65536u
+
+static avr_t *cores[MAX_CORES];
+static avr_uart_t *uarts[MAX_CORES][2]; /* each core's USARTs, for the 10-bit fix */
+static int n_boards;
+static uint8_t board_ids[CHAIN_MAX_BOARDS];
+static uint64_t now;
+static bool bridge_halted;
+static uint32_t bridge_debug_at, pico_debug_at;
+
+/* the host link: bytes in (fed at the line's rate), bytes out */
+static avr_irq_t *host_in;
+static uint8_t host_q[HOST_RING];
+static unsigned host_q_head, host_q_tail;
+static bool host_xoff;
+static uint8_t host_out[HOST_RING];
+static unsigned host_out_n;
+static uint64_t last_delimiter_in;
+
+/* the motors: duty sums over the step */
+static int64_t duty_sum[CHAIN_MAX_BOARDS][2];
+static uint64_t run_samples[CHAIN_MAX_BOARDS][2], samples;
+
+/* a watch: every watched motor's first off/brake after `watch_start` */
+static struct {
+    bool on, waiting_delimiter;
+    unsigned skip; /* host delimiters to let pass before the one that starts the clock */
+    uint64_t start, armed_at;
+    int n;
+    uint8_t board[2 * CHAIN_MAX_BOARDS], slot[2 * CHAIN_MAX_BOARDS];
+    uint64_t stopped[2 * CHAIN_MAX_BOARDS];
+} watch;
+
+/* figures */
+static struct {
+    uint64_t cycles_n, cycles_sum, cycles_min, cycles_max;
+    uint64_t cycle_start;
+    double wall_s;
+} fig;
+
+static void nosleep(avr_t *avr, avr_cycle_count_t how_long) { (void)avr, (void)how_long; }
+
+static double wall_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+/* -- the cores ---------------------------------------------------------------------- */
+
+/* A timer at every slice boundary: a sleeping core wakes there and goes no further. */
+static avr_cycle_count_t fence(avr_t *avr, avr_cycle_count_t when, void *param) {
+    (void)avr, (void)param;
+    return when + QUANTUM_CYCLES;
+}
+
+static void arm_fence(avr_t *avr) {
+    avr_cycle_timer_cancel(avr, fence, NULL);
+    avr_cycle_timer_register(avr, QUANTUM_CYCLES - avr->cycle % QUANTUM_CYCLES, fence, NULL);
+}
+
+/* simavr 1.6 counts a parity bit in every USART frame, parity or not: 11 bit times for
+ * 8N1. Back to 10 (the real line's byte time) once the firmware has set its rate. */
+static void find_uarts(int c) {
+    int k = 0;
+    for (avr_io_t *io = cores[c]->io_port; io && k < 2; io = io->next) {
+        if (io->kind && strcmp(io->kind, "uart") == 0) {
+            uarts[c][k++] = (avr_uart_t *)io;
+        }
+    }
+}
+
+static void ten_bit_bytes(int c) {
+    for (int k = 0; k < 2; k++) {
+        avr_uart_t *u = uarts[c][k];
+        if (u && u->cycles_per_byte && u->cycles_per_byte % 11u == 0) {
+            u->cycles_per_byte = u->cycles_per_byte / 11u * 10u;
+        }
+    }
+}
+
+static void run_core(avr_t *avr, uint64_t until) {
+    while (avr->cycle < until) {
+        int state = avr_run(avr);
+        if (state == cpu_Done || state == cpu_Crashed) {
+            fprintf(stderr, "pirate-chain: %s %s at cycle %llu (pc 0x%05x)\n",
+                    avr == cores[0] ? "the bridge" : "a PICO board",
+                    state == cpu_Crashed ? "crashed" : "stopped", (unsigned long long)avr->cycle,
+                    (unsigned)avr->pc);
+            exit(4);
+        }
+    }
+}
+
+static avr_t *make_core(const char *mcu, elf_firmware_t *fw) {
+    avr_t *avr = avr_make_mcu_by_name(mcu);
+    if (!avr) {
+        fprintf(stderr, "pirate-chain: this simavr has no %s\n", mcu);
+        exit(2);
+    }
+    avr_init(avr);
+    avr->frequency = HZ;
+    avr->log = 0;
+    avr->sleep = nosleep; /* virtual time: a sleeping core skips ahead, never waits */
+    avr_load_firmware(avr, fw);
+    no_level_polling(avr);
+    return avr;
+}
+
+static uint32_t find_symbol(const elf_firmware_t *fw, const char *name) {
+    for (uint32_t i = 0; i < fw->symbolcount; i++) {
+        if (strcmp(fw->symbol[i]->symbol, name) == 0) {
+            return fw->symbol[i]->addr & 0xFFFFu;
+        }
+    }
+    return 0;
+}
+
+/* -- the host link ------------------------------------------------------------------ */
+
+static avr_cycle_count_t feed_host(avr_t *avr, avr_cycle_count_t when, void *param) {
+    (void)avr, (void)param;
+    if (host_xoff) {
+        return when + HOST_BYTE_CYCLES / 4u;
+    }
+    if (host_q_tail != host_q_head) {
+        uint8_t byte = host_q[host_q_tail++ % HOST_RING];
+        avr_raise_irq(host_in, byte);
+        if (byte == 0) {
+            last_delimiter_in = when;
+            if (watch.on && watch.waiting_delimiter && watch.skip > 0) {
+                watch.skip--;
+            } else if (watch.on && watch.waiting_delimiter) {
+                watch.waiting_delimiter = false;
+                watch.start = when; /* the frame's last byte entered the bridge */
+            }
+        }
+    }
+    return when + HOST_BYTE_CYCLES;
+}
+
+static void host_byte_out(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq, (void)param;
+    if (host_out_n < sizeof host_out) {
+        host_out[host_out_n++] = (uint8_t)value;
+    }
+}
+
+static void host_xon(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq, (void)value, (void)param;
+    host_xoff = false;
+}
+
+static void host_xoff_irq(avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq, (void)value, (void)param;
+    host_xoff = true;
+}
+
+static void attach_host(avr_t *avr) {
+    uint32_t flags = 0;
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    host_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
+                            host_byte_out, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+                            host_xon, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+                            host_xoff_irq, NULL);
+    avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
+}
+
+static void set_estop_input(bool open) {
+    avr_ioport_external_t ext = {.name = 'A', .mask = 0x01, .value = open ? 0x01 : 0x00};
+    avr_ioctl(cores[0], AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &ext);
+    avr_raise_irq(avr_io_getirq(cores[0], AVR_IOCTL_IOPORT_GETIRQ('A'), 0), open ? 1 : 0);
+}
+
+/* -- the bus cycle figure: from the first request of a cycle to the last reply ------ */
+
+static bool trace;
+
+static void on_frame(int sender, const uint8_t *bytes, unsigned n, uint64_t start, uint64_t end) {
+    if (trace) {
+        fprintf(stderr, "frame %d %llu..%llu n=%u:", sender, (unsigned long long)start,
+                (unsigned long long)end, n);
+        for (unsigned i = 0; i < n && i < 8; i++) {
+            fprintf(stderr, " %02x", bytes[i]);
+        }
+        fprintf(stderr, "\n");
+    }
+    if (n < 3) {
+        return;
+    }
+    uint8_t addr = bytes[1]; /* after the COBS code byte; ids are never 0 */
+    if (sender == 0 && addr == board_ids[0] && bytes[0] >= 3 && bytes[2] == 0x01) {
+        fig.cycle_start = start;
+    } else if (sender != 0 && addr == board_ids[n_boards - 1] && fig.cycle_start) {
+        uint64_t d = end - fig.cycle_start;
+        if (fig.cycles_n == 0 || d < fig.cycles_min) {
+            fig.cycles_min = d;
+        }
+        if (d > fig.cycles_max) {
+            fig.cycles_max = d;
+        }
+        fig.cycles_n++;
+        fig.cycles_sum += d;
+        fig.cycle_start = 0;
+    }
+}
+
+/* -- stepping ----------------------------------------------------------------------- */
+
+static void sample_motors(void) {
+    samples++;
+    for (int b = 0; b < n_boards; b++) {
+        for (int slot = 0; slot < 2; slot++) {
+            struct motor_sample s = board_sample(b, slot);
+            if (s.drive == 2) {
+                duty_sum[b][slot] += s.duty;
+                run_samples[b][slot]++;
+            }
+            if (watch.on && !watch.waiting_delimiter) {
+                for (int k = 0; k < watch.n; k++) {
+                    if (watch.board[k] == b && watch.slot[k] == slot && !watch.stopped[k] &&
+                        s.drive != 2 && now >= watch.start) {
+                        watch.stopped[k] = now;
+                    }
+                }
+            }
+        }
+    }
+}
+
+static void check_watch(void) {
+    if (!watch.on || watch.waiting_delimiter) {
+        return;
+    }
+    for (int k = 0; k < watch.n; k++) {
+        if (!watch.stopped[k]) {
+            return;
+        }
+    }
+    uint8_t out[8 + 8 * 2 * CHAIN_MAX_BOARDS];
+    channel_put_u64(out, watch.start);
+    for (int k = 0; k < watch.n; k++) {
+        channel_put_u64(out + 8 + 8 * k, watch.stopped[k]);
+    }
+    channel_send_record('w', out, (uint16_t)(8 + 8 * watch.n));
+    watch.on = false;
+}
+
+static void advance(uint64_t until) {
+    memset(duty_sum, 0, sizeof duty_sum);
+    memset(run_samples, 0, sizeof run_samples);
+    samples = 0;
+    while (now < until) {
+        uint64_t q1 = now + QUANTUM_CYCLES < until ? now + QUANTUM_CYCLES : until;
+        for (int c = 0; c <= n_boards; c++) {
+            if (c == 0 && bridge_halted) {
+                continue;
+            }
+            run_core(cores[c], q1);
+            ten_bit_bytes(c);
+        }
+        if (bridge_halted) {
+            cores[0]->cycle = q1; /* its clock goes on; it does nothing */
+        }
+        line_settle(q1);
+        now = q1;
+        sample_motors();
+        check_watch();
+    }
+}
+
+static uint16_t get_u16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+
+static uint64_t get_u64(const uint8_t *p) {
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; i--) {
+        v = v << 8 | p[i];
+    }
+    return v;
+}
+
+static void step(const uint8_t *p, uint16_t n) {
+    if (n < 10) {
+        return;
+    }
+    uint64_t until = get_u64(p);
+    uint16_t host_n = get_u16(p + 8);
+    const uint8_t *q = p + 10;
+    for (unsigned i = 0; i < host_n; i++) {
+        host_q[host_q_head++ % HOST_RING] = q[i];
+    }
+    q += host_n;
+    for (int b = 0; b < n_boards; b++) {
+        uint16_t adc[4];
+        int32_t enc[2];
+        int16_t imu[3];
+        for (int k = 0; k < 4; k++) {
+            adc[k] = get_u16(q + 2 * k);
+        }
+        for (int k = 0; k < 2; k++) {
+            enc[k] = (int32_t)(q[8 + 4 * k] | q[9 + 4 * k] << 8 | q[10 + 4 * k] << 16 |
+                               (uint32_t)q[11 + 4 * k] << 24);
+        }
+        for (int k = 0; k < 3; k++) {
+            imu[k] = (int16_t)get_u16(q + 16 + 2 * k);
+        }
+        board_inputs(b, adc, enc, imu, q[22] != 0, now, until);
+        q += 23;
+    }
+    advance(until);
+    /* the answer */
+    static uint8_t out[16 + HOST_RING + 6 * CHAIN_MAX_BOARDS];
+    channel_put_u64(out, now);
+    unsigned k = 8;
+    out[k++] = (uint8_t)host_out_n;
+    out[k++] = (uint8_t)(host_out_n >> 8);
+    memcpy(out + k, host_out, host_out_n);
+    k += host_out_n;
+    host_out_n = 0;
+    for (int b = 0; b < n_boards; b++) {
+        for (int slot = 0; slot < 2; slot++) {
+            struct motor_sample s = board_sample(b, slot);
+            int16_t mean = run_samples[b][slot]
+                               ? (int16_t)(duty_sum[b][slot] / (int64_t)run_samples[b][slot])
+                               : 0;
+            if (s.drive == 2 && mean == 0) {
+                mean = s.duty;
+            }
+            out[k++] = s.drive;
+            out[k++] = (uint8_t)mean;
+            out[k++] = (uint8_t)((uint16_t)mean >> 8);
+        }
+    }
+    channel_send_record('a', out, (uint16_t)k);
+}
+
+static uint16_t debug16(avr_t *avr, uint32_t at, unsigned offset) {
+    return at ? (uint16_t)(avr->data[at + offset] | avr->data[at + offset + 1] << 8) : 0;
+}
+
+static void figures(void) {
+    static char text[8192];
+    const struct line_stats *l = line_stats();
+    double sim_s = (double)now / HZ;
+    int k = snprintf(text, sizeof text,
+                     "cycles %llu\nsimulated_s %.6f\nwall_s %.3f\nspeed_vs_real_time %.4f\n"
+                     "line_bytes %llu\nline_delivered %llu\nline_collisions %llu\n"
+                     "line_unheard %llu\nline_driver_off %llu\nline_truncated %llu\nline_echo %llu\n"
+                     "bridge_stack_high_water_bytes %u\nbridge_board_own_stops %u\n"
+                     "bridge_estop_input_trips %u\nbridge_bus_framing_errors %u\n",
+                     (unsigned long long)now, sim_s, fig.wall_s,
+                     fig.wall_s > 0 ? sim_s / fig.wall_s : 0.0, (unsigned long long)l->bytes,
+                     (unsigned long long)l->delivered, (unsigned long long)l->collisions,
+                     (unsigned long long)l->unheard, (unsigned long long)l->driver_off,
+                     (unsigned long long)l->truncated, (unsigned long long)l->echo,
+                     bridge_debug_at ? 0x21FFu - debug16(cores[0], bridge_debug_at, 6) : 0u,
+                     debug16(cores[0], bridge_debug_at, 28), debug16(cores[0], bridge_debug_at, 30),
+                     debug16(cores[0], bridge_debug_at, 22));
+    if (fig.cycles_n) {
+        k += snprintf(text + k, sizeof text - (size_t)k,
+                      "bus_cycle_us_n %llu\nbus_cycle_us_mean %.1f\nbus_cycle_us_min %.1f\n"
+                      "bus_cycle_us_max %.1f\n",
+                      (unsigned long long)fig.cycles_n,
+                      (double)fig.cycles_sum / (double)fig.cycles_n / (HZ / 1e6),
+                      (double)fig.cycles_min / (HZ / 1e6), (double)fig.cycles_max / (HZ / 1e6));
+    }
+    unsigned worst_stack = 0;
+    for (int b = 0; b < n_boards; b++) {
+        avr_t *a = cores[b + 1];
+        unsigned stack = pico_debug_at ? 0x08FFu - debug16(a, pico_debug_at, 8) : 0u;
+        if (stack > worst_stack) {
+            worst_stack = stack;
+        }
+        k += snprintf(text + k, sizeof text - (size_t)k,
+                      "pico_%u_exchanges %u\npico_%u_stops %u\npico_%u_bad_frames %u\n"
+                      "pico_%u_own_stops %u\npico_%u_own_stop %u\npico_%u_stack_high_water_bytes %u\n",
+                      board_ids[b], debug16(a, pico_debug_at, 10), board_ids[b],
+                      debug16(a, pico_debug_at, 12), board_ids[b], debug16(a, pico_debug_at, 14),
+                      board_ids[b], debug16(a, pico_debug_at, 16), board_ids[b],
+                      pico_debug_at ? a->data[pico_debug_at + 22] : 0u, board_ids[b], stack);
+    }
+    k += snprintf(text + k, sizeof text - (size_t)k, "pico_stack_high_water_bytes %u\n",
+                  worst_stack);
+    channel_send_record('S', (const uint8_t *)text, (uint16_t)k);
+}
+
+static void handle(char type, const uint8_t *payload, uint16_t n) {
+    double t0 = wall_now();
+    if (type == 'A') {
+        step(payload, n);
+    } else if (type == 'E' && n >= 1) {
+        set_estop_input(payload[0] != 0);
+    } else if (type == 'K') {
+        bridge_halted = true;
+        line_detach(0);
+    } else if (type == 'X') {
+        avr_reset(cores[0]); /* also clears its cycle timers: ours start again */
+        no_level_polling(cores[0]);
+        avr_cycle_timer_register(cores[0], HOST_BYTE_CYCLES, feed_host, NULL);
+        arm_fence(cores[0]);
+        host_q_tail = host_q_head;
+    } else if (type == 'W' && n >= 3) {
+        memset(&watch, 0, sizeof watch);
+        watch.on = true;
+        watch.waiting_delimiter = payload[0] == 0;
+        watch.skip = payload[1];
+        for (unsigned i = host_q_tail; i != host_q_head; i++) {
+            watch.skip += host_q[i % HOST_RING] == 0; /* frames already queued */
+        }
+        watch.start = now;
+        watch.n = payload[2] <= 2 * CHAIN_MAX_BOARDS ? payload[2] : 2 * CHAIN_MAX_BOARDS;
+        for (int k = 0; k < watch.n && 3 + 2 * k + 1 < n; k++) {
+            watch.board[k] = payload[3 + 2 * k];
+            watch.slot[k] = payload[4 + 2 * k];
+        }
+    } else if (type == 'Q') {
+        figures();
+    }
+    fig.wall_s += wall_now() - t0;
+}
+
+int main(int argc, char **argv) {
+    if (argc < 4) {
+        fprintf(stderr, "usage: pirate-chain BRIDGE.elf PICO.elf ID [ID...]\n");
+        return 2;
+    }
+    static elf_firmware_t bridge_fw, pico_fw;
+    if (access(argv[1], R_OK) != 0 || elf_read_firmware(argv[1], &bridge_fw) != 0 ||
+        access(argv[2], R_OK) != 0 || elf_read_firmware(argv[2], &pico_fw) != 0) {
+        fprintf(stderr, "pirate-chain: cannot read the ELFs %s, %s\n", argv[1], argv[2]);
+        return 2;
+    }
+    n_boards = argc - 3 < CHAIN_MAX_BOARDS ? argc - 3 : CHAIN_MAX_BOARDS;
+    cores[0] = make_core("atmega2560", &bridge_fw);
+    bridge_debug_at = find_symbol(&bridge_fw, "pb_debug");
+    pico_debug_at = find_symbol(&pico_fw, "pico_debug");
+    attach_host(cores[0]);
+    line_attach(0, cores[0], '1', 'E', 4, 'E', 5);
+    set_estop_input(false);
+    char hello[512];
+    int k = snprintf(hello, sizeof hello, "boards");
+    for (int b = 0; b < n_boards; b++) {
+        board_ids[b] = (uint8_t)atoi(argv[3 + b]);
+        cores[b + 1] = make_core("atmega328p", &pico_fw);
+        board_attach(b, cores[b + 1], board_ids[b]);
+        line_attach(b + 1, cores[b + 1], '0', 'D', 2, 'D', 2);
+        k += snprintf(hello + k, sizeof hello - (size_t)k, " %u", board_ids[b]);
+    }
+    for (int c = 0; c <= n_boards; c++) {
+        find_uarts(c);
+        arm_fence(cores[c]);
+    }
+    line_on_frame(on_frame);
+    trace = getenv("PIRATE_CHAIN_TRACE") != NULL; /* every frame on the line, to stderr */
+    signal(SIGPIPE, SIG_IGN);
+    channel_send_record('P', (const uint8_t *)hello, (uint16_t)k);
+    while (channel_wait(handle)) {
+    }
+    return 0;
+}

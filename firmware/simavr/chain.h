@@ -1,0 +1,61 @@
+/* pirate-chain: the whole embedded chain in simavr, in virtual time (chain.c has the
+ * overview and the records). The interfaces of its files, bottom to top:
+ *
+ *   chain.c        main: the cores, the lockstep scheduler, the host link, the records
+ *     |   \
+ *     |   chain_board.c  one PICO board's pins: ADC, encoders, IMU (a TWI slave),
+ *     |                  the H-bridge outputs sampled
+ *   chain_line.c   the RS485 line: who drives it, who hears what, collisions
+ *     |
+ *   channel.c      records on stdin/stdout (shared with pirate-simavr)
+ *
+ * A file calls only the ones below it; each keeps its own state. */
+#ifndef PIRATE_CHAIN_H
+#define PIRATE_CHAIN_H
+
+#include "harness.h"
+
+#include <simavr/avr_adc.h>
+#include <simavr/avr_eeprom.h>
+#include <simavr/avr_twi.h>
+
+#define CHAIN_MAX_BOARDS 16
+#define CHAIN_NODES (CHAIN_MAX_BOARDS + 1) /* node 0 is the bridge */
+#define QUANTUM_CYCLES 160u                /* 10 us: the cores run in lockstep slices */
+#define LINE_BYTE_CYCLES (HZ * 10u / 1000000u) /* one 8N1 byte at 1 Mbaud: 160 */
+
+/* channel.c: a blocking read of one record, to its handler; false at the end. */
+bool channel_wait(channel_handler handle);
+
+/* chain_line.c: the RS485 line between the nodes' USARTs */
+struct line_stats {
+    uint64_t bytes, delivered, collisions, unheard, driver_off, truncated, echo;
+};
+/* Node `n`'s USART (`uart` '0' or '1') and its driver-enable and receiver-enable pins
+ * (port letter, bit; re_active_low: /RE). */
+void line_attach(int n, avr_t *avr, char uart, char de_port, int de_bit, char re_port, int re_bit);
+/* Stop hearing and driving for node n (a halted core). */
+void line_detach(int n);
+/* After every core ran to `until`: put the bytes that started before it on the line. */
+void line_settle(uint64_t until);
+const struct line_stats *line_stats(void);
+/* Frames seen on the line (for the cycle-time figure): callback per frame end. */
+typedef void (*line_frame_fn)(int sender, const uint8_t *bytes, unsigned n, uint64_t start,
+                              uint64_t end);
+void line_on_frame(line_frame_fn fn);
+
+/* chain_board.c: one PICO board */
+struct motor_sample {
+    int16_t duty;  /* -255..255 while running */
+    uint8_t drive; /* 0 off, 1 brake, 2 run */
+};
+void board_attach(int b, avr_t *avr, uint8_t id);
+/* Inputs for the next step: ADC readings 0..1023, each encoder's count to reach by
+ * `until` (edges spread over the step), the IMU's heading, roll, pitch (1/16 degree),
+ * the H-bridge fault line. */
+void board_inputs(int b, const uint16_t adc[4], const int32_t encoder[2], const int16_t imu[3],
+                  bool fault, uint64_t from, uint64_t until);
+/* The H-bridge outputs now. */
+struct motor_sample board_sample(int b, int slot);
+
+#endif
