@@ -474,3 +474,26 @@ def test_encoding_a_bad_state_says_why() -> None:
         CODEC.encode(c.State(1, c.BridgeFlags.NONE, 0, 0, (1,) * N_B, (0,) * (N_CH + 1)))
     with pytest.raises(ValueError, match=r"^cannot encode State\(seq=70000, "):
         CODEC.encode(c.State(70000, c.BridgeFlags.NONE, 0, 0, (1,) * N_B, (0,) * N_CH))
+
+
+def test_the_general_state_decode_masks_the_spare_bits_too() -> None:
+    full = (1 << (8 * LAYOUT.mask_bytes)) - 1
+    arg, payload = CODEC.encode_payload(
+        c.State(1, c.BridgeFlags.NONE, 0, 0, (1,) * N_B, (0,) * N_CH)
+    )
+    spare = bytearray(payload)
+    spare[2 : 2 + LAYOUT.mask_bytes] = full.to_bytes(LAYOUT.mask_bytes, "little")
+    got = CODEC._decode_payload(c.MsgType.STATE, 1, arg, bytes(spare))  # white box
+    assert isinstance(got, c.State) and got.fresh_mask == (1 << N_CH) - 1
+
+
+def test_a_frame_of_the_largest_size_between_delimiters_is_not_oversize() -> None:
+    body = with_crc(bytes([1, 0x7F, 0, 0, 0]) + b"\x01" * 247)
+    out = c.FrameDecoder(CODEC).feed(c.cobs_encode(body) + b"\x00")
+    assert len(out) == 1 and isinstance(out[0], FrameError) and out[0].reason == "type"
+
+
+def test_after_an_oversize_frame_the_same_chunk_goes_on() -> None:
+    hb = CODEC.encode(c.Heartbeat(6))
+    out = c.FrameDecoder(CODEC).feed(b"\x01" * 300 + b"\x00" + hb + hb)
+    assert [type(x).__name__ for x in out] == ["FrameError", "Heartbeat", "Heartbeat"]

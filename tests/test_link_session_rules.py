@@ -817,7 +817,9 @@ def test_a_lost_heartbeat_is_not_a_failure(caplog: pytest.LogCaptureFixture) -> 
     stats = wire.session.stats()
     assert (stats.failed, stats.sent, stats.loss_ratio) == (0, 1, 0.0)
     assert wire.session.take_failures() == []
-    assert any(m.startswith(f"Request(Heartbeat seq={beat.seq}") for _, m in messages(caplog))
+    assert (logging.DEBUG, f"Request(Heartbeat seq={beat.seq} failed) not acknowledged") in (
+        messages(caplog)
+    )
 
 
 # -- the reader thread ---------------------------------------------------------------------------
@@ -857,3 +859,161 @@ def test_a_reader_thread_polls_the_session_and_reports_its_error() -> None:
     session.stop_reader()
     assert not session.threaded
     session.stop_reader()
+
+
+# -- counts that add up, times that are stamped -----------------------------------------------
+
+
+def test_a_session_made_after_a_handshake_numbers_from_two() -> None:
+    clock = SimClock(8.0)
+    host, _ = memory_pair()
+    session = Session(host, CODEC, clock)  # the handshake's HELLO had seq 1
+    req = session.send_setpoint(22, 1, ControlMode.VELOCITY, 0)
+    assert req.seq == 2 and req.created_s == 8.0
+
+
+def test_a_request_queued_behind_another_sends_nothing_by_itself() -> None:
+    """Queuing is not polling: no retry, no heartbeat goes out until the next poll."""
+    wire = Wire()
+    _, m1 = setpoint(wire)
+    assert wire.sent(heartbeats=True) == [m1]
+    wire.clock.advance(0.125)  # a retry (and so no heartbeat) is due now
+    second, _ = setpoint(wire)
+    assert second.created_s == wire.clock.now()
+    assert wire.sent(heartbeats=True) == []
+    wire.poll()
+    assert wire.sent(heartbeats=True) == [m1]
+
+
+def test_an_estop_after_a_quiet_spell_is_retried_when_due() -> None:
+    wire = Wire()
+    wire.poll()
+    stop = wire.session.estop()
+    assert wire.sent() == [EStop(stop.seq)]
+    wire.poll(ACK_S)
+    assert wire.sent() == [EStop(stop.seq)]
+
+
+def test_an_unanswered_estop_is_tried_max_retries_plus_one_times() -> None:
+    wire = Wire()
+    stop = wire.session.estop()
+    for _ in range(CONFIG.max_retries):
+        wire.poll(ACK_S)
+    assert stop.tries == CONFIG.max_retries + 1 and not stop.done
+    wire.poll(ACK_S)
+    assert (stop.outcome, stop.acked_at_s) == (Outcome.FAILED, wire.clock.now())
+    assert [m for m in wire.sent() if isinstance(m, EStop)] == [EStop(stop.seq)] * 3
+
+
+def test_figures_count_every_occurrence() -> None:
+    wire = Wire()
+    for _ in range(2):
+        req, msg = setpoint(wire)
+        wire.answer(Ack(msg.seq, MsgType.SETPOINT, AckStatus.STALE))
+        wire.poll()
+    for _ in range(2):
+        req, _ = setpoint(wire)
+        for _ in range(CONFIG.max_retries + 1):
+            wire.answer(BridgeHeartbeat(1))
+            wire.poll(ACK_S)
+        assert req.outcome is Outcome.FAILED
+    bad = bytearray(CODEC.encode(state(1)))
+    bad[3] ^= 0x10
+    wire.far.write(bytes(bad) * 2)
+    wire.answer(Heartbeat(5), Heartbeat(6))  # our own frames, echoed
+    ask = wire.session.request_counters()
+    wire.answer(Counters(ask.seq), Counters(ask.seq), Counters(ask.seq))
+    wire.poll()
+    stats = wire.session.stats()
+    assert (stats.stale, stats.failed, stats.crc_errors, stats.duplicates) == (2, 2, 2, 2)
+    assert wire.session.unexpected == 2
+
+
+def test_acks_nacks_and_give_ups_are_stamped_with_the_time_they_came() -> None:
+    wire = Wire()
+    ask = wire.session.request_counters()
+    wire.poll(0.01)
+    wire.answer(Nack(ask.seq, MsgType.COUNTERS_REQUEST, NackCode.NOT_READY))
+    wire.poll(0.01)
+    assert (ask.outcome, ask.acked_at_s) == (Outcome.NACKED, wire.clock.now())
+
+
+def test_a_lost_link_stays_lost_when_the_bridge_talks_again() -> None:
+    wire = Wire()
+    with pytest.raises(LinkLost):
+        wire.poll(CONFIG.link_timeout_s + 0.01)
+    wire.answer(state(1), BridgeHeartbeat(2))
+    with pytest.raises(LinkLost, match=r"^nothing heard from the bridge for over 0\.5 s$"):
+        wire.poll()
+    assert wire.session.latest_state() is not None  # heard, but too late
+
+
+def test_an_unanswered_hello_fails_everything_at_the_time_it_gives_up() -> None:
+    wire = Wire()
+    wire.answer(BridgeHeartbeat(3, BridgeFlags.NO_SESSION))
+    wire.poll()
+    hello = wire.session._hello
+    assert hello is not None
+    waiting, _ = setpoint(wire)
+    ask = wire.session.request_counters()
+    for _ in range(HELLO_TRIES - 1):
+        wire.answer(BridgeHeartbeat(4))
+        wire.poll(ACK_S)
+    wire.answer(BridgeHeartbeat(4))
+    with pytest.raises(LinkLost):
+        wire.poll(ACK_S)
+    now = wire.clock.now()
+    assert (hello.outcome, hello.acked_at_s) == (Outcome.FAILED, now)
+    assert (waiting.outcome, waiting.acked_at_s) == (Outcome.FAILED, now)
+    assert ask.outcome is Outcome.FAILED
+    wire.answer(BridgeHeartbeat(5))  # the bridge still talks: the session is lost anyway
+    with pytest.raises(LinkLost):
+        wire.poll()
+
+
+def test_a_renewed_session_fails_what_was_queued_at_that_time(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.WARNING, logger=LOG)
+    wire = Wire(first_seq=100)
+    wire.session._next_seq = 99 + SESSION_RENEW_GAP - 1  # white box: that many lost
+    wire.clock.advance(0.01)
+    req, _ = setpoint(wire)
+    assert (req.outcome, req.acked_at_s) == (Outcome.FAILED, wire.clock.now())
+    assert (
+        logging.WARNING,
+        "starting a new session: the bridge has answered no ordered request for long",
+    ) in messages(caplog)
+
+
+def test_a_bridge_heartbeat_resets_only_when_it_says_so() -> None:
+    wire = Wire()
+    wire.answer(BridgeHeartbeat(1, BridgeFlags.ESTOP | BridgeFlags.WATCHDOG))
+    wire.poll()
+    assert wire.session.stats().bridge_resets == 0
+    req, _ = setpoint(wire)
+    wire.poll(0.01)
+    wire.answer(BridgeHeartbeat(2, BridgeFlags.NO_SESSION))
+    wire.poll()
+    assert wire.session.stats().bridge_resets == 1
+    assert (req.outcome, req.acked_at_s) == (Outcome.FAILED, wire.clock.now())
+
+
+def test_a_reset_ack_sets_no_flag_that_was_not_set() -> None:
+    wire = Wire(hello=reply(flags=BridgeFlags.ESTOP))
+    reset = wire.session.estop_reset()
+    wire.answer(Ack(reset.seq, MsgType.ESTOP_RESET))
+    wire.poll()
+    stats = wire.session.stats()
+    assert not stats.estopped and not stats.watchdog and not stats.estop_input
+
+
+def test_a_dropped_frame_is_logged_with_what_was_wrong(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.DEBUG, logger=LOG)
+    wire = Wire()
+    bad = bytearray(CODEC.encode(state(1)))
+    bad[3] ^= 0x10
+    (error,) = FrameDecoder(CODEC).feed(bytes(bad))
+    wire.far.write(bytes(bad))
+    wire.poll()
+    assert (logging.DEBUG, f"dropped frame: {error}") in messages(caplog)

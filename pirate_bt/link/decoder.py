@@ -47,7 +47,7 @@ class FrameDecoder:
     def __init__(self, codec: MessageCodec) -> None:
         self.codec = codec
         self._buf = bytearray()
-        self._overflow = False
+        self._overflow = False  # pragma: no mutate (None is falsy as False is)
 
     def reset(self) -> None:
         """Forget any partial frame (after draining stale bytes)."""
@@ -82,7 +82,7 @@ class FrameDecoder:
         limit = MAX_WIRE_BYTES - 1
         for part in parts[:-1]:
             if self._overflow:
-                self._overflow = False
+                self._overflow = False  # pragma: no mutate (None is falsy as False is)
                 self._buf.clear()
                 continue
             if self._buf:

@@ -92,13 +92,11 @@ class InboundMixin:
             self.crc_errors += 1
             _log.debug("dropped frame: %s", item)
             return
-        if item.TYPE < 0x80:
+        if item.TYPE < 0x80:  # pragma: no mutate (no message type is 0x80)
             self.unexpected += 1  # our own frames (loop://) or a confused peer
             return
         self._last_heard_s = now
-        if isinstance(item, State):
-            self._on_state(item, now)
-        elif isinstance(item, Ack | Nack):
+        if isinstance(item, Ack | Nack):
             self._on_answer(item, now)
         elif isinstance(item, Counters):
             req = self._oob.pop((MsgType.COUNTERS_REQUEST, item.seq), None)

@@ -46,6 +46,7 @@ import logging
 import math
 import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkLost, LinkTimeout
@@ -140,7 +141,7 @@ class Session(InboundMixin):
         self._last_heard_s = now  # the handshake reply was heard just now
         self._state: State | None = None
         self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
-        self._state_at_s = -math.inf
+        self._state_at_s = -math.inf  # pragma: no mutate (read only once a STATE is in)
         self._rtt_s = math.nan
         self.rtt_samples: collections.deque[float] = collections.deque(maxlen=10_000)
         self._recent: collections.deque[bool] = collections.deque(maxlen=self.config.loss_window)
@@ -156,8 +157,8 @@ class Session(InboundMixin):
         self.bridge_resets = 0
         self.sessions = 1
         self._flags = BridgeFlags.NONE if hello_reply is None else hello_reply.flags
-        self._lost = False
-        self._closed = False
+        self._lost = False  # pragma: no mutate (None is falsy as False is)
+        self._closed = False  # pragma: no mutate (None is falsy as False is)
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
         self._reader_error: BaseException | None = None
@@ -320,7 +321,8 @@ class Session(InboundMixin):
                 for item in self._decoder.feed(data):
                     handle(item, now)
             if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
-                self._check_alive(now)
+                self._check_alive()  # lost (for good), closed, refused: raises
+                self._lose(now)  # nothing valid heard for the link timeout
             if self._protocol_error is not None:
                 raise self._protocol_error
             if now >= self._due_s:  # most polls (one per state frame) have nothing due
@@ -428,21 +430,21 @@ class Session(InboundMixin):
         self._ordered = None  # pragma: no mutate (the session is over)
         self._hello = None  # pragma: no mutate (the session is over)
 
-    def _check_alive(self, now: float | None = None) -> None:
+    def _check_alive(self) -> None:
         if self._lost:
             raise LinkLost(f"nothing heard from the bridge for over {self.config.link_timeout_s} s")
         if self._closed:
             raise LinkError("session closed")
         if self._protocol_error is not None:
             raise self._protocol_error
-        if now is None:
-            return
-        if now - self._last_heard_s > self.config.link_timeout_s:
-            self._lost = True
-            silent = now - self._last_heard_s
-            _log.error("link lost: bridge silent for %.3f s", silent)
-            self._fail_all(now)
-            raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
+
+    def _lose(self, now: float) -> NoReturn:
+        """Declare the link lost (nothing valid heard for the link timeout) and fail all."""
+        self._lost = True
+        silent = now - self._last_heard_s
+        _log.error("link lost: bridge silent for %.3f s", silent)
+        self._fail_all(now)
+        raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
 
     def _submit(self, msg: Setpoint | BulkSetpoints | EStopReset) -> Request:
         self._check_alive()
@@ -462,7 +464,7 @@ class Session(InboundMixin):
         req.sent_at_s = now
         self._last_sent_s = now
         due = req.next_try_s(self.config.ack_timeout_s)
-        if due < self._due_s:
+        if due < self._due_s:  # pragma: no mutate (<=: it would set the same value)
             self._due_s = due
         self.link.write(self.codec.encode(req.msg))
 
@@ -553,14 +555,19 @@ class Session(InboundMixin):
         # Keep-alive, independent of what is in flight: a retried request whose frames
         # are lost must not hold heartbeats back, and any frame feeds the watchdog.
         if now - self._last_sent_s >= cfg.heartbeat_period_s:
-            hb = Request(Heartbeat(self._useq()), now)
+            hb = Request(
+                Heartbeat(self._useq()),
+                now,  # pragma: no mutate (an internal request's time: nothing reads it)
+            )
             self._oob[(MsgType.HEARTBEAT, hb.seq)] = hb
             self._transmit(hb)
         # the next time anything above can be due (a conservative bound: acks only delay it)
-        due = self._last_sent_s + cfg.heartbeat_period_s
+        # (an earlier bound only costs a poll that finds nothing to do; an oob request is
+        # always written when it is made, so its next try is never nan)
+        due = self._last_sent_s + cfg.heartbeat_period_s  # pragma: no mutate (a bound)
         for req in self._oob.values():
             next_s = req.next_try_s(timeout)
-            due = min(due, now if next_s != next_s else next_s)  # nan: not written yet
+            due = min(due, now if next_s != next_s else next_s)  # pragma: no mutate (a bound)
         for pending in (self._ordered, self._hello):
             if pending is not None:
                 due = min(due, pending.next_try_s(timeout))
