@@ -27,7 +27,7 @@ after, and the messages received.
 
 ``--estop``: a simulated run (the straight pipe, paced to wall time, 20 Hz) with
 the node, and COUNT ``std_msgs/Bool`` ``true`` messages put on ``/pirate/estop``
-by a Zenoh publisher in this process, 0.2 s apart; for each, how long it took
+by a Zenoh publisher in this process, 0.20-0.25 s apart; for each, how long it took
 to reach the publishing process, to be queued for the supervisor in the run's
 process, and to be applied by the supervisor's next tick (median and maximum).
 """
@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import re
 import resource
 import socket
@@ -189,7 +190,7 @@ def estop_latency(count: int) -> None:
             time.sleep(0.05)
         warmed.set()
         for _ in range(count):
-            time.sleep(0.2)
+            time.sleep(0.2 + random.uniform(0.0, 0.05))  # at any phase of the 50 ms tick
             before = estop.estops
             sent = time.monotonic_ns()
             publisher.put(bool_message(True))
