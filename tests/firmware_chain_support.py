@@ -9,6 +9,8 @@ hardware e-stop input, and the bridge killed mid-drive (the boards stop on their
 
 from __future__ import annotations
 
+import struct
+import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -29,6 +31,7 @@ from pirate_bt.sim.chain import FirmwareChain, StopTimes, find_chain_harness, wa
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = [
+    "PicoAlone",
     "StopScenario",
     "build_chain",
     "clamp_and_drive",
@@ -177,3 +180,67 @@ def stop_scenario(cause: str, network: str = "straight") -> StopScenario:
         if cause != "master_silent":
             link.close()
         return StopScenario(times, running, joints, figures)
+
+
+class PicoAlone:
+    """One PICO ELF in simavr with Python as the bus master (``pirate-chain - PICO.elf ID``).
+
+    For the board bus's vectors: the master's bytes go to the board at 1 Mbaud, what
+    the board puts on the line comes back, and its ``pico_debug`` record says which
+    setpoint each motor executes.
+    """
+
+    HZ = 16_000_000
+
+    def __init__(self, board: int) -> None:
+        _, pico, harness = build_chain()
+        self.proc = subprocess.Popen(
+            [str(harness), "-", str(pico), str(board)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        self.board = board
+        self.cycle = 0
+        kind, _ = self._record()
+        assert kind == ord("P")
+
+    def _record(self) -> tuple[int, bytes]:
+        assert self.proc.stdout is not None
+        head = self.proc.stdout.read(3)
+        n = head[1] | head[2] << 8
+        return head[0], self.proc.stdout.read(n) if n else b""
+
+    def _send(self, kind: str, payload: bytes) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(bytes((ord(kind),)) + len(payload).to_bytes(2, "little") + payload)
+        self.proc.stdin.flush()
+
+    def run_to(self, at_s: float, inputs: dict[str, list[int]], send: bytes = b"") -> bytes:
+        """Inputs held, ``send`` on the bus, time runs to ``at_s``; what the board sent."""
+        until = round(at_s * self.HZ)
+        board = struct.pack("<4H2i3hB", *inputs["adc"], 0, 0, *inputs["imu"], 0)
+        self._send("A", struct.pack("<QH", until, len(send)) + send + board)
+        kind, data = self._record()
+        assert kind == ord("a")
+        self.cycle = struct.unpack_from("<Q", data)[0]
+        n = struct.unpack_from("<H", data, 8)[0]
+        return data[10 : 10 + n]
+
+    def motors(self, count: int) -> list[list[int] | None]:
+        """The setpoint each motor executes ([mode, raw], or None: never commanded)."""
+        self._send("Q", b"")
+        kind, data = self._record()
+        assert kind == ord("S")
+        figures = dict(line.split(" ", 1) for line in data.decode().splitlines())
+        out: list[list[int] | None] = []
+        for k in range(count):
+            mode = int(figures[f"pico_{self.board}_motor{k}_mode"])
+            raw = int(figures[f"pico_{self.board}_motor{k}_raw"])
+            out.append(None if mode == 0xFE else [mode, raw])
+        return out
+
+    def close(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()
+        self.proc.wait(timeout=10)

@@ -107,6 +107,9 @@ class PicoDebug(ctypes.Structure):
         ("others", ctypes.c_uint16),
         ("own_stop", ctypes.c_uint8),
         ("reserved", ctypes.c_uint8),
+        ("motor_mode", ctypes.c_uint8 * 2),
+        ("motor_raw", ctypes.c_int16 * 2),
+        ("reserved2", ctypes.c_uint16),
     ]
 
 

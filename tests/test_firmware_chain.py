@@ -7,20 +7,49 @@ the host's own link and supervisor drive it on a simulated clock, as they drive 
 robot. Through it: the straight and the bend PAB succeed; a host ``ESTOP`` and the
 hardware e-stop input stop every drive within their bounds with the clamps held; a
 bridge killed mid-drive leaves every board to stop on its own after its silence time,
-the clamps still held. Skipped, with the reason, where the AVR toolchain or
-libsimavr is missing.
+the clamps still held. And the PICO's AVR build alone, Python the master on its line,
+passes the board bus's shared vectors byte for byte. Skipped, with the reason, where
+the AVR toolchain or libsimavr is missing.
 """
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any
+
 import pytest
-from firmware_chain_support import missing_chain, open_chain, run_tree, stop_scenario
+from firmware_chain_support import PicoAlone, missing_chain, open_chain, run_tree, stop_scenario
 
 needs_chain = pytest.mark.skipif(
     missing_chain() is not None, reason=f"the chain in simavr: {missing_chain()}"
 )
 RUN, BRAKE = 2, 1
 CLAMP_DUTY = round(0.7 / 1.023 * 255)  # the clamp torque of firmware_chain_support
+
+
+VECTORS = json.loads((Path(__file__).parent / "data" / "board_bus_vectors.json").read_text())
+
+
+@needs_chain
+@pytest.mark.parametrize("sequence", VECTORS["sequences"], ids=lambda s: s["name"])
+def test_the_pico_elf_passes_the_board_bus_vectors_in_simavr(sequence: dict[str, Any]) -> None:
+    """The AVR build itself, Python the master on its line: the bytes of every reply."""
+    board = sequence["board"]
+    n_motors = len(next(s for s in sequence["steps"])["expect_motors"])
+    pico = PicoAlone(board)
+    try:
+        for number, step in enumerate(sequence["steps"], 1):
+            where = f"{sequence['name']} step {number}"
+            at_s = step["at_ms"] / 1000
+            heard = pico.run_to(at_s, step["pico_inputs"])
+            send = bytes.fromhex(step["send_hex"]) if step["send_hex"] else b""
+            # the request (0.1 ms at 1 Mbaud), the board's turnaround, its reply
+            heard += pico.run_to(at_s + 0.0006, step["pico_inputs"], send)
+            assert (heard.hex() or None) == step["expect_reply_hex"], where
+            assert pico.motors(n_motors) == step["expect_motors"], where
+    finally:
+        pico.close()
 
 
 @needs_chain

@@ -298,8 +298,8 @@ ISR(TWI_vect) {
         TWDR = (uint8_t)(IMU_ADDR << 1);
         twi_step = 2;
         break;
-    case 2: /* SLA+W sent */
-        if (status != 0x18u) {
+    case 2: /* SLA+W sent: 0x18 (simavr 1.6 says 0x28 when TWDR was written first) */
+        if (status != 0x18u && status != 0x28u) {
             twi_stop();
             return;
         }
@@ -358,7 +358,10 @@ ISR(TWI_vect) {
 }
 
 bool hal_imu(int16_t out[3]) {
-    imu_wanted = true;
+    if (!imu_wanted) {
+        imu_wanted = true;
+        imu_due = 9; /* the first read at the next tick, then every 10 ms */
+    }
     bool valid;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
         valid = imu_valid;

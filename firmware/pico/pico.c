@@ -30,6 +30,11 @@ void pico_init(void) {
 
 void pico_turn(void) {
     bus_poll();
+    for (uint8_t k = 0; k < 2u; k++) { /* what each motor executes, at once */
+        const struct motor_state *m = motors_state(k);
+        pico_debug.motor_mode[k] = k < board.n_motors ? m->mode : MOTOR_OFF;
+        pico_debug.motor_raw[k] = k < board.n_motors ? m->raw : 0;
+    }
     uint32_t now = hal_ms();
     if (now == last_ms) {
         return;

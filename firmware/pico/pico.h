@@ -32,9 +32,12 @@ struct pico_debug {
     uint16_t others;    /* good frames to other boards */
     uint8_t own_stop;   /* holding its own stop now */
     uint8_t reserved;
+    uint8_t motor_mode[2]; /* the setpoint each motor (slot order) executes: mode code, */
+    int16_t motor_raw[2];  /* 0xFE while never commanded, and raw value */
+    uint16_t reserved2;
 };
 
-static_assert(sizeof(struct pico_debug) == 24, "pico_debug layout is read by the harness");
+static_assert(sizeof(struct pico_debug) == 32, "pico_debug layout is read by the harness");
 
 extern struct pico_debug pico_debug;
 

@@ -13,6 +13,11 @@
  * fenced at the slice's end so that it never runs ahead of the others.
  *
  *   pirate-chain BRIDGE.elf PICO.elf ID [ID...]
+ *   pirate-chain - PICO.elf ID [ID...]      no bridge: Python is the bus master
+ *
+ * Without a bridge (for the board bus's vectors) the 'A' record's host bytes are the
+ * master's bus bytes instead, sent at 1 Mbaud to every board, and the 'a' record's
+ * host bytes are what the boards put on the line.
  *
  * Records, both ways: type u8, length u16 LE, payload.
  *   chain -> Python: 'P' text "boards ID..." once ready
@@ -39,6 +44,7 @@
 #define HOST_RING 65536u
 
 static avr_t *cores[MAX_CORES];
+static bool no_bridge; /* Python is the bus master (the vectors) */
 static avr_uart_t *uarts[MAX_CORES][2]; /* each core's USARTs, for the 10-bit fix */
 static int n_boards;
 static uint8_t board_ids[CHAIN_MAX_BOARDS];
@@ -217,6 +223,26 @@ static void set_estop_input(bool open) {
 
 static bool trace;
 
+/* Without a bridge: the master's bytes straight into every board's USART, one per byte
+ * time; what the boards put on the line back to Python. */
+static avr_cycle_count_t feed_master(avr_t *avr, avr_cycle_count_t when, void *param) {
+    (void)avr, (void)param;
+    if (host_q_tail != host_q_head) {
+        uint8_t byte = host_q[host_q_tail++ % HOST_RING];
+        for (int b = 0; b < n_boards; b++) {
+            avr_raise_irq(avr_io_getirq(cores[b + 1], AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT),
+                          byte);
+        }
+    }
+    return when + LINE_BYTE_CYCLES;
+}
+
+static void master_hears(int sender, uint8_t value) {
+    if (sender != 0 && host_out_n < sizeof host_out) {
+        host_out[host_out_n++] = value;
+    }
+}
+
 static void on_frame(int sender, const uint8_t *bytes, unsigned n, uint64_t start, uint64_t end) {
     if (trace) {
         fprintf(stderr, "frame %d %llu..%llu n=%u:", sender, (unsigned long long)start,
@@ -294,7 +320,7 @@ static void advance(uint64_t until) {
     while (now < until) {
         uint64_t q1 = now + QUANTUM_CYCLES < until ? now + QUANTUM_CYCLES : until;
         for (int c = 0; c <= n_boards; c++) {
-            if (c == 0 && bridge_halted) {
+            if (c == 0 && (bridge_halted || no_bridge)) {
                 continue;
             }
             run_core(cores[c], q1);
@@ -376,7 +402,7 @@ static void step(const uint8_t *p, uint16_t n) {
 }
 
 static uint16_t debug16(avr_t *avr, uint32_t at, unsigned offset) {
-    return at ? (uint16_t)(avr->data[at + offset] | avr->data[at + offset + 1] << 8) : 0;
+    return at && avr ? (uint16_t)(avr->data[at + offset] | avr->data[at + offset + 1] << 8) : 0;
 }
 
 static void figures(void) {
@@ -394,7 +420,8 @@ static void figures(void) {
                      (unsigned long long)l->delivered, (unsigned long long)l->collisions,
                      (unsigned long long)l->unheard, (unsigned long long)l->driver_off,
                      (unsigned long long)l->truncated, (unsigned long long)l->echo,
-                     bridge_debug_at ? 0x21FFu - debug16(cores[0], bridge_debug_at, 6) : 0u,
+                     bridge_debug_at && cores[0] ? 0x21FFu - debug16(cores[0], bridge_debug_at, 6)
+                                                 : 0u,
                      debug16(cores[0], bridge_debug_at, 28), debug16(cores[0], bridge_debug_at, 30),
                      debug16(cores[0], bridge_debug_at, 22));
     if (fig.cycles_n) {
@@ -419,6 +446,12 @@ static void figures(void) {
                       debug16(a, pico_debug_at, 12), board_ids[b], debug16(a, pico_debug_at, 14),
                       board_ids[b], debug16(a, pico_debug_at, 16), board_ids[b],
                       pico_debug_at ? a->data[pico_debug_at + 22] : 0u, board_ids[b], stack);
+        for (int m = 0; m < 2 && pico_debug_at; m++) {
+            k += snprintf(text + k, sizeof text - (size_t)k,
+                          "pico_%u_motor%d_mode %u\npico_%u_motor%d_raw %d\n", board_ids[b], m,
+                          a->data[pico_debug_at + 24 + m], board_ids[b], m,
+                          (int16_t)debug16(a, pico_debug_at, 26u + 2u * (unsigned)m));
+        }
     }
     k += snprintf(text + k, sizeof text - (size_t)k, "pico_stack_high_water_bytes %u\n",
                   worst_stack);
@@ -429,6 +462,8 @@ static void handle(char type, const uint8_t *payload, uint16_t n) {
     double t0 = wall_now();
     if (type == 'A') {
         step(payload, n);
+    } else if (no_bridge && type != 'Q') {
+        return; /* nothing else applies without a bridge */
     } else if (type == 'E' && n >= 1) {
         set_estop_input(payload[0] != 0);
     } else if (type == 'K') {
@@ -466,18 +501,22 @@ int main(int argc, char **argv) {
         return 2;
     }
     static elf_firmware_t bridge_fw, pico_fw;
-    if (access(argv[1], R_OK) != 0 || elf_read_firmware(argv[1], &bridge_fw) != 0 ||
+    no_bridge = strcmp(argv[1], "-") == 0;
+    if ((!no_bridge &&
+         (access(argv[1], R_OK) != 0 || elf_read_firmware(argv[1], &bridge_fw) != 0)) ||
         access(argv[2], R_OK) != 0 || elf_read_firmware(argv[2], &pico_fw) != 0) {
         fprintf(stderr, "pirate-chain: cannot read the ELFs %s, %s\n", argv[1], argv[2]);
         return 2;
     }
     n_boards = argc - 3 < CHAIN_MAX_BOARDS ? argc - 3 : CHAIN_MAX_BOARDS;
-    cores[0] = make_core("atmega2560", &bridge_fw);
-    bridge_debug_at = find_symbol(&bridge_fw, "pb_debug");
     pico_debug_at = find_symbol(&pico_fw, "pico_debug");
-    attach_host(cores[0]);
-    line_attach(0, cores[0], '1', 'E', 4, 'E', 5);
-    set_estop_input(false);
+    if (!no_bridge) {
+        cores[0] = make_core("atmega2560", &bridge_fw);
+        bridge_debug_at = find_symbol(&bridge_fw, "pb_debug");
+        attach_host(cores[0]);
+        line_attach(0, cores[0], '1', 'E', 4, 'E', 5);
+        set_estop_input(false);
+    }
     char hello[512];
     int k = snprintf(hello, sizeof hello, "boards");
     for (int b = 0; b < n_boards; b++) {
@@ -487,9 +526,13 @@ int main(int argc, char **argv) {
         line_attach(b + 1, cores[b + 1], '0', 'D', 2, 'D', 2);
         k += snprintf(hello + k, sizeof hello - (size_t)k, " %u", board_ids[b]);
     }
-    for (int c = 0; c <= n_boards; c++) {
+    for (int c = no_bridge ? 1 : 0; c <= n_boards; c++) {
         find_uarts(c);
         arm_fence(cores[c]);
+    }
+    if (no_bridge) {
+        avr_cycle_timer_register(cores[1], LINE_BYTE_CYCLES, feed_master, NULL);
+        line_on_byte(master_hears);
     }
     line_on_frame(on_frame);
     trace = getenv("PIRATE_CHAIN_TRACE") != NULL; /* every frame on the line, to stderr */

@@ -43,6 +43,9 @@ const struct line_stats *line_stats(void);
 typedef void (*line_frame_fn)(int sender, const uint8_t *bytes, unsigned n, uint64_t start,
                               uint64_t end);
 void line_on_frame(line_frame_fn fn);
+/* Every byte that reaches the line (a listener on the line itself: no transceiver). */
+typedef void (*line_tap_fn)(int sender, uint8_t value);
+void line_on_byte(line_tap_fn fn);
 
 /* chain_board.c: one PICO board */
 struct motor_sample {

@@ -80,6 +80,10 @@ static void twi_out(avr_irq_t *irq, uint32_t value, void *param) {
     struct board *b = param;
     avr_twi_msg_irq_t v;
     v.u.v = value;
+    if (getenv("PIRATE_CHAIN_TRACE")) {
+        fprintf(stderr, "twi %llu msg %02x addr %02x data %02x\n",
+                (unsigned long long)b->avr->cycle, v.u.twi.msg, v.u.twi.addr, v.u.twi.data);
+    }
     avr_irq_t *in = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT);
     if (v.u.twi.msg & TWI_COND_STOP) {
         b->imu_selected = false;

@@ -43,6 +43,7 @@ static struct pending {
 static unsigned n_pending;
 static struct line_stats stats;
 static line_frame_fn frame_fn;
+static line_tap_fn tap_fn;
 
 static void record(struct edge *ring, unsigned *n, uint64_t at, bool level) {
     if (*n > 0 && ring[(*n - 1u) % HISTORY].level == level) {
@@ -132,6 +133,8 @@ void line_detach(int i) { nodes[i].detached = true; }
 
 void line_on_frame(line_frame_fn fn) { frame_fn = fn; }
 
+void line_on_byte(line_tap_fn fn) { tap_fn = fn; }
+
 const struct line_stats *line_stats(void) { return &stats; }
 
 static int by_start(const void *a, const void *b) {
@@ -150,6 +153,9 @@ static void settle_one(const struct pending *p, uint64_t until) {
         return;
     }
     uint64_t end = p->start + LINE_BYTE_CYCLES;
+    if (tap_fn) {
+        tap_fn(p->sender, p->value);
+    }
     bool collision = false;
     for (int m = 0; m < CHAIN_NODES; m++) {
         const struct node *o = &nodes[m];
