@@ -357,3 +357,15 @@ def test_the_pico_firmware_builds_with_werror_and_fits_the_atmega328p(tmp_path: 
     assert fuses == bytes([0xFF, 0xD1, 0xFC])
     symbols = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, check=True)
     assert " pico_debug" in symbols.stdout
+
+
+def test_the_encoder_resolution_is_one_number_for_the_firmware_and_the_physics() -> None:
+    """ENCODER_CPR, the one board figure the robot description lacks: the PICO's build
+    option and the chain's physics (pirate_bt.sim.chain) must agree."""
+    import re
+
+    from pirate_bt.sim.chain import PICO_ENCODER_CPR
+
+    makefile = (Path(__file__).resolve().parents[1] / "firmware" / "pico" / "Makefile").read_text()
+    match = re.search(r"^ENCODER_CPR \?= (\d+)$", makefile, re.MULTILINE)
+    assert match and int(match.group(1)) == PICO_ENCODER_CPR
