@@ -588,13 +588,13 @@ def test_a_bridge_reset_starts_a_new_session_and_fails_what_was_in_flight(
     assert list(wire.session.rtt_samples) == [pytest.approx(0.02)]  # the HELLO's round trip
     assert wire.session.last_hello_reply == reply(seq=hello.seq, boot_id=8, sessions=2)
     assert wire.session.stats().sessions == 2 and not wire.session.stats().estopped
-    wire.answer(state(1))  # the new session's first state, whatever its seq
+    wire.answer(state(10000))  # the new session's first state, whatever its seq (older)
     wire.poll()
     latest = wire.session.latest_state()
-    assert latest is not None and latest == (state(1), wire.clock.now())
-    wire.answer(state(1), state(0xFFF0))
+    assert latest is not None and latest == (state(10000), wire.clock.now())
+    wire.answer(state(10000), state(0xFFF0))
     wire.poll()
-    assert wire.session.latest_state()[0].seq == 1  # type: ignore[index]
+    assert wire.session.latest_state()[0].seq == 10000  # type: ignore[index]
     assert wire.session.stats().duplicates == 3
     # another reset, another session: both counted
     wire.answer(BridgeHeartbeat(9, BridgeFlags.NO_SESSION))

@@ -296,6 +296,7 @@ def robot_variant(tmp_path: Path, *edits: tuple[str, str]) -> Path:
     for old, new in edits:
         assert old in text, old
         text = text.replace(old, new)
+    tmp_path.mkdir(parents=True, exist_ok=True)
     path = tmp_path / "variant.yaml"
     path.write_text(text)
     return path
@@ -496,3 +497,46 @@ def test_a_raw_tilt_commands_the_motor_it_names(tmp_path: Path) -> None:
     found = Expander(robot).expand(Raw(mc), FakePort(robot, SimClock()).state())
     assert isinstance(found, Intent)
     assert found.motor_commands == (mc,) and found.front_tilt_rad == 0.25
+
+
+IMU = "        name: imu\n        kind: imu\n"
+
+
+def test_the_readings_every_decision_relies_on_follow_the_robot(tmp_path: Path) -> None:
+    """Joint angles, springs where there are springs, the IMU's pitch where it reads one."""
+    angles = tuple(f"bend_{i}_angle" for i in (1, 2, 3, 4))
+    springs = tuple(f"bend_{i}_spring" for i in (1, 2, 3, 4))
+    assert set(BASE) == {*angles, *springs, "imu.pitch"}
+    no_springs = load_robot(
+        robot_variant(
+            tmp_path / "a",
+            *(
+                (f"      - {{<<: *spring_sensor, slot: 1, name: bend_{i}_spring}}\n", "")
+                for i in (1, 2, 3, 4)
+            ),
+        )
+    )
+    assert Expander(no_springs).base_channels == (*angles, "imu.pitch")
+    no_pitch = load_robot(robot_variant(tmp_path / "b", (IMU, IMU + "        axes: [roll, yaw]\n")))
+    assert "imu.pitch" not in Expander(no_pitch).base_channels
+    no_imu = load_robot(
+        robot_variant(
+            tmp_path / "c",
+            (
+                "    sensors:\n      - slot: 0\n" + IMU + "        raw: [-32768, 32767]\n"
+                "        per_raw: 0.1 mrad\n        period: 10 ms\n        assumption: true\n",
+                "    sensors: []\n",
+            ),
+        )
+    )
+    assert no_imu.imu() is None
+    assert "imu.pitch" not in Expander(no_imu).base_channels
+
+
+def test_a_stop_is_not_expanded() -> None:
+    """``Stop`` goes to the drives directly (it always passes); expanding it is an error."""
+    from pirate_bt.safety import Stop
+
+    found = EXPANDER.expand(Stop(), None)
+    assert isinstance(found, Problem)
+    assert (found.reason, found.detail) == (Reason.UNKNOWN_TARGET, "not a command: Stop()")

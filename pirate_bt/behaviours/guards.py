@@ -216,7 +216,10 @@ class _Evaluator:
     def __init__(self, node: py_trees.behaviour.Behaviour, comparisons: Sequence[Comparison]):
         self.comparisons = list(comparisons)
         self.values = [c.si_value for c in self.comparisons]
-        self.client = node.attach_blackboard_client(name=node.name)
+        # name=None would name it after the node as well (its first client)
+        self.client = node.attach_blackboard_client(
+            name=node.name,  # pragma: no mutate (None names a first client the same)
+        )
         for c in self.comparisons:
             if c.key is not None:
                 self.client.register_key(key=c.key, access=py_trees.common.Access.READ)

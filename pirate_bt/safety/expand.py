@@ -196,7 +196,7 @@ class Expander:
                 return Intent(command, cmds, drive_mps=v, stop=v == 0.0, channels=base)
             case Raw(mc):
                 return self._raw_intent(command, mc, state)
-        return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # pragma: no cover
+        return Problem(Reason.UNKNOWN_TARGET, f"not a command: {command!r}")  # e.g. Stop()
 
     def _tilt_motor(self) -> Motor | None:
         try:
