@@ -346,10 +346,12 @@ def test_every_module_says_what_it_exports() -> None:
         module = ".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
         tree = ast.parse(path.read_text(encoding="utf-8"))
         declared = any(
-            isinstance(node, ast.Assign)
-            and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets)
+            (isinstance(node, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets))
+            or (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                and node.target.id == "__all__")
             for node in tree.body
-        )
+        )  # fmt: skip
         assert declared, f"{module} has no __all__"
         if module.startswith("pirate_bt.cli.console") or module == "pirate_bt.trace.sink":
             continue  # imported by their own processes and app, not by planner code

@@ -27,6 +27,8 @@ from pirate_bt.interop.groot2_run import (
     logger,
 )
 
+__all__: list[str] = []  # parts of Groot2Server (groot2_server.py re-exports what is public)
+
 
 class _Hooks(_ServerState):
     """The hook half of :class:`~pirate_bt.interop.groot2_server.Groot2Server`."""

@@ -35,6 +35,8 @@ from pirate_bt.interop.groot2_protocol import (
 from pirate_bt.interop.groot2_run import _REPLACED, BREAKPOINT, REPLACE, _Run, logger
 from pirate_bt.trace.structure import jsonable
 
+__all__: list[str] = []  # parts of Groot2Server (groot2_server.py re-exports what is public)
+
 
 class _Requests(_Hooks):
     """The request half of :class:`~pirate_bt.interop.groot2_server.Groot2Server`."""

@@ -27,6 +27,8 @@ from pirate_bt.interop.groot2_tree import ServedTree, served_tree
 from pirate_bt.trace.coverage import CoverageRecorder
 from pirate_bt.trace.structure import iter_with_ids
 
+__all__ = ["INSTALL_HINT", "MAX_REQUEST_BYTES", "TRANSITIONS_KEPT"]
+
 # The server's parts log as the server always did.
 logger = logging.getLogger("pirate_bt.interop.groot2_server")
 
