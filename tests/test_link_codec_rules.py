@@ -174,6 +174,7 @@ def test_a_receiver_accepts_a_trailing_empty_block() -> None:
         (b"\xff" + b"\x01" * 10, "block code 255 at 0 runs past the end (11 bytes)"),
         (b"\x02\x01\xff" + b"\x01" * 3, "block code 255 at 2 runs past the end (6 bytes)"),
     ],
+    ids=["empty", "zero", "past the end", "last block", "full block", "full block later"],
 )
 def test_bad_cobs_says_where(encoded: bytes, detail: str) -> None:
     with pytest.raises(FrameError) as caught:
@@ -497,3 +498,21 @@ def test_after_an_oversize_frame_the_same_chunk_goes_on() -> None:
     hb = CODEC.encode(c.Heartbeat(6))
     out = c.FrameDecoder(CODEC).feed(b"\x01" * 300 + b"\x00" + hb + hb)
     assert [type(x).__name__ for x in out] == ["FrameError", "Heartbeat", "Heartbeat"]
+
+
+def test_encode_payload_answers_for_every_message_and_refuses_the_rest() -> None:
+    assert CODEC.encode_payload(c.Ack(3, 2, c.AckStatus.DUPLICATE)) == (0, bytes([2, 1]))
+    assert CODEC.encode_payload(c.Heartbeat(3)) == (0, b"")
+    with pytest.raises(ValueError, match=r"^cannot encode Setpoint\(seq=1, board=22"):
+        CODEC.encode_payload(c.Setpoint(1, 22, 0, ControlMode.TORQUE, 40000))
+    with pytest.raises(ValueError, match=r"^not a message: 'junk'$"):
+        CODEC.encode_payload("junk")  # type: ignore[arg-type]
+
+
+def test_a_body_of_a_state_s_length_but_another_type_is_not_a_state() -> None:
+    size = len(body_of(SAMPLES[0]))
+    for seq in (0x0082, 0x8200, 0x8282):
+        body = with_crc(bytes([1, 0x7F]) + seq.to_bytes(2, "little") + bytes(size - 6))
+        with pytest.raises(FrameError) as caught:
+            c.FrameCodec(LAYOUT).decode_body(body)
+        assert caught.value.reason == "type"
