@@ -19,7 +19,8 @@ inside function bodies of ``safety.c``, ``protocol.c``, ``frame.c`` and ``cobs.c
 Each mutant is applied alone to a private copy of the firmware and the repository's
 tests, built for the host (``make host``, ``-Werror``: a mutant that does not compile
 is *stillborn* and not counted), then judged by the firmware's unit tests
-(``tests/test_firmware_core.py``) and the conformance suite against the host build
+(``tests/test_firmware_core.py``, ``tests/test_firmware_edges.py``) and the conformance
+suite against the host build
 (``tests/conformance``, ``firmware-host``), with the shared vectors in
 ``tests/data/link_vectors.json``. A failing or hanging test kills it. The score is
 killed / (killed + survived); survivors are listed with their place in the source.
@@ -51,7 +52,13 @@ OUT = ROOT / "mutants" / "firmware.json"
 DOCS = ROOT / "docs" / "testing.md"
 BLOCK_START = "<!-- firmware-mutation:start -->"
 BLOCK_END = "<!-- firmware-mutation:end -->"
-TESTS = ["tests/test_firmware_core.py", "tests/conformance", "-k", "firmware-host or firmware_core"]
+TESTS = [
+    "tests/test_firmware_core.py",
+    "tests/test_firmware_edges.py",
+    "tests/conformance",
+    "-k",
+    "firmware-host or firmware_core or firmware_edges",
+]
 TIMEOUT_S = 300.0
 """A mutant whose tests take longer than this hangs (it is killed: a bridge that hangs is
 noticed)."""
