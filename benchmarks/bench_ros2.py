@@ -1,14 +1,17 @@
 """What ``--ros2`` costs on the lab mission, as ratios within one run of this script.
 
-Run: ``.venv/bin/python benchmarks/bench_ros2.py [PAIRS]`` (default 4 ABBA pairs), and
-``.venv/bin/python benchmarks/bench_ros2.py --estop [COUNT]`` for the e-stop's latency.
+Run: ``.venv/bin/python benchmarks/bench_ros2.py [PAIRS] [--no-subscriber]`` (default 4
+ABBA pairs), and ``.venv/bin/python benchmarks/bench_ros2.py --estop [COUNT]`` for the
+e-stop's latency.
 
 The lab mission (``pirate-bt mission scenarios/lab.route --sim lab --quiet``)
 is run as a command without and with ``--ros2 tcp/127.0.0.1:PORT``, in ABBA
 order (off, on, on, off) repeated, so that a noisy, shared machine hits both
 alike. A Zenoh router runs in this process (as ``rmw_zenohd`` would), and an
 independent ROS 2 client (``zenoh-ros2-sdk``) is subscribed to every topic and
-decodes everything it gets, so the figure includes real subscribers.
+decodes everything it gets, so the figure includes real subscribers on the same
+machine (``--no-subscriber``: the router alone, as when the tools that watch run
+elsewhere).
 
 Two figures per pair, each as *on / off - 1*:
 
@@ -20,7 +23,9 @@ Two figures per pair, each as *on / off - 1*:
 
 Also the CPU time (user and system) of the command with its child processes,
 the publishing process included, as seconds added per run (the median over the
-pairs): what ``--ros2`` costs the machine rather than the run.
+pairs): what ``--ros2`` costs the machine rather than the run; and the CPU time
+this process (the router and the subscriber) spent during the runs with
+``--ros2``.
 
 Printed: the median and range over the pairs, the load average before and
 after, and the messages received.
@@ -114,19 +119,35 @@ def _consumer(port: int) -> tuple[Any, list[Any], dict[str, list[Any]]]:
     return router, subs, got
 
 
-def main(pairs: int) -> None:
+def _own_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def main(pairs: int, *, subscriber: bool = True) -> None:
     port = _free_port()
-    router, subs, got = _consumer(port)
+    if subscriber:
+        router, subs, got = _consumer(port)
+    else:
+        router, subs, got = _router(port), [], {}
     on = ["--ros2", f"tcp/127.0.0.1:{port}"]
     load = os.getloadavg()
     _run([])  # warm the file cache
     command: list[float] = []
     run: list[float] = []
     cpu: list[float] = []
+    listener: list[float] = []
+
+    def run_on() -> tuple[float, float, float]:
+        before = _own_cpu()
+        result = _run(on)
+        listener.append(_own_cpu() - before)
+        return result
+
     for _ in range(pairs):
         a1 = _run([])
-        b1 = _run(on)
-        b2 = _run(on)
+        b1 = run_on()
+        b2 = run_on()
         a2 = _run([])
         command.append((b1[0] + b2[0]) / (a1[0] + a2[0]) - 1.0)
         run.append((b1[1] + b2[1]) / (a1[1] + a2[1]) - 1.0)
@@ -150,11 +171,20 @@ def main(pairs: int) -> None:
             f" ({min(values) * 100:+.1f} to {max(values) * 100:+.1f} %)"
         )
 
-    print(f"--ros2 on the lab mission, {pairs} ABBA pairs, one subscriber on every topic:")
+    who = "one subscriber on every topic" if subscriber else "a router, no subscriber"
+    print(f"--ros2 on the lab mission, {pairs} ABBA pairs, {who}:")
     print(f"  whole command: {figure(command)}")
     print(f"  the run itself: {figure(run)}")
-    print(f"  CPU added per run (all processes): {statistics.median(cpu):+.3f} s")
-    print(f"  messages received by the independent client: {received} over {2 * pairs} runs")
+    print(
+        "  CPU added per run, the run's process and the node's:"
+        f" {statistics.median(cpu):+.3f} s ({min(cpu):+.3f} to {max(cpu):+.3f} s)"
+    )
+    print(
+        "  CPU of the router and the subscriber (this process) per run:"
+        f" {statistics.median(listener):.3f} s"
+    )
+    if subscriber:
+        print(f"  messages received by the independent client: {received} over {2 * pairs} runs")
     after = os.getloadavg()
     print(
         f"  load average (1, 5, 15 min) before {load[0]:.2f} {load[1]:.2f} {load[2]:.2f},"
@@ -232,7 +262,10 @@ def estop_latency(count: int) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 1 and sys.argv[1] == "--estop":
-        estop_latency(int(sys.argv[2]) if len(sys.argv) > 2 else 20)
+    args = sys.argv[1:]
+    if args and args[0] == "--estop":
+        estop_latency(int(args[1]) if len(args) > 1 else 20)
     else:
-        main(int(sys.argv[1]) if len(sys.argv) > 1 else 4)
+        quiet = "--no-subscriber" in args
+        numbers = [a for a in args if not a.startswith("--")]
+        main(int(numbers[0]) if numbers else 4, subscriber=not quiet)

@@ -36,7 +36,8 @@ to the run's process (standard output)
     topic, with when it arrived here (``time.monotonic_ns``, one clock for every
     process of the machine); ``(OFF, text)`` when publishing failed (the
     process publishes nothing more, the e-stop subscription stays);
-    ``(FLUSHED, token, published)``; ``(CLOSED, published)`` last.
+    ``(FLUSHED, token, published)``; ``(CLOSED, published, cpu_s)`` last, with
+    the CPU time the process spent (all its threads, Zenoh's included).
 
 When more frames wait than it has published, it publishes the newest frame of
 each run and drops the older ones (but the newest that holds the tree, which
@@ -57,9 +58,7 @@ import struct
 import sys
 import threading
 import time
-import traceback
 from collections.abc import Iterator, Sequence
-from pathlib import Path
 from typing import Any
 
 if not __package__:  # run as the publishing process's script
@@ -68,11 +67,11 @@ if not __package__:  # run as the publishing process's script
     import types
 
     for _name, _folder in (
-        ("pirate_bt", Path(__file__).resolve().parent.parent),
-        ("pirate_bt.interop", Path(__file__).resolve().parent),
+        ("pirate_bt", os.path.dirname(os.path.dirname(os.path.realpath(__file__)))),
+        ("pirate_bt.interop", os.path.dirname(os.path.realpath(__file__))),
     ):
         _package = types.ModuleType(_name)
-        _package.__path__ = [str(_folder)]
+        _package.__path__ = [_folder]
         sys.modules[_name] = _package
 
 from pirate_bt.interop import rmw_zenoh
@@ -112,6 +111,12 @@ ESTOP_TYPE = "std_msgs/msg/Bool"
 
 _LENGTH = struct.Struct("<I")
 _READ_BYTES = 1 << 20
+
+
+def _print_exc() -> None:
+    import traceback  # only when something failed: it costs milliseconds to import
+
+    traceback.print_exc()
 
 
 def encode_message(message: tuple[Any, ...]) -> bytes:
@@ -291,7 +296,7 @@ class Node:
                 return
             self.out.send((BOOL, payload[4] != 0, heard))
         except Exception:  # Zenoh's thread must not die
-            traceback.print_exc()
+            _print_exc()
 
     # --- frames ------------------------------------------------------------------------------
 
@@ -357,7 +362,7 @@ class Node:
                 self._publish(out.topic, out.data)
         except Exception as exc:
             self.enabled = False
-            traceback.print_exc()
+            _print_exc()
             self.out.send((OFF, f"{type(exc).__name__}: {exc}"))
 
     def _publish(self, topic: str, data: bytes) -> None:
@@ -453,7 +458,7 @@ def main(argv: Sequence[str]) -> int:
     try:
         node.declare()
     except Exception as exc:
-        traceback.print_exc()
+        _print_exc()
         out.send((FAILED, f"setting up the node failed: {type(exc).__name__}: {exc}", "setup"))
         node.close()
         return 1
@@ -464,7 +469,7 @@ def main(argv: Sequence[str]) -> int:
             node.handle(batch)
     finally:
         node.close()
-        out.send((CLOSED, node.published))
+        out.send((CLOSED, node.published, time.process_time()))
     return 0
 
 
