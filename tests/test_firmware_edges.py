@@ -18,7 +18,9 @@ from test_firmware_core import (
     BULK,
     BUS_ERROR,
     COUNTERS_REQUEST,
+    ESTOP_RESET,
     HEARTBEAT,
+    HELLO,
     KEEP,
     POSITION,
     SETPOINT,
@@ -125,4 +127,24 @@ def test_a_burst_of_requests_gets_at_most_the_answers_that_fit(fw: Bridge) -> No
     answers = [f for f in fw.read() if f.kind == 0x83]
     assert 4 <= len(answers) < 40
     assert all(100 <= f.seq < 140 for f in answers)
+    assert fw.ask(frame(HEARTBEAT, 200)) == [ack(200, HEARTBEAT)]  # still answering
+
+
+def test_a_reset_of_a_latch_that_is_not_set_is_acknowledged(fw: Bridge) -> None:
+    """Nothing to release: the readiness checks of a release do not apply."""
+    fw.start()  # released
+    fw.board(24, online=False)  # a board that is not ready
+    fw.run(25)
+    assert fw.ask(frame(ESTOP_RESET, 3)) == [ack(3, ESTOP_RESET)]
+
+
+@pytest.mark.parametrize("kind", [0x7F, COUNTERS_REQUEST, HELLO])
+def test_a_burst_of_any_answer_gets_at_most_what_fits(fw: Bridge, kind: int) -> None:
+    """NACKs (an unknown type), COUNTERS and HELLO_REPLYs wait for the line like ACKs."""
+    payload = struct.pack("<IB", fw.digest, 1) if kind == HELLO else b""
+    fw.run(25)
+    fw.write(b"".join(frame(kind, 100 + i, payload=payload) for i in range(40)))
+    fw.run(300)
+    answers = [f for f in fw.read() if f.kind != 0x82]
+    assert 4 <= len(answers) < 40
     assert fw.ask(frame(HEARTBEAT, 200)) == [ack(200, HEARTBEAT)]  # still answering
