@@ -40,7 +40,8 @@ EXPANDER = Expander(ROBOT)
 BASE = EXPANDER.base_channels
 TOL = ROBOT.safety.angle_tolerance
 WALL = min(p.angle for p in ROBOT.clamp.contact_angles)
-CLEAR = ROBOT.clamp.front_clear_angle
+# MoveFrontClear's target: past the clear angle by the angle tolerance
+CLEAR = ROBOT.clamp.front_clear_angle + ROBOT.safety.angle_tolerance
 
 
 @pytest.fixture
@@ -167,6 +168,15 @@ def test_move_front_clear_goes_to_the_side_it_is_told() -> None:
     assert intent(MoveFrontClear(-1)).motor_commands == (
         MotorCommand("front_tilt", ControlMode.POSITION, -CLEAR),
     )
+
+
+def test_move_front_clear_ends_clear_even_where_the_loop_settles_short() -> None:
+    # a position loop settles within the angle tolerance of its target: the target is
+    # far enough past the clear angle that the low edge of that band is still clear
+    target = intent(MoveFrontClear()).front_tilt_rad
+    assert target is not None
+    assert target - ROBOT.safety.angle_tolerance == pytest.approx(ROBOT.clamp.front_clear_angle)
+    assert target < ROBOT.clamp.front_clear_angle + 2 * ROBOT.safety.angle_tolerance
 
 
 def test_the_readings_each_decision_relies_on() -> None:

@@ -90,7 +90,10 @@ class Tilt:
 
 @dataclass(frozen=True, slots=True)
 class MoveFrontClear:
-    """Tilt the front module to the description's ``clamp.front_clear_angle``.
+    """Tilt the front module clear: ``clamp.front_clear_angle`` plus ``safety.angle_tolerance``.
+
+    The margin makes a position loop that settles within its tolerance of the target
+    still end at least at the clear angle.
 
     Attributes:
         sign: +1 or -1: to which side the front module swings out of the way.

@@ -186,7 +186,10 @@ class Expander:
             case Tilt(angle):
                 return self._tilt_intent(command, angle)
             case MoveFrontClear(sign):
-                clear = self.robot.clamp.front_clear_angle
+                # past the clear angle by the angle tolerance: a position loop settles
+                # within its tolerance either side of the target, and the module must
+                # end at least clear, not clear give or take the loop's error
+                clear = self.robot.clamp.front_clear_angle + self.robot.safety.angle_tolerance
                 angle = clear if sign >= 0 else -clear
                 return self._tilt_intent(command, angle)
             case Drive(v):
