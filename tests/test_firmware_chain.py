@@ -19,7 +19,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from firmware_chain_support import PicoAlone, missing_chain, open_chain, run_tree, stop_scenario
+from firmware_chain_support import (
+    PicoAlone,
+    build_chain,
+    missing_chain,
+    open_chain,
+    stop_scenario,
+)
+
+import pirate_bt
 
 needs_chain = pytest.mark.skipif(
     missing_chain() is not None, reason=f"the chain in simavr: {missing_chain()}"
@@ -81,12 +89,15 @@ def test_every_board_answers_on_one_line_without_collisions() -> None:
 def test_a_pab_succeeds_through_the_whole_chain(
     network: str, tree: str, params: dict[str, str]
 ) -> None:
-    with open_chain(network) as (chain, clock):
-        result = run_tree(chain, clock, tree, params, "120 s")
-        figures = chain.figures()
-        truth = chain.physics.model.truth()
-        counters = chain.physics.model.counters()
+    build_chain()
+    # the public door, as a planner would write it (docs/firmware-sim.md)
+    with pirate_bt.connect(f"firmware:{network}") as robot:
+        result = robot.run(tree, params=params, max_time="120 s")
+        figures = robot.simulator.figures()
+        truth = robot.simulator.truth()
+        counters = robot.simulator.counters()
     assert result.succeeded, result.summary()
+    assert "firmware chain in simavr" in result.summary()
     assert not counters.violations
     # No damage at all: the PICO's position loop (10-bit ADC, 0.5 degree dead band)
     # settles within half a degree of its target, and MoveFrontClear aims past the
@@ -94,7 +105,7 @@ def test_a_pab_succeeds_through_the_whole_chain(
     assert not counters.damage, counters.damage
     assert truth.front_m > 0.5
     assert figures["line_collisions"] == 0
-    assert all(figures[f"pico_{b}_own_stops"] == 0 for b in chain.physics.boards)
+    assert all(figures[f"pico_{b}_own_stops"] == 0 for b in robot.simulator.chain.physics.boards)
 
 
 @needs_chain

@@ -7,6 +7,10 @@ opens the link itself). The target says where the robot is:
 - ``"sim"`` or ``"sim:NETWORK"`` - the built-in simulator in a pipe network (a
   bundled name such as ``"lab"`` or a file), on a simulated clock;
 - a network file (``"scenarios/bend-right.yaml"``) or a loaded ``Network`` - the same;
+- ``"firmware:NETWORK"`` (or a simulator target with ``firmware=True``) - the same
+  pipe physics behind the real firmwares: the bridge and one reference PICO board
+  per board id, each its own ELF in simavr, on one simulated RS485 line, in virtual
+  time (docs/firmware-sim.md, *The whole chain*; needs ``make firmware``);
 - a pyserial URL or port (``"/dev/ttyACM0"``, ``"COM3"``, ``"socket://host:7000"``,
   ``"rfc2217://..."``) - a real PIRATEbay bridge, on the wall clock.
 
@@ -72,7 +76,9 @@ class Connection:
         target: str,
         seed: int | None,
         description: str,
+        simulator: Any = None,
     ) -> None:
+        self._simulator = simulator
         self.robot = robot
         self.clock = clock
         self.supervisor = supervisor
@@ -87,7 +93,12 @@ class Connection:
 
     @property
     def simulator(self) -> Any:
-        """The in-process simulator behind the supervisor (``None`` on a real robot)."""
+        """The in-process simulator behind the supervisor (``None`` on a real robot).
+
+        Through the firmware chain: a :class:`~pirate_bt.sim.chain_open.ChainSimulator`
+        (the physics' truth and counters, and the chain's ``figures()``)."""
+        if self._simulator is not None:
+            return self._simulator
         return getattr(self.supervisor, "simulator", None)
 
     def context(self) -> BuildContext:
@@ -173,7 +184,11 @@ class Connection:
         if self._closed:
             return
         self._closed = True
-        self.supervisor.close()
+        try:
+            self.supervisor.close()
+        finally:
+            if self._simulator is not None:
+                self._simulator.close()
 
     def __enter__(self) -> Connection:
         return self
@@ -200,12 +215,13 @@ def connect(
     seed: int = 0,
     faults: str | Iterable[str] | None = None,
     mode: str = "autonomous",
+    firmware: bool = False,
 ) -> Connection:
     """Open a supervised robot: the simulator or a real PIRATEbay bridge.
 
     Args:
-        target: ``"sim"``, ``"sim:NETWORK"``, a network file or ``Network``, or a
-            serial port / pyserial URL (see the module docstring).
+        target: ``"sim"``, ``"sim:NETWORK"``, ``"firmware:NETWORK"``, a network file
+            or ``Network``, or a serial port / pyserial URL (see the module docstring).
         robot: The robot description: a loaded one, a file, or ``None`` for the
             bundled ``hardware/pirate.yaml``.
         seed: The simulator's seed (and the link faults'); ignored on a real robot.
@@ -213,13 +229,20 @@ def connect(
         mode: Who is in charge at the start: ``"autonomous"`` (trees run),
             ``"supervised"`` (every PAB step waits for an operator's confirmation) or
             ``"manual"`` (the operator drives; trees are paused).
+        firmware: Simulator targets only: run the pipe physics behind the real
+            firmwares in simavr (the bridge and the reference PICO boards; virtual
+            time) instead of the Python bridge; link faults apply, simulator faults
+            do not. Needs ``make firmware``.
 
     Returns:
         Connection: The open connection; close it (or use ``with``).
 
     Raises:
-        InputError: a malformed target or fault, or simulator faults on a real port.
+        InputError: a malformed target or fault, or simulator faults on a real port
+            or through the firmware.
         ValidationFailed: a robot description or network that does not validate.
+        ConfigurationError: ``firmware`` and the firmwares or simavr harness are not
+            built.
         LinkError: the robot cannot be reached.
 
     Example::
@@ -231,6 +254,13 @@ def connect(
     from pirate_bt.safety.operator import Mode
 
     kind, where = parse_target(target)
+    if firmware and kind == "port":
+        raise InputError(
+            f"connect: firmware=True runs the simulator through the firmwares; {where!r} is"
+            " a port (a real bridge runs its own firmware)"
+        )
+    if firmware:
+        kind = "firmware"
     try:
         start_mode = Mode(mode)
     except ValueError:
@@ -241,7 +271,14 @@ def connect(
     options: dict[str, Any] = {}
     if link_faults is not None:
         options["faults"] = link_faults if "seed=" in link_faults else f"{link_faults},seed={seed}"
-    if kind == "sim":
+    if kind == "firmware":
+        if sim_faults:
+            raise InputError(
+                "faults: simulator faults (KIND:TARGET@AT) need the Python simulator; through"
+                " the firmware only link faults (KEY=VALUE) apply"
+            )
+        connection = _connect_firmware(description, where, start_mode, options)
+    elif kind == "sim":
         network = _network_for(where)
         clock: Clock = SimClock()
         supervisor = open_supervisor(
@@ -282,6 +319,39 @@ def connect(
             description=f"robot at {where}",
         )
     return connection
+
+
+def _connect_firmware(
+    description: RobotDescription, where: Any, start_mode: Any, options: dict[str, Any]
+) -> Connection:
+    """The pipe physics behind the bridge and PICO firmwares in simavr, supervised."""
+    from pirate_bt.pipes import load_network
+    from pirate_bt.safety.factory import open_supervisor
+    from pirate_bt.sim.chain_open import ChainSimulator, open_firmware_chain
+
+    network = _network_for(where)
+    if isinstance(network, str):
+        network = load_network(network)
+    name = str(getattr(network, "name", where))
+    clock = SimClock()
+    simulator = ChainSimulator(open_firmware_chain(description, network, clock=clock))
+    try:
+        supervisor = open_supervisor(
+            description, url=simulator.chain.url, clock=clock, mode=start_mode, **options
+        )
+    except BaseException:
+        simulator.close()
+        raise
+    return Connection(
+        description,
+        clock,
+        supervisor,
+        simulated=True,
+        target=name,
+        seed=None,
+        description=f"firmware chain in simavr: {name}",
+        simulator=simulator,
+    )
 
 
 def _network_for(where: Any) -> Any:

@@ -255,6 +255,7 @@ def simulate_mission(
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
     groot2: Groot2Option = None,
+    firmware: bool = False,
 ) -> MissionResult:
     """Plan a route on a map (unless given a plan) and run it on the simulator.
 
@@ -287,6 +288,9 @@ def simulate_mission(
         groot2: Serve the run live to Groot2 (``"HOST:PORT"``, a port, ``True`` for
             127.0.0.1:1667, or an open ``Groot2Server``; docs/interop-groot2.md):
             each runner of the mission (a re-plan, the way back) is a new tree there.
+        firmware: Run the physics behind the real firmwares in simavr (the bridge
+            and a reference PICO per board, in virtual time) instead of the Python
+            bridge; link faults only. Needs ``make firmware`` (docs/firmware-sim.md).
 
     Returns:
         pirate_bt.task.mission.MissionResult: ``status``, ``why``, ``failing_node``,
@@ -316,7 +320,9 @@ def simulate_mission(
         foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         groot2_server(groot2) as groot2_view,
-        connect(world, robot=description, seed=seed, faults=faults) as connection,
+        connect(
+            world, robot=description, seed=seed, faults=faults, firmware=firmware
+        ) as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
         ros2_view = ros2_mission_observer(node, connection, description) if node else None

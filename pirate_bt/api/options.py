@@ -73,7 +73,8 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
 
 
 def parse_target(target: Any) -> tuple[str, Any]:
-    """``("sim", network)`` or ``("port", url)`` for a :func:`connect` target.
+    """``("sim", network)``, ``("firmware", network)`` or ``("port", url)`` for a
+    :func:`connect` target.
 
     Raises:
         InputError: a target that is neither.
@@ -98,6 +99,10 @@ def parse_target(target: Any) -> tuple[str, Any]:
         return "sim", DEFAULT_NETWORK
     if text.startswith("sim:"):
         return "sim", text[4:] or DEFAULT_NETWORK
+    if text == "firmware":
+        return "firmware", DEFAULT_NETWORK
+    if text.startswith("firmware:"):
+        return "firmware", text[9:] or DEFAULT_NETWORK
     if _PORT.match(text):
         return "port", text
     if text.endswith((".yaml", ".yml")) or Path(text).is_file():

@@ -44,6 +44,7 @@ def simulate_tree(
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
     groot2: Groot2Option = None,
+    firmware: bool = False,
 ) -> RunResult:
     """Run a tree on the built-in simulator, to its end, and say why it ended.
 
@@ -70,6 +71,9 @@ def simulate_tree(
         ros_namespace: The namespace of the node and its topics (default ``/pirate``).
         groot2: Serve the run live to Groot2 (``"HOST:PORT"``, a port, ``True`` for
             127.0.0.1:1667, or an open ``Groot2Server``; docs/interop-groot2.md).
+        firmware: Run the physics behind the real firmwares in simavr (the bridge
+            and a reference PICO per board, in virtual time) instead of the Python
+            bridge; link faults only. Needs ``make firmware`` (docs/firmware-sim.md).
 
     Returns:
         RunResult: How the run ended and why; a failed run is a result, not an
@@ -114,6 +118,7 @@ def simulate_tree(
             robot=description,
             seed=seed,
             faults=faults,
+            firmware=firmware,
         ) as connection:
             return run_on(connection, checked, count_from_open=True, **options)
 

@@ -37,6 +37,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
     parser.add_argument(
+        "--firmware-chain",
+        action="store_true",
+        help="with the simulator: run its physics behind the real firmwares in simavr (the"
+        " bridge and a reference PICO per board, virtual time; needs `make firmware`)",
+    )
+    parser.add_argument(
         "--network",
         metavar="MAP",
         help="the map the mission plans on (default: the route's network line)",
@@ -193,12 +199,22 @@ def execute(
         "groot2": groot2,
     }
     started = time.perf_counter()
+    if args.port is not None and args.firmware_chain:
+        raise InputError(
+            "--firmware-chain runs the simulator through the firmwares;"
+            " with --port the real bridge runs its own"
+        )
     try:
         if args.port is not None:
             result = run_mission(plan, port=args.port, **options)
         else:
             result = simulate_mission(
-                plan, truth=truth, seed=args.seed, realtime=args.realtime, **options
+                plan,
+                truth=truth,
+                seed=args.seed,
+                realtime=args.realtime,
+                firmware=args.firmware_chain,
+                **options,
             )
     finally:
         if server is not None:

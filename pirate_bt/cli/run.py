@@ -42,6 +42,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
     parser.add_argument(
+        "--firmware-chain",
+        action="store_true",
+        help="with the simulator: run its physics behind the real firmwares in simavr (the"
+        " bridge and a reference PICO per board, virtual time; needs `make firmware`)",
+    )
+    parser.add_argument(
         "--param",
         action="append",
         default=[],
@@ -197,6 +203,11 @@ def run(args: argparse.Namespace) -> int:
         "ros2": node,
         "groot2": groot2,
     }
+    if args.port is not None and args.firmware_chain:
+        raise InputError(
+            "--firmware-chain runs the simulator through the firmwares;"
+            " with --port the real bridge runs its own"
+        )
     try:
         if args.port is not None:
             result = run_tree(checked, port=args.port, **options)
@@ -206,6 +217,7 @@ def run(args: argparse.Namespace) -> int:
                 network=args.sim or "straight",
                 seed=args.seed,
                 realtime=args.realtime,
+                firmware=args.firmware_chain,
                 **options,
             )
     finally:
