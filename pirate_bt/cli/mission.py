@@ -199,7 +199,7 @@ def execute(
         "groot2": groot2,
     }
     started = time.perf_counter()
-    if args.port is not None and args.firmware_chain:
+    if args.port is not None and getattr(args, "firmware_chain", False):
         raise InputError(
             "--firmware-chain runs the simulator through the firmwares;"
             " with --port the real bridge runs its own"
@@ -213,7 +213,7 @@ def execute(
                 truth=truth,
                 seed=args.seed,
                 realtime=args.realtime,
-                firmware=args.firmware_chain,
+                firmware=getattr(args, "firmware_chain", False),
                 **options,
             )
     finally:

@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
         "ros2": node,
         "groot2": groot2,
     }
-    if args.port is not None and args.firmware_chain:
+    if args.port is not None and getattr(args, "firmware_chain", False):
         raise InputError(
             "--firmware-chain runs the simulator through the firmwares;"
             " with --port the real bridge runs its own"
@@ -217,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
                 network=args.sim or "straight",
                 seed=args.seed,
                 realtime=args.realtime,
-                firmware=args.firmware_chain,
+                firmware=getattr(args, "firmware_chain", False),
                 **options,
             )
     finally:
