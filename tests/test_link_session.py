@@ -341,13 +341,54 @@ def test_handshake_refuses_other_layout_and_version() -> None:
     reply = HelloReply(1, lay.digest, lay.n_channels, lay.n_motors, 250, 0x0100, 1, 7, 1)
     for wire, match in (
         (_with_version(CODEC.encode(reply), 2), "version"),
-        (CODEC.encode(HelloReply(1, lay.digest, lay.n_channels, lay.n_motors, 250, 0, 2)), "1.2"),
+        # the host asked for 1.2 (its default) and is answered 1.1 without a refusal
+        (CODEC.encode(HelloReply(1, lay.digest, lay.n_channels, lay.n_motors, 250, 0, 1)), "1.1"),
     ):
         clock = SimClock()
         host, far = memory_pair()
         clock.add_listener(_Answers(far, wire).step)
         with pytest.raises(ProtocolMismatch, match=match):
             wrap_link(host, ROBOT, clock)
+
+
+def test_a_1_1_bridge_gets_a_1_1_session_and_another_layout_is_still_refused() -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    bridge = bridge_for(ROBOT)
+    bridge.max_minor = 1  # an older bridge: refuses a 1.2 HELLO like another layout
+    clock.add_listener(BridgeOnPort(far, bridge).step)
+    link = wrap_link(host, ROBOT, clock)
+    try:
+        assert link.session.last_hello_reply is not None
+        assert link.session.last_hello_reply.minor == 1
+        assert link.session.config.protocol_minor == 1  # a later re-HELLO asks for 1.1 too
+        assert link.health().connected and not link.health().estop_input
+    finally:
+        link.close()
+    other = load_robot(Path(__file__).parents[1] / "hardware/variants/pirate-rear-imu.yaml")
+    clock = SimClock()
+    host, far = memory_pair()
+    bridge = bridge_for(load_robot())
+    bridge.max_minor = 1
+    clock.add_listener(BridgeOnPort(far, bridge).step)
+    with pytest.raises(ProtocolMismatch, match=r"BAD_LAYOUT.*another robot description"):
+        wrap_link(host, other, clock)
+
+
+def test_a_host_speaks_1_2_by_default_and_hears_the_estop_input() -> None:
+    link, bridge, clock = connect()
+    try:
+        assert link.session.last_hello_reply is not None
+        assert link.session.last_hello_reply.minor == 2
+        bridge.bridge.set_estop_input(True)
+        deadline = clock.now() + 0.5
+        while not link.health().estop_input and clock.now() < deadline:
+            clock.sleep(0.01)
+            link.poll()
+        health = link.health()
+        assert health.estopped and health.estop_input
+    finally:
+        link.close()
 
 
 def test_handshake_times_out_on_a_silent_bridge() -> None:

@@ -68,6 +68,7 @@ def reply(seq: int = 1, **changes: object) -> HelloReply:
         "n_motors": LAYOUT.n_motors,
         "watchdog_ms": 250,
         "boot_id": 7,
+        "minor": SessionConfig().protocol_minor,  # the session's (1.2 by default)
     }
     fields.update(changes)
     return HelloReply(**fields)  # type: ignore[arg-type]
@@ -560,7 +561,8 @@ def test_a_bridge_reset_starts_a_new_session_and_fails_what_was_in_flight(
     for r in (req, waiting):
         assert (r.outcome, r.acked_at_s, r.tries) == (Outcome.FAILED, wire.clock.now(), r.tries)
     hello = wire.sent()[-1]
-    assert isinstance(hello, Hello) and hello.seq == waiting.seq + 1 and hello.minor == 1
+    assert isinstance(hello, Hello) and hello.seq == waiting.seq + 1
+    assert hello.minor == CONFIG.protocol_minor
     assert wire.session.latest_state()[0].seq == 40000  # type: ignore[index]
     stats = wire.session.stats()
     assert (stats.bridge_resets, stats.estopped, stats.sessions) == (1, True, 1)
@@ -674,7 +676,7 @@ def test_a_reply_to_no_hello_is_a_duplicate() -> None:
 
 @pytest.mark.parametrize(
     "answer",
-    [{"layout_digest": LAYOUT.digest ^ 1}, {"minor": 2}],
+    [{"layout_digest": LAYOUT.digest ^ 1}, {"minor": 1}],
 )
 def test_a_new_session_on_another_layout_or_version_is_refused(
     answer: dict[str, int], caplog: pytest.LogCaptureFixture

@@ -462,6 +462,7 @@ def test_link_and_counters_written_only_when_they_change(tmp_path: Path) -> None
         "failed": 0,
         "duplicates": 0,
         "estopped": False,
+        "estop_input": False,
     }
     assert {n: v for n, v in links.items() if n > 1} == {
         3: {"rtt_s": 0.05},

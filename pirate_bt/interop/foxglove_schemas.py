@@ -241,6 +241,7 @@ _SCHEMAS: dict[str, tuple[str, dict[str, Any]]] = {
                 "failed": {"type": "integer"},
                 "duplicates": {"type": "integer"},
                 "estopped": {"type": "boolean"},
+                "estop_input": {"type": "boolean"},
             },
             additionalProperties=True,
         ),

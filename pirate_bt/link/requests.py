@@ -14,7 +14,6 @@ from dataclasses import dataclass, replace
 
 from pirate_bt.link.framing import (
     MAX_WIRE_BYTES,
-    PROTOCOL_MINOR,
     PROTOCOL_MINOR_MAX,
     frame_time_s,
 )
@@ -66,10 +65,11 @@ class SessionConfig:
         link_timeout_s: Declare the link lost when nothing valid was heard for this long.
         poll_step_s: Sleep between polls while a caller waits.
         loss_window: Requests over which the loss ratio is computed.
-        protocol_minor: The protocol minor version the host asks for in HELLO: 1
-            (default), or 2 to be told of the bridge's hardware e-stop input
-            (``BridgeFlags.ESTOP_INPUT``; docs/protocol.md, Versions). A bridge that
-            does not speak it refuses the session.
+        protocol_minor: The protocol minor version the host asks for in HELLO: 2
+            (default: to be told of the bridge's hardware e-stop input,
+            ``BridgeFlags.ESTOP_INPUT``; docs/protocol.md, Versions) or 1.
+            :func:`~pirate_bt.link.open_link` asks once more for 1.1 when a bridge
+            refuses 1.2 (a 1.1 bridge), and the session then speaks 1.1.
     """
 
     ack_timeout_s: float = 0.06
@@ -78,7 +78,7 @@ class SessionConfig:
     link_timeout_s: float = 0.5
     poll_step_s: float = 0.001
     loss_window: int = 100
-    protocol_minor: int = PROTOCOL_MINOR
+    protocol_minor: int = PROTOCOL_MINOR_MAX
 
     @classmethod
     def from_robot(cls, robot: RobotDescription, **overrides: float) -> SessionConfig:

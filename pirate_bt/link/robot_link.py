@@ -19,13 +19,15 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 from operator import attrgetter
 from typing import Any
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError, LinkTimeout
+from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import BridgeFlags, FrameCodec
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
+from pirate_bt.link.messages import HelloReply
 from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
 from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -216,6 +218,7 @@ class RobotLink:
             failed=failed,
             duplicates=dups,
             estopped=bool(flags & BridgeFlags.ESTOP),
+            estop_input=bool(flags & BridgeFlags.ESTOP_INPUT),
         )
         return self._health
 
@@ -251,6 +254,7 @@ def _health_of(s: SessionStats) -> LinkHealth:
         failed=s.failed,
         duplicates=s.duplicates,
         estopped=s.estopped,
+        estop_input=s.estop_input,
     )
 
 
@@ -302,12 +306,13 @@ def wrap_link(
         byte_link = FaultyLink(byte_link, faults, clock)
     codec = FrameCodec.for_robot(robot)
     cfg = config or SessionConfig.from_robot(robot)
-    try:
-        reply = handshake(
+
+    def hello(seq: int, minor: int, reset_wait_s: float) -> HelloReply:
+        return handshake(
             byte_link,
             codec,
             clock,
-            seq=1,
+            seq=seq,
             reset_wait_s=reset_wait_s,
             # HELLO is resent every ack timeout, well inside the watchdog, so a lost
             # reply does not silence the host long enough to trip it; 16 tries, and
@@ -315,12 +320,24 @@ def wrap_link(
             reply_timeout_s=cfg.ack_timeout_s,
             attempts=max(16, math.ceil(0.4 / cfg.ack_timeout_s)),
             step_s=cfg.poll_step_s,
-            minor=cfg.protocol_minor,
+            minor=minor,
         )
+
+    try:
+        try:
+            reply = hello(1, cfg.protocol_minor, reset_wait_s)
+        except ProtocolMismatch as refused:
+            if cfg.protocol_minor == 1 or "BAD_LAYOUT" not in str(refused):
+                raise
+            # A 1.1 bridge refuses a 1.2 HELLO (NACK BAD_LAYOUT, as for another layout):
+            # ask once more for 1.1; if the layout is what it refuses, that fails too.
+            _log.info("the bridge refused protocol 1.%d; asking for 1.1", cfg.protocol_minor)
+            cfg = replace(cfg, protocol_minor=1)
+            reply = hello(2, 1, 0.0)
     except BaseException:
         byte_link.close()
         raise
-    session = Session(byte_link, codec, clock, cfg, first_seq=2, hello_reply=reply)
+    session = Session(byte_link, codec, clock, cfg, first_seq=reply.seq + 1, hello_reply=reply)
     if threaded:
         session.start_reader(cfg.poll_step_s)
     if reply.flags & BridgeFlags.ESTOP:

@@ -35,6 +35,8 @@ class LinkHealth:
         failed: Requests given up on after all retries, since connect.
         duplicates: Duplicate or out-of-date frames ignored, since connect.
         estopped: The bridge reports its e-stop latched.
+        estop_input: The bridge reports its hardware e-stop input pressed, or that the
+            input latched the e-stop (protocol 1.2; a 1.1 bridge never says so).
     """
 
     connected: bool
@@ -46,6 +48,7 @@ class LinkHealth:
     failed: int = 0
     duplicates: int = 0
     estopped: bool = False
+    estop_input: bool = False
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""

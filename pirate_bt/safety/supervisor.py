@@ -206,6 +206,12 @@ class Supervisor(AuthorityMixin, DecisionMixin):
         """Why the link is not fit for commands now, or ``None``."""
         health = self.port.health()
         if health.estopped:
+            if health.estop_input:
+                return Problem(
+                    Reason.ESTOP_LATCHED,
+                    "the bridge reports its e-stop latched by its hardware e-stop input"
+                    " (release the button, then reset the e-stop)",
+                )
             return Problem(Reason.ESTOP_LATCHED, "the bridge reports its e-stop latched")
         if not health.connected:
             return Problem(Reason.LINK_DOWN, "the link to the robot is not connected")
@@ -259,7 +265,7 @@ class Supervisor(AuthorityMixin, DecisionMixin):
             problem = self.link_problem()
             if problem is not None and problem.reason is Reason.ESTOP_LATCHED:
                 if self._mode is not Mode.ESTOP:
-                    self.estop("the bridge reports its e-stop latched")
+                    self.estop(problem.detail)
                 return
             if problem is not None:
                 if not self.in_safe_state:

@@ -145,6 +145,8 @@ class SimBridge(FaultsMixin):
         self.boot_id = 0
         self.estop_input = False
         """The hardware e-stop input is pressed (see :meth:`set_estop_input`)."""
+        self.max_minor = PROTOCOL_MINOR_MAX
+        """The newest protocol minor version this bridge speaks (1: a 1.1 bridge)."""
         self._input_tripped = False
         self._resetting: set[int] = set()
         self._link_lost = False
@@ -296,7 +298,7 @@ class SimBridge(FaultsMixin):
 
     def _hello(self, seq: int, payload: bytes) -> None:
         digest, minor = self._payloads.hello(payload)
-        if digest != self.codec.layout.digest or not 1 <= minor <= PROTOCOL_MINOR_MAX:
+        if digest != self.codec.layout.digest or not 1 <= minor <= self.max_minor:
             self._nack(seq, MsgType.HELLO, NackCode.BAD_LAYOUT)
             return
         # a retried HELLO (its reply was lost: the same seq, nothing handled since) is the

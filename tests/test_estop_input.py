@@ -1,0 +1,27 @@
+"""The bridge's hardware e-stop input, as the host reports it (protocol 1.2, the default).
+
+A planner whose run ends because someone pressed the mushroom button on the bridge
+learns that from the result, not only that "the e-stop is latched".
+"""
+
+from __future__ import annotations
+
+import pirate_bt
+
+
+def test_a_pressed_estop_input_ends_the_run_and_the_result_names_the_button() -> None:
+    with pirate_bt.connect("sim:straight") as robot:
+        bridge = robot.simulator.bridge
+
+        def press(now: float) -> None:
+            if now > 3.0 and not bridge.estop_input:
+                bridge.set_estop_input(True)
+
+        robot.clock.add_listener(press)
+        result = robot.run("straight", params={"distance": "1 m"}, max_time="60 s")
+        truth = robot.simulator.truth()
+        assert robot.supervisor.link_problem() is not None
+    assert not result.succeeded
+    assert "hardware e-stop input" in result.why, result.why
+    assert truth.halves  # the robot is still there: clamps hold in the stop category
+    assert any(h.clamped for h in truth.halves.values())
