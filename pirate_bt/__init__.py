@@ -42,6 +42,14 @@ _EXPORTS: dict[str, str] = {
     "load_network": "pirate_bt.api.missions",
     "write_mission_outputs": "pirate_bt.api.missions",
     "run_campaign": "pirate_bt.campaign",
+    # planner code in the loop
+    "navigate": "pirate_bt.api.navigation",
+    "Step": "pirate_bt.task.navigation",
+    "Observation": "pirate_bt.task.navigation",
+    "Navigator": "pirate_bt.task.navigation",
+    "NavigationResult": "pirate_bt.task.navigate",
+    "load_navigator": "pirate_bt.task.navigators",
+    "navigator_names": "pirate_bt.task.navigators",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",
@@ -82,19 +90,26 @@ __all__ = [
     "LocatedError",
     "MissionPlan",
     "MissionResult",
+    "NavigationResult",
+    "Navigator",
+    "Observation",
     "PabOutcome",
     "PirateError",
     "RunResult",
     "SafetyError",
+    "Step",
     "StopReason",
     "ValidationFailed",
     "__version__",
     "attach_groot2",
     "connect",
+    "load_navigator",
     "load_network",
     "load_robot",
     "load_route",
     "load_tree",
+    "navigate",
+    "navigator_names",
     "plan_route",
     "read_trace",
     "render_tree",
@@ -130,6 +145,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         simulate_mission,
         write_mission_outputs,
     )
+    from pirate_bt.api.navigation import navigate
     from pirate_bt.api.results import RunResult
     from pirate_bt.api.running import load_tree
     from pirate_bt.api.trees import run_tree, simulate_tree
@@ -150,6 +166,9 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.runner import StopReason
     from pirate_bt.safety.tally import Counters
     from pirate_bt.task.mission import MissionResult
+    from pirate_bt.task.navigate import NavigationResult
+    from pirate_bt.task.navigation import Navigator, Observation, Step
+    from pirate_bt.task.navigators import load_navigator, navigator_names
     from pirate_bt.task.outcome import PabOutcome
     from pirate_bt.task.plan import MissionPlan
     from pirate_bt.trace.reader import read_trace

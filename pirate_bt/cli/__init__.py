@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("pirate_bt.cli.run", "run a behaviour tree against the simulator or a robot"),
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
     "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
+    "navigate": ("pirate_bt.cli.navigate", "let a navigator choose every step (planner code)"),
     "network": ("pirate_bt.cli.network", "as-built variants of a pipe network (perturb, edit)"),
     "campaign": ("pirate_bt.cli.campaign", "run many seeded runs locally or on Dask; report"),
     "export": ("pirate_bt.cli.export", "write a tree in another tool's format (BT.CPP XML)"),

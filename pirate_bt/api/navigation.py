@@ -1,0 +1,157 @@
+"""``navigate(navigator)``: planner code in the loop, one supervised step at a time.
+
+See docs/navigators.md for the loop, the observation, the steps and the guarantees,
+and :mod:`pirate_bt.task.navigate` for how a step runs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.api.connection import connect
+from pirate_bt.api.options import load_robot_like, network_name, quantity
+from pirate_bt.errors import InputError
+from pirate_bt.task.localise import MAP_FRACTION
+from pirate_bt.task.navigate import NavigationResult, run_navigation
+from pirate_bt.task.navigation import Navigator
+from pirate_bt.task.navigators import load_navigator
+
+__all__ = ["navigate"]
+
+
+def _network(value: Any, what: str) -> Any:
+    from pirate_bt.pipes import Network, load_network
+
+    if isinstance(value, Network):
+        return value
+    if not isinstance(value, str | Path):
+        raise InputError(f"{what}: give a network name, a file or a Network, not {value!r}")
+    return load_network(network_name(value))
+
+
+def navigate(
+    navigator: Navigator | str,
+    *,
+    sim: Any = None,
+    port: str | None = None,
+    map: Any = None,
+    params: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float = "3600 s",
+    rate: str | float = "20 Hz",
+    deadline: str | float = "5 s",
+    max_steps: int = 500,
+    map_tolerance: float = MAP_FRACTION,
+    firmware: bool = False,
+) -> NavigationResult:
+    """Drive the robot step by step, each step chosen by ``navigator`` from what it felt.
+
+    Args:
+        navigator: An object with ``next_step(obs) -> Step | None``, or the name of a
+            built-in or installed navigator (``"route"``, ``"goal"``) made with
+            ``params``.
+        sim: The simulator's network, the pipe as it really is (a bundled name, a
+            file or a ``Network``; the default when no ``port`` is given:
+            ``"straight"``).
+        port: A real robot (serial port or pyserial URL) instead of the simulator.
+        map: The map the navigator and the planner see (``None``: no map; the
+            belief is then the odometry's distance along the way).
+        params: The navigator's parameters when it is given by name
+            (``{"segment": "run-d"}``).
+        seed: The simulator's seed.
+        faults: Simulator and link faults, as for :func:`pirate_bt.simulate_tree`.
+        trace: A directory for ``navigation.jsonl`` (every decision with its
+            observation) and one tick trace per step (``step-NN.jsonl``).
+        robot: The robot description (default: bundled).
+        max_time: Clock time the whole navigation may take.
+        rate: Tick rate.
+        deadline: Wall time the navigator may take for one decision (``"5 s"``).
+        max_steps: Steps the navigation may take.
+        map_tolerance: How far the map's lengths may be off (see
+            :func:`pirate_bt.simulate_mission`).
+        firmware: Simulator only: run it through the real firmwares in simavr.
+
+    Returns:
+        NavigationResult: How it went; a failed navigation is a result, not an
+            exception. ``why`` names the failing step's cause, a map disagreement,
+            or the navigator's own error.
+
+    Raises:
+        InputError: an unknown navigator or parameter, a bad option, a map or
+            network that does not load.
+        LinkError: the robot cannot be reached.
+
+    Example::
+
+        import pirate_bt
+        from pirate_bt import Step
+
+        class ThreeMetres:
+            def next_step(self, obs):
+                return Step("straight", distance="1 m") if obs.step < 3 else None
+
+        result = pirate_bt.navigate(ThreeMetres(), sim="straight")
+        print(result.summary())
+    """
+    if sim is not None and port is not None:
+        raise InputError("navigate: give sim= or port=, not both")
+    if isinstance(navigator, str):
+        name = navigator
+        navigator = load_navigator(navigator, params)
+    else:
+        if params:
+            raise InputError("navigate: params= is for a navigator given by name")
+        if not callable(getattr(navigator, "next_step", None)):
+            raise InputError(f"navigate: {navigator!r} has no next_step(obs) method")
+        name = type(navigator).__name__
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
+        raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}")
+    max_time_s = quantity(max_time, "time", "max_time")
+    rate_hz = quantity(rate, "frequency", "rate")
+    deadline_s = quantity(deadline, "time", "deadline")
+    if max_time_s <= 0 or rate_hz <= 0 or deadline_s <= 0:
+        raise InputError("max_time, rate and deadline must be positive")
+    description = load_robot_like(robot)
+    map_network = _network(map, "map") if map is not None else None
+    target: Any
+    if port is not None:
+        target = port
+    else:
+        world = sim if sim is not None else "straight"
+        target = _network(world, "sim")
+    with connect(
+        target, robot=description, seed=seed, faults=faults, firmware=firmware
+    ) as connection:
+        simulator = connection.simulator
+        truth_for = None
+        truth_now = None
+        if simulator is not None:
+            from pirate_bt.task.mission import truth_of
+
+            start = float(simulator.model.s_m)
+            truth_for = (lambda plan: truth_of(plan, simulator)) if map_network else None
+            truth_now = lambda: float(simulator.model.s_m) - start  # noqa: E731
+        return run_navigation(
+            navigator,
+            description,
+            connection.supervisor,
+            connection.clock,
+            name=name,
+            network=map_network,
+            truth_for=truth_for,
+            truth_now=truth_now,
+            counters=simulator.counters if simulator is not None else None,
+            trace_dir=Path(trace) if trace is not None else None,
+            period_s=1.0 / rate_hz,
+            max_time_s=max_time_s,
+            deadline_s=deadline_s,
+            max_steps=max_steps,
+            map_tolerance=map_tolerance,
+            scenario=connection.target,
+            seed=connection.seed,
+        )

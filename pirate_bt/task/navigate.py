@@ -1,0 +1,629 @@
+"""The navigation loop: planner code chooses each step from what the robot felt.
+
+:func:`run_navigation` asks a :class:`~pirate_bt.task.navigation.Navigator` for a
+:class:`~pirate_bt.task.navigation.Step`, checks it, runs it as its PAB's tree behind
+the supervisor, and tells the navigator how it went, until the navigator says it is
+done (``None``), a step fails, or a limit is reached. The public door is
+:func:`pirate_bt.navigate`; docs/navigators.md is the user's guide.
+
+- **With a map**, each step is planned on it from the belief
+  (:class:`~pirate_bt.task.step_planner.StepPlanner`) and run as a one-step mission
+  (:func:`~pirate_bt.task.mission.run_mission`): the localiser corrects the belief at
+  every feature it recognises, a turn gets its approach leg, and a map disagreement
+  stops the step safe; the navigator is told, and may go on from the belief.
+- **Without a map**, each step runs its PAB's tree directly with the step's
+  parameters; the belief is the odometry's distance along the way.
+
+The guarantees: the navigator sees only its :class:`Observation` (it holds nothing
+that reaches the robot); one that raises, takes longer than ``deadline_s`` of wall
+time to answer, or answers with a step that cannot run ends the navigation in the
+safe state, and ``why`` names the navigator and its error. Every decision (its
+observation, its step, how long it took, how the step ended) is kept in the result
+and, with a trace, written to ``navigation.jsonl`` beside one tick trace per step.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, TextIO
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import LinkError, LocatedError, ValidationFailed
+from pirate_bt.pipes import Network, PieceKind
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.runner import Runner
+from pirate_bt.runner import RunResult as TreeRun
+from pirate_bt.safety.tally import Counters, VerdictTally
+from pirate_bt.task.localise import MAP_FRACTION
+from pirate_bt.task.mission import MissionResult, run_mission
+from pirate_bt.task.navigation import (
+    Belief,
+    CheckedStep,
+    Decision,
+    Felt,
+    InvalidStep,
+    Navigator,
+    Observation,
+    Step,
+    check_step,
+)
+from pirate_bt.task.outcome import PabOutcome, explain_run
+from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name, robot_length_m
+from pirate_bt.task.step_planner import StepPlanner
+from pirate_bt.trace.attach import counter_values
+
+__all__ = ["NavigationResult", "run_navigation"]
+
+_log = logging.getLogger(__name__)
+
+MAX_FAILED_IN_A_ROW = 3
+"""After a map disagreement a navigator may go on; after this many failed steps in a
+row it is stopped (the robot stays in its safe state)."""
+
+ODOMETRY_FRACTION = 0.05
+"""Without a map, the belief may be off by this share of the distance driven."""
+
+
+@dataclass
+class NavigationResult:
+    """How a navigation went, step by step.
+
+    Attributes:
+        navigator: The navigator's name.
+        status: ``"success"`` (the navigator said it was done, every step succeeded)
+            or ``"failure"``.
+        why: The first cause of the end, for people: the failing step's own cause,
+            the map disagreement, or the navigator's error (named).
+        failing_node: Path of the node where a step failed, if one did.
+        decisions: Every answer of the navigator, with its observation.
+        pabs: Every PAB run, in order (a turn step runs its approach and the turn).
+        steps: Steps run.
+        belief_m: Final belief (metres along the way taken).
+        truth_m: Final truth on the same scale, when simulated.
+        counters: Refusals, clips, link figures and, when simulated, violations and
+            damage, over the whole navigation.
+        safe_state: The robot was left in its safe state.
+        sim_time_s: Clock time the navigation took.
+        wall_s: Wall time it took.
+        missions: With a map: each step's one-step mission result.
+        sim: Final simulator counters, when simulated.
+        trace_dir: Where the navigation's records and per-step traces were written.
+        error: The exception that ended it, if one did (a lost link: ``LinkError``).
+    """
+
+    navigator: str
+    status: str
+    why: str
+    failing_node: str | None = None
+    decisions: list[Decision] = field(default_factory=list)
+    pabs: list[PabOutcome] = field(default_factory=list)
+    steps: int = 0
+    belief_m: float = 0.0
+    truth_m: float | None = None
+    counters: Counters = field(default_factory=Counters)
+    safe_state: bool = False
+    sim_time_s: float = 0.0
+    wall_s: float = 0.0
+    missions: list[MissionResult] = field(default_factory=list)
+    sim: Mapping[str, float] = field(default_factory=dict)
+    trace_dir: Path | None = None
+    error: BaseException | None = None
+
+    @property
+    def succeeded(self) -> bool:
+        """True when the navigator finished and every step succeeded."""
+        return self.status == "success"
+
+    @property
+    def exit_code(self) -> int:
+        """The command line's exit code: 0 success, 3 link error, 1 failure."""
+        if self.succeeded:
+            return 0
+        return 3 if isinstance(self.error, LinkError) else 1
+
+    def summary(self) -> str:
+        """One line for people."""
+        verb = "SUCCESS" if self.succeeded else "FAILURE"
+        truth = "" if self.truth_m is None else f", truly {self.truth_m:.2f} m"
+        return (
+            f"navigator {self.navigator}: {verb} - {self.why} ({self.steps} steps,"
+            f" {len(self.pabs)} PABs, {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
+            f" believed at {self.belief_m:.2f} m{truth})"
+        )
+
+
+@dataclass
+class _Step:
+    """How one step ran."""
+
+    succeeded: bool
+    why: str
+    failing_node: str | None
+    pabs: list[PabOutcome]
+    belief_m: float
+    felt: list[Felt]
+    disagreement: bool = False
+    error: BaseException | None = None
+    mission: MissionResult | None = None
+    truth_m: float | None = None
+
+
+def _decide(
+    navigator: Navigator, obs: Observation, deadline_s: float, name: str
+) -> tuple[Step | None, float, str | None]:
+    """Ask the navigator, on a thread of its own, within ``deadline_s`` of wall time."""
+    box: dict[str, Any] = {}
+
+    def ask() -> None:
+        try:
+            box["step"] = navigator.next_step(obs)
+        except BaseException as exc:  # a navigator's error is a result, not a crash
+            box["error"] = exc
+
+    started = time.perf_counter()
+    thread = threading.Thread(target=ask, name=f"navigator {name}", daemon=True)
+    thread.start()
+    thread.join(deadline_s)
+    seconds = time.perf_counter() - started
+    if thread.is_alive():
+        return (
+            None,
+            seconds,
+            (
+                f"navigator {name!r} took longer than its {deadline_s:g} s deadline to decide"
+                f" step {obs.step + 1}"
+            ),
+        )
+    if "error" in box:
+        exc = box["error"]
+        return None, seconds, f"navigator {name!r} raised {type(exc).__name__}: {exc}"
+    step = box.get("step")
+    return step, seconds, None
+
+
+class _Records:
+    """``navigation.jsonl``: one record per line, flushed as it is written."""
+
+    def __init__(self, directory: Path | None) -> None:
+        self.directory = directory
+        self._file: TextIO | None = None
+        if directory is not None:
+            directory.mkdir(parents=True, exist_ok=True)
+            self._file = (directory / "navigation.jsonl").open("w", encoding="utf-8")
+
+    def write(self, record: dict[str, Any]) -> None:
+        if self._file is not None:
+            self._file.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+            self._file.flush()
+
+    def step_trace(self, index: int) -> Path | None:
+        return None if self.directory is None else self.directory / f"step-{index:03d}.jsonl"
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def run_navigation(
+    navigator: Navigator,
+    robot: RobotDescription,
+    supervisor: Any,
+    clock: Clock,
+    *,
+    name: str,
+    network: Network | None = None,
+    truth_for: Callable[[MissionPlan], Callable[[], float | None]] | None = None,
+    truth_now: Callable[[], float | None] | None = None,
+    counters: Callable[[], Any] | None = None,
+    trace_dir: Path | None = None,
+    period_s: float = 0.05,
+    max_time_s: float = 3600.0,
+    deadline_s: float = 5.0,
+    max_steps: int = 500,
+    map_tolerance: float = MAP_FRACTION,
+    scenario: str | None = None,
+    seed: int | None = None,
+) -> NavigationResult:
+    """Run ``navigator`` step by step on a supervised robot (see the module docstring).
+
+    Args:
+        navigator: Anything with ``next_step(obs) -> Step | None``.
+        robot: The robot description.
+        supervisor: The supervisor holding the connected robot.
+        clock: The run's clock.
+        name: The navigator's name, for results and messages.
+        network: The map (``None``: navigate without one).
+        truth_for: With a map: the simulator's truth on a plan's map, for results.
+        truth_now: Without a map: the simulator's distance along the pipe from the
+            start, for results.
+        counters: The simulator's counters, for the trace and the result.
+        trace_dir: Write ``navigation.jsonl`` and ``step-NN.jsonl`` traces here.
+        period_s: Tick period.
+        max_time_s: Clock time the whole navigation may take.
+        deadline_s: Wall time the navigator may take for one decision.
+        max_steps: Steps the navigation may take.
+        map_tolerance: How far the map's lengths may be off (see ``simulate_mission``).
+        scenario: Network name for the trace headers.
+        seed: Simulator seed for the trace headers.
+    """
+    wall_started = time.perf_counter()
+    start_s = clock.now()
+    planner = StepPlanner(network, robot, source=f"<navigator {name}>") if network else None
+    belief = planner.start_m if planner is not None else 0.0
+    records = _Records(trace_dir)
+    records.write(
+        {
+            "type": "navigation",
+            "navigator": name,
+            "map": network.name if network is not None else None,
+            "scenario": scenario,
+            "seed": seed,
+            "deadline_s": deadline_s,
+            "max_time_s": max_time_s,
+        }
+    )
+    tally = VerdictTally(supervisor)
+    result = NavigationResult(navigator=name, status="failure", why="", trace_dir=trace_dir)
+    felt: list[Felt] = []
+    last: PabOutcome | None = None
+    history: list[tuple[Step, str]] = []
+    truth_m: float | None = None
+    ran: _Step | None = None
+    last_fix_m = belief
+    odometer_m = 0.0
+    failed_in_a_row = 0
+    robot_length = robot_length_m(robot)
+    try:
+        for index in range(1, max_steps + 2):
+            if ran is not None and ran.mission is not None and ran.mission.fixes:
+                last_fix_m = ran.mission.fixes[-1].after_m
+            if planner is not None:
+                uncertainty = map_tolerance * abs(belief - last_fix_m)
+            else:
+                uncertainty = ODOMETRY_FRACTION * odometer_m
+            obs = Observation(
+                step=index - 1,
+                belief=Belief(
+                    belief,
+                    planner.segment_at(belief) if planner is not None else None,
+                    uncertainty,
+                    on_map=planner is not None,
+                ),
+                felt=tuple(felt),
+                last=last,
+                map=network,
+                time_s=clock.now() - start_s,
+                choices=planner.choices if planner is not None else {},
+                history=tuple(history),
+                robot_length_m=robot_length,
+            )
+            if index > max_steps:
+                result.why = f"navigator {name!r} reached its limit of {max_steps} steps"
+                supervisor.safe_state(result.why)
+                break
+            step, seconds, error = _decide(navigator, obs, deadline_s, name)
+            checked: CheckedStep | None = None
+            plan: MissionPlan | None = None
+            if error is None and step is not None:
+                try:
+                    checked = check_step(step)
+                    if planner is not None:
+                        plan = planner.plan(checked.route_line(), index, belief)
+                except (InvalidStep, LocatedError, ValidationFailed) as exc:
+                    error = f"navigator {name!r} asked for an invalid step {step!r}: {exc}"
+            decision = Decision(index, obs, step, seconds, error)
+            if error is not None:
+                result.decisions.append(decision)
+                records.write({"type": "decision", **decision.to_json()})
+                result.why = error
+                supervisor.safe_state(error)
+                break
+            if step is None:
+                result.decisions.append(decision)
+                records.write({"type": "decision", **decision.to_json()})
+                if ran is None or ran.succeeded:
+                    result.status = "success"
+                    result.why = f"navigator {name!r} is done after {index - 1} steps"
+                else:
+                    result.why = ran.why
+                    result.failing_node = ran.failing_node
+                break
+            assert checked is not None
+            elapsed = clock.now() - start_s
+            if elapsed >= max_time_s:
+                result.why = f"navigation time limit reached ({max_time_s:g} s)"
+                supervisor.safe_state(result.why)
+                result.decisions.append(decision)
+                break
+            if supervisor.in_safe_state and ran is not None and ran.disagreement:
+                supervisor.resume()  # the navigator chose to go on from the belief
+            offset = clock.now() - start_s
+            if plan is not None:
+                ran = _run_mapped(
+                    plan,
+                    robot,
+                    supervisor,
+                    clock,
+                    truth_for=truth_for,
+                    counters=counters,
+                    trace_path=records.step_trace(index),
+                    period_s=period_s,
+                    max_time_s=max_time_s - elapsed,
+                    belief_m=belief,
+                    map_tolerance=map_tolerance,
+                )
+            else:
+                ran = _run_blind(
+                    checked,
+                    index,
+                    robot,
+                    supervisor,
+                    clock,
+                    counters=counters,
+                    trace_path=records.step_trace(index),
+                    period_s=period_s,
+                    max_time_s=max_time_s - elapsed,
+                    belief_m=belief,
+                    scenario=scenario,
+                    seed=seed,
+                )
+                if truth_now is not None:
+                    ran.truth_m = truth_now()
+            result.steps = index
+            odometer_m += abs(ran.belief_m - belief)
+            belief = ran.belief_m
+            truth_m = ran.truth_m
+            felt = ran.felt
+            shifted = [
+                replace(
+                    p,
+                    start_s=None if p.start_s is None else p.start_s + offset,
+                    end_s=None if p.end_s is None else p.end_s + offset,
+                )
+                for p in ran.pabs
+            ]
+            result.pabs.extend(shifted)
+            if ran.mission is not None:
+                result.missions.append(ran.mission)
+            outcome = "success" if ran.succeeded else "failure"
+            last = PabOutcome(
+                label=f"step {index}: {step!r}",
+                kind=step.pab,
+                outcome=outcome,
+                start_s=offset,
+                end_s=clock.now() - start_s,
+                why=ran.why if not ran.succeeded else "",
+                failing_node=ran.failing_node,
+            )
+            history.append((step, outcome))
+            decision = replace(decision, outcome=outcome)
+            result.decisions.append(decision)
+            records.write(
+                {
+                    "type": "decision",
+                    **decision.to_json(),
+                    "trace": None if records.directory is None else f"step-{index:03d}.jsonl",
+                    "why": last.why,
+                }
+            )
+            failed_in_a_row = 0 if ran.succeeded else failed_in_a_row + 1
+            if not ran.succeeded and failed_in_a_row >= MAX_FAILED_IN_A_ROW:
+                result.why = (
+                    f"{ran.why} (the last {failed_in_a_row} steps of navigator {name!r} failed;"
+                    " it is stopped)"
+                )
+                result.failing_node = ran.failing_node
+                break
+            if not ran.succeeded and not ran.disagreement:
+                result.why = ran.why
+                result.failing_node = ran.failing_node
+                result.error = ran.error
+                break
+    finally:
+        tally.detach()
+        result.belief_m = belief
+        result.truth_m = truth_m
+        result.sim_time_s = clock.now() - start_s
+        result.wall_s = time.perf_counter() - wall_started
+        result.safe_state = bool(supervisor.in_safe_state)
+        result.counters = tally.counters()
+        result.sim = counter_values(counters() if counters is not None else None)
+        records.write(
+            {
+                "type": "end",
+                "status": result.status,
+                "why": result.why,
+                "failing_node": result.failing_node,
+                "steps": result.steps,
+                "belief_m": round(belief, 4),
+                "truth_m": None if truth_m is None else round(truth_m, 4),
+                "sim_time_s": round(result.sim_time_s, 4),
+            }
+        )
+        records.close()
+    return result
+
+
+def _felt_on_map(mission: MissionResult) -> list[Felt]:
+    pieces = {p.segment: p for p in mission.plan.path.pieces}
+    out: list[Felt] = []
+    for fix in mission.fixes:
+        piece = pieces.get(fix.feature)
+        kind = "tee" if piece is not None and piece.kind is PieceKind.TEE else "bend"
+        direction = None
+        if piece is not None and kind == "bend":
+            direction = direction_name(piece.roll_rad)
+        elif piece is not None:
+            way = mission.plan.choices.get(fix.feature, "straight")
+            direction = "straight" if way == "straight" else direction_name(piece.roll_rad)
+        out.append(Felt(kind, fix.after_m, fix.feature, direction, fix.how))
+    return out
+
+
+def _run_mapped(
+    plan: MissionPlan,
+    robot: RobotDescription,
+    supervisor: Any,
+    clock: Clock,
+    *,
+    truth_for: Callable[[MissionPlan], Callable[[], float | None]] | None,
+    counters: Callable[[], Any] | None,
+    trace_path: Path | None,
+    period_s: float,
+    max_time_s: float,
+    belief_m: float,
+    map_tolerance: float,
+) -> _Step:
+    if not plan.pabs:  # nothing to drive (already there)
+        return _Step(True, "", None, [], belief_m, [])
+    from pirate_bt.task.mission import estimate_time_s
+
+    limit = min(max_time_s, estimate_time_s(plan, robot.motion.nominal_speed))
+    mission = run_mission(
+        plan,
+        robot,
+        supervisor,
+        clock,
+        truth=truth_for(plan) if truth_for is not None else None,
+        counters=counters,
+        trace_path=trace_path,
+        period_s=period_s,
+        max_time_s=limit,
+        belief_m=belief_m,
+        map_tolerance=map_tolerance,
+    )
+    return _Step(
+        mission.succeeded,
+        mission.why,
+        mission.failing_node,
+        list(mission.pabs),
+        mission.belief_m,
+        _felt_on_map(mission),
+        disagreement=mission.mismatch is not None,
+        error=mission.error,
+        mission=mission,
+        truth_m=mission.truth_m,
+    )
+
+
+def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]:
+    """The step's PAB as a tree node (a subtree reference to the bundled PAB tree)."""
+    from pirate_bt.resources import data_dir
+
+    pab = checked.step.pab
+    if pab == "wait":
+        return {"type": "wait", "name": "wait", "duration": checked.time_s}
+    params: dict[str, Any]
+    if pab == "straight":
+        speed = robot.motion.nominal_speed * (0.5 if checked.slow else 1.0)
+        params = {
+            "distance": abs(checked.distance_m),
+            "velocity": speed if checked.distance_m > 0 else -speed,
+            "stop_at_feature": checked.stop_at_feature and checked.distance_m > 0,
+        }
+    elif pab == "bend":
+        params = {"roll": checked.roll_rad}
+    else:
+        params = {"direction": checked.direction}
+    ref = data_dir("trees") / PAB_FILES[pab]
+    return {"type": "subtree", "name": pab, "ref": str(ref.resolve()), "params": params}
+
+
+def _run_blind(
+    checked: CheckedStep,
+    index: int,
+    robot: RobotDescription,
+    supervisor: Any,
+    clock: Clock,
+    *,
+    counters: Callable[[], Any] | None,
+    trace_path: Path | None,
+    period_s: float,
+    max_time_s: float,
+    belief_m: float,
+    scenario: str | None,
+    seed: int | None,
+) -> _Step:
+    """Run one step's PAB tree with its own parameters; the belief by odometry."""
+    from pirate_bt.treefile import load_tree
+
+    step = checked.step
+    label = f"{index:02d} {step.pab}"
+    spec = {"name": f"step {index}", "root": {**_blind_node(checked, robot), "name": label}}
+    loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
+    reason = [f"step {index} ({step!r}) ended without success"]
+    limit = max(max_time_s, period_s)
+    runner = Runner(
+        loaded,
+        clock=clock,
+        period_s=period_s,
+        max_time_s=limit,
+        safe_state=lambda: supervisor.safe_state(reason[0]),
+    )
+    odometry = [belief_m, math.nan]  # belief, last stamp
+
+    def before(_info: Any) -> None:
+        supervisor.tick()
+
+    def after(_info: Any) -> None:
+        state = supervisor.state()
+        if state is None:
+            return
+        if odometry[1] == odometry[1]:  # not nan: a previous stamp
+            odometry[0] += state.mean_drive_velocity_mps() * max(0.0, state.stamp_s - odometry[1])
+        odometry[1] = state.stamp_s
+
+    runner.add_pre_tick(before)
+    runner.add_post_tick(after)
+    tally = VerdictTally(supervisor)
+    if trace_path is not None:
+        from pirate_bt.trace import attach_trace, supervised_extras
+
+        attach_trace(
+            runner,
+            trace_path,
+            extras=supervised_extras(supervisor, counters=counters),
+            robot=robot,
+            scenario=scenario,
+            seed=seed,
+            meta={"navigation_step": index, "step": step.to_json()},
+        )
+    started = clock.now()
+    try:
+        run: TreeRun = runner.run()
+    finally:
+        tally.detach()
+    why, failing = ("", None)
+    if not run.succeeded:
+        why, failing = explain_run(run, runner.tree.root, tally.first_safe_state)
+    moved = odometry[0] - belief_m
+    felt: list[Felt] = []
+    if run.succeeded and step.pab == "bend":
+        felt.append(Felt("bend", odometry[0], direction=checked.direction, how="pab"))
+    elif run.succeeded and step.pab == "t-joint":
+        felt.append(Felt("tee", odometry[0], direction=checked.direction, how="pab"))
+    elif (
+        run.succeeded
+        and step.pab == "straight"
+        and checked.stop_at_feature
+        and moved < checked.distance_m - 0.02
+    ):
+        felt.append(Felt("feature", odometry[0], how="pab"))
+    pab = PabOutcome(
+        label=label,
+        kind=step.pab,
+        outcome="success" if run.succeeded else "failure",
+        start_s=0.0,
+        end_s=clock.now() - started,
+        why=why,
+        failing_node=failing,
+    )
+    return _Step(run.succeeded, why, failing, [pab], odometry[0], felt, error=run.error)

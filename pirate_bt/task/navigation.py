@@ -1,0 +1,357 @@
+"""What a navigator sees and says: :class:`Observation` in, :class:`Step` out.
+
+A *navigator* is planner code that drives the robot one PAB at a time (see
+:func:`pirate_bt.navigate` and docs/navigators.md). Before every step it is handed
+an :class:`Observation` (where the robot believes it is, what it felt since the last
+step, how that step ended, the map if there is one, the clock) and answers with the
+next :class:`Step`, or ``None`` when it is done::
+
+    class Forward:
+        def next_step(self, obs: Observation) -> Step | None:
+            if obs.last is not None and obs.last.outcome != "success":
+                return None
+            return Step("straight", distance="1 m") if obs.step < 3 else None
+
+A step names a PAB with its parameters, written as in the YAML trees and on the
+command line (text with a unit, or SI numbers):
+
+======================================  ===============================================
+``Step("straight", distance="1 m")``    drive along the straight pipe (negative: back);
+                                        ``slow=True`` at the inspection speed;
+                                        ``stop_at_feature=True`` (no map) also stops
+                                        early where a turn blocks the robot or the
+                                        front half is over an opening
+``Step("bend", direction="right")``     pass the bend ahead (``up``, ``down``,
+                                        ``left``, ``right``, or ``roll="90 deg"``)
+``Step("t-joint", direction="left")``   pass the T-joint ahead (``left``, ``right``,
+                                        ``straight``; ``up``/``down`` with a map)
+``Step("wait", time="2 s")``            stand still, clamped
+======================================  ===============================================
+
+:func:`check_step` checks a step before anything moves (an unknown PAB, a missing or
+malformed parameter, a value out of range); with a map, the step is also planned on
+it from where the robot is (a turn where the map has no bend is refused there).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+from pirate_bt.errors import InputError, UnitError
+from pirate_bt.units import parse_quantity
+
+if TYPE_CHECKING:
+    from pirate_bt.pipes import Network
+    from pirate_bt.task.outcome import PabOutcome
+
+__all__ = [
+    "STEP_PABS",
+    "Belief",
+    "CheckedStep",
+    "Decision",
+    "Felt",
+    "InvalidStep",
+    "Navigator",
+    "Observation",
+    "Step",
+    "check_step",
+]
+
+STEP_PABS = ("straight", "bend", "t-joint", "wait")
+"""The PABs a step may name."""
+
+_BEND_ROLL_DEG = {"up": 0.0, "right": 90.0, "down": 180.0, "left": -90.0}
+_TEE_WAYS = ("left", "right", "straight", "up", "down")
+_MAX_DISTANCE_M = 1000.0
+_MAX_WAIT_S = 3600.0
+_KNOWN: dict[str, tuple[str, ...]] = {
+    "straight": ("distance", "slow", "stop_at_feature"),
+    "bend": ("direction", "roll"),
+    "t-joint": ("direction",),
+    "wait": ("time",),
+}
+
+
+class InvalidStep(InputError):
+    """A navigator asked for a step that cannot be run (named in the message)."""
+
+
+@dataclass(frozen=True, init=False)
+class Step:
+    """One PAB with its parameters: what a navigator asks the robot to do next.
+
+    Attributes:
+        pab: ``straight``, ``bend``, ``t-joint`` or ``wait``.
+        params: Its parameters as given (``{"distance": "1 m"}``).
+    """
+
+    pab: str
+    params: Mapping[str, Any]
+
+    def __init__(self, pab: str, /, **params: Any) -> None:
+        object.__setattr__(self, "pab", pab)
+        object.__setattr__(self, "params", dict(params))
+
+    def __repr__(self) -> str:
+        args = "".join(f", {k}={v!r}" for k, v in self.params.items())
+        return f"Step({self.pab!r}{args})"
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"pab": ..., "params": {...}}`` with every value as text or a number."""
+        return {
+            "pab": self.pab,
+            "params": {
+                k: v if isinstance(v, bool | int | float | str) else str(v)
+                for k, v in self.params.items()
+            },
+        }
+
+
+@dataclass(frozen=True)
+class CheckedStep:
+    """A step whose parameters were checked, in SI units.
+
+    Attributes:
+        step: The step as the navigator gave it.
+        distance_m: ``straight``: metres (negative backwards).
+        slow: ``straight``: at the inspection speed.
+        stop_at_feature: ``straight``: stop early at a turn or an opening.
+        roll_rad: ``bend``: the roll of the bend's plane.
+        direction: ``bend`` and ``t-joint``: the direction word, when one was given.
+        time_s: ``wait``: seconds.
+    """
+
+    step: Step
+    distance_m: float = 0.0
+    slow: bool = False
+    stop_at_feature: bool = False
+    roll_rad: float = 0.0
+    direction: str | None = None
+    time_s: float = 0.0
+
+    def route_line(self) -> str:
+        """The step as a line of the route language (docs/missions.md)."""
+        pab = self.step.pab
+        if pab == "straight":
+            verb = "forward" if self.distance_m >= 0 else "back"
+            slowly = " slowly" if self.slow else ""
+            return f"{verb} {abs(self.distance_m):.4f} m{slowly}"
+        if pab == "bend":
+            if self.direction is None:
+                raise InvalidStep(
+                    f"{self.step!r}: with a map, give the bend's direction"
+                    " (up, down, left or right), not a roll"
+                )
+            return f"at the bend turn {self.direction}"
+        if pab == "t-joint":
+            return f"at the T-joint go {self.direction}"
+        return f"pause {self.time_s:.4f} s"
+
+
+def _quantity(step: Step, key: str, dimension: str, example: str) -> float:
+    value = step.params.get(key)
+    if value is None:
+        raise InvalidStep(f"{step!r}: {step.pab} needs {key} (e.g. {key}={example!r})")
+    if isinstance(value, bool):
+        raise InvalidStep(f"{step!r}: {key} must be a {dimension}, not {value!r}")
+    if isinstance(value, int | float):
+        number = float(value)
+    else:
+        try:
+            number = parse_quantity(str(value), dimension)
+        except UnitError as exc:
+            raise InvalidStep(f"{step!r}: {key}: {exc}") from None
+    if not math.isfinite(number):
+        raise InvalidStep(f"{step!r}: {key} must be finite, not {value!r}")
+    return number
+
+
+def _flag(step: Step, key: str) -> bool:
+    value = step.params.get(key, False)
+    if not isinstance(value, bool):
+        raise InvalidStep(f"{step!r}: {key} must be true or false, not {value!r}")
+    return value
+
+
+def check_step(step: object) -> CheckedStep:
+    """Check a step's PAB and parameters; its values in SI units.
+
+    Raises:
+        InvalidStep: not a :class:`Step`, an unknown PAB or parameter, a missing or
+            malformed value, or one out of range; the message names the step.
+    """
+    if not isinstance(step, Step):
+        raise InvalidStep(f"a navigator returned {step!r}, not a Step (or None when done)")
+    if step.pab not in STEP_PABS:
+        raise InvalidStep(f"{step!r}: unknown PAB {step.pab!r} (known: {', '.join(STEP_PABS)})")
+    unknown = sorted(set(step.params) - set(_KNOWN[step.pab]))
+    if unknown:
+        raise InvalidStep(
+            f"{step!r}: {step.pab} has no parameter {unknown[0]!r}"
+            f" (it takes {', '.join(_KNOWN[step.pab])})"
+        )
+    if step.pab == "straight":
+        distance = _quantity(step, "distance", "length", "1 m")
+        if distance == 0 or abs(distance) > _MAX_DISTANCE_M:
+            raise InvalidStep(
+                f"{step!r}: distance must be non-zero and at most {_MAX_DISTANCE_M:.0f} m"
+            )
+        return CheckedStep(
+            step,
+            distance_m=distance,
+            slow=_flag(step, "slow"),
+            stop_at_feature=_flag(step, "stop_at_feature"),
+        )
+    if step.pab == "bend":
+        direction = step.params.get("direction")
+        if direction is not None and "roll" in step.params:
+            raise InvalidStep(f"{step!r}: give direction or roll, not both")
+        if direction is None:
+            roll = _quantity(step, "roll", "angle", "90 deg")
+            if abs(roll) > math.pi + 1e-9:
+                raise InvalidStep(f"{step!r}: roll must be within -180 and 180 deg")
+            return CheckedStep(step, roll_rad=roll)
+        if direction not in _BEND_ROLL_DEG:
+            raise InvalidStep(f"{step!r}: a bend turns up, down, left or right, not {direction!r}")
+        return CheckedStep(
+            step, roll_rad=math.radians(_BEND_ROLL_DEG[direction]), direction=direction
+        )
+    if step.pab == "t-joint":
+        direction = step.params.get("direction")
+        if direction not in _TEE_WAYS:
+            raise InvalidStep(
+                f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {direction!r}"
+            )
+        return CheckedStep(step, direction=str(direction))
+    seconds = _quantity(step, "time", "time", "2 s")
+    if not 0 < seconds <= _MAX_WAIT_S:
+        raise InvalidStep(f"{step!r}: time must be positive and at most {_MAX_WAIT_S:.0f} s")
+    return CheckedStep(step, time_s=seconds)
+
+
+@dataclass(frozen=True)
+class Belief:
+    """Where the robot believes its front tip is.
+
+    Attributes:
+        position_m: Metres along the way taken (the map's path, or the odometry's
+            distance from the start when there is no map; backwards counts down).
+        segment: The map's segment there (``None`` without a map).
+        uncertainty_m: How far off the belief may be (the map's tolerance since the
+            last recognised feature; the odometry's own error bound without a map).
+        on_map: True when the belief is a position on a map.
+    """
+
+    position_m: float
+    segment: str | None = None
+    uncertainty_m: float = 0.0
+    on_map: bool = False
+
+
+@dataclass(frozen=True)
+class Felt:
+    """A feature the robot felt (sensed) during a step.
+
+    Attributes:
+        kind: ``bend`` (a turn sensed by the IMU), ``tee`` (an opening sensed by the
+            joints), or ``end`` (the pipe blocked the robot where no turn was).
+        at_m: The belief when it was felt.
+        segment: The map's segment it was matched to (``None`` without a map).
+        direction: ``bend``: the direction of the turn taken; ``tee``: the way taken.
+        how: What sensed it (``imu``, ``joints``, ``pab``).
+    """
+
+    kind: str
+    at_m: float
+    segment: str | None = None
+    direction: str | None = None
+    how: str = "pab"
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if v is not None}
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What a navigator is told before it chooses the next step.
+
+    Attributes:
+        step: Steps run so far (0 before the first).
+        belief: Where the robot believes it is.
+        felt: Features felt during the last step, in order.
+        last: The last step's outcome (``None`` before the first); ``last.why``
+            names the cause of a failure.
+        map: The map, when the navigation has one.
+        time_s: The run's clock, since the start.
+        choices: The way taken at each T-joint of the map so far (segment -> way).
+        history: Every step run so far with its outcome, oldest first.
+        robot_length_m: The robot's length, front tip to rear tip.
+    """
+
+    step: int
+    belief: Belief
+    felt: tuple[Felt, ...] = ()
+    last: PabOutcome | None = None
+    map: Network | None = None
+    time_s: float = 0.0
+    choices: Mapping[str, str] = field(default_factory=dict)
+    history: tuple[tuple[Step, str], ...] = ()
+    robot_length_m: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        """The observation as a trace record's fields."""
+        return {
+            "step": self.step,
+            "time_s": round(self.time_s, 4),
+            "belief_m": round(self.belief.position_m, 4),
+            "segment": self.belief.segment,
+            "uncertainty_m": round(self.belief.uncertainty_m, 4),
+            "felt": [f.to_json() for f in self.felt],
+            "last": None
+            if self.last is None
+            else {"label": self.last.label, "outcome": self.last.outcome, "why": self.last.why},
+            "choices": dict(self.choices),
+        }
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One answer of the navigator, as recorded.
+
+    Attributes:
+        index: 1 for the first decision.
+        observation: What the navigator was told.
+        step: What it answered (``None``: done, or it failed).
+        seconds: Wall time it took to answer.
+        error: Why the answer was refused (it raised, was late, or was invalid).
+        outcome: How the step ended (``success``, ``failure``...), once it ran.
+    """
+
+    index: int
+    observation: Observation
+    step: Step | None
+    seconds: float
+    error: str | None = None
+    outcome: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "observation": self.observation.to_json(),
+            "step": None if self.step is None else self.step.to_json(),
+            "seconds": round(self.seconds, 6),
+            "error": self.error,
+            "outcome": self.outcome,
+        }
+
+
+@runtime_checkable
+class Navigator(Protocol):
+    """Planner code that chooses the robot's next step from what it felt."""
+
+    def next_step(self, obs: Observation) -> Step | None:
+        """The next step, or ``None`` when the navigation is done."""
+        ...

@@ -1,0 +1,213 @@
+"""The built-in navigators, and navigators by name (the ``pirate_bt.navigators`` group).
+
+Each built-in is short on purpose: a model for your own (docs/navigators.md).
+
+- ``route`` (:class:`RouteNavigator`, ``route=FILE``): a route file's commands, one
+  step each (``forward``, ``inspect``, ``back``, ``at the bend turn``, ``at the
+  T-joint go``, ``pause``; ``forward to the end`` and ``go to`` need the map).
+- ``goal`` (:class:`GoalNavigator`, ``segment=NAME``): reach a segment of the map,
+  re-planning from the belief before every step (so also after a disagreement the
+  navigation was allowed to go on from).
+
+Navigators of your own are found by name through the ``pirate_bt.navigators``
+entry-point group, as node types are::
+
+    [project.entry-points."pirate_bt.navigators"]
+    wall-follower = "my_package.nav:WallFollower"
+
+The entry point is a class (or a function) called with the navigator's parameters
+as keyword arguments (the command line's ``--param KEY=VALUE``, as text).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import InputError
+from pirate_bt.pipes import Network, PieceKind
+from pirate_bt.task.navigation import Navigator, Observation, Step
+from pirate_bt.task.plan import PabContract, direction_name
+from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "GoalNavigator",
+    "RouteNavigator",
+    "load_navigator",
+    "navigator_names",
+]
+
+ENTRY_POINT_GROUP = "pirate_bt.navigators"
+"""The entry-point group that names navigators."""
+
+_CONTRACT = PabContract()
+_TOL_M = 1e-3
+
+
+def _way(network: Network, choices: Mapping[str, str]) -> Any:
+    return network.path(dict(choices))  # type: ignore[arg-type]
+
+
+class RouteNavigator:
+    """Follow a route, one command per step; stop at the first step that fails.
+
+    Args:
+        route: A route file (``scenarios/lab.route``) or a parsed ``Route``.
+    """
+
+    def __init__(self, route: str | Path | Route) -> None:
+        self.route = route if isinstance(route, Route) else load_route(route)
+        self._goal: GoalNavigator | None = None
+        self._next = 0
+
+    def next_step(self, obs: Observation) -> Step | None:
+        if obs.last is not None and obs.last.outcome != "success":
+            return None  # the result names the step's cause
+        if self._goal is not None:
+            step = self._goal.next_step(obs)
+            if step is not None:
+                return step
+            self._goal = None
+        if self._next >= len(self.route.steps):
+            return None
+        command = self.route.steps[self._next]
+        self._next += 1
+        return self._step(command, obs)
+
+    def _step(self, command: RouteStep, obs: Observation) -> Step | None:
+        kind = command.kind
+        where = f"{self.route.source}:{command.line}"
+        if kind in (StepKind.FORWARD, StepKind.INSPECT):
+            slow = command.slowly or kind is StepKind.INSPECT
+            distance = command.distance_m
+            if distance is None:  # to the end
+                if obs.map is None:
+                    raise ValueError(f"{where}: 'to the end' needs a map")
+                path = _way(obs.map, obs.choices)
+                distance = path.length_m - _CONTRACT.end_margin_m - obs.belief.position_m
+                if distance <= _TOL_M:
+                    return self.next_step(obs)
+            return Step("straight", distance=distance, slow=slow)
+        if kind is StepKind.BACK:
+            assert command.distance_m is not None
+            return Step("straight", distance=-command.distance_m)
+        if kind is StepKind.BEND:
+            return Step("bend", direction=command.direction)
+        if kind is StepKind.TEE:
+            return Step("t-joint", direction=command.direction)
+        if kind is StepKind.PAUSE:
+            return Step("wait", time=command.duration_s)
+        if kind is StepKind.GOTO:
+            assert command.segment is not None
+            self._goal = GoalNavigator(command.segment)
+            return self.next_step(obs)
+        raise ValueError(f"{where}: {command.text!r} is not supported by the route navigator")
+
+
+class GoalNavigator:
+    """Reach a segment of the map: the next turn towards it, or the last straight.
+
+    Before every step the way is worked out again from the belief and the ways
+    already taken at T-joints, so a corrected belief (a fix, a re-plan after a
+    disagreement) is used at once.
+
+    Args:
+        segment: The map's segment to reach (the robot ends wholly inside it).
+    """
+
+    def __init__(self, segment: str) -> None:
+        self.segment = segment
+
+    def next_step(self, obs: Observation) -> Step | None:
+        network = obs.map
+        if network is None:
+            raise ValueError("the goal navigator needs a map (--map or map=...)")
+        if self.segment not in network.segment_ids():
+            raise ValueError(f"the map {network.name!r} has no segment {self.segment!r}")
+        if obs.last is not None and obs.last.outcome != "success" and not _map_stop(obs):
+            return None
+        here = obs.belief.position_m
+        best = None
+        for path in network.paths():
+            if any(path.choices.get(t, c) != c for t, c in obs.choices.items()):
+                continue
+            for piece in path.pieces:
+                if piece.segment == self.segment:
+                    if best is None or piece.start_m < best[1].start_m:
+                        best = (path, piece)
+                    break
+        if best is None:
+            raise ValueError(f"{self.segment!r} cannot be reached from here")
+        path, goal = best
+        if goal.kind is not PieceKind.STRAIGHT:
+            raise ValueError(f"{self.segment!r} is a {goal.kind.value}: give a straight segment")
+        for piece in path.pieces:
+            if piece.kind not in (PieceKind.BEND, PieceKind.TEE):
+                continue
+            if piece.start_m <= here + _TOL_M or piece.start_m >= goal.start_m:
+                continue
+            if piece.kind is PieceKind.BEND:
+                return Step("bend", direction=direction_name(piece.roll_rad))
+            way = path.choices.get(piece.segment, "straight")
+            return Step(
+                "t-joint",
+                direction="straight" if way == "straight" else direction_name(piece.roll_rad),
+            )
+        is_end = goal.end_m >= path.length_m - _TOL_M
+        last = goal.end_m - (_CONTRACT.end_margin_m if is_end else _CONTRACT.approach_m)
+        target = min(goal.start_m + obs.robot_length_m + _CONTRACT.clear_m, last)
+        if target - here > 0.01:
+            return Step("straight", distance=target - here)
+        return None
+
+
+def _map_stop(obs: Observation) -> bool:
+    """The last step was stopped by a disagreement with the map (the robot is safe)."""
+    return obs.last is not None and "map" in obs.last.why
+
+
+_BUILT_IN: dict[str, Callable[..., Navigator]] = {
+    "route": RouteNavigator,
+    "goal": GoalNavigator,
+}
+
+
+def _registered() -> dict[str, Any]:
+    found: dict[str, Any] = {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    return found
+
+
+def navigator_names() -> list[str]:
+    """Every navigator name: the built-ins and those of installed packages."""
+    return sorted({*_BUILT_IN, *_registered()})
+
+
+def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
+    """The navigator called ``name``, made with ``params`` (keyword arguments).
+
+    Raises:
+        InputError: no such navigator (the known ones are listed), parameters it does
+            not take, or an object without ``next_step``.
+    """
+    factory: Callable[..., Any] | None = _BUILT_IN.get(name)
+    if factory is None:
+        entry = _registered().get(name)
+        if entry is None:
+            raise InputError(f"no navigator named {name!r} (known: {', '.join(navigator_names())})")
+        try:
+            factory = entry.load()
+        except Exception as exc:  # a broken plug-in is named, not a traceback
+            raise InputError(f"navigator {name!r} ({entry.value}) failed to load: {exc}") from exc
+    assert factory is not None
+    try:
+        navigator = factory(**dict(params or {}))
+    except TypeError as exc:
+        raise InputError(f"navigator {name!r}: {exc}") from None
+    except (ValueError, OSError) as exc:
+        raise InputError(f"navigator {name!r}: {exc}") from None
+    if not callable(getattr(navigator, "next_step", None)):
+        raise InputError(f"navigator {name!r} made {navigator!r}, which has no next_step(obs)")
+    return navigator  # type: ignore[no-any-return]

@@ -1,0 +1,134 @@
+"""A navigator's steps planned on the map one at a time, from where the robot is.
+
+:class:`StepPlanner` keeps one route walker (:mod:`pirate_bt.task.walker`) for the
+whole navigation: the way taken at each T-joint and the features passed carry over
+from step to step, and each step starts from the robot's belief, not from where the
+previous step was planned to end. A step is one line of the route language
+(:meth:`pirate_bt.task.navigation.CheckedStep.route_line`), so it is checked against
+the map exactly as a route's command is ("at the bend turn up" where the next bend
+turns left is refused) and becomes the same PABs (a turn gets its approach leg).
+A refused step leaves the planner as it was.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from pirate_bt.pipes import Network
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.task.plan import (
+    MapFeature,
+    MissionPlan,
+    PabContract,
+    rear_lead_m,
+    robot_length_m,
+)
+from pirate_bt.task.route import StepKind, parse_route
+from pirate_bt.task.walker import _Walker
+
+__all__ = ["StepPlanner"]
+
+
+class StepPlanner:
+    """Plans one step at a time on ``network``, keeping the way taken.
+
+    Args:
+        network: The map.
+        robot: The robot description (its length sets where PABs leave it).
+        source: Names the steps in messages (``<navigator goal>``).
+        contract: Where the PABs expect and leave the robot.
+    """
+
+    def __init__(
+        self,
+        network: Network,
+        robot: RobotDescription,
+        *,
+        source: str = "<navigator>",
+        contract: PabContract | None = None,
+    ) -> None:
+        self.network = network
+        self.source = source
+        self.contract = contract or PabContract()
+        empty = parse_route("pause 1 s\n", source, name=source)  # replaced by each step
+        self._walker = _Walker(
+            empty, network, robot_length_m(robot), rear_lead_m(robot), self.contract
+        )
+
+    @property
+    def start_m(self) -> float:
+        """Where the robot starts on the map (front tip, metres along the path)."""
+        return self._walker.start_m
+
+    @property
+    def choices(self) -> Mapping[str, str]:
+        """The way taken at each T-joint so far (``straight`` or ``branch``)."""
+        return dict(self._walker.choices)
+
+    def segment_at(self, position_m: float) -> str | None:
+        """The map's segment at ``position_m`` along the way taken."""
+        path = self._walker.path
+        if not path.pieces:
+            return None
+        return path.piece_at(min(max(position_m, 0.0), path.length_m)).segment
+
+    def plan(self, line: str, index: int, belief_m: float) -> MissionPlan:
+        """Plan step ``index`` (1 for the first), written as a route line, from ``belief_m``.
+
+        Returns:
+            A plan holding this step's PABs only, on the way taken so far, with the
+            features this step passes (the localiser expects to feel those, and no
+            feature an earlier step passed).
+
+        Raises:
+            LocatedError: the step does not fit the map from here (at ``index``).
+            ValidationFailed: the line does not parse.
+        """
+        route = parse_route("\n" * (index - 1) + line + "\n", self.source, name=self.source)
+        (step,) = route.steps
+        walker = self._walker
+        saved = (
+            dict(walker.choices),
+            walker.path,
+            walker.s_m,
+            len(walker.pabs),
+            len(walker.passed),
+            walker.driven_m,
+        )
+        walker.route = route
+        walker.s_m = belief_m
+        handlers = {
+            StepKind.FORWARD: walker.forward,
+            StepKind.INSPECT: walker.forward,
+            StepKind.BACK: walker.back,
+            StepKind.BEND: walker.bend,
+            StepKind.TEE: walker.tee,
+            StepKind.PAUSE: walker.pause,
+        }
+        try:
+            handlers[step.kind](step)
+        except BaseException:
+            choices, path, s_m, n_pabs, n_passed, driven = saved
+            walker.choices.clear()
+            walker.choices.update(choices)
+            walker.path, walker.s_m, walker.driven_m = path, s_m, driven
+            del walker.pabs[n_pabs:]
+            del walker.passed[n_passed:]
+            raise
+        pabs = tuple(walker.pabs[saved[3] :])
+        features = tuple(
+            MapFeature(p.segment, p.kind.value, p.start_m, p.end_m, p.angle_rad, p.roll_rad)
+            for p in walker.passed[saved[4] :]
+        )
+        return MissionPlan(
+            route=route,
+            network=self.network,
+            path=walker.path,
+            pabs=pabs,
+            features=features,
+            start_m=belief_m,
+            end_m=walker.s_m,
+            distance_m=walker.driven_m - saved[5],
+            robot_length_m=walker.length_m,
+            contract=self.contract,
+        )
