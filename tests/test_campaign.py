@@ -16,6 +16,7 @@ import pytest
 from pirate_bt.campaign import expand, load_campaign, make_executor, read_rows, run_cases
 from pirate_bt.campaign.report import write_report
 from pirate_bt.campaign.stats import group_stats, percentile, wilson_interval
+from pirate_bt.campaign.workers import idle_servers
 from pirate_bt.cli import main
 from pirate_bt.errors import ValidationFailed
 
@@ -96,7 +97,7 @@ def test_expansion_is_ordered_and_ids_are_stable(tmp_path: Path) -> None:
 # --- isolation ------------------------------------------------------------------
 
 HELPER = """
-import os, time
+import ctypes, os, time
 
 def behave(case, trace_dir):
     what = case["run"]
@@ -106,8 +107,16 @@ def behave(case, trace_dir):
         time.sleep(600)
     if what == "crash":
         os._exit(7)
+    if what == "segfault":
+        ctypes.string_at(0)
+    # forked from a case server (tests/test_campaign_workers.py has the rest of the model)
+    try:
+        with open(f"/proc/{os.getppid()}/cmdline", "rb") as f:
+            server = b"pirate_bt.campaign.child" in f.read()
+    except OSError:  # no /proc: taken on trust
+        server = True
     return {"id": case["id"], "index": case["index"], "run": what, "outcome": "success",
-            "reason": "fine", "seed": case["seed"]}
+            "reason": "fine", "seed": case["seed"], "server": server}
 """
 
 
@@ -185,6 +194,8 @@ def test_local_and_dask_cluster_give_the_same_rows(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     distributed = pytest.importorskip("distributed")
+    from pirate_bt.campaign.cluster import PLUGIN_NAME
+
     (tmp_path / "campaign_helper.py").write_text(HELPER, encoding="utf-8")
     monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
     spec_path = _write(tmp_path, SMALL)
@@ -209,17 +220,32 @@ def test_local_and_dask_cluster_give_the_same_rows(
              "--output", str(tmp_path / "dask")]
         ) == 0  # fmt: skip
         # The same isolation on the cluster (reached by its scheduler file this time):
-        # a hang is killed, a raise recorded.
+        # each case forked from the worker's case server; a hang is killed, a raise,
+        # a crash and a segfault recorded, and no Dask worker dies of any of them.
         assert scheduler_file.exists()
+        with distributed.Client(cluster) as client:
+            workers = set(client.scheduler_info()["workers"])
+            # the first campaign's plugin started a server per worker thread; they stay
+            assert client.run(idle_servers) == dict.fromkeys(workers, 1)
         with make_executor(scheduler_file=str(scheduler_file)) as (executor, what):
             assert "Dask cluster" in what
             odd = run_cases(
-                _fake_cases(["hang", "raise", "ok"], timeout_s=5.0),
+                _fake_cases(["hang", "raise", "crash", "segfault", "ok", "ok"], timeout_s=5.0),
                 tmp_path / "odd",
                 executor,
                 target="campaign_helper:behave",
             )
-        assert [r["outcome"] for r in odd] == ["timeout", "error", "success"]
+        assert [r["outcome"] for r in odd] == ["timeout", "error", "error", "error"] + [
+            "success"
+        ] * 2
+        assert "boom in the case" in odd[1]["reason"]
+        assert "exit status 7" in odd[2]["reason"] and "killed by SIGSEGV" in odd[3]["reason"]
+        assert odd[4]["server"] and odd[5]["server"]
+        with distributed.Client(cluster) as client:
+            assert set(client.scheduler_info()["workers"]) == workers  # the same two workers
+            assert client.run(idle_servers) == dict.fromkeys(workers, 1)
+            client.unregister_worker_plugin(PLUGIN_NAME)  # its tear-down stops them
+            assert client.run(idle_servers) == dict.fromkeys(workers, 0)
     dask_rows = read_rows(tmp_path / "dask" / "results.jsonl")
     assert len(local) == 4
     assert _strip(sorted(dask_rows, key=lambda r: r["index"])) == _strip(local)

@@ -4,10 +4,12 @@ A campaign file (:mod:`~pirate_bt.campaign.spec`) is a matrix of trees or
 routes, networks and maps, robots, seeds and faults. :func:`run_campaign` runs
 one from a file, plain data or a model and returns a :class:`CampaignResult`.
 Underneath, :func:`expand` turns the spec into plain cases (after
-:func:`check_size` has counted them); :func:`run_cases` runs each in its own
-process on a ``concurrent.futures`` executor (a local process pool, or a Dask
-cluster's) and appends one row per case; :mod:`~pirate_bt.campaign.report`
-turns the rows into per-group statistics, plots, Markdown, HTML and CSV.
+:func:`check_size` has counted them); :func:`run_cases` runs each in a process
+of its own on a ``concurrent.futures`` executor (a local process pool, or a
+Dask cluster's), forked from a case server each worker starts once
+(:mod:`~pirate_bt.campaign.workers`), and appends one row per case;
+:mod:`~pirate_bt.campaign.report` turns the rows into per-group statistics,
+plots, Markdown, HTML and CSV.
 """
 
 from pirate_bt.campaign.cases import (

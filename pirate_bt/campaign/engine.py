@@ -3,11 +3,13 @@
 One code path: the campaign submits :func:`run_isolated` for every case to an
 executor, a :class:`~concurrent.futures.ProcessPoolExecutor` on this machine or
 ``distributed.Client.get_executor()`` on a Dask cluster, and writes each record
-as it comes back. :func:`run_isolated` starts one child process per case (in its
-own session) and waits for it at most the case's wall-time limit; a hung case's
-whole process group is killed, a crashed one is recorded with its exit status,
-and the executor's worker is never the one that hangs or dies. The price is a
-Python start per case (measured in docs/performance.md).
+as it comes back. :func:`run_isolated` runs the case in a process of its own,
+forked from the worker's long-lived case server, which imported everything
+once (:mod:`pirate_bt.campaign.workers`, :mod:`pirate_bt.campaign.child`), and
+waits for it at most the case's wall-time limit: a hung case's whole process
+group is killed, a crashed one is recorded with its exit status, a server that
+dies is replaced, and the executor's worker is never the one that hangs or
+dies. A case costs a fork, not a Python start (docs/performance.md).
 
 The only names joined onto the output folder are fixed ones and case ids, and a
 case id must be a safe file name (:func:`pirate_bt.campaign.paths.safe_name`):
@@ -18,14 +20,9 @@ case id must be a safe file name (:func:`pirate_bt.campaign.paths.safe_name`):
 from __future__ import annotations
 
 import contextlib
-import importlib
 import json
 import logging
 import os
-import signal
-import subprocess
-import sys
-import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
@@ -34,6 +31,7 @@ from typing import Any
 
 from pirate_bt.campaign.case import error_record
 from pirate_bt.campaign.paths import is_safe_name, safe_name
+from pirate_bt.campaign.workers import prestart, run_in_server
 from pirate_bt.errors import InputError
 
 __all__ = [
@@ -54,71 +52,26 @@ RESULTS_NAME = "results.jsonl"
 def run_isolated(
     case: dict[str, Any], trace_dir: str | None, target: str = DEFAULT_TARGET
 ) -> dict[str, Any]:
-    """Run one case in a child process and return its record, whatever happens there.
+    """Run one case in a process of its own and return its record, whatever happens there.
 
-    A plain function of plain arguments: this is what goes to the executor.
+    A plain function of plain arguments: this is what goes to the executor. The
+    process is forked from this worker's case server (started once, imports
+    done; :func:`pirate_bt.campaign.workers.run_in_server`).
 
     Args:
         case: The case (its ``timeout_s`` is the wall-time limit).
         trace_dir: Where the case may keep its trace (``traces/ID``); ``None``: none.
-        target: ``module:function`` the child calls (tests point it elsewhere).
+        target: ``module:function`` the case process calls (tests point it elsewhere).
 
     Returns:
-        The child's record, or an ``error``/``timeout`` record made here (an
-        ``error`` without a child for a case whose id is not a safe file name).
+        The case's record, or an ``error``/``timeout`` record made here (an
+        ``error`` without a process for a case whose id is not a safe file name).
     """
-    started = time.perf_counter()
     if trace_dir is not None and not is_safe_name(case.get("id")):
         return error_record(
             case, "error", f"case id {str(case.get('id'))[:60]!r} is not a safe file name", 0.0
         )
-    request = json.dumps({"target": target, "case": case, "trace_dir": trace_dir})
-    env = dict(os.environ, PYTHONHASHSEED="0")
-    child = subprocess.Popen(
-        [sys.executable, "-m", "pirate_bt.campaign.child"],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-        env=env,
-    )
-    try:
-        out, err = child.communicate(request, timeout=float(case["timeout_s"]))
-    except subprocess.TimeoutExpired:
-        _kill(child)
-        child.communicate()
-        limit = float(case["timeout_s"])
-        return error_record(
-            case,
-            "timeout",
-            f"killed after its {limit:g} s wall-time limit",
-            time.perf_counter() - started,
-        )
-    except BaseException:
-        _kill(child)
-        raise
-    wall = time.perf_counter() - started
-    if child.returncode == 0:
-        try:
-            record: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
-            return record
-        except (ValueError, IndexError):
-            pass
-    if child.returncode < 0:
-        status = f"killed by {signal.Signals(-child.returncode).name}"
-    else:
-        status = f"exit status {child.returncode}"
-    last = next((ln for ln in reversed(err.strip().splitlines()) if ln.strip()), "no message")
-    return error_record(case, "error", f"case process died ({status}): {last[-300:]}", wall)
-
-
-def _kill(child: subprocess.Popen[str]) -> None:
-    """Kill the child's whole process group (a trace writer goes with it)."""
-    try:
-        os.killpg(child.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        child.kill()
+    return run_in_server(case, trace_dir, target)
 
 
 @contextmanager
@@ -138,36 +91,22 @@ def make_executor(
     """
     if scheduler is None and scheduler_file is None:
         count = workers or os.cpu_count() or 1
-        pool = ProcessPoolExecutor(max_workers=count)
+        # Each worker starts its case server as it starts (the imports, once).
+        pool = ProcessPoolExecutor(max_workers=count, initializer=prestart)
         try:
             yield pool, f"{count} local worker{'s' if count != 1 else ''}"
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
         return
     try:
-        # Typed as Any: distributed ships no type information for its Client.
-        distributed: Any = importlib.import_module("distributed")
+        from pirate_bt.campaign.cluster import dask_executor
     except ImportError:
         raise InputError(
             "--scheduler needs Dask's distributed;"
             " install it with: pip install 'pirate-bt[cluster]'"
         ) from None
-    try:
-        client: Any = (
-            distributed.Client(scheduler, timeout="10s")
-            if scheduler is not None
-            else distributed.Client(scheduler_file=scheduler_file, timeout="10s")
-        )
-    except (OSError, TimeoutError, ValueError) as exc:
-        where = scheduler or scheduler_file
-        raise InputError(f"cannot reach the Dask scheduler at {where}: {exc}") from None
-    try:
-        executor = client.get_executor(pure=False)
-        nworkers = len(client.scheduler_info().get("workers", {}))
-        yield executor, f"Dask cluster at {client.scheduler.address} ({nworkers} workers)"
-        executor.shutdown(wait=False)
-    finally:
-        client.close()
+    with dask_executor(scheduler, scheduler_file) as (executor, what):
+        yield executor, what
 
 
 def read_rows(path: Path) -> list[dict[str, Any]]:
