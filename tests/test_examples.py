@@ -51,6 +51,11 @@ EXPECTED: dict[str, list[str]] = {
         r"^first failure: tick \d+, bend/pass bend/confirm enter/front into turn$",
         r"^  feedback: stall: bend_3_drive",
     ],
+    "random_explorer.py": [
+        r"^seed 0: success after 4 steps, ways taken \{'tee-1': 'branch'\}$",
+        r"^  why: navigator 'RandomExplorer' is done after 4 steps$",
+        r"^  ended at [\d.]+ m \(service-1-up\)$",
+    ],
     "seeded_runs.py": [
         r"^\d+/20 runs succeeded \(\d+%; 95 % interval \d+% to \d+%\)$",
     ],

@@ -49,6 +49,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "STEP_PABS",
+    "Ahead",
     "Belief",
     "CheckedStep",
     "Decision",
@@ -275,6 +276,25 @@ class Felt:
 
 
 @dataclass(frozen=True)
+class Ahead:
+    """The next feature on the map (:meth:`Observation.next_feature`).
+
+    Attributes:
+        kind: ``bend`` or ``tee``.
+        segment: Its segment id on the map.
+        distance_m: From the front tip to where it starts.
+        turn: ``bend``: the direction it turns (``up``, ``down``, ``left``, ``right``).
+        branch: ``tee``: the side its branch leaves on (``left``, ``right``...).
+    """
+
+    kind: str
+    segment: str
+    distance_m: float
+    turn: str | None = None
+    branch: str | None = None
+
+
+@dataclass(frozen=True)
 class Observation:
     """What a navigator is told before it chooses the next step.
 
@@ -300,6 +320,35 @@ class Observation:
     choices: Mapping[str, str] = field(default_factory=dict)
     history: tuple[tuple[Step, str], ...] = ()
     robot_length_m: float = 0.0
+
+    def next_feature(self) -> Ahead | None:
+        """The next bend or T-joint ahead on the map, along the way taken so far.
+
+        At T-joints not passed yet the way goes straight on. ``None`` without a map or
+        when no feature is ahead (then :meth:`to_end_m` says how far the pipe goes).
+        """
+        if self.map is None:
+            return None
+        from pirate_bt.pipes import PieceKind
+        from pirate_bt.task.plan import direction_name
+
+        here = self.belief.position_m
+        for piece in self.map.path(dict(self.choices)).pieces:  # type: ignore[arg-type]
+            if piece.kind not in (PieceKind.BEND, PieceKind.TEE) or piece.start_m <= here + 1e-3:
+                continue
+            side = direction_name(piece.roll_rad)
+            if piece.kind is PieceKind.BEND:
+                return Ahead("bend", piece.segment, piece.start_m - here, turn=side)
+            return Ahead("tee", piece.segment, piece.start_m - here, branch=side)
+        return None
+
+    def to_end_m(self) -> float | None:
+        """How far the front tip is from the end of the pipe on the map (``None``
+        without a map), along the way taken so far."""
+        if self.map is None:
+            return None
+        path = self.map.path(dict(self.choices))  # type: ignore[arg-type]
+        return float(path.length_m - self.belief.position_m)
 
     def to_json(self) -> dict[str, Any]:
         """The observation as a trace record's fields."""
@@ -341,7 +390,9 @@ class Decision:
         return {
             "index": self.index,
             "observation": self.observation.to_json(),
-            "step": None if self.step is None else self.step.to_json(),
+            "step": self.step.to_json()
+            if isinstance(self.step, Step)
+            else (None if self.step is None else repr(self.step)),
             "seconds": round(self.seconds, 6),
             "error": self.error,
             "outcome": self.outcome,
