@@ -11,9 +11,24 @@ static const struct pb_motor motors[PB_N_MOTORS] = PB_MOTOR_TABLE;
 static const struct pb_motor motors[1];
 #endif
 
-const struct pb_board *layout_board(uint8_t index) { return &boards[index]; }
+/* The host build for the tests (HOST_SANITIZE in the Makefile) traps on an index past
+ * a table here: its bounds check sees the arrays' own accesses, not the accesses
+ * through the pointers these return (and one past the end is a valid address). */
+#ifdef PB_TRAP_PAST_TABLES
+#define IN_TABLE(index, n) ((index) < (n) ? (void)0 : __builtin_trap())
+#else
+#define IN_TABLE(index, n) ((void)0)
+#endif
 
-const struct pb_motor *layout_motor(uint8_t index) { return &motors[index]; }
+const struct pb_board *layout_board(uint8_t index) {
+    IN_TABLE(index, PB_N_BOARDS);
+    return &boards[index];
+}
+
+const struct pb_motor *layout_motor(uint8_t index) {
+    IN_TABLE(index, PB_N_MOTORS);
+    return &motors[index];
+}
 
 int8_t layout_board_index(uint8_t id) {
     for (uint8_t i = 0; i < PB_N_BOARDS; i++) {

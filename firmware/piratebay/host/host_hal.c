@@ -20,6 +20,10 @@
  *   fw_debug(out)                    the pb_debug record
  *   fw_estop_input(open)             the e-stop contact opens (1) or closes (0)
  *   fw_led()                         the LED (lit while the e-stop is latched)
+ *   fw_timer_read_cost(ticks)        each read of the timer within a turn moves it on
+ *                                    by `ticks` (default 0: time stands still within a
+ *                                    turn), so the firmware's cycle figures measure
+ *                                    something
  */
 #include <stdbool.h>
 #include <stdint.h>
@@ -40,11 +44,17 @@
 
 static uint64_t now_us;
 static uint16_t boot_count;
+static uint16_t read_cost;  /* ticks each timer read within a turn adds */
+static uint16_t turn_ticks; /* what the reads of this turn added so far */
 
 /* ---- time ---- */
 void timer_init(void) {}
 uint32_t timer_ms(void) { return (uint32_t)(now_us / 1000u); }
-uint16_t timer_ticks(void) { return (uint16_t)(now_us * TIMER_TICKS_PER_US); }
+uint16_t timer_ticks(void) {
+    uint16_t t = (uint16_t)(now_us * TIMER_TICKS_PER_US + turn_ticks);
+    turn_ticks = (uint16_t)(turn_ticks + read_cost);
+    return t;
+}
 void timer_wake_at(uint16_t ticks) { (void)ticks; }
 
 /* ---- mcu ---- */
@@ -208,6 +218,7 @@ void fw_write_damaged(uint8_t byte) {
 void fw_run_us(uint32_t us) {
     uint64_t end = now_us + us;
     while (now_us < end) {
+        turn_ticks = 0;
         bridge_turn();
         bool idle = rx0_tail == rx0_head && !uart0_tx_busy();
         uint64_t step = idle ? IDLE_TURN_US : TURN_US;
@@ -264,3 +275,5 @@ void fw_estop_input(uint8_t open) { estop_open = open != 0; }
 uint8_t fw_led(void) { return led; }
 
 uint64_t fw_now_us(void) { return now_us; }
+
+void fw_timer_read_cost(uint16_t ticks) { read_cost = ticks; }
