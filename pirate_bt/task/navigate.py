@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -36,13 +35,12 @@ from typing import Any, TextIO
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LocatedError, ValidationFailed
-from pirate_bt.pipes import Network, PieceKind
+from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.runner import Runner
-from pirate_bt.runner import RunResult as TreeRun
 from pirate_bt.safety.tally import Counters, VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION
-from pirate_bt.task.mission import MissionResult, run_mission
+from pirate_bt.task.mission import MissionResult
+from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
 from pirate_bt.task.navigation import (
     Belief,
     CheckedStep,
@@ -54,8 +52,8 @@ from pirate_bt.task.navigation import (
     Step,
     check_step,
 )
-from pirate_bt.task.outcome import PabOutcome, explain_run
-from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name, robot_length_m
+from pirate_bt.task.outcome import PabOutcome
+from pirate_bt.task.plan import MissionPlan, robot_length_m
 from pirate_bt.task.step_planner import StepPlanner
 from pirate_bt.trace.attach import counter_values
 
@@ -137,22 +135,6 @@ class NavigationResult:
             f" {len(self.pabs)} PABs, {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
             f" believed at {self.belief_m:.2f} m{truth})"
         )
-
-
-@dataclass
-class _Step:
-    """How one step ran."""
-
-    succeeded: bool
-    why: str
-    failing_node: str | None
-    pabs: list[PabOutcome]
-    belief_m: float
-    felt: list[Felt]
-    disagreement: bool = False
-    error: BaseException | None = None
-    mission: MissionResult | None = None
-    truth_m: float | None = None
 
 
 def _decide(
@@ -276,7 +258,7 @@ def run_navigation(
     last: PabOutcome | None = None
     history: list[tuple[Step, str]] = []
     truth_m: float | None = None
-    ran: _Step | None = None
+    ran: StepRun | None = None
     last_fix_m = belief
     odometer_m = 0.0
     failed_in_a_row = 0
@@ -347,7 +329,7 @@ def run_navigation(
                 supervisor.resume()  # the navigator chose to go on from the belief
             offset = clock.now() - start_s
             if plan is not None:
-                ran = _run_mapped(
+                ran = run_mapped(
                     plan,
                     robot,
                     supervisor,
@@ -361,7 +343,7 @@ def run_navigation(
                     map_tolerance=map_tolerance,
                 )
             else:
-                ran = _run_blind(
+                ran = run_blind(
                     checked,
                     index,
                     robot,
@@ -450,180 +432,3 @@ def run_navigation(
         )
         records.close()
     return result
-
-
-def _felt_on_map(mission: MissionResult) -> list[Felt]:
-    pieces = {p.segment: p for p in mission.plan.path.pieces}
-    out: list[Felt] = []
-    for fix in mission.fixes:
-        piece = pieces.get(fix.feature)
-        kind = "tee" if piece is not None and piece.kind is PieceKind.TEE else "bend"
-        direction = None
-        if piece is not None and kind == "bend":
-            direction = direction_name(piece.roll_rad)
-        elif piece is not None:
-            way = mission.plan.choices.get(fix.feature, "straight")
-            direction = "straight" if way == "straight" else direction_name(piece.roll_rad)
-        out.append(Felt(kind, fix.after_m, fix.feature, direction, fix.how))
-    return out
-
-
-def _run_mapped(
-    plan: MissionPlan,
-    robot: RobotDescription,
-    supervisor: Any,
-    clock: Clock,
-    *,
-    truth_for: Callable[[MissionPlan], Callable[[], float | None]] | None,
-    counters: Callable[[], Any] | None,
-    trace_path: Path | None,
-    period_s: float,
-    max_time_s: float,
-    belief_m: float,
-    map_tolerance: float,
-) -> _Step:
-    if not plan.pabs:  # nothing to drive (already there)
-        return _Step(True, "", None, [], belief_m, [])
-    from pirate_bt.task.mission import estimate_time_s
-
-    limit = min(max_time_s, estimate_time_s(plan, robot.motion.nominal_speed))
-    mission = run_mission(
-        plan,
-        robot,
-        supervisor,
-        clock,
-        truth=truth_for(plan) if truth_for is not None else None,
-        counters=counters,
-        trace_path=trace_path,
-        period_s=period_s,
-        max_time_s=limit,
-        belief_m=belief_m,
-        map_tolerance=map_tolerance,
-    )
-    return _Step(
-        mission.succeeded,
-        mission.why,
-        mission.failing_node,
-        list(mission.pabs),
-        mission.belief_m,
-        _felt_on_map(mission),
-        disagreement=mission.mismatch is not None,
-        error=mission.error,
-        mission=mission,
-        truth_m=mission.truth_m,
-    )
-
-
-def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]:
-    """The step's PAB as a tree node (a subtree reference to the bundled PAB tree)."""
-    from pirate_bt.resources import data_dir
-
-    pab = checked.step.pab
-    if pab == "wait":
-        return {"type": "wait", "name": "wait", "duration": checked.time_s}
-    params: dict[str, Any]
-    if pab == "straight":
-        speed = robot.motion.nominal_speed * (0.5 if checked.slow else 1.0)
-        params = {
-            "distance": abs(checked.distance_m),
-            "velocity": speed if checked.distance_m > 0 else -speed,
-            "stop_at_feature": checked.stop_at_feature and checked.distance_m > 0,
-        }
-    elif pab == "bend":
-        params = {"roll": checked.roll_rad}
-    else:
-        params = {"direction": checked.direction}
-    ref = data_dir("trees") / PAB_FILES[pab]
-    return {"type": "subtree", "name": pab, "ref": str(ref.resolve()), "params": params}
-
-
-def _run_blind(
-    checked: CheckedStep,
-    index: int,
-    robot: RobotDescription,
-    supervisor: Any,
-    clock: Clock,
-    *,
-    counters: Callable[[], Any] | None,
-    trace_path: Path | None,
-    period_s: float,
-    max_time_s: float,
-    belief_m: float,
-    scenario: str | None,
-    seed: int | None,
-) -> _Step:
-    """Run one step's PAB tree with its own parameters; the belief by odometry."""
-    from pirate_bt.treefile import load_tree
-
-    step = checked.step
-    label = f"{index:02d} {step.pab}"
-    spec = {"name": f"step {index}", "root": {**_blind_node(checked, robot), "name": label}}
-    loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
-    reason = [f"step {index} ({step!r}) ended without success"]
-    limit = max(max_time_s, period_s)
-    runner = Runner(
-        loaded,
-        clock=clock,
-        period_s=period_s,
-        max_time_s=limit,
-        safe_state=lambda: supervisor.safe_state(reason[0]),
-    )
-    odometry = [belief_m, math.nan]  # belief, last stamp
-
-    def before(_info: Any) -> None:
-        supervisor.tick()
-
-    def after(_info: Any) -> None:
-        state = supervisor.state()
-        if state is None:
-            return
-        if odometry[1] == odometry[1]:  # not nan: a previous stamp
-            odometry[0] += state.mean_drive_velocity_mps() * max(0.0, state.stamp_s - odometry[1])
-        odometry[1] = state.stamp_s
-
-    runner.add_pre_tick(before)
-    runner.add_post_tick(after)
-    tally = VerdictTally(supervisor)
-    if trace_path is not None:
-        from pirate_bt.trace import attach_trace, supervised_extras
-
-        attach_trace(
-            runner,
-            trace_path,
-            extras=supervised_extras(supervisor, counters=counters),
-            robot=robot,
-            scenario=scenario,
-            seed=seed,
-            meta={"navigation_step": index, "step": step.to_json()},
-        )
-    started = clock.now()
-    try:
-        run: TreeRun = runner.run()
-    finally:
-        tally.detach()
-    why, failing = ("", None)
-    if not run.succeeded:
-        why, failing = explain_run(run, runner.tree.root, tally.first_safe_state)
-    moved = odometry[0] - belief_m
-    felt: list[Felt] = []
-    if run.succeeded and step.pab == "bend":
-        felt.append(Felt("bend", odometry[0], direction=checked.direction, how="pab"))
-    elif run.succeeded and step.pab == "t-joint":
-        felt.append(Felt("tee", odometry[0], direction=checked.direction, how="pab"))
-    elif (
-        run.succeeded
-        and step.pab == "straight"
-        and checked.stop_at_feature
-        and moved < checked.distance_m - 0.02
-    ):
-        felt.append(Felt("feature", odometry[0], how="pab"))
-    pab = PabOutcome(
-        label=label,
-        kind=step.pab,
-        outcome="success" if run.succeeded else "failure",
-        start_s=0.0,
-        end_s=clock.now() - started,
-        why=why,
-        failing_node=failing,
-    )
-    return _Step(run.succeeded, why, failing, [pab], odometry[0], felt, error=run.error)
