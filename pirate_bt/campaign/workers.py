@@ -232,6 +232,8 @@ _generation = 0
 
 def _forked() -> None:
     """In a fork of this process (a pool worker): the servers are the parent's, not ours."""
+    global _lock
+    _lock = threading.Lock()  # another thread may have held it at the fork
     for server in _idle:
         server.forget()
     _idle.clear()
