@@ -7,6 +7,7 @@ success, refusal, timeout, stall and terminate paths can be stepped tick by tick
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -249,6 +250,41 @@ def test_align_roll_picks_the_smaller_rotation(
     assert py_trees.blackboard.Blackboard.get("/steer_sign") == sign
 
 
+@pytest.mark.parametrize(
+    ("roll_deg", "imu_deg", "rotation_before_deg", "rotation_deg", "sign"),
+    [
+        # after the forward bend PAB both halves lie on the turn's roll (or roll + 180)
+        (90, 90, 0, 0, 1),
+        (180, 0, 0, 0, -1),
+        (-90, 90, 0, 0, -1),
+        # the rear half must turn: rotating by +d turns it by -d (the front holds)
+        (90, 0, 90, 0, 1),
+        (90, 30, 0, -60, 1),
+        (0, -20, 50, 30, 1),
+    ],
+)
+def test_align_roll_of_the_rear_half_rotates_against_the_clamped_front(
+    roll_deg: float, imu_deg: float, rotation_before_deg: float, rotation_deg: float, sign: int
+) -> None:
+    rig = Rig()
+    rig.port.clamp_half(Half.FRONT, 0.7)
+    rig.port.set(imu__roll=math.radians(imu_deg), rotation_angle=math.radians(rotation_before_deg))
+    node = rig.node(AlignRoll, AlignRollParams(roll=math.radians(roll_deg), half=Half.REAR))
+    assert rig.run(node) == Status.SUCCESS
+    assert rig.port.values["rotation_angle"] == pytest.approx(math.radians(rotation_deg), abs=0.05)
+    assert py_trees.blackboard.Blackboard.get("/steer_sign") == sign
+
+
+def test_align_roll_of_the_rear_half_needs_the_rotation_reading() -> None:
+    rig = Rig()
+    rig.port.clamp_half(Half.FRONT, 0.7)
+    node = rig.node(AlignRoll, AlignRollParams(roll=0.0, half=Half.REAR))
+    rig.supervisor.tick()
+    state = rig.supervisor.state()
+    assert node._choose(dataclasses.replace(state, rotation_rad=None)) is not None
+    assert "no rotation reading" in node._choose(dataclasses.replace(state, rotation_rad=None))
+
+
 def test_position_commands_are_resent_until_unclipped() -> None:
     rig = Rig(physics=False)
     rig.port.clamp_half(Half.REAR, 0.7)
@@ -461,6 +497,58 @@ def test_safe_state_carries_the_reason_of_the_failed_primitive() -> None:
 def test_primitive_base_is_abstract() -> None:
     assert issubclass(Clamp, Primitive)
     assert Primitive.outcomes(None) == frozenset({"success", "failure", "running"})
+
+
+def test_drive_reverse_drives_backwards_at_the_speed() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, reverse=True, distance=0.2))
+    assert rig.run(node) == Status.SUCCESS
+    sent = [c.value for c in rig.port.sent if c.motor == "bend_1_drive" and c.value != 0.0]
+    # ramped up by the acceleration limit, all of it backwards
+    assert sent and all(v < 0 for v in sent) and sent[-1] == pytest.approx(-0.08)
+    assert rig.clock.now() - 1.0 == pytest.approx(0.2 / 0.08, rel=0.1)
+
+
+def test_drive_backwards_until_the_rear_half_is_over_an_opening() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, reverse=True, until="rear_opening"))
+    rig.run(node, ticks=10)
+    # a front joint off the wall is not what this drive looks for
+    rig.port.set(bend_2_angle=math.radians(110), bend_2_spring=0.0)
+    rig.run(node, ticks=5)
+    assert node.status == Status.RUNNING
+    rig.port.set(bend_4_angle=math.radians(110), bend_4_spring=0.0)
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed == "rear_opening"
+
+
+def test_drive_backwards_until_the_front_half_passed_an_opening() -> None:
+    rig = drive_rig()
+    params = DriveParams(velocity=0.08, reverse=True, until="front_opening_passed")
+    node = rig.node(Drive, params)
+    rig.run(node, ticks=10)
+    # the opening passes under bend_2, then under bend_1
+    for module in ("bend_2", "bend_1"):
+        rig.port.set(**{f"{module}_angle": math.radians(110), f"{module}_spring": 0.0})
+        rig.run(node, ticks=5)
+        assert node.status == Status.RUNNING
+        rig.port.clamp_half(Half.FRONT, 0.7)
+        rig.run(node, ticks=5)
+    assert node.status == Status.SUCCESS
+    assert "front half passed an opening" in node.feedback_message
+
+
+def test_stop_at_feature_looks_at_the_leading_half() -> None:
+    for reverse, leading, trailing in ((False, "bend_1", "bend_4"), (True, "bend_4", "bend_1")):
+        rig = drive_rig()
+        params = DriveParams(velocity=0.08, reverse=reverse, distance=2.0, stop_at_feature=True)
+        node = rig.node(Drive, params)
+        rig.run(node, ticks=10)
+        rig.port.set(**{f"{trailing}_angle": math.radians(110), f"{trailing}_spring": 0.0})
+        rig.run(node, ticks=5)
+        assert node.status == Status.RUNNING, reverse
+        rig.port.set(**{f"{leading}_angle": math.radians(110), f"{leading}_spring": 0.0})
+        assert rig.run(node) == Status.SUCCESS, reverse
 
 
 def test_drive_until_the_front_half_is_over_an_opening() -> None:

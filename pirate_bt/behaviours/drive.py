@@ -2,8 +2,11 @@
 
 A drive ends when the wheel odometry has covered a distance, or when a feature
 shows itself in the sensors: the robot is blocked at a turn it may not take, a
-front joint swings off the wall over a tee's opening, or the rear joints have
-crossed an opening and are back at the wall.
+joint of the leading half swings off the wall over a tee's opening, or the
+joints of the trailing half have crossed an opening and are back at the wall.
+Driving backwards the rear half leads: ``rear_opening`` and
+``front_opening_passed`` are the mirrors of ``front_opening`` and
+``opening_passed``.
 """
 
 from __future__ import annotations
@@ -22,11 +25,25 @@ from pirate_bt.units import Current, Duration, Length, Velocity
 
 __all__ = ["Drive", "DriveParams", "Until"]
 
-Until = Literal["distance", "blocked", "front_opening", "opening_passed"]
+Until = Literal[
+    "distance",
+    "blocked",
+    "front_opening",
+    "rear_opening",
+    "opening_passed",
+    "front_opening_passed",
+]
 
 
 class DriveParams(NodeParams):
     velocity: Velocity = Field(description="wheel speed; negative drives backwards")
+    reverse: bool = Field(
+        False,
+        description=(
+            "drive at minus velocity: a PAB that passes a feature backwards takes its"
+            " speed as its forward twin does (positive) and drives it backwards"
+        ),
+    )
     distance: Length | None = Field(
         None, gt=0, description="odometry distance that completes the drive (until: distance)"
     )
@@ -37,8 +54,12 @@ class DriveParams(NodeParams):
             " stall current: the leading half is held at a turn it may not take);"
             " 'front_opening' (a front joint swung past every wall-contact angle: the"
             " front half is over a tee's opening);"
+            " 'rear_opening' (the same for a rear joint: driving backwards, the rear half"
+            " is over a tee's opening);"
             " 'opening_passed' (every rear joint, pressing the wall, swung off it over a"
-            " tee's opening and is back at the wall behind it)"
+            " tee's opening and is back at the wall behind it);"
+            " 'front_opening_passed' (the same for every front joint: driving backwards,"
+            " the front half crossed the opening)"
         ),
     )
     max_distance: Length = Field(
@@ -57,7 +78,8 @@ class DriveParams(NodeParams):
         False,
         description=(
             "with until: distance, also complete the drive (early) when a feature shows:"
-            " blocked at a turn, or a front joint off the wall over an opening"
+            " blocked at a turn, or a joint of the leading half (front driving forwards,"
+            " rear driving backwards) off the wall over an opening"
         ),
     )
     stall_current: Current | None = Field(
@@ -143,8 +165,28 @@ class Drive(Primitive):
             for m in self.robot.bend_modules(half)
         }
 
-    def _opening_passed(self, state: RobotState) -> bool:
-        """True once every rear bend module has crossed an opening and is at the wall again.
+    def _velocity(self) -> float:
+        p: DriveParams = self.params  # type: ignore[assignment]
+        return -p.velocity if p.reverse else p.velocity
+
+    def _opening_halves(self, velocity: float) -> tuple[Half, ...]:
+        """The halves whose joints off the wall end this drive: the one ``until`` names,
+        and with ``stop_at_feature`` the leading one (the rear half driving backwards)."""
+        p: DriveParams = self.params  # type: ignore[assignment]
+        halves: tuple[Half, ...] = ()
+        if p.until == "front_opening":
+            halves = (Half.FRONT,)
+        elif p.until == "rear_opening":
+            halves = (Half.REAR,)
+        if p.stop_at_feature:
+            leading = Half.FRONT if velocity > 0 else Half.REAR
+            if leading not in halves:
+                halves = (*halves, leading)
+        return halves
+
+    def _opening_passed(self, state: RobotState, half: Half) -> bool:
+        """True once every bend module of ``half`` has crossed an opening and is at the
+        wall again.
 
         A pressing joint swings past every wall-contact angle over the opening (lost)
         and is pushed back by the wall behind it. It counts as past the opening only
@@ -160,8 +202,8 @@ class Drive(Primitive):
         wall_max = max(c.angle for c in clamp.contact_angles) + tol
         wall_min = min(c.angle for c in clamp.contact_angles) - tol
         pressing_n = robot.safety.clamp_force_fraction * clamp.min_torque / clamp.lever_arm
-        rear = [m.name for m in robot.bend_modules(Half.REAR)]
-        for name, off in self._off_wall(state, Half.REAR).items():
+        passing = [m.name for m in robot.bend_modules(half)]
+        for name, off in self._off_wall(state, half).items():
             angle = state.joint_angle_rad.get(name)
             force = state.clamp_force_n.get(name)
             if off:
@@ -176,7 +218,7 @@ class Drive(Primitive):
                 self._back_ticks[name] = self._back_ticks.get(name, 0) + 1 if at_wall else 0
                 if self._back_ticks[name] >= _SETTLE_TICKS:
                     self._found_wall.add(name)
-        return bool(rear) and self._found_wall >= set(rear)
+        return bool(passing) and self._found_wall >= set(passing)
 
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
@@ -192,14 +234,15 @@ class Drive(Primitive):
         speed = state.mean_drive_velocity_mps()
         self._odometry_m += speed * dt
         travelled = abs(self._odometry_m)
-        # checked before (re)sending: a front half already over an opening is done at once
-        front_opening = p.until == "front_opening" or p.stop_at_feature
-        if front_opening and any(self._off_wall(state, Half.FRONT).values()):
-            self.feedback_message = f"front half over an opening after {travelled:.3f} m"
-            self.sensed = "front_opening"
-            return Status.SUCCESS
+        velocity = self._velocity()
+        # checked before (re)sending: a half already over an opening is done at once
+        for half in self._opening_halves(velocity):
+            if any(self._off_wall(state, half).values()):
+                self.feedback_message = f"{half} half over an opening after {travelled:.3f} m"
+                self.sensed = f"{half}_opening"
+                return Status.SUCCESS
         if not self._at_speed:
-            command = _commands().Drive(p.velocity)
+            command = _commands().Drive(velocity)
             if self._resend and self.supervisor.check(command).refused:
                 pass  # asking again now would be refused: keep going, ask again later
             else:
@@ -241,14 +284,15 @@ class Drive(Primitive):
                     return Status.SUCCESS
                 return self.fail(
                     f"blocked: every drive draws stall current after {travelled:.3f} m"
-                    " (a turn the robot may not take?)"
+                    " (a turn the robot may not take, or the end of the pipe?)"
                 )
         else:
             self._blocked_since = None
         if p.until == "distance" and target is not None and travelled >= target:
             return Status.SUCCESS
-        if p.until == "opening_passed" and self._opening_passed(state):
-            self.feedback_message = f"rear half passed an opening after {travelled:.3f} m"
+        passing = {"opening_passed": Half.REAR, "front_opening_passed": Half.FRONT}.get(p.until)
+        if passing is not None and self._opening_passed(state, passing):
+            self.feedback_message = f"{passing} half passed an opening after {travelled:.3f} m"
             return Status.SUCCESS
         if p.until != "distance" and travelled >= p.max_distance:
             return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")

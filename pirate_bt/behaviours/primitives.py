@@ -399,6 +399,13 @@ class AlignRollParams(NodeParams):
     roll: Angle = Field(
         description="roll of the turn's plane: 0 up, 90 deg right, 180 deg down, -90 deg left"
     )
+    half: Half = Field(
+        Half.FRONT,
+        description=(
+            "the free half to align: front (the rear half holds; the forward turn) or rear"
+            " (the front half holds; a turn passed backwards, rear half first)"
+        ),
+    )
     sign_key: str = Field(
         "steer_sign", description="blackboard key for the steering sign (+1 or -1) chosen"
     )
@@ -407,13 +414,22 @@ class AlignRollParams(NodeParams):
 
 
 class AlignRoll(_Rotation):
-    """Rotate the (free) front half so that its bending plane lies in a turn's plane.
+    """Rotate the free half so that its bending plane lies in a turn's plane.
 
-    The rear half must be clamped; its roll is the IMU's roll (the IMU sits in the
-    rotational module, rigid with the rear half). The bending plane is aligned with a
-    turn of roll ``r`` when the half's roll is ``r`` (steer with positive joint angles)
-    or ``r + 180°`` (steer with negative angles); the smaller rotation that stays in
-    the joint's range is chosen, and its sign is written to ``sign_key`` for ``bend``.
+    ``half: front`` (the default, a turn passed forwards): the rear half must be
+    clamped; the front half turns. Its roll is the rear half's roll (the IMU's: the
+    IMU sits in the rotational module, rigid with the rear half) plus the rotation.
+    ``half: rear`` (a turn passed backwards, rear half first): the front half must be
+    clamped; rotating turns the rear half by the opposite amount, so the rotation
+    that puts the rear half on roll ``t`` is (IMU roll + rotation) - ``t``, the front
+    half's roll less ``t``.
+
+    The bending plane is aligned with a turn of roll ``r`` when the half's roll is
+    ``r`` (steer with positive joint angles) or ``r + 180°`` (steer with negative
+    angles); of the two, the one whose rotation is nearer 0 and within the joint's
+    range is chosen, and its sign is written to ``sign_key`` for ``bend``. The inside
+    of a turn lies toward roll ``r`` whichever way the robot passes it, so the rule is
+    the same for both halves and both directions.
     """
 
     Params = AlignRollParams
@@ -433,13 +449,24 @@ class AlignRoll(_Rotation):
         rear_roll = state.imu_rad.get("roll")
         if rear_roll is None:
             return "no IMU roll reading: cannot tell the rear half's roll"
+        if p.half is Half.FRONT:
+
+            def rotation_for(target: float) -> float:
+                return _wrap(target - rear_roll)  # the front half turns by the rotation
+
+        else:
+            rotation = state.rotation_rad
+            if rotation is None:
+                return "no rotation reading: cannot tell the front half's roll"
+            front_roll = rear_roll + rotation
+
+            def rotation_for(target: float) -> float:
+                return _wrap(front_roll - target)  # the rear half turns against it
+
         lim = self.robot.rotate_motor().limits.angle
         lo, hi = (lim.min, lim.max) if lim is not None else (-math.pi, math.pi)
         candidates = sorted(
-            (
-                (_wrap(p.roll + offset - rear_roll), sign)
-                for offset, sign in ((0, 1), (math.pi, -1))
-            ),
+            ((rotation_for(p.roll + offset), sign) for offset, sign in ((0, 1), (math.pi, -1))),
             key=lambda c: (round(abs(c[0]), 6), -c[1]),
         )
         for rotation, sign in candidates:
