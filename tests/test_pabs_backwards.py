@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import py_trees
 import pytest
@@ -116,6 +117,9 @@ class Run:
     """Every command of the run the supervisor refused (node, reason)."""
 
 
+Operator = Callable[[Supervisor, Any], None]
+
+
 class Session:
     """One simulated robot in one network; PABs run one after the other on it."""
 
@@ -147,7 +151,7 @@ class Session:
             lambda v: self._refusals.append(f"{v.node_name}: {v.reason}") if v.refused else None
         )
 
-    def run(self, tree: str, params: dict[str, str], operator: object = None) -> Run:
+    def run(self, tree: str, params: dict[str, str], operator: Operator | None = None) -> Run:
         py_trees.blackboard.Blackboard.clear()
         checked = loaded(tree, params)
         context = BuildContext(robot=ROBOT, clock=self.clock, supervisor=self.sup)
@@ -161,7 +165,7 @@ class Session:
         )
         runner.add_pre_tick(lambda _info: self.sup.tick())
         if operator is not None:
-            runner.add_pre_tick(lambda info: operator(self.sup, info))  # type: ignore[operator]
+            runner.add_pre_tick(lambda info: operator(self.sup, info))
         self._refusals.clear()
         result = runner.run()
         reason = None if result.succeeded else last_failure(runner.tree.root)
@@ -423,11 +427,11 @@ def test_bend_back_in_the_wrong_plane_fails_cleanly(nets: dict[str, Path]) -> No
 def test_supervised_bend_back_holds_at_every_confirmation_point(nets: dict[str, Path]) -> None:
     asked: list[str] = []
 
-    def operator(sup: Supervisor, info: object) -> None:
+    def operator(sup: Supervisor, info: Any) -> None:
         for step in sup.pending_confirmations():
             if step not in asked:
                 asked.append(step)
-        if getattr(info, "tick", 0) % 20 == 0 and sup.pending_confirmations():
+        if info.tick % 20 == 0 and sup.pending_confirmations():
             sup.confirm()
 
     session = Session(nets["bend-down"], start_m=1.75, seed=4, mode=Mode.SUPERVISED)
