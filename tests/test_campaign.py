@@ -167,7 +167,9 @@ def _strip(rows: list[dict[str, object]]) -> list[dict[str, object]]:
 
 
 def test_interrupt_then_resume_runs_each_case_once(tmp_path: Path) -> None:
-    spec = _write(tmp_path, SMALL.replace("count: 2", "count: 3"))
+    # cases of a few seconds each, so that the interrupt lands in the middle of the
+    # campaign even when its workers start once and a case takes a fraction of a second
+    spec = _write(tmp_path, SMALL.replace("count: 2", "count: 3").replace("0.2 m", "2 m"))
     out = tmp_path / "out"
     command = [sys.executable, "-m", "pirate_bt", "campaign", str(spec), "--workers", "1"]
     command += ["--output", str(out), "--quiet"]
