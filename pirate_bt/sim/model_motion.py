@@ -120,7 +120,13 @@ class MotionMixin(EventsMixin):
                 self.slipping = True
             else:
                 moved, stuck_front, stuck_rear = self._gate_turns(v_cmd * dt_s)
+                wanted = moved
                 moved = self._limit_to_path(moved)
+                if wanted > 0 and moved < wanted - 1e-12:
+                    # the pipe's far end (a cap): the front half is blocked as at a turn
+                    # it may not take, so the wheels stall instead of spinning in place
+                    # unnoticed (the entry behind is open: backing to it just stops)
+                    stuck_front = True
         self.velocity_mps = moved / dt_s
         if moved:
             self.s_m += moved
@@ -137,6 +143,8 @@ class MotionMixin(EventsMixin):
                     turns = self._turns_between(point - 1e-6, point + 1e-6)
                     piece = turns[0] if turns else None
                 where = piece.segment if piece is not None else "?"
+                if piece is None and self.s_m >= self.path.length_m - 1e-9:
+                    where = "end of the pipe"
                 self._event(EventKind.STUCK, f"{half.half}:{where}")
                 _log.info("%s half stuck at %s", half.half, where)
             half.stuck = now
