@@ -23,6 +23,7 @@ static enum frame_result finish(struct frame_rx *rx) {
         return FRAME_MORE; /* two delimiters in a row: ignored */
     }
     int16_t len = cobs_decode(rx->raw, n, rx->body, FRAME_MAX_BODY);
+    /* no mutate flip, off-by-one: a 0-byte body is refused below as too short */
     if (len < 0) {
         /* a body over 254 bytes also lands here (cobs_decode refuses to overflow) */
         return FRAME_BAD_FRAME;

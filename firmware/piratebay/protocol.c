@@ -207,6 +207,7 @@ static uint8_t setpoint(uint8_t board_id, const uint8_t *payload) {
     uint8_t slot = payload[0];
     uint8_t mode = payload[1];
     int16_t raw = (int16_t)get_u16(payload + 2);
+    /* no mutate flip, off-by-one: slots are 0 or 1: slot 7 or 8 fails the mask as well */
     if (slot > 7u || !(board->slot_mask & (1u << slot))) {
         return NACK_BAD_SLOT;
     }
@@ -428,6 +429,7 @@ void protocol_send_state(void) {
         *p++ = (uint8_t)((lo & 0x0Fu) | (uint8_t)(hi << 4));
     }
     const int16_t *r = poller_readings();
+    /* no mutate flip, off-by-one: the extra channel lands where the CRC is written next */
     for (uint8_t i = 0; i < PB_N_CHANNELS; i++) {
         put_u16(p, (uint16_t)r[i]);
         p += 2;

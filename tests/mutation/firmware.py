@@ -22,8 +22,20 @@ is *stillborn* and not counted), then judged by the firmware's unit tests
 (``tests/test_firmware_core.py``, ``tests/test_firmware_edges.py``) and the conformance
 suite against the host build
 (``tests/conformance``, ``firmware-host``), with the shared vectors in
-``tests/data/link_vectors.json``. A failing or hanging test kills it. The score is
-killed / (killed + survived); survivors are listed with their place in the source.
+``tests/data/link_vectors.json``. The host build checks every index into an array of
+known size and traps on one out of bounds (``HOST_SANITIZE`` in the Makefile). A
+failing or hanging test kills a mutant, and so does a test process that dies of a
+signal (a trap, a segmentation fault: *crashed*); pytest's own errors (exit codes 2 to
+5) are *errors*, a broken judge, not a verdict. The score is killed / (killed +
+survived); survivors are listed with their place in the source.
+
+A mutant that cannot change anything a user could notice is *equivalent*: the line it
+is on says so in a comment, ``/* no mutate: reason */`` (every mutant of the line) or
+``/* no mutate flip, off-by-one: reason */`` (those rules' mutants of the line only);
+a comment alone on its line speaks of the next line. Such mutants are listed with
+their reason and not run; docs/testing.md lists them too
+(``tests/test_mutation_firmware.py`` checks that). ``--ignore-pragmas`` runs them
+anyway: what a comment hides that is not equivalent must be killed.
 
 ``--list`` prints the catalogue; ``--only ID...`` runs some of it; results go to
 ``mutants/firmware.json``, and with ``--update-docs`` into ``docs/testing.md``.
@@ -39,6 +51,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -69,6 +82,8 @@ LOGIC = re.compile(r"&&|\|\|")
 NOT = re.compile(r"!(?!=)")
 OPERAND = re.compile(r"\s*(\(?[A-Za-z_][A-Za-z0-9_]*|0x[0-9A-Fa-f]+[uU]?|[0-9]+[uU]?)(?![\w(])")
 IF = re.compile(r"\bif\s*\(")
+RULES = ("flip", "off-by-one", "logic", "drop")
+PRAGMA = re.compile(r"/\*\s*no mutate\b(?P<rules>[^:*]*)(?::\s*(?P<reason>.*?))?\s*\*/")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,6 +97,8 @@ class Mutant:
     start: int
     old: str
     new: str
+    equivalent: str | None = None
+    """The reason its line's ``/* no mutate */`` comment gives (``None``: not marked)."""
 
     def apply(self, text: str) -> str:
         assert text[self.start : self.start + len(self.old)] == self.old, self
@@ -89,6 +106,31 @@ class Mutant:
 
     def describe(self) -> str:
         return f"{self.id} {self.file}:{self.line} {self.rule}: {self.old!r} -> {self.new!r}"
+
+
+def pragmas(file: str, text: str) -> dict[int, tuple[frozenset[str], str]]:
+    """``{line: (rules, reason)}`` of the ``/* no mutate */`` comments of one file.
+
+    A comment after code marks its own line; a comment alone on its line, the next.
+
+    Raises:
+        SystemExit: a comment without a reason, or naming a rule that does not exist.
+    """
+    out = {}
+    for number, line in enumerate(text.splitlines(), 1):
+        found = PRAGMA.search(line)
+        if found is None:
+            continue
+        reason = (found.group("reason") or "").strip()
+        if not reason:
+            raise SystemExit(f"{file}:{number}: '/* no mutate */' without ': reason'")
+        rules = frozenset(r for r in re.split(r"[\s,]+", found.group("rules")) if r)
+        unknown = rules - set(RULES)
+        if unknown:
+            raise SystemExit(f"{file}:{number}: no such rule {sorted(unknown)} (of {RULES})")
+        alone = line.lstrip().startswith("/*")
+        out[number + 1 if alone else number] = (rules or frozenset(RULES), reason)
+    return out
 
 
 def blank(text: str) -> str:
@@ -197,10 +239,36 @@ def catalogue() -> list[Mutant]:
     for file in FILES:
         text = (FIRMWARE / file).read_text()
         stem = file.removesuffix(".c")
+        marked = pragmas(file, text)
         for i, (rule, start, old, new) in enumerate(catalogue_of(file, text), 1):
             line = text.count("\n", 0, start) + 1
-            out.append(Mutant(f"{stem}-{i:03d}", file, line, rule, start, old, new))
+            rules, reason = marked.get(line, (frozenset(), ""))
+            equivalent = reason if rule in rules else None
+            out.append(Mutant(f"{stem}-{i:03d}", file, line, rule, start, old, new, equivalent))
     return out
+
+
+def verdict(returncode: int, stdout: str, stderr: str) -> dict[str, object]:
+    """What the judging pytest run's exit says of a mutant (``seconds`` not included).
+
+    0: survived. 1 (a test failed) or death by a signal (a bounds trap, a segmentation
+    fault: the bridge crashed, which is noticed): killed. pytest's own exit codes 2 to 5
+    (interrupted, internal error, usage error, no tests) mean the judge is broken: error.
+    """
+    if returncode == 0:
+        return {"status": "survived"}
+    if returncode == 1:
+        failed = [ln for ln in stdout.splitlines() if ln.startswith("FAILED")]
+        return {"status": "killed", "detail": failed[:1]}
+    if returncode < 0:
+        try:
+            name = f", {signal.Signals(-returncode).name}"
+        except ValueError:
+            name = ""
+        where = re.findall(r'File "[^"]*/(tests/[^"]+)", line \d+ in (test_\w+)', stderr)
+        test = f" in {where[0][0]}::{where[0][1]}" if where else ""
+        return {"status": "killed", "detail": f"crashed (signal {-returncode}{name}){test}"}
+    return {"status": "error", "detail": (stdout + stderr)[-500:]}
 
 
 # -- running ------------------------------------------------------------------------------------
@@ -220,7 +288,7 @@ def workspace(base: Path) -> Path:
 def judge(mutant: Mutant | None, base: Path) -> dict[str, object]:
     """Build and test ``mutant`` (``None``: the unmutated firmware) in workspace ``base``."""
     firmware = base / "firmware" / "piratebay"
-    original = (FIRMWARE / mutant.file).read_text() if mutant else ""
+    original = (firmware / mutant.file).read_text() if mutant else ""  # as copied
     if mutant is not None:
         (firmware / mutant.file).write_text(mutant.apply(original))
     started = time.monotonic()
@@ -272,12 +340,7 @@ def judge(mutant: Mutant | None, base: Path) -> dict[str, object]:
         except subprocess.TimeoutExpired:
             return {"status": "killed", "detail": "timeout", "seconds": TIMEOUT_S}
         seconds = round(time.monotonic() - started, 1)
-        if tested.returncode == 0:
-            return {"status": "survived", "seconds": seconds}
-        if tested.returncode == 1:
-            failed = [ln for ln in tested.stdout.splitlines() if ln.startswith("FAILED")]
-            return {"status": "killed", "detail": failed[:1], "seconds": seconds}
-        return {"status": "error", "detail": tested.stdout[-500:], "seconds": seconds}
+        return {**verdict(tested.returncode, tested.stdout, tested.stderr), "seconds": seconds}
     finally:
         if mutant is not None:
             (firmware / mutant.file).write_text(original)
@@ -318,6 +381,7 @@ def summary(results: dict[str, dict[str, object]]) -> dict[str, dict[str, int]]:
 
 
 def table(per_file: dict[str, dict[str, int]]) -> str:
+    """The score table; ``mutants`` are those run (equivalent ones are not)."""
     lines = [
         "| file | mutants | stillborn | killed | survived | score |",
         "|---|---:|---:|---:|---:|---:|",
@@ -325,7 +389,7 @@ def table(per_file: dict[str, dict[str, int]]) -> str:
     total = {"all": 0, "stillborn": 0, "killed": 0, "survived": 0}
     for file in FILES:
         c = per_file.get(file, {})
-        n = sum(c.values())
+        n = sum(v for k, v in c.items() if k != "equivalent")
         killed, survived, still = c.get("killed", 0), c.get("survived", 0), c.get("stillborn", 0)
         judged = killed + survived
         for key, value in (("all", n), ("stillborn", still), ("killed", killed)):
@@ -342,13 +406,28 @@ def table(per_file: dict[str, dict[str, int]]) -> str:
     return "\n".join(lines)
 
 
-def update_docs(text_table: str, survivors: list[str], minutes: float) -> None:
+def listing(results: dict[str, dict[str, object]], status: str) -> list[str]:
+    """``id file:line rule: old -> new`` of the mutants with ``status``, in catalogue order."""
+    out = []
+    for r in results.values():
+        if r["status"] == status:
+            text = f"{r['id']} {r['file']}:{r['line']} {r['rule']}: {r['old']!r} -> {r['new']!r}"
+            out.append(f"`{text}`: {r['equivalent']}" if status == "equivalent" else f"`{text}`")
+    return out
+
+
+def update_docs(
+    text_table: str, survivors: list[str], equivalent: list[str], minutes: float
+) -> None:
     text = DOCS.read_text()
     today = datetime.date.today().isoformat()
-    listed = "\n".join(f"- `{s}`" for s in survivors) or "- none"
+    listed = "\n".join(f"- {s}" for s in survivors) or "- none"
+    hidden = "\n".join(f"- {s}" for s in equivalent) or "- none"
     block = (
         f"{BLOCK_START}\nMeasured {today}, {minutes:.0f} min on this machine:\n\n"
-        f"{text_table}\n\nSurvivors:\n\n{listed}\n{BLOCK_END}"
+        f"{text_table}\n\nSurvivors:\n\n{listed}\n\n"
+        f"Equivalent, not run ({len(equivalent)}; the reason is their"
+        f" `/* no mutate */` comment's):\n\n{hidden}\n{BLOCK_END}"
     )
     pattern = re.compile(re.escape(BLOCK_START) + ".*?" + re.escape(BLOCK_END), re.S)
     if not pattern.search(text):
@@ -362,36 +441,52 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--list", action="store_true", help="print the catalogue and stop")
     parser.add_argument("--only", nargs="*", default=None, metavar="ID", help="these mutants")
     parser.add_argument("--update-docs", action="store_true", help="write the score in the docs")
+    parser.add_argument(
+        "--ignore-pragmas",
+        action="store_true",
+        help="run the mutants that '/* no mutate */' comments mark equivalent, too",
+    )
     args = parser.parse_args(argv)
     mutants = catalogue()
+    if args.ignore_pragmas:
+        mutants = [dataclasses.replace(m, equivalent=None) for m in mutants]
     if args.list:
         for m in mutants:
-            print(m.describe())
-        print(f"{len(mutants)} mutants")
+            print(m.describe() + (f"  [equivalent: {m.equivalent}]" if m.equivalent else ""))
+        print(f"{len(mutants)} mutants, {sum(bool(m.equivalent) for m in mutants)} equivalent")
         return 0
     if args.only:
+        unknown = set(args.only) - {m.id for m in mutants}
+        if unknown:
+            raise SystemExit(f"no such mutants: {sorted(unknown)}")
         mutants = [m for m in mutants if m.id in set(args.only)]
     started = time.monotonic()
-    results = run(mutants, max(1, args.jobs))
+    results = run([m for m in mutants if m.equivalent is None], max(1, args.jobs))
     minutes = (time.monotonic() - started) / 60
+    for m in mutants:
+        if m.equivalent is not None:
+            results[m.id] = {**dataclasses.asdict(m), "status": "equivalent"}
+    order = {m.id: i for i, m in enumerate(mutants)}
+    results = dict(sorted(results.items(), key=lambda item: order[item[0]]))
     per_file = summary(results)
     text_table = table(per_file)
-    survivors = [
-        f"{r['id']} {r['file']}:{r['line']} {r['rule']}: {r['old']!r} -> {r['new']!r}"
-        for r in results.values()
-        if r["status"] == "survived"
-    ]
+    survivors = listing(results, "survived")
+    equivalent = listing(results, "equivalent")
     errors = [r for r in results.values() if r["status"] == "error"]
     print()
     print(text_table)
     for s in survivors:
         print(f"  survived: {s}")
+    print(f"  equivalent, not run: {len(equivalent)}")
     for r in errors:
         print(f"  error: {r['id']}: {r.get('detail')}", file=sys.stderr)
     OUT.parent.mkdir(exist_ok=True)
     OUT.write_text(json.dumps(results, indent=1) + "\n")
-    if args.update_docs and not args.only:
-        update_docs(text_table, survivors, minutes)
+    if args.update_docs and not args.only and not args.ignore_pragmas:
+        if errors:
+            print("not written to the docs: the judge failed on some mutants", file=sys.stderr)
+        else:
+            update_docs(text_table, survivors, equivalent, minutes)
     return 1 if errors else 0
 
 
