@@ -60,7 +60,17 @@ def _sdist() -> Path:
         if candidate and Path(candidate).is_file():
             return Path(candidate)
     CACHE.mkdir(parents=True, exist_ok=True)
-    result = subprocess.run(
+    try:
+        result = _pip_download(version)
+    except subprocess.TimeoutExpired:
+        raise Unavailable(f"fetching the {name} source distribution timed out") from None
+    if result.returncode != 0 or not (CACHE / name).is_file():
+        raise Unavailable(f"cannot fetch the {name} source distribution: {result.stderr[-300:]}")
+    return CACHE / name
+
+
+def _pip_download(version: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
         [
             sys.executable,
             "-m",
@@ -77,9 +87,6 @@ def _sdist() -> Path:
         text=True,
         timeout=300,
     )
-    if result.returncode != 0 or not (CACHE / name).is_file():
-        raise Unavailable(f"cannot fetch the {name} source distribution: {result.stderr[-300:]}")
-    return CACHE / name
 
 
 def _headers(sdist: Path, into: Path) -> tuple[Path, Path]:
