@@ -109,3 +109,21 @@ def _real_time_ahead(request: pytest.FixtureRequest) -> Iterator[None]:
         yield
     finally:
         os.nice(10)
+
+
+@pytest.fixture(autouse=True)
+def _ctrl_c_left_as_found(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Fail a test that leaves Ctrl-C (SIGINT) handled otherwise than it found it.
+
+    A disposition of SIG_IGN is inherited by every process started afterwards, so one
+    test that ignores SIGINT in the test process would make the Ctrl-C tests of any
+    later test (in random order) silently fail to interrupt their subprocess.
+    """
+    import signal
+
+    before = signal.getsignal(signal.SIGINT)
+    yield
+    after = signal.getsignal(signal.SIGINT)
+    if after is not before:
+        signal.signal(signal.SIGINT, before)
+        pytest.fail(f"{request.node.nodeid} left SIGINT handled by {after!r} (was {before!r})")
