@@ -12,6 +12,7 @@ import logging
 import math
 from typing import Any, ClassVar
 
+import py_trees
 from py_trees.common import Status
 
 from pirate_bt.behaviours.base import BuildContext, Leaf, NodeParams, Outcome
@@ -162,3 +163,14 @@ def _commands() -> Any:
     from pirate_bt.safety import commands
 
     return commands
+
+
+def _read_blackboard(key: str) -> Any:
+    storage = py_trees.blackboard.Blackboard.storage
+    name = key if key.startswith("/") else "/" + key
+    return storage.get(name)
+
+
+def _write_blackboard(key: str, value: Any) -> None:
+    name = key if key.startswith("/") else "/" + key
+    py_trees.blackboard.Blackboard.set(name, value)
