@@ -58,7 +58,7 @@ from pirate_bt.task.plan import (
     rear_lead_m,
     robot_length_m,
 )
-from pirate_bt.task.route import Route, StepKind, load_route
+from pirate_bt.task.route import Route, load_route
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.task.walker import _TOL_M, _Walker
 
@@ -110,18 +110,8 @@ def plan_route(
     walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
     if start_m is not None:
         walker.start_m = walker.s_m = start_m
-    handlers = {
-        StepKind.FORWARD: walker.forward,
-        StepKind.INSPECT: walker.forward,
-        StepKind.BACK: walker.back,
-        StepKind.BEND: walker.bend,
-        StepKind.TEE: walker.tee,
-        StepKind.PAUSE: walker.pause,
-        StepKind.GOTO: walker.goto,
-        StepKind.RETURN: walker.return_to_start,
-    }
     for step in route.steps:
-        handlers[step.kind](step)
+        walker.walk(step)
     features = tuple(
         MapFeature(
             p.segment,

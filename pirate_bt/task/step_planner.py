@@ -23,7 +23,7 @@ from pirate_bt.task.plan import (
     rear_lead_m,
     robot_length_m,
 )
-from pirate_bt.task.route import StepKind, parse_route
+from pirate_bt.task.route import parse_route
 from pirate_bt.task.walker import _Walker
 
 __all__ = ["StepPlanner"]
@@ -97,16 +97,8 @@ class StepPlanner:
         )
         walker.route = route
         walker.s_m = belief_m
-        handlers = {
-            StepKind.FORWARD: walker.forward,
-            StepKind.INSPECT: walker.forward,
-            StepKind.BACK: walker.back,
-            StepKind.BEND: walker.bend,
-            StepKind.TEE: walker.tee,
-            StepKind.PAUSE: walker.pause,
-        }
         try:
-            handlers[step.kind](step)
+            walker.walk(step)
         except BaseException:
             choices, path, s_m, n_pabs, n_passed, driven = saved
             walker.choices.clear()

@@ -62,6 +62,24 @@ class _Walker:
         self.passed: list[Piece] = []
         self.driven_m = 0.0
 
+    def walk(self, step: RouteStep) -> None:
+        """Walk one route command: check it against the map and append its PABs.
+
+        Raises:
+            LocatedError: the command does not fit the map from here.
+        """
+        handler = {
+            StepKind.FORWARD: self.forward,
+            StepKind.INSPECT: self.forward,
+            StepKind.BACK: self.back,
+            StepKind.BEND: self.bend,
+            StepKind.TEE: self.tee,
+            StepKind.PAUSE: self.pause,
+            StepKind.GOTO: self.goto,
+            StepKind.RETURN: self.return_to_start,
+        }[step.kind]
+        handler(step)
+
     # -- map queries
 
     def next_feature(self) -> Piece | None:
