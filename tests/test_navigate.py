@@ -109,6 +109,52 @@ def test_a_route_navigator_follows_a_route_file() -> None:
     )  # type: ignore[union-attr]
 
 
+def test_a_route_leg_a_little_past_the_next_turn_is_shortened_a_long_one_refused(
+    tmp_path: Path,
+) -> None:
+    # Where the robot starts: how far the T-joint's approach point is.
+    start = pirate_bt.navigate(Asks(), sim="t-joint", map="t-joint")
+    ahead = start.decisions[0].observation.next_feature()
+    assert ahead is not None and ahead.kind == "tee"
+    room = ahead.distance_m - 0.25  # PabContract.approach_m
+    route = tmp_path / "leg.route"
+    route.write_text(f"network t-joint\nforward {room + 0.1:.3f} m\nat the T-joint go straight\n")
+    result = pirate_bt.navigate("route", sim="t-joint", map="t-joint", params={"route": route})
+    assert result.succeeded, result.why
+    first = result.decisions[0].step
+    assert first is not None and first.params["distance"] == pytest.approx(room, abs=1e-6)
+    route.write_text(f"network t-joint\nforward {room + 1.5:.3f} m\nat the T-joint go straight\n")
+    result = pirate_bt.navigate("route", sim="t-joint", map="t-joint", params={"route": route})
+    assert not result.succeeded and result.steps == 0
+    assert "does not fit the network: the T-joint 'tee'" in result.why
+
+
+def test_a_tee_nearer_than_drawn_is_a_fix_after_steps_not_a_disagreement(tmp_path: Path) -> None:
+    # The map says 5 m to the tee; it is really 4.6 m (8 % off: within the map's 10 %
+    # tolerance). A whole mission fixes on it; step by step it must too, so each step's
+    # search window starts as wide as the distance driven since the last fix.
+    drawn = (ROOT / "scenarios" / "t-joint.yaml").read_text()
+    for name, length in (("map", "5 m"), ("truth", "4.6 m")):
+        text = drawn.replace(
+            "{id: before, type: straight, length: 2 m}",
+            f"{{id: before, type: straight, length: {length}}}",
+        )
+        (tmp_path / f"{name}.yaml").write_text(text.replace("name: t-joint", f"name: {name}"))
+    world, drawing = tmp_path / "truth.yaml", tmp_path / "map.yaml"
+    start = pirate_bt.navigate(Asks(), sim=drawing, map=drawing)
+    ahead = start.decisions[0].observation.next_feature()
+    assert ahead is not None
+    route = tmp_path / "leg.route"
+    route.write_text(
+        f"forward {ahead.distance_m - 0.25:.3f} m\nat the T-joint go straight\nforward 1 m\n"
+    )
+    result = pirate_bt.navigate("route", sim=world, map=drawing, params={"route": route})
+    assert result.succeeded, result.why
+    fixes = [fix for mission in result.missions for fix in mission.fixes]
+    assert [(f.feature, f.how) for f in fixes] == [("tee", "joints")]
+    assert result.truth_m is not None and abs(result.belief_m - result.truth_m) < 0.1
+
+
 class Asks:
     """Answers each decision from a list (then ``None``)."""
 

@@ -1,8 +1,9 @@
 """One case: a plain function of a plain case that returns a plain record.
 
-:func:`run_case` runs one tree (:func:`pirate_bt.simulate_tree`) or one route
-(:func:`pirate_bt.simulate_mission`) on the simulator through the public API and
-returns a ``dict`` of JSON values: the case's parameters, the outcome, the first
+:func:`run_case` runs one tree (:func:`pirate_bt.simulate_tree`), one route
+(:func:`pirate_bt.simulate_mission`) or one navigator (:func:`pirate_bt.navigate`,
+whose record also has its ``steps`` and ``distance_m``) on the simulator through the
+public API and returns a ``dict`` of JSON values: the case's parameters, the outcome, the first
 cause (``reason``) and where (``failing_node``), the run's
 :class:`~pirate_bt.safety.tally.Counters` as flat keys, and its ``coverage``
 (:meth:`pirate_bt.trace.coverage.Coverage.as_dict`: per node path, ticks,
@@ -40,6 +41,7 @@ OUTCOMES = ("success", "failed-safe", "error", "timeout")
 PRELOAD = (
     "pirate_bt.api.trees",
     "pirate_bt.api.missions",
+    "pirate_bt.api.navigation",
     "pirate_bt.behaviours.primitives",
     "pirate_bt.behaviours.basic",
     "pirate_bt.behaviours.guards",
@@ -73,6 +75,10 @@ REPORT_PRELOAD = (
 def _base(case: dict[str, Any]) -> dict[str, Any]:
     keys = ("id", "index", "run", "tree", "route", "network", "params", "robot", "map")
     record = {k: case.get(k) for k in keys}
+    if case.get("navigator"):
+        record.update(navigator=case["navigator"], blind=bool(case.get("blind")))
+    if case.get("as_built") is not None:
+        record.update(as_built=case["as_built"], as_built_scale=case.get("as_built_scale"))
     record.update({k: case.get(k) for k in ("sim_faults", "drop", "corrupt", "dup", "seed")})
     return record
 
@@ -132,6 +138,7 @@ def _outcome(succeeded: bool, safe: bool, error: BaseException | None) -> str:
 def _body(result: Any, safe: bool) -> dict[str, Any]:
     """The row fields every case has, from a ``RunResult`` or a ``MissionResult``."""
     error = result.error if hasattr(result, "error") else result.run.error
+    coverage = getattr(result, "coverage", None)  # a navigation runs a tree per step: none
     return {
         "outcome": _outcome(result.succeeded, safe, error),
         "reason": result.why,
@@ -139,7 +146,7 @@ def _body(result: Any, safe: bool) -> dict[str, Any]:
         "sim_time_s": round(result.sim_time_s, 3),
         "ticks": result.ticks,
         **result.counters.as_dict(),
-        "coverage": result.coverage.as_dict() if result.coverage is not None else None,
+        "coverage": coverage.as_dict() if coverage is not None else None,
     }
 
 
@@ -160,6 +167,45 @@ def _tree_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
     return _body(result, result.safe_state)
 
 
+def _as_built(case: dict[str, Any], drawing: Any, base: Path | None = None) -> Any:
+    """The case's as-built variant of ``drawing`` (the map), as the simulated truth."""
+    from pirate_bt.api.missions import load_network
+    from pirate_bt.pipes import Network
+    from pirate_bt.pipes.asbuilt import AsBuiltBounds, perturb_network
+
+    network = load_network(drawing, base=base)
+    variant = case["as_built"]
+    spec = perturb_network(
+        network.spec, variant, AsBuiltBounds().scaled(float(case.get("as_built_scale", 1.0)))
+    )
+    return Network(spec, source=f"{network.name} as built #{variant}")
+
+
+def _navigator_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
+    from pirate_bt.api.navigation import navigate
+
+    # as `pirate-bt navigate NAME --sim TRUTH --map NETWORK --param KEY=VALUE ...`
+    network = case["network"] or "straight"
+    truth = case["map"] or network
+    if case.get("as_built") is not None:
+        truth = _as_built(case, network)
+    result = navigate(
+        case["navigator"],
+        sim=truth,
+        map=None if case.get("blind") else network,
+        params=case["params"],
+        seed=case["seed"],
+        faults=_faults(case) or None,
+        trace=trace,
+        robot=case["robot"],
+        max_time=case["max_time_s"],
+        rate=1.0 / case["period_s"],
+    )
+    body = _body(result, result.safe_state)
+    body.update(steps=result.steps, distance_m=round(result.distance_m, 4))
+    return body
+
+
 def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
     from pirate_bt.api.missions import simulate_mission
     from pirate_bt.resources import find_file
@@ -168,7 +214,12 @@ def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
     route = load_route(find_file("scenarios", case["route"]))
     # as `pirate-bt mission ROUTE --sim NETWORK` (and `--network NETWORK --sim MAP` with
     # the spec's `maps` axis, whose entries are the pipe as built: the simulator's truth)
-    if case["map"]:
+    if case.get("as_built") is not None:  # the truth: a variant of the map
+        drawing = case["network"] or route.network
+        if drawing is None:
+            raise ValueError(f"{route.source}: 'as_built' needs the route's map (a network)")
+        network, truth = case["network"], _as_built(case, drawing, Path(route.source).parent)
+    elif case["map"]:
         network, truth = case["network"], case["map"]
     elif route.network:
         network, truth = None, case["network"]
@@ -224,12 +275,14 @@ def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, An
     keep = case.get("keep_traces", "failures") if trace_dir else "none"
     trace: Path | None = None
     if keep != "none" and trace_dir is not None:
-        name = f"{case['id']}.jsonl" if case.get("tree") else case["id"]
+        name = f"{case['id']}.jsonl" if case.get("tree") else case["id"]  # else a folder
         trace = Path(trace_dir) / name
         trace.parent.mkdir(parents=True, exist_ok=True)
     try:
         if case.get("tree"):
             body = _tree_case(case, trace)
+        elif case.get("navigator"):
+            body = _navigator_case(case, trace)
         else:
             # A route's trace comes with its report folder; a failing case is run again
             # to write it (the runs are deterministic), so successes pay nothing.

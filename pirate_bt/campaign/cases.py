@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource, spec_source
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 
 __all__ = [
     "DEFAULT_MAX_CASES",
@@ -128,9 +128,15 @@ def expand(
 
     cases: list[Case] = []
     axes = itertools.product(spec.runs, spec.robots, spec.maps, spec.sim_faults, link_grid)
+    built = spec.as_built
+    variants: list[int | None] = (
+        [None] if built is None else list(range(built.first, built.first + built.count))
+    )
     for run, robot, truth, sim_faults, (drop, corrupt, dup) in axes:
         params = {k: str(v) for k, v in sorted(run.params.items())}
-        for seed in range(spec.seeds.start, spec.seeds.start + spec.seeds.count):
+        for variant, seed in itertools.product(
+            variants, range(spec.seeds.start, spec.seeds.start + spec.seeds.count)
+        ):
             case: Case = {
                 "index": len(cases),
                 "run": run.label,
@@ -150,6 +156,13 @@ def expand(
                 "period_s": period_s,
                 "keep_traces": spec.keep_traces,
             }
+            # only when given: the ids of campaigns without them stay as they were
+            if run.navigator is not None:
+                case["navigator"] = run.navigator
+                case["blind"] = run.blind
+            if built is not None:
+                case["as_built"] = variant
+                case["as_built_scale"] = built.scale
             digest = hashlib.sha256(json.dumps(case, sort_keys=True).encode()).hexdigest()
             # The index and a hex digest: always a safe file name (traces/ID).
             case["id"] = f"{case['index']:06d}-{digest[:8]}"
@@ -228,7 +241,9 @@ def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
         return problem is None
 
     routes: list[str] = []
+    navigators = False
     for i, run in enumerate(spec.runs):
+        navigators = navigators or run.navigator is not None
         route: str | None = None
         if run.route is not None:
             if not check(("runs", i, "route"), "route", run.route):
@@ -246,6 +261,8 @@ def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
         if truth is not None:
             for near in dict.fromkeys(routes):
                 check(("maps", i), "map", truth, near)
+            if navigators:  # a navigator's truth is a network of its own
+                check(("maps", i), "network", truth)
     if problems:
         raise source.errors(problems)
 
@@ -253,10 +270,14 @@ def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
 def group_key(row: dict[str, Any]) -> str:
     """One line naming a case's group (every parameter but the seed)."""
     parts = [str(row.get("run"))]
+    if row.get("blind"):
+        parts.append("blind")
     if row.get("robot"):
         parts.append(f"robot={Path(str(row['robot'])).stem}")
     if row.get("map"):
         parts.append(f"truth={Path(str(row['map'])).stem}")
+    if row.get("as_built") is not None:  # the variants of a group are its runs, like seeds
+        parts.append(f"as-built x{float(row.get('as_built_scale') or 1.0):g}")
     if row.get("sim_faults"):
         parts.append("+".join(row["sim_faults"]))
     parts.append(f"drop={row.get('drop', 0):g} corrupt={row.get('corrupt', 0):g}")
@@ -283,7 +304,8 @@ def check_runs(cases: list[Case]) -> None:
     for case in cases:
         route = case.get("route")
         names = [("tree", case.get("tree"), None), ("route", route, None)]
-        names += [("network", case.get("network"), route), ("map", case.get("map"), route)]
+        truth_kind = "map" if route else "network"
+        names += [("network", case.get("network"), route), (truth_kind, case.get("map"), route)]
         names += [("robot", case.get("robot"), None)]
         for kind, name, near in names:  # a route before its network and map
             if name is None:
@@ -293,11 +315,20 @@ def check_runs(cases: list[Case]) -> None:
                 files[file_key] = _input_problem(kind, str(name), near)
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
-        key = json.dumps([case["tree"], case["route"], case["params"]], sort_keys=True)
+        key = json.dumps(
+            [case["tree"], case["route"], case.get("navigator"), case["params"]], sort_keys=True
+        )
         if key in seen:
             continue
         seen.add(key)
-        if case["tree"]:
+        if case.get("navigator"):
+            from pirate_bt.task.navigators import load_navigator
+
+            try:  # made once, as each case will: an unknown name or parameter stops here
+                load_navigator(case["navigator"], case["params"])
+            except InputError as exc:
+                raise InputError(f"run {case.get('run')!r}: {exc}") from None
+        elif case["tree"]:
             validate_file(find_file("trees", case["tree"]), "tree", case["params"] or None)
         else:
             validate_file(find_file("scenarios", case["route"]), "route")

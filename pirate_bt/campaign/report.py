@@ -25,14 +25,16 @@ from pirate_bt.campaign.stats import GroupStats, group_stats, percentile
 __all__ = ["CSV_COLUMNS", "write_report"]
 
 CSV_COLUMNS = (
-    "id", "index", "run", "tree", "route", "network", "map", "robot", "params", "sim_faults",
-    "drop", "corrupt", "dup", "seed", "outcome", "reason", "failing_node", "sim_time_s",
-    "wall_time_s", "ticks", "violations", "damage", "refusals", "clips", "safe_states",
-    "estops", "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
+    "id", "index", "run", "tree", "route", "navigator", "blind", "network", "map", "as_built",
+    "as_built_scale", "robot", "params", "sim_faults", "drop", "corrupt", "dup", "seed",
+    "outcome", "reason", "failing_node", "sim_time_s", "wall_time_s", "ticks", "steps",
+    "distance_m", "violations", "damage", "refusals", "clips", "safe_states", "estops",
+    "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
     "violation_kinds", "damage_kinds", "trace",
 )  # fmt: skip
-"""The columns of ``results.csv``: the case, its outcome and first cause, and the run's
-counters (:class:`~pirate_bt.safety.tally.Counters`; the kinds as JSON objects)."""
+"""The columns of ``results.csv``: the case, its outcome and first cause, a navigator's
+steps and distance driven, and the run's counters
+(:class:`~pirate_bt.safety.tally.Counters`; the kinds as JSON objects)."""
 
 _COUNTERS = (
     ("violations", "violations"), ("damage", "damage"), ("refusals", "refusals"),
@@ -78,9 +80,16 @@ def _seconds(x: float | None) -> str:
 def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
     head = ["group", "runs", "success", "95 % Wilson", "failed safe", "errors", "timeouts"]
     head += ["violations", "damage", "p50 s", "p95 s"]
+    steps = any(g.steps for g in groups)
+    if steps:  # navigators
+        head += ["steps p50", "s per m p50"]
     out = [head]
     for g in groups:
         low, high = g.interval
+        extra = []
+        if steps:
+            per_m = percentile(g.seconds_per_m, 50)
+            extra = [_seconds(percentile(g.steps, 50)), "-" if per_m is None else f"{per_m:.2f}"]
         out.append(
             [
                 g.key,
@@ -94,6 +103,7 @@ def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
                 str(g.damage),
                 _seconds(percentile(g.sim_times_s, 50)),
                 _seconds(percentile(g.sim_times_s, 95)),
+                *extra,
             ]
         )
     return out

@@ -2,16 +2,19 @@
 
 A campaign is the cross product of its axes::
 
-    runs      what runs: a tree with parameters in a network, or a route
+    runs      what runs: a tree with parameters in a network, a route, or a
+              navigator with parameters in a network
     robots    robot descriptions (``null``: the bundled robot)
     maps      the simulated truth each route runs in (``null``: truth = the map)
+    as_built  or as-built variants of each run's map as the truth ``{count, first, scale}``
     link      link byte faults, each key a list of rates (a grid): drop, corrupt, dup
     sim_faults lists of simulator faults (``KIND[:TARGET]@AT[+DURATION]``)
     seeds     a range ``{start, count}``
 
-Every combination except the seed is a *group*; the report gives one row per
-group. The order of expansion is fixed (runs, robots, maps, sim faults, link
-grid, seeds), so case ids are the same wherever the campaign runs.
+Every combination except the seed and the as-built variant is a *group*; the
+report gives one row per group. The order of expansion is fixed (runs, robots,
+maps, sim faults, link grid, as-built variants, seeds), so case ids are the same
+wherever the campaign runs.
 
 A spec comes from a file (:func:`load_campaign`) or from plain data
 (:func:`campaign_from_data`). Either way its size is bounded before anything is
@@ -54,6 +57,7 @@ __all__ = [
     "MAX_PARAMS",
     "MAX_SEED",
     "MAX_SPEC_BYTES",
+    "AsBuiltAxis",
     "CampaignSpec",
     "LinkAxes",
     "RunItem",
@@ -121,9 +125,12 @@ _ParamValue = Annotated[str | int | float, AfterValidator(_short)]
 
 
 class RunItem(BaseModel):
-    """One thing to run: a PAB or other tree in a network, or a route.
+    """One thing to run: a PAB or other tree in a network, a route, or a navigator.
 
-    Exactly one of ``tree`` and ``route`` is given.
+    Exactly one of ``tree``, ``route`` and ``navigator`` is given. A navigator
+    (:func:`pirate_bt.navigate`) runs in ``network`` (default ``straight``), which is
+    also its map unless ``blind`` is true; the ``maps`` axis makes the simulated
+    truth differ from that map, as for routes.
     """
 
     model_config = _STRICT
@@ -131,30 +138,44 @@ class RunItem(BaseModel):
     name: _Label | None = Field(None, description="label in the report (default: the file's stem)")
     tree: _FileName | None = Field(None, description="a behaviour tree file or bundled name")
     route: _FileName | None = Field(None, description="a route file (.route) or bundled name")
+    navigator: _Label | None = Field(
+        None,
+        description="a navigator by name (route, goal, or one an installed package"
+        " registers), made with 'params'",
+    )
     network: _FileName | None = Field(
         None,
         description="the pipe network (tree: the simulated world, default straight;"
-        " route: the map, default the route's own network)",
+        " route: the map, default the route's own network; navigator: the map and,"
+        " unless 'maps' says otherwise, the world, default straight)",
     )
     params: dict[_ParamKey, _ParamValue] = Field(
         default_factory=dict,
         max_length=MAX_PARAMS,
-        description="tree parameters as texts, e.g. roll: 90 deg",
+        description="tree or navigator parameters as texts, e.g. roll: 90 deg",
+    )
+    blind: bool = Field(
+        False,
+        description="navigators only: run without a map (the network is only the"
+        " simulated world; the belief is the odometry's)",
     )
 
     @model_validator(mode="after")
     def _one_kind(self) -> RunItem:
-        if (self.tree is None) == (self.route is None):
-            raise ValueError("give exactly one of 'tree' and 'route'")
+        given = [k for k in ("tree", "route", "navigator") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of 'tree', 'route' and 'navigator'")
         if self.route is not None and self.params:
-            raise ValueError("'params' apply to trees, not to routes")
+            raise ValueError("'params' apply to trees and navigators, not to routes")
+        if self.blind and self.navigator is None:
+            raise ValueError("'blind' applies to navigators only")
         return self
 
     @property
     def label(self) -> str:
         if self.name:
             return self.name
-        return Path(str(self.tree or self.route)).name.split(".")[0]
+        return Path(str(self.tree or self.route or self.navigator)).name.split(".")[0]
 
 
 class SeedRange(BaseModel):
@@ -168,6 +189,22 @@ class SeedRange(BaseModel):
         ge=1,
         le=MAX_SEED,
         description="how many seeds (a range: the campaign's max_cases bounds the expansion)",
+    )
+
+
+class AsBuiltAxis(BaseModel):
+    """As-built variants of each run's map as the simulated truth (routes and navigators).
+
+    Variant ``first .. first + count - 1`` of :func:`pirate_bt.pipes.asbuilt.perturb_network`
+    with the stated bounds times ``scale``: every run meets the same variants.
+    """
+
+    model_config = _STRICT
+
+    count: int = Field(ge=1, le=MAX_AXIS, description="how many variants")
+    first: int = Field(1, ge=0, le=MAX_SEED, description="the first variant's seed")
+    scale: float = Field(
+        1.0, gt=0.0, le=10.0, description="times the stated as-built bounds (2: twice as wide)"
     )
 
 
@@ -228,7 +265,7 @@ class CampaignSpec(BaseModel):
         "", max_length=10_000, description="what the campaign shows, for people"
     )
     runs: list[RunItem] = Field(
-        min_length=1, max_length=MAX_AXIS, description="trees or routes to run"
+        min_length=1, max_length=MAX_AXIS, description="trees, routes or navigators to run"
     )
     robots: list[_FileName | None] = Field(
         default_factory=_one_default,
@@ -240,8 +277,14 @@ class CampaignSpec(BaseModel):
         default_factory=_one_default,
         min_length=1,
         max_length=MAX_AXIS,
-        description="routes only: simulated truth networks differing from the map"
+        description="routes and navigators: simulated truth networks differing from"
+        " the map"
         " (null: the truth is the map)",
+    )
+    as_built: AsBuiltAxis | None = Field(
+        None,
+        description="routes and navigators: as-built variants of the map as the simulated"
+        " truth (instead of 'maps')",
     )
     seeds: SeedRange = Field(default_factory=SeedRange, description="simulator and link seeds")
     link: LinkAxes = Field(default_factory=LinkAxes, description="link fault rates to sweep")
@@ -270,7 +313,17 @@ class CampaignSpec(BaseModel):
             if value <= 0:
                 raise ValueError(f"{key} must be positive")
         if any(m is not None for m in self.maps) and any(r.tree for r in self.runs):
-            raise ValueError("'maps' (truth differing from the map) apply to routes only")
+            raise ValueError(
+                "'maps' (truth differing from the map) apply to routes and navigators only"
+            )
+        if self.as_built is not None:
+            if any(r.tree or r.blind for r in self.runs):
+                raise ValueError(
+                    "'as_built' (variants of the map) applies to routes and navigators"
+                    " with a map only"
+                )
+            if any(m is not None for m in self.maps):
+                raise ValueError("give 'as_built' or 'maps', not both")
         return self
 
     def quantity(self, key: str, dimension: str) -> float:
@@ -286,6 +339,7 @@ class CampaignSpec(BaseModel):
             (("runs",), len(self.runs)),
             (("robots",), len(self.robots)),
             (("maps",), len(self.maps)),
+            (("as_built", "count"), self.as_built.count if self.as_built is not None else 1),
             (("sim_faults",), len(self.sim_faults)),
             (("link", "drop"), len(self.link.drop)),
             (("link", "corrupt"), len(self.link.corrupt)),

@@ -58,6 +58,10 @@ class GroupStats:
     violations: int = 0
     damage: int = 0
     sim_times_s: list[float] = field(default_factory=list)
+    steps: list[float] = field(default_factory=list)
+    """Navigators: the steps of each run."""
+    seconds_per_m: list[float] = field(default_factory=list)
+    """Navigators: clock seconds per metre driven, of each successful run."""
     reasons: Counter[str] = field(default_factory=Counter)
     nodes: Counter[str] = field(default_factory=Counter)
 
@@ -91,6 +95,11 @@ def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
         g.damage += int(row.get("damage") or 0)
         if row.get("sim_time_s") is not None:
             g.sim_times_s.append(float(row["sim_time_s"]))
+        if row.get("steps") is not None:
+            g.steps.append(float(row["steps"]))
+        distance = row.get("distance_m")
+        if outcome == "success" and distance and row.get("sim_time_s") is not None:
+            g.seconds_per_m.append(float(row["sim_time_s"]) / float(distance))
         if outcome != "success":
             g.reasons[str(row.get("reason"))[:120]] += 1
             if row.get("failing_node"):

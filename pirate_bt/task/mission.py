@@ -289,6 +289,7 @@ def run_mission(
     belief_m: float | None = None,
     map_tolerance: float = MAP_FRACTION,
     observe: Observer | None = None,
+    since_fix_m: float = 0.0,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -316,6 +317,9 @@ def run_mission(
         observe: Called with the runner, before it runs, and a function giving the
             localiser's figures of the moment (belief, truth, last fix) as numbers:
             attach more hooks here (a live Foxglove view, say).
+        since_fix_m: Metres driven since the last feature fix before this mission (a
+            navigation's step goes on from the steps before it): the features'
+            search windows start that wide.
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -342,6 +346,7 @@ def run_mission(
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
+    localiser.since_fix_m = max(since_fix_m, 0.0)
     pabs = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
     legs: list[Leg] = []
     start_s = clock.now()

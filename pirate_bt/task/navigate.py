@@ -83,6 +83,9 @@ class NavigationResult:
         decisions: Every answer of the navigator, with its observation.
         pabs: Every PAB run, in order (a turn step runs its approach and the turn).
         steps: Steps run.
+        ticks: Ticks of every step's tree, summed.
+        distance_m: Distance driven, forwards and back (by the truth when simulated,
+            else by the belief).
         belief_m: Final belief (metres along the way taken).
         truth_m: Final truth on the same scale, when simulated.
         counters: Refusals, clips, link figures and, when simulated, violations and
@@ -103,6 +106,8 @@ class NavigationResult:
     decisions: list[Decision] = field(default_factory=list)
     pabs: list[PabOutcome] = field(default_factory=list)
     steps: int = 0
+    ticks: int = 0
+    distance_m: float = 0.0
     belief_m: float = 0.0
     truth_m: float | None = None
     counters: Counters = field(default_factory=Counters)
@@ -261,12 +266,15 @@ def run_navigation(
     ran: StepRun | None = None
     last_fix_m = belief
     odometer_m = 0.0
+    fixed_at_m = 0.0  # the odometer at the last fix
     failed_in_a_row = 0
     robot_length = robot_length_m(robot)
     try:
         for index in range(1, max_steps + 2):
             if ran is not None and ran.mission is not None and ran.mission.fixes:
                 last_fix_m = ran.mission.fixes[-1].after_m
+                # the odometer at that fix: the step's distance driven after it
+                fixed_at_m = odometer_m - abs(ran.mission.belief_m - last_fix_m)
             if planner is not None:
                 uncertainty = map_tolerance * abs(belief - last_fix_m)
             else:
@@ -341,6 +349,7 @@ def run_navigation(
                     max_time_s=max_time_s - elapsed,
                     belief_m=belief,
                     map_tolerance=map_tolerance,
+                    since_fix_m=odometer_m - fixed_at_m,
                 )
             else:
                 ran = run_blind(
@@ -360,7 +369,14 @@ def run_navigation(
                 if truth_now is not None:
                     ran.truth_m = truth_now()
             result.steps = index
+            result.ticks += ran.ticks
             odometer_m += abs(ran.belief_m - belief)
+            if ran.truth_m is not None and truth_m is not None:
+                result.distance_m += abs(ran.truth_m - truth_m)
+            elif ran.truth_m is not None:
+                result.distance_m += abs(ran.truth_m - belief)
+            else:
+                result.distance_m += abs(ran.belief_m - belief)
             belief = ran.belief_m
             truth_m = ran.truth_m
             felt = ran.felt

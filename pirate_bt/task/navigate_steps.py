@@ -42,6 +42,7 @@ class StepRun:
     error: BaseException | None = None
     mission: MissionResult | None = None
     truth_m: float | None = None
+    ticks: int = 0
 
 
 def _felt_on_map(mission: MissionResult) -> list[Felt]:
@@ -73,6 +74,7 @@ def run_mapped(
     max_time_s: float,
     belief_m: float,
     map_tolerance: float,
+    since_fix_m: float = 0.0,
 ) -> StepRun:
     if not plan.pabs:  # nothing to drive (already there)
         return StepRun(True, "", None, [], belief_m, [])
@@ -91,6 +93,7 @@ def run_mapped(
         max_time_s=limit,
         belief_m=belief_m,
         map_tolerance=map_tolerance,
+        since_fix_m=since_fix_m,
     )
     return StepRun(
         mission.succeeded,
@@ -103,6 +106,7 @@ def run_mapped(
         error=mission.error,
         mission=mission,
         truth_m=mission.truth_m,
+        ticks=mission.ticks,
     )
 
 
@@ -218,4 +222,6 @@ def run_blind(
         why=why,
         failing_node=failing,
     )
-    return StepRun(run.succeeded, why, failing, [pab], odometry[0], felt, error=run.error)
+    return StepRun(
+        run.succeeded, why, failing, [pab], odometry[0], felt, error=run.error, ticks=run.ticks
+    )

@@ -77,8 +77,8 @@ class StepPlanner:
 
         Returns:
             A plan holding this step's PABs only, on the way taken so far, with the
-            features this step passes (the localiser expects to feel those, and no
-            feature an earlier step passed).
+            features this step passes and the next one ahead (the localiser expects
+            to feel those, and no feature an earlier step passed).
 
         Raises:
             LocatedError: the step does not fit the map from here (at ``index``).
@@ -108,9 +108,16 @@ class StepPlanner:
             del walker.passed[n_passed:]
             raise
         pabs = tuple(walker.pabs[saved[3] :])
+        # The features this step passes, and the next one ahead: a map whose lengths are
+        # off puts it nearer than drawn, and the step may feel it early (a fix, as in a
+        # whole mission, not a disagreement). Not reached, it is never missed.
+        pieces = list(walker.passed[saved[4] :])
+        ahead = walker.next_feature()
+        if ahead is not None and ahead not in pieces:
+            pieces.append(ahead)
         features = tuple(
             MapFeature(p.segment, p.kind.value, p.start_m, p.end_m, p.angle_rad, p.roll_rad)
-            for p in walker.passed[saved[4] :]
+            for p in pieces
         )
         return MissionPlan(
             route=route,
