@@ -108,6 +108,20 @@ class ClampConfig(_Model):
                 return a.angle + t * (b.angle - a.angle)
         return pts[-1].angle
 
+    def diameter_for(self, angle_rad: float) -> float:
+        """The pipe diameter a joint pressing the wall at ``angle_rad`` clamps in: the
+        inverse of :meth:`contact_angle` (interpolated, held at the table's ends)."""
+        pts = self.contact_angles
+        angle = abs(angle_rad)
+        rising = pts[-1].angle > pts[0].angle
+        for a, b in itertools.pairwise(pts):
+            low, high = sorted((a.angle, b.angle))
+            if low <= angle <= high and high > low:
+                t = (angle - a.angle) / (b.angle - a.angle)
+                return a.diameter + t * (b.diameter - a.diameter)
+        below_first = angle < pts[0].angle if rising else angle > pts[0].angle
+        return pts[0].diameter if below_first else pts[-1].diameter
+
 
 class MotionConfig(_Model):
     """Motion and physics parameters shared by the simulator and the protective layer."""

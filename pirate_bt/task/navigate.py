@@ -37,6 +37,7 @@ from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LocatedError, ValidationFailed
 from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.parts import Half
 from pirate_bt.safety.tally import Counters, VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.mission import MissionResult
@@ -140,6 +141,20 @@ class NavigationResult:
             f" {len(self.pabs)} PABs, {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
             f" believed at {self.belief_m:.2f} m{truth})"
         )
+
+
+def _sensed(robot: RobotDescription, state: Any) -> dict[str, float | None]:
+    """What the robot reads of the pipe where it stands: the diameter from the rear
+    half's wall-contact angles, the slope from the IMU."""
+    if state is None:
+        return {"diameter_m": None, "pitch_rad": None}
+    angles = sorted(
+        abs(state.joint_angle_rad[m.name])
+        for m in robot.bend_modules(Half.REAR)
+        if m.name in state.joint_angle_rad
+    )
+    diameter = robot.clamp.diameter_for(angles[len(angles) // 2]) if angles else None
+    return {"diameter_m": diameter, "pitch_rad": state.imu_rad.get("pitch")}
 
 
 def _decide(
@@ -294,6 +309,7 @@ def run_navigation(
                 choices=planner.choices if planner is not None else {},
                 history=tuple(history),
                 robot_length_m=robot_length,
+                **_sensed(robot, supervisor.state()),
             )
             if index > max_steps:
                 result.why = f"navigator {name!r} reached its limit of {max_steps} steps"

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import py_trees
+
 from pirate_bt.clock import Clock
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
@@ -26,6 +28,9 @@ from pirate_bt.task.outcome import PabOutcome, explain_run
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 
 __all__ = ["StepRun", "run_blind", "run_mapped"]
+
+_PROBE_DIRECTIONS = {"0": "up", "180": "down", "90": "right", "-90": "left"}
+"""``probe-turn``'s ``probe_roll`` (degrees, as trees/probe-turn.yaml writes it) -> direction."""
 
 
 @dataclass
@@ -129,6 +134,8 @@ def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]
         params = {"roll": checked.roll_rad}
     else:
         params = {"direction": checked.direction}
+    if pab == "probe-turn":
+        return {"type": "subtree", "name": pab, "ref": str(data_dir("trees") / "probe-turn.yaml")}
     ref = data_dir("trees") / PAB_FILES[pab]
     return {"type": "subtree", "name": pab, "ref": str(ref.resolve()), "params": params}
 
@@ -193,6 +200,8 @@ def run_blind(
             meta={"navigation_step": index, "step": step.to_json()},
         )
     started = clock.now()
+    if step.pab == "probe-turn":  # the tree writes it; never read a previous probe's
+        py_trees.blackboard.Blackboard.storage.pop("/probe_roll", None)
     try:
         run: TreeRun = runner.run()
     finally:
@@ -206,13 +215,23 @@ def run_blind(
         felt.append(Felt("bend", odometry[0], direction=checked.direction, how="pab"))
     elif run.succeeded and step.pab == "t-joint":
         felt.append(Felt("tee", odometry[0], direction=checked.direction, how="pab"))
+    elif run.succeeded and step.pab == "probe-turn":
+        found = str(py_trees.blackboard.Blackboard.storage.get("/probe_roll", ""))
+        if found == "end":
+            felt.append(Felt("end", odometry[0], how="probe"))
+        elif found in _PROBE_DIRECTIONS:
+            felt.append(Felt("bend", odometry[0], direction=_PROBE_DIRECTIONS[found], how="probe"))
     elif (
         run.succeeded
         and step.pab == "straight"
         and checked.stop_at_feature
         and moved < checked.distance_m - 0.02
     ):
-        felt.append(Felt("feature", odometry[0], how="pab"))
+        sensed = {getattr(n, "sensed", None) for n in runner.tree.root.iterate()}
+        how = (
+            "opening" if "front_opening" in sensed else "blocked" if "blocked" in sensed else "pab"
+        )
+        felt.append(Felt("feature", odometry[0], how=how))
     pab = PabOutcome(
         label=label,
         kind=step.pab,

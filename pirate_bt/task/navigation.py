@@ -26,6 +26,10 @@ command line (text with a unit, or SI numbers):
 ``Step("t-joint", direction="left")``   pass the T-joint ahead (``left``, ``right``,
                                         ``straight``; ``up``/``down`` with a map)
 ``Step("wait", time="2 s")``            stand still, clamped
+``Step("probe-turn")``                  no map: where a straight step stopped blocked,
+                                        find which way the pipe turns (``obs.felt``:
+                                        a ``bend`` with its direction) or that it
+                                        ends there (an ``end``)
 ======================================  ===============================================
 
 :func:`check_step` checks a step before anything moves (an unknown PAB, a missing or
@@ -61,7 +65,7 @@ __all__ = [
     "check_step",
 ]
 
-STEP_PABS = ("straight", "bend", "t-joint", "wait")
+STEP_PABS = ("straight", "bend", "t-joint", "wait", "probe-turn")
 """The PABs a step may name."""
 
 _BEND_ROLL_DEG = {"up": 0.0, "right": 90.0, "down": 180.0, "left": -90.0}
@@ -73,6 +77,7 @@ _KNOWN: dict[str, tuple[str, ...]] = {
     "bend": ("direction", "roll"),
     "t-joint": ("direction",),
     "wait": ("time",),
+    "probe-turn": (),
 }
 
 
@@ -149,6 +154,11 @@ class CheckedStep:
             return f"at the bend turn {self.direction}"
         if pab == "t-joint":
             return f"at the T-joint go {self.direction}"
+        if pab == "probe-turn":
+            raise InvalidStep(
+                f"{self.step!r}: with a map the turns are on it; probe-turn is for"
+                " navigating without one"
+            )
         return f"pause {self.time_s:.4f} s"
 
 
@@ -227,6 +237,8 @@ def check_step(step: object) -> CheckedStep:
                 f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {direction!r}"
             )
         return CheckedStep(step, direction=str(direction))
+    if step.pab == "probe-turn":
+        return CheckedStep(step)
     seconds = _quantity(step, "time", "time", "2 s")
     if not 0 < seconds <= _MAX_WAIT_S:
         raise InvalidStep(f"{step!r}: time must be positive and at most {_MAX_WAIT_S:.0f} s")
@@ -257,12 +269,17 @@ class Felt:
     """A feature the robot felt (sensed) during a step.
 
     Attributes:
-        kind: ``bend`` (a turn sensed by the IMU), ``tee`` (an opening sensed by the
-            joints), or ``end`` (the pipe blocked the robot where no turn was).
+        kind: ``bend`` (a turn: sensed by the IMU, passed by a PAB, or found by
+            ``probe-turn``), ``tee`` (an opening sensed by the joints, or passed),
+            ``end`` (``probe-turn`` found no way on: the end of the pipe), or, without
+            a map, ``feature`` (a straight step with ``stop_at_feature`` stopped early).
         at_m: The belief when it was felt.
         segment: The map's segment it was matched to (``None`` without a map).
-        direction: ``bend``: the direction of the turn taken; ``tee``: the way taken.
-        how: What sensed it (``imu``, ``joints``, ``pab``).
+        direction: ``bend``: the direction of the turn (taken, or found by a probe);
+            ``tee``: the way taken.
+        how: What sensed it (``imu``, ``joints``, ``pab``, ``probe``; for a
+            ``feature``: ``blocked``, every drive at stall current with no progress,
+            or ``opening``, a front joint swung off the wall).
     """
 
     kind: str
@@ -309,6 +326,10 @@ class Observation:
         choices: The way taken at each T-joint of the map so far (segment -> way).
         history: Every step run so far with its outcome, oldest first.
         robot_length_m: The robot's length, front tip to rear tip.
+        diameter_m: The pipe's diameter where the rear half holds, from its joints'
+            wall-contact angles (``None`` without a reading).
+        pitch_rad: The pipe's slope at the rotational module, from the IMU (positive
+            uphill; ``None`` without a reading).
     """
 
     step: int
@@ -320,6 +341,8 @@ class Observation:
     choices: Mapping[str, str] = field(default_factory=dict)
     history: tuple[tuple[Step, str], ...] = ()
     robot_length_m: float = 0.0
+    diameter_m: float | None = None
+    pitch_rad: float | None = None
 
     def next_feature(self) -> Ahead | None:
         """The next bend or T-joint ahead on the map, along the way taken so far.
@@ -363,6 +386,8 @@ class Observation:
             if self.last is None
             else {"label": self.last.label, "outcome": self.last.outcome, "why": self.last.why},
             "choices": dict(self.choices),
+            "diameter_m": None if self.diameter_m is None else round(self.diameter_m, 5),
+            "pitch_rad": None if self.pitch_rad is None else round(self.pitch_rad, 5),
         }
 
 

@@ -8,6 +8,8 @@ Each built-in is short on purpose: a model for your own (docs/navigators.md).
 - ``goal`` (:class:`GoalNavigator`, ``segment=NAME``): reach a segment of the map,
   re-planning from the belief before every step (so also after a disagreement the
   navigation was allowed to go on from).
+- ``explore`` (:class:`~pirate_bt.task.explore.ExploreNavigator`, ``output=FILE``):
+  survey a pipe with no map and write the network found (:mod:`pirate_bt.task.explore`).
 
 Navigators of your own are found by name through the ``pirate_bt.navigators``
 entry-point group, as node types are::
@@ -28,6 +30,7 @@ from typing import Any
 
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, PieceKind
+from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigation import Navigator, Observation, Step
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
@@ -198,6 +201,7 @@ def _map_stop(obs: Observation) -> bool:
 _BUILT_IN: dict[str, Callable[..., Navigator]] = {
     "route": RouteNavigator,
     "goal": GoalNavigator,
+    "explore": ExploreNavigator,
 }
 
 
