@@ -26,6 +26,7 @@ from pirate_bt.interop.mcap_trace import (
     read_mcap_records,
 )
 from pirate_bt.trace import CommandRecord, TickExtras, TraceEvent, TraceRecorder
+from tests.test_trace import wait_for_writers
 
 ROOT = Path(__file__).resolve().parent.parent
 LAYOUT = ROOT / "docs" / "foxglove" / "pirate.json"
@@ -213,6 +214,8 @@ def test_sigkill_keeps_every_complete_tick(tmp_path: Path) -> None:
         last = int(proc.stdout.readline())
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
+    # The writer process outlives the run and writes every tick handed over (as for .jsonl).
+    wait_for_writers(path)
     # The mcap library's stream reader reads the file without a summary record by record.
     with open(path, "rb") as stream, pytest.raises(Exception):  # noqa: B017 - the cut end
         for _ in StreamReader(stream).records:

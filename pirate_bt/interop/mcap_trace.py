@@ -13,16 +13,18 @@ Two ways in:
   the target under a temporary name and renamed into place, so an error leaves
   nothing half-written. It is chunked, LZ4-compressed and indexed.
 - :class:`McapTraceWriter` writes a run directly (``--trace RUN.mcap``; it is
-  registered for ``.mcap`` in :data:`pirate_bt.trace.WRITERS`). It runs in the run's
-  process, like any format writer the trace's writer process does not know.
-  While the run goes on the file is *unchunked*: each tick's messages go to the
-  kernel with one ``os.write`` before the tick returns, so a run killed with
-  SIGKILL leaves every complete tick on disk, at most one cut record at the end
-  and no summary (:func:`read_mcap_records` and Foxglove read such a file; the
-  ``mcap`` CLI's ``recover`` command turns it into an indexed one). When the run
-  ends, :meth:`McapTraceWriter.close` writes the summary and then rewrites the
-  file chunked, compressed and indexed (renamed into place; if that fails, the
-  unchunked file is kept and the reason logged).
+  registered for ``.mcap`` in :data:`pirate_bt.trace.WRITERS`, and with the
+  trace's writer process, :func:`pirate_bt.trace.sink.register_process_writer`).
+  The run's tick only captures what moved and hands it to the writer process, as
+  for ``.jsonl``; that process maps the records to topic messages, serialises
+  and writes them. While the run goes on the file is *unchunked*: each record's
+  messages go to the kernel with one ``os.write``, so a run killed with SIGKILL
+  leaves every tick it handed over on disk (the writer process outlives it) and
+  no summary (:func:`read_mcap_records` and Foxglove read such a file; the
+  ``mcap`` CLI's ``recover`` command turns it into an indexed one). A chunked,
+  compressed and indexed copy is written beside it as it goes and renamed over
+  it when the run ends (if that fails, the unchunked file is kept and the reason
+  logged); see :mod:`pirate_bt.interop.mcap_writer`.
 
 :func:`read_mcap_records` turns a file back into the trace's records, and
 :class:`McapTraceReader` offers them to :func:`pirate_bt.trace.read_trace`'s
@@ -54,6 +56,7 @@ from pirate_bt.interop.mcap_writer import (
     write_atomically,
 )
 from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
+from pirate_bt.trace.sink import register_process_writer
 from pirate_bt.trace.writer import register_writer
 
 __all__ = [
@@ -190,6 +193,7 @@ def register() -> None:
         register_reader(suffix, McapTraceReader)
     for suffix in McapTraceWriter.suffixes:
         register_writer(suffix, McapTraceWriter)
+    register_process_writer(McapTraceWriter)  # a recorder writes it from its writer process
 
 
 register()

@@ -1,8 +1,28 @@
 """The MCAP format writer behind ``--trace RUN.mcap`` (see :mod:`pirate_bt.interop.mcap_trace`).
 
-:data:`pirate_bt.trace.WRITERS` maps ``.mcap`` to a function that imports this
-module when a file is opened. It needs only the standard library until then,
-when it imports ``mcap`` (the ``foxglove`` extra).
+:class:`McapTraceWriter` runs in the trace's **writer process**
+(:mod:`pirate_bt.trace.sink`; :func:`pirate_bt.interop.mcap_trace.register`
+registers it there), so the run's tick only captures what moved and hands it
+over, as for ``.jsonl``. The writer process encodes each tick record, maps it
+to topic messages (:class:`~pirate_bt.interop.foxglove_topics.TopicMapper`),
+serialises them and writes them twice:
+
+- to the file itself, *unchunked*: each record's messages go to the kernel
+  with one ``os.write``, so whatever happens to either process, the file holds
+  every record written so far (no chunk waits in memory);
+- to a chunked, LZ4-compressed, indexed twin beside it (``.NAME.*.part``),
+  through the ``mcap`` library's writer. When the run's end record comes, the
+  twin is finished and renamed over the file (the rewrite used to be done at
+  the end, reading the whole file back). If that fails, the unchunked file is
+  completed with its footer and kept (logged).
+
+When the input ends without an end record (the run was killed), the twin is
+deleted and the unchunked file is left as it is: no summary, no footer
+(:meth:`McapTraceWriter.cut_off`).
+
+This module imports only the standard library and modules of ``pirate_bt`` that
+do (the writer process imports it by name); ``mcap`` (the ``foxglove`` extra) is
+imported when a file is opened.
 """
 
 from __future__ import annotations
@@ -25,7 +45,7 @@ from pirate_bt.interop.foxglove_topics import (
     missing_extra,
     schema_of,
 )
-from pirate_bt.trace.sink import TraceFormatWriter
+from pirate_bt.trace.sink_formats import TraceFormatWriter
 
 __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write_atomically"]
 
@@ -141,17 +161,28 @@ class _Buffer:
         return data
 
 
+def _temporary_beside(path: Path) -> tuple[int, str]:
+    """A new file beside ``path`` (``.NAME.*.part``) with the mode ``open`` would give it."""
+    fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(temp, 0o666 & ~mask)  # mkstemp makes it private
+    return fd, temp
+
+
 class McapTraceWriter(TraceFormatWriter):
-    """Writes a run's trace as MCAP (``.mcap``), tick by tick, in the run's process.
+    """Writes a run's trace as MCAP (``.mcap``), record by record.
 
     See the module docstring for what is on disk while the run goes on and after
-    it ends.
+    it ends. A recorder runs it in its writer process; opened directly
+    (:func:`pirate_bt.trace.open_writer`) it runs in the caller's process.
 
     Args:
         path: The MCAP file (created or truncated).
-        sync: Also fsync after every tick (power loss).
+        sync: Also fsync after every record (power loss).
         fd: An open file descriptor to write to instead.
-        compact: Rewrite the file chunked, compressed and indexed when it closes.
+        compact: Leave the file chunked, compressed and indexed when it closes
+            (written as it goes, beside it); ``False`` leaves it unchunked.
 
     Raises:
         ConfigurationError: the ``mcap`` package is missing.
@@ -160,12 +191,20 @@ class McapTraceWriter(TraceFormatWriter):
 
     suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
 
+    @classmethod
+    def preflight(cls, path: Path) -> None:
+        """Raise :class:`~pirate_bt.errors.ConfigurationError` when ``mcap`` is missing."""
+        load_mcap()
+
     def __init__(
         self, path: str | Path, sync: bool = False, fd: int | None = None, compact: bool = True
     ) -> None:
         mcap = load_mcap()
-        self.compact = compact
         self._buffer = _Buffer()
+        self._twin: Any = None
+        self._twin_path: str | None = None
+        self._ended = False
+        self._cut = False
         super().__init__(path, sync=sync, fd=fd)
         # The start of an unchunked MCAP file: magic, header, a schema and a channel per
         # topic, each record written as it comes (no chunk to lose in a crash).
@@ -186,6 +225,20 @@ class McapTraceWriter(TraceFormatWriter):
         self._sequence = 0
         self._finished = False
         self._emit()
+        if compact:
+            twin_fd, self._twin_path = _temporary_beside(self.path)
+            try:
+                self._twin_file = open(twin_fd, "wb")  # noqa: SIM115 - closed in close()
+                self._twin = _chunked_writer(self._twin_file)
+                self._twin_channels = _Channels(self._twin)
+            except BaseException:
+                self._drop_twin()
+                raise
+
+    @property
+    def compact(self) -> bool:
+        """Whether the file is left chunked, compressed and indexed when it closes."""
+        return self._twin is not None
 
     def _open(self, fd: int | None) -> IO[bytes]:
         if fd is not None:
@@ -214,41 +267,78 @@ class McapTraceWriter(TraceFormatWriter):
     def write_record(self, record: Any) -> None:
         """Write the messages of one record; they are in the kernel's hands on return."""
         # Message records are packed here, one struct each: the mcap Writer builds them
-        # field by field in Python, several times slower, and this runs in the tick.
+        # field by field in Python, several times slower.
         parts = self._buffer.parts
         ids, pack = self._ids, _MESSAGE.pack
+        twin = self._twin
         for message in self._mapper.messages(record):
             data = encode_message(message.message)
             self._sequence += 1
             when = message.log_time_ns
-            parts.append(pack(5, 22 + len(data), ids[message.topic], self._sequence, when, when))
+            channel = ids[message.topic]
+            parts.append(pack(5, 22 + len(data), channel, self._sequence, when, when))
             parts.append(data)
+            if twin is not None:
+                twin.add_message(channel, when, data, when, self._sequence)
+        if record.get("type") == "end":
+            self._ended = True
         self._emit()
 
+    def cut_off(self) -> None:
+        """The run was cut off: :meth:`close` leaves the file unchunked, with no footer."""
+        self._cut = True
+
     def close(self) -> None:
-        """Write the summary, close the file and compact it (idempotent)."""
+        """Finish the file: the chunked twin renamed over it, or its footer (idempotent)."""
         if self._file.closed:
             return
         try:
-            if not self._finished:
-                self._finished = True
-                # The end of an MCAP file without a summary section (the messages did not
-                # go through the Writer, whose summary would not count them); compacting
-                # writes the full summary and indexes.
-                mcap = load_mcap()
-                builder = mcap.data_stream.RecordBuilder()
-                mcap.records.DataEnd(0).write(builder)
-                mcap.records.Footer(0, 0, 0).write(builder)
-                self._buffer.write(builder.end())
-                self._buffer.write(_MAGIC)
-                self._emit()
+            if self._cut:
+                return  # as a killed run leaves it: every record, no summary, no footer
+            if self._twin is not None:
+                try:
+                    self._finish_twin()
+                    return
+                except Exception as exc:  # the unchunked file is complete and readable
+                    logger.warning("%s: kept unchunked, could not compact it: %s", self.path, exc)
+            self._finish_unchunked()
         finally:
+            self._drop_twin()
             super().close()
-        if self.compact:
-            try:
-                compact_mcap(self.path)
-            except Exception as exc:  # the unchunked file is complete and readable
-                logger.warning("%s: kept unchunked, could not compact it: %s", self.path, exc)
+
+    def _finish_unchunked(self) -> None:
+        if self._finished:
+            return
+        self._finished = True
+        # The end of an MCAP file without a summary section (the messages did not go
+        # through the Writer, whose summary would not count them).
+        mcap = load_mcap()
+        builder = mcap.data_stream.RecordBuilder()
+        mcap.records.DataEnd(0).write(builder)
+        mcap.records.Footer(0, 0, 0).write(builder)
+        self._buffer.write(builder.end())
+        self._buffer.write(_MAGIC)
+        self._emit()
+
+    def _finish_twin(self) -> None:
+        assert self._twin_path is not None
+        self._twin.finish()
+        self._twin_file.flush()
+        os.fsync(self._twin_file.fileno())
+        self._twin_file.close()
+        os.replace(self._twin_path, self.path)
+        self._twin = self._twin_path = None
+
+    def _drop_twin(self) -> None:
+        if self._twin_path is None:
+            return
+        file = getattr(self, "_twin_file", None)
+        if file is not None:
+            with contextlib.suppress(OSError):
+                file.close()
+        with contextlib.suppress(OSError):
+            os.unlink(self._twin_path)
+        self._twin = self._twin_path = None
 
 
 def compact_mcap(path: Path, out_path: Path | None = None) -> Path:

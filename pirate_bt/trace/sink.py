@@ -45,7 +45,8 @@ Messages (tuples; the first item says which):
     ``sim`` the counters (``None`` when unchanged or not given).
 
 On the pipe each message is a 4-byte little-endian length and its ``marshal``
-bytes. This module and the two it is split into import nothing outside the
+bytes (:func:`frame`, :func:`unframe`; the live outputs of :mod:`pirate_bt.interop`
+frame their pipes the same way). This module and the two it is split into import nothing outside the
 standard library and nothing else from ``pirate_bt``, so the writer process
 starts in a few milliseconds. The seams:
 
@@ -55,11 +56,20 @@ starts in a few milliseconds. The seams:
 - this module: the message kinds, :class:`SinkProcess` (the recorder's end of
   the pipe) and the writer process itself (:func:`serve`, :func:`main`). It
   re-exports every name of the other two.
+
+A format writer of a package above this one can run in a writer process too
+(:func:`register_process_writer`; MCAP does, :mod:`pirate_bt.interop.mcap_writer`):
+its module must import nothing from ``pirate_bt`` outside the modules that need
+only the standard library at import time. The writer process imports it by name,
+behind the same stand-in packages, with the recording process's ``sys.path``
+after its own standard library, so that the writer may import a third-party
+package when it starts (``mcap``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import marshal
 import os
 import signal
@@ -125,10 +135,13 @@ __all__ = [
     "TickEncoder",
     "TraceFormatWriter",
     "encode_value",
+    "frame",
     "layout_names",
     "nonfinite_text",
+    "register_process_writer",
     "round_value",
     "rounded_json",
+    "unframe",
 ]
 
 SETUP, LINE, TICK, END = 0, 1, 2, 3
@@ -145,6 +158,70 @@ _PIPE_BYTES = 1 << 20
 
 class SinkError(RuntimeError):
     """The writer process failed or could not be reached."""
+
+
+def frame(message: tuple[Any, ...]) -> bytes:
+    """One message as it goes on a pipe: its length (4 bytes, little-endian), its ``marshal``.
+
+    Raises:
+        ValueError: the message holds a value ``marshal`` cannot carry.
+    """
+    payload = marshal.dumps(message)
+    return _LENGTH.pack(len(payload)) + payload
+
+
+def unframe(buffer: bytearray) -> list[Any]:
+    """The whole messages at the start of ``buffer``, taken out of it."""
+    out: list[Any] = []
+    start, size = 0, len(buffer)
+    while size - start >= 4:
+        (length,) = _LENGTH.unpack_from(buffer, start)
+        end = start + 4 + length
+        if end > size:
+            break
+        out.append(marshal.loads(memoryview(buffer)[start + 4 : end]))
+        start = end
+    del buffer[:start]
+    return out
+
+
+def register_process_writer(cls: type[TraceFormatWriter]) -> None:
+    """Let writer processes run ``cls`` (a recorder then uses one for its suffixes).
+
+    ``cls``'s module is imported by name in the writer process (see the module
+    docstring for what it may import). Registering it again changes nothing.
+    """
+    WRITER_CLASSES[cls.__name__] = cls
+
+
+def _spec(cls: type[TraceFormatWriter]) -> str:
+    """How the writer process finds ``cls``: its name, or ``module:name`` from elsewhere."""
+    if cls.__module__ == TraceFormatWriter.__module__:
+        return cls.__name__
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def _load_writer(spec: str, paths: Sequence[str]) -> type[TraceFormatWriter]:
+    """The writer class named by :func:`_spec`, imported behind stand-in packages."""
+    module_name, colon, name = spec.partition(":")
+    if not colon:
+        return WRITER_CLASSES[spec]
+    import importlib
+    import types
+
+    sys.path.extend(p for p in paths if p not in sys.path)  # after the standard library
+    top = Path(__file__).resolve().parent.parent
+    parts = module_name.split(".")
+    for depth in range(1, len(parts)):
+        package = ".".join(parts[:depth])
+        if package not in sys.modules and parts[0] == "pirate_bt":
+            stand_in = types.ModuleType(package)
+            stand_in.__path__ = [str(top.joinpath(*parts[1:depth]))]
+            sys.modules[package] = stand_in
+    cls = getattr(importlib.import_module(module_name), name)
+    if not (isinstance(cls, type) and issubclass(cls, TraceFormatWriter)):
+        raise ValueError(f"{spec} is no trace format writer")
+    return cls
 
 
 class SinkProcess:
@@ -170,10 +247,13 @@ class SinkProcess:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         import subprocess  # here, not at the top: the writer process itself never needs it
 
+        cls = WRITER_CLASSES[writer]
+        cls.preflight(self.path)  # what is missing is said here, not by a dead process
         fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
         try:
             if not Path(__file__).is_file() or not sys.executable:
                 raise SinkError(f"{self.path}: no interpreter or script for a trace writer process")
+            spec = _spec(cls)
             self._proc = subprocess.Popen(
                 [
                     sys.executable,
@@ -181,9 +261,10 @@ class SinkProcess:
                     "-S",  # no site-packages: this file needs the standard library only
                     __file__,
                     str(fd),
-                    writer,
+                    spec,
                     "1" if sync else "0",
-                    str(self.path),  # unused; names the process in ps
+                    str(self.path),  # names the process in ps
+                    *([json.dumps(sys.path)] if ":" in spec else []),
                 ],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.DEVNULL,
@@ -219,8 +300,7 @@ class SinkProcess:
             ValueError: the message holds a value ``marshal`` cannot carry.
             SinkError: the writer process has gone.
         """
-        payload = marshal.dumps(message)
-        data = _LENGTH.pack(len(payload)) + payload
+        data = frame(message)
         try:
             written = os.write(self._fd, data)
             while written < len(data):
@@ -302,8 +382,13 @@ def _messages(fd: int) -> Any:
         time.sleep(_POLL_S)  # let messages gather: no wake-up of this process per tick
 
 
-def serve(fd_in: int, out: TraceFormatWriter) -> None:
-    """Write the records of the messages read off ``fd_in`` to ``out``, until it closes."""
+def serve(fd_in: int, out: TraceFormatWriter) -> bool:
+    """Write the records of the messages read off ``fd_in`` to ``out``, until it closes.
+
+    Returns:
+        Whether the end record came (``False``: the input closed without it, the run
+        was cut off).
+    """
     encoder: TickEncoder | None = None
     for message in _messages(fd_in):
         kind = message[0]
@@ -316,7 +401,7 @@ def serve(fd_in: int, out: TraceFormatWriter) -> None:
             out.write_line(message[1])
         elif kind == END:
             out.write_line(message[1])
-            return
+            return True
         elif kind == SETUP:
             _, ids, every_tick, full_state, readings, link_fields = message
             encoder = TickEncoder(
@@ -328,16 +413,28 @@ def serve(fd_in: int, out: TraceFormatWriter) -> None:
             )
         else:
             raise ValueError(f"unknown message kind {kind!r}")
+    return False
 
 
 def main(argv: Sequence[str]) -> int:
-    """The writer process: ``sink.py FD WRITER SYNC [PATH]``; messages on standard input."""
+    """The writer process: ``sink.py FD WRITER SYNC [PATH [SYS_PATH]]``; messages on stdin.
+
+    ``WRITER`` is a name of :data:`WRITER_CLASSES` or ``module:class`` (then
+    ``SYS_PATH``, the recording process's ``sys.path`` as JSON, is searched after
+    the standard library).
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
     fd, writer, sync = int(argv[1]), argv[2], argv[3] == "1"
     path = argv[4] if len(argv) > 4 else f"fd {fd}"
-    out = WRITER_CLASSES[writer](path, sync=sync, fd=fd)
     try:
-        serve(sys.stdin.fileno(), out)
+        paths = json.loads(argv[5]) if len(argv) > 5 else []
+        out = _load_writer(writer, paths)(path, sync=sync, fd=fd)
+    except Exception as exc:
+        print(f"trace writer: cannot open {writer}: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 1
+    try:
+        if not serve(sys.stdin.fileno(), out):
+            out.cut_off()
     except Exception as exc:  # reported to the recorder through the exit code and stderr
         print(f"trace writer: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1

@@ -3,8 +3,9 @@
 Split out of :mod:`pirate_bt.trace.sink` (which re-exports every name here):
 :class:`TraceFormatWriter` and the two formats a writer process can run,
 :class:`JsonLinesWriter` and :class:`GzipJsonLinesWriter` (:data:`WRITER_CLASSES`).
-Other formats (MCAP, the live Foxglove view) subclass :class:`TraceFormatWriter`
-elsewhere and run in-process.
+Other formats (MCAP) subclass :class:`TraceFormatWriter` elsewhere and run
+in-process, or in a writer process once registered with
+:func:`pirate_bt.trace.sink.register_process_writer`.
 
 Like the rest of the writer process, this module needs only the standard library;
 from ``pirate_bt`` it imports only :mod:`pirate_bt.trace.sink_encode`.
@@ -44,6 +45,21 @@ class TraceFormatWriter:
 
     def _open(self, fd: int | None) -> IO[bytes]:
         raise NotImplementedError
+
+    @classmethod
+    def preflight(cls, path: Path) -> None:
+        """Raise what would stop this writer from opening ``path``, in the recording process.
+
+        Called before a writer process is started for it, so that a missing optional
+        package is one clear error there; the default checks nothing.
+        """
+
+    def cut_off(self) -> None:
+        """The records ended without an end record (the run was killed); ``close`` follows.
+
+        A writer process calls this when its input closes early. The default does
+        nothing: what was written stays as it is.
+        """
 
     def _flush(self) -> None:
         self._file.flush()
