@@ -195,19 +195,16 @@ def test_a_slow_client_never_slows_the_tick() -> None:
 
 
 def test_a_publishing_error_switches_the_view_off_not_the_run(
-    caplog: pytest.LogCaptureFixture,
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    # The server runs in a process of its own: it is told to fail there.
+    monkeypatch.setattr(FoxgloveServer, "_PROCESS_OPTIONS", {"fail_publishing": True})
     with FoxgloveServer(port=0) as server:
-
-        class Broken:
-            def has_sinks(self) -> bool:
-                raise RuntimeError("socket exploded")
-
-        server._channels["/pirate/state"] = Broken()
         result = _simulated_run(_observer(server), realtime=False)
+        server.close()  # waits for the process, which said why it stopped publishing
     assert result.status == "success"
     assert not server.enabled
-    assert "publishing failed" in caplog.text
+    assert "publishing failed" in caplog.text and "fails on purpose" in caplog.text
 
 
 def test_port_taken_is_one_clear_line(capsys: pytest.CaptureFixture[str]) -> None:

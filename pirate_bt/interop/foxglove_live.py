@@ -5,18 +5,24 @@
 127.0.0.1:8765 by default. Foxglove or Lichtblick connect to
 ``ws://HOST:PORT`` ("Open connection" → "Foxglove WebSocket") and see the same
 topics as in an MCAP file of the run (:mod:`pirate_bt.interop.foxglove_topics`),
-made from the same records: :func:`attach_foxglove` puts a
-:class:`~pirate_bt.trace.TraceRecorder` on the runner whose format writer
-(:class:`LiveWriter`) publishes each record's messages instead of storing them.
+made from the same records.
 
-The robot comes first. Publishing runs in the tick's thread, but the SDK only
-queues a message (per client, at most ``message_backlog_size``; the oldest is
-dropped when a slow client falls behind) and sends it from its own threads. A
-message for a topic nobody subscribed to is not even encoded. Any error while
-publishing is logged once and the live view is switched off; it never reaches
-the tick. A client that subscribes late is sent the last message of every
-whole-value topic (the run, the state, link health...) and a snapshot of every
-node's status.
+The robot comes first. The server runs in a **process of its own**
+(:mod:`pirate_bt.interop.foxglove_process`): :func:`attach_foxglove` puts a
+:class:`~pirate_bt.trace.TraceRecorder` on the runner that only captures what
+moved in each tick and hands it to that process through a pipe, as the trace
+hands it to its writer process; the encoding, the mapping to topics, the JSON and
+the SDK's sending are that process's work, on another core. The run never waits
+for the pipe: when that process lags so far that the pipe (1 MiB) is full, the
+tick is merged into one held back for its recorder and counted as dropped
+(:mod:`pirate_bt.interop.foxglove_backlog`; :attr:`FoxgloveServer.dropped`, and
+``dropped`` in the run's ``/pirate/end`` message). The SDK queues each message
+per client (at most ``message_backlog_size``; the oldest is dropped when a slow
+client falls behind) and sends it from its own threads; a topic nobody subscribed
+to is not even encoded. If publishing fails or the process dies, the live view is
+switched off with the cause logged; the run goes on. A client that subscribes late
+is sent the last message of every whole-value topic (the run, the state, link
+health...) and a snapshot of every node's status.
 
 The server is read-only: it advertises no services, parameters or client
 publishing, so a client can watch but cannot send anything to the robot.
@@ -24,34 +30,44 @@ publishing, so a client can watch but cannot send anything to the robot.
 
 from __future__ import annotations
 
+import contextlib
 import errno
+import importlib.util
 import json
 import logging
+import os
 import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, ClassVar
 
 from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.interop import foxglove_process
+from pirate_bt.interop.foxglove_backlog import Feed
 from pirate_bt.interop.foxglove_option import (
     DEFAULT_HOST,
     DEFAULT_PORT,
     add_foxglove_option,
     parse_address,
 )
-from pirate_bt.interop.foxglove_schemas import RUN, SIM
-from pirate_bt.interop.foxglove_topics import (
-    TOPICS,
-    TopicMapper,
-    TopicMessage,
-    encode_message,
-    missing_extra,
-    schema_of,
+from pirate_bt.interop.foxglove_process import (
+    CLOSED,
+    FAILED,
+    MESSAGE,
+    OFF,
+    READY,
+    RECORD,
+    SUBSCRIBED,
 )
-from pirate_bt.trace.records import TickExtras
-from pirate_bt.trace.sink import TraceFormatWriter
+from pirate_bt.interop.foxglove_schemas import SIM
+from pirate_bt.interop.foxglove_topics import TopicMessage, missing_extra
+from pirate_bt.trace.records import LINK_FIELDS, TickExtras
+from pirate_bt.trace.sink import END, LINE, SETUP, SinkProcess, unframe
+from pirate_bt.trace.sink_formats import TraceFormatWriter
 from pirate_bt.trace.writer import TraceRecorder
 
 __all__ = [
@@ -68,14 +84,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-
-def _load_sdk() -> Any:
-    try:
-        import foxglove
-        import foxglove.websocket
-    except ImportError:
-        raise ConfigurationError(missing_extra("--foxglove", "foxglove-sdk")) from None
-    return foxglove
+_PIPE_BYTES = 1 << 20
+_SCRIPT = Path(foxglove_process.__file__).resolve()
 
 
 def _port_free(host: str, port: int) -> None:
@@ -101,7 +111,9 @@ def _port_free(host: str, port: int) -> None:
 
 
 class FoxgloveServer:
-    """A Foxglove WebSocket server with one channel per pirate_bt topic.
+    """A Foxglove WebSocket server with one channel per pirate_bt topic, in its own process.
+
+    Returns once the server listens (or raises).
 
     Args:
         host: Interface to listen on (``0.0.0.0`` for every one).
@@ -110,9 +122,12 @@ class FoxgloveServer:
         message_backlog_size: Messages queued per client before the oldest is dropped.
 
     Raises:
-        ConfigurationError: ``foxglove-sdk`` is missing.
+        ConfigurationError: ``foxglove-sdk`` is missing, or no process can be started.
         InputError: the port is taken or the host cannot be listened on.
     """
+
+    _PROCESS_OPTIONS: ClassVar[dict[str, Any]] = {}
+    """More settings for the server's process (the tests' ``fail_publishing``)."""
 
     def __init__(
         self,
@@ -121,45 +136,69 @@ class FoxgloveServer:
         *,
         name: str = "pirate_bt",
         message_backlog_size: int = 1024,
+        timeout_s: float = 20.0,
     ) -> None:
-        foxglove = _load_sdk()
+        if importlib.util.find_spec("foxglove") is None:
+            raise ConfigurationError(missing_extra("--foxglove", "foxglove-sdk"))
         _port_free(host, port)
         self.host = host
-        self._context = foxglove.Context()
-        self._channels: dict[str, Any] = {}
-        for topic in TOPICS:
-            schema_name, schema = schema_of(topic)
-            self._channels[topic] = foxglove.Channel(
-                topic,
-                schema=foxglove.Schema(
-                    name=schema_name,
-                    encoding="jsonschema",
-                    data=json.dumps(schema).encode("utf-8"),
-                ),
-                message_encoding="json",
-                context=self._context,
-            )
-        self.mapper = TopicMapper()
-        self._lock = threading.Lock()
-        self._late: set[str] = set()
+        self.port: int = port
+        """The port it listens on."""
         self.subscriptions = 0
         """Subscriptions made so far (all clients)."""
         self.enabled = True
-        """False once publishing failed (the run goes on without the live view)."""
+        """False once publishing failed or the process ended (the run goes on without it)."""
+        self.published = 0
+        """Messages handed to the SDK (known once closed)."""
+        self.process_cpu_s = 0.0
+        """The CPU time the server's process spent (known once closed)."""
+        self.failure: str | None = None
+        """Why the live view was switched off, if it was."""
+        self._lock = threading.Lock()
+        self._ready = threading.Event()
+        self._streams = 0
+        self._closed = False
+        config = {
+            "host": host,
+            "port": port,
+            "name": name,
+            "backlog": message_backlog_size,
+            "sys_path": list(sys.path),
+            **self._PROCESS_OPTIONS,
+        }
         try:
-            self._server = foxglove.start_server(
-                name=name,
-                host=host,
-                port=port,
-                server_listener=_Listener(self),
-                context=self._context,
-                message_backlog_size=message_backlog_size,
+            self._proc = subprocess.Popen(
+                [sys.executable, "-I", str(_SCRIPT), json.dumps(config)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                start_new_session=True,  # a signal to the run's process group spares it
             )
-        except Exception as exc:  # the SDK raises its own RuntimeError for a failed bind
-            raise InputError(f"--foxglove {host}:{port}: cannot start the server: {exc}") from None
-        self.port: int = int(self._server.port)
-        """The port it listens on."""
-        logger.info("Foxglove WebSocket server on ws://%s:%d", host, self.port)
+        except OSError as exc:
+            raise ConfigurationError(
+                f"--foxglove: cannot start the server's process: {exc}"
+            ) from None
+        assert self._proc.stdin is not None and self._proc.stdout is not None
+        self._fd = self._proc.stdin.fileno()
+        with contextlib.suppress(ImportError, OSError):  # room for a lag of many ticks
+            import fcntl
+
+            fcntl.fcntl(self._fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), _PIPE_BYTES)
+        os.set_blocking(self._fd, False)
+        self._feed = Feed(self._fd, self._gone)
+        self._reader = threading.Thread(
+            target=self._read,
+            args=(self._proc.stdout.fileno(),),
+            name="pirate-foxglove",
+            daemon=True,
+        )
+        self._reader.start()
+        if not self._ready.wait(timeout_s) or self.failure is not None:
+            why = self.failure or f"no answer in {timeout_s:g} s"
+            self.close()
+            raise InputError(f"--foxglove {host}:{port}: cannot start the server: {why}")
+        logger.info(
+            "Foxglove WebSocket server on ws://%s:%d (process %d)", host, self.port, self.pid
+        )
 
     @property
     def url(self) -> str:
@@ -167,62 +206,117 @@ class FoxgloveServer:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"ws://{host}:{self.port}"
 
-    def _subscribed(self, topic: str) -> None:
+    @property
+    def pid(self) -> int:
+        """The server process's id."""
+        return self._proc.pid
+
+    # --- what the server's process says -------------------------------------------------
+
+    def _read(self, fd: int) -> None:
+        buffer = bytearray()
+        while True:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:
+                chunk = b""
+            if not chunk:
+                break
+            buffer += chunk
+            for message in unframe(buffer):
+                self._heard(message)
+        if not self._closed and self.enabled:
+            self._switch_off(f"its process ended (exit {self._proc.wait()})")
+        self._ready.set()
+
+    def _heard(self, message: tuple[Any, ...]) -> None:
+        kind = message[0]
+        if kind == SUBSCRIBED:
+            self.subscriptions = int(message[1])
+        elif kind == READY:
+            self.port = int(message[1])
+            self._ready.set()
+        elif kind == FAILED:
+            self.failure = str(message[1])
+            self.enabled = False
+            self._ready.set()
+        elif kind == OFF:
+            self._switch_off(f"publishing failed ({message[1]})")
+        elif kind == CLOSED:
+            self.published, self.process_cpu_s = int(message[1]), float(message[2])
+            logger.info(
+                "Foxglove live view: %d messages published, %d dropped, %.3f s of CPU in its"
+                " process",
+                self.published,
+                self.dropped,
+                self.process_cpu_s,
+            )
+
+    def _gone(self, why: str) -> None:
+        code: int | None = None
+        with contextlib.suppress(subprocess.TimeoutExpired):  # once: the pipe broke as it died
+            code = self._proc.wait(1.0)
+        self._switch_off(why.replace("{exit}", str(code)))
+
+    def _switch_off(self, why: str) -> None:
+        if not self.enabled and self.failure is not None:
+            return  # said once
+        self.enabled = False
+        self.failure = why
+        logger.error("Foxglove live view: %s; it is switched off (the run goes on)", why)
+
+    # --- handing over -------------------------------------------------------------------
+
+    def _stream(self) -> int:
+        """A number for a new recorder's messages."""
         with self._lock:
-            self._late.add(topic)
-            self.subscriptions += 1
+            self._streams += 1
+            return self._streams
+
+    @property
+    def dropped(self) -> int:
+        """Ticks merged into later ones, and simulator messages left out, because the
+        server's process lagged (see :mod:`pirate_bt.interop.foxglove_backlog`)."""
+        return self._feed.dropped
+
+    def _hand_over(self, stream: int | None, message: tuple[Any, ...]) -> None:
+        if not self._closed and self.enabled:
+            self._feed.hand_over(stream, message)
 
     def publish_record(self, record: Mapping[str, Any]) -> None:
-        """Publish one trace record's messages; never raises (see the module docstring)."""
-        if not self.enabled:
-            return
+        """Publish one trace record as data (it waits for room in the pipe at most a few
+        seconds; never raises)."""
         try:
-            messages = self.mapper.messages(record)
-            if record.get("type") == "header":
-                with self._lock:
-                    self._late.discard(RUN)  # sent now anyway
-            self._send_late()
-            for message in messages:
-                self._send(message)
-        except Exception:
-            self.enabled = False
-            logger.exception("Foxglove live view: publishing failed; it is switched off")
+            self._hand_over(None, (RECORD, dict(record)))
+        except ValueError:  # a value marshal does not carry: as JSON text would have it
+            self._hand_over(None, (RECORD, json.loads(json.dumps(dict(record), default=str))))
 
     def publish(self, message: TopicMessage) -> None:
-        """Publish one message that does not come from a trace record (``pirate-bt sim``)."""
-        if not self.enabled:
-            return
-        try:
-            self.mapper.last[message.topic] = message
-            self._send_late()
-            self._send(message)
-        except Exception:
-            self.enabled = False
-            logger.exception("Foxglove live view: publishing failed; it is switched off")
+        """Publish one message that does not come from a trace record (``pirate-bt sim``);
+        left out and counted when the pipe is full."""
+        if not self._closed and self.enabled:
+            self._feed.offer((MESSAGE, message.topic, message.log_time_ns, message.message))
 
-    def _send_late(self) -> None:
-        if not self._late:
+    def close(self, timeout_s: float = 10.0) -> None:
+        """Let the server's process publish what it has, stop the server and exit; wait for
+        that (idempotent)."""
+        if self._closed:
             return
         with self._lock:
-            topics, self._late = self._late, set()
-        for topic in topics:
-            snapshot = self.mapper.snapshot(topic)
-            if snapshot is not None:
-                self._send(snapshot)
-
-    def _send(self, message: TopicMessage) -> None:
-        channel = self._channels[message.topic]
-        if channel.has_sinks():
-            channel.log(encode_message(message.message), log_time=message.log_time_ns)
-
-    def close(self) -> None:
-        """Stop the server (idempotent)."""
-        server, self._server = getattr(self, "_server", None), None
-        if server is not None:
-            try:
-                server.stop()
-            except Exception:  # pragma: no cover - stopping must not fail a run's end
-                logger.exception("Foxglove live view: stopping the server failed")
+            self._feed.flush()
+            self._closed = True
+            assert self._proc.stdin is not None
+            with contextlib.suppress(OSError):
+                self._proc.stdin.close()  # the end of its input: it finishes and exits
+        self._reader.join(timeout_s)
+        try:
+            self._proc.wait(max(0.1, timeout_s / 10))
+        except subprocess.TimeoutExpired:
+            logger.warning("Foxglove live view: its process did not finish; it is stopped")
+            self._proc.kill()
+            self._proc.wait()
+        if self._proc.stdout is not None:
+            self._proc.stdout.close()
 
     def __enter__(self) -> FoxgloveServer:
         return self
@@ -231,21 +325,42 @@ class FoxgloveServer:
         self.close()
 
 
-class _Listener:
-    """The SDK's server listener: notes subscriptions (called from the SDK's threads)."""
+class _LiveSink(SinkProcess):
+    """A recorder's end of the live view: its messages go to the server's process.
 
-    def __init__(self, server: FoxgloveServer) -> None:
-        self._server = server
+    It stands where a recorder keeps its trace's writer process (it is not one: no
+    process of its own, see :func:`_live_recorder`).
+    """
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
-        self._server._subscribed(str(channel.topic))
+    def __init__(self, server: FoxgloveServer) -> None:  # no super().__init__: no process
+        self.server = server
+        self.stream = server._stream()
+        self.path = Path(server.url)
 
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        return None
+    @property
+    def pid(self) -> int:
+        """The server's process."""
+        return self.server.pid
+
+    def send(self, message: tuple[Any, ...]) -> None:
+        """Hand one message over (never waits for a tick, never raises but ValueError)."""
+        server = self.server
+        if message[0] == END and not server._closed and server.enabled:
+            merged = server._feed.finish(self.stream, message)
+            if merged:
+                logger.warning(
+                    "Foxglove live view: %d ticks merged into later ones (its process lagged)",
+                    merged,
+                )
+        else:
+            server._hand_over(self.stream, message)
+
+    def close(self, timeout_s: float = 60.0) -> None:
+        """Nothing to wait for: the server outlives its recorders."""
 
 
 class _Nowhere:
-    """The file a :class:`LiveWriter` does not have."""
+    """The file a writer without one does not have."""
 
     closed = False
 
@@ -253,11 +368,26 @@ class _Nowhere:
         self.closed = True
 
 
+class _Lines(TraceFormatWriter):
+    """Keeps the lines a recorder writes while it is made (its header)."""
+
+    def __init__(self) -> None:  # no file
+        self.path = Path("foxglove")
+        self.sync = False
+        self.lines: list[str] = []
+        self._file = _Nowhere()  # type: ignore[assignment]
+
+    def write_line(self, line: str) -> None:
+        self.lines.append(line)
+
+
 class LiveWriter(TraceFormatWriter):
     """A trace format writer that publishes records to a :class:`FoxgloveServer`.
 
-    Hand it to :class:`~pirate_bt.trace.TraceRecorder` as an open writer (it runs
-    in-process). It never raises from :meth:`write_line`.
+    For a recorder of your own that must write in-process (``background=False``):
+    each record is encoded in the caller's thread and handed to the server's process
+    as data. :func:`attach_foxglove` does not use it (its recorder hands over what it
+    captured, unencoded). It never raises from :meth:`write_line`.
     """
 
     def __init__(self, server: FoxgloveServer) -> None:
@@ -284,6 +414,26 @@ class LiveWriter(TraceFormatWriter):
         self._file.close()
 
 
+def _live_recorder(server: FoxgloveServer, tree: Any, **options: Any) -> TraceRecorder:
+    """A recorder whose messages go to the server's process instead of a writer.
+
+    The recorder is made to write in-process into :class:`_Lines` (which keeps its
+    header), then given a :class:`_LiveSink` where a recorder keeps its writer
+    process: from then on each tick is captured and handed over, never encoded here.
+    """
+    lines = _Lines()
+    recorder = TraceRecorder(lines, tree, background=False, **options)
+    sink = _LiveSink(server)
+    ids = recorder._reader.ids
+    setup = (SETUP, ids, recorder.every_tick, recorder.full_state, recorder.readings)
+    sink.send((*setup, list(LINK_FIELDS)))
+    for line in lines.lines:
+        sink.send((LINE, line))
+    recorder._sink, recorder._encoder, recorder._out = sink, None, None
+    recorder.background = True
+    return recorder
+
+
 def attach_foxglove(
     runner: Any,
     server: FoxgloveServer,
@@ -308,9 +458,7 @@ def attach_foxglove(
 
     options.setdefault("tick_period_s", runner.period_s)
     try:
-        recorder = TraceRecorder(
-            LiveWriter(server), runner.tree, clock=runner.clock, background=False, **options
-        )
+        recorder = _live_recorder(server, runner.tree, clock=runner.clock, **options)
     except Exception:
         logger.exception("Foxglove live view: cannot record this run; it is not shown")
         return None
@@ -408,9 +556,7 @@ def serve_supervisor(
         supervisor, counters=simulator.counters if simulator is not None else None
     )
     root = py_trees.behaviours.Running(name=name)
-    recorder = TraceRecorder(
-        LiveWriter(server), root, clock=supervisor.clock, background=False, robot=robot
-    )
+    recorder = _live_recorder(server, root, clock=supervisor.clock, robot=robot)
     alive = [True]
 
     def tick() -> None:

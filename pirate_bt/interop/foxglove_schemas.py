@@ -323,6 +323,11 @@ _SCHEMAS: dict[str, tuple[str, dict[str, Any]]] = {
                 "outcome": {"type": "string"},
                 "reason": {"type": "string"},
                 "error": {"type": "object"},
+                "dropped": {
+                    "type": "integer",
+                    "description": "Live view only: ticks merged into later ones because the"
+                    " server's process lagged (absent when none).",
+                },
             },
         ),
     ),

@@ -209,6 +209,8 @@ class TopicMapper:
             outcome = str(record.get("outcome"))
             reason = record.get("reason")
             text = f"run ended: {outcome}" + (f" - {reason}" if reason else "")
+            if record.get("dropped"):
+                text += f" ({record['dropped']} ticks not shown: the live view lagged)"
             level = _END_LEVEL.get(outcome, _ERROR)
             out.append(self._log(when, record, level, text, "end", "end"))
         else:

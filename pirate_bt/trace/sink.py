@@ -76,7 +76,7 @@ import signal
 import struct
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +138,7 @@ __all__ = [
     "frame",
     "layout_names",
     "nonfinite_text",
+    "read_messages",
     "register_process_writer",
     "round_value",
     "rounded_json",
@@ -360,8 +361,13 @@ class SinkProcess:
         return self._reason
 
 
-def _messages(fd: int) -> Any:
-    """Messages read off ``fd`` until it closes; a cut-off last message is dropped."""
+def read_messages(fd: int, poll_s: float = _POLL_S) -> Iterator[Any]:
+    """Messages read off ``fd`` until it closes; a cut-off last message is dropped.
+
+    After each read it sleeps ``poll_s``, so that messages gather and the reader is
+    not woken once per message (on a busy machine such a wake-up may run before the
+    writer's ``os.write`` returns, and the tick would pay for it).
+    """
     buffer = b""
     while True:
         chunk = os.read(fd, _PIPE_BYTES)
@@ -379,7 +385,10 @@ def _messages(fd: int) -> Any:
             start = end
         view.release()
         buffer = buffer[start:]
-        time.sleep(_POLL_S)  # let messages gather: no wake-up of this process per tick
+        time.sleep(poll_s)  # let messages gather: no wake-up of this process per tick
+
+
+_messages = read_messages
 
 
 def serve(fd_in: int, out: TraceFormatWriter) -> bool:

@@ -1,0 +1,292 @@
+"""The Foxglove live server's process: records in on a pipe, topics out over WebSocket.
+
+``--foxglove`` costs the run's process little because the server lives in a
+process of its own (this file run as a script, ``python -I foxglove_process.py
+CONFIG``), started by :class:`pirate_bt.interop.foxglove_live.FoxgloveServer`.
+The run's recorders only capture what moved in each tick and hand it over, as
+they hand it to the trace's writer process (:mod:`pirate_bt.trace.sink`); this
+process encodes each tick record (:class:`~pirate_bt.trace.sink.TickEncoder`),
+maps records to topic messages
+(:class:`~pirate_bt.interop.foxglove_topics.TopicMapper`), serialises them and
+gives them to the ``foxglove-sdk`` server, which queues them per client and
+sends them from its own threads. It imports the standard library, the SDK and
+those modules (behind stand-in packages, so that the package ``__init__``
+modules, which import py_trees and more, do not run).
+
+Messages in both directions are framed as on the trace's pipe
+(:func:`pirate_bt.trace.sink.frame`: a 4-byte length, then ``marshal``):
+
+from the run's process (standard input)
+    ``(STREAM, stream, message)``: a message of the trace's writer protocol
+    (``SETUP``, ``LINE``, ``TICK``, ``END``) from one recorder; each recorder is
+    a stream with its own encoder, and all share one mapper, as the topics do.
+    ``(DROPPED, stream, count)``: ticks of ``stream`` that were merged into later
+    ones because this process lagged (sent before its ``END``, which then carries
+    ``dropped``).
+    ``(RECORD, record)``: a trace record as data; ``(MESSAGE, topic, log_time_ns,
+    message)``: a message that comes from no record (``pirate-bt sim``).
+    The end of the input ends the process: it publishes what it has, stops the
+    server and exits.
+to the run's process (standard output)
+    ``(READY, port)``, or ``(FAILED, text)`` when the server could not start;
+    ``(SUBSCRIBED, total)`` at each subscription; ``(OFF, text)`` when publishing
+    failed (nothing more is published; the input is still read to its end);
+    ``(CLOSED, published, cpu_s)`` last.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+if not __package__:  # run as the server process's script
+    import types
+
+    _here = os.path.dirname(os.path.realpath(__file__))
+    for _name, _folder in (
+        ("pirate_bt", os.path.dirname(_here)),
+        ("pirate_bt.interop", _here),
+        ("pirate_bt.trace", os.path.join(os.path.dirname(_here), "trace")),
+    ):
+        _package = types.ModuleType(_name)
+        _package.__path__ = [_folder]
+        sys.modules[_name] = _package
+
+from pirate_bt.interop.foxglove_schemas import RUN, TOPICS, encode_message, schema_of
+from pirate_bt.interop.foxglove_topics import TopicMapper, TopicMessage
+from pirate_bt.trace.sink import END, LINE, SETUP, TICK, TickEncoder, frame, read_messages
+
+__all__ = [
+    "CLOSED",
+    "DROPPED",
+    "FAILED",
+    "MESSAGE",
+    "OFF",
+    "POLL_S",
+    "READY",
+    "RECORD",
+    "STREAM",
+    "SUBSCRIBED",
+    "main",
+]
+
+# run's process -> server process (beside the trace's SETUP, LINE, TICK, END inside STREAM)
+STREAM, DROPPED, RECORD, MESSAGE = 20, 21, 22, 23
+# server process -> run's process
+READY, FAILED, SUBSCRIBED, OFF, CLOSED = 30, 31, 32, 33, 34
+
+POLL_S = 0.005
+"""How long the process rests after each batch read off its input: it is not woken by
+every tick, and a message waits at most this long before it goes out."""
+
+
+class _Output:
+    """Messages to the run's process (from the main thread and the SDK's threads)."""
+
+    def __init__(self, fd: int) -> None:
+        self._fd = fd
+        self._lock = threading.Lock()
+        self.gone = False
+
+    def send(self, message: tuple[Any, ...]) -> None:
+        data = frame(message)
+        with self._lock:
+            if self.gone:
+                return
+            try:
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(self._fd, view) :]
+            except OSError:  # the run's process has gone: nobody to tell
+                self.gone = True
+
+
+class Server:
+    """The SDK's server with a channel per topic, fed with records."""
+
+    def __init__(self, foxglove: Any, config: Mapping[str, Any], out: _Output) -> None:
+        self.out = out
+        self.context = foxglove.Context()
+        self.channels: dict[str, Any] = {}
+        for topic in TOPICS:
+            schema_name, schema = schema_of(topic)
+            self.channels[topic] = foxglove.Channel(
+                topic,
+                schema=foxglove.Schema(
+                    name=schema_name,
+                    encoding="jsonschema",
+                    data=json.dumps(schema).encode("utf-8"),
+                ),
+                message_encoding="json",
+                context=self.context,
+            )
+        self.fail_publishing = bool(config.get("fail_publishing"))
+        self.mapper = TopicMapper()
+        self.encoders: dict[int, TickEncoder] = {}
+        self.dropped: dict[int, int] = {}
+        self.lock = threading.Lock()
+        self.late: set[str] = set()
+        self.subscriptions = 0
+        self.published = 0
+        self.enabled = True
+        self.server = foxglove.start_server(
+            name=str(config["name"]),
+            host=str(config["host"]),
+            port=int(config["port"]),
+            server_listener=_Listener(self),
+            context=self.context,
+            message_backlog_size=int(config["backlog"]),
+        )
+        self.port = int(self.server.port)
+
+    def subscribed(self, topic: str) -> None:
+        with self.lock:
+            self.late.add(topic)
+            self.subscriptions += 1
+            total = self.subscriptions
+        self.out.send((SUBSCRIBED, total))
+
+    def handle(self, message: tuple[Any, ...]) -> None:
+        """One message off the input (see the module docstring)."""
+        kind = message[0]
+        if kind == STREAM:
+            self._stream(message[1], message[2])
+        elif kind == RECORD:
+            self.publish_record(message[1])
+        elif kind == MESSAGE:
+            _, topic, log_time_ns, data = message
+            self.publish(TopicMessage(topic, int(log_time_ns), data))
+        elif kind == DROPPED:
+            self.dropped[message[1]] = int(message[2])
+
+    def _stream(self, stream: int, message: tuple[Any, ...]) -> None:
+        kind = message[0]
+        if kind == TICK:
+            encoder = self.encoders.get(stream)
+            line = encoder.encode(message) if encoder is not None else None
+            if line is not None:
+                self.publish_record(json.loads(line))
+        elif kind == LINE:
+            self.publish_record(json.loads(message[1]))
+        elif kind == END:
+            record = json.loads(message[1])
+            dropped = self.dropped.pop(stream, 0)
+            if dropped:
+                record["dropped"] = dropped
+            self.encoders.pop(stream, None)
+            self.publish_record(record)
+        elif kind == SETUP:
+            _, ids, every_tick, full_state, readings, link_fields = message
+            self.encoders[stream] = TickEncoder(
+                ids,
+                every_tick=every_tick,
+                full_state=full_state,
+                readings=readings,
+                link_fields=link_fields,
+            )
+
+    def publish_record(self, record: Mapping[str, Any]) -> None:
+        if not self.enabled:
+            return
+        try:
+            messages = self.mapper.messages(record)
+            if record.get("type") == "header":
+                with self.lock:
+                    self.late.discard(RUN)  # sent now anyway
+            self._send_late()
+            for message in messages:
+                self._send(message)
+        except Exception as exc:
+            self._off(exc)
+
+    def publish(self, message: TopicMessage) -> None:
+        if not self.enabled:
+            return
+        try:
+            self.mapper.last[message.topic] = message
+            self._send_late()
+            self._send(message)
+        except Exception as exc:
+            self._off(exc)
+
+    def _off(self, exc: Exception) -> None:
+        self.enabled = False
+        import traceback  # only when something failed
+
+        traceback.print_exc()
+        self.out.send((OFF, f"{type(exc).__name__}: {exc}"))
+
+    def _send_late(self) -> None:
+        if not self.late:
+            return
+        with self.lock:
+            topics, self.late = self.late, set()
+        for topic in topics:
+            snapshot = self.mapper.snapshot(topic)
+            if snapshot is not None:
+                self._send(snapshot)
+
+    def _send(self, message: TopicMessage) -> None:
+        if self.fail_publishing:
+            raise RuntimeError("publishing fails on purpose (fail_publishing)")
+        channel = self.channels[message.topic]
+        if channel.has_sinks():  # a topic nobody subscribed to is not even encoded
+            channel.log(encode_message(message.message), log_time=message.log_time_ns)
+            self.published += 1
+
+    def close(self) -> None:
+        try:
+            self.server.stop()
+        except Exception:  # stopping must not hide what was published
+            import traceback
+
+            traceback.print_exc()
+
+
+class _Listener:
+    """The SDK's server listener: notes subscriptions (called from the SDK's threads)."""
+
+    def __init__(self, server: Server) -> None:
+        self._server = server
+
+    def on_subscribe(self, client: Any, channel: Any) -> None:
+        self._server.subscribed(str(channel.topic))
+
+    def on_unsubscribe(self, client: Any, channel: Any) -> None:
+        return None
+
+
+def main(argv: Sequence[str]) -> int:
+    """The server process: ``foxglove_process.py CONFIG`` (JSON); messages on stdin/stdout."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
+    config = json.loads(argv[1])
+    out = _Output(sys.stdout.fileno())
+    if config.get("sys_path"):
+        sys.path[:] = config["sys_path"]  # find the SDK where the run's process found it
+    try:
+        import foxglove
+
+        server = Server(foxglove, config, out)
+    except Exception as exc:  # the SDK raises its own RuntimeError for a failed bind
+        out.send((FAILED, f"{type(exc).__name__}: {exc}"))
+        return 1
+    out.send((READY, server.port))
+    try:
+        for message in read_messages(sys.stdin.fileno(), POLL_S):
+            server.handle(message)
+    finally:
+        server.close()
+        out.send((CLOSED, server.published, time.process_time()))
+    return 0
+
+
+if __name__ == "__main__":
+    status = main(sys.argv)
+    sys.stderr.flush()
+    os._exit(status)  # the server is stopped: no interpreter teardown to wait for
