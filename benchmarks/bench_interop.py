@@ -1,6 +1,9 @@
 """Foxglove figures: MCAP size per hour, and the cost of ``--trace RUN.mcap`` and ``--foxglove``.
 
-Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS]`` (default 3 ABBA pairs).
+Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS] [--tree DIR] [--no-sizes]``
+(default 3 ABBA pairs). ``--tree DIR`` runs the commands from another source tree
+of pirate_bt (``git archive COMMIT | tar -x -C DIR``), with this tree's virtual
+environment, to compare a change with what came before on the same machine.
 
 - **Size per hour**: the lab mission (``pirate-bt mission scenarios/lab.route
   --sim lab --quiet --trace X``) written once per suffix (``.jsonl``,
@@ -14,12 +17,14 @@ Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS]`` (default 3 ABBA pa
   is the extra wall time per run, median and range over the pairs, also as % of
   the untraced run. For ``--foxglove`` one client (``tests/foxglove_ws.py``,
   standard library) connects as soon as the port opens, subscribes to every
-  topic and reads everything until the run ends.
+  topic and reads everything until the run ends. Each pair is also given as a
+  ratio (*on / off - 1*); the load average is printed before and after.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import socket
 import statistics
 import subprocess
@@ -33,11 +38,21 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))
 MISSION = [PIRATE_BT, "mission", "scenarios/lab.route", "--sim", "lab", "--quiet"]
+TREE = ROOT
+"""The source tree whose pirate_bt runs (``--tree``)."""
+
+
+def _command() -> tuple[list[str], dict[str, str] | None]:
+    if TREE == ROOT:
+        return MISSION, None
+    env = {**os.environ, "PYTHONPATH": str(TREE)}
+    return [sys.executable, "-m", "pirate_bt", *MISSION[1:]], env
 
 
 def _run(extra: list[str]) -> float:
+    command, env = _command()
     started = time.perf_counter()
-    subprocess.run([*MISSION, *extra], cwd=ROOT, check=True, capture_output=True)
+    subprocess.run([*command, *extra], cwd=TREE, check=True, capture_output=True, env=env)
     return time.perf_counter() - started
 
 
@@ -54,12 +69,14 @@ def _run_with_client() -> tuple[float, int]:
 
     port = _free_port()
     received = [0]
+    command, env = _command()
     started = time.perf_counter()
     proc = subprocess.Popen(
-        [*MISSION, "--foxglove", f"127.0.0.1:{port}"],
-        cwd=ROOT,
+        [*command, "--foxglove", f"127.0.0.1:{port}"],
+        cwd=TREE,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        env=env,
     )
 
     def client() -> None:
@@ -79,6 +96,9 @@ def _run_with_client() -> tuple[float, int]:
         except ConnectionError:
             pass
         received[0] = len(fox.messages)
+        for end in fox.of("/pirate/end"):
+            if end.get("dropped"):
+                print(f"    (the live view merged {end['dropped']} ticks: its process lagged)")
 
     reader = threading.Thread(target=client, daemon=True)
     reader.start()
@@ -138,6 +158,10 @@ def overhead(pairs: int) -> None:
                 (extra[2 * i] + extra[2 * i + 1] - base[2 * i] - base[2 * i + 1]) / 2
                 for i in range(pairs)
             ]
+            ratios = [
+                (extra[2 * i] + extra[2 * i + 1]) / (base[2 * i] + base[2 * i + 1]) - 1
+                for i in range(pairs)
+            ]
             plain = statistics.median(base)
             median = statistics.median(diffs)
             print(
@@ -145,8 +169,23 @@ def overhead(pairs: int) -> None:
                 f" on {plain:.2f} s untraced (median), {100 * median / plain:+.0f} %"
                 + (f"; client received {messages} messages" if messages else "")
             )
+            print(
+                f"  {'':24s} per pair {100 * statistics.median(ratios):+.1f} % (range"
+                f" {100 * min(ratios):+.1f} to {100 * max(ratios):+.1f} %): "
+                + ", ".join(f"{100 * r:+.1f}" for r in ratios)
+                + f"; load average now {os.getloadavg()[0]:.2f}"
+            )
 
 
 if __name__ == "__main__":
-    sizes()
-    overhead(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    args = sys.argv[1:]
+    if "--tree" in args:
+        at = args.index("--tree")
+        TREE = Path(args[at + 1]).resolve()
+        del args[at : at + 2]
+    print(f"pirate_bt from {TREE}; load average {os.getloadavg()[0]:.2f}")
+    if "--no-sizes" in args:
+        args.remove("--no-sizes")
+    else:
+        sizes()
+    overhead(int(args[0]) if args else 3)

@@ -113,7 +113,8 @@ def _port_free(host: str, port: int) -> None:
 class FoxgloveServer:
     """A Foxglove WebSocket server with one channel per pirate_bt topic, in its own process.
 
-    Returns once the server listens (or raises).
+    Returns at once while its process starts the server; with port 0, once the server
+    listens (so that :attr:`port` is known).
 
     Args:
         host: Interface to listen on (``0.0.0.0`` for every one).
@@ -192,7 +193,10 @@ class FoxgloveServer:
             daemon=True,
         )
         self._reader.start()
-        if not self._ready.wait(timeout_s) or self.failure is not None:
+        # The port was free a moment ago (_port_free): only port 0 has to wait to be known;
+        # otherwise the server starts while the run is prepared (what is handed over
+        # meanwhile waits in the pipe), and a failure is logged and switches the view off.
+        if port == 0 and (not self._ready.wait(timeout_s) or self.failure is not None):
             why = self.failure or f"no answer in {timeout_s:g} s"
             self.close()
             raise InputError(f"--foxglove {host}:{port}: cannot start the server: {why}")
@@ -237,8 +241,10 @@ class FoxgloveServer:
             self.port = int(message[1])
             self._ready.set()
         elif kind == FAILED:
-            self.failure = str(message[1])
-            self.enabled = False
+            if self.port == 0:  # the constructor is waiting: it raises
+                self.failure, self.enabled = str(message[1]), False
+            else:
+                self._switch_off(f"the server could not start ({message[1]})")
             self._ready.set()
         elif kind == OFF:
             self._switch_off(f"publishing failed ({message[1]})")

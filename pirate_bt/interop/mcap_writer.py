@@ -193,8 +193,14 @@ class McapTraceWriter(TraceFormatWriter):
 
     @classmethod
     def preflight(cls, path: Path) -> None:
-        """Raise :class:`~pirate_bt.errors.ConfigurationError` when ``mcap`` is missing."""
-        load_mcap()
+        """Raise :class:`~pirate_bt.errors.ConfigurationError` when ``mcap`` is missing.
+
+        Looked for, not imported: the run's process never needs it.
+        """
+        import importlib.util
+
+        if importlib.util.find_spec("mcap") is None:
+            raise ConfigurationError(missing_extra("MCAP", "mcap"))
 
     def __init__(
         self, path: str | Path, sync: bool = False, fd: int | None = None, compact: bool = True
