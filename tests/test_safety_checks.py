@@ -30,12 +30,17 @@ from pirate_bt.safety import (
 )
 from pirate_bt.safety.checks import (
     CheckContext,
+    HalfTarget,
+    Intent,
     check_front_clear,
     check_other_half_clamped,
     check_steep_pipe,
+    check_transitioning,
     classify_half,
     front_tilt_channel,
+    half_states,
     is_steep,
+    pressing_over_opening,
     stale_channels,
 )
 from pirate_bt.safety.expand import Expander
@@ -421,3 +426,99 @@ def test_a_release_of_both_halves_names_both(port: FakePort) -> None:
         "releasing the front/rear half would leave no half clamped in a steep pipe"
         " (pitch 30.0° > 10.0°)"
     )
+
+
+# -- a half crossing a tee's opening ----------------------------------------------------------
+
+WALL = ROBOT.clamp.contact_angle(0.063)
+
+
+def crossing(port: FakePort, swung: float = WALL + 0.4, force: float = 0.0) -> None:
+    """Front clamped; the rear's bend_3 swung past the wall over an opening, bend_4 holding."""
+    port.clamp_half(Half.FRONT)
+    rear(port, (swung, WALL), (force, HOLD_N * 1.5))
+
+
+def crossing_ctx(port: FakePort, **targets: HalfTarget) -> CheckContext:
+    state = port.state()
+    assert state is not None
+    return CheckContext(
+        ROBOT,
+        state,
+        0.0,
+        half_states(ROBOT, state, {}),
+        {Half(k): v for k, v in targets.items()},
+    )
+
+
+DRIVE = Intent(Drive(0.08), (), drive_mps=0.08)
+
+
+def test_a_half_pressing_across_an_opening_may_drive_while_the_other_holds(
+    sup: Supervisor, port: FakePort
+) -> None:
+    crossing(port)
+    assert rear_state(port) is ClampState.TRANSITIONING
+    state = port.state()
+    assert state is not None and pressing_over_opening(ROBOT, state, Half.REAR)
+    assert check_transitioning(crossing_ctx(port, rear=HalfTarget.CLAMP), DRIVE) is None
+    # through the supervisor: it asked the rear half to clamp, so the drive goes out
+    port.clamp_half(Half.REAR)
+    assert not sup.command(Clamp(Half.REAR, 0.7)).refused
+    crossing(port)
+    v = sup.command(Drive(0.04))
+    assert not v.refused, v.detail
+
+
+@pytest.mark.parametrize(
+    ("setup", "words"),
+    [
+        ("front between", "front half is transitioning"),  # the other half does not hold
+        ("no target", "rear half is transitioning"),  # never asked to clamp
+        ("releasing", "rear half is transitioning"),  # asked to let go
+        ("swung joint still holds", "rear half is transitioning"),
+        ("free joint short of the wall", "rear half is transitioning"),
+        ("joints bend opposite ways", "rear half is transitioning"),
+        ("a joint short of the wall", "rear half is transitioning"),
+    ],
+)
+def test_anything_else_transitioning_is_still_refused(
+    port: FakePort, setup: str, words: str
+) -> None:
+    crossing(port)
+    target = HalfTarget.CLAMP
+    if setup == "front between":
+        port.half_between(Half.FRONT)
+    elif setup == "no target":
+        target = None  # type: ignore[assignment]
+    elif setup == "releasing":
+        target = HalfTarget.RELEASE
+    elif setup == "swung joint still holds":
+        crossing(port, force=HOLD_N * 1.5)
+        port.set(bend_4_spring=HOLD_N * 0.5)  # the other joint then does not hold
+    elif setup == "free joint short of the wall":
+        crossing(port, swung=WALL - TOL - 0.005)  # letting go, not over an opening
+    elif setup == "joints bend opposite ways":
+        crossing(port, swung=-(WALL + 0.4))
+    elif setup == "a joint short of the wall":
+        rear(port, (WALL + 0.4, CONTACT_MIN - 0.01), (0.0, HOLD_N * 1.5))
+    ctx = crossing_ctx(port, **({"rear": target} if target is not None else {}))
+    found = check_transitioning(ctx, DRIVE)
+    assert found is not None and found.reason is Reason.HALF_TRANSITIONING
+    assert words in found.detail
+
+
+def test_the_opening_exception_needs_the_springs(port: FakePort) -> None:
+    crossing(port)
+    del port.values["bend_3_spring"]
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+    crossing(port, swung=WALL - TOL)  # just starting to swing out, exactly: on nothing
+    state = port.state()
+    assert state is not None and pressing_over_opening(ROBOT, state, Half.REAR)
+    crossing(port, swung=WALL + 0.01, force=ROBOT.clamp.holding_force_n)  # holds: clamped
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+    port.clamp_half(Half.REAR)  # every joint holding: clamped, no opening
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)

@@ -46,6 +46,7 @@ __all__ = [
     "front_tilt_channel",
     "half_states",
     "is_steep",
+    "pressing_over_opening",
     "stale_channels",
 ]
 
@@ -127,12 +128,14 @@ class CheckContext:
         state: The current snapshot.
         now_s: Clock time of the decision.
         halves: Clamp state of each half.
+        targets: What the supervisor last asked each half to do (none yet: absent).
     """
 
     robot: RobotDescription
     state: RobotState
     now_s: float
     halves: Mapping[Half, ClampState] = field(default_factory=dict)
+    targets: Mapping[Half, HalfTarget] = field(default_factory=dict)
 
 
 Check = Callable[[CheckContext, Intent], Problem | None]
@@ -179,6 +182,42 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     if all(a < clamp.unclamped_below for a in angles):
         return ClampState.UNCLAMPED
     return ClampState.TRANSITIONING
+
+
+def pressing_over_opening(robot: RobotDescription, state: RobotState, half: Half) -> bool:
+    """Whether ``half`` holds the wall with some joints while the others press on
+    nothing beyond it: the half crossing a tee's opening.
+
+    Read with springs only (without them a joint pressing on nothing cannot be told
+    from one at the wall). Every joint of the half is read and bends the same way;
+    each either *holds* (at least the smallest wall-contact angle, less
+    ``angle_tolerance``, and its spring at the holding force) or *presses on
+    nothing* (its spring below the holding force while it is bent at least as far as
+    the holding joints, less ``angle_tolerance``: it swings out over an opening, or
+    back onto the wall behind it, not away from the wall); at least one does each.
+    Its classification is *transitioning*, though no joint of it was asked to move.
+    """
+    clamp = robot.clamp
+    tol = robot.safety.angle_tolerance
+    wall_min = min(p.angle for p in clamp.contact_angles) - tol
+    joints: list[tuple[float, float]] = []
+    for module in robot.bend_modules(half):
+        angle = state.joint_angle_rad.get(module.name)
+        force = state.clamp_force_n.get(module.name)
+        if angle is None or force is None:
+            return False
+        joints.append((angle, force))
+    if not (all(a > 0 for a, _ in joints) or all(a < 0 for a, _ in joints)):
+        return False
+    holding = [abs(a) for a, f in joints if abs(a) >= wall_min and clamp.holds_force(f)]
+    if not holding or len(holding) == len(joints):
+        return False
+    wall = min(holding)
+    return all(
+        abs(a) >= wall - tol and not clamp.holds_force(f)
+        for a, f in joints
+        if not (abs(a) >= wall_min and clamp.holds_force(f))
+    )
 
 
 def half_states(
@@ -307,16 +346,32 @@ def check_rotate_one_clamped(ctx: CheckContext, intent: Intent) -> Problem | Non
 
 
 def check_transitioning(ctx: CheckContext, intent: Intent) -> Problem | None:
-    """No drive while a half is between unclamped and clamped."""
+    """No drive while a half is between unclamped and clamped.
+
+    But for one case, which is no transition: a half asked to clamp that presses the
+    wall wherever there is wall while a joint of it swings free over a tee's opening
+    (:func:`pressing_over_opening`) may drive while the other half is clamped; the
+    clamped half holds the robot, and the pressing half senses the opening passed.
+    """
     if intent.drive_mps is None or intent.drive_mps == 0.0:
         return None
     for half, state in sorted(ctx.halves.items()):
+        if state is ClampState.TRANSITIONING and _crossing_opening(ctx, half):
+            continue
         if state in (ClampState.TRANSITIONING, ClampState.UNKNOWN):
             return Problem(
                 Reason.HALF_TRANSITIONING,
                 f"no drive while the {half} half is {state} (between unclamped and clamped)",
             )
     return None
+
+
+def _crossing_opening(ctx: CheckContext, half: Half) -> bool:
+    return (
+        ctx.halves.get(half.other) is ClampState.CLAMPED
+        and ctx.targets.get(half) is HalfTarget.CLAMP
+        and pressing_over_opening(ctx.robot, ctx.state, half)
+    )
 
 
 def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:

@@ -186,7 +186,11 @@ class DecisionMixin:
         # 5. invariants
         if state is not None and intent.moves:
             ctx = CheckContext(
-                self.robot, state, now, half_states(self.robot, state, self._targets)
+                self.robot,
+                state,
+                now,
+                half_states(self.robot, state, self._targets),
+                dict(self._targets),
             )
             for check in self._checks:
                 found = check(ctx, intent)

@@ -229,6 +229,15 @@ class MissionResult:
         return self.run.ticks
 
     @property
+    def tee_fallbacks(self) -> int:
+        """Straight-through T-joints whose rear half crossed released, by distance: the
+        fault path of ``trees/lib/tee-straight.yaml`` when the rear half cannot press
+        across sensing the opening (0 without a fault; ``None`` coverage counts 0)."""
+        if self.coverage is None:
+            return 0
+        return sum(1 for n in self.coverage if n.path.endswith("/rear across released") and n.ran)
+
+    @property
     def error(self) -> BaseException | None:
         """The exception that ended the run, if one did (a lost link: ``LinkError``)."""
         return self.run.error
