@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -381,6 +382,7 @@ def run_navigation(
                     belief_m=belief,
                     scenario=scenario,
                     seed=seed,
+                    stamp_s=ran.stamp_s if ran is not None else math.nan,
                 )
                 if truth_now is not None:
                     ran.truth_m = truth_now()

@@ -48,6 +48,8 @@ class StepRun:
     mission: MissionResult | None = None
     truth_m: float | None = None
     ticks: int = 0
+    stamp_s: float = math.nan
+    """Blind steps: the state stamp the odometry ended on."""
 
 
 def _felt_on_map(mission: MissionResult) -> list[Felt]:
@@ -154,8 +156,13 @@ def run_blind(
     belief_m: float,
     scenario: str | None,
     seed: int | None,
+    stamp_s: float = math.nan,
 ) -> StepRun:
-    """Run one step's PAB tree with its own parameters; the belief by odometry."""
+    """Run one step's PAB tree with its own parameters; the belief by odometry.
+
+    ``stamp_s`` is the state stamp the previous blind step's odometry ended on, so the
+    wheels' motion between the two steps' ticks (a coast) is counted, not lost.
+    """
     from pirate_bt.treefile import load_tree
 
     step = checked.step
@@ -171,7 +178,7 @@ def run_blind(
         max_time_s=limit,
         safe_state=lambda: supervisor.safe_state(reason[0]),
     )
-    odometry = [belief_m, math.nan]  # belief, last stamp
+    odometry = [belief_m, stamp_s]  # belief, last stamp
 
     def before(_info: Any) -> None:
         supervisor.tick()
@@ -242,5 +249,13 @@ def run_blind(
         failing_node=failing,
     )
     return StepRun(
-        run.succeeded, why, failing, [pab], odometry[0], felt, error=run.error, ticks=run.ticks
+        run.succeeded,
+        why,
+        failing,
+        [pab],
+        odometry[0],
+        felt,
+        error=run.error,
+        ticks=run.ticks,
+        stamp_s=odometry[1],
     )
