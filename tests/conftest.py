@@ -7,6 +7,7 @@ Profiles: ``ci`` (default; bounded and deterministic) and ``long`` for soak runs
 from __future__ import annotations
 
 import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -117,13 +118,34 @@ def _ctrl_c_left_as_found(request: pytest.FixtureRequest) -> Iterator[None]:
 
     A disposition of SIG_IGN is inherited by every process started afterwards, so one
     test that ignores SIGINT in the test process would make the Ctrl-C tests of any
-    later test (in random order) silently fail to interrupt their subprocess.
+    later test (in random order) silently fail to interrupt their subprocess. (The run
+    itself may start with SIGINT ignored: see ctrl_c_reaches_children.)
     """
-    import signal
-
     before = signal.getsignal(signal.SIGINT)
     yield
     after = signal.getsignal(signal.SIGINT)
     if after is not before:
         signal.signal(signal.SIGINT, before)
         pytest.fail(f"{request.node.nodeid} left SIGINT handled by {after!r} (was {before!r})")
+
+
+@pytest.fixture
+def ctrl_c_reaches_children() -> Iterator[None]:
+    """The processes the test starts take Ctrl-C (SIGINT) as from a terminal: for the Ctrl-C tests.
+
+    A shell without job control starts a background command (``pytest ... &`` in a
+    script, or a long run left going from a tool) with SIGINT ignored, and an ignored
+    signal stays ignored through fork and exec. Python installs its KeyboardInterrupt
+    handler only where SIGINT was at its default, so in such a run every subprocess a
+    test starts ignores the Ctrl-C the test sends it (a campaign runs to the end, a
+    worker waits on), whatever the order of the tests. A handled signal goes back to
+    its default action on exec: SIGINT handled here for the test's duration (as in a
+    foreground run) gives the test's subprocesses the default, as a terminal's would
+    have. The run's own disposition is restored afterwards.
+    """
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        if before is not None:
+            signal.signal(signal.SIGINT, before)

@@ -166,6 +166,7 @@ def _strip(rows: list[dict[str, object]]) -> list[dict[str, object]]:
     return [{k: v for k, v in r.items() if k not in wall} for r in rows]
 
 
+@pytest.mark.usefixtures("ctrl_c_reaches_children")
 def test_interrupt_then_resume_runs_each_case_once(tmp_path: Path) -> None:
     # cases of a few seconds each, so that the interrupt lands in the middle of the
     # campaign even when its workers start once and a case takes a fraction of a second

@@ -285,6 +285,7 @@ def test_interrupted_then_resumed_runs_each_recorded_case_once(
 
 
 @needs_proc
+@pytest.mark.usefixtures("ctrl_c_reaches_children")
 def test_a_case_process_group_is_killed_on_the_worker_s_interrupt(helper: Path) -> None:
     """A worker interrupted while it waits (Ctrl-C reaches it) kills its case at once."""
     (case,) = _cases(["hang"], helper, timeout_s=300.0)
@@ -305,6 +306,7 @@ def test_a_case_process_group_is_killed_on_the_worker_s_interrupt(helper: Path) 
                 proc.wait(timeout=0.1)
             except subprocess.TimeoutExpired:
                 continue
+            pytest.fail(f"the worker ended before its case started: {proc.communicate()[1]!r}")
         os.kill(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=60)
     finally:
