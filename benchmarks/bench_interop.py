@@ -1,9 +1,10 @@
 """Foxglove figures: MCAP size per hour, and the cost of ``--trace RUN.mcap`` and ``--foxglove``.
 
-Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS] [--tree DIR] [--no-sizes]``
-(default 3 ABBA pairs). ``--tree DIR`` runs the commands from another source tree
-of pirate_bt (``git archive COMMIT | tar -x -C DIR``), with this tree's virtual
-environment, to compare a change with what came before on the same machine.
+Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS] [--tree DIR]
+[--no-sizes] [--only mcap,foxglove,jsonl]`` (default 3 ABBA pairs). ``--tree DIR``
+runs the commands from another source tree of pirate_bt (``git archive COMMIT |
+tar -x -C DIR``), with this tree's virtual environment, to compare a change with
+what came before on the same machine.
 
 - **Size per hour**: the lab mission (``pirate-bt mission scenarios/lab.route
   --sim lab --quiet --trace X``) written once per suffix (``.jsonl``,
@@ -11,14 +12,16 @@ environment, to compare a change with what came before on the same machine.
   ``.mcap`` is the file as the run leaves it (compacted: chunked, LZ4, indexed);
   the size of the unchunked file before compaction, which is what a killed run
   leaves, is measured from the recorder's writer with compaction off.
-- **Overhead**: wall time of the whole command (start-up included, the same on
-  both sides) against the same command without a trace, in ABBA order (off, on,
+- **Overhead** of ``--trace RUN.mcap``, ``--foxglove`` and, for comparison,
+  ``--trace RUN.jsonl`` (the floor: the same capture in the tick, the cheapest
+  writer process): wall time of the whole command (start-up included, the same
+  on both sides) against the same command without them, in ABBA order (off, on,
   on, off) repeated, so that a noisy, shared machine hits both alike. The figure
   is the extra wall time per run, median and range over the pairs, also as % of
-  the untraced run. For ``--foxglove`` one client (``tests/foxglove_ws.py``,
-  standard library) connects as soon as the port opens, subscribes to every
-  topic and reads everything until the run ends. Each pair is also given as a
-  ratio (*on / off - 1*); the load average is printed before and after.
+  the plain run's median, and each pair's ratio (*on / off - 1*). For
+  ``--foxglove`` one client (``tests/foxglove_ws.py``, standard library)
+  connects as soon as the port opens, subscribes to every topic and reads
+  everything until the run ends. The load average is printed as it goes.
 """
 
 from __future__ import annotations
@@ -137,11 +140,14 @@ def sizes() -> None:
             )
 
 
+NAMES = ["--trace RUN.mcap", "--foxglove, one client", "--trace RUN.jsonl"]
+"""What ``overhead`` measures (``--only mcap,foxglove,jsonl`` picks some)."""
+
+
 def overhead(pairs: int) -> None:
     print(f"Overhead on the lab mission (wall time per run, {pairs} ABBA pairs):")
     with tempfile.TemporaryDirectory() as tmp:
-        trace = str(Path(tmp) / "lab.mcap")
-        for name in ("--trace RUN.mcap", "--foxglove, one client"):
+        for name in NAMES:
             base: list[float] = []
             extra: list[float] = []
             messages = 0
@@ -150,7 +156,7 @@ def overhead(pairs: int) -> None:
                     if not on:
                         base.append(_run([]))
                     elif name.startswith("--trace"):
-                        extra.append(_run(["--trace", trace]))
+                        extra.append(_run(["--trace", str(Path(tmp) / f"lab{name[13:]}")]))
                     else:
                         took, messages = _run_with_client()
                         extra.append(took)
@@ -184,6 +190,10 @@ if __name__ == "__main__":
         TREE = Path(args[at + 1]).resolve()
         del args[at : at + 2]
     print(f"pirate_bt from {TREE}; load average {os.getloadavg()[0]:.2f}")
+    if "--only" in args:
+        at = args.index("--only")
+        NAMES[:] = [n for n in NAMES if any(w in n for w in args[at + 1].split(","))]
+        del args[at : at + 2]
     if "--no-sizes" in args:
         args.remove("--no-sizes")
     else:

@@ -36,6 +36,7 @@ to the run's process (standard output)
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -67,6 +68,7 @@ __all__ = [
     "DROPPED",
     "FAILED",
     "MESSAGE",
+    "NICE",
     "OFF",
     "POLL_S",
     "READY",
@@ -80,6 +82,9 @@ __all__ = [
 STREAM, DROPPED, RECORD, MESSAGE = 20, 21, 22, 23
 # server process -> run's process
 READY, FAILED, SUBSCRIBED, OFF, CLOSED = 30, 31, 32, 33, 34
+
+NICE = 5
+"""How much nicer than the run this process is (``os.nice``)."""
 
 POLL_S = 0.005
 """How long the process rests after each batch read off its input: it is not woken by
@@ -266,6 +271,10 @@ def main(argv: Sequence[str]) -> int:
     """The server process: ``foxglove_process.py CONFIG`` (JSON); messages on stdin/stdout."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
     config = json.loads(argv[1])
+    # The robot comes first: on a busy machine this process (and the SDK's threads, made
+    # after this) yields the CPU to the run; lagging only merges ticks (foxglove_backlog).
+    with contextlib.suppress(OSError):
+        os.nice(int(config.get("nice", NICE)))
     out = _Output(sys.stdout.fileno())
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find the SDK where the run's process found it

@@ -10,11 +10,11 @@ serialises them and writes them twice:
 - to the file itself, *unchunked*: each record's messages go to the kernel
   with one ``os.write``, so whatever happens to either process, the file holds
   every record written so far (no chunk waits in memory);
-- to a chunked, LZ4-compressed, indexed twin beside it (``.NAME.*.part``),
-  through the ``mcap`` library's writer. When the run's end record comes, the
-  twin is finished and renamed over the file (the rewrite used to be done at
-  the end, reading the whole file back). If that fails, the unchunked file is
-  completed with its footer and kept (logged).
+- to a chunked, LZ4-compressed, indexed twin beside it (``.NAME.*.part``;
+  :class:`~pirate_bt.interop.mcap_chunks.ChunkedCopy`, the same records in
+  chunks). When the run's end record comes, the twin is finished and renamed
+  over the file (the file used to be rewritten at the end, read back whole). If
+  that fails, the unchunked file is completed with its footer and kept (logged).
 
 When the input ends without an end record (the run was killed), the twin is
 deleted and the unchunked file is left as it is: no summary, no footer
@@ -45,6 +45,7 @@ from pirate_bt.interop.foxglove_topics import (
     missing_extra,
     schema_of,
 )
+from pirate_bt.interop.mcap_chunks import ChunkedCopy
 from pirate_bt.trace.sink_formats import TraceFormatWriter
 
 __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write_atomically"]
@@ -161,6 +162,12 @@ class _Buffer:
         return data
 
 
+def _schema_record(topic: str) -> tuple[str, str, bytes]:
+    """A topic's schema as an MCAP Schema record holds it: name, encoding, data."""
+    name, schema = schema_of(topic)
+    return name, "jsonschema", json.dumps(schema).encode("utf-8")
+
+
 def _temporary_beside(path: Path) -> tuple[int, str]:
     """A new file beside ``path`` (``.NAME.*.part``) with the mode ``open`` would give it."""
     fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
@@ -219,9 +226,8 @@ class McapTraceWriter(TraceFormatWriter):
         records.Header(profile="", library=_library()).write(builder)
         self._ids: dict[str, int] = {}
         for number, topic in enumerate(TOPICS, start=1):
-            name, schema = schema_of(topic)
-            data = json.dumps(schema).encode("utf-8")
-            records.Schema(id=number, name=name, encoding="jsonschema", data=data).write(builder)
+            name, encoding, data = _schema_record(topic)
+            records.Schema(id=number, name=name, encoding=encoding, data=data).write(builder)
             records.Channel(
                 id=number, topic=topic, message_encoding="json", schema_id=number, metadata={}
             ).write(builder)
@@ -235,8 +241,14 @@ class McapTraceWriter(TraceFormatWriter):
             twin_fd, self._twin_path = _temporary_beside(self.path)
             try:
                 self._twin_file = open(twin_fd, "wb")  # noqa: SIM115 - closed in close()
-                self._twin = _chunked_writer(self._twin_file)
-                self._twin_channels = _Channels(self._twin)
+                self._twin = ChunkedCopy(
+                    mcap,
+                    self._twin_file,
+                    _library(),
+                    [(n, *_schema_record(topic)) for n, topic in enumerate(TOPICS, start=1)],
+                    [(n, topic, "json", n) for n, topic in enumerate(TOPICS, start=1)],
+                    CHUNK_BYTES,
+                )
             except BaseException:
                 self._drop_twin()
                 raise
@@ -282,10 +294,11 @@ class McapTraceWriter(TraceFormatWriter):
             self._sequence += 1
             when = message.log_time_ns
             channel = ids[message.topic]
-            parts.append(pack(5, 22 + len(data), channel, self._sequence, when, when))
+            head = pack(5, 22 + len(data), channel, self._sequence, when, when)
+            parts.append(head)
             parts.append(data)
             if twin is not None:
-                twin.add_message(channel, when, data, when, self._sequence)
+                twin.add(head, data, channel, when)
         if record.get("type") == "end":
             self._ended = True
         self._emit()
