@@ -54,7 +54,7 @@ from pirate_bt.link.messages import BulkSetpoints, EStop, EStopReset
 from pirate_bt.pipes import load_network
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.sim.boardbus import FirmwareBridge
+from pirate_bt.sim.firmware_bridge import FirmwareBridge
 from pirate_bt.sim.model import PipeRobotModel
 
 CYCLE_100HZ = 160_000

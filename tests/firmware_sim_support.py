@@ -22,7 +22,7 @@ from pathlib import Path
 from pirate_bt.link.codec import PROTOCOL_MINOR, FrameCodec, FrameDecoder
 from pirate_bt.link.messages import EStopReset, Hello, HelloReply, Message, Setpoint
 from pirate_bt.robot.description import ControlMode, RobotDescription
-from pirate_bt.sim.boardbus import FirmwareBridge
+from pirate_bt.sim.firmware_bridge import FirmwareBridge
 
 ROOT = Path(__file__).resolve().parents[1]
 ELF = ROOT / "firmware" / "piratebay" / "build" / "piratebay.elf"

@@ -44,8 +44,8 @@ from pirate_bt.sim.boardbus import (
     CMD_STOP,
     STATUS_MOTORS_OFF,
     BoardBus,
-    FirmwareBridge,
 )
+from pirate_bt.sim.firmware_bridge import FirmwareBridge
 from pirate_bt.sim.model import PipeRobotModel
 
 ROOT = Path(__file__).resolve().parents[1]

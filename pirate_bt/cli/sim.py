@@ -146,7 +146,7 @@ def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
     """``--firmware``: the ELF in simavr on a pty, the boards in Python."""
     from pirate_bt.pipes import load_network
     from pirate_bt.sim import SensorNoise
-    from pirate_bt.sim.boardbus import FirmwareBridge
+    from pirate_bt.sim.firmware_bridge import FirmwareBridge
     from pirate_bt.sim.model import PipeRobotModel
 
     if args.tcp is not None:

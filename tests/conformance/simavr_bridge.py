@@ -25,7 +25,7 @@ from firmware_sim_support import build, missing_toolchain
 
 from pirate_bt.pipes import load_network
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.sim.boardbus import FirmwareBridge
+from pirate_bt.sim.firmware_bridge import FirmwareBridge
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = ["SimavrBridge", "available"]
