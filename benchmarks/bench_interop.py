@@ -156,7 +156,8 @@ def overhead(pairs: int) -> None:
                     if not on:
                         base.append(_run([]))
                     elif name.startswith("--trace"):
-                        extra.append(_run(["--trace", str(Path(tmp) / f"lab{name[13:]}")]))
+                        suffix = name.split("RUN")[1]
+                        extra.append(_run(["--trace", str(Path(tmp) / f"lab{suffix}")]))
                     else:
                         took, messages = _run_with_client()
                         extra.append(took)

@@ -132,11 +132,17 @@ class ChunkedCopy:
         self._write(chunk)
         index_start = self._position
         offsets: dict[int, int] = {}
-        builder = self._builder()
+        parts = []
+        at = index_start
         for channel, entries in self._index.items():
-            offsets[channel] = index_start + builder.count
-            records.MessageIndex(channel_id=channel, records=entries).write(builder)
-        indexes = builder.end()
+            # A MessageIndex record, packed at once (the record class writes each number
+            # with a call of its own): channel, byte length, (log time, offset) pairs.
+            flat = [number for entry in entries for number in entry]
+            size = 8 * len(flat)
+            parts.append(struct.pack(f"<BQHI{len(flat)}Q", 7, 6 + size, channel, size, *flat))
+            offsets[channel] = at
+            at += 15 + size
+        indexes = b"".join(parts)
         self._write(indexes)
         self._chunk_indexes.append(
             records.ChunkIndex(
