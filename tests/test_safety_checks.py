@@ -522,3 +522,28 @@ def test_the_opening_exception_needs_the_springs(port: FakePort) -> None:
     port.clamp_half(Half.REAR)  # every joint holding: clamped, no opening
     state = port.state()
     assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+
+
+def test_a_crossing_holds_from_the_smallest_contact_angle_and_either_way(port: FakePort) -> None:
+    # a holding joint exactly at the smallest wall-contact angle (less the tolerance)
+    port.clamp_half(Half.FRONT)
+    rear(port, (CONTACT_MIN + 0.5, CONTACT_MIN), (0.0, HOLD_N))
+    state = port.state()
+    assert state is not None and pressing_over_opening(ROBOT, state, Half.REAR)
+    rear(port, (CONTACT_MIN + 0.5, CONTACT_MIN - 0.001), (0.0, HOLD_N))  # short of it
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+    # bent the other way (negative angles), the same crossing
+    rear(port, (-(WALL + 0.4), -WALL), (0.0, HOLD_N * 1.5))
+    state = port.state()
+    assert state is not None and pressing_over_opening(ROBOT, state, Half.REAR)
+    rear(port, (-(WALL + 0.4), -(CONTACT_MIN - 0.01)), (0.0, HOLD_N * 1.5))
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+    # the holding joint on the other side from the free one
+    rear(port, (-(WALL + 0.4), WALL), (0.0, HOLD_N * 1.5))
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+    rear(port, (WALL + 0.4, -WALL), (0.0, HOLD_N * 1.5))
+    state = port.state()
+    assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)

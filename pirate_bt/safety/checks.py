@@ -207,16 +207,19 @@ def pressing_over_opening(robot: RobotDescription, state: RobotState, half: Half
         if angle is None or force is None:
             return False
         joints.append((angle, force))
-    if not (all(a > 0 for a, _ in joints) or all(a < 0 for a, _ in joints)):
+    if not joints:
         return False
-    holding = [abs(a) for a, f in joints if abs(a) >= wall_min and clamp.holds_force(f)]
+    # Angles on the side the first joint bends: a joint bent the other way is neither
+    # holding nor past the wall, so it ends the question below.
+    side = math.copysign(1.0, joints[0][0])
+    holding = [side * a for a, f in joints if side * a >= wall_min and clamp.holds_force(f)]
     if not holding or len(holding) == len(joints):
         return False
     wall = min(holding)
     return all(
-        abs(a) >= wall - tol and not clamp.holds_force(f)
+        side * a >= wall - tol and not clamp.holds_force(f)
         for a, f in joints
-        if not (abs(a) >= wall_min and clamp.holds_force(f))
+        if not (side * a >= wall_min and clamp.holds_force(f))
     )
 
 
@@ -356,9 +359,9 @@ def check_transitioning(ctx: CheckContext, intent: Intent) -> Problem | None:
     if intent.drive_mps is None or intent.drive_mps == 0.0:
         return None
     for half, state in sorted(ctx.halves.items()):
-        if state is ClampState.TRANSITIONING and _crossing_opening(ctx, half):
-            continue
-        if state in (ClampState.TRANSITIONING, ClampState.UNKNOWN):
+        if state is ClampState.UNKNOWN or (
+            state is ClampState.TRANSITIONING and not _crossing_opening(ctx, half)
+        ):
             return Problem(
                 Reason.HALF_TRANSITIONING,
                 f"no drive while the {half} half is {state} (between unclamped and clamped)",
