@@ -207,11 +207,9 @@ def pressing_over_opening(robot: RobotDescription, state: RobotState, half: Half
         if angle is None or force is None:
             return False
         joints.append((angle, force))
-    if not joints:
-        return False
-    # Angles on the side the first joint bends: a joint bent the other way is neither
-    # holding nor past the wall, so it ends the question below.
-    side = math.copysign(1.0, joints[0][0])
+    # Angles on the side the joints bend together: a joint bent the other way is
+    # neither holding nor past the wall, so it ends the question below.
+    side = math.copysign(1.0, sum(a for a, _ in joints))
     holding = [side * a for a, f in joints if side * a >= wall_min and clamp.holds_force(f)]
     if not holding or len(holding) == len(joints):
         return False
