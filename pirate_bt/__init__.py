@@ -50,6 +50,10 @@ _EXPORTS: dict[str, str] = {
     "NavigationResult": "pirate_bt.task.navigate",
     "load_navigator": "pirate_bt.task.navigators",
     "navigator_names": "pirate_bt.task.navigators",
+    "Felt": "pirate_bt.task.navigation",
+    "RouteNavigator": "pirate_bt.task.navigators",
+    "GoalNavigator": "pirate_bt.task.navigators",
+    "ExploreNavigator": "pirate_bt.task.explore",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",
@@ -84,6 +88,9 @@ __all__ = [
     "ConfigurationError",
     "Connection",
     "Counters",
+    "ExploreNavigator",
+    "Felt",
+    "GoalNavigator",
     "Groot2Server",
     "InputError",
     "LinkError",
@@ -95,6 +102,7 @@ __all__ = [
     "Observation",
     "PabOutcome",
     "PirateError",
+    "RouteNavigator",
     "RunResult",
     "SafetyError",
     "Step",
@@ -165,10 +173,16 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason
     from pirate_bt.safety.tally import Counters
+    from pirate_bt.task.explore import ExploreNavigator
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.navigate import NavigationResult
-    from pirate_bt.task.navigation import Navigator, Observation, Step
-    from pirate_bt.task.navigators import load_navigator, navigator_names
+    from pirate_bt.task.navigation import Felt, Navigator, Observation, Step
+    from pirate_bt.task.navigators import (
+        GoalNavigator,
+        RouteNavigator,
+        load_navigator,
+        navigator_names,
+    )
     from pirate_bt.task.outcome import PabOutcome
     from pirate_bt.task.plan import MissionPlan
     from pirate_bt.trace.reader import read_trace
