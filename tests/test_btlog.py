@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gc
 import sys
+import time
 import types
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -75,6 +76,16 @@ def _btcpp_log(trace_path: Path, xml: str, out: Path) -> Any:
     logger.flush()
     del logger
     gc.collect()
+    # BT.CPP's FileLogger2 writes from a thread of its own: on a loaded machine the
+    # file may still be growing here. Wait (at most 10 s) until it stops growing.
+    deadline = time.monotonic() + 10.0
+    size = -1
+    while time.monotonic() < deadline:
+        now = out.stat().st_size if out.exists() else 0
+        if now == size:
+            break
+        size = now
+        time.sleep(0.2)
     return read_btlog(out)
 
 
