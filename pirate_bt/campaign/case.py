@@ -123,6 +123,17 @@ def _faults(case: dict[str, Any]) -> str:
     return ",".join([*case.get("sim_faults", []), *parts])
 
 
+def _options(case: dict[str, Any]) -> dict[str, Any]:
+    """What every kind of case passes its API call alike: seed, faults, robot, limits."""
+    return {
+        "seed": case["seed"],
+        "faults": _faults(case) or None,
+        "robot": case["robot"],
+        "max_time": case["max_time_s"],
+        "rate": 1.0 / case["period_s"],
+    }
+
+
 def _outcome(succeeded: bool, safe: bool, error: BaseException | None) -> str:
     """``success``; ``failed-safe`` (failed, robot left safe); ``error`` (a node raised,
     the link was lost, or the robot was not left safe)."""
@@ -157,12 +168,8 @@ def _tree_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
         case["tree"],
         network=case["network"] or "straight",
         params=case["params"],
-        seed=case["seed"],
-        faults=_faults(case) or None,
         trace=trace,
-        robot=case["robot"],
-        max_time=case["max_time_s"],
-        rate=1.0 / case["period_s"],
+        **_options(case),
     )
     return _body(result, result.safe_state)
 
@@ -194,12 +201,8 @@ def _navigator_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
         sim=truth,
         map=None if case.get("blind") else network,
         params=case["params"],
-        seed=case["seed"],
-        faults=_faults(case) or None,
         trace=trace,
-        robot=case["robot"],
-        max_time=case["max_time_s"],
-        rate=1.0 / case["period_s"],
+        **_options(case),
     )
     body = _body(result, result.safe_state)
     body.update(steps=result.steps, distance_m=round(result.distance_m, 4))
@@ -229,12 +232,8 @@ def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
         route,
         network=network,
         truth=truth,
-        seed=case["seed"],
-        faults=_faults(case) or None,
         output=output,
-        robot=case["robot"],
-        max_time=case["max_time_s"],
-        rate=1.0 / case["period_s"],
+        **_options(case),
     )
     return _body(result, result.safe_state)
 
