@@ -234,6 +234,64 @@ def test_steps_checked_before_anything_moves() -> None:
         check_step(Step("wait", time="-1 s"))
 
 
+def test_backward_steps_check_their_way_and_are_for_a_pipe_with_no_map() -> None:
+    assert check_step(Step("bend-back", direction="left")).roll_rad == pytest.approx(
+        -1.5708, abs=1e-4
+    )
+    assert check_step(Step("t-joint-back", direction="straight")).direction == "straight"
+    with pytest.raises(InvalidStep, match="left backwards by the way it was passed"):
+        check_step(Step("t-joint-back", direction="up"))
+    with pytest.raises(InvalidStep, match="has no parameter"):
+        check_step(Step("probe-tee", side="left"))
+    with pytest.raises(InvalidStep, match="route language has no backward PABs"):
+        check_step(Step("bend-back", direction="up")).route_line()
+    with pytest.raises(InvalidStep, match="probe-tee is for navigating without one"):
+        check_step(Step("probe-tee")).route_line()
+
+
+def test_a_navigator_backs_through_a_bend_and_a_tee_it_passed() -> None:
+    """Forwards through a feature, then back through it: the way a survey returns."""
+    felt: list[tuple[str, str | None, str]] = []
+
+    class Back(Asks):
+        def next_step(self, obs: Observation) -> Any:
+            felt.extend((f.kind, f.direction, f.how) for f in obs.felt)
+            if obs.last is not None and obs.last.outcome != "success":
+                return None
+            return super().next_step(obs)
+
+    result = pirate_bt.navigate(
+        Back(
+            Step("straight", distance="3 m", stop_at_feature=True),
+            Step("bend", direction="right"),
+            Step("straight", distance="0.5 m"),
+            Step("straight", distance="-0.5 m"),
+            Step("bend-back", direction="right"),
+            Step("straight", distance="-0.5 m"),
+        ),
+        sim="bend-right",
+    )
+    assert result.succeeded, result.why
+    assert ("bend", "right", "back") in felt
+    assert result.truth_m == pytest.approx(result.belief_m, abs=0.05)
+    assert result.truth_m < 1.0 and result.sim["damage"] == 0 and result.sim["violations"] == 0
+
+    felt.clear()
+    result = pirate_bt.navigate(
+        Back(
+            Step("straight", distance="1.5 m"),
+            Step("t-joint", direction="straight"),
+            Step("t-joint-back", direction="straight"),
+        ),
+        sim="t-joint",
+    )
+    assert result.succeeded, result.why
+    assert felt == [("tee", "straight", "pab"), ("tee", "straight", "back")]
+    # the front tip back before the middle of the opening (2.095 m into the pipe, the
+    # robot's 0.515 m inside it at the start): docs/pabs.md, the backward contract
+    assert result.truth_m == pytest.approx(2.095 - 0.515 - 0.08, abs=0.02)
+
+
 def test_navigators_by_name_and_their_errors(monkeypatch: pytest.MonkeyPatch) -> None:
     assert {"route", "goal"} <= set(pirate_bt.navigator_names())
     with pytest.raises(InputError, match="no navigator named 'nope'"):

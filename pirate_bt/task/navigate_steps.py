@@ -29,6 +29,11 @@ from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 
 __all__ = ["StepRun", "run_blind", "run_mapped"]
 
+_PROBES = {"probe-turn": "/probe_roll", "probe-tee": "/probe_side"}
+"""The probe PABs (a tree with no parameters) and the blackboard key each answers on."""
+_BLIND_FILES = {"bend-back": "bend-back.yaml", "t-joint-back": "t-joint-back.yaml"}
+"""The backward PABs' trees (a map does not plan them yet)."""
+_SIDES = ("left", "right", "up", "down")
 _PROBE_DIRECTIONS = {"0": "up", "180": "down", "90": "right", "-90": "left"}
 """``probe-turn``'s ``probe_roll`` (degrees, as trees/probe-turn.yaml writes it) -> direction."""
 
@@ -132,13 +137,13 @@ def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]
             "velocity": speed if checked.distance_m > 0 else -speed,
             "stop_at_feature": checked.stop_at_feature and checked.distance_m > 0,
         }
-    elif pab == "bend":
+    elif pab in ("bend", "bend-back"):
         params = {"roll": checked.roll_rad}
     else:
         params = {"direction": checked.direction}
-    if pab == "probe-turn":
-        return {"type": "subtree", "name": pab, "ref": str(data_dir("trees") / "probe-turn.yaml")}
-    ref = data_dir("trees") / PAB_FILES[pab]
+    if pab in _PROBES:
+        return {"type": "subtree", "name": pab, "ref": str(data_dir("trees") / f"{pab}.yaml")}
+    ref = data_dir("trees") / _BLIND_FILES.get(pab, PAB_FILES.get(pab, ""))
     return {"type": "subtree", "name": pab, "ref": str(ref.resolve()), "params": params}
 
 
@@ -207,8 +212,8 @@ def run_blind(
             meta={"navigation_step": index, "step": step.to_json()},
         )
     started = clock.now()
-    if step.pab == "probe-turn":  # the tree writes it; never read a previous probe's
-        py_trees.blackboard.Blackboard.storage.pop("/probe_roll", None)
+    if step.pab in _PROBES:  # the tree writes it; never read a previous probe's
+        py_trees.blackboard.Blackboard.storage.pop(_PROBES[step.pab], None)
     try:
         run: TreeRun = runner.run()
     finally:
@@ -222,6 +227,15 @@ def run_blind(
         felt.append(Felt("bend", odometry[0], direction=checked.direction, how="pab"))
     elif run.succeeded and step.pab == "t-joint":
         felt.append(Felt("tee", odometry[0], direction=checked.direction, how="pab"))
+    elif run.succeeded and step.pab in _BLIND_FILES:
+        kind = "bend" if step.pab == "bend-back" else "tee"
+        felt.append(Felt(kind, odometry[0], direction=checked.direction, how="back"))
+    elif run.succeeded and step.pab == "probe-tee":
+        side = str(py_trees.blackboard.Blackboard.storage.get("/probe_side", ""))
+        if side in _SIDES:
+            felt.append(Felt("tee", odometry[0], direction=side, how="probe"))
+        elif side == "none":
+            felt.append(Felt("opening", odometry[0], how="probe"))
     elif run.succeeded and step.pab == "probe-turn":
         found = str(py_trees.blackboard.Blackboard.storage.get("/probe_roll", ""))
         if found == "end":

@@ -30,6 +30,16 @@ command line (text with a unit, or SI numbers):
                                         find which way the pipe turns (``obs.felt``:
                                         a ``bend`` with its direction) or that it
                                         ends there (an ``end``)
+``Step("probe-tee")``                   no map: where a straight step stopped over an
+                                        opening, find which side the tee's branch
+                                        leaves on (``obs.felt``: a ``tee`` with that
+                                        side); it ends before the tee, so a
+                                        ``t-joint`` step goes on from there
+``Step("bend-back", direction="right")`` no map: back through the bend the robot
+                                        passed (its direction as met forwards)
+``Step("t-joint-back", direction=...)``  no map: back through the T-joint the robot
+                                        passed (``straight``, or out of the ``left``
+                                        / ``right`` branch it turned into)
 ======================================  ===============================================
 
 :func:`check_step` checks a step before anything moves (an unknown PAB, a missing or
@@ -65,7 +75,16 @@ __all__ = [
     "check_step",
 ]
 
-STEP_PABS = ("straight", "bend", "t-joint", "wait", "probe-turn")
+STEP_PABS = (
+    "straight",
+    "bend",
+    "t-joint",
+    "wait",
+    "probe-turn",
+    "probe-tee",
+    "bend-back",
+    "t-joint-back",
+)
 """The PABs a step may name."""
 
 _BEND_ROLL_DEG = {"up": 0.0, "right": 90.0, "down": 180.0, "left": -90.0}
@@ -78,7 +97,13 @@ _KNOWN: dict[str, tuple[str, ...]] = {
     "t-joint": ("direction",),
     "wait": ("time",),
     "probe-turn": (),
+    "probe-tee": (),
+    "bend-back": ("direction", "roll"),
+    "t-joint-back": ("direction",),
 }
+_BACK_WAYS = ("left", "right", "straight")
+_BLIND_ONLY = ("probe-turn", "probe-tee", "bend-back", "t-joint-back")
+"""Steps a map does not plan: probes, and the backward PABs (not in the route language)."""
 
 
 class InvalidStep(InputError):
@@ -90,7 +115,9 @@ class Step:
     """One PAB with its parameters: what a navigator asks the robot to do next.
 
     Attributes:
-        pab: ``straight``, ``bend``, ``t-joint`` or ``wait``.
+        pab: One of :data:`STEP_PABS` (``straight``, ``bend``, ``t-joint``, ``wait``;
+            with no map also ``probe-turn``, ``probe-tee``, ``bend-back``,
+            ``t-joint-back``).
         params: Its parameters as given (``{"distance": "1 m"}``).
     """
 
@@ -125,8 +152,9 @@ class CheckedStep:
         distance_m: ``straight``: metres (negative backwards).
         slow: ``straight``: at the inspection speed.
         stop_at_feature: ``straight``: stop early at a turn or an opening.
-        roll_rad: ``bend``: the roll of the bend's plane.
-        direction: ``bend`` and ``t-joint``: the direction word, when one was given.
+        roll_rad: ``bend``, ``bend-back``: the roll of the bend's plane.
+        direction: ``bend``, ``t-joint`` and their backward twins: the direction
+            word, when one was given.
         time_s: ``wait``: seconds.
     """
 
@@ -154,10 +182,15 @@ class CheckedStep:
             return f"at the bend turn {self.direction}"
         if pab == "t-joint":
             return f"at the T-joint go {self.direction}"
-        if pab == "probe-turn":
+        if pab in ("probe-turn", "probe-tee"):
             raise InvalidStep(
-                f"{self.step!r}: with a map the turns are on it; probe-turn is for"
+                f"{self.step!r}: with a map the turns are on it; {pab} is for"
                 " navigating without one"
+            )
+        if pab in _BLIND_ONLY:
+            raise InvalidStep(
+                f"{self.step!r}: with a map, {pab} is not planned yet (the route"
+                " language has no backward PABs); it is for navigating without one"
             )
         return f"pause {self.time_s:.4f} s"
 
@@ -216,7 +249,7 @@ def check_step(step: object) -> CheckedStep:
             slow=_flag(step, "slow"),
             stop_at_feature=_flag(step, "stop_at_feature"),
         )
-    if step.pab == "bend":
+    if step.pab in ("bend", "bend-back"):
         direction = step.params.get("direction")
         if direction is not None and "roll" in step.params:
             raise InvalidStep(f"{step!r}: give direction or roll, not both")
@@ -237,7 +270,15 @@ def check_step(step: object) -> CheckedStep:
                 f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {direction!r}"
             )
         return CheckedStep(step, direction=str(direction))
-    if step.pab == "probe-turn":
+    if step.pab == "t-joint-back":
+        direction = step.params.get("direction")
+        if direction not in _BACK_WAYS:
+            raise InvalidStep(
+                f"{step!r}: a T-joint is left backwards by the way it was passed"
+                f" ({', '.join(_BACK_WAYS)}), not {direction!r}"
+            )
+        return CheckedStep(step, direction=str(direction))
+    if step.pab in ("probe-turn", "probe-tee"):
         return CheckedStep(step)
     seconds = _quantity(step, "time", "time", "2 s")
     if not 0 < seconds <= _MAX_WAIT_S:
@@ -271,13 +312,15 @@ class Felt:
     Attributes:
         kind: ``bend`` (a turn: sensed by the IMU, passed by a PAB, or found by
             ``probe-turn``), ``tee`` (an opening sensed by the joints, or passed),
-            ``end`` (``probe-turn`` found no way on: the end of the pipe), or, without
+            ``end`` (``probe-turn`` found no way on: the end of the pipe), ``opening``
+            (``probe-tee`` found an opening but no branch it could steer into), or, without
             a map, ``feature`` (a straight step with ``stop_at_feature`` stopped early).
         at_m: The belief when it was felt.
         segment: The map's segment it was matched to (``None`` without a map).
         direction: ``bend``: the direction of the turn (taken, or found by a probe);
-            ``tee``: the way taken.
-        how: What sensed it (``imu``, ``joints``, ``pab``, ``probe``; for a
+            ``tee``: the way taken (``probe-tee``: the side its branch leaves on).
+        how: What sensed it (``imu``, ``joints``, ``pab``, ``back`` (passed
+            backwards by ``bend-back`` or ``t-joint-back``), ``probe``; for a
             ``feature``: ``blocked``, every drive at stall current with no progress,
             or ``opening``, a front joint swung off the wall).
     """
