@@ -6,11 +6,15 @@ joint of the leading half swings off the wall over a tee's opening, or the
 joints of the trailing half have crossed an opening and are back at the wall.
 Driving backwards the rear half leads: ``rear_opening`` and
 ``front_opening_passed`` are the mirrors of ``front_opening`` and
-``opening_passed``.
+``opening_passed``. ``front_opening_cleared`` backs the front half off an
+opening it stopped over; ``turned`` ends when the IMU's heading (the pipe's
+direction at the rotational module) has turned: the robot is entering a turn.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from typing import Any, Literal
 
 import py_trees
@@ -18,10 +22,15 @@ from py_trees.common import Status
 from pydantic import Field
 
 from pirate_bt.behaviours.base import NodeParams
-from pirate_bt.behaviours.primitive import _SETTLE_TICKS, Primitive, _commands
+from pirate_bt.behaviours.primitive import (
+    _SETTLE_TICKS,
+    Primitive,
+    _commands,
+    _write_blackboard,
+)
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState
-from pirate_bt.units import Current, Duration, Length, Velocity
+from pirate_bt.units import Angle, Current, Duration, Length, Velocity
 
 __all__ = ["Drive", "DriveParams", "Until"]
 
@@ -32,7 +41,19 @@ Until = Literal[
     "rear_opening",
     "opening_passed",
     "front_opening_passed",
+    "front_opening_cleared",
+    "turned",
 ]
+
+
+def _heading_vector(imu_rad: Mapping[str, float]) -> tuple[float, float, float] | None:
+    """The unit vector along the pipe at the IMU, from its pitch and yaw (``None``
+    without both): x, y level, z up."""
+    pitch = imu_rad.get("pitch")
+    yaw = imu_rad.get("yaw")
+    if pitch is None or yaw is None:
+        return None
+    return (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
 
 
 class DriveParams(NodeParams):
@@ -59,8 +80,21 @@ class DriveParams(NodeParams):
             " 'opening_passed' (every rear joint, pressing the wall, swung off it over a"
             " tee's opening and is back at the wall behind it);"
             " 'front_opening_passed' (the same for every front joint: driving backwards,"
-            " the front half crossed the opening)"
+            " the front half crossed the opening);"
+            " 'front_opening_cleared' (a front joint off the wall over an opening when the"
+            " drive starts, and now none: backing from a 'front_opening' stop, the front"
+            " half is back before the opening; fails at once when no front joint is off"
+            " the wall at the start);"
+            " 'turned' (the IMU's heading, the pipe's direction at the rotational module"
+            " from its pitch and yaw, turned by at least 'turn_angle' from where the drive"
+            " started, two ticks running: the robot is entering a turn)"
         ),
+    )
+    turn_angle: Angle = Field(
+        math.radians(10.0),
+        gt=0,
+        lt=math.pi,
+        description="with until: turned, the heading change that completes the drive",
     )
     max_distance: Length = Field(
         3.0, gt=0, description="fail when no feature was found within this distance"
@@ -72,6 +106,15 @@ class DriveParams(NodeParams):
             "blackboard key holding the distance in metres, read when the drive starts"
             " (instead of 'distance'; a planner writes it from the robot's belief);"
             " a value of 1 mm or less completes the drive at once; empty: not used"
+        ),
+    )
+    travelled_key: str | None = Field(
+        None,
+        pattern=r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$",
+        description=(
+            "blackboard key the drive writes the distance it travelled to (metres of"
+            " odometry, never negative) when it ends, however it ends (0 when it starts):"
+            " a drive back the same way reads it with 'distance_key'; empty: not used"
         ),
     )
     stop_at_feature: bool = Field(
@@ -125,6 +168,10 @@ class Drive(Primitive):
     def blackboard_reads(cls, params: Any) -> tuple[str, ...]:
         return (params.distance_key.lstrip("/"),) if params.distance_key else ()
 
+    @classmethod
+    def blackboard_writes(cls, params: Any) -> tuple[str, ...]:
+        return (params.travelled_key.lstrip("/"),) if params.travelled_key else ()
+
     def start(self) -> None:
         p: DriveParams = self.params  # type: ignore[assignment]
         self._distance_m = p.distance
@@ -148,6 +195,10 @@ class Drive(Primitive):
         self._found_wall: set[str] = set()
         self._back_ticks: dict[str, int] = {}
         self._slow_since: float | None = None
+        self._heading0: tuple[float, float, float] | None = None
+        self._turned_ticks = 0
+        self._first_step = True
+        self._write_travelled()
 
     def stop_motion(self) -> None:
         self.supervisor.stop()
@@ -155,6 +206,13 @@ class Drive(Primitive):
     def terminate(self, new_status: Status) -> None:
         if self.supervisor is not None:
             self.supervisor.stop()
+        if hasattr(self, "_odometry_m"):  # started at least once
+            self._write_travelled()
+
+    def _write_travelled(self) -> None:
+        key = self.params.travelled_key  # type: ignore[attr-defined]
+        if key:
+            _write_blackboard(key, abs(self._odometry_m))
 
     def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
         """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
@@ -220,6 +278,32 @@ class Drive(Primitive):
                     self._found_wall.add(name)
         return bool(passing) and self._found_wall >= set(passing)
 
+    def _start_state(self, state: RobotState) -> str | None:
+        """Read what ``until`` compares with on the first state; a reason to fail, if any."""
+        p: DriveParams = self.params  # type: ignore[assignment]
+        if p.until == "front_opening_cleared" and not any(
+            self._off_wall(state, Half.FRONT).values()
+        ):
+            return "front half not over an opening: no front joint off the wall"
+        if p.until == "turned":
+            self._heading0 = _heading_vector(state.imu_rad)
+            if self._heading0 is None:
+                return "no IMU pitch and yaw: cannot tell a turn (until: turned)"
+        return None
+
+    def _turned(self, state: RobotState) -> float | None:
+        """The heading change since the start once it is at least ``turn_angle`` for
+        ``_SETTLE_TICKS`` ticks running, else ``None``."""
+        p: DriveParams = self.params  # type: ignore[assignment]
+        now = _heading_vector(state.imu_rad)
+        if now is None or self._heading0 is None:
+            self._turned_ticks = 0
+            return None
+        dot = sum(a * b for a, b in zip(self._heading0, now, strict=True))
+        angle = math.acos(max(-1.0, min(1.0, dot)))
+        self._turned_ticks = self._turned_ticks + 1 if angle >= p.turn_angle else 0
+        return angle if self._turned_ticks >= _SETTLE_TICKS else None
+
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
         if self._bad_distance is not None:
@@ -235,6 +319,11 @@ class Drive(Primitive):
         self._odometry_m += speed * dt
         travelled = abs(self._odometry_m)
         velocity = self._velocity()
+        if self._first_step:
+            self._first_step = False
+            problem = self._start_state(state)
+            if problem is not None:
+                return self.fail(problem)
         # checked before (re)sending: a half already over an opening is done at once
         for half in self._opening_halves(velocity):
             if any(self._off_wall(state, half).values()):
@@ -294,6 +383,20 @@ class Drive(Primitive):
         if passing is not None and self._opening_passed(state, passing):
             self.feedback_message = f"{passing} half passed an opening after {travelled:.3f} m"
             return Status.SUCCESS
+        if p.until == "front_opening_cleared" and not any(
+            self._off_wall(state, Half.FRONT).values()
+        ):
+            self.feedback_message = f"front half off the opening after {travelled:.3f} m"
+            self.sensed = "front_opening_cleared"
+            return Status.SUCCESS
+        if p.until == "turned":
+            turned = self._turned(state)
+            if turned is not None:
+                self.feedback_message = (
+                    f"turned {math.degrees(turned):.1f}° after {travelled:.3f} m"
+                )
+                self.sensed = "turned"
+                return Status.SUCCESS
         if p.until != "distance" and travelled >= p.max_distance:
             return self.fail(f"no feature ({p.until}) within {p.max_distance:g} m")
         # the bridge's watchdog may have stopped the wheels: ask again
