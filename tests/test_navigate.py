@@ -240,7 +240,7 @@ def test_backward_steps_check_their_way_and_are_for_a_pipe_with_no_map() -> None
     )
     assert check_step(Step("t-joint-back", direction="straight")).direction == "straight"
     with pytest.raises(InvalidStep, match="left backwards by the way it was passed"):
-        check_step(Step("t-joint-back", direction="up"))
+        check_step(Step("t-joint-back", direction="sideways"))
     with pytest.raises(InvalidStep, match="has no parameter"):
         check_step(Step("probe-tee", side="left"))
     with pytest.raises(InvalidStep, match="route language has no backward PABs"):

@@ -24,7 +24,7 @@ command line (text with a unit, or SI numbers):
 ``Step("bend", direction="right")``     pass the bend ahead (``up``, ``down``,
                                         ``left``, ``right``, or ``roll="90 deg"``)
 ``Step("t-joint", direction="left")``   pass the T-joint ahead (``left``, ``right``,
-                                        ``straight``; ``up``/``down`` with a map)
+                                        ``up``, ``down``, ``straight``)
 ``Step("wait", time="2 s")``            stand still, clamped
 ``Step("probe-turn")``                  no map: where a straight step stopped blocked,
                                         find which way the pipe turns (``obs.felt``:
@@ -38,8 +38,9 @@ command line (text with a unit, or SI numbers):
 ``Step("bend-back", direction="right")`` no map: back through the bend the robot
                                         passed (its direction as met forwards)
 ``Step("t-joint-back", direction=...)``  no map: back through the T-joint the robot
-                                        passed (``straight``, or out of the ``left``
-                                        / ``right`` branch it turned into)
+                                        passed (``straight``, or out of the branch
+                                        it turned into: ``left``, ``right``, ``up``,
+                                        ``down``)
 ======================================  ===============================================
 
 :func:`check_step` checks a step before anything moves (an unknown PAB, a missing or
@@ -101,7 +102,7 @@ _KNOWN: dict[str, tuple[str, ...]] = {
     "bend-back": ("direction", "roll"),
     "t-joint-back": ("direction",),
 }
-_BACK_WAYS = ("left", "right", "straight")
+_BACK_WAYS = ("left", "right", "up", "down", "straight")
 _BLIND_ONLY = ("probe-turn", "probe-tee", "bend-back", "t-joint-back")
 """Steps a map does not plan: probes, and the backward PABs (not in the route language)."""
 
