@@ -54,6 +54,7 @@ _EXPORTS: dict[str, str] = {
     "RouteNavigator": "pirate_bt.task.navigators",
     "GoalNavigator": "pirate_bt.task.navigators",
     "ExploreNavigator": "pirate_bt.task.explore",
+    "SurveyIncomplete": "pirate_bt.task.explore",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",
@@ -107,6 +108,7 @@ __all__ = [
     "SafetyError",
     "Step",
     "StopReason",
+    "SurveyIncomplete",
     "ValidationFailed",
     "__version__",
     "attach_groot2",
@@ -173,7 +175,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason
     from pirate_bt.safety.tally import Counters
-    from pirate_bt.task.explore import ExploreNavigator
+    from pirate_bt.task.explore import ExploreNavigator, SurveyIncomplete
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.navigate import NavigationResult
     from pirate_bt.task.navigation import Felt, Navigator, Observation, Step

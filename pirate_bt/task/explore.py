@@ -1,31 +1,49 @@
-"""The ``explore`` navigator: survey a pipe with no map, and write what it found.
+"""The ``explore`` navigator: survey a network with no map, and write what it found.
 
-It drives on until something stops it, finds out what that was, and goes on:
+It drives on until something stops it, finds out what that was, and goes on,
+depth-first through every branch:
 
 1. ``Step("straight", distance=search, stop_at_feature=True)``, again and again;
 2. stopped *blocked*: ``Step("probe-turn")`` (trees/probe-turn.yaml) tries each roll
-   with the steered front half: a bend that way, or the end of the pipe;
-3. a bend: ``Step("bend", direction=...)`` through it, then on (1);
-4. the end: the survey is done; it is written as a network file (the format of
-   ``scenarios/*.yaml``) that plans and runs routes as a drawing does.
+   with the steered front half: a bend that way (``Step("bend", ...)`` through it,
+   then on with 1), or the end of the line;
+3. stopped *over an opening*: ``Step("probe-tee")`` (trees/probe-tee.yaml) finds the
+   side the tee's branch leaves on; the tee is noted as *pending* and the robot goes
+   straight through (``Step("t-joint", direction="straight")``), then on with 1;
+4. at the end of a line it backs to the newest pending tee, through every feature
+   it passed since in reverse (``Step("straight", distance=-d)``, ``bend-back``,
+   ``t-joint-back``), turns into its branch and surveys that line the same way;
+5. no tee pending: the survey is done; it is written as a network file (the format
+   of ``scenarios/*.yaml``) that plans and runs routes as a drawing does.
+
+**A branch the robot cannot back out of** (docs/pabs.md, "A branch is left backwards
+only where the robot fits": half the diameter plus the branch turn's length,
+``d/2 + pi*d/2``, at most 0.1075 m, pipe up to 51.9 mm) is entered only as the
+survey's last act: when no pending tee with a branch it *can* leave is left. Every
+branch that is then never entered is written as a stub (a tee branch with no
+segments), named in the file's description and in :attr:`ExploreNavigator.unexplored`,
+and the survey ends with :class:`SurveyIncomplete` (the run stops safe, the cause
+named) once the rest is surveyed. Such a network needs a second insertion.
 
 Lengths come from the odometry, on the pipe's centre line: a straight runs from the
 end of the feature before it to where the robot was blocked (the front tip stops at
-a bend's start, or at the pipe's end), a bend's arc is ``radius x 90 deg``. The
-diameter comes from the rear half's wall-contact angles and the slope from the IMU,
-where each straight ends.
+a bend's start, or at the line's end) or to the start of a tee (from where the
+opening was felt, :data:`OPENING_STOP`); a bend's arc is ``radius x 90 deg``, a
+branch's turn ``diameter x 90 deg`` (the network default). The diameter comes from
+the rear half's wall-contact angles and the slope from the IMU, where each straight
+ends.
 
-Not yet (a survey that meets one stops safe, with the cause named and what was
-surveyed so far written): T-joints (an opening felt: which side its branch leaves
-on needs a probe of its own, and the robot backing out of a branch), reducers inside
-a straight, bends met on a vertical run, bends other than 90 degrees in the four
-cardinal rolls.
+Not yet: reducers inside a straight (the straight gets the diameter read at its
+end), a slope that changes inside a straight, bends met on a vertical run (backing
+through one fails: the survey stops safe with the cause named and what was surveyed
+so far written), bends other than 90 degrees in the four cardinal rolls.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,14 +51,35 @@ from pirate_bt.errors import InputError
 from pirate_bt.task.navigation import Felt, Observation, Step
 from pirate_bt.units import parse_quantity
 
-__all__ = ["ExploreNavigator", "SurveyIncomplete"]
+__all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
 
+OPENING_STOP = (0.177, 0.55)
+"""Where a straight step with ``stop_at_feature`` stops over a tee's opening: the
+front tip ``a + b x diameter`` past the tee's start (the bundled robot at its
+nominal speed, measured in 51 to 80 mm tees within 3 mm; the first front joint
+swings off the wall over the opening's near edge, a little late)."""
+
+BACK_OUT_REACH_M = 0.1075
+"""How far behind the front half's trailing end the rear half's first bend module
+clamps (the rotational module and half of bend III, the bundled robot): a branch is
+left backwards only when half its diameter plus its turn's length is at most this."""
+
+_MARGIN_M = 0.25
+"""How far short of a feature a return's straight drive stops: the backward PAB
+searches the rest (up to 3 m) with its own sensing."""
+
+
+def branch_leavable(diameter_m: float, radius_m: float | None = None) -> bool:
+    """Can the robot back out of a tee's branch of this size (docs/pabs.md)?"""
+    radius = diameter_m if radius_m is None else radius_m
+    return diameter_m / 2 + math.pi * radius / 2 <= BACK_OUT_REACH_M + 1e-9
+
 
 class SurveyIncomplete(RuntimeError):
-    """The survey met what it cannot survey yet; what it surveyed is written."""
+    """The survey met what it cannot survey; what it surveyed is written."""
 
 
 def _metres(value: str | float, what: str, dimension: str = "length") -> float:
@@ -50,8 +89,35 @@ def _metres(value: str | float, what: str, dimension: str = "length") -> float:
     return number
 
 
+@dataclass
+class _Passed:
+    """A feature passed on the way from the start: backed through on a return."""
+
+    pab: str  # "bend-back" or "t-joint-back"
+    way: str  # the bend's direction; a tee: straight or the branch's side
+    end_m: float  # the belief where the feature ends (the rear tip goes past it)
+
+
+@dataclass
+class _Tee:
+    """A tee whose branch is not surveyed yet."""
+
+    segment: dict[str, Any]
+    start_m: float
+    diameter_m: float
+    slope_deg: float
+    depth: int  # its own entry's index in the trail
+
+    @property
+    def side(self) -> str:
+        return str(self.segment["branch"]["direction"])
+
+    def __str__(self) -> str:
+        return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"
+
+
 class ExploreNavigator:
-    """Survey a network with no map: straights, bends and the end of the pipe.
+    """Survey a network with no map: straights, bends, tees and their branches.
 
     Args:
         output: Where to write the surveyed network (a ``.yaml`` file); ``None``:
@@ -75,14 +141,22 @@ class ExploreNavigator:
             raise InputError(f"explore: a network name is one line of text, not {name!r}")
         self.name = name
         self.segments: list[dict[str, Any]] = []
-        """The segments found so far, as a network file writes them."""
+        """The main line's segments found so far, as a network file writes them."""
         self.network: Any = None
         """The surveyed :class:`~pirate_bt.pipes.NetworkSpec`, once written."""
+        self.unexplored: list[str] = []
+        """Tee branches never entered (the robot could not have backed out of them)."""
+        self._line = self.segments  # the line being surveyed
+        self._counts: dict[str, int] = {}
         self._from_m: float | None = None  # belief where the current straight began
         self._blocked_m: float | None = None
+        self._opening_m: float | None = None
         self._diameter_m: float | None = None
         self._slope_deg = 0.0  # the slope the pipe carries into the current straight
-        self._driven_in_straight = 0
+        self._trail: list[_Passed] = []  # features passed from the start to here
+        self._pending: list[_Tee] = []
+        self._target: _Tee | None = None  # the tee a return goes to
+        self._backed: _Passed | None = None  # the feature a return drove up to
 
     # -- the loop
 
@@ -90,59 +164,135 @@ class ExploreNavigator:
         if obs.map is not None:
             raise InputError("explore surveys a pipe with no map: run it without map=")
         if obs.last is not None and obs.last.outcome != "success":
-            self._write(obs, f"stopped: {obs.last.why}")
+            self._write(f"stopped: {obs.last.why}")
             return None  # the navigation's result names the failed step's cause
         if self._from_m is None:  # the start: the rear tip at the pipe's entry
             self._from_m = obs.belief.position_m - obs.robot_length_m
+        if self._target is not None:
+            return self._return(obs)
         felt = obs.felt[-1] if obs.felt else None
         pab = obs.history[-1][0].pab if obs.history else None
         if pab == "probe-turn":
-            return self._probed(obs, felt)
+            return self._probed_turn(obs, felt)
+        if pab == "probe-tee":
+            return self._probed_tee(obs, felt)
         if pab == "straight" and felt is not None and felt.kind == "feature":
             if felt.how == "opening":
-                self._close_straight(obs, felt.at_m)
-                self._write(obs, f"stopped at an opening at {felt.at_m:.2f} m (a T-joint?)")
-                raise SurveyIncomplete(
-                    f"an opening (a T-joint?) at {felt.at_m:.2f} m: explore does not survey"
-                    " T-joints yet; the survey so far is written"
-                    + (f" to {self.output}" if self.output else "")
-                )
+                self._opening_m = felt.at_m
+                return Step("probe-tee")
             self._blocked_m = felt.at_m
             return Step("probe-turn")
         return Step("straight", distance=self.search_m, stop_at_feature=True)
 
-    def _probed(self, obs: Observation, felt: Felt | None) -> Step | None:
+    def _probed_turn(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._blocked_m is not None
         if felt is None:
-            raise SurveyIncomplete(
+            raise self._incomplete(
                 "probe-turn ended without an answer (neither a turn nor the end)"
             )
         self._close_straight(obs, self._blocked_m)
         if felt.kind == "end":
-            self._write(obs, None)
-            return None
+            return self._line_done(obs)
         direction = str(felt.direction)
-        self.segments.append(
-            {"id": f"bend-{self._count('bend') + 1}", "type": "bend", "direction": direction}
-        )
+        segment: dict[str, Any] = {"id": self._id("bend"), "type": "bend", "direction": direction}
         if self.radius_m != 0.09:
-            self.segments[-1]["radius"] = f"{self.radius_m * 1000:.1f} mm"
+            segment["radius"] = f"{self.radius_m * 1000:.1f} mm"
+        self._line.append(segment)
         self._from_m = self._blocked_m + self.radius_m * math.pi / 2
+        self._trail.append(_Passed("bend-back", direction, self._from_m))
         self._slope_deg = max(-90.0, min(90.0, self._slope_deg + _TURN.get(direction, 0.0)))
         return Step("bend", direction=direction)
 
+    def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
+        assert self._opening_m is not None
+        if felt is None or felt.kind != "tee" or felt.direction is None:
+            raise self._incomplete(
+                f"an opening at {self._opening_m:.2f} m with no branch the robot could steer"
+                " into (probe-tee found none)"
+            )
+        diameter = obs.diameter_m or self._diameter_m or 0.063
+        a, b = OPENING_STOP
+        start = self._opening_m - (a + b * diameter)
+        self._close_straight(obs, start)
+        segment: dict[str, Any] = {
+            "id": self._id("tee"),
+            "type": "tee",
+            "branch": {"direction": felt.direction, "segments": []},
+        }
+        self._line.append(segment)
+        self._pending.append(
+            _Tee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+        )
+        self._from_m = start + 3 * diameter  # the tee's straight run, 3 x D
+        self._trail.append(_Passed("t-joint-back", "straight", self._from_m))
+        return Step("t-joint", direction="straight")
+
+    # -- the end of a line, and the way back to a branch
+
+    def _line_done(self, obs: Observation) -> Step | None:
+        """The line ends here: back to the newest pending branch, or the survey is done."""
+        while self._pending:
+            tee = self._pending[-1]
+            others = any(branch_leavable(t.diameter_m) for t in self._pending[:-1])
+            if branch_leavable(tee.diameter_m) or not others:
+                self._pending.pop()
+                self._target = tee
+                return self._return(obs)
+            self.unexplored.append(f"{tee}: not entered, the robot cannot back out of it")
+            self._pending.pop()
+        self._write(None)
+        if self.unexplored:
+            raise self._incomplete("not every branch was surveyed: " + "; ".join(self.unexplored))
+        return None
+
+    def _return(self, obs: Observation) -> Step:
+        """The next step back to :attr:`_target`, or into its branch once there."""
+        tee = self._target
+        assert tee is not None
+        if len(self._trail) > tee.depth:
+            passed = self._trail[-1]
+            rear = obs.belief.position_m - obs.robot_length_m
+            gap = rear - passed.end_m - _MARGIN_M
+            if self._backed is not passed and gap > 0.05:
+                self._backed = passed
+                return Step("straight", distance=-gap)
+            self._trail.pop()
+            self._backed = None
+            return Step(passed.pab, direction=passed.way)
+        # back before the tee: into its branch
+        self._target = None
+        if not branch_leavable(tee.diameter_m):  # the last act: nothing is left behind
+            for other in self._pending:
+                self.unexplored.append(
+                    f"{other}: not entered, the robot went into {tee} last"
+                    " and cannot back out of it"
+                )
+            self._pending.clear()
+        self._line = tee.segment["branch"]["segments"]
+        turn_end = tee.start_m + 1.5 * tee.diameter_m + math.pi * tee.diameter_m / 2
+        self._from_m = turn_end
+        self._slope_deg = max(-90.0, min(90.0, tee.slope_deg + _TURN.get(tee.side, 0.0)))
+        self._trail.append(_Passed("t-joint-back", tee.side, turn_end))
+        return Step("t-joint", direction=tee.side)
+
     # -- what was found
 
-    def _count(self, kind: str) -> int:
-        return sum(1 for s in self.segments if s["type"] == kind)
+    def _id(self, kind: str) -> str:
+        self._counts[kind] = self._counts.get(kind, 0) + 1
+        return f"{'run' if kind == 'straight' else kind}-{self._counts[kind]}"
+
+    def _incomplete(self, why: str) -> SurveyIncomplete:
+        self._write(why)
+        where = f"; the survey so far is written to {self.output}" if self.output else ""
+        return SurveyIncomplete(why + where)
 
     def _close_straight(self, obs: Observation, end_m: float) -> None:
         assert self._from_m is not None
         length = end_m - self._from_m
-        if length < 0.005:  # a bend right after a bend: no straight between
+        if length < 0.005:  # a feature right after a feature: no straight between
             return
         segment: dict[str, Any] = {
-            "id": f"run-{self._count('straight') + 1}",
+            "id": self._id("straight"),
             "type": "straight",
             "length": f"{length:.3f} m",
         }
@@ -157,9 +307,9 @@ class ExploreNavigator:
             if abs(pitch - self._slope_deg) > 1.0:  # sloped otherwise than carried in
                 segment["slope"] = f"{pitch:.1f} deg"
                 self._slope_deg = pitch
-        self.segments.append(segment)
+        self._line.append(segment)
 
-    def _write(self, obs: Observation, stopped: str | None) -> None:
+    def _write(self, stopped: str | None) -> None:
         """Build the network of what was surveyed, and write it if asked to."""
         from pirate_bt.pipes.asbuilt import network_yaml
         from pirate_bt.pipes.model import NetworkSpec
@@ -168,7 +318,7 @@ class ExploreNavigator:
             return  # nothing surveyed: no network to write
         diameter = self._diameter_m
         about = "Surveyed by pirate_bt's explore navigator"
-        about += f"; {stopped}" if stopped else " to the end of the pipe"
+        about += f"; {stopped}" if stopped else " to the end of every line"
         data: dict[str, Any] = {
             "schema_version": 1,
             "name": self.name,
@@ -181,9 +331,11 @@ class ExploreNavigator:
             return
         header = (
             f"{about}.\nLengths from odometry on the centre line (within about 5 % of"
-            f" each length);\nbend radius assumed {self.radius_m * 1000:g} mm;"
-            " diameters from the clamp angles, slopes from the IMU."
+            f" each length);\nbend radius assumed {self.radius_m * 1000:g} mm, a branch's"
+            " turn radius its diameter;\ndiameters from the clamp angles, slopes from the IMU."
         )
+        if self.unexplored:
+            header += "\nNot surveyed (written as stubs): " + "; ".join(self.unexplored) + "."
         text = network_yaml(self.network, header=header)
         self.output.parent.mkdir(parents=True, exist_ok=True)
         part = self.output.with_name(self.output.name + ".part")
