@@ -91,7 +91,6 @@ def test_a_parameter_the_navigator_does_not_take_is_named() -> None:
             {"runs": [{"tree": "straight"}], "as_built": {"count": 2}},
             "applies to routes and navigators",
         ),
-        ({"runs": [{**GOAL, "blind": True}], "as_built": {"count": 2}}, "with a map only"),
         ({"maps": ["lab"], "as_built": {"count": 2}}, "not both"),
         ({"as_built": {"count": 0}}, "as_built.count"),
         ({"as_built": {"count": 2, "scale": -1}}, "as_built.scale"),
@@ -119,3 +118,24 @@ def test_the_as_built_axis_counts_in_the_case_bound() -> None:
     spec = campaign_from_data(_spec(as_built={"count": 50}, seeds={"start": 0, "count": 50}))
     with pytest.raises(InputError, match="2,500 cases"):
         expand(spec, max_cases=1000)
+
+
+def test_a_survey_campaign_runs_explore_on_as_built_variants_of_the_world(
+    tmp_path: Path,
+) -> None:
+    # blind: the network is only the world, and as_built draws its variants
+    explore = {"name": "survey", "navigator": "explore", "network": "t-joint", "blind": True}
+    result = run_campaign(
+        _spec(runs=[explore], as_built={"count": 2, "first": 3}, max_time="600 s"),
+        output=tmp_path / "out",
+        workers=2,
+    )
+    rows = sorted(result.rows, key=lambda r: r["index"])
+    assert [(r["navigator"], r["blind"], r["as_built"]) for r in rows] == [
+        ("explore", True, 3),
+        ("explore", True, 4),
+    ]
+    assert all(r["outcome"] == "success" for r in rows), [r["reason"] for r in rows]
+    # main line, back, and into the branch: eleven steps, a different pipe each time
+    assert all(r["steps"] == 11 for r in rows), [r["steps"] for r in rows]
+    assert rows[0]["distance_m"] != rows[1]["distance_m"]

@@ -283,8 +283,8 @@ class CampaignSpec(BaseModel):
     )
     as_built: AsBuiltAxis | None = Field(
         None,
-        description="routes and navigators: as-built variants of the map as the simulated"
-        " truth (instead of 'maps')",
+        description="routes and navigators: as-built variants of the map (a blind"
+        " navigator's network) as the simulated truth (instead of 'maps')",
     )
     seeds: SeedRange = Field(default_factory=SeedRange, description="simulator and link seeds")
     link: LinkAxes = Field(default_factory=LinkAxes, description="link fault rates to sweep")
@@ -317,10 +317,9 @@ class CampaignSpec(BaseModel):
                 "'maps' (truth differing from the map) apply to routes and navigators only"
             )
         if self.as_built is not None:
-            if any(r.tree or r.blind for r in self.runs):
+            if any(r.tree for r in self.runs):
                 raise ValueError(
-                    "'as_built' (variants of the map) applies to routes and navigators"
-                    " with a map only"
+                    "'as_built' (variants of the network) applies to routes and navigators only"
                 )
             if any(m is not None for m in self.maps):
                 raise ValueError("give 'as_built' or 'maps', not both")

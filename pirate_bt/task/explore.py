@@ -67,6 +67,10 @@ BACK_OUT_REACH_M = 0.1075
 clamps (the rotational module and half of bend III, the bundled robot): a branch is
 left backwards only when half its diameter plus its turn's length is at most this."""
 
+_APPROACH_M = 0.25
+"""Where a turn into a branch starts: the front tip this far before the middle of
+the opening (the planner's ``approach_m``)."""
+
 _MARGIN_M = 0.25
 """How far short of a feature a return's straight drive stops: the backward PAB
 searches the rest (up to 3 m) with its own sensing."""
@@ -156,7 +160,7 @@ class ExploreNavigator:
         self._trail: list[_Passed] = []  # features passed from the start to here
         self._pending: list[_Tee] = []
         self._target: _Tee | None = None  # the tee a return goes to
-        self._backed: _Passed | None = None  # the feature a return drove up to
+        self._backed: _Passed | _Tee | None = None  # what a return last drove up to
 
     # -- the loop
 
@@ -259,7 +263,13 @@ class ExploreNavigator:
             self._trail.pop()
             self._backed = None
             return Step(passed.pab, direction=passed.way)
-        # back before the tee: into its branch
+        # back before the tee: the front tip where a turn PAB starts from, a
+        # mission's approach before the middle of the opening; then into the branch
+        approach = tee.start_m + 1.5 * tee.diameter_m - _APPROACH_M
+        if obs.belief.position_m > approach + 0.02 and self._backed is not tee:
+            self._backed = tee
+            return Step("straight", distance=approach - obs.belief.position_m)
+        self._backed = None
         self._target = None
         if not branch_leavable(tee.diameter_m):  # the last act: nothing is left behind
             for other in self._pending:
