@@ -44,6 +44,8 @@ _EXPORTS: dict[str, str] = {
     "run_campaign": "pirate_bt.campaign",
     # planner code in the loop
     "navigate": "pirate_bt.api.navigation",
+    "survey": "pirate_bt.api.survey",
+    "SurveyResult": "pirate_bt.api.survey",
     "Step": "pirate_bt.task.navigation",
     "Observation": "pirate_bt.task.navigation",
     "Navigator": "pirate_bt.task.navigation",
@@ -109,6 +111,7 @@ __all__ = [
     "Step",
     "StopReason",
     "SurveyIncomplete",
+    "SurveyResult",
     "ValidationFailed",
     "__version__",
     "attach_groot2",
@@ -128,6 +131,7 @@ __all__ = [
     "run_tree",
     "simulate_mission",
     "simulate_tree",
+    "survey",
     "write_mission_outputs",
 ]
 
@@ -158,6 +162,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.api.navigation import navigate
     from pirate_bt.api.results import RunResult
     from pirate_bt.api.running import load_tree
+    from pirate_bt.api.survey import SurveyResult, survey
     from pirate_bt.api.trees import run_tree, simulate_tree
     from pirate_bt.behaviours.base import BuildContext
     from pirate_bt.campaign import CampaignResult, run_campaign

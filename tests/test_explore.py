@@ -205,3 +205,29 @@ def test_explore_parameters_are_checked() -> None:
         pirate_bt.navigate("explore", sim="straight", params={"search": "-1 m"})
     with pytest.raises(pirate_bt.InputError, match=r"has no|unexpected keyword"):
         pirate_bt.navigate("explore", sim="straight", params={"speed": "1 m/s"})
+
+
+def test_survey_writes_the_network_and_plans_on_it(tmp_path: Path) -> None:
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim="bend-right", output=out, name="found")
+    assert result.succeeded and result.exit_code == 0, result.why
+    assert result.counts() == {"straight": 2, "bend": 1, "tee": 0, "reducer": 0}
+    assert result.output == out and result.unexplored == []
+    assert result.network is not None and result.network.name == "found"
+    assert "survey: SUCCESS" in result.summary() and "1 bend," in result.summary()
+    assert "navigator 'explore'" in result.why  # a built-in given as an object keeps its name
+    assert pirate_bt.load_network(out).name == "found"
+
+
+def test_the_survey_command_writes_the_file_or_says_why_not(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    out = tmp_path / "s.yaml"
+    cmd = [sys.executable, "-m", "pirate_bt", "survey", "--sim", "straight", "--quiet"]
+    done = subprocess.run([*cmd, "-o", str(out)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "survey: SUCCESS" in done.stdout and "1 straight," in done.stdout
+    assert pirate_bt.load_network(out).path({}).pieces[0].length_m > 1.0
+    bad = subprocess.run([*cmd, "-o", str(out), "--search", "-1 m"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "search must be positive" in bad.stderr

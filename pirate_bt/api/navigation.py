@@ -16,7 +16,7 @@ from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
-from pirate_bt.task.navigators import load_navigator
+from pirate_bt.task.navigators import builtin_name, load_navigator
 
 __all__ = ["navigate"]
 
@@ -108,7 +108,7 @@ def navigate(
             raise InputError("navigate: params= is for a navigator given by name")
         if not callable(getattr(navigator, "next_step", None)):
             raise InputError(f"navigate: {navigator!r} has no next_step(obs) method")
-        name = type(navigator).__name__
+        name = builtin_name(navigator) or type(navigator).__name__
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
         raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}")
     max_time_s = quantity(max_time, "time", "max_time")

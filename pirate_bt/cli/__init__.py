@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "teleop": ("pirate_bt.cli.teleop", "drive the robot or simulator by keys (checked)"),
     "mission": ("pirate_bt.cli.mission", "plan a route on its pipe network and run it"),
     "navigate": ("pirate_bt.cli.navigate", "let a navigator choose every step (planner code)"),
+    "survey": ("pirate_bt.cli.survey", "map a network with no drawing, write it as a network file"),
     "network": ("pirate_bt.cli.network", "as-built variants of a pipe network (perturb, edit)"),
     "campaign": ("pirate_bt.cli.campaign", "run many seeded runs locally or on Dask; report"),
     "export": ("pirate_bt.cli.export", "write a tree in another tool's format (BT.CPP XML)"),

@@ -210,6 +210,11 @@ def _registered() -> dict[str, Any]:
     return found
 
 
+def builtin_name(navigator: object) -> str | None:
+    """The name of a built-in navigator's class (``ExploreNavigator()``: ``explore``)."""
+    return next((n for n, cls in _BUILT_IN.items() if type(navigator) is cls), None)
+
+
 def navigator_names() -> list[str]:
     """Every navigator name: the built-ins and those of installed packages."""
     return sorted({*_BUILT_IN, *_registered()})

@@ -1,0 +1,161 @@
+"""``survey(sim=...)``: map a network nobody has drawn, and write it as a network file.
+
+A survey is the built-in ``explore`` navigator (:class:`~pirate_bt.ExploreNavigator`)
+run by :func:`pirate_bt.navigate` with no map: depth-first through every branch,
+backing out of the branches the robot fits. See docs/navigators.md (Built-in
+navigators) for what it finds and how.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.api.navigation import navigate
+from pirate_bt.task.explore import ExploreNavigator
+from pirate_bt.task.navigate import NavigationResult
+
+__all__ = ["SurveyResult", "survey"]
+
+
+@dataclass
+class SurveyResult:
+    """How a survey went, and the network it found.
+
+    Attributes:
+        navigation: The navigation underneath (every decision, PAB and counter).
+        network: The surveyed network (``None`` when nothing was surveyed); a
+            :class:`~pirate_bt.pipes.Network` that plans and runs routes.
+        output: Where it was written (``None``: not written).
+        unexplored: Tee branches never entered (written as stubs), each named with
+            why.
+    """
+
+    navigation: NavigationResult
+    network: Any = None
+    output: Path | None = None
+    unexplored: list[str] = field(default_factory=list)
+
+    @property
+    def succeeded(self) -> bool:
+        """True when every line was surveyed to its end and every step succeeded."""
+        return self.navigation.succeeded
+
+    @property
+    def why(self) -> str:
+        """The first cause of the end (the failing step's, or what was not surveyed)."""
+        return self.navigation.why
+
+    @property
+    def exit_code(self) -> int:
+        """The command line's exit code: 0 whole, 1 stopped safe or incomplete, 3 link."""
+        return self.navigation.exit_code
+
+    def counts(self) -> dict[str, int]:
+        """Straights, bends, tees and reducers found, over every line."""
+        out = {"straight": 0, "bend": 0, "tee": 0, "reducer": 0}
+        if self.network is None:
+            return out
+
+        def walk(segments: list[Any]) -> None:
+            for seg in segments:
+                out[seg.type] = out.get(seg.type, 0) + 1
+                if seg.type == "tee":
+                    walk(seg.branch.segments)
+
+        walk(list(self.network.spec.segments))
+        return out
+
+    def summary(self) -> str:
+        """One line for people."""
+        n = self.counts()
+        found = ", ".join(
+            f"{n[k]} {k}{'' if n[k] == 1 else 's'}" for k in ("straight", "bend", "tee", "reducer")
+        )
+        if self.unexplored:
+            found += f", {len(self.unexplored)} not surveyed"
+        where = f" -> {self.output}" if self.output is not None and self.network else ""
+        verb = "SUCCESS" if self.succeeded else "FAILURE"
+        return (
+            f"survey: {verb} - {self.why} ({found}{where};"
+            f" {self.navigation.steps} steps, {self.navigation.sim_time_s:.1f} s clock,"
+            f" {self.navigation.wall_s:.1f} s wall)"
+        )
+
+
+def survey(
+    *,
+    sim: Any = None,
+    port: str | None = None,
+    output: str | Path | None = None,
+    seed: int = 0,
+    faults: str | Iterable[str] | None = None,
+    trace: str | Path | None = None,
+    robot: Any = None,
+    max_time: str | float = "3600 s",
+    search: str | float = "3 m",
+    radius: str | float = "90 mm",
+    name: str = "surveyed",
+    firmware: bool = False,
+) -> SurveyResult:
+    """Survey a network with no map and write what was found as a network file.
+
+    Args:
+        sim: The simulator's network, the pipe as it really is (a bundled name, a
+            file or a ``Network``; default ``"straight"`` when no ``port``).
+        port: A real robot (serial port or pyserial URL) instead of the simulator.
+        output: Where to write the surveyed network (``.yaml``), whole or never
+            (also when the survey stops early: what was surveyed so far).
+        seed: The simulator's seed.
+        faults: Simulator and link faults, as for :func:`pirate_bt.simulate_tree`.
+        trace: A directory for the navigation's records and per-step traces.
+        robot: The robot description (default: bundled).
+        max_time: Clock time the survey may take (its time budget).
+        search: How far one straight step drives before it looks again.
+        radius: The bends' centre-line radius (assumed, not measured).
+        name: The surveyed network's name.
+        firmware: Simulator only: run it through the real firmwares in simavr.
+
+    Returns:
+        SurveyResult: The navigation and the network found; a survey that stops is a
+            result, not an exception (``why`` names the cause; the robot is safe).
+
+    Raises:
+        InputError: a bad option or network.
+        LinkError: the robot cannot be reached.
+
+    Example::
+
+        import pirate_bt
+
+        result = pirate_bt.survey(sim="t-joint", output="surveyed.yaml")
+        print(result.summary())
+        mission = pirate_bt.simulate_mission("my.route", network="surveyed.yaml",
+                                             truth="t-joint")
+    """
+    explore = ExploreNavigator(output=output, search=search, radius=radius, name=name)
+    navigation = navigate(
+        explore,
+        sim=sim,
+        port=port,
+        seed=seed,
+        faults=faults,
+        trace=trace,
+        robot=robot,
+        max_time=max_time,
+        max_steps=10_000,
+        firmware=firmware,
+    )
+    network = None
+    if explore.network is not None:
+        from pirate_bt.pipes import Network
+
+        network = Network(explore.network, source=str(output) if output else name)
+    return SurveyResult(
+        navigation,
+        network=network,
+        output=explore.output if explore.network is not None else None,
+        unexplored=list(explore.unexplored),
+    )

@@ -1,0 +1,83 @@
+"""``pirate-bt survey``: map a network nobody has drawn, and write it as a network file.
+
+The command parses, calls :func:`pirate_bt.survey` and prints: one line per
+decision (unless ``--quiet``) and the survey's summary. Exit codes: 0 every line
+surveyed to its end, 1 the survey stopped (robot left safe) or left branches
+unsurveyed (named; what was surveyed is written), 2 bad input, 3 link error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pirate_bt.errors import InputError
+
+__all__ = ["configure", "run"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--sim", metavar="NETWORK", help="the simulator in this network, the truth (default)"
+    )
+    where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
+    parser.add_argument(
+        "-o", "--output", metavar="FILE", required=True, help="where to write the network (.yaml)"
+    )
+    parser.add_argument("--name", default="surveyed", help="the network's name (default surveyed)")
+    parser.add_argument(
+        "--search",
+        default="3 m",
+        metavar="LENGTH",
+        help="how far one straight step drives before it looks again (default 3 m)",
+    )
+    parser.add_argument(
+        "--radius",
+        default="90 mm",
+        metavar="LENGTH",
+        help="the bends' radius, assumed (default 90 mm)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
+    parser.add_argument("--faults", metavar="SPEC", help="simulator and link fault injection")
+    parser.add_argument(
+        "--trace", metavar="DIR", help="write navigation.jsonl and one trace per step here"
+    )
+    parser.add_argument(
+        "--max-time", default="3600 s", metavar="TIME", help="time budget (default 3600 s)"
+    )
+    parser.add_argument(
+        "--firmware-chain",
+        action="store_true",
+        help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="print the summary only")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pirate_bt.api.survey import survey
+
+    if args.port is not None and args.firmware_chain:
+        raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
+    result = survey(
+        sim=args.sim,
+        port=args.port,
+        output=args.output,
+        name=args.name,
+        search=args.search,
+        radius=args.radius,
+        seed=args.seed,
+        faults=args.faults,
+        trace=args.trace,
+        max_time=args.max_time,
+        firmware=args.firmware_chain,
+    )
+    if not args.quiet:
+        for d in result.navigation.decisions:
+            what = repr(d.step) if d.step is not None else "done"
+            end = f" -> {d.outcome}" if d.outcome else ""
+            print(f"{d.index:3d}. at {d.observation.belief.position_m:6.2f} m: {what}{end}")
+    stream = sys.stdout if result.succeeded else sys.stderr
+    prefix = "" if result.succeeded else "pirate-bt: "
+    print(f"{prefix}{result.summary()}", file=stream)
+    return result.exit_code
