@@ -82,31 +82,8 @@ def _same_network(found: list[Any], truth: list[Any]) -> None:
             _same_network(got[2], real[2])
 
 
-SMALL_TEES = """\
-schema_version: 1
-name: small-tees
-description: Two 51 mm tees the robot can back out of, each branch with a feature.
-diameter: 51 mm
-tether_drag_per_metre: 0.2 N
-segments:
-  - {id: before, type: straight, length: 1.6 m}
-  - id: tee-a
-    type: tee
-    branch:
-      direction: right
-      segments:
-        - {id: stub-a, type: straight, length: 1.2 m}
-  - {id: mid, type: straight, length: 1.4 m}
-  - id: tee-b
-    type: tee
-    branch:
-      direction: left
-      segments:
-        - {id: stub-b, type: straight, length: 0.9 m}
-        - {id: stub-b-bend, type: bend, direction: right}
-        - {id: stub-b-on, type: straight, length: 0.8 m}
-  - {id: after, type: straight, length: 1.2 m}
-"""
+SMALL_TEES = (ROOT / "scenarios" / "service-tees.yaml").read_text()
+"""Two 51 mm tees the robot can back out of, one branch with a bend (bundled)."""
 
 
 def test_a_survey_goes_straight_through_a_tee_then_back_and_into_its_branch(
@@ -129,7 +106,7 @@ def test_a_survey_goes_straight_through_a_tee_then_back_and_into_its_branch(
 UP_AND_DOWN = (
     SMALL_TEES.replace("direction: right\n      segments:", "direction: up\n      segments:")
     .replace("direction: left\n", "direction: down\n")
-    .replace("        - {id: stub-b-bend, type: bend, direction: right}\n", "")
+    .replace("        - {id: stub-b-bend, type: bend, direction: right, radius: 90 mm}\n", "")
     .replace("        - {id: stub-b-on, type: straight, length: 0.8 m}\n", "")
 )
 """The same tees with branches up and down (no bend in them: bends met on a vertical
