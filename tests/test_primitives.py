@@ -123,6 +123,11 @@ def test_params_take_units() -> None:
         (Rotate, RotateParams(angle=math.radians(200)), "angle"),
         (Drive, DriveParams(velocity=0.5, distance=1.0), "velocity"),
         (Drive, DriveParams(velocity=0.08), "distance"),
+        (
+            Drive,
+            DriveParams(velocity=0.08, distance=1.0, stop_when_turned=True),
+            "stop_when_turned",
+        ),
     ],
 )
 def test_check_limits(cls: Any, params: Any, field: str) -> None:
@@ -641,6 +646,51 @@ def test_drive_until_turned_gives_up_after_max_distance() -> None:
     node = rig.node(Drive, DriveParams(velocity=0.08, until="turned", max_distance=0.2))
     assert rig.run(node) == Status.FAILURE
     assert "no feature (turned) within 0.2 m" in node.feedback_message
+
+
+def test_drive_until_blocked_stops_when_turned() -> None:
+    # the turn into a tee's branch: the front half is in once the robot turns; the rear
+    # half, holding, must stop before it reaches the branch's opening
+    rig = drive_rig()
+    _heading(rig, 0.0, 170.0)
+    params = DriveParams(
+        velocity=0.08, until="blocked", stop_when_turned=True, turn_angle=math.radians(8)
+    )
+    node = rig.node(Drive, params)
+    rig.run(node, ticks=10)
+    _heading(rig, 0.0, 176.0)
+    rig.run(node, ticks=10)
+    assert node.status == Status.RUNNING
+    _heading(rig, 0.0, 182.0)
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed == "turned"
+    assert "turned 12.0°" in node.feedback_message
+    last = rig.port.batches[-1]
+    assert all(c.mode is ControlMode.VELOCITY and c.value == 0.0 for c in last)
+    # blocked before it turned: done as ever
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, until="blocked", stop_when_turned=True))
+    rig.run(node, ticks=10)
+    blocked(rig)
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed == "blocked"
+
+
+def test_drive_until_blocked_ignores_a_turn_without_stop_when_turned() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, until="blocked", max_distance=0.2))
+    rig.run(node, ticks=10)
+    _heading(rig, 0.0, 40.0)
+    assert rig.run(node) == Status.FAILURE
+    assert "no feature (blocked) within 0.2 m" in node.feedback_message
+
+
+def test_stop_when_turned_needs_pitch_and_yaw() -> None:
+    rig = drive_rig()
+    del rig.port.values["imu.yaw"]
+    node = rig.node(Drive, DriveParams(velocity=0.08, until="blocked", stop_when_turned=True))
+    assert rig.run(node) == Status.FAILURE
+    assert "no IMU pitch and yaw: cannot tell a turn (stop_when_turned)" in node.feedback_message
 
 
 def test_drive_until_turned_needs_pitch_and_yaw() -> None:

@@ -9,6 +9,9 @@ Driving backwards the rear half leads: ``rear_opening`` and
 ``opening_passed``. ``front_opening_cleared`` backs the front half off an
 opening it stopped over; ``turned`` ends when the IMU's heading (the pipe's
 direction at the rotational module) has turned: the robot is entering a turn.
+``stop_when_turned`` also ends an ``until: blocked`` drive on that turn: entering a
+tee's branch of 65 mm and more, the holding rear half would reach the branch's
+opening, and let go of the wall, before the turn could block it.
 """
 
 from __future__ import annotations
@@ -125,6 +128,16 @@ class DriveParams(NodeParams):
             " rear driving backwards) off the wall over an opening"
         ),
     )
+    stop_when_turned: bool = Field(
+        False,
+        description=(
+            "with until: blocked, also complete the drive when the IMU's heading has turned"
+            " by at least 'turn_angle' from where the drive started, two ticks running"
+            " (fails at once without IMU pitch and yaw): turning into a tee's branch, the"
+            " holding rear half must stop before it reaches the branch's opening, which in"
+            " a tee of 65 mm and more comes before the turn could block it"
+        ),
+    )
     stall_current: Current | None = Field(
         None, gt=0, description="current counted as stalled (default 80 % of the stall current)"
     )
@@ -154,6 +167,8 @@ class Drive(Primitive):
             problems.append("velocity: must not be 0")
         if params.until == "distance" and params.distance is None and not params.distance_key:
             problems.append("distance: required with until: distance")
+        if params.stop_when_turned and params.until != "blocked":
+            problems.append("stop_when_turned: only with until: blocked")
         for motor in robot.drive_motors():
             lim = motor.limits.velocity
             if lim is not None and abs(params.velocity) > lim.max:
@@ -285,10 +300,11 @@ class Drive(Primitive):
             self._off_wall(state, Half.FRONT).values()
         ):
             return "front half not over an opening: no front joint off the wall"
-        if p.until == "turned":
+        if p.until == "turned" or p.stop_when_turned:
             self._heading0 = _heading_vector(state.imu_rad)
             if self._heading0 is None:
-                return "no IMU pitch and yaw: cannot tell a turn (until: turned)"
+                why = "until: turned" if p.until == "turned" else "stop_when_turned"
+                return f"no IMU pitch and yaw: cannot tell a turn ({why})"
         return None
 
     def _turned(self, state: RobotState) -> float | None:
@@ -389,7 +405,7 @@ class Drive(Primitive):
             self.feedback_message = f"front half off the opening after {travelled:.3f} m"
             self.sensed = "front_opening_cleared"
             return Status.SUCCESS
-        if p.until == "turned":
+        if p.until == "turned" or (p.until == "blocked" and p.stop_when_turned):
             turned = self._turned(state)
             if turned is not None:
                 self.feedback_message = (

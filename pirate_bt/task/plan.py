@@ -72,8 +72,9 @@ class PabContract:
             nominal speed (when the straight PAB takes a speed).
         tee_ways: The ways the T-joint PAB can take.
         follow_m: A turn PAB (``trees/lib/turn.yaml``) drives the front half in until
-            the rear half blocks at the turn's start, then the rear half this far
-            (its ``follow`` parameter): it ends with the front tip at the turn's
+            the rear half blocks at the turn's start (into a tee's branch, until the
+            robot turns: 12 mm sooner in the bundled tee), then the rear half this
+            far (its ``follow`` parameter): it ends with the front tip at the turn's
             start + the rear half's lead offset + ``follow_m`` + ``turn_overrun_m``.
         straight_overrun_m: Measured: the straight PAB drives this much further than
             its distance (it stops on the first tick past it).
