@@ -12,7 +12,24 @@ import sys
 
 from pirate_bt.errors import InputError
 
-__all__ = ["configure", "run"]
+__all__ = ["configure", "run", "stepwise_options"]
+
+
+def stepwise_options(parser: argparse.ArgumentParser, *, max_time_help: str) -> None:
+    """The options of every step-wise command (``navigate``, ``survey``): seed,
+    faults, trace, time limit, the firmware chain, quiet."""
+    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
+    parser.add_argument("--faults", metavar="SPEC", help="simulator and link fault injection")
+    parser.add_argument(
+        "--trace", metavar="DIR", help="write navigation.jsonl and one trace per step here"
+    )
+    parser.add_argument("--max-time", default="3600 s", metavar="TIME", help=max_time_help)
+    parser.add_argument(
+        "--firmware-chain",
+        action="store_true",
+        help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="print the summary only")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -39,14 +56,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="a navigator parameter, e.g. --param segment=run-d (repeatable)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
-    parser.add_argument("--faults", metavar="SPEC", help="simulator and link fault injection")
-    parser.add_argument(
-        "--trace", metavar="DIR", help="write navigation.jsonl and one trace per step here"
-    )
-    parser.add_argument(
-        "--max-time", default="3600 s", metavar="TIME", help="time limit (default 3600 s)"
-    )
+    stepwise_options(parser, max_time_help="time limit (default 3600 s)")
     parser.add_argument(
         "--deadline",
         default="5 s",
@@ -55,12 +65,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--max-steps", type=int, default=500, help="step limit (default 500)")
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
-    parser.add_argument(
-        "--firmware-chain",
-        action="store_true",
-        help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
-    )
-    parser.add_argument("--quiet", action="store_true", help="print the summary only")
 
 
 def run(args: argparse.Namespace) -> int:

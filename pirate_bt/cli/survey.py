@@ -17,6 +17,8 @@ __all__ = ["configure", "run"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
+    from pirate_bt.cli.navigate import stepwise_options
+
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--sim", metavar="NETWORK", help="the simulator in this network, the truth (default)"
@@ -38,20 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="LENGTH",
         help="the bends' radius, assumed (default 90 mm)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
-    parser.add_argument("--faults", metavar="SPEC", help="simulator and link fault injection")
-    parser.add_argument(
-        "--trace", metavar="DIR", help="write navigation.jsonl and one trace per step here"
-    )
-    parser.add_argument(
-        "--max-time", default="3600 s", metavar="TIME", help="time budget (default 3600 s)"
-    )
-    parser.add_argument(
-        "--firmware-chain",
-        action="store_true",
-        help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
-    )
-    parser.add_argument("--quiet", action="store_true", help="print the summary only")
+    stepwise_options(parser, max_time_help="time budget (default 3600 s)")
 
 
 def run(args: argparse.Namespace) -> int:
