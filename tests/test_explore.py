@@ -208,3 +208,18 @@ def test_the_survey_command_writes_the_file_or_says_why_not(tmp_path: Path) -> N
     assert pirate_bt.load_network(out).path({}).pieces[0].length_m > 1.0
     bad = subprocess.run([*cmd, "-o", str(out), "--search", "-1 m"], capture_output=True, text=True)
     assert bad.returncode == 2 and "search must be positive" in bad.stderr
+
+
+def test_a_survey_stopped_by_a_failed_step_keeps_what_it_surveyed(tmp_path: Path) -> None:
+    # a drive motor stalls in the straight after the bend: the step fails, the robot
+    # stops safe, and the straight and the bend before it are written all the same
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(
+        sim="bend-right", output=out, faults="motor_stall:bend_3_drive@60s+60s"
+    )
+    assert not result.succeeded and result.navigation.safe_state
+    assert "stall" in result.why and result.exit_code == 1
+    written = pirate_bt.load_network(out)
+    kinds = [p.kind.value for p in written.path({}).pieces]
+    assert kinds[:2] == ["straight", "bend"]
+    assert "stopped:" in written.spec.description

@@ -148,6 +148,8 @@ def survey(
         max_steps=10_000,
         firmware=firmware,
     )
+    if not navigation.succeeded and explore.network is None:
+        explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
     network = None
     if explore.network is not None:
         from pirate_bt.pipes import Network

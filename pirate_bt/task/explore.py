@@ -319,6 +319,15 @@ class ExploreNavigator:
                 self._slope_deg = pitch
         self._line.append(segment)
 
+    def save(self, stopped: str) -> None:
+        """Write what was surveyed so far, saying why the survey stopped.
+
+        A step that fails ends the navigation before the navigator is asked again,
+        so the caller saves (:func:`pirate_bt.survey` does); the straight the robot
+        was in is left out (its end was not reached).
+        """
+        self._write(stopped)
+
     def _write(self, stopped: str | None) -> None:
         """Build the network of what was surveyed, and write it if asked to."""
         from pirate_bt.pipes.asbuilt import network_yaml
