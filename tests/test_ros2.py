@@ -239,9 +239,16 @@ def test_a_mission_reaches_an_independent_client_with_the_trace_values(
         # the graph, as the SDK reads it from our liveliness tokens
         from zenoh_ros2_sdk import get_topic_names_and_types
 
-        topics = dict(get_topic_names_and_types(router_ip="127.0.0.1", router_port=router))
-        for topic, type_name in TOPIC_TYPES.items():
-            assert topics[rmw_zenoh.qualified_name("/pirate", topic)] == [type_name]
+        # the tokens reach the router on their own; a loaded machine may answer the
+        # first graph query before the last one arrived: ask again, up to 10 s
+        wanted = {rmw_zenoh.qualified_name("/pirate", t): [n] for t, n in TOPIC_TYPES.items()}
+        deadline = time.monotonic() + 10.0
+        while True:
+            topics = dict(get_topic_names_and_types(router_ip="127.0.0.1", router_port=router))
+            if set(wanted) <= set(topics) or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        assert {name: topics.get(name) for name in wanted} == wanted
         tokens = _tokens(router, node.session_id, len(TOPIC_TYPES) + 2)
         assert all(_TOKEN.match(t) for t in tokens), tokens
         kinds = sorted(_TOKEN.match(t)["kind"] for t in tokens)  # type: ignore[index]
