@@ -9,10 +9,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from pirate_bt.errors import InputError
 
-__all__ = ["configure", "run", "stepwise_options"]
+if TYPE_CHECKING:
+    from pirate_bt.task.navigation import Decision
+
+__all__ = ["configure", "print_decisions", "print_summary", "run", "stepwise_options"]
 
 
 def stepwise_options(parser: argparse.ArgumentParser, *, max_time_help: str) -> None:
@@ -67,6 +72,26 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
 
 
+def print_decisions(decisions: Sequence[Decision]) -> None:
+    """One line per decision: where, the step (or done), and how it ended."""
+    for d in decisions:
+        where = d.observation.belief
+        seg = f" ({where.segment})" if where.segment else ""
+        what = repr(d.step) if d.step is not None else "done"
+        end = f" -> {d.outcome}" if d.outcome else ""
+        if d.error:
+            end = f" -> refused: {d.error}"
+        print(f"{d.index:3d}. at {where.position_m:6.2f} m{seg}: {what}{end}")
+
+
+def print_summary(succeeded: bool, summary: str) -> None:
+    """The result's one line: on stdout for a success, else on stderr, prefixed."""
+    if succeeded:
+        print(summary)
+    else:
+        print(f"pirate-bt: {summary}", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.navigation import navigate
     from pirate_bt.cli.run import parse_params
@@ -95,15 +120,6 @@ def run(args: argparse.Namespace) -> int:
         firmware=args.firmware_chain,
     )
     if not args.quiet:
-        for d in result.decisions:
-            where = d.observation.belief
-            seg = f" ({where.segment})" if where.segment else ""
-            what = repr(d.step) if d.step is not None else "done"
-            end = f" -> {d.outcome}" if d.outcome else ""
-            if d.error:
-                end = f" -> refused: {d.error}"
-            print(f"{d.index:3d}. at {where.position_m:6.2f} m{seg}: {what}{end}")
-    stream = sys.stdout if result.succeeded else sys.stderr
-    prefix = "" if result.succeeded else "pirate-bt: "
-    print(f"{prefix}{result.summary()}", file=stream)
+        print_decisions(result.decisions)
+    print_summary(result.succeeded, result.summary())
     return result.exit_code

@@ -9,7 +9,6 @@ unsurveyed (named; what was surveyed is written), 2 bad input, 3 link error.
 from __future__ import annotations
 
 import argparse
-import sys
 
 from pirate_bt.errors import InputError
 
@@ -45,6 +44,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.survey import survey
+    from pirate_bt.cli.navigate import print_decisions, print_summary
 
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
@@ -62,11 +62,6 @@ def run(args: argparse.Namespace) -> int:
         firmware=args.firmware_chain,
     )
     if not args.quiet:
-        for d in result.navigation.decisions:
-            what = repr(d.step) if d.step is not None else "done"
-            end = f" -> {d.outcome}" if d.outcome else ""
-            print(f"{d.index:3d}. at {d.observation.belief.position_m:6.2f} m: {what}{end}")
-    stream = sys.stdout if result.succeeded else sys.stderr
-    prefix = "" if result.succeeded else "pirate-bt: "
-    print(f"{prefix}{result.summary()}", file=stream)
+        print_decisions(result.navigation.decisions)
+    print_summary(result.succeeded, result.summary())
     return result.exit_code
