@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import statistics
 import sys
 import time
@@ -53,6 +54,9 @@ def run_case(seed: int, scale: float) -> dict[str, Any]:
         "violations": int(result.sim.get("violations", 0)),
         "damage": int(result.sim.get("damage", 0)),
         "fix_errors": [abs(f.error_after_m) for f in result.fixes if f.error_after_m is not None],
+        # the sequence matcher: how well each fix fitted the map, and the drift it corrected
+        "confidences": [round(f.confidence, 4) for f in result.fixes],
+        "drifts_per_m": [round(f.drift_per_m, 5) for f in result.fixes],
         # straight-through tees whose rear half could not press across (released instead)
         "tee_fallbacks": result.tee_fallbacks,
         "wall_s": time.perf_counter() - started,
@@ -138,6 +142,18 @@ def _table(rows: list[dict[str, Any]], scales: list[float], wall: float) -> None
             f"x{scale:g}: straight-through tees that ended on the released fallback instead of"
             f" sensing the opening passed: {fallbacks} (in {tees} runs past the first tee)"
         )
+    for scale in scales:
+        mine = [r for r in rows if r["scale"] == scale]
+        confidences = [c for r in mine for c in r.get("confidences", [])]
+        drifts = [abs(d) for r in mine for d in r.get("drifts_per_m", [])]
+        if confidences:
+            beyond = sum(c < math.exp(-2) for c in confidences)
+            print(
+                f"x{scale:g}: {len(confidences)} fixes; drift per metre corrected: median"
+                f" {100 * statistics.median(drifts):.1f} %, worst {100 * max(drifts):.1f} %;"
+                f" confidence: median {statistics.median(confidences):.2f}, lowest"
+                f" {min(confidences):.2f}; {beyond} matched on order beyond the tolerance"
+            )
     walls = [r["wall_s"] for r in rows]
     print(f"wall per mission: median {statistics.median(walls):.1f} s (machine shared, loaded)")
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from pirate_bt.pipes import Network, load_network
 from pirate_bt.pipes import Path as PipePath
-from pirate_bt.pipes import load_network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.loader import load_robot
 from pirate_bt.robot.state import RobotState
@@ -109,7 +109,7 @@ def test_a_turn_the_map_has_but_the_robot_never_felt_is_a_mismatch(
     )
     world = load_network("straight").main_path()  # no bend at all
     loc = Localiser(plan, robot)
-    drive(loc, robot, world, plan.start_m, plan.end_m)
+    drive(loc, robot, world, plan.start_m, world.length_m)  # past the matcher's reach
     assert loc.mismatch is not None and "no turn was felt" in loc.mismatch
     assert "'bend'" in loc.mismatch
 
@@ -137,3 +137,83 @@ def test_a_turn_into_a_branch_is_a_fix(robot: RobotDescription) -> None:
     assert loc.mismatch is None
     assert [f.feature for f in loc.fixes] == ["bend-a", "tee-1"]
     assert all(abs(f.error_after_m or 0.0) <= FIX_BOUND_M for f in loc.fixes)
+
+
+# -- the sequence matcher -----------------------------------------------------------------
+
+
+def _bend_right_world(before_m: float, direction: str = "right") -> PipePath:
+    """``bend-right`` as built: the straight before the bend ``before_m`` long."""
+    spec = load_network("bend-right").spec
+    before, bend, after = spec.segments
+    segments = [
+        before.model_copy(update={"length": before_m}),
+        bend.model_copy(update={"direction": direction}),
+        after,
+    ]
+    return Network(spec.model_copy(update={"segments": segments})).main_path()
+
+
+def _bend_right_plan(robot: RobotDescription) -> MissionPlan:
+    route = parse_route("forward 1 m\nat the bend turn right\nforward 1 m\n", "b.route")
+    return plan_route(route, load_network("bend-right"), robot)
+
+
+@pytest.mark.parametrize("before_m", [2.5, 2.8])
+def test_the_next_turn_in_order_is_accepted_further_than_drawn(
+    robot: RobotDescription, before_m: float
+) -> None:
+    plan = _bend_right_plan(robot)
+    world = _bend_right_world(before_m)  # drawn 2 m: the bend is 25 % or 40 % further
+    loc = Localiser(plan, robot)
+    drive(loc, robot, world, plan.start_m, world.length_m - 1.0)
+    assert loc.mismatch is None
+    (fix,) = loc.fixes
+    assert fix.feature == "bend"
+    # the belief is put back on the map's bend: the correction is what the map is off
+    assert fix.correction_m == pytest.approx(2.0 - before_m, abs=0.05)
+    assert fix.confidence < 0.5
+    assert fix.drift_per_m == pytest.approx(fix.correction_m / fix.since_fix_m)
+    if before_m == 2.8:
+        # beyond the map's tolerance: the distance window alone calls it a disagreement
+        alone = Localiser(plan, robot, sequence_fraction=0.0)
+        drive(alone, robot, world, plan.start_m, world.length_m - 1.0)
+        assert alone.mismatch is not None and "no turn was felt" in alone.mismatch
+
+
+def test_a_fix_where_the_map_has_it_is_confident(robot: RobotDescription) -> None:
+    plan = _bend_right_plan(robot)
+    loc = Localiser(plan, robot)
+    drive(loc, robot, plan.path, plan.start_m, plan.end_m)
+    (fix,) = loc.fixes
+    assert fix.confidence > 0.9 and abs(fix.drift_per_m) < 0.02
+
+
+@pytest.mark.parametrize(("built", "said"), [("left", "left"), ("up", "up"), ("down", "down")])
+def test_a_turn_in_another_direction_is_a_named_disagreement_at_once(
+    robot: RobotDescription, built: str, said: str
+) -> None:
+    plan = _bend_right_plan(robot)
+    world = _bend_right_world(2.0, built)  # in its place, but the wrong way
+    loc = Localiser(plan, robot)
+    drive(loc, robot, world, plan.start_m, world.length_m - 1.0)
+    assert loc.mismatch is not None
+    assert f"turned {said} by" in loc.mismatch and "'bend' turning right" in loc.mismatch
+    d = loc.disagreement
+    assert d is not None and d.feature == "bend" and d.sensed is not None
+    assert d.sensed.startswith(f"a turn {said} of ")
+    assert "the map's turn goes right" in d.evidence
+    assert not loc.fixes
+    # found in the turn, not after it
+    assert d.belief_m < plan.path.next_turn(0.0).end_m + 0.6  # type: ignore[union-attr]
+
+
+def test_a_turn_too_far_from_the_maps_for_its_order_is_a_disagreement(
+    robot: RobotDescription,
+) -> None:
+    plan = _bend_right_plan(robot)
+    world = _bend_right_world(0.9)  # drawn 2 m: the bend is more than a third nearer
+    loc = Localiser(plan, robot)
+    drive(loc, robot, world, plan.start_m, world.length_m)
+    assert loc.mismatch is not None and "where the map has no turn within" in loc.mismatch
+    assert loc.disagreement is not None and loc.disagreement.feature == "bend"

@@ -21,13 +21,22 @@ progress:
   module is at the opening. A tee passed without clamping over it is not felt,
   and that is not an error.
 
-Belief and map *disagree* when a turn (or, with ``tees_felt``, a tee's
-opening) is felt where the map has none within the search window, or the belief
-passes the far end of a feature's window without the feature being felt. The
-window is the *tolerance* around where the map puts a feature: ``window_m``
-(0.3 m) plus ``drift_per_m`` + ``map_fraction`` (2 % + 10 %) of every metre
-driven since the last fix, so a map whose straights are off by up to 10 % still
-fits. A disagreement sets :attr:`Localiser.mismatch` (one line) and
+Features are matched on the map's *sequence*, not on distance alone. The
+*tolerance* around where the map puts a feature is ``window_m`` (0.3 m) plus
+``drift_per_m`` + ``map_fraction`` (2 % + 10 %) of every metre driven since the
+last fix: a map whose straights are off by up to 10 % fits it. Beyond it, out to
+the matcher's *reach* (``sequence_fraction``, 33 % instead of the 10 %), a felt
+feature is still accepted when it is the next one in the map's order and has the
+same signature: a turn swinging in the map's direction (up, down, left or right,
+within 50 degrees), an opening where the next feature is a tee. Each fix says how
+well the place fitted the map (:attr:`Fix.confidence`) and the drift per metre it
+corrected (:attr:`Fix.drift_per_m`).
+
+Belief and map *disagree* when a turn (or, with ``tees_felt``, a tee's opening)
+is felt where the map has none within the reach, when a turn swings in another
+direction than the map's next turn (``a turn down where the map has bend 'b'
+turning left``), or when the belief passes the far end of a feature's reach
+without the feature being felt. A disagreement sets :attr:`Localiser.mismatch` (one line) and
 :attr:`Localiser.disagreement` (where, what was expected, what was sensed, the
 sensor evidence); the mission clears the ``map_ok`` blackboard key, the tree's
 guard fails and the runner leaves the robot in its safe state with that reason.
@@ -52,6 +61,7 @@ __all__ = [
     "DRIFT_PER_M",
     "FIX_BOUND_M",
     "MAP_FRACTION",
+    "SEQUENCE_FRACTION",
     "WINDOW_M",
     "Disagreement",
     "Fix",
@@ -73,6 +83,12 @@ WINDOW_M = 0.3
 MAP_FRACTION = 0.10
 """... plus this fraction (and :data:`DRIFT_PER_M`) of the distance driven since the last fix."""
 
+SEQUENCE_FRACTION = 0.33
+"""The matcher's reach: the *next* feature in the map's order, of the same kind (and,
+for a turn, the same direction), is accepted this fraction (plus :data:`DRIFT_PER_M`)
+of the distance since the last fix from where the map has it, beyond the tolerance."""
+
+_DIRECTION_MARGIN_RAD = math.radians(50.0)
 _OPENING_MARGIN_RAD = 0.15
 _UNEXPECTED_TURN_RAD = math.radians(30.0)
 
@@ -85,6 +101,22 @@ def imu_tangent(imu_rad: dict[str, float] | None) -> Vec3 | None:
         return None
     pitch, yaw = imu_rad["pitch"], imu_rad["yaw"]
     return (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
+
+
+def _cross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+_ROLL_NAMES = ((0.0, "up"), (math.pi / 2, "right"), (math.pi, "down"), (-math.pi / 2, "left"))
+
+
+def _roll_name(roll_rad: float) -> str:
+    """The nearest of up, right, down and left for a turn's roll."""
+    return min(_ROLL_NAMES, key=lambda named: abs(_wrap(roll_rad - named[0])))[1]
 
 
 def _angle(a: Vec3, b: Vec3) -> float:
@@ -103,6 +135,10 @@ class Fix:
         before_m: Belief just before the fix.
         after_m: Belief after it.
         truth_m: Simulator truth at the fix, when known.
+        since_fix_m: Distance driven since the previous fix (or the start).
+        confidence: How well the place fits the map: ``exp(-z**2 / 2)``, ``z`` the
+            correction over half the stated tolerance (1 where the map has it, 0.14 at
+            the tolerance's edge, lower out in the matcher's reach).
     """
 
     time_s: float
@@ -111,6 +147,8 @@ class Fix:
     before_m: float
     after_m: float
     truth_m: float | None = None
+    since_fix_m: float = 0.0
+    confidence: float = 1.0
 
     @property
     def error_after_m(self) -> float | None:
@@ -120,6 +158,11 @@ class Fix:
     @property
     def correction_m(self) -> float:
         return self.after_m - self.before_m
+
+    @property
+    def drift_per_m(self) -> float:
+        """The correction per metre driven since the previous fix (map error plus odometry)."""
+        return self.correction_m / self.since_fix_m if self.since_fix_m > 0 else 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,8 +227,11 @@ class Localiser:
             a map whose lengths are off (0 for a map known to be exact).
         tees_felt: Tees passed straight through must be felt (the straight-through
             T-joint PAB presses the front half over the opening, so they are): a tee
-            not felt within its window is a disagreement, and so is an opening felt
+            not felt within its reach is a disagreement, and so is an opening felt
             where the map has no tee.
+        sequence_fraction: The matcher's reach beyond the tolerance, per metre since
+            the last fix (:data:`SEQUENCE_FRACTION`; at most ``map_fraction`` counts
+            when it is larger, and 0 keeps matching to the tolerance alone).
     """
 
     def __init__(
@@ -198,9 +244,11 @@ class Localiser:
         truth: Callable[[], float | None] | None = None,
         map_fraction: float = MAP_FRACTION,
         tees_felt: bool = False,
+        sequence_fraction: float = SEQUENCE_FRACTION,
     ) -> None:
         self.plan = plan
         self.map_fraction = map_fraction
+        self.sequence_fraction = max(sequence_fraction, map_fraction)
         self.tees_felt = tees_felt
         self.disagreement: Disagreement | None = None
         self.last_fix_m = plan.start_m
@@ -241,6 +289,10 @@ class Localiser:
     def window(self) -> float:
         """Half-width of the feature search window now."""
         return self.window_m + (self.drift_per_m + self.map_fraction) * self.since_fix_m
+
+    def reach(self) -> float:
+        """Half-width of the matcher's reach now (the next feature in order is accepted in it)."""
+        return self.window_m + (self.drift_per_m + self.sequence_fraction) * self.since_fix_m
 
     def uncertainty_m(self, ahead_m: float) -> float:
         """How far a feature ``ahead_m`` past the last fix may really be from the map's place.
@@ -302,9 +354,31 @@ class Localiser:
         assert self._heading_ref is not None
         swung = _angle(tangent, self._heading_ref)
         turn = self._next_turn()
-        window = self.window()
-        near = turn is not None and turn.start_m - window <= imu_m <= turn.end_m + window
+        reach = self.reach()
+        near = turn is not None and turn.start_m - reach <= imu_m <= turn.end_m + reach
+        imu = (
+            f"IMU pitch {math.degrees(state.imu_rad.get('pitch', 0.0)):.1f} deg, yaw"
+            f" {math.degrees(state.imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
+            f" module ({imu_m:.2f} m)"
+        )
         if turn is not None and near and swung >= turn.angle_rad / 2:
+            felt = self._felt_roll(turn, self._heading_ref, tangent)
+            if felt is not None and abs(_wrap(felt - turn.roll_rad)) > _DIRECTION_MARGIN_RAD:
+                way, drawn = _roll_name(felt), _roll_name(turn.roll_rad)
+                self.mismatch = (
+                    f"belief and map disagree: the pipe turned {way} by"
+                    f" {math.degrees(swung):.0f} deg at {self.belief_m:.2f} m (believed),"
+                    f" where the map has {turn.segment!r} turning {drawn}"
+                )
+                self._disagree(
+                    state.stamp_s,
+                    turn,
+                    f"a turn {way} of {math.degrees(swung):.0f} deg",
+                    f"{imu}; the map's turn goes {drawn}",
+                    reach,
+                    None,
+                )
+                return
             middle = (turn.start_m + turn.end_m) / 2
             self._fix(turn, "imu", middle + self._imu_offset_m, state.stamp_s)
             self._settle_after_m = turn.end_m + 0.02
@@ -313,23 +387,34 @@ class Localiser:
             self.mismatch = (
                 f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
                 f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
-                f" {window:.2f} m"
+                f" {reach:.2f} m"
             )
             self._disagree(
                 state.stamp_s,
                 None,
                 f"a turn of {math.degrees(swung):.0f} deg",
-                f"IMU pitch {math.degrees(state.imu_rad.get('pitch', 0.0)):.1f} deg, yaw"
-                f" {math.degrees(state.imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
-                f" module ({imu_m:.2f} m)",
-                window,
+                imu,
+                reach,
                 turn,
             )
+
+    def _felt_roll(self, turn: MapFeature, before: Vec3, now: Vec3) -> float | None:
+        """The roll of the turn felt (``before`` to ``now``) in the map's frame at ``turn``."""
+        tangent, up = self.plan.path.frame_at(turn.start_m)
+        right = _cross(tangent, up)
+        along = sum(a * b for a, b in zip(now, before, strict=True))
+        d = tuple(a - along * b for a, b in zip(now, before, strict=True))
+        if math.sqrt(sum(c * c for c in d)) < 1e-6:
+            return None
+        return math.atan2(
+            sum(a * b for a, b in zip(d, right, strict=True)),
+            sum(a * b for a, b in zip(d, up, strict=True)),
+        )
 
     def _openings(self, state: RobotState) -> None:
         tee = next((f for f in self._pending if f.kind == "tee"), None)
         opening_m = (tee.start_m + tee.end_m) / 2 if tee is not None else None
-        window = self.window()
+        window = self.reach()
         clamp = self.robot.clamp
         for module, offset in self._bend_offsets.items():
             angle = state.joint_angle_rad.get(module)
@@ -373,8 +458,8 @@ class Localiser:
                 return
 
     def _near_turn(self, at_m: float) -> bool:
-        """Whether ``at_m`` is within a turn of the path (or the tolerance around one)."""
-        window = self.window()
+        """Whether ``at_m`` is within a turn of the path (or the reach around one)."""
+        window = self.reach()
         for piece in self.plan.path.pieces:
             if piece.angle_rad > 0 and piece.start_m - window <= at_m <= piece.end_m + window:
                 return True
@@ -389,7 +474,7 @@ class Localiser:
             tee = self._pending[0]
             opening_m = (tee.start_m + tee.end_m) / 2
             first_joint_m = self.belief_m - min(self._bend_offsets.values())
-            if self.tees_felt and first_joint_m > opening_m + self.window():
+            if self.tees_felt and first_joint_m > opening_m + self.reach():
                 self.mismatch = (
                     f"belief and map disagree: the map has {tee.segment!r} at"
                     f" {tee.start_m:.2f}-{tee.end_m:.2f} m, but no opening was felt by"
@@ -404,18 +489,18 @@ class Localiser:
                     tee,
                     None,
                     f"no bend joint swung off the wall; joints {joints}",
-                    self.window(),
+                    self.reach(),
                     None,
                 )
                 return
-            if self.belief_m - self.plan.robot_length_m > tee.end_m + self.window():
+            if self.belief_m - self.plan.robot_length_m > tee.end_m + self.reach():
                 self._pending.pop(0)
             else:
                 break
         turn = self._next_turn()
         if turn is None:
             return
-        if imu_m > turn.end_m + self.window():
+        if imu_m > turn.end_m + self.reach():
             self.mismatch = (
                 f"belief and map disagree: the map has {turn.segment!r} at"
                 f" {turn.start_m:.2f}-{turn.end_m:.2f} m, but no turn was felt by"
@@ -433,7 +518,7 @@ class Localiser:
                 f"the IMU swung {math.degrees(swung):.0f} deg of the"
                 f" {math.degrees(turn.angle_rad):.0f} deg turn, the rotational module at"
                 f" {imu_m:.2f} m",
-                self.window(),
+                self.reach(),
                 None,
             )
 
@@ -464,7 +549,17 @@ class Localiser:
         _log.warning("%s", self.mismatch)
 
     def _fix(self, feature: MapFeature, how: str, after_m: float, time_s: float) -> None:
-        fix = Fix(time_s, feature.segment, how, self.belief_m, after_m, self.truth_m)
+        z = (after_m - self.belief_m) / (self.window() / 2)
+        fix = Fix(
+            time_s,
+            feature.segment,
+            how,
+            self.belief_m,
+            after_m,
+            self.truth_m,
+            since_fix_m=self.since_fix_m,
+            confidence=math.exp(-z * z / 2),
+        )
         self.fixes.append(fix)
         _log.info(
             "fix at %s (%s): belief %.3f -> %.3f m", feature.segment, how, fix.before_m, after_m

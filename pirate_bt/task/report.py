@@ -87,6 +87,13 @@ def map_and_pipe_lines(result: MissionResult) -> list[str]:
             f" {worst.feature!r} (the pipe before it differs from the map by about that much,"
             " plus odometry drift)."
         )
+        least = min(result.fixes, key=lambda f: f.confidence)
+        if least.confidence < 0.5:
+            lines.append(
+                f"Matched on the map's order beyond its tolerance: {least.feature!r}"
+                f" ({least.drift_per_m * 100:+.0f} % of the {least.since_fix_m:.2f} m driven"
+                f" since the fix before; confidence {least.confidence:.2f})."
+            )
     elif d is None:
         lines.append("No feature fix, no disagreement.")
     return lines
@@ -185,7 +192,17 @@ def report_lines(
     lines.append("")
     if result.fixes:
         lines += _table(
-            ("time (s)", "feature", "by", "belief before", "after", "truth", "error after"),
+            (
+                "time (s)",
+                "feature",
+                "by",
+                "belief before",
+                "after",
+                "truth",
+                "error after",
+                "drift per m",
+                "confidence",
+            ),
             [
                 (
                     f"{f.time_s - result.start_s:.1f}",
@@ -195,6 +212,8 @@ def report_lines(
                     _m(f.after_m, 3),
                     _m(f.truth_m, 3),
                     _m(f.error_after_m, 3),
+                    f"{f.drift_per_m * 100:+.1f} %",
+                    f"{f.confidence:.2f}",
                 )
                 for f in result.fixes
             ],
