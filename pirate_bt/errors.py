@@ -39,6 +39,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 __all__ = [
     "CommandRefused",
@@ -120,6 +121,9 @@ class LocatedError(InputError):
         self.location = location
         super().__init__(f"{location}: {message}")
 
+    def __reduce__(self) -> tuple[Any, ...]:  # across processes (pools, Dask) intact
+        return (type(self), (self.message, self.location))
+
 
 class ValidationFailed(InputError):
     """An input has one or more located problems; ``errors`` lists all of them.
@@ -147,6 +151,9 @@ class ValidationFailed(InputError):
         if not self.errors:
             raise ValueError("ValidationFailed needs at least one error")
         super().__init__("\n".join(str(e) for e in self.errors))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.errors,))
 
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
@@ -219,6 +226,9 @@ class FrameError(LinkError):
         self.detail = detail
         super().__init__(f"bad frame ({reason}){': ' + detail if detail else ''}")
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.reason, self.detail))
+
 
 class ProtocolMismatch(LinkError):
     """The peer speaks another protocol version or another state layout."""
@@ -244,6 +254,9 @@ class CommandRefused(SafetyError):
         self.detail = detail
         self.command = command
         super().__init__(f"refused ({reason}): {detail}")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.reason, self.detail, self.command))
 
 
 class EStopLatched(SafetyError):

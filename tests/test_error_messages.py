@@ -164,3 +164,22 @@ def test_no_file_kind_leaks_validator_internals(tmp_path: Path, source: str, str
             return load_tree(d, use_examples=True)
 
     assert _sweep(data, load, stride) == []
+
+
+def test_errors_cross_a_process_boundary_whole() -> None:
+    # a process pool (campaigns, benchmarks) or Dask pickles a worker's exception; one
+    # that cannot be rebuilt breaks the pool instead of naming the problem
+    import pickle
+
+    from pirate_bt.errors import CommandRefused, FrameError, LocatedError, SourceLocation
+
+    located = LocatedError("clamp: torque: too high", SourceLocation("t.yaml", 4, 34))
+    for error in (
+        located,
+        ValidationFailed([located]),
+        FrameError("crc", "0x12 != 0x34"),
+        CommandRefused("limit", "velocity above the limit", command="Drive(9)"),
+    ):
+        back = pickle.loads(pickle.dumps(error))
+        assert type(back) is type(error) and str(back) == str(error)
+    assert pickle.loads(pickle.dumps(located)).location.line == 4
