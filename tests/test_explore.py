@@ -82,6 +82,41 @@ def _same_network(found: list[Any], truth: list[Any]) -> None:
             _same_network(got[2], real[2])
 
 
+CHANGES = """\
+schema_version: 1
+name: changes
+diameter: 63 mm
+segments:
+  - {id: level, type: straight, length: 1.5 m}
+  - {id: climb, type: straight, length: 1.6 m, slope: 4 deg}
+  - {id: cone, type: reducer, diameter: 55 mm, length: 50 mm}
+  - {id: narrow, type: straight, length: 1.4 m, slope: 3.7 deg}
+  - {id: narrow-on, type: straight, length: 1.2 m, slope: 3.7 deg}
+"""
+"""A slope change, a reducer, and a joint of two straights with the same slope (no
+change: one straight) inside one run."""
+
+
+def test_a_survey_ends_straights_where_the_slope_or_the_diameter_changes(
+    tmp_path: Path,
+) -> None:
+    network = tmp_path / "changes.yaml"
+    network.write_text(CHANGES)
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=str(network), output=out)
+    assert result.succeeded, result.why
+    assert result.navigation.counters.violations == 0
+    found = pirate_bt.load_network(out).spec.segments
+    truth = pirate_bt.load_network(network).spec.segments
+    merged = [*_shape(truth)[:3], ("straight", 2.6)]  # the last two are one straight
+    _same_network(_shape(found), merged)
+    level, climb, cone, narrow = found
+    assert abs(math.degrees(climb.slope - (level.slope or 0.0)) - 4.0) < 0.2
+    assert abs(math.degrees(narrow.slope) - 3.7) < 0.2  # written: 0.3 deg off the climb
+    assert cone.diameter == pytest.approx(0.055, abs=0.001)
+    assert pirate_bt.load_network(out).spec.diameter == pytest.approx(0.063, abs=0.001)
+
+
 SMALL_TEES = (ROOT / "scenarios" / "service-tees.yaml").read_text()
 """Two 51 mm tees the robot can back out of, one branch with a bend (bundled)."""
 

@@ -16,7 +16,7 @@ from py_trees.common import Status
 from pirate_bt.behaviours.primitives import Clamp, ClampParams, Drive, DriveParams
 from pirate_bt.robot import Half
 from pirate_bt.robot.commands import ControlMode
-from tests.test_primitives import Rig, blocked, clean_blackboard, drive_rig
+from tests.test_primitives import ROBOT, Rig, blocked, clean_blackboard, drive_rig
 
 __all__ = ["clean_blackboard"]  # the autouse fixture, in force here too
 
@@ -195,3 +195,48 @@ def test_travelled_key_is_a_blackboard_write() -> None:
     assert Drive.blackboard_writes(DriveParams(velocity=0.08, distance=1.0)) == ()
     params = DriveParams(velocity=0.08, distance=1.0, travelled_key="/went")
     assert Drive.blackboard_writes(params) == ("went",)
+
+
+def test_drive_stops_where_the_slope_changes() -> None:
+    rig = drive_rig()
+    _heading(rig, 2.0, 30.0)
+    params = DriveParams(velocity=0.08, distance=2.0, stop_at_change=True)
+    node = rig.node(Drive, params)
+    rig.run(node, ticks=10)
+    _heading(rig, 2.3, 30.0)  # under 0.5 deg: the same slope
+    rig.run(node, ticks=10)
+    assert node.status == Status.RUNNING
+    _heading(rig, 2.6, 30.0)
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed == "slope" and "the slope changed" in node.feedback_message
+    last = rig.port.batches[-1]
+    assert all(c.mode is ControlMode.VELOCITY and c.value == 0.0 for c in last)
+
+
+def test_drive_stops_where_a_leading_joint_reads_another_diameter() -> None:
+    rig = drive_rig()
+    clamp = ROBOT.clamp
+    d0 = rig.port.diameter_m
+    node = rig.node(Drive, DriveParams(velocity=0.08, distance=2.0, stop_at_change=True))
+    rig.run(node, ticks=10)
+    rig.port.set(bend_1_angle=clamp.contact_angle(d0 - 0.001))  # 1 mm: not yet
+    rig.run(node, ticks=10)
+    assert node.status == Status.RUNNING
+    rig.port.set(bend_1_angle=clamp.contact_angle(d0 - 0.008))  # down a cone
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed == "diameter"
+
+
+def test_drive_without_stop_at_change_drives_through_changes() -> None:
+    rig = drive_rig()
+    node = rig.node(Drive, DriveParams(velocity=0.08, distance=0.3))
+    rig.run(node, ticks=10)
+    _heading(rig, 5.0, 0.0)
+    assert rig.run(node) == Status.SUCCESS
+    assert node.sensed is None
+
+
+def test_stop_at_change_is_for_a_distance_drive() -> None:
+    params = DriveParams(velocity=0.08, until="blocked", stop_at_change=True)
+    problems = Drive.check_limits(params, ROBOT)
+    assert any("stop_at_change: only with until: distance" in p for p in problems)

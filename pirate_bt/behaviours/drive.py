@@ -12,6 +12,11 @@ direction at the rotational module) has turned: the robot is entering a turn.
 ``stop_when_turned`` also ends an ``until: blocked`` drive on that turn: entering a
 tee's branch of 65 mm and more, the holding rear half would reach the branch's
 opening, and let go of the wall, before the turn could block it.
+``stop_at_change`` ends a distance drive where the pipe changes under the robot
+(a survey's straights end there): the IMU's
+pitch has moved from where the drive started (a slope change at the rotational
+module), or a joint of the leading half, at the wall, reads another diameter than
+it did at the start (a reducer under the leading half).
 """
 
 from __future__ import annotations
@@ -35,7 +40,13 @@ from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState
 from pirate_bt.units import Angle, Current, Duration, Length, Velocity
 
-__all__ = ["Drive", "DriveParams", "Until"]
+__all__ = ["DIAMETER_CHANGE_M", "SLOPE_CHANGE_RAD", "Drive", "DriveParams", "Until"]
+
+SLOPE_CHANGE_RAD = math.radians(0.5)
+"""``stop_at_change``: a pitch change this large is a slope change."""
+
+DIAMETER_CHANGE_M = 0.002
+"""``stop_at_change``: a leading joint's diameter reading off by this much is a reducer."""
 
 Until = Literal[
     "distance",
@@ -128,6 +139,15 @@ class DriveParams(NodeParams):
             " rear driving backwards) off the wall over an opening"
         ),
     )
+    stop_at_change: bool = Field(
+        False,
+        description=(
+            "with until: distance, also complete the drive (early) where the pipe changes:"
+            " the IMU's pitch 0.5 deg or more from its reading at the start (a slope change"
+            " at the rotational module), or a joint of the leading half, at the wall,"
+            " reading a diameter 2 mm or more off its reading at the start (a reducer)"
+        ),
+    )
     stop_when_turned: bool = Field(
         False,
         description=(
@@ -169,6 +189,8 @@ class Drive(Primitive):
             problems.append("distance: required with until: distance")
         if params.stop_when_turned and params.until != "blocked":
             problems.append("stop_when_turned: only with until: blocked")
+        if params.stop_at_change and params.until != "distance":
+            problems.append("stop_at_change: only with until: distance")
         for motor in robot.drive_motors():
             lim = motor.limits.velocity
             if lim is not None and abs(params.velocity) > lim.max:
@@ -212,6 +234,9 @@ class Drive(Primitive):
         self._slow_since: float | None = None
         self._heading0: tuple[float, float, float] | None = None
         self._turned_ticks = 0
+        self._pitch0: float | None = None
+        self._diameter0: dict[str, float] = {}
+        self._change_ticks = 0
         self._first_step = True
         self._write_travelled()
 
@@ -320,6 +345,33 @@ class Drive(Primitive):
         self._turned_ticks = self._turned_ticks + 1 if angle >= p.turn_angle else 0
         return angle if self._turned_ticks >= _SETTLE_TICKS else None
 
+    def _changed(self, state: RobotState, velocity: float) -> str | None:
+        """``slope`` or ``diameter`` once the pipe has changed for ``_SETTLE_TICKS``
+        ticks running (``stop_at_change``), else ``None``. The first state read is the
+        reference; a joint off the wall (an opening) reads no diameter."""
+        found: str | None = None
+        pitch = state.imu_rad.get("pitch")
+        if pitch is not None:
+            if self._pitch0 is None:
+                self._pitch0 = pitch
+            elif abs(pitch - self._pitch0) >= SLOPE_CHANGE_RAD:
+                found = "slope"
+        clamp = self.robot.clamp
+        tol = self.robot.safety.angle_tolerance
+        wall_min = min(c.angle for c in clamp.contact_angles) - tol
+        wall_max = max(c.angle for c in clamp.contact_angles) + tol
+        leading = Half.FRONT if velocity > 0 else Half.REAR
+        for module in self.robot.bend_modules(leading):
+            angle = state.joint_angle_rad.get(module.name)
+            if angle is None or not wall_min <= abs(angle) <= wall_max:
+                continue
+            diameter = clamp.diameter_for(angle)
+            before = self._diameter0.setdefault(module.name, diameter)
+            if found is None and abs(diameter - before) >= DIAMETER_CHANGE_M:
+                found = "diameter"
+        self._change_ticks = self._change_ticks + 1 if found else 0
+        return found if self._change_ticks >= _SETTLE_TICKS else None
+
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
         if self._bad_distance is not None:
@@ -345,6 +397,12 @@ class Drive(Primitive):
             if any(self._off_wall(state, half).values()):
                 self.feedback_message = f"{half} half over an opening after {travelled:.3f} m"
                 self.sensed = f"{half}_opening"
+                return Status.SUCCESS
+        if p.stop_at_change:
+            change = self._changed(state, velocity)
+            if change is not None:
+                self.feedback_message = f"the {change} changed after {travelled:.3f} m"
+                self.sensed = change
                 return Status.SUCCESS
         if not self._at_speed:
             command = _commands().Drive(velocity)

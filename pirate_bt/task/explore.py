@@ -27,16 +27,28 @@ named) once the rest is surveyed. Such a network needs a second insertion.
 
 Lengths come from the odometry, on the pipe's centre line: a straight runs from the
 end of the feature before it to where the robot was blocked (the front tip stops at
-a bend's start, or at the line's end) or to the start of a tee (from where the
-opening was felt, :data:`OPENING_STOP`); a bend's arc is ``radius x 90 deg``, a
-branch's turn ``diameter x 90 deg`` (the network default). The diameter comes from
-the rear half's wall-contact angles and the slope from the IMU, where each straight
-ends.
+a bend's start, or at the line's end), to the start of a tee (from where the
+opening was felt, :data:`OPENING_STOP`), or to a change inside the run. The search
+steps also stop where the pipe changes (``stop_at_change``):
 
-Not yet: reducers inside a straight (the straight gets the diameter read at its
-end), a slope that changes inside a straight, bends met on a vertical run (backing
-through one fails: the survey stops safe with the cause named and what was surveyed
-so far written), bends other than 90 degrees in the four cardinal rolls.
+- **a slope change**: the IMU's pitch moved by 0.5 degrees; the straight ends where
+  the rotational module is, and the next one starts there (each straight's slope
+  is written when it differs from what the line carries by over 0.25 degrees);
+- **a reducer**: the front half's first joint read a diameter 2 mm off; the robot
+  drives 0.25 m on through the cone and the front half reads the diameter beyond
+  it. A change that is not there then (the joint was swinging into a tee's
+  opening) is no reducer. The cone's length is not measured: it is written as the
+  network default, 50 mm, and its start placed from how much of the change the
+  joint had read.
+
+A bend's arc is ``radius x 90 deg``, a branch's turn ``diameter x 90 deg`` (the
+network default). The diameter comes from the rear half's wall-contact angles where
+each straight ends, and the slope from the IMU.
+
+Not yet: a reducer followed within 0.25 m by a tee or a bend (the drive through the
+cone stops there and the reducer is not written), bends met on a vertical run
+(backing through one fails: the survey stops safe with the cause named and what was
+surveyed so far written), bends other than 90 degrees in the four cardinal rolls.
 """
 
 from __future__ import annotations
@@ -47,6 +59,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.navigation import Felt, Observation, Step
 from pirate_bt.units import parse_quantity
@@ -74,6 +87,19 @@ the opening (the planner's ``approach_m``)."""
 _MARGIN_M = 0.25
 """How far short of a feature a return's straight drive stops: the backward PAB
 searches the rest (up to 3 m) with its own sensing."""
+
+
+_SETTLED_M = 0.05
+"""A change felt this close after the feature before is the robot leaving that feature."""
+
+_CONE_M = 0.05
+"""A reducer's cone length, written (the network default; the robot does not measure it)."""
+
+_CONE_PASS_M = 0.25
+"""How far the robot drives through a reducer before the front half reads its diameter."""
+
+_SLOPE_WRITTEN_DEG = 0.25
+"""A straight's slope is written when it differs from what the line carries by more."""
 
 
 def branch_leavable(diameter_m: float, radius_m: float | None = None) -> bool:
@@ -161,6 +187,10 @@ class ExploreNavigator:
         self._pending: list[_Tee] = []
         self._target: _Tee | None = None  # the tee a return goes to
         self._backed: _Passed | _Tee | None = None  # what a return last drove up to
+        self._pitch_before: float | None = None  # the IMU's pitch as a straight step began
+        # a diameter change felt, the cone being passed: where, and the IMU's pitch then
+        self._cone: tuple[float, float | None] | None = None
+        self._diameter_now = 0.0  # the diameter the current line carries
 
     # -- the loop
 
@@ -180,13 +210,74 @@ class ExploreNavigator:
             return self._probed_turn(obs, felt)
         if pab == "probe-tee":
             return self._probed_tee(obs, felt)
+        if self._cone is not None:  # the leading joints are through a reducer now
+            self._reducer_done(obs)
         if pab == "straight" and felt is not None and felt.kind == "feature":
             if felt.how == "opening":
                 self._opening_m = felt.at_m
                 return Step("probe-tee")
+            if felt.how == "slope":
+                self._slope_changed(obs, felt.at_m - obs.imu_behind_m)
+                return self._search(obs)
+            if felt.how == "diameter":
+                return self._diameter_changed(obs, felt.at_m - obs.joint_behind_m)
             self._blocked_m = felt.at_m
             return Step("probe-turn")
-        return Step("straight", distance=self.search_m, stop_at_feature=True)
+        return self._search(obs)
+
+    def _search(self, obs: Observation) -> Step:
+        """On along the pipe until something stops the robot: a feature or a change."""
+        self._pitch_before = obs.pitch_rad
+        return Step("straight", distance=self.search_m, stop_at_feature=True, stop_at_change=True)
+
+    def _slope_changed(self, obs: Observation, at_m: float) -> None:
+        """The IMU's pitch changed with the rotational module at ``at_m``: a new straight
+        starts there (unless the module was only leaving the feature before)."""
+        assert self._from_m is not None
+        if at_m < self._from_m + _SETTLED_M:
+            return
+        self._close_straight(obs, at_m, pitch_rad=self._pitch_before)
+        self._from_m = at_m
+
+    def _diameter_changed(self, obs: Observation, at_m: float) -> Step:
+        """The front half's first joint read another diameter at ``at_m``: a reducer?
+
+        The robot drives on through the cone (no change stops in it), and the front
+        half reads the diameter beyond it (:meth:`_reducer_done`).
+        """
+        assert self._from_m is not None
+        if at_m < self._from_m + _SETTLED_M:  # the joints were leaving the feature before
+            return self._search(obs)
+        self._cone = (at_m, obs.pitch_rad)
+        return Step("straight", distance=_CONE_PASS_M, stop_at_feature=True)
+
+    def _reducer_done(self, obs: Observation) -> None:
+        """The front half is through the cone: write the straight up to it and the
+        reducer. A drive through it that a feature stopped (the joint was swinging into
+        a tee's opening, not down a cone), or no change of diameter, is no reducer:
+        the straight goes on."""
+        assert self._cone is not None
+        at_m, pitch = self._cone
+        self._cone = None
+        diameter = obs.front_diameter_m
+        if obs.felt or diameter is None:
+            return
+        if abs(diameter - self._diameter_now) < DIAMETER_CHANGE_M:
+            return
+        # the joint had read 2 mm of the change this far into the cone (length assumed)
+        start = at_m - _CONE_M * DIAMETER_CHANGE_M / abs(diameter - self._diameter_now)
+        self._close_straight(obs, start, pitch_rad=pitch, diameter_m=self._diameter_now)
+        self._line.append(
+            {
+                "id": self._id("reducer"),
+                "type": "reducer",
+                "diameter": f"{diameter * 1000:.1f} mm",
+                "length": f"{_CONE_M * 1000:g} mm",
+            }
+        )
+        self._diameter_now = diameter
+        self._from_m = start + _CONE_M
+        self._pitch_before = obs.pitch_rad
 
     def _probed_turn(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._blocked_m is not None
@@ -279,6 +370,7 @@ class ExploreNavigator:
                 )
             self._pending.clear()
         self._line = tee.segment["branch"]["segments"]
+        self._diameter_now = tee.diameter_m
         turn_end = tee.start_m + 1.5 * tee.diameter_m + math.pi * tee.diameter_m / 2
         self._from_m = turn_end
         self._slope_deg = max(-90.0, min(90.0, tee.slope_deg + _TURN.get(tee.side, 0.0)))
@@ -296,7 +388,16 @@ class ExploreNavigator:
         where = f"; the survey so far is written to {self.output}" if self.output else ""
         return SurveyIncomplete(why + where)
 
-    def _close_straight(self, obs: Observation, end_m: float) -> None:
+    def _close_straight(
+        self,
+        obs: Observation,
+        end_m: float,
+        *,
+        pitch_rad: float | None = None,
+        diameter_m: float | None = None,
+    ) -> None:
+        """Write the straight from :attr:`_from_m` to ``end_m``, with the diameter and
+        the slope read (``pitch_rad``, ``diameter_m``: what it had, read before a change)."""
         assert self._from_m is not None
         length = end_m - self._from_m
         if length < 0.005:  # a feature right after a feature: no straight between
@@ -308,13 +409,16 @@ class ExploreNavigator:
         }
         # read where the straight ends, the rear half holding in it; the first one
         # read is the network's, a straight that differs by over 2 mm says so
-        if obs.diameter_m is not None and self._diameter_m is None:
-            self._diameter_m = obs.diameter_m
-        elif obs.diameter_m is not None and abs(obs.diameter_m - (self._diameter_m or 0)) > 0.002:
-            segment["diameter"] = f"{obs.diameter_m * 1000:.1f} mm"
-        if obs.pitch_rad is not None:
-            pitch = math.degrees(obs.pitch_rad)
-            if abs(pitch - self._slope_deg) > 1.0:  # sloped otherwise than carried in
+        read = obs.diameter_m if diameter_m is None else diameter_m
+        if read is not None and self._diameter_m is None:
+            self._diameter_m = self._diameter_now = read
+        elif read is not None and abs(read - self._diameter_now) > DIAMETER_CHANGE_M:
+            segment["diameter"] = f"{read * 1000:.1f} mm"
+            self._diameter_now = read
+        pitch_rad = obs.pitch_rad if pitch_rad is None else pitch_rad
+        if pitch_rad is not None:
+            pitch = math.degrees(pitch_rad)
+            if abs(pitch - self._slope_deg) > _SLOPE_WRITTEN_DEG:  # not as carried in
                 segment["slope"] = f"{pitch:.1f} deg"
                 self._slope_deg = pitch
         self._line.append(segment)

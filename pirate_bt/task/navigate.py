@@ -148,14 +148,37 @@ def _sensed(robot: RobotDescription, state: Any) -> dict[str, float | None]:
     """What the robot reads of the pipe where it stands: the diameter from the rear
     half's wall-contact angles, the slope from the IMU."""
     if state is None:
-        return {"diameter_m": None, "pitch_rad": None}
-    angles = sorted(
-        abs(state.joint_angle_rad[m.name])
-        for m in robot.bend_modules(Half.REAR)
-        if m.name in state.joint_angle_rad
-    )
-    diameter = robot.clamp.diameter_for(angles[len(angles) // 2]) if angles else None
-    return {"diameter_m": diameter, "pitch_rad": state.imu_rad.get("pitch")}
+        return {"diameter_m": None, "front_diameter_m": None, "pitch_rad": None}
+    clamp = robot.clamp
+    tol = robot.safety.angle_tolerance
+    low = min(c.angle for c in clamp.contact_angles) - tol
+    high = max(c.angle for c in clamp.contact_angles) + tol
+
+    def diameter(half: Half, at_wall: bool) -> float | None:
+        angles = sorted(
+            abs(state.joint_angle_rad[m.name])
+            for m in robot.bend_modules(half)
+            if m.name in state.joint_angle_rad
+        )
+        if at_wall:  # a joint off the wall (over an opening) reads nothing
+            angles = [a for a in angles if low <= a <= high]
+        return clamp.diameter_for(angles[len(angles) // 2]) if angles else None
+
+    return {
+        "diameter_m": diameter(Half.REAR, False),
+        "front_diameter_m": diameter(Half.FRONT, True),
+        "pitch_rad": state.imu_rad.get("pitch"),
+    }
+
+
+def _behind_front_tip(robot: RobotDescription) -> dict[str, float]:
+    """How far each module's middle is behind the front tip."""
+    out: dict[str, float] = {}
+    behind = 0.0
+    for module in robot.modules:
+        out[module.name] = behind + module.length / 2
+        behind += module.length
+    return out
 
 
 def _decide(
@@ -285,6 +308,7 @@ def run_navigation(
     fixed_at_m = 0.0  # the odometer at the last fix
     failed_in_a_row = 0
     robot_length = robot_length_m(robot)
+    behind = _behind_front_tip(robot)
     try:
         for index in range(1, max_steps + 2):
             if ran is not None and ran.mission is not None and ran.mission.fixes:
@@ -310,6 +334,8 @@ def run_navigation(
                 choices=planner.choices if planner is not None else {},
                 history=tuple(history),
                 robot_length_m=robot_length,
+                imu_behind_m=behind[robot.rotational_module().name],
+                joint_behind_m=min(behind[m.name] for m in robot.bend_modules(Half.FRONT)),
                 **_sensed(robot, supervisor.state()),
             )
             if index > max_steps:

@@ -136,6 +136,7 @@ def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]
             "distance": abs(checked.distance_m),
             "velocity": speed if checked.distance_m > 0 else -speed,
             "stop_at_feature": checked.stop_at_feature and checked.distance_m > 0,
+            "stop_at_change": checked.stop_at_change,
         }
     elif pab in ("bend", "bend-back"):
         params = {"roll": checked.roll_rad}
@@ -245,12 +246,23 @@ def run_blind(
     elif (
         run.succeeded
         and step.pab == "straight"
-        and checked.stop_at_feature
-        and moved < checked.distance_m - 0.02
+        and (checked.stop_at_feature or checked.stop_at_change)
+        and abs(moved) < abs(checked.distance_m) - 0.02
     ):
         sensed = {getattr(n, "sensed", None) for n in runner.tree.root.iterate()}
-        how = (
-            "opening" if "front_opening" in sensed else "blocked" if "blocked" in sensed else "pab"
+        how = next(
+            (
+                how
+                for word, how in (
+                    ("front_opening", "opening"),
+                    ("rear_opening", "opening"),
+                    ("blocked", "blocked"),
+                    ("slope", "slope"),
+                    ("diameter", "diameter"),
+                )
+                if word in sensed
+            ),
+            "pab",
         )
         felt.append(Felt("feature", odometry[0], how=how))
     pab = PabOutcome(

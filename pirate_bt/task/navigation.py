@@ -20,7 +20,9 @@ command line (text with a unit, or SI numbers):
                                         ``slow=True`` at the inspection speed;
                                         ``stop_at_feature=True`` (no map) also stops
                                         early where a turn blocks the robot or the
-                                        front half is over an opening
+                                        front half is over an opening;
+                                        ``stop_at_change=True`` (no map) where the
+                                        slope or the diameter changes
 ``Step("bend", direction="right")``     pass the bend ahead (``up``, ``down``,
                                         ``left``, ``right``, or ``roll="90 deg"``)
 ``Step("t-joint", direction="left")``   pass the T-joint ahead (``left``, ``right``,
@@ -93,7 +95,7 @@ _TEE_WAYS = ("left", "right", "straight", "up", "down")
 _MAX_DISTANCE_M = 1000.0
 _MAX_WAIT_S = 3600.0
 _KNOWN: dict[str, tuple[str, ...]] = {
-    "straight": ("distance", "slow", "stop_at_feature"),
+    "straight": ("distance", "slow", "stop_at_feature", "stop_at_change"),
     "bend": ("direction", "roll"),
     "t-joint": ("direction",),
     "wait": ("time",),
@@ -153,6 +155,8 @@ class CheckedStep:
         distance_m: ``straight``: metres (negative backwards).
         slow: ``straight``: at the inspection speed.
         stop_at_feature: ``straight``: stop early at a turn or an opening.
+        stop_at_change: ``straight``: stop early where the slope (the IMU's pitch, by
+            0.5 degrees) or the diameter (the leading half's joints, by 2 mm) changes.
         roll_rad: ``bend``, ``bend-back``: the roll of the bend's plane.
         direction: ``bend``, ``t-joint`` and their backward twins: the direction
             word, when one was given.
@@ -163,6 +167,7 @@ class CheckedStep:
     distance_m: float = 0.0
     slow: bool = False
     stop_at_feature: bool = False
+    stop_at_change: bool = False
     roll_rad: float = 0.0
     direction: str | None = None
     time_s: float = 0.0
@@ -171,6 +176,11 @@ class CheckedStep:
         """The step as a line of the route language (docs/missions.md)."""
         pab = self.step.pab
         if pab == "straight":
+            if self.stop_at_change:
+                raise InvalidStep(
+                    f"{self.step!r}: stop_at_change is for a pipe with no map (a survey);"
+                    " with a map, the legs stop at the map's features"
+                )
             verb = "forward" if self.distance_m >= 0 else "back"
             slowly = " slowly" if self.slow else ""
             return f"{verb} {abs(self.distance_m):.4f} m{slowly}"
@@ -249,6 +259,7 @@ def check_step(step: object) -> CheckedStep:
             distance_m=distance,
             slow=_flag(step, "slow"),
             stop_at_feature=_flag(step, "stop_at_feature"),
+            stop_at_change=_flag(step, "stop_at_change"),
         )
     if step.pab in ("bend", "bend-back"):
         direction = step.params.get("direction")
@@ -315,7 +326,8 @@ class Felt:
             ``probe-turn``), ``tee`` (an opening sensed by the joints, or passed),
             ``end`` (``probe-turn`` found no way on: the end of the pipe), ``opening``
             (``probe-tee`` found an opening but no branch it could steer into), or, without
-            a map, ``feature`` (a straight step with ``stop_at_feature`` stopped early).
+            a map, ``feature`` (a straight step with ``stop_at_feature`` or
+            ``stop_at_change`` stopped early).
         at_m: The belief when it was felt.
         segment: The map's segment it was matched to (``None`` without a map).
         direction: ``bend``: the direction of the turn (taken, or found by a probe);
@@ -323,7 +335,8 @@ class Felt:
         how: What sensed it (``imu``, ``joints``, ``pab``, ``back`` (passed
             backwards by ``bend-back`` or ``t-joint-back``), ``probe``; for a
             ``feature``: ``blocked``, every drive at stall current with no progress,
-            or ``opening``, a front joint swung off the wall).
+            ``opening``, a front joint swung off the wall, ``slope``, the IMU's pitch
+            changed, or ``diameter``, a leading joint at the wall read another diameter).
     """
 
     kind: str
@@ -374,6 +387,12 @@ class Observation:
             wall-contact angles (``None`` without a reading).
         pitch_rad: The pipe's slope at the rotational module, from the IMU (positive
             uphill; ``None`` without a reading).
+        front_diameter_m: The same as ``diameter_m`` where the front half is, from its
+            joints at the wall (``None`` when none is, e.g. over an opening).
+        imu_behind_m: How far the IMU (the rotational module's middle) is behind the
+            front tip: where a ``slope`` change was felt.
+        joint_behind_m: How far the front half's first bend module (its middle) is
+            behind the front tip: where an opening or a ``diameter`` change was felt.
     """
 
     step: int
@@ -387,6 +406,9 @@ class Observation:
     robot_length_m: float = 0.0
     diameter_m: float | None = None
     pitch_rad: float | None = None
+    front_diameter_m: float | None = None
+    imu_behind_m: float = 0.0
+    joint_behind_m: float = 0.0
 
     def next_feature(self) -> Ahead | None:
         """The next bend or T-joint ahead on the map, along the way taken so far.
