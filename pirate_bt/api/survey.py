@@ -99,6 +99,7 @@ def survey(
     radius: str | float = "90 mm",
     name: str = "surveyed",
     firmware: bool = False,
+    extend: Any = None,
 ) -> SurveyResult:
     """Survey a network with no map and write what was found as a network file.
 
@@ -117,6 +118,12 @@ def survey(
         radius: The bends' centre-line radius (assumed, not measured).
         name: The surveyed network's name.
         firmware: Simulator only: run it through the real firmwares in simavr.
+        extend: A surveyed network (a file, a ``Network`` or its spec) with a tee
+            branch left as a stub (a branch the robot could not back out of): this
+            survey is a second insertion. It drives to the first stub, choosing at
+            each tee by the survey, surveys that branch, and writes the surveyed
+            network with it filled in (``output`` may be the same file). Stubs it
+            leaves are in ``unexplored``, for a further insertion.
 
     Returns:
         SurveyResult: The navigation and the network found; a survey that stops is a
@@ -134,8 +141,13 @@ def survey(
         print(result.summary())
         mission = pirate_bt.simulate_mission("my.route", network="surveyed.yaml",
                                              truth="t-joint")
+        # a branch left as a stub: put the robot in again
+        if result.unexplored:
+            pirate_bt.survey(sim="t-joint", extend="surveyed.yaml", output="surveyed.yaml")
     """
-    explore = ExploreNavigator(output=output, search=search, radius=radius, name=name)
+    explore = ExploreNavigator(
+        output=output, search=search, radius=radius, name=name, extend=extend
+    )
     navigation = navigate(
         explore,
         sim=sim,

@@ -1,7 +1,8 @@
 """``pirate-bt survey``: map a network nobody has drawn, and write it as a network file.
 
 The command parses, calls :func:`pirate_bt.survey` and prints: one line per
-decision (unless ``--quiet``) and the survey's summary. Exit codes: 0 every line
+decision (unless ``--quiet``) and the survey's summary. ``--extend SURVEYED`` is a
+second insertion into the first branch a survey left as a stub. Exit codes: 0 every line
 surveyed to its end, 1 the survey stopped (robot left safe) or left branches
 unsurveyed (named; what was surveyed is written), 2 bad input, 3 link error.
 """
@@ -27,6 +28,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "-o", "--output", metavar="FILE", required=True, help="where to write the network (.yaml)"
     )
     parser.add_argument("--name", default="surveyed", help="the network's name (default surveyed)")
+    parser.add_argument(
+        "--extend",
+        metavar="SURVEYED",
+        help="a second insertion: drive to the first branch this surveyed network left as a"
+        " stub, survey it and write the network with it filled in (-o may name the same file)",
+    )
     parser.add_argument(
         "--search",
         default="3 m",
@@ -60,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         trace=args.trace,
         max_time=args.max_time,
         firmware=args.firmware_chain,
+        extend=args.extend,
     )
     if not args.quiet:
         print_decisions(result.navigation.decisions)

@@ -61,6 +61,7 @@ from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M
 from pirate_bt.errors import InputError
+from pirate_bt.task.explore_extend import Extension, load_extension
 from pirate_bt.task.navigation import Felt, Observation, Step
 from pirate_bt.units import parse_quantity
 
@@ -155,6 +156,10 @@ class ExploreNavigator:
         search: How far one straight step drives before it looks again.
         radius: The bends' centre-line radius (the robot does not measure it yet).
         name: The surveyed network's name.
+        extend: A surveyed network (a file or a ``NetworkSpec``) with a tee branch
+            left as a stub: a second insertion drives to the first stub, choosing at
+            each tee by the survey, surveys that branch and writes the network with it
+            filled in (:mod:`pirate_bt.task.explore_extend`).
     """
 
     def __init__(
@@ -163,6 +168,7 @@ class ExploreNavigator:
         search: str | float = "3 m",
         radius: str | float = "90 mm",
         name: str = "surveyed",
+        extend: Any = None,
     ) -> None:
         self.output = Path(output) if output is not None else None
         self.search_m = _metres(search, "search")
@@ -191,6 +197,15 @@ class ExploreNavigator:
         # a diameter change felt, the cone being passed: where, and the IMU's pitch then
         self._cone: tuple[float, float | None] | None = None
         self._diameter_now = 0.0  # the diameter the current line carries
+        self._extension: Extension | None = None
+        self._way: list[int] | None = None  # a second insertion, on its way to the stub
+        self._tees_met = 0  # on the line the robot is in, on that way
+        if extend is not None:
+            self._extension = load_extension(extend)
+            self._way = list(self._extension.way)
+            self.segments = self._extension.data["segments"]
+            self._line = []  # what the way to the stub passes is surveyed already
+            self._diameter_m = self._diameter_now = self._extension.diameter_m
 
     # -- the loop
 
@@ -309,6 +324,8 @@ class ExploreNavigator:
         a, b = OPENING_STOP
         start = self._opening_m - (a + b * diameter)
         self._close_straight(obs, start)
+        if self._way is not None:
+            return self._on_the_way(obs, felt.direction, start, diameter)
         segment: dict[str, Any] = {
             "id": self._id("tee"),
             "type": "tee",
@@ -322,10 +339,43 @@ class ExploreNavigator:
         self._trail.append(_Passed("t-joint-back", "straight", self._from_m))
         return Step("t-joint", direction="straight")
 
+    def _on_the_way(self, obs: Observation, side: str, start: float, diameter: float) -> Step:
+        """A second insertion met a tee: straight on, or into the branch on the way."""
+        assert self._way is not None and self._extension is not None
+        ordinal, self._tees_met = self._tees_met, self._tees_met + 1
+        if ordinal != self._way[0]:
+            self._from_m = start + 3 * diameter
+            self._trail.append(_Passed("t-joint-back", "straight", self._from_m))
+            return Step("t-joint", direction="straight")
+        expected = self._extension.sides[len(self._extension.way) - len(self._way)]
+        if side != expected:
+            raise self._incomplete(
+                f"the pipe is not as surveyed: tee {ordinal + 1} on the way to"
+                f" {self._extension.stub_name}'s branch leaves {side}, the survey has {expected}"
+            )
+        self._way.pop(0)
+        self._tees_met = 0
+        if self._way:  # a branch surveyed already, on the way to the stub
+            segment: dict[str, Any] = {
+                "id": f"the branch on the way to {self._extension.stub_name}",
+                "branch": {"direction": side, "segments": []},
+            }
+        else:  # the stub: what is found from here is written into it
+            segment = self._extension.stub
+            self._way = None
+            self._counts = dict(self._extension.counts)
+        self._target = _Tee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+        return self._return(obs)
+
     # -- the end of a line, and the way back to a branch
 
     def _line_done(self, obs: Observation) -> Step | None:
         """The line ends here: back to the newest pending branch, or the survey is done."""
+        if self._way is not None and self._extension is not None:
+            raise self._incomplete(
+                f"the pipe is not as surveyed: the line ended before the way to"
+                f" {self._extension.stub_name}'s branch"
+            )
         while self._pending:
             tee = self._pending[-1]
             others = any(branch_leavable(t.diameter_m) for t in self._pending[:-1])
@@ -335,6 +385,11 @@ class ExploreNavigator:
                 return self._return(obs)
             self.unexplored.append(f"{tee}: not entered, the robot cannot back out of it")
             self._pending.pop()
+        if self._extension is not None:  # stubs of the first insertion not this one's
+            self.unexplored.extend(
+                f"{other}: not entered, a further insertion surveys it"
+                for other in self._extension.others
+            )
         self._write(None)
         if self.unexplored:
             raise self._incomplete("not every branch was surveyed: " + "; ".join(self.unexplored))
@@ -441,6 +496,8 @@ class ExploreNavigator:
             return  # nothing surveyed: no network to write
         diameter = self._diameter_m
         about = "Surveyed by pirate_bt's explore navigator"
+        if self._extension is not None:
+            about += f", {self._extension.stub_name}'s branch by a second insertion,"
         about += f"; {stopped}" if stopped else " to the end of every line"
         data: dict[str, Any] = {
             "schema_version": 1,

@@ -1,0 +1,122 @@
+"""A second insertion: extend a surveyed network into a branch the first one left as a stub.
+
+A branch the robot cannot back out of (docs/pabs.md) is entered only as a survey's
+last act, so one insertion leaves the others as *stubs*: tees whose branch has no
+segments, named in :attr:`~pirate_bt.ExploreNavigator.unexplored`. The robot is
+pulled out by its tether and put in again; :class:`~pirate_bt.ExploreNavigator`
+given ``extend=`` then drives the way to the first stub (depth-first, main line
+first), choosing at each tee it meets by the surveyed network's order, turns into
+the stub's branch and surveys it as a first insertion would. The network written
+is the surveyed one with that branch filled in; everything else is kept as it was
+surveyed.
+
+This module reads the surveyed network: where the stubs are and the way to the
+first one. The driving is the navigator's.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import InputError
+
+__all__ = ["Extension", "load_extension"]
+
+_ID = re.compile(r"^(run|bend|tee|reducer)-(\d+)$")
+_KINDS = {"run": "straight", "bend": "bend", "tee": "tee", "reducer": "reducer"}
+
+
+@dataclass
+class Extension:
+    """The surveyed network and the way to its first stub.
+
+    Attributes:
+        data: The network file's data (segments as the file writes them); the
+            stub's branch is filled in place.
+        way: On each line from the main line down, the ordinal (from 0) of the tee
+            the robot turns into; the last is the stub's.
+        sides: The side each of those tees' branch leaves on, as surveyed.
+        stub: The stub tee's segment (in ``data``).
+        others: The other stubs, named (a further insertion surveys them).
+        counts: The highest number in the surveyed ids per kind (``run-3``: 3
+            straights), so that new ids follow on.
+        diameter_m: The network's diameter.
+    """
+
+    data: dict[str, Any]
+    way: list[int]
+    sides: list[str]
+    stub: dict[str, Any]
+    others: list[str] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=dict)
+    diameter_m: float = 0.063
+
+    @property
+    def stub_name(self) -> str:
+        return str(self.stub.get("id") or "the stub")
+
+
+def _stubs(segments: list[dict[str, Any]], way: list[int], sides: list[str]) -> list[Any]:
+    """Every stub, depth-first: ``(way, sides, segment)``."""
+    out: list[Any] = []
+    ordinal = 0
+    for seg in segments:
+        if seg.get("type") != "tee":
+            continue
+        branch = seg.get("branch") or {}
+        here = [*way, ordinal]
+        side = [*sides, str(branch.get("direction"))]
+        if not branch.get("segments"):
+            out.append((here, side, seg))
+        else:
+            out.extend(_stubs(branch["segments"], here, side))
+        ordinal += 1
+    return out
+
+
+def _counts(segments: list[dict[str, Any]], counts: dict[str, int]) -> None:
+    for seg in segments:
+        found = _ID.match(str(seg.get("id", "")))
+        if found:
+            kind = _KINDS[found.group(1)]
+            counts[kind] = max(counts.get(kind, 0), int(found.group(2)))
+        if seg.get("type") == "tee":
+            _counts((seg.get("branch") or {}).get("segments") or [], counts)
+
+
+def load_extension(source: Any) -> Extension:
+    """Read a surveyed network (a path or a ``NetworkSpec``/``Network``) to extend.
+
+    Raises:
+        InputError: it cannot be read, or it has no stub to extend.
+    """
+    import yaml
+
+    from pirate_bt.pipes import load_network
+    from pirate_bt.pipes.asbuilt import network_yaml
+
+    spec = getattr(source, "spec", source)
+    if isinstance(source, str | Path):
+        spec = load_network(Path(source)).spec
+    data = yaml.safe_load(network_yaml(spec))
+    stubs = _stubs(data["segments"], [], [])
+    if not stubs:
+        raise InputError(
+            f"survey --extend: {getattr(spec, 'name', source)!r} has no tee branch left as a"
+            " stub: there is nothing to extend"
+        )
+    way, sides, stub = stubs[0]
+    counts: dict[str, int] = {}
+    _counts(data["segments"], counts)
+    return Extension(
+        data=data,
+        way=list(way),
+        sides=list(sides),
+        stub=stub,
+        others=[f"{seg.get('id') or 'a tee'}'s branch" for _, _, seg in stubs[1:]],
+        counts=counts,
+        diameter_m=float(spec.diameter),
+    )
