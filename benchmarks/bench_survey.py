@@ -12,13 +12,15 @@ bounds, the simulator's seed the variant's number). Per network it prints:
   none invented; ``tests/test_explore.py``, ``_same_network``);
 - the same *but for the known limits*: a tee branch written as a stub (no
   segments) and named in ``SurveyResult.unexplored`` (a branch the robot cannot
-  back out of), and a reducer or a slope change inside a straight, which the
-  survey does not see yet (docs/navigators.md, ``explore``): the truth's run of
+  back out of, left after ``--insertions`` insertions: each one after the first is
+  ``survey(extend=...)`` into the first stub), and a reducer or a slope change
+  inside a straight not seen (a slope change under 0.5 degrees): the truth's run of
   straights and reducers between two other features is then one straight;
 - segments surveyed against segments in the truth (every kind, every line);
 - the length error of every straight matched (median and worst, in mm and in %)
   and the straights outside 2 % or 0.05 m (the target of issue 28);
-- clock seconds per metre of pipe in the truth network, wall seconds per survey;
+- clock seconds per metre of pipe in the truth network, wall seconds per survey
+  (both over every insertion), and how many insertions it took;
 - simulator violations and damage (both must be 0), and wheel slip episodes;
 - the first cause of every survey that did not complete, and every topology
   difference, grouped.
@@ -238,8 +240,12 @@ def compare(found_spec: Any, truth_spec: Any, unexplored: list[str]) -> dict[str
 # --- one case -----------------------------------------------------------------------
 
 
-def run_case(name: str, variant: int | None, scale: float) -> dict[str, Any]:
-    """One survey: a plain record (picklable) of how it went and what it found."""
+def run_case(name: str, variant: int | None, scale: float, insertions: int = 2) -> dict[str, Any]:
+    """One survey: a plain record (picklable) of how it went and what it found.
+
+    A survey that leaves a branch as a stub is extended by a further insertion
+    (``survey(extend=...)``), up to ``insertions`` in all; the clock, steps and
+    counters are the sums over them."""
     logging.disable(logging.WARNING)
     from pirate_bt import survey
     from pirate_bt.pipes import Network, load_network
@@ -260,6 +266,10 @@ def run_case(name: str, variant: int | None, scale: float) -> dict[str, Any]:
     started = time.perf_counter()
     try:
         result = survey(sim=truth, seed=variant or 0)
+        runs = [result]
+        while result.unexplored and result.network is not None and len(runs) < insertions:
+            result = survey(sim=truth, seed=variant or 0, extend=result.network)
+            runs.append(result)
     except Exception as exc:  # a survey that raises is a finding, not the end of the run
         row.update(
             ok=False,
@@ -278,18 +288,21 @@ def run_case(name: str, variant: int | None, scale: float) -> dict[str, Any]:
             unexplored=[],
         )
         return row
-    nav = result.navigation
+    navs = [r.navigation for r in runs]
     row.update(
         ok=result.succeeded,
         why=result.why,
+        insertions=len(runs),
         wall_s=time.perf_counter() - started,
-        sim_time_s=nav.sim_time_s,
-        steps=nav.steps,
-        driven_m=float(nav.sim.get("distance_m", 0.0)),
+        sim_time_s=sum(nav.sim_time_s for nav in navs),
+        steps=sum(nav.steps for nav in navs),
+        driven_m=sum(float(nav.sim.get("distance_m", 0.0)) for nav in navs),
         # the supervisor's tally and the simulator's own counters: the larger of the two
-        violations=max(int(nav.counters.violations), int(nav.sim.get("violations", 0))),
-        damage=max(int(nav.counters.damage), int(nav.sim.get("damage", 0))),
-        slip_events=int(nav.sim.get("slip_events", 0)),
+        violations=sum(
+            max(int(nav.counters.violations), int(nav.sim.get("violations", 0))) for nav in navs
+        ),
+        damage=sum(max(int(nav.counters.damage), int(nav.sim.get("damage", 0))) for nav in navs),
+        slip_events=sum(int(nav.sim.get("slip_events", 0)) for nav in navs),
         unexplored=list(result.unexplored),
         surveyed_m=result.network.total_length_m() if result.network is not None else 0.0,
     )
@@ -338,9 +351,9 @@ def table(rows: list[dict[str, Any]], wall: float, workers: int) -> None:
         "| network | runs | surveys complete | topology exact | exact but for known limits"
         " | segments surveyed / truth | straights | length error p50 | max"
         " | outside 2 % / 0.05 m | clock s / m of pipe | wall s / survey | violations / damage"
-        " | wheel slip episodes (runs) |"
+        " | wheel slip episodes (runs) | insertions |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
         mine = [r for r in rows if r["network"] == name]
         pairs = [p for r in mine for p in r["straights"]]
@@ -363,7 +376,7 @@ def table(rows: list[dict[str, Any]], wall: float, workers: int) -> None:
             f" (max {max(walls):.1f})"
             f" | {sum(r['violations'] for r in mine)} / {sum(r['damage'] for r in mine)}"
             f" | {sum(r['slip_events'] for r in mine)} ({sum(r['slip_events'] > 0 for r in mine)})"
-            " |"
+            f" | {_span([r.get('insertions', 1) for r in mine])} |"
         )
     print()
     for name in names:
@@ -428,6 +441,12 @@ def main(argv: list[str] | None = None) -> int:
         "--networks", default=",".join(NETWORKS), help="bundled networks, comma-separated"
     )
     parser.add_argument("--no-drawing", action="store_true", help="variants only")
+    parser.add_argument(
+        "--insertions",
+        type=int,
+        default=2,
+        help="insertions per survey at most: a branch left as a stub is surveyed by another",
+    )
     parser.add_argument("--workers", type=int, default=2, help="process pool size")
     parser.add_argument("--rows", type=argparse.FileType("a"), help="append every case here")
     parser.add_argument(
@@ -453,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     rows: list[dict[str, Any]] = []
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [pool.submit(run_case, name, v, args.scale) for name, v in cases]
+        futures = [pool.submit(run_case, name, v, args.scale, args.insertions) for name, v in cases]
         for future in as_completed(futures):
             row = future.result()
             rows.append(row)
