@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import textwrap
@@ -264,11 +265,16 @@ def _swapped_lab(tmp_path: Path) -> Path:
 def test_a_pipe_not_as_drawn_is_named_as_the_cause(tmp_path: Path) -> None:
     result = pirate_bt.simulate_mission("lab.route", truth=_swapped_lab(tmp_path))
     assert not result.succeeded and result.safe_state
-    failed = result.failed_pab
-    assert failed is not None and failed.kind == "bend" and failed.why.startswith("blocked")
-    # the mission blames the map, not the bend PAB
-    assert result.why.startswith("map disagreement at "), result.why
-    assert "bend 'bend-b'" in result.why and failed.label in result.why
+    # the leg after tee-1 is blocked 3 m on, where the map has no turn within the
+    # matcher's reach: the disagreement is named there, after the tee, and no turn is tried
+    assert result.why.startswith("belief and map disagree: the pipe blocked the robot at")
+    after = re.search(r"(\d+\.\d+) m after 'tee-1'", result.why)
+    assert after is not None and 2.8 <= float(after.group(1)) <= 3.2, result.why
+    d = result.disagreement
+    assert d is not None and d.feature == "bend-b" and d.expected is not None
+    assert "blocking" in (d.sensed or "")
+    bend_b = next(p for p in result.pabs if "bend-b" in p.label)
+    assert bend_b.outcome == "not run"
     assert result.counters.violations == 0 and result.counters.damage == 0
 
 

@@ -217,3 +217,17 @@ def test_a_turn_too_far_from_the_maps_for_its_order_is_a_disagreement(
     drive(loc, robot, world, plan.start_m, world.length_m)
     assert loc.mismatch is not None and "where the map has no turn within" in loc.mismatch
     assert loc.disagreement is not None and loc.disagreement.feature == "bend"
+
+
+def test_blocked_where_the_map_has_no_turn_is_a_disagreement(robot: RobotDescription) -> None:
+    plan = _bend_right_plan(robot)
+    loc = Localiser(plan, robot)
+    drive(loc, robot, plan.path, plan.start_m, 1.2)
+    loc.blocked(10.0)  # 0.8 m before the bend: further than the reach
+    assert loc.mismatch is not None and "the pipe blocked the robot at" in loc.mismatch
+    d = loc.disagreement
+    assert d is not None and d.feature == "bend" and d.sensed is not None
+    near = Localiser(plan, robot)
+    drive(near, robot, plan.path, plan.start_m, 1.9)
+    near.blocked(10.0)  # at the bend (the map's or a little before): what a bend does
+    assert near.mismatch is None

@@ -457,6 +457,39 @@ class Localiser:
                 )
                 return
 
+    def blocked(self, time_s: float) -> None:
+        """A forward leg stopped *blocked* (every wheel at stall current, no progress),
+        the front tip at the belief: the map must have a feature or the line's end
+        within the reach of some part of the robot. If not, the pipe turns (or ends)
+        where the map has it go on: a disagreement, named before any turn is tried
+        (a tee whose main and branch are swapped in the ground leads into the other
+        pipe, which turns where the map has none)."""
+        if self.mismatch is not None:
+            return
+        reach = self.reach()
+        front, rear = self.belief_m, self.belief_m - self.plan.robot_length_m
+        if front >= self.plan.path.length_m - reach:
+            return
+        for piece in self.plan.path.pieces:
+            if piece.kind.value != "straight" and (
+                piece.start_m - reach <= front and rear <= piece.end_m + reach
+            ):
+                return
+        after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""
+        self.mismatch = (
+            f"belief and map disagree: the pipe blocked the robot at {front:.2f} m"
+            f" (believed{after}), where the map has no turn and no end within {reach:.2f} m"
+        )
+        turn = self._next_turn()
+        self._disagree(
+            time_s,
+            turn,
+            "the pipe blocking the way (a turn or an end)",
+            "every drive at stall current with no progress, ending a forward leg",
+            reach,
+            None,
+        )
+
     def _near_turn(self, at_m: float) -> bool:
         """Whether ``at_m`` is within a turn of the path (or the reach around one)."""
         window = self.reach()

@@ -145,6 +145,13 @@ def leg_distance_m(
     return max(distance, 0.0), why
 
 
+def _stopped_blocked(node: Any, pab: PlannedPab | None) -> bool:
+    """A forward straight leg whose drive stopped early, blocked by the pipe."""
+    if pab is None or pab.pab != "straight" or pab.end_m <= pab.start_m:
+        return False
+    return any(getattr(n, "sensed", None) == "blocked" for n in node.iterate())
+
+
 @dataclass(frozen=True, slots=True)
 class Sample:
     """Belief and truth at one tick (for the report's plot)."""
@@ -363,6 +370,7 @@ def run_mission(
     samples: list[Sample] = []
     route_node = runner.tree.root.children[-1]
     current: list[str | None] = [None]
+    running: list[Any] = [None]  # the PAB node of the leg running
     blackboard = py_trees.blackboard.Client(name="localiser")
     blackboard.register_key(MAP_OK_KEY, access=py_trees.common.Access.WRITE)
     blackboard.register_key(LEG_DISTANCE_KEY, access=py_trees.common.Access.WRITE)
@@ -389,8 +397,12 @@ def run_mission(
         child = getattr(route_node, "current_child", None)
         name = child.name if child is not None and child.status.name == "RUNNING" else None
         if name is not None and name != current[0]:
+            ended = running[0]
+            if ended is not None and _stopped_blocked(ended, pabs.get(ended.name)):
+                localiser.blocked(state.stamp_s if state is not None else now)
             timeline.append(TimelineEntry(now, name, localiser.belief_m, localiser.truth_m))
             start_leg(name)
+            running[0] = child
         current[0] = name or current[0]
         if localiser.mismatch is not None and blackboard.get(MAP_OK_KEY):
             reason_box[0] = localiser.mismatch
