@@ -51,10 +51,19 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
+from pirate_bt.task.fixes import (
+    Disagreement,
+    Fix,
+    Vec3,
+    angle_between,
+    cross,
+    imu_tangent,
+    roll_name,
+    wrap_angle,
+)
 from pirate_bt.task.planner import MapFeature, MissionPlan
 
 __all__ = [
@@ -91,118 +100,6 @@ of the distance since the last fix from where the map has it, beyond the toleran
 _DIRECTION_MARGIN_RAD = math.radians(50.0)
 _OPENING_MARGIN_RAD = 0.15
 _UNEXPECTED_TURN_RAD = math.radians(30.0)
-
-Vec3 = tuple[float, float, float]
-
-
-def imu_tangent(imu_rad: dict[str, float] | None) -> Vec3 | None:
-    """The pipe's direction at the IMU, from its pitch and yaw (``None`` without an IMU)."""
-    if not imu_rad or "pitch" not in imu_rad or "yaw" not in imu_rad:
-        return None
-    pitch, yaw = imu_rad["pitch"], imu_rad["yaw"]
-    return (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
-
-
-def _cross(a: Vec3, b: Vec3) -> Vec3:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
-_ROLL_NAMES = ((0.0, "up"), (math.pi / 2, "right"), (math.pi, "down"), (-math.pi / 2, "left"))
-
-
-def _roll_name(roll_rad: float) -> str:
-    """The nearest of up, right, down and left for a turn's roll."""
-    return min(_ROLL_NAMES, key=lambda named: abs(_wrap(roll_rad - named[0])))[1]
-
-
-def _angle(a: Vec3, b: Vec3) -> float:
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    return math.acos(max(-1.0, min(1.0, dot)))
-
-
-@dataclass(frozen=True, slots=True)
-class Fix:
-    """One correction of the belief at a recognised feature.
-
-    Attributes:
-        time_s: Clock time of the fix.
-        feature: Segment id of the feature.
-        how: ``imu`` (a turn) or ``joints`` (a T-joint's opening).
-        before_m: Belief just before the fix.
-        after_m: Belief after it.
-        truth_m: Simulator truth at the fix, when known.
-        since_fix_m: Distance driven since the previous fix (or the start).
-        confidence: How well the place fits the map: ``exp(-z**2 / 2)``, ``z`` the
-            correction over half the stated tolerance (1 where the map has it, 0.14 at
-            the tolerance's edge, lower out in the matcher's reach).
-    """
-
-    time_s: float
-    feature: str
-    how: str
-    before_m: float
-    after_m: float
-    truth_m: float | None = None
-    since_fix_m: float = 0.0
-    confidence: float = 1.0
-
-    @property
-    def error_after_m(self) -> float | None:
-        """Belief minus truth after the fix."""
-        return None if self.truth_m is None else self.after_m - self.truth_m
-
-    @property
-    def correction_m(self) -> float:
-        return self.after_m - self.before_m
-
-    @property
-    def drift_per_m(self) -> float:
-        """The correction per metre driven since the previous fix (map error plus odometry)."""
-        return self.correction_m / self.since_fix_m if self.since_fix_m > 0 else 0.0
-
-
-@dataclass(frozen=True, slots=True)
-class Disagreement:
-    """Where belief and map parted.
-
-    Attributes:
-        time_s: Clock time it was found.
-        belief_m: The belief then (on the map's path).
-        expected: The feature the map has there (``"bend 'bend-a' at 4.00-4.14 m"``),
-            or ``None`` when the map has none.
-        sensed: What the sensors found (``"a turn of 88 deg"``, ``"an opening"``), or
-            ``None`` when they found nothing.
-        evidence: The sensor readings behind it, for people.
-        window_m: The tolerance it was searched within.
-        feature: The map feature's segment id, if any.
-        sensed_at_m: Where on the map the sensed feature is (an opening: where the
-            module that felt it is), if anything was sensed there.
-        sensed_by: The module whose sensor felt it.
-    """
-
-    time_s: float
-    belief_m: float
-    expected: str | None
-    sensed: str | None
-    evidence: str
-    window_m: float
-    feature: str | None = None
-    sensed_at_m: float | None = None
-    sensed_by: str | None = None
-
-    def describe(self) -> str:
-        """One line: ``belief and map disagree at 4.62 m: ...``."""
-        expected = self.expected or "no feature"
-        sensed = self.sensed or "nothing"
-        return (
-            f"belief and map disagree at {self.belief_m:.2f} m (believed): the map has"
-            f" {expected} within {self.window_m:.2f} m, the robot sensed {sensed}"
-            f" ({self.evidence})"
-        )
 
 
 def _where(feature: MapFeature) -> str:
@@ -352,7 +249,7 @@ class Localiser:
 
     def _turns(self, tangent: Vec3, imu_m: float, state: RobotState) -> None:
         assert self._heading_ref is not None
-        swung = _angle(tangent, self._heading_ref)
+        swung = angle_between(tangent, self._heading_ref)
         turn = self._next_turn()
         reach = self.reach()
         near = turn is not None and turn.start_m - reach <= imu_m <= turn.end_m + reach
@@ -363,8 +260,8 @@ class Localiser:
         )
         if turn is not None and near and swung >= turn.angle_rad / 2:
             felt = self._felt_roll(turn, self._heading_ref, tangent)
-            if felt is not None and abs(_wrap(felt - turn.roll_rad)) > _DIRECTION_MARGIN_RAD:
-                way, drawn = _roll_name(felt), _roll_name(turn.roll_rad)
+            if felt is not None and abs(wrap_angle(felt - turn.roll_rad)) > _DIRECTION_MARGIN_RAD:
+                way, drawn = roll_name(felt), roll_name(turn.roll_rad)
                 self.mismatch = (
                     f"belief and map disagree: the pipe turned {way} by"
                     f" {math.degrees(swung):.0f} deg at {self.belief_m:.2f} m (believed),"
@@ -401,7 +298,7 @@ class Localiser:
     def _felt_roll(self, turn: MapFeature, before: Vec3, now: Vec3) -> float | None:
         """The roll of the turn felt (``before`` to ``now``) in the map's frame at ``turn``."""
         tangent, up = self.plan.path.frame_at(turn.start_m)
-        right = _cross(tangent, up)
+        right = cross(tangent, up)
         along = sum(a * b for a, b in zip(now, before, strict=True))
         d = tuple(a - along * b for a, b in zip(now, before, strict=True))
         if math.sqrt(sum(c * c for c in d)) < 1e-6:
@@ -540,7 +437,9 @@ class Localiser:
                 f" {self.belief_m:.2f} m (believed)"
             )
             swung = (
-                _angle(imu_tangent(dict(state.imu_rad)) or self._heading_ref, self._heading_ref)
+                angle_between(
+                    imu_tangent(dict(state.imu_rad)) or self._heading_ref, self._heading_ref
+                )
                 if self._heading_ref is not None
                 else 0.0
             )
