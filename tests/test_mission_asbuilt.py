@@ -240,3 +240,19 @@ def test_extra_tee_with_no_clear_meaning_stops_safe() -> None:
     assert d is not None and d.expected is None and d.sensed is not None
     assert "opening" in d.sensed and d.sensed_by == "bend_1"
     assert d.sensed_at_m == pytest.approx(2.5 + 0.0945, abs=0.15)
+
+
+def test_a_branch_on_the_other_side_than_drawn_is_a_named_disagreement(tmp_path: Path) -> None:
+    text = (REPO / "scenarios" / "lab.yaml").read_text()
+    tee = text.index("id: tee-1")
+    side = text.index("direction: left", tee)
+    built = text[:side] + "direction: right" + text[side + len("direction: left") :]
+    truth = tmp_path / "lab-other-side.yaml"
+    truth.write_text(built.replace("name: lab", "name: lab-other-side"))
+    result = simulate_mission(REPO / "scenarios" / "lab-service.route", truth=str(truth))
+    assert not result.succeeded and result.run.safe_state_called
+    assert result.why.startswith("map disagreement at "), result.why
+    assert "T-joint 'tee-1' (left)" in result.why and "no turn or opening" in result.why
+    failed = result.failed_pab
+    assert failed is not None and failed.kind == "t-joint" and failed.why.startswith("no feature")
+    assert result.sim["violations"] == 0 and result.sim["damage"] == 0

@@ -32,6 +32,7 @@ import py_trees
 from pirate_bt.behaviours.cause import failure_cause, path_of
 from pirate_bt.runner import RunResult, StopReason
 from pirate_bt.safety.tally import SafeStateEntry
+from pirate_bt.task.fixes import roll_name
 
 __all__ = ["END_OF_RUN", "PabOutcome", "explain_run", "map_cause", "pab_outcomes"]
 
@@ -197,18 +198,35 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
 
     A drive *blocked* (every wheel at stall current, no progress) is the pipe in the
     way: a turn the map does not have, a tee's branch where it has a bend, a bend
-    that is not the one drawn. One motor drawing stall current alone is a motor's
-    trouble, not the map's.
+    that is not the one drawn. A bend or T-joint PAB whose sensing drove its whole
+    search without meeting the feature (``no feature (...) within 3 m``) is the pipe
+    not turning, or a branch not on the map's side. One motor drawing stall current
+    alone is a motor's trouble, not the map's.
 
     Args:
         pab: The PAB that failed.
         planned: The plan's :class:`~pirate_bt.task.plan.PlannedPab` for it, if known.
         belief_m: Where the robot believed it was.
     """
-    if pab.outcome != "failure" or not pab.why.startswith("blocked"):
+    if pab.outcome != "failure":
+        return None
+    feature = getattr(planned, "feature", None)
+    if pab.why.startswith("no feature (") and feature and pab.kind in ("bend", "t-joint"):
+        # the PAB's sensing drove its whole search without meeting the feature
+        drawn = "bend" if pab.kind == "bend" else "T-joint"
+        params = getattr(planned, "params", None) or {}
+        way = params.get("direction")
+        if not isinstance(way, str) and isinstance(params.get("roll"), int | float):
+            way = roll_name(float(params["roll"]))
+        toward = f" ({way})" if isinstance(way, str) else ""
+        return (
+            f"map disagreement at {belief_m:.2f} m (believed): the pipe is not as drawn at"
+            f" {drawn} {feature!r}{toward}: the PAB's search met no turn or opening there"
+            f" ({pab.label}: {pab.why})"
+        )
+    if not pab.why.startswith("blocked"):
         return None
     where = f"map disagreement at {belief_m:.2f} m (believed): the pipe blocked the robot"
-    feature = getattr(planned, "feature", None)
     if planned is not None and feature and pab.kind in ("bend", "t-joint"):
         drawn = "bend" if pab.kind == "bend" else "T-joint"
         what = f" at what the map has as {drawn} {feature!r}: the pipe there is not as drawn"
