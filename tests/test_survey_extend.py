@@ -87,3 +87,14 @@ def test_a_pipe_that_is_not_as_surveyed_stops_the_second_insertion_at_the_tee(
 def test_a_network_with_no_stub_has_nothing_to_extend(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="nothing to extend"):
         pirate_bt.survey(sim="straight", extend="straight", output=tmp_path / "s.yaml")
+
+
+def test_a_survey_out_of_time_stops_safe_and_keeps_what_it_surveyed(tmp_path: Path) -> None:
+    out = tmp_path / "s.yaml"
+    result = pirate_bt.survey(sim="lab", output=out, max_time="150 s")
+    assert not result.succeeded and result.navigation.safe_state
+    assert result.why.startswith("navigation time limit reached (150 s) in step"), result.why
+    assert result.exit_code == 1
+    written = pirate_bt.load_network(out)
+    assert written.spec.segments[0].type == "straight"  # the entry run, surveyed in time
+    assert "stopped:" in written.spec.description

@@ -412,6 +412,12 @@ def run_navigation(
                 )
                 if truth_now is not None:
                     ran.truth_m = truth_now()
+            if not ran.succeeded and clock.now() - start_s >= max_time_s - period_s / 2:
+                # the budget cut the step short: that is the cause, said as the caller set it
+                ran.why = (
+                    f"navigation time limit reached ({max_time_s:g} s) in step {index}"
+                    f" ({step!r}): {ran.why}"
+                )
             result.steps = index
             result.ticks += ran.ticks
             odometer_m += abs(ran.belief_m - belief)

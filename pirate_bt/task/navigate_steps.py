@@ -24,7 +24,7 @@ from pirate_bt.runner import RunResult as TreeRun
 from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.mission import MissionResult, run_mission
 from pirate_bt.task.navigation import CheckedStep, Felt
-from pirate_bt.task.outcome import PabOutcome, explain_run
+from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 
 __all__ = ["StepRun", "run_blind", "run_mapped"]
@@ -175,14 +175,15 @@ def run_blind(
     label = f"{index:02d} {step.pab}"
     spec = {"name": f"step {index}", "root": {**_blind_node(checked, robot), "name": label}}
     loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
-    reason = [f"step {index} ({step!r}) ended without success"]
     limit = max(max_time_s, period_s)
     runner = Runner(
         loaded,
         clock=clock,
         period_s=period_s,
         max_time_s=limit,
-        safe_state=lambda: supervisor.safe_state(reason[0]),
+        # keep the cause a PAB or the supervisor gave first; the generic end is no
+        # cause of its own (a step cut by the time budget is named so)
+        safe_state=lambda: supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN),
     )
     odometry = [belief_m, stamp_s]  # belief, last stamp
 
