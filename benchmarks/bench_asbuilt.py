@@ -54,6 +54,8 @@ def run_case(seed: int, scale: float) -> dict[str, Any]:
         "violations": int(result.sim.get("violations", 0)),
         "damage": int(result.sim.get("damage", 0)),
         "fix_errors": [abs(f.error_after_m) for f in result.fixes if f.error_after_m is not None],
+        # belief against truth (on the map) where the mission ended, however it ended
+        "final_error": abs(result.final_error_m) if result.final_error_m is not None else None,
         # the sequence matcher: how well each fix fitted the map, and the drift it corrected
         "confidences": [round(f.confidence, 4) for f in result.fixes],
         "drifts_per_m": [round(f.drift_per_m, 5) for f in result.fixes],
@@ -112,19 +114,26 @@ def _table(rows: list[dict[str, Any]], scales: list[float], wall: float) -> None
     print(f"lab route on as-built variants of the lab network ({wall:.0f} s wall)")
     print()
     print(
-        "| bounds | variants | succeeded | rate | violations | damage | fix error median | worst |"
+        "| bounds | variants | succeeded | rate | violations | damage | fix error median | worst"
+        " | error at the end: median | worst |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for scale in scales:
         mine = [r for r in rows if r["scale"] == scale]
         ok = sum(r["ok"] for r in mine)
         errors = [e for r in mine for e in r["fix_errors"]]
         median = statistics.median(errors) if errors else float("nan")
         worst = max(errors) if errors else float("nan")
+        finals = [r["final_error"] for r in mine if r.get("final_error") is not None]
+        end = (
+            f" {statistics.median(finals) * 1000:.0f} mm | {max(finals) * 1000:.0f} mm |"
+            if finals
+            else " - | - |"
+        )
         print(
             f"| x{scale:g} | {len(mine)} | {ok} | {100 * ok / len(mine):.1f} % |"
             f" {sum(r['violations'] for r in mine)} | {sum(r['damage'] for r in mine)} |"
-            f" {median * 1000:.0f} mm | {worst * 1000:.0f} mm |"
+            f" {median * 1000:.0f} mm | {worst * 1000:.0f} mm |{end}"
         )
     print()
     for scale in scales:
