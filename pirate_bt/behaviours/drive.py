@@ -40,13 +40,23 @@ from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState
 from pirate_bt.units import Angle, Current, Duration, Length, Velocity
 
-__all__ = ["DIAMETER_CHANGE_M", "SLOPE_CHANGE_RAD", "Drive", "DriveParams", "Until"]
+__all__ = [
+    "DIAMETER_CHANGE_M",
+    "DIAMETER_SETTLE_M",
+    "SLOPE_CHANGE_RAD",
+    "Drive",
+    "DriveParams",
+    "Until",
+]
 
 SLOPE_CHANGE_RAD = math.radians(0.5)
 """``stop_at_change``: a pitch change this large is a slope change."""
 
 DIAMETER_CHANGE_M = 0.002
-"""``stop_at_change``: a leading joint's diameter reading off by this much is a reducer."""
+"""``stop_at_change``: a leading joint's diameter reading off by this much is a reducer ..."""
+
+DIAMETER_SETTLE_M = 0.04
+"""... when it stays off, the joint at the wall, over this much travel."""
 
 Until = Literal[
     "distance",
@@ -145,7 +155,8 @@ class DriveParams(NodeParams):
             "with until: distance, also complete the drive (early) where the pipe changes:"
             " the IMU's pitch 0.5 deg or more from its reading at the start (a slope change"
             " at the rotational module), or a joint of the leading half, at the wall,"
-            " reading a diameter 2 mm or more off its reading at the start (a reducer)"
+            " reading a diameter 2 mm or more off its reading at the start over 40 mm of"
+            " travel (a reducer)"
         ),
     )
     stop_when_turned: bool = Field(
@@ -237,6 +248,7 @@ class Drive(Primitive):
         self._pitch0: float | None = None
         self._diameter0: dict[str, float] = {}
         self._change_ticks = 0
+        self._diameter_from: float | None = None  # odometry where a diameter change began
         self._first_step = True
         self._write_travelled()
 
@@ -345,10 +357,13 @@ class Drive(Primitive):
         self._turned_ticks = self._turned_ticks + 1 if angle >= p.turn_angle else 0
         return angle if self._turned_ticks >= _SETTLE_TICKS else None
 
-    def _changed(self, state: RobotState, velocity: float) -> str | None:
-        """``slope`` or ``diameter`` once the pipe has changed for ``_SETTLE_TICKS``
-        ticks running (``stop_at_change``), else ``None``. The first state read is the
-        reference; a joint off the wall (an opening) reads no diameter."""
+    def _changed(self, state: RobotState, velocity: float, travelled: float) -> str | None:
+        """``slope`` once the pitch has changed for ``_SETTLE_TICKS`` ticks running,
+        ``diameter`` once a leading joint's reading has stayed changed, at the wall, for
+        :data:`DIAMETER_SETTLE_M` of travel (``stop_at_change``), else ``None``. The
+        first state read is the reference. A joint swinging off the wall into a tee's
+        opening passes through other readings on its way: it is off the wall (an
+        opening stop) before that distance, where a cone keeps the change."""
         found: str | None = None
         pitch = state.imu_rad.get("pitch")
         if pitch is not None:
@@ -361,14 +376,20 @@ class Drive(Primitive):
         wall_min = min(c.angle for c in clamp.contact_angles) - tol
         wall_max = max(c.angle for c in clamp.contact_angles) + tol
         leading = Half.FRONT if velocity > 0 else Half.REAR
+        narrowed = False
         for module in self.robot.bend_modules(leading):
             angle = state.joint_angle_rad.get(module.name)
             if angle is None or not wall_min <= abs(angle) <= wall_max:
                 continue
             diameter = clamp.diameter_for(angle)
             before = self._diameter0.setdefault(module.name, diameter)
-            if found is None and abs(diameter - before) >= DIAMETER_CHANGE_M:
-                found = "diameter"
+            narrowed = narrowed or abs(diameter - before) >= DIAMETER_CHANGE_M
+        if not narrowed:
+            self._diameter_from = None
+        elif self._diameter_from is None:
+            self._diameter_from = travelled
+        elif found is None and travelled - self._diameter_from >= DIAMETER_SETTLE_M:
+            return "diameter"
         self._change_ticks = self._change_ticks + 1 if found else 0
         return found if self._change_ticks >= _SETTLE_TICKS else None
 
@@ -399,7 +420,7 @@ class Drive(Primitive):
                 self.sensed = f"{half}_opening"
                 return Status.SUCCESS
         if p.stop_at_change:
-            change = self._changed(state, velocity)
+            change = self._changed(state, velocity, travelled)
             if change is not None:
                 self.feedback_message = f"the {change} changed after {travelled:.3f} m"
                 self.sensed = change

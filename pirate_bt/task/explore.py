@@ -34,7 +34,8 @@ steps also stop where the pipe changes (``stop_at_change``):
 - **a slope change**: the IMU's pitch moved by 0.5 degrees; the straight ends where
   the rotational module is, and the next one starts there (each straight's slope
   is written when it differs from what the line carries by over 0.25 degrees);
-- **a reducer**: the front half's first joint read a diameter 2 mm off; the robot
+- **a reducer**: a front joint at the wall read a diameter 2 mm off, and kept it
+  over 40 mm of travel; the robot
   drives 0.25 m on through the cone and the front half reads the diameter beyond
   it. A change that is not there then (the joint was swinging into a tee's
   opening) is no reducer. The cone's length is not measured: it is written as the
@@ -59,7 +60,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M
+from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import Extension, load_extension
 from pirate_bt.task.navigation import Felt, Observation, Step
@@ -279,8 +280,10 @@ class ExploreNavigator:
             return
         if abs(diameter - self._diameter_now) < DIAMETER_CHANGE_M:
             return
-        # the joint had read 2 mm of the change this far into the cone (length assumed)
-        start = at_m - _CONE_M * DIAMETER_CHANGE_M / abs(diameter - self._diameter_now)
+        # the joint had read 2 mm of the change this far into the cone (length assumed),
+        # and the drive went on while the change held
+        lead = _CONE_M * DIAMETER_CHANGE_M / abs(diameter - self._diameter_now)
+        start = at_m - DIAMETER_SETTLE_M - lead
         self._close_straight(obs, start, pitch_rad=pitch, diameter_m=self._diameter_now)
         self._line.append(
             {
