@@ -8,11 +8,13 @@ Split from tests/test_primitives.py, whose rig (a fake port, the real supervisor
 from __future__ import annotations
 
 import math
+import random
 
 import py_trees
 import pytest
 from py_trees.common import Status
 
+from pirate_bt.behaviours.drive import SLOPE_WINDOW_TICKS
 from pirate_bt.behaviours.primitives import Clamp, ClampParams, Drive, DriveParams
 from pirate_bt.robot import Half
 from pirate_bt.robot.commands import ControlMode
@@ -202,15 +204,32 @@ def test_drive_stops_where_the_slope_changes() -> None:
     _heading(rig, 2.0, 30.0)
     params = DriveParams(velocity=0.08, distance=2.0, stop_at_change=True)
     node = rig.node(Drive, params)
-    rig.run(node, ticks=10)
-    _heading(rig, 2.3, 30.0)  # under 0.5 deg: the same slope
-    rig.run(node, ticks=10)
+    rig.run(node, ticks=20)
+    _heading(rig, 2.2, 30.0)  # under 0.25 deg: the same slope
+    rig.run(node, ticks=40)
     assert node.status == Status.RUNNING
-    _heading(rig, 2.6, 30.0)
+    _heading(rig, 2.5, 30.0)
     assert rig.run(node) == Status.SUCCESS
     assert node.sensed == "slope" and "the slope changed" in node.feedback_message
     last = rig.port.batches[-1]
     assert all(c.mode is ControlMode.VELOCITY and c.value == 0.0 for c in last)
+
+
+def test_imu_noise_does_not_end_a_drive_but_a_small_slope_change_does() -> None:
+    rig = drive_rig()
+    rng = random.Random(7)
+    node = rig.node(Drive, DriveParams(velocity=0.08, distance=20.0, stop_at_change=True))
+    for _ in range(3000):  # 30 s of 0.11 deg noise (SensorNoise.typical) on a 3 deg slope
+        _heading(rig, 3.0 + math.degrees(rng.gauss(0.0, 0.002)), 0.0)
+        rig.run(node, ticks=1)
+    assert node.status == Status.RUNNING
+    ticks = 0
+    while node.status == Status.RUNNING and ticks < 100:  # 3.0 to 2.7 deg: 0.3 deg
+        _heading(rig, 2.7 + math.degrees(rng.gauss(0.0, 0.002)), 0.0)
+        rig.run(node, ticks=1)
+        ticks += 1
+    assert node.sensed == "slope"
+    assert ticks <= SLOPE_WINDOW_TICKS + 3  # felt within a window and the settle ticks
 
 
 def test_drive_stops_where_a_leading_joint_reads_another_diameter() -> None:

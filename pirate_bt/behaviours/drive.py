@@ -22,6 +22,7 @@ it did at the start (a reducer under the leading half).
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Mapping
 from typing import Any, Literal
 
@@ -44,13 +45,21 @@ __all__ = [
     "DIAMETER_CHANGE_M",
     "DIAMETER_SETTLE_M",
     "SLOPE_CHANGE_RAD",
+    "SLOPE_WINDOW_TICKS",
     "Drive",
     "DriveParams",
     "Until",
 ]
 
-SLOPE_CHANGE_RAD = math.radians(0.5)
-"""``stop_at_change``: a pitch change this large is a slope change."""
+SLOPE_CHANGE_RAD = math.radians(0.25)
+"""``stop_at_change``: the IMU's mean pitch this far off its mean at the start is a
+slope change ..."""
+
+SLOPE_WINDOW_TICKS = 16
+"""... each mean over this many readings (13 mm at 80 mm/s): IMU noise of 0.11°
+(``SensorNoise.typical``) moves the difference of two such means by 0.04°, a sixth of
+the threshold, so noise does not end a drive; a step of the threshold is felt once
+the whole window is past it."""
 
 DIAMETER_CHANGE_M = 0.002
 """``stop_at_change``: a leading joint's diameter reading off by this much is a reducer ..."""
@@ -153,8 +162,9 @@ class DriveParams(NodeParams):
         False,
         description=(
             "with until: distance, also complete the drive (early) where the pipe changes:"
-            " the IMU's pitch 0.5 deg or more from its reading at the start (a slope change"
-            " at the rotational module), or a joint of the leading half, at the wall,"
+            " the IMU's pitch, a mean of 16 readings, 0.25 deg or more from its mean at"
+            " the start (a slope change at the rotational module), or a joint of the"
+            " leading half, at the wall,"
             " reading a diameter 2 mm or more off its reading at the start over 40 mm of"
             " travel (a reducer)"
         ),
@@ -245,7 +255,8 @@ class Drive(Primitive):
         self._slow_since: float | None = None
         self._heading0: tuple[float, float, float] | None = None
         self._turned_ticks = 0
-        self._pitch0: float | None = None
+        self._pitch0: float | None = None  # the mean of the first readings
+        self._pitches: deque[float] = deque(maxlen=SLOPE_WINDOW_TICKS)
         self._diameter0: dict[str, float] = {}
         self._change_ticks = 0
         self._diameter_from: float | None = None  # odometry where a diameter change began
@@ -358,19 +369,23 @@ class Drive(Primitive):
         return angle if self._turned_ticks >= _SETTLE_TICKS else None
 
     def _changed(self, state: RobotState, velocity: float, travelled: float) -> str | None:
-        """``slope`` once the pitch has changed for ``_SETTLE_TICKS`` ticks running,
+        """``slope`` once the mean pitch has changed (:data:`SLOPE_CHANGE_RAD`, means
+        over :data:`SLOPE_WINDOW_TICKS` readings) for ``_SETTLE_TICKS`` ticks running,
         ``diameter`` once a leading joint's reading has stayed changed, at the wall, for
         :data:`DIAMETER_SETTLE_M` of travel (``stop_at_change``), else ``None``. The
-        first state read is the reference. A joint swinging off the wall into a tee's
+        first readings are the reference. A joint swinging off the wall into a tee's
         opening passes through other readings on its way: it is off the wall (an
         opening stop) before that distance, where a cone keeps the change."""
         found: str | None = None
         pitch = state.imu_rad.get("pitch")
         if pitch is not None:
-            if self._pitch0 is None:
-                self._pitch0 = pitch
-            elif abs(pitch - self._pitch0) >= SLOPE_CHANGE_RAD:
-                found = "slope"
+            self._pitches.append(pitch)
+            if len(self._pitches) == SLOPE_WINDOW_TICKS:
+                mean = sum(self._pitches) / SLOPE_WINDOW_TICKS
+                if self._pitch0 is None:
+                    self._pitch0 = mean
+                elif abs(mean - self._pitch0) >= SLOPE_CHANGE_RAD:
+                    found = "slope"
         clamp = self.robot.clamp
         tol = self.robot.safety.angle_tolerance
         wall_min = min(c.angle for c in clamp.contact_angles) - tol

@@ -31,7 +31,7 @@ a bend's start, or at the line's end), to the start of a tee (from where the
 opening was felt, :data:`OPENING_STOP`), or to a change inside the run. The search
 steps also stop where the pipe changes (``stop_at_change``):
 
-- **a slope change**: the IMU's pitch moved by 0.5 degrees; the straight ends where
+- **a slope change**: the IMU's mean pitch moved by 0.25 degrees; the straight ends where
   the rotational module is, and the next one starts there (each straight's slope
   is written when it differs from what the line carries by over 0.25 degrees);
 - **a reducer**: a front joint at the wall read a diameter 2 mm off, and kept it

@@ -155,8 +155,8 @@ class CheckedStep:
         distance_m: ``straight``: metres (negative backwards).
         slow: ``straight``: at the inspection speed.
         stop_at_feature: ``straight``: stop early at a turn or an opening.
-        stop_at_change: ``straight``: stop early where the slope (the IMU's pitch, by
-            0.5 degrees) or the diameter (a leading joint, by 2 mm over 40 mm) changes.
+        stop_at_change: ``straight``: stop early where the slope (the IMU's mean pitch, by
+            0.25 degrees) or the diameter (a leading joint, by 2 mm over 40 mm) changes.
         roll_rad: ``bend``, ``bend-back``: the roll of the bend's plane.
         direction: ``bend``, ``t-joint`` and their backward twins: the direction
             word, when one was given.
