@@ -18,7 +18,7 @@ from pirate_bt.behaviours.drive import SLOPE_WINDOW_TICKS
 from pirate_bt.behaviours.primitives import Clamp, ClampParams, Drive, DriveParams
 from pirate_bt.robot import Half
 from pirate_bt.robot.commands import ControlMode
-from tests.test_primitives import ROBOT, Rig, blocked, clean_blackboard, drive_rig
+from tests.test_primitives import DT, ROBOT, Rig, blocked, clean_blackboard, drive_rig
 
 __all__ = ["clean_blackboard"]  # the autouse fixture, in force here too
 
@@ -230,6 +230,9 @@ def test_imu_noise_does_not_end_a_drive_but_a_small_slope_change_does() -> None:
         ticks += 1
     assert node.sensed == "slope"
     assert ticks <= SLOPE_WINDOW_TICKS + 3  # felt within a window and the settle ticks
+    # and placed where it began, not where it was felt
+    step_m = 0.08 * DT
+    assert node.sensed_back_m == pytest.approx(ticks * step_m, abs=2.5 * step_m)
 
 
 def test_drive_stops_where_a_leading_joint_reads_another_diameter() -> None:

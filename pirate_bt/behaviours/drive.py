@@ -256,7 +256,11 @@ class Drive(Primitive):
         self._heading0: tuple[float, float, float] | None = None
         self._turned_ticks = 0
         self._pitch0: float | None = None  # the mean of the first readings
-        self._pitches: deque[float] = deque(maxlen=SLOPE_WINDOW_TICKS)
+        # (pitch, travelled) of the last readings: a window's mean and the history
+        # the change is placed in once it is felt
+        self._pitches: deque[tuple[float, float]] = deque(maxlen=2 * SLOPE_WINDOW_TICKS)
+        self.sensed_back_m = 0.0
+        """How far back (metres of travel) a sensed slope change began: 0 otherwise."""
         self._diameter0: dict[str, float] = {}
         self._change_ticks = 0
         self._diameter_from: float | None = None  # odometry where a diameter change began
@@ -379,9 +383,10 @@ class Drive(Primitive):
         found: str | None = None
         pitch = state.imu_rad.get("pitch")
         if pitch is not None:
-            self._pitches.append(pitch)
-            if len(self._pitches) == SLOPE_WINDOW_TICKS:
-                mean = sum(self._pitches) / SLOPE_WINDOW_TICKS
+            self._pitches.append((pitch, travelled))
+            if len(self._pitches) >= SLOPE_WINDOW_TICKS:
+                window = list(self._pitches)[-SLOPE_WINDOW_TICKS:]
+                mean = sum(p for p, _ in window) / SLOPE_WINDOW_TICKS
                 if self._pitch0 is None:
                     self._pitch0 = mean
                 elif abs(mean - self._pitch0) >= SLOPE_CHANGE_RAD:
@@ -406,7 +411,28 @@ class Drive(Primitive):
         elif found is None and travelled - self._diameter_from >= DIAMETER_SETTLE_M:
             return "diameter"
         self._change_ticks = self._change_ticks + 1 if found else 0
-        return found if self._change_ticks >= _SETTLE_TICKS else None
+        if found is None or self._change_ticks < _SETTLE_TICKS:
+            return None
+        self.sensed_back_m = travelled - self._slope_began()
+        return found
+
+    def _slope_began(self) -> float:
+        """Where (travel) the pitch left its reference: the split of the readings kept
+        into the reference before and one level after that fits them best (a mean's
+        crossing comes up to a window late, more so for a small change)."""
+        assert self._pitch0 is not None
+        readings = list(self._pitches)
+        pitches = [p for p, _ in readings]
+        best, began = math.inf, readings[-1][1]
+        before = 0.0  # squared error of the readings before the split, about the reference
+        for k in range(len(readings)):
+            after = pitches[k:]
+            mean = sum(after) / len(after)
+            error = before + sum((p - mean) ** 2 for p in after)
+            if error < best:
+                best, began = error, readings[k][1]
+            before += (pitches[k] - self._pitch0) ** 2
+        return began
 
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]

@@ -265,7 +265,14 @@ def run_blind(
             ),
             "pab",
         )
-        felt.append(Felt("feature", odometry[0], how=how))
+        at_m = odometry[0]
+        if how == "slope":  # felt a little after it began: placed where it began
+            back = max(
+                (float(getattr(n, "sensed_back_m", 0.0)) for n in runner.tree.root.iterate()),
+                default=0.0,
+            )
+            at_m -= math.copysign(back, moved)
+        felt.append(Felt("feature", at_m, how=how))
     pab = PabOutcome(
         label=label,
         kind=step.pab,
