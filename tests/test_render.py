@@ -183,7 +183,7 @@ def test_python_api_accepts_root_behaviour() -> None:
 
 ROOT = Path(__file__).resolve().parents[1]
 STRAIGHT = ROOT / "trees" / "straight.yaml"
-DRIVE, CLAMP_REAR_HALF = "0.0.1.0", "0.0.0.0.0.0"
+DRIVE, CLAMP_REAR_HALF = "0.0.2.0", "0.0.1.0.0.0.0"
 
 
 def dot_nodes(source: str) -> dict[str, dict[str, str]]:
@@ -213,7 +213,7 @@ def test_render_tree_from_a_tree_file_a_loaded_tree_or_a_behaviour_tree(tmp_path
 
     by_path = render_tree(STRAIGHT, tmp_path / "path.dot").read_text()
     nodes = dot_nodes(by_path)
-    assert len(nodes) == 15
+    assert len(nodes) == 22
     assert nodes["0"]["label"].startswith("<b>straight</b>")
     assert nodes[DRIVE]["label"].startswith("<b>drive straight</b>")
     assert "<b>clamp rear half</b>" in nodes[CLAMP_REAR_HALF]["label"]

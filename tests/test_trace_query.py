@@ -19,7 +19,9 @@ from pirate_bt.trace import (
 )
 
 RUN = ["run", "trees/straight.yaml", "--param", "distance=0.2m", "--quiet", "--sim", "straight"]
-CLAMP_REAR_HALF = "straight/pass straight/hold/hold/clamp rear/clamp rear half"
+HOLD = "straight/pass straight/hold or over an opening/hold"
+CLAMP_REAR_HALF = f"{HOLD}/hold/clamp rear/clamp rear half"
+OVER_AN_OPENING = "straight/pass straight/hold or over an opening/front over an opening"
 
 
 @pytest.fixture(scope="module")
@@ -42,10 +44,15 @@ def stalled(tmp_path_factory: pytest.TempPathFactory) -> Trace:
 def test_nodes_by_glob_and_substring(ok: Trace) -> None:
     every = ok.nodes()
     assert every[0] == "straight"
-    assert len(every) == len(ok.structure) == 15
-    assert ok.nodes("*/clamp rear") == ["straight/pass straight/hold/hold/clamp rear"]
-    assert ok.nodes("*/clamp *half") == [CLAMP_REAR_HALF, every[9]]
-    assert every[9].endswith("/clamp front half")
+    assert len(every) == len(ok.structure) == 22
+    assert ok.nodes("*/hold/clamp rear") == [f"{HOLD}/hold/clamp rear"]
+    assert ok.nodes("*/clamp rear") == [f"{HOLD}/hold/clamp rear", f"{OVER_AN_OPENING}/clamp rear"]
+    assert ok.nodes("*/clamp *half") == [
+        CLAMP_REAR_HALF,
+        every[11],
+        f"{OVER_AN_OPENING}/clamp rear/clamp rear half",
+    ]
+    assert every[11].endswith("/clamp front half")
     assert ok.nodes("recover") == [
         "straight/recover",
         "straight/recover/safe state",
@@ -56,21 +63,24 @@ def test_nodes_by_glob_and_substring(ok: Trace) -> None:
 
 def test_node_by_id_path_tail_name_or_glob(ok: Trace) -> None:
     drive = ok.node("drive straight")
-    assert (drive.id, drive.type, drive.kind) == ("0.0.1.0", "Drive", "leaf")
-    assert ok.node("0.0.1.0") is drive
+    assert (drive.id, drive.type, drive.kind) == ("0.0.2.0", "Drive", "leaf")
+    assert ok.node("0.0.2.0") is drive
     assert ok.node("straight/pass straight/confirm drive/drive straight") is drive
     assert ok.node("confirm drive/drive straight") is drive
     assert ok.node("*/drive s*") is drive
     assert ok.node(drive) is drive
     assert ok.node_path(drive) == "straight/pass straight/confirm drive/drive straight"
-    assert ok.node("straight/pass straight/hold").id == "0.0.0"  # a whole path wins over tails
+    assert ok.node(HOLD).id == "0.0.1.0"  # a whole path wins over tails
+    assert ok.node("hold/hold").id == "0.0.1.0.0"
 
 
 def test_unknown_or_ambiguous_node_names_the_candidates(ok: Trace) -> None:
     with pytest.raises(NodeLookupError) as info:
         ok.node("hold")
     assert "'hold' matches 2 nodes" in str(info.value)
-    assert info.value.matches == ["straight/pass straight/hold", "straight/pass straight/hold/hold"]
+    assert info.value.matches == [HOLD, f"{HOLD}/hold"]
+    with pytest.raises(NodeLookupError, match="'clamp rear half' matches 2 nodes"):
+        ok.node("clamp rear half")
     with pytest.raises(KeyError, match="did you mean 'clamp rear'"):
         ok.node("clamp reer")
     with pytest.raises(InputError, match=r"its nodes are: clamp front, .*drive straight"):
@@ -78,12 +88,12 @@ def test_unknown_or_ambiguous_node_names_the_candidates(ok: Trace) -> None:
 
 
 def test_statuses_and_first_tick(ok: Trace) -> None:
-    changes = ok.statuses("clamp rear half")
+    changes = ok.statuses(CLAMP_REAR_HALF)
     assert [c.status for c in changes] == ["RUNNING", "SUCCESS"]
     assert changes[0] == StatusChange(1, 0.0, "RUNNING")
     tick, time_s, status = changes[1]
     assert status == "SUCCESS" and time_s == pytest.approx(tick * 0.05 - 0.05)
-    assert ok.first_tick("clamp rear half", "SUCCESS") == tick
+    assert ok.first_tick(CLAMP_REAR_HALF, "SUCCESS") == tick
     # The front half is clamped after the rear, and the drive starts once both are.
     front_done = ok.first_tick("clamp front half", "success")
     drive_start = ok.first_tick("drive straight", Status.RUNNING)
@@ -114,7 +124,7 @@ def test_status_at_agrees_with_the_replayed_frames(ok: Trace) -> None:
 
 
 def test_feedback_changes(ok: Trace) -> None:
-    messages = ok.feedback("clamp rear half")
+    messages = ok.feedback(CLAMP_REAR_HALF)
     assert messages and all(isinstance(m, FeedbackChange) for m in messages)
     assert messages[0].tick == 1 and messages[0].message.startswith("clamping rear: bend_3 0.0°")
     assert [m.tick for m in messages] == sorted({m.tick for m in messages})
@@ -134,17 +144,21 @@ def test_failures_first_failure_first(stalled: Trace) -> None:
     assert first.path == CLAMP_REAR_HALF
     assert first.node.type == "Clamp"
     assert first.feedback.startswith("timeout: not done after 5 s")
-    assert first.tick == stalled.first_tick("clamp rear half", "FAILURE")
+    assert first.tick == stalled.first_tick(CLAMP_REAR_HALF, "FAILURE")
     assert first.time_s == pytest.approx(5.05)
     # The Retry around it tried again; the second timeout failed the whole PAB in one tick,
-    # each child before its parent, then the recovery branch reported the failure.
+    # each child before its parent (the hold's fallback over an opening is only for a
+    # leg that stops at features: it fails), then the recovery branch reported it.
     last_tick = stalled.last_tick
     final = [f.path for f in failures if f.tick == last_tick]
     assert final == [
         CLAMP_REAR_HALF,
-        "straight/pass straight/hold/hold/clamp rear",
-        "straight/pass straight/hold/hold",
-        "straight/pass straight/hold",
+        f"{HOLD}/hold/clamp rear",
+        f"{HOLD}/hold",
+        HOLD,
+        f"{OVER_AN_OPENING}/may stop at it?",
+        OVER_AN_OPENING,
+        "straight/pass straight/hold or over an opening",
         "straight/pass straight",
         "straight/recover/report failure",
         "straight/recover",
@@ -153,7 +167,7 @@ def test_failures_first_failure_first(stalled: Trace) -> None:
     assert len(failures) == len(final) + 1
     retry = next(f for f in failures if f.path.endswith("/clamp rear"))
     assert retry.feedback == "final failure [status: 2 failure from 2]"
-    assert [c.status for c in stalled.statuses("clamp rear half")] == [
+    assert [c.status for c in stalled.statuses(CLAMP_REAR_HALF)] == [
         "RUNNING",
         "FAILURE",
         "RUNNING",
