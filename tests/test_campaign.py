@@ -257,9 +257,14 @@ def test_local_and_dask_cluster_give_the_same_rows(
 
 def test_missing_scheduler_is_bad_input(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     spec = _write(tmp_path, SMALL)
-    code = main(["campaign", str(spec), "--scheduler", "tcp://127.0.0.1:9", "--quiet"])
+    nobody = ["--scheduler", "tcp://127.0.0.1:9", "--quiet"]
+    code = main(["campaign", str(spec), *nobody, "--scheduler-timeout", "1 s"])
     assert code == 2
-    assert "cannot reach the Dask scheduler" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err, err
+    assert "after 1 s" in err  # as long as asked, not the default 10 s
+    assert main(["campaign", str(spec), *nobody, "--scheduler-timeout", "0 s"]) == 2
+    assert "scheduler_timeout must be positive" in capsys.readouterr().err
 
 
 # --- statistics and the report -------------------------------------------------------

@@ -65,9 +65,12 @@ def dask_setup(worker: Any) -> None:
 
 @contextmanager
 def dask_executor(
-    scheduler: str | None, scheduler_file: str | None
+    scheduler: str | None, scheduler_file: str | None, timeout_s: float = 10.0
 ) -> Iterator[tuple[Executor, str]]:
     """The executor of a Dask cluster's client, with case servers on its workers.
+
+    ``timeout_s``: how long to keep trying to reach the scheduler (one that is still
+    starting may refuse a connection for a while).
 
     Raises:
         InputError: The scheduler cannot be reached.
@@ -75,9 +78,9 @@ def dask_executor(
     try:
         # Client is untyped (distributed types its plugins, not its client).
         client: Any = (
-            Client(scheduler, timeout="10s")  # type: ignore[no-untyped-call]
+            Client(scheduler, timeout=timeout_s)  # type: ignore[no-untyped-call]
             if scheduler is not None
-            else Client(scheduler_file=scheduler_file, timeout="10s")  # type: ignore[no-untyped-call]
+            else Client(scheduler_file=scheduler_file, timeout=timeout_s)  # type: ignore[no-untyped-call]
         )
     except (OSError, TimeoutError, ValueError) as exc:
         where = scheduler or scheduler_file

@@ -76,7 +76,10 @@ def run_isolated(
 
 @contextmanager
 def make_executor(
-    workers: int | None = None, scheduler: str | None = None, scheduler_file: str | None = None
+    workers: int | None = None,
+    scheduler: str | None = None,
+    scheduler_file: str | None = None,
+    scheduler_timeout_s: float = 10.0,
 ) -> Iterator[tuple[Executor, str]]:
     """The executor cases go to, and one line saying what it is.
 
@@ -85,6 +88,7 @@ def make_executor(
         scheduler: A Dask scheduler address (``tcp://host:8786``).
         scheduler_file: A Dask scheduler file (as ``dask-scheduler --scheduler-file``
             writes, and dask-jobqueue set-ups share).
+        scheduler_timeout_s: How long to keep trying to reach the scheduler.
 
     Raises:
         InputError: Dask is asked for but not installed, or cannot be reached.
@@ -105,7 +109,7 @@ def make_executor(
             "--scheduler needs Dask's distributed;"
             " install it with: pip install 'pirate-bt[cluster]'"
         ) from None
-    with dask_executor(scheduler, scheduler_file) as (executor, what):
+    with dask_executor(scheduler, scheduler_file, scheduler_timeout_s) as (executor, what):
         yield executor, what
 
 

@@ -153,7 +153,7 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
     raise TypeError(f"a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}")
 
 
-def _timeout(value: str | float | None) -> float | None:
+def _timeout(value: str | float | None, name: str = "case_timeout") -> float | None:
     if value is None:
         return None
     if isinstance(value, (int, float)):
@@ -164,9 +164,9 @@ def _timeout(value: str | float | None) -> float | None:
         try:
             seconds = parse_quantity(value, "time")
         except Exception as exc:
-            raise InputError(f"case_timeout: {exc}") from None
+            raise InputError(f"{name}: {exc}") from None
     if not seconds > 0:
-        raise InputError(f"case_timeout must be positive, not {value!r}")
+        raise InputError(f"{name} must be positive, not {value!r}")
     return seconds
 
 
@@ -181,6 +181,7 @@ def run_campaign(
     workers: int | None = None,
     scheduler: str | None = None,
     scheduler_file: str | os.PathLike[str] | None = None,
+    scheduler_timeout: str | float = 10.0,
     executor: Executor | None = None,
     output: str | os.PathLike[str] | None = None,
     resume: bool = False,
@@ -205,6 +206,8 @@ def run_campaign(
             scheduler or an executor.
         scheduler: A Dask scheduler address (``tcp://host:8786``) instead.
         scheduler_file: A Dask scheduler file instead.
+        scheduler_timeout: How long to keep trying to reach the scheduler before the
+            campaign is refused (``"30 s"`` or seconds; default 10 s).
         executor: A ``concurrent.futures`` executor of your own instead (it is not
             shut down here).
         output: The folder for ``results.jsonl``, ``traces/`` and the report.
@@ -267,6 +270,8 @@ def run_campaign(
     source = spec_source(model) or SpecSource(f"campaign {model.name!r}", Path(base or "."))
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = _timeout(case_timeout)
+    reach_s = _timeout(scheduler_timeout, "scheduler_timeout")
+    assert reach_s is not None
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)
     check_runs(cases)
@@ -282,7 +287,7 @@ def run_campaign(
         _given(executor)
         if executor is not None
         else make_executor(
-            workers, scheduler, None if scheduler_file is None else str(scheduler_file)
+            workers, scheduler, None if scheduler_file is None else str(scheduler_file), reach_s
         )
     )
     with where as (pool, what):

@@ -38,6 +38,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, tcp://host:8786")
     where.add_argument("--scheduler-file", metavar="FILE", help="a Dask scheduler file")
     parser.add_argument(
+        "--scheduler-timeout",
+        metavar="TIME",
+        default="10 s",
+        help="how long to keep trying to reach the Dask scheduler (default 10 s)",
+    )
+    parser.add_argument(
         "--output", type=Path, metavar="DIR", help="results folder (default: campaign-NAME)"
     )
     parser.add_argument("--resume", action="store_true", help="skip the cases already done")
@@ -116,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             scheduler=args.scheduler,
             scheduler_file=args.scheduler_file,
+            scheduler_timeout=args.scheduler_timeout,
             output=output,
             resume=args.resume,
             case_timeout=case_timeout,
