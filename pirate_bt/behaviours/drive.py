@@ -56,10 +56,11 @@ SLOPE_CHANGE_RAD = math.radians(0.25)
 slope change ..."""
 
 SLOPE_WINDOW_TICKS = 16
-"""... each mean over this many readings (13 mm at 80 mm/s): IMU noise of 0.11°
-(``SensorNoise.typical``) moves the difference of two such means by 0.04°, a sixth of
-the threshold, so noise does not end a drive; a step of the threshold is felt once
-the whole window is past it."""
+"""... each mean over this many readings (one a tick: 0.8 s at 20 Hz, 64 mm at
+80 mm/s): IMU noise of 0.11° (``SensorNoise.typical``) moves the difference of two
+such means by 0.04°, a sixth of the threshold, so noise does not end a drive; a step
+of the threshold is felt once the whole window is past it, and placed where it began
+(:attr:`Drive.sensed_back_m`)."""
 
 DIAMETER_CHANGE_M = 0.002
 """``stop_at_change``: a leading joint's diameter reading off by this much is a reducer ..."""
