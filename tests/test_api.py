@@ -270,6 +270,7 @@ def test_a_pipe_not_as_drawn_is_named_as_the_cause(tmp_path: Path) -> None:
     assert result.why.startswith("belief and map disagree: the pipe blocked the robot at")
     after = re.search(r"(\d+\.\d+) m after 'tee-1'", result.why)
     assert after is not None and 2.8 <= float(after.group(1)) <= 3.2, result.why
+    assert "'tee-1' was passed straight through: are its main and branch swapped" in result.why
     d = result.disagreement
     assert d is not None and d.feature == "bend-b" and d.expected is not None
     assert "blocking" in (d.sensed or "")

@@ -377,6 +377,13 @@ class Localiser:
             f"belief and map disagree: the pipe blocked the robot at {front:.2f} m"
             f" (believed{after}), where the map has no turn and no end within {reach:.2f} m"
         )
+        last = self.fixes[-1].feature if self.fixes else None
+        kinds = {p.kind.value for p in self.plan.path.pieces if p.segment == last}
+        if kinds == {"tee"}:  # a tee the route goes straight through (not into its branch)
+            self.mismatch += (
+                f"; {last!r} was passed straight through: are its main and branch swapped"
+                " in the ground (the way on leading into the branch)?"
+            )
         turn = self._next_turn()
         self._disagree(
             time_s,
