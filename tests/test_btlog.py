@@ -77,16 +77,26 @@ def _btcpp_log(trace_path: Path, xml: str, out: Path) -> Any:
     del logger
     gc.collect()
     # BT.CPP's FileLogger2 writes from a thread of its own: on a loaded machine the
-    # file may still be growing here. Wait (at most 10 s) until it stops growing.
-    deadline = time.monotonic() + 10.0
-    size = -1
+    # file may hold only its header here, or still be growing. Wait (at most 20 s)
+    # until it holds transitions (the tree above ran: it has some) and has not grown
+    # for half a second; a fresh-clone CI run once read it after its header only.
+    deadline = time.monotonic() + 20.0
+    size, still = -1, 0
     while time.monotonic() < deadline:
         now = out.stat().st_size if out.exists() else 0
-        if now == size:
-            break
+        still = still + 1 if now == size else 0
         size = now
-        time.sleep(0.2)
+        if still >= 5 and _has_transitions(out):
+            break
+        time.sleep(0.1)
     return read_btlog(out)
+
+
+def _has_transitions(path: Path) -> bool:
+    try:
+        return bool(read_btlog(path).transitions)
+    except Exception:  # cut mid-record: the writer's thread is not done
+        return False
 
 
 def _changes(transitions: Any) -> list[tuple[int, int]]:
