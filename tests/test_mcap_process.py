@@ -89,7 +89,10 @@ def test_a_killed_writer_process_stops_the_run_safely_and_says_why(tmp_path: Pat
     assert f"{path}: the trace writer failed (exit -9)" in err.splitlines()[-1]
     assert "FAILED" in err.splitlines()[-1], out
     records = read_mcap_records(path)  # what was written before stays readable
-    assert records[0]["type"] == "header" and len(records) > 100
+    assert records[0]["type"] == "header"
+    # the file held 300 kB when the writer was killed: a few dozen ticks or more (the
+    # lab mission's header is large; how many more depends on the machine's pace)
+    assert sum(r["type"] == "tick" for r in records) >= 20, len(records)
 
 
 def test_the_finished_file_is_what_the_mcap_writer_writes(tmp_path: Path) -> None:
