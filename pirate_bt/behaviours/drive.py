@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Mapping
+from itertools import islice
 from typing import Any, Literal
 
 import py_trees
@@ -163,11 +164,11 @@ class DriveParams(NodeParams):
         False,
         description=(
             "with until: distance, also complete the drive (early) where the pipe changes:"
-            " the IMU's pitch, a mean of 16 readings, 0.25 deg or more from its mean at"
-            " the start (a slope change at the rotational module), or a joint of the"
-            " leading half, at the wall,"
-            " reading a diameter 2 mm or more off its reading at the start over 40 mm of"
-            " travel (a reducer)"
+            f" the IMU's pitch, a mean of {SLOPE_WINDOW_TICKS} readings,"
+            f" {math.degrees(SLOPE_CHANGE_RAD):g} deg or more from its mean at the start (a"
+            " slope change at the rotational module), or a joint of the leading half, at"
+            f" the wall, reading a diameter {DIAMETER_CHANGE_M * 1000:g} mm or more off its"
+            f" reading at the start over {DIAMETER_SETTLE_M * 1000:g} mm of travel (a reducer)"
         ),
     )
     stop_when_turned: bool = Field(
@@ -385,8 +386,9 @@ class Drive(Primitive):
         pitch = state.imu_rad.get("pitch")
         if pitch is not None:
             self._pitches.append((pitch, travelled))
-            if len(self._pitches) >= SLOPE_WINDOW_TICKS:
-                window = list(self._pitches)[-SLOPE_WINDOW_TICKS:]
+            kept = len(self._pitches)
+            if kept >= SLOPE_WINDOW_TICKS:
+                window = islice(self._pitches, kept - SLOPE_WINDOW_TICKS, None)
                 mean = sum(p for p, _ in window) / SLOPE_WINDOW_TICKS
                 if self._pitch0 is None:
                     self._pitch0 = mean
