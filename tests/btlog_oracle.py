@@ -4,13 +4,14 @@
 ``.btlog``'s tree, as pirate_bt exports it) in BehaviorTree.CPP (the
 ``behaviortreepy`` bindings), makes each leaf return, tick by tick, the status the
 trace recorded for it, and lets BT.CPP's ``FileLogger`` write ``OUT``. Run in a
-process of its own by ``tests/test_btlog.py``, so that the logger's writer thread
-has emptied its queue into the file when the process has exited.
+process of its own by ``tests/test_btlog.py``; it waits for BT.CPP's writer thread
+to write what it queued before the logger is destroyed (:func:`_drained`).
 """
 
 from __future__ import annotations
 
 import sys
+import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from typing import Any
 import behaviortreepy as bt
 
 from pirate_bt.interop.btcpp import node_models
+from pirate_bt.interop.btlog import read_btlog
 from pirate_bt.trace.reader import read_trace
 
 
@@ -53,8 +55,36 @@ def replay(trace_path: Path, xml: str, out: Path) -> None:
         tick[0] = n
         if tree.tick_once() != bt.NodeStatus.RUNNING:
             break
-    logger.flush()
+    _drained(out)
     del logger, tree
+
+
+def _drained(out: Path, timeout_s: float = 20.0) -> None:
+    """Wait until BT.CPP's writer thread has written the transitions queued.
+
+    FileLogger2's destructor stops its writer thread without emptying the queue: when
+    the ticks are over before the thread first ran (a fast replay, a busy machine),
+    the log would keep its header only. The thread writes and flushes what is queued
+    every 10 ms, so the file holding transitions and no longer growing (five reads
+    20 ms apart) says it is done.
+    """
+    deadline = time.monotonic() + timeout_s
+    size, still = -1, 0
+    while time.monotonic() < deadline:
+        now = out.stat().st_size if out.exists() else 0
+        still = still + 1 if now == size else 0
+        size = now
+        if still >= 5 and _has_transitions(out):
+            return
+        time.sleep(0.02)
+    raise SystemExit(f"{out}: BT.CPP's logger wrote no transitions in {timeout_s:g} s")
+
+
+def _has_transitions(path: Path) -> bool:
+    try:
+        return bool(read_btlog(path).transitions)
+    except Exception:  # cut mid-record: the writer thread is not done
+        return False
 
 
 if __name__ == "__main__":

@@ -41,10 +41,10 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 def _btcpp_log(trace_path: Path, xml: str, out: Path) -> Any:
     """BT.CPP's own log of the same tree, its leaves replaying the trace's statuses.
 
-    In a Python of its own (``tests/btlog_oracle.py``): BT.CPP's FileLogger2 writes
-    from a thread of its own and empties its queue when it is destroyed, which a
-    process's exit makes certain; in the test's process a fresh-clone CI run read the
-    file holding the header only, twice.
+    In a Python of its own (``tests/btlog_oracle.py``), which waits for BT.CPP's
+    FileLogger2 thread to write what it queued: its destructor stops the thread
+    without emptying the queue, and fresh-clone CI runs read logs holding the header
+    only when the replay was over before the thread first ran.
     """
     pytest.importorskip("behaviortreepy")
     xml_path = out.with_suffix(".xml")
