@@ -37,6 +37,7 @@ CLAMP_DUTY = round(0.7 / 1.023 * 255)  # the clamp torque of firmware_chain_supp
 
 
 VECTORS = json.loads((Path(__file__).parent / "data" / "board_bus_vectors.json").read_text())
+SHORT_BEND = Path(__file__).parent / "data" / "networks" / "bend-right-short.yaml"
 
 
 @needs_chain
@@ -83,7 +84,8 @@ def test_every_board_answers_on_one_line_without_collisions() -> None:
     ("network", "tree", "params"),
     [
         pytest.param("straight", "straight", {"distance": "1m"}, id="straight"),
-        pytest.param("bend-right", "bend", {"roll": "90deg"}, id="bend-right"),
+        # bend-right with a shorter approach (the file says why): a third less AVR time
+        pytest.param(str(SHORT_BEND), "bend", {"roll": "90deg"}, id="bend-right"),
     ],
 )
 def test_a_pab_succeeds_through_the_whole_chain(
