@@ -313,6 +313,43 @@ def simulate_mission(
     plan = _plan(plan_or_route, network, description)
     period_s, max_time_s = _options(rate, max_time, map_tolerance)
     world = plan.network if truth is None else load_network(truth, base=_base(plan.route))
+    return _watched_mission(
+        lambda: connect(world, robot=description, seed=seed, faults=faults, firmware=firmware),
+        plan,
+        description,
+        views=(foxglove, ros2, ros_domain_id, ros_namespace, groot2, observe),
+        output=output,
+        trace=trace,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        map_tolerance=map_tolerance,
+        live=live,
+        realtime=realtime,
+        return_on_stop=return_on_stop,
+    )
+
+
+def _watched_mission(
+    open_connection: Callable[[], Any],
+    plan: Any,
+    description: Any,
+    *,
+    views: tuple[FoxgloveOption, Ros2Option, int | None, str | None, Groot2Option, Any],
+    output: str | Path | None,
+    trace: str | Path | None,
+    period_s: float,
+    max_time_s: float | None,
+    map_tolerance: float,
+    live: bool,
+    realtime: bool,
+    return_on_stop: bool,
+) -> MissionResult:
+    """Run ``plan`` on a connection with the live views asked for, then write the outputs.
+
+    ``views`` are the Foxglove, ROS 2 (option, domain id, namespace) and Groot2
+    options and the caller's observer; the rest are :func:`_mission`'s.
+    """
+    foxglove, ros2, ros_domain_id, ros_namespace, groot2, observe = views
     out = Path(output) if output is not None else None
     trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
     started = time.perf_counter()
@@ -320,9 +357,7 @@ def simulate_mission(
         foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         groot2_server(groot2) as groot2_view,
-        connect(
-            world, robot=description, seed=seed, faults=faults, firmware=firmware
-        ) as connection,
+        open_connection() as connection,
     ):
         live_view = mission_observer(server, connection, description) if server else None
         ros2_view = ros2_mission_observer(node, connection, description) if node else None
@@ -386,33 +421,20 @@ def run_mission(
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
     period_s, max_time_s = _options(rate, max_time, map_tolerance)
-    out = Path(output) if output is not None else None
-    trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
-    started = time.perf_counter()
-    with (
-        foxglove_server(foxglove) as server,
-        ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
-        groot2_server(groot2) as groot2_view,
-        connect(port, robot=description, faults=faults) as connection,
-    ):
-        live_view = mission_observer(server, connection, description) if server else None
-        ros2_view = ros2_mission_observer(node, connection, description) if node else None
-        groot2_live = groot2_mission_observer(groot2_view, connection) if groot2_view else None
-        result = _mission(
-            connection,
-            plan,
-            trace=trace_path,
-            period_s=period_s,
-            max_time_s=max_time_s,
-            map_tolerance=map_tolerance,
-            live=live,
-            realtime=False,
-            observe=chain(live_view, ros2_view, groot2_live, observe),
-            return_on_stop=False,
-        )
-    if out is not None:
-        write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
-    return result
+    return _watched_mission(
+        lambda: connect(port, robot=description, faults=faults),
+        plan,
+        description,
+        views=(foxglove, ros2, ros_domain_id, ros_namespace, groot2, observe),
+        output=output,
+        trace=trace,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        map_tolerance=map_tolerance,
+        live=live,
+        realtime=False,
+        return_on_stop=False,
+    )
 
 
 def write_mission_outputs(
