@@ -51,19 +51,25 @@ def test_an_unknown_network_is_named_before_anything_starts() -> None:
         pirate_bt.connect("firmware:no-such-network")
 
 
-def test_the_command_line_refuses_the_chain_with_a_port() -> None:
+@pytest.mark.parametrize(
+    "verb",
+    [
+        pytest.param(["run", "trees/straight.yaml", "--param", "distance=1m"], id="run"),
+        pytest.param(["mission", "scenarios/lab.route"], id="mission"),
+    ],
+)
+def test_the_command_line_refuses_the_chain_with_a_port(verb: list[str]) -> None:
     done = subprocess.run(
         [
             sys.executable,
             "-m",
             "pirate_bt",
-            "run",
-            "trees/straight.yaml",
-            "--param",
-            "distance=1m",
+            *verb,
             "--port",
             "/dev/null",
             "--firmware-chain",
+            "--foxglove",
+            "127.0.0.1:0",
         ],
         capture_output=True,
         text=True,
@@ -72,3 +78,5 @@ def test_the_command_line_refuses_the_chain_with_a_port() -> None:
     )
     assert done.returncode == 2
     assert "--firmware-chain" in done.stderr and "--port" in done.stderr
+    # refused before anything opened: no live view was started (and left running)
+    assert "Foxglove" not in done.stderr

@@ -170,41 +170,23 @@ def execute(
     if getattr(args, "trace", None) is not None:
         trace_path = args.trace
     from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
-    from pirate_bt.cli.run import open_foxglove, open_groot2, open_ros2
+    from pirate_bt.cli.run import check_firmware_chain, live_outputs
 
-    server = open_foxglove(args)
-    try:
-        node = open_ros2(args)
-    except BaseException:
-        if server is not None:
-            server.close()
-        raise
-    try:
-        groot2 = open_groot2(args)
-    except BaseException:
-        for opened in (server, node):
-            if opened is not None:
-                opened.close()
-        raise
-    options: dict[str, Any] = {
-        "faults": args.faults,
-        "trace": trace_path,
-        "robot": robot,
-        "max_time": max_time_s,
-        "rate": rate_hz,
-        "map_tolerance": tolerance,
-        "live": (not args.quiet) if live is None else live,
-        "foxglove": server,
-        "ros2": node,
-        "groot2": groot2,
-    }
-    started = time.perf_counter()
-    if args.port is not None and getattr(args, "firmware_chain", False):
-        raise InputError(
-            "--firmware-chain runs the simulator through the firmwares;"
-            " with --port the real bridge runs its own"
-        )
-    try:
+    check_firmware_chain(args)
+    with live_outputs(args) as (server, node, groot2):
+        options: dict[str, Any] = {
+            "faults": args.faults,
+            "trace": trace_path,
+            "robot": robot,
+            "max_time": max_time_s,
+            "rate": rate_hz,
+            "map_tolerance": tolerance,
+            "live": (not args.quiet) if live is None else live,
+            "foxglove": server,
+            "ros2": node,
+            "groot2": groot2,
+        }
+        started = time.perf_counter()
         if args.port is not None:
             result = run_mission(plan, port=args.port, **options)
         else:
@@ -216,13 +198,6 @@ def execute(
                 firmware=getattr(args, "firmware_chain", False),
                 **options,
             )
-    finally:
-        if server is not None:
-            server.close()
-        if node is not None:
-            node.close()
-        if groot2 is not None:
-            groot2.close()
     wall = time.perf_counter() - started
     files: list[Path] = []
     if output is not None:

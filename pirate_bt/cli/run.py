@@ -13,7 +13,9 @@ was interrupted, and the robot was left in its safe state; 2 invalid input;
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 from pirate_bt.api.options import split_faults
@@ -156,6 +158,32 @@ def open_groot2(args: argparse.Namespace) -> Any:
     return server
 
 
+@contextlib.contextmanager
+def live_outputs(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Any]]:
+    """Open what ``--foxglove``, ``--ros2`` and ``--groot2`` ask for; close all of it after.
+
+    Yields ``(foxglove server, ROS 2 node, Groot2 server)``, ``None`` for each not asked
+    for. One that fails to open closes those opened before it.
+    """
+    with contextlib.ExitStack() as stack:
+        opened = []
+        for opener in (open_foxglove, open_ros2, open_groot2):
+            output = opener(args)
+            if output is not None:
+                stack.callback(output.close)
+            opened.append(output)
+        yield opened[0], opened[1], opened[2]
+
+
+def check_firmware_chain(args: argparse.Namespace) -> None:
+    """``--firmware-chain`` with ``--port`` is a mistake: say so before opening anything."""
+    if args.port is not None and getattr(args, "firmware_chain", False):
+        raise InputError(
+            "--firmware-chain runs the simulator through the firmwares;"
+            " with --port the real bridge runs its own"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     """Parse, check the tree (exit 2 before connecting), call the API, print."""
     from pirate_bt.api.live import tree_observer
@@ -178,37 +206,19 @@ def run(args: argparse.Namespace) -> int:
         params_from_text=True,
         params_origin="--param",
     )
-    server = open_foxglove(args)
-    try:
-        node = open_ros2(args)
-    except BaseException:
-        if server is not None:
-            server.close()
-        raise
-    try:
-        groot2 = open_groot2(args)
-    except BaseException:
-        for opened in (server, node):
-            if opened is not None:
-                opened.close()
-        raise
-    options: dict[str, Any] = {
-        "faults": args.faults,
-        "trace": args.trace,
-        "robot": robot,
-        "max_time": max_time_s,
-        "rate": rate_hz,
-        "live": not args.quiet,
-        "observe": tree_observer(server, robot) if server is not None else None,
-        "ros2": node,
-        "groot2": groot2,
-    }
-    if args.port is not None and getattr(args, "firmware_chain", False):
-        raise InputError(
-            "--firmware-chain runs the simulator through the firmwares;"
-            " with --port the real bridge runs its own"
-        )
-    try:
+    check_firmware_chain(args)
+    with live_outputs(args) as (server, node, groot2):
+        options: dict[str, Any] = {
+            "faults": args.faults,
+            "trace": args.trace,
+            "robot": robot,
+            "max_time": max_time_s,
+            "rate": rate_hz,
+            "live": not args.quiet,
+            "observe": tree_observer(server, robot) if server is not None else None,
+            "ros2": node,
+            "groot2": groot2,
+        }
         if args.port is not None:
             result = run_tree(checked, port=args.port, **options)
         else:
@@ -220,13 +230,6 @@ def run(args: argparse.Namespace) -> int:
                 firmware=getattr(args, "firmware_chain", False),
                 **options,
             )
-    finally:
-        if server is not None:
-            server.close()
-        if node is not None:
-            node.close()
-        if groot2 is not None:
-            groot2.close()
     if result.succeeded:
         print(result.summary())
         return 0
