@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test lint typecheck unit docs bench graphviz venv clean firmware avr-toolchain \
+.PHONY: demo test lint typecheck unit docs bench bench-doc graphviz venv clean firmware avr-toolchain \
 	flash fuses avrdude zmq-dev mutation mutation-python mutation-firmware
 
 venv: $(STAMP)
@@ -120,8 +120,20 @@ mutation-python: $(STAMP)
 mutation-firmware: $(STAMP) avr-toolchain
 	$(BIN)/python tests/mutation/firmware.py --jobs $(MUTATION_CHILDREN)
 
-bench: $(STAMP) graphviz
-	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
+# Every benchmark in turn (benchmarks/run_all.py), then the tables they own in
+# docs/performance.md rewritten from what they published, only if all succeeded
+# (docs/testing.md, Benchmarks). BENCH_ARGS: `--full` (each script's own defaults:
+# the as-built, navigator and survey figures in full), names (`trace mission`: only
+# those), `--set interop="5 --no-sizes"`, `--results DIR` (keep the results).
+# `make bench-doc BENCH_RESULTS=DIR` writes kept results into the document again.
+BENCH_ARGS ?=
+BENCH_DOC ?= docs/performance.md
+bench: $(STAMP) graphviz avr-toolchain
+	$(BIN)/python benchmarks/run_all.py --write $(BENCH_DOC) $(BENCH_ARGS)
+
+bench-doc: $(STAMP)
+	@test -n "$(BENCH_RESULTS)" || { echo "usage: make bench-doc BENCH_RESULTS=DIR"; exit 2; }
+	$(BIN)/python benchmarks/report.py --write $(BENCH_DOC) $(BENCH_RESULTS)
 
 clean:
 	rm -rf $(VENV) site dist build $(DEMO_OUT) .mypy_cache .ruff_cache .pytest_cache .hypothesis \

@@ -46,7 +46,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from report import publish
+
 HERE = Path(__file__).resolve().parent
+TARGET_S = 0.05
+"""Issue 27's target: what a case may cost beyond the run itself."""
+RATIO_TARGET = 0.9
+"""Issue 27's target: Dask's cases per minute against the local pool's."""
+LABELS = {
+    "local pool, 1 worker": "local pool, 1 worker",
+    "Dask, 1 worker": "Dask (`LocalCluster`, 1 single-thread worker)",
+}
 SPEC = """\
 name: bench
 runs:
@@ -198,6 +208,7 @@ def main() -> None:
     # through the executor side by side (the executors stay open: their start is
     # not counted; one case runs through each first, to start its server).
     names = ("local pool, 1 worker", "Dask, 1 worker")
+    per_case: list[list[str]] = []
     found: dict[str, list[Pair]] = {name: [] for name in names}
     with (
         make_executor(workers=1) as (local_pool, _),
@@ -225,6 +236,19 @@ def main() -> None:
             f" (case process, server and worker, against the lone run's"
             f" {statistics.mean(p[1] for p in pairs):.3f} s)"
         )
+        median = statistics.median(over)
+        met = "**met**" if median <= TARGET_S else "not met"
+        per_case.append(
+            [
+                LABELS[name],
+                f"**{median:+.3f} s** ({quart[0]:+.3f} to {quart[2]:+.3f})",
+                f"{cpu:+.3f} s",
+                f"≤ {TARGET_S:g} s: {met}",
+            ]
+        )
+        lone = statistics.median(p[0] for p in pairs)
+        lone_cpu = statistics.mean(p[1] for p in pairs)
+        n_pairs = len(pairs)
 
     print(
         "modules a case process imported itself:"
@@ -262,6 +286,56 @@ def main() -> None:
     print(
         f"load average {load_before[0]:.2f} {load_before[1]:.2f} before,"
         f" {load_after[0]:.2f} {load_after[1]:.2f} after (1 and 5 min)"
+    )
+    load = f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after"
+    publish(
+        "campaign-case",
+        [
+            "per case, beyond the run itself",
+            f"wall, median of {n_pairs} pairs (quartiles)",
+            f"CPU, mean of {n_pairs}",
+            "target",
+        ],
+        [
+            *per_case,
+            [
+                f"a fresh Python per case (the model before issue 27; mean of {len(fresh)})",
+                f"{fresh_s - lone_fresh:+.2f} s",
+                "-",
+                "",
+            ],
+        ],
+        note=f"The straight PAB (0.5 m, 5 % frame drop, `keep_traces: none`), {count} cases"
+        f" × {rounds} rounds per executor, each case run alone in the benchmark's process"
+        f" (warm) and through the executor in turn; the lone run took {lone:.3f} s of wall"
+        f" and {lone_cpu:.3f} s of CPU. Modules a case process imported itself:"
+        f" {', '.join(sorted(_imported)) if _imported else 'none'}; {load}.",
+    )
+    dask_ratio = statistics.median(ratios)
+    publish(
+        "campaign-throughput",
+        ["how", f"{campaign} cases, median of {rounds}", "cases per minute"],
+        [
+            [
+                "`--workers 2` (local process pool)",
+                f"{statistics.median(local):.2f} s ({', '.join(f'{w:.2f}' for w in local)})",
+                f"{60 * campaign / statistics.median(local):.0f}",
+            ],
+            [
+                "`--scheduler` to a local Dask cluster (2 single-thread worker processes)",
+                f"{statistics.median(dask):.2f} s ({', '.join(f'{w:.2f}' for w in dask)})",
+                f"{60 * campaign / statistics.median(dask):.0f}",
+            ],
+            [
+                "Dask against the local pool (median of the rounds' ratios)",
+                f"per round {', '.join(f'{r:.2f}' for r in ratios)}",
+                f"**{dask_ratio:.2f}x** (target {RATIO_TARGET:g}x:"
+                f" {'**met**' if dask_ratio >= RATIO_TARGET else 'not met'})",
+            ],
+        ],
+        note=f"Whole `pirate-bt campaign` commands, start-up included as a user waits, the"
+        f" rounds interleaved; the cluster is started before, as clusters are, so its case"
+        f" servers start with its first campaign and stay; {load}.",
     )
 
 

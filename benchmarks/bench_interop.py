@@ -39,10 +39,26 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
+from report import publish  # noqa: E402 - benchmarks/ is this script's own folder
+
 PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))
 MISSION = [PIRATE_BT, "mission", "scenarios/lab.route", "--sim", "lab", "--quiet"]
 TREE = ROOT
-"""The source tree whose pirate_bt runs (``--tree``)."""
+"""The source tree whose pirate_bt runs (``--tree``; then nothing is published)."""
+TARGET_PCT = 15.0
+"""Issue 27's target for ``--trace RUN.mcap`` and ``--foxglove``."""
+SIZE_LABELS = {
+    ".jsonl": "`.jsonl`",
+    ".jsonl.gz": "`.jsonl.gz`",
+    ".mcap": "`.mcap` (as a finished run leaves it: chunked, LZ4, indexed)",
+    ".mcap unchunked (while running)": "`.mcap` while the run goes on (unchunked, what a"
+    " SIGKILL leaves)",
+}
+OVERHEAD_LABELS = {
+    "--trace RUN.mcap": "`--trace RUN.mcap`",
+    "--foxglove, one client": "`--foxglove`, one client subscribed to every topic",
+    "--trace RUN.jsonl": "`--trace RUN.jsonl`, for comparison (the floor)",
+}
 
 
 def _command() -> tuple[list[str], dict[str, str] | None]:
@@ -114,6 +130,7 @@ def _run_with_client() -> tuple[float, int]:
 
 
 def sizes() -> None:
+    """Print each format's size per hour, and publish the table."""
     print("Size per hour of the lab mission (20 Hz ticks):")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
@@ -138,6 +155,23 @@ def sizes() -> None:
                 f"  {name:34s} {size / 1e6:7.2f} MB per run, {size / hours / 1e6:7.1f} MB/h"
                 f"  ({size / base:.2f} x .jsonl)"
             )
+    if TREE == ROOT:
+        publish(
+            "interop-size",
+            ["format", "per run", "per hour", "against `.jsonl`"],
+            [
+                [
+                    SIZE_LABELS.get(name, f"`{name}`"),
+                    f"{size / 1e6:.2f} MB",
+                    f"{size / hours / 1e6:.1f} MB",
+                    f"{size / base:.2f}x",
+                ]
+                for name, size in rows
+            ],
+            note=f"The lab mission's trace ({end['t_s']:.0f} s simulated, {end['n']:,} ticks at"
+            " 20 Hz) written by `pirate-bt mission scenarios/lab.route --sim lab --trace X`"
+            " in each format, scaled to an hour.",
+        )
 
 
 NAMES = ["--trace RUN.mcap", "--foxglove, one client", "--trace RUN.jsonl"]
@@ -145,7 +179,11 @@ NAMES = ["--trace RUN.mcap", "--foxglove, one client", "--trace RUN.jsonl"]
 
 
 def overhead(pairs: int) -> None:
+    """Print each option's overhead on the lab mission, and publish the table."""
     print(f"Overhead on the lab mission (wall time per run, {pairs} ABBA pairs):")
+    table: list[list[str]] = []
+    loads: list[float] = []
+    plains: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in NAMES:
             base: list[float] = []
@@ -182,6 +220,40 @@ def overhead(pairs: int) -> None:
                 + ", ".join(f"{100 * r:+.1f}" for r in ratios)
                 + f"; load average now {os.getloadavg()[0]:.2f}"
             )
+            loads.append(os.getloadavg()[0])
+            plains.append(plain)
+            pct = 100 * median / plain
+            label = OVERHEAD_LABELS[name]
+            if messages:
+                label += f" ({messages:,} messages)"
+            target = ""
+            if name != "--trace RUN.jsonl":
+                target = f"≤ {TARGET_PCT:g} %: " + ("**met**" if pct <= TARGET_PCT else "not met")
+            table.append(
+                [
+                    label,
+                    f"**{pct:+.0f} %** ({median:+.2f} s on {plain:.2f} s)",
+                    f"{100 * statistics.median(ratios):+.1f} % ({100 * min(ratios):+.1f} to"
+                    f" {100 * max(ratios):+.1f} %)",
+                    target,
+                ]
+            )
+    if TREE == ROOT and table:
+        publish(
+            "interop-overhead",
+            [
+                "option, on the lab mission",
+                f"extra wall time, median of {pairs} pairs (over the plain run's median)",
+                "per pair: median (range)",
+                "target",
+            ],
+            table,
+            note=f"Whole commands (`pirate-bt mission scenarios/lab.route --sim lab --quiet`,"
+            f" start-up included) with and without the option, {pairs} ABBA pairs each; the"
+            f" plain run took {min(plains):.1f}–{max(plains):.1f} s (medians per row); load"
+            f" average {min(loads):.1f}–{max(loads):.1f} after each row (the benchmark's own"
+            " processes included).",
+        )
 
 
 if __name__ == "__main__":

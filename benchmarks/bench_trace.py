@@ -217,8 +217,13 @@ def overhead(
     return plain, traced
 
 
-def report(label: str, plain: list[float], traced: list[float]) -> None:
-    """Print median and range of the tick times and of the overhead."""
+def report(label: str, plain: list[float], traced: list[float]) -> tuple[float, ...]:
+    """Print median and range of the tick times and of the overhead; return them.
+
+    Returns:
+        Seconds per tick untraced and traced (medians), the median extra seconds,
+        the median extra % and its range.
+    """
     p, t = statistics.median(plain), statistics.median(traced)
     extra = [b - a for a, b in zip(plain, traced, strict=True)]
     pct = [(b - a) / a * 100 for a, b in zip(plain, traced, strict=True)]
@@ -235,6 +240,7 @@ def report(label: str, plain: list[float], traced: list[float]) -> None:
         f"{statistics.median(pct):+.1f} % (range {min(pct):+.1f} to {max(pct):+.1f} %; "
         f"target <= 15 %)"
     )
+    return p, t, statistics.median(extra), statistics.median(pct), min(pct), max(pct)
 
 
 def size_per_hour(suffix: str, seconds: float = 60.0) -> float:
@@ -341,8 +347,13 @@ def simulated_run(
 
 def report_simulated(
     name: str, tree_file: str, network: str, params: dict[str, str], pairs: int = 15
-) -> None:
-    """Median and quartiles of the per-pair overhead of alternating untraced/traced runs."""
+) -> tuple[float, ...]:
+    """Median and quartiles of the per-pair overhead of alternating untraced/traced runs.
+
+    Returns:
+        Seconds per tick untraced and traced (medians), the quartiles of the per-pair
+        %, the extra seconds per tick in the post-tick hooks, and the pairs.
+    """
     off, on, hook_off, hook_on = [], [], [], []
     for pair in range(pairs):  # ABBA order, as in overhead()
         for traced_now in (False, True) if pair % 2 == 0 else (True, False):
@@ -359,9 +370,10 @@ def report_simulated(
         f" to {q3:+.1f} %, {pairs} pairs; target <= 15 %); in the post-tick hooks"
         f" {in_hook * 1e6:+.0f} us, {in_hook / base * 100:+.1f} %"
     )
+    return base, traced, q1, q2, q3, in_hook, pairs
 
 
-def report_open_close(runs: int = 15) -> None:
+def report_open_close(runs: int = 15) -> tuple[float, float, int]:
     """What a run pays once: opening a trace (the writer process starts) and closing it."""
     opened, closed = [], []
     with tempfile.TemporaryDirectory() as folder:
@@ -384,14 +396,16 @@ def report_open_close(runs: int = 15) -> None:
         f" close it (everything on disk): {statistics.median(closed) * 1e3:.1f} ms"
         f" (medians of {runs})"
     )
+    return statistics.median(opened), statistics.median(closed), runs
 
 
-def report_mission(pairs: int = 5) -> None:
+def report_mission(pairs: int = 5) -> dict[str, float]:
     """The demo's whole lab mission with and without its trace, and the trace's size."""
     from bench_mission import one_run
 
     pct: list[float] = []
     direct: list[float] = []
+    hook_us: list[float] = []
     size = sim_s = 0.0
     for pair in range(pairs):
         wall: dict[bool, float] = {}
@@ -406,6 +420,7 @@ def report_mission(pairs: int = 5) -> None:
         in_hook = hooks[True] - hooks[False]
         pct.append((on - off) / off * 100)
         direct.append(in_hook / off * 100)
+        hook_us.append(in_hook / ticks * 1e6)
         print(
             f"lab mission ({ticks} ticks, {sim_s:.0f} s simulated): {off:.2f} s -> {on:.2f} s"
             f" with trace, {(on - off) / ticks * 1e6:+.0f} us/tick, {pct[-1]:+.1f} %;"
@@ -424,21 +439,120 @@ def report_mission(pairs: int = 5) -> None:
             f"lab mission trace ({label:<9}): {nbytes / 1e6:5.2f} MB ="
             f" {nbytes * 3600 / sim_s / 1e6:6.1f} MB per hour of PAB runs (20 Hz ticks)"
         )
+    return {
+        "ticks": ticks,
+        "sim_s": sim_s,
+        "pairs": pairs,
+        "pct": statistics.median(pct),
+        "pct_min": min(pct),
+        "pct_max": max(pct),
+        "hook_us": statistics.median(hook_us),
+        "hook_pct": statistics.median(direct),
+        "jsonl_per_h": size * 3600 / sim_s,
+        "gz_per_h": packed * 3600 / sim_s,
+    }
 
 
 def main() -> None:
-    report("50-node tree (issue 6), Runner", *overhead(runner=True, tree_kind="issue6"))
-    report("sparse 50-node tree, tree.tick()", *overhead())
-    report("sparse 50-node tree, Runner", *overhead(runner=True))
-    report_simulated("bend PAB, simulated run", "trees/bend.yaml", "bend-right", {"roll": "90 deg"})
-    report_simulated(
+    issue6 = report("50-node tree (issue 6), Runner", *overhead(runner=True, tree_kind="issue6"))
+    sparse = report("sparse 50-node tree, tree.tick()", *overhead())
+    sparse_runner = report("sparse 50-node tree, Runner", *overhead(runner=True))
+    bend = report_simulated(
+        "bend PAB, simulated run", "trees/bend.yaml", "bend-right", {"roll": "90 deg"}
+    )
+    straight = report_simulated(
         "straight PAB, simulated run", "trees/straight.yaml", "straight", {"distance": "1.5 m"}
     )
-    report_open_close()
-    report_mission()
+    open_close = report_open_close()
+    mission = report_mission()
+    sizes = {}
     for suffix in (".jsonl", ".jsonl.gz"):
         size = size_per_hour(suffix)
+        sizes[suffix] = size
         print(f"trace size per hour ({suffix:<9}): {size / 1e6:8.1f} MB  (10 ms ticks)")
+    publish_table(issue6, sparse, sparse_runner, bend, straight, open_close, mission, sizes)
+
+
+TARGET_PCT = 15.0
+"""The target for the trace's cost per tick (docs/performance.md, Trace)."""
+
+
+def publish_table(
+    issue6: tuple[float, ...],
+    sparse: tuple[float, ...],
+    sparse_runner: tuple[float, ...],
+    bend: tuple[float, ...],
+    straight: tuple[float, ...],
+    open_close: tuple[float, float, int],
+    mission: dict[str, float],
+    sizes: dict[str, float],
+) -> None:
+    """The figures above as the table docs/performance.md shows under Trace."""
+    from report import publish
+
+    def per_tick(figures: tuple[float, ...], bold: bool = False) -> str:
+        plain, traced, extra, pct = figures[:4]
+        cost = f"{extra * 1e6:+.1f} µs, {pct:+.1f} %"
+        return f"{plain * 1e6:.1f} → {traced * 1e6:.1f} µs: " + (f"**{cost}**" if bold else cost)
+
+    def target(figures: tuple[float, ...]) -> str:
+        return f"≤ {TARGET_PCT:g} %: " + ("**met**" if figures[3] <= TARGET_PCT else "not met")
+
+    def whole(figures: tuple[float, ...]) -> str:
+        base, traced, q1, q2, q3, in_hook, _ = figures
+        return (
+            f"{base * 1e6:.0f} → {traced * 1e6:.0f} µs: {q2:+.1f} % per pair (quartiles"
+            f" {q1:+.1f} to {q3:+.1f} %); in the hooks {in_hook * 1e6:+.0f} µs,"
+            f" {in_hook / base * 100:+.1f} %"
+        )
+
+    opened, closed, oc_runs = open_close
+    rows = [
+        [
+            "**the 50-node tree** (the tree-engine figure's: from YAML, guards, via the runner),"
+            " tick → tick + trace",
+            per_tick(issue6, bold=True),
+            target(issue6),
+        ],
+        ["sparse 50-node tree, do-nothing leaves, `tree.tick()`", per_tick(sparse), target(sparse)],
+        ["sparse 50-node tree via the runner", per_tick(sparse_runner), target(sparse_runner)],
+        ["bend PAB, whole simulated run (runner, supervisor, link, simulator)", whole(bend), ""],
+        ["straight PAB, whole simulated run", whole(straight), ""],
+        [
+            f"the demo's lab mission ({mission['ticks']:,.0f} ticks,"
+            f" {mission['sim_s']:.0f} s simulated)",
+            f"{mission['pct']:+.1f} % of wall time ({mission['pairs']:.0f} pairs,"
+            f" {mission['pct_min']:+.1f} to {mission['pct_max']:+.1f} %); in the hooks"
+            f" {mission['hook_us']:+.0f} µs per tick, {mission['hook_pct']:+.1f} %",
+            "",
+        ],
+        [
+            "opening / closing a trace (once per run)",
+            f"{opened * 1e3:.1f} ms / {closed * 1e3:.1f} ms",
+            "",
+        ],
+        [
+            "trace size per hour of PAB runs (the lab mission: 20 Hz ticks, 100 Hz state),"
+            " `.jsonl` / `.jsonl.gz`",
+            f"**{mission['jsonl_per_h'] / 1e6:.1f} MB / {mission['gz_per_h'] / 1e6:.1f} MB**",
+            "",
+        ],
+        [
+            "trace size per hour, synthetic worst case (a record every 10 ms tick, 10 state"
+            " values moving each tick), `.jsonl` / `.jsonl.gz`",
+            f"{sizes['.jsonl'] / 1e6:.0f} MB / {sizes['.jsonl.gz'] / 1e6:.1f} MB",
+            "",
+        ],
+    ]
+    publish(
+        "trace",
+        ["figure", "now", "target"],
+        rows,
+        note=f"Per-tick rows: the median over ABBA pairs of runs traced and untraced; PAB"
+        f" rows: {bend[6]:.0f} ABBA pairs of whole runs, median and quartiles of the per-pair"
+        f" ratio, and the time inside the runner's post-tick hooks; the mission:"
+        f" {mission['pairs']:.0f} ABBA pairs; opening and closing: medians of {oc_runs}.",
+    )
 
 
 if __name__ == "__main__":
