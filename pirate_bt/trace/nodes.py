@@ -34,6 +34,8 @@ Changes = tuple[list[tuple[int, str]] | None, list[tuple[int, Any]] | None]
 pairs in node order, each ``None`` when nothing changed."""
 
 
+_UNCHANGED: Changes = (None, None)
+
 _DENSE_TICKS = 20
 """Ticks in a row with most nodes ticked after which the reader reads every node."""
 
@@ -50,6 +52,12 @@ class TickedNodes(py_trees.visitors.VisitorBase):
         super().__init__(full=False)
         self.nodes: list[py_trees.behaviour.Behaviour] = []
         self.run = self.nodes.append  # type: ignore[assignment]  # one C call a node
+        # Called around every tick and with nothing to do: C no-ops, not Python methods.
+        self.initialise = self.finalise = _nothing  # type: ignore[method-assign]
+
+
+_nothing = type(None)
+"""Called with no arguments, returns ``None``: a no-op in C."""
 
 
 _INVALID = py_trees.common.Status.INVALID
@@ -80,6 +88,7 @@ class NodeReader:
         self._feedback: list[Any] = [""] * len(self._nodes)
         self._dense = 0
         self._ticked = TickedNodes()
+        self._ticked_nodes = self._ticked.nodes
         self._visited: py_trees.trees.BehaviourTree | None = None
         if track_nodes is not False:
             if isinstance(tree, py_trees.trees.BehaviourTree):
@@ -95,7 +104,8 @@ class NodeReader:
         self._last_ticked: list[py_trees.behaviour.Behaviour] = []
         self._watched_ids: list[int] = []
         self._watched: list[py_trees.behaviour.Behaviour] = []
-        self._last_calm = False
+        self._calm = False
+        """Whether the next tick may take the shortcut of :meth:`changes`."""
         self._last_statuses: list[py_trees.common.Status] = []
         self._last_messages: list[Any] = []
         self._live: list[set[int]] = [set() for _ in self._nodes]
@@ -107,8 +117,19 @@ class NodeReader:
 
     def changes(self, first: bool = False) -> Changes:
         """What changed since the last call (``first``: the run's first tick, read whole)."""
+        ticked = self._ticked_nodes
+        if self._calm and ticked == self._last_ticked:
+            # The common tick, at the cost of a few C calls: the same nodes ticked as
+            # last time, few of them, and no status changed then, so the same nodes are
+            # to be read (the ticked ones and the live children beside them).
+            watched = self._watched
+            if list(map(_get_status, watched)) == self._last_statuses:
+                ticked.clear()
+                messages = list(map(_get_feedback, watched))
+                if messages == self._last_messages:
+                    return _UNCHANGED
+                return None, self._feedback_changes(messages)
         status = feedback = None
-        ticked = self._ticked.nodes
         if self._visited is not None and not first:
             # Read where the tree moved: the nodes ticked, the ones their parents
             # stopped, and the root (see track_nodes).
@@ -141,10 +162,27 @@ class NodeReader:
 
     def close(self) -> None:
         """Stop following the ticks: take the visitor off the tree (idempotent)."""
+        self._calm = False
         tree, self._visited = self._visited, None
         if tree is not None:
             tree.visitors[:] = [v for v in tree.visitors if v is not self._ticked]
         self._ticked.nodes.clear()
+
+    def _feedback_changes(self, messages: list[Any]) -> list[tuple[int, Any]]:
+        """The watched nodes whose message is not in ``_last_messages`` any more, noted.
+
+        A timeout's countdown or a step's progress changes a message every tick, so
+        this is the common tick too: the changed ones are picked out in C, in node
+        order (``_watched_ids`` is sorted).
+        """
+        flags = list(map(_ne, messages, self._last_messages))
+        moved = compress(self._watched_ids, flags)
+        changed = list(zip(moved, compress(messages, flags), strict=True))
+        feedback = self._feedback
+        for index, message in changed:
+            feedback[index] = message
+        self._last_messages = messages
+        return changed
 
     def _relive(self) -> None:
         """Rebuild every node's set of live children from the recorded statuses."""
@@ -164,24 +202,6 @@ class NodeReader:
         the root. A stopped node's children are all read in turn (their stop may have
         written a feedback message), and so on down while nodes changed.
         """
-        if self._last_calm and ticked == self._last_ticked:
-            # The common tick: the same nodes ticked as last time, and no status changed
-            # then, so the same nodes are to be read (the ticked ones and the live
-            # children beside them): their statuses and messages, compared in C.
-            watched = self._watched
-            if list(map(_get_status, watched)) == self._last_statuses:
-                messages = list(map(_get_feedback, watched))
-                if messages == self._last_messages:
-                    return None, None
-                changed: list[tuple[int, Any]] = []
-                for index, message, before in zip(
-                    self._watched_ids, messages, self._last_messages, strict=True
-                ):
-                    if message != before:
-                        self._feedback[index] = message
-                        changed.append((index, message))
-                self._last_messages = messages
-                return None, sorted(changed)
         nodes, live, children, index_of = self._nodes, self._live, self._children, self._index_of
         moved = [index_of[id(node)] for node in ticked if id(node) in index_of]
         moved_set = set(moved)
@@ -201,10 +221,12 @@ class NodeReader:
             seen.add(index)
             if self._read(index, nodes[index], status, feedback):
                 pending.extend(children[index])  # stopped from outside its own tick
-        # What the next tick's shortcut compares with (see above).
+        # What the next tick's shortcut compares with (see changes).
         self._last_ticked = ticked[:]
-        self._last_calm = not status and len(moved) == len(ticked)
-        self._watched_ids = moved + list(seen)
+        self._calm = (
+            not status and len(moved) == len(ticked) and len(ticked) * 2 <= len(self._nodes)
+        )
+        self._watched_ids = sorted(moved + list(seen))
         self._watched = [nodes[index] for index in self._watched_ids]
         self._last_statuses = [self._status[index] for index in self._watched_ids]
         self._last_messages = [self._feedback[index] for index in self._watched_ids]

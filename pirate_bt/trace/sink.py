@@ -81,6 +81,10 @@ from pathlib import Path
 from typing import Any
 
 if not __package__:  # run as the writer process's script
+    # The run's ticks come first: on a busy machine this process yields the CPU to the
+    # run and catches up in the gaps (the pipe holds thousands of ticks meanwhile).
+    with contextlib.suppress(OSError):
+        os.nice(10)
     # ``python -I -S sink.py``: pirate_bt is not on the path, and the package's
     # ``__init__`` modules (which import py_trees and more) must not run. Stand-in
     # packages let this file import its two siblings, which need the standard
@@ -151,6 +155,12 @@ SETUP, LINE, TICK, END = 0, 1, 2, 3
 # --- the writer process ------------------------------------------------------------
 
 _LENGTH = struct.Struct("<I")
+_pack_length = _LENGTH.pack
+_dumps = marshal.dumps
+_write = os.write
+_MARSHAL_VERSION = 2
+"""What :meth:`SinkProcess.send` writes: version 2 has no references between objects
+(3 and 4 do), which a tick's small message does not need and pays for."""
 _POLL_S = 0.002
 """How long the writer process sleeps after draining the pipe: it is not woken by every
 tick's write, and it notices the end of a run within this time."""
@@ -301,11 +311,15 @@ class SinkProcess:
             ValueError: the message holds a value ``marshal`` cannot carry.
             SinkError: the writer process has gone.
         """
-        data = frame(message)
+        # frame(), inlined: this runs once per tick. marshal's version 2 (no references
+        # between objects) encodes a tick in 60 % of the time of the default version,
+        # and loads the same values.
+        data = _dumps(message, _MARSHAL_VERSION)
+        data = _pack_length(len(data)) + data
         try:
-            written = os.write(self._fd, data)
+            written = _write(self._fd, data)
             while written < len(data):
-                written += os.write(self._fd, data[written:])
+                written += _write(self._fd, data[written:])
         except BrokenPipeError:
             raise SinkError(self._failure()) from None
 

@@ -75,7 +75,6 @@ from pirate_bt.trace.records import (
     TRACE_VERSION,
     CommandRecord,
     TickExtras,
-    link_health_raw,
     state_layout,
 )
 from pirate_bt.trace.sink import (
@@ -120,6 +119,9 @@ _PLAIN_TYPES = frozenset({str, int, bool, type(None)})
 _IMMUTABLE_TYPES = _PLAIN_TYPES | {float}
 """Blackboard value types that cannot change without a new write."""
 _command_fields = operator.attrgetter(*CommandRecord.__dataclass_fields__)
+_link_raw = operator.attrgetter(*LINK_FIELDS)
+""":func:`~pirate_bt.trace.records.link_health_raw` without the call around it."""
+_Blackboard = py_trees.blackboard.Blackboard
 _COMMANDS_MAX = 4096
 """Most distinct command records whose JSON text a recorder keeps."""
 
@@ -379,53 +381,50 @@ class TraceRecorder:
         """
         if self._closed:
             raise RuntimeError(f"trace {self.path} is closed")
-        self._tick += 1
+        # Runs after every tick, so it is written for speed: one pass, C-level
+        # comparisons, nothing built for what did not move (see docs/performance.md).
+        tick = self._tick = self._tick + 1
         now = self.clock.now() if time_s is None else time_s
         t_s = self._t_s = now - self._start_s  # rounded by the encoder
         # Capture only: what moved since the last tick, as plain values (the writer
         # compares with what it recorded, rounds and encodes; see sink.TickEncoder).
         # The tree is read where it moved (see track_nodes and NodeReader), or whole
         # when the recorder cannot follow the ticks.
-        status, feedback = self._reader.changes(first=self._tick == 1)
-        bb = self._blackboard_changes() if self.blackboard else None
+        status, feedback = self._reader.changes(tick == 1)
+        bb = None
+        if self.blackboard and not (self._bb_immutable and _Blackboard.storage == self._bb_raw):
+            bb = self._blackboard_changes()
         keys = raw = commands = link = sim = events = None
         if extras is not None:
             state = extras.state
-            if state is not None and (self.full_state or state is not self._last_state):
+            if state is not None and (state is not self._last_state or self.full_state):
                 self._last_state = state
                 layout, values = state_layout(state, self.readings)
                 if layout != self._layout:
                     self._layout = keys = layout
-                if self.full_state or keys is not None or values != self._state_raw:
+                if values != self._state_raw or keys is not None or self.full_state:
                     self._state_raw = raw = values
             if extras.commands:
-                commands = list(map(self._command_json, extras.commands))
+                # Each record's text looked up by its fields, in C; encoded on a miss.
+                try:
+                    commands = list(map(self._commands.get, map(_command_fields, extras.commands)))
+                except TypeError:  # a hand-made record holding something unhashable
+                    commands = [None]
+                if None in commands:
+                    commands = list(map(self._command_json, extras.commands))
             health = extras.link
             if health is not None and health is not self._last_link:
                 # A fresh object every tick whose rtt may be nan (nan != nan makes dataclass
                 # == useless): its fields as one tuple compare cheaply instead.
                 self._last_link = health
-                values = link_health_raw(health)
+                values = _link_raw(health)
                 if values != self._link_raw:
                     self._link_raw = link = values
             if extras.sim is not None and extras.sim != self._sim_raw:
                 self._sim_raw = sim = dict(extras.sim)  # a copy: the caller may mutate its own
             if extras.events:
                 events = ',"events":' + encode_json([e.to_json() for e in extras.events])
-        message = (
-            TICK,
-            self._tick,
-            t_s,
-            status,
-            feedback,
-            bb,
-            keys,
-            raw,
-            commands,
-            link,
-            sim,
-            events,
-        )
+        message = (TICK, tick, t_s, status, feedback, bb, keys, raw, commands, link, sim, events)
         if self._sink is not None:
             try:
                 self._sink.send(message)
