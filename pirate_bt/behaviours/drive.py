@@ -480,8 +480,9 @@ class Drive(Primitive):
                 self._at_speed = done
         robot = self.robot
         stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
-        currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in robot.drive_motors()}
-        speeds = {m.name: state.drive_velocity_mps.get(m.name, 0.0) for m in robot.drive_motors()}
+        drives = robot.drive_motors()
+        currents = {m.name: state.motor_current_a.get(m.name, 0.0) for m in drives}
+        speeds = {m.name: state.drive_velocity_mps.get(m.name, 0.0) for m in drives}
         self.feedback_message = (
             f"drove {travelled:.3f} m at {speed * 1000:.0f} mm/s"
             f" (max current {max(currents.values(), default=0.0):.2f} A)"

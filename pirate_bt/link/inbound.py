@@ -36,6 +36,7 @@ from pirate_bt.link.requests import Outcome, Request
 __all__ = ["InboundMixin"]
 
 _log = logging.getLogger("pirate_bt.link.session")
+_NO_SESSION = int(BridgeFlags.NO_SESSION)
 
 
 class InboundMixin:
@@ -189,7 +190,7 @@ class InboundMixin:
 
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
-        if item.flags & BridgeFlags.NO_SESSION:
+        if int(item.flags) & _NO_SESSION:  # an int test: IntFlag's own & builds a flag
             self._flags = item.flags
             self._bridge_reset(now)
             return

@@ -353,7 +353,8 @@ class RobotDescription(_Model):
         return self.motor_of(self.rotational_module().name, MotorFunction.ROTATE)
 
     def drive_motors(self) -> list[Motor]:
-        return [m for _, m in self.motors() if m.function is MotorFunction.DRIVE]
+        """The drive motors, in the order of :meth:`motors` (boards as listed)."""
+        return list(self._index.drives)
 
     def imu(self) -> ImuSensor | None:
         for _, s in self.sensors():
@@ -370,6 +371,11 @@ class RobotDescription(_Model):
     def state_channels(self) -> list[ChannelSpec]:
         """The state frame's int16 channels in wire order (boards by id, sensors, feedback)."""
         return list(self._index.channels)
+
+    def channel_period_s(self, name: str) -> float:
+        """How often state channel ``name`` is fresh: its sensor's period, else (no
+        period given, or no such channel) the bridge's state period."""
+        return self._index.periods.get(name) or self.bridge.state_period
 
     def setpoint_slots(self) -> list[SetpointSlot]:
         """The bulk setpoint frame's motors in wire order (boards by id, then slot)."""
@@ -453,6 +459,8 @@ class _Index:
     by_kind: dict[tuple[str, SensorKind], AngleSensor | SpringSensor | ImuSensor]
     channels: Sequence[ChannelSpec]
     setpoints: Sequence[SetpointSlot]
+    drives: tuple[Motor, ...]
+    periods: dict[str, float | None]
 
     @classmethod
     def build(cls, desc: RobotDescription) -> _Index:
@@ -498,4 +506,6 @@ class _Index:
             by_kind=by_kind,
             channels=tuple(channels),
             setpoints=tuple(setpoints),
+            drives=tuple(m for _, m in desc.motors() if m.function is MotorFunction.DRIVE),
+            periods={c.name: c.period_s for c in channels},
         )

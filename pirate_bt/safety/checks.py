@@ -276,11 +276,10 @@ def stale_channels(
     A channel is stale when its last fresh reading is older than
     ``safety.stale_after_periods`` times its sensor period.
     """
-    periods = {c.name: c.period_s for c in robot.state_channels()}
     factor = robot.safety.stale_after_periods
     out: list[tuple[str, float]] = []
     for name in names:
-        period = periods.get(name) or robot.bridge.state_period
+        period = robot.channel_period_s(name)
         age = state.age_s(name, now_s)
         if not math.isfinite(age) or age > factor * period:
             out.append((name, age))
