@@ -126,9 +126,20 @@ class NodeReader:
             if list(map(_get_status, watched)) == self._last_statuses:
                 ticked.clear()
                 messages = list(map(_get_feedback, watched))
-                if messages == self._last_messages:
+                last = self._last_messages
+                if messages == last:
                     return _UNCHANGED
-                return None, self._feedback_changes(messages)
+                # A timeout's countdown or a step's progress changes a message every
+                # tick: the changed ones picked out in C, in node order (_watched_ids is
+                # sorted), and noted.
+                flags = list(map(_ne, messages, last))
+                moved = compress(self._watched_ids, flags)
+                changed = list(zip(moved, compress(messages, flags), strict=True))
+                recorded = self._feedback
+                for index, message in changed:
+                    recorded[index] = message
+                self._last_messages = messages
+                return None, changed
         status = feedback = None
         if self._visited is not None and not first:
             # Read where the tree moved: the nodes ticked, the ones their parents
@@ -167,22 +178,6 @@ class NodeReader:
         if tree is not None:
             tree.visitors[:] = [v for v in tree.visitors if v is not self._ticked]
         self._ticked.nodes.clear()
-
-    def _feedback_changes(self, messages: list[Any]) -> list[tuple[int, Any]]:
-        """The watched nodes whose message is not in ``_last_messages`` any more, noted.
-
-        A timeout's countdown or a step's progress changes a message every tick, so
-        this is the common tick too: the changed ones are picked out in C, in node
-        order (``_watched_ids`` is sorted).
-        """
-        flags = list(map(_ne, messages, self._last_messages))
-        moved = compress(self._watched_ids, flags)
-        changed = list(zip(moved, compress(messages, flags), strict=True))
-        feedback = self._feedback
-        for index, message in changed:
-            feedback[index] = message
-        self._last_messages = messages
-        return changed
 
     def _relive(self) -> None:
         """Rebuild every node's set of live children from the recorded statuses."""

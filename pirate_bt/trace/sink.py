@@ -13,15 +13,19 @@ for as little as possible:
   (:class:`JsonLinesWriter`, :class:`GzipJsonLinesWriter`) the second.
 
 By default the second half runs in a **writer process** (:class:`SinkProcess`,
-this file run as a script): the recorder ``marshal``\\s each message onto a pipe
-and the writer process encodes, compresses and writes while the robot's process
-goes on with the next tick. Crash safety is kept: a message is in the kernel's
-pipe buffer once ``os.write`` returns, and the writer process outlives the
-recorder's process, so a run killed with SIGKILL still has every tick it handed
-over written out (the writer sees the pipe close, writes what is left and exits).
-The writer process runs in its own session, so a signal to the run's process
-group does not stop it either. With ``background=False``, or for a format
-writer this module does not know, the same :class:`TickEncoder` runs in-process.
+this file run as a script): the recorder ``marshal``\\s each message and hands it
+over, and the writer process encodes, compresses and writes while the robot's
+process goes on with the next tick. Ticks go through a ring of shared memory
+(:mod:`pirate_bt.trace.sink_ring`, on Linux), the other messages and the ring's
+bells through a pipe (the only way elsewhere). Crash safety is kept: a message is
+in memory the kernel keeps for the writer process (the ring, or the pipe's
+buffer) once :meth:`SinkProcess.send` returns, and the writer process outlives
+the recorder's process, so a run killed with SIGKILL still has every tick it
+handed over written out (the writer sees the pipe close, writes what is left in
+the pipe and the ring, and exits). The writer process runs in its own session, so
+a signal to the run's process group does not stop it either. With
+``background=False``, or for a format writer this module does not know, the same
+:class:`TickEncoder` runs in-process.
 
 Messages (tuples; the first item says which):
 
@@ -34,28 +38,31 @@ Messages (tuples; the first item says which):
 ``(END, text)``
     The end record, already encoded: the writer process writes it, closes the file
     and exits at once (the pipe closing without it means the run was cut off).
+``(BELL, position)``
+    The ring holds messages up to ``position`` (bytes ever written to it): the
+    writer process takes them out before it reads on.
 ``(TICK, n, t_s, status, feedback, bb, state_keys, state_raw, commands, link, sim, events)``
     One tick: ``t_s`` is the seconds since the header (not yet rounded),
     ``status`` a list of ``(index, code)``, ``feedback`` a list of
     ``(index, message)``, ``bb`` and ``events`` the JSON members already
     encoded (``,"bb":{...}``), ``state_keys``/``state_raw`` the state's layout
     (``None`` when unchanged) and raw values (``None`` when not given or
-    unchanged), ``commands`` a list of JSON texts, ``link`` the raw
-    link-health tuple and
-    ``sim`` the counters (``None`` when unchanged or not given).
+    unchanged), ``commands`` a list of JSON texts, ``link`` the raw link-health
+    tuple and ``sim`` the counters (``None`` when unchanged or not given).
 
-On the pipe each message is a 4-byte little-endian length and its ``marshal``
-bytes (:func:`frame`, :func:`unframe`; the live outputs of :mod:`pirate_bt.interop`
-frame their pipes the same way). This module and the two it is split into import nothing outside the
-standard library and nothing else from ``pirate_bt``, so the writer process
-starts in a few milliseconds. The seams:
+On the pipe and in the ring each message is a 4-byte little-endian length and
+its ``marshal`` bytes (:func:`frame`, :func:`unframe`; the live outputs of
+:mod:`pirate_bt.interop` frame their pipes the same way). This module and the
+three it is split into import nothing outside the standard library and nothing
+else from ``pirate_bt``, so the writer process starts in a few milliseconds. The seams:
 
 - :mod:`pirate_bt.trace.sink_encode`: how values are rounded and spelled, the
   state diff and the other change trackers, :class:`TickEncoder`.
 - :mod:`pirate_bt.trace.sink_formats`: the format writers, :data:`WRITER_CLASSES`.
+- :mod:`pirate_bt.trace.sink_ring`: the ring of shared memory for ticks.
 - this module: the message kinds, :class:`SinkProcess` (the recorder's end of
-  the pipe) and the writer process itself (:func:`serve`, :func:`main`). It
-  re-exports every name of the other two.
+  the pipe and the ring) and the writer process itself (:func:`serve`,
+  :func:`main`). It re-exports every name of the first two.
 
 A format writer of a package above this one can run in a writer process too
 (:func:`register_process_writer`; MCAP does, :mod:`pirate_bt.interop.mcap_writer`):
@@ -71,23 +78,20 @@ from __future__ import annotations
 import contextlib
 import json
 import marshal
+import math
 import os
 import signal
 import struct
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 if not __package__:  # run as the writer process's script
-    # The run's ticks come first: on a busy machine this process yields the CPU to the
-    # run and catches up in the gaps (the pipe holds thousands of ticks meanwhile).
-    with contextlib.suppress(OSError):
-        os.nice(10)
     # ``python -I -S sink.py``: pirate_bt is not on the path, and the package's
     # ``__init__`` modules (which import py_trees and more) must not run. Stand-in
-    # packages let this file import its two siblings, which need the standard
+    # packages let this file import its siblings, which need the standard
     # library only.
     import types
 
@@ -122,8 +126,10 @@ from pirate_bt.trace.sink_formats import (
     JsonLinesWriter,
     TraceFormatWriter,
 )
+from pirate_bt.trace.sink_ring import BELL_S, Ring, RingReader
 
 __all__ = [
+    "BELL",
     "END",
     "LINE",
     "SETUP",
@@ -149,7 +155,7 @@ __all__ = [
     "unframe",
 ]
 
-SETUP, LINE, TICK, END = 0, 1, 2, 3
+SETUP, LINE, TICK, END, BELL = 0, 1, 2, 3, 4
 
 
 # --- the writer process ------------------------------------------------------------
@@ -158,6 +164,7 @@ _LENGTH = struct.Struct("<I")
 _pack_length = _LENGTH.pack
 _dumps = marshal.dumps
 _write = os.write
+_perf_counter = time.perf_counter
 _MARSHAL_VERSION = 2
 """What :meth:`SinkProcess.send` writes: version 2 has no references between objects
 (3 and 4 do), which a tick's small message does not need and pays for."""
@@ -165,6 +172,8 @@ _POLL_S = 0.002
 """How long the writer process sleeps after draining the pipe: it is not woken by every
 tick's write, and it notices the end of a run within this time."""
 _PIPE_BYTES = 1 << 20
+_NICE = 10
+"""How much nicer than the run the writer process is."""
 
 
 class SinkError(RuntimeError):
@@ -236,7 +245,7 @@ def _load_writer(spec: str, paths: Sequence[str]) -> type[TraceFormatWriter]:
 
 
 class SinkProcess:
-    """A writer process fed with messages over a pipe (see the module docstring).
+    """A writer process fed with messages over a pipe and a ring (see the module docstring).
 
     The trace file is opened (created, truncated) here, so an unwritable path
     fails at once in the caller's process; the writer process inherits it.
@@ -261,6 +270,9 @@ class SinkProcess:
         cls = WRITER_CLASSES[writer]
         cls.preflight(self.path)  # what is missing is said here, not by a dead process
         fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        created = Ring.create()
+        self._ring: Ring | None = created[0] if created is not None else None
+        ring_fd = created[1] if created is not None else -1
         try:
             if not Path(__file__).is_file() or not sys.executable:
                 raise SinkError(f"{self.path}: no interpreter or script for a trace writer process")
@@ -275,18 +287,23 @@ class SinkProcess:
                     spec,
                     "1" if sync else "0",
                     str(self.path),  # names the process in ps
+                    f"{ring_fd}:{self._ring.capacity}" if self._ring is not None else "-",
                     *([json.dumps(sys.path)] if ":" in spec else []),
                 ],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.PIPE,
-                pass_fds=(fd,),
+                pass_fds=(fd,) if ring_fd < 0 else (fd, ring_fd),
                 start_new_session=True,  # a signal to the run's process group spares it
             )
         except (OSError, ValueError) as exc:  # ValueError: no pass_fds (not POSIX)
+            if self._ring is not None:
+                self._ring.close()
             raise SinkError(f"{self.path}: cannot start a trace writer process: {exc}") from exc
         finally:
             os.close(fd)
+            if ring_fd >= 0:
+                os.close(ring_fd)  # mapped: the descriptor is not needed any more
         assert self._proc.stdin is not None
         self._fd = self._proc.stdin.fileno()
         try:  # a deep pipe: the writer process drains it in batches, not once per tick
@@ -298,6 +315,14 @@ class SinkProcess:
         self._closed = False
         self._reason: str | None = None
         self._stderr = b""
+        # The ring's positions as this end knows them (see sink_ring): written, rung, and
+        # read by the writer process (refreshed only when the ring looks full).
+        self._head = self._belled = self._tail = 0
+        self._bell_s = -math.inf
+        capacity = self._ring.capacity if self._ring is not None else 0
+        self._capacity = capacity
+        self._largest = capacity // 8
+        """Longest tick message put in the ring; a longer one goes through the pipe."""
 
     @property
     def pid(self) -> int:
@@ -305,17 +330,55 @@ class SinkProcess:
         return self._proc.pid
 
     def send(self, message: tuple[Any, ...]) -> None:
-        """Hand one message to the writer process (on return it is in the kernel's hands).
+        """Hand one message to the writer process.
+
+        On return it is in memory the kernel keeps for the writer process: a tick in
+        the ring (where there is one), anything else in the pipe.
 
         Raises:
             ValueError: the message holds a value ``marshal`` cannot carry.
-            SinkError: the writer process has gone.
+            SinkError: the writer process has gone (for a tick put in the ring: noticed
+                at the next bell, at most :data:`~pirate_bt.trace.sink_ring.BELL_S` later).
         """
         # frame(), inlined: this runs once per tick. marshal's version 2 (no references
         # between objects) encodes a tick in 60 % of the time of the default version,
         # and loads the same values.
         data = _dumps(message, _MARSHAL_VERSION)
         data = _pack_length(len(data)) + data
+        ring = self._ring
+        if ring is not None and message[0] == TICK and len(data) <= self._largest:
+            # A tick: copied into the ring, no system call unless the last bell is old.
+            end = self._head + len(data)
+            if end - self._tail > self._capacity:
+                self._make_room(end)
+            self._head = ring.put(self._head, data)
+            now = _perf_counter()
+            if now - self._bell_s > BELL_S:
+                self._bell(now)
+            return
+        if self._head != self._belled:
+            self._bell(_perf_counter())  # what the ring holds comes first
+        self._write(data)
+
+    def _bell(self, now: float) -> None:
+        """Tell the writer process how far the ring is written (and learn if it is alive)."""
+        self._belled, self._bell_s = self._head, now
+        self._write(frame((BELL, self._head)))
+
+    def _make_room(self, end: int) -> None:
+        """Wait until the writer process has read the ring far enough to write up to ``end``."""
+        assert self._ring is not None
+        if self._head != self._belled:
+            self._bell(_perf_counter())  # it reads only what was rung
+        while True:
+            self._tail = self._ring.tail()
+            if end - self._tail <= self._capacity:
+                return
+            if self._proc.poll() is not None:
+                raise SinkError(self._failure())
+            time.sleep(_POLL_S / 4)
+
+    def _write(self, data: bytes) -> None:
         try:
             written = _write(self._fd, data)
             while written < len(data):
@@ -334,16 +397,21 @@ class SinkProcess:
             return
         self._closed = True
         assert self._proc.stdin is not None
+        # No last bell: at the end of its input the writer process reads the ring to the end.
         with contextlib.suppress(BrokenPipeError):
             self._proc.stdin.close()
-        # Its standard error closes when it exits: wait for that end of file, not with
-        # Popen.wait(timeout), which polls with growing sleeps and overshoots by ms.
-        if not self._drain_stderr(timeout_s):
-            self._proc.kill()
-            self._proc.wait()
-            raise SinkError(f"{self.path}: the trace writer did not finish in {timeout_s:g} s")
-        if self._proc.wait() != 0:
-            raise SinkError(self._failure())
+        try:
+            # Its standard error closes when it exits: wait for that end of file, not with
+            # Popen.wait(timeout), which polls with growing sleeps and overshoots by ms.
+            if not self._drain_stderr(timeout_s):
+                self._proc.kill()
+                self._proc.wait()
+                raise SinkError(f"{self.path}: the trace writer did not finish in {timeout_s:g} s")
+            if self._proc.wait() != 0:
+                raise SinkError(self._failure())
+        finally:
+            if self._ring is not None:
+                self._ring.close()
 
     def _drain_stderr(self, timeout_s: float) -> bool:
         """Read the writer's standard error to its end; ``False`` if that took too long."""
@@ -375,12 +443,15 @@ class SinkProcess:
         return self._reason
 
 
-def read_messages(fd: int, poll_s: float = _POLL_S) -> Iterator[Any]:
+def read_messages(
+    fd: int, poll_s: float = _POLL_S, rested: Callable[[], None] | None = None
+) -> Iterator[Any]:
     """Messages read off ``fd`` until it closes; a cut-off last message is dropped.
 
     After each read it sleeps ``poll_s``, so that messages gather and the reader is
     not woken once per message (on a busy machine such a wake-up may run before the
-    writer's ``os.write`` returns, and the tick would pay for it).
+    writer's ``os.write`` returns, and the tick would pay for it); then it calls
+    ``rested`` (the ring's reader gives space back then, see :mod:`.sink_ring`).
     """
     buffer = b""
     while True:
@@ -400,63 +471,120 @@ def read_messages(fd: int, poll_s: float = _POLL_S) -> Iterator[Any]:
         view.release()
         buffer = buffer[start:]
         time.sleep(poll_s)  # let messages gather: no wake-up of this process per tick
+        if rested is not None:
+            rested()
 
 
 _messages = read_messages
 
 
-def serve(fd_in: int, out: TraceFormatWriter) -> bool:
+def serve(fd_in: int, out: TraceFormatWriter, ring: Ring | None = None) -> bool:
     """Write the records of the messages read off ``fd_in`` to ``out``, until it closes.
+
+    Args:
+        fd_in: The pipe from the recorder.
+        out: The format writer.
+        ring: The ring the recorder puts ticks in; its bells come through ``fd_in``.
 
     Returns:
         Whether the end record came (``False``: the input closed without it, the run
         was cut off).
     """
-    encoder: TickEncoder | None = None
-    for message in _messages(fd_in):
-        kind = message[0]
-        if kind == TICK:
-            assert encoder is not None, "a tick before the setup message"
-            line = encoder.encode(message)
-            if line is not None:
-                out.write_line(line)
-        elif kind == LINE:
-            out.write_line(message[1])
-        elif kind == END:
-            out.write_line(message[1])
+    records = _Records(out)
+    reader = RingReader(ring) if ring is not None else None
+    for message in _messages(fd_in, rested=reader.rested if reader is not None else None):
+        if message[0] == BELL:
+            if reader is None:
+                raise ValueError("a bell, but no ring")
+            if records.write(reader.messages(message[1])):
+                return True
+        elif records.write((message,)):
             return True
-        elif kind == SETUP:
-            _, ids, every_tick, full_state, readings, link_fields = message
-            encoder = TickEncoder(
-                ids,
-                every_tick=every_tick,
-                full_state=full_state,
-                readings=readings,
-                link_fields=link_fields,
-            )
-        else:
-            raise ValueError(f"unknown message kind {kind!r}")
-    return False
+    # The input closed without an end record: the run was killed, or its recorder
+    # failed. What it put in the ring after its last bell is written too.
+    return reader is not None and records.write(reader.messages(reader.ring.head()))
+
+
+class _Records:
+    """Writes the records of messages, in order (:func:`serve`'s body)."""
+
+    def __init__(self, out: TraceFormatWriter) -> None:
+        self.out = out
+        self.encoder: TickEncoder | None = None
+
+    def write(self, messages: Iterable[Any]) -> bool:
+        """Write the records of ``messages``; whether the end record was among them.
+
+        The lines go out together, after the last message (one ``os.write`` for
+        ``.jsonl``): the recorder has handed them over already, and this process
+        writes them all before it reads on, or exits.
+        """
+        lines: list[str] = []
+        try:
+            for message in messages:
+                kind = message[0]
+                if kind == TICK:
+                    assert self.encoder is not None, "a tick before the setup message"
+                    line = self.encoder.encode(message)
+                    if line is not None:
+                        lines.append(line)
+                elif kind == LINE:
+                    lines.append(message[1])
+                elif kind == END:
+                    lines.append(message[1])
+                    return True
+                else:
+                    self._setup(message)
+            return False
+        finally:
+            if lines:
+                self.out.write_lines(lines)
+
+    def _setup(self, message: Any) -> None:
+        if message[0] != SETUP:
+            raise ValueError(f"unknown message kind {message[0]!r}")
+        _, ids, every_tick, full_state, readings, link_fields = message
+        self.encoder = TickEncoder(
+            ids,
+            every_tick=every_tick,
+            full_state=full_state,
+            readings=readings,
+            link_fields=link_fields,
+        )
 
 
 def main(argv: Sequence[str]) -> int:
-    """The writer process: ``sink.py FD WRITER SYNC [PATH [SYS_PATH]]``; messages on stdin.
+    """The writer process: ``sink.py FD WRITER SYNC [PATH [RING [SYS_PATH]]]``; messages on stdin.
 
     ``WRITER`` is a name of :data:`WRITER_CLASSES` or ``module:class`` (then
     ``SYS_PATH``, the recording process's ``sys.path`` as JSON, is searched after
-    the standard library).
+    the standard library). ``RING`` is ``FD:CAPACITY`` of the ring's shared memory,
+    or ``-`` for none.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
+    # The run's ticks come first: on a busy machine this process yields the CPU to the
+    # run and catches up in the gaps (the ring holds thousands of ticks meanwhile). It
+    # has a session of its own, which Linux schedules as a group of its own (autogroup):
+    # the group is made nicer too, or the nice value would only count inside it.
+    with contextlib.suppress(OSError):
+        os.nice(_NICE)
+    with contextlib.suppress(OSError), open("/proc/self/autogroup", "w") as group:
+        group.write(str(_NICE))
     fd, writer, sync = int(argv[1]), argv[2], argv[3] == "1"
     path = argv[4] if len(argv) > 4 else f"fd {fd}"
+    ring: Ring | None = None
     try:
-        paths = json.loads(argv[5]) if len(argv) > 5 else []
+        if len(argv) > 5 and argv[5] != "-":
+            ring_fd, capacity = map(int, argv[5].split(":"))
+            ring = Ring(ring_fd, capacity)
+            os.close(ring_fd)
+        paths = json.loads(argv[6]) if len(argv) > 6 else []
         out = _load_writer(writer, paths)(path, sync=sync, fd=fd)
     except Exception as exc:
         print(f"trace writer: cannot open {writer}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1
     try:
-        if not serve(sys.stdin.fileno(), out):
+        if not serve(sys.stdin.fileno(), out, ring):
             out.cut_off()
     except Exception as exc:  # reported to the recorder through the exit code and stderr
         print(f"trace writer: {type(exc).__name__}: {exc}", file=sys.stderr)

@@ -80,6 +80,15 @@ class TraceFormatWriter:
         if self.sync:
             os.fsync(self._file.fileno())
 
+    def write_lines(self, lines: list[str]) -> None:
+        """Write several records given as their JSON text (the writer process's batches).
+
+        The default writes each with :meth:`write_line`; a format that can write a batch
+        at once (:class:`JsonLinesWriter`) overrides this.
+        """
+        for line in lines:
+            self.write_line(line)
+
     def close(self) -> None:
         """Flush and close the file (idempotent)."""
         if not self._file.closed:
@@ -106,6 +115,14 @@ class JsonLinesWriter(TraceFormatWriter):
             written += os.write(fd, data[written:])
         if self.sync:
             os.fsync(fd)
+
+    def write_lines(self, lines: list[str]) -> None:
+        """Write the lines with one ``os.write`` (``sync``: one each, each fsynced)."""
+        if self.sync or len(lines) == 1:
+            for line in lines:
+                self.write_line(line)
+        elif lines:
+            self.write_line("".join(lines))
 
 
 class GzipJsonLinesWriter(TraceFormatWriter):

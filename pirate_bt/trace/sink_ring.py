@@ -1,0 +1,170 @@
+"""The ring of shared memory that carries tick messages to the trace's writer process.
+
+Handing each tick to the writer process through its pipe costs a system call in
+the tick (about half a microsecond, more while the writer reads on the other
+core), and a pipe holds 1 MiB at most, so a writer that falls behind on a busy
+machine soon makes the ticks wait for it. So the recorder copies each tick's
+message (framed as on the pipe: a 4-byte length, then ``marshal``) into a ring
+of shared memory that both processes map (a ``memfd``, 4 MiB), and notes in the
+ring how far it has written. The pipe carries only *bells*: a small message
+``(BELL, position)`` saying "the ring holds messages up to here", sent when the
+last bell is more than :data:`BELL_S` old, and before any other message goes on
+the pipe (the header, the end record), so order is kept.
+
+Crash safety is what it was with the pipe: a tick is in memory the kernel keeps
+for the writer process as soon as :meth:`Ring.put` returns, so a SIGKILL of the
+run (or of its process group) loses none. When its pipe closes, the writer
+process reads the ring up to the position the recorder last noted, and writes
+those ticks too.
+
+Memory order, on any CPU: the writer reads ring bytes only up to a position it
+learnt from the pipe (a bell), or after the pipe has closed; the pipe's lock
+orders the recorder's earlier copies into the ring before that. It gives space
+back (its read position, noted in the ring) only after it has slept, a context
+switch after its last read of those bytes. A bell is also what tells the
+recorder that the writer process has died (its write fails), so a failure shows
+at the next tick unless ticks come faster than :data:`BELL_S` apart; then within
+that time.
+
+Layout: a 64-byte header holding the bytes ever written (``head``, at 0) and ever
+read (``tail``, at 8), little-endian 64-bit; then :data:`CAPACITY` bytes of data,
+a power of two, position ``p`` at offset ``64 + p % CAPACITY``. A frame may wrap
+around the end. Like the rest of the writer process, this module needs only the
+standard library.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import marshal
+import mmap
+import os
+import struct
+from typing import Any
+
+__all__ = ["BELL_S", "CAPACITY", "HEADER", "Ring", "RingReader"]
+
+HEADER = 64
+"""Bytes before the data: ``head`` and ``tail``, with room to spare."""
+CAPACITY = 1 << 22
+"""Data bytes of a ring (4 MiB, about 13 000 ticks of a 50-node tree with a robot state)."""
+BELL_S = 100e-6
+"""Longest time between bells while ticks go into the ring: ticks slower than this
+ring one each (a system call per tick is then at most 1 % of it)."""
+
+_POSITION = struct.Struct("<Q")
+_LENGTH = struct.Struct("<I")
+_HEAD, _TAIL = 0, 8
+
+
+class Ring:
+    """One process's view of a ring (see the module docstring).
+
+    Args:
+        fd: The shared memory's file descriptor (it may be closed once this is made).
+        capacity: Its data bytes, a power of two.
+    """
+
+    def __init__(self, fd: int, capacity: int = CAPACITY) -> None:
+        if capacity <= 0 or capacity & (capacity - 1):
+            raise ValueError(f"a ring's capacity is a power of two, not {capacity}")
+        self.capacity = capacity
+        self.map = mmap.mmap(fd, HEADER + capacity)
+        """The mapping: the header, then the data (shared with the other process)."""
+
+    @classmethod
+    def create(cls, capacity: int | None = None) -> tuple[Ring, int] | None:
+        """A new ring and its file descriptor (to pass on), or ``None`` where there is none.
+
+        Linux only (``os.memfd_create``); elsewhere, or if the kernel refuses, the
+        recorder writes every message into the pipe instead.
+
+        Args:
+            capacity: Data bytes, a power of two (default :data:`CAPACITY`).
+        """
+        memfd_create = getattr(os, "memfd_create", None)
+        if memfd_create is None:
+            return None
+        capacity = CAPACITY if capacity is None else capacity
+        fd = -1
+        try:
+            fd = memfd_create("pirate-bt-trace", getattr(os, "MFD_CLOEXEC", 1))
+            os.ftruncate(fd, HEADER + capacity)
+            return cls(fd, capacity), fd
+        except (OSError, ValueError):
+            if fd >= 0:
+                os.close(fd)
+            return None
+
+    def head(self) -> int:
+        """Bytes the recorder has written, ever."""
+        value: int = _POSITION.unpack_from(self.map, _HEAD)[0]
+        return value
+
+    def tail(self) -> int:
+        """Bytes the writer process has read and given back, ever."""
+        value: int = _POSITION.unpack_from(self.map, _TAIL)[0]
+        return value
+
+    def set_tail(self, position: int) -> None:
+        _POSITION.pack_into(self.map, _TAIL, position)
+
+    def put(self, head: int, frame: bytes) -> int:
+        """Copy ``frame`` in at ``head`` (room checked by the caller); the new head, noted."""
+        start = head & (self.capacity - 1)
+        end = start + len(frame)
+        if end <= self.capacity:
+            self.map[HEADER + start : HEADER + end] = frame
+        else:  # wraps around the end
+            first = self.capacity - start
+            self.map[HEADER + start : HEADER + self.capacity] = frame[:first]
+            self.map[HEADER : HEADER + len(frame) - first] = frame[first:]
+        head += len(frame)
+        _POSITION.pack_into(self.map, _HEAD, head)
+        return head
+
+    def get(self, start: int, end: int) -> bytes:
+        """A copy of the bytes from position ``start`` to ``end`` (at most the capacity)."""
+        offset = start & (self.capacity - 1)
+        size = end - start
+        if offset + size <= self.capacity:
+            return self.map[HEADER + offset : HEADER + offset + size]
+        first = self.capacity - offset
+        return (
+            self.map[HEADER + offset : HEADER + self.capacity]
+            + self.map[HEADER : HEADER + size - first]
+        )
+
+    def close(self) -> None:
+        """Unmap (idempotent)."""
+        with contextlib.suppress(BufferError):
+            self.map.close()
+
+
+class RingReader:
+    """The writer process's end: messages out of a ring, space given back after a rest."""
+
+    def __init__(self, ring: Ring) -> None:
+        self.ring = ring
+        self.read_to = ring.tail()
+        """Position up to which messages have been taken out."""
+
+    def messages(self, upto: int) -> list[Any]:
+        """The messages up to position ``upto`` (whole frames, as the recorder put them)."""
+        if upto <= self.read_to:
+            return []
+        data = self.ring.get(self.read_to, upto)
+        self.read_to = upto
+        out = []
+        view = memoryview(data)
+        start, size = 0, len(data)
+        while start < size:
+            (length,) = _LENGTH.unpack_from(view, start)
+            out.append(marshal.loads(view[start + 4 : start + 4 + length]))
+            start += 4 + length
+        view.release()
+        return out
+
+    def rested(self) -> None:
+        """Give back what was read before this process's last sleep (see the module docstring)."""
+        self.ring.set_tail(self.read_to)
