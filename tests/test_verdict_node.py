@@ -92,6 +92,31 @@ def test_issuing_nests_and_restores() -> None:
     assert current_issuer() is None
 
 
+def test_a_node_that_raises_leaves_no_issuer_behind() -> None:
+    """A node's code that raises mid-tick does not leave later verdicts naming it."""
+    import py_trees
+
+    from pirate_bt.behaviours.base import Leaf
+    from pirate_bt.safety.verdict import current_issuer
+
+    class Boom(Leaf):
+        def __init__(self) -> None:
+            py_trees.behaviour.Behaviour.__init__(self, "boom")
+
+        def update(self) -> py_trees.common.Status:
+            assert current_issuer() is self  # its own code runs under its name
+            raise RuntimeError("boom")
+
+    node = Boom()
+    with pytest.raises(RuntimeError, match="boom"):
+        for _ in node.tick():
+            pass
+    assert current_issuer() is None
+    with issuing(node), pytest.raises(KeyError):
+        raise KeyError("x")
+    assert current_issuer() is None
+
+
 def test_old_traces_without_nodes_still_summarise(capsys: pytest.CaptureFixture[str]) -> None:
     reference = sorted(Path(__file__).parent.joinpath("data", "traces").glob("*.jsonl"))
     assert reference

@@ -69,7 +69,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
-from pirate_bt.safety.verdict import issuing
+from pirate_bt.safety.verdict import enter_issuer, issuing, leave_issuer
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -336,8 +336,12 @@ class Leaf(NodeMixin, py_trees.behaviour.Behaviour):
     def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
         steps = super().tick()
         while True:
-            with issuing(self):
+            # ``with issuing(self)`` spelled out: this runs for every node on every tick
+            token = enter_issuer(self)
+            try:
                 node = next(steps, None)
+            finally:
+                leave_issuer(token)
             if node is None:
                 return
             yield node
