@@ -22,8 +22,9 @@ can point at ``file:line:column``.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Literal
 
 from pydantic import (
@@ -372,10 +373,11 @@ class RobotDescription(_Model):
         """The state frame's int16 channels in wire order (boards by id, sensors, feedback)."""
         return list(self._index.channels)
 
-    def channel_period_s(self, name: str) -> float:
-        """How often state channel ``name`` is fresh: its sensor's period, else (no
-        period given, or no such channel) the bridge's state period."""
-        return self._index.periods.get(name) or self.bridge.state_period
+    def channel_periods_s(self) -> Mapping[str, float]:
+        """How often each state channel is fresh, by name: its sensor's period, or the
+        bridge's state period where none is given. Read-only and shared: a
+        caller checking many channels each tick looks them up here."""
+        return self._index.periods
 
     def setpoint_slots(self) -> list[SetpointSlot]:
         """The bulk setpoint frame's motors in wire order (boards by id, then slot)."""
@@ -460,7 +462,7 @@ class _Index:
     channels: Sequence[ChannelSpec]
     setpoints: Sequence[SetpointSlot]
     drives: tuple[Motor, ...]
-    periods: dict[str, float | None]
+    periods: Mapping[str, float]
 
     @classmethod
     def build(cls, desc: RobotDescription) -> _Index:
@@ -507,5 +509,7 @@ class _Index:
             channels=tuple(channels),
             setpoints=tuple(setpoints),
             drives=tuple(m for _, m in desc.motors() if m.function is MotorFunction.DRIVE),
-            periods={c.name: c.period_s for c in channels},
+            periods=MappingProxyType(
+                {c.name: c.period_s or desc.bridge.state_period for c in channels}
+            ),
         )

@@ -276,10 +276,12 @@ def stale_channels(
     A channel is stale when its last fresh reading is older than
     ``safety.stale_after_periods`` times its sensor period.
     """
+    periods = robot.channel_periods_s()
+    default = robot.bridge.state_period  # a name that is no channel: the frame's period
     factor = robot.safety.stale_after_periods
     out: list[tuple[str, float]] = []
     for name in names:
-        period = robot.channel_period_s(name)
+        period = periods.get(name, default)
         age = state.age_s(name, now_s)
         if not math.isfinite(age) or age > factor * period:
             out.append((name, age))
