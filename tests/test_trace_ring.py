@@ -123,7 +123,7 @@ _QUIET = textwrap.dedent(
     """
     import sys, time, py_trees
     from pirate_bt.trace import TraceRecorder, sink
-    sink.BELL_S = 3600.0  # one bell, at the first tick: every later tick is unrung
+    sink.BELL_S = sink.PAUSE_S = 3600.0  # one bell, at the first tick: the rest unrung
     root = py_trees.behaviours.Running("spin")
     rec = TraceRecorder(sys.argv[1], py_trees.trees.BehaviourTree(root), every_tick=True)
     assert rec._sink._ring is not None

@@ -130,14 +130,15 @@ class NodeReader:
                 if messages == last:
                     return _UNCHANGED
                 # A timeout's countdown or a step's progress changes a message every
-                # tick: the changed ones picked out in C, in node order (_watched_ids is
-                # sorted), and noted.
-                flags = list(map(_ne, messages, last))
-                moved = compress(self._watched_ids, flags)
-                changed = list(zip(moved, compress(messages, flags), strict=True))
+                # tick: the changed ones noted, in node order (_watched_ids is sorted).
+                # A plain loop: for a handful of nodes it is twice as fast as
+                # map/compress/zip, whose iterator objects cost more than the compares.
+                changed: list[tuple[int, Any]] = []
                 recorded = self._feedback
-                for index, message in changed:
-                    recorded[index] = message
+                for index, message, before in zip(self._watched_ids, messages, last, strict=True):
+                    if message != before:
+                        recorded[index] = message
+                        changed.append((index, message))
                 self._last_messages = messages
                 return None, changed
         status = feedback = None

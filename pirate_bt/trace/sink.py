@@ -126,7 +126,7 @@ from pirate_bt.trace.sink_formats import (
     JsonLinesWriter,
     TraceFormatWriter,
 )
-from pirate_bt.trace.sink_ring import BELL_S, Ring, RingReader
+from pirate_bt.trace.sink_ring import BELL_S, PAUSE_S, Ring, RingReader
 
 __all__ = [
     "BELL",
@@ -316,13 +316,12 @@ class SinkProcess:
         self._reason: str | None = None
         self._stderr = b""
         # The ring's positions as this end knows them (see sink_ring): written, rung, and
-        # read by the writer process (refreshed only when the ring looks full).
+        # read by the writer process (refreshed only when the ring looks full); a tick
+        # message longer than an eighth of the ring goes through the pipe.
         self._head = self._belled = self._tail = 0
-        self._bell_s = -math.inf
-        capacity = self._ring.capacity if self._ring is not None else 0
-        self._capacity = capacity
-        self._largest = capacity // 8
-        """Longest tick message put in the ring; a longer one goes through the pipe."""
+        self._bell_s = self._put_s = -math.inf
+        self._capacity = self._ring.capacity if self._ring is not None else 0
+        self._largest = self._capacity // 8
 
     @property
     def pid(self) -> int:
@@ -338,7 +337,7 @@ class SinkProcess:
         Raises:
             ValueError: the message holds a value ``marshal`` cannot carry.
             SinkError: the writer process has gone (for a tick put in the ring: noticed
-                at the next bell, at most :data:`~pirate_bt.trace.sink_ring.BELL_S` later).
+                at the next bell, see :mod:`~pirate_bt.trace.sink_ring`).
         """
         # frame(), inlined: this runs once per tick. marshal's version 2 (no references
         # between objects) encodes a tick in 60 % of the time of the default version,
@@ -347,14 +346,16 @@ class SinkProcess:
         data = _pack_length(len(data)) + data
         ring = self._ring
         if ring is not None and message[0] == TICK and len(data) <= self._largest:
-            # A tick: copied into the ring, no system call unless the last bell is old.
+            # A tick: copied into the ring; a system call only to ring a bell after a
+            # pause or when the last bell is old (see sink_ring).
             end = self._head + len(data)
             if end - self._tail > self._capacity:
                 self._make_room(end)
             self._head = ring.put(self._head, data)
             now = _perf_counter()
-            if now - self._bell_s > BELL_S:
+            if now - self._put_s > PAUSE_S or now - self._bell_s > BELL_S:
                 self._bell(now)
+            self._put_s = now
             return
         if self._head != self._belled:
             self._bell(_perf_counter())  # what the ring holds comes first

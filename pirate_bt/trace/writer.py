@@ -57,7 +57,7 @@ from __future__ import annotations
 import logging
 import operator
 import platform
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
@@ -405,13 +405,7 @@ class TraceRecorder:
                 if values != self._state_raw or keys is not None or self.full_state:
                     self._state_raw = raw = values
             if extras.commands:
-                # Each record's text looked up by its fields, in C; encoded on a miss.
-                try:
-                    commands = list(map(self._commands.get, map(_command_fields, extras.commands)))
-                except TypeError:  # a hand-made record holding something unhashable
-                    commands = [None]
-                if None in commands:
-                    commands = list(map(self._command_json, extras.commands))
+                commands = self._command_texts(extras.commands)
             health = extras.link
             if health is not None and health is not self._last_link:
                 # A fresh object every tick whose rtt may be nan (nan != nan makes dataclass
@@ -442,6 +436,21 @@ class TraceRecorder:
         else:
             assert self._out is not None
             self._out.write_line(line)
+
+    def _command_texts(self, records: Sequence[CommandRecord]) -> list[str]:
+        """The records' JSON texts: looked up by their fields (one tuple, hashed in C),
+        encoded on a miss. A plain loop: a tick has one or a few records."""
+        texts: list[str] = []
+        cached = self._commands.get
+        try:
+            for record in records:
+                text = cached(_command_fields(record))
+                if text is None:
+                    return list(map(self._command_json, records))
+                texts.append(text)
+        except TypeError:  # a hand-made record holding something unhashable
+            return list(map(self._command_json, records))
+        return texts
 
     def _command_json(self, command: CommandRecord) -> str:
         # A behaviour re-sends the same setpoint tick after tick, each time as a new but
