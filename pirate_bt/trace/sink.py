@@ -58,7 +58,8 @@ else from ``pirate_bt``, so the writer process starts in a few milliseconds. The
 
 - :mod:`pirate_bt.trace.sink_encode`: how values are rounded and spelled, the
   state diff and the other change trackers, :class:`TickEncoder`.
-- :mod:`pirate_bt.trace.sink_formats`: the format writers, :data:`WRITER_CLASSES`.
+- :mod:`pirate_bt.trace.sink_formats`: the format writers, :data:`WRITER_CLASSES`,
+  :func:`register_process_writer`.
 - :mod:`pirate_bt.trace.sink_ring`: the ring of shared memory for ticks.
 - this module: the message kinds, :class:`SinkProcess` (the recorder's end of
   the pipe and the ring) and the writer process itself (:func:`serve`,
@@ -125,6 +126,9 @@ from pirate_bt.trace.sink_formats import (
     GzipJsonLinesWriter,
     JsonLinesWriter,
     TraceFormatWriter,
+    load_writer,
+    register_process_writer,
+    writer_spec,
 )
 from pirate_bt.trace.sink_ring import BELL_S, PAUSE_S, Ring, RingReader
 
@@ -205,45 +209,6 @@ def unframe(buffer: bytearray) -> list[Any]:
     return out
 
 
-def register_process_writer(cls: type[TraceFormatWriter]) -> None:
-    """Let writer processes run ``cls`` (a recorder then uses one for its suffixes).
-
-    ``cls``'s module is imported by name in the writer process (see the module
-    docstring for what it may import). Registering it again changes nothing.
-    """
-    WRITER_CLASSES[cls.__name__] = cls
-
-
-def _spec(cls: type[TraceFormatWriter]) -> str:
-    """How the writer process finds ``cls``: its name, or ``module:name`` from elsewhere."""
-    if cls.__module__ == TraceFormatWriter.__module__:
-        return cls.__name__
-    return f"{cls.__module__}:{cls.__qualname__}"
-
-
-def _load_writer(spec: str, paths: Sequence[str]) -> type[TraceFormatWriter]:
-    """The writer class named by :func:`_spec`, imported behind stand-in packages."""
-    module_name, colon, name = spec.partition(":")
-    if not colon:
-        return WRITER_CLASSES[spec]
-    import importlib
-    import types
-
-    sys.path.extend(p for p in paths if p not in sys.path)  # after the standard library
-    top = Path(__file__).resolve().parent.parent
-    parts = module_name.split(".")
-    for depth in range(1, len(parts)):
-        package = ".".join(parts[:depth])
-        if package not in sys.modules and parts[0] == "pirate_bt":
-            stand_in = types.ModuleType(package)
-            stand_in.__path__ = [str(top.joinpath(*parts[1:depth]))]
-            sys.modules[package] = stand_in
-    cls = getattr(importlib.import_module(module_name), name)
-    if not (isinstance(cls, type) and issubclass(cls, TraceFormatWriter)):
-        raise ValueError(f"{spec} is no trace format writer")
-    return cls
-
-
 class SinkProcess:
     """A writer process fed with messages over a pipe and a ring (see the module docstring).
 
@@ -276,7 +241,7 @@ class SinkProcess:
         try:
             if not Path(__file__).is_file() or not sys.executable:
                 raise SinkError(f"{self.path}: no interpreter or script for a trace writer process")
-            spec = _spec(cls)
+            spec = writer_spec(cls)
             self._proc = subprocess.Popen(
                 [
                     sys.executable,
@@ -580,7 +545,7 @@ def main(argv: Sequence[str]) -> int:
             ring = Ring(ring_fd, capacity)
             os.close(ring_fd)
         paths = json.loads(argv[6]) if len(argv) > 6 else []
-        out = _load_writer(writer, paths)(path, sync=sync, fd=fd)
+        out = load_writer(writer, paths)(path, sync=sync, fd=fd)
     except Exception as exc:
         print(f"trace writer: cannot open {writer}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1

@@ -2,7 +2,9 @@
 
 Split out of :mod:`pirate_bt.trace.sink` (which re-exports every name here):
 :class:`TraceFormatWriter` and the two formats a writer process can run,
-:class:`JsonLinesWriter` and :class:`GzipJsonLinesWriter` (:data:`WRITER_CLASSES`).
+:class:`JsonLinesWriter` and :class:`GzipJsonLinesWriter` (:data:`WRITER_CLASSES`),
+and how a writer process finds a registered one (:func:`register_process_writer`,
+:func:`writer_spec`, :func:`load_writer`).
 Other formats (MCAP) subclass :class:`TraceFormatWriter` elsewhere and run
 in-process, or in a writer process once registered with
 :func:`pirate_bt.trace.sink.register_process_writer`.
@@ -15,14 +17,23 @@ from __future__ import annotations
 
 import gzip
 import os
+import sys
 import zlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any, ClassVar, cast
 
 from pirate_bt.trace.sink_encode import encode_json
 
-__all__ = ["WRITER_CLASSES", "GzipJsonLinesWriter", "JsonLinesWriter", "TraceFormatWriter"]
+__all__ = [
+    "WRITER_CLASSES",
+    "GzipJsonLinesWriter",
+    "JsonLinesWriter",
+    "TraceFormatWriter",
+    "load_writer",
+    "register_process_writer",
+    "writer_spec",
+]
 
 
 class TraceFormatWriter:
@@ -156,3 +167,44 @@ WRITER_CLASSES: dict[str, type[TraceFormatWriter]] = {
     cls.__name__: cls for cls in (JsonLinesWriter, GzipJsonLinesWriter)
 }
 """The format writers a writer process can run, by class name."""
+
+
+def register_process_writer(cls: type[TraceFormatWriter]) -> None:
+    """Let writer processes run ``cls`` (a recorder then uses one for its suffixes).
+
+    ``cls``'s module is imported by name in the writer process (see
+    :mod:`pirate_bt.trace.sink` for what it may import). Registering it again
+    changes nothing.
+    """
+    WRITER_CLASSES[cls.__name__] = cls
+
+
+def writer_spec(cls: type[TraceFormatWriter]) -> str:
+    """How the writer process finds ``cls``: its name, or ``module:name`` from elsewhere."""
+    if cls.__module__ == TraceFormatWriter.__module__:
+        return cls.__name__
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def load_writer(spec: str, paths: Sequence[str]) -> type[TraceFormatWriter]:
+    """The writer class named by :func:`writer_spec`, imported behind stand-in packages
+    (in the writer process, with the recording process's ``paths`` after its own)."""
+    module_name, colon, name = spec.partition(":")
+    if not colon:
+        return WRITER_CLASSES[spec]
+    import importlib
+    import types
+
+    sys.path.extend(p for p in paths if p not in sys.path)  # after the standard library
+    top = Path(__file__).resolve().parent.parent
+    parts = module_name.split(".")
+    for depth in range(1, len(parts)):
+        package = ".".join(parts[:depth])
+        if package not in sys.modules and parts[0] == "pirate_bt":
+            stand_in = types.ModuleType(package)
+            stand_in.__path__ = [str(top.joinpath(*parts[1:depth]))]
+            sys.modules[package] = stand_in
+    cls = getattr(importlib.import_module(module_name), name)
+    if not (isinstance(cls, type) and issubclass(cls, TraceFormatWriter)):
+        raise ValueError(f"{spec} is no trace format writer")
+    return cls
