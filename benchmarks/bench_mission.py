@@ -12,7 +12,7 @@ pictures. Wall time is measured around that call (connecting to the simulator
 and the run; planning, a few milliseconds, before it); the speed-up is simulated
 mission time over wall time. Median and range over RUNS runs (default 3).
 
-``--breakdown``: where one tick's wall time goes, in µs per tick by layer, from
+Then (unless ``--no-breakdown``) where one tick's wall time goes, in µs per tick by layer, from
 ``time.perf_counter`` around the layers' entry points (each timed call adds about
 0.2 µs, so the total is a little above a plain run's): the simulator (physics and
 STATE frames, ``SimBridge.advance_to``), the link session (reading and decoding the
@@ -129,7 +129,7 @@ def print_breakdown(runs: int) -> None:
         "mission-breakdown",
         ["layer", "per tick", "share"],
         rows,
-        note=f"The lab mission with its trace written (`bench_mission.py --breakdown`),"
+        note=f"The lab mission with its trace written (`bench_mission.py`),"
         f" median of {runs} runs; each layer's time excludes the layers timed inside it;"
         f" the timing itself adds about 0.2 µs per timed call.",
     )
@@ -139,7 +139,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="?", type=int, default=3)
     parser.add_argument(
-        "--breakdown", action="store_true", help="also time each layer per tick (see above)"
+        "--no-breakdown",
+        dest="breakdown",
+        action="store_false",
+        help="skip the per-tick breakdown by layer (see above)",
     )
     args = parser.parse_args()
     runs = args.runs
