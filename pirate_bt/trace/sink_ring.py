@@ -7,11 +7,12 @@ machine soon makes the ticks wait for it. So the recorder copies each tick's
 message (framed as on the pipe: a 4-byte length, then ``marshal``) into a ring
 of shared memory that both processes map (a ``memfd``, 4 MiB), and notes in the
 ring how far it has written. The pipe carries only *bells*: a small message
-``(BELL, position)`` saying "the ring holds messages up to here". A tick rings
-one when it comes more than :data:`PAUSE_S` after the one before (every tick of
-a run paced to a clock) or when the last bell is more than :data:`BELL_S` old (a
-run going as fast as it can); and one goes before any other message on the pipe
-(the header, the end record), so order is kept.
+``(BELL, position)`` saying "the ring holds messages up to here", when the last
+bell is more than :data:`BELL_S` old, and before any other message on the pipe
+(the header, the end record), so order is kept. Only ticks that come less than
+:data:`PAUSE_S` after the one before (a run going as fast as it can) go into the
+ring: a tick after a pause (every tick of a run paced to a clock) goes through
+the pipe, one write as before, since a bell would cost as much.
 
 Crash safety is what it was with the pipe: a tick is in memory the kernel keeps
 for the writer process as soon as :meth:`Ring.put` returns, so a SIGKILL of the
@@ -26,7 +27,7 @@ back (its read position, noted in the ring) only after it has slept, a context
 switch after its last read of those bytes. A bell is also what tells the
 recorder that the writer process has died (its write fails), so a failure shows
 at the next tick, or within :data:`BELL_S` while ticks come less than
-:data:`PAUSE_S` apart.
+:data:`PAUSE_S` apart (the ring's ticks).
 
 Layout: a 64-byte header holding the bytes ever written (``head``, at 0) and ever
 read (``tail``, at 8), little-endian 64-bit; then :data:`CAPACITY` bytes of data,
@@ -54,8 +55,8 @@ BELL_S = 1e-3
 """Longest time between bells while ticks come fast (the writer process reads what was
 rung every 2 ms)."""
 PAUSE_S = 100e-6
-"""A tick that comes this long after the one before rings a bell: ticks this far apart
-ring one each (a system call per tick is then at most 1 % of the tick)."""
+"""A tick that comes this long after the one before goes through the pipe, not the
+ring: a system call per tick is then at most 1 % of the tick."""
 
 _POSITION = struct.Struct("<Q")
 _LENGTH = struct.Struct("<I")
