@@ -17,8 +17,8 @@ from py_trees.common import Status
 from pirate_bt.clock import SimClock
 from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import RobotState
-from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder, read_trace, sink_ring
-from pirate_bt.trace.sink import SinkProcess
+from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder, read_trace, sink, sink_ring
+from pirate_bt.trace.sink import SinkError, SinkProcess
 from pirate_bt.trace.sink_ring import Ring, RingReader
 from tests.test_trace import wait_for_writers
 
@@ -155,3 +155,42 @@ def test_ticks_put_in_the_ring_after_the_last_bell_survive_a_sigkill(tmp_path: P
     trace = read_trace(path)
     assert [t.n for t in trace.ticks] == list(range(1, done + 1))
     assert trace.outcome == "incomplete"
+
+
+def test_without_a_ring_every_tick_goes_through_the_pipe(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Where there is no shared memory (not Linux, or refused), the pipe carries all."""
+    monkeypatch.setattr(Ring, "create", classmethod(lambda cls, capacity=None: None))
+    rec = _record(tmp_path / "pipe.jsonl", 500)
+    assert rec.background
+    _record(tmp_path / "inline.jsonl", 500, background=False)
+    pipe = (tmp_path / "pipe.jsonl").read_text().splitlines()
+    assert pipe[1:] == (tmp_path / "inline.jsonl").read_text().splitlines()[1:]
+
+
+def test_a_dead_writer_is_noticed_when_the_ring_is_full(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ticks that ring no bell go into the ring until it is full; then the recorder
+    rings, and the failed write says the writer process died."""
+    monkeypatch.setattr(sink_ring, "CAPACITY", 4096)
+    monkeypatch.setattr(sink, "BELL_S", 3600.0)
+    monkeypatch.setattr(sink, "PAUSE_S", 3600.0)
+    tree = _spinning_tree()
+    rec = TraceRecorder(tmp_path / "t.jsonl", tree, clock=SimClock(), every_tick=True)
+    assert rec._sink is not None
+    for _ in range(2):  # the first through the pipe, the second into the ring, rung
+        tree.tick()
+        rec.record_tick()
+    os.kill(rec._sink.pid, signal.SIGKILL)
+    rec._sink._proc.wait(10)
+    ticks = 0
+    with pytest.raises(SinkError, match=r"the trace writer failed \(exit -9\)"):
+        while ticks < 10_000:
+            tree.tick()
+            rec.record_tick()
+            ticks += 1
+    assert 10 < ticks < 4096  # silently into the ring, until it had no room left
+    with pytest.raises(SinkError):
+        rec.close()
