@@ -61,7 +61,8 @@ if not __package__:  # run as the server process's script
 
 from pirate_bt.interop.foxglove_schemas import RUN, TOPICS, encode_message, schema_of
 from pirate_bt.interop.foxglove_topics import TopicMapper, TopicMessage
-from pirate_bt.trace.sink import END, LINE, SETUP, TICK, TickEncoder, frame, read_messages
+from pirate_bt.interop.process_pipe import PipeOutput
+from pirate_bt.trace.sink import END, LINE, SETUP, TICK, TickEncoder, read_messages
 
 __all__ = [
     "CLOSED",
@@ -91,31 +92,10 @@ POLL_S = 0.005
 every tick, and a message waits at most this long before it goes out."""
 
 
-class _Output:
-    """Messages to the run's process (from the main thread and the SDK's threads)."""
-
-    def __init__(self, fd: int) -> None:
-        self._fd = fd
-        self._lock = threading.Lock()
-        self.gone = False
-
-    def send(self, message: tuple[Any, ...]) -> None:
-        data = frame(message)
-        with self._lock:
-            if self.gone:
-                return
-            try:
-                view = memoryview(data)
-                while view:
-                    view = view[os.write(self._fd, view) :]
-            except OSError:  # the run's process has gone: nobody to tell
-                self.gone = True
-
-
 class Server:
     """The SDK's server with a channel per topic, fed with records."""
 
-    def __init__(self, foxglove: Any, config: Mapping[str, Any], out: _Output) -> None:
+    def __init__(self, foxglove: Any, config: Mapping[str, Any], out: PipeOutput) -> None:
         self.out = out
         self.context = foxglove.Context()
         self.channels: dict[str, Any] = {}
@@ -275,7 +255,7 @@ def main(argv: Sequence[str]) -> int:
     # after this) yields the CPU to the run; lagging only merges ticks (foxglove_backlog).
     with contextlib.suppress(OSError):
         os.nice(int(config.get("nice", NICE)))
-    out = _Output(sys.stdout.fileno())
+    out = PipeOutput(sys.stdout.fileno())
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find the SDK where the run's process found it
     try:

@@ -50,13 +50,10 @@ from __future__ import annotations
 
 import contextlib
 import json
-import marshal
 import os
 import select
 import signal
-import struct
 import sys
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -69,14 +66,23 @@ if not __package__:  # run as the publishing process's script
     for _name, _folder in (
         ("pirate_bt", os.path.dirname(os.path.dirname(os.path.realpath(__file__)))),
         ("pirate_bt.interop", os.path.dirname(os.path.realpath(__file__))),
+        (
+            "pirate_bt.trace",
+            os.path.join(os.path.dirname(os.path.dirname(os.path.realpath(__file__))), "trace"),
+        ),
     ):
         _package = types.ModuleType(_name)
         _package.__path__ = [_folder]
         sys.modules[_name] = _package
 
 from pirate_bt.interop import rmw_zenoh
+from pirate_bt.interop.process_pipe import PipeOutput
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES, TREE, Frame, Ros2Mapper, TreeShape
 from pirate_bt.interop.ros2_types import dds_type_name, type_hash
+
+# The messages on both pipes are framed as the trace's (length, then ``marshal``).
+from pirate_bt.trace.sink import frame as encode_message
+from pirate_bt.trace.sink import unframe as decode_messages
 
 __all__ = [
     "BOOL",
@@ -109,7 +115,6 @@ py_trees_ros's snapshot streams)."""
 
 ESTOP_TYPE = "std_msgs/msg/Bool"
 
-_LENGTH = struct.Struct("<I")
 _READ_BYTES = 1 << 20
 
 
@@ -117,53 +122,6 @@ def _print_exc() -> None:
     import traceback  # only when something failed: it costs milliseconds to import
 
     traceback.print_exc()
-
-
-def encode_message(message: tuple[Any, ...]) -> bytes:
-    """One message as it goes on a pipe (length, then ``marshal``).
-
-    Raises:
-        ValueError: it holds a value ``marshal`` cannot carry.
-    """
-    payload = marshal.dumps(message)
-    return _LENGTH.pack(len(payload)) + payload
-
-
-def decode_messages(buffer: bytearray) -> list[tuple[Any, ...]]:
-    """The whole messages at the start of ``buffer``, removed from it."""
-    out: list[tuple[Any, ...]] = []
-    start = 0
-    size = len(buffer)
-    while size - start >= 4:
-        (length,) = _LENGTH.unpack_from(buffer, start)
-        end = start + 4 + length
-        if end > size:
-            break
-        out.append(marshal.loads(bytes(buffer[start + 4 : end])))
-        start = end
-    del buffer[:start]
-    return out
-
-
-class _Output:
-    """Messages to the run's process (from the main thread and Zenoh's threads)."""
-
-    def __init__(self, fd: int) -> None:
-        self._fd = fd
-        self._lock = threading.Lock()
-        self.gone = False
-
-    def send(self, message: tuple[Any, ...]) -> None:
-        data = encode_message(message)
-        with self._lock:
-            if self.gone:
-                return
-            try:
-                view = memoryview(data)
-                while view:
-                    view = view[os.write(self._fd, view) :]
-            except OSError:  # the run's process has gone: nobody to tell
-                self.gone = True
 
 
 def open_session(zenoh: Any, config: dict[str, Any]) -> Any:
@@ -197,7 +155,7 @@ class _Endpoint:
 class Node:
     """The node's publishers, tokens and e-stop subscription in one Zenoh session."""
 
-    def __init__(self, zenoh: Any, session: Any, config: dict[str, Any], out: _Output) -> None:
+    def __init__(self, zenoh: Any, session: Any, config: dict[str, Any], out: PipeOutput) -> None:
         self.zenoh = zenoh
         self.session = session
         self.out = out
@@ -441,7 +399,7 @@ def main(argv: Sequence[str]) -> int:
     """The publishing process: ``ros2_process.py CONFIG`` (JSON); messages on stdin/stdout."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
     config = json.loads(argv[1])
-    out = _Output(sys.stdout.fileno())
+    out = PipeOutput(sys.stdout.fileno())
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find Zenoh where the run's process found it
     try:
