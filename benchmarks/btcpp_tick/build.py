@@ -20,7 +20,6 @@ import importlib.util
 import os
 import shutil
 import subprocess
-import sysconfig
 from pathlib import Path
 from types import ModuleType
 
@@ -68,30 +67,10 @@ def build_ticker() -> Path:
     if binary.is_file():
         return binary
     target_dir.mkdir(parents=True, exist_ok=True)
-    include, tinyxml = checker._headers(sdist, checker.CACHE / "headers" / sdist.stem)
-    libs = extension.parent.parent / "behaviortreepy.libs"
-    libdir = sysconfig.get_config_var("LIBDIR")
     scratch = target_dir / f"btcpp_tick.{os.getpid()}.tmp"
-    command = [
-        compiler,
-        "-std=c++17",
-        "-O2",
-        "-DNDEBUG",
-        f"-D_GLIBCXX_USE_CXX11_ABI={1 if checker._uses_new_abi(extension) else 0}",
-        f"-I{include}",
-        f"-I{tinyxml}",
-        str(SOURCE),
-        "-o",
-        str(scratch),
-        str(extension),
-        f"-Wl,-rpath,{extension.parent}",
-        f"-Wl,-rpath-link,{libs}",
-        # the extension refers to Python's objects (never used here): link libpython
-        f"-L{libdir}",
-        f"-lpython{sysconfig.get_config_var('LDVERSION')}",
-        f"-Wl,-rpath,{libdir}",
-        "-Wl,--allow-shlib-undefined",
-    ]
+    command = checker.compile_command(
+        compiler, SOURCE, scratch, extension, sdist, ["-O2", "-DNDEBUG"]
+    )
     try:
         result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     except subprocess.TimeoutExpired:

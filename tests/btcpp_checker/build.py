@@ -125,6 +125,40 @@ def _uses_new_abi(extension: Path) -> bool:
     )
 
 
+def compile_command(
+    compiler: str, source: Path, output: Path, extension: Path, sdist: Path, flags: list[str]
+) -> list[str]:
+    """The g++ command that builds ``source`` into ``output`` against the wheel's BT.CPP.
+
+    Compiled against the headers of the source distribution ``sdist`` (unpacked into
+    this cache once) and linked against the BT.CPP inside the installed extension
+    ``extension``, with the wheel's std::string ABI; ``flags`` are the optimisation
+    flags (``-O0`` here, ``-O2 -DNDEBUG`` for the benchmarks' ticker).
+    """
+    include, tinyxml = _headers(sdist, CACHE / "headers" / sdist.stem)
+    libs = extension.parent.parent / "behaviortreepy.libs"
+    libdir = sysconfig.get_config_var("LIBDIR")
+    return [
+        compiler,
+        "-std=c++17",
+        *flags,
+        f"-D_GLIBCXX_USE_CXX11_ABI={1 if _uses_new_abi(extension) else 0}",
+        f"-I{include}",
+        f"-I{tinyxml}",
+        str(source),
+        "-o",
+        str(output),
+        str(extension),
+        f"-Wl,-rpath,{extension.parent}",
+        f"-Wl,-rpath-link,{libs}",
+        # the extension refers to Python's objects (never used here): link libpython
+        f"-L{libdir}",
+        f"-lpython{sysconfig.get_config_var('LDVERSION')}",
+        f"-Wl,-rpath,{libdir}",
+        "-Wl,--allow-shlib-undefined",
+    ]
+
+
 def build_checker() -> Path:
     """The checker executable, built if the cache has none for these inputs.
 
@@ -144,29 +178,8 @@ def build_checker() -> Path:
     if binary.is_file():
         return binary
     target_dir.mkdir(parents=True, exist_ok=True)
-    include, tinyxml = _headers(sdist, CACHE / "headers" / sdist.stem)
-    libs = extension.parent.parent / "behaviortreepy.libs"
-    libdir = sysconfig.get_config_var("LIBDIR")
     scratch = target_dir / f"btcpp_checker.{os.getpid()}.tmp"
-    command = [
-        compiler,
-        "-std=c++17",
-        "-O0",
-        f"-D_GLIBCXX_USE_CXX11_ABI={1 if _uses_new_abi(extension) else 0}",
-        f"-I{include}",
-        f"-I{tinyxml}",
-        str(SOURCE),
-        "-o",
-        str(scratch),
-        str(extension),
-        f"-Wl,-rpath,{extension.parent}",
-        f"-Wl,-rpath-link,{libs}",
-        # the extension refers to Python's objects (never used here): link libpython
-        f"-L{libdir}",
-        f"-lpython{sysconfig.get_config_var('LDVERSION')}",
-        f"-Wl,-rpath,{libdir}",
-        "-Wl,--allow-shlib-undefined",
-    ]
+    command = compile_command(compiler, SOURCE, scratch, extension, sdist, ["-O0"])
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     if result.returncode != 0:
         raise Unavailable(f"the checker does not build: {result.stderr[-2000:]}")
