@@ -19,6 +19,7 @@ from pirate_bt.trace.sink import (
     END,
     LINE,
     SETUP,
+    TICK,
     SinkError,
     TickEncoder,
     _messages,
@@ -198,3 +199,43 @@ def test_falls_back_to_in_process_when_no_process_can_start(
     assert "writing the trace in-process" in caplog.text
     trace = read_trace(tmp_path / "t.jsonl")
     assert trace.end is not None and trace.frame_at(1).link["connected"] is True
+
+
+class _Collecting:
+    """A stand-in sink that keeps what it is handed."""
+
+    def __init__(self) -> None:
+        self.messages: list[tuple[object, ...]] = []
+        self.closed = False
+
+    def send(self, message: tuple[object, ...]) -> None:
+        self.messages.append(message)
+
+    def close(self, timeout_s: float = 60.0) -> None:
+        self.closed = True
+
+
+def test_hand_over_sends_every_later_tick_and_the_end_to_the_new_sink(tmp_path: Path) -> None:
+    """What a live view does (Foxglove): capture here, encode in another process."""
+    tree = make_tree()
+    rec = TraceRecorder(tmp_path / "t.jsonl", tree, clock=SimClock(), background=False)
+    assert rec.node_ids[0] == "0" and len(rec.node_ids) == sum(1 for _ in tree.root.iterate())
+    sink = _Collecting()
+    rec.hand_over(sink)  # type: ignore[arg-type]
+    tree.tick()
+    rec.record_tick()
+    rec.close()
+    kinds = [m[0] for m in sink.messages]
+    assert kinds[0] == TICK and kinds[-1] == END and sink.closed
+    # the file keeps what was written before the hand-over (the header), nothing after
+    assert [
+        json.loads(line)["type"] for line in (tmp_path / "t.jsonl").read_text().splitlines()
+    ] == ["header"]
+
+
+def test_hand_over_refuses_a_recorder_that_has_a_writer_process(tmp_path: Path) -> None:
+    with (
+        TraceRecorder(tmp_path / "t.jsonl", make_tree(), clock=SimClock()) as rec,
+        pytest.raises(ValueError, match="already"),
+    ):
+        rec.hand_over(_Collecting())  # type: ignore[arg-type]

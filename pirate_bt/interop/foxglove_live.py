@@ -430,13 +430,12 @@ def _live_recorder(server: FoxgloveServer, tree: Any, **options: Any) -> TraceRe
     lines = _Lines()
     recorder = TraceRecorder(lines, tree, background=False, **options)
     sink = _LiveSink(server)
-    ids = recorder._reader.ids
+    ids = recorder.node_ids
     setup = (SETUP, ids, recorder.every_tick, recorder.full_state, recorder.readings)
     sink.send((*setup, list(LINK_FIELDS)))
     for line in lines.lines:
         sink.send((LINE, line))
-    recorder._sink, recorder._encoder, recorder._out = sink, None, None
-    recorder.background = True
+    recorder.hand_over(sink)
     return recorder
 
 

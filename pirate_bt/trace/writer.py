@@ -368,6 +368,27 @@ class TraceRecorder:
         """Ticks recorded so far."""
         return self._tick
 
+    @property
+    def node_ids(self) -> list[str]:
+        """The traced nodes' path ids, depth first (the node order of the messages)."""
+        return list(self._reader.ids)
+
+    def hand_over(self, sink: SinkProcess) -> None:
+        """From now on hand each tick's captured message to ``sink``, not encode it here.
+
+        For an output whose own process encodes (the Foxglove live view): the recorder
+        was made in-process (``background=False``) and what it wrote so far stays where
+        it went; ``sink`` (a :class:`SinkProcess` or a stand-in with ``send`` and
+        ``close``) gets every message from here on, the end record included.
+
+        Raises:
+            ValueError: the recorder already hands its messages to a writer process.
+        """
+        if self._sink is not None:
+            raise ValueError("the recorder already hands its ticks to a writer process")
+        self._sink, self._encoder, self._out = sink, None, None
+        self.background = True
+
     def record_tick(self, extras: TickExtras | None = None, time_s: float | None = None) -> None:
         """Record the tick that has just run.
 
