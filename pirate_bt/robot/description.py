@@ -165,6 +165,18 @@ class RobotDescription(_Model):
 
     _index: _Index = PrivateAttr()
 
+    @property
+    def _ix(self) -> _Index:
+        # The index, read straight from pydantic's private-attribute store: plain
+        # ``self._index`` goes through BaseModel.__getattr__ (about 1 µs), and the
+        # lookups below run every tick. Unset (cross-checks deferred): the same
+        # AttributeError as ``self._index``.
+        private = self.__pydantic_private__
+        if private is not None and "_index" in private:
+            index: _Index = private["_index"]
+            return index
+        return self._index
+
     @model_validator(mode="after")
     def _cross(self, info: ValidationInfo) -> RobotDescription:
         context = info.context if isinstance(info.context, dict) else {}
@@ -301,7 +313,7 @@ class RobotDescription(_Model):
         Raises:
             KeyError: no such module.
         """
-        return self._index.modules[name]
+        return self._ix.modules[name]
 
     def bend_modules(self, half: Half) -> list[Module]:
         """The bend modules of a half, front to rear."""
@@ -325,24 +337,24 @@ class RobotDescription(_Model):
 
     def motor(self, name: str) -> Motor:
         """The motor called ``name`` (``KeyError`` if none)."""
-        return self._index.motors[name][1]
+        return self._ix.motors[name][1]
 
     def board_of(self, name: str) -> Board:
         """The board that carries motor or sensor ``name``."""
-        if name in self._index.motors:
-            return self._index.motors[name][0]
-        return self._index.sensors[name][0]
+        if name in self._ix.motors:
+            return self._ix.motors[name][0]
+        return self._ix.sensors[name][0]
 
     def motor_of(self, module: str, function: MotorFunction) -> Motor:
         """The motor with ``function`` on ``module``'s boards (``KeyError`` if none)."""
-        found = self._index.by_function.get((module, function))
+        found = self._ix.by_function.get((module, function))
         if found is None:
             raise KeyError(f"module {module!r} has no {function} motor")
         return found
 
     def sensor_of(self, module: str, kind: SensorKind) -> AngleSensor | SpringSensor | ImuSensor:
         """The sensor of ``kind`` on ``module``'s boards (``KeyError`` if none)."""
-        found = self._index.by_kind.get((module, kind))
+        found = self._ix.by_kind.get((module, kind))
         if found is None:
             raise KeyError(f"module {module!r} has no {kind} sensor")
         return found
@@ -355,7 +367,7 @@ class RobotDescription(_Model):
 
     def drive_motors(self) -> list[Motor]:
         """The drive motors, in the order of :meth:`motors` (boards as listed)."""
-        return list(self._index.drives)
+        return list(self._ix.drives)
 
     def imu(self) -> ImuSensor | None:
         for _, s in self.sensors():
@@ -371,17 +383,17 @@ class RobotDescription(_Model):
 
     def state_channels(self) -> list[ChannelSpec]:
         """The state frame's int16 channels in wire order (boards by id, sensors, feedback)."""
-        return list(self._index.channels)
+        return list(self._ix.channels)
 
     def channel_periods_s(self) -> Mapping[str, float]:
         """How often each state channel is fresh, by name: its sensor's period, or the
         bridge's state period where none is given. Read-only and shared: a
         caller checking many channels each tick looks them up here."""
-        return self._index.periods
+        return self._ix.periods
 
     def setpoint_slots(self) -> list[SetpointSlot]:
         """The bulk setpoint frame's motors in wire order (boards by id, then slot)."""
-        return list(self._index.setpoints)
+        return list(self._ix.setpoints)
 
     def board_ids(self) -> list[int]:
         return sorted(b.id for b in self.boards)
@@ -392,9 +404,9 @@ class RobotDescription(_Model):
         Covers the channel order and, per motor, its stop role, modes and raw ranges
         (docs/protocol.md, Layout; ``pirate_bt.link.layout.layout_text`` spells it out).
         """
-        text = ";".join(f"{c.board}:{c.name}" for c in self._index.channels)
+        text = ";".join(f"{c.board}:{c.name}" for c in self._ix.channels)
         motors = []
-        for s in self._index.setpoints:
+        for s in self._ix.setpoints:
             f = s.motor.function
             role = (
                 f.value
