@@ -8,37 +8,18 @@ tick by tick, does what py_trees does with the same tree; the exporter's XML of 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import py_trees
 import pytest
+from bench_support import load_benchmark
 
-REPO = Path(__file__).resolve().parent.parent
-BENCHMARKS = REPO / "benchmarks"
-
-
-def _load(name: str) -> ModuleType:
-    if str(BENCHMARKS) not in sys.path:
-        sys.path.insert(0, str(BENCHMARKS))  # the benchmarks import each other by name
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _load("bench_btcpp")
-bench_trees = _load("bench_trees")
-bench_trace = _load("bench_trace")
-bench_scale = _load("bench_scale")
+bench = load_benchmark("bench_btcpp")
+bench_trees = load_benchmark("bench_trees")
+bench_trace = load_benchmark("bench_trace")
+bench_scale = load_benchmark("bench_scale")
 
 
 def _shape(element: ET.Element) -> tuple[Any, ...]:

@@ -8,34 +8,21 @@ benchmark runs here: the benchmarks below are three-line scripts.
 from __future__ import annotations
 
 import datetime
-import importlib.util
 import os
 import platform
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
-from types import ModuleType
 
 import pytest
+from bench_support import BENCHMARKS, load_benchmark
 
 REPO = Path(__file__).resolve().parent.parent
-BENCHMARKS = REPO / "benchmarks"
 
 
-def _load(name: str) -> ModuleType:
-    if str(BENCHMARKS) not in sys.path:
-        sys.path.insert(0, str(BENCHMARKS))  # run_all imports report as its script does
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-report = _load("report")
-run_all = _load("run_all")
+report = load_benchmark("report")
+run_all = load_benchmark("run_all")
 
 DOC = (
     "# Performance\n"

@@ -15,7 +15,6 @@ Run it by hand with ``.venv/bin/python benchmarks/btcpp_tick/build.py`` (prints 
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import os
 import shutil
@@ -59,15 +58,11 @@ def build_ticker() -> Path:
         sdist = checker._sdist()
     except checker.Unavailable as exc:
         raise Unavailable(str(exc)) from None
-    digest = hashlib.sha256()
-    for part in (SOURCE.read_bytes(), extension.read_bytes(), sdist.read_bytes()):
-        digest.update(hashlib.sha256(part).digest())
-    target_dir = CACHE / digest.hexdigest()[:16]
-    binary = target_dir / "btcpp_tick"
+    binary = checker.cached_binary(CACHE, "btcpp_tick", SOURCE, extension, sdist)
     if binary.is_file():
         return binary
-    target_dir.mkdir(parents=True, exist_ok=True)
-    scratch = target_dir / f"btcpp_tick.{os.getpid()}.tmp"
+    binary.parent.mkdir(parents=True, exist_ok=True)
+    scratch = binary.parent / f"btcpp_tick.{os.getpid()}.tmp"
     command = checker.compile_command(
         compiler, SOURCE, scratch, extension, sdist, ["-O2", "-DNDEBUG"]
     )

@@ -153,9 +153,12 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
     raise TypeError(f"a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}")
 
 
-def _timeout(value: str | float | None, name: str = "case_timeout") -> float | None:
-    if value is None:
-        return None
+def _timeout(value: str | float | None) -> float | None:
+    return None if value is None else _seconds(value, "case_timeout")
+
+
+def _seconds(value: str | float, name: str) -> float:
+    """A positive duration given as seconds or a quantity (``"30 s"``)."""
     if isinstance(value, (int, float)):
         seconds = float(value)
     else:
@@ -270,8 +273,7 @@ def run_campaign(
     source = spec_source(model) or SpecSource(f"campaign {model.name!r}", Path(base or "."))
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = _timeout(case_timeout)
-    reach_s = _timeout(scheduler_timeout, "scheduler_timeout")
-    assert reach_s is not None
+    reach_s = _seconds(scheduler_timeout, "scheduler_timeout")
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)
     check_runs(cases)

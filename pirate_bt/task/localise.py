@@ -52,6 +52,7 @@ import logging
 import math
 from collections.abc import Callable
 
+from pirate_bt.pipes.network import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 from pirate_bt.task.fixes import (
@@ -378,8 +379,8 @@ class Localiser:
             f" (believed{after}), where the map has no turn and no end within {reach:.2f} m"
         )
         last = self.fixes[-1].feature if self.fixes else None
-        kinds = {p.kind.value for p in self.plan.path.pieces if p.segment == last}
-        if kinds == {"tee"}:  # a tee the route goes straight through (not into its branch)
+        kinds = {p.kind for p in self.plan.path.pieces if p.segment == last}
+        if kinds == {PieceKind.TEE}:  # a tee the route goes straight through (not into its branch)
             self.mismatch += (
                 f"; {last!r} was passed straight through: are its main and branch swapped"
                 " in the ground (the way on leading into the branch)?"

@@ -18,7 +18,7 @@ action).
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import cache
 from importlib import resources
@@ -334,13 +334,10 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
 
 #: The fields of :class:`LinkHealth`, in the order of :func:`link_health_raw`.
 LINK_FIELDS: tuple[str, ...] = tuple(LinkHealth.__dataclass_fields__)
-_link_raw = attrgetter(*LINK_FIELDS)
 
-
-def link_health_raw(health: LinkHealth) -> tuple[Any, ...]:
-    """Link health as a tuple of raw values, in ``LinkHealth`` field order (one C call)."""
-    raw: tuple[Any, ...] = _link_raw(health)
-    return raw
+link_health_raw: Callable[[LinkHealth], tuple[Any, ...]] = attrgetter(*LINK_FIELDS)
+"""Link health as a tuple of raw values, in ``LinkHealth`` field order: one C call,
+with no Python function around it (the trace's capture calls it every tick)."""
 
 
 def link_health_values(health: LinkHealth) -> dict[str, Any]:

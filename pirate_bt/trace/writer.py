@@ -75,6 +75,7 @@ from pirate_bt.trace.records import (
     TRACE_VERSION,
     CommandRecord,
     TickExtras,
+    link_health_raw,
     state_layout,
 )
 from pirate_bt.trace.sink import (
@@ -119,8 +120,6 @@ _PLAIN_TYPES = frozenset({str, int, bool, type(None)})
 _IMMUTABLE_TYPES = _PLAIN_TYPES | {float}
 """Blackboard value types that cannot change without a new write."""
 _command_fields = operator.attrgetter(*CommandRecord.__dataclass_fields__)
-_link_raw = operator.attrgetter(*LINK_FIELDS)
-""":func:`~pirate_bt.trace.records.link_health_raw` without the call around it."""
 _Blackboard = py_trees.blackboard.Blackboard
 _COMMANDS_MAX = 4096
 """Most distinct command records whose JSON text a recorder keeps."""
@@ -432,7 +431,7 @@ class TraceRecorder:
                 # A fresh object every tick whose rtt may be nan (nan != nan makes dataclass
                 # == useless): its fields as one tuple compare cheaply instead.
                 self._last_link = health
-                values = _link_raw(health)
+                values = link_health_raw(health)
                 if values != self._link_raw:
                     self._link_raw = link = values
             if extras.sim is not None and extras.sim != self._sim_raw:

@@ -125,6 +125,15 @@ def _uses_new_abi(extension: Path) -> bool:
     )
 
 
+def cached_binary(cache: Path, name: str, source: Path, extension: Path, sdist: Path) -> Path:
+    """Where the binary ``name`` built from these inputs is cached: a folder of ``cache``
+    named by a digest of the source, the extension and the source distribution."""
+    digest = hashlib.sha256()
+    for part in (source.read_bytes(), extension.read_bytes(), sdist.read_bytes()):
+        digest.update(hashlib.sha256(part).digest())
+    return cache / digest.hexdigest()[:16] / name
+
+
 def compile_command(
     compiler: str, source: Path, output: Path, extension: Path, sdist: Path, flags: list[str]
 ) -> list[str]:
@@ -170,15 +179,11 @@ def build_checker() -> Path:
         raise Unavailable("no C++ compiler (g++)")
     extension = _extension()
     sdist = _sdist()
-    digest = hashlib.sha256()
-    for part in (SOURCE.read_bytes(), extension.read_bytes(), sdist.read_bytes()):
-        digest.update(hashlib.sha256(part).digest())
-    target_dir = CACHE / digest.hexdigest()[:16]
-    binary = target_dir / "btcpp_checker"
+    binary = cached_binary(CACHE, "btcpp_checker", SOURCE, extension, sdist)
     if binary.is_file():
         return binary
-    target_dir.mkdir(parents=True, exist_ok=True)
-    scratch = target_dir / f"btcpp_checker.{os.getpid()}.tmp"
+    binary.parent.mkdir(parents=True, exist_ok=True)
+    scratch = binary.parent / f"btcpp_checker.{os.getpid()}.tmp"
     command = compile_command(compiler, SOURCE, scratch, extension, sdist, ["-O0"])
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     if result.returncode != 0:
