@@ -132,7 +132,12 @@ class InboundMixin:
                 self._service(now)
             return
         hello = self._hello
-        if hello is not None and isinstance(item, Nack) and hello.seq == item.seq:
+        if (
+            hello is not None
+            and isinstance(item, Nack)
+            and hello.seq == item.seq
+            and kind == MsgType.HELLO
+        ):
             self._refused_session(hello, f"the bridge refused a new session: {item.error.name}")
             return
         req = self._oob.pop((kind, item.seq), None)
@@ -142,6 +147,9 @@ class InboundMixin:
         if isinstance(item, Nack):
             req.nack = item.error
             self._settle(req, Outcome.NACKED, now)
+        elif item.status is AckStatus.STALE:
+            req.ack_status = item.status  # not applied: a failure, never an acknowledgement
+            self._settle(req, Outcome.STALE, now)
         else:
             req.ack_status = item.status
             self._settle(req, Outcome.ACKED, now)

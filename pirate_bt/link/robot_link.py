@@ -123,8 +123,10 @@ class RobotLink:
         """
         self.session.ensure_alive()
         self._raise_failures()
-        for command in commands:
-            raw = self._commands.to_raw(command)
+        # every command is converted before any is merged: a call that raises changes
+        # nothing, so none of its commands goes out with a later call
+        raws = [self._commands.to_raw(command) for command in commands]
+        for raw in raws:
             i = self._slot_index[(raw.board, raw.slot)]
             self._modes[i] = raw.mode
             self._raw[i] = raw.raw_value

@@ -1,0 +1,539 @@
+"""Hostile bytes on both ends of the link, and a host written from docs/protocol.md alone.
+
+Two kinds of tests:
+
+- hostile input: bytes no frame should contain, damaged, truncated, oversize and
+  misnumbered frames, frames of unknown types or versions, fed to the reference
+  bridge (:class:`~pirate_bt.sim.bridge.SimBridge`) and to the host's session. Nothing
+  may raise, each bad frame is counted exactly once, no damaged frame makes the
+  bridge act or the host take a state, and the answers are the ones the page gives;
+- an independent host: COBS, the CRC, the frames and the layout digest written here
+  from the protocol page and the robot's YAML only (no ``pirate_bt.link`` code), which
+  must handshake with and command the simulator over its bytes, and agree with the
+  library's host byte for byte on sample frames.
+"""
+
+from __future__ import annotations
+
+import random
+import struct
+import sys
+from hashlib import sha256
+from pathlib import Path
+
+import pytest
+import yaml
+
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import ProtocolMismatch
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    BridgeFlags,
+    BulkSetpoints,
+    CountersRequest,
+    EStop,
+    EStopReset,
+    FrameCodec,
+    Heartbeat,
+    Hello,
+    MsgType,
+    Nack,
+    NackCode,
+    Setpoint,
+    State,
+)
+from pirate_bt.link.requests import Outcome, SessionConfig
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.robot import ControlMode, load_robot
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.bridge_port import bridge_for
+
+sys.path.insert(0, str(Path(__file__).parent))
+from session_wire import Wire, reply, state
+
+ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+ROBOT_YAML = Path(__file__).resolve().parents[1] / "hardware" / "pirate.yaml"
+
+
+# -- an independent host, from docs/protocol.md alone ----------------------------------------
+
+
+def doc_crc(data: bytes) -> int:
+    """CRC-16/XMODEM, bit by bit: poly 0x1021, init 0, no reflection, no xorout."""
+    crc = 0
+    for byte in data:
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else crc << 1
+            crc &= 0xFFFF
+    return crc
+
+
+def doc_cobs_encode(body: bytes) -> bytes:
+    out, block = bytearray(), bytearray()
+    for byte in body:
+        if byte == 0:
+            out += bytes([len(block) + 1]) + block
+            block.clear()
+        else:
+            block.append(byte)
+            if len(block) == 254:
+                out += b"\xff" + block
+                block.clear()
+    if block or not out or body[-1:] == b"\x00" or len(body) % 254:
+        out += bytes([len(block) + 1]) + block
+    return bytes(out)
+
+
+def doc_cobs_decode(data: bytes) -> bytes:
+    out, i = bytearray(), 0
+    while i < len(data):
+        code = data[i]
+        if code == 0 or i + code > len(data):
+            raise ValueError("cobs")
+        out += data[i + 1 : i + code]
+        i += code
+        if code != 0xFF and i < len(data):
+            out.append(0)
+    return bytes(out)
+
+
+def doc_frame(kind: int, seq: int, payload: bytes = b"", arg: int = 0, version: int = 1) -> bytes:
+    body = bytes([version, kind]) + seq.to_bytes(2, "little") + bytes([arg]) + payload
+    body += doc_crc(body).to_bytes(2, "little")
+    return doc_cobs_encode(body) + b"\x00"
+
+
+def doc_layout(path: Path) -> tuple[str, int, int, int, list[tuple[int, int]]]:
+    """Layout text, channels, motors, boards and (board, slot) per motor, from the YAML."""
+    robot = yaml.safe_load(path.read_text())
+    channels, motors, slots = [], [], []
+    order = ("pwm", "torque", "position", "velocity")  # mode-code order
+    boards = sorted(robot["boards"], key=lambda b: b["id"])
+    for board in boards:
+        bid = board["id"]
+        for sensor in sorted(board.get("sensors", []), key=lambda s: s["slot"]):
+            if sensor.get("kind") == "imu":
+                channels += [f"{bid}:{sensor['name']}.{axis}" for axis in ("roll", "pitch", "yaw")]
+            else:
+                channels.append(f"{bid}:{sensor['name']}")
+        for motor in sorted(board.get("motors", []), key=lambda m: m["slot"]):
+            feedback = motor.get("feedback") or {}
+            channels += [
+                f"{bid}:{motor['name']}.{k}" for k in ("velocity", "current") if k in feedback
+            ]
+            fn = motor["function"]
+            role = fn if fn in ("drive", "rotate", "bend") else "other"
+            modes = ",".join(
+                f"{m}={motor['modes'][m]['raw'][0]}..{motor['modes'][m]['raw'][1]}"
+                for m in order
+                if m in motor["modes"]
+            )
+            motors.append(f"{bid}:{motor['slot']}:{role}:{modes}")
+            slots.append((bid, motor["slot"]))
+    return (
+        ";".join(channels) + "|" + ";".join(motors),
+        len(channels),
+        len(motors),
+        len(boards),
+        slots,
+    )
+
+
+DOC_TEXT, DOC_CHANNELS, DOC_MOTORS, DOC_BOARDS, DOC_SLOTS = doc_layout(ROBOT_YAML)
+DOC_DIGEST = int.from_bytes(sha256(DOC_TEXT.encode("ascii")).digest()[:4], "big")
+
+
+class DocHost:
+    """A host that knows only the page: frames out through ``write``, frames in by ``read``."""
+
+    def __init__(self, sim: Simulator) -> None:
+        self.sim = sim
+        self._rx = b""
+        self.states: list[dict[str, object]] = []
+
+    def send(self, kind: int, seq: int, payload: bytes = b"", arg: int = 0) -> None:
+        self.sim.write(doc_frame(kind, seq, payload, arg))
+
+    def frames(self, seconds: float = 0.02) -> list[tuple[int, int, int, bytes]]:
+        """(type, seq, arg, payload) of every good frame in ``seconds`` of line; STATEs kept."""
+        self.sim.clock.advance(seconds)
+        self._rx += self.sim.read()
+        *parts, self._rx = self._rx.split(b"\x00")
+        out = []
+        for part in parts:
+            if not part:
+                continue
+            body = doc_cobs_decode(part)
+            assert len(body) >= 7 and doc_crc(body[:-2]) == int.from_bytes(body[-2:], "little")
+            assert body[0] == 1
+            kind, seq, arg, payload = (
+                body[1],
+                int.from_bytes(body[2:4], "little"),
+                body[4],
+                body[5:-2],
+            )
+            if kind == 0x82:
+                self.states.append(self._state(seq, arg, payload))
+            elif kind != 0x86:
+                out.append((kind, seq, arg, payload))
+        return out
+
+    def _state(self, seq: int, flags: int, payload: bytes) -> dict[str, object]:
+        mask_n, status_n = (DOC_CHANNELS + 7) // 8, (DOC_BOARDS + 1) // 2
+        assert len(payload) == 2 + mask_n + status_n + 2 * DOC_CHANNELS
+        status = payload[2 + mask_n : 2 + mask_n + status_n]
+        values = struct.unpack_from(f"<{DOC_CHANNELS}h", payload, 2 + mask_n + status_n)
+        return {
+            "seq": seq,
+            "flags": flags,
+            "ack_seq": int.from_bytes(payload[:2], "little"),
+            "status": [(status[j // 2] >> (4 * (j % 2))) & 0xF for j in range(DOC_BOARDS)],
+            "values": values,
+        }
+
+
+def test_the_layout_digest_follows_from_the_page_and_the_yaml() -> None:
+    assert (DOC_CHANNELS, DOC_MOTORS, DOC_BOARDS) == (28, 16, 9)
+    assert DOC_DIGEST == 0x9B54EA48 == CODEC.layout.digest
+    assert [(s.board, s.slot) for s in ROBOT.setpoint_slots()] == DOC_SLOTS
+
+
+def test_the_crc_and_cobs_of_the_page() -> None:
+    assert doc_crc(b"123456789") == 0x31C3
+    run = bytes(range(1, 255))
+    assert doc_cobs_encode(run) == b"\xff" + run  # no trailing 0x01 block
+    assert doc_cobs_decode(b"\xff" + run + b"\x01") == run
+    # with the trailing block the frame is 256 bytes before its delimiter: oversize
+    from pirate_bt.errors import FrameError
+    from pirate_bt.link.codec import FrameDecoder
+
+    [error] = FrameDecoder(CODEC).feed(b"\xff" + run + b"\x01\x00")
+    assert isinstance(error, FrameError) and error.reason == "oversize"
+
+
+def test_the_library_host_writes_the_page_s_bytes() -> None:
+    bulk_modes = (None,) * 15 + (ControlMode.PWM,)
+    samples = [
+        (Hello(1, DOC_DIGEST, 2), doc_frame(0x01, 1, struct.pack("<IB", DOC_DIGEST, 2))),
+        (
+            Setpoint(0x1234, 22, 1, ControlMode.VELOCITY, -300),
+            doc_frame(0x02, 0x1234, struct.pack("<BBh", 1, 3, -300), arg=22),
+        ),
+        (
+            BulkSetpoints(7, bulk_modes, (0,) * 15 + (200,)),
+            doc_frame(0x03, 7, b"\xff\x00\x00" * 15 + struct.pack("<Bh", 0, 200)),
+        ),
+        (Heartbeat(65535), doc_frame(0x04, 65535)),
+        (EStop(256), doc_frame(0x05, 256)),
+        (EStopReset(3), doc_frame(0x06, 3)),
+        (CountersRequest(9), doc_frame(0x07, 9)),
+    ]
+    for msg, wire in samples:
+        assert CODEC.encode(msg) == wire, msg
+        assert CODEC.decode(wire[:-1]) == msg
+    # the page's sizes on the wire
+    assert len(doc_frame(0x04, 1)) == 9
+    assert len(CODEC.encode(BulkSetpoints(1, (None,) * 16, (0,) * 16))) == 57
+    assert len(doc_frame(0x02, 1, bytes(4), arg=22)) == 13  # an 11-byte body
+
+
+def test_the_library_host_reads_the_page_s_bytes() -> None:
+    flags = 0b1001  # ESTOP | NO_SESSION
+    mask = (1 << 28) - 1 - 4  # channel 2 stale
+    status = [1, 9, 1, 3, 1, 1, 5, 1, 8]  # board j in byte j/2, low nibble for even j
+    status_bytes = bytes(
+        status[j] | (status[j + 1] << 4 if j + 1 < 9 else 0) for j in (0, 2, 4, 6, 8)
+    )
+    values = tuple(range(-14, 14))
+    payload = struct.pack("<H", 5) + mask.to_bytes(4, "little") + status_bytes
+    payload += struct.pack("<28h", *values)
+    wire = doc_frame(0x82, 0, payload, arg=flags)
+    assert len(wire) == 76
+    got = CODEC.decode(wire[:-1])
+    assert got == State(0, BridgeFlags(flags), 5, mask, tuple(status), values)
+    assert CODEC.decode(doc_frame(0x84, 77, bytes([2, 8]))[:-1]) == Nack(77, 2, NackCode(8))
+    assert CODEC.decode(doc_frame(0x83, 1, bytes([6, 1]))[:-1]) == Ack(1, 6, AckStatus.DUPLICATE)
+
+
+def _ack(frames: list[tuple[int, int, int, bytes]]) -> list[tuple[int, int, bytes]]:
+    return [(kind, seq, payload) for kind, seq, _, payload in frames]
+
+
+def test_a_host_from_the_page_handshakes_with_and_commands_the_simulator() -> None:
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock, seed=3) as sim:
+        host = DocHost(sim)
+        host.frames(0.05)
+        assert host.states and host.states[-1]["flags"] == 0b1001  # booted latched, no session
+        sim.write(b"\x00")  # flush, as before every HELLO
+        host.send(0x01, 1, struct.pack("<IB", DOC_DIGEST, 2))
+        [(kind, seq, arg, payload)] = host.frames()
+        assert (kind, seq) == (0x81, 1)
+        digest, n_ch, n_mo, wd_ms, firmware, minor, _boot, sessions = struct.unpack(
+            "<IBBHHBHB", payload
+        )
+        assert (digest, n_ch, n_mo, wd_ms, minor, sessions) == (DOC_DIGEST, 28, 16, 250, 2, 1)
+        assert 0x5000 <= firmware <= 0x5FFF and arg == 0b0001  # latched, session open
+        host.send(0x06, 2)  # release the boot latch
+        assert _ack(host.frames()) == [(0x83, 2, bytes([6, 0]))]
+        drive = DOC_SLOTS.index((22, 1))
+        host.send(0x02, 3, struct.pack("<BBh", 1, 3, 500), arg=22)  # 50 mm/s
+        assert _ack(host.frames()) == [(0x83, 3, bytes([2, 0]))]
+        entries = [(0xFF, 0)] * DOC_MOTORS
+        entries[drive] = (3, 600)
+        host.send(0x03, 4, b"".join(struct.pack("<Bh", m, v) for m, v in entries))
+        answers = []
+        for useq in range(1, 6):  # half a second, fed by a heartbeat every 100 ms
+            host.send(0x04, useq)
+            answers += _ack(host.frames(0.1))
+        # a bulk is acknowledged by ack_seq only; each heartbeat by an ACK
+        assert answers == [(0x83, useq, bytes([4, 0])) for useq in range(1, 6)]
+        latest = host.states[-1]
+        assert latest["ack_seq"] == 4 and latest["flags"] == 0
+        assert latest["status"][DOC_BOARDS and sorted({b for b, _ in DOC_SLOTS}).index(22)] == 1
+        speed = latest["values"][
+            DOC_TEXT.split("|")[0].split(";").index("22:bend_1_drive.velocity")
+        ]
+        assert speed > 0  # the wheel turns
+        host.send(0x02, 4, struct.pack("<BBh", 1, 3, 0), arg=22)  # seq of the bulk: stale
+        host.send(0x03, 4, b"".join(struct.pack("<Bh", m, v) for m, v in entries))  # duplicate
+        host.send(0x05, 5)  # e-stop
+        host.send(0x02, 6, struct.pack("<BBh", 1, 3, 500), arg=22)
+        host.send(0x07, 6)  # counters (untracked seq)
+        frames = host.frames()
+        assert _ack(frames[:4]) == [
+            (0x83, 4, bytes([2, 2])),
+            (0x83, 4, bytes([3, 1])),
+            (0x83, 5, bytes([5, 0])),
+            (0x84, 6, bytes([2, 8])),
+        ]
+        kind, seq, _, payload = frames[4]
+        rx, crc, framing, dups, trips = struct.unpack_from("<IIIII", payload)
+        assert (kind, seq, len(payload)) == (0x85, 6, 20 + 13 * DOC_BOARDS)
+        assert (rx, crc, framing, dups, trips) == (14, 0, 0, 2, 0)
+        assert host.states[-1]["flags"] & 1 and all(s & 8 for s in host.states[-1]["status"])
+
+
+# -- hostile bytes at the bridge --------------------------------------------------------------
+
+
+def doc_reason(encoded: bytes) -> str | None:
+    """What the page's checks (steps 1-2) make of the bytes before a delimiter.
+
+    ``None`` for an intact frame, ``crc`` for a CRC mismatch, ``frame`` for the rest
+    (``oversize``, ``cobs``, ``short``, ``version``).
+    """
+    if len(encoded) > 255:
+        return "frame"
+    try:
+        body = doc_cobs_decode(encoded)
+    except ValueError:
+        return "frame"
+    if len(body) < 7:
+        return "frame"
+    if doc_crc(body[:-2]) != int.from_bytes(body[-2:], "little"):
+        return "crc"
+    return None if body[0] == 1 else "frame"
+
+
+Nacked = tuple[int, int, int]  # (seq, acked_type, error)
+
+
+def _hostile_frames(rng: random.Random) -> list[tuple[bytes, str | Nacked | None]]:
+    """Bad frames, each with what the bridge must make of it: a count (``crc``,
+    ``frame``), a NACK, or nothing (lone delimiters, empty frames).
+
+    No frame here may change what the bridge does. Each ends in its own delimiter.
+    """
+    good = doc_frame(0x02, 2, struct.pack("<BBh", 1, 3, 500), arg=22)  # would drive, if intact
+    frames: list[tuple[bytes, str | Nacked | None]] = []
+    for _ in range(400):
+        pick = rng.randrange(10)
+        seq = rng.randrange(65536)
+        nack: Nacked | None = None
+        if pick == 0:  # one byte of the body changed: the CRC catches every one-byte error
+            body = bytearray(doc_cobs_decode(good[:-1]))
+            body[rng.randrange(len(body))] ^= rng.randrange(1, 256)
+            enc = doc_cobs_encode(bytes(body)) + b"\x00"
+            assert doc_reason(enc[:-1]) == "crc"
+        elif pick == 1:  # a good CRC, another major version
+            version = rng.choice([0, 2, 255])
+            enc = doc_frame(0x02, 2, struct.pack("<BBh", 1, 3, 500), arg=22, version=version)
+        elif pick == 2:  # shorter than header + CRC
+            short = bytes(rng.randrange(1, 256) for _ in range(rng.randrange(1, 7)))
+            enc = doc_cobs_encode(short) + b"\x00"
+        elif pick == 3:  # longer than 255 bytes before the delimiter, no zero inside
+            enc = bytes(rng.randrange(1, 256) for _ in range(rng.randrange(256, 700))) + b"\x00"
+        elif pick == 4:  # a COBS code pointing past the end
+            tail = bytes(rng.randrange(1, 256) for _ in range(rng.randrange(0, 150)))
+            enc = b"\xc8" + tail + b"\x00"
+        elif pick == 5:  # lone delimiters and empty frames: nothing at all
+            frames.append((b"\x00" * rng.randrange(1, 4), None))
+            continue
+        elif pick == 6:  # intact, but not a host -> bridge type: UNKNOWN_TYPE
+            kind = rng.choice([0, 8, 0x7F, 0x81, 0x82, 0x83, 0x84, 0x85, 0x86, 0xFF])
+            payload = bytes(rng.randrange(256) for _ in range(rng.randrange(0, 60)))
+            enc, nack = doc_frame(kind, seq, payload), (seq, kind, 1)
+        elif pick == 7:  # intact, a payload too long or too short for its type: BAD_LENGTH
+            kind = rng.choice([1, 2, 3, 4, 5, 6, 7])
+            size = {1: 5, 2: 4, 3: 48}.get(kind, 0) + rng.choice([-1, 1, 2])
+            payload = bytes(rng.randrange(256) for _ in range(max(size, 1)))
+            enc, nack = doc_frame(kind, seq, payload, arg=22), (seq, kind, 2)
+        elif pick == 8:  # a HELLO for another layout or minor version: BAD_LAYOUT
+            digest, minor = rng.choice([(DOC_DIGEST ^ 1, 2), (DOC_DIGEST, 0), (DOC_DIGEST, 3)])
+            enc, nack = doc_frame(0x01, seq, struct.pack("<IB", digest, minor)), (seq, 1, 3)
+        else:  # a frame cut short: the next one's bytes run into it
+            enc = good[: rng.randrange(1, len(good) - 1)] + good
+        frames.append((enc, nack or doc_reason(enc[:-1])))
+        assert frames[-1][1] is not None
+    noise = bytes(rng.randrange(1, 256) for _ in range(3000))  # random bytes, cut at zeros
+    for part in noise.replace(bytes([rng.randrange(1, 256)]), b"\x00").split(b"\x00"):
+        reason = doc_reason(part) if part else None
+        if reason is not None:  # (a one-in-65536 intact frame is left out)
+            frames.append((part + b"\x00", reason))
+    rng.shuffle(frames)
+    return frames
+
+
+def _chunks(rng: random.Random, stream: bytes) -> list[bytes]:
+    """``stream`` cut anywhere: single bytes, a few, many frames at once."""
+    chunks, i = [], 0
+    while i < len(stream):
+        n = rng.choice([1, 1, 2, 7, 64, 300, 4000])
+        chunks.append(stream[i : i + n])
+        i += n
+    return chunks
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_hostile_bytes_are_counted_answered_as_the_page_says_and_never_obeyed(seed: int) -> None:
+    rng = random.Random(seed)
+    bridge = bridge_for(ROBOT, record_applied=True)
+    bridge.receive(doc_frame(0x01, 1, struct.pack("<IB", DOC_DIGEST, 2)))
+    bridge.receive(doc_frame(0x06, 2))  # released: an intact setpoint would be applied
+    bridge.read()
+    frames = _hostile_frames(rng)
+    for chunk in _chunks(rng, b"".join(enc for enc, _ in frames)):
+        bridge.receive(chunk)
+    assert bridge.applied == [(MsgType.ESTOP_RESET, 2)]
+    assert bridge.commands_executed == 0
+    nacks = [fate for _, fate in frames if isinstance(fate, tuple)]
+    answers = [m for m in _decode_all(bridge.read()) if not isinstance(m, State)]
+    assert [(m.seq, m.acked_type, int(m.error)) for m in answers if isinstance(m, Nack)] == nacks
+    assert len(answers) == len(nacks)
+    bridge.receive(doc_frame(0x07, 1))
+    [counters] = [m for m in _decode_all(bridge.read()) if not isinstance(m, State)]
+    fates = [fate for _, fate in frames]
+    assert (counters.rx_frames, counters.crc_errors, counters.frame_errors) == (
+        2 + len(nacks) + 1,
+        fates.count("crc"),
+        fates.count("frame"),
+    )
+    # and it still works: the next intact setpoint is applied
+    bridge.receive(doc_frame(0x02, 3, struct.pack("<BBh", 1, 3, 500), arg=22))
+    assert bridge.applied[-1] == (MsgType.SETPOINT, 3)
+
+
+def _decode_all(data: bytes) -> list[object]:
+    from pirate_bt.link.codec import FrameDecoder
+
+    items = FrameDecoder(CODEC).feed(data)
+    assert all(not hasattr(item, "reason") for item in items), items
+    return items  # type: ignore[return-value]
+
+
+# -- hostile bytes at the host ----------------------------------------------------------------
+
+
+def test_hostile_bytes_at_the_host_are_counted_once_each_and_never_taken_as_state() -> None:
+    wire = Wire(hello=reply())
+    wire.answer(state(10))
+    wire.poll()
+    kept = wire.session.latest_state()
+    assert kept is not None
+    good = CODEC.encode(state(11))
+    payload = doc_cobs_decode(good[:-1])[5:-2]
+    bad = [
+        good[:-3] + bytes([good[-3] ^ 0x55]) + good[-2:],  # damaged
+        doc_frame(0x82, 12, payload, version=2),  # another major version
+        doc_frame(0x82, 12, payload[:-1]),  # a state one byte short
+        doc_frame(0x82, 12, payload + b"\x01"),  # a state one byte long
+        doc_frame(0x83, 1, bytes([4, 3])),  # ACK status 3 does not exist
+        doc_frame(0x84, 1, bytes([4, 0])),  # NACK code 0 does not exist
+        doc_frame(0x84, 1, bytes([4, 11])),  # nor 11
+        doc_frame(0x83, 1, bytes([4])),  # an ACK cut short
+        doc_frame(0x88, 12, payload),  # no such type
+        doc_frame(0x02, 12, bytes(3)),  # a SETPOINT one byte short
+        bytes(range(1, 256)) * 2 + b"\x00",  # far too long
+        b"\x03\x01",  # then bytes left hanging ...
+        b"\x00",  # ... ended here: a frame too short
+        b"\x00\x00\x00",  # nothing
+    ]
+    stream = b"".join(bad)
+    for i in range(0, len(stream), 3):  # split at every third byte
+        wire.far.write(stream[i : i + 3])
+        wire.poll()
+    assert wire.session.crc_errors == 12  # the last two items end one frame; the rest, none
+    assert wire.session.latest_state() == kept
+    # many frames in one read: the newest state is kept, an old one dropped and counted
+    wire.answer(*(state(s) for s in (11, 12, 13, 9)))
+    wire.poll()
+    latest = wire.session.latest_state()
+    assert latest is not None and latest[0].seq == 13
+    assert wire.session.duplicates == 1
+
+
+def test_an_estop_answered_stale_is_a_failure_not_a_latch() -> None:
+    wire = Wire(hello=reply())
+    req = wire.session.estop()
+    [msg] = wire.sent()
+    wire.answer(Ack(msg.seq, MsgType.ESTOP, AckStatus.STALE))
+    wire.poll()
+    assert req.outcome is Outcome.STALE
+    assert not wire.session.stats().estopped
+    assert wire.session.stats().stale == 1
+    assert wire.session.take_failures() == [req]
+
+
+def test_only_a_nack_of_the_hello_refuses_a_new_session() -> None:
+    wire = Wire(hello=reply(), config=SessionConfig(ack_timeout_s=0.0625, link_timeout_s=0.5))
+    wire.answer(state(1, flags=BridgeFlags.NO_SESSION))  # a bridge reset: a new HELLO
+    wire.poll()
+    [hello] = [m for m in wire.sent() if isinstance(m, Hello)]
+    # a heartbeat's untracked seq may equal the HELLO's ordered seq: its answer is not the
+    # bridge refusing the session
+    wire.answer(Nack(hello.seq, MsgType.HEARTBEAT, NackCode.BAD_LENGTH))
+    wire.poll()
+    wire.session.ensure_alive()
+    wire.answer(reply(hello.seq, boot_id=8))
+    wire.poll()
+    assert wire.session.sessions == 2
+    wire.answer(state(1, flags=BridgeFlags.NO_SESSION))
+    wire.poll()
+    [hello] = [m for m in wire.sent() if isinstance(m, Hello)]
+    wire.answer(Nack(hello.seq, MsgType.HELLO, NackCode.BAD_LAYOUT))
+    with pytest.raises(ProtocolMismatch):
+        wire.poll()
+
+
+def test_a_refused_command_list_leaves_nothing_behind_for_the_next_send() -> None:
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock, seed=1) as sim:
+        from pirate_bt.link import open_link
+
+        link: RobotLink = open_link(sim.url, ROBOT, clock)
+        try:
+            drive = MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)
+            with pytest.raises(Exception, match="no torque mode"):
+                link.send([drive, MotorCommand("bend_2_drive", ControlMode.TORQUE, 0.1)])
+            link.send([MotorCommand("rear_leds", ControlMode.PWM, 0.5)])
+            msg = link._last_bulk.msg if link._last_bulk else None
+            assert isinstance(msg, BulkSetpoints)
+            index = [s.motor.name for s in ROBOT.setpoint_slots()].index("bend_1_drive")
+            assert msg.modes[index] is None  # the refused call's drive is not sent
+        finally:
+            link.close()
