@@ -47,6 +47,7 @@ from pirate_bt.link.requests import Outcome, SessionConfig
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, load_robot
 from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import Half
 from pirate_bt.sim import Simulator
 from pirate_bt.sim.bridge_port import bridge_for
 
@@ -537,3 +538,46 @@ def test_a_refused_command_list_leaves_nothing_behind_for_the_next_send() -> Non
             assert msg.modes[index] is None  # the refused call's drive is not sent
         finally:
             link.close()
+
+
+def test_the_page_s_layout_text_is_the_one_its_rules_give() -> None:
+    page = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
+    block = page.split("text (one line, broken here at each `;` and at the `|`) is\n\n")[1]
+    lines = block.split("\n\n")[0].splitlines()
+    assert "".join(line.strip() for line in lines) == DOC_TEXT
+
+
+def test_a_line_that_only_carries_damaged_frames_leaves_the_robot_stopped() -> None:
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock, seed=2) as sim:
+        from pirate_bt.link import open_link
+
+        link = open_link(sim.url, ROBOT, clock)
+        link.send([MotorCommand(f"bend_{i}_joint", ControlMode.TORQUE, 0.6) for i in (3, 4)])
+        link.send([MotorCommand(m.name, ControlMode.VELOCITY, 0.08) for m in ROBOT.drive_motors()])
+        for _ in range(100):
+            clock.advance(0.01)
+            link.poll()
+        assert sim.truth().velocity_mps > 0
+        executed, received = sim.counters().commands_executed, sim.bridge.rx_frames
+        # From now on the host's frames all arrive damaged: each heartbeat and setpoint
+        # with one byte changed (the CRC catches it), or cut short.
+        rng = random.Random(4)
+        intact = [
+            doc_frame(0x04, 900),
+            doc_frame(0x03, 900, struct.pack("<Bh", 3, 800) * DOC_MOTORS),
+            doc_frame(0x06, 901),
+        ]
+        for i in range(100):
+            body = bytearray(doc_cobs_decode(intact[i % 3][:-1]))
+            body[rng.randrange(len(body))] ^= rng.randrange(1, 256)
+            sim.write(doc_cobs_encode(bytes(body)) + b"\x00")
+            sim.write(intact[i % 3][: rng.randrange(1, 8)] + b"\x00")
+            clock.advance(0.01)
+        truth = sim.truth()
+        assert sim.counters().watchdog_trips == 1
+        assert truth.velocity_mps == 0.0
+        assert truth.halves[Half.REAR].clamped  # clamps held
+        assert sim.counters().commands_executed == executed
+        assert sim.bridge.rx_frames == received  # none of them was taken as a frame
+        link.session.close()

@@ -180,7 +180,13 @@ _FIXED_PAYLOAD: dict[int, int] = {
 
 
 class FrameCodec:
-    """Encodes and decodes frames for one wire layout. Stateless and thread-safe.
+    """Encodes and decodes frames for one wire layout.
+
+    :meth:`encode` and :meth:`encode_payload` may be called from any thread.
+    :meth:`encode_state` and the decoding of a ``STATE`` frame each keep the last
+    frame to reuse its bytes or fields, so each belongs to one thread at a time: one
+    sender of STATE frames (a bridge) and one decoding thread (a session's reader)
+    per codec.
 
     Args:
         layout: The robot's wire layout (sizes of STATE and BULK_SETPOINTS).
