@@ -581,3 +581,60 @@ def test_a_line_that_only_carries_damaged_frames_leaves_the_robot_stopped() -> N
         assert sim.counters().commands_executed == executed
         assert sim.bridge.rx_frames == received  # none of them was taken as a frame
         link.session.close()
+
+
+def doc_host_rejects(encoded: bytes) -> bool:
+    """Whether a host drops the bytes before a delimiter as a bad frame (the page's
+    Bad frames table: framing, CRC and version, then type, length and code tables)."""
+    if doc_reason(encoded) is not None:
+        return True
+    body = doc_cobs_decode(encoded)
+    kind, payload = body[1], body[5:-2]
+    state_size = 2 + (DOC_CHANNELS + 7) // 8 + (DOC_BOARDS + 1) // 2 + 2 * DOC_CHANNELS
+    sizes = {1: 5, 2: 4, 3: 3 * DOC_MOTORS, 4: 0, 5: 0, 6: 0, 7: 0, 0x81: 14, 0x82: state_size}
+    sizes.update({0x83: 2, 0x84: 2, 0x86: 0})
+    if kind == 0x85:
+        return len(payload) < 20 or (len(payload) - 20) % 13 != 0
+    if kind not in sizes:
+        return True
+    if len(payload) != sizes[kind]:
+        return True
+    if kind == 0x02:
+        return payload[1] > 3
+    if kind == 0x03:
+        return any(m > 3 and m != 0xFF for m in payload[0::3])
+    if kind == 0x83:
+        return payload[1] > 2
+    if kind == 0x84:
+        return not 1 <= payload[1] <= 10
+    return False
+
+
+def test_the_host_counts_exactly_the_frames_the_page_calls_bad() -> None:
+    rng = random.Random(11)
+    wire = Wire(hello=reply())
+    kinds = [0x81, 0x82, 0x82, 0x83, 0x84, 0x85, 0x86, 1, 2, 3, 4, 7, 0, 0x87, 0xFF]
+    state_size = 2 + 4 + 5 + 2 * DOC_CHANNELS
+    stream, bad = b"", 0
+    for i in range(600):
+        kind = rng.choice(kinds)
+        size = {0x82: state_size, 0x83: 2, 0x84: 2, 0x81: 14, 0x85: 20 + 13 * 9, 3: 48}.get(kind, 4)
+        size = max(0, size + rng.choice([0, 0, 0, -1, 1]))
+        payload = bytearray(rng.randrange(256) for _ in range(size))
+        if kind in (0x83, 0x84) and size == 2:
+            payload[0] = rng.choice([2, 3, 5, 6])  # never a HELLO's answer
+            payload[1] = rng.choice([0, 1, 2, 3, 10, 11, 255])
+        arg = rng.randrange(256) & ~int(BridgeFlags.NO_SESSION)  # no bridge reset
+        enc = doc_frame(kind, i, bytes(payload), arg=arg, version=rng.choice([1] * 9 + [2]))
+        if rng.random() < 0.1:  # damaged on the way
+            j = rng.randrange(len(enc) - 1)
+            enc = enc[:j] + bytes([enc[j] ^ rng.randrange(1, 256) or 1]) + enc[j + 1 :]
+        for part in enc.split(b"\x00")[:-1]:
+            bad += bool(part) and doc_host_rejects(part)
+        stream += enc
+    for chunk in _chunks(rng, stream):
+        wire.far.write(chunk)
+        wire.poll()
+    assert bad > 100
+    assert wire.session.crc_errors == bad
+    wire.session.ensure_alive()
