@@ -11,13 +11,16 @@ from typing import Any
 
 from pirate_bt.api.connection import connect
 from pirate_bt.api.live import (
+    FoxgloveOption,
     Groot2Option,
     Ros2Option,
     chain,
+    foxglove_server,
     groot2_server,
     groot2_tree_observer,
     ros2_node,
     ros2_tree_observer,
+    tree_observer,
 )
 from pirate_bt.api.options import load_robot_like, parse_target
 from pirate_bt.api.results import RunResult
@@ -40,6 +43,7 @@ def simulate_tree(
     realtime: bool = False,
     live: bool = False,
     observe: Observer | None = None,
+    foxglove: FoxgloveOption = None,
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
@@ -64,6 +68,9 @@ def simulate_tree(
         realtime: Pace the simulated run to wall time (to watch it).
         live: Draw the tree live on standard error.
         observe: ``observe(runner, connection)`` before the run: attach more hooks.
+        foxglove: Serve the run live to Foxglove or Lichtblick (``"HOST:PORT"``, ``True``
+            for 127.0.0.1:8765, or an open ``FoxgloveServer``, which stays open;
+            docs/interop-foxglove.md). Needs the ``foxglove`` extra.
         ros2: Show the run on a ROS 2 graph over Zenoh (``"tcp/HOST:PORT"`` of a
             router, ``True`` for rmw_zenoh's default, or an open ``Ros2Node``); its
             ``estop`` topic e-stops the robot through the supervisor (docs/ros2.md).
@@ -96,6 +103,7 @@ def simulate_tree(
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
     with (
+        foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         groot2_server(groot2) as groot2_view,
     ):
@@ -106,6 +114,7 @@ def simulate_tree(
             "realtime": realtime,
             "live": live,
             "observe": chain(
+                tree_observer(server, description) if server else None,
                 ros2_tree_observer(node, description) if node else None,
                 groot2_tree_observer(groot2_view) if groot2_view else None,
                 observe,
@@ -135,6 +144,7 @@ def run_tree(
     rate: str | float = "20 Hz",
     live: bool = False,
     observe: Observer | None = None,
+    foxglove: FoxgloveOption = None,
     ros2: Ros2Option = None,
     ros_domain_id: int | None = None,
     ros_namespace: str | None = None,
@@ -165,6 +175,7 @@ def run_tree(
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
     with (
+        foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         groot2_server(groot2) as groot2_view,
         connect(port, robot=description, faults=faults) as connection,
@@ -177,6 +188,7 @@ def run_tree(
             trace=trace,
             live=live,
             observe=chain(
+                tree_observer(server, description) if server else None,
                 ros2_tree_observer(node, description) if node else None,
                 groot2_tree_observer(groot2_view) if groot2_view else None,
                 observe,
