@@ -638,3 +638,25 @@ def test_the_host_counts_exactly_the_frames_the_page_calls_bad() -> None:
     assert bad > 100
     assert wire.session.crc_errors == bad
     wire.session.ensure_alive()
+
+
+def test_a_request_that_cannot_be_encoded_is_refused_at_once_and_never_wedges_poll() -> None:
+    wire = Wire(hello=reply())
+    first = wire.session.send_setpoint(22, 1, ControlMode.VELOCITY, 5)  # in flight
+    with pytest.raises(ValueError, match="cannot encode"):
+        wire.session.send_setpoint(22, 1, ControlMode.VELOCITY, 70_000)  # not an int16
+    with pytest.raises(ValueError, match="cannot encode"):
+        wire.session.send_setpoint(300, 1, ControlMode.VELOCITY, 5)  # not a byte
+    [sent] = wire.sent()
+    wire.answer(Ack(sent.seq, MsgType.SETPOINT))
+    for _ in range(8):  # answers and retries come and go: poll never meets the bad ones
+        wire.poll(0.0625)
+    assert first.outcome is Outcome.ACKED
+    assert wire.session.take_failures() == []
+    bulk = wire.session.send_bulk([ControlMode.PWM] * 16, [10] * 16)
+    with pytest.raises(ValueError, match="cannot encode"):
+        wire.session.send_bulk([ControlMode.PWM] * 16, [10] * 15 + [1 << 20])
+    assert not bulk.done  # the good bulk in flight was not superseded by the bad one
+    wire.answer(state(20, ack_seq=bulk.seq))
+    wire.poll()
+    assert bulk.outcome is Outcome.ACKED

@@ -145,10 +145,12 @@ class Request:
         "reply",
         "sent_at_s",
         "tries",
+        "wire",
     )
 
-    def __init__(self, msg: Tracked, created_s: float) -> None:
+    def __init__(self, msg: Tracked, created_s: float, wire: bytes | None = None) -> None:
         self.msg = msg
+        self.wire = wire  # the frame's bytes, once encoded (every try sends the same)
         self.created_s = created_s
         self.sent_at_s = math.nan
         self.first_sent_s = math.nan

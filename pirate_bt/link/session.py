@@ -178,8 +178,10 @@ class Session(InboundMixin):
 
         Raises:
             LinkLost: the link was declared lost.
+            ValueError: a field does not fit its wire type (nothing is queued).
         """
         with self._lock:
+            self._check_alive()
             return self._submit(Setpoint(self._seq(), board, slot, mode, raw_value))
 
     def send_bulk(self, modes: Sequence[ControlMode | None], raw_values: Sequence[int]) -> Request:
@@ -194,12 +196,15 @@ class Session(InboundMixin):
 
         Raises:
             LinkLost: the link was declared lost.
-            ValueError: the lists do not match the layout.
+            ValueError: the lists do not match the layout, or a raw value does not fit
+                an int16 (nothing is queued, nothing superseded).
         """
         if len(modes) != self.codec.layout.n_motors or len(raw_values) != len(modes):
             raise ValueError("bulk setpoints do not match the layout")
         with self._lock:
             self._check_alive()
+            msg = BulkSetpoints(self._seq(), tuple(modes), tuple(raw_values))
+            wire = self.codec.encode(msg)  # before superseding: a bad one replaces nothing
             now = self.clock.now()
             for old in list(self._queue):
                 if isinstance(old.msg, BulkSetpoints):
@@ -208,7 +213,7 @@ class Session(InboundMixin):
             if self._ordered is not None and isinstance(self._ordered.msg, BulkSetpoints):
                 self._finish(self._ordered, Outcome.SUPERSEDED, now)
                 self._ordered = None
-            return self._submit(BulkSetpoints(self._seq(), tuple(modes), tuple(raw_values)))
+            return self._submit(msg, wire)
 
     def estop(self) -> Request:
         """Write an e-stop now, ahead of every queue; never raises for a busy link.
@@ -239,6 +244,7 @@ class Session(InboundMixin):
             LinkLost: the link was declared lost.
         """
         with self._lock:
+            self._check_alive()
             return self._submit(EStopReset(self._seq()))
 
     def request_counters(self) -> Request:
@@ -446,9 +452,12 @@ class Session(InboundMixin):
         self._fail_all(now)
         raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
 
-    def _submit(self, msg: Setpoint | BulkSetpoints | EStopReset) -> Request:
-        self._check_alive()
-        req = Request(msg, self.clock.now())
+    def _submit(
+        self, msg: Setpoint | BulkSetpoints | EStopReset, wire: bytes | None = None
+    ) -> Request:
+        # Encoded here, once, so that a request that cannot be encoded is refused to its
+        # caller (ValueError) instead of failing every later poll() that would send it.
+        req = Request(msg, self.clock.now(), self.codec.encode(msg) if wire is None else wire)
         self._queue.append(req)
         if self._ordered is None and self._hello is None:
             self._service(self.clock.now())
@@ -466,7 +475,8 @@ class Session(InboundMixin):
         due = req.next_try_s(self.config.ack_timeout_s)
         if due < self._due_s:  # pragma: no mutate (<=: it would set the same value)
             self._due_s = due
-        self.link.write(self.codec.encode(req.msg))
+        wire = req.wire
+        self.link.write(self.codec.encode(req.msg) if wire is None else wire)
 
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
         if req.done:
