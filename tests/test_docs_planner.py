@@ -16,6 +16,7 @@ import importlib
 import inspect
 import io
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -73,6 +74,8 @@ class Run:
     prefix: str = ""
     after: str | None = None
     expect: tuple[str, ...] = ()
+    check: Callable[[dict[str, Any]], None] | None = None
+    """Asserts on the names the block left, where its comments say what they hold."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,34 @@ class Skip:
 
 
 STALL_WHY = "stall: bend_3_drive draws 1.50 A at 0 mm/s"
+
+
+def _stalled_rear_clamp(names: dict[str, Any]) -> None:
+    """docs/observability.md's trace queries, as its comments give them."""
+    trace, rear = names["trace"], names["rear"]
+    assert trace.outcome == "failure" and trace.why.startswith("timeout: not done after 5 s")
+    assert trace.nodes("*/hold/clamp rear*") == [
+        "straight/pass straight/hold or over an opening/hold/hold/clamp rear",
+        "straight/pass straight/hold or over an opening/hold/hold/clamp rear/clamp rear half",
+    ]
+    assert (trace.node(rear).id, trace.node(rear).type) == ("0.0.1.0.0.0.0", "Clamp")
+    assert trace.node("hold/clamp rear").id == "0.0.1.0.0.0"  # the tail and the id the text gives
+    assert [(c.tick, c.status) for c in trace.statuses(rear)[:2]] == [
+        (1, "RUNNING"),
+        (102, "FAILURE"),
+    ]
+    assert trace.status_at(rear, 150) == "RUNNING"
+    assert trace.first_tick(rear, "FAILURE") == 102
+    assert trace.feedback(rear)[-1].message.startswith("timeout: not done after 5 s")
+    first = names["first"]
+    assert (first.tick, first.path) == (102, trace.nodes("*/hold/clamp rear*")[1])
+    assert first.feedback.startswith("timeout: not done after 5 s (clamping rear: bend_3 0.0°")
+
+
+def _route_distance(names: dict[str, Any]) -> None:
+    assert names["route"].steps[0].distance_m == 2.5
+
+
 WHERE = "bend/pass bend/confirm enter/front into turn"
 
 # (doc, a text only that block holds) -> what to do with it
@@ -151,10 +182,7 @@ BLOCKS: dict[tuple[str, str], Run | Skip] = {
     ("observability.md", "attach_trace(\n"): Skip(
         "a fragment: loaded_tree, clock, port, verdicts and args are the reader's"
     ),
-    ("observability.md", 'read_trace("stalled.jsonl")'): Skip(
-        "reads a trace of a stalled rear clamp that is not shipped (examples/trace_query.py"
-        " asks the same questions of a run it makes)"
-    ),
+    ("observability.md", 'read_trace("stalled.jsonl")'): Run(check=_stalled_rear_clamp),
     ("observability.md", 'render_tree("trees/straight.yaml", "straight.svg"'): Run(
         prefix=(
             "import pirate_bt\n"
@@ -162,7 +190,7 @@ BLOCKS: dict[tuple[str, str], Run | Skip] = {
         )
     ),
     ("protocol.md", "RawFrameDecoder(codec)"): Skip("a fragment: robot, received and port"),
-    ("routes.md", "parse_route("): Run(),
+    ("routes.md", "parse_route("): Run(check=_route_distance),
     ("safety.md", 'url="socket://127.0.0.1:7777"'): Skip("needs a bridge on a TCP port"),
     ("safety.md", 'open_supervisor(network="riser", seed=3)'): Run(
         prefix="from pirate_bt.safety.factory import open_supervisor"
@@ -254,6 +282,8 @@ def test_a_python_block_of_the_docs_runs_as_written(
     assert isinstance(entry, Run)
     for text in entry.expect:
         assert text in output, f"{block}: the doc says the output holds {text!r}:\n{output}"
+    if entry.check is not None:
+        entry.check(_NAMESPACES[_entry(block)[0]])
 
 
 def test_every_pirate_bt_name_the_docs_mention_exists() -> None:
