@@ -372,3 +372,19 @@ def test_run_campaign_signature_is_as_listed() -> None:
     for name, default in listed.items():
         assert name in parameters, f"run_campaign has no {name}="
         assert parameters[name].default == ast.literal_eval(default), name
+
+
+def test_each_error_class_has_the_exit_code_the_reference_gives() -> None:
+    """docs/api.md, *Errors*: 2 input and configuration, 3 link, 1 otherwise."""
+    api = (REPO / "docs" / "api.md").read_text(encoding="utf-8")
+    assert "(2 input and\nconfiguration, 3 link, 1 otherwise" in api
+    expected = {
+        pirate_bt.InputError: 2,
+        pirate_bt.LocatedError: 2,
+        pirate_bt.ValidationFailed: 2,
+        pirate_bt.ConfigurationError: 2,
+        pirate_bt.LinkError: 3,
+        pirate_bt.SafetyError: 1,
+        pirate_bt.PirateError: 1,
+    }
+    assert {cls: cls.exit_code for cls in expected} == expected
