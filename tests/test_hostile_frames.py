@@ -25,7 +25,7 @@ import yaml
 from session_wire import Wire, reply, state
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import FrameError, InputError, ProtocolMismatch
+from pirate_bt.errors import FrameError, InputError, LinkError, ProtocolMismatch
 from pirate_bt.link import open_link
 from pirate_bt.link.codec import (
     Ack,
@@ -489,7 +489,7 @@ def test_an_estop_answered_stale_is_a_failure_not_a_latch() -> None:
     [msg] = wire.sent()
     wire.answer(Ack(msg.seq, MsgType.ESTOP, AckStatus.STALE))
     wire.poll()
-    assert req.outcome is Outcome.STALE
+    assert req.outcome is Outcome.STALE and req.ack_status is AckStatus.STALE
     assert not wire.session.stats().estopped
     assert wire.session.stats().stale == 1
     assert wire.session.take_failures() == [req]
@@ -651,3 +651,16 @@ def test_a_request_that_cannot_be_encoded_is_refused_at_once_and_never_wedges_po
     wire.answer(state(20, ack_seq=bulk.seq))
     wire.poll()
     assert bulk.outcome is Outcome.ACKED
+
+
+def test_a_closed_session_queues_no_request_of_any_kind() -> None:
+    wire = Wire(hello=reply())
+    wire.session.close()
+    for make in (
+        lambda: wire.session.send_setpoint(22, 1, ControlMode.VELOCITY, 0),
+        lambda: wire.session.send_bulk([None] * 16, [0] * 16),
+        wire.session.estop_reset,
+    ):
+        with pytest.raises(LinkError, match=r"^session closed$"):
+            make()
+    assert wire.sent(heartbeats=True) == []
