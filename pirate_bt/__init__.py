@@ -57,13 +57,18 @@ _EXPORTS: dict[str, str] = {
     "GoalNavigator": "pirate_bt.task.navigators",
     "ExploreNavigator": "pirate_bt.task.explore",
     "SurveyIncomplete": "pirate_bt.task.explore",
+    "branch_leavable": "pirate_bt.task.explore",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",
+    "attach_trace": "pirate_bt.trace.attach",
+    "TraceRecorder": "pirate_bt.trace.writer",
     # results
     "RunResult": "pirate_bt.api.results",
     "MissionResult": "pirate_bt.task.mission",
     "PabOutcome": "pirate_bt.task.outcome",
+    "Fix": "pirate_bt.task.fixes",
+    "Disagreement": "pirate_bt.task.fixes",
     "Counters": "pirate_bt.safety.tally",
     "CampaignResult": "pirate_bt.campaign",
     "MissionPlan": "pirate_bt.task.plan",
@@ -72,6 +77,7 @@ _EXPORTS: dict[str, str] = {
     "load_robot": "pirate_bt.robot.loader",
     "load_route": "pirate_bt.api.missions",
     "read_trace": "pirate_bt.trace.reader",
+    "Trace": "pirate_bt.trace.reader",
     "render_tree": "pirate_bt.render.tree",
     # building trees in Python
     "BuildContext": "pirate_bt.behaviours.base",
@@ -91,8 +97,10 @@ __all__ = [
     "ConfigurationError",
     "Connection",
     "Counters",
+    "Disagreement",
     "ExploreNavigator",
     "Felt",
+    "Fix",
     "GoalNavigator",
     "Groot2Server",
     "InputError",
@@ -112,9 +120,13 @@ __all__ = [
     "StopReason",
     "SurveyIncomplete",
     "SurveyResult",
+    "Trace",
+    "TraceRecorder",
     "ValidationFailed",
     "__version__",
     "attach_groot2",
+    "attach_trace",
+    "branch_leavable",
     "connect",
     "load_navigator",
     "load_network",
@@ -180,7 +192,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason
     from pirate_bt.safety.tally import Counters
-    from pirate_bt.task.explore import ExploreNavigator, SurveyIncomplete
+    from pirate_bt.task.explore import ExploreNavigator, SurveyIncomplete, branch_leavable
+    from pirate_bt.task.fixes import Disagreement, Fix
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.navigate import NavigationResult
     from pirate_bt.task.navigation import Felt, Navigator, Observation, Step
@@ -192,4 +205,6 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     )
     from pirate_bt.task.outcome import PabOutcome
     from pirate_bt.task.plan import MissionPlan
-    from pirate_bt.trace.reader import read_trace
+    from pirate_bt.trace.attach import attach_trace
+    from pirate_bt.trace.reader import Trace, read_trace
+    from pirate_bt.trace.writer import TraceRecorder

@@ -388,3 +388,15 @@ def test_each_error_class_has_the_exit_code_the_reference_gives() -> None:
         pirate_bt.PirateError: 1,
     }
     assert {cls: cls.exit_code for cls in expected} == expected
+
+
+def test_every_name_of_the_reference_is_importable_from_the_package() -> None:
+    """docs/api.md: "Every name below is importable from the package itself" and is
+    headed by its bare name: ``pirate_bt.Trace``, ``pirate_bt.Fix``,
+    ``pirate_bt.attach_trace``... (six of them once raised AttributeError)."""
+    page = (REPO / "docs" / "api.md").read_text(encoding="utf-8")
+    assert "Every name below is importable from the package itself" in page
+    for dotted in re.findall(r"^::: ([\w.]+)", page, flags=re.MULTILINE):
+        module, name = dotted.rsplit(".", 1)
+        assert name in pirate_bt.__all__, f"pirate_bt.{name} ({dotted}) is not exported"
+        assert getattr(pirate_bt, name) is getattr(importlib.import_module(module), name)
