@@ -664,3 +664,24 @@ def test_a_closed_session_queues_no_request_of_any_kind() -> None:
         with pytest.raises(LinkError, match=r"^session closed$"):
             make()
     assert wire.sent(heartbeats=True) == []
+
+
+def test_a_link_loss_counts_the_frames_it_swallows_not_the_delimiters() -> None:
+    from pirate_bt.pipes import FaultSpec
+
+    bridge = bridge_for(ROBOT)
+    beat = doc_frame(0x04, 1)
+    bridge.receive(beat[:4])  # a frame under way when the line goes
+    bridge.schedule([FaultSpec(kind="link_loss", at=0.0, duration=1.0)])
+    bridge.advance_to(0.01)
+    bridge.receive(beat[4:])  # its end is lost: one frame
+    bridge.receive(b"\x00\x00" + beat + b"\x00\x00\x00")  # flushes, one frame, empty ones
+    bridge.receive(beat[:5])
+    bridge.receive(beat[5:-1])
+    bridge.receive(b"\x00")  # a frame that came in three pieces: one
+    assert bridge.frames_dropped == 3
+    bridge.receive(beat[:3])  # cut by the end of the loss: neither dropped nor taken
+    bridge.advance_to(1.5)
+    bridge.receive(b"\x00" + beat)
+    assert bridge.frames_dropped == 3
+    assert (bridge.rx_frames, bridge.crc_errors, bridge.frame_errors) == (1, 0, 0)

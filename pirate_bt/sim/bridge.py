@@ -150,6 +150,7 @@ class SimBridge(FaultsMixin):
         self._input_tripped = False
         self._resetting: set[int] = set()
         self._link_lost = False
+        self._lost_partial = False  # bytes of an unfinished frame were lost to the link loss
         self._boot()
         # faults
         self._pending: list[FaultSpec] = []
@@ -164,7 +165,7 @@ class SimBridge(FaultsMixin):
         if not data:
             return
         if self._link_lost:
-            self.frames_dropped += data.count(0)
+            self._drop(data)
             return
         for item in self._decoder.feed_raw(data):
             if isinstance(item, FrameError):  # steps 1-2: dropped, counted, not answered
@@ -174,6 +175,23 @@ class SimBridge(FaultsMixin):
                     self.frame_errors += 1
                 continue
             self._handle(item)
+
+    def _drop(self, data: bytes) -> None:
+        """Bytes lost to an injected link loss: count each host frame they end.
+
+        A frame is a non-empty run of bytes before a delimiter, as a receiver sees it:
+        lone delimiters and empty frames are none, and a frame whose first bytes came
+        before the loss (or in an earlier read) counts once, where its delimiter is lost.
+        """
+        *ended, tail = data.split(b"\x00")
+        partial = self._lost_partial or self._decoder.pending_bytes > 0
+        for part in ended:
+            if part or partial:
+                self.frames_dropped += 1
+            partial = False
+        if ended:
+            self._decoder.reset()  # the frame it held ended unseen
+        self._lost_partial = partial or bool(tail)
 
     def read(self, size: int = -1) -> bytes:
         """Take up to ``size`` queued bytes for the host (all when negative)."""

@@ -52,6 +52,7 @@ class FaultsMixin:
     _dropout: set[int]
     _stuck: dict[int, float]
     _link_lost: bool
+    _lost_partial: bool
     _status_cache: tuple[int, ...] | None
 
     def check_fault(self, fault: FaultSpec) -> None:
@@ -132,4 +133,5 @@ class FaultsMixin:
             self._status_cache = None
         elif spec.kind == "link_loss":
             self._link_lost = False
+            self._lost_partial = False
             self._decoder.reset()
