@@ -47,6 +47,7 @@ from pirate_bt.link.codec import (
 )
 from pirate_bt.link.requests import Outcome
 from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot import ControlMode, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import Half
@@ -667,8 +668,6 @@ def test_a_closed_session_queues_no_request_of_any_kind() -> None:
 
 
 def test_a_link_loss_counts_the_frames_it_swallows_not_the_delimiters() -> None:
-    from pirate_bt.pipes import FaultSpec
-
     bridge = bridge_for(ROBOT)
     beat = doc_frame(0x04, 1)
     bridge.receive(beat[:4])  # a frame under way when the line goes
