@@ -66,7 +66,7 @@ def navigate(
         seed: The simulator's seed.
         faults: Simulator and link faults, as for :func:`pirate_bt.simulate_tree`.
         trace: A directory for ``navigation.jsonl`` (every decision with its
-            observation) and one tick trace per step (``step-NN.jsonl``).
+            observation) and one tick trace per step (``step-001.jsonl``, ...).
         robot: The robot description (default: bundled).
         max_time: Clock time the whole navigation may take.
         rate: Tick rate.
