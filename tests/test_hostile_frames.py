@@ -75,7 +75,9 @@ def doc_crc(data: bytes) -> int:
 
 def doc_cobs_encode(body: bytes) -> bytes:
     out, block = bytearray(), bytearray()
+    full = False  # the body ended with a 0xFF block: no last block after it
     for byte in body:
+        full = False
         if byte == 0:
             out += bytes([len(block) + 1]) + block
             block.clear()
@@ -84,7 +86,8 @@ def doc_cobs_encode(body: bytes) -> bytes:
             if len(block) == 254:
                 out += b"\xff" + block
                 block.clear()
-    if block or not out or body[-1:] == b"\x00" or len(body) % 254:
+                full = True
+    if not full:
         out += bytes([len(block) + 1]) + block
     return bytes(out)
 
