@@ -400,3 +400,42 @@ def test_every_name_of_the_reference_is_importable_from_the_package() -> None:
         module, name = dotted.rsplit(".", 1)
         assert name in pirate_bt.__all__, f"pirate_bt.{name} ({dotted}) is not exported"
         assert getattr(pirate_bt, name) is getattr(importlib.import_module(module), name)
+
+
+def _keywords(call_args: str) -> set[str]:
+    """The keywords of one call's argument text, outside strings and nested calls."""
+    text = re.sub(r"\"[^\"\n]*\"|'[^'\n]*'", '""', call_args)
+    text = re.sub(r"#[^\n]*", "", text)
+    found: set[str] = set()
+    depth = 0
+    for token in re.finditer(r"[(\[{)\]}]|(?<![\w.=!<>])(\w+)=(?!=)", text):
+        if token[0] in "([{":
+            depth += 1
+        elif token[0] in ")]}":
+            depth -= 1
+        elif depth == 0 and token[1]:
+            found.add(token[1])
+    return found
+
+
+def test_every_keyword_the_docs_pass_to_the_front_door_exists() -> None:
+    """``pirate_bt.simulate_tree(..., foxglove=...)`` in any doc, code or prose: each
+    keyword is a parameter of the function (what a planner copies, Python accepts)."""
+    unknown: list[str] = []
+    calls = 0
+    for path in DOCS:
+        text = path.read_text(encoding="utf-8")
+        for match in re.finditer(r"pirate_bt\.(\w+)\(", text):
+            function = getattr(pirate_bt, match[1], None)
+            if not callable(function) or match[1] not in pirate_bt.__all__:
+                continue
+            depth, end = 1, match.end()
+            while end < len(text) and depth:
+                depth += {"(": 1, ")": -1}.get(text[end], 0)
+                end += 1
+            parameters = inspect.signature(function).parameters
+            calls += 1
+            for keyword in _keywords(text[match.end() : end - 1]) - set(parameters):
+                unknown.append(f"{path.name}: pirate_bt.{match[1]}(..., {keyword}=...)")
+    assert calls >= 20
+    assert not unknown, unknown
