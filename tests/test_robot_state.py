@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import pytest
@@ -103,3 +104,12 @@ def test_commands_saturate_and_reject_unknowns() -> None:
         codec.to_raw(MotorCommand("front_leds", ControlMode.TORQUE, 0.1))
     with pytest.raises(InputError, match="no motor at board 99"):
         codec.to_si(RawSetpoint(99, 0, ControlMode.PWM, 0))
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_a_command_that_is_not_a_number_is_refused_by_name(value: float) -> None:
+    # NaN has no nearest raw value and infinity is no quantity to saturate: the caller
+    # gets the library's InputError naming the motor, not a bare ValueError/OverflowError
+    codec = CommandCodec(ROBOTS["default"])
+    with pytest.raises(InputError, match=r"motor 'bend_1_drive': velocity value .* is not finite"):
+        codec.to_raw(MotorCommand("bend_1_drive", ControlMode.VELOCITY, value))

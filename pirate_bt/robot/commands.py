@@ -10,6 +10,7 @@ description's conversion, and back. Only the link and this module handle
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from pirate_bt.errors import InputError
@@ -48,7 +49,8 @@ class CommandCodec:
         """The raw setpoint for ``command``; values beyond the raw range saturate.
 
         Raises:
-            InputError: unknown motor, or a mode the motor does not support.
+            InputError: unknown motor, a mode the motor does not support, or a value
+                that is not a finite number (NaN or infinite: nothing to saturate).
         """
         try:
             motor = self.robot.motor(command.motor)
@@ -58,8 +60,11 @@ class CommandCodec:
         if conversion is None:
             modes = ", ".join(m.value for m in motor.modes.available())
             raise InputError(f"motor {motor.name!r} has no {command.mode} mode (it has: {modes})")
+        value = command.value
+        if not math.isfinite(value):
+            raise InputError(f"motor {motor.name!r}: {command.mode} value {value} is not finite")
         board = self.robot.board_of(motor.name)
-        return RawSetpoint(board.id, motor.slot, command.mode, conversion.to_raw(command.value))
+        return RawSetpoint(board.id, motor.slot, command.mode, conversion.to_raw(value))
 
     def to_si(self, setpoint: RawSetpoint) -> MotorCommand:
         """The SI command a raw setpoint stands for.
