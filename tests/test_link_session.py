@@ -280,6 +280,26 @@ def test_retried_setpoints_do_not_starve_heartbeats() -> None:
     assert MsgType.SETPOINT not in [kind for kind, _ in applied_of(bridge)]
 
 
+def test_heartbeats_follow_a_bridge_with_a_shorter_watchdog() -> None:
+    # a bridge built with a 20 ms watchdog, a host whose description says 250 ms: the
+    # host hears the bridge's own watchdog in HELLO_REPLY and heartbeats often enough
+    # (every 30 ms, the description's pace at 10 ms polls, would trip it)
+    quick = ROBOT.model_copy(update={"bridge": ROBOT.bridge.model_copy(update={"watchdog": 0.02})})
+    clock = SimClock()
+    host, far = memory_pair()
+    bridge = BridgeOnPort(far, bridge_for(quick))
+    clock.add_listener(bridge.step)
+    link = wrap_link(host, ROBOT, clock)
+    assert link.session.config.heartbeat_period_s == pytest.approx(0.002)
+    for _ in range(100):
+        clock.sleep(0.01)
+        link.poll()
+    assert bridge.bridge.watchdog_trips == 0
+    assert link.session.stats().watchdog is False
+    # a bridge with a longer watchdog than the description's changes nothing
+    assert SessionConfig.from_robot(ROBOT).heeding(1000).heartbeat_period_s == 0.025
+
+
 def test_heartbeat_period_is_well_inside_the_watchdog() -> None:
     cfg = SessionConfig.from_robot(ROBOT)
     assert cfg.heartbeat_period_s <= ROBOT.bridge.watchdog / 8

@@ -31,7 +31,7 @@ from pirate_bt.link.codec import (
     State,
     seq_newer,
 )
-from pirate_bt.link.requests import Outcome, Request
+from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
 __all__ = ["InboundMixin"]
 
@@ -44,6 +44,7 @@ class InboundMixin:
 
     # set by the session
     codec: FrameCodec
+    config: SessionConfig
     last_hello_reply: HelloReply | None
     rtt_samples: collections.deque[float]
     crc_errors: int
@@ -179,6 +180,7 @@ class InboundMixin:
         if previous is not None and previous.boot_id != item.boot_id:
             _log.warning("the bridge was reset (boot id %d -> %d)", previous.boot_id, item.boot_id)
         self.last_hello_reply = item
+        self.config = self.config.heeding(item.watchdog_ms)  # a new bridge may differ
         self._flags = item.flags
         self._hello = None
         self._answered = item.seq

@@ -9,6 +9,7 @@ session's figures.
 from __future__ import annotations
 
 import enum
+import logging
 import math
 from dataclasses import dataclass, replace
 
@@ -40,6 +41,8 @@ __all__ = [
     "SessionStats",
     "Tracked",
 ]
+
+_log = logging.getLogger(__name__)
 
 HEARTBEATS_PER_WATCHDOG = 10
 """Host heartbeat period = watchdog / this (docs/protocol.md, Timing)."""
@@ -99,6 +102,33 @@ class SessionConfig:
             link_timeout_s=max(0.5, 2 * bridge.watchdog),
         )
         return replace(base, **overrides)  # type: ignore[arg-type]
+
+    def heeding(self, watchdog_ms: int) -> SessionConfig:
+        """This timing, with heartbeats frequent enough for a bridge's own watchdog.
+
+        The heartbeat period comes from the robot description, but a bridge built with
+        a shorter watchdog (it reports it in ``HELLO_REPLY``) would trip between
+        heartbeats; for such a bridge the period becomes its watchdog / 10. A longer
+        or unreported (0) watchdog changes nothing.
+
+        Args:
+            watchdog_ms: The watchdog the bridge reported, in ms.
+
+        Returns:
+            This configuration, or a copy with the shorter heartbeat period.
+        """
+        period = watchdog_ms / 1000 / HEARTBEATS_PER_WATCHDOG
+        # a relative margin: the same watchdog, once in ms and once in s, may differ
+        # in the last bit
+        if watchdog_ms <= 0 or period >= self.heartbeat_period_s * (1 - 1e-9):
+            return self
+        _log.warning(
+            "the bridge's watchdog is %d ms: heartbeats every %.1f ms instead of %.1f ms",
+            watchdog_ms,
+            period * 1000,
+            self.heartbeat_period_s * 1000,
+        )
+        return replace(self, heartbeat_period_s=period)
 
     def __post_init__(self) -> None:
         if not 1 <= self.protocol_minor <= PROTOCOL_MINOR_MAX:

@@ -124,7 +124,8 @@ class Session(InboundMixin):
         self.link = link
         self.codec = codec
         self.clock = clock
-        self.config = config or SessionConfig()
+        config = config or SessionConfig()
+        self.config = config if hello_reply is None else config.heeding(hello_reply.watchdog_ms)
         self._decoder = FrameDecoder(codec)
         self._lock = threading.RLock()
         self._next_seq = first_seq & 0xFFFF or 1
