@@ -181,6 +181,41 @@ def test_a_stale_answer_fails_the_request_and_is_logged(caplog: pytest.LogCaptur
     ]
 
 
+def test_two_stale_answers_in_a_row_start_a_new_session(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # the bridge's duplicate filter ran ahead of the host (a damaged frame with a far seq
+    # passed the CRC): every ordered request is STALE until a HELLO resets the filter
+    caplog.set_level(logging.WARNING, logger=LOG)
+    wire = Wire()
+    first, msg = setpoint(wire)
+    wire.answer(Ack(msg.seq, MsgType.SETPOINT, AckStatus.STALE))
+    wire.poll()
+    assert not any(isinstance(m, Hello) for m in wire.sent())  # one STALE: an e-stop overtook
+    second, msg = setpoint(wire)
+    waiting, _ = setpoint(wire)
+    wire.answer(Ack(msg.seq, MsgType.SETPOINT, AckStatus.STALE))
+    wire.poll()
+    assert (first.outcome, second.outcome, waiting.outcome) == (
+        Outcome.STALE,
+        Outcome.STALE,
+        Outcome.FAILED,  # queued behind: never sent, reported
+    )
+    hello = wire.sent()[-1]
+    assert isinstance(hello, Hello) and hello.seq == waiting.msg.seq + 1  # type: ignore[attr-defined]
+    assert (
+        logging.WARNING,
+        "starting a new session: the bridge answered STALE twice in a row",
+    ) in (messages(caplog))
+    wire.answer(reply(hello.seq))
+    wire.poll()
+    third, msg = setpoint(wire)
+    assert msg.seq == hello.seq + 1
+    wire.answer(Ack(msg.seq, MsgType.SETPOINT))
+    wire.poll()
+    assert third.outcome is Outcome.ACKED
+
+
 def test_an_answer_goes_to_its_own_request_only() -> None:
     wire = Wire()
     req, msg = setpoint(wire)

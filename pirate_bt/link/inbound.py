@@ -58,6 +58,7 @@ class InboundMixin:
     _hello: Request | None
     _queue: collections.deque[Request]
     _answered: int
+    _stale_run: int
     _flags: BridgeFlags
     _protocol_error: LinkError | None
     _accept_any_state: bool
@@ -129,6 +130,18 @@ class InboundMixin:
                 if outcome is Outcome.ACKED and kind == MsgType.ESTOP_RESET:
                     self._flags &= ~BridgeFlags.ESTOP  # released now; the next STATE says so too
             self._settle(ordered, outcome, now)
+            if outcome is not Outcome.STALE:
+                self._stale_run = 0
+            else:
+                # One STALE is an e-stop overtaking a request in flight. Two in a row mean
+                # the bridge's duplicate filter is ahead of this host (a damaged frame
+                # that passed the CRC with a far seq, say): every request would be
+                # STALE until the counter caught up, so a HELLO resets the filter.
+                self._stale_run += 1
+                if self._stale_run >= 2 and self._hello is None:
+                    self._stale_run = 0
+                    self._start_session(now, "the bridge answered STALE twice in a row")
+                    return
             if self._queue:  # the next queued request may go
                 self._service(now)
             return
