@@ -417,6 +417,9 @@ def test_figures_count_every_occurrence() -> None:
         req, msg = setpoint(wire)
         wire.answer(Ack(msg.seq, MsgType.SETPOINT, AckStatus.STALE))
         wire.poll()
+        req, msg = setpoint(wire)  # applied: two STALEs in a row would start a new session
+        wire.answer(Ack(msg.seq, MsgType.SETPOINT))
+        wire.poll()
     for _ in range(2):
         req, _ = setpoint(wire)
         for _ in range(CONFIG.max_retries + 1):
