@@ -20,6 +20,7 @@ its wall-time limit, set by the engine).
 
 from __future__ import annotations
 
+import math
 import shutil
 import time
 import traceback
@@ -33,6 +34,7 @@ __all__ = [
     "error_record",
     "preload",
     "prepare",
+    "row_problem",
     "run_case",
 ]
 
@@ -116,6 +118,55 @@ def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float)
         trace=None,
     )
     return record
+
+
+def _count(value: Any) -> bool:
+    return value is None or (type(value) is int and value >= 0)
+
+
+def _number(value: Any) -> bool:
+    return value is None or (
+        isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    )
+
+
+def row_problem(row: Any) -> str | None:
+    """Why ``row`` is not a record this module could have written, or ``None``.
+
+    What the report and ``--resume`` rely on is checked, where the row has it: a
+    safe ``id`` (always), an integer ``index``, a known ``outcome``, counters as
+    counts, times and rates as finite numbers, kinds as counts by name. A results
+    file edited by hand, or by anything else, is read only as far as its rows pass.
+    """
+    from pirate_bt.campaign.paths import is_safe_name
+
+    if not isinstance(row, dict):
+        return f"not a record but {type(row).__name__}"
+    if not is_safe_name(row.get("id")):
+        return "no case id"
+    if "index" in row and not (type(row["index"]) is int and row["index"] >= 0):
+        return f"index {row['index']!r} is not a case number"
+    if "outcome" in row and row["outcome"] not in OUTCOMES:
+        return f"outcome {row['outcome']!r} is not one of {', '.join(OUTCOMES)}"
+    for key in (*_COUNTER_KEYS, "ticks", "steps"):
+        if not _count(row.get(key)):
+            return f"{key} {row.get(key)!r} is not a count"
+    for key in ("sim_time_s", "wall_time_s", "distance_m", "drop", "corrupt", "dup"):
+        if not _number(row.get(key)):
+            return f"{key} {row.get(key)!r} is not a number"
+    for key in ("violation_kinds", "damage_kinds"):
+        kinds = row.get(key) or {}
+        if not isinstance(kinds, dict) or not all(
+            type(n) is int and n >= 0 for n in kinds.values()
+        ):
+            return f"{key} is not counts by kind"
+    faults = row.get("sim_faults") or []
+    if not isinstance(faults, list) or not all(isinstance(f, str) for f in faults):
+        return "sim_faults is not a list of faults"
+    for key in ("params", "coverage"):
+        if row.get(key) is not None and not isinstance(row[key], dict):
+            return f"{key} is not a mapping"
+    return None
 
 
 def _faults(case: dict[str, Any]) -> str:

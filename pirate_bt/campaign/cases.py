@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource, spec_source
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
 
 __all__ = [
     "DEFAULT_MAX_CASES",
@@ -285,11 +285,47 @@ def group_key(row: dict[str, Any]) -> str:
     return " ".join(parts)
 
 
-def check_runs(cases: list[Case]) -> None:
+def _params_problems(
+    spec: CampaignSpec, base: Path | None, tree: str, params: dict[str, str], exc: ValidationFailed
+) -> InputError:
+    """``exc``'s problems with a tree's parameters, placed where the spec gives them.
+
+    The tree loader places a parameter's problem at ``--param:1:1`` (the command
+    line's option); in a campaign the parameter was written in ``runs[i].params``.
+    """
+    source = _source(spec)
+    folder = base if base is not None else source.base
+    index = next(
+        (
+            i
+            for i, run in enumerate(spec.runs)
+            if run.tree is not None
+            and _resolve(run.tree, folder) == tree
+            and {k: str(v) for k, v in run.params.items()} == params
+        ),
+        None,
+    )
+    if index is None:
+        return exc
+    problems: list[tuple[Sequence[str | int], str]] = []
+    for error in exc.errors:
+        if error.location.file != "--param":
+            return exc  # a problem of the tree file itself: located there
+        path: tuple[str | int, ...] = ("runs", index, "params")
+        name = next((k for k in params if f"parameter {k!r}" in error.message), None)
+        problems.append(((*path, name) if name is not None else path, error.message))
+    return source.errors(problems)
+
+
+def check_runs(
+    cases: list[Case], spec: CampaignSpec | None = None, base: Path | None = None
+) -> None:
     """Load every distinct tree (with its parameters) and route once, before any case runs.
 
     Bad input is the campaign's fault, not a case outcome: it stops the campaign
-    with exit 2 and a located error instead of a thousand ``error`` rows.
+    with exit 2 and a located error instead of a thousand ``error`` rows. With the
+    ``spec`` the cases came from (and its ``base``, as for :func:`expand`), a
+    problem with a tree's parameters is placed at the run's ``params`` in the spec.
 
     Raises:
         ValidationFailed: a tree or route does not validate.
@@ -329,6 +365,19 @@ def check_runs(cases: list[Case]) -> None:
             except InputError as exc:
                 raise InputError(f"run {case.get('run')!r}: {exc}") from None
         elif case["tree"]:
-            validate_file(find_file("trees", case["tree"]), "tree", case["params"] or None)
+            from pirate_bt.robot.loader import load_robot
+            from pirate_bt.treefile.loader import load_tree
+
+            try:  # as the case will: a parameter without a default must be given
+                load_tree(
+                    find_file("trees", case["tree"]),
+                    robot=load_robot(),
+                    params=case["params"],
+                    params_from_text=True,
+                )
+            except ValidationFailed as exc:
+                if spec is None:
+                    raise
+                raise _params_problems(spec, base, case["tree"], case["params"], exc) from None
         else:
             validate_file(find_file("scenarios", case["route"]), "route")

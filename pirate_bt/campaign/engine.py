@@ -29,7 +29,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.campaign.case import error_record
+from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import is_safe_name, safe_name
 from pirate_bt.campaign.workers import prestart, run_in_server
 from pirate_bt.errors import InputError
@@ -37,6 +37,7 @@ from pirate_bt.errors import InputError
 __all__ = [
     "DEFAULT_TARGET",
     "RESULTS_NAME",
+    "check_output",
     "make_executor",
     "read_rows",
     "run_cases",
@@ -117,24 +118,67 @@ def read_rows(path: Path) -> list[dict[str, Any]]:
     """The records of a results file, one per case id (the first written).
 
     A cut line (an interrupted write) is skipped, and so is a second row for a
-    case id (two campaigns appending to one folder by mistake).
+    case id (two campaigns appending to one folder by mistake), and a row that is
+    not a record a case could have written (:func:`~pirate_bt.campaign.case.row_problem`:
+    a file edited by hand), each with a warning naming its line; ``--resume`` runs
+    the cases of the rows skipped again.
+
+    Raises:
+        InputError: the file cannot be read.
     """
     rows: list[dict[str, Any]] = []
     if not path.exists():
         return rows
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the results: {exc.strerror or exc}") from None
     seen: set[object] = set()
-    for line in path.read_text(encoding="utf-8").splitlines():
+    for number, line in enumerate(data.splitlines(), start=1):
         if not line.strip():
             continue
         try:
-            row = json.loads(line)
-        except ValueError:
-            _log.warning("%s: skipped a cut line", path)
+            row = json.loads(line.decode("utf-8"))
+        except ValueError:  # a cut line, or bytes that are not UTF-8
+            _log.warning("%s:%d: skipped a cut line", path, number)
             continue
-        if isinstance(row, dict) and row.get("id") not in seen:
-            seen.add(row.get("id"))
+        problem = row_problem(row)
+        if problem is not None:
+            _log.warning(
+                "%s:%d: skipped a row that is not a case's result: %s", path, number, problem
+            )
+            continue
+        if row["id"] not in seen:
+            seen.add(row["id"])
             rows.append(row)
     return rows
+
+
+def check_output(output: Path, resume: bool = False) -> None:
+    """Make the output folder (if missing) and check that it can take this campaign's rows.
+
+    Called before any worker starts, so that a bad ``--output`` costs nothing.
+
+    Raises:
+        InputError: ``output`` is a file, or cannot be made; its results file is
+            not a file; it holds results and ``resume`` is off.
+    """
+    if output.exists() and not output.is_dir():
+        raise InputError(f"{output}: the output is a file, not a folder; give another --output")
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(
+            f"{output}: cannot make the output folder: {exc.strerror or exc}"
+        ) from None
+    results = output / RESULTS_NAME
+    if results.exists() and not results.is_file():
+        raise InputError(f"{results}: not a file; give another --output")
+    old = [] if resume else read_rows(results)
+    if old:
+        raise InputError(
+            f"{results} holds {len(old)} results already; use --resume, or another --output"
+        )
 
 
 def run_cases(
@@ -175,15 +219,12 @@ def run_cases(
         if resume:
             raise InputError("resume needs an output folder to resume from")
         return _collect(cases, [], executor, None, None, on_record, target)
-    output.mkdir(parents=True, exist_ok=True)
+    check_output(output, resume)
     results = output / RESULTS_NAME
     old = read_rows(results)
-    if old and not resume:
-        raise InputError(
-            f"{results} holds {len(old)} results already; use --resume, or another --output"
-        )
-    wanted = {c["id"] for c in cases}
-    old = [r for r in old if r.get("id") in wanted]
+    # A row counts as done only for the case it claims to be (its id and its index).
+    wanted = {c["id"]: c["index"] for c in cases}
+    old = [r for r in old if r["id"] in wanted and r.get("index") == wanted[r["id"]]]
     # Rewrite without a cut last line, so every appended row starts on its own line.
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
     part = results.with_name(results.name + ".part")

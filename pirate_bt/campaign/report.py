@@ -172,13 +172,18 @@ def _coverage(rows: Sequence[dict[str, Any]], limit: int = 15) -> list[tuple[str
     Returns:
         ``(tree or route, lines)`` pairs, the lines plain text (Markdown-safe).
     """
-    from pirate_bt.trace.coverage import GUARDS, merge_coverage
+    from pirate_bt.trace.coverage import GUARDS, Coverage, merge_coverage
 
-    by_tree: dict[str, list[dict[str, Any]]] = {}
+    by_tree: dict[str, list[Coverage]] = {}
     for row in rows:
         data = row.get("coverage")
-        if isinstance(data, dict):
-            by_tree.setdefault(str(row.get("tree") or row.get("route") or "?"), []).append(data)
+        if not isinstance(data, dict):
+            continue
+        try:
+            coverage = Coverage.from_dict(data)
+        except (IndexError, KeyError, TypeError, ValueError):  # a results file edited by hand
+            continue
+        by_tree.setdefault(str(row.get("tree") or row.get("route") or "?"), []).append(coverage)
     out: list[tuple[str, list[str]]] = []
     for name, items in by_tree.items():
         merged = merge_coverage(items)

@@ -41,9 +41,10 @@ from pirate_bt.campaign.cases import (
     check_size,
     expand,
 )
-from pirate_bt.campaign.engine import DEFAULT_TARGET, make_executor, run_cases
+from pirate_bt.campaign.engine import DEFAULT_TARGET, check_output, make_executor, run_cases
 from pirate_bt.campaign.paths import slug
 from pirate_bt.campaign.spec import (
+    MAX_CASE_TIMEOUT_S,
     CampaignSpec,
     SpecSource,
     campaign_from_data,
@@ -154,7 +155,12 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
 
 
 def _timeout(value: str | float | None) -> float | None:
-    return None if value is None else _seconds(value, "case_timeout")
+    if value is None:
+        return None
+    seconds = _seconds(value, "case_timeout")
+    if seconds > MAX_CASE_TIMEOUT_S:
+        raise InputError(f"case_timeout is at most {MAX_CASE_TIMEOUT_S:g} s, not {value!r}")
+    return seconds
 
 
 def _seconds(value: str | float, name: str) -> float:
@@ -276,11 +282,13 @@ def run_campaign(
     reach_s = _seconds(scheduler_timeout, "scheduler_timeout")
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)
-    check_runs(cases)
+    check_runs(cases, model, source.base)
     if timeout_s is not None:
         for case in cases:
             case["timeout_s"] = timeout_s
     folder = Path(output) if output is not None else None
+    if folder is not None:
+        check_output(folder, resume)  # before any worker starts
     if command is None and isinstance(spec, (str, os.PathLike)):
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""

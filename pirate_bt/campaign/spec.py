@@ -50,13 +50,16 @@ from pirate_bt.yamlfile import Locator, load_yaml, validate_document, validation
 
 __all__ = [
     "MAX_AXIS",
+    "MAX_CASE_TIMEOUT_S",
     "MAX_FAULTS",
     "MAX_FILE_NAME",
     "MAX_LABEL",
     "MAX_NAME",
     "MAX_PARAMS",
+    "MAX_RATE_HZ",
     "MAX_SEED",
     "MAX_SPEC_BYTES",
+    "MAX_TIME_S",
     "AsBuiltAxis",
     "CampaignSpec",
     "LinkAxes",
@@ -85,6 +88,19 @@ MAX_LABEL = 200
 """The longest run name, parameter value or fault text."""
 MAX_FILE_NAME = 4096
 """The longest file reference (a tree, route, network or robot): PATH_MAX on Linux."""
+MAX_CASE_TIMEOUT_S = 7 * 24 * 3600.0
+"""The longest wall-time limit of one case (a week); a case is killed after it."""
+MAX_TIME_S = 1e9
+"""The longest simulated-time limit of one run (about 32 years)."""
+MAX_RATE_HZ = 1000.0
+"""The fastest tick rate: ten ticks per state frame of the bridge (every 10 ms)."""
+
+_LIMITS = {
+    "max_time": ("time", MAX_TIME_S, "s"),
+    "case_timeout": ("time", MAX_CASE_TIMEOUT_S, "s"),
+    "rate": ("frequency", MAX_RATE_HZ, "Hz"),
+}
+
 MAX_SEED = 10**15
 """The largest first seed and seed count (seeds stay exact integers in any JSON
 reader); the number of cases is bounded by ``max_cases`` long before."""
@@ -183,11 +199,12 @@ class SeedRange(BaseModel):
 
     model_config = _STRICT
 
-    start: int = Field(0, ge=0, le=MAX_SEED, description="first seed")
+    start: int = Field(0, ge=0, le=MAX_SEED, strict=True, description="first seed")
     count: int = Field(
         1,
         ge=1,
         le=MAX_SEED,
+        strict=True,
         description="how many seeds (a range: the campaign's max_cases bounds the expansion)",
     )
 
@@ -201,8 +218,8 @@ class AsBuiltAxis(BaseModel):
 
     model_config = _STRICT
 
-    count: int = Field(ge=1, le=MAX_AXIS, description="how many variants")
-    first: int = Field(1, ge=0, le=MAX_SEED, description="the first variant's seed")
+    count: int = Field(ge=1, le=MAX_AXIS, strict=True, description="how many variants")
+    first: int = Field(1, ge=0, le=MAX_SEED, strict=True, description="the first variant's seed")
     scale: float = Field(
         1.0, gt=0.0, le=10.0, description="times the stated as-built bounds (2: twice as wide)"
     )
@@ -305,13 +322,16 @@ class CampaignSpec(BaseModel):
 
     @model_validator(mode="after")
     def _checks(self) -> CampaignSpec:
-        for key, dim in (("max_time", "time"), ("case_timeout", "time"), ("rate", "frequency")):
+        for key, (dimension, most, unit) in _LIMITS.items():
+            text = getattr(self, key)
             try:
-                value = parse_quantity(getattr(self, key), dim)
+                value = parse_quantity(text, dimension)
             except UnitError as exc:
                 raise ValueError(f"{key}: {exc}") from None
-            if value <= 0:
+            if not value > 0:
                 raise ValueError(f"{key} must be positive")
+            if value > most:
+                raise ValueError(f"{key} is at most {most:g} {unit}, not {text!r}")
         if any(m is not None for m in self.maps) and any(r.tree for r in self.runs):
             raise ValueError(
                 "'maps' (truth differing from the map) apply to routes and navigators only"

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES
+from pirate_bt.campaign.spec import MAX_CASE_TIMEOUT_S
 from pirate_bt.errors import InputError
 from pirate_bt.units import parse_quantity
 
@@ -89,6 +90,8 @@ def _case_timeout(text: str | None) -> float | None:
         raise InputError(f"--case-timeout: {exc}") from None
     if not seconds > 0:
         raise InputError(f"--case-timeout must be positive, not {text!r}")
+    if seconds > MAX_CASE_TIMEOUT_S:
+        raise InputError(f"--case-timeout is at most {MAX_CASE_TIMEOUT_S:g} s, not {text!r}")
     return seconds
 
 

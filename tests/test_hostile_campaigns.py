@@ -1,0 +1,181 @@
+"""Hostile campaign specs and results files: each refused with one located line, exit 2.
+
+None of these runs a case: every spec here is refused, or its cases are handed to
+an executor of the test's own that returns records at once, so the file takes well
+under a second.
+"""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import Executor, Future
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pirate_bt.campaign import campaign_from_data, expand, read_rows, run_campaign, run_cases
+from pirate_bt.campaign.case import error_record
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+
+TREE_RUN = "runs:\n  - {tree: straight, params: {distance: 0.2 m}}\n"
+
+
+def _file(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "h.campaign.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _refused(tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, *options: str) -> str:
+    path = _file(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["campaign", str(path), "--quiet", "--output", str(out), *options]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert not out.exists()  # nothing written, no worker started
+    return err.strip().removeprefix("pirate-bt: ").replace(str(path), "FILE")
+
+
+@pytest.mark.parametrize(
+    ("line", "expected"),
+    [
+        # a case limit of 1e300 s overflowed the worker's wait: every case an error row
+        ("case_timeout: 1e300 s", "FILE:1:1: case_timeout is at most 604800 s, not '1e300 s'"),
+        # a tick rate of 1e9 Hz ran each case until its wall-time limit killed it
+        ("rate: 1e9 Hz", "FILE:1:1: rate is at most 1000 Hz, not '1e9 Hz'"),
+        ("max_time: 1e300 s", "FILE:1:1: max_time is at most 1e+09 s, not '1e300 s'"),
+        # a boolean was taken for a seed count of 1, a float for a count of variants
+        ("seeds: {count: true}", "FILE:4:9: count: Input should be a valid integer"),
+        ("as_built: {count: 2.0}", "FILE:4:12: count: Input should be a valid integer"),
+    ],
+)
+def test_limits_out_of_bounds_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], line: str, expected: str
+) -> None:
+    runs = TREE_RUN
+    if line.startswith("as_built"):
+        runs = "runs:\n  - {route: straight}\n"
+    assert _refused(tmp_path, capsys, f"name: h\n{runs}{line}\n") == expected
+
+
+def test_an_endless_case_timeout_option_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    err = _refused(tmp_path, capsys, f"name: h\n{TREE_RUN}", "--case-timeout", "1e300 s")
+    assert err == "--case-timeout is at most 604800 s, not '1e300 s'"
+    with pytest.raises(InputError, match="case_timeout is at most 604800 s"):
+        run_campaign(_file(tmp_path, f"name: h\n{TREE_RUN}"), case_timeout=float("inf"))
+
+
+def test_a_bad_tree_parameter_is_placed_in_the_spec_not_on_the_command_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = "name: h\nruns:\n  - {tree: straight, params: {distance: fast}}\n"
+    # was: --param:1:1: parameter 'distance': ...
+    assert _refused(tmp_path, capsys, text) == (
+        "FILE:3:31: parameter 'distance': not a quantity: 'fast'"
+        " (expected e.g. '90 deg', '80 mm/s')"
+    )
+    text = "name: h\nruns:\n  - {tree: straight, params: {distance: 1 m, speed: 2}}\n"
+    assert _refused(tmp_path, capsys, text).startswith(
+        "FILE:3:46: unknown parameter 'speed' (parameters: distance, "
+    )
+    with pytest.raises(InputError) as info:
+        run_campaign({"name": "h", "runs": [{"tree": "straight", "params": {"distance": "x"}}]})
+    assert str(info.value).startswith("campaign spec: runs[0].params.distance: parameter")
+
+
+def test_a_tree_parameter_without_a_default_must_be_given(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It was checked with the tree's example values, and every case became an error row.
+    err = _refused(tmp_path, capsys, "name: h\nruns:\n  - {tree: straight}\n")
+    assert err.endswith("straight.yaml:6:1: parameter 'distance' has no default and was not given")
+
+
+def test_an_output_that_is_a_file_is_refused_before_any_worker(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _file(tmp_path, f"name: h\n{TREE_RUN}")
+    blocker = tmp_path / "blocker"
+    blocker.write_text("mine\n", encoding="utf-8")
+    for output, expected in (
+        (blocker, f"{blocker}: the output is a file, not a folder; give another --output"),
+        (blocker / "sub", f"{blocker / 'sub'}: cannot make the output folder: Not a directory"),
+    ):
+        # was: "campaign h: 1 cases on 2 local workers", then an internal error (exit 1)
+        assert main(["campaign", str(path), "--quiet", "--output", str(output)]) == 2
+        captured = capsys.readouterr()
+        assert captured.out == ""
+        assert captured.err == f"pirate-bt: {expected}\n"
+    assert blocker.read_text(encoding="utf-8") == "mine\n"
+    (tmp_path / "o" / "results.jsonl").mkdir(parents=True)
+    with pytest.raises(InputError, match=r"results\.jsonl: not a file"):
+        run_campaign(path, output=tmp_path / "o")
+
+
+def _rows(tmp_path: Path) -> tuple[list[dict[str, Any]], Path]:
+    spec = {"name": "h", "runs": [{"tree": "straight"}], "seeds": {"count": 3}}
+    cases = expand(campaign_from_data(spec))
+    rows = [error_record(c, "success", "done", 0.1) for c in cases]
+    folder = tmp_path / "o"
+    folder.mkdir()
+    return rows, folder
+
+
+def test_tampered_and_cut_rows_are_skipped_with_their_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    rows, folder = _rows(tmp_path)
+    lines = [json.dumps(r) for r in rows]
+    bad = [
+        {**rows[0], "index": "abc"},
+        {**rows[0], "outcome": "bogus"},
+        {**rows[0], "violations": "lots"},
+        {**rows[0], "sim_time_s": float("nan")},
+        {**rows[0], "damage_kinds": {"x": "y"}},
+        {**rows[0], "id": "../../etc"},
+        [1, 2, 3],
+    ]
+    text = "\n".join([*(json.dumps(b) for b in bad), lines[1][:40], lines[2]]) + "\n"
+    results = folder / "results.jsonl"
+    results.write_bytes(text.encode() + b"\xff\xfe not utf-8\n")
+    assert read_rows(results) == [rows[2]]
+    warned = [r.getMessage() for r in caplog.records]
+    assert f"{results}:1: skipped a row that is not a case's result: index 'abc'" in warned[0]
+    assert f"{results}:8: skipped a cut line" in warned[7]
+    assert f"{results}:10: skipped a cut line" in warned[8]
+    # The report of a file with no valid row: exit 2, one line (was an internal error).
+    results.write_text(json.dumps(bad[0]) + "\n", encoding="utf-8")
+    assert main(["campaign", "report", str(folder)]) == 2
+    assert capsys.readouterr().err == f"pirate-bt: {results}: no results in it\n"
+
+
+class _Instant(Executor):
+    """Runs nothing: every case submitted is a success at once (the resume logic alone)."""
+
+    def __init__(self) -> None:
+        self.ids: list[str] = []
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+        case = args[0]
+        self.ids.append(case["id"])
+        future: Future[Any] = Future()
+        future.set_result(error_record(case, "success", "done", 0.1))
+        return future
+
+
+def test_resume_reruns_a_row_whose_index_was_edited(tmp_path: Path) -> None:
+    rows, folder = _rows(tmp_path)
+    cases = [{**r, "timeout_s": 1.0} for r in rows]
+    edited = {**rows[1], "index": 7}  # its id is a case's, its index another's
+    (folder / "results.jsonl").write_text(
+        "".join(json.dumps(r) + "\n" for r in (rows[0], edited)), encoding="utf-8"
+    )
+    pool = _Instant()
+    out = run_cases(cases, folder, pool, resume=True)
+    assert sorted(pool.ids) == sorted([rows[1]["id"], rows[2]["id"]])
+    assert [r["index"] for r in out] == [0, 1, 2]
+    assert sorted(r["index"] for r in read_rows(folder / "results.jsonl")) == [0, 1, 2]
