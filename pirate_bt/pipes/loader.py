@@ -8,7 +8,7 @@ from typing import Any
 
 from pirate_bt.errors import ConfigurationError, ValidationFailed
 from pirate_bt.pipes.model import NetworkSpec
-from pirate_bt.pipes.network import Network
+from pirate_bt.pipes.network import Network, NetworkGeometryError
 from pirate_bt.resources import bundled
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
 
@@ -27,7 +27,8 @@ def network_from_document(doc: YamlDocument) -> Network:
     try:
         return Network(spec, doc.file)
     except ConfigurationError as exc:
-        raise ValidationFailed([doc.locator.error(("segments",), str(exc))]) from None
+        path = exc.path if isinstance(exc, NetworkGeometryError) else ("segments",)
+        raise ValidationFailed([doc.locator.error(path, str(exc))]) from None
 
 
 def network_from_data(data: Mapping[str, Any], name: str = "<data>") -> Network:

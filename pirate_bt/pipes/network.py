@@ -36,12 +36,20 @@ from pirate_bt.pipes.model import (
     TeeSpec,
 )
 
-__all__ = ["Network", "Path", "Piece", "PieceKind", "TeeChoice", "Vec3"]
+__all__ = ["Network", "NetworkGeometryError", "Path", "Piece", "PieceKind", "TeeChoice", "Vec3"]
 
 Vec3 = tuple[float, float, float]
 TeeChoice = Literal["straight", "branch"]
 
 _EPS = 1e-9
+
+
+class NetworkGeometryError(ConfigurationError):
+    """A network whose parts do not fit together; ``path`` is the key to blame."""
+
+    def __init__(self, message: str, path: tuple[str | int, ...] = ("segments",)) -> None:
+        super().__init__(message)
+        self.path = path
 
 
 class PieceKind(StrEnum):
@@ -414,7 +422,14 @@ class Network:
         self._segments: dict[str, SegmentSpec] = {}
         self._index(spec.segments, "main")
         self._cache: dict[tuple[tuple[str, TeeChoice], ...], Path] = {}
-        self.main_path()  # fail early on impossible geometry
+        length = self.main_path().length_m  # fail early on impossible geometry
+        position = spec.start.position
+        if position is not None and position > length + _EPS:
+            raise NetworkGeometryError(
+                f"the start position {position:g} m is beyond the end of the main line"
+                f" ({length:.3f} m)",
+                ("start", "position"),
+            )
 
     def _index(self, segments: Sequence[SegmentSpec], prefix: str) -> None:
         for i, seg in enumerate(segments):

@@ -49,9 +49,12 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Sequence
 from types import MappingProxyType
 
+from pirate_bt.errors import ConfigurationError
 from pirate_bt.pipes import Network, Path, Piece, TeeChoice
+from pirate_bt.pipes.model import SegmentSpec, TeeSpec
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
     ControlMode,
@@ -76,6 +79,39 @@ from pirate_bt.sim.model_types import (
 )
 
 __all__ = ["HalfTruth", "PipeRobotModel", "SensorNoise", "SimTruth"]
+
+
+def _check_diameters(robot: RobotDescription, network: Network) -> None:
+    """Refuse a pipe the robot cannot clamp in (its wall-contact table's diameters).
+
+    The wall-contact angle is held at the table's ends, so without this check the
+    simulated robot would clamp in a 200 mm main or a 40 mm service pipe alike.
+
+    Raises:
+        ConfigurationError: the network, a straight or a reducer is narrower or
+            wider than the table.
+    """
+    diameters = [p.diameter for p in robot.clamp.contact_angles]
+    low, high = min(diameters), max(diameters)
+
+    def check(d: float, where: str) -> None:
+        if not low - 1e-9 <= d <= high + 1e-9:
+            raise ConfigurationError(
+                f"pipe network {network.name!r}: {where} is {d * 1000:g} mm wide, but the"
+                f" robot clamps only in {low * 1000:g}-{high * 1000:g} mm pipes"
+                " (its clamp.contact_angles)"
+            )
+
+    def walk(segments: Sequence[SegmentSpec], prefix: str) -> None:
+        for i, seg in enumerate(segments):
+            name = seg.id or f"{prefix}-{i + 1}"
+            if isinstance(seg, TeeSpec):
+                walk(seg.branch.segments, f"{name}-b")
+            elif seg.type != "bend" and seg.diameter is not None:
+                check(seg.diameter, f"segment {name!r}")
+
+    check(network.spec.diameter, "the start of its main line")
+    walk(network.spec.segments, "main")
 
 
 class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
@@ -108,6 +144,7 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         self._tally = _Tally()
         self._choices: dict[str, TeeChoice] = {}
         self.path: Path = network.path(self._choices)
+        _check_diameters(robot, network)
         self._motors: dict[str, _Motor] = {}
         for board, motor in robot.motors():
             m = _Motor(motor.name, motor.function, board.module)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -37,7 +37,7 @@ from pirate_bt.behaviours.cause import path_of as route_path
 from pirate_bt.clock import Clock
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.runner import Runner, RunResult
+from pirate_bt.runner import Runner, RunResult, StopReason
 from pirate_bt.safety.tally import Counters, VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
 from pirate_bt.task.outcome import PabOutcome, explain_run, map_cause, pab_outcomes
@@ -439,6 +439,21 @@ def run_mission(
         observe(runner, localiser.values)
     try:
         result = runner.run()
+        last = running[0]
+        if result.succeeded and last is not None and _stopped_blocked(last, pabs.get(last.name)):
+            # The last leg ended blocked: checked as a leg's end is when the next one
+            # starts (a pipe that ends where the map has it go on is no success).
+            state = supervisor.state()
+            localiser.blocked(state.stamp_s if state is not None else clock.now() - start_s)
+            if localiser.mismatch is not None:
+                supervisor.safe_state(localiser.mismatch)
+                result = replace(
+                    result,
+                    outcome="failure",
+                    reason=StopReason.FAILURE,
+                    message=localiser.mismatch,
+                    safe_state_called=True,
+                )
     finally:
         tally.detach()
     localiser.update(supervisor.state())
