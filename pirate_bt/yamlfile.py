@@ -14,11 +14,14 @@ and aliases that expand to more than :data:`MAX_NODES` values (the "billion
 laughs" file: a few lines of nested ``*alias`` lists that expand to hundreds of millions of
 values). Aliases are counted on the composed node graph, where an alias is one
 shared node, before anything is expanded: the check costs time and memory in
-proportion to the file, not to what it would expand to.
+proportion to the file, not to what it would expand to. An alias inside the
+value it names (``&a [*a]``), values nested deeper than :data:`MAX_DEPTH` and a
+whole number too long for Python to read are refused at their line too.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,7 +51,11 @@ MAX_NODES = 100_000
 
 The largest bundled file expands to a few thousand; a real file that needs more
 is not one a person writes."""
+MAX_DEPTH = 256
+"""The deepest nesting of lists and mappings (libyaml itself stops at 1000, too deep
+for the recursive code that later reads the data)."""
 ModelT = TypeVar("ModelT", bound=BaseModel)
+_INT_TAG = "tag:yaml.org,2002:int"
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
@@ -66,6 +73,9 @@ class Locator:
         Path elements that are not in the file (pydantic's union tags, a missing
         key) are skipped, so the location is always a real place in the file.
         """
+        exact = self.marks.get(tuple(path))
+        if exact is not None:  # the usual case; the walk below costs O(len(path)^2)
+            return SourceLocation(self.file, exact[0], exact[1])
         best = self.marks.get((), (1, 1))
         current: PathKey = ()
         for element in path:
@@ -104,15 +114,26 @@ def _check_expansion(root: yaml.Node, file: str) -> None:
 
     Each node's expanded size is computed once (memoised on the node, which an
     alias shares), so a bomb is found in time linear in the file. The error
-    points at the smallest mapping or list that expands past the limit.
+    points at the smallest mapping or list that expands past the limit. An alias
+    inside the very value it names (``&a [*a]``) would expand for ever: refused.
     """
     sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()  # nodes whose children are being sized
     # Iterative post-order: a deep file must not hit Python's recursion limit.
     stack: list[tuple[yaml.Node, bool]] = [(root, False)]
     while stack:
         node, children_done = stack.pop()
         if id(node) in sizes:
             continue
+        if not children_done and id(node) in open_nodes:
+            raise ValidationFailed(
+                [
+                    LocatedError(
+                        "YAML alias inside the value it names (a recursive alias)",
+                        SourceLocation(file, *_mark(node)),
+                    )
+                ]
+            )
         if isinstance(node, yaml.MappingNode):
             children = [n for pair in node.value for n in pair]
         elif isinstance(node, yaml.SequenceNode):
@@ -121,43 +142,99 @@ def _check_expansion(root: yaml.Node, file: str) -> None:
             sizes[id(node)] = 1
             continue
         if not children_done:
+            open_nodes.add(id(node))
             stack.append((node, True))
             stack.extend((c, False) for c in children if id(c) not in sizes)
             continue
+        open_nodes.discard(id(node))
         size = 1 + sum(sizes.get(id(c), 1) for c in children)
         if size > MAX_NODES:
-            raise ValidationFailed(
-                [
-                    LocatedError(
-                        f"YAML aliases expand this to more than {MAX_NODES} values"
-                        " (an alias bomb?); write the values out or use fewer aliases",
-                        SourceLocation(file, *_mark(node)),
-                    )
-                ]
-            )
+            if _distinct(node) <= MAX_NODES:
+                message = (
+                    f"YAML aliases expand this to more than {MAX_NODES} values"
+                    " (an alias bomb?); write the values out or use fewer aliases"
+                )
+            else:
+                message = (
+                    f"this holds more than {MAX_NODES} values; a file this large is not"
+                    " one a person writes"
+                )
+            raise ValidationFailed([LocatedError(message, SourceLocation(file, *_mark(node)))])
         sizes[id(node)] = size
 
 
-def _walk(node: yaml.Node, path: PathKey, locator: Locator, errors: list[LocatedError]) -> None:
-    if isinstance(node, yaml.MappingNode):
-        seen: dict[Any, yaml.Node] = {}
-        for key_node, value_node in node.value:
-            key = key_node.value if isinstance(key_node, yaml.ScalarNode) else str(key_node)
-            if key in seen:
-                first = seen[key].start_mark.line + 1
+def _distinct(root: yaml.Node) -> int:
+    """How many distinct nodes ``root`` holds (an alias counted once), up to MAX_NODES + 1."""
+    seen: set[int] = set()
+    stack = [root]
+    while stack and len(seen) <= MAX_NODES:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            stack.extend(n for pair in node.value for n in pair)
+        elif isinstance(node, yaml.SequenceNode):
+            stack.extend(node.value)
+    return len(seen)
+
+
+def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None:
+    """Record where each value is written; report duplicate and unusable keys.
+
+    Iterative, so that nesting up to :data:`MAX_DEPTH` never meets the recursion limit.
+    """
+    stack: list[tuple[yaml.Node, PathKey]] = [(root, ())]
+    while stack:
+        node, path = stack.pop()
+        if len(path) > MAX_DEPTH:
+            errors.append(
+                LocatedError(
+                    f"values nested deeper than {MAX_DEPTH} levels",
+                    SourceLocation(locator.file, *_mark(node)),
+                )
+            )
+            return
+        if isinstance(node, yaml.ScalarNode):
+            limit = sys.get_int_max_str_digits()
+            if node.tag == _INT_TAG and limit and len(node.value) > limit:
                 errors.append(
                     LocatedError(
-                        f"duplicate key {key!r} (first written on line {first})",
-                        SourceLocation(locator.file, *_mark(key_node)),
+                        f"a number of {len(node.value)} digits is too long",
+                        SourceLocation(locator.file, *_mark(node)),
                     )
                 )
-            seen[key] = key_node
-            locator.marks[(*path, key)] = _mark(key_node)
-            _walk(value_node, (*path, key), locator, errors)
-    elif isinstance(node, yaml.SequenceNode):
-        for index, item in enumerate(node.value):
-            locator.marks[(*path, index)] = _mark(item)
-            _walk(item, (*path, index), locator, errors)
+            continue
+        items: list[tuple[PathKey, yaml.Node]] = []
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[Any, yaml.Node] = {}
+            for key_node, value_node in node.value:
+                if not isinstance(key_node, yaml.ScalarNode):
+                    shape = "mapping" if isinstance(key_node, yaml.MappingNode) else "list"
+                    errors.append(
+                        LocatedError(
+                            f"a key must be a plain value, not a {shape}",
+                            SourceLocation(locator.file, *_mark(key_node)),
+                        )
+                    )
+                    continue
+                key = key_node.value
+                if key in seen:
+                    first = seen[key].start_mark.line + 1
+                    errors.append(
+                        LocatedError(
+                            f"duplicate key {key!r} (first written on line {first})",
+                            SourceLocation(locator.file, *_mark(key_node)),
+                        )
+                    )
+                seen[key] = key_node
+                locator.marks[(*path, key)] = _mark(key_node)
+                items.append(((*path, key), value_node))
+        elif isinstance(node, yaml.SequenceNode):
+            for index, item in enumerate(node.value):
+                locator.marks[(*path, index)] = _mark(item)
+                items.append(((*path, index), item))
+        stack.extend((child, at) for at, child in reversed(items))
 
 
 def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
@@ -182,7 +259,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         # Walk before constructing: construction flattens merge keys (<<) in place.
         locator.marks[()] = _mark(node)
         errors: list[LocatedError] = []
-        _walk(node, (), locator, errors)
+        _walk(node, locator, errors)
         if errors:
             raise ValidationFailed(errors)
         data = loader.construct_document(node)
@@ -216,6 +293,8 @@ def load_yaml(path: str | Path) -> YamlDocument:
         raise ValidationFailed([LocatedError("no such file", loc)]) from None
     except OSError as exc:
         raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", loc)]) from None
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise ValidationFailed([LocatedError("UTF-16 text; save the file as UTF-8", loc)])
     if b"\x00" in raw:
         raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
     try:

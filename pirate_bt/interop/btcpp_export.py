@@ -20,6 +20,7 @@ from pirate_bt.interop.btcpp_models import (
     TO_BTCPP,
     NodeModel,
     _json,
+    _xml_safe,
     encode_value,
     node_models,
 )
@@ -36,6 +37,15 @@ _MAPPING = "<dict>"
 
 def _located(doc: YamlDocument, path: tuple[str | int, ...], message: str) -> LocatedError:
     return LocatedError(message, doc.locator.locate(path))
+
+
+def _text(doc: YamlDocument, path: tuple[str | int, ...], text: str) -> str:
+    """``text`` for an XML attribute; a control character XML 1.0 cannot carry is refused."""
+    if not _xml_safe(text):
+        bad = next(c for c in text if not _xml_safe(c))
+        what = str(path[-1]) if path else "name"
+        raise _located(doc, path, f"{what}: U+{ord(bad):04X} cannot be written in XML")
+    return text
 
 
 class _Exporter:
@@ -74,11 +84,15 @@ class _Exporter:
         self.ids[ident] = tree_id
         prefix: tuple[str | int, ...] = ("subtrees", name) if name else ()
         body = data["subtrees"][name] if name else data
-        element = ET.Element("BehaviorTree", {"ID": tree_id})
+        id_path = ("subtrees", name) if name else ("name",)
+        element = ET.Element("BehaviorTree", {"ID": _text(doc, id_path, tree_id)})
         if isinstance(body.get("description"), str):
-            element.set("_description", body["description"])
+            element.set("_description", _text(doc, (*prefix, "description"), body["description"]))
         self.trees.append(element)
         self.params[tree_id] = (doc, (*prefix, "params"), body.get("params") or {})
+        for key, decl in (body.get("params") or {}).items():
+            if isinstance(decl, dict) and isinstance(decl.get("description"), str):
+                _text(doc, (*prefix, "params", key, "description"), decl["description"])
         element.append(self.node(doc, (*prefix, "root"), body["root"]))
         return tree_id
 
@@ -104,7 +118,7 @@ class _Exporter:
         else:
             element = self.registered(doc, path, raw)
         if isinstance(raw.get("description"), str):
-            element.set("_description", raw["description"])
+            element.set("_description", _text(doc, (*path, "description"), raw["description"]))
         return element
 
     def subtree(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
@@ -118,7 +132,7 @@ class _Exporter:
         tree_id = self.tree(target, name)
         element = ET.Element("SubTree", {"ID": tree_id})
         if raw.get("name"):
-            element.set("name", raw["name"])
+            element.set("name", _text(doc, (*path, "name"), raw["name"]))
         decls = self.declared(target, name)
         for key, value in (raw.get("params") or {}).items():
             element.set(key, self.value(doc, value, decls.get(key, "string")))
@@ -164,7 +178,7 @@ class _Exporter:
                 tag, attrs = self.parallel(raw)
         element = ET.Element(tag)
         if raw.get("name"):
-            element.set("name", raw["name"])
+            element.set("name", _text(doc, (*path, "name"), raw["name"]))
         for key, value in attrs.items():
             element.set(key, value)
         for kid_path, kid in zip(paths, kids, strict=True):
@@ -200,7 +214,7 @@ class _Exporter:
                 params = {"then_skip": False}
         element = ET.Element(tag)
         if raw.get("name"):
-            element.set("name", raw["name"])
+            element.set("name", _text(doc, (*path, "name"), raw["name"]))
         for key, value in params.items():
             port = model.port(key)
             port_type = port.type if port else "boolean"

@@ -9,6 +9,7 @@ from __future__ import annotations
 import difflib
 import logging
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -29,9 +30,10 @@ from pirate_bt.interop.btcpp_models import (
     decode_value,
     node_models,
 )
-from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
+from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml, refuse_special
 from pirate_bt.treefile.params import PARAM_RE
 from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import validation_problems
 
 __all__ = ["import_xml", "xml_to_tree"]
@@ -54,6 +56,8 @@ class _Importer:
         self.subtree_models: dict[str, XmlElement] = {}
         self.origin: dict[int, XmlElement] = {}
         """``id()`` of each mapping made (a node, a tree, a parameter) -> its element."""
+        self.depth = 0
+        """How deep :meth:`node` is (bounded by the loader's MAX_TREE_DEPTH)."""
 
     def read(self) -> dict[str, Any]:
         root = self.root
@@ -80,6 +84,11 @@ class _Importer:
                     )
                 if tree_id in self.models or tree_id in _BTCPP_BUILTINS:
                     raise child.error(f"tree ID {tree_id!r} is the name of a node type")
+                if "#" in tree_id or tree_id.endswith((".yaml", ".yml")):
+                    raise child.error(
+                        f"tree ID {tree_id!r} would read as a file in a pirate_bt subtree"
+                        " reference: no '#', no .yaml or .yml ending"
+                    )
                 if len(child.children) != 1:
                     raise child.error(
                         f"<BehaviorTree ID={tree_id!r}> must have exactly one child,"
@@ -161,6 +170,11 @@ class _Importer:
             if not model_id:
                 raise model.error(f"<{model.tag}> in <TreeNodesModel> without an ID")
             if model.tag == "SubTree":
+                if model_id in self.subtree_models:
+                    raise model.error(
+                        f"a second <SubTree ID={model_id!r}> model (first at"
+                        f" {self.subtree_models[model_id].location})"
+                    )
                 self.subtree_models[model_id] = model
             elif model_id not in self.models:
                 # A node type of another program: fine as long as no tree uses it.
@@ -169,15 +183,34 @@ class _Importer:
                 )
 
     def check_cycles(self, main: str) -> None:
-        state: dict[str, int] = {}  # 1: on the stack, 2: done
+        """Refuse a <SubTree> of an unknown tree, and trees that include each other.
 
-        def visit(tree_id: str, chain: list[str]) -> None:
-            state[tree_id] = 1
+        A depth-first walk with its own stack: a chain of thousands of trees must
+        not meet Python's recursion limit.
+        """
+        state: dict[str, int] = {}  # 1: on the chain, 2: done
+
+        def targets(tree_id: str) -> list[XmlElement]:
+            found: list[XmlElement] = []
             stack = [self.trees[tree_id]]
             while stack:
                 element = stack.pop()
-                stack.extend(element.children)
-                if element.tag != "SubTree":
+                stack.extend(reversed(element.children))
+                if element.tag == "SubTree":
+                    found.append(element)
+            return found
+
+        for start in [main, *self.trees]:
+            if start in state:
+                continue
+            state[start] = 1
+            chain = [start]
+            pending = [iter(targets(start))]
+            while pending:
+                element = next(pending[-1], None)
+                if element is None:
+                    state[chain.pop()] = 2
+                    pending.pop()
                     continue
                 target = element.attrs.get("ID")
                 if not target:
@@ -191,13 +224,9 @@ class _Importer:
                     loop = " -> ".join([*chain[chain.index(target) :], target])
                     raise element.error(f"recursive subtree: {loop}")
                 if state.get(target) is None:
-                    visit(target, [*chain, target])
-            state[tree_id] = 2
-
-        visit(main, [main])
-        for tree_id in self.trees:
-            if tree_id not in state:
-                visit(tree_id, [tree_id])
+                    state[target] = 1
+                    chain.append(target)
+                    pending.append(iter(targets(target)))
 
     def params(self, tree_id: str) -> dict[str, Any]:
         model = self.subtree_models.get(tree_id)
@@ -212,6 +241,8 @@ class _Importer:
             name = port.attrs.get("name", "")
             if not name.isidentifier():
                 raise port.error(f"port name {name!r} must be an identifier")
+            if name in out:
+                raise port.error(f"a second input_port {name!r} in <SubTree ID={tree_id!r}>")
             kind = port.attrs.get("type", "string")
             if kind not in _PARAM_TYPES:
                 raise port.error(
@@ -235,6 +266,15 @@ class _Importer:
         return out
 
     def node(self, element: XmlElement) -> dict[str, Any]:
+        if self.depth >= MAX_TREE_DEPTH:
+            raise element.error(f"nodes nested deeper than {MAX_TREE_DEPTH} levels")
+        self.depth += 1
+        try:
+            return self.read_node(element)
+        finally:
+            self.depth -= 1
+
+    def read_node(self, element: XmlElement) -> dict[str, Any]:
         tag = element.tag
         attrs = dict(element.attrs)
         if tag in ("Action", "Condition", "Control", "Decorator"):
@@ -457,8 +497,8 @@ def xml_to_tree(path: str | Path, registry: Registry | None = None) -> dict[str,
     """Read a BT.CPP v4 XML file into the mapping of a pirate_bt tree file.
 
     Raises:
-        InputError: the file cannot be read.
-        LocatedError: anything that cannot become a pirate_bt tree, located.
+        LocatedError: the file cannot be read (at ``file:1:1``), or anything that
+            cannot become a pirate_bt tree, located.
     """
     return _read(Path(path), registry or default_registry())[0]
 
@@ -486,19 +526,30 @@ def _in_xml(
         if len(key_path) >= len(by_place.get(place, ())):
             by_place[place] = key_path
     places = sorted(by_place)
-    out: list[LocatedError] = []
-    for error in errors:
-        loc = error.location
-        if loc is None or Path(loc.file).resolve() != yaml_file.resolve():
-            out.append(error)
-            continue
-        here = (loc.line or 1, loc.column or 1)
-        before = [p for p in places if p <= here]
+
+    def in_xml(line: int, column: int) -> SourceLocation | None:
+        before = [p for p in places if p <= (line, column)]
         path = by_place[before[-1]] if before else ()
         while path and path not in where:
             path = path[:-1]
-        target = where.get(path)
-        out.append(LocatedError(error.message, target) if target is not None else error)
+        return where.get(path)
+
+    # A message may name another place of the temporary file ("first at ...").
+    mentioned = re.compile(re.escape(str(yaml_file)) + r":(\d+):(\d+)")
+
+    def mention(match: re.Match[str]) -> str:
+        target = in_xml(int(match[1]), int(match[2]))
+        return str(target) if target is not None else match[0]
+
+    out: list[LocatedError] = []
+    for error in errors:
+        loc = error.location
+        message = mentioned.sub(mention, error.message)
+        if loc is None or Path(loc.file).resolve() != yaml_file.resolve():
+            out.append(LocatedError(message, loc) if message != error.message else error)
+            continue
+        target = in_xml(loc.line or 1, loc.column or 1)
+        out.append(LocatedError(message, target if target is not None else loc))
     return out
 
 
@@ -556,6 +607,7 @@ def import_xml(
         + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
     )
     out = Path(out_path)
+    refuse_special(out)
     folder = out.parent if str(out.parent) else Path(".")
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".yaml", dir=folder)

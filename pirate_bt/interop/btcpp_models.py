@@ -119,6 +119,8 @@ _MODEL_TAGS: Final = ("Action", "Condition", "Control", "Decorator", "SubTree")
 _HINT: Final = "_pirate_bt"  # marks a ReactiveSequence that was an eternal_guard
 _DIMENSION_TYPE: Final = {dim: kind for kind, (dim, _) in SI_UNITS.items()}
 _PARAM_TYPES: Final = frozenset(get_args(ParamType))
+_MAX_JSON_DEPTH: Final = 32
+"""The deepest nesting of a ``json:`` port value (a comparison list is three deep)."""
 
 
 # -- node models ---------------------------------------------------------------------
@@ -307,8 +309,50 @@ def _class_model(name: str, cls: type[NodeMixin]) -> NodeModel:
 # -- values ----------------------------------------------------------------------------
 
 
+def _xml_safe(text: str) -> bool:
+    """``text`` holds only characters XML 1.0 can carry (no control characters but
+    tab and line ends, no surrogates, no U+FFFE or U+FFFF)."""
+    return all(
+        c in "\t\n\r" or ("\x20" <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd") or c > "\uffff"
+        for c in text
+    )
+
+
 def _json(value: Any) -> str:
-    return "json:" + json.dumps(value, ensure_ascii=False, separators=(",", ":"))
+    text = json.dumps(value, ensure_ascii=False, separators=(",", ":"))
+    if not _xml_safe(text):  # JSON's \uXXXX escapes say it in characters XML carries
+        text = json.dumps(value, ensure_ascii=True, separators=(",", ":"))
+    return "json:" + text
+
+
+def _shown(text: str) -> str:
+    """``text`` quoted for a message, cut short when it is long."""
+    return repr(text) if len(text) <= 60 else repr(text[:57] + "...")
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{_shown(text)} is not a finite number")
+    return value
+
+
+def _json_depth(value: Any) -> int:
+    """How deep lists and mappings nest in ``value`` (iterative)."""
+    deepest = 0
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict | list):
+            deepest = max(deepest, depth)
+            stack.extend(
+                (v, depth + 1) for v in (item.values() if isinstance(item, dict) else item)
+            )
+    return deepest
 
 
 def encode_value(value: Any, port_type: str) -> str:
@@ -324,8 +368,12 @@ def encode_value(value: Any, port_type: str) -> str:
             return "{" + match["name"] + "}"
         if value.startswith("$$"):
             value = value[1:]
-        if (value.startswith("{") and value.endswith("}")) or value.startswith("json:"):
-            return _json(value)  # would read as a pointer or as JSON
+        if (
+            (value.startswith("{") and value.endswith("}"))
+            or value.startswith("json:")
+            or not _xml_safe(value)
+        ):
+            return _json(value)  # would read as a pointer or as JSON, or XML cannot carry it
         return str(value)
     if isinstance(value, bool):
         return ("true" if value else "false") if port_type == "boolean" else _json(value)
@@ -344,13 +392,22 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
     """
     if text.startswith("json:"):
         try:
-            return json.loads(text[5:])
+            value = json.loads(text[5:], parse_constant=_refuse_constant, parse_float=_finite)
         except json.JSONDecodeError as exc:
             raise ValueError(f"bad json: value: {exc.msg}") from None
+        except RecursionError:
+            raise ValueError(f"bad json: nested deeper than {_MAX_JSON_DEPTH} levels") from None
+        except ValueError as exc:  # NaN, Infinity; a number too long for Python
+            raise ValueError(f"bad json: value: {str(exc).split(';')[0]}") from None
+        if _json_depth(value) > _MAX_JSON_DEPTH:
+            raise ValueError(f"bad json: nested deeper than {_MAX_JSON_DEPTH} levels")
+        return value
     if len(text) >= 3 and text[0] == "{" and text[-1] == "}":
         name = port if text == "{=}" else text[1:-1]
         if not name.isidentifier():
-            raise ValueError(f"blackboard pointer {text!r}: pirate_bt parameters are identifiers")
+            raise ValueError(
+                f"blackboard pointer {_shown(text)}: pirate_bt parameters are identifiers"
+            )
         return "$" + name
     if text.startswith("$"):
         return "$" + text
@@ -358,17 +415,17 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
         try:
             return int(text)
         except ValueError:
-            raise ValueError(f"expected an integer, got {text!r}") from None
+            raise ValueError(f"expected an integer, got {_shown(text)}") from None
     if port_type == "number":
         try:
             return float(text)
         except ValueError:
-            raise ValueError(f"expected a number, got {text!r}") from None
+            raise ValueError(f"expected a number, got {_shown(text)}") from None
     if port_type == "boolean":
         lowered = text.strip().lower()
         if lowered in ("true", "1"):
             return True
         if lowered in ("false", "0"):
             return False
-        raise ValueError(f"expected true or false, got {text!r}")
+        raise ValueError(f"expected true or false, got {_shown(text)}")
     return text

@@ -28,6 +28,7 @@ __all__ = [
     "MAX_XML_BYTES",
     "XmlElement",
     "parse_xml",
+    "refuse_special",
     "write_atomic",
 ]
 
@@ -66,20 +67,23 @@ def parse_xml(path: Path) -> XmlElement:
     """Read ``path`` into :class:`XmlElement` objects.
 
     Raises:
-        InputError: the file cannot be read, or is too large.
-        LocatedError: malformed XML, a DOCTYPE or entity, or limits exceeded.
+        LocatedError: the file cannot be read or is too large (at ``file:1:1``),
+            malformed XML, a DOCTYPE or entity, or limits exceeded.
     """
+    where = SourceLocation(str(path))
     try:
         size = path.stat().st_size
         if size > MAX_XML_BYTES:
-            raise InputError(
-                f"{path}: {size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be"
+            raise LocatedError(
+                f"{size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be", where
             )
         data = path.read_bytes()
     except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, not an XML file") from None
+        raise LocatedError("is a directory, not an XML file", where) from None
+    except FileNotFoundError:
+        raise LocatedError("no such file", where) from None
     except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        raise LocatedError(f"cannot read: {exc.strerror or exc}", where) from None
     return parse_xml_bytes(data, str(path))
 
 
@@ -139,6 +143,8 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
         raise LocatedError(
             f"not well-formed XML: {message}", SourceLocation(file, exc.lineno, exc.offset + 1)
         ) from None
+    except LookupError as exc:  # <?xml encoding="..."?> names an encoding Python lacks
+        raise LocatedError(f"XML declaration: {exc}", SourceLocation(file)) from None
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
@@ -148,6 +154,20 @@ def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+def refuse_special(path: Path) -> None:
+    """Refuse to write ``path`` when it exists and is not a regular file.
+
+    Writing through a temporary file and a rename would replace a device such
+    as ``/dev/null``, or a named pipe, with a regular file.
+
+    Raises:
+        InputError: ``path`` is a directory, a device, a pipe or a socket.
+    """
+    if path.exists() and not path.is_file():
+        what = "a directory" if path.is_dir() else "not a regular file"
+        raise InputError(f"{path}: is {what}; nothing written")
 
 
 def write_atomic(path: Path, text: str) -> Path:
@@ -163,7 +183,13 @@ def write_atomic(path: Path, text: str) -> Path:
 
 
 def write_atomic_bytes(path: Path, data: bytes) -> Path:
-    """Like :func:`write_atomic`, for bytes."""
+    """Like :func:`write_atomic`, for bytes.
+
+    Raises:
+        InputError: also when ``path`` exists and is not a regular file (a
+            device, a pipe): a rename would replace it.
+    """
+    refuse_special(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)

@@ -8,6 +8,7 @@ registry and its parameters validated, and collects every problem at its place.
 from __future__ import annotations
 
 import logging
+import unicodedata
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,8 @@ from pirate_bt.treefile.spec import (
     _STRUCT_KEYS,
     _SUBTREE_KEYS,
     _TOP_KEYS,
+    MAX_TREE_DEPTH,
+    MAX_TREE_NODES,
     BlackboardDecl,
     NodeSpec,
     PathKey,
@@ -68,6 +71,13 @@ class _Reader:
         self.docs: dict[str, YamlDocument] = {}
         self.blackboard: dict[str, tuple[BlackboardDecl, SourceLocation]] = {}
         self.headers_read: set[str] = set()
+        self.depth = 0
+        """How deep :meth:`node` is, subtrees included (bounded by MAX_TREE_DEPTH)."""
+        self.too_deep = False
+        self.count = 0
+        """Nodes read so far, subtrees expanded (bounded by MAX_TREE_NODES)."""
+        self.unbound: list[PathKey] = []
+        """Where :meth:`subst` met an unknown ``$parameter`` (reported once, there)."""
 
     # -- helpers
 
@@ -103,6 +113,15 @@ class _Reader:
                 self.error(doc, (key,), _unknown_key(key, _TOP_KEYS))
         if "name" in data and not isinstance(data["name"], str):
             self.error(doc, ("name",), "name: must be text")
+        if "description" in data and not isinstance(data["description"], str):
+            self.error(doc, ("description",), "description: must be text")
+        subtrees = data.get("subtrees")
+        if subtrees is not None and not isinstance(subtrees, dict):
+            self.error(doc, ("subtrees",), "subtrees: a mapping of name -> tree")
+        elif isinstance(subtrees, dict):
+            for key in subtrees:
+                if not isinstance(key, str):
+                    self.error(doc, ("subtrees", str(key)), f"subtree name {key!r} must be text")
         board = data.get("blackboard", {})
         if board is None:
             board = {}
@@ -233,6 +252,7 @@ class _Reader:
                     return env.values[name]
                 known = ", ".join(f"${n}" for n in env.values) or "none declared"
                 self.error(env.doc, path, f"unknown parameter ${name} (parameters: {known})")
+                self.unbound.append(path)
                 return None
             if value.startswith("$"):
                 self.error(env.doc, path, f"{value!r}: write $name, or $$ for a literal $")
@@ -252,6 +272,29 @@ class _Reader:
         return self.node(env, (*where, "root"), body["root"])
 
     def node(self, env: _Env, path: PathKey, raw: Any) -> NodeSpec | None:
+        if self.count > MAX_TREE_NODES:
+            return None  # reported once, where the tree grew past the limit
+        self.count += 1
+        if self.count > MAX_TREE_NODES:
+            self.error(
+                env.doc,
+                path,
+                f"the tree expands to more than {MAX_TREE_NODES} nodes (subtrees included)",
+            )
+            return None
+        if self.depth >= MAX_TREE_DEPTH:
+            if not self.too_deep:  # once: the first node too deep says it
+                self.too_deep = True
+                deeper = f"nodes nested deeper than {MAX_TREE_DEPTH} levels (subtrees included)"
+                self.error(env.doc, path, deeper)
+            return None
+        self.depth += 1
+        try:
+            return self.read_node(env, path, raw)
+        finally:
+            self.depth -= 1
+
+    def read_node(self, env: _Env, path: PathKey, raw: Any) -> NodeSpec | None:
         doc = env.doc
         if isinstance(raw, str):
             raw = {"type": raw}
@@ -273,6 +316,12 @@ class _Reader:
         if isinstance(name, str) and "/" in name:
             self.error(doc, (*path, "name"), "name: must not contain '/' (used in node paths)")
             return None
+        if isinstance(name, str) and any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
+            self.error(doc, (*path, "name"), "name: must not contain control characters")
+            return None
+        if "description" in raw and not isinstance(raw["description"], str):
+            self.error(doc, (*path, "description"), "description: must be text")
+            return None
         spec = NodeSpec(node_type=kind, name=name or kind, location=loc, explicit_name=bool(name))
         if kind in _STRUCT_KEYS:
             for key in raw:
@@ -293,14 +342,18 @@ class _Reader:
             return None
         spec.cls = cls
         raw_params = {k: v for k, v in raw.items() if k not in _COMMON_KEYS and k not in ("child",)}
+        unbound = len(self.unbound)
         raw_params = self.subst(env, raw_params, path)
+        unknown = self.unbound[unbound:]
         try:
             spec.params = cls.Params.model_validate(
                 raw_params, context={"units_required": self.units_required}
             )
         except ValidationError as exc:
             for at_key, msg in validation_problems(exc, raw_params):
-                self.error(doc, (*path, *at_key), f"{kind}: {msg}")
+                at = (*path, *at_key)
+                if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
+                    self.error(doc, at, f"{kind}: {msg}")
             spec.params = None
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
@@ -340,7 +393,10 @@ class _Reader:
     def composite(
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
     ) -> NodeSpec | None:
+        unbound = len(self.unbound)
         opts = self.subst(env, {k: v for k, v in raw.items() if k != "children"}, path)
+        if len(self.unbound) > unbound:
+            return None  # the unknown $parameter is reported
         kind = spec.node_type
         if kind in ("sequence", "selector"):
             memory = opts.get("memory", kind == "sequence")
@@ -424,7 +480,9 @@ class _Reader:
             if not isinstance(subtrees, dict) or name not in subtrees:
                 import difflib
 
-                known = list(subtrees) if isinstance(subtrees, dict) else []
+                if not isinstance(subtrees, dict) or name in map(str, subtrees):
+                    return None  # header() said what is wrong with the subtrees
+                known = [k for k in subtrees if isinstance(k, str)]
                 close = difflib.get_close_matches(name, known, n=2)
                 hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
                 where = f" in {target_doc.file}" if target_doc is not doc else ""
@@ -450,8 +508,9 @@ class _Reader:
         if not isinstance(given, dict):
             self.error(doc, (*path, "params"), "params: a mapping of name -> value")
             return None
+        unbound = len(self.unbound)
         given = self.subst(env, given, (*path, "params"))
-        if decls is None:
+        if decls is None or len(self.unbound) > unbound:
             return None
 
         def given_at(name: str) -> SourceLocation:

@@ -18,11 +18,25 @@ from pydantic import BaseModel, ConfigDict, Field
 from pirate_bt.behaviours.base import NodeMixin
 from pirate_bt.errors import LocatedError, SourceLocation
 
-__all__ = ["COMPOSITES", "BlackboardDecl", "LoadedTree", "NodeSpec", "PathKey"]
+__all__ = [
+    "COMPOSITES",
+    "MAX_TREE_DEPTH",
+    "MAX_TREE_NODES",
+    "BlackboardDecl",
+    "LoadedTree",
+    "NodeSpec",
+    "PathKey",
+]
 
 PathKey = tuple[str | int, ...]
 
 COMPOSITES: Final = ("sequence", "selector", "parallel")
+MAX_TREE_DEPTH: Final = 100
+"""The deepest nesting of nodes, subtrees included (a real tree is a dozen deep);
+deeper trees would meet Python's recursion limit when they are built or ticked."""
+MAX_TREE_NODES: Final = 100_000
+"""The most nodes a tree may expand to, subtrees included (a subtree used twice
+by a subtree used twice ... doubles at each level)."""
 _COMMON_KEYS: Final = frozenset({"type", "name", "description"})
 _STRUCT_KEYS: Final[dict[str, frozenset[str]]] = {
     "sequence": frozenset({"memory", "children"}),
@@ -74,9 +88,11 @@ class NodeSpec:
 
     def walk(self) -> Iterator[NodeSpec]:
         """This spec and all below it, depth first."""
-        yield self
-        for c in (*self.conditions, *self.children):
-            yield from c.walk()
+        stack = [self]
+        while stack:  # not recursive: nested generators cost O(depth) per node
+            spec = stack.pop()
+            yield spec
+            stack.extend(reversed((*spec.conditions, *spec.children)))
 
 
 @dataclass
