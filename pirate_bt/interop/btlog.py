@@ -35,6 +35,7 @@ that went back to IDLE. All carry the tick's time.
 
 from __future__ import annotations
 
+import re
 import struct
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
@@ -121,6 +122,20 @@ def _port_text(value: Any, port_type: str) -> str:
     return encode_value(value, port_type)
 
 
+_NOT_XML: Final = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+"""What XML 1.0 cannot hold, even escaped: control characters, lone surrogates, U+FFFE/F."""
+
+
+def _xml_text(text: str) -> str:
+    """``text`` with every character XML cannot hold replaced by U+FFFD.
+
+    A tree built in Python (or a trace of one) may name a node anything; ElementTree
+    writes such characters as they are, which no XML parser reads (and a lone
+    surrogate is not even UTF-8).
+    """
+    return _NOT_XML.sub("\ufffd", text)
+
+
 class _TreeWriter:
     def __init__(self, structure: TreeStructure, registry: Registry) -> None:
         self.structure = structure
@@ -161,13 +176,13 @@ class _TreeWriter:
                 if port is not None and value is not None:
                     attrs[renames.get(key, key)] = _port_text(value, port.type)
         else:  # a behaviour of the caller's own, outside the registry
-            tag = node.type or "Behaviour"
+            tag = node.type if node.type.isidentifier() else "Behaviour"  # an XML name
             if tag not in self.used:
                 category = {"composite": "Control", "leaf": "Action"}.get(node.kind, "Decorator")
                 self.used[tag] = NodeModel(tag, category, ())
-        element = ET.Element(tag, {"name": node.name, "_uid": str(uid)})
+        element = ET.Element(tag, {"name": _xml_text(node.name), "_uid": str(uid)})
         for key, value in attrs.items():
-            element.set(key, value)
+            element.set(key, _xml_text(value))
         return element
 
 
@@ -183,7 +198,7 @@ def structure_xml(structure: TreeStructure, registry: Registry | None = None) ->
         )
     writer = _TreeWriter(structure, registry or default_registry())
     root = ET.Element("root", {"BTCPP_format": "4"})
-    tree = ET.SubElement(root, "BehaviorTree", {"ID": structure.name, "_fullpath": ""})
+    tree = ET.SubElement(root, "BehaviorTree", {"ID": _xml_text(structure.name), "_fullpath": ""})
     elements: dict[str, ET.Element] = {}
     for uid, node in enumerate(structure, start=1):
         element = writer.element(node, uid)

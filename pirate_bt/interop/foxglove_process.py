@@ -116,7 +116,11 @@ class Server:
         self.encoders: dict[int, TickEncoder] = {}
         self.dropped: dict[int, int] = {}
         self.lock = threading.Lock()
+        self.handling = threading.Lock()
+        """Held while the main thread handles a message, and while :meth:`_late_loop`
+        sends late subscribers their snapshots (the mapper is not shared otherwise)."""
         self.late: set[str] = set()
+        self.late_asked = threading.Event()
         self.subscriptions = 0
         self.published = 0
         self.enabled = True
@@ -129,13 +133,31 @@ class Server:
             message_backlog_size=int(config["backlog"]),
         )
         self.port = int(self.server.port)
+        threading.Thread(target=self._late_loop, name="pirate-foxglove-late", daemon=True).start()
 
     def subscribed(self, topic: str) -> None:
         with self.lock:
             self.late.add(topic)
             self.subscriptions += 1
             total = self.subscriptions
+        self.late_asked.set()
         self.out.send((SUBSCRIBED, total))
+
+    def _late_loop(self) -> None:
+        """Send a late subscriber its snapshot even when no record comes (the run ended,
+        the server outlives it, or a breakpoint holds the tree); while records come, the
+        next one sends it first."""
+        while True:
+            self.late_asked.wait()
+            time.sleep(POLL_S)  # out of the SDK's callback, with the subscription in place
+            self.late_asked.clear()
+            with self.handling:
+                if not self.enabled:
+                    continue
+                try:
+                    self._send_late()
+                except Exception as exc:
+                    self._off(exc)
 
     def handle(self, message: tuple[Any, ...]) -> None:
         """One message off the input (see the module docstring)."""
@@ -268,7 +290,8 @@ def main(argv: Sequence[str]) -> int:
     out.send((READY, server.port))
     try:
         for message in read_messages(sys.stdin.fileno(), POLL_S):
-            server.handle(message)
+            with server.handling:
+                server.handle(message)
     finally:
         server.close()
         out.send((CLOSED, server.published, time.process_time()))

@@ -57,7 +57,8 @@ TRANSIENT_LOCAL, VOLATILE = 1, 2
 KEEP_LAST, KEEP_ALL = 1, 2
 AUTOMATIC = 1
 
-_NAME = re.compile(r"^[A-Za-z_~][A-Za-z0-9_]*$")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+"""One part of a ROS name (matched whole: ``$`` would let a trailing newline through)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +115,7 @@ def qualified_name(namespace: str, name: str) -> str:
     ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
     full = name if name.startswith("/") else f"{ns}/{name}"
     for token in full.strip("/").split("/"):
-        if not _NAME.match(token) or token.startswith("~"):
+        if not _NAME.fullmatch(token):
             raise ValueError(f"not a valid ROS name: {full!r} (each part: letters, digits, _)")
     return full
 

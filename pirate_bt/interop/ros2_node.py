@@ -163,6 +163,8 @@ class Ros2Node:
             rmw_zenoh.qualified_name(namespace, name)
         except ValueError as exc:
             raise InputError(f"--ros-namespace {namespace!r}: {exc}") from None
+        if "/" in name:  # a relative name would pass above, but a node's name is one part
+            raise InputError(f"ROS 2 node name {name!r}: one part (letters, digits, _), no '/'")
         self.namespace = "/" + namespace.strip("/") if namespace.strip("/") else ""
         self.name = name
         if rate_hz <= 0:

@@ -1,0 +1,154 @@
+"""What an independent peer of each protocol does that the other interop tests do not.
+
+Each test here is a defect a peer found: a client or reader written by someone
+else (expat for the XML Groot2 and BT.CPP read, a Foxglove client of our own
+test helper that connects after the run, ROS 2's naming rules as rmw applies
+them) that got something our own round trips accepted.
+"""
+
+from __future__ import annotations
+
+import struct
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import py_trees
+import pytest
+
+from pirate_bt.interop import rmw_zenoh
+from pirate_bt.interop.btlog import btlog_bytes, read_btlog, structure_xml
+from pirate_bt.trace.structure import TreeStructure, tree_structure
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+# Names a tree built in Python may have: XML's specials, text beyond ASCII, a long
+# name, and what XML 1.0 cannot hold at all (control characters, a lone surrogate).
+ODD = {
+    "specials": "<&>\"' ]]>",
+    "unicode": "ünï 🙂 名前",
+    "long": "x" * 5000,
+    "control": "a\x01b\x0bc",
+    "surrogate": "half \ud800 a pair",
+}
+SHOWN = dict(ODD)
+SHOWN["control"] = "a\ufffdb\ufffdc"
+SHOWN["surrogate"] = "half \ufffd a pair"
+
+
+def _odd_tree() -> py_trees.trees.BehaviourTree:
+    leaves = [py_trees.behaviours.Success(name) for name in ODD.values()]
+    many = [py_trees.behaviours.Success(f"n{i}") for i in range(1000)]
+    root = py_trees.composites.Sequence(
+        "root\x1f",
+        memory=True,
+        children=[*leaves, py_trees.composites.Sequence("many", True, many)],
+    )
+    return py_trees.trees.BehaviourTree(root)
+
+
+def _names(xml: bytes | str) -> list[str]:
+    """Node names in UID order, read by expat (as a strict peer reads the XML)."""
+    tree = ET.fromstring(xml)
+    nodes = [e for e in tree.iter() if e.get("_uid")]
+    assert [int(e.get("_uid", "0")) for e in nodes] == list(range(1, len(nodes) + 1))
+    return [e.get("name", "") for e in nodes]
+
+
+# -- Groot2 and .btlog: the tree's XML -------------------------------------------------------
+
+
+def test_groot2_serves_well_formed_xml_for_any_node_name() -> None:
+    """Before: a control character went into the full-tree reply as it was (expat:
+    "not well-formed"), and a lone surrogate made the request an error reply."""
+    pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    from test_groot2 import Client
+
+    from pirate_bt.interop.groot2_server import Groot2Server
+
+    tree = _odd_tree()
+    with Groot2Server(port=0) as server:
+        server.serve(tree, name="odd <tree>")
+        client = Client(server.port)
+        try:
+            reply = client.ask("T")
+            assert len(reply) == 2 and reply[0] != b"error", reply[:2]
+            names = _names(reply[1])
+            assert names[0] == "root\ufffd"
+            assert names[1 : 1 + len(ODD)] == list(SHOWN.values())
+            assert len(names) == 1 + len(ODD) + 1 + 1000
+            body = client.ask("S")[1]
+            assert len(body) == 3 * len(names)
+            assert struct.unpack_from("<H", body, 3 * (len(names) - 1))[0] == len(names)
+        finally:
+            client.close()
+
+
+def test_btlog_of_any_node_name_is_well_formed_xml(tmp_path: Path) -> None:
+    """Before: the same characters went into the .btlog's XML as they were; a node type
+    that is no XML name (a trace is input) became a tag no parser reads."""
+    structure = tree_structure(_odd_tree(), name="odd\x02tree")
+    data = structure.to_json()
+    data["nodes"][1]["type"] = "Not a name"
+    xml = structure_xml(TreeStructure.from_json(data))
+    path = tmp_path / "odd.btlog"
+    path.write_bytes(btlog_bytes(xml, 0, ()))
+    log = read_btlog(path)
+    assert _names(log.xml)[1 : 1 + len(ODD)] == list(SHOWN.values())
+    tree = ET.fromstring(log.xml).find("BehaviorTree")
+    assert tree is not None and tree.get("ID") == "odd\ufffdtree"
+
+
+# -- ROS 2 names -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("namespace", ["/pirate\n", "/pirate/\n", "/pi rate", "/1pirate", "/p~"])
+def test_a_namespace_ros_2_refuses_is_refused(namespace: str) -> None:
+    """Before: a trailing newline passed (``$`` matches before it), and went into every
+    key expression and liveliness token."""
+    with pytest.raises(ValueError):
+        rmw_zenoh.qualified_name(namespace, "joint_states")
+
+
+def test_a_node_name_is_one_part() -> None:
+    """Before: ``Ros2Node(name="a/b")`` was accepted, a node rmw_zenoh's graph shows as
+    ``/pirate/a/b``: a namespace and a name that are not the ones declared."""
+    pytest.importorskip("zenoh")
+    from pirate_bt.errors import InputError
+    from pirate_bt.interop.ros2_node import Ros2Node
+
+    for name in ("a/b", "a\n", "1node"):
+        with pytest.raises(InputError):
+            Ros2Node(name=name).close()
+
+
+# -- Foxglove: a client that connects after the run ----------------------------------------------
+
+
+def test_a_foxglove_client_that_subscribes_after_the_run_gets_its_snapshot() -> None:
+    """Before: the snapshots for late subscribers went out with the next record only, so
+    a client of a server that outlives its run (or of a tree held at a breakpoint) got
+    nothing at all."""
+    pytest.importorskip("foxglove")
+    from foxglove_ws import FoxgloveClient
+
+    import pirate_bt
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+
+    with FoxgloveServer("127.0.0.1", 0) as server:
+        result = pirate_bt.simulate_tree(ROOT / "trees/examples/patrol.yaml", foxglove=server)
+        assert result.status == "success"
+        client = FoxgloveClient("127.0.0.1", server.port)
+        try:
+            assert client.wait_for(lambda c: "/pirate/end" in c.channels, 10.0)
+            client.subscribe("/pirate/run", "/pirate/tree", "/pirate/end")
+            assert client.wait_for(lambda c: len(c.messages) >= 3, 5.0), client.messages
+            assert client.of("/pirate/run")[0]["tree"]["name"] == "patrol"
+            assert client.of("/pirate/end")[0]["outcome"] == "success"
+            snapshot = client.of("/pirate/tree")[0]
+            assert snapshot["snapshot"] is True
+            assert snapshot["status"] and snapshot["active"] == ""
+        finally:
+            client.close()
