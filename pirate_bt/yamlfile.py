@@ -35,6 +35,7 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 __all__ = [
     "Locator",
     "YamlDocument",
+    "check_depth",
     "describe_error",
     "load_yaml",
     "load_yaml_text",
@@ -235,6 +236,34 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                 locator.marks[(*path, index)] = _mark(item)
                 items.append(((*path, index), item))
         stack.extend((child, at) for at, child in reversed(items))
+
+
+def check_depth(data: Any, file: str) -> None:
+    """Refuse data (a mapping given in Python) nested deeper than :data:`MAX_DEPTH`.
+
+    What a file cannot hold, a mapping built in code (or read from JSON) may:
+    lists in lists thousands deep, or a list that contains itself. Iterative,
+    and it stops descending at the limit, so a cycle ends too.
+
+    Raises:
+        ValidationFailed: at ``file:1:1`` (a mapping has no lines).
+    """
+    stack: list[tuple[Any, int]] = [(data, 0)]
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, Mapping | list | tuple):
+            if depth >= MAX_DEPTH:
+                raise ValidationFailed(
+                    [
+                        LocatedError(
+                            f"values nested deeper than {MAX_DEPTH} levels (or a value"
+                            " that contains itself)",
+                            SourceLocation(file),
+                        )
+                    ]
+                )
+            items = value.values() if isinstance(value, Mapping) else value
+            stack.extend((item, depth + 1) for item in items)
 
 
 def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:

@@ -193,6 +193,24 @@ def test_subtrees_that_double_at_each_level_are_refused_quickly(
     assert error.message == "the tree expands to more than 1000 nodes (subtrees included)"
 
 
+def test_api_trees_that_are_not_mappings_or_nest_for_ever_are_refused() -> None:
+    with pytest.raises(ValidationFailed, match="a tree is a mapping with a 'root' key or a"):
+        load_tree(["root", "success"])  # type: ignore[arg-type]
+    value: list[object] = []
+    value.append(value)  # a list that holds itself
+    node = {"type": "log", "message": "x"}
+    node["message"] = value  # type: ignore[assignment]
+    deep: object = "success"
+    for _ in range(3000):
+        deep = {"type": "inverter", "child": deep}
+    for tree in ({"root": node}, {"root": deep}):
+        with pytest.raises(ValidationFailed) as caught:
+            load_tree(tree)
+        assert [str(e) for e in caught.value.errors] == [
+            "<dict>:1:1: values nested deeper than 256 levels (or a value that contains itself)"
+        ]
+
+
 # -- BT.CPP XML ---------------------------------------------------------------------------
 
 

@@ -21,6 +21,7 @@ The format is described in ``docs/trees.md``.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,7 @@ from pirate_bt.treefile.spec import (
 from pirate_bt.yamlfile import (
     Locator,
     YamlDocument,
+    check_depth,
     load_yaml,
     unique_errors,
 )
@@ -143,13 +145,24 @@ def load_tree(
     """
     reg = registry or default_registry()
     if isinstance(source, Mapping):
+        check_depth(source, "<dict>")
         doc = YamlDocument(dict(source), Locator("<dict>"))
         base_dir = Path.cwd()
         strict = False if units_required is None else units_required
-    else:
+    elif isinstance(source, str | os.PathLike):
         doc = load_yaml(source)
         base_dir = Path(source).parent
         strict = True if units_required is None else units_required
+    else:
+        raise ValidationFailed(
+            [
+                LocatedError(
+                    f"a tree is a mapping with a 'root' key or a file's path,"
+                    f" not {type(source).__name__}",
+                    caller_location(skip=Path(__file__).parent.parent) or SourceLocation("<dict>"),
+                )
+            ]
+        )
     reader = _Reader(reg, robot, strict, base_dir)
     if not reader.header(doc):
         raise ValidationFailed(reader.errors)
