@@ -152,3 +152,46 @@ def test_a_foxglove_client_that_subscribes_after_the_run_gets_its_snapshot() -> 
             assert snapshot["status"] and snapshot["active"] == ""
         finally:
             client.close()
+
+
+# -- rosbag2: what ros2 bag play offers ---------------------------------------------------------
+
+
+def test_a_bag_offers_the_qos_the_live_node_offers(tmp_path: Path) -> None:
+    """Before: every topic's ``offered_qos_profiles`` was empty, so ``ros2 bag play``
+    offered the default (volatile) QoS, and a subscriber asking for the latched tree as
+    py_trees_ros's tree watcher does (transient local) was incompatible: no tree."""
+    pytest.importorskip("rosbags")
+    from rosbags.interfaces import QosDurability, QosReliability
+    from rosbags.rosbag2 import Reader
+
+    from pirate_bt.cli import main
+
+    trace, bag = tmp_path / "run.jsonl", tmp_path / "run_bag"
+    assert (
+        main(["run", str(ROOT / "trees/examples/patrol.yaml"), "--trace", str(trace), "--quiet"])
+        == 0
+    )
+    assert main(["trace", "export", str(trace), "-o", f"{bag}/"]) == 0
+    with Reader(bag) as reader:  # reads metadata.yaml
+        offered = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+    assert "/pirate/tree/snapshots" in offered and "/pirate/trace" in offered
+    for topic, profiles in offered.items():
+        assert len(profiles) == 1, topic
+        latched = topic == "/pirate/tree/snapshots"
+        (qos,) = profiles
+        assert qos.reliability == QosReliability.RELIABLE
+        assert qos.durability == (
+            QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE
+        )
+        assert qos.depth == (1 if latched else 10)
+    # rosbag2's MCAP storage reads the QoS from the channel's metadata, not the YAML
+    from mcap.reader import make_reader
+
+    with open(bag / "run_bag.mcap", "rb") as stream:
+        summary = make_reader(stream, validate_crcs=True).get_summary()
+    assert summary is not None
+    channels = {c.topic: c.metadata for c in summary.channels.values()}
+    assert (
+        "durability: transient_local" in channels["/pirate/tree/snapshots"]["offered_qos_profiles"]
+    )

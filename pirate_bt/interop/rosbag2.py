@@ -33,7 +33,7 @@ from typing import Any
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
-from pirate_bt.interop.ros2_topics import CLOCK, Frame, Ros2Mapper, _number
+from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _number
 from pirate_bt.interop.ros2_types import missing, type_hash, typestore
 
 __all__ = [
@@ -153,6 +153,35 @@ def _rosbags() -> Any:
     return rosbag2
 
 
+def _offered_qos(topic: str) -> Any:
+    """The QoS the live node offers on ``topic`` (:mod:`pirate_bt.interop.ros2_process`), as
+    the bag's ``offered_qos_profiles``: ``ros2 bag play`` offers it again. Without it the
+    player offers volatile, and a subscriber asking for the latched tree (transient
+    local, as py_trees_ros's tree watcher does) is incompatible and gets nothing."""
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+
+    infinite = QosTime(9223372036, 854775807)  # RMW_DURATION_INFINITE, as rosbag2 writes it
+    latched = topic == TREE
+    return Qos(
+        history=QosHistory.KEEP_LAST,
+        depth=1 if latched else 10,
+        reliability=QosReliability.RELIABLE,
+        durability=QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
+        deadline=infinite,
+        lifespan=infinite,
+        liveliness=QosLiveliness.AUTOMATIC,
+        liveliness_lease_duration=infinite,
+        avoid_ros_namespace_conventions=False,
+    )
+
+
 def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_NAMESPACE) -> Path:
     """Convert a trace file to a rosbag2 directory (MCAP storage, CDR).
 
@@ -193,6 +222,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                         type_name,
                         typestore=store,
                         rihs01=type_hash(type_name),
+                        offered_qos_profiles=[_offered_qos(topic)],
                     )
                 return connections[topic]
 
