@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 from pirate_bt.campaign import campaign_from_data, expand, read_rows, run_campaign, run_cases
 from pirate_bt.campaign.case import error_record
@@ -179,3 +180,20 @@ def test_resume_reruns_a_row_whose_index_was_edited(tmp_path: Path) -> None:
     assert sorted(pool.ids) == sorted([rows[1]["id"], rows[2]["id"]])
     assert [r["index"] for r in out] == [0, 1, 2]
     assert sorted(r["index"] for r in read_rows(folder / "results.jsonl")) == [0, 1, 2]
+
+
+def test_two_runs_of_one_name_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Both were labelled 'straight' (the tree's stem), and the report counted the runs in
+    # the level pipe and up the riser as one group.
+    text = (
+        "name: h\nruns:\n  - {tree: straight, params: {distance: 0.2 m}}\n"
+        "  - {tree: straight, network: riser, params: {distance: 0.2 m}}\n"
+    )
+    assert _refused(tmp_path, capsys, text) == (
+        "FILE:2:1: runs[0] and runs[1] are both named 'straight': give each run a 'name'"
+        " of its own (the report's groups are told apart by it)"
+    )
+    named = text.replace("{tree: straight, network", "{name: riser, tree: straight, network")
+    assert len(expand(campaign_from_data(yaml.safe_load(named)))) == 2

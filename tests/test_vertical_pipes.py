@@ -179,12 +179,14 @@ def test_the_last_clamped_half_is_never_released_and_the_fall_is_judged(
         verdict = sup.command(Unclamp(Half.FRONT))
         assert not verdict.ok and "would leave no half clamped in a steep pipe" in verdict.detail
         assert not sup.command(Drive(0.05)).ok or model.truth().halves[Half.FRONT].clamped
-        # Every stop keeps the clamps: e-stop, then silence past the bridge's watchdog.
+        # Every stop keeps the clamps: silence past the bridge's watchdog, then e-stop.
+        clock.advance(3 * ROBOT.bridge.watchdog)
+        sup.simulator.advance_to(clock.now())  # the bridge runs, the host says nothing
+        assert sup.simulator.bridge.watchdog_tripped
+        assert model.truth().halves[Half.FRONT].clamped
         sup.estop("test")
         _tick(sup, clock, 1.0)
         assert sup.simulator.bridge.estopped
-        clock.advance(3 * ROBOT.bridge.watchdog)
-        model.step(3 * ROBOT.bridge.watchdog)
         assert model.truth().halves[Half.FRONT].clamped
         assert _violations(sup) == (before, 0)
         # Around the supervisor (what it refused): the front joints let go, and the
@@ -218,3 +220,50 @@ def test_a_mission_up_a_riser_and_down_a_drop_never_lets_go() -> None:
     assert result.status == "success", result.why
     assert result.counters.violations == 0 and result.counters.damage == 0
     assert result.counters.refusals == 0
+
+
+@pytest.mark.parametrize(
+    ("segment", "where", "words"),
+    [
+        # a bend tighter than the pipe itself: the robot passed it as any other
+        ("{type: bend, direction: up, radius: 20 mm}", "7:33", "a turn of radius 20 mm in a 63"),
+        (
+            "{type: tee, branch: {direction: left, radius: 10 mm}}",
+            "7:43",
+            "a turn of radius 10 mm in a 63",
+        ),
+        # was placed at the 'segments' key (4:1), not at the slope
+        ("{type: straight, length: 1 m, slope: 10 deg}", "7:35", "cannot set a slope on a"),
+    ],
+)
+def test_impossible_geometry_is_placed_at_its_key(
+    tmp_path: Path, segment: str, where: str, words: str
+) -> None:
+    path = tmp_path / "g.yaml"
+    path.write_text(
+        "schema_version: 1\nname: g\ndiameter: 63 mm\nsegments:\n"
+        "  - {type: straight, length: 1 m}\n  - {type: bend, direction: up}\n"
+        f"  - {segment}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ValidationFailed) as info:
+        load_network(path)
+    assert str(info.value).startswith(f"{path}:{where}: segment 'main-3': {words}")
+
+
+def test_network_commands_refuse_an_output_they_cannot_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    blocker = tmp_path / "blocker"
+    blocker.write_text("mine\n", encoding="utf-8")
+    # were internal errors (exit 1): IsADirectoryError, FileExistsError
+    for output, words in ((tmp_path, "a folder, not a file"), (blocker / "x.yaml", "cannot write")):
+        assert main(["network", "perturb", "riser", "--seed", "1", "-o", str(output)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"pirate-bt: -o {output}: {words}") and err.count("\n") == 1
+    assert blocker.read_text(encoding="utf-8") == "mine\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker"]
+    # a scale of 1e308 wrote a variant with slopes of ±inf deg
+    argv = ["network", "perturb", "riser", "--seed", "1", "--scale", "1e308"]
+    assert main([*argv, "-o", str(tmp_path / "v.yaml")]) == 2
+    assert capsys.readouterr().err == "pirate-bt: --scale must be a positive number, at most 10\n"

@@ -41,6 +41,7 @@ from pydantic import (
     Field,
     StringConstraints,
     ValidationError,
+    field_validator,
     model_validator,
 )
 
@@ -319,6 +320,21 @@ class CampaignSpec(BaseModel):
     keep_traces: Literal["failures", "all", "none"] = Field(
         "failures", description="which runs keep a trace: failures (not success), all or none"
     )
+
+    @field_validator("runs")
+    @classmethod
+    def _distinct_names(cls, runs: list[RunItem]) -> list[RunItem]:
+        # The report tells groups apart by a run's name (its label): two runs of one
+        # name would be counted as one group.
+        first: dict[str, int] = {}
+        for i, run in enumerate(runs):
+            j = first.setdefault(run.label, i)
+            if j != i:
+                raise ValueError(
+                    f"runs[{j}] and runs[{i}] are both named {run.label!r}: give each run"
+                    " a 'name' of its own (the report's groups are told apart by it)"
+                )
+        return runs
 
     @model_validator(mode="after")
     def _checks(self) -> CampaignSpec:

@@ -11,7 +11,6 @@ output. Give the result to ``pirate-bt mission ROUTE --sim OUT --network MAP``.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import tempfile
@@ -81,13 +80,17 @@ def _quantity(text: str, dimension: str, option: str) -> float:
     return value
 
 
+_MAX_SCALE = 10.0
+"""As a campaign's ``as_built.scale``: ten times the stated bounds."""
+
+
 def _bounds(args: argparse.Namespace) -> Any:
     from pirate_bt.pipes.asbuilt import AsBuiltBounds
     from pirate_bt.robot.loader import load_robot
 
     points = load_robot(args.robot).clamp.contact_angles
-    if args.scale <= 0 or not math.isfinite(args.scale):
-        raise InputError("--scale must be a positive number")
+    if not 0 < args.scale <= _MAX_SCALE:
+        raise InputError(f"--scale must be a positive number, at most {_MAX_SCALE:g}")
     return AsBuiltBounds(
         length_fraction=_fraction(args.length, "--length"),
         length_max_m=_quantity(args.length_max, "length", "--length-max"),
@@ -102,13 +105,21 @@ def _write(text: str, output: Path | None) -> None:
     if output is None:
         sys.stdout.write(text)
         return
-    output.parent.mkdir(parents=True, exist_ok=True)
-    # write beside it and rename: no half-written network file
-    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", dir=output.parent)
+    if output.is_dir():
+        raise InputError(f"-o {output}: a folder, not a file; give the network file to write")
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        # write beside it and rename: no half-written network file
+        fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", dir=output.parent)
+    except OSError as exc:
+        raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as handle:
             handle.write(text)
         os.replace(tmp, output)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

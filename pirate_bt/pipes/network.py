@@ -275,7 +275,7 @@ class _Builder:
             up=(-math.sin(self.spec.slope), 0.0, math.cos(self.spec.slope)),
             origin=(0.0, 0.0, 0.0),
         )
-        self._line(self.spec.segments, "main", state, pieces, choices, taken)
+        self._line(self.spec.segments, "main", state, pieces, choices, taken, ("segments",))
         return Path(tuple(pieces), taken)
 
     def _line(
@@ -286,16 +286,19 @@ class _Builder:
         pieces: list[Piece],
         choices: Mapping[str, TeeChoice],
         taken: dict[str, TeeChoice],
+        where: tuple[str | int, ...],
     ) -> None:
         for i, seg in enumerate(segments):
             name = seg.id or f"{prefix}-{i + 1}"
+            here = (*where, i)
             if isinstance(seg, StraightSpec):
                 if seg.diameter is not None:
                     cur.diameter_m = seg.diameter
                 if seg.slope is not None:
-                    cur.set_slope(seg.slope, name)
+                    cur.set_slope(seg.slope, name, (*here, "slope"))
                 pieces.append(cur.straight(name, PieceKind.STRAIGHT, seg.length))
             elif isinstance(seg, BendSpec):
+                _check_radius(name, seg.radius, cur.diameter_m, (*here, "radius"))
                 pieces.append(cur.turn(name, PieceKind.BEND, seg.roll_rad, seg.angle, seg.radius))
             elif isinstance(seg, ReducerSpec):
                 pieces.append(cur.straight(name, PieceKind.REDUCER, seg.length, seg.diameter))
@@ -305,16 +308,30 @@ class _Builder:
                 choice = choices.get(name, "straight")
                 taken[name] = choice
                 opening = cur.s_m + length / 2
+                radius = seg.branch.radius if seg.branch.radius is not None else cur.diameter_m
+                _check_radius(name, radius, cur.diameter_m, (*here, "branch", "radius"))
                 if choice == "straight":
                     pieces.append(cur.straight(name, PieceKind.TEE, length, roll_rad=roll))
                     pieces[-1] = replace(pieces[-1], opening_m=opening)
                     continue
                 pieces.append(cur.straight(name, PieceKind.TEE, length / 2, roll_rad=roll))
                 pieces[-1] = replace(pieces[-1], opening_m=opening)
-                radius = seg.branch.radius if seg.branch.radius is not None else cur.diameter_m
                 pieces.append(cur.turn(name, PieceKind.TEE_TURN, roll, math.pi / 2, radius))
-                self._line(seg.branch.segments, f"{name}-b", cur, pieces, choices, taken)
+                branch = (*here, "branch", "segments")
+                self._line(seg.branch.segments, f"{name}-b", cur, pieces, choices, taken, branch)
                 return
+
+
+def _check_radius(
+    name: str, radius_m: float, diameter_m: float, where: tuple[str | int, ...]
+) -> None:
+    """A turn's centre line cannot curve tighter than the pipe's own radius."""
+    if radius_m < diameter_m / 2 - _EPS:
+        raise NetworkGeometryError(
+            f"segment {name!r}: a turn of radius {radius_m * 1000:g} mm in a"
+            f" {diameter_m * 1000:g} mm pipe; its radius is at least half the diameter",
+            where,
+        )
 
 
 @dataclass
@@ -377,15 +394,15 @@ class _Cursor:
         self.origin = piece.position_at(piece.end_m)
         self.tangent, self.up = (_unit(v) for v in piece.end_frame())
 
-    def set_slope(self, slope_rad: float, name: str) -> None:
+    def set_slope(self, slope_rad: float, name: str, where: tuple[str | int, ...]) -> None:
         t = self.tangent
         horizontal = math.hypot(t[0], t[1])
         if horizontal < 1e-6:
             current = math.asin(max(-1.0, min(1.0, t[2])))
             if abs(current - slope_rad) < 1e-6:
                 return
-            raise ConfigurationError(
-                f"segment {name!r}: cannot set a slope on a vertical run; use a bend"
+            raise NetworkGeometryError(
+                f"segment {name!r}: cannot set a slope on a vertical run; use a bend", where
             )
         h = (t[0] / horizontal, t[1] / horizontal, 0.0)
         new_t = _comb(h, math.cos(slope_rad), (0.0, 0.0, 1.0), math.sin(slope_rad))
