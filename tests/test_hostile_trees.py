@@ -17,6 +17,7 @@ import pytest
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, ValidationFailed
 from pirate_bt.interop.btcpp import export_xml, import_xml
+from pirate_bt.robot import load_robot
 from pirate_bt.treefile import load_tree
 
 
@@ -317,6 +318,33 @@ def test_subtrees_that_double_in_xml_are_refused_at_the_element(
     (line,) = err
     assert line.startswith(f"pirate-bt: {tmp_path / 't.xml'}:")
     assert line.endswith(": the tree expands to more than 1000 nodes (subtrees included)")
+
+
+def test_xml_too_large_for_a_tree_file_is_refused_in_the_xml(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    body = (
+        '<BehaviorTree ID="A"><Sequence>' + "<AlwaysSuccess/>" * 50 + "</Sequence></BehaviorTree>"
+    )
+    monkeypatch.setattr("pirate_bt.interop.btcpp_import.MAX_NODES", 100)
+    code, err = _import(tmp_path, capsys, _xml(body))
+    assert (code, err) == (
+        2,
+        [
+            _at(tmp_path, "2:1") + "the tree converts to more than 100 values, more than a tree"
+            " file may hold"
+        ],
+    )
+    monkeypatch.undo()
+    robot = load_robot()
+    monkeypatch.setattr("pirate_bt.yamlfile.MAX_NODES", 100)  # the loader's own check
+    with pytest.raises(ValidationFailed) as caught:
+        import_xml(tmp_path / "t.xml", tmp_path / "t.yaml", robot=robot)
+    assert [str(e) for e in caught.value.errors] == [
+        f"{tmp_path / 't.xml'}:3:1: this holds more than 100 values; a file this large is not"
+        " one a person writes"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.xml"]
 
 
 def test_a_message_names_places_in_the_xml_never_the_temporary_file(

@@ -34,7 +34,7 @@ from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml, refuse_special
 from pirate_bt.treefile.params import PARAM_RE
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
-from pirate_bt.yamlfile import validation_problems
+from pirate_bt.yamlfile import MAX_NODES, validation_problems
 
 __all__ = ["import_xml", "xml_to_tree"]
 
@@ -508,7 +508,27 @@ def _read(
 ) -> tuple[dict[str, Any], dict[tuple[str | int, ...], SourceLocation]]:
     importer = _Importer(parse_xml(path), registry)
     data = importer.read()
+    if _values(data) > MAX_NODES:  # refused here, not by the loader in a temporary file
+        raise importer.root.error(
+            f"the tree converts to more than {MAX_NODES} values, more than a tree file may hold"
+        )
     return data, importer.locations(data)
+
+
+def _values(data: Any) -> int:
+    """How many values ``data`` is as YAML (each mapping, list, key and scalar), as
+    :mod:`pirate_bt.yamlfile` counts them."""
+    count = 0
+    stack = [data]
+    while stack:
+        value = stack.pop()
+        count += 1
+        if isinstance(value, dict):
+            count += len(value)  # the keys
+            stack.extend(value.values())
+        elif isinstance(value, list):
+            stack.extend(value)
+    return count
 
 
 def _in_xml(
@@ -520,7 +540,10 @@ def _in_xml(
     from (the element of the node, subtree or parameter the YAML place is part of)."""
     from pirate_bt.yamlfile import load_yaml
 
-    marks = load_yaml(yaml_file).locator.marks
+    try:
+        marks = load_yaml(yaml_file).locator.marks
+    except ValidationFailed:  # every place then falls back to the main tree's element
+        marks = {}
     by_place: dict[tuple[int, int], tuple[str | int, ...]] = {}
     for key_path, place in marks.items():
         if len(key_path) >= len(by_place.get(place, ())):
