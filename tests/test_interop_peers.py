@@ -9,7 +9,6 @@ them) that got something our own round trips accepted.
 from __future__ import annotations
 
 import struct
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -21,7 +20,6 @@ from pirate_bt.interop.btlog import btlog_bytes, read_btlog, structure_xml
 from pirate_bt.trace.structure import TreeStructure, tree_structure
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
 
 # Names a tree built in Python may have: XML's specials, text beyond ASCII, a long
 # name, and what XML 1.0 cannot hold at all (control characters, a lone surrogate).
