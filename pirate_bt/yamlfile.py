@@ -52,6 +52,8 @@ MAX_NODES = 100_000
 
 The largest bundled file expands to a few thousand; a real file that needs more
 is not one a person writes."""
+MAX_BYTES = 16 * 1024 * 1024
+"""The largest file read (a device such as ``/dev/zero`` never ends: it is cut there)."""
 MAX_DEPTH = 256
 """The deepest nesting of lists and mappings (libyaml itself stops at 1000, too deep
 for the recursive code that later reads the data)."""
@@ -317,11 +319,16 @@ def load_yaml(path: str | Path) -> YamlDocument:
     if p.is_dir():
         raise ValidationFailed([LocatedError("is a directory, not a file", loc)])
     try:
-        raw = p.read_bytes()
+        with p.open("rb") as stream:
+            raw = stream.read(MAX_BYTES + 1)
     except FileNotFoundError:
         raise ValidationFailed([LocatedError("no such file", loc)]) from None
     except OSError as exc:
         raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", loc)]) from None
+    if len(raw) > MAX_BYTES:
+        raise ValidationFailed(
+            [LocatedError(f"larger than the {MAX_BYTES} bytes a file may be", loc)]
+        )
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise ValidationFailed([LocatedError("UTF-16 text; save the file as UTF-8", loc)])
     if b"\x00" in raw:

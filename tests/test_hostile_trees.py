@@ -248,6 +248,25 @@ def test_an_unknown_xml_encoding_is_located(
     )
 
 
+def test_a_device_that_never_ends_is_cut_off_not_read_into_memory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("pirate_bt.yamlfile.MAX_BYTES", 1000)
+    with pytest.raises(ValidationFailed) as caught:
+        load_tree("/dev/zero")
+    assert [str(e) for e in caught.value.errors] == [
+        "/dev/zero:1:1: larger than the 1000 bytes a file may be"
+    ]
+    monkeypatch.undo()  # the robot file is longer than that
+    monkeypatch.setattr("pirate_bt.interop.btcpp_xml.MAX_XML_BYTES", 1000)
+    code = main(["import", "btcpp", "/dev/zero", "-o", str(tmp_path / "t.yaml")])
+    assert code == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "pirate-bt: /dev/zero:1:1: larger than the 1000 bytes a tree file may be"
+    ]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_missing_or_unreadable_xml_file_is_located_like_a_yaml_one(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -77,7 +77,10 @@ def parse_xml(path: Path) -> XmlElement:
             raise LocatedError(
                 f"{size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be", where
             )
-        data = path.read_bytes()
+        with path.open("rb") as stream:  # a device (/dev/zero) has no size and no end
+            data = stream.read(MAX_XML_BYTES + 1)
+        if len(data) > MAX_XML_BYTES:
+            raise LocatedError(f"larger than the {MAX_XML_BYTES} bytes a tree file may be", where)
     except IsADirectoryError:
         raise LocatedError("is a directory, not an XML file", where) from None
     except FileNotFoundError:
