@@ -193,3 +193,47 @@ def test_a_bag_offers_the_qos_the_live_node_offers(tmp_path: Path) -> None:
     assert (
         "durability: transient_local" in channels["/pirate/tree/snapshots"]["offered_qos_profiles"]
     )
+
+
+# -- Groot2 over IPv6 ------------------------------------------------------------------------------
+
+
+def _ipv6_loopback() -> bool:
+    import socket
+
+    try:
+        with socket.socket(socket.AF_INET6) as probe:
+            probe.bind(("::1", 0))
+    except OSError:
+        return False
+    return True
+
+
+def test_groot2_serves_an_ipv6_address() -> None:
+    """Before: ``--groot2 [::1]:PORT`` was parsed, and then the server could not listen
+    ("No such device"): ZeroMQ binds IPv6 addresses only on sockets with ``IPV6`` set."""
+    zmq = pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    if not _ipv6_loopback():
+        pytest.skip("no IPv6 loopback here")
+    from pirate_bt.interop import groot2_protocol as proto
+    from pirate_bt.interop.groot2_option import parse_groot2_address
+    from pirate_bt.interop.groot2_server import Groot2Server
+
+    host, _ = parse_groot2_address("[::1]:1667")
+    with Groot2Server(host, 0) as server:
+        server.serve(py_trees.trees.BehaviourTree(py_trees.behaviours.Success("ok")))
+        assert server.address == f"[::1]:{server.port}"
+        context = zmq.Context()
+        try:
+            req = context.socket(zmq.REQ)
+            req.setsockopt(zmq.IPV6, 1)
+            req.setsockopt(zmq.RCVTIMEO, 5000)
+            req.setsockopt(zmq.LINGER, 0)
+            req.connect(f"tcp://[::1]:{server.port}")
+            req.send(proto.pack_request(ord("S"), 5))
+            reply = req.recv_multipart()
+            assert proto.unpack_reply_header(reply[0])[0].unique_id == 5
+            assert reply[1] == b"\x01\x00\x00"
+        finally:
+            context.destroy(linger=0)

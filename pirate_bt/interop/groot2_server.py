@@ -136,6 +136,8 @@ class Groot2Server(_Requests):
         for sock in (self._rep, self._pub):
             sock.setsockopt(zmq.LINGER, 0)
             sock.setsockopt(zmq.SNDTIMEO, 1000)
+            if ":" in host:  # ZeroMQ binds an IPv6 address only with this set
+                sock.setsockopt(zmq.IPV6, 1)
         self._rep.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
         try:
             self.port = self._bind(host, port)
