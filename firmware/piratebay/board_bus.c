@@ -7,7 +7,10 @@
  * int16. STOP (0x02) carries setpoints too and is not answered. A reply with a byte
  * the USART flagged (framing error, overrun) is a bad reply. After a timeout or a bad
  * reply the line must be quiet for GUARD_US (the longest legal frame) before the next
- * request: a board answering late finishes before anyone else speaks. */
+ * request: a board answering late finishes before anyone else speaks. A line that is
+ * not quiet GUARD_MAX_US after the failure is not a late reply but noise or a babbling
+ * board: the bridge speaks anyway, or it would send nothing (no STOP, no poll, no
+ * board status) for as long as the noise lasts. */
 #include "board_bus.h"
 
 #include "cobs.h"
@@ -24,6 +27,9 @@
 #define WIRE_MAX (COBS_MAX_ENCODED(BODY_MAX) + 1u)
 #define BYTE_US (10000000UL / BUS_BAUD) /* one 8N1 byte on the line */
 #define GUARD_US (WIRE_MAX * BYTE_US)     /* the longest legal frame: 340 us */
+/* The quiet time ends this long after the failure at the latest: a board that started
+ * its reply late, even at the reply timeout, has finished by then. */
+#define GUARD_MAX_US (BUS_REPLY_TIMEOUT_US + GUARD_US)
 
 /* The bus rate is exact at 16 MHz (U2X: F_CPU / 8 / (UBRR + 1)), on the bridge and on
  * every PICO board: 1 Mbaud is UBRR 1. */
@@ -33,6 +39,8 @@ static_assert(4u + 3u * PB_MAX_BOARD_MOTORS <= BODY_MAX, "a request fits 32 byte
 static_assert(5u + 2u * PB_MAX_BOARD_CHANNELS <= BODY_MAX, "a reply fits 32 bytes");
 static_assert(BUS_REPLY_TIMEOUT_US >= 100u && BUS_REPLY_TIMEOUT_US <= 30000u,
               "the reply timeout is counted on the 16-bit 2 MHz timer");
+static_assert(GUARD_MAX_US * TIMER_TICKS_PER_US < 65536UL,
+              "the longest quiet time is counted on the 16-bit 2 MHz timer");
 static_assert((PB_N_BOARDS + 1u) * (6u + 3u * PB_MAX_BOARD_MOTORS) < UART1_TX_RING,
               "a STOP to every board and the next request fit the transmit ring");
 
@@ -60,14 +68,18 @@ bool board_bus_idle(void) {
         return false;
     }
     if (bus.guard) {
-        /* quiet since the failure and since the last byte heard, whichever is later */
+        /* quiet since the failure and since the last byte heard, whichever is later;
+         * but no longer than GUARD_MAX_US after the failure */
         uint16_t now = timer_ticks();
         uint16_t since_rx = (uint16_t)(now - uart1_last_rx());
         uint16_t since_fail = (uint16_t)(now - bus.guard_from);
         uint16_t quiet = since_rx < since_fail ? since_rx : since_fail;
         uint16_t guard = (uint16_t)(GUARD_US * TIMER_TICKS_PER_US);
-        if (quiet < guard) {
-            timer_wake_at((uint16_t)(now + guard - quiet));
+        uint16_t most = (uint16_t)(GUARD_MAX_US * TIMER_TICKS_PER_US);
+        if (quiet < guard && since_fail < most) {
+            uint16_t wait = (uint16_t)(guard - quiet);
+            uint16_t left = (uint16_t)(most - since_fail);
+            timer_wake_at((uint16_t)(now + (wait < left ? wait : left)));
             return false;
         }
         bus.guard = false;

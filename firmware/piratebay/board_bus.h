@@ -10,8 +10,9 @@
  * board_bus_poll() is called from the main loop until it stops answering
  * BUS_BUSY. After a timeout or a bad reply the bus stays busy (board_bus_idle() is
  * false) until the line has been quiet for the longest legal reply, so a late reply
- * never collides with the next request. Nothing here may block: the host link is
- * served in the same loop. */
+ * never collides with the next request; but no longer than the reply timeout and one
+ * longest frame after the failure, so noise or a babbling board cannot silence the
+ * bridge. Nothing here may block: the host link is served in the same loop. */
 #ifndef PB_BOARD_BUS_H
 #define PB_BOARD_BUS_H
 

@@ -6,6 +6,7 @@
  *   pk_boot(id, warm)             a reset with `id` in EEPROM (warm: not a power-on)
  *   pk_run_us(us)                 let virtual time pass, running main-loop turns
  *   pk_write(bytes, n)            bus bytes to the board (delivered at once)
+ *   pk_write_damaged(byte)        one bus byte the USART flags (framing error)
  *   pk_read(buf, cap)             what the board sent on the bus
  *   pk_adc(input, value)          an ADC input's reading (0..1023)
  *   pk_encoder(slot, count)       an encoder's count
@@ -23,7 +24,7 @@
 static uint64_t now_us;
 static uint8_t eeprom_id;
 static bool warm;
-static uint8_t rx[4096];
+static uint16_t rx[4096]; /* byte | HAL_RX_ERROR */
 static uint16_t rx_head, rx_tail;
 static uint8_t tx[4096];
 static uint16_t tx_n;
@@ -42,7 +43,7 @@ int16_t hal_bus_getc(void) {
     if (rx_tail == rx_head) {
         return -1;
     }
-    return rx[rx_tail++ % sizeof rx];
+    return (int16_t)rx[rx_tail++ % (sizeof rx / sizeof rx[0])];
 }
 uint16_t hal_bus_rx_at(void) { return rx_at; }
 void hal_bus_send(const uint8_t *p, uint8_t n) {
@@ -80,8 +81,13 @@ void pk_boot(uint8_t id, uint8_t warm_boot) {
 
 void pk_write(const uint8_t *p, uint32_t n) {
     for (uint32_t i = 0; i < n; i++) {
-        rx[rx_head++ % sizeof rx] = p[i];
+        rx[rx_head++ % (sizeof rx / sizeof rx[0])] = p[i];
     }
+    rx_at = hal_ticks();
+}
+
+void pk_write_damaged(uint8_t byte) {
+    rx[rx_head++ % (sizeof rx / sizeof rx[0])] = (uint16_t)(byte | HAL_RX_ERROR);
     rx_at = hal_ticks();
 }
 

@@ -17,6 +17,11 @@
  *   fw_bus_times(out, cap)           the virtual time (us) each of those frames ended
  *   fw_board_reply(index, bytes, n)  a board answers every EXCHANGE with these wire
  *                                    bytes (n = 0: as fw_board and fw_reading say)
+ *   fw_bus_inject(bytes, n)          bytes arrive on the bus now, whoever sent them (a
+ *                                    late, doubled or foreign reply, noise); past a
+ *                                    full receive ring they are lost and the next is
+ *                                    flagged, as uart.c does
+ *   fw_bus_inject_damaged(byte)      one bus byte the USART flags (framing error)
  *   fw_debug(out)                    the pb_debug record
  *   fw_estop_input(open)             the e-stop contact opens (1) or closes (0)
  *   fw_led()                         the LED (lit while the e-stop is latched)
@@ -106,8 +111,10 @@ void uart_line_stats(struct uart_line_stats *out) { *out = line; }
 static uint8_t board_online[PB_N_BOARDS];
 static uint8_t board_status_byte[PB_N_BOARDS];
 static int16_t board_readings[PB_N_CHANNELS ? PB_N_CHANNELS : 1];
-static uint8_t rx1[256];
+static uint16_t rx1[256]; /* byte | UART_RX_ERROR */
 static uint16_t rx1_head, rx1_tail;
+static bool rx1_lost;      /* a byte was lost to the full ring: flag the next one */
+static uint16_t rx1_at;    /* timer ticks of the last byte received */
 static uint8_t fixed_reply[PB_N_BOARDS][64];
 static uint8_t fixed_len[PB_N_BOARDS];
 static uint8_t bus_raw[64];
@@ -131,7 +138,21 @@ bool uart1_tx_done(uint16_t *at) {
     *at = tx1_done_at;
     return true;
 }
-uint16_t uart1_last_rx(void) { return tx1_done_at; }
+uint16_t uart1_last_rx(void) { return rx1_at; }
+
+/* A byte arrives on the bus (uart.c's receive interrupt: a full ring loses it and
+ * flags the next one). */
+static void rx1_put(uint16_t value) {
+    if ((uint16_t)(rx1_head - rx1_tail) >= sizeof rx1 / sizeof rx1[0] - 1u) {
+        rx1_lost = true;
+        return;
+    }
+    if (rx1_lost) {
+        value |= UART_RX_ERROR;
+        rx1_lost = false;
+    }
+    rx1[rx1_head++ & 0xFFu] = value;
+}
 
 static void board_frame(void) {
     uint8_t body[64];
@@ -154,8 +175,9 @@ static void board_frame(void) {
     }
     if (fixed_len[b]) {
         for (uint8_t i = 0; i < fixed_len[b]; i++) {
-            rx1[rx1_head++ & 0xFFu] = fixed_reply[b][i];
+            rx1_put(fixed_reply[b][i]);
         }
+        rx1_at = tx1_done_at;
         return;
     }
     bool garble = board_online[b] == 2; /* answers, but with a broken CRC */
@@ -175,8 +197,9 @@ static void board_frame(void) {
     uint16_t w = cobs_encode(reply, k, wire);
     wire[w++] = 0;
     for (uint16_t i = 0; i < w; i++) {
-        rx1[rx1_head++ & 0xFFu] = wire[i];
+        rx1_put(wire[i]);
     }
+    rx1_at = tx1_done_at;
 }
 
 bool uart1_write(const uint8_t *p, uint8_t n) {
@@ -198,6 +221,7 @@ void fw_boot(void) {
     rx0_head = rx0_tail = 0;
     tx0_busy_until = now_us;
     rx1_head = rx1_tail = 0;
+    rx1_lost = false;
     bus_raw_n = 0;
     bridge_init();
 }
@@ -232,6 +256,18 @@ uint32_t fw_read(uint8_t *out, uint32_t cap) {
     memmove(tx0, tx0 + n, tx0_n - n);
     tx0_n -= n;
     return n;
+}
+
+void fw_bus_inject(const uint8_t *p, uint32_t n) {
+    for (uint32_t i = 0; i < n; i++) {
+        rx1_put(p[i]);
+    }
+    rx1_at = (uint16_t)(now_us * TIMER_TICKS_PER_US);
+}
+
+void fw_bus_inject_damaged(uint8_t byte) {
+    rx1_put((uint16_t)(byte | UART_RX_ERROR));
+    rx1_at = (uint16_t)(now_us * TIMER_TICKS_PER_US);
 }
 
 void fw_board(uint8_t index, uint8_t online, uint8_t status) {
