@@ -140,6 +140,20 @@ def test_names_and_descriptions_are_checked(
     assert (code, err) == (2, [_where(tmp_path, "1:1") + "description: must be text"])
 
 
+def test_the_tree_s_name_follows_the_rules_of_the_node_name_it_becomes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name, problem in [
+        ("a/b", "name: must not contain '/' (used in node paths)"),
+        ("a\\x1bb", "name: must not contain control characters"),
+        ("  ", "name: must be non-empty text"),
+    ]:
+        code, err = _validate(tmp_path, capsys, f'name: "{name}"\nroot: success\n')
+        assert (code, err) == (2, [_where(tmp_path, "1:1") + problem])
+    code, err = _validate(tmp_path, capsys, 'name: "a/b"\nroot: {type: success, name: s}\n')
+    assert (code, err) == (0, [])  # the root keeps its own name
+
+
 def _inverters(levels: int) -> str:
     node = "success"
     for _ in range(levels):

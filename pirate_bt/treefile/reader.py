@@ -113,6 +113,12 @@ class _Reader:
                 self.error(doc, (key,), _unknown_key(key, _TOP_KEYS))
         if "name" in data and not isinstance(data["name"], str):
             self.error(doc, ("name",), "name: must be text")
+        elif data.get("name"):
+            problem = _name_problem(data["name"])
+            root = data.get("root")
+            # A '/' only matters where the name becomes the root node's (it has none).
+            if problem and not ("'/'" in problem and isinstance(root, dict) and root.get("name")):
+                self.error(doc, ("name",), problem)
         if "description" in data and not isinstance(data["description"], str):
             self.error(doc, ("description",), "description: must be text")
         subtrees = data.get("subtrees")
@@ -310,14 +316,9 @@ class _Reader:
             return None
         loc = doc.locator.locate(path)
         name = raw.get("name")
-        if name is not None and not (isinstance(name, str) and name.strip()):
-            self.error(doc, (*path, "name"), "name: must be non-empty text")
-            return None
-        if isinstance(name, str) and "/" in name:
-            self.error(doc, (*path, "name"), "name: must not contain '/' (used in node paths)")
-            return None
-        if isinstance(name, str) and any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
-            self.error(doc, (*path, "name"), "name: must not contain control characters")
+        problem = None if name is None else _name_problem(name)
+        if problem:
+            self.error(doc, (*path, "name"), problem)
             return None
         if "description" in raw and not isinstance(raw["description"], str):
             self.error(doc, (*path, "description"), "description: must be text")
@@ -527,6 +528,17 @@ class _Reader:
             result.name = spec.name
             result.explicit_name = True
         return result
+
+
+def _name_problem(name: object) -> str | None:
+    """What is wrong with a node's (or a tree's) name, if anything."""
+    if not (isinstance(name, str) and name.strip()):
+        return "name: must be non-empty text"
+    if "/" in name:
+        return "name: must not contain '/' (used in node paths)"
+    if any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
+        return "name: must not contain control characters"
+    return None
 
 
 def _at(location: SourceLocation, message: str) -> LocatedError:
