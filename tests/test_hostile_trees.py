@@ -458,6 +458,24 @@ def test_a_fifo_as_the_output_is_refused_not_replaced(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "t.xml", "tree.yaml"]
 
 
+def test_an_output_that_is_the_input_is_refused_and_the_input_kept(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "tree.yaml"
+    tree.write_text("root: success\n")
+    assert main(["export", "btcpp", str(tree), "-o", str(tree)]) == 2
+    source = tmp_path / "t.xml"
+    source.write_text(_xml('<BehaviorTree ID="A"><AlwaysSuccess/></BehaviorTree>'))
+    assert main(["import", "btcpp", str(source), "-o", str(source)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"pirate-bt: {tree}: is the tree file being exported; nothing written",
+        f"pirate-bt: {source}: is the XML file being imported; nothing written",
+    ]
+    assert tree.read_text() == "root: success\n"
+    assert source.read_text().startswith("<?xml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.xml", "tree.yaml"]
+
+
 def test_control_characters_are_exported_as_well_formed_xml(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

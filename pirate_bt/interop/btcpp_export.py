@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LocatedError
+from pirate_bt.errors import InputError, LocatedError
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -327,5 +327,8 @@ def export_xml(
     Returns:
         The file written.
     """
+    out = Path(out_path)
+    if out.exists() and out.resolve() == Path(tree_path).resolve():
+        raise InputError(f"{out}: is the tree file being exported; nothing written")
     text = tree_to_xml(tree_path, params, registry)
-    return write_atomic(Path(out_path), text)
+    return write_atomic(out, text)

@@ -631,6 +631,8 @@ def import_xml(
     )
     out = Path(out_path)
     refuse_special(out)
+    if out.exists() and out.resolve() == source.resolve():
+        raise InputError(f"{out}: is the XML file being imported; nothing written")
     folder = out.parent if str(out.parent) else Path(".")
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".yaml", dir=folder)
