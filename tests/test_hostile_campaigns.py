@@ -197,3 +197,29 @@ def test_two_runs_of_one_name_are_refused(
     )
     named = text.replace("{tree: straight, network", "{name: riser, tree: straight, network")
     assert len(expand(campaign_from_data(yaml.safe_load(named)))) == 2
+
+
+@pytest.mark.parametrize("key", ["network", "robots", "maps"])
+def test_a_network_or_robot_file_that_does_not_validate_stops_the_campaign(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(
+        "schema_version: 1\nname: bad\ndiameter: 63 mm\nsegments:\n"
+        "  - {type: straight, length: -1 m}\n",
+        encoding="utf-8",
+    )
+    run = "{tree: straight, params: {distance: 0.2 m}}"
+    extra = ""
+    if key == "network":
+        run = "{tree: straight, network: bad.yaml, params: {distance: 0.2 m}}"
+    elif key == "robots":
+        robot = (Path(__file__).parents[1] / "hardware" / "pirate.yaml").read_text("utf-8")
+        assert "weight: 15 N" in robot
+        bad.write_text(robot.replace("weight: 15 N", "weight: -15 N"), encoding="utf-8")
+        extra = "robots: [bad.yaml]\n"
+    else:
+        run, extra = "{route: straight}", "maps: [bad.yaml]\n"
+    # were error rows, one per case ("ValidationFailed: .../bad.yaml:5:22: ...")
+    err = _refused(tmp_path, capsys, f"name: h\nruns:\n  - {run}\n{extra}")
+    assert err.startswith(f"{bad}:")

@@ -267,3 +267,20 @@ def test_network_commands_refuse_an_output_they_cannot_write(
     argv = ["network", "perturb", "riser", "--seed", "1", "--scale", "1e308"]
     assert main([*argv, "-o", str(tmp_path / "v.yaml")]) == 2
     assert capsys.readouterr().err == "pirate-bt: --scale must be a positive number, at most 10\n"
+
+
+def test_an_id_that_is_another_segments_generated_name_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "names.yaml"
+    path.write_text(
+        "schema_version: 1\nname: names\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: main-2, type: straight, length: 1 m}\n"
+        "  - {type: straight, length: 1 m}\n",
+        encoding="utf-8",
+    )
+    # was valid: two segments named 'main-2', one of them unreachable by its name
+    with pytest.raises(ValidationFailed) as info:
+        load_network(path)
+    assert str(info.value) == (
+        f"{path}:5:6: segment id 'main-2' is also the name of a segment without an id"
+        " (segments[1]): give that one an id, or this one another"
+    )

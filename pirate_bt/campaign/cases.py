@@ -175,7 +175,12 @@ def _bare(name: str) -> bool:
 
 
 def _input_problem(kind: str, name: str, route: str | None = None) -> str | None:
-    """Why the input file ``name`` of ``kind`` cannot be used, or ``None`` if it can.
+    """Why the input file ``name`` of ``kind`` cannot be used, or ``None`` if it can."""
+    return _find_input(kind, name, route)[1]
+
+
+def _find_input(kind: str, name: str, route: str | None = None) -> tuple[Path | None, str | None]:
+    """The input file ``name`` of ``kind``, or why it cannot be used.
 
     Each kind is looked up as the code that loads it does: a tree or a route as a
     path, else a bundled file; a tree's network as a path, else a bundled network;
@@ -198,7 +203,7 @@ def _input_problem(kind: str, name: str, route: str | None = None) -> str | None
             try:
                 path = resolve_network_path(name, route_path.parent)
             except FileNotFoundError as exc:
-                return f"{what}: {exc}"
+                return None, f"{what}: {exc}"
         elif kind == "network":
             path = Path(name)
             if not path.exists() and path.parent == Path(".") and not path.suffix:
@@ -206,14 +211,14 @@ def _input_problem(kind: str, name: str, route: str | None = None) -> str | None
         else:
             path = Path(name)
         if path.is_file():
-            return None
+            return path, None
         if path.is_dir():
-            return f"{what}: {path} is a directory, not a file"
+            return None, f"{what}: {path} is a directory, not a file"
     except (OSError, ValueError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc)
-        return f"{what}: cannot use this name: {reason}"
+        return None, f"{what}: cannot use this name: {reason}"
     nor = f", nor a bundled {kind}" if kind in ("tree", "route", "network") and _bare(name) else ""
-    return f"{what}: no such file{nor}"
+    return None, f"{what}: no such file{nor}"
 
 
 def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
@@ -328,7 +333,8 @@ def check_runs(
     problem with a tree's parameters is placed at the run's ``params`` in the spec.
 
     Raises:
-        ValidationFailed: a tree or route does not validate.
+        ValidationFailed: a tree, route, network (or truth map) or robot file does
+            not validate.
         ConfigurationError: a named file (tree, route, network, map, robot) is
             missing or not a file.
     """
@@ -337,6 +343,7 @@ def check_runs(
 
     seen: set[str] = set()
     files: dict[tuple[str, str, str | None], str | None] = {}
+    valid: set[tuple[str, Path]] = set()
     for case in cases:
         route = case.get("route")
         names = [("tree", case.get("tree"), None), ("route", route, None)]
@@ -348,7 +355,13 @@ def check_runs(
                 continue
             file_key = (kind, str(name), near)
             if file_key not in files:
-                files[file_key] = _input_problem(kind, str(name), near)
+                path, files[file_key] = _find_input(kind, str(name), near)
+                what = {"map": "network", "network": "network", "robot": "hardware"}.get(kind)
+                if path is not None and what is not None and (what, path) not in valid:
+                    # as each case will load it: a bad network or robot file is the
+                    # campaign's input error, not an error row of every case
+                    validate_file(path, what)
+                    valid.add((what, path))
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
         key = json.dumps(

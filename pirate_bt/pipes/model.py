@@ -200,6 +200,10 @@ class FaultSpec(_Model):
     )
 
 
+def _dotted(path: tuple[str | int, ...]) -> str:
+    return "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path).lstrip(".")
+
+
 class NetworkSpec(_Model):
     """A whole pipe network: defaults, the main line, and scheduled faults."""
 
@@ -224,15 +228,30 @@ class NetworkSpec(_Model):
         out: list[tuple[tuple[str | int, ...], str]] = []
         seen: dict[str, tuple[str | int, ...]] = {}
 
-        def walk(segments: list[Any], path: tuple[str | int, ...]) -> None:
+        generated: dict[str, tuple[str | int, ...]] = {}
+
+        def walk(segments: list[Any], path: tuple[str | int, ...], prefix: str) -> None:
             for i, seg in enumerate(segments):
                 here = (*path, i)
+                name = seg.id or f"{prefix}-{i + 1}"
                 if seg.id is not None:
                     if seg.id in seen:
                         out.append(((*here, "id"), f"duplicate segment id {seg.id!r}"))
                     seen.setdefault(seg.id, here)
+                else:
+                    generated.setdefault(name, here)
                 if isinstance(seg, TeeSpec):
-                    walk(seg.branch.segments, (*here, "branch", "segments"))
+                    walk(seg.branch.segments, (*here, "branch", "segments"), f"{name}-b")
 
-        walk(self.segments, ("segments",))
+        walk(self.segments, ("segments",), "main")
+        for name, here in generated.items():
+            if name in seen:
+                out.append(
+                    (
+                        (*seen[name], "id"),
+                        f"segment id {name!r} is also the name of a segment without an id"
+                        f" ({_dotted(here)}): give that one an id, or this"
+                        " one another",
+                    )
+                )
         return out
