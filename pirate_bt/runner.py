@@ -13,7 +13,9 @@ What py_trees leaves to its user, the runner does:
   node (deepest first, so ``terminate()`` cancels motion), calls the safe-state
   callback (the supervisor's "stop drives, hold clamps") and ends with failure.
 - **Ctrl-C.** A ``KeyboardInterrupt`` during a tick or a wait is handled the
-  same way; finish hooks still run, so traces are written.
+  same way; finish hooks still run, so traces are written. (``pirate-bt`` raises
+  one for SIGTERM too.) A second Ctrl-C during the safe stop does not cut it short:
+  the safe state is asked for again.
 - **Any non-success end** (failure, time limit) also stops running nodes and
   calls the safe state: the robot is left safe whenever a run does not succeed.
 - **Tick budget.** Each tick's duration (wall time, ``time.perf_counter``) is
@@ -21,11 +23,15 @@ What py_trees leaves to its user, the runner does:
 
 Hooks: ``pre_tick`` hooks run before each tick (poll the robot link here),
 ``post_tick`` hooks after (the trace writer), ``finish`` hooks once with the
-:class:`RunResult`. A hook that raises is treated like a behaviour that raises.
+:class:`RunResult`. A hook that raises is treated like a behaviour that raises; a
+finish hook that raises (a trace that cannot be completed) turns a successful run
+into a failure (``exception``), so that what was asked for is never silently
+missing. Tracebacks are logged at DEBUG only: the result carries them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import logging
 import time
@@ -341,7 +347,8 @@ class Runner:
                 next_s += self.period_s
                 self._wait_until(next_s)
         except KeyboardInterrupt as exc:
-            reason, message, error = StopReason.INTERRUPTED, "interrupted (Ctrl-C)", exc
+            reason, error = StopReason.INTERRUPTED, exc
+            message = f"interrupted ({str(exc) or 'Ctrl-C'})"
         except Exception as exc:
             error = exc
             failing = _culprit(exc, root)
@@ -349,7 +356,7 @@ class Runner:
             reason = StopReason.EXCEPTION
             where = f" in {failing}" if failing else ""
             message = f"{type(exc).__name__}{where}: {exc}"
-            _log.error("run ended by an exception%s:\n%s", where, tb_text)
+            _log.debug("run ended by an exception%s:\n%s", where, tb_text)
         stopped: tuple[str, ...] = ()
         safe_called = False
         if reason is not StopReason.SUCCESS:
@@ -377,8 +384,20 @@ class Runner:
         for on_finish in self.finish:
             try:
                 on_finish(result)
-            except Exception:
-                _log.exception("finish hook failed")
+            except Exception as exc:
+                _log.debug("finish hook failed", exc_info=True)
+                if result.error is None:
+                    # What the run was asked to leave behind (its trace) is not there:
+                    # not a success, and the robot is left safe as after any failure.
+                    result = dataclasses.replace(
+                        result,
+                        outcome="failure",
+                        reason=StopReason.EXCEPTION,
+                        message=f"{type(exc).__name__}: {exc}",
+                        error=exc,
+                        traceback="".join(traceback.format_exception(exc)),
+                        safe_state_called=result.safe_state_called or self._call_safe_state(),
+                    )
         return result
 
     def _wait_until(self, when_s: float) -> None:
@@ -398,23 +417,35 @@ class Runner:
                 continue  # already stopped through a parent
             try:
                 node.stop(Status.INVALID)
-            except Exception:
-                _log.exception("terminate() of %s raised", node_path(node))
+            except Exception as exc:
+                _log.error(
+                    "terminate() of %s raised %s: %s", node_path(node), type(exc).__name__, exc
+                )
+                _log.debug("terminate() raised", exc_info=True)
             stopped.append(node_path(node))
         return tuple(stopped)
 
     def _call_safe_state(self) -> bool:
         if self.safe_state is None:
             return False
-        try:
-            self.safe_state()
-        except BaseException:
-            _log.exception("safe-state callback raised")
-            return False
-        return True
+        for attempt in range(2):
+            try:
+                self.safe_state()
+            except KeyboardInterrupt:  # a second Ctrl-C: the stop is what it asks for
+                if attempt == 0:
+                    continue
+                _log.error("safe-state callback interrupted twice")
+                return False
+            except Exception as exc:
+                _log.error("safe-state callback raised %s: %s", type(exc).__name__, exc)
+                _log.debug("safe-state callback raised", exc_info=True)
+                return False
+            return True
+        return False
 
     def _shutdown(self) -> None:
         try:
             self.tree.shutdown()
-        except Exception:
-            _log.exception("tree shutdown raised")
+        except Exception as exc:
+            _log.error("tree shutdown raised %s: %s", type(exc).__name__, exc)
+            _log.debug("tree shutdown raised", exc_info=True)

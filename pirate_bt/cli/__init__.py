@@ -4,7 +4,14 @@ Verbs live in their own modules and are imported only when chosen, so
 ``pirate-bt --help`` starts fast. Each verb module has ``configure(parser)`` and
 ``run(args) -> int``. Errors become one line each on stderr and the exit codes
 of DESIGN.md: 0 success, 1 the tree or mission failed (robot left safe), 2 invalid
-input, 3 link or hardware error. ``--debug`` shows tracebacks.
+input, 3 link or hardware error. ``--debug`` (before or after the verb) shows tracebacks.
+
+Interruptions: SIGTERM is handled as Ctrl-C (SIGINT) is, so a running tree is stopped
+by the runner and the robot left in its safe state (the run then ends with 1, as
+every run that does not succeed). An interrupt outside a run (loading, planning,
+writing outputs) exits 130 for SIGINT and 143 for SIGTERM. A file that cannot be
+read or written (a directory, a missing folder that cannot be made, a full disk)
+is one line naming it, exit 2.
 """
 
 from __future__ import annotations
@@ -12,10 +19,12 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import signal
 import sys
 from collections.abc import Sequence
 
-__all__ = ["COMMANDS", "main"]
+__all__ = ["COMMANDS", "Terminated", "check_output", "main"]
 
 # verb -> (module, one-line help). Later issues add their verbs here.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -41,6 +50,44 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_INPUT = 2
 EXIT_LINK = 3
+EXIT_SIGINT = 130
+EXIT_SIGTERM = 143
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread as Ctrl-C raises ``KeyboardInterrupt``.
+
+    A ``KeyboardInterrupt``, so everything that stops safely on Ctrl-C (the runner:
+    running nodes stopped, the robot in its safe state, the trace's end record) does
+    the same on SIGTERM; its text names the signal.
+    """
+
+    def __init__(self) -> None:
+        super().__init__("SIGTERM")
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
+    """Refuse an output path that can never be written, before any work is done.
+
+    Raises:
+        InputError: ``path`` is a directory, or a folder on its way is a file.
+    """
+    from pathlib import Path
+
+    from pirate_bt.errors import InputError
+
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(f"{option} {target}: is a directory; name a file")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{option} {target}: {parent} is not a directory")
+            break
 
 
 def _version() -> str:
@@ -59,7 +106,9 @@ def _top_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"pirate-bt {_version()}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks and debug logs")
+    parser.add_argument(
+        "--debug", action="store_true", help="show tracebacks and debug logs (also after COMMAND)"
+    )
     parser.add_argument(
         "--log",
         action="append",
@@ -81,7 +130,9 @@ def _configure_logging(specs: Sequence[str], debug: bool) -> None:
         name, _, level = spec.partition("=")
         level_no = logging.getLevelName(level.upper() or "INFO")
         if not name or not isinstance(level_no, int):
-            raise SystemExit(f"pirate-bt: error: bad --log {spec!r}; write e.g. link=debug")
+            from pirate_bt.errors import InputError
+
+            raise InputError(f"bad --log {spec!r}; write e.g. link=debug")
         logger_name = name if name.startswith("pirate_bt") else f"pirate_bt.{name}"
         logging.getLogger(logger_name).setLevel(level_no)
 
@@ -96,21 +147,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     if top_args.command is None:
         top.print_help(sys.stderr)
         return EXIT_INPUT
-    debug: bool = top_args.debug
     module_name, text = COMMANDS[top_args.command]
     module = importlib.import_module(module_name)
     sub = argparse.ArgumentParser(prog=f"pirate-bt {top_args.command}", description=text)
     module.configure(sub)
+    sub.add_argument("--debug", action="store_true", help=argparse.SUPPRESS)
     try:
         args = sub.parse_args(args_list[split + 1 :])
     except SystemExit as exc:
         return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
+    debug: bool = top_args.debug or args.debug
     args.debug = debug
-    _configure_logging(top_args.log, debug)
     from pirate_bt.errors import PirateError
 
     try:
-        code: int = module.run(args)
+        _configure_logging(top_args.log, debug)
+        with _sigterm_as_interrupt():
+            code: int = module.run(args)
         return code
     except PirateError as exc:
         if debug:
@@ -118,11 +171,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in str(exc).splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
+    except Terminated:
+        print("pirate-bt: terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_SIGTERM
     except KeyboardInterrupt:
         print("pirate-bt: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_SIGINT
     except BrokenPipeError:
         return EXIT_OK
+    except OSError as exc:
+        if debug:
+            raise
+        print(f"pirate-bt: {_os_error(exc)}", file=sys.stderr)
+        return EXIT_INPUT
     except Exception as exc:
         if debug:
             raise
@@ -131,3 +192,31 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_FAILED
+
+
+def _os_error(exc: OSError) -> str:
+    """One line for a file that could not be read or written: the file, then why."""
+    why = exc.strerror or str(exc) or type(exc).__name__
+    name = exc.filename2 if exc.filename2 is not None else exc.filename
+    return f"{name}: {why}" if name is not None else why
+
+
+class _sigterm_as_interrupt:
+    """SIGTERM raises :class:`Terminated` in the main thread while the verb runs.
+
+    Restores the handler before it on exit (``main`` also runs inside tests); does
+    nothing off the main thread, where no handler can be set.
+    """
+
+    def __enter__(self) -> None:
+        self._set = False
+        try:
+            self._previous = signal.getsignal(signal.SIGTERM)
+            signal.signal(signal.SIGTERM, _terminate)
+            self._set = True
+        except ValueError:  # not the main thread
+            pass
+
+    def __exit__(self, *exc: object) -> None:
+        if self._set:
+            signal.signal(signal.SIGTERM, self._previous or signal.SIG_DFL)

@@ -22,8 +22,9 @@ import sys
 from pathlib import Path
 
 from pirate_bt.cli.robot import format_table
+from pirate_bt.render.files import write_diagram
 from pirate_bt.resources import bundled, default_robot_path
-from pirate_bt.robot.diagram import board_table, robot_graph, write_diagram
+from pirate_bt.robot.diagram import board_table, robot_graph
 from pirate_bt.robot.loader import load_robot
 
 __all__ = ["configure", "run"]
@@ -65,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"drew {written}")
         pictures.append(("The robot", written.name))
     except FileNotFoundError as exc:
+        if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz
+            raise
         print(f"pirate-bt: {exc}", file=sys.stderr)
     route = args.route or bundled("scenarios", "lab.route")
     mission_args = argparse.Namespace(

@@ -16,8 +16,6 @@ from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
 
-_TRACE_SUFFIXES = (".jsonl", ".jsonl.gz", ".ndjson")
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("tree", type=Path, help="tree file (.yaml) or trace file (.jsonl)")
@@ -42,7 +40,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def _is_trace(path: Path) -> bool:
-    return path.name.lower().endswith(_TRACE_SUFFIXES)
+    """A trace file by its suffix: any format a reader is registered for (``.mcap`` too)."""
+    from pirate_bt.trace.formats import suffix_of
+    from pirate_bt.trace.reader import READERS
+
+    try:
+        suffix_of(path, READERS)
+    except InputError:
+        return False
+    return True
 
 
 def run(args: argparse.Namespace) -> int:
@@ -101,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         written = render_tree(structure, args.output, status, feedback, title, coverage=coverage)
     except FileNotFoundError as exc:
+        if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz
+            raise
         print(f"pirate-bt: {exc}", file=sys.stderr)
         return 0
     except ValueError as exc:

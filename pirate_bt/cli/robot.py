@@ -10,7 +10,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from pirate_bt.robot.diagram import board_table, robot_graph, write_diagram
+from pirate_bt.errors import InputError
+from pirate_bt.render.files import write_diagram
+from pirate_bt.robot.diagram import board_table, robot_graph
 from pirate_bt.robot.loader import load_robot
 
 __all__ = ["configure", "format_table", "run"]
@@ -64,7 +66,11 @@ def run(args: argparse.Namespace) -> int:
         try:
             written = write_diagram(robot_graph(robot), args.draw)
         except FileNotFoundError as exc:
+            if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz
+                raise
             print(f"pirate-bt: {exc}", file=sys.stderr)
             return 0
+        except ValueError as exc:
+            raise InputError(f"--draw {args.draw}: {exc}") from None
         print(f"drew {written}")
     return 0

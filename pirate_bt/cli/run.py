@@ -23,6 +23,7 @@ from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
 __all__ = [
+    "check_trace_path",
     "configure",
     "open_foxglove",
     "open_groot2",
@@ -175,6 +176,20 @@ def live_outputs(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Any]]:
         yield opened[0], opened[1], opened[2]
 
 
+def check_trace_path(path: str) -> None:
+    """Refuse a ``--trace`` path that can never be written, before anything connects.
+
+    Raises:
+        InputError: an unknown suffix (the known ones listed), or a directory.
+    """
+    from pirate_bt.cli import check_output
+    from pirate_bt.trace.formats import suffix_of
+    from pirate_bt.trace.writer import WRITERS
+
+    suffix_of(path, WRITERS)
+    check_output(path, "--trace")
+
+
 def check_firmware_chain(args: argparse.Namespace) -> None:
     """``--firmware-chain`` with ``--port`` is a mistake: say so before opening anything."""
     if args.port is not None and getattr(args, "firmware_chain", False):
@@ -198,6 +213,8 @@ def run(args: argparse.Namespace) -> int:
     if rate_hz <= 0 or max_time_s <= 0:
         raise InputError("--rate and --max-time must be positive")
     params = parse_params(args.param)
+    if args.trace is not None:
+        check_trace_path(args.trace)
     robot = load_robot(args.robot)
     checked = load_tree(
         find_file("trees", args.tree),

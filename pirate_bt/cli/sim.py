@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import signal
 import sys
 import time
@@ -81,8 +82,12 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.sim import SensorNoise, Simulator
     from pirate_bt.sim.server import SimServer
 
-    if args.speed <= 0:
+    if not math.isfinite(args.speed) or args.speed <= 0:
         raise InputError("--speed must be positive")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise InputError(f"--duration must be a positive number of seconds, not {args.duration:g}")
+    if args.tcp is not None and not 0 <= args.tcp <= 65535:
+        raise InputError(f"--tcp {args.tcp}: a port is 0 to 65535 (0 picks a free one)")
     robot = load_robot(args.robot)
     if args.firmware is not None:
         return _run_firmware(args, robot)

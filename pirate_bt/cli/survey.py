@@ -55,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
+    from pirate_bt.cli import check_output
+
+    check_output(args.output)  # before the survey, not after it
     result = survey(
         sim=args.sim,
         port=args.port,

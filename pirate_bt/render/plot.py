@@ -22,6 +22,7 @@ library pays for it.
 
 from __future__ import annotations
 
+import io
 import math
 import textwrap
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.render.files import write_file
 from pirate_bt.trace.reader import Trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 
@@ -309,7 +311,10 @@ def plot_trace(
 
     Raises:
         ConfigurationError: matplotlib is not installed.
-        InputError: the window is empty or outside the trace.
+        InputError: the window is empty or outside the trace, or ``out`` has no
+            suffix matplotlib writes (``.png``, ``.svg``, ``.pdf``...).
+        OSError: the picture cannot be written (nothing is left of the attempt: it
+            is written whole to a temporary file and renamed).
     """
     duration = trace.duration_s
     lo = 0.0 if start_s is None else start_s
@@ -329,9 +334,9 @@ def plot_trace(
         raise ConfigurationError(
             "plotting needs matplotlib: pip install 'pirate-bt[plot]'"
         ) from None
-    series = plot_series(trace, lo, hi)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    kind = picture_format(out)
+    series = plot_series(trace, lo, hi)
     strips = 2 if zoomed and series.steps != series.pabs else 1
     ratios = [0.28] * strips + [1.0] * len(_PANELS)
     dpi = 100.0
@@ -393,7 +398,26 @@ def plot_trace(
             bottom = 0.06 + lines * (_LABEL_PT + 3) / 72.0 / height_in
             fig.text(0.09, 0.01, wrapped, fontsize=_LABEL_PT, va="bottom", ha="left")
         fig.subplots_adjust(bottom=bottom)
-        fig.savefig(out)
+        picture = io.BytesIO()
+        fig.savefig(picture, format=kind)
     finally:
         plt.close(fig)
-    return out
+    return write_file(out, picture.getvalue())
+
+
+def picture_format(out: Path) -> str:
+    """The picture format matplotlib writes for ``out``'s suffix.
+
+    Raises:
+        InputError: no suffix, or one matplotlib does not write.
+    """
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    known = FigureCanvasBase.get_supported_filetypes()
+    kind = out.suffix.lower()[1:]
+    if kind not in known:
+        raise InputError(
+            f"{out}: cannot plot to {out.suffix or 'a name without a suffix'};"
+            f" use .png or .svg (or {', '.join('.' + k for k in sorted(known))})"
+        )
+    return kind

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 import py_trees
 
 from pirate_bt.errors import ConfigurationError, InputError
-from pirate_bt.robot.diagram import write_diagram
+from pirate_bt.render.files import write_diagram
 from pirate_bt.trace.coverage import Coverage, NodeCoverage
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.reader import READERS, Trace, read_trace

@@ -27,7 +27,7 @@ from typing import IO, Any, ClassVar, cast
 
 import py_trees
 
-from pirate_bt.errors import InputError, LocatedError, SourceLocation
+from pirate_bt.errors import InputError, LocatedError, PirateError, SourceLocation
 from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.formats import register_format, suffix_of
@@ -129,11 +129,19 @@ class GzipJsonLinesReader(TraceFormatReader):
         return cast(IO[bytes], gzip.open(self.path, "rb"))
 
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
+        number = 0
         try:
-            yield from stream
-        except (EOFError, zlib.error, gzip.BadGzipFile):
+            for number, line in enumerate(stream, start=1):  # noqa: B007 (read below)
+                yield line
+        except EOFError:
             # A killed writer leaves no gzip trailer; everything flushed is intact.
             self.truncated = True
+        except (zlib.error, gzip.BadGzipFile) as exc:
+            # Not a cut (that is an EOFError) but damage: bytes changed, or not gzip.
+            raise LocatedError(
+                f"not readable as gzip after {number} lines: {exc}",
+                SourceLocation(str(self.path), number + 1),
+            ) from None
 
 
 ReaderFactory = Callable[[str | Path], TraceFormatReader]
@@ -452,6 +460,30 @@ def read_trace(path: str | Path) -> Trace:
     """
     reader = open_reader(path)
     where = Path(path)
+    try:
+        header, ticks, end = _records(reader, where)
+    except PirateError:
+        raise
+    except Exception as exc:  # a format reader (MCAP, a plugin) stumbling on a bad file
+        raise InputError(f"{where}: cannot read this trace: {type(exc).__name__}: {exc}") from exc
+    if header is None:
+        if reader.truncated:
+            raise LocatedError(
+                "the header record is cut off (the run was cut off before it was written,"
+                " or this is not a trace)",
+                SourceLocation(str(where), 1),
+            )
+        raise InputError(f"{where}: empty trace (no header)")
+    try:
+        return Trace(where, header, ticks, end, reader.truncated)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LocatedError(f"bad tree in header: {exc}", SourceLocation(str(where), 1)) from None
+
+
+def _records(
+    reader: TraceFormatReader, where: Path
+) -> tuple[dict[str, Any] | None, list[TickRecord], dict[str, Any] | None]:
+    """The header, the ticks and the end record of a trace, checked in order."""
     header: dict[str, Any] | None = None
     ticks: list[TickRecord] = []
     end: dict[str, Any] | None = None
@@ -482,9 +514,4 @@ def read_trace(path: str | Path) -> Trace:
             end = record
         else:
             raise LocatedError(f"unknown record type {kind!r}", loc)
-    if header is None:
-        raise InputError(f"{where}: empty trace (no header)")
-    try:
-        return Trace(where, header, ticks, end, reader.truncated)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise LocatedError(f"bad tree in header: {exc}", SourceLocation(str(where), 1)) from None
+    return header, ticks, end

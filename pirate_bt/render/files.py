@@ -1,0 +1,109 @@
+"""Write a picture so that a failure never leaves half of one behind.
+
+:func:`write_file` writes the bytes to a temporary file beside the output and
+renames it over the output only once all of it is written: an existing picture
+stays whole until the new one replaces it, and a write that fails (a full disk)
+removes the temporary file and raises. :func:`write_diagram` writes a diagram's
+``dot`` source and, with Graphviz, its picture that way.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+__all__ = ["DIAGRAM_SUFFIXES", "write_diagram", "write_file"]
+
+DIAGRAM_SUFFIXES = (".dot", ".svg", ".png")
+"""What :func:`write_diagram` draws to."""
+
+
+def write_file(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole or not at all (its folder is made if missing).
+
+    A symbolic link is followed (its target is replaced). A path that exists and is
+    not a regular file (a device such as ``/dev/stdout``, a pipe) is written in place.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        OSError: the file cannot be written (``IsADirectoryError`` for a folder);
+            nothing is left of the attempt.
+    """
+    out = Path(path)
+    try:
+        _write(out, data)
+    except OSError as exc:  # named by the output, not by a temporary file
+        if exc.errno is None:
+            raise
+        raise OSError(exc.errno, exc.strerror, str(out)) from exc
+    return out
+
+
+def _write(out: Path, data: bytes) -> None:
+    target = Path(os.path.realpath(out)) if out.is_symlink() else out
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(out))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    if target.exists() and not target.is_file():
+        with open(target, "wb") as stream:
+            stream.write(data)
+        return
+    fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    try:
+        with open(fd, "wb") as stream:
+            stream.write(data)
+        if target.exists():
+            os.chmod(temp, target.stat().st_mode & 0o777)
+        else:  # what open() would have given: mkstemp makes it private
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(temp, 0o666 & ~mask)
+        os.replace(temp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temp)
+        raise
+
+
+def write_diagram(source: str, out: str | Path) -> Path:
+    """Write ``source`` to ``out`` (``.dot``, ``.svg`` or ``.png`` by suffix).
+
+    The ``.dot`` file is always written beside the picture, so nothing is lost
+    when Graphviz is missing. Each file is written whole or not at all
+    (:func:`write_file`).
+
+    Returns:
+        The path of the ``.dot`` file, or of the picture when one was drawn.
+
+    Raises:
+        FileNotFoundError: ``dot`` is not installed and a picture was asked for
+            (the ``.dot`` file has been written all the same); its ``filename``
+            is ``None``, unlike that of a file that cannot be written.
+        ValueError: an unsupported suffix.
+        OSError: a file cannot be written.
+    """
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix not in DIAGRAM_SUFFIXES:
+        raise ValueError(f"cannot draw to {out.name!r}: use .dot, .svg or .png")
+    if out.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(out))
+    dot_path = out if suffix == ".dot" else out.with_suffix(".dot")
+    write_file(dot_path, source.encode("utf-8"))
+    if suffix == ".dot":
+        return dot_path
+    if shutil.which("dot") is None:
+        raise FileNotFoundError(
+            f"Graphviz 'dot' is not installed, so {out} was not drawn; {dot_path} was written"
+            " (install it with: apt-get install graphviz)"
+        )
+    import graphviz
+
+    write_file(out, graphviz.Source(source).pipe(format=suffix[1:]))
+    return out

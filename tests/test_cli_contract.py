@@ -1,0 +1,315 @@
+"""The command line's contract under hostile input and interruption (DESIGN.md).
+
+Each error is one line on stderr with an exit code of DESIGN.md and no traceback
+(unless ``--debug``); an output that cannot be written is refused before work is
+done, or fails whole (no half-written file); a trace that cannot be written fails the
+run with the robot left safe; SIGTERM stops a run as Ctrl-C does.
+"""
+
+from __future__ import annotations
+
+import gzip
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import py_trees
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.clock import SimClock
+from pirate_bt.runner import Runner, StopReason
+from pirate_bt.trace import read_trace
+
+REPO = Path(__file__).resolve().parent.parent
+STRAIGHT = str(REPO / "trees" / "straight.yaml")
+RUN = ["run", STRAIGHT, "--param", "distance=0.1m", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def trace_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("contract") / "run.jsonl"
+    assert main([*RUN, "--trace", str(path)]) == 0
+    return path
+
+
+def one_error_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.startswith("pirate-bt:")]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and "internal error" not in err, err
+    return lines[0]
+
+
+def no_tracebacks_logged(caplog: pytest.LogCaptureFixture) -> bool:
+    return not [
+        r
+        for r in caplog.records
+        if r.levelno >= logging.WARNING and (r.exc_info or "Traceback" in r.getMessage())
+    ]
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith((".tmp", ".part")))
+
+
+# -- options ----------------------------------------------------------------------------
+
+
+def test_a_bad_log_level_is_bad_input(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--log", "link=loud", "schema", "tree"]) == 2
+    assert "bad --log 'link=loud'" in one_error_line(capsys.readouterr().err)
+
+
+def test_debug_after_the_verb_shows_the_traceback(monkeypatch: pytest.MonkeyPatch) -> None:
+    import pirate_bt.cli.validate as validate
+
+    def boom(*_: object, **__: object) -> None:
+        raise RuntimeError("kaboom")
+
+    monkeypatch.setattr(validate, "validate_file", boom)
+    with pytest.raises(RuntimeError, match="kaboom"):
+        main(["validate", "x.yaml", "--debug"])
+
+
+def test_sim_refuses_a_port_or_duration_that_cannot_be(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "lab", "--tcp", "99999"]) == 2
+    assert "--tcp 99999: a port is 0 to 65535" in one_error_line(capsys.readouterr().err)
+    assert main(["sim", "lab", "--duration", "-1"]) == 2
+    assert "--duration must be a positive" in one_error_line(capsys.readouterr().err)
+
+
+# -- outputs ----------------------------------------------------------------------------
+
+
+def test_outputs_that_are_folders_are_one_line_exit_2(
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "run.jsonl").mkdir()
+    (tmp_path / "tree.svg").mkdir()
+    (tmp_path / "plot.png").mkdir()
+    (tmp_path / "surveyed.yaml").mkdir()
+    assert main([*RUN, "--trace", str(tmp_path / "run.jsonl")]) == 2
+    assert "--trace" in one_error_line(capsys.readouterr().err)
+    assert main(["render", STRAIGHT, "-o", str(tmp_path / "tree.svg")]) == 2
+    assert "tree.svg: Is a directory" in one_error_line(capsys.readouterr().err)
+    assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "plot.png")]) == 2
+    assert "plot.png: Is a directory" in one_error_line(capsys.readouterr().err)
+    # refused before the survey (exit 2), not after it (exit 1, the survey lost)
+    assert main(["survey", "--sim", "straight", "-o", str(tmp_path / "surveyed.yaml")]) == 2
+    assert "is a directory" in one_error_line(capsys.readouterr().err)
+    assert leftovers(tmp_path) == []
+
+
+def test_a_trace_path_under_a_file_is_refused_before_connecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    (tmp_path / "file").write_text("")
+    assert main([*RUN, "--trace", str(tmp_path / "file" / "run.jsonl")]) == 2
+    assert "is not a directory" in one_error_line(capsys.readouterr().err)
+    assert not [r for r in caplog.records if "safe state" in r.getMessage()]  # nothing opened
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs /proc")
+def test_a_diagram_that_cannot_be_written_is_not_a_success(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["render", STRAIGHT, "-o", "/proc/no-such/tree.svg"]) == 2
+    assert "/proc/no-such/tree.dot" in one_error_line(capsys.readouterr().err)
+    assert main(["robot", "--draw", "/proc/robot.svg"]) == 2
+    assert "/proc/robot.dot" in one_error_line(capsys.readouterr().err)
+
+
+def test_pictures_need_a_suffix_they_can_be_written_in(
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "plot")]) == 2
+    assert "cannot plot to a name without a suffix" in one_error_line(capsys.readouterr().err)
+    assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "plot.jsonl")]) == 2
+    assert "cannot plot to .jsonl" in one_error_line(capsys.readouterr().err)
+    assert main(["robot", "--draw", str(tmp_path / "robot")]) == 2
+    assert "use .dot, .svg or .png" in one_error_line(capsys.readouterr().err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_full_disk_fails_a_picture_and_keeps_the_old_one(
+    trace_file: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    (tmp_path / "full.png").symlink_to("/dev/full")
+    assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "full.png")]) == 2
+    assert "full.png: No space left on device" in one_error_line(capsys.readouterr().err)
+    # An existing picture is replaced whole or not at all.
+    old = tmp_path / "tree.svg"
+    old.write_text("old picture")
+    import pirate_bt.render.files as files
+
+    def refuse(*_: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(files.os, "replace", refuse)
+    assert main(["render", STRAIGHT, "-o", str(old)]) == 2
+    monkeypatch.undo()
+    assert "tree.dot: No space left on device" in one_error_line(capsys.readouterr().err)
+    assert old.read_text() == "old picture"
+    assert leftovers(tmp_path) == []
+
+
+# -- a trace that cannot be written -------------------------------------------------------
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("suffix", [".jsonl", ".jsonl.gz"])
+def test_a_trace_into_a_full_disk_fails_the_run_and_leaves_the_robot_safe(
+    suffix: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    path = tmp_path / f"full{suffix}"
+    path.symlink_to("/dev/full")
+    assert main([*RUN, "--trace", str(path)]) == 1  # .jsonl.gz failed only at close: was 0
+    line = one_error_line(capsys.readouterr().err)
+    assert "FAILURE" in line and f"full{suffix}" in line and "No space left on device" in line
+    assert any("safe state" in r.getMessage() for r in caplog.records)
+    assert no_tracebacks_logged(caplog)
+
+
+def test_a_finish_hook_that_fails_fails_the_run_safely() -> None:
+    calls: list[str] = []
+    runner = Runner(
+        py_trees.behaviours.Success("done"),
+        clock=SimClock(),
+        safe_state=lambda: calls.append("safe"),
+    )
+
+    def lose_the_trace(_result: object) -> None:
+        raise RuntimeError("the trace writer failed")
+
+    runner.add_finish(lose_the_trace)
+    result = runner.run()
+    assert (result.outcome, result.reason) == ("failure", StopReason.EXCEPTION)
+    assert "the trace writer failed" in result.message and result.safe_state_called
+    assert calls == ["safe"]
+
+
+def test_a_second_ctrl_c_does_not_cut_the_safe_stop_short() -> None:
+    calls: list[str] = []
+
+    def safe_state() -> None:
+        calls.append("safe")
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+
+    runner = Runner(py_trees.behaviours.Failure("no"), clock=SimClock(), safe_state=safe_state)
+    assert runner.run().safe_state_called
+    assert calls == ["safe", "safe"]
+
+
+# -- traces that cannot be read -------------------------------------------------------------
+
+
+def test_damaged_traces_are_one_line_naming_file_and_line(
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = trace_file.read_bytes()
+    cut_header = tmp_path / "cut-header.jsonl"
+    cut_header.write_bytes(data[:200])
+    assert main(["trace", "summary", str(cut_header)]) == 2
+    assert f"{cut_header}:1:1: the header record is cut off" in one_error_line(
+        capsys.readouterr().err
+    )
+    not_gzip = tmp_path / "plain.jsonl.gz"
+    not_gzip.write_bytes(data)
+    assert main(["trace", "show", str(not_gzip)]) == 2
+    assert f"{not_gzip}:1:1: not readable as gzip" in one_error_line(capsys.readouterr().err)
+    packed = gzip.compress(data)
+    damaged = tmp_path / "damaged.jsonl.gz"
+    damaged.write_bytes(packed[:-8] + bytes(b ^ 0xFF for b in packed[-8:-4]) + packed[-4:])
+    assert main(["trace", "summary", str(damaged)]) == 2  # was read as a cut-off run
+    assert f"{damaged}:" in one_error_line(capsys.readouterr().err)
+    cut = tmp_path / "cut.jsonl.gz"
+    cut.write_bytes(packed[: len(packed) // 2])  # a killed writer: read up to the cut
+    assert main(["trace", "summary", str(cut)]) == 0
+    assert "incomplete" in capsys.readouterr().out
+
+
+def test_a_format_reader_that_stumbles_is_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("mcap")
+    garbage = tmp_path / "garbage.mcap"
+    garbage.write_bytes(b"garbage")
+    assert main(["trace", "summary", str(garbage)]) == 2
+    assert f"{garbage}: cannot read this trace" in one_error_line(capsys.readouterr().err)
+
+
+# -- interruption -----------------------------------------------------------------------------
+
+
+def test_interrupts_outside_a_run_exit_130_or_143(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pirate_bt.cli.schema as schema
+
+    def terminated(_args: object) -> int:
+        os.kill(os.getpid(), signal.SIGTERM)  # raises in this thread, from main's handler
+        raise AssertionError("SIGTERM did not interrupt")
+
+    def unhandled(_signum: int, _frame: object) -> None:
+        raise AssertionError("main left SIGTERM to the handler it found")
+
+    monkeypatch.setattr(schema, "run", terminated)
+    before = signal.signal(signal.SIGTERM, unhandled)
+    try:
+        assert main(["schema", "tree"]) == 143
+        assert signal.getsignal(signal.SIGTERM) is unhandled  # left as found
+    finally:
+        signal.signal(signal.SIGTERM, before)
+    assert "terminated (SIGTERM)" in one_error_line(capsys.readouterr().err)
+
+    def interrupted(_args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(schema, "run", interrupted)
+    assert main(["schema", "tree"]) == 130
+
+
+@pytest.mark.usefixtures("ctrl_c_reaches_children")
+def test_sigint_and_sigterm_stop_a_run_safely_with_its_trace_whole(tmp_path: Path) -> None:
+    signalled_runs = {"INT": tmp_path / "int.jsonl", "TERM": tmp_path / "term.jsonl"}
+    procs: dict[str, subprocess.Popen[str]] = {}
+    for name, path in signalled_runs.items():
+        procs[name] = subprocess.Popen(
+            [sys.executable, "-m", "pirate_bt", "run", STRAIGHT, "--param", "distance=5m",
+             "--realtime", "--quiet", "--trace", str(path)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 20
+        for name, path in signalled_runs.items():
+            while not (path.exists() and path.read_bytes().count(b'"type":"tick"') >= 3):
+                assert procs[name].poll() is None and time.monotonic() < deadline
+                time.sleep(0.02)
+            procs[name].send_signal(getattr(signal, f"SIG{name}"))
+        done = {name: proc.communicate(timeout=20) for name, proc in procs.items()}
+    finally:
+        for proc in procs.values():
+            if proc.poll() is None:
+                proc.kill()
+    for name, path in signalled_runs.items():
+        err = done[name][1]
+        assert procs[name].returncode == 1, err  # a run that did not succeed, robot safe
+        why = "Ctrl-C" if name == "INT" else "SIGTERM"
+        assert f"interrupted ({why})" in one_error_line(err)
+        assert "safe state" in err
+        trace = read_trace(path)
+        assert trace.outcome == "interrupted" and trace.why == f"interrupted ({why})"
