@@ -84,8 +84,13 @@ class Locator:
         for element in path:
             candidate = (*current, element)
             if candidate not in self.marks:
-                # A value merged in with ``<<: *anchor`` is written in the anchor.
+                # A value merged in with ``<<: *anchor`` is written in the anchor;
+                # with ``<<: [*a, *b]`` in the first of them that has it.
                 candidate = (*current, "<<", element)
+                i = 0
+                while candidate not in self.marks and (*current, "<<", i) in self.marks:
+                    candidate = (*current, "<<", i, element)
+                    i += 1
             if candidate in self.marks:
                 current = candidate
                 best = self.marks[candidate]

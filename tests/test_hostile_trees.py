@@ -71,6 +71,16 @@ def test_a_mapping_as_a_key_is_named_in_the_words_of_the_file(
     assert err == [_where(tmp_path, "2:3") + "a key must be a plain value, not a mapping"]
 
 
+def test_a_value_merged_from_a_list_of_mappings_is_located_where_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, err = _validate(tmp_path, capsys, "root:\n  <<: [{type: wait}, {duration: 2}]\n")
+    assert (code, err) == (
+        2,
+        [_where(tmp_path, "2:23") + "wait: 2 needs a unit: write it as e.g. '2 s'"],
+    )
+
+
 def test_utf16_is_named_as_such(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, err = _validate(tmp_path, capsys, "root: success\n".encode("utf-16"))
     assert code == 2
