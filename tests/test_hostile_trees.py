@@ -164,6 +164,22 @@ def test_the_tree_s_name_follows_the_rules_of_the_node_name_it_becomes(
     assert (code, err) == (0, [])  # the root keeps its own name
 
 
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("root: {type: " + "w" * 100_000 + "}\n", "unknown node type 'www"),
+        ("root: {type: subtree, ref: " + "k" * 100_000 + "}\n", "no subtree named 'kkk"),
+        ("root: {type: log, message: $" + "p" * 100_000 + "}\n", "unknown parameter $ppp"),
+    ],
+)
+def test_a_huge_name_is_cut_short_in_the_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str
+) -> None:
+    code, err = _validate(tmp_path, capsys, text)
+    assert code == 2 and len(err) == 1
+    assert message in err[0] and "..." in err[0] and len(err[0]) < len(str(tmp_path)) + 150
+
+
 def _inverters(levels: int) -> str:
     node = "success"
     for _ in range(levels):

@@ -89,7 +89,7 @@ class _Reader:
         if key in self.docs:
             return self.docs[key]
         if not path.is_file():
-            self.error(doc, at, f"subtree file {str(path)!r} not found")
+            self.error(doc, at, f"subtree file {_shown(str(path))} not found")
             return None
         try:
             loaded = load_yaml(path)
@@ -257,11 +257,13 @@ class _Reader:
                 if name in env.values:
                     return env.values[name]
                 known = ", ".join(f"${n}" for n in env.values) or "none declared"
-                self.error(env.doc, path, f"unknown parameter ${name} (parameters: {known})")
+                self.error(
+                    env.doc, path, f"unknown parameter ${_shown(name)[1:-1]} (parameters: {known})"
+                )
                 self.unbound.append(path)
                 return None
             if value.startswith("$"):
-                self.error(env.doc, path, f"{value!r}: write $name, or $$ for a literal $")
+                self.error(env.doc, path, f"{_shown(value)}: write $name, or $$ for a literal $")
             return value
         if isinstance(value, dict):
             return {k: self.subst(env, v, (*path, k)) for k, v in value.items()}
@@ -471,7 +473,7 @@ class _Reader:
                 return None
             name = tree_name if hash_sign else ""
         elif hash_sign:
-            self.error(doc, (*path, "ref"), f"ref {ref!r}: write FILE.yaml#NAME or NAME")
+            self.error(doc, (*path, "ref"), f"ref {_shown(ref)}: write FILE.yaml#NAME or NAME")
             return None
         else:
             target_doc, name = doc, file_part
@@ -487,7 +489,7 @@ class _Reader:
                 close = difflib.get_close_matches(name, known, n=2)
                 hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
                 where = f" in {target_doc.file}" if target_doc is not doc else ""
-                self.error(doc, (*path, "ref"), f"no subtree named {name!r}{where}{hint}")
+                self.error(doc, (*path, "ref"), f"no subtree named {_shown(name)}{where}{hint}")
                 return None
             body = subtrees[name]
             body_path: PathKey = ("subtrees", name)
@@ -530,6 +532,11 @@ class _Reader:
         return result
 
 
+def _shown(text: str) -> str:
+    """``text`` quoted for a message, cut short when it is long (a hostile file's)."""
+    return repr(text) if len(text) <= 60 else repr(text[:57] + "...")
+
+
 def _name_problem(name: object) -> str | None:
     """What is wrong with a node's (or a tree's) name, if anything."""
     if not (isinstance(name, str) and name.strip()):
@@ -550,7 +557,7 @@ def _unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
 
     close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
-    return f"unknown key {key!r}{hint}"
+    return f"unknown key {_shown(key) if isinstance(key, str) else repr(key)}{hint}"
 
 
 def _dedupe(children: list[NodeSpec], reader: _Reader, doc: YamlDocument) -> None:

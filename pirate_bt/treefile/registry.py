@@ -102,7 +102,8 @@ class UnknownNode(KeyError):
         self.name = name
         self.suggestions = suggestions
         hint = f"; did you mean {' or '.join(repr(s) for s in suggestions)}?" if suggestions else ""
-        super().__init__(f"unknown node type {name!r}{hint}")
+        shown = repr(name) if len(name) <= 60 else repr(name[:57] + "...")
+        super().__init__(f"unknown node type {shown}{hint}")
 
     def __str__(self) -> str:
         return str(self.args[0])
