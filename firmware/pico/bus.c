@@ -124,10 +124,13 @@ static void frame(void) {
 void bus_poll(void) {
     int16_t c;
     while ((c = hal_bus_getc()) >= 0) {
+        uint8_t byte = (uint8_t)c;
         if (c & HAL_RX_ERROR) {
+            if (byte == 0 && bus.n == 0 && !bus.damaged) {
+                continue; /* a break with nothing before it: no frame, not a bad one */
+            }
             bus.damaged = true;
         }
-        uint8_t byte = (uint8_t)c;
         if (byte != 0) {
             if (bus.n < WIRE_MAX) {
                 bus.raw[bus.n++] = byte;

@@ -170,10 +170,14 @@ enum bus_result board_bus_poll(struct bus_reply *reply) {
     }
     int16_t c;
     while ((c = uart1_getc()) >= 0) {
+        uint8_t byte = (uint8_t)c;
         if (c & UART_RX_ERROR) {
+            if (byte == 0 && bus.rx_n == 0 && !bus.rx_overflow) {
+                continue; /* a break with nothing before it (a driver turning on): no
+                           * frame, as a clean lone delimiter is none */
+            }
             bus.rx_overflow = true; /* a damaged byte: the reply is dropped */
         }
-        uint8_t byte = (uint8_t)c;
         if (byte != 0) {
             if (bus.rx_n < WIRE_MAX) {
                 bus.rx_raw[bus.rx_n++] = byte;
