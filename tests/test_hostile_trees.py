@@ -406,6 +406,21 @@ def test_xml_too_large_for_a_tree_file_is_refused_in_the_xml(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.xml"]
 
 
+@pytest.mark.parametrize(
+    ("node", "message"),
+    [
+        ("<" + "w" * 100_000 + "/>", "unknown node type 'www"),
+        ('<wait duration="1 s" ' + "k" * 100_000 + '="1"/>', "wait: unknown port 'kkk"),
+    ],
+)
+def test_a_huge_xml_name_is_cut_short_in_the_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], node: str, message: str
+) -> None:
+    code, err = _import(tmp_path, capsys, _xml(f'<BehaviorTree ID="A">{node}</BehaviorTree>'))
+    assert code == 2 and len(err) == 1
+    assert message in err[0] and "..." in err[0] and len(err[0]) < len(str(tmp_path)) + 150
+
+
 def test_a_message_names_places_in_the_xml_never_the_temporary_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

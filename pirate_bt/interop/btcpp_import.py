@@ -27,6 +27,7 @@ from pirate_bt.interop.btcpp_models import (
     BTCPP_FORMAT,
     FROM_BTCPP,
     TO_BTCPP,
+    _shown,
     decode_value,
     node_models,
 )
@@ -66,7 +67,7 @@ class _Importer:
         fmt = root.attrs.get("BTCPP_format")
         if fmt != BTCPP_FORMAT:
             raise root.error(
-                f"BTCPP_format={fmt!r}: only BehaviorTree.CPP version 4 files are read"
+                f"BTCPP_format={_shown(fmt)}: only BehaviorTree.CPP version 4 files are read"
                 " (convert version 3 files with BT.CPP's convert_v3_to_v4.py)"
                 if fmt
                 else 'missing BTCPP_format="4" on <root>'
@@ -79,19 +80,19 @@ class _Importer:
                     raise child.error("<BehaviorTree> without an ID")
                 if tree_id in self.trees:
                     raise child.error(
-                        f"a second <BehaviorTree ID={tree_id!r}> (first at"
+                        f"a second <BehaviorTree ID={_shown(tree_id)}> (first at"
                         f" {self.trees[tree_id].location})"
                     )
                 if tree_id in self.models or tree_id in _BTCPP_BUILTINS:
-                    raise child.error(f"tree ID {tree_id!r} is the name of a node type")
+                    raise child.error(f"tree ID {_shown(tree_id)} is the name of a node type")
                 if "#" in tree_id or tree_id.endswith((".yaml", ".yml")):
                     raise child.error(
-                        f"tree ID {tree_id!r} would read as a file in a pirate_bt subtree"
+                        f"tree ID {_shown(tree_id)} would read as a file in a pirate_bt subtree"
                         " reference: no '#', no .yaml or .yml ending"
                     )
                 if len(child.children) != 1:
                     raise child.error(
-                        f"<BehaviorTree ID={tree_id!r}> must have exactly one child,"
+                        f"<BehaviorTree ID={_shown(tree_id)}> must have exactly one child,"
                         f" not {len(child.children)}"
                     )
                 self.trees[tree_id] = child
@@ -118,7 +119,7 @@ class _Importer:
             main = next(iter(self.trees))
         elif main not in self.trees:
             raise root.error(
-                f"main_tree_to_execute={main!r}: no such <BehaviorTree>"
+                f"main_tree_to_execute={_shown(main)}: no such <BehaviorTree>"
                 + _suggest(main, list(self.trees))
             )
         self.check_cycles(main)
@@ -172,7 +173,7 @@ class _Importer:
             if model.tag == "SubTree":
                 if model_id in self.subtree_models:
                     raise model.error(
-                        f"a second <SubTree ID={model_id!r}> model (first at"
+                        f"a second <SubTree ID={_shown(model_id)}> model (first at"
                         f" {self.subtree_models[model_id].location})"
                     )
                 self.subtree_models[model_id] = model
@@ -217,7 +218,7 @@ class _Importer:
                     raise element.error("<SubTree> without an ID")
                 if target not in self.trees:
                     raise element.error(
-                        f"<SubTree ID={target!r}>: no such <BehaviorTree>"
+                        f"<SubTree ID={_shown(target)}>: no such <BehaviorTree>"
                         + _suggest(target, list(self.trees))
                     )
                 if state.get(target) == 1:
@@ -240,13 +241,15 @@ class _Importer:
                 )
             name = port.attrs.get("name", "")
             if not name.isidentifier():
-                raise port.error(f"port name {name!r} must be an identifier")
+                raise port.error(f"port name {_shown(name)} must be an identifier")
             if name in out:
-                raise port.error(f"a second input_port {name!r} in <SubTree ID={tree_id!r}>")
+                raise port.error(
+                    f"a second input_port {_shown(name)} in <SubTree ID={_shown(tree_id)}>"
+                )
             kind = port.attrs.get("type", "string")
             if kind not in _PARAM_TYPES:
                 raise port.error(
-                    f"port {name!r}: type {kind!r} is not a pirate_bt parameter type"
+                    f"port {_shown(name)}: type {_shown(kind)} is not a pirate_bt parameter type"
                     f" ({', '.join(sorted(_PARAM_TYPES))})"
                 )
             decl: dict[str, Any] = {"type": kind}
@@ -258,7 +261,7 @@ class _Importer:
                 if "choices" in port.attrs:
                     decl["choices"] = decode_value(port.attrs["choices"], "json")
             except ValueError as exc:
-                raise port.error(f"port {name!r}: {exc}") from None
+                raise port.error(f"port {_shown(name)}: {exc}") from None
             description = port.attrs.get("description") or port.text.strip()
             if description:
                 decl["description"] = description
@@ -300,11 +303,11 @@ class _Importer:
             out = self.registered(element, tag, ports, name)
         elif tag in _BTCPP_BUILTINS:
             raise element.error(
-                f"BT.CPP node {tag!r} has no pirate_bt counterpart (see docs/interop.md)"
+                f"BT.CPP node {_shown(tag)} has no pirate_bt counterpart (see docs/interop.md)"
             )
         else:
             known = sorted({*self.models, *FROM_BTCPP})
-            raise element.error(f"unknown node type {tag!r}" + _suggest(tag, known))
+            raise element.error(f"unknown node type {_shown(tag)}" + _suggest(tag, known))
         if description is not None:
             out["description"] = description
         self.origin[id(out)] = element
@@ -345,7 +348,8 @@ class _Importer:
             if decl is None:
                 known = ", ".join(declared) or "none declared"
                 raise element.error(
-                    f"<SubTree ID={target!r}>: port {key!r} is not a parameter of {target!r}"
+                    f"<SubTree ID={_shown(target)}>: port {_shown(key)} is not a parameter"
+                    f" of {_shown(target)}"
                     f" (parameters: {known}; declare them in <TreeNodesModel>)"
                 )
             try:
@@ -386,7 +390,7 @@ class _Importer:
         for key in ports:
             if key not in allowed:
                 known = ", ".join(sorted(allowed)) or "none"
-                raise element.error(f"<{tag}> has no port {key!r} (ports: {known})")
+                raise element.error(f"<{tag}> has no port {_shown(key)} (ports: {known})")
         if hint == "eternal_guard" and tag == "ReactiveSequence":
             kids = self.children(element, 2)
             out = self.named("eternal_guard", name)
@@ -394,7 +398,7 @@ class _Importer:
             out["child"] = kids[-1]
             return out
         if hint is not None:
-            raise element.error(f"{_HINT}={hint!r} is only known on a <ReactiveSequence>")
+            raise element.error(f"{_HINT}={_shown(hint)} is only known on a <ReactiveSequence>")
         out = self.named(kind, name)
         if tag in ("Sequence", "ReactiveSequence", "Fallback", "ReactiveFallback"):
             memory = tag in ("Sequence", "Fallback")
@@ -410,7 +414,8 @@ class _Importer:
                 out["policy"] = "one"
             else:
                 raise element.error(
-                    f"<Parallel success_count={counts[0]!r} failure_count={counts[1]!r}>:"
+                    f"<Parallel success_count={_shown(counts[0])}"
+                    f" failure_count={_shown(counts[1])}>:"
                     " pirate_bt's parallel succeeds on all (-1, 1) or one (1, 1) child"
                 )
             out["children"] = self.children(element, 1)
@@ -431,7 +436,7 @@ class _Importer:
                 raise element.error(f"{key}: {exc}") from None
             if isinstance(value, int) and value < 1:
                 raise element.error(
-                    f"{key}={text!r}: pirate_bt's {kind} needs a count of at least 1"
+                    f"{key}={_shown(text)}: pirate_bt's {kind} needs a count of at least 1"
                 )
             out[renames[key]] = value
         if self.models[kind].category == "Decorator":
@@ -451,7 +456,7 @@ class _Importer:
             if port is None:
                 known = ", ".join(p.name for p in model.ports) or "none"
                 raise element.error(
-                    f"{kind}: unknown port {key!r} (ports: {known})"
+                    f"{kind}: unknown port {_shown(key)} (ports: {known})"
                     + _suggest(key, [p.name for p in model.ports])
                 )
             try:
@@ -466,7 +471,7 @@ class _Importer:
         elif model.category == "Control":
             out["children"] = self.children(element, 1)
         elif element.children:
-            raise element.error(f"{kind!r} is a leaf and takes no children")
+            raise element.error(f"{_shown(kind)} is a leaf and takes no children")
         return out
 
     def check_params(self, element: XmlElement, kind: str, params: dict[str, Any]) -> None:
