@@ -298,21 +298,20 @@ def _layout_header(build: Path) -> None:
 
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Builds]:
-    """Both host libraries, plain (bounds checks that trap) and with ASan and UBSan, built
-    at once; the sanitized ones may go on in the background."""
+    """Both host libraries, plain (bounds checks that trap), then with ASan and UBSan in
+    the background."""
     if shutil.which("cc") is None or shutil.which("make") is None:
         pytest.skip("no host C compiler (cc) or make: the firmwares' C cannot be built")
     plain = tmp_path_factory.mktemp("bus-plain")
     asan = tmp_path_factory.mktemp("bus-asan")
     for build in (plain, asan):
         _layout_header(build)
-    jobs = [_make("pico", plain), _make("piratebay", plain)]
-    asan_jobs = [
-        _make("piratebay", asan, f"HOST_SANITIZE={ASAN}"),
-        _make("pico", asan, f"HOST_SANITIZE={ASAN}"),
-    ]
-    for job in jobs:
+    for job in [_make("pico", plain), _make("piratebay", plain)]:
         _wait(job)
+    asan_jobs = [  # while the tests run (the last one needs them)
+        _make("piratebay", asan, "HOST_OPT=-O0", f"HOST_SANITIZE={ASAN}"),
+        _make("pico", asan, "HOST_OPT=-O0", f"HOST_SANITIZE={ASAN}"),
+    ]
     result = Builds(plain, asan, asan_jobs)
     yield result
     for job in result.asan_jobs:
@@ -933,6 +932,77 @@ def test_only_a_good_frame_to_the_board_is_the_masters_voice(pico: Pico) -> None
     assert status & OWN_STOP and pico.motors(2) == [(1, 300), (0, 0)]  # not applied
 
 
+def test_a_flagged_lone_delimiter_before_a_reply_is_no_frame(master: BusMaster) -> None:
+    """A 0x00 with a framing error and nothing before it (the break a transceiver's
+    driver can put on the line as it turns on) is no frame, as a clean lone 0x00 is:
+    the reply after it is taken. Before, it ended the exchange as a bad reply, every
+    time, so such a board was in TIMEOUT for good."""
+    master.behaviour[22] = lambda body, reply: [(TURNAROUND_US, b"\x00" + reply, 0)]
+    master.run(25)
+    fresh, _, status, _ = master.state()
+    assert master.fresh(22, fresh) and status[BOARDS.index(22)] & (ONLINE | TIMEOUT) == ONLINE
+    assert master.counters()[22] == (0, 0, 0)
+
+
+def test_a_board_counts_a_flagged_lone_delimiter_as_no_frame(pico: Pico) -> None:
+    """The same break on a board's line: not a bad frame (the PICO counts its bad
+    frames in pico_debug), and the request after it is answered."""
+    pico.boot(22)
+    pico.run_to(5000)
+    request = doc_request(22, EXCHANGE, [(KEEP, 0), (KEEP, 0)])
+    pico.write(b"\x00" + request, damaged_at=0)
+    pico.run_to(5400)
+    assert doc_take_reply(22, pico.read()[:-1]) is not None
+    pico.write(b"\x05\x00", damaged_at=1)  # a flagged delimiter ending bytes: a bad frame
+    pico.run_to(6500)  # pico_debug takes the counts at the next millisecond
+    record = (ctypes.c_uint16 * 16)()  # struct pico_debug (pico.h), as uint16 words
+    pico.lib.pk_debug(record)
+    assert record[5:8] == [1, 0, 1]  # exchanges, stops, bad frames
+
+
+def _random_reply(rng: random.Random) -> bytes:
+    good = _reply(22, status=rng.choice([0, 1, 2, 3]), channels=[rng.randint(-99, 99)] * 4)
+    kind = rng.randrange(4)
+    if kind == 0:  # CRC-valid, any address, command and length
+        addr = rng.choice([22, 22, 23, 0, 0xFF])
+        cmd = rng.choice([REPLY, REPLY, EXCHANGE, 0x80, rng.randrange(256)])
+        return wire(bytes([addr, cmd]) + rng.randbytes(rng.choice([9, 9, 8, 10, 1, 30])))
+    frame = bytearray(good[:-1])
+    i = rng.randrange(len(frame))
+    if kind == 1:
+        frame[i] ^= 1 << rng.randrange(8)
+    elif kind == 2:
+        del frame[i]
+    else:
+        frame.insert(i, rng.randrange(1, 256))
+    return bytes(b for b in frame if b) + b"\x00"
+
+
+def test_the_bridge_and_the_pages_master_judge_random_replies_alike(master: BusMaster) -> None:
+    """30 random replies of board 22 (CRC-valid nonsense, damaged good replies), one a
+    period; a good reply follows each one the page's master refuses, for the retry. The
+    bridge must count exactly those in crc_errors, and no timeout."""
+    rng = random.Random(11)
+    replies = [_random_reply(rng) for _ in range(30)]
+    bad = [doc_take_reply(22, r[:-1]) is None for r in replies]
+    given: list[bool] = []
+    retry = [False]
+
+    def behaviour(body: bytes, reply: bytes) -> list[tuple[int, bytes]]:
+        if retry[0] or len(given) == len(replies):
+            retry[0] = False
+            return [(TURNAROUND_US, reply)]
+        given.append(bad[len(given)])
+        retry[0] = given[-1]
+        return [(TURNAROUND_US, replies[len(given) - 1])]
+
+    master.behaviour[22] = behaviour
+    master.run(10 * len(replies) + 15, step_us=20)
+    assert len(given) == len(replies) and 5 < sum(bad) < len(bad)
+    timeouts, crc, _ = master.counters()[22]
+    assert (timeouts, crc) == (0, sum(bad))
+
+
 # -- every C receiver under AddressSanitizer and UBSan --------------------------------------
 
 _CHILD = r"""
@@ -1008,74 +1078,3 @@ def test_the_c_receivers_survive_hostile_streams_under_asan(builds: Builds, tmp_
     )
     assert done.returncode == 0 and done.stdout.startswith("ok"), done.stderr[-3000:]
     assert "runtime error" not in done.stderr and "Sanitizer" not in done.stderr
-
-
-def test_a_flagged_lone_delimiter_before_a_reply_is_no_frame(master: BusMaster) -> None:
-    """A 0x00 with a framing error and nothing before it (the break a transceiver's
-    driver can put on the line as it turns on) is no frame, as a clean lone 0x00 is:
-    the reply after it is taken. Before, it ended the exchange as a bad reply, every
-    time, so such a board was in TIMEOUT for good."""
-    master.behaviour[22] = lambda body, reply: [(TURNAROUND_US, b"\x00" + reply, 0)]
-    master.run(25)
-    fresh, _, status, _ = master.state()
-    assert master.fresh(22, fresh) and status[BOARDS.index(22)] & (ONLINE | TIMEOUT) == ONLINE
-    assert master.counters()[22] == (0, 0, 0)
-
-
-def test_a_board_counts_a_flagged_lone_delimiter_as_no_frame(pico: Pico) -> None:
-    """The same break on a board's line: not a bad frame (the PICO counts its bad
-    frames in pico_debug), and the request after it is answered."""
-    pico.boot(22)
-    pico.run_to(5000)
-    request = doc_request(22, EXCHANGE, [(KEEP, 0), (KEEP, 0)])
-    pico.write(b"\x00" + request, damaged_at=0)
-    pico.run_to(5400)
-    assert doc_take_reply(22, pico.read()[:-1]) is not None
-    pico.write(b"\x05\x00", damaged_at=1)  # a flagged delimiter ending bytes: a bad frame
-    pico.run_to(6500)  # pico_debug takes the counts at the next millisecond
-    record = (ctypes.c_uint16 * 16)()  # struct pico_debug (pico.h), as uint16 words
-    pico.lib.pk_debug(record)
-    assert record[5:8] == [1, 0, 1]  # exchanges, stops, bad frames
-
-
-def _random_reply(rng: random.Random) -> bytes:
-    good = _reply(22, status=rng.choice([0, 1, 2, 3]), channels=[rng.randint(-99, 99)] * 4)
-    kind = rng.randrange(4)
-    if kind == 0:  # CRC-valid, any address, command and length
-        addr = rng.choice([22, 22, 23, 0, 0xFF])
-        cmd = rng.choice([REPLY, REPLY, EXCHANGE, 0x80, rng.randrange(256)])
-        return wire(bytes([addr, cmd]) + rng.randbytes(rng.choice([9, 9, 8, 10, 1, 30])))
-    frame = bytearray(good[:-1])
-    i = rng.randrange(len(frame))
-    if kind == 1:
-        frame[i] ^= 1 << rng.randrange(8)
-    elif kind == 2:
-        del frame[i]
-    else:
-        frame.insert(i, rng.randrange(1, 256))
-    return bytes(b for b in frame if b) + b"\x00"
-
-
-def test_the_bridge_and_the_pages_master_judge_random_replies_alike(master: BusMaster) -> None:
-    """30 random replies of board 22 (CRC-valid nonsense, damaged good replies), one a
-    period; a good reply follows each one the page's master refuses, for the retry. The
-    bridge must count exactly those in crc_errors, and no timeout."""
-    rng = random.Random(11)
-    replies = [_random_reply(rng) for _ in range(30)]
-    bad = [doc_take_reply(22, r[:-1]) is None for r in replies]
-    given: list[bool] = []
-    retry = [False]
-
-    def behaviour(body: bytes, reply: bytes) -> list[tuple[int, bytes]]:
-        if retry[0] or len(given) == len(replies):
-            retry[0] = False
-            return [(TURNAROUND_US, reply)]
-        given.append(bad[len(given)])
-        retry[0] = given[-1]
-        return [(TURNAROUND_US, replies[len(given) - 1])]
-
-    master.behaviour[22] = behaviour
-    master.run(10 * len(replies) + 15, step_us=20)
-    assert len(given) == len(replies) and 5 < sum(bad) < len(bad)
-    timeouts, crc, _ = master.counters()[22]
-    assert (timeouts, crc) == (0, sum(bad))
