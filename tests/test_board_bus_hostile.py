@@ -1012,16 +1012,19 @@ bridge = ctypes.CDLL(sys.argv[2])
 data = open(sys.argv[3], "rb").read()
 pieces, i = [], 0
 while i < len(data):
-    n = int.from_bytes(data[i:i + 2], "little")
-    pieces.append(data[i + 2:i + 2 + n])
-    i += 2 + n
+    n = int.from_bytes(data[i + 1:i + 3], "little")
+    pieces.append((data[i], data[i + 3:i + 3 + n]))
+    i += 3 + n
 rng = random.Random(5)
-pico.pk_boot(22, 0)
 for board in range(9):
     bridge.fw_board(board, 0, 0)
 bridge.fw_boot()
 out = ctypes.create_string_buffer(1 << 16)
-for piece in pieces:
+booted = None
+for board, piece in pieces:
+    if board != booted:  # a new stream, another board: a power-on or a watchdog reset
+        pico.pk_boot(board, rng.randrange(2))
+        booted = board
     for chunk in (piece[:7], piece[7:]):
         pico.pk_write(chunk, len(chunk))
         pico.pk_run_us(rng.choice([10, 30, 300]))
@@ -1042,18 +1045,20 @@ print("ok", len(pieces))
 
 def test_the_c_receivers_survive_hostile_streams_under_asan(builds: Builds, tmp_path: Path) -> None:
     """Both firmwares' C, built with -fsanitize=address,undefined, fed 200 hostile
-    streams (the PICO as a board, the bridge as the boards' replies, at random moments
-    of its exchanges): no sanitizer report, no crash."""
+    streams (the PICO as each board in turn, the bridge as the boards' replies, at
+    random moments of its exchanges): no sanitizer report, no crash."""
     runtime = subprocess.run(
         ["cc", "-print-file-name=libasan.so"], capture_output=True, text=True, check=False
     ).stdout.strip()
     if not runtime or not Path(runtime).exists():
         pytest.skip("the compiler has no AddressSanitizer runtime (libasan.so)")
-    streams = bytearray()
+    streams, count = bytearray(), 0
     for seed in range(200):
         rng = random.Random(1000 + seed)
-        for piece in _slots(hostile_stream(rng, 22)):
-            streams += len(piece).to_bytes(2, "little") + piece
+        board = BOARDS[seed % len(BOARDS)]
+        for piece in _slots(hostile_stream(rng, board)):
+            streams += bytes([board]) + len(piece).to_bytes(2, "little") + piece
+            count += 1
     (tmp_path / "streams").write_bytes(streams)
     build = builds.asan_ready()
     done = subprocess.run(
@@ -1076,5 +1081,6 @@ def test_the_c_receivers_survive_hostile_streams_under_asan(builds: Builds, tmp_
             "UBSAN_OPTIONS": "halt_on_error=1:print_stacktrace=1:exitcode=98",
         },
     )
-    assert done.returncode == 0 and done.stdout.startswith("ok"), done.stderr[-3000:]
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.split() == ["ok", str(count)] and count > 3000
     assert "runtime error" not in done.stderr and "Sanitizer" not in done.stderr
