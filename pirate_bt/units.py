@@ -121,13 +121,17 @@ _DISPLAY: Final[dict[str, tuple[str, float]]] = {
 }
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
-_QUANTITY_RE: Final = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>.*?)\s*$")
-_TERM_RE: Final = re.compile(r"^(?P<name>[A-Za-z°%]+|1)(?:\^(?P<pow>[+-]?\d+))?$")
+# ASCII only: \d would take other scripts' digits ('١ s'), which no reader expects
+_QUANTITY_RE: Final = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>.*?)\s*$", re.ASCII)
+_TERM_RE: Final = re.compile(r"^(?P<name>[A-Za-z°%]+|1)(?:\^(?P<pow>[+-]?\d+))?$", re.ASCII)
+_MAX_POWER: Final = 4
+"""Largest exponent of a unit term (m^3, s^-2 and their like; km^999999 overflows)."""
 _QUANTITY_PATTERN: Final = rf"^\s*{_NUMBER}\s*[A-Za-z°%0-9*·/^ +-]*$"
 
 
 def _article(noun: str) -> str:
-    return ("an " if noun[:1] in "aeiou" else "a ") + noun.replace("_", " ")
+    vowel = noun[:1] in "aeiou" and not noun.startswith("unit")  # "a unit", not "an unit"
+    return ("an " if vowel else "a ") + noun.replace("_", " ")
 
 
 def _dim_name(dim: _Dim) -> str:
@@ -142,7 +146,8 @@ def _dim_name(dim: _Dim) -> str:
 def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
     factor = 1.0
     dim = [0, 0, 0, 0, 0]
-    text = expr.replace("·", "*").replace(" ", "")
+    # spaces around an operator go; a space between two terms multiplies ('N m', 's s')
+    text = re.sub(r"\s+", "*", re.sub(r"\s*([*/])\s*", r"\1", expr.replace("·", "*")))
     if not text:
         return 1.0, _ONE
     sign = 1
@@ -163,6 +168,8 @@ def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
             name = match["name"] if match else piece
             raise UnitError(f"unknown unit {name!r} in {original!r}; known: {', '.join(_UNITS)}")
         power = sgn * int(match["pow"] or 1)
+        if abs(power) > _MAX_POWER:
+            raise UnitError(f"unit power {power} in {original!r} is beyond ±{_MAX_POWER}")
         unit_factor, unit_dim = _UNITS[match["name"]]
         factor *= unit_factor**power
         for i, exponent in enumerate(unit_dim):
@@ -190,6 +197,8 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     if isinstance(value, bool):
         raise UnitError(f"expected {_article(dimension)} quantity, got {value!r}")
     if isinstance(value, int | float):
+        if not math.isfinite(value):
+            raise UnitError(f"{value!r} is not a finite number")
         if require_unit and dimension != "dimensionless" and value != 0:
             unit = _DISPLAY[dimension][0]
             raise UnitError(f"{value!r} needs a unit: write it as e.g. '{value} {unit}'")

@@ -47,6 +47,16 @@ def test_parses_to_si(text: str, dimension: str, expected: float) -> None:
         (90, "angle", "needs a unit"),
         (True, "angle", "expected an angle quantity"),
         ("inf m", "length", "not a quantity"),
+        # not a number: refused as such, not advised to become 'nan s'
+        (float("nan"), "time", r"^nan is not a finite number$"),
+        (float("-inf"), "length", r"^-inf is not a finite number$"),
+        # other scripts' digits are no number here
+        ("\u0661 s", "time", "not a quantity"),
+        # a space multiplies terms: 's s' is s^2, not an unknown unit 'ss'
+        ("1 s s", "time", r"is a unit s\^2, but a time is expected"),
+        # a power a pipe robot never needs overflows the factor (1000.0 ** 999999)
+        ("1 km^999999", "length", r"unit power 999999 in '1 km\^999999' is beyond ±4"),
+        ("1 s^-99999999", "frequency", "unit power -99999999"),
     ],
 )
 def test_rejects_with_clear_message(value: object, dimension: str, message: str) -> None:
