@@ -131,7 +131,10 @@ int16_t uart1_getc(void) {
     }
     return rx1[rx1_tail++ & 0xFFu];
 }
-void uart1_rx_flush(void) { rx1_tail = rx1_head; }
+void uart1_rx_flush(void) {
+    rx1_tail = rx1_head;
+    rx1_lost = false;
+}
 uint16_t uart1_tx_free(void) { return 255u; }
 static uint16_t tx1_done_at;
 bool uart1_tx_done(uint16_t *at) {
