@@ -15,8 +15,16 @@ from typing import Any
 import pytest
 import yaml
 
-from pirate_bt.campaign import campaign_from_data, expand, read_rows, run_campaign, run_cases
+from pirate_bt.campaign import (
+    campaign_from_data,
+    check_inputs,
+    expand,
+    read_rows,
+    run_campaign,
+    run_cases,
+)
 from pirate_bt.campaign.case import error_record
+from pirate_bt.campaign.cases import check_runs
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 
@@ -223,3 +231,25 @@ def test_a_network_or_robot_file_that_does_not_validate_stops_the_campaign(
     # were error rows, one per case ("ValidationFailed: .../bad.yaml:5:22: ...")
     err = _refused(tmp_path, capsys, f"name: h\nruns:\n  - {run}\n{extra}")
     assert err.startswith(f"{bad}:")
+
+
+def test_a_bundled_route_by_its_bare_name_is_the_route_not_the_network() -> None:
+    spec = campaign_from_data(
+        {"name": "h", "runs": [{"route": "straight"}, {"route": "t-joint-straight"}]}
+    )
+    # were refused: 'straight' was read as scenarios/straight.yaml (the network: "unknown
+    # command 'segments:'"), and 't-joint-straight' (a route only) as no such file
+    check_inputs(spec)
+    cases = expand(spec)
+    check_runs(cases, spec)
+    assert [Path(c["route"]).name for c in cases] == ["straight", "t-joint-straight"]
+
+
+def test_a_fault_on_a_motor_the_robot_lacks_is_refused_at_its_entry(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = f"name: h\n{TREE_RUN}sim_faults:\n  - []\n  - [link_loss@1s, motor_stall:nosuch@1s]\n"
+    # was an error row per case: "ConfigurationError: fault motor_stall: unknown motor 'nosuch'"
+    assert _refused(tmp_path, capsys, text) == (
+        "FILE:6:20: fault motor_stall: unknown motor 'nosuch'"
+    )

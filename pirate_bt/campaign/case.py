@@ -261,11 +261,9 @@ def _navigator_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
 
 
 def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
-    from pirate_bt.api.missions import simulate_mission
-    from pirate_bt.resources import find_file
-    from pirate_bt.task.route import load_route
+    from pirate_bt.api.missions import load_route, simulate_mission
 
-    route = load_route(find_file("scenarios", case["route"]))
+    route = load_route(case["route"])  # a file, or a bundled name with or without .route
     # as `pirate-bt mission ROUTE --sim NETWORK` (and `--network NETWORK --sim MAP` with
     # the spec's `maps` axis, whose entries are the pipe as built: the simulator's truth)
     if case.get("as_built") is not None:  # the truth: a variant of the map

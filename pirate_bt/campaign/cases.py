@@ -27,6 +27,7 @@ from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
 __all__ = [
     "DEFAULT_MAX_CASES",
     "Case",
+    "check_faults",
     "check_inputs",
     "check_runs",
     "check_size",
@@ -187,6 +188,7 @@ def _find_input(kind: str, name: str, route: str | None = None) -> tuple[Path | 
     a route's network or truth map next to the route, then among the bundled
     networks; a robot as a path.
     """
+    from pirate_bt.api.options import find
     from pirate_bt.resources import bundled, find_file
 
     shown = name if len(name) <= 80 else name[:77] + "..."
@@ -195,11 +197,11 @@ def _find_input(kind: str, name: str, route: str | None = None) -> tuple[Path | 
         if kind == "tree":
             path = find_file("trees", name)
         elif kind == "route":
-            path = find_file("scenarios", name)
+            path = find("scenarios", name, ".route")
         elif kind in ("network", "map") and route is not None:
             from pirate_bt.task.networks import resolve_network_path
 
-            route_path = find_file("scenarios", route)
+            route_path = find("scenarios", route, ".route")
             try:
                 path = resolve_network_path(name, route_path.parent)
             except FileNotFoundError as exc:
@@ -272,6 +274,42 @@ def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
         raise source.errors(problems)
 
 
+def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
+    """Check every simulator fault's target (a motor, state channel or board) on every robot.
+
+    Call after :func:`check_runs` (the robot files then validate). Each case would
+    meet the same problem when its simulator is made: it is the spec's, located at
+    its ``sim_faults`` entry.
+
+    Raises:
+        InputError: a fault names a motor, channel or board a robot lacks
+            (:class:`~pirate_bt.errors.LocatedError` for a file).
+    """
+    faults = [
+        ((i, j), text) for i, point in enumerate(spec.sim_faults) for j, text in enumerate(point)
+    ]
+    if not faults:
+        return
+    from pirate_bt.pipes import load_network
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.sim.bridge import SimBridge
+    from pirate_bt.sim.faults import parse_fault
+    from pirate_bt.sim.model import PipeRobotModel
+
+    source = _source(spec)
+    folder = base if base is not None else source.base
+    world = load_network("straight")
+    for robot_name in dict.fromkeys(spec.robots):
+        resolved = _resolve(robot_name, folder)
+        bridge = SimBridge(PipeRobotModel(load_robot(resolved), world))
+        for (i, j), text in faults:
+            try:
+                bridge.check_fault(parse_fault(text))
+            except (ConfigurationError, InputError) as exc:
+                robot = f" (robot {robot_name})" if robot_name is not None else ""
+                raise source.error(("sim_faults", i, j), f"{exc}{robot}") from None
+
+
 def group_key(row: dict[str, Any]) -> str:
     """One line naming a case's group (every parameter but the seed)."""
     parts = [str(row.get("run"))]
@@ -338,6 +376,7 @@ def check_runs(
         ConfigurationError: a named file (tree, route, network, map, robot) is
             missing or not a file.
     """
+    from pirate_bt.api.options import find
     from pirate_bt.filekinds import validate_file
     from pirate_bt.resources import find_file
 
@@ -393,4 +432,4 @@ def check_runs(
                     raise
                 raise _params_problems(spec, base, case["tree"], case["params"], exc) from None
         else:
-            validate_file(find_file("scenarios", case["route"]), "route")
+            validate_file(find("scenarios", case["route"], ".route"), "route")

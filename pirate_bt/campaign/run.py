@@ -36,6 +36,7 @@ from typing import Any
 from pirate_bt.campaign.case import OUTCOMES
 from pirate_bt.campaign.cases import (
     DEFAULT_MAX_CASES,
+    check_faults,
     check_inputs,
     check_runs,
     check_size,
@@ -283,6 +284,7 @@ def run_campaign(
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)
     check_runs(cases, model, source.base)
+    check_faults(model, source.base)
     if timeout_s is not None:
         for case in cases:
             case["timeout_s"] = timeout_s
