@@ -445,7 +445,7 @@ class RunningIsSuccess(_Adapter, py_trees.decorators.RunningIsSuccess):
 
 
 class RetryParams(NodeParams):
-    attempts: int = Field(ge=1, le=1000, description="tries before the failure is passed on")
+    attempts: StrictInt = Field(ge=1, le=1000, description="tries before the failure is passed on")
 
 
 class Retry(_Adapter, py_trees.decorators.Retry):
@@ -459,7 +459,7 @@ class Retry(_Adapter, py_trees.decorators.Retry):
 
 
 class RepeatParams(NodeParams):
-    times: int = Field(ge=1, le=1_000_000, description="successes needed; a failure stops")
+    times: StrictInt = Field(ge=1, le=1_000_000, description="successes needed; a failure stops")
 
 
 class Repeat(_Adapter, py_trees.decorators.Repeat):

@@ -29,7 +29,7 @@ from typing import Any, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field
+from pydantic import Field, StrictBool
 
 from pirate_bt.behaviours.base import NodeParams
 from pirate_bt.behaviours.primitive import (
@@ -93,7 +93,7 @@ def _heading_vector(imu_rad: Mapping[str, float]) -> tuple[float, float, float] 
 
 class DriveParams(NodeParams):
     velocity: Velocity = Field(description="wheel speed; negative drives backwards")
-    reverse: bool = Field(
+    reverse: StrictBool = Field(
         False,
         description=(
             "drive at minus velocity: a PAB that passes a feature backwards takes its"
@@ -152,7 +152,7 @@ class DriveParams(NodeParams):
             " a drive back the same way reads it with 'distance_key'; empty: not used"
         ),
     )
-    stop_at_feature: bool = Field(
+    stop_at_feature: StrictBool = Field(
         False,
         description=(
             "with until: distance, also complete the drive (early) when a feature shows:"
@@ -160,7 +160,7 @@ class DriveParams(NodeParams):
             " rear driving backwards) off the wall over an opening"
         ),
     )
-    stop_at_change: bool = Field(
+    stop_at_change: StrictBool = Field(
         False,
         description=(
             "with until: distance, also complete the drive (early) where the pipe changes:"
@@ -171,7 +171,7 @@ class DriveParams(NodeParams):
             f" reading at the start over {DIAMETER_SETTLE_M * 1000:g} mm of travel (a reducer)"
         ),
     )
-    stop_when_turned: bool = Field(
+    stop_when_turned: StrictBool = Field(
         False,
         description=(
             "with until: blocked, also complete the drive when the IMU's heading has turned"
