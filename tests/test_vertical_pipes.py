@@ -92,38 +92,43 @@ def test_a_start_beyond_the_end_of_the_main_line_is_refused(tmp_path: Path) -> N
     )
 
 
-def test_a_pipe_the_robot_cannot_clamp_in_is_refused_by_the_simulator(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_a_pipe_the_robot_does_not_fit_is_refused_by_the_simulator() -> None:
     # was: the wall-contact angle was held at the table's ends, and the straight PAB
-    # (and a whole mission) succeeded in 40 mm and 200 mm pipes alike
+    # (and a whole mission) succeeded in a 40 mm pipe
     tee = {
         "id": "tee",
         "type": "tee",
         "branch": {
             "direction": "left",
-            "segments": [{"id": "service", "type": "reducer", "diameter": "130 mm"}],
+            "segments": [{"id": "service", "type": "reducer", "diameter": "45 mm"}],
         },
     }
     for network, words in (
         (_net("narrow", [_straight("a", "2 m")], diameter="45 mm"), "the start of its main"),
-        (_net("wide", [_straight("a", "1 m"), tee]), "segment 'service' is 130 mm wide"),
+        (_net("narrow-branch", [_straight("a", "1 m"), tee]), "segment 'service' is 45 mm wide"),
     ):
-        with pytest.raises(ConfigurationError, match=words):
+        with pytest.raises(ConfigurationError, match=words + ".* fits only in pipes of 51 mm"):
             PipeRobotModel(ROBOT, network)
+
+
+def test_in_a_pipe_wider_than_the_robot_clamps_in_a_clamp_finds_no_wall(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was: the contact angle was held at 120 mm's, so the robot clamped (and a whole
+    # mission succeeded) in a 200 mm main; now the wheels never reach the wall there
     path = tmp_path / "wide.yaml"
     path.write_text(
-        "schema_version: 1\nname: wide\ndiameter: 63 mm\nsegments:\n"
+        "schema_version: 1\nname: wide\ndiameter: 63 mm\nstart: {position: 1.9 m}\n"
+        "segments:\n"
         "  - {id: a, type: straight, length: 1 m}\n"
-        "  - {id: b, type: straight, length: 1 m, diameter: 121 mm}\n",
+        "  - {id: b, type: straight, length: 2 m, diameter: 150 mm}\n",
         encoding="utf-8",
     )
     argv = ["run", "straight", "--param", "distance=0.2 m", "--sim", str(path), "--quiet"]
-    assert main(argv) == 2
-    assert capsys.readouterr().err == (
-        "pirate-bt: pipe network 'wide': segment 'b' is 121 mm wide, but the robot clamps"
-        " only in 51-120 mm pipes (its clamp.contact_angles)\n"
-    )
+    assert main(argv) == 1  # the PAB failed, the robot in its safe state
+    err = capsys.readouterr().err
+    assert "straight: FAILURE - no wall: bend_" in err
+    assert "past every wall-contact angle" in err and "wider than its clamp.contact_angles" in err
 
 
 # -- the guards and the falling rule in a vertical pipe ----------------------------------

@@ -173,7 +173,8 @@ class Clamp(Primitive):
             if abs(angle) > wall_max:
                 return self.fail(
                     f"no wall: {module.name} swung to {_deg(angle)}, past every wall-contact"
-                    f" angle (the {p.half} half is over an opening?)"
+                    f" angle (the {p.half} half is over an opening, or the pipe is wider"
+                    " than its clamp.contact_angles?)"
                 )
             if abs(angle) < wall_min or (force is not None and abs(force) < need_force):
                 ok_all = False

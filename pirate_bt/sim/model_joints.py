@@ -112,14 +112,21 @@ class JointsMixin(EventsMixin):
         return changed
 
     def _wall_angle(self, s_m: float) -> float | None:
-        """Joint angle at which the wheels touch the wall at ``s_m``; None over a tee opening."""
+        """Joint angle at which the wheels touch the wall at ``s_m``; None over a tee opening,
+        infinite in a pipe wider than the robot's ``clamp.contact_angles`` (no wall within
+        reach: the joints swing to their limits and the half cannot clamp)."""
         piece = self.path.piece_at(s_m)
         if piece.opening_m is not None and piece.over_opening(s_m):
             return None
         diameter = piece.diameter_at(s_m)
         angle = self._contact_cache.get(diameter)
         if angle is None:
-            angle = self._contact_cache[diameter] = self.robot.clamp.contact_angle(diameter)
+            clamp = self.robot.clamp
+            if diameter > max(p.diameter for p in clamp.contact_angles) + 1e-9:
+                angle = math.inf  # wider than the table: the wheels never reach the wall
+            else:
+                angle = clamp.contact_angle(diameter)
+            self._contact_cache[diameter] = angle
         return angle
 
     def _update_walls(self) -> bool:
