@@ -185,6 +185,8 @@ def test_an_invalid_step_leaves_the_robot_safe_and_is_named(answer: Any, message
     assert not result.succeeded and result.safe_state
     assert "navigator 'Asks' asked for an invalid step" in result.why or "not a Step" in result.why
     assert message in result.why
+    if isinstance(answer, Step):  # the step is named once, not twice
+        assert result.why.count(f"Step({answer.pab!r}") == 1, result.why
     assert result.steps == 1 and result.decisions[-1].error == result.why
     assert result.exit_code == 1
 

@@ -271,7 +271,7 @@ def run_navigation(
         truth_now: Without a map: the simulator's distance along the pipe from the
             start, for results.
         counters: The simulator's counters, for the trace and the result.
-        trace_dir: Write ``navigation.jsonl`` and ``step-NN.jsonl`` traces here.
+        trace_dir: Write ``navigation.jsonl`` and one ``step-001.jsonl``... per step here.
         period_s: Tick period.
         max_time_s: Clock time the whole navigation may take.
         deadline_s: Wall time the navigator may take for one decision.
@@ -350,7 +350,9 @@ def run_navigation(
                     checked = check_step(step)
                     if planner is not None:
                         plan = planner.plan(checked.route_line(), index, belief)
-                except (InvalidStep, LocatedError, ValidationFailed) as exc:
+                except InvalidStep as exc:  # its message starts with the step
+                    error = f"navigator {name!r} asked for an invalid step: {exc}"
+                except (LocatedError, ValidationFailed) as exc:
                     error = f"navigator {name!r} asked for an invalid step {step!r}: {exc}"
             decision = Decision(index, obs, step, seconds, error)
             if error is not None:
@@ -364,7 +366,7 @@ def run_navigation(
                 records.write({"type": "decision", **decision.to_json()})
                 if ran is None or ran.succeeded:
                     result.status = "success"
-                    result.why = f"navigator {name!r} is done after {index - 1} steps"
+                    result.why = f"navigator {name!r} is done after {_steps(index - 1)}"
                 else:
                     result.why = ran.why
                     result.failing_node = ran.failing_node
@@ -498,3 +500,7 @@ def run_navigation(
         )
         records.close()
     return result
+
+
+def _steps(n: int) -> str:
+    return f"{n} step" if n == 1 else f"{n} steps"
