@@ -99,6 +99,14 @@ MISFITS = [
     ("lab", "go to service-9\n", 1, "no segment 'service-9'; did you mean"),
     ("lab", "go to bend-a\n", 1, "is a bend"),
     ("lab", "at the bend turn right\ngo to entry\n", 2, "not ahead of the robot"),
+    # the bend lies beyond the distance: the approach margin is what does not fit
+    (
+        "lab",
+        "forward 3.3 m\n",
+        1,
+        "starts 3.48 m ahead, and a straight stops 0.25 m before it (here at most 3.23 m)",
+    ),
+    ("lab", "forward 5 m\n", 1, "starts 3.48 m ahead, within 5 m;"),
 ]
 
 

@@ -150,7 +150,15 @@ class _Walker:
             return
         if step.distance_m > room + _TOL_M:
             if feature is not None:
-                raise self._feature_in_way(step, feature, f"within {step.distance_m:g} m")
+                approach = self.contract.approach_m
+                raise self._feature_in_way(
+                    step,
+                    feature,
+                    f"and a straight stops {approach:.2f} m before it (here at most"
+                    f" {max(room, 0.0):.2f} m)"
+                    if feature.start_m - self.s_m > step.distance_m
+                    else f"within {step.distance_m:g} m",
+                )
             raise LocatedError(
                 f"'{step.text}' does not fit the network: only {max(room, 0.0):.2f} m of pipe"
                 f" are left before the end of the line (in {self.line_name()!r})",
