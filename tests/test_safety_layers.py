@@ -146,3 +146,12 @@ def test_teleop_defaults_to_the_simulator(capsys: object) -> None:
     assert teleop.run(args) == 0
     out = capsys.readouterr().out  # type: ignore[attr-defined]
     assert "rear clamped" in out
+
+
+def test_the_safety_commands_and_their_half_come_from_one_import() -> None:
+    # docs/safety.md writes commands as `Clamp(Half.FRONT, ...)`: both from pirate_bt.safety
+    import pirate_bt.safety as safety
+    from pirate_bt.robot import Half
+
+    assert safety.Half is Half and "Half" in safety.__all__
+    assert safety.Clamp(safety.Half.FRONT, 0.5).half is Half.FRONT

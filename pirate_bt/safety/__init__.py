@@ -12,6 +12,7 @@ Layers above ``safety`` never import ``pirate_bt.link``: they get a supervisor
 from :func:`open_supervisor`. See ``docs/safety.md``.
 """
 
+from pirate_bt.robot.description import Half
 from pirate_bt.safety.checks import INVARIANTS, Check, CheckContext, ClampState, Intent, Problem
 from pirate_bt.safety.commands import (
     Bend,
@@ -60,6 +61,7 @@ __all__ = [
     "Deny",
     "Drive",
     "EStop",
+    "Half",
     "Intent",
     "Mode",
     "MoveFrontClear",
