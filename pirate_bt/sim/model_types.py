@@ -45,12 +45,13 @@ class SensorNoise:
     """
 
     angle_rad: float = 0.0
+    """On joint angles, the rotation sensor and the IMU's angles (rad)."""
     force_n: float = 0.0
+    """On the springs' clamp forces (N)."""
     velocity_mps: float = 0.0
-    """Wheel speed the board's velocity loop drives toward the setpoint."""
-    measured_mps: float = 0.0
-    """Wheel speed the encoder reads (0 when the wheel is blocked)."""
+    """On the wheel speeds the encoders read (m/s)."""
     current_a: float = 0.0
+    """On the motor currents (A)."""
 
     @classmethod
     def typical(cls) -> SensorNoise:
