@@ -237,3 +237,28 @@ def test_groot2_serves_an_ipv6_address() -> None:
             assert reply[1] == b"\x01\x00\x00"
         finally:
             context.destroy(linger=0)
+
+
+@pytest.mark.parametrize("text", ["h:²", "[::1]:٣", "h:１６６７"])
+def test_a_port_in_other_digits_is_refused_in_one_line(text: str) -> None:
+    # str.isdigit() takes '²' (int() then raised a bare ValueError) and '٣' (a port
+    # ROS and ZeroMQ would not read); ports and domain ids are ASCII digits only
+    from pirate_bt.errors import InputError
+    from pirate_bt.interop import foxglove_option, groot2_option, ros2_option
+
+    for parse in (groot2_option.parse_groot2_address, foxglove_option.parse_address):
+        with pytest.raises(InputError, match="the port must be a number"):
+            parse(text)
+    with pytest.raises(InputError, match="the port must be a number"):
+        ros2_option.parse_endpoint(f"tcp/{text}")
+
+
+def test_a_ros_domain_id_in_other_digits_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pirate_bt.errors import InputError
+    from pirate_bt.interop.ros2_option import domain_from_env
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", "٣")
+    with pytest.raises(InputError, match="is not a number"):
+        domain_from_env()
+    monkeypatch.setenv("ROS_DOMAIN_ID", "3")
+    assert domain_from_env() == 3

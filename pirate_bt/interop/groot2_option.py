@@ -31,13 +31,13 @@ def parse_groot2_address(text: str | None) -> tuple[str, int]:
     elif text.count(":") == 1:
         host, _, port_text = text.partition(":")
         host = host or DEFAULT_HOST
-    elif text.isdigit():
+    elif text.isascii() and text.isdigit():
         port_text = text
     elif text:
         host = text
     if not port_text:
         return host, DEFAULT_PORT
-    if not port_text.isdigit() or int(port_text) > 65534:
+    if not (port_text.isascii() and port_text.isdigit()) or int(port_text) > 65534:
         raise InputError(
             f"--groot2 {text}: the port must be a number from 0 to 65534 (the next one is"
             " the publisher's)"

@@ -43,7 +43,7 @@ def parse_endpoint(text: str | None) -> str:
         if not address:
             raise InputError(f"--ros2 {text}: a unix socket needs a path (unixsock-stream/PATH)")
         return text
-    if address.isdigit():
+    if address.isascii() and address.isdigit():
         host, port = "127.0.0.1", address
     elif address.startswith("["):
         inside, _, rest = address[1:].partition("]")
@@ -51,7 +51,7 @@ def parse_endpoint(text: str | None) -> str:
     else:
         host, _, port = address.rpartition(":") if ":" in address else (address, "", "7447")
         host = host or "127.0.0.1"
-    if not port.isdigit() or not 0 < int(port) <= 65535:
+    if not (port.isascii() and port.isdigit()) or not 0 < int(port) <= 65535:
         raise InputError(f"--ros2 {text}: the port must be a number from 1 to 65535")
     return f"{protocol}/{host}:{int(port)}"
 
@@ -65,7 +65,7 @@ def domain_from_env() -> int:
     text = os.environ.get("ROS_DOMAIN_ID", "").strip()
     if not text:
         return 0
-    if not text.isdigit():
+    if not (text.isascii() and text.isdigit()):
         raise InputError(f"ROS_DOMAIN_ID={text!r} is not a number")
     return int(text)
 

@@ -69,7 +69,9 @@ class FaultsMixin:
             if target not in self._channel_index:
                 raise ConfigurationError(f"fault {fault.kind}: unknown state channel {target!r}")
         elif fault.kind == "board_reset" and (
-            target is None or not target.isdigit() or int(target) not in self._boards
+            target is None
+            or not (target.isascii() and target.isdigit())
+            or int(target) not in self._boards
         ):
             raise ConfigurationError(f"fault board_reset: unknown board {target!r}")
 
