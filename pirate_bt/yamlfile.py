@@ -25,7 +25,7 @@ import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, BinaryIO, TypeVar
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -40,6 +40,7 @@ __all__ = [
     "load_yaml",
     "load_yaml_text",
     "pydantic_errors",
+    "read_at_most",
     "unique_errors",
     "validate_document",
     "validation_problems",
@@ -54,6 +55,25 @@ The largest bundled file expands to a few thousand; a real file that needs more
 is not one a person writes."""
 MAX_BYTES = 16 * 1024 * 1024
 """The largest file read (a device such as ``/dev/zero`` never ends: it is cut there)."""
+
+
+def read_at_most(stream: BinaryIO, limit: int) -> bytes:
+    """At most ``limit + 1`` bytes of ``stream`` (one more tells a file over the limit).
+
+    Read in 64 KiB pieces: ``stream.read(limit + 1)`` would allocate the whole limit
+    for every file, however small, and a device such as ``/dev/zero`` never ends.
+    """
+    chunks: list[bytes] = []
+    total = 0
+    while total <= limit:
+        chunk = stream.read(min(65536, limit + 1 - total))
+        if not chunk:
+            break
+        chunks.append(chunk)
+        total += len(chunk)
+    return b"".join(chunks)
+
+
 MAX_DEPTH = 256
 """The deepest nesting of lists and mappings (libyaml itself stops at 1000, too deep
 for the recursive code that later reads the data)."""
@@ -325,7 +345,7 @@ def load_yaml(path: str | Path) -> YamlDocument:
         raise ValidationFailed([LocatedError("is a directory, not a file", loc)])
     try:
         with p.open("rb") as stream:
-            raw = stream.read(MAX_BYTES + 1)
+            raw = read_at_most(stream, MAX_BYTES)
     except FileNotFoundError:
         raise ValidationFailed([LocatedError("no such file", loc)]) from None
     except OSError as exc:

@@ -51,10 +51,10 @@ def _refused(tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, *opt
     ("line", "expected"),
     [
         # a case limit of 1e300 s overflowed the worker's wait: every case an error row
-        ("case_timeout: 1e300 s", "FILE:1:1: case_timeout is at most 604800 s, not '1e300 s'"),
+        ("case_timeout: 1e300 s", "FILE:4:1: case_timeout is at most 604800 s, not '1e300 s'"),
         # a tick rate of 1e9 Hz ran each case until its wall-time limit killed it
-        ("rate: 1e9 Hz", "FILE:1:1: rate is at most 1000 Hz, not '1e9 Hz'"),
-        ("max_time: 1e300 s", "FILE:1:1: max_time is at most 1e+09 s, not '1e300 s'"),
+        ("rate: 1e9 Hz", "FILE:4:1: rate is at most 1000 Hz, not '1e9 Hz'"),
+        ("max_time: 1e300 s", "FILE:4:1: max_time is at most 1e+09 s, not '1e300 s'"),
         # a boolean was taken for a seed count of 1, a float for a count of variants
         ("seeds: {count: true}", "FILE:4:9: count: Input should be a valid integer"),
         ("as_built: {count: 2.0}", "FILE:4:12: count: Input should be a valid integer"),

@@ -41,6 +41,7 @@ from pydantic import (
     Field,
     StringConstraints,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -336,18 +337,24 @@ class CampaignSpec(BaseModel):
                 )
         return runs
 
+    @field_validator(*_LIMITS)
+    @classmethod
+    def _limits(cls, text: str, info: ValidationInfo) -> str:
+        # a field validator, so that a bad limit is placed at its own key in the file
+        key = str(info.field_name)
+        dimension, most, unit = _LIMITS[key]
+        try:
+            value = parse_quantity(text, dimension)
+        except UnitError as exc:
+            raise ValueError(f"{key}: {exc}") from None
+        if not value > 0:
+            raise ValueError(f"{key} must be positive")
+        if value > most:
+            raise ValueError(f"{key} is at most {most:g} {unit}, not {text!r}")
+        return text
+
     @model_validator(mode="after")
     def _checks(self) -> CampaignSpec:
-        for key, (dimension, most, unit) in _LIMITS.items():
-            text = getattr(self, key)
-            try:
-                value = parse_quantity(text, dimension)
-            except UnitError as exc:
-                raise ValueError(f"{key}: {exc}") from None
-            if not value > 0:
-                raise ValueError(f"{key} must be positive")
-            if value > most:
-                raise ValueError(f"{key} is at most {most:g} {unit}, not {text!r}")
         if any(m is not None for m in self.maps) and any(r.tree for r in self.runs):
             raise ValueError(
                 "'maps' (truth differing from the map) apply to routes and navigators only"

@@ -21,6 +21,7 @@ from typing import Final
 from xml.parsers import expat
 
 from pirate_bt.errors import InputError, LocatedError, SourceLocation
+from pirate_bt.yamlfile import read_at_most
 
 __all__ = [
     "MAX_DEPTH",
@@ -78,7 +79,7 @@ def parse_xml(path: Path) -> XmlElement:
                 f"{size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be", where
             )
         with path.open("rb") as stream:  # a device (/dev/zero) has no size and no end
-            data = stream.read(MAX_XML_BYTES + 1)
+            data = read_at_most(stream, MAX_XML_BYTES)
         if len(data) > MAX_XML_BYTES:
             raise LocatedError(f"larger than the {MAX_XML_BYTES} bytes a tree file may be", where)
     except IsADirectoryError:
