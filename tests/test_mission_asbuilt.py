@@ -256,3 +256,5 @@ def test_a_branch_on_the_other_side_than_drawn_is_a_named_disagreement(tmp_path:
     failed = result.failed_pab
     assert failed is not None and failed.kind == "t-joint" and failed.why.startswith("no feature")
     assert result.sim["violations"] == 0 and result.sim["damage"] == 0
+    # found by the PAB's own search, not the localiser: still the mission's mismatch
+    assert result.disagreement is None and result.mismatch == result.why

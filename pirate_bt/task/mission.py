@@ -193,6 +193,10 @@ class MissionResult:
     trace_path: Path | None = None
     tree: Any = None
     mismatch: str | None = None
+    """The map disagreement that stopped the mission, whoever found it: the localiser
+    (then :attr:`disagreement` holds its evidence) or a PAB's own sensing (a search
+    that met no turn, a drive blocked where the map has clear pipe); ``None`` when
+    pipe and map agreed as far as the robot went."""
     start_s: float = 0.0
     """Clock time at the start of the run (fix times are clock times)."""
     disagreement: Disagreement | None = None
@@ -467,7 +471,7 @@ def run_mission(
         safe=tally.first_safe_state,
         stopped_by=localiser.mismatch,
     )
-    reason, failing = _why(result, runner.tree.root, outcomes, plan, localiser, tally)
+    reason, failing, map_named = _why(result, runner.tree.root, outcomes, plan, localiser, tally)
     timeline.append(
         TimelineEntry(end, f"end: {result.outcome}", localiser.belief_m, localiser.truth_m)
     )
@@ -484,7 +488,7 @@ def run_mission(
         sim=counter_values(counters() if counters is not None else None),
         trace_path=trace_path,
         tree=runner.tree,
-        mismatch=localiser.mismatch,
+        mismatch=localiser.mismatch or (reason if map_named else None),
         start_s=start_s,
         disagreement=localiser.disagreement,
         legs=legs,
@@ -505,20 +509,21 @@ def _why(
     plan: MissionPlan,
     localiser: Localiser,
     tally: VerdictTally,
-) -> tuple[str, str | None]:
-    """The mission's first cause and the node it happened at (see :mod:`.outcome`)."""
+) -> tuple[str, str | None, bool]:
+    """The mission's first cause, the node it happened at (see :mod:`.outcome`), and
+    whether a PAB's failure was named a map disagreement."""
     if run.succeeded:
-        return f"mission completed: {len(outcomes)} PABs, {run.message}", None
+        return f"mission completed: {len(outcomes)} PABs, {run.message}", None, False
     stopped = next((p for p in outcomes if p.outcome in ("failure", "stopped")), None)
     if localiser.mismatch is not None:
         route = root.children[-1]
         where = f"{route_path(route)}/{stopped.label}" if stopped is not None else None
-        return localiser.mismatch, where
+        return localiser.mismatch, where, False
     if stopped is not None and stopped.outcome == "failure":
         planned = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
         named = map_cause(stopped, planned.get(stopped.label), localiser.belief_m)
-        return named or stopped.why, stopped.failing_node or stopped.label
-    return explain_run(run, root, tally.first_safe_state)
+        return named or stopped.why, stopped.failing_node or stopped.label, named is not None
+    return (*explain_run(run, root, tally.first_safe_state), False)
 
 
 def truth_on_map(plan: MissionPlan, truth_path: Any, truth_m: float) -> float:
