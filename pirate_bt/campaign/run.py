@@ -55,7 +55,14 @@ from pirate_bt.campaign.spec import (
 from pirate_bt.campaign.stats import GroupStats, group_stats
 from pirate_bt.errors import InputError
 
-__all__ = ["CampaignResult", "SpecInput", "default_output", "load_spec", "run_campaign"]
+__all__ = [
+    "CampaignResult",
+    "SpecInput",
+    "case_timeout_s",
+    "default_output",
+    "load_spec",
+    "run_campaign",
+]
 
 SpecInput = str | os.PathLike[str] | Mapping[str, Any] | CampaignSpec
 """What :func:`run_campaign` takes as a spec: a file, plain data or a model."""
@@ -155,12 +162,18 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
     raise TypeError(f"a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}")
 
 
-def _timeout(value: str | float | None) -> float | None:
+def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> float | None:
+    """A case's wall-time limit in seconds (``"90 s"`` or seconds; ``None`` stays None).
+
+    Raises:
+        InputError: not a positive duration, or above a week; the message starts
+            with ``name`` (the command passes ``--case-timeout``).
+    """
     if value is None:
         return None
-    seconds = _seconds(value, "case_timeout")
+    seconds = _seconds(value, name)
     if seconds > MAX_CASE_TIMEOUT_S:
-        raise InputError(f"case_timeout is at most {MAX_CASE_TIMEOUT_S:g} s, not {value!r}")
+        raise InputError(f"{name} is at most {MAX_CASE_TIMEOUT_S:g} s, not {value!r}")
     return seconds
 
 
@@ -279,7 +292,7 @@ def run_campaign(
     model = load_spec(spec, base)
     source = spec_source(model) or SpecSource(f"campaign {model.name!r}", Path(base or "."))
     count = check_size(model, max_cases)  # before anything is built
-    timeout_s = _timeout(case_timeout)
+    timeout_s = case_timeout_s(case_timeout)
     reach_s = _seconds(scheduler_timeout, "scheduler_timeout")
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)

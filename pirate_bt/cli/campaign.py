@@ -20,9 +20,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES
-from pirate_bt.campaign.spec import MAX_CASE_TIMEOUT_S
 from pirate_bt.errors import InputError
-from pirate_bt.units import parse_quantity
 
 __all__ = ["configure", "run"]
 
@@ -81,32 +79,19 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _case_timeout(text: str | None) -> float | None:
-    if text is None:
-        return None
-    try:
-        seconds = parse_quantity(text, "time")
-    except Exception as exc:
-        raise InputError(f"--case-timeout: {exc}") from None
-    if not seconds > 0:
-        raise InputError(f"--case-timeout must be positive, not {text!r}")
-    if seconds > MAX_CASE_TIMEOUT_S:
-        raise InputError(f"--case-timeout is at most {MAX_CASE_TIMEOUT_S:g} s, not {text!r}")
-    return seconds
-
-
 def run(args: argparse.Namespace) -> int:
     if args.spec == "report":
         return _report(args)
     if args.results:
         raise InputError(f"unexpected argument {args.results!r}")
     from pirate_bt.campaign import default_output, load_spec, run_campaign
+    from pirate_bt.campaign.run import case_timeout_s
 
     if args.workers is not None and args.workers < 1:
         raise InputError("--workers must be at least 1")
     if args.max_cases < 1:
         raise InputError("--max-cases must be at least 1")
-    case_timeout = _case_timeout(args.case_timeout)
+    case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
     spec = load_spec(args.spec)
     output: Path = args.output or default_output(spec)
     command = f"pirate-bt campaign {shlex.quote(str(Path(args.spec)))}"
