@@ -82,6 +82,26 @@ def test_sim_refuses_a_port_or_duration_that_cannot_be(capsys: pytest.CaptureFix
     assert "--duration must be a positive" in one_error_line(capsys.readouterr().err)
 
 
+def test_rates_that_would_never_end_a_run_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # 1e-9 Hz (a tick every 31 years, the simulator stepping through all of it) or 1e9 Hz
+    # (6e11 ticks) never ended; the same limits, with a time limit that keeps the old
+    # behaviour short: a tick after the time limit, 1000 ticks more than a robot can use.
+    for rate, max_time in (("0.1 Hz", "2 s"), ("2 kHz", "0.5 s")):
+        assert main([*RUN, "--rate", rate, "--max-time", max_time]) == 2
+        assert "the tick rate must be at most 1000 Hz" in one_error_line(capsys.readouterr().err)
+    assert main(["teleop", "--keys", "w", "--rate", "nan"]) == 2
+    assert "--rate must be positive" in one_error_line(capsys.readouterr().err)
+
+
+def test_a_parameter_given_twice_with_two_values_is_refused(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main([*RUN, "--param", "distance=0.5m"]) == 2  # the last one silently won
+    assert "--param distance: given twice ('0.1m', then '0.5m')" in one_error_line(
+        capsys.readouterr().err
+    )
+
+
 # -- outputs ----------------------------------------------------------------------------
 
 
@@ -238,6 +258,17 @@ def test_damaged_traces_are_one_line_naming_file_and_line(
     cut.write_bytes(packed[: len(packed) // 2])  # a killed writer: read up to the cut
     assert main(["trace", "summary", str(cut)]) == 0
     assert "incomplete" in capsys.readouterr().out
+
+
+def test_render_takes_an_mcap_trace_as_a_trace(
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("mcap")
+    mcap = tmp_path / "run.mcap"
+    assert main(["trace", "export", str(trace_file), "-o", str(mcap)]) == 0
+    assert main(["render", str(mcap), "--tick", "3", "-o", str(tmp_path / "t.dot")]) == 0
+    assert (tmp_path / "t.dot").read_text().startswith("digraph")  # was: "not YAML text"
+    capsys.readouterr()
 
 
 def test_a_format_reader_that_stumbles_is_bad_input(

@@ -67,6 +67,8 @@ class Terminated(KeyboardInterrupt):
 
 
 def _terminate(signum: int, frame: object) -> None:
+    # Once: a second SIGTERM kills at once, as before, should the safe stop hang.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     raise Terminated
 
 

@@ -22,7 +22,12 @@ from pirate_bt.api.options import split_faults
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
+MAX_RATE_HZ = 1000.0
+"""The fastest tick rate ``pirate-bt run`` takes."""
+
 __all__ = [
+    "MAX_RATE_HZ",
+    "check_rate",
     "check_trace_path",
     "configure",
     "open_foxglove",
@@ -86,18 +91,35 @@ def _quantity(text: str, dimension: str, option: str) -> float:
         raise InputError(f"{option}: {exc}") from None
 
 
+def check_rate(rate_hz: float, max_time_s: float, rate: str, max_time: str) -> None:
+    """Refuse a tick rate that would never end a run: above 1 kHz, or a tick period
+    longer than the time limit (the bridge sends state every 10 ms).
+
+    Raises:
+        InputError: the rate is out of that range.
+    """
+    if rate_hz > MAX_RATE_HZ or 1.0 / rate_hz > max_time_s:
+        raise InputError(
+            f"{rate} {rate_hz:g} Hz: the tick rate must be at most {MAX_RATE_HZ:g} Hz and a"
+            f" tick must come within {max_time} ({max_time_s:g} s)"
+        )
+
+
 def parse_params(items: list[str]) -> dict[str, str]:
     """``["roll=90 deg"]`` → ``{"roll": "90 deg"}``.
 
     Raises:
-        InputError: an item is not ``key=value``.
+        InputError: an item is not ``key=value``, or a key is given twice with two values.
     """
     out: dict[str, str] = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise InputError(f"--param {item!r}: write key=value, e.g. --param roll=90deg")
-        out[key.strip()] = value.strip()
+        key, value = key.strip(), value.strip()
+        if out.get(key, value) != value:
+            raise InputError(f"--param {key}: given twice ({out[key]!r}, then {value!r})")
+        out[key] = value
     return out
 
 
@@ -212,6 +234,7 @@ def run(args: argparse.Namespace) -> int:
     rate_hz = _quantity(args.rate, "frequency", "--rate")
     if rate_hz <= 0 or max_time_s <= 0:
         raise InputError("--rate and --max-time must be positive")
+    check_rate(rate_hz, max_time_s, "--rate", "--max-time")
     params = parse_params(args.param)
     if args.trace is not None:
         check_trace_path(args.trace)

@@ -280,10 +280,14 @@ def _runner_factory(
 
 
 def run(args: argparse.Namespace) -> int:
+    from pirate_bt.cli.run import MAX_RATE_HZ
     from pirate_bt.robot.loader import load_robot
 
-    if args.rate <= 0:
-        raise InputError(f"--rate must be positive, got {args.rate:g}")
+    if not 0 < args.rate <= MAX_RATE_HZ:  # nan too
+        raise InputError(
+            f"--rate must be positive and at most {MAX_RATE_HZ:g} ticks per second,"
+            f" got {args.rate:g}"
+        )
     robot = load_robot(args.robot)
     period_s = 1.0 / args.rate
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
