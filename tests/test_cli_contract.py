@@ -22,6 +22,7 @@ import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import InputError
 from pirate_bt.runner import Runner, StopReason
 from pirate_bt.trace import read_trace
 
@@ -73,6 +74,8 @@ def test_debug_after_the_verb_shows_the_traceback(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(validate, "validate_file", boom)
     with pytest.raises(RuntimeError, match="kaboom"):
         main(["validate", "x.yaml", "--debug"])
+    with pytest.raises(InputError, match="cannot read trace"):  # after a verb's action too
+        main(["trace", "summary", "no-such.jsonl", "--debug"])
 
 
 def test_sim_refuses_a_port_or_duration_that_cannot_be(capsys: pytest.CaptureFixture[str]) -> None:

@@ -153,12 +153,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     module = importlib.import_module(module_name)
     sub = argparse.ArgumentParser(prog=f"pirate-bt {top_args.command}", description=text)
     module.configure(sub)
-    sub.add_argument("--debug", action="store_true", help=argparse.SUPPRESS)
+    rest = args_list[split + 1 :]
+    end = rest.index("--") if "--" in rest else len(rest)  # what follows "--" is not ours
+    debug: bool = top_args.debug or "--debug" in rest[:end]
+    rest = [a for i, a in enumerate(rest) if i >= end or a != "--debug"]
     try:
-        args = sub.parse_args(args_list[split + 1 :])
+        args = sub.parse_args(rest)
     except SystemExit as exc:
         return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
-    debug: bool = top_args.debug or args.debug
     args.debug = debug
     from pirate_bt.errors import PirateError
 
