@@ -96,6 +96,20 @@ def test_rates_that_would_never_end_a_run_are_refused(capsys: pytest.CaptureFixt
     assert "--rate must be positive" in one_error_line(capsys.readouterr().err)
 
 
+def test_a_mission_refuses_a_rate_or_trace_it_could_never_use(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # the mission verb hung on 1e-9 Hz (no --max-time: the plan's limit is the bound)
+    # and opened the simulator before refusing a trace it cannot write
+    mission = ["mission", "straight.route", "--quiet"]
+    assert main([*mission, "--rate", "1e-9 Hz"]) == 2
+    assert "a tick must come within the plan's time limit" in one_error_line(
+        capsys.readouterr().err
+    )
+    assert main([*mission, "--trace", "run.txt"]) == 2
+    assert "run.txt: unknown trace format" in one_error_line(capsys.readouterr().err)
+
+
 def test_a_parameter_given_twice_with_two_values_is_refused(
     capsys: pytest.CaptureFixture[str],
 ) -> None:

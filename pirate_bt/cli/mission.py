@@ -143,6 +143,10 @@ def execute(
     max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
+    from pirate_bt.cli.run import check_firmware_chain, check_rate, check_trace_path, live_outputs
+
+    if getattr(args, "trace", None) is not None:
+        check_trace_path(str(args.trace))  # before planning and connecting
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     from pirate_bt.resources import find_file
@@ -154,6 +158,10 @@ def execute(
     if args.sim not in (None, map_name, route.network):
         truth = load_network_for(route, args.sim, option="--sim")
     plan = plan_route(route, network, robot)
+    from pirate_bt.task.mission import estimate_time_s
+
+    limit_s = max_time_s or estimate_time_s(plan, robot.motion.nominal_speed)
+    check_rate(rate_hz, limit_s, "--rate", args.max_time or "the plan's time limit")
     if not args.quiet or args.plan:
         on = f" (simulator: {truth.name})" if truth is not network else ""
         print(
@@ -170,7 +178,6 @@ def execute(
     if getattr(args, "trace", None) is not None:
         trace_path = args.trace
     from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
-    from pirate_bt.cli.run import check_firmware_chain, live_outputs
 
     check_firmware_chain(args)
     with live_outputs(args) as (server, node, groot2):
