@@ -289,13 +289,25 @@ def test_render_takes_an_mcap_trace_as_a_trace(
 
 
 def test_a_format_reader_that_stumbles_is_bad_input(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     pytest.importorskip("mcap")
     garbage = tmp_path / "garbage.mcap"
     garbage.write_bytes(b"garbage")
     assert main(["trace", "summary", str(garbage)]) == 2
-    assert f"{garbage}: cannot read this trace" in one_error_line(capsys.readouterr().err)
+    assert f"{garbage}: not a readable MCAP file (cut off or damaged: 7 bytes)" in (
+        one_error_line(capsys.readouterr().err)
+    )
+    # cut inside its first chunk: said so, with its size (it said 'not an MCAP file: ')
+    whole = tmp_path / "whole.mcap"
+    assert main(["trace", "export", str(trace_file), "-o", str(whole)]) == 0
+    capsys.readouterr()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(whole.read_bytes()[:200])
+    assert main(["trace", "summary", str(cut)]) == 2
+    assert f"{cut}: not a readable MCAP file (cut off or damaged: 200 bytes)" in (
+        one_error_line(capsys.readouterr().err)
+    )
 
 
 # -- interruption -----------------------------------------------------------------------------

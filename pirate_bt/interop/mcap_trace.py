@@ -41,6 +41,8 @@ is opened, and its absence is one clear line then.
 from __future__ import annotations
 
 import json
+import os
+import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any, ClassVar
@@ -151,9 +153,15 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
                             out.append((topic, json.loads(record.data)))
                     elif isinstance(record, Footer):
                         complete = True
-            except (McapError, EOFError, ValueError) as exc:
+            except (McapError, EOFError, ValueError, struct.error) as exc:
                 if not out and not channels:
-                    raise InputError(f"{path}: not an MCAP file: {exc}") from None
+                    # a file cut inside its magic or first chunk says nothing of its own
+                    reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
+                    size = os.fstat(stream.fileno()).st_size
+                    raise InputError(
+                        f"{path}: not a readable MCAP file"
+                        + (f": {reason}" if reason else f" (cut off or damaged: {size} bytes)")
+                    ) from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     return out, not complete
