@@ -262,3 +262,19 @@ def test_a_ros_domain_id_in_other_digits_is_refused(monkeypatch: pytest.MonkeyPa
         domain_from_env()
     monkeypatch.setenv("ROS_DOMAIN_ID", "3")
     assert domain_from_env() == 3
+
+
+def test_an_export_through_a_symlink_replaces_its_target_and_keeps_the_link(
+    tmp_path: Path,
+) -> None:
+    # the atomic rename replaced the link itself with a regular file
+    from pirate_bt.interop.mcap_writer import write_atomically
+
+    target = tmp_path / "store" / "run.mcap"
+    target.parent.mkdir()
+    target.write_bytes(b"old")
+    link = tmp_path / "run.mcap"
+    link.symlink_to(target)
+    written = write_atomically(link, lambda stream: stream.write(b"new"))
+    assert link.is_symlink() and target.read_bytes() == b"new"
+    assert written == target

@@ -113,7 +113,12 @@ def _chunked_writer(stream: IO[bytes]) -> Any:
 
 
 def write_atomically(out_path: Path, fill: Any) -> Path:
-    """Call ``fill(stream)`` on a temporary file beside ``out_path``, then rename it."""
+    """Call ``fill(stream)`` on a temporary file beside ``out_path``, then rename it.
+
+    A symbolic link is followed: the file it points at is replaced, the link stays.
+    """
+    if out_path.is_symlink():
+        out_path = Path(os.path.realpath(out_path))
     out_path.parent.mkdir(parents=True, exist_ok=True)
     fd, temp = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".part", dir=out_path.parent)
     try:
