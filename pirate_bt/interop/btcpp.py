@@ -34,7 +34,8 @@ other.
 from __future__ import annotations
 
 from pirate_bt.interop.btcpp_export import export_xml, tree_to_xml
-from pirate_bt.interop.btcpp_import import import_xml, xml_to_tree
+from pirate_bt.interop.btcpp_import import xml_to_tree
+from pirate_bt.interop.btcpp_import_file import import_xml
 from pirate_bt.interop.btcpp_models import (
     BTCPP_FORMAT,
     FROM_BTCPP,

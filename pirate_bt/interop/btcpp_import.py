@@ -1,23 +1,21 @@
-"""BehaviorTree.CPP v4 XML import: an XML file as a pirate_bt tree file, checked as it is read.
+"""BehaviorTree.CPP v4 XML import: an XML file read as the mapping of a pirate_bt tree file,
+checked as it is read.
 
-:func:`xml_to_tree` and :func:`import_xml`, re-exported by
-:mod:`pirate_bt.interop.btcpp`.
+:func:`xml_to_tree`, re-exported by :mod:`pirate_bt.interop.btcpp`;
+:mod:`pirate_bt.interop.btcpp_import_file` writes the mapping as a checked tree file
+(:func:`~pirate_bt.interop.btcpp_import_file.import_xml`).
 """
 
 from __future__ import annotations
 
 import difflib
 import logging
-import os
-import re
-import tempfile
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import ValidationError
 
-from pirate_bt.errors import InputError, LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import SourceLocation
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -31,13 +29,13 @@ from pirate_bt.interop.btcpp_models import (
     decode_value,
     node_models,
 )
-from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml, refuse_special
+from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
 from pirate_bt.treefile.params import PARAM_RE
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import MAX_NODES, validation_problems
 
-__all__ = ["import_xml", "xml_to_tree"]
+__all__ = ["xml_to_tree"]
 
 # The logger keeps the name it had before the split (pirate_bt.interop.btcpp).
 _log = logging.getLogger("pirate_bt.interop.btcpp")
@@ -534,129 +532,3 @@ def _values(data: Any) -> int:
         elif isinstance(value, list):
             stack.extend(value)
     return count
-
-
-def _in_xml(
-    errors: tuple[LocatedError, ...],
-    yaml_file: Path,
-    where: dict[tuple[str | int, ...], SourceLocation],
-) -> list[LocatedError]:
-    """The loader's errors about the converted YAML, each at the XML element it came
-    from (the element of the node, subtree or parameter the YAML place is part of)."""
-    from pirate_bt.yamlfile import load_yaml
-
-    try:
-        marks = load_yaml(yaml_file).locator.marks
-    except ValidationFailed:  # every place then falls back to the main tree's element
-        marks = {}
-    by_place: dict[tuple[int, int], tuple[str | int, ...]] = {}
-    for key_path, place in marks.items():
-        if len(key_path) >= len(by_place.get(place, ())):
-            by_place[place] = key_path
-    places = sorted(by_place)
-
-    def in_xml(line: int, column: int) -> SourceLocation | None:
-        before = [p for p in places if p <= (line, column)]
-        path = by_place[before[-1]] if before else ()
-        while path and path not in where:
-            path = path[:-1]
-        return where.get(path)
-
-    # A message may name another place of the temporary file ("first at ...").
-    mentioned = re.compile(re.escape(str(yaml_file)) + r":(\d+):(\d+)")
-
-    def mention(match: re.Match[str]) -> str:
-        target = in_xml(int(match[1]), int(match[2]))
-        return str(target) if target is not None else match[0]
-
-    out: list[LocatedError] = []
-    for error in errors:
-        loc = error.location
-        message = mentioned.sub(mention, error.message)
-        if loc is None or Path(loc.file).resolve() != yaml_file.resolve():
-            out.append(LocatedError(message, loc) if message != error.message else error)
-            continue
-        target = in_xml(loc.line or 1, loc.column or 1)
-        out.append(LocatedError(message, target if target is not None else loc))
-    return out
-
-
-class _Dumper(yaml.SafeDumper):
-    pass
-
-
-def _str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
-    style = "|" if "\n" in value else None
-    return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
-
-
-_Dumper.add_representer(str, _str)
-
-
-def import_xml(
-    xml_path: str | Path,
-    out_path: str | Path,
-    registry: Registry | None = None,
-    robot: Any = None,
-) -> Path:
-    """Convert a BT.CPP v4 XML file to a pirate_bt tree file, checked before it appears.
-
-    The YAML is written beside ``out_path`` under a temporary name, loaded with
-    the tree loader against the robot (its limits, units and node types, as
-    ``pirate-bt validate`` and ``run`` check a tree), and only then renamed to
-    ``out_path``: a file that does not load is never left behind. Every problem
-    the loader finds is reported at the XML element it comes from.
-
-    Args:
-        xml_path: The XML file.
-        out_path: The tree file to write.
-        registry: Node types allowed (default: pirate_bt's).
-        robot: The robot description the tree must fit (a loaded one or its file;
-            default: the bundled robot).
-
-    Returns:
-        The file written.
-
-    Raises:
-        LocatedError: the XML cannot be converted (at the XML's line and column).
-        ValidationFailed: the converted tree does not load for the robot, each
-            problem at ``xml_file:line:column``.
-    """
-    from pirate_bt.robot.description import RobotDescription
-    from pirate_bt.robot.loader import load_robot
-    from pirate_bt.treefile import load_tree
-
-    reg = registry or default_registry()
-    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    source = Path(xml_path)
-    data, where = _read(source, reg)
-    text = (
-        f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
-        + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
-    )
-    out = Path(out_path)
-    refuse_special(out)
-    if out.exists() and out.resolve() == source.resolve():
-        raise InputError(f"{out}: is the XML file being imported; nothing written")
-    folder = out.parent if str(out.parent) else Path(".")
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".yaml", dir=folder)
-    except OSError as exc:
-        raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
-    tmp = Path(tmp_name)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as stream:
-            stream.write(text)
-        try:
-            load_tree(tmp, robot=description, use_examples=True, registry=reg)
-        except ValidationFailed as exc:
-            raise ValidationFailed(_in_xml(exc.errors, tmp, where)) from None
-        mask = os.umask(0o022)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, out)
-    except OSError as exc:
-        raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        tmp.unlink(missing_ok=True)
-    return out
