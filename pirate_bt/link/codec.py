@@ -93,6 +93,16 @@ from pirate_bt.link.messages import (
     Setpoint,
     State,
 )
+from pirate_bt.link.payloads import (
+    _ACK,
+    _BOARD_COUNTERS,
+    _COUNTERS_HEAD,
+    _FLAGS,
+    _HELLO,
+    _HELLO_REPLY,
+    _SETPOINT,
+    decode_fixed,
+)
 from pirate_bt.robot.description import ControlMode, RobotDescription
 
 __all__ = [
@@ -140,17 +150,10 @@ __all__ = [
 _HEADER = struct.Struct("<BBHB")
 _CRC = struct.Struct("<H")
 _U16 = struct.Struct("<H")
-_HELLO = struct.Struct("<IB")
-_HELLO_REPLY = struct.Struct("<IBBHHBHB")
-_SETPOINT = struct.Struct("<BBh")
-_ACK = struct.Struct("<BB")
-_COUNTERS_HEAD = struct.Struct("<IIIII")
-_BOARD_COUNTERS = struct.Struct("<BIII")
 
 
 _TYPE_BY_CODE: dict[int, MsgType] = {int(t): t for t in MsgType}
 _STATE_CODE = int(MsgType.STATE)
-_ACK_STATUS: dict[int, AckStatus] = {int(s): s for s in AckStatus}
 _STATUS_CACHE = 64
 """Distinct board-status patterns a codec remembers (bounded, for a misbehaving peer)."""
 _new_object = object.__new__
@@ -160,23 +163,9 @@ _SET_STATE_ACK_SEQ = State.__dict__["ack_seq"].__set__
 _SET_STATE_FRESH_MASK = State.__dict__["fresh_mask"].__set__
 _SET_STATE_BOARD_STATUS = State.__dict__["board_status"].__set__
 _SET_STATE_RAW_VALUES = State.__dict__["raw_values"].__set__
-_FLAGS: tuple[BridgeFlags, ...] = tuple(BridgeFlags(i) for i in range(256))
 _NIBBLES: tuple[tuple[int, int], ...] = tuple((b & 0xF, b >> 4) for b in range(256))
 
 # --- codec ----------------------------------------------------------------------------------
-
-_FIXED_PAYLOAD: dict[int, int] = {
-    MsgType.HELLO: _HELLO.size,
-    MsgType.SETPOINT: _SETPOINT.size,
-    MsgType.HEARTBEAT: 0,
-    MsgType.ESTOP: 0,
-    MsgType.ESTOP_RESET: 0,
-    MsgType.COUNTERS_REQUEST: 0,
-    MsgType.HELLO_REPLY: _HELLO_REPLY.size,
-    MsgType.ACK: _ACK.size,
-    MsgType.NACK: _ACK.size,
-    MsgType.BRIDGE_HEARTBEAT: 0,
-}
 
 
 class FrameCodec:
@@ -556,50 +545,4 @@ class FrameCodec:
                         raise FrameError("value", f"unknown mode code {code}")
                     modes.append(mode)
             return BulkSetpoints(seq, tuple(modes), tuple(flat[1::2]))
-        if kind is MsgType.COUNTERS:
-            head = _COUNTERS_HEAD.size
-            if size < head or (size - head) % _BOARD_COUNTERS.size:
-                raise FrameError("length", f"counters payload of {size} bytes")
-            boards = tuple(
-                BoardCounters(*vals) for vals in _BOARD_COUNTERS.iter_unpack(payload[head:])
-            )
-            rx, crc, framing, dups, trips = _COUNTERS_HEAD.unpack_from(payload)
-            return Counters(seq, rx, crc, framing, dups, trips, boards)
-        want = _FIXED_PAYLOAD[kind]
-        if size != want:
-            raise FrameError("length", f"{kind.name} payload {size} bytes, expected {want}")
-        if kind is MsgType.HEARTBEAT:
-            return Heartbeat(seq)
-        if kind is MsgType.SETPOINT:
-            slot, code, raw = _SETPOINT.unpack(payload)
-            mode = _MODE_BY_CODE.get(code)
-            if mode is None:
-                raise FrameError("value", f"unknown mode code {code}")
-            return Setpoint(seq, arg, slot, mode, raw)
-        if kind is MsgType.ACK or kind is MsgType.NACK:
-            acked, status = _ACK.unpack(payload)
-            if kind is MsgType.ACK:
-                ack_status = _ACK_STATUS.get(status)
-                if ack_status is None:
-                    raise FrameError("value", f"unknown ack status {status}")
-                return Ack(seq, acked, ack_status)
-            try:
-                return Nack(seq, acked, NackCode(status))
-            except ValueError:
-                raise FrameError("value", f"unknown nack code {status}") from None
-        if kind is MsgType.HELLO:
-            return Hello(seq, *_HELLO.unpack(payload))
-        if kind is MsgType.HELLO_REPLY:
-            digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions = _HELLO_REPLY.unpack(
-                payload
-            )
-            return HelloReply(
-                seq, digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions, _FLAGS[arg]
-            )
-        if kind is MsgType.ESTOP:
-            return EStop(seq)
-        if kind is MsgType.ESTOP_RESET:
-            return EStopReset(seq)
-        if kind is MsgType.COUNTERS_REQUEST:
-            return CountersRequest(seq)
-        return BridgeHeartbeat(seq, _FLAGS[arg])
+        return decode_fixed(kind, seq, arg, payload)

@@ -1,0 +1,109 @@
+"""The payloads of the fixed-size PIRATEbay messages: their layouts and their decoding.
+
+Every message but ``STATE`` and ``BULK_SETPOINTS`` has a payload whose layout does
+not depend on the robot (``docs/protocol.md``): :class:`~pirate_bt.link.codec.FrameCodec`
+packs them with the structures here and hands their decoding to :func:`decode_fixed`.
+"""
+
+from __future__ import annotations
+
+import struct
+
+from pirate_bt.errors import FrameError
+from pirate_bt.link.messages import (
+    _MODE_BY_CODE,
+    Ack,
+    AckStatus,
+    BoardCounters,
+    BridgeFlags,
+    BridgeHeartbeat,
+    Counters,
+    CountersRequest,
+    EStop,
+    EStopReset,
+    Heartbeat,
+    Hello,
+    HelloReply,
+    Message,
+    MsgType,
+    Nack,
+    NackCode,
+    Setpoint,
+)
+
+__all__ = ["decode_fixed"]
+
+_HELLO = struct.Struct("<IB")
+_HELLO_REPLY = struct.Struct("<IBBHHBHB")
+_SETPOINT = struct.Struct("<BBh")
+_ACK = struct.Struct("<BB")
+_COUNTERS_HEAD = struct.Struct("<IIIII")
+_BOARD_COUNTERS = struct.Struct("<BIII")
+_ACK_STATUS: dict[int, AckStatus] = {int(s): s for s in AckStatus}
+_FLAGS: tuple[BridgeFlags, ...] = tuple(BridgeFlags(i) for i in range(256))
+
+_FIXED_PAYLOAD: dict[int, int] = {
+    MsgType.HELLO: _HELLO.size,
+    MsgType.SETPOINT: _SETPOINT.size,
+    MsgType.HEARTBEAT: 0,
+    MsgType.ESTOP: 0,
+    MsgType.ESTOP_RESET: 0,
+    MsgType.COUNTERS_REQUEST: 0,
+    MsgType.HELLO_REPLY: _HELLO_REPLY.size,
+    MsgType.ACK: _ACK.size,
+    MsgType.NACK: _ACK.size,
+    MsgType.BRIDGE_HEARTBEAT: 0,
+}
+
+
+def decode_fixed(kind: MsgType, seq: int, arg: int, payload: bytes) -> Message:
+    """The message of a fixed-layout ``kind`` (anything but STATE and BULK_SETPOINTS).
+
+    Raises:
+        FrameError: ``length`` (the payload's size is not the type's) or ``value``
+            (an unknown mode, ack status or nack code).
+    """
+    size = len(payload)
+    if kind is MsgType.COUNTERS:
+        head = _COUNTERS_HEAD.size
+        if size < head or (size - head) % _BOARD_COUNTERS.size:
+            raise FrameError("length", f"counters payload of {size} bytes")
+        boards = tuple(BoardCounters(*vals) for vals in _BOARD_COUNTERS.iter_unpack(payload[head:]))
+        rx, crc, framing, dups, trips = _COUNTERS_HEAD.unpack_from(payload)
+        return Counters(seq, rx, crc, framing, dups, trips, boards)
+    want = _FIXED_PAYLOAD[kind]
+    if size != want:
+        raise FrameError("length", f"{kind.name} payload {size} bytes, expected {want}")
+    if kind is MsgType.HEARTBEAT:
+        return Heartbeat(seq)
+    if kind is MsgType.SETPOINT:
+        slot, code, raw = _SETPOINT.unpack(payload)
+        mode = _MODE_BY_CODE.get(code)
+        if mode is None:
+            raise FrameError("value", f"unknown mode code {code}")
+        return Setpoint(seq, arg, slot, mode, raw)
+    if kind is MsgType.ACK or kind is MsgType.NACK:
+        acked, status = _ACK.unpack(payload)
+        if kind is MsgType.ACK:
+            ack_status = _ACK_STATUS.get(status)
+            if ack_status is None:
+                raise FrameError("value", f"unknown ack status {status}")
+            return Ack(seq, acked, ack_status)
+        try:
+            return Nack(seq, acked, NackCode(status))
+        except ValueError:
+            raise FrameError("value", f"unknown nack code {status}") from None
+    if kind is MsgType.HELLO:
+        return Hello(seq, *_HELLO.unpack(payload))
+    if kind is MsgType.HELLO_REPLY:
+        digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions = _HELLO_REPLY.unpack(payload)
+        return HelloReply(
+            seq, digest, n_ch, n_mo, wd_ms, firmware, minor, boot_id, sessions, _FLAGS[arg]
+        )
+    if kind is MsgType.ESTOP:
+        return EStop(seq)
+    if kind is MsgType.ESTOP_RESET:
+        return EStopReset(seq)
+    if kind is MsgType.COUNTERS_REQUEST:
+        return CountersRequest(seq)
+    return BridgeHeartbeat(seq, _FLAGS[arg])
