@@ -176,23 +176,6 @@ class SimBridge(FaultsMixin):
                 continue
             self._handle(item)
 
-    def _drop(self, data: bytes) -> None:
-        """Bytes lost to an injected link loss: count each host frame they end.
-
-        A frame is a non-empty run of bytes before a delimiter, as a receiver sees it:
-        lone delimiters and empty frames are none, and a frame whose first bytes came
-        before the loss (or in an earlier read) counts once, where its delimiter is lost.
-        """
-        *ended, tail = data.split(b"\x00")
-        partial = self._lost_partial or self._decoder.pending_bytes > 0
-        for part in ended:
-            if part or partial:
-                self.frames_dropped += 1
-            partial = False
-        if ended:
-            self._decoder.reset()  # the frame it held ended unseen
-        self._lost_partial = partial or bool(tail)
-
     def read(self, size: int = -1) -> bytes:
         """Take up to ``size`` queued bytes for the host (all when negative)."""
         if size < 0 or size >= len(self._out):

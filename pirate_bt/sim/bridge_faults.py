@@ -54,6 +54,24 @@ class FaultsMixin:
     _link_lost: bool
     _lost_partial: bool
     _status_cache: tuple[int, ...] | None
+    frames_dropped: int
+
+    def _drop(self, data: bytes) -> None:
+        """Bytes lost to an injected link loss: count each host frame they end.
+
+        A frame is a non-empty run of bytes before a delimiter, as a receiver sees it:
+        lone delimiters and empty frames are none, and a frame whose first bytes came
+        before the loss (or in an earlier read) counts once, where its delimiter is lost.
+        """
+        *ended, tail = data.split(b"\x00")
+        partial = self._lost_partial or self._decoder.pending_bytes > 0
+        for part in ended:
+            if part or partial:
+                self.frames_dropped += 1
+            partial = False
+        if ended:
+            self._decoder.reset()  # the frame it held ended unseen
+        self._lost_partial = partial or bool(tail)
 
     def check_fault(self, fault: FaultSpec) -> None:
         """Check that a fault's target exists on this robot.
