@@ -268,7 +268,7 @@ def test_an_export_through_a_symlink_replaces_its_target_and_keeps_the_link(
     tmp_path: Path,
 ) -> None:
     # the atomic rename replaced the link itself with a regular file
-    from pirate_bt.interop.mcap_writer import write_atomically
+    from pirate_bt.atomic import write_atomically
 
     target = tmp_path / "store" / "run.mcap"
     target.parent.mkdir()

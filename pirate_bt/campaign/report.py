@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.campaign.stats import GroupStats, group_stats, percentile
 
 __all__ = ["CSV_COLUMNS", "write_report"]
@@ -47,12 +48,8 @@ _KINDS = {"violations": "violation_kinds", "damage": "damage_kinds"}
 
 
 def _replace(path: Path, text: str | bytes) -> Path:
-    tmp = path.with_name(path.name + ".part")
-    if isinstance(text, bytes):
-        tmp.write_bytes(text)
-    else:
-        tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    data = text if isinstance(text, bytes) else text.encode("utf-8")
+    write_atomically(path, lambda stream: stream.write(data))
     return path
 
 

@@ -11,12 +11,11 @@ output. Give the result to ``pirate-bt mission ROUTE --sim OUT --network MAP``.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.units import parse_quantity
 
@@ -107,22 +106,11 @@ def _write(text: str, output: Path | None) -> None:
         return
     if output.is_dir():
         raise InputError(f"-o {output}: a folder, not a file; give the network file to write")
-    try:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        # write beside it and rename: no half-written network file
-        fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", dir=output.parent)
+    data = text.encode("utf-8")
+    try:  # no half-written network file
+        write_atomically(output, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, output)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     print(f"wrote {output}", file=sys.stderr)
 
 

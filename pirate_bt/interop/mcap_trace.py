@@ -47,6 +47,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any, ClassVar
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import InputError
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
 from pirate_bt.interop.mcap_writer import (
@@ -55,7 +56,6 @@ from pirate_bt.interop.mcap_writer import (
     _chunked_writer,
     compact_mcap,
     load_mcap,
-    write_atomically,
 )
 from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
 from pirate_bt.trace.sink import register_process_writer
@@ -114,7 +114,7 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
             raise InputError(f"{trace_path}: empty trace (no header)")
         writer.finish()
 
-    return write_atomically(Path(out_path), fill)
+    return write_atomically(Path(out_path), fill, durable=True)
 
 
 # --- reading -----------------------------------------------------------------------

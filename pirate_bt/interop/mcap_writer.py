@@ -36,6 +36,7 @@ import tempfile
 from pathlib import Path
 from typing import IO, Any, ClassVar
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.interop.foxglove_topics import (
     TOPICS,
@@ -48,7 +49,7 @@ from pirate_bt.interop.foxglove_topics import (
 from pirate_bt.interop.mcap_chunks import ChunkedCopy
 from pirate_bt.trace.sink_formats import TraceFormatWriter
 
-__all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap", "write_atomically"]
+__all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap"]
 
 logger = logging.getLogger(__name__)
 
@@ -110,34 +111,6 @@ def _chunked_writer(stream: IO[bytes]) -> Any:
     )
     writer.start(profile="", library=_library())
     return writer
-
-
-def write_atomically(out_path: Path, fill: Any) -> Path:
-    """Call ``fill(stream)`` on a temporary file beside ``out_path``, then rename it.
-
-    A symbolic link is followed: the file it points at is replaced, the link stays.
-    """
-    if out_path.is_symlink():
-        out_path = Path(os.path.realpath(out_path))
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temp = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".part", dir=out_path.parent)
-    try:
-        if out_path.exists():
-            os.chmod(temp, out_path.stat().st_mode & 0o777)
-        else:  # what open() would have given: mkstemp makes it private
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(temp, 0o666 & ~mask)
-        with open(fd, "wb") as stream:
-            fill(stream)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temp, out_path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temp)
-        raise
-    return out_path
 
 
 # --- writing a run directly --------------------------------------------------------
@@ -411,4 +384,4 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
                 pass  # a cut-off end: keep what was complete
         writer.finish()
 
-    return write_atomically(Path(out_path or path), fill)
+    return write_atomically(Path(out_path or path), fill, durable=True)

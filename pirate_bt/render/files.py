@@ -1,20 +1,20 @@
 """Write a picture so that a failure never leaves half of one behind.
 
-:func:`write_file` writes the bytes to a temporary file beside the output and
-renames it over the output only once all of it is written: an existing picture
-stays whole until the new one replaces it, and a write that fails (a full disk)
-removes the temporary file and raises. :func:`write_diagram` writes a diagram's
+:func:`write_file` writes the bytes through :func:`pirate_bt.atomic.write_atomically`
+(a temporary file renamed over the output once all of it is written): an existing
+picture stays whole until the new one replaces it, and a write that fails (a full
+disk) removes the temporary file and raises. :func:`write_diagram` writes a diagram's
 ``dot`` source and, with Graphviz, its picture that way.
 """
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import os
 import shutil
-import tempfile
 from pathlib import Path
+
+from pirate_bt.atomic import write_atomically
 
 __all__ = ["DIAGRAM_SUFFIXES", "write_diagram", "write_file"]
 
@@ -37,38 +37,12 @@ def write_file(path: str | Path, data: bytes) -> Path:
     """
     out = Path(path)
     try:
-        _write(out, data)
+        write_atomically(out, lambda stream: stream.write(data))
     except OSError as exc:  # named by the output, not by a temporary file
         if exc.errno is None:
             raise
         raise OSError(exc.errno, exc.strerror, str(out)) from exc
     return out
-
-
-def _write(out: Path, data: bytes) -> None:
-    target = Path(os.path.realpath(out)) if out.is_symlink() else out
-    if target.is_dir():
-        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(out))
-    target.parent.mkdir(parents=True, exist_ok=True)
-    if target.exists() and not target.is_file():
-        with open(target, "wb") as stream:
-            stream.write(data)
-        return
-    fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
-    try:
-        with open(fd, "wb") as stream:
-            stream.write(data)
-        if target.exists():
-            os.chmod(temp, target.stat().st_mode & 0o777)
-        else:  # what open() would have given: mkstemp makes it private
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(temp, 0o666 & ~mask)
-        os.replace(temp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temp)
-        raise
 
 
 def write_diagram(source: str, out: str | Path) -> Path:

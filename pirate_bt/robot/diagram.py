@@ -1,19 +1,18 @@
 """Draw a robot description: modules front to rear, their boards, motors and sensors.
 
-Building the graph (:func:`robot_graph`) and writing it (:func:`write_diagram`)
-are two functions, as in ``py_trees.display``.
+Building the graph (:func:`robot_graph`) and writing it
+(:func:`pirate_bt.render.files.write_diagram`, shared with the tree diagrams) are two
+functions, as in ``py_trees.display``.
 """
 
 from __future__ import annotations
 
 import html
-import shutil
-from pathlib import Path
 
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.units import format_quantity
 
-__all__ = ["board_table", "robot_graph", "write_diagram"]
+__all__ = ["board_table", "robot_graph"]
 
 _LEFT_BREAK = '<br align="left"/>'
 _HALF_COLOUR = {Half.FRONT: "#dbeafe", Half.REAR: "#dcfce7", None: "#fef3c7"}
@@ -64,41 +63,3 @@ def robot_graph(robot: RobotDescription) -> str:
         lines.append(f"  m{index} -> m{index + 1} [arrowhead=none, penwidth=3];")
     lines.append("}")
     return "\n".join(lines) + "\n"
-
-
-def write_diagram(source: str, out: Path) -> Path:
-    """Write ``source`` to ``out`` (``.dot``, ``.svg`` or ``.png`` by suffix).
-
-    The ``.dot`` file is always written beside the picture, so nothing is lost
-    when Graphviz is missing.
-
-    Returns:
-        The path of the ``.dot`` file, or of the picture when one was drawn.
-
-    Raises:
-        FileNotFoundError: ``dot`` is not installed and a picture was asked for
-            (the ``.dot`` file has been written all the same).
-        ValueError: an unsupported suffix.
-    """
-    suffix = out.suffix.lower()
-    if suffix not in (".dot", ".svg", ".png"):
-        raise ValueError(f"cannot draw to {out.name!r}: use .dot, .svg or .png")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    dot_path = out if suffix == ".dot" else out.with_suffix(".dot")
-    tmp = dot_path.with_name(dot_path.name + ".tmp")
-    tmp.write_text(source, encoding="utf-8")
-    tmp.replace(dot_path)
-    if suffix == ".dot":
-        return dot_path
-    if shutil.which("dot") is None:
-        raise FileNotFoundError(
-            f"Graphviz 'dot' is not installed, so {out} was not drawn; {dot_path} was written"
-            " (install it with: apt-get install graphviz)"
-        )
-    import graphviz
-
-    picture = graphviz.Source(source).pipe(format=suffix[1:])
-    tmp_out = out.with_name(out.name + ".tmp")
-    tmp_out.write_bytes(picture)
-    tmp_out.replace(out)
-    return out

@@ -27,11 +27,10 @@ bridge ignores both.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.robot.description import ControlMode, MotorFunction, RobotDescription
 
@@ -364,14 +363,6 @@ def _board_io_lines(robot: RobotDescription) -> list[str]:
 
 def write_header(robot: RobotDescription, out: Path, source: str = "") -> Path:
     """Write the header to ``out`` atomically (no half-written file on failure)."""
-    text = render_header(robot, source)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".layout-", suffix=".h", dir=out.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="ascii") as fh:
-            fh.write(text)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    data = render_header(robot, source).encode("ascii")
+    write_atomically(out, lambda stream: stream.write(data))
     return out

@@ -1,0 +1,74 @@
+"""Write a file whole or not at all: the one temporary-file-and-rename of the library.
+
+:func:`write_atomically` lets the caller fill a temporary file beside the output and
+renames it over the output only once it is complete: an existing file stays whole
+until the new one replaces it, and a write that fails (a full disk, an exception in
+the caller's code) removes the temporary file and raises. Pictures
+(:mod:`pirate_bt.render.files`) and MCAP files (:mod:`pirate_bt.interop.mcap_writer`)
+are written through it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["write_atomically"]
+
+
+def write_atomically(
+    path: str | Path, fill: Callable[[IO[bytes]], Any], *, durable: bool = False
+) -> Path:
+    """Call ``fill(stream)`` on a temporary file beside ``path``, then rename it over ``path``.
+
+    Its folder is made if missing. A symbolic link is followed (its target is replaced,
+    the link stays). A path that exists and is not a regular file (a device such as
+    ``/dev/null``, a pipe) is written in place, never replaced. The new file gets the
+    old one's permissions, or what ``open()`` would have given.
+
+    Args:
+        path: The file to write.
+        fill: Writes the content to the binary stream it is given.
+        durable: ``fsync`` the content before the rename (a file that must survive a
+            power cut once it has its name).
+
+    Returns:
+        The file written (the link's target when ``path`` is a symbolic link).
+
+    Raises:
+        OSError: the file cannot be written (``IsADirectoryError`` for a folder);
+            nothing is left of the attempt.
+    """
+    out = Path(path)
+    target = Path(os.path.realpath(out)) if out.is_symlink() else out
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(out))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    if target.exists() and not target.is_file():
+        with open(target, "wb") as stream:
+            fill(stream)
+        return target
+    fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    try:
+        if target.exists():
+            os.chmod(temp, target.stat().st_mode & 0o777)
+        else:  # what open() would have given: mkstemp makes it private
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(temp, 0o666 & ~mask)
+        with open(fd, "wb") as stream:
+            fill(stream)
+            if durable:
+                stream.flush()
+                os.fsync(stream.fileno())
+        os.replace(temp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temp)
+        raise
+    return target
