@@ -337,15 +337,19 @@ class Localiser:
                 and not quiet
                 and not self._near_turn(here_m)
             ):
+                mapped_mm = self.plan.path.diameter_at(max(here_m, 0.0)) * 1000
+                # The joint found no wall where the map has pipe: a branch's opening, or
+                # a pipe wider than mapped; the joints alone cannot tell which.
                 self.mismatch = (
                     f"belief and map disagree: an opening was felt at {here_m:.2f} m"
                     f" (believed, by {module}), where the map has no T-joint within"
-                    f" {window:.2f} m"
+                    f" {window:.2f} m (or the pipe is wider than the map's"
+                    f" {mapped_mm:.0f} mm there)"
                 )
                 self._disagree(
                     state.stamp_s,
                     tee if tee is not None and opening_m is not None else None,
-                    "an opening (a T-joint?)",
+                    "an opening (a T-joint, or a wider pipe?)",
                     f"{module}'s joint swung from the wall to {math.degrees(abs(angle)):.0f} deg,"
                     f" past the wall-contact angle {math.degrees(wall_rad):.0f} deg",
                     window,
