@@ -92,6 +92,13 @@ class Primitive(Leaf):
         self.start()
 
     def update(self) -> Status:
+        safe_reason = self.supervisor.safe_state_reason
+        if safe_reason is not None:
+            # The supervisor has stopped the drives under this primitive (link lost,
+            # stale data, ...) and refuses every tree command until an operator resumes:
+            # the work cannot go on, and the last state it has may be frozen (a drive
+            # would count its wheels' last speed as distance still driven).
+            return self.fail(f"the robot is in its safe state: {safe_reason}")
         state: RobotState | None = self.supervisor.state()
         elapsed_s = self.now() - self._start_s
         if state is None:
