@@ -159,7 +159,10 @@ def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
     attributes (``pre_tick_handlers``, ``visitors``, ``post_tick_handlers``,
     ``count``) and walks the whole tree only when a ``full`` visitor asks for it:
     a user's visitors and handlers see exactly what ``BehaviourTree.tick()``
-    would show them.
+    would show them. When the tree's one visitor is not ``full`` and has a
+    ``collects`` list (the trace's :class:`~pirate_bt.trace.nodes.TickedNodes`, on a
+    tree none of whose nodes overrides ``visit``), its visit of a node is appending
+    the node to that list, which is done in C as the tick yields each node.
     """
     for handler in tree.pre_tick_handlers:
         handler(tree)
@@ -167,7 +170,18 @@ def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
     for visitor in visitors:
         visitor.initialise()
     root = tree.root
-    if visitors:
+    if not visitors:
+        _exhaust(root.tick())
+        collects = None
+    elif len(visitors) == 1 and not visitors[0].full:
+        collects = getattr(visitors[0], "collects", None)
+    else:
+        collects = None
+    if collects is not None:
+        # A visitor (the trace's) whose visit of a ticked node is, by its word, appending
+        # the node to this list: the list gathers the nodes as the tick yields them, in C.
+        collects.extend(root.tick())
+    elif visitors:
         # BehaviourTree.tick() picks the visitors that are not full once per node; once
         # per tick is the same unless a node edits the tree's visitors mid-tick.
         partial = [v for v in visitors if not v.full]
@@ -179,10 +193,8 @@ def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
             for node in root.iterate():
                 for visitor in full:
                     node.visit(visitor)
-        for visitor in visitors:
-            visitor.finalise()
-    else:
-        _exhaust(root.tick())
+    for visitor in visitors:
+        visitor.finalise()
     for handler in tree.post_tick_handlers:
         handler(tree)
     tree.count += 1
