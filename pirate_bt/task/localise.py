@@ -372,9 +372,18 @@ class Localiser:
         front, rear = self.belief_m, self.belief_m - self.plan.robot_length_m
         if front >= self.plan.path.length_m - reach:
             return
+        # A feature up to the last one fixed on is placed by that fix: only odometry
+        # since then separates it from the robot, not the map's lengths (a turn already
+        # passed, more than the robot's length behind, explains no block ahead).
+        last = self.fixes[-1].feature if self.fixes else None
+        fixed_end_m = max(
+            (p.end_m for p in self.plan.path.pieces if p.segment == last), default=-math.inf
+        )
+        placed = self.window_m + self.drift_per_m * self.since_fix_m
         for piece in self.plan.path.pieces:
+            slack = placed if piece.end_m <= fixed_end_m else reach
             if piece.kind.value != "straight" and (
-                piece.start_m - reach <= front and rear <= piece.end_m + reach
+                piece.start_m - slack <= front and rear <= piece.end_m + slack
             ):
                 return
         after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""

@@ -1,0 +1,73 @@
+"""Missions whose pipe differs from their map: the disagreement names what was met.
+
+A pipe wider than the map says: the bend joints find no wall where the map has
+pipe, and the localiser cannot tell a branch's opening from a wider pipe, so its
+disagreement names both, with the mapped diameter, and the mission stops on it.
+
+A turn the map lacks, met soon after a turn the robot has fixed on: the block is
+named where it happened, not explained away by the turn behind the robot (which
+used to hand the leg on to the next step, and the mission then blamed a feature
+metres ahead).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pirate_bt
+
+NETWORK = """schema_version: 1
+name: straight
+diameter: 63 mm
+tether_drag_per_metre: 0.2 N
+segments:
+  - {{id: run, type: straight, length: 1.5 m}}
+  - {{id: wide, type: straight, length: 1 m, diameter: {wide}}}
+  - {{id: rest, type: straight, length: 2.5 m}}
+"""
+
+
+def test_a_pipe_wider_than_the_clamps_reach_is_named_as_what_it_may_be(tmp_path: Path) -> None:
+    truth = tmp_path / "wide.yaml"
+    truth.write_text(NETWORK.format(wide="130 mm"), encoding="utf-8")
+    plan = pirate_bt.plan_route(Path(__file__).parents[1] / "scenarios" / "straight.route")
+    result = pirate_bt.simulate_mission(plan, truth=truth)
+    assert not result.succeeded
+    assert result.mismatch is not None
+    assert "an opening was felt at 1.5" in result.mismatch
+    assert "or the pipe is wider than the map's 63 mm there" in result.mismatch
+    assert result.why == result.mismatch  # the first cause reaches the caller
+
+
+def test_a_wider_pipe_the_clamps_still_reach_is_no_disagreement(tmp_path: Path) -> None:
+    truth = tmp_path / "wide.yaml"
+    truth.write_text(NETWORK.format(wide="80 mm"), encoding="utf-8")
+    plan = pirate_bt.plan_route(Path(__file__).parents[1] / "scenarios" / "straight.route")
+    result = pirate_bt.simulate_mission(plan, truth=truth)
+    assert result.succeeded, result.why
+    assert result.mismatch is None
+
+
+BEND_RIGHT = Path(__file__).parents[1] / "scenarios" / "bend-right.yaml"
+
+
+def test_an_unmapped_turn_after_a_fixed_one_is_named_where_it_blocked(tmp_path: Path) -> None:
+    text = BEND_RIGHT.read_text(encoding="utf-8")
+    after = "  - {id: after, type: straight, length: 2 m}"
+    assert after in text
+    truth = tmp_path / "extra-bend.yaml"
+    truth.write_text(
+        text.replace(
+            after,
+            "  - {id: after, type: straight, length: 1 m}\n"
+            "  - {id: extra, type: bend, direction: left, radius: 90 mm}\n"
+            "  - {id: beyond, type: straight, length: 1 m}",
+        ),
+        encoding="utf-8",
+    )
+    plan = pirate_bt.plan_route(BEND_RIGHT.with_suffix(".route"))
+    result = pirate_bt.simulate_mission(plan, truth=truth)
+    assert not result.succeeded
+    assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 3.")
+    assert "after 'bend'), where the map has no turn and no end within" in result.why
+    assert result.sim["violations"] == 0
