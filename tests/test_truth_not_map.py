@@ -71,3 +71,28 @@ def test_an_unmapped_turn_after_a_fixed_one_is_named_where_it_blocked(tmp_path: 
     assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 3.")
     assert "after 'bend'), where the map has no turn and no end within" in result.why
     assert result.sim["violations"] == 0
+
+
+def test_a_mission_that_re_planned_accounts_for_the_whole_run(tmp_path: Path) -> None:
+    text = BEND_RIGHT.read_text(encoding="utf-8")
+    after = "  - {id: after, type: straight, length: 2 m}"
+    truth = tmp_path / "extra-tee.yaml"
+    truth.write_text(
+        text.replace(
+            after,
+            "  - {id: after, type: straight, length: 0.8 m}\n"
+            "  - id: x\n    type: tee\n    branch:\n      direction: right\n"
+            "      segments:\n        - {id: xb, type: straight, length: 1 m}\n"
+            "  - {id: after2, type: straight, length: 1.1 m}",
+        ),
+        encoding="utf-8",
+    )
+    plan = pirate_bt.plan_route(BEND_RIGHT.with_suffix(".route"))
+    result = pirate_bt.simulate_mission(plan, truth=truth)
+    assert result.succeeded, result.why
+    assert len(result.replans) == 1 and "found-tee-1" in result.replans[0]
+    # was "mission completed: 2 PABs, tree succeeded after 357 ticks": the re-planned
+    # part's own account, as if the first four PABs had not run
+    ran = [p for p in result.pabs if p.outcome != "not run"]
+    assert len(ran) == 6
+    assert result.why == "mission completed: 6 PABs, re-planned once"

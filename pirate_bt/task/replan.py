@@ -164,8 +164,32 @@ def joined(first: MissionResult, then: MissionResult, note: str) -> MissionResul
     from dataclasses import replace
 
     offset = then.start_s - first.start_s
+    replans = (
+        [*first.replans, f"{note} ({first.disagreement.describe()})"]
+        if first.disagreement is not None
+        else [*first.replans, note]
+    )
+    pabs = [
+        *(p for p in first.pabs if p.outcome != "not run"),
+        *(
+            replace(
+                p,
+                start_s=None if p.start_s is None else p.start_s + offset,
+                end_s=None if p.end_s is None else p.end_s + offset,
+            )
+            for p in then.pabs
+        ),
+    ]
+    why = then.why
+    if then.succeeded:
+        # The whole mission's account, not the re-planned part's alone ("2 PABs").
+        times = "once" if len(replans) == 1 else f"{len(replans)} times"
+        ran = sum(p.outcome != "not run" for p in pabs)
+        why = f"mission completed: {ran} PABs, re-planned {times}"
     return replace(
         then,
+        why=why,
+        reason=why if then.succeeded else then.reason,
         fixes=[*first.fixes, *then.fixes],
         legs=[*first.legs, *then.legs],
         timeline=[
@@ -175,22 +199,10 @@ def joined(first: MissionResult, then: MissionResult, note: str) -> MissionResul
         samples=[*first.samples, *(replace(x, time_s=x.time_s + offset) for x in then.samples)],
         odometry_m=first.odometry_m + then.odometry_m,
         start_s=first.start_s,
-        pabs=[
-            *(p for p in first.pabs if p.outcome != "not run"),
-            *(
-                replace(
-                    p,
-                    start_s=None if p.start_s is None else p.start_s + offset,
-                    end_s=None if p.end_s is None else p.end_s + offset,
-                )
-                for p in then.pabs
-            ),
-        ],
+        pabs=pabs,
         counters=first.counters + then.counters,
         wall_s=first.wall_s + then.wall_s,
-        replans=[*first.replans, f"{note} ({first.disagreement.describe()})"]
-        if first.disagreement is not None
-        else [*first.replans, note],
+        replans=replans,
     )
 
 
@@ -209,6 +221,9 @@ def return_to_start(
         back = plan_return(result.plan, result.belief_m, [f.feature for f in result.fixes])
     except LocatedError as exc:
         result.replans.append(f"no way back planned: {exc.message}")
+        return None
+    if not back.pabs:  # stopped before it moved off the start: nothing to drive
+        result.replans.append("no way back to drive: the robot is still at the start")
         return None
     supervisor.resume()  # the operator's decision: leave the safe state and come back
     result.replans.append(f"returning to the start: {back.distance_m:.2f} m back")
