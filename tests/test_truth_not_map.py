@@ -96,3 +96,23 @@ def test_a_mission_that_re_planned_accounts_for_the_whole_run(tmp_path: Path) ->
     ran = [p for p in result.pabs if p.outcome != "not run"]
     assert len(ran) == 6
     assert result.why == "mission completed: 6 PABs, re-planned once"
+
+
+T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
+
+
+def test_a_line_that_ends_early_after_a_straight_tee_is_no_success(tmp_path: Path) -> None:
+    text = T_JOINT.read_text(encoding="utf-8")
+    after = "  - {id: after, type: straight, length: 2 m}"
+    assert after in text
+    truth = tmp_path / "short.yaml"
+    truth.write_text(
+        text.replace(after, "  - {id: after, type: straight, length: 0.5 m}"), encoding="utf-8"
+    )
+    plan = pirate_bt.plan_route(T_JOINT.with_name("t-joint-straight.route"))
+    result = pirate_bt.simulate_mission(plan, truth=truth)
+    # was "mission completed": the tee passed straight through, half a metre behind,
+    # was taken to explain the block where the pipe ended 1.5 m before the map's end
+    assert not result.succeeded
+    assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 2.7")
+    assert "after 'tee'), where the map has no turn and no end within" in result.why

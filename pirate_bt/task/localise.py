@@ -382,7 +382,7 @@ class Localiser:
         placed = self.window_m + self.drift_per_m * self.since_fix_m
         for piece in self.plan.path.pieces:
             slack = placed if piece.end_m <= fixed_end_m else reach
-            if piece.kind.value != "straight" and (
+            if piece.angle_rad > 0 and (  # a tee passed straight through blocks nothing
                 piece.start_m - slack <= front and rear <= piece.end_m + slack
             ):
                 return
