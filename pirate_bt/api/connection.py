@@ -27,7 +27,14 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.api.options import load_robot_like, network_name, parse_target, split_faults
+from pirate_bt.api.options import (
+    flag,
+    load_robot_like,
+    network_name,
+    parse_target,
+    seed_value,
+    split_faults,
+)
 from pirate_bt.api.running import as_loaded, run_on
 from pirate_bt.clock import Clock, SimClock, WallClock
 from pirate_bt.errors import InputError
@@ -116,6 +123,17 @@ class Connection:
         """
         return as_loaded(tree, self.robot, params)
 
+    def check_open(self) -> None:
+        """Refuse to run on a closed connection.
+
+        Raises:
+            InputError: it is closed.
+        """
+        if self._closed:
+            raise InputError(
+                f"connection: {self.description} is closed; open another with pirate_bt.connect()"
+            )
+
     def run(
         self,
         tree: Any,
@@ -157,22 +175,33 @@ class Connection:
         """A supervised :class:`~pirate_bt.runner.Runner` for ``tree``, not yet run (for a
         loop of your own; :meth:`run` runs one to its end and explains it).
 
+        ``max_time`` ``None`` is no limit (your loop ends the run); a limit given must
+        be finite (``nan`` and ``inf`` are refused: give ``None``). ``setup_timeout_s``
+        is positive (``sys.float_info.max`` skips py_trees' setup signal).
+
         Raises:
             ValidationFailed: the tree does not validate against this robot.
+            InputError: a bad rate, time limit or setup timeout, or a closed connection.
         """
-        from pirate_bt.api.options import quantity
+        from pirate_bt.api.options import positive_time_s, quantity, tick_period_s
         from pirate_bt.api.running import supervised_runner
 
-        rate_hz = quantity(rate, "frequency", "rate")
-        if rate_hz <= 0:
-            raise InputError("rate must be positive")
-        limit = quantity(max_time, "time", "max_time") if max_time is not None else None
+        limit = (
+            positive_time_s(max_time, "max_time", instead="give None for no limit")
+            if max_time is not None
+            else None
+        )
+        period_s = tick_period_s(rate, limit)
+        setup = quantity(setup_timeout_s, "time", "setup_timeout_s")
+        if not setup > 0:
+            raise InputError(f"setup_timeout_s: {setup_timeout_s!r} must be positive")
+        self.check_open()
         return supervised_runner(
             self,
             as_loaded(tree, self.robot, params),
-            period_s=1.0 / rate_hz,
+            period_s=period_s,
             max_time_s=limit,
-            setup_timeout_s=setup_timeout_s,
+            setup_timeout_s=setup,
         )
 
     def counters(self) -> Counters:
@@ -254,18 +283,18 @@ def connect(
     from pirate_bt.safety.operator import Mode
 
     kind, where = parse_target(target)
-    if firmware and kind == "port":
+    seed = seed_value(seed)
+    if flag(firmware, "firmware") and kind == "port":
         raise InputError(
             f"connect: firmware=True runs the simulator through the firmwares; {where!r} is"
             " a port (a real bridge runs its own firmware)"
         )
     if firmware:
         kind = "firmware"
-    try:
-        start_mode = Mode(mode)
-    except ValueError:
-        names = ", ".join(m.value for m in Mode if m is not Mode.ESTOP)
-        raise InputError(f"mode: {mode!r} is not one of {names}") from None
+    names = [m.value for m in Mode if m is not Mode.ESTOP]
+    if not isinstance(mode, str) or mode not in names:
+        raise InputError(f"mode: {mode!r} is not one of {', '.join(names)}"[:200])
+    start_mode = Mode(mode)
     description = load_robot_like(robot)
     sim_faults, link_faults = split_faults(faults)
     options: dict[str, Any] = {}

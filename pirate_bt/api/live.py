@@ -27,6 +27,7 @@ __all__ = [
     "FoxgloveOption",
     "Groot2Option",
     "Ros2Option",
+    "check_live_options",
     "foxglove_server",
     "groot2_mission_observer",
     "groot2_server",
@@ -37,6 +38,75 @@ __all__ = [
     "ros2_tree_observer",
     "tree_observer",
 ]
+
+_API_NAMES = {
+    "--foxglove": "foxglove",
+    "--groot2": "groot2",
+    "--ros2": "ros2",
+    "--ros-domain-id": "ros_domain_id",
+    "--ros-namespace": "ros_namespace",
+}
+
+
+def _renamed(exc: Exception) -> Exception:
+    """An interop error worded for the command line (``--foxglove X: ...``), named as the
+    API's argument (``foxglove: X: ...``)."""
+    from pirate_bt.errors import InputError
+
+    text = str(exc)
+    for cli, option in _API_NAMES.items():
+        if text.startswith(f"{cli} "):
+            return InputError(f"{option}: {text[len(cli) + 1 :]}")
+    return InputError(text)
+
+
+def check_live_options(
+    foxglove: Any = None,
+    ros2: Any = None,
+    ros_domain_id: Any = None,
+    ros_namespace: Any = None,
+    groot2: Any = None,
+) -> None:
+    """Check the live-view options before anything opens or connects: each is off
+    (``None``/``False``), ``True``, an address as text (a port for Groot2), or an open
+    server or node of its kind; ``ros_domain_id`` is 0 to 232 and ``ros_namespace``
+    text (both only with ``ros2``).
+
+    Raises:
+        InputError: the first that is none of those, named.
+    """
+    from pirate_bt.errors import InputError
+
+    def server(value: Any, option: str, module: str, name: str, numbers: bool = False) -> None:
+        if value is None or isinstance(value, bool | str):
+            return
+        if numbers and isinstance(value, int):
+            if not 0 <= value <= 65534:
+                raise InputError(f"{option}: the port must be a number from 0 to 65534")
+            return
+        import importlib
+
+        kind = getattr(importlib.import_module(module), name)
+        if not isinstance(value, kind):
+            raise InputError(
+                f"{option}: give True, an address 'HOST:PORT' or an open {name}, not a"
+                f" {type(value).__name__}"
+            )
+
+    server(foxglove, "foxglove", "pirate_bt.interop.foxglove_live", "FoxgloveServer")
+    server(ros2, "ros2", "pirate_bt.interop.ros2_node", "Ros2Node")
+    server(groot2, "groot2", "pirate_bt.interop.groot2_server", "Groot2Server", numbers=True)
+    if ros_domain_id is not None and (
+        isinstance(ros_domain_id, bool)
+        or not isinstance(ros_domain_id, int)
+        or not 0 <= ros_domain_id <= 232
+    ):
+        raise InputError(f"ros_domain_id: ROS domain ids go from 0 to 232, not {ros_domain_id!r}")
+    if ros_namespace is not None and not isinstance(ros_namespace, str):
+        raise InputError(f"ros_namespace: give text such as '/pirate', not {ros_namespace!r}")
+    if (ros_domain_id is not None or ros_namespace is not None) and ros2 in (None, False):
+        raise InputError("ros_domain_id and ros_namespace are for ros2=; give ros2= too")
+
 
 FoxgloveOption = str | bool | Any | None
 """``None``/``False``: off; ``True``: the default address; ``"HOST:PORT"``; or a server."""
@@ -57,10 +127,14 @@ def foxglove_server(option: FoxgloveOption) -> Iterator[Any]:
     if not isinstance(option, str | bool):
         yield option
         return
+    from pirate_bt.errors import InputError
     from pirate_bt.interop.foxglove_live import FoxgloveServer, parse_address
 
-    host, port = parse_address(option if isinstance(option, str) else None)
-    server = FoxgloveServer(host, port)
+    try:
+        host, port = parse_address(option if isinstance(option, str) else None)
+        server = FoxgloveServer(host, port)
+    except InputError as exc:
+        raise _renamed(exc) from None
     try:
         yield server
     finally:
@@ -137,13 +211,17 @@ def ros2_node(
     if not isinstance(option, str | bool):
         yield option
         return
+    from pirate_bt.errors import InputError
     from pirate_bt.interop.ros2_live import DEFAULT_ENDPOINT, DEFAULT_NAMESPACE, Ros2Node
 
-    node = Ros2Node(
-        option if isinstance(option, str) else DEFAULT_ENDPOINT,
-        domain_id=domain_id,
-        namespace=DEFAULT_NAMESPACE if namespace is None else namespace,
-    )
+    try:
+        node = Ros2Node(
+            option if isinstance(option, str) else DEFAULT_ENDPOINT,
+            domain_id=domain_id,
+            namespace=DEFAULT_NAMESPACE if namespace is None else namespace,
+        )
+    except InputError as exc:
+        raise _renamed(exc) from None
     try:
         yield node
     finally:
@@ -208,11 +286,15 @@ def groot2_server(option: Groot2Option) -> Iterator[Any]:
     if not isinstance(option, str | bool | int):
         yield option
         return
+    from pirate_bt.errors import InputError
     from pirate_bt.interop.groot2_server import Groot2Server, parse_groot2_address
 
     text = None if option is True else str(option)
-    host, port = parse_groot2_address(text)
-    server = Groot2Server(host, port)
+    try:
+        host, port = parse_groot2_address(text)
+        server = Groot2Server(host, port)
+    except InputError as exc:
+        raise _renamed(exc) from None
     try:
         yield server
     finally:

@@ -22,6 +22,7 @@ from pirate_bt.api.live import (
     Groot2Option,
     Ros2Option,
     chain,
+    check_live_options,
     foxglove_server,
     groot2_mission_observer,
     groot2_server,
@@ -29,7 +30,19 @@ from pirate_bt.api.live import (
     ros2_mission_observer,
     ros2_node,
 )
-from pirate_bt.api.options import load_robot_like, quantity
+from pirate_bt.api.options import (
+    callback,
+    file_name,
+    flag,
+    fraction,
+    load_robot_like,
+    output_folder,
+    port_url,
+    positive_time_s,
+    seed_value,
+    split_faults,
+    tick_period_s,
+)
 from pirate_bt.task.localise import MAP_FRACTION
 
 if TYPE_CHECKING:
@@ -69,6 +82,11 @@ def load_network(network: Any, *, base: str | Path | None = None) -> Network:
         network = pirate_bt.load_network("bend-right")
         print(network)   # Network('bend-right', 3 segments, 0 tees)
     """
+    return _load_network(network, base, "network")
+
+
+def _load_network(network: Any, base: str | Path | None, option: str) -> Network:
+    """:func:`load_network` for the argument ``option`` (``network``, ``truth``)."""
     from pirate_bt.errors import InputError
     from pirate_bt.pipes import Network, NetworkSpec
     from pirate_bt.pipes import load_network as load_file
@@ -78,10 +96,19 @@ def load_network(network: Any, *, base: str | Path | None = None) -> Network:
         return network
     if isinstance(network, NetworkSpec):
         return Network(network, f"<{network.name}>")
+    if not isinstance(network, str | Path):
+        raise InputError(
+            f"{option}: give a bundled name, a file, a NetworkSpec or a Network, not a"
+            f" {type(network).__name__}"
+        )
+    name = file_name(network, option)
+    folder = output_folder(base, "base") if base is not None else None
     try:
-        path = resolve_network_path(str(network), Path(base) if base is not None else None)
+        path = resolve_network_path(str(name), folder)
     except FileNotFoundError as exc:
-        raise InputError(str(exc)) from None
+        raise InputError(f"{option}: {exc}") from None
+    except OSError as exc:  # a name the system refuses (a part too long)
+        raise InputError(f"{option}: no network {str(name)[:80]!r}: {exc.strerror}") from None
     return load_file(path)
 
 
@@ -103,8 +130,13 @@ def load_route(route: Any) -> Route:
     if isinstance(route, Route):
         return route
     from pirate_bt.api.options import find
+    from pirate_bt.errors import InputError
 
-    return load_file(find("scenarios", route, ".route"))
+    if not isinstance(route, str | Path):
+        raise InputError(
+            f"route: give a route file, a bundled name or a Route, not a {type(route).__name__}"
+        )
+    return load_file(find("scenarios", route, ".route", "route"))
 
 
 _route = load_route
@@ -218,19 +250,44 @@ def _mission(
 
 
 def _options(
-    rate: str | float, max_time: str | float | None, map_tolerance: float
+    rate: str | float,
+    max_time: str | float | None,
+    map_tolerance: float,
+    plan: MissionPlan,
+    robot: Any,
+    checks: dict[str, Any],
 ) -> tuple[float, float | None]:
-    from pirate_bt.errors import InputError
+    """``(tick period, time limit or None: the plan's)``, every option checked first.
 
-    rate_hz = quantity(rate, "frequency", "rate")
-    if rate_hz <= 0:
-        raise InputError("rate must be positive")
-    max_time_s = quantity(max_time, "time", "max_time") if max_time is not None else None
-    if max_time_s is not None and max_time_s <= 0:
-        raise InputError("max_time must be positive")
-    if not 0.0 <= map_tolerance < 1.0:
-        raise InputError(f"map_tolerance: {map_tolerance!r} must be at least 0 and below 1")
-    return 1.0 / rate_hz, max_time_s
+    ``max_time`` ``nan`` or ``inf`` is refused; ``None`` is the plan's own limit
+    (:func:`~pirate_bt.task.mission.estimate_time_s`), which a tick must come within.
+    ``checks`` are the other options by name (``seed``, ``trace``, ``observe``...).
+    """
+    from pirate_bt.api.options import NO_LIMIT
+    from pirate_bt.api.running import check_trace
+    from pirate_bt.task.mission import estimate_time_s
+
+    max_time_s = (
+        positive_time_s(max_time, "max_time", instead=f"{NO_LIMIT}, or None for the plan's")
+        if max_time is not None
+        else None
+    )
+    limit_s = max_time_s or estimate_time_s(plan, robot.motion.nominal_speed)
+    period_s = tick_period_s(
+        rate, limit_s, limit_option="max_time" if max_time_s else "the plan's time limit"
+    )
+    fraction(map_tolerance, "map_tolerance")
+    for name in ("live", "realtime", "return_on_stop", "firmware"):
+        flag(checks.get(name, False), name)
+    seed_value(checks.get("seed", 0))
+    split_faults(checks.get("faults"))
+    callback(checks.get("observe"), "observe")
+    if checks.get("trace") is not None:
+        check_trace(checks["trace"])
+    if checks.get("output") is not None:
+        output_folder(checks["output"])
+    check_live_options(*checks.get("views", (None,) * 5))
+    return period_s, max_time_s
 
 
 def simulate_mission(
@@ -311,8 +368,17 @@ def simulate_mission(
     """
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
-    period_s, max_time_s = _options(rate, max_time, map_tolerance)
-    world = plan.network if truth is None else load_network(truth, base=_base(plan.route))
+    checks: dict[str, Any] = {
+        "seed": seed,
+        "faults": faults,
+        "trace": trace,
+        "output": output,
+        "live": live,
+    }
+    checks |= {"realtime": realtime, "return_on_stop": return_on_stop, "firmware": firmware}
+    checks |= {"observe": observe, "views": (foxglove, ros2, ros_domain_id, ros_namespace, groot2)}
+    period_s, max_time_s = _options(rate, max_time, map_tolerance, plan, description, checks)
+    world = plan.network if truth is None else _load_network(truth, _base(plan.route), "truth")
     return _watched_mission(
         lambda: connect(world, robot=description, seed=seed, faults=faults, firmware=firmware),
         plan,
@@ -413,14 +479,12 @@ def run_mission(
         result = pirate_bt.run_mission("lab.route", port="/dev/ttyACM0")
         print(result.why)
     """
-    from pirate_bt.api.options import parse_target
-    from pirate_bt.errors import InputError
-
-    if parse_target(port)[0] != "port":
-        raise InputError(f"port: {port!r} is not a serial port or pyserial URL")
+    port_url(port)
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
-    period_s, max_time_s = _options(rate, max_time, map_tolerance)
+    checks: dict[str, Any] = {"faults": faults, "trace": trace, "output": output, "live": live}
+    checks |= {"observe": observe, "views": (foxglove, ros2, ros_domain_id, ros_namespace, groot2)}
+    period_s, max_time_s = _options(rate, max_time, map_tolerance, plan, description, checks)
     return _watched_mission(
         lambda: connect(port, robot=description, faults=faults),
         plan,
@@ -457,10 +521,17 @@ def write_mission_outputs(
     import logging
 
     log = warn or logging.getLogger("pirate_bt.api").warning
+    from pirate_bt.errors import InputError
+    from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.report import plot_belief, write_report
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
+    if not isinstance(result, MissionResult):
+        raise InputError(f"result: give a MissionResult, not a {type(result).__name__}")
+    out = output_folder(output)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"output: cannot make the folder {out}: {exc.strerror or exc}") from None
     files: list[Path] = []
     pictures: list[tuple[str, str]] = []
     if result.trace_path is not None and result.trace_path.exists():

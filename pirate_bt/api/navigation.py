@@ -11,14 +11,37 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.connection import connect
-from pirate_bt.api.options import load_robot_like, network_name, quantity
+from pirate_bt.api.options import (
+    NO_LIMIT,
+    fraction,
+    load_robot_like,
+    network_name,
+    params_mapping,
+    port_url,
+    positive_time_s,
+    seed_value,
+    split_faults,
+    tick_period_s,
+)
 from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
 from pirate_bt.task.navigators import builtin_name, load_navigator
 
-__all__ = ["navigate"]
+__all__ = ["MAX_DEADLINE_S", "MAX_STEPS", "navigate"]
+
+MAX_STEPS = 1_000_000
+"""The most steps one navigation may be given."""
+
+MAX_DEADLINE_S = 24 * 3600.0
+"""The longest wall time one decision of a navigator may be given (a day)."""
+
+
+def _trace_folder(trace: Any) -> None:
+    from pirate_bt.api.options import output_folder
+
+    output_folder(trace, "trace")
 
 
 def _network(value: Any, what: str) -> Any:
@@ -27,8 +50,8 @@ def _network(value: Any, what: str) -> Any:
     if isinstance(value, Network):
         return value
     if not isinstance(value, str | Path):
-        raise InputError(f"{what}: give a network name, a file or a Network, not {value!r}")
-    return load_network(network_name(value))
+        raise InputError(f"{what}: give a network name, a file or a Network, not {value!r}"[:200])
+    return load_network(network_name(value, what))
 
 
 def navigate(
@@ -68,10 +91,13 @@ def navigate(
         trace: A directory for ``navigation.jsonl`` (every decision with its
             observation) and one tick trace per step (``step-001.jsonl``, ...).
         robot: The robot description (default: bundled).
-        max_time: Clock time the whole navigation may take.
-        rate: Tick rate.
-        deadline: Wall time the navigator may take for one decision (``"5 s"``).
-        max_steps: Steps the navigation may take.
+        max_time: Clock time the whole navigation may take: above 0 and at most 1e9 s
+            (``nan`` and ``inf`` are refused: a navigation with no finite limit could
+            run for ever).
+        rate: Tick rate: above 0, at most 1000 Hz, a tick within ``max_time``.
+        deadline: Wall time the navigator may take for one decision (``"5 s"``):
+            above 0 and at most a day (``nan`` and ``inf`` are refused).
+        max_steps: Steps the navigation may take (1 to 1,000,000).
         map_tolerance: How far the map's lengths may be off (see
             :func:`pirate_bt.simulate_mission`).
         firmware: Simulator only: run it through the real firmwares in simavr.
@@ -100,22 +126,31 @@ def navigate(
     """
     if sim is not None and port is not None:
         raise InputError("navigate: give sim= or port=, not both")
+    if port is not None:
+        port_url(port)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int):
+        raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}"[:200])
+    if not 1 <= max_steps <= MAX_STEPS:
+        raise InputError(f"max_steps: give 1 to {MAX_STEPS:,}, not {max_steps}"[:200])
+    max_time_s = positive_time_s(max_time, "max_time", instead=NO_LIMIT)
+    period_s = tick_period_s(rate, max_time_s)
+    deadline_s = positive_time_s(
+        deadline, "deadline", limit_s=MAX_DEADLINE_S, instead="give a wall time such as '5 s'"
+    )
+    fraction(map_tolerance, "map_tolerance")
+    seed = seed_value(seed)
+    split_faults(faults)
+    if trace is not None:
+        _trace_folder(trace)
     if isinstance(navigator, str):
         name = navigator
-        navigator = load_navigator(navigator, params)
+        navigator = load_navigator(navigator, params_mapping(params))
     else:
         if params:
             raise InputError("navigate: params= is for a navigator given by name")
         if not callable(getattr(navigator, "next_step", None)):
             raise InputError(f"navigate: {navigator!r} has no next_step(obs) method")
         name = builtin_name(navigator) or type(navigator).__name__
-    if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
-        raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}")
-    max_time_s = quantity(max_time, "time", "max_time")
-    rate_hz = quantity(rate, "frequency", "rate")
-    deadline_s = quantity(deadline, "time", "deadline")
-    if max_time_s <= 0 or rate_hz <= 0 or deadline_s <= 0:
-        raise InputError("max_time, rate and deadline must be positive")
     description = load_robot_like(robot)
     map_network = _network(map, "map") if map is not None else None
     target: Any
@@ -147,7 +182,7 @@ def navigate(
             truth_now=truth_now,
             counters=simulator.counters if simulator is not None else None,
             trace_dir=Path(trace) if trace is not None else None,
-            period_s=1.0 / rate_hz,
+            period_s=period_s,
             max_time_s=max_time_s,
             deadline_s=deadline_s,
             max_steps=max_steps,

@@ -4,12 +4,19 @@ Quantities as text with a unit (``"600 s"``, ``"20 Hz"``) or SI numbers; fault s
 (``"motor_stall:bend_3_drive@5s+20s,drop=0.05"``); connection targets (``"sim:lab"``,
 a network file, a serial port or pyserial URL); user-named files that fall back to
 the bundled ones (``"bend"`` → ``trees/bend.yaml``); robot descriptions.
+
+Every public function checks its arguments here, at the API's boundary, before
+anything connects: a wrong type, a value out of range, ``nan`` or ``inf`` is an
+:class:`~pirate_bt.errors.InputError` of one line that names the argument and
+says what is allowed (docs/api.md, *Arguments the API refuses*).
 """
 
 from __future__ import annotations
 
+import math
+import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,12 +28,32 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_NETWORK",
+    "MAX_FAULTS",
+    "MAX_FAULT_TEXT",
+    "MAX_PATH",
+    "MAX_RATE_HZ",
+    "MAX_SEED",
+    "MAX_TIME_S",
+    "NO_LIMIT",
+    "callback",
+    "check_rate",
+    "file_name",
     "find",
+    "flag",
+    "fraction",
     "load_robot_like",
     "network_name",
+    "output_folder",
+    "output_path",
+    "params_mapping",
     "parse_target",
+    "port_url",
+    "positive_time_s",
     "quantity",
+    "run_limits",
+    "seed_value",
     "split_faults",
+    "tick_period_s",
 ]
 
 _PORT = re.compile(r"^([a-z][a-z0-9+.-]*://|/dev/|COM\d+$|\\\\\.\\)", re.IGNORECASE)
@@ -34,21 +61,281 @@ _PORT = re.compile(r"^([a-z][a-z0-9+.-]*://|/dev/|COM\d+$|\\\\\.\\)", re.IGNOREC
 DEFAULT_NETWORK = "straight"
 """The simulator's network when none is named."""
 
+MAX_RATE_HZ = 1000.0
+"""The fastest tick rate: ten ticks per state frame of the bridge (every 10 ms). The
+one limit of the API, the command line (``--rate``) and campaigns (``rate:``)."""
+
+MAX_TIME_S = 1e9
+"""The longest time limit of a run (about 32 years of clock time)."""
+
+MAX_SEED = 2**63 - 1
+"""The largest seed (seeds are whole numbers from 0)."""
+
+MAX_PATH = 4096
+"""The longest file name taken (PATH_MAX on Linux)."""
+
+MAX_FAULTS = 1000
+"""The most faults one run takes."""
+
+MAX_FAULT_TEXT = 200
+"""The longest fault (``motor_stall:bend_3_drive@5s+20s``)."""
+
+_MAX_QUANTITY_TEXT = 64
+_EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
+
+
+def _kind(value: object) -> str:
+    return "None" if value is None else f"a {type(value).__name__}"
+
 
 def quantity(value: str | float | int, dimension: str, option: str) -> float:
     """A quantity given as text with its unit (``"600 s"``) or as an SI number.
 
     Raises:
-        InputError: a malformed quantity, named by ``option``.
+        InputError: a malformed quantity, a number that is not finite (``nan``,
+            ``inf``, an integer too large for a float), or neither text nor a number;
+            named by ``option``.
     """
-    if isinstance(value, bool):
-        raise InputError(f"{option}: {value!r} is not a {dimension}")
+    example = _EXAMPLE.get(dimension, "1 m")
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise InputError(
+            f"{option}: give text with a unit ({example!r}) or a number in SI units,"
+            f" not {_kind(value)}"
+        )
     if isinstance(value, int | float):
-        return float(value)
+        try:
+            number = float(value)
+        except OverflowError:
+            raise InputError(f"{option}: a {len(str(value))}-digit number is too large") from None
+        if not math.isfinite(number):
+            raise InputError(f"{option}: {value!r} is not a finite number; give e.g. {example!r}")
+        return number
+    if len(value) > _MAX_QUANTITY_TEXT:
+        raise InputError(
+            f"{option}: {len(value)} characters is too long for a quantity such as {example!r}"
+        )
     try:
-        return parse_quantity(str(value), dimension)
+        return parse_quantity(value, dimension)
     except UnitError as exc:
         raise InputError(f"{option}: {exc}") from None
+
+
+def positive_time_s(
+    value: str | float | int, option: str, *, limit_s: float = MAX_TIME_S, instead: str = ""
+) -> float:
+    """A time above 0 and at most ``limit_s`` (``"600 s"`` or seconds).
+
+    ``nan`` and ``inf`` are refused, not read as "no limit": a simulated run with no
+    finite limit could run for ever. ``instead`` says what to give then.
+
+    Raises:
+        InputError: not a time, not finite, not positive or above ``limit_s``.
+    """
+    if isinstance(value, float) and not math.isfinite(value):
+        hint = instead or f"give a time such as {'600 s'!r}"
+        raise InputError(f"{option}: {value!r} is not a finite time; {hint}")
+    seconds = quantity(value, "time", option)
+    if not 0 < seconds <= limit_s:
+        raise InputError(
+            f"{option}: {value!r} is out of range; give a time above 0 s and at most {limit_s:g} s"
+        )
+    return seconds
+
+
+def check_rate(
+    rate_hz: float, max_time_s: float | None, rate: str = "rate", max_time: str = "max_time"
+) -> None:
+    """Refuse a tick rate that would never end a run: not above 0 (``nan`` too), above
+    :data:`MAX_RATE_HZ`, or a tick period longer than the time limit (``max_time_s``;
+    ``None``: no limit). ``rate`` and ``max_time`` name the options in the message.
+
+    Raises:
+        InputError: the rate is out of that range.
+    """
+    if not rate_hz > 0:  # nan too
+        raise InputError(
+            f"{rate} must be positive and at most {MAX_RATE_HZ:g} Hz (ticks per second),"
+            f" not {rate_hz:g}"
+        )
+    if rate_hz > MAX_RATE_HZ or (max_time_s is not None and 1.0 / rate_hz > max_time_s):
+        within = (
+            f" and a tick must come within {max_time} ({max_time_s:g} s)"
+            if max_time_s is not None
+            else ""
+        )
+        raise InputError(
+            f"{rate} {rate_hz:g} Hz: the tick rate must be at most {MAX_RATE_HZ:g} Hz{within}"
+        )
+
+
+def tick_period_s(
+    rate: str | float | int,
+    max_time_s: float | None,
+    *,
+    option: str = "rate",
+    limit_option: str = "max_time",
+) -> float:
+    """The tick period for a ``rate`` (``"20 Hz"`` or hertz), checked by :func:`check_rate`
+    against the run's time limit ``max_time_s`` (``None``: no limit).
+
+    Raises:
+        InputError: not a frequency, not finite, or out of :func:`check_rate`'s range.
+    """
+    rate_hz = quantity(rate, "frequency", option)
+    check_rate(rate_hz, max_time_s, option, limit_option)
+    return 1.0 / rate_hz
+
+
+NO_LIMIT = (
+    "a run with no finite time limit could run for ever; give a time limit such as"
+    " '3600 s' (at most 1e9 s)"
+)
+"""What to give instead of a ``max_time`` of ``nan`` or ``inf``."""
+
+
+def run_limits(max_time: str | float | int, rate: str | float | int) -> tuple[float, float]:
+    """``(tick period, time limit)`` in seconds for a run's ``rate`` and ``max_time``.
+
+    Raises:
+        InputError: either is malformed or out of range (:func:`positive_time_s`,
+            :func:`tick_period_s`); ``max_time`` ``nan`` or ``inf`` too.
+    """
+    max_time_s = positive_time_s(max_time, "max_time", instead=NO_LIMIT)
+    return tick_period_s(rate, max_time_s), max_time_s
+
+
+def flag(value: object, option: str) -> bool:
+    """A yes/no option: ``True`` or ``False`` only (``"no"`` would be true).
+
+    Raises:
+        InputError: anything else.
+    """
+    if not isinstance(value, bool):
+        raise InputError(f"{option}: give True or False, not {value!r}"[:200])
+    return value
+
+
+def seed_value(seed: object, option: str = "seed") -> int:
+    """A seed: a whole number from 0 to :data:`MAX_SEED`.
+
+    Raises:
+        InputError: anything else (a bool, a float, text, a negative or huge number).
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        shown = repr(seed)
+        if len(shown) > 40:
+            shown = f"a {len(str(seed))}-digit number" if isinstance(seed, int) else _kind(seed)
+        raise InputError(f"{option}: give a whole number from 0 to 2**63 - 1, not {shown}")
+    return seed
+
+
+def fraction(value: object, option: str) -> float:
+    """A number at least 0 and below 1 (``map_tolerance``: 0.1 is 10 %).
+
+    Raises:
+        InputError: not a number, or out of range (``nan`` too).
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(
+            f"{option}: give a number at least 0 and below 1 (0.1 = 10 %), not {_kind(value)}"
+        )
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: {value!r} must be at least 0 and below 1"[:200])
+    return float(value)
+
+
+def callback(value: Any, option: str) -> Callable[..., Any] | None:
+    """``None`` or something callable.
+
+    Raises:
+        InputError: anything else.
+    """
+    if value is not None and not callable(value):
+        raise InputError(f"{option}: give a function (or None), not {_kind(value)}")
+    return value  # type: ignore[no-any-return]
+
+
+def file_name(value: object, option: str) -> Path:
+    """A file name as given: text or a path, not empty, no NUL, at most :data:`MAX_PATH`.
+
+    Raises:
+        InputError: anything else (bytes, a number, a mapping...).
+    """
+    if not isinstance(value, str | os.PathLike):
+        raise InputError(f"{option}: give a file name (text or a Path), not {_kind(value)}")
+    text = os.fspath(value)
+    if not isinstance(text, str):
+        raise InputError(f"{option}: give a file name as text, not bytes")
+    if not text.strip():
+        raise InputError(f"{option}: the file name is empty")
+    if "\0" in text:
+        raise InputError(f"{option}: a file name may not hold a NUL character")
+    if len(text) > MAX_PATH:
+        raise InputError(
+            f"{option}: a file name of {len(text)} characters is too long (at most {MAX_PATH})"
+        )
+    return Path(text)
+
+
+def output_path(value: object, option: str) -> Path:
+    """A file to write: :func:`file_name`, not a directory, no file on its way.
+
+    Raises:
+        InputError: a bad name, a directory, or a folder on its way that is a file.
+    """
+    target = file_name(value, option)
+    if target.is_dir():
+        raise InputError(f"{option}: {target} is a directory; name a file")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{option}: {target}: {parent} is not a directory")
+            break
+    return target
+
+
+def output_folder(value: object, option: str = "output") -> Path:
+    """A folder to write into: :func:`file_name`, not an existing file (``/dev/zero``),
+    no file on its way.
+
+    Raises:
+        InputError: a bad name, an existing file, or a file on its way.
+    """
+    folder = file_name(value, option)
+    for place in (folder, *folder.parents):
+        if place.exists():
+            if not place.is_dir():
+                raise InputError(f"{option}: {place} is a file, not a folder; give a folder")
+            break
+    return folder
+
+
+def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
+    """A tree's or navigator's parameters: a mapping of names (text) to values.
+
+    Raises:
+        InputError: not a mapping, or a name that is not text.
+    """
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping):
+        raise InputError(
+            f"{option}: give a mapping of names to values ({{'roll': '90 deg'}}), not"
+            f" {_kind(params)}"
+        )
+    for key, value in params.items():
+        if not isinstance(key, str) or not key:
+            raise InputError(f"{option}: a parameter name is text, not {key!r}"[:200])
+        if isinstance(value, str) and len(value) > MAX_PATH:
+            raise InputError(f"{option}: {key}: {len(value)} characters is too long a value")
+        if isinstance(value, int) and not isinstance(value, bool):
+            try:
+                float(value)
+            except OverflowError:
+                raise InputError(
+                    f"{option}: {key}: a {len(str(value))}-digit number is too large"
+                ) from None
+    return dict(params)
 
 
 def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | None]:
@@ -65,8 +352,19 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
     if isinstance(faults, str):
         items = [i for i in re.split(r"[,;\s]+", faults) if i]
     elif faults is not None:
+        if isinstance(faults, bytes | bytearray | Mapping) or not isinstance(faults, Iterable):
+            raise InputError(
+                "faults: give text ('drop=0.05,motor_stall:bend_3_drive@5s') or a list of"
+                f" texts, not {_kind(faults)}"
+            )
         for part in faults:
-            items += [i for i in re.split(r"[,;\s]+", str(part)) if i]
+            if not isinstance(part, str):
+                raise InputError(f"faults: each item is text, not {_kind(part)}")
+            items += [i for i in re.split(r"[,;\s]+", part) if i]
+    if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
+        raise InputError(
+            f"faults: at most {MAX_FAULTS} faults of at most {MAX_FAULT_TEXT} characters each"
+        )
     sim = [i for i in items if "@" in i]
     link = [i for i in items if "@" not in i]
     return sim, (",".join(link) or None)
@@ -95,6 +393,10 @@ def parse_target(target: Any) -> tuple[str, Any]:
     text = target.strip()
     if not text:
         raise InputError('connect: empty target; give "sim:NETWORK" or a serial port URL')
+    if len(text) > MAX_PATH or "\0" in text:
+        raise InputError(
+            f"connect: a target of {len(text)} characters (or with a NUL) is no network or port"
+        )
     if text == "sim":
         return "sim", DEFAULT_NETWORK
     if text.startswith("sim:"):
@@ -117,42 +419,90 @@ def parse_target(target: Any) -> tuple[str, Any]:
     )
 
 
+def port_url(port: object, option: str = "port") -> str:
+    """A real robot's serial port or pyserial URL (not a simulator target).
+
+    Raises:
+        InputError: anything else, named by ``option``.
+    """
+    kind = None
+    if isinstance(port, str) and port.strip():
+        try:
+            kind = parse_target(port)[0]
+        except InputError:
+            kind = None
+    if kind != "port":
+        raise InputError(
+            f"{option}: {port!r} is not a serial port or pyserial URL (/dev/ttyACM0, COM3,"
+            " socket://HOST:PORT)"[:240]
+        )
+    assert isinstance(port, str)
+    return port
+
+
 def load_robot_like(robot: Any) -> RobotDescription:
-    """A robot description from a loaded one, a file path, or ``None`` (bundled)."""
+    """A robot description from a loaded one, a file path, or ``None`` (bundled).
+
+    Raises:
+        InputError: ``robot`` is none of those (a mapping, a number, an empty name).
+        ValidationFailed: the file does not validate.
+    """
     from pirate_bt.robot.description import RobotDescription
     from pirate_bt.robot.loader import load_robot
 
     if isinstance(robot, RobotDescription):
         return robot
-    return load_robot(None if robot is None else str(robot))
+    if robot is None:
+        return load_robot(None)
+    if not isinstance(robot, str | os.PathLike):
+        raise InputError(
+            f"robot: give a robot description file, a loaded RobotDescription or None"
+            f" (the bundled robot), not {_kind(robot)}"
+        )
+    return load_robot(str(file_name(robot, "robot")))
 
 
-def find(kind: str, name: str | Path, suffix: str) -> Path:
+def find(kind: str, name: str | Path, suffix: str, option: str = "") -> Path:
     """A user-named file: the path if it exists, else a bundled file of that name, with
     ``suffix`` added when the name has none (``"bend"`` → the bundled ``trees/bend.yaml``,
-    ``"lab"`` as a route → ``scenarios/lab.route``, not the network ``lab.yaml``)."""
+    ``"lab"`` as a route → ``scenarios/lab.route``, not the network ``lab.yaml``).
+
+    Raises:
+        InputError: ``name`` is not a file name (:func:`file_name`), named by ``option``.
+    """
     from pirate_bt.resources import data_dir
 
-    path = Path(name)
-    if path.exists() or path.is_absolute() or len(path.parts) > 1:
+    path = file_name(name, option or kind)
+    if _exists(path) or path.is_absolute() or len(path.parts) > 1:
         return path
     folder = data_dir(kind)
-    if not path.suffix and (folder / f"{name}{suffix}").exists():
-        return folder / f"{name}{suffix}"
-    if (folder / path.name).exists():
+    if not path.suffix and _exists(folder / f"{path}{suffix}"):
+        return folder / f"{path}{suffix}"
+    if _exists(folder / path.name):
         return folder / path.name
     return path
 
 
-def network_name(name: str | Path) -> Path:
+def _exists(path: Path) -> bool:
+    """``path.exists()``, false for a name the system refuses (a part too long)."""
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
+def network_name(name: str | Path, option: str = "network") -> Path:
     """The network file a name means (a path, or a bundled network), for the simulator.
 
     Raises:
-        InputError: no such network; the error lists the bundled ones.
+        InputError: not a name, or no such network; the error lists the bundled ones.
     """
     from pirate_bt.task.networks import resolve_network_path
 
+    given = file_name(name, option)
     try:
-        return resolve_network_path(str(name), None)
+        return resolve_network_path(str(given), None)
     except FileNotFoundError as exc:
-        raise InputError(str(exc)) from None
+        raise InputError(f"{option}: {exc}") from None
+    except OSError as exc:  # a name the system refuses (a part too long)
+        raise InputError(f"{option}: no network {str(given)[:80]!r}: {exc.strerror}") from None

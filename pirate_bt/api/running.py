@@ -25,7 +25,14 @@ from typing import TYPE_CHECKING, Any
 
 import py_trees
 
-from pirate_bt.api.options import quantity
+from pirate_bt.api.options import (
+    callback,
+    find,
+    flag,
+    output_path,
+    params_mapping,
+    run_limits,
+)
 from pirate_bt.api.results import RunResult
 from pirate_bt.clock import SimClock
 from pirate_bt.task.outcome import END_OF_RUN, explain_run
@@ -61,6 +68,7 @@ def as_loaded(
     from pirate_bt.errors import InputError
     from pirate_bt.treefile import LoadedTree, load_tree
 
+    params_mapping(params)
     if isinstance(tree, LoadedTree | py_trees.behaviour.Behaviour | py_trees.trees.BehaviourTree):
         if params:
             raise InputError(
@@ -71,15 +79,13 @@ def as_loaded(
     if isinstance(tree, Mapping):
         source: Any = tree
     elif isinstance(tree, str | Path):
-        from pirate_bt.api.options import find
-
-        source = find("trees", tree, ".yaml")
+        source = find("trees", tree, ".yaml", "tree")
     else:
         raise InputError(
-            f"cannot run a {type(tree).__name__}: give a tree file, a mapping, a LoadedTree"
-            " or a py_trees behaviour"
+            f"tree: cannot run a {type(tree).__name__}: give a tree file, a mapping, a"
+            " LoadedTree or a py_trees behaviour"
         )
-    given = dict(params or {})
+    given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
     return load_tree(source, robot=robot, params=given, params_from_text=from_text)
 
@@ -220,14 +226,12 @@ def run_on(
     The result's counters count this run only, unless ``count_from_open``: then they
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
-    from pirate_bt.errors import InputError
     from pirate_bt.safety.tally import Counters, VerdictTally
 
-    max_time_s = quantity(max_time, "time", "max_time")
-    rate_hz = quantity(rate, "frequency", "rate")
-    if rate_hz <= 0 or max_time_s <= 0:
-        raise InputError("rate and max_time must be positive")
+    period_s, max_time_s = run_limits(max_time, rate)
+    check_run_options(trace=trace, realtime=realtime, live=live, observe=observe)
     if connection is not None:
+        connection.check_open()
         robot = connection.robot
     checked = as_loaded(tree, robot, params)
     clock = connection.clock if connection is not None else SimClock()
@@ -237,7 +241,7 @@ def run_on(
         checked,
         clock=clock,
         robot=robot,
-        period_s=1.0 / rate_hz,
+        period_s=period_s,
         max_time_s=max_time_s,
         realtime=realtime,
     )
@@ -291,6 +295,41 @@ def run_on(
     )
 
 
+def check_run_options(
+    *, trace: Any = None, realtime: Any = False, live: Any = False, observe: Any = None
+) -> None:
+    """Check a run's ``trace`` (a file to write, of a known format), ``realtime`` and
+    ``live`` (True or False) and ``observe`` (a function or None), before anything
+    connects.
+
+    Raises:
+        InputError: the first that is wrong, named.
+    """
+    flag(realtime, "realtime")
+    flag(live, "live")
+    callback(observe, "observe")
+    if trace is not None:
+        check_trace(trace)
+
+
+def check_trace(trace: Any, option: str = "trace") -> Path:
+    """A trace file to write: a file name with a known suffix, not a directory.
+
+    Raises:
+        InputError: a bad name, an unknown suffix (the known ones listed), a directory.
+    """
+    from pirate_bt.errors import InputError
+    from pirate_bt.trace.formats import suffix_of
+    from pirate_bt.trace.writer import WRITERS
+
+    path = output_path(trace, option)
+    try:
+        suffix_of(str(path), WRITERS)
+    except InputError as exc:
+        raise InputError(f"{option}: {exc}") from None
+    return path
+
+
 def _attach_trace(
     runner: Any,
     path: Path,
@@ -307,20 +346,25 @@ def _attach_trace(
         extras = supervised_extras(
             connection.supervisor, counters=sim.counters if sim is not None else None
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from pirate_bt.errors import InputError
+
     options: dict[str, Any] = {}
     if meta:
         options["meta"] = dict(meta)
-    attach_trace(
-        runner,
-        path,
-        extras=extras,
-        why=why,
-        robot=robot,
-        scenario=connection.target if connection is not None else None,
-        seed=connection.seed if connection is not None else None,
-        **options,
-    )
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        attach_trace(
+            runner,
+            path,
+            extras=extras,
+            why=why,
+            robot=robot,
+            scenario=connection.target if connection is not None else None,
+            seed=connection.seed if connection is not None else None,
+            **options,
+        )
+    except OSError as exc:  # before the run: nothing has moved
+        raise InputError(f"trace: cannot write {path}: {exc.strerror or exc}") from None
 
 
 def load_tree(
@@ -362,13 +406,17 @@ def load_tree(
     from pirate_bt.api.options import load_robot_like
     from pirate_bt.treefile import load_tree as load
 
-    description = load_robot_like(robot) if check_robot else None
+    description = load_robot_like(robot) if flag(check_robot, "check_robot") else None
     if isinstance(tree, Mapping):
         source: Any = tree
+    elif isinstance(tree, str | Path):
+        source = find("trees", tree, ".yaml", "tree")
     else:
-        from pirate_bt.api.options import find
+        from pirate_bt.errors import InputError
 
-        source = find("trees", tree, ".yaml")
-    given = dict(params or {})
+        raise InputError(
+            f"tree: give a tree file, a bundled name or a mapping, not a {type(tree).__name__}"
+        )
+    given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
     return load(source, robot=description, params=given, params_from_text=from_text, **options)

@@ -15,6 +15,7 @@ from pirate_bt.api.live import (
     Groot2Option,
     Ros2Option,
     chain,
+    check_live_options,
     foxglove_server,
     groot2_server,
     groot2_tree_observer,
@@ -22,9 +23,17 @@ from pirate_bt.api.live import (
     ros2_tree_observer,
     tree_observer,
 )
-from pirate_bt.api.options import load_robot_like, parse_target
+from pirate_bt.api.options import (
+    file_name,
+    flag,
+    load_robot_like,
+    port_url,
+    run_limits,
+    seed_value,
+    split_faults,
+)
 from pirate_bt.api.results import RunResult
-from pirate_bt.api.running import Observer, as_loaded, needs_robot, run_on
+from pirate_bt.api.running import Observer, as_loaded, check_run_options, needs_robot, run_on
 
 __all__ = ["run_tree", "simulate_tree"]
 
@@ -63,8 +72,11 @@ def simulate_tree(
         faults: ``"motor_stall:bend_3_drive@5s+20s"``, ``"drop=0.05,corrupt=0.01"``.
         trace: Write a tick-by-tick trace here (``.jsonl``, ``.jsonl.gz``, ``.mcap``).
         robot: The robot description (a loaded one, a file, or ``None``: bundled).
-        max_time: Time limit on the run's clock (``"600 s"`` or seconds).
-        rate: Tick rate (``"20 Hz"`` or hertz).
+        max_time: Time limit on the run's clock (``"600 s"`` or seconds): above 0 and
+            at most 1e9 s. ``nan`` and ``inf`` are refused (a run with no finite limit
+            could run for ever): give a long limit instead.
+        rate: Tick rate (``"20 Hz"`` or hertz): above 0, at most 1000 Hz, and a tick
+            must come within ``max_time``.
         realtime: Pace the simulated run to wall time (to watch it).
         live: Draw the tree live on standard error.
         observe: ``observe(runner, connection)`` before the run: attach more hooks.
@@ -89,7 +101,8 @@ def simulate_tree(
     Raises:
         ValidationFailed: the tree or a parameter does not validate (before anything
             connects).
-        InputError: a malformed option or fault.
+        InputError: a malformed option or fault (checked before anything connects; one
+            line naming the argument).
         LinkError: the simulator cannot be reached.
 
     Example::
@@ -100,6 +113,14 @@ def simulate_tree(
                                          faults="motor_stall:bend_3_drive@5s+20s")
         print(result.status, result.why, result.failing_node)
     """
+    run_limits(max_time, rate)
+    check_run_options(trace=trace, realtime=realtime, live=live, observe=observe)
+    check_live_options(foxglove, ros2, ros_domain_id, ros_namespace, groot2)
+    seed = seed_value(seed)
+    flag(firmware, "firmware")
+    split_faults(faults)
+    if isinstance(network, str | Path):
+        file_name(network, "network")
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
     with (
@@ -167,11 +188,11 @@ def run_tree(
                                     params={"distance": "1 m"})
         print(result.summary())
     """
-    from pirate_bt.errors import InputError
-
-    kind, _ = parse_target(port)
-    if kind != "port":
-        raise InputError(f"port: {port!r} is not a serial port or pyserial URL")
+    port_url(port)
+    run_limits(max_time, rate)
+    check_run_options(trace=trace, live=live, observe=observe)
+    check_live_options(foxglove, ros2, ros_domain_id, ros_namespace, groot2)
+    split_faults(faults)
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
     with (

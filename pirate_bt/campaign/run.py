@@ -158,8 +158,64 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
     if isinstance(spec, Mapping):
         return campaign_from_data(spec, base=base)
     if isinstance(spec, (str, os.PathLike)):
-        return load_campaign(Path(spec))
-    raise TypeError(f"a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}")
+        path = _path(spec, "spec")
+        try:
+            return load_campaign(path)
+        except OSError as exc:  # a name the system refuses (a part too long)
+            raise InputError(f"spec: cannot read {str(path)[:80]!r}: {exc.strerror}") from None
+    raise NotASpec(
+        f"spec: a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}"[:200]
+    )
+
+
+class NotASpec(InputError, TypeError):
+    """A campaign spec of the wrong type (also a ``TypeError``, as it always was)."""
+
+
+MAX_WORKERS = 1024
+"""The most local worker processes (never more than the campaign has cases)."""
+
+
+def _path(value: Any, name: str) -> Path:
+    """A file or folder name given to :func:`run_campaign`: text or a path, not empty."""
+    if not isinstance(value, (str, os.PathLike)) or not str(os.fspath(value)).strip():
+        raise InputError(f"{name}: give a file or folder name, not {value!r}"[:200])
+    text = str(os.fspath(value))
+    if len(text) > 4096 or "\0" in text:
+        raise InputError(f"{name}: a name of {len(text)} characters (or with a NUL) is no file")
+    return Path(text)
+
+
+def _check_options(options: dict[str, Any]) -> None:
+    """Types and ranges of :func:`run_campaign`'s options, before anything is read.
+
+    Raises:
+        InputError: the first that is wrong, named.
+    """
+    for name in ("workers", "max_cases"):
+        value = options[name]
+        if value is None and name == "workers":
+            continue
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{name}: give a whole number, not {value!r}"[:200])
+    workers = options["workers"]
+    if workers is not None and workers > MAX_WORKERS:
+        raise InputError(f"workers: at most {MAX_WORKERS} local processes, not {workers}")
+    for name in ("resume", "progress"):
+        if not isinstance(options[name], bool):
+            raise InputError(f"{name}: give True or False, not {options[name]!r}"[:200])
+    for name in ("on_record", "echo"):
+        if options[name] is not None and not callable(options[name]):
+            raise InputError(f"{name}: give a function (or None), not {options[name]!r}"[:200])
+    for name in ("scheduler", "command", "target"):
+        if options[name] is not None and not isinstance(options[name], str):
+            raise InputError(f"{name}: give text, not {options[name]!r}"[:200])
+    for name in ("scheduler_file", "output", "base"):
+        if options[name] is not None:
+            _path(options[name], name)
+    executor = options["executor"]
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise InputError(f"executor: give a concurrent.futures executor, not {executor!r}"[:200])
 
 
 def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> float | None:
@@ -178,9 +234,14 @@ def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> flo
 
 
 def _seconds(value: str | float, name: str) -> float:
-    """A positive duration given as seconds or a quantity (``"30 s"``)."""
+    """A positive, finite duration given as seconds or a quantity (``"30 s"``)."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise InputError(f"{name}: give a duration such as '30 s', not {value!r}"[:200])
     if isinstance(value, (int, float)):
-        seconds = float(value)
+        try:
+            seconds = float(value)
+        except OverflowError:
+            raise InputError(f"{name}: a {len(str(value))}-digit number is too large") from None
     else:
         from pirate_bt.units import parse_quantity
 
@@ -279,6 +340,23 @@ def run_campaign(
     call it under ``if __name__ == "__main__":``.
     """
     started = time.perf_counter()
+    _check_options(
+        {
+            "workers": workers,
+            "max_cases": max_cases,
+            "resume": resume,
+            "progress": progress,
+            "on_record": on_record,
+            "echo": echo,
+            "scheduler": scheduler,
+            "command": command,
+            "target": target,
+            "scheduler_file": scheduler_file,
+            "output": output,
+            "base": base,
+            "executor": executor,
+        }
+    )
     if workers is not None and workers < 1:
         raise InputError("workers must be at least 1")
     if max_cases < 1:
@@ -293,7 +371,7 @@ def run_campaign(
     source = spec_source(model) or SpecSource(f"campaign {model.name!r}", Path(base or "."))
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = case_timeout_s(case_timeout)
-    reach_s = _seconds(scheduler_timeout, "scheduler_timeout")
+    reach_s = case_timeout_s(scheduler_timeout, "scheduler_timeout") or 10.0  # at most a week
     check_inputs(model, source.base)
     cases = expand(model, source.base, max_cases=max_cases)
     check_runs(cases, model, source.base)
@@ -308,11 +386,12 @@ def run_campaign(
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""
     counts: Counter[str] = Counter()
+    local = min(workers, max(count, 1)) if workers is not None else None  # no idle processes
     where = (
         _given(executor)
         if executor is not None
         else make_executor(
-            workers, scheduler, None if scheduler_file is None else str(scheduler_file), reach_s
+            local, scheduler, None if scheduler_file is None else str(scheduler_file), reach_s
         )
     )
     with where as (pool, what):

@@ -46,6 +46,7 @@ from pydantic import (
     model_validator,
 )
 
+from pirate_bt.api.options import MAX_RATE_HZ
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
 from pirate_bt.yamlfile import Locator, load_yaml, validate_document, validation_problems
@@ -94,8 +95,6 @@ MAX_CASE_TIMEOUT_S = 7 * 24 * 3600.0
 """The longest wall-time limit of one case (a week); a case is killed after it."""
 MAX_TIME_S = 1e9
 """The longest simulated-time limit of one run (about 32 years)."""
-MAX_RATE_HZ = 1000.0
-"""The fastest tick rate: ten ticks per state frame of the bridge (every 10 ms)."""
 
 _LIMITS = {
     "max_time": ("time", MAX_TIME_S, "s"),

@@ -280,14 +280,10 @@ def _runner_factory(
 
 
 def run(args: argparse.Namespace) -> int:
-    from pirate_bt.cli.run import MAX_RATE_HZ
+    from pirate_bt.api.options import check_rate
     from pirate_bt.robot.loader import load_robot
 
-    if not 0 < args.rate <= MAX_RATE_HZ:  # nan too
-        raise InputError(
-            f"--rate must be positive and at most {MAX_RATE_HZ:g} ticks per second,"
-            f" got {args.rate:g}"
-        )
+    check_rate(args.rate, None, "--rate")  # the API's limits: above 0 (nan too), 1000 Hz
     robot = load_robot(args.robot)
     period_s = 1.0 / args.rate
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)

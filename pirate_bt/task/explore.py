@@ -105,7 +105,16 @@ _SLOPE_WRITTEN_DEG = 0.25
 
 
 def branch_leavable(diameter_m: float, radius_m: float | None = None) -> bool:
-    """Can the robot back out of a tee's branch of this size (docs/pabs.md)?"""
+    """Can the robot back out of a tee's branch of this size (docs/pabs.md)?
+
+    Raises:
+        InputError: a diameter or radius that is not a positive number of metres.
+    """
+    for name, value in (("diameter_m", diameter_m), ("radius_m", radius_m)):
+        if value is None and name == "radius_m":
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e3:
+            raise InputError(f"{name}: give a positive number of metres, not {value!r}"[:200])
     radius = diameter_m if radius_m is None else radius_m
     return diameter_m / 2 + math.pi * radius / 2 <= BACK_OUT_REACH_M + 1e-9
 
@@ -114,11 +123,38 @@ class SurveyIncomplete(RuntimeError):
     """The survey met what it cannot survey; what it surveyed is written."""
 
 
+def _output(output: Any) -> Path | None:
+    """Where the surveyed network is written: a file name, not a directory.
+
+    Raises:
+        InputError: not a file name, or a directory (checked before the robot moves).
+    """
+    if output is None:
+        return None
+    if not isinstance(output, str | os.PathLike) or not str(os.fspath(output)).strip():
+        raise InputError(f"explore: output: give a .yaml file name, not {output!r}"[:200])
+    path = Path(output)
+    if path.is_dir():
+        raise InputError(f"explore: output: {path} is a directory; name a .yaml file")
+    return path
+
+
 def _metres(value: str | float, what: str, dimension: str = "length") -> float:
-    number = float(value) if isinstance(value, int | float) else parse_quantity(value, dimension)
-    if not math.isfinite(number) or number <= 0:
-        raise InputError(f"explore: {what} must be positive, not {value!r}")
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise InputError(f"explore: {what}: give a length such as '3 m', not {value!r}"[:200])
+    try:
+        number = float(value) if not isinstance(value, str) else parse_quantity(value, dimension)
+    except (OverflowError, InputError) as exc:
+        raise InputError(f"explore: {what}: {exc}"[:200]) from None
+    if not math.isfinite(number) or number <= 0 or number > _MAX_LENGTH_M:
+        shown = repr(value)[:80]
+        raise InputError(
+            f"explore: {what} must be positive and at most {_MAX_LENGTH_M:g} m, not {shown}"
+        )
     return number
+
+
+_MAX_LENGTH_M = 1000.0  # a step's longest drive (pirate_bt.task.navigation)
 
 
 @dataclass
@@ -171,11 +207,11 @@ class ExploreNavigator:
         name: str = "surveyed",
         extend: Any = None,
     ) -> None:
-        self.output = Path(output) if output is not None else None
+        self.output = _output(output)
         self.search_m = _metres(search, "search")
         self.radius_m = _metres(radius, "radius")
-        if not name or any(c in name for c in "\n\r"):
-            raise InputError(f"explore: a network name is one line of text, not {name!r}")
+        if not isinstance(name, str) or not name or any(c in name for c in "\n\r"):
+            raise InputError(f"explore: a network name is one line of text, not {name!r}"[:200])
         self.name = name
         self.segments: list[dict[str, Any]] = []
         """The main line's segments found so far, as a network file writes them."""

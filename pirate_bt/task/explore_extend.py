@@ -97,10 +97,16 @@ def load_extension(source: Any) -> Extension:
 
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import network_yaml
+    from pirate_bt.pipes.model import NetworkSpec
 
     spec = getattr(source, "spec", source)
     if isinstance(source, str | Path):
         spec = load_network(Path(source)).spec
+    elif not isinstance(spec, NetworkSpec):
+        raise InputError(
+            "survey --extend: give a surveyed network file, a Network or a NetworkSpec,"
+            f" not a {type(source).__name__}"
+        )
     data = yaml.safe_load(network_yaml(spec))
     stubs = _stubs(data["segments"], [], [])
     if not stubs:

@@ -66,6 +66,8 @@ class RouteNavigator:
     """
 
     def __init__(self, route: str | Path | Route) -> None:
+        if not isinstance(route, str | Path | Route):
+            raise InputError(f"route: give a route file, a bundled name or a Route, not {route!r}")
         if not isinstance(route, Route):
             from pirate_bt.resources import find_file
 
@@ -148,6 +150,8 @@ class GoalNavigator:
     """
 
     def __init__(self, segment: str) -> None:
+        if not isinstance(segment, str) or not segment:
+            raise InputError(f"segment: give a segment's id as text, not {segment!r}")
         self.segment = segment
 
     def next_step(self, obs: Observation) -> Step | None:
@@ -227,6 +231,14 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
         InputError: no such navigator (the known ones are listed), parameters it does
             not take, or an object without ``next_step``.
     """
+    if not isinstance(name, str):
+        raise InputError(f"navigator: give a navigator's name as text, not {name!r}"[:200])
+    if params is not None and (
+        not isinstance(params, Mapping) or not all(isinstance(k, str) for k in params)
+    ):
+        raise InputError(
+            f"params: give a mapping of parameter names to values, not {params!r}"[:200]
+        )
     factory: Callable[..., Any] | None = _BUILT_IN.get(name)
     if factory is None:
         entry = _registered().get(name)

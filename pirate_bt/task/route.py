@@ -465,13 +465,20 @@ def load_route(path: str | Path) -> Route:
         print(route.network, [step.text for step in route.steps][:2])
         # lab ['inspect 3 m', 'at the bend turn right']
     """
+    from pirate_bt.yamlfile import MAX_BYTES, read_at_most
+
     p = Path(path)
+    where = SourceLocation(str(path))
     try:
-        text = p.read_text(encoding="utf-8")
+        with p.open("rb") as stream:  # at most MAX_BYTES: /dev/zero never ends
+            raw = read_at_most(stream, MAX_BYTES)
+        if len(raw) > MAX_BYTES:
+            raise ValidationFailed(
+                [LocatedError(f"larger than the {MAX_BYTES} bytes a route may be", where)]
+            )
+        text = raw.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ValidationFailed(
-            [LocatedError(f"cannot read the route: {exc}", SourceLocation(str(path)))]
-        ) from None
+        raise ValidationFailed([LocatedError(f"cannot read the route: {exc}", where)]) from None
     return parse_route(text, str(path))
 
 
