@@ -404,3 +404,17 @@ def test_a_way_back_from_the_start_is_no_error() -> None:
     result = pirate_bt.simulate_mission("lab", return_on_stop=True, max_time=0.5)
     assert result.returned is None
     assert any("still at the start" in line for line in result.replans)
+
+
+def test_a_missing_scheduler_file_is_waited_for_only_as_long_as_asked(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    # Dask's client waits for a scheduler file for ever
+    missing = tmp_path / "scheduler.json"
+    options = {"scheduler_file": missing, "scheduler_timeout": 0.2}
+    refused(lambda: pirate_bt.run_campaign(_campaign(), **options), "scheduler_file", "0.2 s")
+    options["scheduler_file"] = tmp_path
+    refused(lambda: pirate_bt.run_campaign(_campaign(), **options), "directory")
+
+
+def test_a_survey_extension_with_a_name_too_long_is_named() -> None:
+    refused(lambda: pirate_bt.survey(extend="x" * 300), "extend", "too long")

@@ -63,6 +63,27 @@ def dask_setup(worker: Any) -> None:
     prestart(_threads(worker))
 
 
+def _wait_for_file(path: str, timeout_s: float) -> None:
+    """Wait up to ``timeout_s`` for a scheduler file a starting scheduler is to write.
+
+    Raises:
+        InputError: it is not a file by then (a folder, or still missing).
+    """
+    import os
+    import time
+
+    end = time.monotonic() + timeout_s
+    while not os.path.isfile(path):
+        if os.path.isdir(path):
+            raise InputError(f"scheduler_file: {path} is a directory, not a scheduler file")
+        if time.monotonic() >= end:
+            raise InputError(
+                f"scheduler_file: no scheduler file at {path} after {timeout_s:g} s; start"
+                " the scheduler with --scheduler-file, or give a longer scheduler_timeout"
+            )
+        time.sleep(0.05)
+
+
 @contextmanager
 def dask_executor(
     scheduler: str | None, scheduler_file: str | None, timeout_s: float = 10.0
@@ -73,8 +94,11 @@ def dask_executor(
     starting may refuse a connection for a while).
 
     Raises:
-        InputError: The scheduler cannot be reached.
+        InputError: The scheduler cannot be reached, or its scheduler file is not there
+            within ``timeout_s`` (Dask's client would wait for it for ever).
     """
+    if scheduler is None and scheduler_file is not None:
+        _wait_for_file(scheduler_file, timeout_s)
     try:
         # Client is untyped (distributed types its plugins, not its client).
         client: Any = (

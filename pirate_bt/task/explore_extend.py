@@ -101,7 +101,12 @@ def load_extension(source: Any) -> Extension:
 
     spec = getattr(source, "spec", source)
     if isinstance(source, str | Path):
-        spec = load_network(Path(source)).spec
+        try:
+            spec = load_network(Path(source)).spec
+        except OSError as exc:  # a name the system refuses (a part too long)
+            raise InputError(
+                f"survey --extend: cannot read {str(source)[:80]!r}: {exc.strerror}"
+            ) from None
     elif not isinstance(spec, NetworkSpec):
         raise InputError(
             "survey --extend: give a surveyed network file, a Network or a NetworkSpec,"
