@@ -143,6 +143,20 @@ def _dim_name(dim: _Dim) -> str:
     )
 
 
+_SHOWN = 40
+"""The most characters of a value quoted back in a message."""
+
+
+def _shown(value: object, *, quoted: bool = True) -> str:
+    """``value`` for a one-line message: quoted (``repr``), cut to :data:`_SHOWN`
+    characters with its length when longer (a 100 kB value is not echoed whole)."""
+    text = str(value)
+    if len(text) > _SHOWN:
+        cut = f"{text[:_SHOWN]}... ({len(text)} characters)"
+        return repr(cut) if quoted else cut
+    return repr(value) if quoted else text
+
+
 def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
     factor = 1.0
     dim = [0, 0, 0, 0, 0]
@@ -156,7 +170,7 @@ def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
     for ch in text + "*":
         if ch in "*/":
             if not token:
-                raise UnitError(f"malformed unit in {original!r}")
+                raise UnitError(f"malformed unit in {_shown(original)}")
             pieces.append((sign, token))
             token = ""
             sign = -1 if ch == "/" else 1
@@ -166,10 +180,12 @@ def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
         match = _TERM_RE.match(piece)
         if match is None or match["name"] not in _UNITS:
             name = match["name"] if match else piece
-            raise UnitError(f"unknown unit {name!r} in {original!r}; known: {', '.join(_UNITS)}")
+            raise UnitError(
+                f"unknown unit {_shown(name)} in {_shown(original)}; known: {', '.join(_UNITS)}"
+            )
         power = sgn * int(match["pow"] or 1)
         if abs(power) > _MAX_POWER:
-            raise UnitError(f"unit power {power} in {original!r} is beyond ±{_MAX_POWER}")
+            raise UnitError(f"unit power {power} in {_shown(original)} is beyond ±{_MAX_POWER}")
         unit_factor, unit_dim = _UNITS[match["name"]]
         factor *= unit_factor**power
         for i, exponent in enumerate(unit_dim):
@@ -195,28 +211,39 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     if dimension not in DIMENSIONS:
         raise ValueError(f"unknown dimension {dimension!r}")
     if isinstance(value, bool):
-        raise UnitError(f"expected {_article(dimension)} quantity, got {value!r}")
+        raise UnitError(f"expected {_article(dimension)} quantity, got {_shown(value)}")
     if isinstance(value, int | float):
-        if not math.isfinite(value):
-            raise UnitError(f"{value!r} is not a finite number")
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an int beyond a float's range
+            finite = False
+        if not finite:
+            raise UnitError(f"{_shown(value)} is not a finite number")
         if require_unit and dimension != "dimensionless" and value != 0:
             unit = _DISPLAY[dimension][0]
-            raise UnitError(f"{value!r} needs a unit: write it as e.g. '{value} {unit}'")
+            raise UnitError(
+                f"{_shown(value)} needs a unit: write it as"
+                f" e.g. '{_shown(value, quoted=False)} {unit}'"
+            )
         result = float(value)
     elif isinstance(value, str):
         match = _QUANTITY_RE.match(value)
         if match is None:
-            raise UnitError(f"not a quantity: {value!r} (expected e.g. '90 deg', '80 mm/s')")
+            raise UnitError(f"not a quantity: {_shown(value)} (expected e.g. '90 deg', '80 mm/s')")
         factor, dim = _parse_unit(match["unit"], value)
         expected = DIMENSIONS[dimension]
         if not match["unit"] and dimension != "dimensionless":
             if float(match["num"]) == 0:
                 return 0.0
             unit = _DISPLAY[dimension][0]
-            raise UnitError(f"{value!r} needs a unit: write it as e.g. '{value} {unit}'")
+            raise UnitError(
+                f"{_shown(value)} needs a unit: write it as"
+                f" e.g. '{_shown(value, quoted=False)} {unit}'"
+            )
         if dim != expected:
             raise UnitError(
-                f"{value!r} is {_article(_dim_name(dim))}, but {_article(dimension)} is expected"
+                f"{_shown(value)} is {_article(_dim_name(dim))},"
+                f" but {_article(dimension)} is expected"
                 f" (e.g. '1 {_DISPLAY[dimension][0] or '1'}')"
             )
         result = float(match["num"]) * factor
@@ -225,7 +252,7 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
             f"expected {_article(dimension)} quantity such as '1 {_DISPLAY[dimension][0]}'"
         )
     if not math.isfinite(result):
-        raise UnitError(f"{value!r} is not a finite number")
+        raise UnitError(f"{_shown(value)} is not a finite number")
     return result
 
 
