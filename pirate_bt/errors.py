@@ -7,6 +7,8 @@ its kind of failure, so the CLI never has to guess::
 
     PirateError                      (exit 1)
      ├── InputError                  (exit 2)  a file, an option or a value is wrong
+     │    ├── ArgumentTypeError                an argument of the wrong type (a TypeError)
+     │    ├── ArgumentValueError               an argument's value refused (a ValueError)
      │    ├── LocatedError                     one problem at file:line:column
      │    ├── ValidationFailed                 several LocatedErrors for one file
      │    └── UnitError                        unknown unit or wrong dimension
@@ -29,6 +31,12 @@ of one problem and :class:`ValidationFailed` carries every problem of one input.
 Input written in Python (a node built with ``Clamp.build(...)``, parameters given
 to ``load_tree(...)``) is located at the caller's source line, found with
 :func:`caller_location`.
+
+A public function refuses a bad argument at its boundary with one line that names
+the argument (docs/api.md, *Arguments the API refuses*); the layers below the API
+share :func:`shown` (a value cut to about 40 characters and its length, never an
+unbounded echo) and :func:`file_argument` (a file name: text or a path, not empty,
+no NUL, at most :data:`MAX_PATH` characters).
 """
 
 from __future__ import annotations
@@ -42,6 +50,9 @@ from types import FrameType
 from typing import Any
 
 __all__ = [
+    "MAX_PATH",
+    "ArgumentTypeError",
+    "ArgumentValueError",
     "CommandRefused",
     "ConfigurationError",
     "EStopLatched",
@@ -59,6 +70,8 @@ __all__ = [
     "UnitError",
     "ValidationFailed",
     "caller_location",
+    "file_argument",
+    "shown",
 ]
 
 
@@ -72,6 +85,75 @@ class InputError(PirateError):
     """Invalid input from a user: a file, a command-line option or a value."""
 
     exit_code = 2
+
+
+class ArgumentTypeError(InputError, TypeError):
+    """An argument of the wrong type, refused at a public function's boundary.
+
+    Also a ``TypeError``, which such a mistake raised before it was checked.
+    """
+
+
+class ArgumentValueError(InputError, ValueError):
+    """An argument whose value is refused at a public function's boundary.
+
+    Also a ``ValueError``, which such a value raised before it was checked.
+    """
+
+
+MAX_PATH = 4096
+"""The longest file name an argument may be (PATH_MAX on Linux; the API's
+``pirate_bt.api.options.MAX_PATH`` is the same)."""
+
+_SHOWN = 40
+
+
+def _kind(value: object) -> str:
+    if value is None:
+        return "None"
+    name = type(value).__name__
+    return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
+
+
+def shown(value: object, limit: int = _SHOWN) -> str:
+    """``repr(value)`` for a message, cut to ``limit`` characters and its length when
+    longer: ``'xxxx...' (100000 characters)``. A huge whole number gives its digits'
+    count, a value whose ``repr`` fails its type."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**limit:
+        return f"a {len(str(abs(value)))}-digit number"
+    if isinstance(value, str | bytes) and len(value) > limit:
+        return f"{value[:limit]!r}... ({len(value)} characters)"
+    try:
+        text = repr(value)
+    except Exception:  # a repr of the caller's own that fails
+        return _kind(value)
+    if len(text) > limit:
+        return f"{text[:limit]}... ({_kind(value)})"
+    return text
+
+
+def file_argument(value: object, option: str) -> Path:
+    """A file name given as an argument: text or a path, not empty, no NUL, at most
+    :data:`MAX_PATH` characters (the rules of ``pirate_bt.api.options.file_name``).
+
+    Raises:
+        ArgumentTypeError: neither text nor a path (a number, a mapping, bytes).
+        ArgumentValueError: empty, with a NUL, or too long; named by ``option``.
+    """
+    if not isinstance(value, str | os.PathLike):
+        raise ArgumentTypeError(f"{option}: give a file name (text or a Path), not {_kind(value)}")
+    text = os.fspath(value)
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"{option}: give a file name as text, not bytes")
+    if not text.strip():
+        raise ArgumentValueError(f"{option}: the file name is empty")
+    if "\0" in text:
+        raise ArgumentValueError(f"{option}: a file name may not hold a NUL character")
+    if len(text) > MAX_PATH:
+        raise ArgumentValueError(
+            f"{option}: a file name of {len(text)} characters is too long (at most {MAX_PATH})"
+        )
+    return Path(text)
 
 
 @dataclass(frozen=True, slots=True)

@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError, ValidationFailed
+from pirate_bt.errors import ConfigurationError, ValidationFailed, file_argument
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network, NetworkGeometryError
 from pirate_bt.resources import bundled
@@ -40,11 +40,15 @@ def load_network(path: str | Path) -> Network:
     """Load a pipe network file; a bare name such as ``lab`` loads a bundled scenario.
 
     Raises:
+        InputError: ``path`` is no file name (empty, a NUL, bytes, a number, more than
+            4096 characters: :func:`~pirate_bt.errors.file_argument`).
         ValidationFailed: the file cannot be read or does not validate.
+        OSError: a name the system refuses (a part longer than 255 bytes; callers
+            such as ``survey(extend=...)`` name the option then).
     """
-    p = Path(path)
+    p = file_argument(path, "path")
     if not p.exists() and p.parent == Path(".") and not p.suffix:
-        p = bundled("scenarios", str(path))
+        p = bundled("scenarios", str(p))
     return network_from_document(load_yaml(p))
 
 

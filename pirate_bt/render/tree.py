@@ -45,8 +45,16 @@ from typing import TYPE_CHECKING, Any
 
 import py_trees
 
-from pirate_bt.errors import ConfigurationError, InputError
-from pirate_bt.render.files import write_diagram
+from pirate_bt.errors import (
+    MAX_PATH,
+    ArgumentTypeError,
+    ArgumentValueError,
+    ConfigurationError,
+    InputError,
+    file_argument,
+    shown,
+)
+from pirate_bt.render.files import DIAGRAM_SUFFIXES, write_diagram
 from pirate_bt.trace.coverage import Coverage, NodeCoverage
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.reader import READERS, Trace, read_trace
@@ -186,10 +194,13 @@ def _load_tree_file(
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.treefile import load_tree
 
-    found = find_file("trees", path)
-    if not found.exists() and not found.suffix:
-        with_suffix = find_file("trees", f"{path}.yaml")
-        found = with_suffix if with_suffix.exists() else found
+    try:
+        found = find_file("trees", path)
+        if not found.exists() and not found.suffix:
+            with_suffix = find_file("trees", f"{path}.yaml")
+            found = with_suffix if with_suffix.exists() else found
+    except OSError:  # a name the system refuses (a part too long): load_tree says so
+        found = Path(path)
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     given = dict(params or {})
     return load_tree(
@@ -201,6 +212,88 @@ def _load_tree_file(
     )
 
 
+def _mapping(value: object, option: str, what: str) -> None:
+    if value is not None and not isinstance(value, Mapping):
+        raise ArgumentTypeError(f"{option}: give {what} or None, not {shown(value)}")
+
+
+def _check_arguments(
+    title: object,
+    trace: object,
+    tick: object,
+    params: object,
+    robot: object,
+    coverage: object,
+    status: object,
+    feedback: object,
+) -> None:
+    """Refuse an argument of :func:`tree_graph` of the wrong type, before anything loads.
+
+    Raises:
+        ArgumentTypeError: an argument of the wrong type, named.
+        ArgumentValueError: a title too long, a name that is no file name.
+    """
+    from pirate_bt.robot.description import RobotDescription
+
+    if title is not None:
+        if not isinstance(title, str):
+            raise ArgumentTypeError(f"title: give text or None, not {shown(title)}")
+        if len(title) > MAX_PATH:
+            raise ArgumentValueError(
+                f"title: {len(title)} characters is too long a caption (at most {MAX_PATH})"
+            )
+    if trace is not None and not isinstance(trace, Trace):
+        file_argument(trace, "trace")
+    if tick is not None and (isinstance(tick, bool) or not isinstance(tick, int)):
+        raise ArgumentTypeError(f"tick: give a tick's number (a whole number), not {shown(tick)}")
+    _mapping(params, "params", "a mapping of parameter names to values")
+    for key in params or {}:  # type: ignore[attr-defined]
+        if not isinstance(key, str):
+            raise ArgumentTypeError(f"params: a parameter's name is text, not {shown(key)}")
+    if robot is not None and not isinstance(robot, RobotDescription):
+        if not isinstance(robot, str | Path):
+            raise ArgumentTypeError(
+                "robot: give a robot description file, a RobotDescription or None (the"
+                f" bundled robot), not {shown(robot)}"
+            )
+        file_argument(robot, "robot")
+    if coverage is not None and not isinstance(coverage, Coverage):
+        raise ArgumentTypeError(
+            f"coverage: give a Coverage (result.coverage) or None, not {shown(coverage)}"
+        )
+    _mapping(status, "status", "a mapping of node ids to status codes")
+    _mapping(feedback, "feedback", "a mapping of node ids to messages")
+
+
+def _output(out: object) -> Path:
+    """``out`` checked: a file name with a suffix that can be drawn, not a folder.
+
+    Raises:
+        ArgumentTypeError: not a file name.
+        ArgumentValueError: an unknown suffix, a folder, or a file on the way.
+    """
+    path = file_argument(out, "out")
+    if path.suffix.lower() not in DIAGRAM_SUFFIXES:
+        raise ArgumentValueError(f"out: cannot draw to {shown(path.name)}: use .dot, .svg or .png")
+    try:
+        if path.is_dir():
+            raise ArgumentValueError(
+                f"out: {shown(str(path), 80)} is a directory; name a file such as tree.svg"
+            )
+        for parent in path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise ArgumentValueError(
+                        f"out: {shown(str(path), 80)}: {shown(str(parent), 80)} is not a directory"
+                    )
+                break
+    except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
+        raise InputError(
+            f"out: cannot write {shown(str(path), 80)}: {exc.strerror or exc}"
+        ) from None
+    return path
+
+
 def _structure_and_trace(
     tree: TreeSource,
     params: Mapping[str, Any] | None,
@@ -210,6 +303,7 @@ def _structure_and_trace(
     from pirate_bt.treefile.spec import LoadedTree
 
     if isinstance(tree, str | Path):
+        tree = file_argument(tree, "tree")
         is_trace = _is_trace_file(tree)
         tree = read_trace(tree) if is_trace else _load_tree_file(tree, params, robot)
     if isinstance(tree, Trace):
@@ -220,9 +314,9 @@ def _structure_and_trace(
         return tree_structure(tree.root, name=tree.name), None
     if isinstance(tree, py_trees.trees.BehaviourTree | py_trees.behaviour.Behaviour):
         return tree_structure(tree), None
-    raise TypeError(
-        "render_tree draws a tree file path, a LoadedTree, a py_trees BehaviourTree or"
-        f" Behaviour, a TreeStructure or a Trace, not {type(tree).__name__}"
+    raise ArgumentTypeError(
+        "tree: render_tree draws a tree file path, a LoadedTree, a py_trees BehaviourTree"
+        f" or Behaviour, a TreeStructure or a Trace, not {type(tree).__name__}"
     )
 
 
@@ -307,19 +401,23 @@ def tree_graph(
 
     Raises:
         InputError: ``tick`` without a trace, a tick the trace does not have, or
-            a trace of another tree.
-        ValueError: ``status`` or ``feedback`` given together with ``trace``.
+            a trace of another tree; an argument of the wrong type
+            (:class:`~pirate_bt.errors.ArgumentTypeError`, also a ``TypeError``) or
+            a name that is no file name, each named.
+        ArgumentValueError: ``status`` or ``feedback`` given together with ``trace``
+            (an ``InputError`` and a ``ValueError``).
         ValidationFailed: the tree file does not validate.
 
     Example::
 
         source = tree_graph("trees/straight.yaml", trace="run.jsonl", tick=50)
     """
-    structure, own_trace = _structure_and_trace(tree, params, robot)
+    _check_arguments(title, trace, tick, params, robot, coverage, status, feedback)
     if trace is not None and (status is not None or feedback is not None):
-        raise ValueError("give status and feedback, or a trace to take them from, not both")
+        raise ArgumentValueError("give status and feedback, or a trace to take them from, not both")
     if coverage is not None and (status is not None or trace is not None or tick is not None):
-        raise ValueError("colour by coverage or by status, not both")
+        raise ArgumentValueError("colour by coverage or by status, not both")
+    structure, own_trace = _structure_and_trace(tree, params, robot)
     run = read_trace(trace) if isinstance(trace, str | Path) else trace
     if run is not None:
         _check_trace_fits(structure, run)
@@ -405,10 +503,13 @@ def render_tree(
 
     Raises:
         FileNotFoundError: Graphviz ``dot`` is missing; the ``.dot`` file was
-            written beside ``out`` all the same.
-        ValueError: an unsupported suffix.
-        InputError: see :func:`tree_graph`.
+            written beside ``out`` all the same (its ``filename`` is ``None``).
+        ArgumentValueError: ``out`` has an unsupported suffix, is a folder or has a
+            file on its way (an ``InputError`` and a ``ValueError``).
+        InputError: ``out`` cannot be written (no permission, a name the system
+            refuses); see also :func:`tree_graph`.
     """
+    target = _output(out)
     source = tree_graph(
         tree,
         status,
@@ -420,4 +521,11 @@ def render_tree(
         robot=robot,
         coverage=coverage,
     )
-    return write_diagram(source, Path(out))
+    try:
+        return write_diagram(source, target)
+    except OSError as exc:
+        if exc.filename is None:  # Graphviz is missing: documented, kept
+            raise
+        raise InputError(
+            f"out: cannot write {shown(str(target), 80)}: {exc.strerror or exc}"
+        ) from None

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, file_argument
 from pirate_bt.resources import default_robot_path
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
@@ -33,7 +34,10 @@ def load_robot(path: str | Path | None = None) -> RobotDescription:
     """Load a robot description file; ``None`` loads the bundled 2018 robot.
 
     Raises:
-        ValidationFailed: the file cannot be read or does not validate.
+        InputError: ``path`` is no file name (:func:`~pirate_bt.errors.file_argument`:
+            a number, bytes, empty, a NUL, more than 4096 characters), named ``path``.
+        ValidationFailed: the file cannot be read (a name the system refuses too) or
+            does not validate.
 
     Example::
 
@@ -42,4 +46,10 @@ def load_robot(path: str | Path | None = None) -> RobotDescription:
         result = pirate_bt.simulate_tree("straight", robot=robot,
                                          params={"distance": "1 m"})
     """
-    return robot_from_document(load_yaml(path if path is not None else default_robot_path()))
+    given = default_robot_path() if path is None else file_argument(path, "path")
+    try:
+        document = load_yaml(given)
+    except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
+        where = SourceLocation(str(given))
+        raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", where)]) from None
+    return robot_from_document(document)

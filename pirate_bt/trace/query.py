@@ -24,6 +24,7 @@ Example::
 from __future__ import annotations
 
 import difflib
+import operator
 from bisect import bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -33,7 +34,7 @@ from typing import Any, NamedTuple
 
 import py_trees
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, shown
 from pirate_bt.trace.records import STATUS_CODE
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 
@@ -52,6 +53,21 @@ STATUS_WORDS: Mapping[str, str] = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING
 
 _WORD_CODES = {word: code for code, word in STATUS_WORDS.items()}
 _GLOB = frozenset("*?[")
+_MAX_QUERY = 4096
+"""The longest node name, path or glob asked for (a glob's regular expression grows
+with it)."""
+
+
+def _query_text(value: object, option: str, what: str) -> str:
+    if not isinstance(value, str):
+        raise ArgumentTypeError(f"{option}: give {what}, not {shown(value)}")
+    if len(value) > _MAX_QUERY:
+        raise ArgumentValueError(
+            f"{option}: {len(value)} characters is longer than a node's path may be"
+            f" (at most {_MAX_QUERY})"
+        )
+    return value
+
 
 NodeRef = str | NodeInfo
 """A node: its path (or a tail of it), its name, its id, a glob, or its NodeInfo."""
@@ -63,16 +79,20 @@ def status_code(status: str | py_trees.common.Status) -> str:
     Accepts ``"SUCCESS"``/``"success"``/``"S"`` (and so on) or a py_trees ``Status``.
 
     Raises:
-        ValueError: not a status.
+        ArgumentValueError: not a status (an :class:`~pirate_bt.errors.InputError` and a
+            ``ValueError``).
     """
     if isinstance(status, py_trees.common.Status):
         return STATUS_CODE[status]
-    text = str(status).strip().upper()
-    if text in STATUS_WORDS:
-        return text
-    if text in _WORD_CODES:
-        return _WORD_CODES[text]
-    raise ValueError(f"not a status: {status!r}; use one of {', '.join(_WORD_CODES)}")
+    if isinstance(status, str) and len(status) <= 16:
+        text = status.strip().upper()
+        if text in STATUS_WORDS:
+            return text
+        if text in _WORD_CODES:
+            return _WORD_CODES[text]
+    raise ArgumentValueError(
+        f"status: not a status: {shown(status)}; use one of {', '.join(_WORD_CODES)}"
+    )
 
 
 class StatusChange(NamedTuple):
@@ -183,6 +203,29 @@ class TraceQueries:
     def last_tick(self) -> int:  # provided by Trace
         raise NotImplementedError
 
+    def tick_number(self, tick: object, option: str = "tick") -> int:
+        """``tick`` checked: a whole number from 0 to :attr:`last_tick`.
+
+        Raises:
+            ArgumentTypeError: not a whole number (a float, a bool, text), named by
+                ``option``.
+            InputError: out of the trace's ticks.
+        """
+        if isinstance(tick, bool):
+            raise ArgumentTypeError(f"{option}: give a tick's number, not {tick!r}")
+        try:
+            number = operator.index(tick)  # type: ignore[arg-type]
+        except TypeError:
+            kind = "None" if tick is None else type(tick).__name__
+            raise ArgumentTypeError(
+                f"{option}: give a tick's number (a whole number), not {shown(tick)} ({kind})"
+            ) from None
+        if not 0 <= number <= self.last_tick:
+            raise InputError(
+                f"{self.path}: no tick {shown(number)}; the trace has ticks 0 to {self.last_tick}"
+            )
+        return number
+
     def _index(self) -> _Index:
         index = self._query_index
         if index is None:
@@ -205,6 +248,8 @@ class TraceQueries:
             ['straight/pass straight/hold/hold/clamp rear',
              'straight/pass straight/hold/hold/clamp rear/clamp rear half']
         """
+        if pattern is not None:
+            pattern = _query_text(pattern, "pattern", "text (a glob or part of a path) or None")
         paths = list(self._index().paths.values())
         if pattern is None:
             return paths
@@ -252,7 +297,9 @@ class TraceQueries:
                 query,
                 [],
             )
-        query = str(path_or_name)
+        query = _query_text(
+            path_or_name, "node", "a node's path, name, id or glob (text) or a NodeInfo"
+        )
         if query in self.structure:
             return self.structure.node(query)
         ids = index.by_path.get(query, [])
@@ -265,7 +312,7 @@ class TraceQueries:
         if ids:
             listed = "; ".join(f"{index.paths[i]} ({i})" for i in ids)
             raise NodeLookupError(
-                f"{self.path}: {query!r} matches {len(ids)} nodes: {listed};"
+                f"{self.path}: {shown(query)} matches {len(ids)} nodes: {listed};"
                 " give more of the path, or the id",
                 query,
                 [index.paths[i] for i in ids],
@@ -277,9 +324,12 @@ class TraceQueries:
             close = [p for p in candidates if query.lower() in p.lower()][:5]
         hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
         if not close and len(names) <= 30:
-            hint = f"; its nodes are: {', '.join(sorted(names))}"
+            listed = ", ".join(sorted(names))
+            hint = f"; its nodes are: {listed if len(listed) <= 240 else listed[:240] + '...'}"
         raise NodeLookupError(
-            f"{self.path}: no node {query!r} in tree {self.structure.name!r}{hint}", query, close
+            f"{self.path}: no node {shown(query)} in tree {self.structure.name!r}{hint}",
+            query,
+            close,
         )
 
     # --- statuses ------------------------------------------------------------------
@@ -310,13 +360,10 @@ class TraceQueries:
             'RUNNING'
 
         Raises:
-            InputError: ``tick`` is negative or beyond the last tick.
+            InputError: ``tick`` is not a whole number, negative or beyond the last tick.
             NodeLookupError: see :meth:`node`.
         """
-        if tick < 0 or tick > self.last_tick:
-            raise InputError(
-                f"{self.path}: no tick {tick}; the trace has ticks 0 to {self.last_tick}"
-            )
+        tick = self.tick_number(tick)
         status = "INVALID"
         for change in self.statuses(node):
             if change.tick > tick:

@@ -12,7 +12,9 @@ Readers are picked by file suffix from :data:`READERS`, like the writers;
 themselves, see :mod:`pirate_bt.trace.formats`).
 A reader tolerates a cut-off last line (a run killed mid-write): the complete
 ticks before it are returned and :attr:`Trace.truncated` is set. Any other bad
-line is an :class:`~pirate_bt.errors.LocatedError` naming the file and line.
+line is an :class:`~pirate_bt.errors.LocatedError` naming the file and line. A line
+is read at most :data:`MAX_LINE_BYTES` long, so a device such as ``/dev/zero`` named
+``x.jsonl`` is refused at its first line, not read for ever.
 """
 
 from __future__ import annotations
@@ -27,7 +29,14 @@ from typing import IO, Any, ClassVar, cast
 
 import py_trees
 
-from pirate_bt.errors import InputError, LocatedError, PirateError, SourceLocation
+from pirate_bt.errors import (
+    InputError,
+    LocatedError,
+    PirateError,
+    SourceLocation,
+    file_argument,
+    shown,
+)
 from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.formats import register_format, suffix_of
@@ -36,6 +45,7 @@ from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, sta
 from pirate_bt.trace.structure import TreeStructure
 
 __all__ = [
+    "MAX_LINE_BYTES",
     "READERS",
     "GzipJsonLinesReader",
     "JsonLinesReader",
@@ -48,6 +58,17 @@ __all__ = [
     "read_trace",
     "register_reader",
 ]
+
+
+MAX_LINE_BYTES = 16 * 1024 * 1024
+"""The longest line of a JSON Lines trace (the header, which holds the tree, is the
+longest; a bundled tree's is a few kB). A longer line is no trace's."""
+
+
+def _bounded_lines(stream: IO[bytes]) -> Iterator[bytes]:
+    """The lines of ``stream``, each read at most :data:`MAX_LINE_BYTES` + 1 long."""
+    while line := stream.readline(MAX_LINE_BYTES + 1):
+        yield line
 
 
 class TraceFormatReader:
@@ -67,7 +88,7 @@ class TraceFormatReader:
         raise NotImplementedError
 
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
-        yield from stream
+        yield from _bounded_lines(stream)
 
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
         try:
@@ -77,6 +98,11 @@ class TraceFormatReader:
         with stream:
             pending: tuple[int, bytes] | None = None
             for number, line in enumerate(self._lines(stream), start=1):
+                if len(line) > MAX_LINE_BYTES:
+                    raise LocatedError(
+                        f"a line longer than {MAX_LINE_BYTES} bytes: not a trace",
+                        SourceLocation(str(self.path), number),
+                    )
                 if pending is not None:
                     yield pending[0], self._decode(*pending, last=False)
                 pending = (number, line)
@@ -131,7 +157,7 @@ class GzipJsonLinesReader(TraceFormatReader):
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
         number = 0
         try:
-            for number, line in enumerate(stream, start=1):  # noqa: B007 (read below)
+            for number, line in enumerate(_bounded_lines(stream), start=1):  # noqa: B007
                 yield line
         except EOFError:
             # A killed writer leaves no gzip trailer; everything flushed is intact.
@@ -383,10 +409,9 @@ class Trace(TraceQueries):
         last recorded tick before it, renumbered.
 
         Raises:
-            InputError: ``n`` is negative or beyond the last tick.
+            InputError: ``n`` is not a whole number, negative or beyond the last tick.
         """
-        if n < 0 or n > self.last_tick:
-            raise InputError(f"{self.path}: no tick {n}; the trace has ticks 0 to {self.last_tick}")
+        n = self.tick_number(n, "n")
         found: TickFrame | None = None
         for frame in self.frames():
             if frame.n > n:
@@ -445,7 +470,9 @@ def read_trace(path: str | Path) -> Trace:
         Trace: The trace, with its queries (see :class:`Trace`).
 
     Raises:
-        InputError: unknown suffix or unreadable file.
+        InputError: ``path`` is no file name (:func:`~pirate_bt.errors.file_argument`:
+            a number, bytes, empty, too long), an unknown suffix or an unreadable
+            file (a directory, a line longer than :data:`MAX_LINE_BYTES`).
         ConfigurationError: the suffix needs an optional part that is not installed.
         LocatedError: a record that is not valid, with file and line.
 
@@ -458,14 +485,16 @@ def read_trace(path: str | Path) -> Trace:
         print(first.tick, first.path, first.feedback)
         print(trace.first_tick("front into turn", "RUNNING"))
     """
-    reader = open_reader(path)
-    where = Path(path)
+    where = file_argument(path, "path")
+    reader = open_reader(where)
     try:
         header, ticks, end = _records(reader, where)
     except PirateError:
         raise
     except Exception as exc:  # a format reader (MCAP, a plugin) stumbling on a bad file
-        raise InputError(f"{where}: cannot read this trace: {type(exc).__name__}: {exc}") from exc
+        raise InputError(
+            f"{where}: cannot read this trace: {type(exc).__name__}: {shown(str(exc), 200)}"
+        ) from exc
     if header is None:
         if reader.truncated:
             raise LocatedError(

@@ -30,7 +30,13 @@ import py_trees
 
 from pirate_bt.behaviours.base import BuildContext
 from pirate_bt.clock import Clock, WallClock
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
+from pirate_bt.errors import (
+    LocatedError,
+    SourceLocation,
+    ValidationFailed,
+    caller_location,
+    file_argument,
+)
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.checks import _check_blackboard, _outcomes
 from pirate_bt.treefile.reader import _Env, _Reader
@@ -141,6 +147,8 @@ def load_tree(
         The built tree with its warnings (also logged).
 
     Raises:
+        InputError: ``source`` is a name but no file name (empty, a NUL, bytes, more
+            than 4096 characters: :func:`~pirate_bt.errors.file_argument`).
         ValidationFailed: every problem found, each at ``file:line:column``.
     """
     reg = registry or default_registry()
@@ -150,8 +158,13 @@ def load_tree(
         base_dir = Path.cwd()
         strict = False if units_required is None else units_required
     elif isinstance(source, str | os.PathLike):
-        doc = load_yaml(source)
-        base_dir = Path(source).parent
+        path = file_argument(source, "source")
+        try:
+            doc = load_yaml(path)
+        except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
+            where = SourceLocation(str(path))
+            raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", where)]) from None
+        base_dir = path.parent
         strict = True if units_required is None else units_required
     else:
         raise ValidationFailed(

@@ -1,0 +1,279 @@
+"""The public functions outside ``pirate_bt.api``, given hostile arguments.
+
+As in tests/test_api_hostile.py: every function that ``import pirate_bt`` reaches
+(``read_trace``, ``render_tree``, ``load_robot``, a trace's queries) and the loaders
+and parsers beneath the API answer a bad argument with one line of
+:class:`pirate_bt.InputError` (or the documented type) that names the argument:
+never a bare ``TypeError``/``ValueError``/``OSError`` from deep inside, a hang on
+``/dev/zero``, or an echo of a 100000-character value.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ArgumentValueError,
+    InputError,
+    PirateError,
+    ValidationFailed,
+    file_argument,
+    shown,
+)
+
+HUGE = "x" * 100_000
+LONG_PART = "y" * 300  # one part longer than the 255 bytes a file system takes
+NOT_NAMES: list[Any] = [42, 1.5, float("nan"), {}, [], b"run.jsonl", None]
+
+
+@pytest.fixture(autouse=True)
+def _no_hang() -> Iterator[None]:
+    """A refusal that hangs instead fails the test after 20 s (the hang was the bug)."""
+
+    def fail(*_: Any) -> None:
+        raise TimeoutError("hung: the argument was not refused")
+
+    previous = signal.signal(signal.SIGALRM, fail)
+    signal.alarm(20)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def refused(call: Callable[[], Any], *words: str, kind: type[PirateError] = InputError) -> str:
+    """``call()`` raises ``kind`` with one short line holding every word; it is returned."""
+    with pytest.raises(kind) as caught:
+        call()
+    text = str(caught.value)
+    assert "\n" not in text, text
+    assert len(text) < 400, text
+    for word in words:
+        assert word in text, (word, text)
+    return text
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("run") / "run.jsonl"
+    pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, trace=path, max_time=10)
+    return path
+
+
+@pytest.fixture(scope="module")
+def trace(run: Path) -> pirate_bt.Trace:
+    return pirate_bt.read_trace(run)
+
+
+# -- the shared helpers
+
+
+def test_shown_cuts_a_long_value_and_gives_its_length() -> None:
+    assert shown("abc") == "'abc'"
+    assert shown(HUGE) == f"{'x' * 40!r}... (100000 characters)"
+    assert shown(10**400) == "a 401-digit number"
+    assert len(shown(list(range(10_000)))) < 80
+    assert shown(None) == "None"
+
+
+@pytest.mark.parametrize("value", NOT_NAMES)
+def test_a_file_name_is_text_or_a_path(value: Any) -> None:
+    text = refused(lambda: file_argument(value, "out"), "out: give a file name", kind=TypeError)  # type: ignore[arg-type]
+    with pytest.raises(ArgumentTypeError):
+        file_argument(value, "out")
+    assert "b'" not in text
+
+
+@pytest.mark.parametrize(
+    ("value", "words"),
+    [("", "empty"), ("  ", "empty"), ("a\0b", "NUL"), (HUGE, "100000 characters")],
+)
+def test_a_file_name_is_not_empty_nor_unbounded(value: str, words: str) -> None:
+    refused(lambda: file_argument(value, "path"), "path:", words, kind=ArgumentValueError)
+
+
+# -- read_trace
+
+
+@pytest.mark.parametrize("value", NOT_NAMES)
+def test_read_trace_names_a_path_of_the_wrong_type(value: Any) -> None:
+    # read_trace(42) was a bare TypeError from pathlib
+    refused(lambda: pirate_bt.read_trace(value), "path: give a file name")
+
+
+def test_read_trace_does_not_echo_a_huge_name() -> None:
+    # the 100000-character name came back whole in the error
+    refused(lambda: pirate_bt.read_trace(HUGE + ".jsonl"), "path", "100006 characters")
+    refused(lambda: pirate_bt.read_trace(""), "path", "empty")
+    refused(lambda: pirate_bt.read_trace(LONG_PART + ".jsonl"), "cannot read trace")
+
+
+def test_read_trace_of_dev_zero_or_a_folder_is_refused(tmp_path: Path) -> None:
+    zero = tmp_path / "zero.jsonl"
+    zero.symlink_to("/dev/zero")  # one endless line: read at most 16 MiB of it
+    refused(lambda: pirate_bt.read_trace(zero), "longer than", "not a trace")
+    gz = tmp_path / "zero.jsonl.gz"
+    gz.symlink_to("/dev/zero")
+    refused(lambda: pirate_bt.read_trace(gz), "gzip")
+    folder = tmp_path / "d.jsonl"
+    folder.mkdir()
+    refused(lambda: pirate_bt.read_trace(folder), "cannot read trace")
+    refused(lambda: pirate_bt.read_trace("/dev/zero"), "unknown trace format")
+
+
+# -- a trace's queries
+
+
+@pytest.mark.parametrize("tick", [None, "5", 1.5, float("nan"), True, b"1", {}])
+def test_a_tick_is_a_whole_number(trace: pirate_bt.Trace, tick: Any) -> None:
+    # frame_at("5") was a TypeError from '<'; frame_at(1.5) a frame numbered 1.5
+    refused(lambda: trace.frame_at(tick), "n: give a tick's number", kind=ArgumentTypeError)
+    refused(lambda: trace.status_at("drive straight", tick), "tick: give a tick's number")
+
+
+def test_a_tick_out_of_range_is_not_echoed_whole(trace: pirate_bt.Trace) -> None:
+    text = refused(lambda: trace.frame_at(10**400), "no tick", "401-digit")
+    assert "0000000000000000000000000000000000000000000000" not in text
+    refused(lambda: trace.status_at("drive straight", -1), "no tick -1")
+    assert trace.frame_at(0).n == 0
+
+
+@pytest.mark.parametrize("value", [42, None, b"x", 1.5, {}])
+def test_a_node_is_named_by_text(trace: pirate_bt.Trace, value: Any) -> None:
+    # node(None) looked for a node named 'None'; nodes(42) was a TypeError
+    if value is not None:
+        refused(lambda: trace.node(value), "node: give a node's", kind=ArgumentTypeError)
+        refused(lambda: trace.nodes(value), "pattern: give text", kind=ArgumentTypeError)
+    refused(lambda: trace.statuses(value), "node:")
+
+
+def test_a_huge_node_name_or_glob_is_refused_or_cut(trace: pirate_bt.Trace) -> None:
+    refused(lambda: trace.node(HUGE), "node", "100000 characters")
+    refused(lambda: trace.nodes("*" * 5000), "pattern", "5000 characters")
+    text = refused(lambda: trace.node("[" * 3000), "no node", "3000 characters")
+    assert "[" * 50 not in text
+
+
+@pytest.mark.parametrize("status", ["DONE", "", HUGE, 42, None, b"S"])
+def test_a_status_is_one_of_four_words(trace: pirate_bt.Trace, status: Any) -> None:
+    text = refused(
+        lambda: trace.first_tick("drive straight", status), "status: not a status", kind=ValueError
+    )  # an InputError and, as before, a ValueError
+    assert "xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx" not in text
+
+
+# -- render_tree
+
+
+@pytest.mark.parametrize("tree", [42, None, {}, b"straight", 1.5])
+def test_render_tree_names_a_tree_of_the_wrong_type(tree: Any, tmp_path: Path) -> None:
+    # render_tree(42, ...) was a bare TypeError; it still is a TypeError too
+    refused(lambda: pirate_bt.render_tree(tree, tmp_path / "t.dot"), "tree:", kind=TypeError)
+
+
+@pytest.mark.parametrize(("tree", "words"), [("", "empty"), (HUGE, "100000 characters")])
+def test_render_tree_names_a_tree_that_is_no_file_name(
+    tree: str, words: str, tmp_path: Path
+) -> None:
+    refused(lambda: pirate_bt.render_tree(tree, tmp_path / "t.dot"), "tree", words)
+
+
+def test_render_tree_with_a_name_the_system_refuses(tmp_path: Path) -> None:
+    # both were bare OSErrors (File name too long)
+    refused(lambda: pirate_bt.render_tree(LONG_PART, tmp_path / "t.dot"), "cannot read")
+    refused(lambda: pirate_bt.render_tree("straight", tmp_path / f"{LONG_PART}.dot"), "out")
+
+
+@pytest.mark.parametrize("out", [*NOT_NAMES, "", HUGE])
+def test_render_tree_names_an_output_that_is_no_file_name(out: Any) -> None:
+    # render_tree("straight", 42) was a TypeError from pathlib
+    refused(lambda: pirate_bt.render_tree("straight", out), "out:")
+
+
+def test_render_tree_refuses_a_folder_or_an_unknown_suffix(tmp_path: Path) -> None:
+    # both were bare ValueErrors ("cannot draw to 'tmp'"); still ValueErrors too
+    for out in ("/tmp", tmp_path / "x.bogus", tmp_path / "noext"):
+        refused(lambda o=out: pirate_bt.render_tree("straight", o), "out: cannot draw to")
+        with pytest.raises(ValueError):
+            pirate_bt.render_tree("straight", out)
+    folder = tmp_path / "d.svg"
+    folder.mkdir()
+    refused(lambda: pirate_bt.render_tree("straight", folder), "out:", "is a directory")
+    blocker = tmp_path / "blocker"
+    blocker.write_text("mine", encoding="utf-8")
+    refused(lambda: pirate_bt.render_tree("straight", blocker / "t.dot"), "not a directory")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker", "d.svg"]
+
+
+@pytest.mark.parametrize(
+    ("options", "words"),
+    [
+        ({"trace": 42}, "trace: give a file name"),
+        ({"trace": "/dev/zero"}, "unknown trace format"),
+        ({"tick": "5"}, "tick: give a tick's number"),
+        ({"tick": float("nan")}, "tick:"),
+        ({"params": 42}, "params: give a mapping"),
+        ({"params": {1: "2"}}, "params: a parameter's name is text"),
+        ({"robot": 42}, "robot: give a robot description file"),
+        ({"robot": HUGE}, "robot: a file name of 100000 characters"),
+        ({"title": 42}, "title: give text"),
+        ({"title": HUGE}, "title: 100000 characters"),
+        ({"status": 42}, "status: give a mapping"),
+        ({"feedback": [1]}, "feedback: give a mapping"),
+        ({"coverage": 42}, "coverage: give a Coverage"),
+    ],
+)
+def test_render_tree_names_its_other_arguments(
+    options: dict[str, Any], words: str, tmp_path: Path
+) -> None:
+    # params=42 was a TypeError, status=42 and coverage=42 AttributeErrors, title=42
+    # and a 100 kB title were drawn, a robot of 100000 characters an OSError
+    refused(lambda: pirate_bt.render_tree("straight", tmp_path / "t.dot", **options), words)
+
+
+def test_render_tree_of_a_trace_refuses_a_tick_it_does_not_have(run: Path, tmp_path: Path) -> None:
+    text = refused(lambda: pirate_bt.render_tree(run, tmp_path / "t.dot", tick=10**400), "no tick")
+    assert len(text) < 200
+    assert pirate_bt.render_tree(run, tmp_path / "t.dot", tick=3).exists()
+
+
+# -- load_robot and the loaders below the API
+
+
+@pytest.mark.parametrize("value", [42, 1.5, {}, b"pirate.yaml"])
+def test_load_robot_names_a_path_of_the_wrong_type(value: Any) -> None:
+    # load_robot(42) was a bare TypeError
+    refused(lambda: pirate_bt.load_robot(value), "path: give a file name")
+
+
+def test_load_robot_refuses_a_name_too_long_and_dev_zero() -> None:
+    # 'x' * 100000 was an OSError (File name too long), a NUL a ValueError
+    refused(lambda: pirate_bt.load_robot(HUGE), "path", "100000 characters")
+    refused(lambda: pirate_bt.load_robot("a\0b.yaml"), "path", "NUL")
+    refused(lambda: pirate_bt.load_robot(LONG_PART), "cannot read", kind=ValidationFailed)
+    refused(lambda: pirate_bt.load_robot("/dev/zero"), "larger than", kind=ValidationFailed)
+    assert pirate_bt.load_robot(None).name
+
+
+def test_the_tree_and_network_loaders_name_what_is_no_file_name() -> None:
+    from pirate_bt.pipes import load_network
+    from pirate_bt.treefile import load_tree
+
+    refused(lambda: load_tree(""), "source", "empty")
+    refused(lambda: load_tree(HUGE), "source", "100000 characters")
+    refused(lambda: load_tree(LONG_PART), "cannot read", kind=ValidationFailed)
+    refused(lambda: load_network(42), "path: give a file name")  # type: ignore[arg-type]
+    refused(lambda: load_network(HUGE), "path", "100000 characters")
+    # the API's own: a long name is named by the option
+    refused(lambda: pirate_bt.load_tree(LONG_PART), "cannot read")
+    assert os.path.exists("/dev/zero")
+    refused(lambda: load_tree("/dev/zero"), "larger than", kind=ValidationFailed)
