@@ -193,6 +193,7 @@ def test_interrupt_then_resume_runs_each_case_once(tmp_path: Path) -> None:
     assert (out / "report.md").exists() and (out / "results.csv").exists()
 
 
+@pytest.mark.slow
 def test_local_and_dask_cluster_give_the_same_rows(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -17,7 +17,11 @@ from tests.golden_runs import GOLDEN, RUNS, record
 EXPECTED = json.loads(GOLDEN.read_text(encoding="utf-8"))
 
 
-@pytest.mark.parametrize("name", sorted(RUNS))
+# the lab mission (about 5 s) among the slow tests, started first
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "lab-mission" else n for n in sorted(RUNS)],
+)
 def test_a_recorded_run_is_byte_for_byte_the_same(name: str) -> None:
     got = record(name)
     want = EXPECTED[name]

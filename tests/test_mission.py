@@ -68,6 +68,7 @@ def test_shipped_route_completes_in_its_network(route: Path) -> None:
     assert len(outputs.result.fixes) == len(turns)
 
 
+@pytest.mark.slow
 def test_demo_inspects_the_lab_network(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
     assert main(["demo", "--quiet", "--output", str(out)]) == 0

@@ -170,6 +170,7 @@ def check_passed(name: str, out: Outcome, exit_segment: str) -> list[str]:
     return problems
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("faults", [None, LINK_FAULTS], ids=["clean", "link-faults"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_pab_succeeds_over_seeds(case: str, faults: str | None, right_tee: Path) -> None:

@@ -164,6 +164,7 @@ def test_joint_state_bytes_decode_by_hand() -> None:
 # --- rosbag2 --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_mission_exports_to_a_rosbag2_directory_that_rosbags_reads_back_whole(
     tmp_path: Path,
 ) -> None:

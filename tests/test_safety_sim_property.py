@@ -25,6 +25,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
 from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
@@ -245,3 +246,5 @@ SimSupervisedRobot.TestCase.settings = settings(
     max_examples=max(1000, settings.default.max_examples), stateful_step_count=10
 )
 test_supervisor_keeps_the_simulator_safe = SimSupervisedRobot.TestCase
+# about 10 s: started first, so that it cannot be the last test left on a worker
+test_supervisor_keeps_the_simulator_safe.pytestmark = [pytest.mark.slow]
