@@ -23,11 +23,11 @@ import urllib.parse
 from dataclasses import dataclass
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import InputError
+from pirate_bt.errors import ArgumentTypeError, InputError, UnitError, shown
 from pirate_bt.link.transport import ByteLink
 from pirate_bt.units import parse_quantity
 
-__all__ = ["FaultSpec", "FaultyLink", "parse_fault_spec", "split_fault_url"]
+__all__ = ["MAX_SPEC_TEXT", "FaultSpec", "FaultyLink", "parse_fault_spec", "split_fault_url"]
 
 _PROBABILITIES = ("drop", "corrupt", "dup", "reorder")
 
@@ -66,7 +66,11 @@ class FaultSpec:
         )
 
 
-def parse_fault_spec(text: str) -> FaultSpec:
+MAX_SPEC_TEXT = 10_000
+"""The longest link fault spec (every key once is under 200 characters)."""
+
+
+def parse_fault_spec(text: str, *, option: str = "faults") -> FaultSpec:
     """Parse ``"drop=0.1,corrupt=0.02,dup=0.02,delay=5ms,reorder=0.01,seed=3"``.
 
     Keys: ``drop``, ``corrupt``, ``dup``, ``reorder`` (probabilities 0..1),
@@ -75,48 +79,70 @@ def parse_fault_spec(text: str) -> FaultSpec:
 
     Args:
         text: The spec.
+        option: Where the spec came from, starting every message (``faults``: the
+            API's ``faults=``, the command line's ``--faults`` and a port URL's
+            ``?faults=``; ``""``: none).
 
     Returns:
         The parsed spec.
 
     Raises:
-        InputError: unknown key, malformed item, or a value out of range.
+        InputError: unknown key, malformed item, a value out of range, or a spec
+            longer than :data:`MAX_SPEC_TEXT` (an ``ArgumentTypeError``: not text).
     """
+    prefix = f"{option}: " if option else ""
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"{prefix}a link fault spec is text, not {shown(text)}")
+    if len(text) > MAX_SPEC_TEXT:
+        raise InputError(
+            f"{prefix}a link fault spec of {len(text)} characters is too long"
+            f" (at most {MAX_SPEC_TEXT})"
+        )
     values: dict[str, float | int | str] = {}
     for item in (p.strip() for p in text.split(",")):
         if not item:
             continue
         key, sep, raw = item.partition("=")
         key, raw = key.strip(), raw.strip()
+        shown_key = shown(key)
         if not sep or not raw:
-            raise InputError(f"fault spec item {item!r} is not key=value")
-        if key in values:
-            raise InputError(f"fault spec gives {key!r} twice")
+            raise InputError(f"{prefix}link fault {shown(item)} is not key=value (drop=0.05)")
+        if key in values or f"{key}_s" in values:
+            raise InputError(f"{prefix}link fault {shown_key} is given twice")
         if key in _PROBABILITIES:
             try:
                 p = float(raw)
             except ValueError:
-                raise InputError(f"fault {key}={raw!r}: not a number") from None
-            if not 0.0 <= p <= 1.0:
-                raise InputError(f"fault {key}={raw}: a probability must lie in [0, 1]")
+                raise InputError(f"{prefix}link fault {key}={shown(raw)}: not a number") from None
+            if not 0.0 <= p <= 1.0:  # nan too
+                raise InputError(
+                    f"{prefix}link fault {key}={shown(raw)}: a probability must lie in [0, 1]"
+                )
             values[key] = p
         elif key in ("delay", "jitter"):
-            seconds = parse_quantity(raw, "time")
+            try:
+                seconds = parse_quantity(raw, "time")
+            except UnitError as exc:
+                raise InputError(f"{prefix}link fault {key}: {exc}") from None
             if not 0.0 <= seconds <= 60.0:
-                raise InputError(f"fault {key}={raw}: must lie between 0 s and 60 s")
+                raise InputError(
+                    f"{prefix}link fault {key}={shown(raw)}: must lie between 0 s and 60 s"
+                )
             values[f"{key}_s"] = seconds
         elif key == "seed":
             try:
                 values["seed"] = int(raw)
             except ValueError:
-                raise InputError(f"fault seed={raw!r}: not an integer") from None
+                raise InputError(
+                    f"{prefix}link fault seed={shown(raw)}: not a whole number"
+                ) from None
         elif key == "direction":
             if raw not in ("both", "tx", "rx"):
-                raise InputError(f"fault direction={raw!r}: use both, tx or rx")
+                raise InputError(f"{prefix}link fault direction={shown(raw)}: use both, tx or rx")
             values["direction"] = raw
         else:
             known = ", ".join([*_PROBABILITIES, "delay", "jitter", "seed", "direction"])
-            raise InputError(f"unknown fault {key!r} (known: {known})")
+            raise InputError(f"{prefix}unknown link fault {shown_key} (known: {known})")
     return FaultSpec(**values)  # type: ignore[arg-type]
 
 

@@ -22,11 +22,11 @@ from __future__ import annotations
 import re
 from typing import get_args
 
-from pirate_bt.errors import InputError, UnitError
+from pirate_bt.errors import ArgumentTypeError, InputError, UnitError, shown
 from pirate_bt.pipes.model import FaultKind, FaultSpec
 from pirate_bt.units import parse_quantity
 
-__all__ = ["FAULT_KINDS", "format_fault", "parse_fault"]
+__all__ = ["FAULT_KINDS", "MAX_FAULT_TEXT", "format_fault", "parse_fault"]
 
 FAULT_KINDS: tuple[str, ...] = get_args(FaultKind)
 
@@ -36,38 +36,56 @@ _FAULT_RE = re.compile(
 )
 
 
-def parse_fault(text: str) -> FaultSpec:
+MAX_FAULT_TEXT = 200
+"""The longest fault text (``motor_stall:bend_3_drive@5s+20s`` is 31)."""
+
+
+def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
     """Parse ``KIND[:TARGET]@AT[+DURATION]`` into a :class:`FaultSpec`.
 
     Args:
         text: The fault, e.g. ``"board_reset:22@10s"``.
+        option: Where the text came from, starting every message (``faults``: the
+            API's ``faults=`` and the command line's ``--faults``; ``""``: none, for
+            a caller that locates the error itself).
 
     Returns:
         The fault.
 
     Raises:
-        InputError: malformed text, an unknown kind, a missing target or a bad time.
+        InputError: malformed text, an unknown kind, a missing target or a bad time;
+            text longer than :data:`MAX_FAULT_TEXT` (an ``ArgumentTypeError``: not text).
     """
+    prefix = f"{option}: " if option else ""
+    if not isinstance(text, str):
+        raise ArgumentTypeError(f"{prefix}a simulator fault is text, not {shown(text)}")
+    if len(text) > MAX_FAULT_TEXT:
+        raise InputError(
+            f"{prefix}a fault of {len(text)} characters is too long (at most {MAX_FAULT_TEXT})"
+        )
     match = _FAULT_RE.match(text)
     if match is None:
         raise InputError(
-            f"bad fault {text!r}; write KIND[:TARGET]@AT[+DURATION], e.g. link_loss@5s+1s"
+            f"{prefix}bad fault {shown(text)}; write KIND[:TARGET]@AT[+DURATION], e.g."
+            " link_loss@5s+1s"
         )
     kind = match["kind"]
     if kind not in FAULT_KINDS:
-        raise InputError(f"unknown fault kind {kind!r}; known: {', '.join(FAULT_KINDS)}")
+        raise InputError(
+            f"{prefix}unknown fault kind {shown(kind)}; known: {', '.join(FAULT_KINDS)}"
+        )
     target = match["target"]
     if kind != "link_loss" and target is None:
-        raise InputError(f"fault {kind} needs a target: {kind}:NAME@AT")
+        raise InputError(f"{prefix}fault {kind} needs a target: {kind}:NAME@AT")
     try:
         at = parse_quantity(match["at"], "time")
         duration = (
             parse_quantity(match["duration"], "time") if match["duration"] is not None else None
         )
     except UnitError as exc:
-        raise InputError(f"bad fault {text!r}: {exc}") from None
+        raise InputError(f"{prefix}bad fault {shown(text)}: {exc}") from None
     if at < 0 or (duration is not None and duration <= 0):
-        raise InputError(f"bad fault {text!r}: times must be positive")
+        raise InputError(f"{prefix}bad fault {shown(text)}: times must be positive")
     return FaultSpec(kind=kind, at=at, duration=duration, target=target)
 
 
