@@ -277,3 +277,73 @@ def test_the_tree_and_network_loaders_name_what_is_no_file_name() -> None:
     refused(lambda: pirate_bt.load_tree(LONG_PART), "cannot read")
     assert os.path.exists("/dev/zero")
     refused(lambda: load_tree("/dev/zero"), "larger than", kind=ValidationFailed)
+
+
+# -- fault texts: each message says where it came from
+
+
+@pytest.mark.parametrize(
+    ("faults", "words"),
+    [
+        ("drop=2", "faults: link fault drop='2': a probability"),
+        ("drop=nan", "a probability must lie in [0, 1]"),
+        ("foo=1", "faults: unknown link fault 'foo'"),
+        ("delay=inf", "faults: link fault delay: not a quantity"),  # was a bare UnitError
+        ("seed=1.5", "faults: link fault seed='1.5': not a whole number"),
+        ("drop", "faults: link fault 'drop' is not key=value"),
+        ("motor_stall:bend_3_drive@-1s", "faults: bad fault"),
+        ("bogus:x@5s", "faults: unknown fault kind 'bogus'"),
+        ("motor_stall@5s", "faults: fault motor_stall needs a target"),
+        ("link_loss@5kg", "faults: bad fault 'link_loss@5kg'"),
+    ],
+)
+def test_a_fault_through_the_api_is_named_faults(faults: str, words: str) -> None:
+    # the parsers' messages began 'fault drop=2: ...', 'unknown fault kind ...' or
+    # a UnitError's own words, without naming the option
+    refused(
+        lambda: pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, faults=faults),
+        words,
+    )
+
+
+def test_the_fault_parsers_refuse_what_is_not_text_and_cut_what_is_long() -> None:
+    from pirate_bt.link.faults import parse_fault_spec, split_fault_url
+    from pirate_bt.sim.faults import parse_fault
+
+    refused(lambda: parse_fault(42), "faults: a simulator fault is text", kind=TypeError)  # type: ignore[arg-type]
+    refused(lambda: parse_fault_spec(None), "faults: a link fault spec is text", kind=TypeError)  # type: ignore[arg-type]
+    refused(lambda: parse_fault(HUGE), "faults", "100000 characters")
+    refused(lambda: parse_fault_spec(HUGE), "faults", "100000 characters")
+    text = refused(lambda: parse_fault_spec("drop=" + "9" * 5000), "drop=", "5000 characters")
+    assert "9" * 50 not in text
+    refused(lambda: parse_fault("x" * 150 + "@5s"), "unknown fault kind", "150 characters")
+    refused(lambda: split_fault_url("loop://?faults=drop=7"), "faults: link fault drop='7'")
+    refused(lambda: parse_fault("link_loss", option=""), "bad fault 'link_loss'")
+    with pytest.raises(InputError) as caught:
+        parse_fault("x", option="")
+    assert str(caught.value).startswith("bad fault 'x'")
+
+
+# -- a campaign's seeds: the API's one limit
+
+
+def test_a_campaign_takes_the_apis_seed_limit_and_every_seed_it_expands_to() -> None:
+    from pirate_bt.api import options
+    from pirate_bt.campaign import spec
+    from pirate_bt.campaign.spec import campaign_from_data
+
+    # campaign/spec had MAX_SEED = 10**15 and its own MAX_TIME_S beside the API's
+    assert spec.MAX_SEED is options.MAX_SEED == 2**63 - 1
+    assert spec.MAX_TIME_S is options.MAX_TIME_S
+    run = {"runs": [{"tree": "straight", "params": {"distance": "0.05 m"}}]}
+    last = campaign_from_data({"name": "s", **run, "seeds": {"start": 2**63 - 2, "count": 2}})
+    assert last.seeds.start + last.seeds.count - 1 == options.MAX_SEED
+    # a range past the last seed a run takes: each case would have been refused
+    with pytest.raises(InputError, match="seeds: the last seed") as caught:
+        campaign_from_data({"name": "s", **run, "seeds": {"start": 2**63 - 2, "count": 3}})
+    assert "\n" not in str(caught.value)
+    with pytest.raises(InputError, match="less than or equal to 9223372036854775807"):
+        campaign_from_data({"name": "s", **run, "seeds": {"start": 2**63}})
+    with pytest.raises(InputError, match="sim_faults") as caught:
+        campaign_from_data({"name": "s", **run, "sim_faults": [["bogus:x@5s"]]})
+    assert "faults: " not in str(caught.value)  # located at its place, not named twice

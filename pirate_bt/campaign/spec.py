@@ -46,7 +46,7 @@ from pydantic import (
     model_validator,
 )
 
-from pirate_bt.api.options import MAX_RATE_HZ
+from pirate_bt.api.options import MAX_RATE_HZ, MAX_SEED, MAX_TIME_S
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
 from pirate_bt.yamlfile import Locator, load_yaml, validate_document, validation_problems
@@ -93,8 +93,6 @@ MAX_FILE_NAME = 4096
 """The longest file reference (a tree, route, network or robot): PATH_MAX on Linux."""
 MAX_CASE_TIMEOUT_S = 7 * 24 * 3600.0
 """The longest wall-time limit of one case (a week); a case is killed after it."""
-MAX_TIME_S = 1e9
-"""The longest simulated-time limit of one run (about 32 years)."""
 
 _LIMITS = {
     "max_time": ("time", MAX_TIME_S, "s"),
@@ -102,9 +100,13 @@ _LIMITS = {
     "rate": ("frequency", MAX_RATE_HZ, "Hz"),
 }
 
-MAX_SEED = 10**15
-"""The largest first seed and seed count (seeds stay exact integers in any JSON
-reader); the number of cases is bounded by ``max_cases`` long before."""
+# MAX_TIME_S (the longest simulated-time limit of one run, 1e9 s) and MAX_SEED (the
+# largest seed, 2**63 - 1) are the API's (pirate_bt.api.options), re-exported: a
+# campaign's case is an API call, so a spec takes what that call takes. Every seed a
+# range expands to (start + count - 1) must be one (checked by SeedRange), so a
+# campaign never reaches a case the simulator refuses. 2**63 - 1 is the largest
+# signed 64-bit integer: seeds stay exact in the report's JSON and CSV for Python,
+# pandas and any int64 reader (a JavaScript number is exact only to 2**53).
 
 
 def _printable(text: str) -> str:
@@ -196,7 +198,7 @@ class RunItem(BaseModel):
 
 
 class SeedRange(BaseModel):
-    """Seeds ``start .. start + count - 1``."""
+    """Seeds ``start .. start + count - 1``, each at most :data:`MAX_SEED`."""
 
     model_config = _STRICT
 
@@ -208,6 +210,15 @@ class SeedRange(BaseModel):
         strict=True,
         description="how many seeds (a range: the campaign's max_cases bounds the expansion)",
     )
+
+    @model_validator(mode="after")
+    def _last_seed(self) -> SeedRange:
+        if self.start + self.count - 1 > MAX_SEED:
+            raise ValueError(
+                f"the last seed, start + count - 1, must be at most 2**63 - 1 (the largest"
+                f" seed a run takes); at most {MAX_SEED - self.start + 1} seeds from this start"
+            )
+        return self
 
 
 class AsBuiltAxis(BaseModel):
@@ -224,6 +235,14 @@ class AsBuiltAxis(BaseModel):
     scale: float = Field(
         1.0, gt=0.0, le=10.0, description="times the stated as-built bounds (2: twice as wide)"
     )
+
+    @model_validator(mode="after")
+    def _last_variant(self) -> AsBuiltAxis:
+        if self.first + self.count - 1 > MAX_SEED:
+            raise ValueError(
+                "the last variant's seed, first + count - 1, must be at most 2**63 - 1"
+            )
+        return self
 
 
 _Rates = list[Annotated[float, Field(ge=0.0, le=1.0)]]
@@ -253,7 +272,7 @@ def _fault(text: str) -> str:
     from pirate_bt.sim.faults import parse_fault
 
     try:
-        parse_fault(text)
+        parse_fault(text, option="")  # located at its place in the spec
     except InputError as exc:
         raise ValueError(str(exc)) from None
     return text
