@@ -71,6 +71,7 @@ __all__ = [
     "ValidationFailed",
     "caller_location",
     "file_argument",
+    "output_argument",
     "shown",
 ]
 
@@ -154,6 +155,34 @@ def file_argument(value: object, option: str) -> Path:
             f"{option}: a file name of {len(text)} characters is too long (at most {MAX_PATH})"
         )
     return Path(text)
+
+
+def output_argument(value: object, option: str) -> Path:
+    """A file to write, given as an argument: :func:`file_argument`, not a folder, no
+    file on its way.
+
+    Raises:
+        ArgumentTypeError: not a file name.
+        ArgumentValueError: a bad name, a folder, or a file on its way.
+        InputError: a name the system refuses (a part longer than 255 bytes).
+    """
+    path = file_argument(value, option)
+    try:
+        if path.is_dir():
+            raise ArgumentValueError(f"{option}: {shown(str(path), 80)} is a folder; name a file")
+        for parent in path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise ArgumentValueError(
+                        f"{option}: {shown(str(parent), 80)} is not a folder"
+                        f" (on the way to {shown(path.name)})"
+                    )
+                break
+    except OSError as exc:
+        raise InputError(
+            f"{option}: cannot write {shown(str(path), 80)}: {exc.strerror or exc}"
+        ) from None
+    return path
 
 
 @dataclass(frozen=True, slots=True)

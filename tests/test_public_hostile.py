@@ -207,10 +207,10 @@ def test_render_tree_refuses_a_folder_or_an_unknown_suffix(tmp_path: Path) -> No
             pirate_bt.render_tree("straight", out)
     folder = tmp_path / "d.svg"
     folder.mkdir()
-    refused(lambda: pirate_bt.render_tree("straight", folder), "out:", "is a directory")
+    refused(lambda: pirate_bt.render_tree("straight", folder), "out:", "is a folder")
     blocker = tmp_path / "blocker"
     blocker.write_text("mine", encoding="utf-8")
-    refused(lambda: pirate_bt.render_tree("straight", blocker / "t.dot"), "not a directory")
+    refused(lambda: pirate_bt.render_tree("straight", blocker / "t.dot"), "not a folder")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker", "d.svg"]
 
 
@@ -347,3 +347,47 @@ def test_a_campaign_takes_the_apis_seed_limit_and_every_seed_it_expands_to() -> 
     with pytest.raises(InputError, match="sim_faults") as caught:
         campaign_from_data({"name": "s", **run, "sim_faults": [["bogus:x@5s"]]})
     assert "faults: " not in str(caught.value)  # located at its place, not named twice
+
+
+# -- export and import entry points (pirate-bt export/import)
+
+
+def test_the_exports_name_a_path_that_is_no_file_name(run: Path, tmp_path: Path) -> None:
+    from pirate_bt.interop.btcpp_export import export_xml
+    from pirate_bt.interop.btcpp_import_file import import_xml
+    from pirate_bt.interop.btlog import export_btlog
+    from pirate_bt.interop.mcap_trace import export_mcap
+    from pirate_bt.interop.rosbag2 import export_rosbag2
+
+    out = tmp_path / "o"
+    # each was a bare TypeError (42, None) or OSError (a 100000-character name);
+    # export_rosbag2(trace, 42) wrote a bag named '42' in the working folder
+    for bad in (42, None, HUGE):
+        refused(lambda b=bad: export_btlog(b, out.with_suffix(".btlog")), "trace_path")
+        refused(lambda b=bad: export_btlog(run, b), "out_path")
+        refused(lambda b=bad: export_mcap(b, out.with_suffix(".mcap")), "trace_path")
+        refused(lambda b=bad: export_mcap(run, b), "out_path")
+        refused(lambda b=bad: export_rosbag2(b, out), "trace_path")
+        refused(lambda b=bad: export_rosbag2(run, b), "out_dir")
+        refused(lambda b=bad: export_xml(b, out.with_suffix(".xml")), "tree_path")
+        refused(lambda b=bad: export_xml("trees/straight.yaml", b), "out_path")
+        refused(lambda b=bad: import_xml(b, out.with_suffix(".yaml")), "xml_path")
+        refused(lambda b=bad: import_xml(out.with_suffix(".xml"), b), "out_path")
+    # a folder as the output was an IsADirectoryError
+    refused(lambda: export_mcap(run, tmp_path), "out_path", "is a folder")
+    refused(lambda: export_btlog(run, tmp_path / f"{LONG_PART}.btlog"), "out_path")
+    refused(lambda: export_rosbag2(run, tmp_path / "no" / "such" / "bag"), "out_dir")
+    assert not Path("42").exists() and not Path("None").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_read_btlog_reads_dev_zero_at_most_its_limit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from pirate_bt.interop import btlog
+
+    # read_bytes() on /dev/zero read until the process was killed for its memory
+    monkeypatch.setattr(btlog, "MAX_BTLOG_BYTES", 1 << 20)
+    refused(lambda: btlog.read_btlog("/dev/zero"), "larger than")
+    refused(lambda: btlog.read_btlog(42), "path: give a file name")  # type: ignore[arg-type]
+    refused(lambda: btlog.read_btlog(HUGE), "path", "100000 characters")

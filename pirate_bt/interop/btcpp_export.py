@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, LocatedError
+from pirate_bt.errors import InputError, LocatedError, file_argument, output_argument
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -326,9 +326,18 @@ def export_xml(
 
     Returns:
         The file written.
+
+    Raises:
+        InputError: a path that is no file name (an output that is a folder too), the
+            tree file itself as the output, or an output that cannot be written.
+        ValidationFailed: the tree does not load.
     """
-    out = Path(out_path)
-    if out.exists() and out.resolve() == Path(tree_path).resolve():
+    tree = file_argument(tree_path, "tree_path")
+    out = output_argument(out_path, "out_path")
+    if out.exists() and out.resolve() == tree.resolve():
         raise InputError(f"{out}: is the tree file being exported; nothing written")
-    text = tree_to_xml(tree_path, params, registry)
-    return write_atomic(out, text)
+    text = tree_to_xml(tree, params, registry)
+    try:
+        return write_atomic(out, text)
+    except OSError as exc:
+        raise InputError(f"out_path: cannot write {out}: {exc.strerror or exc}") from None

@@ -14,7 +14,14 @@ from typing import Any
 
 import yaml
 
-from pirate_bt.errors import InputError, LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import (
+    InputError,
+    LocatedError,
+    SourceLocation,
+    ValidationFailed,
+    file_argument,
+    output_argument,
+)
 from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.interop.btcpp_xml import refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
@@ -104,6 +111,8 @@ def import_xml(
         The file written.
 
     Raises:
+        InputError: a path that is no file name (an output that is a folder too), or
+            an output that cannot be written.
         LocatedError: the XML cannot be converted (at the XML's line and column).
         ValidationFailed: the converted tree does not load for the robot, each
             problem at ``xml_file:line:column``.
@@ -112,9 +121,10 @@ def import_xml(
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.treefile import load_tree
 
+    source = file_argument(xml_path, "xml_path")
+    output_argument(out_path, "out_path")
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    source = Path(xml_path)
     data, where = _read(source, reg)
     text = (
         f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"

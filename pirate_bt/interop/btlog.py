@@ -44,15 +44,17 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, Final
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, file_argument, output_argument
 from pirate_bt.interop.btcpp import TO_BTCPP, NodeModel, encode_value, node_models
 from pirate_bt.interop.btcpp_xml import write_atomic_bytes
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.yamlfile import read_at_most
 
 __all__ = [
     "MAGIC",
+    "MAX_BTLOG_BYTES",
     "PROTOCOL",
     "STATUS_CODES",
     "BtLog",
@@ -69,6 +71,8 @@ PROTOCOL: Final = 1
 #: Trace status letter -> BT.CPP ``NodeStatus`` value.
 STATUS_CODES: Final = {"I": 0, "R": 1, "S": 2, "F": 3}
 _RECORD: Final = 9
+MAX_BTLOG_BYTES: Final = 256 * 1024 * 1024
+"""The largest ``.btlog`` read (about 28 million transitions; ``/dev/zero`` never ends)."""
 _MAX_UID: Final = 0xFFFF
 _MAX_US: Final = (1 << 48) - 1
 
@@ -293,13 +297,18 @@ def read_btlog(path: str | Path) -> BtLog:
     """Read a ``.btlog`` file (ours or BT.CPP's); a cut-off last record is dropped.
 
     Raises:
-        InputError: not a ``FileLogger2`` file, or a header that does not fit the file.
+        InputError: ``path`` is no file name, cannot be read or is larger than
+            :data:`MAX_BTLOG_BYTES`; not a ``FileLogger2`` file, or a header that does
+            not fit the file.
     """
-    where = Path(path)
+    where = file_argument(path, "path")
     try:
-        data = where.read_bytes()
+        with where.open("rb") as stream:  # at most MAX_BTLOG_BYTES: /dev/zero never ends
+            data = read_at_most(stream, MAX_BTLOG_BYTES)
     except OSError as exc:
         raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_BTLOG_BYTES:
+        raise InputError(f"{where}: larger than the {MAX_BTLOG_BYTES} bytes a .btlog may be")
     head = len(MAGIC) + 1 + 4
     if len(data) < head or not data.startswith(MAGIC):
         raise InputError(f"{where}: not a BehaviorTree.CPP FileLogger2 log (.btlog)")
@@ -343,10 +352,16 @@ def export_btlog(trace_path: Path, out_path: Path, registry: Registry | None = N
         The file written.
 
     Raises:
-        InputError: the trace cannot be read or does not fit a ``.btlog``.
+        InputError: a path that is no file name (an output that is a folder too), the
+            trace cannot be read or does not fit a ``.btlog``, or the output cannot be
+            written.
     """
     from pirate_bt.trace.reader import read_trace
 
-    trace = read_trace(trace_path)
+    out = output_argument(out_path, "out_path")
+    trace = read_trace(file_argument(trace_path, "trace_path"))
     xml = structure_xml(trace.structure, registry)
-    return write_btlog(out_path, xml, _start_us(trace.header), trace_transitions(trace))
+    try:
+        return write_btlog(out, xml, _start_us(trace.header), trace_transitions(trace))
+    except OSError as exc:
+        raise InputError(f"out_path: cannot write {out}: {exc.strerror or exc}") from None

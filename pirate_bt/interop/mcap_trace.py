@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, file_argument, output_argument
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
 from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
@@ -86,9 +86,13 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
         ``out_path``.
 
     Raises:
-        InputError: the trace cannot be read, is not a trace, or has a bad record.
+        InputError: a path that is no file name (an output that is a folder too), the
+            trace cannot be read, is not a trace or has a bad record, or the output
+            cannot be written.
         ConfigurationError: the ``mcap`` package is missing.
     """
+    trace_path = file_argument(trace_path, "trace_path")
+    out = output_argument(out_path, "out_path")
     load_mcap()
     reader = open_reader(trace_path)
     records = iter(reader)
@@ -114,7 +118,10 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
             raise InputError(f"{trace_path}: empty trace (no header)")
         writer.finish()
 
-    return write_atomically(Path(out_path), fill, durable=True)
+    try:
+        return write_atomically(out, fill, durable=True)
+    except OSError as exc:
+        raise InputError(f"out_path: cannot write {out}: {exc.strerror or exc}") from None
 
 
 # --- reading -----------------------------------------------------------------------

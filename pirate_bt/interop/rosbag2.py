@@ -30,7 +30,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ConfigurationError,
+    InputError,
+    file_argument,
+    shown,
+)
 from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
 from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _number
@@ -194,22 +200,33 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
         ``out_dir``.
 
     Raises:
-        InputError: the trace cannot be read or is not a trace; ``out_dir`` is not empty.
+        InputError: a path that is no file name, the trace cannot be read or is not a
+            trace; ``out_dir`` is not empty or cannot be made.
         ConfigurationError: ``rosbags`` is missing.
     """
     from pirate_bt.interop.rmw_zenoh import qualified_name
     from pirate_bt.trace.reader import open_reader
     from pirate_bt.trace.structure import TreeStructure
 
+    trace_path = file_argument(trace_path, "trace_path")
+    if not isinstance(namespace, str):
+        raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
     rosbag2 = _rosbags()
-    out = Path(str(out_dir).rstrip("/") or ".")
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    out = Path(str(file_argument(out_dir, "out_dir")).rstrip("/") or ".")
+    try:
+        taken = out.exists() and (not out.is_dir() or any(out.iterdir()))
+    except OSError as exc:  # a name the system refuses (a part too long)
+        raise InputError(f"out_dir: cannot write {shown(str(out), 80)}: {exc.strerror}") from None
+    if taken:
         raise InputError(f"{out}: exists and is not an empty directory; rosbag2 writes a new one")
     store = typestore()
     records = iter(open_reader(Path(trace_path)))
-    temp = Path(
-        tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else ".")
-    )
+    try:
+        temp = Path(
+            tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else ".")
+        )
+    except OSError as exc:  # no such folder, a file on the way, no permission
+        raise InputError(f"out_dir: cannot write {shown(str(out), 80)}: {exc.strerror}") from None
     bag = temp / out.name
     try:
         with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:

@@ -52,6 +52,7 @@ from pirate_bt.errors import (
     ConfigurationError,
     InputError,
     file_argument,
+    output_argument,
     shown,
 )
 from pirate_bt.render.files import DIAGRAM_SUFFIXES, write_diagram
@@ -275,23 +276,7 @@ def _output(out: object) -> Path:
     path = file_argument(out, "out")
     if path.suffix.lower() not in DIAGRAM_SUFFIXES:
         raise ArgumentValueError(f"out: cannot draw to {shown(path.name)}: use .dot, .svg or .png")
-    try:
-        if path.is_dir():
-            raise ArgumentValueError(
-                f"out: {shown(str(path), 80)} is a directory; name a file such as tree.svg"
-            )
-        for parent in path.parents:
-            if parent.exists():
-                if not parent.is_dir():
-                    raise ArgumentValueError(
-                        f"out: {shown(str(path), 80)}: {shown(str(parent), 80)} is not a directory"
-                    )
-                break
-    except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
-        raise InputError(
-            f"out: cannot write {shown(str(path), 80)}: {exc.strerror or exc}"
-        ) from None
-    return path
+    return output_argument(path, "out")
 
 
 def _structure_and_trace(
