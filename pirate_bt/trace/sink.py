@@ -246,6 +246,7 @@ class SinkProcess:
             os.close(fd)
             if ring_fd >= 0:
                 os.close(ring_fd)  # mapped: the descriptor is not needed any more
+        _make_nicer(self._proc.pid)  # from its first instruction, not once it has started
         assert self._proc.stdin is not None
         self._fd = self._proc.stdin.fileno()
         try:  # a deep pipe: the writer process drains it in batches, not once per tick
@@ -303,6 +304,31 @@ class SinkProcess:
         if self._head != self._belled:
             self._bell(_perf_counter())  # what the ring holds comes first
         self._write(data)
+
+    def send_tick(self, message: tuple[Any, ...]) -> None:
+        """:meth:`send` for a ``TICK`` message (the recorder's, once per tick): the same.
+
+        Raises:
+            ValueError: the message holds a value ``marshal`` cannot carry.
+            SinkError: the writer process has gone (see :meth:`send`).
+        """
+        payload = _dumps(message, _MARSHAL_VERSION)
+        size = len(payload) + 4  # framed
+        if size <= self._largest:  # (0 without a ring)
+            now = _perf_counter()
+            last_s = self._put_s
+            self._put_s = now
+            if now - last_s <= PAUSE_S:  # as in send(): into the ring
+                head = self._head
+                if head + size - self._tail > self._capacity:
+                    self._make_room(head + size)
+                self._head = self._ring.put_payload(head, payload)  # type: ignore[union-attr]
+                if now - self._bell_s > BELL_S:
+                    self._bell(now)
+                return
+        if self._head != self._belled:
+            self._bell(_perf_counter())
+        self._write(_pack_length(size - 4) + payload)
 
     def _bell(self, now: float) -> None:
         """Tell the writer process how far the ring is written (and learn if it is alive)."""
@@ -387,6 +413,26 @@ class SinkProcess:
         return self._reason
 
 
+def _make_nicer(pid: int, than: int = 0) -> None:
+    """Make the writer process ``pid`` :data:`_NICE` nicer than the run (process ``than``).
+
+    The run's ticks come first: on a busy machine the writer process yields the CPU to
+    the run and catches up in the gaps (the ring holds thousands of ticks meanwhile).
+    It has a session of its own, which Linux schedules as a group of its own
+    (autogroup): the group is made nicer too, or the nice value would only count
+    inside it. The recorder does this as soon as the process exists, so that its
+    start (about 20 ms of the CPU: the interpreter, its imports) already yields to
+    the run; the writer process does it again, in case that failed. Best effort
+    (Linux lets a user do the group's only once per 100 ms, machine-wide).
+    """
+    with contextlib.suppress(OSError, AttributeError):  # AttributeError: not POSIX
+        nice = min(19, os.getpriority(os.PRIO_PROCESS, than) + _NICE)
+        if os.getpriority(os.PRIO_PROCESS, pid) < nice:
+            os.setpriority(os.PRIO_PROCESS, pid, nice)
+    with contextlib.suppress(OSError), open(f"/proc/{pid}/autogroup", "w") as group:
+        group.write(str(_NICE))
+
+
 def main(argv: Sequence[str]) -> int:
     """The writer process: ``sink.py FD WRITER SYNC [PATH [RING [SYS_PATH]]]``; messages on stdin.
 
@@ -396,14 +442,7 @@ def main(argv: Sequence[str]) -> int:
     or ``-`` for none.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
-    # The run's ticks come first: on a busy machine this process yields the CPU to the
-    # run and catches up in the gaps (the ring holds thousands of ticks meanwhile). It
-    # has a session of its own, which Linux schedules as a group of its own (autogroup):
-    # the group is made nicer too, or the nice value would only count inside it.
-    with contextlib.suppress(OSError):
-        os.nice(_NICE)
-    with contextlib.suppress(OSError), open("/proc/self/autogroup", "w") as group:
-        group.write(str(_NICE))
+    _make_nicer(os.getpid(), os.getppid())  # done by the recorder already, as a rule
     fd, writer, sync = int(argv[1]), argv[2], argv[3] == "1"
     path = argv[4] if len(argv) > 4 else f"fd {fd}"
     ring: Ring | None = None

@@ -61,6 +61,8 @@ ring: a system call per tick is then at most 1 % of the tick."""
 _POSITION = struct.Struct("<Q")
 _LENGTH = struct.Struct("<I")
 _HEAD, _TAIL = 0, 8
+_pack_length_into = _LENGTH.pack_into
+_pack_position_into = _POSITION.pack_into
 _MADV_POPULATE_WRITE = getattr(mmap, "MADV_POPULATE_WRITE", 23)
 """Linux's ``madvise`` advice that faults pages in, writable (Python 3.11 has no name
 for it)."""
@@ -78,6 +80,8 @@ class Ring:
         if capacity <= 0 or capacity & (capacity - 1):
             raise ValueError(f"a ring's capacity is a power of two, not {capacity}")
         self.capacity = capacity
+        self._mask = capacity - 1
+        self._limit = HEADER + capacity
         self.map = mmap.mmap(fd, HEADER + capacity)
         """The mapping: the header, then the data (shared with the other process)."""
         self._prefaulting: Any = None
@@ -134,6 +138,22 @@ class Ring:
             self.map[HEADER : HEADER + len(frame) - first] = frame[first:]
         head += len(frame)
         _POSITION.pack_into(self.map, _HEAD, head)
+        return head
+
+    def put_payload(self, head: int, payload: bytes) -> int:
+        """:meth:`put` of the frame of ``payload`` (its 4-byte length, then it), without
+        building the frame: the length and the payload are copied in one after the other
+        (room checked by the caller); the new head, noted once both are in."""
+        size = len(payload)
+        start = HEADER + (head & self._mask)
+        stop = start + 4 + size
+        if stop > self._limit:  # wraps around the end
+            return self.put(head, _LENGTH.pack(size) + payload)
+        data = self.map
+        _pack_length_into(data, start, size)
+        data[start + 4 : stop] = payload
+        head += 4 + size
+        _pack_position_into(data, _HEAD, head)
         return head
 
     def get(self, start: int, end: int) -> bytes:

@@ -286,8 +286,10 @@ class TraceRecorder:
         self._start_s = self.clock.now()
         self._root = self._reader.root
         setup = (SETUP, self._reader.ids, every_tick, full_state, readings, list(LINK_FIELDS))
+        self._send_tick: Callable[[tuple[Any, ...]], None] | None = None
         if self._sink is not None:
             self._sink.send(setup)
+            self._send_tick = self._sink.send_tick
         else:
             self._encoder = TickEncoder(
                 self._reader.ids,
@@ -341,6 +343,11 @@ class TraceRecorder:
         if self._sink is not None:
             raise ValueError("the recorder already hands its ticks to a writer process")
         self._sink, self._encoder, self._out = sink, None, None
+        # SinkProcess.send_tick is its send() for ticks: a sink with a send() of its own
+        # (a stand-in, or a subclass such as the Foxglove live view's) gets every message
+        # through that.
+        own_send = type(sink).send is not SinkProcess.send
+        self._send_tick = sink.send if own_send else sink.send_tick
         self.background = True
 
     def record_tick(self, extras: TickExtras | None = None, time_s: float | None = None) -> None:
@@ -379,8 +386,17 @@ class TraceRecorder:
                     self._layout = keys = layout
                 if values != self._state_raw or keys is not None or self.full_state:
                     self._state_raw = raw = values
-            if extras.commands:
-                commands = self._command_texts(extras.commands)
+            records = extras.commands
+            if records:
+                # One record is the common tick's (a behaviour re-sending its setpoint):
+                # its cached text looked up here; otherwise, or on a miss, the general way.
+                text = None
+                if len(records) == 1:
+                    try:
+                        text = self._commands.get(_command_fields(records[0]))
+                    except TypeError:  # a hand-made record holding something unhashable
+                        text = None
+                commands = [text] if text is not None else self._command_texts(records)
             health = extras.link
             if health is not None and health is not self._last_link:
                 # A fresh object every tick whose rtt may be nan (nan != nan makes dataclass
@@ -394,11 +410,12 @@ class TraceRecorder:
             if extras.events:
                 events = ',"events":' + encode_json([e.to_json() for e in extras.events])
         message = (TICK, tick, t_s, status, feedback, bb, keys, raw, commands, link, sim, events)
-        if self._sink is not None:
+        send = self._send_tick
+        if send is not None:
             try:
-                self._sink.send(message)
+                send(message)
             except ValueError:  # something marshal cannot carry, such as a numpy float
-                self._sink.send(_plain(message))
+                send(_plain(message))
         else:
             assert self._encoder is not None and self._out is not None
             line = self._encoder.encode(message)
