@@ -10,7 +10,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["DATA_KINDS", "bundled", "data_dir", "default_robot_path", "find_file"]
+__all__ = [
+    "DATA_KINDS",
+    "bundled",
+    "data_dir",
+    "default_robot_path",
+    "exists",
+    "find_file",
+    "missing",
+]
 
 DATA_KINDS = ("hardware", "trees", "scenarios")
 _PACKAGE = Path(__file__).resolve().parent
@@ -26,11 +34,34 @@ def data_dir(kind: str) -> Path:
     return _PACKAGE.parent / kind
 
 
+def exists(path: Path) -> bool:
+    """``path.exists()``, False for a name the system refuses (a part over 255 bytes
+    raises ``OSError: File name too long`` from ``Path.exists`` on Python 3.11): the
+    caller's "no such file" then names what was typed."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):  # ValueError: a NUL in the name
+        return False
+
+
+def missing(path: Path) -> bool:
+    """Whether nothing is at ``path`` (False for a name the system refuses, so a
+    caller does not look for a bundled file of that name instead and its error
+    names what was typed)."""
+    try:
+        path.stat()
+    except (FileNotFoundError, NotADirectoryError):
+        return True
+    except (OSError, ValueError):
+        return False
+    return False
+
+
 def bundled(kind: str, name: str) -> Path:
     """A bundled file; ``name`` may omit the ``.yaml`` suffix."""
     folder = data_dir(kind)
     path = folder / name
-    if not path.exists() and not path.suffix:
+    if not exists(path) and not path.suffix:
         path = folder / f"{name}.yaml"
     return path
 
@@ -48,7 +79,7 @@ def find_file(kind: str, name: str | Path) -> Path:
     returned unchanged, so the caller's "no such file" error names what was typed.
     """
     path = Path(name)
-    if path.exists() or path.is_absolute() or len(path.parts) > 1:
+    if not missing(path) or path.is_absolute() or len(path.parts) > 1:
         return path
     candidate = bundled(kind, path.name)
-    return candidate if candidate.exists() else path
+    return candidate if exists(candidate) else path

@@ -341,7 +341,12 @@ def load_yaml(path: str | Path) -> YamlDocument:
     p = Path(path)
     name = str(path)
     loc = SourceLocation(name)
-    if p.is_dir():
+    try:
+        folder = p.is_dir()
+    except (OSError, ValueError) as exc:  # a name the system refuses (a part too long)
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise ValidationFailed([LocatedError(f"cannot read: {reason}", loc)]) from None
+    if folder:
         raise ValidationFailed([LocatedError("is a directory, not a file", loc)])
     try:
         with p.open("rb") as stream:
@@ -350,6 +355,8 @@ def load_yaml(path: str | Path) -> YamlDocument:
         raise ValidationFailed([LocatedError("no such file", loc)]) from None
     except OSError as exc:
         raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", loc)]) from None
+    except ValueError:  # a NUL in the name
+        raise ValidationFailed([LocatedError("cannot read: a NUL in the file name", loc)]) from None
     if len(raw) > MAX_BYTES:
         raise ValidationFailed(
             [LocatedError(f"larger than the {MAX_BYTES} bytes a file may be", loc)]

@@ -394,3 +394,26 @@ def test_read_btlog_reads_dev_zero_at_most_its_limit(
     refused(lambda: btlog.read_btlog("/dev/zero"), "larger than")
     refused(lambda: btlog.read_btlog(42), "path: give a file name")  # type: ignore[arg-type]
     refused(lambda: btlog.read_btlog(HUGE), "path", "100000 characters")
+
+
+# -- names the system refuses, at the bottom (yamlfile, resources)
+
+
+def test_a_name_part_too_long_is_a_located_error_naming_what_was_typed() -> None:
+    from pirate_bt.pipes import load_network
+    from pirate_bt.yamlfile import load_yaml
+
+    long = "y" * 300  # Path.exists() raised OSError (File name too long) on 3.11
+    for call in (lambda: load_yaml(long), lambda: load_network(long)):
+        with pytest.raises(ValidationFailed) as caught:
+            call()
+        text = str(caught.value)
+        assert text == f"{long}:1:1: cannot read: File name too long"
+        assert "\n" not in text
+
+
+def test_a_nul_in_a_yaml_file_name_is_a_located_error() -> None:
+    from pirate_bt.yamlfile import load_yaml
+
+    with pytest.raises(ValidationFailed, match="cannot read: a NUL in the file name"):
+        load_yaml("a\x00b.yaml")

@@ -9,7 +9,7 @@ from typing import Any
 from pirate_bt.errors import ConfigurationError, ValidationFailed, file_argument
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network, NetworkGeometryError
-from pirate_bt.resources import bundled
+from pirate_bt.resources import bundled, missing
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
 
 __all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
@@ -42,12 +42,11 @@ def load_network(path: str | Path) -> Network:
     Raises:
         InputError: ``path`` is no file name (empty, a NUL, bytes, a number, more than
             4096 characters: :func:`~pirate_bt.errors.file_argument`).
-        ValidationFailed: the file cannot be read or does not validate.
-        OSError: a name the system refuses (a part longer than 255 bytes; callers
-            such as ``survey(extend=...)`` name the option then).
+        ValidationFailed: the file cannot be read (a name the system refuses, such as
+            a part longer than 255 bytes, too) or does not validate.
     """
     p = file_argument(path, "path")
-    if not p.exists() and p.parent == Path(".") and not p.suffix:
+    if missing(p) and p.parent == Path(".") and not p.suffix:
         p = bundled("scenarios", str(p))
     return network_from_document(load_yaml(p))
 

@@ -16,6 +16,7 @@ first one. The driving is the navigator's.
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,11 +103,14 @@ def load_extension(source: Any) -> Extension:
     spec = getattr(source, "spec", source)
     if isinstance(source, str | Path):
         try:
-            spec = load_network(Path(source)).spec
+            os.stat(source)
+        except FileNotFoundError:
+            pass  # a bundled name, or the loader's "no such file"
         except OSError as exc:  # a name the system refuses (a part too long)
             raise InputError(
                 f"survey --extend: cannot read {str(source)[:80]!r}: {exc.strerror}"
             ) from None
+        spec = load_network(Path(source)).spec
     elif not isinstance(spec, NetworkSpec):
         raise InputError(
             "survey --extend: give a surveyed network file, a Network or a NetworkSpec,"
