@@ -169,18 +169,20 @@ def output_argument(value: object, option: str) -> Path:
     path = file_argument(value, option)
     try:
         if path.is_dir():
-            raise ArgumentValueError(f"{option}: {shown(str(path), 80)} is a folder; name a file")
+            raise ArgumentValueError(
+                f"{option}: {shown(str(path), MAX_PATH)} is a folder; name a file"
+            )
         for parent in path.parents:
             if parent.exists():
                 if not parent.is_dir():
                     raise ArgumentValueError(
-                        f"{option}: {shown(str(parent), 80)} is not a folder"
+                        f"{option}: {shown(str(parent), MAX_PATH)} is not a folder"
                         f" (on the way to {shown(path.name)})"
                     )
                 break
     except OSError as exc:
         raise InputError(
-            f"{option}: cannot write {shown(str(path), 80)}: {exc.strerror or exc}"
+            f"{option}: cannot write {shown(str(path), MAX_PATH)}: {exc.strerror or exc}"
         ) from None
     return path
 

@@ -132,7 +132,7 @@ def test_outputs_that_are_folders_are_one_line_exit_2(
     assert main([*RUN, "--trace", str(tmp_path / "run.jsonl")]) == 2
     assert "--trace" in one_error_line(capsys.readouterr().err)
     assert main(["render", STRAIGHT, "-o", str(tmp_path / "tree.svg")]) == 2
-    assert "tree.svg: Is a directory" in one_error_line(capsys.readouterr().err)
+    assert "tree.svg' is a folder; name a file" in one_error_line(capsys.readouterr().err)
     assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "plot.png")]) == 2
     assert "plot.png: Is a directory" in one_error_line(capsys.readouterr().err)
     # refused before the survey (exit 2), not after it (exit 1, the survey lost)
@@ -155,7 +155,7 @@ def test_a_diagram_that_cannot_be_written_is_not_a_success(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert main(["render", STRAIGHT, "-o", "/proc/no-such/tree.svg"]) == 2
-    assert "/proc/no-such/tree.dot" in one_error_line(capsys.readouterr().err)
+    assert "cannot write '/proc/no-such/tree.svg'" in one_error_line(capsys.readouterr().err)
     assert main(["robot", "--draw", "/proc/robot.svg"]) == 2
     assert "/proc/robot.dot" in one_error_line(capsys.readouterr().err)
 
@@ -193,7 +193,7 @@ def test_a_full_disk_fails_a_picture_and_keeps_the_old_one(
     monkeypatch.setattr(files.os, "replace", refuse)
     assert main(["render", STRAIGHT, "-o", str(old)]) == 2
     monkeypatch.undo()
-    assert "tree.dot: No space left on device" in one_error_line(capsys.readouterr().err)
+    assert "tree.svg': No space left on device" in one_error_line(capsys.readouterr().err)
     assert old.read_text() == "old picture"
     assert leftovers(tmp_path) == []
 

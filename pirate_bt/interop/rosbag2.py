@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import (
+    MAX_PATH,
     ArgumentTypeError,
     ConfigurationError,
     InputError,
@@ -216,7 +217,9 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     try:
         taken = out.exists() and (not out.is_dir() or any(out.iterdir()))
     except OSError as exc:  # a name the system refuses (a part too long)
-        raise InputError(f"out_dir: cannot write {shown(str(out), 80)}: {exc.strerror}") from None
+        raise InputError(
+            f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"
+        ) from None
     if taken:
         raise InputError(f"{out}: exists and is not an empty directory; rosbag2 writes a new one")
     store = typestore()
@@ -226,7 +229,9 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
             tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else ".")
         )
     except OSError as exc:  # no such folder, a file on the way, no permission
-        raise InputError(f"out_dir: cannot write {shown(str(out), 80)}: {exc.strerror}") from None
+        raise InputError(
+            f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"
+        ) from None
     bag = temp / out.name
     try:
         with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:

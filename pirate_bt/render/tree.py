@@ -512,5 +512,5 @@ def render_tree(
         if exc.filename is None:  # Graphviz is missing: documented, kept
             raise
         raise InputError(
-            f"out: cannot write {shown(str(target), 80)}: {exc.strerror or exc}"
+            f"out: cannot write {shown(str(target), MAX_PATH)}: {exc.strerror or exc}"
         ) from None
