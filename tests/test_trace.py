@@ -270,16 +270,37 @@ WRITER_SCRIPT = textwrap.dedent(
 
 
 def writer_processes(path: Path) -> list[int]:
-    """Pids of trace writer processes writing ``path`` (their command line names it)."""
+    """Pids of trace writer processes writing ``path``: any process but this one that
+    has ``path`` open, or whose command line names it.
+
+    The open file is what counts: ``/proc/PID/cmdline`` reads empty while the process
+    is busy with its memory (seen on a loaded machine for a writer at nice 10, just
+    after the run was killed), and a writer forked but not yet running ``sink.py``
+    still has the command line of the run that made it.
+    """
+    target = str(path.resolve())
     pids = []
     for proc in Path("/proc").iterdir():
-        if proc.name.isdigit():
+        if not proc.name.isdigit() or int(proc.name) == os.getpid():
+            continue
+        try:
+            argv = (proc / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if str(path).encode() in argv:
+            pids.append(int(proc.name))
+            continue
+        try:
+            fds = list((proc / "fd").iterdir())
+        except OSError:
+            continue
+        for fd in fds:
             try:
-                argv = (proc / "cmdline").read_bytes().split(b"\0")
+                if os.readlink(fd) == target:
+                    pids.append(int(proc.name))
+                    break
             except OSError:
                 continue
-            if str(path).encode() in argv and any(a.endswith(b"sink.py") for a in argv):
-                pids.append(int(proc.name))
     return pids
 
 
