@@ -270,13 +270,13 @@ WRITER_SCRIPT = textwrap.dedent(
 
 
 def writer_processes(path: Path) -> list[int]:
-    """Pids of trace writer processes writing ``path``: any process but this one that
-    has ``path`` open, or whose command line names it.
+    """Pids of trace writer processes writing ``path``: their command line names
+    ``sink.py`` and ``path``, or reads empty while they have ``path`` open.
 
-    The open file is what counts: ``/proc/PID/cmdline`` reads empty while the process
-    is busy with its memory (seen on a loaded machine for a writer at nice 10, just
-    after the run was killed), and a writer forked but not yet running ``sink.py``
-    still has the command line of the run that made it.
+    ``/proc/PID/cmdline`` reads empty while the process is busy with its memory (seen
+    on a loaded machine for a writer at nice 10, just after the run was killed): the
+    file it has open tells it then. (The run itself names ``path`` in its command line
+    too, and may have it open, so neither alone makes a writer.)
     """
     target = str(path.resolve())
     pids = []
@@ -287,21 +287,24 @@ def writer_processes(path: Path) -> list[int]:
             argv = (proc / "cmdline").read_bytes().split(b"\0")
         except OSError:
             continue
-        if str(path).encode() in argv:
+        named = str(path).encode() in argv and any(a.endswith(b"sink.py") for a in argv)
+        if named or (argv == [b""] and _has_open(proc, target)):
             pids.append(int(proc.name))
-            continue
+    return pids
+
+
+def _has_open(proc: Path, target: str) -> bool:
+    try:
+        fds = list((proc / "fd").iterdir())
+    except OSError:
+        return False
+    for fd in fds:
         try:
-            fds = list((proc / "fd").iterdir())
+            if os.readlink(fd) == target:
+                return True
         except OSError:
             continue
-        for fd in fds:
-            try:
-                if os.readlink(fd) == target:
-                    pids.append(int(proc.name))
-                    break
-            except OSError:
-                continue
-    return pids
+    return False
 
 
 def wait_for_writers(path: Path, timeout_s: float = 10.0) -> None:
