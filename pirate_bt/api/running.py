@@ -42,7 +42,15 @@ if TYPE_CHECKING:
     from pirate_bt.runner import Runner
     from pirate_bt.treefile import LoadedTree
 
-__all__ = ["Observer", "as_loaded", "load_tree", "needs_robot", "run_on", "supervised_runner"]
+__all__ = [
+    "Observer",
+    "as_loaded",
+    "link_cause",
+    "load_tree",
+    "needs_robot",
+    "run_on",
+    "supervised_runner",
+]
 
 Observer = Callable[[Any, Any], None]
 """``observe(runner, connection)``: called before a run starts, to attach more hooks
@@ -288,11 +296,21 @@ def run_on(
         safe_state=bool(supervisor is not None and supervisor.in_safe_state),
         target=connection.description if connection is not None else "no robot",
         trace_path=trace_path,
-        error=loop.error,
+        error=loop.error or link_cause(loop, supervisor),
         traceback=loop.traceback,
         loop=loop,
         coverage=coverage.coverage(),
     )
+
+
+def link_cause(loop: Any, supervisor: Any) -> BaseException | None:
+    """The link error a failed run ended on, when the supervisor's first cause was one
+    (the link lost or silent: the robot was stopped by the supervisor, no behaviour
+    raised), so that the run exits as a link error (3), as DESIGN.md says."""
+    if loop.succeeded or supervisor is None:
+        return None
+    error: BaseException | None = getattr(supervisor, "safe_state_error", None)
+    return error
 
 
 def check_run_options(

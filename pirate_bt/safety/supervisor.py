@@ -132,6 +132,7 @@ class Supervisor(AuthorityMixin, DecisionMixin):
         self._tick = 0
         self._seq = 0
         self._safe_reason: str | None = None
+        self._safe_error: BaseException | None = None
         self._estop_reason: str | None = None
         self._refusals = 0
         self._targets: dict[Half, HalfTarget] = {}
@@ -175,6 +176,13 @@ class Supervisor(AuthorityMixin, DecisionMixin):
         run, stops the robot again but does not overwrite the cause); ``None`` when not
         in the safe state."""
         return self._safe_reason
+
+    @property
+    def safe_state_error(self) -> BaseException | None:
+        """The exception behind :attr:`safe_state_reason`, when the first cause was one:
+        the :class:`~pirate_bt.errors.LinkError` of a link lost or silent (a run that
+        ends on it exits with code 3, a link error); ``None`` otherwise."""
+        return self._safe_error
 
     @property
     def estopped(self) -> bool:
@@ -260,7 +268,7 @@ class Supervisor(AuthorityMixin, DecisionMixin):
                 self.port.poll()
             except LinkError as exc:
                 if not self.in_safe_state:
-                    self.safe_state(f"link lost: {exc}")
+                    self.safe_state(f"link lost: {exc}", error=exc)
                 return
             problem = self.link_problem()
             if problem is not None and problem.reason is Reason.ESTOP_LATCHED:
@@ -269,7 +277,8 @@ class Supervisor(AuthorityMixin, DecisionMixin):
                 return
             if problem is not None:
                 if not self.in_safe_state:
-                    self.safe_state(f"{problem.reason}: {problem.detail}")
+                    cause = f"{problem.reason}: {problem.detail}"
+                    self.safe_state(cause, error=LinkError(cause))
                 return
             state = self.port.state()
             if state is None:

@@ -52,7 +52,7 @@ class AuthorityMixin(DecisionMixin):
 
     # -- safe state and e-stop ----------------------------------------------
 
-    def safe_state(self, reason: str) -> None:
+    def safe_state(self, reason: str, *, error: BaseException | None = None) -> None:
         """Stop the drives and hold the clamps; refuse tree commands until resumed.
 
         Called by the supervisor itself (stale data, link loss, repeated refusals),
@@ -60,11 +60,16 @@ class AuthorityMixin(DecisionMixin):
         a stop that cannot be delivered is logged. The first reason given is kept
         (:attr:`safe_state_reason`) until the operator resumes: the first cause of a
         failure survives every later stop.
+
+        ``error`` is the exception behind that cause, when there is one (the
+        :class:`~pirate_bt.errors.LinkError` of a lost link): kept with it as
+        :attr:`safe_state_error`, so a run that ends on it exits as a link error.
         """
         with self._lock:
             first = self._safe_reason is None
             if first:
                 self._safe_reason = reason
+                self._safe_error = error
                 log.warning("safe state: %s", reason)
             else:
                 log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)
@@ -135,6 +140,7 @@ class AuthorityMixin(DecisionMixin):
                 self._send_stop()
             else:
                 self._safe_reason = None
+                self._safe_error = None
                 self._refusals = 0
 
     def resume(self) -> None:
@@ -143,6 +149,7 @@ class AuthorityMixin(DecisionMixin):
             if self._safe_reason is not None:
                 log.warning("safe state left by the operator (was: %s)", self._safe_reason)
             self._safe_reason = None
+            self._safe_error = None
             self._refusals = 0
 
     def apply(self, action: OperatorAction) -> Verdict | None:

@@ -72,6 +72,7 @@ class DecisionMixin:
     _tick: int
     _seq: int
     _safe_reason: str | None
+    _safe_error: BaseException | None
     _estop_reason: str | None
     _refusals: int
     _targets: dict[Half, HalfTarget]
@@ -84,7 +85,7 @@ class DecisionMixin:
         @property
         def in_safe_state(self) -> bool: ...
 
-        def safe_state(self, reason: str) -> None: ...
+        def safe_state(self, reason: str, *, error: BaseException | None = None) -> None: ...
 
         def link_problem(self) -> Problem | None: ...
 
@@ -211,7 +212,7 @@ class DecisionMixin:
             try:
                 self.port.send(sent)
             except LinkError as exc:
-                self.safe_state(f"link error while sending: {exc}")
+                self.safe_state(f"link error while sending: {exc}", error=exc)
                 return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
             for mc in sent:
                 self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)

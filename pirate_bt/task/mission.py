@@ -460,6 +460,11 @@ def run_mission(
                 )
     finally:
         tally.detach()
+    link_error = getattr(supervisor, "safe_state_error", None)
+    if not result.succeeded and result.error is None and link_error is not None:
+        # The supervisor stopped the robot because the link failed (no behaviour
+        # raised): the run ends on that link error, and exits as one (code 3).
+        result = replace(result, error=link_error)
     localiser.update(supervisor.state())
     end = clock.now() - start_s
     outcomes = pab_outcomes(

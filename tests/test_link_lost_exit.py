@@ -1,0 +1,47 @@
+"""A run whose link is lost mid-run ends as a link error (exit code 3, DESIGN.md).
+
+The supervisor stops the robot on the lost link (its first cause), the primitive at
+work fails on the safe state, and the run's result carries the link error, so the
+command line exits 3 ("link or hardware error"), not 1, and a caller can tell a
+lost link from a tree that failed. The simulator is served on TCP in real time and
+stopped under the run, as when its process is killed.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import pirate_bt
+from pirate_bt.errors import LinkError
+from pirate_bt.robot import load_robot
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.server import SimServer
+
+STRAIGHT = Path(__file__).parents[1] / "trees" / "straight.yaml"
+
+
+def test_a_link_lost_mid_run_is_a_link_error_with_its_cause() -> None:
+    with Simulator("straight", load_robot()) as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        server.start()
+        stopper = threading.Timer(1.5, server.stop)  # mid-run: the halves are clamping
+        stopper.start()
+        try:
+            result = pirate_bt.run_tree(
+                STRAIGHT,
+                port=f"socket://{host}:{port}",
+                params={"distance": "1 m"},
+                max_time="30 s",
+            )
+        finally:
+            stopper.cancel()
+            server.stop()
+    assert result.status == "failure"
+    assert result.safe_state
+    # a read or a write notices first, as the timing goes
+    assert result.why.startswith(("link lost: ", "link error while sending: ")), result.why
+    assert isinstance(result.error, LinkError)
+    assert result.exit_code == 3
+    assert result.sim_time_s < 10  # stopped on the loss, not at the time limit
