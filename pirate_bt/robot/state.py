@@ -26,7 +26,7 @@ from pirate_bt.robot.description import (
     SensorKind,
 )
 
-__all__ = ["Reading", "RobotState", "StateBuilder"]
+__all__ = ["Reading", "RobotState", "StateBuilder", "wheel_fresh_window_s"]
 
 _EMPTY: Mapping[str, float] = MappingProxyType({})
 
@@ -84,10 +84,40 @@ class RobotState:
         stamps = [self.readings[n].stamp_s if n in self.readings else -math.inf for n in names]
         return min(stamps, default=self.stamp_s)
 
-    def mean_drive_velocity_mps(self) -> float:
-        """Mean measured wheel speed over the drive motors (0 when none reported)."""
-        values = list(self.drive_velocity_mps.values())
+    def mean_drive_velocity_mps(self, fresh_since_s: float | None = None) -> float:
+        """Mean measured wheel speed over the drive motors (0 when none reported).
+
+        With ``fresh_since_s``, only the wheels whose speed was fresh at or after that
+        clock time count (0 when none was): a speed sensor that dropped out keeps its
+        last value, which odometry must not go on counting. Odometry passes the oldest
+        time a reading may be from and still be fresh: ``stamp_s`` less
+        :func:`wheel_fresh_window_s`.
+        """
+        speeds = self.drive_velocity_mps
+        if fresh_since_s is not None:
+            readings = self.readings
+            fresh = [
+                v
+                for motor, v in speeds.items()
+                if (r := readings.get(f"{motor}.velocity")) is None or r.stamp_s >= fresh_since_s
+            ]
+            if len(fresh) != len(speeds):
+                return sum(fresh) / len(fresh) if fresh else 0.0
+        values = list(speeds.values())
         return sum(values) / len(values) if values else 0.0
+
+
+def wheel_fresh_window_s(robot: RobotDescription) -> float:
+    """How old a wheel speed may be and still count for odometry:
+    ``safety.stale_after_periods`` of the slowest wheel channel's period (the
+    supervisor's own freshness rule for its channels)."""
+    periods = robot.channel_periods_s()
+    default = robot.bridge.state_period
+    slowest = max(
+        (periods.get(f"{m.name}.velocity", default) for m in robot.drive_motors()),
+        default=default,
+    )
+    return robot.safety.stale_after_periods * slowest
 
 
 class StateBuilder:

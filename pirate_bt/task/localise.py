@@ -54,7 +54,7 @@ from collections.abc import Callable
 
 from pirate_bt.pipes.network import PieceKind
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.robot.state import RobotState
+from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.task.fixes import (
     Disagreement,
     Fix,
@@ -175,6 +175,7 @@ class Localiser:
         self._offset = offsets
         self._imu_offset_m = offsets[robot.rotational_module().name]
         self._bend_offsets = {m.name: offsets[m.name] for m in robot.all_bend_modules()}
+        self._wheel_window_s = wheel_fresh_window_s(robot)  # odometry counts fresh wheels
         self.truth_m: float | None = None
 
     # -- reading
@@ -219,7 +220,7 @@ class Localiser:
         self._last_state = state
         if self._last_stamp is not None:
             dt = max(0.0, state.stamp_s - self._last_stamp)
-            ds = state.mean_drive_velocity_mps() * dt
+            ds = state.mean_drive_velocity_mps(state.stamp_s - self._wheel_window_s) * dt
             self.belief_m += ds
             self.distance_m += abs(ds)
             self.since_fix_m += abs(ds)
