@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.errors import InputError, UnitError
+from pirate_bt.errors import MAX_PATH, InputError, UnitError, file_argument
 from pirate_bt.units import parse_quantity
 
 if TYPE_CHECKING:
@@ -70,9 +70,6 @@ MAX_TIME_S = 1e9
 
 MAX_SEED = 2**63 - 1
 """The largest seed (seeds are whole numbers from 0)."""
-
-MAX_PATH = 4096
-"""The longest file name taken (PATH_MAX on Linux)."""
 
 MAX_FAULTS = 1000
 """The most faults one run takes."""
@@ -256,25 +253,13 @@ def callback(value: Any, option: str) -> Callable[..., Any] | None:
 
 
 def file_name(value: object, option: str) -> Path:
-    """A file name as given: text or a path, not empty, no NUL, at most :data:`MAX_PATH`.
+    """A file name as given: text or a path, not empty, no NUL, at most :data:`MAX_PATH`
+    (:func:`pirate_bt.errors.file_argument`, the one rule of the library).
 
     Raises:
         InputError: anything else (bytes, a number, a mapping...).
     """
-    if not isinstance(value, str | os.PathLike):
-        raise InputError(f"{option}: give a file name (text or a Path), not {_kind(value)}")
-    text = os.fspath(value)
-    if not isinstance(text, str):
-        raise InputError(f"{option}: give a file name as text, not bytes")
-    if not text.strip():
-        raise InputError(f"{option}: the file name is empty")
-    if "\0" in text:
-        raise InputError(f"{option}: a file name may not hold a NUL character")
-    if len(text) > MAX_PATH:
-        raise InputError(
-            f"{option}: a file name of {len(text)} characters is too long (at most {MAX_PATH})"
-        )
-    return Path(text)
+    return file_argument(value, option)
 
 
 def output_path(value: object, option: str) -> Path:
