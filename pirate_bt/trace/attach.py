@@ -112,6 +112,15 @@ def attach_trace(
             kind = "exception" if getattr(result, "error", None) is not None else "note"
             message = str(getattr(result, "message", "the tick did not complete"))
             recorder.record_tick(TickExtras(events=(TraceEvent(kind, message, node),)))
+        final: tuple[Any, ...] = ()
+        if extras is not None:
+            # What the run's end sent after its last tick (the running nodes' stops, the
+            # safe state): no tick records it, so the end record does.
+            try:
+                last = extras(None)
+                final = tuple(last.commands) if last is not None else ()
+            except Exception:  # a courtesy: the end record must be written
+                _log.exception("reading the verdicts after the last tick failed")
         reason = getattr(result, "message", None)
         if why is not None:
             try:
@@ -134,6 +143,7 @@ def attach_trace(
             error_node=node,
             exception=getattr(result, "error", None) if failing or node else None,
             coverage=counts,
+            commands=final,
         )
 
     runner.add_post_tick(post_tick)

@@ -114,6 +114,8 @@ class TraceSummary:
     header: Mapping[str, Any] = field(default_factory=dict)
     coverage: Coverage | None = None
     """What each node did, as BT.CPP's ``TreeObserver`` counts it (from the end record)."""
+    final_commands: list[dict[str, Any]] = field(default_factory=list)
+    """Verdicts given after the last tick (the stops of the run's end; the end record)."""
 
 
 def summarise(trace: Trace) -> TraceSummary:
@@ -168,6 +170,9 @@ def summarise(trace: Trace) -> TraceSummary:
                 summary.faults.append({"tick": tick.n, **event})
     for node_id, started in running_since.items():
         nodes[node_id].running_s += trace.duration_s - started
+    final = trace.end.get("commands") if trace.end is not None else None
+    if isinstance(final, list):
+        summary.final_commands = [c for c in final if isinstance(c, dict)]
     already = any(f.get("kind") == "exception" for f in summary.faults)
     if trace.end is not None and trace.end.get("error") and not already:
         error = trace.end["error"]
@@ -252,6 +257,15 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
             lines.append(
                 f"  tick {refusal['tick']}: {who}: {refusal.get('command')}"
                 f" refused ({refusal.get('reason', '?')}) {refusal.get('detail', '')}".rstrip()
+            )
+    if summary.final_commands:
+        lines.append("")
+        lines.append("after the last tick:")
+        for command in summary.final_commands:
+            detail = command.get("detail") or command.get("reason") or ""
+            who = command.get("source") or "-"
+            lines.append(
+                f"  {command.get('command')} [{who}] {command.get('verdict')}: {detail}".rstrip()
             )
     if summary.faults:
         lines.append("")

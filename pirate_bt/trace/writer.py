@@ -503,6 +503,7 @@ class TraceRecorder:
         error_node: str | None = None,
         exception: BaseException | str | None = None,
         coverage: Mapping[str, Any] | None = None,
+        commands: Sequence[CommandRecord] = (),
     ) -> None:
         """Write the end record and close the file (idempotent).
 
@@ -515,6 +516,8 @@ class TraceRecorder:
             coverage: ``{"counts": {node id: [ticks, transitions, successes,
                 failures, halts, skips]}, "conditions": [node ids]}`` (see
                 :mod:`pirate_bt.trace.coverage`).
+            commands: Verdicts given after the last tick: the stops of the run's end
+                (the running nodes stopped, the safe state), which no tick records.
         """
         if self._closed:
             return
@@ -541,6 +544,8 @@ class TraceRecorder:
             record["error"] = {"node": error_node, "exception": text}
         if coverage:
             record["coverage"] = dict(coverage)
+        if commands:
+            record["commands"] = [command.to_json() for command in commands]
         try:
             if self._sink is not None:
                 self._sink.send((END, encode_json(record) + "\n"))
