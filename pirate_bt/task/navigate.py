@@ -67,6 +67,15 @@ MAX_FAILED_IN_A_ROW = 3
 """After a map disagreement a navigator may go on; after this many failed steps in a
 row it is stopped (the robot stays in its safe state)."""
 
+MAX_IDLE_REPEATS = 3
+"""A navigator that asks for the step it just took, after that step moved the robot
+less than :data:`IDLE_M`, this many times in a row, is stopped: it would go round in
+that loop to its step limit (a goal it cannot reach, a researcher's navigator that
+does not see its step change nothing)."""
+
+IDLE_M = 0.001
+"""Less than this along the pipe, a step has not moved the robot."""
+
 ODOMETRY_FRACTION = 0.05
 """Without a map, the belief may be off by this share of the distance driven."""
 
@@ -307,6 +316,7 @@ def run_navigation(
     odometer_m = 0.0
     fixed_at_m = 0.0  # the odometer at the last fix
     failed_in_a_row = 0
+    idle_repeats = 0  # the same step again, after it moved the robot nowhere
     robot_length = robot_length_m(robot)
     behind = _behind_front_tip(robot)
     try:
@@ -422,7 +432,9 @@ def run_navigation(
                 )
             result.steps = index
             result.ticks += ran.ticks
-            odometer_m += abs(ran.belief_m - belief)
+            moved_m = abs(ran.belief_m - belief)
+            repeated = bool(history) and history[-1][0] == step
+            odometer_m += moved_m
             if ran.truth_m is not None and truth_m is not None:
                 result.distance_m += abs(ran.truth_m - truth_m)
             elif ran.truth_m is not None:
@@ -471,6 +483,17 @@ def run_navigation(
                     " it is stopped)"
                 )
                 result.failing_node = ran.failing_node
+                break
+            idle_repeats = (
+                idle_repeats + 1 if ran.succeeded and repeated and moved_m < IDLE_M else 0
+            )
+            if idle_repeats >= MAX_IDLE_REPEATS:
+                result.why = (
+                    f"navigator {name!r} is stuck: it asked for {step!r} again"
+                    f" {idle_repeats} times in a row, and the robot did not move"
+                    f" (believed at {belief:.2f} m)"
+                )
+                supervisor.safe_state(result.why)
                 break
             if not ran.succeeded and not ran.disagreement:
                 result.why = ran.why

@@ -1,0 +1,32 @@
+"""A navigator that asks again for a step that moved the robot nowhere is stopped.
+
+The goal navigator, sent into a branch shorter than the map says (0.5 m where the map
+has 2 m, too short for the robot to be wholly in it), asked for the same short
+straight step after step: each ended blocked at the cap, a success that moved
+nothing, 500 times to the step limit. It is now stopped after three such repeats,
+with the step and where the robot is, and the robot is left in its safe state.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pirate_bt
+from pirate_bt.task.navigate import MAX_IDLE_REPEATS
+
+T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
+
+
+def test_a_goal_it_cannot_reach_stops_the_navigator_not_its_step_limit(tmp_path: Path) -> None:
+    text = T_JOINT.read_text(encoding="utf-8")
+    branch = "        - {id: branch, type: straight, length: 2 m}"
+    assert branch in text
+    truth = tmp_path / "short-branch.yaml"
+    truth.write_text(text.replace(branch, branch.replace("2 m", "0.5 m")), encoding="utf-8")
+    result = pirate_bt.navigate("goal", map="t-joint", sim=truth, params={"segment": "branch"})
+    assert not result.succeeded
+    assert result.why.startswith("navigator 'goal' is stuck: it asked for Step('straight'")
+    assert f"again {MAX_IDLE_REPEATS} times in a row, and the robot did not move" in result.why
+    assert result.steps <= 2 + MAX_IDLE_REPEATS  # was 500: the step limit
+    assert result.safe_state
+    assert result.exit_code == 1
