@@ -116,3 +116,24 @@ def test_a_line_that_ends_early_after_a_straight_tee_is_no_success(tmp_path: Pat
     assert not result.succeeded
     assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 2.7")
     assert "after 'tee'), where the map has no turn and no end within" in result.why
+
+
+def test_a_navigation_step_knows_the_turn_fixed_on_in_the_step_before(tmp_path: Path) -> None:
+    text = BEND_RIGHT.read_text(encoding="utf-8")
+    after = "  - {id: after, type: straight, length: 2 m}"
+    truth = tmp_path / "extra-bend.yaml"
+    truth.write_text(
+        text.replace(
+            after,
+            "  - {id: after, type: straight, length: 1 m}\n"
+            "  - {id: extra, type: bend, direction: left, radius: 90 mm}\n"
+            "  - {id: beyond, type: straight, length: 1 m}",
+        ),
+        encoding="utf-8",
+    )
+    route = BEND_RIGHT.with_suffix(".route")
+    result = pirate_bt.navigate("route", map="bend-right", sim=truth, params={"route": route})
+    # was "navigator 'route' is done after 3 steps": each step is a mission of its own,
+    # and the bend fixed on in the step before explained the block at the unmapped turn
+    assert not result.succeeded
+    assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 3.")

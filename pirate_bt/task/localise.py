@@ -159,6 +159,9 @@ class Localiser:
         self._truth = truth
         self.belief_m = plan.start_m
         self.fixes: list[Fix] = []
+        self.fixed_before: str | None = None
+        """The feature (segment id) last fixed on before this localiser started, when
+        it goes on from an earlier run (a navigation's step): placed as a fix is."""
         self.mismatch: str | None = None
         self.distance_m = 0.0
         self.since_fix_m = 0.0
@@ -376,7 +379,7 @@ class Localiser:
         # A feature up to the last one fixed on is placed by that fix: only odometry
         # since then separates it from the robot, not the map's lengths (a turn already
         # passed, more than the robot's length behind, explains no block ahead).
-        last = self.fixes[-1].feature if self.fixes else None
+        last = self.fixes[-1].feature if self.fixes else self.fixed_before
         fixed_end_m = max(
             (p.end_m for p in self.plan.path.pieces if p.segment == last), default=-math.inf
         )

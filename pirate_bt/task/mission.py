@@ -310,6 +310,7 @@ def run_mission(
     map_tolerance: float = MAP_FRACTION,
     observe: Observer | None = None,
     since_fix_m: float = 0.0,
+    fixed_before: str | None = None,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -340,6 +341,9 @@ def run_mission(
         since_fix_m: Metres driven since the last feature fix before this mission (a
             navigation's step goes on from the steps before it): the features'
             search windows start that wide.
+        fixed_before: The feature (segment id) that last fix was on: it and the
+            features before it are placed by that fix, so a block near one of them
+            behind the robot is not taken for it.
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -367,6 +371,7 @@ def run_mission(
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
     localiser.since_fix_m = max(since_fix_m, 0.0)
+    localiser.fixed_before = fixed_before
     pabs = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
     legs: list[Leg] = []
     start_s = clock.now()

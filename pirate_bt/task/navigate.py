@@ -315,6 +315,7 @@ def run_navigation(
     last_fix_m = belief
     odometer_m = 0.0
     fixed_at_m = 0.0  # the odometer at the last fix
+    fixed_feature: str | None = None  # the feature of the last fix
     failed_in_a_row = 0
     idle_repeats = 0  # the same step again, after it moved the robot nowhere
     robot_length = robot_length_m(robot)
@@ -323,6 +324,7 @@ def run_navigation(
         for index in range(1, max_steps + 2):
             if ran is not None and ran.mission is not None and ran.mission.fixes:
                 last_fix_m = ran.mission.fixes[-1].after_m
+                fixed_feature = ran.mission.fixes[-1].feature
                 # the odometer at that fix: the step's distance driven after it
                 fixed_at_m = odometer_m - abs(ran.mission.belief_m - last_fix_m)
             if planner is not None:
@@ -405,6 +407,7 @@ def run_navigation(
                     belief_m=belief,
                     map_tolerance=map_tolerance,
                     since_fix_m=odometer_m - fixed_at_m,
+                    fixed_before=fixed_feature,
                 )
             else:
                 ran = run_blind(

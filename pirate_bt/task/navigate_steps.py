@@ -87,6 +87,7 @@ def run_mapped(
     belief_m: float,
     map_tolerance: float,
     since_fix_m: float = 0.0,
+    fixed_before: str | None = None,
 ) -> StepRun:
     if not plan.pabs:  # nothing to drive (already there)
         return StepRun(True, "", None, [], belief_m, [])
@@ -106,6 +107,7 @@ def run_mapped(
         belief_m=belief_m,
         map_tolerance=map_tolerance,
         since_fix_m=since_fix_m,
+        fixed_before=fixed_before,
     )
     return StepRun(
         mission.succeeded,
