@@ -149,6 +149,7 @@ class SimBridge(FaultsMixin):
         """The newest protocol minor version this bridge speaks (1: a 1.1 bridge)."""
         self._input_tripped = False
         self._resetting: set[int] = set()
+        self._held_setpoints: dict[int, list[MotorCommand]] = {}  # a board's, over its reset
         self._link_lost = False
         self._lost_partial = False  # bytes of an unfinished frame were lost to the link loss
         self._boot()

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.link.raw import RawFrameDecoder
 from pirate_bt.pipes import FaultSpec
-from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import MotorFunction, RobotDescription
 from pirate_bt.sim.counters import EventKind
 from pirate_bt.sim.model import PipeRobotModel
 
@@ -49,6 +50,7 @@ class FaultsMixin:
     _pending: list[FaultSpec]
     _active: list[ActiveFault]
     _resetting: set[int]
+    _held_setpoints: dict[int, list[MotorCommand]]
     _dropout: set[int]
     _stuck: dict[int, float]
     _link_lost: bool
@@ -134,9 +136,17 @@ class FaultsMixin:
             self._resetting.add(board)
             self._status_cache = None
             names = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+            # The bridge keeps its setpoints for the board's motors and hands them to
+            # it at every exchange (firmware/piratebay/poller.c), so the board gets them
+            # back as soon as it answers again: its clamp comes back.
+            held = [self.model.setpoint(name) for name in names]
+            self._held_setpoints[board] = [c for c in held if c is not None]
             self.model.motors_off(names)
         elif spec.kind == "link_loss":
             self._link_lost = True
+
+    def _is_bend(self, motor: str) -> bool:
+        return self.robot.motor(motor).function is MotorFunction.BEND
 
     def _end_fault(self, fault: ActiveFault) -> None:
         spec = fault.spec
@@ -149,8 +159,14 @@ class FaultsMixin:
         elif spec.kind == "sensor_stuck":
             self._stuck.pop(self._channel_index[target], None)
         elif spec.kind == "board_reset":
-            self._resetting.discard(int(target))
+            board = int(target)
+            self._resetting.discard(board)
             self._status_cache = None
+            for command in self._held_setpoints.pop(board, []):
+                if self.model.setpoint(command.motor) is None or self._is_bend(command.motor):
+                    # a stop of the bridge's during the reset set the drives' and the
+                    # rotation's stop setpoints (kept); a bend joint keeps its own
+                    self.model.command(command)
         elif spec.kind == "link_loss":
             self._link_lost = False
             self._lost_partial = False

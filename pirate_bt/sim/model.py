@@ -250,6 +250,15 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         m.mode = command.mode
         m.value = command.value
 
+    def setpoint(self, motor: str) -> MotorCommand | None:
+        """The setpoint ``motor`` holds now, or ``None`` when it is off.
+
+        Raises:
+            KeyError: unknown motor.
+        """
+        m = self._motors[motor]
+        return None if m.mode is None else MotorCommand(m.name, m.mode, m.value)
+
     def motors_off(self, names: list[str] | None = None) -> None:
         """Switch motors off (all, or those named): joints go limp, drives stop."""
         for m in self._motors.values():
