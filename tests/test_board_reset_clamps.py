@@ -8,6 +8,8 @@ until the host commanded them again: a half left limp after every board reset.
 
 from __future__ import annotations
 
+import pytest
+
 from pirate_bt.clock import SimClock
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.commands import MotorCommand
@@ -49,3 +51,24 @@ def test_a_stop_during_the_reset_is_what_the_board_gets_for_its_drive() -> None:
             "bend_1_drive", ControlMode.VELOCITY, 0.0
         )
         assert sim.model.setpoint("bend_1_joint") == clamp  # the clamp keeps its own
+
+
+def test_a_stop_reaches_the_other_boards_while_one_reboots() -> None:
+    import pirate_bt
+    from pirate_bt.errors import LinkError
+
+    drives = ["bend_1_drive", "bend_2_drive", "bend_3_drive", "bend_4_drive"]
+    with pirate_bt.connect("straight", faults="board_reset:22@5s") as robot:
+        result = robot.run("straight", params={"distance": "1 m"})  # driving at 5 s
+        assert result.why.startswith("stale data: bend_1_angle")
+        sim = robot.simulator
+        assert sim is not None
+        robot.clock.advance(0.02)
+        robot.supervisor.port.poll()
+        # was 0.08 m/s on boards 23, 25 and 26 for as long as the host kept the link
+        # alive: the whole stop was refused (BUS_ERROR) for board 22's entry in it
+        stopped = [sim.model.setpoint(name) for name in drives[1:]]
+        assert all(c is not None and c.value == 0.0 for c in stopped), stopped
+        assert sim.model.setpoint("bend_1_drive") is None  # the rebooting board's: off
+        with pytest.raises(LinkError, match="board 22 is not answering the bridge"):
+            robot.supervisor.port.send([MotorCommand("bend_1_joint", ControlMode.TORQUE, 0.7)])

@@ -27,7 +27,7 @@ from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import BridgeFlags, FrameCodec
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
-from pirate_bt.link.messages import HelloReply
+from pirate_bt.link.messages import BoardStatus, HelloReply
 from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
 from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -73,6 +73,8 @@ class RobotLink:
         self._commands = CommandCodec(robot)
         slots = robot.setpoint_slots()
         self._slot_index = {(s.board, s.slot): s.index for s in slots}
+        self._slot_board = [s.board for s in slots]
+        self._board_ids = robot.board_ids()  # the STATE frame's board order
         self._modes: list[ControlMode | None] = [None] * len(slots)
         self._raw: list[int] = [0] * len(slots)
         self._snapshot: RobotState | None = None
@@ -126,11 +128,36 @@ class RobotLink:
         # every command is converted before any is merged: a call that raises changes
         # nothing, so none of its commands goes out with a later call
         raws = [self._commands.to_raw(command) for command in commands]
+        away = self._boards_away()
+        if away:
+            # The bridge refuses a whole bulk that has an entry for a board it cannot
+            # reach (BUS_ERROR, docs/protocol.md): a command for one is refused here,
+            # and the others go out with that board's entries as "keep" (the bridge
+            # hands the board its setpoints again when it answers).
+            hit = sorted({raw.board for raw in raws} & away)
+            if hit:
+                raise LinkError(
+                    f"board {', '.join(map(str, hit))} is not answering the bridge"
+                    " (TIMEOUT: rebooting?): its setpoints cannot be delivered"
+                )
         for raw in raws:
             i = self._slot_index[(raw.board, raw.slot)]
             self._modes[i] = raw.mode
             self._raw[i] = raw.raw_value
-        self._last_bulk = self.session.send_bulk(self._modes, self._raw)
+        modes = self._modes
+        if away:
+            modes = [None if b in away else m for b, m in zip(self._slot_board, modes, strict=True)]
+        self._last_bulk = self.session.send_bulk(modes, self._raw)
+
+    def _boards_away(self) -> set[int]:
+        """The boards the bridge's latest STATE reports in ``TIMEOUT``."""
+        latest = self.session.latest_state()
+        if latest is None:
+            return set()
+        status = latest[0].board_status
+        if not any(s & BoardStatus.TIMEOUT for s in status):
+            return set()
+        return {b for b, s in zip(self._board_ids, status, strict=False) if s & BoardStatus.TIMEOUT}
 
     def send_and_wait(
         self, commands: Sequence[MotorCommand], timeout_s: float | None = None

@@ -113,6 +113,10 @@ class DecisionMixin:
         return verdict
 
     def _send_stop(self) -> tuple[MotorCommand, ...]:
+        """Stop every drive, in one request; if that is refused, board by board, so that
+        a board the bridge cannot reach (rebooting: its motors are off anyway) does not
+        take the others' stops with it (the link refuses a setpoint for a board in
+        ``TIMEOUT``, docs/protocol.md)."""
         now = self.clock.now()
         cmds = tuple(
             MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()
@@ -121,7 +125,20 @@ class DecisionMixin:
             self.port.send(cmds)
         except LinkError as exc:
             log.error("could not send stop: %s", exc)
-            return ()
+            by_board: dict[int, list[MotorCommand]] = {}
+            for c in cmds:
+                by_board.setdefault(self.robot.board_of(c.motor).id, []).append(c)
+            if len(by_board) < 2:
+                return ()
+            sent: list[MotorCommand] = []
+            for group in by_board.values():
+                try:
+                    self.port.send(tuple(group))
+                except LinkError as again:
+                    log.error("could not send the stop of %s: %s", group[0].motor, again)
+                    continue
+                sent.extend(group)
+            cmds = tuple(sent)
         for c in cmds:
             self._last_setpoint[c.motor] = (c.mode, 0.0, now)
         return cmds
