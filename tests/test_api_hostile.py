@@ -10,7 +10,6 @@ second: the options are checked first.
 
 from __future__ import annotations
 
-import signal
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,7 @@ from typing import Any
 import pytest
 
 import pirate_bt
-from pirate_bt.errors import InputError, PirateError
+from tests.hostile_support import no_hang, refused
 
 TREE = "straight"
 PARAMS = {"distance": "0.05 m"}
@@ -26,30 +25,7 @@ PARAMS = {"distance": "0.05 m"}
 
 @pytest.fixture(autouse=True)
 def _no_hang() -> Iterator[None]:
-    """A refusal that hangs instead fails the test after 20 s (the hang was the bug)."""
-
-    def fail(*_: Any) -> None:
-        raise TimeoutError("hung: the argument was not refused")
-
-    previous = signal.signal(signal.SIGALRM, fail)
-    signal.alarm(20)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
-def refused(call: Callable[[], Any], *words: str, kind: type[PirateError] = InputError) -> str:
-    """``call()`` raises ``kind`` with one line holding every word; the line is returned."""
-    with pytest.raises(kind) as caught:
-        call()
-    text = str(caught.value)
-    assert "\n" not in text, text
-    assert len(text) < 400, text
-    for word in words:
-        assert word in text, (word, text)
-    return text
+    yield from no_hang()
 
 
 NOT_FINITE = [float("nan"), float("inf"), float("-inf")]

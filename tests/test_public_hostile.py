@@ -11,9 +11,7 @@ never a bare ``TypeError``/``ValueError``/``OSError`` from deep inside, a hang o
 from __future__ import annotations
 
 import os
-import re
-import signal
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,11 +22,11 @@ from pirate_bt.errors import (
     ArgumentTypeError,
     ArgumentValueError,
     InputError,
-    PirateError,
     ValidationFailed,
     file_argument,
     shown,
 )
+from tests.hostile_support import no_hang, refused
 
 HUGE = "x" * 100_000
 LONG_PART = "y" * 300  # one part longer than the 255 bytes a file system takes
@@ -37,32 +35,7 @@ NOT_NAMES: list[Any] = [42, 1.5, float("nan"), {}, [], b"run.jsonl", None]
 
 @pytest.fixture(autouse=True)
 def _no_hang() -> Iterator[None]:
-    """A refusal that hangs instead fails the test after 20 s (the hang was the bug)."""
-
-    def fail(*_: Any) -> None:
-        raise TimeoutError("hung: the argument was not refused")
-
-    previous = signal.signal(signal.SIGALRM, fail)
-    signal.alarm(20)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
-def refused(call: Callable[[], Any], *words: str, kind: type[PirateError] = InputError) -> str:
-    """``call()`` raises ``kind`` with one short line holding every word; it is returned."""
-    with pytest.raises(kind) as caught:
-        call()
-    text = str(caught.value)
-    assert "\n" not in text, text
-    # the length of what the message adds, whatever the length of pytest's temporary
-    # folder in it (longer under xdist: .../pytest-386/popen-gw1/...)
-    assert len(re.sub(r"\S*pytest-of-[^/\s]+/\S+", "<tmp>", text)) < 400, text
-    for word in words:
-        assert word in text, (word, text)
-    return text
+    yield from no_hang()
 
 
 @pytest.fixture(scope="module")

@@ -49,22 +49,25 @@ def test_a_wider_pipe_the_clamps_still_reach_is_no_disagreement(tmp_path: Path) 
 
 
 BEND_RIGHT = Path(__file__).parents[1] / "scenarios" / "bend-right.yaml"
+AFTER = "  - {id: after, type: straight, length: 2 m}"
+EXTRA_BEND = (
+    "  - {id: after, type: straight, length: 1 m}\n"
+    "  - {id: extra, type: bend, direction: left, radius: 90 mm}\n"
+    "  - {id: beyond, type: straight, length: 1 m}"
+)
+
+
+def variant(network: Path, old: str, new: str, tmp_path: Path) -> Path:
+    """``network`` with its line ``old`` written as ``new``: the pipe as it really is."""
+    text = network.read_text(encoding="utf-8")
+    assert old in text
+    truth = tmp_path / f"truth-{network.name}"
+    truth.write_text(text.replace(old, new), encoding="utf-8")
+    return truth
 
 
 def test_an_unmapped_turn_after_a_fixed_one_is_named_where_it_blocked(tmp_path: Path) -> None:
-    text = BEND_RIGHT.read_text(encoding="utf-8")
-    after = "  - {id: after, type: straight, length: 2 m}"
-    assert after in text
-    truth = tmp_path / "extra-bend.yaml"
-    truth.write_text(
-        text.replace(
-            after,
-            "  - {id: after, type: straight, length: 1 m}\n"
-            "  - {id: extra, type: bend, direction: left, radius: 90 mm}\n"
-            "  - {id: beyond, type: straight, length: 1 m}",
-        ),
-        encoding="utf-8",
-    )
+    truth = variant(BEND_RIGHT, AFTER, EXTRA_BEND, tmp_path)
     plan = pirate_bt.plan_route(BEND_RIGHT.with_suffix(".route"))
     result = pirate_bt.simulate_mission(plan, truth=truth)
     assert not result.succeeded
@@ -74,18 +77,14 @@ def test_an_unmapped_turn_after_a_fixed_one_is_named_where_it_blocked(tmp_path: 
 
 
 def test_a_mission_that_re_planned_accounts_for_the_whole_run(tmp_path: Path) -> None:
-    text = BEND_RIGHT.read_text(encoding="utf-8")
-    after = "  - {id: after, type: straight, length: 2 m}"
-    truth = tmp_path / "extra-tee.yaml"
-    truth.write_text(
-        text.replace(
-            after,
-            "  - {id: after, type: straight, length: 0.8 m}\n"
-            "  - id: x\n    type: tee\n    branch:\n      direction: right\n"
-            "      segments:\n        - {id: xb, type: straight, length: 1 m}\n"
-            "  - {id: after2, type: straight, length: 1.1 m}",
-        ),
-        encoding="utf-8",
+    truth = variant(
+        BEND_RIGHT,
+        AFTER,
+        "  - {id: after, type: straight, length: 0.8 m}\n"
+        "  - id: x\n    type: tee\n    branch:\n      direction: right\n"
+        "      segments:\n        - {id: xb, type: straight, length: 1 m}\n"
+        "  - {id: after2, type: straight, length: 1.1 m}",
+        tmp_path,
     )
     plan = pirate_bt.plan_route(BEND_RIGHT.with_suffix(".route"))
     result = pirate_bt.simulate_mission(plan, truth=truth)
@@ -102,13 +101,7 @@ T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
 
 
 def test_a_line_that_ends_early_after_a_straight_tee_is_no_success(tmp_path: Path) -> None:
-    text = T_JOINT.read_text(encoding="utf-8")
-    after = "  - {id: after, type: straight, length: 2 m}"
-    assert after in text
-    truth = tmp_path / "short.yaml"
-    truth.write_text(
-        text.replace(after, "  - {id: after, type: straight, length: 0.5 m}"), encoding="utf-8"
-    )
+    truth = variant(T_JOINT, AFTER, AFTER.replace("2 m", "0.5 m"), tmp_path)
     plan = pirate_bt.plan_route(T_JOINT.with_name("t-joint-straight.route"))
     result = pirate_bt.simulate_mission(plan, truth=truth)
     # was "mission completed": the tee passed straight through, half a metre behind,
@@ -119,18 +112,7 @@ def test_a_line_that_ends_early_after_a_straight_tee_is_no_success(tmp_path: Pat
 
 
 def test_a_navigation_step_knows_the_turn_fixed_on_in_the_step_before(tmp_path: Path) -> None:
-    text = BEND_RIGHT.read_text(encoding="utf-8")
-    after = "  - {id: after, type: straight, length: 2 m}"
-    truth = tmp_path / "extra-bend.yaml"
-    truth.write_text(
-        text.replace(
-            after,
-            "  - {id: after, type: straight, length: 1 m}\n"
-            "  - {id: extra, type: bend, direction: left, radius: 90 mm}\n"
-            "  - {id: beyond, type: straight, length: 1 m}",
-        ),
-        encoding="utf-8",
-    )
+    truth = variant(BEND_RIGHT, AFTER, EXTRA_BEND, tmp_path)
     route = BEND_RIGHT.with_suffix(".route")
     result = pirate_bt.navigate("route", map="bend-right", sim=truth, params={"route": route})
     # was "navigator 'route' is done after 3 steps": each step is a mission of its own,

@@ -35,7 +35,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import RunResult
 from pirate_bt.clock import SimClock
-from pirate_bt.task.outcome import END_OF_RUN, explain_run
+from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -45,7 +45,6 @@ if TYPE_CHECKING:
 __all__ = [
     "Observer",
     "as_loaded",
-    "link_cause",
     "load_tree",
     "needs_robot",
     "run_on",
@@ -301,16 +300,6 @@ def run_on(
         loop=loop,
         coverage=coverage.coverage(),
     )
-
-
-def link_cause(loop: Any, supervisor: Any) -> BaseException | None:
-    """The link error a failed run ended on, when the supervisor's first cause was one
-    (the link lost or silent: the robot was stopped by the supervisor, no behaviour
-    raised), so that the run exits as a link error (3), as DESIGN.md says."""
-    if loop.succeeded or supervisor is None:
-        return None
-    error: BaseException | None = getattr(supervisor, "safe_state_error", None)
-    return error
 
 
 def check_run_options(

@@ -235,7 +235,7 @@ class Drive(Primitive):
     def start(self) -> None:
         p: DriveParams = self.params  # type: ignore[assignment]
         self._distance_m = p.distance
-        self._wheel_window_s: float | None = None  # for odometry, from the robot
+        self._wheel_window_s = wheel_fresh_window_s(self.robot)  # odometry's freshness
         self._bad_distance: str | None = None
         self.sensed: str | None = None
         """What ended the drive early (``blocked``, ``front_opening``), if anything."""
@@ -449,10 +449,7 @@ class Drive(Primitive):
         now = self.now()
         dt = max(now - self._last_s, 0.0)
         self._last_s = now
-        window = self._wheel_window_s
-        if window is None:
-            window = self._wheel_window_s = wheel_fresh_window_s(self.robot)
-        speed = state.mean_drive_velocity_mps(state.stamp_s - window)
+        speed = state.mean_drive_velocity_mps(state.stamp_s - self._wheel_window_s)
         self._odometry_m += speed * dt
         travelled = abs(self._odometry_m)
         velocity = self._velocity()

@@ -40,7 +40,7 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult, StopReason
 from pirate_bt.safety.tally import Counters, VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
-from pirate_bt.task.outcome import PabOutcome, explain_run, map_cause, pab_outcomes
+from pirate_bt.task.outcome import PabOutcome, explain_run, link_cause, map_cause, pab_outcomes
 from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
@@ -465,11 +465,8 @@ def run_mission(
                 )
     finally:
         tally.detach()
-    link_error = getattr(supervisor, "safe_state_error", None)
-    if not result.succeeded and result.error is None and link_error is not None:
-        # The supervisor stopped the robot because the link failed (no behaviour
-        # raised): the run ends on that link error, and exits as one (code 3).
-        result = replace(result, error=link_error)
+    if result.error is None and (link_error := link_cause(result, supervisor)) is not None:
+        result = replace(result, error=link_error)  # exits as a link error (code 3)
     localiser.update(supervisor.state())
     end = clock.now() - start_s
     outcomes = pab_outcomes(

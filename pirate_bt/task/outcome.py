@@ -34,7 +34,7 @@ from pirate_bt.runner import RunResult, StopReason
 from pirate_bt.safety.tally import SafeStateEntry
 from pirate_bt.task.fixes import roll_name
 
-__all__ = ["END_OF_RUN", "PabOutcome", "explain_run", "map_cause", "pab_outcomes"]
+__all__ = ["END_OF_RUN", "PabOutcome", "explain_run", "link_cause", "map_cause", "pab_outcomes"]
 
 END_OF_RUN = "tree run ended without success"
 """The safe-state reason a runner gives when nothing gave one before it."""
@@ -96,6 +96,16 @@ def _tree_stop(root: py_trees.behaviour.Behaviour, safe: SafeStateEntry | None) 
     from pirate_bt.behaviours.primitives import SafeState
 
     return isinstance(_find(root, safe.node), SafeState)
+
+
+def link_cause(loop: Any, supervisor: Any) -> BaseException | None:
+    """The link error a failed run ended on, when the supervisor's first cause was one
+    (the link lost or silent: the robot was stopped by the supervisor, no behaviour
+    raised), so that the run exits as a link error (3), as DESIGN.md says."""
+    if loop.succeeded or supervisor is None:
+        return None
+    error: BaseException | None = getattr(supervisor, "safe_state_error", None)
+    return error
 
 
 def explain_run(

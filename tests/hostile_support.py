@@ -1,0 +1,42 @@
+"""What the hostile-argument tests share: a refusal in one short line, and no hang."""
+
+from __future__ import annotations
+
+import re
+import signal
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+from pirate_bt.errors import InputError, PirateError
+
+
+def refused(call: Callable[[], Any], *words: str, kind: type[PirateError] = InputError) -> str:
+    """``call()`` raises ``kind`` with one short line holding every word; it is returned."""
+    with pytest.raises(kind) as caught:
+        call()
+    text = str(caught.value)
+    assert "\n" not in text, text
+    # the length of what the message adds, whatever the length of pytest's temporary
+    # folder in it (longer under xdist: .../pytest-386/popen-gw1/...)
+    assert len(re.sub(r"\S*pytest-of-[^/\s]+/\S+", "<tmp>", text)) < 400, text
+    for word in words:
+        assert word in text, (word, text)
+    return text
+
+
+def no_hang(seconds: int = 20) -> Iterator[None]:
+    """For an autouse fixture: a refusal that hangs instead fails the test after
+    ``seconds`` (the hang was the bug)."""
+
+    def fail(*_: Any) -> None:
+        raise TimeoutError("hung: the argument was not refused")
+
+    previous = signal.signal(signal.SIGALRM, fail)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
