@@ -435,12 +435,17 @@ def test_a_mission_with_groot2_answers_bt_cpp_s_client_as_bt_cpp_would(
                     # over in half a second on a quiet machine is still seen often
                     stop.wait(0.02)
 
+            pollers: list[threading.Thread] = []
+
             def observe(runner: Any, _values: Any) -> None:
                 sources.append(runner._loaded.source)
-                threading.Thread(target=poll, daemon=True).start()
+                pollers.append(threading.Thread(target=poll, daemon=True))
+                pollers[-1].start()
 
             result = pirate_bt.simulate_mission("straight.route", groot2=server, observe=observe)
             stop.set()
+            for poller in pollers:  # one connection: its last answer is read before ours
+                poller.join(10)
             assert result.succeeded, result.why
             ours_tree = ET.fromstring(client.body("ours", "T")[0])
             board = client.body("ours", "B", ";01 straight 1 m (line 4)")[0]
