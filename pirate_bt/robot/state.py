@@ -26,7 +26,14 @@ from pirate_bt.robot.description import (
     SensorKind,
 )
 
-__all__ = ["Reading", "RobotState", "StateBuilder", "wheel_fresh_window_s"]
+__all__ = [
+    "WHEEL_AGREEMENT_FRACTION",
+    "WHEEL_AGREEMENT_MPS",
+    "Reading",
+    "RobotState",
+    "StateBuilder",
+    "wheel_fresh_window_s",
+]
 
 _EMPTY: Mapping[str, float] = MappingProxyType({})
 
@@ -87,13 +94,21 @@ class RobotState:
     def mean_drive_velocity_mps(self, fresh_since_s: float | None = None) -> float:
         """Mean measured wheel speed over the drive motors (0 when none reported).
 
-        With ``fresh_since_s``, only the wheels whose speed was fresh at or after that
-        clock time count (0 when none was): a speed sensor that dropped out keeps its
-        last value, which odometry must not go on counting. Odometry passes the oldest
-        time a reading may be from and still be fresh: ``stamp_s`` less
-        :func:`wheel_fresh_window_s`.
+        With ``fresh_since_s`` (odometry's use), two rules keep a bad wheel sensor out:
+
+        - only the wheels whose speed was fresh at or after that clock time count (0
+          when none was): a speed sensor that dropped out keeps its last value, which
+          odometry must not go on counting. Odometry passes the oldest time a reading
+          may be from and still be fresh: ``stamp_s`` less :func:`wheel_fresh_window_s`.
+        - of three or more fresh wheels, one that disagrees with the others' median by
+          more than :data:`WHEEL_AGREEMENT_MPS` (or :data:`WHEEL_AGREEMENT_FRACTION` of
+          the median, if more) is left out, when the wheels that agree are a majority:
+          every drive motor is commanded the same speed, so a sensor stuck at a value it
+          keeps reporting fresh, or a stalled wheel, is the odd one out. With no
+          majority (two wheels, or two groups of equal size) every fresh wheel counts.
         """
         speeds = self.drive_velocity_mps
+        values = list(speeds.values())
         if fresh_since_s is not None:
             readings = self.readings
             fresh = [
@@ -101,10 +116,30 @@ class RobotState:
                 for motor, v in speeds.items()
                 if (r := readings.get(f"{motor}.velocity")) is None or r.stamp_s >= fresh_since_s
             ]
-            if len(fresh) != len(speeds):
-                return sum(fresh) / len(fresh) if fresh else 0.0
-        values = list(speeds.values())
+            if len(fresh) != len(values):
+                values = fresh
+            if len(values) >= 3 and max(values) - min(values) > WHEEL_AGREEMENT_MPS:
+                values = _agreeing(values)
         return sum(values) / len(values) if values else 0.0
+
+
+WHEEL_AGREEMENT_MPS = 0.01
+"""How far (m/s) a wheel's speed may be from the other wheels' median and still count
+for odometry (:meth:`RobotState.mean_drive_velocity_mps`)."""
+
+WHEEL_AGREEMENT_FRACTION = 0.25
+"""The same, as a fraction of the median's magnitude, where that is larger."""
+
+
+def _agreeing(values: list[float]) -> list[float]:
+    """The speeds within the agreement band of their median, if they are a majority."""
+    ordered = sorted(values)
+    n = len(ordered)
+    half = n // 2
+    median = ordered[half] if n % 2 else (ordered[half - 1] + ordered[half]) / 2
+    band = max(WHEEL_AGREEMENT_MPS, WHEEL_AGREEMENT_FRACTION * abs(median))
+    kept = [v for v in values if abs(v - median) <= band]
+    return kept if 2 * len(kept) > n else values
 
 
 def wheel_fresh_window_s(robot: RobotDescription) -> float:

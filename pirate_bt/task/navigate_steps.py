@@ -19,6 +19,7 @@ import py_trees
 from pirate_bt.clock import Clock
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.state import wheel_fresh_window_s
 from pirate_bt.runner import Runner
 from pirate_bt.runner import RunResult as TreeRun
 from pirate_bt.safety.tally import VerdictTally
@@ -188,6 +189,7 @@ def run_blind(
         safe_state=lambda: supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN),
     )
     odometry = [belief_m, stamp_s]  # belief, last stamp
+    window_s = wheel_fresh_window_s(robot)  # odometry counts fresh, agreeing wheels
 
     def before(_info: Any) -> None:
         supervisor.tick()
@@ -197,7 +199,8 @@ def run_blind(
         if state is None:
             return
         if odometry[1] == odometry[1]:  # not nan: a previous stamp
-            odometry[0] += state.mean_drive_velocity_mps() * max(0.0, state.stamp_s - odometry[1])
+            speed = state.mean_drive_velocity_mps(state.stamp_s - window_s)
+            odometry[0] += speed * max(0.0, state.stamp_s - odometry[1])
         odometry[1] = state.stamp_s
 
     runner.add_pre_tick(before)
