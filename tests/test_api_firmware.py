@@ -22,6 +22,10 @@ def test_a_firmware_target_names_its_network() -> None:
     assert parse_target("firmware:bend-right") == ("firmware", "bend-right")
     assert parse_target("firmware") == ("firmware", "straight")
     assert parse_target("firmware:") == ("firmware", "straight")
+    # written as a URL, the same targets
+    assert parse_target("firmware://bend-right") == ("firmware", "bend-right")
+    assert parse_target("sim://lab") == ("sim", "lab")
+    assert parse_target("sim://") == ("sim", "straight")
 
 
 def test_firmware_is_refused_for_a_real_port() -> None:

@@ -249,7 +249,8 @@ def connect(
     """Open a supervised robot: the simulator or a real PIRATEbay bridge.
 
     Args:
-        target: ``"sim"``, ``"sim:NETWORK"``, ``"firmware:NETWORK"``, a network file
+        target: ``"sim"``, ``"sim:NETWORK"``, ``"firmware:NETWORK"`` (``sim://NETWORK``
+            is the same), a network file
             or ``Network``, or a serial port / pyserial URL (see the module docstring).
         robot: The robot description: a loaded one, a file, or ``None`` for the
             bundled ``hardware/pirate.yaml``.

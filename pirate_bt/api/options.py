@@ -382,14 +382,12 @@ def parse_target(target: Any) -> tuple[str, Any]:
         raise InputError(
             f"connect: a target of {len(text)} characters (or with a NUL) is no network or port"
         )
-    if text == "sim":
-        return "sim", DEFAULT_NETWORK
-    if text.startswith("sim:"):
-        return "sim", text[4:] or DEFAULT_NETWORK
-    if text == "firmware":
-        return "firmware", DEFAULT_NETWORK
-    if text.startswith("firmware:"):
-        return "firmware", text[9:] or DEFAULT_NETWORK
+    for kind in ("sim", "firmware"):
+        if text == kind:
+            return kind, DEFAULT_NETWORK
+        if text.startswith(f"{kind}:"):
+            # "sim://lab", written as a URL, is "sim:lab"
+            return kind, text[len(kind) + 1 :].removeprefix("//") or DEFAULT_NETWORK
     if _PORT.match(text):
         return "port", text
     if text.endswith((".yaml", ".yml")) or Path(text).is_file():
