@@ -58,13 +58,15 @@ def test_a_time_limit_names_the_node_still_running() -> None:
 
 
 def test_the_supervisor_stopping_first_is_the_cause() -> None:
-    # the link falls silent: the supervisor stops on stale data; what the tree did after
+    # the link falls silent: the supervisor stops on the link's silence (its readings
+    # stale, nothing heard since); what the tree did after
     # (commands refused in the safe state) is a consequence, not the cause
     result = pirate_bt.simulate_tree(
         "straight", params={"distance": "2 m"}, faults="link_loss@3s+3s"
     )
     assert not result.succeeded and result.safe_state
-    assert result.why.startswith("stale data:"), result.why
+    assert result.why.startswith("link_silent: nothing heard from the bridge"), result.why
+    assert result.exit_code == 3  # a link error
 
 
 def test_a_tree_of_generic_leaves_needs_no_robot() -> None:

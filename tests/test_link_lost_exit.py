@@ -45,3 +45,52 @@ def test_a_link_lost_mid_run_is_a_link_error_with_its_cause() -> None:
     assert isinstance(result.error, LinkError)
     assert result.exit_code == 3
     assert result.sim_time_s < 10  # stopped on the loss, not at the time limit
+
+
+def test_a_link_fallen_silent_is_a_link_error_not_stale_sensors() -> None:
+    # nothing in, nothing out: the safety readings go stale after 0.15 s, long before
+    # max_link_silence; the cause is the silence (exit 3), not the sensors (exit 1)
+    result = pirate_bt.simulate_tree(STRAIGHT, params={"distance": "1 m"}, faults="link_loss@3s")
+    assert result.safe_state
+    assert result.why.startswith("link_silent: nothing heard from the bridge for 0.150 s")
+    assert "readings are stale: bend_1_angle" in result.why
+    assert isinstance(result.error, LinkError)
+    assert result.exit_code == 3
+
+
+def test_readings_stale_while_frames_arrive_are_stale_data() -> None:
+    # a board rebooting: the bridge goes on sending frames, its channels not fresh
+    result = pirate_bt.simulate_tree(
+        STRAIGHT, params={"distance": "1 m"}, faults="board_reset:22@5s"
+    )
+    assert result.safe_state
+    assert result.why.startswith("stale data: bend_1_angle")
+    assert result.error is None
+    assert result.exit_code == 1
+
+
+def test_the_command_line_exits_3_on_a_silent_link() -> None:
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pirate_bt",
+            "run",
+            str(STRAIGHT),
+            "--param",
+            "distance=1m",
+            "--sim",
+            "straight",
+            "--faults",
+            "link_loss@3s",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert run.returncode == 3, run.stderr
+    assert "link_silent: nothing heard from the bridge" in run.stdout + run.stderr

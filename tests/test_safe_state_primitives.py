@@ -28,11 +28,11 @@ def test_a_link_lost_while_driving_fails_the_drive_with_the_first_cause(
         )
     assert result.status == "failure"
     assert result.safe_state
-    assert result.why.startswith("stale data: bend_1_angle")  # the first cause, kept
+    assert result.why.startswith("link_silent: nothing heard")  # the first cause, kept
     assert result.ticks < FULL_RUN_TICKS / 2
     failed = [r.getMessage() for r in caplog.records if " failed: " in r.getMessage()]
     assert any(
-        m.startswith("drive straight failed: the robot is in its safe state: stale data")
+        m.startswith("drive straight failed: the robot is in its safe state: link_silent")
         for m in failed
     ), failed
 

@@ -27,13 +27,13 @@ def test_a_failed_run_records_the_stop_after_its_last_tick(tmp_path: Path) -> No
     assert trace.end is not None
     final = trace.end["commands"]
     stops = [c for c in final if c["command"] == "stop()" and c["source"] == "supervisor"]
-    assert stops and stops[0]["detail"].startswith("safe state: stale data: bend_1_angle")
+    assert stops and stops[0]["detail"].startswith("safe state: link_silent: nothing heard")
     assert ["bend_1_drive", "velocity", 0.0] in stops[0]["sent"]  # the drives it stopped
     end = trace_schema()["$defs"]["end"]["properties"]
     assert end["commands"]["items"] == {"$ref": "#/$defs/command"}  # the schema says so
     lines = format_summary(summarise(trace), trace.structure)
     at = lines.index("after the last tick:")
-    assert lines[at + 1].startswith("  stop() [supervisor] pass: safe state: stale data")
+    assert lines[at + 1].startswith("  stop() [supervisor] pass: safe state: link_silent")
 
 
 def test_a_successful_run_has_nothing_after_its_last_tick(tmp_path: Path) -> None:

@@ -286,7 +286,18 @@ class Supervisor(AuthorityMixin, DecisionMixin):
             stale = stale_channels(self.robot, state, self._base_channels, now)
             if stale and not self.in_safe_state:
                 names = ", ".join(f"{n} ({a:.3f} s)" for n, a in stale[:4])
-                self.safe_state(f"stale data: {names}")
+                silent = self.port.health().silent_for(now)
+                if silent >= min(age for _, age in stale) - 1e-9:
+                    # nothing at all came since these readings were fresh: the readings
+                    # went stale because the link fell silent, which is the first cause
+                    # (a link error, exit 3), found before max_link_silence runs out
+                    cause = (
+                        f"{Reason.LINK_SILENT}: nothing heard from the bridge for"
+                        f" {silent:.3f} s, so its readings are stale: {names}"
+                    )
+                    self.safe_state(cause, error=LinkError(cause))
+                else:
+                    self.safe_state(f"stale data: {names}")
 
     # -- commands ------------------------------------------------------------
 
