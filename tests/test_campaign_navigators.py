@@ -10,6 +10,7 @@ import pytest
 from pirate_bt.campaign import campaign_from_data, expand, run_campaign
 from pirate_bt.errors import InputError
 
+T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
 GOAL = {"name": "goal", "navigator": "goal", "network": "t-joint", "params": {"segment": "after"}}
 ROUTE = {
     "name": "route",
@@ -58,12 +59,27 @@ def test_navigators_compared_over_the_same_as_built_variants(tmp_path: Path) -> 
     assert {"navigator", "steps", "distance_m", "as_built"} <= set(header)
 
 
-def test_a_navigators_own_failure_is_a_failed_safe_row_that_names_it() -> None:
+def test_a_goal_the_map_does_not_have_stops_the_campaign_before_any_case() -> None:
+    seen: list[Any] = []
     run = {**GOAL, "params": {"segment": "nowhere"}}
-    result = run_campaign(_spec(runs=[run]), workers=1)
+    with pytest.raises(InputError, match=r"navigator 'goal': the map .* has no segment 'nowhere'"):
+        run_campaign(_spec(runs=[run]), on_record=seen.append)
+    assert seen == []
+
+
+def test_a_navigators_own_failure_is_a_failed_safe_row_that_names_it(tmp_path: Path) -> None:
+    # the map's branch is 2 m, the world's 0.5 m: too short to hold the robot, so the
+    # goal navigator asks again and again for a step that moves nothing
+    text = T_JOINT.read_text(encoding="utf-8")
+    branch = "        - {id: branch, type: straight, length: 2 m}"
+    assert branch in text
+    truth = tmp_path / "short-branch.yaml"
+    truth.write_text(text.replace(branch, branch.replace("2 m", "0.5 m")), encoding="utf-8")
+    run = {**GOAL, "params": {"segment": "branch"}}
+    result = run_campaign(_spec(runs=[run], maps=[str(truth)]), workers=1)
     (row,) = result.rows
-    assert row["outcome"] == "failed-safe"
-    assert "navigator 'goal'" in row["reason"] and "nowhere" in row["reason"]
+    assert row["outcome"] == "failed-safe", row["reason"]
+    assert row["reason"].startswith("navigator 'goal' is stuck"), row["reason"]
 
 
 def test_an_unknown_navigator_stops_the_campaign_before_any_case() -> None:

@@ -329,5 +329,38 @@ def test_the_command_line_runs_a_navigator_and_names_a_bad_one() -> None:
     assert "navigator goal: SUCCESS" in done.stdout
     bad = cli("nope", "--sim", "lab")
     assert bad.returncode == 2 and "no navigator named 'nope'" in bad.stderr
+    # bad input, refused before anything connects (exit 2, as a bad parameter)
     no_map = cli("goal", "--sim", "lab", "--param", "segment=run-b")
-    assert no_map.returncode == 1 and "needs a map" in no_map.stderr
+    assert no_map.returncode == 2 and "needs a map" in no_map.stderr
+    no_segment = cli("goal", "--sim", "lab", "--map", "lab", "--param", "segment=nosuch")
+    assert no_segment.returncode == 2
+    assert "the map 'lab' has no segment 'nosuch' (it has: bend-a," in no_segment.stderr
+
+
+@pytest.mark.parametrize(
+    ("navigator", "params", "map_name", "message"),
+    [
+        ("goal", {"segment": "nosuch"}, "lab", "the map 'lab' has no segment 'nosuch'"),
+        ("goal", {"segment": "bend-a"}, "lab", "'bend-a' is a bend: give a straight segment"),
+        ("goal", {"segment": "run-b"}, None, "the goal navigator needs a map"),
+        ("route", {"route": "lab-service.route"}, None, "lab-service.route:5: 'go to service-1'"),
+        ("route", {"route": "lab-service.route"}, "bend-right", "has no segment 'service-1'"),
+        ("route", {"route": "bend-right.route"}, None, "'inspect to the end' needs a map"),
+    ],
+)
+def test_a_map_the_navigator_cannot_use_is_refused_before_anything_connects(
+    navigator: str,
+    params: dict[str, str],
+    map_name: str | None,
+    message: str,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import pirate_bt.api.navigation as api_navigation
+
+    def no_connection(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("connected before the map was checked")
+
+    monkeypatch.setattr(api_navigation, "connect", no_connection)
+    with pytest.raises(InputError, match=f"navigator '{navigator}': .*") as err:
+        pirate_bt.navigate(navigator, sim="lab", map=map_name, params=params)
+    assert message in str(err.value)

@@ -404,7 +404,14 @@ def check_runs(
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
         key = json.dumps(
-            [case["tree"], case["route"], case.get("navigator"), case["params"]], sort_keys=True
+            [
+                case["tree"],
+                case["route"],
+                case.get("navigator"),
+                case["params"],
+                None if case.get("blind") else case.get("network"),
+            ],
+            sort_keys=True,
         )
         if key in seen:
             continue
@@ -413,9 +420,20 @@ def check_runs(
             from pirate_bt.task.navigators import load_navigator
 
             try:  # made once, as each case will: an unknown name or parameter stops here
-                load_navigator(case["navigator"], case["params"])
+                navigator = load_navigator(case["navigator"], case["params"])
             except InputError as exc:
                 raise InputError(f"run {case.get('run')!r}: {exc}") from None
+            check_map = getattr(navigator, "check_map", None)
+            if callable(check_map):  # as navigate() will: a map it cannot use stops here
+                from pirate_bt.api.missions import load_network
+
+                drawn = None if case.get("blind") else (case.get("network") or "straight")
+                try:
+                    check_map(None if drawn is None else load_network(drawn, base=base))
+                except (ValueError, TypeError) as exc:
+                    raise InputError(
+                        f"run {case.get('run')!r}: navigator {case['navigator']!r}: {exc}"[:300]
+                    ) from None
         elif case["tree"]:
             from pirate_bt.robot.loader import load_robot
             from pirate_bt.treefile.loader import load_tree

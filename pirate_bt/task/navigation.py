@@ -492,7 +492,12 @@ class Decision:
 
 @runtime_checkable
 class Navigator(Protocol):
-    """Planner code that chooses the robot's next step from what it felt."""
+    """Planner code that chooses the robot's next step from what it felt.
+
+    It may also have ``check_map(map: Network | None) -> None``, called by
+    :func:`~pirate_bt.api.navigation.navigate` (and a campaign) before anything
+    connects: a ``ValueError`` it raises refuses a map it cannot use as bad input.
+    """
 
     def next_step(self, obs: Observation) -> Step | None:
         """The next step, or ``None`` when the navigation is done."""

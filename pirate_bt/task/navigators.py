@@ -76,6 +76,27 @@ class RouteNavigator:
         self._goal: GoalNavigator | None = None
         self._next = 0
 
+    def check_map(self, network: Network | None) -> None:
+        """Refuse, before anything moves, a route that this map (or no map) cannot serve.
+
+        Raises:
+            ValueError: ``forward to the end`` or ``go to`` without a map, or a ``go to``
+                segment the map has no straight of that name for (named by its line).
+        """
+        for command in self.route.steps:
+            where = f"{self.route.source}:{command.line}"
+            needs_map = command.kind is StepKind.GOTO or (
+                command.kind in (StepKind.FORWARD, StepKind.INSPECT) and command.distance_m is None
+            )
+            if needs_map and network is None:
+                raise ValueError(f"{where}: {command.text!r} needs a map (--map or map=...)")
+            if command.kind is StepKind.GOTO and network is not None:
+                assert command.segment is not None
+                try:
+                    GoalNavigator(command.segment).check_map(network)
+                except ValueError as exc:
+                    raise ValueError(f"{where}: {exc}") from None
+
     def next_step(self, obs: Observation) -> Step | None:
         if obs.last is not None and obs.last.outcome != "success":
             return None  # the result names the step's cause
@@ -154,12 +175,34 @@ class GoalNavigator:
             raise InputError(f"segment: give a segment's id as text, not {segment!r}")
         self.segment = segment
 
-    def next_step(self, obs: Observation) -> Step | None:
-        network = obs.map
+    def check_map(self, network: Network | None) -> None:
+        """Refuse, before anything moves, a goal that this map (or no map) cannot serve.
+
+        Raises:
+            ValueError: no map, no segment of that name, or one that is not a straight.
+        """
         if network is None:
             raise ValueError("the goal navigator needs a map (--map or map=...)")
-        if self.segment not in network.segment_ids():
-            raise ValueError(f"the map {network.name!r} has no segment {self.segment!r}")
+        ids = network.segment_ids()
+        if self.segment not in ids:
+            known = ", ".join(sorted(ids)[:30]) + (", ..." if len(ids) > 30 else "")
+            raise ValueError(
+                f"the map {network.name!r} has no segment {self.segment!r} (it has: {known})"
+            )
+        kinds = {
+            piece.kind
+            for path in network.paths()
+            for piece in path.pieces
+            if piece.segment == self.segment
+        }
+        if kinds and PieceKind.STRAIGHT not in kinds:
+            kind = sorted(k.value for k in kinds)[0]
+            raise ValueError(f"{self.segment!r} is a {kind}: give a straight segment")
+
+    def next_step(self, obs: Observation) -> Step | None:
+        network = obs.map
+        self.check_map(network)
+        assert network is not None
         if obs.last is not None and obs.last.outcome != "success" and not _map_stop(obs):
             return None
         here = obs.belief.position_m
