@@ -390,3 +390,67 @@ def test_a_nul_in_a_yaml_file_name_is_a_located_error() -> None:
 
     with pytest.raises(ValidationFailed, match="cannot read: a NUL in the file name"):
         load_yaml("a\x00b.yaml")
+
+
+@pytest.mark.parametrize(
+    ("faults", "words"),
+    [
+        (
+            "motor_stall:bend_99_drive@1s",
+            "faults: fault motor_stall: unknown motor 'bend_99_drive'",
+        ),
+        ("sensor_stuck:nope@1s", "faults: fault sensor_stuck: unknown state channel 'nope'"),
+        ("board_reset:99@1s", "faults: fault board_reset: unknown board '99' (boards: 20, 21,"),
+    ],
+)
+def test_a_fault_on_something_the_robot_lacks_is_bad_input_named_faults(
+    faults: str, words: str
+) -> None:
+    # was a ConfigurationError, which `except InputError` missed, not naming the option
+    text = refused(
+        lambda: pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, faults=faults),
+        words,
+    )
+    assert "(motors: camera_tilt," in text or "(channels: " in text or "(boards: " in text
+    from pirate_bt.errors import ConfigurationError
+
+    with pytest.raises(ConfigurationError):  # still one, for callers that caught it
+        pirate_bt.connect("sim:straight", faults=faults)
+
+
+def test_the_task_planners_name_arguments_of_the_wrong_type() -> None:
+    from pirate_bt import task
+
+    route = pirate_bt.load_route("lab.route")
+    lab = pirate_bt.load_network("lab")
+    robot = pirate_bt.load_robot()
+    refused(
+        lambda: task.plan_route(route, "lab", robot),
+        "plan_route: network: give a Network",
+        "pirate_bt.plan_route takes a file",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(
+        lambda: task.plan_route("lab.route", lab, robot),
+        "plan_route: route: give a parsed",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(
+        lambda: task.plan_route(route, lab, "pirate.yaml"),
+        "plan_route: robot: give a",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(
+        lambda: task.plan_goal("lab", "service-2", robot),
+        "plan_goal: network: give a",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(
+        lambda: task.plan_goal(lab, 42, robot),
+        "plan_goal: segment: give a segment's id",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(lambda: task.plan_goal(lab, HUGE, robot), "100000 characters", kind=ArgumentTypeError)
+    # None is the bundled robot, as everywhere in the API
+    assert task.plan_goal(lab, "service-2", None).pabs
+    assert task.plan_route(route, lab, None).pabs == task.plan_route(route, lab, robot).pabs

@@ -309,6 +309,7 @@ def connect(
             )
         connection = _connect_firmware(description, where, start_mode, options)
     elif kind == "sim":
+        _check_fault_targets(sim_faults, description)
         network = _network_for(where)
         clock: Clock = SimClock()
         supervisor = open_supervisor(
@@ -382,6 +383,22 @@ def _connect_firmware(
         description=f"firmware chain in simavr: {name}",
         simulator=simulator,
     )
+
+
+def _check_fault_targets(faults: list[str], robot: Any) -> None:
+    """Refuse a simulator fault whose motor, channel or board the robot lacks, as bad
+    input naming the option (``faults: fault motor_stall: unknown motor ...``).
+
+    Raises:
+        FaultTargetError: the first such fault (an ``InputError``).
+    """
+    from pirate_bt.sim.faults import FaultTargetError, check_fault_target, parse_fault
+
+    for text in faults:
+        try:
+            check_fault_target(parse_fault(text, option="faults"), robot)
+        except FaultTargetError as exc:
+            raise FaultTargetError(f"faults: {exc}") from None
 
 
 def _network_for(where: Any) -> Any:

@@ -153,18 +153,18 @@ def navigate(
         name = builtin_name(navigator) or type(navigator).__name__
     description = load_robot_like(robot)
     map_network = _network(map, "map") if map is not None else None
-    check_map = getattr(navigator, "check_map", None)
-    if callable(check_map):  # a navigator's own check of the map, before anything moves
-        try:
-            check_map(map_network)
-        except (ValueError, TypeError) as exc:
-            raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
     target: Any
     if port is not None:
         target = port
     else:
         world = sim if sim is not None else "straight"
         target = _network(world, "sim")
+    check_map = getattr(navigator, "check_map", None)
+    if callable(check_map):  # a navigator's own check of the map, before anything moves
+        try:
+            check_map(map_network)
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
     with connect(
         target, robot=description, seed=seed, faults=faults, firmware=firmware
     ) as connection:

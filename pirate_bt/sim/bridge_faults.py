@@ -14,12 +14,12 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from pirate_bt.errors import ConfigurationError
 from pirate_bt.link.raw import RawFrameDecoder
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import MotorFunction, RobotDescription
 from pirate_bt.sim.counters import EventKind
+from pirate_bt.sim.faults import check_fault_target
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = ["ActiveFault", "FaultsMixin"]
@@ -79,27 +79,15 @@ class FaultsMixin:
         """Check that a fault's target exists on this robot.
 
         Raises:
-            ConfigurationError: unknown motor, channel or board.
+            FaultTargetError: unknown motor, channel or board (a ``ConfigurationError``).
         """
-        target = fault.target
-        if fault.kind == "motor_stall":
-            if target not in self.model.motor_names():
-                raise ConfigurationError(f"fault {fault.kind}: unknown motor {target!r}")
-        elif fault.kind in ("sensor_dropout", "sensor_stuck"):
-            if target not in self._channel_index:
-                raise ConfigurationError(f"fault {fault.kind}: unknown state channel {target!r}")
-        elif fault.kind == "board_reset" and (
-            target is None
-            or not (target.isascii() and target.isdigit())
-            or int(target) not in self._boards
-        ):
-            raise ConfigurationError(f"fault board_reset: unknown board {target!r}")
+        check_fault_target(fault, self.robot)
 
     def schedule(self, faults: Iterable[FaultSpec]) -> None:
         """Add faults to inject at their simulated times.
 
         Raises:
-            ConfigurationError: a fault names a motor, channel or board the robot lacks.
+            FaultTargetError: a fault names a motor, channel or board the robot lacks.
         """
         for fault in faults:
             self.check_fault(fault)

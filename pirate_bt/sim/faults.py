@@ -20,13 +20,70 @@ added on the host side through the URL (``?faults=...``).
 from __future__ import annotations
 
 import re
-from typing import get_args
+from typing import TYPE_CHECKING, get_args
 
-from pirate_bt.errors import ArgumentTypeError, InputError, UnitError, shown
+from pirate_bt.errors import ArgumentTypeError, ConfigurationError, InputError, UnitError, shown
 from pirate_bt.pipes.model import FaultKind, FaultSpec
 from pirate_bt.units import parse_quantity
 
-__all__ = ["FAULT_KINDS", "MAX_FAULT_TEXT", "format_fault", "parse_fault"]
+if TYPE_CHECKING:
+    from pirate_bt.robot.description import RobotDescription
+
+__all__ = [
+    "FAULT_KINDS",
+    "MAX_FAULT_TEXT",
+    "FaultTargetError",
+    "check_fault_target",
+    "format_fault",
+    "parse_fault",
+]
+
+
+class FaultTargetError(ConfigurationError, InputError):
+    """A fault names a motor, state channel or board the robot does not have.
+
+    A :class:`~pirate_bt.errors.ConfigurationError` (a network file's faults and the
+    robot it runs do not fit together) and an :class:`~pirate_bt.errors.InputError`
+    (a ``faults=`` argument or ``--faults`` option that is bad input); exit code 2.
+    """
+
+
+def _known(names: list[str]) -> str:
+    return ", ".join(names[:12]) + (f", ... ({len(names)} in all)" if len(names) > 12 else "")
+
+
+def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
+    """Check that a fault's target exists on ``robot`` (the rule the simulator applies).
+
+    Raises:
+        FaultTargetError: an unknown motor, state channel or board, with the known ones.
+    """
+    target = fault.target
+    if fault.kind == "motor_stall":
+        motors = [m.name for _, m in robot.motors()]
+        if target not in motors:
+            raise FaultTargetError(
+                f"fault {fault.kind}: unknown motor {target!r} (motors: {_known(motors)})"
+            )
+    elif fault.kind in ("sensor_dropout", "sensor_stuck"):
+        channels = [c.name for c in robot.state_channels()]
+        if target not in channels:
+            raise FaultTargetError(
+                f"fault {fault.kind}: unknown state channel {target!r}"
+                f" (channels: {_known(channels)})"
+            )
+    elif fault.kind == "board_reset":
+        boards = robot.board_ids()
+        if (
+            target is None
+            or not (target.isascii() and target.isdigit())
+            or int(target) not in boards
+        ):
+            raise FaultTargetError(
+                f"fault board_reset: unknown board {target!r}"
+                f" (boards: {_known([str(b) for b in boards])})"
+            )
+
 
 FAULT_KINDS: tuple[str, ...] = get_args(FaultKind)
 

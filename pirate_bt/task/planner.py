@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pirate_bt.errors import LocatedError
+from pirate_bt.errors import ArgumentTypeError, LocatedError, shown
 from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.networks import load_network_for, resolve_network_path
@@ -85,7 +85,7 @@ __all__ = [
 def plan_route(
     route: Route,
     network: Network,
-    robot: RobotDescription,
+    robot: RobotDescription | None,
     contract: PabContract | None = None,
     *,
     start_m: float | None = None,
@@ -95,7 +95,8 @@ def plan_route(
     Args:
         route: The parsed route.
         network: The map.
-        robot: The robot description (its length sets where PABs leave it).
+        robot: The robot description (its length sets where PABs leave it; ``None``:
+            the bundled one).
         contract: Where the PABs expect and leave the robot.
         start_m: Plan from here (front tip on the main path; default: the network's
             start), e.g. from the belief when a mission re-plans.
@@ -105,7 +106,15 @@ def plan_route(
 
     Raises:
         LocatedError: the route does not fit the network, at the route's line.
+        ArgumentTypeError: an argument of the wrong type (files and names are for
+            :func:`pirate_bt.plan_route`, which loads them).
     """
+    if not isinstance(route, Route):
+        raise ArgumentTypeError(
+            f"plan_route: route: give a parsed Route (pirate_bt.load_route), not"
+            f" {shown(route)}; pirate_bt.plan_route takes a file or a bundled name"
+        )
+    robot = _checked("plan_route", network, robot)
     contract = contract or PabContract()
     walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
     if start_m is not None:
@@ -140,18 +149,50 @@ def plan_route(
 def plan_goal(
     network: Network,
     segment: str,
-    robot: RobotDescription,
+    robot: RobotDescription | None = None,
     contract: PabContract | None = None,
 ) -> MissionPlan:
     """Plan the shortest way from the start to a goal segment on the map.
 
+    Args:
+        network: The map.
+        segment: The goal segment's id.
+        robot: The robot description (``None``: the bundled one).
+        contract: Where the PABs expect and leave the robot.
+
     Raises:
         LocatedError: no such segment, or it cannot be reached.
+        ArgumentTypeError: an argument of the wrong type.
     """
     from pirate_bt.task.route import parse_route
 
+    robot = _checked("plan_goal", network, robot)
+    if not isinstance(segment, str) or not segment or len(segment) > 200 or "\n" in segment:
+        raise ArgumentTypeError(
+            f"plan_goal: segment: give a segment's id as text, not {shown(segment)}"
+        )
+
     route = parse_route(f"go to {segment}\n", f"<goal {segment}>", name=f"to {segment}")
     return plan_route(route, network, robot, contract)
+
+
+def _checked(function: str, network: object, robot: object) -> RobotDescription:
+    """The robot description (the bundled one for ``None``), once the types are right."""
+    if not isinstance(network, Network):
+        raise ArgumentTypeError(
+            f"{function}: network: give a Network (pirate_bt.load_network), not"
+            f" {shown(network)}; pirate_bt.plan_route takes a file or a bundled name"
+        )
+    if robot is None:
+        from pirate_bt.robot.loader import load_robot
+
+        return load_robot()
+    if not isinstance(robot, RobotDescription):
+        raise ArgumentTypeError(
+            f"{function}: robot: give a RobotDescription (pirate_bt.load_robot) or None for"
+            f" the bundled one, not {shown(robot)}"
+        )
+    return robot
 
 
 def plan_return(plan: MissionPlan, belief_m: float, felt: list[str]) -> MissionPlan:
