@@ -58,6 +58,13 @@ _EXPORTS: dict[str, str] = {
     "ExploreNavigator": "pirate_bt.task.explore",
     "SurveyIncomplete": "pirate_bt.task.explore",
     "branch_leavable": "pirate_bt.task.explore",
+    # other tools' files: BehaviorTree.CPP XML and logs, MCAP, rosbag2
+    "export_xml": "pirate_bt.interop.btcpp_export",
+    "import_xml": "pirate_bt.interop.btcpp_import_file",
+    "export_btlog": "pirate_bt.interop.btlog",
+    "read_btlog": "pirate_bt.interop.btlog",
+    "export_mcap": "pirate_bt.interop.mcap_trace",
+    "export_rosbag2": "pirate_bt.interop.rosbag2",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",
@@ -128,6 +135,11 @@ __all__ = [
     "attach_trace",
     "branch_leavable",
     "connect",
+    "export_btlog",
+    "export_mcap",
+    "export_rosbag2",
+    "export_xml",
+    "import_xml",
     "load_navigator",
     "load_network",
     "load_robot",
@@ -136,6 +148,7 @@ __all__ = [
     "navigate",
     "navigator_names",
     "plan_route",
+    "read_btlog",
     "read_trace",
     "render_tree",
     "run_campaign",
@@ -187,7 +200,12 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         SafetyError,
         ValidationFailed,
     )
+    from pirate_bt.interop.btcpp_export import export_xml
+    from pirate_bt.interop.btcpp_import_file import import_xml
+    from pirate_bt.interop.btlog import export_btlog, read_btlog
     from pirate_bt.interop.groot2_server import Groot2Server, attach_groot2
+    from pirate_bt.interop.mcap_trace import export_mcap
+    from pirate_bt.interop.rosbag2 import export_rosbag2
     from pirate_bt.render.tree import render_tree
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason

@@ -420,3 +420,19 @@ def test_the_api_reference_documents_every_public_name() -> None:
                   if line.startswith("::: ")}  # fmt: skip
     missing = sorted(set(pirate_bt.__all__) - documented)
     assert not missing, f"docs/api.md has no reference for {missing}"
+
+
+def test_the_file_converters_are_in_pirate_bt_and_pirate_bt_interop() -> None:
+    # api.md listed them under pirate_bt.interop, which exported nothing
+    done = _python("""
+        import sys, pirate_bt, pirate_bt.interop as interop
+        names = ["export_xml", "import_xml", "export_btlog", "read_btlog", "export_mcap",
+                 "export_rosbag2"]
+        assert sorted(interop.__all__) == sorted(names)
+        for name in names:
+            assert getattr(interop, name) is getattr(pirate_bt, name), name
+        from pirate_bt.interop import export_xml  # noqa: F401
+        print("ok")
+    """)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"
