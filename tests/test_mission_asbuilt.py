@@ -199,6 +199,10 @@ def test_missing_tee_stops_safe_with_a_report_and_returns_to_start() -> None:
     assert back is not None and back.succeeded, result.replans
     assert back.truth_m == pytest.approx(result.plan.start_m, abs=0.1)
     assert back.sim["violations"] == 0
+    # the mission's own result says where it stopped; its notes end with the way back
+    assert result.truth_m is not None and result.truth_m > 2.0
+    assert result.replans[-2].startswith("returning to the start: ")
+    assert result.replans[-1].startswith("back at the start (believed at "), result.replans
 
 
 def test_missing_bend_stops_safe_with_a_report(tmp_path: Path) -> None:

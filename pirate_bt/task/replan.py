@@ -227,7 +227,7 @@ def return_to_start(
         return None
     supervisor.resume()  # the operator's decision: leave the safe state and come back
     result.replans.append(f"returning to the start: {back.distance_m:.2f} m back")
-    return run_mission(
+    returned = run_mission(
         back,
         robot,
         supervisor,
@@ -236,3 +236,13 @@ def return_to_start(
         counters=sim.counters,
         observe=observe,
     )
+    # the mission's own fields stay the mission's (where it stopped, and why); how the
+    # way back went is said here too, so a report and the command line show it
+    where = f"believed at {returned.belief_m:.2f} m" + (
+        f", truly {returned.truth_m:.2f} m" if returned.truth_m is not None else ""
+    )
+    if returned.succeeded:
+        result.replans.append(f"back at the start ({where})")
+    else:
+        result.replans.append(f"the way back failed: {returned.why} ({where})")
+    return returned
