@@ -30,3 +30,16 @@ def test_a_goal_it_cannot_reach_stops_the_navigator_not_its_step_limit(tmp_path:
     assert result.steps <= 2 + MAX_IDLE_REPEATS  # was 500: the step limit
     assert result.safe_state
     assert result.exit_code == 1
+
+
+def test_a_navigator_stuck_after_a_map_disagreement_keeps_that_first_cause() -> None:
+    # the map bends right, the pipe left: the bend step fails as a map disagreement,
+    # the goal navigator goes on from the belief and asks for a straight that goes
+    # nowhere; the stop said only "stuck", the disagreement behind it was lost
+    result = pirate_bt.navigate(
+        "goal", sim="bend-left", map="bend-right", params={"segment": "after"}
+    )
+    assert not result.succeeded and result.safe_state
+    assert result.why.startswith("navigator 'goal' is stuck: it asked for Step('straight'")
+    assert "; it went on after a map disagreement: map disagreement at 2.00 m" in result.why
+    assert "bend 'bend'" in result.why

@@ -318,6 +318,7 @@ def run_navigation(
     fixed_feature: str | None = None  # the feature of the last fix
     failed_in_a_row = 0
     idle_repeats = 0  # the same step again, after it moved the robot nowhere
+    disagreed: str | None = None  # the last map disagreement the navigation went on from
     robot_length = robot_length_m(robot)
     behind = _behind_front_tip(robot)
     try:
@@ -479,6 +480,8 @@ def run_navigation(
                     "why": last.why,
                 }
             )
+            if ran.disagreement and not ran.succeeded:
+                disagreed = ran.why
             failed_in_a_row = 0 if ran.succeeded else failed_in_a_row + 1
             if not ran.succeeded and failed_in_a_row >= MAX_FAILED_IN_A_ROW:
                 result.why = (
@@ -495,6 +498,7 @@ def run_navigation(
                     f"navigator {name!r} is stuck: it asked for {step!r} again"
                     f" {idle_repeats} times in a row, and the robot did not move"
                     f" (believed at {belief:.2f} m)"
+                    + (f"; it went on after a map disagreement: {disagreed}" if disagreed else "")
                 )
                 supervisor.safe_state(result.why)
                 break
