@@ -324,8 +324,28 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         where = SourceLocation(file, mark.line + 1, mark.column + 1) if mark is not None else loc
         problem = exc.problem or exc.context or "invalid YAML"
         raise ValidationFailed([LocatedError(f"YAML syntax error: {problem}", where)]) from None
+    except yaml.reader.ReaderError as exc:
+        # a character YAML does not allow (a control character): PyYAML has no mark for
+        # it, and a message over two lines. The reader stops at the first one, so that
+        # character's first place in the text is where it is (libyaml counts its
+        # position in bytes, PyYAML in characters).
+        code = exc.character if isinstance(exc.character, int) else None
+        at = text.find(chr(code)) if code is not None and 0 <= code < 0x110000 else -1
+        before = text[: at if at >= 0 else max(0, min(exc.position, len(text)))]
+        line = before.count("\n") + 1
+        column = len(before) - (before.rfind("\n") + 1) + 1
+        what = f"U+{code:04X}" if code is not None else "a character"
+        raise ValidationFailed(
+            [
+                LocatedError(
+                    f"YAML syntax error: {what} (a control character) is not allowed in YAML",
+                    SourceLocation(file, line, column),
+                )
+            ]
+        ) from None
     except yaml.YAMLError as exc:  # pragma: no cover - PyYAML marks nearly everything
-        raise ValidationFailed([LocatedError(f"YAML error: {exc}", loc)]) from None
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ValidationFailed([LocatedError(f"YAML error: {first}", loc)]) from None
     finally:
         loader.dispose()
     return YamlDocument(data, locator)

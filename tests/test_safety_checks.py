@@ -547,3 +547,29 @@ def test_a_crossing_holds_from_the_smallest_contact_angle_and_either_way(port: F
     rear(port, (WALL + 0.4, -WALL), (0.0, HOLD_N * 1.5))
     state = port.state()
     assert state is not None and not pressing_over_opening(ROBOT, state, Half.REAR)
+
+
+def test_a_clamp_of_an_unclamped_half_is_no_release_even_across(port: FakePort) -> None:
+    # both halves free in a steep pipe (a fault: the robot is sliding); the rear joints
+    # steered the other way: its clamp swings them across, which counted as a release,
+    # so the clamp that would stop the fall was refused
+    port.set_pitch(math.radians(-90))
+    state = port.state()
+    assert state is not None
+    from pirate_bt.safety.checks import Intent, check_other_half_clamped, loosened
+
+    free = {Half.FRONT: ClampState.UNCLAMPED, Half.REAR: ClampState.UNCLAMPED}
+    ctx = CheckContext(ROBOT, state, 0.0, free)
+    clamp = Intent(
+        Clamp(Half.REAR, 0.7), (), clamps=frozenset({Half.REAR}), releases=frozenset({Half.REAR})
+    )
+    assert loosened(ctx, clamp) == frozenset()
+    assert check_steep_pipe(ctx, clamp) is None
+    assert check_other_half_clamped(ctx, clamp) is None
+    # a bend of a free half is still a release: it needs the other half clamped
+    bend = Intent(Unclamp(Half.REAR), (), releases=frozenset({Half.REAR}))
+    assert check_other_half_clamped(ctx, bend) is not None
+    # and a half that holds still lets go when its clamp swings across
+    held = CheckContext(ROBOT, state, 0.0, {**free, Half.REAR: ClampState.CLAMPED})
+    assert loosened(held, clamp) == frozenset({Half.REAR})
+    assert check_steep_pipe(held, clamp) is not None

@@ -411,12 +411,21 @@ def test_a_clamp_with_no_state_yet_is_refused_not_an_error(clock: SimClock) -> N
     assert sup.command(Clamp(Half.REAR, 0.5)).reason is Reason.NO_STATE
 
 
-def test_a_clamp_across_from_the_free_side_needs_the_other_half(
+def test_a_clamp_across_from_the_holding_side_needs_the_other_half(
     sup: Supervisor, port: FakePort
 ) -> None:
-    """Rear joints bent the other way: a clamp swings them off the wall first."""
-    port.set(bend_3_angle=-1.0, bend_4_angle=-1.0)
+    """Rear joints holding on the other side: a clamp swings them off the wall first."""
+    port.clamp_half(Half.REAR)
+    wall = -port.values["bend_3_angle"]
+    port.set(bend_3_angle=wall, bend_4_angle=wall)  # at the wall, pressing, bent the other way
+    assert sup.half_states()[Half.REAR].value == "clamped"
     assert sup.check(Clamp(Half.REAR, 0.5)).reason is Reason.OTHER_HALF_NOT_CLAMPED
+    # bent the other way but free (off the wall, no force): there is nothing to let go
+    # of, so the clamp is no release (it is the clamp that stops a robot sliding in a
+    # steep pipe with no half clamped)
+    port.free_half(Half.REAR, angle_rad=-1.0)
+    assert sup.half_states()[Half.REAR].value == "unclamped"
+    assert sup.check(Clamp(Half.REAR, 0.5)).ok
     port.set(bend_3_angle=0.0, bend_4_angle=0.0)
     port.free_half(Half.FRONT, angle_rad=-0.2)  # the other half's joints do not matter
     assert sup.check(Clamp(Half.REAR, 0.5)).ok

@@ -40,3 +40,25 @@ def test_bad_text_is_located(text: str, where: str, message: str) -> None:
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(ValidationFailed, match="no such file"):
         load_yaml(tmp_path / "nope.yaml")
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "code"),
+    [
+        ('name: t\nroot: {type: wait, name: "w\x1b", duration: 1 s}\n', "f.yaml:2:28", "U+001B"),
+        # libyaml counts the position in bytes: the column is the character's
+        ('name: tüü\nroot: {name: "wé\x07"}\n', "f.yaml:2:17", "U+0007"),
+        ("a: 1\x7f\n", "f.yaml:1:5", "U+007F"),
+    ],
+)
+def test_a_control_character_is_one_line_at_its_place(text: str, where: str, code: str) -> None:
+    # was "f.yaml:1:1: YAML error: unacceptable character ..." and a second line naming
+    # PyYAML's "<unicode string>"
+    with pytest.raises(ValidationFailed) as err:
+        load_yaml_text(text, "f.yaml")
+    message = str(err.value)
+    assert "\n" not in message
+    assert (
+        message
+        == f"{where}: YAML syntax error: {code} (a control character) is not allowed in YAML"
+    )

@@ -195,7 +195,7 @@ def supervised_runner(
     def safe_state() -> None:
         # keep the cause a PAB or the supervisor gave first
         assert supervisor is not None
-        supervisor.safe_state(supervisor.safe_state_reason or END_OF_RUN)
+        supervisor.end_safe(supervisor.safe_state_reason or END_OF_RUN)
 
     runner = Runner(
         built,

@@ -291,6 +291,21 @@ def stale_channels(
 # -- the invariants ----------------------------------------------------------
 
 
+def loosened(ctx: CheckContext, intent: Intent) -> frozenset[Half]:
+    """The halves whose hold ``intent`` loosens.
+
+    A clamp that swings a half's joints across to the other side lets go on the way
+    (:attr:`Intent.releases`), but a half known to be unclamped has nothing to let go
+    of: clamping it is no release. Without that, the clamp that would stop a robot
+    sliding in a steep pipe with no half clamped was refused as a release.
+    """
+    return frozenset(
+        h
+        for h in intent.releases
+        if not (h in intent.clamps and ctx.halves.get(h) is ClampState.UNCLAMPED)
+    )
+
+
 def check_steep_pipe(ctx: CheckContext, intent: Intent) -> Problem | None:
     """Never both halves unclamped in a pipe steeper than ``motion.max_unclamped_slope``."""
     if not intent.moves or not is_steep(ctx.robot, ctx.state):
@@ -299,10 +314,11 @@ def check_steep_pipe(ctx: CheckContext, intent: Intent) -> Problem | None:
     pitch = ctx.state.imu_rad.get("pitch")
     where = "no pitch reading" if pitch is None else f"pitch {math.degrees(pitch):.1f}°"
     limit = math.degrees(ctx.robot.motion.max_unclamped_slope)
-    if intent.releases and not (clamped - intent.releases):
+    releases = loosened(ctx, intent)
+    if releases and not (clamped - releases):
         return Problem(
             Reason.STEEP_PIPE_UNCLAMPED,
-            f"releasing the {'/'.join(sorted(intent.releases))} half would leave no half"
+            f"releasing the {'/'.join(sorted(releases))} half would leave no half"
             f" clamped in a steep pipe ({where} > {limit:.1f}°)",
         )
     if not clamped and not intent.clamps:
@@ -315,7 +331,7 @@ def check_steep_pipe(ctx: CheckContext, intent: Intent) -> Problem | None:
 
 def check_other_half_clamped(ctx: CheckContext, intent: Intent) -> Problem | None:
     """A half may unclamp or bend only while the other half is clamped."""
-    for half in sorted(intent.releases):
+    for half in sorted(loosened(ctx, intent)):
         other = ctx.halves.get(half.other, ClampState.UNKNOWN)
         if other is not ClampState.CLAMPED:
             return Problem(

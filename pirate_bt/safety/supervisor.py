@@ -33,6 +33,8 @@ The class is split along its seams, one mixin per module:
   drive stop.
 - :mod:`pirate_bt.safety.supervisor_authority` (:class:`AuthorityMixin`): the
   safe state, the e-stop, modes, operator actions and step confirmations.
+- :mod:`pirate_bt.safety.supervisor_hold` (:class:`HoldMixin`): the protective
+  hold, which clamps on its own when nothing holds the robot in a steep pipe.
 
 This module keeps :class:`Supervisor` itself: its construction, what the layers
 above read, the tick, the command entry points, the simulator and closing.
@@ -83,6 +85,7 @@ from pirate_bt.safety.operator import (
 )
 from pirate_bt.safety.supervisor_authority import AuthorityMixin
 from pirate_bt.safety.supervisor_decide import DecisionMixin
+from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
 from pirate_bt.safety.verdict import (
     Reason,
     Source,
@@ -99,7 +102,7 @@ __all__ = ["Supervisor"]
 log = logging.getLogger("pirate_bt.safety")
 
 
-class Supervisor(AuthorityMixin, DecisionMixin):
+class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
     """Checks every command against limits, invariants and authority; the only sender.
 
     Args:
@@ -143,6 +146,11 @@ class Supervisor(AuthorityMixin, DecisionMixin):
         self._lock = threading.RLock()
         self._expander = Expander(self.robot)
         self._base_channels = self._expander.base_channels
+        self._holding: set[Half] = set()  # halves clamped by the protective hold
+        self._hold_refused: set[Half] = set()  # a protective clamp refused (logged once)
+        self._ever_held = False  # a half has held the robot since the start
+        self._hold_torque = hold_torque(self.robot)
+        self._half_channels = half_channels(self.robot)
         self._closed = False
         self.simulator: Simulator | None = None
         """The in-process simulator behind the port, when there is one."""
@@ -256,7 +264,8 @@ class Supervisor(AuthorityMixin, DecisionMixin):
         Operator actions due now are applied first, so a takeover or hand-back takes
         effect before the tree is next ticked. Then the link is polled; link loss,
         a silent link or stale safety readings put the robot in its safe state, and
-        an e-stop reported by the bridge latches ``ESTOP``.
+        an e-stop reported by the bridge latches ``ESTOP``. Last, the protective hold:
+        in a steep pipe with no half holding, the halves that do not hold are clamped.
         """
         with self._lock:
             self._tick += 1
@@ -298,6 +307,7 @@ class Supervisor(AuthorityMixin, DecisionMixin):
                     self.safe_state(cause, error=LinkError(cause))
                 else:
                     self.safe_state(f"stale data: {names}")
+            self._hold_in_steep_pipe(state, now)
 
     # -- commands ------------------------------------------------------------
 

@@ -207,7 +207,7 @@ def _run_case(
                 clock=clock,
                 period_s=0.05,
                 max_time_s=300.0,
-                safe_state=lambda: supervisor.safe_state("calibration run failed"),
+                safe_state=lambda: supervisor.end_safe("calibration run failed"),
             )
             runner.add_pre_tick(lambda _info: supervisor.tick())
             result = runner.run()

@@ -364,7 +364,7 @@ def run_mission(
         period_s=period_s,
         max_time_s=limit,
         realtime=realtime,
-        safe_state=lambda: supervisor.safe_state(reason_box[0]),
+        safe_state=lambda: supervisor.end_safe(reason_box[0]),
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)

@@ -1,0 +1,203 @@
+"""The supervisor's protective hold: no robot left falling in a steep pipe.
+
+:class:`HoldMixin` is the side of :class:`~pirate_bt.safety.supervisor.Supervisor`
+that acts on its own when the readings say the robot is held by nothing in a pipe
+steeper than ``motion.max_unclamped_slope``. The checks never let a command cause
+that (``check_steep_pipe``), so it comes from a fault: a bend joint that stalls on
+the half that holds (its wheels stop pressing), a board that loses power, a half
+that reached a tee's opening while the link was slow. Every tick, once a half has
+held the robot, when the IMU's pitch is steep and no half is clamped by fresh
+readings, the supervisor enters its safe state (the drives stop; the first cause is
+kept) and clamps every half that is not holding, at :data:`HOLD_TORQUE_FRACTION` of
+the bend joints' torque limit, sent to the link directly (a board that cannot be
+reached is tried again next tick) but only where the invariants allow it (the front
+half does not clamp with the front module in the way). Without a pitch reading it
+does nothing (it cannot tell a steep pipe); nor for a robot set down free, before
+any half held (its tree's first clamp is on its way).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import TYPE_CHECKING
+
+from pirate_bt.clock import Clock
+from pirate_bt.errors import LinkError
+from pirate_bt.robot.description import ControlMode, Half, RobotDescription, SensorKind
+from pirate_bt.robot.port import RobotPort
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import (
+    Check,
+    CheckContext,
+    ClampState,
+    HalfTarget,
+    Problem,
+    half_states,
+    stale_channels,
+)
+from pirate_bt.safety.commands import Clamp
+from pirate_bt.safety.expand import Expander
+from pirate_bt.safety.operator import Mode
+from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
+
+__all__ = ["HOLD_SETTLE_S", "HOLD_TORQUE_FRACTION", "HoldMixin", "hold_torque"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+HOLD_TORQUE_FRACTION = 0.875
+"""The protective clamp's torque, as a share of the bend joints' torque limit (0.7 N·m
+on the bundled robot's 0.8 N·m joints, the bundled trees' clamp torque)."""
+
+
+HOLD_SETTLE_S = 3.0
+"""How long (clock time) the end of a run waits for a protective clamp to land
+(:meth:`HoldMixin.settle_hold`): a joint steered the other way swings across first."""
+
+
+def hold_torque(robot: RobotDescription) -> float:
+    """The protective clamp's torque: :data:`HOLD_TORQUE_FRACTION` of the lowest bend
+    joint torque limit (twice ``clamp.min_torque`` without one), never below the
+    minimum that holds."""
+    limits = [
+        lim.max
+        for half in Half
+        for m in robot.bend_modules(half)
+        if (lim := robot.joint_motor(m.name).limits.torque) is not None
+    ]
+    torque = HOLD_TORQUE_FRACTION * min(limits) if limits else 2 * robot.clamp.min_torque
+    return max(torque, robot.clamp.min_torque)
+
+
+def half_channels(robot: RobotDescription) -> dict[Half, tuple[str, ...]]:
+    """The angle and spring channels of each half's bend modules."""
+    out: dict[Half, tuple[str, ...]] = {}
+    for half in Half:
+        names: list[str] = []
+        for module in robot.bend_modules(half):
+            for kind in (SensorKind.ANGLE, SensorKind.SPRING):
+                try:
+                    names.append(robot.sensor_of(module.name, kind).name)
+                except KeyError:
+                    continue
+        out[half] = tuple(names)
+    return out
+
+
+class HoldMixin:
+    """The protective hold (mixed into ``Supervisor``)."""
+
+    # set by the supervisor
+    port: RobotPort
+    robot: RobotDescription
+    clock: Clock
+    _mode: Mode
+    _targets: dict[Half, HalfTarget]
+    _last_setpoint: dict[str, tuple[ControlMode, float, float]]
+    _holding: set[Half]
+    _hold_refused: set[Half]
+    _ever_held: bool
+    _hold_torque: float
+    _checks: list[Check]
+    _expander: Expander
+    _half_channels: dict[Half, tuple[str, ...]]
+
+    if TYPE_CHECKING:  # defined by the supervisor and its other sides
+
+        def safe_state(self, reason: str, *, error: BaseException | None = None) -> None: ...
+
+        def _record(self, verdict: Verdict) -> Verdict: ...
+
+        def tick(self) -> None: ...
+
+    @property
+    def holding(self) -> bool:
+        """True while a protective clamp is on its way and no half holds yet."""
+        return bool(self._holding)
+
+    def end_safe(self, reason: str) -> None:
+        """The safe state at the end of a run that did not succeed: :meth:`safe_state`
+        (the first cause kept), then :meth:`settle_hold`."""
+        self.safe_state(reason)
+        self.settle_hold()
+
+    def settle_hold(self, step_s: float = 0.05) -> bool:
+        """At the end of a run: while a protective clamp is landing, go on ticking the
+        supervisor (the link polled, the hold checked again) until a half holds, for at
+        most :data:`HOLD_SETTLE_S` of clock time, so a run does not hand back a robot
+        still sliding. Returns at once when no clamp is pending.
+
+        Returns:
+            True when no protective clamp is pending any more.
+        """
+        deadline = self.clock.now() + HOLD_SETTLE_S
+        while self._holding and self.clock.now() < deadline:
+            self.clock.sleep(step_s)
+            self.tick()
+        return not self._holding
+
+    def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
+        """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
+        halves = half_states(self.robot, state, self._targets)
+        holding = [
+            h
+            for h, s in halves.items()
+            if s is ClampState.CLAMPED
+            and not stale_channels(self.robot, state, self._half_channels[h], now_s)
+        ]
+        if holding:
+            self._holding.clear()
+            self._ever_held = True
+            return
+        pitch = state.imu_rad.get("pitch")
+        steep = pitch is not None and abs(pitch) > self.robot.motion.max_unclamped_slope
+        if not steep or not self._ever_held or self._mode is Mode.ESTOP:
+            # never held yet (a robot set down free: clamping is the tree's first step,
+            # and a clamp of its own on its way is no fault), or nothing to fear
+            return
+        assert pitch is not None
+        todo = [h for h in Half if h not in self._holding]
+        if not todo:
+            return  # clamped already this episode: the clamp is on its way
+        cause = (
+            f"{Reason.STEEP_PIPE_UNCLAMPED}: no half holds the robot in a steep pipe"
+            f" (pitch {math.degrees(pitch):.0f}°): the supervisor clamps"
+        )
+        self.safe_state(cause)  # the drives stop first; a first cause before stays first
+        ctx = CheckContext(self.robot, state, now_s, halves, dict(self._targets))
+        for half in todo:
+            command = Clamp(half, self._hold_torque)
+            intent = self._expander.expand(command, state)
+            problem = (
+                intent
+                if isinstance(intent, Problem)
+                else next((p for c in self._checks if (p := c(ctx, intent)) is not None), None)
+            )
+            if problem is not None or isinstance(intent, Problem):
+                # the invariants still hold: the front half does not clamp with the front
+                # module in the way (it would press the module into the wall)
+                if half not in self._hold_refused:
+                    self._hold_refused.add(half)
+                    log.error("protective clamp of the %s half refused: %s", half, problem)
+                continue
+            cmds = intent.motor_commands
+            try:
+                self.port.send(cmds)
+            except LinkError as exc:  # its board is away: again next tick
+                log.error("could not clamp the %s half: %s", half, exc)
+                continue
+            self._holding.add(half)
+            self._targets[half] = HalfTarget.CLAMP
+            for c in cmds:
+                self._last_setpoint[c.motor] = (c.mode, c.value, now_s)
+            log.warning("protective clamp of the %s half: %s", half, cause)
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    command,
+                    Source.SUPERVISOR,
+                    sent=cmds,
+                    reason=Reason.STEEP_PIPE_UNCLAMPED,
+                    detail=f"protective clamp: {cause} the {half} half",
+                )
+            )
