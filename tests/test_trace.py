@@ -37,6 +37,7 @@ from pirate_bt.trace.records import state_from_flat
 from pirate_bt.trace.structure import iter_with_ids
 
 DATA = Path(__file__).parent / "data" / "traces"
+TREES = Path(__file__).parents[1] / "trees"
 FORMATS = [".jsonl", ".jsonl.gz"]
 
 
@@ -566,3 +567,55 @@ def test_counter_cache_skips_only_unchanged_frozen_snapshots() -> None:
     assert cache(mutable)["distance_m"] == 3.0
     mutable.distance_m = 4.0
     assert cache(mutable)["distance_m"] == 4.0
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda c: c["counts"]["0"].__setitem__(0, float("nan")), "counts: 0: [nan,"),
+        (lambda c: c["counts"]["0"].__setitem__(1, float("inf")), "counts: 0: [70, inf,"),
+        (lambda c: c["counts"]["0"].__setitem__(2, "x"), "is not 6 whole numbers"),
+        (lambda c: c["counts"]["0"].__setitem__(3, None), "is not 6 whole numbers"),
+        (lambda c: c["counts"].__setitem__("0.0", 7), "counts: 0.0: 7 is not 6 whole"),
+        (lambda c: c["counts"].__setitem__("0", [1, 2]), "counts: 0: [1, 2] is not 6"),
+        (lambda c: c.__setitem__("conditions", 5), "conditions is 5, not a list"),
+        (lambda c: c["counts"].__setitem__("9.9", [0] * 6), "'9.9' is no node of the tree"),
+    ],
+    ids=["nan", "infinity", "text", "null", "not-a-list", "too-short", "conditions", "no-node"],
+)
+def test_bad_coverage_in_the_end_record_names_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: Any, expected: str
+) -> None:
+    import pirate_bt
+    from pirate_bt.cli import main
+
+    path = tmp_path / "run.jsonl"
+    pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, trace=path)
+    assert read_trace(path).coverage is not None
+    lines = path.read_text().splitlines()
+    end = json.loads(lines[-1])
+    end["coverage"]["counts"]["0"][0] = 70  # the same on every run, for the messages
+    change(end["coverage"])
+    path.write_text("\n".join([*lines[:-1], json.dumps(end)]) + "\n")
+    with pytest.raises(LocatedError) as info:
+        read_trace(path)
+    assert str(info.value).startswith(f"{path}:{len(lines)}:1: bad end record: coverage: ")
+    assert expected in str(info.value)
+    # Was exit 1, "internal error: ValueError: cannot convert float NaN to integer".
+    svg = tmp_path / "x.svg"
+    for argv in (
+        ["trace", "summary", str(path)],
+        [
+            "render",
+            str(TREES / "straight.yaml"),
+            "--trace",
+            str(path),
+            "--coverage",
+            "-o",
+            str(svg),
+        ],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{path}:{len(lines)}:1: bad end record" in err
+    assert not svg.exists()

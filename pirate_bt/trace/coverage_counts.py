@@ -15,10 +15,13 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Final
 
+from pirate_bt.errors import shown
+
 __all__ = [
     "GUARDS",
     "Coverage",
     "NodeCoverage",
+    "coverage_problem",
     "merge_coverage",
     "name_paths",
 ]
@@ -209,6 +212,38 @@ class Coverage:
                 f" {n.failures:>5} {n.halts:>5} {n.skips:>5}"
             )
         return out
+
+
+def coverage_problem(recorded: object, ids: Iterable[str]) -> str | None:
+    """What is wrong with a trace's recorded coverage (the end record's ``coverage``),
+    or ``None`` when it is well formed: an object whose ``counts`` map node ids of
+    the tree (``ids``) to ``[ticks, transitions, successes, failures, halts, skips]``,
+    whole numbers from 0, and whose ``conditions`` list node ids."""
+    if not isinstance(recorded, Mapping):
+        return f"coverage is {shown(recorded, 40)}, not an object"
+    known = set(ids)
+    counts = recorded.get("counts")
+    if counts is not None and not isinstance(counts, Mapping):
+        return f"coverage: counts is {shown(counts, 40)}, not an object"
+    for node, row in (counts or {}).items():
+        if node not in known:
+            return f"coverage: counts: {shown(node, 40)} is no node of the tree"
+        if (
+            not isinstance(row, list)
+            or len(row) != len(_FIELDS)
+            or not all(type(v) is int and v >= 0 for v in row)
+        ):
+            return (
+                f"coverage: counts: {node}: {shown(row, 60)} is not {len(_FIELDS)} whole"
+                f" numbers from 0 ({', '.join(_FIELDS)})"
+            )
+    conditions = recorded.get("conditions", [])
+    if not isinstance(conditions, list):
+        return f"coverage: conditions is {shown(conditions, 40)}, not a list of node ids"
+    for node in conditions:
+        if not isinstance(node, str) or node not in known:
+            return f"coverage: conditions: {shown(node, 40)} is no node of the tree"
+    return None
 
 
 def merge_coverage(many: Iterable[Coverage | Mapping[str, Any]]) -> Coverage | None:

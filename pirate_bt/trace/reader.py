@@ -39,6 +39,7 @@ from pirate_bt.errors import (
 )
 from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
+from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import register_format, suffix_of
 from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
@@ -345,6 +346,7 @@ class Trace(TraceQueries):
             >>> [n.path for n in read_trace("run.jsonl").coverage.never_ran()]
             ['straight/recover']
         """
+        # read_trace checked it (coverage_problem): an error naming the end record's line
         recorded = self.end.get("coverage") if self.end is not None else None
         if not isinstance(recorded, Mapping) or not isinstance(recorded.get("counts"), Mapping):
             return None
@@ -488,7 +490,7 @@ def read_trace(path: str | Path) -> Trace:
     where = file_argument(path, "path")
     reader = open_reader(where)
     try:
-        header, ticks, end = _records(reader, where)
+        header, ticks, end, end_line = _records(reader, where)
     except PirateError:
         raise
     except Exception as exc:  # a format reader (MCAP, a plugin) stumbling on a bad file
@@ -504,18 +506,24 @@ def read_trace(path: str | Path) -> Trace:
             )
         raise InputError(f"{where}: empty trace (no header)")
     try:
-        return Trace(where, header, ticks, end, reader.truncated)
+        trace = Trace(where, header, ticks, end, reader.truncated)
     except (KeyError, TypeError, ValueError) as exc:
         raise LocatedError(f"bad tree in header: {exc}", SourceLocation(str(where), 1)) from None
+    if end is not None and "coverage" in end:
+        problem = coverage_problem(end["coverage"], (n.id for n in trace.structure))
+        if problem is not None:
+            raise LocatedError(f"bad end record: {problem}", SourceLocation(str(where), end_line))
+    return trace
 
 
 def _records(
     reader: TraceFormatReader, where: Path
-) -> tuple[dict[str, Any] | None, list[TickRecord], dict[str, Any] | None]:
-    """The header, the ticks and the end record of a trace, checked in order."""
+) -> tuple[dict[str, Any] | None, list[TickRecord], dict[str, Any] | None, int]:
+    """The header, the ticks, the end record and its line of a trace, checked in order."""
     header: dict[str, Any] | None = None
     ticks: list[TickRecord] = []
     end: dict[str, Any] | None = None
+    end_line = 0
     for line, record in reader:
         kind = record["type"]
         loc = SourceLocation(str(where), line)
@@ -540,7 +548,7 @@ def _records(
                 raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
             ticks.append(tick)
         elif kind == "end":
-            end = record
+            end, end_line = record, line
         else:
             raise LocatedError(f"unknown record type {kind!r}", loc)
-    return header, ticks, end
+    return header, ticks, end, end_line
