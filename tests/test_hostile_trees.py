@@ -126,6 +126,52 @@ def test_a_subtree_name_that_is_not_text(
     assert err == [_where(tmp_path, "2:1") + "subtrees: a mapping of name -> tree"]
 
 
+CLAMP_FRONT = """name: clamp-front
+root:
+  type: retry
+  name: clamp front
+  attempts: 2
+  child: success
+"""
+
+
+@pytest.mark.parametrize(
+    ("tree", "first", "second"),
+    [
+        (  # two calls of one file: the included root's name is the file's
+            "root:\n  type: sequence\n  children:\n"
+            "    - {type: subtree, ref: lib.yaml}\n"
+            "    - {type: subtree, ref: lib.yaml}\n",
+            "4:7",
+            "5:7",
+        ),
+        (  # a call naming the included root, a call of a subtree whose root is a call
+            "root:\n  type: sequence\n  children:\n"
+            "    - {type: subtree, ref: lib.yaml, name: clamp front}\n"
+            "    - {type: subtree, ref: again}\n"
+            "subtrees:\n  again: {root: {type: subtree, ref: lib.yaml}}\n",
+            "4:7",
+            "5:7",
+        ),
+    ],
+    ids=["file", "nested"],
+)
+def test_duplicate_subtree_calls_are_reported_at_the_calls(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tree: str, first: str, second: str
+) -> None:
+    # Was "lib.yaml:4:1: duplicate node name 'clamp front' among siblings (first at
+    # lib.yaml:4:1)": the included root's place, twice, where nothing is wrong.
+    code, err = _validate(tmp_path, capsys, tree, **{"lib.yaml": CLAMP_FRONT})
+    assert (code, err) == (
+        2,
+        [
+            _where(tmp_path, second)
+            + "duplicate node name 'clamp front' among siblings"
+            + f" (first at {tmp_path / 'tree.yaml'}:{first})"
+        ],
+    )
+
+
 def test_an_unknown_parameter_is_one_line_not_two(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

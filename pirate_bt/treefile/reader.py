@@ -529,6 +529,7 @@ class _Reader:
         if spec.explicit_name:
             result.name = spec.name
             result.explicit_name = True
+        result.called_at = spec.location  # the outermost call's, set last
         return result
 
 
@@ -566,12 +567,12 @@ def _dedupe(children: list[NodeSpec], reader: _Reader, doc: YamlDocument) -> Non
     for child in children:
         if child.explicit_name:
             first = explicit.get(child.name)
-            if first is not None:
+            if first is not None:  # a subtree's root: the mistake is the call's
                 reader.errors.append(
                     LocatedError(
                         f"duplicate node name {child.name!r} among siblings"
-                        f" (first at {first.location})",
-                        child.location,
+                        f" (first at {first.called_at or first.location})",
+                        child.called_at or child.location,
                     )
                 )
             explicit[child.name] = child

@@ -75,6 +75,10 @@ class NodeSpec:
         children: Child specs (composites, decorators, guards).
         conditions: Guard conditions of an ``eternal_guard``.
         explicit_name: The name was written in the file.
+        called_at: For the root of an included subtree, where the ``subtree`` node
+            that included it is written (the outermost call, when a subtree's root
+            is itself a call); ``None`` for any other node. Problems among its
+            siblings (a duplicate name) are the caller's and are reported there.
     """
 
     node_type: str
@@ -85,6 +89,7 @@ class NodeSpec:
     children: list[NodeSpec] = field(default_factory=list)
     conditions: list[NodeSpec] = field(default_factory=list)
     explicit_name: bool = False
+    called_at: SourceLocation | None = None
 
     def walk(self) -> Iterator[NodeSpec]:
         """This spec and all below it, depth first."""
