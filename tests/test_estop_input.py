@@ -23,5 +23,8 @@ def test_a_pressed_estop_input_ends_the_run_and_the_result_names_the_button() ->
         assert robot.supervisor.link_problem() is not None
     assert not result.succeeded
     assert "hardware e-stop input" in result.why, result.why
+    # nobody can release it (no operator input attached): the run ends at once, not
+    # at its 60 s time limit as it did
+    assert result.sim_time_s < 4.0, result.sim_time_s
     assert truth.halves  # the robot is still there: clamps hold in the stop category
     assert any(h.clamped for h in truth.halves.values())

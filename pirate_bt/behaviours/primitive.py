@@ -99,6 +99,12 @@ class Primitive(Leaf):
             # the work cannot go on, and the last state it has may be frozen (a drive
             # would count its wheels' last speed as distance still driven).
             return self.fail(f"the robot is in its safe state: {safe_reason}")
+        estop = getattr(self.supervisor, "estop_reason", None)
+        if estop is not None:
+            # latched: the bridge has stopped everything and takes no setpoint until an
+            # operator resets it; a tree ticked now (no operator attached to wait for)
+            # cannot go on either
+            return self.fail(f"e-stop latched: {estop}")
         state: RobotState | None = self.supervisor.state()
         elapsed_s = self.now() - self._start_s
         if state is None:

@@ -196,6 +196,11 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
     def estopped(self) -> bool:
         return self._mode is Mode.ESTOP
 
+    @property
+    def estop_reason(self) -> str | None:
+        """Why the e-stop latched (``None`` when it is not latched)."""
+        return self._estop_reason if self._mode is Mode.ESTOP else None
+
     def state(self) -> RobotState | None:
         """The latest snapshot from the port (read-only for behaviours)."""
         return self.port.state()
@@ -255,6 +260,12 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
     def add_input(self, source: OperatorInput) -> None:
         """Drain ``source`` for operator actions at the start of every tick."""
         self._inputs.append(source)
+
+    @property
+    def operator_attached(self) -> bool:
+        """True when an operator input (a console, a scripted operator) is drained each
+        tick: someone who could release a latched e-stop or hand control back."""
+        return bool(self._inputs)
 
     # -- the tick --------------------------------------------------------------
 
