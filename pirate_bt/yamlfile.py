@@ -36,6 +36,7 @@ __all__ = [
     "Locator",
     "YamlDocument",
     "check_depth",
+    "decode_text",
     "describe_error",
     "load_yaml",
     "load_yaml_text",
@@ -381,16 +382,27 @@ def load_yaml(path: str | Path) -> YamlDocument:
         raise ValidationFailed(
             [LocatedError(f"larger than the {MAX_BYTES} bytes a file may be", loc)]
         )
+    return load_yaml_text(decode_text(raw, name, "YAML"), name)
+
+
+def decode_text(raw: bytes, name: str, what: str) -> str:
+    """A file's bytes as text (UTF-8), for a file of ``what`` (``YAML``, ``route``).
+
+    Raises:
+        ValidationFailed: UTF-16 (its byte-order mark) or a NUL (a binary file), at
+            1:1; a byte that is not UTF-8, at its line and column (in characters).
+    """
+    loc = SourceLocation(name)
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise ValidationFailed([LocatedError("UTF-16 text; save the file as UTF-8", loc)])
     if b"\x00" in raw:
-        raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
+        raise ValidationFailed([LocatedError(f"binary file, not {what} text", loc)])
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        before = raw[: exc.start]
-        line = before.count(b"\n") + 1
-        column = exc.start - (before.rfind(b"\n") + 1) + 1
+        start = raw.rfind(b"\n", 0, exc.start) + 1
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = len(raw[start : exc.start].decode("utf-8")) + 1  # valid up to the bad byte
         raise ValidationFailed(
             [
                 LocatedError(
@@ -399,7 +411,6 @@ def load_yaml(path: str | Path) -> YamlDocument:
                 )
             ]
         ) from None
-    return load_yaml_text(text, name)
 
 
 # What a value of each shape is called, for "should be ..." when no union branch fits.

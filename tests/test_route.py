@@ -158,7 +158,52 @@ def test_unknown_network_is_located(tmp_path: Path, capsys: pytest.CaptureFixtur
     bad.write_text("network labb\nforward 1 m\n")
     assert main(["validate", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert f"{bad}:1:1: " in err and "no network 'labb'" in err and "lab" in err
+    assert f"{bad}:1:9: " in err and "no network 'labb'" in err and "lab" in err
+
+
+def test_a_network_name_too_long_for_a_file_is_located_and_cut(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Was "pirate-bt: aaaa...aaa.yaml: File name too long", naming a path nobody wrote.
+    bad = tmp_path / "longname.route"
+    bad.write_text("network " + "a" * 5000 + "\nforward 1 m\n")
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{bad}:1:9: no network 'aaaa") and err.count("\n") == 1
+    assert "... (5000 characters); bundled networks: " in err and len(err) < 400
+
+
+def test_a_byte_order_mark_is_accepted(tmp_path: Path) -> None:
+    # Was "unknown command '\ufeffnetwork'".
+    path = tmp_path / "bom.route"
+    path.write_bytes(b"\xef\xbb\xbfnetwork lab\nforward 1 m\n")
+    route = load_route(path)
+    assert route.network == "lab" and [s.text for s in route.steps] == ["forward 1 m"]
+    assert str(route.network_location) == f"{path}:1:9"
+    assert parse_route("\ufeffforward 1 m").steps[0].location.column == 1
+
+
+@pytest.mark.parametrize(
+    ("data", "expected"),
+    [
+        (b"network lab\nforward 1 m # caf\xe9\n", "2:18: not UTF-8 text (byte 0xe9)"),
+        ("network lab\n# é\xa0\n".encode() + b"forward \xff\n", "3:9: not UTF-8 text (byte 0xff)"),
+        ("network lab\nforward 1 m\n".encode("utf-16"), "1:1: UTF-16 text; save the file as UTF-8"),
+        (b"forward 1 m\x00\n", "1:1: binary file, not route text"),
+    ],
+    ids=["latin-1", "after-wide-characters", "utf-16", "binary"],
+)
+def test_text_that_is_not_utf8_is_located_at_the_bad_byte(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], data: bytes, expected: str
+) -> None:
+    # Was "1:1: cannot read the route: 'utf-8' codec can't decode byte ..." for all of them.
+    path = tmp_path / "bad.route"
+    path.write_bytes(data)
+    with pytest.raises(ValidationFailed) as caught:
+        load_route(path)
+    assert [str(e) for e in caught.value.errors] == [f"{path}:{expected}"]
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == f"{path}:{expected}\n"
 
 
 def test_route_schema() -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pirate_bt.errors import LocatedError, SourceLocation
+from pirate_bt.errors import LocatedError, SourceLocation, shown
 from pirate_bt.pipes import Network, load_network
 from pirate_bt.task.route import Route
 
@@ -18,7 +18,8 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
     scenarios; a name ending in ``.yaml`` is a path (relative to ``base_dir``).
 
     Raises:
-        FileNotFoundError: no such network, with the bundled names.
+        FileNotFoundError: no such network (or a name no file can have: too long),
+            with the bundled names.
     """
     from pirate_bt.resources import data_dir
 
@@ -32,10 +33,19 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
             candidates.append(base_dir / f"{name}.yaml")
         candidates.append(data_dir("scenarios") / f"{name}.yaml")
     for candidate in candidates:
-        if candidate.is_file():
+        if _is_file(candidate):
             return candidate
     bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
-    raise FileNotFoundError(f"no network {name!r}; bundled networks: {', '.join(bundled)}")
+    raise FileNotFoundError(f"no network {shown(name)}; bundled networks: {', '.join(bundled)}")
+
+
+def _is_file(path: Path) -> bool:
+    """``path.is_file()``, False for a name the system refuses (a part longer than 255
+    bytes raises ``OSError: File name too long``): the caller says "no network"."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):  # ValueError: a NUL in the name
+        return False
 
 
 def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") -> Network:

@@ -153,7 +153,7 @@ class Route:
         source: Where it was read from.
         steps: The commands, in order.
         network: The network named by a ``network`` line, if any.
-        network_location: Where that line is.
+        network_location: Where the name on that line is written.
     """
 
     name: str
@@ -335,7 +335,10 @@ def _slowly(line: _Line) -> bool:
     return False
 
 
-def _parse_line(line: _Line, text: str) -> RouteStep | tuple[str, SourceLocation] | None:
+def _parse_line(
+    line: _Line, text: str
+) -> RouteStep | tuple[str, SourceLocation, SourceLocation] | None:
+    """A command, or for a ``network`` line the name, the line's place and the name's."""
     first = line.take()
     if first is None:
         return None
@@ -346,7 +349,7 @@ def _parse_line(line: _Line, text: str) -> RouteStep | tuple[str, SourceLocation
         if name is None or not _NAME_RE.match(name.raw.removesuffix(".yaml")):
             raise line.error("network: give the network's name, e.g. 'network lab'", name)
         line.done()
-        return (name.raw, loc)
+        return (name.raw, loc, line.at(name.column))
     if verb in ("forward", "inspect"):
         distance = _distance_or_end(line, verb)
         slowly = _slowly(line)
@@ -419,6 +422,7 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
     steps: list[RouteStep] = []
     network: str | None = None
     network_loc: SourceLocation | None = None
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as editors on Windows write
     for line_no, raw_line in enumerate(text.splitlines(), start=1):
         body = raw_line.split("#", 1)[0]
         line = _Line(source, line_no, body)
@@ -434,7 +438,7 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
                 errors.append(LocatedError("the network is already named above", result[1]))
             elif steps:
                 errors.append(LocatedError("name the network before the first command", result[1]))
-            network, network_loc = result
+            network, _, network_loc = result
             continue
         steps.append(result)
     if not errors and not steps:
@@ -465,21 +469,20 @@ def load_route(path: str | Path) -> Route:
         print(route.network, [step.text for step in route.steps][:2])
         # lab ['inspect 3 m', 'at the bend turn right']
     """
-    from pirate_bt.yamlfile import MAX_BYTES, read_at_most
+    from pirate_bt.yamlfile import MAX_BYTES, decode_text, read_at_most
 
     p = Path(path)
     where = SourceLocation(str(path))
     try:
         with p.open("rb") as stream:  # at most MAX_BYTES: /dev/zero never ends
             raw = read_at_most(stream, MAX_BYTES)
-        if len(raw) > MAX_BYTES:
-            raise ValidationFailed(
-                [LocatedError(f"larger than the {MAX_BYTES} bytes a route may be", where)]
-            )
-        text = raw.decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except OSError as exc:
         raise ValidationFailed([LocatedError(f"cannot read the route: {exc}", where)]) from None
-    return parse_route(text, str(path))
+    if len(raw) > MAX_BYTES:
+        raise ValidationFailed(
+            [LocatedError(f"larger than the {MAX_BYTES} bytes a route may be", where)]
+        )
+    return parse_route(decode_text(raw, str(path), "route"), str(path))
 
 
 def route_schema() -> dict[str, Any]:
