@@ -8,7 +8,6 @@ registry and its parameters validated, and collects every problem at its place.
 from __future__ import annotations
 
 import logging
-import unicodedata
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,8 @@ from pydantic import ValidationError
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 from pirate_bt.robot.description import RobotDescription
+from pirate_bt.treefile.names import dedupe, name_problem, unknown_key
+from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param
 from pirate_bt.treefile.registry import Registry, UnknownNode
 from pirate_bt.treefile.spec import (
@@ -110,11 +111,11 @@ class _Reader:
         self.headers_read.add(doc.file)
         for key in data:
             if key not in _TOP_KEYS:
-                self.error(doc, (key,), _unknown_key(key, _TOP_KEYS))
+                self.error(doc, (key,), unknown_key(key, _TOP_KEYS))
         if "name" in data and not isinstance(data["name"], str):
             self.error(doc, ("name",), "name: must be text")
         elif data.get("name"):
-            problem = _name_problem(data["name"])
+            problem = name_problem(data["name"])
             root = data.get("root")
             # A '/' only matters where the name becomes the root node's (it has none).
             if problem and not ("'/'" in problem and isinstance(root, dict) and root.get("name")):
@@ -223,14 +224,16 @@ class _Reader:
             if name not in decls:
                 known = ", ".join(decls) or "none declared"
                 self.errors.append(
-                    _at(given_at(name), f"unknown parameter {name!r} (parameters: {known})")
+                    LocatedError(
+                        f"unknown parameter {name!r} (parameters: {known})", given_at(name)
+                    )
                 )
                 ok = False
                 continue
             try:
                 values[name] = coerce_param(decls[name], value, from_text=from_text)
             except ValueError as exc:
-                self.errors.append(_at(given_at(name), f"parameter {name!r}: {exc}"))
+                self.errors.append(LocatedError(f"parameter {name!r}: {exc}", given_at(name)))
                 ok = False
         for name, decl in decls.items():
             if name in values or name in given:  # given but invalid: reported above
@@ -318,7 +321,7 @@ class _Reader:
             return None
         loc = doc.locator.locate(path)
         name = raw.get("name")
-        problem = None if name is None else _name_problem(name)
+        problem = None if name is None else name_problem(name)
         if problem:
             self.error(doc, (*path, "name"), problem)
             return None
@@ -329,7 +332,7 @@ class _Reader:
         if kind in _STRUCT_KEYS:
             for key in raw:
                 if key not in _COMMON_KEYS and key not in _STRUCT_KEYS[kind]:
-                    self.error(doc, (*path, key), _unknown_key(key, _STRUCT_KEYS[kind]))
+                    self.error(doc, (*path, key), unknown_key(key, _STRUCT_KEYS[kind]))
             if kind == "subtree":
                 return self.subtree(env, path, raw, spec)
             if kind == "eternal_guard":
@@ -390,7 +393,7 @@ class _Reader:
                 out.append(child)
         if not ok:
             return None
-        _dedupe(out, self, env.doc)
+        dedupe(out, self.errors)
         return out
 
     def composite(
@@ -454,7 +457,7 @@ class _Reader:
             return None
         spec.conditions = conditions
         spec.children = [child]
-        _dedupe([*conditions, child], self, env.doc)
+        dedupe([*conditions, child], self.errors)
         return spec
 
     def subtree(
@@ -498,7 +501,7 @@ class _Reader:
                 return None
             for key in body:
                 if key not in _SUBTREE_KEYS:
-                    self.error(target_doc, (*body_path, key), _unknown_key(key, _SUBTREE_KEYS))
+                    self.error(target_doc, (*body_path, key), unknown_key(key, _SUBTREE_KEYS))
         else:
             body, body_path = target, ()
         ident = f"{target_doc.file}#{name}" if name else target_doc.file
@@ -531,62 +534,3 @@ class _Reader:
             result.explicit_name = True
         result.called_at = spec.location  # the outermost call's, set last
         return result
-
-
-def _shown(text: str) -> str:
-    """``text`` quoted for a message, cut short when it is long (a hostile file's)."""
-    return repr(text) if len(text) <= 60 else repr(text[:57] + "...")
-
-
-def _name_problem(name: object) -> str | None:
-    """What is wrong with a node's (or a tree's) name, if anything."""
-    if not (isinstance(name, str) and name.strip()):
-        return "name: must be non-empty text"
-    if "/" in name:
-        return "name: must not contain '/' (used in node paths)"
-    if any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
-        return "name: must not contain control characters"
-    return None
-
-
-def _at(location: SourceLocation, message: str) -> LocatedError:
-    return LocatedError(message, location)
-
-
-def _unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
-    import difflib
-
-    close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
-    hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
-    return f"unknown key {_shown(key) if isinstance(key, str) else repr(key)}{hint}"
-
-
-def _dedupe(children: list[NodeSpec], reader: _Reader, doc: YamlDocument) -> None:
-    """Sibling names must be unique (node paths name nodes); number unnamed duplicates."""
-    explicit: dict[str, NodeSpec] = {}
-    for child in children:
-        if child.explicit_name:
-            first = explicit.get(child.name)
-            if first is not None:  # a subtree's root: the mistake is the call's
-                reader.errors.append(
-                    LocatedError(
-                        f"duplicate node name {child.name!r} among siblings"
-                        f" (first at {first.called_at or first.location})",
-                        child.called_at or child.location,
-                    )
-                )
-            explicit[child.name] = child
-    used = set(explicit)
-    counts: dict[str, int] = {}
-    for child in children:
-        if child.explicit_name:
-            continue
-        base = child.name
-        n = counts.get(base, 0)
-        name = base
-        while name in used:
-            n += 1
-            name = f"{base} {n + 1 if n else ''}".strip() if n else base
-        counts[base] = n
-        child.name = name
-        used.add(name)
