@@ -191,7 +191,8 @@ class Session(InboundMixin):
 
         Args:
             modes: One mode per motor in layout order (``None`` = keep).
-            raw_values: One raw value per motor.
+            raw_values: One raw value per motor (a keep entry's is sent as 0, whatever
+                it is).
 
         Returns:
             The request handle.
@@ -205,7 +206,10 @@ class Session(InboundMixin):
             raise ValueError("bulk setpoints do not match the layout")
         with self._lock:
             self._check_alive()
-            msg = BulkSetpoints(self._seq(), tuple(modes), tuple(raw_values))
+            # a keep entry's raw value is ignored and sent as 0 (docs/protocol.md): a
+            # bridge may refuse anything else
+            raws = tuple(0 if m is None else r for m, r in zip(modes, raw_values, strict=True))
+            msg = BulkSetpoints(self._seq(), tuple(modes), raws)
             wire = self.codec.encode(msg)  # before superseding: a bad one replaces nothing
             now = self.clock.now()
             for old in list(self._queue):

@@ -1,0 +1,107 @@
+"""The host's setpoint table on the wire: keep entries carry 0, refused entries do not return.
+
+Found by a bridge written from docs/protocol.md alone: ``keep`` entries of a board in
+``TIMEOUT`` carried the table's raw values (``ff bc 02``), and the stop after a bulk the
+bridge refused still carried the refused entry. Checked here on the host's bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from pirate_bt.clock import SimClock
+from pirate_bt.link import FrameCodec, RobotLink, wrap_link
+from pirate_bt.link.codec import BulkSetpoints, FrameDecoder, Message, Nack, NackCode
+from pirate_bt.link.framing import cobs_decode
+from pirate_bt.link.messages import BoardStatus
+from pirate_bt.link.testing import MemoryLink, memory_pair
+from pirate_bt.pipes.model import FaultSpec
+from pirate_bt.robot import ControlMode, MotorCommand, load_robot
+from pirate_bt.sim.bridge_port import BridgeOnPort, bridge_for
+
+ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+SLOT = {s.motor.name: s.index for s in ROBOT.setpoint_slots()}
+KEEP = b"\xff\x00\x00"
+DRIVES = [m.name for m in ROBOT.drive_motors()]
+
+
+class Tap:
+    """The bridge's end of the line: records the host's frames and may refuse some itself."""
+
+    def __init__(self, port: MemoryLink) -> None:
+        self.port = port
+        self.frames: list[Message] = []
+        self.refuse: Callable[[Message], NackCode | None] = lambda msg: None
+        self._decoder = FrameDecoder(CODEC)
+
+    def read_available(self) -> bytes:
+        passed = []
+        for msg in self._decoder.feed(self.port.read_available()):
+            assert not isinstance(msg, Exception), msg
+            self.frames.append(msg)
+            code = self.refuse(msg)
+            if code is None:
+                passed.append(CODEC.encode(msg))
+            else:  # answered here; the bridge never sees it
+                self.port.write(CODEC.encode(Nack(msg.seq, msg.TYPE, code)))
+        return b"".join(passed)
+
+    def write(self, data: bytes) -> None:
+        self.port.write(data)
+
+    def bulks(self) -> list[BulkSetpoints]:
+        return [m for m in self.frames if isinstance(m, BulkSetpoints)]
+
+
+def connect() -> tuple[RobotLink, Tap, BridgeOnPort, SimClock]:
+    clock = SimClock()
+    host, far = memory_pair()
+    tap = Tap(far)
+    bridge = BridgeOnPort(tap, bridge_for(ROBOT))
+    clock.add_listener(bridge.step)
+    return wrap_link(host, ROBOT, clock), tap, bridge, clock
+
+
+def entry(bulk: BulkSetpoints, motor: str) -> bytes:
+    """A motor's 3 bytes in the bulk's body, as the host wrote them."""
+    body = cobs_decode(CODEC.encode(bulk)[:-1])
+    i = 5 + 3 * SLOT[motor]
+    return body[i : i + 3]
+
+
+def test_keep_entries_of_a_board_in_timeout_carry_raw_value_zero() -> None:
+    link, tap, bridge, clock = connect()
+    link.send_and_wait(
+        [
+            MotorCommand("bend_1_joint", ControlMode.POSITION, 0.3),
+            MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05),
+        ]
+    )
+    acked = tap.bulks()[-1]
+    assert entry(acked, "bend_1_joint")[0] == 2 and entry(acked, "bend_1_joint") != b"\x02\x00\x00"
+    assert entry(acked, "bend_1_drive")[0] == 3 and entry(acked, "bend_1_drive") != b"\x03\x00\x00"
+    fault = FaultSpec(kind="board_reset", target="22", at=clock.now(), duration=1.0)
+    bridge.bridge.schedule([fault])
+    clock.advance(0.05)
+    link.poll()
+    latest = link.session.latest_state()
+    assert latest is not None
+    assert latest[0].board_status[ROBOT.board_ids().index(22)] & BoardStatus.TIMEOUT
+    link.send_and_wait([MotorCommand(d, ControlMode.VELOCITY, 0.0) for d in DRIVES[1:]])
+    stop = tap.bulks()[-1]
+    # was ff xx xx with the table's raw values (700, 800 in the report)
+    assert entry(stop, "bend_1_joint") == KEEP
+    assert entry(stop, "bend_1_drive") == KEEP
+    assert all(entry(stop, d) == b"\x03\x00\x00" for d in DRIVES[1:])
+
+
+def test_the_session_sends_every_keep_entry_with_raw_value_zero() -> None:
+    link, tap, _bridge, clock = connect()
+    n = CODEC.layout.n_motors
+    link.session.send_bulk([None] * n, [700] * n)
+    clock.advance(0.02)
+    link.poll()
+    bulk = tap.bulks()[-1]
+    assert bulk.raw_values == (0,) * n
+    assert all(entry(bulk, m) == KEEP for m in SLOT)
