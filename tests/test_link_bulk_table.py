@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import pytest
+
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkError
 from pirate_bt.link import FrameCodec, RobotLink, wrap_link
 from pirate_bt.link.codec import BulkSetpoints, FrameDecoder, Message, Nack, NackCode
 from pirate_bt.link.framing import cobs_decode
@@ -105,3 +108,79 @@ def test_the_session_sends_every_keep_entry_with_raw_value_zero() -> None:
     bulk = tap.bulks()[-1]
     assert bulk.raw_values == (0,) * n
     assert all(entry(bulk, m) == KEEP for m in SLOT)
+
+
+def refuse_front_tilt(msg: Message) -> NackCode | None:
+    if isinstance(msg, BulkSetpoints) and msg.modes[SLOT["front_tilt"]] is ControlMode.POSITION:
+        return NackCode.BAD_MODE
+    return None
+
+
+def test_a_refused_entry_is_not_carried_by_the_next_bulk() -> None:
+    link, tap, _bridge, _clock = connect()
+    link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
+    tap.refuse = refuse_front_tilt
+    with pytest.raises(LinkError, match="nacked BAD_MODE"):
+        link.send_and_wait([MotorCommand("front_tilt", ControlMode.POSITION, 0.16)])
+    link.send_and_wait([MotorCommand(d, ControlMode.VELOCITY, 0.0) for d in DRIVES])
+    refused, stop = tap.bulks()[-2:]
+    assert entry(refused, "front_tilt")[0] == 2
+    assert entry(stop, "front_tilt") == KEEP  # was front_tilt position:102 again
+    assert all(entry(stop, d) == b"\x03\x00\x00" for d in DRIVES)
+    assert stop.seq == refused.seq + 1
+
+
+def test_the_supervisors_stop_after_a_refusal_does_not_carry_it() -> None:
+    """The supervisor's path: send() without waiting, the NACK heard by poll(); the
+    next send() reports the refusal (LinkError) and the one after it is the stop."""
+    link, tap, _bridge, clock = connect()
+    link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
+    tap.refuse = refuse_front_tilt
+    link.send([MotorCommand("front_tilt", ControlMode.POSITION, 0.16)])
+    clock.advance(0.01)
+    link.poll()
+    stop = [MotorCommand(d, ControlMode.VELOCITY, 0.0) for d in DRIVES]
+    with pytest.raises(LinkError, match=r"refused \(BAD_MODE\)"):
+        link.send(stop)
+    link.send(stop)
+    clock.advance(0.03)
+    link.poll()
+    sent = tap.bulks()[-1]
+    assert entry(sent, "front_tilt") == KEEP
+    assert all(entry(sent, d) == b"\x03\x00\x00" for d in DRIVES)
+    assert link.session.take_failures() == []  # the stop was not refused
+
+
+def test_an_acknowledged_value_stays_after_a_later_refusal() -> None:
+    link, tap, _bridge, _clock = connect()
+    link.send_and_wait([MotorCommand("front_tilt", ControlMode.TORQUE, 0.2)])
+    held = entry(tap.bulks()[-1], "front_tilt")
+    tap.refuse = lambda msg: (
+        NackCode.OUT_OF_RANGE
+        if isinstance(msg, BulkSetpoints) and msg.modes[SLOT["bend_2_drive"]] is not None
+        else None
+    )
+    with pytest.raises(LinkError, match="nacked OUT_OF_RANGE"):
+        link.send_and_wait([MotorCommand("bend_2_drive", ControlMode.VELOCITY, 0.05)])
+    tap.refuse = lambda msg: None
+    link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.0)])
+    last = tap.bulks()[-1]
+    assert entry(last, "front_tilt") == held  # acknowledged before: still in the table
+    assert entry(last, "bend_2_drive") == KEEP  # refused: back to keep
+
+
+def test_a_latched_bridge_refusing_a_stop_does_not_bring_back_an_older_value() -> None:
+    """ESTOP_LATCHED refuses every entry: the drive's stop goes back to keep (what the
+    bridge holds after its e-stop: velocity 0), never to the acknowledged 0.05 m/s."""
+    link, tap, bridge, _clock = connect()
+    link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
+    bridge.bridge.set_estop_input(True)
+    with pytest.raises(LinkError, match="nacked ESTOP_LATCHED"):
+        link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.0)])
+    bridge.bridge.set_estop_input(False)
+    link.reset_estop()
+    link.send_and_wait([MotorCommand("front_tilt", ControlMode.TORQUE, 0.2)])
+    assert entry(tap.bulks()[-1], "bend_1_drive") == KEEP
+    assert bridge.bridge.model.setpoint("bend_1_drive") == MotorCommand(
+        "bend_1_drive", ControlMode.VELOCITY, 0.0
+    )

@@ -6,8 +6,11 @@ This is where raw integers stop. Incoming STATE frames become
 :class:`~pirate_bt.robot.commands.MotorCommand` objects become raw setpoints
 through :class:`~pirate_bt.robot.commands.CommandCodec` and go out as one
 BULK_SETPOINTS frame carrying the full desired table (motors never commanded are
-sent as "keep"). Because every bulk frame is a superset of the one before, a
-newer one may replace an older one in flight without losing anything.
+sent as "keep", with raw value 0). Because every bulk frame carries the whole table,
+a newer one may replace an older one in flight without losing anything. An entry the
+bridge refused (the bulk that carried it answered ``NACK``) goes back to "keep"
+unless the bridge had acknowledged that very value, so no later frame, a stop above
+all, carries it again (docs/protocol.md, Sequence numbers).
 
 :func:`open_link` opens a URL (with optional faults), runs the handshake and
 returns a ready :class:`RobotLink`; :func:`wrap_link` does the same for an
@@ -25,7 +28,7 @@ from typing import Any
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
-from pirate_bt.link.codec import BridgeFlags, FrameCodec
+from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, FrameCodec
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.messages import BoardStatus, HelloReply
 from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
@@ -74,9 +77,14 @@ class RobotLink:
         slots = robot.setpoint_slots()
         self._slot_index = {(s.board, s.slot): s.index for s in slots}
         self._slot_board = [s.board for s in slots]
+        self._slot_motor = [s.motor.name for s in slots]
         self._board_ids = robot.board_ids()  # the STATE frame's board order
         self._modes: list[ControlMode | None] = [None] * len(slots)
         self._raw: list[int] = [0] * len(slots)
+        # what the bridge last acknowledged per motor (None: never, or only keep)
+        self._acked_modes: list[ControlMode | None] = [None] * len(slots)
+        self._acked_raw: list[int] = [0] * len(slots)
+        self._unsettled: list[Request] = []  # bulks sent whose outcome is not yet taken in
         self._snapshot: RobotState | None = None
         self._snapshot_seq: int | None = None
         self._last_bulk: Request | None = None
@@ -124,6 +132,7 @@ class RobotLink:
             LinkError: an earlier setpoint frame was refused or never acknowledged.
         """
         self.session.ensure_alive()
+        self._settle_bulks()
         self._raise_failures()
         # every command is converted before any is merged: a call that raises changes
         # nothing, so none of its commands goes out with a later call
@@ -148,6 +157,55 @@ class RobotLink:
         if away:
             modes = [None if b in away else m for b, m in zip(self._slot_board, modes, strict=True)]
         self._last_bulk = self.session.send_bulk(modes, self._raw)
+        self._unsettled.append(self._last_bulk)
+
+    def _settle_bulks(self) -> None:
+        """Take the outcomes of the bulks sent into the table.
+
+        An acknowledged bulk's entries are what the bridge holds. A refused one changed
+        nothing on the bridge (all or nothing): each of its entries that differs from
+        what the bridge last acknowledged, and is still in the table, goes back to keep,
+        so that the next frame (a stop above all) does not carry a setpoint the bridge
+        refused, and is not refused for it again when the refusal is permanent
+        (``BAD_MODE``, ``OUT_OF_RANGE``). Keep, not the acknowledged value: after an
+        e-stop or a watchdog trip the bridge holds its stop, and an older acknowledged
+        value must not restart a motor. Bulks that failed, went stale or were
+        superseded or cancelled leave the table as it is.
+        """
+        if not self._unsettled:
+            return
+        pending: list[Request] = []
+        for req in self._unsettled:
+            msg = req.msg
+            if not req.done or not isinstance(msg, BulkSetpoints):
+                pending.append(req)
+                continue
+            if req.outcome is Outcome.ACKED:
+                for i, mode in enumerate(msg.modes):
+                    if mode is not None:
+                        self._acked_modes[i] = mode
+                        self._acked_raw[i] = msg.raw_values[i]
+            elif req.outcome is Outcome.NACKED:
+                self._revert(msg, req.nack.name if req.nack else "")
+        self._unsettled = pending
+
+    def _revert(self, refused: BulkSetpoints, why: str) -> None:
+        acked_modes, acked_raw = self._acked_modes, self._acked_raw
+        reverted: list[str] = []
+        for i, (mode, raw) in enumerate(zip(refused.modes, refused.raw_values, strict=True)):
+            if mode is None or (mode is acked_modes[i] and raw == acked_raw[i]):
+                continue  # keep, or a value the bridge holds
+            if self._modes[i] is mode and self._raw[i] == raw:
+                self._modes[i] = None
+                self._raw[i] = 0
+                reverted.append(self._slot_motor[i])
+        if reverted:
+            _log.info(
+                "setpoints seq %d refused (%s): %s back to keep",
+                refused.seq,
+                why,
+                ", ".join(reverted),
+            )
 
     def _boards_away(self) -> set[int]:
         """The boards the bridge's latest STATE reports in ``TIMEOUT``."""
@@ -175,6 +233,7 @@ class RobotLink:
         self.send(commands)
         assert self._last_bulk is not None
         req = self.session.wait(self._last_bulk, timeout_s)
+        self._settle_bulks()
         if req.outcome is not Outcome.ACKED:
             self.session.take_failures()
             why = req.nack.name if req.nack else ""
