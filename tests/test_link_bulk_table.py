@@ -12,8 +12,8 @@ from collections.abc import Callable
 import pytest
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkError
-from pirate_bt.link import FrameCodec, RobotLink, wrap_link
+from pirate_bt.errors import LinkError, ProtocolMismatch
+from pirate_bt.link import FrameCodec, MsgType, RobotLink, wrap_link
 from pirate_bt.link.codec import BulkSetpoints, FrameDecoder, Message, Nack, NackCode
 from pirate_bt.link.framing import cobs_decode
 from pirate_bt.link.messages import BoardStatus
@@ -184,3 +184,24 @@ def test_a_latched_bridge_refusing_a_stop_does_not_bring_back_an_older_value() -
     assert bridge.bridge.model.setpoint("bend_1_drive") == MotorCommand(
         "bend_1_drive", ControlMode.VELOCITY, 0.0
     )
+
+
+@pytest.mark.parametrize(
+    ("code", "message"),
+    [
+        (NackCode.NOT_READY, r"the bridge refused HELLO \(NOT_READY\)"),
+        (NackCode.BAD_LAYOUT, r"refused the layout digest 0x[0-9a-f]{8} or protocol 1\.1"),
+    ],
+)
+def test_a_nack_to_hello_is_named_for_what_it_is(code: NackCode, message: str) -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    tap = Tap(far)
+    tap.refuse = lambda msg: code if msg.TYPE is MsgType.HELLO else None
+    bridge = BridgeOnPort(tap, bridge_for(ROBOT))
+    clock.add_listener(bridge.step)
+    with pytest.raises(ProtocolMismatch, match=message) as info:
+        wrap_link(host, ROBOT, clock)
+    if code is NackCode.NOT_READY:
+        assert "layout" not in str(info.value).split(":")[0]
+        assert "another robot description" not in str(info.value)

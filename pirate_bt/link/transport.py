@@ -306,10 +306,19 @@ def handshake(
                             f"another protocol minor version; host speaks "
                             f"{PROTOCOL_VERSION}.{minor}"
                         )
+                    if item.error is NackCode.BAD_LAYOUT:
+                        raise ProtocolMismatch(
+                            f"the bridge refused the layout digest {codec.layout.digest:#010x} "
+                            f"or protocol {PROTOCOL_VERSION}.{minor} (BAD_LAYOUT): it was "
+                            "built for another robot description or protocol version"
+                        )
+                    # docs/protocol.md: a bridge refuses HELLO only with BAD_LAYOUT or
+                    # (another minor) BAD_LENGTH; any other code is not about the layout
                     raise ProtocolMismatch(
-                        f"the bridge refused the layout digest {codec.layout.digest:#010x} or "
-                        f"protocol {PROTOCOL_VERSION}.{minor} ({item.error.name}): it was "
-                        "built for another robot description or protocol version"
+                        f"the bridge refused HELLO ({item.error.name}): protocol "
+                        f"{PROTOCOL_VERSION}.{minor} refuses a HELLO only with BAD_LAYOUT "
+                        "(another layout or minor version) or BAD_LENGTH, so this bridge "
+                        "does not follow the protocol"
                     )
                 if isinstance(item, HelloReply) and item.seq == seq:
                     if item.minor != minor:
