@@ -91,7 +91,7 @@ KINDS: dict[str, FileKind] = {
         title="campaign",
         marker_keys=("runs",),
         suffixes=(".campaign.yaml", ".campaign.yml"),
-        loader="pirate_bt.campaign.spec:load_campaign",
+        loader="pirate_bt.campaign.run:validate_campaign_file",
         schema="pirate_bt.campaign.spec:campaign_schema",
     ),
     "trace": FileKind(

@@ -96,6 +96,25 @@ def test_a_bad_tree_parameter_is_placed_in_the_spec_not_on_the_command_line(
     assert str(info.value).startswith("campaign spec: runs[0].params.distance: parameter")
 
 
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        # was: .../trees/straight.yaml:48:75: drive: Input should be greater than 0
+        ("-1 m", "drive: Input should be greater than 0 (used at "),
+        ("1e309 m", "'1e309 m' is not a finite number"),
+    ],
+)
+def test_a_tree_parameter_value_the_tree_refuses_is_placed_in_the_spec(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str, message: str
+) -> None:
+    text = f"name: h\nruns:\n  - tree: straight\n    params: {{distance: {value}}}\n"
+    err = _refused(tmp_path, capsys, text)
+    assert err.startswith(f"FILE:4:14: parameter 'distance': {message}"), err
+    # validate makes the checks campaign makes before it runs a case (was: exit 0)
+    assert main(["validate", str(tmp_path / "h.campaign.yaml")]) == 2
+    assert capsys.readouterr().err.startswith(f"{tmp_path / 'h.campaign.yaml'}:4:14: ")
+
+
 def test_a_tree_parameter_without_a_default_must_be_given(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

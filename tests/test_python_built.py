@@ -218,6 +218,48 @@ def test_commands_keep_param_locations(tmp_path: Path, capsys: pytest.CaptureFix
     assert "--param:1:1: parameter 'roll': '9mm' is a length" in capsys.readouterr().err
 
 
+def test_a_value_the_caller_gave_is_the_callers_problem_where_the_tree_uses_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Was "t.yaml:6:34: rotate: angle: 200.0° is beyond the rotation range ..." (and
+    # "lib.yaml:3:22: ..." through a subtree): the tree's line, though the tree is
+    # right and the value given is wrong.
+    (tmp_path / "lib.yaml").write_text(
+        "params:\n  a: {type: angle, default: 0 deg}\nroot: {type: rotate, angle: $a}\n"
+    )
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params:\n  roll: {type: angle, default: 0 deg}\nroot:\n  type: sequence\n"
+        "  children:\n    - {type: rotate, name: turn, angle: $roll}\n"
+        "    - {type: subtree, ref: lib.yaml, params: {a: $roll}}\n"
+    )
+    where = SourceLocation("mission.yaml", 7, 3)
+    with pytest.raises(ValidationFailed) as exc:
+        load_tree(
+            tree,
+            robot=load_robot(),
+            params={"roll": "200 deg"},
+            params_from_text=True,
+            params_origin=where,
+        )
+    messages = [str(e) for e in exc.value.errors]
+    assert len(messages) == 2 and all(
+        m.startswith("mission.yaml:7:3: parameter 'roll': rotate: angle: ") for m in messages
+    )
+    assert messages[0].endswith(f"(used at {tree}:6:34)")
+    assert messages[1].endswith(f"(used at {tmp_path / 'lib.yaml'}:3:22)")
+    # The tree's own values stay the tree's problems, the defaults too.
+    tree.write_text("root: {type: rotate, angle: 900 deg}\n")
+    with pytest.raises(ValidationFailed) as exc:
+        load_tree(tree, robot=load_robot(), params_origin=where)
+    assert str(_only(exc)).startswith(f"{tree}:1:22: rotate: angle: ")
+    tree.write_text(TREE)
+    assert main(["validate", "--param", "roll=900deg", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--param:1:1: parameter 'roll': rotate: angle: ")
+    assert err.endswith(f" (used at {tree}:3:34)\n")
+
+
 def test_yaml_limits_are_reported_once(tmp_path: Path) -> None:
     # The loader checks before building and from_params checks again: no change.
     messages = _yaml_messages(tmp_path, "{type: rotate, name: turn, angle: 900 deg}")

@@ -59,9 +59,11 @@ __all__ = [
     "CampaignResult",
     "SpecInput",
     "case_timeout_s",
+    "checked_cases",
     "default_output",
     "load_spec",
     "run_campaign",
+    "validate_campaign_file",
 ]
 
 SpecInput = str | os.PathLike[str] | Mapping[str, Any] | CampaignSpec
@@ -166,6 +168,36 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
     raise NotASpec(
         f"spec: a campaign spec is a path, a mapping or a CampaignSpec, not {spec!r}"[:200]
     )
+
+
+def checked_cases(
+    model: CampaignSpec, base: Path | None, max_cases: int = DEFAULT_MAX_CASES
+) -> list[dict[str, Any]]:
+    """The cases of ``model``, after every check made before a worker starts: the
+    files it names, each distinct tree loaded with its parameters, each route and
+    network, the simulator faults (see :func:`run_campaign`).
+
+    Raises:
+        InputError: the first problem (:class:`~pirate_bt.errors.ValidationFailed`
+            for a file, each problem at its place).
+        ConfigurationError: a named file is missing or not a file.
+    """
+    check_inputs(model, base)
+    cases = expand(model, base, max_cases=max_cases)
+    check_runs(cases, model, base)
+    check_faults(model, base)
+    return cases
+
+
+def validate_campaign_file(path: str | Path) -> CampaignSpec:
+    """``pirate-bt validate SPEC.campaign.yaml``: the spec, and every check
+    ``pirate-bt campaign`` makes before it runs a case (:func:`checked_cases`), so a
+    spec that validates is one the campaign does not refuse for its input."""
+    model = load_campaign(path)
+    source = spec_source(model)
+    check_size(model)
+    checked_cases(model, source.base if source is not None else Path(path).parent)
+    return model
 
 
 class NotASpec(InputError, TypeError):
@@ -372,10 +404,7 @@ def run_campaign(
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = case_timeout_s(case_timeout)
     reach_s = case_timeout_s(scheduler_timeout, "scheduler_timeout") or 10.0  # at most a week
-    check_inputs(model, source.base)
-    cases = expand(model, source.base, max_cases=max_cases)
-    check_runs(cases, model, source.base)
-    check_faults(model, source.base)
+    cases = checked_cases(model, source.base, max_cases)
     if timeout_s is not None:
         for case in cases:
             case["timeout_s"] = timeout_s

@@ -191,8 +191,9 @@ def load_tree(
         values = reader.bind(
             doc, ("params",), decls, given, lambda _n: given_loc, params_from_text, use_examples
         )
+    reader.caller_at = given_loc
     if values is not None:
-        env = _Env(doc, values, (doc.file,))
+        env = _Env(doc, values, (doc.file,), {name: name for name in given})
         spec = reader.tree(env, (), data)
     if spec is not None and not reader.errors:
         if not spec.explicit_name:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -48,11 +48,18 @@ _log = logging.getLogger("pirate_bt.treefile")
 
 @dataclass
 class _Env:
-    """Where we are while reading: the document, the parameters, the include chain."""
+    """Where we are while reading: the document, the parameters, the include chain.
+
+    ``caller`` maps a parameter whose value the caller of ``load_tree`` gave (through
+    subtree calls too) to the caller's name for it; ``used`` is where :meth:`_Reader.subst`
+    put such a value, so a problem with it is the caller's (:meth:`_Reader.value_error`).
+    """
 
     doc: YamlDocument
     values: dict[str, Any]
     chain: tuple[str, ...]
+    caller: Mapping[str, str] = field(default_factory=dict)
+    used: dict[PathKey, str] = field(default_factory=dict)
 
 
 class _Reader:
@@ -79,11 +86,28 @@ class _Reader:
         """Nodes read so far, subtrees expanded (bounded by MAX_TREE_NODES)."""
         self.unbound: list[PathKey] = []
         """Where :meth:`subst` met an unknown ``$parameter`` (reported once, there)."""
+        self.caller_at = SourceLocation("--param")
+        """Where the caller's parameter values were written (``load_tree``'s ``params_origin``)."""
 
     # -- helpers
 
     def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
         self.errors.append(doc.locator.error(path, message))
+
+    def value_error(self, env: _Env, path: PathKey, message: str) -> None:
+        """A problem with the value at ``path``: where the caller wrote it when it is a
+        parameter value the caller gave (``-1 m`` for a distance that must be above 0),
+        naming where the tree uses it; else at ``path``."""
+        name = next(
+            (env.used[path[:n]] for n in range(len(path), 0, -1) if path[:n] in env.used), None
+        )
+        if name is None:
+            self.error(env.doc, path, message)
+        else:
+            used = env.doc.locator.locate(path)
+            self.errors.append(
+                LocatedError(f"parameter {name!r}: {message} (used at {used})", self.caller_at)
+            )
 
     def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
         key = str(path.resolve())
@@ -258,6 +282,8 @@ class _Reader:
             if match:
                 name = match["name"]
                 if name in env.values:
+                    if name in env.caller:
+                        env.used[path] = env.caller[name]
                     return env.values[name]
                 known = ", ".join(f"${n}" for n in env.values) or "none declared"
                 self.error(
@@ -359,13 +385,13 @@ class _Reader:
             for at_key, msg in validation_problems(exc, raw_params):
                 at = (*path, *at_key)
                 if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
-                    self.error(doc, at, f"{kind}: {msg}")
+                    self.value_error(env, at, f"{kind}: {msg}")
             spec.params = None
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
                 field_name, sep, _ = problem.partition(":")
                 at = (*path, field_name) if sep and field_name in raw else path
-                self.error(doc, at, f"{kind}: {problem}")
+                self.value_error(env, at, f"{kind}: {problem}")
         if cls.kind == "decorator":
             if "child" not in raw:
                 self.error(doc, path, f"decorator {kind!r} needs a 'child'")
@@ -407,17 +433,17 @@ class _Reader:
         if kind in ("sequence", "selector"):
             memory = opts.get("memory", kind == "sequence")
             if not isinstance(memory, bool):
-                self.error(env.doc, (*path, "memory"), "memory: must be true or false")
+                self.value_error(env, (*path, "memory"), "memory: must be true or false")
                 return None
             spec.params = {"memory": memory}
         else:
             policy = opts.get("policy", "all")
             if policy not in ("all", "one", "selected"):
-                self.error(env.doc, (*path, "policy"), "policy: one of all, one, selected")
+                self.value_error(env, (*path, "policy"), "policy: one of all, one, selected")
                 return None
             sync = opts.get("synchronise", policy != "one")
             if not isinstance(sync, bool):
-                self.error(env.doc, (*path, "synchronise"), "synchronise: must be true or false")
+                self.value_error(env, (*path, "synchronise"), "synchronise: must be true or false")
                 return None
             selected = opts.get("selected")
             if (policy == "selected") != (selected is not None):
@@ -430,7 +456,7 @@ class _Reader:
                 and selected
                 and all(isinstance(s, str) for s in selected)
             ):
-                self.error(env.doc, (*path, "selected"), "selected: a list of child names")
+                self.value_error(env, (*path, "selected"), "selected: a list of child names")
                 return None
             spec.params = {"policy": policy, "synchronise": sync, "selected": selected}
         kids = self.children(env, path, raw, "children")
@@ -525,7 +551,10 @@ class _Reader:
         values = self.bind(doc, path, decls, given, given_at)
         if values is None:
             return None
-        inner = _Env(target_doc, values, (*env.chain, ident))
+        caller = {  # the caller's values passed on: params: {torque: $torque}
+            k: env.used[(*path, "params", k)] for k in given if (*path, "params", k) in env.used
+        }
+        inner = _Env(target_doc, values, (*env.chain, ident), caller)
         result = self.tree(inner, body_path, body)
         if result is None:
             return None
