@@ -85,3 +85,23 @@ def test_nothing_is_clamped_for_the_tree_on_a_level_pipe() -> None:
             isinstance(v.command, Clamp) and v.source is Source.SUPERVISOR
             for v in robot.supervisor.verdicts
         )
+
+
+def test_a_success_the_simulator_judged_unsafe_says_so(tmp_path: Path) -> None:
+    # a slow link: crossing a tee in a riser, the rear half reached the opening and let
+    # go before the front clamped; four short slides, each ended by the clamp the PAB
+    # was making; "SUCCESS - mission completed" said nothing of them
+    network = ROOT / "tests" / "data" / "networks" / "vtee.yaml"
+    (tmp_path / "vtee.yaml").write_text(network.read_text(encoding="utf-8"), encoding="utf-8")
+    route = tmp_path / "vtee.route"
+    route.write_text(
+        "network vtee.yaml\nat the bend turn up\nat the T-joint go straight\nforward to the end\n",
+        encoding="utf-8",
+    )
+    result = pirate_bt.simulate_mission(route, faults="delay=30ms")
+    assert result.succeeded  # the tree's success: the PABs did what they sensed
+    assert result.why.endswith(
+        "; but the simulator counted 4 sliding violations: the robot did not stay safe"
+    ), result.why
+    clean = pirate_bt.simulate_mission(route)
+    assert clean.succeeded and "simulator counted" not in clean.why

@@ -242,6 +242,10 @@ def _mission(
         map_tolerance=map_tolerance,
         observe=observe,
     )
+    if result.succeeded:
+        from pirate_bt.task.outcome import unsafe_note
+
+        result.why += unsafe_note(result.counters)
     if return_on_stop and not result.succeeded and sim is not None:
         result.returned = return_to_start(
             result, connection.robot, connection.supervisor, connection.clock, sim, observe=observe

@@ -35,7 +35,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import RunResult
 from pirate_bt.clock import SimClock
-from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause
+from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause, unsafe_note
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -290,6 +290,13 @@ def run_on(
             tally.detach()
     first_stop = tally.first_safe_state if tally is not None else None
     why, failing = explain_run(loop, runner.tree.root, first_stop)
+    counters = (
+        counting.counters(overruns=loop.overrun_count)
+        if counting is not None
+        else Counters(overruns=loop.overrun_count)
+    )
+    if loop.succeeded:
+        why += unsafe_note(counters)
     return RunResult(
         tree=_name(checked),
         status=loop.outcome,
@@ -299,9 +306,7 @@ def run_on(
         sim_time_s=loop.sim_time_s,
         wall_s=loop.wall_time_s,
         ticks=loop.ticks,
-        counters=counting.counters(overruns=loop.overrun_count)
-        if counting is not None
-        else Counters(overruns=loop.overrun_count),
+        counters=counters,
         safe_state=bool(supervisor is not None and supervisor.in_safe_state),
         target=connection.description if connection is not None else "no robot",
         trace_path=trace_path,

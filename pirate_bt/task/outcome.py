@@ -34,7 +34,15 @@ from pirate_bt.runner import RunResult, StopReason
 from pirate_bt.safety.tally import SafeStateEntry
 from pirate_bt.task.fixes import roll_name
 
-__all__ = ["END_OF_RUN", "PabOutcome", "explain_run", "link_cause", "map_cause", "pab_outcomes"]
+__all__ = [
+    "END_OF_RUN",
+    "PabOutcome",
+    "explain_run",
+    "link_cause",
+    "map_cause",
+    "pab_outcomes",
+    "unsafe_note",
+]
 
 END_OF_RUN = "tree run ended without success"
 """The safe-state reason a runner gives when nothing gave one before it."""
@@ -106,6 +114,21 @@ def link_cause(loop: Any, supervisor: Any) -> BaseException | None:
         return None
     error: BaseException | None = getattr(supervisor, "safe_state_error", None)
     return error
+
+
+def unsafe_note(counters: Any) -> str:
+    """For a run that succeeded: what the simulator judged unsafe on the way, as a
+    clause for its ``why`` (``""`` when nothing; always ``""`` on a robot, whose
+    counters have no violations). A tree can end in success while the robot slid for a
+    moment (a half at a tee's opening on a slow link): the success is the tree's, the
+    violations the simulator's, and the result says both."""
+    kinds = dict(getattr(counters, "violation_kinds", None) or {})
+    damage = dict(getattr(counters, "damage_kinds", None) or {})
+    if not kinds and not damage:
+        return ""
+    parts = [f"{n} {k} violation{'s' if n != 1 else ''}" for k, n in sorted(kinds.items())]
+    parts += [f"{n} damage ({k})" for k, n in sorted(damage.items())]
+    return f"; but the simulator counted {', '.join(parts)}: the robot did not stay safe"
 
 
 def explain_run(
