@@ -219,7 +219,8 @@ class SessionStats:
         last_heard_s: Clock time of the last valid frame (``-inf`` if never).
         rtt_s: Smoothed round-trip time of first-try acks (``nan`` before one).
         loss_ratio: Share of the recent requests that needed a retry or failed.
-        crc_errors: Frames rejected (CRC or framing).
+        crc_errors: Bad frames of every reason (oversize, cobs, short, crc, version,
+            type, length, value), not only CRC mismatches.
         retries: Requests sent again.
         failed: Requests given up.
         duplicates: Duplicate or out-of-date frames ignored.
