@@ -119,3 +119,25 @@ def test_a_navigation_step_knows_the_turn_fixed_on_in_the_step_before(tmp_path: 
     # and the bend fixed on in the step before explained the block at the unmapped turn
     assert not result.succeeded
     assert result.why.startswith("belief and map disagree: the pipe blocked the robot at 3.")
+
+
+def test_a_slope_the_map_draws_is_no_turn_and_one_it_does_not_is(tmp_path: Path) -> None:
+    # a straight whose slope changes by 45 deg, then 15 deg more, as drawn: the
+    # localiser took the 45 deg swing of the IMU for an unmapped turn and stopped the
+    # mission ("the pipe turned by 45 deg at 1.26 m ... no turn within 0.56 m")
+    drawn = Path(__file__).parent / "data" / "networks" / "steep.yaml"
+    (tmp_path / "steep.yaml").write_text(drawn.read_text(encoding="utf-8"), encoding="utf-8")
+    route = tmp_path / "steep.route"
+    route.write_text("network steep.yaml\nforward 3 m\nforward to the end\n", encoding="utf-8")
+    as_drawn = pirate_bt.simulate_mission(route)
+    assert as_drawn.succeeded, as_drawn.why
+    # the same map in a pipe that rises at 80 deg where it is drawn at 45: a swing the
+    # map does not draw, a disagreement
+    truth = tmp_path / "steeper.yaml"
+    truth.write_text(
+        drawn.read_text(encoding="utf-8").replace("slope: 45 deg", "slope: 80 deg"),
+        encoding="utf-8",
+    )
+    other = pirate_bt.simulate_mission(route, truth=truth)
+    assert not other.succeeded
+    assert other.why.startswith("belief and map disagree: the pipe turned by"), other.why

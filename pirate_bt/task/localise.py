@@ -101,6 +101,10 @@ of the distance since the last fix from where the map has it, beyond the toleran
 _DIRECTION_MARGIN_RAD = math.radians(50.0)
 _OPENING_MARGIN_RAD = 0.15
 _UNEXPECTED_TURN_RAD = math.radians(30.0)
+_SLOPE_MATCH_RAD = math.radians(5.0)
+"""How close the IMU's heading must be to a slope the map draws (away from its turns)
+for a swing of 30° or more to be that slope, not an unmapped turn."""
+_SLOPE_SAMPLE_M = 0.02
 
 
 def _where(feature: MapFeature) -> str:
@@ -286,6 +290,11 @@ class Localiser:
             self._settle_after_m = turn.end_m + 0.02
             return
         if swung >= _UNEXPECTED_TURN_RAD and not near:
+            if self._drawn_slope(tangent, imu_m, reach):
+                # the map's straight changes slope here (a kink the network draws): the
+                # pipe goes on as drawn, and the new slope is the reference from now on
+                self._heading_ref = tangent
+                return
             self.mismatch = (
                 f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
                 f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
@@ -299,6 +308,29 @@ class Localiser:
                 reach,
                 turn,
             )
+
+    def _drawn_slope(self, tangent: Vec3, imu_m: float, reach: float) -> bool:
+        """The IMU's heading is the map's own slope somewhere within ``reach`` of the
+        rotational module's believed place, in the reference heading's direction: a
+        change of slope on a straight that the network draws, not a turn."""
+        ref = self._heading_ref
+        assert ref is not None
+        if math.hypot(ref[0], ref[1]) < 1e-6:
+            return False  # a vertical reference has no direction to keep
+        yaw = math.atan2(ref[1], ref[0])
+        path = self.plan.path
+        lo, hi = max(0.0, imu_m - reach), min(path.length_m, imu_m + reach)
+        steps = max(1, math.ceil((hi - lo) / _SLOPE_SAMPLE_M))
+        for i in range(steps + 1):
+            slope = path.slope_at(lo + (hi - lo) * i / steps)
+            drawn = (
+                math.cos(slope) * math.cos(yaw),
+                math.cos(slope) * math.sin(yaw),
+                math.sin(slope),
+            )
+            if angle_between(tangent, drawn) <= _SLOPE_MATCH_RAD:
+                return True
+        return False
 
     def _felt_roll(self, turn: MapFeature, before: Vec3, now: Vec3) -> float | None:
         """The roll of the turn felt (``before`` to ``now``) in the map's frame at ``turn``."""
