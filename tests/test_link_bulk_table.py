@@ -205,3 +205,35 @@ def test_a_nack_to_hello_is_named_for_what_it_is(code: NackCode, message: str) -
     if code is NackCode.NOT_READY:
         assert "layout" not in str(info.value).split(":")[0]
         assert "another robot description" not in str(info.value)
+
+
+def test_a_stop_refused_at_close_sends_the_estop() -> None:
+    """A bus fault: the bridge refuses every setpoint (BUS_ERROR), so the drives' stop
+    at close is refused and the robot may be left driving; the host used to log a
+    warning and close. It now sends the e-stop, which the bridge always takes."""
+    from pirate_bt.link.messages import EStop
+
+    link, tap, bridge, _clock = connect()
+    link.send_and_wait([MotorCommand(d, ControlMode.VELOCITY, 0.05) for d in DRIVES])
+    tap.refuse = lambda msg: NackCode.BUS_ERROR if isinstance(msg, BulkSetpoints) else None
+    link.close()
+    bridge.bridge.receive(tap.read_available())  # what was on the wire as it closed
+    assert any(isinstance(m, EStop) for m in tap.frames), [type(m).__name__ for m in tap.frames]
+    # the bridge applied its stop category: the drives are stopped
+    assert bridge.bridge.model.setpoint("bend_1_drive") == MotorCommand(
+        "bend_1_drive", ControlMode.VELOCITY, 0.0
+    )
+
+
+def test_a_stop_at_close_on_a_latched_bridge_sends_nothing_more() -> None:
+    from pirate_bt.link.messages import EStop
+
+    link, tap, bridge, clock = connect()
+    link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
+    bridge.bridge.set_estop_input(True)
+    clock.advance(0.05)
+    link.poll()  # the host has heard the latch
+    before = sum(isinstance(m, EStop) for m in tap.frames)
+    link.close()
+    tap.read_available()
+    assert sum(isinstance(m, EStop) for m in tap.frames) == before

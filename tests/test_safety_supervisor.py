@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import pytest
 
@@ -415,3 +416,28 @@ def test_a_clamp_that_swings_steered_joints_across_ends_clamped(
     port.clamp_half(Half.FRONT, 0.7)
     assert sup.half_states()[Half.FRONT] is ClampState.CLAMPED
     assert sup.unclamp(Half.REAR).ok
+
+
+def test_a_stop_goes_out_though_the_link_reports_an_earlier_failure_first(
+    port: FakePort, clock: SimClock
+) -> None:
+    """The link raises for an earlier request's failure before it sends, so the stop
+    of a robot whose drives are all on one board never went out (the board-by-board
+    fallback needs two boards); the supervisor now asks again at once."""
+    from pirate_bt.errors import LinkError
+
+    class EarlierFailure(FakePort):
+        pending = 1
+
+        def send(self, commands: Any) -> None:
+            if self.pending:
+                self.pending -= 1
+                raise LinkError("1 earlier request(s) failed; last: BulkSetpoints refused")
+            super().send(commands)
+
+    link = EarlierFailure(ROBOT, clock)
+    sup = Supervisor(link, clock)
+    sup.safe_state("test")
+    drives = {m.name for m in ROBOT.drive_motors()}
+    assert link.batches and {c.motor for c in link.batches[-1]} == drives
+    assert all(c.value == 0.0 for c in link.batches[-1])

@@ -321,7 +321,15 @@ class RobotLink:
             try:
                 self.send_and_wait(stop, timeout_s=self.session.config.give_up_s)
             except LinkError as exc:
-                _log.warning("could not stop the drives on close: %s", exc)
+                if self.session.stats().estopped:
+                    # latched: the bridge has stopped everything and refuses setpoints
+                    _log.info("drives not stopped on close (the e-stop is latched): %s", exc)
+                else:
+                    # refused (a bus fault, a board away) or never acknowledged: the
+                    # robot may be left moving; the e-stop is what the bridge always
+                    # takes (it applies the stop category itself)
+                    _log.error("could not stop the drives on close: %s; e-stop sent", exc)
+                    self.estop()
         self.session.close()
 
     def __enter__(self) -> RobotLink:

@@ -125,6 +125,16 @@ class DecisionMixin:
             self.port.send(cmds)
         except LinkError as exc:
             log.error("could not send stop: %s", exc)
+            try:
+                # the link reports an earlier request's failure before it sends (the
+                # stop did not go out): those failures are taken now, so ask again
+                self.port.send(cmds)
+            except LinkError:
+                pass
+            else:
+                for c in cmds:
+                    self._last_setpoint[c.motor] = (c.mode, 0.0, now)
+                return cmds
             by_board: dict[int, list[MotorCommand]] = {}
             for c in cmds:
                 by_board.setdefault(self.robot.board_of(c.motor).id, []).append(c)
