@@ -28,3 +28,21 @@ def test_a_pressed_estop_input_ends_the_run_and_the_result_names_the_button() ->
     assert result.sim_time_s < 4.0, result.sim_time_s
     assert truth.halves  # the robot is still there: clamps hold in the stop category
     assert any(h.clamped for h in truth.halves.values())
+
+
+def test_a_bridge_that_resets_mid_run_is_named_as_the_cause_of_its_latch() -> None:
+    # it boots latched and the host does not release a latch from a reset in the middle
+    # of a session: the result said only "the bridge reports its e-stop latched"
+    with pirate_bt.connect("sim:straight") as robot:
+        sim = robot.simulator
+        boot = sim.bridge.boot_id
+
+        def reset(now: float) -> None:
+            if now > 3.0 and sim.bridge.boot_id == boot:
+                sim.bridge.reset()
+
+        robot.clock.add_listener(reset)
+        result = robot.run("straight", params={"distance": "1 m"}, max_time="60 s")
+    assert not result.succeeded
+    assert "it reset in the middle of the session and booted latched" in result.why, result.why
+    assert result.sim_time_s < 5.0

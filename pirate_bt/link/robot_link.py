@@ -56,6 +56,7 @@ _HEALTH_FIGURES = attrgetter(
     "duplicates",
     "completed",
     "_flags",
+    "bridge_resets",
 )
 
 
@@ -290,7 +291,7 @@ class RobotLink:
         figures = _HEALTH_FIGURES(session)
         if figures == self._health_figures:
             return self._health
-        lost, closed, heard_s, rtt_s, crc, retries, failed, dups, completed, flags = figures
+        lost, closed, heard_s, rtt_s, crc, retries, failed, dups, completed, flags, resets = figures
         if completed != self._loss_completed:
             recent = session._recent
             self._loss_ratio = (sum(recent) / len(recent)) if recent else 0.0
@@ -307,6 +308,7 @@ class RobotLink:
             duplicates=dups,
             estopped=bool(flags & BridgeFlags.ESTOP),
             estop_input=bool(flags & BridgeFlags.ESTOP_INPUT),
+            bridge_resets=resets,
         )
         return self._health
 
@@ -351,6 +353,7 @@ def _health_of(s: SessionStats) -> LinkHealth:
         duplicates=s.duplicates,
         estopped=s.estopped,
         estop_input=s.estop_input,
+        bridge_resets=s.bridge_resets,
     )
 
 

@@ -37,6 +37,8 @@ class LinkHealth:
         estopped: The bridge reports its e-stop latched.
         estop_input: The bridge reports its hardware e-stop input pressed, or that the
             input latched the e-stop (protocol 1.2; a 1.1 bridge never says so).
+        bridge_resets: Bridge resets seen in the middle of the session (a bridge
+            boots latched, and the host does not release that latch).
     """
 
     connected: bool
@@ -49,6 +51,7 @@ class LinkHealth:
     duplicates: int = 0
     estopped: bool = False
     estop_input: bool = False
+    bridge_resets: int = 0
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""

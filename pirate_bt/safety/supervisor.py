@@ -233,6 +233,14 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     "the bridge reports its e-stop latched by its hardware e-stop input"
                     " (release the button, then reset the e-stop)",
                 )
+            if health.bridge_resets:
+                # a bridge boots latched, and the host does not release a latch from a
+                # reset in the middle of a session (docs/protocol.md): say so
+                return Problem(
+                    Reason.ESTOP_LATCHED,
+                    "the bridge reports its e-stop latched: it reset in the middle of the"
+                    " session and booted latched (check the robot, then reset the e-stop)",
+                )
             return Problem(Reason.ESTOP_LATCHED, "the bridge reports its e-stop latched")
         if not health.connected:
             return Problem(Reason.LINK_DOWN, "the link to the robot is not connected")
