@@ -332,8 +332,12 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
     )
 
 
-#: The fields of :class:`LinkHealth`, in the order of :func:`link_health_raw`.
-LINK_FIELDS: tuple[str, ...] = tuple(LinkHealth.__dataclass_fields__)
+#: The fields of :class:`LinkHealth` a trace records, in the order of
+#: :func:`link_health_raw`: all but ``bridge_resets``, which the trace schema predates
+#: (a reset mid-session shows as the bridge's latch and the supervisor's e-stop cause).
+LINK_FIELDS: tuple[str, ...] = tuple(
+    f for f in LinkHealth.__dataclass_fields__ if f != "bridge_resets"
+)
 
 link_health_raw: Callable[[LinkHealth], tuple[Any, ...]] = attrgetter(*LINK_FIELDS)
 """Link health as a tuple of raw values, in ``LinkHealth`` field order: one C call,
