@@ -124,7 +124,11 @@ class DecisionMixin:
         try:
             self.port.send(cmds)
         except LinkError as exc:
-            log.error("could not send stop: %s", exc)
+            if self._mode is Mode.ESTOP or self.port.health().estopped:
+                # latched: the bridge has stopped everything and refuses setpoints
+                log.info("stop not sent (the e-stop is latched): %s", exc)
+            else:
+                log.error("could not send stop: %s", exc)
             try:
                 # the link reports an earlier request's failure before it sends (the
                 # stop did not go out): those failures are taken now, so ask again
