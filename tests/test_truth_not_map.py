@@ -141,3 +141,13 @@ def test_a_slope_the_map_draws_is_no_turn_and_one_it_does_not_is(tmp_path: Path)
     other = pirate_bt.simulate_mission(route, truth=truth)
     assert not other.succeeded
     assert other.why.startswith("belief and map disagree: the pipe turned by"), other.why
+
+
+def test_a_found_tee_too_near_the_mapped_one_ends_as_a_result_not_a_traceback() -> None:
+    # an unmapped tee 0.7 m before the mapped one: the re-plan through the found tee
+    # could not be planned (the two closer than the robot is long) and its LocatedError
+    # came out of simulate_mission after the robot had moved, with no result
+    truth = Path(__file__).parent / "data" / "networks" / "t-joint-extra-tee.yaml"
+    result = pirate_bt.simulate_mission("t-joint.route", network="t-joint", truth=truth)
+    assert not result.succeeded and result.safe_state
+    assert result.why.startswith("belief and map disagree: an opening was felt at 1.37 m")

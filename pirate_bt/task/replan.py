@@ -126,13 +126,18 @@ def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     elif leg.step.distance_m is not None:
         started = next(x.belief_m for x in result.legs if x.label == running[-1])
         target = started + (leg.end_m - leg.start_m)
-        first = plan_route(
-            Route(plan.route.name, plan.route.source, (tee_step,), plan.route.network),
-            corrected,
-            robot,
-            plan.contract,
-            start_m=at_m,
-        )
+        try:
+            first = plan_route(
+                Route(plan.route.name, plan.route.source, (tee_step,), plan.route.network),
+                corrected,
+                robot,
+                plan.contract,
+                start_m=at_m,
+            )
+        except LocatedError:
+            # the found tee cannot be passed as planned (too near the next feature): no
+            # clear meaning, the stop stands and is the result
+            return None
         left = target - first.end_m
         if left > 0.01:
             steps.append(
