@@ -92,6 +92,12 @@ def test_the_console_refuses_to_start_without_a_terminal() -> None:
     assert done.returncode == 2
     assert "terminal" in done.stderr and "--keys" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
+    # with a tree, --keys is refused: the line points at 'pirate-bt run' (it pointed
+    # at --keys, which then said to use 'pirate-bt run': a circle)
+    tree = _teleop("--sim", "straight", "--tree", "straight", "--param", "distance=0.2m")
+    assert tree.returncode == 2
+    assert "in scripts run the tree with 'pirate-bt run'" in tree.stderr, tree.stderr
+    assert len(tree.stderr.strip().splitlines()) == 1
 
 
 def _wait_for(

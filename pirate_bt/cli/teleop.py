@@ -290,6 +290,12 @@ def run(args: argparse.Namespace) -> int:
     if args.tree is not None and args.keys is not None:
         raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
     if args.keys is None and not sys.stdin.isatty():
+        if args.tree is not None:
+            # --keys drives by hand only: a supervised tree's y/n answers need a person
+            raise InputError(
+                "the console needs a terminal to confirm a tree's steps; in scripts run"
+                " the tree with 'pirate-bt run' (or the teleop by hand with --keys KEYS)"
+            )
         raise InputError("the console needs a terminal; use --keys KEYS in scripts")
     safety_log = logging.getLogger("pirate_bt.safety")
     if safety_log.level == logging.NOTSET:
