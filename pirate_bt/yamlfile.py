@@ -80,6 +80,8 @@ MAX_DEPTH = 256
 for the recursive code that later reads the data)."""
 ModelT = TypeVar("ModelT", bound=BaseModel)
 _INT_TAG = "tag:yaml.org,2002:int"
+_BOOL_TAG = "tag:yaml.org,2002:bool"
+_STR_TAG = "tag:yaml.org,2002:str"
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
@@ -211,6 +213,9 @@ def _distinct(root: yaml.Node) -> int:
 def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None:
     """Record where each value is written; report duplicate and unusable keys.
 
+    A key that YAML 1.1 resolves to a boolean (a bare ``on:``, ``yes:``, ``n:``) is
+    retagged as text, its text kept, before the document is constructed.
+
     Iterative, so that nesting up to :data:`MAX_DEPTH` never meets the recursion limit.
     """
     stack: list[tuple[yaml.Node, PathKey]] = [(root, ())]
@@ -237,7 +242,15 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
         items: list[tuple[PathKey, yaml.Node]] = []
         if isinstance(node, yaml.MappingNode):
             seen: dict[Any, yaml.Node] = {}
-            for key_node, value_node in node.value:
+            for i, (key_node, value_node) in enumerate(node.value):
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag == _BOOL_TAG:
+                    # YAML 1.1 reads a bare key ``on``, ``off``, ``yes``, ``no``, ``y``,
+                    # ``n`` as a boolean: a key is its text (a value keeps its meaning).
+                    # A new node: an anchored key may also be used as a value.
+                    key_node = yaml.ScalarNode(
+                        _STR_TAG, key_node.value, key_node.start_mark, key_node.end_mark
+                    )
+                    node.value[i] = (key_node, value_node)
                 if not isinstance(key_node, yaml.ScalarNode):
                     shape = "mapping" if isinstance(key_node, yaml.MappingNode) else "list"
                     errors.append(

@@ -62,3 +62,30 @@ def test_a_control_character_is_one_line_at_its_place(text: str, where: str, cod
         message
         == f"{where}: YAML syntax error: {code} (a control character) is not allowed in YAML"
     )
+
+
+def test_keys_that_yaml_1_1_reads_as_booleans_are_their_text() -> None:
+    # a bare `on:` key was the boolean True (`oneshot: Keys should be strings`);
+    # PyYAML reads y and n as text already
+    doc = load_yaml_text("on: 1\noff: 2\nyes: no\nNo: true\ny: on\n'true': 3\n", "f.yaml")
+    assert doc.data == {"on": 1, "off": 2, "yes": False, "No": True, "y": True, "true": 3}
+    assert all(type(key) is str for key in doc.data)
+    assert str(doc.locator.locate(("y",))) == "f.yaml:5:1"
+    # an anchored key used as a value elsewhere: the value keeps its meaning
+    shared = load_yaml_text("a: {&k on: 1}\nb: *k\n")
+    assert shared.data == {"a": {"on": 1}, "b": True}
+    with pytest.raises(ValidationFailed, match="duplicate key 'on'"):
+        load_yaml_text("on: 1\non: 2\n")
+
+
+def test_oneshot_on_success_written_as_documented(tmp_path: Path) -> None:
+    from py_trees.common import OneShotPolicy
+
+    from pirate_bt.treefile import load_tree
+
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "name: t\nroot:\n  type: oneshot\n  on: success\n  child: {type: log, message: hi}\n",
+        encoding="utf-8",
+    )
+    assert load_tree(tree).root.policy == OneShotPolicy.ON_SUCCESSFUL_COMPLETION  # type: ignore[attr-defined]
