@@ -21,6 +21,7 @@ whole number too long for Python to read are refused at their line too.
 
 from __future__ import annotations
 
+import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ from typing import Any, BinaryIO, TypeVar
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 
 __all__ = [
     "Locator",
@@ -454,6 +455,12 @@ def describe_error(error: Any) -> str:
         return f"unknown key {loc[-1]!r}"
     if kind == "missing" and loc:
         return f"missing required key {loc[-1]!r}"
+    if kind == "union_tag_not_found":  # a tagged union (``kind: angle``) without its tag
+        return f"missing required key {_tag_key(error)!r}"
+    if kind == "union_tag_invalid":  # the tags as text, not reprs (<SensorKind.IMU: 'imu'>)
+        ctx = error.get("ctx") or {}
+        tags = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected_tags", "")))
+        return f"{_tag_key(error)}: {shown(ctx.get('tag'))} is not one of {', '.join(tags)}"
     for prefix in ("Value error, ", "Assertion failed, "):
         if msg.startswith(prefix):
             msg = msg[len(prefix) :]
@@ -465,6 +472,11 @@ def describe_error(error: Any) -> str:
         if where:
             return f"{where.split('.')[-1]}: {msg}"
     return msg
+
+
+def _tag_key(error: Any) -> str:
+    """The key that tags the branches of a union (``kind``), from a tag error."""
+    return str((error.get("ctx") or {}).get("discriminator", "kind")).strip("'\"")
 
 
 _NO_DATA = object()
@@ -501,6 +513,16 @@ def _real_path(data: Any, loc: Sequence[str | int], kind: str) -> tuple[PathKey,
     return tuple(path), tagged, ends_on_tag
 
 
+def _value_at(data: Any, path: PathKey) -> Any:
+    """The value at ``path`` in ``data``, or ``_NO_DATA``."""
+    for element in path:
+        try:
+            data = data[element]
+        except (KeyError, IndexError, TypeError):
+            return _NO_DATA
+    return data
+
+
 def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tuple[PathKey, str]]:
     """pydantic's errors as ``(path into data, message)``: one clear message per problem.
 
@@ -534,6 +556,11 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
             name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
             out.append((path, f"{name}: should be {' or '.join(dict.fromkeys(shapes[path]))}"))
             continue
+        if e["type"] == "union_tag_invalid":  # located at the tag's value, shown as written
+            path = (*path, _tag_key(e))
+            value = _value_at(data, path)
+            if value is not _NO_DATA:
+                e = {**e, "ctx": {**e["ctx"], "tag": value}}
         out.append((path, describe_error({**e, "loc": path})))
     return list(dict.fromkeys(out))
 

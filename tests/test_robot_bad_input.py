@@ -169,6 +169,25 @@ CASES = [
         "name: bend_1_spring",
         "sensor slot 0 used twice",
     ),
+    # pydantic's words were "Input tag 'gyro' found using 'kind' does not match any of the
+    # expected tags: <SensorKind.ANGLE: 'angle'>, ...", at the sensor, not its kind
+    Case(
+        "unknown-sensor-kind",
+        "        kind: imu\n",
+        "        kind: gyro\n",
+        "kind: gyro",
+        "kind: 'gyro' is not one of angle, spring, imu",
+        9,
+    ),
+    # was "Unable to extract tag using discriminator 'kind'"
+    Case(
+        "missing-sensor-kind",
+        "        name: imu\n        kind: imu\n",
+        "        name: imu\n",
+        "slot: 0\n        name: imu",
+        "missing required key 'kind'",
+        9,
+    ),
     Case("bad-name", "name: rear_leds", "name: Rear-LEDs", "Rear-LEDs", "pattern"),
     Case("negative-period", "period: 20 ms", "period: 20 ms", None, ""),  # placeholder
 ]

@@ -89,3 +89,21 @@ def test_oneshot_on_success_written_as_documented(tmp_path: Path) -> None:
         encoding="utf-8",
     )
     assert load_tree(tree).root.policy == OneShotPolicy.ON_SUCCESSFUL_COMPLETION  # type: ignore[attr-defined]
+
+
+def test_a_union_chosen_by_a_key_speaks_of_that_key(tmp_path: Path) -> None:
+    # a pipe network's pieces are tagged by `type` (pydantic's discriminator)
+    from pirate_bt.pipes.loader import load_network
+
+    good = (Path(__file__).resolve().parent.parent / "scenarios" / "straight.yaml").read_text()
+    for old, new, expected in (
+        ("type: straight", "type: wiggle", ":9:15: type: 'wiggle' is not one of straight, bend, "),
+        ("type: straight", "type: 5", ":9:15: type: 5 is not one of straight, bend, "),
+        ("type: straight, ", "", ":9:5: missing required key 'type'"),
+    ):
+        path = tmp_path / "net.yaml"
+        path.write_text(good.replace(old, new), encoding="utf-8")
+        with pytest.raises(ValidationFailed) as err:
+            load_network(path)
+        assert expected in str(err.value), str(err.value)
+        assert "discriminator" not in str(err.value) and "\n" not in str(err.value)
