@@ -138,6 +138,11 @@ class HoldMixin:
 
     def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
         """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
+        # Runs every tick: on the level (most ticks) it costs one lookup.
+        pitch = state.imu_rad.get("pitch")
+        if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
+            self._holding.clear()
+            return
         halves = half_states(self.robot, state, self._targets)
         holding = [
             h
@@ -149,13 +154,10 @@ class HoldMixin:
             self._holding.clear()
             self._ever_held = True
             return
-        pitch = state.imu_rad.get("pitch")
-        steep = pitch is not None and abs(pitch) > self.robot.motion.max_unclamped_slope
-        if not steep or not self._ever_held or self._mode is Mode.ESTOP:
-            # never held yet (a robot set down free: clamping is the tree's first step,
-            # and a clamp of its own on its way is no fault), or nothing to fear
+        if not self._ever_held or self._mode is Mode.ESTOP:
+            # never held yet (a robot set down free in a steep pipe: clamping is its
+            # tree's first step, and a clamp on its way is no fault), or latched
             return
-        assert pitch is not None
         todo = [h for h in Half if h not in self._holding]
         if not todo:
             return  # clamped already this episode: the clamp is on its way
