@@ -598,8 +598,9 @@ def validate_document(
 
     The shape and each field come from pydantic; then, when the model has a
     ``cross_check()`` returning ``(path, message)`` pairs (rules that span the
-    file), those are located too. The model should defer its own cross-check
-    raising when ``context`` says ``defer_cross_checks``.
+    file), those are located too; a triple ``(path, message, first_path)`` (a
+    duplicate) adds ``(first at FILE:LINE:COLUMN)``. The model should defer its
+    own cross-check raising when ``context`` says ``defer_cross_checks``.
 
     Args:
         doc: The loaded document.
@@ -617,12 +618,21 @@ def validate_document(
     except ValidationError as exc:
         raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data)) from None
     cross_check = getattr(value, "cross_check", None)
-    problems: list[tuple[PathKey, str]] = cross_check() if callable(cross_check) else []
+    problems: list[tuple[Any, ...]] = cross_check() if callable(cross_check) else []
     if problems:
         raise ValidationFailed(
             sorted(
-                (doc.locator.error(path, msg) for path, msg in problems),
+                (_cross_error(doc.locator, *problem) for problem in problems),
                 key=lambda e: (e.location.line, e.location.column),
             )
         )
     return value
+
+
+def _cross_error(
+    locator: Locator, path: PathKey, message: str, first: PathKey | None = None
+) -> LocatedError:
+    """A cross-check's problem at ``path``; a duplicate names its ``first`` place too."""
+    if first is not None:
+        message = f"{message} (first at {locator.locate(first)})"
+    return locator.error(path, message)

@@ -279,3 +279,42 @@ def test_files_that_are_not_yaml_text(
     if kind == "not-utf8":
         assert f"{path}:1:10:" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "again", "first"),
+    [
+        ("  - id: 23\n", "  - id: 22\n", "duplicate board id 22", "  - id: 22\n"),
+        (
+            "name: bend_2_joint}",
+            "name: bend_1_joint}",
+            "duplicate name 'bend_1_joint'",
+            "name: bend_1_joint\n",
+        ),
+        ("name: bend_2, role", "name: bend_1, role", "duplicate module name", "name: bend_1, "),
+    ],
+)
+def test_a_duplicate_names_its_first_place(
+    old: str, new: str, again: str, first: str, tmp_path: Path
+) -> None:
+    # was "duplicate board id 22 (also boards[2])": a path into the data, not a place
+    text = GOOD.replace(old, new, 1)
+    path = tmp_path / "dup.yaml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValidationFailed) as info:
+        load_robot(path)
+    error = next(e for e in info.value.errors if again in str(e))
+    at = text.index(first)
+    line = text.count("\n", 0, at) + 1
+    column = at - text.rfind("\n", 0, at) + len(first) - len(first.lstrip(" -"))
+    assert f" (first at {path}:{line}:{column})" in str(error), str(error)
+    assert error.location.line > line
+
+
+def test_a_duplicate_built_in_python_names_its_first_place_by_path() -> None:
+    from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.yamlfile import load_yaml_text
+
+    data = load_yaml_text(GOOD.replace("  - id: 23\n", "  - id: 22\n", 1)).data
+    with pytest.raises(ValueError, match=r"duplicate board id 22 \(first at boards\[2\]\.id\)"):
+        RobotDescription.model_validate(data, context={"units_required": True})

@@ -117,6 +117,19 @@ __all__ = [
 ]
 
 
+KeyPath = tuple[str | int, ...]
+Problem = tuple[KeyPath, str] | tuple[KeyPath, str, KeyPath]
+"""A cross-check's problem: where, what, and for a duplicate where the first is."""
+
+
+def _in_words(path: KeyPath, message: str, first: KeyPath | None = None) -> str:
+    """A problem with no file to point into: a duplicate's first place as a path."""
+    if first is None:
+        return message
+    where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first)
+    return f"{message} (first at {where.lstrip('.')})"
+
+
 @dataclass(frozen=True, slots=True)
 class ChannelSpec:
     """One int16 value in the state frame, in layout order."""
@@ -182,22 +195,30 @@ class RobotDescription(_Model):
         context = info.context if isinstance(info.context, dict) else {}
         problems = self.cross_check()
         if problems and not context.get("defer_cross_checks"):
-            raise ValueError("; ".join(msg for _, msg in problems))
+            # no file to point into: a duplicate names its first place by its path
+            raise ValueError("; ".join(_in_words(*problem) for problem in problems))
         if not problems:
             self._index = _Index.build(self)
         return self
 
     # -- cross-field rules ------------------------------------------------
 
-    def cross_check(self) -> list[tuple[tuple[str | int, ...], str]]:
-        """Rules that span the file, each as ``(path, message)``; empty when valid."""
-        out: list[tuple[tuple[str | int, ...], str]] = []
+    def cross_check(self) -> list[Problem]:
+        """Rules that span the file, each as ``(path, message)``, or, for a duplicate,
+        ``(path, message, path of the first)``; empty when valid."""
+        out: list[Problem] = []
         modules = {m.name: i for i, m in enumerate(self.modules)}
-        seen_mod: set[str] = set()
+        seen_mod: dict[str, int] = {}
         for i, mod in enumerate(self.modules):
             if mod.name in seen_mod:
-                out.append((("modules", i, "name"), f"duplicate module name {mod.name!r}"))
-            seen_mod.add(mod.name)
+                out.append(
+                    (
+                        ("modules", i, "name"),
+                        f"duplicate module name {mod.name!r}",
+                        ("modules", seen_mod[mod.name], "name"),
+                    )
+                )
+            seen_mod.setdefault(mod.name, i)
             if mod.role is Role.ROTATIONAL and mod.half is not None:
                 out.append((("modules", i, "half"), "the rotational module belongs to no half"))
             if mod.role is not Role.ROTATIONAL and mod.half is None:
@@ -227,7 +248,8 @@ class RobotDescription(_Model):
                 out.append(
                     (
                         ("boards", b, "id"),
-                        f"duplicate board id {board.id} (also boards[{ids[board.id]}])",
+                        f"duplicate board id {board.id}",
+                        ("boards", ids[board.id], "id"),
                     )
                 )
             ids.setdefault(board.id, b)
@@ -248,7 +270,13 @@ class RobotDescription(_Model):
                         )
                     slots.add(item.slot)
                     if item.name in names:
-                        out.append(((*path, "name"), f"duplicate name {item.name!r}"))
+                        out.append(
+                            (
+                                (*path, "name"),
+                                f"duplicate name {item.name!r}",
+                                (*names[item.name], "name"),
+                            )
+                        )
                     names.setdefault(item.name, path)
             for j, motor in enumerate(board.motors):
                 out.extend(_motor_limit_problems(motor, ("boards", b, "motors", j)))
