@@ -289,6 +289,31 @@ root:
     assert _signature(load_tree(back).spec) == _signature(load_tree(tree).spec)
 
 
+def test_a_dollar_in_a_default_means_one_thing_in_xml_and_in_a_run(tmp_path: Path) -> None:
+    # the port default was written "$fromdefault" while a run used "$$fromdefault"
+    tree = _write(
+        tmp_path,
+        """
+params:
+  g: {type: string, default: "$$fromdefault"}
+  h: {type: string, default: plain}
+root: {type: log, message: $g}
+""",
+    )
+    xml = export_xml(tree, tmp_path / "t.xml", {"h": "$$cli"})
+    ports = ET.parse(xml).getroot().findall("TreeNodesModel/SubTree/input_port")
+    assert {p.get("name"): p.get("default") for p in ports} == {"g": "$fromdefault", "h": "$$cli"}
+    back = load_tree(import_xml(xml, tmp_path / "back.yaml"))
+    assert (
+        back.params
+        == {"g": "$fromdefault", "h": "$$cli"}
+        == load_tree(tree, params={"h": "$$cli"}, params_from_text=True).params
+    )
+    # a given value that would read as a pointer stays text
+    braces = export_xml(tree, tmp_path / "b.xml", {"h": "{h}"})
+    assert load_tree(import_xml(braces, tmp_path / "b.yaml")).params["h"] == "{h}"
+
+
 # -- unhappy paths ---------------------------------------------------------------------
 
 

@@ -137,6 +137,26 @@ def test_literal_dollar_and_no_expressions() -> None:
         load_tree({"root": {"type": "log", "message": "$(rm -rf /)"}})
 
 
+def test_a_parameter_default_unescapes_dollars_as_a_node_value_does() -> None:
+    # the default "$$fromdefault" ran as "$$fromdefault", while "value: $$direct" gave "$direct"
+    tree = {
+        "params": {"g": {"type": "string", "default": "$$fromdefault"}},
+        "root": {"type": "log", "message": "$g"},
+    }
+    assert load_tree(tree).root.message == "$fromdefault"  # type: ignore[attr-defined]
+    assert load_tree(tree).params == {"g": "$fromdefault"}
+    example = {"params": {"g": {"type": "string", "example": "$$x"}}, "root": tree["root"]}
+    assert load_tree(example, use_examples=True).root.message == "$x"  # type: ignore[attr-defined]
+    # a caller's value is not a tree file: taken as it is, from the command line or Python
+    cli = load_tree(tree, params={"g": "$$cli"}, params_from_text=True)
+    assert cli.root.message == "$$cli"  # type: ignore[attr-defined]
+    assert load_tree(tree, params={"g": "$py"}).root.message == "$py"  # type: ignore[attr-defined]
+    # "$x" in a default names no parameter (it did mean the literal "$x")
+    single = {"params": {"g": {"type": "string", "default": "$x"}}, "root": tree["root"]}
+    with pytest.raises(ValidationFailed, match=r"default: '\$x': .*write \$\$x for the literal"):
+        load_tree(single)
+
+
 def test_unnamed_siblings_get_distinct_names() -> None:
     root = load_tree({"root": {"type": "sequence", "children": ["success", "success"]}}).root
     assert [c.name for c in root.children] == ["success", "success 2"]

@@ -245,8 +245,9 @@ def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, s
         decl = {"type": decl} if isinstance(decl, str) else dict(decl)
         kind = str(decl.get("type", "string"))
         attrs = {"name": name, "type": kind}
-        if name in given:
-            attrs["default"] = given[name]
+        if name in given:  # the caller's text, as it is: escaped as a file would write it
+            text = given[name]
+            attrs["default"] = encode_value("$" + text if text.startswith("$") else text, kind)
         elif decl.get("default") is not None:
             attrs["default"] = encode_value(decl["default"], kind)
         if decl.get("example") is not None:

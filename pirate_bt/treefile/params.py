@@ -7,7 +7,9 @@ A tree (or a named subtree) declares its parameters::
 
 and uses them as a whole value anywhere in a node's keys: ``angle: $roll``.
 There is no string interpolation and no expression: a value is either exactly
-``$name`` or it is left alone (``$$text`` writes the literal ``$text``). The
+``$name`` or it is left alone (``$$text`` writes the literal ``$text``, in a
+parameter's ``default`` and ``example`` too; a value given by the caller, on the
+command line or in Python, is taken as it is, unescaped by nothing). The
 node's own parameter model then validates the substituted value, so a parameter
 is checked twice: against its declared type when given, and against the node
 that uses it.
@@ -26,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from pirate_bt.errors import UnitError
 from pirate_bt.units import parse_quantity
 
-__all__ = ["PARAM_RE", "SI_UNITS", "ParamDecl", "ParamType", "coerce_param"]
+__all__ = ["PARAM_RE", "SI_UNITS", "ParamDecl", "ParamType", "coerce_param", "written_value"]
 
 PARAM_RE: Final = re.compile(r"^\$(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
 
@@ -113,6 +115,22 @@ def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any
     if kind == "string" and isinstance(value, str):
         return _choice(decl, value)
     raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {value!r}")
+
+
+def written_value(value: Any) -> Any:
+    """A parameter's ``default`` or ``example`` as a tree file means it, as a node's
+    value: ``$$text`` is the literal ``$text``.
+
+    Raises:
+        ValueError: ``$text`` (a default is a value; it names no parameter).
+    """
+    if isinstance(value, str) and value.startswith("$"):
+        if value.startswith("$$"):
+            return value[1:]
+        raise ValueError(
+            f"{value!r}: a default names no parameter; write ${value} for the literal {value}"
+        )
+    return value
 
 
 def _choice(decl: ParamDecl, value: Any) -> Any:

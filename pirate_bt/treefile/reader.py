@@ -19,7 +19,7 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.names import dedupe, name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
-from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param
+from pirate_bt.treefile.params import PARAM_RE, ParamDecl, coerce_param, written_value
 from pirate_bt.treefile.registry import Registry, UnknownNode
 from pirate_bt.treefile.spec import (
     _COMMON_KEYS,
@@ -213,18 +213,20 @@ class _Reader:
                 self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
                 continue
             bad = False
+            written: dict[str, Any] = {}
             for key in ("default", "example"):
                 value = getattr(parsed, key)
                 if value is None:
                     continue
                 try:
-                    coerce_param(parsed, value)
+                    written[key] = written_value(value)  # $$x: the literal $x, once
+                    coerce_param(parsed, written[key])
                 except ValueError as exc:
                     self.error(doc, (*at, key), f"{key}: {exc}")
                     bad = True
             if bad:
                 continue
-            out[name] = parsed
+            out[name] = parsed.model_copy(update=written)
         return out if len(self.errors) == before else None
 
     def bind(
