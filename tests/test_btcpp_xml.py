@@ -314,6 +314,22 @@ root: {type: log, message: $g}
     assert load_tree(import_xml(braces, tmp_path / "b.yaml")).params["h"] == "{h}"
 
 
+def test_a_folder_as_the_output_is_named_as_typed(tmp_path: Path, capsys: Any) -> None:
+    # was "out_path: '/tmp/somefolder' is a folder; name a file": a Python name on
+    # the command line
+    folder = tmp_path / "somefolder"
+    folder.mkdir()
+    xml = export_xml(ROOT / "trees/straight.yaml", tmp_path / "s.xml")
+    for argv in (
+        ["export", "btcpp", str(ROOT / "trees/straight.yaml"), "-o", str(folder)],
+        ["import", "btcpp", str(xml), "-o", str(folder)],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err == f"pirate-bt: {folder}: is a folder; name a file to write", err
+    assert list(folder.iterdir()) == []
+
+
 # -- unhappy paths ---------------------------------------------------------------------
 
 

@@ -177,10 +177,12 @@ def test_render_tree_names_an_output_that_is_no_file_name(out: Any) -> None:
 
 def test_render_tree_refuses_a_folder_or_an_unknown_suffix(tmp_path: Path) -> None:
     # both were bare ValueErrors ("cannot draw to 'tmp'"); still ValueErrors too
-    for out in ("/tmp", tmp_path / "x.bogus", tmp_path / "noext"):
+    for out in (tmp_path / "x.bogus", tmp_path / "noext"):
         refused(lambda o=out: pirate_bt.render_tree("straight", o), "out: cannot draw to")
         with pytest.raises(ValueError):
             pirate_bt.render_tree("straight", out)
+    # a folder with no suffix blamed the suffix of its last part ("cannot draw to 'tmp'")
+    refused(lambda: pirate_bt.render_tree("straight", "/tmp"), "out: '/tmp' is a folder")
     folder = tmp_path / "d.svg"
     folder.mkdir()
     refused(lambda: pirate_bt.render_tree("straight", folder), "out:", "is a folder")

@@ -269,3 +269,16 @@ def test_render_tree_refuses_what_does_not_fit(straight_run: Path, tmp_path: Pat
         tree_graph(STRAIGHT, trace=straight_run, tick=9999)
     with pytest.raises(TypeError, match="not int"):
         tree_graph(42)  # type: ignore[arg-type]
+
+
+def test_a_folder_as_the_output_is_named_whole(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was "out: cannot draw to 'somefolder': use .dot, .svg or .png": the suffix
+    # blamed, and only the last part of the path shown
+    folder = tmp_path / "somefolder"
+    folder.mkdir()
+    assert main(["render", "trees/straight.yaml", "-o", str(folder)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"pirate-bt: out: '{folder}' is a folder; name a file"
+    assert list(folder.iterdir()) == []

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, LocatedError, file_argument, output_argument
+from pirate_bt.errors import InputError, LocatedError, file_argument
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -24,7 +24,7 @@ from pirate_bt.interop.btcpp_models import (
     encode_value,
     node_models,
 )
-from pirate_bt.interop.btcpp_xml import write_atomic
+from pirate_bt.interop.btcpp_xml import output_file, write_atomic
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
@@ -334,11 +334,11 @@ def export_xml(
         ValidationFailed: the tree does not load.
     """
     tree = file_argument(tree_path, "tree_path")
-    out = output_argument(out_path, "out_path")
+    out = output_file(out_path, "out_path")
     if out.exists() and out.resolve() == tree.resolve():
         raise InputError(f"{out}: is the tree file being exported; nothing written")
     text = tree_to_xml(tree, params, registry)
     try:
         return write_atomic(out, text)
     except OSError as exc:
-        raise InputError(f"out_path: cannot write {out}: {exc.strerror or exc}") from None
+        raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None

@@ -20,10 +20,9 @@ from pirate_bt.errors import (
     SourceLocation,
     ValidationFailed,
     file_argument,
-    output_argument,
 )
 from pirate_bt.interop.btcpp_import import _read
-from pirate_bt.interop.btcpp_xml import refuse_special
+from pirate_bt.interop.btcpp_xml import output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
 
 __all__ = ["import_xml"]
@@ -122,7 +121,7 @@ def import_xml(
     from pirate_bt.treefile import load_tree
 
     source = file_argument(xml_path, "xml_path")
-    output_argument(out_path, "out_path")
+    output_file(out_path, "out_path")
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     data, where = _read(source, reg)

@@ -20,7 +20,14 @@ from pathlib import Path
 from typing import Final
 from xml.parsers import expat
 
-from pirate_bt.errors import InputError, LocatedError, SourceLocation
+from pirate_bt.errors import (
+    ArgumentValueError,
+    InputError,
+    LocatedError,
+    SourceLocation,
+    file_argument,
+    output_argument,
+)
 from pirate_bt.yamlfile import read_at_most
 
 __all__ = [
@@ -28,6 +35,7 @@ __all__ = [
     "MAX_ELEMENTS",
     "MAX_XML_BYTES",
     "XmlElement",
+    "output_file",
     "parse_xml",
     "refuse_special",
     "write_atomic",
@@ -172,6 +180,25 @@ def refuse_special(path: Path) -> None:
     if path.exists() and not path.is_file():
         what = "a directory" if path.is_dir() else "not a regular file"
         raise InputError(f"{path}: is {what}; nothing written")
+
+
+def output_file(value: object, option: str) -> Path:
+    """An output given as an argument (:func:`~pirate_bt.errors.output_argument`); a
+    folder is named by the path as given, which is what the caller typed (``-o``
+    on the command line, ``option`` in Python).
+
+    Raises:
+        ArgumentTypeError: not a file name (named by ``option``).
+        ArgumentValueError: a folder, a bad name, or a file on the way.
+    """
+    path = file_argument(value, option)
+    try:
+        folder = path.is_dir()
+    except OSError:  # a name the system refuses: output_argument words it
+        folder = False
+    if folder:
+        raise ArgumentValueError(f"{path}: is a folder; name a file to write")
+    return output_argument(path, option)
 
 
 def write_atomic(path: Path, text: str) -> Path:

@@ -273,10 +273,10 @@ def _output(out: object) -> Path:
         ArgumentTypeError: not a file name.
         ArgumentValueError: an unknown suffix, a folder, or a file on the way.
     """
-    path = file_argument(out, "out")
+    path = output_argument(out, "out")  # a folder first: its name is no suffix to blame
     if path.suffix.lower() not in DIAGRAM_SUFFIXES:
         raise ArgumentValueError(f"out: cannot draw to {shown(path.name)}: use .dot, .svg or .png")
-    return output_argument(path, "out")
+    return path
 
 
 def _structure_and_trace(
