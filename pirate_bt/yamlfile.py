@@ -4,7 +4,7 @@ Parsing text and validating data are separate steps (as pydantic-over-YAML
 projects do it): :func:`load_yaml` turns a file into plain Python data plus a
 :class:`Locator` that maps a path inside that data (``("boards", 3, "id")``) back
 to where it was written. Validators then raise with a path, and
-:func:`pydantic_errors` translates pydantic's error locations into
+:mod:`pirate_bt.yamlvalidate` translates pydantic's error locations into
 :class:`~pirate_bt.errors.LocatedError` objects.
 
 The loader refuses what ``yaml.safe_load`` would quietly accept or crash on:
@@ -21,31 +21,24 @@ whole number too long for Python to read are refused at their line too.
 
 from __future__ import annotations
 
-import re
 import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, BinaryIO
 
 import yaml
-from pydantic import BaseModel, ValidationError
 
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
 
 __all__ = [
     "Locator",
     "YamlDocument",
     "check_depth",
     "decode_text",
-    "describe_error",
     "load_yaml",
     "load_yaml_text",
-    "pydantic_errors",
     "read_at_most",
-    "unique_errors",
-    "validate_document",
-    "validation_problems",
 ]
 
 PathKey = tuple[str | int, ...]
@@ -79,7 +72,6 @@ def read_at_most(stream: BinaryIO, limit: int) -> bytes:
 MAX_DEPTH = 256
 """The deepest nesting of lists and mappings (libyaml itself stops at 1000, too deep
 for the recursive code that later reads the data)."""
-ModelT = TypeVar("ModelT", bound=BaseModel)
 _INT_TAG = "tag:yaml.org,2002:int"
 _BOOL_TAG = "tag:yaml.org,2002:bool"
 _STR_TAG = "tag:yaml.org,2002:str"
@@ -425,214 +417,3 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
                 )
             ]
         ) from None
-
-
-# What a value of each shape is called, for "should be ..." when no union branch fits.
-_SHAPES = {
-    "model_type": "a mapping of keys",
-    "model_attributes_type": "a mapping of keys",
-    "dict_type": "a mapping of keys",
-    "list_type": "a list",
-    "tuple_type": "a list",
-    "set_type": "a list",
-    "string_type": "text",
-    "int_type": "a whole number",
-    "int_parsing": "a whole number",
-    "float_type": "a number",
-    "float_parsing": "a number",
-    "bool_type": "true or false",
-    "bool_parsing": "true or false",
-    "none_required": "empty",
-}
-
-
-def describe_error(error: Any) -> str:
-    """One pydantic error as a short sentence, e.g. ``unknown key 'x'``."""
-    msg = str(error["msg"])
-    kind = error.get("type", "")
-    loc = error.get("loc", ())
-    if kind == "extra_forbidden" and loc:
-        return f"unknown key {loc[-1]!r}"
-    if kind == "missing" and loc:
-        return f"missing required key {loc[-1]!r}"
-    if kind == "union_tag_not_found":  # a tagged union (``kind: angle``) without its tag
-        return f"missing required key {_tag_key(error)!r}"
-    if kind == "union_tag_invalid":  # the tags as text, not reprs (<SensorKind.IMU: 'imu'>)
-        ctx = error.get("ctx") or {}
-        tags = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected_tags", "")))
-        return f"{_tag_key(error)}: {shown(ctx.get('tag'))} is not one of {', '.join(tags)}"
-    for prefix in ("Value error, ", "Assertion failed, "):
-        if msg.startswith(prefix):
-            msg = msg[len(prefix) :]
-    if kind in ("model_type", "model_attributes_type", "dict_type"):
-        # pydantic's own wording names classes ("instance of Motor"): say the shape.
-        msg = f"should be {_SHAPES[kind]}"
-    if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
-        where = ".".join(str(p) for p in loc if not isinstance(p, int))
-        if where:
-            return f"{where.split('.')[-1]}: {msg}"
-    return msg
-
-
-def _tag_key(error: Any) -> str:
-    """The key that tags the branches of a union (``kind``), from a tag error."""
-    return str((error.get("ctx") or {}).get("discriminator", "kind")).strip("'\"")
-
-
-_NO_DATA = object()
-
-
-def _real_path(data: Any, loc: Sequence[str | int], kind: str) -> tuple[PathKey, bool, bool]:
-    """``loc`` without pydantic's union-member tags; whether it had any; whether it ends on one.
-
-    pydantic names the branch of a union it tried inside the location
-    (``list[function-after[_check(), Comparison]]``). Walking the input data
-    tells which elements are real keys and indices; the others are tags, except
-    the last element of a missing or unknown key, which names the key.
-    """
-    if data is _NO_DATA:
-        return tuple(loc), False, False
-    path: list[str | int] = []
-    tagged = ends_on_tag = False
-    current = data
-    for i, element in enumerate(loc):
-        last = i == len(loc) - 1
-        if (isinstance(current, Mapping) and element in current) or (
-            isinstance(current, list)
-            and isinstance(element, int)
-            and not isinstance(element, bool)
-            and 0 <= element < len(current)
-        ):
-            path.append(element)
-            current = current[element]  # type: ignore[index]
-        elif last and kind in ("missing", "extra_forbidden"):
-            path.append(element)
-        else:
-            tagged = True
-            ends_on_tag = last
-    return tuple(path), tagged, ends_on_tag
-
-
-def _value_at(data: Any, path: PathKey) -> Any:
-    """The value at ``path`` in ``data``, or ``_NO_DATA``."""
-    for element in path:
-        try:
-            data = data[element]
-        except (KeyError, IndexError, TypeError):
-            return _NO_DATA
-    return data
-
-
-def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tuple[PathKey, str]]:
-    """pydantic's errors as ``(path into data, message)``: one clear message per problem.
-
-    Union branches that failed only because the value has another shape (the
-    list branch of "a comparison or a list of comparisons" given a mapping) are
-    dropped when another branch says what is wrong; when every branch failed on
-    shape, one message says which shapes are allowed. Locations and messages
-    never carry pydantic's internal names.
-
-    Args:
-        exc: The validation error.
-        data: The input that was validated (to tell real keys from union tags);
-            without it every location element is taken as a key.
-    """
-    entries = []
-    for e in exc.errors():
-        kind = str(e.get("type", ""))
-        path, tagged, ends_on_tag = _real_path(data, e["loc"], kind)
-        entries.append((path, tagged and ends_on_tag and kind in _SHAPES, tagged, e))
-    # Paths where some union branch failed on something other than shape.
-    substantive = [path for path, shape, tagged, _ in entries if tagged and not shape]
-    shapes: dict[PathKey, list[str]] = {}
-    for path, shape, _, e in entries:
-        if shape:
-            shapes.setdefault(path, []).append(_SHAPES[str(e["type"])])
-    out: list[tuple[PathKey, str]] = []
-    for path, shape, _, e in entries:
-        if shape:
-            if any(p[: len(path)] == path for p in substantive):
-                continue  # another branch of the same union says what is wrong
-            name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
-            out.append((path, f"{name}: should be {' or '.join(dict.fromkeys(shapes[path]))}"))
-            continue
-        if e["type"] == "union_tag_invalid":  # located at the tag's value, shown as written
-            path = (*path, _tag_key(e))
-            value = _value_at(data, path)
-            if value is not _NO_DATA:
-                e = {**e, "ctx": {**e["ctx"], "tag": value}}
-        out.append((path, describe_error({**e, "loc": path})))
-    return list(dict.fromkeys(out))
-
-
-def pydantic_errors(
-    exc: ValidationError, locator: Locator, data: Any = _NO_DATA
-) -> list[LocatedError]:
-    """Translate pydantic's errors into located ones, in file order.
-
-    Args:
-        exc: The validation error.
-        locator: Where each path of the file was written.
-        data: The validated input, to tell keys from pydantic's union tags.
-    """
-    errors = [locator.error(path, msg) for path, msg in validation_problems(exc, data)]
-    errors.sort(key=lambda e: (e.location.line, e.location.column))
-    return unique_errors(errors)
-
-
-def unique_errors(errors: Iterable[LocatedError]) -> list[LocatedError]:
-    """``errors`` without repeats (the same message at the same place), order kept."""
-    seen: set[str] = set()
-    out: list[LocatedError] = []
-    for e in errors:
-        if str(e) not in seen:
-            seen.add(str(e))
-            out.append(e)
-    return out
-
-
-def validate_document(
-    doc: YamlDocument, model: type[ModelT], what: str, context: dict[str, Any]
-) -> ModelT:
-    """Validate a loaded YAML document as ``model``, every problem at its place.
-
-    The shape and each field come from pydantic; then, when the model has a
-    ``cross_check()`` returning ``(path, message)`` pairs (rules that span the
-    file), those are located too; a triple ``(path, message, first_path)`` (a
-    duplicate) adds ``(first at FILE:LINE:COLUMN)``. The model should defer its
-    own cross-check raising when ``context`` says ``defer_cross_checks``.
-
-    Args:
-        doc: The loaded document.
-        model: The pydantic model of the file kind.
-        what: What people call the file kind ("a pipe network").
-        context: The pydantic validation context (``units_required`` for files).
-
-    Raises:
-        ValidationFailed: every problem, in file order.
-    """
-    if not isinstance(doc.data, dict):
-        raise ValidationFailed([doc.locator.error((), f"{what} must be a mapping of keys")])
-    try:
-        value = model.model_validate(doc.data, context=context)
-    except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data)) from None
-    cross_check = getattr(value, "cross_check", None)
-    problems: list[tuple[Any, ...]] = cross_check() if callable(cross_check) else []
-    if problems:
-        raise ValidationFailed(
-            sorted(
-                (_cross_error(doc.locator, *problem) for problem in problems),
-                key=lambda e: (e.location.line, e.location.column),
-            )
-        )
-    return value
-
-
-def _cross_error(
-    locator: Locator, path: PathKey, message: str, first: PathKey | None = None
-) -> LocatedError:
-    """A cross-check's problem at ``path``; a duplicate names its ``first`` place too."""
-    if first is not None:
-        message = f"{message} (first at {locator.locate(first)})"
-    return locator.error(path, message)

@@ -301,7 +301,7 @@ def params_problems(exc: ValidationError, data: Any) -> list[str]:
         exc: The validation error of ``Params.model_validate(data)``.
         data: The validated mapping.
     """
-    from pirate_bt.yamlfile import validation_problems  # only on the error path
+    from pirate_bt.yamlvalidate import validation_problems  # only on the error path
 
     out: list[str] = []
     for path, message in validation_problems(exc, data):

@@ -49,7 +49,8 @@ from pydantic import (
 from pirate_bt.api.options import MAX_RATE_HZ, MAX_SEED, MAX_TIME_S
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
-from pirate_bt.yamlfile import Locator, load_yaml, validate_document, validation_problems
+from pirate_bt.yamlfile import Locator, load_yaml
+from pirate_bt.yamlvalidate import validate_document, validation_problems
 
 __all__ = [
     "MAX_AXIS",

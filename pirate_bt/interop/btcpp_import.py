@@ -33,7 +33,8 @@ from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
 from pirate_bt.treefile.params import PARAM_RE
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
-from pirate_bt.yamlfile import MAX_NODES, validation_problems
+from pirate_bt.yamlfile import MAX_NODES
+from pirate_bt.yamlvalidate import validation_problems
 
 __all__ = ["xml_to_tree"]
 

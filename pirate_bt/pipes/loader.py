@@ -10,7 +10,8 @@ from pirate_bt.errors import ConfigurationError, ValidationFailed, file_argument
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network, NetworkGeometryError
 from pirate_bt.resources import bundled, missing
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
+from pirate_bt.yamlvalidate import validate_document
 
 __all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
 

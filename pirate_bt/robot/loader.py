@@ -9,7 +9,8 @@ from typing import Any
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, file_argument
 from pirate_bt.resources import default_robot_path
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml, validate_document
+from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
+from pirate_bt.yamlvalidate import validate_document
 
 __all__ = ["load_robot", "robot_from_data", "robot_from_document"]
 

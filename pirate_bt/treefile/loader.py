@@ -48,13 +48,8 @@ from pirate_bt.treefile.spec import (
     NodeSpec,
     PathKey,
 )
-from pirate_bt.yamlfile import (
-    Locator,
-    YamlDocument,
-    check_depth,
-    load_yaml,
-    unique_errors,
-)
+from pirate_bt.yamlfile import Locator, YamlDocument, check_depth, load_yaml
+from pirate_bt.yamlvalidate import unique_errors
 
 __all__ = [
     "COMPOSITES",

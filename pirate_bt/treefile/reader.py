@@ -32,11 +32,8 @@ from pirate_bt.treefile.spec import (
     NodeSpec,
     PathKey,
 )
-from pirate_bt.yamlfile import (
-    YamlDocument,
-    load_yaml,
-    validation_problems,
-)
+from pirate_bt.yamlfile import YamlDocument, load_yaml
+from pirate_bt.yamlvalidate import validation_problems
 
 __all__ = []
 
