@@ -326,7 +326,7 @@ def test_a_folder_as_the_output_is_named_as_typed(tmp_path: Path, capsys: Any) -
     ):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
-        assert err == f"pirate-bt: {folder}: is a folder; name a file to write", err
+        assert err == f"pirate-bt: -o: '{folder}' is a folder; name a file", err
     assert list(folder.iterdir()) == []
 
 

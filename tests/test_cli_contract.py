@@ -134,10 +134,11 @@ def test_outputs_that_are_folders_are_one_line_exit_2(
     assert main(["render", STRAIGHT, "-o", str(tmp_path / "tree.svg")]) == 2
     assert "tree.svg' is a folder; name a file" in one_error_line(capsys.readouterr().err)
     assert main(["trace", "plot", str(trace_file), "-o", str(tmp_path / "plot.png")]) == 2
-    assert "plot.png: Is a directory" in one_error_line(capsys.readouterr().err)
+    assert "-o: " in (line := one_error_line(capsys.readouterr().err))
+    assert "plot.png' is a folder; name a file" in line
     # refused before the survey (exit 2), not after it (exit 1, the survey lost)
     assert main(["survey", "--sim", "straight", "-o", str(tmp_path / "surveyed.yaml")]) == 2
-    assert "is a directory" in one_error_line(capsys.readouterr().err)
+    assert "is a folder; name a file" in one_error_line(capsys.readouterr().err)
     assert leftovers(tmp_path) == []
 
 
@@ -146,7 +147,7 @@ def test_a_trace_path_under_a_file_is_refused_before_connecting(
 ) -> None:
     (tmp_path / "file").write_text("")
     assert main([*RUN, "--trace", str(tmp_path / "file" / "run.jsonl")]) == 2
-    assert "is not a directory" in one_error_line(capsys.readouterr().err)
+    assert "is not a folder (on the way to 'run.jsonl')" in one_error_line(capsys.readouterr().err)
     assert not [r for r in caplog.records if "safe state" in r.getMessage()]  # nothing opened
 
 

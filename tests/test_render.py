@@ -280,5 +280,5 @@ def test_a_folder_as_the_output_is_named_whole(
     folder.mkdir()
     assert main(["render", "trees/straight.yaml", "-o", str(folder)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == f"pirate-bt: out: '{folder}' is a folder; name a file"
+    assert err == f"pirate-bt: -o: '{folder}' is a folder; name a file"
     assert list(folder.iterdir()) == []

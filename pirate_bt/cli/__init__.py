@@ -73,23 +73,15 @@ def _terminate(signum: int, frame: object) -> None:
 
 
 def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
-    """Refuse an output path that can never be written, before any work is done.
+    """Refuse an output path that can never be written, before any work is done, named
+    by its option (``errors.output_argument``, the API's rule).
 
     Raises:
-        InputError: ``path`` is a directory, or a folder on its way is a file.
+        InputError: ``path`` is a folder, a file is on its way, or the system refuses it.
     """
-    from pathlib import Path
+    from pirate_bt.errors import output_argument
 
-    from pirate_bt.errors import InputError
-
-    target = Path(path)
-    if target.is_dir():
-        raise InputError(f"{option} {target}: is a directory; name a file")
-    for parent in target.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise InputError(f"{option} {target}: {parent} is not a directory")
-            break
+    output_argument(path, option)
 
 
 def _version() -> str:

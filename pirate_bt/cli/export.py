@@ -15,6 +15,8 @@ import argparse
 import importlib
 from pathlib import Path
 
+from pirate_bt.cli import check_output
+
 __all__ = ["TARGETS", "configure", "run"]
 
 # target -> (module, function, one-line help); the function takes
@@ -50,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
     module_name, function, _text = TARGETS[args.target]
     export = getattr(importlib.import_module(module_name), function)
+    check_output(args.output)
     written = export(find_file("trees", args.tree), args.output, parse_params(args.param))
     print(f"wrote {written}")
     return 0

@@ -18,6 +18,8 @@ import argparse
 import importlib
 from pathlib import Path
 
+from pirate_bt.cli import check_output
+
 __all__ = ["SOURCES", "configure", "run"]
 
 # source -> (module, function, one-line help); the function takes
@@ -47,6 +49,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     module_name, function, _text = SOURCES[args.source]
     convert = getattr(importlib.import_module(module_name), function)
+    check_output(args.output)
     written = convert(args.file, args.output, robot=args.robot)
     print(f"wrote {written}")
     return 0

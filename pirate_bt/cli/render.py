@@ -12,6 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from pirate_bt.cli import check_output
 from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -62,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--coverage needs --trace (or a trace file as TREE)")
     if args.coverage and args.tick is not None:
         raise InputError("--coverage colours by the whole run: leave out --tick")
+    check_output(args.output)
     trace: Trace | None = None
     structure: TreeStructure
     if _is_trace(args.tree):

@@ -7,6 +7,8 @@ import json
 import sys
 from pathlib import Path
 
+from pirate_bt.cli import check_output
+
 __all__ = ["EXPORTS", "configure", "run"]
 
 
@@ -93,6 +95,7 @@ def _plot(args: argparse.Namespace) -> int:
     from pirate_bt.trace.reader import read_trace
 
     trace = read_trace(args.trace)
+    check_output(args.output)
     out = plot_trace(trace, args.output, start_s=args.start, end_s=args.end)
     print(f"plotted {out}")
     return 0
@@ -123,6 +126,7 @@ def _export(args: argparse.Namespace) -> int:
     if is_bag_path(target):
         print(f"wrote {export_rosbag2(args.trace, Path(target))}")
         return 0
+    check_output(target)
     args.output = Path(target)
     suffix = args.output.suffix.lower()
     if suffix not in EXPORTS:
