@@ -58,13 +58,14 @@ _EXPORTS: dict[str, str] = {
     "ExploreNavigator": "pirate_bt.task.explore",
     "SurveyIncomplete": "pirate_bt.task.explore",
     "branch_leavable": "pirate_bt.task.explore",
-    # other tools' files: BehaviorTree.CPP XML and logs, MCAP, rosbag2
-    "export_xml": "pirate_bt.interop.btcpp_export",
-    "import_xml": "pirate_bt.interop.btcpp_import_file",
-    "export_btlog": "pirate_bt.interop.btlog",
-    "read_btlog": "pirate_bt.interop.btlog",
-    "export_mcap": "pirate_bt.interop.mcap_trace",
-    "export_rosbag2": "pirate_bt.interop.rosbag2",
+    # other tools' files: BehaviorTree.CPP XML and logs, MCAP, rosbag2 (pirate_bt.interop
+    # names their modules)
+    "export_xml": "pirate_bt.interop",
+    "import_xml": "pirate_bt.interop",
+    "export_btlog": "pirate_bt.interop",
+    "read_btlog": "pirate_bt.interop",
+    "export_mcap": "pirate_bt.interop",
+    "export_rosbag2": "pirate_bt.interop",
     # live views of your own runners
     "attach_groot2": "pirate_bt.interop.groot2_server",
     "Groot2Server": "pirate_bt.interop.groot2_server",

@@ -10,7 +10,7 @@ import pytest
 from pirate_bt.campaign import campaign_from_data, expand, run_campaign
 from pirate_bt.errors import InputError
 
-T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
+SHORT_BRANCH = Path(__file__).parent / "data" / "networks" / "t-joint-short-branch.yaml"
 GOAL = {"name": "goal", "navigator": "goal", "network": "t-joint", "params": {"segment": "after"}}
 ROUTE = {
     "name": "route",
@@ -67,14 +67,10 @@ def test_a_goal_the_map_does_not_have_stops_the_campaign_before_any_case() -> No
     assert seen == []
 
 
-def test_a_navigators_own_failure_is_a_failed_safe_row_that_names_it(tmp_path: Path) -> None:
+def test_a_navigators_own_failure_is_a_failed_safe_row_that_names_it() -> None:
     # the map's branch is 2 m, the world's 0.5 m: too short to hold the robot, so the
     # goal navigator asks again and again for a step that moves nothing
-    text = T_JOINT.read_text(encoding="utf-8")
-    branch = "        - {id: branch, type: straight, length: 2 m}"
-    assert branch in text
-    truth = tmp_path / "short-branch.yaml"
-    truth.write_text(text.replace(branch, branch.replace("2 m", "0.5 m")), encoding="utf-8")
+    truth = SHORT_BRANCH
     run = {**GOAL, "params": {"segment": "branch"}}
     result = run_campaign(_spec(runs=[run], maps=[str(truth)]), workers=1)
     (row,) = result.rows

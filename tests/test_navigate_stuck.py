@@ -14,15 +14,9 @@ from pathlib import Path
 import pirate_bt
 from pirate_bt.task.navigate import MAX_IDLE_REPEATS
 
-T_JOINT = Path(__file__).parents[1] / "scenarios" / "t-joint.yaml"
 
-
-def test_a_goal_it_cannot_reach_stops_the_navigator_not_its_step_limit(tmp_path: Path) -> None:
-    text = T_JOINT.read_text(encoding="utf-8")
-    branch = "        - {id: branch, type: straight, length: 2 m}"
-    assert branch in text
-    truth = tmp_path / "short-branch.yaml"
-    truth.write_text(text.replace(branch, branch.replace("2 m", "0.5 m")), encoding="utf-8")
+def test_a_goal_it_cannot_reach_stops_the_navigator_not_its_step_limit() -> None:
+    truth = Path(__file__).parent / "data" / "networks" / "t-joint-short-branch.yaml"
     result = pirate_bt.navigate("goal", map="t-joint", sim=truth, params={"segment": "branch"})
     assert not result.succeeded
     assert result.why.startswith("navigator 'goal' is stuck: it asked for Step('straight'")
