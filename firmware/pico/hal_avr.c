@@ -98,7 +98,9 @@ uint16_t hal_ticks(void) {
 /* ---- RS485 on USART0 ------------------------------------------------------------- */
 
 static volatile uint8_t rx_buf[RX_RING];
-static volatile uint8_t rx_bad[RX_RING / 8u];
+/* one flag byte per slot, not a bit: a variable shift is a loop on the AVR, and at
+ * 1 Mbaud the receive interrupt has 160 cycles a byte */
+static volatile uint8_t rx_bad[RX_RING];
 static volatile uint8_t rx_head, rx_tail;
 static volatile bool rx_lost;
 static volatile uint16_t rx_at;
@@ -118,12 +120,7 @@ ISR(USART_RX_vect) {
         return;
     }
     rx_buf[head] = byte;
-    uint8_t m = (uint8_t)(1u << (head & 7u));
-    if (bad) {
-        rx_bad[head >> 3] |= m;
-    } else {
-        rx_bad[head >> 3] &= (uint8_t)~m;
-    }
+    rx_bad[head] = bad;
     rx_lost = false;
     rx_head = next;
 }
@@ -153,7 +150,7 @@ int16_t hal_bus_getc(void) {
         return -1;
     }
     int16_t v = rx_buf[tail];
-    if ((rx_bad[tail >> 3] >> (tail & 7u)) & 1u) {
+    if (rx_bad[tail]) {
         v |= HAL_RX_ERROR;
     }
     rx_tail = (uint8_t)((tail + 1u) & (RX_RING - 1u));

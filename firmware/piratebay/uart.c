@@ -144,7 +144,9 @@ void uart0_send(const uint8_t *p, uint16_t n) {
 /* ---- USART1: RS485 board bus ---------------------------------------------------- */
 
 static volatile uint8_t rx1_buf[UART1_RX_RING];
-static volatile uint8_t rx1_bad[UART1_RX_RING / 8];
+/* One flag byte per slot, not a bit: at 1 Mbaud a byte lasts 160 cycles, and the
+ * receive interrupt must take fewer (a variable shift is a loop on the AVR). */
+static volatile uint8_t rx1_bad[UART1_RX_RING];
 static volatile uint8_t rx1_head;
 static volatile uint8_t rx1_tail;
 static volatile bool rx1_lost;
@@ -175,7 +177,9 @@ void uart1_init(uint32_t baud) {
 ISR(USART1_RX_vect) {
     uint8_t status = UCSR1A;
     uint8_t byte = UDR1;
-    rx1_at = timer_ticks();
+    /* timer_ticks() without the call: interrupts are off in here, so the 16-bit read
+     * is atomic, and a call would make the compiler save every call-clobbered register */
+    rx1_at = TCNT1;
     if (driving()) {
         stats.bus_echo++; /* our own transmission, heard through the module */
         return;
@@ -197,7 +201,7 @@ ISR(USART1_RX_vect) {
         return;
     }
     rx1_buf[head] = byte;
-    mark(rx1_bad, head, bad);
+    rx1_bad[head] = bad;
     rx1_lost = false;
     rx1_head = next;
 }
@@ -230,7 +234,7 @@ int16_t uart1_getc(void) {
         return -1;
     }
     int16_t value = rx1_buf[tail];
-    if (marked(rx1_bad, tail)) {
+    if (rx1_bad[tail]) {
         value |= UART_RX_ERROR;
     }
     rx1_tail = (uint8_t)((tail + 1u) & (UART1_RX_RING - 1u));
