@@ -98,7 +98,7 @@ KINDS: dict[str, FileKind] = {
         name="trace",
         title="trace",
         marker_keys=(),
-        suffixes=(".jsonl", ".ndjson", ".jsonl.gz"),
+        suffixes=(".jsonl", ".ndjson", ".jsonl.gz", ".mcap"),
         loader="pirate_bt.trace.reader:read_trace",
         schema="pirate_bt.trace.records:trace_schema",
     ),

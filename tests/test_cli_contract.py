@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import py_trees
 import pytest
@@ -156,9 +157,13 @@ def test_a_diagram_that_cannot_be_written_is_not_a_success(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert main(["render", STRAIGHT, "-o", "/proc/no-such/tree.svg"]) == 2
-    assert "cannot write '/proc/no-such/tree.svg'" in one_error_line(capsys.readouterr().err)
+    # refused before any work: /proc takes no file (the check writes and removes one)
+    err = one_error_line(capsys.readouterr().err)
+    assert "-o: cannot write /proc/no-such/tree.svg: /proc takes no file" in err
     assert main(["robot", "--draw", "/proc/robot.svg"]) == 2
-    assert "/proc/robot.dot" in one_error_line(capsys.readouterr().err)
+    out, err = capsys.readouterr()
+    assert "--draw: cannot write /proc/robot.svg: /proc takes no file" in one_error_line(err)
+    assert out == ""  # nothing printed before the refusal (the board table came first)
 
 
 def test_pictures_need_a_suffix_they_can_be_written_in(
@@ -374,3 +379,69 @@ def test_sigint_and_sigterm_stop_a_run_safely_with_its_trace_whole(tmp_path: Pat
         assert "safe state" in err
         trace = read_trace(path)
         assert trace.outcome == "interrupted" and trace.why == f"interrupted ({why})"
+
+
+def test_an_interrupt_while_the_command_loads_is_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the command's module was imported before the interrupt handling began: a Ctrl-C
+    # in the first 0.3 s printed a traceback, a SIGTERM killed the process silently
+    import importlib
+
+    from pirate_bt.cli import Terminated
+
+    real = importlib.import_module
+
+    def interrupted(name: str, *args: Any, **kwargs: Any) -> Any:
+        if name == "pirate_bt.cli.validate":
+            raise KeyboardInterrupt
+        if name == "pirate_bt.cli.render":
+            raise Terminated
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(importlib, "import_module", interrupted)
+    assert main(["validate", STRAIGHT]) == 130
+    assert one_error_line(capsys.readouterr().err) == "pirate-bt: interrupted"
+    assert main(["render", STRAIGHT, "-o", "x.svg"]) == 143
+    assert one_error_line(capsys.readouterr().err) == "pirate-bt: terminated (SIGTERM)"
+
+
+def test_a_terminated_campaign_exits_143_and_keeps_its_rows(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pirate_bt.campaign as campaign
+    from pirate_bt.cli import Terminated
+
+    def terminated(*args: Any, echo: Any, **kwargs: Any) -> Any:
+        echo("case 1 of 2")  # the cases have started
+        raise Terminated
+
+    monkeypatch.setattr(campaign, "run_campaign", terminated)
+    spec = Path(__file__).parents[1] / "scenarios" / "campaigns" / "pab-drop.campaign.yaml"
+    assert main(["campaign", str(spec), "--output", str(tmp_path / "out"), "--quiet"]) == 143
+    err = one_error_line(capsys.readouterr().err)
+    assert err.startswith("pirate-bt: campaign terminated (SIGTERM);") and "--resume" in err
+
+
+@pytest.mark.parametrize("spec", ["link=warn", "link=notset", "link=fatal", "link=", "linkdebug"])
+def test_a_log_level_not_in_the_docs_is_bad_input(
+    spec: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["--log", spec, "validate", STRAIGHT]) == 2
+    assert "with a level of debug, info, warning, error, critical" in one_error_line(
+        capsys.readouterr().err
+    )
+
+
+def test_validate_knows_an_mcap_trace_by_its_suffix(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pirate_bt
+
+    trace = tmp_path / "run.mcap"
+    pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, trace=trace)
+    assert main(["validate", str(trace)]) == 0  # was "binary file, not YAML text"
+    capsys.readouterr()
+    assert main(["validate", str(tmp_path / "nope.jsonl")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.count("nope.jsonl") == 1, err  # named once

@@ -105,7 +105,7 @@ class RunResult:
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain JSON values (campaign rows, ``--json``)."""
+        """Plain JSON values (campaign rows, your own reports)."""
         return {
             "tree": self.tree,
             "status": self.status,

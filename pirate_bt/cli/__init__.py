@@ -77,11 +77,29 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
     by its option (``errors.output_argument``, the API's rule).
 
     Raises:
-        InputError: ``path`` is a folder, a file is on its way, or the system refuses it.
+        InputError: ``path`` is a folder, a file is on its way, the system refuses the
+            name, or its folder takes no file.
     """
-    from pirate_bt.errors import output_argument
+    import tempfile
 
-    output_argument(path, option)
+    from pirate_bt.errors import InputError, output_argument
+
+    target = output_argument(path, option)
+    # A folder that exists but takes no file (read-only, /proc): found now, not after
+    # a survey or a campaign has run. Probed with a file made and removed at once in
+    # the nearest folder that exists (the others are made in it).
+    folder = next((p for p in target.absolute().parents if p.exists()), None)
+    if folder is None:
+        return
+    try:
+        handle, probe = tempfile.mkstemp(dir=folder, prefix=".pirate-bt-probe-")
+    except OSError as exc:
+        raise InputError(
+            f"{option}: cannot write {target}: {folder} takes no file"
+            f" ({exc.strerror or type(exc).__name__})"
+        ) from None
+    os.close(handle)
+    os.unlink(probe)
 
 
 def _version() -> str:
@@ -120,19 +138,37 @@ def _configure_logging(specs: Sequence[str], debug: bool) -> None:
         format="%(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
+    levels = ("debug", "info", "warning", "error", "critical")
     for spec in specs:
-        name, _, level = spec.partition("=")
-        level_no = logging.getLevelName(level.upper() or "INFO")
-        if not name or not isinstance(level_no, int):
+        name, equals, level = spec.partition("=")
+        if not name or not equals or level.lower() not in levels:
             from pirate_bt.errors import InputError
 
-            raise InputError(f"bad --log {spec!r}; write e.g. link=debug")
+            raise InputError(
+                f"bad --log {spec[:80]!r}: write SUBSYSTEM=LEVEL, e.g. link=debug, with a"
+                f" level of {', '.join(levels)}"
+            )
+        level_no = logging.getLevelName(level.upper())
         logger_name = name if name.startswith("pirate_bt") else f"pirate_bt.{name}"
         logging.getLogger(logger_name).setLevel(level_no)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    try:
+        # from the first instruction: a Ctrl-C or SIGTERM while the command's modules
+        # load is one line and 130 or 143, as during the command, not a traceback
+        with _sigterm_as_interrupt():
+            return _main(argv)
+    except Terminated:
+        print("pirate-bt: terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_SIGTERM
+    except KeyboardInterrupt:
+        print("pirate-bt: interrupted", file=sys.stderr)
+        return EXIT_SIGINT
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     top = _top_parser()
     # Split global options from the verb and its own arguments.

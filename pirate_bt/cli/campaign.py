@@ -9,7 +9,7 @@ file (or the folder holding it). Every case runs in its own process; a crash,
 a hang (killed after ``case_timeout``) or an exception is that case's outcome.
 Rows go to ``OUTPUT/results.jsonl`` as cases finish; after Ctrl-C, ``--resume``
 runs only the cases still missing. Exit codes: 0 the campaign ran (whatever its
-cases did); 2 bad input; 130 interrupted.
+cases did); 2 bad input; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 """
 
 from __future__ import annotations
@@ -119,15 +119,18 @@ def run(args: argparse.Namespace) -> int:
             echo=echo,
             command=command,
         )
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if not started:
             raise
+        from pirate_bt.cli import EXIT_SIGINT, EXIT_SIGTERM, Terminated
+
+        terminated = isinstance(exc, Terminated)
         print(
-            f"pirate-bt: campaign interrupted; {output}/results.jsonl keeps the cases done;"
-            " run again with --resume",
+            f"pirate-bt: campaign {'terminated (SIGTERM)' if terminated else 'interrupted'};"
+            f" {output}/results.jsonl keeps the cases done; run again with --resume",
             file=sys.stderr,
         )
-        return 130
+        return EXIT_SIGTERM if terminated else EXIT_SIGINT
     print(f"campaign {result.name}: {result.summary()}")
     for written in result.files:
         print(f"wrote {written}")

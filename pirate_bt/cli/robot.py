@@ -51,6 +51,9 @@ def _header(args: argparse.Namespace) -> int:
     if args.output is None:
         sys.stdout.write(render_header(robot, source))
     else:
+        from pirate_bt.cli import check_output
+
+        check_output(args.output)
         write_header(robot, args.output, source)
         print(f"wrote {args.output}", file=sys.stderr)
     return 0
@@ -60,6 +63,10 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "action", None) == "header":
         return _header(args)
     robot = load_robot(args.robot)
+    if args.draw:
+        from pirate_bt.cli import check_output
+
+        check_output(args.draw, "--draw")  # before the table: nothing printed for bad input
     print(f"{robot.name}: {len(robot.modules)} modules, {len(robot.boards)} boards")
     print(format_table(board_table(robot)))
     if args.draw:

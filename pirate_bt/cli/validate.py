@@ -48,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"{path}: {exc.args[0]}", file=sys.stderr)
             worst = max(worst, 2)
         except PirateError as exc:
-            print(f"{path}: {exc}", file=sys.stderr)
+            text = str(exc)
+            # name the file once: most messages already start with it
+            print(text if text.startswith(f"{path}:") else f"{path}: {text}", file=sys.stderr)
             worst = max(worst, exc.exit_code)
         else:
             if not args.quiet:
