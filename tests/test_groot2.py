@@ -154,6 +154,9 @@ def test_hooks_are_read_strictly_and_dumped_as_bt_cpp_dumps_them() -> None:
         b'{"uid":3,"position":0,"mode":0,"enabled":1,"once":false,"desired_status":"IDLE"}',
         b'{"uid":3,"position":0,"mode":0,"enabled":true,"once":false,"desired_status":"MAYBE"}',
         b"[1]",
+        # nested deeper than the JSON parser goes: was a RecursionError, answered as an
+        # internal error with a traceback in the run's log
+        b"[" * 100_000 + b"]" * 100_000,
     ):
         with pytest.raises(proto.HookError):
             proto.parse_hooks(bad)

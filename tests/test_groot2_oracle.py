@@ -321,6 +321,18 @@ def test_the_subtrees_blackboards_are_bt_cpp_s(session: Session) -> None:
     assert session.client.body("ours", "B", "nothing") == session.client.body("bt", "B", "x")
 
 
+def test_the_main_tree_s_blackboard_is_keyed_as_bt_cpp_keys_it(session: Session) -> None:
+    # BT.CPP's publisher keys the main tree's blackboard by its tree ID; pirate_bt
+    # served it under "" only, and a client asking as BT.CPP answers got nothing
+    main = session.served.main_id
+    assert main
+    ours = session.client.body("ours", "B", main)[0]
+    theirs = session.client.body("bt", "B", main)[0]
+    assert isinstance(ours, dict) and isinstance(theirs, dict)
+    assert set(ours) == set(theirs) == {main}
+    assert set(session.client.body("ours", "B", "")[0]) == {""}  # pirate_bt's own name
+
+
 def test_malformed_requests_get_bt_cpp_s_error_replies(session: Session) -> None:
     cases = [
         (b"\x02S\x01",),  # a header that is not 6 bytes

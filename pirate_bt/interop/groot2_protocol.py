@@ -241,6 +241,8 @@ def _load(text: bytes) -> Any:
         return json.loads(text.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise HookError(f"not JSON: {exc}") from None
+    except RecursionError:  # [[[[...]]]] nested deeper than the parser goes
+        raise HookError("not JSON: nested too deep") from None
 
 
 def parse_hooks(text: bytes) -> list[Hook]:

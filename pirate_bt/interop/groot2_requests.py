@@ -98,11 +98,17 @@ class _Requests(_Hooks):
     def _blackboard(self, run: _Run, names: bytes) -> list[bytes]:
         wanted = names.decode("utf-8", "replace").split(";")
         dump: dict[str, Any] = {}
+        main_id = run.served.main_id
         for name in wanted:
-            if name == "":  # the main tree's instance: the live blackboard
-                dump[name] = _live_blackboard()
+            if name == "" or (name == main_id and name not in run.served.subtrees):
+                # the main tree's instance ("", as pirate_bt names it) or its tree ID
+                # (as BT.CPP's publisher keys it): the live blackboard
+                board = _live_blackboard()
             elif name in run.served.subtrees:
-                dump[name] = dict(run.served.subtrees[name])
+                board = dict(run.served.subtrees[name])
+            else:
+                continue
+            dump[name] = board or None  # BT.CPP's JSON of an empty blackboard is null
         packed: bytes = self._msgpack.packb(jsonable(dump) if dump else None, use_bin_type=True)
         return [packed]
 

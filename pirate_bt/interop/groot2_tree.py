@@ -87,6 +87,8 @@ class ServedTree:
         paths: UID -> BT.CPP's path of the node (``pass bend/turn/clamp``).
         expanded: True when built from the export, with subtrees; False when
             built from the running tree (one ``<BehaviorTree>``).
+        main_id: The main tree's ID (its first ``<BehaviorTree>``): BT.CPP serves the
+            main tree's blackboard under it, as pirate_bt does under ``""`` too.
     """
 
     xml: str
@@ -97,6 +99,7 @@ class ServedTree:
     subtrees: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     paths: Mapping[int, str] = field(default_factory=dict)
     expanded: bool = False
+    main_id: str = ""
 
 
 @dataclass
@@ -243,6 +246,7 @@ def _from_export(tree: py_trees.trees.BehaviourTree, text: str) -> ServedTree:
         subtrees=expander.blackboards,
         paths=expander.paths,
         expanded=True,
+        main_id=instances[0][0] if instances else "",
     )
 
 
@@ -261,7 +265,13 @@ def _flat(tree: py_trees.trees.BehaviourTree, name: str | None) -> ServedTree:
         node_of={uid: uid - 1 for uid in range(1, count + 1)},
         uids_of={i: (i + 1,) for i in range(count)},
         paths=names,
+        main_id=_first_tree_id(xml),
     )
+
+
+def _first_tree_id(xml: str) -> str:
+    first = ET.fromstring(xml).find("BehaviorTree")
+    return first.get("ID", "") if first is not None else ""
 
 
 def served_tree(

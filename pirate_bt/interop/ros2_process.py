@@ -250,7 +250,11 @@ class Node:
             payload = bytes(sample.payload.to_bytes())
             # CDR: 4-byte encapsulation header, then the bool as one byte.
             if len(payload) < 5:
-                print("ROS 2 e-stop: a message too short to be a std_msgs/Bool", file=sys.stderr)
+                print(
+                    "WARNING pirate_bt.interop.ros2: e-stop: a message too short to be a"
+                    " std_msgs/Bool, ignored",
+                    file=sys.stderr,
+                )
                 return
             self.out.send((BOOL, payload[4] != 0, heard))
         except Exception:  # Zenoh's thread must not die
