@@ -445,3 +445,22 @@ def test_validate_knows_an_mcap_trace_by_its_suffix(
     assert main(["validate", str(tmp_path / "nope.jsonl")]) == 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and err.count("nope.jsonl") == 1, err  # named once
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["run", STRAIGHT, "--max-time"], "pirate-bt run: argument --max-time: expected one"),
+        (["nope"], "pirate-bt: argument COMMAND: invalid choice: 'nope'"),
+        (["network", "perturb"], "pirate-bt network perturb: the following arguments are"),
+        (["run", STRAIGHT, "--no-such-option"], "pirate-bt run: unrecognized arguments"),
+    ],
+)
+def test_a_usage_error_is_one_line(
+    argv: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # argparse printed its usage block first: eight lines for one mistake
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    assert words in err and "--help'" in err, err

@@ -23,6 +23,7 @@ import os
 import signal
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 __all__ = ["COMMANDS", "Terminated", "check_output", "main"]
 
@@ -108,9 +109,18 @@ def _version() -> str:
     return __version__
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a usage error in one line (DESIGN.md: one clear line each), not
+    the usage block first; ``--help`` shows the usage. Subcommands' parsers are of
+    this class too (``add_subparsers`` makes its parent's kind)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_INPUT, f"{self.prog}: {message} (see '{self.prog} --help')\n")
+
+
 def _top_parser() -> argparse.ArgumentParser:
     verbs = "\n".join(f"  {name:<10} {text}" for name, (_, text) in COMMANDS.items())
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="pirate-bt",
         description="Behaviour-tree autonomy for the PIRATE pipe-inspection robot.",
         epilog=f"commands:\n{verbs}\n\nexit codes: 0 ok, 1 failed (robot safe), 2 bad input,"
@@ -173,13 +183,16 @@ def _main(argv: Sequence[str] | None) -> int:
     top = _top_parser()
     # Split global options from the verb and its own arguments.
     split = next((i for i, a in enumerate(args_list) if a in COMMANDS), len(args_list))
-    top_args = top.parse_args(args_list[: split + 1] if split < len(args_list) else args_list)
+    try:
+        top_args = top.parse_args(args_list[: split + 1] if split < len(args_list) else args_list)
+    except SystemExit as exc:  # --help, --version, or a usage error already printed
+        return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
     if top_args.command is None:
         top.print_help(sys.stderr)
         return EXIT_INPUT
     module_name, text = COMMANDS[top_args.command]
     module = importlib.import_module(module_name)
-    sub = argparse.ArgumentParser(prog=f"pirate-bt {top_args.command}", description=text)
+    sub = _Parser(prog=f"pirate-bt {top_args.command}", description=text)
     module.configure(sub)
     rest = args_list[split + 1 :]
     end = rest.index("--") if "--" in rest else len(rest)  # what follows "--" is not ours

@@ -348,5 +348,6 @@ def handshake(
                     )
                     return item
             clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
-        _log.warning("no HELLO reply (attempt %d of %d)", attempt, attempts)
+        # each attempt at INFO: the last one fails the connect with one line of its own
+        _log.info("no HELLO reply (attempt %d of %d)", attempt, attempts)
     raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries)")
