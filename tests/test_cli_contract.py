@@ -464,3 +464,18 @@ def test_a_usage_error_is_one_line(
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1, err
     assert words in err and "--help'" in err, err
+
+
+def test_demo_refuses_bad_input_before_printing_or_writing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it printed the robot's board table (and drew robot.svg) before failing
+    assert main(["demo", "--output", "/proc/xx", "-q"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and "--output: cannot write /proc/xx/report.md" in one_error_line(err)
+    bad = tmp_path / "bad.route"
+    bad.write_text("network lab\nforward 1 km\n", encoding="utf-8")
+    assert main(["demo", "--route", str(bad), "--output", str(tmp_path / "out"), "-q"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and "bad.route:2:1: 'forward 1 km' does not fit" in one_error_line(err)
+    assert not (tmp_path / "out").exists()

@@ -51,6 +51,14 @@ def run(args: argparse.Namespace) -> int:
 
     path = args.robot or default_robot_path()
     robot = load_robot(path)
+    # bad input is refused before anything is printed or written: the route, and an
+    # output folder that cannot be made or written in
+    from pirate_bt.cli import check_output
+    from pirate_bt.filekinds import validate_file
+
+    route = args.route or bundled("scenarios", "lab.route")
+    validate_file(route, "route")
+    check_output(Path(args.output) / "report.md", "--output")
     print(f"validated {path}: {robot.name}")
     print(
         f"state frame: {len(robot.state_channels())} channels;"
@@ -69,7 +77,6 @@ def run(args: argparse.Namespace) -> int:
         if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz
             raise
         print(f"pirate-bt: {exc}", file=sys.stderr)
-    route = args.route or bundled("scenarios", "lab.route")
     mission_args = argparse.Namespace(
         route=str(route),
         sim=None,
