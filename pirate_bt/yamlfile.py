@@ -328,7 +328,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         data = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
-        where = SourceLocation(file, mark.line + 1, mark.column + 1) if mark is not None else loc
+        where = _place(file, text, mark.line, mark.column) if mark is not None else loc
         problem = exc.problem or exc.context or "invalid YAML"
         raise ValidationFailed([LocatedError(f"YAML syntax error: {problem}", where)]) from None
     except yaml.reader.ReaderError as exc:
@@ -356,6 +356,15 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
     finally:
         loader.dispose()
     return YamlDocument(data, locator)
+
+
+def _place(file: str, text: str, line: int, column: int) -> SourceLocation:
+    """A parser's mark as a location; a mark past the last line (the end of a file that
+    ends without a newline, as libyaml reports it) is the end of that last line."""
+    lines = text.splitlines() or [""]
+    if line >= len(lines):
+        line, column = len(lines) - 1, len(lines[-1])
+    return SourceLocation(file, line + 1, column + 1)
 
 
 def load_yaml(path: str | Path) -> YamlDocument:

@@ -26,7 +26,7 @@ def test_merge_keys_are_not_duplicates() -> None:
     ("text", "where", "message"),
     [
         ("a: 1\na: 2\n", ":2:1:", "duplicate key 'a' (first written on line 1)"),
-        ("a: [1,\n", ":2:1:", "YAML syntax error"),
+        ("a: [1,\n", ":1:7:", "YAML syntax error"),  # at its end, not past the file
         ("", ":1:1:", "file is empty"),
         ("a: b: c\n", ":1:5:", "mapping values are not allowed"),
     ],
@@ -107,3 +107,11 @@ def test_a_union_chosen_by_a_key_speaks_of_that_key(tmp_path: Path) -> None:
             load_network(path)
         assert expected in str(err.value), str(err.value)
         assert "discriminator" not in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("end", ["", "\n"])
+def test_a_file_cut_short_is_located_at_its_last_line(end: str) -> None:
+    # libyaml marks the end of a file past its last line: '3:1' for a 2-line file
+    with pytest.raises(ValidationFailed) as err:
+        load_yaml_text("name: t\nroot: {type: wait, name: [" + end, "f.yaml")
+    assert str(err.value).startswith("f.yaml:2:27: YAML syntax error: "), str(err.value)
