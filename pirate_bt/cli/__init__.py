@@ -207,8 +207,7 @@ def _main(argv: Sequence[str] | None) -> int:
 
     try:
         _configure_logging(top_args.log, debug)
-        with _sigterm_as_interrupt():
-            code: int = module.run(args)
+        code: int = module.run(args)  # SIGTERM and Ctrl-C: main's handlers, as loading
         return code
     except PirateError as exc:
         if debug:
@@ -216,12 +215,6 @@ def _main(argv: Sequence[str] | None) -> int:
         for line in str(exc).splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
-    except Terminated:
-        print("pirate-bt: terminated (SIGTERM)", file=sys.stderr)
-        return EXIT_SIGTERM
-    except KeyboardInterrupt:
-        print("pirate-bt: interrupted", file=sys.stderr)
-        return EXIT_SIGINT
     except BrokenPipeError:
         return EXIT_OK
     except OSError as exc:
