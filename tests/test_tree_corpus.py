@@ -48,7 +48,7 @@ OK_ROOT = "root: success\n"
 
 # name -> (files, expected "line:column", expected message fragment); "tree.yaml" is validated.
 CASES: dict[str, tuple[dict[str, str], str, str]] = {
-    "syntax": ({"tree.yaml": "root: {type: success\n"}, "2:1", "YAML syntax error"),
+    "syntax": ({"tree.yaml": "root: {type: success\n"}, "1:21", "YAML syntax error"),
     "tab indent": ({"tree.yaml": "root:\n\t- success\n"}, "2:1", "YAML syntax error"),
     "empty file": ({"tree.yaml": "\n"}, "1:1", "empty"),
     "not a mapping": ({"tree.yaml": "- root\n"}, "1:1", "a tree file is a mapping"),
