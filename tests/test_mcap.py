@@ -26,7 +26,7 @@ from pirate_bt.interop.mcap_trace import (
     read_mcap_records,
 )
 from pirate_bt.trace import CommandRecord, TickExtras, TraceEvent, TraceRecorder
-from tests.test_trace import wait_for_writers
+from tests.trace_support import wait_for_writers
 
 ROOT = Path(__file__).resolve().parent.parent
 LAYOUT = ROOT / "docs" / "foxglove" / "pirate.json"

@@ -14,7 +14,7 @@ import pytest
 from pirate_bt.clock import SimClock
 from pirate_bt.interop.mcap_trace import compact_mcap, read_mcap_messages, read_mcap_records
 from pirate_bt.trace import TraceRecorder, read_trace
-from tests.test_trace import make_tree, wait_for_writers, writer_processes
+from tests.trace_support import make_tree, wait_for_writers, writer_processes
 
 ROOT = Path(__file__).resolve().parent.parent
 PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))

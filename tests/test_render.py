@@ -16,7 +16,7 @@ from pirate_bt.errors import InputError
 from pirate_bt.render import plot_trace, render_tree, tree_graph
 from pirate_bt.render.plot import plot_series
 from pirate_bt.trace import live_view_hook, read_trace, tree_structure
-from tests.test_trace import make_tree, run_and_record
+from tests.trace_support import make_tree, run_and_record
 
 SVG = "{http://www.w3.org/2000/svg}"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -20,7 +20,7 @@ from pirate_bt.robot.state import RobotState
 from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder, read_trace, sink, sink_ring
 from pirate_bt.trace.sink import SinkError, SinkProcess
 from pirate_bt.trace.sink_ring import Ring, RingReader
-from tests.test_trace import wait_for_writers
+from tests.trace_support import wait_for_writers
 
 
 def _has_ring() -> bool:

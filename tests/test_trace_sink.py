@@ -26,7 +26,7 @@ from pirate_bt.trace.sink import (
     serve,
 )
 from pirate_bt.trace.writer import JsonLinesWriter, SinkProcess
-from tests.test_trace import make_tree, run_and_record
+from tests.trace_support import make_tree, run_and_record
 
 
 def _lines_without_time(path: Path) -> list[str]:

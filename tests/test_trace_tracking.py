@@ -13,7 +13,7 @@ from py_trees.common import Status
 from pirate_bt.clock import SimClock
 from pirate_bt.trace import TraceRecorder, read_trace
 from pirate_bt.trace.structure import iter_with_ids
-from tests.test_trace import run_and_record
+from tests.trace_support import run_and_record
 
 R, S, F = Status.RUNNING, Status.SUCCESS, Status.FAILURE
 

@@ -27,7 +27,7 @@ from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
-from pirate_bt.task.navigators import builtin_name, load_navigator
+from pirate_bt.task.navigators import builtin_name, check_navigator_map, load_navigator
 
 __all__ = ["MAX_DEADLINE_S", "MAX_STEPS", "navigate"]
 
@@ -159,12 +159,7 @@ def navigate(
     else:
         world = sim if sim is not None else "straight"
         target = _network(world, "sim")
-    check_map = getattr(navigator, "check_map", None)
-    if callable(check_map):  # a navigator's own check of the map, before anything moves
-        try:
-            check_map(map_network)
-        except (ValueError, TypeError) as exc:
-            raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
+    check_navigator_map(navigator, name, map_network)  # before anything moves
     with connect(
         target, robot=description, seed=seed, faults=faults, firmware=firmware
     ) as connection:

@@ -423,17 +423,16 @@ def check_runs(
                 navigator = load_navigator(case["navigator"], case["params"])
             except InputError as exc:
                 raise InputError(f"run {case.get('run')!r}: {exc}") from None
-            check_map = getattr(navigator, "check_map", None)
-            if callable(check_map):  # as navigate() will: a map it cannot use stops here
+            if callable(getattr(navigator, "check_map", None)):  # as navigate() will
                 from pirate_bt.api.missions import load_network
+                from pirate_bt.task.navigators import check_navigator_map
 
                 drawn = None if case.get("blind") else (case.get("network") or "straight")
+                the_map = None if drawn is None else load_network(drawn, base=base)
                 try:
-                    check_map(None if drawn is None else load_network(drawn, base=base))
-                except (ValueError, TypeError) as exc:
-                    raise InputError(
-                        f"run {case.get('run')!r}: navigator {case['navigator']!r}: {exc}"[:300]
-                    ) from None
+                    check_navigator_map(navigator, case["navigator"], the_map)
+                except InputError as exc:
+                    raise InputError(f"run {case.get('run')!r}: {exc}") from None
         elif case["tree"]:
             from pirate_bt.robot.loader import load_robot
             from pirate_bt.treefile.loader import load_tree

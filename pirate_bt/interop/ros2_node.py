@@ -42,7 +42,7 @@ from pirate_bt.interop.ros2_option import (
     domain_from_env,
     parse_endpoint,
 )
-from pirate_bt.interop.ros2_process import BOOL, CLOSED, FAILED, FLUSHED, OFF, READY
+from pirate_bt.interop.ros2_process import BOOL, CLOSED, FAILED, FLUSHED, OFF, READY, WARN
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
 
@@ -295,6 +295,8 @@ class Ros2Node:
             self.enabled = False
             logger.error("ROS 2 output: %s; it is switched off", message[1])
             self._ready.set()
+        elif kind == WARN:
+            logger.warning("ROS 2: %s; ignored", message[1])
         elif kind == OFF:
             self.enabled = False
             logger.error("ROS 2 output: publishing failed (%s); it is switched off", message[1])

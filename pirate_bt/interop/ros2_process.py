@@ -36,6 +36,8 @@ to the run's process (standard output)
     topic, with when it arrived here (``time.monotonic_ns``, one clock for every
     process of the machine); ``(OFF, text)`` when publishing failed (the
     process publishes nothing more, the e-stop subscription stays);
+    ``(WARN, text)`` for something the run's log should say (a message on the
+    e-stop topic too short to read);
     ``(FLUSHED, token, published)``; ``(CLOSED, published, cpu_s)`` last, with
     the CPU time the process spent (all its threads, Zenoh's included).
 
@@ -103,7 +105,7 @@ __all__ = [
 # run's process -> publishing process
 SETUP, FRAME, FLUSH = 0, 1, 2
 # publishing process -> run's process
-READY, FAILED, BOOL, OFF, FLUSHED, CLOSED = 10, 11, 12, 13, 14, 15
+READY, FAILED, BOOL, OFF, FLUSHED, CLOSED, WARN = 10, 11, 12, 13, 14, 15, 16
 
 DUTY = 0.02
 """The share of one core the publishing may take: after each batch of frames the
@@ -250,11 +252,8 @@ class Node:
             payload = bytes(sample.payload.to_bytes())
             # CDR: 4-byte encapsulation header, then the bool as one byte.
             if len(payload) < 5:
-                print(
-                    "WARNING pirate_bt.interop.ros2: e-stop: a message too short to be a"
-                    " std_msgs/Bool, ignored",
-                    file=sys.stderr,
-                )
+                # said by the run's process, in its log (this one has none)
+                self.out.send((WARN, "e-stop: a message too short to be a std_msgs/Bool"))
                 return
             self.out.send((BOOL, payload[4] != 0, heard))
         except Exception:  # Zenoh's thread must not die

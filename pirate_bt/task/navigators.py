@@ -39,6 +39,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "GoalNavigator",
     "RouteNavigator",
+    "check_navigator_map",
     "load_navigator",
     "navigator_names",
 ]
@@ -265,6 +266,23 @@ def builtin_name(navigator: object) -> str | None:
 def navigator_names() -> list[str]:
     """Every navigator name: the built-ins and those of installed packages."""
     return sorted({*_BUILT_IN, *_registered()})
+
+
+def check_navigator_map(navigator: Any, name: str, network: Network | None) -> None:
+    """A navigator's own check of the map it will be given (its optional
+    ``check_map(map)``), as bad input, before anything connects: what
+    :func:`~pirate_bt.api.navigation.navigate` and a campaign ask first.
+
+    Raises:
+        InputError: the navigator refused the map (a ``ValueError`` or ``TypeError``).
+    """
+    check_map = getattr(navigator, "check_map", None)
+    if not callable(check_map):
+        return
+    try:
+        check_map(network)
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
 
 
 def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
