@@ -152,6 +152,7 @@ class HoldMixin:
         ]
         if holding:
             self._holding.clear()
+            self._hold_refused.clear()  # a later episode logs its refusals again
             self._ever_held = True
             return
         if not self._ever_held or self._mode is Mode.ESTOP:
