@@ -214,9 +214,12 @@ def cases() -> list[Case]:
             0,
             # the step never finishes inside the run, as in bench_trace's runner rows
             lambda: bench_trace.time_ticks(
-                bench_trace.fifty_node_tree(step_ticks=10 * SPARSE_TICKS), SPARSE_TICKS, None
+                bench_trace.fifty_node_tree(step_ticks=10 * SPARSE_TICKS),
+                SPARSE_TICKS,
+                None,
+                snapshots=False,
             ),
-            lambda: bench_trace.time_runner_ticks(SPARSE_TICKS, None, "sparse"),
+            lambda: bench_trace.time_runner_ticks(SPARSE_TICKS, None, "sparse", snapshots=False),
             SPARSE_TICKS,
         ),
         Case(

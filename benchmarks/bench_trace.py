@@ -37,6 +37,7 @@ when a step reports progress (once per 100 ms here).
 
 from __future__ import annotations
 
+import itertools
 import math
 import statistics
 import tempfile
@@ -133,21 +134,35 @@ def robot_state(n: int, t_s: float) -> RobotState:
 
 
 def time_ticks(
-    tree: py_trees.trees.BehaviourTree, ticks: int, recorder: TraceRecorder | None
+    tree: py_trees.trees.BehaviourTree,
+    ticks: int,
+    recorder: TraceRecorder | None,
+    snapshots: bool = True,
 ) -> float:
+    """Seconds per tick of ``tree.tick()``, recording each tick when ``recorder`` is given.
+
+    With ``snapshots`` each tick's extras are made before its tick, traced or not, as a
+    run makes them (:class:`RunSnapshots`); without, a recorder takes extras made up
+    front and an untraced run makes none (the tree's tick alone, for bench_btcpp).
+    """
     clock = SimClock()
-    extras = _extras_for(ticks)
+    made = RunSnapshots(ticks) if snapshots else None
+    extras = _extras_for(ticks) if made is None and recorder is not None else []
     start = time.perf_counter()
     for n in range(1, ticks + 1):
         clock.advance(TICK_S)
+        tick_extras = made.make(n) if made is not None else None
         tree.tick()
         if recorder is not None:
-            recorder.record_tick(extras[n - 1], time_s=clock.now())
+            recorder.record_tick(
+                tick_extras if tick_extras is not None else extras[n - 1], time_s=clock.now()
+            )
     return (time.perf_counter() - start) / ticks
 
 
 def _extras_for(ticks: int) -> list[TickExtras]:
-    # The snapshots exist in a real run whether or not it is traced: built up front.
+    # Snapshots made up front (the method before 2026-11-29, kept for bench_scale's row):
+    # each tick then reads one that is out of the caches, which a run's fresh one is not.
     return [
         TickExtras(
             state=robot_state(n, n * TICK_S),
@@ -156,6 +171,52 @@ def _extras_for(ticks: int) -> list[TickExtras]:
         )
         for n in range(1, ticks + 2)
     ]
+
+
+class RunSnapshots:
+    """Each tick's extras, made as a run makes them, in the tick they are recorded.
+
+    A run's link builds the tick's :class:`RobotState` from a STATE frame's raw values
+    with the robot's :class:`StateBuilder` (here the reference robot,
+    ``hardware/pirate.yaml``: 28 channels), asks the link for a fresh
+    :class:`LinkHealth`, and the supervisor makes the tick's verdict, whether the run
+    is traced or not; the trace then reads them while they are still in the caches.
+    The raw values follow :func:`robot_state`'s motion (one half moving, noisy wheel
+    speeds and currents), converted once up front as the bridge would send them.
+    """
+
+    def __init__(self, ticks: int) -> None:
+        from pirate_bt.robot.loader import load_robot
+        from pirate_bt.robot.state import StateBuilder
+
+        repo = Path(__file__).resolve().parent.parent
+        self.builder = StateBuilder(load_robot(repo / "hardware" / "pirate.yaml"))
+        self.raw = [self._raw(n) for n in range(ticks + 2)]
+        self.previous: RobotState | None = None
+
+    def _raw(self, n: int) -> list[int | None]:
+        state = robot_state(n, n * TICK_S)
+        values = {f"{m}_angle": v for m, v in state.joint_angle_rad.items()}
+        values |= {f"{m}_spring": v for m, v in state.clamp_force_n.items()}
+        values |= {f"imu.{axis}": v for axis, v in state.imu_rad.items()}
+        for name in self.builder.channel_names:
+            motor, _, kind = name.partition(".")
+            if kind == "velocity":
+                values[name] = state.drive_velocity_mps.get(motor, 0.0)
+            elif kind == "current":
+                values[name] = state.motor_current_a.get(motor, 0.0)
+            else:
+                values.setdefault(name, 0.0)
+        return self.builder.encode(values)
+
+    def make(self, n: int) -> TickExtras:
+        """Tick ``n``'s extras, made now."""
+        state = self.previous = self.builder.build(self.raw[n], n * TICK_S, self.previous)
+        return TickExtras(
+            state=state,
+            commands=(CommandRecord("drive(80 mm/s)", "pass"),),
+            link=LinkHealth(connected=True, retries=n // 1000),
+        )
 
 
 def issue6_tree(clock: SimClock) -> Any:
@@ -167,22 +228,36 @@ def issue6_tree(clock: SimClock) -> Any:
     return load_tree(_yaml_tree(), clock=clock)
 
 
-def time_runner_ticks(ticks: int, traced: Path | None, tree_kind: str = "sparse") -> float:
-    """Wall seconds per tick of a 50-node tree run by the Runner, optionally traced."""
+def time_runner_ticks(
+    ticks: int, traced: Path | None, tree_kind: str = "sparse", snapshots: bool = True
+) -> float:
+    """Wall seconds per tick of a 50-node tree run by the Runner, optionally traced.
+
+    ``snapshots`` as for :func:`time_ticks`: made in a pre-tick hook, traced or not.
+    """
     clock = SimClock()
     if tree_kind == "issue6":
         tree: Any = issue6_tree(clock)
     else:
         tree = fifty_node_tree(step_ticks=10 * ticks)  # never finishes inside the run
-    extras = _extras_for(ticks)
     runner = Runner(tree, clock=clock, period_s=TICK_S, max_time_s=ticks * TICK_S)
+    made = RunSnapshots(ticks) if snapshots else None
+    extras = _extras_for(ticks) if made is None and traced is not None else []
+    current: list[TickExtras] = []
+    if made is not None:
+        source, numbers = made, itertools.count(1)
+
+        def make(_info: object) -> None:
+            current[:] = (source.make(next(numbers)),)
+
+        runner.add_pre_tick(make)
     recorder = None
     if traced is not None:
         recorder = TraceRecorder(traced, runner.tree, clock=clock)
         rec = recorder
 
         def hook(_info: object) -> None:
-            rec.record_tick(extras[rec.ticks])
+            rec.record_tick(current[0] if current else extras[rec.ticks])
 
         runner.add_post_tick(hook)
     start = time.perf_counter()

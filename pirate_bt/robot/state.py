@@ -14,10 +14,13 @@ trace can all hold the same one without copying or locking.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter, itemgetter
 from types import MappingProxyType
+from typing import Any
 
 from pirate_bt.robot.description import (
     MotorFunction,
@@ -36,6 +39,19 @@ __all__ = [
 ]
 
 _EMPTY: Mapping[str, float] = MappingProxyType({})
+_value = attrgetter("value")
+
+
+def _optional_value(reading: Reading | None) -> float | None:
+    return None if reading is None else reading.value
+
+
+def _fetcher(channels: list[str]) -> Callable[[Mapping[str, Reading]], tuple[Reading, ...]]:
+    """A C-level function: readings -> the readings of ``channels`` as a tuple."""
+    get = itemgetter(*channels)
+    if len(channels) == 1:
+        return lambda readings: (get(readings),)
+    return get
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +79,13 @@ class RobotState:
         camera_tilt_rad: Camera tilt, if reported.
         camera_pan_rad: Camera pan, if reported.
         front_tilt_rad: Front module tilt, if reported.
+        row: The views flattened once by the :class:`StateBuilder` that made the
+            snapshot, for readers that take every value each tick (the trace): the
+            view names in order, ``None`` ending each of the five mappings (one tuple
+            object shared by the builder's snapshots while the same channels report),
+            and the values in the same order followed by ``rotation_rad``,
+            ``camera_tilt_rad``, ``camera_pan_rad`` and ``front_tilt_rad``. ``None`` on
+            a snapshot made by hand or by :func:`dataclasses.replace`.
     """
 
     stamp_s: float
@@ -76,6 +99,9 @@ class RobotState:
     camera_tilt_rad: float | None = None
     camera_pan_rad: float | None = None
     front_tilt_rad: float | None = None
+    row: tuple[tuple[str | None, ...], tuple[Any, ...]] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
     def value(self, name: str) -> float:
         """The value of channel ``name`` (``KeyError`` if it never reported)."""
@@ -202,6 +228,29 @@ class StateBuilder:
                         sensor = s
                 if module.role is Role.FRONT:
                     self._by_function[motor.function] = sensor.name
+        # The five views flattened (see RobotState.row): one C call fetches their
+        # channels' readings, in order; where each view ends among them; the names
+        # with a None ending each view; the four single values' channels.
+        tables = (self._joint, self._spring, self._imu, self._velocity, self._current)
+        channels = [ch for table in tables for ch in table.values()]
+        self._fetch: Callable[[Mapping[str, Reading]], tuple[Reading, ...]] = (
+            (lambda _readings: ()) if not channels else _fetcher(channels)
+        )
+        self._view_keys = tuple(tuple(table) for table in tables)
+        self._view_ends = tuple(itertools.accumulate(len(table) for table in tables))
+        self._layout: tuple[str | None, ...] = tuple(
+            name for table in tables for name in (*table, None)
+        )
+        # A channel that no view has gets a name no reading has: None as its value.
+        self._optional = tuple(
+            name if name is not None else "\0"
+            for name in (
+                self._rotation,
+                self._by_function.get(MotorFunction.CAMERA_TILT),
+                self._by_function.get(MotorFunction.CAMERA_PAN),
+                self._by_function.get(MotorFunction.TILT),
+            )
+        )
 
     @property
     def channel_names(self) -> list[str]:
@@ -236,10 +285,43 @@ class StateBuilder:
                     readings[name] = old[name]
             else:
                 readings[name] = Reading((value - zero) * per, stamp_s)
-        return self.from_readings(readings, stamp_s)
+        return self._snapshot(readings, stamp_s)
 
     def from_readings(self, readings: Mapping[str, Reading], stamp_s: float) -> RobotState:
         """Build a snapshot from SI readings by channel name (simulators and tests)."""
+        return self._snapshot(dict(readings), stamp_s)
+
+    def _snapshot(self, readings: dict[str, Reading], stamp_s: float) -> RobotState:
+        """A snapshot over ``readings``, a dict this builder owns from now on."""
+        try:
+            # Runs for every STATE frame. Every view's channel has reported (the common
+            # case): their values fetched in C, the views cut from one tuple, and the
+            # row the trace reads made on the way.
+            values = tuple(map(_value, self._fetch(readings)))
+        except KeyError:
+            return self._partial(readings, stamp_s)
+        (jk, fk, ik, dk, ck), (j, f, i, d, c) = self._view_keys, self._view_ends
+        rotation, camera_tilt, camera_pan, front_tilt = optional = tuple(
+            map(_optional_value, map(readings.get, self._optional))
+        )
+        state = RobotState(
+            stamp_s,
+            MappingProxyType(readings),
+            MappingProxyType(dict(zip(jk, values[:j]))),  # noqa: B905 (lengths by construction)
+            MappingProxyType(dict(zip(fk, values[j:f]))),  # noqa: B905
+            rotation,
+            MappingProxyType(dict(zip(ik, values[f:i]))),  # noqa: B905
+            MappingProxyType(dict(zip(dk, values[i:d]))),  # noqa: B905
+            MappingProxyType(dict(zip(ck, values[d:c]))),  # noqa: B905
+            camera_tilt,
+            camera_pan,
+            front_tilt,
+        )
+        object.__setattr__(state, "row", (self._layout, values + optional))
+        return state
+
+    def _partial(self, readings: dict[str, Reading], stamp_s: float) -> RobotState:
+        """A snapshot where some view's channel has not reported (no :attr:`~RobotState.row`)."""
 
         def pick(table: Mapping[str, str]) -> Mapping[str, float]:
             return MappingProxyType(
@@ -251,7 +333,7 @@ class StateBuilder:
 
         return RobotState(
             stamp_s=stamp_s,
-            readings=MappingProxyType(dict(readings)),
+            readings=MappingProxyType(readings),
             joint_angle_rad=pick(self._joint),
             clamp_force_n=pick(self._spring),
             rotation_rad=one(self._rotation),

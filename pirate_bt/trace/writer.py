@@ -381,9 +381,15 @@ class TraceRecorder:
             state = extras.state
             if state is not None and (state is not self._last_state or self.full_state):
                 self._last_state = state
-                layout, values = state_layout(state, self.readings)
-                if layout != self._layout:
-                    self._layout = keys = layout
+                # The row its builder made (RobotState.row), or the same made here.
+                row = state.row
+                if row is None or self.readings:
+                    row = state_layout(state, self.readings)
+                layout, values = row
+                if layout is not self._layout:
+                    if layout != self._layout:
+                        keys = layout
+                    self._layout = layout
                 if values != self._state_raw or keys is not None or self.full_state:
                     self._state_raw = raw = values
             records = extras.commands
