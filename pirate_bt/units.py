@@ -193,6 +193,37 @@ def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
     return factor, (dim[0], dim[1], dim[2], dim[3], dim[4])
 
 
+_SI: Final[dict[str, str]] = {
+    "length": "m",
+    "time": "s",
+    "angle": "rad",
+    "velocity": "m/s",
+    "angular_velocity": "rad/s",
+    "acceleration": "m/s^2",
+    "force": "N",
+    "torque": "N*m",
+    "frequency": "Hz",
+    "current": "A",
+    "mass": "kg",
+}
+"""The SI unit of each dimension, as a file writes it: what a bare number means in
+Python, and in BehaviorTree.CPP's own ports (radians, metres per second)."""
+
+
+def _needs_unit(value: int | float | str, dimension: str) -> str:
+    """The message for a bare number of a dimensioned quantity: the number with the SI
+    unit, and the same value in the unit people read when that is another one
+    (``'1.57' needs a unit: write it as e.g. '1.57 rad' or '89.95 deg'``): a number
+    meant as SI is not mistaken for degrees or millimetres, nor the other way."""
+    text = _shown(value, quoted=False)
+    hint = f"'{text} {_SI[dimension]}'"
+    unit = _DISPLAY[dimension][0]
+    number = float(value)
+    if unit != _SI[dimension] and math.isfinite(number):
+        hint += f" or '{format_quantity(number, dimension)}'"
+    return f"{_shown(value)} needs a unit: write it as e.g. {hint}"
+
+
 def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) -> float:
     """Turn ``value`` into an SI float of the given dimension.
 
@@ -220,11 +251,7 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
         if not finite:
             raise UnitError(f"{_shown(value)} is not a finite number")
         if require_unit and dimension != "dimensionless" and value != 0:
-            unit = _DISPLAY[dimension][0]
-            raise UnitError(
-                f"{_shown(value)} needs a unit: write it as"
-                f" e.g. '{_shown(value, quoted=False)} {unit}'"
-            )
+            raise UnitError(_needs_unit(value, dimension))
         result = float(value)
     elif isinstance(value, str):
         match = _QUANTITY_RE.match(value)
@@ -235,11 +262,7 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
         if not match["unit"] and dimension != "dimensionless":
             if float(match["num"]) == 0:
                 return 0.0
-            unit = _DISPLAY[dimension][0]
-            raise UnitError(
-                f"{_shown(value)} needs a unit: write it as"
-                f" e.g. '{_shown(value, quoted=False)} {unit}'"
-            )
+            raise UnitError(_needs_unit(value, dimension))
         if dim != expected:
             raise UnitError(
                 f"{_shown(value)} is {_article(_dim_name(dim))},"

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, LocatedError, file_argument
+from pirate_bt.errors import ArgumentTypeError, InputError, LocatedError, file_argument
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -33,6 +33,25 @@ __all__ = ["export_xml", "tree_to_xml"]
 
 _MAPPING = "<dict>"
 """The file name of a tree given as a mapping (as the loader names it)."""
+
+
+def _params_argument(params: object) -> dict[str, Any]:
+    """``params`` as given to :func:`tree_to_xml` or :func:`export_xml`: a mapping of
+    names to values, or None.
+
+    Raises:
+        ArgumentTypeError: not a mapping (a list of ``name=value`` texts, a string).
+    """
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping):
+        name = type(params).__name__
+        article = "an" if name[:1].lower() in "aeiou" else "a"
+        raise ArgumentTypeError(
+            "params: give a mapping of names to values ({'roll': '90 deg'}),"
+            f" not {article} {name}"
+        )
+    return dict(params)
 
 
 def _located(doc: YamlDocument, path: tuple[str | int, ...], message: str) -> LocatedError:
@@ -277,13 +296,14 @@ def tree_to_xml(
     checked by the caller, which is then not loaded again.
 
     Raises:
+        ArgumentTypeError: ``params`` is not a mapping.
         ValidationFailed: the tree does not load.
         LocatedError: the tree uses something XML cannot say.
     """
     from pirate_bt.treefile import load_tree
 
     reg = registry or default_registry()
-    given = dict(params or {})
+    given = _params_argument(params)
     source: Path | Mapping[str, Any] = path if isinstance(path, Mapping) else Path(path)
     loaded = checked
     if loaded is None:
@@ -331,13 +351,15 @@ def export_xml(
     Raises:
         InputError: a path that is no file name (an output that is a folder too), the
             tree file itself as the output, or an output that cannot be written.
+        ArgumentTypeError: ``params`` is not a mapping.
         ValidationFailed: the tree does not load.
     """
     tree = file_argument(tree_path, "tree_path")
     out = output_file(out_path, "out_path")
+    given = _params_argument(params)
     if out.exists() and out.resolve() == tree.resolve():
         raise InputError(f"{out}: is the tree file being exported; nothing written")
-    text = tree_to_xml(tree, params, registry)
+    text = tree_to_xml(tree, given, registry)
     try:
         return write_atomic(out, text)
     except OSError as exc:

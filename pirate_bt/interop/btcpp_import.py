@@ -54,8 +54,11 @@ class _Importer:
         self.models = node_models(registry)
         self.trees: dict[str, XmlElement] = {}
         self.subtree_models: dict[str, XmlElement] = {}
-        self.origin: dict[int, XmlElement] = {}
-        """``id()`` of each mapping made (a node, a tree, a parameter) -> its element."""
+        self.origin: dict[int, tuple[object, XmlElement]] = {}
+        """``id()`` of each mapping made (a node, a tree, a parameter) -> the mapping and
+        its element. The mapping is kept (alive) beside its element: a mapping that was
+        freed would leave its ``id()`` to a later one, which would then be placed at an
+        element it does not come from (:meth:`place`, :meth:`locations`)."""
         self.depth = 0
         """How deep :meth:`node` is (bounded by the loader's MAX_TREE_DEPTH)."""
 
@@ -124,7 +127,7 @@ class _Importer:
         self.check_cycles(main)
         main_tree = self.trees[main]
         out: dict[str, Any] = {}
-        self.origin[id(out)] = main_tree
+        self.place(out, main_tree)
         written_name = main_tree.attrs.get("_name", main)
         if written_name:  # empty: the tree file had no name (it takes the file's)
             out["name"] = written_name
@@ -147,7 +150,7 @@ class _Importer:
             if tree_id == main:
                 continue
             body: dict[str, Any] = {}
-            self.origin[id(body)] = element
+            self.place(body, element)
             if "_description" in element.attrs:
                 body["description"] = element.attrs["_description"]
             params = self.params(tree_id)
@@ -228,7 +231,13 @@ class _Importer:
                     chain.append(target)
                     pending.append(iter(targets(target)))
 
-    def params(self, tree_id: str) -> dict[str, Any]:
+    def place(self, value: dict[str, Any], element: XmlElement) -> None:
+        """Record that ``value`` (a mapping of the output) comes from ``element``."""
+        self.origin[id(value)] = (value, element)
+
+    def params(self, tree_id: str, *, placed: bool = True) -> dict[str, Any]:
+        """The parameters ``tree_id`` declares in ``<TreeNodesModel>``; ``placed``: each
+        declaration is part of the output, placed at its ``<input_port>``."""
         model = self.subtree_models.get(tree_id)
         if model is None:
             return {}
@@ -252,7 +261,8 @@ class _Importer:
                     f" ({', '.join(sorted(_PARAM_TYPES))})"
                 )
             decl: dict[str, Any] = {"type": kind}
-            self.origin[id(decl)] = port
+            if placed:
+                self.place(decl, port)
             try:
                 for key in ("default", "example"):
                     if key in port.attrs:
@@ -309,7 +319,7 @@ class _Importer:
             raise element.error(f"unknown node type {_shown(tag)}" + _suggest(tag, known))
         if description is not None:
             out["description"] = description
-        self.origin[id(out)] = element
+        self.place(out, element)
         return out
 
     def locations(self, data: Any) -> dict[tuple[str | int, ...], SourceLocation]:
@@ -319,9 +329,9 @@ class _Importer:
         while stack:
             path, value = stack.pop()
             if isinstance(value, dict):
-                element = self.origin.get(id(value))
-                if element is not None:
-                    found[path] = element.location
+                entry = self.origin.get(id(value))
+                if entry is not None and entry[0] is value:
+                    found[path] = entry[1].location
                 stack.extend(((*path, k), v) for k, v in value.items())
             elif isinstance(value, list):
                 stack.extend(((*path, i), v) for i, v in enumerate(value))
@@ -338,7 +348,7 @@ class _Importer:
         target = element.attrs.get("ID", "")
         if element.attrs.get("_autoremap") not in (None, "false", "0"):
             raise element.error("_autoremap is not supported: remap each port explicitly")
-        declared = self.params(target)
+        declared = self.params(target, placed=False)  # only to check the call
         out = self.named("subtree", name)
         out["ref"] = target
         given: dict[str, Any] = {}

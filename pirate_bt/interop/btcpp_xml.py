@@ -7,13 +7,22 @@ expat directly, not with a general-purpose tree builder:
   without it there are no entity declarations, so no "billion laughs"
   expansion and no external entity can be read;
 - the file size, the number of elements and the nesting depth are bounded;
+- a named pipe, a socket or a block device is refused before it is opened (a pipe
+  nobody writes to would be waited on for ever);
+- an encoding expat cannot read itself (a multi-byte one such as Shift_JIS, or
+  UTF-32) is decoded with Python's codec, so lines and columns still count
+  characters; bytes that are not what the declaration says are refused where
+  they are;
 - every element keeps the line and column where it starts, so that any later
   problem is reported as ``file:line:column: message``.
 """
 
 from __future__ import annotations
 
+import codecs
 import os
+import re
+import stat
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +36,7 @@ from pirate_bt.errors import (
     SourceLocation,
     file_argument,
     output_argument,
+    shown,
 )
 from pirate_bt.yamlfile import read_at_most
 
@@ -81,7 +91,11 @@ def parse_xml(path: Path) -> XmlElement:
     """
     where = SourceLocation(str(path))
     try:
-        size = path.stat().st_size
+        info = path.stat()
+        kind = _not_a_file(info.st_mode)
+        if kind is not None:  # opening a pipe nobody writes to waits for ever
+            raise LocatedError(f"is {kind}, not an XML file", where)
+        size = info.st_size
         if size > MAX_XML_BYTES:
             raise LocatedError(
                 f"{size} bytes is larger than the {MAX_XML_BYTES} bytes a tree file may be", where
@@ -99,8 +113,90 @@ def parse_xml(path: Path) -> XmlElement:
     return parse_xml_bytes(data, str(path))
 
 
+def _not_a_file(mode: int) -> str | None:
+    """What a file of ``mode`` is when it may not be read as XML; None when it may: a
+    regular file, a directory (refused as such when opened) or a character device
+    (``/dev/zero`` is read up to the size limit)."""
+    if stat.S_ISFIFO(mode):
+        return "a named pipe"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    return None
+
+
+_DECLARED: Final = re.compile(
+    rb"""<\?xml\s+version\s*=\s*(["'])[^"']*\1\s+encoding\s*=\s*(["'])([A-Za-z][\w.-]*)\2""",
+    re.ASCII,
+)
+"""An XML declaration that names its encoding, written in ASCII at the file's start."""
+_EXPAT_READS: Final = frozenset({"utf-8", "utf-16", "utf-16-le", "utf-16-be", "iso8859-1", "ascii"})
+"""The encodings expat reads itself (by Python's names for them). Any other one a
+declaration names is decoded here with Python's codec: pyexpat would read a
+single-byte one that way too, but refuses every multi-byte one."""
+_UTF32: Final = {
+    b"\x00\x00\xfe\xff": "UTF-32",  # the byte-order marks (the codec reads them)
+    b"\xff\xfe\x00\x00": "UTF-32",
+    b"\x00\x00\x00<": "UTF-32-BE",  # '<' as the first character, no mark
+    b"<\x00\x00\x00": "UTF-32-LE",
+}
+_SURROGATE: Final = re.compile("[\ud800-\udfff]")
+
+
+def _at(text: str, end: int, file: str) -> SourceLocation:
+    """The line and column (in characters, as expat counts them) of ``text[end]``."""
+    line_start = text.rfind("\n", 0, end) + 1
+    return SourceLocation(file, text.count("\n", 0, end) + 1, end - line_start + 1)
+
+
+def _decoded(data: bytes, file: str) -> str | None:
+    """The text of ``data`` when expat cannot read its encoding itself (UTF-32, or a
+    multi-byte encoding its XML declaration names, such as Shift_JIS), decoded with
+    Python's codec; None when expat reads the bytes.
+
+    Raises:
+        LocatedError: the bytes are not in that encoding (at the first one that is
+            not, in characters), or the declaration names an encoding Python does not
+            know or a codec that is not a text encoding (``rot13``), at 1:1.
+    """
+    name = _UTF32.get(data[:4])
+    said = "its first four bytes say"
+    if name is None:
+        said = "its XML declaration says"
+        match = _DECLARED.match(data)
+        if match is None:
+            return None
+        name = match[3].decode("ascii")
+        try:
+            if codecs.lookup(name).name in _EXPAT_READS:
+                return None
+        except LookupError:
+            cut = name if len(name) <= 40 else f"{name[:40]}... ({len(name)} characters)"
+            raise LocatedError(
+                f"XML declaration: unknown encoding: {cut}", SourceLocation(file)
+            ) from None
+    why = f"not {name} text, as {said}"
+    try:
+        text = data.decode(name)
+    except LookupError:  # a codec of bytes or of text, not an encoding
+        raise LocatedError(
+            f"XML declaration: {shown(name)} is not a text encoding", SourceLocation(file)
+        ) from None
+    except UnicodeDecodeError as exc:
+        before = data[: exc.start].decode(name, "replace")
+        raise LocatedError(
+            f"{why} (byte 0x{data[exc.start]:02x})", _at(before, len(before), file)
+        ) from None
+    bad = _SURROGATE.search(text)  # UTF-7 can spell half a surrogate pair
+    if bad is not None:
+        raise LocatedError(f"{why} (U+{ord(bad[0]):04X})", _at(text, bad.start(), file))
+    return text
+
+
 def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     """Parse XML bytes; ``file`` names the source in error messages (see :func:`parse_xml`)."""
+    text = _decoded(data, file)
     parser = expat.ParserCreate()
     stack: list[XmlElement] = []
     roots: list[XmlElement] = []
@@ -147,7 +243,8 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     parser.EntityDeclHandler = entity
     parser.ExternalEntityRefHandler = lambda *_a: refuse("external entities are not allowed")  # type: ignore[assignment]
     try:
-        parser.Parse(data, True)
+        # Text is given to expat as UTF-8, which then overrides the declared encoding.
+        parser.Parse(data if text is None else text, True)
     except _Refused as exc:
         raise LocatedError(exc.message, SourceLocation(file, exc.line, exc.column)) from None
     except expat.ExpatError as exc:
@@ -157,6 +254,12 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
         ) from None
     except LookupError as exc:  # <?xml encoding="..."?> names an encoding Python lacks
         raise LocatedError(f"XML declaration: {exc}", SourceLocation(file)) from None
+    except ValueError as exc:  # a multi-byte encoding declared after a byte-order mark
+        raise LocatedError(
+            f"XML declaration: the declared encoding cannot be read here ({exc});"
+            " save the file as UTF-8",
+            SourceLocation(file),
+        ) from None
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
