@@ -21,6 +21,7 @@ whole number too long for Python to read are refused at their line too.
 
 from __future__ import annotations
 
+import stat
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -50,6 +51,29 @@ The largest bundled file expands to a few thousand; a real file that needs more
 is not one a person writes."""
 MAX_BYTES = 16 * 1024 * 1024
 """The largest file read (a device such as ``/dev/zero`` never ends: it is cut there)."""
+
+
+def special_kind(mode: int) -> str | None:
+    """What a file of ``mode`` is when it may not be read as an input file; ``None``
+    when it may: a regular file, a directory (refused as such by its reader) or a
+    character device (``/dev/zero`` is read up to the size limit). A named pipe nobody
+    writes to would be waited on for ever when opened."""
+    if stat.S_ISFIFO(mode):
+        return "a named pipe"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    return None
+
+
+def special_file(path: Path) -> str | None:
+    """:func:`special_kind` of the file at ``path`` (``None`` when it cannot be read:
+    its reader says why when it opens it)."""
+    try:
+        return special_kind(path.stat().st_mode)
+    except (OSError, ValueError):
+        return None
 
 
 def read_at_most(stream: BinaryIO, limit: int) -> bytes:
@@ -384,6 +408,9 @@ def load_yaml(path: str | Path) -> YamlDocument:
         raise ValidationFailed([LocatedError(f"cannot read: {reason}", loc)]) from None
     if folder:
         raise ValidationFailed([LocatedError("is a directory, not a file", loc)])
+    kind = special_file(p)
+    if kind is not None:
+        raise ValidationFailed([LocatedError(f"is {kind}, not a file to read", loc)])
     try:
         with p.open("rb") as stream:
             raw = read_at_most(stream, MAX_BYTES)

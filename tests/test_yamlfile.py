@@ -115,3 +115,19 @@ def test_a_file_cut_short_is_located_at_its_last_line(end: str) -> None:
     with pytest.raises(ValidationFailed) as err:
         load_yaml_text("name: t\nroot: {type: wait, name: [" + end, "f.yaml")
     assert str(err.value).startswith("f.yaml:2:27: YAML syntax error: "), str(err.value)
+
+
+def test_a_named_pipe_is_refused_before_it_is_opened(tmp_path: Path) -> None:
+    # Opening a pipe nobody writes to waits for ever: `validate fifo.yaml` hung.
+    import os
+
+    from pirate_bt.task.route import load_route
+
+    pipe = tmp_path / "tree.yaml"
+    os.mkfifo(pipe)
+    with pytest.raises(ValidationFailed, match=r"tree\.yaml:1:1: is a named pipe, not a file"):
+        load_yaml(pipe)
+    route = tmp_path / "mission.route"
+    os.mkfifo(route)
+    with pytest.raises(ValidationFailed, match=r"mission\.route:1:1: is a named pipe"):
+        load_route(route)

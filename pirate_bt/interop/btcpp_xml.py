@@ -22,7 +22,6 @@ from __future__ import annotations
 import codecs
 import os
 import re
-import stat
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,7 +37,7 @@ from pirate_bt.errors import (
     output_argument,
     shown,
 )
-from pirate_bt.yamlfile import read_at_most
+from pirate_bt.yamlfile import read_at_most, special_kind
 
 __all__ = [
     "MAX_DEPTH",
@@ -92,7 +91,7 @@ def parse_xml(path: Path) -> XmlElement:
     where = SourceLocation(str(path))
     try:
         info = path.stat()
-        kind = _not_a_file(info.st_mode)
+        kind = special_kind(info.st_mode)
         if kind is not None:  # opening a pipe nobody writes to waits for ever
             raise LocatedError(f"is {kind}, not an XML file", where)
         size = info.st_size
@@ -111,19 +110,6 @@ def parse_xml(path: Path) -> XmlElement:
     except OSError as exc:
         raise LocatedError(f"cannot read: {exc.strerror or exc}", where) from None
     return parse_xml_bytes(data, str(path))
-
-
-def _not_a_file(mode: int) -> str | None:
-    """What a file of ``mode`` is when it may not be read as XML; None when it may: a
-    regular file, a directory (refused as such when opened) or a character device
-    (``/dev/zero`` is read up to the size limit)."""
-    if stat.S_ISFIFO(mode):
-        return "a named pipe"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    if stat.S_ISBLK(mode):
-        return "a block device"
-    return None
 
 
 _DECLARED: Final = re.compile(

@@ -469,10 +469,13 @@ def load_route(path: str | Path) -> Route:
         print(route.network, [step.text for step in route.steps][:2])
         # lab ['inspect 3 m', 'at the bend turn right']
     """
-    from pirate_bt.yamlfile import MAX_BYTES, decode_text, read_at_most
+    from pirate_bt.yamlfile import MAX_BYTES, decode_text, read_at_most, special_file
 
     p = Path(path)
     where = SourceLocation(str(path))
+    kind = special_file(p)
+    if kind is not None:
+        raise ValidationFailed([LocatedError(f"is {kind}, not a route file", where)])
     try:
         with p.open("rb") as stream:  # at most MAX_BYTES: /dev/zero never ends
             raw = read_at_most(stream, MAX_BYTES)
