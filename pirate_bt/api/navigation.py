@@ -45,12 +45,16 @@ def _trace_folder(trace: Any) -> None:
 
 
 def _network(value: Any, what: str) -> Any:
-    from pirate_bt.pipes import Network, load_network
+    from pirate_bt.pipes import Network, NetworkSpec, load_network
 
     if isinstance(value, Network):
         return value
+    if isinstance(value, NetworkSpec):  # as simulate_mission takes it
+        return Network(value, f"<{value.name}>")
     if not isinstance(value, str | Path):
-        raise InputError(f"{what}: give a network name, a file or a Network, not {value!r}"[:200])
+        raise InputError(
+            f"{what}: give a network name, a file, a NetworkSpec or a Network, not {value!r}"[:200]
+        )
     return load_network(network_name(value, what))
 
 
@@ -75,15 +79,16 @@ def navigate(
     """Drive the robot step by step, each step chosen by ``navigator`` from what it felt.
 
     Args:
-        navigator: An object with ``next_step(obs) -> Step | None``, or the name of a
-            built-in or installed navigator (``"route"``, ``"goal"``) made with
-            ``params``.
+        navigator: An object with ``next_step(obs) -> Step | None`` (an instance,
+            not its class), or the name of a built-in or installed navigator
+            (``"route"``, ``"goal"``) made with ``params``.
         sim: The simulator's network, the pipe as it really is (a bundled name, a
-            file or a ``Network``; the default when no ``port`` is given:
-            ``"straight"``).
+            file, a ``NetworkSpec`` or a ``Network``; the default when no ``port`` is
+            given: ``"straight"``).
         port: A real robot (serial port or pyserial URL) instead of the simulator.
-        map: The map the navigator and the planner see (``None``: no map; the
-            belief is then the odometry's distance along the way).
+        map: The map the navigator and the planner see, given as ``sim`` is
+            (``None``: no map; the belief is then the odometry's distance along the
+            way).
         params: The navigator's parameters when it is given by name
             (``{"segment": "run-d"}``).
         seed: The simulator's seed.
@@ -104,12 +109,14 @@ def navigate(
 
     Returns:
         NavigationResult: How it went; a failed navigation is a result, not an
-            exception. ``why`` names the failing step's cause, a map disagreement,
-            or the navigator's own error.
+            exception. ``why`` names the failing step's cause, a map disagreement
+            (the first one, when the navigator went on after it), or the navigator's
+            own error; a success the simulator judged unsafe says so.
 
     Raises:
         InputError: an unknown navigator or parameter, a bad option, a map or
-            network that does not load.
+            network that does not load, a navigator class given instead of an
+            instance, or a map the navigator's ``check_map`` refuses or fails on.
         LinkError: the robot cannot be reached.
 
     Example::
@@ -148,6 +155,9 @@ def navigate(
     else:
         if params:
             raise InputError("navigate: params= is for a navigator given by name")
+        if isinstance(navigator, type):  # its next_step would be called unbound
+            cls = navigator.__name__
+            raise InputError(f"navigate: give an instance of {cls} ({cls}(...)), not the class")
         if not callable(getattr(navigator, "next_step", None)):
             raise InputError(f"navigate: {navigator!r} has no next_step(obs) method")
         name = builtin_name(navigator) or type(navigator).__name__

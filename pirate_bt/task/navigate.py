@@ -41,7 +41,12 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.parts import Half
 from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.localise import MAP_FRACTION
-from pirate_bt.task.navigate_result import NavigationResult, steps_text
+from pirate_bt.task.navigate_result import (
+    FailedStep,
+    NavigationResult,
+    done_after_failures,
+    went_on,
+)
 from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
 from pirate_bt.task.navigation import (
     Belief,
@@ -53,8 +58,9 @@ from pirate_bt.task.navigation import (
     Observation,
     Step,
     check_step,
+    raised_at,
 )
-from pirate_bt.task.outcome import PabOutcome
+from pirate_bt.task.outcome import PabOutcome, unsafe_note
 from pirate_bt.task.plan import MissionPlan, robot_length_m
 from pirate_bt.task.step_planner import StepPlanner
 from pirate_bt.trace.attach import counter_values
@@ -90,21 +96,31 @@ def _sensed(robot: RobotDescription, state: Any) -> dict[str, float | None]:
     low = min(c.angle for c in clamp.contact_angles) - tol
     high = max(c.angle for c in clamp.contact_angles) + tol
 
-    def diameter(half: Half, at_wall: bool) -> float | None:
+    def diameter(half: Half) -> float | None:
+        # only a joint at a wall-contact angle reads the pipe: one at rest (before the
+        # half first clamps) or swung off the wall (over an opening) reads nothing
         angles = sorted(
-            abs(state.joint_angle_rad[m.name])
+            a
             for m in robot.bend_modules(half)
             if m.name in state.joint_angle_rad
+            and low <= (a := abs(state.joint_angle_rad[m.name])) <= high
         )
-        if at_wall:  # a joint off the wall (over an opening) reads nothing
-            angles = [a for a in angles if low <= a <= high]
         return clamp.diameter_for(angles[len(angles) // 2]) if angles else None
 
     return {
-        "diameter_m": diameter(Half.REAR, False),
-        "front_diameter_m": diameter(Half.FRONT, True),
+        "diameter_m": diameter(Half.REAR),
+        "front_diameter_m": diameter(Half.FRONT),
         "pitch_rad": state.imu_rad.get("pitch"),
     }
+
+
+def _odometer(counters: Callable[[], Any] | None) -> float | None:
+    """The simulator's odometer (metres travelled along the pipe, both ways), or
+    ``None`` on a robot."""
+    if counters is None:
+        return None
+    value = getattr(counters(), "distance_m", None)
+    return None if value is None else float(value)
 
 
 def _behind_front_tip(robot: RobotDescription) -> dict[str, float]:
@@ -119,8 +135,10 @@ def _behind_front_tip(robot: RobotDescription) -> dict[str, float]:
 
 def _decide(
     navigator: Navigator, obs: Observation, deadline_s: float, name: str
-) -> tuple[Step | None, float, str | None]:
-    """Ask the navigator, on a thread of its own, within ``deadline_s`` of wall time."""
+) -> tuple[Step | None, float, str | None, BaseException | None]:
+    """Ask the navigator, on a thread of its own, within ``deadline_s`` of wall time:
+    its step, the wall time it took, and why its answer is refused with the exception
+    it raised, if it did."""
     box: dict[str, Any] = {}
 
     def ask() -> None:
@@ -142,12 +160,15 @@ def _decide(
                 f"navigator {name!r} took longer than its {deadline_s:g} s deadline to decide"
                 f" step {obs.step + 1}"
             ),
+            None,
         )
     if "error" in box:
         exc = box["error"]
-        return None, seconds, f"navigator {name!r} raised {type(exc).__name__}: {exc}"
+        # the traceback is the planner's to read: kept in the result and logged
+        _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
+        return None, seconds, f"navigator {name!r} raised {type(exc).__name__}: {exc}", exc
     step = box.get("step")
-    return step, seconds, None
+    return step, seconds, None, None
 
 
 class _Records:
@@ -239,13 +260,15 @@ def run_navigation(
     history: list[tuple[Step, str]] = []
     truth_m: float | None = None
     ran: StepRun | None = None
-    last_fix_m = belief
-    odometer_m = 0.0
+    odometer_m = 0.0  # how far each step moved the belief, summed
     fixed_at_m = 0.0  # the odometer at the last fix
     fixed_feature: str | None = None  # the feature of the last fix
     failed_in_a_row = 0
     idle_repeats = 0  # the same step again, after it moved the robot nowhere
-    disagreed: str | None = None  # the last map disagreement the navigation went on from
+    failures: list[FailedStep] = []  # every step that failed, in order
+    disagreements: list[FailedStep] = []  # those that failed on a map disagreement
+    fixed_after = 0  # the last step that succeeded on a fix on the map (0: none)
+    odometer = _odometer(counters)  # the simulator's, at the start
     robot_length = robot_length_m(robot)
     behind = _behind_front_tip(robot)
     try:
@@ -255,8 +278,10 @@ def run_navigation(
                 fixed_feature = ran.mission.fixes[-1].feature
                 # the odometer at that fix: the step's distance driven after it
                 fixed_at_m = odometer_m - abs(ran.mission.belief_m - last_fix_m)
-            if planner is not None:
-                uncertainty = map_tolerance * abs(belief - last_fix_m)
+                if ran.succeeded:  # belief and map agree again
+                    fixed_after = index - 1
+            if planner is not None:  # the distance driven since the last fix, not the net
+                uncertainty = map_tolerance * (odometer_m - fixed_at_m)
             else:
                 uncertainty = ODOMETRY_FRACTION * odometer_m
             obs = Observation(
@@ -281,8 +306,9 @@ def run_navigation(
             if index > max_steps:
                 result.why = f"navigator {name!r} reached its limit of {max_steps} steps"
                 supervisor.safe_state(result.why)
+                result.why += went_on(disagreements)
                 break
-            step, seconds, error = _decide(navigator, obs, deadline_s, name)
+            step, seconds, error, raised = _decide(navigator, obs, deadline_s, name)
             checked: CheckedStep | None = None
             plan: MissionPlan | None = None
             if error is None and step is not None:
@@ -297,25 +323,32 @@ def run_navigation(
             decision = Decision(index, obs, step, seconds, error)
             if error is not None:
                 result.decisions.append(decision)
-                records.write({"type": "decision", **decision.to_json()})
-                result.why = error
+                where = {} if raised is None else {"raised_at": raised_at(raised)}
+                records.write({"type": "decision", **decision.to_json(), **where})
+                result.why = error + went_on(disagreements)
+                result.error = raised
                 supervisor.safe_state(error)
                 break
             if step is None:
                 result.decisions.append(decision)
                 records.write({"type": "decision", **decision.to_json()})
-                if ran is None or ran.succeeded:
-                    result.status = "success"
-                    result.why = f"navigator {name!r} is done after {steps_text(index - 1)}"
-                else:
-                    result.why = ran.why
-                    result.failing_node = ran.failing_node
+                succeeded, result.why, result.failing_node = done_after_failures(
+                    name,
+                    index - 1,
+                    failures,
+                    fixed_after=fixed_after,
+                    unsafe=unsafe_note(tally.counters()),
+                )
+                result.status = "success" if succeeded else "failure"
+                if not succeeded:  # a failure leaves the robot safe (the first cause kept)
+                    supervisor.safe_state(result.why)
                 break
             assert checked is not None
             elapsed = clock.now() - start_s
             if elapsed >= max_time_s:
                 result.why = f"navigation time limit reached ({max_time_s:g} s)"
                 supervisor.safe_state(result.why)
+                result.why += went_on(disagreements)
                 result.decisions.append(decision)
                 break
             if supervisor.in_safe_state and ran is not None and ran.disagreement:
@@ -366,12 +399,6 @@ def run_navigation(
             moved_m = abs(ran.belief_m - belief)
             repeated = bool(history) and history[-1][0] == step
             odometer_m += moved_m
-            if ran.truth_m is not None and truth_m is not None:
-                result.distance_m += abs(ran.truth_m - truth_m)
-            elif ran.truth_m is not None:
-                result.distance_m += abs(ran.truth_m - belief)
-            else:
-                result.distance_m += abs(ran.belief_m - belief)
             belief = ran.belief_m
             truth_m = ran.truth_m
             felt = ran.felt
@@ -407,30 +434,36 @@ def run_navigation(
                     "why": last.why,
                 }
             )
-            if ran.disagreement and not ran.succeeded:
-                disagreed = ran.why
+            if not ran.succeeded:
+                failures.append(FailedStep(index, step, ran.why, ran.failing_node))
+                if ran.disagreement:
+                    disagreements.append(failures[-1])
             failed_in_a_row = 0 if ran.succeeded else failed_in_a_row + 1
             if not ran.succeeded and failed_in_a_row >= MAX_FAILED_IN_A_ROW:
+                first = failures[0]  # the first cause first, then the row that stopped it
                 result.why = (
-                    f"{ran.why} (the last {failed_in_a_row} steps of navigator {name!r} failed;"
-                    " it is stopped)"
+                    f"{first.why} ({first.named()}); navigator {name!r} went on, and steps"
+                    f" {index - failed_in_a_row + 1} to {index} failed in a row, the last:"
+                    f" {ran.why}; it is stopped"
                 )
-                result.failing_node = ran.failing_node
+                result.failing_node = first.failing_node
                 break
             idle_repeats = (
-                idle_repeats + 1 if ran.succeeded and repeated and moved_m < IDLE_M else 0
+                idle_repeats + 1
+                if ran.succeeded and repeated and moved_m < IDLE_M and step.pab != "wait"
+                else 0  # a wait stands still by design: it is never stuck
             )
             if idle_repeats >= MAX_IDLE_REPEATS:
                 result.why = (
                     f"navigator {name!r} is stuck: it asked for {step!r} again"
                     f" {idle_repeats} times in a row, and the robot did not move"
                     f" (believed at {belief:.2f} m)"
-                    + (f"; it went on after a map disagreement: {disagreed}" if disagreed else "")
                 )
                 supervisor.safe_state(result.why)
+                result.why += went_on(disagreements)
                 break
             if not ran.succeeded and not ran.disagreement:
-                result.why = ran.why
+                result.why = ran.why + went_on(disagreements)
                 result.failing_node = ran.failing_node
                 result.error = ran.error
                 break
@@ -443,6 +476,9 @@ def run_navigation(
         result.safe_state = bool(supervisor.in_safe_state)
         result.counters = tally.counters()
         result.sim = counter_values(counters() if counters is not None else None)
+        # simulated: the simulator's odometer (the truth); on a robot: the belief's
+        ended = _odometer(counters)
+        result.distance_m = odometer_m if ended is None or odometer is None else ended - odometer
         records.write(
             {
                 "type": "end",

@@ -5,17 +5,17 @@ Split out of :mod:`pirate_bt.task.navigate` (the loop), which fills it in.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pirate_bt.errors import LinkError
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
-from pirate_bt.task.navigation import Decision
+from pirate_bt.task.navigation import Decision, Step
 from pirate_bt.task.outcome import PabOutcome
 
-__all__ = ["NavigationResult", "steps_text"]
+__all__ = ["FailedStep", "NavigationResult", "done_after_failures", "steps_text", "went_on"]
 
 
 @dataclass
@@ -24,17 +24,24 @@ class NavigationResult:
 
     Attributes:
         navigator: The navigator's name.
-        status: ``"success"`` (the navigator said it was done, every step succeeded)
-            or ``"failure"``.
+        status: ``"success"`` (the navigator said it was done, and every step
+            succeeded, or every failed one was a map disagreement that a later step
+            recovered from on a fix, with nothing unsafe on the way: see
+            docs/navigators.md) or ``"failure"``.
         why: The first cause of the end, for people: the failing step's own cause,
-            the map disagreement, or the navigator's error (named).
-        failing_node: Path of the node where a step failed, if one did.
+            the map disagreement (the first, when the navigator went on after it), or
+            the navigator's error (named); a success the simulator judged unsafe
+            says so.
+        failing_node: Path of the node where the step named first in ``why`` failed,
+            if one did.
         decisions: Every answer of the navigator, with its observation.
         pabs: Every PAB run, in order (a turn step runs its approach and the turn).
         steps: Steps run.
         ticks: Ticks of every step's tree, summed.
-        distance_m: Distance driven, forwards and back (by the truth when simulated,
-            else by the belief).
+        distance_m: Distance travelled along the pipe, forwards and back: simulated,
+            the simulator's own odometer (the truth, a slide included); on a robot,
+            where there is no truth, the belief's (how far each step moved it, a
+            fix's correction included).
         belief_m: Final belief (metres along the way taken).
         truth_m: Final truth on the same scale, when simulated.
         counters: Refusals, clips, link figures and, when simulated, violations and
@@ -45,7 +52,8 @@ class NavigationResult:
         missions: With a map: each step's one-step mission result.
         sim: Final simulator counters, when simulated.
         trace_dir: Where the navigation's records and per-step traces were written.
-        error: The exception that ended it, if one did (a lost link: ``LinkError``).
+        error: The exception that ended it, if one did (a lost link: ``LinkError``;
+            the navigator's own, with its traceback).
     """
 
     navigator: str
@@ -94,3 +102,88 @@ class NavigationResult:
 def steps_text(n: int) -> str:
     """``1 step``, ``3 steps``."""
     return f"{n} step" if n == 1 else f"{n} steps"
+
+
+@dataclass(frozen=True)
+class FailedStep:
+    """A step that failed, kept for the words of the end.
+
+    Attributes:
+        index: 1 for the first step.
+        step: The step.
+        why: Its cause.
+        failing_node: Where it failed.
+    """
+
+    index: int
+    step: Step
+    why: str
+    failing_node: str | None
+
+    def named(self) -> str:
+        """``step 2, Step('bend', direction='right')``."""
+        return f"step {self.index}, {self.step!r}"
+
+
+def went_on(disagreements: Sequence[FailedStep]) -> str:
+    """The clause that keeps the map disagreements a navigation went on after: the
+    first, and the last when there were more (``""`` when there were none)."""
+    if not disagreements:
+        return ""
+    first, last = disagreements[0], disagreements[-1]
+    if first is last:
+        return f"; it went on after a map disagreement: {first.why}"
+    return (
+        f"; it went on after {len(disagreements)} map disagreements, the first: {first.why};"
+        f" the last: {last.why}"
+    )
+
+
+def done_after_failures(
+    name: str,
+    steps: int,
+    failures: Sequence[FailedStep],
+    *,
+    fixed_after: int,
+    unsafe: str,
+) -> tuple[bool, str, str | None]:
+    """The end of a navigation whose navigator said it was done (docs/navigators.md).
+
+    A success when every step succeeded, or when every failed step was a map
+    disagreement (any other failure ends the navigation at once) and a later step
+    succeeded on a fix on the map (belief and map agree again: ``fixed_after`` is the
+    last such step's index, 0 for none) with nothing unsafe on the way (``unsafe``:
+    the simulator's note, ``""`` for none). Otherwise a failure whose ``why`` starts
+    with the first failed step's cause and says the navigator was done after it.
+
+    Returns:
+        ``(succeeded, why, failing_node)``.
+    """
+    done = f"navigator {name!r} is done after {steps_text(steps)}"
+    if not failures:
+        return True, done + unsafe, None
+    first, last = failures[0], failures[-1]
+    recovered = fixed_after > last.index
+    if recovered and not unsafe:
+        return True, done + went_on(failures), None
+    if recovered:
+        why = f"{first.why} ({first.named()}); navigator {name!r} went on from it and was done"
+        return False, f"{why} after {steps_text(steps)}{unsafe}", first.failing_node
+    if last.index == steps and first is last:
+        return (
+            False,
+            f"{first.why}; navigator {name!r} was done after it (step {steps})",
+            (first.failing_node),
+        )
+    if last.index == steps:
+        why = (
+            f"{first.why} ({first.named()}); navigator {name!r} went on, and was done after"
+            f" step {last.index} failed too: {last.why}"
+        )
+        return False, why, first.failing_node
+    after = "it" if first is last else f"step {last.index} ({last.step!r}), which failed too"
+    why = (
+        f"{first.why} ({first.named()}); navigator {name!r} was done after"
+        f" {steps_text(steps)}, with no step after {after} that succeeded on a fix on the map"
+    )
+    return False, why, first.failing_node

@@ -76,6 +76,8 @@ __all__ = [
     "Observation",
     "Step",
     "check_step",
+    "raised_at",
+    "shown",
 ]
 
 STEP_PABS = (
@@ -113,6 +115,42 @@ class InvalidStep(InputError):
     """A navigator asked for a step that cannot be run (named in the message)."""
 
 
+def shown(value: object, limit: int = 80) -> str:
+    """``repr(value)`` for a message, at most ``limit`` characters: whatever a navigator
+    hands over is shown, never raised on (an integer past Python's limit for turning
+    one into text, a broken ``__repr__``)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 128:
+        return f"<an integer of about {round(value.bit_length() * math.log10(2))} digits>"
+    try:
+        text = repr(value)
+    except Exception:  # a __repr__ that raises
+        text = f"<{type(value).__name__} that cannot be shown>"
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
+
+
+def raised_at(exc: BaseException) -> str | None:
+    """``file:line`` of the frame that raised ``exc`` (the innermost of its traceback)."""
+    tb = exc.__traceback__
+    if tb is None:
+        return None
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    return f"{tb.tb_frame.f_code.co_filename}:{tb.tb_lineno}"
+
+
+def _json_value(value: object) -> bool | int | float | str:
+    """A step parameter as a trace record holds it: a number or text (an integer too
+    large for a float, or any other object, as text)."""
+    if isinstance(value, bool | float | str):
+        return value
+    if isinstance(value, int):
+        return value if -(2**63) <= value < 2**63 else shown(value)
+    try:
+        return str(value)
+    except Exception:  # a __str__ that raises
+        return shown(value)
+
+
 @dataclass(frozen=True, init=False)
 class Step:
     """One PAB with its parameters: what a navigator asks the robot to do next.
@@ -132,17 +170,14 @@ class Step:
         object.__setattr__(self, "params", dict(params))
 
     def __repr__(self) -> str:
-        args = "".join(f", {k}={v!r}" for k, v in self.params.items())
+        args = "".join(f", {k}={shown(v)}" for k, v in self.params.items())
         return f"Step({self.pab!r}{args})"
 
     def to_json(self) -> dict[str, Any]:
         """``{"pab": ..., "params": {...}}`` with every value as text or a number."""
         return {
             "pab": self.pab,
-            "params": {
-                k: v if isinstance(v, bool | int | float | str) else str(v)
-                for k, v in self.params.items()
-            },
+            "params": {k: _json_value(v) for k, v in self.params.items()},
         }
 
 
@@ -213,21 +248,29 @@ def _quantity(step: Step, key: str, dimension: str, example: str) -> float:
     if isinstance(value, bool):
         raise InvalidStep(f"{step!r}: {key} must be a {dimension}, not {value!r}")
     if isinstance(value, int | float):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # an integer too large for a float
+            raise InvalidStep(
+                f"{step!r}: {key} must be a finite number, not {shown(value)}"
+            ) from None
     else:
         try:
             number = parse_quantity(str(value), dimension)
         except UnitError as exc:
             raise InvalidStep(f"{step!r}: {key}: {exc}") from None
+        except Exception:  # an object whose text cannot be had
+            said = f"{step!r}: {key} must be a {dimension}, not {shown(value)}"
+            raise InvalidStep(said) from None
     if not math.isfinite(number):
-        raise InvalidStep(f"{step!r}: {key} must be finite, not {value!r}")
+        raise InvalidStep(f"{step!r}: {key} must be a finite number, not {shown(value)}")
     return number
 
 
 def _flag(step: Step, key: str) -> bool:
     value = step.params.get(key, False)
     if not isinstance(value, bool):
-        raise InvalidStep(f"{step!r}: {key} must be true or false, not {value!r}")
+        raise InvalidStep(f"{step!r}: {key} must be true or false, not {shown(value)}")
     return value
 
 
@@ -239,7 +282,7 @@ def check_step(step: object) -> CheckedStep:
             malformed value, or one out of range; the message names the step.
     """
     if not isinstance(step, Step):
-        raise InvalidStep(f"a navigator returned {step!r}, not a Step (or None when done)")
+        raise InvalidStep(f"a navigator returned {shown(step)}, not a Step (or None when done)")
     if step.pab not in STEP_PABS:
         raise InvalidStep(f"{step!r}: unknown PAB {step.pab!r} (known: {', '.join(STEP_PABS)})")
     unknown = sorted(set(step.params) - set(_KNOWN[step.pab]))
@@ -270,8 +313,10 @@ def check_step(step: object) -> CheckedStep:
             if abs(roll) > math.pi + 1e-9:
                 raise InvalidStep(f"{step!r}: roll must be within -180 and 180 deg")
             return CheckedStep(step, roll_rad=roll)
-        if direction not in _BEND_ROLL_DEG:
-            raise InvalidStep(f"{step!r}: a bend turns up, down, left or right, not {direction!r}")
+        if not isinstance(direction, str) or direction not in _BEND_ROLL_DEG:
+            raise InvalidStep(
+                f"{step!r}: a bend turns up, down, left or right, not {shown(direction)}"
+            )
         return CheckedStep(
             step, roll_rad=math.radians(_BEND_ROLL_DEG[direction]), direction=direction
         )
@@ -279,7 +324,7 @@ def check_step(step: object) -> CheckedStep:
         direction = step.params.get("direction")
         if direction not in _TEE_WAYS:
             raise InvalidStep(
-                f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {direction!r}"
+                f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {shown(direction)}"
             )
         return CheckedStep(step, direction=str(direction))
     if step.pab == "t-joint-back":
@@ -287,7 +332,7 @@ def check_step(step: object) -> CheckedStep:
         if direction not in _BACK_WAYS:
             raise InvalidStep(
                 f"{step!r}: a T-joint is left backwards by the way it was passed"
-                f" ({', '.join(_BACK_WAYS)}), not {direction!r}"
+                f" ({', '.join(_BACK_WAYS)}), not {shown(direction)}"
             )
         return CheckedStep(step, direction=str(direction))
     if step.pab in ("probe-turn", "probe-tee"):
@@ -483,7 +528,7 @@ class Decision:
             "observation": self.observation.to_json(),
             "step": self.step.to_json()
             if isinstance(self.step, Step)
-            else (None if self.step is None else repr(self.step)),
+            else (None if self.step is None else shown(self.step, 200)),
             "seconds": round(self.seconds, 6),
             "error": self.error,
             "outcome": self.outcome,

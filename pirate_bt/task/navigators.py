@@ -23,6 +23,7 @@ as keyword arguments (the command line's ``--param KEY=VALUE``, as text).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -31,7 +32,7 @@ from typing import Any
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
-from pirate_bt.task.navigation import Navigator, Observation, Step
+from pirate_bt.task.navigation import Navigator, Observation, Step, raised_at
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
 
@@ -43,6 +44,8 @@ __all__ = [
     "load_navigator",
     "navigator_names",
 ]
+
+_log = logging.getLogger(__name__)
 
 ENTRY_POINT_GROUP = "pirate_bt.navigators"
 """The entry-point group that names navigators."""
@@ -274,15 +277,26 @@ def check_navigator_map(navigator: Any, name: str, network: Network | None) -> N
     :func:`~pirate_bt.api.navigation.navigate` and a campaign ask first.
 
     Raises:
-        InputError: the navigator refused the map (a ``ValueError`` or ``TypeError``).
+        InputError: the navigator refused the map (a ``ValueError``, ``TypeError``
+            or ``InputError``: its message), or its check failed (any other
+            exception: a bug in the navigator, named with the place it was raised,
+            its traceback logged at DEBUG); nothing has connected.
     """
     check_map = getattr(navigator, "check_map", None)
     if not callable(check_map):
         return
     try:
         check_map(network)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, InputError) as exc:
         raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
+    except Exception as exc:  # the navigator's own error, one located line
+        _log.debug("navigator %r: check_map raised", name, exc_info=exc)
+        text = " ".join(str(exc).split())[:200]
+        where = raised_at(exc)
+        raise InputError(
+            f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
+            + (f" (at {where})" if where else "")
+        ) from None
 
 
 def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
