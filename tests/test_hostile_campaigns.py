@@ -173,8 +173,9 @@ def test_tampered_and_cut_rows_are_skipped_with_their_line(
     assert read_rows(results) == [rows[2]]
     warned = [r.getMessage() for r in caplog.records]
     assert f"{results}:1: skipped a row that is not a case's result: index 'abc'" in warned[0]
-    assert f"{results}:8: skipped a cut line" in warned[7]
-    assert f"{results}:10: skipped a cut line" in warned[8]
+    # a line cut in the middle of the file and bytes that are not UTF-8 are no cut last line
+    assert f"{results}:8: skipped a line that is not a JSON row" in warned[7]
+    assert f"{results}:10: skipped a line that is not a JSON row" in warned[8]
     # The report of a file with no valid row: exit 2, one line (was an internal error).
     results.write_text(json.dumps(bad[0]) + "\n", encoding="utf-8")
     assert main(["campaign", "report", str(folder)]) == 2
@@ -195,14 +196,20 @@ class _Instant(Executor):
         return future
 
 
-def test_resume_reruns_a_row_whose_index_was_edited(tmp_path: Path) -> None:
+def test_resume_refuses_a_row_whose_index_was_edited(tmp_path: Path) -> None:
     rows, folder = _rows(tmp_path)
     cases = [{**r, "timeout_s": 1.0} for r in rows]
     edited = {**rows[1], "index": 7}  # its id is a case's, its index another's
-    (folder / "results.jsonl").write_text(
-        "".join(json.dumps(r) + "\n" for r in (rows[0], edited)), encoding="utf-8"
-    )
+    text = "".join(json.dumps(r) + "\n" for r in (rows[0], edited))
+    (folder / "results.jsonl").write_text(text, encoding="utf-8")
     pool = _Instant()
+    # It was run again and its row dropped; a row that is not one of the cases is now
+    # refused, before any case and before the file is rewritten (test_campaign_probe_fixes).
+    with pytest.raises(InputError, match=r"results\.jsonl:2: 1 row of 2 is not a case"):
+        run_cases(cases, folder, pool, resume=True)
+    assert pool.ids == []
+    assert (folder / "results.jsonl").read_text(encoding="utf-8") == text
+    (folder / "results.jsonl").write_text(json.dumps(rows[0]) + "\n", encoding="utf-8")
     out = run_cases(cases, folder, pool, resume=True)
     assert sorted(pool.ids) == sorted([rows[1]["id"], rows[2]["id"]])
     assert [r["index"] for r in out] == [0, 1, 2]

@@ -264,19 +264,15 @@ def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
     from pirate_bt.api.missions import load_route, simulate_mission
 
     route = load_route(case["route"])  # a file, or a bundled name with or without .route
-    # as `pirate-bt mission ROUTE --sim NETWORK` (and `--network NETWORK --sim MAP` with
-    # the spec's `maps` axis, whose entries are the pipe as built: the simulator's truth)
+    # as `pirate-bt mission ROUTE --network MAP --sim TRUTH`: the run's network is the
+    # map (default: the route's own network line), the spec's `maps` axis the truth
+    # (default: the map); the spec check refuses a map the route does not fit
+    network, truth = case["network"], case["map"]
     if case.get("as_built") is not None:  # the truth: a variant of the map
-        drawing = case["network"] or route.network
+        drawing = network or route.network
         if drawing is None:
             raise ValueError(f"{route.source}: 'as_built' needs the route's map (a network)")
-        network, truth = case["network"], _as_built(case, drawing, Path(route.source).parent)
-    elif case["map"]:
-        network, truth = case["network"], case["map"]
-    elif route.network:
-        network, truth = None, case["network"]
-    else:
-        network, truth = case["network"], None
+        truth = _as_built(case, drawing, Path(route.source).parent)
     result = simulate_mission(
         route,
         network=network,

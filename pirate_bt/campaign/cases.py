@@ -22,13 +22,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.campaign.checks import check_faults, check_runs
+from pirate_bt.campaign.checks import check_axes, check_faults, check_runs
 from pirate_bt.campaign.inputs import check_inputs, resolve_name, source_of
 from pirate_bt.campaign.spec import CampaignSpec
 
 __all__ = [
     "DEFAULT_MAX_CASES",
     "Case",
+    "check_axes",
     "check_faults",
     "check_inputs",
     "check_runs",
@@ -167,6 +168,7 @@ def group_key(row: dict[str, Any]) -> str:
         parts.append(f"as-built x{float(row.get('as_built_scale') or 1.0):g}")
     if row.get("sim_faults"):
         parts.append("+".join(row["sim_faults"]))
-    parts.append(f"drop={row.get('drop', 0):g} corrupt={row.get('corrupt', 0):g}")
-    parts[-1] += f" dup={row.get('dup', 0):g}"
+    # a row's rates may be null (a record made without its case): read as none
+    rates = {k: float(row.get(k) or 0) for k in ("drop", "corrupt", "dup")}
+    parts.append(f"drop={rates['drop']:g} corrupt={rates['corrupt']:g} dup={rates['dup']:g}")
     return " ".join(parts)

@@ -1,10 +1,13 @@
 """What a campaign spec's files hold, loaded once before any case runs.
 
-Bad input is the campaign's fault, not a case outcome: :func:`check_runs` loads
-every distinct tree (with its parameters), route and navigator of the cases, and
-validates every network and robot file they name; :func:`check_faults` checks
-every simulator fault's target on every robot. Each problem stops the campaign
-with exit 2 and one located line instead of an ``error`` row per case.
+Bad input is the campaign's fault, not a case outcome: :func:`check_axes` refuses
+an axis that names one point twice (the report would count its identical,
+deterministic cases as independent samples); :func:`check_runs` loads every
+distinct tree (with its parameters) against every robot of the axis, plans every
+route on its map for every robot and builds its PAB trees, makes every navigator,
+and validates every network and robot file the cases name; :func:`check_faults`
+checks every simulator fault's target on every robot. Each problem stops the
+campaign with exit 2 and one located line instead of an ``error`` row per case.
 """
 
 from __future__ import annotations
@@ -15,10 +18,10 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
-from pirate_bt.campaign.spec import CampaignSpec
-from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
+from pirate_bt.campaign.spec import CampaignSpec, SpecSource
+from pirate_bt.errors import ConfigurationError, InputError, LocatedError, ValidationFailed
 
-__all__ = ["check_faults", "check_runs"]
+__all__ = ["check_axes", "check_faults", "check_runs"]
 
 Case = dict[str, Any]
 
@@ -59,61 +62,301 @@ def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
                 raise source.error(("sim_faults", i, j), f"{exc}{robot}") from None
 
 
+def _file_identity(kind: str, name: str | None, folder: Path, route: str | None = None) -> str:
+    """One text per file, however it is named (``lab``, ``lab.yaml``, ``./lab.yaml``)."""
+    if name is None:
+        return ""
+    resolved = str(resolve_name(name, folder))
+    path, _problem = find_input(kind, resolved, route)
+    try:
+        return str(path.resolve()) if path is not None else resolved
+    except (OSError, RuntimeError):  # pragma: no cover - a name the file system refuses
+        return resolved
+
+
+def _fault_point(point: Sequence[str]) -> str:
+    """A point of the ``sim_faults`` axis as parsed (``@1s`` and ``@1 s`` alike), in any order."""
+    from pirate_bt.sim.faults import parse_fault
+
+    parsed = [json.dumps(parse_fault(f).model_dump(mode="json"), sort_keys=True) for f in point]
+    return json.dumps(sorted(parsed))
+
+
+def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
+    """Each axis as ``(its key path, [(an entry's identity, how it reads), ...])``."""
+    routes = [resolve_name(r.route, folder) for r in spec.runs if r.route is not None]
+    near = routes[0] if routes else None
+    map_kind = "map" if near is not None else "network"
+    runs = []
+    for run in spec.runs:
+        kind = "tree" if run.tree else "route" if run.route else "navigator"
+        name = run.tree or run.route or run.navigator
+        route = resolve_name(run.route, folder)
+        identity = [
+            kind,
+            _file_identity(kind, name, folder) if kind != "navigator" else name,
+            _file_identity("network", run.network, folder, route),
+            {k: str(v) for k, v in sorted(run.params.items())},
+            run.blind,
+        ]
+        runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))
+    axes = [
+        ("runs", runs),
+        (
+            "robots",
+            [
+                (_file_identity("robot", r, folder), r if r else "the bundled robot")
+                for r in spec.robots
+            ],
+        ),
+        (
+            "maps",
+            [(_file_identity(map_kind, m, folder, near), m if m else "the map") for m in spec.maps],
+        ),
+        (
+            "sim_faults",
+            [(_fault_point(p), ", ".join(p) if p else "no faults") for p in spec.sim_faults],
+        ),
+    ]
+    for key in ("drop", "corrupt", "dup"):
+        rates: list[float] = getattr(spec.link, key)
+        axes.append((f"link.{key}", [(repr(float(r)), f"{r:g}") for r in rates]))
+    return axes
+
+
+def check_axes(spec: CampaignSpec, base: Path | None = None) -> None:
+    """Refuse an axis that names one point twice, at the second entry.
+
+    Two equal entries (after normalising: ``0`` and ``0.0``, a file by two names,
+    faults written apart or in another order, a run under another name) run the
+    same deterministic cases, which the report would count as independent samples.
+
+    Raises:
+        InputError: the first repeated entry, one line naming the entry it repeats
+            (a :class:`~pirate_bt.errors.LocatedError` for a file).
+    """
+    source = source_of(spec)
+    folder = base if base is not None else source.base
+    for key, entries in _axis_entries(spec, folder):
+        first: dict[str, int] = {}
+        for i, (identity, _shown) in enumerate(entries):
+            j = first.setdefault(identity, i)
+            if j == i:
+                continue
+            path: tuple[str | int, ...] = (*key.split("."), i)
+            again = " under another name" if key == "runs" else ""
+            raise source.error(
+                path,
+                f"{key}[{i}] repeats {key}[{j}] ({entries[j][1]}){again}: its cases would run twice"
+                " and be counted as independent samples; remove one",
+            )
+
+
+def _run_index(spec: CampaignSpec, case: Case) -> int | None:
+    """The index in ``spec.runs`` of the run ``case`` is of (run names are distinct)."""
+    return next((i for i, run in enumerate(spec.runs) if run.label == case.get("run")), None)
+
+
+def _robot_index(spec: CampaignSpec, folder: Path, case: Case) -> int | None:
+    """The index in ``spec.robots`` of the robot ``case`` runs."""
+    robot = case.get("robot")
+    return next((i for i, r in enumerate(spec.robots) if resolve_name(r, folder) == robot), None)
+
+
+def _joined(errors: Sequence[InputError]) -> InputError:
+    """Several problems as one error, one line each (a ``ValidationFailed`` if all are located)."""
+    if len(errors) == 1:
+        return errors[0]
+    located = [e for e in errors if isinstance(e, LocatedError)]
+    if len(located) == len(errors):
+        return ValidationFailed(located)
+    return InputError("\n".join(map(str, errors)))
+
+
 def _params_problems(
-    spec: CampaignSpec, base: Path | None, tree: str, params: dict[str, str], exc: ValidationFailed
+    spec: CampaignSpec, base: Path | None, case: Case, exc: ValidationFailed
 ) -> InputError:
     """``exc``'s problems with a tree's parameters, placed where the spec gives them.
 
     The tree loader places a parameter's problem at ``--param:1:1`` (the command
-    line's option); in a campaign the parameter was written in ``runs[i].params``.
+    line's option); in a campaign the parameter was written in ``runs[i].params``,
+    at its own key when the problem names it. A problem of a tree file itself (a
+    parameter it declares without a default, say) stays where it is written.
     """
     source = source_of(spec)
-    folder = base if base is not None else source.base
-    index = next(
-        (
-            i
-            for i, run in enumerate(spec.runs)
-            if run.tree is not None
-            and resolve_name(run.tree, folder) == tree
-            and {k: str(v) for k, v in run.params.items()} == params
-        ),
-        None,
-    )
+    index = _run_index(spec, case)
     if index is None:
         return exc
-    problems: list[tuple[Sequence[str | int], str]] = []
+    params: dict[str, str] = case["params"]
+    found: list[InputError] = []
     for error in exc.errors:
         if error.location.file != "--param":
-            return exc  # a problem of the tree file itself: located there
+            found.append(error)
+            continue
         path: tuple[str | int, ...] = ("runs", index, "params")
         name = next((k for k in params if f"parameter {k!r}" in error.message), None)
-        problems.append(((*path, name) if name is not None else path, error.message))
-    return source.errors(problems)
+        found.append(source.error((*path, name) if name is not None else path, error.message))
+    return _joined(found)
+
+
+def _robot_problems(
+    source: SpecSource, robot: tuple[int, str], run: str, exc: ValidationFailed
+) -> InputError:
+    """``exc``'s problems, which only this robot of the axis meets, at its entry in the spec."""
+    index, name = robot
+    found: list[InputError] = []
+    for error in exc.errors:
+        place = "" if error.location.file == "--param" else f" (at {error.location})"
+        message = f"robot {name!r}: run {run!r}: {error.message}{place}"
+        found.append(source.error(("robots", index), message))
+    return _joined(found)
+
+
+class _Robots:
+    """Each robot description of the cases, loaded once (``None``: the bundled one)."""
+
+    def __init__(self) -> None:
+        self._loaded: dict[str | None, Any] = {}
+
+    def __call__(self, name: str | None) -> Any:
+        from pirate_bt.robot.loader import load_robot
+
+        if name not in self._loaded:
+            self._loaded[name] = load_robot(name) if name is not None else load_robot()
+        return self._loaded[name]
+
+
+def _check_tree(case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None) -> None:
+    """Load the case's tree with its parameters against its robot, as the case will."""
+    from pirate_bt.resources import find_file
+    from pirate_bt.treefile.loader import load_tree
+
+    def load(robot: Any) -> None:
+        load_tree(
+            find_file("trees", case["tree"]),
+            robot=robot,
+            params=case["params"],
+            params_from_text=True,
+            params_origin="--param",
+        )
+
+    try:  # as the case will: a parameter without a default must be given
+        load(robots(case.get("robot")))
+    except ValidationFailed as exc:
+        if spec is None:
+            raise
+        source = source_of(spec)
+        folder = base if base is not None else source.base
+        robot = _robot_index(spec, folder, case)
+        if robot is not None and spec.robots[robot] is not None:
+            try:
+                load(None)  # without a robot's limits: is it this robot that refuses it?
+            except ValidationFailed:
+                pass  # the tree's own problem (or its parameters')
+            else:
+                entry = (robot, str(spec.robots[robot]))
+                raise _robot_problems(source, entry, str(case.get("run")), exc) from None
+        raise _params_problems(spec, base, case, exc) from None
+
+
+def _route_problem(case: Case, route_file: Path) -> tuple[str, str] | None:
+    """Why the route of ``case`` cannot be its map's: its network line names another.
+
+    Returns ``(the key of the run to place it at, the message)``, or ``None``.
+    """
+    from pirate_bt.api.missions import load_route
+    from pirate_bt.task.networks import resolve_network_path
+
+    route = load_route(route_file)
+    given = case.get("network")
+    if given is None or route.network is None:
+        return None
+    path, _problem = find_input("network", str(given), str(route_file))
+    try:
+        own = resolve_network_path(route.network, route_file.parent)
+    except FileNotFoundError as exc:
+        return "route", str(exc)
+    if path is not None and path.resolve() == own.resolve():
+        return None
+    where = f" ({route.network_location})" if route.network_location else ""
+    return "network", (
+        f"the route names network {route.network!r}{where}, not {str(given)!r}: a route run's"
+        " 'network' is the map it is planned on; leave it out or give the route's own, and"
+        " list simulated truths under 'maps'"
+    )
+
+
+def _check_route(case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None) -> None:
+    """Plan the case's route on its map for its robot and build its PAB trees, as the case will.
+
+    A run's ``network`` is the route's map (as ``pirate-bt mission ROUTE --network
+    MAP``): a route whose own ``network`` line names another, or that does not fit
+    it, is the spec's problem, placed at the run.
+    """
+    from pirate_bt.api.missions import plan_route
+    from pirate_bt.api.options import find
+    from pirate_bt.filekinds import validate_file
+    from pirate_bt.task.tree import mission_tree_spec
+    from pirate_bt.treefile.loader import load_tree
+
+    route_file = find("scenarios", case["route"], ".route")
+    validate_file(route_file, "route")
+    run = str(case.get("run"))
+    robot = robots(case.get("robot"))
+    problem = _route_problem(case, route_file)
+    if problem is None:
+        try:
+            plan = plan_route(route_file, network=case.get("network"), robot=robot)
+        except InputError as exc:  # does not fit the map, or names none
+            key = "network" if case.get("network") is not None else "route"
+            problem = key, str(exc)
+    if problem is not None:
+        key, message = problem
+        index = None if spec is None else _run_index(spec, case)
+        if spec is None or index is None:
+            raise InputError(f"run {run!r}: {message}")
+        raise source_of(spec).error(("runs", index, key), f"run {run!r}: {message}")
+    try:  # the mission's tree, as the case builds it for its robot
+        load_tree(mission_tree_spec(plan, None, robot.motion.nominal_speed), robot=robot)
+    except ValidationFailed as exc:
+        if spec is None:
+            raise
+        source = source_of(spec)
+        folder = base if base is not None else source.base
+        index = _robot_index(spec, folder, case)
+        if index is None or spec.robots[index] is None:
+            raise
+        raise _robot_problems(source, (index, str(spec.robots[index])), run, exc) from None
 
 
 def check_runs(
     cases: list[Case], spec: CampaignSpec | None = None, base: Path | None = None
 ) -> None:
-    """Load every distinct tree (with its parameters) and route once, before any case runs.
+    """Load every distinct tree (with its parameters) and route once per robot, before any case.
 
     Bad input is the campaign's fault, not a case outcome: it stops the campaign
     with exit 2 and a located error instead of a thousand ``error`` rows. With the
     ``spec`` the cases came from (and its ``base``, as for :func:`expand`), a
-    problem with a tree's parameters is placed at the run's ``params`` in the spec.
+    problem with a tree's parameters is placed at the run's ``params`` in the
+    spec, a tree or a route's PAB trees that only a robot of the ``robots`` axis
+    refuses at that robot's entry (naming the tree's place), and a route that is
+    not its run's ``network``'s (its own ``network`` line names another, or it
+    does not fit) at the run.
 
     Raises:
         ValidationFailed: a tree, route, network (or truth map) or robot file does
             not validate.
+        InputError: a route that does not fit its run's network; a navigator that
+            cannot be made.
         ConfigurationError: a named file (tree, route, network, map, robot) is
             missing or not a file.
     """
-    from pirate_bt.api.options import find
     from pirate_bt.filekinds import validate_file
-    from pirate_bt.resources import find_file
 
     seen: set[str] = set()
     files: dict[tuple[str, str, str | None], str | None] = {}
     valid: set[tuple[str, Path]] = set()
+    robots = _Robots()
     for case in cases:
         route = case.get("route")
         names = [("tree", case.get("tree"), None), ("route", route, None)]
@@ -136,11 +379,13 @@ def check_runs(
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
         key = json.dumps(
             [
+                case.get("run"),
                 case["tree"],
                 case["route"],
                 case.get("navigator"),
                 case["params"],
                 None if case.get("blind") else case.get("network"),
+                None if case.get("navigator") else case.get("robot"),
             ],
             sort_keys=True,
         )
@@ -148,36 +393,28 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            from pirate_bt.task.navigators import load_navigator
-
-            try:  # made once, as each case will: an unknown name or parameter stops here
-                navigator = load_navigator(case["navigator"], case["params"])
-            except InputError as exc:
-                raise InputError(f"run {case.get('run')!r}: {exc}") from None
-            if callable(getattr(navigator, "check_map", None)):  # as navigate() will
-                from pirate_bt.api.missions import load_network
-                from pirate_bt.task.navigators import check_navigator_map
-
-                drawn = None if case.get("blind") else (case.get("network") or "straight")
-                the_map = None if drawn is None else load_network(drawn, base=base)
-                try:
-                    check_navigator_map(navigator, case["navigator"], the_map)
-                except InputError as exc:
-                    raise InputError(f"run {case.get('run')!r}: {exc}") from None
+            _check_navigator(case, base)
         elif case["tree"]:
-            from pirate_bt.robot.loader import load_robot
-            from pirate_bt.treefile.loader import load_tree
-
-            try:  # as the case will: a parameter without a default must be given
-                load_tree(
-                    find_file("trees", case["tree"]),
-                    robot=load_robot(),
-                    params=case["params"],
-                    params_from_text=True,
-                )
-            except ValidationFailed as exc:
-                if spec is None:
-                    raise
-                raise _params_problems(spec, base, case["tree"], case["params"], exc) from None
+            _check_tree(case, robots, spec, base)
         else:
-            validate_file(find("scenarios", case["route"], ".route"), "route")
+            _check_route(case, robots, spec, base)
+
+
+def _check_navigator(case: Case, base: Path | None) -> None:
+    """Make the case's navigator once and check its map, as each case will."""
+    from pirate_bt.task.navigators import load_navigator
+
+    try:  # made once, as each case will: an unknown name or parameter stops here
+        navigator = load_navigator(case["navigator"], case["params"])
+    except InputError as exc:
+        raise InputError(f"run {case.get('run')!r}: {exc}") from None
+    if callable(getattr(navigator, "check_map", None)):  # as navigate() will
+        from pirate_bt.api.missions import load_network
+        from pirate_bt.task.navigators import check_navigator_map
+
+        drawn = None if case.get("blind") else (case.get("network") or "straight")
+        the_map = None if drawn is None else load_network(drawn, base=base)
+        try:
+            check_navigator_map(navigator, case["navigator"], the_map)
+        except InputError as exc:
+            raise InputError(f"run {case.get('run')!r}: {exc}") from None

@@ -117,52 +117,99 @@ def make_executor(
 def read_rows(path: Path) -> list[dict[str, Any]]:
     """The records of a results file, one per case id (the first written).
 
-    A cut line (an interrupted write) is skipped, and so is a second row for a
-    case id (two campaigns appending to one folder by mistake), and a row that is
-    not a record a case could have written (:func:`~pirate_bt.campaign.case.row_problem`:
-    a file edited by hand), each with a warning naming its line; ``--resume`` runs
-    the cases of the rows skipped again.
+    A cut last line (an interrupted write), a line that is not a JSON row (bytes
+    that are not UTF-8, text that is not JSON, JSON nested too deep to read), a
+    row that is not a record a case could have written
+    (:func:`~pirate_bt.campaign.case.row_problem`: a file edited by hand) and a
+    second row for a case id (two campaigns appending to one folder by mistake)
+    are skipped, each with a warning naming its line; ``--resume`` runs the cases
+    of the rows skipped again.
 
     Raises:
         InputError: the file cannot be read.
     """
-    rows: list[dict[str, Any]] = []
-    if not path.exists():
-        return rows
+    return [row for _line, row in _numbered_rows(path, warn=True)]
+
+
+def _silent(*_args: object) -> None:
+    return None
+
+
+def _read(path: Path) -> bytes:
     try:
-        data = path.read_bytes()
+        return path.read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read the results: {exc.strerror or exc}") from None
-    seen: set[object] = set()
-    for number, line in enumerate(data.splitlines(), start=1):
+
+
+def _numbered_rows(path: Path, *, warn: bool) -> list[tuple[int, dict[str, Any]]]:
+    """:func:`read_rows`, each row with its line number; the warnings only if ``warn``."""
+    say = _log.warning if warn else _silent
+    rows: list[tuple[int, dict[str, Any]]] = []
+    if not path.exists():
+        return rows
+    data = _read(path)
+    lines = data.splitlines()
+    first: dict[object, int] = {}
+    for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         try:
             row = json.loads(line.decode("utf-8"))
-        except ValueError:  # a cut line, or bytes that are not UTF-8
-            _log.warning("%s:%d: skipped a cut line", path, number)
+        except (ValueError, RecursionError):  # not UTF-8, not JSON, nested past the stack
+            cut = number == len(lines) and not data.endswith((b"\n", b"\r"))
+            what = "a cut line" if cut else "a line that is not a JSON row"
+            say("%s:%d: skipped %s", path, number, what)
             continue
         problem = row_problem(row)
         if problem is not None:
-            _log.warning(
-                "%s:%d: skipped a row that is not a case's result: %s", path, number, problem
+            say("%s:%d: skipped a row that is not a case's result: %s", path, number, problem)
+            continue
+        if row["id"] in first:
+            say(
+                "%s:%d: skipped a second row for case %s (the first is line %d)",
+                path,
+                number,
+                row["id"],
+                first[row["id"]],
             )
             continue
-        if row["id"] not in seen:
-            seen.add(row["id"])
-            rows.append(row)
+        first[row["id"]] = number
+        rows.append((number, row))
     return rows
 
 
-def check_output(output: Path, resume: bool = False) -> None:
+_RESUME_OTHER = (
+    "--resume continues the campaign that wrote them: give the same spec, or another --output"
+)
+
+
+def check_output(
+    output: Path, resume: bool = False, cases: list[dict[str, Any]] | None = None
+) -> None:
     """Make the output folder (if missing) and check that it can take this campaign's rows.
 
-    Called before any worker starts, so that a bad ``--output`` costs nothing.
+    Called before any worker starts, so that a bad ``--output`` costs nothing. It
+    warns about no line of the results file: :func:`run_cases` reads them.
+
+    Args:
+        output: The campaign's folder.
+        resume: Whether the rows there are to be continued.
+        cases: The campaign's cases: with ``resume``, every row there must be one
+            of them (its ``id`` and its ``index``).
 
     Raises:
         InputError: ``output`` is a file, or cannot be made; its results file is
-            not a file; it holds results and ``resume`` is off.
+            not a file; it holds any line and ``resume`` is off; with ``resume``,
+            it holds a row that is not one of ``cases``.
     """
+    _check_output(output, resume, cases, quiet=True)
+
+
+def _check_output(
+    output: Path, resume: bool, cases: list[dict[str, Any]] | None, *, quiet: bool
+) -> list[dict[str, Any]]:
+    """:func:`check_output`; the rows to keep (``resume``: read, with warnings unless ``quiet``)."""
     if output.exists() and not output.is_dir():
         raise InputError(f"{output}: the output is a file, not a folder; give another --output")
     try:
@@ -174,10 +221,37 @@ def check_output(output: Path, resume: bool = False) -> None:
     results = output / RESULTS_NAME
     if results.exists() and not results.is_file():
         raise InputError(f"{results}: not a file; give another --output")
-    old = [] if resume else read_rows(results)
-    if old:
+    if not resume:
+        # Any line at all, even none a row: never overwrite what someone else may need.
+        lines = _read(results).splitlines() if results.exists() else []
+        written = sum(1 for line in lines if line.strip())
+        if written:
+            raise InputError(
+                f"{results} holds {written} line{'s' if written != 1 else ''} already;"
+                " use --resume, or another --output"
+            )
+        return []
+    numbered = _numbered_rows(results, warn=not quiet)
+    if cases is not None:
+        _check_ours(results, numbered, cases)
+    return [row for _line, row in numbered]
+
+
+def _check_ours(
+    results: Path, numbered: list[tuple[int, dict[str, Any]]], cases: list[dict[str, Any]]
+) -> None:
+    """Refuse rows that are not cases of this campaign (its ``id`` and its ``index``)."""
+    wanted = {c.get("id"): c.get("index") for c in cases}
+    foreign = [
+        line
+        for line, row in numbered
+        if row["id"] not in wanted or row.get("index") != wanted[row["id"]]
+    ]
+    if foreign:
+        n, total = len(foreign), len(numbered)
+        what = "row of {} is not a case" if n == 1 else "rows of {} are not cases"
         raise InputError(
-            f"{results} holds {len(old)} results already; use --resume, or another --output"
+            f"{results}:{foreign[0]}: {n} {what.format(total)} of this campaign; {_RESUME_OTHER}"
         )
 
 
@@ -202,7 +276,8 @@ def run_cases(
         output: The campaign's folder; ``None`` writes nothing (no results file,
             no traces) and keeps the rows in memory only.
         executor: Where the cases run.
-        resume: Skip the cases whose ids already have a row.
+        resume: Skip the cases whose ids already have a row; every row there must
+            be one of ``cases`` (its ``id`` and its ``index``).
         on_record: Called with every new record (the progress bar).
         target: The case function (``module:function``).
 
@@ -210,8 +285,10 @@ def run_cases(
         Every row of the campaign (old and new), in case order.
 
     Raises:
-        InputError: the folder holds results and ``resume`` is off; ``resume``
-            without a folder; a case id that is not a safe file name.
+        InputError: the folder holds anything and ``resume`` is off; ``resume``
+            and a row there that is not one of ``cases`` (another campaign's, or
+            an edited spec's: nothing is rewritten); ``resume`` without a folder;
+            a case id that is not a safe file name.
     """
     for case in cases:
         safe_name(case.get("id"), "case id")
@@ -219,12 +296,9 @@ def run_cases(
         if resume:
             raise InputError("resume needs an output folder to resume from")
         return _collect(cases, [], executor, None, None, on_record, target)
-    check_output(output, resume)
+    # Read once, warning about each line skipped; every row left is one of the cases.
+    old = _check_output(output, resume, cases, quiet=False)
     results = output / RESULTS_NAME
-    old = read_rows(results)
-    # A row counts as done only for the case it claims to be (its id and its index).
-    wanted = {c["id"]: c["index"] for c in cases}
-    old = [r for r in old if r["id"] in wanted and r.get("index") == wanted[r["id"]]]
     # Rewrite without a cut last line, so every appended row starts on its own line.
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
     part = results.with_name(results.name + ".part")

@@ -36,6 +36,7 @@ from typing import Any
 from pirate_bt.campaign.case import OUTCOMES
 from pirate_bt.campaign.cases import (
     DEFAULT_MAX_CASES,
+    check_axes,
     check_faults,
     check_inputs,
     check_runs,
@@ -173,8 +174,9 @@ def load_spec(spec: SpecInput, base: str | os.PathLike[str] | None = None) -> Ca
 def checked_cases(
     model: CampaignSpec, base: Path | None, max_cases: int = DEFAULT_MAX_CASES
 ) -> list[dict[str, Any]]:
-    """The cases of ``model``, after every check made before a worker starts: the
-    files it names, each distinct tree loaded with its parameters, each route and
+    """The cases of ``model``, after every check made before a worker starts: no
+    axis names one point twice, the files it names, each distinct tree loaded with
+    its parameters against each robot, each route planned on its map and each
     network, the simulator faults (see :func:`run_campaign`).
 
     Raises:
@@ -182,6 +184,7 @@ def checked_cases(
             for a file, each problem at its place).
         ConfigurationError: a named file is missing or not a file.
     """
+    check_axes(model, base)
     check_inputs(model, base)
     cases = expand(model, base, max_cases=max_cases)
     check_runs(cases, model, base)
@@ -330,7 +333,9 @@ def run_campaign(
             ``None`` (the default) writes nothing at all: no rows, no traces, no
             report; the result holds the rows and statistics.
         resume: Run only the cases without a row in ``output`` (needs ``output``);
-            without it an output folder that holds results is refused.
+            every row there must be one of this spec's cases (else refused before
+            any worker starts, nothing rewritten). Without it an output folder
+            whose results file holds any line is refused.
         case_timeout: Wall-time limit per case, overriding the spec's
             (``"90 s"`` or seconds).
         max_cases: The most cases the spec may expand to; counted from its axes
@@ -350,9 +355,12 @@ def run_campaign(
 
     Raises:
         InputError: a bad spec or option (one line each, located in a file): it
-            does not validate, it expands past ``max_cases``, a named input file is
-            missing or not a file, a tree or route does not validate, the output
-            folder holds results without ``resume``, Dask is missing or unreachable.
+            does not validate, an axis names a point twice, it expands past
+            ``max_cases``, a named input file is missing or not a file, a tree or
+            route does not validate (against every robot of the axis), a route does
+            not fit its run's network, the output folder holds anything without
+            ``resume`` or rows of another campaign with it, Dask is missing or
+            unreachable.
         ConfigurationError: a named input file is missing (seen in the cases).
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``output``,
             cases in flight are not recorded; run again with ``resume=True``.
@@ -410,7 +418,7 @@ def run_campaign(
             case["timeout_s"] = timeout_s
     folder = Path(output) if output is not None else None
     if folder is not None:
-        check_output(folder, resume)  # before any worker starts
+        check_output(folder, resume, cases)  # before any worker starts, warning of no line
     if command is None and isinstance(spec, (str, os.PathLike)):
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""

@@ -444,6 +444,14 @@ class SpecSource:
         """One problem at a key path: a :class:`LocatedError` for a file."""
         if self.locator is not None:
             return self.locator.error(path, message)
+        # A message that names its key already is not given it twice
+        # ("campaign spec: runs: runs: ...").
+        dotted = _dotted(path)
+        if dotted and message.startswith((f"{dotted} ", f"{dotted}:")):
+            return InputError(f"{self.name}: {message}")
+        key = path[-1] if path else None
+        if isinstance(key, str) and message.startswith(f"{key}: "):
+            message = message[len(key) + 2 :]
         return InputError(f"{self.where(path)}: {message}")
 
     def errors(self, problems: Sequence[tuple[Sequence[str | int], str]]) -> InputError:
