@@ -238,6 +238,12 @@ class Runner:
             the post-tick hooks still run, so a trace shows the pause. The
             supervisor's ``tree_paused`` (an operator in MANUAL mode) goes here;
             the time limit keeps counting.
+        halted: Asked after the pre-tick hooks of every tick, before ``paused``; a
+            text ends the run at once as a failure with that text as its message
+            (the post-tick hooks see the tick, untouched). The supervisor's
+            ``run_halted`` goes here: the robot held in its safe state or e-stopped
+            with no operator to go on, where a tree of waits and conditions would
+            otherwise run on to success.
     """
 
     def __init__(
@@ -253,6 +259,7 @@ class Runner:
         setup_timeout_s: float = 15.0,
         max_overruns_kept: int = 100,
         paused: Callable[[], bool] | None = None,
+        halted: Callable[[], str | None] | None = None,
     ) -> None:
         if period_s <= 0:
             raise ValueError(f"period must be positive, got {period_s}")
@@ -275,6 +282,7 @@ class Runner:
         self.setup_timeout_s = setup_timeout_s
         self.max_overruns_kept = max_overruns_kept
         self.paused = paused
+        self.halted = halted
         self.pre_tick: list[Hook] = []
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
@@ -329,6 +337,12 @@ class Runner:
                 info = TickInfo(ticks, elapsed_s, self.tree)
                 for hook in self.pre_tick:
                     hook(info)
+                if self.halted is not None and (halt := self.halted()) is not None:
+                    held = TickInfo(ticks, elapsed_s, self.tree, root.status, 0.0)
+                    for hook in self.post_tick:
+                        hook(held)
+                    reason, message = StopReason.FAILURE, halt
+                    break
                 if self.paused is not None and self.paused():
                     paused_ticks += 1
                     held = TickInfo(ticks, elapsed_s, self.tree, root.status, 0.0)

@@ -205,6 +205,7 @@ def supervised_runner(
         realtime=realtime,
         safe_state=safe_state if supervisor is not None else None,
         paused=(lambda: _paused(supervisor)) if supervisor is not None else None,
+        halted=(lambda: supervisor.run_halted) if supervisor is not None else None,
         setup_timeout_s=setup_timeout_s,
     )
     if supervisor is not None:

@@ -193,6 +193,22 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         return self._safe_error
 
     @property
+    def run_halted(self) -> str | None:
+        """Why a tree run on this supervisor cannot go on, or ``None``: the robot is
+        e-stopped, or held in its safe state (link lost or silent, stale readings, a
+        fall held, a failed step), and no operator input is attached to reset or resume
+        it. Primitives fail at once then, but a tree of waits and conditions would run
+        on to success with nothing heard from the robot; the runners end the run at
+        the next tick instead, as a failure naming this."""
+        if self._inputs:
+            return None
+        if self._mode is Mode.ESTOP:
+            return f"e-stop latched: {self._estop_reason}"
+        if self._safe_reason is not None:
+            return f"the robot is in its safe state: {self._safe_reason}"
+        return None
+
+    @property
     def estopped(self) -> bool:
         return self._mode is Mode.ESTOP
 

@@ -35,6 +35,7 @@ import py_trees
 
 from pirate_bt.behaviours.cause import path_of as route_path
 from pirate_bt.clock import Clock
+from pirate_bt.errors import LinkError
 from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult, StopReason
@@ -254,6 +255,14 @@ class MissionResult:
         return self.run.error
 
     @property
+    def exit_code(self) -> int:
+        """The command line's exit code for this mission: 0 success, 3 link error, 1
+        failure (as :attr:`RunResult.exit_code <pirate_bt.RunResult.exit_code>`)."""
+        if self.succeeded:
+            return 0
+        return 3 if isinstance(self.error, LinkError) else 1
+
+    @property
     def sim_time_s(self) -> float:
         """Clock time the mission took (simulated time on the simulator)."""
         return self.run.sim_time_s
@@ -365,6 +374,7 @@ def run_mission(
         max_time_s=limit,
         realtime=realtime,
         safe_state=lambda: supervisor.end_safe(reason_box[0]),
+        halted=lambda: supervisor.run_halted,
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
