@@ -316,6 +316,8 @@ def run_navigation(
                     checked = check_step(step)
                     if planner is not None:
                         plan = planner.plan(checked.route_line(), index, belief)
+                    else:
+                        checked.check_blind(belief)
                 except InvalidStep as exc:  # its message starts with the step
                     error = f"navigator {name!r} asked for an invalid step: {exc}"
                 except (LocatedError, ValidationFailed) as exc:

@@ -111,6 +111,11 @@ _BLIND_ONLY = ("probe-turn", "probe-tee", "bend-back", "t-joint-back")
 """Steps a map does not plan: probes, and the backward PABs (not in the route language)."""
 
 
+ENTRY_SLACK_M = 0.05
+"""How far past the entry (by the belief) a step with no map may back: odometry's own
+error over a run, so that backing to the start is not refused."""
+
+
 class InvalidStep(InputError):
     """A navigator asked for a step that cannot be run (named in the message)."""
 
@@ -206,6 +211,22 @@ class CheckedStep:
     roll_rad: float = 0.0
     direction: str | None = None
     time_s: float = 0.0
+
+    def check_blind(self, belief_m: float) -> None:
+        """Refuse a step with no map that would back the robot past the pipe's entry.
+
+        With no map the belief is measured from where the robot was put in (0 m): the
+        mouth is behind it there, and backing past it would take the robot out of the
+        pipe (the simulator holds it at the mouth while its wheels turn, so odometry
+        would count distance never driven), as a planned route refuses it with a map.
+        """
+        if self.step.pab != "straight" or self.distance_m >= 0:
+            return
+        if belief_m + self.distance_m < -ENTRY_SLACK_M:
+            raise InvalidStep(
+                f"{self.step!r}: the robot can back up at most {max(belief_m, 0.0):.2f} m"
+                " here: the pipe's entry, where it was put in, is behind it"
+            )
 
     def route_line(self) -> str:
         """The step as a line of the route language (docs/missions.md)."""
