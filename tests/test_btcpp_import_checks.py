@@ -64,8 +64,10 @@ def test_every_problem_is_reported_in_the_xml_a_subtree_s_too(
     code, errors = _import(tmp_path, capsys, "50 N*m", "0.9 N*m")
     assert code == 2
     where = [line.split(": ", 2)[1] for line in errors]
-    assert where == [f"{tmp_path / 't.xml'}:11:5", f"{tmp_path / 't.xml'}:6:7"]
+    # the subtree's value is the call's: reported at the call (5:7), naming its use
+    assert where == [f"{tmp_path / 't.xml'}:5:7", f"{tmp_path / 't.xml'}:6:7"]
     assert all("above the bend joints' limit" in line for line in errors)
+    assert errors[0].endswith(f"(used at {tmp_path / 't.xml'}:11:5)")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.xml"]
 
 
@@ -102,7 +104,7 @@ def test_the_api_raises_every_problem_located(tmp_path: Path) -> None:
     with pytest.raises(ValidationFailed) as raised:
         import_xml(source, tmp_path / "t.yaml")
     assert [(e.location.file, e.location.line) for e in raised.value.errors] == [
-        (str(source), 11),
+        (str(source), 5),
         (str(source), 6),
     ]
     assert not (tmp_path / "t.yaml").exists()

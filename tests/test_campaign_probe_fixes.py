@@ -346,7 +346,8 @@ def test_a_tree_a_robot_of_the_axis_refuses_is_refused_at_the_robot(
     )
     assert main(["validate", str(route)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"{route}:3:16: robot 'weak.yaml': run 'straight': clamp: torque: 0.7")
+    assert err.startswith(f"{route}:3:16: robot 'weak.yaml': run 'straight': ")
+    assert "clamp: torque: 0.7 N*m is above the bend joints' limit 0.2 N*m" in err
     # checked against the axis's robots only: a torque above the bundled robot's limit
     # (0.8 N*m) that a stronger robot takes
     strong = robot.replace("torque: {max: 0.8 N*m,", "torque: {max: 1.0 N*m,")
@@ -454,3 +455,16 @@ def test_a_problem_of_a_spec_given_as_data_names_its_key_once() -> None:
         with pytest.raises(InputError) as info:
             campaign_from_data({**ok, **bad})
         assert str(info.value).startswith(expected), info.value
+
+
+def test_an_empty_output_is_refused_not_the_working_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # `--output "$DIR"` with DIR unset ran the campaign into the working folder
+    spec = _spec(tmp_path, BASE)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert main(["campaign", str(spec), "--output", "", "--quiet"]) == 2
+    assert _one_error(capsys) == "--output: empty; name a folder"
+    assert list(work.iterdir()) == []

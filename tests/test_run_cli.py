@@ -83,3 +83,14 @@ def test_faults_mean_the_same_in_run_and_mission() -> None:
         "drop=0.05,corrupt=0.01",
     )
     assert split_faults(None) == ([], None)
+
+
+def test_a_bundled_route_by_its_bare_name_is_the_route_not_its_network(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `pirate-bt mission straight` read the network scenarios/straight.yaml as a route
+    # (one "unknown command" line per line of YAML); load_route("straight") did not
+    monkeypatch.chdir(tmp_path)
+    assert main(["mission", "straight", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "mission straight: SUCCESS" in out

@@ -255,3 +255,33 @@ def test_schema_lists_every_node_type_and_accepts_parameters() -> None:
     wait = next(v for v in schema["$defs"]["node"]["anyOf"] if v.get("title") == "wait")
     assert wait["required"] == ["type", "duration"]
     assert wait["additionalProperties"] is False
+
+
+def test_a_value_given_at_a_subtree_call_is_reported_at_the_call(tmp_path: Path) -> None:
+    # It was reported only inside the subtree, where the value is used, not written.
+    (tmp_path / "hold.yaml").write_text(
+        "name: hold\nparams:\n  torque: {type: torque, default: 0.5 N*m, description: t}\n"
+        "root: {type: clamp, name: clamp rear, half: rear, torque: $torque}\n",
+        encoding="utf-8",
+    )
+    main = tmp_path / "main.yaml"
+    main.write_text(
+        "name: main\nroot:\n  type: sequence\n  name: main\n  children:\n"
+        "    - {type: subtree, name: hold, ref: hold.yaml, params: {torque: 50 N*m}}\n"
+        "    - {type: subtree, name: pass, ref: main2.yaml, params: {torque: 40 N*m}}\n",
+        encoding="utf-8",
+    )
+    (tmp_path / "main2.yaml").write_text(  # passes its caller's value on: reported there
+        "name: pass\nparams:\n  torque: {type: torque, default: 0.5 N*m, description: t}\n"
+        "root: {type: subtree, name: hold, ref: hold.yaml, params: {torque: $torque}}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ValidationFailed) as raised:
+        load_tree(main, robot=load_robot())
+    texts = [str(e) for e in raised.value.errors]
+    assert texts == [
+        f"{main}:6:60: parameter 'torque': clamp: torque: 50 N*m is above the bend joints'"
+        f" limit 0.8 N*m (used at {tmp_path / 'hold.yaml'}:4:51)",
+        f"{main}:7:61: parameter 'torque': clamp: torque: 40 N*m is above the bend joints'"
+        f" limit 0.8 N*m (used at {tmp_path / 'hold.yaml'}:4:51)",
+    ]

@@ -42,9 +42,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default="10 s",
         help="how long to keep trying to reach the Dask scheduler (default 10 s)",
     )
-    parser.add_argument(
-        "--output", type=Path, metavar="DIR", help="results folder (default: campaign-NAME)"
-    )
+    parser.add_argument("--output", metavar="DIR", help="results folder (default: campaign-NAME)")
     parser.add_argument("--resume", action="store_true", help="skip the cases already done")
     parser.add_argument(
         "--case-timeout", metavar="TIME", help="wall-time limit per case (overrides the file)"
@@ -92,8 +90,10 @@ def run(args: argparse.Namespace) -> int:
     if args.max_cases < 1:
         raise InputError("--max-cases must be at least 1")
     case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
+    if args.output is not None and not args.output.strip():
+        raise InputError("--output: empty; name a folder")  # '' would be the working folder
     spec = load_spec(args.spec)
-    output: Path = args.output or default_output(spec)
+    output: Path = Path(args.output) if args.output is not None else default_output(spec)
     command = f"pirate-bt campaign {shlex.quote(str(Path(args.spec)))}"
     if args.workers:
         command += f" --workers {args.workers}"

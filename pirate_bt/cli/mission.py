@@ -149,9 +149,10 @@ def execute(
         check_trace_path(str(args.trace))  # before planning and connecting
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
-    from pirate_bt.resources import find_file
+    from pirate_bt.api.options import find
 
-    route = load_route(find_file("scenarios", args.route))
+    # "lab" is the bundled lab.route, as for load_route (not the network lab.yaml)
+    route = load_route(find("scenarios", args.route, ".route", "route"))
     map_name = getattr(args, "network", None) or (None if route.network else args.sim)
     network = load_network_for(route, map_name, option="--network" if map_name else "--sim")
     truth = network

@@ -186,9 +186,8 @@ def load_tree(
         values = reader.bind(
             doc, ("params",), decls, given, lambda _n: given_loc, params_from_text, use_examples
         )
-    reader.caller_at = given_loc
     if values is not None:
-        env = _Env(doc, values, (doc.file,), {name: name for name in given})
+        env = _Env(doc, values, (doc.file,), {name: (name, given_loc) for name in given})
         spec = reader.tree(env, (), data)
     if spec is not None and not reader.errors:
         if not spec.explicit_name:

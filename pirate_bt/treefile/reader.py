@@ -47,16 +47,18 @@ _log = logging.getLogger("pirate_bt.treefile")
 class _Env:
     """Where we are while reading: the document, the parameters, the include chain.
 
-    ``caller`` maps a parameter whose value the caller of ``load_tree`` gave (through
-    subtree calls too) to the caller's name for it; ``used`` is where :meth:`_Reader.subst`
-    put such a value, so a problem with it is the caller's (:meth:`_Reader.value_error`).
+    ``caller`` maps a parameter whose value was written outside this document (by the
+    caller of ``load_tree``, or at the subtree call that gave it, through further calls
+    too) to that writer's name for it and the place it was written; ``used`` is where
+    :meth:`_Reader.subst` put such a value, so a problem with it is reported where the
+    value was written (:meth:`_Reader.value_error`).
     """
 
     doc: YamlDocument
     values: dict[str, Any]
     chain: tuple[str, ...]
-    caller: Mapping[str, str] = field(default_factory=dict)
-    used: dict[PathKey, str] = field(default_factory=dict)
+    caller: Mapping[str, tuple[str, SourceLocation]] = field(default_factory=dict)
+    used: dict[PathKey, tuple[str, SourceLocation]] = field(default_factory=dict)
 
 
 class _Reader:
@@ -83,8 +85,6 @@ class _Reader:
         """Nodes read so far, subtrees expanded (bounded by MAX_TREE_NODES)."""
         self.unbound: list[PathKey] = []
         """Where :meth:`subst` met an unknown ``$parameter`` (reported once, there)."""
-        self.caller_at = SourceLocation("--param")
-        """Where the caller's parameter values were written (``load_tree``'s ``params_origin``)."""
 
     # -- helpers
 
@@ -92,18 +92,20 @@ class _Reader:
         self.errors.append(doc.locator.error(path, message))
 
     def value_error(self, env: _Env, path: PathKey, message: str) -> None:
-        """A problem with the value at ``path``: where the caller wrote it when it is a
-        parameter value the caller gave (``-1 m`` for a distance that must be above 0),
-        naming where the tree uses it; else at ``path``."""
-        name = next(
+        """A problem with the value at ``path``: where it was written when it is a
+        parameter value given from outside this document (``-1 m`` for a distance that
+        must be above 0, by the caller of ``load_tree`` or at a subtree call), naming
+        where the tree uses it; else at ``path``."""
+        given = next(
             (env.used[path[:n]] for n in range(len(path), 0, -1) if path[:n] in env.used), None
         )
-        if name is None:
+        if given is None:
             self.error(env.doc, path, message)
         else:
+            name, written = given
             used = env.doc.locator.locate(path)
             self.errors.append(
-                LocatedError(f"parameter {name!r}: {message} (used at {used})", self.caller_at)
+                LocatedError(f"parameter {name!r}: {message} (used at {used})", written)
             )
 
     def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
@@ -550,8 +552,12 @@ class _Reader:
         values = self.bind(doc, path, decls, given, given_at)
         if values is None:
             return None
-        caller = {  # the caller's values passed on: params: {torque: $torque}
-            k: env.used[(*path, "params", k)] for k in given if (*path, "params", k) in env.used
+        # A value given here is reported here (params: {torque: 50 N*m}), unless it is a
+        # value from further out passed on (params: {torque: $torque}): reported there.
+        caller = {
+            k: env.used.get((*path, "params", k), (k, given_at(k)))
+            for k in given
+            if k in values
         }
         inner = _Env(target_doc, values, (*env.chain, ident), caller)
         result = self.tree(inner, body_path, body)
