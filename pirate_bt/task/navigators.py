@@ -244,9 +244,15 @@ class GoalNavigator:
         return None
 
 
+_DISAGREEMENTS = ("belief and map disagree", "map disagreement")
+"""How the localiser's and a step's map disagreements begin (task.localise, outcome)."""
+
+
 def _map_stop(obs: Observation) -> bool:
-    """The last step was stopped by a disagreement with the map (the robot is safe)."""
-    return obs.last is not None and "map" in obs.last.why
+    """The last step was stopped by a disagreement with the map (the robot is safe): its
+    why begins as the localiser's and the mission's disagreements do (a why that only
+    mentions the map, such as a stall's, is no disagreement)."""
+    return obs.last is not None and obs.last.why.startswith(_DISAGREEMENTS)
 
 
 _BUILT_IN: dict[str, Callable[..., Navigator]] = {
