@@ -306,3 +306,26 @@ def test_waiting_is_not_being_stuck() -> None:
     result = pirate_bt.navigate(Asks(*[Step("wait", time="1 s")] * 5), sim="straight")
     assert result.succeeded, result.why
     assert result.steps == 5
+
+
+class _SlowCheck:
+    def __init__(self) -> None:
+        import threading
+
+        self.release = threading.Event()
+
+    def check_map(self, network: Any) -> None:
+        self.release.wait(30)  # a check that hangs (released at the test's end)
+
+    def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+def test_a_check_map_past_the_deadline_is_refused_before_anything_moves() -> None:
+    # It had no deadline: a 20 s check_map held navigate() for 20 s with deadline="1 s".
+    slow = _SlowCheck()
+    try:
+        with pytest.raises(InputError, match=r"^navigator '_SlowCheck': check_map took"):
+            pirate_bt.navigate(slow, map="lab", sim="lab", deadline="0.2 s")
+    finally:
+        slow.release.set()

@@ -169,7 +169,7 @@ def navigate(
     else:
         world = sim if sim is not None else "straight"
         target = _network(world, "sim")
-    check_navigator_map(navigator, name, map_network)  # before anything moves
+    check_navigator_map(navigator, name, map_network, deadline_s)  # before anything moves
     with connect(
         target, robot=description, seed=seed, faults=faults, firmware=firmware
     ) as connection:

@@ -24,6 +24,7 @@ as keyword arguments (the command line's ``--param KEY=VALUE``, as text).
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable, Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -277,22 +278,31 @@ def navigator_names() -> list[str]:
     return sorted({*_BUILT_IN, *_registered()})
 
 
-def check_navigator_map(navigator: Any, name: str, network: Network | None) -> None:
+def check_navigator_map(
+    navigator: Any, name: str, network: Network | None, deadline_s: float | None = None
+) -> None:
     """A navigator's own check of the map it will be given (its optional
     ``check_map(map)``), as bad input, before anything connects: what
     :func:`~pirate_bt.api.navigation.navigate` and a campaign ask first.
 
+    With ``deadline_s`` the check runs on a thread of its own and may take that much
+    wall time, as a decision may (``navigate``'s ``deadline``).
+
     Raises:
         InputError: the navigator refused the map (a ``ValueError``, ``TypeError``
-            or ``InputError``: its message), or its check failed (any other
+            or ``InputError``: its message), its check failed (any other
             exception: a bug in the navigator, named with the place it was raised,
-            its traceback logged at DEBUG); nothing has connected.
+            its traceback logged at DEBUG), or it took longer than ``deadline_s``;
+            nothing has connected.
     """
     check_map = getattr(navigator, "check_map", None)
     if not callable(check_map):
         return
     try:
-        check_map(network)
+        if deadline_s is None:
+            check_map(network)
+        else:
+            _within(lambda: check_map(network), deadline_s, name)
     except (ValueError, TypeError, InputError) as exc:
         raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
     except Exception as exc:  # the navigator's own error, one located line
@@ -303,6 +313,26 @@ def check_navigator_map(navigator: Any, name: str, network: Network | None) -> N
             f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
             + (f" (at {where})" if where else "")
         ) from None
+
+
+def _within(check: Callable[[], object], deadline_s: float, name: str) -> None:
+    """Run ``check`` on a daemon thread, at most ``deadline_s`` of wall time; what it
+    raises is raised here. A late check is left running (it holds nothing of ours)."""
+    box: dict[str, BaseException] = {}
+
+    def run() -> None:
+        try:
+            check()
+        except BaseException as exc:  # handed to the caller's thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name=f"check_map {name}", daemon=True)
+    thread.start()
+    thread.join(deadline_s)
+    if thread.is_alive():
+        raise InputError(f"check_map took longer than its {deadline_s:g} s deadline")
+    if "error" in box:
+        raise box["error"]
 
 
 def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
