@@ -5,9 +5,10 @@ Run: ``.venv/bin/python benchmarks/bench_trace.py``. Prints the figures that
 
 Overhead, three trees, each ticked with and without a
 :class:`~pirate_bt.trace.TraceRecorder` (default options: the writer process);
-with tracing, every tick also records a robot state snapshot (16 values, 10 of
-which change every tick), one command verdict and link health, from snapshots
-built before the clock starts (a real run has them whether or not it traces).
+every tick of both also makes that tick's extras as a run does, traced or not
+(:class:`RunSnapshots`: the reference robot's state, 28 channels, built by its
+``StateBuilder`` from raw values, a fresh link health, one command verdict), and
+the traced one records them.
 Runs alternate (off, on, off, on ...) so machine load hits both alike; the
 figure is the extra time per tick, in µs and in % of the untraced tick, median
 over the runs with the range.
