@@ -39,7 +39,6 @@ when a step reports progress (once per 100 ms here).
 from __future__ import annotations
 
 import itertools
-import math
 import statistics
 import tempfile
 import time
@@ -48,90 +47,20 @@ from typing import Any
 
 import py_trees
 from py_trees.common import Status
+from trace_inputs import (  # noqa: F401 (re-exported: bench_btcpp, bench_scale)
+    STEPS,
+    TICK_S,
+    RunSnapshots,
+    Step,
+    extras_up_front,
+    fifty_node_tree,
+    robot_state,
+)
 
 from pirate_bt.clock import SimClock
 from pirate_bt.robot.port import LinkHealth
-from pirate_bt.robot.state import Reading, RobotState
 from pirate_bt.runner import Runner
 from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder
-
-STEPS = 7
-TICK_S = 0.01
-
-
-class Step(py_trees.behaviour.Behaviour):
-    """A leaf that runs for ``ticks`` ticks, reporting progress every 10 ticks."""
-
-    def __init__(self, name: str, ticks: int) -> None:
-        super().__init__(name)
-        self.ticks = ticks
-        self.count = 0
-
-    def initialise(self) -> None:
-        self.count = 0
-
-    def update(self) -> Status:
-        self.count += 1
-        if self.count % 10 == 0:
-            self.feedback_message = f"{self.count}/{self.ticks}"
-        return Status.SUCCESS if self.count >= self.ticks else Status.RUNNING
-
-
-def fifty_node_tree(step_ticks: int = 200) -> py_trees.trees.BehaviourTree:
-    """1 root + 7 x (guard + sequence + selector with 2 leaves + 2 leaves) = 50 nodes."""
-    steps = []
-    for i in range(STEPS):
-        parts: list[py_trees.behaviour.Behaviour] = [
-            py_trees.composites.Selector(
-                f"ready {i}",
-                memory=False,
-                children=[
-                    py_trees.behaviours.Failure(f"clamped {i}?"),
-                    py_trees.behaviours.Success(f"clamp {i}"),
-                ],
-            ),
-            py_trees.behaviours.Success(f"link ok {i}?"),
-            Step(f"act {i}", step_ticks),
-        ]
-        seq = py_trees.composites.Sequence(f"step {i}", memory=True, children=parts)
-        steps.append(py_trees.decorators.Timeout(f"guard {i}", seq, duration=1e9))
-    root = py_trees.composites.Sequence("pab", memory=True, children=steps)
-    tree = py_trees.trees.BehaviourTree(root)
-    assert sum(1 for _ in root.iterate()) == 50
-    return tree
-
-
-def robot_state(n: int, t_s: float) -> RobotState:
-    """A plausible state: one half moving, noisy drive speeds and currents."""
-    step = (n // 200) % STEPS
-    moving = "front" if step % 2 == 0 else "rear"
-    joints = {}
-    forces = {}
-    for module, half in (
-        ("bend_1", "front"),
-        ("bend_2", "front"),
-        ("bend_3", "rear"),
-        ("bend_4", "rear"),
-    ):
-        if half == moving:
-            joints[module] = 1.4 * (1 - math.exp(-(n % 200) / 50))
-            forces[module] = 8.0 * (1 - math.exp(-(n % 200) / 40))
-        else:
-            joints[module] = 1.57
-            forces[module] = 9.5
-    noise = ((n * 7919) % 13 - 6) * 1e-3
-    drives = {f"bend_{k}_drive": 0.08 + noise for k in range(1, 5)}
-    currents = {"bend_1_drive": 0.4 + noise, "bend_2_drive": 0.41 + noise}
-    return RobotState(
-        stamp_s=t_s,
-        readings={"bend_1_angle": Reading(joints["bend_1"], t_s)},
-        joint_angle_rad=joints,
-        clamp_force_n=forces,
-        rotation_rad=0.0,
-        imu_rad={"roll": 0.0, "pitch": 0.02, "yaw": 0.0},
-        drive_velocity_mps=drives,
-        motor_current_a=currents,
-    )
 
 
 def time_ticks(
@@ -148,7 +77,7 @@ def time_ticks(
     """
     clock = SimClock()
     made = RunSnapshots(ticks) if snapshots else None
-    extras = _extras_for(ticks) if made is None and recorder is not None else []
+    extras = extras_up_front(ticks) if made is None and recorder is not None else []
     start = time.perf_counter()
     for n in range(1, ticks + 1):
         clock.advance(TICK_S)
@@ -159,65 +88,6 @@ def time_ticks(
                 tick_extras if tick_extras is not None else extras[n - 1], time_s=clock.now()
             )
     return (time.perf_counter() - start) / ticks
-
-
-def _extras_for(ticks: int) -> list[TickExtras]:
-    # Snapshots made up front (the method before 2026-11-29, kept for bench_scale's row):
-    # each tick then reads one that is out of the caches, which a run's fresh one is not.
-    return [
-        TickExtras(
-            state=robot_state(n, n * TICK_S),
-            commands=(CommandRecord("drive(80 mm/s)", "pass"),),
-            link=LinkHealth(connected=True, retries=n // 1000),
-        )
-        for n in range(1, ticks + 2)
-    ]
-
-
-class RunSnapshots:
-    """Each tick's extras, made as a run makes them, in the tick they are recorded.
-
-    A run's link builds the tick's :class:`RobotState` from a STATE frame's raw values
-    with the robot's :class:`StateBuilder` (here the reference robot,
-    ``hardware/pirate.yaml``: 28 channels), asks the link for a fresh
-    :class:`LinkHealth`, and the supervisor makes the tick's verdict, whether the run
-    is traced or not; the trace then reads them while they are still in the caches.
-    The raw values follow :func:`robot_state`'s motion (one half moving, noisy wheel
-    speeds and currents), converted once up front as the bridge would send them.
-    """
-
-    def __init__(self, ticks: int) -> None:
-        from pirate_bt.robot.loader import load_robot
-        from pirate_bt.robot.state import StateBuilder
-
-        repo = Path(__file__).resolve().parent.parent
-        self.builder = StateBuilder(load_robot(repo / "hardware" / "pirate.yaml"))
-        self.raw = [self._raw(n) for n in range(ticks + 2)]
-        self.previous: RobotState | None = None
-
-    def _raw(self, n: int) -> list[int | None]:
-        state = robot_state(n, n * TICK_S)
-        values = {f"{m}_angle": v for m, v in state.joint_angle_rad.items()}
-        values |= {f"{m}_spring": v for m, v in state.clamp_force_n.items()}
-        values |= {f"imu.{axis}": v for axis, v in state.imu_rad.items()}
-        for name in self.builder.channel_names:
-            motor, _, kind = name.partition(".")
-            if kind == "velocity":
-                values[name] = state.drive_velocity_mps.get(motor, 0.0)
-            elif kind == "current":
-                values[name] = state.motor_current_a.get(motor, 0.0)
-            else:
-                values.setdefault(name, 0.0)
-        return self.builder.encode(values)
-
-    def make(self, n: int) -> TickExtras:
-        """Tick ``n``'s extras, made now."""
-        state = self.previous = self.builder.build(self.raw[n], n * TICK_S, self.previous)
-        return TickExtras(
-            state=state,
-            commands=(CommandRecord("drive(80 mm/s)", "pass"),),
-            link=LinkHealth(connected=True, retries=n // 1000),
-        )
 
 
 def issue6_tree(clock: SimClock) -> Any:
@@ -243,7 +113,7 @@ def time_runner_ticks(
         tree = fifty_node_tree(step_ticks=10 * ticks)  # never finishes inside the run
     runner = Runner(tree, clock=clock, period_s=TICK_S, max_time_s=ticks * TICK_S)
     made = RunSnapshots(ticks) if snapshots else None
-    extras = _extras_for(ticks) if made is None and traced is not None else []
+    extras = extras_up_front(ticks) if made is None and traced is not None else []
     current: list[TickExtras] = []
     if made is not None:
         source, numbers = made, itertools.count(1)
