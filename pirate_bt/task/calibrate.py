@@ -208,6 +208,7 @@ def _run_case(
                 period_s=0.05,
                 max_time_s=300.0,
                 safe_state=lambda: supervisor.end_safe("calibration run failed"),
+                halted=lambda: supervisor.run_halted,
             )
             runner.add_pre_tick(lambda _info: supervisor.tick())
             result = runner.run()
