@@ -25,7 +25,7 @@ from pirate_bt.runner import RunResult as TreeRun
 from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.mission import MissionResult, run_mission
 from pirate_bt.task.navigation import CheckedStep, Felt
-from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run
+from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run, link_cause
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 
 __all__ = ["StepRun", "run_blind", "run_mapped"]
@@ -295,7 +295,9 @@ def run_blind(
         [pab],
         odometry[0],
         felt,
-        error=run.error,
+        # a lost link stops the robot from the supervisor, no behaviour raising: the
+        # step's error is the link's all the same, so that it exits 3 (DESIGN.md)
+        error=run.error or link_cause(run, supervisor),
         ticks=run.ticks,
         stamp_s=odometry[1],
     )
