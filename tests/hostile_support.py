@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import signal
 from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future
 from typing import Any
 
 import pytest
@@ -40,3 +41,20 @@ def no_hang(seconds: int = 20) -> Iterator[None]:
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
+
+
+class InstantExecutor(Executor):
+    """Runs nothing: every case submitted is a success at once (a campaign's resume and
+    refusal logic alone); ``ids`` lists the cases submitted, in order."""
+
+    def __init__(self) -> None:
+        self.ids: list[str] = []
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+        from pirate_bt.campaign.case import error_record
+
+        case = args[0]
+        self.ids.append(case["id"])
+        future: Future[Any] = Future()
+        future.set_result(error_record(case, "success", "done", 0.1))
+        return future

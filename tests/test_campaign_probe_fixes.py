@@ -13,9 +13,7 @@ from __future__ import annotations
 
 import json
 import logging
-from concurrent.futures import Executor, Future
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -30,6 +28,7 @@ from pirate_bt.campaign import (
 from pirate_bt.campaign.case import error_record
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from tests.hostile_support import InstantExecutor
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -44,20 +43,6 @@ max_time: 60 s
 RESUME_HINT = (
     "--resume continues the campaign that wrote them: give the same spec, or another --output"
 )
-
-
-class _Instant(Executor):
-    """Runs nothing: every case submitted is a success at once."""
-
-    def __init__(self) -> None:
-        self.ids: list[str] = []
-
-    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
-        case = args[0]
-        self.ids.append(case["id"])
-        future: Future[Any] = Future()
-        future.set_result(error_record(case, "success", "done", 0.1))
-        return future
 
 
 def _spec(tmp_path: Path, text: str, name: str = "c.campaign.yaml") -> Path:
@@ -132,7 +117,7 @@ def test_run_cases_refuses_foreign_rows_before_any_case(tmp_path: Path) -> None:
     before = _done(spec, out)
     cases = expand(load_campaign(spec))
     edited = [{**cases[0], "timeout_s": 1.0}]  # one case of the two the file holds
-    pool = _Instant()
+    pool = InstantExecutor()
     with pytest.raises(InputError, match=r"results\.jsonl:2: 1 row of 2 is not a case") as info:
         run_cases(edited, out, pool, resume=True)
     assert str(info.value).endswith(RESUME_HINT)
@@ -149,7 +134,7 @@ def test_a_row_whose_index_was_edited_is_foreign(tmp_path: Path) -> None:
     rows[1]["index"] = 7
     results.write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
     with pytest.raises(InputError, match=r"results\.jsonl:2: 1 row of 2 is not a case"):
-        run_campaign(spec, output=out, resume=True, executor=_Instant())
+        run_campaign(spec, output=out, resume=True, executor=InstantExecutor())
 
 
 def test_resume_reads_the_results_once_and_warns_once(
@@ -160,7 +145,7 @@ def test_resume_reads_the_results_once_and_warns_once(
     data = _done(spec, out)
     first = data.splitlines(keepends=True)[0]
     (out / "results.jsonl").write_bytes(first + b'{"id": "cut')  # the second case was cut
-    pool = _Instant()
+    pool = InstantExecutor()
     with caplog.at_level(logging.WARNING):
         result = run_campaign(spec, output=out, resume=True, executor=pool)
     assert len(pool.ids) == 1 and result.cases == 2
@@ -187,7 +172,7 @@ def test_without_resume_any_content_is_refused(
     assert results.read_bytes() == mine
     assert not [r for r in caplog.records if "skipped" in r.getMessage()]
     with pytest.raises(InputError, match="holds 3 lines already"):
-        run_cases([], out, _Instant())
+        run_cases([], out, InstantExecutor())
 
 
 # --- 2. a route run's network is its map ------------------------------------------------

@@ -8,7 +8,6 @@ under a second.
 from __future__ import annotations
 
 import json
-from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +26,7 @@ from pirate_bt.campaign.case import error_record
 from pirate_bt.campaign.cases import check_runs
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from tests.hostile_support import InstantExecutor
 
 TREE_RUN = "runs:\n  - {tree: straight, params: {distance: 0.2 m}}\n"
 
@@ -182,27 +182,13 @@ def test_tampered_and_cut_rows_are_skipped_with_their_line(
     assert capsys.readouterr().err == f"pirate-bt: {results}: no results in it\n"
 
 
-class _Instant(Executor):
-    """Runs nothing: every case submitted is a success at once (the resume logic alone)."""
-
-    def __init__(self) -> None:
-        self.ids: list[str] = []
-
-    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
-        case = args[0]
-        self.ids.append(case["id"])
-        future: Future[Any] = Future()
-        future.set_result(error_record(case, "success", "done", 0.1))
-        return future
-
-
 def test_resume_refuses_a_row_whose_index_was_edited(tmp_path: Path) -> None:
     rows, folder = _rows(tmp_path)
     cases = [{**r, "timeout_s": 1.0} for r in rows]
     edited = {**rows[1], "index": 7}  # its id is a case's, its index another's
     text = "".join(json.dumps(r) + "\n" for r in (rows[0], edited))
     (folder / "results.jsonl").write_text(text, encoding="utf-8")
-    pool = _Instant()
+    pool = InstantExecutor()
     # It was run again and its row dropped; a row that is not one of the cases is now
     # refused, before any case and before the file is rewritten (test_campaign_probe_fixes).
     with pytest.raises(InputError, match=r"results\.jsonl:2: 1 row of 2 is not a case"):
