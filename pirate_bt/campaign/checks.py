@@ -245,18 +245,28 @@ def _check_tree(case: Case, robots: _Robots, spec: CampaignSpec | None, base: Pa
     except ValidationFailed as exc:
         if spec is None:
             raise
-        source = source_of(spec)
-        folder = base if base is not None else source.base
-        robot = _robot_index(spec, folder, case)
-        if robot is not None and spec.robots[robot] is not None:
+        axis = _axis_robot(spec, base, case)
+        if axis is not None:
             try:
                 load(None)  # without a robot's limits: is it this robot that refuses it?
             except ValidationFailed:
                 pass  # the tree's own problem (or its parameters')
             else:
-                entry = (robot, str(spec.robots[robot]))
-                raise _robot_problems(source, entry, str(case.get("run")), exc) from None
+                raise _robot_problems(*axis, str(case.get("run")), exc) from None
         raise _params_problems(spec, base, case, exc) from None
+
+
+def _axis_robot(
+    spec: CampaignSpec, base: Path | None, case: Case
+) -> tuple[SpecSource, tuple[int, str]] | None:
+    """The spec's source and ``(index, entry)`` of the case's robot on the ``robots``
+    axis, where a problem only that robot has is placed; ``None`` for the bundled one."""
+    source = source_of(spec)
+    folder = base if base is not None else source.base
+    index = _robot_index(spec, folder, case)
+    if index is None or spec.robots[index] is None:
+        return None
+    return source, (index, str(spec.robots[index]))
 
 
 def _route_problem(case: Case, route_file: Path) -> tuple[str, str] | None:
@@ -319,14 +329,10 @@ def _check_route(case: Case, robots: _Robots, spec: CampaignSpec | None, base: P
     try:  # the mission's tree, as the case builds it for its robot
         load_tree(mission_tree_spec(plan, None, robot.motion.nominal_speed), robot=robot)
     except ValidationFailed as exc:
-        if spec is None:
+        axis = None if spec is None else _axis_robot(spec, base, case)
+        if axis is None:
             raise
-        source = source_of(spec)
-        folder = base if base is not None else source.base
-        index = _robot_index(spec, folder, case)
-        if index is None or spec.robots[index] is None:
-            raise
-        raise _robot_problems(source, (index, str(spec.robots[index])), run, exc) from None
+        raise _robot_problems(*axis, run, exc) from None
 
 
 def check_runs(
