@@ -56,31 +56,27 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import Extension, load_extension
+from pirate_bt.task.explore_parts import (
+    OPENING_STOP,
+    Passed,
+    PendingTee,
+    SurveyIncomplete,
+    branch_leavable,
+    check_output,
+    metres,
+)
 from pirate_bt.task.navigation import Felt, Observation, Step
-from pirate_bt.units import parse_quantity
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
-
-OPENING_STOP = (0.177, 0.55)
-"""Where a straight step with ``stop_at_feature`` stops over a tee's opening: the
-front tip ``a + b x diameter`` past the tee's start (the bundled robot at its
-nominal speed, measured in 51 to 80 mm tees within 3 mm; the first front joint
-swings off the wall over the opening's near edge, a little late)."""
-
-BACK_OUT_REACH_M = 0.1075
-"""How far behind the front half's trailing end the rear half's first bend module
-clamps (the rotational module and half of bend III, the bundled robot): a branch is
-left backwards only when half its diameter plus its turn's length is at most this."""
 
 _APPROACH_M = 0.25
 """Where a turn into a branch starts: the front tip this far before the middle of
@@ -102,86 +98,6 @@ _CONE_PASS_M = 0.25
 
 _SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
-
-
-def branch_leavable(diameter_m: float, radius_m: float | None = None) -> bool:
-    """Can the robot back out of a tee's branch of this size (docs/pabs.md)?
-
-    Raises:
-        InputError: a diameter or radius that is not a positive number of metres.
-    """
-    for name, value in (("diameter_m", diameter_m), ("radius_m", radius_m)):
-        if value is None and name == "radius_m":
-            continue
-        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e3:
-            raise InputError(f"{name}: give a positive number of metres, not {value!r}"[:200])
-    radius = diameter_m if radius_m is None else radius_m
-    return diameter_m / 2 + math.pi * radius / 2 <= BACK_OUT_REACH_M + 1e-9
-
-
-class SurveyIncomplete(RuntimeError):
-    """The survey met what it cannot survey; what it surveyed is written."""
-
-
-def _output(output: Any) -> Path | None:
-    """Where the surveyed network is written: a file name, not a directory.
-
-    Raises:
-        InputError: not a file name, or a directory (checked before the robot moves).
-    """
-    if output is None:
-        return None
-    if not isinstance(output, str | os.PathLike) or not str(os.fspath(output)).strip():
-        raise InputError(f"explore: output: give a .yaml file name, not {output!r}"[:200])
-    path = Path(output)
-    if path.is_dir():
-        raise InputError(f"explore: output: {path} is a directory; name a .yaml file")
-    return path
-
-
-def _metres(value: str | float, what: str, dimension: str = "length") -> float:
-    if isinstance(value, bool) or not isinstance(value, str | int | float):
-        raise InputError(f"explore: {what}: give a length such as '3 m', not {value!r}"[:200])
-    try:
-        number = float(value) if not isinstance(value, str) else parse_quantity(value, dimension)
-    except (OverflowError, InputError) as exc:
-        raise InputError(f"explore: {what}: {exc}"[:200]) from None
-    if not math.isfinite(number) or number <= 0 or number > _MAX_LENGTH_M:
-        shown = repr(value)[:80]
-        raise InputError(
-            f"explore: {what} must be positive and at most {_MAX_LENGTH_M:g} m, not {shown}"
-        )
-    return number
-
-
-_MAX_LENGTH_M = 1000.0  # a step's longest drive (pirate_bt.task.navigation)
-
-
-@dataclass
-class _Passed:
-    """A feature passed on the way from the start: backed through on a return."""
-
-    pab: str  # "bend-back" or "t-joint-back"
-    way: str  # the bend's direction; a tee: straight or the branch's side
-    end_m: float  # the belief where the feature ends (the rear tip goes past it)
-
-
-@dataclass
-class _Tee:
-    """A tee whose branch is not surveyed yet."""
-
-    segment: dict[str, Any]
-    start_m: float
-    diameter_m: float
-    slope_deg: float
-    depth: int  # its own entry's index in the trail
-
-    @property
-    def side(self) -> str:
-        return str(self.segment["branch"]["direction"])
-
-    def __str__(self) -> str:
-        return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"
 
 
 class ExploreNavigator:
@@ -207,9 +123,9 @@ class ExploreNavigator:
         name: str = "surveyed",
         extend: Any = None,
     ) -> None:
-        self.output = _output(output)
-        self.search_m = _metres(search, "search")
-        self.radius_m = _metres(radius, "radius")
+        self.output = check_output(output)
+        self.search_m = metres(search, "search")
+        self.radius_m = metres(radius, "radius")
         if not isinstance(name, str) or not name or any(c in name for c in "\n\r"):
             raise InputError(f"explore: a network name is one line of text, not {name!r}"[:200])
         self.name = name
@@ -226,10 +142,10 @@ class ExploreNavigator:
         self._opening_m: float | None = None
         self._diameter_m: float | None = None
         self._slope_deg = 0.0  # the slope the pipe carries into the current straight
-        self._trail: list[_Passed] = []  # features passed from the start to here
-        self._pending: list[_Tee] = []
-        self._target: _Tee | None = None  # the tee a return goes to
-        self._backed: _Passed | _Tee | None = None  # what a return last drove up to
+        self._trail: list[Passed] = []  # features passed from the start to here
+        self._pending: list[PendingTee] = []
+        self._target: PendingTee | None = None  # the tee a return goes to
+        self._backed: Passed | PendingTee | None = None  # what a return last drove up to
         self._pitch_before: float | None = None  # the IMU's pitch as a straight step began
         # a diameter change felt, the cone being passed: where, and the IMU's pitch then
         self._cone: tuple[float, float | None] | None = None
@@ -348,7 +264,7 @@ class ExploreNavigator:
             segment["radius"] = f"{self.radius_m * 1000:.1f} mm"
         self._line.append(segment)
         self._from_m = self._blocked_m + self.radius_m * math.pi / 2
-        self._trail.append(_Passed("bend-back", direction, self._from_m))
+        self._trail.append(Passed("bend-back", direction, self._from_m))
         self._slope_deg = max(-90.0, min(90.0, self._slope_deg + _TURN.get(direction, 0.0)))
         return Step("bend", direction=direction)
 
@@ -372,10 +288,10 @@ class ExploreNavigator:
         }
         self._line.append(segment)
         self._pending.append(
-            _Tee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+            PendingTee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
         )
         self._from_m = start + 3 * diameter  # the tee's straight run, 3 x D
-        self._trail.append(_Passed("t-joint-back", "straight", self._from_m))
+        self._trail.append(Passed("t-joint-back", "straight", self._from_m))
         return Step("t-joint", direction="straight")
 
     def _on_the_way(self, obs: Observation, side: str, start: float, diameter: float) -> Step:
@@ -384,7 +300,7 @@ class ExploreNavigator:
         ordinal, self._tees_met = self._tees_met, self._tees_met + 1
         if ordinal != self._way[0]:
             self._from_m = start + 3 * diameter
-            self._trail.append(_Passed("t-joint-back", "straight", self._from_m))
+            self._trail.append(Passed("t-joint-back", "straight", self._from_m))
             return Step("t-joint", direction="straight")
         expected = self._extension.sides[len(self._extension.way) - len(self._way)]
         if side != expected:
@@ -403,7 +319,7 @@ class ExploreNavigator:
             segment = self._extension.stub
             self._way = None
             self._counts = dict(self._extension.counts)
-        self._target = _Tee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+        self._target = PendingTee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
         return self._return(obs)
 
     # -- the end of a line, and the way back to a branch
@@ -468,7 +384,7 @@ class ExploreNavigator:
         turn_end = tee.start_m + 1.5 * tee.diameter_m + math.pi * tee.diameter_m / 2
         self._from_m = turn_end
         self._slope_deg = max(-90.0, min(90.0, tee.slope_deg + _TURN.get(tee.side, 0.0)))
-        self._trail.append(_Passed("t-joint-back", tee.side, turn_end))
+        self._trail.append(Passed("t-joint-back", tee.side, turn_end))
         return Step("t-joint", direction=tee.side)
 
     # -- what was found
