@@ -30,3 +30,27 @@ def test_a_survey_that_loses_the_link_exits_3(tmp_path: Path) -> None:
     result = pirate_bt.survey(sim="straight", output=out, faults="link_loss@5s")
     assert not result.succeeded and result.exit_code == 3, result.why
     assert isinstance(result.navigation.error, LinkError)
+
+
+# -- F8: a survey that stops names what it did not survey, in the result and the file
+
+
+def test_a_stopped_survey_names_the_line_cut_short_and_the_branch_not_entered(
+    tmp_path: Path,
+) -> None:
+    # a drive stalls in the main line after the tee: the tee's branch was never entered
+    out = tmp_path / "s.yaml"
+    result = pirate_bt.survey(sim="t-joint", output=out, faults="motor_stall:bend_3_drive@60s+60s")
+    assert not result.succeeded and result.exit_code == 1 and "stall" in result.why
+    assert result.unexplored == [
+        "the main line after tee-1: not surveyed to its end, the survey stopped in it",
+        "tee-1's branch (left, 63 mm): not entered, the survey stopped first",
+    ]
+    text = out.read_text()
+    header = "".join(line for line in text.splitlines() if line.startswith("#"))
+    assert "Not surveyed: the main line after tee-1" in header
+    assert "tee-1's branch (left, 63 mm): not entered" in header
+    assert "to the end of every line" not in text
+    assert "2 not surveyed" in result.summary()
+    written = pirate_bt.load_network(out)
+    assert "Not surveyed: the main line after tee-1" in written.spec.description

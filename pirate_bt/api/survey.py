@@ -29,8 +29,9 @@ class SurveyResult:
         network: The surveyed network (``None`` when nothing was surveyed); a
             :class:`~pirate_bt.pipes.Network` that plans and runs routes.
         output: Where it was written (``None``: not written).
-        unexplored: Tee branches never entered (written as stubs), each named with
-            why.
+        unexplored: What was not surveyed, each named with why: tee branches never
+            entered (written as stubs) and, when the survey stopped, the line the robot
+            was in (written up to the last feature surveyed in it).
     """
 
     navigation: NavigationResult

@@ -75,6 +75,9 @@ from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
 
+_NOT_SURVEYED = "Not surveyed: "
+"""Begins the list of what was not surveyed, in the file's description and header."""
+
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
 
@@ -134,8 +137,12 @@ class ExploreNavigator:
         self.network: Any = None
         """The surveyed :class:`~pirate_bt.pipes.NetworkSpec`, once written."""
         self.unexplored: list[str] = []
-        """Tee branches never entered (the robot could not have backed out of them)."""
+        """What was not surveyed, each named with why: tee branches never entered
+        (written as stubs), and after a stop the line the robot was in (written up to
+        the last feature surveyed in it)."""
         self._line = self.segments  # the line being surveyed
+        self._line_name = "the main line"
+        self._in_line = True  # surveying :attr:`_line` (not on a way back or to a stub)
         self._counts: dict[str, int] = {}
         self._from_m: float | None = None  # belief where the current straight began
         self._blocked_m: float | None = None
@@ -158,6 +165,7 @@ class ExploreNavigator:
             self._way = list(self._extension.way)
             self.segments = self._extension.data["segments"]
             self._line = []  # what the way to the stub passes is surveyed already
+            self._in_line = False
             self._diameter_m = self._diameter_now = self._extension.diameter_m
 
     # -- the loop
@@ -166,7 +174,7 @@ class ExploreNavigator:
         if obs.map is not None:
             raise InputError("explore surveys a pipe with no map: run it without map=")
         if obs.last is not None and obs.last.outcome != "success":
-            self._write(f"stopped: {obs.last.why}")
+            self.save(f"stopped: {obs.last.why}")
             return None  # the navigation's result names the failed step's cause
         if self._from_m is None:  # the start: the rear tip at the pipe's entry
             self._from_m = obs.belief.position_m - obs.robot_length_m
@@ -380,6 +388,8 @@ class ExploreNavigator:
                 )
             self._pending.clear()
         self._line = tee.segment["branch"]["segments"]
+        self._line_name = f"{tee.segment['id']}'s branch"
+        self._in_line = True
         self._diameter_now = tee.diameter_m
         turn_end = tee.start_m + 1.5 * tee.diameter_m + math.pi * tee.diameter_m / 2
         self._from_m = turn_end
@@ -438,9 +448,34 @@ class ExploreNavigator:
 
         A step that fails ends the navigation before the navigator is asked again,
         so the caller saves (:func:`pirate_bt.survey` does); the straight the robot
-        was in is left out (its end was not reached).
+        was in is left out (its end was not reached). What the stop left unsurveyed is
+        added to :attr:`unexplored` (and so to the file): the line the robot was in,
+        and every tee branch not entered.
         """
+        if self.network is None:  # once
+            self.unexplored.extend(self._left_by_a_stop())
         self._write(stopped)
+
+    def _left_by_a_stop(self) -> list[str]:
+        """What a survey that stops here leaves unsurveyed, each named with why."""
+        out: list[str] = []
+        if self._in_line and self._target is None:
+            last = next((str(s["id"]) for s in reversed(self._line) if "id" in s), None)
+            where = f"after {last}" if last else "from its start"
+            out.append(
+                f"{self._line_name} {where}: not surveyed to its end, the survey stopped in it"
+            )
+        ext = self._extension
+        tees = [t for t in (self._target, *reversed(self._pending)) if t is not None]
+        if self._way is None:  # on the way to a stub, the tees met are surveyed ones
+            out.extend(f"{tee}: not entered, the survey stopped first" for tee in tees)
+        elif ext is not None:  # stopped on the way to the stub
+            out.append(f"{ext.stub_name}'s branch: not entered, the survey stopped first")
+        if ext is not None:
+            out.extend(
+                f"{other}: not entered, a further insertion surveys it" for other in ext.others
+            )
+        return out
 
     def _write(self, stopped: str | None) -> None:
         """Build the network of what was surveyed, and write it if asked to."""
@@ -452,12 +487,15 @@ class ExploreNavigator:
         diameter = self._diameter_m
         about = "Surveyed by pirate_bt's explore navigator"
         if self._extension is not None:
-            about += f", {self._extension.stub_name}'s branch by a second insertion,"
+            about += f" ({self._extension.stub_name}'s branch by a second insertion)"
         about += f"; {stopped}" if stopped else " to the end of every line"
+        description = about + "."
+        if self.unexplored:  # kept in the network itself, for a second insertion
+            description += f" {_NOT_SURVEYED}" + "; ".join(self.unexplored) + "."
         data: dict[str, Any] = {
             "schema_version": 1,
             "name": self.name,
-            "description": about + ".",
+            "description": description,
             "diameter": f"{(diameter or 0.063) * 1000:.1f} mm",
             "segments": self.segments,
         }
@@ -470,7 +508,11 @@ class ExploreNavigator:
             " turn radius its diameter;\ndiameters from the clamp angles, slopes from the IMU."
         )
         if self.unexplored:
-            header += "\nNot surveyed (written as stubs): " + "; ".join(self.unexplored) + "."
+            header += (
+                f"\n{_NOT_SURVEYED}" + "; ".join(self.unexplored) + ".\nA tee branch not"
+                " entered is written as a stub (no segments), a line not surveyed to its end"
+                "\nends at the last feature surveyed in it: neither is a capped end."
+            )
         text = network_yaml(self.network, header=header)
         self.output.parent.mkdir(parents=True, exist_ok=True)
         part = self.output.with_name(self.output.name + ".part")
