@@ -54,3 +54,25 @@ def test_a_stopped_survey_names_the_line_cut_short_and_the_branch_not_entered(
     assert "2 not surveyed" in result.summary()
     written = pirate_bt.load_network(out)
     assert "Not surveyed: the main line after tee-1" in written.spec.description
+
+
+# -- F3: extending a stopped survey keeps what is still unsurveyed, and the stop
+
+
+def test_extending_a_stopped_survey_keeps_the_line_cut_short(tmp_path: Path) -> None:
+    out = tmp_path / "s.yaml"
+    first = pirate_bt.survey(sim="t-joint", output=out, faults="motor_stall:bend_3_drive@60s+60s")
+    assert first.exit_code == 1 and len(first.unexplored) == 2
+    second = pirate_bt.survey(sim="t-joint", output=out, extend=out)
+    # tee-1's branch is surveyed now; the main line after tee-1 is not
+    assert not second.succeeded and second.exit_code == 1, second.why
+    assert second.unexplored == [
+        "the main line after tee-1: not surveyed to its end, the survey stopped in it"
+    ]
+    assert "the main line after tee-1" in second.why
+    text = out.read_text()
+    assert "to the end of every line" not in text
+    assert "an earlier insertion stopped: stall" in text
+    assert "# Not surveyed: the main line after tee-1" in text
+    branch = pirate_bt.load_network(out).spec.segments[1]
+    assert branch.type == "tee" and [s.type for s in branch.branch.segments] == ["straight"]

@@ -61,7 +61,7 @@ from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
-from pirate_bt.task.explore_extend import Extension, load_extension
+from pirate_bt.task.explore_extend import NOT_SURVEYED, Extension, load_extension
 from pirate_bt.task.explore_parts import (
     OPENING_STOP,
     Passed,
@@ -74,9 +74,6 @@ from pirate_bt.task.explore_parts import (
 from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
-
-_NOT_SURVEYED = "Not surveyed: "
-"""Begins the list of what was not surveyed, in the file's description and header."""
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
@@ -353,6 +350,7 @@ class ExploreNavigator:
                 f"{other}: not entered, a further insertion surveys it"
                 for other in self._extension.others
             )
+            self.unexplored.extend(self._extension.notes)  # an earlier insertion's
         self._write(None)
         if self.unexplored:
             raise self._incomplete("not every branch was surveyed: " + "; ".join(self.unexplored))
@@ -475,6 +473,7 @@ class ExploreNavigator:
             out.extend(
                 f"{other}: not entered, a further insertion surveys it" for other in ext.others
             )
+            out.extend(ext.notes)  # an earlier insertion's
         return out
 
     def _write(self, stopped: str | None) -> None:
@@ -489,9 +488,11 @@ class ExploreNavigator:
         if self._extension is not None:
             about += f" ({self._extension.stub_name}'s branch by a second insertion)"
         about += f"; {stopped}" if stopped else " to the end of every line"
+        if self._extension is not None and self._extension.stopped:  # its notes are kept
+            about += f"; an earlier insertion stopped: {self._extension.stopped}"
         description = about + "."
         if self.unexplored:  # kept in the network itself, for a second insertion
-            description += f" {_NOT_SURVEYED}" + "; ".join(self.unexplored) + "."
+            description += f" {NOT_SURVEYED}" + "; ".join(self.unexplored) + "."
         data: dict[str, Any] = {
             "schema_version": 1,
             "name": self.name,
@@ -509,7 +510,7 @@ class ExploreNavigator:
         )
         if self.unexplored:
             header += (
-                f"\n{_NOT_SURVEYED}" + "; ".join(self.unexplored) + ".\nA tee branch not"
+                f"\n{NOT_SURVEYED}" + "; ".join(self.unexplored) + ".\nA tee branch not"
                 " entered is written as a stub (no segments), a line not surveyed to its end"
                 "\nends at the last feature surveyed in it: neither is a capped end."
             )

@@ -24,7 +24,7 @@ from typing import Any
 
 from pirate_bt.errors import InputError
 
-__all__ = ["Extension", "load_extension"]
+__all__ = ["NOT_SURVEYED", "Extension", "earlier", "load_extension"]
 
 _ID = re.compile(r"^(run|bend|tee|reducer)-(\d+)$")
 _KINDS = {"run": "straight", "bend": "bend", "tee": "tee", "reducer": "reducer"}
@@ -45,6 +45,11 @@ class Extension:
         counts: The highest number in the surveyed ids per kind (``run-3``: 3
             straights), so that new ids follow on.
         diameter_m: The network's diameter.
+        notes: What the surveyed network's description names as not surveyed,
+            other than its stubs (a line an earlier insertion did not survey to its
+            end): still not surveyed after this one.
+        stopped: Why an earlier insertion stopped, as its description says, when
+            ``notes`` is not empty.
     """
 
     data: dict[str, Any]
@@ -54,6 +59,8 @@ class Extension:
     others: list[str] = field(default_factory=list)
     counts: dict[str, int] = field(default_factory=dict)
     diameter_m: float = 0.063
+    notes: list[str] = field(default_factory=list)
+    stopped: str | None = None
 
     @property
     def stub_name(self) -> str:
@@ -76,6 +83,25 @@ def _stubs(segments: list[dict[str, Any]], way: list[int], sides: list[str]) -> 
             out.extend(_stubs(branch["segments"], here, side))
         ordinal += 1
     return out
+
+
+NOT_SURVEYED = "Not surveyed: "
+"""Begins the list of what a survey did not survey, in its description (and header)."""
+
+_STOPPED = re.compile(r"stopped: (.*?)\.(?: Not surveyed: |$)", re.DOTALL)
+
+
+def earlier(description: str, stubs: list[str]) -> tuple[list[str], str | None]:
+    """What a surveyed network's description names as not surveyed, other than the tee
+    branches in ``stubs`` (their ids; a second insertion names those itself), and why
+    the survey that left them stopped (``None``: none left, or no stop named)."""
+    _, marker, listed = description.rpartition(NOT_SURVEYED)
+    if not marker:
+        return [], None
+    items = [i.strip() for i in listed.strip().removesuffix(".").split("; ") if i.strip()]
+    notes = [i for i in items if not any(i.startswith(f"{stub}'s branch") for stub in stubs)]
+    found = _STOPPED.search(description)
+    return notes, (found.group(1) if found and notes else None)
 
 
 def _counts(segments: list[dict[str, Any]], counts: dict[str, int]) -> None:
@@ -118,10 +144,12 @@ def load_extension(source: Any) -> Extension:
         )
     data = yaml.safe_load(network_yaml(spec))
     stubs = _stubs(data["segments"], [], [])
+    notes, stopped = earlier(spec.description, [str(seg.get("id")) for _, _, seg in stubs])
     if not stubs:
+        cut = f" (a line not surveyed to its end is not extended: {notes[0]})" if notes else ""
         raise InputError(
             f"survey --extend: {getattr(spec, 'name', source)!r} has no tee branch left as a"
-            " stub: there is nothing to extend"
+            f" stub: there is nothing to extend{cut}"[:400]
         )
     way, sides, stub = stubs[0]
     counts: dict[str, int] = {}
@@ -134,4 +162,6 @@ def load_extension(source: Any) -> Extension:
         others=[f"{seg.get('id') or 'a tee'}'s branch" for _, _, seg in stubs[1:]],
         counts=counts,
         diameter_m=float(spec.diameter),
+        notes=notes,
+        stopped=stopped,
     )
