@@ -9,6 +9,8 @@ import pirate_bt
 from pirate_bt import Step
 from pirate_bt.errors import LinkError
 
+DATA = Path(__file__).parent / "data" / "networks"
+
 
 class _Straight:
     def next_step(self, obs: pirate_bt.Observation) -> Step | None:
@@ -76,3 +78,28 @@ def test_extending_a_stopped_survey_keeps_the_line_cut_short(tmp_path: Path) -> 
     assert "# Not surveyed: the main line after tee-1" in text
     branch = pirate_bt.load_network(out).spec.segments[1]
     assert branch.type == "tee" and [s.type for s in branch.branch.segments] == ["straight"]
+
+
+# -- F9: a survey says it wrote a file only when it did
+
+
+def test_a_survey_stopped_in_its_first_straight_writes_it_and_says_so(tmp_path: Path) -> None:
+    # the widening is felt as an opening with no branch: the survey stops there, and
+    # writes the straight up to it with the line named as not surveyed to its end
+    out = tmp_path / "w.yaml"
+    result = pirate_bt.survey(sim=str(DATA / "widen.yaml"), output=out)
+    assert result.exit_code == 1 and "SurveyIncomplete" in result.why
+    assert f"written to {out}" in result.why and result.output == out
+    assert result.unexplored == [
+        "the main line after run-1: not surveyed to its end, the survey stopped in it"
+    ]
+    assert "# Not surveyed: the main line after run-1" in out.read_text()
+    assert result.counts()["straight"] == 1
+
+
+def test_a_survey_that_wrote_nothing_does_not_say_it_did(tmp_path: Path) -> None:
+    out = tmp_path / "n.yaml"
+    explore = pirate_bt.ExploreNavigator(output=out)
+    why = str(explore._incomplete("probe-turn ended without an answer"))
+    assert not out.exists()
+    assert "written to" not in why and "nothing was surveyed: no file is written" in why

@@ -140,6 +140,7 @@ class ExploreNavigator:
         self._line = self.segments  # the line being surveyed
         self._line_name = "the main line"
         self._in_line = True  # surveying :attr:`_line` (not on a way back or to a stub)
+        self._stop_noted = False  # what a stop left unsurveyed is in :attr:`unexplored`
         self._counts: dict[str, int] = {}
         self._from_m: float | None = None  # belief where the current straight began
         self._blocked_m: float | None = None
@@ -275,14 +276,15 @@ class ExploreNavigator:
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._opening_m is not None
+        diameter = obs.diameter_m or self._diameter_m or 0.063
+        a, b = OPENING_STOP
+        start = self._opening_m - (a + b * diameter)
         if felt is None or felt.kind != "tee" or felt.direction is None:
+            self._close_straight(obs, start)  # surveyed up to the opening, not beyond
             raise self._incomplete(
                 f"an opening at {self._opening_m:.2f} m with no branch the robot could steer"
                 " into (probe-tee found none)"
             )
-        diameter = obs.diameter_m or self._diameter_m or 0.063
-        a, b = OPENING_STOP
-        start = self._opening_m - (a + b * diameter)
         self._close_straight(obs, start)
         if self._way is not None:
             return self._on_the_way(obs, felt.direction, start, diameter)
@@ -353,7 +355,9 @@ class ExploreNavigator:
             self.unexplored.extend(self._extension.notes)  # an earlier insertion's
         self._write(None)
         if self.unexplored:
-            raise self._incomplete("not every branch was surveyed: " + "; ".join(self.unexplored))
+            raise self._incomplete(
+                "not every branch was surveyed: " + "; ".join(self.unexplored), cut=False
+            )
         return None
 
     def _return(self, obs: Observation) -> Step:
@@ -401,9 +405,16 @@ class ExploreNavigator:
         self._counts[kind] = self._counts.get(kind, 0) + 1
         return f"{'run' if kind == 'straight' else kind}-{self._counts[kind]}"
 
-    def _incomplete(self, why: str) -> SurveyIncomplete:
-        self._write(why)
-        where = f"; the survey so far is written to {self.output}" if self.output else ""
+    def _incomplete(self, why: str, *, cut: bool = True) -> SurveyIncomplete:
+        """End the survey with ``why``: write what was surveyed, and say where (only if
+        it was written). ``cut``: it ends inside a line (not at a line's end)."""
+        if cut:
+            self._note_stop()
+        where = ""
+        if self._write(why):
+            where = f"; the survey so far is written to {self.output}"
+        elif self.output is not None:
+            where = "; nothing was surveyed: no file is written"
         return SurveyIncomplete(why + where)
 
     def _close_straight(
@@ -450,9 +461,13 @@ class ExploreNavigator:
         added to :attr:`unexplored` (and so to the file): the line the robot was in,
         and every tee branch not entered.
         """
-        if self.network is None:  # once
-            self.unexplored.extend(self._left_by_a_stop())
+        self._note_stop()
         self._write(stopped)
+
+    def _note_stop(self) -> None:
+        if not self._stop_noted:  # once
+            self._stop_noted = True
+            self.unexplored.extend(self._left_by_a_stop())
 
     def _left_by_a_stop(self) -> list[str]:
         """What a survey that stops here leaves unsurveyed, each named with why."""
@@ -476,13 +491,13 @@ class ExploreNavigator:
             out.extend(ext.notes)  # an earlier insertion's
         return out
 
-    def _write(self, stopped: str | None) -> None:
-        """Build the network of what was surveyed, and write it if asked to."""
+    def _write(self, stopped: str | None) -> bool:
+        """Build the network of what was surveyed, and write it if asked to: written?"""
         from pirate_bt.pipes.asbuilt import network_yaml
         from pirate_bt.pipes.model import NetworkSpec
 
         if not any(s["type"] == "straight" for s in self.segments):
-            return  # nothing surveyed: no network to write
+            return False  # nothing surveyed: no network to write
         diameter = self._diameter_m
         about = "Surveyed by pirate_bt's explore navigator"
         if self._extension is not None:
@@ -502,7 +517,7 @@ class ExploreNavigator:
         }
         self.network = NetworkSpec.model_validate(data)
         if self.output is None:
-            return
+            return False
         header = (
             f"{about}.\nLengths from odometry on the centre line (within about 5 % of"
             f" each length);\nbend radius assumed {self.radius_m * 1000:g} mm, a branch's"
@@ -519,3 +534,4 @@ class ExploreNavigator:
         part = self.output.with_name(self.output.name + ".part")
         part.write_text(text, encoding="utf-8")
         os.replace(part, self.output)  # never half a file
+        return True
