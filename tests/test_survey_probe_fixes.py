@@ -103,3 +103,33 @@ def test_a_survey_that_wrote_nothing_does_not_say_it_did(tmp_path: Path) -> None
     why = str(explore._incomplete("probe-turn ended without an answer"))
     assert not out.exists()
     assert "written to" not in why and "nothing was surveyed: no file is written" in why
+
+
+# -- F7: a survey never writes a network that does not validate
+
+
+def test_a_survey_never_writes_a_network_that_does_not_validate(tmp_path: Path) -> None:
+    # a straight at 45 degrees after a bend up written as 90: no such pipe
+    out = tmp_path / "bad.yaml"
+    explore = pirate_bt.ExploreNavigator(output=out)
+    explore.segments.extend(
+        [
+            {"id": "run-1", "type": "straight", "length": "1.000 m"},
+            {"id": "bend-1", "type": "bend", "direction": "up"},
+            {"id": "run-2", "type": "straight", "length": "1.000 m", "slope": "45.0 deg"},
+        ]
+    )
+    why = str(explore._incomplete("the end", cut=False))
+    assert not out.exists() and explore.network is None
+    assert "written to" not in why
+    assert "does not validate" in why and "run-2" in why and "nothing is written" in why
+
+
+def test_a_bend_of_45_degrees_up_is_no_traceback_and_no_invalid_file(tmp_path: Path) -> None:
+    out = tmp_path / "b.yaml"
+    result = pirate_bt.survey(sim=str(DATA / "bend45up.yaml"), output=out)
+    assert result.exit_code in (0, 1), result.why
+    if out.exists():
+        pirate_bt.load_network(out)  # validates
+    else:
+        assert result.exit_code == 1 and "nothing is written" in result.why

@@ -163,6 +163,8 @@ def survey(
     )
     if not navigation.succeeded and explore.network is None:
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
+        if explore.invalid is not None and explore.invalid not in navigation.why:
+            navigation.why += f"; {explore.invalid}"  # what was surveyed is not written
     network = None
     if explore.network is not None:
         from pirate_bt.pipes import Network

@@ -59,6 +59,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import NOT_SURVEYED, Extension, load_extension
@@ -98,6 +100,20 @@ _CONE_PASS_M = 0.25
 
 _SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
+
+
+def _invalid(spec: Any) -> str | None:
+    """Why a surveyed network does not validate as a network file, or ``None``."""
+    import re
+
+    from pirate_bt.pipes.asbuilt import network_yaml
+    from pirate_bt.pipes.loader import network_from_data
+
+    try:
+        network_from_data(yaml.safe_load(network_yaml(spec)), "surveyed")
+    except InputError as exc:
+        return re.sub(r"^surveyed(:\d+)*: ", "", str(exc))
+    return None
 
 
 class ExploreNavigator:
@@ -141,6 +157,9 @@ class ExploreNavigator:
         self._line_name = "the main line"
         self._in_line = True  # surveying :attr:`_line` (not on a way back or to a stub)
         self._stop_noted = False  # what a stop left unsurveyed is in :attr:`unexplored`
+        self.invalid: str | None = None
+        """Why the network surveyed was not written: it does not validate (the survey
+        then ends as a failure, and nothing is written)."""
         self._counts: dict[str, int] = {}
         self._from_m: float | None = None  # belief where the current straight began
         self._blocked_m: float | None = None
@@ -353,7 +372,8 @@ class ExploreNavigator:
                 for other in self._extension.others
             )
             self.unexplored.extend(self._extension.notes)  # an earlier insertion's
-        self._write(None)
+        if not self._write(None) and self.invalid is not None:
+            raise SurveyIncomplete(self.invalid)
         if self.unexplored:
             raise self._incomplete(
                 "not every branch was surveyed: " + "; ".join(self.unexplored), cut=False
@@ -413,6 +433,8 @@ class ExploreNavigator:
         where = ""
         if self._write(why):
             where = f"; the survey so far is written to {self.output}"
+        elif self.invalid is not None:
+            where = f"; {self.invalid}"
         elif self.output is not None:
             where = "; nothing was surveyed: no file is written"
         return SurveyIncomplete(why + where)
@@ -461,8 +483,9 @@ class ExploreNavigator:
         added to :attr:`unexplored` (and so to the file): the line the robot was in,
         and every tee branch not entered.
         """
-        self._note_stop()
-        self._write(stopped)
+        if self.invalid is None:  # else it ended on that, with every line to its end
+            self._note_stop()
+            self._write(stopped)
 
     def _note_stop(self) -> None:
         if not self._stop_noted:  # once
@@ -515,7 +538,15 @@ class ExploreNavigator:
             "diameter": f"{(diameter or 0.063) * 1000:.1f} mm",
             "segments": self.segments,
         }
-        self.network = NetworkSpec.model_validate(data)
+        spec = NetworkSpec.model_validate(data)
+        problem = _invalid(spec)
+        if problem is not None:  # never a file that does not validate
+            self.network = None
+            self.invalid = (
+                f"the network surveyed does not validate ({problem}), so nothing is written"
+            )
+            return False
+        self.network = spec
         if self.output is None:
             return False
         header = (
