@@ -18,6 +18,7 @@ void estop_input_init(void) {
     in.tripped = false;
 }
 
+#if PB_ESTOP_INPUT
 static void trip(void) {
     in.pressed = true;
     in.tripped = true;
@@ -25,6 +26,7 @@ static void trip(void) {
     pb_debug.estop_input_trips++;
     PB_MARK(PB_MARK_ESTOP_INPUT);
 }
+#endif
 
 void estop_input_poll(uint32_t now_ms) {
 #if PB_ESTOP_INPUT
