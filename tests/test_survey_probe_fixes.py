@@ -133,3 +133,17 @@ def test_a_bend_of_45_degrees_up_is_no_traceback_and_no_invalid_file(tmp_path: P
         pirate_bt.load_network(out)  # validates
     else:
         assert result.exit_code == 1 and "nothing is written" in result.why
+
+
+# -- F1: a line's end may be a bend at a roll the survey does not try; it says so
+
+
+def test_a_line_end_is_written_as_a_cap_or_a_bend_at_a_roll_not_tried(tmp_path: Path) -> None:
+    out = tmp_path / "r.yaml"
+    result = pirate_bt.survey(sim=str(DATA / "bendroll45.yaml"), output=out)
+    assert result.exit_code in (0, 1), result.why
+    note = "the line ends here, or turns at a roll the survey does not try"
+    assert note in result.why and "the main line after run-1" in result.why
+    text = out.read_text()
+    assert "to the end of every line" not in text
+    assert note in text and "only up, down, left and right" in text

@@ -41,7 +41,8 @@ class SurveyResult:
 
     @property
     def succeeded(self) -> bool:
-        """True when every line was surveyed to its end and every step succeeded."""
+        """True when every line was surveyed to where it ends (a cap, or a bend at a roll
+        the survey does not try: ``why`` names each end) and every step succeeded."""
         return self.navigation.succeeded
 
     @property
@@ -165,6 +166,8 @@ def survey(
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
             navigation.why += f"; {explore.invalid}"  # what was surveyed is not written
+    if explore.ends and explore.ends_note() not in navigation.why:
+        navigation.why += f"; {explore.ends_note()}"  # a written end may be a bend
     network = None
     if explore.network is not None:
         from pirate_bt.pipes import Network

@@ -3,7 +3,7 @@
 The command parses, calls :func:`pirate_bt.survey` and prints: one line per
 decision (unless ``--quiet``) and the survey's summary. ``--extend SURVEYED`` is a
 second insertion into the first branch a survey left as a stub. Exit codes: 0 every line
-surveyed to its end, 1 the survey stopped (robot left safe) or left branches
+surveyed to where it ends, 1 the survey stopped (robot left safe) or left branches
 unsurveyed (named; what was surveyed is written), 2 bad input, 3 link error.
 """
 

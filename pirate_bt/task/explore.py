@@ -63,7 +63,12 @@ import yaml
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
-from pirate_bt.task.explore_extend import NOT_SURVEYED, Extension, load_extension
+from pirate_bt.task.explore_extend import (
+    NOT_SURVEYED,
+    Extension,
+    earlier_ends,
+    load_extension,
+)
 from pirate_bt.task.explore_parts import (
     OPENING_STOP,
     Passed,
@@ -76,6 +81,10 @@ from pirate_bt.task.explore_parts import (
 from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
+
+ENDS_UNSURE = "the line ends here, or turns at a roll the survey does not try"
+"""What a line's end found may be: ``probe-turn`` tries four rolls, and a bend at
+another (45 deg, 100 deg...) blocks every one of them as a cap does."""
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
@@ -157,6 +166,9 @@ class ExploreNavigator:
         self._line_name = "the main line"
         self._in_line = True  # surveying :attr:`_line` (not on a way back or to a stub)
         self._stop_noted = False  # what a stop left unsurveyed is in :attr:`unexplored`
+        self.ends: list[str] = []
+        """Where each line was found to end (``the main line after run-2``): a cap, or a
+        bend at a roll the survey does not try (it cannot tell them apart)."""
         self.invalid: str | None = None
         """Why the network surveyed was not written: it does not validate (the survey
         then ends as a failure, and nothing is written)."""
@@ -184,6 +196,7 @@ class ExploreNavigator:
             self._line = []  # what the way to the stub passes is surveyed already
             self._in_line = False
             self._diameter_m = self._diameter_now = self._extension.diameter_m
+            self.ends = earlier_ends(self._extension.data.get("description") or "")
 
     # -- the loop
 
@@ -282,6 +295,7 @@ class ExploreNavigator:
             )
         self._close_straight(obs, self._blocked_m)
         if felt.kind == "end":
+            self.ends.append(f"{self._line_name} {self._after()}")
             return self._line_done(obs)
         direction = str(felt.direction)
         segment: dict[str, Any] = {"id": self._id("bend"), "type": "bend", "direction": direction}
@@ -492,14 +506,27 @@ class ExploreNavigator:
             self._stop_noted = True
             self.unexplored.extend(self._left_by_a_stop())
 
+    def _after(self) -> str:
+        """Where the line being surveyed is up to: ``after run-2``, ``from its start``."""
+        last = next((str(s["id"]) for s in reversed(self._line) if "id" in s), None)
+        return f"after {last}" if last else "from its start"
+
+    def ends_note(self) -> str:
+        """What the lines' ends found may be (``""``: none found)."""
+        if not self.ends:
+            return ""
+        return (
+            f"{ENDS_UNSURE}: {'; '.join(self.ends)} (the survey tries only up, down, left"
+            " and right)"
+        )
+
     def _left_by_a_stop(self) -> list[str]:
         """What a survey that stops here leaves unsurveyed, each named with why."""
         out: list[str] = []
         if self._in_line and self._target is None:
-            last = next((str(s["id"]) for s in reversed(self._line) if "id" in s), None)
-            where = f"after {last}" if last else "from its start"
             out.append(
-                f"{self._line_name} {where}: not surveyed to its end, the survey stopped in it"
+                f"{self._line_name} {self._after()}: not surveyed to its end,"
+                " the survey stopped in it"
             )
         ext = self._extension
         tees = [t for t in (self._target, *reversed(self._pending)) if t is not None]
@@ -525,10 +552,12 @@ class ExploreNavigator:
         about = "Surveyed by pirate_bt's explore navigator"
         if self._extension is not None:
             about += f" ({self._extension.stub_name}'s branch by a second insertion)"
-        about += f"; {stopped}" if stopped else " to the end of every line"
+        about += f"; {stopped}" if stopped else " up to where every line ends"
         if self._extension is not None and self._extension.stopped:  # its notes are kept
             about += f"; an earlier insertion stopped: {self._extension.stopped}"
         description = about + "."
+        if self.ends:  # a cap, or a bend at a roll not tried: said where it is written
+            description += f" Each line's end: {self.ends_note()}."
         if self.unexplored:  # kept in the network itself, for a second insertion
             description += f" {NOT_SURVEYED}" + "; ".join(self.unexplored) + "."
         data: dict[str, Any] = {
@@ -554,6 +583,8 @@ class ExploreNavigator:
             f" each length);\nbend radius assumed {self.radius_m * 1000:g} mm, a branch's"
             " turn radius its diameter;\ndiameters from the clamp angles, slopes from the IMU."
         )
+        if self.ends:
+            header += f"\nEach line's end: {self.ends_note()}."
         if self.unexplored:
             header += (
                 f"\n{NOT_SURVEYED}" + "; ".join(self.unexplored) + ".\nA tee branch not"

@@ -24,7 +24,7 @@ from typing import Any
 
 from pirate_bt.errors import InputError
 
-__all__ = ["NOT_SURVEYED", "Extension", "earlier", "load_extension"]
+__all__ = ["NOT_SURVEYED", "Extension", "earlier", "earlier_ends", "load_extension"]
 
 _ID = re.compile(r"^(run|bend|tee|reducer)-(\d+)$")
 _KINDS = {"run": "straight", "bend": "bend", "tee": "tee", "reducer": "reducer"}
@@ -88,7 +88,15 @@ def _stubs(segments: list[dict[str, Any]], way: list[int], sides: list[str]) -> 
 NOT_SURVEYED = "Not surveyed: "
 """Begins the list of what a survey did not survey, in its description (and header)."""
 
-_STOPPED = re.compile(r"stopped: (.*?)\.(?: Not surveyed: |$)", re.DOTALL)
+_STOPPED = re.compile(r"stopped: (.*?)\.(?: Each line's end: | Not surveyed: |$)", re.DOTALL)
+_ENDS = re.compile(r"Each line's end: [^:]*: (.*?) \(the survey tries only", re.DOTALL)
+
+
+def earlier_ends(description: str) -> list[str]:
+    """The lines' ends a surveyed network's description names (each a cap, or a bend at
+    a roll the survey does not try)."""
+    found = _ENDS.search(description)
+    return found.group(1).split("; ") if found else []
 
 
 def earlier(description: str, stubs: list[str]) -> tuple[list[str], str | None]:
