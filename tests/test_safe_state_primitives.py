@@ -84,3 +84,19 @@ def test_a_wait_on_a_connection_left_in_its_safe_state_fails_at_once() -> None:
         assert result.loop.message.startswith("the robot is in its safe state")
         robot.supervisor.resume()  # the operator's decision: the next run goes on
         assert robot.run(wait_tree("1 s")).succeeded
+
+
+def test_an_input_that_only_stops_is_no_operator_to_wait_for() -> None:
+    # The ROS 2 e-stop topic latches the e-stop but cannot reset it: a run waited out
+    # its whole time limit for an operator who was never there (docs probe).
+    from pirate_bt.interop.ros2_node import EStopInput
+
+    with pirate_bt.connect("sim:straight") as robot:
+        estop = EStopInput("/pirate/estop")
+        robot.supervisor.add_input(estop)
+        assert not robot.supervisor.operator_attached
+        estop.push(True)
+        result = robot.run(wait_tree("30 s"), max_time="60 s")
+        assert result.status == "failure"
+        assert result.sim_time_s < 1.0, result.ticks
+        assert "e-stop" in result.why and "ROS 2 e-stop on /pirate/estop" in result.why

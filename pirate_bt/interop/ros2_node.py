@@ -83,6 +83,10 @@ class EStopInput:
     The node's reader thread :meth:`push`\\ es; the supervisor's tick :meth:`poll`\\ s.
     """
 
+    releases = False
+    """It only stops: nobody can reset the e-stop through it, so a run does not wait
+    for it to (:attr:`~pirate_bt.safety.supervisor.Supervisor.operator_attached`)."""
+
     def __init__(self, topic: str) -> None:
         self.topic = topic
         self._due: deque[OperatorAction] = deque()

@@ -127,7 +127,13 @@ OperatorAction = SetMode | EStop | ResetEStop | SafeStop | Resume | Confirm | De
 
 @runtime_checkable
 class OperatorInput(Protocol):
-    """A source of operator actions, drained by the supervisor at the start of each tick."""
+    """A source of operator actions, drained by the supervisor at the start of each tick.
+
+    An input may also say whether it can release what it latches (an attribute
+    ``releases``, true when absent): one that only stops (the ROS 2 e-stop topic) is
+    no operator who could reset an e-stop or resume, so a run does not wait for it
+    (:attr:`~pirate_bt.safety.supervisor.Supervisor.operator_attached`).
+    """
 
     def poll(self, tick: int, now_s: float) -> Sequence[OperatorAction]:
         """Actions that are due at supervisor tick ``tick`` / clock time ``now_s``."""

@@ -200,7 +200,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         it. Primitives fail at once then, but a tree of waits and conditions would run
         on to success with nothing heard from the robot; the runners end the run at
         the next tick instead, as a failure naming this."""
-        if self._inputs:
+        if self.operator_attached:
             return None
         if self._mode is Mode.ESTOP:
             return f"e-stop latched: {self._estop_reason}"
@@ -288,8 +288,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
     @property
     def operator_attached(self) -> bool:
         """True when an operator input (a console, a scripted operator) is drained each
-        tick: someone who could release a latched e-stop or hand control back."""
-        return bool(self._inputs)
+        tick: someone who could release a latched e-stop or hand control back. An input
+        whose ``releases`` is false (it only stops: the ROS 2 e-stop topic) does not
+        count."""
+        return any(getattr(source, "releases", True) for source in self._inputs)
 
     # -- the tick --------------------------------------------------------------
 
