@@ -555,9 +555,7 @@ class _Reader:
         # A value given here is reported here (params: {torque: 50 N*m}), unless it is a
         # value from further out passed on (params: {torque: $torque}): reported there.
         caller = {
-            k: env.used.get((*path, "params", k), (k, given_at(k)))
-            for k in given
-            if k in values
+            k: env.used.get((*path, "params", k), (k, given_at(k))) for k in given if k in values
         }
         inner = _Env(target_doc, values, (*env.chain, ident), caller)
         result = self.tree(inner, body_path, body)
