@@ -147,3 +147,21 @@ def test_a_line_end_is_written_as_a_cap_or_a_bend_at_a_roll_not_tried(tmp_path: 
     text = out.read_text()
     assert "to the end of every line" not in text
     assert note in text and "only up, down, left and right" in text
+
+
+# -- F4: a plumb drop after a sloped run is written plumb
+
+
+def test_a_plumb_drop_after_a_sloped_run_is_written_plumb(tmp_path: Path) -> None:
+    import math
+
+    out = tmp_path / "d.yaml"
+    result = pirate_bt.survey(sim=str(DATA / "drop-after-slope.yaml"), output=out)
+    assert result.exit_code == 0, result.why
+    pieces = pirate_bt.load_network(out).path({}).pieces
+    assert [p.kind.value for p in pieces] == ["straight", "bend", "straight"]
+    slope = [math.degrees(math.asin(max(-1.0, min(1.0, p.tangent[2])))) for p in pieces]
+    assert abs(slope[0] + 2.8) <= 0.2 and abs(slope[2] + 90.0) <= 0.2, slope
+    # and pointing on, not back: the drop's horizontal heading is the run's
+    run, drop = pieces[0].tangent, pieces[2].tangent
+    assert run[0] * drop[0] + run[1] * drop[1] >= -1e-3

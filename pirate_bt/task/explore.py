@@ -304,7 +304,7 @@ class ExploreNavigator:
         self._line.append(segment)
         self._from_m = self._blocked_m + self.radius_m * math.pi / 2
         self._trail.append(Passed("bend-back", direction, self._from_m))
-        self._slope_deg = max(-90.0, min(90.0, self._slope_deg + _TURN.get(direction, 0.0)))
+        self._slope_deg += _TURN.get(direction, 0.0)  # past +-90: the network model's too
         return Step("bend", direction=direction)
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
@@ -429,7 +429,7 @@ class ExploreNavigator:
         self._diameter_now = tee.diameter_m
         turn_end = tee.start_m + 1.5 * tee.diameter_m + math.pi * tee.diameter_m / 2
         self._from_m = turn_end
-        self._slope_deg = max(-90.0, min(90.0, tee.slope_deg + _TURN.get(tee.side, 0.0)))
+        self._slope_deg = tee.slope_deg + _TURN.get(tee.side, 0.0)
         self._trail.append(Passed("t-joint-back", tee.side, turn_end))
         return Step("t-joint", direction=tee.side)
 
@@ -483,7 +483,10 @@ class ExploreNavigator:
         pitch_rad = obs.pitch_rad if pitch_rad is None else pitch_rad
         if pitch_rad is not None:
             pitch = math.degrees(pitch_rad)
-            if abs(pitch - self._slope_deg) > _SLOPE_WRITTEN_DEG:  # not as carried in
+            # the slope carried in as the IMU reads it (a bend down from -2.8 deg carries
+            # -92.8, past plumb, read -87.2): a plumb drop there is written plumb
+            carried = math.degrees(math.asin(math.sin(math.radians(self._slope_deg))))
+            if abs(pitch - carried) > _SLOPE_WRITTEN_DEG:  # not as carried in
                 segment["slope"] = f"{pitch:.1f} deg"
                 self._slope_deg = pitch
         self._line.append(segment)
