@@ -59,8 +59,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import (
@@ -76,6 +74,7 @@ from pirate_bt.task.explore_parts import (
     SurveyIncomplete,
     branch_leavable,
     check_output,
+    invalid_network,
     metres,
 )
 from pirate_bt.task.navigation import Felt, Observation, Step
@@ -109,20 +108,6 @@ _CONE_PASS_M = 0.25
 
 _SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
-
-
-def _invalid(spec: Any) -> str | None:
-    """Why a surveyed network does not validate as a network file, or ``None``."""
-    import re
-
-    from pirate_bt.pipes.asbuilt import network_yaml
-    from pirate_bt.pipes.loader import network_from_data
-
-    try:
-        network_from_data(yaml.safe_load(network_yaml(spec)), "surveyed")
-    except InputError as exc:
-        return re.sub(r"^surveyed(:\d+)*: ", "", str(exc))
-    return None
 
 
 class ExploreNavigator:
@@ -571,7 +556,7 @@ class ExploreNavigator:
             "segments": self.segments,
         }
         spec = NetworkSpec.model_validate(data)
-        problem = _invalid(spec)
+        problem = invalid_network(spec)
         if problem is not None:  # never a file that does not validate
             self.network = None
             self.invalid = (

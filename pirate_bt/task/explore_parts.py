@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from pirate_bt.errors import InputError
 from pirate_bt.units import parse_quantity
 
@@ -21,6 +23,7 @@ __all__ = [
     "SurveyIncomplete",
     "branch_leavable",
     "check_output",
+    "invalid_network",
     "metres",
 ]
 
@@ -114,3 +117,17 @@ class PendingTee:
 
     def __str__(self) -> str:
         return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"
+
+
+def invalid_network(spec: Any) -> str | None:
+    """Why a surveyed network does not validate as a network file, or ``None``."""
+    import re
+
+    from pirate_bt.pipes.asbuilt import network_yaml
+    from pirate_bt.pipes.loader import network_from_data
+
+    try:
+        network_from_data(yaml.safe_load(network_yaml(spec)), "surveyed")
+    except InputError as exc:
+        return re.sub(r"^surveyed(:\d+)*: ", "", str(exc))
+    return None
