@@ -453,3 +453,29 @@ def test_an_empty_output_is_refused_not_the_working_folder(
     assert main(["campaign", str(spec), "--output", "", "--quiet"]) == 2
     assert _one_error(capsys) == "--output: empty; name a folder"
     assert list(work.iterdir()) == []
+
+
+def test_the_command_names_its_options_in_a_scheduler_file_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the message named run_campaign's arguments (scheduler_file, scheduler_timeout)
+    pytest.importorskip("distributed")
+    spec = _spec(tmp_path, BASE)
+    missing = tmp_path / "scheduler.json"
+    code = main(
+        [
+            "campaign",
+            str(spec),
+            "--scheduler-file",
+            str(missing),
+            "--scheduler-timeout",
+            "0.2 s",
+            "--output",
+            str(tmp_path / "o"),
+            "--quiet",
+        ]
+    )
+    assert code == 2
+    line = _one_error(capsys)
+    assert line.startswith(f"--scheduler-file: no scheduler file at {missing}")
+    assert line.endswith("or give a longer --scheduler-timeout")

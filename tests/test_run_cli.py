@@ -94,3 +94,15 @@ def test_a_bundled_route_by_its_bare_name_is_the_route_not_its_network(
     assert main(["mission", "straight", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "mission straight: SUCCESS" in out
+
+
+def test_a_firmware_only_option_without_firmware_is_refused(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # `sim --boot-ms` without --firmware was accepted and silently ignored
+    assert main(["sim", "straight", "--boot-ms", "100", "--duration", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == (
+        "pirate-bt: --boot-ms is for --firmware (the bridge's bootloader time):"
+        " add --firmware ELF or drop it"
+    )

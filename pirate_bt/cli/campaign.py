@@ -15,6 +15,7 @@ cases did); 2 bad input; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 from __future__ import annotations
 
 import argparse
+import re
 import shlex
 import sys
 from pathlib import Path
@@ -77,6 +78,19 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+_OPTIONS = {
+    "scheduler_file": "--scheduler-file",
+    "scheduler_timeout": "--scheduler-timeout",
+}
+_BY_OPTION = re.compile(r"\b(" + "|".join(_OPTIONS) + r")\b")
+
+
+def _by_option(text: str) -> str:
+    """``run_campaign``'s message with the arguments named as this command's options
+    (``scheduler_file: no scheduler file at ...`` is ``--scheduler-file: ...`` here)."""
+    return _BY_OPTION.sub(lambda m: _OPTIONS[m.group(1)], text)
+
+
 def run(args: argparse.Namespace) -> int:
     if args.spec == "report":
         return _report(args)
@@ -119,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
             echo=echo,
             command=command,
         )
+    except InputError as exc:
+        raise InputError(_by_option(str(exc))) from None
     except KeyboardInterrupt as exc:
         if not started:
             raise

@@ -64,7 +64,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--boot-ms",
         type=int,
-        default=500,
+        default=None,
         metavar="MS",
         help="with --firmware: bootloader time after the DTR reset a host's open causes"
         " (default 500; the host waits the robot's reset_time)",
@@ -88,6 +88,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--duration must be a positive number of seconds, not {args.duration:g}")
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise InputError(f"--tcp {args.tcp}: a port is 0 to 65535 (0 picks a free one)")
+    if args.firmware is None and args.boot_ms is not None:
+        raise InputError(
+            "--boot-ms is for --firmware (the bridge's bootloader time):"
+            " add --firmware ELF or drop it"
+        )
     robot = load_robot(args.robot)
     if args.firmware is not None:
         return _run_firmware(args, robot)
@@ -158,12 +163,13 @@ def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
         raise InputError("--firmware serves on a pty only (the Arduino's USB serial); drop --tcp")
     if args.fault:
         raise InputError("--fault is not supported with --firmware (the bridge is the firmware)")
-    if args.boot_ms < 0:
+    boot_ms = 500 if args.boot_ms is None else args.boot_ms
+    if boot_ms < 0:
         raise InputError("--boot-ms must not be negative")
     network = load_network(args.network)
     noise = SensorNoise.typical() if args.noise else None
     model = PipeRobotModel(robot, network, seed=args.seed, noise=noise)
-    bridge = FirmwareBridge(args.firmware, model, boot_ms=args.boot_ms, speed=args.speed)
+    bridge = FirmwareBridge(args.firmware, model, boot_ms=boot_ms, speed=args.speed)
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated server still reports
     print(bridge.start(), flush=True)
     try:
