@@ -73,16 +73,55 @@ def _runs_in_real_time(item: pytest.Item) -> bool:
     return callspec is not None and callspec.params.get("bridge") in _REAL_TIME_BRIDGES
 
 
-@pytest.hookimpl(trylast=True)  # after any shuffling plugin (pytest-randomly)
+def pytest_itemcollected(item: pytest.Item) -> None:
+    """The real-time tests into one xdist group, as each is collected.
+
+    Before any ``pytest_collection_modifyitems``, where pytest-xdist reads the
+    ``xdist_group`` marks (on each worker, with ``--dist loadgroup``) to write the
+    group's name into the test ids its scheduler groups by: a mark added by a later
+    hook (the ``trylast`` one below did it until 2026-11-29) comes too late.
+    """
+    if _runs_in_real_time(item):
+        item.add_marker(pytest.mark.xdist_group(REAL_TIME))
+
+
+def _group_names(item: pytest.Item) -> str:
+    """The test's xdist groups as pytest-xdist joins them ('' for none)."""
+    names = {
+        str(mark.args[0] if mark.args else mark.kwargs.get("name", "default"))
+        for mark in item.iter_markers("xdist_group")
+    }
+    return "_".join(sorted(names))
+
+
+def _keep_groups_together(items: list[pytest.Item]) -> None:
+    """Give each grouped test the ``@group`` suffix pytest-xdist's scheduler groups by.
+
+    pytest-xdist 3.8 writes it into ``item._nodeid``, which pytest 9.2 no longer reads
+    (a node's id is a structured ``_id`` there): the suffix never reached the
+    scheduler, and every xdist group (the real-time tests, the Groot2 oracle, ROS 2,
+    ...) was spread over both workers like ungrouped tests (pytest-xdist issue 1386).
+    Until pytest-xdist writes it again, it is written here, once, the same way.
+    """
+    try:
+        from _pytest.nodeid import NodeId
+    except ImportError:  # an older pytest: pytest-xdist's own suffix works there
+        return
+    for item in items:
+        names = _group_names(item)
+        if names and hasattr(item, "_id") and not item.nodeid.endswith(f"@{names}"):
+            item._id = NodeId.parse(f"{item.nodeid}@{names}")
+
+
+@pytest.hookimpl(trylast=True)  # after any shuffling plugin (pytest-randomly), and xdist
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The real-time tests into one xdist group; the ``slow`` tests first.
+    """The ``slow`` tests first; xdist groups kept together (:func:`_keep_groups_together`).
 
     Long tests first (a stable sort, the rest keep their order) so that no long test
     starts last on one worker while the other has nothing left to do.
     """
-    for item in items:
-        if _runs_in_real_time(item):
-            item.add_marker(pytest.mark.xdist_group(REAL_TIME))
+    if getattr(config.option, "loadgroup", False):  # set on the workers of --dist loadgroup
+        _keep_groups_together(items)
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
 
 
