@@ -120,6 +120,13 @@ def behave(case, trace_dir):
 """
 
 
+HANG_LIMIT_S = 2.0
+"""The wall-time limit of the fake cases that include a hang: the hang takes all of it.
+
+The other fake cases end within milliseconds of their process's start (a raise, an
+exit, a record), so a short limit is still far beyond them."""
+
+
 def _fake_cases(names: list[str], timeout_s: float = 30.0) -> list[dict[str, object]]:
     return [
         {"id": f"{i:06d}-x", "index": i, "run": n, "seed": 0, "timeout_s": timeout_s}
@@ -132,7 +139,7 @@ def test_a_raise_a_hang_and_a_crash_are_outcomes(
 ) -> None:
     (tmp_path / "campaign_helper.py").write_text(HELPER, encoding="utf-8")
     monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
-    cases = _fake_cases(["ok", "raise", "hang", "crash", "ok"], timeout_s=6.0)
+    cases = _fake_cases(["ok", "raise", "hang", "crash", "ok"], timeout_s=HANG_LIMIT_S)
     with make_executor(workers=2) as (executor, _what):
         rows = run_cases(cases, tmp_path / "out", executor, target="campaign_helper:behave")
     by_run = {r["index"]: r for r in rows}
@@ -144,7 +151,7 @@ def test_a_raise_a_hang_and_a_crash_are_outcomes(
         "success",
     ]
     assert "boom in the case" in by_run[1]["reason"]
-    assert "6 s wall-time limit" in by_run[2]["reason"]
+    assert f"{HANG_LIMIT_S:g} s wall-time limit" in by_run[2]["reason"]
     assert "exit status 7" in by_run[3]["reason"]
     assert len(read_rows(tmp_path / "out" / "results.jsonl")) == 5
 
@@ -234,7 +241,7 @@ def test_local_and_dask_cluster_give_the_same_rows(
         with make_executor(scheduler_file=str(scheduler_file)) as (executor, what):
             assert "Dask cluster" in what
             odd = run_cases(
-                _fake_cases(["hang", "raise", "crash", "segfault", "ok", "ok"], timeout_s=5.0),
+                _fake_cases(["hang", "raise", "crash", "segfault", "ok", "ok"], HANG_LIMIT_S),
                 tmp_path / "odd",
                 executor,
                 target="campaign_helper:behave",

@@ -117,6 +117,13 @@ def helper(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path
 
 
+HANG_LIMIT_S = 2.0
+"""The wall-time limit of the fake cases that include a hang: the hang takes all of it.
+
+The other fake cases end within milliseconds of their process's start (a raise, an
+exit, a record, a child started), so a short limit is still far beyond them."""
+
+
 def _cases(names: list[str], folder: Path, timeout_s: float = 30.0) -> list[dict[str, Any]]:
     return [
         {"id": f"{i:06d}-x", "index": i, "run": n, "seed": 0, "timeout_s": timeout_s,
@@ -149,7 +156,7 @@ needs_proc = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="ne
 def test_crashes_and_hangs_stay_in_their_case_and_the_server_stays(helper: Path) -> None:
     """One worker, one server: every kind of end, and the server forks on."""
     names = ["ok", "raise", "crash", "segfault", "hang", "orphan", "ok"]
-    cases = _cases(names, helper, timeout_s=6.0)
+    cases = _cases(names, helper, timeout_s=HANG_LIMIT_S)
     with make_executor(workers=1) as (executor, _):
         rows = run_cases(cases, helper / "out", executor, target=TARGET)
     by = {r["run"] + str(r["index"]): r for r in rows}
@@ -159,7 +166,7 @@ def test_crashes_and_hangs_stay_in_their_case_and_the_server_stays(helper: Path)
     assert "boom in the case" in by["raise1"]["reason"]
     assert by["crash2"]["reason"].startswith("case process died (exit status 7): dying now")
     assert "killed by SIGSEGV" in by["segfault3"]["reason"]
-    assert by["hang4"]["reason"] == "killed after its 6 s wall-time limit"
+    assert by["hang4"]["reason"] == f"killed after its {HANG_LIMIT_S:g} s wall-time limit"
     # Every case ran in a process forked from the same server: none of them ended it.
     assert by["ok0"]["forked_from_server"] and by["ok6"]["forked_from_server"]
     assert by["ok0"]["server_pid"] == by["orphan5"]["server_pid"] == by["ok6"]["server_pid"]
@@ -263,7 +270,7 @@ def test_interrupted_then_resumed_runs_each_recorded_case_once(
     log = helper / "ran.log"
     monkeypatch.setenv("CAMPAIGN_TEST_LOG", str(log))
     out = helper / "out"
-    cases = _cases(["ok", "hang", "ok", "ok", "ok", "ok"], helper, timeout_s=5.0)
+    cases = _cases(["ok", "hang", "ok", "ok", "ok", "ok"], helper, timeout_s=HANG_LIMIT_S)
 
     def stop_after_first(row: dict[str, Any]) -> None:
         raise KeyboardInterrupt
