@@ -3,11 +3,13 @@
 Each example runs as ``python examples/NAME.py`` from the repository root, in its
 own process, with no arguments (``real_port.py`` then starts the simulator as a
 separate process). The assertions are on the lines a user reads, so the examples
-the docs point at cannot rot.
+the docs point at cannot rot. Each example runs once per worker: the two tests that read
+``mission_table.py``'s output read the same run (one xdist group keeps them together).
 """
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import subprocess
@@ -18,6 +20,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = REPO / "examples"
+
+pytestmark = pytest.mark.xdist_group("examples")
 
 # example -> lines (regular expressions, searched line by line) its output must hold
 EXPECTED: dict[str, list[str]] = {
@@ -67,6 +71,7 @@ EXPECTED: dict[str, list[str]] = {
 }
 
 
+@functools.cache
 def run_example(name: str) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "PIRATE_PORT"}
     return subprocess.run(
