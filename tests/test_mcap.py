@@ -334,3 +334,28 @@ def test_trace_commands_read_an_mcap_file_as_they_read_jsonl(
     assert texts[0] == texts[1]
     assert main(["trace", "plot", str(out), "-o", str(tmp_path / "run.png")]) == 0
     assert (tmp_path / "run.png").stat().st_size > 0
+
+
+def _data_end(data: bytes) -> int:
+    """Where an MCAP file's data section ends: just after its DataEnd record (0x0F)."""
+    pos = 8  # the magic
+    while pos + 9 <= len(data):
+        opcode, length = data[pos], int.from_bytes(data[pos + 1 : pos + 9], "little")
+        pos += 9 + length
+        if opcode == 0x0F:
+            return pos
+    raise AssertionError("no DataEnd record")
+
+
+def test_an_mcap_cut_after_its_end_record_is_not_called_cut_before_it(
+    run_trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A file cut after its data (the summary section and footer lost) still holds the
+    # run's end record: the summary said "no end record: the run was cut off".
+    whole = export_mcap(run_trace, tmp_path / "run.mcap").read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(whole[: _data_end(whole)])
+    assert main(["trace", "summary", str(cut)]) == 0
+    outcome = next(line for line in capsys.readouterr().out.splitlines() if "outcome" in line)
+    assert "no end record" not in outcome
+    assert outcome.endswith("(the file is cut off after the run's end record)")

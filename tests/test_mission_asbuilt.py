@@ -100,6 +100,10 @@ def test_edits_for_the_disagreement_cases() -> None:
         remove_feature(spec, "nowhere")
     with pytest.raises(ConfigurationError, match="not within"):
         insert_tee(spec, "run-c", 9.0)
+    # an id the network has already (the tee's, or the split straight's rest): the
+    # variant was written and then failed validate (docs probe)
+    with pytest.raises(ConfigurationError, match="duplicate segment id 'tee-1'"):
+        insert_tee(spec, "run-c", 2.0, tee_id="tee-1")
 
 
 def test_network_perturb_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -52,8 +52,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add.add_argument("map", metavar="MAP")
     add.add_argument("segment", metavar="SEGMENT", help="the straight the tee sits in")
     add.add_argument("at", metavar="AT", help="how far into the straight, e.g. 1.5m")
-    add.add_argument("--direction", default="left", choices=("up", "down", "left", "right"))
-    add.add_argument("--id", default="extra-tee", help="the new tee's id")
+    add.add_argument(
+        "--direction",
+        default="left",
+        choices=("up", "down", "left", "right"),
+        help="where the new tee's branch leaves (default left)",
+    )
+    add.add_argument("--id", default="extra-tee", help="the new tee's id (default extra-tee)")
     for sub in (perturb, remove, add):
         sub.add_argument("-o", "--output", type=Path, metavar="OUT", help="network file to write")
 

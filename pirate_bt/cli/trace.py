@@ -17,14 +17,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     summary = subs.add_parser(
         "summary", help="outcome, duration, per-node counts, refusals, faults"
     )
-    summary.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    summary.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     show = subs.add_parser("show", help="the tree with statuses at one tick")
-    show.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    show.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     show.add_argument("--tick", type=int, help="tick number (default: the last; 0 is before)")
     show.add_argument("--state", action="store_true", help="also print state, link and blackboard")
     show.add_argument("--ascii", action="store_true", help="ASCII status marks only")
     plot = subs.add_parser("plot", help="joints, clamps, speed and rotation over time")
-    plot.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    plot.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     plot.add_argument("-o", "--output", type=Path, required=True, help="picture (.png, .svg)")
     plot.add_argument(
         "--from",
@@ -42,7 +42,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="write the trace for other tools: .btlog (Groot2), .mcap (Foxglove),"
         " RUN_bag/ (a rosbag2 directory for ROS 2)",
     )
-    export.add_argument("trace", type=Path, help="trace file (.jsonl or .jsonl.gz)")
+    export.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     export.add_argument(
         "-o",
         "--output",

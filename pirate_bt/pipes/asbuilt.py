@@ -220,6 +220,9 @@ def _edit(
     variant = spec.model_copy(
         update={"name": name or f"{spec.name}-{what.replace(' ', '-')}", "segments": segments}
     )
+    problems = variant.cross_check()  # a new id may be one the network has
+    if problems:
+        raise ConfigurationError(f"{what}: {problems[0][1]}")
     Network(variant)
     return variant
 

@@ -212,8 +212,10 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
     header = summary.header
     robot = header.get("robot") or {}
     outcome = summary.outcome
-    if summary.truncated or outcome == "incomplete":
+    if outcome == "incomplete":
         outcome += " (no end record: the run was cut off)"
+    elif summary.truncated:  # the end record is there, what came after it is not
+        outcome += " (the file is cut off after the run's end record)"
     lines = [
         f"trace     {summary.path}",
         f"tree      {summary.tree} ({len(structure)} nodes)",
