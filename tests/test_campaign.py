@@ -272,7 +272,7 @@ def test_missing_scheduler_is_bad_input(capsys: pytest.CaptureFixture[str], tmp_
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err, err
     assert "after 1 s" in err  # as long as asked, not the default 10 s
     assert main(["campaign", str(spec), *nobody, "--scheduler-timeout", "0 s"]) == 2
-    assert "scheduler_timeout must be positive" in capsys.readouterr().err
+    assert "--scheduler-timeout must be positive" in capsys.readouterr().err  # its option
 
 
 # --- statistics and the report -------------------------------------------------------
