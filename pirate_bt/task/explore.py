@@ -42,14 +42,16 @@ steps also stop where the pipe changes (``stop_at_change``):
   network default, 50 mm, and its start placed from how much of the change the
   joint had read.
 
-A bend's arc is ``radius x 90 deg``, a branch's turn ``diameter x 90 deg`` (the
-network default). The diameter comes from the rear half's wall-contact angles where
-each straight ends, and the slope from the IMU.
+A bend's arc is ``radius x`` its turn: a bend up or down turns as far as the IMU's
+pitch changed across it (``angle`` written, to 1 deg, when over 3 deg off 90), a bend
+left or right 90 deg (the observation has no heading); a branch's turn is
+``diameter x 90 deg``. Diameters come from the rear half's wall-contact angles
+where each straight ends, slopes from the IMU.
 
 Not yet: a reducer followed within 0.25 m by a tee or a bend (the drive through the
 cone stops there and the reducer is not written), bends met on a vertical run
 (backing through one fails: the survey stops safe with the cause named and what was
-surveyed so far written), bends other than 90 degrees in the four cardinal rolls.
+surveyed so far written), bends left or right of other than 90 degrees (written 90).
 """
 
 from __future__ import annotations
@@ -61,17 +63,13 @@ from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
-from pirate_bt.task.explore_extend import (
-    NOT_SURVEYED,
-    Extension,
-    earlier_ends,
-    load_extension,
-)
+from pirate_bt.task.explore_extend import NOT_SURVEYED, Extension, earlier_ends, load_extension
 from pirate_bt.task.explore_parts import (
     OPENING_STOP,
     Passed,
     PendingTee,
     SurveyIncomplete,
+    bend_angle_deg,
     branch_leavable,
     check_output,
     invalid_network,
@@ -95,7 +93,6 @@ the opening (the planner's ``approach_m``)."""
 _MARGIN_M = 0.25
 """How far short of a feature a return's straight drive stops: the backward PAB
 searches the rest (up to 3 m) with its own sensing."""
-
 
 _SETTLED_M = 0.05
 """A change felt this close after the feature before is the robot leaving that feature."""
@@ -168,6 +165,7 @@ class ExploreNavigator:
         self._target: PendingTee | None = None  # the tee a return goes to
         self._backed: Passed | PendingTee | None = None  # what a return last drove up to
         self._pitch_before: float | None = None  # the IMU's pitch as a straight step began
+        self._bend: tuple[dict[str, Any], float | None] | None = None  # being passed, pitch
         # a diameter change felt, the cone being passed: where, and the IMU's pitch then
         self._cone: tuple[float, float | None] | None = None
         self._diameter_now = 0.0  # the diameter the current line carries
@@ -197,6 +195,8 @@ class ExploreNavigator:
             return self._return(obs)
         felt = obs.felt[-1] if obs.felt else None
         pab = obs.history[-1][0].pab if obs.history else None
+        if pab == "bend" and self._bend is not None:
+            self._bend_done(obs)
         if pab == "probe-turn":
             return self._probed_turn(obs, felt)
         if pab == "probe-tee":
@@ -290,7 +290,19 @@ class ExploreNavigator:
         self._from_m = self._blocked_m + self.radius_m * math.pi / 2
         self._trail.append(Passed("bend-back", direction, self._from_m))
         self._slope_deg += _TURN.get(direction, 0.0)  # past +-90: the network model's too
+        self._bend = (segment, obs.pitch_rad)
         return Step("bend", direction=direction)
+
+    def _bend_done(self, obs: Observation) -> None:
+        """Passed: a bend up or down turned as far as the IMU's pitch says (else 90)."""
+        assert self._bend is not None and self._from_m is not None
+        (segment, before), self._bend = self._bend, None
+        if (angle := bend_angle_deg(segment["direction"], before, obs.pitch_rad)) != 90.0:
+            segment["angle"] = f"{angle:g} deg"
+            self._from_m = self._trail[-1].end_m = self._from_m - self.radius_m * math.radians(
+                90.0 - angle
+            )
+            self._slope_deg -= math.copysign(90.0 - angle, _TURN[segment["direction"]])
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._opening_m is not None

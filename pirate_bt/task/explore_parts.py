@@ -21,6 +21,7 @@ __all__ = [
     "Passed",
     "PendingTee",
     "SurveyIncomplete",
+    "bend_angle_deg",
     "branch_leavable",
     "check_output",
     "invalid_network",
@@ -37,6 +38,33 @@ BACK_OUT_REACH_M = 0.1075
 """How far behind the front half's trailing end the rear half's first bend module
 clamps (the rotational module and half of bend III, the bundled robot): a branch is
 left backwards only when half its diameter plus its turn's length is at most this."""
+
+
+BEND_TOLERANCE_DEG = 3.0
+"""A bend whose turn measured is within this of 90 degrees is written as a 90 degree
+bend (the network default, no ``angle``)."""
+
+
+def bend_angle_deg(direction: str, before_rad: float | None, after_rad: float | None) -> float:
+    """The turn of a bend up or down, from the IMU's pitch before and after it, rounded
+    to 1 degree; 90 for a bend left or right (the observation has no heading), without
+    a reading, or within :data:`BEND_TOLERANCE_DEG` of 90.
+
+    The IMU reads a pitch in [-90, 90] degrees: a turn past plumb (90 down from
+    -2.8, -92.8) reads folded (-87.2), so both turns are candidates, and one within the
+    tolerance of 90 is taken as 90.
+    """
+    if direction not in ("up", "down") or before_rad is None or after_rad is None:
+        return 90.0
+    sign = 1.0 if direction == "up" else -1.0
+    before, after = math.degrees(before_rad), math.degrees(after_rad)
+    turned = sign * (after - before)  # the pitch changed by it
+    folded = sign * (sign * 180.0 - after - before)  # the turn went past plumb
+    if any(abs(t - 90.0) <= BEND_TOLERANCE_DEG for t in (turned, folded)):
+        return 90.0
+    if not 0.5 <= turned < 90.0:  # no turn the survey can tell: as it was written
+        return 90.0
+    return float(round(turned))
 
 
 def branch_leavable(diameter_m: float, radius_m: float | None = None) -> bool:
