@@ -6,6 +6,7 @@ import re
 import signal
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -58,3 +59,22 @@ class InstantExecutor(Executor):
         future: Future[Any] = Future()
         future.set_result(error_record(case, "success", "done", 0.1))
         return future
+
+
+def run_import_cli(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], data: str | bytes
+) -> tuple[int, list[str]]:
+    """``pirate-bt import btcpp`` of ``data`` (text as UTF-8, or bytes as they are) in
+    ``tmp_path``: its exit code and stderr lines, after checking that it printed no
+    traceback and wrote its output only on success."""
+    from pirate_bt.cli import main
+
+    source = tmp_path / "t.xml"
+    source.write_bytes(data.encode("utf-8") if isinstance(data, str) else data)
+    code = main(["import", "btcpp", str(source), "-o", str(tmp_path / "t.yaml")])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err and "internal error" not in captured.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == (
+        ["t.xml"] if code else ["t.xml", "t.yaml"]
+    )
+    return code, captured.err.splitlines()

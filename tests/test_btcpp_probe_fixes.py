@@ -24,25 +24,12 @@ from pirate_bt.interop.btcpp import export_xml, import_xml, tree_to_xml, xml_to_
 from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.treefile.registry import default_registry
 from pirate_bt.units import UnitError, parse_quantity
+from tests.hostile_support import run_import_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 PATROL = ROOT / "trees" / "examples" / "patrol.yaml"
 
 TREE = '<root BTCPP_format="4"><BehaviorTree ID="M"><log message="{text}"/></BehaviorTree></root>\n'
-
-
-def _import(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], data: bytes
-) -> tuple[int, list[str]]:
-    source = tmp_path / "t.xml"
-    source.write_bytes(data)
-    code = main(["import", "btcpp", str(source), "-o", str(tmp_path / "t.yaml")])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err and "internal error" not in captured.err
-    assert sorted(p.name for p in tmp_path.iterdir()) == (
-        ["t.xml"] if code else ["t.xml", "t.yaml"]
-    )
-    return code, captured.err.splitlines()
 
 
 # -- 1. declared encodings expat cannot read itself ---------------------------------------
@@ -55,7 +42,7 @@ def test_a_multi_byte_declared_encoding_is_read_with_python_s_codec(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], encoding: str
 ) -> None:
     head = f'<?xml version="1.0" encoding="{encoding}"?>\n'
-    code, err = _import(tmp_path, capsys, (head + TREE.format(text="a")).encode(encoding))
+    code, err = run_import_cli(tmp_path, capsys, (head + TREE.format(text="a")).encode(encoding))
     assert (code, err) == (0, [])
     assert xml_to_tree(tmp_path / "t.xml")["root"] == {"type": "log", "message": "a"}
 
@@ -72,7 +59,7 @@ def test_shift_jis_text_is_decoded_and_a_later_problem_placed_in_characters(
     source = tmp_path / "t.xml"
     source.write_bytes(text.replace("<wiat/>", "").encode("shift_jis"))
     assert xml_to_tree(source)["root"]["children"] == [{"type": "log", "message": "日本語のログ"}]
-    code, err = _import(tmp_path, capsys, text.encode("shift_jis"))
+    code, err = run_import_cli(tmp_path, capsys, text.encode("shift_jis"))
     assert code == 2
     assert err == [f"pirate-bt: {source}:3:24: unknown node type 'wiat'; did you mean 'wait'?"]
 
@@ -80,7 +67,7 @@ def test_shift_jis_text_is_decoded_and_a_later_problem_placed_in_characters(
 def test_a_utf_32_file_is_read(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text = '<?xml version="1.0" encoding="UTF-32"?>\n' + TREE.format(text="ü")
     for data in (text.encode("utf-32"), text.encode("utf-32-be"), text.encode("utf-32-le")):
-        code, err = _import(tmp_path, capsys, data)
+        code, err = run_import_cli(tmp_path, capsys, data)
         assert (code, err) == (0, [])
         assert xml_to_tree(tmp_path / "t.xml")["root"]["message"] == "ü"
         (tmp_path / "t.yaml").unlink()
@@ -91,7 +78,7 @@ def test_a_file_that_is_not_what_its_declaration_says_is_located(
 ) -> None:
     source = tmp_path / "t.xml"
     head = '<?xml version="1.0" encoding="UTF-32"?>\n'
-    code, err = _import(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
+    code, err = run_import_cli(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
     assert (code, err) == (
         2,
         [f"pirate-bt: {source}:1:1: not UTF-32 text, as its XML declaration says (byte 0x3c)"],
@@ -101,21 +88,21 @@ def test_a_file_that_is_not_what_its_declaration_says_is_located(
     # a byte Shift_JIS does not have, on line 2 after two characters of text
     head = '<?xml version="1.0" encoding="Shift_JIS"?>\n'
     data = head.encode() + b'<root a="\x82\xa0\xff"/>\n'
-    code, err = _import(tmp_path, capsys, data)
+    code, err = run_import_cli(tmp_path, capsys, data)
     assert (code, err) == (
         2,
         [f"pirate-bt: {source}:2:11: not Shift_JIS text, as its XML declaration says (byte 0xff)"],
     )
     # a UTF-32 byte-order mark, then a code point beyond U+10FFFF on line 2
     data = ("<root>\n" + "ab").encode("utf-32") + b"\x00\x00\x11\x00"
-    code, err = _import(tmp_path, capsys, data)
+    code, err = run_import_cli(tmp_path, capsys, data)
     assert (code, err) == (
         2,
         [f"pirate-bt: {source}:2:3: not UTF-32 text, as its first four bytes say (byte 0x00)"],
     )
     # UTF-7 that decodes to half a surrogate pair
     head = '<?xml version="1.0" encoding="UTF-7"?>\n'
-    code, err = _import(tmp_path, capsys, (head + "<root a='+2D8-'/>\n").encode("ascii"))
+    code, err = run_import_cli(tmp_path, capsys, (head + "<root a='+2D8-'/>\n").encode("ascii"))
     assert (code, err) == (
         2,
         [f"pirate-bt: {source}:2:10: not UTF-7 text, as its XML declaration says (U+D83F)"],
@@ -126,7 +113,7 @@ def test_a_declared_codec_that_is_not_a_text_encoding_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     head = '<?xml version="1.0" encoding="rot13"?>\n'
-    code, err = _import(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
+    code, err = run_import_cli(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
     assert (code, err) == (
         2,
         [f"pirate-bt: {tmp_path / 't.xml'}:1:1: XML declaration: 'rot13' is not a text encoding"],
@@ -215,7 +202,7 @@ def test_the_groot2_style_call_without_a_declared_parameter_is_placed_at_7_7(
   </TreeNodesModel>
 </root>
 """
-    code, err = _import(tmp_path, capsys, text.encode())
+    code, err = run_import_cli(tmp_path, capsys, text.encode())
     assert (code, err) == (
         2,
         [
@@ -256,7 +243,7 @@ def test_the_import_hint_for_si_numbers_is_si(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     body = '<bend module="front" angle="1.57"/>'
-    code, err = _import(
+    code, err = run_import_cli(
         tmp_path,
         capsys,
         f'<root BTCPP_format="4"><BehaviorTree ID="M">{body}</BehaviorTree></root>'.encode(),
@@ -341,7 +328,7 @@ def test_an_unknown_encoding_s_long_name_is_cut(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     head = f'<?xml version="1.0" encoding="{"x" * 5000}"?>\n'
-    code, err = _import(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
+    code, err = run_import_cli(tmp_path, capsys, (head + TREE.format(text="a")).encode("ascii"))
     assert (code, err) == (
         2,
         [
@@ -357,7 +344,7 @@ def test_a_multi_byte_encoding_after_a_byte_order_mark_is_refused_located(
 ) -> None:
     text = '<?xml version="1.0" encoding="Shift_JIS"?>\n' + TREE.format(text="a")
     for data in (b"\xef\xbb\xbf" + text.encode(), text.encode("utf-16")):
-        code, err = _import(tmp_path, capsys, data)
+        code, err = run_import_cli(tmp_path, capsys, data)
         assert code == 2 and len(err) == 1
         assert err[0].startswith(
             f"pirate-bt: {tmp_path / 't.xml'}:1:1: XML declaration: the declared encoding"

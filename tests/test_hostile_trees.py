@@ -19,6 +19,7 @@ from pirate_bt.errors import InputError, ValidationFailed
 from pirate_bt.interop.btcpp import export_xml, import_xml
 from pirate_bt.robot import load_robot
 from pirate_bt.treefile import load_tree
+from tests.hostile_support import run_import_cli
 
 
 def _validate(
@@ -305,18 +306,6 @@ def _xml(body: str, main_tree: str = "A", head: str = '<?xml version="1.0"?>') -
     return f'{head}\n<root BTCPP_format="4" main_tree_to_execute="{main_tree}">\n{body}\n</root>\n'
 
 
-def _import(tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str) -> tuple[int, list[str]]:
-    source = tmp_path / "t.xml"
-    source.write_text(text, encoding="utf-8")
-    code = main(["import", "btcpp", str(source), "-o", str(tmp_path / "t.yaml")])
-    captured = capsys.readouterr()
-    assert "Traceback" not in captured.err and "internal error" not in captured.err
-    assert sorted(p.name for p in tmp_path.iterdir()) == (
-        ["t.xml"] if code else ["t.xml", "t.yaml"]
-    )
-    return code, captured.err.splitlines()
-
-
 def _at(tmp_path: Path, place: str) -> str:
     return f"pirate-bt: {tmp_path / 't.xml'}:{place}: "
 
@@ -325,7 +314,7 @@ def test_an_unknown_xml_encoding_is_located(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     head = '<?xml version="1.0" encoding="bogus-enc"?>'
-    code, err = _import(
+    code, err = run_import_cli(
         tmp_path, capsys, _xml('<BehaviorTree ID="A"><AlwaysSuccess/></BehaviorTree>', head=head)
     )
     assert (code, err) == (
@@ -376,7 +365,7 @@ def test_json_port_values_are_bounded(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str, message: str
 ) -> None:
     body = f'<BehaviorTree ID="A"><wait duration="{value}"/></BehaviorTree>'
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     assert (code, err) == (2, [_at(tmp_path, "3:22") + "wait: duration: " + message])
 
 
@@ -387,12 +376,12 @@ def test_a_chain_of_1200_subtrees_is_refused_without_recursion_error(
         f'<BehaviorTree ID="s{i}"><SubTree ID="s{i + 1}"/></BehaviorTree>' for i in range(1200)
     ]
     trees.append('<BehaviorTree ID="s1200"><SubTree ID="s0"/></BehaviorTree>')
-    code, err = _import(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
+    code, err = run_import_cli(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
     loop = " -> ".join(f"s{i}" for i in [*range(1201), 0])
     assert (code, err) == (2, [_at(tmp_path, "1203:26") + f"recursive subtree: {loop}"])
     # 200 trees, each the only node of the one before: 200 levels once expanded.
     trees = [*trees[:200], '<BehaviorTree ID="s200"><AlwaysSuccess/></BehaviorTree>']
-    code, err = _import(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
+    code, err = run_import_cli(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
     assert (code, err) == (
         2,
         [_at(tmp_path, "103:25") + "nodes nested deeper than 100 levels (subtrees included)"],
@@ -404,7 +393,7 @@ def test_xml_nested_200_deep_is_refused_at_the_element(
 ) -> None:
     body = '<BehaviorTree ID="A">' + "<Sequence>" * 200 + "<AlwaysSuccess/>"
     body += "</Sequence>" * 200 + "</BehaviorTree>"
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     assert (code, err) == (2, [_at(tmp_path, "3:1022") + "nodes nested deeper than 100 levels"])
 
 
@@ -418,7 +407,7 @@ def test_subtrees_that_double_in_xml_are_refused_at_the_element(
         for i in range(30)
     ]
     trees.append('<BehaviorTree ID="s30"><AlwaysSuccess/></BehaviorTree>')
-    code, err = _import(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
+    code, err = run_import_cli(tmp_path, capsys, _xml("\n".join(trees), main_tree="s0"))
     assert code == 2
     (line,) = err
     assert line.startswith(f"pirate-bt: {tmp_path / 't.xml'}:")
@@ -432,7 +421,7 @@ def test_xml_too_large_for_a_tree_file_is_refused_in_the_xml(
         '<BehaviorTree ID="A"><Sequence>' + "<AlwaysSuccess/>" * 50 + "</Sequence></BehaviorTree>"
     )
     monkeypatch.setattr("pirate_bt.interop.btcpp_import.MAX_NODES", 100)
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     assert (code, err) == (
         2,
         [
@@ -462,7 +451,9 @@ def test_xml_too_large_for_a_tree_file_is_refused_in_the_xml(
 def test_a_huge_xml_name_is_cut_short_in_the_message(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], node: str, message: str
 ) -> None:
-    code, err = _import(tmp_path, capsys, _xml(f'<BehaviorTree ID="A">{node}</BehaviorTree>'))
+    code, err = run_import_cli(
+        tmp_path, capsys, _xml(f'<BehaviorTree ID="A">{node}</BehaviorTree>')
+    )
     assert code == 2 and len(err) == 1
     assert message in err[0] and "..." in err[0] and len(err[0]) < len(str(tmp_path)) + 150
 
@@ -474,7 +465,7 @@ def test_a_message_names_places_in_the_xml_never_the_temporary_file(
         '<BehaviorTree ID="A"><Sequence><AlwaysSuccess name="x"/><AlwaysSuccess name="x"/>'
         "</Sequence></BehaviorTree>"
     )
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     first = f"{tmp_path / 't.xml'}:3:32"
     assert (code, err) == (
         2,
@@ -484,7 +475,7 @@ def test_a_message_names_places_in_the_xml_never_the_temporary_file(
 
 def test_an_unknown_pointer_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     body = '<BehaviorTree ID="A"><wait duration="{d}"/></BehaviorTree>'
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     assert (code, err) == (
         2,
         [_at(tmp_path, "3:22") + "unknown parameter $d (parameters: none declared)"],
@@ -522,7 +513,7 @@ def test_an_unknown_pointer_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
 def test_ids_and_models_that_would_be_misread(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, place: str, message: str
 ) -> None:
-    code, err = _import(tmp_path, capsys, _xml(body))
+    code, err = run_import_cli(tmp_path, capsys, _xml(body))
     xml = tmp_path / "t.xml"
     assert (code, err) == (2, [_at(tmp_path, place) + message.format(xml=xml)])
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -57,6 +56,7 @@ from pirate_bt.task.navigation import (
     Navigator,
     Observation,
     Step,
+    call_within,
     check_step,
     raised_at,
 )
@@ -139,20 +139,10 @@ def _decide(
     """Ask the navigator, on a thread of its own, within ``deadline_s`` of wall time:
     its step, the wall time it took, and why its answer is refused with the exception
     it raised, if it did."""
-    box: dict[str, Any] = {}
-
-    def ask() -> None:
-        try:
-            box["step"] = navigator.next_step(obs)
-        except BaseException as exc:  # a navigator's error is a result, not a crash
-            box["error"] = exc
-
     started = time.perf_counter()
-    thread = threading.Thread(target=ask, name=f"navigator {name}", daemon=True)
-    thread.start()
-    thread.join(deadline_s)
+    done, step, exc = call_within(lambda: navigator.next_step(obs), deadline_s, f"navigator {name}")
     seconds = time.perf_counter() - started
-    if thread.is_alive():
+    if not done:
         return (
             None,
             seconds,
@@ -162,12 +152,10 @@ def _decide(
             ),
             None,
         )
-    if "error" in box:
-        exc = box["error"]
+    if exc is not None:  # a navigator's error is a result, not a crash
         # the traceback is the planner's to read: kept in the result and logged
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
         return None, seconds, f"navigator {name!r} raised {type(exc).__name__}: {exc}", exc
-    step = box.get("step")
     return step, seconds, None, None
 
 

@@ -53,7 +53,8 @@ it from where the robot is (a turn where the map has no bend is refused there).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+import threading
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
@@ -141,6 +142,30 @@ def raised_at(exc: BaseException) -> str | None:
     while tb.tb_next is not None:
         tb = tb.tb_next
     return f"{tb.tb_frame.f_code.co_filename}:{tb.tb_lineno}"
+
+
+def call_within(
+    call: Callable[[], Any], deadline_s: float, name: str
+) -> tuple[bool, Any, BaseException | None]:
+    """Run planner code (a navigator's decision, its map check) on a daemon thread of
+    its own, for at most ``deadline_s`` of wall time: ``(True, value, None)`` when it
+    returned, ``(True, None, exception)`` when it raised (anything, handed to the
+    caller's thread), ``(False, None, None)`` when it is still running (left to run:
+    it holds nothing of ours)."""
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["value"] = call()
+        except BaseException as exc:  # planner code's error is the caller's to judge
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name=name, daemon=True)
+    thread.start()
+    thread.join(deadline_s)
+    if thread.is_alive():
+        return False, None, None
+    return True, box.get("value"), box.get("error")
 
 
 def _json_value(value: object) -> bool | int | float | str:

@@ -24,7 +24,6 @@ as keyword arguments (the command line's ``--param KEY=VALUE``, as text).
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable, Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -33,7 +32,7 @@ from typing import Any
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
-from pirate_bt.task.navigation import Navigator, Observation, Step, raised_at
+from pirate_bt.task.navigation import Navigator, Observation, Step, call_within, raised_at
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
 
@@ -302,7 +301,13 @@ def check_navigator_map(
         if deadline_s is None:
             check_map(network)
         else:
-            _within(lambda: check_map(network), deadline_s, name)
+            done, _, raised = call_within(
+                lambda: check_map(network), deadline_s, f"check_map {name}"
+            )
+            if not done:
+                raise InputError(f"check_map took longer than its {deadline_s:g} s deadline")
+            if raised is not None:
+                raise raised
     except (ValueError, TypeError, InputError) as exc:
         raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
     except Exception as exc:  # the navigator's own error, one located line
@@ -313,26 +318,6 @@ def check_navigator_map(
             f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
             + (f" (at {where})" if where else "")
         ) from None
-
-
-def _within(check: Callable[[], object], deadline_s: float, name: str) -> None:
-    """Run ``check`` on a daemon thread, at most ``deadline_s`` of wall time; what it
-    raises is raised here. A late check is left running (it holds nothing of ours)."""
-    box: dict[str, BaseException] = {}
-
-    def run() -> None:
-        try:
-            check()
-        except BaseException as exc:  # handed to the caller's thread
-            box["error"] = exc
-
-    thread = threading.Thread(target=run, name=f"check_map {name}", daemon=True)
-    thread.start()
-    thread.join(deadline_s)
-    if thread.is_alive():
-        raise InputError(f"check_map took longer than its {deadline_s:g} s deadline")
-    if "error" in box:
-        raise box["error"]
 
 
 def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
