@@ -204,23 +204,15 @@ def supervised_runner(
         max_time_s=max_time_s,
         realtime=realtime,
         safe_state=safe_state if supervisor is not None else None,
-        paused=(lambda: _paused(supervisor)) if supervisor is not None else None,
+        # an e-stop or a safe state nobody attached can release ends the run (halted,
+        # asked first); one an operator can release pauses the tree until they do
+        paused=(lambda: supervisor.tree_paused) if supervisor is not None else None,
         halted=(lambda: supervisor.run_halted) if supervisor is not None else None,
         setup_timeout_s=setup_timeout_s,
     )
     if supervisor is not None:
         runner.add_pre_tick(lambda _info: supervisor.tick())
     return runner
-
-
-def _paused(supervisor: Any) -> bool:
-    """The tree waits while the operator has it (manual) or an e-stop is latched, but an
-    e-stop with no operator input attached is released by nobody: the tree then ticks,
-    its commands are refused (``estop_latched``) and the run fails at once, naming the
-    e-stop, instead of waiting out its time limit."""
-    if not supervisor.tree_paused:
-        return False
-    return not supervisor.estopped or bool(supervisor.operator_attached)
 
 
 def run_on(
