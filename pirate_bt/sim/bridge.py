@@ -30,7 +30,6 @@ sticks, a board that resets (motors off, readings missing for
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Iterable
 
 from pirate_bt.errors import FrameError
@@ -41,7 +40,6 @@ from pirate_bt.link.codec import (
     Ack,
     AckStatus,
     BoardCounters,
-    BoardStatus,
     BridgeFlags,
     Counters,
     FrameCodec,
@@ -60,15 +58,13 @@ from pirate_bt.robot.commands import CommandCodec, MotorCommand, RawSetpoint
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.state import StateBuilder
 from pirate_bt.sim.bridge_faults import ActiveFault, FaultsMixin
+from pirate_bt.sim.bridge_state import MAX_PENDING_BYTES, StateFramesMixin
 from pirate_bt.sim.counters import EventKind, SimCounters
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = ["FIRMWARE_VERSION", "MAX_PENDING_BYTES", "SimBridge"]
 
 _log = logging.getLogger(__name__)
-
-MAX_PENDING_BYTES = 1 << 16
-"""Bytes the bridge queues for a host that does not read before it drops state frames."""
 
 FIRMWARE_VERSION = 0x5101
 """Firmware number the simulated bridge reports in HELLO_REPLY (0x5000-0x5FFF: simulated)."""
@@ -87,7 +83,7 @@ def _stop_commands(robot: RobotDescription) -> list[MotorCommand]:
     return out
 
 
-class SimBridge(FaultsMixin):
+class SimBridge(StateFramesMixin, FaultsMixin):
     """The simulated bridge: bytes in, bytes out, physics stepped per state period.
 
     Args:
@@ -505,75 +501,6 @@ class SimBridge(FaultsMixin):
             EventKind.WATCHDOG, "host silent: drives and rotation stopped, clamps held"
         )
         _log.warning("watchdog: host silent for %.3f s", now_s - self._last_rx_s)
-
-    def _send_state(self) -> None:
-        if self._link_lost:
-            return
-        if len(self._out) > MAX_PENDING_BYTES:
-            # nobody reads: like a full serial buffer, newer frames are lost
-            self.state_frames_unread += 1
-            return
-        values = self.model.reading_values()
-        for index, frozen in self._stuck.items():
-            values[index] = frozen
-        if self._resetting or self._dropout:
-            last = self._last_raw
-            mask = 0
-            resetting = self._resetting
-            dropout = self._dropout
-            for i, raw_value in enumerate(self._encode(values)):
-                if i in dropout or self._channel_board[i] in resetting:
-                    continue
-                last[i] = raw_value
-                mask |= 1 << i
-            raw = tuple(last)
-            self._raw_tuple = None  # the next unfaulted frame encodes afresh
-        elif values == self._encoded_from and self._raw_tuple is not None:
-            # Nothing changed since the last frame (the common case when the robot waits
-            # or drives through a plain piece): the raw values are the same tuple, which
-            # lets the codec reuse the packed frame.
-            raw = self._raw_tuple
-            mask = self._all_fresh
-        else:
-            self._last_raw = last = self._encode(values)
-            raw = self._raw_tuple = tuple(last)
-            mask = self._all_fresh
-        status = self._status_cache
-        if status is None:
-            status = self._status_cache = tuple(
-                int(
-                    (BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE)
-                    | (BoardStatus.MOTORS_OFF if board in self._motors_off else BoardStatus.NONE)
-                )
-                for board in self._boards
-            )
-        flags = self._flags()
-        self._state_seq = (self._state_seq + 1) & 0xFFFF
-        self._out += self.codec.encode_state(
-            self._state_seq, flags, self._ack_seq, mask, status, raw
-        )
-        self.state_frames_sent += 1
-
-    def _encode(self, values: list[float]) -> list[int]:
-        """SI readings -> raw int16 values with the robot's conversions (saturating)."""
-        previous = self._encoded_from
-        if len(previous) != len(values):
-            previous = [math.nan] * len(values)
-        out = self._encoded or [0] * len(values)
-        out = list(out)
-        for i, value in enumerate(values):
-            if value == previous[i]:
-                continue  # unchanged channel: same raw value as last frame
-            zero, inv, lo, hi = self._conversions[i]
-            raw = round(value * inv + zero)
-            out[i] = lo if raw < lo else hi if raw > hi else raw
-        self._encoded_from = values
-        self._encoded = out
-        return list(out)
-
-    def encode_readings(self, readings: dict[str, float]) -> list[int | None]:
-        """The robot's :meth:`StateBuilder.encode` of SI readings by channel name."""
-        return self._states.encode(readings)
 
     # -- figures --------------------------------------------------------------------
 
