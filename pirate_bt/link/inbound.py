@@ -18,6 +18,7 @@ from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
+    BoardStatus,
     BridgeFlags,
     BridgeHeartbeat,
     BulkSetpoints,
@@ -37,6 +38,7 @@ __all__ = ["InboundMixin"]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
+_FAULT = int(BoardStatus.FAULT)
 
 
 class InboundMixin:
@@ -64,6 +66,8 @@ class InboundMixin:
     _accept_any_state: bool
     _state: State | None
     _state_at_s: float
+    _board_status: tuple[int, ...]
+    _faulted: tuple[int, ...]
     _rtt_s: float
 
     # the send side, in the session
@@ -227,6 +231,10 @@ class InboundMixin:
         self._state = item
         self._state_at_s = now
         self._flags = item.flags
+        status = item.board_status
+        if status != self._board_status:  # a tuple compare: a board's status changed
+            self._board_status = status
+            self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)
         ordered = self._ordered
         if (
             ordered is not None

@@ -234,6 +234,11 @@ class SessionStats:
         cancelled: Requests cancelled by an e-stop.
         estop_input: The bridge reports its hardware e-stop input pressed, or that the
             input latched the e-stop (protocol 1.2 sessions only; always false in 1.1).
+        bus_fault: The bridge reports ``BUS_FAULT``: its last whole RS485 poll cycle
+            failed (no board answered).
+        faulted: Positions, in the STATE frame's board order (ascending id), of the
+            boards whose status has ``FAULT`` (an H-bridge fault or over-current) in
+            the latest STATE.
     """
 
     connected: bool
@@ -253,3 +258,5 @@ class SessionStats:
     stale: int = 0
     cancelled: int = 0
     estop_input: bool = False
+    bus_fault: bool = False
+    faulted: tuple[int, ...] = ()

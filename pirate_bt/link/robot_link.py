@@ -57,6 +57,7 @@ _HEALTH_FIGURES = attrgetter(
     "completed",
     "_flags",
     "bridge_resets",
+    "_faulted",
 )
 
 
@@ -285,13 +286,27 @@ class RobotLink:
         session = self.session
         if session.threaded:
             # A reader thread mutates the session: take its consistent, locked snapshot.
-            return _health_of(session.stats())
+            stats = session.stats()
+            return _health_of(stats, self._board_ids_at(stats.faulted))
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
         figures = _HEALTH_FIGURES(session)
         if figures == self._health_figures:
             return self._health
-        lost, closed, heard_s, rtt_s, crc, retries, failed, dups, completed, flags, resets = figures
+        (
+            lost,
+            closed,
+            heard_s,
+            rtt_s,
+            crc,
+            retries,
+            failed,
+            dups,
+            completed,
+            flags,
+            resets,
+            faulted,
+        ) = figures
         if completed != self._loss_completed:
             recent = session._recent
             self._loss_ratio = (sum(recent) / len(recent)) if recent else 0.0
@@ -309,8 +324,15 @@ class RobotLink:
             estopped=bool(flags & BridgeFlags.ESTOP),
             estop_input=bool(flags & BridgeFlags.ESTOP_INPUT),
             bridge_resets=resets,
+            bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
+            faulted_boards=self._board_ids_at(faulted),
         )
         return self._health
+
+    def _board_ids_at(self, positions: tuple[int, ...]) -> tuple[int, ...]:
+        """Board ids at positions of the STATE frame's board order."""
+        ids = self._board_ids
+        return tuple(ids[i] for i in positions if i < len(ids))
 
     def close(self) -> None:
         """Stop the drive motors if the link still works, then release the transport."""
@@ -341,7 +363,7 @@ class RobotLink:
         self.close()
 
 
-def _health_of(s: SessionStats) -> LinkHealth:
+def _health_of(s: SessionStats, faulted_boards: tuple[int, ...]) -> LinkHealth:
     return LinkHealth(
         connected=s.connected,
         last_heard_s=s.last_heard_s,
@@ -354,6 +376,8 @@ def _health_of(s: SessionStats) -> LinkHealth:
         estopped=s.estopped,
         estop_input=s.estop_input,
         bridge_resets=s.bridge_resets,
+        bus_fault=s.bus_fault,
+        faulted_boards=faulted_boards,
     )
 
 

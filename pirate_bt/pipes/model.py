@@ -182,7 +182,9 @@ class StartSpec(_Model):
     roll: Angle = Field(0.0, description="roll of both halves at the start (0 = bending plane up)")
 
 
-FaultKind = Literal["motor_stall", "sensor_dropout", "sensor_stuck", "board_reset", "link_loss"]
+FaultKind = Literal[
+    "motor_stall", "sensor_dropout", "sensor_stuck", "board_reset", "board_fault", "link_loss"
+]
 
 
 class FaultSpec(_Model):
@@ -196,7 +198,7 @@ class FaultSpec(_Model):
     target: str | None = Field(
         None,
         description="motor name (motor_stall), sensor channel name (sensor_*), board id"
-        " (board_reset); none for link_loss",
+        " (board_reset, board_fault); none for link_loss",
     )
 
 

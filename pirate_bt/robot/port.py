@@ -39,6 +39,10 @@ class LinkHealth:
             input latched the e-stop (protocol 1.2; a 1.1 bridge never says so).
         bridge_resets: Bridge resets seen in the middle of the session (a bridge
             boots latched, and the host does not release that latch).
+        bus_fault: The bridge reports ``BUS_FAULT``: no board answered its last whole
+            RS485 poll cycle.
+        faulted_boards: Ids of the boards whose latest status has ``FAULT`` (an
+            H-bridge fault or over-current: the board cannot drive its motors).
     """
 
     connected: bool
@@ -52,6 +56,8 @@ class LinkHealth:
     estopped: bool = False
     estop_input: bool = False
     bridge_resets: int = 0
+    bus_fault: bool = False
+    faulted_boards: tuple[int, ...] = ()
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""

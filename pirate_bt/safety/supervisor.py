@@ -267,7 +267,28 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                 f"nothing heard from the bridge for {silent:.3f} s"
                 f" (allowed {self.robot.safety.max_link_silence:.3f} s)",
             )
+        if health.faulted_boards:
+            return Problem(Reason.BOARD_FAULT, self._board_fault_detail(health.faulted_boards))
+        if health.bus_fault:
+            return Problem(
+                Reason.BUS_FAULT,
+                "the bridge reports BUS_FAULT: no board answered its last whole RS485"
+                " poll cycle (the boards' power or the bus)",
+            )
         return None
+
+    def _board_fault_detail(self, boards: tuple[int, ...]) -> str:
+        """Name the boards in ``FAULT`` and what they carry."""
+        parts = []
+        for board in boards:
+            motors = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+            parts.append(f"{board} ({', '.join(motors)})" if motors else str(board))
+        which = "board" if len(boards) == 1 else "boards"
+        verb = "reports" if len(boards) == 1 else "report"
+        return (
+            f"{which} {'; '.join(parts)} {verb} FAULT (an H-bridge fault or over-current):"
+            " its motors cannot be driven"
+        )
 
     def add_listener(self, listener: VerdictListener) -> None:
         """Call ``listener(verdict)`` for every verdict from now on (the trace uses this)."""
@@ -325,7 +346,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                 if not self.in_safe_state:
                     cause = f"{problem.reason}: {problem.detail}"
                     self.safe_state(cause, error=LinkError(cause))
-                return
+                if problem.reason not in (Reason.BOARD_FAULT, Reason.BUS_FAULT):
+                    return
+                # the link works: the protective hold below may still reach the boards
+                # that are not in fault (a clamp board in FAULT lets its half go limp)
             state = self.port.state()
             if state is None:
                 return

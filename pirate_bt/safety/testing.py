@@ -73,6 +73,8 @@ class FakePort:
         self.estops = 0
         self.estopped = False
         self.connected = True
+        self.faulted_boards: tuple[int, ...] = ()  # boards reporting FAULT
+        self.bus_fault = False  # the bridge reporting BUS_FAULT
         self.fail_send = False
         self.poll_error: LinkError | None = None
         self.last_heard_s: float | None = None
@@ -191,7 +193,13 @@ class FakePort:
 
     def health(self) -> LinkHealth:
         heard = self.clock.now() if self.last_heard_s is None else self.last_heard_s
-        return LinkHealth(connected=self.connected, last_heard_s=heard, estopped=self.estopped)
+        return LinkHealth(
+            connected=self.connected,
+            last_heard_s=heard,
+            estopped=self.estopped,
+            bus_fault=self.bus_fault,
+            faulted_boards=self.faulted_boards,
+        )
 
     def close(self) -> None:
         self.closed = True

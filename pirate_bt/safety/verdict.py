@@ -130,6 +130,8 @@ class Reason(StrEnum):
     # link and data
     LINK_DOWN = "link_down"
     LINK_SILENT = "link_silent"
+    BOARD_FAULT = "board_fault"
+    BUS_FAULT = "bus_fault"
     LINK_ERROR = "link_error"
     NO_STATE = "no_state"
     STALE_STATE = "stale_state"

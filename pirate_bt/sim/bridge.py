@@ -146,6 +146,8 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         self._input_tripped = False
         self._resetting: set[int] = set()
         self._held_setpoints: dict[int, list[MotorCommand]] = {}  # a board's, over its reset
+        # a board in FAULT: the setpoint each of its motors holds, off while it lasts
+        self._faulted: dict[int, dict[str, MotorCommand | None]] = {}
         self._link_lost = False
         self._lost_partial = False  # bytes of an unfinished frame were lost to the link loss
         self._boot()
@@ -430,7 +432,9 @@ class SimBridge(StateFramesMixin, FaultsMixin):
     def _estop_reset(self) -> AckStatus | NackCode:
         if not self.estopped:
             return AckStatus.APPLIED
-        if self._resetting:  # a board in TIMEOUT: no confirming its motors are held
+        if self._resetting or self._faulted:
+            # a board in TIMEOUT or FAULT: no confirming its motors are held (the
+            # firmware bridge's rule, firmware/piratebay/protocol.c)
             return NackCode.NOT_READY
         if self.estop_input:  # the button is still pressed
             return NackCode.NOT_READY

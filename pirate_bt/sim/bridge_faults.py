@@ -1,10 +1,13 @@
-"""Faults of the simulated bridge and its boards: stalls, sensor dropouts, board resets, link loss.
+"""Faults of the simulated bridge and its boards: stalls, sensor dropouts, board resets and
+faults, link loss.
 
 :class:`FaultsMixin` is the fault side of :class:`~pirate_bt.sim.bridge.SimBridge`:
 it checks a fault's target against the robot, keeps the schedule, and starts and
 ends each fault at its simulated time (a stalled motor, a sensor that drops out or
 sticks, a board that resets: motors off, readings missing, setpoints refused with
-``BUS_ERROR`` for ``bridge.reset_time``; link loss: nothing in, nothing out).
+``BUS_ERROR`` for ``bridge.reset_time``; a board fault, an H-bridge fault or
+over-current: the board answers with ``FAULT`` in its status and its motors are off
+while it lasts; link loss: nothing in, nothing out).
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ class FaultsMixin:
     _active: list[ActiveFault]
     _resetting: set[int]
     _held_setpoints: dict[int, list[MotorCommand]]
+    _faulted: dict[int, dict[str, MotorCommand | None]]
     _dropout: set[int]
     _stuck: dict[int, float]
     _link_lost: bool
@@ -106,6 +110,27 @@ class FaultsMixin:
         for fault in [f for f in self._active if f.end_s <= now_s]:
             self._active.remove(fault)
             self._end_fault(fault)
+        if self._faulted:
+            self._hold_faulted()
+
+    def _hold_faulted(self) -> None:
+        """Keep a faulted board's motors off before the physics steps.
+
+        The bridge still delivers setpoints to a board in ``FAULT`` (only a board in
+        ``TIMEOUT`` cannot be reached), and the board takes them, but its H-bridge is
+        off: each setpoint that came since the last step is kept as the one the board
+        holds, and its motor is switched off again.
+        """
+        model = self.model
+        for held in self._faulted.values():
+            off = []
+            for name in held:
+                command = model.setpoint(name)
+                if command is not None:
+                    held[name] = command
+                    off.append(name)
+            if off:
+                model.motors_off(off)
 
     def _start_fault(self, fault: ActiveFault) -> None:
         spec = fault.spec
@@ -123,15 +148,25 @@ class FaultsMixin:
             board = int(target)
             self._resetting.add(board)
             self._status_cache = None
-            names = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+            names = self._board_motors(board)
             # The bridge keeps its setpoints for the board's motors and hands them to
             # it at every exchange (firmware/piratebay/poller.c), so the board gets them
             # back as soon as it answers again: its clamp comes back.
             held = [self.model.setpoint(name) for name in names]
             self._held_setpoints[board] = [c for c in held if c is not None]
             self.model.motors_off(names)
+        elif spec.kind == "board_fault":
+            board = int(target)
+            self._status_cache = None
+            holds = self._faulted.setdefault(board, {})
+            for m in self._board_motors(board):
+                holds.setdefault(m, None)
+            self._hold_faulted()
         elif spec.kind == "link_loss":
             self._link_lost = True
+
+    def _board_motors(self, board: int) -> list[str]:
+        return [m.name for b in self.robot.boards if b.id == board for m in b.motors]
 
     def _is_bend(self, motor: str) -> bool:
         return self.robot.motor(motor).function is MotorFunction.BEND
@@ -155,6 +190,16 @@ class FaultsMixin:
                     # a stop of the bridge's during the reset set the drives' and the
                     # rotation's stop setpoints (kept); a bend joint keeps its own
                     self.model.command(command)
+        elif spec.kind == "board_fault":
+            board = int(target)
+            if any(f.spec.kind == "board_fault" and f.spec.target == target for f in self._active):
+                return  # another fault of the same board goes on
+            self._status_cache = None
+            # the H-bridge is back on: the board drives its motors to the setpoints it
+            # holds (the latest it was given, a stop's included)
+            for kept in self._faulted.pop(board, {}).values():
+                if kept is not None:
+                    self.model.command(kept)
         elif spec.kind == "link_loss":
             self._link_lost = False
             self._lost_partial = False

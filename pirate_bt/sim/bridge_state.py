@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from pirate_bt.link.codec import BoardStatus, BridgeFlags, FrameCodec
+from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.state import StateBuilder
 from pirate_bt.sim.model import PipeRobotModel
 
@@ -39,6 +40,7 @@ class StateFramesMixin:
     _raw_tuple: tuple[int, ...] | None
     _status_cache: tuple[int, ...] | None
     _resetting: set[int]
+    _faulted: dict[int, dict[str, MotorCommand | None]]
     _motors_off: set[int]
     _dropout: set[int]
     _stuck: dict[int, float]
@@ -89,6 +91,7 @@ class StateFramesMixin:
                 int(
                     (BoardStatus.TIMEOUT if board in self._resetting else BoardStatus.ONLINE)
                     | (BoardStatus.MOTORS_OFF if board in self._motors_off else BoardStatus.NONE)
+                    | (BoardStatus.FAULT if board in self._faulted else BoardStatus.NONE)
                 )
                 for board in self._boards
             )

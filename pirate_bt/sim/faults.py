@@ -72,7 +72,7 @@ def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
                 f"fault {fault.kind}: unknown state channel {target!r}"
                 f" (channels: {_known(channels)})"
             )
-    elif fault.kind == "board_reset":
+    elif fault.kind in ("board_reset", "board_fault"):
         boards = robot.board_ids()
         if (
             target is None
@@ -80,7 +80,7 @@ def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
             or int(target) not in boards
         ):
             raise FaultTargetError(
-                f"fault board_reset: unknown board {target!r}"
+                f"fault {fault.kind}: unknown board {target!r}"
                 f" (boards: {_known([str(b) for b in boards])})"
             )
 
