@@ -13,6 +13,7 @@ tee is passed straight through after a re-plan.
 from __future__ import annotations
 
 import math
+import shlex
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -121,6 +122,19 @@ def test_network_perturb_command(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert not bad.exists()
     err = capsys.readouterr().err
     assert "--slope" in err and "--length" in err and "not a tee or a bend" in err
+
+
+def test_the_perturb_header_command_writes_the_same_file(tmp_path: Path) -> None:
+    # the header named only the map and the seed: with --scale 2 it wrote another file
+    out = tmp_path / "v5.yaml"
+    argv = ["network", "perturb", "lab", "--seed", "5", "--scale", "2", "--slope", "5 deg"]
+    assert main([*argv, "-o", str(out)]) == 0
+    line = next(x for x in out.read_text().splitlines() if "Written by:" in x)
+    command = shlex.split(line.split("Written by: pirate-bt ", 1)[1])
+    assert "--scale" in command and "5 deg" in command
+    again = tmp_path / "again.yaml"
+    assert main([*command, "-o", str(again)]) == 0
+    assert again.read_bytes() == out.read_bytes()
 
 
 # -- the lab route on 20 as-built variants ---------------------------------------------

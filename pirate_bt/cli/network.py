@@ -11,6 +11,7 @@ output. Give the result to ``pirate-bt mission ROUTE --sim OUT --network MAP``.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 from typing import Any
@@ -119,6 +120,29 @@ def _write(text: str, output: Path | None) -> None:
     print(f"wrote {output}", file=sys.stderr)
 
 
+_BOUND_OPTIONS = (
+    ("length", "--length", "10%"),
+    ("length_max", "--length-max", "0.5 m"),
+    ("slope", "--slope", "3 deg"),
+    ("diameter", "--diameter", "5%"),
+    ("scale", "--scale", 1.0),
+    ("robot", "--robot", None),
+)
+"""The perturb options that change the variant, with their defaults (``configure``)."""
+
+
+def _bound_options(args: argparse.Namespace) -> str:
+    """The options given that change the variant, as they would be typed again, so that
+    the header's command writes the same file."""
+    out = ""
+    for attr, option, default in _BOUND_OPTIONS:
+        value = getattr(args, attr)
+        if value != default:
+            shown = f"{value:g}" if isinstance(value, float) else str(value)
+            out += f" {option} {shlex.quote(shown)}"
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
@@ -131,7 +155,8 @@ def run(args: argparse.Namespace) -> int:
             spec = perturb_network(network.spec, args.seed, bounds)
             header = (
                 f"As-built variant {args.seed} of {network.source}: {bounds.describe()}.\n"
-                f"Written by: pirate-bt network perturb {args.map} --seed {args.seed}"
+                f"Written by: pirate-bt network perturb {shlex.quote(args.map)} --seed {args.seed}"
+                f"{_bound_options(args)}"
             )
         elif args.action == "remove":
             spec = remove_feature(network.spec, args.feature)
