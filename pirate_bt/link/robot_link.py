@@ -415,7 +415,8 @@ def wrap_link(
 
     Raises:
         ProtocolMismatch: other protocol version or layout.
-        LinkTimeout: no answer to HELLO.
+        LinkTimeout: no answer to HELLO, or the release of the boot latch never
+            acknowledged.
         InputError: a malformed fault spec.
     """
     byte_link: ByteLink
@@ -469,11 +470,20 @@ def wrap_link(
             session.take_failures()
             if req.outcome is Outcome.ACKED:
                 _log.info("released the latch the bridge booted with")
-            else:
+            elif req.outcome is Outcome.NACKED:
+                # a refusal: the latch stays and is reported as a latched e-stop
                 _log.warning(
                     "the bridge's boot latch was not released: %s %s",
                     req.outcome.value,
                     req.nack.name if req.nack else "",
+                )
+            else:
+                # never acknowledged (the round trip outlasts the retry budget, or the
+                # link failed): a link error, not an e-stop the operator has to reset
+                session.close()
+                raise LinkTimeout(
+                    "the bridge did not acknowledge the release of its boot latch within "
+                    f"{cfg.give_up_s:.3g} s ({req.outcome.value}; round trip too long?)"
                 )
         else:
             _log.warning("the bridge's e-stop is latched (from an earlier session); reset it")
