@@ -2,15 +2,22 @@
 
 1. A round trip longer than the retry budget made the unacknowledged release of the
    bridge's boot latch look like a latched e-stop (exit 1) instead of a link error.
+2. A jittery link delivered a boot STATE (``NO_SESSION``) after the ``HELLO_REPLY``: the
+   host counted a bridge reset, failed the boot latch release and the run stopped latched.
 """
 
 from __future__ import annotations
 
+import logging
+
 import pytest
+from session_wire import LOG, Wire, messages, reply, state
 
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import LinkTimeout
+from pirate_bt.link.codec import BridgeFlags, Hello
+from pirate_bt.link.requests import Outcome, Request
 
 # -- 1. the boot latch release never acknowledged is a link error ----------------------------
 
@@ -45,3 +52,47 @@ def test_the_cli_exits_3_when_the_boot_latch_release_is_not_acknowledged(
     err = capsys.readouterr().err
     assert "boot latch" in err
     assert "e-stop: the bridge reports its e-stop latched" not in err
+
+
+# -- 2. a stale NO_SESSION frame after the HELLO_REPLY is not a bridge reset -----------------
+
+
+def _stale_no_session_after_the_reply(boot_id: int) -> tuple[Wire, Request, Hello]:
+    wire = Wire(hello=reply(flags=BridgeFlags.ESTOP, sessions=1))
+    release = wire.session.estop_reset()
+    wire.poll()
+    # a boot STATE sent before the bridge took the HELLO, delivered after its reply
+    wire.answer(state(3, flags=BridgeFlags.NO_SESSION | BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    assert release.outcome is Outcome.FAILED
+    hello = wire.sent()[-1]
+    assert isinstance(hello, Hello)
+    wire.answer(reply(seq=hello.seq, flags=BridgeFlags.ESTOP, sessions=2, boot_id=boot_id))
+    wire.poll()
+    return wire, release, hello
+
+
+def test_a_stale_no_session_frame_is_not_counted_as_a_bridge_reset(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.WARNING, logger=LOG)
+    wire, _, _ = _stale_no_session_after_the_reply(boot_id=7)  # the same boot
+    stats = wire.session.stats()
+    assert (stats.bridge_resets, stats.sessions, stats.estopped) == (0, 2, True)
+    assert (
+        logging.WARNING,
+        "a stale NO_SESSION frame (reordered link?) started a new session;"
+        " the bridge was not reset (boot id 7 unchanged)",
+    ) in messages(caplog)
+
+
+def test_a_genuine_reset_under_the_boot_latch_release_is_still_counted() -> None:
+    wire, _, _ = _stale_no_session_after_the_reply(boot_id=8)  # another boot
+    assert wire.session.stats().bridge_resets == 1
+
+
+def test_a_jittery_link_still_releases_the_boot_latch_and_runs() -> None:
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "1 m"}, network="straight", faults="jitter=150ms,seed=2"
+    )
+    assert (result.exit_code, result.why) == (0, "tree succeeded after 319 ticks")

@@ -69,6 +69,8 @@ class InboundMixin:
     _board_status: tuple[int, ...]
     _faulted: tuple[int, ...]
     _rtt_s: float
+    # the boot id when a NO_SESSION frame started a new session, until its reply
+    _reset_boot_id: int | None = None
 
     # the send side, in the session
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -79,6 +81,11 @@ class InboundMixin:
 
     def _start_session(self, now: float, why: str) -> None:
         raise NotImplementedError
+
+    @property
+    def pending_hello(self) -> Request | None:
+        """The ``HELLO`` of a new session on its way, or ``None``."""
+        return self._hello
 
     def _settle(self, req: Request, outcome: Outcome, now: float) -> None:
         if outcome is Outcome.ACKED and req.tries == 1:
@@ -194,8 +201,19 @@ class InboundMixin:
             self._refused_session(hello, "the bridge answered a new session with another layout")
             return
         previous = self.last_hello_reply
+        reset_from, self._reset_boot_id = self._reset_boot_id, None
         if previous is not None and previous.boot_id != item.boot_id:
             _log.warning("the bridge was reset (boot id %d -> %d)", previous.boot_id, item.boot_id)
+        elif reset_from == item.boot_id:
+            # The same boot: the NO_SESSION frame was stale, a boot STATE sent before the
+            # bridge took the first HELLO and delivered after its reply (a reordering
+            # link). Not a reset: not counted. What it failed stays failed.
+            self.bridge_resets -= 1
+            _log.warning(
+                "a stale NO_SESSION frame (reordered link?) started a new session;"
+                " the bridge was not reset (boot id %d unchanged)",
+                item.boot_id,
+            )
         self.last_hello_reply = item
         self.config = self.config.heeding(item.watchdog_ms)  # a new bridge may differ
         self._flags = item.flags
@@ -212,6 +230,8 @@ class InboundMixin:
         if self._hello is not None:
             return  # a new session is already on its way
         self.bridge_resets += 1
+        previous = self.last_hello_reply
+        self._reset_boot_id = None if previous is None else previous.boot_id
         _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
         self._start_session(now, "the bridge was reset")
 

@@ -41,6 +41,8 @@ from pirate_bt.robot.state import RobotState, StateBuilder
 __all__ = ["RobotLink", "open_link", "wrap_link"]
 
 _log = logging.getLogger(__name__)
+# tries of the boot latch release, when stale frames start new sessions under it
+_RELEASE_TRIES = 3
 
 # The session figures health() is made of, read in one C call. ``completed`` is there
 # because every request that enters the loss window also bumps it, so the loss ratio
@@ -466,28 +468,52 @@ def wrap_link(
         session.start_reader(cfg.poll_step_s)
     if reply.flags & BridgeFlags.ESTOP:
         if release_boot_latch and reply.sessions == 1:
-            req = session.wait(session.estop_reset())
-            session.take_failures()
-            if req.outcome is Outcome.ACKED:
-                _log.info("released the latch the bridge booted with")
-            elif req.outcome is Outcome.NACKED:
-                # a refusal: the latch stays and is reported as a latched e-stop
-                _log.warning(
-                    "the bridge's boot latch was not released: %s %s",
-                    req.outcome.value,
-                    req.nack.name if req.nack else "",
-                )
-            else:
-                # never acknowledged (the round trip outlasts the retry budget, or the
-                # link failed): a link error, not an e-stop the operator has to reset
+            try:
+                _release_boot_latch(session, reply.boot_id, cfg.give_up_s)
+            except BaseException:
                 session.close()
-                raise LinkTimeout(
-                    "the bridge did not acknowledge the release of its boot latch within "
-                    f"{cfg.give_up_s:.3g} s ({req.outcome.value}; round trip too long?)"
-                )
+                raise
         else:
             _log.warning("the bridge's e-stop is latched (from an earlier session); reset it")
     return RobotLink(robot, session)
+
+
+def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> None:
+    """Release the latch the bridge booted with (see :func:`wrap_link`).
+
+    Raises:
+        LinkTimeout: the release was never acknowledged.
+    """
+    for _ in range(_RELEASE_TRIES):
+        req = session.wait(session.estop_reset())
+        session.take_failures()
+        hello = session.pending_hello
+        if req.outcome is not Outcome.FAILED or hello is None:
+            break
+        # A NO_SESSION frame started a new session while the release was in flight. Its
+        # reply with the same boot id: a stale boot frame (a reordering link), not a
+        # reset, so the latch is still the boot's own: release it again.
+        session.wait(hello)
+        last = session.last_hello_reply
+        if hello.outcome is not Outcome.ACKED or last is None or last.boot_id != boot_id:
+            break  # a genuine reset: its latch stays (an operator decides)
+        _log.info("releasing the boot latch again: a stale frame started a new session")
+    if req.outcome is Outcome.ACKED:
+        _log.info("released the latch the bridge booted with")
+    elif req.outcome is Outcome.NACKED or session.bridge_resets:
+        # refused, or the bridge reset meanwhile: the latch stays, a latched e-stop
+        _log.warning(
+            "the bridge's boot latch was not released: %s %s",
+            req.outcome.value,
+            req.nack.name if req.nack else "",
+        )
+    else:
+        # never acknowledged (the round trip outlasts the retry budget, or the link
+        # failed): a link error, not an e-stop the operator has to reset
+        raise LinkTimeout(
+            "the bridge did not acknowledge the release of its boot latch within "
+            f"{give_up_s:.3g} s ({req.outcome.value}; round trip too long?)"
+        )
 
 
 def open_link(
