@@ -239,6 +239,8 @@ class Drive(Primitive):
         self._bad_distance: str | None = None
         self.sensed: str | None = None
         """What ended the drive early (``blocked``, ``front_opening``), if anything."""
+        self.sensed_after_m: float | None = None
+        """How far the drive had travelled when it sensed what ended it (``sensed``)."""
         if p.distance_key:
             name = p.distance_key if p.distance_key.startswith("/") else "/" + p.distance_key
             value = py_trees.blackboard.Blackboard.storage.get(name)
@@ -511,6 +513,7 @@ class Drive(Primitive):
                 if p.until == "blocked" or p.stop_at_feature:
                     self.feedback_message = f"blocked after {travelled:.3f} m"
                     self.sensed = "blocked"
+                    self.sensed_after_m = travelled
                     return Status.SUCCESS
                 return self.fail(
                     f"blocked: every drive draws stall current after {travelled:.3f} m"

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 __all__ = [
     "Disagreement",
     "Fix",
+    "ShortLeg",
     "Vec3",
     "angle_between",
     "cross",
@@ -97,6 +98,27 @@ class Fix:
     def drift_per_m(self) -> float:
         """The correction per metre driven since the previous fix (map error plus odometry)."""
         return self.correction_m / self.since_fix_m if self.since_fix_m > 0 else 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class ShortLeg:
+    """A forward straight leg that stopped blocked short of the distance it was to drive.
+
+    Attributes:
+        leg: The PAB's node name (``03 inspect 2 m (line 3)``).
+        asked_m: The distance it was given when it started.
+        travelled_m: How far its drive had travelled when it was blocked.
+        takes: The turn the route takes next (segment id; ``None`` when the next PAB
+            past the straights is no turn): a block there is that turn, met early.
+        to_end: The leg goes to the end of the line (a block near the map's end is
+            taken for it).
+    """
+
+    leg: str
+    asked_m: float
+    travelled_m: float
+    takes: str | None
+    to_end: bool
 
 
 @dataclass(frozen=True, slots=True)

@@ -52,12 +52,13 @@ import logging
 import math
 from collections.abc import Callable
 
-from pirate_bt.pipes.network import PieceKind
+from pirate_bt.pipes.network import Piece, PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.task.fixes import (
     Disagreement,
     Fix,
+    ShortLeg,
     Vec3,
     angle_between,
     cross,
@@ -395,18 +396,25 @@ class Localiser:
                 )
                 return
 
-    def blocked(self, time_s: float) -> None:
+    def blocked(self, time_s: float, cut: ShortLeg | None = None) -> None:
         """A forward leg stopped *blocked* (every wheel at stall current, no progress),
         the front tip at the belief: the map must have a feature or the line's end
         within the reach of some part of the robot. If not, the pipe turns (or ends)
         where the map has it go on: a disagreement, named before any turn is tried
         (a tee whose main and branch are swapped in the ground leads into the other
-        pipe, which turns where the map has none)."""
+        pipe, which turns where the map has none).
+
+        ``cut``: the leg stopped short of its distance (see :meth:`_cut_short`)."""
         if self.mismatch is not None:
             return
         reach = self.reach()
         front, rear = self.belief_m, self.belief_m - self.plan.robot_length_m
-        if front >= self.plan.path.length_m - reach:
+        placed = self.window_m + self.drift_per_m * self.since_fix_m
+        # A leg cut short is explained by a turn (an end) where the map has it, to the
+        # belief's own error (``placed``); further on, only as :meth:`_cut_short` says.
+        end_m = self.plan.path.length_m
+        at_end = front >= end_m - reach
+        if at_end and (cut is None or cut.to_end or end_m - front <= placed):
             return
         # A feature up to the last one fixed on is placed by that fix: only odometry
         # since then separates it from the robot, not the map's lengths (a turn already
@@ -415,13 +423,18 @@ class Localiser:
         fixed_end_m = max(
             (p.end_m for p in self.plan.path.pieces if p.segment == last), default=-math.inf
         )
-        placed = self.window_m + self.drift_per_m * self.since_fix_m
+        near: list[Piece] = []
         for piece in self.plan.path.pieces:
             slack = placed if piece.end_m <= fixed_end_m else reach
             if piece.angle_rad > 0 and (  # a tee passed straight through blocks nothing
                 piece.start_m - slack <= front and rear <= piece.end_m + slack
             ):
-                return
+                if cut is None or piece.segment == cut.takes or piece.start_m - front <= placed:
+                    return
+                near.append(piece)
+        if cut is not None and (near or at_end):
+            self._cut_short(time_s, cut, near[0] if near else None, reach)
+            return
         after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""
         self.mismatch = (
             f"belief and map disagree: the pipe blocked the robot at {front:.2f} m"
@@ -443,6 +456,34 @@ class Localiser:
             reach,
             None,
         )
+
+    def _cut_short(self, time_s: float, cut: ShortLeg, piece: Piece | None, reach: float) -> None:
+        """A leg blocked short of its distance near a turn (or the end) the map has further
+        on, not the turn the route takes next (whose PAB senses and crosses it), nor the
+        end of a leg to the end: the pipe turns or ends nearer than drawn."""
+        after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""
+        there = (
+            f"the turn {piece.segment!r} at {piece.start_m:.2f}-{piece.end_m:.2f} m"
+            if piece is not None
+            else f"the line's end at {self.plan.path.length_m:.2f} m"
+        )
+        self.mismatch = (
+            f"belief and map disagree: the pipe blocked the robot at {self.belief_m:.2f} m"
+            f" (believed{after}) after {cut.travelled_m:.2f} m of the {cut.asked_m:.2f} m"
+            f" that {cut.leg!r} was to drive, where the map has no turn there that the route"
+            f" takes next (the nearest is {there}): the pipe turns or ends nearer than drawn"
+        )
+        self.disagreement = Disagreement(
+            time_s,
+            self.belief_m,
+            there,
+            "the pipe blocking the way (a turn or an end) before the leg's distance",
+            f"every drive at stall current with no progress after {cut.travelled_m:.2f} m"
+            f" of {cut.asked_m:.2f} m",
+            reach,
+            piece.segment if piece is not None else None,
+        )
+        _log.warning("%s", self.mismatch)
 
     def _near_turn(self, at_m: float) -> bool:
         """Whether ``at_m`` is within a turn of the path (or the reach around one)."""

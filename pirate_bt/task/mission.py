@@ -40,9 +40,16 @@ from pirate_bt.pipes import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.runner import Runner, RunResult, StopReason
 from pirate_bt.safety.tally import Counters, VerdictTally
+from pirate_bt.task.fixes import ShortLeg
 from pirate_bt.task.localise import MAP_FRACTION, Disagreement, Fix, Localiser
 from pirate_bt.task.outcome import PabOutcome, explain_run, link_cause, map_cause, pab_outcomes
-from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, MissionPlan, PlannedPab
+from pirate_bt.task.plan import (
+    LEG_DISTANCE_KEY,
+    MAP_OK_KEY,
+    MissionPlan,
+    PlannedPab,
+    short_leg,
+)
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
 from pirate_bt.trace.coverage import Coverage, attach_coverage
@@ -151,6 +158,16 @@ def _stopped_blocked(node: Any, pab: PlannedPab | None) -> bool:
     if pab is None or pab.pab != "straight" or pab.end_m <= pab.start_m:
         return False
     return any(getattr(n, "sensed", None) == "blocked" for n in node.iterate())
+
+
+def _cut(node: Any, plan: MissionPlan, legs: list[Leg]) -> ShortLeg | None:
+    """The blocked leg ``node`` as cut short of its distance, if it was."""
+    blocked = (n for n in node.iterate() if getattr(n, "sensed", None) == "blocked")
+    travelled = getattr(next(blocked, None), "sensed_after_m", None)
+    leg = next((g for g in reversed(legs) if g.label == node.name), None)
+    if travelled is None or leg is None:
+        return None
+    return short_leg(plan, node.name, abs(leg.driven_m), travelled)
 
 
 @dataclass(frozen=True, slots=True)
@@ -418,7 +435,9 @@ def run_mission(
         if name is not None and name != current[0]:
             ended = running[0]
             if ended is not None and _stopped_blocked(ended, pabs.get(ended.name)):
-                localiser.blocked(state.stamp_s if state is not None else now)
+                localiser.blocked(
+                    state.stamp_s if state is not None else now, _cut(ended, plan, legs)
+                )
             timeline.append(TimelineEntry(now, name, localiser.belief_m, localiser.truth_m))
             start_leg(name)
             running[0] = child
@@ -463,7 +482,8 @@ def run_mission(
             # The last leg ended blocked: checked as a leg's end is when the next one
             # starts (a pipe that ends where the map has it go on is no success).
             state = supervisor.state()
-            localiser.blocked(state.stamp_s if state is not None else clock.now() - start_s)
+            time_s = state.stamp_s if state is not None else clock.now() - start_s
+            localiser.blocked(time_s, _cut(last, plan, legs))
             if localiser.mismatch is not None:
                 supervisor.safe_state(localiser.mismatch)
                 result = replace(

@@ -16,12 +16,14 @@ from typing import Any
 from pirate_bt.pipes import DIRECTION_ROLL_RAD, Network, TeeChoice
 from pirate_bt.pipes import Path as PipePath
 from pirate_bt.robot.description import RobotDescription
+from pirate_bt.task.fixes import ShortLeg
 from pirate_bt.task.route import Route, RouteStep
 
 __all__ = [
     "LEG_DISTANCE_KEY",
     "MAP_OK_KEY",
     "PAB_FILES",
+    "SHORT_LEG_M",
     "MapFeature",
     "MissionPlan",
     "PabContract",
@@ -29,10 +31,14 @@ __all__ = [
     "direction_name",
     "rear_lead_m",
     "robot_length_m",
+    "short_leg",
 ]
 
 MAP_OK_KEY = "map_ok"
 """Blackboard key the localiser clears when belief and map disagree."""
+
+SHORT_LEG_M = 0.05
+"""A forward leg blocked more than this short of its distance was cut short (:func:`short_leg`)."""
 
 LEG_DISTANCE_KEY = "leg_distance"
 """Blackboard key the mission writes, when a straight leg starts, with its distance (m)."""
@@ -220,3 +226,28 @@ def direction_name(roll_rad: float) -> str | None:
         if abs(math.remainder(roll_rad - roll, 2 * math.pi)) <= _DIRECTION_TOL_RAD:
             return direction.value
     return None
+
+
+def short_leg(plan: MissionPlan, label: str, asked_m: float, travelled_m: float) -> ShortLeg | None:
+    """The forward leg ``label``, blocked after ``travelled_m`` of the ``asked_m`` it was
+    given, as cut short (``None`` when it drove its distance, to :data:`SHORT_LEG_M`):
+    with the turn the route takes next (the first PAB past the straights and pauses,
+    when it passes a turn) and whether the leg goes to the end of the line."""
+    if asked_m - travelled_m <= SHORT_LEG_M:
+        return None
+    index = next((i for i, p in enumerate(plan.pabs) if p.label(i + 1) == label), None)
+    if index is None:
+        return None
+    pab = plan.pabs[index]
+    turns = {f.segment for f in plan.features if f.angle_rad > 0}
+    after = (p for p in plan.pabs[index + 1 :] if p.pab not in ("straight", "pause"))
+    following = next(after, None)
+    takes = following.feature if following is not None else None
+    end_m = plan.path.length_m - plan.contract.end_margin_m - 1e-3
+    return ShortLeg(
+        label,
+        asked_m,
+        travelled_m,
+        takes if takes in turns else None,
+        pab.absolute and pab.end_m >= end_m,
+    )
