@@ -4,20 +4,23 @@
    bridge's boot latch look like a latched e-stop (exit 1) instead of a link error.
 2. A jittery link delivered a boot STATE (``NO_SESSION``) after the ``HELLO_REPLY``: the
    host counted a bridge reset, failed the boot latch release and the run stopped latched.
+3. A bridge setting flag bit 4 in a 1.1 session was reported as ``estop_input``.
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import pytest
-from session_wire import LOG, Wire, messages, reply, state
+from session_wire import CONFIG, LOG, ROBOT, Wire, messages, reply, state
 
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import LinkTimeout
 from pirate_bt.link.codec import BridgeFlags, Hello
 from pirate_bt.link.requests import Outcome, Request
+from pirate_bt.link.robot_link import RobotLink
 
 # -- 1. the boot latch release never acknowledged is a link error ----------------------------
 
@@ -96,3 +99,18 @@ def test_a_jittery_link_still_releases_the_boot_latch_and_runs() -> None:
         "straight", params={"distance": "1 m"}, network="straight", faults="jitter=150ms,seed=2"
     )
     assert (result.exit_code, result.why) == (0, "tree succeeded after 319 ticks")
+
+
+# -- 3. no ESTOP_INPUT in a 1.1 session ------------------------------------------------------
+
+
+@pytest.mark.parametrize(("minor", "reported"), [(1, False), (2, True)])
+def test_the_estop_input_flag_is_read_in_a_1_2_session_only(minor: int, reported: bool) -> None:
+    config = replace(CONFIG, protocol_minor=minor)
+    wire = Wire(config=config, hello=reply(minor=minor))
+    link = RobotLink(ROBOT, wire.session)
+    wire.answer(state(1, flags=BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT))
+    wire.poll()
+    assert wire.session.stats().estop_input is reported
+    health = link.health()
+    assert (health.estop_input, health.estopped) == (reported, True)

@@ -83,6 +83,11 @@ class InboundMixin:
         raise NotImplementedError
 
     @property
+    def _minor(self) -> int:
+        """The session's protocol minor (1.1 has no ``ESTOP_INPUT``: its bits 4-7 are 0)."""
+        return self.config.protocol_minor
+
+    @property
     def pending_hello(self) -> Request | None:
         """The ``HELLO`` of a new session on its way, or ``None``."""
         return self._hello

@@ -363,7 +363,7 @@ class Session(InboundMixin):
                 sessions=self.sessions,
                 stale=self.stale,
                 cancelled=self.cancelled,
-                estop_input=bool(self._flags & BridgeFlags.ESTOP_INPUT),
+                estop_input=self._minor >= 2 and bool(self._flags & BridgeFlags.ESTOP_INPUT),
                 bus_fault=bool(self._flags & BridgeFlags.BUS_FAULT),
                 faulted=self._faulted,
             )
