@@ -121,6 +121,27 @@ def test_route_that_does_not_fit_fails_at_its_line(
     assert words in str(info.value)
 
 
+def test_two_turns_too_close_say_how_much_pipe_passing_needs(
+    tmp_path: Path, robot: RobotDescription
+) -> None:
+    # the message said "closer than the robot is long (0.52 m)" of two bends 0.60 m apart
+    net = tmp_path / "r6.yaml"
+    net.write_text(
+        "schema_version: 1\nname: r6\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: level, type: straight, length: 1 m}\n"
+        "  - {id: foot, type: bend, direction: up}\n"
+        "  - {id: riser, type: straight, length: 0.6 m}\n"
+        "  - {id: top, type: bend, direction: down}\n"
+        "  - {id: upper, type: straight, length: 1.5 m}\n"
+    )
+    with pytest.raises(LocatedError) as info:
+        plan_text("at the bend turn up\n", str(net), robot)
+    message = str(info.value)
+    assert "'foot' and 'top' are 0.60 m apart" in message
+    need = float(message.split("needs ")[1].split(" m")[0])
+    assert need > 0.6 and f"is {robot_length_m(robot):.2f} m long" in message
+
+
 def test_goal_planning_takes_the_way_through_the_junctions(robot: RobotDescription) -> None:
     lab = load_network("lab")
     plan = plan_goal(lab, "service-2", robot)

@@ -351,10 +351,14 @@ class _Walker:
                 continue
             if piece.kind in (PieceKind.BEND, PieceKind.TEE):
                 if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
+                    gap = piece.start_m - feature.end_m
+                    need = end_m - feature.end_m + self.contract.min_margin_m
                     raise LocatedError(
                         f"'{step.text}' cannot be planned: {feature.segment!r} and"
-                        f" {piece.segment!r} are closer than the robot is long"
-                        f" ({self.length_m:.2f} m)",
+                        f" {piece.segment!r} are {gap:.2f} m apart, and passing"
+                        f" {feature.segment!r} needs {need:.2f} m of straight pipe after it"
+                        f" (the robot is {self.length_m:.2f} m long; its rear half must be"
+                        " through and clear before the next turn)",
                         step.location,
                     )
                 break
