@@ -5,6 +5,7 @@
 2. A jittery link delivered a boot STATE (``NO_SESSION``) after the ``HELLO_REPLY``: the
    host counted a bridge reset, failed the boot latch release and the run stopped latched.
 3. A bridge setting flag bit 4 in a 1.1 session was reported as ``estop_input``.
+4. One CRC-valid ``STATE`` with a far-ahead seq hid every genuine one for ~300 s.
 """
 
 from __future__ import annotations
@@ -114,3 +115,47 @@ def test_the_estop_input_flag_is_read_in_a_1_2_session_only(minor: int, reported
     assert wire.session.stats().estop_input is reported
     health = link.health()
     assert (health.estop_input, health.estopped) == (reported, True)
+
+
+# -- 4. one far-ahead STATE does not hide every genuine one ----------------------------------
+
+
+def test_a_far_ahead_state_is_given_up_after_ten_older_ones_in_a_row(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.WARNING, logger=LOG)
+    wire = Wire(hello=reply())
+    wire.answer(state(100))
+    wire.poll()
+    wire.answer(state(100 + 30000))  # CRC-valid, far ahead: taken as newer
+    wire.poll()
+    for seq in range(101, 111):  # the genuine ones: not newer, dropped
+        wire.answer(state(seq))
+        wire.poll(0.01)
+        assert wire.session.latest_state()[0].seq == 30100  # type: ignore[index]
+    assert wire.session.stats().duplicates == 10
+    wire.answer(state(111))  # the eleventh in a row: taken, the counter resynchronised
+    wire.poll(0.01)
+    assert wire.session.latest_state() == (state(111), wire.clock.now())
+    assert wire.session.stats().duplicates == 10
+    assert (
+        logging.WARNING,
+        "10 STATEs in a row not newer than seq 30100: resynchronised on seq 111",
+    ) in messages(caplog)
+    wire.answer(state(112), state(111))  # and the usual rules again
+    wire.poll()
+    assert wire.session.latest_state()[0].seq == 112  # type: ignore[index]
+    assert wire.session.stats().duplicates == 11
+
+
+def test_a_few_reordered_states_are_still_dropped() -> None:
+    wire = Wire(hello=reply())
+    wire.answer(state(50))
+    wire.poll()
+    for _ in range(3):
+        for seq in range(41, 50):  # nine old ones, then a newer one: no resync
+            wire.answer(state(seq))
+        wire.answer(state(wire.session.latest_state()[0].seq + 1))  # type: ignore[index]
+        wire.poll()
+    assert wire.session.latest_state()[0].seq == 53  # type: ignore[index]
+    assert wire.session.stats().duplicates == 27

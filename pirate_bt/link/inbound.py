@@ -39,6 +39,8 @@ __all__ = ["InboundMixin"]
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
 _FAULT = int(BoardStatus.FAULT)
+OLD_STATES_BEFORE_RESYNC = 10
+"""STATEs dropped in a row as not newer than the held one before the next is taken."""
 
 
 class InboundMixin:
@@ -71,6 +73,8 @@ class InboundMixin:
     _rtt_s: float
     # the boot id when a NO_SESSION frame started a new session, until its reply
     _reset_boot_id: int | None = None
+    # STATEs dropped in a row as not newer than the one held (see _on_state)
+    _old_state_run: int = 0
 
     # the send side, in the session
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -252,7 +256,20 @@ class InboundMixin:
             self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         elif last is not None and not seq_newer(item.seq, last.seq):
             self.duplicates += 1
-            return
+            self._old_state_run += 1
+            if self._old_state_run <= OLD_STATES_BEFORE_RESYNC:
+                return
+            # So many in a row: the held STATE is the odd one (a damaged frame that
+            # passed the CRC with a far seq, say), and every genuine STATE would be
+            # dropped until the bridge's counter caught up with it. Take this one.
+            self.duplicates -= 1
+            _log.warning(
+                "%d STATEs in a row not newer than seq %d: resynchronised on seq %d",
+                OLD_STATES_BEFORE_RESYNC,
+                last.seq,
+                item.seq,
+            )
+        self._old_state_run = 0
         self._state = item
         self._state_at_s = now
         self._flags = item.flags
