@@ -42,7 +42,7 @@ __all__ = ["RobotLink", "open_link", "wrap_link"]
 
 _log = logging.getLogger(__name__)
 # tries of the boot latch release, when stale frames start new sessions under it
-_RELEASE_TRIES = 3
+_RELEASE_TRIES = 4
 
 # The session figures health() is made of, read in one C call. ``completed`` is there
 # because every request that enters the loss window also bumps it, so the loss ratio
@@ -489,9 +489,14 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> Non
     for _ in range(_RELEASE_TRIES):
         req = session.wait(session.estop_reset())
         session.take_failures()
-        hello = session.pending_hello
-        if req.outcome is not Outcome.FAILED or hello is None:
+        if req.outcome is not Outcome.FAILED:
             break
+        hello = session.pending_hello
+        if hello is None:
+            # not acknowledged within the retry budget (a lossy link): the release is
+            # idempotent (a bridge not latched acknowledges it too), so ask again
+            _log.info("releasing the boot latch again: it was not acknowledged")
+            continue
         # A NO_SESSION frame started a new session while the release was in flight. Its
         # reply with the same boot id: a stale boot frame (a reordering link), not a
         # reset, so the latch is still the boot's own: release it again.
