@@ -23,6 +23,21 @@ from pirate_bt.units import parse_quantity
 __all__ = ["configure", "run"]
 
 
+_BOUND_OPTIONS: dict[str, tuple[str, str | float | None]] = {
+    "length": ("--length", "10%"),
+    "length_max": ("--length-max", "0.5 m"),
+    "slope": ("--slope", "3 deg"),
+    "diameter": ("--diameter", "5%"),
+    "scale": ("--scale", 1.0),
+    "robot": ("--robot", None),
+}
+"""The perturb options that change the variant: option and default, by attribute."""
+
+
+def _default(attr: str) -> str | float | None:
+    return _BOUND_OPTIONS[attr][1]
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     subs = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     perturb = subs.add_parser(
@@ -31,19 +46,34 @@ def configure(parser: argparse.ArgumentParser) -> None:
     perturb.add_argument("map", metavar="MAP", help="the drawn network (file or bundled name)")
     perturb.add_argument("--seed", type=int, required=True, help="which variant")
     perturb.add_argument(
-        "--length", default="10%", metavar="FRACTION", help="straight length change (default 10%%)"
+        "--length",
+        default=_default("length"),
+        metavar="FRACTION",
+        help="straight length change (default %(default)s)",
     )
     perturb.add_argument(
-        "--length-max", default="0.5 m", metavar="LENGTH", help="... at most (default 0.5 m)"
+        "--length-max",
+        default=_default("length_max"),
+        metavar="LENGTH",
+        help="... at most (default %(default)s)",
     )
     perturb.add_argument(
-        "--slope", default="3 deg", metavar="ANGLE", help="slope change (default 3 deg)"
+        "--slope",
+        default=_default("slope"),
+        metavar="ANGLE",
+        help="slope change (default %(default)s)",
     )
     perturb.add_argument(
-        "--diameter", default="5%", metavar="FRACTION", help="diameter change (default 5%%)"
+        "--diameter",
+        default=_default("diameter"),
+        metavar="FRACTION",
+        help="diameter change (default %(default)s)",
     )
     perturb.add_argument(
-        "--scale", type=float, default=1.0, help="multiply every bound (e.g. 2 for twice)"
+        "--scale",
+        type=float,
+        default=_default("scale"),
+        help="multiply every bound (e.g. 2 for twice)",
     )
     perturb.add_argument("--robot", metavar="FILE", help="robot whose clamp range bounds diameters")
     remove = subs.add_parser("remove", help="without a tee or bend (never built)")
@@ -120,22 +150,11 @@ def _write(text: str, output: Path | None) -> None:
     print(f"wrote {output}", file=sys.stderr)
 
 
-_BOUND_OPTIONS = (
-    ("length", "--length", "10%"),
-    ("length_max", "--length-max", "0.5 m"),
-    ("slope", "--slope", "3 deg"),
-    ("diameter", "--diameter", "5%"),
-    ("scale", "--scale", 1.0),
-    ("robot", "--robot", None),
-)
-"""The perturb options that change the variant, with their defaults (``configure``)."""
-
-
 def _bound_options(args: argparse.Namespace) -> str:
     """The options given that change the variant, as they would be typed again, so that
     the header's command writes the same file."""
     out = ""
-    for attr, option, default in _BOUND_OPTIONS:
+    for attr, (option, default) in _BOUND_OPTIONS.items():
         value = getattr(args, attr)
         if value != default:
             shown = f"{value:g}" if isinstance(value, float) else str(value)

@@ -68,7 +68,6 @@ class InboundMixin:
     _accept_any_state: bool
     _state: State | None
     _state_at_s: float
-    _board_status: tuple[int, ...]
     _faulted: tuple[int, ...]
     _rtt_s: float
     # the boot id when a NO_SESSION frame started a new session, until its reply
@@ -86,10 +85,10 @@ class InboundMixin:
     def _start_session(self, now: float, why: str) -> None:
         raise NotImplementedError
 
-    @property
-    def _minor(self) -> int:
-        """The session's protocol minor (1.1 has no ``ESTOP_INPUT``: its bits 4-7 are 0)."""
-        return self.config.protocol_minor
+    def _estop_input(self, flags: BridgeFlags) -> bool:
+        """``ESTOP_INPUT`` in ``flags``, read in a 1.2 session only (in 1.1 bits 4-7 are
+        0, whatever a bridge sends)."""
+        return self.config.protocol_minor >= 2 and bool(flags & BridgeFlags.ESTOP_INPUT)
 
     @property
     def pending_hello(self) -> Request | None:
@@ -255,14 +254,13 @@ class InboundMixin:
                 return  # a state of the old session, before the new one's reply
             self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         elif last is not None and not seq_newer(item.seq, last.seq):
-            self.duplicates += 1
             self._old_state_run += 1
             if self._old_state_run <= OLD_STATES_BEFORE_RESYNC:
+                self.duplicates += 1
                 return
             # So many in a row: the held STATE is the odd one (a damaged frame that
             # passed the CRC with a far seq, say), and every genuine STATE would be
             # dropped until the bridge's counter caught up with it. Take this one.
-            self.duplicates -= 1
             _log.warning(
                 "%d STATEs in a row not newer than seq %d: resynchronised on seq %d",
                 OLD_STATES_BEFORE_RESYNC,
@@ -274,8 +272,7 @@ class InboundMixin:
         self._state_at_s = now
         self._flags = item.flags
         status = item.board_status
-        if status != self._board_status:  # a tuple compare: a board's status changed
-            self._board_status = status
+        if last is None or status != last.board_status:  # a tuple compare: one changed
             self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)
         ordered = self._ordered
         if (

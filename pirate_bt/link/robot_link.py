@@ -324,9 +324,7 @@ class RobotLink:
             failed=failed,
             duplicates=dups,
             estopped=bool(flags & BridgeFlags.ESTOP),
-            # bits 4-7 are 0 in a 1.1 session: not read there, whatever a bridge sends
-            estop_input=session.config.protocol_minor >= 2
-            and bool(flags & BridgeFlags.ESTOP_INPUT),
+            estop_input=session._estop_input(flags),
             bridge_resets=resets,
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
             faulted_boards=self._board_ids_at(faulted),

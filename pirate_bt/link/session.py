@@ -142,8 +142,7 @@ class Session(InboundMixin):
         self._last_sent_s = now
         self._last_heard_s = now  # the handshake reply was heard just now
         self._state: State | None = None
-        self._board_status: tuple[int, ...] = ()  # the latest STATE's, as it came
-        self._faulted: tuple[int, ...] = ()  # positions of its boards in FAULT
+        self._faulted: tuple[int, ...] = ()  # positions of the latest STATE's boards in FAULT
         self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
         self._state_at_s = -math.inf  # pragma: no mutate (read only once a STATE is in)
         self._rtt_s = math.nan
@@ -363,7 +362,7 @@ class Session(InboundMixin):
                 sessions=self.sessions,
                 stale=self.stale,
                 cancelled=self.cancelled,
-                estop_input=self._minor >= 2 and bool(self._flags & BridgeFlags.ESTOP_INPUT),
+                estop_input=self._estop_input(self._flags),
                 bus_fault=bool(self._flags & BridgeFlags.BUS_FAULT),
                 faulted=self._faulted,
             )

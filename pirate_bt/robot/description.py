@@ -367,6 +367,13 @@ class RobotDescription(_Model):
         """The motor called ``name`` (``KeyError`` if none)."""
         return self._ix.motors[name][1]
 
+    def board(self, board_id: int) -> Board:
+        """The board with bus id ``board_id`` (``KeyError`` if none)."""
+        for board in self.boards:
+            if board.id == board_id:
+                return board
+        raise KeyError(f"no board with id {board_id}")
+
     def board_of(self, name: str) -> Board:
         """The board that carries motor or sensor ``name``."""
         if name in self._ix.motors:

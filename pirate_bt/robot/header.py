@@ -157,7 +157,7 @@ def board_io(robot: RobotDescription) -> tuple[list[ChannelIO], list[MotorIO]]:
     out_motors: list[MotorIO] = []
     for slot in robot.setpoint_slots():
         motor = slot.motor
-        board = next(b for b in boards if b.id == slot.board)
+        board = robot.board(slot.board)
         angle = next((s for s in board.sensors if s.slot == slot.slot and s.kind == "angle"), None)
         angle_channel, position_q16 = -1, 0
         position = motor.modes.position

@@ -281,7 +281,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         """Name the boards in ``FAULT`` and what they carry."""
         parts = []
         for board in boards:
-            motors = [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+            motors = [m.name for m in self.robot.board(board).motors]
             parts.append(f"{board} ({', '.join(motors)})" if motors else str(board))
         which = "board" if len(boards) == 1 else "boards"
         verb = "reports" if len(boards) == 1 else "report"

@@ -78,7 +78,7 @@ def pico_inputs(robot: RobotDescription, board: int, channels: list[int]) -> dic
     """
     adc = [0, 0, 0, 0]
     imu = [0, 0, 0]
-    entry = next(b for b in robot.boards if b.id == board)
+    entry = robot.board(board)
     specs = [c for c in robot.state_channels() if c.board == board]
     sources: list[tuple[str, int]] = []
     for sensor in sorted(entry.sensors, key=lambda s: s.slot):

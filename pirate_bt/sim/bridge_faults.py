@@ -166,7 +166,7 @@ class FaultsMixin:
             self._link_lost = True
 
     def _board_motors(self, board: int) -> list[str]:
-        return [m.name for b in self.robot.boards if b.id == board for m in b.motors]
+        return [m.name for m in self.robot.board(board).motors]
 
     def _is_bend(self, motor: str) -> bool:
         return self.robot.motor(motor).function is MotorFunction.BEND
