@@ -44,6 +44,7 @@ from pirate_bt.task.navigate_result import (
     FailedStep,
     NavigationResult,
     done_after_failures,
+    first_then,
     went_on,
 )
 from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
@@ -315,7 +316,10 @@ def run_navigation(
                 result.decisions.append(decision)
                 where = {} if raised is None else {"raised_at": raised_at(raised)}
                 records.write({"type": "decision", **decision.to_json(), **where})
-                result.why = error + went_on(disagreements)
+                # the first cause first: a step that failed before (the navigator went
+                # on after a map disagreement), then the navigator's own error
+                result.why = first_then(name, failures, error)
+                result.failing_node = failures[0].failing_node if failures else None
                 result.error = raised
                 supervisor.safe_state(error)
                 break

@@ -15,7 +15,14 @@ from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.navigation import Decision, Step
 from pirate_bt.task.outcome import PabOutcome
 
-__all__ = ["FailedStep", "NavigationResult", "done_after_failures", "steps_text", "went_on"]
+__all__ = [
+    "FailedStep",
+    "NavigationResult",
+    "done_after_failures",
+    "first_then",
+    "steps_text",
+    "went_on",
+]
 
 
 @dataclass
@@ -137,6 +144,19 @@ def went_on(disagreements: Sequence[FailedStep]) -> str:
         f"; it went on after {len(disagreements)} map disagreements, the first: {first.why};"
         f" the last: {last.why}"
     )
+
+
+def first_then(name: str, failures: Sequence[FailedStep], later: str) -> str:
+    """The end of a navigation that went on after failed steps (map disagreements) and
+    then ended on ``later``, the navigator's own error: the first failed step's cause
+    first, as everywhere a navigation ends failed (docs/navigators.md), then ``later``
+    (``later`` alone when no step had failed)."""
+    if not failures:
+        return later
+    first, last = failures[0], failures[-1]
+    more = "" if first is last else f", and after step {last.index} failed too: {last.why}"
+    went = f"navigator {name!r} went on from it{more}"
+    return f"{first.why} ({first.named()}); {went}, and then: {later}"
 
 
 def done_after_failures(
