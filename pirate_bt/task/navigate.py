@@ -304,7 +304,9 @@ def run_navigation(
                 try:
                     checked = check_step(step)
                     if planner is not None:
-                        plan = planner.plan(checked.route_line(), index, belief)
+                        rolled = step.pab == "bend" and "roll" in step.params
+                        roll = checked.roll_rad if rolled else None
+                        plan = planner.plan(checked.route_line(), index, belief, roll_rad=roll)
                     else:
                         checked.check_blind(belief)
                 except InvalidStep as exc:  # its message starts with the step

@@ -24,7 +24,9 @@ command line (text with a unit, or SI numbers):
                                         ``stop_at_change=True`` (no map) where the
                                         slope or the diameter changes
 ``Step("bend", direction="right")``     pass the bend ahead (``up``, ``down``,
-                                        ``left``, ``right``, or ``roll="90 deg"``)
+                                        ``left``, ``right``, or ``roll="90 deg"``;
+                                        with a map a roll must be the bend's, and
+                                        ``Step("bend")`` takes it whichever way)
 ``Step("t-joint", direction="left")``   pass the T-joint ahead (``left``, ``right``,
                                         ``up``, ``down``, ``straight``)
 ``Step("wait", time="2 s")``            stand still, clamped
@@ -219,7 +221,8 @@ class CheckedStep:
         stop_at_feature: ``straight``: stop early at a turn or an opening.
         stop_at_change: ``straight``: stop early where the slope (the IMU's mean pitch, by
             0.25 degrees) or the diameter (a leading joint, by 2 mm over 40 mm) changes.
-        roll_rad: ``bend``, ``bend-back``: the roll of the bend's plane.
+        roll_rad: ``bend``, ``bend-back``: the roll of the bend's plane (``nan``: a
+            ``bend`` with neither, the map's next bend whichever way it turns).
         direction: ``bend``, ``t-joint`` and their backward twins: the direction
             word, when one was given.
         time_s: ``wait``: seconds.
@@ -241,7 +244,10 @@ class CheckedStep:
         mouth is behind it there, and backing past it would take the robot out of the
         pipe (the simulator holds it at the mouth while its wheels turn, so odometry
         would count distance never driven), as a planned route refuses it with a map.
+        A bend with neither direction nor roll needs a map to say which way it turns.
         """
+        if self.step.pab == "bend" and math.isnan(self.roll_rad):
+            raise InvalidStep(f"{self.step!r}: with no map, give the bend's direction or roll")
         if self.step.pab != "straight" or self.distance_m >= 0:
             return
         if belief_m + self.distance_m < -ENTRY_SLACK_M:
@@ -262,13 +268,8 @@ class CheckedStep:
             verb = "forward" if self.distance_m >= 0 else "back"
             slowly = " slowly" if self.slow else ""
             return f"{verb} {abs(self.distance_m):.4f} m{slowly}"
-        if pab == "bend":
-            if self.direction is None:
-                raise InvalidStep(
-                    f"{self.step!r}: with a map, give the bend's direction"
-                    " (up, down, left or right), not a roll"
-                )
-            return f"at the bend turn {self.direction}"
+        if pab == "bend":  # a roll, or none: the next bend (a roll is checked on the plan)
+            return f"at the bend turn {self.direction or ''}".rstrip()
         if pab == "t-joint":
             return f"at the T-joint go {self.direction}"
         if pab in ("probe-turn", "probe-tee"):
@@ -351,6 +352,8 @@ def check_step(step: object) -> CheckedStep:
         direction = step.params.get("direction")
         if direction is not None and "roll" in step.params:
             raise InvalidStep(f"{step!r}: give direction or roll, not both")
+        if direction is None and "roll" not in step.params and step.pab == "bend":
+            return CheckedStep(step, roll_rad=math.nan)  # with a map: its next bend
         if direction is None:
             roll = _quantity(step, "roll", "angle", "90 deg")
             if abs(roll) > math.pi + 1e-9:

@@ -24,6 +24,7 @@ as keyword arguments (the command line's ``--param KEY=VALUE``, as text).
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -150,8 +151,8 @@ class RouteNavigator:
         if kind is StepKind.BACK:
             assert command.distance_m is not None
             return Step("straight", distance=-command.distance_m)
-        if kind is StepKind.BEND:
-            return Step("bend", direction=command.direction)
+        if kind is StepKind.BEND:  # no direction: the map's next bend, whichever way
+            return Step("bend", direction=command.direction) if command.direction else Step("bend")
         if kind is StepKind.TEE:
             return Step("t-joint", direction=command.direction)
         if kind is StepKind.PAUSE:
@@ -230,7 +231,10 @@ class GoalNavigator:
             if piece.start_m <= here + _TOL_M or piece.start_m >= goal.start_m:
                 continue
             if piece.kind is PieceKind.BEND:
-                return Step("bend", direction=direction_name(piece.roll_rad))
+                side = direction_name(piece.roll_rad)
+                if side is None:  # a roll between up, down, left and right (45 deg)
+                    return Step("bend", roll=f"{math.degrees(piece.roll_rad):.1f} deg")
+                return Step("bend", direction=side)
             way = path.choices.get(piece.segment, "straight")
             return Step(
                 "t-joint",

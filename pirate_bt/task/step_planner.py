@@ -12,18 +12,21 @@ A refused step leaves the planner as it was.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
-from pirate_bt.pipes import Network
+from pirate_bt.errors import LocatedError
+from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.plan import (
+    _DIRECTION_TOL_RAD,
     MapFeature,
     MissionPlan,
     PabContract,
     rear_lead_m,
     robot_length_m,
 )
-from pirate_bt.task.route import parse_route
+from pirate_bt.task.route import RouteStep, parse_route
 from pirate_bt.task.walker import _Walker
 
 __all__ = ["StepPlanner"]
@@ -72,8 +75,14 @@ class StepPlanner:
             return None
         return path.piece_at(min(max(position_m, 0.0), path.length_m)).segment
 
-    def plan(self, line: str, index: int, belief_m: float) -> MissionPlan:
+    def plan(
+        self, line: str, index: int, belief_m: float, *, roll_rad: float | None = None
+    ) -> MissionPlan:
         """Plan step ``index`` (1 for the first), written as a route line, from ``belief_m``.
+
+        ``roll_rad``: a bend step given by its roll (a bend at a roll other than up,
+        down, left or right has no direction word): the next bend must turn at that
+        roll, within the tolerance of a direction (10 degrees).
 
         Returns:
             A plan holding this step's PABs only, on the way taken so far, with the
@@ -98,6 +107,8 @@ class StepPlanner:
         walker.route = route
         walker.s_m = belief_m
         try:
+            if roll_rad is not None:
+                _check_roll(walker, step, roll_rad)
             walker.walk(step)
         except BaseException:
             choices, path, s_m, n_pabs, n_passed, driven = saved
@@ -130,4 +141,19 @@ class StepPlanner:
             distance_m=walker.driven_m - saved[5],
             robot_length_m=walker.length_m,
             contract=self.contract,
+        )
+
+
+def _check_roll(walker: _Walker, step: RouteStep, roll_rad: float) -> None:
+    """Refuse a bend step whose roll is not the next bend's (the walker checks a
+    direction word; a roll is checked here)."""
+    feature = walker.next_feature()
+    if feature is None or feature.kind is not PieceKind.BEND:
+        return  # the walker refuses it, by name
+    if abs(math.remainder(feature.roll_rad - roll_rad, 2 * math.pi)) > _DIRECTION_TOL_RAD:
+        raise LocatedError(
+            f"'{step.text}' does not fit the network: the next bend, {feature.segment!r},"
+            f" turns at roll {math.degrees(feature.roll_rad):.0f} deg, not at roll"
+            f" {math.degrees(roll_rad):.0f} deg",
+            step.location,
         )
