@@ -57,13 +57,12 @@ surveyed so far written), bends left or right of other than 90 degrees (written 
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
-from pirate_bt.task.explore_extend import NOT_SURVEYED, Extension, earlier_ends, load_extension
+from pirate_bt.task.explore_extend import Extension, earlier_ends, load_extension
 from pirate_bt.task.explore_parts import (
     OPENING_STOP,
     Passed,
@@ -72,8 +71,8 @@ from pirate_bt.task.explore_parts import (
     bend_angle_deg,
     branch_leavable,
     check_output,
-    invalid_network,
     metres,
+    write_survey,
 )
 from pirate_bt.task.navigation import Felt, Observation, Step
 
@@ -543,57 +542,21 @@ class ExploreNavigator:
 
     def _write(self, stopped: str | None) -> bool:
         """Build the network of what was surveyed, and write it if asked to: written?"""
-        from pirate_bt.pipes.asbuilt import network_yaml
-        from pirate_bt.pipes.model import NetworkSpec
-
         if not any(s["type"] == "straight" for s in self.segments):
             return False  # nothing surveyed: no network to write
-        diameter = self._diameter_m
-        about = "Surveyed by pirate_bt's explore navigator"
-        if self._extension is not None:
-            about += f" ({self._extension.stub_name}'s branch by a second insertion)"
-        about += f"; {stopped}" if stopped else " up to where every line ends"
-        if self._extension is not None and self._extension.stopped:  # its notes are kept
-            about += f"; an earlier insertion stopped: {self._extension.stopped}"
-        description = about + "."
-        if self.ends:  # a cap, or a bend at a roll not tried: said where it is written
-            description += f" Each line's end: {self.ends_note()}."
-        if self.unexplored:  # kept in the network itself, for a second insertion
-            description += f" {NOT_SURVEYED}" + "; ".join(self.unexplored) + "."
-        data: dict[str, Any] = {
-            "schema_version": 1,
-            "name": self.name,
-            "description": description,
-            "diameter": f"{(diameter or 0.063) * 1000:.1f} mm",
-            "segments": self.segments,
-        }
-        spec = NetworkSpec.model_validate(data)
-        problem = invalid_network(spec)
-        if problem is not None:  # never a file that does not validate
-            self.network = None
-            self.invalid = (
-                f"the network surveyed does not validate ({problem}), so nothing is written"
-            )
-            return False
-        self.network = spec
-        if self.output is None:
-            return False
-        header = (
-            f"{about}.\nLengths from odometry on the centre line (within about 5 % of"
-            f" each length);\nbend radius assumed {self.radius_m * 1000:g} mm, a branch's"
-            " turn radius its diameter;\ndiameters from the clamp angles, slopes from the IMU."
+        ext = self._extension
+        self.network, invalid, written = write_survey(
+            name=self.name,
+            segments=self.segments,
+            diameter_m=self._diameter_m,
+            stopped=stopped,
+            insertion="" if ext is None else f" ({ext.stub_name}'s branch by a second insertion)",
+            earlier_stop=None if ext is None else ext.stopped,
+            ends_note=self.ends_note() if self.ends else "",
+            unexplored=self.unexplored,
+            radius_m=self.radius_m,
+            output=self.output,
         )
-        if self.ends:
-            header += f"\nEach line's end: {self.ends_note()}."
-        if self.unexplored:
-            header += (
-                f"\n{NOT_SURVEYED}" + "; ".join(self.unexplored) + ".\nA tee branch not"
-                " entered is written as a stub (no segments), a line not surveyed to its end"
-                "\nends at the last feature surveyed in it: neither is a capped end."
-            )
-        text = network_yaml(self.network, header=header)
-        self.output.parent.mkdir(parents=True, exist_ok=True)
-        part = self.output.with_name(self.output.name + ".part")
-        part.write_text(text, encoding="utf-8")
-        os.replace(part, self.output)  # never half a file
-        return True
+        if invalid is not None:
+            self.invalid = invalid
+        return written

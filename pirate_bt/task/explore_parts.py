@@ -1,5 +1,6 @@
-"""The ``explore`` navigator's parts: its constants, its parameters' checks, and what
-it keeps of the pipe passed (split out of :mod:`pirate_bt.task.explore`, the driving).
+"""The ``explore`` navigator's parts: its constants, its parameters' checks, what
+it keeps of the pipe passed, and the network file it writes (split out of
+:mod:`pirate_bt.task.explore`, the driving).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Any
 import yaml
 
 from pirate_bt.errors import InputError
+from pirate_bt.task.explore_extend import NOT_SURVEYED
 from pirate_bt.units import parse_quantity
 
 __all__ = [
@@ -26,6 +28,7 @@ __all__ = [
     "check_output",
     "invalid_network",
     "metres",
+    "write_survey",
 ]
 
 OPENING_STOP = (0.177, 0.55)
@@ -159,3 +162,79 @@ def invalid_network(spec: Any) -> str | None:
     except InputError as exc:
         return re.sub(r"^surveyed(:\d+)*: ", "", str(exc))
     return None
+
+
+def write_survey(
+    *,
+    name: str,
+    segments: list[dict[str, Any]],
+    diameter_m: float | None,
+    stopped: str | None,
+    insertion: str,
+    earlier_stop: str | None,
+    ends_note: str,
+    unexplored: list[str],
+    radius_m: float,
+    output: Path | None,
+) -> tuple[Any, str | None, bool]:
+    """The network surveyed, built from ``segments`` and written to ``output`` (never a
+    file that does not validate, never half a file).
+
+    ``stopped``: why the survey stopped (``None``: every line to where it ends);
+    ``insertion``: what a second insertion surveyed, as the description says it;
+    ``earlier_stop``: why an earlier insertion stopped; ``ends_note``: what the lines'
+    ends may be (``""``: none found); ``unexplored``: what was not surveyed.
+
+    Returns:
+        ``(network, invalid, written)``: the ``NetworkSpec`` (``None`` when it does not
+        validate), why it was not written when it does not validate, and whether a
+        file was written.
+    """
+    from pirate_bt.pipes.asbuilt import network_yaml
+    from pirate_bt.pipes.model import NetworkSpec
+
+    about = "Surveyed by pirate_bt's explore navigator" + insertion
+    about += f"; {stopped}" if stopped else " up to where every line ends"
+    if earlier_stop:  # its notes are kept
+        about += f"; an earlier insertion stopped: {earlier_stop}"
+    description = about + "."
+    if ends_note:  # a cap, or a bend at a roll not tried: said where it is written
+        description += f" Each line's end: {ends_note}."
+    if unexplored:  # kept in the network itself, for a second insertion
+        description += f" {NOT_SURVEYED}" + "; ".join(unexplored) + "."
+    data: dict[str, Any] = {
+        "schema_version": 1,
+        "name": name,
+        "description": description,
+        "diameter": f"{(diameter_m or 0.063) * 1000:.1f} mm",
+        "segments": segments,
+    }
+    spec = NetworkSpec.model_validate(data)
+    problem = invalid_network(spec)
+    if problem is not None:  # never a file that does not validate
+        return (
+            None,
+            f"the network surveyed does not validate ({problem}), so nothing is written",
+            False,
+        )
+    if output is None:
+        return spec, None, False
+    header = (
+        f"{about}.\nLengths from odometry on the centre line (within about 5 % of"
+        f" each length);\nbend radius assumed {radius_m * 1000:g} mm, a branch's"
+        " turn radius its diameter;\ndiameters from the clamp angles, slopes from the IMU."
+    )
+    if ends_note:
+        header += f"\nEach line's end: {ends_note}."
+    if unexplored:
+        header += (
+            f"\n{NOT_SURVEYED}" + "; ".join(unexplored) + ".\nA tee branch not"
+            " entered is written as a stub (no segments), a line not surveyed to its end"
+            "\nends at the last feature surveyed in it: neither is a capped end."
+        )
+    text = network_yaml(spec, header=header)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    part = output.with_name(output.name + ".part")
+    part.write_text(text, encoding="utf-8")
+    os.replace(part, output)  # never half a file
+    return spec, None, True
