@@ -42,16 +42,17 @@ steps also stop where the pipe changes (``stop_at_change``):
   network default, 50 mm, and its start placed from how much of the change the
   joint had read.
 
-A bend's arc is ``radius x`` its turn: a bend up or down turns as far as the IMU's
-pitch changed across it (``angle`` written, to 1 deg, when over 3 deg off 90), a bend
-left or right 90 deg (the observation has no heading); a branch's turn is
+A bend's arc is ``radius x`` its turn: a bend turns as far as the IMU says it did
+(up or down: its pitch; left or right: the angle between the pipe's directions,
+from heading and pitch, either side; ``angle`` written, to 1 deg, when over 3 deg off
+90); a branch's turn is
 ``diameter x 90 deg``. Diameters come from the rear half's wall-contact angles
 where each straight ends, slopes from the IMU.
 
 Not yet: a reducer followed within 0.25 m by a tee or a bend (the drive through the
 cone stops there and the reducer is not written), bends met on a vertical run
 (backing through one fails: the survey stops safe with the cause named and what was
-surveyed so far written), bends left or right of other than 90 degrees (written 90).
+surveyed so far written).
 """
 
 from __future__ import annotations
@@ -164,7 +165,8 @@ class ExploreNavigator:
         self._target: PendingTee | None = None  # the tee a return goes to
         self._backed: Passed | PendingTee | None = None  # what a return last drove up to
         self._pitch_before: float | None = None  # the IMU's pitch as a straight step began
-        self._bend: tuple[dict[str, Any], float | None] | None = None  # being passed, pitch
+        # being passed: the bend, the IMU's pitch and heading before it
+        self._bend: tuple[dict[str, Any], float | None, float | None] | None = None
         # a diameter change felt, the cone being passed: where, and the IMU's pitch then
         self._cone: tuple[float, float | None] | None = None
         self._diameter_now = 0.0  # the diameter the current line carries
@@ -289,19 +291,24 @@ class ExploreNavigator:
         self._from_m = self._blocked_m + self.radius_m * math.pi / 2
         self._trail.append(Passed("bend-back", direction, self._from_m))
         self._slope_deg += _TURN.get(direction, 0.0)  # past +-90: the network model's too
-        self._bend = (segment, obs.pitch_rad)
+        self._bend = (segment, obs.pitch_rad, obs.yaw_rad)
         return Step("bend", direction=direction)
 
     def _bend_done(self, obs: Observation) -> None:
-        """Passed: a bend up or down turned as far as the IMU's pitch says (else 90)."""
+        """Passed: a bend turned as far as the IMU says (else 90): up or down by its
+        pitch, left or right by its heading and pitch."""
         assert self._bend is not None and self._from_m is not None
-        (segment, before), self._bend = self._bend, None
-        if (angle := bend_angle_deg(segment["direction"], before, obs.pitch_rad)) != 90.0:
+        (segment, before, yaw), self._bend = self._bend, None
+        angle = bend_angle_deg(
+            segment["direction"], before, obs.pitch_rad, yaw_rad=(yaw, obs.yaw_rad)
+        )
+        if angle != 90.0:
             segment["angle"] = f"{angle:g} deg"
             self._from_m = self._trail[-1].end_m = self._from_m - self.radius_m * math.radians(
                 90.0 - angle
             )
-            self._slope_deg -= math.copysign(90.0 - angle, _TURN[segment["direction"]])
+            if segment["direction"] in _TURN:  # left and right keep the slope
+                self._slope_deg -= math.copysign(90.0 - angle, _TURN[segment["direction"]])
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._opening_m is not None

@@ -48,16 +48,27 @@ BEND_TOLERANCE_DEG = 3.0
 bend (the network default, no ``angle``)."""
 
 
-def bend_angle_deg(direction: str, before_rad: float | None, after_rad: float | None) -> float:
-    """The turn of a bend up or down, from the IMU's pitch before and after it, rounded
-    to 1 degree; 90 for a bend left or right (the observation has no heading), without
-    a reading, or within :data:`BEND_TOLERANCE_DEG` of 90.
+def bend_angle_deg(
+    direction: str,
+    before_rad: float | None,
+    after_rad: float | None,
+    *,
+    yaw_rad: tuple[float | None, float | None] = (None, None),
+) -> float:
+    """The turn of a bend, from the IMU before and after it, rounded to 1 degree: up or
+    down from its pitch, left or right from its heading and pitch (``yaw_rad``, before
+    and after: the angle between the pipe's two directions); 90 without a reading, or
+    within :data:`BEND_TOLERANCE_DEG` of 90.
 
     The IMU reads a pitch in [-90, 90] degrees: a turn past plumb (90 down from
     -2.8, -92.8) reads folded (-87.2), so both turns are candidates, and one within the
     tolerance of 90 is taken as 90.
     """
-    if direction not in ("up", "down") or before_rad is None or after_rad is None:
+    if before_rad is None or after_rad is None:
+        return 90.0
+    if direction in ("left", "right"):
+        return _side_turn_deg((before_rad, yaw_rad[0]), (after_rad, yaw_rad[1]))
+    if direction not in ("up", "down"):
         return 90.0
     sign = 1.0 if direction == "up" else -1.0
     before, after = math.degrees(before_rad), math.degrees(after_rad)
@@ -67,6 +78,19 @@ def bend_angle_deg(direction: str, before_rad: float | None, after_rad: float | 
         return 90.0
     if not 0.5 <= turned < 90.0:  # no turn the survey can tell: as it was written
         return 90.0
+    return float(round(turned))
+
+
+def _side_turn_deg(before: tuple[float, float | None], after: tuple[float, float | None]) -> float:
+    """A bend left or right: the angle between the pipe's directions (pitch, heading)
+    either side of it, as :func:`bend_angle_deg` rounds it."""
+    (p0, y0), (p1, y1) = before, after
+    if y0 is None or y1 is None:
+        return 90.0
+    dot = math.cos(p0) * math.cos(p1) * math.cos(y1 - y0) + math.sin(p0) * math.sin(p1)
+    turned = math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+    if abs(turned - 90.0) <= BEND_TOLERANCE_DEG or not 0.5 <= turned < 90.0:
+        return 90.0  # 90, or no turn the survey can tell: as it was written
     return float(round(turned))
 
 

@@ -89,9 +89,9 @@ ODOMETRY_FRACTION = 0.05
 
 def _sensed(robot: RobotDescription, state: Any) -> dict[str, float | None]:
     """What the robot reads of the pipe where it stands: the diameter from the rear
-    half's wall-contact angles, the slope from the IMU."""
+    half's wall-contact angles, the slope and the heading from the IMU."""
     if state is None:
-        return {"diameter_m": None, "front_diameter_m": None, "pitch_rad": None}
+        return {"diameter_m": None, "front_diameter_m": None, "pitch_rad": None, "yaw_rad": None}
     clamp = robot.clamp
     tol = robot.safety.angle_tolerance
     low = min(c.angle for c in clamp.contact_angles) - tol
@@ -112,6 +112,7 @@ def _sensed(robot: RobotDescription, state: Any) -> dict[str, float | None]:
         "diameter_m": diameter(Half.REAR),
         "front_diameter_m": diameter(Half.FRONT),
         "pitch_rad": state.imu_rad.get("pitch"),
+        "yaw_rad": state.imu_rad.get("yaw"),
     }
 
 

@@ -118,6 +118,9 @@ class Observation:
             front tip: where a ``slope`` change was felt.
         joint_behind_m: How far the front half's first bend module (its middle) is
             behind the front tip: where an opening or a ``diameter`` change was felt.
+        yaw_rad: The pipe's heading at the rotational module, from the IMU (the
+            world's frame: only its change means anything without a map, e.g. across
+            a bend left or right; ``None`` without a reading).
     """
 
     step: int
@@ -134,6 +137,7 @@ class Observation:
     front_diameter_m: float | None = None
     imu_behind_m: float = 0.0
     joint_behind_m: float = 0.0
+    yaw_rad: float | None = None
 
     def next_feature(self) -> Ahead | None:
         """The next bend or T-joint ahead on the map, along the way taken so far.
