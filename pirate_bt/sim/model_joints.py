@@ -80,6 +80,10 @@ class JointsMixin(EventsMixin):
                     else:
                         j.torque_nm = torque
                     j.press_nm = 0.0
+                    # Not settled: when the stall ends the joint must be stepped again
+                    # (it presses on the wall, or moves on, as its setpoint asks), even
+                    # if nothing changed since it last settled.
+                    j.settled = None
                     continue
                 limit = wall if wall is not None else math.inf
                 # the wall stops the joint at +-wall
