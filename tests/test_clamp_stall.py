@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pirate_bt import simulate_mission
+from pirate_bt import simulate_mission, simulate_tree
 from pirate_bt.clock import SimClock
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.commands import MotorCommand
@@ -62,3 +62,43 @@ def test_a_mission_goes_on_after_a_short_stall_of_a_clamp_joint() -> None:
     # let go for good, so the next PAB's clamp timed out and the mission failed at 87 s
     mission = simulate_mission(LAB, faults="motor_stall:bend_1_joint@20s+1s")
     assert mission.succeeded, mission.why
+
+
+# -- the first cause: the lost grip, not what it led to ---------------------------------
+
+
+def test_a_lost_grip_is_the_cause_not_a_map_disagreement() -> None:
+    # bend_3's joint stalls as the bend PAB drives the front half into bend-a with only
+    # the rear half holding: the rear lets go, the wheels slip and the odometry ran
+    # 2.2 m ahead; the mission blamed the map ("the pipe is not as drawn at bend 'bend-a'")
+    mission = simulate_mission(LAB, faults="motor_stall:bend_3_joint@90s+60s")
+    assert not mission.succeeded
+    assert mission.mismatch is None, mission.mismatch
+    assert "map disagreement" not in mission.why
+    assert mission.why.startswith("grip lost"), mission.why
+    assert "bend_3" in mission.why
+    assert mission.failing_node is not None and "front into turn" in mission.failing_node
+    assert abs(mission.belief_m - (mission.truth_m or 0.0)) < 0.1  # stopped before it slipped far
+
+
+def test_a_clamp_that_cannot_hold_is_the_cause_not_the_opening_probe_after_it() -> None:
+    # bend_1's joint is still stalled when the next PAB clamps the front half: the clamp
+    # times out, and the fallback that asks whether the front is over an opening (it is
+    # not) failed last; the mission named that: "no feature (front_opening) within 0.005 m"
+    mission = simulate_mission(LAB, faults="motor_stall:bend_1_joint@20s+100s")
+    assert not mission.succeeded
+    assert "no feature" not in mission.why, mission.why
+    assert mission.why.startswith("timeout"), mission.why
+    assert "clamping front" in mission.why and "bend_1" in mission.why
+    assert mission.failing_node is not None and "clamp front half" in mission.failing_node
+
+
+def test_a_tree_run_names_the_clamp_not_the_refused_probe() -> None:
+    result = simulate_tree(
+        "trees/straight.yaml",
+        params={"distance": "1 m", "stop_at_feature": True},
+        faults="motor_stall:bend_1_joint@1s+30s",
+    )
+    assert not result.succeeded
+    assert "refused drive" not in result.why, result.why
+    assert "clamping front" in result.why and "bend_1" in result.why

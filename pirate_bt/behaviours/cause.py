@@ -11,7 +11,11 @@ having to cooperate:
   with a time stamp; other leaves that ended FAILURE give their feedback);
 - :func:`failure_cause` picks the one that explains the end: the latest
   time-stamped failure at or before ``before_s`` (the moment the robot was put
-  in its safe state, when known), else the deepest leaf that ended FAILURE.
+  in its safe state, when known), else the deepest leaf that ended FAILURE. A
+  failure in a selector's fallback gives way to the failure of the way the
+  selector tried first (:func:`explaining_stamp`): a straight PAB's hold times out
+  on a clamp, and its fallback, which asks whether the front half is over an
+  opening, fails too (it is not), later; the clamp is the cause.
 
 The layers above (a run's result, a mission's per-PAB outcome) add what only
 they know: an exception, the supervisor's own stop, a time limit, a map that
@@ -20,12 +24,13 @@ disagrees with the pipe.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import py_trees
 from py_trees.common import Status
 
-__all__ = ["FailureCause", "failure_cause", "failures", "path_of"]
+__all__ = ["FailureCause", "explaining_stamp", "failure_cause", "failures", "path_of"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,19 +68,29 @@ def _depth(node: py_trees.behaviour.Behaviour) -> int:
     return depth
 
 
+def _stamp(n: py_trees.behaviour.Behaviour) -> tuple[float, str] | None:
+    """(clock time, reason) of a primitive's or a confirmation point's recorded failure
+    (a :class:`~pirate_bt.behaviours.primitives.Confirm` keeps ``denied_at_s``; read by
+    name, as :mod:`~pirate_bt.behaviours.primitives` imports this module)."""
+    from pirate_bt.behaviours.primitive import Primitive
+
+    if isinstance(n, Primitive):
+        return (n.failed_at_s, n.failure_reason) if n.failed_at_s is not None else None
+    denied = getattr(n, "denied_at_s", None)
+    if isinstance(denied, float):
+        return denied, n.feedback_message
+    return None
+
+
 def failures(node: py_trees.behaviour.Behaviour) -> list[FailureCause]:
     """Every failure recorded under ``node`` (itself included), time-stamped ones first
     in time order, then leaves that ended FAILURE (deepest first)."""
-    from pirate_bt.behaviours.primitive import Primitive
-    from pirate_bt.behaviours.primitives import Confirm
-
     stamped: list[FailureCause] = []
     plain: list[FailureCause] = []
     for n in node.iterate():
-        if isinstance(n, Primitive) and n.failed_at_s is not None:
-            stamped.append(FailureCause(path_of(n), n.failure_reason, n.failed_at_s, _depth(n)))
-        elif isinstance(n, Confirm) and n.denied_at_s is not None:
-            stamped.append(FailureCause(path_of(n), n.feedback_message, n.denied_at_s, _depth(n)))
+        stamp = _stamp(n)
+        if stamp is not None:
+            stamped.append(FailureCause(path_of(n), stamp[1], stamp[0], _depth(n)))
         elif not n.children and n.status == Status.FAILURE:
             message = n.feedback_message or f"{n.name} failed"
             plain.append(FailureCause(path_of(n), message, None, _depth(n)))
@@ -96,16 +111,77 @@ def failure_cause(
             *because* of it). ``None``: any time.
 
     Returns:
-        The latest time-stamped failure (within ``before_s``), else the deepest leaf
+        The latest time-stamped failure (within ``before_s``; a selector's first way
+        rather than its fallback, see :func:`explaining_stamp`), else the deepest leaf
         that ended FAILURE.
     """
-    found = failures(node)
-    stamped = [
-        c
-        for c in found
-        if c.time_s is not None and (before_s is None or c.time_s <= before_s + 1e-9)
-    ]
-    if stamped:
-        return stamped[-1]
-    plain = [c for c in found if c.time_s is None]
+    found = explaining_stamp(node, before_s=before_s)
+    if found is not None:
+        time_s, n, reason = found
+        return FailureCause(path_of(n), reason, time_s, _depth(n))
+    plain = [c for c in failures(node) if c.time_s is None]
     return plain[0] if plain else None
+
+
+_Stamped = tuple[float, py_trees.behaviour.Behaviour, str]
+
+
+def explaining_stamp(
+    node: py_trees.behaviour.Behaviour, *, before_s: float | None = None
+) -> _Stamped | None:
+    """The time-stamped failure under ``node`` that explains its end: ``(time, node,
+    reason)``, or ``None`` when none is recorded (within ``before_s``).
+
+    The latest one, unless it lies in a selector's fallback (a child after the
+    first) and the failure before it (the latest one recorded up to the moment the
+    failed node started) lies under a child the selector tried before: then that one,
+    and so on up the tree. The fallback was tried *because* that child failed; its
+    own failure comes later and says less. (Statuses cannot tell this: a selector
+    with memory resets the children before the one it resumes to INVALID.)
+    """
+    stamped: list[_Stamped] = []
+    for n in node.iterate():
+        stamp = _stamp(n)
+        if stamp is not None and (before_s is None or stamp[0] <= before_s + 1e-9):
+            stamped.append((stamp[0], n, stamp[1]))
+    if not stamped:
+        return None
+    stamped.sort(key=lambda s: s[0])  # stable: the last of equal times stays last
+    chosen = stamped[-1]
+    while True:
+        earlier = _tried_before(node, chosen, stamped)
+        if earlier is None:
+            return chosen
+        chosen = earlier
+
+
+def _tried_before(
+    root: py_trees.behaviour.Behaviour, chosen: _Stamped, stamped: list[_Stamped]
+) -> _Stamped | None:
+    """The failure that led a selector above ``chosen`` to the fallback ``chosen`` is in."""
+    from pirate_bt.behaviours.primitive import Primitive
+
+    node = chosen[1]
+    started = node._start_s if isinstance(node, Primitive) else chosen[0]
+    before = [s for s in stamped if s[1] is not node and s[0] <= started + 1e-9]
+    if not before or math.isnan(started):
+        return None
+    previous = before[-1]
+    child = node
+    while child is not root and child.parent is not None:
+        parent = child.parent
+        if isinstance(parent, py_trees.composites.Selector):
+            tried = parent.children[: parent.children.index(child)]
+            if any(_under(previous[1], sibling) for sibling in tried):
+                return previous
+        child = parent
+    return None
+
+
+def _under(n: py_trees.behaviour.Behaviour, top: py_trees.behaviour.Behaviour) -> bool:
+    current: py_trees.behaviour.Behaviour | None = n
+    while current is not None:
+        if current is top:
+            return True
+        current = current.parent
+    return False

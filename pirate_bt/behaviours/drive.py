@@ -32,6 +32,7 @@ from py_trees.common import Status
 from pydantic import Field, StrictBool
 
 from pirate_bt.behaviours.base import NodeParams
+from pirate_bt.behaviours.grip import GripWatch
 from pirate_bt.behaviours.primitive import (
     _SETTLE_TICKS,
     Primitive,
@@ -197,7 +198,10 @@ class Drive(Primitive):
     robot makes no progress (mean wheel speed below a fifth of the command) means
     the robot is held by the pipe: success for ``until: blocked``, a failure
     otherwise. A heavy load that the wheels still carry (nearly stall current at
-    speed) is neither. ``terminate()`` always stops the drives.
+    speed) is neither. No half holding the robot, because a joint that pressed the wall
+    stopped where it was and presses nothing (a stalled clamp joint), is a failure
+    (``grip lost``, :mod:`pirate_bt.behaviours.grip`): the wheels would slip and the
+    odometry count it. ``terminate()`` always stops the drives.
     """
 
     Params = DriveParams
@@ -270,6 +274,7 @@ class Drive(Primitive):
         self._change_ticks = 0
         self._diameter_from: float | None = None  # odometry where a diameter change began
         self._first_step = True
+        self._grip = GripWatch(self.robot)
         self._write_travelled()
 
     def stop_motion(self) -> None:
@@ -472,6 +477,9 @@ class Drive(Primitive):
                 self.feedback_message = f"the {change} changed after {travelled:.3f} m"
                 self.sensed = change
                 return Status.SUCCESS
+        lost = self._grip.update(state, now)
+        if lost is not None:
+            return self.fail(f"{lost} (after {travelled:.3f} m)")
         if not self._at_speed:
             command = _commands().Drive(velocity)
             if self._resend and self.supervisor.check(command).refused:

@@ -82,20 +82,16 @@ __all__ = [
 
 
 def last_failure(node: py_trees.behaviour.Behaviour) -> str | None:
-    """The reason of the primitive that failed last in ``node``'s tree, if any."""
+    """The reason of the primitive that failed last in ``node``'s tree, if any (the
+    failure of a selector's first way rather than that of its fallback tried after it:
+    :func:`~pirate_bt.behaviours.cause.explaining_stamp`)."""
+    from pirate_bt.behaviours.cause import explaining_stamp
+
     root = node
     while root.parent is not None:
         root = root.parent
-    latest: tuple[float, str] | None = None
-    for n in root.iterate():
-        found: tuple[float, str] | None = None
-        if isinstance(n, Primitive) and n.failed_at_s is not None:
-            found = (n.failed_at_s, f"{n.name}: {n.failure_reason}")
-        elif isinstance(n, Confirm) and n.denied_at_s is not None:
-            found = (n.denied_at_s, f"{n.name}: {n.feedback_message}")
-        if found is not None and (latest is None or found[0] >= latest[0]):
-            latest = found
-    return latest[1] if latest else None
+    found = explaining_stamp(root)
+    return f"{found[1].name}: {found[2]}" if found is not None else None
 
 
 # -- clamp and release -----------------------------------------------------------
