@@ -46,7 +46,16 @@ from py_trees.common import Status
 
 from pirate_bt.clock import Clock
 
-__all__ = ["Overrun", "RunResult", "Runner", "StopReason", "TickInfo", "node_path", "tick_tree"]
+__all__ = [
+    "SETTLE_LIMIT_S",
+    "Overrun",
+    "RunResult",
+    "Runner",
+    "StopReason",
+    "TickInfo",
+    "node_path",
+    "tick_tree",
+]
 
 _log = logging.getLogger("pirate_bt.runner")
 
@@ -110,6 +119,8 @@ class RunResult:
         safe_state_called: The safe-state callback ran.
         stopped_nodes: Paths of the RUNNING nodes the runner stopped.
         paused_ticks: Ticks skipped because the tree was paused (an operator in MANUAL).
+        settle_ticks: Ticks after the tree's end, while the robot came to rest (the
+            runner's ``settle``); counted in ``ticks`` too.
     """
 
     outcome: str
@@ -128,6 +139,7 @@ class RunResult:
     safe_state_called: bool = False
     stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
     paused_ticks: int = 0
+    settle_ticks: int = 0
 
     @property
     def succeeded(self) -> bool:
@@ -135,6 +147,11 @@ class RunResult:
 
 
 Hook = Callable[[TickInfo], None]
+
+SETTLE_LIMIT_S = 2.0
+"""How long (clock time) the end of a run waits, by default, for the robot to come to
+rest (the runner's ``settle``): a drive stopped at its top speed ramps down in a few
+tenths of a second."""
 
 
 def node_path(node: py_trees.behaviour.Behaviour) -> str:
@@ -244,6 +261,16 @@ class Runner:
             ``run_halted`` goes here: the robot held in its safe state or e-stopped
             with no operator to go on, where a tree of waits and conditions would
             otherwise run on to success.
+        settle: Asked at the end of every run, whatever its outcome (after
+            ``safe_state``): is the robot at rest? While it answers ``False``, for at
+            most ``settle_limit_s`` of clock time, the runner goes on ticking without
+            the tree: the pre- and post-tick hooks run (the supervisor polls the link,
+            odometry counts, the trace records the tick with the root's final status),
+            one period apart. The supervisor's ``come_to_rest`` goes here, so that a
+            run hands back a robot whose wheels have stopped. These ticks count in the
+            result's ``ticks`` and ``settle_ticks`` and its clock time; an error in
+            them is logged and ends the settling, never the result.
+        settle_limit_s: The longest the end of a run waits for ``settle``.
     """
 
     def __init__(
@@ -260,6 +287,8 @@ class Runner:
         max_overruns_kept: int = 100,
         paused: Callable[[], bool] | None = None,
         halted: Callable[[], str | None] | None = None,
+        settle: Callable[[], bool] | None = None,
+        settle_limit_s: float = SETTLE_LIMIT_S,
     ) -> None:
         if period_s <= 0:
             raise ValueError(f"period must be positive, got {period_s}")
@@ -283,6 +312,8 @@ class Runner:
         self.max_overruns_kept = max_overruns_kept
         self.paused = paused
         self.halted = halted
+        self.settle = settle
+        self.settle_limit_s = settle_limit_s
         self.pre_tick: list[Hook] = []
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
@@ -388,6 +419,9 @@ class Runner:
         if reason is not StopReason.SUCCESS:
             stopped = self._stop_running(root)
             safe_called = self._call_safe_state()
+        loop_ticks = ticks
+        settle_ticks = self._come_to_rest(ticks, start_s)
+        ticks += settle_ticks
         self._shutdown()
         result = RunResult(
             outcome="success" if reason is StopReason.SUCCESS else "failure",
@@ -402,10 +436,11 @@ class Runner:
             overruns=tuple(overruns),
             overrun_count=overrun_count,
             max_tick_s=max_tick,
-            mean_tick_s=durations_total / ticks if ticks else 0.0,
+            mean_tick_s=durations_total / loop_ticks if loop_ticks else 0.0,
             safe_state_called=safe_called,
             stopped_nodes=stopped,
             paused_ticks=paused_ticks,
+            settle_ticks=settle_ticks,
         )
         for on_finish in self.finish:
             try:
@@ -450,6 +485,39 @@ class Runner:
                 _log.debug("terminate() raised", exc_info=True)
             stopped.append(node_path(node))
         return tuple(stopped)
+
+    def _come_to_rest(self, ticks: int, start_s: float) -> int:
+        """Tick without the tree until ``settle`` says the robot is at rest; how many."""
+        if self.settle is None:
+            return 0
+        root = self.tree.root
+        deadline_s = self.clock.now() + self.settle_limit_s
+        next_s = self.clock.now()
+        n = 0
+        try:
+            while not self.settle():
+                if self.clock.now() >= deadline_s - 1e-9:
+                    _log.warning(
+                        "the robot was not at rest %.1f s after the run ended",
+                        self.settle_limit_s,
+                    )
+                    break
+                next_s += self.period_s
+                self._wait_until(next_s)
+                n += 1
+                elapsed_s = self.clock.now() - start_s
+                info = TickInfo(ticks + n, elapsed_s, self.tree)
+                for hook in self.pre_tick:
+                    hook(info)
+                held = TickInfo(ticks + n, elapsed_s, self.tree, root.status, 0.0)
+                for hook in self.post_tick:
+                    hook(held)
+        except KeyboardInterrupt:  # a Ctrl-C while the wheels ramp down: they were stopped
+            _log.warning("interrupted while the robot came to rest")
+        except Exception as exc:
+            _log.error("coming to rest at the end of the run: %s: %s", type(exc).__name__, exc)
+            _log.debug("settling raised", exc_info=True)
+        return n
 
     def _call_safe_state(self) -> bool:
         if self.safe_state is None:

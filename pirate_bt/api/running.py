@@ -208,6 +208,7 @@ def supervised_runner(
         # asked first); one an operator can release pauses the tree until they do
         paused=(lambda: supervisor.tree_paused) if supervisor is not None else None,
         halted=(lambda: supervisor.run_halted) if supervisor is not None else None,
+        settle=supervisor.come_to_rest if supervisor is not None else None,
         setup_timeout_s=setup_timeout_s,
     )
     if supervisor is not None:

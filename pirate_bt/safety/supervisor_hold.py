@@ -24,9 +24,10 @@ from typing import TYPE_CHECKING
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError
+from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, Half, RobotDescription, SensorKind
 from pirate_bt.robot.port import RobotPort
-from pirate_bt.robot.state import RobotState
+from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety.checks import (
     Check,
     CheckContext,
@@ -41,7 +42,13 @@ from pirate_bt.safety.expand import Expander
 from pirate_bt.safety.operator import Mode
 from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
 
-__all__ = ["HOLD_SETTLE_S", "HOLD_TORQUE_FRACTION", "HoldMixin", "hold_torque"]
+__all__ = [
+    "HOLD_SETTLE_S",
+    "HOLD_TORQUE_FRACTION",
+    "STILL_MPS",
+    "HoldMixin",
+    "hold_torque",
+]
 
 log = logging.getLogger("pirate_bt.safety")
 
@@ -53,6 +60,9 @@ on the bundled robot's 0.8 N·m joints, the bundled trees' clamp torque)."""
 HOLD_SETTLE_S = 3.0
 """How long (clock time) the end of a run waits for a protective clamp to land
 (:meth:`HoldMixin.settle_hold`): a joint steered the other way swings across first."""
+
+STILL_MPS = 0.002
+"""A wheel reading at most this fast (m/s) is still, for the end of a run."""
 
 
 def hold_torque(robot: RobotDescription) -> float:
@@ -110,6 +120,8 @@ class HoldMixin:
 
         def tick(self) -> None: ...
 
+        def _send_stop(self) -> tuple[MotorCommand, ...]: ...
+
     @property
     def holding(self) -> bool:
         """True while a protective clamp is on its way and no half holds yet."""
@@ -135,6 +147,49 @@ class HoldMixin:
             self.clock.sleep(step_s)
             self.tick()
         return not self._holding
+
+    def come_to_rest(self) -> bool:
+        """At the end of a run, whatever its outcome: is the robot at rest yet?
+
+        The runner asks before each of its settling ticks (the link polled, the checks
+        and the protective hold as on every tick, odometry and the trace too, the tree
+        no more), so that a run hands back a robot at rest and counts the distance its
+        wheels ramp down over. Drives still set to turn are stopped first (a tree may
+        succeed with a speed set).
+
+        Returns:
+            True when every drive with a fresh speed reads still (at most
+            :data:`STILL_MPS`) and no protective clamp is landing; also True when no
+            wheel can be read (the link lost, every speed stale) and no clamp is
+            landing: there is nothing to wait for that could be seen.
+        """
+        if any(
+            (s := self._last_setpoint.get(m.name)) is not None and s[1] != 0.0
+            for m in self.robot.drive_motors()
+        ):
+            self._send_stop()
+            log.info("end of run: the drives were still set to turn; stopped")
+        return not self._holding and self._wheels_still() is not False
+
+    def _wheels_still(self) -> bool | None:
+        """Every drive with a fresh speed reads still; None when none reads fresh.
+
+        A wheel whose speed went stale (a sensor dropped out) is left out, as odometry
+        leaves it out: it keeps its last value."""
+        state = self.port.state()
+        if state is None or not self.port.health().connected:
+            return None
+        oldest = self.clock.now() - wheel_fresh_window_s(self.robot)
+        readings = state.readings
+        seen = False
+        for motor, speed in state.drive_velocity_mps.items():
+            reading = readings.get(f"{motor}.velocity")
+            if reading is not None and reading.stamp_s < oldest:
+                continue
+            if abs(speed) > STILL_MPS:
+                return False
+            seen = True
+        return True if seen else None
 
     def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
         """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""

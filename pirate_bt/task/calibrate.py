@@ -209,6 +209,7 @@ def _run_case(
                 max_time_s=300.0,
                 safe_state=lambda: supervisor.end_safe("calibration run failed"),
                 halted=lambda: supervisor.run_halted,
+                settle=supervisor.come_to_rest,
             )
             runner.add_pre_tick(lambda _info: supervisor.tick())
             result = runner.run()

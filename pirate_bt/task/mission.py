@@ -392,6 +392,7 @@ def run_mission(
         realtime=realtime,
         safe_state=lambda: supervisor.end_safe(reason_box[0]),
         halted=lambda: supervisor.run_halted,
+        settle=supervisor.come_to_rest,
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)

@@ -188,6 +188,7 @@ def run_blind(
         # cause of its own (a step cut by the time budget is named so)
         safe_state=lambda: supervisor.end_safe(supervisor.safe_state_reason or END_OF_RUN),
         halted=lambda: supervisor.run_halted,
+        settle=supervisor.come_to_rest,
     )
     odometry = [belief_m, stamp_s]  # belief, last stamp
     window_s = wheel_fresh_window_s(robot)  # odometry counts fresh, agreeing wheels
