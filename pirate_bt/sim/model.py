@@ -138,6 +138,7 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         self.network = network
         self.noise = noise or SensorNoise()
         self._rng = random.Random(seed)
+        self._gauss_spare: float | None = None  # the noise's Box-Muller spare draw
         self.time_s = 0.0
         self.events: list[SimEvent] = []
         self._tally = _Tally()

@@ -17,6 +17,8 @@ from pirate_bt.sim.model_types import _JOINT_FUNCTIONS, _NO_NOISE, SensorNoise, 
 
 __all__ = ["ReadingsMixin"]
 
+_TWOPI = 2.0 * math.pi  # random.gauss's own constant
+
 
 class _Zero:
     """Source of a channel that reads 0 (and the slot an IMU channel fills later)."""
@@ -36,6 +38,7 @@ class ReadingsMixin:
     s_m: float
     noise: SensorNoise
     _rng: random.Random
+    _gauss_spare: float | None
     _motors: dict[str, _Motor]
     _halves: dict[Half, _Half]
     _rear: _Half
@@ -128,12 +131,37 @@ class ReadingsMixin:
             for i, key in self._imu_index:
                 values[i] = imu.get(key, 0.0)
         if self.noise != _NO_NOISE:
-            gauss = self._rng.gauss
-            values = [
-                v + gauss(0.0, sigma) if sigma > 0 else v
-                for v, sigma in zip(values, self._sigmas, strict=True)
-            ]
+            sigmas = self._sigmas
+            noisy = [i for i, sigma in enumerate(sigmas) if sigma > 0]
+            for i, z in zip(noisy, self._normals(len(noisy)), strict=True):
+                values[i] += z * sigmas[i]
         return values
+
+    def _normals(self, n: int) -> list[float]:
+        """``n`` standard normal draws: the very numbers ``n`` calls of the noise
+        generator's ``gauss(0.0, 1.0)`` give, and its state after them, in one loop
+        (about twice as fast as a call per channel, a quarter of a noisy frame's cost).
+
+        The same Box-Muller pairs as :meth:`random.Random.gauss`, drawn from the same
+        uniform numbers in the same order, the odd one kept for the next call as it
+        keeps it (the generator serves the noise alone).
+        """
+        if n <= 0:
+            return []
+        uniform = self._rng.random
+        out: list[float] = []
+        if self._gauss_spare is not None:
+            out.append(self._gauss_spare)
+            self._gauss_spare = None
+        log, sqrt, cos, sin = math.log, math.sqrt, math.cos, math.sin
+        while len(out) < n:
+            x2pi = uniform() * _TWOPI
+            g2rad = sqrt(-2.0 * log(1.0 - uniform()))
+            out.append(cos(x2pi) * g2rad)
+            out.append(sin(x2pi) * g2rad)
+        if len(out) > n:
+            self._gauss_spare = out.pop()
+        return out
 
     def _reading_sources(
         self,
