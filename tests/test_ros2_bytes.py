@@ -178,16 +178,17 @@ def test_a_mission_exports_to_a_rosbag2_directory_that_rosbags_reads_back_whole(
     from pirate_bt.cli import main
     from pirate_bt.interop.rosbag2 import read_rosbag2_records
 
-    # A mission of three PABs (approach, bend, inspect) on the short bend network: what
-    # is checked (every record and message read back whole) does not depend on how far
-    # the robot goes, and this is half the ticks of the bundled bend-right route.
+    # A mission of two PABs (the bend, which the robot starts near enough to take at
+    # once, and an inspection) on the short bend network: what is checked (every record
+    # and message read back whole) does not depend on how far the robot goes, and this
+    # is under half the ticks of the bundled bend-right route.
     (tmp_path / SHORT_BEND.name).write_text(SHORT_BEND.read_text())
     route = tmp_path / "short-bend.route"
     route.write_text(f"network {SHORT_BEND.stem}\nat the bend turn right\ninspect 0.3 m\n")
     trace_path = tmp_path / "run.jsonl"
     result = pirate_bt.simulate_mission(route, trace=trace_path)
     assert result.succeeded
-    assert [p.kind for p in result.pabs] == ["straight", "bend", "straight"]
+    assert [p.kind for p in result.pabs] == ["bend", "straight"]
     bag = tmp_path / "run_bag"
     assert main(["trace", "export", str(trace_path), "-o", f"{bag}/"]) == 0
     assert sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "run_bag.mcap"]
