@@ -96,8 +96,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy --strict pirate_bt
 
+# Bytecode written even where the environment says not to (PYTHONDONTWRITEBYTECODE):
+# the test processes and the hundreds of pirate-bt processes the tests start then load
+# pirate_bt and pytest's rewritten test modules compiled, not from source each time.
 unit: $(STAMP) graphviz avr-toolchain zmq-dev
-	$(BIN)/pytest
+	PYTHONDONTWRITEBYTECODE= $(BIN)/pytest
 
 docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir site

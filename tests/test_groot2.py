@@ -385,10 +385,10 @@ def test_a_breakpoint_pauses_the_tree_but_never_the_protective_layer(
 
 
 def test_a_silent_client_removes_its_hooks_and_the_tree_goes_on() -> None:
-    with Groot2Server(port=0, heartbeat_s=1.0) as server:
+    with Groot2Server(port=0, heartbeat_s=0.4) as server:
 
         def work(client: Client, uid: int) -> None:
-            time.sleep(2.5)  # silent: the hooks go, the tree goes on
+            time.sleep(1.0)  # silent: the hooks go, the tree goes on
 
         result, _ = _held_run(server, "drive straight", work)
         assert result.succeeded, result.why
@@ -463,9 +463,9 @@ def test_against_a_robot_replacing_is_refused_and_silence_ends_in_the_safe_state
         assert refused[0] == b"error" and b"simulator only" in refused[1]
         refused = client.unlock(uid, "SUCCESS")
         assert refused[0] == b"error" and b"robot at /dev/ttyTEST" in refused[1]
-        time.sleep(2.5)  # then silent
+        time.sleep(1.0)  # then silent
 
-    with Groot2Server(port=0, heartbeat_s=1.0) as server:
+    with Groot2Server(port=0, heartbeat_s=0.4) as server:
         result, supervisor = _robot_run(server, work)
     assert not result.succeeded
     assert supervisor.safe and "Groot2 client silent" in supervisor.safe[0]
