@@ -161,6 +161,28 @@ def test_unknown_network_is_located(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert f"{bad}:1:9: " in err and "no network 'labb'" in err and "lab" in err
 
 
+def test_a_network_file_in_another_directory_is_found_from_the_route(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Was refused at the parser: "network: give the network's name".
+    (tmp_path / "nets").mkdir()
+    (tmp_path / "routes").mkdir()
+    (tmp_path / "nets" / "site.yaml").write_text(
+        (REPO / "scenarios" / "bend-left.yaml").read_text()
+    )
+    good = tmp_path / "routes" / "site.route"
+    good.write_text("network ../nets/site.yaml\nforward 1 m\nat the bend turn left\n")
+    assert main(["validate", str(good)]) == 0
+    misfit = tmp_path / "routes" / "misfit.route"
+    misfit.write_text("network ../nets/site.yaml\nforward 1 m\nat the bend turn up\n")
+    assert main(["validate", str(misfit)]) == 2  # planned on that very file
+    assert "turns left, not up" in capsys.readouterr().err
+    missing = tmp_path / "routes" / "missing.route"
+    missing.write_text("network ../nets/gone.yaml\nforward 1 m\n")
+    assert main(["validate", str(missing)]) == 2
+    assert f"{missing}:1:9: no network '../nets/gone.yaml'" in capsys.readouterr().err
+
+
 def test_a_network_name_too_long_for_a_file_is_located_and_cut(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -106,6 +106,9 @@ _FEATURES = {
 }
 _NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
+_NETWORK_FILE_RE = re.compile(r"^[^\x00-\x1f]+\.ya?ml$")
+"""A network file on a route's ``network`` line: a path ending in .yaml or .yml,
+relative to the route's directory or absolute (whitespace splits words already)."""
 _SUFFIX = ".route"
 
 
@@ -346,8 +349,12 @@ def _parse_line(
     verb = first.text
     if verb == "network":
         name = line.take()
-        if name is None or not _NAME_RE.match(name.raw.removesuffix(".yaml")):
-            raise line.error("network: give the network's name, e.g. 'network lab'", name)
+        if name is None or not (_NAME_RE.match(name.raw) or _NETWORK_FILE_RE.match(name.raw)):
+            raise line.error(
+                "network: give the network's name or its file, e.g. 'network lab' or"
+                " 'network ../networks/site.yaml'",
+                name,
+            )
         line.done()
         return (name.raw, loc, line.at(name.column))
     if verb in ("forward", "inspect"):
