@@ -32,6 +32,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FAULT_KINDS",
     "MAX_FAULT_TEXT",
+    "NO_TARGET_KINDS",
     "FaultTargetError",
     "check_fault_target",
     "format_fault",
@@ -56,10 +57,16 @@ def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
     """Check that a fault's target exists on ``robot`` (the rule the simulator applies).
 
     Raises:
-        FaultTargetError: an unknown motor, state channel or board, with the known ones.
+        FaultTargetError: an unknown motor, state channel or board, with the known ones;
+            a target on a kind that takes none (:data:`NO_TARGET_KINDS`).
     """
     target = fault.target
-    if fault.kind == "motor_stall":
+    if fault.kind in NO_TARGET_KINDS:
+        if target is not None:
+            raise FaultTargetError(
+                f"fault {fault.kind} takes no target ({target!r}): write {fault.kind}@AT"
+            )
+    elif fault.kind == "motor_stall":
         motors = [m.name for _, m in robot.motors()]
         if target not in motors:
             raise FaultTargetError(
@@ -86,6 +93,8 @@ def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
 
 
 FAULT_KINDS: tuple[str, ...] = get_args(FaultKind)
+NO_TARGET_KINDS: tuple[str, ...] = ("link_loss",)
+"""The fault kinds that take no target (they act on the whole link, not on one part)."""
 
 _FAULT_RE = re.compile(
     r"^\s*(?P<kind>[a-z_]+)(?::(?P<target>[A-Za-z0-9_.]+))?\s*@\s*(?P<at>[^+]+?)"
@@ -110,7 +119,8 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
         The fault.
 
     Raises:
-        InputError: malformed text, an unknown kind, a missing target or a bad time;
+        InputError: malformed text, an unknown kind, a missing target (or a target on a
+            kind that takes none, :data:`NO_TARGET_KINDS`) or a bad time;
             text longer than :data:`MAX_FAULT_TEXT` (an ``ArgumentTypeError``: not text).
     """
     prefix = f"{option}: " if option else ""
@@ -132,7 +142,13 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
             f"{prefix}unknown fault kind {shown(kind)}; known: {', '.join(FAULT_KINDS)}"
         )
     target = match["target"]
-    if kind != "link_loss" and target is None:
+    if kind in NO_TARGET_KINDS:
+        if target is not None:
+            raise InputError(
+                f"{prefix}fault {kind} takes no target, so {shown(text)} is bad; write"
+                f" {kind}@AT[+DURATION]"
+            )
+    elif target is None:
         raise InputError(f"{prefix}fault {kind} needs a target: {kind}:NAME@AT")
     try:
         at = parse_quantity(match["at"], "time")
