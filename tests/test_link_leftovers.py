@@ -10,10 +10,18 @@
 
 from __future__ import annotations
 
+import ast
+import inspect
+import itertools
+from pathlib import Path
+
 import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from pirate_bt.link import framing
+from pirate_bt.link.requests import SessionConfig
+from pirate_bt.link.transport import handshake
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot import load_robot
 from pirate_bt.sim.faults import FaultTargetError, check_fault_target, parse_fault
@@ -41,3 +49,34 @@ def test_the_command_line_exits_2_naming_the_spec(capsys: pytest.CaptureFixture[
     assert main([*argv, "--faults", "link_loss:22@1s"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "'link_loss:22@1s'" in err and "takes no target" in err
+
+
+# -- 3. PROTOCOL_MINOR's docstring says what is true ------------------------------------------
+
+
+def _constant_doc(module: str, name: str) -> str:
+    """The docstring written under a module constant (the string right after it)."""
+    tree = ast.parse(Path(module).read_text(encoding="utf-8"))
+    body = tree.body
+    for node, after in itertools.pairwise(body):
+        if (
+            isinstance(node, ast.Assign)
+            and any(isinstance(t, ast.Name) and t.id == name for t in node.targets)
+            and isinstance(after, ast.Expr)
+            and isinstance(after.value, ast.Constant)
+        ):
+            return " ".join(str(after.value.value).split())
+    raise AssertionError(f"{name} has no docstring in {module}")
+
+
+def test_protocol_minor_says_the_host_asks_for_1_2_and_falls_back_to_1_1() -> None:
+    # the facts the docstrings state
+    assert (framing.PROTOCOL_MINOR, framing.PROTOCOL_MINOR_MAX) == (1, 2)
+    assert SessionConfig().protocol_minor == framing.PROTOCOL_MINOR_MAX
+    assert inspect.signature(handshake).parameters["minor"].default == framing.PROTOCOL_MINOR
+    doc = _constant_doc(framing.__file__, "PROTOCOL_MINOR")
+    assert not doc.startswith("Protocol minor version the host asks for by default")
+    assert doc.startswith("Lowest") and "falls back" in doc
+    assert "SessionConfig.protocol_minor" in doc
+    top = _constant_doc(framing.__file__, "PROTOCOL_MINOR_MAX")
+    assert "by default" in top and "SessionConfig(protocol_minor=1)" in top

@@ -31,11 +31,18 @@ __all__ = [
 PROTOCOL_VERSION = 1
 """Protocol major version, carried in byte 0 of every frame."""
 PROTOCOL_MINOR = 1
-"""Protocol minor version the host asks for by default, carried in HELLO and HELLO_REPLY
-(1.1: docs/protocol.md). A session speaks the minor of its HELLO."""
+"""Lowest protocol minor version spoken here (1.1), carried in HELLO and HELLO_REPLY
+(docs/protocol.md, Versions). Not what the host asks for by default: the session asks
+for :data:`PROTOCOL_MINOR_MAX` (``SessionConfig.protocol_minor``) and falls back to
+this one when a 1.1 bridge refuses that HELLO. It is the default of
+:func:`~pirate_bt.link.transport.handshake`'s ``minor`` and of the messages' ``minor``
+fields, the simulated bridge's minor before any HELLO, and the vector file's
+``protocol_minor``. A session speaks the minor of its HELLO."""
 PROTOCOL_MINOR_MAX = 2
-"""Highest minor version known here: 1.2 adds the bridge flag ``ESTOP_INPUT`` (the
-hardware e-stop input). A host asks for it with ``SessionConfig(protocol_minor=2)``."""
+"""Highest minor version known here (1.2, which adds the bridge flag ``ESTOP_INPUT``,
+the hardware e-stop input), and the one the host asks for by default
+(``SessionConfig.protocol_minor``); ``SessionConfig(protocol_minor=1)`` asks for 1.1
+only."""
 
 HEADER_BYTES = 5
 MAX_BODY_BYTES = 254
