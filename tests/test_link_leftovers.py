@@ -13,20 +13,85 @@ from __future__ import annotations
 import ast
 import inspect
 import itertools
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from pirate_bt.cli import main
-from pirate_bt.errors import InputError
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import FrameError, InputError
 from pirate_bt.link import framing
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    EStop,
+    FrameCodec,
+    FrameDecoder,
+    Heartbeat,
+    HelloReply,
+    Message,
+    MsgType,
+    encode_many,
+)
 from pirate_bt.link.requests import SessionConfig
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.link.session import Session
+from pirate_bt.link.testing import memory_pair
 from pirate_bt.link.transport import handshake
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot import load_robot
 from pirate_bt.sim.faults import FaultTargetError, check_fault_target, parse_fault
 
 ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+LAYOUT = CODEC.layout
+# binary fractions, so that simulated times add up exactly
+CONFIG = SessionConfig(
+    ack_timeout_s=0.0625,
+    max_retries=2,
+    heartbeat_period_s=0.125,
+    link_timeout_s=0.5,
+    poll_step_s=0.005,
+    loss_window=4,
+)
+
+
+def hello_reply(**changes: object) -> HelloReply:
+    fields: dict[str, object] = {
+        "seq": 1,
+        "layout_digest": LAYOUT.digest,
+        "n_channels": LAYOUT.n_channels,
+        "n_motors": LAYOUT.n_motors,
+        "watchdog_ms": 250,
+        "boot_id": 7,
+        "minor": 2,
+    }
+    fields.update(changes)
+    return HelloReply(**fields)  # type: ignore[arg-type]
+
+
+class Peer:
+    """A bridge played by the test, stepped by the simulated clock: it answers what
+    ``answer(msg)`` returns for each host frame, and keeps every frame it saw."""
+
+    def __init__(self, answer: Callable[[Message], list[Message]]) -> None:
+        self.clock = SimClock(8.0)
+        self.host, self.far = memory_pair()
+        self.decoder = FrameDecoder(CODEC)
+        self.seen: list[Message] = []
+        self._answer = answer
+        self.clock.add_listener(self.step)
+
+    def step(self, _now: float) -> None:
+        for msg in self.decoder.feed(self.far.read_available()):
+            if not isinstance(msg, FrameError):
+                self.seen.append(msg)
+                self.far.write(encode_many(CODEC, self._answer(msg)))
+
+    def session(self) -> Session:
+        return Session(self.host, CODEC, self.clock, CONFIG, hello_reply=hello_reply())
+
 
 # -- 1. a fault kind that takes no target refuses one -----------------------------------------
 
@@ -80,3 +145,36 @@ def test_protocol_minor_says_the_host_asks_for_1_2_and_falls_back_to_1_1() -> No
     assert "SessionConfig.protocol_minor" in doc
     top = _constant_doc(framing.__file__, "PROTOCOL_MINOR_MAX")
     assert "by default" in top and "SessionConfig(protocol_minor=1)" in top
+
+
+# -- 5. the e-stop a close sends is retried when its frame is lost ----------------------------
+
+
+def test_the_close_estop_is_sent_again_when_its_frame_is_lost() -> None:
+    estops: list[int] = []
+
+    def bridge(msg: Message) -> list[Message]:
+        if isinstance(msg, Heartbeat):
+            return [Ack(msg.seq, MsgType.HEARTBEAT, AckStatus.APPLIED)]
+        if isinstance(msg, EStop):
+            estops.append(msg.seq)
+            if len(estops) > 1:  # the first copy is lost on the way
+                return [Ack(msg.seq, MsgType.ESTOP, AckStatus.APPLIED)]
+        return []  # the stop bulk is never acknowledged
+
+    peer = Peer(bridge)
+    link = RobotLink(ROBOT, peer.session())
+    link.close()  # the stop bulk fails: an e-stop, lost once, then acknowledged
+    assert len(estops) == 2 and estops[0] == estops[1]  # the same frame, sent again
+    assert link.session.stats().estopped  # its ACK was taken before the session closed
+    assert peer.host.closed
+
+
+def test_a_close_whose_estop_is_never_answered_ends_without_raising() -> None:
+    peer = Peer(lambda msg: [])  # a bridge that hears but never answers
+    link = RobotLink(ROBOT, peer.session())
+    start = peer.clock.now()
+    link.close()
+    sent = [m for m in peer.seen if isinstance(m, EStop)]
+    assert len(sent) == CONFIG.max_retries + 1 and len({m.seq for m in sent}) == 1
+    assert peer.clock.now() - start < 1.0 and peer.host.closed

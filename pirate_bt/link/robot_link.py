@@ -353,9 +353,14 @@ class RobotLink:
                 else:
                     # refused (a bus fault, a board away) or never acknowledged: the
                     # robot may be left moving; the e-stop is what the bridge always
-                    # takes (it applies the stop category itself)
+                    # takes (it applies the stop category itself). Waited for, so the
+                    # session resends a lost copy (same frame, always applied) within
+                    # its retry budget; a link that fails meanwhile ends the wait.
                     _log.error("could not stop the drives on close: %s; e-stop sent", exc)
-                    self.estop()
+                    try:
+                        self.session.wait(self.session.estop())
+                    except LinkError as why:
+                        _log.error("the e-stop on close was not acknowledged: %s", why)
         self.session.close()
 
     def __enter__(self) -> RobotLink:
