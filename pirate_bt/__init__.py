@@ -62,6 +62,7 @@ _EXPORTS: dict[str, str] = {
     # names their modules)
     "export_xml": "pirate_bt.interop",
     "import_xml": "pirate_bt.interop",
+    "load_xml_tree": "pirate_bt.interop",
     "export_btlog": "pirate_bt.interop",
     "read_btlog": "pirate_bt.interop",
     "export_mcap": "pirate_bt.interop",
@@ -146,6 +147,7 @@ __all__ = [
     "load_robot",
     "load_route",
     "load_tree",
+    "load_xml_tree",
     "navigate",
     "navigator_names",
     "plan_route",
@@ -202,7 +204,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         ValidationFailed,
     )
     from pirate_bt.interop.btcpp_export import export_xml
-    from pirate_bt.interop.btcpp_import_file import import_xml
+    from pirate_bt.interop.btcpp_import_file import import_xml, load_xml_tree
     from pirate_bt.interop.btlog import export_btlog, read_btlog
     from pirate_bt.interop.groot2_server import Groot2Server, attach_groot2
     from pirate_bt.interop.mcap_trace import export_mcap

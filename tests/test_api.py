@@ -427,7 +427,7 @@ def test_the_file_converters_are_in_pirate_bt_and_pirate_bt_interop() -> None:
     done = _python("""
         import sys, pirate_bt, pirate_bt.interop as interop
         names = ["export_xml", "import_xml", "export_btlog", "read_btlog", "export_mcap",
-                 "export_rosbag2"]
+                 "export_rosbag2", "load_xml_tree"]
         assert sorted(interop.__all__) == sorted(names)
         for name in names:
             assert getattr(interop, name) is getattr(pirate_bt, name), name

@@ -94,6 +94,11 @@ def as_loaded(
         )
     given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    if isinstance(source, str | Path) and Path(source).suffix.lower() == ".xml":
+        # a BehaviorTree.CPP v4 file (Groot2's): converted and checked as `import btcpp` does
+        from pirate_bt.interop.btcpp_import_file import load_xml_tree
+
+        return load_xml_tree(source, robot=robot, params=given, params_from_text=from_text)
     return load_tree(source, robot=robot, params=given, params_from_text=from_text)
 
 

@@ -222,13 +222,21 @@ def run(args: argparse.Namespace) -> int:
     if args.trace is not None:
         check_trace_path(args.trace)
     robot = load_robot(args.robot)
-    checked = load_tree(
-        find_file("trees", args.tree),
-        robot=robot,
-        params=params,
-        params_from_text=True,
-        params_origin="--param",
-    )
+    if str(args.tree).lower().endswith(".xml"):
+        # a BehaviorTree.CPP v4 file (Groot2's): converted and checked as `import btcpp` does
+        from pirate_bt.interop.btcpp_import_file import load_xml_tree
+
+        checked = load_xml_tree(
+            args.tree, robot=robot, params=params, params_from_text=True, params_origin="--param"
+        )
+    else:
+        checked = load_tree(
+            find_file("trees", args.tree),
+            robot=robot,
+            params=params,
+            params_from_text=True,
+            params_origin="--param",
+        )
     check_firmware_chain(args)
     with live_outputs(args) as (server, node, groot2):
         options: dict[str, Any] = {

@@ -16,7 +16,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--kind",
         choices=sorted(KINDS),
-        help="the kind of every file (default: detect from suffix and keys)",
+        help="the kind of every file (default: detect from suffix and keys; a .xml file is"
+        " a BehaviorTree.CPP v4 tree)",
     )
     parser.add_argument(
         "--param",
@@ -36,7 +37,13 @@ def run(args: argparse.Namespace) -> int:
     worst = 0
     for path in args.files:
         try:
-            validate_file(path, args.kind, params)
+            if args.kind is None and path.lower().endswith(".xml"):
+                # BehaviorTree.CPP v4 XML (Groot2's): checked as `import btcpp` checks it
+                from pirate_bt.interop.btcpp_import_file import load_xml_tree
+
+                load_xml_tree(path, params=params, params_from_text=True, use_examples=True)
+            else:
+                validate_file(path, args.kind, params)
         except ValidationFailed as exc:
             for error in exc.errors:
                 print(str(error), file=sys.stderr)

@@ -12,8 +12,8 @@ Each module imports its optional dependency only when used and says which extra
 to install when it is missing.
 
 The file converters are also here (and in ``pirate_bt``), imported on first use:
-``export_xml``, ``import_xml``, ``export_btlog``, ``read_btlog``, ``export_mcap``,
-``export_rosbag2``.
+``export_xml``, ``import_xml``, ``load_xml_tree``, ``export_btlog``, ``read_btlog``,
+``export_mcap``, ``export_rosbag2``.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 _EXPORTS: dict[str, str] = {
     "export_xml": "pirate_bt.interop.btcpp_export",
     "import_xml": "pirate_bt.interop.btcpp_import_file",
+    "load_xml_tree": "pirate_bt.interop.btcpp_import_file",
     "export_btlog": "pirate_bt.interop.btlog",
     "read_btlog": "pirate_bt.interop.btlog",
     "export_mcap": "pirate_bt.interop.mcap_trace",
@@ -36,6 +37,7 @@ __all__ = [
     "export_rosbag2",
     "export_xml",
     "import_xml",
+    "load_xml_tree",
     "read_btlog",
 ]
 
@@ -51,7 +53,7 @@ def __getattr__(name: str) -> Any:
 
 if TYPE_CHECKING:
     from pirate_bt.interop.btcpp_export import export_xml
-    from pirate_bt.interop.btcpp_import_file import import_xml
+    from pirate_bt.interop.btcpp_import_file import import_xml, load_xml_tree
     from pirate_bt.interop.btlog import export_btlog, read_btlog
     from pirate_bt.interop.mcap_trace import export_mcap
     from pirate_bt.interop.rosbag2 import export_rosbag2

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 from pirate_bt.interop.btcpp_export import export_xml, tree_to_xml
 from pirate_bt.interop.btcpp_import import xml_to_tree
-from pirate_bt.interop.btcpp_import_file import import_xml
+from pirate_bt.interop.btcpp_import_file import import_xml, load_xml_tree
 from pirate_bt.interop.btcpp_models import (
     BTCPP_FORMAT,
     FROM_BTCPP,
@@ -57,6 +57,7 @@ __all__ = [
     "encode_value",
     "export_xml",
     "import_xml",
+    "load_xml_tree",
     "node_models",
     "tree_to_xml",
     "xml_to_tree",

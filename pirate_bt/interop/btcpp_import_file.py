@@ -9,8 +9,9 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -25,7 +26,10 @@ from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.interop.btcpp_xml import output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
 
-__all__ = ["import_xml"]
+if TYPE_CHECKING:
+    from pirate_bt.treefile import LoadedTree
+
+__all__ = ["import_xml", "load_xml_tree"]
 
 
 def _in_xml(
@@ -85,6 +89,18 @@ def _str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
 _Dumper.add_representer(str, _str)
 
 
+def _converted(
+    source: Path, registry: Registry
+) -> tuple[str, dict[tuple[str | int, ...], SourceLocation]]:
+    """The tree file's text for an XML file, and each YAML place's XML element."""
+    data, where = _read(source, registry)
+    text = (
+        f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
+        + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
+    )
+    return text, where
+
+
 def import_xml(
     xml_path: str | Path,
     out_path: str | Path,
@@ -124,11 +140,7 @@ def import_xml(
     output_file(out_path, "out_path")
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    data, where = _read(source, reg)
-    text = (
-        f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
-        + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
-    )
+    text, where = _converted(source, reg)
     out = Path(out_path)
     refuse_special(out)
     if out.exists() and out.resolve() == source.resolve():
@@ -155,3 +167,59 @@ def import_xml(
     finally:
         tmp.unlink(missing_ok=True)
     return out
+
+
+def load_xml_tree(
+    xml_path: str | Path,
+    *,
+    robot: Any = None,
+    params: Mapping[str, Any] | None = None,
+    params_from_text: bool = False,
+    params_origin: str | None = None,
+    use_examples: bool = False,
+    registry: Registry | None = None,
+) -> LoadedTree:
+    """A BT.CPP v4 XML file loaded as a tree to run, checked as :func:`import_xml`
+    checks it (each problem at its XML element), nothing written beside it.
+
+    What ``pirate-bt run tree.xml`` and ``simulate_tree("tree.xml")`` run, and
+    ``pirate-bt validate tree.xml`` checks: the XML converted in a temporary folder
+    (removed again), then loaded with ``params`` as a YAML tree is.
+
+    Args:
+        xml_path: The XML file.
+        robot: The robot description (a loaded one or its file; default: the bundled).
+        params: The tree's parameters (see :func:`pirate_bt.treefile.load_tree`).
+        params_from_text: Read string parameters as the command line does.
+        params_origin: Where the parameters came from, in messages (``--param``).
+        use_examples: A parameter not given takes its declared example (validation).
+        registry: Node types allowed (default: pirate_bt's).
+
+    Raises:
+        InputError: a path that is no file.
+        LocatedError: the XML cannot be converted (at the XML's line and column).
+        ValidationFailed: the converted tree does not load for the robot.
+    """
+    from pirate_bt.robot.description import RobotDescription
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.treefile import load_tree
+
+    source = file_argument(xml_path, "xml_path")
+    reg = registry or default_registry()
+    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
+    text, where = _converted(source, reg)
+    with tempfile.TemporaryDirectory(prefix="pirate-bt-xml-") as folder:
+        converted = Path(folder) / f"{source.stem}.yaml"
+        converted.write_text(text, encoding="utf-8")
+        try:
+            return load_tree(
+                converted,
+                robot=description,
+                params=params,
+                params_from_text=params_from_text,
+                params_origin=params_origin,
+                use_examples=use_examples,
+                registry=reg,
+            )
+        except ValidationFailed as exc:
+            raise ValidationFailed(_in_xml(exc.errors, converted, where)) from None
