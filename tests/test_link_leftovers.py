@@ -29,16 +29,19 @@ from pirate_bt.link.codec import (
     FrameCodec,
     FrameDecoder,
     Heartbeat,
+    Hello,
     HelloReply,
     Message,
     MsgType,
+    Nack,
+    NackCode,
     encode_many,
 )
 from pirate_bt.link.requests import SessionConfig
-from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.link.robot_link import RobotLink, wrap_link
 from pirate_bt.link.session import Session
 from pirate_bt.link.testing import memory_pair
-from pirate_bt.link.transport import handshake
+from pirate_bt.link.transport import HelloRefused, handshake
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot import load_robot
 from pirate_bt.sim.faults import FaultTargetError, check_fault_target, parse_fault
@@ -178,3 +181,36 @@ def test_a_close_whose_estop_is_never_answered_ends_without_raising() -> None:
     sent = [m for m in peer.seen if isinstance(m, EStop)]
     assert len(sent) == CONFIG.max_retries + 1 and len({m.seq for m in sent}) == 1
     assert peer.clock.now() - start < 1.0 and peer.host.closed
+
+
+# -- 4. (part) only a BAD_LAYOUT refusal of HELLO makes the host ask for 1.1 -------------------
+
+
+def hellos_to_a_refusing_bridge(code: NackCode) -> tuple[list[Hello], HelloRefused]:
+    clock = SimClock()
+    host, far = memory_pair()
+    hellos: list[Hello] = []
+
+    def refuse_every_hello(now: float) -> None:
+        for msg in FrameDecoder(CODEC).feed(far.read_available()):
+            if isinstance(msg, Hello):
+                hellos.append(msg)
+                far.write(CODEC.encode(Nack(msg.seq, MsgType.HELLO, code)))
+
+    clock.add_listener(refuse_every_hello)
+    with pytest.raises(HelloRefused) as caught:
+        wrap_link(host, ROBOT, clock)
+    return hellos, caught.value
+
+
+def test_a_hello_refused_not_ready_is_not_asked_again_for_1_1() -> None:
+    # its message names BAD_LAYOUT (as the only code a bridge may refuse HELLO with),
+    # which made the host take it for a 1.1 bridge and ask again
+    hellos, error = hellos_to_a_refusing_bridge(NackCode.NOT_READY)
+    assert [h.minor for h in hellos] == [2]
+    assert error.code is NackCode.NOT_READY and "(NOT_READY)" in str(error)
+
+
+def test_a_hello_refused_bad_layout_is_asked_again_for_1_1() -> None:
+    hellos, error = hellos_to_a_refusing_bridge(NackCode.BAD_LAYOUT)
+    assert [h.minor for h in hellos] == [2, 1] and error.code is NackCode.BAD_LAYOUT

@@ -27,12 +27,19 @@ from operator import attrgetter
 from typing import Any
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
+from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, FrameCodec
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
-from pirate_bt.link.messages import BoardStatus, HelloReply
+from pirate_bt.link.messages import BoardStatus, HelloReply, NackCode
 from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
-from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
+from pirate_bt.link.transport import (
+    ByteLink,
+    HelloRefused,
+    SerialLike,
+    Transport,
+    handshake,
+    is_real_port,
+)
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
@@ -457,8 +464,9 @@ def wrap_link(
     try:
         try:
             reply = hello(1, cfg.protocol_minor, reset_wait_s)
-        except ProtocolMismatch as refused:
-            if cfg.protocol_minor == 1 or "BAD_LAYOUT" not in str(refused):
+        except HelloRefused as refused:
+            # on the code: the message of another refusal names BAD_LAYOUT too
+            if cfg.protocol_minor == 1 or refused.code is not NackCode.BAD_LAYOUT:
                 raise
             # A 1.1 bridge refuses a 1.2 HELLO (NACK BAD_LAYOUT, as for another layout):
             # ask once more for 1.1; if the layout is what it refuses, that fails too.

@@ -40,6 +40,7 @@ from pirate_bt.link.codec import (
 
 __all__ = [
     "ByteLink",
+    "HelloRefused",
     "SerialLike",
     "Transport",
     "handshake",
@@ -49,6 +50,20 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 _VIRTUAL_PREFIXES = ("loop://", "socket://", "spy://", "rfc2217://", "hwgrep://", "alt://")
+
+
+class HelloRefused(ProtocolMismatch):
+    """The bridge answered ``HELLO`` with a ``NACK``; :attr:`code` says which.
+
+    A caller decides on the code, never on the message (a message may name other codes).
+    """
+
+    def __init__(self, message: str, code: NackCode) -> None:
+        super().__init__(message)
+        self.code = code
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (str(self), self.code))
 
 
 def is_real_port(url: str) -> bool:
@@ -274,7 +289,8 @@ def handshake(
         The bridge's reply.
 
     Raises:
-        ProtocolMismatch: the bridge speaks another protocol version or layout.
+        ProtocolMismatch: the bridge speaks another protocol version or layout
+            (:class:`HelloRefused`, with the code, when it answered with a ``NACK``).
         LinkTimeout: no reply after all attempts.
         LinkError: the port failed.
     """
@@ -301,24 +317,27 @@ def handshake(
                     continue
                 if isinstance(item, Nack) and item.seq == seq and item.acked_type == MsgType.HELLO:
                     if item.error is NackCode.BAD_LENGTH:
-                        raise ProtocolMismatch(
+                        raise HelloRefused(
                             "the bridge does not understand this HELLO (BAD_LENGTH): it speaks "
                             f"another protocol minor version; host speaks "
-                            f"{PROTOCOL_VERSION}.{minor}"
+                            f"{PROTOCOL_VERSION}.{minor}",
+                            item.error,
                         )
                     if item.error is NackCode.BAD_LAYOUT:
-                        raise ProtocolMismatch(
+                        raise HelloRefused(
                             f"the bridge refused the layout digest {codec.layout.digest:#010x} "
                             f"or protocol {PROTOCOL_VERSION}.{minor} (BAD_LAYOUT): it was "
-                            "built for another robot description or protocol version"
+                            "built for another robot description or protocol version",
+                            item.error,
                         )
                     # docs/protocol.md: a bridge refuses HELLO only with BAD_LAYOUT or
                     # (another minor) BAD_LENGTH; any other code is not about the layout
-                    raise ProtocolMismatch(
+                    raise HelloRefused(
                         f"the bridge refused HELLO ({item.error.name}): protocol "
                         f"{PROTOCOL_VERSION}.{minor} refuses a HELLO only with BAD_LAYOUT "
                         "(another layout or minor version) or BAD_LENGTH, so this bridge "
-                        "does not follow the protocol"
+                        "does not follow the protocol",
+                        item.error,
                     )
                 if isinstance(item, HelloReply) and item.seq == seq:
                     if item.minor != minor:
