@@ -12,7 +12,9 @@ import pytest
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import FrameError
 from pirate_bt.link.codec import (
+    BoardCounters,
     BridgeFlags,
+    Counters,
     FrameCodec,
     FrameDecoder,
     Heartbeat,
@@ -56,6 +58,12 @@ def reply(seq: int = 1, **changes: object) -> HelloReply:
     }
     fields.update(changes)
     return HelloReply(**fields)  # type: ignore[arg-type]
+
+
+def counters(seq: int, **fields: int) -> Counters:
+    """A COUNTERS reply with one entry per board of the layout (as the protocol has it)."""
+    boards = tuple(BoardCounters(20 + i) for i in range(LAYOUT.n_boards))
+    return Counters(seq, **fields, boards=boards)
 
 
 def state(seq: int, ack_seq: int = 0, flags: BridgeFlags = BridgeFlags.NONE) -> State:

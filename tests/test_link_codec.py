@@ -160,7 +160,10 @@ messages = st.one_of(
         u32,
         u32,
         u32,
-        st.lists(st.builds(c.BoardCounters, u8, u32, u32, u32), max_size=17).map(tuple),
+        # one entry per board of the layout: another count is a bad frame
+        st.lists(st.builds(c.BoardCounters, u8, u32, u32, u32), min_size=n_b, max_size=n_b).map(
+            tuple
+        ),
     ),
     st.builds(c.BridgeHeartbeat, seqs, st.builds(c.BridgeFlags, st.integers(0, 15))),
 )

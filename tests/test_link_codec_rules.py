@@ -252,7 +252,7 @@ def test_each_message_decodes_from_its_own_fields() -> None:
         ),
         c.Ack(16, 3, c.AckStatus.DUPLICATE),
         c.Nack(17, 2, c.NackCode.ESTOP_LATCHED),
-        c.Counters(18, 1, 2, 3, 4, 5, (c.BoardCounters(20, 6, 7, 8), c.BoardCounters(21, 9))),
+        c.Counters(18, 1, 2, 3, 4, 5, tuple(c.BoardCounters(20 + i, 6, 7, i) for i in range(N_B))),
         c.BridgeHeartbeat(19, c.BridgeFlags.NO_SESSION),
     ]
     for msg in msgs:

@@ -25,6 +25,9 @@ from pirate_bt.link import framing
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
+    BoardCounters,
+    Counters,
+    CountersRequest,
     EStop,
     FrameCodec,
     FrameDecoder,
@@ -37,7 +40,7 @@ from pirate_bt.link.codec import (
     NackCode,
     encode_many,
 )
-from pirate_bt.link.requests import SessionConfig
+from pirate_bt.link.requests import Outcome, SessionConfig
 from pirate_bt.link.robot_link import RobotLink, wrap_link
 from pirate_bt.link.session import Session
 from pirate_bt.link.testing import memory_pair
@@ -214,3 +217,39 @@ def test_a_hello_refused_not_ready_is_not_asked_again_for_1_1() -> None:
 def test_a_hello_refused_bad_layout_is_asked_again_for_1_1() -> None:
     hellos, error = hellos_to_a_refusing_bridge(NackCode.BAD_LAYOUT)
     assert [h.minor for h in hellos] == [2, 1] and error.code is NackCode.BAD_LAYOUT
+
+
+# -- 2. a COUNTERS reply for another number of boards is refused -----------------------------
+
+
+def counters_for(n_boards: int, seq: int = 1) -> Counters:
+    return Counters(seq, 5, boards=tuple(BoardCounters(20 + i) for i in range(n_boards)))
+
+
+def test_counters_of_another_board_count_are_a_bad_frame() -> None:
+    with pytest.raises(FrameError) as caught:
+        CODEC.decode(CODEC.encode(counters_for(2))[:-1])
+    assert (caught.value.reason, caught.value.detail) == (
+        "length",
+        f"counters of 2 boards, the layout has {LAYOUT.n_boards}",
+    )
+    whole = counters_for(LAYOUT.n_boards)
+    assert CODEC.decode(CODEC.encode(whole)[:-1]) == whole
+
+
+@pytest.mark.parametrize("boards", [0, 2, LAYOUT.n_boards + 1])
+def test_a_counters_reply_for_other_boards_is_refused_not_taken(boards: int) -> None:
+    peer = Peer(
+        lambda msg: [counters_for(boards, msg.seq)] if isinstance(msg, CountersRequest) else []
+    )
+    session = peer.session()
+    ask = session.wait(session.request_counters())  # retried, then given up; never raises
+    assert ask.outcome is Outcome.FAILED and ask.reply is None
+    assert session.stats().crc_errors == ask.tries == CONFIG.max_retries + 1
+    good = Peer(
+        lambda msg: (
+            [counters_for(LAYOUT.n_boards, msg.seq)] if isinstance(msg, CountersRequest) else []
+        )
+    ).session()
+    ask = good.wait(good.request_counters())
+    assert ask.outcome is Outcome.ACKED and ask.reply == counters_for(LAYOUT.n_boards, ask.seq)

@@ -19,6 +19,7 @@ from session_wire import (
     LAYOUT,
     LOG,
     Wire,
+    counters,
     messages,
     reply,
     setpoint,
@@ -32,7 +33,6 @@ from pirate_bt.link.codec import (
     AckStatus,
     BridgeFlags,
     BridgeHeartbeat,
-    Counters,
     EStop,
     FrameDecoder,
     Heartbeat,
@@ -431,7 +431,7 @@ def test_figures_count_every_occurrence() -> None:
     wire.far.write(bytes(bad) * 2)
     wire.answer(Heartbeat(5), Heartbeat(6))  # our own frames, echoed
     ask = wire.session.request_counters()
-    wire.answer(Counters(ask.seq), Counters(ask.seq), Counters(ask.seq))
+    wire.answer(counters(ask.seq), counters(ask.seq), counters(ask.seq))
     wire.poll()
     stats = wire.session.stats()
     assert (stats.stale, stats.failed, stats.crc_errors, stats.duplicates) == (2, 2, 2, 2)

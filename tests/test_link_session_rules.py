@@ -20,6 +20,7 @@ from session_wire import (
     LAYOUT,
     LOG,
     Wire,
+    counters,
     messages,
     reply,
     setpoint,
@@ -32,7 +33,6 @@ from pirate_bt.link.codec import (
     AckStatus,
     BridgeFlags,
     BridgeHeartbeat,
-    Counters,
     EStop,
     Heartbeat,
     Hello,
@@ -393,9 +393,9 @@ def test_a_nacked_estop_or_counter_request_is_reported() -> None:
 def test_counters_answer_their_request() -> None:
     wire = Wire()
     ask = wire.session.request_counters()
-    wire.answer(Counters(ask.seq + 1, rx_frames=3), Counters(ask.seq, rx_frames=9))
+    wire.answer(counters(ask.seq + 1, rx_frames=3), counters(ask.seq, rx_frames=9))
     wire.poll(0.02)
-    assert ask.outcome is Outcome.ACKED and ask.reply == Counters(ask.seq, rx_frames=9)
+    assert ask.outcome is Outcome.ACKED and ask.reply == counters(ask.seq, rx_frames=9)
     assert wire.session.stats().duplicates == 1
     assert list(wire.session.rtt_samples) == [pytest.approx(0.02)]
 

@@ -545,4 +545,11 @@ class FrameCodec:
                         raise FrameError("value", f"unknown mode code {code}")
                     modes.append(mode)
             return BulkSetpoints(seq, tuple(modes), tuple(flat[1::2]))
-        return decode_fixed(kind, seq, arg, payload)
+        msg = decode_fixed(kind, seq, arg, payload)
+        if type(msg) is Counters and len(msg.boards) != self.layout.n_boards:
+            # docs/protocol.md: one entry per board of the layout, in id order
+            raise FrameError(
+                "length",
+                f"counters of {len(msg.boards)} boards, the layout has {self.layout.n_boards}",
+            )
+        return msg
