@@ -460,8 +460,8 @@ def doc_host_rejects(encoded: bytes) -> bool:
     state_size = 2 + (DOC_CHANNELS + 7) // 8 + (DOC_BOARDS + 1) // 2 + 2 * DOC_CHANNELS
     sizes = {1: 5, 2: 4, 3: 3 * DOC_MOTORS, 4: 0, 5: 0, 6: 0, 7: 0, 0x81: 14, 0x82: state_size}
     sizes.update({0x83: 2, 0x84: 2, 0x86: 0})
-    if kind == 0x85:
-        return len(payload) < 20 or (len(payload) - 20) % 13 != 0
+    if kind == 0x85:  # one entry for each board of the layout
+        return len(payload) != 20 + 13 * DOC_BOARDS
     if kind not in sizes:
         return True
     if len(payload) != sizes[kind]:
