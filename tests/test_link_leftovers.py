@@ -18,14 +18,16 @@ from pathlib import Path
 
 import pytest
 
+import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import FrameError, InputError
+from pirate_bt.errors import FrameError, InputError, ProtocolMismatch
 from pirate_bt.link import framing
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
     BoardCounters,
+    BridgeFlags,
     Counters,
     CountersRequest,
     EStop,
@@ -38,18 +40,25 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     NackCode,
+    State,
+    cobs_decode,
+    cobs_encode,
+    crc16,
     encode_many,
 )
+from pirate_bt.link.inbound import BAD_STATES_BEFORE_MISMATCH
 from pirate_bt.link.requests import Outcome, SessionConfig
 from pirate_bt.link.robot_link import RobotLink, wrap_link
 from pirate_bt.link.session import Session
-from pirate_bt.link.testing import memory_pair
+from pirate_bt.link.testing import MemoryLink, memory_pair
 from pirate_bt.link.transport import HelloRefused, handshake
 from pirate_bt.pipes import FaultSpec
 from pirate_bt.robot import load_robot
+from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.faults import FaultTargetError, check_fault_target, parse_fault
 
 ROBOT = load_robot()
+STRAIGHT = Path(__file__).parents[1] / "trees" / "straight.yaml"
 CODEC = FrameCodec.for_robot(ROBOT)
 LAYOUT = CODEC.layout
 # binary fractions, so that simulated times add up exactly
@@ -253,3 +262,84 @@ def test_a_counters_reply_for_other_boards_is_refused_not_taken(boards: int) -> 
     ).session()
     ask = good.wait(good.request_counters())
     assert ask.outcome is Outcome.ACKED and ask.reply == counters_for(LAYOUT.n_boards, ask.seq)
+
+
+# -- 6. STATEs of another layout, in a row, are a protocol mismatch ---------------------------
+
+
+def state_frame(seq: int, extra: int = 0) -> bytes:
+    """A STATE of the robot's layout, or with ``extra`` payload bytes more (or fewer)."""
+    good = State(seq, BridgeFlags.NONE, 0, 0, (1,) * LAYOUT.n_boards, (0,) * LAYOUT.n_channels)
+    if not extra:
+        return CODEC.encode(good)
+    raw = cobs_decode(CODEC.encode(good)[:-1])[:-2]  # header + payload, no CRC
+    raw = raw + bytes(extra) if extra > 0 else raw[:extra]
+    return cobs_encode(raw + crc16(raw).to_bytes(2, "little")) + b"\x00"
+
+
+def quiet_session() -> tuple[Session, MemoryLink]:
+    host, far = memory_pair()
+    return Session(host, CODEC, SimClock(8.0), CONFIG, hello_reply=hello_reply()), far
+
+
+@pytest.mark.parametrize("extra", [2, -2])
+def test_states_of_another_layout_in_a_row_are_a_protocol_mismatch(extra: int) -> None:
+    session, far = quiet_session()
+    far.write(state_frame(1))
+    session.poll()
+    expected = LAYOUT.state_payload_bytes
+    for seq in range(2, 2 + BAD_STATES_BEFORE_MISMATCH - 1):
+        far.write(state_frame(seq, extra))
+        session.poll()  # one or two could be line noise that passed the CRC: counted
+    assert session.stats().crc_errors == BAD_STATES_BEFORE_MISMATCH - 1
+    far.write(state_frame(9, extra))
+    message = (
+        rf"^the bridge sent {BAD_STATES_BEFORE_MISMATCH} STATE frames in a row of another"
+        rf" layout: a {expected + extra}-byte payload, the robot description's layout"
+        rf" needs {expected} bytes"
+    )
+    with pytest.raises(ProtocolMismatch, match=message):
+        session.poll()
+    with pytest.raises(ProtocolMismatch, match=message):
+        session.ensure_alive()  # for good: every later call says so too
+
+
+def test_a_good_state_between_ends_the_run_of_bad_ones() -> None:
+    session, far = quiet_session()
+    seq = 1
+    for _ in range(3):
+        for _ in range(BAD_STATES_BEFORE_MISMATCH - 1):
+            far.write(state_frame(seq, 2))
+            seq += 1
+        far.write(state_frame(seq))  # line noise, then a good one: still one layout
+        seq += 1
+        session.poll()
+    session.ensure_alive()
+    assert session.stats().crc_errors == 3 * (BAD_STATES_BEFORE_MISMATCH - 1)
+
+
+def test_a_run_fed_states_of_another_layout_ends_as_a_link_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the simulated bridge sends each STATE one channel too long from t = 1 s
+    read = SimBridge.read
+
+    def longer_states(self: SimBridge, size: int = -1) -> bytes:
+        out = read(self, size)
+        if self.now_s < 1.0 or not out:
+            return out
+        frames = []
+        for part in out.split(b"\x00")[:-1]:
+            raw = cobs_decode(part)
+            if raw[1] == MsgType.STATE:
+                raw = raw[:-2] + bytes(2)
+                raw += crc16(raw).to_bytes(2, "little")
+            frames.append(cobs_encode(raw) + b"\x00")
+        return b"".join(frames)
+
+    monkeypatch.setattr(SimBridge, "read", longer_states)
+    result = pirate_bt.simulate_tree(STRAIGHT, params={"distance": "1 m"}, max_time="10 s")
+    assert result.safe_state
+    assert isinstance(result.error, ProtocolMismatch), result.why
+    assert result.exit_code == 3
+    assert "layout needs" in result.why and "STATE frames in a row" in result.why

@@ -101,6 +101,7 @@ from pirate_bt.link.payloads import (
     _HELLO,
     _HELLO_REPLY,
     _SETPOINT,
+    StateLengthError,
     decode_fixed,
 )
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -137,6 +138,7 @@ __all__ = [
     "NackCode",
     "Setpoint",
     "State",
+    "StateLengthError",
     "WireLayout",
     "byte_time_s",
     "cobs_decode",
@@ -515,9 +517,7 @@ class FrameCodec:
         if kind is MsgType.STATE:
             lay = self.layout
             if size != lay.state_payload_bytes:
-                raise FrameError(
-                    "length", f"state payload {size} bytes, layout needs {lay.state_payload_bytes}"
-                )
+                raise StateLengthError(size, lay.state_payload_bytes)
             ack_seq, mask, status, *values = self._state.unpack(payload)
             nibbles = tuple(itertools.chain.from_iterable(map(_NIBBLES.__getitem__, status)))
             return State(

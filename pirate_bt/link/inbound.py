@@ -30,17 +30,23 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     State,
+    StateLengthError,
     seq_newer,
 )
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
-__all__ = ["InboundMixin"]
+__all__ = ["BAD_STATES_BEFORE_MISMATCH", "InboundMixin"]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
 _FAULT = int(BoardStatus.FAULT)
 OLD_STATES_BEFORE_RESYNC = 10
 """STATEs dropped in a row as not newer than the held one before the next is taken."""
+BAD_STATES_BEFORE_MISMATCH = 3
+"""STATE frames in a row (no good STATE between) whose CRC is good but whose length is
+not the layout's before the session ends on a protocol mismatch. One could be line
+noise that passed the CRC (about 1 in 65 536 damaged frames); three in a row is a
+bridge built for another layout."""
 
 
 class InboundMixin:
@@ -74,6 +80,8 @@ class InboundMixin:
     _reset_boot_id: int | None = None
     # STATEs dropped in a row as not newer than the one held (see _on_state)
     _old_state_run: int = 0
+    # STATEs of another length in a row, since the last good one (see _bad_state)
+    _bad_state_run: int = 0
 
     # the send side, in the session
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -113,6 +121,8 @@ class InboundMixin:
         if isinstance(item, FrameError):
             self.crc_errors += 1
             _log.debug("dropped frame: %s", item)
+            if isinstance(item, StateLengthError):
+                self._bad_state(item)
             return
         if item.TYPE < 0x80:  # pragma: no mutate (no message type is 0x80)
             self.unexpected += 1  # our own frames (loop://) or a confused peer
@@ -133,6 +143,19 @@ class InboundMixin:
                 self._bridge_reset(now)
         elif isinstance(item, HelloReply):
             self._on_hello_reply(item, now)
+
+    def _bad_state(self, item: StateLengthError) -> None:
+        """A STATE of another length: counted; :data:`BAD_STATES_BEFORE_MISMATCH` in a
+        row (a good STATE ends a run) are a bridge of another layout, a link error."""
+        self._bad_state_run += 1
+        if self._bad_state_run >= BAD_STATES_BEFORE_MISMATCH and self._protocol_error is None:
+            why = (
+                f"the bridge sent {self._bad_state_run} STATE frames in a row of another"
+                f" layout: a {item.received}-byte payload, the robot description's layout"
+                f" needs {item.expected} bytes (a bridge built for another robot description?)"
+            )
+            self._protocol_error = ProtocolMismatch(why)
+            _log.error(why)
 
     def _on_answer(self, item: Ack | Nack, now: float) -> None:
         kind = item.acked_type
@@ -245,6 +268,7 @@ class InboundMixin:
 
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
+        self._bad_state_run = 0
         if int(item.flags) & _NO_SESSION:  # an int test: IntFlag's own & builds a flag
             self._flags = item.flags
             self._bridge_reset(now)

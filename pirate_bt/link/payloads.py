@@ -31,7 +31,25 @@ from pirate_bt.link.messages import (
     Setpoint,
 )
 
-__all__ = ["decode_fixed"]
+__all__ = ["StateLengthError", "decode_fixed"]
+
+
+class StateLengthError(FrameError):
+    """A ``STATE`` frame (good CRC and version) whose payload is not the layout's length.
+
+    A :class:`~pirate_bt.errors.FrameError` (reason ``length``) like any bad frame; it
+    also carries both lengths, so that the session can tell a bridge of another layout
+    (several in a row) from line noise that passed the CRC (one).
+    """
+
+    def __init__(self, received: int, expected: int) -> None:
+        self.received = received
+        self.expected = expected
+        super().__init__("length", f"state payload {received} bytes, layout needs {expected}")
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (self.received, self.expected))
+
 
 _HELLO = struct.Struct("<IB")
 _HELLO_REPLY = struct.Struct("<IBBHHBHB")
