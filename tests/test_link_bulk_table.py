@@ -190,7 +190,12 @@ def test_a_latched_bridge_refusing_a_stop_does_not_bring_back_an_older_value() -
     ("code", "message"),
     [
         (NackCode.NOT_READY, r"the bridge refused HELLO \(NOT_READY\)"),
-        (NackCode.BAD_LAYOUT, r"refused the layout digest 0x[0-9a-f]{8} or protocol 1\.1"),
+        # refused under 1.2 and again under 1.1: the layout, not the version (2026-11-29)
+        (
+            NackCode.BAD_LAYOUT,
+            r"refused the layout digest 0x[0-9a-f]{8} \(BAD_LAYOUT\) with protocol 1\.2 and"
+            r" again with 1\.1: it was built for another robot description",
+        ),
     ],
 )
 def test_a_nack_to_hello_is_named_for_what_it_is(code: NackCode, message: str) -> None:

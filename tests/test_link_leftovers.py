@@ -343,3 +343,15 @@ def test_a_run_fed_states_of_another_layout_ends_as_a_link_error(
     assert isinstance(result.error, ProtocolMismatch), result.why
     assert result.exit_code == 3
     assert "layout needs" in result.why and "STATE frames in a row" in result.why
+
+
+# -- 4. the hello messages name what differs --------------------------------------------------
+# (a new session's HELLO_REPLY of another minor: tests/test_link_session_resets.py)
+
+
+def test_a_layout_refused_under_both_minors_is_named_as_the_layout() -> None:
+    _, error = hellos_to_a_refusing_bridge(NackCode.BAD_LAYOUT)
+    assert str(error) == (
+        f"the bridge refused the layout digest {LAYOUT.digest:#010x} (BAD_LAYOUT) with"
+        " protocol 1.2 and again with 1.1: it was built for another robot description"
+    )

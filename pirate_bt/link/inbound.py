@@ -228,8 +228,15 @@ class InboundMixin:
         layout = self.codec.layout
         assert isinstance(hello.msg, Hello)  # a new session's request is always a HELLO
         asked = hello.msg.minor
-        if item.layout_digest != layout.digest or item.minor != asked:
+        if item.layout_digest != layout.digest:
             self._refused_session(hello, "the bridge answered a new session with another layout")
+            return
+        if item.minor != asked:
+            self._refused_session(
+                hello,
+                f"the bridge answered a new session with protocol 1.{item.minor}; the host"
+                f" asked for 1.{asked} (same layout)",
+            )
             return
         previous = self.last_hello_reply
         reset_from, self._reset_boot_id = self._reset_boot_id, None

@@ -471,8 +471,13 @@ def wrap_link(
             # A 1.1 bridge refuses a 1.2 HELLO (NACK BAD_LAYOUT, as for another layout):
             # ask once more for 1.1; if the layout is what it refuses, that fails too.
             _log.info("the bridge refused protocol 1.%d; asking for 1.1", cfg.protocol_minor)
-            cfg = replace(cfg, protocol_minor=1)
-            reply = hello(2, 1, 0.0)
+            asked, cfg = cfg.protocol_minor, replace(cfg, protocol_minor=1)
+            try:
+                reply = hello(2, 1, 0.0)
+            except HelloRefused as again:  # refused under both: the layout differs
+                if again.code is not NackCode.BAD_LAYOUT:
+                    raise
+                raise HelloRefused.under_both_minors(codec.layout.digest, asked) from None
     except BaseException:
         byte_link.close()
         raise

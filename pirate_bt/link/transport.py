@@ -65,6 +65,16 @@ class HelloRefused(ProtocolMismatch):
     def __reduce__(self) -> tuple[object, ...]:
         return (type(self), (str(self), self.code))
 
+    @classmethod
+    def under_both_minors(cls, digest: int, asked: int) -> HelloRefused:
+        """The layout refused (``BAD_LAYOUT``) under the minor asked and under 1.1 too:
+        the layout is what differs, not the protocol's version."""
+        return cls(
+            f"the bridge refused the layout digest {digest:#010x} (BAD_LAYOUT) with protocol"
+            f" 1.{asked} and again with 1.1: it was built for another robot description",
+            NackCode.BAD_LAYOUT,
+        )
+
 
 def is_real_port(url: str) -> bool:
     """True when ``url`` names a device (no ``scheme://``): opening it resets an Arduino.
