@@ -1,5 +1,11 @@
-"""A bend up or down of less than 90 degrees is surveyed with the turn the IMU measured
-(its pitch either side of the bend), and the straight after it with its length."""
+"""A bend of less than 90 degrees is surveyed with the turn the IMU measured, and the
+straight after it with its length.
+
+- Up or down: the pitch either side of the bend.
+- Left or right: was written as 90 (the observation had the IMU's pitch but no heading),
+  and the straight after it came out short by the arcs' difference (0.951 m for 1 m at
+  60 degrees); now the heading and pitch either side of the bend, to 1 degree.
+"""
 
 from __future__ import annotations
 
@@ -43,11 +49,35 @@ def test_a_bend_of_less_than_90_degrees_is_written_with_the_turn_measured(
     assert math.dist(_far_end(written), _far_end(truth)) < 0.03
 
 
-def test_a_90_degree_bend_is_written_as_before(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("name", "direction", "degrees"),
+    [("survey-bend-60-right", "right", 60.0), ("survey-bend-45-left", "left", 45.0)],
+)
+def test_a_bend_left_or_right_of_less_than_90_degrees_is_written_as_measured(
+    tmp_path: Path, name: str, direction: str, degrees: float
+) -> None:
+    truth_file = DATA / f"{name}.yaml"
     out = tmp_path / "surveyed.yaml"
-    assert pirate_bt.survey(sim="bend-right", output=out).succeeded
+    result = pirate_bt.survey(sim=truth_file, output=out)
+    assert result.exit_code in (0, 1), result.why  # the line's end after it
+    written = pirate_bt.load_network(out)
+    bends = [s for s in written.spec.segments if s.type == "bend"]
+    assert len(bends) == 1 and bends[0].direction == direction
+    assert math.degrees(bends[0].angle) == pytest.approx(degrees, abs=1.0)
+    after = written.spec.segments[-1]
+    assert after.type == "straight" and after.slope is None
+    assert after.length == pytest.approx(1.0, abs=0.02)  # was 0.951 m at 60 degrees
+    truth = pirate_bt.load_network(truth_file)
+    assert math.dist(_far_end(written), _far_end(truth)) < 0.03
+
+
+@pytest.mark.parametrize("network", ["bend-right", "bend-left"])
+def test_a_90_degree_bend_is_written_as_before(tmp_path: Path, network: str) -> None:
+    out = tmp_path / "surveyed.yaml"
+    assert pirate_bt.survey(sim=network, output=out).succeeded
     segments = yaml.safe_load(out.read_text())["segments"]
-    assert [s for s in segments if s["type"] == "bend" and "angle" in s] == []
+    bends = [s for s in segments if s["type"] == "bend"]
+    assert len(bends) == 1 and "angle" not in bends[0]
 
 
 def test_the_survey_backs_through_a_45_degree_bend_up_to_a_tee_branch(tmp_path: Path) -> None:
