@@ -47,8 +47,9 @@ from pirate_bt.link.codec import (
     encode_many,
 )
 from pirate_bt.link.inbound import BAD_STATES_BEFORE_MISMATCH
+from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.requests import Outcome, SessionConfig
-from pirate_bt.link.robot_link import RobotLink, wrap_link
+from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.session import Session
 from pirate_bt.link.testing import MemoryLink, memory_pair
 from pirate_bt.link.transport import HelloRefused, handshake

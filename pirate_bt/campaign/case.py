@@ -47,6 +47,7 @@ PRELOAD = (
     "pirate_bt.behaviours.primitives",
     "pirate_bt.behaviours.basic",
     "pirate_bt.behaviours.guards",
+    "pirate_bt.link.opening",
     "pirate_bt.link.robot_link",
     "pirate_bt.link.transport",
     "pirate_bt.sim.simulator",

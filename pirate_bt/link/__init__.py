@@ -34,7 +34,8 @@ from pirate_bt.link.codec import (
     seq_newer,
 )
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
-from pirate_bt.link.robot_link import RobotLink, open_link, wrap_link
+from pirate_bt.link.opening import open_link, wrap_link
+from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
 from pirate_bt.link.transport import ByteLink, SerialLike, Transport, handshake, is_real_port
 

@@ -12,44 +12,29 @@ bridge refused (the bulk that carried it answered ``NACK``) goes back to "keep"
 unless the bridge had acknowledged that very value, so no later frame, a stop above
 all, carries it again (docs/protocol.md, Sequence numbers).
 
-:func:`open_link` opens a URL (with optional faults), runs the handshake and
-returns a ready :class:`RobotLink`; :func:`wrap_link` does the same for an
-already-open serial-like object or byte link.
+:func:`~pirate_bt.link.opening.open_link` and
+:func:`~pirate_bt.link.opening.wrap_link` open one (the handshake, the boot latch).
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Sequence
-from dataclasses import replace
 from operator import attrgetter
 from typing import Any
 
-from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError, LinkTimeout
-from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, FrameCodec
-from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
-from pirate_bt.link.messages import BoardStatus, HelloReply, NackCode
-from pirate_bt.link.session import Outcome, Request, Session, SessionConfig, SessionStats
-from pirate_bt.link.transport import (
-    ByteLink,
-    HelloRefused,
-    SerialLike,
-    Transport,
-    handshake,
-    is_real_port,
-)
+from pirate_bt.errors import LinkError
+from pirate_bt.link.codec import BridgeFlags, BulkSetpoints
+from pirate_bt.link.messages import BoardStatus
+from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import RobotState, StateBuilder
 
-__all__ = ["RobotLink", "open_link", "wrap_link"]
+__all__ = ["RobotLink"]
 
 _log = logging.getLogger(__name__)
-# tries of the boot latch release, when stale frames start new sessions under it
-_RELEASE_TRIES = 4
 
 # The session figures health() is made of, read in one C call. ``completed`` is there
 # because every request that enters the loss window also bumps it, so the loss ratio
@@ -393,210 +378,3 @@ def _health_of(s: SessionStats, faulted_boards: tuple[int, ...]) -> LinkHealth:
         bus_fault=s.bus_fault,
         faulted_boards=faulted_boards,
     )
-
-
-def wrap_link(
-    link: ByteLink | SerialLike,
-    robot: RobotDescription,
-    clock: Clock,
-    *,
-    faults: FaultSpec | str | None = None,
-    config: SessionConfig | None = None,
-    reset_wait_s: float = 0.0,
-    threaded: bool = False,
-    release_boot_latch: bool = True,
-) -> RobotLink:
-    """Handshake over an already-open link and return a :class:`RobotLink`.
-
-    The bridge boots latched (docs/protocol.md, Boot). A latch that comes from boot
-    (the hello is the first session since the bridge booted, which is what the DTR
-    reset of a port opening gives) is released here, as part of the deliberate start;
-    a latch an earlier session left on a bridge that was not reset stays.
-
-    Args:
-        link: A byte link (``Transport``, ``MemoryLink``, ...) or an open pyserial object
-            (opened with ``timeout=0`` and a ``write_timeout``).
-        robot: The robot description.
-        clock: The clock all timing reads.
-        faults: Faults to inject (a spec or its text).
-        config: Session timing (default: derived from the robot).
-        reset_wait_s: Time to wait for a bridge reset before the handshake.
-        threaded: Drive the session from a reader thread (real ports, wall clock).
-        release_boot_latch: Release a latch that comes from the bridge's boot.
-
-    Returns:
-        The connected link.
-
-    Raises:
-        ProtocolMismatch: other protocol version or layout.
-        LinkTimeout: no answer to HELLO, or the release of the boot latch never
-            acknowledged.
-        InputError: a malformed fault spec.
-    """
-    byte_link: ByteLink
-    if isinstance(link, Transport) or hasattr(link, "read_available"):
-        byte_link = link  # type: ignore[assignment]
-    else:
-        byte_link = Transport(link, baud=robot.bridge.baud)
-    if isinstance(faults, str):
-        faults = parse_fault_spec(faults)
-    if faults is not None and faults.active:
-        byte_link = FaultyLink(byte_link, faults, clock)
-    codec = FrameCodec.for_robot(robot)
-    cfg = config or SessionConfig.from_robot(robot)
-
-    def hello(seq: int, minor: int, reset_wait_s: float) -> HelloReply:
-        return handshake(
-            byte_link,
-            codec,
-            clock,
-            seq=seq,
-            reset_wait_s=reset_wait_s,
-            # HELLO is resent every ack timeout, well inside the watchdog, so a lost
-            # reply does not silence the host long enough to trip it; 16 tries, and
-            # at least 0.4 s in all.
-            reply_timeout_s=cfg.ack_timeout_s,
-            attempts=max(16, math.ceil(0.4 / cfg.ack_timeout_s)),
-            step_s=cfg.poll_step_s,
-            minor=minor,
-        )
-
-    try:
-        try:
-            reply = hello(1, cfg.protocol_minor, reset_wait_s)
-        except HelloRefused as refused:
-            # on the code: the message of another refusal names BAD_LAYOUT too
-            if cfg.protocol_minor == 1 or refused.code is not NackCode.BAD_LAYOUT:
-                raise
-            # A 1.1 bridge refuses a 1.2 HELLO (NACK BAD_LAYOUT, as for another layout):
-            # ask once more for 1.1; if the layout is what it refuses, that fails too.
-            _log.info("the bridge refused protocol 1.%d; asking for 1.1", cfg.protocol_minor)
-            asked, cfg = cfg.protocol_minor, replace(cfg, protocol_minor=1)
-            try:
-                reply = hello(2, 1, 0.0)
-            except HelloRefused as again:  # refused under both: the layout differs
-                if again.code is not NackCode.BAD_LAYOUT:
-                    raise
-                raise HelloRefused.under_both_minors(codec.layout.digest, asked) from None
-    except BaseException:
-        byte_link.close()
-        raise
-    session = Session(byte_link, codec, clock, cfg, first_seq=reply.seq + 1, hello_reply=reply)
-    if threaded:
-        session.start_reader(cfg.poll_step_s)
-    if reply.flags & BridgeFlags.ESTOP:
-        if release_boot_latch and reply.sessions == 1:
-            try:
-                _release_boot_latch(session, reply.boot_id, cfg.give_up_s)
-            except BaseException:
-                session.close()
-                raise
-        else:
-            _log.warning("the bridge's e-stop is latched (from an earlier session); reset it")
-    return RobotLink(robot, session)
-
-
-def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> None:
-    """Release the latch the bridge booted with (see :func:`wrap_link`).
-
-    Raises:
-        LinkTimeout: the release was never acknowledged.
-    """
-    for _ in range(_RELEASE_TRIES):
-        req = session.wait(session.estop_reset())
-        session.take_failures()
-        if req.outcome is not Outcome.FAILED:
-            break
-        hello = session.pending_hello
-        if hello is None:
-            # not acknowledged within the retry budget (a lossy link): the release is
-            # idempotent (a bridge not latched acknowledges it too), so ask again
-            _log.info("releasing the boot latch again: it was not acknowledged")
-            continue
-        # A NO_SESSION frame started a new session while the release was in flight. Its
-        # reply with the same boot id: a stale boot frame (a reordering link), not a
-        # reset, so the latch is still the boot's own: release it again.
-        session.wait(hello)
-        last = session.last_hello_reply
-        if hello.outcome is not Outcome.ACKED or last is None or last.boot_id != boot_id:
-            break  # a genuine reset: its latch stays (an operator decides)
-        _log.info("releasing the boot latch again: a stale frame started a new session")
-    if req.outcome is Outcome.ACKED:
-        _log.info("released the latch the bridge booted with")
-    elif req.outcome is Outcome.NACKED or session.bridge_resets:
-        # refused, or the bridge reset meanwhile: the latch stays, a latched e-stop
-        _log.warning(
-            "the bridge's boot latch was not released: %s %s",
-            req.outcome.value,
-            req.nack.name if req.nack else "",
-        )
-    else:
-        # never acknowledged (the round trip outlasts the retry budget, or the link
-        # failed): a link error, not an e-stop the operator has to reset
-        raise LinkTimeout(
-            "the bridge did not acknowledge the release of its boot latch within "
-            f"{give_up_s:.3g} s ({req.outcome.value}; round trip too long?)"
-        )
-
-
-def open_link(
-    url: str,
-    robot: RobotDescription,
-    clock: Clock,
-    *,
-    faults: FaultSpec | str | None = None,
-    config: SessionConfig | None = None,
-    reset_wait_s: float | None = None,
-    threaded: bool | None = None,
-    write_timeout_s: float | None = None,
-    release_boot_latch: bool = True,
-) -> RobotLink:
-    """Open ``url`` (any pyserial URL), connect and return a :class:`RobotLink`.
-
-    Fault options in the URL (``?faults=drop=0.1&fault_seed=3``) are applied unless
-    ``faults`` is given.
-
-    Args:
-        url: Device path or pyserial URL (``loop://``, ``socket://``, ``spy://``, a
-            registered simulator scheme, ...).
-        robot: The robot description (layout, baud, reset time, watchdog).
-        clock: The clock all timing reads.
-        faults: Faults to inject (a spec or its text).
-        config: Session timing (default: derived from the robot).
-        reset_wait_s: Wait for the Arduino's DTR reset; default ``bridge.reset_time``
-            for device paths and 0 for URLs.
-        threaded: Use a reader thread; default: for device paths on a wall clock.
-        write_timeout_s: Longest a write may block (default from the baud rate).
-        release_boot_latch: Release a latch that comes from the bridge's boot (the DTR
-            reset of this very opening); see :func:`wrap_link`.
-
-    Returns:
-        The connected link.
-
-    Raises:
-        LinkError: cannot open, other protocol/layout (``ProtocolMismatch``) or no
-            answer (``LinkTimeout``).
-        InputError: a malformed fault spec.
-    """
-    clean_url, url_faults = split_fault_url(url)
-    if faults is None:
-        faults = url_faults
-    real = is_real_port(clean_url)
-    if reset_wait_s is None:
-        reset_wait_s = robot.bridge.reset_time if real else 0.0
-    if threaded is None:
-        threaded = real and not clock.is_simulated
-    transport = Transport.open(clean_url, baud=robot.bridge.baud, write_timeout_s=write_timeout_s)
-    try:
-        return wrap_link(
-            transport,
-            robot,
-            clock,
-            faults=faults,
-            config=config,
-            reset_wait_s=reset_wait_s,
-            threaded=threaded,
-            release_boot_latch=release_boot_latch,
-        )
-    except LinkTimeout as exc:
-        raise LinkTimeout(f"{clean_url}: {exc}") from exc
