@@ -46,6 +46,7 @@ __all__ = [
     "Observer",
     "as_loaded",
     "load_tree",
+    "load_tree_source",
     "needs_robot",
     "run_on",
     "supervised_runner",
@@ -73,7 +74,7 @@ def as_loaded(
         InputError: parameters for a tree that is not YAML, or an unknown kind of tree.
     """
     from pirate_bt.errors import InputError
-    from pirate_bt.treefile import LoadedTree, load_tree
+    from pirate_bt.treefile import LoadedTree
 
     params_mapping(params)
     if isinstance(tree, LoadedTree | py_trees.behaviour.Behaviour | py_trees.trees.BehaviourTree):
@@ -94,12 +95,35 @@ def as_loaded(
         )
     given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    return load_tree_source(source, robot=robot, params=given, params_from_text=from_text)
+
+
+def load_tree_source(
+    source: str | Path | Mapping[str, Any],
+    *,
+    robot: RobotDescription | None,
+    params: Mapping[str, Any] | None = None,
+    params_from_text: bool = False,
+    **options: Any,
+) -> LoadedTree:
+    """Load and check a tree file or mapping for a run: a ``.xml`` file as a
+    BehaviorTree.CPP v4 tree (Groot2's; :func:`pirate_bt.interop.load_xml_tree`, each
+    problem at its XML element), anything else as a YAML tree
+    (:func:`pirate_bt.treefile.load_tree`). ``options`` go to either (``params_origin``,
+    ``use_examples``). What ``simulate_tree``, ``pirate-bt run`` and ``pirate-bt
+    validate`` load a tree with.
+    """
     if isinstance(source, str | Path) and Path(source).suffix.lower() == ".xml":
-        # a BehaviorTree.CPP v4 file (Groot2's): converted and checked as `import btcpp` does
         from pirate_bt.interop.btcpp_import_file import load_xml_tree
 
-        return load_xml_tree(source, robot=robot, params=given, params_from_text=from_text)
-    return load_tree(source, robot=robot, params=given, params_from_text=from_text)
+        return load_xml_tree(
+            source, robot=robot, params=params, params_from_text=params_from_text, **options
+        )
+    from pirate_bt.treefile import load_tree
+
+    return load_tree(
+        source, robot=robot, params=params, params_from_text=params_from_text, **options
+    )
 
 
 def _root(tree: Any) -> py_trees.behaviour.Behaviour:

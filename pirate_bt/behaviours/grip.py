@@ -22,7 +22,7 @@ import math
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety import ClampState
-from pirate_bt.safety.checks import classify_half
+from pirate_bt.safety.checks import classify_half, released_force_n
 
 __all__ = ["GRIP_LOST_S", "GripWatch"]
 
@@ -72,7 +72,7 @@ class GripWatch:
     def _stopped(self, state: RobotState) -> list[tuple[Half, str, float, float]]:
         """Joints of a half that held, now pressing nothing where they pressed."""
         robot = self.robot
-        released_n = robot.safety.release_force_fraction * robot.clamp.holding_force_n
+        released_n = released_force_n(robot)
         tol = robot.safety.angle_tolerance
         out: list[tuple[Half, str, float, float]] = []
         for half in sorted(self._held):

@@ -61,6 +61,7 @@ from pirate_bt.behaviours.primitive import (
 from pirate_bt.behaviours.rotation import AlignRoll, AlignRollParams, Rotate, RotateParams
 from pirate_bt.robot.description import Half, RobotDescription, Role
 from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import released_force_n
 from pirate_bt.units import Angle, Duration, Torque
 
 __all__ = [
@@ -207,8 +208,7 @@ class Unclamp(Primitive):
 
     def _settle(self, state: RobotState, half: Half, tol: float) -> Status:
         robot = self.robot
-        release = robot.safety.release_force_fraction * robot.clamp.min_torque
-        release /= robot.clamp.lever_arm
+        release = released_force_n(robot)
         ok_all = self._done_sending
         shown: list[str] = []
         for module in robot.bend_modules(half):

@@ -207,11 +207,11 @@ def check_firmware_chain(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     """Parse, check the tree (exit 2 before connecting), call the API, print."""
     from pirate_bt.api.live import tree_observer
+    from pirate_bt.api.running import load_tree_source
     from pirate_bt.api.trees import run_tree, simulate_tree
     from pirate_bt.resources import find_file
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason
-    from pirate_bt.treefile import load_tree
 
     max_time_s = _quantity(args.max_time, "time", "--max-time")
     rate_hz = _quantity(args.rate, "frequency", "--rate")
@@ -222,21 +222,13 @@ def run(args: argparse.Namespace) -> int:
     if args.trace is not None:
         check_trace_path(args.trace)
     robot = load_robot(args.robot)
-    if str(args.tree).lower().endswith(".xml"):
-        # a BehaviorTree.CPP v4 file (Groot2's): converted and checked as `import btcpp` does
-        from pirate_bt.interop.btcpp_import_file import load_xml_tree
-
-        checked = load_xml_tree(
-            args.tree, robot=robot, params=params, params_from_text=True, params_origin="--param"
-        )
-    else:
-        checked = load_tree(
-            find_file("trees", args.tree),
-            robot=robot,
-            params=params,
-            params_from_text=True,
-            params_origin="--param",
-        )
+    checked = load_tree_source(  # a YAML tree, or BehaviorTree.CPP XML
+        find_file("trees", args.tree),
+        robot=robot,
+        params=params,
+        params_from_text=True,
+        params_origin="--param",
+    )
     check_firmware_chain(args)
     with live_outputs(args) as (server, node, groot2):
         options: dict[str, Any] = {

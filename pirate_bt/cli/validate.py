@@ -38,10 +38,12 @@ def run(args: argparse.Namespace) -> int:
     for path in args.files:
         try:
             if args.kind is None and path.lower().endswith(".xml"):
-                # BehaviorTree.CPP v4 XML (Groot2's): checked as `import btcpp` checks it
-                from pirate_bt.interop.btcpp_import_file import load_xml_tree
+                # BehaviorTree.CPP v4 XML (Groot2's): checked as `run` loads it
+                from pirate_bt.api.running import load_tree_source
 
-                load_xml_tree(path, params=params, params_from_text=True, use_examples=True)
+                load_tree_source(
+                    path, robot=None, params=params, params_from_text=True, use_examples=True
+                )
             else:
                 validate_file(path, args.kind, params)
         except ValidationFailed as exc:

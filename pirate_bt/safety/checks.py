@@ -47,6 +47,7 @@ __all__ = [
     "half_states",
     "is_steep",
     "pressing_over_opening",
+    "released_force_n",
     "stale_channels",
 ]
 
@@ -142,6 +143,13 @@ Check = Callable[[CheckContext, Intent], Problem | None]
 """An invariant: ``None`` when the command may go, else the :class:`Problem`."""
 
 
+def released_force_n(robot: RobotDescription) -> float:
+    """The wall normal force below which a joint presses nothing:
+    ``safety.release_force_fraction`` of the holding force (a half all below it is
+    unclamped, :func:`classify_half`)."""
+    return robot.safety.release_force_fraction * robot.clamp.holding_force_n
+
+
 def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> ClampState:
     """A half's clamp state from its sensors alone.
 
@@ -170,11 +178,11 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     at_wall = all(a >= contact_min for a in signed) or all(a <= -contact_min for a in signed)
     forces = [state.clamp_force_n.get(name) for name in modules]
     if all(f is not None for f in forces) and forces:
-        min_force = clamp.holding_force_n
         values = [abs(f) for f in forces if f is not None]
         if at_wall and all(clamp.holds_force(f) for f in values):
             return ClampState.CLAMPED
-        if all(f < robot.safety.release_force_fraction * min_force for f in values):
+        released = released_force_n(robot)
+        if all(f < released for f in values):
             return ClampState.UNCLAMPED
         return ClampState.TRANSITIONING
     if at_wall:
