@@ -15,7 +15,7 @@ from dataclasses import replace
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkTimeout
-from pirate_bt.link.codec import BridgeFlags, FrameCodec
+from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.messages import HelloReply, NackCode
 from pirate_bt.link.robot_link import RobotLink
@@ -87,6 +87,9 @@ def wrap_link(
         byte_link = FaultyLink(byte_link, faults, clock)
     codec = FrameCodec.for_robot(robot)
     cfg = config or SessionConfig.from_robot(robot)
+    # one decoder for the handshake and the session: the reply's read often ends in
+    # the middle of the next frame, which the session's first read completes
+    decoder = FrameDecoder(codec)
 
     def hello(seq: int, minor: int, reset_wait_s: float) -> HelloReply:
         return handshake(
@@ -102,6 +105,7 @@ def wrap_link(
             attempts=max(16, math.ceil(0.4 / cfg.ack_timeout_s)),
             step_s=cfg.poll_step_s,
             minor=minor,
+            decoder=decoder,
         )
 
     try:
@@ -124,7 +128,9 @@ def wrap_link(
     except BaseException:
         byte_link.close()
         raise
-    session = Session(byte_link, codec, clock, cfg, first_seq=reply.seq + 1, hello_reply=reply)
+    session = Session(
+        byte_link, codec, clock, cfg, first_seq=reply.seq + 1, hello_reply=reply, decoder=decoder
+    )
     if threaded:
         session.start_reader(cfg.poll_step_s)
     if reply.flags & BridgeFlags.ESTOP:

@@ -109,6 +109,8 @@ class Session(InboundMixin):
         config: Timing; see :meth:`SessionConfig.from_robot`.
         first_seq: The ordered sequence number after the HELLO's.
         hello_reply: The handshake's reply (its boot id tells a later reset apart).
+        decoder: The handshake's decoder, holding the start of the frame that followed
+            the reply (default: a new one).
     """
 
     def __init__(
@@ -120,13 +122,14 @@ class Session(InboundMixin):
         *,
         first_seq: int = 2,
         hello_reply: HelloReply | None = None,
+        decoder: FrameDecoder | None = None,
     ) -> None:
         self.link = link
         self.codec = codec
         self.clock = clock
         config = config or SessionConfig()
         self.config = config if hello_reply is None else config.heeding(hello_reply.watchdog_ms)
-        self._decoder = FrameDecoder(codec)
+        self._decoder = FrameDecoder(codec) if decoder is None else decoder
         self._lock = threading.RLock()
         self._next_seq = first_seq & 0xFFFF or 1
         self._next_useq = 1

@@ -281,6 +281,7 @@ def handshake(
     attempts: int = 4,
     step_s: float = 0.001,
     minor: int = PROTOCOL_MINOR,
+    decoder: FrameDecoder | None = None,
 ) -> HelloReply:
     """Connect: wait out a reset, drain stale bytes, exchange HELLO, check the reply.
 
@@ -294,6 +295,11 @@ def handshake(
         reply_timeout_s: Wait per HELLO attempt.
         attempts: HELLOs sent before giving up.
         step_s: Polling interval.
+        minor: The protocol minor version the HELLO asks for.
+        decoder: The decoder to read the reply with (reset first). Pass the one the
+            session will read with: the reply is often followed, in the same read, by
+            the first bytes of the next frame, which the session then completes
+            instead of counting its rest as a bad frame.
 
     Returns:
         The bridge's reply.
@@ -310,7 +316,9 @@ def handshake(
     dropped = link.drain_input()
     if dropped:
         _log.info("drained %d stale bytes", dropped)
-    decoder = FrameDecoder(codec)
+    if decoder is None:
+        decoder = FrameDecoder(codec)
+    decoder.reset()
     hello = Hello(seq, codec.layout.digest, minor)
     wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
     for attempt in range(1, attempts + 1):
