@@ -221,6 +221,7 @@ def _check_output(
     results = output / RESULTS_NAME
     if results.exists() and not results.is_file():
         raise InputError(f"{results}: not a file; give another --output")
+    _check_fixed_names(output)
     if not resume:
         # Any line at all, even none a row: never overwrite what someone else may need.
         lines = _read(results).splitlines() if results.exists() else []
@@ -235,6 +236,36 @@ def _check_output(
     if cases is not None:
         _check_ours(results, numbered, cases)
     return [row for _line, row in numbered]
+
+
+REPORT_FILES = (
+    RESULTS_NAME + ".part",
+    "results.csv",
+    "report.md",
+    "report.html",
+    *(f"success_vs_{key}.png" for key in ("drop", "corrupt", "dup")),
+)
+"""The files a campaign writes into its output folder besides ``results.jsonl``."""
+
+
+def _check_fixed_names(output: Path) -> None:
+    """Refuse an output folder a campaign could not finish writing, before any case runs.
+
+    Without it, a ``traces`` that is a file made every case an ``error`` row
+    (``FileExistsError``) and a ``report.md`` that is a folder failed the command
+    after every case had run.
+    """
+    traces = output / "traces"
+    if traces.exists() and not traces.is_dir():
+        raise InputError(
+            f"{traces}: not a folder (the kept traces go there); give another --output"
+        )
+    for name in REPORT_FILES:
+        path = output / name
+        if path.exists() and not path.is_file():
+            raise InputError(f"{path}: not a file (the campaign writes it); give another --output")
+    if not os.access(output, os.W_OK | os.X_OK):
+        raise InputError(f"{output}: cannot write in the output folder; give another --output")
 
 
 def _check_ours(

@@ -1,0 +1,73 @@
+"""The eighth probe of the planner's campaign API: hostile specs and output folders.
+
+Each test is a bug the probe found (the input, what it did): it failed before its
+fix. No test here runs a simulation: specs are refused, or their cases are handed
+to an executor of the test's own that returns records at once.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.campaign import run_campaign
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+from tests.hostile_support import InstantExecutor, refused
+
+SPEC = {
+    "name": "p8",
+    "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.2 m"}}],
+    "seeds": {"count": 2},
+}
+
+
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [
+        # every case an error row: FileExistsError: [Errno 17] File exists: '.../traces'
+        (lambda out: (out / "traces").write_text("x"), ("traces: not a folder",)),
+        # every case ran, then the command failed writing the report (exit 2)
+        (lambda out: (out / "report.md").mkdir(), ("report.md: not a file",)),
+        (lambda out: (out / "results.csv").mkdir(), ("results.csv: not a file",)),
+        (lambda out: (out / "success_vs_drop.png").mkdir(), ("success_vs_drop.png",)),
+        # the results file's rewrite failed after the workers had started
+        (lambda out: (out / "results.jsonl.part").mkdir(), ("results.jsonl.part: not a file",)),
+    ],
+)
+def test_an_output_folder_the_campaign_cannot_finish_is_refused_before_any_case(
+    tmp_path: Path, make: object, words: tuple[str, ...]
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    make(out)  # type: ignore[operator]
+    pool = InstantExecutor()
+    refused(lambda: run_campaign(SPEC, executor=pool, output=out), *words, "--output")
+    assert pool.ids == []  # no case ran
+    assert not (out / "results.jsonl").exists()
+
+
+def test_the_command_refuses_a_traces_file_with_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "p8.campaign.yaml"
+    spec.write_text(
+        "name: p8\nruns: [{tree: straight, params: {distance: 0.2 m}}]\n", encoding="utf-8"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "traces").write_text("x")
+    assert main(["campaign", str(spec), "--quiet", "--output", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "traces: not a folder" in err, err
+    assert sorted(p.name for p in out.iterdir()) == ["traces"]
+
+
+def test_a_usable_output_folder_still_runs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    (out / "traces").mkdir(parents=True)
+    result = run_campaign(SPEC, executor=InstantExecutor(), output=out)
+    assert result.cases == 2 and (out / "report.md").is_file()
+    with pytest.raises(InputError, match="holds 2 lines already"):
+        run_campaign(SPEC, executor=InstantExecutor(), output=out)
