@@ -7,6 +7,8 @@ to an executor of the test's own that returns records at once.
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -71,3 +73,21 @@ def test_a_usable_output_folder_still_runs(tmp_path: Path) -> None:
     assert result.cases == 2 and (out / "report.md").is_file()
     with pytest.raises(InputError, match="holds 2 lines already"):
         run_campaign(SPEC, executor=InstantExecutor(), output=out)
+
+
+def test_a_case_server_starts_without_a_warning_of_its_own_import() -> None:
+    # Every server wrote runpy's RuntimeWarning ("'pirate_bt.campaign.child' found in
+    # sys.modules after import of package 'pirate_bt.campaign' ... unpredictable
+    # behaviour"): the package imported the module the server runs as __main__, so it
+    # ran as two copies, and a server killed under a case was recorded as
+    # "case worker died while the case ran (killed by SIGKILL: <frozen runpy>...".
+    done = subprocess.run(
+        [sys.executable, "-W", "error", "-m", "pirate_bt.campaign.child"],
+        input=b"",
+        capture_output=True,
+        timeout=60,
+        check=False,
+    )
+    assert (done.returncode, done.stderr.decode()) == (0, "")
+    alone = "import sys, pirate_bt.campaign; sys.exit('pirate_bt.campaign.child' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", alone], timeout=60, check=False).returncode == 0

@@ -42,10 +42,18 @@ import tempfile
 import threading
 import time
 from dataclasses import dataclass
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 from pirate_bt.campaign.case import error_record, preload
-from pirate_bt.campaign.child import Lines
+
+if TYPE_CHECKING:
+    from pirate_bt.campaign.child import Lines
+
+# pirate_bt.campaign.child is imported where it is used, never by this package's
+# import: the server runs it as ``python -m pirate_bt.campaign.child``, and a copy
+# imported beside that __main__ made every server print runpy's RuntimeWarning
+# ("found in sys.modules ... unpredictable behaviour"), the last words a dead
+# server's error row then quoted as its cause.
 
 __all__ = ["CaseServer", "idle_servers", "prestart", "run_in_server", "stop_servers"]
 
@@ -104,7 +112,9 @@ class CaseServer:
         )
         assert self.proc.stdin is not None and self.proc.stdout is not None
         self._in = self.proc.stdin
-        self._lines = Lines(self.proc.stdout.fileno())
+        from pirate_bt.campaign.child import Lines
+
+        self._lines: Lines = Lines(self.proc.stdout.fileno())
 
     def alive(self) -> bool:
         return self.proc.poll() is None
