@@ -91,3 +91,39 @@ def test_a_case_server_starts_without_a_warning_of_its_own_import() -> None:
     assert (done.returncode, done.stderr.decode()) == (0, "")
     alone = "import sys, pirate_bt.campaign; sys.exit('pirate_bt.campaign.child' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", alone], timeout=60, check=False).returncode == 0
+
+
+@pytest.mark.parametrize(
+    ("run", "place", "words"),
+    [
+        # each was "nav.campaign.yaml: run 'goal': ..." with no line or column
+        ("{navigator: nosuch, network: lab}", "2:9", "no navigator named 'nosuch'"),
+        (
+            "{navigator: goal, network: lab, params: {segmnt: riser}}",
+            "2:49",
+            "unexpected keyword argument 'segmnt'",
+        ),
+        (
+            "{navigator: goal, network: lab, params: {segment: nosuch}}",
+            "2:26",
+            "the map 'lab' has no segment 'nosuch'",
+        ),
+    ],
+)
+def test_a_navigator_run_that_cannot_be_made_is_placed_at_its_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], run: str, place: str, words: str
+) -> None:
+    spec = tmp_path / "nav.campaign.yaml"
+    spec.write_text(f"name: nav\nruns: [{run}]\n", encoding="utf-8")
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err, err
+    assert err.startswith(f"{spec}:{place}: run "), err
+
+
+def test_a_navigator_run_given_as_data_names_its_key() -> None:
+    runs = [{"navigator": "goal", "network": "lab", "params": {"segmnt": "riser"}}]
+    refused(
+        lambda: run_campaign({"name": "x", "runs": runs}, executor=InstantExecutor()),
+        "campaign spec: runs[0].params.segmnt: run 'goal': ",
+    )

@@ -399,21 +399,44 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            _check_navigator(case, base)
+            _check_navigator(case, spec, base)
         elif case["tree"]:
             _check_tree(case, robots, spec, base)
         else:
             _check_route(case, robots, spec, base)
 
 
-def _check_navigator(case: Case, base: Path | None) -> None:
-    """Make the case's navigator once and check its map, as each case will."""
+def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -> None:
+    """Make the case's navigator once and check its map, as each case will.
+
+    With the ``spec`` the case came from, a problem is placed at the run: a name
+    no navigator has at its ``navigator``, a parameter the navigator refuses at
+    that parameter (or its ``params``), a map its ``check_map`` refuses at its
+    ``network``.
+    """
     from pirate_bt.task.navigators import load_navigator
 
+    run = str(case.get("run"))
+    params: dict[str, Any] = case["params"]
+
+    def placed(exc: InputError, key: str) -> InputError:
+        index = None if spec is None else _run_index(spec, case)
+        if spec is None or index is None:
+            return InputError(f"run {run!r}: {exc}")
+        path: tuple[str | int, ...] = ("runs", index, key)
+        if key == "params":
+            named = next((k for k in params if f"'{k}'" in str(exc)), None)
+            path = (*path, named) if named is not None else path
+        return source_of(spec).error(path, f"run {run!r}: {exc}")
+
     try:  # made once, as each case will: an unknown name or parameter stops here
-        navigator = load_navigator(case["navigator"], case["params"])
+        navigator = load_navigator(case["navigator"], params)
     except InputError as exc:
-        raise InputError(f"run {case.get('run')!r}: {exc}") from None
+        text = str(exc)
+        named = text.startswith(("no navigator named", "navigator: give")) or any(
+            words in text for words in (" failed to load: ", "has no next_step")
+        )
+        raise placed(exc, "navigator" if named or not params else "params") from None
     if callable(getattr(navigator, "check_map", None)):  # as navigate() will
         from pirate_bt.api.missions import load_network
         from pirate_bt.task.navigators import check_navigator_map
@@ -423,4 +446,5 @@ def _check_navigator(case: Case, base: Path | None) -> None:
         try:
             check_navigator_map(navigator, case["navigator"], the_map)
         except InputError as exc:
-            raise InputError(f"run {case.get('run')!r}: {exc}") from None
+            given = case.get("network") is not None and not case.get("blind")
+            raise placed(exc, "network" if given else "navigator") from None
