@@ -157,6 +157,29 @@ class Piece:
         up2 = _comb(d2, math.cos(self.roll_rad), e, -math.sin(self.roll_rad))
         return t2, up2
 
+    @property
+    def imu_roll_rad(self) -> float:
+        """The turn's roll (``roll_rad``) as the robot's IMU measures roll at its start.
+
+        ``roll_rad`` is in the pipe's own frame, carried along without twisting; the
+        IMU measures roll from gravity's up in the cross-section (on a vertical pipe,
+        where gravity has no direction there, from the pipe's "up"). The two agree on
+        level, sloping and vertical runs reached by bends up and down; after a bend at
+        another roll on a slope they differ (a bend at roll 135 deg leaves the pipe
+        going down at 45 deg with its "up" 45 deg off gravity's). A half aligned on
+        this roll by the IMU lies in the turn's plane.
+        """
+        t, up = self.tangent, self.up
+        zp = (-t[2] * t[0], -t[2] * t[1], 1.0 - t[2] * t[2])  # gravity's up, projected
+        n = math.sqrt(_dot(zp, zp))
+        if n < 1e-6:
+            return self.roll_rad  # vertical: the IMU reads roll from the pipe's "up"
+        zp = _scale(zp, 1.0 / n)
+        offset = math.atan2(_dot(up, _cross(t, zp)), _dot(up, zp))
+        if abs(offset) < 1e-9:
+            return self.roll_rad
+        return math.remainder(self.roll_rad + offset, 2 * math.pi)
+
     def _theta(self, s_m: float) -> float:
         frac = min(max((s_m - self.start_m) / self.length_m, 0.0), 1.0)
         return frac * self.angle_rad

@@ -36,6 +36,7 @@ from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigation import Navigator, Observation, Step, call_within, raised_at
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
+from pirate_bt.task.walker import branch_problem
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -184,7 +185,8 @@ class GoalNavigator:
         """Refuse, before anything moves, a goal that this map (or no map) cannot serve.
 
         Raises:
-            ValueError: no map, no segment of that name, or one that is not a straight.
+            ValueError: no map, no segment of that name, one that is not a straight, or
+                one behind a T-joint whose branch the T-joint PAB cannot turn into.
         """
         if network is None:
             raise ValueError("the goal navigator needs a map (--map or map=...)")
@@ -203,6 +205,17 @@ class GoalNavigator:
         if kinds and PieceKind.STRAIGHT not in kinds:
             kind = sorted(k.value for k in kinds)[0]
             raise ValueError(f"{self.segment!r} is a {kind}: give a straight segment")
+        for path in network.paths():  # the way to it: every branch on it must be taken
+            if self.segment not in path.segments:
+                continue
+            for piece in path.pieces:
+                if piece.segment == self.segment:
+                    break
+                if piece.kind is PieceKind.TEE and path.choices.get(piece.segment) == "branch":
+                    problem = branch_problem(piece, _CONTRACT)
+                    if problem is not None:
+                        raise ValueError(f"{self.segment!r} cannot be reached: {problem}")
+            break
 
     def next_step(self, obs: Observation) -> Step | None:
         network = obs.map

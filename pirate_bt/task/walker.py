@@ -26,13 +26,48 @@ from pirate_bt.task.plan import (
 )
 from pirate_bt.task.route import Route, RouteStep, StepKind
 
-__all__ = ["_Walker"]
+__all__ = ["BRANCH_ROLL_TOL_RAD", "_Walker", "branch_problem"]
 
 _TOL_M = 1e-3
 
 
 def _roll_text(roll_rad: float) -> str:
     return direction_name(roll_rad) or f"roll {math.degrees(roll_rad):.0f} deg"
+
+
+BRANCH_ROLL_TOL_RAD = math.radians(5.0)
+"""How far off the T-joint PAB's roll for its way (left: -90 deg, right: +90 deg, as the
+robot's IMU measures roll) a tee's branch may leave, as the IMU would measure it there,
+and be planned: the robot enters a turn only within ``motion.alignment_tolerance`` (8
+deg in the bundled robot) of its plane."""
+
+
+def branch_problem(tee: Piece, contract: PabContract) -> str | None:
+    """Why the T-joint PAB cannot turn into ``tee``'s branch, or ``None`` when it can.
+
+    The PAB turns ``left`` or ``right`` (``contract.tee_ways``) at a roll of -90 or +90
+    degrees as the robot's IMU measures roll, from gravity's up. A branch at another
+    roll in the pipe's frame (``roll: 45 deg``, ``up``, ``down``), or one whose pipe
+    frame is twisted off gravity's there (after a bend at such a roll on a slope:
+    :attr:`~pirate_bt.pipes.Piece.imu_roll_rad`), is not planned.
+    """
+    turns = " or ".join(w for w in contract.tee_ways if w != "straight")
+    side = direction_name(tee.roll_rad)
+    if side is None or side not in contract.tee_ways:
+        return (
+            f"the T-joint {tee.segment!r} branches {_roll_text(tee.roll_rad)}, and the T-joint"
+            f" PAB turns {turns} only"
+        )
+    imu = tee.imu_roll_rad
+    wanted = DIRECTION_ROLL_RAD[_direction(side)]
+    if abs(math.remainder(imu - wanted, 2 * math.pi)) > BRANCH_ROLL_TOL_RAD:
+        return (
+            f"the T-joint {tee.segment!r} branches {side} in the pipe's frame, at roll"
+            f" {math.degrees(imu):.0f} deg by the IMU (a bend at a roll on a slope before it"
+            f" twists the frame off gravity's), and the T-joint PAB turns {side} only at"
+            f" {math.degrees(wanted):.0f} deg by the IMU"
+        )
+    return None
 
 
 class _Walker:
@@ -261,7 +296,7 @@ class _Walker:
         self.pabs.append(
             PlannedPab(
                 "bend",
-                {"roll": feature.roll_rad},
+                {"roll": feature.imu_roll_rad},  # the IMU's roll of the map's bend
                 step,
                 start,
                 end,
@@ -283,21 +318,18 @@ class _Walker:
             )
             raise LocatedError(f"'{step.text}' does not fit the network: {what}", step.location)
         way = step.direction or "straight"
-        branch = _roll_text(feature.roll_rad)
         if way != "straight":
             wanted = DIRECTION_ROLL_RAD[_direction(way)]
             if abs(math.remainder(feature.roll_rad - wanted, 2 * math.pi)) > _DIRECTION_TOL_RAD:
+                branch = _roll_text(feature.roll_rad)
                 raise LocatedError(
                     f"'{step.text}' does not fit the network: the T-joint {feature.segment!r}"
                     f" branches {branch}, not {way}; write 'go {branch}' or 'go straight'",
                     step.location,
                 )
-            if way not in self.contract.tee_ways:
-                raise LocatedError(
-                    f"'{step.text}' cannot be planned: the T-joint PAB turns"
-                    f" {' or '.join(w for w in self.contract.tee_ways if w != 'straight')} only",
-                    step.location,
-                )
+            problem = branch_problem(feature, self.contract)
+            if problem is not None:
+                raise LocatedError(f"'{step.text}' cannot be planned: {problem}", step.location)
         self.approach(step, feature)
         self.choices[feature.segment] = "straight" if way == "straight" else "branch"
         self.path = self.network.path(self.choices)

@@ -1,0 +1,110 @@
+"""Turns whose roll the robot's IMU reads otherwise than the map's frame has it.
+
+A network's rolls are in the pipe's own frame, carried along without twisting; the
+robot aligns a half on a turn by its IMU, which reads roll from gravity's up. After a
+bend at a roll other than up, down, left or right the pipe slopes, and its frame is
+twisted off gravity's: a bend at roll 135 deg leaves the pipe going down at 45 deg
+with its "up" 45 deg off. The next bend (roll -120 deg in the map) is at roll -165 deg
+by the IMU; a bend up after a bend right on a 20 deg slope is at roll 20 deg by the
+IMU. The planner gave the bend PAB the map's roll: the front half was aligned
+45 deg off the bend's plane, the rear half blocked, and a mission on an exact map
+stopped on a "map disagreement". A tee's branch there cannot be turned into by the
+T-joint PAB (it turns at -90 or +90 deg by the IMU): driving the rear half, clamped,
+on over the opening let the robot slide down the 45 deg pipe. It is refused now.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+import pirate_bt
+from pirate_bt.errors import InputError, LocatedError
+from pirate_bt.task.navigators import GoalNavigator
+
+NETS = Path(__file__).parent / "data" / "networks"
+ROLLS = NETS / "probe8-rolls.yaml"
+ROLL_TEE = NETS / "probe8-roll-tee.yaml"
+TEE_ROLL = NETS / "probe8-tee-roll.yaml"
+SLOPE_SIDE = NETS / "probe8-slope-side.yaml"
+
+
+def _turns(network: Path) -> dict[str, tuple[float, float]]:
+    path = pirate_bt.load_network(network).main_path()
+    return {
+        p.segment: (math.degrees(p.roll_rad), math.degrees(p.imu_roll_rad))
+        for p in path.pieces
+        if p.is_turn or p.opening_m is not None
+    }
+
+
+def test_the_imu_reads_a_turn_s_roll_from_gravity_s_up() -> None:
+    turns = _turns(ROLLS)
+    assert turns["b1"] == pytest.approx((135.0, 135.0))  # after a level run: the same
+    assert turns["b2"] == pytest.approx((-120.0, -165.0))  # the pipe's frame is twisted
+    for name in ("lab", "riser", "bend-down"):  # level, sloped and vertical runs: the same
+        path = pirate_bt.load_network(name).main_path()
+        for piece in path.pieces:
+            assert piece.imu_roll_rad == piece.roll_rad
+
+
+def _route(tmp_path: Path, network: Path, *lines: str) -> Path:
+    route = tmp_path / "probe.route"
+    route.write_text("\n".join([f"network {network}", *lines, ""]), encoding="utf-8")
+    return route
+
+
+@pytest.mark.parametrize(
+    ("network", "imu_rolls"),
+    [
+        (ROLLS, [135.0, -165.0]),  # after a bend at roll 135 deg: going down at 45 deg
+        (SLOPE_SIDE, [90.0, 20.0]),  # a bend up after a bend right on a 20 deg slope
+    ],
+)
+def test_a_bend_in_a_twisted_frame_is_passed_on_its_imu_roll(
+    tmp_path: Path, network: Path, imu_rolls: list[float]
+) -> None:
+    route = _route(tmp_path, network, "at the bend turn", "at the bend turn")
+    plan = pirate_bt.plan_route(route)
+    rolls = [math.degrees(p.params["roll"]) for p in plan.pabs if p.pab == "bend"]
+    assert rolls == pytest.approx(imu_rolls)
+    result = pirate_bt.simulate_mission(plan)
+    assert result.succeeded, result.why
+    assert result.counters.violations == 0
+    assert result.truth_m is not None
+    assert abs(result.belief_m - result.truth_m) < 0.05
+
+
+def test_a_branch_the_t_joint_pab_cannot_turn_into_is_refused_at_planning(
+    tmp_path: Path,
+) -> None:
+    route = _route(tmp_path, ROLL_TEE, "at the bend turn", "at the T-joint go right")
+    with pytest.raises(LocatedError) as caught:
+        pirate_bt.plan_route(route)
+    text = str(caught.value)
+    assert text.startswith(f"{route}:3:1: 'at the T-joint go right' cannot be planned")
+    assert "at roll 45 deg by the IMU" in text
+    # straight through it is planned, and runs
+    route = _route(tmp_path, ROLL_TEE, "at the bend turn", "at the T-joint go straight")
+    assert pirate_bt.plan_route(route).pabs
+
+
+@pytest.mark.parametrize(
+    ("network", "says"),
+    [
+        (TEE_ROLL, "branches roll 45 deg, and the T-joint PAB turns left or right only"),
+        (ROLL_TEE, "branches right in the pipe's frame, at roll 45 deg by the IMU"),
+    ],
+)
+def test_a_goal_behind_such_a_branch_is_refused_before_anything_moves(
+    network: Path, says: str
+) -> None:
+    with pytest.raises(ValueError, match="'br' cannot be reached: the T-joint 't1' ") as caught:
+        GoalNavigator("br").check_map(pirate_bt.load_network(network))
+    assert says in str(caught.value)
+    # before: Step('t-joint', direction=None) from the goal navigator, exit 1 after connecting
+    with pytest.raises(InputError, match="cannot be reached"):
+        pirate_bt.navigate("goal", sim=network, map=network, params={"segment": "br"})
+    GoalNavigator("c" if network == ROLL_TEE else "b").check_map(pirate_bt.load_network(network))
