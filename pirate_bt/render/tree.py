@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -117,6 +118,24 @@ COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
 _MAX_PARAM_CHARS = 40
 
 
+_UNWRITABLE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
+"""Characters an HTML-like Graphviz label (read as XML) cannot carry, and the C1 controls."""
+
+
+def _html(text: str) -> str:
+    """``text`` for an HTML-like label: escaped, and each control character (a hostile
+    tree's or trace's: ``"\\x07"`` in a log message) shown as its escape, which Graphviz
+    would otherwise refuse, failing the whole drawing."""
+    shown_text = _UNWRITABLE.sub(lambda m: repr(m[0])[1:-1], text)
+    return html.escape(shown_text)
+
+
+def _quoted(text: str) -> str:
+    """``text`` inside a quoted DOT string: as :func:`_html`, and a backslash doubled
+    (a name ending in ``\\`` would end the string; ``\\G`` would become the graph's id)."""
+    return _html(text).replace("\\", "\\\\")
+
+
 def _param_text(value: object) -> str:
     if isinstance(value, float):
         text = f"{value:.4g}"
@@ -136,40 +155,39 @@ def _band(ticks: int) -> tuple[int, str, str]:
 def _coverage_row(seen: NodeCoverage) -> str:
     parts = [f"ticks {seen.ticks}", f"ok {seen.successes}", f"fail {seen.failures}"]
     parts += [f"{name} {n}" for name, n in (("halts", seen.halts), ("skips", seen.skips)) if n]
-    return f'<font point-size="8"><i>{html.escape(" · ".join(parts))}</i></font>'
+    return f'<font point-size="8"><i>{_html(" · ".join(parts))}</i></font>'
 
 
 def _label(
     node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
 ) -> str:
-    rows = [f"<b>{html.escape(node.name)}</b>"]
+    rows = [f"<b>{_html(node.name)}</b>"]
     if node.type and node.type != node.name:
-        rows.append(f'<font point-size="8">{html.escape(node.type)}</font>')
+        rows.append(f'<font point-size="8">{_html(node.type)}</font>')
     for key, value in node.params.items():
         if value is None:
             continue
-        rows.append(
-            f'<font point-size="8">{html.escape(str(key))}: '
-            f"{html.escape(_param_text(value))}</font>"
-        )
+        rows.append(f'<font point-size="8">{_html(str(key))}: {_html(_param_text(value))}</font>')
     if status is not None and status != "I":
         word = _STATUS_WORD[status]
         text = f"{word}: {feedback}" if feedback else word
         if len(text) > _MAX_PARAM_CHARS:
             text = text[: _MAX_PARAM_CHARS - 1] + "…"
-        rows.append(f'<font point-size="8"><i>{html.escape(text)}</i></font>')
+        rows.append(f'<font point-size="8"><i>{_html(text)}</i></font>')
     if seen is not None:
         rows.append(_coverage_row(seen))
     return "<" + "<br/>".join(rows) + ">"
 
 
 def _attrs(attrs: Mapping[str, str]) -> str:
+    """DOT attributes; the label is HTML-like (made by :func:`_label`), every other value
+    a quoted string (an id read from a trace may look like ``<...>`` too)."""
     out = []
     for key, value in attrs.items():
-        if value.startswith("<") and value.endswith(">"):
+        if key == "label":
             out.append(f"{key}={value}")
         else:
-            out.append(f'{key}="{value}"')
+            out.append(f'{key}="{_quoted(value)}"')
     return ", ".join(out)
 
 
@@ -423,7 +441,7 @@ def tree_graph(
     lines = [
         "digraph tree {",
         "  graph [rankdir=TB, ordering=out, nodesep=0.25, ranksep=0.45,"
-        f' fontname=Helvetica, labelloc=t, label="{html.escape(caption)}"];',
+        f' fontname=Helvetica, labelloc=t, label="{_quoted(caption)}"];',
         '  node [fontname=Helvetica, fontsize=10, style=filled, margin="0.12,0.04"];',
         "  edge [arrowsize=0.6];",
     ]
@@ -449,10 +467,10 @@ def tree_graph(
             attrs["tooltip"] = f"{node.id} {node.kind}"
         attrs["id"] = node.id
         attrs["label"] = _label(node, code, feedback.get(node.id, ""), counted)
-        lines.append(f'  "{node.id}" [{_attrs(attrs)}];')
+        lines.append(f'  "{_quoted(node.id)}" [{_attrs(attrs)}];')
     for node in structure:
         for child in node.children:
-            lines.append(f'  "{node.id}" -> "{child}";')
+            lines.append(f'  "{_quoted(node.id)}" -> "{_quoted(child)}";')
     lines.append("}")
     return "\n".join(lines) + "\n"
 
