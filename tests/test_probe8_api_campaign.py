@@ -127,3 +127,31 @@ def test_a_navigator_run_given_as_data_names_its_key() -> None:
         lambda: run_campaign({"name": "x", "runs": runs}, executor=InstantExecutor()),
         "campaign spec: runs[0].params.segmnt: run 'goal': ",
     )
+
+
+@pytest.mark.parametrize(
+    ("first", "second"),
+    [
+        ("1 m", "1m"),  # both ran: the same cases counted twice as independent samples
+        ("1 m", "100 cm"),
+        ("0.2 m", "200 mm"),
+    ],
+)
+def test_two_runs_whose_parameters_read_the_same_are_refused(first: str, second: str) -> None:
+    runs = [
+        {"name": "a", "tree": "straight", "params": {"distance": first}},
+        {"name": "b", "tree": "straight", "params": {"distance": second}},
+    ]
+    refused(
+        lambda: run_campaign({"name": "x", "runs": runs}, executor=InstantExecutor()),
+        "runs[1] repeats runs[0] ('a') under another name",
+    )
+
+
+def test_runs_whose_parameters_differ_are_not_refused() -> None:
+    runs = [
+        {"name": "a", "tree": "straight", "params": {"distance": "1 m"}},
+        {"name": "b", "tree": "straight", "params": {"distance": "1 cm"}},
+    ]
+    result = run_campaign({"name": "x", "runs": runs}, executor=InstantExecutor())
+    assert result.cases == 2

@@ -82,6 +82,31 @@ def _fault_point(point: Sequence[str]) -> str:
     return json.dumps(sorted(parsed))
 
 
+def _param_identity(value: str | bool | int | float) -> str:
+    """A parameter as the run will read it: ``1 m``, ``1m`` and ``100 cm`` alike.
+
+    A quantity is its dimension and SI value (to 12 digits), a number its value;
+    any other text stays as written.
+    """
+    from pirate_bt.errors import UnitError
+    from pirate_bt.units import DIMENSIONS, parse_quantity
+
+    if isinstance(value, bool):
+        return str(value).lower()
+    if not isinstance(value, str):
+        try:
+            return f"{float(value):.12g}"
+        except OverflowError:  # an integer past a float: refused by the tree later
+            return str(value)
+    for dimension in DIMENSIONS:
+        try:
+            si = parse_quantity(value, dimension)
+        except (UnitError, ValueError):
+            continue
+        return f"{dimension} {si:.12g}"
+    return value
+
+
 def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
     """Each axis as ``(its key path, [(an entry's identity, how it reads), ...])``."""
     routes = [resolve_name(r.route, folder) for r in spec.runs if r.route is not None]
@@ -96,7 +121,7 @@ def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tupl
             kind,
             _file_identity(kind, name, folder) if kind != "navigator" else name,
             _file_identity("network", run.network, folder, route),
-            {k: str(v) for k, v in sorted(run.params.items())},
+            {k: _param_identity(v) for k, v in sorted(run.params.items())},
             run.blind,
         ]
         runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))
