@@ -152,6 +152,19 @@ def test_runs_whose_parameters_differ_are_not_refused() -> None:
     runs = [
         {"name": "a", "tree": "straight", "params": {"distance": "1 m"}},
         {"name": "b", "tree": "straight", "params": {"distance": "1 cm"}},
+        {"name": "c", "tree": "straight", "params": {"distance": "1 m", "stop_at_feature": True}},
     ]
     result = run_campaign({"name": "x", "runs": runs}, executor=InstantExecutor())
-    assert result.cases == 2
+    assert result.cases == 3
+    assert result.rows[2]["params"] == {"distance": "1 m", "stop_at_feature": "true"}
+
+
+def test_a_yaml_boolean_parameter_is_a_boolean_not_the_number_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "b.campaign.yaml"
+    spec.write_text("name: b\nruns: [{tree: straight, params: {distance: true}}]\n")
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    # was: parameter 'distance': '1' needs a unit: write it as e.g. '1 m'
+    assert f"{spec}:2:34: parameter 'distance': not a quantity: 'true'" in err, err

@@ -36,6 +36,7 @@ __all__ = [
     "check_size",
     "expand",
     "group_key",
+    "param_text",
 ]
 
 Case = dict[str, Any]
@@ -79,6 +80,11 @@ def check_size(spec: CampaignSpec, max_cases: int = DEFAULT_MAX_CASES) -> int:
     )
 
 
+def param_text(value: str | bool | int | float) -> str:
+    """A run's parameter as the text a case passes on (``true``, not ``True`` or ``1``)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
 def expand(
     spec: CampaignSpec, base: Path | None = None, *, max_cases: int = DEFAULT_MAX_CASES
 ) -> list[Case]:
@@ -118,7 +124,7 @@ def expand(
         [None] if built is None else list(range(built.first, built.first + built.count))
     )
     for run, robot, truth, sim_faults, (drop, corrupt, dup) in axes:
-        params = {k: str(v) for k, v in sorted(run.params.items())}
+        params = {k: param_text(v) for k, v in sorted(run.params.items())}
         for variant, seed in itertools.product(
             variants, range(spec.seeds.start, spec.seeds.start + spec.seeds.count)
         ):

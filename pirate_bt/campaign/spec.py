@@ -134,14 +134,16 @@ _Quantity = Annotated[str, StringConstraints(max_length=64)]
 _ParamKey = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL)]
 
 
-def _short(value: str | int | float) -> str | int | float:
+def _short(value: str | bool | int | float) -> str | bool | int | float:
     # After the union, so that a long text is refused as text (not read as a number).
     if isinstance(value, str) and len(value) > MAX_LABEL:
         raise ValueError(f"a parameter has at most {MAX_LABEL} characters, not {len(value):,}")
     return value
 
 
-_ParamValue = Annotated[str | int | float, AfterValidator(_short)]
+# bool before int: YAML's true is a boolean parameter's value, not the number 1 (it
+# was read as 1, so `distance: true` was refused as "'1' needs a unit").
+_ParamValue = Annotated[str | bool | int | float, AfterValidator(_short)]
 
 
 class RunItem(BaseModel):
