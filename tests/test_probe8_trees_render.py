@@ -15,8 +15,10 @@ from pathlib import Path
 import pytest
 
 from pirate_bt.cli import main
+from pirate_bt.errors import ArgumentValueError, InputError
 from pirate_bt.render import render_tree, tree_graph
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
+from pirate_bt.treefile import load_tree
 
 SVG = "{http://www.w3.org/2000/svg}"
 needs_dot = pytest.mark.skipif(shutil.which("dot") is None, reason="Graphviz 'dot' missing")
@@ -65,3 +67,28 @@ def test_a_hostile_trace_header_cannot_break_the_dot_source(tmp_path: Path) -> N
     groups = [g for g in ET.parse(out).getroot().iter(f"{SVG}g") if g.get("class") == "node"]
     assert len(groups) == 3
     assert 'quote " and \\' in _texts(out)
+
+
+def test_a_tree_file_is_never_drawn_over(tmp_path: Path) -> None:
+    # A tree file named tree.dot, drawn to tree.svg: the .dot written beside the
+    # picture replaced the tree itself. A link to the tree as the output did too.
+    tree = tmp_path / "tree.dot"
+    text = "root: {type: wait, duration: 1 s}\n"
+    tree.write_text(text, encoding="utf-8")
+    (tmp_path / "link.svg").symlink_to(tree)
+    for out in ("tree.svg", "tree.png", "tree.dot", "link.svg"):
+        with pytest.raises(ArgumentValueError, match="a file being drawn; nothing written"):
+            render_tree(tree, tmp_path / out)
+        loaded = load_tree(tree, use_examples=True)
+        with pytest.raises(ArgumentValueError, match="would replace"):
+            render_tree(loaded, tmp_path / out)
+    assert tree.read_text(encoding="utf-8") == text
+    assert not (tmp_path / "tree.svg").exists()
+
+
+def test_the_file_that_cannot_be_written_is_the_one_named(tmp_path: Path) -> None:
+    tree = tmp_path / "tree.yaml"
+    tree.write_text("root: {type: wait, duration: 1 s}\n", encoding="utf-8")
+    (tmp_path / "out.dot").mkdir()  # the .dot written beside out.svg cannot be
+    with pytest.raises(InputError, match=r"cannot write '.*out\.dot': Is a directory"):
+        render_tree(tree, tmp_path / "out.svg")

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -306,9 +307,7 @@ def _structure_and_trace(
     from pirate_bt.treefile.spec import LoadedTree
 
     if isinstance(tree, str | Path):
-        tree = file_argument(tree, "tree")
-        is_trace = _is_trace_file(tree)
-        tree = read_trace(tree) if is_trace else _load_tree_file(tree, params, robot)
+        tree = _read_source(tree, params, robot)
     if isinstance(tree, Trace):
         return tree.structure, tree
     if isinstance(tree, TreeStructure):
@@ -321,6 +320,48 @@ def _structure_and_trace(
         "tree: render_tree draws a tree file path, a LoadedTree, a py_trees BehaviourTree"
         f" or Behaviour, a TreeStructure or a Trace, not {type(tree).__name__}"
     )
+
+
+def _read_source(
+    tree: str | Path,
+    params: Mapping[str, Any] | None,
+    robot: RobotDescription | str | Path | None,
+) -> Trace | LoadedTree:
+    """The trace or the tree file named ``tree``, read."""
+    path = file_argument(tree, "tree")
+    return read_trace(path) if _is_trace_file(path) else _load_tree_file(path, params, robot)
+
+
+def _refuse_overwriting(target: Path, tree: object, trace: object) -> None:
+    """Refuse to draw over a file being drawn: a tree file named ``tree.dot`` drawn to
+    ``tree.svg`` (the ``.dot`` is written beside it), or an output that is a link to it.
+
+    Raises:
+        ArgumentValueError: a file written would replace a file read.
+    """
+    from pirate_bt.treefile.spec import LoadedTree
+
+    read: list[Path] = []
+    if isinstance(tree, LoadedTree):
+        read += [Path(f) for f in tree.files]
+    if isinstance(tree, Trace):
+        read.append(Path(tree.path))
+    if isinstance(trace, Trace):
+        read.append(Path(trace.path))
+    elif isinstance(trace, str | Path):
+        read.append(Path(trace))
+    written = [target] if target.suffix.lower() == ".dot" else [target.with_suffix(".dot"), target]
+    for out in written:
+        for source in read:
+            try:
+                same = out.exists() and os.path.samefile(out, source)
+            except (OSError, ValueError):  # a name the system refuses: said when written
+                same = False
+            if same:
+                raise ArgumentValueError(
+                    f"out: writing {shown(str(out), MAX_PATH)} would replace"
+                    f" {shown(str(source), MAX_PATH)}, a file being drawn; nothing written"
+                )
 
 
 def _check_trace_fits(structure: TreeStructure, trace: Trace) -> None:
@@ -513,6 +554,10 @@ def render_tree(
             refuses); see also :func:`tree_graph`.
     """
     target = _output(out)
+    _check_arguments(title, trace, tick, params, robot, coverage, status, feedback)
+    if isinstance(tree, str | Path):  # read here, to know which files it reads
+        tree = _read_source(tree, params, robot)
+    _refuse_overwriting(target, tree, trace)
     source = tree_graph(
         tree,
         status,
@@ -529,6 +574,7 @@ def render_tree(
     except OSError as exc:
         if exc.filename is None:  # Graphviz is missing: documented, kept
             raise
-        raise InputError(
-            f"out: cannot write {shown(str(target), MAX_PATH)}: {exc.strerror or exc}"
+        failed = exc.filename if isinstance(exc.filename, str) else str(target)
+        raise InputError(  # the file that failed: the .dot beside the picture, maybe
+            f"out: cannot write {shown(failed, MAX_PATH)}: {exc.strerror or exc}"
         ) from None
