@@ -144,7 +144,8 @@ def load_tree(
     Raises:
         InputError: ``source`` is a name but no file name (empty, a NUL, bytes, more
             than 4096 characters: :func:`~pirate_bt.errors.file_argument`).
-        ValidationFailed: every problem found, each at ``file:line:column``.
+        ValidationFailed: every problem found, each at ``file:line:column``; a ``.xml``
+            file (a BehaviorTree.CPP tree: :func:`pirate_bt.load_xml_tree` reads it), at 1:1.
     """
     reg = registry or default_registry()
     if isinstance(source, Mapping):
@@ -154,6 +155,16 @@ def load_tree(
         strict = False if units_required is None else units_required
     elif isinstance(source, str | os.PathLike):
         path = file_argument(source, "source")
+        if path.suffix.lower() == ".xml":  # read as YAML, it fails with a syntax error
+            raise ValidationFailed(
+                [
+                    LocatedError(
+                        "a BehaviorTree.CPP XML tree, not a YAML tree file: read it with"
+                        " pirate_bt.load_xml_tree (pirate-bt run and validate read it as it is)",
+                        SourceLocation(str(path)),
+                    )
+                ]
+            )
         try:
             doc = load_yaml(path)
         except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
