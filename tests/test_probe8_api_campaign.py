@@ -7,13 +7,14 @@ to an executor of the test's own that returns records at once.
 
 from __future__ import annotations
 
+import contextlib
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from pirate_bt.campaign import run_campaign
+from pirate_bt.campaign import read_rows, run_campaign
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 from tests.hostile_support import InstantExecutor, refused
@@ -168,3 +169,24 @@ def test_a_yaml_boolean_parameter_is_a_boolean_not_the_number_1(
     err = capsys.readouterr().err
     # was: parameter 'distance': '1' needs a unit: write it as e.g. '1 m'
     assert f"{spec}:2:34: parameter 'distance': not a quantity: 'true'" in err, err
+
+
+@pytest.mark.parametrize("name", ["/dev/zero", "/dev/null", "fifo"])
+def test_campaign_report_refuses_a_device_or_a_pipe(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str
+) -> None:
+    # /dev/zero was read until the kernel killed the command (exit 137), and the report
+    # would have gone into /dev; a FIFO waited for ever
+    import os
+
+    from tests.hostile_support import no_hang
+
+    path = Path(name)
+    if name == "fifo":
+        path = tmp_path / "results.jsonl"
+        os.mkfifo(path)
+    with contextlib.contextmanager(no_hang)(20):
+        assert main(["campaign", "report", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a file of results" in err, err
+    refused(lambda: read_rows(path), "not a file of results")

@@ -23,6 +23,7 @@ import contextlib
 import json
 import logging
 import os
+import stat
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
@@ -136,6 +137,14 @@ def _silent(*_args: object) -> None:
 
 
 def _read(path: Path) -> bytes:
+    # Only a regular file: /dev/zero was read until the kernel killed the process (and
+    # `campaign report` would then have written its report into /dev), a FIFO waited.
+    try:
+        regular = stat.S_ISREG(path.stat().st_mode)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the results: {exc.strerror or exc}") from None
+    if not regular:
+        raise InputError(f"{path}: not a file of results (a device, a pipe or a folder)")
     try:
         return path.read_bytes()
     except OSError as exc:
