@@ -21,7 +21,10 @@ from pathlib import Path
 import pytest
 
 import pirate_bt
-from pirate_bt.errors import InputError, LocatedError
+from pirate_bt import Step
+from pirate_bt.errors import InputError, LinkError, LocatedError
+from pirate_bt.pipes.asbuilt import insert_tee
+from pirate_bt.task.navigate_result import FailedStep, unrecovered
 from pirate_bt.task.navigators import GoalNavigator
 
 NETS = Path(__file__).parent / "data" / "networks"
@@ -108,3 +111,32 @@ def test_a_goal_behind_such_a_branch_is_refused_before_anything_moves(
     with pytest.raises(InputError, match="cannot be reached"):
         pirate_bt.navigate("goal", sim=network, map=network, params={"segment": "br"})
     GoalNavigator("c" if network == ROLL_TEE else "b").check_map(pirate_bt.load_network(network))
+
+
+# -- a step's own failure after a disagreement not recovered from --------------------
+
+RISER2 = NETS / "probe8-riser2.yaml"
+
+
+def test_a_failure_before_belief_and_map_agree_again_names_the_disagreement_first() -> None:
+    # a tee nobody drew in the level run before the riser: the goal navigator goes on
+    # from the belief with the front half over its opening, and the next step's first
+    # clamp finds no wall; the why began with that "no wall", the tee after it
+    spec = pirate_bt.load_network(RISER2).spec
+    truth = insert_tee(spec, "level", 0.6, "left")
+    result = pirate_bt.navigate("goal", sim=truth, map=RISER2, params={"segment": "upper"})
+    assert not result.succeeded
+    assert result.why.startswith("belief and map disagree: an opening was felt at 0.6"), result.why
+    assert "(step 1, Step('bend', direction='up')); navigator 'goal' went on from it" in result.why
+    assert ", and then: step 2 (Step('bend', direction='up')) failed: no wall: " in result.why
+    assert result.failing_node is not None and "01 approach" in result.failing_node
+    assert result.counters.violations == 0
+
+
+def test_only_an_unrecovered_disagreement_comes_before_a_step_s_own_failure() -> None:
+    gone = FailedStep(2, Step("bend", direction="up"), "belief and map disagree: ...", "n")
+    assert unrecovered([gone], fixed_after=0, error=None)
+    assert unrecovered([gone], fixed_after=1, error=None)  # the fix was before it
+    assert not unrecovered([gone], fixed_after=3, error=None)  # belief and map agreed again
+    assert not unrecovered([], fixed_after=0, error=None)
+    assert not unrecovered([gone], fixed_after=0, error=LinkError("link lost"))

@@ -45,6 +45,7 @@ from pirate_bt.task.navigate_result import (
     NavigationResult,
     done_after_failures,
     first_then,
+    unrecovered,
     went_on,
 )
 from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
@@ -460,8 +461,15 @@ def run_navigation(
                 result.why += went_on(disagreements)
                 break
             if not ran.succeeded and not ran.disagreement:
-                result.why = ran.why + went_on(disagreements)
-                result.failing_node = ran.failing_node
+                if unrecovered(disagreements, fixed_after, ran.error):
+                    # the step failed in a pipe not as the map says, before belief and map
+                    # agreed again: the disagreement is the first cause, the failure after
+                    later = f"step {index} ({step!r}) failed: {ran.why}"
+                    result.why = first_then(name, disagreements, later)
+                    result.failing_node = disagreements[0].failing_node
+                else:
+                    result.why = ran.why + went_on(disagreements)
+                    result.failing_node = ran.failing_node
                 result.error = ran.error
                 break
     finally:

@@ -21,6 +21,7 @@ __all__ = [
     "done_after_failures",
     "first_then",
     "steps_text",
+    "unrecovered",
     "went_on",
 ]
 
@@ -157,6 +158,19 @@ def first_then(name: str, failures: Sequence[FailedStep], later: str) -> str:
     more = "" if first is last else f", and after step {last.index} failed too: {last.why}"
     went = f"navigator {name!r} went on from it{more}"
     return f"{first.why} ({first.named()}); {went}, and then: {later}"
+
+
+def unrecovered(
+    disagreements: Sequence[FailedStep], fixed_after: int, error: BaseException | None
+) -> bool:
+    """A step that failed on its own cause (not a disagreement) came after a map
+    disagreement the navigation went on from, with no step since that succeeded on a fix
+    on the map (``fixed_after``, the last such step's index): it failed where the pipe is
+    not as the map says, so the disagreement is the first cause (docs/navigators.md). A
+    lost link (``error`` a ``LinkError``) is its own cause whatever came before."""
+    if not disagreements or isinstance(error, LinkError):
+        return False
+    return fixed_after < disagreements[-1].index
 
 
 def done_after_failures(
