@@ -190,3 +190,23 @@ def test_campaign_report_refuses_a_device_or_a_pipe(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not a file of results" in err, err
     refused(lambda: read_rows(path), "not a file of results")
+
+
+@pytest.mark.parametrize(
+    ("line", "expected"),
+    [
+        # each was "max_time: Input should be a valid string": nothing of what to write
+        ("max_time: 600", "max_time: give a time with its unit, e.g. '600 s', not 600"),
+        ("rate: .nan", "rate: give a frequency with its unit, e.g. '20 Hz', not nan"),
+        ("case_timeout: null", "case_timeout: give a time with its unit, e.g. '300 s', not null"),
+        ("case_timeout: [1]", "case_timeout: give a time with its unit, e.g. '300 s', not a list"),
+    ],
+)
+def test_a_limit_without_its_unit_says_what_to_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], line: str, expected: str
+) -> None:
+    spec = tmp_path / "l.campaign.yaml"
+    spec.write_text(f"name: l\nruns: [{{tree: straight}}]\n{line}\n", encoding="utf-8")
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{spec}:3:1: {expected}") and err.count("\n") == 1, err

@@ -358,6 +358,24 @@ class CampaignSpec(BaseModel):
                 )
         return runs
 
+    @field_validator(*_LIMITS, mode="before")
+    @classmethod
+    def _limit_text(cls, value: Any, info: ValidationInfo) -> Any:
+        # "Input should be a valid string" said nothing of what to write (max_time: 600)
+        if isinstance(value, str):
+            return value
+        key = str(info.field_name)
+        dimension = _LIMITS[key][0]
+        example = cls.model_fields[key].default
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        shown = repr(value) if number or isinstance(value, bool) else f"a {type(value).__name__}"
+        shown = "null" if value is None else shown
+        shown = shown if len(shown) <= 40 else f"a number of {len(shown)} characters"
+        alone = " (a number alone has no unit)" if number else ""
+        raise ValueError(
+            f"{key}: give a {dimension} with its unit, e.g. {example!r}, not {shown}{alone}"
+        )
+
     @field_validator(*_LIMITS)
     @classmethod
     def _limits(cls, text: str, info: ValidationInfo) -> str:
