@@ -574,7 +574,10 @@ def render_tree(
     except OSError as exc:
         if exc.filename is None:  # Graphviz is missing: documented, kept
             raise
-        failed = exc.filename if isinstance(exc.filename, str) else str(target)
-        raise InputError(  # the file that failed: the .dot beside the picture, maybe
-            f"out: cannot write {shown(failed, MAX_PATH)}: {exc.strerror or exc}"
-        ) from None
+        failed = str(target)
+        if isinstance(exc.filename, str) and Path(exc.filename) != target:
+            # the .dot written beside the picture (a folder of that name, a full disk)
+            failed = f"{shown(exc.filename, MAX_PATH)} beside {shown(failed, MAX_PATH)}"
+        else:
+            failed = shown(failed, MAX_PATH)
+        raise InputError(f"out: cannot write {failed}: {exc.strerror or exc}") from None
