@@ -20,12 +20,14 @@ a node that requires a unit in files still gets one.
 
 from __future__ import annotations
 
+import math
 import re
+import sys
 from typing import Any, Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from pirate_bt.errors import UnitError
+from pirate_bt.errors import UnitError, shown
 from pirate_bt.units import parse_quantity
 
 __all__ = ["PARAM_RE", "SI_UNITS", "ParamDecl", "ParamType", "coerce_param", "written_value"]
@@ -111,10 +113,24 @@ def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any
     if kind == "integer" and isinstance(value, int) and not isinstance(value, bool):
         return value
     if kind == "number" and isinstance(value, int | float) and not isinstance(value, bool):
-        return float(value)
+        return _finite(value)
     if kind == "string" and isinstance(value, str):
         return _choice(decl, value)
-    raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {value!r}")
+    raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {shown(value)}")
+
+
+def _finite(value: float, written: object = None) -> float:
+    """``value`` as a float; NaN and infinities are refused (as they are in a quantity):
+    every comparison with NaN is false, so ``op: '!='`` would always hold."""
+    try:
+        number = float(value)
+    except OverflowError:  # a whole number too large for a float
+        number = math.inf
+    if not math.isfinite(number):
+        raise ValueError(
+            f"expected a finite number, got {shown(value if written is None else written)}"
+        )
+    return number
 
 
 def written_value(value: Any) -> Any:
@@ -135,25 +151,31 @@ def written_value(value: Any) -> Any:
 
 def _choice(decl: ParamDecl, value: Any) -> Any:
     if decl.choices is not None and value not in decl.choices:
-        raise ValueError(f"expected one of {', '.join(decl.choices)}, got {value!r}")
+        raise ValueError(f"expected one of {', '.join(decl.choices)}, got {shown(value)}")
     return value
 
 
+_INTEGER_TEXT: Final = re.compile(r"[+-]?[0-9]+")
+_NUMBER_TEXT: Final = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
+
+
 def _from_text(kind: str, text: str) -> Any:
-    try:
-        if kind == "integer":
-            return int(text)
-        if kind == "number":
-            return float(text)
-    except ValueError:
-        raise ValueError(
-            f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {text!r}"
-        ) from None
+    """A command-line text as an ``integer`` or ``number`` (ASCII digits, as a quantity's
+    number: Python's own ``int`` and ``float`` also take ``1_000``, other scripts'
+    digits, ``nan`` and ``inf``), a ``boolean``, or the text itself."""
+    if kind in ("integer", "number"):
+        pattern = _INTEGER_TEXT if kind == "integer" else _NUMBER_TEXT
+        digits = text.strip()
+        expected = f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {shown(text)}"
+        limit = sys.get_int_max_str_digits()
+        if pattern.fullmatch(digits) is None or (kind == "integer" and 0 < limit < len(digits)):
+            raise ValueError(expected)
+        return int(digits) if kind == "integer" else _finite(float(digits), text)
     if kind == "boolean":
         lowered = text.strip().lower()
         if lowered in ("true", "yes", "1", "on"):
             return True
         if lowered in ("false", "no", "0", "off"):
             return False
-        raise ValueError(f"expected true or false, got {text!r}")
+        raise ValueError(f"expected true or false, got {shown(text)}")
     return text

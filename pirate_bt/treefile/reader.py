@@ -250,7 +250,8 @@ class _Reader:
                 known = ", ".join(decls) or "none declared"
                 self.errors.append(
                     LocatedError(
-                        f"unknown parameter {name!r} (parameters: {known})", given_at(name)
+                        f"unknown parameter {_shown(str(name))} (parameters: {known})",
+                        given_at(name),
                     )
                 )
                 ok = False

@@ -1,0 +1,113 @@
+"""Probe 8 (hostile trees): tree parameters of type ``number`` and ``integer``.
+
+A ``number`` parameter took NaN and the infinities (``--param x=nan``, ``default:
+.nan`` in a file, ``<input_port type="number" default="nan">`` in XML), which a
+quantity refuses: ``check_blackboard`` with ``op: '!='`` and a NaN value then
+always succeeded. Text also took what Python's ``int`` and ``float`` take beyond the
+ASCII digits the docs promise (``1_000``, ``٣``), and a value thousands of characters
+long was repeated whole in the message.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.treefile import load_tree
+
+TREE = """\
+params:
+  x: {type: number, default: 1}
+  n: {type: integer, default: 1}
+blackboard:
+  v: {type: number, default: 0}
+root:
+  type: sequence
+  children:
+    - {type: set_blackboard, key: v, value: $x}
+    - {type: retry, attempts: $n, child: success}
+    - {type: check_blackboard, key: v, op: '!=', value: $x}
+"""
+
+
+@pytest.fixture
+def tree(tmp_path: Path) -> Path:
+    path = tmp_path / "tree.yaml"
+    path.write_text(TREE, encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(
+    "given",
+    ["x=nan", "x=inf", "x=-Infinity", "x=1e999", "x=1_0", "x=\u0661", "n=1_000", "n=\u0663"],
+)
+def test_command_line_numbers_are_finite_ascii(
+    tree: Path, given: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", str(tree), "--quiet", "--param", given]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith("pirate-bt: --param:1:1: parameter ")
+    assert repr(given.partition("=")[2]) in err
+
+
+@pytest.mark.parametrize("given", [" 2.5 ", ".5", "5.", "-1e-3", "+3"])
+def test_ordinary_numbers_still_read(tree: Path, given: str) -> None:
+    loaded = load_tree(tree, params={"x": given}, params_from_text=True)
+    assert loaded.params["x"] == float(given)
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, 10**400])
+def test_python_numbers_are_finite(tree: Path, value: float) -> None:
+    with pytest.raises(ValidationFailed, match="expected a finite number"):
+        load_tree(tree, params={"x": value})
+
+
+@pytest.mark.parametrize("key", ["default", "example"])
+@pytest.mark.parametrize("value", [".nan", ".inf", "-.inf"])
+def test_a_declared_non_finite_number_is_refused_where_written(
+    tmp_path: Path, key: str, value: str
+) -> None:
+    path = tmp_path / "tree.yaml"
+    path.write_text(f"params:\n  x: {{type: number, {key}: {value}}}\nroot: success\n")
+    with pytest.raises(ValidationFailed) as caught:
+        load_tree(path, use_examples=True)
+    (error,) = caught.value.errors
+    assert str(error).startswith(f"{path}:2:")
+    assert f"{key}: expected a finite number" in str(error)
+
+
+def test_a_nan_port_default_in_xml_is_refused_at_its_port(tmp_path: Path) -> None:
+    from pirate_bt.interop import load_xml_tree
+
+    path = tmp_path / "tree.xml"
+    path.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="main">\n'
+        '  <BehaviorTree ID="main"><AlwaysSuccess /></BehaviorTree>\n'
+        "  <TreeNodesModel>\n"
+        '    <SubTree ID="main">\n'
+        '      <input_port name="x" type="number" default="nan" />\n'
+        "    </SubTree>\n"
+        "  </TreeNodesModel>\n"
+        "</root>\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ValidationFailed) as caught:
+        load_xml_tree(path)
+    (error,) = caught.value.errors
+    assert str(error).startswith(f"{path}:5:")
+    assert "expected a finite number" in str(error)
+
+
+def test_long_values_and_names_are_cut_short(
+    tree: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for given in (f"n={'1' * 5000}", f"{'z' * 5000}=1"):
+        assert main(["validate", "--param", given, str(tree)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1
+        assert len(err) < 300, err[:300]
