@@ -42,6 +42,7 @@ from pirate_bt.api.options import (
     seed_value,
     split_faults,
     tick_period_s,
+    writable_folder,
 )
 from pirate_bt.task.localise import MAP_FRACTION
 
@@ -422,6 +423,10 @@ def _watched_mission(
     foxglove, ros2, ros_domain_id, ros_namespace, groot2, observe = views
     out = Path(output) if output is not None else None
     trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
+    if out is not None:  # before anything connects or moves
+        writable_folder(out, "output")
+    if trace_path is not None:
+        writable_folder(trace_path.parent, "trace" if trace is not None else "output")
     started = time.perf_counter()
     with (
         foxglove_server(foxglove) as server,

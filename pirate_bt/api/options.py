@@ -54,6 +54,7 @@ __all__ = [
     "seed_value",
     "split_faults",
     "tick_period_s",
+    "writable_folder",
 ]
 
 _PORT = re.compile(r"^([a-z][a-z0-9+.-]*://|/dev/|COM\d+$|\\\\\.\\)", re.IGNORECASE)
@@ -292,6 +293,27 @@ def output_folder(value: object, option: str = "output") -> Path:
             if not place.is_dir():
                 raise InputError(f"{option}: {place} is a file, not a folder; give a folder")
             break
+    return folder
+
+
+def writable_folder(folder: Path, option: str = "output") -> Path:
+    """Make ``folder`` (and its parents) and check a file can be made in it, before a
+    run: a mission's output or trace folder that cannot be written was found only once
+    the robot had moved, as a bare ``FileNotFoundError`` or ``PermissionError``.
+
+    Raises:
+        InputError: it cannot be made, or nothing can be written in it; named ``option``.
+    """
+    import tempfile
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise InputError(
+            f"{option}: cannot write in the folder {folder}: {exc.strerror or exc}"
+        ) from None
     return folder
 
 

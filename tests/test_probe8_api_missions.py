@@ -1,0 +1,36 @@
+"""The eighth probe of the planner's API: missions whose outputs cannot be written.
+
+Each test is a bug the probe found; it failed before its fix.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import pirate_bt
+from pirate_bt.errors import InputError
+from tests.hostile_support import refused
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "words"),
+    [
+        # each raised a bare FileNotFoundError / PermissionError once the run had started
+        # (the supervisor's safe state: "planner code raised FileNotFoundError")
+        ("output", "/proc/pirate-bt-probe", "output: cannot write in the folder /proc/"),
+        ("trace", "/proc/pirate-bt-probe/t.jsonl", "trace: cannot write in the folder /proc/"),
+    ],
+)
+def test_a_mission_output_that_cannot_be_written_is_bad_input_before_it_connects(
+    option: str, value: str, words: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pirate_bt.api.missions as missions
+
+    def no_connection(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("connected before the output was checked")
+
+    monkeypatch.setattr(missions, "connect", no_connection)
+    text = refused(lambda: pirate_bt.simulate_mission("bend-right", **{option: value}), words)
+    assert "No such file or directory" in text
+    with pytest.raises(InputError):
+        pirate_bt.run_mission("bend-right", port="socket://127.0.0.1:1", **{option: value})
