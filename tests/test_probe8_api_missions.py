@@ -34,3 +34,25 @@ def test_a_mission_output_that_cannot_be_written_is_bad_input_before_it_connects
     assert "No such file or directory" in text
     with pytest.raises(InputError):
         pirate_bt.run_mission("bend-right", port="socket://127.0.0.1:1", **{option: value})
+
+
+def test_a_navigation_trace_or_survey_output_that_cannot_be_written_is_bad_input(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # both raised a bare FileNotFoundError: [Errno 2] No such file or directory: '/proc/x'
+    import pirate_bt.api.navigation as navigation
+
+    def no_connection(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("connected before the output was checked")
+
+    monkeypatch.setattr(navigation, "connect", no_connection)
+    refused(
+        lambda: pirate_bt.navigate(
+            "goal", sim="lab", map="lab", params={"segment": "riser"}, trace="/proc/p8/t"
+        ),
+        "trace: cannot write in the folder /proc/p8",
+    )
+    refused(
+        lambda: pirate_bt.survey(sim="t-joint", output="/proc/p8/s.yaml"),
+        "output: cannot write in the folder /proc/p8",
+    )

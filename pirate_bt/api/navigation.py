@@ -39,9 +39,10 @@ MAX_DEADLINE_S = 24 * 3600.0
 
 
 def _trace_folder(trace: Any) -> None:
-    from pirate_bt.api.options import output_folder
+    from pirate_bt.api.options import output_folder, writable_folder
 
-    output_folder(trace, "trace")
+    # made and written to before anything connects: /proc/x was a bare FileNotFoundError
+    writable_folder(output_folder(trace, "trace"), "trace")
 
 
 def _network(value: Any, what: str) -> Any:

@@ -150,6 +150,10 @@ def survey(
     explore = ExploreNavigator(
         output=output, search=search, radius=radius, name=name, extend=extend
     )
+    if explore.output is not None:  # before anything connects, as navigate's trace
+        from pirate_bt.api.options import writable_folder
+
+        writable_folder(explore.output.parent, "output")
     navigation = navigate(
         explore,
         sim=sim,
