@@ -109,11 +109,25 @@ class _Reader:
             )
 
     def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
-        key = str(path.resolve())
-        if key in self.docs:
-            return self.docs[key]
-        if not path.is_file():
-            self.error(doc, at, f"subtree file {_shown(str(path))} not found")
+        """The subtree file at ``path`` (``at`` names it in ``doc``), read once; None
+        after saying, at ``at``, why it cannot be read."""
+        try:
+            key = str(path.resolve())
+            if key in self.docs:
+                return self.docs[key]
+            what = None
+            if not path.is_file():
+                what = "not found"
+                if path.is_dir():
+                    what = "is a directory, not a file"
+                elif path.exists():  # a pipe would be waited on for ever, a device read
+                    what = "is not a regular file"
+        except ValueError:  # "\0" written in a quoted ref
+            what = "cannot be read: a NUL in the file name"
+        except OSError as exc:  # a name the system refuses (a part too long)
+            what = f"cannot be read: {exc.strerror or exc}"
+        if what is not None:
+            self.error(doc, at, f"subtree file {_shown(str(path))} {what}")
             return None
         try:
             loaded = load_yaml(path)
