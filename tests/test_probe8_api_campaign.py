@@ -210,3 +210,23 @@ def test_a_limit_without_its_unit_says_what_to_write(
     assert main(["validate", str(spec)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{spec}:3:1: {expected}") and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize(
+    ("line", "place"),
+    [
+        # each was refused as "Input should be less than or equal to 1" (or 10)
+        ("link: {drop: [.nan]}", "4:15"),
+        ("link: {corrupt: [0, .inf]}", "4:21"),
+        ("as_built: {count: 2, scale: .nan}", "4:22"),
+    ],
+)
+def test_a_nan_or_infinite_rate_or_scale_is_called_what_it_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], line: str, place: str
+) -> None:
+    run = "{route: bend-right}" if "as_built" in line else "{tree: straight}"
+    spec = tmp_path / "n.campaign.yaml"
+    spec.write_text(f"name: n\nruns:\n  - {run}\n{line}\n", encoding="utf-8")
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"{spec}:{place}: Input should be a finite number\n", err

@@ -236,7 +236,11 @@ class AsBuiltAxis(BaseModel):
     count: int = Field(ge=1, le=MAX_AXIS, strict=True, description="how many variants")
     first: int = Field(1, ge=0, le=MAX_SEED, strict=True, description="the first variant's seed")
     scale: float = Field(
-        1.0, gt=0.0, le=10.0, description="times the stated as-built bounds (2: twice as wide)"
+        1.0,
+        gt=0.0,
+        le=10.0,
+        allow_inf_nan=False,
+        description="times the stated as-built bounds (2: twice as wide)",
     )
 
     @model_validator(mode="after")
@@ -248,7 +252,8 @@ class AsBuiltAxis(BaseModel):
         return self
 
 
-_Rates = list[Annotated[float, Field(ge=0.0, le=1.0)]]
+# allow_inf_nan=False: a NaN rate was refused as "less than or equal to 1"
+_Rates = list[Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]]
 
 
 def _rates(description: str) -> Any:
