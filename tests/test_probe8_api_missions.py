@@ -56,3 +56,13 @@ def test_a_navigation_trace_or_survey_output_that_cannot_be_written_is_bad_input
         lambda: pirate_bt.survey(sim="t-joint", output="/proc/p8/s.yaml"),
         "output: cannot write in the folder /proc/p8",
     )
+
+
+def test_a_run_held_by_an_operator_all_along_says_so() -> None:
+    # was: "time limit of 5 s reached after 101 ticks", nothing of why no node ran
+    tree = pirate_bt.load_tree("straight", params={"distance": "0.1 m"})
+    with pirate_bt.connect("sim:straight", mode="manual") as robot:
+        result = robot.run(tree, max_time="2 s")
+    assert result.status == "failure" and result.why.startswith("time limit of 2 s reached")
+    assert "the tree was paused for 40 of its ticks while an operator held the robot" in result.why
+    assert result.why.endswith("(manual mode)") and "\n" not in result.why

@@ -320,6 +320,14 @@ def run_on(
     )
     if loop.succeeded:
         why += unsafe_note(counters)
+    elif loop.paused_ticks and supervisor is not None:
+        # a tree held by an operator all along ran into its time limit: say so, else
+        # "time limit of 5 s reached after 101 ticks" hides why nothing moved
+        still = f" ({supervisor.mode.name.lower()} mode)" if supervisor.tree_paused else ""
+        why += (
+            f"; the tree was paused for {loop.paused_ticks} of its ticks while an operator"
+            f" held the robot{still}"
+        )
     return RunResult(
         tree=_name(checked),
         status=loop.outcome,
