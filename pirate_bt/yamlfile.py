@@ -16,7 +16,9 @@ values). Aliases are counted on the composed node graph, where an alias is one
 shared node, before anything is expanded: the check costs time and memory in
 proportion to the file, not to what it would expand to. An alias inside the
 value it names (``&a [*a]``), values nested deeper than :data:`MAX_DEPTH` and a
-whole number too long for Python to read are refused at their line too.
+whole number too long for Python to read are refused at their line too, and so are
+values that are no JSON value (``!!binary``, ``!!set``, ``!!omap``, ``!!pairs``); a
+bare date (``2001-12-14``) is read as the text written, as YAML 1.2 reads it.
 """
 
 from __future__ import annotations
@@ -99,6 +101,15 @@ for the recursive code that later reads the data)."""
 _INT_TAG = "tag:yaml.org,2002:int"
 _BOOL_TAG = "tag:yaml.org,2002:bool"
 _STR_TAG = "tag:yaml.org,2002:str"
+_TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
+_NOT_JSON: dict[str, str] = {
+    "tag:yaml.org,2002:binary": "!!binary (bytes)",
+    "tag:yaml.org,2002:set": "!!set",
+    "tag:yaml.org,2002:omap": "!!omap",
+    "tag:yaml.org,2002:pairs": "!!pairs",
+}
+"""Tags whose values are no JSON value (every file kind is described by a JSON Schema);
+a check would see them as something else (bytes pass as text) and a writer fails on them."""
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
@@ -227,6 +238,14 @@ def _distinct(root: yaml.Node) -> int:
     return len(seen)
 
 
+def _not_json(node: yaml.Node, file: str) -> LocatedError:
+    return LocatedError(
+        f"a YAML {_NOT_JSON[node.tag]} value is not allowed here: write text, a number,"
+        " a list or a mapping",
+        SourceLocation(file, *_mark(node)),
+    )
+
+
 def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None:
     """Record where each value is written; report duplicate and unusable keys.
 
@@ -246,7 +265,14 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                 )
             )
             return
+        if node.tag in _NOT_JSON:
+            errors.append(_not_json(node, locator.file))
+            continue
         if isinstance(node, yaml.ScalarNode):
+            if node.tag == _TIMESTAMP_TAG:
+                # YAML 1.1 reads a bare 2001-12-14 as a date, which no file kind has: the
+                # text as written, as in YAML 1.2 (a check then sees text, a writer writes it)
+                node.tag = _STR_TAG
             limit = sys.get_int_max_str_digits()
             if node.tag == _INT_TAG and limit and len(node.value) > limit:
                 errors.append(
@@ -268,6 +294,11 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                         _STR_TAG, key_node.value, key_node.start_mark, key_node.end_mark
                     )
                     node.value[i] = (key_node, value_node)
+                if key_node.tag == _TIMESTAMP_TAG:
+                    key_node.tag = _STR_TAG  # as for a value (below)
+                if key_node.tag in _NOT_JSON:
+                    errors.append(_not_json(key_node, locator.file))
+                    continue
                 if not isinstance(key_node, yaml.ScalarNode):
                     shape = "mapping" if isinstance(key_node, yaml.MappingNode) else "list"
                     errors.append(
