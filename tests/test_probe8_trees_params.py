@@ -111,3 +111,20 @@ def test_long_values_and_names_are_cut_short(
         err = capsys.readouterr().err
         assert err.count("\n") == 1
         assert len(err) < 300, err[:300]
+
+
+def test_a_non_finite_blackboard_default_is_refused_where_written(tmp_path: Path) -> None:
+    path = tmp_path / "tree.yaml"
+    path.write_text(
+        "blackboard:\n  x: {type: number, default: .nan}\n  y: {default: [1, -.inf]}\n"
+        "root: success\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ValidationFailed) as caught:
+        load_tree(path)
+    assert [str(e) for e in caught.value.errors] == [
+        f"{path}:2:21: a number in the default must be finite, not nan",
+        f"{path}:3:7: a number in the default must be finite, not -inf",
+    ]
+    with pytest.raises(ValidationFailed, match="must be finite"):
+        load_tree({"blackboard": {"x": {"default": math.nan}}, "root": "success"})

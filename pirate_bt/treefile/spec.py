@@ -7,13 +7,14 @@ tree file allows.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
 
 import py_trees
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from pirate_bt.behaviours.base import NodeMixin
 from pirate_bt.errors import LocatedError, SourceLocation
@@ -60,6 +61,21 @@ class BlackboardDecl(BaseModel):
     default: Any = Field(None, description="value written before the first tick")
     external: bool = Field(False, description="written by planner code, not by the tree")
     description: str = ""
+
+    @field_validator("default")
+    @classmethod
+    def _finite(cls, value: Any) -> Any:
+        """A number in the default is finite (NaN: every comparison with it is false)."""
+        stack = [value]
+        while stack:
+            item = stack.pop()
+            if isinstance(item, float) and not math.isfinite(item):
+                raise ValueError(f"a number in the default must be finite, not {item}")
+            if isinstance(item, dict):
+                stack.extend(item.values())
+            elif isinstance(item, list | tuple):
+                stack.extend(item)
+        return value
 
 
 @dataclass
