@@ -2,8 +2,9 @@
 
 ``ref: "a\\0b.yaml"`` (a NUL written as an escape in a quoted string) made
 ``pirate-bt validate`` and ``run`` exit 1 with *internal error: ValueError: embedded
-null byte*; a file name longer than the system allows was reported without the
-place of the ``ref``; a folder or a device was "not found".
+null byte*, and a ref to a loop of symbolic links with *RuntimeError: Symlink loop*;
+a file name longer than the system allows was reported without the place of the
+``ref``; a folder or a device was "not found".
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from pirate_bt.cli import main
         ("folder.yaml", "subtree file 'folder.yaml' is a directory, not a file"),
         ("device.yaml", "subtree file 'device.yaml' is not a regular file"),
         ("missing.yaml", "subtree file 'missing.yaml' not found"),
+        ("loop.yaml", "subtree file 'loop.yaml' cannot be read: a loop of symbolic links"),
     ],
 )
 @pytest.mark.parametrize("verb", ["validate", "run"])
@@ -37,6 +39,8 @@ def test_an_unreadable_subtree_file_is_one_line_at_its_ref(
 ) -> None:
     monkeypatch.chdir(tmp_path)
     (tmp_path / "folder.yaml").mkdir()
+    (tmp_path / "loop.yaml").symlink_to("again.yaml")  # Path.resolve raised RuntimeError
+    (tmp_path / "again.yaml").symlink_to("loop.yaml")
     if os.path.exists("/dev/null"):
         (tmp_path / "device.yaml").symlink_to("/dev/null")
     Path("tree.yaml").write_text(

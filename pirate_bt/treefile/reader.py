@@ -124,6 +124,8 @@ class _Reader:
                     what = "is not a regular file"
         except ValueError:  # "\0" written in a quoted ref
             what = "cannot be read: a NUL in the file name"
+        except RuntimeError:  # Path.resolve (Python 3.11 and 3.12) on links that loop
+            what = "cannot be read: a loop of symbolic links"
         except OSError as exc:  # a name the system refuses (a part too long)
             what = f"cannot be read: {exc.strerror or exc}"
         if what is not None:
