@@ -59,3 +59,21 @@ def test_render_and_export_of_an_xml_tree_say_what_it_is(
     assert not (tmp_path / "tree.svg").exists()
     assert not (tmp_path / "tree.dot").exists()
     assert not (tmp_path / "again.xml").exists()
+
+
+def test_file_names_near_the_system_s_limit_are_read_and_written(
+    xml_tree: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A temporary file named after the input or the output (.NAME.XXXXXXXX.tmp) was
+    # longer than the 255 bytes a name may have: validate and run of a 255-byte
+    # tree.xml named a file in a temporary folder, 'File name too long'; export and
+    # import refused a legal output name.
+    long_xml = tmp_path / ("x" * 251 + ".xml")
+    long_xml.write_text(XML, encoding="utf-8")
+    assert main(["validate", str(long_xml)]) == 0, capsys.readouterr().err
+    assert main(["run", str(long_xml), "--quiet"]) == 0, capsys.readouterr().err
+    long_yaml = tmp_path / ("y" * 250 + ".yaml")
+    assert main(["import", "btcpp", str(xml_tree), "-o", str(long_yaml)]) == 0
+    assert main(["export", "btcpp", str(long_yaml), "-o", str(long_yaml.with_suffix(".xml"))]) == 0
+    capsys.readouterr()
+    assert sorted(p.name[:3] for p in tmp_path.iterdir()) == ["tre", "xxx", "yyy", "yyy"]

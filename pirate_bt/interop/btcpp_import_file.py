@@ -23,7 +23,7 @@ from pirate_bt.errors import (
     file_argument,
 )
 from pirate_bt.interop.btcpp_import import _read
-from pirate_bt.interop.btcpp_xml import output_file, refuse_special
+from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
 
 if TYPE_CHECKING:
@@ -147,7 +147,9 @@ def import_xml(
         raise InputError(f"{out}: is the XML file being imported; nothing written")
     folder = out.parent if str(out.parent) else Path(".")
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".yaml", dir=folder)
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{cut_name(out.stem)}.", suffix=".yaml", dir=folder
+        )
     except OSError as exc:
         raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
     tmp = Path(tmp_name)
@@ -209,7 +211,8 @@ def load_xml_tree(
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     text, where = _converted(source, reg)
     with tempfile.TemporaryDirectory(prefix="pirate-bt-xml-") as folder:
-        converted = Path(folder) / f"{source.stem}.yaml"
+        # named as the XML (a tree without a name takes its file's), cut to a legal name
+        converted = Path(folder) / f"{cut_name(source.stem, 250)}.yaml"
         converted.write_text(text, encoding="utf-8")
         try:
             return load_tree(

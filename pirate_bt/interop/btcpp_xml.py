@@ -44,6 +44,7 @@ __all__ = [
     "MAX_ELEMENTS",
     "MAX_XML_BYTES",
     "XmlElement",
+    "cut_name",
     "output_file",
     "parse_xml",
     "refuse_special",
@@ -251,6 +252,14 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     return roots[0]
 
 
+def cut_name(name: str, limit: int = 64) -> str:
+    """``name`` cut to at most ``limit`` bytes on the file system, for a temporary file
+    named after it: a file name may have 255 bytes, and ``.NAME.XXXXXXXX.tmp`` beside a
+    file whose name has nearly that many would be refused (*File name too long*)."""
+    raw = os.fsencode(name)
+    return name if len(raw) <= limit else os.fsdecode(raw[:limit])
+
+
 def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
@@ -312,7 +321,9 @@ def write_atomic_bytes(path: Path, data: bytes) -> Path:
     refuse_special(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{cut_name(path.name)}.", suffix=".tmp", dir=folder
+        )
     except OSError as exc:
         raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
     try:
