@@ -8,6 +8,7 @@ to an executor of the test's own that returns records at once.
 from __future__ import annotations
 
 import contextlib
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -177,8 +178,6 @@ def test_campaign_report_refuses_a_device_or_a_pipe(
 ) -> None:
     # /dev/zero was read until the kernel killed the command (exit 137), and the report
     # would have gone into /dev; a FIFO waited for ever
-    import os
-
     from tests.hostile_support import no_hang
 
     path = Path(name)
@@ -230,3 +229,31 @@ def test_a_nan_or_infinite_rate_or_scale_is_called_what_it_is(
     assert main(["validate", str(spec)]) == 2
     err = capsys.readouterr().err
     assert err == f"{spec}:{place}: Input should be a finite number\n", err
+
+
+HELPER = """
+import os, pathlib, time
+
+def cut(case, trace_dir=None):
+    trace = pathlib.Path(trace_dir) / f"{case['id']}.jsonl"
+    trace.parent.mkdir(parents=True, exist_ok=True)
+    trace.write_text('{"type": "header"}\\n{"type": "tick", "cut')
+    if case["index"] == 0:
+        time.sleep(120)  # killed at its wall-time limit
+    os._exit(3)  # a crash
+"""
+
+
+def test_a_killed_or_crashed_case_names_the_trace_it_left(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # its row said trace: null while traces/ID.jsonl, cut, held what it did before
+    (tmp_path / "p8_helper.py").write_text(HELPER, encoding="utf-8")
+    monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    out = tmp_path / "out"
+    result = run_campaign(SPEC, workers=2, output=out, target="p8_helper:cut", case_timeout="3 s")
+    rows = {row["index"]: row for row in result.rows}
+    assert (rows[0]["outcome"], rows[1]["outcome"]) == ("timeout", "error")
+    for row in rows.values():
+        assert row["trace"] == str((out / "traces" / f"{row['id']}.jsonl").resolve())
+        assert Path(row["trace"]).is_file()

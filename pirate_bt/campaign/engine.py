@@ -73,7 +73,28 @@ def run_isolated(
         return error_record(
             case, "error", f"case id {str(case.get('id'))[:60]!r} is not a safe file name", 0.0
         )
-    return run_in_server(case, trace_dir, target)
+    return _with_cut_trace(run_in_server(case, trace_dir, target), case, trace_dir)
+
+
+def _with_cut_trace(
+    record: dict[str, Any], case: dict[str, Any], trace_dir: str | None
+) -> dict[str, Any]:
+    """A killed or crashed case's record names the trace it wrote as far as it got.
+
+    The case writes its trace as it runs (``traces/ID.jsonl``, a folder for a route or
+    navigator); a case killed at its wall-time limit or dead of a crash left it there,
+    cut, while its row said ``trace: null``: what it did before it hung was on disk
+    under no row. A trace reader tolerates the cut last line.
+    """
+    if trace_dir is None or record.get("trace") is not None:
+        return record
+    if record.get("outcome") not in ("timeout", "error"):
+        return record
+    name = f"{case['id']}.jsonl" if case.get("tree") else str(case["id"])
+    path = Path(trace_dir) / name
+    if path.exists():
+        record = {**record, "trace": str(path)}
+    return record
 
 
 @contextmanager
