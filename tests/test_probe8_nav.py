@@ -17,13 +17,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
+import yaml
 
 import pirate_bt
 from pirate_bt import Step
 from pirate_bt.errors import InputError, LinkError, LocatedError
 from pirate_bt.pipes.asbuilt import insert_tee
+from pirate_bt.task.explore_frame import imu_side
 from pirate_bt.task.navigate_result import FailedStep, unrecovered
 from pirate_bt.task.navigators import GoalNavigator
 
@@ -140,3 +143,66 @@ def test_only_an_unrecovered_disagreement_comes_before_a_step_s_own_failure() ->
     assert not unrecovered([gone], fixed_after=3, error=None)  # belief and map agreed again
     assert not unrecovered([], fixed_after=0, error=None)
     assert not unrecovered([gone], fixed_after=0, error=LinkError("link lost"))
+
+
+# -- a survey writes what it found in the network's frame ----------------------------
+
+SIDE_UP = NETS / "probe8-slope-side-gup.yaml"
+SIDE_TEE = NETS / "probe8-slope-side-tee.yaml"
+
+
+def _surveyed(truth: Path, tmp_path: Path) -> dict[str, Any]:
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=truth, output=out)
+    assert result.navigation.counters.violations == 0
+    return {
+        str(s["id"]): s for s in _flat(yaml.safe_load(out.read_text(encoding="utf-8"))["segments"])
+    }
+
+
+def _flat(segments: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for s in segments:
+        out.append(s)
+        out.extend(_flat((s.get("branch") or {}).get("segments") or []))
+    return out
+
+
+def test_a_bend_the_imu_found_up_in_a_twisted_frame_is_written_with_its_roll(
+    tmp_path: Path,
+) -> None:
+    # a bend right on a 20 deg slope twists the frame 20 deg: the bend toward gravity's
+    # up after it is at roll -20 deg in the frame; it was written 'direction: up', and a
+    # mission planned on the survey aligned the bend PAB 20 deg off and stopped
+    found = _surveyed(SIDE_UP, tmp_path)
+    assert found["bend-2"].get("direction") is None
+    assert found["bend-2"]["roll"] == "-20.000 deg"
+    assert found["bend-1"]["direction"] == "right"  # a level frame: the word, as before
+    route = _route(tmp_path, tmp_path / "surveyed.yaml", "at the bend turn right")
+    route.write_text(route.read_text() + "at the bend turn\nforward to the end\n")
+    result = pirate_bt.simulate_mission(route, truth=SIDE_UP)
+    assert result.succeeded, result.why
+
+
+def test_a_branch_the_imu_found_left_in_a_twisted_frame_is_written_with_its_roll(
+    tmp_path: Path,
+) -> None:
+    found = _surveyed(SIDE_TEE, tmp_path)
+    assert found["tee-1"]["branch"].get("direction") is None
+    assert found["tee-1"]["branch"]["roll"] == "-110.000 deg"
+    # a route's 'go left' names it (as the IMU reads it), and the T-joint PAB turns left
+    route = _route(tmp_path, tmp_path / "surveyed.yaml", "at the bend turn right")
+    route.write_text(route.read_text() + "at the T-joint go left\n")
+    plan = pirate_bt.plan_route(route)
+    assert [p.params for p in plan.pabs if p.pab == "t-joint"] == [{"direction": "left"}]
+    # a second insertion reads the stub's side back as the IMU will find it
+    data = yaml.safe_load((tmp_path / "surveyed.yaml").read_text(encoding="utf-8"))
+    data["segments"][3]["branch"]["segments"] = []
+    assert imu_side(data["segments"], 0.051, data["segments"][3]) == "left"
+
+
+def test_go_to_a_segment_behind_a_branch_the_pab_cannot_take_is_refused(tmp_path: Path) -> None:
+    # it was planned straight through the tee, and a mission "reached" 'br' in the main line
+    route = _route(tmp_path, TEE_ROLL, "go to br")
+    with pytest.raises(LocatedError, match=r":2:1: 'go to br' cannot be planned: the T-joint"):
+        pirate_bt.plan_route(route)

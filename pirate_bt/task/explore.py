@@ -64,6 +64,7 @@ from typing import Any
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M, DIAMETER_SETTLE_M
 from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import Extension, earlier_ends, load_extension
+from pirate_bt.task.explore_frame import write_in_frame
 from pirate_bt.task.explore_parts import (
     OPENING_STOP,
     Passed,
@@ -309,6 +310,7 @@ class ExploreNavigator:
             )
             if segment["direction"] in _TURN:  # left and right keep the slope
                 self._slope_deg -= math.copysign(90.0 - angle, _TURN[segment["direction"]])
+        write_in_frame(self.segments, self._diameter_m, segment["id"], segment)
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
         assert self._opening_m is not None
@@ -330,8 +332,9 @@ class ExploreNavigator:
             "branch": {"direction": felt.direction, "segments": []},
         }
         self._line.append(segment)
+        write_in_frame(self.segments, self._diameter_m, segment["id"], segment["branch"])
         self._pending.append(
-            PendingTee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+            PendingTee(segment, start, diameter, self._slope_deg, len(self._trail), felt.direction)
         )
         self._from_m = start + 3 * diameter  # the tee's straight run, 3 x D
         self._trail.append(Passed("t-joint-back", "straight", self._from_m))

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import InputError
+from pirate_bt.task.explore_frame import imu_side
 
 __all__ = ["NOT_SURVEYED", "Extension", "earlier", "earlier_ends", "load_extension"]
 
@@ -67,20 +68,28 @@ class Extension:
         return str(self.stub.get("id") or "the stub")
 
 
-def _stubs(segments: list[dict[str, Any]], way: list[int], sides: list[str]) -> list[Any]:
-    """Every stub, depth-first: ``(way, sides, segment)``."""
+def _stubs(
+    segments: list[dict[str, Any]],
+    way: list[int],
+    sides: list[str],
+    root: list[dict[str, Any]] | None = None,
+    diameter_m: float | None = None,
+) -> list[Any]:
+    """Every stub, depth-first: ``(way, sides, segment)``; each side as the IMU reads it
+    (a branch written with its ``roll`` in a twisted frame: explore_frame)."""
     out: list[Any] = []
     ordinal = 0
+    root = segments if root is None else root
     for seg in segments:
         if seg.get("type") != "tee":
             continue
         branch = seg.get("branch") or {}
         here = [*way, ordinal]
-        side = [*sides, str(branch.get("direction"))]
+        side = [*sides, imu_side(root, diameter_m, seg)]
         if not branch.get("segments"):
             out.append((here, side, seg))
         else:
-            out.extend(_stubs(branch["segments"], here, side))
+            out.extend(_stubs(branch["segments"], here, side, root, diameter_m))
         ordinal += 1
     return out
 
@@ -151,7 +160,7 @@ def load_extension(source: Any) -> Extension:
             f" not a {type(source).__name__}"
         )
     data = yaml.safe_load(network_yaml(spec))
-    stubs = _stubs(data["segments"], [], [])
+    stubs = _stubs(data["segments"], [], [], diameter_m=float(spec.diameter))
     notes, stopped = earlier(spec.description, [str(seg.get("id")) for _, _, seg in stubs])
     if not stubs:
         cut = f" (a line not surveyed to its end is not extended: {notes[0]})" if notes else ""

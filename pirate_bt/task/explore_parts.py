@@ -165,10 +165,12 @@ class PendingTee:
     diameter_m: float
     slope_deg: float
     depth: int  # its own entry's index in the trail
+    imu_side: str | None = None  # the side probe-tee found (the file may hold a roll)
 
     @property
     def side(self) -> str:
-        return str(self.segment["branch"]["direction"])
+        """The side the branch leaves on, as the IMU reads it (what the PAB turns)."""
+        return self.imu_side or str(self.segment["branch"].get("direction"))
 
     def __str__(self) -> str:
         return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"

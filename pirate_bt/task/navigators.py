@@ -36,7 +36,7 @@ from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigation import Navigator, Observation, Step, call_within, raised_at
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
-from pirate_bt.task.walker import branch_problem
+from pirate_bt.task.walker import branch_problem, branch_side
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -251,7 +251,7 @@ class GoalNavigator:
             way = path.choices.get(piece.segment, "straight")
             return Step(
                 "t-joint",
-                direction="straight" if way == "straight" else direction_name(piece.roll_rad),
+                direction="straight" if way == "straight" else branch_side(piece),
             )
         is_end = goal.end_m >= path.length_m - _TOL_M
         last = goal.end_m - (_CONTRACT.end_margin_m if is_end else _CONTRACT.approach_m)

@@ -149,6 +149,7 @@ class Observation:
             return None
         from pirate_bt.pipes import PieceKind
         from pirate_bt.task.plan import direction_name
+        from pirate_bt.task.walker import branch_side
 
         here = self.belief.position_m
         for piece in self.map.path(dict(self.choices)).pieces:  # type: ignore[arg-type]
@@ -157,7 +158,10 @@ class Observation:
             side = direction_name(piece.roll_rad)
             if piece.kind is PieceKind.BEND:
                 return Ahead("bend", piece.segment, piece.start_m - here, turn=side)
-            return Ahead("tee", piece.segment, piece.start_m - here, branch=side)
+            # the way a t-joint step takes into it, as the IMU reads it (the same but
+            # where the pipe's frame is twisted off gravity's: task.walker.branch_side)
+            branch = branch_side(piece) or side
+            return Ahead("tee", piece.segment, piece.start_m - here, branch=branch)
         return None
 
     def to_end_m(self) -> float | None:

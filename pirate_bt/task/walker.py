@@ -26,7 +26,7 @@ from pirate_bt.task.plan import (
 )
 from pirate_bt.task.route import Route, RouteStep, StepKind
 
-__all__ = ["BRANCH_ROLL_TOL_RAD", "_Walker", "branch_problem"]
+__all__ = ["BRANCH_ROLL_TOL_RAD", "_Walker", "branch_problem", "branch_side"]
 
 _TOL_M = 1e-3
 
@@ -35,39 +35,55 @@ def _roll_text(roll_rad: float) -> str:
     return direction_name(roll_rad) or f"roll {math.degrees(roll_rad):.0f} deg"
 
 
-BRANCH_ROLL_TOL_RAD = math.radians(5.0)
+BRANCH_ROLL_TOL_RAD = math.radians(7.0)
 """How far off the T-joint PAB's roll for its way (left: -90 deg, right: +90 deg, as the
-robot's IMU measures roll) a tee's branch may leave, as the IMU would measure it there,
-and be planned: the robot enters a turn only within ``motion.alignment_tolerance`` (8
-deg in the bundled robot) of its plane."""
+robot's IMU reads roll) a tee's branch may leave, as the IMU would read it there, and be
+planned: the PAB aligns the front half on the IMU's -90 or +90 deg, and the robot enters
+a turn only within ``motion.alignment_tolerance`` (8 deg in the bundled robot) of its
+plane. An as-built variant's slopes of up to 6 deg (twice the stated bounds) before a
+bend left or right twist the frame by as much, and its branches are still planned."""
+
+
+def branch_side(tee: Piece) -> str | None:
+    """The way the T-joint PAB turns into ``tee``'s branch: ``up``, ``right``, ``down``
+    or ``left`` as the robot's IMU reads roll (from gravity's up), when the branch
+    leaves within :data:`BRANCH_ROLL_TOL_RAD` of one there; else ``None``.
+
+    In the pipe's frame (the network's rolls) that is the branch's own direction,
+    unless the frame is twisted off gravity's (after a bend at a roll other than the
+    four, or a bend left or right, on a slope: :attr:`~pirate_bt.pipes.Piece.imu_roll_rad`).
+    """
+    imu = tee.imu_roll_rad
+    for direction, roll in DIRECTION_ROLL_RAD.items():
+        if abs(math.remainder(imu - roll, 2 * math.pi)) <= BRANCH_ROLL_TOL_RAD:
+            return str(direction.value)
+    return None
 
 
 def branch_problem(tee: Piece, contract: PabContract) -> str | None:
     """Why the T-joint PAB cannot turn into ``tee``'s branch, or ``None`` when it can.
 
     The PAB turns ``left`` or ``right`` (``contract.tee_ways``) at a roll of -90 or +90
-    degrees as the robot's IMU measures roll, from gravity's up. A branch at another
-    roll in the pipe's frame (``roll: 45 deg``, ``up``, ``down``), or one whose pipe
-    frame is twisted off gravity's there (after a bend at such a roll on a slope:
-    :attr:`~pirate_bt.pipes.Piece.imu_roll_rad`), is not planned.
+    degrees as the robot's IMU reads roll (:func:`branch_side`). A branch at another
+    roll (``roll: 45 deg``, ``up``, ``down``), also one that the pipe's frame twisted
+    off gravity's puts there, is not planned.
     """
     turns = " or ".join(w for w in contract.tee_ways if w != "straight")
-    side = direction_name(tee.roll_rad)
-    if side is None or side not in contract.tee_ways:
-        return (
-            f"the T-joint {tee.segment!r} branches {_roll_text(tee.roll_rad)}, and the T-joint"
-            f" PAB turns {turns} only"
-        )
+    side = branch_side(tee)
+    if side is not None and side in contract.tee_ways:
+        return None
+    drawn = _roll_text(tee.roll_rad)
     imu = tee.imu_roll_rad
-    wanted = DIRECTION_ROLL_RAD[_direction(side)]
-    if abs(math.remainder(imu - wanted, 2 * math.pi)) > BRANCH_ROLL_TOL_RAD:
+    if abs(math.remainder(imu - tee.roll_rad, 2 * math.pi)) <= BRANCH_ROLL_TOL_RAD:
         return (
-            f"the T-joint {tee.segment!r} branches {side} in the pipe's frame, at roll"
-            f" {math.degrees(imu):.0f} deg by the IMU (a bend at a roll on a slope before it"
-            f" twists the frame off gravity's), and the T-joint PAB turns {side} only at"
-            f" {math.degrees(wanted):.0f} deg by the IMU"
+            f"the T-joint {tee.segment!r} branches {drawn}, and the T-joint PAB turns {turns} only"
         )
-    return None
+    return (
+        f"the T-joint {tee.segment!r} branches {drawn} in the pipe's frame, at roll"
+        f" {math.degrees(imu):.0f} deg by the IMU (a bend at a roll on a slope before it"
+        f" twists the frame off gravity's), and the T-joint PAB turns {turns} only, at"
+        " -90 or 90 deg by the IMU"
+    )
 
 
 class _Walker:
@@ -318,9 +334,11 @@ class _Walker:
             )
             raise LocatedError(f"'{step.text}' does not fit the network: {what}", step.location)
         way = step.direction or "straight"
+        side = "straight" if way == "straight" else branch_side(feature)
         if way != "straight":
             wanted = DIRECTION_ROLL_RAD[_direction(way)]
-            if abs(math.remainder(feature.roll_rad - wanted, 2 * math.pi)) > _DIRECTION_TOL_RAD:
+            off = abs(math.remainder(feature.roll_rad - wanted, 2 * math.pi))
+            if off > _DIRECTION_TOL_RAD and side != way:  # as drawn, or as the IMU reads it
                 branch = _roll_text(feature.roll_rad)
                 raise LocatedError(
                     f"'{step.text}' does not fit the network: the T-joint {feature.segment!r}"
@@ -353,7 +371,7 @@ class _Walker:
         self.pabs.append(
             PlannedPab(
                 "t-joint",
-                {"direction": way},
+                {"direction": side},  # the way the PAB turns, as the IMU reads it
                 step,
                 start,
                 end,
@@ -448,7 +466,10 @@ class _Walker:
                 self.bend(_derived(step, StepKind.BEND, direction_name(piece.roll_rad)))
             elif piece.kind is PieceKind.TEE:
                 choice = path.choices.get(piece.segment, "straight")
-                way = "straight" if choice == "straight" else direction_name(piece.roll_rad)
+                way = "straight" if choice == "straight" else branch_side(piece)
+                if way is None:  # no word for it: it was planned straight through before
+                    problem = branch_problem(piece, self.contract)
+                    raise LocatedError(f"'{step.text}' cannot be planned: {problem}", step.location)
                 self.tee(_derived(step, StepKind.TEE, way))
         is_end = goal.end_m >= path.length_m - _TOL_M
         last = goal.end_m - (self.contract.end_margin_m if is_end else self.contract.approach_m)
