@@ -257,3 +257,56 @@ def test_a_killed_or_crashed_case_names_the_trace_it_left(
     for row in rows.values():
         assert row["trace"] == str((out / "traces" / f"{row['id']}.jsonl").resolve())
         assert Path(row["trace"]).is_file()
+
+
+@pytest.mark.parametrize(
+    ("axes", "words"),
+    [
+        # null is the bundled robot, which is hardware/pirate.yaml
+        ({"robots": [None, "hardware/pirate.yaml"]}, "robots[1] repeats robots[0]"),
+        # null is the truth = the run's own map, here bend-right
+        (
+            {"runs": [{"route": "bend-right"}], "maps": [None, "bend-right"]},
+            "maps[1] repeats maps[0] (the map)",
+        ),
+        # a tree's network defaults to straight
+        (
+            {
+                "runs": [
+                    {"tree": "straight", "params": {"distance": "0.2 m"}},
+                    {
+                        "name": "b",
+                        "tree": "straight",
+                        "network": "straight",
+                        "params": {"distance": "0.2 m"},
+                    },
+                ]
+            },
+            "runs[1] repeats runs[0] ('straight') under another name",
+        ),
+        # a route's network defaults to its own network line
+        (
+            {
+                "runs": [
+                    {"route": "bend-right"},
+                    {"name": "b", "route": "bend-right", "network": "bend-right"},
+                ]
+            },
+            "runs[1] repeats runs[0] ('bend-right') under another name",
+        ),
+    ],
+)
+def test_an_entry_that_names_its_axis_default_repeats_a_null_entry(
+    monkeypatch: pytest.MonkeyPatch, axes: dict[str, object], words: str
+) -> None:
+    # each ran: the same deterministic cases counted twice as independent samples
+    monkeypatch.chdir(Path(__file__).resolve().parent.parent)
+    spec = {**SPEC, **axes}
+    refused(lambda: run_campaign(spec, executor=InstantExecutor()), words)
+
+
+def test_maps_that_differ_for_some_run_are_not_a_repeat() -> None:
+    # null is each run's own map: bend-right for one run, t-joint for the other
+    runs = [{"route": "bend-right"}, {"route": "t-joint"}]
+    spec = {"name": "m", "runs": runs, "maps": [None, "bend-right"]}
+    assert run_campaign(spec, executor=InstantExecutor()).cases == 4

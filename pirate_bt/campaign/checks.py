@@ -107,37 +107,71 @@ def _param_identity(value: str | bool | int | float) -> str:
     return value
 
 
+def _run_map(run: Any, folder: Path) -> str:
+    """The identity of the network a run is planned on or runs in, its default filled in.
+
+    A tree's or navigator's ``network`` defaults to ``straight``; a route's to its own
+    ``network`` line (``""`` when that cannot be read: the run's own check says why).
+    """
+    from pirate_bt.api.options import DEFAULT_NETWORK
+
+    route = resolve_name(run.route, folder)
+    if run.network is not None:
+        return _file_identity("network", run.network, folder, route)
+    if route is None:
+        return _file_identity("network", DEFAULT_NETWORK, folder)
+    try:
+        from pirate_bt.api.missions import load_route
+
+        path, _problem = find_input("route", route)
+        own = load_route(path).network if path is not None else None
+    except (InputError, OSError):
+        return ""
+    return _file_identity("network", own, folder, route) if own is not None else ""
+
+
 def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
-    """Each axis as ``(its key path, [(an entry's identity, how it reads), ...])``."""
+    """Each axis as ``(its key path, [(an entry's identity, how it reads), ...])``.
+
+    An entry left to its default (``null``) is that default: the bundled robot's file,
+    a run's own map; two entries that run the same are one point.
+    """
+    from pirate_bt.resources import default_robot_path
+
     routes = [resolve_name(r.route, folder) for r in spec.runs if r.route is not None]
     near = routes[0] if routes else None
     map_kind = "map" if near is not None else "network"
+    maps_of_runs = [_run_map(run, folder) for run in spec.runs]
     runs = []
-    for run in spec.runs:
+    for run, its_map in zip(spec.runs, maps_of_runs, strict=True):
         kind = "tree" if run.tree else "route" if run.route else "navigator"
         name = run.tree or run.route or run.navigator
-        route = resolve_name(run.route, folder)
         identity = [
             kind,
             _file_identity(kind, name, folder) if kind != "navigator" else name,
-            _file_identity("network", run.network, folder, route),
+            its_map,
             {k: _param_identity(v) for k, v in sorted(run.params.items())},
             run.blind,
         ]
         runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))
+    bundled = str(default_robot_path().resolve())
+
+    def truth(entry: str | None) -> str:
+        # the truth each run meets: null is each run's own map
+        if entry is None:
+            return json.dumps(maps_of_runs)
+        return json.dumps([_file_identity(map_kind, entry, folder, near)] * len(spec.runs))
+
     axes = [
         ("runs", runs),
         (
             "robots",
             [
-                (_file_identity("robot", r, folder), r if r else "the bundled robot")
+                (_file_identity("robot", r, folder) or bundled, r if r else "the bundled robot")
                 for r in spec.robots
             ],
         ),
-        (
-            "maps",
-            [(_file_identity(map_kind, m, folder, near), m if m else "the map") for m in spec.maps],
-        ),
+        ("maps", [(truth(m), m if m else "the map") for m in spec.maps]),
         (
             "sim_faults",
             [(_fault_point(p), ", ".join(p) if p else "no faults") for p in spec.sim_faults],
