@@ -35,6 +35,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import RunResult
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import LocatedError, ValidationFailed, caller_location
 from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause, unsafe_note
 
 if TYPE_CHECKING:
@@ -95,7 +96,10 @@ def as_loaded(
         )
     given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
-    return load_tree_source(source, robot=robot, params=given, params_from_text=from_text)
+    return _at_callers_line(
+        source,
+        lambda: load_tree_source(source, robot=robot, params=given, params_from_text=from_text),
+    )
 
 
 def load_tree_source(
@@ -124,6 +128,28 @@ def load_tree_source(
     return load_tree(
         source, robot=robot, params=params, params_from_text=params_from_text, **options
     )
+
+
+def _at_callers_line(source: Any, load: Callable[[], LoadedTree]) -> LoadedTree:
+    """``load()``; for a tree given as a mapping, its problems at the planner's line.
+
+    The loader places them at ``<dict>:1:1`` (a mapping has no lines); the planner's
+    own call is where the mapping was written (``planner.py:17:1: clamp: torque: ...``),
+    as for parameters and nodes built in Python.
+    """
+    try:
+        return load()
+    except ValidationFailed as exc:
+        if not isinstance(source, Mapping):
+            raise
+        package = Path(__file__).parent.parent
+        where = caller_location(skip=(package / "treefile", package / "api"))
+        if where is None:  # pirate_bt's own code gave it
+            raise
+        moved = [
+            LocatedError(e.message, where) if e.location.file == "<dict>" else e for e in exc.errors
+        ]
+        raise ValidationFailed(moved) from None
 
 
 def _root(tree: Any) -> py_trees.behaviour.Behaviour:
@@ -472,4 +498,9 @@ def load_tree(
         )
     given = params_mapping(params)
     from_text = bool(given) and all(isinstance(v, str) for v in given.values())
-    return load(source, robot=description, params=given, params_from_text=from_text, **options)
+    return _at_callers_line(
+        source,
+        lambda: load(
+            source, robot=description, params=given, params_from_text=from_text, **options
+        ),
+    )
