@@ -206,3 +206,14 @@ def test_go_to_a_segment_behind_a_branch_the_pab_cannot_take_is_refused(tmp_path
     route = _route(tmp_path, TEE_ROLL, "go to br")
     with pytest.raises(LocatedError, match=r":2:1: 'go to br' cannot be planned: the T-joint"):
         pirate_bt.plan_route(route)
+
+
+def test_a_navigator_s_missing_or_unknown_parameter_is_named_with_those_it_takes() -> None:
+    # it was "GoalNavigator.__init__() missing 1 required positional argument: 'segment'"
+    with pytest.raises(InputError) as caught:
+        pirate_bt.load_navigator("goal")
+    assert str(caught.value) == (
+        "navigator 'goal' needs the parameter 'segment' (--param segment=...; it takes: segment)"
+    )
+    with pytest.raises(InputError, match=r"'segmnt' \(it takes: segment\)$"):
+        pirate_bt.load_navigator("goal", {"segmnt": "upper"})

@@ -337,6 +337,23 @@ def check_navigator_map(
         ) from None
 
 
+def _takes(factory: Callable[..., Any]) -> tuple[list[str], list[str]] | None:
+    """The parameters ``factory`` takes, and those of them it needs (``None``: it takes
+    any, or its signature cannot be read)."""
+    import inspect
+
+    try:
+        signature = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return None
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()):
+        return None
+    taken = [p for p in signature.parameters.values() if p.kind in kinds]
+    needed = [p.name for p in taken if p.default is inspect.Parameter.empty]
+    return [p.name for p in taken], needed
+
+
 def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Navigator:
     """The navigator called ``name``, made with ``params`` (keyword arguments).
 
@@ -362,10 +379,20 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
         except Exception as exc:  # a broken plug-in is named, not a traceback
             raise InputError(f"navigator {name!r} ({entry.value}) failed to load: {exc}") from exc
     assert factory is not None
+    takes = _takes(factory)
+    given = dict(params or {})
+    if takes is not None:  # a parameter it needs, named as the command line gives it
+        missing = [n for n in takes[1] if n not in given and not set(given) - set(takes[0])]
+        if missing:  # (Python's words were "GoalNavigator.__init__() missing 1 ...")
+            raise InputError(
+                f"navigator {name!r} needs the parameter {missing[0]!r} (--param"
+                f" {missing[0]}=...; it takes: {', '.join(takes[0])})"[:300]
+            )
     try:
-        navigator = factory(**dict(params or {}))
+        navigator = factory(**given)
     except TypeError as exc:
-        raise InputError(f"navigator {name!r}: {exc}") from None
+        known = f" (it takes: {', '.join(takes[0]) or 'none'})" if takes is not None else ""
+        raise InputError(f"navigator {name!r}: {exc}{known}"[:300]) from None
     except (ValueError, OSError) as exc:
         raise InputError(f"navigator {name!r}: {exc}") from None
     if not callable(getattr(navigator, "next_step", None)):
