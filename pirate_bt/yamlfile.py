@@ -17,12 +17,15 @@ shared node, before anything is expanded: the check costs time and memory in
 proportion to the file, not to what it would expand to. An alias inside the
 value it names (``&a [*a]``), values nested deeper than :data:`MAX_DEPTH` and a
 whole number too long for Python to read are refused at their line too, and so are
-values that are no JSON value (``!!binary``, ``!!set``, ``!!omap``, ``!!pairs``); a
-bare date (``2001-12-14``) is read as the text written, as YAML 1.2 reads it.
+values that are no JSON value (``!!binary``, ``!!set``, ``!!omap``, ``!!pairs``). Where
+YAML 1.1 reads a plain value other than as YAML 1.2 (and an editor) reads it, a bare
+date (``2001-12-14``) and a base-60 number (``1:30``, 90 in YAML 1.1) are the text
+written, and a whole number with a leading zero (``010``, octal 8) is refused.
 """
 
 from __future__ import annotations
 
+import re
 import stat
 import sys
 from collections.abc import Mapping, Sequence
@@ -102,6 +105,11 @@ _INT_TAG = "tag:yaml.org,2002:int"
 _BOOL_TAG = "tag:yaml.org,2002:bool"
 _STR_TAG = "tag:yaml.org,2002:str"
 _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(:[0-5]?[0-9])+(\.[0-9_]*)?")
+"""A YAML 1.1 base-60 number (``1:30`` is 90), which YAML 1.2 reads as text."""
+_OCTAL = re.compile(r"[-+]?0[0-7_]+")
+"""A YAML 1.1 octal number (``010`` is 8), which YAML 1.2 reads as 10."""
 _NOT_JSON: dict[str, str] = {
     "tag:yaml.org,2002:binary": "!!binary (bytes)",
     "tag:yaml.org,2002:set": "!!set",
@@ -238,6 +246,29 @@ def _distinct(root: yaml.Node) -> int:
     return len(seen)
 
 
+def _yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
+    """A plain number that YAML 1.1 reads other than as written (YAML 1.2 and editors
+    read it as written): ``1:30`` (base 60, 90) is retagged as the text written;
+    ``010`` (octal, 8) is refused, as is."""
+    if not isinstance(node, yaml.ScalarNode) or node.tag not in (_INT_TAG, _FLOAT_TAG):
+        return None
+    if node.style:  # quoted or a block: text as written; plain is "" (libyaml) or None
+        return None
+    if _SEXAGESIMAL.fullmatch(node.value):
+        node.tag = _STR_TAG
+        return None
+    if not _OCTAL.fullmatch(node.value):
+        return None
+    sign = "-" if node.value.startswith("-") else ""
+    digits = sign + (node.value.lstrip("+-").replace("_", "").lstrip("0") or "0")
+    octal = int(node.value.replace("_", ""), 8)
+    return LocatedError(
+        f"{node.value} has a leading zero, which YAML 1.1 reads as an octal number"
+        f" ({octal}): write {digits}, or quote it for text",
+        SourceLocation(file, *_mark(node)),
+    )
+
+
 def _not_json(node: yaml.Node, file: str) -> LocatedError:
     return LocatedError(
         f"a YAML {_NOT_JSON[node.tag]} value is not allowed here: write text, a number,"
@@ -273,6 +304,10 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                 # YAML 1.1 reads a bare 2001-12-14 as a date, which no file kind has: the
                 # text as written, as in YAML 1.2 (a check then sees text, a writer writes it)
                 node.tag = _STR_TAG
+            problem = _yaml11_number(node, locator.file)
+            if problem is not None:
+                errors.append(problem)
+                continue
             limit = sys.get_int_max_str_digits()
             if node.tag == _INT_TAG and limit and len(node.value) > limit:
                 errors.append(
@@ -296,6 +331,10 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                     node.value[i] = (key_node, value_node)
                 if key_node.tag == _TIMESTAMP_TAG:
                     key_node.tag = _STR_TAG  # as for a value (below)
+                problem = _yaml11_number(key_node, locator.file)
+                if problem is not None:
+                    errors.append(problem)
+                    continue
                 if key_node.tag in _NOT_JSON:
                     errors.append(_not_json(key_node, locator.file))
                     continue

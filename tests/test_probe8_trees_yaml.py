@@ -79,3 +79,35 @@ def test_a_bare_date_is_the_text_written(tmp_path: Path) -> None:
         == 0
     )
     assert main(["run", str(tmp_path / "back.yaml"), "--quiet"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("written", "message"),
+    [
+        ("010", "010 has a leading zero, which YAML 1.1 reads as an octal number (8): write 10"),
+        (
+            "-0_10",
+            "-0_10 has a leading zero, which YAML 1.1 reads as an octal number (-8): write -10",
+        ),
+    ],
+)
+def test_a_leading_zero_is_refused_not_read_as_octal(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], written: str, message: str
+) -> None:
+    # retry: attempts: 010 ran 8 attempts (YAML 1.1's octal).
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(f"root: {{type: retry, attempts: {written}, child: success}}\n")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"{tree}:1:31: {message}, or quote it for text\n"
+
+
+def test_base_60_is_the_text_written() -> None:
+    # YAML 1.1 read 1:30 as 90 and 10:30:15.5 as 37815.5: a log message "10:30" was a
+    # number, a retry's "attempts: 1:20" 80 attempts.
+    doc = load_yaml_text("a: 1:30\nb: [10:30:15.5, -1:00, '010', 0x10, 1_000, 0, 0.5]\n10:30: x\n")
+    assert doc.data == {
+        "a": "1:30",
+        "b": ["10:30:15.5", "-1:00", "010", 16, 1000, 0, 0.5],
+        "10:30": "x",
+    }
