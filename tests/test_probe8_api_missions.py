@@ -5,6 +5,9 @@ Each test is a bug the probe found; it failed before its fix.
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+
 import pytest
 
 import pirate_bt
@@ -66,3 +69,29 @@ def test_a_run_held_by_an_operator_all_along_says_so() -> None:
     assert result.status == "failure" and result.why.startswith("time limit of 2 s reached")
     assert "the tree was paused for 40 of its ticks while an operator held the robot" in result.why
     assert result.why.endswith("(manual mode)") and "\n" not in result.why
+
+
+@pytest.mark.parametrize(
+    ("options", "words"),
+    [
+        # a TypeError from inside the report, after the folder had been made
+        ({"extra_sections": 5}, "extra_sections: give a list of (heading, [lines]) pairs"),
+        ({"extra_sections": [("h", "not a list")]}, "extra_sections: each item is a"),
+        ({"extra_pictures": [("caption",)]}, "extra_pictures: each item is a"),
+        # written into the report as it was
+        ({"wall_s": float("nan")}, "wall_s: nan is not a finite number of seconds"),
+        ({"warn": 3}, "warn: give a function"),
+    ],
+)
+def test_write_mission_outputs_checks_its_arguments_before_writing(
+    tmp_path: Path, options: dict[str, object], words: str
+) -> None:
+    mission = _short_mission()
+    out = tmp_path / "out"
+    refused(lambda: pirate_bt.write_mission_outputs(mission, out, **options), words)  # type: ignore[arg-type]
+    assert not out.exists()
+
+
+@functools.cache
+def _short_mission() -> pirate_bt.MissionResult:
+    return pirate_bt.simulate_mission("bend-right", max_time="2 s")

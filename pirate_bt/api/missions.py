@@ -39,6 +39,7 @@ from pirate_bt.api.options import (
     output_folder,
     port_url,
     positive_time_s,
+    report_extras,
     seed_value,
     split_faults,
     tick_period_s,
@@ -536,6 +537,7 @@ def write_mission_outputs(
 
     if not isinstance(result, MissionResult):
         raise InputError(f"result: give a MissionResult, not a {type(result).__name__}")
+    report_extras(wall_s, extra_sections, extra_pictures, warn)  # before the folder
     out = output_folder(output)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -50,6 +50,7 @@ __all__ = [
     "port_url",
     "positive_time_s",
     "quantity",
+    "report_extras",
     "run_limits",
     "seed_value",
     "split_faults",
@@ -315,6 +316,41 @@ def writable_folder(folder: Path, option: str = "output") -> Path:
             f"{option}: cannot write in the folder {folder}: {exc.strerror or exc}"
         ) from None
     return folder
+
+
+def report_extras(wall_s: Any, sections: Any, pictures: Any, warn: Any) -> None:
+    """:func:`~pirate_bt.api.missions.write_mission_outputs`' own arguments, before
+    anything is written.
+
+    ``extra_sections=5`` was a ``TypeError`` from inside the report, after the output
+    folder had been made; ``wall_s=nan`` was written into the report as it was.
+
+    Raises:
+        InputError: the first that is wrong, named.
+    """
+    if wall_s is not None:
+        if isinstance(wall_s, bool) or not isinstance(wall_s, int | float):
+            raise InputError(f"wall_s: give seconds (a number) or None, not {wall_s!r}"[:200])
+        if not 0 <= wall_s < float("inf"):
+            raise InputError(f"wall_s: {wall_s!r} is not a finite number of seconds")
+    callback(warn, "warn")
+
+    def pairs(value: Any, name: str, text_list: bool) -> None:
+        what = "(heading, [lines])" if text_list else "(caption, file name)"
+        if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+            raise InputError(f"{name}: give a list of {what} pairs, not {value!r}"[:200])
+        for item in value:
+            ok = isinstance(item, tuple | list) and len(item) == 2 and isinstance(item[0], str)
+            second = item[1] if ok else None
+            if text_list:
+                ok = ok and isinstance(second, list) and all(isinstance(x, str) for x in second)
+            else:
+                ok = ok and isinstance(second, str)
+            if not ok:
+                raise InputError(f"{name}: each item is a {what} pair, not {item!r}"[:200])
+
+    pairs(sections, "extra_sections", True)
+    pairs(pictures, "extra_pictures", False)
 
 
 def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
