@@ -340,6 +340,27 @@ def plot_trace(
     strips = 2 if zoomed and series.steps != series.pabs else 1
     ratios = [0.28] * strips + [1.0] * len(_PANELS)
     dpi = 100.0
+    # Names are drawn as written: a node named "$x^2$" is no formula, and "a $\frac{$"
+    # made matplotlib's mathtext raise (the plot failed with an internal error).
+    with plt.rc_context({"text.parse_math": False}):
+        return _draw(trace, series, out, kind, title, (lo, hi), zoomed, strips, ratios, dpi)
+
+
+def _draw(
+    trace: Trace,
+    series: PlotSeries,
+    out: Path,
+    kind: str,
+    title: str | None,
+    window_s: tuple[float, float],
+    zoomed: bool,
+    strips: int,
+    ratios: list[float],
+    dpi: float,
+) -> Path:
+    import matplotlib.pyplot as plt
+
+    lo, hi = window_s
     fig, all_axes = plt.subplots(
         strips + len(_PANELS),
         1,
