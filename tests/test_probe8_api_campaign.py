@@ -310,3 +310,11 @@ def test_maps_that_differ_for_some_run_are_not_a_repeat() -> None:
     runs = [{"route": "bend-right"}, {"route": "t-joint"}]
     spec = {"name": "m", "runs": runs, "maps": [None, "bend-right"]}
     assert run_campaign(spec, executor=InstantExecutor()).cases == 4
+
+
+@pytest.mark.parametrize("target", ["nosuch", "a:b:c", "mod:", ":f", "a b:c", None])
+def test_a_target_that_is_no_module_function_is_refused_before_any_case(target: object) -> None:
+    # each case died of it ("case process died (exit status 1): ..."), one error row each
+    pool = InstantExecutor()
+    refused(lambda: run_campaign(SPEC, executor=pool, target=target), "target: ")  # type: ignore[arg-type]
+    assert pool.ids == []

@@ -21,6 +21,7 @@ validated, and only then does an executor start and a file get written.
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import sys
 import time
@@ -221,6 +222,9 @@ def _path(value: Any, name: str) -> Path:
     return Path(text)
 
 
+_TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*")
+
+
 def _check_options(options: dict[str, Any]) -> None:
     """Types and ranges of :func:`run_campaign`'s options, before anything is read.
 
@@ -245,6 +249,12 @@ def _check_options(options: dict[str, Any]) -> None:
     for name in ("scheduler", "command", "target"):
         if options[name] is not None and not isinstance(options[name], str):
             raise InputError(f"{name}: give text, not {options[name]!r}"[:200])
+    if not isinstance(options["target"], str) or not _TARGET.fullmatch(options["target"]):
+        # else every case died of it, one error row each
+        raise InputError(
+            f"target: give 'module:function' (pirate_bt.campaign.case:run_case),"
+            f" not {options['target']!r}"[:200]
+        )
     for name in ("scheduler_file", "output", "base"):
         if options[name] is not None:
             _path(options[name], name)
