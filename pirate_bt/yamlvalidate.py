@@ -55,10 +55,10 @@ def describe_error(error: Any) -> str:
     msg = str(error["msg"])
     kind = error.get("type", "")
     loc = error.get("loc", ())
-    if kind == "extra_forbidden" and loc:
-        return f"unknown key {loc[-1]!r}"
+    if kind == "extra_forbidden" and loc:  # a key of any length (? KEY): cut short
+        return f"unknown key {shown(loc[-1])}"
     if kind == "missing" and loc:
-        return f"missing required key {loc[-1]!r}"
+        return f"missing required key {shown(loc[-1])}"
     if kind == "union_tag_not_found":  # a tagged union (``kind: angle``) without its tag
         return f"missing required key {_tag_key(error)!r}"
     if kind == "union_tag_invalid":  # the tags as text, not reprs (<SensorKind.IMU: 'imu'>)

@@ -111,3 +111,25 @@ def test_base_60_is_the_text_written() -> None:
         "b": ["10:30:15.5", "-1:00", "010", 16, 1000, 0, 0.5],
         "10:30": "x",
     }
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "root:\n  type: log\n  message: hi\n  ? {key}\n  : 1\n",  # a node's unknown key
+        "params:\n  x:\n    type: number\n    ? {key}\n    : 1\nroot: success\n",
+        "blackboard:\n  x:\n    type: number\n    ? {key}\n    : 1\nroot: success\n",
+    ],
+)
+def test_an_unknown_key_of_any_length_is_cut_short(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
+) -> None:
+    # An explicit key ("? KEY") may be longer than the 1024 characters of a plain one.
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(text.format(key="k" * 5000), encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "unknown key 'kkkk" in err
+    assert "(5000 characters)" in err
+    assert len(err) < 300
