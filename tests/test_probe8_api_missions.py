@@ -95,3 +95,15 @@ def test_write_mission_outputs_checks_its_arguments_before_writing(
 @functools.cache
 def _short_mission() -> pirate_bt.MissionResult:
     return pirate_bt.simulate_mission("bend-right", max_time="2 s")
+
+
+def test_a_survey_never_writes_its_network_over_a_file_that_is_not_yaml(tmp_path: Path) -> None:
+    # survey(output="planner.py") drove the survey and wrote the network's YAML over it
+    planner = tmp_path / "planner.py"
+    planner.write_text("print('my planner')\n", encoding="utf-8")
+    refused(
+        lambda: pirate_bt.survey(sim="t-joint", output=planner),
+        "output: ",
+        "is not a .yaml file name",
+    )
+    assert planner.read_text(encoding="utf-8") == "print('my planner')\n"

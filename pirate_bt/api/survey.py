@@ -152,7 +152,14 @@ def survey(
     )
     if explore.output is not None:  # before anything connects, as navigate's trace
         from pirate_bt.api.options import writable_folder
+        from pirate_bt.errors import InputError
 
+        if explore.output.suffix.lower() not in (".yaml", ".yml"):
+            # a network file: output="planner.py" was overwritten with the network's YAML
+            raise InputError(
+                f"output: {explore.output} is not a .yaml file name; the surveyed network"
+                " is written as YAML"
+            )
         writable_folder(explore.output.parent, "output")
     navigation = navigate(
         explore,
