@@ -35,7 +35,7 @@ from typing import Any, BinaryIO
 
 import yaml
 
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 
 __all__ = [
     "Locator",
@@ -352,7 +352,7 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                     first = seen[key].start_mark.line + 1
                     errors.append(
                         LocatedError(
-                            f"duplicate key {key!r} (first written on line {first})",
+                            f"duplicate key {shown(key)} (first written on line {first})",
                             SourceLocation(locator.file, *_mark(key_node)),
                         )
                     )

@@ -133,3 +133,25 @@ def test_an_unknown_key_of_any_length_is_cut_short(
     assert "unknown key 'kkkk" in err
     assert "(5000 characters)" in err
     assert len(err) < 300
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "root: success\n? {key}\n: 1\n? {key}\n: 2\n",  # a duplicate key
+        "root:\n  type: sequence\n  children:\n"
+        "    - {{type: success, name: {key}}}\n    - {{type: success, name: {key}}}\n",
+        "blackboard:\n  ? {key} x\n  : {{type: number}}\nroot: success\n",
+        "params:\n  ? {key} x\n  : {{type: number}}\nroot: success\n",
+        "root:\n  type: parallel\n  policy: selected\n  selected: [{key}]\n  children: [success]\n",
+    ],
+)
+def test_a_long_name_in_a_message_is_cut_short(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str
+) -> None:
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(text.format(key="k" * 3000), encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err[:500]
+    assert len(err) < 300, err[:300]

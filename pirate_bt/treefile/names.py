@@ -46,7 +46,7 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
             if first is not None:  # a subtree's root: the mistake is the call's
                 errors.append(
                     LocatedError(
-                        f"duplicate node name {child.name!r} among siblings"
+                        f"duplicate node name {shown_name(child.name)} among siblings"
                         f" (first at {first.called_at or first.location})",
                         child.called_at or child.location,
                     )

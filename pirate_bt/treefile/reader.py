@@ -43,6 +43,11 @@ _log = logging.getLogger("pirate_bt.treefile")
 # -- reading -------------------------------------------------------------------------
 
 
+def _written(key: object) -> str:
+    """A key as a message shows it: text cut short, anything else (``1``, ``None``) as is."""
+    return _shown(key) if isinstance(key, str) else repr(key)
+
+
 @dataclass
 class _Env:
     """Where we are while reading: the document, the parameters, the include chain.
@@ -177,7 +182,7 @@ class _Reader:
         for key, decl in board.items():
             where: PathKey = ("blackboard", key)
             if not isinstance(key, str) or not key.isidentifier():
-                self.error(doc, where, f"blackboard key {key!r} must be an identifier")
+                self.error(doc, where, f"blackboard key {_written(key)} must be an identifier")
                 continue
             try:
                 decl = {} if decl is None else decl
@@ -214,7 +219,7 @@ class _Reader:
         for name, decl in raw.items():
             at = (*where, name)
             if not isinstance(name, str) or not name.isidentifier():
-                self.error(doc, at, f"parameter name {name!r} must be an identifier")
+                self.error(doc, at, f"parameter name {_written(name)} must be an identifier")
                 continue
             if isinstance(decl, str):
                 decl = {"type": decl}
@@ -485,7 +490,9 @@ class _Reader:
             names = {c.name for c in kids}
             for s in spec.params["selected"]:
                 if s not in names:
-                    self.error(env.doc, (*path, "selected"), f"selected: no child named {s!r}")
+                    self.error(
+                        env.doc, (*path, "selected"), f"selected: no child named {_shown(s)}"
+                    )
                     return None
         return spec
 
