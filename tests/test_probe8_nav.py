@@ -217,3 +217,18 @@ def test_a_navigator_s_missing_or_unknown_parameter_is_named_with_those_it_takes
     )
     with pytest.raises(InputError, match=r"'segmnt' \(it takes: segment\)$"):
         pirate_bt.load_navigator("goal", {"segmnt": "upper"})
+
+
+def test_a_turn_the_pipe_does_not_have_is_named_past_where_the_pab_was_to_end(
+    tmp_path: Path,
+) -> None:
+    # the riser goes on 1.4 m past its drawn top bend and ends: the bend PAB's search
+    # drove on to the cap; the why said the robot was blocked "at what the map has as
+    # bend 'top'", 1.3 m below where it was
+    route = _route(tmp_path, RISER2, "at the bend turn up", "at the bend turn down")
+    result = pirate_bt.simulate_mission(route, truth=NETS / "probe8-riser2-notop.yaml")
+    assert not result.succeeded and result.counters.violations == 0
+    assert result.why.startswith("map disagreement at 4.24 m (believed): the pipe blocked the")
+    assert ", 0.54 m beyond where the PAB through what the map has as bend 'top' was to" in (
+        result.why
+    )

@@ -36,6 +36,7 @@ from pirate_bt.task.fixes import roll_name
 
 __all__ = [
     "END_OF_RUN",
+    "PAST_END_M",
     "PabOutcome",
     "explain_run",
     "link_cause",
@@ -225,6 +226,12 @@ def pab_outcomes(
     return out
 
 
+PAST_END_M = 0.1
+"""A bend or T-joint PAB blocked this far beyond where it was to leave the robot drove
+its search on past the feature the map has: said so, with how far (it read "at what the
+map has as bend 'top'" for a block 1.3 m up a riser that has no bend at its top)."""
+
+
 def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
     """A PAB's failure named as a map disagreement, when the pipe blocked the robot where
     the map said it could go on (``None`` when the failure says nothing about the map).
@@ -263,6 +270,13 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
     if planned is not None and feature and pab.kind in ("bend", "t-joint"):
         drawn = "bend" if pab.kind == "bend" else "T-joint"
         what = f" at what the map has as {drawn} {feature!r}: the pipe there is not as drawn"
+        past = belief_m - float(planned.end_m)
+        if past > PAST_END_M:  # its search drove on past the feature: none was there
+            what = (
+                f", {past:.2f} m beyond where the PAB through what the map has as {drawn}"
+                f" {feature!r} was to leave it ({planned.end_m:.2f} m): the pipe there is"
+                " not as drawn"
+            )
     elif planned is not None:
         what = (
             f" where the map has clear pipe from {planned.start_m:.2f} m to {planned.end_m:.2f} m"
