@@ -128,3 +128,50 @@ def test_a_non_finite_blackboard_default_is_refused_where_written(tmp_path: Path
     ]
     with pytest.raises(ValidationFailed, match="must be finite"):
         load_tree({"blackboard": {"x": {"default": math.nan}}, "root": "success"})
+
+
+@pytest.mark.parametrize(
+    ("text", "place", "message"),
+    [
+        # roll: {type: angle, default: 90} was 90 rad (5157 degrees), silently
+        (
+            "params:\n  roll: {type: angle, default: 90}\nroot: success\n",
+            "2:23",
+            "default: 90 needs a unit: write it as e.g. '90 rad' or '5157 deg'",
+        ),
+        (
+            "params:\n  d: {type: duration, example: 5}\nroot: success\n",
+            "2:23",
+            "example: 5 needs a unit: write it as e.g. '5 s'",
+        ),
+        (
+            "root: {type: subtree, ref: s, params: {d: 5}}\n"
+            "subtrees:\n  s:\n    params: {d: duration}\n    root: {type: wait, duration: $d}\n",
+            "1:40",
+            "parameter 'd': 5 needs a unit: write it as e.g. '5 s'",
+        ),
+    ],
+)
+def test_a_quantity_written_in_a_file_needs_its_unit(
+    tmp_path: Path, text: str, place: str, message: str
+) -> None:
+    path = tmp_path / "tree.yaml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValidationFailed) as caught:
+        load_tree(path, use_examples=True)
+    assert [str(e) for e in caught.value.errors] == [f"{path}:{place}: {message}"]
+
+
+def test_numbers_are_si_in_python_and_zero_needs_no_unit(tmp_path: Path) -> None:
+    mapping = {
+        "params": {"d": {"type": "duration", "default": 5}},
+        "root": {"type": "subtree", "ref": "s", "params": {"d": 2}},
+        "subtrees": {
+            "s": {"params": {"d": "duration"}, "root": {"type": "wait", "duration": "$d"}}
+        },
+    }
+    assert load_tree(mapping).params == {"d": "5.0 s"}
+    path = tmp_path / "tree.yaml"
+    path.write_text("params:\n  roll: {type: angle, default: 0}\nroot: success\n")
+    assert load_tree(path).params == {"roll": "0.0 rad"}
+    assert load_tree(path, params={"roll": 1.5}).params == {"roll": "1.5 rad"}

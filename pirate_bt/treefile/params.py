@@ -84,13 +84,18 @@ class ParamDecl(BaseModel):
     description: str = Field("", description="what the parameter means")
 
 
-def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any:
+def coerce_param(
+    decl: ParamDecl, value: Any, *, from_text: bool = False, units_required: bool = False
+) -> Any:
     """Check ``value`` against ``decl`` and return the value to substitute.
 
     Args:
         decl: The declaration.
         value: The given value (a number is SI for a quantity unless it came from a file).
         from_text: The value is command-line text (``--param roll=90deg``).
+        units_required: The value is written in a file (a declared ``default`` or
+            ``example``, a value given at a subtree call), where a quantity needs its
+            unit as in a node's keys: ``default: 90`` for an angle is refused, not 90 rad.
 
     Returns:
         The substituted value: a quantity as SI text with its unit, else a plain value.
@@ -102,7 +107,8 @@ def coerce_param(decl: ParamDecl, value: Any, *, from_text: bool = False) -> Any
     if kind in SI_UNITS:
         dimension, unit = SI_UNITS[kind]
         try:
-            si = parse_quantity(value, dimension, require_unit=isinstance(value, str) or from_text)
+            written = isinstance(value, str) or from_text or units_required
+            si = parse_quantity(value, dimension, require_unit=written)
         except UnitError as exc:
             raise ValueError(str(exc)) from None
         return f"{si!r} {unit}"

@@ -240,7 +240,7 @@ class _Reader:
                     continue
                 try:
                     written[key] = written_value(value)  # $$x: the literal $x, once
-                    coerce_param(parsed, written[key])
+                    coerce_param(parsed, written[key], units_required=self.units_required)
                 except ValueError as exc:
                     self.error(doc, (*at, key), f"{key}: {exc}")
                     bad = True
@@ -258,11 +258,14 @@ class _Reader:
         given_at: Any,
         from_text: bool = False,
         use_examples: bool = False,
+        in_file: bool = False,
     ) -> dict[str, Any] | None:
         """Values for declared parameters from the caller; None on error.
 
         With ``use_examples`` (checking or drawing a tree, never running it) a
-        parameter the caller did not give takes its declared ``example``.
+        parameter the caller did not give takes its declared ``example``. ``in_file``:
+        the values are written in the document (a subtree call's), where a quantity
+        needs its unit when the document's do.
         """
         values: dict[str, Any] = {}
         ok = True
@@ -278,7 +281,12 @@ class _Reader:
                 ok = False
                 continue
             try:
-                values[name] = coerce_param(decls[name], value, from_text=from_text)
+                values[name] = coerce_param(
+                    decls[name],
+                    value,
+                    from_text=from_text,
+                    units_required=in_file and self.units_required,
+                )
             except ValueError as exc:
                 self.errors.append(LocatedError(f"parameter {name!r}: {exc}", given_at(name)))
                 ok = False
@@ -573,7 +581,7 @@ class _Reader:
         def given_at(name: str) -> SourceLocation:
             return doc.locator.locate((*path, "params", name))
 
-        values = self.bind(doc, path, decls, given, given_at)
+        values = self.bind(doc, path, decls, given, given_at, in_file=True)
         if values is None:
             return None
         # A value given here is reported here (params: {torque: 50 N*m}), unless it is a
