@@ -318,3 +318,28 @@ def test_a_target_that_is_no_module_function_is_refused_before_any_case(target: 
     pool = InstantExecutor()
     refused(lambda: run_campaign(SPEC, executor=pool, target=target), "target: ")  # type: ignore[arg-type]
     assert pool.ids == []
+
+
+def test_the_markdown_report_keeps_its_table_and_lists_whatever_the_names_hold(
+    tmp_path: Path,
+) -> None:
+    # a run named 'a|b' split the group's row into an extra column; a reason with a
+    # newline ended its list item ("# heading" became a heading); a node name with a
+    # backtick ended its code span
+    from pirate_bt.campaign.case import error_record
+    from pirate_bt.campaign.report import write_report
+
+    case = {
+        "id": "000000-aaaaaaaa", "index": 0, "run": "a|b", "tree": "straight", "params": {},
+        "seed": 0, "drop": 0.0, "corrupt": 0.0, "dup": 0.0, "sim_faults": [],
+    }  # fmt: skip
+    row = error_record(case, "failed-safe", "first line\n# heading | x", 1.0)
+    row["failing_node"] = "seq/odd`name"
+    write_report([row], tmp_path)
+    md = (tmp_path / "report.md").read_text(encoding="utf-8").splitlines()
+    header = next(line for line in md if line.startswith("| group"))
+    group = next(line for line in md if line.startswith("| a"))
+    assert group.replace("\\|", "").count("|") == header.count("|"), group
+    assert "- 1 × first line # heading | x" in md
+    assert not any(line.startswith("# heading") for line in md)
+    assert "- 1 × ``seq/odd`name``" in md

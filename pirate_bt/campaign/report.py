@@ -106,6 +106,25 @@ def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
     return out
 
 
+def _md_line(text: str) -> str:
+    """Text of a row (a run's name, a reason) as one Markdown line: a newline in it
+    ended the list item, and the rest was read as a paragraph or a heading."""
+    return " ".join(str(text).split())
+
+
+def _md_cell(text: str) -> str:
+    """One table cell: a '|' in a run's name (``name: a|b``) split the row's columns."""
+    return _md_line(text).replace("|", "\\|")
+
+
+def _md_code(text: str) -> str:
+    """A node's path as inline code, whatever backticks its names hold."""
+    line = _md_line(text)
+    fence = "`" * (max((len(m) for m in re.findall(r"`+", line)), default=0) + 1)
+    pad = " " if line.startswith("`") or line.endswith("`") else ""
+    return f"{fence}{pad}{line}{pad}{fence}"
+
+
 def _top(groups: Sequence[GroupStats], attr: str, n: int = 8) -> list[tuple[str, int]]:
     total: Counter[str] = Counter()
     for g in groups:
@@ -272,12 +291,12 @@ def write_report(
     if command:
         md += ["Reproduce with:", "", f"    {command}", ""]
     md += ["| " + " | ".join(table[0]) + " |", "|" + "---|" * len(table[0])]
-    md += ["| " + " | ".join(row) + " |" for row in table[1:]]
+    md += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in table[1:]]
     reasons, nodes = _top_reasons(groups), _top(groups, "nodes")
     md += ["", "## Most frequent failure reasons", ""]
-    md += [f"- {n} × {text}" for text, n in reasons] or ["- none"]
+    md += [f"- {n} × {_md_line(text)}" for text, n in reasons] or ["- none"]
     md += ["", "## Most frequent failing nodes", ""]
-    md += [f"- {n} × `{text}`" for text, n in nodes] or ["- none"]
+    md += [f"- {n} × {_md_code(text)}" for text, n in nodes] or ["- none"]
     md += ["", "## Counters over all runs", ""]
     md += ["| " + " | ".join(row) + " |" for row in counters[:1]]
     md += ["|---|---|---|---|"] + ["| " + " | ".join(row) + " |" for row in counters[1:]]
