@@ -40,6 +40,7 @@ __all__ = ["BAD_STATES_BEFORE_MISMATCH", "InboundMixin"]
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
 _FAULT = int(BoardStatus.FAULT)
+_TIMEOUT = int(BoardStatus.TIMEOUT)
 OLD_STATES_BEFORE_RESYNC = 10
 """STATEs dropped in a row as not newer than the held one before the next is taken."""
 BAD_STATES_BEFORE_MISMATCH = 3
@@ -82,6 +83,9 @@ class InboundMixin:
     _old_state_run: int = 0
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
+    # (board position, arrival of the last STATE that showed it answering) for each board
+    # the newest STATE reports in TIMEOUT (see boards_away)
+    _away_since: tuple[tuple[int, float], ...] = ()
 
     # the send side, in the session
     def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
@@ -97,6 +101,13 @@ class InboundMixin:
         """``ESTOP_INPUT`` in ``flags``, read in a 1.2 session only (in 1.1 bits 4-7 are
         0, whatever a bridge sends)."""
         return self.config.protocol_minor >= 2 and bool(flags & BridgeFlags.ESTOP_INPUT)
+
+    def boards_away(self) -> tuple[tuple[int, float], ...]:
+        """The boards the newest ``STATE`` reports in ``TIMEOUT``: for each, its position in
+        the frame's board order and the arrival time of the last ``STATE`` that showed it
+        answering (the newest fresh reading it can have: its readings' age is at least
+        the time since), or of the first ``STATE`` heard if none did."""
+        return self._away_since
 
     @property
     def pending_hello(self) -> Request | None:
@@ -273,6 +284,22 @@ class InboundMixin:
         _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
         self._start_session(now, "the bridge was reset")
 
+    def _boards_away_since(
+        self, status: tuple[int, ...], last: State | None, last_s: float, now: float
+    ) -> tuple[tuple[int, float], ...]:
+        """:meth:`boards_away` for a ``STATE`` of board ``status``, after ``last`` (which
+        arrived at ``last_s``)."""
+        since = dict(self._away_since)
+        away: list[tuple[int, float]] = []
+        for i, s in enumerate(status):
+            if s & _TIMEOUT:
+                if i not in since:
+                    # newly away: last seen answering in the STATE before this one
+                    seen = last is not None and not last.board_status[i] & _TIMEOUT
+                    since[i] = last_s if seen else now
+                away.append((i, since[i]))
+        return tuple(away)
+
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
         self._bad_state_run = 0
@@ -299,12 +326,14 @@ class InboundMixin:
                 item.seq,
             )
         self._old_state_run = 0
+        previous_s = self._state_at_s
         self._state = item
         self._state_at_s = now
         self._flags = item.flags
         status = item.board_status
         if last is None or status != last.board_status:  # a tuple compare: one changed
             self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)
+            self._away_since = self._boards_away_since(status, last, previous_s, now)
         ordered = self._ordered
         if (
             ordered is not None

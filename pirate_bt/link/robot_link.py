@@ -19,13 +19,14 @@ all, carries it again (docs/protocol.md, Sequence numbers).
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+import math
+from collections.abc import Collection, Sequence
 from operator import attrgetter
 from typing import Any
 
-from pirate_bt.errors import LinkError
+from pirate_bt.errors import LinkError, LinkTimeout
+from pirate_bt.link.away import BoardsAway
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints
-from pirate_bt.link.messages import BoardStatus
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -84,6 +85,8 @@ class RobotLink:
         self._snapshot: RobotState | None = None
         self._snapshot_seq: int | None = None
         self._last_bulk: Request | None = None
+        self._away = BoardsAway(robot)  # boards in TIMEOUT, and commands deferred for them
+        self._deferred: set[int] = set()  # the boards the last send() deferred
         self._health_figures: tuple[Any, ...] | None = None
         self._health = LinkHealth(connected=False)
         self._loss_completed = -1
@@ -104,6 +107,8 @@ class RobotLink:
             self.session.check_reader()
         else:
             self.session.poll()
+        if self._away.owed:
+            self._redeliver()
 
     def state(self) -> RobotState | None:
         """The latest state snapshot, or ``None`` before the first state frame."""
@@ -120,12 +125,15 @@ class RobotLink:
         """Merge ``commands`` into the desired setpoints and send them in one frame.
 
         Does not wait for the ack (the session retries in the background of
-        :meth:`poll`); use :meth:`send_and_wait` to wait.
+        :meth:`poll`); use :meth:`send_and_wait` to wait. A command for a board the
+        bridge reports in ``TIMEOUT`` waits in the table until the board is back, and
+        :meth:`poll` sends it then (:mod:`pirate_bt.link.away`).
 
         Raises:
             InputError: unknown motor or unsupported mode.
             LinkLost: the link is lost.
-            LinkError: an earlier setpoint frame was refused or never acknowledged.
+            LinkError: an earlier setpoint frame was refused or never acknowledged, or
+                a command is for a board away for longer than its readings stay fresh.
         """
         self.session.ensure_alive()
         self._settle_bulks()
@@ -133,27 +141,84 @@ class RobotLink:
         # every command is converted before any is merged: a call that raises changes
         # nothing, so none of its commands goes out with a later call
         raws = [self._commands.to_raw(command) for command in commands]
-        away = self._boards_away()
+        away = self._away.by_id(self.session.boards_away())
+        deferred: set[int] = set()
         if away:
             # The bridge refuses a whole bulk that has an entry for a board it cannot
-            # reach (BUS_ERROR, docs/protocol.md): a command for one is refused here,
-            # and the others go out with that board's entries as "keep" (the bridge
-            # hands the board its setpoints again when it answers).
-            hit = sorted({raw.board for raw in raws} & away)
-            if hit:
-                raise LinkError(
-                    f"board {', '.join(map(str, hit))} is not answering the bridge"
-                    " (TIMEOUT: rebooting?): its setpoints cannot be delivered"
-                )
+            # reach (BUS_ERROR, docs/protocol.md): that board's entries go out as keep.
+            # A command for it waits in the table for the board's return (away.py); one
+            # for a board away for longer than its grace is refused here.
+            deferred = {raw.board for raw in raws} & away.keys()
+            late = self._overdue(away, deferred)
+            if late:
+                raise LinkError(_not_answering(late, "cannot be delivered"))
         for raw in raws:
             i = self._slot_index[(raw.board, raw.slot)]
             self._modes[i] = raw.mode
             self._raw[i] = raw.raw_value
+        # the table goes out whole: boards back since are served by this frame
+        self._away.owed = (self._away.owed & away.keys()) | deferred
+        self._deferred = deferred
+        self._send_table(away.keys())
+
+    def _overdue(self, away: dict[int, float], boards: set[int]) -> list[tuple[int, float]]:
+        """Those of ``boards`` away with every reading stale (:mod:`pirate_bt.link.away`)."""
+        if not boards & away.keys():
+            return []
+        latest = self.session.latest_state()
+        at_s = latest[1] if latest is not None else self.session.clock.now()
+        return self._away.overdue(away, boards, self._snapshot, at_s)
+
+    def _send_table(self, away: Collection[int]) -> None:
+        """Send the whole table, the entries of the boards in ``away`` as keep."""
         modes = self._modes
         if away:
             modes = [None if b in away else m for b, m in zip(self._slot_board, modes, strict=True)]
         self._last_bulk = self.session.send_bulk(modes, self._raw)
         self._unsettled.append(self._last_bulk)
+
+    def _redeliver(self) -> None:
+        """Send the table again when a board with a deferred command is back."""
+        away = self._away.by_id(self.session.boards_away())
+        back = self._away.owed - away.keys()
+        if not back:
+            return
+        self._away.owed -= back
+        if self.session.stats().estopped:
+            return  # latched: the bridge refuses setpoints; the reset is the operator's
+        _log.info("board %s answers again: its deferred setpoints go out", sorted(back))
+        self._send_table(away.keys())
+
+    def _wait_deferred(self, deferred: set[int], timeout_s: float | None) -> None:
+        """Wait until the boards of ``deferred`` are back and the table that carries
+        their setpoints is acknowledged, or one is away for good (:mod:`.away`).
+
+        Raises:
+            LinkError: a board stayed away, the e-stop latched meanwhile, or the table
+                was not acknowledged.
+            LinkTimeout: still waiting after ``timeout_s`` (default: the longest
+                freshness limit and a request's retry budget).
+        """
+        clock, config = self.session.clock, self.session.config
+        wait_s = self._away.longest_grace_s + config.give_up_s if timeout_s is None else timeout_s
+        deadline = clock.now() + wait_s
+        sent = self._last_bulk
+        while deferred & self._away.owed:
+            away = self._away.by_id(self.session.boards_away())
+            late = self._overdue(away, deferred & self._away.owed)
+            if late:
+                raise LinkError(_not_answering(late, "were not delivered"))
+            if clock.now() >= deadline:
+                raise LinkTimeout(
+                    f"board {', '.join(map(str, sorted(deferred)))} did not answer the bridge"
+                    f" again within {wait_s:.3f} s: its setpoints were not delivered"
+                )
+            clock.sleep(config.poll_step_s)
+            self.poll()
+        if self._last_bulk is sent:  # back, but not sent again: the e-stop latched
+            raise LinkError("setpoints not delivered: the e-stop latched while the board was away")
+        assert self._last_bulk is not None
+        self._check_delivered(self.session.wait(self._last_bulk))
 
     def _settle_bulks(self) -> None:
         """Take the outcomes of the bulks sent into the table.
@@ -203,32 +268,32 @@ class RobotLink:
                 ", ".join(reverted),
             )
 
-    def _boards_away(self) -> set[int]:
-        """The boards the bridge's latest STATE reports in ``TIMEOUT``."""
-        latest = self.session.latest_state()
-        if latest is None:
-            return set()
-        status = latest[0].board_status
-        if not any(s & BoardStatus.TIMEOUT for s in status):
-            return set()
-        return {b for b, s in zip(self._board_ids, status, strict=False) if s & BoardStatus.TIMEOUT}
-
     def send_and_wait(
         self, commands: Sequence[MotorCommand], timeout_s: float | None = None
     ) -> None:
         """Like :meth:`send`, then wait for the bridge's ack.
 
+        A command for a board the bridge reports in ``TIMEOUT`` is waited for until the
+        board is back and its setpoints are acknowledged, or it is away for good
+        (:mod:`pirate_bt.link.away`).
+
         Args:
             commands: Setpoints in SI units.
-            timeout_s: Longest wait (default: the retry budget).
+            timeout_s: Longest wait for each of the two (default: the retry budget, and
+                the longest freshness limit and the retry budget).
 
         Raises:
             LinkTimeout: no outcome within ``timeout_s``.
             LinkError: refused, failed or lost.
         """
         self.send(commands)
+        deferred = self._deferred
         assert self._last_bulk is not None
-        req = self.session.wait(self._last_bulk, timeout_s)
+        self._check_delivered(self.session.wait(self._last_bulk, timeout_s))
+        if deferred:
+            self._wait_deferred(deferred, timeout_s)
+
+    def _check_delivered(self, req: Request) -> None:
         self._settle_bulks()
         if req.outcome is not Outcome.ACKED:
             self.session.take_failures()
@@ -360,6 +425,15 @@ class RobotLink:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _not_answering(late: list[tuple[int, float]], what: str) -> str:
+    age = max(t for _, t in late)
+    old = f"readings {age:.3f} s old" if math.isfinite(age) else "no fresh reading"
+    return (
+        f"board {', '.join(str(b) for b, _ in late)} is not answering the bridge"
+        f" (TIMEOUT, {old}: rebooting?): its setpoints {what}"
+    )
 
 
 def _health_of(s: SessionStats, faulted_boards: tuple[int, ...]) -> LinkHealth:

@@ -1,0 +1,93 @@
+"""Boards the bridge cannot reach (``TIMEOUT`` in its ``STATE``): when the link stops
+waiting for one and refuses a command for it (docs/protocol.md, Bridge flags).
+
+The bridge marks a board ``TIMEOUT`` after one missed exchange and its retry
+(firmware/piratebay/poller.c), so one lost reply on the RS485 bus shows as a
+``STATE`` period or two of ``TIMEOUT``; a rebooting board shows it for its whole reset.
+The bridge refuses a bulk with an entry for such a board (``BUS_ERROR``), so the link
+sends the board's entries as keep. A command for it is **deferred**, not refused: the
+link keeps it in its table and sends the table again as soon as a ``STATE`` shows the
+board back. A command for a board away for good is refused (``LinkError``): one whose
+every reading is stale (``safety.stale_after_periods`` times its period, at the
+arrival of the newest ``STATE``) in the ``RobotState`` the link last gave, if that
+one was made while the board was away, or else for longer than the freshness limit
+of its slowest reading since the last ``STATE`` that showed it answering (no reading
+can be fresher than that ``STATE``). Either way a supervisor that checks the
+freshness of the link's ``RobotState`` at its tick's time (no earlier) before its tree
+sends has stopped on *stale data* by then: a board that stays away ends a run the same
+way whenever the tree sends, and one lost reply ends none.
+"""
+
+from __future__ import annotations
+
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.robot.state import RobotState
+
+__all__ = ["BoardsAway"]
+
+
+class BoardsAway:
+    """The freshness limits of each board's readings, and the boards with a deferred command.
+
+    Args:
+        robot: The robot description (board order, channel periods, freshness factor).
+
+    Attributes:
+        owed: Boards with a command deferred while they were away: the table goes out
+            again when one is back.
+        longest_grace_s: The longest a board can be away before a command for it is
+            refused (the slowest reading's freshness limit).
+    """
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self._ids = robot.board_ids()  # the STATE frame's board order
+        factor = robot.safety.stale_after_periods
+        self._frame_limit_s = factor * robot.bridge.state_period
+        periods = robot.channel_periods_s()
+        limits: dict[int, list[tuple[str, float]]] = {b: [] for b in self._ids}
+        for channel in robot.state_channels():
+            period = periods.get(channel.name, robot.bridge.state_period)
+            limits[channel.board].append((channel.name, factor * period))
+        self._limits = limits
+        # the slowest reading's limit (at least a state period's): since the board last
+        # answered, every reading of it is stale after that
+        self._grace_s = {
+            b: max([self._frame_limit_s, *(limit for _, limit in limits[b])]) for b in self._ids
+        }
+        self.owed: set[int] = set()
+        self.longest_grace_s = max(self._grace_s.values(), default=self._frame_limit_s)
+
+    def by_id(self, away: tuple[tuple[int, float], ...]) -> dict[int, float]:
+        """The session's ``boards_away()`` (positions) by board id."""
+        ids = self._ids
+        return {ids[i]: since for i, since in away if i < len(ids)}
+
+    def overdue(
+        self,
+        away: dict[int, float],
+        boards: set[int],
+        state: RobotState | None,
+        at_s: float,
+    ) -> list[tuple[int, float]]:
+        """``(board, seconds)`` for each of ``boards`` away for good (see the module), the
+        seconds being the age of its freshest reading (at least).
+
+        Args:
+            away: The boards away (:meth:`by_id`), with the last time each answered.
+            boards: The boards to judge.
+            state: The ``RobotState`` the link last gave (``None``: none yet).
+            at_s: The arrival time of the newest ``STATE``.
+        """
+        out: list[tuple[int, float]] = []
+        for board in sorted(boards & away.keys()):
+            since = away[board]
+            gone = at_s - since
+            if gone > self._grace_s[board]:
+                out.append((board, gone))
+                continue
+            limits = self._limits[board]
+            if limits and state is not None and state.stamp_s > since:
+                ages = [(state.age_s(name, at_s), limit) for name, limit in limits]
+                if all(age > limit for age, limit in ages):
+                    out.append((board, min(age for age, _ in ages)))
+        return out
