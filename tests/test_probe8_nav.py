@@ -232,3 +232,21 @@ def test_a_turn_the_pipe_does_not_have_is_named_past_where_the_pab_was_to_end(
     assert ", 0.54 m beyond where the PAB through what the map has as bend 'top' was to" in (
         result.why
     )
+
+
+def test_a_route_navigator_s_steps_are_named_by_the_route_s_lines(tmp_path: Path) -> None:
+    # they were named by the step's number as a line of '<navigator route>': the first
+    # step's refusal read '<navigator route>:1:1' for the route's line 2, and its PABs
+    # '(line 1)', the route's network line
+    route = _route(tmp_path, RISER2, "at the bend turn left")
+    result = pirate_bt.navigate("route", sim=RISER2, map=RISER2, params={"route": route})
+    assert not result.succeeded and result.steps == 0
+    assert f"{route}:2:1: 'at the bend turn left' does not fit the network" in result.why
+    route = _route(tmp_path, RISER2, "at the bend turn up", "pause 1 s")
+    result = pirate_bt.navigate("route", sim=RISER2, map=RISER2, params={"route": route})
+    assert result.succeeded, result.why
+    assert [p.label for p in result.pabs] == [
+        "01 approach 0.43 m (line 2)",
+        "02 bend up (foot) (line 2)",
+        "01 pause 1 s (line 3)",
+    ]

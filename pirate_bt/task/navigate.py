@@ -136,6 +136,21 @@ def _behind_front_tip(robot: RobotDescription) -> dict[str, float]:
     return out
 
 
+def _origin(navigator: object, index: int) -> tuple[str | None, int]:
+    """Where the navigator says its last step comes from (``origin``: a file and a line,
+    as the route navigator keeps it), else ``None`` and the step's number."""
+    origin = getattr(navigator, "origin", None)
+    if (
+        isinstance(origin, tuple)
+        and len(origin) == 2
+        and isinstance(origin[0], str)
+        and isinstance(origin[1], int)
+        and 0 < origin[1] <= 1_000_000
+    ):
+        return origin[0], origin[1]
+    return None, index
+
+
 def _decide(
     navigator: Navigator, obs: Observation, deadline_s: float, name: str
 ) -> tuple[Step | None, float, str | None, BaseException | None]:
@@ -308,7 +323,10 @@ def run_navigation(
                     if planner is not None:
                         rolled = step.pab == "bend" and "roll" in step.params
                         roll = checked.roll_rad if rolled else None
-                        plan = planner.plan(checked.route_line(), index, belief, roll_rad=roll)
+                        source, line = _origin(navigator, index)
+                        plan = planner.plan(
+                            checked.route_line(), line, belief, roll_rad=roll, source=source
+                        )
                     else:
                         checked.check_blind(belief)
                 except InvalidStep as exc:  # its message starts with the step

@@ -81,6 +81,9 @@ class RouteNavigator:
         self.route = route
         self._goal: GoalNavigator | None = None
         self._next = 0
+        self.origin: tuple[str, int] | None = None
+        """The route file and line of the command the last step serves: the step is
+        planned, refused and labelled at that line (navigate() reads it)."""
 
     def check_map(self, network: Network | None) -> None:
         """Refuse, before anything moves, a route that this map (or no map) cannot serve.
@@ -115,6 +118,7 @@ class RouteNavigator:
             return None
         command = self.route.steps[self._next]
         self._next += 1
+        self.origin = (self.route.source, command.line)
         return self._step(command, obs)
 
     def _turn_next(self) -> bool:

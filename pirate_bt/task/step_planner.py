@@ -76,9 +76,19 @@ class StepPlanner:
         return path.piece_at(min(max(position_m, 0.0), path.length_m)).segment
 
     def plan(
-        self, line: str, index: int, belief_m: float, *, roll_rad: float | None = None
+        self,
+        line: str,
+        index: int,
+        belief_m: float,
+        *,
+        roll_rad: float | None = None,
+        source: str | None = None,
     ) -> MissionPlan:
         """Plan step ``index`` (1 for the first), written as a route line, from ``belief_m``.
+
+        ``source``: the file the step comes from, ``index`` then its line there (a
+        route navigator's step is named by its route's line); by default the planner's
+        own name, and the step's number as its line.
 
         ``roll_rad``: a bend step given by its roll (a bend at a roll other than up,
         down, left or right has no direction word): the next bend must turn at that
@@ -93,7 +103,8 @@ class StepPlanner:
             LocatedError: the step does not fit the map from here (at ``index``).
             ValidationFailed: the line does not parse.
         """
-        route = parse_route("\n" * (index - 1) + line + "\n", self.source, name=self.source)
+        where = source or self.source
+        route = parse_route("\n" * (index - 1) + line + "\n", where, name=where)
         (step,) = route.steps
         walker = self._walker
         saved = (
