@@ -175,3 +175,31 @@ def test_numbers_are_si_in_python_and_zero_needs_no_unit(tmp_path: Path) -> None
     path.write_text("params:\n  roll: {type: angle, default: 0}\nroot: success\n")
     assert load_tree(path).params == {"roll": "0.0 rad"}
     assert load_tree(path, params={"roll": 1.5}).params == {"roll": "1.5 rad"}
+
+
+def test_a_quantity_key_s_default_is_si(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # 'dist: {type: length, default: 1 m}' put the text '1 m' on the blackboard, so a
+    # check_blackboard with unit: length compared '1 m' < 2.0 and failed ("dist='1 m' <
+    # 2.0: False"); a bare number was SI and worked.
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(
+        "blackboard:\n  dist: {type: length, default: 1 m}\n  t: {type: duration, default: 2}\n"
+        "root:\n  type: sequence\n  children:\n"
+        "    - {type: check_blackboard, key: dist, op: '<', value: 2 m, unit: length}\n"
+        "    - {type: check_blackboard, key: t, op: '==', value: 2 s, unit: time}\n",
+        encoding="utf-8",
+    )
+    assert main(["run", str(tree), "--quiet"]) == 0, capsys.readouterr().err
+    assert load_tree(tree).blackboard_defaults() == {"dist": 1.0, "t": 2.0}
+    # and it goes to BT.CPP's XML and back as SI
+    xml = tmp_path / "tree.xml"
+    back = tmp_path / "back.yaml"
+    assert main(["export", "btcpp", str(tree), "-o", str(xml)]) == 0
+    assert main(["import", "btcpp", str(xml), "-o", str(back)]) == 0
+    assert load_tree(back).blackboard_defaults() == {"dist": 1.0, "t": 2.0}
+    tree.write_text("blackboard:\n  dist: {type: length, default: 1 s}\nroot: success\n")
+    with pytest.raises(ValidationFailed) as caught:
+        load_tree(tree)
+    assert [str(e) for e in caught.value.errors] == [
+        f"{tree}:2:24: default: '1 s' is a time, but a length is expected (e.g. '1 m')"
+    ]

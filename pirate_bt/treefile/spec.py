@@ -14,10 +14,12 @@ from pathlib import Path
 from typing import Any, Final
 
 import py_trees
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from pirate_bt.behaviours.base import NodeMixin
-from pirate_bt.errors import LocatedError, SourceLocation
+from pirate_bt.errors import LocatedError, SourceLocation, UnitError
+from pirate_bt.treefile.params import SI_UNITS
+from pirate_bt.units import parse_quantity
 
 __all__ = [
     "COMPOSITES",
@@ -64,18 +66,32 @@ class BlackboardDecl(BaseModel):
 
     @field_validator("default")
     @classmethod
-    def _finite(cls, value: Any) -> Any:
-        """A number in the default is finite (NaN: every comparison with it is false)."""
-        stack = [value]
-        while stack:
-            item = stack.pop()
-            if isinstance(item, float) and not math.isfinite(item):
-                raise ValueError(f"a number in the default must be finite, not {item}")
-            if isinstance(item, dict):
-                stack.extend(item.values())
-            elif isinstance(item, list | tuple):
-                stack.extend(item)
+    def _checked(cls, value: Any, info: ValidationInfo) -> Any:
+        """A number in the default is finite (NaN: every comparison with it is false);
+        the default of a quantity (``type: length``) is its SI value, as nodes write and
+        compare quantities: ``default: 1 m`` is 1.0 (it was the text '1 m'); a bare
+        number is SI, as it always was here (and as the XML export writes it)."""
+        _finite(value)
+        kind = info.data.get("type")
+        if kind in SI_UNITS and value is not None:
+            try:
+                return parse_quantity(value, SI_UNITS[kind][0], require_unit=False)
+            except UnitError as exc:
+                raise ValueError(f"default: {exc}") from None
         return value
+
+
+def _finite(value: Any) -> None:
+    """Refuse a NaN or an infinity anywhere in ``value``."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, float) and not math.isfinite(item):
+            raise ValueError(f"a number in the default must be finite, not {item}")
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, list | tuple):
+            stack.extend(item)
 
 
 @dataclass
