@@ -6,9 +6,14 @@ the fix it needed (docs/protocol.md).
 
 from __future__ import annotations
 
+import random
+from collections.abc import Callable
+
+import pytest
 from session_wire import CODEC, reply, state
 
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkTimeout
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder, Hello
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.testing import memory_pair
@@ -49,3 +54,36 @@ def test_a_frame_split_across_the_end_of_the_handshake_is_not_a_bad_frame() -> N
     assert link.health().crc_errors == 0  # type: ignore[attr-defined]
     latest = link.session.latest_state()  # type: ignore[attr-defined]
     assert latest is not None and latest[0].seq == 5  # and the STATE was taken
+
+
+def _connect_error(far_writes: Callable[[float], bytes]) -> str:
+    """The error of a connect to a port that never answers HELLO but writes
+    ``far_writes(now)`` at every step of the clock."""
+    clock = SimClock()
+    host, far = memory_pair()
+    clock.add_listener(lambda now: far.write(far_writes(now)))
+    with pytest.raises(LinkTimeout) as caught:
+        wrap_link(host, ROBOT, clock)
+    text = str(caught.value)
+    assert text.startswith("the bridge did not answer HELLO (16 tries): ") and "\n" not in text
+    return text
+
+
+def test_a_connect_that_hears_nothing_says_so() -> None:
+    assert _connect_error(lambda now: b"").endswith(": nothing came back")
+
+
+def test_a_connect_that_hears_only_noise_names_the_baud_rate() -> None:
+    # a bridge at another baud rate: bytes, never a frame. It said "did not answer"
+    # as for a dead port
+    noise = random.Random(7)
+    text = _connect_error(lambda now: noise.randbytes(40))
+    assert "bytes came back, none a good frame (" in text
+    assert text.endswith("another baud rate, or not a PIRATEbay?")
+
+
+def test_a_connect_to_a_bridge_that_sends_states_but_ignores_hello_names_them() -> None:
+    # what a 1.0 bridge does with a 1.1 HELLO (docs/protocol.md, Versions): drops it
+    frames = iter(range(1, 10_000))
+    text = _connect_error(lambda now: CODEC.encode(state(next(frames))))
+    assert ": it sent " in text and " STATE but never answered" in text

@@ -16,6 +16,7 @@ the reply's protocol version and layout digest.
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
 from typing import Protocol, runtime_checkable
@@ -204,7 +205,6 @@ class Transport:
             timeout_s: Longest wait.
             clock: The clock to wait on.
             step_s: Polling interval.
-        minor: The protocol minor version to ask for (1, or 2 for the e-stop input flag).
 
         Returns:
             The bytes read (fewer than ``n_bytes`` on timeout).
@@ -321,18 +321,23 @@ def handshake(
     decoder.reset()
     hello = Hello(seq, codec.layout.digest, minor)
     wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
+    heard: collections.Counter[str] = collections.Counter()  # what came back instead
     for attempt in range(1, attempts + 1):
         link.write(wire)
         deadline = clock.now() + reply_timeout_s
         while clock.now() < deadline:
-            for item in decoder.feed(link.read_available()):
+            data = link.read_available()
+            heard["bytes"] += len(data)
+            for item in decoder.feed(data):
                 if isinstance(item, FrameError):
                     if item.reason == "version":
                         raise ProtocolMismatch(
                             f"bridge speaks another protocol version ({item.detail}); "
                             f"host speaks {PROTOCOL_VERSION}"
                         )
+                    heard[f"bad:{item.reason}"] += 1
                     continue
+                heard[f"frame:{item.TYPE.name}"] += 1
                 if isinstance(item, Nack) and item.seq == seq and item.acked_type == MsgType.HELLO:
                     if item.error is NackCode.BAD_LENGTH:
                         raise HelloRefused(
@@ -387,4 +392,24 @@ def handshake(
             clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
         # each attempt at INFO: the last one fails the connect with one line of its own
         _log.info("no HELLO reply (attempt %d of %d)", attempt, attempts)
-    raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries)")
+    raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries){_heard(heard)}")
+
+
+def _heard(heard: collections.Counter[str]) -> str:
+    """What came back from a port that never answered HELLO, for the error's line."""
+    if not heard["bytes"]:
+        return ": nothing came back"
+    frames = [(k[6:], n) for k, n in sorted(heard.items()) if k.startswith("frame:")]
+    bad = ", ".join(f"{k[4:]} {n}" for k, n in sorted(heard.items()) if k.startswith("bad:"))
+    if not frames:
+        return (
+            f": {heard['bytes']} bytes came back, none a good frame ({bad or 'no delimiter'}):"
+            " another baud rate, or not a PIRATEbay?"
+        )
+    if all(name == "HELLO" for name, _ in frames):
+        return ": only its own HELLO came back (an echo: a loopback?)"
+    return (
+        f": it sent {', '.join(f'{n} {name}' for name, n in frames)}"
+        + (f" and bad frames ({bad})" if bad else "")
+        + " but never answered"
+    )
