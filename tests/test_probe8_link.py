@@ -6,17 +6,22 @@ the fix it needed (docs/protocol.md).
 
 from __future__ import annotations
 
+import copy
 import random
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
+import yaml
 from session_wire import CODEC, reply, state
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkTimeout
+from pirate_bt.errors import ConfigurationError, LinkTimeout
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder, Hello
+from pirate_bt.link.layout import LayoutTooLarge, WireLayout
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.testing import memory_pair
+from pirate_bt.resources import default_robot_path
 from pirate_bt.robot import load_robot
 
 ROBOT = load_robot()
@@ -87,3 +92,35 @@ def test_a_connect_to_a_bridge_that_sends_states_but_ignores_hello_names_them() 
     frames = iter(range(1, 10_000))
     text = _connect_error(lambda now: CODEC.encode(state(next(frames))))
     assert ": it sent " in text and " STATE but never answered" in text
+
+
+def test_a_layout_whose_counters_do_not_fit_a_frame_is_refused() -> None:
+    # 18 boards need a 254-byte COUNTERS payload: such a robot loaded and ran, and the
+    # simulated bridge died on the first COUNTERS_REQUEST (ValueError, a traceback)
+    WireLayout(n_channels=2, n_motors=1, n_boards=17, digest=0)
+    with pytest.raises(LayoutTooLarge, match=r"18 boards need a 254-byte COUNTERS payload"):
+        WireLayout(n_channels=2, n_motors=1, n_boards=18, digest=0)
+    assert issubclass(LayoutTooLarge, ConfigurationError) and issubclass(LayoutTooLarge, ValueError)
+
+
+def test_the_command_line_refuses_a_robot_too_large_for_the_frames(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt.cli import main
+
+    robot = yaml.safe_load(default_robot_path().read_text(encoding="utf-8"))
+    first = robot["boards"][0]
+    for i in range(18 - len(robot["boards"])):
+        board = copy.deepcopy(first)
+        board["id"] = 40 + i
+        for part in (*board["motors"], *board.get("sensors", [])):
+            part["name"] = f"{part['name']}_{i}"
+        robot["boards"].append(board)
+    path = tmp_path / "robot18.yaml"
+    path.write_text(yaml.safe_dump(robot), encoding="utf-8")
+    tree = Path(__file__).parents[1] / "trees" / "straight.yaml"
+    code = main(["run", str(tree), "--param", "distance=0.2m", "--robot", str(path)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "18 boards need a 254-byte COUNTERS payload (max 247: 17 boards)" in err
+    assert "Traceback" not in err and "internal error" not in err

@@ -1,4 +1,4 @@
-"""The robot-dependent wire layout: sizes of the STATE and BULK_SETPOINTS payloads.
+"""The robot-dependent wire layout: sizes of the STATE, BULK_SETPOINTS and COUNTERS payloads.
 
 Both ends derive it from the robot description (``docs/protocol.md``, Layout).
 """
@@ -9,10 +9,20 @@ import hashlib
 from dataclasses import dataclass
 from enum import StrEnum
 
+from pirate_bt.errors import ConfigurationError
 from pirate_bt.link.framing import HEADER_BYTES, MAX_PAYLOAD_BYTES
 from pirate_bt.robot.description import ControlMode, Motor, MotorFunction, RobotDescription
 
-__all__ = ["StopRole", "WireLayout", "layout_text", "stop_role"]
+__all__ = ["LayoutTooLarge", "StopRole", "WireLayout", "layout_text", "stop_role"]
+
+COUNTERS_FIXED_BYTES = 20
+"""The COUNTERS payload's bridge figures; each board adds :data:`COUNTERS_BOARD_BYTES`."""
+COUNTERS_BOARD_BYTES = 13
+
+
+class LayoutTooLarge(ConfigurationError, ValueError):
+    """A robot description whose frames do not fit the protocol's largest frame (exit 2,
+    an unusable description; a ``ValueError`` as before)."""
 
 
 class StopRole(StrEnum):
@@ -93,23 +103,38 @@ class WireLayout:
             Its wire layout.
 
         Raises:
-            ValueError: the state or bulk frame would exceed the maximum frame size.
+            LayoutTooLarge: the STATE, BULK_SETPOINTS or COUNTERS frame would exceed the
+                largest frame (a ``ConfigurationError``, exit 2, and a ``ValueError``).
         """
-        return cls(
-            n_channels=len(robot.state_channels()),
-            n_motors=len(robot.setpoint_slots()),
-            n_boards=len(robot.board_ids()),
-            digest=robot.layout_digest(),
-        )
+        try:
+            return cls(
+                n_channels=len(robot.state_channels()),
+                n_motors=len(robot.setpoint_slots()),
+                n_boards=len(robot.board_ids()),
+                digest=robot.layout_digest(),
+            )
+        except LayoutTooLarge as exc:
+            raise LayoutTooLarge(f"robot {robot.name!r}: {exc}") from None
 
     def __post_init__(self) -> None:
-        if self.state_payload_bytes > MAX_PAYLOAD_BYTES:
-            raise ValueError(
-                f"{self.n_channels} channels and {self.n_boards} boards need a "
-                f"{self.state_payload_bytes}-byte state payload (max {MAX_PAYLOAD_BYTES})"
+        why = "the robot description does not fit the PIRATEbay protocol's frames: "
+        most = MAX_PAYLOAD_BYTES
+        if self.state_payload_bytes > most:
+            raise LayoutTooLarge(
+                f"{why}{self.n_channels} channels and {self.n_boards} boards need a"
+                f" {self.state_payload_bytes}-byte STATE payload (max {most})"
             )
-        if self.bulk_payload_bytes > MAX_PAYLOAD_BYTES:
-            raise ValueError(f"{self.n_motors} motors do not fit one bulk setpoint frame")
+        if self.bulk_payload_bytes > most:
+            raise LayoutTooLarge(
+                f"{why}{self.n_motors} motors need a {self.bulk_payload_bytes}-byte"
+                f" BULK_SETPOINTS payload (max {most}: {most // 3} motors)"
+            )
+        if self.counters_payload_bytes > most:
+            boards = (most - COUNTERS_FIXED_BYTES) // COUNTERS_BOARD_BYTES
+            raise LayoutTooLarge(
+                f"{why}{self.n_boards} boards need a {self.counters_payload_bytes}-byte"
+                f" COUNTERS payload (max {most}: {boards} boards)"
+            )
 
     @property
     def mask_bytes(self) -> int:
@@ -125,6 +150,11 @@ class WireLayout:
     def state_payload_bytes(self) -> int:
         """STATE payload: ack_seq, fresh mask, board status, channels."""
         return 2 + self.mask_bytes + self.status_bytes + 2 * self.n_channels
+
+    @property
+    def counters_payload_bytes(self) -> int:
+        """COUNTERS payload: the bridge's figures, then one entry per board."""
+        return COUNTERS_FIXED_BYTES + COUNTERS_BOARD_BYTES * self.n_boards
 
     @property
     def bulk_payload_bytes(self) -> int:
