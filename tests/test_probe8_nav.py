@@ -250,3 +250,28 @@ def test_a_route_navigator_s_steps_are_named_by_the_route_s_lines(tmp_path: Path
         "02 bend up (foot) (line 2)",
         "01 pause 1 s (line 3)",
     ]
+
+
+# -- a survey does not back through a tee in a steep pipe ----------------------------
+
+RISER_TEE = NETS / "probe8-riser-tee-51.yaml"
+
+
+def test_a_survey_leaves_a_branch_behind_a_steep_tee_to_a_second_insertion(
+    tmp_path: Path,
+) -> None:
+    # to reach the branch it backed straight through the tee in the riser: the rear
+    # half's joints reached the opening before the front half held, and the robot slid
+    # (the supervisor's protective clamp stopped the survey, exit 1)
+    first = pirate_bt.survey(sim=RISER_TEE, output=tmp_path / "first.yaml")
+    assert first.navigation.counters.violations == 0, first.navigation.counters
+    assert first.unexplored == [
+        "tee-1's branch (left, 51 mm): not entered, the way back to it passes a tee in a"
+        " steep pipe (backing through one slides), a further insertion reaches it forwards"
+    ]
+    second = pirate_bt.survey(
+        sim=RISER_TEE, output=tmp_path / "second.yaml", extend=tmp_path / "first.yaml"
+    )
+    assert second.navigation.succeeded, second.navigation.why
+    assert second.navigation.counters.violations == 0
+    assert second.unexplored == []
