@@ -21,6 +21,7 @@ from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder, Hello
 from pirate_bt.link.layout import LayoutTooLarge, WireLayout
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.testing import memory_pair
+from pirate_bt.link.transport import DRAIN_LIMIT_BYTES, Transport
 from pirate_bt.resources import default_robot_path
 from pirate_bt.robot import load_robot
 
@@ -124,3 +125,33 @@ def test_the_command_line_refuses_a_robot_too_large_for_the_frames(
     assert code == 2, err
     assert "18 boards need a 254-byte COUNTERS payload (max 247: 17 boards)" in err
     assert "Traceback" not in err and "internal error" not in err
+
+
+class _Flood:
+    """A pyserial-like port whose peer never stops sending."""
+
+    def __init__(self) -> None:
+        self.reads = 0
+
+    def read(self, size: int = 1) -> bytes:
+        self.reads += 1
+        if self.reads > 100_000:
+            raise AssertionError("still draining after 400 MB")
+        return b"\x55" * size
+
+    def write(self, data: bytes) -> int:
+        return len(data)
+
+    def reset_input_buffer(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def test_draining_a_port_that_never_stops_sending_ends() -> None:
+    # the handshake drains the port first: a flooding peer (a socket:// to the wrong
+    # service) kept it reading for ever, before any timeout could run
+    flood = _Flood()
+    dropped = Transport(flood, baud=115200).drain_input()  # type: ignore[arg-type]
+    assert DRAIN_LIMIT_BYTES <= dropped < DRAIN_LIMIT_BYTES + 4096

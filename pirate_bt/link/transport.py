@@ -117,6 +117,11 @@ class ByteLink(Protocol):
     def close(self) -> None: ...
 
 
+DRAIN_LIMIT_BYTES = 1 << 20
+"""The most :meth:`Transport.drain_input` discards in one call (a second of a
+10 Mbit/s line; a serial bridge's buffer holds a few kilobytes)."""
+
+
 class Transport:
     """A pyserial port with non-blocking reads and bounded writes.
 
@@ -248,12 +253,17 @@ class Transport:
             view = view[written:]
 
     def drain_input(self) -> int:
-        """Discard every byte received so far; return how many were read and dropped."""
+        """Discard every byte received so far; return how many were read and dropped.
+
+        At most :data:`DRAIN_LIMIT_BYTES`: a peer that sends faster than this reads (a
+        flooding socket) would keep it reading for ever; what comes after is the
+        handshake's to skip, as any noise.
+        """
         dropped = len(self._held)
         self._held = b""
         with contextlib.suppress(serial.SerialException, OSError, AttributeError):
             self.port.reset_input_buffer()
-        while chunk := self.read_available():
+        while dropped < DRAIN_LIMIT_BYTES and (chunk := self.read_available()):
             dropped += len(chunk)
         return dropped
 
