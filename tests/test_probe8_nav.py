@@ -16,6 +16,7 @@ on over the opening let the robot slide down the 45 deg pipe. It is refused now.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ import yaml
 
 import pirate_bt
 from pirate_bt import Step
-from pirate_bt.errors import InputError, LinkError, LocatedError
+from pirate_bt.errors import ConfigurationError, InputError, LinkError, LocatedError
 from pirate_bt.pipes.asbuilt import insert_tee
 from pirate_bt.task.explore_frame import imu_side
 from pirate_bt.task.navigate_result import FailedStep, unrecovered
@@ -275,3 +276,18 @@ def test_a_survey_leaves_a_branch_behind_a_steep_tee_to_a_second_insertion(
     assert second.navigation.succeeded, second.navigation.why
     assert second.navigation.counters.violations == 0
     assert second.unexplored == []
+
+
+# -- network add-tee ---------------------------------------------------------------
+
+
+def test_a_tee_added_takes_the_pipe_s_diameter_there_and_a_taken_id_is_named() -> None:
+    spec = pirate_bt.load_network("lab").spec
+    added = insert_tee(spec, "run-e", 0.5)  # behind the reducer to 55 mm
+    (tee,) = [s for s in added.segments if s.id == "extra-tee"]
+    assert tee.length == pytest.approx(3 * 0.055)  # was 3 x the network's 63 mm
+    taken = "the network 'lab' has a segment 'tee-1' already"
+    with pytest.raises(ConfigurationError, match=re.escape(taken)):
+        insert_tee(spec, "run-c", 1.5, tee_id="tee-1")
+    with pytest.raises(ConfigurationError, match=re.escape("a segment 'run-c-after' already")):
+        insert_tee(spec, "run-c", 1.5, tee_id="run-c-after")

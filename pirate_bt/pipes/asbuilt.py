@@ -266,8 +266,28 @@ def insert_tee(
     capped stub pointing ``direction``.
 
     Raises:
-        ConfigurationError: no such straight, or ``at_m`` leaves no pipe on a side.
+        ConfigurationError: no such straight, ``at_m`` leaves no pipe on a side, or an
+            id the network has already (the tee's, or ``SEGMENT-after``).
     """
+    network = Network(spec)
+    ids = network.segment_ids()
+    for new_id in (tee_id, f"{segment_id}-after"):
+        if segment_id in ids and (new_id in ids or tee_id == f"{segment_id}-after"):
+            raise ConfigurationError(
+                f"insert a tee: the network {spec.name!r} has a segment {new_id!r} already"
+                f" (or the straight's rest, {segment_id}-after, takes it); give the tee"
+                " another id"
+            )
+    # the pipe's diameter there (a reducer before it changes it): the tee's is the same
+    local = next(
+        (
+            p.diameter_start_m
+            for path in network.paths()
+            for p in path.pieces
+            if p.segment == segment_id
+        ),
+        spec.diameter,
+    )
 
     def edit(seg: SegmentSpec) -> list[SegmentSpec]:
         if not isinstance(seg, StraightSpec):
@@ -276,7 +296,7 @@ def insert_tee(
             raise ConfigurationError(
                 f"insert a tee: {at_m:g} m is not within {segment_id!r} ({seg.length:g} m)"
             )
-        tee_m = 3.0 * (seg.diameter or spec.diameter)
+        tee_m = 3.0 * (seg.diameter or local)
         rest_m = seg.length - at_m - (tee_m if keep_length else 0.0)
         if rest_m <= 0.0:
             raise ConfigurationError(
