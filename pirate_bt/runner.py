@@ -307,6 +307,8 @@ class Runner:
         self.max_time_s = max_time_s
         self.tick_budget_s = period_s if tick_budget_s is None else tick_budget_s
         self.safe_state = safe_state
+        self.stop_message: str | None = None
+        """Why the last run ended, set before ``safe_state`` is called."""
         self.realtime = realtime
         self.setup_timeout_s = setup_timeout_s
         self.max_overruns_kept = max_overruns_kept
@@ -418,6 +420,7 @@ class Runner:
         safe_called = False
         if reason is not StopReason.SUCCESS:
             stopped = self._stop_running(root)
+            self.stop_message = message  # the first cause, for the safe-state callback
             safe_called = self._call_safe_state()
         loop_ticks = ticks
         settle_ticks = self._come_to_rest(ticks, start_s)

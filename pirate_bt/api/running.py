@@ -248,9 +248,12 @@ def supervised_runner(
     supervisor = connection.supervisor if connection is not None else None
 
     def safe_state() -> None:
-        # keep the cause a PAB or the supervisor gave first
+        # keep the cause a PAB or the supervisor gave first; else the run's own (an
+        # exception, a time limit), so the next run's refusal names it
         assert supervisor is not None
-        supervisor.end_safe(supervisor.safe_state_reason or END_OF_RUN)
+        stopped = runner.stop_message
+        own = f"{END_OF_RUN}: {stopped}" if stopped else END_OF_RUN
+        supervisor.end_safe(supervisor.safe_state_reason or own)
 
     runner = Runner(
         built,

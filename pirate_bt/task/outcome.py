@@ -46,7 +46,9 @@ __all__ = [
 ]
 
 END_OF_RUN = "tree run ended without success"
-"""The safe-state reason a runner gives when nothing gave one before it."""
+"""The safe-state reason a runner gives when nothing gave one before it (followed by
+``: `` and the run's own stop message, a time limit or an exception, when it has one,
+so that the next run's refusal on the same connection names it)."""
 
 _GENERIC = (END_OF_RUN, "mission ended without success")
 
@@ -151,7 +153,7 @@ def explain_run(
         return run.message, None
     if run.reason is StopReason.EXCEPTION:
         return run.message, run.failing_node
-    if safe is not None and safe.reason in _GENERIC:
+    if safe is not None and safe.reason.startswith(_GENERIC):
         safe = None  # the runner's own stop at the end: no cause of its own
     if safe is not None and not _tree_stop(root, safe):
         # the supervisor stopped the robot on its own: that came first
