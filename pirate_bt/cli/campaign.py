@@ -55,7 +55,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help=f"refuse a spec that expands to more cases (default: {DEFAULT_MAX_CASES:,})",
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
 def _report(args: argparse.Namespace) -> int:
