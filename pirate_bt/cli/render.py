@@ -56,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.render.tree import render_tree
     from pirate_bt.trace.reader import Trace, read_trace
     from pirate_bt.trace.structure import TreeStructure, tree_structure
+    from pirate_bt.treefile import LoadedTree
 
     if args.tick is not None and args.trace is None and not _is_trace(args.tree):
         raise InputError("--tick needs --trace (or a trace file as TREE)")
@@ -66,21 +67,24 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output)
     trace: Trace | None = None
     structure: TreeStructure
+    drawn: Trace | LoadedTree  # given to render_tree, which never draws over its files
     if _is_trace(args.tree):
-        trace = read_trace(args.tree)
+        trace = drawn = read_trace(args.tree)
         structure = trace.structure
     else:
+        from pirate_bt.api.running import load_tree_source
         from pirate_bt.cli.run import parse_params
         from pirate_bt.resources import find_file
-        from pirate_bt.treefile import load_tree
 
-        loaded = load_tree(
+        # a .xml file as a BehaviorTree.CPP tree, as run and validate read it
+        drawn = load_tree_source(
             find_file("trees", args.tree),
+            robot=None,
             params=parse_params(args.param),
             params_from_text=True,
             use_examples=True,
         )
-        structure = tree_structure(loaded.root, name=loaded.name)
+        structure = tree_structure(drawn.root, name=drawn.name)
     if args.trace is not None:
         trace = read_trace(args.trace)
         for node in structure:
@@ -107,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         status, feedback = frame.status, frame.feedback
         title = f"tick {frame.n} at {frame.t_s:.3f} s"
     try:
-        written = render_tree(structure, args.output, status, feedback, title, coverage=coverage)
+        written = render_tree(drawn, args.output, status, feedback, title, coverage=coverage)
     except FileNotFoundError as exc:
         if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz
             raise

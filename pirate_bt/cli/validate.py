@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     worst = 0
     for path in args.files:
         try:
-            if args.kind is None and path.lower().endswith(".xml"):
+            if args.kind in (None, "tree") and path.lower().endswith(".xml"):
                 # BehaviorTree.CPP v4 XML (Groot2's): checked as `run` loads it
                 from pirate_bt.api.running import load_tree_source
 
