@@ -16,11 +16,11 @@ import logging
 import math
 import operator
 from collections.abc import Callable
-from typing import Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field, StrictBool, StrictFloat, StrictInt, StrictStr, model_validator
+from pydantic import AllowInfNan, Field, Strict, StrictBool, StrictInt, StrictStr, model_validator
 
 from pirate_bt.behaviours.base import (
     ALL_OUTCOMES,
@@ -60,7 +60,8 @@ __all__ = [
 
 _log = logging.getLogger("pirate_bt.trees")
 
-Scalar = StrictBool | StrictInt | StrictFloat | StrictStr
+# A float is finite: every comparison with NaN is false ('!=' would always hold)
+Scalar = StrictBool | StrictInt | Annotated[float, Strict(), AllowInfNan(False)] | StrictStr
 _STATUS: dict[str, Status] = {
     "success": Status.SUCCESS,
     "failure": Status.FAILURE,

@@ -41,11 +41,11 @@ from __future__ import annotations
 import logging
 import operator
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field, StrictBool, StrictFloat, StrictInt, StrictStr, model_validator
+from pydantic import AllowInfNan, Field, Strict, StrictBool, StrictInt, StrictStr, model_validator
 
 from pirate_bt.behaviours.base import (
     BuildContext,
@@ -81,7 +81,8 @@ __all__ = [
 
 _log = logging.getLogger("pirate_bt.behaviours")
 
-Scalar = StrictBool | StrictInt | StrictFloat | StrictStr
+# A float is finite: every comparison with NaN is false ('!=' would always hold)
+Scalar = StrictBool | StrictInt | Annotated[float, Strict(), AllowInfNan(False)] | StrictStr
 
 _OPS: dict[str, Callable[[Any, Any], bool]] = {
     "==": operator.eq,
