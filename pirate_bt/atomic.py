@@ -53,7 +53,10 @@ def write_atomically(
         with open(target, "wb") as stream:
             fill(stream)
         return target
-    fd, temp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    # named after the target, cut: a name may have 255 bytes, and .NAME.XXXXXXXX.part
+    # beside a target whose name has nearly that many would be refused
+    short = os.fsdecode(os.fsencode(target.name)[:64])
+    fd, temp = tempfile.mkstemp(prefix=f".{short}.", suffix=".part", dir=target.parent)
     try:
         if target.exists():
             os.chmod(temp, target.stat().st_mode & 0o777)
