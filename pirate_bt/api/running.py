@@ -95,7 +95,8 @@ def as_loaded(
             " LoadedTree or a py_trees behaviour"
         )
     given = params_mapping(params)
-    from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    # text is read as on the command line, numbers and booleans as they are, each by itself
+    from_text = any(isinstance(v, str) for v in given.values())
     return _at_callers_line(
         source,
         lambda: load_tree_source(source, robot=robot, params=given, params_from_text=from_text),
@@ -500,7 +501,8 @@ def load_tree(
             f"tree: give a tree file, a bundled name or a mapping, not a {type(tree).__name__}"
         )
     given = params_mapping(params)
-    from_text = bool(given) and all(isinstance(v, str) for v in given.values())
+    # text is read as on the command line, numbers and booleans as they are, each by itself
+    from_text = any(isinstance(v, str) for v in given.values())
     return _at_callers_line(
         source,
         lambda: load(

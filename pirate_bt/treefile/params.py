@@ -107,7 +107,9 @@ def coerce_param(
     if kind in SI_UNITS:
         dimension, unit = SI_UNITS[kind]
         try:
-            written = isinstance(value, str) or from_text or units_required
+            # a number from Python is SI even beside text parameters (from_text): only
+            # text, or a file's value, needs its unit
+            written = isinstance(value, str) or units_required
             si = parse_quantity(value, dimension, require_unit=written)
         except UnitError as exc:
             raise ValueError(str(exc)) from None
