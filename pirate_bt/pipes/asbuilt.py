@@ -274,9 +274,9 @@ def insert_tee(
     for new_id in (tee_id, f"{segment_id}-after"):
         if segment_id in ids and (new_id in ids or tee_id == f"{segment_id}-after"):
             raise ConfigurationError(
-                f"insert a tee: the network {spec.name!r} has a segment {new_id!r} already"
-                f" (or the straight's rest, {segment_id}-after, takes it); give the tee"
-                " another id"
+                f"insert a tee: duplicate segment id {new_id!r}: the network {spec.name!r}"
+                f" has a segment {new_id!r} already (or the straight's rest,"
+                f" {segment_id}-after, takes it); give the tee another id"
             )
     # the pipe's diameter there (a reducer before it changes it): the tee's is the same
     local = next(
