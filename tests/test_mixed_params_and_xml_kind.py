@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 import pirate_bt
+import pirate_bt.errors
 from pirate_bt.cli import main
 
 
@@ -35,3 +36,25 @@ def test_validate_kind_tree_reads_xml(tmp_path: Path, capsys: pytest.CaptureFixt
         encoding="utf-8",
     )
     assert main(["validate", "--kind", "tree", str(tree)]) == 0, capsys.readouterr().err
+
+
+def test_load_tree_reads_xml_and_places_its_problems(tmp_path: Path) -> None:
+    good = tmp_path / "good.xml"
+    good.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="main">\n'
+        '  <BehaviorTree ID="main"><wait name="settle" duration="1 s" /></BehaviorTree>\n'
+        "</root>\n",
+        encoding="utf-8",
+    )
+    loaded = pirate_bt.load_tree(good)
+    assert loaded.root.name == "settle"
+    bad = tmp_path / "bad.xml"
+    bad.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="main">\n'
+        '  <BehaviorTree ID="main"><Fly/></BehaviorTree>\n'
+        "</root>\n",
+        encoding="utf-8",
+    )
+    placed = r"bad\.xml:2:\d+: unknown node type 'Fly'"
+    with pytest.raises(pirate_bt.errors.PirateError, match=placed):
+        pirate_bt.load_tree(bad)

@@ -458,7 +458,9 @@ def load_tree(
     check_robot: bool = True,
     **options: Any,
 ) -> LoadedTree:
-    """Load and check a YAML tree (a file, a bundled name such as ``"bend"``, or a mapping).
+    """Load and check a tree: a YAML tree (a file, a bundled name such as ``"bend"``, or
+    a mapping) or a BehaviorTree.CPP v4 XML file (``.xml``, as
+    :func:`pirate_bt.load_xml_tree` reads it, each problem at its XML element).
 
     Unlike :func:`pirate_bt.treefile.load_tree`, the tree is checked against the
     bundled robot when no ``robot`` is given (``check_robot=False`` skips the limit
@@ -487,7 +489,6 @@ def load_tree(
         print(tree.name, tree.needs_robot)
     """
     from pirate_bt.api.options import load_robot_like
-    from pirate_bt.treefile import load_tree as load
 
     description = load_robot_like(robot) if flag(check_robot, "check_robot") else None
     if isinstance(tree, Mapping):
@@ -505,7 +506,7 @@ def load_tree(
     from_text = any(isinstance(v, str) for v in given.values())
     return _at_callers_line(
         source,
-        lambda: load(
+        lambda: load_tree_source(
             source, robot=description, params=given, params_from_text=from_text, **options
         ),
     )

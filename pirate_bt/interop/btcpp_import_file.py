@@ -180,6 +180,7 @@ def load_xml_tree(
     params_origin: str | None = None,
     use_examples: bool = False,
     registry: Registry | None = None,
+    **options: Any,
 ) -> LoadedTree:
     """A BT.CPP v4 XML file loaded as a tree to run, checked as :func:`import_xml`
     checks it (each problem at its XML element), nothing written beside it.
@@ -196,6 +197,8 @@ def load_xml_tree(
         params_origin: Where the parameters came from, in messages (``--param``).
         use_examples: A parameter not given takes its declared example (validation).
         registry: Node types allowed (default: pirate_bt's).
+        **options: Passed on to :func:`pirate_bt.treefile.load_tree` (``clock``,
+            ``supervisor``).
 
     Raises:
         InputError: a path that is no file.
@@ -223,6 +226,7 @@ def load_xml_tree(
                 params_origin=params_origin,
                 use_examples=use_examples,
                 registry=reg,
+                **options,
             )
         except ValidationFailed as exc:
             raise ValidationFailed(_in_xml(exc.errors, converted, where)) from None

@@ -160,7 +160,8 @@ def load_tree(
                 [
                     LocatedError(
                         "a BehaviorTree.CPP XML tree, not a YAML tree file: read it with"
-                        " pirate_bt.load_xml_tree (pirate-bt run and validate read it as it is)",
+                        " pirate_bt.load_xml_tree (pirate-bt run, validate and render read it"
+                        " as it is)",
                         SourceLocation(str(path)),
                     )
                 ]
