@@ -369,7 +369,9 @@ def plot_belief(result: MissionResult, out: Path) -> Path | None:
     ax1.legend(loc="upper left")
     ax2.set_ylabel("belief - truth (m)")
     ax2.set_xlabel("time (s); green: feature fixes")
-    fig.suptitle(f"Localisation: {result.plan.route.name}")
+    # the route's name as written, never as mathtext (a '$' in a file name made
+    # matplotlib parse it, and a stray '\frac' ended the mission with an internal error)
+    fig.suptitle(f"Localisation: {result.plan.route.name}", parse_math=False)
     fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)

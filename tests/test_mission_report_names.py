@@ -1,0 +1,27 @@
+"""A mission's report draws its route's name as written: a '$' in a route file's name
+made matplotlib read it as a formula (a stray '\\frac' ended the run with an internal
+error while the report was half written)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_a_route_named_like_a_formula_gets_its_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    route = tmp_path / "a $\\frac{$ b.route"
+    shutil.copy(REPO / "scenarios" / "straight.route", route)
+    out = tmp_path / "out"
+    code = main(["mission", str(route), "--sim", "straight", "--quiet", "--output", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert (out / "belief.png").stat().st_size > 0
+    assert "$\\frac{$" in (out / "report.md").read_text(encoding="utf-8")
