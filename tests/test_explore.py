@@ -197,9 +197,10 @@ def test_a_branch_the_robot_could_not_leave_is_named_and_written_as_a_stub(
 
 
 def test_explore_is_for_a_pipe_with_no_map() -> None:
-    result = pirate_bt.navigate("explore", sim="straight", map="straight")
-    assert not result.succeeded and result.steps == 0
-    assert "no map" in result.why
+    # refused before anything connects (its check_map), exit 2: it connected, and its
+    # first decision raised (exit 1)
+    with pytest.raises(pirate_bt.InputError, match="explore surveys a pipe with no map"):
+        pirate_bt.navigate("explore", sim="straight", map="straight")
 
 
 def test_a_probe_with_a_map_is_refused_before_anything_moves() -> None:

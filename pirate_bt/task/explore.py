@@ -186,6 +186,11 @@ class ExploreNavigator:
 
     # -- the loop
 
+    def check_map(self, network: Any) -> None:
+        """A map is refused before anything connects (exit 2): a survey has none."""
+        if network is not None:
+            raise ValueError("explore surveys a pipe with no map: run it without a map")
+
     def next_step(self, obs: Observation) -> Step | None:
         if obs.map is not None:
             raise InputError("explore surveys a pipe with no map: run it without map=")
