@@ -330,7 +330,8 @@ def check_navigator_map(
             if raised is not None:
                 raise raised
     except (ValueError, TypeError, InputError) as exc:
-        raise InputError(f"navigator {name!r}: {exc}"[:300]) from None
+        # one line, as every error: a check_map's message may hold newlines
+        raise InputError(f"navigator {name!r}: {' '.join(str(exc).split())}"[:300]) from None
     except Exception as exc:  # the navigator's own error, one located line
         _log.debug("navigator %r: check_map raised", name, exc_info=exc)
         text = " ".join(str(exc).split())[:200]
