@@ -107,7 +107,10 @@ class EStopInput:
         if data:
             self.heard_ns = heard_ns
             self.queued_ns = time.monotonic_ns()
-            self._due.append(EStop(f"ROS 2 e-stop on {self.topic}"))
+            # One e-stop due is enough: a peer that floods the topic must not make the
+            # supervisor's next tick send thousands of e-stop frames and log lines.
+            if not self._due:
+                self._due.append(EStop(f"ROS 2 e-stop on {self.topic}"))
 
     def poll(self, tick: int, now_s: float) -> list[OperatorAction]:
         if not self._due:
