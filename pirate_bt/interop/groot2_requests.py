@@ -96,14 +96,19 @@ class _Requests(_Hooks):
         return reply
 
     def _blackboard(self, run: _Run, names: bytes) -> list[bytes]:
-        wanted = names.decode("utf-8", "replace").split(";")
+        # each name once: a request of a million ';' asked for the live blackboard a
+        # million times (seconds of the server's thread, contending with the tick)
+        wanted = dict.fromkeys(names.decode("utf-8", "replace").split(";"))
         dump: dict[str, Any] = {}
         main_id = run.served.main_id
+        live: dict[str, Any] | None = None
         for name in wanted:
             if name == "" or (name == main_id and name not in run.served.subtrees):
                 # the main tree's instance ("", as pirate_bt names it) or its tree ID
                 # (as BT.CPP's publisher keys it): the live blackboard
-                board = _live_blackboard()
+                if live is None:
+                    live = _live_blackboard()
+                board = live
             elif name in run.served.subtrees:
                 board = dict(run.served.subtrees[name])
             else:
