@@ -3,16 +3,20 @@ Foxglove sends, and what pirate_bt must do with it (regressions of the bugs foun
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
 from typing import Any
 
 import py_trees
 import pytest
 
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import InputError
 from pirate_bt.interop import groot2_protocol as proto
 from pirate_bt.interop import groot2_requests
 from pirate_bt.interop.groot2_server import Groot2Server
 from pirate_bt.interop.ros2_node import EStopInput
+from pirate_bt.interop.rosbag2 import read_rosbag2_records
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.safety import Mode, Supervisor
 from pirate_bt.safety.testing import FakePort
@@ -82,3 +86,33 @@ def test_a_blackboard_request_naming_one_board_many_times_reads_it_once(
     assert len(reply) == 2 and reply[0][1:2] == b"B"
     assert set(msgpack.unpackb(reply[1])) == {"", "ok"}
     assert len(reads) == 1
+
+
+@pytest.mark.parametrize(
+    ("msgtype", "payload", "said"),
+    [
+        ("std_msgs/msg/String", b"\x00\x01\x00\x00\xff\xff\xff\x7f", "message 1 on /pirate/trace"),
+        ("std_msgs/msg/String", b"\x00", "message 1 on /pirate/trace"),
+        ("std_msgs/msg/String", b"\x00\x01\x00\x00\x05\x00\x00\x00nope\x00", "message 1"),
+        ("std_msgs/msg/String", b"\x00\x01\x00\x00\x06\x00\x00\x00[1,2]\x00", "JSON list"),
+        ("std_msgs/msg/Bool", b"\x00\x01\x00\x00\x01", "holds std_msgs/msg/Bool"),
+    ],
+    ids=["string-length", "no-encapsulation", "not-json", "json-list", "other-type"],
+)
+def test_a_bag_whose_trace_topic_holds_no_records_is_an_input_error(
+    tmp_path: Path, msgtype: str, payload: bytes, said: str
+) -> None:
+    # rosbags' SerdeError, JSON's error and a TypeError escaped read_rosbag2_records,
+    # and a JSON list came back as a "record"
+    rosbag2 = pytest.importorskip("rosbags.rosbag2")
+    from pirate_bt.interop.ros2_types import typestore
+
+    bag = tmp_path / "run_bag"
+    with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/pirate/trace", msgtype, typestore=typestore())
+        writer.write(connection, 1, payload)
+    with pytest.raises(InputError, match=re.escape(said)) as caught:
+        read_rosbag2_records(bag)
+    assert str(caught.value).startswith(f"{bag}: ")
+    with pytest.raises(InputError, match="not a readable rosbag2 bag"):
+        read_rosbag2_records(tmp_path / "no_bag")

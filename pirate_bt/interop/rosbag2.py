@@ -304,7 +304,8 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
     """The trace records a bag written by :func:`export_rosbag2` holds, in order.
 
     Raises:
-        InputError: not a bag, or no trace topic in it.
+        InputError: not a bag, no trace topic in it, or a message on it that is no
+            trace record (named by its number on the topic, from 1).
         ConfigurationError: ``rosbags`` is missing.
     """
     from pirate_bt.interop.rmw_zenoh import qualified_name
@@ -312,14 +313,36 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
     rosbag2 = _rosbags()
     topic = qualified_name(namespace, TRACE_TOPIC)
     store = typestore()
+    string_type = "std_msgs/msg/String"
+    records: list[dict[str, Any]] = []
     try:
         with rosbag2.Reader(Path(bag)) as reader:
             chosen = [c for c in reader.connections if c.topic == topic]
             if not chosen:
                 raise InputError(f"{bag}: no {topic} topic (not exported by pirate-bt?)")
-            return [
-                json.loads(store.deserialize_cdr(raw, c.msgtype).data)
-                for c, _, raw in reader.messages(connections=chosen)
-            ]
+            for connection in chosen:
+                if connection.msgtype != string_type:
+                    raise InputError(
+                        f"{bag}: {topic} holds {connection.msgtype}, not {string_type}"
+                        " (not exported by pirate-bt?)"
+                    )
+            for number, (_, _, raw) in enumerate(reader.messages(connections=chosen), start=1):
+                # a message rosbags cannot decode, or whose text is no JSON object, is
+                # named here (it raised the decoder's own error, or gave a list back)
+                try:
+                    record = json.loads(store.deserialize_cdr(raw, string_type).data)
+                except Exception as exc:  # rosbags' SerdeError, JSON's ValueError
+                    raise InputError(
+                        f"{bag}: message {number} on {topic} is no trace record: {exc}"
+                    ) from None
+                if not isinstance(record, dict):
+                    raise InputError(
+                        f"{bag}: message {number} on {topic} is no trace record"
+                        f" (JSON {type(record).__name__}, not an object)"
+                    )
+                records.append(record)
     except rosbag2.ReaderError as exc:
         raise InputError(f"{bag}: not a readable rosbag2 bag: {exc}") from None
+    except FileNotFoundError as exc:
+        raise InputError(f"{bag}: not a readable rosbag2 bag: {exc}") from None
+    return records
