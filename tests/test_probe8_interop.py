@@ -3,6 +3,7 @@ Foxglove sends, and what pirate_bt must do with it (regressions of the bugs foun
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 from typing import Any
@@ -10,16 +11,20 @@ from typing import Any
 import py_trees
 import pytest
 
+from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import InputError
 from pirate_bt.interop import groot2_protocol as proto
 from pirate_bt.interop import groot2_requests
 from pirate_bt.interop.groot2_server import Groot2Server
+from pirate_bt.interop.mcap_trace import read_mcap_messages, read_mcap_records
 from pirate_bt.interop.ros2_node import EStopInput
 from pirate_bt.interop.rosbag2 import read_rosbag2_records
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.safety import Mode, Supervisor
 from pirate_bt.safety.testing import FakePort
+from pirate_bt.trace import read_trace
+from tests.trace_support import run_and_record
 
 ROBOT = load_robot()
 
@@ -116,3 +121,77 @@ def test_a_bag_whose_trace_topic_holds_no_records_is_an_input_error(
     assert str(caught.value).startswith(f"{bag}: ")
     with pytest.raises(InputError, match="not a readable rosbag2 bag"):
         read_rosbag2_records(tmp_path / "no_bag")
+
+
+# -- MCAP -----------------------------------------------------------------------------------
+
+
+def _rewrite_mcap(source: Path, target: Path, change: Any, encoding: str = "json") -> Path:
+    """``source``'s messages, changed by ``change(list)``, in a new (complete) MCAP file."""
+    writer_module = pytest.importorskip("mcap.writer")
+    messages, _ = read_mcap_messages(source)
+    messages = change(list(messages))
+    with open(target, "wb") as stream:
+        writer = writer_module.Writer(stream)
+        writer.start()
+        schema = writer.register_schema("x", "jsonschema", b"{}")
+        channels: dict[str, int] = {}
+        for number, (topic, message) in enumerate(messages):
+            if topic not in channels:
+                channels[topic] = writer.register_channel(topic, encoding, schema)
+            data = message if isinstance(message, bytes) else json.dumps(message).encode()
+            writer.add_message(channels[topic], number, data, number)
+        writer.finish()
+    return target
+
+
+@pytest.fixture(scope="module")
+def run_mcap(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    pytest.importorskip("mcap")
+    path = tmp_path_factory.mktemp("mcap") / "run.mcap"
+    run_and_record(path)
+    return path
+
+
+def test_a_damaged_message_in_a_whole_mcap_file_is_named_not_read_as_a_cut_off_run(
+    run_mcap: Path, tmp_path: Path
+) -> None:
+    # One message that is not JSON, in a file with its footer, ended the reading there:
+    # `trace summary` said "incomplete (no end record: the run was cut off)", ticks 3.
+    whole = read_trace(run_mcap)
+    assert whole.end is not None and len(whole.ticks) > 6
+    damaged = _rewrite_mcap(
+        run_mcap,
+        tmp_path / "damaged.mcap",
+        lambda m: [*m[:20], ("/pirate/tick", b"{oops"), *m[20:]],
+    )
+    with pytest.raises(
+        InputError, match=r"damaged\.mcap: message 21 \(on /pirate/tick\) is not JSON"
+    ):
+        read_trace(damaged)
+    listed = _rewrite_mcap(
+        run_mcap, tmp_path / "list.mcap", lambda m: [*m[:1], ("/pirate/state", [1, 2]), *m[1:]]
+    )
+    # it was "cannot read this trace: AttributeError: 'list' object has no attribute 'get'"
+    with pytest.raises(InputError, match=r"message 2 \(on /pirate/state\) is JSON list, not an"):
+        read_mcap_records(listed)
+
+
+def test_an_mcap_file_of_another_encoding_is_not_called_a_cut_off_trace(
+    run_mcap: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a rosbag2 bag's MCAP (CDR) read as "the header record is cut off (the run was cut
+    # off before it was written, or this is not a trace)"; every CDR message was read
+    # as JSON, and the first failure ended the reading as a cut-off
+    cdr = _rewrite_mcap(
+        run_mcap,
+        tmp_path / "bag.mcap",
+        lambda m: [("/pirate/trace", b"\x00\x01\x00\x00\x03\x00\x00\x00{}\x00")] * 3,
+        encoding="cdr",
+    )
+    assert read_mcap_messages(cdr) == ([], False)
+    assert main(["trace", "summary", str(cdr)]) == 2
+    err = capsys.readouterr().err
+    assert "not a pirate_bt trace: no JSON /pirate/run channel" in err
+    assert "/pirate/trace (cdr)" in err and "read_rosbag2_records" in err
+    assert "cut off" not in err

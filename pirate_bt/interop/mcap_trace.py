@@ -49,6 +49,7 @@ from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import InputError, file_argument, output_argument
+from pirate_bt.interop.foxglove_schemas import RUN
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
 from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
@@ -131,37 +132,52 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
     """Every JSON message of an MCAP file, in file order, as ``(topic, message)``.
 
     Reads with the ``mcap`` library's stream reader, so a file without a summary
-    (a run that was killed) reads too, up to its last complete record.
+    (a run that was killed) reads too, up to its last complete record. Messages of
+    channels in another encoding (CDR, Protobuf...) are skipped.
 
     Returns:
         The messages, and whether the file was cut off (no footer).
 
     Raises:
-        InputError: the file cannot be read or is not MCAP.
+        InputError: the file cannot be read or is not MCAP, or a whole message of a
+            JSON channel is no JSON object (named by its number among the messages).
         ConfigurationError: the ``mcap`` package is missing.
     """
+    messages, cut, _ = _read_messages(path)
+    return messages, cut
+
+
+def _read_messages(
+    path: str | Path,
+) -> tuple[list[tuple[str, dict[str, Any]]], bool, dict[str, str]]:
+    """:func:`read_mcap_messages`, and every channel's topic with its encoding."""
     load_mcap()
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message
     from mcap.stream_reader import StreamReader
 
     channels: dict[int, str] = {}
+    encodings: dict[str, str] = {}
     out: list[tuple[str, dict[str, Any]]] = []
     complete = False
+    number = 0
     try:
         with open(path, "rb") as stream:
             try:
                 for record in StreamReader(stream, skip_magic=False).records:
                     if isinstance(record, Channel):
-                        channels[record.id] = record.topic
+                        encodings.setdefault(record.topic, record.message_encoding)
+                        if record.message_encoding == "json":
+                            channels[record.id] = record.topic
                     elif isinstance(record, Message):
+                        number += 1
                         topic = channels.get(record.channel_id)
                         if topic is not None:
-                            out.append((topic, json.loads(record.data)))
+                            out.append((topic, _json_object(path, number, topic, record.data)))
                     elif isinstance(record, Footer):
                         complete = True
             except (McapError, EOFError, ValueError, struct.error) as exc:
-                if not out and not channels:
+                if not out and not encodings:
                     # a file cut inside its magic or first chunk says nothing of its own
                     reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
                     size = os.fstat(stream.fileno()).st_size
@@ -171,16 +187,55 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
                     ) from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    return out, not complete
+    return out, not complete, encodings
+
+
+def _json_object(path: str | Path, number: int, topic: str, data: bytes) -> dict[str, Any]:
+    """A JSON channel's message, whole (the stream reader read all its bytes): damage
+    inside it is named, where it used to end the reading as if the run was cut off."""
+    try:
+        message = json.loads(data)
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
+        raise InputError(f"{path}: message {number} (on {topic}) is not JSON: {exc}") from None
+    if not isinstance(message, dict):
+        raise InputError(
+            f"{path}: message {number} (on {topic}) is JSON {type(message).__name__}, not an object"
+        )
+    return message
+
+
+def _trace_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
+    """:func:`read_mcap_messages` of a file that should hold a pirate_bt trace.
+
+    Raises:
+        InputError: as :func:`read_mcap_messages`, and a file with no JSON
+            ``/pirate/run`` channel (another tool's recording, a rosbag2 bag's MCAP).
+    """
+    messages, cut, encodings = _read_messages(path)
+    if not messages and encodings.get(RUN) != "json" and (encodings or not cut):
+        # (a file cut before its channels is a run cut off at its start: said later)
+        listed = ", ".join(f"{topic} ({encodings[topic]})" for topic in sorted(encodings)[:6])
+        more = ", ..." if len(encodings) > 6 else ""
+        hint = ""
+        if "cdr" in encodings.values():
+            hint = (
+                "; a rosbag2 bag's trace is read by pirate_bt.interop.rosbag2.read_rosbag2_records"
+            )
+        raise InputError(
+            f"{path}: not a pirate_bt trace: no JSON {RUN} channel"
+            + (f" (its channels: {listed}{more})" if listed else "")
+            + hint
+        )
+    return messages, cut
 
 
 def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
     """The trace records an MCAP file written by pirate_bt holds (see :func:`export_mcap`).
 
     Raises:
-        InputError: the file cannot be read or is not MCAP.
+        InputError: the file cannot be read, is not MCAP or holds no pirate_bt trace.
     """
-    messages, _ = read_mcap_messages(path)
+    messages, _ = _trace_messages(path)
     return list(records_from_messages(messages))
 
 
@@ -193,7 +248,7 @@ class McapTraceReader(TraceFormatReader):
     suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
 
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
-        messages, cut = read_mcap_messages(self.path)
+        messages, cut = _trace_messages(self.path)
         self.truncated = cut
         yield from enumerate(records_from_messages(messages), start=1)
 
