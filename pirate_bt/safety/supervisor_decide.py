@@ -162,9 +162,19 @@ class DecisionMixin:
 
     def _decide(self, command: Command, source: Source, *, send: bool) -> Verdict:
         now = self.clock.now()
+        asked = _as_source(source)
         if isinstance(command, Stop):
             sent = self._send_stop() if send else ()
-            return Verdict(Outcome.PASS, command, source, sent=sent)
+            return Verdict(Outcome.PASS, command, asked or Source.TREE, sent=sent)
+        if asked is None:
+            # a source that is none of the three would have passed every authority check
+            return self._refuse(
+                command,
+                Source.TREE,
+                Reason.UNKNOWN_TARGET,
+                f"not a source: {source!r} (one of {', '.join(s.value for s in Source)})",
+            )
+        source = asked
         # 1. authority
         if self._mode is Mode.ESTOP:
             return self._refuse(
@@ -177,7 +187,10 @@ class DecisionMixin:
                 Reason.OPERATOR_NOT_IN_CONTROL,
                 f"take over (mode manual) before driving by hand; mode is {self._mode}",
             )
-        if source is Source.TREE:
+        if source is not Source.OPERATOR:
+            # the tree's authority for planner code too, whatever it calls itself: the
+            # supervisor's own commands (its stops, the protective clamps) never come
+            # through here but as a Stop, which passed above
             if self._mode is Mode.MANUAL:
                 return self._refuse(
                     command, source, Reason.TREE_PAUSED, "the operator has taken over (manual)"
@@ -265,3 +278,15 @@ class DecisionMixin:
                 clips=tuple(r for r, _ in clips),
             )
         return Verdict(Outcome.PASS, command, source, sent=sent)
+
+
+def _as_source(source: object) -> Source | None:
+    """``source`` as a :class:`Source` (its text too: ``"operator"``), or ``None``."""
+    if isinstance(source, Source):
+        return source
+    if isinstance(source, str):
+        try:
+            return Source(source)
+        except ValueError:
+            return None
+    return None
