@@ -119,7 +119,18 @@ Command = Clamp | Unclamp | Drive | Bend | Rotate | Tilt | MoveFrontClear | Stop
 
 
 def describe(command: Command) -> str:
-    """A short human form of a command, e.g. ``clamp(front, 0.5 N·m)``."""
+    """A short human form of a command, e.g. ``clamp(front, 0.5 N·m)``.
+
+    A malformed one (``Drive("fast")``, which the supervisor refuses) or something that
+    is no command at all is shown as its ``repr``: the verdict that refuses it is
+    logged and traced like any other."""
+    try:
+        return _describe(command)
+    except (TypeError, ValueError, AttributeError):
+        return repr(command)[:200]
+
+
+def _describe(command: Command) -> str:
     match command:
         case Clamp(half, torque):
             return f"clamp({half}, {torque:g} N·m)"
@@ -139,4 +150,4 @@ def describe(command: Command) -> str:
             return "stop()"
         case Raw(mc):
             return f"raw({mc.motor}, {mc.mode}, {mc.value:g})"
-    raise TypeError(f"not a command: {command!r}")  # pragma: no cover
+    raise TypeError(f"not a command: {command!r}")

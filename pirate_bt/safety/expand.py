@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import numbers
 from dataclasses import replace
 
 from pirate_bt.robot.commands import MotorCommand
@@ -38,12 +39,69 @@ from pirate_bt.safety.commands import (
 )
 from pirate_bt.safety.verdict import Reason
 
-__all__ = ["Expander"]
+__all__ = ["Expander", "well_formed"]
 
 # Motor functions whose commands no invariant is about (lights, cameras).
 _FREE_FUNCTIONS = frozenset(
     {MotorFunction.LEDS, MotorFunction.CAMERA_TILT, MotorFunction.CAMERA_PAN}
 )
+
+
+_NUMBERS = ("torque_nm", "velocity_mps", "angle_rad", "sign")
+_NOT_NUMBERS = "command values must be finite numbers"  # tests pin it
+
+
+def _number(value: object) -> float | None:
+    """``value`` as a finite float, or ``None`` (text, ``None``, a bool, NaN, infinity)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return None
+    number = float(value)
+    return number if math.isfinite(number) else None
+
+
+def well_formed(command: Command) -> Command | Problem:
+    """``command`` with its fields as the checks read them, or why it is malformed.
+
+    A command is a frozen dataclass anyone can build with anything in it, and the checks
+    compare halves by identity: ``Clamp("rear", 0.7)`` used to pass with nothing sent
+    (no bend module is of the half ``"rear"``) and ``Unclamp(None)`` raised. A half
+    given as its text (``"rear"``) is read as that half, a control mode likewise, and a
+    number must be a real, finite one (not a bool, not text); anything else is refused.
+    """
+    changes: dict[str, object] = {}
+    for name in _NUMBERS:
+        if hasattr(command, name):
+            value = getattr(command, name)
+            number = _number(value)
+            if number is None:
+                return Problem(Reason.NOT_FINITE, _NOT_NUMBERS)
+            if type(value) is not float and name != "sign":
+                changes[name] = number
+    if isinstance(command, Raw):
+        mc = command.command
+        if not isinstance(mc, MotorCommand) or not isinstance(mc.motor, str):
+            return Problem(Reason.UNKNOWN_TARGET, f"not a motor command: {mc!r}"[:200])
+        value = _number(mc.value)
+        if value is None:
+            return Problem(Reason.NOT_FINITE, _NOT_NUMBERS)
+        try:
+            mode = ControlMode(mc.mode)
+        except (ValueError, TypeError):
+            return Problem(Reason.MODE_NOT_ALLOWED, f"{mc.mode!r} is not a control mode"[:200])
+        if mode is not mc.mode or type(mc.value) is not float:
+            changes["command"] = MotorCommand(mc.motor, mode, value)
+    if isinstance(command, Clamp | Unclamp) and not isinstance(command.half, Half):
+        try:
+            changes["half"] = Half(command.half)
+        except (ValueError, TypeError):
+            return Problem(
+                Reason.UNKNOWN_TARGET, f"not a half: {command.half!r} (front or rear)"[:200]
+            )
+    if isinstance(command, Bend) and not isinstance(command.module, str):
+        return Problem(Reason.UNKNOWN_TARGET, f"{command.module!r} is not a bend module"[:200])
+    if isinstance(command, MoveFrontClear) and command.sign not in (1, -1):
+        changes["sign"] = 1 if command.sign >= 0 else -1
+    return replace(command, **changes) if changes else command  # type: ignore[arg-type]
 
 
 class Expander:
@@ -125,15 +183,10 @@ class Expander:
 
     def _expand(self, command: Command, state: RobotState | None) -> Intent | Problem:
         base = self._base_channels
-        values = [
-            getattr(command, f)
-            for f in ("torque_nm", "velocity_mps", "angle_rad")
-            if hasattr(command, f)
-        ]
-        if isinstance(command, Raw):
-            values.append(command.command.value)
-        if not all(math.isfinite(v) for v in values):
-            return Problem(Reason.NOT_FINITE, "command values must be finite numbers")
+        formed = well_formed(command)
+        if isinstance(formed, Problem):
+            return formed
+        command = formed
         match command:
             case Clamp(half, torque):
                 if torque < self.robot.clamp.min_torque:

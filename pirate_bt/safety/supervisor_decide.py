@@ -216,6 +216,7 @@ class DecisionMixin:
         if isinstance(expanded, Problem):
             return self._refuse(command, source, expanded.reason, expanded.detail)
         intent = expanded
+        command = intent.command  # as the checks read it: Clamp("rear", ...) names Half.REAR
         # 4. freshness
         if intent.moves or intent.channels:
             if state is None:
