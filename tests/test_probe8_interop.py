@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import re
+import socket
+import time
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +20,7 @@ from pirate_bt.interop import groot2_protocol as proto
 from pirate_bt.interop import groot2_requests
 from pirate_bt.interop.groot2_server import Groot2Server
 from pirate_bt.interop.mcap_trace import read_mcap_messages, read_mcap_records
-from pirate_bt.interop.ros2_node import EStopInput
+from pirate_bt.interop.ros2_node import EStopInput, Ros2Node
 from pirate_bt.interop.rosbag2 import read_rosbag2_records
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.safety import Mode, Supervisor
@@ -195,3 +197,46 @@ def test_an_mcap_file_of_another_encoding_is_not_called_a_cut_off_trace(
     assert "not a pirate_bt trace: no JSON /pirate/run channel" in err
     assert "/pirate/trace (cdr)" in err and "read_rosbag2_records" in err
     assert "cut off" not in err
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def _zenoh_session(zenoh: Any, mode: str, **endpoints: list[str]) -> Any:
+    config = zenoh.Config()
+    for key, value in (
+        ("mode", mode),
+        *((f"{kind}/endpoints", where) for kind, where in endpoints.items()),
+        ("scouting/multicast/enabled", False),
+    ):
+        config.insert_json5(key, json.dumps(value))
+    return zenoh.open(config)
+
+
+def test_an_estop_from_a_humble_node_or_another_bool_hash_is_heard() -> None:
+    # rmw_zenoh on Humble puts every message under the type hash "TypeHashNotSupported";
+    # the node subscribed to the exact Jazzy key, so a Humble operator station's
+    # `ros2 topic pub /pirate/estop std_msgs/msg/Bool "{data: true}"` was never heard.
+    zenoh = pytest.importorskip("zenoh")
+    port = _free_port()
+    router = _zenoh_session(zenoh, "router", listen=[f"tcp/127.0.0.1:{port}"])
+    node = Ros2Node(f"tcp/127.0.0.1:{port}")
+    peer = _zenoh_session(zenoh, "peer", connect=[f"tcp/127.0.0.1:{port}"])
+    try:
+        assert node.wait_ready() and node.estop is not None
+        for hash_part in ("TypeHashNotSupported", "RIHS01_" + "0" * 64):
+            key = f"0/pirate/estop/std_msgs::msg::dds_::Bool_/{hash_part}"
+            before = node.estop.received
+            deadline = time.monotonic() + 20  # until the router routes to the node
+            while node.estop.received == before and time.monotonic() < deadline:
+                peer.put(key, b"\x00\x01\x00\x00\x01")
+                time.sleep(0.05)
+            assert node.estop.received > before, hash_part
+            assert [type(a).__name__ for a in node.estop.poll(1, 0.0)] == ["EStop"]
+    finally:
+        node.close()
+        peer.close()
+        router.close()

@@ -244,7 +244,12 @@ class Node:
                     )
                 )
             )
-            self.subscriber = self.session.declare_subscriber(key, self._on_estop)
+            # Any type hash: an e-stop that may have been meant is taken. A Humble node's
+            # rmw_zenoh puts it under "TypeHashNotSupported" (Humble has no type hashes),
+            # a node with another Bool definition under another hash; the exact key
+            # would miss both, silently. The message is read the same way (_on_estop).
+            any_hash = key.rsplit("/", 1)[0] + "/*"
+            self.subscriber = self.session.declare_subscriber(any_hash, self._on_estop)
 
     def _on_estop(self, sample: Any) -> None:
         heard = time.monotonic_ns()
