@@ -45,8 +45,7 @@ def run(args: argparse.Namespace) -> int:
                     path, robot=None, params=params, params_from_text=True, use_examples=True
                 )
             else:
-                loaded = validate_file(path, args.kind, params)
-                _fits_the_wire(loaded)
+                validate_file(path, args.kind, params)
         except ValidationFailed as exc:
             for error in exc.errors:
                 print(str(error), file=sys.stderr)
@@ -66,18 +65,3 @@ def run(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{path}: ok")
     return worst
-
-
-def _fits_the_wire(loaded: object) -> None:
-    """A robot description must also fit the PIRATEbay protocol's frames (its STATE,
-    BULK_SETPOINTS and COUNTERS payloads), which ``run`` checks when it connects.
-
-    Raises:
-        LayoutTooLarge: it does not (exit 2).
-    """
-    from pirate_bt.robot.description import RobotDescription
-
-    if isinstance(loaded, RobotDescription):
-        from pirate_bt.link.layout import WireLayout
-
-        WireLayout.from_robot(loaded)
