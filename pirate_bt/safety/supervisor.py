@@ -84,7 +84,7 @@ from pirate_bt.safety.operator import (
     OperatorInput,
 )
 from pirate_bt.safety.supervisor_authority import AuthorityMixin
-from pirate_bt.safety.supervisor_decide import DecisionMixin
+from pirate_bt.safety.supervisor_decide import DecisionMixin, board_readings
 from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
 from pirate_bt.safety.verdict import (
     Reason,
@@ -145,6 +145,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._granted: set[str] = set()
         self._lock = threading.RLock()
         self._expander = Expander(self.robot)
+        self._board_readings = board_readings(self.robot)
         self._base_channels = self._expander.base_channels
         self._holding: set[Half] = set()  # halves clamped by the protective hold
         self._hold_refused: set[Half] = set()  # a protective clamp refused (logged once)

@@ -20,6 +20,7 @@ from pirate_bt.errors import LinkError
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, Half, RobotDescription
 from pirate_bt.robot.port import RobotPort
+from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import (
     Check,
     CheckContext,
@@ -79,6 +80,7 @@ class DecisionMixin:
     _last_setpoint: dict[str, tuple[ControlMode, float, float]]
     _granted: set[str]
     _expander: Expander
+    _board_readings: dict[int, tuple[str, ...]]
 
     if TYPE_CHECKING:  # defined by the supervisor and its authority side
 
@@ -157,6 +159,34 @@ class DecisionMixin:
             self._last_setpoint[c.motor] = (c.mode, 0.0, now)
         return cmds
 
+    def _boards_not_answering(
+        self, cmds: tuple[MotorCommand, ...], state: RobotState, now_s: float
+    ) -> str | None:
+        """Why ``cmds`` cannot reach their boards: one whose every reading is stale is
+        not answering the bridge (rebooting, or gone), and the link refuses a command for
+        it (``pirate_bt.link.away``), a link error; or ``None``.
+
+        The checks above read only the channels a decision rests on (joints, springs, the
+        IMU's pitch), none of them on the rotational board: a drive sent while that board
+        rebooted went out to the link and ended the run on a link error (exit 3), where a
+        board away ends it on stale data.
+        """
+        parts: list[str] = []
+        boards = {self.robot.board_of(mc.motor).id for mc in cmds}
+        for board in sorted(boards):
+            names = self._board_readings.get(board, ())
+            stale = stale_channels(self.robot, state, names, now_s) if names else []
+            if names and len(stale) == len(names):
+                motors = ", ".join(m.name for m in self.robot.board(board).motors)
+                ages = ", ".join(
+                    f"{n} ({'never' if not math.isfinite(a) else f'{a:.3f} s'})"
+                    for n, a in stale[:3]
+                )
+                parts.append(f"board {board} ({motors}): every reading is stale: {ages}")
+        if not parts:
+            return None
+        return f"not answering the bridge (rebooting?): {'; '.join(parts)}"
+
     def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
         return Verdict(Outcome.REFUSE, command, source, reason=reason, detail=detail)
 
@@ -229,6 +259,10 @@ class DecisionMixin:
                 return self._refuse(
                     command, source, Reason.STALE_STATE, f"readings too old: {names}"
                 )
+        if state is not None and intent.motor_commands:
+            silent = self._boards_not_answering(intent.motor_commands, state, now)
+            if silent:
+                return self._refuse(command, source, Reason.STALE_STATE, silent)
         # 5. invariants
         if state is not None and intent.moves:
             ctx = CheckContext(
@@ -291,3 +325,11 @@ def _as_source(source: object) -> Source | None:
         except ValueError:
             return None
     return None
+
+
+def board_readings(robot: RobotDescription) -> dict[int, tuple[str, ...]]:
+    """Every state channel each board reports, by board id."""
+    out: dict[int, list[str]] = {}
+    for channel in robot.state_channels():
+        out.setdefault(channel.board, []).append(channel.name)
+    return {board: tuple(names) for board, names in out.items()}
