@@ -240,3 +240,44 @@ def test_an_estop_from_a_humble_node_or_another_bool_hash_is_heard() -> None:
         node.close()
         peer.close()
         router.close()
+
+
+def test_a_client_that_never_reads_its_replies_holds_few_of_them() -> None:
+    # A client asking for the tree hundreds of times without reading made ZeroMQ keep
+    # up to 1,000 replies per connection in the run's process: 3,000 asks for a tree
+    # of 2,000 nodes (200 kB of XML) grew the process by 190 MB, more per connection.
+    zmq = pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    leaves = [py_trees.behaviours.Success(f"leaf number {i} of many") for i in range(1000)]
+    root = py_trees.composites.Sequence("root", memory=True, children=leaves)
+    asked = 300
+    with Groot2Server(port=0) as server:
+        server.serve(py_trees.trees.BehaviourTree(root))
+        context = zmq.Context()
+        try:
+            hostile = context.socket(zmq.DEALER)
+            hostile.setsockopt(zmq.RCVHWM, 1)  # reads nothing off the wire
+            hostile.setsockopt(zmq.RCVBUF, 4096)
+            hostile.setsockopt(zmq.LINGER, 0)
+            hostile.connect(f"tcp://127.0.0.1:{server.port}")
+            for _ in range(asked):
+                hostile.send_multipart([b"", proto.pack_request(ord("T"))])
+            deadline = time.monotonic() + 60
+            while server.requests < asked and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert server.requests == asked
+            held = 0
+            while hostile.poll(500):
+                hostile.recv_multipart()
+                held += 1
+            # what ZeroMQ held (4) and the kernel's socket buffers: nothing like all
+            assert 0 < held < asked // 2, held
+            # and the server answers a well-behaved client as before
+            client = context.socket(zmq.REQ)
+            client.setsockopt(zmq.RCVTIMEO, 20000)
+            client.setsockopt(zmq.LINGER, 0)
+            client.connect(f"tcp://127.0.0.1:{server.port}")
+            client.send_multipart([proto.pack_request(ord("S"))])
+            assert len(client.recv_multipart()) == 2
+        finally:
+            context.destroy(linger=0)

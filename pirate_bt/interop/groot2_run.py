@@ -27,13 +27,18 @@ from pirate_bt.interop.groot2_tree import ServedTree, served_tree
 from pirate_bt.trace.coverage import CoverageRecorder
 from pirate_bt.trace.structure import iter_with_ids
 
-__all__ = ["INSTALL_HINT", "MAX_REQUEST_BYTES", "TRANSITIONS_KEPT"]
+__all__ = ["INSTALL_HINT", "MAX_REQUEST_BYTES", "REPLIES_QUEUED", "TRANSITIONS_KEPT"]
 
 # The server's parts log as the server always did.
 logger = logging.getLogger("pirate_bt.interop.groot2_server")
 
 INSTALL_HINT = "pip install 'pirate-bt[groot2]'"
 MAX_REQUEST_BYTES = 1 << 20
+REPLIES_QUEUED = 4
+"""Replies ZeroMQ holds for one client that does not read them (more are dropped).
+Groot2 (a REQ socket) waits for each reply before it asks again; a client that
+asked for the tree thousands of times and never read made ZeroMQ's default (1,000
+a client) hold 1,000 copies of the tree's XML per connection in the run's process."""
 TRANSITIONS_KEPT = 1000
 PRE, POST = 0, 1
 BREAKPOINT, REPLACE = 0, 1

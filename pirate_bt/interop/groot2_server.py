@@ -87,7 +87,13 @@ from pirate_bt.interop.groot2_requests import _Requests
 from pirate_bt.interop.groot2_run import _REPLACED as _REPLACED
 from pirate_bt.interop.groot2_run import BREAKPOINT as BREAKPOINT
 from pirate_bt.interop.groot2_run import INSTALL_HINT as INSTALL_HINT
-from pirate_bt.interop.groot2_run import MAX_REQUEST_BYTES, TRANSITIONS_KEPT, _load, _Pending
+from pirate_bt.interop.groot2_run import (
+    MAX_REQUEST_BYTES,
+    REPLIES_QUEUED,
+    TRANSITIONS_KEPT,
+    _load,
+    _Pending,
+)
 from pirate_bt.interop.groot2_run import POST as POST
 from pirate_bt.interop.groot2_run import PRE as PRE
 from pirate_bt.interop.groot2_run import REPLACE as REPLACE
@@ -139,6 +145,7 @@ class Groot2Server(_Requests):
             if ":" in host:  # ZeroMQ binds an IPv6 address only with this set
                 sock.setsockopt(zmq.IPV6, 1)
         self._rep.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
+        self._rep.setsockopt(zmq.SNDHWM, REPLIES_QUEUED)
         try:
             self.port = self._bind(host, port)
         except BaseException:
