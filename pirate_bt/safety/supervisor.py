@@ -49,7 +49,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import CommandRefused, EStopLatched, LinkError
+from pirate_bt.errors import CommandRefused, EStopLatched, InputError, LinkError
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -83,7 +83,7 @@ from pirate_bt.safety.operator import (
     Mode,
     OperatorInput,
 )
-from pirate_bt.safety.supervisor_authority import AuthorityMixin
+from pirate_bt.safety.supervisor_authority import AuthorityMixin, as_mode
 from pirate_bt.safety.supervisor_decide import DecisionMixin, board_readings
 from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
 from pirate_bt.safety.verdict import (
@@ -131,7 +131,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self.verdicts = VerdictLog(log_size)
         self._checks: list[Check] = list(INVARIANTS if checks is None else checks)
         self._inputs: list[OperatorInput] = list(inputs)
-        self._mode = Mode.ESTOP if mode is Mode.ESTOP else mode
+        self._mode = as_mode(mode)  # its text too ("manual"); checks compare by identity
         self._tick = 0
         self._seq = 0
         self._safe_reason: str | None = None
@@ -331,7 +331,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             now = self.clock.now()
             for source in tuple(self._inputs):
                 for action in source.poll(self._tick, now):
-                    self.apply(action)
+                    try:
+                        self.apply(action)
+                    except InputError as exc:  # the run goes on; the operator is told
+                        log.error("operator input %s: %s", type(source).__name__, exc)
             try:
                 self.port.poll()
             except LinkError as exc:

@@ -16,6 +16,7 @@ import logging
 import threading
 from typing import TYPE_CHECKING
 
+from pirate_bt.errors import InputError
 from pirate_bt.safety.commands import Command, Stop
 from pirate_bt.safety.operator import (
     Confirm,
@@ -123,8 +124,13 @@ class AuthorityMixin(DecisionMixin):
 
         Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
         ``SUPERVISED``) also leaves the safe state. ``ESTOP`` is :meth:`estop`;
-        leaving ``ESTOP`` needs :meth:`reset_estop`.
+        leaving ``ESTOP`` needs :meth:`reset_estop`. A mode's text (``"estop"``) is
+        that mode.
+
+        Raises:
+            InputError: ``mode`` is no mode (nothing changes).
         """
+        mode = as_mode(mode)
         with self._lock:
             if mode is Mode.ESTOP:
                 self.estop("operator set mode estop")
@@ -153,7 +159,13 @@ class AuthorityMixin(DecisionMixin):
             self._refusals = 0
 
     def apply(self, action: OperatorAction) -> Verdict | None:
-        """Apply one operator action now; returns the verdict for a command action."""
+        """Apply one operator action now; returns the verdict for a command action.
+
+        Raises:
+            InputError: ``action`` is no operator action, or a ``SetMode`` of no mode
+                (nothing is done; the supervisor's tick logs such an input's action
+                as an error and goes on).
+        """
         with self._lock:
             match action:
                 case SetMode(mode):
@@ -172,6 +184,8 @@ class AuthorityMixin(DecisionMixin):
                     self.deny(step)
                 case OperatorCommand(command):
                     return self.command(command, source=Source.OPERATOR)
+                case _:
+                    raise InputError(f"not an operator action: {action!r}"[:200])
             return None
 
     def request_confirmation(self, step: str) -> Confirmation:
@@ -233,3 +247,24 @@ class AuthorityMixin(DecisionMixin):
                 self._granted.discard(step)
             log.warning("operator %s %r", answer, step)
             return step
+
+
+def as_mode(mode: object) -> Mode:
+    """``mode`` as a :class:`Mode` (its text too).
+
+    ``SetMode("estop")`` used to set the mode to the text ``"estop"``: the checks, which
+    compare modes by identity, saw no e-stop and no manual control, the tree's commands
+    passed, and the hand-back branch had left the safe state.
+
+    Raises:
+        InputError: it is no mode.
+    """
+    if isinstance(mode, Mode):
+        return mode
+    if isinstance(mode, str):
+        try:
+            return Mode(mode)
+        except ValueError:
+            pass
+    names = ", ".join(m.value for m in Mode)
+    raise InputError(f"not a mode: {mode!r} (one of {names})"[:200])
