@@ -15,9 +15,10 @@ import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LocatedError
 from pirate_bt.interop import groot2_protocol as proto
 from pirate_bt.interop import groot2_requests
+from pirate_bt.interop.btcpp import tree_to_xml
 from pirate_bt.interop.groot2_server import Groot2Server
 from pirate_bt.interop.mcap_trace import read_mcap_messages, read_mcap_records
 from pirate_bt.interop.ros2_node import EStopInput, Ros2Node
@@ -281,3 +282,31 @@ def test_a_client_that_never_reads_its_replies_holds_few_of_them() -> None:
             assert len(client.recv_multipart()) == 2
         finally:
             context.destroy(linger=0)
+
+
+# -- BehaviorTree.CPP export ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("param", ["ID", "name", "_while", "_autoremap", "_x"])
+def test_export_refuses_a_parameter_name_bt_cpp_takes_for_no_port(
+    tmp_path: Path, param: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # <SubTree ID="s" name="call" ID="y"/>: BT.CPP looked for a tree named y; `name`
+    # renamed the call and its value was lost; `_x` was ignored, `_while` ran as a script
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "s.yaml").write_text(
+        f"name: s\nparams:\n  {param}: {{type: string, default: a}}\n"
+        f"root: {{type: log, message: ${param}}}\n"
+    )
+    tree = tmp_path / "main.yaml"
+    tree.write_text(
+        "name: m\nroot:\n  type: sequence\n  children:\n"
+        f"    - {{type: subtree, name: call, ref: lib/s.yaml, params: {{{param}: x}}}}\n"
+    )
+    assert main(["validate", str(tree)]) == 0  # a fine pirate_bt tree
+    capsys.readouterr()
+    with pytest.raises(LocatedError, match=f"parameter '{param}': BehaviorTree.CPP takes no"):
+        tree_to_xml(tree)
+    assert main(["export", "btcpp", str(tree), "-o", str(tmp_path / "out.xml")]) == 2
+    assert f"s.yaml:3:3: parameter '{param}'" in capsys.readouterr().err
+    assert not (tmp_path / "out.xml").exists()

@@ -67,6 +67,27 @@ def _text(doc: YamlDocument, path: tuple[str | int, ...], text: str) -> str:
     return text
 
 
+def _port_name(doc: YamlDocument, path: tuple[str | int, ...], name: str) -> None:
+    """Refuse a parameter name BT.CPP takes for no port (its ``IsAllowedPortName``).
+
+    A ``<SubTree>`` attribute named ``ID`` or ``name`` is the call's own, one whose
+    first character is no ASCII letter is ignored by BT.CPP's parser, and ``_while``,
+    ``_skipIf``, ``_onSuccess``... are its pre- and post-condition scripts: the value
+    of such a parameter was silently lost in BT.CPP, or ran as a script, or (``ID``)
+    named another tree.
+    """
+    first = name[:1]
+    if first.isascii() and first.isalpha() and name not in ("name", "ID"):
+        return
+    raise _located(
+        doc,
+        path,
+        f"parameter {name!r}: BehaviorTree.CPP takes no port of this name (a port name"
+        " starts with a letter A-Z or a-z and is not 'name' or 'ID'; one starting with"
+        " '_' is BT.CPP's own, such as _while or _skipIf); rename it to export the tree",
+    )
+
+
 class _Exporter:
     """Walks the tree files (as written, before parameters are substituted)."""
 
@@ -110,6 +131,7 @@ class _Exporter:
         self.trees.append(element)
         self.params[tree_id] = (doc, (*prefix, "params"), body.get("params") or {})
         for key, decl in (body.get("params") or {}).items():
+            _port_name(doc, (*prefix, "params", key), key)
             if isinstance(decl, dict) and isinstance(decl.get("description"), str):
                 _text(doc, (*prefix, "params", key, "description"), decl["description"])
         element.append(self.node(doc, (*prefix, "root"), body["root"]))
