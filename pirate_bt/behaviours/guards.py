@@ -55,9 +55,11 @@ from pirate_bt.behaviours.base import (
     Outcome,
 )
 from pirate_bt.errors import UnitError
-from pirate_bt.robot.description import Half
-from pirate_bt.robot.state import RobotState
+from pirate_bt.robot.description import Half, SensorKind
+from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
+from pirate_bt.safety.checks import front_tilt_channel, stale_channels
+from pirate_bt.safety.supervisor_hold import half_channels
 from pirate_bt.units import parse_quantity
 
 __all__ = [
@@ -181,6 +183,67 @@ class Comparison(NodeParams):
         return f"{what} {self.op} {self.value}"
 
 
+def _state_channels(path: str, sup: Supervisor) -> tuple[str, ...]:
+    """The state channels whose readings ``path``'s value is made of (none for the mode
+    and the link's health; the drives' mean speed is made of the fresh ones)."""
+    robot = sup.robot
+    prefix, _, rest = path.partition(".")  # pragma: no mutate (every state value has one dot)
+    try:
+        if prefix == "half":
+            return half_channels(robot)[Half(rest)]
+        if prefix == "imu":
+            imu = robot.imu()
+            return () if imu is None else (f"{imu.name}.{rest}",)
+        if prefix == "joint_angle":
+            return (robot.sensor_of(rest, SensorKind.ANGLE).name,)
+        if prefix == "clamp_force":
+            return (robot.sensor_of(rest, SensorKind.SPRING).name,)
+        if path == "rotation":
+            return (robot.sensor_of(robot.rotational_module().name, SensorKind.ANGLE).name,)
+        if path == "front_tilt":
+            tilt = front_tilt_channel(robot)
+            return () if tilt is None else (tilt,)
+        if prefix == "drive_velocity" and rest:
+            return (f"{rest}.velocity",)
+        if prefix == "motor_current":
+            return (f"{rest}.current",)
+    except (KeyError, ValueError, StopIteration):
+        return ()
+    return ()
+
+
+def _stale(path: str, sup: Supervisor) -> str | None:
+    """Why ``path``'s reading cannot be believed now (stale), or ``None``.
+
+    A stale reading keeps its last value: a guard that compared it went on a guess (an
+    IMU that dropped out kept ``while: imu.pitch < 10 deg`` holding as the robot
+    climbed; ``is_clamped`` succeeded on the readings of a board that had gone away).
+    """
+    state = sup.state()
+    if state is None:
+        return None
+    now = sup.clock.now()
+    if path == "drive_velocity":
+        names = tuple(f"{m.name}.velocity" for m in sup.robot.drive_motors())
+        stale = stale_channels(sup.robot, state, names, now)
+        return None if len(stale) < len(names) or not names else _stale_text(stale)
+    stale = stale_channels(sup.robot, state, _state_channels(path, sup), now)
+    return _stale_text(stale) if stale else None
+
+
+def _stale_text(stale: list[tuple[str, float]]) -> str:
+    return "stale: " + ", ".join(
+        f"{name} ({'never' if age == float('inf') else f'{age:.3f} s'})" for name, age in stale
+    )
+
+
+def _fresh_mean_speed(sup: Supervisor, state: RobotState) -> float:
+    """The drives' mean measured speed over the wheels that read fresh (odometry's rule)."""
+    return state.mean_drive_velocity_mps(
+        fresh_since_s=sup.clock.now() - wheel_fresh_window_s(sup.robot)
+    )
+
+
 def _state_value(path: str, sup: Supervisor) -> object:
     if path == "mode":
         return sup.mode.value
@@ -198,7 +261,7 @@ def _state_value(path: str, sup: Supervisor) -> object:
     if path == "front_tilt":
         return _MISSING if state.front_tilt_rad is None else state.front_tilt_rad
     if path == "drive_velocity":
-        return state.mean_drive_velocity_mps()
+        return _fresh_mean_speed(sup, state)
     table = {
         "imu": state.imu_rad,
         "joint_angle": state.joint_angle_rad,
@@ -244,6 +307,9 @@ class _Evaluator:
                 current = _state_value(comparison.state, sup)
                 if current is _MISSING:
                     return None, f"{comparison.state} has no reading"
+                stale = _stale(comparison.state, sup)
+                if stale is not None:
+                    return None, f"{comparison.state} cannot be read: {stale}"
             try:
                 ok = _OPS[comparison.op](current, constant)
             except TypeError:
@@ -292,6 +358,9 @@ class IsClamped(_Condition):
     def holds(self, sup: Supervisor) -> tuple[bool, str]:
         half = self.params.half  # type: ignore[attr-defined]
         state = sup.half_states()[half]
+        stale = _stale(f"half.{half}", sup)
+        if stale is not None:  # the clamp it read may be long gone (a board away)
+            return False, f"{half} half {state} by readings that are {stale}"
         return state is ClampState.CLAMPED, f"{half} half {state}"
 
 
@@ -321,8 +390,6 @@ class StateFresh(_Condition):
             state = sup.state()
             if state is None:
                 return False, "no state yet"
-            from pirate_bt.safety.checks import stale_channels
-
             stale = stale_channels(sup.robot, state, tuple(wanted), sup.clock.now())
         else:
             stale = sup.stale_channels()
