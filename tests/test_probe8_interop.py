@@ -310,3 +310,34 @@ def test_export_refuses_a_parameter_name_bt_cpp_takes_for_no_port(
     assert main(["export", "btcpp", str(tree), "-o", str(tmp_path / "out.xml")]) == 2
     assert f"s.yaml:3:3: parameter '{param}'" in capsys.readouterr().err
     assert not (tmp_path / "out.xml").exists()
+
+
+# -- Foxglove -------------------------------------------------------------------------------
+
+
+def test_a_client_sending_invalid_messages_writes_few_lines_to_the_runs_terminal(
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    # The SDK logs every invalid client message; unconfigured, the server process's
+    # Python wrote each one to the run's standard error: a client in a loop filled the
+    # operator's terminal (and garbled the console) as fast as it could send.
+    pytest.importorskip("foxglove")
+    from foxglove_ws import FoxgloveClient
+
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+    from pirate_bt.interop.foxglove_process import LOG_LINES
+
+    with FoxgloveServer("127.0.0.1", 0) as server:
+        client = FoxgloveClient("127.0.0.1", server.port)
+        try:
+            assert client.wait_for(lambda c: "/pirate/end" in c.channels, 10.0)
+            for _ in range(300):
+                client.send_json({"op": "no such operation"})
+            client.pump(1.0)
+            client.subscribe("/pirate/run")  # the server still serves
+        finally:
+            client.close()
+    err = capfd.readouterr().err
+    lines = [line for line in err.splitlines() if "Invalid message" in line]
+    assert 0 < len(lines) <= LOG_LINES, err[-2000:]
+    assert all(line.startswith("foxglove server: ") for line in lines)

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import os
 import signal
 import sys
@@ -68,6 +69,7 @@ __all__ = [
     "CLOSED",
     "DROPPED",
     "FAILED",
+    "LOG_LINES",
     "MESSAGE",
     "NICE",
     "OFF",
@@ -90,6 +92,49 @@ NICE = 5
 POLL_S = 0.005
 """How long the process rests after each batch read off its input: it is not woken by
 every tick, and a message waits at most this long before it goes out."""
+
+LOG_LINES = 10
+"""The SDK's log lines written to the run's standard error per minute at most."""
+
+
+class _FewLines(logging.Handler):
+    """The SDK's log (``foxglove.*``: a client's invalid message, a lost connection) to
+    standard error, at most :data:`LOG_LINES` lines a minute.
+
+    Unconfigured, Python's last-resort handler wrote every record: a client sending
+    invalid messages in a loop wrote a line for each into the run's terminal (the
+    operator console's included), as fast as it could send them.
+    """
+
+    def __init__(self, per_minute: int = LOG_LINES) -> None:
+        super().__init__(logging.WARNING)
+        self.per_minute = per_minute
+        self.window = -60.0
+        self.written = 0
+        self.dropped = 0
+
+    def emit(self, record: logging.LogRecord) -> None:
+        now = time.monotonic()
+        if now - self.window >= 60.0:
+            self.window, self.written, self.dropped = now, 0, 0
+        if self.written >= self.per_minute:
+            self.dropped += 1
+            return
+        self.written += 1
+        text = f"foxglove server: {record.getMessage()}"
+        if self.written == self.per_minute:
+            text += " (more of the server's log lines this minute are left out)"
+        try:
+            sys.stderr.write(text + "\n")
+            sys.stderr.flush()
+        except (OSError, ValueError):  # the run's standard error is gone
+            pass
+
+
+def _quiet_sdk_log() -> None:
+    sdk = logging.getLogger("foxglove")
+    sdk.addHandler(_FewLines())
+    sdk.propagate = False
 
 
 class Server:
@@ -280,6 +325,7 @@ def main(argv: Sequence[str]) -> int:
     out = PipeOutput(sys.stdout.fileno())
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find the SDK where the run's process found it
+    _quiet_sdk_log()  # before the SDK is imported: its log goes through Python's logging
     try:
         import foxglove
 
