@@ -341,3 +341,15 @@ def test_a_client_sending_invalid_messages_writes_few_lines_to_the_runs_terminal
     lines = [line for line in err.splitlines() if "Invalid message" in line]
     assert 0 < len(lines) <= LOG_LINES, err[-2000:]
     assert all(line.startswith("foxglove server: ") for line in lines)
+
+
+def test_an_mcap_trace_may_have_a_name_as_long_as_the_system_allows(tmp_path: Path) -> None:
+    # The chunked twin beside the file was named after the whole name: with a dot
+    # before and ".XXXXXXXX.part" after, a 245-byte name went over the system's 255, and
+    # `--trace NAME.mcap` failed the run (SinkError: File name too long) after it had
+    # moved the robot for 86 ticks; `.jsonl` took the same name.
+    pytest.importorskip("mcap")
+    path = tmp_path / ("a" * 245 + ".mcap")
+    run_and_record(path, ticks=3)
+    assert read_trace(path).end is not None
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no twin left

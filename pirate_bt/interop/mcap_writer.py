@@ -147,8 +147,15 @@ def _schema_record(topic: str) -> tuple[str, str, bytes]:
 
 
 def _temporary_beside(path: Path) -> tuple[int, str]:
-    """A new file beside ``path`` (``.NAME.*.part``) with the mode ``open`` would give it."""
-    fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    """A new file beside ``path`` (``.NAME.*.part``) with the mode ``open`` would give it.
+
+    NAME is the file's name cut to 64 bytes, as :func:`pirate_bt.atomic.write_atomically`
+    cuts it: a name may have 255 bytes, and the whole name with a dot before and
+    ``.XXXXXXXX.part`` after was refused (``--trace`` of a 245-byte name failed the
+    run with ``File name too long``, where ``.jsonl`` wrote it).
+    """
+    short = os.fsdecode(os.fsencode(path.name)[:64])
+    fd, temp = tempfile.mkstemp(prefix=f".{short}.", suffix=".part", dir=path.parent)
     mask = os.umask(0)
     os.umask(mask)
     os.chmod(temp, 0o666 & ~mask)  # mkstemp makes it private
