@@ -353,3 +353,16 @@ def test_an_mcap_trace_may_have_a_name_as_long_as_the_system_allows(tmp_path: Pa
     run_and_record(path, ticks=3)
     assert read_trace(path).end is not None
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no twin left
+
+
+def test_a_bag_may_have_a_name_as_long_as_its_mcap_file_allows(tmp_path: Path) -> None:
+    # the bag was made in a temporary folder named ".NAME.XXXXXXXX": a 246-byte NAME
+    # was refused (File name too long) though the bag, and its NAME.mcap, fit
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import export_rosbag2
+
+    trace = tmp_path / "run.jsonl"
+    run_and_record(trace, ticks=3)
+    bag = export_rosbag2(trace, tmp_path / ("c" * 242 + "_bag"))
+    assert len(read_rosbag2_records(bag)) == len(read_trace(trace).ticks) + 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([bag.name, "run.jsonl"])

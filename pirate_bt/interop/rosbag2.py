@@ -225,8 +225,11 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     store = typestore()
     records = iter(open_reader(Path(trace_path)))
     try:
+        # named after the target cut to 64 bytes (as write_atomically names its files):
+        # the whole name with a dot before and 9 characters after went over 255 bytes
+        short = os.fsdecode(os.fsencode(out.name)[:64])
         temp = Path(
-            tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else ".")
+            tempfile.mkdtemp(prefix=f".{short}.", dir=out.parent if str(out.parent) else ".")
         )
     except OSError as exc:  # no such folder, a file on the way, no permission
         raise InputError(
