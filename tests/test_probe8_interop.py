@@ -366,3 +366,20 @@ def test_a_bag_may_have_a_name_as_long_as_its_mcap_file_allows(tmp_path: Path) -
     bag = export_rosbag2(trace, tmp_path / ("c" * 242 + "_bag"))
     assert len(read_rosbag2_records(bag)) == len(read_trace(trace).ticks) + 2
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([bag.name, "run.jsonl"])
+
+
+@pytest.mark.parametrize("namespace", ["bad ns", "/9x", "a//b"])
+def test_a_namespace_ros_2_refuses_is_an_input_error_for_bags(
+    tmp_path: Path, namespace: str
+) -> None:
+    # a ValueError from rmw_zenoh.qualified_name, raised once the trace had been read
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import export_rosbag2
+
+    trace = tmp_path / "run.jsonl"
+    run_and_record(trace, ticks=2)
+    with pytest.raises(InputError, match=f"namespace {re.escape(repr(namespace))}: not a valid"):
+        export_rosbag2(trace, tmp_path / "x_bag", namespace=namespace)
+    with pytest.raises(InputError, match="not a valid ROS name"):
+        read_rosbag2_records(tmp_path / "x_bag", namespace=namespace)
+    assert [p.name for p in tmp_path.iterdir()] == ["run.jsonl"]

@@ -152,6 +152,24 @@ def is_bag_path(text: str | Path) -> bool:
     return path.is_dir() and not any(path.iterdir())
 
 
+def _trace_topic(namespace: object) -> str:
+    """The trace topic in ``namespace``.
+
+    Raises:
+        ArgumentTypeError: ``namespace`` is not text.
+        InputError: a namespace ROS 2 refuses (it was a ``ValueError`` from deep inside,
+            after the trace had been read).
+    """
+    from pirate_bt.interop.rmw_zenoh import qualified_name
+
+    if not isinstance(namespace, str):
+        raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
+    try:
+        return qualified_name(namespace, TRACE_TOPIC)
+    except ValueError as exc:
+        raise InputError(f"namespace {shown(namespace)}: {exc}") from None
+
+
 def _rosbags() -> Any:
     try:
         from rosbags import rosbag2
@@ -202,7 +220,8 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
 
     Raises:
         InputError: a path that is no file name, the trace cannot be read or is not a
-            trace; ``out_dir`` is not empty or cannot be made.
+            trace; ``out_dir`` is not empty or cannot be made; a namespace ROS 2 refuses.
+        ArgumentTypeError: ``namespace`` is not text.
         ConfigurationError: ``rosbags`` is missing.
     """
     from pirate_bt.interop.rmw_zenoh import qualified_name
@@ -212,6 +231,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     trace_path = file_argument(trace_path, "trace_path")
     if not isinstance(namespace, str):
         raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
+    _trace_topic(namespace)  # a namespace ROS refuses: said before anything is read
     rosbag2 = _rosbags()
     out = Path(str(file_argument(out_dir, "out_dir")).rstrip("/") or ".")
     try:
@@ -308,13 +328,13 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
 
     Raises:
         InputError: not a bag, no trace topic in it, or a message on it that is no
-            trace record (named by its number on the topic, from 1).
+            trace record (named by its number on the topic, from 1); a namespace ROS 2
+            refuses.
+        ArgumentTypeError: ``namespace`` is not text.
         ConfigurationError: ``rosbags`` is missing.
     """
-    from pirate_bt.interop.rmw_zenoh import qualified_name
-
+    topic = _trace_topic(namespace)
     rosbag2 = _rosbags()
-    topic = qualified_name(namespace, TRACE_TOPIC)
     store = typestore()
     string_type = "std_msgs/msg/String"
     records: list[dict[str, Any]] = []
