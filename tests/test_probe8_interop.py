@@ -4,6 +4,7 @@ Foxglove sends, and what pirate_bt must do with it (regressions of the bugs foun
 from __future__ import annotations
 
 import json
+import logging
 import re
 import socket
 import time
@@ -22,6 +23,7 @@ from pirate_bt.interop.btcpp import tree_to_xml
 from pirate_bt.interop.groot2_server import Groot2Server
 from pirate_bt.interop.mcap_trace import read_mcap_messages, read_mcap_records
 from pirate_bt.interop.ros2_node import EStopInput, Ros2Node
+from pirate_bt.interop.ros2_types import type_hash
 from pirate_bt.interop.rosbag2 import read_rosbag2_records
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.safety import Mode, Supervisor
@@ -383,3 +385,38 @@ def test_a_namespace_ros_2_refuses_is_an_input_error_for_bags(
     with pytest.raises(InputError, match="not a valid ROS name"):
         read_rosbag2_records(tmp_path / "x_bag", namespace=namespace)
     assert [p.name for p in tmp_path.iterdir()] == ["run.jsonl"]
+
+
+def test_short_messages_on_the_estop_topic_are_warned_of_once_a_minute(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # each message shorter than a Bool was one warning line in the run's log (stderr)
+    zenoh = pytest.importorskip("zenoh")
+    port = _free_port()
+    router = _zenoh_session(zenoh, "router", listen=[f"tcp/127.0.0.1:{port}"])
+    node = Ros2Node(f"tcp/127.0.0.1:{port}")
+    peer = _zenoh_session(zenoh, "peer", connect=[f"tcp/127.0.0.1:{port}"])
+    key = f"0/pirate/estop/std_msgs::msg::dds_::Bool_/{type_hash('std_msgs/msg/Bool')}"
+    caplog.set_level(logging.WARNING, logger="pirate_bt.interop.ros2_node")
+
+    def heard(payload: bytes) -> None:
+        assert node.estop is not None
+        before = node.estop.received
+        deadline = time.monotonic() + 20  # until the router routes to the node
+        while node.estop.received == before and time.monotonic() < deadline:
+            peer.put(key, payload)
+            time.sleep(0.05)
+        assert node.estop.received > before
+
+    try:
+        assert node.wait_ready()
+        heard(b"\x00\x01\x00\x00\x00")  # routed
+        for _ in range(200):
+            peer.put(key, b"\x00\x01\x00")
+        heard(b"\x00\x01\x00\x00\x00")  # after the short ones, in order
+        warnings = [r.getMessage() for r in caplog.records if "too short" in r.getMessage()]
+        assert len(warnings) == 1, warnings[:3]
+    finally:
+        node.close()
+        peer.close()
+        router.close()

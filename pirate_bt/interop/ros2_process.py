@@ -117,6 +117,9 @@ py_trees_ros's snapshot streams)."""
 
 ESTOP_TYPE = "std_msgs/msg/Bool"
 
+WARN_EVERY_NS = 60_000_000_000
+"""How often at most a warning about the e-stop topic's messages goes to the run's log."""
+
 _READ_BYTES = 1 << 20
 
 
@@ -171,6 +174,8 @@ class Node:
         self.endpoints: dict[str, _Endpoint] = {}
         self.tokens: list[Any] = []
         self.subscriber: Any = None
+        self._short = 0
+        self._short_said_ns = -WARN_EVERY_NS
         self.published = 0
         self.enabled = True
         self.mappers: dict[int, tuple[Ros2Mapper, tuple[str, ...]]] = {}
@@ -257,8 +262,15 @@ class Node:
             payload = bytes(sample.payload.to_bytes())
             # CDR: 4-byte encapsulation header, then the bool as one byte.
             if len(payload) < 5:
-                # said by the run's process, in its log (this one has none)
-                self.out.send((WARN, "e-stop: a message too short to be a std_msgs/Bool"))
+                # said by the run's process, in its log (this one has none), once a
+                # minute at most: a peer sending them in a loop wrote a line for each
+                self._short += 1
+                if heard - self._short_said_ns >= WARN_EVERY_NS:
+                    more = f" ({self._short} since the last warning)" if self._short > 1 else ""
+                    self.out.send(
+                        (WARN, f"e-stop: a message too short to be a std_msgs/Bool{more}")
+                    )
+                    self._short, self._short_said_ns = 0, heard
                 return
             self.out.send((BOOL, payload[4] != 0, heard))
         except Exception:  # Zenoh's thread must not die
