@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import re
 import socket
+import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -420,3 +423,30 @@ def test_short_messages_on_the_estop_topic_are_warned_of_once_a_minute(
         node.close()
         peer.close()
         router.close()
+
+
+def test_the_twin_of_a_killed_mcap_writer_is_deleted_by_the_next_writer(tmp_path: Path) -> None:
+    # a writer process killed with SIGKILL left its chunked twin (.NAME.*.part) behind
+    # for good: one more hidden file for every kill, as large as the run's chunks
+    pytest.importorskip("mcap")
+    path = tmp_path / "run.mcap"
+    killed = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import os, sys\n"
+            "from pirate_bt.interop.mcap_writer import McapTraceWriter\n"
+            "McapTraceWriter(sys.argv[1])\n"
+            "os._exit(9)\n",
+            str(path),
+        ],
+        check=False,
+    )
+    assert killed.returncode == 9
+    left = [p.name for p in tmp_path.iterdir() if p.name.endswith(".part")]
+    assert len(left) == 1 and left[0].startswith(".run.mcap.")
+    running = tmp_path / f".run.mcap.{os.getpid()}.abcdefgh.part"  # a live writer's
+    running.write_bytes(b"")
+    run_and_record(path, ticks=2)
+    assert read_trace(path).end is not None
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["run.mcap", running.name])

@@ -10,7 +10,7 @@ serialises them and writes them twice:
 - to the file itself, *unchunked*: each record's messages go to the kernel
   with one ``os.write``, so whatever happens to either process, the file holds
   every record written so far (no chunk waits in memory);
-- to a chunked, LZ4-compressed, indexed twin beside it (``.NAME.*.part``;
+- to a chunked, LZ4-compressed, indexed twin beside it (``.NAME.PID.*.part``;
   :class:`~pirate_bt.interop.mcap_chunks.ChunkedCopy`, the same records in
   chunks). When the run's end record comes, the twin is finished and renamed
   over the file (the file used to be rewritten at the end, read back whole). If
@@ -18,7 +18,8 @@ serialises them and writes them twice:
 
 When the input ends without an end record (the run was killed), the twin is
 deleted and the unchunked file is left as it is: no summary, no footer
-(:meth:`McapTraceWriter.cut_off`).
+(:meth:`McapTraceWriter.cut_off`). When the writer process itself is killed, its
+twin stays; the next writer of the same file deletes it.
 
 This module imports only the standard library and modules of ``pirate_bt`` that
 do (the writer process imports it by name); ``mcap`` (the ``foxglove`` extra) is
@@ -31,6 +32,7 @@ import contextlib
 import json
 import logging
 import os
+import re
 import struct
 import tempfile
 from pathlib import Path
@@ -146,20 +148,59 @@ def _schema_record(topic: str) -> tuple[str, str, bytes]:
     return name, "jsonschema", json.dumps(schema).encode("utf-8")
 
 
-def _temporary_beside(path: Path) -> tuple[int, str]:
-    """A new file beside ``path`` (``.NAME.*.part``) with the mode ``open`` would give it.
+def _twin_prefix(path: Path) -> str:
+    """``.NAME.PID.``: the start of the names of ``path``'s chunked twins.
 
     NAME is the file's name cut to 64 bytes, as :func:`pirate_bt.atomic.write_atomically`
     cuts it: a name may have 255 bytes, and the whole name with a dot before and
     ``.XXXXXXXX.part`` after was refused (``--trace`` of a 245-byte name failed the
-    run with ``File name too long``, where ``.jsonl`` wrote it).
+    run with ``File name too long``, where ``.jsonl`` wrote it). PID is the writing
+    process's, so that a twin left by a writer that was killed can be told from one
+    being written (:func:`_drop_orphan_twins`).
     """
     short = os.fsdecode(os.fsencode(path.name)[:64])
-    fd, temp = tempfile.mkstemp(prefix=f".{short}.", suffix=".part", dir=path.parent)
+    return f".{short}.{os.getpid()}."
+
+
+def _temporary_beside(path: Path) -> tuple[int, str]:
+    """A new file beside ``path`` (``.NAME.PID.*.part``) with the mode ``open`` would give it."""
+    fd, temp = tempfile.mkstemp(prefix=_twin_prefix(path), suffix=".part", dir=path.parent)
     mask = os.umask(0)
     os.umask(mask)
     os.chmod(temp, 0o666 & ~mask)  # mkstemp makes it private
     return fd, temp
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def _drop_orphan_twins(path: Path) -> None:
+    """Delete the twins of ``path`` whose writer is gone (killed before it could).
+
+    A writer process killed with SIGKILL left its ``.NAME.PID.*.part`` behind, one
+    more hidden file (as large as the run's chunks) for every kill; the next writer
+    of the same file deletes them. A twin of a writer still running is left alone.
+    """
+    short = os.fsdecode(os.fsencode(path.name)[:64])
+    pattern = re.compile(re.escape(f".{short}.") + r"(\d+)\.[A-Za-z0-9_]{8}\.part")
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return
+    for entry in entries:
+        found = pattern.fullmatch(entry.name)
+        if found is None or _alive(int(found[1])):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(entry.path)
+            logger.info("%s: deleted %s, left by a writer that was killed", path, entry.name)
 
 
 class McapTraceWriter(TraceFormatWriter):
@@ -223,6 +264,7 @@ class McapTraceWriter(TraceFormatWriter):
         self._finished = False
         self._emit()
         if compact:
+            _drop_orphan_twins(self.path)
             twin_fd, self._twin_path = _temporary_beside(self.path)
             try:
                 self._twin_file = open(twin_fd, "wb")  # noqa: SIM115 - closed in close()
