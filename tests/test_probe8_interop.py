@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -450,3 +451,23 @@ def test_the_twin_of_a_killed_mcap_writer_is_deleted_by_the_next_writer(tmp_path
     run_and_record(path, ticks=2)
     assert read_trace(path).end is not None
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["run.mcap", running.name])
+
+
+@pytest.mark.parametrize("name", ["a#b", "x.yaml", "y.yml"])
+def test_an_exported_tree_id_is_one_import_btcpp_takes_back(tmp_path: Path, name: str) -> None:
+    # BT.CPP took <BehaviorTree ID="a#b">, but pirate_bt's own import refused the file:
+    # "tree ID 'a#b' would read as a file in a pirate_bt subtree reference"
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "s.yaml").write_text(f'name: "{name}"\nroot: {{type: log, message: hi}}\n')
+    tree = tmp_path / "main.yaml"
+    tree.write_text(
+        f'name: "m{name}"\nroot:\n  type: sequence\n  children:\n'
+        "    - {type: subtree, name: call, ref: lib/s.yaml}\n"
+    )
+    out = tmp_path / "out.xml"
+    assert main(["export", "btcpp", str(tree), "-o", str(out)]) == 0
+    ids = {e.get("ID") for e in ET.parse(out).getroot().iter("BehaviorTree")}
+    assert all("#" not in i and not i.endswith((".yaml", ".yml")) for i in ids), ids
+    back = tmp_path / "back.yaml"
+    assert main(["import", "btcpp", str(out), "-o", str(back)]) == 0
+    assert main(["validate", str(back)]) == 0

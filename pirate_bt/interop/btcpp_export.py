@@ -116,6 +116,11 @@ class _Exporter:
                 tree_id = name if doc is self.root_doc else f"{self.file_id(doc)}.{name}"
             else:
                 tree_id = self.file_id(doc)
+        # an ID pirate_bt's import would read as a file reference (a '#', a .yaml
+        # ending) could not come back: BT.CPP took the file, `import btcpp` refused it
+        tree_id = tree_id.replace("#", "_")
+        if tree_id.endswith((".yaml", ".yml")):
+            tree_id += "_"
         base, n = tree_id, 1
         while tree_id in self.taken:
             n += 1
