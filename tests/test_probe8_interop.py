@@ -25,7 +25,7 @@ from pirate_bt.interop import groot2_protocol as proto
 from pirate_bt.interop import groot2_requests
 from pirate_bt.interop.btcpp import tree_to_xml
 from pirate_bt.interop.groot2_server import Groot2Server
-from pirate_bt.interop.mcap_trace import read_mcap_messages, read_mcap_records
+from pirate_bt.interop.mcap_trace import compact_mcap, read_mcap_messages, read_mcap_records
 from pirate_bt.interop.ros2_node import EStopInput, Ros2Node
 from pirate_bt.interop.ros2_types import type_hash
 from pirate_bt.interop.rosbag2 import read_rosbag2_records
@@ -471,3 +471,26 @@ def test_an_exported_tree_id_is_one_import_btcpp_takes_back(tmp_path: Path, name
     back = tmp_path / "back.yaml"
     assert main(["import", "btcpp", str(out), "-o", str(back)]) == 0
     assert main(["validate", str(back)]) == 0
+
+
+def test_compacting_a_file_that_is_not_mcap_or_is_damaged_keeps_it(
+    run_mcap: Path, tmp_path: Path
+) -> None:
+    # compact_mcap(path) "recovered" a .jsonl (or any file) given by mistake as an
+    # empty MCAP file written over it: the trace was gone
+    jsonl = tmp_path / "run.jsonl"
+    run_and_record(jsonl, ticks=2)
+    before = jsonl.read_bytes()
+    with pytest.raises(InputError, match=r"run\.jsonl: not a readable MCAP file .*nothing written"):
+        compact_mcap(jsonl)
+    assert jsonl.read_bytes() == before
+    # damaged inside (not cut off): in place it would lose what follows the damage
+    damaged = tmp_path / "damaged.mcap"
+    data = bytearray(run_mcap.read_bytes())
+    chunk = data.index(b"\x03\x00\x00\x00lz4") + 7 + 8  # the first chunk's records
+    data[chunk + 40 : chunk + 56] = b"\xff" * 16
+    damaged.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"damaged\.mcap: damaged after \d+ record"):
+        compact_mcap(damaged)
+    assert damaged.read_bytes() == bytes(data)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["damaged.mcap", "run.jsonl"]

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.interop.foxglove_topics import (
     TOPICS,
     TopicMapper,
@@ -398,18 +398,30 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
 
     Returns:
         The file written.
+
+    Raises:
+        InputError: ``path`` cannot be read or is not MCAP (nothing is written; until
+            2026-11-29 it was replaced by an empty MCAP file), or is damaged before its
+            end and would be replaced (what follows the damage would be lost; another
+            ``out_path`` keeps what comes before it); the output cannot be written.
     """
     mcap = load_mcap()
     from mcap.records import Channel, Message, Schema
     from mcap.stream_reader import StreamReader
 
+    out = Path(out_path or path)
+    in_place = out_path is None or _same_file(out, Path(path))
+
     def fill(stream: IO[bytes]) -> None:
         writer = _chunked_writer(stream)
         schemas: dict[int, int] = {}
         channels: dict[int, int] = {}
+        read = 0
         with open(path, "rb") as source:
             try:
-                for record in StreamReader(source).records:
+                # CRCs checked: damage inside a chunk was copied on as it was read
+                for record in StreamReader(source, validate_crcs=True).records:
+                    read += 1
                     if isinstance(record, Schema) and record.id not in schemas:
                         schemas[record.id] = writer.register_schema(
                             record.name, record.encoding, record.data
@@ -429,8 +441,33 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
                             record.publish_time,
                             record.sequence,
                         )
-            except (mcap.exceptions.McapError, EOFError):
-                pass  # a cut-off end: keep what was complete
+            except Exception as exc:  # the reader's, a decompressor's (zstd, lz4): damage
+                cut = isinstance(exc, mcap.exceptions.EndOfFile | EOFError)
+                if not read:
+                    reason = "cut off before its first record" if cut else str(exc)
+                    raise InputError(
+                        f"{path}: not a readable MCAP file ({reason}); nothing written"
+                    ) from None
+                if not cut and in_place:
+                    raise InputError(
+                        f"{path}: damaged after {read} record{'s' if read != 1 else ''}:"
+                        f" {exc}; not compacted in"
+                        " place, which would drop what follows (give another output to keep"
+                        " what comes before)"
+                    ) from None
+                if not cut:
+                    logger.warning("%s: damaged after %d records (%s): kept those", path, read, exc)
+                # a cut-off end: keep what was complete
         writer.finish()
 
-    return write_atomically(Path(out_path or path), fill, durable=True)
+    try:
+        return write_atomically(out, fill, durable=True)
+    except OSError as exc:
+        raise InputError(f"cannot compact {path} into {out}: {exc.strerror or exc}") from None
+
+
+def _same_file(one: Path, other: Path) -> bool:
+    try:
+        return os.path.samefile(one, other)
+    except OSError:
+        return False
