@@ -8,6 +8,7 @@ import logging
 import os
 import re
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -494,3 +495,31 @@ def test_compacting_a_file_that_is_not_mcap_or_is_damaged_keeps_it(
         compact_mcap(damaged)
     assert damaged.read_bytes() == bytes(data)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["damaged.mcap", "run.jsonl"]
+
+
+def test_an_mcap_file_damaged_before_its_end_is_named_not_read_as_a_cut_off_run(
+    tmp_path: Path,
+) -> None:
+    # a record's length field damaged in the middle of an unchunked file: the reading
+    # stopped there and the whole run read as "incomplete", 6 ticks of 14
+    pytest.importorskip("mcap")
+    from pirate_bt.interop.mcap_writer import McapTraceWriter
+
+    source = tmp_path / "run.jsonl"
+    run_and_record(source)
+    path = tmp_path / "run.mcap"
+    writer = McapTraceWriter(path, compact=False)
+    for line in source.read_text().splitlines():
+        writer.write_line(line)
+    writer.close()
+    data = bytearray(path.read_bytes())
+    position, messages = 8, 0
+    while messages < 30:  # the 30th message record
+        opcode, length = data[position], struct.unpack_from("<Q", data, position + 1)[0]
+        messages += opcode == 5
+        if messages < 30:
+            position += 9 + length
+    data[position + 1 : position + 9] = b"\xff" * 8
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"run\.mcap: damaged after 29 messages"):
+        read_trace(path)

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import json
 import os
-import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any, ClassVar
@@ -55,6 +54,7 @@ from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
     _Channels,
     _chunked_writer,
+    _cut_off,
     compact_mcap,
     load_mcap,
 )
@@ -164,7 +164,8 @@ def _read_messages(
     try:
         with open(path, "rb") as stream:
             try:
-                for record in StreamReader(stream, skip_magic=False).records:
+                # CRCs checked: a damaged chunk read as garbage, or as a cut-off run
+                for record in StreamReader(stream, skip_magic=False, validate_crcs=True).records:
                     if isinstance(record, Channel):
                         encodings.setdefault(record.topic, record.message_encoding)
                         if record.message_encoding == "json":
@@ -176,7 +177,9 @@ def _read_messages(
                             out.append((topic, _json_object(path, number, topic, record.data)))
                     elif isinstance(record, Footer):
                         complete = True
-            except (McapError, EOFError, ValueError, struct.error) as exc:
+            except InputError:
+                raise
+            except Exception as exc:  # the reader's, a decompressor's (zstd, lz4)
                 if not out and not encodings:
                     # a file cut inside its magic or first chunk says nothing of its own
                     reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
@@ -184,6 +187,11 @@ def _read_messages(
                     raise InputError(
                         f"{path}: not a readable MCAP file"
                         + (f": {reason}" if reason else f" (cut off or damaged: {size} bytes)")
+                    ) from None
+                if not _cut_off(exc, stream):  # damage before the end is no cut-off run
+                    raise InputError(
+                        f"{path}: damaged after {number} message{'s' if number != 1 else ''}:"
+                        f" {type(exc).__name__}: {exc}"
                     ) from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None

@@ -405,7 +405,7 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
             end and would be replaced (what follows the damage would be lost; another
             ``out_path`` keeps what comes before it); the output cannot be written.
     """
-    mcap = load_mcap()
+    load_mcap()
     from mcap.records import Channel, Message, Schema
     from mcap.stream_reader import StreamReader
 
@@ -441,8 +441,8 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
                             record.publish_time,
                             record.sequence,
                         )
-            except Exception as exc:  # the reader's, a decompressor's (zstd, lz4): damage
-                cut = isinstance(exc, mcap.exceptions.EndOfFile | EOFError)
+            except Exception as exc:  # the reader's, a decompressor's (zstd, lz4)
+                cut = _cut_off(exc, source)
                 if not read:
                     reason = "cut off before its first record" if cut else str(exc)
                     raise InputError(
@@ -464,6 +464,19 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
         return write_atomically(out, fill, durable=True)
     except OSError as exc:
         raise InputError(f"cannot compact {path} into {out}: {exc.strerror or exc}") from None
+
+
+def _cut_off(exc: Exception, stream: IO[bytes]) -> bool:
+    """Whether the stream reader's ``exc`` means the file ends there (cut off), not
+    that it is damaged: the reader ran out of bytes (a record cut short reads as a
+    ``struct.error`` at the end of the file)."""
+    mcap = load_mcap()
+    if isinstance(exc, mcap.exceptions.EndOfFile | EOFError):
+        return True
+    try:
+        return stream.tell() >= os.fstat(stream.fileno()).st_size
+    except (OSError, ValueError):
+        return False
 
 
 def _same_file(one: Path, other: Path) -> bool:
