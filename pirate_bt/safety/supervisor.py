@@ -150,6 +150,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._holding: set[Half] = set()  # halves clamped by the protective hold
         self._hold_refused: set[Half] = set()  # a protective clamp refused (logged once)
         self._ever_held = False  # a half has held the robot since the start
+        self._hold_sent_s = -math.inf  # when the latest protective clamp was sent
         self._hold_torque = hold_torque(self.robot)
         self._half_channels = half_channels(self.robot)
         self._closed = False

@@ -107,6 +107,7 @@ class HoldMixin:
     _holding: set[Half]
     _hold_refused: set[Half]
     _ever_held: bool
+    _hold_sent_s: float
     _hold_torque: float
     _checks: list[Check]
     _expander: Expander
@@ -191,13 +192,10 @@ class HoldMixin:
             seen = True
         return True if seen else None
 
-    def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
-        """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
-        # Runs every tick: on the level (most ticks) it costs one lookup.
-        pitch = state.imu_rad.get("pitch")
-        if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
-            self._holding.clear()
-            return
+    def _halves_holding(
+        self, state: RobotState, now_s: float
+    ) -> tuple[dict[Half, ClampState], list[Half]]:
+        """Each half's clamp state, and the halves clamped by fresh readings."""
         halves = half_states(self.robot, state, self._targets)
         holding = [
             h
@@ -205,6 +203,27 @@ class HoldMixin:
             if s is ClampState.CLAMPED
             and not stale_channels(self.robot, state, self._half_channels[h], now_s)
         ]
+        return halves, holding
+
+    def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
+        """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
+        # Runs every tick: on the level (most ticks) it costs one lookup.
+        pitch = state.imu_rad.get("pitch")
+        if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
+            if (
+                self._holding
+                and now_s - self._hold_sent_s < HOLD_SETTLE_S
+                and not self._halves_holding(state, now_s)[1]
+            ):
+                # The robot slid down to where the pipe is no longer steep (the foot of
+                # a bend) while the protective clamp was landing: it stopped there, held
+                # by nothing yet. The clamp is still on its way; the end of a run waits
+                # for it (settle_hold, come_to_rest) as in the steep pipe, so that it
+                # does not hand back a robot on the very step its slide ended.
+                return
+            self._holding.clear()
+            return
+        halves, holding = self._halves_holding(state, now_s)
         if holding:
             self._holding.clear()
             self._hold_refused.clear()  # a later episode logs its refusals again
@@ -245,6 +264,7 @@ class HoldMixin:
                 log.error("could not clamp the %s half: %s", half, exc)
                 continue
             self._holding.add(half)
+            self._hold_sent_s = now_s
             self._targets[half] = HalfTarget.CLAMP
             for c in cmds:
                 self._last_setpoint[c.motor] = (c.mode, c.value, now_s)
