@@ -523,3 +523,41 @@ def test_an_mcap_file_damaged_before_its_end_is_named_not_read_as_a_cut_off_run(
     path.write_bytes(bytes(data))
     with pytest.raises(InputError, match=r"run\.mcap: damaged after 29 messages"):
         read_trace(path)
+
+
+@pytest.mark.parametrize(
+    ("record", "field", "value", "suffix"),
+    [
+        (0, "tick_period_s", "abc", "_bag"),
+        (1, "t_s", "soon", "_bag"),
+        (-1, "t_s", 1e300, "_bag"),
+        (-1, "t_s", 1e300, ".mcap"),
+        (1, "status", 3.5, "_bag"),
+    ],
+    ids=["period-text", "time-text", "time-huge-bag", "time-huge-mcap", "status-number"],
+)
+def test_exporting_a_trace_with_a_value_of_the_wrong_kind_names_the_record(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    record: int,
+    field: str,
+    value: Any,
+    suffix: str,
+) -> None:
+    # `pirate-bt trace export` of a hand-edited trace: "internal error: ValueError:
+    # could not convert string to float: 'abc' (rerun with --debug)", exit 1
+    pytest.importorskip("rosbags" if suffix == "_bag" else "mcap")
+    source = tmp_path / "good.jsonl"
+    run_and_record(source, ticks=3)
+    lines = source.read_text().splitlines()
+    changed = json.loads(lines[record])
+    changed[field] = value
+    lines[record] = json.dumps(changed)
+    trace = tmp_path / "bad.jsonl"
+    trace.write_text("\n".join(lines) + "\n")
+    line = record % len(lines) + 1
+    assert main(["trace", "export", str(trace), "-o", str(tmp_path / f"out{suffix}")]) == 2
+    err = capsys.readouterr().err
+    assert f"bad.jsonl:{line}: cannot convert this record" in err, err
+    assert "internal error" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.jsonl", "good.jsonl"]

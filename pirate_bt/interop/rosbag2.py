@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import struct
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from datetime import datetime
@@ -44,6 +45,7 @@ from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _numbe
 from pirate_bt.interop.ros2_types import missing, type_hash, typestore
 
 __all__ = [
+    "BAD_RECORD",
     "TRACE_TOPIC",
     "export_rosbag2",
     "frames_from_records",
@@ -51,6 +53,17 @@ __all__ = [
     "read_rosbag2_records",
     "start_ns_of",
 ]
+
+BAD_RECORD: tuple[type[Exception], ...] = (
+    ValueError,
+    TypeError,
+    AttributeError,
+    LookupError,
+    ArithmeticError,
+    struct.error,
+)
+"""What converting a record with a value of the wrong kind, or out of range, raises
+(a hand-edited or foreign trace): said as the record's error, never as an internal one."""
 
 TRACE_TOPIC = "trace"
 """The topic (relative to the namespace) that holds every trace record as JSON text."""
@@ -282,37 +295,43 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                     current[0] = line  # frames_from_records yields once per record, in order
                     yield record
 
-            for record, frame in frames_from_records(numbered()):
-                line = current[0]
-                if first and record.get("type") != "header":
-                    raise InputError(
-                        f"{trace_path}:{line}: not a trace: the first record is no header"
-                    )
-                if record.get("type") == "header":
-                    structure = TreeStructure.from_json(
-                        record.get("tree") or {"name": "", "nodes": []}
-                    )
-                    start_ns = start_ns_of(record)
-                    mapper = Ros2Mapper(
-                        structure,
-                        start_ns,
-                        hardware_id=str((record.get("robot") or {}).get("name") or "pirate"),
-                        period_s=float(record.get("tick_period_s") or 0.0),
-                    )
-                first = False
-                when = start_ns + round(float(record.get("t_s") or 0.0) * 1e9)
-                text = json.dumps(record, ensure_ascii=False, separators=(",", ":"))
-                writer.write(connection(TRACE_TOPIC, string_type), when, string_message(text))
-                if frame is None or mapper is None:
-                    continue
-                for out_message in mapper.messages(frame, changed=True):
-                    if out_message.topic == CLOCK:
+            try:
+                for record, frame in frames_from_records(numbered()):
+                    line = current[0]
+                    if first and record.get("type") != "header":
+                        raise InputError(
+                            f"{trace_path}:{line}: not a trace: the first record is no header"
+                        )
+                    if record.get("type") == "header":
+                        structure = TreeStructure.from_json(
+                            record.get("tree") or {"name": "", "nodes": []}
+                        )
+                        start_ns = start_ns_of(record)
+                        mapper = Ros2Mapper(
+                            structure,
+                            start_ns,
+                            hardware_id=str((record.get("robot") or {}).get("name") or "pirate"),
+                            period_s=float(record.get("tick_period_s") or 0.0),
+                        )
+                    first = False
+                    when = start_ns + round(float(record.get("t_s") or 0.0) * 1e9)
+                    text = json.dumps(record, ensure_ascii=False, separators=(",", ":"))
+                    writer.write(connection(TRACE_TOPIC, string_type), when, string_message(text))
+                    if frame is None or mapper is None:
                         continue
-                    writer.write(
-                        connection(out_message.topic, out_message.type_name),
-                        out_message.stamp_ns,
-                        out_message.data,
-                    )
+                    for out_message in mapper.messages(frame, changed=True):
+                        if out_message.topic == CLOCK:
+                            continue
+                        writer.write(
+                            connection(out_message.topic, out_message.type_name),
+                            out_message.stamp_ns,
+                            out_message.data,
+                        )
+            except BAD_RECORD as exc:  # a value of the wrong kind, or out of range
+                raise InputError(
+                    f"{trace_path}:{current[0]}: cannot convert this record:"
+                    f" {type(exc).__name__}: {exc}"
+                ) from None
             if first:
                 raise InputError(f"{trace_path}: empty trace (no header)")
         if out.exists():
