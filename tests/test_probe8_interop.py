@@ -561,3 +561,20 @@ def test_exporting_a_trace_with_a_value_of_the_wrong_kind_names_the_record(
     assert f"bad.jsonl:{line}: cannot convert this record" in err, err
     assert "internal error" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.jsonl", "good.jsonl"]
+
+
+def test_a_btlog_export_of_a_status_that_is_a_list_names_the_tick(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # "internal error: TypeError: unhashable type: 'list'", exit 1
+    source = tmp_path / "good.jsonl"
+    run_and_record(source, ticks=3)
+    lines = source.read_text().splitlines()
+    tick = json.loads(lines[1])
+    tick["status"] = {next(iter(tick["status"])): ["R"]}
+    lines[1] = json.dumps(tick)
+    trace = tmp_path / "bad.jsonl"
+    trace.write_text("\n".join(lines) + "\n")
+    assert main(["trace", "export", str(trace), "-o", str(tmp_path / "out.btlog")]) == 2
+    err = capsys.readouterr().err
+    assert "bad.jsonl: tick 1: unknown status ['R']" in err, err

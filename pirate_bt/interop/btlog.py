@@ -245,7 +245,7 @@ def trace_transitions(trace: Any) -> list[Transition]:
             raise InputError(f"{trace.path}: tick {tick.n} at {tick.t_s} s is beyond a .btlog")
         new: dict[str, str] = {}
         for node_id, code in tick.status.items():
-            if code not in STATUS_CODES:
+            if not isinstance(code, str) or code not in STATUS_CODES:  # a list: TypeError
                 raise InputError(f"{trace.path}: tick {tick.n}: unknown status {code!r}")
             if node_id in uid and code != status[node_id]:
                 new[node_id] = code
