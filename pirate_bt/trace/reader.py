@@ -442,12 +442,26 @@ class Trace(TraceQueries):
         return self.frame_at(n).robot_state()
 
 
+def _status_codes(value: Any) -> dict[str, str]:
+    """A tick's ``status`` member, each code one of :data:`CODE_STATUS`'s.
+
+    Raises:
+        ValueError: a code that is none (a list or a number passed, and later made
+            ``trace show`` and ``render --trace`` end with an internal error).
+    """
+    status = dict(value)
+    for node_id, code in status.items():
+        if not isinstance(code, str) or code not in CODE_STATUS:
+            raise ValueError(f"node {node_id!r}: status {code!r} is none of S, F, R, I")
+    return status
+
+
 def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecord:
     try:
         return TickRecord(
             n=int(record["n"]),
             t_s=float(record["t_s"]),
-            status=dict(record.get("status", {})),
+            status=_status_codes(record.get("status", {})),
             feedback=dict(record.get("feedback", {})),
             bb=dict(record.get("bb", {})),
             bb_unset=tuple(record.get("bb_unset", ())),

@@ -1,0 +1,46 @@
+"""Probe 8, interop (continued): traces and other tools' files a hand or a foreign tool made
+(regressions of the bugs found; tests/test_probe8_interop.py holds the first ones)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from tests.trace_support import run_and_record
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["trace", "summary", "{t}"],
+        ["trace", "show", "{t}", "--tick", "1"],
+        ["trace", "show", "{t}"],
+        ["render", "trees/straight.yaml", "--trace", "{t}", "--tick", "1", "-o", "{o}"],
+    ],
+    ids=["summary", "show-tick", "show", "render"],
+)
+def test_a_tick_whose_status_is_no_status_code_is_a_located_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str]
+) -> None:
+    # the reader took any JSON as a status: `trace summary` said nothing, `trace show`
+    # and `render --trace` ended with "internal error: TypeError: unhashable type"
+    # or "KeyError: 5", exit 1
+    source = tmp_path / "good.jsonl"
+    run_and_record(source, ticks=3)
+    lines = source.read_text().splitlines()
+    tick = json.loads(lines[1])
+    first = next(iter(tick["status"]))
+    tick["status"][first] = ["R"]
+    lines[1] = json.dumps(tick)
+    trace = tmp_path / "bad.jsonl"
+    trace.write_text("\n".join(lines) + "\n")
+    root = Path(__file__).resolve().parent.parent
+    argv = [a.format(t=trace, o=tmp_path / "out.svg") if "{" in a else a for a in command]
+    argv = [str(root / a) if a.startswith("trees/") else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"bad.jsonl:2:1: bad tick record: ValueError: node '{first}': status ['R']" in err
+    assert "internal error" not in err
