@@ -44,3 +44,19 @@ def test_a_tick_whose_status_is_no_status_code_is_a_located_error(
     err = capsys.readouterr().err
     assert f"bad.jsonl:2:1: bad tick record: ValueError: node '{first}': status ['R']" in err
     assert "internal error" not in err
+
+
+def test_a_summary_of_a_header_whose_robot_is_no_object_says_what_it_can(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # "internal error: AttributeError: 'str' object has no attribute 'get'", exit 1
+    source = tmp_path / "run.jsonl"
+    run_and_record(source, ticks=3)
+    lines = source.read_text().splitlines()
+    header = json.loads(lines[0])
+    header["robot"] = "abc"
+    lines[0] = json.dumps(header)
+    source.write_text("\n".join(lines) + "\n")
+    assert main(["trace", "summary", str(source)]) == 0
+    out = capsys.readouterr().out
+    assert "outcome" in out and "robot " not in out

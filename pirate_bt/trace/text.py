@@ -210,7 +210,9 @@ def coverage_lines(coverage: Coverage, limit: int = 12) -> list[str]:
 def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
     """A summary as lines of text."""
     header = summary.header
-    robot = header.get("robot") or {}
+    robot = header.get("robot")
+    if not isinstance(robot, dict):  # a hand-edited header: "robot": "abc" ended in a traceback
+        robot = {}
     outcome = summary.outcome
     if outcome == "incomplete":
         outcome += " (no end record: the run was cut off)"
