@@ -60,3 +60,43 @@ def test_a_summary_of_a_header_whose_robot_is_no_object_says_what_it_can(
     assert main(["trace", "summary", str(source)]) == 0
     out = capsys.readouterr().out
     assert "outcome" in out and "robot " not in out
+
+
+@pytest.mark.parametrize(
+    ("record", "field", "value", "said"),
+    [
+        (-1, "n", None, "bad end record: n is a whole number"),
+        (-1, "t_s", {}, "bad end record: n is a whole number"),
+        (-1, "outcome", 3, "bad end record: n is a whole number"),
+        (
+            1,
+            "commands",
+            "abc",
+            'bad tick record: ValueError: commands is a list of objects, not "abc"',
+        ),
+        (1, "commands", [1], "bad tick record: ValueError: commands is a list of objects, not [1]"),
+    ],
+    ids=["end-n-null", "end-t-object", "end-outcome-number", "commands-text", "commands-numbers"],
+)
+def test_a_record_member_of_the_wrong_kind_is_a_located_error(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    record: int,
+    field: str,
+    value: object,
+    said: str,
+) -> None:
+    # "internal error: TypeError: int() argument must be ... not 'NoneType'" (trace
+    # summary, trace show) and "AttributeError: 'str' object has no attribute 'get'"
+    source = tmp_path / "run.jsonl"
+    run_and_record(source, ticks=3)
+    lines = source.read_text().splitlines()
+    changed = json.loads(lines[record])
+    changed[field] = value
+    lines[record] = json.dumps(changed)
+    source.write_text("\n".join(lines) + "\n")
+    line = record % len(lines) + 1
+    for command in (["trace", "summary", str(source)], ["trace", "show", str(source)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert f"run.jsonl:{line}:1: {said}" in err, err

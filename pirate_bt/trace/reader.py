@@ -42,7 +42,15 @@ from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import register_format, suffix_of
 from pirate_bt.trace.query import TraceQueries
-from pirate_bt.trace.records import CODE_STATUS, FORMAT_NAME, TRACE_VERSION, state_from_flat
+from pirate_bt.trace.records import (
+    CODE_STATUS,
+    FORMAT_NAME,
+    TRACE_VERSION,
+    end_problem,
+    objects,
+    state_from_flat,
+    status_codes,
+)
 from pirate_bt.trace.structure import TreeStructure
 
 __all__ = [
@@ -442,32 +450,18 @@ class Trace(TraceQueries):
         return self.frame_at(n).robot_state()
 
 
-def _status_codes(value: Any) -> dict[str, str]:
-    """A tick's ``status`` member, each code one of :data:`CODE_STATUS`'s.
-
-    Raises:
-        ValueError: a code that is none (a list or a number passed, and later made
-            ``trace show`` and ``render --trace`` end with an internal error).
-    """
-    status = dict(value)
-    for node_id, code in status.items():
-        if not isinstance(code, str) or code not in CODE_STATUS:
-            raise ValueError(f"node {node_id!r}: status {code!r} is none of S, F, R, I")
-    return status
-
-
 def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecord:
     try:
         return TickRecord(
             n=int(record["n"]),
             t_s=float(record["t_s"]),
-            status=_status_codes(record.get("status", {})),
+            status=status_codes(record.get("status", {})),
             feedback=dict(record.get("feedback", {})),
             bb=dict(record.get("bb", {})),
             bb_unset=tuple(record.get("bb_unset", ())),
             state=dict(record.get("state", {})),
             full=bool(record.get("full", False)),
-            commands=tuple(record.get("commands", ())),
+            commands=objects(record.get("commands", ()), "commands"),
             link=dict(record.get("link", {})),
             sim=dict(record.get("sim", {})),
             events=tuple(record.get("events", ())),
@@ -562,6 +556,9 @@ def _records(
                 raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
             ticks.append(tick)
         elif kind == "end":
+            problem = end_problem(record)
+            if problem:
+                raise LocatedError(problem, loc)
             end, end_line = record, line
         else:
             raise LocatedError(f"unknown record type {kind!r}", loc)

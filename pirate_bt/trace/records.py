@@ -53,11 +53,14 @@ __all__ = [
     "TickExtras",
     "TraceEvent",
     "encode_value",
+    "end_problem",
     "flatten_state",
     "link_health_raw",
     "link_health_values",
+    "objects",
     "state_from_flat",
     "state_layout",
+    "status_codes",
     "trace_schema",
 ]
 
@@ -363,3 +366,52 @@ def trace_schema() -> dict[str, Any]:
     text = resources.files("pirate_bt.trace").joinpath("trace.schema.json").read_text("utf-8")
     schema: dict[str, Any] = json.loads(text)
     return schema
+
+
+# -- what a reader checks of a record's members ------------------------------------------
+
+
+def status_codes(value: Any) -> dict[str, str]:
+    """A tick's ``status`` member, each code one of :data:`CODE_STATUS`'s.
+
+    Raises:
+        ValueError: a code that is none (a list or a number passed, and later made
+            ``trace show`` and ``render --trace`` end with an internal error).
+        TypeError: not an object.
+    """
+    status = dict(value)
+    for node_id, code in status.items():
+        if not isinstance(code, str) or code not in CODE_STATUS:
+            raise ValueError(f"node {node_id!r}: status {code!r} is none of S, F, R, I")
+    return status
+
+
+def objects(value: Any, member: str) -> tuple[dict[str, Any], ...]:
+    """A record's list of objects (a tick's ``commands``).
+
+    Raises:
+        ValueError: not a list of objects (text, or a list of numbers, passed and
+            ended ``trace summary`` with an internal error).
+    """
+    if not isinstance(value, list | tuple) or not all(isinstance(v, dict) for v in value):
+        raise ValueError(f"{member} is a list of objects, not {json.dumps(value)[:60]}")
+    return tuple(value)
+
+
+def end_problem(record: Mapping[str, Any]) -> str | None:
+    """What is wrong with an end record's ``n``, ``t_s`` or ``outcome`` (a ``null``
+    tick number ended ``trace summary`` and ``show`` with an internal error), or None."""
+    n, t_s, outcome = record.get("n", 0), record.get("t_s", 0.0), record.get("outcome")
+    if (
+        isinstance(n, int)
+        and not isinstance(n, bool)
+        and isinstance(t_s, int | float)
+        and not isinstance(t_s, bool)
+        and isinstance(outcome, str)
+    ):
+        return None
+    return (
+        "bad end record: n is a whole number, t_s a number and outcome text"
+        f" (n {json.dumps(n)[:40]}, t_s {json.dumps(t_s)[:40]},"
+        f" outcome {json.dumps(outcome)[:40]})"
+    )
