@@ -16,7 +16,7 @@ import logging
 import threading
 from typing import TYPE_CHECKING
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LinkError
 from pirate_bt.safety.commands import Command, Stop
 from pirate_bt.safety.operator import (
     Confirm,
@@ -107,15 +107,30 @@ class AuthorityMixin(DecisionMixin):
                 )
             )
 
-    def reset_estop(self) -> None:
-        """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``."""
+    def reset_estop(self) -> bool:
+        """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``.
+
+        The bridge may refuse (``NACK NOT_READY`` while a board is in fault or its
+        hardware e-stop input is pressed) or not answer: then the e-stop stays latched,
+        the refusal is logged as an error, and the operator may try again. Before
+        2026-11-29 the link's error went up through the supervisor's tick and ended the
+        run (and the operator console) on a link error.
+
+        Returns:
+            True when the e-stop is released (or was not latched).
+        """
         with self._lock:
             if self._mode is not Mode.ESTOP:
-                return
-            self.port.reset_estop()
+                return True
+            try:
+                self.port.reset_estop()
+            except LinkError as exc:
+                log.error("e-stop reset refused: %s; the e-stop stays latched", exc)
+                return False
             self._mode = Mode.MANUAL
             self._estop_reason = None
             log.warning("e-stop reset by the operator; mode manual")
+            return True
 
     # -- operator authority ---------------------------------------------------
 
