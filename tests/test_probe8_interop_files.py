@@ -100,3 +100,51 @@ def test_a_record_member_of_the_wrong_kind_is_a_located_error(
         assert main(command) == 2
         err = capsys.readouterr().err
         assert f"run.jsonl:{line}:1: {said}" in err, err
+
+
+def test_a_tree_groot2_cannot_be_shown_is_found_so_once(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # every request (Groot2 polls the statuses ten times a second) made the tree's XML
+    # again and logged a traceback: a 70,000-node tree cost 0.4 s of the server's
+    # thread a request, and filled the run's log
+    zmq = pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    import py_trees
+
+    from pirate_bt.interop import groot2_protocol as proto
+    from pirate_bt.interop import groot2_run
+    from pirate_bt.interop.groot2_server import Groot2Server
+
+    made = []
+
+    def too_large(*args: object) -> object:
+        made.append(1)
+        raise ValueError("the tree has 70001 nodes; BehaviorTree.CPP numbers at most 65535")
+
+    monkeypatch.setattr(groot2_run, "served_tree", too_large)
+    with Groot2Server(port=0) as server:
+        server.serve(py_trees.trees.BehaviourTree(py_trees.behaviours.Success("ok")))
+        context = zmq.Context()
+        try:
+            req = context.socket(zmq.REQ)
+            req.setsockopt(zmq.RCVTIMEO, 20000)
+            req.setsockopt(zmq.LINGER, 0)
+            req.connect(f"tcp://127.0.0.1:{server.port}")
+            replies = []
+            for kind in "TSSSB":
+                req.send_multipart([proto.pack_request(ord(kind)), *([b""] if kind == "B" else [])])
+                replies.append(req.recv_multipart())
+        finally:
+            context.destroy(linger=0)
+    assert made == [1]
+    assert all(
+        r
+        == [
+            b"error",
+            b"cannot serve this tree: the tree has 70001 nodes;"
+            b" BehaviorTree.CPP numbers at most 65535",
+        ]
+        for r in replies
+    ), replies
+    assert sum("cannot serve this tree" in r.getMessage() for r in caplog.records) == 1

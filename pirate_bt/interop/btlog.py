@@ -198,7 +198,8 @@ def structure_xml(structure: TreeStructure, registry: Registry | None = None) ->
     """
     if len(structure) > _MAX_UID:
         raise InputError(
-            f"the tree has {len(structure)} nodes; a .btlog numbers at most {_MAX_UID}"
+            f"the tree has {len(structure)} nodes; BehaviorTree.CPP (a .btlog, Groot2)"
+            f" numbers at most {_MAX_UID}"
         )
     writer = _TreeWriter(structure, registry or default_registry())
     root = ET.Element("root", {"BTCPP_format": "4"})

@@ -32,7 +32,7 @@ from pirate_bt.interop.groot2_protocol import (
     reply_header,
     unpack_request,
 )
-from pirate_bt.interop.groot2_run import _REPLACED, BREAKPOINT, REPLACE, _Run, logger
+from pirate_bt.interop.groot2_run import _REPLACED, BREAKPOINT, REPLACE, Unservable, _Run, logger
 from pirate_bt.trace.structure import jsonable
 
 __all__: list[str] = []  # parts of Groot2Server (groot2_server.py re-exports what is public)
@@ -50,6 +50,8 @@ class _Requests(_Hooks):
             return _error(WRONG_HEADER)
         try:
             run = self._build()
+        except Unservable as exc:  # logged once, when it was found
+            return _error(str(exc))
         except Exception as exc:  # a tree that cannot be shown must not stop the server
             logger.exception("Groot2: cannot serve this tree")
             return _error(f"cannot serve this tree: {exc}")

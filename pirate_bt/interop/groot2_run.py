@@ -21,13 +21,19 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.interop.groot2_protocol import IDLE_FROM, Hook, new_tree_uuid
 from pirate_bt.interop.groot2_tree import ServedTree, served_tree
 from pirate_bt.trace.coverage import CoverageRecorder
 from pirate_bt.trace.structure import iter_with_ids
 
-__all__ = ["INSTALL_HINT", "MAX_REQUEST_BYTES", "REPLIES_QUEUED", "TRANSITIONS_KEPT"]
+__all__ = [
+    "INSTALL_HINT",
+    "MAX_REQUEST_BYTES",
+    "REPLIES_QUEUED",
+    "TRANSITIONS_KEPT",
+    "Unservable",
+]
 
 # The server's parts log as the server always did.
 logger = logging.getLogger("pirate_bt.interop.groot2_server")
@@ -70,6 +76,12 @@ class _Pending:
     supervisor: Any
     robot: str | None
     keep_alive: Callable[[], None] | None
+    failure: str | None = None
+    """Why it cannot be served, once that is known (said again, not found again)."""
+
+
+class Unservable(InputError):
+    """The served tree cannot be shown to Groot2 (the error reply's text)."""
 
 
 @dataclass
@@ -130,7 +142,16 @@ class _ServerState:
             if self._run is not None or self._pending is None:
                 return self._run
             pending = self._pending
-        served = served_tree(pending.tree, pending.source, pending.name, pending.checked)
+        if pending.failure is not None:
+            raise Unservable(pending.failure)
+        try:
+            served = served_tree(pending.tree, pending.source, pending.name, pending.checked)
+        except Exception as exc:  # a tree that cannot be shown must not stop the server
+            # Once per tree: every request (Groot2 polls ten times a second) made it
+            # again, 0.4 s of the server's thread and a traceback in the log each time.
+            logger.exception("Groot2: cannot serve this tree")
+            pending.failure = f"cannot serve this tree: {exc}"
+            raise Unservable(pending.failure) from None
         nodes = [node for _, node in iter_with_ids(pending.tree)]
         run = _Run(
             served=served,
