@@ -1,0 +1,196 @@
+"""What a mission hands back: :class:`MissionResult` with its timeline, legs and samples.
+
+The result types of :func:`~pirate_bt.task.mission.run_mission` (which builds them),
+kept apart from the running so that each stays readable; ``pirate_bt.task.mission``
+exports them as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.errors import LinkError
+from pirate_bt.runner import RunResult
+from pirate_bt.safety.tally import Counters
+from pirate_bt.task.localise import Disagreement, Fix
+from pirate_bt.task.outcome import PabOutcome
+from pirate_bt.task.plan import MissionPlan
+from pirate_bt.trace.coverage import Coverage
+
+__all__ = ["Leg", "MissionResult", "Sample", "TimelineEntry"]
+
+
+@dataclass(frozen=True, slots=True)
+class TimelineEntry:
+    """A PAB of the chain starting (or the mission ending).
+
+    Attributes:
+        time_s: Clock time since the start of the run.
+        label: The PAB's node name (``03 bend right (bend-a) (line 6)``).
+        belief_m: Belief when it started.
+        truth_m: Simulator truth then, when known.
+    """
+
+    time_s: float
+    label: str
+    belief_m: float
+    truth_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """A straight leg as run: its distance re-computed from the belief when it started.
+
+    Attributes:
+        label: The PAB's node name.
+        planned_m: The distance the plan had (negative backwards).
+        driven_m: The distance it was given when it started, from the belief.
+        belief_m: The belief when it started.
+        why: Why the two differ, for people (empty when they do not).
+    """
+
+    label: str
+    planned_m: float
+    driven_m: float
+    belief_m: float
+    why: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """Belief and truth at one tick (for the report's plot)."""
+
+    time_s: float
+    belief_m: float
+    truth_m: float | None
+
+
+@dataclass
+class MissionResult:
+    """How a mission went.
+
+    Attributes:
+        plan: The plan that ran.
+        run: The runner's result.
+        reason: Why it ended, for people (the localiser's reason on a mismatch).
+        fixes: Feature fixes of the localiser.
+        timeline: When each PAB started.
+        samples: Belief and truth over time (every tick with a new state).
+        belief_m: Final belief.
+        truth_m: Final truth, when simulated.
+        odometry_m: Distance driven, by odometry.
+        sim: Final simulator counters, when simulated.
+        trace_path: The trace written, if any.
+        tree: The mission tree (for diagrams).
+    """
+
+    plan: MissionPlan
+    run: RunResult
+    reason: str
+    fixes: list[Fix]
+    timeline: list[TimelineEntry]
+    samples: list[Sample]
+    belief_m: float
+    truth_m: float | None
+    odometry_m: float
+    sim: Mapping[str, float] = field(default_factory=dict)
+    trace_path: Path | None = None
+    tree: Any = None
+    mismatch: str | None = None
+    """The map disagreement that stopped the mission, whoever found it: the localiser
+    (then :attr:`disagreement` holds its evidence) or a PAB's own sensing (a search
+    that met no turn, a drive blocked where the map has clear pipe); ``None`` when
+    pipe and map agreed as far as the robot went."""
+    start_s: float = 0.0
+    """Clock time at the start of the run (fix times are clock times)."""
+    disagreement: Disagreement | None = None
+    """Where belief and map parted, when they did (the mission then stopped safe)."""
+    legs: list[Leg] = field(default_factory=list)
+    """The straight legs as run, with the distances re-computed from the belief."""
+    replans: list[str] = field(default_factory=list)
+    """Where the mission re-planned after a disagreement with one clear meaning."""
+    returned: MissionResult | None = None
+    """The way back to the start after a stop, when it was asked for."""
+    pabs: list[PabOutcome] = field(default_factory=list)
+    """One entry per step of the plan: its outcome, start and end, and why it failed."""
+    why: str = ""
+    """The first cause of the end, for people: the failing PAB's own cause (``stall:
+    bend_3_drive draws 1.50 A ...``), or the map disagreement that stopped the mission."""
+    failing_node: str | None = None
+    """Path of the node where the mission failed (``None`` on success)."""
+    counters: Counters = field(default_factory=Counters)
+    """Refusals, clips, link figures and, when simulated, violations and damage."""
+    wall_s: float = 0.0
+    """Wall time the run took."""
+    safe_state: bool = False
+    """The robot was left in its safe state (drives stopped, clamps held)."""
+    coverage: Coverage | None = None
+    """Per node of the mission's tree, what it did (ticks, transitions, successes,
+    failures, halts, skips), counted as BehaviorTree.CPP's ``TreeObserver`` does."""
+
+    @property
+    def succeeded(self) -> bool:
+        """True when every PAB of the plan succeeded."""
+        return self.run.succeeded
+
+    @property
+    def status(self) -> str:
+        """``"success"`` or ``"failure"``."""
+        return self.run.outcome
+
+    @property
+    def ticks(self) -> int:
+        """Ticks the mission tree ran."""
+        return self.run.ticks
+
+    @property
+    def tee_fallbacks(self) -> int:
+        """Straight-through T-joints whose rear half crossed released, by distance: the
+        fault path of ``trees/lib/tee-straight.yaml`` when the rear half cannot press
+        across sensing the opening (0 without a fault; ``None`` coverage counts 0)."""
+        if self.coverage is None:
+            return 0
+        return sum(1 for n in self.coverage if n.path.endswith("/rear across released") and n.ran)
+
+    @property
+    def error(self) -> BaseException | None:
+        """The exception that ended the run, if one did (a lost link: ``LinkError``)."""
+        return self.run.error
+
+    @property
+    def exit_code(self) -> int:
+        """The command line's exit code for this mission: 0 success, 3 link error, 1
+        failure (as :attr:`RunResult.exit_code <pirate_bt.RunResult.exit_code>`)."""
+        if self.succeeded:
+            return 0
+        return 3 if isinstance(self.error, LinkError) else 1
+
+    @property
+    def sim_time_s(self) -> float:
+        """Clock time the mission took (simulated time on the simulator)."""
+        return self.run.sim_time_s
+
+    @property
+    def failed_pab(self) -> PabOutcome | None:
+        """The PAB that failed or was stopped, if one was."""
+        return next((p for p in self.pabs if p.outcome in ("failure", "stopped")), None)
+
+    @property
+    def final_error_m(self) -> float | None:
+        """Belief minus truth at the end (``None`` without a simulator)."""
+        return None if self.truth_m is None else self.belief_m - self.truth_m
+
+    @property
+    def max_fix_error_m(self) -> float | None:
+        """Largest belief error right after a fix (``None`` without truth or fixes)."""
+        errors = [abs(f.error_after_m) for f in self.fixes if f.error_after_m is not None]
+        return max(errors) if errors else None
+
+    @property
+    def max_error_m(self) -> float | None:
+        """Largest belief error over the whole run."""
+        errors = [abs(s.belief_m - s.truth_m) for s in self.samples if s.truth_m is not None]
+        return max(errors) if errors else None
