@@ -139,7 +139,7 @@ def test_a_faulted_board_has_its_motors_off_and_gets_its_setpoints_back() -> Non
 
 def test_the_bridge_will_not_reset_its_estop_while_a_board_is_in_fault() -> None:
     with pirate_bt.connect("straight", faults="board_fault:26@1s+1s") as robot:
-        port = robot.supervisor.port
+        port = robot.supervisor._port  # the link itself, around the supervisor
 
         def until(t_s: float) -> None:
             while robot.clock.now() < t_s:

@@ -433,7 +433,7 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
             holds(2.0)
             holds(2.0, poll=False)  # 2 s without a host frame: the firmware's watchdog trips
             run(0.3)
-            session = sup.port.session  # type: ignore[attr-defined]
+            session = sup._port.session  # type: ignore[attr-defined]  # the link itself
             reply = session.wait(session.request_counters(), timeout_s=10.0).reply
             assert reply is not None and reply.watchdog_trips == 1
             sup.estop("test")

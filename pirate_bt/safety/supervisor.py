@@ -97,9 +97,47 @@ from pirate_bt.safety.verdict import (
 if TYPE_CHECKING:
     from pirate_bt.sim import Simulator
 
-__all__ = ["Supervisor"]
+__all__ = ["PortView", "Supervisor"]
 
 log = logging.getLogger("pirate_bt.safety")
+
+
+class PortView:
+    """A robot port as the layers above the supervisor may use it: read, never command.
+
+    It has the port's ``robot``, ``state()``, ``health()`` and ``poll()`` (a loop that
+    waits without ticking the supervisor polls through it); ``send``, ``estop``,
+    ``reset_estop``, ``close`` and the link's own objects are not there: a command goes
+    through the supervisor's checks, an e-stop through :meth:`Supervisor.estop`.
+    """
+
+    __slots__ = ("__port",)
+
+    def __init__(self, port: RobotPort) -> None:
+        self.__port = port
+
+    @property
+    def robot(self) -> RobotDescription:
+        return self.__port.robot
+
+    def poll(self) -> None:
+        """Read what the link has received (see :meth:`RobotPort.poll`)."""
+        self.__port.poll()
+
+    def state(self) -> RobotState | None:
+        return self.__port.state()
+
+    def health(self) -> LinkHealth:
+        return self.__port.health()
+
+    def __getattr__(self, name: str) -> object:
+        raise AttributeError(
+            f"the supervisor's port is read-only: no {name!r} (commands go through"
+            " supervisor.command(), an e-stop through supervisor.estop())"
+        )
+
+    def __repr__(self) -> str:
+        return f"<read-only view of {type(self.__port).__name__}>"
 
 
 class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
@@ -125,7 +163,8 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         checks: Iterable[Check] | None = None,
         log_size: int = 1000,
     ) -> None:
-        self.port = port
+        self._port = port
+        self._view = PortView(port)
         self.robot: RobotDescription = port.robot
         self.clock = clock
         self.verdicts = VerdictLog(log_size)
@@ -158,6 +197,15 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         """The in-process simulator behind the port, when there is one."""
 
     # -- what the layers above read ---------------------------------------
+
+    @property
+    def port(self) -> PortView:
+        """The robot port, read-only: its readings, health and polling, never a command.
+
+        Everything that moves the robot goes through :meth:`command` (and
+        :meth:`estop`); before 2026-11-29 this was the port itself, and
+        ``connection.supervisor.port.send(...)`` reached the link past every check."""
+        return self._view
 
     @property
     def mode(self) -> Mode:
@@ -221,29 +269,29 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
 
     def state(self) -> RobotState | None:
         """The latest snapshot from the port (read-only for behaviours)."""
-        return self.port.state()
+        return self._port.state()
 
     def health(self) -> LinkHealth:
         """The link's figures."""
-        return self.port.health()
+        return self._port.health()
 
     def half_states(self) -> dict[Half, ClampState]:
         """Each half's clamp state as the invariants see it now (``UNKNOWN`` without state)."""
-        state = self.port.state()
+        state = self._port.state()
         if state is None:
             return dict.fromkeys(Half, ClampState.UNKNOWN)
         return half_states(self.robot, state, self._targets)
 
     def stale_channels(self) -> list[tuple[str, float]]:
         """Safety-relevant channels whose readings are too old, with their ages."""
-        state = self.port.state()
+        state = self._port.state()
         if state is None:
             return [(name, math.inf) for name in self._base_channels]
         return stale_channels(self.robot, state, self._base_channels, self.clock.now())
 
     def link_problem(self) -> Problem | None:
         """Why the link is not fit for commands now, or ``None``."""
-        health = self.port.health()
+        health = self._port.health()
         if health.estopped:
             if health.estop_input:
                 return Problem(
@@ -337,7 +385,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     except InputError as exc:  # the run goes on; the operator is told
                         log.error("operator input %s: %s", type(source).__name__, exc)
             try:
-                self.port.poll()
+                self._port.poll()
             except LinkError as exc:
                 if not self.in_safe_state:
                     self.safe_state(f"link lost: {exc}", error=exc)
@@ -355,13 +403,13 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     return
                 # the link works: the protective hold below may still reach the boards
                 # that are not in fault (a clamp board in FAULT lets its half go limp)
-            state = self.port.state()
+            state = self._port.state()
             if state is None:
                 return
             stale = stale_channels(self.robot, state, self._base_channels, now)
             if stale and not self.in_safe_state:
                 names = ", ".join(f"{n} ({a:.3f} s)" for n, a in stale[:4])
-                silent = self.port.health().silent_for(now)
+                silent = self._port.health().silent_for(now)
                 if silent >= min(age for _, age in stale) - 1e-9:
                     # nothing at all came since these readings were fresh: the readings
                     # went stale because the link fell silent, which is the first cause
@@ -455,7 +503,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             self._closed = True
             try:
                 self._send_stop()
-                self.port.close()
+                self._port.close()
             finally:
                 if self.simulator is not None:
                     self.simulator.close()

@@ -90,7 +90,7 @@ class AuthorityMixin(DecisionMixin):
         """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""
         with self._lock:
             try:
-                self.port.estop()
+                self._port.estop()
             except Exception:  # the e-stop must never be the thing that fails
                 log.exception("e-stop could not be sent")
             self._mode = Mode.ESTOP
@@ -123,7 +123,7 @@ class AuthorityMixin(DecisionMixin):
             if self._mode is not Mode.ESTOP:
                 return True
             try:
-                self.port.reset_estop()
+                self._port.reset_estop()
             except LinkError as exc:
                 log.error("e-stop reset refused: %s; the e-stop stays latched", exc)
                 return False

@@ -64,7 +64,7 @@ class DecisionMixin:
     """The command side of the supervisor (mixed into ``Supervisor``)."""
 
     # set by the supervisor
-    port: RobotPort
+    _port: RobotPort
     robot: RobotDescription
     clock: Clock
     verdicts: VerdictLog
@@ -124,9 +124,9 @@ class DecisionMixin:
             MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()
         )
         try:
-            self.port.send(cmds)
+            self._port.send(cmds)
         except LinkError as exc:
-            if self._mode is Mode.ESTOP or self.port.health().estopped:
+            if self._mode is Mode.ESTOP or self._port.health().estopped:
                 # latched: the bridge has stopped everything and refuses setpoints
                 log.info("stop not sent (the e-stop is latched): %s", exc)
             else:
@@ -134,7 +134,7 @@ class DecisionMixin:
             try:
                 # the link reports an earlier request's failure before it sends (the
                 # stop did not go out): those failures are taken now, so ask again
-                self.port.send(cmds)
+                self._port.send(cmds)
             except LinkError:
                 pass
             else:
@@ -149,7 +149,7 @@ class DecisionMixin:
             sent: list[MotorCommand] = []
             for group in by_board.values():
                 try:
-                    self.port.send(tuple(group))
+                    self._port.send(tuple(group))
                 except LinkError as again:
                     log.error("could not send the stop of %s: %s", group[0].motor, again)
                     continue
@@ -241,7 +241,7 @@ class DecisionMixin:
         if problem is not None:
             return self._refuse(command, source, problem.reason, problem.detail)
         # 3. expansion
-        state = self.port.state()
+        state = self._port.state()
         expanded = self._expander.expand(command, state)
         if isinstance(expanded, Problem):
             return self._refuse(command, source, expanded.reason, expanded.detail)
@@ -289,7 +289,7 @@ class DecisionMixin:
         sent = tuple(out)
         if send:
             try:
-                self.port.send(sent)
+                self._port.send(sent)
             except LinkError as exc:
                 self.safe_state(f"link error while sending: {exc}", error=exc)
                 return self._refuse(command, source, Reason.LINK_ERROR, str(exc))

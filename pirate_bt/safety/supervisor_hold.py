@@ -98,7 +98,7 @@ class HoldMixin:
     """The protective hold (mixed into ``Supervisor``)."""
 
     # set by the supervisor
-    port: RobotPort
+    _port: RobotPort
     robot: RobotDescription
     clock: Clock
     _mode: Mode
@@ -177,8 +177,8 @@ class HoldMixin:
 
         A wheel whose speed went stale (a sensor dropped out) is left out, as odometry
         leaves it out: it keeps its last value."""
-        state = self.port.state()
-        if state is None or not self.port.health().connected:
+        state = self._port.state()
+        if state is None or not self._port.health().connected:
             return None
         oldest = self.clock.now() - wheel_fresh_window_s(self.robot)
         readings = state.readings
@@ -259,7 +259,7 @@ class HoldMixin:
                 continue
             cmds = intent.motor_commands
             try:
-                self.port.send(cmds)
+                self._port.send(cmds)
             except LinkError as exc:  # its board is away: again next tick
                 log.error("could not clamp the %s half: %s", half, exc)
                 continue
