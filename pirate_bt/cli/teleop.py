@@ -68,6 +68,7 @@ class TeleopSession:
         self.sup = supervisor
         self.out = out
         self.velocity_mps = 0.0
+        self._stopped = (False, False)  # (in the safe state, e-stopped) at the last step
         self.rotation_rad = 0.0
         self.bend_rad = 0.0
         robot = supervisor.robot
@@ -150,6 +151,7 @@ class TeleopSession:
         elif key == "n":
             yield Deny()
         elif key == "p":
+            self.velocity_mps = 0.0  # the stop is what was asked: no drive to keep alive
             yield SafeStop("operator stop (teleop)")
         elif key == "u":
             yield Resume()
@@ -174,6 +176,14 @@ class TeleopSession:
         """One tick: supervisor housekeeping, keep the drive setpoint alive, then the
         :attr:`after_step` hooks (a live Foxglove view, say)."""
         self.sup.tick()
+        stopped = (self.sup.in_safe_state, self.sup.mode is Mode.ESTOP)
+        if any(now and not before for now, before in zip(stopped, self._stopped, strict=True)):
+            # A stop came (the supervisor's own safe state, an e-stop from the bridge's
+            # button or a ROS 2 topic): it took the drive. Kept alive, the drive went on
+            # at the next tick (an operator's command in manual passes in the safe
+            # state) or after the e-stop's reset; the drive keys start from still.
+            self.velocity_mps = 0.0
+        self._stopped = stopped
         if self.velocity_mps != 0.0 and self.sup.mode is Mode.MANUAL:
             self.sup.apply(OperatorCommand(Drive(self.velocity_mps)))
         for hook in self.after_step:
