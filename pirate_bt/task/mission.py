@@ -252,9 +252,16 @@ def run_mission(
     def before(_info: Any) -> None:
         supervisor.tick()
 
+    found_s: list[float | None] = [None]  # when the localiser found its mismatch
+
+    def noticed() -> None:
+        if localiser.mismatch is not None and found_s[0] is None:
+            found_s[0] = clock.now()
+
     def after(_info: Any) -> None:
         state = supervisor.state()
         localiser.update(state)
+        noticed()
         now = clock.now() - start_s
         if state is not None and (not samples or samples[-1].time_s != now):
             samples.append(Sample(round(now, 4), localiser.belief_m, localiser.truth_m))
@@ -278,9 +285,19 @@ def run_mission(
     runner.add_post_tick(after)
     tally = VerdictTally(supervisor)
 
+    def first_mismatch() -> str | None:
+        """The localiser's mismatch, unless the robot was in its safe state before it
+        was found: a robot sliding back down a riser after its clamp board went swings
+        its IMU, and the disagreement the localiser finds in the run's last ticks is
+        the slide's, not the first cause (the stale readings that stopped the run)."""
+        first = tally.first_safe_state
+        if found_s[0] is not None and first is not None and first.time_s < found_s[0]:
+            return None
+        return localiser.mismatch
+
     def why(run: RunResult) -> str:
         first = tally.first_safe_state
-        return localiser.mismatch or explain_run(run, runner.tree.root, first)[0]
+        return first_mismatch() or explain_run(run, runner.tree.root, first)[0]
 
     if trace_path is not None:
         from pirate_bt.trace import attach_trace, supervised_extras
@@ -326,6 +343,8 @@ def run_mission(
     if result.error is None and (link_error := link_cause(result, supervisor)) is not None:
         result = replace(result, error=link_error)  # exits as a link error (code 3)
     localiser.update(supervisor.state())
+    noticed()
+    mismatch = first_mismatch()
     end = clock.now() - start_s
     outcomes = pab_outcomes(
         route_node,
@@ -334,9 +353,11 @@ def run_mission(
         end,
         run=result,
         safe=tally.first_safe_state,
-        stopped_by=localiser.mismatch,
+        stopped_by=mismatch,
     )
-    reason, failing, map_named = _why(result, runner.tree.root, outcomes, plan, localiser, tally)
+    reason, failing, map_named = _why(
+        result, runner.tree.root, outcomes, plan, localiser, tally, mismatch
+    )
     timeline.append(
         TimelineEntry(end, f"end: {result.outcome}", localiser.belief_m, localiser.truth_m)
     )
@@ -353,7 +374,7 @@ def run_mission(
         sim=counter_values(counters() if counters is not None else None),
         trace_path=trace_path,
         tree=runner.tree,
-        mismatch=localiser.mismatch or (reason if map_named else None),
+        mismatch=mismatch or (reason if map_named else None),
         start_s=start_s,
         disagreement=localiser.disagreement,
         legs=legs,
@@ -374,16 +395,17 @@ def _why(
     plan: MissionPlan,
     localiser: Localiser,
     tally: VerdictTally,
+    mismatch: str | None,
 ) -> tuple[str, str | None, bool]:
     """The mission's first cause, the node it happened at (see :mod:`.outcome`), and
     whether a PAB's failure was named a map disagreement."""
     if run.succeeded:
         return f"mission completed: {len(outcomes)} PABs, {run.message}", None, False
     stopped = next((p for p in outcomes if p.outcome in ("failure", "stopped")), None)
-    if localiser.mismatch is not None:
+    if mismatch is not None:
         route = root.children[-1]
         where = f"{route_path(route)}/{stopped.label}" if stopped is not None else None
-        return localiser.mismatch, where, False
+        return mismatch, where, False
     if stopped is not None and stopped.outcome == "failure":
         planned = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
         named = map_cause(stopped, planned.get(stopped.label), localiser.belief_m)
