@@ -4,21 +4,18 @@ error while the report was half written)."""
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
 
 from pirate_bt.cli import main
 
-REPO = Path(__file__).resolve().parents[1]
-
 
 def test_a_route_named_like_a_formula_gets_its_report(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     route = tmp_path / "a $\\frac{$ b.route"
-    shutil.copy(REPO / "scenarios" / "straight.route", route)
+    route.write_text("network straight\nforward 0.3 m\n", encoding="utf-8")
     out = tmp_path / "out"
     code = main(["mission", str(route), "--sim", "straight", "--quiet", "--output", str(out)])
     err = capsys.readouterr().err

@@ -251,7 +251,7 @@ def test_a_killed_or_crashed_case_names_the_trace_it_left(
     (tmp_path / "p8_helper.py").write_text(HELPER, encoding="utf-8")
     monkeypatch.setenv("PYTHONPATH", f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
     out = tmp_path / "out"
-    result = run_campaign(SPEC, workers=2, output=out, target="p8_helper:cut", case_timeout="3 s")
+    result = run_campaign(SPEC, workers=2, output=out, target="p8_helper:cut", case_timeout="2 s")
     rows = {row["index"]: row for row in result.rows}
     assert (rows[0]["outcome"], rows[1]["outcome"]) == ("timeout", "error")
     for row in rows.values():
