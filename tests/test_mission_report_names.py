@@ -22,3 +22,17 @@ def test_a_route_named_like_a_formula_gets_its_report(
     assert code == 0, err
     assert (out / "belief.png").stat().st_size > 0
     assert "$\\frac{$" in (out / "report.md").read_text(encoding="utf-8")
+
+
+def test_a_network_given_as_a_route_is_named_so_in_one_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    lab = Path(__file__).resolve().parents[1] / "scenarios" / "lab.yaml"
+    assert main(["mission", str(lab), "--sim", "lab"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        f"{lab}:1:1: a YAML file, not a route: a route is lines of steps"
+        " ('network lab', then 'forward 1 m', ...; docs/routes.md); a network"
+        " file goes to --map or --sim"
+    )
+    assert len(err.splitlines()) == 1

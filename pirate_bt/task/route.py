@@ -492,7 +492,24 @@ def load_route(path: str | Path) -> Route:
         raise ValidationFailed(
             [LocatedError(f"larger than the {MAX_BYTES} bytes a route may be", where)]
         )
-    return parse_route(decode_text(raw, str(path), "route"), str(path))
+    text = decode_text(raw, str(path), "route")
+    try:
+        return parse_route(text, str(path))
+    except ValidationFailed:
+        if p.suffix.lower() not in (".yaml", ".yml"):
+            raise
+        # a network (or another YAML file) given where a route goes: one line saying
+        # so, not a line per YAML key read as an unknown command
+        raise ValidationFailed(
+            [
+                LocatedError(
+                    "a YAML file, not a route: a route is lines of steps ('network lab',"
+                    " then 'forward 1 m', ...; docs/routes.md); a network file goes to"
+                    " --map or --sim",
+                    SourceLocation(str(path), 1, 1),
+                )
+            ]
+        ) from None
 
 
 def route_schema() -> dict[str, Any]:
