@@ -54,36 +54,14 @@ _SIMAVR_MODULES = {"test_firmware_sim.py", "test_firmware_sim_summary.py"}
 _REAL_TIME_BRIDGES = {"firmware-simavr", "sim-pty"}
 
 
-def _may_raise_priority() -> bool:
-    """Whether this process may lower its nice value (root, as in CI)."""
-    return hasattr(os, "setpriority") and os.geteuid() == 0
-
-
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist's
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     names_tests = any("::" in arg or arg.endswith(".py") for arg in config.invocation_params.args)
     if names_tests:
         return 0
     if hasattr(os, "sched_getaffinity"):
-        cores = len(os.sched_getaffinity(0))
-    else:
-        cores = os.cpu_count() or 1
-    # One worker more than cores where the real-time tests can be put ahead of the
-    # others (_BACKGROUND_NICE): the worker that runs them waits on the wall clock
-    # most of the time, and its core would sit idle.
-    return cores + 1 if cores >= 2 and _may_raise_priority() else cores
-
-
-_BACKGROUND_NICE = 19
-"""Every xdist worker's priority when there are more workers than cores; a real-time
-test runs at -10 (:func:`_real_time_ahead`), far ahead of the CPU-bound tests."""
-
-
-def pytest_configure(config: pytest.Config) -> None:
-    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0"))
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    if os.environ.get("PYTEST_XDIST_WORKER") and workers > cores and _may_raise_priority():
-        os.setpriority(os.PRIO_PROCESS, 0, _BACKGROUND_NICE)
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def _runs_in_real_time(item: pytest.Item) -> bool:
@@ -163,15 +141,14 @@ def _real_time_ahead(request: pytest.FixtureRequest) -> Iterator[None]:
         yield
         return
     try:
-        before = os.getpriority(os.PRIO_PROCESS, 0)
-        os.setpriority(os.PRIO_PROCESS, 0, -10)
+        os.nice(-10)
     except OSError:
         yield
         return
     try:
         yield
     finally:
-        os.setpriority(os.PRIO_PROCESS, 0, before)
+        os.nice(10)
 
 
 @pytest.fixture(autouse=True)
