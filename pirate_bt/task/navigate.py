@@ -173,7 +173,9 @@ def _decide(
     if exc is not None:  # a navigator's error is a result, not a crash
         # the traceback is the planner's to read: kept in the result and logged
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
-        return None, seconds, f"navigator {name!r} raised {type(exc).__name__}: {exc}", exc
+        text = " ".join(str(exc).split())  # one line; nothing after the type when empty
+        said = f"navigator {name!r} raised {type(exc).__name__}" + (f": {text}" if text else "")
+        return None, seconds, said, exc
     return step, seconds, None, None
 
 

@@ -375,6 +375,14 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             f"params: give a mapping of parameter names to values, not {params!r}"[:200]
         )
     factory: Callable[..., Any] | None = _BUILT_IN.get(name)
+    if factory is not None and (shadowed := _registered().get(name)) is not None:
+        # an installed package's navigator of a built-in's name is never the one made
+        _log.warning(
+            "navigator %r: the built-in one is used; the plug-in of that name (%s) is"
+            " shadowed: register it under another name",
+            name,
+            shadowed.value,
+        )
     if factory is None:
         entry = _registered().get(name)
         if entry is None:
