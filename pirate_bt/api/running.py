@@ -131,6 +131,27 @@ def load_tree_source(
     )
 
 
+def _unconfirmed(loop: Any, supervisor: Any) -> str:
+    """For a supervised run that ran into its time limit with a step still waiting for
+    an operator's confirmation: a clause saying so (``""`` otherwise), else the why
+    names only the time limit and the node that was still running."""
+    from pirate_bt.runner import StopReason
+    from pirate_bt.safety import Mode
+
+    if loop.reason is not StopReason.TIME_LIMIT or supervisor.mode is not Mode.SUPERVISED:
+        return ""
+    pending = supervisor.pending_confirmations()
+    if not pending:
+        return ""
+    nobody = (
+        ""
+        if supervisor.operator_attached
+        else "; no operator input is attached: confirm from your code with"
+        " supervisor.confirm(), or run in autonomous mode"
+    )
+    return f"; it waited for an operator to confirm {pending[0]!r} (supervised mode{nobody})"
+
+
 def _at_callers_line(source: Any, load: Callable[[], LoadedTree]) -> LoadedTree:
     """``load()``; for a tree given as a mapping, its problems at the planner's line.
 
@@ -358,6 +379,8 @@ def run_on(
             f"; the tree was paused for {loop.paused_ticks} of its ticks while an operator"
             f" held the robot{still}"
         )
+    elif supervisor is not None and (waiting := _unconfirmed(loop, supervisor)):
+        why += waiting
     return RunResult(
         tree=_name(checked),
         status=loop.outcome,
