@@ -307,17 +307,20 @@ def run(args: argparse.Namespace) -> int:
                 " the tree with 'pirate-bt run' (or the teleop by hand with --keys KEYS)"
             )
         raise InputError("the console needs a terminal; use --keys KEYS in scripts")
-    safety_log = logging.getLogger("pirate_bt.safety")
-    if safety_log.level == logging.NOTSET:
-        # The console shows every verdict itself; the log would say each twice.
-        safety_log.setLevel(logging.ERROR)
     if getattr(args, "groot2", None) is not None and args.tree is None:
         raise InputError("--groot2 shows a running tree: give it one with --tree TREE")
     from pirate_bt.cli.run import open_foxglove, open_groot2, open_ros2
 
-    foxglove = open_foxglove(args)
-    node = groot2 = None
+    safety_log = logging.getLogger("pirate_bt.safety")
+    level = safety_log.level
+    if level == logging.NOTSET:
+        # The console shows every verdict itself; the log would say each twice. Set back
+        # afterwards: main() called in a process of the user's (a test, a script) left
+        # the protective layer's warnings silenced for whatever ran next.
+        safety_log.setLevel(logging.ERROR)
+    foxglove = node = groot2 = None
     try:
+        foxglove = open_foxglove(args)
         node = open_ros2(args)
         groot2 = open_groot2(args)
         return _run_session(args, robot, mode, period_s, foxglove, node, groot2)
@@ -325,6 +328,7 @@ def run(args: argparse.Namespace) -> int:
         for opened in (foxglove, node, groot2):
             if opened is not None:
                 opened.close()
+        safety_log.setLevel(level)
 
 
 def _run_session(
