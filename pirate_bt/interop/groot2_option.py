@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pirate_bt.errors import InputError
+from pirate_bt.interop.address import parse_host_port
 
 __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "add_groot2_option", "parse_groot2_address"]
 
@@ -21,28 +21,18 @@ def parse_groot2_address(text: str | None) -> tuple[str, int]:
     """``HOST:PORT``, ``HOST``, ``:PORT`` or ``PORT`` -> ``(host, port)``; defaults fill gaps.
 
     Raises:
-        InputError: a port that is not a number from 0 to 65534.
+        InputError: a port that is not a number from 0 to 65534, a ``:`` with no
+            port after it, or an unclosed ``[``
+            (:func:`~pirate_bt.interop.address.parse_host_port`).
     """
-    text = (text or "").strip()
-    host, port_text = DEFAULT_HOST, ""
-    if text.startswith("["):  # [::1]:1667
-        inside, _, rest = text[1:].partition("]")
-        host, port_text = inside or DEFAULT_HOST, rest.removeprefix(":")
-    elif text.count(":") == 1:
-        host, _, port_text = text.partition(":")
-        host = host or DEFAULT_HOST
-    elif text.isascii() and text.isdigit():
-        port_text = text
-    elif text:
-        host = text
-    if not port_text:
-        return host, DEFAULT_PORT
-    if not (port_text.isascii() and port_text.isdigit()) or int(port_text) > 65534:
-        raise InputError(
-            f"--groot2 {text}: the port must be a number from 0 to 65534 (the next one is"
-            " the publisher's)"
-        )
-    return host, int(port_text)
+    return parse_host_port(
+        text,
+        option="--groot2",
+        host=DEFAULT_HOST,
+        port=DEFAULT_PORT,
+        max_port=65534,
+        note=" (the next one is the publisher's)",
+    )
 
 
 def add_groot2_option(parser: Any) -> None:
