@@ -18,7 +18,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["write_atomically"]
+__all__ = ["cut_name", "write_atomically"]
+
+
+def cut_name(name: str, limit: int = 64) -> str:
+    """``name`` cut to at most ``limit`` bytes on the file system, for a temporary file
+    named after it: a file name may have 255 bytes, and ``.NAME.XXXXXXXX.part`` beside a
+    file whose name has nearly that many would be refused (*File name too long*)."""
+    raw = os.fsencode(name)
+    return name if len(raw) <= limit else os.fsdecode(raw[:limit])
 
 
 def write_atomically(
@@ -53,10 +61,9 @@ def write_atomically(
         with open(target, "wb") as stream:
             fill(stream)
         return target
-    # named after the target, cut: a name may have 255 bytes, and .NAME.XXXXXXXX.part
-    # beside a target whose name has nearly that many would be refused
-    short = os.fsdecode(os.fsencode(target.name)[:64])
-    fd, temp = tempfile.mkstemp(prefix=f".{short}.", suffix=".part", dir=target.parent)
+    fd, temp = tempfile.mkstemp(
+        prefix=f".{cut_name(target.name)}.", suffix=".part", dir=target.parent
+    )
     try:
         if target.exists():
             os.chmod(temp, target.stat().st_mode & 0o777)

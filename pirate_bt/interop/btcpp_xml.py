@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Final
 from xml.parsers import expat
 
+from pirate_bt.atomic import cut_name
 from pirate_bt.errors import (
     ArgumentValueError,
     InputError,
@@ -250,14 +251,6 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
-
-
-def cut_name(name: str, limit: int = 64) -> str:
-    """``name`` cut to at most ``limit`` bytes on the file system, for a temporary file
-    named after it: a file name may have 255 bytes, and ``.NAME.XXXXXXXX.tmp`` beside a
-    file whose name has nearly that many would be refused (*File name too long*)."""
-    raw = os.fsencode(name)
-    return name if len(raw) <= limit else os.fsdecode(raw[:limit])
 
 
 def _umask() -> int:

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import json
 import os
-import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any, ClassVar
@@ -60,19 +59,9 @@ from pirate_bt.interop.mcap_writer import (
     load_mcap,
 )
 from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
+from pirate_bt.trace.records import BAD_RECORD
 from pirate_bt.trace.sink import register_process_writer
 from pirate_bt.trace.writer import register_writer
-
-_BAD_RECORD: tuple[type[Exception], ...] = (
-    ValueError,
-    TypeError,
-    AttributeError,
-    LookupError,
-    ArithmeticError,
-    struct.error,
-)
-"""What mapping or writing a record with a value of the wrong kind, or out of range,
-raises (a hand-edited or foreign trace): said as the record's error."""
 
 __all__ = [
     "McapTraceReader",
@@ -122,7 +111,7 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
             try:
                 for message in mapper.messages(record):
                     channels.add(writer, message)
-            except _BAD_RECORD as exc:  # a time out of range was an internal error
+            except BAD_RECORD as exc:  # a time out of range was an internal error
                 raise InputError(
                     f"{trace_path}:{line}: cannot convert this record: {exc}"
                 ) from None

@@ -38,7 +38,7 @@ import tempfile
 from pathlib import Path
 from typing import IO, Any, ClassVar
 
-from pirate_bt.atomic import write_atomically
+from pirate_bt.atomic import cut_name, write_atomically
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.interop.foxglove_topics import (
     TOPICS,
@@ -158,8 +158,7 @@ def _twin_prefix(path: Path) -> str:
     process's, so that a twin left by a writer that was killed can be told from one
     being written (:func:`_drop_orphan_twins`).
     """
-    short = os.fsdecode(os.fsencode(path.name)[:64])
-    return f".{short}.{os.getpid()}."
+    return f".{cut_name(path.name)}.{os.getpid()}."
 
 
 def _temporary_beside(path: Path) -> tuple[int, str]:
@@ -188,8 +187,7 @@ def _drop_orphan_twins(path: Path) -> None:
     more hidden file (as large as the run's chunks) for every kill; the next writer
     of the same file deletes them. A twin of a writer still running is left alone.
     """
-    short = os.fsdecode(os.fsencode(path.name)[:64])
-    pattern = re.compile(re.escape(f".{short}.") + r"(\d+)\.[A-Za-z0-9_]{8}\.part")
+    pattern = re.compile(re.escape(f".{cut_name(path.name)}.") + r"(\d+)\.[A-Za-z0-9_]{8}\.part")
     try:
         entries = list(os.scandir(path.parent))
     except OSError:

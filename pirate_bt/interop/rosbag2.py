@@ -24,13 +24,13 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import struct
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.atomic import cut_name
 from pirate_bt.errors import (
     MAX_PATH,
     ArgumentTypeError,
@@ -43,6 +43,7 @@ from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
 from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _number
 from pirate_bt.interop.ros2_types import missing, type_hash, typestore
+from pirate_bt.trace.records import BAD_RECORD
 
 __all__ = [
     "BAD_RECORD",
@@ -54,16 +55,6 @@ __all__ = [
     "start_ns_of",
 ]
 
-BAD_RECORD: tuple[type[Exception], ...] = (
-    ValueError,
-    TypeError,
-    AttributeError,
-    LookupError,
-    ArithmeticError,
-    struct.error,
-)
-"""What converting a record with a value of the wrong kind, or out of range, raises
-(a hand-edited or foreign trace): said as the record's error, never as an internal one."""
 
 TRACE_TOPIC = "trace"
 """The topic (relative to the namespace) that holds every trace record as JSON text."""
@@ -260,10 +251,8 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     try:
         # named after the target cut to 64 bytes (as write_atomically names its files):
         # the whole name with a dot before and 9 characters after went over 255 bytes
-        short = os.fsdecode(os.fsencode(out.name)[:64])
-        temp = Path(
-            tempfile.mkdtemp(prefix=f".{short}.", dir=out.parent if str(out.parent) else ".")
-        )
+        folder = out.parent if str(out.parent) else "."
+        temp = Path(tempfile.mkdtemp(prefix=f".{cut_name(out.name)}.", dir=folder))
     except OSError as exc:  # no such folder, a file on the way, no permission
         raise InputError(
             f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"

@@ -18,6 +18,7 @@ action).
 from __future__ import annotations
 
 import json
+import struct
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import cache
@@ -40,6 +41,7 @@ from pirate_bt.trace.sink import (
 from pirate_bt.trace.structure import jsonable
 
 __all__ = [
+    "BAD_RECORD",
     "CODE_STATUS",
     "FORMAT_NAME",
     "LINK_FIELDS",
@@ -63,6 +65,18 @@ __all__ = [
     "status_codes",
     "trace_schema",
 ]
+
+BAD_RECORD: tuple[type[Exception], ...] = (
+    ValueError,
+    TypeError,
+    AttributeError,
+    LookupError,
+    ArithmeticError,
+    struct.error,
+)
+"""What converting a record with a value of the wrong kind, or out of range, raises (a
+hand-edited or foreign trace; the MCAP and rosbag2 exports): said as the record's error,
+never as an internal one."""
 
 FORMAT_NAME = "pirate-bt-trace"
 TRACE_VERSION = 1
