@@ -21,7 +21,9 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = REPO / "examples"
 
-pytestmark = pytest.mark.xdist_group("examples")
+# the real-time group (tests/conftest.py): real_port.py runs a simulator on TCP
+# against the wall clock; the rest share the once-built examples on one worker
+pytestmark = pytest.mark.xdist_group("real-time")
 
 # example -> lines (regular expressions, searched line by line) its output must hold
 EXPECTED: dict[str, list[str]] = {

@@ -57,7 +57,8 @@ TREE = ROOT / "tests" / "data" / "btcpp" / "groot2.yaml"
 CODE = {py_trees.common.Status.RUNNING: 1, py_trees.common.Status.SUCCESS: 2}
 CODE[py_trees.common.Status.FAILURE] = 3
 
-pytestmark = pytest.mark.xdist_group("groot2_oracle")
+# the real-time group (tests/conftest.py): a live Groot2 client against the wall clock
+pytestmark = pytest.mark.xdist_group("real-time")
 
 
 @pytest.fixture(scope="module")

@@ -53,7 +53,8 @@ from pirate_bt.interop.ros2_types import (  # noqa: E402
 
 MSGS = Path(__file__).parent / "data" / "ros2_msgs"
 
-pytestmark = pytest.mark.xdist_group("ros2")
+# the real-time group (tests/conftest.py): a live Zenoh session against the wall clock
+pytestmark = pytest.mark.xdist_group("real-time")
 
 
 def _free_port() -> int:
