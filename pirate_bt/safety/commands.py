@@ -14,9 +14,13 @@ a trace as it is.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
+from typing import TypeVar
 
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import Half
+
+_E = TypeVar("_E", bound=Enum)
 
 __all__ = [
     "Bend",
@@ -151,3 +155,20 @@ def _describe(command: Command) -> str:
         case Raw(mc):
             return f"raw({mc.motor}, {mc.mode}, {mc.value:g})"
     raise TypeError(f"not a command: {command!r}")
+
+
+def member_of(kind: type[_E], value: object) -> _E | None:
+    """``value`` as a member of ``kind`` (the member, or its value as text:
+    ``"front"`` for ``Half.FRONT``), or ``None`` when it is neither.
+
+    What a command holds may come from a user's Python, YAML or a console: every
+    enumerated field of a command (a half, a control mode, a source, a mode) is read
+    through here, so that text is taken for what it names and anything else is refused
+    by the caller, never compared by identity as it stands.
+    """
+    if isinstance(value, kind):
+        return value
+    try:
+        return kind(value)
+    except (ValueError, TypeError):
+        return None

@@ -36,6 +36,7 @@ from pirate_bt.safety.commands import (
     Rotate,
     Tilt,
     Unclamp,
+    member_of,
 )
 from pirate_bt.safety.verdict import Reason
 
@@ -84,19 +85,18 @@ def well_formed(command: Command) -> Command | Problem:
         value = _number(mc.value)
         if value is None:
             return Problem(Reason.NOT_FINITE, _NOT_NUMBERS)
-        try:
-            mode = ControlMode(mc.mode)
-        except (ValueError, TypeError):
+        mode = member_of(ControlMode, mc.mode)
+        if mode is None:
             return Problem(Reason.MODE_NOT_ALLOWED, f"{mc.mode!r} is not a control mode"[:200])
         if mode is not mc.mode or type(mc.value) is not float:
             changes["command"] = MotorCommand(mc.motor, mode, value)
     if isinstance(command, Clamp | Unclamp) and not isinstance(command.half, Half):
-        try:
-            changes["half"] = Half(command.half)
-        except (ValueError, TypeError):
+        half = member_of(Half, command.half)
+        if half is None:
             return Problem(
                 Reason.UNKNOWN_TARGET, f"not a half: {command.half!r} (front or rear)"[:200]
             )
+        changes["half"] = half
     if isinstance(command, Bend) and not isinstance(command.module, str):
         return Problem(Reason.UNKNOWN_TARGET, f"{command.module!r} is not a bend module"[:200])
     if isinstance(command, MoveFrontClear) and command.sign not in (1, -1):

@@ -17,7 +17,7 @@ import threading
 from typing import TYPE_CHECKING
 
 from pirate_bt.errors import InputError, LinkError
-from pirate_bt.safety.commands import Command, Stop
+from pirate_bt.safety.commands import Command, Stop, member_of
 from pirate_bt.safety.operator import (
     Confirm,
     Confirmation,
@@ -274,12 +274,8 @@ def as_mode(mode: object) -> Mode:
     Raises:
         InputError: it is no mode.
     """
-    if isinstance(mode, Mode):
-        return mode
-    if isinstance(mode, str):
-        try:
-            return Mode(mode)
-        except ValueError:
-            pass
+    member = member_of(Mode, mode)
+    if member is not None:
+        return member
     names = ", ".join(m.value for m in Mode)
     raise InputError(f"not a mode: {mode!r} (one of {names})"[:200])

@@ -29,7 +29,7 @@ from pirate_bt.safety.checks import (
     half_states,
     stale_channels,
 )
-from pirate_bt.safety.commands import Command, Stop
+from pirate_bt.safety.commands import Command, Stop, member_of
 from pirate_bt.safety.expand import Expander
 from pirate_bt.safety.limits import limit
 from pirate_bt.safety.operator import Mode
@@ -192,7 +192,7 @@ class DecisionMixin:
 
     def _decide(self, command: Command, source: Source, *, send: bool) -> Verdict:
         now = self.clock.now()
-        asked = _as_source(source)
+        asked = member_of(Source, source)
         if isinstance(command, Stop):
             sent = self._send_stop() if send else ()
             return Verdict(Outcome.PASS, command, asked or Source.TREE, sent=sent)
@@ -313,18 +313,6 @@ class DecisionMixin:
                 clips=tuple(r for r, _ in clips),
             )
         return Verdict(Outcome.PASS, command, source, sent=sent)
-
-
-def _as_source(source: object) -> Source | None:
-    """``source`` as a :class:`Source` (its text too: ``"operator"``), or ``None``."""
-    if isinstance(source, Source):
-        return source
-    if isinstance(source, str):
-        try:
-            return Source(source)
-        except ValueError:
-            return None
-    return None
 
 
 def board_readings(robot: RobotDescription) -> dict[int, tuple[str, ...]]:
