@@ -12,9 +12,9 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
+from safety_rig import rig
 
-from pirate_bt.clock import SimClock
-from pirate_bt.robot import ControlMode, Half, MotorCommand, load_robot
+from pirate_bt.robot import ControlMode, MotorCommand, load_robot
 from pirate_bt.safety import (
     Drive,
     Mode,
@@ -23,18 +23,10 @@ from pirate_bt.safety import (
     SetMode,
     Source,
     Stop,
-    Supervisor,
 )
 from pirate_bt.safety.testing import FakePort
 
 ROBOT = load_robot()
-
-
-def _rig() -> tuple[Supervisor, FakePort]:
-    clock = SimClock(100.0)
-    port = FakePort(ROBOT, clock)
-    port.clamp_half(Half.REAR)
-    return Supervisor(port, clock), port
 
 
 def _drives(port: FakePort) -> list[MotorCommand]:
@@ -43,7 +35,7 @@ def _drives(port: FakePort) -> list[MotorCommand]:
 
 @pytest.mark.parametrize("source", [Source.SUPERVISOR, "supervisor", "tree"])
 def test_no_source_drives_in_the_safe_state(source: Any) -> None:
-    sup, port = _rig()
+    sup, port, _ = rig()
     sup.safe_state("test")
     verdict = sup.command(Drive(0.01), source=source)
     # Source.SUPERVISOR (and any text) passed: the drive went out in the safe state
@@ -53,7 +45,7 @@ def test_no_source_drives_in_the_safe_state(source: Any) -> None:
 
 @pytest.mark.parametrize("source", [Source.SUPERVISOR, "supervisor", "tree"])
 def test_no_source_drives_while_the_operator_has_control(source: Any) -> None:
-    sup, port = _rig()
+    sup, port, _ = rig()
     sup.apply(SetMode(Mode.MANUAL))
     verdict = sup.command(Drive(0.01), source=source)
     assert verdict.refused and verdict.reason is Reason.TREE_PAUSED
@@ -61,7 +53,7 @@ def test_no_source_drives_while_the_operator_has_control(source: Any) -> None:
 
 
 def test_the_operator_as_text_is_the_operator() -> None:
-    sup, _ = _rig()
+    sup, _, _ = rig()
     verdict = sup.command(Drive(0.01), source="operator")  # type: ignore[arg-type]
     # was: passed in autonomous mode, as if no one were asking
     assert verdict.refused and verdict.reason is Reason.OPERATOR_NOT_IN_CONTROL
@@ -74,7 +66,7 @@ def test_the_operator_as_text_is_the_operator() -> None:
 
 @pytest.mark.parametrize("source", [None, "robot", 3])
 def test_an_unknown_source_is_refused_and_a_stop_still_passes(source: Any) -> None:
-    sup, port = _rig()
+    sup, port, _ = rig()
     verdict = sup.command(Drive(0.01), source=source)
     assert verdict.refused and verdict.reason is Reason.UNKNOWN_TARGET
     assert "not a source" in verdict.detail

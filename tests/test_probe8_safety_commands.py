@@ -12,9 +12,9 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
+from safety_rig import rig
 
-from pirate_bt.clock import SimClock
-from pirate_bt.robot import Half, MotorCommand, load_robot
+from pirate_bt.robot import Half, MotorCommand
 from pirate_bt.safety import (
     Clamp,
     Drive,
@@ -22,24 +22,13 @@ from pirate_bt.safety import (
     Outcome,
     Raw,
     Reason,
-    Supervisor,
     Unclamp,
     describe,
 )
-from pirate_bt.safety.testing import FakePort
-
-ROBOT = load_robot()
-
-
-def _rig() -> tuple[Supervisor, FakePort]:
-    clock = SimClock(100.0)
-    port = FakePort(ROBOT, clock)
-    port.clamp_half(Half.REAR)
-    return Supervisor(port, clock), port
 
 
 def test_a_half_given_as_text_is_that_half() -> None:
-    sup, _ = _rig()
+    sup, _, _ = rig()
     verdict = sup.command(Clamp("front", 0.7))  # type: ignore[arg-type]
     # was: PASS with nothing sent (no bend module is of the half "front")
     assert verdict.ok and {c.motor for c in verdict.sent} == {"bend_1_joint", "bend_2_joint"}
@@ -65,7 +54,7 @@ def test_a_half_given_as_text_is_that_half() -> None:
     ids=repr,
 )
 def test_a_malformed_command_is_refused_and_recorded(command: Any) -> None:
-    sup, port = _rig()
+    sup, port, _ = rig()
     sent = len(port.sent)
     verdict = sup.command(command)  # raised AttributeError or TypeError for most
     assert verdict.refused
@@ -76,7 +65,7 @@ def test_a_malformed_command_is_refused_and_recorded(command: Any) -> None:
 
 
 def test_numbers_of_other_kinds_are_read_as_floats() -> None:
-    sup, _ = _rig()
+    sup, _, _ = rig()
     verdict = sup.command(Raw(MotorCommand("bend_4_joint", "torque", 1)))  # type: ignore[arg-type]
     assert verdict.outcome is Outcome.REFUSE and verdict.reason is Reason.TORQUE_LIMIT
     assert sup.command(Clamp(Half.REAR, 0.7)).ok

@@ -14,12 +14,10 @@ from typing import Any
 import py_trees
 import pytest
 from py_trees.common import Status
+from safety_rig import rig
 
 from pirate_bt.behaviours.guards import is_clamped, skip_if, while_
-from pirate_bt.clock import SimClock
 from pirate_bt.robot import Half, load_robot
-from pirate_bt.safety import Supervisor
-from pirate_bt.safety.testing import FakePort
 
 ROBOT = load_robot()
 REAR = ("bend_3_angle", "bend_3_spring", "bend_4_angle", "bend_4_spring")
@@ -29,15 +27,8 @@ def _status(node: py_trees.behaviour.Behaviour) -> Status:
     return node.status
 
 
-def _rig() -> tuple[Supervisor, FakePort, SimClock]:
-    clock = SimClock(100.0)
-    port = FakePort(ROBOT, clock)
-    port.clamp_half(Half.REAR)
-    return Supervisor(port, clock), port, clock
-
-
 def test_is_clamped_fails_on_stale_readings_of_its_half() -> None:
-    sup, port, clock = _rig()
+    sup, port, clock = rig()
     node = is_clamped(sup, Half.REAR)
     assert node.update() is Status.SUCCESS
     port.freeze(*REAR)
@@ -63,7 +54,7 @@ def test_is_clamped_fails_on_stale_readings_of_its_half() -> None:
     ],
 )
 def test_a_guard_on_a_stale_reading_fails(condition: dict[str, Any], frozen: str) -> None:
-    sup, port, clock = _rig()
+    sup, port, clock = rig()
     guard = while_(py_trees.behaviours.Running("go"), condition, sup)
     guard.tick_once()
     assert guard.status is Status.RUNNING
@@ -81,7 +72,7 @@ def test_a_guard_on_a_stale_reading_fails(condition: dict[str, Any], frozen: str
 
 
 def test_the_drives_mean_speed_is_read_from_the_wheels_that_read_fresh() -> None:
-    sup, port, clock = _rig()
+    sup, port, clock = rig()
     port.freeze("bend_1_drive.velocity")  # one wheel's sensor dropped out
     clock.advance(1.0)
     guard = while_(
