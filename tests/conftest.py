@@ -6,6 +6,7 @@ Profiles: ``ci`` (default; bounded and deterministic) and ``long`` for soak runs
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import signal
@@ -121,6 +122,22 @@ def _may_raise_priority() -> bool:
     return True
 
 
+@contextlib.contextmanager
+def _at_nice(value: int) -> Iterator[None]:
+    """This process at nice ``value`` for the block (with the threads and processes it
+    starts meanwhile), back to its own afterwards; as it was where that is refused."""
+    before = os.getpriority(os.PRIO_PROCESS, 0)
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, value)
+    except OSError:
+        yield
+        return
+    try:
+        yield
+    finally:
+        os.setpriority(os.PRIO_PROCESS, 0, before)
+
+
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist's
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     names_tests = any("::" in arg or arg.endswith(".py") for arg in config.invocation_params.args)
@@ -211,21 +228,11 @@ def _real_time_ahead(request: pytest.FixtureRequest) -> Iterator[None]:
     with what is tested.
     """
     group = request.node.get_closest_marker("xdist_group")
-    if group is None or group.args[:1] != (REAL_TIME,):
+    if group is None or group.args[:1] != (REAL_TIME,) or not _may_raise_priority():
         yield
         return
-    before = os.getpriority(os.PRIO_PROCESS, 0) if hasattr(os, "getpriority") else None
-    try:
-        if before is None:
-            raise OSError("no priorities here")
-        os.setpriority(os.PRIO_PROCESS, 0, _REAL_TIME_NICE)
-    except OSError:
+    with _at_nice(_REAL_TIME_NICE):
         yield
-        return
-    try:
-        yield
-    finally:
-        os.setpriority(os.PRIO_PROCESS, 0, before)
 
 
 @pytest.fixture(autouse=True)
@@ -241,12 +248,8 @@ def _simulated_clock_behind(request: pytest.FixtureRequest) -> Iterator[None]:
     ):
         yield
         return
-    before = os.getpriority(os.PRIO_PROCESS, 0)
-    os.setpriority(os.PRIO_PROCESS, 0, _BEHIND_NICE)
-    try:
+    with _at_nice(_BEHIND_NICE):
         yield
-    finally:
-        os.setpriority(os.PRIO_PROCESS, 0, before)
 
 
 @pytest.fixture(autouse=True)
