@@ -22,9 +22,7 @@ it did at the start (a reducer under the leading half).
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping
-from itertools import islice
 from typing import Any, Literal
 
 import py_trees
@@ -33,6 +31,13 @@ from pydantic import Field, StrictBool
 
 from pirate_bt.behaviours.base import NodeParams
 from pirate_bt.behaviours.grip import GripWatch
+from pirate_bt.behaviours.pipe_change import (
+    DIAMETER_CHANGE_M,
+    DIAMETER_SETTLE_M,
+    SLOPE_CHANGE_RAD,
+    SLOPE_WINDOW_TICKS,
+    PipeChangeWatch,
+)
 from pirate_bt.behaviours.primitive import (
     _SETTLE_TICKS,
     Primitive,
@@ -53,22 +58,6 @@ __all__ = [
     "Until",
 ]
 
-SLOPE_CHANGE_RAD = math.radians(0.25)
-"""``stop_at_change``: the IMU's mean pitch this far off its mean at the start is a
-slope change ..."""
-
-SLOPE_WINDOW_TICKS = 16
-"""... each mean over this many readings (one a tick: 0.8 s at 20 Hz, 64 mm at
-80 mm/s): IMU noise of 0.11° (``SensorNoise.typical``) moves the difference of two
-such means by 0.04°, a sixth of the threshold, so noise does not end a drive; a step
-of the threshold is felt once the whole window is past it, and placed where it began
-(:attr:`Drive.sensed_back_m`)."""
-
-DIAMETER_CHANGE_M = 0.002
-"""``stop_at_change``: a leading joint's diameter reading off by this much is a reducer ..."""
-
-DIAMETER_SETTLE_M = 0.04
-"""... when it stays off, the joint at the wall, over this much travel."""
 
 Until = Literal[
     "distance",
@@ -264,15 +253,9 @@ class Drive(Primitive):
         self._slow_since: float | None = None
         self._heading0: tuple[float, float, float] | None = None
         self._turned_ticks = 0
-        self._pitch0: float | None = None  # the mean of the first readings
-        # (pitch, travelled) of the last readings: a window's mean and the history
-        # the change is placed in once it is felt
-        self._pitches: deque[tuple[float, float]] = deque(maxlen=2 * SLOPE_WINDOW_TICKS)
+        self._change = PipeChangeWatch(self.robot)
         self.sensed_back_m = 0.0
         """How far back (metres of travel) a sensed slope change began: 0 otherwise."""
-        self._diameter0: dict[str, float] = {}
-        self._change_ticks = 0
-        self._diameter_from: float | None = None  # odometry where a diameter change began
         self._first_step = True
         self._grip = GripWatch(self.robot)
         self._write_travelled()
@@ -382,69 +365,6 @@ class Drive(Primitive):
         self._turned_ticks = self._turned_ticks + 1 if angle >= p.turn_angle else 0
         return angle if self._turned_ticks >= _SETTLE_TICKS else None
 
-    def _changed(self, state: RobotState, velocity: float, travelled: float) -> str | None:
-        """``slope`` once the mean pitch has changed (:data:`SLOPE_CHANGE_RAD`, means
-        over :data:`SLOPE_WINDOW_TICKS` readings) for ``_SETTLE_TICKS`` ticks running,
-        ``diameter`` once a leading joint's reading has stayed changed, at the wall, for
-        :data:`DIAMETER_SETTLE_M` of travel (``stop_at_change``), else ``None``. The
-        first readings are the reference. A joint swinging off the wall into a tee's
-        opening passes through other readings on its way: it is off the wall (an
-        opening stop) before that distance, where a cone keeps the change."""
-        found: str | None = None
-        pitch = state.imu_rad.get("pitch")
-        if pitch is not None:
-            self._pitches.append((pitch, travelled))
-            kept = len(self._pitches)
-            if kept >= SLOPE_WINDOW_TICKS:
-                window = islice(self._pitches, kept - SLOPE_WINDOW_TICKS, None)
-                mean = sum(p for p, _ in window) / SLOPE_WINDOW_TICKS
-                if self._pitch0 is None:
-                    self._pitch0 = mean
-                elif abs(mean - self._pitch0) >= SLOPE_CHANGE_RAD:
-                    found = "slope"
-        clamp = self.robot.clamp
-        tol = self.robot.safety.angle_tolerance
-        wall_min = min(c.angle for c in clamp.contact_angles) - tol
-        wall_max = max(c.angle for c in clamp.contact_angles) + tol
-        leading = Half.FRONT if velocity > 0 else Half.REAR
-        narrowed = False
-        for module in self.robot.bend_modules(leading):
-            angle = state.joint_angle_rad.get(module.name)
-            if angle is None or not wall_min <= abs(angle) <= wall_max:
-                continue
-            diameter = clamp.diameter_for(angle)
-            before = self._diameter0.setdefault(module.name, diameter)
-            narrowed = narrowed or abs(diameter - before) >= DIAMETER_CHANGE_M
-        if not narrowed:
-            self._diameter_from = None
-        elif self._diameter_from is None:
-            self._diameter_from = travelled
-        elif found is None and travelled - self._diameter_from >= DIAMETER_SETTLE_M:
-            return "diameter"
-        self._change_ticks = self._change_ticks + 1 if found else 0
-        if found is None or self._change_ticks < _SETTLE_TICKS:
-            return None
-        self.sensed_back_m = travelled - self._slope_began()
-        return found
-
-    def _slope_began(self) -> float:
-        """Where (travel) the pitch left its reference: the split of the readings kept
-        into the reference before and one level after that fits them best (a mean's
-        crossing comes up to a window late, more so for a small change)."""
-        assert self._pitch0 is not None
-        readings = list(self._pitches)
-        pitches = [p for p, _ in readings]
-        best, began = math.inf, readings[-1][1]
-        before = 0.0  # squared error of the readings before the split, about the reference
-        for k in range(len(readings)):
-            after = pitches[k:]
-            mean = sum(after) / len(after)
-            error = before + sum((p - mean) ** 2 for p in after)
-            if error < best:
-                best, began = error, readings[k][1]
-            before += (pitches[k] - self._pitch0) ** 2
-        return began
-
     def step(self, state: RobotState) -> Status:
         p: DriveParams = self.params  # type: ignore[assignment]
         if self._bad_distance is not None:
@@ -472,8 +392,9 @@ class Drive(Primitive):
                 self.sensed = f"{half}_opening"
                 return Status.SUCCESS
         if p.stop_at_change:
-            change = self._changed(state, velocity, travelled)
+            change = self._change.changed(state, velocity, travelled)
             if change is not None:
+                self.sensed_back_m = self._change.sensed_back_m
                 self.feedback_message = f"the {change} changed after {travelled:.3f} m"
                 self.sensed = change
                 return Status.SUCCESS
