@@ -93,6 +93,7 @@ _SIMULATED_CLOCK_MODULES = {
     "test_survey_bend_angles.py",
     "test_survey_probe_fixes.py",
     "test_truth_not_map.py",
+    "test_tee_edge.py",
 }
 """The modules whose tests are CPU-bound on a simulated clock only: no wall-clock
 limit, no socket, no pty, no subprocess timed against real time (the whole chain in

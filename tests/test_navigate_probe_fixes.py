@@ -26,6 +26,7 @@ import pytest
 
 import pirate_bt
 from pirate_bt import Observation, Step
+from pirate_bt.behaviours.opening_edge import OpeningEdge
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network
 from pirate_bt.pipes.asbuilt import insert_tee, remove_feature
@@ -101,11 +102,13 @@ def test_a_disagreement_recovered_by_a_later_fix_on_the_map_is_a_success() -> No
 VTEE = Path(__file__).parent / "data" / "networks" / "vtee.yaml"
 
 
-def test_a_navigation_the_simulator_judged_unsafe_says_so() -> None:
-    # a slow link: crossing a tee in a riser, the rear half lets go at the opening
-    # before the front has clamped: short slides, each ended by the clamp the PAB was
-    # making (docs/safety.md); the steps succeed, and "is done after 2 steps" said
-    # nothing of the slides
+def test_a_navigation_the_simulator_judged_unsafe_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a slow link and the straight-through PAB as it was before 2026-11-29 (its front
+    # half's 160 mm across counted from where the search stopped): crossing a tee in a
+    # riser, the rear half lets go at the opening before the front has clamped: short
+    # slides, each ended by the clamp the PAB was making; the steps succeed, and "is
+    # done after 2 steps" said nothing of the slides
+    monkeypatch.setattr(OpeningEdge, "past", lambda *_args: 0.0)
     steps = (Step("bend", direction="up"), Step("t-joint", direction="straight"))
     result = pirate_bt.navigate(Asks(*steps), sim=VTEE, map=VTEE, faults="delay=30ms")
     assert result.succeeded and result.counters.violations == 4

@@ -13,7 +13,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 import pirate_bt
+from pirate_bt.behaviours.opening_edge import OpeningEdge
 from pirate_bt.safety import Clamp, Reason, Source
 
 ROOT = Path(__file__).parents[1]
@@ -87,10 +90,15 @@ def test_nothing_is_clamped_for_the_tree_on_a_level_pipe() -> None:
         )
 
 
-def test_a_success_the_simulator_judged_unsafe_says_so(tmp_path: Path) -> None:
-    # a slow link: crossing a tee in a riser, the rear half reached the opening and let
-    # go before the front clamped; four short slides, each ended by the clamp the PAB
-    # was making; "SUCCESS - mission completed" said nothing of them
+def test_a_success_the_simulator_judged_unsafe_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a slow link and the straight-through PAB as it was before 2026-11-29 (the front
+    # half's 160 mm across counted from where the search stopped, not from the
+    # opening's edge): crossing a tee in a riser, the rear half reached the opening and
+    # let go before the front clamped; four short slides, each ended by the clamp the
+    # PAB was making; "SUCCESS - mission completed" said nothing of them
+    monkeypatch.setattr(OpeningEdge, "past", lambda *_args: 0.0)
     network = ROOT / "tests" / "data" / "networks" / "vtee.yaml"
     (tmp_path / "vtee.yaml").write_text(network.read_text(encoding="utf-8"), encoding="utf-8")
     route = tmp_path / "vtee.route"

@@ -62,11 +62,15 @@ def test_a_mission_counts_no_fallback_and_counts_one_when_the_rule_refuses(
     route = _route(tmp_path, _tee(tmp_path, 1))
     result = pirate_bt.simulate_mission(route, seed=1)
     assert result.succeeded and result.tee_fallbacks == 0
-    # without the opening exception (as before), the sensing drive is refused: the
-    # PAB still passes the tee on its fault path, and the result says so
+    # without the opening exception (as before), and with the front half's 160 mm
+    # across counted from where the search stopped (as before 2026-11-29: the rear's
+    # bend III then starts its drive at the opening's edge), the sensing drive is
+    # refused: the PAB still passes the tee on its fault path, and the result says so
+    from pirate_bt.behaviours.opening_edge import OpeningEdge
     from pirate_bt.safety import checks
 
     monkeypatch.setattr(checks, "pressing_over_opening", lambda *_args: False)
+    monkeypatch.setattr(OpeningEdge, "past", lambda *_args: 0.0)
     result = pirate_bt.simulate_mission(route, seed=1)
     assert result.succeeded and result.tee_fallbacks == 1
     assert result.counters.refusals >= 1

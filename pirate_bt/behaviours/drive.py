@@ -25,12 +25,12 @@ import math
 from collections.abc import Mapping
 from typing import Any, Literal
 
-import py_trees
 from py_trees.common import Status
 from pydantic import Field, StrictBool
 
 from pirate_bt.behaviours.base import NodeParams
 from pirate_bt.behaviours.grip import GripWatch
+from pirate_bt.behaviours.opening_edge import OpeningEdge
 from pirate_bt.behaviours.pipe_change import (
     DIAMETER_CHANGE_M,
     DIAMETER_SETTLE_M,
@@ -42,6 +42,7 @@ from pirate_bt.behaviours.primitive import (
     _SETTLE_TICKS,
     Primitive,
     _commands,
+    _read_metres,
     _write_blackboard,
 )
 from pirate_bt.robot.description import Half, RobotDescription
@@ -142,6 +143,27 @@ class DriveParams(NodeParams):
             " a drive back the same way reads it with 'distance_key'; empty: not used"
         ),
     )
+    overshoot_key: str | None = Field(
+        None,
+        pattern=r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$",
+        description=(
+            "blackboard key the drive writes when a joint off the wall over an opening"
+            " ends it: how far it drove since that joint began to swing off the wall"
+            " (metres past the opening's near edge; 0 when it starts, and for any other"
+            " end): a later drive takes it off its distance with 'less_key'; empty: not"
+            " used"
+        ),
+    )
+    less_key: str | None = Field(
+        None,
+        pattern=r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$",
+        description=(
+            "blackboard key holding metres to take off 'distance' when the drive starts"
+            " (an 'overshoot_key': a distance counted from an opening's near edge, not"
+            " from where the drive that found it stopped); nothing left completes the"
+            " drive at once; empty: not used"
+        ),
+    )
     stop_at_feature: StrictBool = Field(
         False,
         description=(
@@ -207,6 +229,14 @@ class Drive(Primitive):
             problems.append("stop_when_turned: only with until: blocked")
         if params.stop_at_change and params.until != "distance":
             problems.append("stop_at_change: only with until: distance")
+        if params.overshoot_key and not (
+            params.until in ("front_opening", "rear_opening") or params.stop_at_feature
+        ):
+            problems.append(
+                "overshoot_key: only with until: front_opening or rear_opening, or stop_at_feature"
+            )
+        if params.less_key and params.until != "distance":
+            problems.append("less_key: only with until: distance")
         for motor in robot.drive_motors():
             lim = motor.limits.velocity
             if lim is not None and abs(params.velocity) > lim.max:
@@ -219,11 +249,13 @@ class Drive(Primitive):
 
     @classmethod
     def blackboard_reads(cls, params: Any) -> tuple[str, ...]:
-        return (params.distance_key.lstrip("/"),) if params.distance_key else ()
+        keys = (params.distance_key, params.less_key)
+        return tuple(k.lstrip("/") for k in keys if k)
 
     @classmethod
     def blackboard_writes(cls, params: Any) -> tuple[str, ...]:
-        return (params.travelled_key.lstrip("/"),) if params.travelled_key else ()
+        keys = (params.travelled_key, params.overshoot_key)
+        return tuple(k.lstrip("/") for k in keys if k)
 
     def start(self) -> None:
         p: DriveParams = self.params  # type: ignore[assignment]
@@ -234,13 +266,13 @@ class Drive(Primitive):
         """What ended the drive early (``blocked``, ``front_opening``), if anything."""
         self.sensed_after_m: float | None = None
         """How far the drive had travelled when it sensed what ended it (``sensed``)."""
-        if p.distance_key:
-            name = p.distance_key if p.distance_key.startswith("/") else "/" + p.distance_key
-            value = py_trees.blackboard.Blackboard.storage.get(name)
-            if isinstance(value, int | float) and not isinstance(value, bool):
-                self._distance_m = float(value)
-            else:
-                self._bad_distance = f"blackboard {p.distance_key!r} holds {value!r}, not metres"
+        for key, less in ((p.distance_key, False), (p.less_key, True)):
+            value = _read_metres(key) if key and self._bad_distance is None else None
+            if isinstance(value, str):
+                self._bad_distance = value
+            elif value is not None:  # a distance, or metres off it (none left: done)
+                taken = max((self._distance_m or 0.0) - value, 0.0)
+                self._distance_m = taken if less else value
         self._at_speed = False
         self._resend = False
         self._odometry_m = 0.0
@@ -258,7 +290,10 @@ class Drive(Primitive):
         """How far back (metres of travel) a sensed slope change began: 0 otherwise."""
         self._first_step = True
         self._grip = GripWatch(self.robot)
+        self._edge = OpeningEdge(self.robot, self._opening_halves(self._velocity()))
         self._write_travelled()
+        if p.overshoot_key:
+            _write_blackboard(p.overshoot_key, 0.0)
 
     def stop_motion(self) -> None:
         self.supervisor.stop()
@@ -386,10 +421,18 @@ class Drive(Primitive):
             if problem is not None:
                 return self.fail(problem)
         # checked before (re)sending: a half already over an opening is done at once
+        self._edge.update(state, travelled, dt)
         for half in self._opening_halves(velocity):
-            if any(self._off_wall(state, half).values()):
-                self.feedback_message = f"{half} half over an opening after {travelled:.3f} m"
+            off = [name for name, out in self._off_wall(state, half).items() if out]
+            if off:
+                past = self._edge.past(off, travelled)
+                self.feedback_message = (
+                    f"{half} half over an opening after {travelled:.3f} m"
+                    f" ({past * 1000:.0f} mm past its edge)"
+                )
                 self.sensed = f"{half}_opening"
+                if p.overshoot_key:
+                    _write_blackboard(p.overshoot_key, past)
                 return Status.SUCCESS
         if p.stop_at_change:
             change = self._change.changed(state, velocity, travelled)

@@ -187,3 +187,12 @@ def _read_blackboard(key: str) -> Any:
 def _write_blackboard(key: str, value: Any) -> None:
     name = key if key.startswith("/") else "/" + key
     py_trees.blackboard.Blackboard.set(name, value)
+
+
+def _read_metres(key: str) -> float | str:
+    """The number the blackboard holds under ``key``, or why it is not one."""
+    name = key if key.startswith("/") else "/" + key
+    value = py_trees.blackboard.Blackboard.storage.get(name)
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    return f"blackboard {key!r} holds {value!r}, not metres"
