@@ -199,6 +199,25 @@ def test_unclamp_needs_the_other_half_and_then_succeeds() -> None:
     assert all(abs(rig.port.values[f"bend_{i}_angle"]) < 0.05 for i in (1, 2))
 
 
+def test_an_unclamp_that_times_out_shows_the_spring_still_pressing() -> None:
+    # the joints came back straight, but bend_1's spring still reads force (a stuck
+    # sensor, something caught): the timeout says so, not just the angles
+    rig = Rig()
+    both_clamped(rig)
+    node = rig.node(Unclamp, UnclampParams(half=Half.FRONT, timeout=1.0))
+    for _ in range(100):
+        rig.supervisor.tick()
+        node.tick_once()
+        if node.status != Status.RUNNING:
+            break
+        rig.port.set(bend_1_spring=6.0)
+        rig.clock.advance(DT)
+    assert node.status == Status.FAILURE
+    assert node.feedback_message.startswith("timeout: not done after 1 s (releasing front:")
+    assert "bend_1 0.0° 6.0 N" in node.feedback_message, node.feedback_message
+    assert "bend_2 0.0° 0.0 N" in node.feedback_message, node.feedback_message
+
+
 # -- bend / rotate / align ---------------------------------------------------------------
 
 

@@ -217,7 +217,12 @@ class Unclamp(Primitive):
             if angle is None or abs(angle) > tol or (force is not None and abs(force) > release):
                 ok_all = False
             if angle is not None:
-                shown.append(f"{module.name} {_deg(angle)}")
+                # the spring too: a joint back at straight whose spring still reads force
+                # (a stuck sensor, something caught) is what keeps a release from ending
+                shown.append(
+                    f"{module.name} {_deg(angle)}"
+                    + (f" {force:.1f} N" if force is not None else "")
+                )
         self.feedback_message = f"releasing {half}: " + ", ".join(shown)
         self._held = self._held + 1 if ok_all else 0
         return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
