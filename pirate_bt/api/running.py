@@ -273,7 +273,16 @@ def supervised_runner(
         # keep the cause a PAB or the supervisor gave first; else the run's own (an
         # exception, a time limit), so the next run's refusal names it
         assert supervisor is not None
-        stopped = runner.stop_message
+        from pirate_bt.behaviours.cause import failure_cause
+
+        # a tree that failed: the failure that explains it ("tree failed after 102
+        # ticks" names no cause, and the next run's refusal would repeat it)
+        cause = (
+            failure_cause(runner.tree.root)
+            if runner.tree.root.status == py_trees.common.Status.FAILURE
+            else None
+        )
+        stopped = cause.reason if cause is not None else runner.stop_message
         own = f"{END_OF_RUN}: {stopped}" if stopped else END_OF_RUN
         supervisor.end_safe(supervisor.safe_state_reason or own)
 
@@ -357,6 +366,7 @@ def run_on(
         _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
         observe(runner, connection)
+    held = supervisor.safe_state_reason if supervisor is not None else None
     try:
         loop = runner.run()
     finally:
@@ -364,6 +374,11 @@ def run_on(
             tally.detach()
     first_stop = tally.first_safe_state if tally is not None else None
     why, failing = explain_run(loop, runner.tree.root, first_stop)
+    never_left = supervisor is not None and supervisor.safe_state_reason == held
+    if held is not None and never_left and not loop.succeeded:
+        # held in the safe state a run before this one left it in, all along: this run
+        # could do nothing, and that first cause is its why (not a fresh failure)
+        why = f"the robot is in its safe state: {held}"
     counters = (
         counting.counters(overruns=loop.overrun_count)
         if counting is not None
