@@ -85,3 +85,23 @@ def test_cli_prints_where_to_connect() -> None:
     )
     assert bad.returncode == 2
     assert "unknown fault kind" in bad.stderr
+
+
+def test_a_host_on_tcp_keeps_the_bridge_s_watchdog_fed_while_the_program_idles() -> None:
+    # socket:// is a bridge behind a serial-over-TCP adapter, or this simulator: the
+    # link's reader thread heartbeats while the program does not call in (it did only
+    # for device paths, and a second of planner code thinking tripped the watchdog)
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        server.start()
+        try:
+            link = open_link(f"socket://{host}:{port}", ROBOT, WallClock())
+            try:
+                before = sim.counters().watchdog_trips
+                time.sleep(1.0)  # the program idles: no poll, no send
+                assert sim.counters().watchdog_trips == before
+            finally:
+                link.close()
+        finally:
+            server.stop()

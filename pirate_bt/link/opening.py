@@ -214,7 +214,10 @@ def open_link(
         config: Session timing (default: derived from the robot).
         reset_wait_s: Wait for the Arduino's DTR reset; default ``bridge.reset_time``
             for device paths and 0 for URLs.
-        threaded: Use a reader thread; default: for device paths on a wall clock.
+        threaded: Use a reader thread; default: on a wall clock, for device paths and
+            network URLs (``socket://``, ``rfc2217://``, and ``spy://`` around one),
+            so heartbeats go out while the program does not call in (a bridge behind
+            a serial-over-TCP adapter trips its watchdog otherwise).
         write_timeout_s: Longest a write may block (default from the baud rate).
         release_boot_latch: Release a latch that comes from the bridge's boot (the DTR
             reset of this very opening); see :func:`wrap_link`.
@@ -234,7 +237,7 @@ def open_link(
     if reset_wait_s is None:
         reset_wait_s = robot.bridge.reset_time if real else 0.0
     if threaded is None:
-        threaded = real and not clock.is_simulated
+        threaded = not clock.is_simulated and (real or _over_a_wire(clean_url))
     transport = Transport.open(clean_url, baud=robot.bridge.baud, write_timeout_s=write_timeout_s)
     try:
         return wrap_link(
@@ -249,3 +252,12 @@ def open_link(
         )
     except LinkTimeout as exc:
         raise LinkTimeout(f"{clean_url}: {exc}") from exc
+
+
+_WIRE_SCHEMES = ("socket://", "rfc2217://", "spy://")
+
+
+def _over_a_wire(url: str) -> bool:
+    """A URL to another process or device that keeps its own time (a bridge behind
+    ser2net, a simulator served on TCP), not an in-process one (``loop://``, ``sim://``)."""
+    return url.lower().startswith(_WIRE_SCHEMES)
