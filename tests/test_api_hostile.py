@@ -394,3 +394,64 @@ def test_a_missing_scheduler_file_is_waited_for_only_as_long_as_asked(tmp_path: 
 
 def test_a_survey_extension_with_a_name_too_long_is_named() -> None:
     refused(lambda: pirate_bt.survey(extend="x" * 300), "extend", "too long")
+
+
+# -- found by a docs-driven probe (2026-11-29): wrong types at three more doors -------
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        ((5, "x.route"), ("parse_route: text: give text, not 5", "load_route")),
+        ((None, "x.route"), ("parse_route: text: give text, not None",)),
+        ((b"forward 1 m\n", "x.route"), ("parse_route: text:", "b'forward 1 m")),
+        (("forward 1 m\n", 5), ("parse_route: source: give text, not 5",)),
+        (("forward 1 m\n", "x.route", 3), ("parse_route: name: give text or None, not 3",)),
+    ],
+)
+def test_parse_route_names_an_argument_of_the_wrong_type(
+    args: tuple[Any, ...], words: tuple[str]
+) -> None:
+    from pirate_bt.errors import ArgumentTypeError
+    from pirate_bt.task import parse_route
+
+    refused(lambda: parse_route(*args), *words, kind=ArgumentTypeError)
+
+
+def test_building_a_node_in_python_names_a_wrong_context_robot_or_name() -> None:
+    from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.behaviours.primitives import Clamp
+    from pirate_bt.errors import ArgumentTypeError
+
+    kw = {"half": "rear", "torque": "0.5 N*m"}
+    refused(
+        lambda: Clamp.build("c", 5, **kw),
+        "Clamp: context: give a BuildContext",
+        "not 5",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    refused(
+        lambda: Clamp.checked_params("c", kw, robot="x"),  # type: ignore[arg-type]
+        "Clamp.checked_params: robot: give a RobotDescription",
+        "not 'x'",
+        kind=ArgumentTypeError,
+    )
+    refused(
+        lambda: Clamp.build("c", BuildContext(robot="x"), **kw),  # type: ignore[arg-type]
+        "robot: give a RobotDescription",
+        kind=ArgumentTypeError,
+    )
+    refused(
+        lambda: Clamp.build(5, BuildContext(), **kw),
+        "name: give the node's name as text",
+        kind=ArgumentTypeError,
+    )  # type: ignore[arg-type]
+    assert Clamp.build("c", BuildContext(), **kw).name == "c"
+
+
+@pytest.mark.parametrize("network", [5, b"straight", None, 1.5])
+def test_simulate_tree_names_a_network_of_the_wrong_type(network: Any) -> None:
+    refused(
+        lambda: pirate_bt.simulate_tree("bend", network=network, params={"roll": "90 deg"}),
+        "simulate_tree: network: give a bundled name, a network file or a Network",
+    )

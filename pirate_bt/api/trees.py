@@ -34,6 +34,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import RunResult
 from pirate_bt.api.running import Observer, as_loaded, check_run_options, needs_robot, run_on
+from pirate_bt.errors import ArgumentTypeError, shown
 
 __all__ = ["run_tree", "simulate_tree"]
 
@@ -121,6 +122,14 @@ def simulate_tree(
     split_faults(faults)
     if isinstance(network, str | Path):
         file_name(network, "network")
+    else:
+        from pirate_bt.pipes import Network
+
+        if not isinstance(network, Network):
+            raise ArgumentTypeError(
+                "simulate_tree: network: give a bundled name, a network file or a Network"
+                f" (pirate_bt.load_network), not {shown(network)}"
+            )
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
     with (

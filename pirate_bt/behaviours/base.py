@@ -68,7 +68,14 @@ import py_trees
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from pirate_bt.clock import Clock, WallClock
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    LocatedError,
+    SourceLocation,
+    ValidationFailed,
+    caller_location,
+    shown,
+)
 from pirate_bt.safety.verdict import enter_issuer, issuing, leave_issuer
 
 if TYPE_CHECKING:
@@ -162,6 +169,7 @@ class NodeMixin:
                 limits, each problem located at the caller's line.
             ValueError: a decorator without a child.
         """
+        _check_context(cls, context)
         checked = cls.checked_params(name, params, context.robot)
         factory: Callable[..., py_trees.behaviour.Behaviour] = cls  # type: ignore[assignment]
         if cls.kind == "decorator":
@@ -219,6 +227,16 @@ class NodeMixin:
         Raises:
             ValidationFailed: every problem found.
         """
+        from pirate_bt.robot.description import RobotDescription
+
+        fn = f"{cls.__name__}.checked_params"
+        if not isinstance(name, str):
+            raise ArgumentTypeError(f"{fn}: name: give the node's name as text, not {shown(name)}")
+        if robot is not None and not isinstance(robot, RobotDescription):
+            raise ArgumentTypeError(
+                f"{fn}: robot: give a RobotDescription (pirate_bt.load_robot) or None,"
+                f" not {shown(robot)}"
+            )
         checked: NodeParams | None = None
         problems: list[str] = []
         if isinstance(params, cls.Params):
@@ -283,10 +301,19 @@ def _checking(
         child: py_trees.behaviour.Behaviour | None = None,
         **kwargs: Any,
     ) -> py_trees.behaviour.Behaviour:
+        _check_context(cls, context)
         checked = cls.checked_params(name, params, context.robot)
         return build(cls, name, checked, context, child, **kwargs)
 
     return from_params
+
+
+def _check_context(cls: type, context: object) -> None:
+    if not isinstance(context, BuildContext):
+        raise ArgumentTypeError(
+            f"{cls.__name__}: context: give a BuildContext (robot.context() on a connection,"
+            f" or BuildContext(...)), not {shown(context)}"
+        )
 
 
 def params_problems(exc: ValidationError, data: Any) -> list[str]:

@@ -47,7 +47,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LocatedError, SourceLocation, UnitError, ValidationFailed
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    LocatedError,
+    SourceLocation,
+    UnitError,
+    ValidationFailed,
+    shown,
+)
 from pirate_bt.units import parse_quantity, units_of
 
 __all__ = [
@@ -424,7 +431,20 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
 
     Raises:
         ValidationFailed: every malformed line, each at ``file:line:column``.
+        ArgumentTypeError: ``text`` or ``source`` not text, ``name`` neither text nor
+            ``None`` (a file is for :func:`load_route`).
     """
+    for arg, value, may_be_none in (
+        ("text", text, False),
+        ("source", source, False),
+        ("name", name, True),
+    ):
+        if not isinstance(value, str) and not (may_be_none and value is None):
+            raise ArgumentTypeError(
+                f"parse_route: {arg}: give text{' or None' if may_be_none else ''},"
+                f" not {shown(value)}"
+                + ("; pirate_bt.load_route reads a file" if arg == "text" else "")
+            )
     errors: list[LocatedError] = []
     steps: list[RouteStep] = []
     network: str | None = None
