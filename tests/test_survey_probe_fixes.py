@@ -105,6 +105,17 @@ def test_a_survey_that_wrote_nothing_does_not_say_it_did(tmp_path: Path) -> None
     assert "written to" not in why and "nothing was surveyed: no file is written" in why
 
 
+def test_a_survey_stopped_inside_its_first_step_says_it_wrote_nothing(tmp_path: Path) -> None:
+    # a failed step (here the time limit in the first straight) ends the navigation
+    # before the navigator is asked again: it said only the step's failure
+    out = tmp_path / "n.yaml"
+    result = pirate_bt.survey(sim="straight", output=out, max_time="5 s")
+    assert result.exit_code == 1 and not out.exists() and result.output is None
+    assert result.why.startswith("navigation time limit reached (5 s) in step 1")
+    assert result.why.endswith("; nothing was surveyed: no file is written"), result.why
+    assert result.why in result.summary()
+
+
 # -- F7: a survey never writes a network that does not validate
 
 

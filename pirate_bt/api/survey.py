@@ -177,6 +177,10 @@ def survey(
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
             navigation.why += f"; {explore.invalid}"  # what was surveyed is not written
+        elif explore.network is None and explore.output is not None:
+            nothing = "nothing was surveyed: no file is written"
+            if nothing not in navigation.why:
+                navigation.why += f"; {nothing}"  # as a survey that ends on its own says
     if explore.ends and explore.ends_note() not in navigation.why:
         navigation.why += f"; {explore.ends_note()}"  # a written end may be a bend
     network = None
