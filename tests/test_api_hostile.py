@@ -455,3 +455,15 @@ def test_simulate_tree_names_a_network_of_the_wrong_type(network: Any) -> None:
         lambda: pirate_bt.simulate_tree("bend", network=network, params={"roll": "90 deg"}),
         "simulate_tree: network: give a bundled name, a network file or a Network",
     )
+
+
+def test_a_navigation_refused_before_it_ran_leaves_no_trace_folder(tmp_path: Path) -> None:
+    from pirate_bt.sim.faults import FaultTargetError
+
+    refused(lambda: pirate_bt.navigate("gaol", sim="straight", trace=tmp_path / "a"), "gaol")
+    refused(
+        lambda: pirate_bt.survey(sim="straight", trace=tmp_path / "b", faults="motor_stall:zz@1s"),
+        "unknown motor 'zz'",
+        kind=FaultTargetError,
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

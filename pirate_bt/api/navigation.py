@@ -6,6 +6,7 @@ and :mod:`pirate_bt.task.navigate` for how a step runs.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -148,8 +149,6 @@ def navigate(
     fraction(map_tolerance, "map_tolerance")
     seed = seed_value(seed)
     split_faults(faults)
-    if trace is not None:
-        _trace_folder(trace)
     if isinstance(navigator, str):
         name = navigator
         navigator = load_navigator(navigator, params_mapping(params))
@@ -171,9 +170,17 @@ def navigate(
         world = sim if sim is not None else "straight"
         target = _network(world, "sim")
     check_navigator_map(navigator, name, map_network, deadline_s)  # before anything moves
-    with connect(
-        target, robot=description, seed=seed, faults=faults, firmware=firmware
-    ) as connection:
+    made = trace is not None and not Path(trace).exists()
+    if trace is not None:  # every argument checked: an unknown navigator makes no folder
+        _trace_folder(trace)
+    try:
+        connection = connect(target, robot=description, seed=seed, faults=faults, firmware=firmware)
+    except BaseException:
+        if made:  # refused at connect (a fault's unknown target): leave no empty folder
+            with contextlib.suppress(OSError):
+                Path(trace).rmdir()  # type: ignore[arg-type]
+        raise
+    with connection:
         simulator = connection.simulator
         truth_for = None
         truth_now = None
