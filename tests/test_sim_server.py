@@ -105,3 +105,28 @@ def test_a_host_on_tcp_keeps_the_bridge_s_watchdog_fed_while_the_program_idles()
                 link.close()
         finally:
             server.stop()
+
+
+def test_a_second_host_on_tcp_is_disconnected_and_the_first_goes_on() -> None:
+    import socket
+
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        server.start()
+        try:
+            link = open_link(f"socket://{host}:{port}", ROBOT, WallClock())
+            try:
+                with socket.create_connection((host, port), timeout=5.0) as second:
+                    # closed at once (it waited in the backlog, hearing nothing)
+                    assert second.recv(4096) == b""
+                frames = sim.counters().state_frames_sent
+                deadline = time.monotonic() + 30.0
+                while sim.counters().state_frames_sent < frames + 20:
+                    assert time.monotonic() < deadline
+                    time.sleep(0.01)
+                assert link.state() is not None and link.health().connected
+            finally:
+                link.close()
+        finally:
+            server.stop()

@@ -114,7 +114,7 @@ class SimServer:
             fds.append(self._master)
         if self._client is not None:
             fds.append(self._client)
-        elif self._listener is not None:
+        if self._listener is not None:
             fds.append(self._listener)
         if fds:
             with contextlib.suppress(OSError, ValueError):
@@ -128,15 +128,21 @@ class SimServer:
                 return os.read(self._master, 4096)
             except (BlockingIOError, OSError):
                 return b""
-        if self._listener is not None and self._client is None:
+        if self._listener is not None:
             try:
                 client, peer = self._listener.accept()
             except (BlockingIOError, OSError):
-                return b""
-            client.setblocking(False)
-            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self._client = client
-            _log.info("host connected from %s:%d", *peer)
+                client = None
+            if client is not None and self._client is not None:
+                # one host at a time, as on the bridge's one serial line: a second is
+                # disconnected at once (it heard nothing and timed out before)
+                _log.warning("a second host from %s:%d refused: one host at a time", *peer)
+                client.close()
+            elif client is not None:
+                client.setblocking(False)
+                client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                self._client = client
+                _log.info("host connected from %s:%d", *peer)
         if self._client is not None:
             try:
                 data = self._client.recv(4096)
