@@ -74,7 +74,6 @@ from pirate_bt.task.explore_parts import (
     branch_leavable,
     check_output,
     metres,
-    steep,
     write_survey,
 )
 from pirate_bt.task.navigation import Felt, Observation, Step
@@ -343,7 +342,7 @@ class ExploreNavigator:
             PendingTee(segment, start, diameter, self._slope_deg, len(self._trail), felt.direction)
         )
         self._from_m = start + 3 * diameter  # the tee's straight run, 3 x D
-        self._trail.append(Passed("t-joint-back", "straight", self._from_m, steep(self._slope_deg)))
+        self._trail.append(Passed("t-joint-back", "straight", self._from_m))
         return Step("t-joint", direction="straight")
 
     def _on_the_way(self, obs: Observation, side: str, start: float, diameter: float) -> Step:
@@ -352,9 +351,7 @@ class ExploreNavigator:
         ordinal, self._tees_met = self._tees_met, self._tees_met + 1
         if ordinal != self._way[0]:
             self._from_m = start + 3 * diameter
-            self._trail.append(
-                Passed("t-joint-back", "straight", self._from_m, steep(self._slope_deg))
-            )
+            self._trail.append(Passed("t-joint-back", "straight", self._from_m))
             return Step("t-joint", direction="straight")
         expected = self._extension.sides[len(self._extension.way) - len(self._way)]
         if side != expected:
@@ -387,13 +384,6 @@ class ExploreNavigator:
             )
         while self._pending:
             tee = self._pending[-1]
-            if any(p.steep for p in self._trail[tee.depth :]):  # backing through it slides
-                self.unexplored.append(
-                    f"{tee}: not entered, the way back to it passes a tee in a steep pipe"
-                    " (backing through one slides), a further insertion reaches it forwards"
-                )
-                self._pending.pop()
-                continue
             others = any(branch_leavable(t.diameter_m) for t in self._pending[:-1])
             if branch_leavable(tee.diameter_m) or not others:
                 self._pending.pop()

@@ -20,7 +20,6 @@ from pirate_bt.units import parse_quantity
 __all__ = [
     "BACK_OUT_REACH_M",
     "OPENING_STOP",
-    "STEEP_DEG",
     "Passed",
     "PendingTee",
     "SurveyIncomplete",
@@ -29,7 +28,6 @@ __all__ = [
     "check_output",
     "invalid_network",
     "metres",
-    "steep",
     "write_survey",
 ]
 
@@ -156,22 +154,6 @@ class Passed:
     pab: str  # "bend-back" or "t-joint-back"
     way: str  # the bend's direction; a tee: straight or the branch's side
     end_m: float  # the belief where the feature ends (the rear tip goes past it)
-    steep: bool = False  # a tee in a pipe steeper than STEEP_DEG: not backed through
-
-
-STEEP_DEG = 10.0
-"""A pipe steeper than this (the bundled robot's ``motion.max_unclamped_slope``) is one
-the robot slides down with no half clamped. Backing straight through a tee in one
-(``t-joint-back``) let the rear half's joints reach the opening with the front half
-not yet clamped: the robot slid (a 51 mm riser or drop, whichever side its branch
-leaves on), and a survey that did so to reach the tee's branch either stopped on the
-supervisor's protective clamp or succeeded with a sliding violation. The survey leaves
-such a branch to a further insertion, which reaches it forwards."""
-
-
-def steep(slope_deg: float) -> bool:
-    """A pipe at ``slope_deg`` (past plus or minus 90 as the survey carries it) is steep."""
-    return abs(math.sin(math.radians(slope_deg))) > math.sin(math.radians(STEEP_DEG))
 
 
 @dataclass
