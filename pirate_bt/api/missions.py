@@ -289,7 +289,11 @@ def _options(
     split_faults(checks.get("faults"))
     callback(checks.get("observe"), "observe")
     if checks.get("trace") is not None:
-        check_trace(checks["trace"])
+        inputs: dict[str, Any] = {
+            k: v for k, v in checks.get("inputs", {}).items() if isinstance(v, str | Path)
+        }
+        inputs |= {"route": plan.route.source, "network": getattr(plan.network, "source", None)}
+        check_trace(checks["trace"], inputs=inputs)
     if checks.get("output") is not None:
         output_folder(checks["output"])
     check_live_options(*checks.get("views", (None,) * 5))
@@ -383,6 +387,7 @@ def simulate_mission(
     }
     checks |= {"realtime": realtime, "return_on_stop": return_on_stop, "firmware": firmware}
     checks |= {"observe": observe, "views": (foxglove, ros2, ros_domain_id, ros_namespace, groot2)}
+    checks["inputs"] = {"route": plan_or_route, "truth": truth, "robot": robot}
     period_s, max_time_s = _options(rate, max_time, map_tolerance, plan, description, checks)
     world = plan.network if truth is None else _load_network(truth, _base(plan.route), "truth")
     return _watched_mission(
@@ -494,6 +499,7 @@ def run_mission(
     plan = _plan(plan_or_route, network, description)
     checks: dict[str, Any] = {"faults": faults, "trace": trace, "output": output, "live": live}
     checks |= {"observe": observe, "views": (foxglove, ros2, ros_domain_id, ros_namespace, groot2)}
+    checks["inputs"] = {"route": plan_or_route, "robot": robot}
     period_s, max_time_s = _options(rate, max_time, map_tolerance, plan, description, checks)
     return _watched_mission(
         lambda: connect(port, robot=description, faults=faults),

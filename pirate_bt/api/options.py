@@ -264,21 +264,54 @@ def file_name(value: object, option: str) -> Path:
     return file_argument(value, option)
 
 
-def output_path(value: object, option: str) -> Path:
-    """A file to write: :func:`file_name`, not a directory, no file on its way.
+def output_path(value: object, option: str, inputs: Mapping[str, Any] | None = None) -> Path:
+    """A file to write: :func:`file_name`, not a directory, not an existing pipe or
+    device (a FIFO hung the run before it began; ``/dev/full`` failed it at the end),
+    no file on its way, and none of ``inputs`` (:func:`not_an_input`).
 
     Raises:
-        InputError: a bad name, a directory, or a folder on its way that is a file.
+        InputError: a bad name, a directory, a pipe or device, a folder on its way that
+            is a file, or one of the run's own input files.
     """
     target = file_name(value, option)
     if target.is_dir():
         raise InputError(f"{option}: {target} is a directory; name a file")
+    if target.exists() and not target.is_file():
+        raise InputError(
+            f"{option}: {target} is not a regular file (a pipe or a device); name a file"
+        )
+    not_an_input(target, option, inputs or {})
     for parent in target.parents:
         if parent.exists():
             if not parent.is_dir():
                 raise InputError(f"{option}: {target}: {parent} is not a directory")
             break
     return target
+
+
+def not_an_input(target: Path, option: str, inputs: Mapping[str, Any]) -> None:
+    """Refuse an output that is one of the run's own input files, by any name (a
+    symlink, a hard link): ``run tree.jsonl --trace tree.jsonl`` replaced the tree with
+    its trace, exit 0. ``inputs`` maps what each is (``"tree"``) to what was given; only
+    a file name of a file that exists is compared, a bundled name or an object is not.
+
+    Raises:
+        InputError: ``target`` is one of them.
+    """
+    if not inputs or not target.exists():
+        return
+    for what, given in inputs.items():
+        files = getattr(given, "files", None)  # a loaded tree: its file and its subtrees'
+        for i, name in enumerate(files if isinstance(files, list | tuple) else [given]):
+            if not isinstance(name, str | Path) or not name or "\0" in str(name):
+                continue
+            try:
+                same = os.path.samefile(target, name)
+            except (OSError, ValueError):
+                continue  # not a file (a bundled name), or unreadable: not this one
+            if same:
+                kind = f"{what} file" if i == 0 else f"{what}'s subtree file"
+                raise InputError(f"{option}: {target} is the {kind}; name another file")
 
 
 def output_folder(value: object, option: str = "output") -> Path:

@@ -330,6 +330,8 @@ def run_on(
 
     period_s, max_time_s = run_limits(max_time, rate)
     check_run_options(trace=trace, realtime=realtime, live=live, observe=observe)
+    if trace is not None:
+        check_trace(trace, inputs={"tree": tree})
     if connection is not None:
         connection.check_open()
         robot = connection.robot
@@ -433,17 +435,19 @@ def check_run_options(
         check_trace(trace)
 
 
-def check_trace(trace: Any, option: str = "trace") -> Path:
-    """A trace file to write: a file name with a known suffix, not a directory.
+def check_trace(trace: Any, option: str = "trace", inputs: Mapping[str, Any] | None = None) -> Path:
+    """A trace file to write: a file name with a known suffix, not a directory, a pipe
+    or a device, and not one of the run's ``inputs`` (what each is, to what was given).
 
     Raises:
-        InputError: a bad name, an unknown suffix (the known ones listed), a directory.
+        InputError: a bad name, an unknown suffix (the known ones listed), a directory,
+            a pipe or device, or an input of the run.
     """
     from pirate_bt.errors import InputError
     from pirate_bt.trace.formats import suffix_of
     from pirate_bt.trace.writer import WRITERS
 
-    path = output_path(trace, option)
+    path = output_path(trace, option, inputs)
     try:
         suffix_of(str(path), WRITERS)
     except InputError as exc:

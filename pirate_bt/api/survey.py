@@ -161,6 +161,14 @@ def survey(
                 " is written as YAML"
             )
         writable_folder(explore.output.parent, "output")
+        from pirate_bt.api.options import not_an_input
+
+        if explore.output.exists() and not explore.output.is_file():
+            raise InputError(
+                f"output: {explore.output} is not a regular file (a pipe or a device); name a file"
+            )
+        # the pipe as it really is must survive its survey (extend= may be the same file)
+        not_an_input(explore.output, "output", {"simulated network": sim, "robot": robot})
     navigation = navigate(
         explore,
         sim=sim,

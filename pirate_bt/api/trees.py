@@ -33,7 +33,14 @@ from pirate_bt.api.options import (
     split_faults,
 )
 from pirate_bt.api.results import RunResult
-from pirate_bt.api.running import Observer, as_loaded, check_run_options, needs_robot, run_on
+from pirate_bt.api.running import (
+    Observer,
+    as_loaded,
+    check_run_options,
+    check_trace,
+    needs_robot,
+    run_on,
+)
 from pirate_bt.errors import ArgumentTypeError, shown
 
 __all__ = ["run_tree", "simulate_tree"]
@@ -120,6 +127,8 @@ def simulate_tree(
     seed = seed_value(seed)
     flag(firmware, "firmware")
     split_faults(faults)
+    if trace is not None:
+        check_trace(trace, inputs={"tree": tree, "network": network, "robot": robot})
     if isinstance(network, str | Path):
         file_name(network, "network")
     else:
@@ -200,6 +209,8 @@ def run_tree(
     port_url(port)
     run_limits(max_time, rate)
     check_run_options(trace=trace, live=live, observe=observe)
+    if trace is not None:
+        check_trace(trace, inputs={"tree": tree, "robot": robot})
     check_live_options(foxglove, ros2, ros_domain_id, ros_namespace, groot2)
     split_faults(faults)
     description = load_robot_like(robot)

@@ -1,0 +1,103 @@
+"""An output never destroys an input, and a pipe or a device is no output (probe 9).
+
+A hostile-input probe on 2026-11-29 found ``run tree.jsonl --trace tree.jsonl`` (and
+the same through a symlink or a hard link, and ``mission r.jsonl --trace r.jsonl``)
+replacing the tree or route with its trace, exit 0; ``survey --sim world.yaml -o
+world.yaml`` replacing the pipe as it really is with the survey; a named pipe as
+``--trace`` hanging the run before it began, and one as ``survey -o`` silently
+replaced by a file; ``--trace`` on ``/dev/full`` failing only after the run.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import pirate_bt
+from pirate_bt.errors import InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+TREE = "name: t\nroot: {type: wait, name: w, duration: 1 s}\n"
+
+
+def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "pirate_bt", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+@pytest.mark.parametrize("how", ["same name", "symlink", "hard link"])
+def test_a_trace_onto_the_tree_file_is_refused_and_the_tree_kept(tmp_path: Path, how: str) -> None:
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(TREE)
+    trace = tmp_path / "tree.jsonl"
+    if how == "same name":
+        trace = tree = tree.rename(tmp_path / "tree.jsonl")
+    elif how == "symlink":
+        trace.symlink_to(tree)
+    else:
+        os.link(tree, trace)
+    with pytest.raises(InputError, match=r"^trace: .*tree\.jsonl is the tree file; name another"):
+        pirate_bt.simulate_tree(tree, trace=trace)
+    assert tree.read_text() == TREE
+    done = _cli("run", "--quiet", str(tree), "--trace", str(trace), cwd=tmp_path)
+    assert done.returncode == 2, done
+    assert done.stderr.count("\n") == 1 and "is the tree file" in done.stderr
+    assert tree.read_text() == TREE
+
+
+def test_a_trace_onto_the_route_or_its_network_is_refused(tmp_path: Path) -> None:
+    network = tmp_path / "net.yaml"
+    network.write_text((ROOT / "scenarios" / "bend-right.yaml").read_text())
+    route = tmp_path / "r.jsonl"
+    route.write_text("network net.yaml\nat the bend turn right\n")
+    kept = route.read_text(), network.read_text()
+    with pytest.raises(InputError, match="is the route file"):
+        pirate_bt.simulate_mission(route, trace=route)
+    with pytest.raises(InputError, match="is the network file"):
+        pirate_bt.simulate_mission(pirate_bt.plan_route(route), trace=network)
+    (tmp_path / "link.jsonl").symlink_to(network)
+    done = _cli("mission", "-q", str(route), "--trace", "link.jsonl", cwd=tmp_path)
+    assert done.returncode == 2 and "is the network file" in done.stderr, done
+    assert (route.read_text(), network.read_text()) == kept
+
+
+def test_a_survey_never_writes_over_the_pipe_it_surveys(tmp_path: Path) -> None:
+    world = tmp_path / "world.yaml"
+    world.write_text((ROOT / "scenarios" / "straight.yaml").read_text())
+    before = world.read_text()
+    with pytest.raises(InputError, match="is the simulated network file"):
+        pirate_bt.survey(sim=world, output=world)
+    assert world.read_text() == before
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_a_named_pipe_is_no_trace_and_no_survey_output(tmp_path: Path) -> None:
+    fifo = tmp_path / "f.jsonl"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="is not a regular file"):
+        pirate_bt.simulate_tree("straight", params={"distance": "0.1 m"}, trace=fifo)
+    out = tmp_path / "g.yaml"
+    os.mkfifo(out)
+    with pytest.raises(InputError, match="is not a regular file"):
+        pirate_bt.survey(output=out)
+    assert not out.is_file()  # still the pipe: not replaced by a file
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_device_is_no_trace_and_is_refused_before_the_run(tmp_path: Path) -> None:
+    full = tmp_path / "full.jsonl"
+    full.symlink_to("/dev/full")
+    tree = tmp_path / "t.yaml"
+    tree.write_text(TREE)
+    done = _cli("run", "--quiet", str(tree), "--trace", str(full), cwd=tmp_path)
+    assert done.returncode == 2 and "not a regular file" in done.stderr, done
+    assert "ticks" not in done.stderr  # refused before it ran
