@@ -116,7 +116,14 @@ def plan_route(
         )
     robot = _checked("plan_route", network, robot)
     contract = contract or PabContract()
-    walker = _Walker(route, network, robot_length_m(robot), rear_lead_m(robot), contract)
+    walker = _Walker(
+        route,
+        network,
+        robot_length_m(robot),
+        rear_lead_m(robot),
+        contract,
+        robot.motion.max_unclamped_slope,
+    )
     if start_m is not None:
         walker.start_m = walker.s_m = start_m
     for step in route.steps:

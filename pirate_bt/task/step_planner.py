@@ -55,7 +55,12 @@ class StepPlanner:
         self.contract = contract or PabContract()
         empty = parse_route("pause 1 s\n", source, name=source)  # replaced by each step
         self._walker = _Walker(
-            empty, network, robot_length_m(robot), rear_lead_m(robot), self.contract
+            empty,
+            network,
+            robot_length_m(robot),
+            rear_lead_m(robot),
+            self.contract,
+            robot.motion.max_unclamped_slope,
         )
 
     @property

@@ -30,6 +30,11 @@ __all__ = ["BRANCH_ROLL_TOL_RAD", "_Walker", "branch_problem", "branch_side"]
 
 _TOL_M = 1e-3
 
+_STEP_M = 0.0025
+"""An abrupt widening this large or larger (a straight of another diameter, no cone)
+loses the wall under a half that holds alone: 3 mm slid in a riser, 2 mm did not
+(probe, 2026-11-29)."""
+
 
 def _roll_text(roll_rad: float) -> str:
     return direction_name(roll_rad) or f"roll {math.degrees(roll_rad):.0f} deg"
@@ -96,8 +101,10 @@ class _Walker:
         length_m: float,
         rear_lead_m: float,
         contract: PabContract,
+        max_unclamped_slope_rad: float = math.radians(10.0),
     ) -> None:
         self.route = route
+        self.steep_sin = math.sin(max_unclamped_slope_rad)
         self.network = network
         self.length_m = length_m
         self.rear_lead_m = rear_lead_m
@@ -396,9 +403,12 @@ class _Walker:
                 step.location,
             )
         nxt = self.path.pieces[self.path.index_at(feature.end_m + _TOL_M) :]
+        before = feature
         for piece in nxt:
             if piece is feature or piece.start_m < feature.end_m - _TOL_M:
                 continue
+            self._check_step(step, feature, end_m, before, piece)
+            before = piece
             if piece.kind in (PieceKind.BEND, PieceKind.TEE):
                 if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
                     gap = piece.start_m - feature.end_m
@@ -412,6 +422,33 @@ class _Walker:
                         step.location,
                     )
                 break
+
+    def _check_step(
+        self, step: RouteStep, feature: Piece, end_m: float, before: Piece, piece: Piece
+    ) -> None:
+        """No abrupt widening in a steep pipe where passing ``feature`` has one half hold.
+
+        While a bend or T-joint PAB brings the rear half through, the front half alone
+        holds, up to the PAB's end; a step wider by :data:`_STEP_M` or more under it
+        swings its joints off the wall, and in a steep pipe the robot slides (a cone
+        reducer, or a narrowing, does not: the joints follow the wall).
+        """
+        widening = piece.diameter_start_m - before.diameter_end_m
+        steep = abs(piece.tangent[2]) > self.steep_sin
+        if widening < _STEP_M or not steep:
+            return
+        if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
+            gap = piece.start_m - feature.end_m
+            need = end_m - feature.end_m + self.contract.min_margin_m
+            raise LocatedError(
+                f"'{step.text}' cannot be planned: the pipe widens abruptly from"
+                f" {before.diameter_end_m * 1000:.0f} to {piece.diameter_start_m * 1000:.0f} mm"
+                f" {gap:.2f} m after {feature.segment!r} (at {piece.segment!r}), in a steep"
+                f" pipe: passing {feature.segment!r} needs {need:.2f} m of pipe after it with"
+                " no step (the front half alone holds the robot there, and would lose the"
+                " wall at the step); a cone reducer there can be passed",
+                step.location,
+            )
 
     def pause(self, step: RouteStep) -> None:
         assert step.duration_s is not None
