@@ -467,3 +467,20 @@ def test_a_navigation_refused_before_it_ran_leaves_no_trace_folder(tmp_path: Pat
         kind=FaultTargetError,
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("options", "words"),
+    [
+        ({"network": "/nonexistent.yaml"}, ("/nonexistent.yaml", "no such file")),
+        ({"faults": "bogus:x@1s"}, ("unknown fault kind 'bogus'",)),
+        ({"faults": "motor_stall:zz@1s"}, ("unknown motor 'zz'",)),
+    ],
+)
+def test_a_tree_that_needs_no_robot_still_checks_the_world_it_was_given(
+    options: dict[str, Any], words: tuple[str]
+) -> None:
+    # a tree of waits runs with no simulator, and took any network and faults, exit 0
+    tree = {"name": "t", "root": {"type": "wait", "name": "w", "duration": "1 s"}}
+    refused(lambda: pirate_bt.simulate_tree(tree, **options), *words)
+    assert pirate_bt.simulate_tree(tree, network="lab", faults="drop=0.1").succeeded

@@ -160,6 +160,9 @@ def simulate_tree(
             ),
         }
         if not needs_robot(checked):
+            # no simulator is started, but what it would have run on is still checked:
+            # --sim /nonexistent.yaml or --faults bogus:x@1s were accepted, exit 0
+            _check_world(network, faults, description)
             return run_on(None, checked, robot=description, **options)
         with connect(
             f"sim:{network}" if isinstance(network, str) else network,
@@ -236,3 +239,23 @@ def run_tree(
             ),
             count_from_open=True,
         )
+
+
+def _check_world(network: Any, faults: Any, robot: Any) -> None:
+    """The network and the faults a simulated run would use, checked as a run does.
+
+    Raises:
+        InputError: the network cannot be loaded, or a fault is malformed or names
+            a motor, channel or board the robot does not have.
+    """
+    from pirate_bt.link.faults import parse_fault_spec
+    from pirate_bt.pipes import Network, load_network
+    from pirate_bt.sim.faults import check_fault_target, parse_fault
+
+    if not isinstance(network, Network):
+        load_network(network)
+    physics, link = split_faults(faults)
+    for text in physics:
+        check_fault_target(parse_fault(text), robot)
+    if link:
+        parse_fault_spec(link)
