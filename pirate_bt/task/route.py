@@ -27,7 +27,7 @@ or left out, so ``then at the next bend turn right`` reads as well):
                                        (into the branch) or straight (through it)
 ``go to SEGMENT``                      go to a named segment of the network, taking
                                        the shortest way through the junctions
-``pause DURATION``                     stand still (clamped) for a while
+``pause DURATION``                     stand still (clamped) for a while, at most an hour
 ``return to start``                    drive back to where the robot was put in
 =====================================  =============================================
 
@@ -55,6 +55,7 @@ from pirate_bt.errors import (
     ValidationFailed,
     shown,
 )
+from pirate_bt.task.navigation import _MAX_WAIT_S
 from pirate_bt.units import parse_quantity, units_of
 
 __all__ = [
@@ -117,6 +118,9 @@ _NETWORK_FILE_RE = re.compile(r"^[^\x00-\x1f]+\.ya?ml$")
 """A network file on a route's ``network`` line: a path ending in .yaml or .yml,
 relative to the route's directory or absolute (whitespace splits words already)."""
 _SUFFIX = ".route"
+_LONGEST_PAUSE = (_MAX_WAIT_S, f"{_MAX_WAIT_S:.0f} s (an hour)")
+"""A pause, as the navigator's ``wait`` step: at most an hour (a longer one ran the
+mission for ever, its time limit planned from the pause)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,7 +272,11 @@ class _Line:
         raise self.error(f"unexpected '{word.raw}'{hint}", word)
 
 
-def _quantity(line: _Line, dimension: str, what: str, example: str) -> float:
+def _quantity(
+    line: _Line, dimension: str, what: str, example: str, most: tuple[float, str] | None = None
+) -> float:
+    """The quantity at the line's next word(s): positive, and at most ``most`` (its
+    value in SI units and as written in the message) when given."""
     word = line.take()
     if word is None:
         raise line.error(f"{what} needs {dimension_article(dimension)}, e.g. '{example}'")
@@ -306,9 +314,17 @@ def _quantity(line: _Line, dimension: str, what: str, example: str) -> float:
         else:
             message = f"{what}: {exc}"
         raise line.error(message, unit_word or word) from None
+    if len(text) > _MAX_SHOWN:  # a number of 300 digits is a finite float
+        text = text[: _MAX_SHOWN - 3] + "..."
     if value <= 0:
         raise line.error(f"{what}: '{text}' must be more than zero", word)
+    if most is not None and value > most[0]:
+        raise line.error(f"{what}: '{text}' must be at most {most[1]}", word)
     return value
+
+
+_MAX_SHOWN = 40
+"""The longest quantity a message repeats as written."""
 
 
 _KEYWORDS = frozenset({"slowly", "to", "end", "start"})
@@ -407,7 +423,7 @@ def _parse_line(
         line.done()
         return RouteStep(StepKind.GOTO, loc, text, segment=name.raw)
     if verb in ("pause", "wait"):
-        duration = _quantity(line, "time", verb, f"{verb} 5 s")
+        duration = _quantity(line, "time", verb, f"{verb} 5 s", _LONGEST_PAUSE)
         line.done()
         return RouteStep(StepKind.PAUSE, loc, text, duration_s=duration)
     if verb == "return":
