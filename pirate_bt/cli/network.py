@@ -4,8 +4,11 @@
 lengths, slopes and diameters differ within stated bounds (``docs/networks.md``);
 ``remove MAP FEATURE`` one without a tee or bend that was never built;
 ``add-tee MAP SEGMENT AT`` one with a tee nobody drew. Each writes the network
-file to ``-o OUT`` (nothing is written when the input is bad) or to standard
-output. Give the result to ``pirate-bt mission ROUTE --sim OUT --network MAP``.
+file to ``-o OUT`` or to standard output, once the text it writes has loaded back
+as ``pirate-bt validate`` loads a network; nothing is written when the input is bad,
+when the network it would write does not validate, or when ``OUT`` is the input
+network's own file. Give the result to ``pirate-bt mission ROUTE --sim OUT --network
+MAP``.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
 from pirate_bt.units import parse_quantity
 
 __all__ = ["configure", "run"]
@@ -136,6 +139,27 @@ def _bounds(args: argparse.Namespace) -> Any:
     ).scaled(args.scale)
 
 
+def _loads_back(text: str, output: Path | None, what: str) -> None:
+    """Refuse a network text that does not load back as ``validate`` loads the file
+    (``remove`` of a network's only segment wrote ``segments: []``; ``add-tee`` at
+    ``1e-300m`` wrote ``length: 0.0 mm``; both exit 0)."""
+    from pirate_bt.pipes.loader import network_from_document
+    from pirate_bt.yamlfile import load_yaml_text
+
+    try:
+        network_from_document(load_yaml_text(text, str(output or "<stdout>")))
+    except ValidationFailed as exc:
+        first = exc.errors[0]
+        lines = text.splitlines()
+        line = first.location.line
+        at = f" at {lines[line - 1].strip()!r}" if line and 0 < line <= len(lines) else ""
+        more = f" (and {len(exc.errors) - 1} more)" if len(exc.errors) > 1 else ""
+        where = f"-o {output}" if output is not None else "standard output"
+        raise InputError(
+            f"{where}: nothing written: {what} does not validate{at}: {first.message}{more}"
+        ) from None
+
+
 def _write(text: str, output: Path | None) -> None:
     if output is None:
         sys.stdout.write(text)
@@ -163,11 +187,15 @@ def _bound_options(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pirate_bt.api.options import not_an_input
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
     from pirate_bt.resources import find_file
 
-    network = load_network(find_file("scenarios", args.map))
+    source = find_file("scenarios", args.map)
+    network = load_network(source)
+    if args.output is not None:  # perturb br2.yaml -o br2.yaml replaced its input
+        not_an_input(args.output, "-o", {"input network": source})
     try:
         if args.action == "perturb":
             bounds = _bounds(args)
@@ -177,14 +205,19 @@ def run(args: argparse.Namespace) -> int:
                 f"Written by: pirate-bt network perturb {shlex.quote(args.map)} --seed {args.seed}"
                 f"{_bound_options(args)}"
             )
+            what = f"as-built variant {args.seed}"
         elif args.action == "remove":
             spec = remove_feature(network.spec, args.feature)
             header = f"{network.source} without {args.feature} (never built)."
+            what = f"the network without {args.feature}"
         else:
             at_m = _quantity(args.at, "length", "AT")
             spec = insert_tee(network.spec, args.segment, at_m, args.direction, tee_id=args.id)
             header = f"{network.source} with a tee nobody drew ({args.id} in {args.segment})."
+            what = f"the network with {args.id} {args.at} into {args.segment}"
     except ConfigurationError as exc:
         raise InputError(str(exc)) from None
-    _write(network_yaml(spec, header), args.output)
+    text = network_yaml(spec, header)
+    _loads_back(text, args.output, what)
+    _write(text, args.output)
     return 0
