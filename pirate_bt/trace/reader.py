@@ -24,6 +24,7 @@ import json
 import zlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import IO, Any, ClassVar, cast
 
@@ -41,6 +42,7 @@ from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import register_format, suffix_of
+from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import (
     CODE_STATUS,
@@ -80,14 +82,28 @@ def _bounded_lines(stream: IO[bytes]) -> Iterator[bytes]:
         yield line
 
 
+def _check_tick(record: Mapping[str, Any], line: int, where: Path) -> None:
+    _tick_record(record, line, where)
+
+
 class TraceFormatReader:
     """Yields ``(line_number, record)`` from a trace file; subclasses implement ``_open``.
+
+    Whatever iterates a reader gets checked records (a subclass's own ``__iter__``
+    too): a header's tree that is no tree, or a bad tick record, is a
+    :class:`~pirate_bt.errors.LocatedError` (see :mod:`pirate_bt.trace.header_check`).
 
     Args:
         path: The trace file.
     """
 
     suffixes: ClassVar[tuple[str, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__.get("__iter__")
+        if own is not None and not hasattr(own, "__unchecked__"):
+            cls.__iter__ = checked_iteration(own, _check_tick)  # type: ignore[method-assign]
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -99,6 +115,7 @@ class TraceFormatReader:
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
         yield from _bounded_lines(stream)
 
+    @partial(checked_iteration, tick=_check_tick)
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
         try:
             stream = self._open()
@@ -532,7 +549,7 @@ def _records(
     ticks: list[TickRecord] = []
     end: dict[str, Any] | None = None
     end_line = 0
-    for line, record in reader:
+    for line, record in unchecked(reader):  # checked here, once
         kind = record["type"]
         loc = SourceLocation(str(where), line)
         if header is None:
@@ -547,6 +564,9 @@ def _records(
                 )
             if not isinstance(record.get("tree"), dict) or not record["tree"].get("nodes"):
                 raise LocatedError("the header has no tree", loc)
+            problem = tree_problem(record["tree"])
+            if problem is not None:
+                raise LocatedError(f"bad tree in header: {problem}", loc)
             header = record
         elif kind == "tick":
             if end is not None:
