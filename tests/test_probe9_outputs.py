@@ -101,3 +101,22 @@ def test_a_device_is_no_trace_and_is_refused_before_the_run(tmp_path: Path) -> N
     done = _cli("run", "--quiet", str(tree), "--trace", str(full), cwd=tmp_path)
     assert done.returncode == 2 and "not a regular file" in done.stderr, done
     assert "ticks" not in done.stderr  # refused before it ran
+
+
+def test_a_tree_too_large_to_draw_gets_its_dot_source_and_a_clear_refusal(tmp_path: Path) -> None:
+    # a 48,000-node tree (within the file cap) had Graphviz working for minutes
+    count = [0]
+
+    def node(depth: int) -> str:
+        count[0] += 1
+        if depth == 0:
+            return f"{{type: wait, name: w{count[0]}, duration: 1 s}}"
+        kids = f"{node(depth - 1)}, {node(depth - 1)}"
+        return f"{{type: sequence, name: s{count[0]}, children: [{kids}]}}"
+
+    tree = tmp_path / "deep.yaml"
+    tree.write_text(f"name: deep\nroot: {node(12)}\n")
+    out = tmp_path / "deep.svg"
+    with pytest.raises(InputError, match=r"8,191 nodes are too many to draw \(at most 5,000"):
+        pirate_bt.render_tree(tree, out)
+    assert not out.exists() and (tmp_path / "deep.dot").is_file()
