@@ -29,6 +29,7 @@ from pirate_bt.trace import read_trace
 
 REPO = Path(__file__).resolve().parent.parent
 STRAIGHT = str(REPO / "trees" / "straight.yaml")
+PY_CLI = [sys.executable, "-m", "pirate_bt"]
 RUN = ["run", STRAIGHT, "--param", "distance=0.1m", "--quiet"]
 
 
@@ -208,20 +209,41 @@ def test_a_full_disk_fails_a_picture_and_keeps_the_old_one(
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
-@pytest.mark.parametrize("suffix", [".jsonl", ".jsonl.gz"])
-def test_a_trace_into_a_full_disk_fails_the_run_and_leaves_the_robot_safe(
-    suffix: str,
-    tmp_path: Path,
-    capsys: pytest.CaptureFixture[str],
-    caplog: pytest.LogCaptureFixture,
+def test_a_trace_onto_a_device_is_refused_before_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    path = tmp_path / f"full{suffix}"
-    path.symlink_to("/dev/full")
-    assert main([*RUN, "--trace", str(path)]) == 1  # .jsonl.gz failed only at close: was 0
+    path = tmp_path / "full.jsonl"
+    path.symlink_to("/dev/full")  # it failed the run only after the robot had moved
+    assert main([*RUN, "--trace", str(path)]) == 2
     line = one_error_line(capsys.readouterr().err)
-    assert "FAILURE" in line and f"full{suffix}" in line and "No space left on device" in line
-    assert any("safe state" in r.getMessage() for r in caplog.records)
-    assert no_tracebacks_logged(caplog)
+    assert "is not a regular file (a pipe or a device)" in line and "ticks" not in line
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs file size limits")
+@pytest.mark.parametrize("suffix", [".jsonl", ".jsonl.gz"])
+def test_a_trace_that_fails_mid_run_fails_the_run_and_leaves_the_robot_safe(
+    suffix: str, tmp_path: Path
+) -> None:
+    import resource
+
+    def file_size_limit() -> None:  # a disk that fills during the run, in the child only
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    path = tmp_path / f"full{suffix}"
+    done = subprocess.run(
+        [*PY_CLI, *RUN[:2], "--param", "distance=0.3 m", "--quiet", "--trace", str(path)],
+        preexec_fn=file_size_limit,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1, done  # .jsonl.gz failed only at close: was 0
+    errors = [x for x in done.stderr.splitlines() if x.startswith("pirate-bt:")]
+    assert len(errors) == 1, done.stderr
+    assert "FAILURE" in errors[0] and f"full{suffix}" in errors[0]
+    assert "File too large" in errors[0]
+    assert "safe state" in done.stderr and "Traceback" not in done.stderr
 
 
 def test_a_finish_hook_that_fails_fails_the_run_safely() -> None:

@@ -149,6 +149,10 @@ def navigate(
     fraction(map_tolerance, "map_tolerance")
     seed = seed_value(seed)
     split_faults(faults)
+    if trace is not None:  # its name now; the folder is made once every argument is checked
+        from pirate_bt.api.options import output_folder
+
+        output_folder(trace, "trace")
     if isinstance(navigator, str):
         name = navigator
         navigator = load_navigator(navigator, params_mapping(params))
