@@ -62,6 +62,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.task.observation import Ahead, Belief, Felt, Observation
+from pirate_bt.task.route import MAX_WAIT_S
 from pirate_bt.units import parse_quantity
 
 __all__ = [
@@ -95,7 +96,7 @@ STEP_PABS = (
 _BEND_ROLL_DEG = {"up": 0.0, "right": 90.0, "down": 180.0, "left": -90.0}
 _TEE_WAYS = ("left", "right", "straight", "up", "down")
 _MAX_DISTANCE_M = 1000.0
-_MAX_WAIT_S = 3600.0
+_MAX_WAIT_S = MAX_WAIT_S
 _KNOWN: dict[str, tuple[str, ...]] = {
     "straight": ("distance", "slow", "stop_at_feature", "stop_at_change"),
     "bend": ("direction", "roll"),

@@ -55,12 +55,12 @@ from pirate_bt.errors import (
     ValidationFailed,
     shown,
 )
-from pirate_bt.task.navigation import _MAX_WAIT_S
 from pirate_bt.units import parse_quantity, units_of
 
 __all__ = [
     "BEND_DIRECTIONS",
     "COMMAND_WORDS",
+    "MAX_WAIT_S",
     "TEE_WAYS",
     "Route",
     "RouteStep",
@@ -118,7 +118,9 @@ _NETWORK_FILE_RE = re.compile(r"^[^\x00-\x1f]+\.ya?ml$")
 """A network file on a route's ``network`` line: a path ending in .yaml or .yml,
 relative to the route's directory or absolute (whitespace splits words already)."""
 _SUFFIX = ".route"
-_LONGEST_PAUSE = (_MAX_WAIT_S, f"{_MAX_WAIT_S:.0f} s (an hour)")
+MAX_WAIT_S = 3600.0
+"""The longest pause of a route, and wait step of a navigator (an hour)."""
+_LONGEST_PAUSE = (MAX_WAIT_S, f"{MAX_WAIT_S:.0f} s (an hour)")
 """A pause, as the navigator's ``wait`` step: at most an hour (a longer one ran the
 mission for ever, its time limit planned from the pause)."""
 
