@@ -41,6 +41,7 @@ no NUL, at most :data:`MAX_PATH` characters).
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from collections.abc import Iterable
@@ -116,12 +117,26 @@ def _kind(value: object) -> str:
     return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
 
 
+def digit_count(number: int) -> int:
+    """How many decimal digits ``number`` has, without ``str()`` (which raises beyond
+    4300 digits, so a message about a huge number raised instead of saying so)."""
+    size = abs(number)
+    if size < 10:
+        return 1
+    count = int((size.bit_length() - 1) * math.log10(2)) + 1  # exact or one short
+    while 10 ** (count - 1) > size:
+        count -= 1
+    while 10**count <= size:
+        count += 1
+    return count
+
+
 def shown(value: object, limit: int = _SHOWN) -> str:
     """``repr(value)`` for a message, cut to ``limit`` characters and its length when
     longer: ``'xxxx...' (100000 characters)``. A huge whole number gives its digits'
     count, a value whose ``repr`` fails its type."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**limit:
-        return f"a {len(str(abs(value)))}-digit number"
+        return f"a {digit_count(value)}-digit number"
     if isinstance(value, str | bytes) and len(value) > limit:
         return f"{value[:limit]!r}... ({len(value)} characters)"
     try:

@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.errors import MAX_PATH, InputError, UnitError, file_argument
+from pirate_bt.errors import MAX_PATH, InputError, UnitError, digit_count, file_argument
 from pirate_bt.units import parse_quantity
 
 if TYPE_CHECKING:
@@ -105,7 +105,9 @@ def quantity(value: str | float | int, dimension: str, option: str) -> float:
         try:
             number = float(value)
         except OverflowError:
-            raise InputError(f"{option}: a {len(str(value))}-digit number is too large") from None
+            raise InputError(
+                f"{option}: a {digit_count(int(value))}-digit number is too large"
+            ) from None
         if not math.isfinite(number):
             raise InputError(f"{option}: {value!r} is not a finite number; give e.g. {example!r}")
         return number
@@ -221,9 +223,10 @@ def seed_value(seed: object, option: str = "seed") -> int:
         InputError: anything else (a bool, a float, text, a negative or huge number).
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
-        shown = repr(seed)
+        huge = isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) >= 10**40
+        shown = f"a {digit_count(seed)}-digit number" if huge else repr(seed)  # type: ignore[arg-type]
         if len(shown) > 40:
-            shown = f"a {len(str(seed))}-digit number" if isinstance(seed, int) else _kind(seed)
+            shown = _kind(seed)
         raise InputError(f"{option}: give a whole number from 0 to 2**63 - 1, not {shown}")
     return seed
 
@@ -409,7 +412,7 @@ def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
                 float(value)
             except OverflowError:
                 raise InputError(
-                    f"{option}: {key}: a {len(str(value))}-digit number is too large"
+                    f"{option}: {key}: a {digit_count(value)}-digit number is too large"
                 ) from None
     return dict(params)
 

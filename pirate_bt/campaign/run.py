@@ -20,7 +20,6 @@ validated, and only then does an executor start and a file get written.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import shlex
@@ -56,7 +55,7 @@ from pirate_bt.campaign.spec import (
     spec_source,
 )
 from pirate_bt.campaign.stats import GroupStats, group_stats
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, digit_count
 
 __all__ = [
     "CampaignResult",
@@ -279,17 +278,6 @@ def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> flo
     return seconds
 
 
-def _digits(number: int) -> int:
-    """How many digits ``number`` has: ``str()`` of one over 4300 digits raises."""
-    size = abs(number)
-    count = int((size.bit_length() - 1) * math.log10(2)) + 1  # exact or one short
-    while count > 1 and 10 ** (count - 1) > size:
-        count -= 1
-    while 10**count <= size:
-        count += 1
-    return count
-
-
 def _seconds(value: str | float, name: str) -> float:
     """A positive, finite duration given as seconds or a quantity (``"30 s"``)."""
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
@@ -298,7 +286,9 @@ def _seconds(value: str | float, name: str) -> float:
         try:
             seconds = float(value)
         except OverflowError:
-            raise InputError(f"{name}: a {_digits(int(value))}-digit number is too large") from None
+            raise InputError(
+                f"{name}: a {digit_count(int(value))}-digit number is too large"
+            ) from None
     else:
         from pirate_bt.units import parse_quantity
 
