@@ -80,7 +80,8 @@ def test_a_wait_on_a_connection_left_in_its_safe_state_fails_at_once() -> None:
         result = robot.run(WAIT_TREE)
         assert result.status == "failure"
         assert result.ticks == 1
-        assert result.why == "an earlier run failed"  # the first cause, kept
+        # the first cause, kept, and said to be the one it was held in all along
+        assert result.why == "the robot is in its safe state: an earlier run failed"
         assert result.loop.message.startswith("the robot is in its safe state")
         robot.supervisor.resume()  # the operator's decision: the next run goes on
         assert robot.run(wait_tree("1 s")).succeeded
