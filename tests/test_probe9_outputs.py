@@ -120,3 +120,25 @@ def test_a_tree_too_large_to_draw_gets_its_dot_source_and_a_clear_refusal(tmp_pa
     with pytest.raises(InputError, match=r"8,191 nodes are too many to draw \(at most 5,000"):
         pirate_bt.render_tree(tree, out)
     assert not out.exists() and (tmp_path / "deep.dot").is_file()
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("validate", "f.jsonl"),
+        ("trace", "summary", "f.jsonl"),
+        ("render", "f.jsonl", "-o", "q.svg"),
+        ("network", "perturb", "bend-right", "--seed", "1", "-o", "f.yaml"),
+    ],
+)
+def test_a_named_pipe_as_a_trace_to_read_or_a_network_to_write_is_refused_at_once(
+    tmp_path: Path, args: tuple[str, ...]
+) -> None:
+    # each waited for ever on a pipe nobody writes to (or reads from)
+    os.mkfifo(tmp_path / "f.jsonl")
+    os.mkfifo(tmp_path / "f.yaml")
+    done = _cli(*args, cwd=tmp_path)
+    assert done.returncode == 2, done
+    assert done.stderr.count("\n") == 1 and ("named pipe" in done.stderr or "a pipe" in done.stderr)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.jsonl", "f.yaml"]

@@ -166,6 +166,11 @@ def _write(text: str, output: Path | None) -> None:
         return
     if output.is_dir():
         raise InputError(f"-o {output}: a folder, not a file; give the network file to write")
+    if output.exists() and not output.is_file():  # a pipe nobody reads hung the command
+        raise InputError(
+            f"-o {output}: a pipe or a device, not a file (without -o the network goes to"
+            " standard output)"
+        )
     data = text.encode("utf-8")
     try:  # no half-written network file
         write_atomically(output, lambda stream: stream.write(data))

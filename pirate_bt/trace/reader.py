@@ -54,6 +54,7 @@ from pirate_bt.trace.records import (
     status_codes,
 )
 from pirate_bt.trace.structure import TreeStructure
+from pirate_bt.yamlfile import special_file
 
 __all__ = [
     "MAX_LINE_BYTES",
@@ -117,6 +118,9 @@ class TraceFormatReader:
 
     @partial(checked_iteration, tick=_check_tick)
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        kind = special_file(self.path)  # a named pipe nobody writes to: waited on for ever
+        if kind is not None:
+            raise InputError(f"{self.path}: cannot read trace: it is {kind}, not a file")
         try:
             stream = self._open()
         except OSError as exc:
