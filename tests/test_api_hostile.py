@@ -484,3 +484,19 @@ def test_a_tree_that_needs_no_robot_still_checks_the_world_it_was_given(
     tree = {"name": "t", "root": {"type": "wait", "name": "w", "duration": "1 s"}}
     refused(lambda: pirate_bt.simulate_tree(tree, **options), *words)
     assert pirate_bt.simulate_tree(tree, network="lab", faults="drop=0.1").succeeded
+
+
+def test_a_fault_in_a_network_file_naming_no_motor_names_the_network_file(tmp_path: Path) -> None:
+    from pirate_bt.sim.faults import FaultTargetError
+
+    network = tmp_path / "nf.yaml"
+    network.write_text(
+        (Path(__file__).parent.parent / "scenarios" / "straight.yaml").read_text()
+        + "faults:\n  - {kind: motor_stall, target: nope, at: 1 s}\n"
+    )
+    text = refused(
+        lambda: pirate_bt.simulate_tree("straight", network=network, params=PARAMS),
+        f"{network}: faults: fault motor_stall: unknown motor 'nope'",
+        kind=FaultTargetError,
+    )
+    assert text.startswith(str(network))

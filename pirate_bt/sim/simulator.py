@@ -39,7 +39,7 @@ from pirate_bt.pipes import FaultSpec, Network, load_network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.counters import SimCounters, SimEvent
-from pirate_bt.sim.faults import parse_fault
+from pirate_bt.sim.faults import FaultTargetError, parse_fault
 from pirate_bt.sim.model import PipeRobotModel, SensorNoise, SimTruth
 
 __all__ = ["SCHEME", "Simulator", "lookup"]
@@ -133,7 +133,10 @@ class Simulator:
         self._counter_figures: tuple[Any, ...] | None = None
         self._violations: Mapping[str, int] = MappingProxyType({})
         self._damage: Mapping[str, int] = MappingProxyType({})
-        self.bridge.schedule(network.faults)
+        try:
+            self.bridge.schedule(network.faults)
+        except FaultTargetError as exc:  # said of the network file that holds the fault
+            raise FaultTargetError(f"{network.source}: faults: {exc}") from None
         self.schedule(faults)
         self.name = name or f"sim-{next(_NAMES)}"
         with _REGISTRY_LOCK:
