@@ -158,3 +158,18 @@ def test_an_output_onto_the_input_network_is_refused_and_the_input_kept(
     assert Path("br2.yaml").read_text() == drawn
     assert main([*argv[:-1], "other.yaml"]) == 0  # another file is written
     assert Path("br2.yaml").read_text() == drawn and Path("other.yaml").exists()
+
+
+def test_a_sensor_with_a_zero_step_is_refused_at_its_own_key(tmp_path: Path) -> None:
+    # both were one message at the file's first key (8:1, 'schema_version')
+    text = (ROOT / "hardware" / "variants" / "pirate-rear-imu.yaml").read_text()
+    assert text.count("per_raw: 0.1 mrad") == 2
+    bad = tmp_path / "hw.yaml"
+    bad.write_text(text.replace("per_raw: 0.1 mrad", "per_raw: 0 mrad"))
+    lines = [
+        n for n, line in enumerate(bad.read_text().splitlines(), 1) if "per_raw: 0 mrad" in line
+    ]
+    with pytest.raises(ValidationFailed) as caught:
+        pirate_bt.load_robot(bad)
+    where = [(e.location.line, e.message) for e in caught.value.errors]
+    assert where == [(n, "per_raw must be a non-zero finite quantity") for n in lines]

@@ -352,6 +352,11 @@ class _Sensor(_Model):
     _zero_ok = field_validator("zero_raw")(
         classmethod(lambda cls, v, info: _check_zero_raw(v, info))
     )
+    # each kind declares its per_raw; checked here, at the sensor's own key (checked
+    # only when the description was built, it was reported at the file's first key)
+    _per_raw_ok = field_validator("per_raw", check_fields=False)(
+        classmethod(lambda cls, v: Conversion._per_raw_ok(v))
+    )
 
     def conversion(self) -> Conversion:
         raise NotImplementedError
