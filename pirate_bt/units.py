@@ -279,6 +279,23 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     return result
 
 
+def in_unit_of(value_si: float, written: object) -> str | None:
+    """``value_si`` in the unit ``written`` uses (``in_unit_of(pi / 2, "180 deg")`` is
+    ``"90 deg"``), for a message in the words of a file; ``None`` when ``written`` is
+    not a quantity with a unit."""
+    if not isinstance(value_si, int | float) or not isinstance(written, str):
+        return None
+    match = _QUANTITY_RE.match(written)
+    unit = match["unit"] if match else ""
+    if not unit:
+        return None
+    try:
+        factor, _dim = _parse_unit(unit, written)
+    except UnitError:
+        return None
+    return f"{value_si / factor:.6g} {unit}" if factor else None
+
+
 def format_quantity(value_si: float, dimension: str, digits: int = 4) -> str:
     """Format an SI value for people, e.g. ``format_quantity(1.5708, "angle") == "90 deg"``."""
     unit, scale = _DISPLAY[dimension]

@@ -165,8 +165,26 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
             value = _value_at(data, path)
             if value is not _NO_DATA:
                 e = {**e, "ctx": {**e["ctx"], "tag": value}}
-        out.append((path, describe_error({**e, "loc": path})))
+        bound = _bound_as_written(e, _value_at(data, path), path)
+        out.append((path, bound or describe_error({**e, "loc": path})))
     return list(dict.fromkeys(out))
+
+
+_BOUNDS = {"lt": "less than", "le": "at most", "gt": "more than", "ge": "at least"}
+
+
+def _bound_as_written(error: Any, value: Any, path: PathKey) -> str | None:
+    """A number's bound in the unit the file wrote it in (``angle: must be at most 90
+    deg, not 180 deg``), not pydantic's SI (``less than or equal to 1.5707963...``)."""
+    from pirate_bt.units import in_unit_of
+
+    ctx = error.get("ctx") or {}
+    for key, words in _BOUNDS.items():
+        limit = in_unit_of(ctx[key], value) if key in ctx else None
+        if limit is not None:
+            name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
+            return f"{name}: must be {words} {limit}, not {value}"
+    return None
 
 
 def pydantic_errors(

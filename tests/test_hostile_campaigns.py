@@ -100,7 +100,7 @@ def test_a_bad_tree_parameter_is_placed_in_the_spec_not_on_the_command_line(
     ("value", "message"),
     [
         # was: .../trees/straight.yaml:48:75: drive: Input should be greater than 0
-        ("-1 m", "drive: Input should be greater than 0 (used at "),
+        ("-1 m", "drive: distance: must be more than 0 m, not -1.0 m (used at "),
         ("1e309 m", "'1e309 m' is not a finite number"),
     ],
 )

@@ -173,3 +173,22 @@ def test_a_sensor_with_a_zero_step_is_refused_at_its_own_key(tmp_path: Path) -> 
         pirate_bt.load_robot(bad)
     where = [(e.location.line, e.message) for e in caught.value.errors]
     assert where == [(n, "per_raw must be a non-zero finite quantity") for n in lines]
+
+
+def test_a_network_value_out_of_range_is_told_in_the_file_s_own_unit(tmp_path: Path) -> None:
+    # it read 'Input should be less than or equal to 1.5707963277948966', naming no key
+    bad = tmp_path / "n.yaml"
+    bad.write_text(
+        "schema_version: 1\nname: t\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: a, type: straight, length: 1 m}\n"
+        "  - {id: b, type: bend, direction: up, angle: 180 deg}\n"
+        "  - {id: c, type: straight, length: 20 km}\n"
+        "  - {id: d, type: straight, length: 1 m, diameter: 30 mm}\n"
+    )
+    with pytest.raises(ValidationFailed) as caught:
+        pirate_bt.load_network(bad)
+    assert [(e.location.line, e.message) for e in caught.value.errors] == [
+        (6, "angle: must be at most 90 deg, not 180 deg"),
+        (7, "length: must be at most 10 km, not 20 km"),
+        (8, "diameter: must be at least 40 mm, not 30 mm"),
+    ]
