@@ -142,3 +142,17 @@ def test_a_named_pipe_as_a_trace_to_read_or_a_network_to_write_is_refused_at_onc
     assert done.returncode == 2, done
     assert done.stderr.count("\n") == 1 and ("named pipe" in done.stderr or "a pipe" in done.stderr)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.jsonl", "f.yaml"]
+
+
+def test_a_command_with_its_standard_output_closed_still_works(tmp_path: Path) -> None:
+    # 'validate patrol.yaml >&-' was 'internal error: AttributeError', exit 1: py_trees
+    # reads the encoding of the standard output when it is imported
+    done = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "validate", str(ROOT / "trees" / "straight.yaml")],
+        preexec_fn=lambda: os.close(1),
+        stderr=subprocess.PIPE,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "internal error" not in done.stderr

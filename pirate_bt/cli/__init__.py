@@ -165,6 +165,9 @@ def _configure_logging(specs: Sequence[str], debug: bool) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    for name in ("stdout", "stderr"):
+        if getattr(sys, name) is None:  # closed by the caller (>&-): py_trees reads
+            setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115  its encoding at import
     try:
         # from the first instruction: a Ctrl-C or SIGTERM while the command's modules
         # load is one line and 130 or 143, as during the command, not a traceback
