@@ -120,7 +120,7 @@ def test_a_tee_that_leaves_a_straight_of_0_mm_writes_nothing(
     argv = ["network", "add-tee", "bend-right", "before"]
     assert main([*argv, "1e-300m", "-o", "at.yaml"]) == 2
     assert not Path("at.yaml").exists()
-    _refused(capsys, "-o at.yaml: nothing written", "'length: 0.0 mm'", "greater than 0")
+    _refused(capsys, "-o at.yaml: nothing written", "'length: 0.0 mm'", "must be more than 0 mm")
     assert main([*argv, "0.5m", "-o", "at.yaml"]) == 0  # a tee that fits is written
     capsys.readouterr()
     assert main(["validate", "at.yaml"]) == 0

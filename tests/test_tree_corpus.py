@@ -92,7 +92,7 @@ CASES: dict[str, tuple[dict[str, str], str, str]] = {
     "negative duration": (
         {"tree.yaml": "root: {type: wait, duration: -1 s}\n"},
         "1:20",
-        "greater than",
+        "duration: must be at least 0 s, not -1 s",
     ),
     "out of limit": (
         {"tree.yaml": "root:\n  type: test_bend\n  module: bend_1\n  angle: 200 deg\n"},
