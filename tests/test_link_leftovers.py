@@ -356,3 +356,32 @@ def test_a_layout_refused_under_both_minors_is_named_as_the_layout() -> None:
         f"the bridge refused the layout digest {LAYOUT.digest:#010x} (BAD_LAYOUT) with"
         " protocol 1.2 and again with 1.1: it was built for another robot description"
     )
+
+
+# -- 6. a bridge whose watchdog its line cannot keep fed is refused (probe 9) ------------------
+
+
+@pytest.mark.parametrize(
+    ("watchdog_ms", "refused"), [(1, True), (15, True), (16, False), (0, False)]
+)
+def test_a_bridge_watchdog_too_short_for_its_line_is_refused_at_the_handshake(
+    watchdog_ms: int, refused: bool
+) -> None:
+    # a bridge saying 1 ms had the host heartbeat every 0.1 ms, more than 115200 baud
+    # carries (a heartbeat takes 0.78 ms): it tripped all the same; 0 is "not said"
+    clock = SimClock()
+    host, far = memory_pair()
+
+    def reply(now: float) -> None:
+        for msg in FrameDecoder(CODEC).feed(far.read_available()):
+            if isinstance(msg, Hello):
+                answer = hello_reply(seq=msg.seq, watchdog_ms=watchdog_ms, minor=msg.minor)
+                far.write(CODEC.encode(answer))
+
+    clock.add_listener(reply)
+    if not refused:
+        wrap_link(host, ROBOT, clock, release_boot_latch=False).session.close()
+        return
+    with pytest.raises(ProtocolMismatch, match=rf"the bridge's watchdog is {watchdog_ms} ms,"):
+        wrap_link(host, ROBOT, clock)
+    assert host.closed

@@ -125,6 +125,7 @@ def wrap_link(
                 if again.code is not NackCode.BAD_LAYOUT:
                     raise
                 raise HelloRefused.under_both_minors(codec.layout.digest, asked) from None
+        _check_watchdog(reply, robot)
     except BaseException:
         byte_link.close()
         raise
@@ -261,3 +262,33 @@ def _over_a_wire(url: str) -> bool:
     """A URL to another process or device that keeps its own time (a bridge behind
     ser2net, a simulator served on TCP), not an in-process one (``loop://``, ``sim://``)."""
     return url.lower().startswith(_WIRE_SCHEMES)
+
+
+_HEARTBEAT_FRAME_BYTES = 9
+"""A HEARTBEAT on the wire: COBS, header, CRC and delimiter (docs/protocol.md)."""
+
+
+def _check_watchdog(reply: HelloReply, robot: RobotDescription) -> None:
+    """Refuse a bridge whose watchdog its own line cannot keep fed.
+
+    The host heartbeats ten times a watchdog period (docs/protocol.md); a bridge
+    reporting 1 ms had the host send a heartbeat every 0.1 ms, more than its line
+    carries, and trip all the same. Half the line is the most heartbeats may take.
+    0 is a bridge that does not say: the description's watchdog is used.
+
+    Raises:
+        ProtocolMismatch: the bridge's watchdog is shorter than that.
+    """
+    from pirate_bt.errors import ProtocolMismatch
+    from pirate_bt.link.framing import frame_time_s
+
+    if reply.watchdog_ms <= 0:
+        return
+    frame_ms = 1000 * frame_time_s(_HEARTBEAT_FRAME_BYTES, robot.bridge.baud)
+    least_ms = math.ceil(2 * 10 * frame_ms)
+    if reply.watchdog_ms < least_ms:
+        raise ProtocolMismatch(
+            f"the bridge's watchdog is {reply.watchdog_ms} ms, shorter than its line can keep"
+            f" fed (ten heartbeats a period, each {frame_ms:.2f} ms at {robot.bridge.baud}"
+            f" baud: at least {least_ms} ms); a firmware built for another robot description?"
+        )
