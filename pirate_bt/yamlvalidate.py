@@ -235,6 +235,7 @@ def validate_document(
     """
     if not isinstance(doc.data, dict):
         raise ValidationFailed([doc.locator.error((), f"{what} must be a mapping of keys")])
+    _refuse_another_kind(doc, model, what)
     try:
         value = model.model_validate(doc.data, context=context)
     except ValidationError as exc:
@@ -249,6 +250,31 @@ def validate_document(
             )
         )
     return value
+
+
+_COMMON_KEYS = frozenset({"schema_version", "name", "description"})
+
+
+def _refuse_another_kind(doc: YamlDocument, model: type[BaseModel], what: str) -> None:
+    """One line for a file of another kind (a tree given as a robot description): it
+    has none of the model's keys but those every kind has, and keys the model does not
+    take; every missing and unknown key was a line of its own."""
+    fields = model.model_fields
+    required = [name for name, field in fields.items() if field.is_required()]
+    own = set(fields) - _COMMON_KEYS
+    keys = [str(k) for k in doc.data]
+    unknown = [k for k in keys if k not in fields]
+    if not required or not unknown or any(k in own for k in keys):
+        return
+    raise ValidationFailed(
+        [
+            doc.locator.error(
+                (),
+                f"not {what}: it has none of its keys ({', '.join(sorted(own)[:6])}, ...) and"
+                f" keys it does not take ({', '.join(unknown[:4])}): a file of another kind?",
+            )
+        ]
+    )
 
 
 def _cross_error(

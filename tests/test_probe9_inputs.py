@@ -192,3 +192,20 @@ def test_a_network_value_out_of_range_is_told_in_the_file_s_own_unit(tmp_path: P
         (7, "length: must be at most 10 km, not 20 km"),
         (8, "diameter: must be at least 40 mm, not 30 mm"),
     ]
+
+
+@pytest.mark.parametrize(
+    ("given", "as_kind", "words"),
+    [
+        ("trees/straight.yaml", "--robot", "not a robot description: it has none of its keys"),
+        ("hardware/pirate.yaml", "--sim", "not a pipe network: it has none of its keys"),
+    ],
+)
+def test_a_file_of_another_kind_is_one_line_saying_so(
+    given: str, as_kind: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a tree given as the robot was one line per missing and unknown key (nine)
+    argv = ["run", "straight", "--param", "distance=0.1m", "--quiet", as_kind, str(ROOT / given)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err and "a file of another kind?" in err, err
