@@ -61,6 +61,7 @@ from pirate_bt.task.navigation import (
     call_within,
     check_step,
     raised_at,
+    said_of,
 )
 from pirate_bt.task.outcome import PabOutcome, unsafe_note
 from pirate_bt.task.plan import MissionPlan, robot_length_m
@@ -173,7 +174,7 @@ def _decide(
     if exc is not None:  # a navigator's error is a result, not a crash
         # the traceback is the planner's to read: kept in the result and logged
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
-        text = " ".join(str(exc).split())  # one line; nothing after the type when empty
+        text = " ".join(said_of(exc).split())  # one line; nothing after the type when empty
         said = f"navigator {name!r} raised {type(exc).__name__}" + (f": {text}" if text else "")
         return None, seconds, said, exc
     return step, seconds, None, None
@@ -345,6 +346,7 @@ def run_navigation(
                 result.why = first_then(name, failures, error)
                 result.failing_node = failures[0].failing_node if failures else None
                 result.error = raised
+                result.navigator_raised = raised is not None
                 supervisor.safe_state(error)
                 break
             if step is None:

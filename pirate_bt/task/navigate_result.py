@@ -62,6 +62,8 @@ class NavigationResult:
         trace_dir: Where the navigation's records and per-step traces were written.
         error: The exception that ended it, if one did (a lost link: ``LinkError``;
             the navigator's own, with its traceback).
+        navigator_raised: ``error`` is the navigator's own exception (a failure, exit
+            1, even when it is a ``LinkError`` of its own making).
     """
 
     navigator: str
@@ -83,6 +85,7 @@ class NavigationResult:
     sim: Mapping[str, float] = field(default_factory=dict)
     trace_dir: Path | None = None
     error: BaseException | None = None
+    navigator_raised: bool = False
 
     @property
     def succeeded(self) -> bool:
@@ -94,7 +97,7 @@ class NavigationResult:
         """The command line's exit code: 0 success, 3 link error, 1 failure."""
         if self.succeeded:
             return 0
-        return 3 if isinstance(self.error, LinkError) else 1
+        return 3 if isinstance(self.error, LinkError) and not self.navigator_raised else 1
 
     def summary(self) -> str:
         """One line for people."""

@@ -33,7 +33,14 @@ from typing import Any
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
-from pirate_bt.task.navigation import Navigator, Observation, Step, call_within, raised_at
+from pirate_bt.task.navigation import (
+    Navigator,
+    Observation,
+    Step,
+    call_within,
+    raised_at,
+    said_of,
+)
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
 from pirate_bt.task.walker import branch_problem, branch_side
@@ -331,10 +338,10 @@ def check_navigator_map(
                 raise raised
     except (ValueError, TypeError, InputError) as exc:
         # one line, as every error: a check_map's message may hold newlines
-        raise InputError(f"navigator {name!r}: {' '.join(str(exc).split())}"[:300]) from None
-    except Exception as exc:  # the navigator's own error, one located line
+        raise InputError(f"navigator {name!r}: {' '.join(said_of(exc).split())}"[:300]) from None
+    except (Exception, SystemExit) as exc:  # the navigator's own error, one located line
         _log.debug("navigator %r: check_map raised", name, exc_info=exc)
-        text = " ".join(str(exc).split())[:200]
+        text = " ".join(said_of(exc).split())[:200]
         where = raised_at(exc)
         raise InputError(
             f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"

@@ -1,0 +1,80 @@
+"""Navigators written from docs/navigators.md that break in ways the library must absorb
+(a probe of 2026-11-29): an exception whose message cannot be shown, a navigator's own
+LinkError, and SystemExit from check_map."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt import Step
+from pirate_bt.errors import InputError, LinkError
+
+
+@pytest.fixture(autouse=True)
+def _quiet(caplog: pytest.LogCaptureFixture) -> Iterator[None]:
+    caplog.set_level(logging.ERROR)
+    yield
+
+
+class Unprintable(Exception):
+    def __str__(self) -> str:
+        raise RuntimeError("cannot print me")
+
+
+class RaisesOnStep1:
+    def __init__(self, exc: BaseException) -> None:
+        self.exc = exc
+
+    def next_step(self, obs: Any) -> Step:
+        if obs.step == 1:
+            raise self.exc
+        return Step("straight", distance="0.3 m")
+
+
+def test_an_exception_whose_message_cannot_be_shown_is_still_a_result(tmp_path: Any) -> None:
+    # a bare RuntimeError from its __str__ escaped navigate(), and the trace's end had no why
+    result = pirate_bt.navigate(RaisesOnStep1(Unprintable()), sim="straight", trace=tmp_path)
+    assert result.why == (
+        "navigator 'RaisesOnStep1' raised Unprintable: <its message cannot be shown:"
+        " Unprintable.__str__ raised>"
+    )
+    assert result.safe_state and result.exit_code == 1
+    assert isinstance(result.error, Unprintable) and result.navigator_raised
+    assert '"why": "navigator' in (tmp_path / "navigation.jsonl").read_text()
+
+
+def test_a_link_error_the_navigator_raises_is_its_failure_not_a_lost_link() -> None:
+    result = pirate_bt.navigate(RaisesOnStep1(LinkError("my own")), sim="straight")
+    assert result.why == "navigator 'RaisesOnStep1' raised LinkError: my own"
+    assert result.exit_code == 1  # was 3, the exit of a link lost
+
+
+class BadMapCheck:
+    def __init__(self, exc: BaseException) -> None:
+        self.exc = exc
+
+    def check_map(self, network: Any) -> None:
+        raise self.exc
+
+    def next_step(self, obs: Any) -> None:
+        return None
+
+
+@pytest.mark.parametrize(
+    ("exc", "said"),
+    [
+        (SystemExit(2), "check_map raised SystemExit: 2"),
+        (Unprintable(), "check_map raised Unprintable: <its message cannot be shown"),
+    ],
+)
+def test_check_map_raising_anything_is_one_line_naming_the_navigator(
+    exc: BaseException, said: str
+) -> None:
+    with pytest.raises(InputError, match=f"^navigator 'BadMapCheck': {said}") as caught:
+        pirate_bt.navigate(BadMapCheck(exc), sim="lab", map="lab")
+    assert "\n" not in str(caught.value)
