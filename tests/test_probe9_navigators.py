@@ -78,3 +78,14 @@ def test_check_map_raising_anything_is_one_line_naming_the_navigator(
     with pytest.raises(InputError, match=f"^navigator 'BadMapCheck': {said}") as caught:
         pirate_bt.navigate(BadMapCheck(exc), sim="lab", map="lab")
     assert "\n" not in str(caught.value)
+
+
+def test_every_decision_record_has_its_trace_and_why_keys(tmp_path: Any) -> None:
+    import json
+
+    pirate_bt.navigate(RaisesOnStep1(RuntimeError("boom")), sim="straight", trace=tmp_path)
+    records = [json.loads(x) for x in (tmp_path / "navigation.jsonl").read_text().splitlines()]
+    decisions = [r for r in records if r["type"] == "decision"]
+    assert decisions[0]["trace"] == "step-001.jsonl" and decisions[0]["why"]
+    assert decisions[-1]["trace"] is None
+    assert decisions[-1]["why"] == "navigator 'RaisesOnStep1' raised RuntimeError: boom"

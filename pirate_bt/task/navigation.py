@@ -430,6 +430,10 @@ class Decision:
             "seconds": round(self.seconds, 6),
             "error": self.error,
             "outcome": self.outcome,
+            # an answer that ran no step (done, raised, late, invalid) has no step trace,
+            # and its why is its error; a step run overwrites both
+            "trace": None,
+            "why": self.error,
         }
 
 
