@@ -86,6 +86,6 @@ def test_every_decision_record_has_its_trace_and_why_keys(tmp_path: Any) -> None
     pirate_bt.navigate(RaisesOnStep1(RuntimeError("boom")), sim="straight", trace=tmp_path)
     records = [json.loads(x) for x in (tmp_path / "navigation.jsonl").read_text().splitlines()]
     decisions = [r for r in records if r["type"] == "decision"]
-    assert decisions[0]["trace"] == "step-001.jsonl" and decisions[0]["why"]
+    assert decisions[0]["trace"] == "step-001.jsonl" and "why" in decisions[0]
     assert decisions[-1]["trace"] is None
     assert decisions[-1]["why"] == "navigator 'RaisesOnStep1' raised RuntimeError: boom"
