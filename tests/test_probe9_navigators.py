@@ -89,3 +89,20 @@ def test_every_decision_record_has_its_trace_and_why_keys(tmp_path: Any) -> None
     assert decisions[0]["trace"] == "step-001.jsonl" and "why" in decisions[0]
     assert decisions[-1]["trace"] is None
     assert decisions[-1]["why"] == "navigator 'RaisesOnStep1' raised RuntimeError: boom"
+
+
+class MutatesTheMap:
+    def next_step(self, obs: Any) -> Step | None:
+        if obs.step == 0:
+            obs.map.spec.segments.clear()  # a navigator's own business
+            return Step("t-joint", direction="straight")
+        return None
+
+
+def test_a_navigator_that_mutates_its_map_changes_only_its_own_copy() -> None:
+    # it failed the planner with a bare IndexError, and changed the caller's Network
+    network = pirate_bt.load_network("t-joint")
+    segments = len(network.spec.segments)
+    result = pirate_bt.navigate(MutatesTheMap(), sim="t-joint", map=network)
+    assert result.succeeded, result.why
+    assert len(network.spec.segments) == segments

@@ -7,6 +7,7 @@ and :mod:`pirate_bt.task.navigate` for how a step runs.
 from __future__ import annotations
 
 import contextlib
+import copy
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -173,7 +174,8 @@ def navigate(
     else:
         world = sim if sim is not None else "straight"
         target = _network(world, "sim")
-    check_navigator_map(navigator, name, map_network, deadline_s)  # before anything moves
+    # before anything moves, on a copy: a check_map that mutates the map changes nothing
+    check_navigator_map(navigator, name, copy.deepcopy(map_network), deadline_s)
     made = trace is not None and not Path(trace).exists()
     if trace is not None:  # every argument checked: an unknown navigator makes no folder
         _trace_folder(trace)

@@ -24,6 +24,7 @@ and, with a trace, written to ``navigation.jsonl`` beside one tick trace per ste
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 import math
@@ -249,6 +250,9 @@ def run_navigation(
     wall_started = time.perf_counter()
     start_s = clock.now()
     planner = StepPlanner(network, robot, source=f"<navigator {name}>") if network else None
+    # the navigator's own copy of the map: one that mutates it (its segments' lists)
+    # changed what later steps were planned on, or failed the planner with IndexError
+    shown_map = copy.deepcopy(network) if network is not None else None
     belief = planner.start_m if planner is not None else 0.0
     records = _Records(trace_dir)
     records.write(
@@ -303,9 +307,9 @@ def run_navigation(
                 ),
                 felt=tuple(felt),
                 last=last,
-                map=network,
+                map=shown_map,
                 time_s=clock.now() - start_s,
-                choices=planner.choices if planner is not None else {},
+                choices=dict(planner.choices) if planner is not None else {},
                 history=tuple(history),
                 robot_length_m=robot_length,
                 imu_behind_m=behind[robot.rotational_module().name],
