@@ -18,12 +18,26 @@ checks that each exists and is a file.
 
 from __future__ import annotations
 
+import os
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from pirate_bt.errors import InputError
 
-__all__ = ["MAX_SAFE_NAME", "inside", "is_safe_name", "safe_name", "slug"]
+__all__ = [
+    "LOCK_NAME",
+    "MAX_SAFE_NAME",
+    "campaign_lock",
+    "inside",
+    "is_safe_name",
+    "safe_name",
+    "slug",
+]
+
+LOCK_NAME = ".campaign.lock"
+"""The file a running campaign holds its folder by (:func:`campaign_lock`)."""
 
 MAX_SAFE_NAME = 128
 """The longest safe name (well under the 255 bytes of a file name)."""
@@ -76,3 +90,27 @@ def inside(folder: Path, name: str, what: str = "name") -> Path:
     if path.parent != folder:  # pragma: no cover - a safe name is one component
         raise InputError(f"{what} {name!r} leaves {folder}")
     return path
+
+
+@contextmanager
+def campaign_lock(folder: Path) -> Iterator[None]:
+    """Hold ``folder`` for one campaign (an advisory lock on ``folder/.campaign.lock``,
+    released when the campaign ends or its process dies).
+
+    Raises:
+        InputError: another campaign holds it.
+    """
+    import fcntl
+
+    fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(
+                f"{folder}: another campaign is writing there now; wait for it, or give"
+                " another --output"
+            ) from None
+        yield
+    finally:
+        os.close(fd)

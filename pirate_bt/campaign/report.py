@@ -39,7 +39,8 @@ steps and distance driven, and the run's counters
 
 _COUNTERS = (
     ("violations", "violations"), ("damage", "damage"), ("refusals", "refusals"),
-    ("clips", "clips"), ("safe_states", "safe states"), ("retries", "retries"),
+    ("clips", "clips"), ("safe_states", "safe states"), ("estops", "e-stops"),
+    ("retries", "retries"),
     ("link_failures", "link failures"), ("crc_errors", "CRC errors"),
     ("duplicates", "duplicates"), ("frames_dropped", "frames dropped"), ("overruns", "overruns"),
 )  # fmt: skip

@@ -28,7 +28,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -45,7 +45,7 @@ from pirate_bt.campaign.cases import (
     expand,
 )
 from pirate_bt.campaign.engine import DEFAULT_TARGET, check_output, make_executor, run_cases
-from pirate_bt.campaign.paths import slug
+from pirate_bt.campaign.paths import campaign_lock, slug
 from pirate_bt.campaign.spec import (
     MAX_CASE_TIMEOUT_S,
     CampaignSpec,
@@ -429,8 +429,27 @@ def run_campaign(
         for case in cases:
             case["timeout_s"] = timeout_s
     folder = Path(output) if output is not None else None
+    lock = ExitStack()
     if folder is not None:
         check_output(folder, resume, cases)  # before any worker starts, warning of no line
+        # one campaign at a time in a folder: two started together both passed the
+        # check above and one's rows were lost; checked again once it is ours
+        lock.enter_context(campaign_lock(folder))
+        check_output(folder, resume, cases)
+    with lock:
+        return _run(
+            model, cases, count, folder, resume, workers, executor, scheduler,
+            scheduler_file, reach_s, command, spec, echo, progress, on_record, target, started,
+        )  # fmt: skip
+
+
+def _run(
+    model: Any, cases: list[dict[str, Any]], count: int, folder: Path | None, resume: bool,
+    workers: int | None, executor: Any, scheduler: Any, scheduler_file: Any, reach_s: float,
+    command: str | None, spec: Any, echo: Any, progress: bool, on_record: Any, target: Any,
+    started: float,
+) -> CampaignResult:  # fmt: skip
+    """:func:`run_campaign` once its arguments are checked and its folder is its own."""
     if command is None and isinstance(spec, (str, os.PathLike)):
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""

@@ -37,6 +37,7 @@ from typing import Annotated, Any, Literal
 from pydantic import (
     AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     StringConstraints,
@@ -253,7 +254,17 @@ class AsBuiltAxis(BaseModel):
 
 
 # allow_inf_nan=False: a NaN rate was refused as "less than or equal to 1"
-_Rates = list[Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]]
+def _no_bool(value: Any, info: ValidationInfo) -> Any:
+    if isinstance(value, bool):  # true/yes/on was a rate of 1: every frame lost
+        name = f"{info.field_name}: " if info.field_name else ""
+        raise ValueError(f"{name}should be a rate from 0 to 1, not {str(value).lower()}")
+    return value
+
+
+_Rates = list[
+    Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False), BeforeValidator(_no_bool)]
+]
+"""Numbers (YAML reads ``1e-1`` as text: taken as the number it writes), never true."""
 
 
 def _rates(description: str) -> Any:
