@@ -410,9 +410,8 @@ class _Walker:
             self._check_step(step, feature, end_m, before, piece)
             before = piece
             if piece.kind in (PieceKind.BEND, PieceKind.TEE):
-                if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
-                    gap = piece.start_m - feature.end_m
-                    need = end_m - feature.end_m + self.contract.min_margin_m
+                if (short := self._short(feature, piece, end_m)) is not None:
+                    gap, need = short
                     raise LocatedError(
                         f"'{step.text}' cannot be planned: {feature.segment!r} and"
                         f" {piece.segment!r} are {gap:.2f} m apart, and passing"
@@ -422,6 +421,14 @@ class _Walker:
                         step.location,
                     )
                 break
+
+    def _short(self, feature: Piece, piece: Piece, end_m: float) -> tuple[float, float] | None:
+        """``(gap, need)`` when passing ``feature`` (its PAB ending at ``end_m``) comes
+        closer than the planner's margin to ``piece``: how far apart the two are, and
+        how much pipe passing ``feature`` needs; ``None`` when there is room."""
+        if end_m <= piece.start_m - self.contract.min_margin_m + _TOL_M:
+            return None
+        return piece.start_m - feature.end_m, end_m - feature.end_m + self.contract.min_margin_m
 
     def _check_step(
         self, step: RouteStep, feature: Piece, end_m: float, before: Piece, piece: Piece
@@ -437,9 +444,8 @@ class _Walker:
         steep = abs(piece.tangent[2]) > self.steep_sin
         if widening < _STEP_M or not steep:
             return
-        if end_m > piece.start_m - self.contract.min_margin_m + _TOL_M:
-            gap = piece.start_m - feature.end_m
-            need = end_m - feature.end_m + self.contract.min_margin_m
+        if (short := self._short(feature, piece, end_m)) is not None:
+            gap, need = short
             raise LocatedError(
                 f"'{step.text}' cannot be planned: the pipe widens abruptly from"
                 f" {before.diameter_end_m * 1000:.0f} to {piece.diameter_start_m * 1000:.0f} mm"
