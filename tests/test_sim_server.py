@@ -5,6 +5,9 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
 
 from pirate_bt.clock import WallClock
 from pirate_bt.link import open_link
@@ -87,46 +90,42 @@ def test_cli_prints_where_to_connect() -> None:
     assert "unknown fault kind" in bad.stderr
 
 
+@contextmanager
+def _host_on_tcp(sim: Simulator) -> Iterator[tuple[str, int, Any]]:
+    """The simulator served on TCP and a host's link to it: (host, port, link)."""
+    server = SimServer(sim)
+    host, port = server.open_tcp(0)
+    server.start()
+    try:
+        link = open_link(f"socket://{host}:{port}", ROBOT, WallClock())
+        try:
+            yield host, port, link
+        finally:
+            link.close()
+    finally:
+        server.stop()
+
+
 def test_a_host_on_tcp_keeps_the_bridge_s_watchdog_fed_while_the_program_idles() -> None:
     # socket:// is a bridge behind a serial-over-TCP adapter, or this simulator: the
     # link's reader thread heartbeats while the program does not call in (it did only
     # for device paths, and a second of planner code thinking tripped the watchdog)
-    with Simulator("straight", ROBOT) as sim:
-        server = SimServer(sim)
-        host, port = server.open_tcp(0)
-        server.start()
-        try:
-            link = open_link(f"socket://{host}:{port}", ROBOT, WallClock())
-            try:
-                before = sim.counters().watchdog_trips
-                time.sleep(1.0)  # the program idles: no poll, no send
-                assert sim.counters().watchdog_trips == before
-            finally:
-                link.close()
-        finally:
-            server.stop()
+    with Simulator("straight", ROBOT) as sim, _host_on_tcp(sim):
+        before = sim.counters().watchdog_trips
+        time.sleep(1.0)  # the program idles: no poll, no send
+        assert sim.counters().watchdog_trips == before
 
 
 def test_a_second_host_on_tcp_is_disconnected_and_the_first_goes_on() -> None:
     import socket
 
-    with Simulator("straight", ROBOT) as sim:
-        server = SimServer(sim)
-        host, port = server.open_tcp(0)
-        server.start()
-        try:
-            link = open_link(f"socket://{host}:{port}", ROBOT, WallClock())
-            try:
-                with socket.create_connection((host, port), timeout=5.0) as second:
-                    # closed at once (it waited in the backlog, hearing nothing)
-                    assert second.recv(4096) == b""
-                frames = sim.counters().state_frames_sent
-                deadline = time.monotonic() + 30.0
-                while sim.counters().state_frames_sent < frames + 20:
-                    assert time.monotonic() < deadline
-                    time.sleep(0.01)
-                assert link.state() is not None and link.health().connected
-            finally:
-                link.close()
-        finally:
-            server.stop()
+    with Simulator("straight", ROBOT) as sim, _host_on_tcp(sim) as (host, port, link):
+        with socket.create_connection((host, port), timeout=5.0) as second:
+            # closed at once (it waited in the backlog, hearing nothing)
+            assert second.recv(4096) == b""
+        frames = sim.counters().state_frames_sent
+        deadline = time.monotonic() + 30.0
+        while sim.counters().state_frames_sent < frames + 20:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert link.state() is not None and link.health().connected
