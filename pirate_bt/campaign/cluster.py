@@ -84,6 +84,125 @@ def _wait_for_file(path: str, timeout_s: float) -> None:
         time.sleep(0.05)
 
 
+def _scheduler_address(path: str, timeout_s: float) -> str:
+    """The address in a scheduler file (``{"address": "tcp://host:8786", ...}``).
+
+    A file that does not parse is read again for up to half a second (at most
+    ``timeout_s``): a starting scheduler may not have finished writing it.
+
+    Raises:
+        InputError: It is not a Dask scheduler file (Dask's client failed on one with
+            a bare ``AssertionError`` or ``TypeError``).
+    """
+    import json
+    import time
+
+    end = time.monotonic() + min(0.5, timeout_s)
+    while True:
+        try:
+            with open(path, "rb") as file:
+                data: Any = json.loads(file.read())
+            break
+        except ValueError as exc:  # not JSON (or not yet all of it), not text
+            if time.monotonic() >= end:
+                why = f"not JSON: {exc}"
+                raise InputError(
+                    f"scheduler_file {path}: not a Dask scheduler file ({why})"
+                ) from None
+            time.sleep(0.05)
+        except OSError as exc:
+            raise InputError(f"scheduler_file {path}: cannot read it: {exc}") from None
+    if not isinstance(data, dict):
+        why = f"JSON {type(data).__name__}, not an object with an address"
+    elif "address" not in data:
+        why = 'no "address" in it'
+    elif not isinstance(data["address"], str) or not data["address"].strip():
+        why = f'its "address" is {data["address"]!r}, not an address like tcp://host:8786'
+    else:
+        return data["address"]
+    raise InputError(f"scheduler_file {path}: not a Dask scheduler file ({why})")
+
+
+class _Unreachable(Exception):
+    """Nothing accepted a connection at the address within the timeout."""
+
+
+async def _handshake(address: str, timeout_s: float) -> None:
+    """Connect to ``address`` and complete Dask's handshake, then hang up.
+
+    Dask's ``connect`` bounds the TCP connection by its timeout but not the
+    handshake after it: a far end that accepts and never answers held it for ever,
+    and one that answers in another protocol (an HTTP server's ``400``) had its
+    text read as a frame length (a ``MemoryError``). Here the whole is bounded.
+
+    Raises:
+        _Unreachable: No connection could be made (Dask's ``OSError``).
+        Exception: Anything else: something answered, not a Dask scheduler.
+    """
+    import asyncio
+
+    from distributed.comm.core import CommClosedError, connect
+
+    try:
+        # connect is untyped; its own timeout covers the TCP connection only.
+        comm: Any = await asyncio.wait_for(
+            connect(address, timeout=timeout_s),  # type: ignore[no-untyped-call]
+            timeout_s + 0.5,
+        )
+    except TimeoutError:  # before OSError: TimeoutError is one
+        raise TimeoutError(
+            f"it took the connection but did not answer Dask's handshake within {timeout_s:g} s"
+        ) from None
+    except CommClosedError as exc:  # before OSError: it is one, but it came after connecting
+        raise ConnectionError(f"it took the connection, then closed it ({exc})") from None
+    except OSError as exc:
+        raise _Unreachable(str(exc)) from None
+    comm.abort()
+
+
+def _check_scheduler(address: str, timeout_s: float) -> None:
+    """Refuse an address where no Dask scheduler completes a handshake within ``timeout_s``.
+
+    It runs on an event loop of its own, in a thread of its own (the caller may be
+    in a running loop), which has ended when this returns.
+
+    Raises:
+        InputError: Nothing took the connection, or what did is not a Dask
+            scheduler (it did not answer, answered in another protocol, hung up).
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import registry
+    from distributed.comm.addressing import get_address_host_port, parse_address
+
+    try:  # here, so that a ValueError from the far end is its, not the address's
+        scheme, _ = parse_address(address)
+        registry.get_backend(scheme)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            get_address_host_port(address)
+    except Exception as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    with ThreadPoolExecutor(1, thread_name_prefix="pirate_bt-dask-check") as pool:
+        future = pool.submit(asyncio.run, _handshake(address, timeout_s))
+        try:
+            future.result()
+        except _Unreachable as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        except (TimeoutError, ConnectionError) as exc:
+            raise InputError(f"no Dask scheduler answered at {address}: {exc}") from None
+        except Exception as exc:  # MemoryError too: what it sent was read as a frame length
+            raise InputError(
+                f"no Dask scheduler answered at {address}: its reply is not Dask's protocol"
+                f" ({type(exc).__name__}: {_short(exc)})"
+            ) from None
+
+
+def _short(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
 @contextmanager
 def dask_executor(
     scheduler: str | None, scheduler_file: str | None, timeout_s: float = 10.0
@@ -91,24 +210,30 @@ def dask_executor(
     """The executor of a Dask cluster's client, with case servers on its workers.
 
     ``timeout_s``: how long to keep trying to reach the scheduler (one that is still
-    starting may refuse a connection for a while).
+    starting may refuse a connection for a while). The handshake is bounded by it
+    too, whatever the far end does; the client starts only once a Dask scheduler
+    has answered.
 
     Raises:
-        InputError: The scheduler cannot be reached, or its scheduler file is not there
-            within ``timeout_s`` (Dask's client would wait for it for ever).
+        InputError: The scheduler cannot be reached or does not answer as one, or
+            its scheduler file is not there within ``timeout_s`` (Dask's client would
+            wait for it for ever) or is not a scheduler file.
     """
-    if scheduler is None and scheduler_file is not None:
+    if scheduler is not None:
+        address = scheduler
+    elif scheduler_file is not None:
         _wait_for_file(scheduler_file, timeout_s)
+        address = _scheduler_address(scheduler_file, timeout_s)
+    else:  # Client(None) would start a local cluster
+        raise InputError("give a Dask scheduler address or scheduler file")
+    _check_scheduler(address, timeout_s)
     try:
         # Client is untyped (distributed types its plugins, not its client).
-        client: Any = (
-            Client(scheduler, timeout=timeout_s)  # type: ignore[no-untyped-call]
-            if scheduler is not None
-            else Client(scheduler_file=scheduler_file, timeout=timeout_s)  # type: ignore[no-untyped-call]
-        )
-    except (OSError, TimeoutError, ValueError) as exc:
-        where = scheduler or scheduler_file
-        raise InputError(f"cannot reach the Dask scheduler at {where}: {exc}") from None
+        client: Any = Client(address, timeout=timeout_s)  # type: ignore[no-untyped-call]
+    except Exception as exc:  # it answered the check, then not the client
+        raise InputError(
+            f"cannot reach the Dask scheduler at {address}: {type(exc).__name__}: {_short(exc)}"
+        ) from None
     try:
         try:
             client.register_plugin(CaseServerPlugin(), name=PLUGIN_NAME)
