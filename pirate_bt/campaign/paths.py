@@ -113,4 +113,8 @@ def campaign_lock(folder: Path) -> Iterator[None]:
             ) from None
         yield
     finally:
+        if not any(p.name != LOCK_NAME for p in folder.iterdir()):
+            # refused before it wrote anything (a scheduler that did not answer): leave
+            # the folder as empty as it was made
+            (folder / LOCK_NAME).unlink(missing_ok=True)
         os.close(fd)
