@@ -37,12 +37,15 @@ The protocol, one JSON object per line each way:
 The worker enforces the case's wall-time limit itself: it kills the case
 process's group (``os.killpg(PID, SIGKILL)``), and the server replies as for any
 other end. The server exits when its standard input closes, killing a case still
-running first.
+running first. On Linux it also ends with its worker (``--parent PID``:
+``PR_SET_PDEATHSIG``, :func:`die_with_parent`): a ``SIGTERM``, however it comes,
+kills the running case's group and then the server.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import gc
 import importlib
 import json
@@ -54,13 +57,44 @@ import time
 import traceback
 from typing import Any, NoReturn
 
-__all__ = ["STDERR_TAIL", "Lines", "main", "send", "serve"]
+__all__ = ["STDERR_TAIL", "Lines", "die_with_parent", "main", "send", "serve"]
 
 STDERR_TAIL = 16_384
 """How many of the last bytes of a case process's output the server keeps."""
 
 _DRAIN_S = 2.0
 """How long the server reads a case's pipes after the case process has exited."""
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(sig: int, parent: int | None) -> bool:
+    """Have the kernel send ``sig`` to this process when its parent dies (Linux only).
+
+    ``PR_SET_PDEATHSIG``: a pool worker, or a case server, left behind by a killed
+    campaign was re-parented to PID 1 and ran on for ever. The setting is the
+    parent *thread*'s: the pool's workers and the servers are started by threads
+    that live as long as they are used (the pool worker's main thread, a Dask
+    worker's). If the parent is no longer ``parent`` once it is set (it died
+    before), ``sig`` is sent at once.
+
+    Returns:
+        Whether it is set (``False`` elsewhere than on Linux, or if ``prctl`` fails).
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        zero = ctypes.c_ulong(0)
+        code = libc.prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(sig), zero, zero, zero)
+    except (OSError, AttributeError):
+        return False
+    if code != 0:
+        return False
+    if parent is not None and os.getppid() != parent:
+        os.kill(os.getpid(), sig)
+    return True
 
 
 class Lines:
@@ -127,10 +161,15 @@ def _import(names: list[str]) -> None:
                 importlib.import_module(name)
 
 
-def _case_process(request: dict[str, Any], result_w: int, output_w: int) -> NoReturn:
+def _case_process(
+    request: dict[str, Any], result_w: int, output_w: int, mask: set[int | signal.Signals]
+) -> NoReturn:
     """The forked case process: run the target, write the record, exit. Never returns."""
     code = 1
     try:
+        # What a fresh process has, not the server's SIGTERM handler and blocked signal.
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         os.setsid()
         null = os.open(os.devnull, os.O_RDONLY)
         os.dup2(null, 0)
@@ -224,17 +263,34 @@ def _watch(pid: int, result_r: int, output_r: int, inbox: Lines) -> tuple[bytes,
     return bytes(record), bytes(output), worker
 
 
+_running: int | None = None
+"""The case process running now (its pid is its group): what a SIGTERM kills first."""
+
+
+def _on_term(signum: int, _frame: object) -> None:
+    """SIGTERM (the worker died, or someone asks): the case's group first, then the server."""
+    if _running is not None:
+        _killpg(_running)
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
 def _run(request: dict[str, Any], inbox: Lines, replies: int) -> bool:
     """Fork one case process and report on it; ``False`` if the worker went away."""
+    global _running
     result_r, result_w = os.pipe()
     output_r, output_w = os.pipe()
+    # No SIGTERM between the fork and knowing the case's pid: it would be left running.
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     pid = os.fork()
     if pid == 0:  # pragma: no cover - the case process (measured in its own right)
         os.close(result_r)
         os.close(output_r)
         os.close(replies)
         inbox.close()
-        _case_process(request, result_w, output_w)
+        _case_process(request, result_w, output_w, mask)
+    _running = pid
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     os.close(result_w)
     os.close(output_w)
     try:
@@ -244,6 +300,7 @@ def _run(request: dict[str, Any], inbox: Lines, replies: int) -> bool:
     record, output, worker = _watch(pid, result_r, output_r, inbox)
     os.close(result_r)
     os.close(output_r)
+    _running = None  # ended (or killed, its worker gone), its group killed: nothing to kill
     _, status = os.waitpid(pid, 0)
     reply = {
         "ended": pid,
@@ -260,9 +317,16 @@ def _run(request: dict[str, Any], inbox: Lines, replies: int) -> bool:
     return True
 
 
-def serve() -> int:
-    """The server's loop: import once, then one forked case process per request."""
+def serve(parent: int | None = None) -> int:
+    """The server's loop: import once, then one forked case process per request.
+
+    Args:
+        parent: The worker's pid: on Linux the server ends when that process does.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the worker decides; a terminal's ^C is not ours
+    signal.signal(signal.SIGTERM, _on_term)
+    if parent is not None:
+        die_with_parent(signal.SIGTERM, parent)
     # Replies go out on a descriptor of their own: whatever an import prints to standard
     # output lands on standard error, never in the middle of a reply.
     replies = os.dup(1)
@@ -290,8 +354,11 @@ def serve() -> int:
             return 0
 
 
-def main() -> int:
-    return serve()
+def main(argv: list[str] | None = None) -> int:
+    """``python -m pirate_bt.campaign.child [--parent PID]``."""
+    args = sys.argv[1:] if argv is None else argv
+    parent = int(args[1]) if len(args) >= 2 and args[0] == "--parent" else None
+    return serve(parent)
 
 
 if __name__ == "__main__":

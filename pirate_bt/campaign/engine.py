@@ -11,6 +11,11 @@ group is killed, a crashed one is recorded with its exit status, a server that
 dies is replaced, and the executor's worker is never the one that hangs or
 dies. A case costs a fork, not a Python start (docs/performance.md).
 
+Should a worker of the local pool die all the same (killed from outside), only
+the case it was running is lost: the pool (:class:`LocalPool`) is replaced and
+the cases the broken pool failed without having run them run again, as Dask
+reschedules them.
+
 The only names joined onto the output folder are fixed ones and case ids, and a
 case id must be a safe file name (:func:`pirate_bt.campaign.paths.safe_name`):
 :func:`run_cases` refuses a case list with another id before any case runs, and
@@ -22,22 +27,27 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import multiprocessing
 import os
 import stat
+import tempfile
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import is_safe_name, safe_name
-from pirate_bt.campaign.workers import prestart, run_in_server
+from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
 
 __all__ = [
     "DEFAULT_TARGET",
     "RESULTS_NAME",
+    "LocalPool",
     "check_output",
     "make_executor",
     "read_rows",
@@ -97,6 +107,78 @@ def _with_cut_trace(
     return record
 
 
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
+
+
+class LocalPool(Executor):
+    """The local process pool, which :func:`run_cases` replaces when one of its workers dies.
+
+    A :class:`~concurrent.futures.ProcessPoolExecutor` whose worker dies is broken:
+    every call still pending fails with ``BrokenProcessPool``, run or not. This one
+    knows which calls were running in a worker that died of itself
+    (:func:`~pirate_bt.campaign.workers.tracked`; the pool terminates the others'
+    workers) and starts a new pool for the rest (:meth:`replace`). Its workers
+    start their case servers as they start, and die with this process (Linux).
+    """
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+        self.replaced = 0
+        self._markers = tempfile.TemporaryDirectory(prefix="pirate-bt-pool-")
+        self._tokens: dict[Future[Any], int] = {}
+        self._next = 0
+        self._lock = threading.Lock()
+        self._pool = self._new()
+
+    def _new(self) -> ProcessPoolExecutor:
+        forked = multiprocessing.get_start_method() != "forkserver"
+        parent = os.getpid() if forked else None  # else the fork server is the parent
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            initializer=start_pool_worker,
+            initargs=(parent, self._markers.name),
+        )
+
+    def submit(self, fn: Callable[_P, _T], /, *args: _P.args, **kwargs: _P.kwargs) -> Future[_T]:
+        with self._lock:
+            token = self._next
+            self._next += 1
+            send: Callable[..., Future[_T]] = self._pool.submit  # mypy: a ParamSpec in a ParamSpec
+            try:
+                future = send(tracked, token, fn, *args, **kwargs)
+            except BrokenProcessPool as exc:  # broken since the last replacement: not run
+                future = Future()
+                future.set_exception(exc)
+            self._tokens[future] = token
+        future.add_done_callback(self._forget)
+        return future
+
+    def _forget(self, future: Future[Any]) -> None:
+        if future.cancelled() or not isinstance(future.exception(), BrokenProcessPool):
+            self._tokens.pop(future, None)
+
+    def replace(self, failed: list[Future[Any]]) -> set[Future[Any]]:
+        """After ``BrokenProcessPool``: a new pool; which of ``failed`` ran in the worker that died.
+
+        Waits until every worker of the broken pool has ended. The calls of
+        ``failed`` not returned (never started, or running in a worker the pool
+        terminated) may be submitted again.
+        """
+        with self._lock:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            running = pool_markers(self._markers.name)
+            self._pool = self._new()
+            self.replaced += 1
+            tokens = {future: self._tokens.pop(future, -1) for future in failed}
+        return {f for f, token in tokens.items() if running.get(token) is False}
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+        if wait:
+            self._markers.cleanup()
+
+
 @contextmanager
 def make_executor(
     workers: int | None = None,
@@ -119,7 +201,7 @@ def make_executor(
     if scheduler is None and scheduler_file is None:
         count = workers or os.cpu_count() or 1
         # Each worker starts its case server as it starts (the imports, once).
-        pool = ProcessPoolExecutor(max_workers=count, initializer=prestart)
+        pool = LocalPool(count)
         try:
             yield pool, f"{count} local worker{'s' if count != 1 else ''}"
         finally:
@@ -369,6 +451,16 @@ def run_cases(
     return _collect(cases, old, executor, results, trace_dir, on_record, target)
 
 
+_FRUITLESS = 3
+"""Pool replacements in a row after which the local pool is given up: none of them
+ran a case, and none lost one (a worker that dies as it starts)."""
+
+LOST_REASON = (
+    "worker lost: the local worker process running the case died (killed from outside?);"
+    " the pool was replaced and the other cases ran on"
+)
+
+
 def _collect(
     cases: list[dict[str, Any]],
     old: list[dict[str, Any]],
@@ -378,30 +470,66 @@ def _collect(
     on_record: Callable[[dict[str, Any]], None] | None,
     target: str,
 ) -> list[dict[str, Any]]:
-    """Submit the cases not in ``old``, gather their records (appended to ``results``)."""
+    """Submit the cases not in ``old``, gather their records (appended to ``results``).
+
+    A broken local pool (:class:`LocalPool`, a worker killed) costs only the case
+    that was running in the dead worker: the pool is replaced and the other cases
+    it failed are submitted again, at most once per case of the campaign, and not
+    when replacing it ran nothing :data:`_FRUITLESS` times in a row.
+    """
     done = {r["id"] for r in old}
     # Seed-major order: every group gets its first seeds before any gets its last,
     # so a campaign stopped early still covers the whole matrix evenly.
     todo = sorted((c for c in cases if c["id"] not in done), key=lambda c: (c["seed"], c["index"]))
     rows = list(old)
     futures: dict[Future[dict[str, Any]], dict[str, Any]] = {}
+    pool = executor if isinstance(executor, LocalPool) else None
+    replaced = fruitless = 0
+    most = len(todo)  # pool replacements, at most
     try:
-        for case in todo:
-            futures[executor.submit(run_isolated, case, trace_dir, target)] = case
         with contextlib.ExitStack() as stack:
             sink = stack.enter_context(results.open("a", encoding="utf-8")) if results else None
-            for future in as_completed(futures):
-                case = futures[future]
-                try:
-                    record = future.result()
-                except Exception as exc:  # a lost worker, not the case's own doing
-                    record = error_record(case, "error", f"worker lost: {exc}", 0.0)
+
+            def keep(record: dict[str, Any]) -> None:
                 if sink is not None:
                     sink.write(json.dumps(record, allow_nan=False, default=str) + "\n")
                     sink.flush()
                 rows.append(record)
                 if on_record is not None:
                     on_record(record)
+
+            while todo:
+                futures = {executor.submit(run_isolated, c, trace_dir, target): c for c in todo}
+                broken: list[Future[dict[str, Any]]] = []
+                ran = 0
+                for future in as_completed(futures):
+                    case = futures[future]
+                    try:
+                        record = future.result()
+                    except Exception as exc:  # a lost worker, not the case's own doing
+                        if pool is not None and isinstance(exc, BrokenProcessPool):
+                            broken.append(future)  # lost, or to run again: see below
+                            continue
+                        record = error_record(case, "error", f"worker lost: {exc}", 0.0)
+                    ran += 1
+                    keep(record)
+                todo = []
+                if not broken or pool is None:
+                    break
+                lost = pool.replace(broken)
+                replaced += 1
+                fruitless = 0 if ran or lost else fruitless + 1
+                give_up = fruitless >= _FRUITLESS or replaced >= most
+                for future in broken:
+                    case = futures[future]
+                    if future in lost:
+                        keep(error_record(case, "error", LOST_REASON, 0.0))
+                    elif give_up:
+                        why = f"worker lost: the local pool broke {replaced} times; gave up"
+                        keep(error_record(case, "error", why, 0.0))
+                    else:
+                        todo.append(case)
+                todo.sort(key=lambda c: (c["seed"], c["index"]))
     except BaseException:
         for future in futures:
             future.cancel()

@@ -24,8 +24,14 @@ on:
   case starts a new server.
 
 The local pool starts its workers' servers as the workers start
-(:func:`prestart` as the pool's initializer); on Dask a worker plugin does
+(:func:`start_pool_worker`, the pool's initializer); on Dask a worker plugin does
 (:mod:`pirate_bt.campaign.cluster`). Anywhere else the first case starts one.
+
+A pool worker ends with the campaign's process, and a server with its worker
+(Linux: ``PR_SET_PDEATHSIG``): a campaign killed with ``SIGKILL`` leaves nothing
+running. Each pool worker notes which call it runs (:func:`tracked`), so that when
+one dies the pool can tell the case that was running in it from those its
+replacement may run again (:func:`pool_markers`).
 """
 
 from __future__ import annotations
@@ -41,8 +47,10 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import IO, TYPE_CHECKING, Any
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, preload
 
@@ -55,7 +63,16 @@ if TYPE_CHECKING:
 # ("found in sys.modules ... unpredictable behaviour"), the last words a dead
 # server's error row then quoted as its cause.
 
-__all__ = ["CaseServer", "idle_servers", "prestart", "run_in_server", "stop_servers"]
+__all__ = [
+    "CaseServer",
+    "idle_servers",
+    "pool_markers",
+    "prestart",
+    "run_in_server",
+    "start_pool_worker",
+    "stop_servers",
+    "tracked",
+]
 
 _log = logging.getLogger(__name__)
 
@@ -102,7 +119,8 @@ class CaseServer:
         # Its own messages (a broken import), read back if it dies: a file never fills.
         self._stderr: IO[bytes] = tempfile.TemporaryFile()  # noqa: SIM115 - closed in _close
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "pirate_bt.campaign.child"],
+            # --parent: the server ends with this process (Linux), even if its pipes do not close
+            [sys.executable, "-m", "pirate_bt.campaign.child", "--parent", str(os.getpid())],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self._stderr,
@@ -374,3 +392,69 @@ def run_in_server(case: dict[str, Any], trace_dir: str | None, target: str) -> d
     return error_record(
         case, "error", f"case process died ({status}): {_last_line(reply.stderr)}", wall
     )
+
+
+# --- a worker of the local pool ---------------------------------------------------------
+
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
+
+_marker: Path | None = None
+"""This pool worker's note of the call it runs (``MARKERS/PID``), once it has started."""
+
+_TERMINATED = "terminated"
+
+
+def start_pool_worker(parent: int | None, markers: str) -> None:
+    """The local pool's initializer: die with the campaign, note calls, start a server.
+
+    Args:
+        parent: The campaign's pid (the worker's parent): on Linux the worker is
+            killed when that process dies (``None``: not checked, the parent is
+            another process, a fork server's).
+        markers: The folder where the worker notes the call it runs.
+    """
+    global _marker
+    from pirate_bt.campaign.child import die_with_parent
+
+    die_with_parent(signal.SIGKILL, parent)
+    _marker = Path(markers) / str(os.getpid())
+    signal.signal(signal.SIGTERM, _on_pool_term)
+    prestart()
+
+
+def _on_pool_term(signum: int, _frame: object) -> None:
+    """Terminated (by the pool, once another worker died): say so, then die of it."""
+    if _marker is not None:
+        with contextlib.suppress(OSError), _marker.open("a", encoding="utf-8") as f:
+            f.write(f"{_TERMINATED}\n")
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
+def tracked(token: int, fn: Callable[_P, _T], *args: _P.args, **kwargs: _P.kwargs) -> _T:
+    """Call ``fn`` in a pool worker, its ``token`` noted while it runs."""
+    if _marker is None:
+        return fn(*args, **kwargs)
+    _marker.write_text(f"{token}\n", encoding="utf-8")
+    try:
+        return fn(*args, **kwargs)
+    finally:
+        with contextlib.suppress(OSError):
+            _marker.write_text("", encoding="utf-8")
+
+
+def pool_markers(markers: str) -> dict[int, bool]:
+    """Once a pool's workers have all ended: the calls they were running, and whether
+    each one's worker was terminated by the pool (``True``) or died of itself (``False``).
+
+    The notes are removed (the next pool's workers start without any).
+    """
+    running: dict[int, bool] = {}
+    for path in Path(markers).iterdir():
+        with contextlib.suppress(OSError):
+            lines = path.read_text(encoding="utf-8").split()
+            path.unlink()
+            if lines and lines[0].isdigit():
+                running[int(lines[0])] = _TERMINATED in lines[1:]
+    return running
