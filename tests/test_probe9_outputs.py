@@ -156,3 +156,18 @@ def test_a_command_with_its_standard_output_closed_still_works(tmp_path: Path) -
     )
     assert done.returncode == 0, done.stderr
     assert "internal error" not in done.stderr
+
+
+@pytest.mark.parametrize("verb", ["export", "import"])
+def test_an_output_named_as_a_folder_is_refused_not_written_without_its_slash(
+    tmp_path: Path, verb: str
+) -> None:
+    # 'export btcpp bend.yaml -o x.xml/' wrote a file x.xml
+    source = str(ROOT / "trees" / "bend.yaml")
+    if verb == "import":
+        assert _cli("export", "btcpp", source, "-o", "b.xml", cwd=tmp_path).returncode == 0
+        source = "b.xml"
+    target = "x.xml/" if verb == "export" else "x.yaml/"
+    done = _cli(verb, "btcpp", source, "-o", target, cwd=tmp_path)
+    assert done.returncode == 2 and f"-o: {target} ends in '/', a folder" in done.stderr, done
+    assert not (tmp_path / target.rstrip("/")).exists()

@@ -85,6 +85,8 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
 
     from pirate_bt.errors import InputError, output_argument
 
+    if isinstance(path, str) and path.endswith(("/", os.sep)):  # Path() drops it: x.xml/
+        raise InputError(f"{option}: {path} ends in '/', a folder; name the file to write")
     target = output_argument(path, option)
     # A folder that exists but takes no file (read-only, /proc): found now, not after
     # a survey or a campaign has run. Probed with a file made and removed at once in

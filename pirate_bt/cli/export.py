@@ -35,7 +35,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for name, (_module, _function, text) in TARGETS.items():
         sub = subs.add_parser(name, help=text, description=text)
         sub.add_argument("tree", type=Path, help="tree file (.yaml)")
-        sub.add_argument("-o", "--output", type=Path, required=True, help="file to write")
+        sub.add_argument("-o", "--output", required=True, help="file to write")
         sub.add_argument(
             "--param",
             action="append",

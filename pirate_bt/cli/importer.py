@@ -38,7 +38,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for name, (_module, _function, text) in SOURCES.items():
         sub = subs.add_parser(name, help=text, description=text)
         sub.add_argument("file", type=Path, help="file to read")
-        sub.add_argument("-o", "--output", type=Path, required=True, help="tree file (.yaml)")
+        sub.add_argument("-o", "--output", required=True, help="tree file (.yaml)")
         sub.add_argument(
             "--robot",
             metavar="FILE",
