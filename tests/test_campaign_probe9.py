@@ -52,3 +52,14 @@ def test_a_folder_another_campaign_is_writing_in_is_refused(tmp_path: Path) -> N
 def test_the_report_sums_e_stops_with_every_other_counter(tmp_path: Path) -> None:
     result = pirate_bt.run_campaign(SPEC, output=tmp_path / "o", workers=1)
     assert "| e-stops |" in (result.output / "report.md").read_text()  # type: ignore[operator]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="needs /dev/zero")
+def test_a_device_named_as_a_robot_is_called_what_it_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "z.campaign.yaml"
+    spec.write_text("name: z\nruns:\n  - {tree: straight}\nrobots: [/dev/zero]\n")
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err  # it said 'no such file'
+    assert "robot '/dev/zero': /dev/zero is not a regular file (a device or a pipe)" in err, err

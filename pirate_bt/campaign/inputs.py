@@ -85,6 +85,8 @@ def find_input(kind: str, name: str, route: str | None = None) -> tuple[Path | N
             return path, None
         if path.is_dir():
             return None, f"{what}: {path} is a directory, not a file"
+        if path.exists():  # /dev/zero, a pipe: 'no such file' was wrong
+            return None, f"{what}: {path} is not a regular file (a device or a pipe)"
     except (OSError, ValueError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc)
         return None, f"{what}: cannot use this name: {reason}"
