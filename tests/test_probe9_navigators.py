@@ -106,3 +106,24 @@ def test_a_navigator_that_mutates_its_map_changes_only_its_own_copy() -> None:
     result = pirate_bt.navigate(MutatesTheMap(), sim="t-joint", map=network)
     assert result.succeeded, result.why
     assert len(network.spec.segments) == segments
+
+
+class Only:
+    def __init__(self, *steps: Step) -> None:
+        self.steps = steps
+
+    def next_step(self, obs: Any) -> Step | None:
+        return self.steps[obs.step] if obs.step < len(self.steps) else None
+
+
+@pytest.mark.parametrize("pab", ["bend-back", "t-joint-back"])
+def test_a_backward_pab_at_the_entry_with_no_map_is_refused_before_it_moves(pab: str) -> None:
+    # it backed the robot against the mouth with its wheels turning for 3 m: the belief
+    # drifted to -3.0 m and the why said 'no feature (blocked) within 3 m'
+    direction = "right" if pab == "bend-back" else "left"
+    result = pirate_bt.navigate(Only(Step(pab, direction=direction)), sim="straight")
+    assert result.why.endswith(
+        "the robot has passed nothing since it was put in (at 0.00 m): the pipe's entry"
+        " is behind it, no bend or tee"
+    ), result.why
+    assert result.belief_m == 0.0 and result.safe_state and result.steps == 0

@@ -259,6 +259,13 @@ class CheckedStep:
         """
         if self.step.pab == "bend" and math.isnan(self.roll_rad):
             raise InvalidStep(f"{self.step!r}: with no map, give the bend's direction or roll")
+        if self.step.pab in ("bend-back", "t-joint-back") and belief_m <= ENTRY_SLACK_M:
+            # nothing the robot passed is behind it, only the mouth: the PAB backed it
+            # against the mouth for 3 m of wheels turning, and the belief drifted by that
+            raise InvalidStep(
+                f"{self.step!r}: the robot has passed nothing since it was put in"
+                f" (at {belief_m:.2f} m): the pipe's entry is behind it, no bend or tee"
+            )
         if self.step.pab != "straight" or self.distance_m >= 0:
             return
         if belief_m + self.distance_m < -ENTRY_SLACK_M:
