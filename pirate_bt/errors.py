@@ -73,6 +73,7 @@ __all__ = [
     "caller_location",
     "file_argument",
     "output_argument",
+    "said_of",
     "shown",
 ]
 
@@ -129,6 +130,18 @@ def digit_count(number: int) -> int:
     while 10**count <= size:
         count += 1
     return count
+
+
+def said_of(exc: BaseException, limit: int | None = None) -> str:
+    """An exception's message on one line (whitespace folded), cut to ``limit``
+    characters with ``...``; what can be said of it when its ``__str__`` raises
+    (planner code's own exception class: a bare ``RuntimeError`` escaped ``navigate()``
+    from there)."""
+    try:
+        text = " ".join(str(exc).split())
+    except Exception:
+        text = f"<its message cannot be shown: {type(exc).__name__}.__str__ raised>"
+    return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
 def shown(value: object, limit: int = _SHOWN) -> str:

@@ -151,7 +151,7 @@ def survey(
         output=output, search=search, radius=radius, name=name, extend=extend
     )
     if explore.output is not None:  # before anything connects, as navigate's trace
-        from pirate_bt.api.options import writable_folder
+        from pirate_bt.api.options import output_path, writable_folder
         from pirate_bt.errors import InputError
 
         if explore.output.suffix.lower() not in (".yaml", ".yml"):
@@ -161,14 +161,9 @@ def survey(
                 " is written as YAML"
             )
         writable_folder(explore.output.parent, "output")
-        from pirate_bt.api.options import not_an_input
-
-        if explore.output.exists() and not explore.output.is_file():
-            raise InputError(
-                f"output: {explore.output} is not a regular file (a pipe or a device); name a file"
-            )
-        # the pipe as it really is must survive its survey (extend= may be the same file)
-        not_an_input(explore.output, "output", {"simulated network": sim, "robot": robot})
+        # no pipe or device, and the pipe as it really is must survive its survey
+        # (extend= may be the same file)
+        output_path(explore.output, "output", {"simulated network": sim, "robot": robot})
     navigation = navigate(
         explore,
         sim=sim,

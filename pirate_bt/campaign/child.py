@@ -69,7 +69,7 @@ _DRAIN_S = 2.0
 _PR_SET_PDEATHSIG = 1
 
 
-def die_with_parent(sig: int, parent: int | None) -> bool:
+def die_with_parent(sig: int, parent: int | None) -> None:
     """Have the kernel send ``sig`` to this process when its parent dies (Linux only).
 
     ``PR_SET_PDEATHSIG``: a pool worker, or a case server, left behind by a killed
@@ -77,24 +77,19 @@ def die_with_parent(sig: int, parent: int | None) -> bool:
     parent *thread*'s: the pool's workers and the servers are started by threads
     that live as long as they are used (the pool worker's main thread, a Dask
     worker's). If the parent is no longer ``parent`` once it is set (it died
-    before), ``sig`` is sent at once.
-
-    Returns:
-        Whether it is set (``False`` elsewhere than on Linux, or if ``prctl`` fails).
+    before), ``sig`` is sent at once. Elsewhere than on Linux, or if ``prctl``
+    fails, nothing is set.
     """
     if not sys.platform.startswith("linux"):
-        return False
+        return
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         zero = ctypes.c_ulong(0)
         code = libc.prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(sig), zero, zero, zero)
     except (OSError, AttributeError):
-        return False
-    if code != 0:
-        return False
-    if parent is not None and os.getppid() != parent:
+        return
+    if code == 0 and parent is not None and os.getppid() != parent:
         os.kill(os.getpid(), sig)
-    return True
 
 
 class Lines:

@@ -28,7 +28,7 @@ from distributed import Client
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from pirate_bt.campaign.workers import prestart, stop_servers
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, said_of
 
 __all__ = ["PLUGIN_NAME", "CaseServerPlugin", "dask_executor", "dask_setup"]
 
@@ -194,13 +194,8 @@ def _check_scheduler(address: str, timeout_s: float) -> None:
         except Exception as exc:  # MemoryError too: what it sent was read as a frame length
             raise InputError(
                 f"no Dask scheduler answered at {address}: its reply is not Dask's protocol"
-                f" ({type(exc).__name__}: {_short(exc)})"
+                f" ({type(exc).__name__}: {said_of(exc, 120)})"
             ) from None
-
-
-def _short(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return text if len(text) <= 120 else text[:117] + "..."
 
 
 @contextmanager
@@ -232,7 +227,8 @@ def dask_executor(
         client: Any = Client(address, timeout=timeout_s)  # type: ignore[no-untyped-call]
     except Exception as exc:  # it answered the check, then not the client
         raise InputError(
-            f"cannot reach the Dask scheduler at {address}: {type(exc).__name__}: {_short(exc)}"
+            f"cannot reach the Dask scheduler at {address}:"
+            f" {type(exc).__name__}: {said_of(exc, 120)}"
         ) from None
     try:
         try:

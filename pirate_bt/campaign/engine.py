@@ -125,6 +125,7 @@ class LocalPool(Executor):
     def __init__(self, workers: int) -> None:
         self.workers = workers
         self.replaced = 0
+        """How many times the pool was replaced (a worker died)."""
         self._markers = tempfile.TemporaryDirectory(prefix="pirate-bt-pool-")
         self._tokens: dict[Future[Any], int] = {}
         self._next = 0
@@ -461,6 +462,10 @@ LOST_REASON = (
 )
 
 
+def _seed_major(case: dict[str, Any]) -> tuple[Any, Any]:
+    return case["seed"], case["index"]
+
+
 def _collect(
     cases: list[dict[str, Any]],
     old: list[dict[str, Any]],
@@ -480,11 +485,11 @@ def _collect(
     done = {r["id"] for r in old}
     # Seed-major order: every group gets its first seeds before any gets its last,
     # so a campaign stopped early still covers the whole matrix evenly.
-    todo = sorted((c for c in cases if c["id"] not in done), key=lambda c: (c["seed"], c["index"]))
+    todo = sorted((c for c in cases if c["id"] not in done), key=_seed_major)
     rows = list(old)
     futures: dict[Future[dict[str, Any]], dict[str, Any]] = {}
     pool = executor if isinstance(executor, LocalPool) else None
-    replaced = fruitless = 0
+    fruitless = 0
     most = len(todo)  # pool replacements, at most
     try:
         with contextlib.ExitStack() as stack:
@@ -517,19 +522,18 @@ def _collect(
                 if not broken or pool is None:
                     break
                 lost = pool.replace(broken)
-                replaced += 1
                 fruitless = 0 if ran or lost else fruitless + 1
-                give_up = fruitless >= _FRUITLESS or replaced >= most
+                give_up = fruitless >= _FRUITLESS or pool.replaced >= most
                 for future in broken:
                     case = futures[future]
                     if future in lost:
                         keep(error_record(case, "error", LOST_REASON, 0.0))
                     elif give_up:
-                        why = f"worker lost: the local pool broke {replaced} times; gave up"
+                        why = f"worker lost: the local pool broke {pool.replaced} times; gave up"
                         keep(error_record(case, "error", why, 0.0))
                     else:
                         todo.append(case)
-                todo.sort(key=lambda c: (c["seed"], c["index"]))
+                todo.sort(key=_seed_major)
     except BaseException:
         for future in futures:
             future.cancel()

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LocatedError, ValidationFailed
+from pirate_bt.errors import LocatedError, ValidationFailed, said_of
 from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.parts import Half
@@ -62,7 +62,6 @@ from pirate_bt.task.navigation import (
     call_within,
     check_step,
     raised_at,
-    said_of,
 )
 from pirate_bt.task.outcome import PabOutcome, unsafe_note
 from pirate_bt.task.plan import MissionPlan, robot_length_m
@@ -175,7 +174,7 @@ def _decide(
     if exc is not None:  # a navigator's error is a result, not a crash
         # the traceback is the planner's to read: kept in the result and logged
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
-        text = " ".join(said_of(exc).split())  # one line; nothing after the type when empty
+        text = said_of(exc)  # one line; nothing after the type when empty
         said = f"navigator {name!r} raised {type(exc).__name__}" + (f": {text}" if text else "")
         return None, seconds, said, exc
     return step, seconds, None, None

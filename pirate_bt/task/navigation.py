@@ -78,7 +78,6 @@ __all__ = [
     "Step",
     "check_step",
     "raised_at",
-    "said_of",
     "shown",
 ]
 
@@ -133,15 +132,6 @@ def shown(value: object, limit: int = 80) -> str:
     except Exception:  # a __repr__ that raises
         text = f"<{type(value).__name__} that cannot be shown>"
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
-
-
-def said_of(exc: BaseException) -> str:
-    """``str(exc)``, or what can be said of it when its ``__str__`` raises (planner code's
-    own exception class): a bare ``RuntimeError`` escaped ``navigate()`` from there."""
-    try:
-        return str(exc)
-    except Exception:
-        return f"<its message cannot be shown: {type(exc).__name__}.__str__ raised>"
 
 
 def raised_at(exc: BaseException) -> str | None:

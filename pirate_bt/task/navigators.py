@@ -30,7 +30,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, said_of
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigation import (
@@ -39,7 +39,6 @@ from pirate_bt.task.navigation import (
     Step,
     call_within,
     raised_at,
-    said_of,
 )
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
@@ -338,10 +337,10 @@ def check_navigator_map(
                 raise raised
     except (ValueError, TypeError, InputError) as exc:
         # one line, as every error: a check_map's message may hold newlines
-        raise InputError(f"navigator {name!r}: {' '.join(said_of(exc).split())}"[:300]) from None
+        raise InputError(f"navigator {name!r}: {said_of(exc)}"[:300]) from None
     except (Exception, SystemExit) as exc:  # the navigator's own error, one located line
         _log.debug("navigator %r: check_map raised", name, exc_info=exc)
-        text = " ".join(said_of(exc).split())[:200]
+        text = said_of(exc)[:200]
         where = raised_at(exc)
         raise InputError(
             f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
