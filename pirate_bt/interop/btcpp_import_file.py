@@ -146,13 +146,19 @@ def import_xml(
     if out.exists() and out.resolve() == source.resolve():
         raise InputError(f"{out}: is the XML file being imported; nothing written")
     folder = out.parent if str(out.parent) else Path(".")
+    # A missing folder is made, as for every other output of the library, and taken
+    # away again when the tree does not load: a refused import leaves nothing.
+    made = [p for p in (folder, *folder.parents) if not p.exists()]
     try:
+        folder.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(
             prefix=f".{cut_name(out.stem)}.", suffix=".yaml", dir=folder
         )
     except OSError as exc:
+        _remove_folders(made)
         raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
     tmp = Path(tmp_name)
+    written = False
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             stream.write(text)
@@ -164,11 +170,23 @@ def import_xml(
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, out)
+        written = True
     except OSError as exc:
         raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
     finally:
         tmp.unlink(missing_ok=True)
+        if not written:
+            _remove_folders(made)
     return out
+
+
+def _remove_folders(made: list[Path]) -> None:
+    """Take away the folders an import made (innermost first), if still empty."""
+    for folder in made:
+        try:
+            folder.rmdir()
+        except OSError:
+            return
 
 
 def load_xml_tree(

@@ -20,15 +20,13 @@ expat directly, not with a general-purpose tree builder:
 from __future__ import annotations
 
 import codecs
-import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 from xml.parsers import expat
 
-from pirate_bt.atomic import cut_name
+from pirate_bt.atomic import cut_name, write_atomically
 from pirate_bt.errors import (
     ArgumentValueError,
     InputError,
@@ -253,12 +251,6 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     return roots[0]
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
 def refuse_special(path: Path) -> None:
     """Refuse to write ``path`` when it exists and is not a regular file.
 
@@ -299,35 +291,22 @@ def write_atomic(path: Path, text: str) -> Path:
     the whole new one.
 
     Raises:
-        InputError: the folder does not exist or cannot be written.
+        InputError: the file or a folder on its way cannot be written.
     """
     return write_atomic_bytes(path, text.encode("utf-8"))
 
 
 def write_atomic_bytes(path: Path, data: bytes) -> Path:
-    """Like :func:`write_atomic`, for bytes.
+    """Like :func:`write_atomic`, for bytes, through the library's one atomic writer
+    (:func:`pirate_bt.atomic.write_atomically`): a missing folder is made, as every
+    other output of the library makes it, and a symbolic link's target is replaced.
 
     Raises:
         InputError: also when ``path`` exists and is not a regular file (a
             device, a pipe): a rename would replace it.
     """
     refuse_special(path)
-    folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{cut_name(path.name)}.", suffix=".tmp", dir=folder
-        )
+        return write_atomically(path, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
-    try:
-        with os.fdopen(fd, "wb") as stream:
-            stream.write(data)
-        os.chmod(tmp_name, 0o666 & ~_umask())
-        os.replace(tmp_name, path)
-    except OSError as exc:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
-    return path
