@@ -285,22 +285,25 @@ class _Robots:
         return self._loaded[name]
 
 
-def _check_tree(case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None) -> None:
-    """Load the case's tree with its parameters against its robot, as the case will."""
+def _check_tree(
+    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
+) -> list[str]:
+    """Load the case's tree with its parameters against its robot, as the case will;
+    the files it read (the tree file, then its subtrees' files)."""
     from pirate_bt.resources import find_file
     from pirate_bt.treefile.loader import load_tree
 
-    def load(robot: Any) -> None:
-        load_tree(
+    def load(robot: Any) -> list[str]:
+        return load_tree(
             find_file("trees", case["tree"]),
             robot=robot,
             params=case["params"],
             params_from_text=True,
             params_origin="--param",
-        )
+        ).files
 
     try:  # as the case will: a parameter without a default must be given
-        load(robots(case.get("robot")))
+        return load(robots(case.get("robot")))
     except ValidationFailed as exc:
         if spec is None:
             raise
@@ -355,12 +358,18 @@ def _route_problem(case: Case, route_file: Path) -> tuple[str, str] | None:
     )
 
 
-def _check_route(case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None) -> None:
+def _check_route(
+    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
+) -> list[str]:
     """Plan the case's route on its map for its robot and build its PAB trees, as the case will.
 
     A run's ``network`` is the route's map (as ``pirate-bt mission ROUTE --network
     MAP``): a route whose own ``network`` line names another, or that does not fit
     it, is the spec's problem, placed at the run.
+
+    Returns:
+        The files read besides those the case names: the route's own network (its
+        map when the run names none) and the PAB tree files of its mission.
     """
     from pirate_bt.api.missions import plan_route
     from pirate_bt.api.options import find
@@ -386,17 +395,18 @@ def _check_route(case: Case, robots: _Robots, spec: CampaignSpec | None, base: P
             raise InputError(f"run {run!r}: {message}")
         raise source_of(spec).error(("runs", index, key), f"run {run!r}: {message}")
     try:  # the mission's tree, as the case builds it for its robot
-        load_tree(mission_tree_spec(plan, None, robot.motion.nominal_speed), robot=robot)
+        tree = load_tree(mission_tree_spec(plan, None, robot.motion.nominal_speed), robot=robot)
     except ValidationFailed as exc:
         axis = None if spec is None else _axis_robot(spec, base, case)
         if axis is None:
             raise
         raise _robot_problems(*axis, run, exc) from None
+    return [*([str(plan.network.source)] if case.get("network") is None else []), *tree.files]
 
 
 def check_runs(
     cases: list[Case], spec: CampaignSpec | None = None, base: Path | None = None
-) -> None:
+) -> list[Path]:
     """Load every distinct tree (with its parameters) and route once per robot, before any case.
 
     Bad input is the campaign's fault, not a case outcome: it stops the campaign
@@ -407,6 +417,13 @@ def check_runs(
     refuses at that robot's entry (naming the tree's place), and a route that is
     not its run's ``network``'s (its own ``network`` line names another, or it
     does not fit) at the run.
+
+    Returns:
+        Every input file the checks read, resolved, once each in the order first
+        read: the files the cases name (trees, routes, networks, truth maps,
+        robots) and those they pull in (subtree files, a route's own network and
+        its PAB trees, a route navigator's route); what ``--resume`` digests
+        (:mod:`pirate_bt.campaign.started`).
 
     Raises:
         ValidationFailed: a tree, route, network (or truth map) or robot file does
@@ -419,6 +436,7 @@ def check_runs(
     from pirate_bt.filekinds import validate_file
 
     seen: set[str] = set()
+    read: dict[Path, None] = {}  # in the order first read
     files: dict[tuple[str, str, str | None], str | None] = {}
     valid: set[tuple[str, Path]] = set()
     robots = _Robots()
@@ -434,6 +452,7 @@ def check_runs(
             file_key = (kind, str(name), near)
             if file_key not in files:
                 path, files[file_key] = find_input(kind, str(name), near)
+                _note(read, path)
                 what = {"map": "network", "network": "network", "robot": "hardware"}.get(kind)
                 if path is not None and what is not None and (what, path) not in valid:
                     # as each case will load it: a bad network or robot file is the
@@ -458,20 +477,37 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            _check_navigator(case, spec, base)
+            more = _check_navigator(case, spec, base)
         elif case["tree"]:
-            _check_tree(case, robots, spec, base)
+            more = _check_tree(case, robots, spec, base)
         else:
-            _check_route(case, robots, spec, base)
+            more = _check_route(case, robots, spec, base)
+        for name in more:
+            _note(read, Path(name))
+    return list(read)
 
 
-def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -> None:
+def _note(read: dict[Path, None], path: Path | None) -> None:
+    """Add ``path`` to the files read, resolved, when it is a file (not ``<dict>``)."""
+    if path is None:
+        return
+    try:
+        if path.is_file():
+            read.setdefault(path.resolve(), None)
+    except (OSError, RuntimeError, ValueError):  # pragma: no cover - checked before
+        pass
+
+
+def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -> list[str]:
     """Make the case's navigator once and check its map, as each case will.
 
     With the ``spec`` the case came from, a problem is placed at the run: a name
     no navigator has at its ``navigator``, a parameter the navigator refuses at
     that parameter (or its ``params``), a map its ``check_map`` refuses at its
     ``network``.
+
+    Returns:
+        The files its parameters name that it read (the ``route`` navigator's route).
     """
     from pirate_bt.task.navigators import load_navigator
 
@@ -507,3 +543,5 @@ def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -
         except InputError as exc:
             given = case.get("network") is not None and not case.get("blind")
             raise placed(exc, "network" if given else "navigator") from None
+    source = getattr(getattr(navigator, "route", None), "source", None)  # a parameter's file
+    return [source] if isinstance(source, str) else []

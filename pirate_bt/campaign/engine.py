@@ -41,6 +41,7 @@ from typing import Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import is_safe_name, safe_name
+from pirate_bt.campaign.started import RECORD_NAME
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
 
@@ -353,12 +354,14 @@ def _check_output(
 
 REPORT_FILES = (
     RESULTS_NAME + ".part",
+    RECORD_NAME,
     "results.csv",
     "report.md",
     "report.html",
     *(f"success_vs_{key}.png" for key in ("drop", "corrupt", "dup")),
 )
-"""The files a campaign writes into its output folder besides ``results.jsonl``."""
+"""The files a campaign writes into its output folder besides ``results.jsonl`` (the
+record of how it started, :mod:`pirate_bt.campaign.started`, and the report)."""
 
 
 def _check_fixed_names(output: Path) -> None:

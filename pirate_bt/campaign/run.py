@@ -54,6 +54,7 @@ from pirate_bt.campaign.spec import (
     load_campaign,
     spec_source,
 )
+from pirate_bt.campaign.started import Start, begin, write_record
 from pirate_bt.campaign.stats import GroupStats, group_stats
 from pirate_bt.errors import InputError, digit_count
 
@@ -185,12 +186,19 @@ def checked_cases(
             for a file, each problem at its place).
         ConfigurationError: a named file is missing or not a file.
     """
+    return _checked(model, base, max_cases)[0]
+
+
+def _checked(
+    model: CampaignSpec, base: Path | None, max_cases: int
+) -> tuple[list[dict[str, Any]], list[Path]]:
+    """:func:`checked_cases`, and the input files the checks read (what a resume checks)."""
     check_axes(model, base)
     check_inputs(model, base)
     cases = expand(model, base, max_cases=max_cases)
-    check_runs(cases, model, base)
+    inputs = check_runs(cases, model, base)
     check_faults(model, base)
-    return cases
+    return cases, inputs
 
 
 def validate_campaign_file(path: str | Path) -> CampaignSpec:
@@ -345,11 +353,15 @@ def run_campaign(
             ``None`` (the default) writes nothing at all: no rows, no traces, no
             report; the result holds the rows and statistics.
         resume: Run only the cases without a row in ``output`` (needs ``output``);
-            every row there must be one of this spec's cases (else refused before
-            any worker starts, nothing rewritten). Without it an output folder
-            whose results file holds any line is refused.
+            every row there must be one of this spec's cases, every input file
+            the same as when the campaign started there (its SHA-256 in
+            ``output/campaign.json``), and ``case_timeout``, if given, the one it
+            started with (else refused before any worker starts, nothing
+            rewritten; see :mod:`pirate_bt.campaign.started`). Without it an
+            output folder whose results file holds any line is refused.
         case_timeout: Wall-time limit per case, overriding the spec's
-            (``"90 s"`` or seconds).
+            (``"90 s"`` or seconds). With ``resume``, left out: the one the
+            campaign started with.
         max_cases: The most cases the spec may expand to; counted from its axes
             before anything is built (see :func:`~pirate_bt.campaign.cases.check_size`).
         base: Where relative names of a spec given as data resolve.
@@ -371,8 +383,9 @@ def run_campaign(
             ``max_cases``, a named input file is missing or not a file, a tree or
             route does not validate (against every robot of the axis), a route does
             not fit its run's network, the output folder holds anything without
-            ``resume`` or rows of another campaign with it, Dask is missing or
-            unreachable.
+            ``resume`` or, with it, rows of another campaign, an input file changed
+            since the campaign started there or another ``case_timeout``, Dask is
+            missing or unreachable.
         ConfigurationError: a named input file is missing (seen in the cases).
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``output``,
             cases in flight are not recorded; run again with ``resume=True``.
@@ -424,22 +437,26 @@ def run_campaign(
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = case_timeout_s(case_timeout)
     reach_s = case_timeout_s(scheduler_timeout, "scheduler_timeout") or 10.0  # at most a week
-    cases = checked_cases(model, source.base, max_cases)
-    if timeout_s is not None:
-        for case in cases:
-            case["timeout_s"] = timeout_s
+    cases, inputs = _checked(model, source.base, max_cases)
     folder = Path(output) if output is not None else None
-    lock = ExitStack()
-    if folder is not None:
-        check_output(folder, resume, cases)  # before any worker starts, warning of no line
-        # one campaign at a time in a folder: two started together both passed the
-        # check above and one's rows were lost; checked again once it is ours
-        lock.enter_context(campaign_lock(folder))
-        check_output(folder, resume, cases)
-    with lock:
+    start = Start(timeout_s, None)
+    with ExitStack() as lock:
+        if folder is not None:
+            check_output(folder, resume, cases)  # before any worker starts, warning of no line
+            # one campaign at a time in a folder: two started together both passed the
+            # check above and one's rows were lost; checked again once it is ours
+            lock.enter_context(campaign_lock(folder))
+            check_output(folder, resume, cases)
+            # resumed: the inputs and the case timeout it started with (started.py)
+            spec_timeout_s = model.quantity("case_timeout", "time")
+            start = begin(folder, resume, inputs, model.name, spec_timeout_s, timeout_s)
+        if start.timeout_s is not None:  # not in the ids: the record keeps it
+            for case in cases:
+                case["timeout_s"] = start.timeout_s
         return _run(
             model, cases, count, folder, resume, workers, executor, scheduler,
             scheduler_file, reach_s, command, spec, echo, progress, on_record, target, started,
+            start.record,
         )  # fmt: skip
 
 
@@ -447,9 +464,10 @@ def _run(
     model: Any, cases: list[dict[str, Any]], count: int, folder: Path | None, resume: bool,
     workers: int | None, executor: Any, scheduler: Any, scheduler_file: Any, reach_s: float,
     command: str | None, spec: Any, echo: Any, progress: bool, on_record: Any, target: Any,
-    started: float,
+    started: float, record: dict[str, Any] | None,
 ) -> CampaignResult:  # fmt: skip
-    """:func:`run_campaign` once its arguments are checked and its folder is its own."""
+    """:func:`run_campaign` once its arguments are checked and its folder is its own;
+    ``record``, when given, is written as the cases start (a folder first written)."""
     if command is None and isinstance(spec, (str, os.PathLike)):
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""
@@ -471,7 +489,7 @@ def _run(
 
         bar: Any = tqdm(total=count, unit="case", file=sys.stderr, disable=not progress, ncols=100)
 
-        def record(row: dict[str, Any]) -> None:
+        def keep(row: dict[str, Any]) -> None:
             counts[str(row.get("outcome"))] += 1
             bar.update(1)
             bar.set_postfix_str(
@@ -482,8 +500,10 @@ def _run(
             if on_record is not None:
                 on_record(row)
 
+        if folder is not None and record is not None:
+            write_record(folder, record)  # here: a scheduler that never answered wrote nothing
         try:
-            rows = run_cases(cases, folder, pool, resume=resume, on_record=record, target=target)
+            rows = run_cases(cases, folder, pool, resume=resume, on_record=keep, target=target)
         finally:
             bar.close()
     files: list[Path] = []

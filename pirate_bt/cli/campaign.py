@@ -8,7 +8,9 @@ progress bar, the outcome counts and the report files written.
 file (or the folder holding it). Every case runs in its own process; a crash,
 a hang (killed after ``case_timeout``) or an exception is that case's outcome.
 Rows go to ``OUTPUT/results.jsonl`` as cases finish; after Ctrl-C, ``--resume``
-runs only the cases still missing. Exit codes: 0 the campaign ran (whatever its
+runs only the cases still missing, and refuses (exit 2) an input file changed since
+the campaign started or another ``--case-timeout``
+(:mod:`pirate_bt.campaign.started`). Exit codes: 0 the campaign ran (whatever its
 cases did); 2 bad input; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 """
 
@@ -46,7 +48,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--output", metavar="DIR", help="results folder (default: campaign-NAME)")
     parser.add_argument("--resume", action="store_true", help="skip the cases already done")
     parser.add_argument(
-        "--case-timeout", metavar="TIME", help="wall-time limit per case (overrides the file)"
+        "--case-timeout",
+        metavar="TIME",
+        help="wall-time limit per case (overrides the file; with --resume, default and only"
+        " value: the one the campaign started with)",
     )
     parser.add_argument(
         "--max-cases",
@@ -87,7 +92,13 @@ _BY_OPTION = re.compile(r"\b(" + "|".join(_OPTIONS) + r")\b")
 
 def _by_option(text: str) -> str:
     """``run_campaign``'s message with the arguments named as this command's options
-    (``scheduler_file: no scheduler file at ...`` is ``--scheduler-file: ...`` here)."""
+    (``scheduler_file: no scheduler file at ...`` is ``--scheduler-file: ...`` here).
+
+    ``case_timeout`` is also the spec's key: only a message that starts with the
+    argument's name (a resume's other case timeout) is about ``--case-timeout``.
+    """
+    if text.startswith("case_timeout: "):
+        text = "--case-timeout: " + text.removeprefix("case_timeout: ")
     return _BY_OPTION.sub(lambda m: _OPTIONS[m.group(1)], text)
 
 
