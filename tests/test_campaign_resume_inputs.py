@@ -5,6 +5,7 @@ checks read and the case timeout its cases run with (``OUT/campaign.json``). A r
 refuses (exit 2, one line, nothing rewritten) an input edited since then, and a
 ``--case-timeout`` other than the one it started with; it was accepted, and the rows
 of the old file and the new one (or of two timeouts) were mixed in one results file.
+The ``overruns`` counter is wall time: it is no part of what makes a row a case's.
 
 Most tests run no case (an executor that records every case a success at once, or a
 refusal before any worker starts); one runs a short real case through the command.
@@ -22,6 +23,7 @@ from typing import Any
 import pytest
 
 from pirate_bt.campaign import read_rows, run_campaign
+from pirate_bt.campaign.report import write_report
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 from tests.hostile_support import InstantExecutor
@@ -259,3 +261,26 @@ def test_an_edited_spec_case_timeout_is_still_refused_by_its_rows(here: Path) ->
     (here / "tree.campaign.yaml").write_text(TREE.replace("120 s", "60 s"), encoding="utf-8")
     with pytest.raises(InputError, match=r"results\.jsonl:1: 1 row of 1 is not a case"):
         run_campaign("tree.campaign.yaml", output="out", resume=True, executor=InstantExecutor())
+
+
+# --- 3. overruns are wall time ----------------------------------------------------------
+
+
+def test_overruns_are_no_part_of_a_rows_identity(here: Path) -> None:
+    run_campaign("tree.campaign.yaml", output="out", executor=InstantExecutor())
+    results = here / "out" / "results.jsonl"
+    rows = [json.loads(line) for line in results.read_text("utf-8").splitlines()]
+    rows[0]["overruns"] = 7  # another machine, another load: another count
+    results.write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+    pool = InstantExecutor()
+    result = run_campaign("tree.campaign.yaml", output="out", resume=True, executor=pool)
+    assert pool.ids == [] and result.cases == 2  # both rows still the cases'
+
+
+def test_the_report_says_overruns_are_wall_time(tmp_path: Path) -> None:
+    rows = [
+        {"id": f"00000{i}-x", "index": i, "run": "s", "outcome": "success", "overruns": i}
+        for i in range(2)
+    ]
+    write_report(rows, tmp_path, title="t")
+    assert "| tick overruns (wall time) | 1 | 1 |" in (tmp_path / "report.md").read_text("utf-8")

@@ -42,9 +42,12 @@ _COUNTERS = (
     ("clips", "clips"), ("safe_states", "safe states"), ("estops", "e-stops"),
     ("retries", "retries"),
     ("link_failures", "link failures"), ("crc_errors", "CRC errors"),
-    ("duplicates", "duplicates"), ("frames_dropped", "frames dropped"), ("overruns", "overruns"),
+    ("duplicates", "duplicates"), ("frames_dropped", "frames dropped"),
+    ("overruns", "tick overruns (wall time)"),
 )  # fmt: skip
-"""The counters the report sums, with their names in it."""
+"""The counters the report sums, with their names in it. ``overruns`` are ticks that took
+longer than their wall-clock budget: they depend on the machine and its load, so two runs
+of one case may differ in them (every other counter is a function of the case)."""
 _KINDS = {"violations": "violation_kinds", "damage": "damage_kinds"}
 
 
