@@ -52,6 +52,7 @@ from pirate_bt.task.navigate_result import (
 from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
 from pirate_bt.task.navigation import (
     Belief,
+    BlindTrail,
     CheckedStep,
     Decision,
     Felt,
@@ -253,6 +254,7 @@ def run_navigation(
     # changed what later steps were planned on, or failed the planner with IndexError
     shown_map = copy.deepcopy(network) if network is not None else None
     belief = planner.start_m if planner is not None else 0.0
+    trail = BlindTrail()  # with no map: what the steps passed (probe-turn, the backward PABs)
     records = _Records(trace_dir)
     records.write(
         {
@@ -334,7 +336,7 @@ def run_navigation(
                             checked.route_line(), line, belief, roll_rad=roll, source=source
                         )
                     else:
-                        checked.check_blind(belief)
+                        checked.check_blind(belief, trail)
                 except InvalidStep as exc:  # its message starts with the step
                     error = f"navigator {name!r} asked for an invalid step: {exc}"
                 except (LocatedError, ValidationFailed) as exc:
@@ -411,6 +413,8 @@ def run_navigation(
                 )
                 if truth_now is not None:
                     ran.truth_m = truth_now()
+                if ran.succeeded:
+                    trail.note(checked, ran.felt, ran.off_wall)
             if not ran.succeeded and clock.now() - start_s >= max_time_s - period_s / 2:
                 # the budget cut the step short: that is the cause, said as the caller set it
                 ran.why = (

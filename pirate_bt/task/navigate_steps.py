@@ -56,6 +56,8 @@ class StepRun:
     ticks: int = 0
     stamp_s: float = math.nan
     """Blind steps: the state stamp the odometry ended on."""
+    off_wall: bool = False
+    """Blind steps: a bend joint swung off the wall during the step (over an opening)."""
 
 
 def _felt_on_map(mission: MissionResult) -> list[Felt]:
@@ -192,6 +194,10 @@ def run_blind(
     )
     odometry = [belief_m, stamp_s]  # belief, last stamp
     window_s = wheel_fresh_window_s(robot)  # odometry counts fresh, agreeing wheels
+    # past every wall-contact angle: a joint over an opening (as the drive tells one)
+    beyond = max(c.angle for c in robot.clamp.contact_angles) + 2 * robot.safety.angle_tolerance
+    joints = [m.name for m in robot.all_bend_modules()]
+    off_wall = [False]
 
     def before(_info: Any) -> None:
         supervisor.tick()
@@ -200,6 +206,9 @@ def run_blind(
         state = supervisor.state()
         if state is None:
             return
+        if not off_wall[0]:
+            angles = state.joint_angle_rad
+            off_wall[0] = any(abs(angles.get(name, 0.0)) > beyond for name in joints)
         if odometry[1] == odometry[1]:  # not nan: a previous stamp
             speed = state.mean_drive_velocity_mps(state.stamp_s - window_s)
             odometry[0] += speed * max(0.0, state.stamp_s - odometry[1])
@@ -301,4 +310,5 @@ def run_blind(
         error=run.error or link_cause(run, supervisor),
         ticks=run.ticks,
         stamp_s=odometry[1],
+        off_wall=off_wall[0],
     )

@@ -33,31 +33,33 @@ command line (text with a unit, or SI numbers):
 ``Step("probe-turn")``                  no map: where a straight step stopped blocked,
                                         find which way the pipe turns (``obs.felt``:
                                         a ``bend`` with its direction) or that it
-                                        ends there (an ``end``)
+                                        ends there (an ``end``); refused anywhere else
 ``Step("probe-tee")``                   no map: where a straight step stopped over an
                                         opening, find which side the tee's branch
                                         leaves on (``obs.felt``: a ``tee`` with that
                                         side); it ends before the tee, so a
                                         ``t-joint`` step goes on from there
 ``Step("bend-back", direction="right")`` no map: back through the bend the robot
-                                        passed (its direction as met forwards)
+                                        passed (its direction as met forwards);
+                                        refused with no bend behind it
 ``Step("t-joint-back", direction=...)``  no map: back through the T-joint the robot
                                         passed (``straight``, or out of the branch
                                         it turned into: ``left``, ``right``, ``up``,
-                                        ``down``)
+                                        ``down``); refused with no tee behind it
 ======================================  ===============================================
 
 :func:`check_step` checks a step before anything moves (an unknown PAB, a missing or
 malformed parameter, a value out of range); with a map, the step is also planned on
-it from where the robot is (a turn where the map has no bend is refused there).
+it from where the robot is (a turn where the map has no bend is refused there), and
+with none it is checked on what the steps so far passed (:class:`BlindTrail`).
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 from pirate_bt.errors import InputError, UnitError
@@ -69,6 +71,7 @@ __all__ = [
     "STEP_PABS",
     "Ahead",
     "Belief",
+    "BlindTrail",
     "CheckedStep",
     "Decision",
     "Felt",
@@ -238,24 +241,26 @@ class CheckedStep:
     direction: str | None = None
     time_s: float = 0.0
 
-    def check_blind(self, belief_m: float) -> None:
-        """Refuse a step with no map that would back the robot past the pipe's entry.
+    def check_blind(self, belief_m: float, trail: BlindTrail | None = None) -> None:
+        """Refuse a step with no map that cannot do what it says where the robot is.
 
         With no map the belief is measured from where the robot was put in (0 m): the
         mouth is behind it there, and backing past it would take the robot out of the
         pipe (the simulator holds it at the mouth while its wheels turn, so odometry
         would count distance never driven), as a planned route refuses it with a map.
         A bend with neither direction nor roll needs a map to say which way it turns.
+        With the ``trail`` of what the steps so far passed: ``probe-turn`` only where a
+        straight stopped blocked, and ``bend-back`` (``t-joint-back``) only with a bend
+        (a tee) passed and not backed through yet (:class:`BlindTrail`).
         """
         if self.step.pab == "bend" and math.isnan(self.roll_rad):
             raise InvalidStep(f"{self.step!r}: with no map, give the bend's direction or roll")
+        if trail is not None:
+            trail.check(self.step, belief_m)
         if self.step.pab in ("bend-back", "t-joint-back") and belief_m <= ENTRY_SLACK_M:
             # nothing the robot passed is behind it, only the mouth: the PAB backed it
             # against the mouth for 3 m of wheels turning, and the belief drifted by that
-            raise InvalidStep(
-                f"{self.step!r}: the robot has passed nothing since it was put in"
-                f" (at {belief_m:.2f} m): the pipe's entry is behind it, no bend or tee"
-            )
+            raise InvalidStep(f"{self.step!r}: {_NOTHING_PASSED.format(at=belief_m)}")
         if self.step.pab != "straight" or self.distance_m >= 0:
             return
         if belief_m + self.distance_m < -ENTRY_SLACK_M:
@@ -291,6 +296,100 @@ class CheckedStep:
                 " language has no backward PABs); it is for navigating without one"
             )
         return f"pause {self.time_s:.4f} s"
+
+
+_NOTHING_PASSED = (
+    "the robot has passed nothing since it was put in (at {at:.2f} m): the pipe's entry"
+    " is behind it, no bend or tee"
+)
+"""Why a backward PAB is refused when no step has passed a bend or a tee."""
+
+
+@dataclass
+class BlindTrail:
+    """What the steps with no map have passed since the robot was put in: what the
+    preconditions of ``probe-turn``, ``bend-back`` and ``t-joint-back`` are checked on.
+
+    Attributes:
+        behind: The bends and tees passed forwards and not backed through yet, oldest
+            first (``"bend"``, ``"tee"``).
+        passed: How many of each were passed forwards, in all.
+        blocked: The robot stands where a forward straight stopped blocked (only a
+            ``wait`` or a ``probe-turn``, which ends where it began, ran since).
+        last: The last step that ran, and what it felt.
+    """
+
+    behind: list[str] = field(default_factory=list)
+    passed: dict[str, int] = field(default_factory=dict)
+    blocked: bool = False
+    last: tuple[Step, tuple[Felt, ...]] | None = None
+
+    def note(self, checked: CheckedStep, felt: Sequence[Felt], off_wall: bool) -> None:
+        """A step succeeded, having felt ``felt``; ``off_wall``: a bend joint swung off
+        the wall during it (an opening: a straight may drive through a tee's run)."""
+        pab = checked.step.pab
+        self.last = (checked.step, tuple(felt))
+        passed = {"bend": "bend", "t-joint": "tee"}.get(pab)
+        if pab == "straight" and checked.distance_m > 0 and off_wall:
+            passed = "tee"  # crossed, or reached, an opening: never refuse backing through it
+        if passed is not None:
+            self.behind.append(passed)
+            self.passed[passed] = self.passed.get(passed, 0) + 1
+        elif pab in ("bend-back", "t-joint-back"):  # through the newest of its kind
+            kind = "bend" if pab == "bend-back" else "tee"
+            if kind in self.behind:  # and past whatever was passed after it
+                del self.behind[len(self.behind) - 1 - self.behind[::-1].index(kind) :]
+        if pab not in ("wait", "probe-turn"):  # those end where they began
+            self.blocked = (
+                pab == "straight"
+                and checked.distance_m > 0
+                and any(f.kind == "feature" and f.how == "blocked" for f in felt)
+            )
+
+    def check(self, step: Step, belief_m: float) -> None:
+        """Refuse ``step`` before it moves when what it needs is not where the robot is.
+
+        Raises:
+            InvalidStep: ``probe-turn`` where no straight stopped blocked (in open pipe
+                it finds a turn that is not there), ``bend-back`` with no bend behind
+                the robot, ``t-joint-back`` with no tee (it backs the robot against
+                the pipe's mouth while its wheels turn).
+        """
+        if step.pab == "probe-turn" and not self.blocked:
+            raise InvalidStep(f"{step!r}: {self._not_blocked(belief_m)}")
+        kind = {"bend-back": "bend", "t-joint-back": "tee"}.get(step.pab)
+        if kind is None or kind in self.behind:
+            return
+        if not self.passed:
+            raise InvalidStep(f"{step!r}: {_NOTHING_PASSED.format(at=belief_m)}")
+        since = (
+            f"it has passed no {kind} since it was put in"
+            if kind not in self.passed
+            else f"it has backed past every {kind} it passed since it was put in"
+        )
+        raise InvalidStep(
+            f"{step!r}: no {kind} is behind the robot to back through (at {belief_m:.2f} m):"
+            f" {since}"
+        )
+
+    def _not_blocked(self, belief_m: float) -> str:
+        if self.last is None:
+            where = (
+                f"no straight has stopped blocked since the robot was put in (at {belief_m:.2f} m)"
+            )
+        else:
+            step, felt = self.last
+            where = (
+                f"the robot is not where a straight stopped blocked (at {belief_m:.2f} m,"
+                f" after {step!r}"
+            )
+            if any(f.kind == "feature" and f.how == "opening" for f in felt):
+                where += ", which stopped over an opening: probe-tee finds its branch"
+            where += ")"
+        return (
+            f"{where}: probe-turn finds the way on where a straight with stop_at_feature"
+            " stopped blocked; in open pipe it would answer with a turn that is not there"
+        )
 
 
 def _quantity(step: Step, key: str, dimension: str, example: str) -> float:
