@@ -168,7 +168,7 @@ def test_planner_code_that_raises_leaves_the_robot_safe() -> None:
     [
         ("nowhere", "neither a network"),
         ("", "empty target"),
-        (42, "cannot connect to a int"),
+        (42, "cannot connect to an int"),
     ],
 )
 def test_a_bad_target_is_one_clear_error(target: Any, message: str) -> None:

@@ -33,6 +33,6 @@ def test_a_network_given_as_a_route_is_named_so_in_one_line(
     assert err.endswith(
         f"{lab}:1:1: a YAML file, not a route: a route is lines of steps"
         " ('network lab', then 'forward 1 m', ...; docs/routes.md); a network"
-        " file goes to --map or --sim"
+        " file goes to --network or --sim (navigate: --map)"
     )
     assert len(err.splitlines()) == 1

@@ -175,7 +175,7 @@ def plan_route(route: Any, *, network: Any = None, robot: Any = None) -> Mission
     parsed = _route(route)
     description = load_robot_like(robot)
     if network is None:
-        the_map = load_network_for(parsed, None)
+        the_map = load_network_for(parsed, None, option="network")  # network=, not --sim
     else:
         the_map = load_network(network, base=_base(parsed))
     return plan(parsed, the_map, description)
@@ -584,8 +584,10 @@ def write_mission_outputs(
             drawn = render_tree(result.tree, out / "coverage.svg", coverage=result.coverage)
             files.append(drawn)
             pictures.append(("Coverage (how often each node ran)", drawn.name))
-        except FileNotFoundError:  # no dot: said once above; coverage.dot stays
-            pass
+        except FileNotFoundError:  # no dot: said once above; coverage.dot stays, listed
+            dot = out / "coverage.dot"
+            if dot.exists():
+                files.append(dot)
     files += write_report(
         result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
     )

@@ -84,7 +84,10 @@ _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
 
 
 def _kind(value: object) -> str:
-    return "None" if value is None else f"a {type(value).__name__}"
+    if value is None:
+        return "None"
+    name = type(value).__name__
+    return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"  # an int, a float
 
 
 def quantity(value: str | float | int, dimension: str, option: str) -> float:
@@ -466,7 +469,7 @@ def parse_target(target: Any) -> tuple[str, Any]:
         return "sim", target
     if not isinstance(target, str):
         raise InputError(
-            f"connect: cannot connect to a {type(target).__name__};"
+            f"connect: cannot connect to {_kind(target)};"
             ' give "sim:NETWORK", a network file or a serial port URL'
         )
     text = target.strip()

@@ -147,6 +147,13 @@ def execute(
 
     if getattr(args, "trace", None) is not None:
         check_trace_path(str(args.trace))  # before planning and connecting
+    if args.output is not None and not args.plan:
+        # named --output, not "trace" (DIR/trace.jsonl was the first path checked)
+        from pirate_bt.api.options import output_folder
+        from pirate_bt.cli import check_output
+
+        output_folder(args.output, "--output")
+        check_output(Path(args.output) / "report.md", "--output")
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     from pirate_bt.api.options import find
@@ -218,7 +225,8 @@ def execute(
             warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
         )
     run = result.run
-    where = f" at {result.failing_node}" if result.failing_node else ""
+    node = result.failing_node
+    where = f" at {node}" if node and node not in result.why else ""  # as RunResult.summary
     summary = (
         f"mission {route.name}: {'SUCCESS' if result.succeeded else 'FAILED'} - {result.why}"
         f"{where} ({run.ticks} ticks, {run.sim_time_s:.1f} s clock, {wall:.1f} s wall;"

@@ -195,9 +195,16 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.options import not_an_input
     from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
-    from pirate_bt.resources import find_file
+    from pirate_bt.resources import find_file, missing
 
     source = find_file("scenarios", args.map)
+    if missing(source):  # named as --sim names it, not as the bundled path never typed
+        from pirate_bt.task.networks import resolve_network_path
+
+        try:
+            source = resolve_network_path(str(args.map))
+        except FileNotFoundError as exc:
+            raise InputError(str(exc)) from None
     network = load_network(source)
     if args.output is not None:  # perturb br2.yaml -o br2.yaml replaced its input
         not_an_input(args.output, "-o", {"input network": source})

@@ -540,7 +540,10 @@ def render_tree(
 
         render_tree("trees/straight.yaml", "straight.svg", params={"distance": "1 m"})
         render_tree("bend", "tick120.svg", trace="bend.jsonl", tick=120)  # by status
-        render_tree(result.tree, "coverage.svg", coverage=result.coverage)  # by count
+        mission = pirate_bt.simulate_mission("lab.route")
+        render_tree(mission.tree, "coverage.svg", coverage=mission.coverage)  # by count
+        # a tree run: RunResult.tree is the tree's name; give the tree itself
+        render_tree("trees/straight.yaml", "cov.svg", coverage=result.coverage)
 
     Returns:
         The path written (the ``.dot`` file if Graphviz was not needed).

@@ -57,8 +57,9 @@ def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") ->
     """
     name = sim or route.network
     if name is None:
+        give = f"{option} NETWORK" if option.startswith("-") else f"{option}=NAME"  # Python
         raise LocatedError(
-            "the route names no network; add a line 'network NAME' or give --sim NETWORK",
+            f"the route names no network; add a line 'network NAME' or give {give}",
             SourceLocation(route.source),
         )
     base = Path(route.source).parent if not route.source.startswith("<") else None

@@ -58,7 +58,7 @@ class PabOutcome:
     """How one step of a mission's plan went.
 
     Attributes:
-        label: The PAB's node name (``03 bend right (line 6)``).
+        label: The PAB's node name (``03 bend right (bend) (line 5)``).
         kind: ``straight``, ``bend``, ``t-joint`` or ``pause``.
         outcome: ``success``, ``failure`` (it ended the mission), ``stopped`` (it was
             running when something above it ended the mission: a map disagreement,

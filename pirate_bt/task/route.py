@@ -543,7 +543,7 @@ def load_route(path: str | Path) -> Route:
                 LocatedError(
                     "a YAML file, not a route: a route is lines of steps ('network lab',"
                     " then 'forward 1 m', ...; docs/routes.md); a network file goes to"
-                    " --map or --sim",
+                    " --network or --sim (navigate: --map)",
                     SourceLocation(str(path), 1, 1),
                 )
             ]

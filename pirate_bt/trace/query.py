@@ -209,7 +209,8 @@ class TraceQueries:
         Raises:
             ArgumentTypeError: not a whole number (a float, a bool, text), named by
                 ``option``.
-            InputError: out of the trace's ticks.
+            ArgumentValueError: out of the trace's ticks (an ``InputError`` and a
+                ``ValueError``, as every refused value).
         """
         if isinstance(tick, bool):
             raise ArgumentTypeError(f"{option}: give a tick's number, not {tick!r}")
@@ -221,7 +222,7 @@ class TraceQueries:
                 f"{option}: give a tick's number (a whole number), not {shown(tick)} ({kind})"
             ) from None
         if not 0 <= number <= self.last_tick:
-            raise InputError(
+            raise ArgumentValueError(
                 f"{self.path}: no tick {shown(number)}; the trace has ticks 0 to {self.last_tick}"
             )
         return number
