@@ -139,3 +139,25 @@ def test_plan_route_without_a_network_names_the_python_argument(tmp_path: Path) 
     assert "--sim" not in message
     plan = pirate_bt.plan_route(str(route), network="straight")
     assert len(plan.pabs) == 1
+
+
+def test_log_with_a_misspelt_subsystem_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # `pirate-bt --log saftey=debug ...` set a level on a logger nothing logs to, and
+    # the run went on with no debug output and no word why
+    tree = str(REPO / "trees" / "straight.yaml")
+    assert main(["--log", "saftey=debug", "validate", tree]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pirate-bt: bad --log 'saftey=debug': no subsystem 'saftey';")
+    assert "did you mean 'safety'?" in err
+    assert len(err.splitlines()) == 1
+    for spec in ("safety=info", "trees=debug", "task.localise=debug", "pirate_bt.link=warning"):
+        assert main(["--log", spec, "validate", tree]) == 0, spec
+
+
+def test_run_takes_q_as_mission_and_validate_do(capsys: pytest.CaptureFixture[str]) -> None:
+    # `pirate-bt mission ... -q` and `validate -q` work; `run ... -q` was a usage error
+    path = str(REPO / "trees" / "examples" / "patrol.yaml")
+    assert main(["run", path, "-q"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("patrol: SUCCESS")
+    assert captured.err == ""

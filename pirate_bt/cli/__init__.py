@@ -162,7 +162,31 @@ def _configure_logging(specs: Sequence[str], debug: bool) -> None:
             )
         level_no = logging.getLevelName(level.upper())
         logger_name = name if name.startswith("pirate_bt") else f"pirate_bt.{name}"
+        _check_subsystem(spec, logger_name)
         logging.getLogger(logger_name).setLevel(level_no)
+
+
+def _check_subsystem(spec: str, logger_name: str) -> None:
+    """Refuse a subsystem the library has no logger under (``--log saftey=debug`` set a
+    level nothing logs at, silently)."""
+    import difflib
+    import pkgutil
+
+    import pirate_bt
+    from pirate_bt.errors import InputError
+
+    parts = logger_name.split(".")
+    known = {m.name for m in pkgutil.iter_modules(pirate_bt.__path__)} | {"trees"}
+    if parts[0] == "pirate_bt" and (len(parts) == 1 or parts[1] in known):
+        return
+    name = parts[1] if parts[0] == "pirate_bt" and len(parts) > 1 else logger_name
+    shown = sorted(k for k in known if not k.startswith("_"))
+    close = difflib.get_close_matches(name, shown, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise InputError(
+        f"bad --log {spec[:80]!r}: no subsystem {name[:40]!r}{hint} (subsystems:"
+        f" {', '.join(shown)})"
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -69,7 +69,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--trace", metavar="FILE", help="write a tick-by-tick trace (.jsonl, .jsonl.gz or .mcap)"
     )
-    parser.add_argument("--quiet", action="store_true", help="no live view of the tree")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no live view of the tree")
     from pirate_bt.interop.foxglove_option import add_foxglove_option
 
     add_foxglove_option(parser)
