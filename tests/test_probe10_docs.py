@@ -161,3 +161,20 @@ def test_run_takes_q_as_mission_and_validate_do(capsys: pytest.CaptureFixture[st
     captured = capsys.readouterr()
     assert captured.out.startswith("patrol: SUCCESS")
     assert captured.err == ""
+
+
+def test_a_missing_or_folder_route_is_worded_as_a_missing_tree(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # "nope.route:1:1: cannot read the route: [Errno 2] No such file or directory:
+    # 'nope.route'" (the name twice, Python's errno) where a tree says "no such file"
+    missing = tmp_path / "nope.route"
+    assert main(["mission", str(missing)]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {missing}:1:1: no such file"
+    folder = tmp_path / "dir.route"
+    folder.mkdir()
+    assert main(["validate", str(folder)]) == 2
+    seen = capsys.readouterr()
+    assert f"{folder}:1:1: is a directory, not a file" in seen.out + seen.err
+    with pytest.raises(pirate_bt.ValidationFailed, match=r"nope\.route:1:1: no such file$"):
+        pirate_bt.load_route(str(missing))

@@ -524,8 +524,10 @@ def load_route(path: str | Path) -> Route:
     try:
         with p.open("rb") as stream:  # at most MAX_BYTES: /dev/zero never ends
             raw = read_at_most(stream, MAX_BYTES)
-    except OSError as exc:
-        raise ValidationFailed([LocatedError(f"cannot read the route: {exc}", where)]) from None
+    except OSError as exc:  # worded as the YAML files' (no errno, no name twice)
+        why = {FileNotFoundError: "no such file", IsADirectoryError: "is a directory, not a file"}
+        text = why.get(type(exc)) or f"cannot read the route: {exc.strerror or exc}"
+        raise ValidationFailed([LocatedError(text, where)]) from None
     if len(raw) > MAX_BYTES:
         raise ValidationFailed(
             [LocatedError(f"larger than the {MAX_BYTES} bytes a route may be", where)]
