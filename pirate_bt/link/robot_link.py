@@ -26,7 +26,7 @@ from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.away import BoardsAway
-from pirate_bt.link.codec import BridgeFlags, BulkSetpoints
+from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -301,7 +301,11 @@ class RobotLink:
             raise LinkError(f"setpoints not delivered: {req.outcome.value} {why}".strip())
 
     def _raise_failures(self) -> None:
-        failures = self.session.take_failures()
+        # A counters request's failure is its own outcome (the caller waits on it): it
+        # says nothing of the setpoints, so it must not refuse them (docs/protocol.md)
+        failures = [
+            r for r in self.session.take_failures() if not isinstance(r.msg, CountersRequest)
+        ]
         if failures:
             last = failures[-1]
             if last.nack:

@@ -1,0 +1,129 @@
+"""Findings of an independent wire-protocol probe (docs/protocol.md), each fixed in the link.
+
+1. A ``COUNTERS_REQUEST`` that fails (a reply for another number of boards, or lost on
+   every try) is that request's own outcome. It made the next ``RobotLink.send`` raise
+   (*1 earlier request(s) failed; last: CountersRequest ...*) before the setpoints went
+   out, so a diagnostic read failed the next tree command, and ``close()`` sent no stop
+   bulk but latched the bridge's e-stop instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import FrameError
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    BoardCounters,
+    BulkSetpoints,
+    Counters,
+    CountersRequest,
+    EStop,
+    FrameCodec,
+    FrameDecoder,
+    Heartbeat,
+    HelloReply,
+    Message,
+    MsgType,
+    encode_many,
+)
+from pirate_bt.link.requests import Outcome, SessionConfig
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.link.session import Session
+from pirate_bt.link.testing import memory_pair
+from pirate_bt.robot import ControlMode, MotorCommand, load_robot
+
+ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+LAYOUT = CODEC.layout
+CONFIG = SessionConfig(
+    ack_timeout_s=0.0625,
+    max_retries=2,
+    heartbeat_period_s=0.125,
+    link_timeout_s=0.5,
+    poll_step_s=0.005,
+    loss_window=4,
+)
+
+
+class Peer:
+    """A bridge played by the test on a simulated clock: it answers each host frame
+    with what ``answer(msg)`` returns, and keeps every frame it saw."""
+
+    def __init__(self, answer: Callable[[Message], list[Message]]) -> None:
+        self.clock = SimClock(8.0)
+        self.host, self.far = memory_pair()
+        self.decoder = FrameDecoder(CODEC)
+        self.seen: list[Message] = []
+        self._answer = answer
+        self.clock.add_listener(self.step)
+
+    def step(self, _now: float) -> None:
+        for msg in self.decoder.feed(self.far.read_available()):
+            if not isinstance(msg, FrameError):
+                self.seen.append(msg)
+                self.far.write(encode_many(CODEC, self._answer(msg)))
+
+    def link(self) -> RobotLink:
+        reply = HelloReply(
+            seq=1,
+            layout_digest=LAYOUT.digest,
+            n_channels=LAYOUT.n_channels,
+            n_motors=LAYOUT.n_motors,
+            watchdog_ms=250,
+            boot_id=7,
+            minor=2,
+        )
+        return RobotLink(ROBOT, Session(self.host, CODEC, self.clock, CONFIG, hello_reply=reply))
+
+
+def bridge_with_counters_of(n_boards: int) -> Callable[[Message], list[Message]]:
+    """Acknowledges heartbeats, bulks and e-stops; answers COUNTERS for ``n_boards``."""
+
+    def answer(msg: Message) -> list[Message]:
+        if isinstance(msg, Heartbeat):
+            return [Ack(msg.seq, MsgType.HEARTBEAT, AckStatus.APPLIED)]
+        if isinstance(msg, BulkSetpoints):
+            return [Ack(msg.seq, MsgType.BULK_SETPOINTS, AckStatus.APPLIED)]
+        if isinstance(msg, EStop):
+            return [Ack(msg.seq, MsgType.ESTOP, AckStatus.APPLIED)]
+        if isinstance(msg, CountersRequest):
+            boards = tuple(BoardCounters(20 + i) for i in range(n_boards))
+            return [Counters(msg.seq, 1, boards=boards)]
+        return []
+
+    return answer
+
+
+def drive_stop() -> list[MotorCommand]:
+    return [MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in ROBOT.drive_motors()]
+
+
+def test_a_failed_counters_request_does_not_fail_the_next_setpoints() -> None:
+    peer = Peer(bridge_with_counters_of(2))  # a COUNTERS for 2 boards: a bad frame
+    link = peer.link()
+    ask = link.session.wait(link.session.request_counters())
+    assert ask.outcome is Outcome.FAILED and ask.reply is None  # its own outcome
+    link.send_and_wait(drive_stop())  # raised "... last: CountersRequest ..." before
+    assert isinstance(peer.seen[-1], BulkSetpoints)  # and the setpoints went out
+    link.close()
+
+
+def test_a_close_after_a_failed_counters_request_stops_without_an_estop() -> None:
+    peer = Peer(bridge_with_counters_of(2))
+    link = peer.link()
+    link.session.wait(link.session.request_counters())
+    link.close()
+    sent = [type(m) for m in peer.seen if not isinstance(m, Heartbeat | CountersRequest)]
+    assert sent == [BulkSetpoints]  # the drives' stop, acknowledged; no e-stop latched
+    assert not link.session.stats().estopped
+
+
+def test_counters_of_the_layout_are_still_taken() -> None:
+    peer = Peer(bridge_with_counters_of(LAYOUT.n_boards))
+    link = peer.link()
+    ask = link.session.wait(link.session.request_counters())
+    assert ask.outcome is Outcome.ACKED and ask.reply is not None
+    link.close()
