@@ -5,11 +5,16 @@
    (*1 earlier request(s) failed; last: CountersRequest ...*) before the setpoints went
    out, so a diagnostic read failed the next tree command, and ``close()`` sent no stop
    bulk but latched the bridge's e-stop instead.
+2. docs/simulator.md called the simulated bridge a protocol 1.1 bridge; it answers a 1.2
+   ``HELLO`` with a 1.2 ``HELLO_REPLY`` (and a 1.1 one with 1.1), as protocol.md says a
+   1.2 bridge does, and has the hardware e-stop input 1.2 reports.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
+from pathlib import Path
 
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import FrameError
@@ -24,6 +29,7 @@ from pirate_bt.link.codec import (
     FrameCodec,
     FrameDecoder,
     Heartbeat,
+    Hello,
     HelloReply,
     Message,
     MsgType,
@@ -34,6 +40,7 @@ from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.session import Session
 from pirate_bt.link.testing import memory_pair
 from pirate_bt.robot import ControlMode, MotorCommand, load_robot
+from pirate_bt.sim import Simulator
 
 ROBOT = load_robot()
 CODEC = FrameCodec.for_robot(ROBOT)
@@ -127,3 +134,20 @@ def test_counters_of_the_layout_are_still_taken() -> None:
     ask = link.session.wait(link.session.request_counters())
     assert ask.outcome is Outcome.ACKED and ask.reply is not None
     link.close()
+
+
+SIMULATOR_MD = Path(__file__).resolve().parents[1] / "docs" / "simulator.md"
+
+
+def test_simulator_md_names_the_protocol_the_simulated_bridge_speaks() -> None:
+    spoken = []
+    with Simulator("lab", ROBOT) as sim:
+        for seq, minor in ((1, 2), (2, 1)):
+            sim.bridge.receive(CODEC.encode(Hello(seq, LAYOUT.digest, minor)))
+            answers = FrameDecoder(CODEC).feed(sim.bridge.read())
+            spoken += [m.minor for m in answers if isinstance(m, HelloReply)]
+    assert spoken == [2, 1]  # a 1.2 bridge, which speaks 1.1 to a host that asks for it
+    text = " ".join(SIMULATOR_MD.read_text().split())
+    said = re.search(r"reference bridge of `docs/protocol.md` \(protocol ([0-9.]+)", text)
+    assert said is not None and said.group(1) == "1.2"  # it said 1.1
+    assert "set_estop_input" in text
