@@ -151,3 +151,28 @@ def test_simulator_md_names_the_protocol_the_simulated_bridge_speaks() -> None:
     said = re.search(r"reference bridge of `docs/protocol.md` \(protocol ([0-9.]+)", text)
     assert said is not None and said.group(1) == "1.2"  # it said 1.1
     assert "set_estop_input" in text
+
+
+def test_a_link_lost_right_after_an_ack_is_still_a_silent_link() -> None:
+    """3. A bridge that falls silent ends as ``link_silent``, exit 3 (safety.md), whatever
+    its last frame was: when an ACK came after the last STATE, the supervisor compared
+    the readings' age with the time since *any* frame and called the same silence
+    *stale data*, exit 1 (4 of 11 loss times over 28 ms)."""
+    import contextlib
+    import io
+
+    from pirate_bt.cli import main
+
+    tree = str(Path(__file__).resolve().parent.parent / "trees" / "straight.yaml")
+    outcomes = []
+    for ms in range(5000, 5030, 3):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            code = main(
+                ["run", tree, "--param", "distance=0.5 m", "--sim", "straight", "--quiet",
+                 "--faults", f"link_loss@{ms / 1000:.3f}s"]
+            )  # fmt: skip
+        outcomes.append((ms, code, err.getvalue().strip().splitlines()[-1]))
+    assert all(code == 3 for _, code, _ in outcomes), outcomes
+    assert all("FAILURE - link_silent: " in line for _, _, line in outcomes), outcomes
+    assert any("no state frame from the bridge" in line for _, _, line in outcomes)

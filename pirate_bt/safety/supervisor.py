@@ -409,15 +409,21 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             stale = stale_channels(self.robot, state, self._base_channels, now)
             if stale and not self.in_safe_state:
                 names = ", ".join(f"{n} ({a:.3f} s)" for n, a in stale[:4])
-                silent = self._port.health().silent_for(now)
-                if silent >= min(age for _, age in stale) - 1e-9:
-                    # nothing at all came since these readings were fresh: the readings
-                    # went stale because the link fell silent, which is the first cause
-                    # (a link error, exit 3), found before max_link_silence runs out
-                    cause = (
-                        f"{Reason.LINK_SILENT}: nothing heard from the bridge for"
-                        f" {silent:.3f} s, so its readings are stale: {names}"
+                no_state = now - state.stamp_s
+                if no_state >= min(age for _, age in stale) - 1e-9:
+                    # no STATE frame came since these readings were fresh: they went
+                    # stale because the link fell silent, which is the first cause (a
+                    # link error, exit 3), found before max_link_silence runs out. Its
+                    # newest STATE, not its newest frame: an ACK heard after the last
+                    # STATE (then nothing) made the same silence "stale data", exit 1.
+                    silent = self._port.health().silent_for(now)
+                    heard = (
+                        f"nothing heard from the bridge for {silent:.3f} s"
+                        if silent >= no_state - 1e-9
+                        else f"no state frame from the bridge for {no_state:.3f} s (the"
+                        f" last frame heard, {silent:.3f} s ago, held no state)"
                     )
+                    cause = f"{Reason.LINK_SILENT}: {heard}, so its readings are stale: {names}"
                     self.safe_state(cause, error=LinkError(cause))
                 else:
                     self.safe_state(f"stale data: {names}")
