@@ -141,7 +141,7 @@ def test_a_callback_is_callable() -> None:
         ("", ("tree", "empty")),
         ("x" * 100_000, ("tree", "too long")),
         (42, ("tree", "int")),
-        (None, ("tree", "NoneType")),
+        (None, ("tree", "None")),
         (b"trees/straight.yaml", ("tree", "bytes")),
     ],
 )

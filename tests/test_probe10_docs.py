@@ -178,3 +178,25 @@ def test_a_missing_or_folder_route_is_worded_as_a_missing_tree(
     assert f"{folder}:1:1: is a directory, not a file" in seen.out + seen.err
     with pytest.raises(pirate_bt.ValidationFailed, match=r"nope\.route:1:1: no such file$"):
         pirate_bt.load_route(str(missing))
+
+
+def test_a_route_given_as_a_network_says_a_network_is_a_yaml_file() -> None:
+    # connect()'s target may be "a network file"; a route file there (it exists) was
+    # "no network 'scenarios/lab.route'", as if the file were missing
+    route = str(REPO / "scenarios" / "lab.route")
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.connect(route)
+    assert f"no network {route!r}: a network file ends in .yaml; bundled networks:" in str(
+        caught.value
+    )
+    with pytest.raises(pirate_bt.InputError, match="no network 'nope'; bundled networks:"):
+        pirate_bt.simulate_mission(str(REPO / "scenarios" / "straight.route"), truth="nope")
+
+
+def test_every_wrong_type_reads_an_int() -> None:
+    with pytest.raises(pirate_bt.InputError, match=r"not an int$"):
+        pirate_bt.write_mission_outputs(5, "o")
+    with pytest.raises(pirate_bt.InputError, match=r"not an int$"):
+        pirate_bt.simulate_mission(5)
+    with pytest.raises(pirate_bt.InputError, match=r"tree: cannot run an int: give"):
+        pirate_bt.simulate_tree(5)

@@ -35,6 +35,7 @@ from pirate_bt.api.options import (
     file_name,
     flag,
     fraction,
+    kind_of,
     load_robot_like,
     output_folder,
     port_url,
@@ -136,7 +137,7 @@ def load_route(route: Any) -> Route:
 
     if not isinstance(route, str | Path):
         raise InputError(
-            f"route: give a route file, a bundled name or a Route, not a {type(route).__name__}"
+            f"route: give a route file, a bundled name or a Route, not {kind_of(route)}"
         )
     return load_file(find("scenarios", route, ".route", "route"))
 
@@ -542,7 +543,7 @@ def write_mission_outputs(
     from pirate_bt.task.report import plot_belief, write_report
 
     if not isinstance(result, MissionResult):
-        raise InputError(f"result: give a MissionResult, not a {type(result).__name__}")
+        raise InputError(f"result: give a MissionResult, not {kind_of(result)}")
     report_extras(wall_s, extra_sections, extra_pictures, warn)  # before the folder
     out = output_folder(output)
     try:

@@ -41,6 +41,7 @@ __all__ = [
     "find",
     "flag",
     "fraction",
+    "kind_of",
     "load_robot_like",
     "network_name",
     "output_folder",
@@ -83,7 +84,8 @@ _MAX_QUANTITY_TEXT = 64
 _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
 
 
-def _kind(value: object) -> str:
+def kind_of(value: object) -> str:
+    """What ``value`` is, for a message: ``None``, ``an int``, ``a float``."""
     if value is None:
         return "None"
     name = type(value).__name__
@@ -102,7 +104,7 @@ def quantity(value: str | float | int, dimension: str, option: str) -> float:
     if isinstance(value, bool) or not isinstance(value, str | int | float):
         raise InputError(
             f"{option}: give text with a unit ({example!r}) or a number in SI units,"
-            f" not {_kind(value)}"
+            f" not {kind_of(value)}"
         )
     if isinstance(value, int | float):
         try:
@@ -229,7 +231,7 @@ def seed_value(seed: object, option: str = "seed") -> int:
         huge = isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) >= 10**40
         shown = f"a {digit_count(seed)}-digit number" if huge else repr(seed)  # type: ignore[arg-type]
         if len(shown) > 40:
-            shown = _kind(seed)
+            shown = kind_of(seed)
         raise InputError(f"{option}: give a whole number from 0 to 2**63 - 1, not {shown}")
     return seed
 
@@ -242,7 +244,7 @@ def fraction(value: object, option: str) -> float:
     """
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InputError(
-            f"{option}: give a number at least 0 and below 1 (0.1 = 10 %), not {_kind(value)}"
+            f"{option}: give a number at least 0 and below 1 (0.1 = 10 %), not {kind_of(value)}"
         )
     if not 0.0 <= value < 1.0:
         raise InputError(f"{option}: {value!r} must be at least 0 and below 1"[:200])
@@ -256,7 +258,7 @@ def callback(value: Any, option: str) -> Callable[..., Any] | None:
         InputError: anything else.
     """
     if value is not None and not callable(value):
-        raise InputError(f"{option}: give a function (or None), not {_kind(value)}")
+        raise InputError(f"{option}: give a function (or None), not {kind_of(value)}")
     return value  # type: ignore[no-any-return]
 
 
@@ -403,7 +405,7 @@ def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
     if not isinstance(params, Mapping):
         raise InputError(
             f"{option}: give a mapping of names to values ({{'roll': '90 deg'}}), not"
-            f" {_kind(params)}"
+            f" {kind_of(params)}"
         )
     for key, value in params.items():
         if not isinstance(key, str) or not key:
@@ -437,11 +439,11 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
         if isinstance(faults, bytes | bytearray | Mapping) or not isinstance(faults, Iterable):
             raise InputError(
                 "faults: give text ('drop=0.05,motor_stall:bend_3_drive@5s') or a list of"
-                f" texts, not {_kind(faults)}"
+                f" texts, not {kind_of(faults)}"
             )
         for part in faults:
             if not isinstance(part, str):
-                raise InputError(f"faults: each item is text, not {_kind(part)}")
+                raise InputError(f"faults: each item is text, not {kind_of(part)}")
             items += [i for i in re.split(r"[,;\s]+", part) if i]
     if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
         raise InputError(
@@ -469,7 +471,7 @@ def parse_target(target: Any) -> tuple[str, Any]:
         return "sim", target
     if not isinstance(target, str):
         raise InputError(
-            f"connect: cannot connect to {_kind(target)};"
+            f"connect: cannot connect to {kind_of(target)};"
             ' give "sim:NETWORK", a network file or a serial port URL'
         )
     text = target.strip()
@@ -537,7 +539,7 @@ def load_robot_like(robot: Any) -> RobotDescription:
     if not isinstance(robot, str | os.PathLike):
         raise InputError(
             f"robot: give a robot description file, a loaded RobotDescription or None"
-            f" (the bundled robot), not {_kind(robot)}"
+            f" (the bundled robot), not {kind_of(robot)}"
         )
     return load_robot(str(file_name(robot, "robot")))
 

@@ -29,6 +29,7 @@ from pirate_bt.api.options import (
     callback,
     find,
     flag,
+    kind_of,
     output_path,
     params_mapping,
     run_limits,
@@ -91,7 +92,7 @@ def as_loaded(
         source = find("trees", tree, ".yaml", "tree")
     else:
         raise InputError(
-            f"tree: cannot run a {type(tree).__name__}: give a tree file, a mapping, a"
+            f"tree: cannot run {kind_of(tree)}: give a tree file, a mapping, a"
             " LoadedTree or a py_trees behaviour"
         )
     given = params_mapping(params)
@@ -541,7 +542,7 @@ def load_tree(
         from pirate_bt.errors import InputError
 
         raise InputError(
-            f"tree: give a tree file, a bundled name or a mapping, not a {type(tree).__name__}"
+            f"tree: give a tree file, a bundled name or a mapping, not {kind_of(tree)}"
         )
     given = params_mapping(params)
     # text is read as on the command line, numbers and booleans as they are, each by itself

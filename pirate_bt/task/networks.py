@@ -36,7 +36,11 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
         if _is_file(candidate):
             return candidate
     bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
-    raise FileNotFoundError(f"no network {shown(name)}; bundled networks: {', '.join(bundled)}")
+    # a route or other file given where a network goes: say why it is not one
+    kind = ": a network file ends in .yaml" if plain.suffix and _is_file(plain) else ""
+    raise FileNotFoundError(
+        f"no network {shown(name)}{kind}; bundled networks: {', '.join(bundled)}"
+    )
 
 
 def _is_file(path: Path) -> bool:
