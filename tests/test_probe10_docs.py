@@ -200,3 +200,20 @@ def test_every_wrong_type_reads_an_int() -> None:
         pirate_bt.simulate_mission(5)
     with pytest.raises(pirate_bt.InputError, match=r"tree: cannot run an int: give"):
         pirate_bt.simulate_tree(5)
+
+
+def test_a_fault_on_a_motor_the_robot_lacks_leaves_no_mission_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the output (or trace) folder was made, then the fault refused: an empty folder
+    # was left behind by a mission that never started (a tree run left none)
+    route = str(_short_route(tmp_path))
+    out = tmp_path / "out"
+    with pytest.raises(pirate_bt.InputError, match="faults: fault motor_stall: unknown motor"):
+        pirate_bt.simulate_mission(route, output=out, faults="motor_stall:nope@1s")
+    assert not out.exists()
+    traces = tmp_path / "traces"
+    argv = ["mission", route, "--trace", str(traces / "t.jsonl"), "-q"]
+    assert main([*argv, "--faults", "motor_stall:nope@1s"]) == 2
+    assert "unknown motor 'nope'" in capsys.readouterr().err
+    assert not traces.exists()

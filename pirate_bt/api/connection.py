@@ -309,7 +309,7 @@ def connect(
             )
         connection = _connect_firmware(description, where, start_mode, options)
     elif kind == "sim":
-        _check_fault_targets(sim_faults, description)
+        check_fault_targets(sim_faults, description)
         network = _network_for(where)
         clock: Clock = SimClock()
         supervisor = open_supervisor(
@@ -385,7 +385,7 @@ def _connect_firmware(
     )
 
 
-def _check_fault_targets(faults: list[str], robot: Any) -> None:
+def check_fault_targets(faults: list[str], robot: Any) -> None:
     """Refuse a simulator fault whose motor, channel or board the robot lacks, as bad
     input naming the option (``faults: fault motor_stall: unknown motor ...``).
 

@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.api.connection import Connection, connect
+from pirate_bt.api.connection import Connection, check_fault_targets, connect
 from pirate_bt.api.live import (
     FoxgloveOption,
     Groot2Option,
@@ -391,6 +391,8 @@ def simulate_mission(
     checks["inputs"] = {"route": plan_or_route, "truth": truth, "robot": robot}
     period_s, max_time_s = _options(rate, max_time, map_tolerance, plan, description, checks)
     world = plan.network if truth is None else _load_network(truth, _base(plan.route), "truth")
+    if not firmware:  # a motor the robot lacks, before the output folder is made
+        check_fault_targets(split_faults(faults)[0], description)
     return _watched_mission(
         lambda: connect(world, robot=description, seed=seed, faults=faults, firmware=firmware),
         plan,
