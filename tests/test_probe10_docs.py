@@ -119,6 +119,15 @@ def test_network_commands_name_an_unknown_network_as_typed(
     assert out.exists()
 
 
+def test_sim_names_an_unknown_network_as_typed(capsys: pytest.CaptureFixture[str]) -> None:
+    # `pirate-bt sim nope` said ".../scenarios/nope.yaml:1:1: no such file", as network
+    # perturb did; `run --sim nope` lists the bundled networks
+    assert main(["sim", "nope", "--duration", "0.1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pirate-bt: no network 'nope'; bundled networks: ")
+    assert "scenarios/nope.yaml" not in err
+
+
 def test_a_wrong_type_is_named_with_its_article() -> None:
     # "observe: give a function (or None), not a int"
     with pytest.raises(pirate_bt.InputError) as caught:

@@ -24,6 +24,8 @@ from pirate_bt.errors import InputError, LinkError
 __all__ = ["configure", "run"]
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from pirate_bt.robot.description import RobotDescription
 
 
@@ -93,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
             "--boot-ms is for --firmware (the bridge's bootloader time):"
             " add --firmware ELF or drop it"
         )
+    args.network = _network_file(args.network)
     robot = load_robot(args.robot)
     if args.firmware is not None:
         return _run_firmware(args, robot)
@@ -146,6 +149,17 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+def _network_file(name: str) -> Path:
+    """The network file ``NETWORK`` names, found as ``run --sim`` finds it: an unknown
+    name is told with the bundled names, not as a bundled path nobody typed."""
+    from pirate_bt.task.networks import resolve_network_path
+
+    try:
+        return resolve_network_path(str(name))
+    except FileNotFoundError as exc:
+        raise InputError(str(exc)) from None
 
 
 def _interrupt(signum: int, frame: object) -> None:
