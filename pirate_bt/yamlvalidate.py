@@ -175,15 +175,21 @@ _BOUNDS = {"lt": "less than", "le": "at most", "gt": "more than", "ge": "at leas
 
 def _bound_as_written(error: Any, value: Any, path: PathKey) -> str | None:
     """A number's bound in the unit the file wrote it in (``angle: must be at most 90
-    deg, not 180 deg``), not pydantic's SI (``less than or equal to 1.5707963...``)."""
+    deg, not 180 deg``), not pydantic's SI (``less than or equal to 1.5707963...``);
+    a plain number's as it is (``attempts: must be at least 1, not 0``)."""
     from pirate_bt.units import in_unit_of
 
     ctx = error.get("ctx") or {}
+    plain = isinstance(value, int | float) and not isinstance(value, bool)
     for key, words in _BOUNDS.items():
-        limit = in_unit_of(ctx[key], value) if key in ctx else None
+        bound = ctx.get(key)
+        limit = in_unit_of(bound, value) if key in ctx else None
+        if limit is None and plain and isinstance(bound, int | float):
+            # a count or a fraction: ``attempts: must be at least 1``
+            limit = str(bound) if isinstance(bound, int) else f"{bound:.10g}"
         if limit is not None:
             name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
-            return f"{name}: must be {words} {limit}, not {value}"
+            return f"{name}: must be {words} {limit}, not {shown(value) if plain else value}"
     return None
 
 

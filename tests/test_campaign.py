@@ -65,7 +65,7 @@ def test_schema_is_printed(capsys: pytest.CaptureFixture[str]) -> None:
         (
             "name: x\nruns:\n  - {tree: bend}\nlink:\n  drop: [0.1, 1.5]\n",
             ":5:15",
-            "less than or equal to 1",
+            "drop: must be at most 1, not 1.5",
         ),
         ("name: x\nruns:\n  - {tree: bend, route: lab}\n", ":3:", "exactly one"),
         ("name: x\nruns: []\n", ":2:", "at least 1"),

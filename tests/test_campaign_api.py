@@ -266,7 +266,10 @@ def test_max_cases_is_the_callers(tmp_path: Path) -> None:
         ({"runs": [{**RUN, "params": {"distance": "1" * 10_000_000}}]}, "at most 200 char"),
         ({"runs": [{**RUN, "params": {"d" * 10_000_000: "1 m"}}]}, "at most 200 char"),
         ({"runs": [{**RUN, "tree": "t" * 10_000_000}]}, "at most 4096 characters"),
-        ({"seeds": {"start": 10**100}}, "less than or equal to 9223372036854775807"),
+        (
+            {"seeds": {"start": 10**100}},
+            "seeds.start: must be at most 9223372036854775807, not a 101-digit number",
+        ),
     ],
 )
 def test_oversized_texts_and_lists_are_refused(changes: dict[str, Any], words: str) -> None:

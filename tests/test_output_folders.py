@@ -16,7 +16,9 @@ REPO = Path(__file__).resolve().parent.parent
 STRAIGHT = REPO / "trees" / "straight.yaml"
 
 
-def test_export_makes_the_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_export_makes_the_missing_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "new" / "deeper" / "straight.xml"
     assert main(["export", "btcpp", str(STRAIGHT), "-o", str(out)]) == 0
     assert out.read_text(encoding="utf-8").startswith("<?xml")

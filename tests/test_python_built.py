@@ -120,7 +120,7 @@ def test_every_problem_is_reported(ctx: BuildContext) -> None:
     assert [e.message for e in exc.value.errors] == [
         "c: half: Input should be 'front' or 'rear'",
         "c: missing required key 'torque'",
-        "c: timeout: Input should be greater than 0",
+        "c: timeout: must be more than 0, not 0",
     ]
 
 
@@ -158,9 +158,7 @@ def test_decorator_with_its_own_from_params_is_checked() -> None:
     with pytest.raises(ValidationFailed) as exc:
         line = _next_line()
         Retry.build("retry", child=child, attempts=0)
-    assert str(_only(exc)).endswith(
-        f":{line}:1: retry: attempts: Input should be greater than or equal to 1"
-    )
+    assert str(_only(exc)).endswith(f":{line}:1: retry: attempts: must be at least 1, not 0")
     with pytest.raises(ValidationFailed, match="retry: unknown key 'times'"):
         Retry.from_params("retry", {"attempts": 2, "times": 3}, BuildContext(), child)
 

@@ -198,7 +198,7 @@ CASES.append(
         "      - slot: 1\n        name: camera_pan",
         "      - slot: 2\n        name: camera_pan",
         "slot: 2",
-        "less than or equal to 1",
+        "slot: must be at most 1, not 2",
     )
 )
 CASES.append(
@@ -207,7 +207,7 @@ CASES.append(
         "friction_coefficient: 0.6",
         "friction_coefficient: -0.6",
         "friction_coefficient",
-        "greater than 0",
+        "friction_coefficient: must be more than 0, not -0.6",
     )
 )
 
