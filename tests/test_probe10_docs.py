@@ -226,3 +226,15 @@ def test_a_fault_on_a_motor_the_robot_lacks_leaves_no_mission_folder(
     assert main([*argv, "--faults", "motor_stall:nope@1s"]) == 2
     assert "unknown motor 'nope'" in capsys.readouterr().err
     assert not traces.exists()
+
+
+def test_an_option_is_taken_only_as_written_in_full(capsys: pytest.CaptureFixture[str]) -> None:
+    # `mission lab.route --map lab` was read as --map-tolerance lab: "not a fraction"
+    route = str(REPO / "scenarios" / "lab.route")
+    assert main(["mission", route, "--map", "lab"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "pirate-bt mission: unrecognized arguments: --map lab (see 'pirate-bt mission --help')"
+    )
+    assert main(["run", "straight", "--para", "distance=1 m"]) == 2
+    assert "unrecognized arguments: --para" in capsys.readouterr().err

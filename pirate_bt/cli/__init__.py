@@ -23,7 +23,7 @@ import os
 import signal
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 __all__ = ["COMMANDS", "Terminated", "check_output", "main"]
 
@@ -114,7 +114,16 @@ def _version() -> str:
 class _Parser(argparse.ArgumentParser):
     """argparse, with a usage error in one line (DESIGN.md: one clear line each), not
     the usage block first; ``--help`` shows the usage. Subcommands' parsers are of
-    this class too (``add_subparsers`` makes its parent's kind)."""
+    this class too (``add_subparsers`` makes its parent's kind).
+
+    An option is taken only as written in full: argparse's abbreviations read
+    ``mission --map lab`` as ``--map-tolerance lab`` (and then failed on "not a
+    fraction"), and a later option sharing a prefix would change what an old
+    command line means."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_INPUT, f"{self.prog}: {message} (see '{self.prog} --help')\n")
