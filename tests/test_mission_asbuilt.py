@@ -101,6 +101,12 @@ def test_edits_for_the_disagreement_cases() -> None:
         remove_feature(spec, "nowhere")
     with pytest.raises(ConfigurationError, match="not within"):
         insert_tee(spec, "run-c", 9.0)
+    # a direction no tee has: pydantic's multi-line ValidationError escaped (probe 10)
+    with pytest.raises(ConfigurationError) as caught:
+        insert_tee(spec, "run-c", 1.5, "sideways")
+    assert str(caught.value) == (
+        "insert a tee: direction 'sideways' is not one of up, right, down, left"
+    )
     # an id the network has already (the tee's, or the split straight's rest): the
     # variant was written and then failed validate (docs probe)
     with pytest.raises(ConfigurationError, match="duplicate segment id 'tee-1'"):

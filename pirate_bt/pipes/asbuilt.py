@@ -30,8 +30,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError
+from pydantic import ValidationError
+
+from pirate_bt.errors import ConfigurationError, shown
 from pirate_bt.pipes.model import (
+    DIRECTION_ROLL_RAD,
     BendSpec,
     NetworkSpec,
     ReducerSpec,
@@ -304,12 +307,14 @@ def insert_tee(
             )
         first = seg.model_copy(update={"length": at_m})
         rest = StraightSpec(type="straight", id=f"{segment_id}-after", length=rest_m)
-        tee = TeeSpec(
-            type="tee",
-            id=tee_id,
-            length=tee_m,
-            branch=TeeBranchSpec.model_validate({"direction": direction}),
-        )
+        try:
+            branch = TeeBranchSpec.model_validate({"direction": direction})
+        except ValidationError:
+            raise ConfigurationError(
+                f"insert a tee: direction {shown(direction)} is not one of"
+                f" {', '.join(DIRECTION_ROLL_RAD)}"
+            ) from None
+        tee = TeeSpec(type="tee", id=tee_id, length=tee_m, branch=branch)
         return [first, tee, rest]
 
     return _edit(spec, segment_id, edit, f"with {tee_id}", name)
