@@ -426,3 +426,12 @@ def test_a_guard_starts_once_per_run_of_its_child(sup: Supervisor, port: FakePor
         assert tick(guard) == expected
         starts.append(Counted.starts)
     assert starts == [1, 1, 2, 2]  # as each run of the child starts, not while it runs
+
+
+def test_a_misspelt_state_value_gets_the_nearest_name() -> None:
+    # 'imu.pich' listed the vocabulary but not the name meant (probe 10)
+    with pytest.raises(ValueError) as caught:
+        Comparison.model_validate({"state": "imu.pich", "op": ">", "value": "5 deg"})
+    text = str(caught.value)
+    assert "unknown state value 'imu.pich'; use one of: " in text
+    assert "motor_current.<motor>, rotation; did you mean 'imu.pitch'?" in text

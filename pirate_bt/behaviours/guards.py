@@ -124,7 +124,13 @@ def _dimension(path: str) -> str | None:
         for key, dim in STATE_VALUES.items():
             if key.startswith(prefix + ".<"):
                 return dim
-    raise ValueError(f"unknown state value {path!r}; use one of: {', '.join(sorted(STATE_VALUES))}")
+    import difflib
+
+    close = difflib.get_close_matches(path, [k for k in STATE_VALUES if "<" not in k], n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise ValueError(
+        f"unknown state value {path!r}; use one of: {', '.join(sorted(STATE_VALUES))}{hint}"
+    )
 
 
 def _parse(raw: Scalar, dimension: str | None) -> Scalar:
