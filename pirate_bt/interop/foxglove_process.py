@@ -76,6 +76,7 @@ __all__ = [
     "POLL_S",
     "READY",
     "RECORD",
+    "STOP_S",
     "STREAM",
     "SUBSCRIBED",
     "main",
@@ -95,6 +96,15 @@ every tick, and a message waits at most this long before it goes out."""
 
 LOG_LINES = 10
 """The SDK's log lines written to the run's standard error per minute at most."""
+
+STOP_S = 2.0
+"""How long stopping the SDK's server may take before the process exits without it.
+
+The SDK's ``stop()`` closes each client's connection in turn and waits for it: a client
+that subscribed and reads nothing (a frozen app, a laptop asleep, a hostile peer), with
+its queue and socket full, held it for ever; the run's process waited 11 s at its end,
+said "its process did not finish" and killed it. Past this bound the process exits, and
+the kernel closes what is left."""
 
 
 class _FewLines(logging.Handler):
@@ -292,7 +302,13 @@ class Server:
             channel.log(encode_message(message.message), log_time=message.log_time_ns)
             self.published += 1
 
-    def close(self) -> None:
+    def close(self, within_s: float = STOP_S) -> None:
+        """Stop the SDK's server, waiting at most ``within_s`` for it (:data:`STOP_S`)."""
+        stopper = threading.Thread(target=self._stop, name="pirate-foxglove-stop", daemon=True)
+        stopper.start()
+        stopper.join(within_s)
+
+    def _stop(self) -> None:
         try:
             self.server.stop()
         except Exception:  # stopping must not hide what was published

@@ -1,0 +1,53 @@
+"""Live interop, as other implementations of the protocols and hostile peers found it.
+
+Each test here is a discrepancy a peer written from the protocol's public definition
+met (Foxglove's WebSocket protocol, Groot2's, ROS 2 over Zenoh as rmw_zenoh speaks it),
+held against what the user sees.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import time
+
+import pytest
+from foxglove_ws import FoxgloveClient
+
+from pirate_bt.interop.foxglove_live import FoxgloveServer
+from pirate_bt.interop.foxglove_topics import TopicMessage
+
+pytestmark = pytest.mark.xdist_group("real-time")  # live clients, timed on the wall clock
+
+
+def test_a_client_that_never_reads_does_not_hold_the_end_of_the_run(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A Foxglove client that subscribes and then reads nothing (a frozen app, a laptop
+    gone to sleep): when the run ends, the live view closes at once and its process exits
+    by itself. The SDK's ``stop()`` waited for ever for that client's close: the run's
+    end waited 11 s, warned that the process "did not finish" and killed it."""
+    caplog.set_level(logging.WARNING, "pirate_bt.interop.foxglove_live")
+    server = FoxgloveServer(port=0)
+    client = FoxgloveClient("127.0.0.1", server.port)
+    try:
+        assert client.wait_for(lambda c: "/pirate/sim" in c.channels, 10)
+        client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        client.subscribe("/pirate/sim")
+        assert client.wait_for(lambda _: server.subscriptions >= 1, 10)
+        # far more than the client's socket and the SDK's queue for it hold
+        message = {"n": 0, "t_s": 0.0, "truth": {"pad": "x" * 20_000}}
+        for n in range(2000):
+            server.publish(TopicMessage("/pirate/sim", n * 1_000_000, dict(message, n=n)))
+            if n % 50 == 0:
+                time.sleep(0.01)  # the pipe keeps up: nothing merged or left out
+        time.sleep(1.0)  # the process has handed everything to the SDK
+        started = time.monotonic()
+        server.close()
+        took = time.monotonic() - started
+    finally:
+        client.sock.close()
+        server.close()
+    assert took < 5.0, took
+    assert server._proc.returncode == 0  # it exited; it was not killed
+    assert "did not finish" not in caplog.text
