@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import socket
 import time
+from typing import Any
 
 import pytest
 from foxglove_ws import FoxgloveClient
@@ -51,3 +52,49 @@ def test_a_client_that_never_reads_does_not_hold_the_end_of_the_run(
     assert took < 5.0, took
     assert server._proc.returncode == 0  # it exited; it was not killed
     assert "did not finish" not in caplog.text
+
+
+def test_a_peer_gone_with_a_malformed_message_costs_groot2_no_reply() -> None:
+    """A peer sends something that is no REQ request (no envelope: a DEALER, garbage a
+    ZeroMQ 1.0 peer's framing makes into a message) and is gone by the time the server
+    reads it, while the server answers Groot2. Groot2's next request is answered. With
+    libzmq's REP socket that reply was lost for good (REP's ROUTER left the reply's
+    routing half-done): Groot2's REQ waited for ever."""
+    zmq = pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    from pirate_bt.interop.groot2_protocol import RequestType, pack_request
+    from pirate_bt.interop.groot2_server import Groot2Server
+
+    context = zmq.Context()
+    with Groot2Server(port=0) as server:
+        answer = server._answer
+
+        def slowly(parts: Any) -> Any:  # a request that takes a while to answer
+            time.sleep(0.3)
+            return answer(parts)
+
+        server._answer = slowly  # type: ignore[method-assign]
+        address = f"tcp://127.0.0.1:{server.port}"
+        try:
+            for _ in range(3):
+                first = context.socket(zmq.REQ)
+                first.connect(address)
+                first.send(pack_request(RequestType.STATUS))
+                time.sleep(0.05)  # the server is answering it
+                peer = context.socket(zmq.DEALER)
+                peer.connect(address)
+                peer.send(b"no envelope")
+                time.sleep(0.05)
+                peer.close(linger=1000)  # gone before the server reads what it sent
+                assert first.poll(5000), "the first request was not answered"
+                first.recv_multipart()
+                first.close(linger=0)
+                second = context.socket(zmq.REQ)
+                second.connect(address)
+                second.send(pack_request(RequestType.STATUS))
+                answered = second.poll(3000)
+                second.close(linger=0)
+                assert answered, "Groot2's next request got no reply"
+        finally:
+            context.destroy(linger=0)
+        assert server.enabled

@@ -2,8 +2,8 @@
 
 ``pirate-bt run|mission|teleop --tree ... --groot2 [HOST:]PORT`` (the API's
 ``groot2=`` option, or :func:`attach_groot2` for a runner of your own) starts a
-:class:`Groot2Server`: ZeroMQ REP on PORT (1667 by default, on 127.0.0.1) and
-PUB on PORT + 1, speaking protocol 2 of BT.CPP 4.10
+:class:`Groot2Server`: ZeroMQ ROUTER, answering as REP does, on PORT (1667 by
+default, on 127.0.0.1) and PUB on PORT + 1, speaking protocol 2 of BT.CPP 4.10
 (:mod:`pirate_bt.interop.groot2_protocol`). In Groot2, "Connect" to the host
 with those two ports: it loads the tree (with its subtrees, see
 :mod:`pirate_bt.interop.groot2_tree`), polls the statuses, reads the
@@ -121,7 +121,7 @@ class Groot2Server(_Requests):
     Args:
         host: Interface to listen on (``0.0.0.0`` for every one: see the docs on what
             that exposes).
-        port: The REP port; PUB is ``port + 1``. 0 picks two free neighbouring ports.
+        port: The server (request) port; PUB is ``port + 1``. 0 picks two free neighbouring ports.
         heartbeat_s: Silence after which every hook is removed (BT.CPP: 5 s).
 
     Raises:
@@ -137,7 +137,11 @@ class Groot2Server(_Requests):
         self.host = host
         self.heartbeat_s = heartbeat_s
         self._context = zmq.Context()
-        self._rep = self._context.socket(zmq.REP)
+        # ROUTER, with REP's envelope handled here (_envelope): libzmq's REP (4.3.5) lost
+        # the reply to the next request for good after a message with no envelope from a
+        # peer that had gone by the time it was read (its ROUTER's rollback left the
+        # reply's routing half-done); Groot2's REQ then waited for ever.
+        self._rep = self._context.socket(zmq.ROUTER)
         self._pub = self._context.socket(zmq.PUB)
         for sock in (self._rep, self._pub):
             sock.setsockopt(zmq.LINGER, 0)
@@ -343,9 +347,12 @@ class Groot2Server(_Requests):
                     parts = self._rep.recv_multipart(zmq.NOBLOCK)
                 except zmq.Again:
                     continue
-                reply = self._answer(parts)
+                envelope = _envelope(parts)
+                if envelope is None:
+                    continue  # not a request (REP drops it too): nobody to answer
+                reply = self._answer(parts[len(envelope) :])
                 try:
-                    self._rep.send_multipart(reply)
+                    self._rep.send_multipart(envelope + reply)
                 except zmq.ZMQError as exc:
                     logger.warning("Groot2: could not send a reply: %s", exc)
             except Exception:
@@ -392,6 +399,16 @@ class Groot2Server(_Requests):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _envelope(parts: Sequence[bytes]) -> list[bytes] | None:
+    """The routing envelope of a message read off the ROUTER socket, as REP keeps it for
+    the reply: the parts up to the first empty one (the REQ socket's delimiter) and that
+    one; ``None`` when there is none, or no request after it."""
+    for index in range(1, len(parts) - 1):
+        if not parts[index]:
+            return list(parts[: index + 1])
+    return None
 
 
 def attach_groot2(
