@@ -98,3 +98,18 @@ def test_a_peer_gone_with_a_malformed_message_costs_groot2_no_reply() -> None:
         finally:
             context.destroy(linger=0)
         assert server.enabled
+
+
+def test_a_ros_domain_id_out_of_range_in_the_environment_is_named_as_such(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``ROS_DOMAIN_ID=300 pirate-bt run ... --ros2``: the one-line error names the
+    variable the user set, not ``--ros-domain-id 300``, an option they never gave."""
+    pytest.importorskip("zenoh")
+    from pirate_bt.errors import InputError
+    from pirate_bt.interop.ros2_live import Ros2Node
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", "300")
+    with pytest.raises(InputError) as raised:
+        Ros2Node("tcp/127.0.0.1:7447")
+    assert str(raised.value) == "ROS_DOMAIN_ID=300: ROS domain ids go from 0 to 232"

@@ -14,6 +14,7 @@ from pirate_bt.errors import InputError
 __all__ = [
     "DEFAULT_ENDPOINT",
     "DEFAULT_NAMESPACE",
+    "MAX_DOMAIN_ID",
     "add_ros2_options",
     "domain_from_env",
     "parse_endpoint",
@@ -22,6 +23,8 @@ __all__ = [
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where rmw_zenoh's router (``ros2 run rmw_zenoh_cpp rmw_zenohd``) listens."""
 DEFAULT_NAMESPACE = "/pirate"
+MAX_DOMAIN_ID = 232
+"""The largest ROS domain id (ROS 2's domain id table)."""
 _PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws", "unixsock-stream")
 
 
@@ -60,13 +63,16 @@ def domain_from_env() -> int:
     """``ROS_DOMAIN_ID`` as ROS reads it (0 when unset).
 
     Raises:
-        InputError: it is set to something that is not a number.
+        InputError: it is set to something that is not a domain id (a number from 0 to
+            232), naming the variable (``--ros-domain-id`` was not given).
     """
     text = os.environ.get("ROS_DOMAIN_ID", "").strip()
     if not text:
         return 0
     if not (text.isascii() and text.isdigit()):
         raise InputError(f"ROS_DOMAIN_ID={text!r} is not a number")
+    if int(text) > MAX_DOMAIN_ID:
+        raise InputError(f"ROS_DOMAIN_ID={text}: ROS domain ids go from 0 to {MAX_DOMAIN_ID}")
     return int(text)
 
 
