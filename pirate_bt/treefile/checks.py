@@ -7,6 +7,8 @@ blackboard key read is written or declared.
 
 from __future__ import annotations
 
+from collections.abc import Container
+
 from pirate_bt.behaviours.base import Outcome
 from pirate_bt.errors import LocatedError, SourceLocation
 from pirate_bt.treefile.spec import BlackboardDecl, NodeSpec
@@ -75,14 +77,18 @@ def _check_blackboard(
     root: NodeSpec,
     declared: dict[str, tuple[BlackboardDecl, SourceLocation]],
     errors: list[LocatedError],
+    unsure: Container[str] = frozenset(),
 ) -> None:
+    """Every key a node reads is declared and written (by a node, a default or the
+    planner), every key written is declared; not checked: the keys in ``unsure``, whose
+    declaration was refused (said where it is)."""
     writes: set[str] = {k for k, (d, _) in declared.items() if d.default is not None or d.external}
     reads: list[tuple[str, NodeSpec]] = []
     for spec in root.walk():
         if spec.cls is None or spec.params is None:
             continue
         for key in spec.cls.blackboard_writes(spec.params):
-            if key not in declared:
+            if key not in declared and key not in unsure:
                 errors.append(
                     LocatedError(
                         f"blackboard key {key!r} is written but not declared", spec.location
@@ -91,6 +97,8 @@ def _check_blackboard(
             writes.add(key)
         reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
     for key, spec in reads:
+        if key in unsure:
+            continue
         if key not in declared:
             errors.append(
                 LocatedError(

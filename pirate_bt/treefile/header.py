@@ -4,12 +4,15 @@ Part of step 1 of loading (see :mod:`pirate_bt.treefile.loader`), under the node
 of :mod:`pirate_bt.treefile.reader`: each file the tree uses is read once, its top
 level checked (its keys, ``name``, ``description``, ``subtrees``) and its blackboard
 recorded; a tree's declared ``params`` are read and the caller's values bound to
-them. Every problem is collected at its place.
+them. Every problem is collected at its place, and a refused declaration stops only
+what depends on it: a parameter whose ``default`` is refused is unknown to the nodes
+that use it (``_Env.unknown``), a blackboard key whose declaration is refused is not
+checked against the nodes (``board_unsure``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,9 +24,10 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.names import name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import ParamDecl, coerce_param, written_value
+from pirate_bt.treefile.refused import holds_blank, read_tree_yaml
 from pirate_bt.treefile.registry import Registry
 from pirate_bt.treefile.spec import _TOP_KEYS, BlackboardDecl, PathKey
-from pirate_bt.yamlfile import YamlDocument, load_yaml
+from pirate_bt.yamlfile import YamlDocument
 from pirate_bt.yamlvalidate import validation_problems
 
 __all__ = []
@@ -31,9 +35,55 @@ __all__ = []
 # -- reading -------------------------------------------------------------------------
 
 
+def misspelt(body: Mapping[Any, Any], key: str, allowed: frozenset[str]) -> bool:
+    """Whether ``body`` lacks ``key`` and has an unknown key that its message calls a
+    misspelling of it (``blackbaord``: did you mean 'blackboard'?)."""
+    import difflib
+
+    return key not in body and any(
+        isinstance(k, str)
+        and k not in allowed
+        and difflib.get_close_matches(k, sorted(allowed), n=1) == [key]
+        for k in body
+    )
+
+
 def _written(key: object) -> str:
     """A key as a message shows it: text cut short, anything else (``1``, ``None``) as is."""
     return _shown(key) if isinstance(key, str) else repr(key)
+
+
+class _Names:
+    """Names a later check cannot rely on, because what they stood for was refused
+    (and said so): some names, or, when a whole section was refused, every name."""
+
+    def __init__(self, names: Iterable[str] = (), *, every: bool = False) -> None:
+        self.names = set(names)
+        self.every = every
+
+    def __contains__(self, name: object) -> bool:
+        return self.every or name in self.names
+
+    def add(self, name: str) -> None:
+        self.names.add(name)
+
+
+@dataclass
+class _Declared:
+    """A tree's declared parameters, as far as they could be read.
+
+    ``decls``: the usable declarations (a refused ``default`` or ``example`` taken
+    out); ``names``: every name declared, in order; ``refused``: names whose
+    declaration was refused (its type unknown, so neither a value given for it nor a
+    use of it can be checked); ``no_default`` and ``no_example``: names whose
+    ``default`` or ``example`` was refused.
+    """
+
+    decls: dict[str, ParamDecl] = field(default_factory=dict)
+    names: list[str] = field(default_factory=list)
+    refused: _Names = field(default_factory=_Names)
+    no_default: set[str] = field(default_factory=set)
+    no_example: set[str] = field(default_factory=set)
 
 
 @dataclass
@@ -44,7 +94,9 @@ class _Env:
     caller of ``load_tree``, or at the subtree call that gave it, through further calls
     too) to that writer's name for it and the place it was written; ``used`` is where
     the reader's ``subst`` put such a value, so a problem with it is reported where the
-    value was written (:meth:`_FileReader.value_error`).
+    value was written (:meth:`_FileReader.value_error`). ``unknown`` names the
+    parameters whose value cannot be known (refused where it was declared or given, or
+    not given): a use of one is not checked, as the problem was said where it is.
     """
 
     doc: YamlDocument
@@ -52,6 +104,9 @@ class _Env:
     chain: tuple[str, ...]
     caller: Mapping[str, tuple[str, SourceLocation]] = field(default_factory=dict)
     used: dict[PathKey, tuple[str, SourceLocation]] = field(default_factory=dict)
+    unknown: Collection[str] | _Names = frozenset()
+    declared: Sequence[str] = ()
+    """Every parameter declared, for messages (those of ``values`` first)."""
 
 
 class _FileReader:
@@ -81,12 +136,33 @@ class _FileReader:
         self.count = 0
         """Nodes read so far, subtrees expanded (bounded by MAX_TREE_NODES)."""
         self.unbound: list[PathKey] = []
-        """Where the reader's ``subst`` met an unknown ``$parameter`` (reported once, there)."""
+        """Where the reader's ``subst`` met a value it cannot know: an unknown
+        ``$parameter`` (reported once, there), a parameter of ``_Env.unknown`` or a value
+        YAML refused (:mod:`pirate_bt.treefile.refused`; both reported where they are).
+        The checks of a node with such a value are skipped where they concern it, and
+        the node is left out of the tree (so later checks, which need the whole tree,
+        are skipped)."""
+        self.blanked: set[str] = set()
+        """Files read with refused values blanked out (:mod:`pirate_bt.treefile.refused`)."""
+        self.board_unsure = _Names()
+        """Blackboard keys whose declaration was refused: not checked against the nodes."""
 
     # -- helpers
 
     def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
         self.errors.append(doc.locator.error(path, message))
+
+    def blank(self, doc: YamlDocument, value: Any) -> bool:
+        """Whether ``value`` (of ``doc``) is or holds a value YAML refused, which was said
+        where it is: what depends on it is not checked."""
+        return doc.file in self.blanked and holds_blank(value)
+
+    def refused(self, doc: YamlDocument, refused: list[LocatedError]) -> None:
+        """Say the values YAML refused in ``doc`` (blanked out by
+        :func:`~pirate_bt.treefile.refused.read_tree_yaml`)."""
+        if refused:
+            self.errors.extend(refused)
+            self.blanked.add(doc.file)
 
     def value_error(self, env: _Env, path: PathKey, message: str) -> None:
         """A problem with the value at ``path``: where it was written when it is a
@@ -129,10 +205,11 @@ class _FileReader:
             self.error(doc, at, f"subtree file {_shown(str(path))} {what}")
             return None
         try:
-            loaded = load_yaml(path)
+            loaded, refused = read_tree_yaml(path)
         except ValidationFailed as exc:
             self.errors.extend(exc.errors)
             return None
+        self.refused(loaded, refused)
         self.docs[key] = loaded
         return loaded
 
@@ -140,14 +217,17 @@ class _FileReader:
         """Check a file's top level and record its blackboard; False if unusable."""
         data = doc.data
         if not isinstance(data, dict):
-            self.error(doc, (), "a tree file is a mapping with a 'root' key")
+            if not self.blank(doc, data):
+                self.error(doc, (), "a tree file is a mapping with a 'root' key")
             return False
         if doc.file in self.headers_read:
             return True
         self.headers_read.add(doc.file)
         for key in data:
-            if key not in _TOP_KEYS:
+            if key not in _TOP_KEYS and not self.blank(doc, key):
                 self.error(doc, (key,), unknown_key(key, _TOP_KEYS))
+        if misspelt(data, "blackboard", _TOP_KEYS):
+            self.board_unsure.every = True  # what it declares is not known
         if "name" in data and not isinstance(data["name"], str):
             self.error(doc, ("name",), "name: must be text")
         elif data.get("name"):
@@ -159,30 +239,54 @@ class _FileReader:
         if "description" in data and not isinstance(data["description"], str):
             self.error(doc, ("description",), "description: must be text")
         subtrees = data.get("subtrees")
-        if subtrees is not None and not isinstance(subtrees, dict):
+        if self.blank(doc, subtrees) and not isinstance(subtrees, dict):
+            pass  # said where it is; a ref to it is not looked for
+        elif subtrees is not None and not isinstance(subtrees, dict):
             self.error(doc, ("subtrees",), "subtrees: a mapping of name -> tree")
         elif isinstance(subtrees, dict):
             for key in subtrees:
                 if not isinstance(key, str):
                     self.error(doc, ("subtrees", str(key)), f"subtree name {key!r} must be text")
-        board = data.get("blackboard", {})
+        self.board(doc, data.get("blackboard", {}))
+        return True
+
+    def board(self, doc: YamlDocument, board: Any) -> None:
+        """Record a file's blackboard declarations; a key whose declaration is refused
+        is not checked against the nodes (every key, if the whole section is)."""
         if board is None:
             board = {}
         if not isinstance(board, dict):
-            self.error(doc, ("blackboard",), "blackboard: a mapping of key -> declaration")
-            return True
+            if not self.blank(doc, board):
+                self.error(doc, ("blackboard",), "blackboard: a mapping of key -> declaration")
+            self.board_unsure.every = True
+            return
         for key, decl in board.items():
             where: PathKey = ("blackboard", key)
+            if self.blank(doc, key):
+                self.board_unsure.every = True  # said; which key the nodes meant is unknown
+                continue
             if not isinstance(key, str) or not key.isidentifier():
                 self.error(doc, where, f"blackboard key {_written(key)} must be an identifier")
+                if isinstance(key, str):
+                    self.board_unsure.add(key)
                 continue
+            decl = {} if decl is None else decl
+            blanked = self.blank(doc, decl)
+            if blanked and isinstance(decl, dict):  # the rest of it is still checked
+                decl = {
+                    k: v for k, v in decl.items() if not (self.blank(doc, k) or self.blank(doc, v))
+                }
             try:
-                decl = {} if decl is None else decl
                 parsed = BlackboardDecl.model_validate(decl)
             except ValidationError as exc:
-                for at_key, msg in validation_problems(exc, decl):
-                    msg = msg if at_key else f"blackboard key {key!r}: {msg}"
-                    self.error(doc, (*where, *at_key), msg)
+                if not blanked or isinstance(decl, dict):
+                    for at_key, msg in validation_problems(exc, decl):
+                        msg = msg if at_key else f"blackboard key {key!r}: {msg}"
+                        self.error(doc, (*where, *at_key), msg)
+                self.board_unsure.add(key)
+                continue
+            if blanked:
+                self.board_unsure.add(key)
                 continue
             loc = doc.locator.locate(where)
             previous = self.blackboard.get(key)
@@ -196,35 +300,57 @@ class _FileReader:
                 continue
             if previous is None or parsed.default is not None or parsed.external:
                 self.blackboard[key] = (parsed, loc)
-        return True
 
     def declared_params(
-        self, doc: YamlDocument, where: PathKey, raw: Any
-    ) -> dict[str, ParamDecl] | None:
+        self, doc: YamlDocument, where: PathKey, raw: Any, misspelt: bool = False
+    ) -> _Declared:
+        """A tree's declared ``params``: each declaration that can be read; one that is
+        refused is said, and its parameter's uses are not checked (``_Declared``).
+        ``misspelt``: the tree has no ``params`` but a key said to be a misspelling of
+        it (``parms``), whose parameters are not known."""
+        out = _Declared()
         if raw is None:
-            return {}
+            out.refused.every = misspelt
+            return out
         if not isinstance(raw, dict):
-            self.error(doc, where, "params: a mapping of name -> {type, default}")
-            return None
-        out: dict[str, ParamDecl] = {}
-        before = len(self.errors)
+            if not self.blank(doc, raw):
+                self.error(doc, where, "params: a mapping of name -> {type, default}")
+            out.refused.every = True
+            return out
         for name, decl in raw.items():
             at = (*where, name)
+            if self.blank(doc, name):
+                continue  # said where it is; no $name can name it
+            if isinstance(name, str):
+                out.names.append(name)
             if not isinstance(name, str) or not name.isidentifier():
                 self.error(doc, at, f"parameter name {_written(name)} must be an identifier")
+                if isinstance(name, str):
+                    out.refused.add(name)
                 continue
             if isinstance(decl, str):
                 decl = {"type": decl}
+            if self.blank(doc, decl):
+                kept = self.unblanked(doc, decl)
+                if kept is None:  # its type or choices unknown: nothing to check it by
+                    out.refused.add(name)
+                    continue
+                if "default" in decl and "default" not in kept:
+                    out.no_default.add(name)
+                if "example" in decl and "example" not in kept:
+                    out.no_example.add(name)
+                decl = kept
             try:
                 parsed = ParamDecl.model_validate(decl)
             except ValidationError as exc:
                 for loc, msg in validation_problems(exc, decl):
                     self.error(doc, (*at, *loc), msg if loc else f"parameter {name!r}: {msg}")
+                out.refused.add(name)
                 continue
             if parsed.choices is not None and parsed.type != "string":
                 self.error(doc, (*at, "choices"), "choices: only a string parameter has choices")
+                out.refused.add(name)
                 continue
-            bad = False
             written: dict[str, Any] = {}
             for key in ("default", "example"):
                 value = getattr(parsed, key)
@@ -235,42 +361,61 @@ class _FileReader:
                     coerce_param(parsed, written[key], units_required=self.units_required)
                 except ValueError as exc:
                     self.error(doc, (*at, key), f"{key}: {exc}")
-                    bad = True
-            if bad:
-                continue
-            out[name] = parsed.model_copy(update=written)
-        return out if len(self.errors) == before else None
+                    written[key] = None  # the parameter is still declared, without it
+                    (out.no_default if key == "default" else out.no_example).add(name)
+            out.decls[name] = parsed.model_copy(update=written)
+        return out
+
+    def unblanked(self, doc: YamlDocument, decl: Any) -> dict[str, Any] | None:
+        """A parameter's declaration without its blanked ``default`` and ``example``
+        (:mod:`pirate_bt.treefile.refused`); None when another part of it is blanked."""
+        if not isinstance(decl, dict):
+            return None
+        kept = {k: v for k, v in decl.items() if not self.blank(doc, v)}
+        if self.blank(doc, list(kept)) or set(decl) - set(kept) - {"default", "example"}:
+            return None
+        return kept
 
     def bind(
         self,
         doc: YamlDocument,
         where: PathKey,
-        decls: dict[str, ParamDecl],
+        declared: _Declared,
         given: Mapping[str, Any],
         given_at: Any,
         from_text: bool = False,
         use_examples: bool = False,
         in_file: bool = False,
-    ) -> dict[str, Any] | None:
-        """Values for declared parameters from the caller; None on error.
+        lost: _Names | None = None,
+    ) -> tuple[dict[str, Any], _Names]:
+        """Values for declared parameters from the caller, and the names whose value is
+        unknown (refused where it was declared or given, or not given: each said).
 
         With ``use_examples`` (checking or drawing a tree, never running it) a
         parameter the caller did not give takes its declared ``example``. ``in_file``:
         the values are written in the document (a subtree call's), where a quantity
-        needs its unit when the document's do.
+        needs its unit when the document's do. ``lost``: names given whose value could
+        not be read (said where it was written); a parameter then left out is not said
+        to be missing.
         """
+        decls = declared.decls
+        lost = lost or _Names()
         values: dict[str, Any] = {}
-        ok = True
+        unknown = _Names(lost.names, every=lost.every or declared.refused.every)
         for name, value in given.items():
+            if name in lost:
+                continue
+            if name in declared.refused:
+                unknown.add(name)  # no type to check it by: its declaration is refused
+                continue
             if name not in decls:
-                known = ", ".join(decls) or "none declared"
+                known = ", ".join(declared.names) or "none declared"
                 self.errors.append(
                     LocatedError(
                         f"unknown parameter {_shown(str(name))} (parameters: {known})",
                         given_at(name),
                     )
                 )
-                ok = False
                 continue
             try:
                 values[name] = coerce_param(
@@ -281,18 +426,24 @@ class _FileReader:
                 )
             except ValueError as exc:
                 self.errors.append(LocatedError(f"parameter {name!r}: {exc}", given_at(name)))
-                ok = False
+                unknown.add(name)
         for name, decl in decls.items():
-            if name in values or name in given:  # given but invalid: reported above
+            if name in values or name in given or name in lost:  # given but refused: said
                 continue
             if decl.default is not None:
                 values[name] = coerce_param(decl, decl.default)
             elif use_examples and decl.example is not None:
                 values[name] = coerce_param(decl, decl.example)
+            elif name in declared.no_default or (use_examples and name in declared.no_example):
+                unknown.add(name)  # its default (or example) is refused, where it is written
+            elif lost.names or lost.every:
+                # A call whose values could not all be read (an unknown $name in one) is
+                # not also held to the values it leaves out (as before: one problem).
+                unknown.add(name)
             else:
                 hint = (
                     " (declare an 'example' to check the tree without it)" if use_examples else ""
                 )
                 self.error(doc, where, f"parameter {name!r} has no default and was not given{hint}")
-                ok = False
-        return values if ok else None
+                unknown.add(name)
+        return values, unknown

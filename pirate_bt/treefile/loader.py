@@ -9,7 +9,13 @@ once, each at ``file:line:column``:
    model and checked against the robot's limits.
 2. **Check** the whole spec tree: duplicate sibling names, blackboard keys read
    but never written (or not declared), and children that can never run (a
-   warning).
+   warning). The blackboard checks run whenever every node could be read, even
+   when step 1 found problems elsewhere (a bad tree name, a duplicate name, a
+   refused blackboard declaration, whose key is then not checked); the warnings only
+   for a tree without problems. Within step 1 too, a problem stops only what depends
+   on it (a refused parameter ``default``: the nodes that use it; a number YAML
+   refused, :mod:`pirate_bt.treefile.refused`: what it is in), and the problems are
+   reported in file order, without repeats.
 3. **Build** the behaviours with each class's ``from_params``; nothing touches
    hardware here (behaviours acquire it in ``setup()``). ``from_params`` checks
    its parameters again (it does so for nodes built in Python); after step 1
@@ -39,16 +45,19 @@ from pirate_bt.errors import (
 )
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.checks import _check_blackboard, _outcomes
+from pirate_bt.treefile.header import misspelt
 from pirate_bt.treefile.reader import _Env, _Reader
+from pirate_bt.treefile.refused import read_tree_yaml, shows_blank
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import (
+    _TOP_KEYS,
     COMPOSITES,
     BlackboardDecl,
     LoadedTree,
     NodeSpec,
     PathKey,
 )
-from pirate_bt.yamlfile import Locator, YamlDocument, check_depth, load_yaml
+from pirate_bt.yamlfile import Locator, YamlDocument, check_depth
 from pirate_bt.yamlvalidate import unique_errors
 
 __all__ = [
@@ -148,6 +157,7 @@ def load_tree(
             file (a BehaviorTree.CPP tree: :func:`pirate_bt.load_xml_tree` reads it), at 1:1.
     """
     reg = registry or default_registry()
+    refused: list[LocatedError] = []
     if isinstance(source, Mapping):
         check_depth(source, "<dict>")
         doc = YamlDocument(dict(source), Locator("<dict>"))
@@ -167,7 +177,7 @@ def load_tree(
                 ]
             )
         try:
-            doc = load_yaml(path)
+            doc, refused = read_tree_yaml(path)  # a number YAML refused: the rest is read
         except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
             where = SourceLocation(str(path))
             raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", where)]) from None
@@ -184,32 +194,39 @@ def load_tree(
             ]
         )
     reader = _Reader(reg, robot, strict, base_dir)
+    reader.refused(doc, refused)
+    # Each check that does not depend on an earlier one runs even when that one found
+    # problems (a parameter's refused default, a bad tree name, a duplicate node name),
+    # so that every problem of the file is said at once; a check that depends on what
+    # was refused is skipped (never the same mistake twice).
     if not reader.header(doc):
         raise ValidationFailed(reader.errors)
     if doc.file != "<dict>":
         reader.docs[str(Path(doc.file).resolve())] = doc
     data: dict[str, Any] = doc.data
-    decls = reader.declared_params(doc, ("params",), data.get("params"))
+    params_misspelt = misspelt(data, "params", _TOP_KEYS)
+    declared = reader.declared_params(doc, ("params",), data.get("params"), params_misspelt)
     given = dict(params or {})
     given_loc = _params_location(params_origin) if given else SourceLocation("--param")
-    spec: NodeSpec | None = None
-    values: dict[str, Any] | None = None
-    if decls is not None:
-        values = reader.bind(
-            doc, ("params",), decls, given, lambda _n: given_loc, params_from_text, use_examples
-        )
-    if values is not None:
-        env = _Env(doc, values, (doc.file,), {name: (name, given_loc) for name in given})
-        spec = reader.tree(env, (), data)
+    values, unknown = reader.bind(
+        doc, ("params",), declared, given, lambda _n: given_loc, params_from_text, use_examples
+    )
+    caller = {name: (name, given_loc) for name in given}
+    env = _Env(doc, values, (doc.file,), caller, unknown=unknown, declared=declared.names)
+    # None when a node could not be read: the checks of the whole tree need every node
+    spec = reader.tree(env, (), data)
+    if spec is not None:
+        _check_blackboard(spec, reader.blackboard, reader.errors, reader.board_unsure)
     if spec is not None and not reader.errors:
         if not spec.explicit_name:
             name = data.get("name")
             spec.name = name if isinstance(name, str) and name else spec.name
-        _check_blackboard(spec, reader.blackboard, reader.errors)
         _outcomes(spec, reader.warnings)
-    if reader.errors or spec is None or values is None:
+    if reader.errors or spec is None:
         errors = reader.errors or [LocatedError("tree could not be read", SourceLocation(doc.file))]
-        raise ValidationFailed(unique_errors(errors))
+        if reader.blanked:  # a check that met a value YAML refused (said) is no problem
+            errors = [e for e in errors if not shows_blank(e.message)] or errors
+        raise ValidationFailed(_in_file_order(errors, doc.file))
     context = BuildContext(robot=robot, clock=clock or WallClock(), supervisor=supervisor)
     try:
         root = build(spec, context)
@@ -229,6 +246,17 @@ def load_tree(
         needs_robot=any(s.cls is not None and s.cls.needs_robot for s in spec.walk()),
         source=source if isinstance(source, Mapping) else Path(source),
     )
+
+
+def _in_file_order(errors: list[LocatedError], first: str) -> list[LocatedError]:
+    """``errors`` without repeats, each file's in the order of its lines and columns:
+    the file ``first`` (the tree's), then the others in the order their first problem
+    was found (subtree files, ``--param``)."""
+    unique = unique_errors(errors)
+    rank: dict[str, int] = {first: 0}
+    for error in unique:
+        rank.setdefault(error.location.file, len(rank))
+    return sorted(unique, key=lambda e: (rank[e.location.file], e.location.line, e.location.column))
 
 
 def _params_location(origin: str | SourceLocation | None) -> SourceLocation:

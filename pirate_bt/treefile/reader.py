@@ -18,7 +18,7 @@ from pydantic import ValidationError
 
 from pirate_bt.errors import SourceLocation
 from pirate_bt.treefile.header import _Env as _Env  # the loader's, kept importable here
-from pirate_bt.treefile.header import _FileReader
+from pirate_bt.treefile.header import _FileReader, _Names, misspelt
 from pirate_bt.treefile.names import dedupe, name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import PARAM_RE
@@ -27,6 +27,7 @@ from pirate_bt.treefile.spec import (
     _COMMON_KEYS,
     _STRUCT_KEYS,
     _SUBTREE_KEYS,
+    _TOP_KEYS,
     MAX_TREE_DEPTH,
     MAX_TREE_NODES,
     NodeSpec,
@@ -45,7 +46,12 @@ class _Reader(_FileReader):
     # -- parameters
 
     def subst(self, env: _Env, value: Any, path: PathKey) -> Any:
+        """``value`` with each ``$name`` replaced by the parameter's value; where a value
+        cannot be known (``unbound``), None."""
         if isinstance(value, str):
+            if self.blank(env.doc, value):
+                self.unbound.append(path)  # YAML refused it, and said so where it is
+                return None
             if value.startswith("$$"):
                 return value[1:]
             match = PARAM_RE.match(value)
@@ -55,7 +61,11 @@ class _Reader(_FileReader):
                     if name in env.caller:
                         env.used[path] = env.caller[name]
                     return env.values[name]
-                known = ", ".join(f"${n}" for n in env.values) or "none declared"
+                if name in env.unknown:
+                    self.unbound.append(path)  # said where it is declared or given
+                    return None
+                names = [*env.values, *(n for n in env.declared if n not in env.values)]
+                known = ", ".join(f"${n}" for n in names) or "none declared"
                 self.error(
                     env.doc, path, f"unknown parameter ${_shown(name)[1:-1]} (parameters: {known})"
                 )
@@ -65,7 +75,13 @@ class _Reader(_FileReader):
                 self.error(env.doc, path, f"{_shown(value)}: write $name, or $$ for a literal $")
             return value
         if isinstance(value, dict):
-            return {k: self.subst(env, v, (*path, k)) for k, v in value.items()}
+            out = {}
+            for k, v in value.items():
+                if self.blank(env.doc, k):
+                    self.unbound.append((*path, k))
+                else:
+                    out[k] = self.subst(env, v, (*path, k))
+            return out
         if isinstance(value, list):
             return [self.subst(env, v, (*path, i)) for i, v in enumerate(value)]
         return value
@@ -115,25 +131,34 @@ class _Reader(_FileReader):
         if not isinstance(kind, str):
             self.error(doc, (*path, "type"), "type: must be a node type name")
             return None
+        if self.blank(doc, kind):
+            return None  # YAML refused it (said there): which node it is, is unknown
         loc = doc.locator.locate(path)
+        # A refused name or description is said, and the node is read on (its keys and
+        # children have their own problems), but it is left out of the tree.
         name = raw.get("name")
         problem = None if name is None else name_problem(name)
         if problem:
             self.error(doc, (*path, "name"), problem)
-            return None
         if "description" in raw and not isinstance(raw["description"], str):
             self.error(doc, (*path, "description"), "description: must be text")
-            return None
+            problem = problem or "description"
+        left_out = bool(problem) or self.blank(doc, name)
+        if left_out:
+            name = None
         spec = NodeSpec(node_type=kind, name=name or kind, location=loc, explicit_name=bool(name))
         if kind in _STRUCT_KEYS:
             for key in raw:
-                if key not in _COMMON_KEYS and key not in _STRUCT_KEYS[kind]:
-                    self.error(doc, (*path, key), unknown_key(key, _STRUCT_KEYS[kind]))
+                allowed = _STRUCT_KEYS[kind]
+                if key not in _COMMON_KEYS and key not in allowed and not self.blank(doc, key):
+                    self.error(doc, (*path, key), unknown_key(key, allowed))
             if kind == "subtree":
-                return self.subtree(env, path, raw, spec)
-            if kind == "eternal_guard":
-                return self.guard(env, path, raw, spec)
-            return self.composite(env, path, raw, spec)
+                read = self.subtree(env, path, raw, spec)
+            elif kind == "eternal_guard":
+                read = self.guard(env, path, raw, spec)
+            else:
+                read = self.composite(env, path, raw, spec)
+            return None if left_out else read
         try:
             cls = self.registry.get(kind)
         except UnknownNode as exc:
@@ -146,7 +171,7 @@ class _Reader(_FileReader):
         raw_params = {k: v for k, v in raw.items() if k not in _COMMON_KEYS and k not in ("child",)}
         unbound = len(self.unbound)
         raw_params = self.subst(env, raw_params, path)
-        unknown = self.unbound[unbound:]
+        unknown = self.unbound[unbound:]  # not checked: the problem is said where it is
         try:
             spec.params = cls.Params.model_validate(
                 raw_params, context={"units_required": self.units_required}
@@ -157,6 +182,8 @@ class _Reader(_FileReader):
                 if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
                     self.value_error(env, at, f"{kind}: {msg}")
             spec.params = None
+        if unknown:
+            spec.params = None  # its limits are checked with every value known
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
                 field_name, sep, _ = problem.partition(":")
@@ -172,12 +199,26 @@ class _Reader(_FileReader):
             spec.children = [child]
         elif "child" in raw:
             self.error(doc, (*path, "child"), f"{kind!r} is a leaf and takes no child")
-        return spec if spec.params is not None else None
+            return None  # what the child was for is unknown (it is not read)
+        return spec if spec.params is not None and not left_out else None
 
     def children(self, env: _Env, path: PathKey, raw: Any, key: str) -> list[NodeSpec] | None:
+        """The nodes listed under ``key``; None if one of them cannot be read (said)."""
+        read = self.read_children(env, path, raw, key)
+        if read is None:
+            return None
+        out, ok = read
+        dedupe(out, self.errors)  # among those read: a name left out is not known
+        return out if ok else None
+
+    def read_children(
+        self, env: _Env, path: PathKey, raw: Any, key: str
+    ) -> tuple[list[NodeSpec], bool] | None:
+        """The nodes listed under ``key`` that could be read, and whether all could."""
         items = raw.get(key)
         if not isinstance(items, list) or not items:
-            self.error(env.doc, (*path, key) if key in raw else path, f"needs a list of {key}")
+            if not self.blank(env.doc, items):
+                self.error(env.doc, (*path, key) if key in raw else path, f"needs a list of {key}")
             return None
         out: list[NodeSpec] = []
         ok = True
@@ -187,55 +228,25 @@ class _Reader(_FileReader):
                 ok = False
             else:
                 out.append(child)
-        if not ok:
-            return None
-        dedupe(out, self.errors)
-        return out
+        return out, ok
 
     def composite(
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
     ) -> NodeSpec | None:
+        """A sequence, selector or parallel: its options, then its children (read even
+        when an option is refused: they do not depend on it)."""
         unbound = len(self.unbound)
         opts = self.subst(env, {k: v for k, v in raw.items() if k != "children"}, path)
-        if len(self.unbound) > unbound:
-            return None  # the unknown $parameter is reported
-        kind = spec.node_type
-        if kind in ("sequence", "selector"):
-            memory = opts.get("memory", kind == "sequence")
-            if not isinstance(memory, bool):
-                self.value_error(env, (*path, "memory"), "memory: must be true or false")
-                return None
-            spec.params = {"memory": memory}
-        else:
-            policy = opts.get("policy", "all")
-            if policy not in ("all", "one", "selected"):
-                self.value_error(env, (*path, "policy"), "policy: one of all, one, selected")
-                return None
-            sync = opts.get("synchronise", policy != "one")
-            if not isinstance(sync, bool):
-                self.value_error(env, (*path, "synchronise"), "synchronise: must be true or false")
-                return None
-            selected = opts.get("selected")
-            if (policy == "selected") != (selected is not None):
-                self.error(
-                    env.doc, path, "policy 'selected' and a 'selected' list of names go together"
-                )
-                return None
-            if selected is not None and not (
-                isinstance(selected, list)
-                and selected
-                and all(isinstance(s, str) for s in selected)
-            ):
-                self.value_error(env, (*path, "selected"), "selected: a list of child names")
-                return None
-            spec.params = {"policy": policy, "synchronise": sync, "selected": selected}
+        known = len(self.unbound) == unbound  # else an unknown value, said where it is
+        params = self.options(env, path, spec.node_type, opts) if known else None
         kids = self.children(env, path, raw, "children")
-        if kids is None:
+        if params is None or kids is None:
             return None
+        spec.params = params
         spec.children = kids
-        if kind == "parallel" and spec.params["selected"]:
+        if spec.node_type == "parallel" and params["selected"]:
             names = {c.name for c in kids}
-            for s in spec.params["selected"]:
+            for s in params["selected"]:
                 if s not in names:
                     self.error(
                         env.doc, (*path, "selected"), f"selected: no child named {_shown(s)}"
@@ -243,19 +254,52 @@ class _Reader(_FileReader):
                     return None
         return spec
 
+    def options(
+        self, env: _Env, path: PathKey, kind: str, opts: Mapping[str, Any]
+    ) -> dict[str, Any] | None:
+        """A composite's options, checked; None after saying what is wrong."""
+        if kind in ("sequence", "selector"):
+            memory = opts.get("memory", kind == "sequence")
+            if not isinstance(memory, bool):
+                self.value_error(env, (*path, "memory"), "memory: must be true or false")
+                return None
+            return {"memory": memory}
+        policy = opts.get("policy", "all")
+        if policy not in ("all", "one", "selected"):
+            self.value_error(env, (*path, "policy"), "policy: one of all, one, selected")
+            return None
+        sync = opts.get("synchronise", policy != "one")
+        if not isinstance(sync, bool):
+            self.value_error(env, (*path, "synchronise"), "synchronise: must be true or false")
+            return None
+        selected = opts.get("selected")
+        if (policy == "selected") != (selected is not None):
+            self.error(
+                env.doc, path, "policy 'selected' and a 'selected' list of names go together"
+            )
+            return None
+        if selected is not None and not (
+            isinstance(selected, list) and selected and all(isinstance(s, str) for s in selected)
+        ):
+            self.value_error(env, (*path, "selected"), "selected: a list of child names")
+            return None
+        return {"policy": policy, "synchronise": sync, "selected": selected}
+
     def guard(
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
     ) -> NodeSpec | None:
-        conditions = self.children(env, path, raw, "conditions")
+        read = self.read_children(env, path, raw, "conditions")
+        conditions, ok = read if read is not None else ([], False)
+        child = None
         if "child" not in raw:
             self.error(env.doc, path, "eternal_guard needs a 'child'")
-            return None
-        child = self.node(env, (*path, "child"), raw["child"])
-        if conditions is None or child is None:
+        else:
+            child = self.node(env, (*path, "child"), raw["child"])
+        dedupe([*conditions, *([child] if child is not None else [])], self.errors)
+        if not ok or child is None:
             return None
         spec.conditions = conditions
         spec.children = [child]
-        dedupe([*conditions, child], self.errors)
         return spec
 
     def subtree(
@@ -263,6 +307,8 @@ class _Reader(_FileReader):
     ) -> NodeSpec | None:
         doc = env.doc
         ref = raw.get("ref")
+        if self.blank(doc, ref):
+            return None  # YAML refused it (said there): which tree is meant is unknown
         if not isinstance(ref, str) or not ref:
             self.error(doc, (*path, "ref") if "ref" in raw else path, "subtree needs a 'ref'")
             return None
@@ -295,10 +341,11 @@ class _Reader(_FileReader):
             body = subtrees[name]
             body_path: PathKey = ("subtrees", name)
             if not isinstance(body, dict):
-                self.error(target_doc, body_path, "a subtree is a mapping with 'root'")
+                if not self.blank(target_doc, body):
+                    self.error(target_doc, body_path, "a subtree is a mapping with 'root'")
                 return None
             for key in body:
-                if key not in _SUBTREE_KEYS:
+                if key not in _SUBTREE_KEYS and not self.blank(target_doc, key):
                     self.error(target_doc, (*body_path, key), unknown_key(key, _SUBTREE_KEYS))
         else:
             body, body_path = target, ()
@@ -307,28 +354,41 @@ class _Reader(_FileReader):
             loop = " -> ".join([*env.chain[env.chain.index(ident) :], ident])
             self.error(doc, (*path, "ref"), f"recursive subtree: {loop}")
             return None
-        decls = self.declared_params(target_doc, (*body_path, "params"), body.get("params"))
+        allowed = _SUBTREE_KEYS if name else _TOP_KEYS
+        declared = self.declared_params(
+            target_doc,
+            (*body_path, "params"),
+            body.get("params"),
+            misspelt=misspelt(body, "params", allowed),
+        )
         given = raw.get("params") or {}
+        lost = _Names()  # given, but their values are unknown (said where they are)
         if not isinstance(given, dict):
-            self.error(doc, (*path, "params"), "params: a mapping of name -> value")
-            return None
+            if not self.blank(doc, given):
+                self.error(doc, (*path, "params"), "params: a mapping of name -> value")
+            given, lost.every = {}, True
         unbound = len(self.unbound)
         given = self.subst(env, given, (*path, "params"))
-        if decls is None or len(self.unbound) > unbound:
-            return None
+        for at in self.unbound[unbound:]:
+            lost.add(str(at[len(path) + 1]))
 
         def given_at(name: str) -> SourceLocation:
             return doc.locator.locate((*path, "params", name))
 
-        values = self.bind(doc, path, decls, given, given_at, in_file=True)
-        if values is None:
-            return None
+        values, unknown = self.bind(doc, path, declared, given, given_at, in_file=True, lost=lost)
         # A value given here is reported here (params: {torque: 50 N*m}), unless it is a
         # value from further out passed on (params: {torque: $torque}): reported there.
         caller = {
             k: env.used.get((*path, "params", k), (k, given_at(k))) for k in given if k in values
         }
-        inner = _Env(target_doc, values, (*env.chain, ident), caller)
+        inner = _Env(
+            target_doc,
+            values,
+            (*env.chain, ident),
+            caller,
+            unknown=unknown,
+            declared=declared.names,
+        )
         result = self.tree(inner, body_path, body)
         if result is None:
             return None
