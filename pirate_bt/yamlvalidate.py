@@ -183,7 +183,7 @@ def _bound_as_written(error: Any, value: Any, path: PathKey) -> str | None:
     plain = isinstance(value, int | float) and not isinstance(value, bool)
     for key, words in _BOUNDS.items():
         bound = ctx.get(key)
-        limit = in_unit_of(bound, value) if key in ctx else None
+        limit = in_unit_of(ctx[key], value) if key in ctx else None
         if limit is None and plain and isinstance(bound, int | float):
             # a count or a fraction: ``attempts: must be at least 1``
             limit = str(bound) if isinstance(bound, int) else f"{bound:.10g}"

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, row_problem
-from pirate_bt.campaign.paths import is_safe_name, safe_name
+from pirate_bt.campaign.paths import RESULTS_NAME, is_safe_name, safe_name
 from pirate_bt.campaign.started import RECORD_NAME
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
@@ -59,7 +59,6 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 DEFAULT_TARGET = "pirate_bt.campaign.case:run_case"
-RESULTS_NAME = "results.jsonl"
 
 
 def run_isolated(

@@ -29,6 +29,7 @@ from pirate_bt.errors import InputError
 __all__ = [
     "LOCK_NAME",
     "MAX_SAFE_NAME",
+    "RESULTS_NAME",
     "campaign_lock",
     "inside",
     "is_safe_name",
@@ -38,6 +39,9 @@ __all__ = [
 
 LOCK_NAME = ".campaign.lock"
 """The file a running campaign holds its folder by (:func:`campaign_lock`)."""
+
+RESULTS_NAME = "results.jsonl"
+"""The campaign's rows, one JSON line per case, in its output folder."""
 
 MAX_SAFE_NAME = 128
 """The longest safe name (well under the 255 bytes of a file name)."""

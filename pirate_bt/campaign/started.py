@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
+from pirate_bt.campaign.paths import RESULTS_NAME
 from pirate_bt.errors import InputError
 
 __all__ = ["FORMAT", "RECORD_NAME", "Start", "begin", "file_digest", "write_record"]
@@ -112,8 +113,6 @@ def begin(
             without --resume into another --output``), a case timeout other than the
             one it started with, or a record that cannot be read.
     """
-    from pirate_bt.campaign.engine import RESULTS_NAME
-
     if not resume or not _holds_a_line(folder / RESULTS_NAME):
         started_s = given_timeout_s if given_timeout_s is not None else spec_timeout_s
         record = {
