@@ -417,8 +417,8 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         locator.marks[()] = _mark(node)
         errors: list[LocatedError] = []
         _walk(node, locator, errors)
-        if errors:
-            raise ValidationFailed(errors)
+        if errors:  # once each: a value an alias repeats was met once per use
+            raise ValidationFailed(list({str(e): e for e in errors}.values()))
         data = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark

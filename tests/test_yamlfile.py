@@ -131,3 +131,15 @@ def test_a_named_pipe_is_refused_before_it_is_opened(tmp_path: Path) -> None:
     os.mkfifo(route)
     with pytest.raises(ValidationFailed, match=r"mission\.route:1:1: is a named pipe"):
         load_route(route)
+
+
+def test_a_refused_value_an_alias_repeats_is_said_once(tmp_path: Path) -> None:
+    # `attempts: &a 010` then `name: *a`: the same line twice, at the same place
+    path = tmp_path / "alias.yaml"
+    path.write_text("a: &n 010\nb: *n\nc: [*n, *n]\n", encoding="utf-8")
+    with pytest.raises(ValidationFailed) as caught:
+        load_yaml(path)
+    assert [str(e) for e in caught.value.errors] == [
+        f"{path}:1:4: 010 has a leading zero, which YAML 1.1 reads as an octal number (8):"
+        " write 10, or quote it for text"
+    ]
