@@ -128,7 +128,13 @@ def detect_kind(path: str | Path) -> FileKind:
             return kind
     from pirate_bt.yamlfile import load_yaml
 
-    doc = load_yaml(p)
+    try:
+        doc = load_yaml(p)
+    except ValidationFailed:
+        # A number YAML refuses (a leading zero) hides nothing else of a tree file
+        # (pirate_bt.treefile.refused): its top-level keys still tell the kind, and
+        # the kind's loader says every problem. Anything else raises as load_yaml did.
+        doc, _refused = _resolve("pirate_bt.treefile.refused:read_tree_yaml")(p)
     if isinstance(doc.data, dict):
         for kind in KINDS.values():
             if any(key in doc.data for key in kind.marker_keys):

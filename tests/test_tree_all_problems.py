@@ -75,11 +75,12 @@ def test_a_leading_zero_no_longer_hides_the_nodes_problems(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # The retry's attempts are not checked again (the refusal says what is wrong).
-    # --kind tree: without it, validate first reads the file to tell its kind, and
-    # that reading stops at the leading zero (pirate_bt/filekinds.py).
     refused = "010 has a leading zero, which YAML 1.1 reads as an octal number (8):"
     expected = [f"6:17: {refused} write 10, or quote it for text", f"8:20: {WAIT_2_MM}"]
     _both(tmp_path, capsys, LEADING_ZERO, expected, "--kind", "tree")
+    # and without --kind: validate reads the file first to tell its kind, and that
+    # reading stopped at the leading zero (pirate_bt/filekinds.py)
+    _both(tmp_path, capsys, LEADING_ZERO, expected)
 
 
 def test_a_leading_zero_where_a_value_is_declared_skips_what_uses_it(
