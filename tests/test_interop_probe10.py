@@ -8,8 +8,13 @@ held against what the user sees.
 from __future__ import annotations
 
 import logging
+import re
 import socket
+import subprocess
+import sys
+import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -19,6 +24,9 @@ from pirate_bt.interop.foxglove_live import FoxgloveServer
 from pirate_bt.interop.foxglove_topics import TopicMessage
 
 pytestmark = pytest.mark.xdist_group("real-time")  # live clients, timed on the wall clock
+
+ROOT = Path(__file__).resolve().parent.parent
+RUN_OPTIONS = ("--param", "distance=0.3m", "--groot2", "0", "--port")
 
 
 def test_a_client_that_never_reads_does_not_hold_the_end_of_the_run(
@@ -113,3 +121,119 @@ def test_a_ros_domain_id_out_of_range_in_the_environment_is_named_as_such(
     with pytest.raises(InputError) as raised:
         Ros2Node("tcp/127.0.0.1:7447")
     assert str(raised.value) == "ROS_DOMAIN_ID=300: ROS domain ids go from 0 to 232"
+
+
+def _rss_mb(pid: int) -> int:
+    with open(f"/proc/{pid}/status") as status:
+        for line in status:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) // 1024
+    return 0
+
+
+def test_blackboard_requests_naming_a_million_names_get_an_error_unsplit() -> None:
+    """Groot2 names the subtree instances whose blackboards it shows, each once. A request
+    of a million ';' gets an error reply at once; it was split into a million names
+    first, tens of milliseconds of the interpreter's lock each time."""
+    pytest.importorskip("zmq")
+    msgpack = pytest.importorskip("msgpack")
+    import py_trees
+    import zmq
+
+    from pirate_bt.clock import SimClock
+    from pirate_bt.interop.groot2_protocol import ERROR, RequestType, pack_request
+    from pirate_bt.interop.groot2_server import Groot2Server, attach_groot2
+    from pirate_bt.runner import Runner
+
+    root = py_trees.composites.Sequence("root", memory=True, children=[])
+    context = zmq.Context()
+    with Groot2Server(port=0) as server:
+        attach_groot2(Runner(root, clock=SimClock()), server)
+        client = context.socket(zmq.REQ)
+        client.connect(f"tcp://127.0.0.1:{server.port}")
+        try:
+            client.send_multipart([pack_request(RequestType.BLACKBOARD), b";" * 1_000_000])
+            assert client.poll(5000)
+            reply = client.recv_multipart()
+            assert reply == [
+                ERROR,
+                b"blackboard: 1000001 names asked, and this tree has 1 blackboard",
+            ]
+            client.send_multipart([pack_request(RequestType.BLACKBOARD), b";root;root"])
+            assert client.poll(5000)
+            reply = client.recv_multipart()
+            assert reply[0] != ERROR and set(msgpack.unpackb(reply[1]) or {}) <= {"", "root"}
+        finally:
+            client.close(linger=0)
+            context.destroy(linger=0)
+
+
+def test_a_groot2_client_flooding_blackboard_requests_costs_a_robot_run_nothing() -> None:
+    """A run on a robot (the simulator behind a TCP link, as a bridge is) with Groot2 on:
+    a client sends blackboard requests of a million names, as fast as it can, and reads
+    no reply. The run succeeds and its process stays small. It lost its link within half
+    a second (each request split a million names, holding the interpreter's lock: the
+    link's threads starved; exit 3, 'link lost: write ... timed out'), and ZeroMQ read
+    ahead 1,000 requests of 1 MiB for the client: 1 GB in the run's process."""
+    zmq = pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "pirate_bt", "sim", "straight", "--tcp", "0"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    run: subprocess.Popen[str] | None = None
+    context = zmq.Context()
+    stop = threading.Event()
+    try:
+        assert sim.stdout is not None
+        url = sim.stdout.readline().split()[0]
+        assert url.startswith("socket://"), url
+        run = subprocess.Popen(
+            [sys.executable, "-m", "pirate_bt", "run", "trees/straight.yaml", *RUN_OPTIONS, url],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert run.stderr is not None
+        said = run.stderr.readline()
+        found = re.search(r":(\d+) \(and", said)
+        assert found, said
+        from pirate_bt.interop.groot2_protocol import RequestType, pack_request
+
+        flood = context.socket(zmq.DEALER)
+        flood.setsockopt(zmq.SNDHWM, 0)
+        flood.connect(f"tcp://127.0.0.1:{found.group(1)}")
+        names = b";" * ((1 << 20) - 100)
+
+        def send() -> None:
+            while not stop.is_set():
+                try:
+                    flood.send_multipart(
+                        [b"", pack_request(RequestType.BLACKBOARD), names], zmq.NOBLOCK
+                    )
+                except zmq.Again:
+                    time.sleep(0.001)
+
+        sender = threading.Thread(target=send, daemon=True)
+        sender.start()
+        peak = 0
+        while run.poll() is None:
+            peak = max(peak, _rss_mb(run.pid))
+            time.sleep(0.2)
+        stop.set()
+        sender.join(5)
+        out, err = run.communicate(timeout=30)
+    finally:
+        stop.set()
+        context.destroy(linger=0)
+        for process in (run, sim):
+            if process is not None and process.poll() is None:
+                process.kill()
+                process.wait()
+    assert run.returncode == 0, err[-2000:]
+    assert "straight: SUCCESS" in out
+    assert peak < 300, peak

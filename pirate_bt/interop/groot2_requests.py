@@ -37,6 +37,12 @@ from pirate_bt.trace.structure import jsonable
 
 __all__: list[str] = []  # parts of Groot2Server (groot2_server.py re-exports what is public)
 
+MAX_NAMES_PER_BOARD = 4
+MAX_NAMES_SPARE = 64
+"""A blackboard request may name each of the tree's blackboards this many times, and
+this many names more (Groot2 names the subtree instances it shows, each once); one
+naming more gets an error reply, unsplit."""
+
 
 class _Requests(_Hooks):
     """The request half of :class:`~pirate_bt.interop.groot2_server.Groot2Server`."""
@@ -97,9 +103,18 @@ class _Requests(_Hooks):
             return _error(f"Unknown error while processing request: {exc}")
         return reply
 
-    def _blackboard(self, run: _Run, names: bytes) -> list[bytes]:
-        # each name once: a request of a million ';' asked for the live blackboard a
-        # million times (seconds of the server's thread, contending with the tick)
+    def _blackboard(self, run: _Run, names: bytes) -> list[bytes] | str:
+        # Counted before they are split: splitting a request of a million ';' into a
+        # million names, and keeping each once, held the interpreter's lock for tens of
+        # milliseconds at a time; a client sending such requests back to back starved
+        # the tick and the link's threads (a run on a robot lost its link in 0.5 s).
+        boards = len(run.served.subtrees) + 2  # and "" and the main tree's ID
+        asked = names.count(b";") + 1
+        if asked > MAX_NAMES_PER_BOARD * boards + MAX_NAMES_SPARE:
+            have = f"{boards - 1} blackboard" + ("s" if boards != 2 else "")
+            return f"blackboard: {asked} names asked, and this tree has {have}"
+        # each name once: a request naming one many times asked for the live blackboard
+        # that many times
         wanted = dict.fromkeys(names.decode("utf-8", "replace").split(";"))
         dump: dict[str, Any] = {}
         main_id = run.served.main_id

@@ -31,6 +31,7 @@ __all__ = [
     "INSTALL_HINT",
     "MAX_REQUEST_BYTES",
     "REPLIES_QUEUED",
+    "REQUESTS_QUEUED",
     "TRANSITIONS_KEPT",
     "Unservable",
 ]
@@ -45,6 +46,9 @@ REPLIES_QUEUED = 4
 Groot2 (a REQ socket) waits for each reply before it asks again; a client that
 asked for the tree thousands of times and never read made ZeroMQ's default (1,000
 a client) hold 1,000 copies of the tree's XML per connection in the run's process."""
+REQUESTS_QUEUED = 4
+"""Requests ZeroMQ reads ahead for one client before the server takes them (more wait in
+the client's TCP connection). Groot2 sends one and waits for its reply."""
 TRANSITIONS_KEPT = 1000
 PRE, POST = 0, 1
 BREAKPOINT, REPLACE = 0, 1

@@ -90,6 +90,7 @@ from pirate_bt.interop.groot2_run import INSTALL_HINT as INSTALL_HINT
 from pirate_bt.interop.groot2_run import (
     MAX_REQUEST_BYTES,
     REPLIES_QUEUED,
+    REQUESTS_QUEUED,
     TRANSITIONS_KEPT,
     _load,
     _Pending,
@@ -150,6 +151,10 @@ class Groot2Server(_Requests):
                 sock.setsockopt(zmq.IPV6, 1)
         self._rep.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
         self._rep.setsockopt(zmq.SNDHWM, REPLIES_QUEUED)
+        # requests read ahead for a client (ZeroMQ's default, 1,000 of up to 1 MiB each,
+        # let one client that sent faster than they were answered make the run's process
+        # hold 1 GB); a client sending more waits, as TCP makes it
+        self._rep.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
         try:
             self.port = self._bind(host, port)
         except BaseException:
