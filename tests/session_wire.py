@@ -7,6 +7,8 @@ back, every answer written by the test (:class:`Wire`), and the frames to answer
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import pytest
 
 from pirate_bt.clock import SimClock
@@ -44,6 +46,30 @@ CONFIG = SessionConfig(
     loss_window=4,
 )
 LOG = "pirate_bt.link.session"
+
+
+class Peer:
+    """A bridge played by the test on a simulated clock that steps it: it answers each
+    host frame with what ``answer(msg)`` returns, and keeps every frame it saw (shared
+    by tests/test_link_leftovers.py and tests/test_link_probe10.py)."""
+
+    def __init__(self, answer: Callable[[Message], list[Message]]) -> None:
+        self.clock = SimClock(8.0)
+        self.host, self.far = memory_pair()
+        self.decoder = FrameDecoder(CODEC)
+        self.seen: list[Message] = []
+        self._answer = answer
+        self.clock.add_listener(self.step)
+
+    def step(self, _now: float) -> None:
+        for msg in self.decoder.feed(self.far.read_available()):
+            if not isinstance(msg, FrameError):
+                self.seen.append(msg)
+                self.far.write(encode_many(CODEC, self._answer(msg)))
+
+    def session(self) -> Session:
+        """The host's session with this bridge (its HELLO answered by :func:`reply`)."""
+        return Session(self.host, CODEC, self.clock, CONFIG, hello_reply=reply())
 
 
 def reply(seq: int = 1, **changes: object) -> HelloReply:

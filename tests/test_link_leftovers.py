@@ -13,10 +13,10 @@ from __future__ import annotations
 import ast
 import inspect
 import itertools
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from session_wire import Peer
 
 import pirate_bt
 from pirate_bt.cli import main
@@ -44,7 +44,6 @@ from pirate_bt.link.codec import (
     cobs_decode,
     cobs_encode,
     crc16,
-    encode_many,
 )
 from pirate_bt.link.inbound import BAD_STATES_BEFORE_MISMATCH
 from pirate_bt.link.opening import wrap_link
@@ -85,28 +84,6 @@ def hello_reply(**changes: object) -> HelloReply:
     }
     fields.update(changes)
     return HelloReply(**fields)  # type: ignore[arg-type]
-
-
-class Peer:
-    """A bridge played by the test, stepped by the simulated clock: it answers what
-    ``answer(msg)`` returns for each host frame, and keeps every frame it saw."""
-
-    def __init__(self, answer: Callable[[Message], list[Message]]) -> None:
-        self.clock = SimClock(8.0)
-        self.host, self.far = memory_pair()
-        self.decoder = FrameDecoder(CODEC)
-        self.seen: list[Message] = []
-        self._answer = answer
-        self.clock.add_listener(self.step)
-
-    def step(self, _now: float) -> None:
-        for msg in self.decoder.feed(self.far.read_available()):
-            if not isinstance(msg, FrameError):
-                self.seen.append(msg)
-                self.far.write(encode_many(CODEC, self._answer(msg)))
-
-    def session(self) -> Session:
-        return Session(self.host, CODEC, self.clock, CONFIG, hello_reply=hello_reply())
 
 
 # -- 1. a fault kind that takes no target refuses one -----------------------------------------

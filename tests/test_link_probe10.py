@@ -16,8 +16,8 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from pirate_bt.clock import SimClock
-from pirate_bt.errors import FrameError
+from session_wire import Peer
+
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
@@ -33,12 +33,9 @@ from pirate_bt.link.codec import (
     HelloReply,
     Message,
     MsgType,
-    encode_many,
 )
 from pirate_bt.link.requests import Outcome, SessionConfig
 from pirate_bt.link.robot_link import RobotLink
-from pirate_bt.link.session import Session
-from pirate_bt.link.testing import memory_pair
 from pirate_bt.robot import ControlMode, MotorCommand, load_robot
 from pirate_bt.sim import Simulator
 
@@ -53,37 +50,6 @@ CONFIG = SessionConfig(
     poll_step_s=0.005,
     loss_window=4,
 )
-
-
-class Peer:
-    """A bridge played by the test on a simulated clock: it answers each host frame
-    with what ``answer(msg)`` returns, and keeps every frame it saw."""
-
-    def __init__(self, answer: Callable[[Message], list[Message]]) -> None:
-        self.clock = SimClock(8.0)
-        self.host, self.far = memory_pair()
-        self.decoder = FrameDecoder(CODEC)
-        self.seen: list[Message] = []
-        self._answer = answer
-        self.clock.add_listener(self.step)
-
-    def step(self, _now: float) -> None:
-        for msg in self.decoder.feed(self.far.read_available()):
-            if not isinstance(msg, FrameError):
-                self.seen.append(msg)
-                self.far.write(encode_many(CODEC, self._answer(msg)))
-
-    def link(self) -> RobotLink:
-        reply = HelloReply(
-            seq=1,
-            layout_digest=LAYOUT.digest,
-            n_channels=LAYOUT.n_channels,
-            n_motors=LAYOUT.n_motors,
-            watchdog_ms=250,
-            boot_id=7,
-            minor=2,
-        )
-        return RobotLink(ROBOT, Session(self.host, CODEC, self.clock, CONFIG, hello_reply=reply))
 
 
 def bridge_with_counters_of(n_boards: int) -> Callable[[Message], list[Message]]:
@@ -110,7 +76,7 @@ def drive_stop() -> list[MotorCommand]:
 
 def test_a_failed_counters_request_does_not_fail_the_next_setpoints() -> None:
     peer = Peer(bridge_with_counters_of(2))  # a COUNTERS for 2 boards: a bad frame
-    link = peer.link()
+    link = RobotLink(ROBOT, peer.session())
     ask = link.session.wait(link.session.request_counters())
     assert ask.outcome is Outcome.FAILED and ask.reply is None  # its own outcome
     link.send_and_wait(drive_stop())  # raised "... last: CountersRequest ..." before
@@ -120,7 +86,7 @@ def test_a_failed_counters_request_does_not_fail_the_next_setpoints() -> None:
 
 def test_a_close_after_a_failed_counters_request_stops_without_an_estop() -> None:
     peer = Peer(bridge_with_counters_of(2))
-    link = peer.link()
+    link = RobotLink(ROBOT, peer.session())
     link.session.wait(link.session.request_counters())
     link.close()
     sent = [type(m) for m in peer.seen if not isinstance(m, Heartbeat | CountersRequest)]
@@ -130,7 +96,7 @@ def test_a_close_after_a_failed_counters_request_stops_without_an_estop() -> Non
 
 def test_counters_of_the_layout_are_still_taken() -> None:
     peer = Peer(bridge_with_counters_of(LAYOUT.n_boards))
-    link = peer.link()
+    link = RobotLink(ROBOT, peer.session())
     ask = link.session.wait(link.session.request_counters())
     assert ask.outcome is Outcome.ACKED and ask.reply is not None
     link.close()
