@@ -27,6 +27,7 @@ pytestmark = pytest.mark.xdist_group("real-time")  # live clients, timed on the 
 
 ROOT = Path(__file__).resolve().parent.parent
 RUN_OPTIONS = ("--param", "distance=0.3m", "--groot2", "0", "--port")
+SIM_OPTIONS = ("--sim", "straight", "--param", "distance=0.5m", "--realtime", "--groot2", "0")
 
 
 def test_a_client_that_never_reads_does_not_hold_the_end_of_the_run(
@@ -237,3 +238,72 @@ def test_a_groot2_client_flooding_blackboard_requests_costs_a_robot_run_nothing(
     assert run.returncode == 0, err[-2000:]
     assert "straight: SUCCESS" in out
     assert peak < 300, peak
+
+
+def _zmtp_subscriber(port: int) -> socket.socket:
+    """A ZeroMQ 3.0 SUB peer on a plain socket (NULL mechanism), ready to subscribe.
+
+    pyzmq's own SUB keeps every subscription in a trie that its destructor walks byte by
+    byte: a 1 MB one overflowed the stack of the test's process."""
+    peer = socket.create_connection(("127.0.0.1", port), timeout=5)
+    peer.sendall(b"\xff" + bytes(8) + b"\x7f\x03\x00NULL" + bytes(48))
+    greeting = b""
+    while len(greeting) < 64:
+        chunk = peer.recv(64 - len(greeting))
+        if not chunk:
+            raise ConnectionError("closed during the greeting")
+        greeting += chunk
+    ready = b"\x05READY\x0bSocket-Type" + (3).to_bytes(4, "big") + b"SUB"
+    peer.sendall(b"\x04" + bytes([len(ready)]) + ready)
+    return peer
+
+
+def test_a_subscriber_flooding_subscriptions_costs_the_run_no_memory() -> None:
+    """A peer on the notice (PUB) port sends subscriptions of 1 MB, as fast as it can:
+    the run's process stays small (Groot2 subscribes once, with one byte). ZeroMQ held
+    them until a breakpoint notice was published, 1,000 of any size: the run's process
+    grew by about 1 GB."""
+    pytest.importorskip("zmq")
+    pytest.importorskip("msgpack")
+    run = subprocess.Popen(
+        [sys.executable, "-m", "pirate_bt", "run", "trees/straight.yaml", *SIM_OPTIONS],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    stop = threading.Event()
+    peak = 0
+    try:
+        assert run.stderr is not None
+        said = run.stderr.readline()
+        found = re.search(r":(\d+) \(and", said)
+        assert found, said
+        notices = int(found.group(1)) + 1
+        body = b"x" * 1_000_000
+
+        def subscribe() -> None:
+            number = 0
+            while not stop.is_set():
+                try:
+                    peer = _zmtp_subscriber(notices)
+                    while not stop.is_set():  # a subscription: a message of 1, then the topic
+                        number += 1
+                        message = b"\x01%d" % number + body
+                        peer.sendall(b"\x02" + len(message).to_bytes(8, "big") + message)
+                except OSError:  # dropped by the server: again
+                    time.sleep(0.01)
+
+        sender = threading.Thread(target=subscribe, daemon=True)
+        sender.start()
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and run.poll() is None and peak < 400:
+            peak = max(peak, _rss_mb(run.pid))
+            time.sleep(0.1)
+        stop.set()
+        sender.join(10)
+    finally:
+        stop.set()
+        run.kill()
+        run.communicate()
+    assert 0 < peak < 150, peak

@@ -30,6 +30,7 @@ from pirate_bt.trace.structure import iter_with_ids
 __all__ = [
     "INSTALL_HINT",
     "MAX_REQUEST_BYTES",
+    "MAX_SUBSCRIPTION_BYTES",
     "REPLIES_QUEUED",
     "REQUESTS_QUEUED",
     "TRANSITIONS_KEPT",
@@ -41,6 +42,10 @@ logger = logging.getLogger("pirate_bt.interop.groot2_server")
 
 INSTALL_HINT = "pip install 'pirate-bt[groot2]'"
 MAX_REQUEST_BYTES = 1 << 20
+MAX_SUBSCRIPTION_BYTES = 1 << 10
+"""The largest subscription the PUB socket takes (Groot2 subscribes to every notice: one
+byte; ZeroMQ 3.1's SUBSCRIBE command adds ten); a peer sending a larger one is
+disconnected by ZeroMQ."""
 REPLIES_QUEUED = 4
 """Replies ZeroMQ holds for one client that does not read them (more are dropped).
 Groot2 (a REQ socket) waits for each reply before it asks again; a client that

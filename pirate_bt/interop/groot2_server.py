@@ -89,6 +89,7 @@ from pirate_bt.interop.groot2_run import BREAKPOINT as BREAKPOINT
 from pirate_bt.interop.groot2_run import INSTALL_HINT as INSTALL_HINT
 from pirate_bt.interop.groot2_run import (
     MAX_REQUEST_BYTES,
+    MAX_SUBSCRIPTION_BYTES,
     REPLIES_QUEUED,
     REQUESTS_QUEUED,
     TRANSITIONS_KEPT,
@@ -155,6 +156,11 @@ class Groot2Server(_Requests):
         # let one client that sent faster than they were answered make the run's process
         # hold 1 GB); a client sending more waits, as TCP makes it
         self._rep.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
+        # A subscriber's subscriptions wait in its pipe until a notice is published (rare):
+        # unbounded, a subscriber sending 1 MB ones as fast as it could grew the run's
+        # process by 15 MB a second (1,000 of any size read ahead); Groot2's is one byte.
+        self._pub.setsockopt(zmq.MAXMSGSIZE, MAX_SUBSCRIPTION_BYTES)
+        self._pub.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
         try:
             self.port = self._bind(host, port)
         except BaseException:
