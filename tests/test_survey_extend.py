@@ -98,3 +98,21 @@ def test_a_survey_out_of_time_stops_safe_and_keeps_what_it_surveyed(tmp_path: Pa
     written = pirate_bt.load_network(out)
     assert written.spec.segments[0].type == "straight"  # the entry run, surveyed in time
     assert "stopped:" in written.spec.description
+
+
+def test_a_second_insertion_turns_into_a_branch_written_as_a_roll(tmp_path: Path) -> None:
+    """The first survey of an as-built lab (``network perturb lab --seed 2 --scale 2``,
+    surveyed with seed 2) wrote tee-1's branch as a roll (the frame twisted by more than
+    5°), not a direction. The second insertion then asked for ``Step('t-joint',
+    direction='None')`` and was refused: the tee on the way forgot the side the IMU
+    found (found by a survey sweep, probe 10)."""
+    data = Path(__file__).parent / "data" / "networks" / "twisted-tee"
+    first = data / "lab-s2-x2-first-survey.yaml"
+    branch = pirate_bt.load_network(first).spec.segments
+    assert any(getattr(s, "branch", None) and s.branch.direction is None for s in branch)
+    out = tmp_path / "whole.yaml"
+    result = pirate_bt.survey(sim=str(data / "lab-s2-x2.yaml"), seed=2, extend=first, output=out)
+    assert result.succeeded and result.exit_code == 0, result.why
+    assert result.unexplored == []
+    assert result.navigation.counters.violations == 0
+    assert "tee-1's branch by a second insertion" in pirate_bt.load_network(out).spec.description

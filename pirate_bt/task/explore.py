@@ -370,7 +370,10 @@ class ExploreNavigator:
             segment = self._extension.stub
             self._way = None
             self._counts = dict(self._extension.counts)
-        self._target = PendingTee(segment, start, diameter, self._slope_deg, depth=len(self._trail))
+        # the side the IMU found: the surveyed file may hold the branch as a roll only
+        self._target = PendingTee(
+            segment, start, diameter, self._slope_deg, depth=len(self._trail), imu_side=side
+        )
         return self._return(obs)
 
     # -- the end of a line, and the way back to a branch
