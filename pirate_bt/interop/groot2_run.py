@@ -33,6 +33,8 @@ __all__ = [
     "MAX_SUBSCRIPTION_BYTES",
     "REPLIES_QUEUED",
     "REQUESTS_QUEUED",
+    "REST_MAX_S",
+    "REST_PER_CPU",
     "TRANSITIONS_KEPT",
     "Unservable",
 ]
@@ -54,6 +56,11 @@ a client) hold 1,000 copies of the tree's XML per connection in the run's proces
 REQUESTS_QUEUED = 4
 """Requests ZeroMQ reads ahead for one client before the server takes them (more wait in
 the client's TCP connection). Groot2 sends one and waits for its reply."""
+REST_PER_CPU = 4
+"""After each request the server's thread rests this many times the CPU time the request
+took: at most a fifth of the interpreter, whatever a client sends."""
+REST_MAX_S = 0.1
+"""The longest rest after one request (a large tree's XML, made at the first request)."""
 TRANSITIONS_KEPT = 1000
 PRE, POST = 0, 1
 BREAKPOINT, REPLACE = 0, 1

@@ -15,7 +15,9 @@ same per-tick reading that counts coverage
 (:class:`~pirate_bt.trace.coverage.CoverageRecorder`: statuses as BT.CPP would
 show them), and, while Groot2 records, appends the tick's transitions to a
 bounded buffer (1,000, as BT.CPP). Requests are answered from those buffers
-under a short lock; a reply that fails is logged and never reaches the tick.
+under a short lock; a reply that fails is logged and never reaches the tick. After
+each request the thread rests four times the CPU time it took, so that no client takes
+more than a fifth of the interpreter the tick runs in.
 Requests larger than 1 MiB are dropped by ZeroMQ before they are read.
 
 **Hooks meet the protective layer.** A hook is installed on its node before the
@@ -92,6 +94,8 @@ from pirate_bt.interop.groot2_run import (
     MAX_SUBSCRIPTION_BYTES,
     REPLIES_QUEUED,
     REQUESTS_QUEUED,
+    REST_MAX_S,
+    REST_PER_CPU,
     TRANSITIONS_KEPT,
     _load,
     _Pending,
@@ -366,11 +370,21 @@ class Groot2Server(_Requests):
                     self._rep.send_multipart(envelope + reply)
                 except zmq.ZMQError as exc:
                     logger.warning("Groot2: could not send a reply: %s", exc)
+                self._rest(time.thread_time() - self.cpu_s)
             except Exception:
                 if self._stop.is_set():
                     return
                 logger.exception("Groot2: the server loop failed; it goes on")
                 time.sleep(0.05)
+
+    def _rest(self, spent_s: float) -> None:
+        """After a request, rest :data:`REST_PER_CPU` times the CPU time it took (at most
+        :data:`REST_MAX_S`): the server's thread shares the interpreter's lock with the
+        tick and the link's threads, and a client asking as fast as it can (requests
+        of 1 MiB, back to back) must not take more than a fifth of it. Groot2's polls
+        take a tenth of a millisecond: it never notices."""
+        if spent_s > 0:
+            self._stop.wait(min(REST_MAX_S, spent_s * REST_PER_CPU))
 
     def _publish(self) -> None:
         while self._notices:
