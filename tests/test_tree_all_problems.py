@@ -283,3 +283,16 @@ root:
     assert all("has a leading zero" in line for line in lines[:-1])
     assert lines[-1] == f"{path}:12:20: {WAIT_2_MM}"
     assert [f"{path}:{problem}" for problem in _load(path)] == lines
+
+
+def test_a_misspelt_value_given_is_said_before_the_parameter_it_leaves_out(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # both are said, the caller's first: the misspelling is why 'distance' is missing
+    # (sorted by file, the tree's first, the missing one came first and hid the cause)
+    from pirate_bt.cli import main
+
+    assert main(["run", "straight", "--sim", "straight", "--param", "distanse=1 m"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[0].startswith("pirate-bt: --param:1:1: unknown parameter 'distanse'")
+    assert lines[1].endswith("parameter 'distance' has no default and was not given")

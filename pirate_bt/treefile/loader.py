@@ -226,7 +226,10 @@ def load_tree(
         errors = reader.errors or [LocatedError("tree could not be read", SourceLocation(doc.file))]
         if reader.blanked:  # a check that met a value YAML refused (said) is no problem
             errors = [e for e in errors if not shows_blank(e.message)] or errors
-        raise ValidationFailed(_in_file_order(errors, doc.file))
+        # what the caller gave first (a misspelt --param or a spec's params: the cause
+        # of a parameter then left out), then the tree's file, then the others
+        first = (given_loc.file, doc.file) if given else (doc.file,)
+        raise ValidationFailed(_in_file_order(errors, *first))
     context = BuildContext(robot=robot, clock=clock or WallClock(), supervisor=supervisor)
     try:
         root = build(spec, context)
@@ -248,12 +251,12 @@ def load_tree(
     )
 
 
-def _in_file_order(errors: list[LocatedError], first: str) -> list[LocatedError]:
+def _in_file_order(errors: list[LocatedError], *first: str) -> list[LocatedError]:
     """``errors`` without repeats, each file's in the order of its lines and columns:
-    the file ``first`` (the tree's), then the others in the order their first problem
-    was found (subtree files, ``--param``)."""
+    the files ``first`` in that order (the caller's values, the tree's), then the
+    others in the order their first problem was found (subtree files)."""
     unique = unique_errors(errors)
-    rank: dict[str, int] = {first: 0}
+    rank: dict[str, int] = {name: i for i, name in enumerate(dict.fromkeys(first))}
     for error in unique:
         rank.setdefault(error.location.file, len(rank))
     return sorted(unique, key=lambda e: (rank[e.location.file], e.location.line, e.location.column))
