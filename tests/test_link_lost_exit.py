@@ -40,8 +40,12 @@ def test_a_link_lost_mid_run_is_a_link_error_with_its_cause() -> None:
             server.stop()
     assert result.status == "failure"
     assert result.safe_state
-    # a read or a write notices first, as the timing goes
-    assert result.why.startswith(("link lost: ", "link error while sending: ")), result.why
+    # a read or a write notices first, as the timing goes; on a loaded machine the
+    # silence can be noticed first (the readings stale before the closed socket is
+    # read, seen once in a fresh clone's suite): a link error too, exit 3
+    assert result.why.startswith(
+        ("link lost: ", "link error while sending: ", "link_silent: nothing heard")
+    ), result.why
     assert isinstance(result.error, LinkError)
     assert result.exit_code == 3
     assert result.sim_time_s < 10  # stopped on the loss, not at the time limit

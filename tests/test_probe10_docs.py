@@ -189,10 +189,14 @@ def test_a_missing_or_folder_route_is_worded_as_a_missing_tree(
         pirate_bt.load_route(str(missing))
 
 
-def test_a_route_given_as_a_network_says_a_network_is_a_yaml_file() -> None:
+def test_a_route_given_as_a_network_says_a_network_is_a_yaml_file(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     # connect()'s target may be "a network file"; a route file there (it exists) was
-    # "no network 'scenarios/lab.route'", as if the file were missing
-    route = str(REPO / "scenarios" / "lab.route")
+    # "no network 'scenarios/lab.route'", as if the file were missing. Named from the
+    # repository (a long name is cut short in the message, wherever the clone is).
+    monkeypatch.chdir(REPO)
+    route = "scenarios/lab.route"
     with pytest.raises(pirate_bt.InputError) as caught:
         pirate_bt.connect(route)
     assert f"no network {route!r}: a network file ends in .yaml; bundled networks:" in str(
