@@ -263,14 +263,20 @@ def test_local_and_dask_cluster_give_the_same_rows(
     assert any(r["retries"] > 0 for r in local if r["drop"] > 0)
 
 
-def test_missing_scheduler_is_bad_input(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+def test_missing_scheduler_is_bad_input(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     spec = _write(tmp_path, SMALL)
     nobody = ["--scheduler", "tcp://127.0.0.1:9", "--quiet"]
+    monkeypatch.chdir(tmp_path)  # the default output folder, campaign-small/, is made here
     code = main(["campaign", str(spec), *nobody, "--scheduler-timeout", "1 s"])
     assert code == 2
     err = capsys.readouterr().err
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err, err
     assert "after 1 s" in err  # as long as asked, not the default 10 s
+    # nothing ran: the folder the command made is taken away again (it was left empty,
+    # in the repository's root when the suite ran from there)
+    assert not (tmp_path / "campaign-small").exists()
     assert main(["campaign", str(spec), *nobody, "--scheduler-timeout", "0 s"]) == 2
     assert "--scheduler-timeout must be positive" in capsys.readouterr().err  # its option
 
