@@ -14,11 +14,11 @@ import contextlib
 import errno
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["cut_name", "write_atomically"]
+__all__ = ["cut_name", "new_folders_undone", "write_atomically"]
 
 
 def cut_name(name: str, limit: int = 64) -> str:
@@ -82,3 +82,23 @@ def write_atomically(
             os.unlink(temp)
         raise
     return target
+
+
+@contextlib.contextmanager
+def new_folders_undone(folder: str | Path) -> Iterator[None]:
+    """Run the block; when it raises, take away again, innermost first, the folders on
+    the way to ``folder`` (itself included) that did not exist when it began and are
+    still empty: an output that failed before anything was written in it leaves no
+    folder behind (a refused import, a campaign whose scheduler never answered). The
+    block makes them as it needs them."""
+    target = Path(folder)
+    made = [p for p in (target, *target.parents) if not p.exists()]
+    try:
+        yield
+    except BaseException:
+        for path in made:  # one that holds anything stays, and so do those above it
+            try:
+                path.rmdir()
+            except OSError:
+                break
+        raise

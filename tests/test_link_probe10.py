@@ -16,7 +16,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from session_wire import Peer
+from session_wire import CODEC, LAYOUT, ROBOT, Peer
 
 from pirate_bt.link.codec import (
     Ack,
@@ -26,7 +26,6 @@ from pirate_bt.link.codec import (
     Counters,
     CountersRequest,
     EStop,
-    FrameCodec,
     FrameDecoder,
     Heartbeat,
     Hello,
@@ -34,22 +33,10 @@ from pirate_bt.link.codec import (
     Message,
     MsgType,
 )
-from pirate_bt.link.requests import Outcome, SessionConfig
+from pirate_bt.link.requests import Outcome
 from pirate_bt.link.robot_link import RobotLink
-from pirate_bt.robot import ControlMode, MotorCommand, load_robot
+from pirate_bt.robot import ControlMode, MotorCommand
 from pirate_bt.sim import Simulator
-
-ROBOT = load_robot()
-CODEC = FrameCodec.for_robot(ROBOT)
-LAYOUT = CODEC.layout
-CONFIG = SessionConfig(
-    ack_timeout_s=0.0625,
-    max_retries=2,
-    heartbeat_period_s=0.125,
-    link_timeout_s=0.5,
-    poll_step_s=0.005,
-    loss_window=4,
-)
 
 
 def bridge_with_counters_of(n_boards: int) -> Callable[[Message], list[Message]]:

@@ -28,12 +28,13 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from pirate_bt.atomic import new_folders_undone
 from pirate_bt.campaign.case import OUTCOMES
 from pirate_bt.campaign.cases import (
     DEFAULT_MAX_CASES,
@@ -439,34 +440,11 @@ def run_campaign(
     reach_s = case_timeout_s(scheduler_timeout, "scheduler_timeout") or 10.0  # at most a week
     cases, inputs = _checked(model, source.base, max_cases)
     folder = Path(output) if output is not None else None
-    # the folders this call makes: taken away again if it fails before writing in them
-    # (a scheduler nobody answers left an empty campaign-NAME/ behind)
-    made = [p for p in (folder, *folder.parents) if not p.exists()] if folder else []
-    try:
-        return _started(
-            model, cases, inputs, count, folder, resume, timeout_s, workers, executor,
-            scheduler, scheduler_file, reach_s, command, spec, echo, progress, on_record,
-            target, started,
-        )  # fmt: skip
-    except BaseException:
-        for made_folder in made:  # innermost first; one that holds anything stays
-            try:
-                made_folder.rmdir()
-            except OSError:
-                break
-        raise
-
-
-def _started(
-    model: Any, cases: list[dict[str, Any]], inputs: list[Path], count: int,
-    folder: Path | None, resume: bool, timeout_s: float | None, workers: int | None,
-    executor: Any, scheduler: Any, scheduler_file: Any, reach_s: float, command: str | None,
-    spec: Any, echo: Any, progress: bool, on_record: Any, target: Any, started: float,
-) -> CampaignResult:  # fmt: skip
-    """:func:`run_campaign` once its arguments are checked: the folder made its own
-    (locked, checked, its start recorded), then the cases run."""
     start = Start(timeout_s, None)
-    with ExitStack() as lock:
+    # the folders this call makes are taken away again if it fails before writing in
+    # them (a scheduler nobody answers left an empty campaign-NAME/ behind)
+    undone = new_folders_undone(folder) if folder is not None else nullcontext()
+    with undone, ExitStack() as lock:
         if folder is not None:
             check_output(folder, resume, cases)  # before any worker starts, warning of no line
             # one campaign at a time in a folder: two started together both passed the

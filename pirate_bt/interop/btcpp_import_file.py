@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from pirate_bt.atomic import new_folders_undone
 from pirate_bt.errors import (
     InputError,
     LocatedError,
@@ -27,6 +28,7 @@ from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
 
 if TYPE_CHECKING:
+    from pirate_bt.robot.description import RobotDescription
     from pirate_bt.treefile import LoadedTree
 
 __all__ = ["import_xml", "load_xml_tree"]
@@ -134,7 +136,6 @@ def import_xml(
     """
     from pirate_bt.robot.description import RobotDescription
     from pirate_bt.robot.loader import load_robot
-    from pirate_bt.treefile import load_tree
 
     source = file_argument(xml_path, "xml_path")
     output_file(out_path, "out_path")
@@ -148,45 +149,51 @@ def import_xml(
     folder = out.parent if str(out.parent) else Path(".")
     # A missing folder is made, as for every other output of the library, and taken
     # away again when the tree does not load: a refused import leaves nothing.
-    made = [p for p in (folder, *folder.parents) if not p.exists()]
+    with new_folders_undone(folder):
+        _write_loaded(out, folder, text, where, description, reg)
+    return out
+
+
+def _write_loaded(
+    out: Path,
+    folder: Path,
+    text: str,
+    where: dict[tuple[str | int, ...], SourceLocation],
+    robot: RobotDescription,
+    registry: Registry,
+) -> None:
+    """Write ``text`` to ``out`` through a temporary file in ``folder`` (made if
+    missing), once it loads as a tree for ``robot``; nothing is left when it does not.
+
+    Raises:
+        InputError: the file cannot be written.
+        ValidationFailed: the tree does not load (each problem at its XML element).
+    """
+    from pirate_bt.treefile import load_tree
+
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(
             prefix=f".{cut_name(out.stem)}.", suffix=".yaml", dir=folder
         )
     except OSError as exc:
-        _remove_folders(made)
         raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
     tmp = Path(tmp_name)
-    written = False
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             stream.write(text)
         try:
-            load_tree(tmp, robot=description, use_examples=True, registry=reg)
+            load_tree(tmp, robot=robot, use_examples=True, registry=registry)
         except ValidationFailed as exc:
             raise ValidationFailed(_in_xml(exc.errors, tmp, where)) from None
         mask = os.umask(0o022)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, out)
-        written = True
     except OSError as exc:
         raise InputError(f"{out}: cannot write: {exc.strerror or exc}") from None
     finally:
         tmp.unlink(missing_ok=True)
-        if not written:
-            _remove_folders(made)
-    return out
-
-
-def _remove_folders(made: list[Path]) -> None:
-    """Take away the folders an import made (innermost first), if still empty."""
-    for folder in made:
-        try:
-            folder.rmdir()
-        except OSError:
-            return
 
 
 def load_xml_tree(
