@@ -16,6 +16,7 @@ from typing import Any
 from pirate_bt.api.navigation import navigate
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate import NavigationResult
+from pirate_bt.task.navigate_result import steps_text
 
 __all__ = ["SurveyResult", "survey"]
 
@@ -46,9 +47,19 @@ class SurveyResult:
         return self.navigation.succeeded
 
     @property
+    def status(self) -> str:
+        """``"success"`` or ``"failure"``, as every other result's (the navigation's)."""
+        return self.navigation.status
+
+    @property
     def why(self) -> str:
         """The first cause of the end (the failing step's, or what was not surveyed)."""
         return self.navigation.why
+
+    @property
+    def failing_node(self) -> str | None:
+        """Path of the node where the step named first in :attr:`why` failed, if one did."""
+        return self.navigation.failing_node
 
     @property
     def exit_code(self) -> int:
@@ -82,7 +93,7 @@ class SurveyResult:
         verb = "SUCCESS" if self.succeeded else "FAILURE"
         return (
             f"survey: {verb} - {self.why} ({found}{where};"
-            f" {self.navigation.steps} steps, {self.navigation.sim_time_s:.1f} s clock,"
+            f" {steps_text(self.navigation.steps)}, {self.navigation.sim_time_s:.1f} s clock,"
             f" {self.navigation.wall_s:.1f} s wall)"
         )
 

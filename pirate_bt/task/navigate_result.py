@@ -104,8 +104,9 @@ class NavigationResult:
         verb = "SUCCESS" if self.succeeded else "FAILURE"
         truth = "" if self.truth_m is None else f", truly {self.truth_m:.2f} m"
         return (
-            f"navigator {self.navigator}: {verb} - {self.why} ({self.steps} steps,"
-            f" {len(self.pabs)} PABs, {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
+            f"navigator {self.navigator}: {verb} - {self.why} ({steps_text(self.steps)},"
+            f" {len(self.pabs)} PAB{'' if len(self.pabs) == 1 else 's'},"
+            f" {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
             f" believed at {self.belief_m:.2f} m{truth})"
         )
 

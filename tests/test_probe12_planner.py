@@ -1,0 +1,39 @@
+"""What a planner writing scripts from the manual alone ran into (probe 12).
+
+Each test is a short run on the simulator, as a script from the manual would make it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pirate_bt
+from pirate_bt import Observation, Step
+
+
+class _Metre:
+    """One straight metre, then done."""
+
+    def next_step(self, obs: Observation) -> Step | None:
+        return Step("straight", distance="0.3 m") if obs.step < 1 else None
+
+
+def test_a_survey_result_has_status_and_failing_node_as_every_result(tmp_path: Path) -> None:
+    # a planner reads result.status on every result; SurveyResult raised AttributeError
+    done = pirate_bt.survey(sim="straight", output=tmp_path / "s.yaml")
+    assert done.status == "success" == done.navigation.status
+    assert done.failing_node is None
+    stopped = pirate_bt.survey(
+        sim="straight", output=tmp_path / "t.yaml", faults="motor_stall:bend_1_drive@3s+60s"
+    )
+    assert stopped.status == "failure"
+    assert stopped.why.startswith("stall: bend_1_drive")
+    assert stopped.failing_node == stopped.navigation.failing_node
+    assert stopped.failing_node is not None and "drive straight" in stopped.failing_node
+
+
+def test_summaries_count_one_step_and_one_pab_in_the_singular() -> None:
+    # was "(1 steps, 1 PABs, ...)"
+    result = pirate_bt.navigate(_Metre(), sim="straight")
+    assert result.steps == 1 and len(result.pabs) == 1
+    assert "(1 step, 1 PAB, " in result.summary()
