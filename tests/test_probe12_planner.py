@@ -37,3 +37,14 @@ def test_summaries_count_one_step_and_one_pab_in_the_singular() -> None:
     result = pirate_bt.navigate(_Metre(), sim="straight")
     assert result.steps == 1 and len(result.pabs) == 1
     assert "(1 step, 1 PAB, " in result.summary()
+
+
+def test_simulate_tree_takes_a_network_spec_as_simulate_mission_does() -> None:
+    # perturb_network returns a NetworkSpec: simulate_mission(truth=...), navigate(sim=...)
+    # and survey(sim=...) took it, simulate_tree refused it (ArgumentTypeError)
+    from pirate_bt.pipes.asbuilt import perturb_network
+
+    spec = perturb_network(pirate_bt.load_network("straight").spec, seed=2)
+    result = pirate_bt.simulate_tree("straight", network=spec, params={"distance": "0.2 m"})
+    assert result.status == "success"
+    assert result.target == f"simulator: {spec.name}"

@@ -73,7 +73,8 @@ def simulate_tree(
         tree: A tree file or bundled name (``"bend"``), a mapping, a ``LoadedTree``,
             or a ``py_trees`` behaviour built in Python.
         network: The pipe network the simulator runs: a bundled name (``"lab"``), a
-            file, or a ``Network``.
+            file, a ``NetworkSpec`` (an as-built variant from ``perturb_network``) or a
+            ``Network``.
         params: The tree's parameters, as on the command line (``{"roll": "90 deg"}``;
             numbers are SI).
         seed: The simulator's seed (and the link faults').
@@ -132,12 +133,14 @@ def simulate_tree(
     if isinstance(network, str | Path):
         file_name(network, "network")
     else:
-        from pirate_bt.pipes import Network
+        from pirate_bt.pipes import Network, NetworkSpec
 
+        if isinstance(network, NetworkSpec):  # perturb_network's, as simulate_mission's truth
+            network = Network(network)
         if not isinstance(network, Network):
             raise ArgumentTypeError(
                 "simulate_tree: network: give a bundled name, a network file or a Network"
-                f" (pirate_bt.load_network), not {shown(network)}"
+                f" (pirate_bt.load_network; or its NetworkSpec), not {shown(network)}"
             )
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
