@@ -48,3 +48,13 @@ def test_simulate_tree_takes_a_network_spec_as_simulate_mission_does() -> None:
     result = pirate_bt.simulate_tree("straight", network=spec, params={"distance": "0.2 m"})
     assert result.status == "success"
     assert result.target == f"simulator: {spec.name}"
+
+
+def test_a_mission_stopped_by_the_supervisor_names_its_pab_by_path() -> None:
+    # a board reset stops a mission on stale data: failing_node was the PAB's bare label
+    # ('03 T-joint left (tee) (line 5)'), where a stall or a disagreement gives the path
+    mission = pirate_bt.simulate_mission("t-joint", faults="board_reset:22@30s")
+    assert mission.why.startswith("stale data: bend_1_angle")
+    assert mission.failing_node == "mission/route/03 T-joint left (tee) (line 5)"
+    assert mission.failed_pab is not None
+    assert mission.failing_node.endswith("/" + mission.failed_pab.label)

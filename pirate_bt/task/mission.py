@@ -402,14 +402,14 @@ def _why(
     if run.succeeded:
         return f"mission completed: {len(outcomes)} PABs, {run.message}", None, False
     stopped = next((p for p in outcomes if p.outcome in ("failure", "stopped")), None)
+    # the PAB's path from the root, as a node's inside it is (not its bare label)
+    where = f"{route_path(root.children[-1])}/{stopped.label}" if stopped is not None else None
     if mismatch is not None:
-        route = root.children[-1]
-        where = f"{route_path(route)}/{stopped.label}" if stopped is not None else None
         return mismatch, where, False
     if stopped is not None and stopped.outcome == "failure":
         planned = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
         named = map_cause(stopped, planned.get(stopped.label), localiser.belief_m)
-        return named or stopped.why, stopped.failing_node or stopped.label, named is not None
+        return named or stopped.why, stopped.failing_node or where, named is not None
     return (*explain_run(run, root, tally.first_safe_state), False)
 
 
