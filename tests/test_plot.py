@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from pirate_bt.cli import main
-from pirate_bt.errors import InputError
+from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.render.plot import pab_nodes, plot_series, plot_trace, strip_labels
 from pirate_bt.trace import read_trace
 
@@ -140,3 +140,19 @@ def test_a_bad_window_is_bad_input(
     if end is not None:
         args += ["--to", str(end)]
     assert main(args) == 2
+
+
+def test_plot_trace_takes_a_trace_file_and_refuses_what_is_neither(
+    mission: Path, tmp_path: Path
+) -> None:
+    # a planner script gave the trace's path (docs probe 12): AttributeError from inside
+    pytest.importorskip("matplotlib")
+    plot_trace(mission, tmp_path / "by_path.png")
+    plot_trace(read_trace(mission), tmp_path / "by_trace.png")
+    assert (tmp_path / "by_path.png").read_bytes() == (tmp_path / "by_trace.png").read_bytes()
+    for wrong in (None, 3):
+        with pytest.raises(ArgumentTypeError, match=r"give a Trace .* or the path of a trace"):
+            plot_trace(wrong, tmp_path / "x.png")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"nowhere\.jsonl"):
+        plot_trace(tmp_path / "nowhere.jsonl", tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()

@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import ArgumentTypeError, ConfigurationError, InputError
 from pirate_bt.render.files import write_file
-from pirate_bt.trace.reader import Trace
+from pirate_bt.trace.reader import Trace, read_trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 
 __all__ = ["PlotSeries", "StepSpan", "pab_nodes", "plot_series", "plot_trace", "strip_labels"]
@@ -289,7 +289,7 @@ def _strip(ax: Any, spans: list[StepSpan], px_per_s: float, dpi: float, what: st
 
 
 def plot_trace(
-    trace: Trace,
+    trace: Trace | str | Path,
     out: str | Path,
     title: str | None = None,
     *,
@@ -299,7 +299,8 @@ def plot_trace(
     """Draw the joints, clamps, speed and rotation of a run to a PNG (or SVG/PDF) file.
 
     Args:
-        trace: The trace, from :func:`~pirate_bt.trace.reader.read_trace`.
+        trace: The trace, from :func:`~pirate_bt.trace.reader.read_trace`, or the
+            path of a trace file, which is read so.
         out: The picture's path; the format follows the suffix (``.png`` usually).
         title: A title; defaults to the tree's name and outcome.
         start_s: Zoom: the first second of trace time to draw (default: the start).
@@ -311,11 +312,20 @@ def plot_trace(
 
     Raises:
         ConfigurationError: matplotlib is not installed.
-        InputError: the window is empty or outside the trace, or ``out`` has no
-            suffix matplotlib writes (``.png``, ``.svg``, ``.pdf``...).
+        ArgumentTypeError: ``trace`` is neither a ``Trace`` nor a path.
+        InputError: the trace file cannot be read (its line and column), the window
+            is empty or outside the trace, or ``out`` has no suffix matplotlib writes
+            (``.png``, ``.svg``, ``.pdf``...).
         OSError: the picture cannot be written (nothing is left of the attempt: it
             is written whole to a temporary file and renamed).
     """
+    if isinstance(trace, str | Path):
+        trace = read_trace(trace)
+    elif not isinstance(trace, Trace):
+        raise ArgumentTypeError(
+            f"plot_trace: trace: give a Trace (pirate_bt.read_trace) or the path of a trace"
+            f" file, not {type(trace).__name__}"
+        )
     duration = trace.duration_s
     lo = 0.0 if start_s is None else start_s
     hi = duration if end_s is None else end_s
