@@ -269,6 +269,12 @@ def test_fault_text_and_checks() -> None:
         parse_fault("meteor@3s")
     with pytest.raises(InputError):
         parse_fault("board_reset@3s")
+    # at 0 s is a time (the start); a negative one was "times must be positive" (probe 12)
+    assert parse_fault("link_loss@0s").at == 0.0
+    with pytest.raises(InputError, match=r"its time must not be negative$"):
+        parse_fault("link_loss@-1s")
+    with pytest.raises(InputError, match=r"its duration must be positive$"):
+        parse_fault("motor_stall:bend_1_drive@1s+0s")
     with pytest.raises(ConfigurationError, match="unknown motor"):
         Simulator("straight", ROBOT, faults=["motor_stall:warp_drive@1s"])
 

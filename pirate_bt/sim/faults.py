@@ -157,8 +157,10 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
         )
     except UnitError as exc:
         raise InputError(f"{prefix}bad fault {shown(text)}: {exc}") from None
-    if at < 0 or (duration is not None and duration <= 0):
-        raise InputError(f"{prefix}bad fault {shown(text)}: times must be positive")
+    if at < 0:
+        raise InputError(f"{prefix}bad fault {shown(text)}: its time must not be negative")
+    if duration is not None and duration <= 0:
+        raise InputError(f"{prefix}bad fault {shown(text)}: its duration must be positive")
     return FaultSpec(kind=kind, at=at, duration=duration, target=target)
 
 
