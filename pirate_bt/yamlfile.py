@@ -106,6 +106,14 @@ _BOOL_TAG = "tag:yaml.org,2002:bool"
 _STR_TAG = "tag:yaml.org,2002:str"
 _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 _FLOAT_TAG = "tag:yaml.org,2002:float"
+_NULL_TAG = "tag:yaml.org,2002:null"
+_TEXT_KEYS = (_BOOL_TAG, _INT_TAG, _FLOAT_TAG, _NULL_TAG, _TIMESTAMP_TAG)
+"""What YAML 1.1 reads a plain key as (``on``, ``1``, ``1.5``, ``~``, a date): a key is
+its text, in every file kind (``1:`` is the key ``'1'``, as ``"1":`` is)."""
+_TAGGED = {_BOOL_TAG: "true or false", _INT_TAG: "a whole number", _FLOAT_TAG: "a number"}
+"""What a value tagged ``!!bool``, ``!!int`` or ``!!float`` must be: PyYAML builds
+``!!int abc`` with a bare ValueError (``!!bool 3`` a KeyError), located nowhere."""
+_BUILD = yaml.constructor.SafeConstructor()
 _SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(:[0-5]?[0-9])+(\.[0-9_]*)?")
 """A YAML 1.1 base-60 number (``1:30`` is 90), which YAML 1.2 reads as text."""
 _OCTAL = re.compile(r"[-+]?0[0-7_]+")
@@ -118,6 +126,22 @@ _NOT_JSON: dict[str, str] = {
 }
 """Tags whose values are no JSON value (every file kind is described by a JSON Schema);
 a check would see them as something else (bytes pass as text) and a writer fails on them."""
+
+
+def _unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
+    """A value whose explicit tag its text does not fit (``!!int abc``, ``!!bool 3``)."""
+    if node.tag not in _TAGGED:
+        return None
+    try:
+        _BUILD.yaml_constructors[node.tag](_BUILD, node)
+    except (ValueError, KeyError, IndexError):
+        tag = node.tag.rsplit(":", 1)[-1]
+        return LocatedError(
+            f"a YAML !!{tag} value is {_TAGGED[node.tag]}, not {shown(node.value)}",
+            SourceLocation(file, *_mark(node)),
+        )
+    return None
+
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
@@ -316,25 +340,28 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                         SourceLocation(locator.file, *_mark(node)),
                     )
                 )
+                continue
+            problem = _unfit(node, locator.file)
+            if problem is not None:
+                errors.append(problem)
             continue
         items: list[tuple[PathKey, yaml.Node]] = []
         if isinstance(node, yaml.MappingNode):
             seen: dict[Any, yaml.Node] = {}
             for i, (key_node, value_node) in enumerate(node.value):
-                if isinstance(key_node, yaml.ScalarNode) and key_node.tag == _BOOL_TAG:
+                problem = _yaml11_number(key_node, locator.file)
+                if problem is not None:
+                    errors.append(problem)
+                    continue
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag in _TEXT_KEYS:
                     # YAML 1.1 reads a bare key ``on``, ``off``, ``yes``, ``no``, ``y``,
-                    # ``n`` as a boolean: a key is its text (a value keeps its meaning).
+                    # ``n`` as a boolean, ``1`` as a number, ``~`` as null: a key is its
+                    # text (a value keeps its meaning; ``!!int abc:`` is the key 'abc').
                     # A new node: an anchored key may also be used as a value.
                     key_node = yaml.ScalarNode(
                         _STR_TAG, key_node.value, key_node.start_mark, key_node.end_mark
                     )
                     node.value[i] = (key_node, value_node)
-                if key_node.tag == _TIMESTAMP_TAG:
-                    key_node.tag = _STR_TAG  # as for a value (below)
-                problem = _yaml11_number(key_node, locator.file)
-                if problem is not None:
-                    errors.append(problem)
-                    continue
                 if key_node.tag in _NOT_JSON:
                     errors.append(_not_json(key_node, locator.file))
                     continue

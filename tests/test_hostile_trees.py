@@ -117,11 +117,12 @@ def test_a_large_file_without_aliases_is_not_called_an_alias_bomb(
 def test_a_subtree_name_that_is_not_text(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    # a key is its text (docs/trees.md): the subtree written `1:` is the subtree '1'
+    # (before probe 12 it was the number 1, refused as "subtree name 1 must be text")
     code, err = _validate(
         tmp_path, capsys, "root: {type: subtree, ref: '1'}\nsubtrees:\n  1: {root: success}\n"
     )
-    assert code == 2
-    assert err == [_where(tmp_path, "3:3") + "subtree name 1 must be text"]
+    assert (code, err) == (0, [])
     code, err = _validate(tmp_path, capsys, "root: {type: subtree, ref: a}\nsubtrees: [a]\n")
     assert code == 2
     assert err == [_where(tmp_path, "2:1") + "subtrees: a mapping of name -> tree"]
