@@ -38,6 +38,7 @@ import yaml
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 
 __all__ = [
+    "HIDDEN_BREAK",
     "Locator",
     "YamlDocument",
     "check_depth",
@@ -126,6 +127,42 @@ _NOT_JSON: dict[str, str] = {
 }
 """Tags whose values are no JSON value (every file kind is described by a JSON Schema);
 a check would see them as something else (bytes pass as text) and a writer fails on them."""
+
+
+_HIDDEN_BREAKS = {
+    "\x0b": ("a vertical tab", "\\v"),
+    "\x0c": ("a form feed", "\\f"),
+    "\x1c": ("a file separator", "\\x1C"),
+    "\x1d": ("a group separator", "\\x1D"),
+    "\x1e": ("a record separator", "\\x1E"),
+    "\x85": ("a next-line character", "\\N"),
+    "\u2028": ("a line separator", "\\L"),
+    "\u2029": ("a paragraph separator", "\\P"),
+}
+"""Characters a reader takes for a line break and an editor does not show as one (and
+how double-quoted YAML text writes each): YAML 1.1 (libyaml) breaks lines at the last
+three, Python's ``str.splitlines`` (a route) at all. Text after one in a comment would be
+read as a line of its own, and every place after it would be a line off."""
+HIDDEN_BREAK = re.compile("[" + "".join(_HIDDEN_BREAKS) + "]")
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+
+def _hidden_break(text: str, name: str, what: str) -> None:
+    """Refuse the first character of :data:`_HIDDEN_BREAKS` in ``text`` (a ``what``
+    file), at its line and column as an editor shows them (lines end at LF, CR LF, CR)."""
+    match = HIDDEN_BREAK.search(text)
+    if match is None:
+        return
+    before = text[: match.start()]
+    breaks = list(_LINE_BREAK.finditer(before))
+    column = len(before) - (breaks[-1].end() if breaks else 0) + 1
+    label, escape = _HIDDEN_BREAKS[match.group()]
+    hint = f"; in double-quoted text write {escape}" if what == "YAML" else ""
+    message = (
+        f"U+{ord(match.group()):04X} ({label}) is not allowed in {what} text: a reader takes"
+        f" it for a line break, an editor does not{hint}"
+    )
+    raise ValidationFailed([LocatedError(message, SourceLocation(name, len(breaks) + 1, column))])
 
 
 def _unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
@@ -433,6 +470,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
     if not text.strip():
         raise ValidationFailed([LocatedError("file is empty", loc)])
+    _hidden_break(text, file, "YAML")
     # libyaml's parser (when PyYAML was built with it) is ~10x faster and keeps marks.
     loader = _Loader(text)
     try:
@@ -529,7 +567,8 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
 
     Raises:
         ValidationFailed: UTF-16 (its byte-order mark) or a NUL (a binary file), at
-            1:1; a byte that is not UTF-8, at its line and column (in characters).
+            1:1; a byte that is not UTF-8, or a line break an editor does not show (a
+            form feed, U+2028), at its line and column (in characters).
     """
     loc = SourceLocation(name)
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
@@ -537,7 +576,7 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
     if b"\x00" in raw:
         raise ValidationFailed([LocatedError(f"binary file, not {what} text", loc)])
     try:
-        return raw.decode("utf-8")
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         start = raw.rfind(b"\n", 0, exc.start) + 1
         line = raw.count(b"\n", 0, exc.start) + 1
@@ -550,3 +589,5 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
                 )
             ]
         ) from None
+    _hidden_break(text, name, what)
+    return text

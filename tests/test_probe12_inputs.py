@@ -91,3 +91,82 @@ def test_a_key_that_yaml_reads_as_a_number_or_null_is_its_text(
     # one key still, however it is written
     with pytest.raises(ValidationFailed, match=r"1:8: duplicate key '1'"):
         load_yaml_text('{1: a, "1": b}\n', "f.yaml")
+
+
+# -- line breaks an editor does not show -----------------------------------------------
+
+NOTE = "# a note\x85    - {type: failure}\n"
+"""A comment an editor shows on one line; YAML 1.1 read what follows U+0085 as a line of
+its own, here a node nobody sees."""
+
+
+@pytest.mark.parametrize(
+    ("text", "place", "char", "label", "escape"),
+    [
+        # was read: the hidden node made the tree fail; an editor shows one child
+        (
+            "root:\n  type: sequence\n  children:\n    - success\n    " + NOTE,
+            "5:13",
+            "0085",
+            "a next-line character",
+            "\\N",
+        ),
+        # was 'a b' (folded), and every later place a line off
+        ('description: "a\x85b"\nroot: success\n', "1:16", "0085", "a next-line character", "\\N"),
+        # was "2:2: YAML syntax error: could not find expected ':'" (a line the editor lacks)
+        (
+            "x: 1\r\ndescription: a\u2028b\nroot: success\n",
+            "2:15",
+            "2028",
+            "a line separator",
+            "\\L",
+        ),
+    ],
+)
+def test_a_line_break_an_editor_does_not_show_is_refused_where_it_is(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    text: str,
+    place: str,
+    char: str,
+    label: str,
+    escape: str,
+) -> None:
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(text, encoding="utf-8")
+    assert main(["validate", "--kind", "tree", str(tree)]) == 2
+    assert capsys.readouterr().err == (
+        f"{tree}:{place}: U+{char} ({label}) is not allowed in YAML text: a reader takes it"
+        f" for a line break, an editor does not; in double-quoted text write {escape}\n"
+    )
+    # the escape is the character, where an editor shows it
+    doc = load_yaml_text(f'd: "a{escape}b"\n')
+    assert doc.data == {"d": "a" + chr(int(char, 16)) + "b"}
+
+
+def test_a_form_feed_in_a_route_comment_is_not_a_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was read as the command 'forward 5 m', on a line an editor shows as a comment
+    route = tmp_path / "r.route"
+    route.write_text("network straight\n# skip this:\x0cforward 5 m\nforward 1 m\n")
+    assert main(["validate", str(route)]) == 2
+    assert capsys.readouterr().err == (
+        f"{route}:2:13: U+000C (a form feed) is not allowed in route text: a reader takes it"
+        " for a line break, an editor does not\n"
+    )
+    with pytest.raises(ValidationFailed, match=r"U\+000C"):
+        pirate_bt.load_route(route)
+
+
+def test_an_xml_value_holding_such_a_break_is_imported_escaped(tmp_path: Path) -> None:
+    # the converted tree held U+0085 as it was: PyYAML folded it to a space ("a b")
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="t" _description="d&#x85;e">'
+        '<log message="a&#x2028;b&#10;c"/></BehaviorTree></root>'
+    )
+    out = pirate_bt.import_xml(xml, tmp_path / "t.yaml")
+    assert '"d\\Ne"' in out.read_text()
+    loaded = pirate_bt.load_xml_tree(xml)
+    assert loaded.spec.params.message == "a\u2028b\nc"

@@ -26,6 +26,7 @@ from pirate_bt.errors import (
 from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.yamlfile import HIDDEN_BREAK
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -84,7 +85,9 @@ class _Dumper(yaml.SafeDumper):
 
 
 def _str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
-    style = "|" if "\n" in value else None
+    # a line break an editor does not show (U+0085, U+2028) is written escaped: PyYAML
+    # writes it as it is (the tree loader refuses it) and in a quoted value folds it
+    style = '"' if HIDDEN_BREAK.search(value) else "|" if "\n" in value else None
     return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
 
 
