@@ -170,3 +170,35 @@ def test_an_xml_value_holding_such_a_break_is_imported_escaped(tmp_path: Path) -
     assert '"d\\Ne"' in out.read_text()
     loaded = pirate_bt.load_xml_tree(xml)
     assert loaded.spec.params.message == "a\u2028b\nc"
+
+
+# -- long names in messages ------------------------------------------------------------
+
+
+def test_a_huge_blackboard_key_or_choice_is_cut_short_in_its_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # each was written whole: a 5,000-character key made a 5,000-character line
+    key, choice = "k" * 5000, "c" * 5000
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(
+        f"params:\n  d: {{type: string, default: left, choices: [{choice}, right]}}\n"
+        f"root: {{type: set_blackboard, key: {key}, value: 1}}\n"
+    )
+    assert main(["validate", str(tree)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [
+        f"{tree}:2:21: default: expected one of {'c' * 37}..., right, got 'left'",
+        f"{tree}:3:1: blackboard key {'k' * 40!r}... (5000 characters) is written but not declared",
+    ]
+
+
+def test_a_list_of_thousands_of_parameters_is_cut_short(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    params = "".join(f"  p{i}: {{type: integer, default: 1}}\n" for i in range(3000))
+    tree = tmp_path / "tree.yaml"
+    tree.write_text(f"params:\n{params}root: {{type: retry, attempts: $nope, child: success}}\n")
+    assert main(["validate", str(tree)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.endswith("$p18, $p19, ... (2980 more))") and len(line) < 400

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Container
 
 from pirate_bt.behaviours.base import Outcome
-from pirate_bt.errors import LocatedError, SourceLocation
+from pirate_bt.errors import LocatedError, SourceLocation, shown
 from pirate_bt.treefile.spec import BlackboardDecl, NodeSpec
 
 __all__ = []
@@ -91,7 +91,7 @@ def _check_blackboard(
             if key not in declared and key not in unsure:
                 errors.append(
                     LocatedError(
-                        f"blackboard key {key!r} is written but not declared", spec.location
+                        f"blackboard key {shown(key)} is written but not declared", spec.location
                     )
                 )
             writes.add(key)
@@ -102,14 +102,14 @@ def _check_blackboard(
         if key not in declared:
             errors.append(
                 LocatedError(
-                    f"blackboard key {key!r} is read but not declared under 'blackboard:'",
+                    f"blackboard key {shown(key)} is read but not declared under 'blackboard:'",
                     spec.location,
                 )
             )
         elif key not in writes:
             errors.append(
                 LocatedError(
-                    f"blackboard key {key!r} is read but never written (no node writes it,"
+                    f"blackboard key {shown(key)} is read but never written (no node writes it,"
                     " it has no default and is not marked external)",
                     spec.location,
                 )

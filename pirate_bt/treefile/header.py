@@ -19,11 +19,11 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.names import name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
-from pirate_bt.treefile.params import ParamDecl, coerce_param, written_value
+from pirate_bt.treefile.params import ParamDecl, coerce_param, listed, written_value
 from pirate_bt.treefile.refused import holds_blank, read_tree_yaml
 from pirate_bt.treefile.registry import Registry
 from pirate_bt.treefile.spec import _TOP_KEYS, BlackboardDecl, PathKey
@@ -178,7 +178,7 @@ class _FileReader:
             name, written = given
             used = env.doc.locator.locate(path)
             self.errors.append(
-                LocatedError(f"parameter {name!r}: {message} (used at {used})", written)
+                LocatedError(f"parameter {shown(name)}: {message} (used at {used})", written)
             )
 
     def read_file(self, path: Path, doc: YamlDocument, at: PathKey) -> YamlDocument | None:
@@ -281,7 +281,7 @@ class _FileReader:
             except ValidationError as exc:
                 if not blanked or isinstance(decl, dict):
                     for at_key, msg in validation_problems(exc, decl):
-                        msg = msg if at_key else f"blackboard key {key!r}: {msg}"
+                        msg = msg if at_key else f"blackboard key {shown(key)}: {msg}"
                         self.error(doc, (*where, *at_key), msg)
                 self.board_unsure.add(key)
                 continue
@@ -294,7 +294,7 @@ class _FileReader:
                 self.error(
                     doc,
                     where,
-                    f"blackboard key {key!r} declared as {parsed.type} here"
+                    f"blackboard key {shown(key)} declared as {parsed.type} here"
                     f" but as {previous[0].type} at {previous[1]}",
                 )
                 continue
@@ -344,7 +344,7 @@ class _FileReader:
                 parsed = ParamDecl.model_validate(decl)
             except ValidationError as exc:
                 for loc, msg in validation_problems(exc, decl):
-                    self.error(doc, (*at, *loc), msg if loc else f"parameter {name!r}: {msg}")
+                    self.error(doc, (*at, *loc), msg if loc else f"parameter {shown(name)}: {msg}")
                 out.refused.add(name)
                 continue
             if parsed.choices is not None and parsed.type != "string":
@@ -409,7 +409,7 @@ class _FileReader:
                 unknown.add(name)  # no type to check it by: its declaration is refused
                 continue
             if name not in decls:
-                known = ", ".join(declared.names) or "none declared"
+                known = listed(declared.names) or "none declared"
                 self.errors.append(
                     LocatedError(
                         f"unknown parameter {_shown(str(name))} (parameters: {known})",
@@ -425,7 +425,7 @@ class _FileReader:
                     units_required=in_file and self.units_required,
                 )
             except ValueError as exc:
-                self.errors.append(LocatedError(f"parameter {name!r}: {exc}", given_at(name)))
+                self.errors.append(LocatedError(f"parameter {shown(name)}: {exc}", given_at(name)))
                 unknown.add(name)
         for name, decl in decls.items():
             if name in values or name in given or name in lost:  # given but refused: said
@@ -444,6 +444,7 @@ class _FileReader:
                 hint = (
                     " (declare an 'example' to check the tree without it)" if use_examples else ""
                 )
-                self.error(doc, where, f"parameter {name!r} has no default and was not given{hint}")
+                missing = f"parameter {shown(name)} has no default and was not given{hint}"
+                self.error(doc, where, missing)
                 unknown.add(name)
         return values, unknown

@@ -30,7 +30,15 @@ from pydantic import BaseModel, ConfigDict, Field
 from pirate_bt.errors import UnitError, shown
 from pirate_bt.units import parse_quantity
 
-__all__ = ["PARAM_RE", "SI_UNITS", "ParamDecl", "ParamType", "coerce_param", "written_value"]
+__all__ = [
+    "PARAM_RE",
+    "SI_UNITS",
+    "ParamDecl",
+    "ParamType",
+    "coerce_param",
+    "listed",
+    "written_value",
+]
 
 PARAM_RE: Final = re.compile(r"^\$(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
 
@@ -151,15 +159,24 @@ def written_value(value: Any) -> Any:
     if isinstance(value, str) and value.startswith("$"):
         if value.startswith("$$"):
             return value[1:]
+        cut = value if len(value) <= 40 else value[:37] + "..."
         raise ValueError(
-            f"{value!r}: a default names no parameter; write ${value} for the literal {value}"
+            f"{shown(value)}: a default names no parameter; write ${cut} for the literal {cut}"
         )
     return value
 
 
+def listed(names: list[str], mark: str = "", most: int = 20) -> str:
+    """``names`` joined for a message, each cut short and at most ``most`` of them (a
+    hostile file's names may be thousands, each thousands of characters long)."""
+    cut = [mark + (n if len(n) <= 40 else n[:37] + "...") for n in names[:most]]
+    more = f", ... ({len(names) - most} more)" if len(names) > most else ""
+    return ", ".join(cut) + more
+
+
 def _choice(decl: ParamDecl, value: Any) -> Any:
     if decl.choices is not None and value not in decl.choices:
-        raise ValueError(f"expected one of {', '.join(decl.choices)}, got {shown(value)}")
+        raise ValueError(f"expected one of {listed(decl.choices)}, got {shown(value)}")
     return value
 
 

@@ -21,7 +21,7 @@ from pirate_bt.treefile.header import _Env as _Env  # the loader's, kept importa
 from pirate_bt.treefile.header import _FileReader, _Names, misspelt
 from pirate_bt.treefile.names import dedupe, name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
-from pirate_bt.treefile.params import PARAM_RE
+from pirate_bt.treefile.params import PARAM_RE, listed
 from pirate_bt.treefile.registry import UnknownNode
 from pirate_bt.treefile.spec import (
     _COMMON_KEYS,
@@ -65,7 +65,7 @@ class _Reader(_FileReader):
                     self.unbound.append(path)  # said where it is declared or given
                     return None
                 names = [*env.values, *(n for n in env.declared if n not in env.values)]
-                known = ", ".join(f"${n}" for n in names) or "none declared"
+                known = listed(names, "$") or "none declared"
                 self.error(
                     env.doc, path, f"unknown parameter ${_shown(name)[1:-1]} (parameters: {known})"
                 )
