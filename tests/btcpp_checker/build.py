@@ -92,6 +92,22 @@ def _pip_download(version: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+def _extract(archive: tarfile.TarFile, into: Path, members: list[tarfile.TarInfo]) -> None:
+    """``members`` of ``archive`` into ``into``, none of them outside it.
+
+    Python 3.11.4 and later refuse such a member by ``filter="data"``; an older 3.11
+    (Debian 12's 3.11.2) has no filter, so the names are checked here first.
+    """
+    if hasattr(tarfile, "data_filter"):
+        archive.extractall(into, members=members, filter="data")
+        return
+    for member in members:
+        name = Path(member.name)
+        if name.is_absolute() or ".." in name.parts:
+            raise Unavailable(f"the source distribution has a member outside it: {member.name!r}")
+    archive.extractall(into, members=members)
+
+
 def _headers(sdist: Path, into: Path) -> tuple[Path, Path]:
     """Extract BT.CPP's include/ and tinyxml2.h from the source distribution."""
     include, tinyxml = into / "include", into / "tinyxml2"
@@ -106,7 +122,7 @@ def _headers(sdist: Path, into: Path) -> tuple[Path, Path]:
             if (m.isfile() or m.isdir())
             and ("/BehaviorTree.CPP/include/" in m.name or m.name.endswith("tinyxml2/tinyxml2.h"))
         ]
-        archive.extractall(staging, members=members, filter="data")
+        _extract(archive, staging, members)
     (staging / "include").mkdir(exist_ok=True)
     (staging / "tinyxml2").mkdir(exist_ok=True)
     for found in staging.glob("*/BehaviorTree.CPP/include/*"):

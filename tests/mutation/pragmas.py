@@ -53,7 +53,11 @@ def main(argv: list[str] | None = None) -> int:
             ["git", "archive", "HEAD"], cwd=ROOT, capture_output=True, check=True
         ).stdout
         with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-            tar.extractall(base, filter="data")
+            # our own HEAD; filter="data" where the Python has it (3.11.4 and later)
+            if hasattr(tarfile, "data_filter"):
+                tar.extractall(base, filter="data")
+            else:
+                tar.extractall(base)
         lines: dict[str, list[tuple[int, str]]] = {}
         patterns: set[str] = set()
         for module in modules:
