@@ -46,6 +46,7 @@ __all__ = [
     "load_yaml",
     "load_yaml_text",
     "read_at_most",
+    "refuse_hidden_break",
 ]
 
 PathKey = tuple[str | int, ...]
@@ -147,7 +148,7 @@ HIDDEN_BREAK = re.compile("[" + "".join(_HIDDEN_BREAKS) + "]")
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
-def _hidden_break(text: str, name: str, what: str) -> None:
+def refuse_hidden_break(text: str, name: str, what: str) -> None:
     """Refuse the first character of :data:`_HIDDEN_BREAKS` in ``text`` (a ``what``
     file), at its line and column as an editor shows them (lines end at LF, CR LF, CR)."""
     match = HIDDEN_BREAK.search(text)
@@ -470,7 +471,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         raise ValidationFailed([LocatedError("binary file, not YAML text", loc)])
     if not text.strip():
         raise ValidationFailed([LocatedError("file is empty", loc)])
-    _hidden_break(text, file, "YAML")
+    refuse_hidden_break(text, file, "YAML")
     # libyaml's parser (when PyYAML was built with it) is ~10x faster and keeps marks.
     loader = _Loader(text)
     try:
@@ -589,5 +590,5 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
                 )
             ]
         ) from None
-    _hidden_break(text, name, what)
+    refuse_hidden_break(text, name, what)
     return text

@@ -17,6 +17,7 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import ValidationFailed
+from pirate_bt.task import parse_route
 from pirate_bt.yamlfile import load_yaml_text
 
 # -- explicit YAML tags ----------------------------------------------------------------
@@ -157,6 +158,10 @@ def test_a_form_feed_in_a_route_comment_is_not_a_command(
     )
     with pytest.raises(ValidationFailed, match=r"U\+000C"):
         pirate_bt.load_route(route)
+    # route text given from Python is read the same way (parse_route split it into lines)
+    with pytest.raises(ValidationFailed) as caught:
+        parse_route(route.read_text(), "typed")
+    assert str(caught.value).startswith("typed:2:13: U+000C (a form feed) is not allowed")
 
 
 def test_an_xml_value_holding_such_a_break_is_imported_escaped(tmp_path: Path) -> None:

@@ -468,6 +468,11 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
     network: str | None = None
     network_loc: SourceLocation | None = None
     text = text.removeprefix("\ufeff")  # a byte-order mark, as editors on Windows write
+    from pirate_bt.yamlfile import refuse_hidden_break
+
+    # a form feed or U+2028 would start a line str.splitlines sees and an editor does not
+    # ('# skip:<FF>forward 5 m' would run the forward): refused, as load_route refuses it
+    refuse_hidden_break(text, source, "route")
     for line_no, raw_line in enumerate(text.splitlines(), start=1):
         body = raw_line.split("#", 1)[0]
         line = _Line(source, line_no, body)
