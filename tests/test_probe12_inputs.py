@@ -207,3 +207,27 @@ def test_a_list_of_thousands_of_parameters_is_cut_short(
     assert main(["validate", str(tree)]) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert line.endswith("$p18, $p19, ... (2980 more))") and len(line) < 400
+
+
+def test_a_huge_module_or_state_value_is_cut_short_in_the_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the bend's module and a guard's state value were written whole: a 3,000-character
+    # name made a 3,000-character line
+    huge = "x" * 3000
+    bend = tmp_path / "bend.yaml"
+    bend.write_text(f"name: big\nroot: {{type: bend, name: b, module: {huge}, angle: 40 deg}}\n")
+    assert main(["validate", str(bend)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and len(err) < 300, err[:400]
+    assert "(3000 characters) is not a bend module or a half" in err
+    guard = tmp_path / "guard.yaml"
+    guard.write_text(
+        "name: g\nroot:\n  type: failure_if\n  name: g\n"
+        f"  condition: {{state: half.{huge}, value: clamped}}\n"
+        "  child: {type: success, name: ok}\n"
+    )
+    assert main(["validate", str(guard)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and len(err) < 1500, err[:400]
+    assert "unknown state value 'half.xxx" in err and "(3005 characters); use one of" in err

@@ -54,7 +54,7 @@ from pirate_bt.behaviours.base import (
     NodeParams,
     Outcome,
 )
-from pirate_bt.errors import UnitError
+from pirate_bt.errors import UnitError, shown
 from pirate_bt.robot.description import Half, SensorKind
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
@@ -129,7 +129,7 @@ def _dimension(path: str) -> str | None:
     close = difflib.get_close_matches(path, [k for k in STATE_VALUES if "<" not in k], n=1)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     raise ValueError(
-        f"unknown state value {path!r}; use one of: {', '.join(sorted(STATE_VALUES))}{hint}"
+        f"unknown state value {shown(path)}; use one of: {', '.join(sorted(STATE_VALUES))}{hint}"
     )
 
 
@@ -319,9 +319,9 @@ class _Evaluator:
             try:
                 ok = _OPS[comparison.op](current, constant)
             except TypeError:
-                return None, f"cannot compare {current!r} {comparison.op} {constant!r}"
+                return None, f"cannot compare {shown(current)} {comparison.op} {shown(constant)}"
             if not ok:
-                return False, f"not ({comparison}): it is {current!r}"
+                return False, f"not ({comparison}): it is {shown(current)}"
         return True, " and ".join(str(c) for c in self.comparisons)
 
 

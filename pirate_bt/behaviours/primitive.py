@@ -16,7 +16,7 @@ import py_trees
 from py_trees.common import Status
 
 from pirate_bt.behaviours.base import BuildContext, Leaf, NodeParams, Outcome
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, shown
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
@@ -195,4 +195,4 @@ def _read_metres(key: str) -> float | str:
     value = py_trees.blackboard.Blackboard.storage.get(name)
     if isinstance(value, int | float) and not isinstance(value, bool):
         return float(value)
-    return f"blackboard {key!r} holds {value!r}, not metres"
+    return f"blackboard {shown(key)} holds {shown(value)}, not metres"

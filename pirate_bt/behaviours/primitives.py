@@ -59,6 +59,7 @@ from pirate_bt.behaviours.primitive import (
     _read_blackboard,
 )
 from pirate_bt.behaviours.rotation import AlignRoll, AlignRollParams, Rotate, RotateParams
+from pirate_bt.errors import shown
 from pirate_bt.robot.description import Half, RobotDescription, Role
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import released_force_n
@@ -269,7 +270,7 @@ class Bend(Primitive):
             modules = _bend_targets(robot, params.module)
         except KeyError:
             names = [m.name for m in robot.all_bend_modules()]
-            return [f"module: {params.module!r} is not a bend module or a half ({names})"]
+            return [f"module: {shown(params.module)} is not a bend module or a half ({names})"]
         problems: list[str] = []
         for name in modules:
             lim = robot.joint_motor(name).limits.angle
@@ -294,7 +295,7 @@ class Bend(Primitive):
         if p.sign_from:
             sign = _read_blackboard(p.sign_from)
             if sign not in (1, -1, 1.0, -1.0):
-                self._sign_error = f"blackboard {p.sign_from!r} is {sign!r}, not +1 or -1"
+                self._sign_error = f"blackboard {shown(p.sign_from)} is {shown(sign)}, not +1 or -1"
             else:
                 self._target = p.angle * float(sign)
         self._done_sending = False
