@@ -231,3 +231,26 @@ def test_a_huge_module_or_state_value_is_cut_short_in_the_message(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and len(err) < 1500, err[:400]
     assert "unknown state value 'half.xxx" in err and "(3005 characters); use one of" in err
+
+
+@pytest.mark.parametrize(
+    "second",
+    [
+        "{type: bogus, name: a}",  # a type nobody registered
+        "{type: bend, name: a, module: front, angel: 40 deg}",  # a key misspelt
+    ],
+)
+def test_a_duplicate_name_is_said_with_the_siblings_other_problems(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], second: str
+) -> None:
+    # the second 'a' could not be read, so its name was never compared: only its own
+    # problem was said, and the duplicate came up once that was mended
+    tree = tmp_path / "dup.yaml"
+    tree.write_text(
+        "name: dup\nroot:\n  type: sequence\n  name: s\n  children:\n"
+        f"    - {{type: success, name: a}}\n    - {second}\n"
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert f"{tree}:7:7: duplicate node name 'a' among siblings (first at {tree}:6:7)" in err
+    assert len(err.splitlines()) >= 2  # and the sibling's own problem

@@ -207,28 +207,36 @@ class _Reader(_FileReader):
         read = self.read_children(env, path, raw, key)
         if read is None:
             return None
-        out, ok = read
-        dedupe(out, self.errors)  # among those read: a name left out is not known
+        out, ok, named = read
+        dedupe(named, self.errors)  # those read, and the names of those that were not
         return out if ok else None
 
     def read_children(
         self, env: _Env, path: PathKey, raw: Any, key: str
-    ) -> tuple[list[NodeSpec], bool] | None:
-        """The nodes listed under ``key`` that could be read, and whether all could."""
+    ) -> tuple[list[NodeSpec], bool, list[NodeSpec]] | None:
+        """The nodes listed under ``key`` that could be read, whether all could, and for
+        the siblings' names: those read, with a stand-in for each one that could not be
+        but names itself plainly (its duplicate name is said with its other problems)."""
         items = raw.get(key)
         if not isinstance(items, list) or not items:
             if not self.blank(env.doc, items):
                 self.error(env.doc, (*path, key) if key in raw else path, f"needs a list of {key}")
             return None
         out: list[NodeSpec] = []
+        named: list[NodeSpec] = []
         ok = True
         for i, item in enumerate(items):
             child = self.node(env, (*path, key, i), item)
-            if child is None:
-                ok = False
-            else:
+            if child is not None:
                 out.append(child)
-        return out, ok
+                named.append(child)
+                continue
+            ok = False
+            name = item.get("name") if isinstance(item, dict) else None
+            if isinstance(name, str) and name_problem(name) is None:
+                where = env.doc.locator.locate((*path, key, i))
+                named.append(NodeSpec(str(item.get("type")), name, where, explicit_name=True))
+        return out, ok, named
 
     def composite(
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
@@ -289,13 +297,13 @@ class _Reader(_FileReader):
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
     ) -> NodeSpec | None:
         read = self.read_children(env, path, raw, "conditions")
-        conditions, ok = read if read is not None else ([], False)
+        conditions, ok, named = read if read is not None else ([], False, [])
         child = None
         if "child" not in raw:
             self.error(env.doc, path, "eternal_guard needs a 'child'")
         else:
             child = self.node(env, (*path, "child"), raw["child"])
-        dedupe([*conditions, *([child] if child is not None else [])], self.errors)
+        dedupe([*named, *([child] if child is not None else [])], self.errors)
         if not ok or child is None:
             return None
         spec.conditions = conditions
