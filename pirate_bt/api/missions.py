@@ -210,6 +210,7 @@ def _mission(
     """Run a plan on an open connection, re-plan where it may, come back if asked."""
     from pirate_bt.task.mission import run_mission as run_plan
     from pirate_bt.task.mission import truth_of
+    from pirate_bt.task.outcome import unsafe_note
     from pirate_bt.task.replan import carry_on, return_to_start
 
     sim = connection.simulator
@@ -233,6 +234,7 @@ def _mission(
         realtime=realtime,
         map_tolerance=map_tolerance,
         observe=observe,
+        count_from_open=True,  # as a tree run: a slide as the robot was put in counts
     )
     result = carry_on(
         result,
@@ -246,8 +248,6 @@ def _mission(
         observe=observe,
     )
     if result.succeeded:
-        from pirate_bt.task.outcome import unsafe_note
-
         result.why += unsafe_note(result.counters)
     if return_on_stop and not result.succeeded and sim is not None:
         result.returned = return_to_start(

@@ -214,4 +214,5 @@ def navigate(
             map_tolerance=map_tolerance,
             scenario=connection.target,
             seed=connection.seed,
+            count_from_open=True,  # as a tree run: a slide as the robot was put in counts
         )

@@ -164,6 +164,7 @@ def run_mission(
     observe: Observer | None = None,
     since_fix_m: float = 0.0,
     fixed_before: str | None = None,
+    count_from_open: bool = False,
 ) -> MissionResult:
     """Run a planned mission on a robot (or the simulator) behind its supervisor.
 
@@ -197,6 +198,10 @@ def run_mission(
         fixed_before: The feature (segment id) that last fix was on: it and the
             features before it are placed by that fix, so a block near one of them
             behind the robot is not taken for it.
+        count_from_open: Count the link's and the simulator's figures from the moment
+            the link opened, as a tree run does (the first run on a new connection): a
+            slide as the robot was put in a steep pipe, before its first clamp held, is
+            then in the result's counters and its ``why``.
 
     Returns:
         The result; a failed mission is a result, not an exception.
@@ -283,7 +288,7 @@ def run_mission(
 
     runner.add_pre_tick(before)
     runner.add_post_tick(after)
-    tally = VerdictTally(supervisor)
+    tally = VerdictTally(supervisor, from_open=count_from_open)
 
     def first_mismatch() -> str | None:
         """The localiser's mismatch, unless the robot was in its safe state before it

@@ -224,6 +224,7 @@ def run_navigation(
     map_tolerance: float = MAP_FRACTION,
     scenario: str | None = None,
     seed: int | None = None,
+    count_from_open: bool = False,
 ) -> NavigationResult:
     """Run ``navigator`` step by step on a supervised robot (see the module docstring).
 
@@ -246,6 +247,9 @@ def run_navigation(
         map_tolerance: How far the map's lengths may be off (see ``simulate_mission``).
         scenario: Network name for the trace headers.
         seed: Simulator seed for the trace headers.
+        count_from_open: Count the link's and the simulator's figures from the moment
+            the link opened, as a tree run does: a slide as the robot was put in a
+            steep pipe, before its first clamp held, is then in the counters and ``why``.
     """
     wall_started = time.perf_counter()
     start_s = clock.now()
@@ -267,7 +271,7 @@ def run_navigation(
             "max_time_s": max_time_s,
         }
     )
-    tally = VerdictTally(supervisor)
+    tally = VerdictTally(supervisor, from_open=count_from_open)
     result = NavigationResult(navigator=name, status="failure", why="", trace_dir=trace_dir)
     felt: list[Felt] = []
     last: PabOutcome | None = None
