@@ -71,11 +71,36 @@ def describe_error(error: Any) -> str:
     if kind in ("model_type", "model_attributes_type", "dict_type"):
         # pydantic's own wording names classes ("instance of Motor"): say the shape.
         msg = f"should be {_SHAPES[kind]}"
+    elif kind in _IN_WORDS and "input" in error:
+        # "Input should be a valid integer": what to write, and what was written
+        msg = f"must be {_IN_WORDS[kind]}, not {_as_written(error['input'])}"
     if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
         where = ".".join(str(p) for p in loc if not isinstance(p, int))
         if where:
             return f"{where.split('.')[-1]}: {msg}"
     return msg
+
+
+_IN_WORDS = {
+    "int_parsing": "a whole number",
+    "int_type": "a whole number",
+    "int_from_float": "a whole number",
+    "float_parsing": "a number",
+    "float_type": "a number",
+    "bool_parsing": "true or false",
+    "bool_type": "true or false",
+    "string_type": "text",
+    "list_type": "a list",
+}
+"""pydantic's error types whose words (``Input should be a valid integer``) are said in
+the library's: what the value must be, and the value as written."""
+
+
+def _as_written(value: Any) -> str:
+    """A value as a YAML file writes it (``true``, ``null``), else :func:`shown`."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return "null" if value is None else shown(value)
 
 
 def _tag_key(error: Any) -> str:

@@ -433,7 +433,7 @@ def test_an_unknown_tree_parameter_is_placed_at_its_key_in_the_spec(
 def test_a_problem_of_a_spec_given_as_data_names_its_key_once() -> None:
     ok = {"name": "d", "runs": [{"tree": "straight", "params": {"distance": "0.2 m"}}]}
     for bad, expected in (
-        ({"runs": "straight"}, "campaign spec: runs: Input should be a valid list"),
+        ({"runs": "straight"}, "campaign spec: runs: must be a list, not 'straight'"),
         ({"max_time": "5 kg"}, "campaign spec: max_time: '5 kg' is a mass, but a time"),
         ({"seeds": "many"}, "campaign spec: seeds: should be a mapping of keys"),
     ):

@@ -56,8 +56,8 @@ def _refused(tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, *opt
         ("rate: 1e9 Hz", "FILE:4:1: rate is at most 1000 Hz, not '1e9 Hz'"),
         ("max_time: 1e300 s", "FILE:4:1: max_time is at most 1e+09 s, not '1e300 s'"),
         # a boolean was taken for a seed count of 1, a float for a count of variants
-        ("seeds: {count: true}", "FILE:4:9: count: Input should be a valid integer"),
-        ("as_built: {count: 2.0}", "FILE:4:12: count: Input should be a valid integer"),
+        ("seeds: {count: true}", "FILE:4:9: count: must be a whole number, not true"),
+        ("as_built: {count: 2.0}", "FILE:4:12: count: must be a whole number, not 2.0"),
     ],
 )
 def test_limits_out_of_bounds_are_refused(

@@ -32,7 +32,13 @@ class Case:
 CASES = [
     Case("yaml-syntax", "  baud: 115200", "  baud: [115200", "state_period", "YAML syntax error"),
     Case("tab-indent", "  baud: 115200", "\tbaud: 115200", "\tbaud", "YAML syntax error"),
-    Case("wrong-type", "  baud: 115200", "  baud: fast", "baud: fast", "valid integer"),
+    Case(
+        "wrong-type",
+        "  baud: 115200",
+        "  baud: fast",
+        "baud: fast",
+        "baud: must be a whole number, not 'fast'",
+    ),
     Case(
         "unknown-top-key",
         "schema_version: 1",

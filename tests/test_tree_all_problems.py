@@ -250,7 +250,7 @@ def test_a_duplicate_name_no_longer_hides_the_blackboard_checks(
     # read of 'go' is not checked: its declaration is refused (said at line 2).
     path = tmp_path / "tree.yaml"
     expected = [
-        "2:23: external: Input should be a valid boolean, unable to interpret input",
+        "2:23: external: must be true or false, not 'maybe'",
         "6:7: blackboard key 'ready' is read but not declared under 'blackboard:'",
         f"8:7: duplicate node name 'pause' among siblings (first at {path}:7:7)",
     ]
