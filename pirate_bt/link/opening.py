@@ -14,7 +14,7 @@ import math
 from dataclasses import replace
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkTimeout
+from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.messages import HelloReply, NackCode
@@ -179,6 +179,14 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> Non
             "the bridge's boot latch was not released: %s %s",
             req.outcome.value,
             req.nack.name if req.nack else "",
+        )
+    elif req.outcome is Outcome.STALE:
+        # answered at once, but not applied: no e-stop overtook it, so the bridge's
+        # duplicate filter is ahead of the HELLO it just took. Not a slow round trip.
+        raise LinkError(
+            "the bridge answered the release of its boot latch ACK STALE (not applied),"
+            " right after the HELLO that reset its duplicate filter: a bridge that does"
+            " not follow the protocol?"
         )
     else:
         # never acknowledged (the round trip outlasts the retry budget, or the link
