@@ -43,6 +43,11 @@ _FAULT = int(BoardStatus.FAULT)
 _TIMEOUT = int(BoardStatus.TIMEOUT)
 OLD_STATES_BEFORE_RESYNC = 10
 """STATEs dropped in a row as not newer than the held one before the next is taken."""
+STALE_RESETS_BEFORE_MISMATCH = 3
+"""New sessions in a row started by a ``NO_SESSION`` frame whose ``HELLO_REPLY`` showed the
+same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
+a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
+a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
 BAD_STATES_BEFORE_MISMATCH = 3
 """STATE frames in a row (no good STATE between) whose CRC is good but whose length is
 not the layout's before the session ends on a protocol mismatch. One could be line
@@ -81,6 +86,8 @@ class InboundMixin:
     _reset_boot_id: int | None = None
     # STATEs dropped in a row as not newer than the one held (see _on_state)
     _old_state_run: int = 0
+    # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
+    _stale_reset_run: int = 0
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
     # (board position, arrival of the last STATE that showed it answering) for each board
@@ -249,6 +256,13 @@ class InboundMixin:
                 f" asked for 1.{asked} (same layout)",
             )
             return
+        if int(item.flags) & _NO_SESSION:  # the reply's flags are those after the HELLO
+            self._refused_session(
+                hello,
+                "the bridge answered HELLO with NO_SESSION still set: it took no session"
+                " (a bridge that does not follow the protocol)",
+            )
+            return
         previous = self.last_hello_reply
         reset_from, self._reset_boot_id = self._reset_boot_id, None
         if previous is not None and previous.boot_id != item.boot_id:
@@ -258,6 +272,15 @@ class InboundMixin:
             # bridge took the first HELLO and delivered after its reply (a reordering
             # link). Not a reset: not counted. What it failed stays failed.
             self.bridge_resets -= 1
+            self._stale_reset_run += 1
+            if self._stale_reset_run >= STALE_RESETS_BEFORE_MISMATCH:
+                self._refused_session(
+                    hello,
+                    f"the bridge took {self._stale_reset_run} HELLOs in a row without a reset"
+                    f" (boot id {item.boot_id} unchanged) but sent NO_SESSION after each:"
+                    " it never keeps a session (a bridge that does not follow the protocol)",
+                )
+                return
             _log.warning(
                 "a stale NO_SESSION frame (reordered link?) started a new session;"
                 " the bridge was not reset (boot id %d unchanged)",
@@ -307,6 +330,7 @@ class InboundMixin:
             self._flags = item.flags
             self._bridge_reset(now)
             return
+        self._stale_reset_run = 0
         if self._accept_any_state:
             if self._hello is not None:
                 return  # a state of the old session, before the new one's reply
