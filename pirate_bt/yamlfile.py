@@ -39,6 +39,7 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, sho
 
 __all__ = [
     "HIDDEN_BREAK",
+    "VALUE_WORDS",
     "Locator",
     "YamlDocument",
     "check_depth",
@@ -112,7 +113,9 @@ _NULL_TAG = "tag:yaml.org,2002:null"
 _TEXT_KEYS = (_BOOL_TAG, _INT_TAG, _FLOAT_TAG, _NULL_TAG, _TIMESTAMP_TAG)
 """What YAML 1.1 reads a plain key as (``on``, ``1``, ``1.5``, ``~``, a date): a key is
 its text, in every file kind (``1:`` is the key ``'1'``, as ``"1":`` is)."""
-_TAGGED = {_BOOL_TAG: "true or false", _INT_TAG: "a whole number", _FLOAT_TAG: "a number"}
+VALUE_WORDS = {"bool": "true or false", "int": "a whole number", "float": "a number"}
+"""What a value of each YAML type must be, in the words of every file kind's messages."""
+_TAGGED = {f"tag:yaml.org,2002:{kind}": words for kind, words in VALUE_WORDS.items()}
 """What a value tagged ``!!bool``, ``!!int`` or ``!!float`` must be: PyYAML builds
 ``!!int abc`` with a bare ValueError (``!!bool 3`` a KeyError), located nowhere."""
 _BUILD = yaml.constructor.SafeConstructor()
@@ -568,8 +571,9 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
 
     Raises:
         ValidationFailed: UTF-16 (its byte-order mark) or a NUL (a binary file), at
-            1:1; a byte that is not UTF-8, or a line break an editor does not show (a
-            form feed, U+2028), at its line and column (in characters).
+            1:1; a byte that is not UTF-8, at its line and column (in characters). A
+            line break an editor does not show is the text's readers' to refuse
+            (:func:`load_yaml_text`, ``parse_route``: :func:`refuse_hidden_break`).
     """
     loc = SourceLocation(name)
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
@@ -577,7 +581,7 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
     if b"\x00" in raw:
         raise ValidationFailed([LocatedError(f"binary file, not {what} text", loc)])
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         start = raw.rfind(b"\n", 0, exc.start) + 1
         line = raw.count(b"\n", 0, exc.start) + 1
@@ -590,5 +594,3 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
                 )
             ]
         ) from None
-    refuse_hidden_break(text, name, what)
-    return text

@@ -18,7 +18,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from pirate_bt.errors import LocatedError, ValidationFailed, shown
-from pirate_bt.yamlfile import Locator, PathKey, YamlDocument
+from pirate_bt.yamlfile import VALUE_WORDS, Locator, PathKey, YamlDocument
 
 __all__ = [
     "describe_error",
@@ -82,13 +82,13 @@ def describe_error(error: Any) -> str:
 
 
 _IN_WORDS = {
-    "int_parsing": "a whole number",
-    "int_type": "a whole number",
-    "int_from_float": "a whole number",
-    "float_parsing": "a number",
-    "float_type": "a number",
-    "bool_parsing": "true or false",
-    "bool_type": "true or false",
+    "int_parsing": VALUE_WORDS["int"],
+    "int_type": VALUE_WORDS["int"],
+    "int_from_float": VALUE_WORDS["int"],
+    "float_parsing": VALUE_WORDS["float"],
+    "float_type": VALUE_WORDS["float"],
+    "bool_parsing": VALUE_WORDS["bool"],
+    "bool_type": VALUE_WORDS["bool"],
     "string_type": "text",
     "list_type": "a list",
 }

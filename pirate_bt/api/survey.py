@@ -16,7 +16,7 @@ from typing import Any
 from pirate_bt.api.navigation import navigate
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate import NavigationResult
-from pirate_bt.task.navigate_result import steps_text
+from pirate_bt.task.navigate_result import counted, steps_text
 
 __all__ = ["SurveyResult", "survey"]
 
@@ -84,9 +84,7 @@ class SurveyResult:
     def summary(self) -> str:
         """One line for people."""
         n = self.counts()
-        found = ", ".join(
-            f"{n[k]} {k}{'' if n[k] == 1 else 's'}" for k in ("straight", "bend", "tee", "reducer")
-        )
+        found = ", ".join(counted(n[k], k) for k in ("straight", "bend", "tee", "reducer"))
         if self.unexplored:
             found += f", {len(self.unexplored)} not surveyed"
         where = f" -> {self.output}" if self.output is not None and self.network else ""

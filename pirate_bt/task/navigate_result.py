@@ -18,6 +18,7 @@ from pirate_bt.task.outcome import PabOutcome
 __all__ = [
     "FailedStep",
     "NavigationResult",
+    "counted",
     "done_after_failures",
     "first_then",
     "steps_text",
@@ -105,15 +106,20 @@ class NavigationResult:
         truth = "" if self.truth_m is None else f", truly {self.truth_m:.2f} m"
         return (
             f"navigator {self.navigator}: {verb} - {self.why} ({steps_text(self.steps)},"
-            f" {len(self.pabs)} PAB{'' if len(self.pabs) == 1 else 's'},"
+            f" {counted(len(self.pabs), 'PAB')},"
             f" {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
             f" believed at {self.belief_m:.2f} m{truth})"
         )
 
 
+def counted(n: int, word: str) -> str:
+    """``1 step``, ``3 steps`` (``word`` with an ``s`` unless ``n`` is 1)."""
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
+
+
 def steps_text(n: int) -> str:
     """``1 step``, ``3 steps``."""
-    return f"{n} step" if n == 1 else f"{n} steps"
+    return counted(n, "step")
 
 
 @dataclass(frozen=True)

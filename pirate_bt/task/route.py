@@ -467,12 +467,12 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
     steps: list[RouteStep] = []
     network: str | None = None
     network_loc: SourceLocation | None = None
-    text = text.removeprefix("\ufeff")  # a byte-order mark, as editors on Windows write
     from pirate_bt.yamlfile import refuse_hidden_break
 
     # a form feed or U+2028 would start a line str.splitlines sees and an editor does not
-    # ('# skip:<FF>forward 5 m' would run the forward): refused, as load_route refuses it
+    # ('# skip:<FF>forward 5 m' would run the forward): refused, a file's or text's
     refuse_hidden_break(text, source, "route")
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as editors on Windows write
     for line_no, raw_line in enumerate(text.splitlines(), start=1):
         body = raw_line.split("#", 1)[0]
         line = _Line(source, line_no, body)

@@ -159,17 +159,22 @@ def written_value(value: Any) -> Any:
     if isinstance(value, str) and value.startswith("$"):
         if value.startswith("$$"):
             return value[1:]
-        cut = value if len(value) <= 40 else value[:37] + "..."
+        cut = _cut(value)
         raise ValueError(
             f"{shown(value)}: a default names no parameter; write ${cut} for the literal {cut}"
         )
     return value
 
 
+def _cut(text: str, limit: int = 40) -> str:
+    """``text`` as it is, or cut to ``limit`` characters ending in ``...``."""
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def listed(names: list[str], mark: str = "", most: int = 20) -> str:
     """``names`` joined for a message, each cut short and at most ``most`` of them (a
     hostile file's names may be thousands, each thousands of characters long)."""
-    cut = [mark + (n if len(n) <= 40 else n[:37] + "...") for n in names[:most]]
+    cut = [mark + _cut(n) for n in names[:most]]
     more = f", ... ({len(names) - most} more)" if len(names) > most else ""
     return ", ".join(cut) + more
 
