@@ -13,6 +13,7 @@ from pathlib import Path
 __all__ = [
     "DATA_KINDS",
     "bundled",
+    "bundled_names",
     "data_dir",
     "default_robot_path",
     "exists",
@@ -64,6 +65,13 @@ def bundled(kind: str, name: str) -> Path:
     if not exists(path) and not path.suffix:
         path = folder / f"{name}.yaml"
     return path
+
+
+def bundled_names(kind: str, suffix: str = ".yaml") -> list[str]:
+    """The names of the bundled files of ``kind`` that end in ``suffix``, sorted, without
+    it (``["bend", "bend-back", ...]`` for the trees): the names a user may give instead
+    of a path. Files in sub-folders (a tree's library of subtrees) are not among them."""
+    return sorted(p.name[: -len(suffix)] for p in data_dir(kind).glob(f"*{suffix}"))
 
 
 def default_robot_path() -> Path:

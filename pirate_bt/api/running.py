@@ -36,7 +36,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import RunResult
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LocatedError, ValidationFailed, caller_location
+from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
 from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause, unsafe_note
 
 if TYPE_CHECKING:
@@ -47,6 +47,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Observer",
     "as_loaded",
+    "find_tree",
     "load_tree",
     "load_tree_source",
     "needs_robot",
@@ -89,7 +90,7 @@ def as_loaded(
     if isinstance(tree, Mapping):
         source: Any = tree
     elif isinstance(tree, str | Path):
-        source = find("trees", tree, ".yaml", "tree")
+        source = find_tree(tree)
     else:
         raise InputError(
             f"tree: cannot run {kind_of(tree)}: give a tree file, a mapping, a"
@@ -102,6 +103,26 @@ def as_loaded(
         source,
         lambda: load_tree_source(source, robot=robot, params=given, params_from_text=from_text),
     )
+
+
+def find_tree(tree: str | Path, option: str = "tree") -> Path:
+    """The tree file ``tree`` names: the path if something is there, else the bundled
+    tree of that name (``"bend"`` → ``trees/bend.yaml``). What ``simulate_tree``,
+    ``load_tree`` and ``pirate-bt run`` look a tree up with.
+
+    Raises:
+        InputError: ``tree`` is not a file name (named by ``option``).
+        ValidationFailed: neither a file nor a bundled tree: one line,
+            ``nosuch:1:1: no such tree file; bundled trees: bend, bend-back, ...``.
+    """
+    from pirate_bt.resources import bundled_names, missing
+
+    path = find("trees", tree, ".yaml", option)
+    if not missing(path):  # a file, or what the loader says it is (a folder, a device)
+        return path
+    names = ", ".join(bundled_names("trees"))
+    message = f"no such tree file; bundled trees: {names}"
+    raise ValidationFailed([LocatedError(message, SourceLocation(str(path)))])
 
 
 def load_tree_source(
@@ -537,7 +558,7 @@ def load_tree(
     if isinstance(tree, Mapping):
         source: Any = tree
     elif isinstance(tree, str | Path):
-        source = find("trees", tree, ".yaml", "tree")
+        source = find_tree(tree)
     else:
         from pirate_bt.errors import InputError
 

@@ -207,9 +207,8 @@ def check_firmware_chain(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     """Parse, check the tree (exit 2 before connecting), call the API, print."""
     from pirate_bt.api.live import tree_observer
-    from pirate_bt.api.running import load_tree_source
+    from pirate_bt.api.running import find_tree, load_tree_source
     from pirate_bt.api.trees import run_tree, simulate_tree
-    from pirate_bt.resources import find_file
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason
 
@@ -223,7 +222,7 @@ def run(args: argparse.Namespace) -> int:
         check_trace_path(args.trace)
     robot = load_robot(args.robot)
     checked = load_tree_source(  # a YAML tree, or BehaviorTree.CPP XML
-        find_file("trees", args.tree),
+        find_tree(args.tree),  # a file, else a bundled tree; else the API's error
         robot=robot,
         params=params,
         params_from_text=True,

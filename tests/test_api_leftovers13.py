@@ -1,0 +1,62 @@
+"""Three leftovers of the thirteenth session's API work; each test failed before its fix.
+
+1. A tree name that is neither a file nor a bundled tree said ``nosuch:1:1: no such
+   file``, naming none of the trees one can use, from the API and ``pirate-bt run``.
+2. A campaign run whose tree is BehaviorTree.CPP XML was refused as "not a YAML tree
+   file" when its spec was checked, good XML or bad, at the XML's first line only;
+   now it is read as ``simulate_tree`` reads it, and a bad one is placed at the spec's
+   ``tree`` entry with the XML's own place, in one line.
+3. A tree given as a mapping with a key that is not text said pydantic's words
+   (``wait: Keys should be strings``), naming neither the node nor the key.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
+
+BUNDLED = "bend, bend-back, probe-tee, probe-turn, straight, t-joint, t-joint-back"
+NO_SUCH = f"nosuch:1:1: no such tree file; bundled trees: {BUNDLED}"
+
+
+# -- 1. no such tree: the bundled trees are named
+
+
+def test_the_bundled_trees_are_the_top_level_yaml_files() -> None:
+    from pirate_bt.resources import bundled_names
+
+    assert ", ".join(bundled_names("trees")) == BUNDLED  # not lib/ or examples/
+
+
+@pytest.mark.parametrize("call", [pirate_bt.simulate_tree, pirate_bt.load_tree])
+def test_a_tree_that_is_neither_a_file_nor_bundled_names_the_bundled_ones(
+    call: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValidationFailed) as caught:
+        call("nosuch")
+    assert str(caught.value) == NO_SUCH  # one line
+    with pytest.raises(ValidationFailed) as caught:
+        call("nosuch.xml")  # an XML name too: it was the XML reader's "no such file"
+    assert str(caught.value).startswith("nosuch.xml:1:1: no such tree file; bundled trees: bend")
+
+
+def test_a_bundled_name_and_a_file_still_load(tmp_path: Path) -> None:
+    assert pirate_bt.load_tree("straight", params={"distance": "1 m"}).name == "straight"
+    own = tmp_path / "mine.yaml"
+    own.write_text("root: {type: wait, duration: 0.1 s}\n", encoding="utf-8")
+    assert pirate_bt.simulate_tree(str(own)).succeeded
+
+
+def test_the_command_line_says_what_the_api_says(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "nosuch"]) == 2
+    assert capsys.readouterr().err == f"pirate-bt: {NO_SUCH}\n"
