@@ -19,7 +19,7 @@ import pytest
 
 import pirate_bt
 from pirate_bt.cli import main
-from pirate_bt.errors import ValidationFailed
+from pirate_bt.errors import InputError, ValidationFailed
 
 BUNDLED = "bend, bend-back, probe-tee, probe-turn, straight, t-joint, t-joint-back"
 NO_SUCH = f"nosuch:1:1: no such tree file; bundled trees: {BUNDLED}"
@@ -60,3 +60,61 @@ def test_the_command_line_says_what_the_api_says(
     monkeypatch.chdir(tmp_path)
     assert main(["run", "nosuch"]) == 2
     assert capsys.readouterr().err == f"pirate-bt: {NO_SUCH}\n"
+
+
+# -- 2. a campaign's BehaviorTree.CPP XML tree
+
+
+def _xml(tmp_path: Path, name: str, body: str) -> Path:
+    path = tmp_path / name
+    path.write_text(f'<root BTCPP_format="4">\n  <BehaviorTree ID="Main">\n{body}', "utf-8")
+    return path
+
+
+def _spec(tmp_path: Path, tree: str, params: str = "") -> Path:
+    spec = tmp_path / "x.campaign.yaml"
+    spec.write_text(
+        f"name: x\nruns:\n  - {{name: a, tree: {tree}{params}}}\nseeds: {{start: 0, count: 1}}\n",
+        encoding="utf-8",
+    )
+    return spec
+
+
+UNKNOWN_NODE = "    <Sequence>\n      <NoSuchNode/>\n    </Sequence>\n  </BehaviorTree>\n</root>\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "problem"),
+    [
+        (UNKNOWN_NODE, "unknown node type 'NoSuchNode' (at {xml}:4:7)"),
+        ("    <Sequence>\n", "not well-formed XML: no element found (at {xml}:4:1)"),
+    ],
+)
+def test_a_bad_xml_tree_is_placed_at_the_spec_entry_and_in_the_xml(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, problem: str
+) -> None:
+    xml = _xml(tmp_path, "bad.xml", body)
+    spec = _spec(tmp_path, "bad.xml")
+    line = f"{spec}:3:15: run 'a': tree 'bad.xml': {problem.format(xml=xml)}"
+    with pytest.raises(InputError) as caught:
+        pirate_bt.run_campaign(str(spec), output=tmp_path / "out")
+    assert str(caught.value) == line  # was "{xml}:1:1: a BehaviorTree.CPP XML tree, not..."
+    assert not (tmp_path / "out").exists()  # refused before any case
+    assert main(["validate", str(spec)]) == 2
+    seen = capsys.readouterr()
+    assert line in (seen.out + seen.err).splitlines()
+
+
+def test_a_good_xml_tree_runs_in_a_campaign(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["export", "btcpp", "straight", "-o", str(tmp_path / "good.xml")]) == 0
+    spec = _spec(tmp_path, "good.xml", ", params: {distance: 0.1 m}")
+    assert main(["validate", str(spec)]) == 0
+    capsys.readouterr()
+    result = pirate_bt.run_campaign(str(spec), output=tmp_path / "out", workers=1, progress=False)
+    assert [row["outcome"] for row in result.rows] == ["success"], result.rows
+    # a parameter of the XML tree is still placed at its own key in the spec
+    bad = _spec(tmp_path, "good.xml", ", params: {distance: abc}")
+    with pytest.raises(InputError, match=r"x\.campaign\.yaml:3:40: parameter 'distance': "):
+        pirate_bt.run_campaign(str(bad), output=tmp_path / "out2")

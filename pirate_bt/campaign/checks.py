@@ -19,7 +19,13 @@ from typing import Any
 
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
-from pirate_bt.errors import ConfigurationError, InputError, LocatedError, ValidationFailed
+from pirate_bt.errors import (
+    ConfigurationError,
+    InputError,
+    LocatedError,
+    ValidationFailed,
+    shown,
+)
 
 __all__ = ["check_axes", "check_faults", "check_runs"]
 
@@ -239,23 +245,38 @@ def _params_problems(
 
     The tree loader places a parameter's problem at ``--param:1:1`` (the command
     line's option); in a campaign the parameter was written in ``runs[i].params``,
-    at its own key when the problem names it. A problem of a tree file itself (a
-    parameter it declares without a default, say) stays where it is written.
+    at its own key when the problem names it. A problem of a YAML tree file itself
+    (a parameter it declares without a default, say) stays where it is written; one
+    of a BehaviorTree.CPP XML file (malformed, an unknown node) is placed at the
+    run's ``tree`` entry, naming the XML's own place: ``spec.yaml:3:15: run 'a':
+    tree 'bad.xml': unknown node type 'NoSuchNode' (at bad.xml:4:7)``.
     """
     source = source_of(spec)
     index = _run_index(spec, case)
     if index is None:
         return exc
     params: dict[str, str] = case["params"]
+    xml = _is_xml(case["tree"])
     found: list[InputError] = []
     for error in exc.errors:
         if error.location.file != "--param":
-            found.append(error)
+            if xml:
+                written = spec.runs[index].tree or case["tree"]  # as the spec writes it
+                run = f"run {case.get('run')!r}: tree {shown(written)}"
+                message = f"{run}: {error.message} (at {error.location})"
+                found.append(source.error(("runs", index, "tree"), message))
+            else:
+                found.append(error)
             continue
         path: tuple[str | int, ...] = ("runs", index, "params")
         name = next((k for k in params if f"parameter {k!r}" in error.message), None)
         found.append(source.error((*path, name) if name is not None else path, error.message))
     return _joined(found)
+
+
+def _is_xml(tree: str) -> bool:
+    """Whether a run's tree is a BehaviorTree.CPP XML file (read as ``pirate-bt run`` does)."""
+    return Path(tree).suffix.lower() == ".xml"
 
 
 def _robot_problems(
@@ -288,19 +309,26 @@ class _Robots:
 def _check_tree(
     case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
 ) -> list[str]:
-    """Load the case's tree with its parameters against its robot, as the case will;
-    the files it read (the tree file, then its subtrees' files)."""
+    """Load the case's tree with its parameters against its robot, as the case will
+    (a YAML tree, or a BehaviorTree.CPP XML file as :func:`pirate_bt.simulate_tree`
+    reads it); the files it read (the tree file, then its subtrees' files)."""
+    from pirate_bt.api.running import load_tree_source
     from pirate_bt.resources import find_file
-    from pirate_bt.treefile.loader import load_tree
 
     def load(robot: Any) -> list[str]:
-        return load_tree(
-            find_file("trees", case["tree"]),
-            robot=robot,
-            params=case["params"],
-            params_from_text=True,
-            params_origin="--param",
-        ).files
+        source = find_file("trees", case["tree"])
+        try:
+            loaded = load_tree_source(
+                source,
+                robot=robot,
+                params=case["params"],
+                params_from_text=True,
+                params_origin="--param",
+            )
+        except LocatedError as exc:  # the XML reader's one problem (malformed XML)
+            raise ValidationFailed([exc]) from None
+        # an XML tree is read through a YAML copy of its own: the XML is the file read
+        return [str(source)] if _is_xml(case["tree"]) else loaded.files
 
     try:  # as the case will: a parameter without a default must be given
         return load(robots(case.get("robot")))
