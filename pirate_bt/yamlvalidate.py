@@ -22,6 +22,7 @@ from pirate_bt.yamlfile import VALUE_WORDS, Locator, PathKey, YamlDocument
 
 __all__ = [
     "describe_error",
+    "key_not_text",
     "pydantic_errors",
     "unique_errors",
     "validate_document",
@@ -59,6 +60,8 @@ def describe_error(error: Any) -> str:
         return f"unknown key {shown(loc[-1])}"
     if kind == "missing" and loc:
         return f"missing required key {shown(loc[-1])}"
+    if kind == "invalid_key":  # "Keys should be strings": a mapping given from Python
+        return key_not_text(error.get("input", loc[-1] if loc else None))
     if kind == "union_tag_not_found":  # a tagged union (``kind: angle``) without its tag
         return f"missing required key {_tag_key(error)!r}"
     if kind == "union_tag_invalid":  # the tags as text, not reprs (<SensorKind.IMU: 'imu'>)
@@ -94,6 +97,13 @@ _IN_WORDS = {
 }
 """pydantic's error types whose words (``Input should be a valid integer``) are said in
 the library's: what the value must be, and the value as written."""
+
+
+def key_not_text(key: object) -> str:
+    """What a key that is not text is told (``key 5 must be text``): only a mapping given
+    from Python has one (YAML reads every key of a file as text), so it is shown as
+    Python writes it. The one wording of the tree reader and every pydantic model."""
+    return f"key {shown(key)} must be text"
 
 
 def _as_written(value: Any) -> str:
@@ -167,9 +177,17 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
             without it every location element is taken as a key.
     """
     entries = []
+    keys: list[tuple[PathKey, str]] = []
     for e in exc.errors():
         kind = str(e.get("type", ""))
+        if kind == "string_type" and e["loc"][-1:] == ("[key]",):  # a key that is not text
+            path, _, _ = _real_path(data, e["loc"][:-2], kind)
+            name = next((f"{p}: " for p in reversed(path) if isinstance(p, str)), "")
+            keys.append((path, f"{name}{key_not_text(e.get('input'))}"))
+            continue
         path, tagged, ends_on_tag = _real_path(data, e["loc"], kind)
+        if kind == "invalid_key" and path and isinstance(_value_at(data, path[:-1]), Mapping):
+            path = path[:-1]  # at the mapping that holds it: the message names the key
         entries.append((path, tagged and ends_on_tag and kind in _SHAPES, tagged, e))
     # Paths where some union branch failed on something other than shape.
     substantive = [path for path, shape, tagged, _ in entries if tagged and not shape]
@@ -192,7 +210,7 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
                 e = {**e, "ctx": {**e["ctx"], "tag": value}}
         bound = _bound_as_written(e, _value_at(data, path), path)
         out.append((path, bound or describe_error({**e, "loc": path})))
-    return list(dict.fromkeys(out))
+    return list(dict.fromkeys([*keys, *out]))
 
 
 _BOUNDS = {"lt": "less than", "le": "at most", "gt": "more than", "ge": "at least"}

@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 
 import pirate_bt
+from pirate_bt.campaign import campaign_from_data
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, ValidationFailed
 
@@ -118,3 +119,84 @@ def test_a_good_xml_tree_runs_in_a_campaign(
     bad = _spec(tmp_path, "good.xml", ", params: {distance: abc}")
     with pytest.raises(InputError, match=r"x\.campaign\.yaml:3:40: parameter 'distance': "):
         pirate_bt.run_campaign(str(bad), output=tmp_path / "out2")
+
+
+# -- 3. a mapping's key that is not text, in the library's words
+
+WAIT = {"type": "wait", "name": "w", "duration": "0.1 s"}
+
+
+@pytest.mark.parametrize(
+    ("tree", "message"),
+    [
+        ({"root": {**WAIT, 5: "x"}}, "wait 'w': key 5 must be text"),
+        ({"root": {**WAIT, None: "x"}}, "wait 'w': key None must be text"),
+        (
+            {"root": {"type": "sequence", "children": [WAIT, {"type": "success", 7: 1}]}},
+            "success at root.children[1]: key 7 must be text",
+        ),
+        (
+            {"root": {"type": "sequence", "name": "s", "children": [WAIT], 5: "x"}},
+            "sequence 's': key 5 must be text; allowed: children, memory",
+        ),
+        (
+            {"root": {"type": "failure_if", "name": "f", "condition": {5: 1}, "child": WAIT}},
+            "failure_if 'f': condition: key 5 must be text",
+        ),
+        (
+            {"params": {"p": {"type": "number", "default": 1, 9: 2}}, "root": WAIT},
+            "parameter 'p': key 9 must be text",
+        ),
+        (
+            {"blackboard": {"k": {"type": "number", 9: 2}}, "root": WAIT},
+            "blackboard key 'k': key 9 must be text",
+        ),
+        (
+            {
+                "root": {"type": "subtree", "name": "st", "ref": "x", "params": {5: 1}},
+                "subtrees": {"x": {"root": WAIT}},
+            },
+            "subtree 'st': params: key 5 must be text",
+        ),
+        (
+            {
+                "root": {"type": "subtree", "name": "st", "ref": "x"},
+                "subtrees": {"x": {"root": WAIT, 5: 1}},
+            },
+            "subtree 'x': key 5 must be text; allowed: description, params, root",
+        ),
+    ],
+)
+def test_a_key_that_is_not_text_names_its_node_and_the_key(tree: Any, message: str) -> None:
+    with pytest.raises(ValidationFailed) as caught:
+        pirate_bt.simulate_tree(tree)  # the call
+    said = [e.message for e in caught.value.errors]
+    assert said[0] == message, said
+    assert not any("should be strings" in m or "Input should" in m for m in said)
+    assert caught.value.errors[0].location.file.endswith("test_api_leftovers13.py")
+
+
+def test_the_briefs_own_example_is_said_in_the_librarys_words() -> None:
+    tree = {"type": "sequence", "children": [WAIT], 5: "x"}  # a node where a tree goes
+    with pytest.raises(ValidationFailed) as caught:
+        pirate_bt.simulate_tree(tree)
+    said = [e.message for e in caught.value.errors]
+    assert (
+        "key 5 must be text; allowed: blackboard, description, name, params, root, subtrees" in said
+    )
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"runs": [{"tree": "bend", "params": {5: "x"}}]}, "runs[0].params: key 5 must be text"),
+        ({"runs": [{"tree": "bend", 7: 1}]}, "runs[0]: key 7 must be text"),
+        ({"runs": [{"tree": "bend"}], 3: 1}, "key 3 must be text"),
+    ],
+)
+def test_other_mappings_from_python_say_it_alike(data: dict[Any, Any], message: str) -> None:
+    # pydantic's "Keys should be strings" and "Input should be a valid string" (a key of
+    # a mapping of text keys, said as 'params: should be text') in every model
+    with pytest.raises(InputError) as caught:
+        campaign_from_data({"name": "c", **data})
+    assert str(caught.value) == f"campaign spec: {message}"

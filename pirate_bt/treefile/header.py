@@ -53,6 +53,13 @@ def _written(key: object) -> str:
     return _shown(key) if isinstance(key, str) else repr(key)
 
 
+def _field(path: PathKey) -> bool:
+    """Whether a declaration's problem at ``path`` is at one of its fields, which its
+    message names (``default: ...``); else it is the declaration's own, or a key that is
+    not text (``key 9 must be text``), and the message says whose."""
+    return bool(path) and isinstance(path[0], str)
+
+
 class _Names:
     """Names a later check cannot rely on, because what they stood for was refused
     (and said so): some names, or, when a whole section was refused, every name."""
@@ -281,7 +288,7 @@ class _FileReader:
             except ValidationError as exc:
                 if not blanked or isinstance(decl, dict):
                     for at_key, msg in validation_problems(exc, decl):
-                        msg = msg if at_key else f"blackboard key {shown(key)}: {msg}"
+                        msg = msg if _field(at_key) else f"blackboard key {shown(key)}: {msg}"
                         self.error(doc, (*where, *at_key), msg)
                 self.board_unsure.add(key)
                 continue
@@ -344,7 +351,8 @@ class _FileReader:
                 parsed = ParamDecl.model_validate(decl)
             except ValidationError as exc:
                 for loc, msg in validation_problems(exc, decl):
-                    self.error(doc, (*at, *loc), msg if loc else f"parameter {shown(name)}: {msg}")
+                    msg = msg if _field(loc) else f"parameter {shown(name)}: {msg}"
+                    self.error(doc, (*at, *loc), msg)
                 out.refused.add(name)
                 continue
             if parsed.choices is not None and parsed.type != "string":

@@ -6,11 +6,20 @@ Used by the tree reader (:mod:`pirate_bt.treefile.reader`) for every node it rea
 from __future__ import annotations
 
 import unicodedata
+from typing import Any
 
 from pirate_bt.errors import LocatedError
-from pirate_bt.treefile.spec import NodeSpec
+from pirate_bt.treefile.spec import NodeSpec, PathKey
+from pirate_bt.yamlvalidate import key_not_text
 
-__all__ = ["dedupe", "name_problem", "shown_name", "unknown_key"]
+__all__ = [
+    "dedupe",
+    "name_problem",
+    "node_label",
+    "non_text_keys",
+    "shown_name",
+    "unknown_key",
+]
 
 
 def shown_name(text: str) -> str:
@@ -30,11 +39,52 @@ def name_problem(name: object) -> str | None:
 
 
 def unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
+    """A key a node (or a tree) does not take, with the nearest one or those allowed; a
+    key that is not text (a mapping's from Python) is said to be so (``key 5 must be
+    text; allowed: children, memory``)."""
     import difflib
 
+    if not isinstance(key, str):
+        return f"{key_not_text(key)}; allowed: {', '.join(sorted(allowed))}"
     close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
-    return f"unknown key {shown_name(key) if isinstance(key, str) else repr(key)}{hint}"
+    return f"unknown key {shown_name(key)}{hint}"
+
+
+def node_label(kind: str, name: object, path: PathKey, in_mapping: bool) -> str:
+    """A node as a message names it: its type and name (``wait 'w'``); an unnamed node of
+    a tree given as a mapping, whose problems are all at the planner's one line, by its
+    place in the mapping as well (``wait at root.children[0]``); else by its type (the
+    file's line and column say which)."""
+    if isinstance(name, str) and name_problem(name) is None:
+        return f"{kind} {shown_name(name)}"
+    if not in_mapping:
+        return kind
+    place = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path).lstrip(".")
+    return f"{kind} at {place}" if place else kind
+
+
+def non_text_keys(value: Any, path: PathKey = ()) -> tuple[Any, list[tuple[PathKey, object]]]:
+    """``value`` without the keys that are not text, at any depth (only a mapping given
+    from Python has them), and the path and key of each one left out."""
+    found: list[tuple[PathKey, object]] = []
+    if isinstance(value, dict):
+        kept: dict[Any, Any] = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                found.append((path, key))
+                continue
+            kept[key], inner = non_text_keys(item, (*path, key))
+            found += inner
+        return kept, found
+    if isinstance(value, list):
+        items = []
+        for i, item in enumerate(value):
+            clean, inner = non_text_keys(item, (*path, i))
+            items.append(clean)
+            found += inner
+        return items, found
+    return value, found
 
 
 def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:

@@ -19,7 +19,13 @@ from pydantic import ValidationError
 from pirate_bt.errors import SourceLocation
 from pirate_bt.treefile.header import _Env as _Env  # the loader's, kept importable here
 from pirate_bt.treefile.header import _FileReader, _Names, misspelt
-from pirate_bt.treefile.names import dedupe, name_problem, unknown_key
+from pirate_bt.treefile.names import (
+    dedupe,
+    name_problem,
+    node_label,
+    non_text_keys,
+    unknown_key,
+)
 from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import PARAM_RE, listed
 from pirate_bt.treefile.registry import UnknownNode
@@ -33,11 +39,17 @@ from pirate_bt.treefile.spec import (
     NodeSpec,
     PathKey,
 )
-from pirate_bt.yamlvalidate import validation_problems
+from pirate_bt.yamlvalidate import key_not_text, validation_problems
 
 __all__ = []
 
 _log = logging.getLogger("pirate_bt.treefile")
+
+
+def _in(path: PathKey) -> str:
+    """The key under which a value is, for a message (``condition: ``), or nothing."""
+    named = [p for p in path if isinstance(p, str)]
+    return f"{named[-1]}: " if named else ""
 
 
 class _Reader(_FileReader):
@@ -147,11 +159,13 @@ class _Reader(_FileReader):
         if left_out:
             name = None
         spec = NodeSpec(node_type=kind, name=name or kind, location=loc, explicit_name=bool(name))
+        label = node_label(kind, name, path, doc.file == "<dict>")  # for a non-text key
         if kind in _STRUCT_KEYS:
             for key in raw:
                 allowed = _STRUCT_KEYS[kind]
                 if key not in _COMMON_KEYS and key not in allowed and not self.blank(doc, key):
-                    self.error(doc, (*path, key), unknown_key(key, allowed))
+                    named = "" if isinstance(key, str) else f"{label}: "
+                    self.error(doc, (*path, key), named + unknown_key(key, allowed))
             if kind == "subtree":
                 read = self.subtree(env, path, raw, spec)
             elif kind == "eternal_guard":
@@ -172,6 +186,9 @@ class _Reader(_FileReader):
         unbound = len(self.unbound)
         raw_params = self.subst(env, raw_params, path)
         unknown = self.unbound[unbound:]  # not checked: the problem is said where it is
+        raw_params, bad_keys = non_text_keys(raw_params)  # said here, in the library's words
+        for at_key, key in bad_keys:
+            self.error(doc, (*path, *at_key), f"{label}: {_in(at_key)}{key_not_text(key)}")
         try:
             spec.params = cls.Params.model_validate(
                 raw_params, context={"units_required": self.units_required}
@@ -182,7 +199,7 @@ class _Reader(_FileReader):
                 if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
                     self.value_error(env, at, f"{kind}: {msg}")
             spec.params = None
-        if unknown:
+        if unknown or bad_keys:
             spec.params = None  # its limits are checked with every value known
         if spec.params is not None and self.robot is not None:
             for problem in cls.check_limits(spec.params, self.robot):
@@ -354,7 +371,9 @@ class _Reader(_FileReader):
                 return None
             for key in body:
                 if key not in _SUBTREE_KEYS and not self.blank(target_doc, key):
-                    self.error(target_doc, (*body_path, key), unknown_key(key, _SUBTREE_KEYS))
+                    whose = "" if isinstance(key, str) else f"subtree {_shown(name)}: "
+                    problem = whose + unknown_key(key, _SUBTREE_KEYS)
+                    self.error(target_doc, (*body_path, key), problem)
         else:
             body, body_path = target, ()
         ident = f"{target_doc.file}#{name}" if name else target_doc.file
@@ -375,6 +394,10 @@ class _Reader(_FileReader):
             if not self.blank(doc, given):
                 self.error(doc, (*path, "params"), "params: a mapping of name -> value")
             given, lost.every = {}, True
+        for key in [k for k in given if not isinstance(k, str)]:  # a mapping's, from Python
+            label = node_label("subtree", raw.get("name"), path, doc.file == "<dict>")
+            self.error(doc, (*path, "params"), f"{label}: params: {key_not_text(key)}")
+            given, lost.every = {k: v for k, v in given.items() if k != key}, True
         unbound = len(self.unbound)
         given = self.subst(env, given, (*path, "params"))
         for at in self.unbound[unbound:]:
