@@ -37,7 +37,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.running import as_loaded, run_on
 from pirate_bt.clock import Clock, SimClock, WallClock
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LinkError
 
 if TYPE_CHECKING:
     from pirate_bt.api.results import RunResult
@@ -94,6 +94,9 @@ class Connection:
         self.seed = seed
         self.description = description
         self._closed = False
+        self.close_error: LinkError | None = None
+        """Set by :meth:`close` when the link could not make sure the robot stopped (its
+        closing stop and the e-stop after it never acknowledged)."""
         from pirate_bt.safety.tally import VerdictTally
 
         self.tally = VerdictTally(supervisor, from_open=True)
@@ -215,6 +218,7 @@ class Connection:
         self._closed = True
         try:
             self.supervisor.close()
+            self.close_error = getattr(self.supervisor, "close_error", None)
         finally:
             if self._simulator is not None:
                 self._simulator.close()

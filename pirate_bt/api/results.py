@@ -7,7 +7,7 @@ carry one :class:`~pirate_bt.safety.tally.Counters` type.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,7 @@ from pirate_bt.runner import StopReason
 from pirate_bt.safety.tally import Counters
 from pirate_bt.trace.coverage import Coverage
 
-__all__ = ["RunResult", "exit_code"]
+__all__ = ["RunResult", "after_close", "exit_code"]
 
 
 def exit_code(succeeded: bool, error: BaseException | None) -> int:
@@ -56,6 +56,9 @@ class RunResult:
         coverage: Per node, what it did (ticks, transitions, successes, failures,
             halts, skips), counted as BehaviorTree.CPP's ``TreeObserver`` does:
             ``coverage.never_ran()``, ``coverage.never_failed(("guard", "condition"))``.
+        close_error: Set when closing the link, after the run, could not make sure the
+            robot stopped (its closing stop and the e-stop after it never acknowledged):
+            the run is then a failure, exit 3, whatever the tree did, and ``why`` says so.
 
     Example::
 
@@ -82,6 +85,7 @@ class RunResult:
     traceback: str | None = None
     loop: LoopResult | None = field(default=None, repr=False)
     coverage: Coverage | None = field(default=None, repr=False)
+    close_error: LinkError | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -91,7 +95,7 @@ class RunResult:
     @property
     def exit_code(self) -> int:
         """What ``pirate-bt run`` exits with: 0 success, 1 failure, 3 link error."""
-        return exit_code(self.succeeded, self.error)
+        return 3 if self.close_error is not None else exit_code(self.succeeded, self.error)
 
     def summary(self) -> str:
         """One line for people, as ``pirate-bt run`` prints it."""
@@ -121,3 +125,14 @@ class RunResult:
             "counters": self.counters.as_dict(),
             "coverage": self.coverage.as_dict() if self.coverage is not None else None,
         }
+
+
+def after_close(result: RunResult, close_error: LinkError | None) -> RunResult:
+    """``result`` once its link is closed: unchanged, or, when the close could not make
+    sure the robot stopped (``close_error``, see :attr:`RunResult.close_error`), a failure
+    that says so: its ``why`` on a tree that succeeded (the first cause), after the
+    run's own first cause on one that failed."""
+    if close_error is None:
+        return result
+    why = str(close_error) if result.succeeded else f"{result.why}; then {close_error}"
+    return replace(result, status="failure", why=why, close_error=close_error)

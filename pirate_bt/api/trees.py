@@ -32,7 +32,7 @@ from pirate_bt.api.options import (
     seed_value,
     split_faults,
 )
-from pirate_bt.api.results import RunResult
+from pirate_bt.api.results import RunResult, after_close
 from pirate_bt.api.running import (
     Observer,
     as_loaded,
@@ -174,7 +174,8 @@ def simulate_tree(
             faults=faults,
             firmware=firmware,
         ) as connection:
-            return run_on(connection, checked, count_from_open=True, **options)
+            result = run_on(connection, checked, count_from_open=True, **options)
+        return after_close(result, connection.close_error)  # the robot stopped?
 
 
 def run_tree(
@@ -227,7 +228,7 @@ def run_tree(
         groot2_server(groot2) as groot2_view,
         connect(port, robot=description, faults=faults) as connection,
     ):
-        return run_on(
+        result = run_on(
             connection,
             checked,
             max_time=max_time,
@@ -242,6 +243,7 @@ def run_tree(
             ),
             count_from_open=True,
         )
+    return after_close(result, connection.close_error)  # the robot stopped?
 
 
 def _check_world(network: Any, faults: Any, robot: Any) -> None:

@@ -101,7 +101,9 @@ from pirate_bt.link.payloads import (
     _HELLO,
     _HELLO_REPLY,
     _SETPOINT,
+    BadCrc,
     StateLengthError,
+    UnknownAckStatus,
     decode_fixed,
 )
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -118,6 +120,7 @@ __all__ = [
     "PROTOCOL_VERSION",
     "Ack",
     "AckStatus",
+    "BadCrc",
     "BoardCounters",
     "BoardStatus",
     "BridgeFlags",
@@ -139,6 +142,7 @@ __all__ = [
     "Setpoint",
     "State",
     "StateLengthError",
+    "UnknownAckStatus",
     "WireLayout",
     "byte_time_s",
     "cobs_decode",
@@ -500,7 +504,7 @@ class FrameCodec:
             raise FrameError("oversize", f"{n}-byte body (max {MAX_BODY_BYTES})")
         (crc,) = _CRC.unpack_from(body, n - 2)
         if binascii.crc_hqx(memoryview(body)[: n - 2], 0) != crc:
-            raise FrameError("crc", f"CRC mismatch (frame says {crc:#06x})")
+            raise BadCrc(body[1], crc)
         if body[1] == _STATE_CODE and n == self._state_body_bytes:
             return self._state_from_body(body)
         version, code, seq, arg = _HEADER.unpack_from(body)

@@ -18,6 +18,7 @@ from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
+    BadCrc,
     BoardStatus,
     BridgeFlags,
     BridgeHeartbeat,
@@ -31,16 +32,24 @@ from pirate_bt.link.codec import (
     Nack,
     State,
     StateLengthError,
+    UnknownAckStatus,
     seq_newer,
 )
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
-__all__ = ["BAD_STATES_BEFORE_MISMATCH", "InboundMixin"]
+__all__ = ["BAD_STATES_BEFORE_MISMATCH", "STATE_REFUSALS", "InboundMixin"]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
 _FAULT = int(BoardStatus.FAULT)
 _TIMEOUT = int(BoardStatus.TIMEOUT)
+_STATE = int(MsgType.STATE)
+_LATCH_BITS = int(BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT)
+_INPUT_ONLY = int(BridgeFlags.ESTOP_INPUT)
+_NO_REFUSALS = (0, 0, 0)
+STATE_REFUSALS = ("with a bad CRC", "of another length", "out of sequence")
+"""Why a ``STATE`` frame was not taken, in the order of :meth:`InboundMixin.refused_states`
+(a bad CRC is the frame's own, unchecked, type byte saying ``STATE``)."""
 OLD_STATES_BEFORE_RESYNC = 10
 """STATEs dropped in a row as not newer than the held one before the next is taken."""
 STALE_RESETS_BEFORE_MISMATCH = 3
@@ -90,6 +99,10 @@ class InboundMixin:
     _stale_reset_run: int = 0
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
+    # STATE frames refused since the last one taken: bad CRC, another length, not newer
+    _refused: tuple[int, int, int] = _NO_REFUSALS
+    # ESTOP_INPUT without ESTOP was seen (and logged) in this session
+    _input_unlatched_seen: bool = False
     # (board position, arrival of the last STATE that showed it answering) for each board
     # the newest STATE reports in TIMEOUT (see boards_away)
     _away_since: tuple[tuple[int, float], ...] = ()
@@ -108,6 +121,34 @@ class InboundMixin:
         """``ESTOP_INPUT`` in ``flags``, read in a 1.2 session only (in 1.1 bits 4-7 are
         0, whatever a bridge sends)."""
         return self.config.protocol_minor >= 2 and bool(flags & BridgeFlags.ESTOP_INPUT)
+
+    def _estopped(self, flags: BridgeFlags) -> bool:
+        """The e-stop taken as latched: ``ESTOP``, or ``ESTOP_INPUT`` without it (which
+        docs/protocol.md rules out: the input latches the e-stop, so the safe side)."""
+        return bool(flags & BridgeFlags.ESTOP) or self._estop_input(flags)
+
+    @property
+    def latch_reported(self) -> bool:
+        """The bridge's own ``ESTOP`` flag (not inferred from ``ESTOP_INPUT``): whether an
+        ``ESTOP`` would change anything."""
+        return bool(self._flags & BridgeFlags.ESTOP)
+
+    def refused_states(self) -> tuple[int, int, int]:
+        """``STATE`` frames refused since the last one taken (or the session's start), by
+        reason (:data:`STATE_REFUSALS`): a bad CRC, another length, not newer than the
+        one held."""
+        return self._refused
+
+    def _input_unlatched(self, flags: BridgeFlags) -> None:
+        """``flags`` has ``ESTOP_INPUT`` but not ``ESTOP``: say so, once a session."""
+        if self._input_unlatched_seen or self.config.protocol_minor < 2:
+            return
+        self._input_unlatched_seen = True
+        _log.error(
+            "the bridge reports its hardware e-stop input (ESTOP_INPUT) without its e-stop"
+            " latched (ESTOP), which the protocol rules out: taken as latched (flags %#04x)",
+            int(flags),
+        )
 
     def boards_away(self) -> tuple[tuple[int, float], ...]:
         """The boards the newest ``STATE`` reports in ``TIMEOUT``: for each, its position in
@@ -139,8 +180,14 @@ class InboundMixin:
         if isinstance(item, FrameError):
             self.crc_errors += 1
             _log.debug("dropped frame: %s", item)
+            crc, length, old = self._refused
             if isinstance(item, StateLengthError):
+                self._refused = (crc, length + 1, old)
                 self._bad_state(item)
+            elif isinstance(item, BadCrc) and item.claimed_type == _STATE:
+                self._refused = (crc + 1, length, old)
+            elif isinstance(item, UnknownAckStatus):
+                self._unknown_ack(item)
             return
         if item.TYPE < 0x80:  # pragma: no mutate (no message type is 0x80)
             self.unexpected += 1  # our own frames (loop://) or a confused peer
@@ -157,6 +204,8 @@ class InboundMixin:
             self._settle(req, Outcome.ACKED, now)
         elif isinstance(item, BridgeHeartbeat):
             self._flags = item.flags
+            if int(item.flags) & _LATCH_BITS == _INPUT_ONLY:
+                self._input_unlatched(item.flags)
             if item.flags & BridgeFlags.NO_SESSION:
                 self._bridge_reset(now)
         elif isinstance(item, HelloReply):
@@ -174,6 +223,26 @@ class InboundMixin:
             )
             self._protocol_error = ProtocolMismatch(why)
             _log.error(why)
+
+    def _unknown_ack(self, item: UnknownAckStatus) -> None:
+        """An ``ACK`` with a status outside the protocol's table: when it answers a
+        request in flight (its type and seq), the bridge speaks another protocol, a
+        link error; else it is counted as a bad frame only (noise that passed the CRC)."""
+        kind, seq = item.acked_type, item.seq
+        ordered, hello = self._ordered, self._hello
+        in_flight = (kind, seq) in self._oob or any(
+            r is not None and r.seq == seq and kind == r.msg.TYPE for r in (ordered, hello)
+        )
+        if not in_flight or self._protocol_error is not None:
+            return
+        name = MsgType(kind).name
+        why = (
+            f"the bridge answered {name} seq {seq} with an unknown ACK status {item.status}:"
+            " a protocol mismatch (the protocol's ACK statuses are 0 APPLIED, 1 DUPLICATE"
+            " and 2 STALE)"
+        )
+        self._protocol_error = ProtocolMismatch(why)
+        _log.error(why)
 
     def _on_answer(self, item: Ack | Nack, now: float) -> None:
         kind = item.acked_type
@@ -289,6 +358,8 @@ class InboundMixin:
         self.last_hello_reply = item
         self.config = self.config.heeding(item.watchdog_ms)  # a new bridge may differ
         self._flags = item.flags
+        if int(item.flags) & _LATCH_BITS == _INPUT_ONLY:
+            self._input_unlatched(item.flags)
         self._hello = None
         self._answered = item.seq
         self._accept_any_state = True
@@ -326,7 +397,8 @@ class InboundMixin:
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
         self._bad_state_run = 0
-        if int(item.flags) & _NO_SESSION:  # an int test: IntFlag's own & builds a flag
+        bits = int(item.flags)  # int tests: IntFlag's own & builds a flag
+        if bits & _NO_SESSION:
             self._flags = item.flags
             self._bridge_reset(now)
             return
@@ -339,6 +411,8 @@ class InboundMixin:
             self._old_state_run += 1
             if self._old_state_run <= OLD_STATES_BEFORE_RESYNC:
                 self.duplicates += 1
+                crc, length, old = self._refused
+                self._refused = (crc, length, old + 1)
                 return
             # So many in a row: the held STATE is the odd one (a damaged frame that
             # passed the CRC with a far seq, say), and every genuine STATE would be
@@ -350,10 +424,13 @@ class InboundMixin:
                 item.seq,
             )
         self._old_state_run = 0
+        self._refused = _NO_REFUSALS
         previous_s = self._state_at_s
         self._state = item
         self._state_at_s = now
         self._flags = item.flags
+        if bits & _LATCH_BITS == _INPUT_ONLY:
+            self._input_unlatched(item.flags)
         status = item.board_status
         if last is None or status != last.board_status:  # a tuple compare: one changed
             self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)

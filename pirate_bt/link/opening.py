@@ -14,7 +14,7 @@ import math
 from dataclasses import replace
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError, LinkTimeout
+from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.messages import HelloReply, NackCode
@@ -151,9 +151,15 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> Non
 
     Raises:
         LinkTimeout: the release was never acknowledged.
+        LinkError: it was answered ``ACK STALE``.
+        ProtocolMismatch: it was answered with an ``ACK`` status the protocol does not
+            have (or another mismatch ended the session meanwhile).
     """
     for _ in range(_RELEASE_TRIES):
-        req = session.wait(session.estop_reset())
+        try:
+            req = session.wait(session.estop_reset())
+        except ProtocolMismatch as exc:  # an unknown ACK status, say: not a slow line
+            raise ProtocolMismatch(f"releasing the boot latch: {exc}") from None
         session.take_failures()
         if req.outcome is not Outcome.FAILED:
             break

@@ -31,7 +31,7 @@ from pirate_bt.link.messages import (
     Setpoint,
 )
 
-__all__ = ["StateLengthError", "decode_fixed"]
+__all__ = ["BadCrc", "StateLengthError", "UnknownAckStatus", "decode_fixed"]
 
 
 class StateLengthError(FrameError):
@@ -49,6 +49,35 @@ class StateLengthError(FrameError):
 
     def __reduce__(self) -> tuple[object, ...]:
         return (type(self), (self.received, self.expected))
+
+
+class BadCrc(FrameError):
+    """A frame whose CRC does not match (reason ``crc``), with the type byte it claims
+    (``claimed_type``: unchecked, since the CRC failed), so that the session can tell
+    a run of damaged ``STATE`` frames from silence."""
+
+    def __init__(self, claimed_type: int, crc: int) -> None:
+        self.claimed_type = claimed_type
+        self.crc = crc
+        super().__init__("crc", f"CRC mismatch (frame says {crc:#06x})")
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (self.claimed_type, self.crc))
+
+
+class UnknownAckStatus(FrameError):
+    """An ``ACK`` (good CRC and version) whose status is not in the protocol's table
+    (reason ``value``), with the request it names, so that the session can tell a
+    bridge answering a request in flight with it (a protocol mismatch) from noise."""
+
+    def __init__(self, seq: int, acked_type: int, status: int) -> None:
+        self.seq = seq
+        self.acked_type = acked_type
+        self.status = status
+        super().__init__("value", f"unknown ack status {status}")
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (self.seq, self.acked_type, self.status))
 
 
 _HELLO = struct.Struct("<IB")
@@ -105,7 +134,7 @@ def decode_fixed(kind: MsgType, seq: int, arg: int, payload: bytes) -> Message:
         if kind is MsgType.ACK:
             ack_status = _ACK_STATUS.get(status)
             if ack_status is None:
-                raise FrameError("value", f"unknown ack status {status}")
+                raise UnknownAckStatus(seq, acked, status)
             return Ack(seq, acked, ack_status)
         try:
             return Nack(seq, acked, NackCode(status))

@@ -27,13 +27,14 @@ from typing import Any
 from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.away import BoardsAway
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
+from pirate_bt.link.inbound import STATE_REFUSALS
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
 from pirate_bt.robot.state import RobotState, StateBuilder
 
-__all__ = ["RobotLink"]
+__all__ = ["REFUSED_STATES_REPORTED", "RobotLink"]
 
 _log = logging.getLogger(__name__)
 
@@ -53,6 +54,7 @@ _HEALTH_FIGURES = attrgetter(
     "_flags",
     "bridge_resets",
     "_faulted",
+    "_refused",
 )
 
 
@@ -91,6 +93,8 @@ class RobotLink:
         self._health = LinkHealth(connected=False)
         self._loss_completed = -1
         self._loss_ratio = 0.0
+        self.close_error: LinkError | None = None
+        """Set by :meth:`close` when it could not make sure the robot stopped (see there)."""
 
     @property
     def robot(self) -> RobotDescription:
@@ -350,7 +354,7 @@ class RobotLink:
         if session.threaded:
             # A reader thread mutates the session: take its consistent, locked snapshot.
             stats = session.stats()
-            return _health_of(stats, self._board_ids_at(stats.faulted))
+            return _health_of(stats, self._board_ids_at(stats.faulted), session.refused_states())
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
         figures = _HEALTH_FIGURES(session)
@@ -369,6 +373,7 @@ class RobotLink:
             flags,
             resets,
             faulted,
+            refused,
         ) = figures
         if completed != self._loss_completed:
             recent = session._recent
@@ -384,11 +389,12 @@ class RobotLink:
             retries=retries,
             failed=failed,
             duplicates=dups,
-            estopped=bool(flags & BridgeFlags.ESTOP),
+            estopped=session._estopped(flags),
             estop_input=session._estop_input(flags),
             bridge_resets=resets,
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
             faulted_boards=self._board_ids_at(faulted),
+            states_refused=_refusals(refused),
         )
         return self._health
 
@@ -398,17 +404,23 @@ class RobotLink:
         return tuple(ids[i] for i in positions if i < len(ids))
 
     def close(self) -> None:
-        """Stop the drive motors if the link still works, then release the transport."""
+        """Stop the drive motors if the link still works, then release the transport.
+
+        Never raises. When neither the stop nor the e-stop sent after it is acknowledged,
+        the robot may be left moving until the bridge's watchdog stops it:
+        :attr:`close_error` then says so (a :class:`LinkError`), for the run's result.
+        """
         stop = [
             MotorCommand(m.name, ControlMode.VELOCITY, 0.0)
             for m in self._robot.drive_motors()
             if m.modes.velocity is not None
         ]
         if stop and self.session.stats().connected:
+            before = self._last_bulk
             try:
                 self.send_and_wait(stop, timeout_s=self.session.config.give_up_s)
             except LinkError as exc:
-                if self.session.stats().estopped:
+                if self.session.latch_reported:
                     # latched: the bridge has stopped everything and refuses setpoints
                     _log.info("drives not stopped on close (the e-stop is latched): %s", exc)
                 else:
@@ -418,11 +430,36 @@ class RobotLink:
                     # session resends a lost copy (same frame, always applied) within
                     # its retry budget; a link that fails meanwhile ends the wait.
                     _log.error("could not stop the drives on close: %s; e-stop sent", exc)
-                    try:
-                        self.session.wait(self.session.estop())
-                    except LinkError as why:
-                        _log.error("the e-stop on close was not acknowledged: %s", why)
+                    bulk = self._last_bulk
+                    self._estop_on_close(exc, None if bulk is before else bulk)
         self.session.close()
+
+    def _estop_on_close(self, stop_error: LinkError, bulk: Request | None) -> None:
+        """Send the close's e-stop and wait for it; keep in :attr:`close_error` why the
+        robot may still be moving when it is not acknowledged (``bulk``: the stop's
+        frame, ``None`` when none went out)."""
+        try:
+            req = self.session.wait(self.session.estop())
+        except LinkError as why:
+            estop = f"and the e-stop sent after it failed ({why})"
+        else:
+            if req.outcome is Outcome.ACKED:
+                return
+            if req.outcome is Outcome.FAILED:
+                estop = "nor was the e-stop sent after it"
+            else:
+                estop = f"and the e-stop sent after it was {req.outcome.value}"
+        if bulk is not None and bulk.outcome is Outcome.NACKED and bulk.nack is not None:
+            stop = f"refused ({bulk.nack.name})"
+        elif bulk is not None and bulk.outcome is Outcome.FAILED:
+            stop = "never acknowledged"
+        else:
+            stop = f"not confirmed ({stop_error})"
+        self.close_error = LinkError(
+            f"the closing stop was {stop}, {estop}: the robot may still be moving until its"
+            " bridge's watchdog stops it"
+        )
+        _log.error("%s", self.close_error)
 
     def __enter__(self) -> RobotLink:
         return self
@@ -440,7 +477,23 @@ def _not_answering(late: list[tuple[int, float]], what: str) -> str:
     )
 
 
-def _health_of(s: SessionStats, faulted_boards: tuple[int, ...]) -> LinkHealth:
+REFUSED_STATES_REPORTED = 5
+"""STATE frames refused in a row (none taken between) before ``LinkHealth.states_refused``
+reports them: one or two are a lossy line's damaged or duplicated frames, which the next
+good one makes up for; a run of them is what leaves the host without state."""
+
+
+def _refusals(counts: tuple[int, int, int]) -> tuple[tuple[str, int], ...]:
+    """The session's refused STATE counts as (reason, count) pairs, zeros left out; none
+    below :data:`REFUSED_STATES_REPORTED` in all."""
+    if sum(counts) < REFUSED_STATES_REPORTED:
+        return ()
+    return tuple((why, n) for why, n in zip(STATE_REFUSALS, counts, strict=True) if n)
+
+
+def _health_of(
+    s: SessionStats, faulted_boards: tuple[int, ...], refused: tuple[int, int, int]
+) -> LinkHealth:
     return LinkHealth(
         connected=s.connected,
         last_heard_s=s.last_heard_s,
@@ -455,4 +508,5 @@ def _health_of(s: SessionStats, faulted_boards: tuple[int, ...]) -> LinkHealth:
         bridge_resets=s.bridge_resets,
         bus_fault=s.bus_fault,
         faulted_boards=faulted_boards,
+        states_refused=_refusals(refused),
     )

@@ -359,7 +359,7 @@ class Session(InboundMixin):
                 duplicates=self.duplicates,
                 superseded=self.superseded,
                 sent=self.completed,
-                estopped=bool(self._flags & BridgeFlags.ESTOP),
+                estopped=self._estopped(self._flags),
                 watchdog=bool(self._flags & BridgeFlags.WATCHDOG),
                 bridge_resets=self.bridge_resets,
                 sessions=self.sessions,

@@ -43,6 +43,9 @@ class LinkHealth:
             RS485 poll cycle.
         faulted_boards: Ids of the boards whose latest status has ``FAULT`` (an
             H-bridge fault or over-current: the board cannot drive its motors).
+        states_refused: ``STATE`` frames the link refused since the last one it took,
+            as (reason, count) pairs (``("with a bad CRC", 12)``); empty while there are
+            fewer than a few (a lossy line's damaged frames, made up for by the next).
     """
 
     connected: bool
@@ -58,10 +61,20 @@ class LinkHealth:
     bridge_resets: int = 0
     bus_fault: bool = False
     faulted_boards: tuple[int, ...] = ()
+    states_refused: tuple[tuple[str, int], ...] = ()
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""
         return now_s - self.last_heard_s
+
+    def states_refused_text(self) -> str:
+        """:attr:`states_refused` for people (``"STATE frames arrived but all 15 were
+        refused (12 with a bad CRC, 3 out of sequence)"``), or ``""`` when none was."""
+        total = sum(n for _, n in self.states_refused)
+        counts = ", ".join(f"{n} {why}" for why, n in self.states_refused)
+        if total == 1:
+            return f"a STATE frame arrived but was refused ({counts})"
+        return f"STATE frames arrived but all {total} were refused ({counts})" if total else ""
 
 
 @runtime_checkable

@@ -60,7 +60,9 @@ def wait_for_state(port: RobotPort, clock: Clock, timeout_s: float) -> None:
         if port.state() is not None:
             break
         if clock.now() >= deadline:
-            raise LinkTimeout(f"no state from the robot within {timeout_s:g} s")
+            refused = port.health().states_refused_text()  # frames came, none was taken
+            why = f": {refused}" if refused else ""
+            raise LinkTimeout(f"no state from the robot within {timeout_s:g} s{why}")
         clock.sleep(step)
     names = [c.name for c in port.robot.state_channels()]
     while clock.now() < deadline:

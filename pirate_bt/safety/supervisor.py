@@ -193,6 +193,8 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._hold_torque = hold_torque(self.robot)
         self._half_channels = half_channels(self.robot)
         self._closed = False
+        self.close_error: LinkError | None = None
+        """Set by :meth:`close` when the port could not make sure the robot stopped."""
         self.simulator: Simulator | None = None
         """The in-process simulator behind the port, when there is one."""
 
@@ -416,13 +418,16 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     # link error, exit 3), found before max_link_silence runs out. Its
                     # newest STATE, not its newest frame: an ACK heard after the last
                     # STATE (then nothing) made the same silence "stale data", exit 1.
-                    silent = self._port.health().silent_for(now)
+                    health = self._port.health()
+                    silent = health.silent_for(now)
                     heard = (
                         f"nothing heard from the bridge for {silent:.3f} s"
                         if silent >= no_state - 1e-9
                         else f"no state frame from the bridge for {no_state:.3f} s (the"
                         f" last frame heard, {silent:.3f} s ago, held no state)"
                     )
+                    if refused := health.states_refused_text():  # not silent: refused
+                        heard = f"no state frame taken for {no_state:.3f} s: {refused}"
                     cause = f"{Reason.LINK_SILENT}: {heard}, so its readings are stale: {names}"
                     self.safe_state(cause, error=LinkError(cause))
                 else:
@@ -510,6 +515,8 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             try:
                 self._send_stop()
                 self._port.close()
+                # the port's close never raises; a link says here what it could not stop
+                self.close_error = getattr(self._port, "close_error", None)
             finally:
                 if self.simulator is not None:
                     self.simulator.close()

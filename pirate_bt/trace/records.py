@@ -350,14 +350,15 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
 
 
 #: The fields of :class:`LinkHealth` a trace records, in the order of
-#: :func:`link_health_raw`: all but ``bridge_resets``, ``bus_fault`` and
-#: ``faulted_boards``, which the trace schema predates (a reset mid-session shows as the
-#: bridge's latch and the supervisor's e-stop cause; a bus or board fault as the
-#: supervisor's safe-state cause, which names the boards).
+#: :func:`link_health_raw`: all but ``bridge_resets``, ``bus_fault``,
+#: ``faulted_boards`` and ``states_refused``, which the trace schema predates (a reset
+#: mid-session shows as the bridge's latch and the supervisor's e-stop cause; a bus or
+#: board fault as the supervisor's safe-state cause, which names the boards; refused
+#: STATE frames as ``crc_errors``, ``duplicates`` and the safe-state cause).
 LINK_FIELDS: tuple[str, ...] = tuple(
     f
     for f in LinkHealth.__dataclass_fields__
-    if f not in ("bridge_resets", "bus_fault", "faulted_boards")
+    if f not in ("bridge_resets", "bus_fault", "faulted_boards", "states_refused")
 )
 
 link_health_raw: Callable[[LinkHealth], tuple[Any, ...]] = attrgetter(*LINK_FIELDS)
