@@ -40,7 +40,7 @@ _EXPORTS: dict[str, str] = {
     "simulate_mission": "pirate_bt.api.missions",
     "run_mission": "pirate_bt.api.missions",
     "load_network": "pirate_bt.api.missions",
-    "write_mission_outputs": "pirate_bt.api.missions",
+    "write_mission_outputs": "pirate_bt.api.mission_outputs",
     "run_campaign": "pirate_bt.campaign",
     # planner code in the loop
     "navigate": "pirate_bt.api.navigation",
