@@ -46,6 +46,7 @@ from pirate_bt.api.options import (
     tick_period_s,
     writable_folder,
 )
+from pirate_bt.api.results import closing_why
 from pirate_bt.task.localise import MAP_FRACTION
 
 if TYPE_CHECKING:
@@ -458,6 +459,9 @@ def _watched_mission(
             observe=chain(live_view, ros2_view, groot2_live, observe),
             return_on_stop=return_on_stop,
         )
+    if connection.close_error is not None:  # the robot stopped? (api.results.after_close)
+        result.why = closing_why(result.succeeded, result.why, connection.close_error)
+        result.close_error = connection.close_error
     if out is not None:
         write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
     return result

@@ -25,6 +25,7 @@ from pirate_bt.api.options import (
     split_faults,
     tick_period_s,
 )
+from pirate_bt.api.results import closing_why
 from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
@@ -196,7 +197,7 @@ def navigate(
             start = float(simulator.model.s_m)
             truth_for = (lambda plan: truth_of(plan, simulator)) if map_network else None
             truth_now = lambda: float(simulator.model.s_m) - start  # noqa: E731
-        return run_navigation(
+        result = run_navigation(
             navigator,
             description,
             connection.supervisor,
@@ -216,3 +217,8 @@ def navigate(
             seed=connection.seed,
             count_from_open=True,  # as a tree run: a slide as the robot was put in counts
         )
+    if connection.close_error is not None:  # the robot stopped? (api.results.after_close)
+        result.why = closing_why(result.succeeded, result.why, connection.close_error)
+        result.status = "failure"
+        result.close_error = connection.close_error
+    return result

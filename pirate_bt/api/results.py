@@ -17,7 +17,7 @@ from pirate_bt.runner import StopReason
 from pirate_bt.safety.tally import Counters
 from pirate_bt.trace.coverage import Coverage
 
-__all__ = ["RunResult", "after_close", "exit_code"]
+__all__ = ["RunResult", "after_close", "closing_why", "exit_code"]
 
 
 def exit_code(succeeded: bool, error: BaseException | None) -> int:
@@ -134,5 +134,12 @@ def after_close(result: RunResult, close_error: LinkError | None) -> RunResult:
     run's own first cause on one that failed."""
     if close_error is None:
         return result
-    why = str(close_error) if result.succeeded else f"{result.why}; then {close_error}"
+    why = closing_why(result.succeeded, result.why, close_error)
     return replace(result, status="failure", why=why, close_error=close_error)
+
+
+def closing_why(succeeded: bool, why: str, close_error: LinkError) -> str:
+    """The first cause of a run (tree, mission or navigation) whose close could not make
+    sure the robot stopped: ``close_error`` itself when the run had succeeded, else the
+    run's own first cause followed by it."""
+    return str(close_error) if succeeded else f"{why}; then {close_error}"

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from pirate_bt.errors import InputError, LinkError
+from pirate_bt.errors import InputError
 from pirate_bt.units import parse_quantity
 
 __all__ = ["MissionOutputs", "configure", "execute", "run"]
@@ -241,7 +241,7 @@ def execute(
         code = 0
     else:
         print(f"pirate-bt: {summary}", file=sys.stderr)
-        code = 3 if isinstance(run.error, LinkError) else 1
+        code = result.exit_code  # 3: a lost link, or a close that left it moving
     for path in files:
         print(f"wrote {path}", file=stream)
     return MissionOutputs(code, result, tuple(files), wall)

@@ -131,15 +131,20 @@ class MissionResult:
     """Per node of the mission's tree, what it did (ticks, transitions, successes,
     failures, halts, skips), counted as BehaviorTree.CPP's ``TreeObserver`` does."""
 
+    close_error: LinkError | None = None
+    """Set when closing the link, after the mission, could not make sure the robot
+    stopped (its closing stop and the e-stop after it never acknowledged): the mission
+    is then a failure, exit 3, whatever its PABs did, and :attr:`why` says so."""
+
     @property
     def succeeded(self) -> bool:
-        """True when every PAB of the plan succeeded."""
-        return self.run.succeeded
+        """True when every PAB of the plan succeeded and the close stopped the robot."""
+        return self.run.succeeded and self.close_error is None
 
     @property
     def status(self) -> str:
         """``"success"`` or ``"failure"``."""
-        return self.run.outcome
+        return "failure" if self.close_error is not None else self.run.outcome
 
     @property
     def ticks(self) -> int:
@@ -166,7 +171,7 @@ class MissionResult:
         failure (as :attr:`RunResult.exit_code <pirate_bt.RunResult.exit_code>`)."""
         if self.succeeded:
             return 0
-        return 3 if isinstance(self.error, LinkError) else 1
+        return 3 if isinstance(self.error, LinkError) or self.close_error is not None else 1
 
     @property
     def sim_time_s(self) -> float:

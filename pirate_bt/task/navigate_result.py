@@ -65,6 +65,9 @@ class NavigationResult:
             the navigator's own, with its traceback).
         navigator_raised: ``error`` is the navigator's own exception (a failure, exit
             1, even when it is a ``LinkError`` of its own making).
+        close_error: Set when closing the link, after the navigation, could not make
+            sure the robot stopped (its closing stop and the e-stop after it never
+            acknowledged): the navigation is then a failure, exit 3, and ``why`` says so.
     """
 
     navigator: str
@@ -87,6 +90,7 @@ class NavigationResult:
     trace_dir: Path | None = None
     error: BaseException | None = None
     navigator_raised: bool = False
+    close_error: LinkError | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -98,6 +102,8 @@ class NavigationResult:
         """The command line's exit code: 0 success, 3 link error, 1 failure."""
         if self.succeeded:
             return 0
+        if self.close_error is not None:
+            return 3
         return 3 if isinstance(self.error, LinkError) and not self.navigator_raised else 1
 
     def summary(self) -> str:
