@@ -59,7 +59,7 @@ KINDS: dict[str, FileKind] = {
         title="robot description",
         marker_keys=("boards",),
         suffixes=(),
-        loader="pirate_bt.robot.loader:load_robot",
+        loader="pirate_bt.link.layout:validate_robot_file",  # the frames must fit
         schema="pirate_bt.robot.schema:robot_schema",
     ),
     "network": FileKind(

@@ -8,12 +8,20 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass
 from enum import StrEnum
+from pathlib import Path
 
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, LocatedError, ValidationFailed
 from pirate_bt.link.framing import HEADER_BYTES, MAX_PAYLOAD_BYTES
 from pirate_bt.robot.description import ControlMode, Motor, MotorFunction, RobotDescription
 
-__all__ = ["LayoutTooLarge", "StopRole", "WireLayout", "layout_text", "stop_role"]
+__all__ = [
+    "LayoutTooLarge",
+    "StopRole",
+    "WireLayout",
+    "layout_text",
+    "stop_role",
+    "validate_robot_file",
+]
 
 COUNTERS_FIXED_BYTES = 20
 """The COUNTERS payload's bridge figures; each board adds :data:`COUNTERS_BOARD_BYTES`."""
@@ -172,3 +180,24 @@ class WireLayout:
         """
         body = HEADER_BYTES + payload_bytes + 2
         return body + (body + 253) // 254 + 1
+
+
+def validate_robot_file(path: str | Path) -> RobotDescription:
+    """A robot description file checked as ``pirate-bt validate`` checks it: its schema
+    and cross-checks (:func:`~pirate_bt.robot.loader.load_robot`), then that its frames
+    fit the PIRATEbay protocol's largest frame, as every run needs (:class:`WireLayout`).
+
+    Raises:
+        ValidationFailed: the file does not validate, or its STATE, BULK_SETPOINTS or
+            COUNTERS frame would not fit (placed at its ``boards`` key).
+    """
+    from pirate_bt.robot.loader import load_robot
+    from pirate_bt.yamlfile import load_yaml
+
+    robot = load_robot(path)
+    try:
+        WireLayout.from_robot(robot)
+    except LayoutTooLarge as exc:
+        where = load_yaml(path).locator.locate(("boards",))
+        raise ValidationFailed([LocatedError(str(exc), where)]) from None
+    return robot
