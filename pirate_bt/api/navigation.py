@@ -88,7 +88,7 @@ def navigate(
             (``"route"``, ``"goal"``) made with ``params``.
         sim: The simulator's network, the pipe as it really is (a bundled name, a
             file, a ``NetworkSpec`` or a ``Network``; the default when no ``port`` is
-            given: ``"straight"``).
+            given: the map, as a mission's truth is, else ``"straight"``).
         port: A real robot (serial port or pyserial URL) instead of the simulator.
         map: The map the navigator and the planner see, given as ``sim`` is
             (``None``: no map; the belief is then the odometry's distance along the
@@ -173,8 +173,12 @@ def navigate(
     if port is not None:
         target = port
     else:
-        world = sim if sim is not None else "straight"
+        # no sim= with a map: the pipe is as drawn (a mission's truth, a campaign's
+        # world); it was the bundled straight, so a map of the lab ran in 5 m of pipe
+        world = sim if sim is not None else map if map is not None else "straight"
         target = _network(world, "sim")
+        if target is map_network:  # the simulator's own: nothing the navigation does to it
+            target = copy.deepcopy(target)
     # before anything moves, on a copy: a check_map that mutates the map changes nothing
     check_navigator_map(navigator, name, copy.deepcopy(map_network), deadline_s)
     made = trace is not None and not Path(trace).exists()

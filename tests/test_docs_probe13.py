@@ -1,0 +1,37 @@
+"""Probe 13: a researcher with only the manual (docs/api.md, navigators.md,
+missions.md, campaigns.md, observability.md, routes.md, networks.md) writes planner
+scripts; each discrepancy found is fixed and tested here, on short networks."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pirate_bt
+from pirate_bt import Observation, Step
+
+
+class _Done:
+    """A navigator that is done at once: the navigation connects, and runs no step."""
+
+    def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+def _scenario(trace: Path) -> str:
+    first = json.loads((trace / "navigation.jsonl").read_text().splitlines()[0])
+    return str(first["scenario"])
+
+
+def test_navigate_with_a_map_and_no_sim_runs_in_the_map(tmp_path: Path) -> None:
+    """docs/navigators.md, *The loop*: with neither ``sim=`` nor ``port=`` the simulator
+    runs the map, as a mission's truth defaults to its map and a campaign's navigator
+    runs in its ``network``. It ran the bundled ``straight`` whatever the map was, so
+    ``navigate("goal", map="lab", ...)`` drove 5 m of straight pipe against the lab's
+    drawing and failed on a disagreement at its first bend."""
+    pirate_bt.navigate(_Done(), map="bend-right", trace=tmp_path / "a")
+    assert _scenario(tmp_path / "a") == "bend-right"
+    pirate_bt.navigate(_Done(), trace=tmp_path / "b")  # no map: straight, as before
+    assert _scenario(tmp_path / "b") == "straight"
+    pirate_bt.navigate(_Done(), sim="t-joint", map="bend-right", trace=tmp_path / "c")
+    assert _scenario(tmp_path / "c") == "t-joint"  # sim= still says what the pipe is
