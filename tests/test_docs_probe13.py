@@ -35,3 +35,31 @@ def test_navigate_with_a_map_and_no_sim_runs_in_the_map(tmp_path: Path) -> None:
     assert _scenario(tmp_path / "b") == "straight"
     pirate_bt.navigate(_Done(), sim="t-joint", map="bend-right", trace=tmp_path / "c")
     assert _scenario(tmp_path / "c") == "t-joint"  # sim= still says what the pipe is
+
+
+def test_a_route_navigator_run_again_follows_its_route_again() -> None:
+    """docs/navigators.md, *Built-in navigators*: one ``RouteNavigator`` given to two
+    navigations drives its route in each. The second was ``done after 0 steps``, a
+    success with the robot not moved, as the first had used up the route."""
+    from pirate_bt.task import parse_route
+
+    route = parse_route("network straight\nforward 0.2 m\n", "short.route")
+    navigator = pirate_bt.RouteNavigator(route)
+    for _ in range(2):
+        result = pirate_bt.navigate(navigator, sim="straight", map="straight")
+        assert result.status == "success" and result.steps == 1, result.why
+        assert result.distance_m > 0.15
+
+
+def test_an_explore_navigator_run_again_surveys_afresh(tmp_path: Path) -> None:
+    """docs/navigators.md, *Built-in navigators*: one ``ExploreNavigator`` given to two
+    navigations surveys the pipe each time. The second went on from the first survey and
+    wrote both as one network: ``bend-right`` surveyed twice had two bends."""
+    out = tmp_path / "s.yaml"
+    navigator = pirate_bt.ExploreNavigator(output=out, search="2 m")
+    for _ in range(2):
+        result = pirate_bt.navigate(navigator, sim="straight")
+        assert result.status == "success", result.why
+        assert navigator.network is not None
+        assert [s.type for s in navigator.network.segments] == ["straight"]
+    assert [s.type for s in pirate_bt.load_network(out).spec.segments] == ["straight"]

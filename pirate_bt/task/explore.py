@@ -137,6 +137,7 @@ class ExploreNavigator:
         if not isinstance(name, str) or not name or any(c in name for c in "\n\r"):
             raise InputError(f"explore: a network name is one line of text, not {name!r}"[:200])
         self.name = name
+        self._extend = extend
         self.segments: list[dict[str, Any]] = []
         """The main line's segments found so far, as a network file writes them."""
         self.network: Any = None
@@ -193,6 +194,9 @@ class ExploreNavigator:
     def next_step(self, obs: Observation) -> Step | None:
         if obs.map is not None:
             raise InputError("explore surveys a pipe with no map: run it without map=")
+        if obs.step == 0 and self._from_m is not None:  # run again: a survey of its own
+            made = (self.output, self.search_m, self.radius_m, self.name, self._extend)
+            vars(self).update(vars(ExploreNavigator(*made)))  # (it went on from the last)
         if obs.last is not None and obs.last.outcome != "success":
             self.save(f"stopped: {obs.last.why}")
             return None  # the navigation's result names the failed step's cause

@@ -113,6 +113,8 @@ class RouteNavigator:
                     raise ValueError(f"{where}: {exc}") from None
 
     def next_step(self, obs: Observation) -> Step | None:
+        if obs.step == 0:  # a new navigation follows the route from its first command
+            self._next, self._goal, self.origin = 0, None, None  # (it was done at once)
         if obs.last is not None and obs.last.outcome != "success":
             return None  # the result names the step's cause
         if self._goal is not None:
