@@ -70,7 +70,7 @@ def test_schema_is_printed(capsys: pytest.CaptureFixture[str]) -> None:
         ("name: x\nruns:\n  - {tree: bend, route: lab}\n", ":3:", "exactly one"),
         ("name: x\nruns: []\n", ":2:", "at least 1"),
         ("name: x\nruns:\n  - {tree: bend}\nmax_time: 5 kg\n", ":4:", "max_time"),
-        ("name: x\nruns:\n  - {tree: bend}\nmaps: [lab]\n", ":1:", "routes and navigators only"),
+        ("name: x\nruns:\n  - {tree: bend}\nmaps: [lab]\n", ":4:1", "routes and navigators only"),
         ("name: x\nruns:\n  - {tree: bend}\nsim_faults: [[stall@1s]]\n", ":4:15", "stall"),
     ],
 )

@@ -63,3 +63,26 @@ def test_an_explore_navigator_run_again_surveys_afresh(tmp_path: Path) -> None:
         assert navigator.network is not None
         assert [s.type for s in navigator.network.segments] == ["straight"]
     assert [s.type for s in pirate_bt.load_network(out).spec.segments] == ["straight"]
+
+
+def test_a_campaign_axis_of_truths_with_a_tree_run_is_placed_at_its_key(tmp_path: Path) -> None:
+    """docs/campaigns.md: every mistake in a campaign file is one line at its
+    ``file:line:column``. ``as_built`` (or ``maps``) beside a tree run was placed at
+    the file's ``1:1`` and named no run; it is placed at the axis, naming the tree."""
+    import pytest
+
+    from pirate_bt.campaign import run_campaign
+    from pirate_bt.errors import InputError
+
+    spec = tmp_path / "c.campaign.yaml"
+    spec.write_text(
+        "name: c\nruns:\n  - {name: a, tree: straight}\n  - {route: bend-right}\n"
+        "as_built: {count: 2}\n"
+    )
+    with pytest.raises(InputError) as caught:
+        run_campaign(spec, workers=1)
+    assert str(caught.value).startswith(f"{spec}:5:1: 'as_built' (variants of the network)")
+    assert "run 'a' is a tree" in str(caught.value)
+    spec.write_text("name: c\nruns: [{tree: straight}]\nmaps: [null, lab]\n")
+    with pytest.raises(InputError, match=r":3:1: 'maps' .* run 'straight' is a tree"):
+        run_campaign(spec, workers=1)
