@@ -47,12 +47,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pirate_bt.api.running import find_tree
     from pirate_bt.cli.run import parse_params
-    from pirate_bt.resources import find_file
 
     module_name, function, _text = TARGETS[args.target]
     export = getattr(importlib.import_module(module_name), function)
     check_output(args.output)
-    written = export(find_file("trees", args.tree), args.output, parse_params(args.param))
+    # a name that is no file: a bundled tree's, else the API's error listing them
+    written = export(find_tree(args.tree), args.output, parse_params(args.param))
     print(f"wrote {written}")
     return 0

@@ -72,13 +72,13 @@ def run(args: argparse.Namespace) -> int:
         trace = drawn = read_trace(args.tree)
         structure = trace.structure
     else:
-        from pirate_bt.api.running import load_tree_source
+        from pirate_bt.api.running import find_tree, load_tree_source
         from pirate_bt.cli.run import parse_params
-        from pirate_bt.resources import find_file
 
-        # a .xml file as a BehaviorTree.CPP tree, as run and validate read it
+        # a .xml file as a BehaviorTree.CPP tree, as run and validate read it; a name
+        # that is no file, a bundled tree's, else the API's error listing them
         drawn = load_tree_source(
-            find_file("trees", args.tree),
+            find_tree(args.tree),
             robot=None,
             params=parse_params(args.param),
             params_from_text=True,

@@ -252,28 +252,35 @@ def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
     return 0
 
 
-def _runner_factory(
-    args: argparse.Namespace,
-    robot: RobotDescription,
-    connection: Any,
-    period_s: float,
-    groot2: Any = None,
-) -> Callable[[], object] | None:
-    """Checks ``--tree`` now (exit 2 on a bad tree) and returns how to build its runner
-    (:meth:`pirate_bt.Connection.runner`: supervised as every run is)."""
+def _load_tree(args: argparse.Namespace, robot: RobotDescription) -> Any:
+    """``--tree`` loaded and checked as ``pirate-bt run`` loads it (a name that is no
+    file: a bundled tree's, else the API's error listing them; a ``.xml`` file as
+    BehaviorTree.CPP), or None. Before a terminal is asked for or the robot reached, so
+    a bad tree is exit 2 whatever else is wrong."""
     if args.tree is None:
         return None
+    from pirate_bt.api.running import find_tree, load_tree_source
     from pirate_bt.cli.run import parse_params
-    from pirate_bt.resources import find_file
-    from pirate_bt.treefile import load_tree
 
-    checked = load_tree(
-        find_file("trees", args.tree),
+    return load_tree_source(
+        find_tree(args.tree, "--tree"),
         robot=robot,
         params=parse_params(args.param),
         params_from_text=True,
         params_origin="--param",
     )
+
+
+def _runner_factory(
+    checked: Any,
+    connection: Any,
+    period_s: float,
+    groot2: Any = None,
+) -> Callable[[], object] | None:
+    """How to build the runner of the checked ``--tree`` (None: no tree), by
+    :meth:`pirate_bt.Connection.runner`: supervised as every run is."""
+    if checked is None:
+        return None
 
     def factory() -> object:
         # py_trees times setup out with a signal, which only the main thread may set;
@@ -299,6 +306,7 @@ def run(args: argparse.Namespace) -> int:
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
     if args.tree is not None and args.keys is not None:
         raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
+    checked = _load_tree(args, robot)
     if args.keys is None and not sys.stdin.isatty():
         if args.tree is not None:
             # --keys drives by hand only: a supervised tree's y/n answers need a person
@@ -323,7 +331,7 @@ def run(args: argparse.Namespace) -> int:
         foxglove = open_foxglove(args)
         node = open_ros2(args)
         groot2 = open_groot2(args)
-        return _run_session(args, robot, mode, period_s, foxglove, node, groot2)
+        return _run_session(args, robot, checked, mode, period_s, (foxglove, node, groot2))
     finally:
         for opened in (foxglove, node, groot2):
             if opened is not None:
@@ -334,14 +342,14 @@ def run(args: argparse.Namespace) -> int:
 def _run_session(
     args: argparse.Namespace,
     robot: RobotDescription,
+    checked: Any,
     mode: Mode,
     period_s: float,
-    foxglove: Any,
-    ros2: Any = None,
-    groot2: Any = None,
+    views: tuple[Any, Any, Any],
 ) -> int:
     from pirate_bt.api.connection import connect
 
+    foxglove, ros2, groot2 = views
     target = args.port if args.port is not None else f"sim:{args.sim or 'straight'}"
     connection = connect(
         target,
@@ -364,7 +372,7 @@ def _run_session(
             session.after_step.append(serve_ros2(ros2, sup, robot=robot))
         if args.keys is not None:
             return _run_keys(session, args.keys, period_s)
-        factory = _runner_factory(args, robot, connection, period_s, groot2)
+        factory = _runner_factory(checked, connection, period_s, groot2)
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
         engine = ConsoleEngine(session, period_s=period_s, runner_factory=factory)
