@@ -86,3 +86,17 @@ def test_a_campaign_axis_of_truths_with_a_tree_run_is_placed_at_its_key(tmp_path
     spec.write_text("name: c\nruns: [{tree: straight}]\nmaps: [null, lab]\n")
     with pytest.raises(InputError, match=r":3:1: 'maps' .* run 'straight' is a tree"):
         run_campaign(spec, workers=1)
+
+
+def test_reading_a_navigations_record_as_a_trace_names_the_step_traces(tmp_path: Path) -> None:
+    """docs/navigators.md, *Traces*: ``DIR/navigation.jsonl`` is the navigation's record
+    and ``DIR/step-NNN.jsonl`` its tick traces, which ``read_trace`` reads. Given the
+    record, ``read_trace`` said only *the first record is no header*; it now says what
+    the file is and where the traces are."""
+    import pytest
+
+    from pirate_bt.errors import InputError
+
+    pirate_bt.navigate(_Done(), trace=tmp_path)
+    with pytest.raises(InputError, match=r"navigation.jsonl:1:1: .*no header \(a navigation's"):
+        pirate_bt.read_trace(tmp_path / "navigation.jsonl")

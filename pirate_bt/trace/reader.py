@@ -558,7 +558,12 @@ def _records(
         loc = SourceLocation(str(where), line)
         if header is None:
             if kind != "header" or record.get("format") != FORMAT_NAME:
-                raise LocatedError(f"not a {FORMAT_NAME} file: the first record is no header", loc)
+                steps = " (a navigation's record: its steps' traces are step-NNN.jsonl)"
+                raise LocatedError(
+                    f"not a {FORMAT_NAME} file: the first record is no header"
+                    + (steps if kind == "navigation" else ""),
+                    loc,
+                )
             version = record.get("version")
             if not isinstance(version, int) or version > TRACE_VERSION:
                 raise LocatedError(
