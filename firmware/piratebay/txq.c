@@ -2,6 +2,7 @@
 
 #include <stddef.h>
 
+#include "timer.h"
 #include "uart.h"
 
 #define TYPE_STATE 0x82u
@@ -36,7 +37,10 @@ void txq_init(void) {
     state.waiting = -1;
     state.on_line = -1;
     state.seq = 0;
-    last_sent_ms = 0;
+    /* boot time, not 0: on the AVR the two are the same, but a bridge whose clock
+     * does not restart at boot (the host build's fw_boot) sent a BRIDGE_HEARTBEAT
+     * first instead of STATE seq 1 (docs/protocol.md: with a 10 ms period, never) */
+    last_sent_ms = timer_ms();
 }
 
 uint8_t *txq_answer_begin(void) {
