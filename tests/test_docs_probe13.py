@@ -100,3 +100,23 @@ def test_reading_a_navigations_record_as_a_trace_names_the_step_traces(tmp_path:
     pirate_bt.navigate(_Done(), trace=tmp_path)
     with pytest.raises(InputError, match=r"navigation.jsonl:1:1: .*no header \(a navigation's"):
         pirate_bt.read_trace(tmp_path / "navigation.jsonl")
+
+
+def test_read_trace_given_a_folder_names_the_traces_in_it(tmp_path: Path) -> None:
+    """docs/campaigns.md, the rows' ``trace``: a route or navigator case keeps a folder
+    (a mission's outputs; a navigation's ``step-NNN.jsonl``). ``read_trace`` given the
+    row's ``trace`` said *unknown trace format; name it with one of: .jsonl, ...*; it
+    says it is a folder and names the traces in it."""
+    import pytest
+
+    from pirate_bt.errors import InputError
+
+    class Short:
+        def next_step(self, obs: Observation) -> Step | None:
+            return Step("straight", distance="0.1 m") if obs.step == 0 else None
+
+    pirate_bt.navigate(Short(), trace=tmp_path)
+    in_it = r"cannot read trace: it is a folder, not a file; the traces in it: step-0"
+    with pytest.raises(InputError, match=in_it):
+        pirate_bt.read_trace(tmp_path)
+    assert pirate_bt.read_trace(tmp_path / "step-001.jsonl").outcome == "success"

@@ -156,3 +156,22 @@ def suffix_of(path: str | Path, table: Mapping[str, object]) -> str:
                 f"{path}: {hint}; the trace formats known are: {known}{failed}"
             )
     raise InputError(f"{path}: unknown trace format; name it with one of: {known}{failed}")
+
+
+def refuse_folder(path: str | Path) -> None:
+    """A folder given as a trace is named as one, with the traces it holds (a campaign
+    row's ``trace`` of a route or navigator case, a mission's ``--output``), where it
+    was an *unknown trace format*.
+
+    Raises:
+        InputError: ``path`` is a folder.
+    """
+    try:
+        if not Path(path).is_dir():
+            return
+        found = sorted(p.name for p in Path(path).glob("*.jsonl*") if p.name != "navigation.jsonl")
+    except OSError:  # a name too long, a folder not to be listed: read as before
+        return
+    held = f"; the traces in it: {', '.join(found[:3])}{', ...' if len(found) > 3 else ''}"
+    held = held if found else ""
+    raise InputError(f"{path}: cannot read trace: it is a folder, not a file{held}")

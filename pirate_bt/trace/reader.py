@@ -41,7 +41,7 @@ from pirate_bt.errors import (
 from pirate_bt.robot.state import RobotState
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.coverage_counts import coverage_problem
-from pirate_bt.trace.formats import register_format, suffix_of
+from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import (
@@ -243,6 +243,7 @@ def open_reader(path: str | Path) -> TraceFormatReader:
         InputError: unknown suffix (the message lists the known ones).
         ConfigurationError: the suffix needs an optional part that is not installed.
     """
+    refuse_folder(path)
     return READERS[suffix_of(path, READERS)](path)
 
 
