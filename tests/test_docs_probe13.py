@@ -120,3 +120,18 @@ def test_read_trace_given_a_folder_names_the_traces_in_it(tmp_path: Path) -> Non
     with pytest.raises(InputError, match=in_it):
         pirate_bt.read_trace(tmp_path)
     assert pirate_bt.read_trace(tmp_path / "step-001.jsonl").outcome == "success"
+
+
+def test_a_navigation_that_ran_no_step_has_its_truth_on_the_simulator() -> None:
+    """docs/navigators.md: the result has ``belief_m`` and, on the simulator,
+    ``truth_m``. A navigation that ran no step (done at once, or its navigator raised
+    or was late at its first decision) had ``truth_m`` ``None`` on the simulator."""
+
+    class Raises:
+        def next_step(self, obs: Observation) -> Step | None:
+            raise RuntimeError("no plan")
+
+    for navigator in (_Done(), Raises()):
+        result = pirate_bt.navigate(navigator, sim="straight")
+        assert result.steps == 0
+        assert result.truth_m == 0.0 and result.belief_m == 0.0

@@ -77,7 +77,7 @@ def test_probe_turn_as_the_first_step_is_refused() -> None:
         " way on where a straight with stop_at_feature stopped blocked; in open pipe it"
         " would answer with a turn that is not there"
     )
-    assert result.belief_m == 0.0 and result.truth_m is None and result.safe_state
+    assert result.belief_m == 0.0 and result.truth_m == 0.0 and result.safe_state
     assert result.distance_m == 0.0 and result.counters.violations == 0
 
 

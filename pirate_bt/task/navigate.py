@@ -276,7 +276,8 @@ def run_navigation(
     felt: list[Felt] = []
     last: PabOutcome | None = None
     history: list[tuple[Step, str]] = []
-    truth_m: float | None = None
+    # on the simulator from the start: a navigation that ran no step had None
+    truth_m: float | None = truth_now() if truth_now is not None else None
     ran: StepRun | None = None
     odometer_m = 0.0  # how far each step moved the belief, summed
     fixed_at_m = 0.0  # the odometer at the last fix
