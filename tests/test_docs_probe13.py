@@ -135,3 +135,20 @@ def test_a_navigation_that_ran_no_step_has_its_truth_on_the_simulator() -> None:
         result = pirate_bt.navigate(navigator, sim="straight")
         assert result.steps == 0
         assert result.truth_m == 0.0 and result.belief_m == 0.0
+
+
+def test_a_decision_records_what_the_navigator_was_told(tmp_path: Path) -> None:
+    """docs/navigators.md: ``decisions`` are every answer *with its observation*. A
+    navigator that wrote into ``obs.choices`` (a plain dict it is handed) changed the
+    recorded observation: the result and ``navigation.jsonl`` showed its scribble as
+    the way the robot had taken."""
+
+    class Scribbles:
+        def next_step(self, obs: Observation) -> Step | None:
+            obs.choices["tee"] = "branch"
+            return None
+
+    result = pirate_bt.navigate(Scribbles(), sim="t-joint", map="t-joint", trace=tmp_path)
+    assert result.decisions[0].observation.choices == {}
+    record = json.loads((tmp_path / "navigation.jsonl").read_text().splitlines()[1])
+    assert record["observation"]["choices"] == {}

@@ -327,6 +327,8 @@ def run_navigation(
                 supervisor.safe_state(result.why)
                 result.why += went_on(disagreements)
                 break
+            # the decision records what the navigator was told, not what it wrote into it
+            told = replace(obs, choices=dict(obs.choices))
             step, seconds, error, raised = _decide(navigator, obs, deadline_s, name)
             checked: CheckedStep | None = None
             plan: MissionPlan | None = None
@@ -346,7 +348,7 @@ def run_navigation(
                     error = f"navigator {name!r} asked for an invalid step: {exc}"
                 except (LocatedError, ValidationFailed) as exc:
                     error = f"navigator {name!r} asked for an invalid step {step!r}: {exc}"
-            decision = Decision(index, obs, step, seconds, error)
+            decision = Decision(index, told, step, seconds, error)
             if error is not None:
                 result.decisions.append(decision)
                 where = {} if raised is None else {"raised_at": raised_at(raised)}
