@@ -143,8 +143,10 @@ def execute(
     max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
+    from pirate_bt.cli import check_folder_output
     from pirate_bt.cli.run import check_firmware_chain, check_rate, check_trace_path, live_outputs
 
+    check_folder_output(args.output)  # not a folder named "-"
     if getattr(args, "trace", None) is not None:
         check_trace_path(str(args.trace))  # before planning and connecting
     if args.output is not None and not args.plan:
@@ -224,16 +226,7 @@ def execute(
             extra_pictures=extra_pictures or [],
             warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
         )
-    run = result.run
-    node = result.failing_node
-    where = f" at {node}" if node and node not in result.why else ""  # as RunResult.summary
-    summary = (
-        f"mission {route.name}: {'SUCCESS' if result.succeeded else 'FAILED'} - {result.why}"
-        f"{where} ({run.ticks} ticks, {run.sim_time_s:.1f} s clock, {wall:.1f} s wall;"
-        f" believed at {result.belief_m:.2f} m"
-        + (f", truly {result.truth_m:.2f} m" if result.truth_m is not None else "")
-        + ")"
-    )
+    summary = result.summary(wall_s=wall)
     for note in result.replans:
         print(f"pirate-bt: {note}", file=sys.stderr)
     if result.succeeded:

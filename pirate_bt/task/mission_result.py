@@ -199,3 +199,69 @@ class MissionResult:
         """Largest belief error over the whole run."""
         errors = [abs(s.belief_m - s.truth_m) for s in self.samples if s.truth_m is not None]
         return max(errors) if errors else None
+
+    def summary(self, wall_s: float | None = None) -> str:
+        """One line for people, as ``pirate-bt mission`` prints it (``wall_s``: the wall
+        time to show, default :attr:`wall_s`)."""
+        node = self.failing_node
+        where = f" at {node}" if node and not self.succeeded and node not in self.why else ""
+        truth = f", truly {self.truth_m:.2f} m" if self.truth_m is not None else ""
+        wall = self.wall_s if wall_s is None else wall_s
+        return (
+            f"mission {self.plan.route.name}: {'SUCCESS' if self.succeeded else 'FAILED'}"
+            f" - {self.why}{where} ({self.run.ticks} ticks, {self.run.sim_time_s:.1f} s clock,"
+            f" {wall:.1f} s wall; believed at {self.belief_m:.2f} m{truth})"
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON values (your own reports), as :meth:`RunResult.as_dict
+        <pirate_bt.RunResult.as_dict>` gives a tree run's: the outcome and its first
+        cause, every PAB's, every fix, the belief against the truth, the counters."""
+
+        def metres(value: float | None) -> float | None:
+            return None if value is None else round(value, 4)
+
+        return {
+            "route": self.plan.route.name,
+            "status": self.status,
+            "why": self.why,
+            "failing_node": self.failing_node,
+            "mismatch": self.mismatch,
+            "replans": list(self.replans),
+            "sim_time_s": round(self.sim_time_s, 3),
+            "wall_s": round(self.wall_s, 3),
+            "ticks": self.ticks,
+            "safe_state": self.safe_state,
+            "belief_m": metres(self.belief_m),
+            "truth_m": metres(self.truth_m),
+            "odometry_m": metres(self.odometry_m),
+            "max_fix_error_m": metres(self.max_fix_error_m),
+            "pabs": [
+                {
+                    "label": p.label,
+                    "kind": p.kind,
+                    "outcome": p.outcome,
+                    "start_s": p.start_s,
+                    "end_s": p.end_s,
+                    "why": p.why,
+                    "failing_node": p.failing_node,
+                }
+                for p in self.pabs
+            ],
+            "fixes": [
+                {
+                    "time_s": round(f.time_s, 3),
+                    "feature": f.feature,
+                    "how": f.how,
+                    "before_m": metres(f.before_m),
+                    "after_m": metres(f.after_m),
+                    "truth_m": metres(f.truth_m),
+                    "confidence": round(f.confidence, 4),
+                }
+                for f in self.fixes
+            ],
+            "trace": str(self.trace_path) if self.trace_path is not None else None,
+            "counters": self.counters.as_dict(),
+            "coverage": self.coverage.as_dict() if self.coverage is not None else None,
+            "returned": self.returned.as_dict() if self.returned is not None else None,
+        }
