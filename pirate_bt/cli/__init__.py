@@ -11,7 +11,9 @@ by the runner and the robot left in its safe state (the run then ends with 1, as
 every run that does not succeed). An interrupt outside a run (loading, planning,
 writing outputs) exits 130 for SIGINT and 143 for SIGTERM. A file that cannot be
 read or written (a directory, a missing folder that cannot be made, a full disk)
-is one line naming it, exit 2.
+is one line naming it, exit 2. ``-o -`` is standard output for the verbs that write
+text (:func:`write_to_stdout`) and refused by every other output (:func:`check_output`,
+:func:`check_folder_output`).
 """
 
 from __future__ import annotations
@@ -22,10 +24,19 @@ import logging
 import os
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
-__all__ = ["COMMANDS", "Terminated", "check_output", "main"]
+__all__ = [
+    "COMMANDS",
+    "STDOUT",
+    "Terminated",
+    "check_folder_output",
+    "check_output",
+    "main",
+    "write_to_stdout",
+]
 
 # verb -> (module, one-line help). Later issues add their verbs here.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -85,6 +96,10 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
 
     from pirate_bt.errors import InputError, output_argument
 
+    if os.fspath(path) == STDOUT:  # was a file named "-" (export btcpp -o -: "wrote -")
+        raise InputError(
+            f"{option} -: this command writes a file, not standard output; name the file"
+        )
     if isinstance(path, str) and path.endswith(("/", os.sep)):  # Path() drops it: x.xml/
         raise InputError(f"{option}: {path} ends in '/', a folder; name the file to write")
     target = output_argument(path, option)
@@ -103,6 +118,39 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
         ) from None
     os.close(handle)
     os.unlink(probe)
+
+
+STDOUT = "-"
+"""``-o -``: standard output, for a verb whose output is text (``export``, ``import``,
+``robot header``, ``network``); every other output refuses it (:func:`check_output`)."""
+
+
+def check_folder_output(path: str | os.PathLike[str] | None, option: str = "--output") -> None:
+    """Refuse ``-`` for a folder of outputs (``mission --output -`` made a folder named
+    ``-``): it cannot be standard output.
+
+    Raises:
+        InputError: ``path`` is ``-``.
+    """
+    from pirate_bt.errors import InputError
+
+    if path is not None and os.fspath(path) == STDOUT:
+        raise InputError(f"{option} -: a folder of outputs, not standard output; name the folder")
+
+
+def write_to_stdout(write: Callable[[Path], object], name: str) -> None:
+    """``-o -``: ``write`` (the API's writer, given the path to write) writes into a
+    temporary folder, as it would anywhere (checked, whole, or nothing), and the text
+    goes to standard output; the folder is removed either way. ``name`` is the file's
+    name in it (its suffix may pick the format)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="pirate-bt-") as folder:
+        path = Path(folder) / name
+        write(path)
+        text = path.read_text(encoding="utf-8")
+    sys.stdout.write(text)
+    sys.stdout.flush()
 
 
 def _version() -> str:

@@ -115,6 +115,9 @@ def run(args: argparse.Namespace) -> int:
     if args.max_cases < 1:
         raise InputError("--max-cases must be at least 1")
     case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
+    from pirate_bt.cli import check_folder_output
+
+    check_folder_output(args.output)  # not a folder named "-"
     if args.output is not None and not args.output.strip():
         raise InputError("--output: empty; name a folder")  # '' would be the working folder
     spec = load_spec(args.spec)

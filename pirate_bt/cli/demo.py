@@ -53,8 +53,10 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(path)
     # bad input is refused before anything is printed or written: the route, and an
     # output folder that cannot be made or written in
-    from pirate_bt.cli import check_output
+    from pirate_bt.cli import check_folder_output, check_output
     from pirate_bt.filekinds import validate_file
+
+    check_folder_output(args.output)  # not a folder named "-"
 
     route = args.route or bundled("scenarios", "lab.route")
     validate_file(route, "route")

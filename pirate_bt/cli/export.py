@@ -15,7 +15,7 @@ import argparse
 import importlib
 from pathlib import Path
 
-from pirate_bt.cli import check_output
+from pirate_bt.cli import STDOUT, check_output, write_to_stdout
 
 __all__ = ["TARGETS", "configure", "run"]
 
@@ -35,7 +35,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for name, (_module, _function, text) in TARGETS.items():
         sub = subs.add_parser(name, help=text, description=text)
         sub.add_argument("tree", type=Path, help="tree file (.yaml)")
-        sub.add_argument("-o", "--output", required=True, help="file to write")
+        sub.add_argument(
+            "-o", "--output", required=True, help="file to write ('-': standard output)"
+        )
         sub.add_argument(
             "--param",
             action="append",
@@ -52,8 +54,13 @@ def run(args: argparse.Namespace) -> int:
 
     module_name, function, _text = TARGETS[args.target]
     export = getattr(importlib.import_module(module_name), function)
+    params = parse_params(args.param)
+    if args.output == STDOUT:  # the text only, no "wrote" line
+        tree = find_tree(args.tree)
+        write_to_stdout(lambda out: export(tree, out, params), f"{tree.stem}.xml")
+        return 0
     check_output(args.output)
     # a name that is no file: a bundled tree's, else the API's error listing them
-    written = export(find_tree(args.tree), args.output, parse_params(args.param))
+    written = export(find_tree(args.tree), args.output, params)
     print(f"wrote {written}")
     return 0

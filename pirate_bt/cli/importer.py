@@ -18,7 +18,7 @@ import argparse
 import importlib
 from pathlib import Path
 
-from pirate_bt.cli import check_output
+from pirate_bt.cli import STDOUT, check_output, write_to_stdout
 
 __all__ = ["SOURCES", "configure", "run"]
 
@@ -38,7 +38,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for name, (_module, _function, text) in SOURCES.items():
         sub = subs.add_parser(name, help=text, description=text)
         sub.add_argument("file", type=Path, help="file to read")
-        sub.add_argument("-o", "--output", required=True, help="tree file (.yaml)")
+        sub.add_argument(
+            "-o", "--output", required=True, help="tree file (.yaml; '-': standard output)"
+        )
         sub.add_argument(
             "--robot",
             metavar="FILE",
@@ -49,6 +51,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     module_name, function, _text = SOURCES[args.source]
     convert = getattr(importlib.import_module(module_name), function)
+    if args.output == STDOUT:  # the tree only, checked as for a file; no "wrote" line
+        name = f"{Path(args.file).stem or 'tree'}.yaml"
+        write_to_stdout(lambda out: convert(args.file, out, robot=args.robot), name)
+        return 0
     check_output(args.output)
     written = convert(args.file, args.output, robot=args.robot)
     print(f"wrote {written}")

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
+from pirate_bt.cli import STDOUT
 from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
 from pirate_bt.units import parse_quantity
 
@@ -94,7 +95,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     add.add_argument("--id", default="extra-tee", help="the new tee's id (default extra-tee)")
     for sub in (perturb, remove, add):
-        sub.add_argument("-o", "--output", type=Path, metavar="OUT", help="network file to write")
+        sub.add_argument(
+            "-o",
+            "--output",
+            type=Path,
+            metavar="OUT",
+            help="network file to write (default, or '-': standard output)",
+        )
 
 
 def _fraction(text: str, option: str) -> float:
@@ -206,6 +213,8 @@ def run(args: argparse.Namespace) -> int:
         except FileNotFoundError as exc:
             raise InputError(str(exc)) from None
     network = load_network(source)
+    if args.output is not None and str(args.output) == STDOUT:  # was a file named "-"
+        args.output = None
     if args.output is not None:  # perturb br2.yaml -o br2.yaml replaced its input
         not_an_input(args.output, "-o", {"input network": source})
     try:

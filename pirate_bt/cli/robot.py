@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from pirate_bt.cli import STDOUT
 from pirate_bt.errors import InputError
 from pirate_bt.render.files import write_diagram
 from pirate_bt.robot.diagram import board_table, robot_graph
@@ -29,7 +30,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     header.add_argument("description", type=Path, nargs="?", help="robot description")
     header.add_argument(
-        "-o", "--output", type=Path, metavar="OUT", help="header file (default: stdout)"
+        "-o",
+        "--output",
+        type=Path,
+        metavar="OUT",
+        help="header file (default, or '-': standard output)",
     )
 
 
@@ -48,7 +53,7 @@ def _header(args: argparse.Namespace) -> int:
     path = args.description or args.robot
     robot = load_robot(path)
     source = str(path) if path is not None else "the bundled robot description"
-    if args.output is None:
+    if args.output is None or str(args.output) == STDOUT:  # "-" was a file named "-"
         sys.stdout.write(render_header(robot, source))
     else:
         from pirate_bt.cli import check_output
