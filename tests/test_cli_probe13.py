@@ -125,3 +125,45 @@ def test_dash_where_no_text_is_written_is_refused_before_any_work(
     assert captured.err.count("\n") == 1
     assert captured.out == ""
     assert list(tmp_path.iterdir()) == []
+
+
+# -- a bad --faults or --seed is refused before anything is written -------------------
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["demo", "-q", "--faults", "bogus"], "faults: link fault 'bogus' is not key=value"),
+        (["demo", "-q", "--faults", "drop=2"], "faults: link fault drop='2': a probability"),
+        (["demo", "-q", "--seed", "-1"], "--seed: give a whole number from 0"),
+        (
+            ["mission", "lab", "-q", "--faults", "drop=x", "--output", "out"],
+            "faults: link fault drop='x': not a number",
+        ),
+    ],
+)
+def test_a_bad_fault_or_seed_leaves_no_output_behind(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    argv: list[str],
+    message: str,
+) -> None:
+    # demo printed the board table and drew demo-output/robot.svg, then refused the
+    # faults; mission made its empty output folder: the link faults were parsed only
+    # when the link opened
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"pirate-bt: {message}")
+    assert captured.err.count("\n") == 1
+    assert captured.out == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_api_refuses_a_bad_link_fault_with_the_options() -> None:
+    from pirate_bt.api.options import split_faults
+    from pirate_bt.errors import InputError
+
+    with pytest.raises(InputError, match="link fault 'bogus' is not key=value"):
+        split_faults("motor_stall:bend_1_drive@5s,bogus")

@@ -431,6 +431,12 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
 
     Returns:
         ``(simulator faults, link fault spec or None)``.
+
+    Raises:
+        InputError: too many faults, or a link fault that does not parse
+            (:func:`pirate_bt.link.faults.parse_fault_spec`): found here, where every
+            run checks its options, not when the link opens (a mission's output folder
+            was made by then, and ``pirate-bt demo`` had drawn the robot).
     """
     items: list[str] = []
     if isinstance(faults, str):
@@ -451,6 +457,10 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
         )
     sim = [i for i in items if "@" in i]
     link = [i for i in items if "@" not in i]
+    if link:
+        from pirate_bt.link.faults import parse_fault_spec
+
+        parse_fault_spec(",".join(link))
     return sim, (",".join(link) or None)
 
 

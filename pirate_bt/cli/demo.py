@@ -57,6 +57,13 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.filekinds import validate_file
 
     check_folder_output(args.output)  # not a folder named "-"
+    # the run's options, as the API checks them, before the robot is drawn (a bad
+    # --faults or --seed left demo-output/robot.svg and the board table behind)
+    from pirate_bt.api.connection import check_fault_targets
+    from pirate_bt.api.options import seed_value, split_faults
+
+    seed_value(args.seed, "--seed")
+    check_fault_targets(split_faults(args.faults)[0], robot)
 
     route = args.route or bundled("scenarios", "lab.route")
     validate_file(route, "route")
