@@ -167,3 +167,17 @@ def test_the_api_refuses_a_bad_link_fault_with_the_options() -> None:
 
     with pytest.raises(InputError, match="link fault 'bogus' is not key=value"):
         split_faults("motor_stall:bend_1_drive@5s,bogus")
+
+
+# -- a network name that is no file is named as typed, with the bundled networks ------
+
+
+def test_validate_a_network_name_that_is_no_file_names_it_as_typed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was "/work/main/scenarios/nosuch.yaml:1:1: no such file": a path never typed
+    monkeypatch.chdir(tmp_path)
+    assert main(["validate", "--kind", "network", "nosuch"]) == 2
+    names = ", ".join(bundled_names("scenarios"))
+    expected = f"nosuch:1:1: no such network file; bundled networks: {names}"
+    assert capsys.readouterr().err.strip() == expected

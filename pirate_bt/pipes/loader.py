@@ -6,10 +6,16 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import ConfigurationError, ValidationFailed, file_argument
+from pirate_bt.errors import (
+    ConfigurationError,
+    LocatedError,
+    SourceLocation,
+    ValidationFailed,
+    file_argument,
+)
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network, NetworkGeometryError
-from pirate_bt.resources import bundled, missing
+from pirate_bt.resources import bundled, bundled_names, missing
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
 from pirate_bt.yamlvalidate import validate_document
 
@@ -44,11 +50,18 @@ def load_network(path: str | Path) -> Network:
         InputError: ``path`` is no file name (empty, a NUL, bytes, a number, more than
             4096 characters: :func:`~pirate_bt.errors.file_argument`).
         ValidationFailed: the file cannot be read (a name the system refuses, such as
-            a part longer than 255 bytes, too) or does not validate.
+            a part longer than 255 bytes, too) or does not validate; a bare name that is
+            neither a file nor a bundled network: ``nosuch:1:1: no such network file;
+            bundled networks: bend-down, ...``.
     """
     p = file_argument(path, "path")
     if missing(p) and p.parent == Path(".") and not p.suffix:
-        p = bundled("scenarios", str(p))
+        candidate = bundled("scenarios", str(p))
+        if missing(candidate):  # named as typed, not as the bundled path never typed
+            names = ", ".join(bundled_names("scenarios"))
+            message = f"no such network file; bundled networks: {names}"
+            raise ValidationFailed([LocatedError(message, SourceLocation(str(p)))])
+        p = candidate
     return network_from_document(load_yaml(p))
 
 
