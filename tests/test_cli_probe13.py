@@ -181,3 +181,39 @@ def test_validate_a_network_name_that_is_no_file_names_it_as_typed(
     names = ", ".join(bundled_names("scenarios"))
     expected = f"nosuch:1:1: no such network file; bundled networks: {names}"
     assert capsys.readouterr().err.strip() == expected
+
+
+# -- trace plot: a zoom window's refusal says what is wrong with it -------------------
+
+
+@pytest.fixture(scope="module")
+def short_trace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("trace") / "run.jsonl"
+    argv = ["run", "straight", "--param", "distance=0.1m", "-q", "--trace", str(path)]
+    assert main(argv) == 0
+    return path
+
+
+@pytest.mark.parametrize(
+    ("window", "message"),
+    [
+        (["--from", "3", "--to", "1"], "from 3 s to 1 s is empty: its end is not after"),
+        (["--from", "nan"], "from nan s to "),
+        (["--from", "-5"], "from -5 s to 4.25 s starts before the trace (0 s to 4.25 s)"),
+        (["--from", "1e9"], "from 1e+09 s to 4.25 s is outside the trace (0 s to 4.25 s)"),
+    ],
+)
+def test_a_zoom_window_that_cannot_be_drawn_says_why(
+    short_trace: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    window: list[str],
+    message: str,
+) -> None:
+    # all were "plot window ... is empty or outside the trace", nan and 5-1 too
+    assert main(["trace", "plot", str(short_trace), "-o", str(tmp_path / "p.png"), *window]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pirate-bt: plot window {message}")
+    assert "is empty or outside" not in err
+    assert err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []

@@ -314,7 +314,8 @@ def plot_trace(
         ConfigurationError: matplotlib is not installed.
         ArgumentTypeError: ``trace`` is neither a ``Trace`` nor a path.
         InputError: the trace file cannot be read (its line and column), the window
-            is empty or outside the trace, or ``out`` has no suffix matplotlib writes
+            is not finite, starts before the trace or after it, or is empty (an end
+            past the trace's is cut to it), or ``out`` has no suffix matplotlib writes
             (``.png``, ``.svg``, ``.pdf``...).
         OSError: the picture cannot be written (nothing is left of the attempt: it
             is written whole to a temporary file and renamed).
@@ -329,10 +330,17 @@ def plot_trace(
     duration = trace.duration_s
     lo = 0.0 if start_s is None else start_s
     hi = duration if end_s is None else end_s
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo < 0 or hi <= lo or lo >= duration:
-        raise InputError(
-            f"plot window {lo:g}-{hi:g} s is empty or outside the trace (0-{duration:g} s)"
-        )
+    # each refusal says which: "-5-9.25 s is empty or outside the trace" was said of a
+    # window that was neither, and of nan. An end past the trace's is cut to it.
+    window = f"plot window from {lo:g} s to {hi:g} s"
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise InputError(f"{window}: give finite numbers of seconds")
+    if lo < 0:
+        raise InputError(f"{window} starts before the trace (0 s to {duration:g} s)")
+    if lo >= duration:
+        raise InputError(f"{window} is outside the trace (0 s to {duration:g} s)")
+    if hi <= lo:
+        raise InputError(f"{window} is empty: its end is not after its start")
     hi = min(hi, duration)
     zoomed = start_s is not None or end_s is not None
     try:
