@@ -217,3 +217,16 @@ def test_a_zoom_window_that_cannot_be_drawn_says_why(
     assert "is empty or outside" not in err
     assert err.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+# -- render: a picture it cannot draw is named by -o, before the tree is read ---------
+
+
+def test_render_names_a_suffix_it_cannot_draw_by_its_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was "out: cannot draw to 'x.bogus'", the API's argument name, after the tree loaded
+    assert main(["render", "nosuch", "-o", str(tmp_path / "x.bogus")]) == 2
+    err = capsys.readouterr().err
+    assert err == "pirate-bt: -o: cannot draw to 'x.bogus': use .dot, .svg or .png\n"
+    assert list(tmp_path.iterdir()) == []

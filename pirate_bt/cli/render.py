@@ -65,6 +65,12 @@ def run(args: argparse.Namespace) -> int:
     if args.coverage and args.tick is not None:
         raise InputError("--coverage colours by the whole run: leave out --tick")
     check_output(args.output)
+    from pirate_bt.render.files import DIAGRAM_SUFFIXES
+
+    if args.output.suffix.lower() not in DIAGRAM_SUFFIXES:  # named by the option, not
+        raise InputError(  # render_tree's "out:", and before the tree or trace is read
+            f"-o: cannot draw to {args.output.name!r}: use .dot, .svg or .png"
+        )
     trace: Trace | None = None
     structure: TreeStructure
     drawn: Trace | LoadedTree  # given to render_tree, which never draws over its files
