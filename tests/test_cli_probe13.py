@@ -230,3 +230,16 @@ def test_render_names_a_suffix_it_cannot_draw_by_its_option(
     err = capsys.readouterr().err
     assert err == "pirate-bt: -o: cannot draw to 'x.bogus': use .dot, .svg or .png\n"
     assert list(tmp_path.iterdir()) == []
+
+
+# -- sim: a seed is the seed every other verb takes -----------------------------------
+
+
+@pytest.mark.parametrize("seed", ["-1", str(2**63)])
+def test_sim_refuses_a_seed_run_refuses_before_serving(
+    capsys: pytest.CaptureFixture[str], seed: str
+) -> None:
+    # served the simulator with seed -1 (and 2**63) until interrupted; run refuses both
+    assert main(["sim", "--tcp", "0", "--duration", "0.1", "--seed", seed]) == 2
+    err = capsys.readouterr().err
+    assert err == f"pirate-bt: --seed: give a whole number from 0 to 2**63 - 1, not {seed}\n"

@@ -88,6 +88,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--speed must be positive")
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, not {args.duration:g}")
+    from pirate_bt.api.options import seed_value
+
+    seed_value(args.seed, "--seed")  # as run, mission and teleop: it served seed -1
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise InputError(f"--tcp {args.tcp}: a port is 0 to 65535 (0 picks a free one)")
     if args.firmware is None and args.boot_ms is not None:
