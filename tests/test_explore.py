@@ -216,7 +216,7 @@ def test_a_probe_with_a_map_is_refused_before_anything_moves() -> None:
 def test_explore_parameters_are_checked() -> None:
     with pytest.raises(pirate_bt.InputError, match="search must be positive"):
         pirate_bt.navigate("explore", sim="straight", params={"search": "-1 m"})
-    with pytest.raises(pirate_bt.InputError, match=r"has no|unexpected keyword"):
+    with pytest.raises(pirate_bt.InputError, match=r"takes no parameter .speed."):
         pirate_bt.navigate("explore", sim="straight", params={"speed": "1 m/s"})
 
 

@@ -103,7 +103,7 @@ def test_a_case_server_starts_without_a_warning_of_its_own_import() -> None:
         (
             "{navigator: goal, network: lab, params: {segmnt: riser}}",
             "2:49",
-            "unexpected keyword argument 'segmnt'",
+            "navigator 'goal' takes no parameter 'segmnt' (it takes: segment)",
         ),
         (
             "{navigator: goal, network: lab, params: {segment: nosuch}}",

@@ -409,6 +409,11 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
                 f"navigator {name!r} needs the parameter {missing[0]!r} (--param"
                 f" {missing[0]}=...; it takes: {', '.join(takes[0])})"[:300]
             )
+        unknown = sorted(set(given) - set(takes[0]))
+        if unknown:  # (Python's words were "__init__() got an unexpected keyword ...")
+            known = ", ".join(takes[0]) or "none"
+            said = f"navigator {name!r} takes no parameter {unknown[0][:40]!r}"
+            raise InputError(f"{said} (it takes: {known})"[:300])
     try:
         navigator = factory(**given)
     except TypeError as exc:
