@@ -243,3 +243,17 @@ def test_sim_refuses_a_seed_run_refuses_before_serving(
     assert main(["sim", "--tcp", "0", "--duration", "0.1", "--seed", seed]) == 2
     err = capsys.readouterr().err
     assert err == f"pirate-bt: --seed: give a whole number from 0 to 2**63 - 1, not {seed}\n"
+
+
+# -- navigate and survey: -q as every other verb that runs the robot ------------------
+
+
+def test_survey_takes_q_as_quiet_and_prints_its_summary_only(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # "-q" was "unrecognized arguments" for navigate and survey alone
+    out = tmp_path / "found.yaml"
+    assert main(["survey", "-q", "--sim", "straight", "-o", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("survey: SUCCESS")
+    assert out.is_file()

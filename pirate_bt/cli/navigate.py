@@ -34,7 +34,7 @@ def stepwise_options(parser: argparse.ArgumentParser, *, max_time_help: str) -> 
         action="store_true",
         help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
     )
-    parser.add_argument("--quiet", action="store_true", help="print the summary only")
+    parser.add_argument("-q", "--quiet", action="store_true", help="print the summary only")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -48,7 +48,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--list", action="store_true", help="list the navigators and exit")
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
-        "--sim", metavar="NETWORK", help="the simulator in this network, the truth (default)"
+        "--sim",
+        metavar="NETWORK",
+        help="the simulator in this network, the truth (default: the simulator, in the"
+        " --map network, else in 'straight')",
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
     parser.add_argument(

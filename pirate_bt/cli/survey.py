@@ -21,7 +21,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
-        "--sim", metavar="NETWORK", help="the simulator in this network, the truth (default)"
+        "--sim",
+        metavar="NETWORK",
+        help="the simulator in this network, the truth (default: the simulator, in 'straight')",
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial port or pyserial URL")
     parser.add_argument(
