@@ -257,3 +257,14 @@ def test_survey_takes_q_as_quiet_and_prints_its_summary_only(
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 1 and lines[0].startswith("survey: SUCCESS")
     assert out.is_file()
+
+
+@pytest.mark.parametrize("speed", ["1e308", "0", "-1", "nan", "100.5"])
+def test_sim_refuses_a_speed_it_cannot_keep_before_serving(
+    capsys: pytest.CaptureFixture[str], speed: str
+) -> None:
+    # 1e308 was served: the physics asked for ever more simulated time each turn
+    assert main(["sim", "straight", "--tcp", "0", "--duration", "0.1", "--speed", speed]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: --speed must be more than 0 and at most 100 simulated")
+    assert err.count("\n") == 1

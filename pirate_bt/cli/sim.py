@@ -79,13 +79,24 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_ros2_options(parser)
 
 
+MAX_SPEED = 100.0
+"""The fastest ``--speed``: the physics and its 100 Hz frames keep up with it on the
+project's machine (a simulator in process runs about 130 times real time), and a host
+on the line must read every frame as fast."""
+
+
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.robot import load_robot
     from pirate_bt.sim import SensorNoise, Simulator
     from pirate_bt.sim.server import SimServer
 
-    if not math.isfinite(args.speed) or args.speed <= 0:
-        raise InputError("--speed must be positive")
+    if not (math.isfinite(args.speed) and 0 < args.speed <= MAX_SPEED):
+        # 1e308 was taken: every turn of the serving loop then asked the physics for
+        # ever more simulated time and the simulator fell behind the wall clock for good
+        raise InputError(
+            f"--speed must be more than 0 and at most {MAX_SPEED:g} simulated seconds per"
+            f" wall second, not {args.speed:g}"
+        )
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, not {args.duration:g}")
     from pirate_bt.api.options import seed_value
