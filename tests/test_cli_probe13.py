@@ -268,3 +268,14 @@ def test_sim_refuses_a_speed_it_cannot_keep_before_serving(
     err = capsys.readouterr().err
     assert err.startswith("pirate-bt: --speed must be more than 0 and at most 100 simulated")
     assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize("name", ["x.json", "x", "x.yaml"])
+def test_export_refuses_an_output_not_named_xml(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str
+) -> None:
+    # was written: XML in x.json, which Groot2 then would not open as a tree
+    assert main(["export", "btcpp", "bend", "-o", str(tmp_path / name)]) == 2
+    err = capsys.readouterr().err
+    assert "BehaviorTree.CPP XML is written to a .xml file" in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []

@@ -525,7 +525,7 @@ def test_ids_and_models_that_would_be_misread(
 def test_a_fifo_as_the_output_is_refused_not_replaced(tmp_path: Path) -> None:
     tree = tmp_path / "tree.yaml"
     tree.write_text("root: success\n")
-    fifo = tmp_path / "out"
+    fifo = tmp_path / "out.xml"  # a name export takes: the fifo is what is refused
     os.mkfifo(fifo)
     with pytest.raises(InputError, match="is not a regular file; nothing written"):
         export_xml(tree, fifo)
@@ -534,7 +534,7 @@ def test_a_fifo_as_the_output_is_refused_not_replaced(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="is not a regular file; nothing written"):
         import_xml(source, fifo)
     assert fifo.is_fifo()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "t.xml", "tree.yaml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.xml", "t.xml", "tree.yaml"]
 
 
 def test_an_output_that_is_the_input_is_refused_and_the_input_kept(

@@ -377,7 +377,8 @@ def export_xml(
 
     Raises:
         InputError: a path that is no file name (an output that is a folder too), the
-            tree file itself as the output, or an output that cannot be written.
+            tree file itself as the output, an output not named ``.xml``, or an output
+            that cannot be written.
         ArgumentTypeError: ``params`` is not a mapping.
         ValidationFailed: the tree does not load.
     """
@@ -386,6 +387,11 @@ def export_xml(
     given = _params_argument(params)
     if out.exists() and out.resolve() == tree.resolve():
         raise InputError(f"{out}: is the tree file being exported; nothing written")
+    if out.suffix.lower() != ".xml":  # was written, XML in x.json, Groot2 then refusing it
+        raise InputError(
+            f"{out}: BehaviorTree.CPP XML is written to a .xml file (as Groot2 opens it),"
+            f" not {out.suffix or 'a name without a suffix'}; nothing written"
+        )
     text = tree_to_xml(tree, given, registry)
     try:
         return write_atomic(out, text)
