@@ -167,7 +167,8 @@ def file_argument(value: object, option: str) -> Path:
 
     Raises:
         ArgumentTypeError: neither text nor a path (a number, a mapping, bytes).
-        ArgumentValueError: empty, with a NUL, or too long; named by ``option``.
+        ArgumentValueError: empty, with a NUL, too long, or ``-`` where no file of that
+            name is (standard input or output); named by ``option``.
     """
     if not isinstance(value, str | os.PathLike):
         raise ArgumentTypeError(f"{option}: give a file name (text or a Path), not {_kind(value)}")
@@ -181,6 +182,11 @@ def file_argument(value: object, option: str) -> Path:
     if len(text) > MAX_PATH:
         raise ArgumentValueError(
             f"{option}: a file name of {len(text)} characters is too long (at most {MAX_PATH})"
+        )
+    if text == "-" and not os.path.lexists(text):  # was "no such file", or a bundled lookup
+        raise ArgumentValueError(
+            f"{option}: '-' is no file here (files are read and written by name, not through"
+            " standard input or output); name the file"
         )
     return Path(text)
 

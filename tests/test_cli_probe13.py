@@ -279,3 +279,23 @@ def test_export_refuses_an_output_not_named_xml(
     err = capsys.readouterr().err
     assert "BehaviorTree.CPP XML is written to a .xml file" in err and err.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [
+        (["run", "-", "--sim", "straight"], "tree"),
+        (["mission", "-"], "route"),
+        (["trace", "summary", "-"], "path"),
+    ],
+)
+def test_a_dash_as_an_input_says_files_are_read_by_name(
+    capsys: pytest.CaptureFixture[str], argv: list[str], option: str
+) -> None:
+    # was "-:1:1: no such tree file; bundled trees: ...", "no such file", or for a
+    # trace "unknown trace format": as if '-' were a name that nothing had
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        f"pirate-bt: {option}: '-' is no file here (files are read and written by name,"
+        " not through standard input or output); name the file\n"
+    )
