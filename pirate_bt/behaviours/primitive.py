@@ -143,7 +143,10 @@ class Primitive(Leaf):
         self.feedback_message = reason
         self.failure_reason = reason
         self.failed_at_s = self.now()
-        _log.warning("%s failed: %s", self.name, reason)
+        if _in_fallback(self):  # one way of several: the fallback tries the next
+            _log.info("%s failed: %s", self.name, reason)
+        else:
+            _log.warning("%s failed: %s", self.name, reason)
         return Status.FAILURE
 
     def send(self, command: Any) -> tuple[bool, bool]:
@@ -196,3 +199,15 @@ def _read_metres(key: str) -> float | str:
     if isinstance(value, int | float) and not isinstance(value, bool):
         return float(value)
     return f"blackboard {shown(key)} holds {shown(value)}, not metres"
+
+
+def _in_fallback(node: Any) -> bool:
+    """Whether ``node`` is one way a selector (fallback) tries: its failure is the
+    tree's flow (a survey's probe into each plane, say), not a warning. The run's
+    result still names it when the whole selector fails."""
+    parent = node.parent
+    while parent is not None:
+        if isinstance(parent, py_trees.composites.Selector):
+            return True
+        parent = parent.parent
+    return False
