@@ -110,6 +110,11 @@ def build(spec: NodeSpec, context: BuildContext) -> py_trees.behaviour.Behaviour
 # -- public API ------------------------------------------------------------------------------
 
 
+TRACE_SUFFIXES = (".jsonl", ".ndjson", ".jsonl.gz", ".mcap", ".btlog")
+"""Names of trace files (:mod:`pirate_bt.trace`'s formats, BehaviorTree.CPP's log): a
+tree file given one of them is named as a trace, not as YAML that does not parse."""
+
+
 def load_tree(
     source: str | Path | Mapping[str, Any],
     *,
@@ -172,6 +177,17 @@ def load_tree(
                         "a BehaviorTree.CPP XML tree, not a YAML tree file: read it with"
                         " pirate_bt.load_xml_tree (pirate-bt run, validate and render read it"
                         " as it is)",
+                        SourceLocation(str(path)),
+                    )
+                ]
+            )
+        # read as YAML, a trace is a syntax error at line 2, or "binary file"
+        if path.name.lower().endswith(TRACE_SUFFIXES):
+            raise ValidationFailed(
+                [
+                    LocatedError(
+                        "a trace, not a behaviour tree file: read it with pirate-bt trace"
+                        " summary (or show, plot) and pirate_bt.read_trace",
                         SourceLocation(str(path)),
                     )
                 ]
