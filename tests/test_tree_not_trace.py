@@ -39,3 +39,9 @@ def test_every_trace_format_is_named(tmp_path: Path, name: str) -> None:
     path.write_bytes(b"\x89MCAP0\r\n")  # never read: the name says what it is
     with pytest.raises(ValidationFailed, match=SAID):
         pirate_bt.load_tree(path)
+
+
+def test_a_yaml_tree_of_a_trace_s_name_still_loads(tmp_path: Path) -> None:
+    path = tmp_path / "tree.jsonl"
+    path.write_text("root: {type: success}\n")
+    assert pirate_bt.load_tree(path).root.name

@@ -112,7 +112,8 @@ def build(spec: NodeSpec, context: BuildContext) -> py_trees.behaviour.Behaviour
 
 TRACE_SUFFIXES = (".jsonl", ".ndjson", ".jsonl.gz", ".mcap", ".btlog")
 """Names of trace files (:mod:`pirate_bt.trace`'s formats, BehaviorTree.CPP's log): a
-tree file given one of them is named as a trace, not as YAML that does not parse."""
+file of such a name that is no YAML is named as a trace, not as YAML that does not
+parse (a YAML tree of such a name still loads)."""
 
 
 def load_tree(
@@ -181,22 +182,20 @@ def load_tree(
                     )
                 ]
             )
-        # read as YAML, a trace is a syntax error at line 2, or "binary file"
-        if path.name.lower().endswith(TRACE_SUFFIXES):
-            raise ValidationFailed(
-                [
-                    LocatedError(
-                        "a trace, not a behaviour tree file: read it with pirate-bt trace"
-                        " summary (or show, plot) and pirate_bt.read_trace",
-                        SourceLocation(str(path)),
-                    )
-                ]
-            )
         try:
             doc, refused = read_tree_yaml(path)  # a number YAML refused: the rest is read
         except OSError as exc:  # a name the system refuses (a part longer than 255 bytes)
             where = SourceLocation(str(path))
             raise ValidationFailed([LocatedError(f"cannot read: {exc.strerror}", where)]) from None
+        except ValidationFailed:
+            # a trace read as YAML: a syntax error at its second line, or "binary file"
+            if path.name.lower().endswith(TRACE_SUFFIXES):
+                said = (
+                    "a trace, not a behaviour tree file: read it with pirate-bt trace"
+                    " summary (or show, plot) and pirate_bt.read_trace"
+                )
+                raise ValidationFailed([LocatedError(said, SourceLocation(str(path)))]) from None
+            raise
         base_dir = path.parent
         strict = True if units_required is None else units_required
     else:
