@@ -16,7 +16,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from pirate_bt.interop.groot2_protocol import Hook, RequestType, pack_request
+from pirate_bt.interop.groot2_protocol import IDLE_FROM, Hook, RequestType, pack_request
 from pirate_bt.interop.groot2_run import (
     _REPLACED,
     BREAKPOINT,
@@ -106,7 +106,7 @@ class _Hooks(_ServerState):
             self._notices.append([pack_request(RequestType.BREAKPOINT_REACHED), b"%d" % hook.uid])
             if hook.mode == BREAKPOINT:
                 self._held = hook
-                self._show_midtick(run, node)
+                self._show_midtick(run, node, hook.uid)
         if hook.mode == BREAKPOINT:
             outcome = self._hold(run, hook, node)
             if outcome is not None:
@@ -121,11 +121,17 @@ class _Hooks(_ServerState):
                 return None  # refused when set; never against a robot
             return status
 
-    def _show_midtick(self, run: _Run, node: py_trees.behaviour.Behaviour) -> None:
-        """Show the tree as BT.CPP would while it waits at ``node`` in the middle of a
-        tick: the node's ancestors RUNNING (BT.CPP's composites and decorators turn
-        RUNNING before they tick a child), the nodes already ticked with their result.
-        The tick's end shows them as it left them."""
+    def _show_midtick(self, run: _Run, node: py_trees.behaviour.Behaviour, uid: int) -> None:
+        """Show the tree as BT.CPP would while it waits at ``node`` (the hook's ``uid``)
+        in the middle of a tick: the node's ancestors RUNNING (BT.CPP's composites and
+        decorators turn RUNNING before they tick a child), the nodes already ticked with
+        their result. The tick's end shows them as it left them.
+
+        A node whose parent has already reset it in this tick shows "IDLE, was ..."
+        (:func:`_resets_children`), and a subtree's root shares its py_trees node with
+        the ``<SubTree>`` node(s) calling it (lower UIDs): waiting at the root, those
+        are its ancestors in BT.CPP, RUNNING. Until 2026-11-30 both were shown as
+        they were."""
         recorder = run.recorder
         if recorder is None:
             return
@@ -133,12 +139,27 @@ class _Hooks(_ServerState):
         if index is None:
             return
         status = self._status
-        for done in recorder.ticked_so_far():
-            code = {Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}.get(done.status)
-            where = recorder.index_of(done)
+        done: dict[int, int] = {}
+        for ticked in recorder.ticked_so_far():
+            code = _CODES.get(ticked.status)
+            where = recorder.index_of(ticked)
             if code is not None and where is not None:
-                self._set_codes(run, status, where, code)
-                run.midtick.add(where)
+                done[where] = code
+        reset: set[int] = set()
+        for up, code in done.items():
+            if _resets_children(run.nodes[up], code):
+                for child in recorder.children[up]:
+                    if done.get(child, recorder.shown[child]) in (2, 3):
+                        reset.add(child)  # ticked now, or finished in an earlier tick
+        for where in reset - done.keys():
+            done[where] = recorder.shown[where]
+        for where, code in done.items():
+            self._set_codes(run, status, where, code + IDLE_FROM if where in reset else code)
+            run.midtick.add(where)
+        for outer in run.served.uids_of.get(index, ()):
+            if outer < uid:  # a <SubTree> node above the subtree root waited at
+                status[run.offset[outer]] = 1
+                run.midtick.add(index)
         up = run.parents[index] if index < len(run.parents) else -1
         while up >= 0:
             self._set_codes(run, status, up, 1)
@@ -198,6 +219,23 @@ class _Hooks(_ServerState):
     def _remove_all_locked(self) -> None:
         for position, uid in list(self._hooks):
             self._remove_locked(position, uid)
+
+
+_CODES = {Status.RUNNING: 1, Status.SUCCESS: 2, Status.FAILURE: 3}
+
+
+def _resets_children(parent: py_trees.behaviour.Behaviour, code: int) -> bool:
+    """Whether BT.CPP's ``parent``, whose tick ended with ``code`` in the tick in
+    progress, has reset its finished children (to IDLE) by now: every parent that
+    finished, a decorator as soon as its child finished, a reactive composite every
+    finished child at the end of its tick (the rules of
+    :class:`~pirate_bt.trace.coverage.CoverageRecorder` at the tick's end)."""
+    if code != 1:
+        return True
+    if isinstance(parent, py_trees.composites.Composite):
+        reactive = isinstance(parent, py_trees.composites.Sequence | py_trees.composites.Selector)
+        return reactive and not getattr(parent, "memory", True)
+    return len(parent.children) == 1  # a decorator
 
 
 def _stop_drives(supervisor: Any) -> None:
