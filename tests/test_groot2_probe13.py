@@ -29,6 +29,8 @@ pytest.importorskip("msgpack")
 
 from test_groot2_oracle import Session, _dump, _hook, _statuses  # noqa: E402
 
+from pirate_bt.interop.groot2_protocol import HookError, parse_hooks  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 
 # the real-time group (tests/conftest.py): live servers, answers awaited on the wall clock
@@ -192,6 +194,25 @@ def test_a_tree_waiting_at_a_breakpoint_is_shown_as_bt_cpp_shows_it(
     session.wait_reference()
     assert _statuses(session, "ours") == _statuses(session, "bt")
     assert _dump(session, "ours") == _dump(session, "bt") == []
+
+
+def test_a_hook_s_numbers_written_as_whole_floats_are_read_as_bt_cpp_reads_them(
+    both: Both,
+) -> None:
+    """JSON has one kind of number: a client may write UID 5 as ``5.0`` (BT.CPP's
+    nlohmann reads it as 5); pirate_bt refused it until 2026-11-30."""
+    hook = {"uid": 5.0, "position": 0.0, "mode": 1.0, "enabled": True, "once": False,
+            "desired_status": "FAILURE"}  # fmt: skip
+    ours, theirs = both.both(_header(ord("I")), json.dumps(hook).encode())
+    assert ours == theirs == [_header(ord("I"))]
+    ours, theirs = both.both(_header(ord("D")))
+    assert ours == theirs
+    assert json.loads(ours[1]) == [dict(hook, uid=5, position=0, mode=1)]
+    ours, theirs = both.both(_header(ord("R")), b'{"uid": 5.0, "position": 0}')
+    assert ours == theirs == [_header(ord("R"))]
+    # not a whole number: BT.CPP truncates it, pirate_bt says so (docs: read strictly)
+    with pytest.raises(HookError, match="'uid' must be int"):
+        parse_hooks(json.dumps(dict(hook, uid=5.5)).encode())
 
 
 def test_many_clients_at_once_each_get_their_own_replies(both: Both) -> None:

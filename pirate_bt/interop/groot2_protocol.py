@@ -217,6 +217,11 @@ def _field(data: Mapping[str, Any], key: str, kind: type) -> Any:
     if key not in data:
         raise HookError(f"hook: key '{key}' not found")
     value = data[key]
+    if kind is int and isinstance(value, float) and value.is_integer():
+        # a whole number written as one (5.0: JSON has one kind of number, and a client
+        # in JavaScript or Python may write it so); BT.CPP's nlohmann reads it as 5, and
+        # until 2026-11-30 this refused it
+        return int(value)
     if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
         raise HookError(f"hook: '{key}' must be {kind.__name__}, not {json.dumps(value)[:40]}")
     return value
