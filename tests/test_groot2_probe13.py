@@ -196,6 +196,64 @@ def test_a_tree_waiting_at_a_breakpoint_is_shown_as_bt_cpp_shows_it(
     assert _dump(session, "ours") == _dump(session, "bt") == []
 
 
+HALTING = """\
+name: halting
+root:
+  type: selector
+  name: top
+  memory: false
+  children:
+    - type: sequence
+      name: guarded
+      memory: false
+      children:
+        - {type: scripted, name: cond, statuses: [success, failure]}
+        - type: inverter
+          name: inv
+          child: {type: scripted, name: act, statuses: [running]}
+    - {type: scripted, name: other, statuses: [running]}
+"""
+
+
+def test_a_node_halted_before_the_breakpoint_in_its_tick_is_shown_halted(
+    built: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tick 1: ``act`` runs. Tick 2: ``cond`` fails, so the reactive sequence halts
+    ``act`` (and ``inv``), and the fallback goes on to ``other``, where the tree
+    waits. BT.CPP shows the halted nodes "IDLE, was RUNNING" (11); pirate_bt showed
+    them RUNNING until 2026-11-30."""
+    import test_groot2_oracle as oracle
+
+    tree = tmp_path / "halting.yaml"
+    tree.write_text(HALTING, encoding="utf-8")
+    monkeypatch.setattr(oracle, "TREE", tree)
+    made = Both(built, tmp_path, monkeypatch)
+    try:
+        session = made.session
+        session.tick()
+        for name in ("ours", "bt"):
+            assert session.client.body(name, "I", _hook(6)) == []
+        thread = session.tick(ours_in_thread=True)
+        assert thread is not None
+        assert json.loads(session.client.talk("notice ours 10000"))["uid"] == "6"
+        held = _statuses(session, "ours")
+        unlock = json.dumps(
+            {"uid": 6, "position": 0, "desired_status": "SKIPPED", "remove_when_done": True}
+        )
+        assert session.client.body("ours", "U", unlock) == []
+        thread.join(10)
+        assert not thread.is_alive()
+        session.tick_reference(wait=False)
+        assert json.loads(session.client.talk("notice bt 10000"))["uid"] == "6"
+        assert _statuses(session, "bt") == held
+        assert held == [(1, 1), (2, 3), (3, 13), (4, 11), (5, 11), (6, 0)]
+        assert session.client.body("bt", "U", unlock) == []
+        session.wait_reference()
+        assert _statuses(session, "ours") == _statuses(session, "bt")
+    finally:
+        made.close()
+
+
 def test_a_hook_s_numbers_written_as_whole_floats_are_read_as_bt_cpp_reads_them(
     both: Both,
 ) -> None:

@@ -128,10 +128,10 @@ class _Hooks(_ServerState):
         their result. The tick's end shows them as it left them.
 
         A node whose parent has already reset it in this tick shows "IDLE, was ..."
-        (:func:`_resets_children`), and a subtree's root shares its py_trees node with
-        the ``<SubTree>`` node(s) calling it (lower UIDs): waiting at the root, those
-        are its ancestors in BT.CPP, RUNNING. Until 2026-11-30 both were shown as
-        they were."""
+        (:func:`_resets_children`), one halted in this tick "IDLE, was RUNNING"; and
+        a subtree's root shares its py_trees node with the ``<SubTree>`` node(s)
+        calling it (lower UIDs): waiting at the root, those are its ancestors in
+        BT.CPP, RUNNING. Until 2026-11-30 all three were shown as they were."""
         recorder = run.recorder
         if recorder is None:
             return
@@ -153,6 +153,11 @@ class _Hooks(_ServerState):
                         reset.add(child)  # ticked now, or finished in an earlier tick
         for where in reset - done.keys():
             done[where] = recorder.shown[where]
+        shown = recorder.shown
+        for where, halted in enumerate(run.nodes):  # halted in this tick: "IDLE, was RUNNING"
+            if shown[where] == 1 and where not in done and halted.status == Status.INVALID:
+                self._set_codes(run, status, where, IDLE_FROM + 1)
+                run.midtick.add(where)
         for where, code in done.items():
             self._set_codes(run, status, where, code + IDLE_FROM if where in reset else code)
             run.midtick.add(where)
