@@ -39,10 +39,12 @@ from pirate_bt.interop import rmw_zenoh, ros2_process
 from pirate_bt.interop.ros2_option import (
     DEFAULT_ENDPOINT,
     DEFAULT_NAMESPACE,
+    check_names,
     domain_from_env,
     parse_endpoint,
 )
 from pirate_bt.interop.ros2_process import BOOL, CLOSED, FAILED, FLUSHED, OFF, READY, WARN
+from pirate_bt.interop.ros2_topics import TOPIC_TYPES
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
 
@@ -165,14 +167,10 @@ class Ros2Node:
         self.domain_id = domain_from_env() if domain_id is None else int(domain_id)
         if not 0 <= self.domain_id <= 232:
             raise InputError(f"--ros-domain-id {self.domain_id}: ROS domain ids go from 0 to 232")
-        try:
-            self.fq_estop = rmw_zenoh.qualified_name(namespace, ESTOP)
-            rmw_zenoh.qualified_name(namespace, name)
-        except ValueError as exc:
-            raise InputError(f"--ros-namespace {namespace!r}: {exc}") from None
-        if "/" in name:  # a relative name would pass above, but a node's name is one part
-            raise InputError(f"ROS 2 node name {name!r}: one part (letters, digits, _), no '/'")
-        self.namespace = "/" + namespace.strip("/") if namespace.strip("/") else ""
+        self.namespace = check_names(
+            namespace, name, max((t for t in TOPIC_TYPES if not t.startswith("/")), key=len)
+        )
+        self.fq_estop = rmw_zenoh.qualified_name(self.namespace, ESTOP)
         self.name = name
         if rate_hz <= 0:
             raise InputError("the ROS 2 rate must be positive")

@@ -7,6 +7,7 @@ Shared by ``pirate-bt run``, ``mission``, ``teleop`` and ``sim``; the node is
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 from pirate_bt.errors import InputError
@@ -16,6 +17,7 @@ __all__ = [
     "DEFAULT_NAMESPACE",
     "MAX_DOMAIN_ID",
     "add_ros2_options",
+    "check_names",
     "domain_from_env",
     "parse_endpoint",
 ]
@@ -25,6 +27,13 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 DEFAULT_NAMESPACE = "/pirate"
 MAX_DOMAIN_ID = 232
 """The largest ROS domain id (ROS 2's domain id table)."""
+NAMESPACE_MAX = 255 - 8 - 2
+"""rmw's longest namespace (``RMW_NAMESPACE_MAX_LENGTH``: a topic name's 247, less 2)."""
+NODE_NAME_MAX = 255
+"""rmw's longest node name (``RMW_NODE_NAME_MAX_NAME_LENGTH``)."""
+TOPIC_MAX = 255 - 8
+"""rmw's longest topic name (``RMW_TOPIC_MAX_NAME_LENGTH``)."""
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws", "unixsock-stream")
 
 
@@ -60,20 +69,77 @@ def parse_endpoint(text: str | None) -> str:
 
 
 def domain_from_env() -> int:
-    """``ROS_DOMAIN_ID`` as ROS reads it (0 when unset).
+    """``ROS_DOMAIN_ID`` as ROS reads it (0 when unset or empty).
+
+    rcl reads it with ``strtoul(text, &end, 0)``: ``010`` is octal (domain 8),
+    ``0x1f`` hexadecimal (31), a leading ``+`` is allowed. We read it the same
+    way, so that a run joins the domain every ROS node started with the same
+    environment joins (until 2026-11-30 ``010`` was domain 10 here, 8 for ROS).
+    What rcl would read only in part (``3abc``, ``08``) is refused.
 
     Raises:
         InputError: it is set to something that is not a domain id (a number from 0 to
             232), naming the variable (``--ros-domain-id`` was not given).
     """
-    text = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    raw = os.environ.get("ROS_DOMAIN_ID", "")
+    text = raw.strip()
     if not text:
         return 0
-    if not (text.isascii() and text.isdigit()):
-        raise InputError(f"ROS_DOMAIN_ID={text!r} is not a number")
-    if int(text) > MAX_DOMAIN_ID:
-        raise InputError(f"ROS_DOMAIN_ID={text}: ROS domain ids go from 0 to {MAX_DOMAIN_ID}")
-    return int(text)
+    digits = text.removeprefix("+")
+    if digits[:2] in ("0x", "0X"):
+        base, digits = 16, digits[2:]
+    elif len(digits) > 1 and digits.startswith("0"):
+        base, digits = 8, digits[1:]
+    else:
+        base = 10
+    allowed = "0123456789abcdefABCDEF"[: 10 if base == 10 else 8 if base == 8 else 22]
+    if not digits or any(c not in allowed for c in digits):
+        raise InputError(f"ROS_DOMAIN_ID={raw!r} is not a number")
+    value = int(digits, base)
+    if value > MAX_DOMAIN_ID:
+        raise InputError(
+            f"ROS_DOMAIN_ID={raw!r} is domain {value}: ROS domain ids go from 0 to {MAX_DOMAIN_ID}"
+        )
+    return value
+
+
+def check_names(namespace: str, name: str, longest_topic: str = "") -> str:
+    """``namespace`` as rmw writes it (``/`` first, none last; ``""`` for the root), after
+    checking it and the node's ``name`` against rmw's rules
+    (``rmw_validate_namespace``, ``rmw_validate_node_name``), as rcl does when a node
+    starts; ``longest_topic`` (relative) must fit in a topic name in the namespace.
+
+    A namespace without its leading ``/`` is taken as absolute, as rcl takes it.
+
+    Raises:
+        InputError: one line naming the option, the value and the rule it breaks.
+    """
+    shown = f"--ros-namespace {namespace!r}"
+    full = namespace if namespace.startswith("/") else "/" + namespace
+    if full != "/":
+        if full.endswith("/"):
+            raise InputError(f"{shown}: a ROS namespace does not end with '/'")
+        if "//" in full:
+            raise InputError(f"{shown}: a ROS namespace has no repeated '/'")
+        for part in full[1:].split("/"):
+            if not _TOKEN.fullmatch(part):
+                raise InputError(
+                    f"{shown}: {part!r} is no ROS name (letters, digits and _, not starting"
+                    " with a digit)"
+                )
+        if len(full) > NAMESPACE_MAX:
+            raise InputError(f"{shown}: longer than ROS's {NAMESPACE_MAX} characters")
+        if longest_topic and len(f"{full}/{longest_topic}") > TOPIC_MAX:
+            raise InputError(
+                f"{shown}: too long for the topic {longest_topic!r} in it (ROS topic names"
+                f" have at most {TOPIC_MAX} characters)"
+            )
+    if not _TOKEN.fullmatch(name) or len(name) > NODE_NAME_MAX:
+        raise InputError(
+            f"ROS 2 node name {name!r}: one part of letters, digits and _, not starting with"
+            f" a digit, at most {NODE_NAME_MAX} characters"
+        )
+    return "" if full == "/" else full
 
 
 def add_ros2_options(parser: Any) -> None:

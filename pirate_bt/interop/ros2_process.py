@@ -117,6 +117,9 @@ py_trees_ros's snapshot streams)."""
 
 ESTOP_TYPE = "std_msgs/msg/Bool"
 
+MISS_HEARTBEAT_S = 0.5
+"""rmw_zenoh's ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD`` for a latched publisher."""
+
 WARN_EVERY_NS = 60_000_000_000
 """How often at most a warning about the e-stop topic's messages goes to the run's log."""
 
@@ -216,11 +219,17 @@ class Node:
             if latched:
                 import zenoh.ext
 
+                # As rmw_zenoh declares a RELIABLE + TRANSIENT_LOCAL publisher: a cache for
+                # late joiners, and sample miss detection with a sporadic heartbeat (500 ms),
+                # which its subscriptions' recovery of a lost last sample relies on.
                 publisher = zenoh.ext.declare_advanced_publisher(
                     self.session,
                     key,
                     cache=zenoh.ext.CacheConfig(max_samples=1),
                     publisher_detection=True,
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(
+                        heartbeat=None, sporadic_heartbeat=MISS_HEARTBEAT_S
+                    ),
                 )
             else:
                 publisher = self.session.declare_publisher(
