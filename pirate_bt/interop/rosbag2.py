@@ -165,9 +165,17 @@ def _trace_topic(namespace: object) -> str:
             after the trace had been read).
     """
     from pirate_bt.interop.rmw_zenoh import qualified_name
+    from pirate_bt.interop.ros2_option import check_names
 
     if not isinstance(namespace, str):
         raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
+    try:
+        # the live node's rules (rmw_validate_namespace), so that a bag and a live run
+        # refuse the same namespaces: '/pirate/' and '//pirate' were written as '/pirate'
+        check_names(namespace, "pirate_bt", TRACE_TOPIC)
+    except InputError as exc:
+        rule = str(exc).split(": ", 1)[-1]
+        raise InputError(f"namespace {shown(namespace)}: {rule}") from None
     try:
         return qualified_name(namespace, TRACE_TOPIC)
     except ValueError as exc:
