@@ -8,6 +8,7 @@ The part of the trace-record <-> Foxglove topic mapping that both directions sha
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -56,6 +57,7 @@ _EVENT_LEVEL = {"fault": _ERROR, "exception": _ERROR, "estop": _ERROR, "operator
 _END_LEVEL = {"success": _INFO, "running": _INFO, "interrupted": _WARNING}
 
 encode_json = json.JSONEncoder(separators=(",", ":"), ensure_ascii=False).encode
+_encode_strict = json.JSONEncoder(separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode
 
 
 def missing_extra(what: str, module: str) -> str:
@@ -63,9 +65,29 @@ def missing_extra(what: str, module: str) -> str:
     return f"{what} needs the '{module}' package: {EXTRA_HINT}"
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every float that is not finite as the string the trace uses."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)  # "nan", "inf", "-inf"
+    if isinstance(value, Mapping):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
 def encode_message(message: Mapping[str, Any]) -> bytes:
-    """A message as compact UTF-8 JSON (the ``json`` message encoding)."""
-    return encode_json(message).encode("utf-8")
+    """A message as compact UTF-8 JSON (the ``json`` message encoding).
+
+    Numbers that are not finite are the strings ``"nan"``, ``"inf"``, ``"-inf"``, as in the
+    trace: Python's ``NaN`` and ``Infinity`` are not JSON, and Foxglove's parser refuses the
+    whole message (until 2026-11-30 a float of a record given as data, a ``.jsonl`` with
+    ``NaN`` exported to MCAP, or a mean wheel speed that overflowed was written so).
+    """
+    try:
+        return _encode_strict(message).encode("utf-8")
+    except ValueError:
+        return _encode_strict(_finite(message)).encode("utf-8")
 
 
 # --- schemas -----------------------------------------------------------------------
@@ -130,7 +152,7 @@ _SCHEMAS: dict[str, tuple[str, dict[str, Any]]] = {
                 "camera_pan_rad": _NUMBER,
                 "front_tilt_rad": _NUMBER,
                 "readings": _values("raw channels, when the trace records them"),
-                "speed_mps": {"type": "number", "description": "mean wheel speed, m/s"},
+                "speed_mps": {**_NUMBER, "description": "mean wheel speed, m/s"},
                 "full": {"type": "boolean", "description": "the trace recorded every value"},
             },
             additionalProperties=_NUMBER,
