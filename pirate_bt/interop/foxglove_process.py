@@ -29,8 +29,9 @@ from the run's process (standard input)
     server and exits.
 to the run's process (standard output)
     ``(READY, port)``, or ``(FAILED, text)`` when the server could not start;
-    ``(SUBSCRIBED, total)`` at each subscription; ``(OFF, text)`` when publishing
-    failed (nothing more is published; the input is still read to its end);
+    ``(SUBSCRIBED, total)`` after subscriptions (at most once per :data:`LATE_S`);
+    ``(OFF, text)`` when publishing failed (nothing more is published; the input is
+    still read to its end);
     ``(CLOSED, published, cpu_s)`` last.
 """
 
@@ -69,6 +70,7 @@ __all__ = [
     "CLOSED",
     "DROPPED",
     "FAILED",
+    "LATE_S",
     "LOG_LINES",
     "MESSAGE",
     "NICE",
@@ -93,6 +95,16 @@ NICE = 5
 POLL_S = 0.005
 """How long the process rests after each batch read off its input: it is not woken by
 every tick, and a message waits at most this long before it goes out."""
+
+LATE_S = 0.05
+"""The shortest time between two rounds of snapshots for late subscribers.
+
+The SDK sends a channel's messages to every client subscribed to it, so each round goes
+to every subscriber of those topics. A client subscribing and unsubscribing in a loop
+(thousands a second) made a round for nearly every one: other clients were sent the
+run's header and state hundreds of times a second, and the run's process was told of
+each subscription. Rounds are at most this often now, and the run's process is told the
+total once per round (:meth:`Server.subscribed`)."""
 
 LOG_LINES = 10
 """The SDK's log lines written to the run's standard error per minute at most."""
@@ -176,6 +188,8 @@ class Server:
         sends late subscribers their snapshots (the mapper is not shared otherwise)."""
         self.late: set[str] = set()
         self.late_asked = threading.Event()
+        self.last_round = -LATE_S
+        """When the last snapshots for late subscribers were sent (``time.monotonic``)."""
         self.subscriptions = 0
         self.published = 0
         self.enabled = True
@@ -191,21 +205,29 @@ class Server:
         threading.Thread(target=self._late_loop, name="pirate-foxglove-late", daemon=True).start()
 
     def subscribed(self, topic: str) -> None:
+        """Note a subscription (from the SDK's thread); :meth:`_late_loop` acts on it."""
         with self.lock:
             self.late.add(topic)
             self.subscriptions += 1
-            total = self.subscriptions
         self.late_asked.set()
-        self.out.send((SUBSCRIBED, total))
 
     def _late_loop(self) -> None:
-        """Send a late subscriber its snapshot even when no record comes (the run ended,
-        the server outlives it, or a breakpoint holds the tree); while records come, the
-        next one sends it first."""
+        """Tell the run's process how many subscriptions there were, and send late
+        subscribers their snapshot even when no record comes (the run ended, the server
+        outlives it, or a breakpoint holds the tree); while records come, the next one
+        sends it first. Both at most once per :data:`LATE_S`, however fast clients
+        subscribe."""
+        told = 0
         while True:
             self.late_asked.wait()
             time.sleep(POLL_S)  # out of the SDK's callback, with the subscription in place
             self.late_asked.clear()
+            with self.lock:
+                total = self.subscriptions
+            if total != told:
+                told = total
+                self.out.send((SUBSCRIBED, total))
+            time.sleep(max(0.0, self.last_round + LATE_S - time.monotonic()))
             with self.handling:
                 if not self.enabled:
                     continue
@@ -213,6 +235,8 @@ class Server:
                     self._send_late()
                 except Exception as exc:
                     self._off(exc)
+            if self.late:  # a round came just before: the next one sends it
+                self.late_asked.set()
 
     def handle(self, message: tuple[Any, ...]) -> None:
         """One message off the input (see the module docstring)."""
@@ -285,10 +309,11 @@ class Server:
         self.out.send((OFF, f"{type(exc).__name__}: {exc}"))
 
     def _send_late(self) -> None:
-        if not self.late:
+        if not self.late or time.monotonic() - self.last_round < LATE_S:
             return
         with self.lock:
             topics, self.late = self.late, set()
+        self.last_round = time.monotonic()
         for topic in topics:
             snapshot = self.mapper.snapshot(topic)
             if snapshot is not None:
