@@ -61,6 +61,7 @@ from board_bus_support import (
     ROBOT,
     STOP,
     DocBoard,
+    Pico,
     Splitter,
     _layout_header,
     _make,
@@ -257,13 +258,15 @@ def frames_of(data: bytes) -> list[bytes]:
 _LIBRARIES: dict[tuple[Path, int], ctypes.CDLL] = {}
 
 
-class PicoBoard:
+class PicoBoard(Pico):
     """The PICO's host build as board `board`, booted now, its clock from 0 at its boot.
 
     One copy of the library per board id, booted again for each run (a process can
     load only so many copies of a library built with the sanitizers)."""
 
-    def __init__(self, library: Path, workdir: Path, board: int, inputs: dict[str, list[int]]):
+    def __init__(  # its own library copies, not Pico's
+        self, library: Path, workdir: Path, board: int, inputs: dict[str, list[int]]
+    ) -> None:
         key = (library, board)
         if key not in _LIBRARIES:
             copy = workdir / f"pico-d13-{board}.so"
@@ -280,26 +283,7 @@ class PicoBoard:
         for i, value in enumerate(inputs["adc"]):
             self.lib.pk_adc(i, value)
 
-    def run_to(self, us: int) -> None:
-        if us > self.now_us:
-            self.lib.pk_run_us(ctypes.c_uint32(us - self.now_us))
-            self.now_us = us
-
-    def write(self, data: bytes) -> None:
-        self.lib.pk_write(data, len(data))
-
-    def read(self) -> bytes:
-        buf = ctypes.create_string_buffer(4096)
-        n = self.lib.pk_read(buf, len(buf))
-        return buf.raw[:n]
-
-    def motors(self, n: int) -> list[tuple[int, int] | None]:
-        out = []
-        for k in range(n):
-            value = (ctypes.c_int16 * 2)()
-            self.lib.pk_state(k, value)
-            out.append(None if value[0] == 0xFE else (value[0], value[1]))
-        return out
+    # run_to, write, read and motors: board_bus_support.Pico's (the same host build)
 
 
 LAYOUT_SLOTS = {
