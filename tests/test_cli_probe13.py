@@ -99,6 +99,24 @@ def test_import_to_dash_writes_the_checked_tree_to_standard_output(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bend.xml"]
 
 
+def _refused_before_any_work(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    argv: list[str],
+    message: str,
+) -> None:
+    """``argv``, run in an empty folder: exit 2, one line starting with ``message``,
+    nothing on standard output, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"pirate-bt: {message}")
+    assert captured.err.count("\n") == 1
+    assert captured.out == ""
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
@@ -118,13 +136,7 @@ def test_dash_where_no_text_is_written_is_refused_before_any_work(
 ) -> None:
     # survey wrote a file named "-"; mission and demo ran and wrote into a folder "-";
     # render said "out: cannot draw to '-'"
-    monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
-    captured = capsys.readouterr()
-    assert captured.err.startswith(f"pirate-bt: {message}")
-    assert captured.err.count("\n") == 1
-    assert captured.out == ""
-    assert list(tmp_path.iterdir()) == []
+    _refused_before_any_work(tmp_path, monkeypatch, capsys, argv, message)
 
 
 # -- a bad --faults or --seed is refused before anything is written -------------------
@@ -152,13 +164,7 @@ def test_a_bad_fault_or_seed_leaves_no_output_behind(
     # demo printed the board table and drew demo-output/robot.svg, then refused the
     # faults; mission made its empty output folder: the link faults were parsed only
     # when the link opened
-    monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
-    captured = capsys.readouterr()
-    assert captured.err.startswith(f"pirate-bt: {message}")
-    assert captured.err.count("\n") == 1
-    assert captured.out == ""
-    assert list(tmp_path.iterdir()) == []
+    _refused_before_any_work(tmp_path, monkeypatch, capsys, argv, message)
 
 
 def test_the_api_refuses_a_bad_link_fault_with_the_options() -> None:

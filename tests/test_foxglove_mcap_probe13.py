@@ -24,6 +24,18 @@ pytestmark = pytest.mark.xdist_group("real-time")
 ROOT = Path(__file__).resolve().parent.parent
 
 
+HEADER = {
+    "type": "header",
+    "format": "pirate_bt.trace",
+    "version": 1,
+    "created_utc": "2026-11-30T00:00:00Z",
+    "tree": {"id": "0", "name": "root", "type": "Running"},
+    "robot": {},
+    "clock": "sim",
+}
+"""A trace's header for a tree of one node (the records the tests send after it)."""
+
+
 def _strict_json(data: bytes) -> Any:
     """JSON as RFC 8259 (and Foxglove's ``JSON.parse``) has it: no NaN, no Infinity."""
 
@@ -85,15 +97,7 @@ def test_numbers_that_are_not_finite_are_strings_never_nan_tokens() -> None:
     from pirate_bt.interop.foxglove_topics import TopicMapper
 
     mapper = TopicMapper()
-    header = {
-        "type": "header",
-        "format": "pirate_bt.trace",
-        "version": 1,
-        "created_utc": "2026-11-30T00:00:00Z",
-        "tree": {"id": "0", "name": "root", "type": "Running"},
-        "robot": {},
-        "clock": "sim",
-    }
+    header = dict(HEADER)
     ticks = [
         {"type": "tick", "n": 1, "t_s": 0.1, "state": {"drive_velocity_mps.a": 1e308}},
         {"type": "tick", "n": 2, "t_s": 0.2, "state": {"drive_velocity_mps.b": 1e308}},
@@ -175,17 +179,7 @@ def test_subscription_churn_is_bounded_for_the_run_and_for_other_clients() -> No
             hear(message)
 
         server._heard = counting  # type: ignore[method-assign]
-        server.publish_record(
-            {
-                "type": "header",
-                "format": "pirate_bt.trace",
-                "version": 1,
-                "created_utc": "2026-11-30T00:00:00Z",
-                "tree": {"id": "0", "name": "root", "type": "Running"},
-                "robot": {},
-                "clock": "sim",
-            }
-        )
+        server.publish_record(dict(HEADER))
         watcher = FoxgloveClient("127.0.0.1", server.port)
         assert watcher.wait_for(lambda c: "/pirate/run" in c.channels, 10)
         watcher.subscribe("/pirate/run")

@@ -12,7 +12,6 @@ bytes; an empty blackboard name is pirate_bt's main tree).
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import struct
 import threading
@@ -27,29 +26,17 @@ import pytest
 zmq = pytest.importorskip("zmq")
 pytest.importorskip("msgpack")
 
+import test_groot2_oracle  # noqa: E402
 from test_groot2_oracle import Session, _dump, _hook, _statuses  # noqa: E402
 
 from pirate_bt.interop.groot2_protocol import HookError, parse_hooks  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
+built = test_groot2_oracle.programs  # the oracle's two programs, built once: a fixture
+
 # the real-time group (tests/conftest.py): live servers, answers awaited on the wall clock
 pytestmark = pytest.mark.xdist_group("real-time")
-
-
-@pytest.fixture(scope="module")
-def built() -> tuple[Path, Path]:
-    spec = importlib.util.spec_from_file_location(
-        "groot2_oracle_build_probe13", ROOT / "tests" / "groot2_oracle" / "build.py"
-    )
-    assert spec is not None and spec.loader is not None
-    oracle_build = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(oracle_build)
-    try:
-        client, reference = oracle_build.build_oracle()
-    except oracle_build.Unavailable as exc:
-        pytest.skip(f"the Groot2 oracle cannot be built here: {exc}")
-    return client, reference
 
 
 class Both:
