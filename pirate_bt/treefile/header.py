@@ -409,7 +409,12 @@ class _FileReader:
         decls = declared.decls
         lost = lost or _Names()
         values: dict[str, Any] = {}
-        unknown = _Names(lost.names, every=lost.every or declared.refused.every)
+        # A parameter whose declaration is refused (said there) has no value to know,
+        # given or not: its uses are not checked either (one mistake, one line).
+        unknown = _Names(
+            [*lost.names, *declared.refused.names],
+            every=lost.every or declared.refused.every,
+        )
         for name, value in given.items():
             if name in lost:
                 continue

@@ -1,0 +1,73 @@
+"""Probe 14 (hostile trees, XML and campaign specs): what a user notices.
+
+A tree parameter whose declaration is refused (an unknown ``type``, a misspelt key,
+``choices`` that are not a list) was said twice: at the declaration, and again at
+every use as ``unknown parameter $p (parameters: $p)``, a line that contradicts
+itself. One mistake is one line (docs/trees.md, Static checks).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+_DECLS = {
+    "type": "p: {type: strin, default: c}",
+    "key": "p: {type: string, default: c, bogus: 1}",
+    "choices": "p: {type: string, default: c, choices: a}",
+    "empty choices": "p: {type: string, default: c, choices: []}",
+    "choices of a number": "p: {type: number, default: 1, choices: [1]}",
+}
+
+
+@pytest.mark.parametrize("decl", list(_DECLS.values()), ids=list(_DECLS))
+def test_a_refused_parameter_declaration_is_one_line(
+    tmp_path: Path, decl: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(f"params:\n  {decl}\nroot: {{type: log, message: $p}}\n", encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f"{tree}:2:"), lines
+    assert "unknown parameter" not in lines[0]
+
+
+def test_a_refused_subtree_parameter_declaration_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root: {type: subtree, ref: s}\n"
+        "subtrees:\n"
+        "  s:\n"
+        "    params: {p: {type: strin, default: c}}\n"
+        "    root: {type: log, message: $p}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1, lines
+    assert f"{tree}:4:" in lines[0]
+
+
+def test_a_refused_choices_in_xml_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="m">\n'
+        '  <BehaviorTree ID="m"><log message="{p}"/></BehaviorTree>\n'
+        '  <TreeNodesModel><SubTree ID="m">\n'
+        '    <input_port name="p" type="string" default="c" choices="a;b"/>\n'
+        "  </SubTree></TreeNodesModel>\n"
+        "</root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1, lines
+    assert f"{xml}:4:5: " in lines[0]
