@@ -53,8 +53,11 @@ __all__ = [
     "remove_feature",
 ]
 
-_VERTICAL = math.radians(60.0)
-"""Runs steeper than this are vertical for the perturbation: their slope is kept."""
+_PLUMB_TOL = 1e-6
+"""A run this close to (in radians) or steeper than plumb is a riser or drop: laid
+plumb in every variant. Every other run's slope is perturbed, a steep one too (a run
+at 70 deg was laid plumb, 20 deg off its drawing, as was one leaning back past plumb,
+120 deg after a bend up from a 30 deg slope, which set_slope writes as 60 deg)."""
 
 
 @dataclass(frozen=True)
@@ -159,8 +162,8 @@ def perturb_network(
                 length = seg.length + rng.uniform(-1.0, 1.0) * change
                 drawn = slopes.get(seg_name, seg.slope or 0.0)
                 tilt = rng.uniform(-1.0, 1.0) * bounds.slope_rad
-                if abs(drawn) < _VERTICAL:
-                    slope = max(-_VERTICAL, min(_VERTICAL, drawn + tilt))
+                if abs(drawn) < math.pi / 2 - _PLUMB_TOL:
+                    slope = max(-math.pi / 2, min(math.pi / 2, drawn + tilt))
                 else:  # risers and drops are set plumb, whatever the run before them
                     slope = math.copysign(math.pi / 2, drawn)
                 out.append(
