@@ -11,6 +11,7 @@ stay in the session.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import logging
 import math
 
@@ -311,6 +312,7 @@ class InboundMixin:
         hello = self._hello
         if hello is None or item.seq != hello.seq:
             self.duplicates += 1
+            self._unasked_session(item, now)
             return
         layout = self.codec.layout
         assert isinstance(hello.msg, Hello)  # a new session's request is always a HELLO
@@ -368,6 +370,31 @@ class InboundMixin:
         if item.flags & BridgeFlags.ESTOP:
             _log.warning("new session: the bridge's e-stop is latched (reset it to move)")
         self._service(now)
+
+    def _unasked_session(self, item: HelloReply, now: float) -> None:
+        """A ``HELLO_REPLY`` no ``HELLO`` in flight asked for: a doubled reply (the same
+        session count) is only counted; one of the same boot with another session count
+        answered a ``HELLO`` that restarted the session under the host (a replayed frame,
+        or a late retry of the host's own): the bridge applied its stop category and moved
+        its duplicate filter back to that old seq, so old frames would be applied again.
+        A session of the host's own puts the filter ahead of them."""
+        previous = self.last_hello_reply
+        if (
+            self._hello is not None
+            or previous is None
+            or item.boot_id != previous.boot_id
+            or item.sessions == previous.sessions
+            or item.layout_digest != self.codec.layout.digest
+        ):
+            return
+        self.last_hello_reply = dataclasses.replace(previous, sessions=item.sessions)
+        _log.error(
+            "the bridge started session %d for HELLO seq %d, which the host did not send now"
+            " (a replayed or late frame): its duplicate filter went back to that seq",
+            item.sessions,
+            item.seq,
+        )
+        self._start_session(now, "the bridge took a HELLO the host did not send now")
 
     def _bridge_reset(self, now: float) -> None:
         if self._hello is not None:

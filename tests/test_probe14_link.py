@@ -1,0 +1,137 @@
+"""Link findings of probe 14 (faults put on the line from outside, by a man in the middle
+between ``pirate-bt sim --tcp`` and the host: tests/link_proxy14.py), each pinned by a
+test that failed before its fix.
+
+1. A replayed ``HELLO`` (or a late retry of the host's own) restarted the bridge's session
+   under the host: the bridge applied its stop category and moved its duplicate filter
+   back to that old seq, and the host only counted the reply as a duplicate. An old
+   ``BULK_SETPOINTS`` replayed after it was then applied a second time (a drive command
+   of seconds ago came back). The host now starts a session of its own on such a reply
+   (a ``HELLO_REPLY`` it did not ask for, of the same boot, with another session count),
+   so the filter is ahead of every old frame again.
+"""
+
+from __future__ import annotations
+
+import binascii
+import struct
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import pytest
+from link_proxy14 import TO_BRIDGE, ProxyProcess
+from session_wire import Wire, reply, state
+
+from pirate_bt.clock import WallClock
+from pirate_bt.link import open_link
+from pirate_bt.link.codec import FrameCodec, Hello, MsgType
+from pirate_bt.link.framing import cobs_encode
+from pirate_bt.link.raw import RawFrame, RawFrameDecoder
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.robot import ControlMode, MotorCommand, load_robot
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.server import SimServer
+
+pytestmark = pytest.mark.xdist_group("real-time")
+
+ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
+
+
+@dataclass
+class Rig:
+    sim: Simulator
+    proxy: ProxyProcess
+    link: RobotLink
+    to_bridge: bytearray
+
+    def frames_to_bridge(self, kind: MsgType) -> list[RawFrame]:
+        frames = RawFrameDecoder(CODEC).feed_raw(bytes(self.to_bridge))
+        return [f for f in frames if isinstance(f, RawFrame) and f.type == kind]
+
+    def wait(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.link.poll()
+            time.sleep(0.005)
+
+
+def reencode(frame: RawFrame) -> bytes:
+    """A frame the host sent, byte for byte again (a replay)."""
+    body = bytes([1, frame.type]) + struct.pack("<H", frame.seq) + bytes([frame.arg])
+    body += frame.payload
+    body += struct.pack("<H", binascii.crc_hqx(body, 0))
+    return cobs_encode(body) + b"\x00"
+
+
+@pytest.fixture
+def rig() -> Iterator[Rig]:
+    with Simulator("straight", ROBOT) as sim:
+        sim.bridge.applied = []
+        heard = bytearray()
+        receive = sim.bridge.receive
+
+        def tap(data: bytes) -> None:
+            heard.extend(data)
+            receive(data)
+
+        sim.bridge.receive = tap  # type: ignore[method-assign]
+        server = SimServer(sim)
+        address = server.open_tcp(0)
+        server.start()
+        proxy = ProxyProcess(address)
+        link = open_link(proxy.url, ROBOT, WallClock())
+        try:
+            yield Rig(sim, proxy, link, heard)
+        finally:
+            link.close()
+            proxy.close()
+            server.stop()
+
+
+def drive(velocity: float) -> list[MotorCommand]:
+    return [MotorCommand("bend_1_drive", ControlMode.VELOCITY, velocity)]
+
+
+# -- 1. a replayed HELLO ----------------------------------------------------------------------
+
+
+def test_an_old_bulk_replayed_after_a_replayed_hello_is_not_applied_again(rig: Rig) -> None:
+    for velocity in (0.02, 0.04, 0.0):
+        rig.link.send(drive(velocity))
+        rig.wait(0.08)
+    bulks = rig.frames_to_bridge(MsgType.BULK_SETPOINTS)
+    (hello,) = rig.frames_to_bridge(MsgType.HELLO)
+    rig.proxy.inject(TO_BRIDGE, reencode(hello))
+    rig.wait(0.1)  # the host hears the reply it did not ask for
+    rig.proxy.inject(TO_BRIDGE, reencode(bulks[-2]))  # 0.04 m/s, seconds ago
+    rig.wait(0.1)
+    applied = [seq for kind, seq in rig.sim.bridge.applied or () if kind == MsgType.BULK_SETPOINTS]
+    assert len(applied) == len(set(applied)), applied  # no bulk applied twice
+    setpoint = rig.sim.model.setpoint("bend_1_drive")
+    assert setpoint is not None and setpoint.value == 0.0
+    assert rig.link.health().connected
+
+
+def test_a_hello_reply_the_host_did_not_ask_for_starts_a_session_of_its_own() -> None:
+    wire = Wire(hello=reply(sessions=1))
+    wire.answer(state(3))
+    wire.poll(0.01)
+    wire.sent()
+    wire.answer(reply(seq=1, sessions=2))  # a replayed HELLO 1 started session 2
+    wire.poll(0.01)
+    sent = wire.sent()
+    assert [type(m) for m in sent] == [Hello], sent
+    assert sent[0].seq != 1
+
+
+def test_a_duplicated_hello_reply_is_only_counted() -> None:
+    wire = Wire(hello=reply(sessions=1))
+    wire.answer(state(3))
+    wire.poll(0.01)
+    wire.sent()
+    wire.answer(reply(seq=1, sessions=1))  # the link doubled the reply: same session
+    wire.poll(0.01)
+    assert wire.sent() == []
+    assert wire.session.stats().duplicates == 1
