@@ -35,6 +35,7 @@ from typing import Any
 import py_trees
 
 from pirate_bt.behaviours.base import BuildContext
+from pirate_bt.behaviours.composites import Selector, Sequence
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import (
     LocatedError,
@@ -88,12 +89,12 @@ def build(spec: NodeSpec, context: BuildContext) -> py_trees.behaviour.Behaviour
         return spec.cls.from_params(spec.name, spec.params, context, child)
     children = [build(c, context) for c in spec.children]
     if spec.node_type == "sequence":
-        return py_trees.composites.Sequence(spec.name, spec.params["memory"], children)
+        return Sequence(spec.name, spec.params["memory"], children)
     if spec.node_type == "selector":
-        return py_trees.composites.Selector(spec.name, spec.params["memory"], children)
+        return Selector(spec.name, spec.params["memory"], children)
     if spec.node_type == "eternal_guard":
         conditions = [build(c, context) for c in spec.conditions]
-        return py_trees.composites.Sequence(spec.name, False, [*conditions, *children])
+        return Sequence(spec.name, False, [*conditions, *children])
     policy: py_trees.common.ParallelPolicy.Base
     if spec.params["policy"] == "one":
         policy = py_trees.common.ParallelPolicy.SuccessOnOne()
