@@ -406,6 +406,13 @@ class CampaignSpec(BaseModel):
             raise ValueError(f"{key} must be positive")
         if value > most:
             raise ValueError(f"{key} is at most {most:g} {unit}, not {text!r}")
+        limit = info.data.get("max_time") if key == "rate" else None
+        if limit is not None and 1.0 / value > parse_quantity(limit, "time"):
+            # as `pirate-bt run` refuses it; every case was an error row
+            raise ValueError(
+                f"rate {text!r}: no tick would come within max_time ({limit}):"
+                " a tick period must be at most the time limit"
+            )
         return text
 
     @field_validator("maps", "as_built")
