@@ -213,6 +213,7 @@ def _mission(
     from pirate_bt.task.mission import truth_of
     from pirate_bt.task.outcome import unsafe_note
     from pirate_bt.task.replan import carry_on, return_to_start
+    from pirate_bt.task.secure import hold_both
 
     sim = connection.simulator
 
@@ -250,6 +251,10 @@ def _mission(
     )
     if result.succeeded:
         result.why += unsafe_note(result.counters)
+    else:  # a PAB stopped half-way through may leave one half free in a riser
+        held = hold_both(connection.robot, connection.supervisor, connection.clock)
+        if held is not None:
+            result.replans.append(f"after the stop, {held}")
     if return_on_stop and not result.succeeded and sim is not None:
         result.returned = return_to_start(
             result, connection.robot, connection.supervisor, connection.clock, sim, observe=observe

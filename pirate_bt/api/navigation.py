@@ -31,6 +31,7 @@ from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
 from pirate_bt.task.navigators import builtin_name, check_navigator_map, load_navigator
+from pirate_bt.task.secure import hold_both
 
 __all__ = ["MAX_DEADLINE_S", "MAX_STEPS", "navigate"]
 
@@ -221,6 +222,10 @@ def navigate(
             seed=connection.seed,
             count_from_open=True,  # as a tree run: a slide as the robot was put in counts
         )
+        if not result.succeeded:  # a step stopped half-way may leave one half free
+            held = hold_both(description, connection.supervisor, connection.clock)
+            if held is not None:
+                result.notes.append(f"after the stop, {held}")
     if connection.close_error is not None:  # the robot stopped? (api.results.after_close)
         result.why = closing_why(result.succeeded, result.why, connection.close_error)
         result.status = "failure"

@@ -124,5 +124,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if not args.quiet:
         print_decisions(result.decisions)
+    for note in result.notes:
+        print(f"pirate-bt: {note}", file=sys.stderr)
     print_summary(result.succeeded, result.summary())
     return result.exit_code

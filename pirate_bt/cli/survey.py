@@ -10,6 +10,7 @@ unsurveyed (named; what was surveyed is written), 2 bad input, 3 link error.
 from __future__ import annotations
 
 import argparse
+import sys
 
 from pirate_bt.errors import InputError
 
@@ -76,5 +77,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if not args.quiet:
         print_decisions(result.navigation.decisions)
+    for note in result.navigation.notes:
+        print(f"pirate-bt: {note}", file=sys.stderr)
     print_summary(result.succeeded, result.summary())
     return result.exit_code

@@ -91,6 +91,9 @@ class NavigationResult:
     error: BaseException | None = None
     navigator_raised: bool = False
     close_error: LinkError | None = None
+    notes: list[str] = field(default_factory=list)
+    """What was done after the end: a half a failed step left free in a steep pipe
+    clamped (:func:`pirate_bt.task.secure.hold_both`)."""
 
     @property
     def succeeded(self) -> bool:

@@ -62,7 +62,10 @@ def map_and_pipe_lines(result: MissionResult) -> list[str]:
             "",
         ]
     for note in result.replans:
-        lines += [f"- **Re-planned:** {note}"]
+        after, held, rest = note.partition("after the stop, ")
+        lines += [
+            f"- **After the stop:** {rest}" if held and not after else f"- **Re-planned:** {note}"
+        ]
     if result.replans:
         lines.append("")
     shortened = [leg for leg in result.legs if leg.why]

@@ -1,0 +1,90 @@
+"""After a run that failed in a steep pipe with one half free: clamp it, deliberately.
+
+A stop keeps the clamps as they were (the safe state never releases, DESIGN.md), so
+a bend or T-joint PAB stopped half-way through leaves one half steered, free, while
+the other alone holds the robot in a riser. Nothing falls; but the robot is handed
+back on one half, and a fault on that half (a joint that stalls, a board that loses
+power) drops it. :func:`hold_both` then leaves the safe state, runs the ``hold`` tree
+(``trees/lib/hold.yaml``: clamp the rear, move the front module clear, clamp the
+front; every command checked by the supervisor, a clamped half confirmed at once)
+and enters the safe state again with the same first cause. It does nothing on the
+level, with both halves clamped or both free (the supervisor's protective hold),
+e-stopped or with the link unfit for commands.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+from pirate_bt.clock import Clock
+from pirate_bt.robot import Half
+from pirate_bt.robot.description import RobotDescription
+
+__all__ = ["HOLD_TIME_S", "hold_both"]
+
+log = logging.getLogger(__name__)
+
+HOLD_TIME_S = 20.0
+"""The longest the clamp of the free half may take (clock time)."""
+
+
+def hold_both(
+    robot: RobotDescription,
+    supervisor: Any,
+    clock: Clock,
+    *,
+    period_s: float = 0.05,
+) -> str | None:
+    """Clamp the free half of a robot left on one half in a steep pipe.
+
+    Returns:
+        What was done, for the result's notes, or ``None`` when nothing was.
+    """
+    from pirate_bt.resources import data_dir
+    from pirate_bt.runner import Runner
+    from pirate_bt.safety.checks import ClampState
+    from pirate_bt.treefile import load_tree
+
+    state = supervisor.state()
+    if state is None or supervisor.estopped or supervisor.link_problem() is not None:
+        return None
+    pitch = state.imu_rad.get("pitch")
+    if pitch is None or abs(pitch) <= robot.motion.max_unclamped_slope:
+        return None
+    halves = supervisor.half_states()
+    free = [h for h in Half if halves.get(h) is not ClampState.CLAMPED]
+    if len(free) != 1:
+        return None
+    reason = supervisor.safe_state_reason or "run ended without success"
+    error = supervisor.safe_state_error
+    where = f"in a steep pipe (pitch {math.degrees(pitch):.0f}°)"
+    supervisor.resume()  # a deliberate, checked clamp: the safe state never clamps
+    try:
+        loaded = load_tree(
+            str(data_dir("trees") / "lib" / "hold.yaml"),
+            robot=robot,
+            clock=clock,
+            supervisor=supervisor,
+        )
+        runner = Runner(
+            loaded,
+            clock=clock,
+            period_s=period_s,
+            max_time_s=HOLD_TIME_S,
+            safe_state=lambda: supervisor.end_safe(reason),
+            halted=lambda: supervisor.run_halted,
+            settle=supervisor.come_to_rest,
+        )
+        runner.add_pre_tick(lambda _info: supervisor.tick())  # the link polled, as a run's
+        run = runner.run()
+    finally:
+        if not supervisor.in_safe_state:
+            supervisor.safe_state(reason, error=error)
+    if run.succeeded:
+        note = f"the {free[0]} half, left free {where}, was clamped: both halves hold"
+    else:
+        note = f"the {free[0]} half, left free {where}, could not be clamped: {run.message}"
+    log.warning("after the stop: %s", note)
+    return note
