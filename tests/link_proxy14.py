@@ -40,6 +40,7 @@ class Mangler:
     flip: float = 0.0
     reorder: float = 0.0  # per chunk: swap it with the next one
     split: bool = False  # forward one byte per write
+    delay: float = 0.0  # seconds every byte is held (a slow line, order kept)
     rng: random.Random = field(init=False)
     _held: bytes = b""
 
@@ -91,7 +92,7 @@ class LinkProxy:
         self._cut = False
         self._hung_up = False
         self._stop = threading.Event()
-        self._pending: dict[str, list[bytes]] = {TO_HOST: [], TO_BRIDGE: []}
+        self._pending: dict[str, list[tuple[float, bytes]]] = {TO_HOST: [], TO_BRIDGE: []}
         self.seen: dict[str, bytearray] = {TO_HOST: bytearray(), TO_BRIDGE: bytearray()}
         self.bytes_in: dict[str, int] = {TO_HOST: 0, TO_BRIDGE: 0}
         self.host: socket.socket | None = None
@@ -120,7 +121,7 @@ class LinkProxy:
     def inject(self, direction: str, data: bytes) -> None:
         """Queue ``data`` toward the host or the bridge (after what is queued)."""
         with self._lock:
-            self._pending[direction].append(data)
+            self._pending[direction].append((0.0, data))
 
     def set_mangler(self, direction: str, fn: Callable[[bytes], list[bytes]] | None) -> None:
         with self._lock:
@@ -187,7 +188,9 @@ class LinkProxy:
                         if self._cut:
                             continue
                         fn = self.mangle[direction]
-                        self._pending[direction].extend(fn(data) if fn else [data])
+                        due = time.monotonic() + getattr(fn, "delay", 0.0)
+                        chunks = fn(data) if fn else [data]
+                        self._pending[direction].extend((due, c) for c in chunks)
                 self._flush(peer)
         finally:
             sel.close()
@@ -196,12 +199,17 @@ class LinkProxy:
                     sock.close()
 
     def _flush(self, peer: dict[str, socket.socket]) -> None:
+        now = time.monotonic()
         with self._lock:
-            if time.monotonic() < self._stall_until:
+            if now < self._stall_until:
                 return
-            todo = {d: list(chunks) for d, chunks in self._pending.items()}
-            for chunks in self._pending.values():
-                chunks.clear()
+            todo: dict[str, list[bytes]] = {}
+            for direction, pending in self._pending.items():
+                ready = 0
+                while ready < len(pending) and pending[ready][0] <= now:
+                    ready += 1
+                todo[direction] = [c for _, c in pending[:ready]]
+                del pending[:ready]
         for direction, chunks in todo.items():
             for chunk in chunks:
                 self.seen[direction] += chunk

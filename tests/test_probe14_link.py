@@ -9,6 +9,9 @@ test that failed before its fix.
    of seconds ago came back). The host now starts a session of its own on such a reply
    (a ``HELLO_REPLY`` it did not ask for, of the same boot, with another session count),
    so the filter is ahead of every old frame again.
+2. ``pirate-bt sim`` reported only its counters when it stopped: nothing said whether the
+   robot was left moving, which halves held, or whether the bridge's watchdog had stopped
+   the drives of a host that fell silent. It now ends with an ``end state:`` line.
 """
 
 from __future__ import annotations
@@ -135,3 +138,38 @@ def test_a_duplicated_hello_reply_is_only_counted() -> None:
     wire.poll(0.01)
     assert wire.sent() == []
     assert wire.session.stats().duplicates == 1
+
+
+# -- 2. the simulator's own report of what the robot was left doing ----------------------------
+
+
+def test_the_simulator_reports_its_end_state_drives_stopped_and_clamps(rig: Rig) -> None:
+    from pirate_bt.sim.server import end_state
+
+    rig.link.send(drive(0.05))
+    rig.wait(0.1)
+    moving = end_state(rig.sim)
+    assert "bend_1_drive velocity 0.05" in moving, moving
+    rig.proxy.cut()  # the host falls silent: the bridge's watchdog stops the drives
+    rig.wait(0.45)
+    text = end_state(rig.sim)
+    assert text.startswith("end state: robot at rest, drives stopped;"), text
+    assert "front half not clamped, rear half not clamped" in text
+    assert "e-stop not latched, watchdog tripped (1 trip)" in text
+
+
+def test_pirate_bt_sim_prints_its_end_state_on_stderr() -> None:
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "sim", "straight", "--tcp", "0", "--duration", "0.4"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("end state: robot at rest, drives stopped; front half"), last
+    assert "bridge e-stop latched, watchdog tripped (1 trip)" in last, last

@@ -162,6 +162,9 @@ def run(args: argparse.Namespace) -> int:
         f" {c.commands_executed} commands",
         file=sys.stderr,
     )
+    from pirate_bt.sim.server import end_state
+
+    print(end_state(sim), file=sys.stderr)
     return 0
 
 

@@ -24,9 +24,50 @@ import tty
 
 from pirate_bt.sim.simulator import Simulator
 
-__all__ = ["SimServer"]
+__all__ = ["SimServer", "end_state"]
 
 _log = logging.getLogger(__name__)
+
+
+def end_state(sim: Simulator) -> str:
+    """One line on what the robot was left doing, for ``pirate-bt sim``'s report when it
+    stops: whether it moves or a drive (or the rotation) is still commanded, which halves
+    hold, and the bridge's latch and watchdog.
+
+    ``end state: robot at rest, drives stopped; front half clamped, rear half clamped;
+    bridge e-stop not latched, watchdog tripped (1 trip)``
+    """
+    from pirate_bt.robot import ControlMode
+
+    truth = sim.truth()
+    robot = sim.robot
+    motors = list(robot.drive_motors())
+    with contextlib.suppress(KeyError):
+        motors.append(robot.rotate_motor())
+    commanded = []
+    for motor in motors:
+        setpoint = sim.model.setpoint(motor.name)
+        if setpoint is not None and setpoint.value != 0 and setpoint.mode != ControlMode.POSITION:
+            commanded.append(f"{motor.name} {setpoint.mode.value} {setpoint.value:g}")
+    if truth.sliding:
+        motion = f"robot sliding at {truth.velocity_mps:.3f} m/s"
+    elif truth.velocity_mps:
+        motion = f"robot moving at {truth.velocity_mps:.3f} m/s"
+    else:
+        motion = "robot at rest"
+    drives = "still commanded: " + ", ".join(commanded) if commanded else "drives stopped"
+    halves = ", ".join(
+        f"{half.value} half {'clamped' if h.clamped else 'not clamped'}"
+        for half, h in truth.halves.items()
+    )
+    bridge = sim.bridge
+    trips = bridge.watchdog_trips
+    watchdog = (
+        f"watchdog {'tripped' if bridge.watchdog_tripped else 'fed'}"
+        f" ({trips} trip{'' if trips == 1 else 's'})"
+    )
+    latch = "e-stop latched" if bridge.estopped else "e-stop not latched"
+    return f"end state: {motion}, {drives}; {halves}; bridge {latch}, {watchdog}"
 
 
 class SimServer:
