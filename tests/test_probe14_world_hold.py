@@ -118,3 +118,31 @@ def test_the_cli_and_the_report_say_what_was_done_after_the_stop(
     assert "- **After the stop:** the rear half, left free in a steep pipe" in report
     assert "**Re-planned:**" not in report
     _held_on_both_halves(models[-1])
+
+
+def test_a_half_that_cannot_clamp_after_the_stop_is_named_with_its_cause(
+    models: list[Any],
+) -> None:
+    wide = network_from_data(
+        {
+            "name": "wide",
+            "diameter": "63 mm",
+            "segments": [
+                {"id": "level", "type": "straight", "length": "1.5 m"},
+                {"id": "foot", "type": "bend", "direction": "up"},
+                {"id": "riser", "type": "straight", "length": "1.5 m", "diameter": "150 mm"},
+            ],
+        }
+    )
+    route = parse_route("at the bend turn up\nforward 0.5 m\n", "wide.route")
+    result = pirate_bt.simulate_mission(route, network=_riser("left"), truth=wide)
+    assert result.why.startswith("no wall: bend_1 swung to 110.0°")
+    # the rear half still holds; the front half finds no wall in the 150 mm pipe
+    assert result.replans == [
+        "after the stop, the front half, left free in a steep pipe (pitch 24°), could not be"
+        " clamped: no wall: bend_1 swung to 110.0°, past every wall-contact angle (the front"
+        " half is over an opening, or the pipe is wider than its clamp.contact_angles?)"
+    ]  # was 'could not be clamped: tree failed after 5 ticks'
+    truth = models[-1].truth()
+    assert truth.halves[Half.REAR].clamped and not truth.sliding
+    assert models[-1].counters().violation_count == 0

@@ -45,6 +45,7 @@ def hold_both(
     from pirate_bt.resources import data_dir
     from pirate_bt.runner import Runner
     from pirate_bt.safety.checks import ClampState
+    from pirate_bt.task.outcome import explain_run
     from pirate_bt.treefile import load_tree
 
     state = supervisor.state()
@@ -85,6 +86,7 @@ def hold_both(
     if run.succeeded:
         note = f"the {free[0]} half, left free {where}, was clamped: both halves hold"
     else:
-        note = f"the {free[0]} half, left free {where}, could not be clamped: {run.message}"
+        why, _node = explain_run(run, runner.tree.root)
+        note = f"the {free[0]} half, left free {where}, could not be clamped: {why}"
     log.warning("after the stop: %s", note)
     return note
