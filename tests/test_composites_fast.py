@@ -1,7 +1,10 @@
-"""The tree files' sequence and selector tick exactly as py_trees' own do.
+"""The tree files' sequence and selector, and our leaves and decorators, tick exactly as
+py_trees' own do.
 
 :mod:`pirate_bt.behaviours.composites` re-implements ``Sequence.tick`` and
-``Selector.tick`` with ``yield from`` (a cost change only). Random trees of
+``Selector.tick`` with ``yield from``, and :class:`~pirate_bt.behaviours.base.Leaf` and
+:class:`~pirate_bt.behaviours.base.GuardDecorator` ``Behaviour.tick`` and
+``Decorator.tick`` in one generator (cost changes only). Random trees of
 sequences, selectors (with and without memory), parallels, decorators and scripted
 leaves are built twice, once from py_trees' classes and once with ours, and ticked
 side by side: every tick must yield the same nodes in the same order, leave every
@@ -18,7 +21,9 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
+from pirate_bt.behaviours.base import GuardDecorator, Leaf
 from pirate_bt.behaviours.composites import Selector, Sequence
+from pirate_bt.safety.verdict import current_issuer
 from pirate_bt.treefile import load_tree
 
 STATUSES = (Status.SUCCESS, Status.FAILURE, Status.RUNNING)
@@ -37,11 +42,25 @@ class Scripted(py_trees.behaviour.Behaviour):
 
     def update(self) -> Status:
         status = self.rng.choice(STATUSES)
-        self.log.append(f"update {self.name} {status.name}")
+        # py_trees' leaves run as nobody, ours as themselves (pirate_bt.safety.verdict)
+        issuer = current_issuer()
+        self.log.append(f"update {self.name} {status.name} {issuer is None or issuer is self}")
         return status
 
     def terminate(self, new_status: Status) -> None:
         self.log.append(f"terminate {self.name} {new_status.name}")
+
+
+class FastScripted(Scripted):
+    """The scripted leaf ticked by :class:`Leaf`'s ``tick()``."""
+
+    tick = Leaf.tick
+
+
+class FastInverter(py_trees.decorators.Inverter):
+    """py_trees' inverter ticked by :class:`GuardDecorator`'s ``tick()``."""
+
+    tick = GuardDecorator.tick
 
 
 Factory = Callable[[str, bool, list[py_trees.behaviour.Behaviour]], py_trees.behaviour.Behaviour]
@@ -50,14 +69,16 @@ Factory = Callable[[str, bool, list[py_trees.behaviour.Behaviour]], py_trees.beh
 def random_tree(
     shape: random.Random, log: list[str], sequence: Factory, selector: Factory, depth: int = 0
 ) -> py_trees.behaviour.Behaviour:
-    """A random tree; ``shape`` is seeded so that both copies get the same shape."""
+    """A random tree; ``shape`` is seeded so that both copies get the same shape. Our
+    copy (``sequence`` is ours) has our leaves and decorators too."""
+    ours = sequence is not _theirs_sequence
     n = shape.getrandbits(32)
     if depth >= 4 or shape.random() < 0.3:
-        return Scripted(f"leaf{n}", n, log)
+        return (FastScripted if ours else Scripted)(f"leaf{n}", n, log)
     kind = shape.choice(("sequence", "selector", "parallel", "inverter", "sequence", "selector"))
     if kind == "inverter":
         child = random_tree(shape, log, sequence, selector, depth + 1)
-        return py_trees.decorators.Inverter(f"inv{n}", child)
+        return (FastInverter if ours else py_trees.decorators.Inverter)(f"inv{n}", child)
     children = [
         random_tree(shape, log, sequence, selector, depth + 1) for _ in range(shape.randint(0, 4))
     ]
@@ -81,6 +102,12 @@ def snapshot(root: py_trees.behaviour.Behaviour) -> list[tuple[str, str, str | N
     ]
 
 
+def _theirs_sequence(
+    name: str, memory: bool, children: list[py_trees.behaviour.Behaviour]
+) -> py_trees.behaviour.Behaviour:
+    return py_trees.composites.Sequence(name, memory, children)
+
+
 def _pair(
     seed: int,
 ) -> tuple[py_trees.behaviour.Behaviour, list[str], py_trees.behaviour.Behaviour, list[str]]:
@@ -89,7 +116,7 @@ def _pair(
     theirs = random_tree(
         random.Random(seed),
         theirs_log,
-        lambda n, m, c: py_trees.composites.Sequence(n, m, c),
+        _theirs_sequence,
         lambda n, m, c: py_trees.composites.Selector(n, m, c),
     )
     ours = random_tree(
@@ -110,6 +137,7 @@ def test_random_trees_tick_as_py_trees_ticks_them(seed: int) -> None:
         assert yielded_ours == yielded_theirs, (seed, tick)
         assert snapshot(ours) == snapshot(theirs), (seed, tick)
         assert ours_log == theirs_log, (seed, tick)
+        assert current_issuer() is None  # no node's name outlives its tick
     theirs.stop(Status.INVALID)
     ours.stop(Status.INVALID)
     assert ours_log == theirs_log
