@@ -9,7 +9,7 @@ power) drops it. :func:`hold_both` then leaves the safe state, runs the ``hold``
 front; every command checked by the supervisor, a clamped half confirmed at once)
 and enters the safe state again with the same first cause. It does nothing on the
 level, with both halves clamped or both free (the supervisor's protective hold),
-e-stopped or with the link unfit for commands.
+e-stopped, with the link unfit for commands, or with an operator in control.
 """
 
 from __future__ import annotations
@@ -50,6 +50,8 @@ def hold_both(
 
     state = supervisor.state()
     if state is None or supervisor.estopped or supervisor.link_problem() is not None:
+        return None
+    if supervisor.tree_paused:  # an operator has the robot (MANUAL): theirs to hold
         return None
     pitch = state.imu_rad.get("pitch")
     if pitch is None or abs(pitch) <= robot.motion.max_unclamped_slope:
