@@ -39,6 +39,7 @@ class Mangler:
     duplicate: float = 0.0
     flip: float = 0.0
     reorder: float = 0.0  # per chunk: swap it with the next one
+    repeat: float = 0.0  # per chunk: send it twice (a whole frame, as the host writes one)
     split: bool = False  # forward one byte per write
     delay: float = 0.0  # seconds every byte is held (a slow line, order kept)
     rng: random.Random = field(init=False)
@@ -59,6 +60,8 @@ class Mangler:
             if self.duplicate and self.rng.random() < self.duplicate:
                 out.append(b)
         chunk = bytes(out)
+        if self.repeat and self.rng.random() < self.repeat:
+            chunk += chunk
         if self.reorder and chunk and self.rng.random() < self.reorder and not self._held:
             self._held = chunk
             return []

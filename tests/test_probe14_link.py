@@ -12,6 +12,9 @@ test that failed before its fix.
 2. ``pirate-bt sim`` reported only its counters when it stopped: nothing said whether the
    robot was left moving, which halves held, or whether the bridge's watchdog had stopped
    the drives of a host that fell silent. It now ends with an ``end state:`` line.
+3. ``SimServer`` on TCP accepted a new connection before it read the old one's end, so a
+   host (or a serial-over-TCP adapter) that closed and connected again within one serving
+   tick was taken for a second host and hung up on, every time.
 """
 
 from __future__ import annotations
@@ -173,3 +176,31 @@ def test_pirate_bt_sim_prints_its_end_state_on_stderr() -> None:
     last = run.stderr.strip().splitlines()[-1]
     assert last.startswith("end state: robot at rest, drives stopped; front half"), last
     assert "bridge e-stop latched, watchdog tripped (1 trip)" in last, last
+
+
+# -- 3. a host that connects again at once ------------------------------------------------------
+
+
+def test_a_host_that_reconnects_right_after_closing_is_served() -> None:
+    # the server accepted the new connection before it read the old one's end, so it took
+    # the new host for a second one and hung up on it: every quick reconnect was refused
+    import socket
+
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim)
+        address = server.open_tcp(0)
+        server.start()
+        try:
+            for _ in range(3):
+                first = socket.create_connection(address)
+                time.sleep(0.03)
+                first.close()
+                second = socket.create_connection(address)
+                second.settimeout(0.5)
+                try:
+                    assert second.recv(100), "the bridge hung up on a host that came back"
+                finally:
+                    second.close()
+                time.sleep(0.03)
+        finally:
+            server.stop()

@@ -169,34 +169,47 @@ class SimServer:
                 return os.read(self._master, 4096)
             except (BlockingIOError, OSError):
                 return b""
+        # the host's bytes (and its end) first, then a new connection: a host that closed
+        # and connected again within one tick was taken for a second host and hung up on
+        data = self._recv_client()
         if self._listener is not None:
-            try:
-                client, peer = self._listener.accept()
-            except (BlockingIOError, OSError):
-                client = None
-            if client is not None and self._client is not None:
-                # one host at a time, as on the bridge's one serial line: a second is
-                # disconnected at once (it heard nothing and timed out before)
-                _log.warning("a second host from %s:%d refused: one host at a time", *peer)
-                client.close()
-            elif client is not None:
-                client.setblocking(False)
-                client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                self._client = client
-                _log.info("host connected from %s:%d", *peer)
+            self._accept()
+        return data
+
+    def _accept(self) -> None:
+        assert self._listener is not None
+        try:
+            client, peer = self._listener.accept()
+        except (BlockingIOError, OSError):
+            return
         if self._client is not None:
+            # one host at a time, as on the bridge's one serial line: a second is
+            # disconnected at once (it heard nothing and timed out before)
+            _log.warning("a second host from %s:%d refused: one host at a time", *peer)
+            client.close()
+            return
+        client.setblocking(False)
+        client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._client = client
+        _log.info("host connected from %s:%d", *peer)
+
+    def _recv_client(self) -> bytes:
+        """What the host sent so far, up to 64 KiB a pass (its end read too, when it closed
+        after it), so a flooding host does not hold the simulated time back."""
+        received = bytearray()
+        while self._client is not None and len(received) < 65536:
             try:
                 data = self._client.recv(4096)
             except BlockingIOError:
-                return b""
+                break
             except OSError:
                 data = b""
             if not data:
                 _log.info("host disconnected")
                 self._client.close()
                 self._client = None
-            return data
-        return b""
+            received += data
+        return bytes(received)
 
     def _write(self, data: bytes) -> None:
         if self._master is not None:
