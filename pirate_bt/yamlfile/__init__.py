@@ -36,6 +36,18 @@ from typing import Any, BinaryIO
 import yaml
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
+from pirate_bt.yamlfile.scalars import (
+    INT_TAG,
+    NOT_JSON,
+    STR_TAG,
+    TEXT_KEYS,
+    TIMESTAMP_TAG,
+    VALUE_WORDS,
+    node_mark,
+    not_json,
+    unfit,
+    yaml11_number,
+)
 
 __all__ = [
     "HIDDEN_BREAK",
@@ -104,33 +116,6 @@ def read_at_most(stream: BinaryIO, limit: int) -> bytes:
 MAX_DEPTH = 256
 """The deepest nesting of lists and mappings (libyaml itself stops at 1000, too deep
 for the recursive code that later reads the data)."""
-_INT_TAG = "tag:yaml.org,2002:int"
-_BOOL_TAG = "tag:yaml.org,2002:bool"
-_STR_TAG = "tag:yaml.org,2002:str"
-_TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
-_FLOAT_TAG = "tag:yaml.org,2002:float"
-_NULL_TAG = "tag:yaml.org,2002:null"
-_TEXT_KEYS = (_BOOL_TAG, _INT_TAG, _FLOAT_TAG, _NULL_TAG, _TIMESTAMP_TAG)
-"""What YAML 1.1 reads a plain key as (``on``, ``1``, ``1.5``, ``~``, a date): a key is
-its text, in every file kind (``1:`` is the key ``'1'``, as ``"1":`` is)."""
-VALUE_WORDS = {"bool": "true or false", "int": "a whole number", "float": "a number"}
-"""What a value of each YAML type must be, in the words of every file kind's messages."""
-_TAGGED = {f"tag:yaml.org,2002:{kind}": words for kind, words in VALUE_WORDS.items()}
-"""What a value tagged ``!!bool``, ``!!int`` or ``!!float`` must be: PyYAML builds
-``!!int abc`` with a bare ValueError (``!!bool 3`` a KeyError), located nowhere."""
-_BUILD = yaml.constructor.SafeConstructor()
-_SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(:[0-5]?[0-9])+(\.[0-9_]*)?")
-"""A YAML 1.1 base-60 number (``1:30`` is 90), which YAML 1.2 reads as text."""
-_OCTAL = re.compile(r"[-+]?0[0-7_]+")
-"""A YAML 1.1 octal number (``010`` is 8), which YAML 1.2 reads as 10."""
-_NOT_JSON: dict[str, str] = {
-    "tag:yaml.org,2002:binary": "!!binary (bytes)",
-    "tag:yaml.org,2002:set": "!!set",
-    "tag:yaml.org,2002:omap": "!!omap",
-    "tag:yaml.org,2002:pairs": "!!pairs",
-}
-"""Tags whose values are no JSON value (every file kind is described by a JSON Schema);
-a check would see them as something else (bytes pass as text) and a writer fails on them."""
 
 
 _HIDDEN_BREAKS = {
@@ -167,21 +152,6 @@ def refuse_hidden_break(text: str, name: str, what: str) -> None:
         f" it for a line break, an editor does not{hint}"
     )
     raise ValidationFailed([LocatedError(message, SourceLocation(name, len(breaks) + 1, column))])
-
-
-def _unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
-    """A value whose explicit tag its text does not fit (``!!int abc``, ``!!bool 3``)."""
-    if node.tag not in _TAGGED:
-        return None
-    try:
-        _BUILD.yaml_constructors[node.tag](_BUILD, node)
-    except (ValueError, KeyError, IndexError):
-        tag = node.tag.rsplit(":", 1)[-1]
-        return LocatedError(
-            f"a YAML !!{tag} value is {_TAGGED[node.tag]}, not {shown(node.value)}",
-            SourceLocation(file, *_mark(node)),
-        )
-    return None
 
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -237,10 +207,6 @@ class YamlDocument:
         return self.locator.file
 
 
-def _mark(node: yaml.Node) -> tuple[int, int]:
-    return node.start_mark.line + 1, node.start_mark.column + 1
-
-
 def _check_expansion(root: yaml.Node, file: str) -> None:
     """Refuse a node graph whose aliases expand to more than :data:`MAX_NODES` values.
 
@@ -262,7 +228,7 @@ def _check_expansion(root: yaml.Node, file: str) -> None:
                 [
                     LocatedError(
                         "YAML alias inside the value it names (a recursive alias)",
-                        SourceLocation(file, *_mark(node)),
+                        SourceLocation(file, *node_mark(node)),
                     )
                 ]
             )
@@ -291,7 +257,7 @@ def _check_expansion(root: yaml.Node, file: str) -> None:
                     f"this holds more than {MAX_NODES} values; a file this large is not"
                     " one a person writes"
                 )
-            raise ValidationFailed([LocatedError(message, SourceLocation(file, *_mark(node)))])
+            raise ValidationFailed([LocatedError(message, SourceLocation(file, *node_mark(node)))])
         sizes[id(node)] = size
 
 
@@ -311,37 +277,6 @@ def _distinct(root: yaml.Node) -> int:
     return len(seen)
 
 
-def _yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
-    """A plain number that YAML 1.1 reads other than as written (YAML 1.2 and editors
-    read it as written): ``1:30`` (base 60, 90) is retagged as the text written;
-    ``010`` (octal, 8) is refused, as is."""
-    if not isinstance(node, yaml.ScalarNode) or node.tag not in (_INT_TAG, _FLOAT_TAG):
-        return None
-    if node.style:  # quoted or a block: text as written; plain is "" (libyaml) or None
-        return None
-    if _SEXAGESIMAL.fullmatch(node.value):
-        node.tag = _STR_TAG
-        return None
-    if not _OCTAL.fullmatch(node.value):
-        return None
-    sign = "-" if node.value.startswith("-") else ""
-    digits = sign + (node.value.lstrip("+-").replace("_", "").lstrip("0") or "0")
-    octal = int(node.value.replace("_", ""), 8)
-    return LocatedError(
-        f"{node.value} has a leading zero, which YAML 1.1 reads as an octal number"
-        f" ({octal}): write {digits}, or quote it for text",
-        SourceLocation(file, *_mark(node)),
-    )
-
-
-def _not_json(node: yaml.Node, file: str) -> LocatedError:
-    return LocatedError(
-        f"a YAML {_NOT_JSON[node.tag]} value is not allowed here: write text, a number,"
-        " a list or a mapping",
-        SourceLocation(file, *_mark(node)),
-    )
-
-
 def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None:
     """Record where each value is written; report duplicate and unusable keys.
 
@@ -357,32 +292,32 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
             errors.append(
                 LocatedError(
                     f"values nested deeper than {MAX_DEPTH} levels",
-                    SourceLocation(locator.file, *_mark(node)),
+                    SourceLocation(locator.file, *node_mark(node)),
                 )
             )
             return
-        if node.tag in _NOT_JSON:
-            errors.append(_not_json(node, locator.file))
+        if node.tag in NOT_JSON:
+            errors.append(not_json(node, locator.file))
             continue
         if isinstance(node, yaml.ScalarNode):
-            if node.tag == _TIMESTAMP_TAG:
+            if node.tag == TIMESTAMP_TAG:
                 # YAML 1.1 reads a bare 2001-12-14 as a date, which no file kind has: the
                 # text as written, as in YAML 1.2 (a check then sees text, a writer writes it)
-                node.tag = _STR_TAG
-            problem = _yaml11_number(node, locator.file)
+                node.tag = STR_TAG
+            problem = yaml11_number(node, locator.file)
             if problem is not None:
                 errors.append(problem)
                 continue
             limit = sys.get_int_max_str_digits()
-            if node.tag == _INT_TAG and limit and len(node.value) > limit:
+            if node.tag == INT_TAG and limit and len(node.value) > limit:
                 errors.append(
                     LocatedError(
                         f"a number of {len(node.value)} digits is too long",
-                        SourceLocation(locator.file, *_mark(node)),
+                        SourceLocation(locator.file, *node_mark(node)),
                     )
                 )
                 continue
-            problem = _unfit(node, locator.file)
+            problem = unfit(node, locator.file)
             if problem is not None:
                 errors.append(problem)
             continue
@@ -390,28 +325,28 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
         if isinstance(node, yaml.MappingNode):
             seen: dict[Any, yaml.Node] = {}
             for i, (key_node, value_node) in enumerate(node.value):
-                problem = _yaml11_number(key_node, locator.file)
+                problem = yaml11_number(key_node, locator.file)
                 if problem is not None:
                     errors.append(problem)
                     continue
-                if isinstance(key_node, yaml.ScalarNode) and key_node.tag in _TEXT_KEYS:
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag in TEXT_KEYS:
                     # YAML 1.1 reads a bare key ``on``, ``off``, ``yes``, ``no``, ``y``,
                     # ``n`` as a boolean, ``1`` as a number, ``~`` as null: a key is its
                     # text (a value keeps its meaning; ``!!int abc:`` is the key 'abc').
                     # A new node: an anchored key may also be used as a value.
                     key_node = yaml.ScalarNode(
-                        _STR_TAG, key_node.value, key_node.start_mark, key_node.end_mark
+                        STR_TAG, key_node.value, key_node.start_mark, key_node.end_mark
                     )
                     node.value[i] = (key_node, value_node)
-                if key_node.tag in _NOT_JSON:
-                    errors.append(_not_json(key_node, locator.file))
+                if key_node.tag in NOT_JSON:
+                    errors.append(not_json(key_node, locator.file))
                     continue
                 if not isinstance(key_node, yaml.ScalarNode):
                     shape = "mapping" if isinstance(key_node, yaml.MappingNode) else "list"
                     errors.append(
                         LocatedError(
                             f"a key must be a plain value, not a {shape}",
-                            SourceLocation(locator.file, *_mark(key_node)),
+                            SourceLocation(locator.file, *node_mark(key_node)),
                         )
                     )
                     continue
@@ -421,15 +356,15 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                     errors.append(
                         LocatedError(
                             f"duplicate key {shown(key)} (first written on line {first})",
-                            SourceLocation(locator.file, *_mark(key_node)),
+                            SourceLocation(locator.file, *node_mark(key_node)),
                         )
                     )
                 seen[key] = key_node
-                locator.marks[(*path, key)] = _mark(key_node)
+                locator.marks[(*path, key)] = node_mark(key_node)
                 items.append(((*path, key), value_node))
         elif isinstance(node, yaml.SequenceNode):
             for index, item in enumerate(node.value):
-                locator.marks[(*path, index)] = _mark(item)
+                locator.marks[(*path, index)] = node_mark(item)
                 items.append(((*path, index), item))
         stack.extend((child, at) for at, child in reversed(items))
 
@@ -483,7 +418,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
             raise ValidationFailed([LocatedError("file holds no YAML document", loc)])
         _check_expansion(node, file)
         # Walk before constructing: construction flattens merge keys (<<) in place.
-        locator.marks[()] = _mark(node)
+        locator.marks[()] = node_mark(node)
         errors: list[LocatedError] = []
         _walk(node, locator, errors)
         if errors:  # once each: a value an alias repeats was met once per use

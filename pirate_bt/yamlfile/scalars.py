@@ -1,0 +1,110 @@
+"""YAML scalars as YAML 1.2 and an editor read them, where PyYAML reads YAML 1.1.
+
+Split from :mod:`pirate_bt.yamlfile` (which applies these while it walks a composed
+document): the tags of plain values, what a value of an explicit ``!!int``,
+``!!bool`` or ``!!float`` tag must be (:func:`unfit`), the YAML 1.1 readings that
+differ from YAML 1.2 (:func:`yaml11_number`: a base-60 number, an octal one) and
+the tags of values that are no JSON value (:func:`not_json`).
+"""
+
+from __future__ import annotations
+
+import re
+
+import yaml
+
+from pirate_bt.errors import LocatedError, SourceLocation, shown
+
+__all__ = [
+    "BOOL_TAG",
+    "FLOAT_TAG",
+    "INT_TAG",
+    "NOT_JSON",
+    "NULL_TAG",
+    "STR_TAG",
+    "TEXT_KEYS",
+    "TIMESTAMP_TAG",
+    "VALUE_WORDS",
+    "node_mark",
+    "not_json",
+    "unfit",
+    "yaml11_number",
+]
+
+INT_TAG = "tag:yaml.org,2002:int"
+BOOL_TAG = "tag:yaml.org,2002:bool"
+STR_TAG = "tag:yaml.org,2002:str"
+TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
+FLOAT_TAG = "tag:yaml.org,2002:float"
+NULL_TAG = "tag:yaml.org,2002:null"
+TEXT_KEYS = (BOOL_TAG, INT_TAG, FLOAT_TAG, NULL_TAG, TIMESTAMP_TAG)
+"""What YAML 1.1 reads a plain key as (``on``, ``1``, ``1.5``, ``~``, a date): a key is
+its text, in every file kind (``1:`` is the key ``'1'``, as ``"1":`` is)."""
+VALUE_WORDS = {"bool": "true or false", "int": "a whole number", "float": "a number"}
+"""What a value of each YAML type must be, in the words of every file kind's messages."""
+_TAGGED = {f"tag:yaml.org,2002:{kind}": words for kind, words in VALUE_WORDS.items()}
+"""What a value tagged ``!!bool``, ``!!int`` or ``!!float`` must be: PyYAML builds
+``!!int abc`` with a bare ValueError (``!!bool 3`` a KeyError), located nowhere."""
+_BUILD = yaml.constructor.SafeConstructor()
+_SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(:[0-5]?[0-9])+(\.[0-9_]*)?")
+"""A YAML 1.1 base-60 number (``1:30`` is 90), which YAML 1.2 reads as text."""
+_OCTAL = re.compile(r"[-+]?0[0-7_]+")
+"""A YAML 1.1 octal number (``010`` is 8), which YAML 1.2 reads as 10."""
+NOT_JSON: dict[str, str] = {
+    "tag:yaml.org,2002:binary": "!!binary (bytes)",
+    "tag:yaml.org,2002:set": "!!set",
+    "tag:yaml.org,2002:omap": "!!omap",
+    "tag:yaml.org,2002:pairs": "!!pairs",
+}
+"""Tags whose values are no JSON value (every file kind is described by a JSON Schema);
+a check would see them as something else (bytes pass as text) and a writer fails on them."""
+
+
+def node_mark(node: yaml.Node) -> tuple[int, int]:
+    return node.start_mark.line + 1, node.start_mark.column + 1
+
+
+def unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
+    """A value whose explicit tag its text does not fit (``!!int abc``, ``!!bool 3``)."""
+    if node.tag not in _TAGGED:
+        return None
+    try:
+        _BUILD.yaml_constructors[node.tag](_BUILD, node)
+    except (ValueError, KeyError, IndexError):
+        tag = node.tag.rsplit(":", 1)[-1]
+        return LocatedError(
+            f"a YAML !!{tag} value is {_TAGGED[node.tag]}, not {shown(node.value)}",
+            SourceLocation(file, *node_mark(node)),
+        )
+    return None
+
+
+def yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
+    """A plain number that YAML 1.1 reads other than as written (YAML 1.2 and editors
+    read it as written): ``1:30`` (base 60, 90) is retagged as the text written;
+    ``010`` (octal, 8) is refused, as is."""
+    if not isinstance(node, yaml.ScalarNode) or node.tag not in (INT_TAG, FLOAT_TAG):
+        return None
+    if node.style:  # quoted or a block: text as written; plain is "" (libyaml) or None
+        return None
+    if _SEXAGESIMAL.fullmatch(node.value):
+        node.tag = STR_TAG
+        return None
+    if not _OCTAL.fullmatch(node.value):
+        return None
+    sign = "-" if node.value.startswith("-") else ""
+    digits = sign + (node.value.lstrip("+-").replace("_", "").lstrip("0") or "0")
+    octal = int(node.value.replace("_", ""), 8)
+    return LocatedError(
+        f"{node.value} has a leading zero, which YAML 1.1 reads as an octal number"
+        f" ({octal}): write {digits}, or quote it for text",
+        SourceLocation(file, *node_mark(node)),
+    )
+
+
+def not_json(node: yaml.Node, file: str) -> LocatedError:
+    return LocatedError(
+        f"a YAML {NOT_JSON[node.tag]} value is not allowed here: write text, a number,"
+        " a list or a mapping",
+        SourceLocation(file, *node_mark(node)),
+    )
