@@ -20,7 +20,8 @@ whole number too long for Python to read are refused at their line too, and so a
 values that are no JSON value (``!!binary``, ``!!set``, ``!!omap``, ``!!pairs``). Where
 YAML 1.1 reads a plain value other than as YAML 1.2 (and an editor) reads it, a bare
 date (``2001-12-14``) and a base-60 number (``1:30``, 90 in YAML 1.1) are the text
-written, and a whole number with a leading zero (``010``, octal 8) is refused.
+written, a number with an exponent (``1e3``: text in YAML 1.1) is the number, and a whole
+number with a leading zero (``010``, octal 8) is refused.
 """
 
 from __future__ import annotations

@@ -50,6 +50,8 @@ _SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(:[0-5]?[0-9])+(\.[0-9_]*)?")
 """A YAML 1.1 base-60 number (``1:30`` is 90), which YAML 1.2 reads as text."""
 _OCTAL = re.compile(r"[-+]?0[0-7_]+")
 """A YAML 1.1 octal number (``010`` is 8), which YAML 1.2 reads as 10."""
+_FLOAT_12 = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+"""A YAML 1.2 (core schema) number; those YAML 1.1 reads as text (``1e3``) are numbers."""
 NOT_JSON: dict[str, str] = {
     "tag:yaml.org,2002:binary": "!!binary (bytes)",
     "tag:yaml.org,2002:set": "!!set",
@@ -82,10 +84,16 @@ def unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
 def yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
     """A plain number that YAML 1.1 reads other than as written (YAML 1.2 and editors
     read it as written): ``1:30`` (base 60, 90) is retagged as the text written;
-    ``010`` (octal, 8) is refused, as is."""
-    if not isinstance(node, yaml.ScalarNode) or node.tag not in (INT_TAG, FLOAT_TAG):
+    ``010`` (octal, 8) is refused, as is; ``1e3``, ``1E3``, ``1.0e3`` and ``-.5``
+    (text in YAML 1.1, which wants a dot and a signed exponent) are retagged as numbers."""
+    if not isinstance(node, yaml.ScalarNode) or node.style:
+        return None  # quoted or a block: text as written; plain is "" (libyaml) or None
+    number = _FLOAT_12.fullmatch(node.value)
+    if node.tag == STR_TAG and number and not node.value.lstrip("+-").isdigit():
+        # (``09``, no octal in YAML 1.1, stays the text it was: not a leading-zero int)
+        node.tag = FLOAT_TAG
         return None
-    if node.style:  # quoted or a block: text as written; plain is "" (libyaml) or None
+    if node.tag not in (INT_TAG, FLOAT_TAG):
         return None
     if _SEXAGESIMAL.fullmatch(node.value):
         node.tag = STR_TAG
