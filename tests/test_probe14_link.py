@@ -15,6 +15,11 @@ test that failed before its fix.
 3. ``SimServer`` on TCP accepted a new connection before it read the old one's end, so a
    host (or a serial-over-TCP adapter) that closed and connected again within one serving
    tick was taken for a second host and hung up on, every time.
+4. A link cut for good closed with *the closing stop was not confirmed
+   (Request(BulkSetpoints seq=4 pending) not answered within 0.238 s), ...*: the stop's
+   wait ends with its retry budget while its last try is still unanswered, and the e-stop
+   after it then cancels it, so neither *failed* branch matched. The words are now the
+   documented *the closing stop was never acknowledged, nor was the e-stop sent after it*.
 """
 
 from __future__ import annotations
@@ -204,3 +209,24 @@ def test_a_host_that_reconnects_right_after_closing_is_served() -> None:
                 time.sleep(0.03)
         finally:
             server.stop()
+
+
+# -- 4. a link cut for good: what the close says ------------------------------------------------
+
+
+def test_a_link_cut_for_good_is_closed_with_the_documented_cause(rig: Rig) -> None:
+    rig.link.send(drive(0.05))
+    rig.wait(0.1)
+    rig.proxy.cut()
+    rig.wait(0.05)
+    rig.link.close()
+    # before: "the closing stop was not confirmed (Request(BulkSetpoints seq=4 pending) not
+    # answered within 0.238 s), ...": a repr, where docs/protocol.md promises these words
+    assert str(rig.link.close_error) == (
+        "the closing stop was never acknowledged, nor was the e-stop sent after it: the robot"
+        " may still be moving until its bridge's watchdog stops it"
+    )
+    time.sleep(0.3)  # the bridge's watchdog: drives stopped, nothing released
+    setpoint = rig.sim.model.setpoint("bend_1_drive")
+    assert setpoint is not None and setpoint.value == 0.0
+    assert rig.sim.bridge.watchdog_trips == 1

@@ -438,6 +438,13 @@ class RobotLink:
         """Send the close's e-stop and wait for it; keep in :attr:`close_error` why the
         robot may still be moving when it is not acknowledged (``bulk``: the stop's
         frame, ``None`` when none went out)."""
+        # the wait for the stop ends with its retry budget, as its last try goes unanswered
+        # (then the e-stop cancels it): never acknowledged, as much as one given up
+        unanswered = (
+            isinstance(stop_error, LinkTimeout)
+            and bulk is not None
+            and bulk.outcome is Outcome.PENDING
+        )
         try:
             req = self.session.wait(self.session.estop())
         except LinkError as why:
@@ -451,7 +458,7 @@ class RobotLink:
                 estop = f"and the e-stop sent after it was {req.outcome.value}"
         if bulk is not None and bulk.outcome is Outcome.NACKED and bulk.nack is not None:
             stop = f"refused ({bulk.nack.name})"
-        elif bulk is not None and bulk.outcome is Outcome.FAILED:
+        elif bulk is not None and (bulk.outcome is Outcome.FAILED or unanswered):
             stop = "never acknowledged"
         else:
             stop = f"not confirmed ({stop_error})"
