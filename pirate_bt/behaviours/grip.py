@@ -30,6 +30,8 @@ GRIP_LOST_S = 0.25
 """How long no half may hold, with a joint stopped where it pressed, before a drive
 fails (five ticks at 20 Hz: one reading is not believed)."""
 
+_HALVES = tuple(Half)  # iterating the enum itself costs a generator on every tick
+
 
 class GripWatch:
     """Watches the halves a drive holds with, one state at a time (see the module)."""
@@ -45,7 +47,7 @@ class GripWatch:
         robot = self.robot
         clamp = robot.clamp
         holding = False
-        for half in Half:
+        for half in _HALVES:
             if classify_half(robot, state, half) is ClampState.CLAMPED:
                 holding = True
                 self._held.add(half)

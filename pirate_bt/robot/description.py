@@ -345,6 +345,9 @@ class RobotDescription(_Model):
 
     def bend_modules(self, half: Half) -> list[Module]:
         """The bend modules of a half, front to rear."""
+        private = self.__pydantic_private__  # the index, as _ix reads it (every tick)
+        if private is not None and "_index" in private:
+            return list(private["_index"].bend.get(half, ()))
         return [m for m in self.modules if m.role is Role.BEND and m.half is half]
 
     def all_bend_modules(self) -> list[Module]:
@@ -510,6 +513,7 @@ class _Index:
     setpoints: Sequence[SetpointSlot]
     drives: tuple[Motor, ...]
     periods: Mapping[str, float]
+    bend: Mapping[Half, tuple[Module, ...]]
 
     @classmethod
     def build(cls, desc: RobotDescription) -> _Index:
@@ -558,5 +562,11 @@ class _Index:
             drives=tuple(m for _, m in desc.motors() if m.function is MotorFunction.DRIVE),
             periods=MappingProxyType(
                 {c.name: c.period_s or desc.bridge.state_period for c in channels}
+            ),
+            bend=MappingProxyType(
+                {
+                    half: tuple(m for m in desc.modules if m.role is Role.BEND and m.half is half)
+                    for half in Half
+                }
             ),
         )

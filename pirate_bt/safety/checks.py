@@ -163,16 +163,14 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
     unclamped. Anything else is transitioning.
     """
     clamp = robot.clamp
-    tol = robot.safety.angle_tolerance
-    modules = [m.name for m in robot.bend_modules(half)]
+    modules, contact_min, released = _half_table(robot, half)
     signed: list[float] = []
+    joint_angles = state.joint_angle_rad
     for name in modules:
-        angle = state.joint_angle_rad.get(name)
+        angle = joint_angles.get(name)
         if angle is None:
             return ClampState.UNKNOWN
         signed.append(angle)
-    angles = [abs(a) for a in signed]
-    contact_min = min(p.angle for p in clamp.contact_angles) - tol
     # The wheels of a pair press opposite walls only when its joints bend the same way;
     # joints at the wall on opposite sides do not hold the half.
     at_wall = all(a >= contact_min for a in signed) or all(a <= -contact_min for a in signed)
@@ -181,15 +179,39 @@ def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> Cla
         values = [abs(f) for f in forces if f is not None]
         if at_wall and all(clamp.holds_force(f) for f in values):
             return ClampState.CLAMPED
-        released = released_force_n(robot)
         if all(f < released for f in values):
             return ClampState.UNCLAMPED
         return ClampState.TRANSITIONING
     if at_wall:
         return ClampState.CLAMPED
-    if all(a < clamp.unclamped_below for a in angles):
+    if all(abs(a) < clamp.unclamped_below for a in signed):
         return ClampState.UNCLAMPED
     return ClampState.TRANSITIONING
+
+
+_HALF_TABLES: dict[tuple[int, Half], tuple[RobotDescription, tuple[tuple[str, ...], float, float]]]
+_HALF_TABLES = {}
+
+
+def _half_table(robot: RobotDescription, half: Half) -> tuple[tuple[str, ...], float, float]:
+    """What :func:`classify_half` reads of the robot for ``half``, worked out once per
+    robot (it runs on every tick): the bend modules' names, the smallest wall-contact
+    angle less the angle tolerance, and :func:`released_force_n`. The robot is kept
+    with its entry, so a later robot at the same address is never served its table."""
+    key = (id(robot), half)
+    entry = _HALF_TABLES.get(key)
+    if entry is not None and entry[0] is robot:
+        return entry[1]
+    tol = robot.safety.angle_tolerance
+    table = (
+        tuple(m.name for m in robot.bend_modules(half)),
+        min(p.angle for p in robot.clamp.contact_angles) - tol,
+        released_force_n(robot),
+    )
+    if len(_HALF_TABLES) >= 64:  # pragma: no mutate (a bound on memory, not a rule)
+        _HALF_TABLES.clear()
+    _HALF_TABLES[key] = (robot, table)
+    return table
 
 
 def pressing_over_opening(robot: RobotDescription, state: RobotState, half: Half) -> bool:
