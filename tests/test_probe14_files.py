@@ -71,3 +71,44 @@ def test_a_refused_choices_in_xml_is_one_line(
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1, lines
     assert f"{xml}:4:5: " in lines[0]
+
+
+# BehaviorTree.CPP reads a <BehaviorTree> without an ID when it is the only element
+# under <root> (xml_parsing.cpp: VerifyXML, then "BehaviorTree_0"); pirate_bt refused
+# it ("<BehaviorTree> without an ID").
+_NO_ID = (
+    '<root BTCPP_format="4">\n'
+    "  <BehaviorTree>\n"
+    '    <Sequence><AlwaysSuccess/><wait duration="100 ms"/></Sequence>\n'
+    "  </BehaviorTree>\n"
+    "</root>\n"
+)
+
+
+def test_a_lone_behaviour_tree_without_an_id_runs_as_btcpp_reads_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt import load_tree, simulate_tree
+
+    xml = tmp_path / "lone.xml"
+    xml.write_text(_NO_ID, encoding="utf-8")
+    assert main(["validate", str(xml)]) == 0, capsys.readouterr().err
+    assert load_tree(xml).name == "lone"  # no ID, no name: the file's, as a YAML tree's
+    assert simulate_tree(xml).status == "success"
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        '  <BehaviorTree ID="b"><AlwaysSuccess/></BehaviorTree>\n',
+        "  <TreeNodesModel/>\n",
+    ],
+)
+def test_a_behaviour_tree_without_an_id_beside_another_element_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: str
+) -> None:
+    xml = tmp_path / "two.xml"
+    xml.write_text(_NO_ID.replace("</root>", f"{extra}</root>"), encoding="utf-8")
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{xml}:2:3: <BehaviorTree> without an ID" in err, err

@@ -11,7 +11,7 @@ from __future__ import annotations
 import difflib
 import logging
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from pydantic import ValidationError
 
@@ -47,6 +47,10 @@ def _suggest(name: str, known: list[str]) -> str:
     return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
 
 
+_UNNAMED: Final = "BehaviorTree_0"
+"""The ID BT.CPP gives a lone <BehaviorTree> written without one."""
+
+
 class _Importer:
     def __init__(self, root: XmlElement, registry: Registry) -> None:
         self.root = root
@@ -78,6 +82,8 @@ class _Importer:
         for child in root.children:
             if child.tag == "BehaviorTree":
                 tree_id = child.attrs.get("ID")
+                if not tree_id and len(root.children) == 1:
+                    tree_id = _UNNAMED  # BT.CPP reads it when it is all <root> holds
                 if not tree_id:
                     raise child.error("<BehaviorTree> without an ID")
                 if tree_id in self.trees:
@@ -128,7 +134,8 @@ class _Importer:
         main_tree = self.trees[main]
         out: dict[str, Any] = {}
         self.place(out, main_tree)
-        written_name = main_tree.attrs.get("_name", main)
+        # without an ID (nor a _name) the tree takes its file's name, as a YAML tree does
+        written_name = main_tree.attrs.get("_name", main if main_tree.attrs.get("ID") else "")
         if written_name:  # empty: the tree file had no name (it takes the file's)
             out["name"] = written_name
         if "_description" in main_tree.attrs:
