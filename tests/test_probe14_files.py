@@ -112,3 +112,23 @@ def test_a_behaviour_tree_without_an_id_beside_another_element_is_refused(
     assert main(["validate", str(xml)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{xml}:2:3: <BehaviorTree> without an ID" in err, err
+
+
+@pytest.mark.parametrize(
+    "node",
+    ['<wait ID="sleep" duration="1 s"/>', '<Sequence ID="x"><AlwaysSuccess/></Sequence>'],
+)
+def test_an_id_on_a_node_named_by_its_tag_is_refused_as_btcpp_refuses_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], node: str
+) -> None:
+    # BT.CPP: "Attribute [ID] is not allowed in <wait>"; pirate_bt dropped it silently,
+    # so the file ran here and not in BT.CPP (and <wait ID="sleep"> looked like a Sleep)
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        f'<root BTCPP_format="4">\n  <BehaviorTree ID="m">\n    {node}\n'
+        "  </BehaviorTree>\n</root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{xml}:3:5: " in err and "ID" in err, err

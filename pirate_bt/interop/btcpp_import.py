@@ -300,6 +300,11 @@ class _Importer:
             tag = attrs.pop("ID", "")
             if not tag:
                 raise element.error(f"<{element.tag}> without an ID")
+        elif tag != "SubTree" and "ID" in attrs:  # BT.CPP refuses it: "not allowed"
+            raise element.error(
+                f"<{tag}>: an ID attribute is not allowed on a node named by its tag"
+                " (BehaviorTree.CPP refuses it)"
+            )
         for key in attrs:
             if key in _SCRIPT_ATTRS:
                 raise element.error(
