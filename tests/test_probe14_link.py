@@ -125,6 +125,23 @@ def test_an_old_bulk_replayed_after_a_replayed_hello_is_not_applied_again(rig: R
     assert rig.link.health().connected
 
 
+def test_replays_after_a_replayed_hello_do_not_undo_an_estop(rig: Rig) -> None:
+    rig.link.send(drive(0.04))
+    rig.wait(0.08)
+    rig.link.estop()
+    rig.wait(0.08)
+    (hello,) = rig.frames_to_bridge(MsgType.HELLO)
+    (release,) = rig.frames_to_bridge(MsgType.ESTOP_RESET)  # the connect's, of the boot latch
+    bulk = rig.frames_to_bridge(MsgType.BULK_SETPOINTS)[-1]
+    for frame in (hello, release, bulk):
+        rig.proxy.inject(TO_BRIDGE, reencode(frame))
+        rig.wait(0.08)
+    assert rig.sim.bridge.estopped  # before: the replayed release was applied, then the drive
+    setpoint = rig.sim.model.setpoint("bend_1_drive")
+    assert setpoint is not None and setpoint.value == 0.0
+    assert rig.link.health().estopped
+
+
 def test_a_hello_reply_the_host_did_not_ask_for_starts_a_session_of_its_own() -> None:
     wire = Wire(hello=reply(sessions=1))
     wire.answer(state(3))
