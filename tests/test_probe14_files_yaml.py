@@ -85,3 +85,21 @@ def test_a_campaign_rate_with_an_exponent_is_read(
         encoding="utf-8",
     )
     assert main(["validate", str(spec)]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("ref", ["other.xml", "other.XML", "other.xml#t"])
+def test_a_subtree_ref_to_an_xml_file_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], ref: str
+) -> None:
+    # it read "no subtree named 'other.xml'" (or "write FILE.yaml#NAME or NAME") though
+    # the file is there: a ref takes a YAML tree file only
+    (tmp_path / "other.xml").write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="t"><AlwaysSuccess/></BehaviorTree></root>\n',
+        encoding="utf-8",
+    )
+    tree = tmp_path / "t.yaml"
+    tree.write_text(f"root: {{type: subtree, ref: '{ref}'}}\n", encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{tree}:1:23: " in err, err
+    assert "BehaviorTree.CPP XML" in err and "import btcpp" in err, err

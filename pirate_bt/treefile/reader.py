@@ -338,6 +338,15 @@ class _Reader(_FileReader):
             self.error(doc, (*path, "ref") if "ref" in raw else path, "subtree needs a 'ref'")
             return None
         file_part, hash_sign, tree_name = ref.partition("#")
+        own = doc.data.get("subtrees") if isinstance(doc.data, dict) else None
+        if file_part.lower().endswith(".xml") and not (isinstance(own, dict) and ref in own):
+            self.error(
+                doc,
+                (*path, "ref"),
+                f"ref {_shown(ref)}: a BehaviorTree.CPP XML file; a subtree is a YAML tree"
+                " file: convert it with pirate-bt import btcpp, and give the .yaml",
+            )
+            return None
         if file_part.endswith((".yaml", ".yml")):
             base = Path(doc.file).parent if doc.file not in ("<dict>",) else self.base_dir
             target_doc = self.read_file(base / file_part, doc, (*path, "ref"))
