@@ -94,6 +94,7 @@ class LinkProxy:
         self._stall_until = 0.0
         self._cut = False
         self._hung_up = False
+        self._redial = False
         self._stop = threading.Event()
         self._pending: dict[str, list[tuple[float, bytes]]] = {TO_HOST: [], TO_BRIDGE: []}
         self.seen: dict[str, bytearray] = {TO_HOST: bytearray(), TO_BRIDGE: bytearray()}
@@ -120,6 +121,12 @@ class LinkProxy:
         """Close both sockets (a bridge or cable pulled: the host reads EOF)."""
         with self._lock:
             self._hung_up = True
+
+    def redial(self) -> None:
+        """Close the connection to the bridge and connect again at once (an adapter that
+        resets between the host and the bridge; the host's connection stays up)."""
+        with self._lock:
+            self._redial = True
 
     def inject(self, direction: str, data: bytes) -> None:
         """Queue ``data`` toward the host or the bridge (after what is queued)."""
@@ -174,6 +181,17 @@ class LinkProxy:
                 with self._lock:
                     if self._hung_up:
                         break
+                    redial, self._redial = self._redial, False
+                if redial:
+                    sel.unregister(bridge)
+                    bridge.close()
+                    bridge = socket.create_connection(self.upstream)
+                    bridge.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                    bridge.setblocking(False)
+                    sel.register(bridge, selectors.EVENT_READ)
+                    self.bridge = bridge
+                    peer[TO_BRIDGE] = bridge
+                    source = {host: TO_BRIDGE, bridge: TO_HOST}
                 for key, _ in sel.select(0.002):
                     sock = key.fileobj
                     assert isinstance(sock, socket.socket)
@@ -197,9 +215,10 @@ class LinkProxy:
                 self._flush(peer)
         finally:
             sel.close()
-            for sock in (host, bridge):
-                with contextlib.suppress(OSError):
-                    sock.close()
+            for sock in (host, self.bridge):
+                if sock is not None:
+                    with contextlib.suppress(OSError):
+                        sock.close()
 
     def _flush(self, peer: dict[str, socket.socket]) -> None:
         now = time.monotonic()
@@ -275,6 +294,9 @@ class ProxyProcess:
     def hang_up(self) -> None:
         self.send("hangup")
 
+    def redial(self) -> None:
+        self.send("redial")
+
     def inject(self, direction: str, data: bytes) -> None:
         self.send(f"inject {direction} {data.hex()}")
 
@@ -312,6 +334,8 @@ def _main(argv: list[str]) -> None:
             proxy.cut()
         elif word == "hangup":
             proxy.hang_up()
+        elif word == "redial":
+            proxy.redial()
         elif word == "inject":
             proxy.inject(rest[0], bytes.fromhex(rest[1]))
         elif word == "mangle":

@@ -228,6 +228,20 @@ def test_a_host_that_reconnects_right_after_closing_is_served() -> None:
             server.stop()
 
 
+def test_a_run_survives_an_adapter_that_redials_the_bridge(rig: Rig) -> None:
+    # a serial-over-TCP adapter (the proxy) that drops its connection to the bridge and
+    # dials again at once, the host's connection kept: hung up on before, so the host
+    # read EOF and its run ended on *link lost*
+    rig.link.send(drive(0.03))
+    rig.wait(0.1)
+    rig.proxy.redial()
+    rig.wait(0.15)
+    rig.link.send_and_wait(drive(0.02))
+    assert rig.link.health().connected
+    setpoint = rig.sim.model.setpoint("bend_1_drive")
+    assert setpoint is not None and setpoint.value == pytest.approx(0.02, abs=0.002)
+
+
 # -- 4. a link cut for good: what the close says ------------------------------------------------
 
 
