@@ -113,3 +113,29 @@ def test_network_perturb_writes_a_steep_run_within_its_bound(tmp_path: Path) -> 
     assert main(["network", "perturb", str(drawing), "--seed", "4", "-o", str(out)]) == 0
     slope = pirate_bt.load_network(out).main_path().slope_at(1.5)
     assert abs(math.degrees(slope) - 75.0) <= 3.0 + 1e-6  # was 90: laid plumb
+
+
+@pytest.mark.parametrize("verb", ["navigate", "survey", "mission"])
+def test_a_bad_sim_file_is_named_as_typed_by_every_verb(
+    verb: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "badv.yaml").write_text(
+        "name: badv\ndiameter: 63 mm\nsegments:\n  - {type: straight, length: 1 m, id: a}\n"
+        "  - {bogus: 3}\n"
+    )
+    args = {
+        "navigate": ["navigate", "goal", "--param", "segment=a", "--sim", "badv.yaml"],
+        "survey": ["survey", "--sim", "badv.yaml", "-o", "out.yaml"],
+        "mission": [
+            "mission",
+            str(Path(pirate_bt.__file__).parent.parent / "scenarios" / "lab.route"),
+            "--sim",
+            "badv.yaml",
+        ],
+    }[verb]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: badv.yaml:5:5: "), err
+    assert str(tmp_path) not in err
+    assert not (tmp_path / "out.yaml").exists()

@@ -15,7 +15,8 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
     """The network file a route or ``--sim`` names.
 
     ``lab`` is looked up next to the route (``lab.yaml``), then among the bundled
-    scenarios; a name ending in ``.yaml`` is a path (relative to ``base_dir``).
+    scenarios; a name ending in ``.yaml`` is a path (relative to ``base_dir``; without one,
+    returned as given, relative to the current folder).
 
     Raises:
         FileNotFoundError: no such network (or a name no file can have: too long),
@@ -26,7 +27,9 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
     candidates: list[Path] = []
     plain = Path(name)
     if plain.suffix in (".yaml", ".yml"):
-        candidates.append(plain if plain.is_absolute() else (base_dir or Path.cwd()) / plain)
+        # relative to base_dir; without one, as typed (relative to the current folder),
+        # so that errors in the file name it as the user did
+        candidates.append(plain if plain.is_absolute() or base_dir is None else base_dir / plain)
         candidates.append(plain)
     else:
         if base_dir is not None:
