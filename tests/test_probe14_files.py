@@ -132,3 +132,55 @@ def test_an_id_on_a_node_named_by_its_tag_is_refused_as_btcpp_refuses_it(
     assert main(["validate", str(xml)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{xml}:3:5: " in err and "ID" in err, err
+
+
+@pytest.mark.parametrize("value", ["1_0", "\u0663", "\uff13"])
+def test_an_xml_count_is_written_in_ascii_digits(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str
+) -> None:
+    # Python's int() took '1_0' as 10 and Arabic-Indic or full-width digits as 3, where
+    # BT.CPP refuses them and a --param is refused them (docs/trees.md)
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        f'<root BTCPP_format="4"><BehaviorTree ID="m">\n'
+        f'  <RetryUntilSuccessful num_attempts="{value}"><AlwaysSuccess/></RetryUntilSuccessful>\n'
+        "</BehaviorTree></root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{xml}:2:3: num_attempts: expected an integer" in err, err
+
+
+@pytest.mark.parametrize("value", ["1_0", "\u0663", "1_0.5"])
+def test_an_xml_number_port_default_is_written_in_ascii_digits(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str
+) -> None:
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="m"><AlwaysSuccess/></BehaviorTree>\n'
+        '<TreeNodesModel><SubTree ID="m">\n'
+        f'  <input_port name="x" type="number" default="{value}"/>\n'
+        "</SubTree></TreeNodesModel></root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{xml}:3:3: " in err and "expected a number" in err, err
+
+
+@pytest.mark.parametrize("value", ["False", "FALSE", "false", "0"])
+def test_autoremap_false_as_btcpp_spells_it_is_accepted(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str
+) -> None:
+    # BT.CPP reads False and FALSE as false; they were refused as "_autoremap is not
+    # supported", as if the call asked for it
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="m">\n'
+        f'  <BehaviorTree ID="m"><SubTree ID="s" _autoremap="{value}"/></BehaviorTree>\n'
+        '  <BehaviorTree ID="s"><AlwaysSuccess/></BehaviorTree>\n'
+        "</root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 0, capsys.readouterr().err

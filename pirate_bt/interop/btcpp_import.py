@@ -358,7 +358,7 @@ class _Importer:
         if element.children:
             raise element.error("<SubTree> must not have children")
         target = element.attrs.get("ID", "")
-        if element.attrs.get("_autoremap") not in (None, "false", "0"):
+        if element.attrs.get("_autoremap") not in (None, "false", "False", "FALSE", "0"):
             raise element.error("_autoremap is not supported: remap each port explicitly")
         declared = self.params(target, placed=False)  # only to check the call
         out = self.named("subtree", name)

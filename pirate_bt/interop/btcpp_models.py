@@ -411,16 +411,17 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
         return "$" + name
     if text.startswith("$"):
         return "$" + text
-    if port_type == "integer":
+    if port_type in ("integer", "number"):
+        # ASCII digits, as BT.CPP and a --param read them: Python's int() and float() also
+        # take '1_0' and other scripts' digits ('\u0663' was 3); nan and inf are read,
+        # for the loader to refuse as every other file's
+        words = "an integer" if port_type == "integer" else "a number"
         try:
-            return int(text)
-        except ValueError:
-            raise ValueError(f"expected an integer, got {_shown(text)}") from None
-    if port_type == "number":
-        try:
-            return float(text)
-        except ValueError:
-            raise ValueError(f"expected a number, got {_shown(text)}") from None
+            if not text.isascii() or "_" in text:
+                raise ValueError(text)
+            return int(text) if port_type == "integer" else float(text)
+        except ValueError:  # also an integer too long for Python to read
+            raise ValueError(f"expected {words}, got {_shown(text)}") from None
     if port_type == "boolean":
         lowered = text.strip().lower()
         if lowered in ("true", "1"):
