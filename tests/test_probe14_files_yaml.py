@@ -103,3 +103,24 @@ def test_a_subtree_ref_to_an_xml_file_says_so(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{tree}:1:23: " in err, err
     assert "BehaviorTree.CPP XML" in err and "import btcpp" in err, err
+
+
+def test_text_that_yaml_12_reads_as_a_number_stays_text_through_an_import(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the import's YAML writer (YAML 1.1) wrote the text 1e3 plain, which reads back as
+    # the number 1000.0 since plain exponents are numbers: it is written quoted
+    from pirate_bt import load_tree
+
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="m"><Sequence>\n'
+        '  <log name="2E5" message="1e3"/><log message="-.5"/>\n'
+        "</Sequence></BehaviorTree></root>\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "t.yaml"
+    assert main(["import", "btcpp", str(xml), "-o", str(out)]) == 0, capsys.readouterr().err
+    tree = load_tree(out)
+    assert [child.params.message for child in tree.spec.children] == ["1e3", "-.5"]
+    assert [child.name for child in tree.spec.children] == ["2E5", "log"]

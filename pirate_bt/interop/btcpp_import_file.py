@@ -26,7 +26,7 @@ from pirate_bt.errors import (
 from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
-from pirate_bt.yamlfile import HIDDEN_BREAK
+from pirate_bt.yamlfile import HIDDEN_BREAK, plain_reads_as_number
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -88,6 +88,8 @@ def _str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
     # a line break an editor does not show (U+0085, U+2028) is written escaped: PyYAML
     # writes it as it is (the tree loader refuses it) and in a quoted value folds it
     style = '"' if HIDDEN_BREAK.search(value) else "|" if "\n" in value else None
+    if style is None and plain_reads_as_number(value):
+        style = "'"  # 1e3: text to PyYAML's writer (YAML 1.1), a number to the loader
     return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
 
 

@@ -46,6 +46,7 @@ from pirate_bt.yamlfile.scalars import (
     VALUE_WORDS,
     node_mark,
     not_json,
+    plain_reads_as_number,
     unfit,
     yaml11_number,
 )
@@ -59,6 +60,7 @@ __all__ = [
     "decode_text",
     "load_yaml",
     "load_yaml_text",
+    "plain_reads_as_number",
     "read_at_most",
     "refuse_hidden_break",
 ]

@@ -27,6 +27,7 @@ __all__ = [
     "VALUE_WORDS",
     "node_mark",
     "not_json",
+    "plain_reads_as_number",
     "unfit",
     "yaml11_number",
 ]
@@ -88,8 +89,7 @@ def yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
     (text in YAML 1.1, which wants a dot and a signed exponent) are retagged as numbers."""
     if not isinstance(node, yaml.ScalarNode) or node.style:
         return None  # quoted or a block: text as written; plain is "" (libyaml) or None
-    number = _FLOAT_12.fullmatch(node.value)
-    if node.tag == STR_TAG and number and not node.value.lstrip("+-").isdigit():
+    if node.tag == STR_TAG and plain_reads_as_number(node.value):
         # (``09``, no octal in YAML 1.1, stays the text it was: not a leading-zero int)
         node.tag = FLOAT_TAG
         return None
@@ -108,6 +108,12 @@ def yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
         f" ({octal}): write {digits}, or quote it for text",
         SourceLocation(file, *node_mark(node)),
     )
+
+
+def plain_reads_as_number(text: str) -> bool:
+    """Whether ``text``, written plain, is read back as a number here but not by PyYAML's
+    writer, which decides by YAML 1.1 (``1e3``): such text must be written quoted."""
+    return _FLOAT_12.fullmatch(text) is not None and not text.lstrip("+-").isdigit()
 
 
 def not_json(node: yaml.Node, file: str) -> LocatedError:
