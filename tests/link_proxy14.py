@@ -42,6 +42,7 @@ class Mangler:
     repeat: float = 0.0  # per chunk: send it twice (a whole frame, as the host writes one)
     split: bool = False  # forward one byte per write
     delay: float = 0.0  # seconds every byte is held (a slow line, order kept)
+    limit: float = -1  # pass this many bytes, then nothing (a cut at a byte boundary)
     rng: random.Random = field(init=False)
     _held: bytes = b""
 
@@ -49,6 +50,9 @@ class Mangler:
         self.rng = random.Random(self.seed)
 
     def __call__(self, data: bytes) -> list[bytes]:
+        if self.limit >= 0:
+            data = data[: int(self.limit)]
+            self.limit -= len(data)
         out = bytearray()
         for b in data:
             r = self.rng.random()

@@ -20,6 +20,10 @@ test that failed before its fix.
    wait ends with its retry budget while its last try is still unanswered, and the e-stop
    after it then cancels it, so neither *failed* branch matched. The words are now the
    documented *the closing stop was never acknowledged, nor was the e-stop sent after it*.
+5. A line cut toward the bridge only (the host still hears every ``STATE``) ended a run on
+   *1 earlier request(s) failed; last: BulkSetpoints seq 21 not acknowledged after 4 tries*
+   though the bridge's own frames said why: its watchdog had tripped, it heard nothing from
+   the host. The cause line now says so.
 """
 
 from __future__ import annotations
@@ -261,3 +265,23 @@ def test_a_link_cut_for_good_is_closed_with_the_documented_cause(rig: Rig) -> No
     setpoint = rig.sim.model.setpoint("bend_1_drive")
     assert setpoint is not None and setpoint.value == 0.0
     assert rig.sim.bridge.watchdog_trips == 1
+
+
+# -- 5. a line cut toward the bridge only -------------------------------------------------------
+
+
+def test_a_line_cut_toward_the_bridge_only_is_named_by_its_watchdog(rig: Rig) -> None:
+    from pirate_bt.errors import LinkError
+
+    rig.proxy.mangle(TO_BRIDGE, "limit=0")  # the host's bytes go nowhere; STATEs still come
+    rig.wait(0.05)  # (the proxy takes the command)
+    rig.link.send(drive(0.03))
+    rig.wait(0.45)  # the bulk given up (238 ms), the bridge's watchdog tripped (250 ms)
+    with pytest.raises(LinkError) as exc:
+        rig.link.send(drive(0.0))
+    assert str(exc.value).endswith(
+        "not acknowledged after 4 tries: the bridge reports its watchdog tripped (it hears"
+        " nothing from the host: the line toward the bridge is down?)"
+    ), exc.value
+    setpoint = rig.sim.model.setpoint("bend_1_drive")  # the drive never reached it
+    assert setpoint is None or setpoint.value == 0.0

@@ -318,10 +318,28 @@ class RobotLink:
                 why = "answered STALE (not applied)"
             else:
                 why = "not acknowledged"
+            hint = "" if last.nack or last.outcome is Outcome.STALE else self._one_way_hint()
             raise LinkError(
                 f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
-                f"seq {last.seq} {why} after {last.tries} tries"
+                f"seq {last.seq} {why} after {last.tries} tries{hint}"
             )
+
+    def _one_way_hint(self) -> str:
+        """Why a request went unanswered, when the bridge's own frames tell: its watchdog
+        tripped (it heard nothing from the host), or its STATEs still arrive (the line from
+        the bridge works; the one toward it may not). ``""`` when they tell nothing."""
+        if self.session.stats().watchdog:
+            return (
+                ": the bridge reports its watchdog tripped (it hears nothing from the host:"
+                " the line toward the bridge is down?)"
+            )
+        latest = self.session.latest_state()
+        if (
+            latest is not None
+            and self.session.clock.now() - latest[1] < self.session.config.ack_timeout_s
+        ):
+            return ", though the bridge's STATE frames still arrive (does it hear the host?)"
+        return ""
 
     def estop(self) -> None:
         """Send an e-stop ahead of every queue; never raises for a busy link."""
