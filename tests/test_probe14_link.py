@@ -257,10 +257,12 @@ def test_a_link_cut_for_good_is_closed_with_the_documented_cause(rig: Rig) -> No
     rig.link.close()
     # before: "the closing stop was not confirmed (Request(BulkSetpoints seq=4 pending) not
     # answered within 0.238 s), ...": a repr, where docs/protocol.md promises these words
-    assert str(rig.link.close_error) == (
-        "the closing stop was never acknowledged, nor was the e-stop sent after it: the robot"
-        " may still be moving until its bridge's watchdog stops it"
-    )
+    text = str(rig.link.close_error)
+    assert text.startswith("the closing stop was never acknowledged, "), text
+    # the e-stop after it gives up 0.48 s after the close, the link is lost 0.5 s after
+    # the cut: which comes first is the machine's timing (either is said plainly)
+    assert text.endswith(": the robot may still be moving until its bridge's watchdog stops it")
+    assert "Request(" not in text
     time.sleep(0.3)  # the bridge's watchdog: drives stopped, nothing released
     setpoint = rig.sim.model.setpoint("bend_1_drive")
     assert setpoint is not None and setpoint.value == 0.0
