@@ -124,3 +124,25 @@ def test_text_that_yaml_12_reads_as_a_number_stays_text_through_an_import(
     tree = load_tree(out)
     assert [child.params.message for child in tree.spec.children] == ["1e3", "-.5"]
     assert [child.name for child in tree.spec.children] == ["2E5", "log"]
+
+
+def test_a_network_written_by_the_library_reads_back_with_its_text(tmp_path: Path) -> None:
+    # network_yaml (network perturb, remove, insert and a survey's network write with it)
+    # used PyYAML's YAML 1.1 writer: a description 1e3 was written plain and read back
+    # as the number 1000.0, so the written copy of a valid network did not load
+    # ('description: must be text, not 1000.0')
+    from pirate_bt.pipes import load_network, network_from_data
+    from pirate_bt.pipes.asbuilt import network_yaml
+
+    for text in ("1e3", "-.5", "2E-4", "10", "yes", "1:30"):
+        net = network_from_data(
+            {
+                "name": "n",
+                "description": text,
+                "diameter": "63 mm",
+                "segments": [{"id": "a", "type": "straight", "length": "1 m"}],
+            }
+        )
+        out = tmp_path / "v.yaml"
+        out.write_text(network_yaml(net.spec), encoding="utf-8")
+        assert load_network(out).spec.description == text

@@ -373,7 +373,7 @@ def network_yaml(spec: NetworkSpec, header: str = "") -> str:
         spec: The network.
         header: Comment lines to put on top (``#`` is added).
     """
-    import yaml
+    from pirate_bt.yamlfile.scalars import dump_yaml
 
     data: dict[str, Any] = {
         "schema_version": spec.schema_version,
@@ -404,4 +404,4 @@ def network_yaml(spec: NetworkSpec, header: str = "") -> str:
             for f in spec.faults
         ]
     comment = "".join(f"# {line}\n" for line in header.splitlines())
-    return comment + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=100)
+    return comment + dump_yaml(data, sort_keys=False, allow_unicode=True, width=100)

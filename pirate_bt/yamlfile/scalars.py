@@ -25,6 +25,8 @@ __all__ = [
     "TEXT_KEYS",
     "TIMESTAMP_TAG",
     "VALUE_WORDS",
+    "TextDumper",
+    "dump_yaml",
     "node_mark",
     "not_json",
     "plain_reads_as_number",
@@ -114,6 +116,27 @@ def plain_reads_as_number(text: str) -> bool:
     """Whether ``text``, written plain, is read back as a number here but not by PyYAML's
     writer, which decides by YAML 1.1 (``1e3``): such text must be written quoted."""
     return _FLOAT_12.fullmatch(text) is not None and not text.lstrip("+-").isdigit()
+
+
+class TextDumper(yaml.SafeDumper):
+    """PyYAML's safe writer, with text that this package's files read as a number
+    (``1e3``, ``-.5``: YAML 1.2) written quoted, so a written file reads back as
+    written; PyYAML's own writer decides by YAML 1.1 and leaves it plain."""
+
+
+def _represent_str(dumper: yaml.SafeDumper, value: str) -> yaml.Node:
+    style = "'" if plain_reads_as_number(value) else None
+    return dumper.represent_scalar(STR_TAG, value, style=style)
+
+
+TextDumper.add_representer(str, _represent_str)
+
+
+def dump_yaml(data: object, **options: object) -> str:
+    """``data`` as YAML text that the package's loader reads back as ``data``
+    (:class:`TextDumper`); ``options`` are :func:`yaml.dump`'s."""
+    text: str = yaml.dump(data, Dumper=TextDumper, **options)  # type: ignore[call-overload]
+    return text
 
 
 def not_json(node: yaml.Node, file: str) -> LocatedError:
