@@ -284,3 +284,25 @@ def test_the_report_says_overruns_are_wall_time(tmp_path: Path) -> None:
     ]
     write_report(rows, tmp_path, title="t")
     assert "| tick overruns (wall time) | 1 | 1 |" in (tmp_path / "report.md").read_text("utf-8")
+
+
+# --- 4. another name: the report would go under it, campaign.json keep the old ---------
+
+
+def test_a_resume_under_another_name_is_refused(
+    here: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first = _started("tree.campaign.yaml", here / "out")
+    renamed = here / "renamed.campaign.yaml"
+    renamed.write_text(TREE.replace("name: tree", "name: other"), encoding="utf-8")
+    command = ["campaign", str(renamed), "--output", "out", "--resume", "--quiet"]
+    # was: resumed, the report rewritten as campaign 'other', campaign.json still 'tree'
+    assert main(command) == 2
+    assert _one_line(capsys) == (
+        f"name: 'other' is not 'tree', the campaign in out; name it 'tree' to resume it, or {AGAIN}"
+    )
+    assert (here / "out" / "results.jsonl").read_bytes() == first
+    assert json.loads((here / "out" / "campaign.json").read_text("utf-8"))["campaign"] == "tree"
+    # the same cases under the name it started with resume
+    run_campaign("tree.campaign.yaml", output=here / "out", resume=True, executor=InstantExecutor())
+    assert len(read_rows(here / "out" / "results.jsonl")) == 2

@@ -40,7 +40,7 @@ from typing import Any
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.campaign.paths import RESULTS_NAME
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, shown
 
 __all__ = ["FORMAT", "RECORD_NAME", "Start", "begin", "file_digest", "write_record"]
 
@@ -111,7 +111,8 @@ def begin(
         InputError: resuming, one line: an input changed since the campaign started
             (``scenarios/lab.route: changed since the campaign in OUT started; rerun
             without --resume into another --output``), a case timeout other than the
-            one it started with, or a record that cannot be read.
+            one it started with, another name than it started with, or a record that
+            cannot be read.
     """
     if not resume or not _holds_a_line(folder / RESULTS_NAME):
         started_s = given_timeout_s if given_timeout_s is not None else spec_timeout_s
@@ -125,7 +126,13 @@ def begin(
     recorded = _read_record(folder / RECORD_NAME)
     if recorded is None:  # written before records existed: resumed unchecked
         return Start(given_timeout_s, None)
-    started_s, digests = recorded
+    started_s, digests, started_name = recorded
+    if started_name is not None and started_name != name:
+        # the report would be written under the new name, campaign.json keep the old
+        raise InputError(
+            f"name: {shown(name)} is not {shown(started_name)}, the campaign in {folder};"
+            f" name it {shown(started_name)} to resume it, or {_AGAIN}"
+        )
     if given_timeout_s is not None and not _same(given_timeout_s, started_s):
         raise InputError(
             f"case_timeout: {given_timeout_s:g} s is not the {started_s:g} s the campaign in"
@@ -181,8 +188,9 @@ def _digest_or_refuse(path: Path) -> str:
         raise InputError(f"{_shown(path)}: cannot read: {exc.strerror or exc}") from None
 
 
-def _read_record(path: Path) -> tuple[float, dict[str, str]] | None:
-    """The case timeout and the input digests a record holds; ``None`` without one.
+def _read_record(path: Path) -> tuple[float, dict[str, str], str | None] | None:
+    """The case timeout, the input digests and the campaign's name (``None`` if the
+    record has none) a record holds; ``None`` without one.
 
     Raises:
         InputError: the record is not one a campaign wrote (edited, cut, too large).
@@ -220,7 +228,8 @@ def _read_record(path: Path) -> tuple[float, dict[str, str]] | None:
         if not isinstance(file, str) or not isinstance(digest, str) or not _HEX.fullmatch(digest):
             raise refused("inputs are not files with their sha256")
         digests[file] = digest
-    return float(timeout), digests
+    name = data.get("campaign")
+    return float(timeout), digests, name if isinstance(name, str) else None
 
 
 def _check_inputs(folder: Path, digests: dict[str, str], inputs: Sequence[Path]) -> None:
