@@ -95,7 +95,7 @@ class LinkProxy:
         self.address = self._listener.getsockname()
         self.url = f"socket://{self.address[0]}:{self.address[1]}"
         self._lock = threading.Lock()
-        self._stall_until = 0.0
+        self._stall_until = {TO_HOST: 0.0, TO_BRIDGE: 0.0}
         self._cut = False
         self._hung_up = False
         self._redial = False
@@ -111,10 +111,11 @@ class LinkProxy:
 
     # -- controls -----------------------------------------------------------------
 
-    def stall(self, seconds: float) -> None:
-        """Hold every byte both ways for ``seconds`` (delivered afterwards)."""
+    def stall(self, seconds: float, direction: str = "") -> None:
+        """Hold every byte (one way, or both) for ``seconds`` (delivered afterwards)."""
         with self._lock:
-            self._stall_until = time.monotonic() + seconds
+            for way in (direction,) if direction else (TO_HOST, TO_BRIDGE):
+                self._stall_until[way] = time.monotonic() + seconds
 
     def cut(self) -> None:
         """Swallow every byte both ways from now on (the sockets stay open)."""
@@ -227,10 +228,10 @@ class LinkProxy:
     def _flush(self, peer: dict[str, socket.socket]) -> None:
         now = time.monotonic()
         with self._lock:
-            if now < self._stall_until:
-                return
             todo: dict[str, list[bytes]] = {}
             for direction, pending in self._pending.items():
+                if now < self._stall_until[direction]:
+                    continue
                 ready = 0
                 while ready < len(pending) and pending[ready][0] <= now:
                     ready += 1
@@ -289,8 +290,8 @@ class ProxyProcess:
         self._proc.stdin.write(line + "\n")
         self._proc.stdin.flush()
 
-    def stall(self, seconds: float) -> None:
-        self.send(f"stall {seconds}")
+    def stall(self, seconds: float, direction: str = "") -> None:
+        self.send(f"stall {seconds} {direction}".strip())
 
     def cut(self) -> None:
         self.send("cut")
@@ -333,7 +334,7 @@ def _main(argv: list[str]) -> None:
     for line in sys.stdin:
         word, *rest = line.split()
         if word == "stall":
-            proxy.stall(float(rest[0]))
+            proxy.stall(float(rest[0]), *rest[1:])
         elif word == "cut":
             proxy.cut()
         elif word == "hangup":
