@@ -120,7 +120,18 @@ def test_a_tree_parameter_without_a_default_must_be_given(
 ) -> None:
     # It was checked with the tree's example values, and every case became an error row.
     err = _refused(tmp_path, capsys, "name: h\nruns:\n  - {tree: straight}\n")
-    assert err.endswith("straight.yaml:6:1: parameter 'distance' has no default and was not given")
+    # at the run that left it out, naming the declaration (it was placed at the tree's
+    # declaration alone, so two runs of one tree could not be told apart)
+    assert err.startswith(
+        "FILE:3:5: run 'straight': parameter 'distance' has no default and was not given"
+    ), err
+    assert err.endswith("straight.yaml:6:1)"), err
+    two = (
+        "name: h\nruns:\n  - {name: one, tree: straight, params: {distance: 1 m}}\n"
+        "  - {name: two, tree: straight, params: {velocity: 50 mm/s}}\n"
+    )
+    err = _refused(tmp_path, capsys, two)
+    assert err.startswith("FILE:4:33: run 'two': parameter 'distance' has no default"), err
 
 
 def test_an_output_that_is_a_file_is_refused_before_any_worker(

@@ -13,6 +13,7 @@ campaign with exit 2 and one located line instead of an ``error`` row per case.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -246,7 +247,9 @@ def _params_problems(
     The tree loader places a parameter's problem at ``--param:1:1`` (the command
     line's option); in a campaign the parameter was written in ``runs[i].params``,
     at its own key when the problem names it. A problem of a YAML tree file itself
-    (a parameter it declares without a default, say) stays where it is written; one
+    stays where it is written, but a parameter it declares without a default that the
+    run does not give is placed at the run (``spec.yaml:3:5: run 'b': parameter
+    'distance' has no default and was not given (declared at tree.yaml:6:1)``); one
     of a BehaviorTree.CPP XML file (malformed, an unknown node) is placed at the
     run's ``tree`` entry, naming the XML's own place: ``spec.yaml:3:15: run 'a':
     tree 'bad.xml': unknown node type 'NoSuchNode' (at bad.xml:4:7)``.
@@ -265,6 +268,12 @@ def _params_problems(
                 run = f"run {case.get('run')!r}: tree {shown(written)}"
                 message = f"{run}: {error.message} (at {error.location})"
                 found.append(source.error(("runs", index, "tree"), message))
+            elif _NOT_GIVEN.match(error.message):
+                # the run left it out, not the tree: at the run (its params, if any),
+                # naming the declaration (two runs of one tree were told apart by nothing)
+                where = ("runs", index, "params") if params else ("runs", index)
+                message = f"run {case.get('run')!r}: {error.message} (declared at {error.location})"
+                found.append(source.error(where, message))
             else:
                 found.append(error)
             continue
@@ -272,6 +281,10 @@ def _params_problems(
         name = next((k for k in params if f"parameter {k!r}" in error.message), None)
         found.append(source.error((*path, name) if name is not None else path, error.message))
     return _joined(found)
+
+
+_NOT_GIVEN = re.compile(r"parameter '[^']*' has no default and was not given")
+"""The tree loader's problem of a parameter the run must give (treefile/header.py)."""
 
 
 def _is_xml(tree: str) -> bool:
