@@ -23,6 +23,13 @@ void sensors_init(void) {
     }
 }
 
+/* x / 1024, rounded towards zero as C divides: the ADC reading's scaling runs for every
+ * ADC channel every millisecond, and -Os makes a signed division by 1024 a call of the
+ * library's 32-bit division (about 600 cycles). Only non-negative values are shifted. */
+static int32_t div1024(int32_t x) {
+    return x >= 0 ? x >> 10 : -((-x) >> 10);
+}
+
 static int16_t clamp(int32_t v, int16_t lo, int16_t hi) {
     return v < lo ? lo : v > hi ? hi : (int16_t)v;
 }
@@ -43,7 +50,8 @@ static void speeds(void) {
         int32_t num = (int32_t)counts * (int32_t)(1000u / VELOCITY_WINDOW_MS) *
                       (int32_t)io->circumference_um;
         int32_t den = ENCODER_CPR * (int32_t)io->velocity_um_s;
-        s.speed[k] = (int16_t)((num + (num >= 0 ? den / 2 : -den / 2)) / den);
+        int32_t half = den >> 1; /* den > 0: den / 2 without a library division */
+        s.speed[k] = (int16_t)((num + (num >= 0 ? half : -half)) / den);
     }
     s.ring_at = oldest;
 }
@@ -81,7 +89,7 @@ void sensors_tick(uint32_t now_ms) {
             uint8_t input = ch->source == PB_SRC_ADC ? HAL_ADC_SENSOR(ch->slot)
                                                      : HAL_ADC_CURRENT(ch->slot);
             int32_t span = (int32_t)ch->raw_hi - ch->raw_lo + 1;
-            v = ch->raw_lo + (int32_t)hal_adc(input) * span / 1024;
+            v = ch->raw_lo + div1024((int32_t)hal_adc(input) * span);
             break;
         }
         case PB_SRC_IMU_ROLL:
