@@ -47,6 +47,8 @@ from pirate_bt.behaviours.primitive import (
 )
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
+from pirate_bt.safety import ClampState
+from pirate_bt.safety.checks import classify_half
 from pirate_bt.units import Angle, Current, Duration, Length, Velocity
 
 __all__ = [
@@ -376,6 +378,13 @@ class Drive(Primitive):
     def _start_state(self, state: RobotState) -> str | None:
         """Read what ``until`` compares with on the first state; a reason to fail, if any."""
         p: DriveParams = self.params  # type: ignore[assignment]
+        if all(classify_half(self.robot, state, h) is ClampState.UNCLAMPED for h in Half):
+            # the supervisor lets it go on the level (nothing is damaged), but the
+            # wheels would turn on the spot while the odometry counted the distance
+            return (
+                "no half holds the robot (front unclamped, rear unclamped): the wheels"
+                " would turn on the spot; clamp a half first"
+            )
         if p.until == "front_opening_cleared" and not any(
             self._off_wall(state, Half.FRONT).values()
         ):
