@@ -24,6 +24,11 @@ test that failed before its fix.
    *1 earlier request(s) failed; last: BulkSetpoints seq 21 not acknowledged after 4 tries*
    though the bridge's own frames said why: its watchdog had tripped, it heard nothing from
    the host. The cause line now says so.
+6. A burst of old ``STATE`` frames (a relay that held back or replays a fifth of a second
+   of traffic) made the host resynchronise on the eleventh and take every later one of
+   the burst as newer: its state went back in time, the old readings stamped fresh. The
+   resynchronisation (for a far-ahead frame held, docs/protocol.md) now waits until the
+   refused frames have come for an ack timeout, as a bridge's frames come, not at once.
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import pytest
-from link_proxy14 import TO_BRIDGE, ProxyProcess
+from link_proxy14 import TO_BRIDGE, TO_HOST, ProxyProcess
 from session_wire import Wire, reply, state
 
 from pirate_bt.clock import WallClock
@@ -289,3 +294,40 @@ def test_a_line_cut_toward_the_bridge_only_is_named_by_its_watchdog(rig: Rig) ->
     ), exc.value
     setpoint = rig.sim.model.setpoint("bend_1_drive")  # the drive never reached it
     assert setpoint is None or setpoint.value == 0.0
+
+
+# -- 6. a burst of old STATEs -------------------------------------------------------------------
+
+
+def test_a_burst_of_old_states_does_not_take_the_host_back_in_time() -> None:
+    wire = Wire(hello=reply())
+    wire.answer(state(250))
+    wire.poll(0.01)
+    wire.answer(*(state(seq) for seq in range(230, 250)))  # 20 old ones, in one read
+    wire.poll(0.001)
+    assert wire.session.latest_state()[0].seq == 250  # type: ignore[index]
+    wire.answer(state(251))
+    wire.poll(0.01)
+    assert wire.session.latest_state()[0].seq == 251  # type: ignore[index]
+
+
+def test_a_replayed_burst_of_old_states_on_the_line_is_dropped(rig: Rig) -> None:
+    seen: dict[int, object] = {}
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end:
+        rig.link.poll()
+        latest = rig.link.session.latest_state()
+        if latest is not None:
+            seen[latest[0].seq] = latest[0]
+        time.sleep(0.003)
+    old = [seen[seq] for seq in sorted(seen)][:20]  # a fifth of a second, 0.3 s ago
+    rig.proxy.inject(TO_HOST, b"".join(CODEC.encode(s) for s in old))  # type: ignore[arg-type]
+    newest = max(seen)
+    end = time.monotonic() + 0.15
+    while time.monotonic() < end:
+        rig.link.poll()
+        latest = rig.link.session.latest_state()
+        assert latest is not None
+        assert latest[0].seq >= newest, (latest[0].seq, newest)  # never back in time
+        newest = latest[0].seq
+        time.sleep(0.002)

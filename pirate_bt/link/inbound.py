@@ -94,8 +94,10 @@ class InboundMixin:
     _rtt_s: float
     # the boot id when a NO_SESSION frame started a new session, until its reply
     _reset_boot_id: int | None = None
-    # STATEs dropped in a row as not newer than the one held (see _on_state)
+    # STATEs dropped in a row as not newer than the one held, and the first one's arrival
+    # (see _on_state)
     _old_state_run: int = 0
+    _old_run_from_s: float = 0.0
     # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
     _stale_reset_run: int = 0
     # STATEs of another length in a row, since the last good one (see _bad_state)
@@ -436,7 +438,16 @@ class InboundMixin:
             self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         elif last is not None and not seq_newer(item.seq, last.seq):
             self._old_state_run += 1
-            if self._old_state_run <= OLD_STATES_BEFORE_RESYNC:
+            if self._old_state_run == 1:
+                self._old_run_from_s = now
+            # A bridge sends its STATEs a period apart: only refused frames that kept
+            # coming for an ack timeout tell a far-ahead held frame. Old ones that come
+            # in a burst (a relay that held back or replays a stretch of traffic) are
+            # dropped however many: taking the eleventh made every later one "newer".
+            if (
+                self._old_state_run <= OLD_STATES_BEFORE_RESYNC
+                or now - self._old_run_from_s < self.config.ack_timeout_s
+            ):
                 self.duplicates += 1
                 crc, length, old = self._refused
                 self._refused = (crc, length, old + 1)
@@ -446,7 +457,7 @@ class InboundMixin:
             # dropped until the bridge's counter caught up with it. Take this one.
             _log.warning(
                 "%d STATEs in a row not newer than seq %d: resynchronised on seq %d",
-                OLD_STATES_BEFORE_RESYNC,
+                self._old_state_run - 1,
                 last.seq,
                 item.seq,
             )
