@@ -227,7 +227,7 @@ def execute(
             warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
         )
     summary = result.summary(wall_s=wall)
-    for note in result.replans:
+    for note in (*result.replans, *result.map_notes):
         print(f"pirate-bt: {note}", file=sys.stderr)
     if result.succeeded:
         print(summary, file=stream)

@@ -50,6 +50,7 @@ from pirate_bt.task.plan import (
     PlannedPab,
     short_leg,
 )
+from pirate_bt.task.slope_watch import SlopeWatch, imu_offset_m
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
 from pirate_bt.trace.coverage import attach_coverage
@@ -228,6 +229,7 @@ def run_mission(
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
+    slopes = SlopeWatch(plan.path, imu_offset_m(robot))
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
     localiser.since_fix_m = max(since_fix_m, 0.0)
@@ -266,6 +268,7 @@ def run_mission(
     def after(_info: Any) -> None:
         state = supervisor.state()
         localiser.update(state)
+        slopes.update(state, localiser.belief_m)
         noticed()
         now = clock.now() - start_s
         if state is not None and (not samples or samples[-1].time_s != now):
@@ -390,6 +393,7 @@ def run_mission(
         wall_s=result.wall_time_s,
         safe_state=bool(supervisor.in_safe_state),
         coverage=coverage.coverage(),
+        map_notes=list(slopes.notes),
     )
 
 

@@ -112,6 +112,10 @@ class MissionResult:
     """The straight legs as run, with the distances re-computed from the belief."""
     replans: list[str] = field(default_factory=list)
     """Where the mission re-planned after a disagreement with one clear meaning."""
+    map_notes: list[str] = field(default_factory=list)
+    """Where the pipe was felt to differ from the map without stopping the mission: a
+    straight whose slope differs from the drawn one by more than 10 degrees
+    (:mod:`pirate_bt.task.slope_watch`), one line each."""
     returned: MissionResult | None = None
     """The way back to the start after a stop, when it was asked for."""
     pabs: list[PabOutcome] = field(default_factory=list)
@@ -228,6 +232,7 @@ class MissionResult:
             "failing_node": self.failing_node,
             "mismatch": self.mismatch,
             "replans": list(self.replans),
+            "map_notes": list(self.map_notes),
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_s": round(self.wall_s, 3),
             "ticks": self.ticks,

@@ -46,7 +46,8 @@ def plan_lines(plan: MissionPlan) -> list[str]:
 
 
 def map_and_pipe_lines(result: MissionResult) -> list[str]:
-    """Where map and pipe differed: the disagreement, re-planned legs, fix corrections."""
+    """Where map and pipe differed: the disagreement, re-planned legs, slopes not as
+    drawn, fix corrections."""
     lines = ["", "## Map and pipe", ""]
     d = result.disagreement
     if d is not None:
@@ -67,6 +68,10 @@ def map_and_pipe_lines(result: MissionResult) -> list[str]:
             f"- **After the stop:** {rest}" if held and not after else f"- **Re-planned:** {note}"
         ]
     if result.replans:
+        lines.append("")
+    for note in result.map_notes:
+        lines.append(f"- **Not as drawn:** {note}")
+    if result.map_notes:
         lines.append("")
     shortened = [leg for leg in result.legs if leg.why]
     if shortened:
