@@ -77,6 +77,7 @@ class SlopeWatch:
         self._noted: set[str] = set()
         self._run: list[tuple[float, float]] = []  # (IMU belief, pitch) differing so far
         self._piece: Piece | None = None
+        self._last: tuple[float, float, float, Piece] | None = None
 
     def update(self, state: RobotState | None, belief_m: float) -> None:
         """Read one state at the belief ``belief_m`` (the front tip's)."""
@@ -84,7 +85,9 @@ class SlopeWatch:
             return
         pitch = state.imu_rad.get("pitch")
         s = belief_m - self._imu_offset_m
-        found = next((x for x in self._straights if x[0] <= s <= x[1]), None)
+        found = self._last  # runs every tick: the straight of the tick before, first
+        if found is None or not found[0] <= s <= found[1]:
+            found = self._last = next((x for x in self._straights if x[0] <= s <= x[1]), None)
         if pitch is None or found is None or found[3].segment in self._noted:
             self._run.clear()
             return
