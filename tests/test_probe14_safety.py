@@ -87,7 +87,6 @@ def test_a_drive_with_one_half_clamped_still_passes() -> None:
 # -- two primitives on the same motors at once -----------------------------------------
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 @pytest.mark.parametrize("other", ["-80 mm/s", "40 mm/s"])
 def test_two_drives_at_once_from_a_parallel_are_refused(other: str) -> None:
     # both succeeded, each counting 0.3 m, while the robot stayed where it was (one
@@ -105,7 +104,6 @@ def test_two_drives_at_once_from_a_parallel_are_refused(other: str) -> None:
         assert robot.simulator.truth().velocity_mps == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 def test_two_rotations_at_once_are_refused_not_fought_to_a_timeout() -> None:
     # the rear half released, two rotates to +30 and -30 deg: the joint went back and
     # forth until one timed out after 10 s
@@ -126,7 +124,6 @@ def test_two_rotations_at_once_are_refused_not_fought_to_a_timeout() -> None:
         assert refused and isinstance(refused[0].command, Rotate)
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 def test_a_clamp_and_a_release_of_the_same_half_at_once_are_refused() -> None:
     tree = _tree(
         *HOLD,

@@ -46,7 +46,7 @@ import logging
 import math
 import threading
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import CommandRefused, EStopLatched, InputError, LinkError
@@ -179,6 +179,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._refusals = 0
         self._targets: dict[Half, HalfTarget] = {}
         self._last_setpoint: dict[str, tuple[ControlMode, float, float]] = {}
+        self._owners: dict[str, Any] = {}  # motor -> the tree node that last commanded it
         self._pending: list[str] = []
         self._decided: dict[str, Confirmation] = {}
         self._granted: set[str] = set()

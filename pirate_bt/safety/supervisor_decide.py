@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError
@@ -81,6 +81,7 @@ class DecisionMixin:
     _granted: set[str]
     _expander: Expander
     _board_readings: dict[int, tuple[str, ...]]
+    _owners: dict[str, Any]
 
     if TYPE_CHECKING:  # defined by the supervisor and its authority side
 
@@ -187,6 +188,32 @@ class DecisionMixin:
             return None
         return f"not answering the bridge (rebooting?): {'; '.join(parts)}"
 
+    def _motor_conflict(self, cmds: tuple[MotorCommand, ...]) -> str | None:
+        """Why another tree node, still running, holds motors ``cmds`` would command: two
+        primitives at once on one motor (two branches of a parallel) fight over it, each
+        undoing the other's setpoint while both count it as theirs; or ``None``."""
+        issuer = current_issuer()
+        if issuer is None:
+            return None
+        owner: Any = None
+        motors: list[str] = []
+        for mc in cmds:
+            holder = self._owners.get(mc.motor)
+            if holder is None or holder is issuer or not _running(holder):
+                continue
+            if owner is None:
+                owner = holder
+            if holder is owner:
+                motors.append(mc.motor)
+        if owner is None:
+            return None
+        _, name = node_path(owner)
+        verb = "is" if len(motors) == 1 else "are"
+        return (
+            f"{', '.join(motors)} {verb} commanded by {name}, still running: two nodes may"
+            " not command the same motor at once"
+        )
+
     def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
         return Verdict(Outcome.REFUSE, command, source, reason=reason, detail=detail)
 
@@ -247,6 +274,10 @@ class DecisionMixin:
             return self._refuse(command, source, expanded.reason, expanded.detail)
         intent = expanded
         command = intent.command  # as the checks read it: Clamp("rear", ...) names Half.REAR
+        if source is not Source.OPERATOR:
+            conflict = self._motor_conflict(intent.motor_commands)
+            if conflict is not None:
+                return self._refuse(command, source, Reason.MOTOR_CONFLICT, conflict)
         # 4. freshness
         if intent.moves or intent.channels:
             if state is None:
@@ -295,6 +326,9 @@ class DecisionMixin:
                 return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
             for mc in sent:
                 self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
+            issuer = current_issuer() if source is not Source.OPERATOR else None
+            for mc in sent:
+                self._owners[mc.motor] = issuer
             # A clamp whose torque swings a joint across (a reversal) lets go on the way,
             # which the checks above treat as a release; what the half is asked to end
             # in is still the clamp, so the clamp target wins.
@@ -313,6 +347,11 @@ class DecisionMixin:
                 clips=tuple(r for r, _ in clips),
             )
         return Verdict(Outcome.PASS, command, source, sent=sent)
+
+
+def _running(node: Any) -> bool:
+    """Whether a tree node is RUNNING (duck-typed: this layer does not import py_trees)."""
+    return str(getattr(getattr(node, "status", None), "value", "")) == "RUNNING"
 
 
 def board_readings(robot: RobotDescription) -> dict[int, tuple[str, ...]]:

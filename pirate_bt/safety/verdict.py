@@ -151,6 +151,7 @@ class Reason(StrEnum):
     HALF_TRANSITIONING = "half_transitioning"
     FRONT_NOT_CLEAR = "front_not_clear"
     STEEP_PIPE_UNCLAMPED = "steep_pipe_unclamped"
+    MOTOR_CONFLICT = "motor_conflict"
 
 
 @dataclass(frozen=True, slots=True)
