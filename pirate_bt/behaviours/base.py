@@ -349,6 +349,22 @@ def params_problems(exc: ValidationError, data: Any) -> list[str]:
     return out
 
 
+def _end_tick(node: py_trees.behaviour.Behaviour, new_status: Any) -> None:
+    """The end of py_trees' ``tick()`` (2.6) once ``update()`` answered: an answer that
+    is no status logged and taken as INVALID, a final one stopping the node, the
+    status set. py_trees builds ``list(Status)`` for the check on every tick; here only
+    an answer that is not a ``Status`` is looked up in it."""
+    if type(new_status) is not _STATUS and new_status not in _STATUSES:
+        node.logger.error(
+            "A behaviour returned an invalid status, setting to INVALID "
+            f"[{new_status}][{node.name}]"
+        )
+        new_status = _INVALID
+    if new_status != _RUNNING:
+        node.stop(new_status)
+    node.status = new_status
+
+
 class Leaf(NodeMixin, py_trees.behaviour.Behaviour):
     """Convenient base for registered leaves: stores ``params`` and ``context``.
 
@@ -376,16 +392,7 @@ class Leaf(NodeMixin, py_trees.behaviour.Behaviour):
             self.logger.debug(f"{self.__class__.__name__}.tick()")
             if self.status != _RUNNING:
                 self.initialise()
-            new_status = self.update()
-            if type(new_status) is not _STATUS and new_status not in _STATUSES:
-                self.logger.error(
-                    "A behaviour returned an invalid status, setting to INVALID "
-                    f"[{new_status}][{self.name}]"
-                )
-                new_status = _INVALID
-            if new_status != _RUNNING:
-                self.stop(new_status)
-            self.status = new_status
+            _end_tick(self, self.update())
         finally:
             leave_issuer(token)
         yield self
@@ -419,20 +426,10 @@ class GuardDecorator(NodeMixin, py_trees.decorators.Decorator):
         self.context = context
 
     def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
-        """py_trees' ``Decorator.tick()`` (2.6), its status check a set lookup (py_trees
-        builds a list of the statuses each time)."""
+        """py_trees' ``Decorator.tick()`` (2.6), in one generator (see :class:`Leaf`)."""
         self.logger.debug(f"{self.__class__.__name__}.tick()")
         if self.status != _RUNNING:
             self.initialise()
         yield from self.decorated.tick()
-        new_status = self.update()
-        if type(new_status) is not _STATUS and new_status not in _STATUSES:
-            self.logger.error(
-                "A behaviour returned an invalid status, setting to INVALID "
-                f"[{new_status}][{self.name}]"
-            )
-            new_status = _INVALID
-        if new_status != _RUNNING:
-            self.stop(new_status)
-        self.status = new_status
+        _end_tick(self, self.update())
         yield self
