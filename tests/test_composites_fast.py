@@ -166,3 +166,36 @@ def test_a_tree_file_builds_the_fast_composites_under_their_own_names() -> None:
     assert type(root.children[0]) is Selector
     assert isinstance(root.children[0], py_trees.composites.Selector)
     assert type(root).__name__ == "Sequence" and type(root.children[0]).__name__ == "Selector"
+
+
+class _Answers(py_trees.behaviour.Behaviour):
+    """A leaf whose update answers what it is given, a status or not."""
+
+    def __init__(self, answer: object) -> None:
+        super().__init__(name="answers")
+        self.answer = answer
+
+    def update(self) -> Status:
+        return self.answer  # type: ignore[return-value]
+
+
+class _FastAnswers(_Answers):
+    tick = Leaf.tick
+
+
+@pytest.mark.parametrize("answer", [None, "SUCCESS", 1, [], Status.RUNNING, Status.FAILURE])
+def test_an_answer_that_is_no_status_is_invalid_as_in_py_trees(answer: object) -> None:
+    theirs, ours = _Answers(answer), _FastAnswers(answer)
+    for node in (theirs, ours):
+        for _ in node.tick():
+            pass
+    assert ours.status == theirs.status
+    wrapped = [
+        FastInverter("inv", _Answers(Status.SUCCESS)),
+        py_trees.decorators.Inverter("inv", _Answers(Status.SUCCESS)),
+    ]
+    for node in wrapped:
+        node.update = lambda answer=answer: answer  # type: ignore[method-assign]
+        for _ in node.tick():
+            pass
+    assert wrapped[0].status == wrapped[1].status
