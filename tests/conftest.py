@@ -12,6 +12,7 @@ import os
 import signal
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -33,6 +34,18 @@ REPO = Path(__file__).resolve().parent.parent
 def repo() -> Path:
     """The repository root."""
     return REPO
+
+
+@pytest.fixture(scope="session")
+def lab_demo(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The demo, run once per worker for every test that reads it (the golden lab
+    mission and the demo's own test, both in the ``lab-demo`` xdist group so that one
+    worker runs them): the lab mission is the suite's longest single run."""
+    from tests.golden_runs import LAB_DEMO, LabDemo, record_demo
+
+    folder = tmp_path_factory.mktemp(LAB_DEMO) / "demo"
+    digests, printed = record_demo(folder)
+    return LabDemo(folder, digests, printed)
 
 
 # -- running in parallel (pytest-xdist) --------------------------------------------------

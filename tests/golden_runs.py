@@ -21,6 +21,7 @@ import json
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -104,6 +105,44 @@ def record(name: str) -> dict[str, Any]:
     result["trace_records"] = len(lines) - 1
     result["trace_sha256"] = hashlib.sha256(body).hexdigest()
     return result
+
+
+LAB_DEMO = "lab-demo"
+"""The xdist group of the tests that read the one lab mission ``lab_demo`` runs."""
+
+
+@dataclass(frozen=True)
+class LabDemo:
+    """``pirate-bt demo``'s run (``tests/conftest.py``'s ``lab_demo`` fixture): its
+    output folder, its lab mission's digests (as :func:`record` gives them) and what it
+    printed."""
+
+    folder: Path
+    digests: dict[str, Any]
+    printed: str
+
+
+def record_demo(folder: Path) -> tuple[dict[str, Any], str]:
+    """Run ``pirate-bt demo --quiet --output FOLDER`` in this process: the digests of its
+    lab mission, as :func:`record` gives them, and what it printed.
+
+    The demo's mission is ``RUNS["lab-mission"]``, byte for byte (the golden test
+    compares it with that run's recorded digests): the suite runs the lab mission once
+    for both the golden test and the demo's (``tests/conftest.py``, ``lab_demo``).
+    """
+    import py_trees
+
+    from pirate_bt.cli import main
+
+    py_trees.blackboard.Blackboard.clear()
+    printed = io.StringIO()
+    with wire_tap() as result, contextlib.redirect_stdout(printed):
+        result["exit_code"] = main(["demo", "--quiet", "--output", str(folder)])
+    lines = (folder / "trace.jsonl").read_text(encoding="utf-8").splitlines()
+    body = "\n".join(lines[1:]).encode()
+    result["trace_records"] = len(lines) - 1
+    result["trace_sha256"] = hashlib.sha256(body).hexdigest()
+    return result, printed.getvalue()
 
 
 def main() -> None:

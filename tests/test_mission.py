@@ -16,6 +16,7 @@ import pytest
 from pirate_bt.cli import main
 from pirate_bt.cli.mission import MissionOutputs, execute
 from pirate_bt.task.localise import FIX_BOUND_M
+from tests.golden_runs import LAB_DEMO, LabDemo
 
 REPO = Path(__file__).resolve().parent.parent
 # lab and lab-long (the scale figures' 220-PAB route) are long: the lab mission runs elsewhere.
@@ -69,10 +70,12 @@ def test_shipped_route_completes_in_its_network(route: Path) -> None:
 
 
 @pytest.mark.slow
-def test_demo_inspects_the_lab_network(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = tmp_path / "demo"
-    assert main(["demo", "--quiet", "--output", str(out)]) == 0
-    text = capsys.readouterr().out
+@pytest.mark.xdist_group(LAB_DEMO)
+def test_demo_inspects_the_lab_network(lab_demo: LabDemo) -> None:
+    # the demo's run, shared with the golden lab mission's test (conftest.py)
+    out = lab_demo.folder
+    assert lab_demo.digests["exit_code"] == 0
+    text = lab_demo.printed
     assert "mission lab: SUCCESS" in text and "x real time" in text
     for name in ("robot", "tree"):
         assert (out / f"{name}.svg").exists() or (out / f"{name}.dot").exists()
