@@ -156,7 +156,6 @@ def test_one_primitive_after_another_on_the_same_motors_passes() -> None:
 # -- decorators that end a running drive -----------------------------------------------
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 def test_a_timeout_that_ends_a_running_drive_is_the_why() -> None:
     tree = _tree(*HOLD, {"type": "timeout", "name": "limit", "duration": "1 s", "child": _drive()})
     result, robot, moved = _run(tree)
@@ -166,6 +165,39 @@ def test_a_timeout_that_ends_a_running_drive_is_the_why() -> None:
         assert result.why == "timed out after 1 s: drive was still running", result.why
         assert result.failing_node == "hostile/limit"
         assert 0.0 < moved < 0.1
+        assert robot.simulator.truth().velocity_mps == 0.0
+
+
+@pytest.mark.parametrize(
+    ("guard", "said"),
+    [
+        (
+            {
+                "type": "while",
+                "condition": {"state": "drive_velocity", "op": "<", "value": "50 mm/s"},
+            },
+            "not (drive_velocity < 50 mm/s): it is 0.06",
+        ),
+        (
+            {
+                "type": "failure_if",
+                "condition": {"state": "half.rear", "op": "==", "value": "clamped"},
+            },
+            "half.rear == clamped",
+        ),
+        ({"type": "running_is_failure"}, "running is failure"),
+    ],
+)
+def test_a_decorator_that_fails_a_running_drive_is_the_why(
+    guard: dict[str, Any], said: str
+) -> None:
+    # each said "tree failed after 58 ticks": the decorator's own reason was lost
+    tree = _tree(*HOLD, {**guard, "name": "guard", "child": _drive()})
+    result, robot, _ = _run(tree)
+    with robot:
+        assert result.status == "failure"
+        assert result.why.startswith(said), result.why
+        assert result.failing_node == "hostile/guard"
         assert robot.simulator.truth().velocity_mps == 0.0
 
 

@@ -156,6 +156,8 @@ class Timeout(GuardDecorator):
         super().__init__(name, child, params, context)
         self.duration_s = params.duration
         self._finish_s = math.inf
+        self.timed_out_at_s: float | None = None
+        """Clock time the child was stopped for running too long (a run's why reads it)."""
 
     @classmethod
     def decorated_outcomes(
@@ -165,11 +167,16 @@ class Timeout(GuardDecorator):
 
     def initialise(self) -> None:
         self._finish_s = self.context.clock.now() + self.duration_s
+        self.timed_out_at_s = None
 
     def update(self) -> Status:
         status: Status = self.decorated.status
-        if status == Status.RUNNING and self.context.clock.now() >= self._finish_s:
-            self.feedback_message = f"timed out after {self.duration_s:g} s"
+        now = self.context.clock.now()
+        if status == Status.RUNNING and now >= self._finish_s:
+            self.feedback_message = (
+                f"timed out after {self.duration_s:g} s: {self.decorated.name} was still running"
+            )
+            self.timed_out_at_s = now
             return Status.FAILURE
         return status
 

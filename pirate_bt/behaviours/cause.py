@@ -69,9 +69,10 @@ def _depth(node: py_trees.behaviour.Behaviour) -> int:
 
 
 def _stamp(n: py_trees.behaviour.Behaviour) -> tuple[float, str] | None:
-    """(clock time, reason) of a primitive's or a confirmation point's recorded failure
-    (a :class:`~pirate_bt.behaviours.primitives.Confirm` keeps ``denied_at_s``; read by
-    name, as :mod:`~pirate_bt.behaviours.primitives` imports this module)."""
+    """(clock time, reason) of a primitive's, a confirmation point's or a timeout's
+    recorded failure (a :class:`~pirate_bt.behaviours.primitives.Confirm` keeps
+    ``denied_at_s``, a :class:`~pirate_bt.behaviours.basic.Timeout` ``timed_out_at_s``;
+    read by name, as :mod:`~pirate_bt.behaviours.primitives` imports this module)."""
     from pirate_bt.behaviours.primitive import Primitive
 
     if isinstance(n, Primitive):
@@ -79,6 +80,9 @@ def _stamp(n: py_trees.behaviour.Behaviour) -> tuple[float, str] | None:
     denied = getattr(n, "denied_at_s", None)
     if isinstance(denied, float):
         return denied, n.feedback_message
+    timed_out = getattr(n, "timed_out_at_s", None)  # a timeout decorator's
+    if isinstance(timed_out, float):
+        return timed_out, n.feedback_message
     return None
 
 
@@ -91,12 +95,20 @@ def failures(node: py_trees.behaviour.Behaviour) -> list[FailureCause]:
         stamp = _stamp(n)
         if stamp is not None:
             stamped.append(FailureCause(path_of(n), stamp[1], stamp[0], _depth(n)))
-        elif not n.children and n.status == Status.FAILURE:
+        elif n.status == Status.FAILURE and _fails_itself(n):
             message = n.feedback_message or f"{n.name} failed"
             plain.append(FailureCause(path_of(n), message, None, _depth(n)))
     stamped.sort(key=lambda c: c.time_s if c.time_s is not None else 0.0)
     plain.sort(key=lambda c: -c.depth)
     return [*stamped, *plain]
+
+
+def _fails_itself(n: py_trees.behaviour.Behaviour) -> bool:
+    """A leaf, or a decorator that failed while its child did not (a guard whose
+    condition no longer held, a timeout, a status converter): the failure is its own."""
+    if not n.children:
+        return True
+    return isinstance(n, py_trees.decorators.Decorator) and n.decorated.status != Status.FAILURE
 
 
 def failure_cause(
