@@ -204,7 +204,6 @@ def test_a_decorator_that_fails_a_running_drive_is_the_why(
 # -- what a primitive reads from the blackboard ----------------------------------------
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 @pytest.mark.parametrize(
     ("value", "said"),
     [(-5.0, "-5.0"), (math.nan, "nan"), (math.inf, "inf")],

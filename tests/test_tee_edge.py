@@ -168,6 +168,8 @@ def test_less_key_takes_its_metres_off_the_distance_and_nothing_left_is_done() -
             "type": "sequence",
             "name": "s",
             "children": [
+                # a drive with no half clamped fails (the wheels would turn on the spot)
+                {"type": "clamp", "half": "rear", "torque": "0.7 N*m"},
                 {
                     "type": "drive",
                     "name": "d1",

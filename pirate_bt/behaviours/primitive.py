@@ -197,7 +197,13 @@ def _read_metres(key: str) -> float | str:
     name = key if key.startswith("/") else "/" + key
     value = py_trees.blackboard.Blackboard.storage.get(name)
     if isinstance(value, int | float) and not isinstance(value, bool):
-        return float(value)
+        if math.isfinite(value) and value >= 0:
+            return float(value)
+        # planner code writes what no tree file can (nan, inf); a negative distance
+        # would end the drive at once as done, or add to one taken off
+        return (
+            f"blackboard {shown(key)} holds {shown(value)}, not metres (a finite number, 0 or more)"
+        )
     return f"blackboard {shown(key)} holds {shown(value)}, not metres"
 
 
