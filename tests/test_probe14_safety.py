@@ -229,7 +229,6 @@ def test_a_distance_from_the_blackboard_that_is_no_distance_fails_the_drive(
         assert moved == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="not fixed yet")
 def test_a_sign_that_is_a_boolean_is_no_sign() -> None:
     tree = _tree(
         *HOLD,

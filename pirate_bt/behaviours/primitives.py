@@ -294,7 +294,7 @@ class Bend(Primitive):
         self._sign_error = ""
         if p.sign_from:
             sign = _read_blackboard(p.sign_from)
-            if sign not in (1, -1, 1.0, -1.0):
+            if isinstance(sign, bool) or sign not in (1, -1):  # True == 1 is no sign
                 self._sign_error = f"blackboard {shown(p.sign_from)} is {shown(sign)}, not +1 or -1"
             else:
                 self._target = p.angle * float(sign)
