@@ -241,3 +241,37 @@ def test_a_sign_that_is_a_boolean_is_no_sign() -> None:
     with robot:
         assert result.status == "failure"
         assert result.why == "blackboard 'sign' is True, not +1 or -1", result.why
+
+
+# -- a refused command asked again and again -------------------------------------------
+
+
+def test_a_node_refused_again_and_again_between_passes_ends_in_the_safe_state() -> None:
+    # a selector without memory tries the hold and a refused rotation each tick, and
+    # falls back to a drive: the hold's clamps pass between the refusals, so "5 refused
+    # commands in a row" never came; 166 refusals in 60 s, to the time limit
+    tree = {
+        "name": "hostile",
+        "root": {
+            "type": "selector",
+            "name": "loop",
+            "children": [
+                {
+                    "type": "sequence",
+                    "name": "try",
+                    "children": [*HOLD, {"type": "rotate", "name": "turn", "angle": "30 deg"}],
+                },
+                _drive("instead", distance="3 m"),
+            ],
+        },
+    }
+    result, robot, _ = _run(tree, max_time="60 s")
+    with robot:
+        assert result.status == "failure"
+        assert result.stop == "failure", result.why
+        assert result.why.startswith(
+            "5 refused commands of loop/try/turn (rotate_needs_one_clamped: rotation"
+        ), result.why
+        assert len(_refused(robot)) == 5
+        assert result.sim_time_s < 20.0
+        assert robot.simulator.truth().velocity_mps == 0.0

@@ -177,6 +177,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._safe_error: BaseException | None = None
         self._estop_reason: str | None = None
         self._refusals = 0
+        self._node_refusals: dict[str, int] = {}  # node path id -> refusals since it passed
         self._targets: dict[Half, HalfTarget] = {}
         self._last_setpoint: dict[str, tuple[ControlMode, float, float]] = {}
         self._owners: dict[str, Any] = {}  # motor -> the tree node that last commanded it

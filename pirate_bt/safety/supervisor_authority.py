@@ -163,6 +163,7 @@ class AuthorityMixin(DecisionMixin):
                 self._safe_reason = None
                 self._safe_error = None
                 self._refusals = 0
+                self._node_refusals.clear()
 
     def resume(self) -> None:
         """Leave the safe state (operator action)."""
@@ -172,6 +173,7 @@ class AuthorityMixin(DecisionMixin):
             self._safe_reason = None
             self._safe_error = None
             self._refusals = 0
+            self._node_refusals.clear()
 
     def apply(self, action: OperatorAction) -> Verdict | None:
         """Apply one operator action now; returns the verdict for a command action.

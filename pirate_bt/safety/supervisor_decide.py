@@ -76,6 +76,7 @@ class DecisionMixin:
     _safe_error: BaseException | None
     _estop_reason: str | None
     _refusals: int
+    _node_refusals: dict[str, int]
     _targets: dict[Half, HalfTarget]
     _last_setpoint: dict[str, tuple[ControlMode, float, float]]
     _granted: set[str]
@@ -109,10 +110,22 @@ class DecisionMixin:
         if verdict.source is Source.TREE:
             if verdict.ok:
                 self._refusals = 0
+                self._node_refusals.pop(verdict.node or "", None)
             elif verdict.reason not in _AUTHORITY:
                 self._refusals += 1
-                if self._refusals >= self.robot.safety.max_refusals and not self.in_safe_state:
+                limit = self.robot.safety.max_refusals
+                if self._refusals >= limit and not self.in_safe_state:
                     self.safe_state(f"{self._refusals} refused commands in a row")
+                elif verdict.node is not None:
+                    # one node asking again and again, between other nodes' commands that
+                    # pass (a selector without memory that retries it every tick)
+                    count = self._node_refusals.get(verdict.node, 0) + 1
+                    self._node_refusals[verdict.node] = count
+                    if count >= limit and not self.in_safe_state:
+                        self.safe_state(
+                            f"{count} refused commands of {verdict.node_name} ({verdict.reason}:"
+                            f" {verdict.detail})"
+                        )
         return verdict
 
     def _send_stop(self) -> tuple[MotorCommand, ...]:
