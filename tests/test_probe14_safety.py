@@ -275,3 +275,37 @@ def test_a_node_refused_again_and_again_between_passes_ends_in_the_safe_state() 
         assert len(_refused(robot)) == 5
         assert result.sim_time_s < 20.0
         assert robot.simulator.truth().velocity_mps == 0.0
+
+
+TWO_DRIVES = """\
+name: two drives
+root:
+  type: sequence
+  children:
+    - {type: clamp, name: cr, half: rear, torque: 0.7 N*m}
+    - type: parallel
+      children:
+        - {type: drive, name: fwd, velocity: 80 mm/s, distance: 0.3 m}
+        - {type: drive, name: back, velocity: -80 mm/s, distance: 0.3 m}
+"""
+
+
+def test_the_command_line_names_the_conflict_in_one_line_and_the_trace_the_refusal(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt.cli import main
+
+    tree = tmp_path / "two.yaml"
+    tree.write_text(TWO_DRIVES)
+    trace = tmp_path / "two.jsonl"
+    code = main(["run", str(tree), "--sim", "scenarios/straight.yaml", "-q", "--trace", str(trace)])
+    assert code == 1
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith(
+        "pirate-bt: two drives: FAILURE - refused drive(-80 mm/s): motor_conflict: the drive"
+        " motors are commanded by two drives/parallel/fwd, still running"
+    ), last
+    records = pirate_bt.read_trace(trace)
+    refused = [c for r in records.ticks for c in r.commands if c["verdict"] == "refuse"]
+    assert [c["reason"] for c in refused] == ["motor_conflict"]
+    assert refused[0]["command"] == "drive(-80 mm/s)"

@@ -221,10 +221,12 @@ class DecisionMixin:
         if owner is None:
             return None
         _, name = node_path(owner)
+        drives = [m.name for m in self.robot.drive_motors()]
+        shown = "the drive motors" if sorted(motors) == sorted(drives) else ", ".join(motors)
         verb = "is" if len(motors) == 1 else "are"
         return (
-            f"{', '.join(motors)} {verb} commanded by {name}, still running: two nodes may"
-            " not command the same motor at once"
+            f"{shown} {verb} commanded by {name}, still running: two nodes may not command"
+            " the same motor at once"
         )
 
     def _refuse(self, command: Command, source: Source, reason: Reason, detail: str) -> Verdict:
