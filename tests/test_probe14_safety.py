@@ -17,6 +17,7 @@ import py_trees
 import pytest
 
 import pirate_bt
+from pirate_bt.errors import ValidationFailed
 from pirate_bt.safety import Drive, Reason, Rotate
 from pirate_bt.safety.verdict import Outcome
 
@@ -309,3 +310,39 @@ def test_the_command_line_names_the_conflict_in_one_line_and_the_trace_the_refus
     refused = [c for r in records.ticks for c in r.commands if c["verdict"] == "refuse"]
     assert [c["reason"] for c in refused] == ["motor_conflict"]
     assert refused[0]["command"] == "drive(-80 mm/s)"
+
+
+@pytest.mark.parametrize(
+    ("params", "said"),
+    [
+        ({"v": "100.0001 mm/s"}, "velocity: 100.0001 mm/s is above bend_1_drive's limit 100 mm/s"),
+        ({"t": "0.80001 N*m"}, "torque: 0.80001 N*m is above the bend joints' limit 0.8 N*m"),
+        ({"a": "110.001 deg"}, "angle: 110.001° is beyond bend_1's range [-110.0°, 110.0°]"),
+        ({"r": "175.0004 deg"}, "angle: 175.000400° is beyond the rotation range"),
+    ],
+)
+def test_a_value_just_past_a_limit_is_not_shown_as_the_limit(
+    params: dict[str, str], said: str
+) -> None:
+    # it said "100 mm/s is above ... limit 100 mm/s", "110.0° is beyond [..., 110.0°]"
+    tree = {
+        "name": "limits",
+        "params": {
+            "v": {"type": "velocity", "default": "80 mm/s"},
+            "t": {"type": "torque", "default": "0.7 N*m"},
+            "a": {"type": "angle", "default": "10 deg"},
+            "r": {"type": "angle", "default": "10 deg"},
+        },
+        "root": {
+            "type": "sequence",
+            "children": [
+                {"type": "clamp", "half": "rear", "torque": "$t"},
+                {"type": "bend", "module": "bend_1", "angle": "$a"},
+                {"type": "rotate", "angle": "$r"},
+                {"type": "drive", "velocity": "$v", "distance": "0.1 m"},
+            ],
+        },
+    }
+    with pytest.raises(ValidationFailed) as caught:
+        pirate_bt.load_tree(tree, params=params)
+    assert said in str(caught.value), str(caught.value)

@@ -42,6 +42,7 @@ from pirate_bt.behaviours.primitive import (
     _SETTLE_TICKS,
     Primitive,
     _commands,
+    _exact,
     _read_metres,
     _write_blackboard,
 )
@@ -243,7 +244,7 @@ class Drive(Primitive):
             lim = motor.limits.velocity
             if lim is not None and abs(params.velocity) > lim.max:
                 problems.append(
-                    f"velocity: {params.velocity * 1000:g} mm/s is above {motor.name}'s limit"
+                    f"velocity: {_exact(params.velocity * 1000)} mm/s is above {motor.name}'s limit"
                     f" {lim.max * 1000:g} mm/s"
                 )
                 break

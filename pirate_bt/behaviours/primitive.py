@@ -37,6 +37,33 @@ def _deg(angle_rad: float) -> str:
     return f"{math.degrees(angle_rad):.1f}°"
 
 
+def _near(text: str, value: float) -> bool:
+    return abs(float(text) - value) <= 1e-12 * max(abs(value), 1.0)
+
+
+def _exact_deg(angle_rad: float) -> str:
+    """An angle as :func:`_deg` shows it, with more places where one would hide that it
+    is past a limit (``110.001°``, not ``110.0°``, beyond a range up to ``110.0°``)."""
+    degrees = math.degrees(angle_rad)
+    text = f"{degrees:.1f}"
+    for places in (3, 6, 9):
+        if _near(text, degrees):
+            break
+        text = f"{degrees:.{places}f}"
+    return f"{text}°"
+
+
+def _exact(value: float) -> str:
+    """A number as ``:g`` shows it, with more digits where six would round it onto a
+    limit (``100.0001``, not ``100``, above a limit of ``100``)."""
+    text = f"{value:g}"
+    for digits in (9, 12, 17):
+        if _near(text, value):
+            break
+        text = f"{value:.{digits}g}"
+    return text
+
+
 class Primitive(Leaf):
     """Common machinery: supervisor, timeout, verdict handling, failure reasons.
 

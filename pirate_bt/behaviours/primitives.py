@@ -56,6 +56,8 @@ from pirate_bt.behaviours.primitive import (
     Primitive,
     _commands,
     _deg,
+    _exact,
+    _exact_deg,
     _read_blackboard,
 )
 from pirate_bt.behaviours.rotation import AlignRoll, AlignRollParams, Rotate, RotateParams
@@ -130,13 +132,13 @@ class Clamp(Primitive):
         problems: list[str] = []
         if params.torque < robot.clamp.min_torque:
             problems.append(
-                f"torque: {params.torque:g} N*m is below the minimum clamp torque"
+                f"torque: {_exact(params.torque)} N*m is below the minimum clamp torque"
                 f" {robot.clamp.min_torque:g} N*m"
             )
         limit = _joint_torque_limit(robot)
         if limit is not None and params.torque > limit:
             problems.append(
-                f"torque: {params.torque:g} N*m is above the bend joints' limit {limit:g} N*m"
+                f"torque: {_exact(params.torque)} N*m is above the bend joints' limit {limit:g} N*m"
             )
         return problems
 
@@ -276,11 +278,11 @@ class Bend(Primitive):
             lim = robot.joint_motor(name).limits.angle
             if lim is not None and not (lim.min <= params.angle <= lim.max):
                 problems.append(
-                    f"angle: {_deg(params.angle)} is beyond {name}'s range"
+                    f"angle: {_exact_deg(params.angle)} is beyond {name}'s range"
                     f" [{_deg(lim.min)}, {_deg(lim.max)}]"
                 )
             if lim is not None and params.sign_from and not lim.min <= -params.angle <= lim.max:
-                problems.append(f"angle: -{_deg(params.angle)} is beyond {name}'s range")
+                problems.append(f"angle: -{_exact_deg(params.angle)} is beyond {name}'s range")
         return problems
 
     @classmethod

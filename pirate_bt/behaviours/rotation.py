@@ -20,6 +20,7 @@ from pirate_bt.behaviours.primitive import (
     Primitive,
     _commands,
     _deg,
+    _exact_deg,
     _wrap,
     _write_blackboard,
 )
@@ -40,7 +41,7 @@ def _rotate_range_problem(robot: RobotDescription, angle: float, field: str) -> 
     lim = robot.rotate_motor().limits.angle
     if lim is not None and not lim.min <= angle <= lim.max:
         return [
-            f"{field}: {_deg(angle)} is beyond the rotation range [{_deg(lim.min)},"
+            f"{field}: {_exact_deg(angle)} is beyond the rotation range [{_deg(lim.min)},"
             f" {_deg(lim.max)}]"
         ]
     return []
