@@ -346,3 +346,40 @@ def test_a_value_just_past_a_limit_is_not_shown_as_the_limit(
     with pytest.raises(ValidationFailed) as caught:
         pirate_bt.load_tree(tree, params=params)
     assert said in str(caught.value), str(caught.value)
+
+
+# -- in a vertical riser ---------------------------------------------------------------
+
+
+def test_in_a_riser_a_parallel_that_releases_both_halves_leaves_one_holding() -> None:
+    from pirate_bt.pipes import network_from_data
+
+    riser = network_from_data(
+        {
+            "name": "shaft",
+            "diameter": "63 mm",
+            "slope": "90 deg",
+            "segments": [{"id": "shaft", "type": "straight", "length": "4 m"}],
+        }
+    )
+    release = _par(
+        {"type": "unclamp", "name": "front", "half": "front"},
+        {"type": "unclamp", "name": "rear", "half": "rear"},
+    )
+    with pirate_bt.connect(riser) as robot:
+        sim = robot.simulator
+        assert sim is not None
+        result = robot.run(_tree(*HOLD, release), max_time="30 s")
+        slid = dict(sim.counters().violations)  # put in free, it slid until the clamp
+        assert result.status == "failure"
+        assert result.why.startswith(
+            "refused unclamp(rear): steep_pipe_unclamped: releasing the rear half would leave"
+            " no half clamped in a steep pipe"
+        ), result.why
+        # the front half's release passed (the rear held), the rear's was refused
+        truth = sim.truth()
+        assert truth.halves["rear"].clamped and not truth.sliding
+        robot.clock.advance(3.0)
+        sim.advance_to(robot.clock.now())
+        assert sim.truth().halves["rear"].clamped
+        assert dict(sim.counters().violations) == slid
