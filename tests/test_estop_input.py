@@ -7,6 +7,7 @@ learns that from the result, not only that "the e-stop is latched".
 from __future__ import annotations
 
 import pirate_bt
+from pirate_bt.errors import LinkError
 
 
 def test_a_pressed_estop_input_ends_the_run_and_the_result_names_the_button() -> None:
@@ -23,6 +24,7 @@ def test_a_pressed_estop_input_ends_the_run_and_the_result_names_the_button() ->
         assert robot.supervisor.link_problem() is not None
     assert not result.succeeded
     assert "hardware e-stop input" in result.why, result.why
+    assert result.exit_code == 1  # someone stopped it on purpose: a failed run, not a fault
     # nobody can release it (no operator input attached): the run ends at once, not
     # at its 60 s time limit as it did
     assert result.sim_time_s < 4.0, result.sim_time_s
@@ -46,3 +48,7 @@ def test_a_bridge_that_resets_mid_run_is_named_as_the_cause_of_its_latch() -> No
     assert not result.succeeded
     assert "it reset in the middle of the session and booted latched" in result.why, result.why
     assert result.sim_time_s < 5.0
+    # a bridge that reset (a brown-out, its watchdog) is a hardware error: exit 3, as a
+    # lost link is (it exited 1, as a failed tree does)
+    assert result.exit_code == 3
+    assert isinstance(result.error, LinkError), result.error

@@ -398,6 +398,13 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             if problem is not None and problem.reason is Reason.ESTOP_LATCHED:
                 if self._mode is not Mode.ESTOP:
                     self.estop(problem.detail)
+                    health = self._port.health()
+                    if health.bridge_resets and not health.estop_input and not self.in_safe_state:
+                        # a bridge that reset in the session (a brown-out, its watchdog)
+                        # is a hardware error: a run that ends on it exits 3, as on a
+                        # lost link; a pressed e-stop input is someone's stop (exit 1)
+                        cause = f"e-stop: {problem.detail}"
+                        self.safe_state(cause, error=LinkError(cause))
                 return
             if problem is not None:
                 if not self.in_safe_state:
