@@ -200,7 +200,7 @@ def _half_table(robot: RobotDescription, half: Half) -> tuple[tuple[str, ...], f
     with its entry, so a later robot at the same address is never served its table."""
     key = (id(robot), half)
     entry = _HALF_TABLES.get(key)
-    if entry is not None and entry[0] is robot:
+    if entry is not None and entry[0] is robot:  # pragma: no mutate (a cache)
         return entry[1]
     tol = robot.safety.angle_tolerance
     table = (
@@ -210,7 +210,7 @@ def _half_table(robot: RobotDescription, half: Half) -> tuple[tuple[str, ...], f
     )
     if len(_HALF_TABLES) >= 64:  # pragma: no mutate (a bound on memory, not a rule)
         _HALF_TABLES.clear()
-    _HALF_TABLES[key] = (robot, table)
+    _HALF_TABLES[key] = (robot, table)  # pragma: no mutate (a cache)
     return table
 
 
