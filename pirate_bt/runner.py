@@ -320,6 +320,35 @@ class Runner:
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
 
+    @classmethod
+    def supervised(
+        cls,
+        tree: Any,
+        supervisor: Any,
+        *,
+        clock: Clock,
+        end_reason: Callable[[], str],
+        tick_supervisor: bool = True,
+        **options: Any,
+    ) -> Runner:
+        """A runner wired to a supervisor as the task layer's runs are: a run that does
+        not succeed ends in ``supervisor.end_safe(end_reason())``, one the supervisor
+        cannot let go on (``run_halted``) ends at the next tick, the robot is brought to
+        rest at the end (``come_to_rest``), and, unless ``tick_supervisor`` is false
+        (the caller ticks it in its own hook), the supervisor ticks before each tick.
+        ``options`` are the constructor's (``period_s``, ``max_time_s``, ...)."""
+        runner = cls(
+            tree,
+            clock=clock,
+            safe_state=lambda: supervisor.end_safe(end_reason()),
+            halted=lambda: supervisor.run_halted,
+            settle=supervisor.come_to_rest,
+            **options,
+        )
+        if tick_supervisor:
+            runner.add_pre_tick(lambda _info: supervisor.tick())
+        return runner
+
     def add_pre_tick(self, hook: Hook) -> None:
         """Run ``hook(info)`` before every tick (e.g. poll the robot link)."""
         self.pre_tick.append(hook)

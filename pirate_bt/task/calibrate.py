@@ -202,16 +202,14 @@ def _run_case(
                 params=params,
                 params_from_text=True,
             )
-            runner = Runner(
+            runner = Runner.supervised(
                 loaded,
+                supervisor,
                 clock=clock,
+                end_reason=lambda: "calibration run failed",
                 period_s=0.05,
                 max_time_s=300.0,
-                safe_state=lambda: supervisor.end_safe("calibration run failed"),
-                halted=lambda: supervisor.run_halted,
-                settle=supervisor.come_to_rest,
             )
-            runner.add_pre_tick(lambda _info: supervisor.tick())
             result = runner.run()
             reason = None if result.succeeded else last_failure(runner.tree.root)
             truth = sim.truth()

@@ -217,15 +217,15 @@ def run_mission(
     loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
     limit = max_time_s or estimate_time_s(plan, robot.motion.nominal_speed)
     reason_box = ["mission ended without success"]
-    runner = Runner(
+    runner = Runner.supervised(
         loaded,
+        supervisor,
         clock=clock,
+        end_reason=lambda: reason_box[0],
+        tick_supervisor=False,  # ticked in before()
         period_s=period_s,
         max_time_s=limit,
         realtime=realtime,
-        safe_state=lambda: supervisor.end_safe(reason_box[0]),
-        halted=lambda: supervisor.run_halted,
-        settle=supervisor.come_to_rest,
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)

@@ -181,16 +181,15 @@ def run_blind(
     spec = {"name": f"step {index}", "root": {**_blind_node(checked, robot), "name": label}}
     loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
     limit = max(max_time_s, period_s)
-    runner = Runner(
+    runner = Runner.supervised(
         loaded,
+        supervisor,
         clock=clock,
-        period_s=period_s,
-        max_time_s=limit,
         # keep the cause a PAB or the supervisor gave first; the generic end is no
         # cause of its own (a step cut by the time budget is named so)
-        safe_state=lambda: supervisor.end_safe(supervisor.safe_state_reason or END_OF_RUN),
-        halted=lambda: supervisor.run_halted,
-        settle=supervisor.come_to_rest,
+        end_reason=lambda: supervisor.safe_state_reason or END_OF_RUN,
+        period_s=period_s,
+        max_time_s=limit,
     )
     odometry = [belief_m, stamp_s]  # belief, last stamp
     window_s = wheel_fresh_window_s(robot)  # odometry counts fresh, agreeing wheels
@@ -198,9 +197,6 @@ def run_blind(
     beyond = max(c.angle for c in robot.clamp.contact_angles) + 2 * robot.safety.angle_tolerance
     joints = [m.name for m in robot.all_bend_modules()]
     off_wall = [False]
-
-    def before(_info: Any) -> None:
-        supervisor.tick()
 
     def after(_info: Any) -> None:
         state = supervisor.state()
@@ -214,7 +210,6 @@ def run_blind(
             odometry[0] += speed * max(0.0, state.stamp_s - odometry[1])
         odometry[1] = state.stamp_s
 
-    runner.add_pre_tick(before)
     runner.add_post_tick(after)
     tally = VerdictTally(supervisor)
     if trace_path is not None:

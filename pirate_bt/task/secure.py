@@ -71,16 +71,14 @@ def hold_both(
             clock=clock,
             supervisor=supervisor,
         )
-        runner = Runner(
+        runner = Runner.supervised(
             loaded,
+            supervisor,
             clock=clock,
+            end_reason=lambda: reason,
             period_s=period_s,
             max_time_s=HOLD_TIME_S,
-            safe_state=lambda: supervisor.end_safe(reason),
-            halted=lambda: supervisor.run_halted,
-            settle=supervisor.come_to_rest,
         )
-        runner.add_pre_tick(lambda _info: supervisor.tick())  # the link polled, as a run's
         run = runner.run()
     finally:
         if not supervisor.in_safe_state:
