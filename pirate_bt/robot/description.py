@@ -350,6 +350,17 @@ class RobotDescription(_Model):
             return list(private["_index"].bend.get(half, ()))
         return [m for m in self.modules if m.role is Role.BEND and m.half is half]
 
+    def behind_front_tip_m(self) -> dict[str, float]:
+        """How far each module's middle is behind the robot's front tip (metres), by
+        module name, front to rear: where the simulator puts a module, and where the
+        task layer looks for it (the IMU on the rotational module, a bend joint)."""
+        out: dict[str, float] = {}
+        behind = 0.0
+        for module in self.modules:
+            out[module.name] = behind + module.length / 2
+            behind += module.length
+        return out
+
     def all_bend_modules(self) -> list[Module]:
         return [m for m in self.modules if m.role is Role.BEND]
 

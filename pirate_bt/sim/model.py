@@ -162,12 +162,8 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
                 m.stall_torque = max(abs(v) for v in torque_mode.si_range)
             self._motors[motor.name] = m
         # geometry: module centres behind the front tip
-        self._module_offset: dict[str, float] = {}
-        behind = 0.0
-        for module in robot.modules:
-            self._module_offset[module.name] = behind + module.length / 2
-            behind += module.length
-        self.length_m = behind
+        self._module_offset = robot.behind_front_tip_m()
+        self.length_m = sum(module.length for module in robot.modules)
         self._halves: dict[Half, _Half] = {}
         for half in Half:
             members = [m for m in robot.modules if m.half is half]

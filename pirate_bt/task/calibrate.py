@@ -33,7 +33,7 @@ from pathlib import Path
 import py_trees
 
 from pirate_bt.pipes import Network, Piece, PieceKind, load_network
-from pirate_bt.robot.description import RobotDescription, Role
+from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.planner import PabContract, rear_lead_m
 
 __all__ = ["Calibration", "Measurement", "calibrate", "check_contract"]
@@ -141,17 +141,6 @@ _CASES: tuple[tuple[str, str, dict[str, str], str], ...] = (
 _STRAIGHT_M = 1.0
 
 
-def _bend_modules_m(robot: RobotDescription) -> dict[str, float]:
-    """Each bend module's centre behind the front tip (the simulator's module position)."""
-    out: dict[str, float] = {}
-    behind = 0.0
-    for module in robot.modules:
-        if module.role is Role.BEND:
-            out[module.name] = behind + module.length / 2
-        behind += module.length
-    return out
-
-
 def _feature(network: Network, case: str) -> tuple[Piece | None, Piece | None]:
     """The feature a case passes and the piece the robot turns into (tee turns)."""
     if case == "straight":
@@ -218,7 +207,8 @@ def _run_case(
             supervisor.close()
     end_m = truth.front_m
     lead = rear_lead_m(robot)
-    last_bend_m = max(_bend_modules_m(robot).values())
+    behind = robot.behind_front_tip_m()  # the simulator's module positions
+    last_bend_m = max(behind[m.name] for m in robot.all_bend_modules())
     rear_clear = math.nan
     if feature is None:
         reference = start_m

@@ -175,11 +175,7 @@ class Localiser:
         self._heading_ref: Vec3 | None = None
         self._settle_after_m: float | None = None
         self._pending = list(plan.features)
-        offsets: dict[str, float] = {}
-        behind = 0.0
-        for module in robot.modules:
-            offsets[module.name] = behind + module.length / 2
-            behind += module.length
+        offsets = robot.behind_front_tip_m()
         self._offset = offsets
         self._imu_offset_m = offsets[robot.rotational_module().name]
         self._bend_offsets = {m.name: offsets[m.name] for m in robot.all_bend_modules()}

@@ -50,7 +50,7 @@ from pirate_bt.task.plan import (
     PlannedPab,
     short_leg,
 )
-from pirate_bt.task.slope_watch import SlopeWatch, imu_offset_m
+from pirate_bt.task.slope_watch import SlopeWatch
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.trace.attach import counter_values
 from pirate_bt.trace.coverage import attach_coverage
@@ -229,7 +229,7 @@ def run_mission(
     )
     coverage = attach_coverage(runner, loaded.name)
     localiser = Localiser(plan, robot, truth=truth, tees_felt=True, map_fraction=map_tolerance)
-    slopes = SlopeWatch(plan.path, imu_offset_m(robot))
+    slopes = SlopeWatch(plan.path, robot.behind_front_tip_m()[robot.rotational_module().name])
     if belief_m is not None:
         localiser.belief_m = localiser.last_fix_m = belief_m
     localiser.since_fix_m = max(since_fix_m, 0.0)

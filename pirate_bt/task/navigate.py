@@ -128,16 +128,6 @@ def _odometer(counters: Callable[[], Any] | None) -> float | None:
     return None if value is None else float(value)
 
 
-def _behind_front_tip(robot: RobotDescription) -> dict[str, float]:
-    """How far each module's middle is behind the front tip."""
-    out: dict[str, float] = {}
-    behind = 0.0
-    for module in robot.modules:
-        out[module.name] = behind + module.length / 2
-        behind += module.length
-    return out
-
-
 def _origin(navigator: object, index: int) -> tuple[str | None, int]:
     """Where the navigator says its last step comes from (``origin``: a file and a line,
     as the route navigator keeps it), else ``None`` and the step's number."""
@@ -289,7 +279,7 @@ def run_navigation(
     fixed_after = 0  # the last step that succeeded on a fix on the map (0: none)
     odometer = _odometer(counters)  # the simulator's, at the start
     robot_length = robot_length_m(robot)
-    behind = _behind_front_tip(robot)
+    behind = robot.behind_front_tip_m()
     try:
         for index in range(1, max_steps + 2):
             if ran is not None and ran.mission is not None and ran.mission.fixes:

@@ -21,10 +21,9 @@ import math
 
 from pirate_bt.pipes.network import Path as PipePath
 from pirate_bt.pipes.network import Piece
-from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
-__all__ = ["SLOPE_NOTE_RAD", "SLOPE_SPAN_M", "SLOPE_STEADY_RAD", "SlopeWatch", "imu_offset_m"]
+__all__ = ["SLOPE_NOTE_RAD", "SLOPE_SPAN_M", "SLOPE_STEADY_RAD", "SlopeWatch"]
 
 SLOPE_NOTE_RAD = math.radians(10.0)
 """A straight whose pitch differs from the map's slope by more is noted (an as-built
@@ -41,17 +40,6 @@ _END_MARGIN_M = 0.35
 IMU's module half-length)."""
 
 _SAMPLE_M = 0.01
-
-
-def imu_offset_m(robot: RobotDescription) -> float:
-    """How far the IMU (on the rotational module, at its middle) sits behind the front tip."""
-    behind = 0.0
-    rotational = robot.rotational_module().name
-    for module in robot.modules:
-        if module.name == rotational:
-            return behind + module.length / 2
-        behind += module.length
-    return behind  # pragma: no cover - a robot has a rotational module (validated)
 
 
 class SlopeWatch:
