@@ -64,8 +64,7 @@ class SlopeWatch:
         """One line per straight noted, in the order found."""
         self._noted: set[str] = set()
         self._run: list[tuple[float, float]] = []  # (IMU belief, pitch) differing so far
-        self._piece: Piece | None = None
-        self._last: tuple[float, float, float, Piece] | None = None
+        self._last: tuple[float, float, float, Piece] | None = None  # the straight now
 
     def update(self, state: RobotState | None, belief_m: float) -> None:
         """Read one state at the belief ``belief_m`` (the front tip's)."""
@@ -75,14 +74,14 @@ class SlopeWatch:
         s = belief_m - self._imu_offset_m
         found = self._last  # runs every tick: the straight of the tick before, first
         if found is None or not found[0] <= s <= found[1]:
-            found = self._last = next((x for x in self._straights if x[0] <= s <= x[1]), None)
+            found = next((x for x in self._straights if x[0] <= s <= x[1]), None)
+            if found is not self._last:
+                self._run.clear()  # another straight (or none): a run starts afresh
+            self._last = found
         if pitch is None or found is None or found[3].segment in self._noted:
             self._run.clear()
             return
         _, _, slope, piece = found
-        if piece is not self._piece:
-            self._run.clear()
-            self._piece = piece
         if abs(pitch - slope) <= SLOPE_NOTE_RAD:
             self._run.clear()
             return
