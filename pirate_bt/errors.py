@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -144,10 +145,15 @@ def said_of(exc: BaseException, limit: int | None = None) -> str:
     return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
+_ADDRESSED = re.compile(r"<.* at 0x[0-9a-fA-F]+>", re.DOTALL)
+
+
 def shown(value: object, limit: int = _SHOWN) -> str:
     """``repr(value)`` for a message, cut to ``limit`` characters and its length when
     longer: ``'xxxx...' (100000 characters)``. A huge whole number gives its digits'
-    count, a value whose ``repr`` fails its type."""
+    count, a value whose ``repr`` fails its type, and one whose ``repr`` is only its
+    type and address (``<Planner object at 0x7f...>``) its type (``a Planner``; a
+    coroutine or a function with its name: ``a coroutine (Planner.next_step)``)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**limit:
         return f"a {digit_count(value)}-digit number"
     if isinstance(value, str | bytes) and len(value) > limit:
@@ -156,6 +162,9 @@ def shown(value: object, limit: int = _SHOWN) -> str:
         text = repr(value)
     except Exception:  # a repr of the caller's own that fails
         return _kind(value)
+    if _ADDRESSED.fullmatch(text):  # object's own repr: its address tells a person nothing
+        named = getattr(value, "__qualname__", None)  # a function's, a coroutine's
+        return f"{_kind(value)} ({named})" if isinstance(named, str) else _kind(value)
     if len(text) > limit:
         return f"{text[:limit]}... ({_kind(value)})"
     return text

@@ -102,8 +102,8 @@ def _load_network(network: Any, base: str | Path | None, option: str) -> Network
         return Network(network, f"<{network.name}>")
     if not isinstance(network, str | Path):
         raise InputError(
-            f"{option}: give a bundled name, a file, a NetworkSpec or a Network, not a"
-            f" {type(network).__name__}"
+            f"{option}: give a bundled name, a file, a NetworkSpec or a Network, not"
+            f" {kind_of(network)}"
         )
     name = file_name(network, option)
     folder = output_folder(base, "base") if base is not None else None

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import inspect
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,7 @@ from pirate_bt.api.options import (
     tick_period_s,
 )
 from pirate_bt.api.results import closing_why
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, shown
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
@@ -58,7 +59,7 @@ def _network(value: Any, what: str) -> Any:
         return Network(value, f"<{value.name}>")
     if not isinstance(value, str | Path):
         raise InputError(
-            f"{what}: give a network name, a file, a NetworkSpec or a Network, not {value!r}"[:200]
+            f"{what}: give a network name, a file, a NetworkSpec or a Network, not {shown(value)}"
         )
     return load_network(network_name(value, what))
 
@@ -165,8 +166,19 @@ def navigate(
         if isinstance(navigator, type):  # its next_step would be called unbound
             cls = navigator.__name__
             raise InputError(f"navigate: give an instance of {cls} ({cls}(...)), not the class")
-        if not callable(getattr(navigator, "next_step", None)):
-            raise InputError(f"navigate: {navigator!r} has no next_step(obs) method")
+        decide = getattr(navigator, "next_step", None)
+        if not callable(decide):
+            raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
+        if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):
+            raise InputError(  # its answer was a coroutine, refused only after connecting
+                f"navigate: {type(navigator).__name__}.next_step is async def; write it as"
+                " a plain def that returns a Step, or None when done"
+            )
+        if inspect.isgeneratorfunction(decide):  # a yield in it: it returns a generator
+            raise InputError(
+                f"navigate: {type(navigator).__name__}.next_step yields; write it to return"
+                " a Step, or None when done"
+            )
         name = builtin_name(navigator) or type(navigator).__name__
     description = load_robot_like(robot)
     map_network = _network(map, "map") if map is not None else None

@@ -266,8 +266,11 @@ def run_navigation(
     felt: list[Felt] = []
     last: PabOutcome | None = None
     history: list[tuple[Step, str]] = []
-    # on the simulator from the start: a navigation that ran no step had None
+    # on the simulator from the start: a navigation that ran no step had None; on the
+    # belief's scale (a map's: the front tip at the entry), where it said 0.00 m
     truth_m: float | None = truth_now() if truth_now is not None else None
+    if truth_m is not None:
+        truth_m += belief
     ran: StepRun | None = None
     odometer_m = 0.0  # how far each step moved the belief, summed
     fixed_at_m = 0.0  # the odometer at the last fix

@@ -63,6 +63,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 from pirate_bt.errors import InputError, UnitError
+from pirate_bt.errors import shown as said_briefly
 from pirate_bt.task.observation import Ahead, Belief, Felt, Observation
 from pirate_bt.task.route import MAX_WAIT_S
 from pirate_bt.units import parse_quantity
@@ -134,6 +135,8 @@ def shown(value: object, limit: int = 80) -> str:
         text = repr(value)
     except Exception:  # a __repr__ that raises
         text = f"<{type(value).__name__} that cannot be shown>"
+    if text.startswith("<") and " at 0x" in text:  # object's own: its type, not its address
+        return said_briefly(value)
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 

@@ -1,0 +1,117 @@
+"""Probe 15: a planner author who reads only the docs, writing navigators of their own.
+
+What they wrote in a hurry (an ``async def next_step``, a ``yield`` in it, an object
+with no ``next_step``) and what they read back (the result's ``truth_m`` beside its
+belief) must make sense without reading the library's code: one line that names
+what is wrong, no ``<... object at 0x7f...>``, nothing connected before a refusal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Iterator
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt import Observation, Step
+from pirate_bt.errors import InputError, shown
+
+
+class _Done:
+    def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+class _Async:
+    async def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+class _Yields:
+    def next_step(self, obs: Observation) -> Iterator[Step]:
+        yield Step("wait", time="1 s")
+
+
+class _AsyncYields:
+    async def next_step(self, obs: Observation) -> AsyncIterator[Step]:
+        yield Step("wait", time="1 s")
+
+
+class _NoNextStep:
+    def step(self, obs: Observation) -> None:
+        return None
+
+
+class _ReturnsObject:
+    def next_step(self, obs: Observation) -> Any:
+        return _NoNextStep()
+
+
+@pytest.mark.parametrize(
+    ("navigator", "said"),
+    [
+        (_Async(), "navigate: _Async.next_step is async def; write it as a plain def"),
+        (_AsyncYields(), "navigate: _AsyncYields.next_step is async def"),
+        (_Yields(), "navigate: _Yields.next_step yields; write it to return a Step"),
+    ],
+)
+def test_an_async_or_yielding_next_step_is_refused_before_anything_connects(
+    navigator: Any, said: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # before: the navigation connected, ran, and failed with "returned <coroutine
+    # object _Async.next_step at 0x7f...>, not a Step" (and a never-awaited warning)
+    def no_connect(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("connected before refusing the navigator")
+
+    monkeypatch.setattr("pirate_bt.api.navigation.connect", no_connect)
+    with pytest.raises(InputError) as caught:
+        pirate_bt.navigate(navigator, sim="straight")
+    assert str(caught.value).startswith(said)
+    assert "0x" not in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_a_navigator_without_next_step_is_named_by_its_class_not_its_address() -> None:
+    with pytest.raises(InputError) as caught:
+        pirate_bt.navigate(_NoNextStep(), sim="straight")
+    assert str(caught.value) == "navigate: a _NoNextStep has no next_step(obs) method"
+
+
+def test_a_step_that_is_no_step_is_named_by_its_type_not_its_address() -> None:
+    result = pirate_bt.navigate(_ReturnsObject(), sim="straight", max_time=5)
+    assert result.status == "failure" and result.safe_state
+    assert "returned a _NoNextStep, not a Step" in result.why
+    assert "0x" not in result.why
+
+
+def test_shown_names_a_default_repr_by_its_type() -> None:
+    async def later() -> None:
+        return None
+
+    coroutine = later()
+    try:
+        assert shown(coroutine).startswith("a coroutine (")
+        assert "later" in shown(coroutine) and "0x" not in shown(coroutine)
+    finally:
+        coroutine.close()
+    assert shown(_NoNextStep()) == "a _NoNextStep"
+    assert shown("<x at 0x1>") == "'<x at 0x1>'"  # text is still shown as text
+
+
+@pytest.mark.parametrize("network", ["bend-right", "lab"])
+def test_a_navigation_with_a_map_that_ran_no_step_has_its_truth_where_its_belief_is(
+    network: str,
+) -> None:
+    # before: "believed at 0.52 m, truly 0.00 m" for a robot that had not moved:
+    # the truth counted from the start, the belief from the map's entry
+    result = pirate_bt.navigate(_Done(), map=network)
+    assert result.status == "success" and result.steps == 0
+    assert result.truth_m is not None and result.belief_m > 0.3
+    assert result.truth_m == pytest.approx(result.belief_m, abs=1e-6)
+    assert "truly 0.00 m" not in result.summary()
+
+
+def test_a_network_of_the_wrong_type_is_said_with_its_article() -> None:
+    with pytest.raises(InputError) as caught:
+        pirate_bt.simulate_mission("bend-right", truth=123)  # type: ignore[arg-type]
+    assert str(caught.value).endswith("not an int")
