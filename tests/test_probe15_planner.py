@@ -8,7 +8,9 @@ what is wrong, no ``<... object at 0x7f...>``, nothing connected before a refusa
 
 from __future__ import annotations
 
+import re
 from collections.abc import AsyncIterator, Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -115,3 +117,38 @@ def test_a_network_of_the_wrong_type_is_said_with_its_article() -> None:
     with pytest.raises(InputError) as caught:
         pirate_bt.simulate_mission("bend-right", truth=123)  # type: ignore[arg-type]
     assert str(caught.value).endswith("not an int")
+
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+
+
+def _block(page: str, holding: str) -> str:
+    text = (DOCS / page).read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    return next(block for block in blocks if holding in block)
+
+
+def test_the_trees_doc_python_built_nodes_block_runs_on_its_own() -> None:
+    # before: NameError: name 'clock' is not defined (it leant on the block above)
+    code = _block("trees.md", "ctx = BuildContext(")
+    space: dict[str, Any] = {}
+    exec(compile(code, "docs/trees.md", "exec"), space)
+    assert space["clamp"].name == "clamp front"
+
+
+def test_the_campaign_doc_says_a_misspelt_navigator_parameter_as_the_campaign_does(
+    tmp_path: Path,
+) -> None:
+    from pirate_bt.campaign import run_campaign
+
+    run = "- {name: goal, navigator: goal, network: lab, params: {segmnt: riser}}"
+    text = (DOCS / "campaigns.md").read_text(encoding="utf-8")
+    assert run in text
+    spec = tmp_path / "nav.campaign.yaml"
+    spec.write_text(f"name: nav\nruns:\n  {run}\n", encoding="utf-8")
+    with pytest.raises(InputError) as caught:
+        run_campaign(spec, output=None)
+    said = str(caught.value)
+    assert said.startswith(f"{spec}:3:")
+    quoted = " ".join(text.split())  # the doc wraps its lines
+    assert f"nav.campaign.yaml{said[len(str(spec)) :]}" in quoted
