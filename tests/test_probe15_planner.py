@@ -152,3 +152,18 @@ def test_the_campaign_doc_says_a_misspelt_navigator_parameter_as_the_campaign_do
     assert said.startswith(f"{spec}:3:")
     quoted = " ".join(text.split())  # the doc wraps its lines
     assert f"nav.campaign.yaml{said[len(str(spec)) :]}" in quoted
+
+
+def test_a_network_given_as_a_file_without_yaml_or_a_folder_says_what_it_is(
+    tmp_path: Path,
+) -> None:
+    # before: "no network '/.../drawing'", as if nothing were there
+    drawing = tmp_path / "drawing"
+    drawing.write_text("segments: []\n", encoding="utf-8")
+    with pytest.raises(InputError) as caught:
+        pirate_bt.load_network(drawing)
+    assert ": a network file ends in .yaml;" in str(caught.value)
+    with pytest.raises(InputError) as caught:
+        pirate_bt.navigate(_Done(), map=tmp_path)
+    said = str(caught.value)
+    assert said.startswith("map: no network '") and ": it is a folder;" in said

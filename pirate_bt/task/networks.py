@@ -40,7 +40,9 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
             return candidate
     bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
     # a route or other file given where a network goes: say why it is not one
-    kind = ": a network file ends in .yaml" if plain.suffix and _is_file(plain) else ""
+    kind = ": a network file ends in .yaml" if _is_file(plain) else ""
+    if not kind and _is_dir(plain):  # "no network '/tmp'" read as if nothing were there
+        kind = ": it is a folder; a network is a .yaml file"
     raise FileNotFoundError(
         f"no network {shown(name)}{kind}; bundled networks: {', '.join(bundled)}"
     )
@@ -52,6 +54,13 @@ def _is_file(path: Path) -> bool:
     try:
         return path.is_file()
     except (OSError, ValueError):  # ValueError: a NUL in the name
+        return False
+
+
+def _is_dir(path: Path) -> bool:
+    try:
+        return path.is_dir()
+    except (OSError, ValueError):
         return False
 
 
