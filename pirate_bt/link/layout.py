@@ -15,7 +15,9 @@ from pirate_bt.link.framing import HEADER_BYTES, MAX_PAYLOAD_BYTES
 from pirate_bt.robot.description import ControlMode, Motor, MotorFunction, RobotDescription
 
 __all__ = [
+    "LayoutError",
     "LayoutTooLarge",
+    "LayoutUncovered",
     "StopRole",
     "WireLayout",
     "layout_text",
@@ -28,9 +30,19 @@ COUNTERS_FIXED_BYTES = 20
 COUNTERS_BOARD_BYTES = 13
 
 
-class LayoutTooLarge(ConfigurationError, ValueError):
-    """A robot description whose frames do not fit the protocol's largest frame (exit 2,
-    an unusable description; a ``ValueError`` as before)."""
+class LayoutError(ConfigurationError, ValueError):
+    """A robot description the PIRATEbay protocol cannot carry (exit 2, an unusable
+    description; a ``ValueError`` as before)."""
+
+
+class LayoutTooLarge(LayoutError):
+    """A robot description whose frames do not fit the protocol's largest frame."""
+
+
+class LayoutUncovered(LayoutError):
+    """A robot description with a board that has no motor and no sensor: it takes a
+    board status nibble and a ``COUNTERS`` entry, but the layout digest, which names
+    only channels and motors, cannot see it."""
 
 
 class StopRole(StrEnum):
@@ -113,7 +125,16 @@ class WireLayout:
         Raises:
             LayoutTooLarge: the STATE, BULK_SETPOINTS or COUNTERS frame would exceed the
                 largest frame (a ``ConfigurationError``, exit 2, and a ``ValueError``).
+            LayoutUncovered: a board with no motor and no sensor (the same kinds).
         """
+        empty = sorted(b.id for b in robot.boards if not b.motors and not b.sensors)
+        if empty:
+            raise LayoutUncovered(
+                f"robot {robot.name!r}: board(s) {', '.join(map(str, empty))} have no motor"
+                " and no sensor: each would take a board status nibble in STATE and an"
+                " entry in COUNTERS that the layout digest cannot cover (a bridge built"
+                " with or without them would pass the hello); remove them"
+            )
         try:
             return cls(
                 n_channels=len(robot.state_channels()),
@@ -188,8 +209,9 @@ def validate_robot_file(path: str | Path) -> RobotDescription:
     fit the PIRATEbay protocol's largest frame, as every run needs (:class:`WireLayout`).
 
     Raises:
-        ValidationFailed: the file does not validate, or its STATE, BULK_SETPOINTS or
-            COUNTERS frame would not fit (placed at its ``boards`` key).
+        ValidationFailed: the file does not validate, its STATE, BULK_SETPOINTS or
+            COUNTERS frame would not fit, or a board has no motor and no sensor (placed
+            at its ``boards`` key).
     """
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.yamlfile import load_yaml
@@ -197,7 +219,7 @@ def validate_robot_file(path: str | Path) -> RobotDescription:
     robot = load_robot(path)
     try:
         WireLayout.from_robot(robot)
-    except LayoutTooLarge as exc:
+    except LayoutError as exc:
         where = load_yaml(path).locator.locate(("boards",))
         raise ValidationFailed([LocatedError(str(exc), where)]) from None
     return robot
