@@ -167,3 +167,16 @@ def test_a_network_given_as_a_file_without_yaml_or_a_folder_says_what_it_is(
         pirate_bt.navigate(_Done(), map=tmp_path)
     said = str(caught.value)
     assert said.startswith("map: no network '") and ": it is a folder;" in said
+
+
+def test_a_survey_refused_for_its_faults_leaves_no_output_folder_behind(tmp_path: Path) -> None:
+    # before: the folders of output= were made, then the fault was refused
+    output = tmp_path / "new" / "deeper" / "surveyed.yaml"
+    with pytest.raises(InputError, match="unknown motor 'nosuch'"):
+        pirate_bt.survey(sim="straight", output=output, faults="motor_stall:nosuch@1s")
+    assert not (tmp_path / "new").exists()
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    with pytest.raises(InputError):
+        pirate_bt.survey(sim="straight", output=kept / "s.yaml", faults="motor_stall:nosuch@1s")
+    assert kept.is_dir()  # a folder that was there is left

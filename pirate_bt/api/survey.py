@@ -169,22 +169,32 @@ def survey(
                 f"output: {explore.output} is not a .yaml file name; the surveyed network"
                 " is written as YAML"
             )
+        made = _first_missing(explore.output.parent)
         writable_folder(explore.output.parent, "output")
         # no pipe or device, and the pipe as it really is must survive its survey
         # (extend= may be the same file)
         output_path(explore.output, "output", {"simulated network": sim, "robot": robot})
-    navigation = navigate(
-        explore,
-        sim=sim,
-        port=port,
-        seed=seed,
-        faults=faults,
-        trace=trace,
-        robot=robot,
-        max_time=max_time,
-        max_steps=10_000,
-        firmware=firmware,
-    )
+    else:
+        made = None
+    try:
+        navigation = navigate(
+            explore,
+            sim=sim,
+            port=port,
+            seed=seed,
+            faults=faults,
+            trace=trace,
+            robot=robot,
+            max_time=max_time,
+            max_steps=10_000,
+            firmware=firmware,
+        )
+    except BaseException:
+        # refused before it ran (a fault's unknown target): leave no empty folder made
+        # for the output, as navigate leaves none for its trace
+        if made is not None and explore.output is not None:
+            _remove_empty(explore.output.parent, made)
+        raise
     if not navigation.succeeded and explore.network is None:
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
@@ -206,3 +216,24 @@ def survey(
         output=explore.output if explore.network is not None else None,
         unexplored=list(explore.unexplored),
     )
+
+
+def _first_missing(folder: Path) -> Path | None:
+    """The outermost of ``folder`` and its parents that does not exist yet."""
+    missing = None
+    for each in (folder, *folder.parents):
+        if each.exists():
+            break
+        missing = each
+    return missing
+
+
+def _remove_empty(folder: Path, up_to: Path) -> None:
+    """Remove ``folder`` and its parents up to ``up_to`` while they are empty."""
+    import contextlib
+
+    for each in (folder, *folder.parents):
+        with contextlib.suppress(OSError):
+            each.rmdir()
+        if each == up_to:
+            return
