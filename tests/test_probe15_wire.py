@@ -12,13 +12,29 @@ from typing import Any
 
 import pytest
 import yaml
+from session_wire import Peer, reply, state
 
 from pirate_bt.errors import ConfigurationError, ValidationFailed
-from pirate_bt.link.codec import FrameCodec
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    BridgeFlags,
+    BulkSetpoints,
+    EStop,
+    EStopReset,
+    FrameCodec,
+    Heartbeat,
+    Hello,
+    Message,
+)
 from pirate_bt.link.layout import LayoutUncovered, WireLayout, layout_text, validate_robot_file
+from pirate_bt.link.opening import wrap_link
 from pirate_bt.resources import default_robot_path
+from pirate_bt.robot import ControlMode, load_robot
+from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.loader import robot_from_data
 
+ROBOT = load_robot()
 DEFAULT: dict[str, Any] = yaml.safe_load(default_robot_path().read_text())
 
 
@@ -49,3 +65,42 @@ def test_validate_reports_the_empty_board_at_boards(tmp_path: Path) -> None:
     path.write_text(yaml.safe_dump(_with_empty_board(29)))
     with pytest.raises(ValidationFailed, match=r"board\(s\) 29 have no motor and no sensor"):
         validate_robot_file(path)
+
+
+def test_an_earlier_failure_does_not_keep_the_closing_stop_from_going_out() -> None:
+    # A bridge answered the host's last bulk STALE (an ESTOP's trace, or a frame that
+    # passed the CRC with a newer seq) and the caller sent nothing after it. The close's
+    # stop raised for that earlier failure before it was sent, and the close latched the
+    # bridge's e-stop instead ("could not stop the drives on close: 1 earlier request(s)
+    # failed; ... e-stop sent"), so the next connection found a latch "from an earlier
+    # session" to be reset by an operator. protocol.md: the close stops the drives and
+    # sends an ESTOP only when that stop is refused or never acknowledged.
+    bulks: list[BulkSetpoints] = []
+    tx = iter(range(1, 10_000))
+
+    def answer(msg: Message) -> list[Message]:
+        if isinstance(msg, Hello):
+            return [reply(msg.seq, flags=BridgeFlags.ESTOP, sessions=1)]
+        if isinstance(msg, EStopReset | Heartbeat | EStop):
+            return [Ack(msg.seq, msg.TYPE, AckStatus.APPLIED)]
+        if isinstance(msg, BulkSetpoints):
+            bulks.append(msg)
+            if len(bulks) == 1:
+                return [Ack(msg.seq, msg.TYPE, AckStatus.STALE)]
+            return [state(next(tx), ack_seq=msg.seq)]
+        return []
+
+    peer = Peer(answer)
+    link = wrap_link(peer.host, ROBOT, peer.clock)
+    link.send([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
+    for _ in range(4):
+        peer.clock.advance(0.005)
+        link.poll()
+    link.close()
+    assert not any(isinstance(m, EStop) for m in peer.seen)
+    assert len(bulks) == 2 and link.close_error is None
+    drives = {s.motor.name for s in ROBOT.setpoint_slots() if s.motor.function == "drive"}
+    stop = dict(
+        zip((s.motor.name for s in ROBOT.setpoint_slots()), bulks[1].raw_values, strict=True)
+    )
+    assert all(stop[name] == 0 for name in drives)

@@ -435,6 +435,13 @@ class RobotLink:
         ]
         if stop and self.session.stats().connected:
             before = self._last_bulk
+            self._settle_bulks()
+            try:
+                # an earlier request's failure (no later send raised it) is not the
+                # stop's: it must not keep the stop from going out, nor latch the e-stop
+                self._raise_failures()
+            except LinkError as exc:
+                _log.warning("on close: %s", exc)
             try:
                 self.send_and_wait(stop, timeout_s=self.session.config.give_up_s)
             except LinkError as exc:
