@@ -159,10 +159,47 @@ def _version() -> str:
     return __version__
 
 
+_GIVEN = "_pirate_bt_given"  # the options given so far in one parse (then removed)
+
+
+class _StoreOnce(argparse._StoreAction):
+    """argparse's ``store``, refusing an option given twice in one command line.
+
+    argparse keeps the last value: ``--seed 1 ... --seed 2`` ran seed 2 and ``-o a
+    --output b`` wrote only b, with nothing said. An option meant to be repeated says
+    so (``action="append"``: ``--param``, ``--log``); a flag given twice is still one
+    flag (``store_true``)."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        if option_string is not None:  # an option (a positional is called once)
+            given: dict[int, tuple[str, Any]] = vars(namespace).setdefault(_GIVEN, {})
+            first = given.get(id(self))
+            if first is not None:
+                from pirate_bt.errors import shown
+
+                spelt = (
+                    option_string
+                    if first[0] == option_string
+                    else f"{first[0]}, then {option_string},"
+                )
+                parser.error(
+                    f"{spelt} given twice ({shown(first[1])} and {shown(values)}); give it once"
+                )
+            given[id(self)] = (option_string, values)
+        super().__call__(parser, namespace, values, option_string)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, with a usage error in one line (DESIGN.md: one clear line each), not
     the usage block first; ``--help`` shows the usage. Subcommands' parsers are of
-    this class too (``add_subparsers`` makes its parent's kind).
+    this class too (``add_subparsers`` makes its parent's kind). A value option given
+    twice is refused (:class:`_StoreOnce`).
 
     An option is taken only as written in full: argparse's abbreviations read
     ``mission --map lab`` as ``--map-tolerance lab`` (and then failed on "not a
@@ -172,6 +209,15 @@ class _Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        parsed, extras = super().parse_known_args(args, namespace)
+        vars(parsed).pop(_GIVEN, None)  # one parse's bookkeeping, not an option
+        return parsed, extras
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_INPUT, f"{self.prog}: {message} (see '{self.prog} --help')\n")
