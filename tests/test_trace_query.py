@@ -200,3 +200,18 @@ def test_why_names_the_node_that_raised(tmp_path: Path) -> None:
     path.write_text(path.read_text().rsplit("\n", 2)[0] + "\n")  # no end record
     cut = read_trace(path)
     assert (cut.outcome, cut.why) == ("incomplete", None)
+
+
+def test_why_says_an_exception_the_reason_already_says_once(tmp_path: Path) -> None:
+    # a planner's node that raised: the end's reason names it and its exception, and
+    # why said it twice ("ValueError in plain: plain broke; plain: ValueError: plain broke")
+    path = tmp_path / "raised.jsonl"
+    path.write_text(
+        '{"type":"header","format":"pirate-bt-trace","version":1,"tree":{"name":"t","nodes":['
+        '{"id":"0","name":"plain","type":"Plain","kind":"leaf","parent":null,"children":[]}]}}\n'
+        '{"type":"tick","n":1,"t_s":0.05,"status":{"0":"R"}}\n'
+        '{"type":"end","n":1,"t_s":0.05,"outcome":"error",'
+        '"reason":"ValueError in plain: plain broke",'
+        '"error":{"node":"0","exception":"ValueError: plain broke"}}\n'
+    )
+    assert read_trace(path).why == "ValueError in plain: plain broke"

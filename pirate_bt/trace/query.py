@@ -465,6 +465,15 @@ class TraceQueries:
             if isinstance(node_id, str) and node_id in self.structure:
                 where = f"{self._index().paths[node_id]}: "
             exception = error.get("exception")
-            if exception or where:
+            if (exception or where) and not _said_in(exception, reason):
                 parts.append(f"{where}{exception or 'error'}")
         return "; ".join(parts) or None
+
+
+def _said_in(exception: object, reason: object) -> bool:
+    """Whether the end's reason already says the exception (``ValueError in plain:
+    plain broke`` for ``ValueError: plain broke``), so ``why`` says it once."""
+    if not isinstance(exception, str) or not isinstance(reason, str) or not exception:
+        return False
+    kind, _, message = exception.partition(": ")
+    return kind in reason and message in reason
