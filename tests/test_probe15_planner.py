@@ -180,3 +180,20 @@ def test_a_survey_refused_for_its_faults_leaves_no_output_folder_behind(tmp_path
     with pytest.raises(InputError):
         pirate_bt.survey(sim="straight", output=kept / "s.yaml", faults="motor_stall:nosuch@1s")
     assert kept.is_dir()  # a folder that was there is left
+
+
+def test_a_navigation_result_is_plain_json_as_a_mission_result_is() -> None:
+    # RunResult and MissionResult have as_dict(); a planner's report of a navigation
+    # had to pick NavigationResult's fields by hand
+    import json
+
+    result = pirate_bt.navigate("goal", params={"segment": "after"}, map="bend-right", max_time=3)
+    assert not result.succeeded  # cut short by its time limit: the first cause kept
+    data = json.loads(json.dumps(result.as_dict()))
+    assert data["status"] == "failure" and data["why"] == result.why
+    assert data["why"].startswith("navigation time limit reached (3 s) in step 1")
+    assert [p["label"] for p in data["pabs"]] == [p.label for p in result.pabs]
+    assert len(data["missions"]) == len(result.missions) == 1
+    assert data["missions"][0]["status"] == "failure"
+    assert data["decisions"][0]["step"] == result.decisions[0].step.to_json()  # type: ignore[union-attr]
+    assert data["counters"] == result.counters.as_dict()

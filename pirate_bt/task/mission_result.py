@@ -241,18 +241,7 @@ class MissionResult:
             "truth_m": metres(self.truth_m),
             "odometry_m": metres(self.odometry_m),
             "max_fix_error_m": metres(self.max_fix_error_m),
-            "pabs": [
-                {
-                    "label": p.label,
-                    "kind": p.kind,
-                    "outcome": p.outcome,
-                    "start_s": p.start_s,
-                    "end_s": p.end_s,
-                    "why": p.why,
-                    "failing_node": p.failing_node,
-                }
-                for p in self.pabs
-            ],
+            "pabs": [p.as_dict() for p in self.pabs],
             "fixes": [
                 {
                     "time_s": round(f.time_s, 3),

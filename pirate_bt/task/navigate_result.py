@@ -8,8 +8,9 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from pirate_bt.errors import LinkError
+from pirate_bt.errors import LinkError, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.navigation import Decision, Step
@@ -108,6 +109,38 @@ class NavigationResult:
         if self.close_error is not None:
             return 3
         return 3 if isinstance(self.error, LinkError) and not self.navigator_raised else 1
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON values (your own reports), as :meth:`MissionResult.as_dict
+        <pirate_bt.MissionResult.as_dict>` gives a mission's: the outcome and its first
+        cause, every decision and PAB, each step's mission with a map, the counters."""
+
+        def metres(value: float | None) -> float | None:
+            return None if value is None else round(value, 4)
+
+        return {
+            "navigator": self.navigator,
+            "status": self.status,
+            "why": self.why,
+            "failing_node": self.failing_node,
+            "steps": self.steps,
+            "ticks": self.ticks,
+            "distance_m": metres(self.distance_m),
+            "belief_m": metres(self.belief_m),
+            "truth_m": metres(self.truth_m),
+            "safe_state": self.safe_state,
+            "sim_time_s": round(self.sim_time_s, 3),
+            "wall_s": round(self.wall_s, 3),
+            "notes": list(self.notes),
+            "decisions": [d.to_json() for d in self.decisions],
+            "pabs": [p.as_dict() for p in self.pabs],
+            "missions": [m.as_dict() for m in self.missions],
+            "counters": self.counters.as_dict(),
+            "sim": dict(self.sim),
+            "trace_dir": str(self.trace_dir) if self.trace_dir is not None else None,
+            "error": None if self.error is None else said_of(self.error),
+            "close_error": None if self.close_error is None else said_of(self.close_error),
+        }
 
     def summary(self) -> str:
         """One line for people."""

@@ -92,6 +92,18 @@ class PabOutcome:
             return None
         return self.end_s - self.start_s
 
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON values, as a mission's and a navigation's ``as_dict`` give them."""
+        return {
+            "label": self.label,
+            "kind": self.kind,
+            "outcome": self.outcome,
+            "start_s": self.start_s,
+            "end_s": self.end_s,
+            "why": self.why,
+            "failing_node": self.failing_node,
+        }
+
 
 def _find(root: py_trees.behaviour.Behaviour, path: str) -> py_trees.behaviour.Behaviour | None:
     for node in root.iterate():
