@@ -192,6 +192,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._hold_refused: set[Half] = set()  # a protective clamp refused (logged once)
         self._ever_held = False  # a half has held the robot since the start
         self._hold_sent_s = -math.inf  # when the latest protective clamp was sent
+        self._was_steep = False  # the pitch was over the unclamped limit on the last tick
         self._hold_torque = hold_torque(self.robot)
         self._half_channels = half_channels(self.robot)
         self._closed = False

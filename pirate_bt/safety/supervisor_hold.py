@@ -108,6 +108,7 @@ class HoldMixin:
     _hold_refused: set[Half]
     _ever_held: bool
     _hold_sent_s: float
+    _was_steep: bool
     _hold_torque: float
     _checks: list[Check]
     _expander: Expander
@@ -209,20 +210,32 @@ class HoldMixin:
         """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
         # Runs every tick: on the level (most ticks) it costs one lookup.
         pitch = state.imu_rad.get("pitch")
+        was_steep = self._was_steep
+        self._was_steep = False
         if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
-            if (
-                self._holding
-                and now_s - self._hold_sent_s < HOLD_SETTLE_S
-                and not self._halves_holding(state, now_s)[1]
-            ):
-                # The robot slid down to where the pipe is no longer steep (the foot of
-                # a bend) while the protective clamp was landing: it stopped there, held
-                # by nothing yet. The clamp is still on its way; the end of a run waits
-                # for it (settle_hold, come_to_rest) as in the steep pipe, so that it
-                # does not hand back a robot on the very step its slide ended.
+            if self._holding:
+                if (
+                    now_s - self._hold_sent_s < HOLD_SETTLE_S
+                    and not self._halves_holding(state, now_s)[1]
+                ):
+                    # The robot slid down to where the pipe is no longer steep (the foot
+                    # of a bend) while the protective clamp was landing: it stopped
+                    # there, held by nothing yet. The clamp is still on its way; the end
+                    # of a run waits for it (settle_hold, come_to_rest) as in the steep
+                    # pipe, so that it does not hand back a robot on the very step its
+                    # slide ended.
+                    return
+                self._holding.clear()
                 return
-            self._holding.clear()
-            return
+            if pitch is None or not was_steep or self._halves_holding(state, now_s)[1]:
+                return
+            # Steep on the last tick, and now nothing holds where the pitch reads under
+            # the limit: the half that held lost its hold (its board away) and the robot
+            # slid down to the foot of the bend between two ticks. It may still be
+            # sliding there: clamp as in the steep pipe, so that the end of a run waits
+            # for the clamp rather than handing back a robot held by nothing.
+        else:
+            self._was_steep = True
         halves, holding = self._halves_holding(state, now_s)
         if holding:
             self._holding.clear()
