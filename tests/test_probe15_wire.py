@@ -7,12 +7,13 @@ Each test pins one finding with its fix (docs/protocol.md, Layout).
 from __future__ import annotations
 
 import copy
+import math
 from pathlib import Path
 from typing import Any
 
 import pytest
 import yaml
-from session_wire import Peer, reply, state
+from session_wire import CODEC, Peer, reply, state
 
 from pirate_bt.errors import ConfigurationError, ValidationFailed
 from pirate_bt.link.codec import (
@@ -26,6 +27,7 @@ from pirate_bt.link.codec import (
     Heartbeat,
     Hello,
     Message,
+    State,
 )
 from pirate_bt.link.layout import LayoutUncovered, WireLayout, layout_text, validate_robot_file
 from pirate_bt.link.opening import wrap_link
@@ -104,3 +106,47 @@ def test_an_earlier_failure_does_not_keep_the_closing_stop_from_going_out() -> N
         zip((s.motor.name for s in ROBOT.setpoint_slots()), bulks[1].raw_values, strict=True)
     )
     assert all(stop[name] == 0 for name in drives)
+
+
+def test_a_reading_fresh_only_between_two_state_reads_is_not_lost() -> None:
+    # A bridge whose poll cycle spans several state periods marks a channel fresh in
+    # one STATE and not in the next ones ("the last value read", protocol.md, STATE).
+    # RobotLink.state() built its snapshot from the newest STATE only: a reading fresh
+    # in a STATE taken between two calls (a tick every 50 ms, STATEs every 10 ms) was
+    # dropped, so bend_1_angle, fresh every 50 ms out of phase with the tick, never
+    # showed at all, and would have gone stale with every reading delivered.
+    names = [c.name for c in ROBOT.state_channels()]
+    angle = names.index("bend_1_angle")
+    seqs = iter(range(1, 10_000))
+    peer = Peer(
+        lambda msg: (
+            [reply(msg.seq, flags=BridgeFlags.ESTOP, sessions=1)]
+            if isinstance(msg, Hello)
+            else [Ack(msg.seq, msg.TYPE, AckStatus.APPLIED)]
+            if isinstance(msg, EStopReset | Heartbeat | EStop)
+            else []
+        )
+    )
+    link = wrap_link(peer.host, ROBOT, peer.clock)
+    raw = [0] * len(names)
+    raw[angle] = 2048 + 1024  # +90 degrees
+    every = (1 << len(names)) - 1
+    arrived: dict[int, float] = {}
+    for _ in range(30):
+        seq = next(seqs)
+        mask = every if seq % 5 == 0 else every & ~(1 << angle)
+        frame = State(seq, BridgeFlags.NONE, 0, mask, (1,) * len(ROBOT.board_ids()), tuple(raw))
+        peer.far.write(CODEC.encode(frame))
+        peer.clock.advance(0.010)
+        link.poll()
+        arrived[seq] = peer.clock.now()
+        if seq % 5 == 2:  # the caller's tick, out of phase with the fresh readings
+            snap = link.state()
+            assert snap is not None
+            if seq > 5:
+                reading = snap.readings.get("bend_1_angle")
+                assert reading is not None, f"no bend_1_angle at seq {seq}"
+                assert reading.value == pytest.approx(math.pi / 2)
+                # the reading of the fresh STATE before this tick, with its own stamp
+                assert reading.stamp_s == arrived[seq - 2]
+    link.close()

@@ -14,6 +14,7 @@ import collections
 import dataclasses
 import logging
 import math
+import threading
 
 from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
 from pirate_bt.link.codec import (
@@ -38,7 +39,7 @@ from pirate_bt.link.codec import (
 )
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
-__all__ = ["BAD_STATES_BEFORE_MISMATCH", "STATE_REFUSALS", "InboundMixin"]
+__all__ = ["BAD_STATES_BEFORE_MISMATCH", "STATES_KEPT", "STATE_REFUSALS", "InboundMixin"]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
@@ -58,6 +59,10 @@ STALE_RESETS_BEFORE_MISMATCH = 3
 same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
 a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
 a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
+STATES_KEPT = 64
+"""STATE frames taken that the session keeps, newest last (:meth:`InboundMixin.states_taken`):
+a reader of the state folds those it has not seen, so that a reading fresh in one of them
+only is not lost (640 ms at a 10 ms state period)."""
 BAD_STATES_BEFORE_MISMATCH = 3
 """STATE frames in a row (no good STATE between) whose CRC is good but whose length is
 not the layout's before the session ends on a protocol mismatch. One could be line
@@ -83,6 +88,9 @@ class InboundMixin:
     _ordered: Request | None
     _hello: Request | None
     _queue: collections.deque[Request]
+    _lock: threading.RLock
+    # the STATEs taken, with their arrival, newest last (see states_taken)
+    _taken: collections.deque[tuple[State, float]] | None = None
     _answered: int
     _stale_run: int
     _flags: BridgeFlags
@@ -135,6 +143,12 @@ class InboundMixin:
         """The bridge's own ``ESTOP`` flag (not inferred from ``ESTOP_INPUT``): whether an
         ``ESTOP`` would change anything."""
         return bool(self._flags & BridgeFlags.ESTOP)
+
+    def states_taken(self) -> tuple[tuple[State, float], ...]:
+        """The last :data:`STATES_KEPT` ``STATE`` frames taken, oldest first, each with the
+        clock time it arrived."""
+        with self._lock:
+            return () if self._taken is None else tuple(self._taken)
 
     def refused_states(self) -> tuple[int, int, int]:
         """``STATE`` frames refused since the last one taken (or the session's start), by
@@ -466,6 +480,10 @@ class InboundMixin:
         previous_s = self._state_at_s
         self._state = item
         self._state_at_s = now
+        taken = self._taken
+        if taken is None:
+            taken = self._taken = collections.deque(maxlen=STATES_KEPT)
+        taken.append((item, now))
         self._flags = item.flags
         if bits & _LATCH_BITS == _INPUT_ONLY:
             self._input_unlatched(item.flags)

@@ -26,7 +26,7 @@ from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.away import BoardsAway
-from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
+from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
 from pirate_bt.link.inbound import STATE_REFUSALS
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -86,6 +86,7 @@ class RobotLink:
         self._unsettled: list[Request] = []  # bulks sent whose outcome is not yet taken in
         self._snapshot: RobotState | None = None
         self._snapshot_seq: int | None = None
+        self._snapshot_frame: State | None = None
         self._last_bulk: Request | None = None
         self._away = BoardsAway(robot)  # boards in TIMEOUT, and commands deferred for them
         self._deferred: set[int] = set()  # the boards the last send() deferred
@@ -121,9 +122,29 @@ class RobotLink:
             return None
         frame, arrived_s = latest
         if frame.seq != self._snapshot_seq:
-            self._snapshot = self._states.build(frame.readings(), arrived_s, self._snapshot)
+            raw = frame.readings()
+            if None in raw:
+                self._fold_missed(frame)
+            self._snapshot = self._states.build(raw, arrived_s, self._snapshot)
             self._snapshot_seq = frame.seq
+            self._snapshot_frame = frame
         return self._snapshot
+
+    def _fold_missed(self, newest: State) -> None:
+        """Fold into the snapshot, oldest first, the STATEs taken since it was built and
+        before ``newest``: a channel ``newest`` does not mark fresh keeps the reading of
+        the last STATE that did, with that STATE's arrival as its stamp, not an older
+        one's (a bridge whose poll cycle spans several state periods)."""
+        taken = self.session.states_taken()
+        start = 0
+        for i in range(len(taken) - 1, -1, -1):
+            if taken[i][0] is self._snapshot_frame:
+                start = i + 1
+                break
+        for frame, at_s in taken[start:]:
+            if frame is newest:
+                break
+            self._snapshot = self._states.build(frame.readings(), at_s, self._snapshot)
 
     def send(self, commands: Sequence[MotorCommand]) -> None:
         """Merge ``commands`` into the desired setpoints and send them in one frame.
