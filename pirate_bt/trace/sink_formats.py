@@ -86,7 +86,7 @@ class TraceFormatWriter:
         directly). A writer of a format that is not JSON text overrides this to
         decode the line (``json.loads``) and store the record its own way.
         """
-        self._file.write(line.encode("utf-8"))
+        self._file.write(line.encode("utf-8", "backslashreplace"))
         self._flush()
         if self.sync:
             os.fsync(self._file.fileno())
@@ -119,7 +119,7 @@ class JsonLinesWriter(TraceFormatWriter):
 
     def write_line(self, line: str) -> None:
         """Write one line with one ``os.write`` (the kernel has it on return)."""
-        data = line.encode("utf-8")
+        data = line.encode("utf-8", "backslashreplace")
         fd = self._file.fileno()
         written = os.write(fd, data)
         while written < len(data):  # a regular file takes it all; a pipe or a full disk may not

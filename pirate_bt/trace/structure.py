@@ -210,6 +210,18 @@ def jsonable(value: Any) -> Any:
     return repr(value)
 
 
+def recordable(value: Any) -> Any:
+    """:func:`jsonable`, or a note saying why not: a planner's blackboard value that
+    cannot be spelled (a list that holds itself, an object whose ``repr`` raises) is
+    recorded as ``"<list: not recorded: RecursionError: ...>"``; before 2026-11-30 it
+    ended the run on its first tick, naming neither the key nor the node."""
+    try:
+        return jsonable(value)
+    except Exception as exc:  # what the planner's own __repr__ or model_dump raised
+        said = str(exc)[:120]
+        return f"<{type(value).__name__}: not recorded: {type(exc).__name__}: {said}>"
+
+
 def node_parameters(behaviour: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     """Parameters worth showing for ``behaviour`` (JSON values, possibly empty)."""
     for attribute in ("parameters", "params"):

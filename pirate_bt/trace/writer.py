@@ -95,7 +95,7 @@ from pirate_bt.trace.sink import (
     encode_json,
     encode_value,
 )
-from pirate_bt.trace.structure import TreeStructure, jsonable, tree_structure
+from pirate_bt.trace.structure import TreeStructure, jsonable, recordable, tree_structure
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -472,7 +472,7 @@ class TraceRecorder:
             return None  # nothing written since the last tick, and no value could change in place
         changed: dict[str, Any] = {}
         for key, value in storage.items():
-            encoded = value if type(value) in _PLAIN_TYPES else jsonable(value)
+            encoded = value if type(value) in _PLAIN_TYPES else recordable(value)
             if key not in self._bb or self._bb[key] != encoded:
                 self._bb[key] = encoded
                 changed[key] = encoded
