@@ -11,6 +11,7 @@ ended the run on its first tick naming nothing.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -89,6 +90,104 @@ def _check_trace(path: Path, why: str) -> None:
     assert read.end is not None and read.end["reason"].startswith(why[:40])
 
 
+@pytest.mark.parametrize(
+    ("bad", "said"),
+    [
+        (lambda: None, "update() returned None, not a py_trees Status"),
+        (lambda: "SUCCESS", "update() returned 'SUCCESS', not a py_trees Status"),
+        (lambda: True, "update() returned True, not a py_trees Status"),
+        (_raise(SystemExit(3)), "update() raised SystemExit: 3"),
+        (_raise(GeneratorExit()), "update() raised GeneratorExit"),
+        (_raise(BaseException("base")), "update() raised BaseException: base"),
+        (_raise(StopIteration()), "update() raised StopIteration"),
+    ],
+)
+def test_a_node_that_breaks_the_contract_ends_the_run_naming_it(
+    bad: Callable[[], Any], said: str, truth: list[Any], tmp_path: Path
+) -> None:
+    # was: None/'SUCCESS'/True ran on to the time limit (why naming nothing);
+    # SystemExit, GeneratorExit, BaseException raised out of simulate_tree with the
+    # robot at 36 mm/s and the trace empty; StopIteration named root/par
+    trace = tmp_path / "t.jsonl"
+    result = pirate_bt.simulate_tree(_driving(_late("my node", bad)), max_time="4 s", trace=trace)
+    assert result.failing_node == "root/par/my node"
+    assert result.why.startswith(f"BehaviourBroke in root/par/my node: {said}"), result.why
+    assert result.exit_code == 1 and result.safe_state
+    assert truth[0].velocity_mps == 0.0
+    _check_trace(trace, result.why)
+
+
+def test_sys_exit_in_terminate_leaves_the_robot_at_rest(truth: list[Any], tmp_path: Path) -> None:
+    class ExitsOnStop(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            return Status.RUNNING
+
+        def terminate(self, new_status: Status) -> None:
+            sys.exit("bye")
+
+    # was: SystemExit out of simulate_tree as the time limit stopped the nodes, the
+    # robot still at 76 mm/s
+    result = pirate_bt.simulate_tree(
+        _driving(ExitsOnStop("exits")), max_time="3 s", trace=tmp_path / "t.jsonl"
+    )
+    assert result.stop == "time_limit" and result.safe_state
+    assert truth[0].velocity_mps == 0.0
+    _check_trace(tmp_path / "t.jsonl", result.why)
+
+
+def test_a_tick_of_its_own_that_sets_no_status_is_named(tmp_path: Path) -> None:
+    class OwnTick(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            return Status.RUNNING
+
+        def tick(self) -> Any:
+            self.status = "WEIRD"
+            yield self
+
+    # was: "KeyError: 'WEIRD'" from the trace's coverage, no node, the trace empty
+    result = pirate_bt.simulate_tree(OwnTick("own"), max_time="1 s", trace=tmp_path / "t.jsonl")
+    assert result.failing_node == "own"
+    assert (
+        result.why == "BehaviourBroke in own: tick() left its status 'WEIRD', not a py_trees Status"
+    )
+    _check_trace(tmp_path / "t.jsonl", result.why)
+
+
+def test_an_observers_hook_that_exits_leaves_the_robot_at_rest(
+    truth: list[Any], tmp_path: Path
+) -> None:
+    class Runs(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            return Status.RUNNING
+
+    def observe(runner: Any, _connection: Any) -> None:
+        def hook(info: Any) -> None:
+            if info.tick == 70:
+                raise SystemExit("observer quits")
+
+        runner.add_post_tick(hook)
+
+    # was: SystemExit out of simulate_tree, the robot at 76 mm/s, the trace empty
+    result = pirate_bt.simulate_tree(
+        _driving(Runs("runs")), max_time="5 s", observe=observe, trace=tmp_path / "t.jsonl"
+    )
+    assert result.why.startswith("BehaviourBroke: a post-tick hook raised SystemExit"), result.why
+    assert result.safe_state and truth[0].velocity_mps == 0.0
+    _check_trace(tmp_path / "t.jsonl", result.why)
+
+
+def test_a_feedback_message_of_any_length_keeps_the_why_one_line() -> None:
+    class Says(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            self.feedback_message = "x" * 100_000 + "\nline two\x00"
+            return Status.FAILURE
+
+    # was: the why was the whole 100 kB message, on two lines
+    result = pirate_bt.simulate_tree(Says("says"), max_time="1 s")
+    assert "\n" not in result.why and len(result.why) < 1100
+    assert result.why.endswith("... (99014 more characters)"), result.why[-60:]
+
+
 def test_a_name_that_is_no_utf8_is_traced_escaped(tmp_path: Path) -> None:
     class Fails(py_trees.behaviour.Behaviour):
         def update(self) -> Status:
@@ -99,7 +198,7 @@ def test_a_name_that_is_no_utf8_is_traced_escaped(tmp_path: Path) -> None:
     # and the why the writer's UnicodeEncodeError
     trace = tmp_path / "t.jsonl"
     result = pirate_bt.simulate_tree(Fails("says \udcff"), max_time="1 s", trace=trace)
-    assert result.status == "failure"
+    assert result.why == r"bad \udcff byte"
     read = pirate_bt.read_trace(trace)
     assert read.end is not None and read.end["outcome"] == "failure"
     assert r'"name":"says \udcff"' in trace.read_text("utf-8")  # a JSON escape

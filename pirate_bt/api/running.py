@@ -237,7 +237,9 @@ def _bind(root: py_trees.behaviour.Behaviour, connection: Any, clock: Any) -> No
 
 
 def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
-    """The tree built (a ``LoadedTree``) or bound (a behaviour) on the run's clock."""
+    """The tree built (a ``LoadedTree``) or bound (a behaviour) on the run's clock; a
+    planner's own behaviours in it held to the run's contract (``hold_to_contract``)."""
+    from pirate_bt.behaviours.foreign import hold_to_contract
     from pirate_bt.treefile import LoadedTree
 
     if isinstance(tree, LoadedTree):
@@ -249,8 +251,11 @@ def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
             clock=clock,
             supervisor=None if connection is None else connection.supervisor,
         )
-        return dataclasses.replace(tree, root=build(tree.spec, context))
+        root = build(tree.spec, context)
+        hold_to_contract(root)
+        return dataclasses.replace(tree, root=root)
     _bind(_root(tree), connection, clock)
+    hold_to_contract(_root(tree))
     return tree
 
 
@@ -348,6 +353,7 @@ def run_on(
     The result's counters count this run only, unless ``count_from_open``: then they
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
+    from pirate_bt.behaviours.foreign import contain_hooks
     from pirate_bt.safety.tally import Counters, VerdictTally
 
     period_s, max_time_s = run_limits(max_time, rate)
@@ -390,6 +396,7 @@ def run_on(
         _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
         observe(runner, connection)
+        contain_hooks(runner)
     held = supervisor.safe_state_reason if supervisor is not None else None
     try:
         loop = runner.run()
@@ -424,7 +431,7 @@ def run_on(
         tree=_name(checked),
         status=loop.outcome,
         stop=loop.reason,
-        why=why,
+        why=one_line(why),
         failing_node=failing,
         sim_time_s=loop.sim_time_s,
         wall_s=loop.wall_time_s,
@@ -438,6 +445,24 @@ def run_on(
         loop=loop,
         coverage=coverage.coverage(),
     )
+
+
+WHY_LIMIT = 1000
+"""The most characters of a run's why: a planner's feedback message or node name can be
+any text (100 kB, several lines); the why stays one line a terminal can print."""
+
+
+def one_line(text: str, limit: int = WHY_LIMIT) -> str:
+    """``text`` as one printable line of at most about ``limit`` characters: line breaks
+    and other control characters escaped (``\\n``), text that is no UTF-8 (a lone
+    surrogate) escaped, the rest cut with how much was left out."""
+    if text.isprintable() and len(text) <= limit:
+        return text  # the usual why, as it was
+    flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    flat = flat.encode("utf-8", "backslashreplace").decode("utf-8")
+    if len(flat) > limit:
+        flat = f"{flat[:limit]}... ({len(flat) - limit} more characters)"
+    return flat
 
 
 def check_run_options(

@@ -1,0 +1,155 @@
+"""Behaviours written outside pirate_bt and py_trees, held to what a run promises.
+
+A run ticks whatever ``py_trees`` behaviour a planner gives it. py_trees itself lets a
+planner's own class break a run in ways that name nothing:
+
+- ``update()`` returning something that is no ``Status`` (``None`` from a missing
+  ``return``, ``"SUCCESS"``, ``True``): py_trees logs an error on every tick and sets the
+  node INVALID, and the run went on to its time limit, its why naming neither the node
+  nor what it returned;
+- a method raising what is no ``Exception`` (``SystemExit`` from ``sys.exit()``,
+  ``GeneratorExit``, a bare ``BaseException``): it went past the runner, which stops a
+  run for an ``Exception`` only, and out of ``simulate_tree`` with the robot still
+  driving and the trace empty;
+- ``StopIteration`` (``next()`` on an empty iterator): the parent's tick generator
+  turned it into *RuntimeError: generator raised StopIteration*, naming the parent or
+  nothing;
+- a ``tick()`` of its own setting a status that is no ``Status``: the trace's coverage
+  failed on it (*KeyError: 'WEIRD'*), naming nothing.
+
+:func:`hold_to_contract` wraps such a node's ``initialise``, ``update``, ``terminate``
+(and an overridden ``tick``) on the instance so that each of these raises an ordinary
+exception naming the method and what it did; the runner then ends the run as for any
+behaviour that raises (the node's path in ``failing_node`` and the why, the robot left in
+its safe state, the trace complete). ``KeyboardInterrupt`` passes unchanged (a Ctrl-C).
+pirate_bt's own nodes and py_trees' are left as they are: their ticks cost nothing more.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+__all__ = ["BehaviourBroke", "contain_hooks", "contained", "hold_to_contract"]
+
+_STATUSES = frozenset(Status)
+_OWN = ("pirate_bt.", "py_trees.")
+_MARK = "_pirate_bt_held"
+_TICKS = {
+    py_trees.behaviour.Behaviour.tick,
+    py_trees.composites.Composite.tick,
+    py_trees.composites.Sequence.tick,
+    py_trees.composites.Selector.tick,
+    py_trees.composites.Parallel.tick,
+    py_trees.decorators.Decorator.tick,
+}
+
+
+class BehaviourBroke(RuntimeError):
+    """A planner's behaviour did what no behaviour may (see the module's text)."""
+
+
+def _foreign(node: py_trees.behaviour.Behaviour) -> bool:
+    module = type(node).__module__ or ""
+    return not module.startswith(_OWN)
+
+
+def _what(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _escaped(what: str, exc: BaseException) -> BehaviourBroke:
+    said = f": {exc}" if str(exc) else ""
+    hint = (
+        "an iterator ran out; catch StopIteration where it is called"
+        if isinstance(exc, StopIteration | StopAsyncIteration)
+        else "to end a run, raise an Exception or return Status.FAILURE"
+    )
+    return BehaviourBroke(f"{what} raised {type(exc).__name__}{said} ({hint})")
+
+
+def _passes(exc: BaseException) -> bool:
+    """True for what goes on as raised: a Ctrl-C, and every Exception but StopIteration."""
+    if isinstance(exc, KeyboardInterrupt):
+        return True
+    return isinstance(exc, Exception) and not isinstance(exc, StopIteration | StopAsyncIteration)
+
+
+def _checked(what: str, call: Callable[..., Any], returns_status: bool) -> Callable[..., Any]:
+    @functools.wraps(call)
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        try:
+            value = call(*args, **kwargs)
+        except BaseException as exc:
+            if _passes(exc):
+                raise
+            raise _escaped(what, exc) from exc
+        if returns_status and value not in _STATUSES:
+            raise BehaviourBroke(
+                f"{what} returned {_what(value)}, not a py_trees Status"
+                " (Status.RUNNING, Status.SUCCESS or Status.FAILURE)"
+            )
+        return value
+
+    return checked
+
+
+def contained(what: str, call: Callable[..., Any]) -> Callable[..., Any]:
+    """``call`` (a planner's hook, say) raising an ordinary exception for what no code
+    run by a tick may raise (``SystemExit``, ``GeneratorExit``, ``StopIteration``...),
+    named ``what`` (*a post-tick hook raised SystemExit: ...*)."""
+    if getattr(call, _MARK, False):
+        return call
+    checked = _checked(what, call, False)
+    setattr(checked, _MARK, True)
+    return checked
+
+
+def _checked_tick(node: py_trees.behaviour.Behaviour) -> Callable[[], Iterator[Any]]:
+    tick = node.tick
+
+    @functools.wraps(tick)
+    def checked_tick() -> Iterator[Any]:
+        self = node  # the runner names the deepest behaviour called ``self`` on a traceback
+        try:
+            yield from tick()
+        except BaseException as exc:
+            if _passes(exc) or isinstance(exc, GeneratorExit):  # closed: not its doing
+                raise
+            raise _escaped("tick()", exc) from exc
+        if self.status not in _STATUSES:
+            left = self.status
+            self.status = Status.INVALID  # what the trace and the runner's stop can read
+            raise BehaviourBroke(f"tick() left its status {_what(left)}, not a py_trees Status")
+
+    return checked_tick
+
+
+def hold_to_contract(root: py_trees.behaviour.Behaviour) -> None:
+    """Wrap every node under ``root`` whose class is a planner's own (idempotent)."""
+    for node in root.iterate():
+        if not _foreign(node) or getattr(node, _MARK, False):
+            continue
+        attrs = vars(node)
+        attrs["initialise"] = _checked("initialise()", node.initialise, False)
+        attrs["update"] = _checked("update()", node.update, True)
+        attrs["terminate"] = _checked("terminate()", node.terminate, False)
+        if type(node).tick not in _TICKS:
+            attrs["tick"] = _checked_tick(node)
+        attrs[_MARK] = True
+
+
+def contain_hooks(runner: Any) -> None:
+    """Every hook of ``runner`` (a :class:`~pirate_bt.runner.Runner`) :func:`contained`:
+    a planner's hooks (``simulate_tree(observe=...)``) that raise ``SystemExit`` and the
+    like end the run as an exception does, the robot left safe and the trace written,
+    rather than going past the runner (which stops for an ``Exception``) with the robot
+    driving and the trace empty."""
+    runner.pre_tick[:] = [contained("a pre-tick hook", h) for h in runner.pre_tick]
+    runner.post_tick[:] = [contained("a post-tick hook", h) for h in runner.post_tick]
+    runner.finish[:] = [contained("a finish hook", h) for h in runner.finish]
