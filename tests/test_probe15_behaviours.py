@@ -232,3 +232,19 @@ def test_a_blackboard_value_the_trace_cannot_spell_is_noted_not_fatal(
     result = pirate_bt.simulate_tree(Writes("writes"), max_time="1 s", trace=trace)
     assert result.status == "success", result.why
     assert "not recorded: " in trace.read_text("utf-8")
+
+
+def test_sys_exit_in_setup_is_named(tmp_path: Path) -> None:
+    class ExitsInSetup(py_trees.behaviour.Behaviour):
+        def setup(self, **kwargs: Any) -> None:
+            sys.exit("no hardware")
+
+        def update(self) -> Status:
+            return Status.RUNNING
+
+    # was: SystemExit out of simulate_tree, the trace empty
+    trace = tmp_path / "t.jsonl"
+    result = pirate_bt.simulate_tree(_driving(ExitsInSetup("exits")), max_time="1 s", trace=trace)
+    assert result.failing_node == "root/par/exits"
+    assert "setup() raised SystemExit: no hardware" in result.why
+    _check_trace(trace, result.why)

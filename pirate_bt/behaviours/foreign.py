@@ -17,7 +17,7 @@ planner's own class break a run in ways that name nothing:
 - a ``tick()`` of its own setting a status that is no ``Status``: the trace's coverage
   failed on it (*KeyError: 'WEIRD'*), naming nothing.
 
-:func:`hold_to_contract` wraps such a node's ``initialise``, ``update``, ``terminate``
+:func:`hold_to_contract` wraps such a node's ``setup``, ``initialise``, ``update``, ``terminate``
 (and an overridden ``tick``) on the instance so that each of these raises an ordinary
 exception naming the method and what it did; the runner then ends the run as for any
 behaviour that raises (the node's path in ``failing_node`` and the why, the robot left in
@@ -80,9 +80,12 @@ def _passes(exc: BaseException) -> bool:
     return isinstance(exc, Exception) and not isinstance(exc, StopIteration | StopAsyncIteration)
 
 
-def _checked(what: str, call: Callable[..., Any], returns_status: bool) -> Callable[..., Any]:
+def _checked(
+    what: str, call: Callable[..., Any], returns_status: bool, node: object = None
+) -> Callable[..., Any]:
     @functools.wraps(call)
     def checked(*args: Any, **kwargs: Any) -> Any:
+        self = node  # noqa: F841 - the runner names the deepest behaviour called ``self``
         try:
             value = call(*args, **kwargs)
         except BaseException as exc:
@@ -136,9 +139,10 @@ def hold_to_contract(root: py_trees.behaviour.Behaviour) -> None:
         if not _foreign(node) or getattr(node, _MARK, False):
             continue
         attrs = vars(node)
-        attrs["initialise"] = _checked("initialise()", node.initialise, False)
-        attrs["update"] = _checked("update()", node.update, True)
-        attrs["terminate"] = _checked("terminate()", node.terminate, False)
+        attrs["setup"] = _checked("setup()", node.setup, False, node)
+        attrs["initialise"] = _checked("initialise()", node.initialise, False, node)
+        attrs["update"] = _checked("update()", node.update, True, node)
+        attrs["terminate"] = _checked("terminate()", node.terminate, False, node)
         if type(node).tick not in _TICKS:
             attrs["tick"] = _checked_tick(node)
         attrs[_MARK] = True
