@@ -190,7 +190,9 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._base_channels = self._expander.base_channels
         self._holding: set[Half] = set()  # halves clamped by the protective hold
         self._hold_refused: set[Half] = set()  # a protective clamp refused (logged once)
+        self._hold_clearing = False  # the hold tilts the front module clear to clamp it
         self._ever_held = False  # a half has held the robot since the start
+        self._run_ended = False  # a run ended: no tree's first clamp is on its way now
         self._hold_sent_s = -math.inf  # when the latest protective clamp was sent
         self._was_steep = False  # the pitch was over the unclamped limit on the last tick
         self._hold_torque = hold_torque(self.robot)

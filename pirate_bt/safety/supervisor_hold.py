@@ -12,8 +12,10 @@ kept) and clamps every half that is not holding, at :data:`HOLD_TORQUE_FRACTION`
 the bend joints' torque limit, sent to the link directly (a board that cannot be
 reached is tried again next tick) but only where the invariants allow it (the front
 half does not clamp with the front module in the way). Without a pitch reading it
-does nothing (it cannot tell a steep pipe); nor for a robot set down free, before
-any half held (its tree's first clamp is on its way).
+does nothing (it cannot tell a steep pipe); nor, while a run goes on, for a robot set
+down free, before any half held (its tree's first clamp is on its way): the end of the
+run clamps that one (:meth:`HoldMixin.come_to_rest`). A front half whose module is in
+its way is clamped once the hold has tilted the module clear.
 """
 
 from __future__ import annotations
@@ -34,11 +36,13 @@ from pirate_bt.safety.checks import (
     ClampState,
     HalfTarget,
     Problem,
+    check_steep_pipe,
     half_states,
     stale_channels,
 )
-from pirate_bt.safety.commands import Clamp
+from pirate_bt.safety.commands import Clamp, MoveFrontClear
 from pirate_bt.safety.expand import Expander
+from pirate_bt.safety.limits import limit
 from pirate_bt.safety.operator import Mode
 from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
 
@@ -106,7 +110,9 @@ class HoldMixin:
     _last_setpoint: dict[str, tuple[ControlMode, float, float]]
     _holding: set[Half]
     _hold_refused: set[Half]
+    _hold_clearing: bool
     _ever_held: bool
+    _run_ended: bool
     _hold_sent_s: float
     _was_steep: bool
     _hold_torque: float
@@ -127,12 +133,13 @@ class HoldMixin:
     @property
     def holding(self) -> bool:
         """True while a protective clamp is on its way and no half holds yet."""
-        return bool(self._holding)
+        return bool(self._holding) or self._hold_clearing
 
     def end_safe(self, reason: str) -> None:
         """The safe state at the end of a run that did not succeed: :meth:`safe_state`
         (the first cause kept), then :meth:`settle_hold`."""
         self.safe_state(reason)
+        self._hold_at_end()
         self.settle_hold()
 
     def settle_hold(self, step_s: float = 0.05) -> bool:
@@ -145,10 +152,10 @@ class HoldMixin:
             True when no protective clamp is pending any more.
         """
         deadline = self.clock.now() + HOLD_SETTLE_S
-        while self._holding and self.clock.now() < deadline:
+        while self.holding and self.clock.now() < deadline:
             self.clock.sleep(step_s)
             self.tick()
-        return not self._holding
+        return not self.holding
 
     def come_to_rest(self) -> bool:
         """At the end of a run, whatever its outcome: is the robot at rest yet?
@@ -165,13 +172,29 @@ class HoldMixin:
             wheel can be read (the link lost, every speed stale) and no clamp is
             landing: there is nothing to wait for that could be seen.
         """
+        self._hold_at_end()
         if any(
             (s := self._last_setpoint.get(m.name)) is not None and s[1] != 0.0
             for m in self.robot.drive_motors()
         ):
             self._send_stop()
             log.info("end of run: the drives were still set to turn; stopped")
-        return not self._holding and self._wheels_still() is not False
+        return not self.holding and self._wheels_still() is not False
+
+    def _hold_at_end(self) -> None:
+        """The end of a run, once: the protective hold for a robot no half has held yet.
+
+        A robot set down free in a steep pipe is left to its tree's first clamp while
+        the tree runs. When the run ends before that clamp held (its board reset, its
+        joint stalled, the tree failed first), no clamp is on its way any more: the hold
+        clamps then, as for a robot that lost its hold, and the end waits for it.
+        """
+        if self._ever_held or self._run_ended:
+            return  # only a robot never held: the others were watched every tick
+        self._run_ended = True
+        state = self._port.state()
+        if state is not None and self._port.health().connected:
+            self._hold_in_steep_pipe(state, self.clock.now())
 
     def _wheels_still(self) -> bool | None:
         """Every drive with a fresh speed reads still; None when none reads fresh.
@@ -213,7 +236,7 @@ class HoldMixin:
         was_steep = self._was_steep
         self._was_steep = False
         if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
-            if self._holding:
+            if self.holding:
                 if (
                     now_s - self._hold_sent_s < HOLD_SETTLE_S
                     and not self._halves_holding(state, now_s)[1]
@@ -226,6 +249,7 @@ class HoldMixin:
                     # slide ended.
                     return
                 self._holding.clear()
+                self._hold_clearing = False
                 return
             if pitch is None or not was_steep or self._halves_holding(state, now_s)[1]:
                 return
@@ -239,12 +263,14 @@ class HoldMixin:
         halves, holding = self._halves_holding(state, now_s)
         if holding:
             self._holding.clear()
+            self._hold_clearing = False
             self._hold_refused.clear()  # a later episode logs its refusals again
             self._ever_held = True
             return
-        if not self._ever_held or self._mode is Mode.ESTOP:
+        if not (self._ever_held or self._run_ended) or self._mode is Mode.ESTOP:
             # never held yet (a robot set down free in a steep pipe: clamping is its
-            # tree's first step, and a clamp on its way is no fault), or latched
+            # tree's first step, and a clamp on its way is no fault) while a run goes
+            # on, or latched
             return
         todo = [h for h in Half if h not in self._holding]
         if not todo:
@@ -256,6 +282,12 @@ class HoldMixin:
         self.safe_state(cause)  # the drives stop first; a first cause before stays first
         ctx = CheckContext(self.robot, state, now_s, halves, dict(self._targets))
         for half in todo:
+            if (
+                half is Half.FRONT
+                and self._hold_clearing
+                and not self._move_front_clear(ctx, cause)
+            ):
+                continue  # the clamp waits until the whole tilt is sent, as a tree's does
             command = Clamp(half, self._hold_torque)
             intent = self._expander.expand(command, state)
             problem = (
@@ -265,7 +297,14 @@ class HoldMixin:
             )
             if problem is not None or isinstance(intent, Problem):
                 # the invariants still hold: the front half does not clamp with the front
-                # module in the way (it would press the module into the wall)
+                # module in the way (it would press the module into the wall): the module
+                # is tilted clear first, and the clamp tried again on the next ticks
+                if (
+                    problem is not None
+                    and problem.reason is Reason.FRONT_NOT_CLEAR
+                    and not self._hold_clearing
+                ):
+                    self._move_front_clear(ctx, cause)
                 if half not in self._hold_refused:
                     self._hold_refused.add(half)
                     log.error("protective clamp of the %s half refused: %s", half, problem)
@@ -277,6 +316,8 @@ class HoldMixin:
                 log.error("could not clamp the %s half: %s", half, exc)
                 continue
             self._holding.add(half)
+            if half is Half.FRONT:
+                self._hold_clearing = False
             self._hold_sent_s = now_s
             self._targets[half] = HalfTarget.CLAMP
             for c in cmds:
@@ -292,3 +333,51 @@ class HoldMixin:
                     detail=f"protective clamp: {cause} the {half} half",
                 )
             )
+
+    def _move_front_clear(self, ctx: CheckContext, cause: str) -> bool:
+        """Tilt the front module clear so that the protective clamp of the front half may
+        land: a robot set down free has its module in front of it until its tree's first
+        steps move it. Checked as the clamp is (the module leaves no clamped half's way),
+        rate limited as a tree's tilt, sent every tick until the whole tilt is sent.
+
+        Returns:
+            True once the tilt's target itself has been sent (not a step toward it).
+        """
+        state, now_s = ctx.state, ctx.now_s
+        tilt = state.front_tilt_rad
+        command = MoveFrontClear(-1 if tilt is not None and tilt < 0 else 1)
+        intent = self._expander.expand(command, state)
+        if isinstance(intent, Problem):
+            return False
+        # check_steep_pipe asks for a clamp first, and this tilt is what lets the clamp
+        # land (it moves no wheel): the other checks hold as for any tilt
+        if any(c(ctx, intent) is not None for c in self._checks if c is not check_steep_pipe):
+            return False
+        cmds: list[MotorCommand] = []
+        for mc in intent.motor_commands:
+            limited = limit(self.robot, self._last_setpoint, mc, state, now_s)
+            if isinstance(limited, Problem):
+                return False
+            cmds.append(MotorCommand(mc.motor, mc.mode, limited[0]))
+        try:
+            self._port.send(cmds)
+        except LinkError as exc:  # its board is away: again next tick
+            log.error("could not tilt the front module clear: %s", exc)
+            return False
+        for c in cmds:
+            self._last_setpoint[c.motor] = (c.mode, c.value, now_s)
+        if not self._hold_clearing:
+            self._hold_clearing = True
+            self._hold_sent_s = now_s
+            log.warning("protective hold: the front module tilts clear: %s", cause)
+            self._record(
+                Verdict(
+                    Outcome.PASS,
+                    command,
+                    Source.SUPERVISOR,
+                    sent=tuple(cmds),
+                    reason=Reason.STEEP_PIPE_UNCLAMPED,
+                    detail=f"protective hold: {cause}; the front module tilts clear first",
+                )
+            )
+        return all(c.value == mc.value for c, mc in zip(cmds, intent.motor_commands, strict=True))
