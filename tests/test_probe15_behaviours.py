@@ -248,3 +248,30 @@ def test_sys_exit_in_setup_is_named(tmp_path: Path) -> None:
     assert result.failing_node == "root/par/exits"
     assert "setup() raised SystemExit: no hardware" in result.why
     _check_trace(trace, result.why)
+
+
+class _NoText:
+    def __repr__(self) -> str:
+        raise RuntimeError("repr boom")
+
+    __str__ = __repr__
+
+
+@pytest.mark.parametrize(
+    ("message", "why"), [(42, "42"), (_NoText(), "<_NoText: its str() raised")]
+)
+def test_a_feedback_message_that_is_no_text_is_the_why_as_text(
+    message: Any, why: str, tmp_path: Path
+) -> None:
+    class Says(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            self.feedback_message = message
+            return Status.FAILURE
+
+    # was: the why was the int 42 (and the trace's end reason); an object whose repr
+    # raises ended the run in the trace writer, "RuntimeError: repr boom", no node
+    trace = tmp_path / "t.jsonl"
+    result = pirate_bt.simulate_tree(Says("says"), max_time="1 s", trace=trace)
+    assert isinstance(result.why, str) and result.why.startswith(why), result.why
+    assert result.failing_node == "says"
+    _check_trace(trace, result.why)

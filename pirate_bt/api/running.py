@@ -353,7 +353,7 @@ def run_on(
     The result's counters count this run only, unless ``count_from_open``: then they
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
-    from pirate_bt.behaviours.foreign import contain_hooks
+    from pirate_bt.behaviours.foreign import as_text, contain_hooks, one_line
     from pirate_bt.safety.tally import Counters, VerdictTally
 
     period_s, max_time_s = run_limits(max_time, rate)
@@ -391,7 +391,7 @@ def run_on(
 
         def end_reason(loop: Any) -> str:
             first = tally.first_safe_state if tally is not None else None
-            return explain_run(loop, runner.tree.root, first)[0]
+            return as_text(explain_run(loop, runner.tree.root, first)[0])
 
         _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
@@ -445,24 +445,6 @@ def run_on(
         loop=loop,
         coverage=coverage.coverage(),
     )
-
-
-WHY_LIMIT = 1000
-"""The most characters of a run's why: a planner's feedback message or node name can be
-any text (100 kB, several lines); the why stays one line a terminal can print."""
-
-
-def one_line(text: str, limit: int = WHY_LIMIT) -> str:
-    """``text`` as one printable line of at most about ``limit`` characters: line breaks
-    and other control characters escaped (``\\n``), text that is no UTF-8 (a lone
-    surrogate) escaped, the rest cut with how much was left out."""
-    if text.isprintable() and len(text) <= limit:
-        return text  # the usual why, as it was
-    flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
-    flat = flat.encode("utf-8", "backslashreplace").decode("utf-8")
-    if len(flat) > limit:
-        flat = f"{flat[:limit]}... ({len(flat) - limit} more characters)"
-    return flat
 
 
 def check_run_options(

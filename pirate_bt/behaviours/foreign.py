@@ -34,7 +34,15 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-__all__ = ["BehaviourBroke", "contain_hooks", "contained", "hold_to_contract"]
+__all__ = [
+    "WHY_LIMIT",
+    "BehaviourBroke",
+    "as_text",
+    "contain_hooks",
+    "contained",
+    "hold_to_contract",
+    "one_line",
+]
 
 _STATUSES = frozenset(Status)
 _OWN = ("pirate_bt.", "py_trees.")
@@ -157,3 +165,33 @@ def contain_hooks(runner: Any) -> None:
     runner.pre_tick[:] = [contained("a pre-tick hook", h) for h in runner.pre_tick]
     runner.post_tick[:] = [contained("a post-tick hook", h) for h in runner.post_tick]
     runner.finish[:] = [contained("a finish hook", h) for h in runner.finish]
+
+
+WHY_LIMIT = 1000
+"""The most characters of a run's why: a planner's feedback message or node name can be
+any text (100 kB, several lines); the why stays one line a terminal can print."""
+
+
+def as_text(value: Any) -> str:
+    """``value`` (a why made of a planner's feedback message: ``42``, an object) as text."""
+    if isinstance(value, str):
+        return value
+    try:
+        return str(value)
+    except Exception as exc:  # a planner's feedback object whose __str__ raises
+        return f"<{type(value).__name__}: its str() raised {type(exc).__name__}>"
+
+
+def one_line(text: Any, limit: int = WHY_LIMIT) -> str:
+    """``text`` as one printable line of at most about ``limit`` characters: line breaks
+    and other control characters escaped (``\\n``), text that is no UTF-8 (a lone
+    surrogate) escaped, the rest cut with how much was left out. Not text (a feedback
+    message of ``42``): its ``str``."""
+    said = as_text(text)
+    if said.isprintable() and len(said) <= limit:
+        return said  # the usual why, as it was
+    flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in said)
+    flat = flat.encode("utf-8", "backslashreplace").decode("utf-8")
+    if len(flat) > limit:
+        flat = f"{flat[:limit]}... ({len(flat) - limit} more characters)"
+    return flat

@@ -94,7 +94,10 @@ def encode_value(value: Any) -> Any:
         return {str(k): encode_value(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [encode_value(v) for v in value]
-    return repr(value)
+    try:
+        return repr(value)
+    except Exception as exc:  # a planner's feedback object whose __repr__ raises
+        return f"<{type(value).__name__}: not recorded: {type(exc).__name__}>"
 
 
 def rounded_json(value: Any) -> tuple[Any, str]:
