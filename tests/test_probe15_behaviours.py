@@ -275,3 +275,12 @@ def test_a_feedback_message_that_is_no_text_is_the_why_as_text(
     assert isinstance(result.why, str) and result.why.startswith(why), result.why
     assert result.failing_node == "says"
     _check_trace(trace, result.why)
+
+
+def test_a_node_is_handed_back_unwrapped_and_held_again_on_the_next_run() -> None:
+    node = _late("mine", lambda: None)
+    for _ in range(2):
+        result = pirate_bt.simulate_tree(node, max_time="1 s")
+        assert result.failing_node == "mine" and "update() returned None" in result.why
+        # a copy made after the run calls its own update, not the wrapper's node's
+        assert "update" not in vars(node) and "_pirate_bt_held" not in vars(node)

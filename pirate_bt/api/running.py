@@ -329,6 +329,9 @@ def supervised_runner(
     )
     if supervisor is not None:
         runner.add_pre_tick(lambda _info: supervisor.tick())
+    from pirate_bt.behaviours.foreign import let_go
+
+    runner.add_finish(lambda _result: let_go(_root(built)))
     return runner
 
 

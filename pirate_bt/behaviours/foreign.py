@@ -41,6 +41,7 @@ __all__ = [
     "contain_hooks",
     "contained",
     "hold_to_contract",
+    "let_go",
     "one_line",
 ]
 
@@ -141,19 +142,37 @@ def _checked_tick(node: py_trees.behaviour.Behaviour) -> Callable[[], Iterator[A
     return checked_tick
 
 
+_HELD = ("setup", "initialise", "update", "terminate", "tick")
+
+
 def hold_to_contract(root: py_trees.behaviour.Behaviour) -> None:
-    """Wrap every node under ``root`` whose class is a planner's own (idempotent)."""
+    """Wrap every node under ``root`` whose class is a planner's own (idempotent);
+    :func:`let_go` undoes it."""
     for node in root.iterate():
-        if not _foreign(node) or getattr(node, _MARK, False):
+        if not _foreign(node) or _MARK in vars(node):
             continue
         attrs = vars(node)
+        kept = {name: attrs[name] for name in _HELD if name in attrs}
         attrs["setup"] = _checked("setup()", node.setup, False, node)
         attrs["initialise"] = _checked("initialise()", node.initialise, False, node)
         attrs["update"] = _checked("update()", node.update, True, node)
         attrs["terminate"] = _checked("terminate()", node.terminate, False, node)
         if type(node).tick not in _TICKS:
             attrs["tick"] = _checked_tick(node)
-        attrs[_MARK] = True
+        attrs[_MARK] = kept
+
+
+def let_go(root: py_trees.behaviour.Behaviour) -> None:
+    """Undo :func:`hold_to_contract` at the end of a run: the planner's nodes as they
+    were (a copy made of them later calls its own methods, not the wrappers' nodes)."""
+    for node in root.iterate():
+        attrs = vars(node)
+        kept = attrs.pop(_MARK, None)
+        if kept is None:
+            continue
+        for name in _HELD:
+            attrs.pop(name, None)
+        attrs.update(kept)
 
 
 def contain_hooks(runner: Any) -> None:
