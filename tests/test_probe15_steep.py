@@ -26,6 +26,7 @@ from pirate_bt.safety.testing import FakePort
 from pirate_bt.sim import Simulator
 
 ROBOT = load_robot()
+DROP = Path(__file__).parent / "data" / "networks" / "drop.yaml"
 
 
 def _hold_verdicts(sup: Supervisor) -> list[str]:
@@ -98,3 +99,49 @@ def test_a_run_that_fails_before_its_first_clamp_on_a_slope_hands_back_a_held_ro
     # was: sliding, neither half clamped, on a 45° slope
     assert not truth.sliding and truth.velocity_mps == 0.0
     assert truth.halves["front"].clamped
+
+
+def test_a_robot_held_on_the_level_that_reaches_a_steep_pipe_unheld_is_clamped() -> None:
+    # The rear half alone held the robot going down into a drop and lost its hold as
+    # the pitch crossed the limit: the first steep tick saw no half holding. The hold
+    # counted a robot as held only on a steep tick, so it took it for one set down free
+    # and left it to slide (the drive's grip check failed it 0.05 m later).
+    clock = SimClock(100.0)
+    port = FakePort(ROBOT, clock)
+    port.clamp_half(Half.REAR)
+    sup = Supervisor(port, clock)
+    sup.tick()  # level, held by the rear half
+    port.free_half(Half.REAR, angle_rad=ROBOT.clamp.contact_angle(0.063))  # stalled: 0 N
+    port.set_pitch(math.radians(-13))
+    clock.advance(0.05)
+    sup.tick()
+    said = _hold_verdicts(sup)
+    assert any(d.endswith("the supervisor clamps the rear half") for d in said), said
+    assert sup.holding and sup.safe_state_reason is not None
+    assert sup.safe_state_reason.startswith("steep_pipe_unclamped")
+
+
+def test_a_stall_as_the_drop_begins_is_caught_by_the_hold(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    seen: list[Any] = []
+    close = Simulator.close
+
+    def closing(self: Simulator) -> None:
+        if not seen:
+            seen.append(self.counters())
+        close(self)
+
+    monkeypatch.setattr(Simulator, "close", closing)
+    route = tmp_path / "drop.route"
+    route.write_text(
+        "network drop\nat the bend turn down\nat the bend turn up\ninspect 0.5 m\n",
+        encoding="utf-8",
+    )
+    result = pirate_bt.simulate_mission(
+        route, network=DROP, faults="motor_stall:bend_3_joint@20.2s"
+    )
+    # was: "grip lost: no half holds the robot: bend_3 presses 0.0 N ...", after a
+    # slide of 0.326 m (and before the end-of-run hold, on and on)
+    assert result.why.startswith("steep_pipe_unclamped"), result.why
+    assert seen[0].slide_m < 0.3

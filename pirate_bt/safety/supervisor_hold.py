@@ -236,6 +236,10 @@ class HoldMixin:
         was_steep = self._was_steep
         self._was_steep = False
         if pitch is None or abs(pitch) <= self.robot.motion.max_unclamped_slope:
+            if not self._ever_held and self._halves_holding(state, now_s)[1]:
+                # held on the level: a robot that reaches a steep pipe held by nothing
+                # later lost its hold there (its first steep tick may be after the fault)
+                self._ever_held = True
             if self.holding:
                 if (
                     now_s - self._hold_sent_s < HOLD_SETTLE_S
