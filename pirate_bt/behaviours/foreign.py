@@ -204,13 +204,14 @@ def as_text(value: Any) -> str:
 def one_line(text: Any, limit: int = WHY_LIMIT) -> str:
     """``text`` as one printable line of at most about ``limit`` characters: line breaks
     and other control characters escaped (``\\n``), text that is no UTF-8 (a lone
-    surrogate) escaped, the rest cut with how much was left out. Not text (a feedback
+    surrogate) escaped, the middle of a longer one left out (saying how much). Not text (a feedback
     message of ``42``): its ``str``."""
     said = as_text(text)
     if said.isprintable() and len(said) <= limit:
         return said  # the usual why, as it was
     flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in said)
     flat = flat.encode("utf-8", "backslashreplace").decode("utf-8")
-    if len(flat) > limit:
-        flat = f"{flat[:limit]}... ({len(flat) - limit} more characters)"
+    if len(flat) > limit:  # the middle left out: a long node name comes before its cause
+        half = limit // 2
+        flat = f"{flat[:half]}...({len(flat) - 2 * half} characters)...{flat[-half:]}"
     return flat
