@@ -73,20 +73,34 @@ def _what(value: Any) -> str:
 
 
 def _escaped(what: str, exc: BaseException) -> BehaviourBroke:
-    said = f": {exc}" if str(exc) else ""
-    hint = (
-        "an iterator ran out; catch StopIteration where it is called"
-        if isinstance(exc, StopIteration | StopAsyncIteration)
-        else "to end a run, raise an Exception or return Status.FAILURE"
-    )
+    text = _said(exc)
+    said = f": {text}" if text else ""
+    if text is None:
+        hint = "whose str() raised: it cannot say what went wrong"
+    elif isinstance(exc, StopIteration | StopAsyncIteration):
+        hint = "an iterator ran out; catch StopIteration where it is called"
+    else:
+        hint = "to end a run, raise an Exception or return Status.FAILURE"
     return BehaviourBroke(f"{what} raised {type(exc).__name__}{said} ({hint})")
 
 
+def _said(exc: BaseException) -> str | None:
+    """``str(exc)``, or ``None`` when the exception's own ``__str__`` raises."""
+    try:
+        return str(exc)
+    except Exception:
+        return None
+
+
 def _passes(exc: BaseException) -> bool:
-    """True for what goes on as raised: a Ctrl-C, and every Exception but StopIteration."""
+    """True for what goes on as raised: a Ctrl-C, and every Exception but StopIteration
+    that can be said (the runner's message is ``f"{exc}"``: one whose ``__str__`` raised
+    went out of the runner, the robot driving)."""
     if isinstance(exc, KeyboardInterrupt):
         return True
-    return isinstance(exc, Exception) and not isinstance(exc, StopIteration | StopAsyncIteration)
+    if not isinstance(exc, Exception) or isinstance(exc, StopIteration | StopAsyncIteration):
+        return False
+    return _said(exc) is not None
 
 
 def _checked(
