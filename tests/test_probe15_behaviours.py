@@ -299,3 +299,24 @@ def test_a_huge_node_name_keeps_the_cause_in_the_why() -> None:
     node = _late("n" * 5000, _raise(SystemExit("the cause")))
     result = pirate_bt.simulate_tree(node, max_time="1 s")
     assert len(result.why) < 1100 and "raised SystemExit: the cause" in result.why
+
+
+def test_a_behaviour_that_blocks_its_tick_is_named_in_the_why() -> None:
+    import time
+
+    class Sleeps(py_trees.behaviour.Behaviour):
+        def initialise(self) -> None:
+            self.n = 0
+
+        def update(self) -> Status:
+            self.n += 1
+            if self.n == 2:
+                time.sleep(1.1)
+            return Status.RUNNING
+
+    # was: "time limit of 0.5 s reached after 11 ticks; sleeps was still running" and
+    # nothing else; on a robot's port (a reader thread feeding the bridge's watchdog)
+    # the wheels kept turning at 80 mm/s through a 3 s sleep, nothing checked
+    result = pirate_bt.simulate_tree(Sleeps("sleeps"), max_time="0.5 s")
+    assert "; a tick took more than 1 s (the first, tick 2), the longest 1.1 s:" in result.why
+    assert result.why.endswith("(on a robot the drives keep their setpoints)")

@@ -356,7 +356,7 @@ def run_on(
     The result's counters count this run only, unless ``count_from_open``: then they
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
-    from pirate_bt.behaviours.foreign import as_text, contain_hooks, one_line
+    from pirate_bt.behaviours.foreign import as_text, blocked_ticks, contain_hooks, one_line
     from pirate_bt.safety.tally import Counters, VerdictTally
 
     period_s, max_time_s = run_limits(max_time, rate)
@@ -408,6 +408,7 @@ def run_on(
             tally.detach()
     first_stop = tally.first_safe_state if tally is not None else None
     why, failing = explain_run(loop, runner.tree.root, first_stop)
+    why = as_text(why)  # a planner's feedback message may be no text (42)
     never_left = supervisor is not None and supervisor.safe_state_reason == held
     if held is not None and never_left and not loop.succeeded:
         # held in the safe state a run before this one left it in, all along: this run
@@ -430,6 +431,7 @@ def run_on(
         )
     elif supervisor is not None and (waiting := _unconfirmed(loop, supervisor)):
         why += waiting
+    why += blocked_ticks(loop)
     return RunResult(
         tree=_name(checked),
         status=loop.outcome,

@@ -38,6 +38,7 @@ __all__ = [
     "WHY_LIMIT",
     "BehaviourBroke",
     "as_text",
+    "blocked_ticks",
     "contain_hooks",
     "contained",
     "hold_to_contract",
@@ -229,3 +230,26 @@ def one_line(text: Any, limit: int = WHY_LIMIT) -> str:
         half = limit // 2
         flat = f"{flat[:half]}...({len(flat) - 2 * half} characters)...{flat[-half:]}"
     return flat
+
+
+BLOCKED_TICK_S = 1.0
+"""A tick longer than this (wall time) is named in the run's why."""
+
+
+def blocked_ticks(loop: Any) -> str:
+    """For a run (the runner's result) one of whose ticks took longer than
+    :data:`BLOCKED_TICK_S`, a clause saying so (``""`` otherwise): a behaviour that
+    sleeps or waits in its ``update`` holds the whole tick, the supervisor's checks with
+    it, and on a robot the drives keep their setpoints meanwhile."""
+    longest = float(getattr(loop, "max_tick_s", 0.0))
+    if longest <= BLOCKED_TICK_S:
+        return ""
+    ticks = [o for o in getattr(loop, "overruns", ()) if o.duration_s > BLOCKED_TICK_S]
+    count = max(len(ticks), 1)
+    first = f" (the first, tick {ticks[0].tick})" if ticks else ""
+    many = f"{count} ticks" if count > 1 else "a tick"
+    return (
+        f"; {many} took more than {BLOCKED_TICK_S:g} s{first}, the longest {longest:.1f} s:"
+        " a behaviour held the tree, and nothing was checked meanwhile (on a robot the"
+        " drives keep their setpoints)"
+    )
