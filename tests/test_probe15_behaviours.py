@@ -320,3 +320,25 @@ def test_a_behaviour_that_blocks_its_tick_is_named_in_the_why() -> None:
     result = pirate_bt.simulate_tree(Sleeps("sleeps"), max_time="0.5 s")
     assert "; a tick took more than 1 s (the first, tick 2), the longest 1.1 s:" in result.why
     assert result.why.endswith("(on a robot the drives keep their setpoints)")
+
+
+def test_a_tree_handler_that_exits_leaves_the_robot_at_rest(
+    truth: list[Any], tmp_path: Path
+) -> None:
+    class Runs(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            return Status.RUNNING
+
+    def handler(tree: py_trees.trees.BehaviourTree) -> None:
+        if tree.count > 60:
+            sys.exit("handler exit")
+
+    tree = py_trees.trees.BehaviourTree(_driving(Runs("runs")))
+    tree.add_pre_tick_handler(handler)
+    # was: SystemExit out of simulate_tree, the robot at 76 mm/s, the trace empty
+    result = pirate_bt.simulate_tree(tree, max_time="5 s", trace=tmp_path / "t.jsonl")
+    assert result.why.startswith(
+        "BehaviourBroke: a pre-tick handler of the tree raised SystemExit: handler exit"
+    ), result.why
+    assert result.safe_state and truth[0].velocity_mps == 0.0
+    _check_trace(tmp_path / "t.jsonl", result.why)

@@ -239,7 +239,7 @@ def _bind(root: py_trees.behaviour.Behaviour, connection: Any, clock: Any) -> No
 def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
     """The tree built (a ``LoadedTree``) or bound (a behaviour) on the run's clock; a
     planner's own behaviours in it held to the run's contract (``hold_to_contract``)."""
-    from pirate_bt.behaviours.foreign import hold_to_contract
+    from pirate_bt.behaviours.foreign import contain_handlers, hold_to_contract
     from pirate_bt.treefile import LoadedTree
 
     if isinstance(tree, LoadedTree):
@@ -256,6 +256,8 @@ def _build_on(tree: Any, connection: Any, clock: Any, robot: Any) -> Any:
         return dataclasses.replace(tree, root=root)
     _bind(_root(tree), connection, clock)
     hold_to_contract(_root(tree))
+    if isinstance(tree, py_trees.trees.BehaviourTree):
+        contain_handlers(tree)
     return tree
 
 

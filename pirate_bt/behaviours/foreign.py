@@ -39,6 +39,7 @@ __all__ = [
     "BehaviourBroke",
     "as_text",
     "blocked_ticks",
+    "contain_handlers",
     "contain_hooks",
     "contained",
     "hold_to_contract",
@@ -230,6 +231,18 @@ def one_line(text: Any, limit: int = WHY_LIMIT) -> str:
         half = limit // 2
         flat = f"{flat[:half]}...({len(flat) - 2 * half} characters)...{flat[-half:]}"
     return flat
+
+
+def contain_handlers(tree: py_trees.trees.BehaviourTree) -> None:
+    """A planner's ``BehaviourTree`` handed to a run: its pre- and post-tick handlers
+    :func:`contained` (one that called ``sys.exit()`` went out of the run with the robot
+    driving), as :func:`contain_hooks` does for a runner's hooks."""
+    tree.pre_tick_handlers[:] = [
+        contained("a pre-tick handler of the tree", h) for h in tree.pre_tick_handlers
+    ]
+    tree.post_tick_handlers[:] = [
+        contained("a post-tick handler of the tree", h) for h in tree.post_tick_handlers
+    ]
 
 
 BLOCKED_TICK_S = 1.0
