@@ -27,6 +27,7 @@ from typing import Any
 from pirate_bt.errors import LinkError, LinkTimeout
 from pirate_bt.link.away import BoardsAway
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
+from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.inbound import STATE_REFUSALS
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -73,6 +74,7 @@ class RobotLink:
         self.session = session
         self._states = StateBuilder(robot)
         self._commands = CommandCodec(robot)
+        self._deadman = Deadman(robot, self._commands)  # a program that stops calling in
         slots = robot.setpoint_slots()
         self._slot_index = {(s.board, s.slot): s.index for s in slots}
         self._slot_board = [s.board for s in slots]
@@ -110,6 +112,7 @@ class RobotLink:
         """
         if self.session.threaded:
             self.session.check_reader()
+            self._deadman.renew(self.session, self._modes, self._raw)
         else:
             self.session.poll()
         if self._away.owed:
@@ -185,6 +188,7 @@ class RobotLink:
         self._away.owed = (self._away.owed & away.keys()) | deferred
         self._deferred = deferred
         self._send_table(away.keys())
+        self._deadman.renew(self.session, self._modes, self._raw)
 
     def _overdue(self, away: dict[int, float], boards: set[int]) -> list[tuple[int, float]]:
         """Those of ``boards`` away with every reading stale (:mod:`pirate_bt.link.away`)."""

@@ -171,6 +171,7 @@ class Session(InboundMixin):
         self.last_hello_reply: HelloReply | None = hello_reply
         self._pending_failures: list[Request] = []
         self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
+        self._feed_until_s = math.inf  # heartbeats go out until then (feed_watchdog_until)
 
     # --- public -----------------------------------------------------------------------------
 
@@ -392,6 +393,12 @@ class Session(InboundMixin):
         self._reader = threading.Thread(target=run, name="pirate-link-reader", daemon=True)
         self._reader.start()
 
+    def feed_watchdog_until(self, until_s: float) -> None:
+        """Send heartbeats until clock time ``until_s`` only (``inf``: always); every other
+        frame still feeds the bridge's watchdog. Set by :mod:`pirate_bt.link.deadman`."""
+        with self._lock:
+            self._feed_until_s = until_s
+
     @property
     def threaded(self) -> bool:
         """A reader thread drives :meth:`poll`."""
@@ -576,7 +583,7 @@ class Session(InboundMixin):
                 self._transmit(self._ordered)
         # Keep-alive, independent of what is in flight: a retried request whose frames
         # are lost must not hold heartbeats back, and any frame feeds the watchdog.
-        if now - self._last_sent_s >= cfg.heartbeat_period_s:
+        if now - self._last_sent_s >= cfg.heartbeat_period_s and now < self._feed_until_s:
             hb = Request(
                 Heartbeat(self._useq()),
                 now,  # pragma: no mutate (an internal request's time: nothing reads it)
