@@ -45,6 +45,7 @@ import py_trees
 from py_trees.common import Status
 
 from pirate_bt.clock import Clock
+from pirate_bt.errors import said_of
 
 __all__ = [
     "SETTLE_LIMIT_S",
@@ -58,6 +59,11 @@ __all__ = [
 ]
 
 _log = logging.getLogger("pirate_bt.runner")
+
+_RAISED = (Exception, SystemExit, GeneratorExit)
+"""What a node, a hook or a callback may raise that the runner holds: anything but
+Ctrl-C (``KeyboardInterrupt``). A ``sys.exit()`` in a behaviour or a hook went out of
+:meth:`Runner.run` past the safe stop, the robot still driving (probe of 2026-11-30)."""
 
 
 class StopReason(enum.StrEnum):
@@ -437,13 +443,13 @@ class Runner:
         except KeyboardInterrupt as exc:
             reason, error = StopReason.INTERRUPTED, exc
             message = f"interrupted ({str(exc) or 'Ctrl-C'})"
-        except Exception as exc:
+        except _RAISED as exc:
             error = exc
             failing = _culprit(exc, root)
             tb_text = "".join(traceback.format_exception(exc))
             reason = StopReason.EXCEPTION
             where = f" in {failing}" if failing else ""
-            message = f"{type(exc).__name__}{where}: {exc}"
+            message = f"{type(exc).__name__}{where}: {said_of(exc)}"
             _log.debug("run ended by an exception%s:\n%s", where, tb_text)
         stopped: tuple[str, ...] = ()
         safe_called = False
@@ -477,7 +483,7 @@ class Runner:
         for on_finish in self.finish:
             try:
                 on_finish(result)
-            except Exception as exc:
+            except _RAISED as exc:
                 _log.debug("finish hook failed", exc_info=True)
                 if result.error is None:
                     # What the run was asked to leave behind (its trace) is not there:
@@ -486,7 +492,7 @@ class Runner:
                         result,
                         outcome="failure",
                         reason=StopReason.EXCEPTION,
-                        message=f"{type(exc).__name__}: {exc}",
+                        message=f"{type(exc).__name__}: {said_of(exc)}",
                         error=exc,
                         traceback="".join(traceback.format_exception(exc)),
                         safe_state_called=result.safe_state_called or self._call_safe_state(),
@@ -510,9 +516,12 @@ class Runner:
                 continue  # already stopped through a parent
             try:
                 node.stop(Status.INVALID)
-            except Exception as exc:
+            except _RAISED as exc:
                 _log.error(
-                    "terminate() of %s raised %s: %s", node_path(node), type(exc).__name__, exc
+                    "terminate() of %s raised %s: %s",
+                    node_path(node),
+                    type(exc).__name__,
+                    said_of(exc),
                 )
                 _log.debug("terminate() raised", exc_info=True)
             stopped.append(node_path(node))
@@ -546,8 +555,10 @@ class Runner:
                     hook(held)
         except KeyboardInterrupt:  # a Ctrl-C while the wheels ramp down: they were stopped
             _log.warning("interrupted while the robot came to rest")
-        except Exception as exc:
-            _log.error("coming to rest at the end of the run: %s: %s", type(exc).__name__, exc)
+        except _RAISED as exc:
+            _log.error(
+                "coming to rest at the end of the run: %s: %s", type(exc).__name__, said_of(exc)
+            )
             _log.debug("settling raised", exc_info=True)
         return n
 
@@ -562,8 +573,8 @@ class Runner:
                     continue
                 _log.error("safe-state callback interrupted twice")
                 return False
-            except Exception as exc:
-                _log.error("safe-state callback raised %s: %s", type(exc).__name__, exc)
+            except _RAISED as exc:
+                _log.error("safe-state callback raised %s: %s", type(exc).__name__, said_of(exc))
                 _log.debug("safe-state callback raised", exc_info=True)
                 return False
             return True
@@ -572,6 +583,6 @@ class Runner:
     def _shutdown(self) -> None:
         try:
             self.tree.shutdown()
-        except Exception as exc:
-            _log.error("tree shutdown raised %s: %s", type(exc).__name__, exc)
+        except _RAISED as exc:
+            _log.error("tree shutdown raised %s: %s", type(exc).__name__, said_of(exc))
             _log.debug("tree shutdown raised", exc_info=True)

@@ -42,7 +42,7 @@ class Boom(py_trees.behaviour.Behaviour):
         return Status.RUNNING
 
 
-def _tree(boom: Boom) -> tuple[py_trees.behaviour.Behaviour, Motion]:
+def _tree(boom: py_trees.behaviour.Behaviour) -> tuple[py_trees.behaviour.Behaviour, Motion]:
     motion = Motion("drive")
     work = py_trees.composites.Parallel(
         "work", py_trees.common.ParallelPolicy.SuccessOnAll(), [motion, boom]
@@ -258,3 +258,69 @@ def test_the_runner_does_not_walk_idle_nodes() -> None:
     assert len(during) == 20
     # Set-up walks the tree once; py_trees' BehaviourTree.tick() would walk it every tick.
     assert during[0] == during[-1]
+
+
+class _Exits(py_trees.behaviour.Behaviour):
+    """Raises ``kind`` from ``where`` (``update`` or ``terminate``) on its 2nd tick."""
+
+    def __init__(self, name: str, kind: type[BaseException], where: str = "update") -> None:
+        super().__init__(name)
+        self.kind, self.where, self.count = kind, where, 0
+
+    def update(self) -> Status:
+        self.count += 1
+        if self.where == "update" and self.count >= 2:
+            raise self.kind("leaving")
+        if self.where == "terminate" and self.count >= 2:
+            raise ValueError("failed first")
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if self.where == "terminate" and new_status == Status.INVALID:
+            raise self.kind("not stopping")
+
+
+@pytest.mark.parametrize("kind", [SystemExit, GeneratorExit])
+def test_a_node_that_exits_ends_the_run_in_the_safe_state_naming_it(
+    kind: type[BaseException],
+) -> None:
+    # a sys.exit() in a planner's behaviour went out of Runner.run past the safe stop,
+    # the drives still set (probe of 2026-11-30)
+    root, motion = _tree(_Exits("leaver", kind))
+    safe: list[str] = []
+    result = Runner(root, clock=SimClock(), safe_state=lambda: safe.append("safe")).run()
+    assert result.reason is StopReason.EXCEPTION and result.failing_node == "mission/work/leaver"
+    assert result.message == f"{kind.__name__} in mission/work/leaver: leaving"
+    assert safe == ["safe"] and motion.terminated_with == Status.INVALID
+
+
+def test_a_terminate_that_exits_still_leaves_the_robot_safe() -> None:
+    root, _ = _tree(_Exits("leaver", SystemExit, "terminate"))
+    safe: list[str] = []
+    result = Runner(root, clock=SimClock(), safe_state=lambda: safe.append("safe")).run()
+    assert result.message == "ValueError in mission/work/leaver: failed first"
+    assert safe == ["safe"]
+
+
+def test_a_hook_that_exits_and_an_error_that_cannot_be_said_end_the_run_safe() -> None:
+    class Unsayable(RuntimeError):
+        def __str__(self) -> str:
+            raise TypeError("no words")
+
+    def finish(_result: object) -> None:
+        raise SystemExit(2)
+
+    root, _ = _tree(Boom("check", on_tick=99))
+    runner = Runner(root, clock=SimClock(), max_time_s=0.5, safe_state=lambda: None)
+    runner.add_finish(finish)
+    result = runner.run()
+    assert result.outcome == "failure" and result.message == "SystemExit: 2"
+
+    def pre(_info: TickInfo) -> None:
+        raise Unsayable()
+
+    root, _ = _tree(Boom("check", on_tick=99))
+    runner = Runner(root, clock=SimClock(), safe_state=lambda: None)
+    runner.add_pre_tick(pre)
+    result = runner.run()
+    assert result.message == ("Unsayable: <its message cannot be shown: Unsayable.__str__ raised>")
