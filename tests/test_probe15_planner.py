@@ -197,3 +197,35 @@ def test_a_navigation_result_is_plain_json_as_a_mission_result_is() -> None:
     assert data["missions"][0]["status"] == "failure"
     assert data["decisions"][0]["step"] == result.decisions[0].step.to_json()  # type: ignore[union-attr]
     assert data["counters"] == result.counters.as_dict()
+
+
+class _BuggyCheck:
+    """A check_map with a bug: Python raises the TypeError, not a raise of its own."""
+
+    def find(self) -> None:
+        return None
+
+    def check_map(self, network: Any) -> None:
+        if "run-d" in self.find:  # type: ignore[operator]
+            return
+
+    def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+class _RefusingCheck(_BuggyCheck):
+    def check_map(self, network: Any) -> None:
+        raise ValueError("this planner needs a map with a tee")
+
+
+def test_a_bug_in_check_map_is_said_as_a_bug_with_its_place_not_as_a_bad_map() -> None:
+    with pytest.raises(InputError) as caught:
+        pirate_bt.navigate(_BuggyCheck(), map="straight", max_time=1)
+    said = str(caught.value)
+    assert said.startswith(
+        "navigator '_BuggyCheck': check_map raised TypeError: argument of type 'method'"
+    ), said
+    assert f"(at {__file__}:" in said
+    with pytest.raises(InputError) as refused:  # a refusal of its own stays as it was
+        pirate_bt.navigate(_RefusingCheck(), map="straight", max_time=1)
+    assert str(refused.value) == "navigator '_RefusingCheck': this planner needs a map with a tee"

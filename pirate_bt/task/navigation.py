@@ -56,6 +56,7 @@ with none it is checked on what the steps so far passed (:class:`BlindTrail`).
 
 from __future__ import annotations
 
+import linecache
 import math
 import threading
 from collections.abc import Callable, Mapping, Sequence
@@ -148,6 +149,20 @@ def raised_at(exc: BaseException) -> str | None:
     while tb.tb_next is not None:
         tb = tb.tb_next
     return f"{tb.tb_frame.f_code.co_filename}:{tb.tb_lineno}"
+
+
+def raised_on_purpose(exc: BaseException) -> bool:
+    """Whether the innermost frame of ``exc``'s traceback is a ``raise`` statement: a
+    refusal written as one, not Python's own error on a line of the planner's code
+    (``'run-d' in self.find``: a ``TypeError`` from a bug). True when the source
+    cannot be read (nothing to tell it by)."""
+    tb = exc.__traceback__
+    if tb is None:
+        return True
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    line = linecache.getline(tb.tb_frame.f_code.co_filename, tb.tb_lineno)
+    return not line.strip() or line.lstrip().startswith("raise")
 
 
 def call_within(

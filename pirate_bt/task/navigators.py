@@ -39,6 +39,7 @@ from pirate_bt.task.navigation import (
     Step,
     call_within,
     raised_at,
+    raised_on_purpose,
 )
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
@@ -338,6 +339,14 @@ def check_navigator_map(
             if raised is not None:
                 raise raised
     except (ValueError, TypeError, InputError) as exc:
+        if not isinstance(exc, InputError) and not raised_on_purpose(exc):
+            # Python's own error on a line of the check (a bug: 'x' in self.method),
+            # not a refusal written as a raise: said as a bug, with its place
+            _log.debug("navigator %r: check_map raised", name, exc_info=exc)
+            raise InputError(
+                f"navigator {name!r}: check_map raised {type(exc).__name__}:"
+                f" {said_of(exc)[:200]} (at {raised_at(exc)})"
+            ) from None
         # one line, as every error: a check_map's message may hold newlines
         raise InputError(f"navigator {name!r}: {said_of(exc)}"[:300]) from None
     except (Exception, SystemExit) as exc:  # the navigator's own error, one located line
