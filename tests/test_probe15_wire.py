@@ -69,6 +69,24 @@ def test_validate_reports_the_empty_board_at_boards(tmp_path: Path) -> None:
         validate_robot_file(path)
 
 
+def test_the_firmware_header_of_a_robot_with_an_empty_board_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `pirate-bt robot header` (what `make firmware` builds the bridge with) wrote the
+    # header of such a robot: a firmware the host's digest could not tell apart
+    from pirate_bt.cli import main
+    from pirate_bt.robot.header import render_header
+
+    with pytest.raises(ConfigurationError, match=r"board\(s\) 19 have no motor and no sensor"):
+        render_header(robot_from_data(_with_empty_board(19)))
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump(_with_empty_board(19)))
+    out = tmp_path / "layout.h"
+    code = main(["robot", "header", str(path), "-o", str(out)])
+    assert code == 2 and not out.exists()
+    assert capsys.readouterr().err.count("\n") == 1
+
+
 def test_an_earlier_failure_does_not_keep_the_closing_stop_from_going_out() -> None:
     # A bridge answered the host's last bulk STALE (an ESTOP's trace, or a frame that
     # passed the CRC with a newer seq) and the caller sent nothing after it. The close's

@@ -13,6 +13,7 @@ from pathlib import Path
 from pirate_bt.errors import ConfigurationError, LocatedError, ValidationFailed
 from pirate_bt.link.framing import HEADER_BYTES, MAX_PAYLOAD_BYTES
 from pirate_bt.robot.description import ControlMode, Motor, MotorFunction, RobotDescription
+from pirate_bt.robot.header import uncovered_boards
 
 __all__ = [
     "LayoutError",
@@ -127,14 +128,8 @@ class WireLayout:
                 largest frame (a ``ConfigurationError``, exit 2, and a ``ValueError``).
             LayoutUncovered: a board with no motor and no sensor (the same kinds).
         """
-        empty = sorted(b.id for b in robot.boards if not b.motors and not b.sensors)
-        if empty:
-            raise LayoutUncovered(
-                f"robot {robot.name!r}: board(s) {', '.join(map(str, empty))} have no motor"
-                " and no sensor: each would take a board status nibble in STATE and an"
-                " entry in COUNTERS that the layout digest cannot cover (a bridge built"
-                " with or without them would pass the hello); remove them"
-            )
+        if (uncovered := uncovered_boards(robot)) is not None:
+            raise LayoutUncovered(uncovered)
         try:
             return cls(
                 n_channels=len(robot.state_channels()),

@@ -45,6 +45,7 @@ __all__ = [
     "board_slices",
     "render_header",
     "stop_role",
+    "uncovered_boards",
     "write_header",
 ]
 
@@ -242,12 +243,30 @@ def _ms(seconds: float) -> int:
     return round(seconds * 1000)
 
 
+def uncovered_boards(robot: RobotDescription) -> str | None:
+    """Why ``robot``'s wire layout cannot be made, if it has boards with no motor and no
+    sensor: each would take a board status nibble in ``STATE`` and an entry in
+    ``COUNTERS`` that the layout digest cannot cover (``None`` when it has none)."""
+    empty = sorted(b.id for b in robot.boards if not b.motors and not b.sensors)
+    if not empty:
+        return None
+    return (
+        f"robot {robot.name!r}: board(s) {', '.join(map(str, empty))} have no motor"
+        " and no sensor: each would take a board status nibble in STATE and an"
+        " entry in COUNTERS that the layout digest cannot cover (a bridge built"
+        " with or without them would pass the hello); remove them"
+    )
+
+
 def render_header(robot: RobotDescription, source: str = "") -> str:
     """The C header text of ``robot``'s wire layout (``source`` names the YAML in a comment).
 
     Raises:
-        ConfigurationError: the layout does not fit the wire format or the firmware.
+        ConfigurationError: the layout does not fit the wire format or the firmware,
+            or has a board with no motor and no sensor (:func:`uncovered_boards`).
     """
+    if (uncovered := uncovered_boards(robot)) is not None:
+        raise ConfigurationError(uncovered)
     slices = board_slices(robot)
     channels = robot.state_channels()
     motors = robot.setpoint_slots()
