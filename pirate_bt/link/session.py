@@ -66,6 +66,7 @@ from pirate_bt.link.codec import (
     State,
 )
 from pirate_bt.link.inbound import InboundMixin
+from pirate_bt.link.reader import ReaderMixin
 from pirate_bt.link.requests import (
     HEARTBEATS_PER_WATCHDOG,
     SESSION_RENEW_GAP,
@@ -99,7 +100,7 @@ def _next(seq: int) -> int:
     return (seq + 1) & 0xFFFF or 1
 
 
-class Session(InboundMixin):
+class Session(InboundMixin, ReaderMixin):
     """Request tracking and liveness over a connected byte link.
 
     Args:
@@ -165,13 +166,10 @@ class Session(InboundMixin):
         self._flags = BridgeFlags.NONE if hello_reply is None else hello_reply.flags
         self._lost = False  # pragma: no mutate (None is falsy as False is)
         self._closed = False  # pragma: no mutate (None is falsy as False is)
-        self._reader: threading.Thread | None = None
-        self._reader_stop = threading.Event()
-        self._reader_error: BaseException | None = None
+        self._init_reader()
         self.last_hello_reply: HelloReply | None = hello_reply
         self._pending_failures: list[Request] = []
         self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
-        self._feed_until_s = math.inf  # heartbeats go out until then (feed_watchdog_until)
 
     # --- public -----------------------------------------------------------------------------
 
@@ -371,50 +369,6 @@ class Session(InboundMixin):
                 faulted=self._faulted,
             )
 
-    def start_reader(self, period_s: float = 0.001) -> None:
-        """Run :meth:`poll` in a daemon thread every ``period_s`` (real ports).
-
-        An error in the thread (link lost, port failed) stops it and is raised to the
-        next caller of :meth:`wait` or :meth:`check_reader`.
-        """
-        if self._reader is not None:
-            return
-        self._reader_stop.clear()
-
-        def run() -> None:
-            while not self._reader_stop.is_set():
-                try:
-                    self.poll()
-                except BaseException as exc:  # keep I/O errors apart from callers
-                    self._reader_error = exc
-                    return
-                self.clock.sleep(period_s)
-
-        self._reader = threading.Thread(target=run, name="pirate-link-reader", daemon=True)
-        self._reader.start()
-
-    def feed_watchdog_until(self, until_s: float) -> None:
-        """Send heartbeats until clock time ``until_s`` only (``inf``: always); every other
-        frame still feeds the bridge's watchdog. Set by :mod:`pirate_bt.link.deadman`."""
-        with self._lock:
-            self._feed_until_s = until_s
-
-    @property
-    def threaded(self) -> bool:
-        """A reader thread drives :meth:`poll`."""
-        return self._reader is not None
-
-    def check_reader(self) -> None:
-        """Raise the reader thread's error, if it stopped on one."""
-        self._raise_reader_error()
-
-    def stop_reader(self) -> None:
-        """Stop the reader thread (if any) and wait for it."""
-        if self._reader is not None:
-            self._reader_stop.set()
-            self._reader.join(timeout=1.0)  # pragma: no mutate (it stops within one poll)
-            self._reader = None
-
     def close(self) -> None:
         """Stop the reader, fail what is pending, close the link (idempotent)."""
         self.stop_reader()
@@ -426,11 +380,6 @@ class Session(InboundMixin):
             self.link.close()
 
     # --- internals --------------------------------------------------------------------------
-
-    def _raise_reader_error(self) -> None:
-        err = self._reader_error
-        if err is not None:
-            raise err
 
     def _seq(self) -> int:
         seq = self._next_seq
