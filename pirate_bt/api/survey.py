@@ -8,12 +8,14 @@ navigators) for what it finds and how.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.navigation import navigate
+from pirate_bt.atomic import new_folders_undone
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate import NavigationResult
 from pirate_bt.task.navigate_result import counted, steps_text
@@ -159,24 +161,29 @@ def survey(
     explore = ExploreNavigator(
         output=output, search=search, radius=radius, name=name, extend=extend
     )
-    if explore.output is not None:  # before anything connects, as navigate's trace
-        from pirate_bt.api.options import output_path, writable_folder
-        from pirate_bt.errors import InputError
+    # a survey refused before it runs (a fault's unknown target) leaves no empty folder
+    # made for its output, as navigate leaves none for its trace
+    undone = (
+        new_folders_undone(explore.output.parent)
+        if explore.output is not None
+        else contextlib.nullcontext()
+    )
+    with undone:
+        if explore.output is not None:  # before anything connects, as navigate's trace
+            from pirate_bt.api.options import output_path, writable_folder
+            from pirate_bt.errors import InputError
 
-        if explore.output.suffix.lower() not in (".yaml", ".yml"):
-            # a network file: output="planner.py" was overwritten with the network's YAML
-            raise InputError(
-                f"output: {explore.output} is not a .yaml file name; the surveyed network"
-                " is written as YAML"
-            )
-        made = _first_missing(explore.output.parent)
-        writable_folder(explore.output.parent, "output")
-        # no pipe or device, and the pipe as it really is must survive its survey
-        # (extend= may be the same file)
-        output_path(explore.output, "output", {"simulated network": sim, "robot": robot})
-    else:
-        made = None
-    try:
+            if explore.output.suffix.lower() not in (".yaml", ".yml"):
+                # a network file: output="planner.py" was overwritten with the network's
+                # YAML
+                raise InputError(
+                    f"output: {explore.output} is not a .yaml file name; the surveyed"
+                    " network is written as YAML"
+                )
+            writable_folder(explore.output.parent, "output")
+            # no pipe or device, and the pipe as it really is must survive its survey
+            # (extend= may be the same file)
+            output_path(explore.output, "output", {"simulated network": sim, "robot": robot})
         navigation = navigate(
             explore,
             sim=sim,
@@ -189,12 +196,6 @@ def survey(
             max_steps=10_000,
             firmware=firmware,
         )
-    except BaseException:
-        # refused before it ran (a fault's unknown target): leave no empty folder made
-        # for the output, as navigate leaves none for its trace
-        if made is not None and explore.output is not None:
-            _remove_empty(explore.output.parent, made)
-        raise
     if not navigation.succeeded and explore.network is None:
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
@@ -216,24 +217,3 @@ def survey(
         output=explore.output if explore.network is not None else None,
         unexplored=list(explore.unexplored),
     )
-
-
-def _first_missing(folder: Path) -> Path | None:
-    """The outermost of ``folder`` and its parents that does not exist yet."""
-    missing = None
-    for each in (folder, *folder.parents):
-        if each.exists():
-            break
-        missing = each
-    return missing
-
-
-def _remove_empty(folder: Path, up_to: Path) -> None:
-    """Remove ``folder`` and its parents up to ``up_to`` while they are empty."""
-    import contextlib
-
-    for each in (folder, *folder.parents):
-        with contextlib.suppress(OSError):
-            each.rmdir()
-        if each == up_to:
-            return
