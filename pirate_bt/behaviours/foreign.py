@@ -8,9 +8,10 @@ planner's own class break a run in ways that name nothing:
   node INVALID, and the run went on to its time limit, its why naming neither the node
   nor what it returned;
 - a method raising what is no ``Exception`` (``SystemExit`` from ``sys.exit()``,
-  ``GeneratorExit``, a bare ``BaseException``): it went past the runner, which stops a
-  run for an ``Exception`` only, and out of ``simulate_tree`` with the robot still
-  driving and the trace empty;
+  ``GeneratorExit``, a bare ``BaseException``): it went past the runner, which then
+  stopped a run for an ``Exception`` only, and out of ``simulate_tree`` with the robot
+  still driving and the trace empty (the runner holds them itself now, for every
+  ``Runner``; here they are also named by the method that raised them);
 - ``StopIteration`` (``next()`` on an empty iterator): the parent's tick generator
   turned it into *RuntimeError: generator raised StopIteration*, naming the parent or
   nothing;
@@ -194,9 +195,9 @@ def let_go(root: py_trees.behaviour.Behaviour) -> None:
 def contain_hooks(runner: Any) -> None:
     """Every hook of ``runner`` (a :class:`~pirate_bt.runner.Runner`) :func:`contained`:
     a planner's hooks (``simulate_tree(observe=...)``) that raise ``SystemExit`` and the
-    like end the run as an exception does, the robot left safe and the trace written,
-    rather than going past the runner (which stops for an ``Exception``) with the robot
-    driving and the trace empty."""
+    like end the run named as hooks (*a post-tick hook raised SystemExit: ...*). The
+    runner holds such an end too, the robot left safe and the trace written, but
+    without saying where it came from: a hook is no node of the tree."""
     runner.pre_tick[:] = [contained("a pre-tick hook", h) for h in runner.pre_tick]
     runner.post_tick[:] = [contained("a post-tick hook", h) for h in runner.post_tick]
     runner.finish[:] = [contained("a finish hook", h) for h in runner.finish]
