@@ -67,6 +67,7 @@ from pirate_bt.task.fixes import (
     wrap_angle,
 )
 from pirate_bt.task.planner import MapFeature, MissionPlan
+from pirate_bt.task.turn_angle import FixedTurn, overturned
 
 __all__ = [
     "DRIFT_PER_M",
@@ -174,6 +175,7 @@ class Localiser:
         self._last_state: RobotState | None = None
         self._heading_ref: Vec3 | None = None
         self._settle_after_m: float | None = None
+        self._fixed_turn: FixedTurn | None = None
         self._pending = list(plan.features)
         offsets = robot.behind_front_tip_m()
         self._offset = offsets
@@ -282,6 +284,7 @@ class Localiser:
                     None,
                 )
                 return
+            self._fixed_turn = FixedTurn(turn, self._heading_ref)
             middle = (turn.start_m + turn.end_m) / 2
             self._fix(turn, "imu", middle + self._imu_offset_m, state.stamp_s)
             self._settle_after_m = turn.end_m + 0.02
@@ -292,19 +295,18 @@ class Localiser:
                 # pipe goes on as drawn, and the new slope is the reference from now on
                 self._heading_ref = tangent
                 return
+            sharper = overturned(self._fixed_turn, tangent, imu_m, reach, self.belief_m)
+            if sharper is not None:  # the turn fixed on goes on turning: not a new one
+                self.mismatch = sharper[0]
+                self._disagree(state.stamp_s, sharper[2], sharper[1], imu, reach, None)
+                return
             self.mismatch = (
                 f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
                 f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
                 f" {reach:.2f} m"
             )
-            self._disagree(
-                state.stamp_s,
-                None,
-                f"a turn of {math.degrees(swung):.0f} deg",
-                imu,
-                reach,
-                turn,
-            )
+            sensed = f"a turn of {math.degrees(swung):.0f} deg"
+            self._disagree(state.stamp_s, None, sensed, imu, reach, turn)
 
     def _drawn_slope(self, tangent: Vec3, imu_m: float, reach: float) -> bool:
         """The IMU's heading is the map's own slope somewhere within ``reach`` of the
