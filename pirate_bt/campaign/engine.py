@@ -41,6 +41,7 @@ from typing import Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import RESULTS_NAME, is_safe_name, safe_name
+from pirate_bt.campaign.sink import RowSink
 from pirate_bt.campaign.started import RECORD_NAME
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
@@ -495,12 +496,11 @@ def _collect(
     most = len(todo)  # pool replacements, at most
     try:
         with contextlib.ExitStack() as stack:
-            sink = stack.enter_context(results.open("a", encoding="utf-8")) if results else None
+            sink = stack.enter_context(RowSink(results)) if results else None
 
             def keep(record: dict[str, Any]) -> None:
                 if sink is not None:
-                    sink.write(json.dumps(record, allow_nan=False, default=str) + "\n")
-                    sink.flush()
+                    sink.write(record)  # a whole line, or none and an InputError
                 rows.append(record)
                 if on_record is not None:
                     on_record(record)
