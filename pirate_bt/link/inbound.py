@@ -37,6 +37,7 @@ from pirate_bt.link.codec import (
     UnknownAckStatus,
     seq_newer,
 )
+from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
 __all__ = ["BAD_STATES_BEFORE_MISMATCH", "STATES_KEPT", "STATE_REFUSALS", "InboundMixin"]
@@ -84,6 +85,7 @@ class InboundMixin:
     sessions: int
     bridge_resets: int
     _last_heard_s: float
+    _noise: LineNoise
     _oob: dict[tuple[int, int], Request]
     _ordered: Request | None
     _hello: Request | None
@@ -196,6 +198,7 @@ class InboundMixin:
             return
         if isinstance(item, FrameError):
             self.crc_errors += 1
+            self._noise.note_frame(self._last_heard_s, item.reason)
             _log.debug("dropped frame: %s", item)
             crc, length, old = self._refused
             if isinstance(item, StateLengthError):
@@ -208,6 +211,7 @@ class InboundMixin:
             return
         if item.TYPE < 0x80:  # pragma: no mutate (no message type is 0x80)
             self.unexpected += 1  # our own frames (loop://) or a confused peer
+            self._noise.note_echo(self._last_heard_s)
             return
         self._last_heard_s = now
         if isinstance(item, Ack | Nack):

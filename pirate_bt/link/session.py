@@ -66,6 +66,7 @@ from pirate_bt.link.codec import (
     State,
 )
 from pirate_bt.link.inbound import InboundMixin
+from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.reader import ReaderMixin
 from pirate_bt.link.requests import (
     HEARTBEATS_PER_WATCHDOG,
@@ -145,6 +146,7 @@ class Session(InboundMixin, ReaderMixin):
         now = clock.now()
         self._last_sent_s = now
         self._last_heard_s = now  # the handshake reply was heard just now
+        self._noise = LineNoise()  # what came since then that made no good frame
         self._state: State | None = None
         self._faulted: tuple[int, ...] = ()  # positions of the latest STATE's boards in FAULT
         self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
@@ -333,8 +335,11 @@ class Session(InboundMixin, ReaderMixin):
             now = self.clock.now()
             if data:
                 handle = self._handle
+                heard_s = self._last_heard_s
                 for item in self._decoder.feed(data):
                     handle(item, now)
+                if self._last_heard_s == heard_s:  # no good frame in them
+                    self._noise.note_bytes(heard_s, len(data))
             if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
                 self._check_alive()  # lost (for good), closed, refused: raises
                 self._lose(now)  # nothing valid heard for the link timeout
@@ -406,7 +411,7 @@ class Session(InboundMixin, ReaderMixin):
 
     def _check_alive(self) -> None:
         if self._lost:
-            raise LinkLost(f"nothing heard from the bridge for over {self.config.link_timeout_s} s")
+            raise LinkLost(self._unheard(f"over {self.config.link_timeout_s}"))
         if self._closed:
             raise LinkError("session closed")
         if self._protocol_error is not None:
@@ -416,9 +421,21 @@ class Session(InboundMixin, ReaderMixin):
         """Declare the link lost (nothing valid heard for the link timeout) and fail all."""
         self._lost = True
         silent = now - self._last_heard_s
-        _log.error("link lost: bridge silent for %.3f s", silent)
+        why = self._unheard(f"{silent:.3f}")
+        if why.startswith("nothing"):
+            _log.error("link lost: bridge silent for %.3f s", silent)
+        else:
+            _log.error("link lost: %s", why)
         self._fail_all(now)
-        raise LinkLost(f"nothing heard from the bridge for {silent:.3f} s")
+        raise LinkLost(why)
+
+    def _unheard(self, how_long: str) -> str:
+        """Why the link is lost, for ``how_long`` seconds: silence, or bytes that made no
+        good frame (named, so that a flooded line is not taken for a silent bridge)."""
+        noise = self._noise.text(self._last_heard_s)
+        if not noise:
+            return f"nothing heard from the bridge for {how_long} s"
+        return f"no good frame from the bridge for {how_long} s: {noise}"
 
     def _submit(
         self, msg: Setpoint | BulkSetpoints | EStopReset, wire: bytes | None = None
