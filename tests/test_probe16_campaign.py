@@ -103,3 +103,61 @@ def test_a_row_the_file_system_refuses_names_the_file() -> None:
     with RowSink(Path("/dev/full")) as sink, pytest.raises(InputError) as caught:
         sink.write({"id": "000003-ab", "index": 3})
     assert str(caught.value).startswith("/dev/full: cannot write case 000003-ab's row: No space")
+
+
+# 2. A report the disk had no room for: "pirate-bt: No space left on device", naming no
+#    file, and a plot's ".success_vs_drop.part.png" left in the folder. Now one line
+#    naming the file and how to write the report again; no part file.
+
+
+def _rows() -> list[dict[str, object]]:
+    return [
+        {"id": f"{i:06d}-p16", "index": i, "run": "r", "seed": 0, "drop": drop}
+        | {"outcome": "success", "reason": "fine", "sim_time_s": 1.0}
+        for i, drop in enumerate([0.0, 0.1])
+    ]
+
+
+def test_a_report_file_the_disk_refuses_is_named(tmp_path: Path) -> None:
+    from pirate_bt.campaign.report import write_report
+
+    (tmp_path / "results.csv").symlink_to("/dev/full")  # a write there: ENOSPC
+    with pytest.raises(InputError) as caught:
+        write_report(_rows(), tmp_path, title="t")
+    results = tmp_path / "results.jsonl"
+    assert str(caught.value) == (
+        f"{tmp_path / 'results.csv'}: cannot write the report: No space left on device;"
+        f" the rows stay in {results}: make room, then `pirate-bt campaign report {results}`"
+    )
+
+
+PLOT = textwrap.dedent(
+    """
+    import resource, sys
+    from pathlib import Path
+    from pirate_bt.campaign.report import write_report
+    from pirate_bt.errors import InputError
+    sys.path.insert(0, sys.argv[1])
+    from test_probe16_campaign import _rows
+    import matplotlib.pyplot
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4000, 4000))  # the csv fits, no plot does
+    try:
+        write_report(_rows(), Path(sys.argv[2]), title="t")
+    except InputError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(2)
+    """
+)
+
+
+def test_a_plot_the_disk_refuses_is_named_and_leaves_no_part_file(tmp_path: Path) -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", PLOT, str(Path(__file__).parent), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith(f"{tmp_path / 'success_vs_drop.png'}: cannot write the report")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]

@@ -22,6 +22,7 @@ from typing import Any
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.campaign.stats import GroupStats, group_stats, percentile
+from pirate_bt.errors import InputError
 
 __all__ = ["CSV_COLUMNS", "write_report"]
 
@@ -53,8 +54,21 @@ _KINDS = {"violations": "violation_kinds", "damage": "damage_kinds"}
 
 def _replace(path: Path, text: str | bytes) -> Path:
     data = text if isinstance(text, bytes) else text.encode("utf-8")
-    write_atomically(path, lambda stream: stream.write(data))
+    try:
+        write_atomically(path, lambda stream: stream.write(data))
+    except OSError as exc:
+        raise _unwritable(path, exc) from None
     return path
+
+
+def _unwritable(path: Path, exc: OSError) -> InputError:
+    # A full disk said only "No space left on device", naming no file. Nothing is
+    # left of the attempt (write_atomically; a plot's part file is removed).
+    results = path.parent / "results.jsonl"
+    return InputError(
+        f"{path}: cannot write the report: {exc.strerror or exc}; the rows stay in"
+        f" {results}: make room, then `pirate-bt campaign report {results}`"
+    )
 
 
 def _csv(rows: Sequence[dict[str, Any]]) -> str:
@@ -261,9 +275,14 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
         fig.tight_layout()
         target = folder / f"success_vs_{key}.png"
         tmp = folder / f".success_vs_{key}.part.png"
-        fig.savefig(tmp, dpi=100)
-        plt.close(fig)
-        os.replace(tmp, target)
+        try:
+            fig.savefig(tmp, dpi=100)
+            os.replace(tmp, target)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise _unwritable(target, exc) from None
+        finally:
+            plt.close(fig)
         files.append(target)
     return files
 
