@@ -119,22 +119,27 @@ COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
 _MAX_PARAM_CHARS = 40
 
 
-_UNWRITABLE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
-"""Characters an HTML-like Graphviz label (read as XML) cannot carry, and the C1 controls."""
+_UNWRITABLE = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
+"""Characters an HTML-like Graphviz label (read as XML) cannot carry, the C1 controls,
+and a line break (``\\n``, ``\\r``), which it would draw as nothing."""
 
 
 def _html(text: str) -> str:
-    """``text`` for an HTML-like label: escaped, and each control character (a hostile
+    """``text`` for an HTML-like label: escaped, each control character (a hostile
     tree's or trace's: ``"\\x07"`` in a log message) shown as its escape, which Graphviz
-    would otherwise refuse, failing the whole drawing."""
+    would otherwise refuse, failing the whole drawing, a line break too (Graphviz drew
+    ``"x\\ny"`` as ``xy``), and a backslash doubled: Graphviz reads ``\\N``, ``\\G``
+    and ``\\E`` in an HTML-like label as well (a message ``C:\\New`` was drawn with the
+    node's id in place of ``\\N``)."""
     shown_text = _UNWRITABLE.sub(lambda m: repr(m[0])[1:-1], text)
-    return html.escape(shown_text)
+    return html.escape(shown_text).replace("\\", "\\\\")
 
 
 def _quoted(text: str) -> str:
-    """``text`` inside a quoted DOT string: as :func:`_html`, and a backslash doubled
-    (a name ending in ``\\`` would end the string; ``\\G`` would become the graph's id)."""
-    return _html(text).replace("\\", "\\\\")
+    """``text`` inside a quoted DOT string: as :func:`_html`, whose backslash is doubled
+    there too (a name ending in ``\\`` would end the string; ``\\G`` would become the
+    graph's id)."""
+    return _html(text)
 
 
 def _param_text(value: object) -> str:
