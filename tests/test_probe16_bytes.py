@@ -1,4 +1,7 @@
-"""Probe 16: bytes no frame should contain, from the bridge to the host's link.
+"""Probe 16: bytes no frame should contain, from the bridge to the host's link, and a
+bridge written from docs/protocol.md alone (section 2: the host speaks to it; the page
+claimed a lone 0x00 before every ``HELLO``, while a mid-session ``HELLO`` goes without
+one: the page now says so).
 
 1. A line flooded with bytes that make no good frame (a bridge at another baud rate,
    noise, a flood of 0xFF between frames) ended the link with *nothing heard from the
@@ -10,11 +13,18 @@
 
 from __future__ import annotations
 
+import binascii
+import struct
+
 import pytest
 from session_wire import CODEC, Wire, reply, state
 
+from pirate_bt.clock import SimClock
 from pirate_bt.errors import LinkLost
 from pirate_bt.link.codec import Heartbeat
+from pirate_bt.link.opening import wrap_link
+from pirate_bt.link.testing import MemoryLink, memory_pair
+from pirate_bt.robot import load_robot
 
 # -- 1. a flooded line is not a silent one -------------------------------------------------
 
@@ -68,3 +78,113 @@ def test_garbage_before_the_last_good_frame_is_not_counted() -> None:
     with pytest.raises(LinkLost, match=r"^nothing heard from the bridge for 0\.5"):
         for _ in range(60):
             wire.poll(0.01)
+
+
+# -- 2. a bridge written from docs/protocol.md alone -------------------------------------------
+
+
+def _cobs(body: bytes) -> bytes:
+    """docs/protocol.md, Framing: blocks of a code byte and code-1 data bytes."""
+    out, block = bytearray(), bytearray()
+    for b in body:
+        if b == 0:
+            out += bytes([len(block) + 1]) + block
+            block.clear()
+            continue
+        block.append(b)
+        if len(block) == 254:
+            out += b"\xff" + block
+            block.clear()
+            if len(out) == len(body) + 1:  # a full block ends the body: nothing more
+                return bytes(out)
+    return bytes(out + bytes([len(block) + 1]) + block)
+
+
+def _uncobs(data: bytes) -> bytes:
+    out, i = bytearray(), 0
+    while i < len(data):
+        code = data[i]
+        out += data[i + 1 : i + code]
+        i += code
+        if code != 0xFF and i < len(data):
+            out.append(0)
+    return bytes(out)
+
+
+class DocBridge:
+    """The bridge side of the wire, from docs/protocol.md only: framing, CRC, HELLO,
+    ESTOP_RESET, HEARTBEAT, BULK_SETPOINTS and a STATE every 10 ms."""
+
+    def __init__(self, clock: SimClock, far: MemoryLink) -> None:
+        self.robot = load_robot()
+        self.far, self.buf, self.seq, self.ack_seq = far, b"", 0, 0
+        self.flags = 0x01 | 0x08  # boots latched, NO_SESSION
+        self.heard: list[tuple[int, int, int, bytes]] = []
+        self.first = b""  # the first bytes the host wrote
+        self.next_state_s = clock.now()
+        clock.add_listener(self.step)
+
+    def send(self, kind: int, seq: int, arg: int, payload: bytes) -> None:
+        body = bytes([1, kind]) + struct.pack("<HB", seq, arg) + payload
+        body += struct.pack("<H", binascii.crc_hqx(body, 0))
+        self.far.write(_cobs(body) + b"\x00")
+
+    def step(self, now: float) -> None:
+        data = self.far.read_available()
+        self.first = self.first or data
+        self.buf += data
+        *frames, self.buf = self.buf.split(b"\x00")
+        for raw in frames:
+            if raw:
+                self.take(_uncobs(raw))
+        while now >= self.next_state_s:
+            self.next_state_s += 0.010
+            self.state()
+
+    def take(self, body: bytes) -> None:
+        assert struct.unpack("<H", body[-2:])[0] == binascii.crc_hqx(body[:-2], 0)
+        version, kind, seq, arg = struct.unpack("<BBHB", body[:5])
+        payload = body[5:-2]
+        assert version == 1
+        self.heard.append((kind, seq, arg, payload))
+        if kind == 0x01:  # HELLO: uint32 digest, uint8 minor
+            digest, minor = struct.unpack("<IB", payload)
+            self.flags &= ~0x08
+            n_ch, n_m = len(self.robot.state_channels()), len(self.robot.setpoint_slots())
+            reply = struct.pack("<IBBHHBHB", digest, n_ch, n_m, 250, 0x0102, minor, 7, 1)
+            self.send(0x81, seq, self.flags, reply)
+        elif kind in (0x04, 0x06):  # HEARTBEAT, ESTOP_RESET: ACK APPLIED
+            if kind == 0x06:
+                self.flags &= ~0x01
+            self.send(0x83, seq, 0, bytes([kind, 0]))
+        elif kind == 0x03:  # BULK_SETPOINTS: the next STATE's ack_seq
+            self.ack_seq = seq
+
+    def state(self) -> None:
+        channels = self.robot.state_channels()
+        boards = self.robot.board_ids()
+        fresh = b"\xff" * ((len(channels) + 7) // 8)
+        status = bytes([0x11] * ((len(boards) + 1) // 2))  # ONLINE, every board
+        values = struct.pack(f"<{len(channels)}h", *range(len(channels)))
+        self.seq = (self.seq + 1) & 0xFFFF
+        self.send(
+            0x82, self.seq, self.flags, struct.pack("<H", self.ack_seq) + fresh + status + values
+        )
+
+
+def test_the_host_talks_to_a_bridge_written_from_the_protocol_page() -> None:
+    clock = SimClock(1.0)
+    host, far = memory_pair()
+    peer = DocBridge(clock, far)
+    link = wrap_link(host, peer.robot, clock, reset_wait_s=0.0)
+    clock.advance(0.05)
+    link.poll()
+    assert peer.first[:1] == b"\x00"  # a lone delimiter flushes a half frame first
+    kinds = [k for k, *_ in peer.heard]
+    assert kinds[:2] == [0x01, 0x06], kinds  # HELLO, then the release of the boot latch
+    _, _, _, hello = peer.heard[0]
+    assert hello == struct.pack("<IB", peer.robot.layout_digest(), 2)
+    state = link.state()
+    assert state is not None and not link.health().estopped
+    assert link.health().crc_errors == 0
+    link.close()
