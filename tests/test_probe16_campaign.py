@@ -161,3 +161,52 @@ def test_a_plot_the_disk_refuses_is_named_and_leaves_no_part_file(tmp_path: Path
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith(f"{tmp_path / 'success_vs_drop.png'}: cannot write the report")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]
+
+
+# 3. --resume on a disk still full: the results file is rewritten first (without a cut
+#    last line); that failed with "No space left on device" and left results.jsonl.part.
+
+
+RESUME = textwrap.dedent(
+    """
+    import resource, sys
+    from pathlib import Path
+    from pirate_bt.campaign import make_executor, run_cases
+    from pirate_bt.errors import InputError
+    sys.path.insert(0, sys.argv[1])
+    from test_probe16_campaign import _cases
+    with make_executor(workers=1) as (executor, _):
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100, 100))  # less than the results
+        try:
+            run_cases(_cases(3), Path(sys.argv[2]), executor, resume=True,
+                      target="probe16_helper:behave")
+        except InputError as exc:
+            print(exc, file=sys.stderr)
+            sys.exit(2)
+    """
+)
+
+
+def test_a_resume_the_disk_has_no_room_for_names_the_results_and_keeps_them(
+    helper: Path,
+) -> None:
+    out = helper / "out"
+    out.mkdir()
+    results = out / "results.jsonl"
+    row = {"id": "000000-p16", "index": 0, "run": "r", "seed": 0, "outcome": "success"}
+    before = json.dumps(row | {"reason": "fine " + "x" * 200}) + "\n" + '{"id": "0000'
+    results.write_text(before, encoding="utf-8")  # a cut last line: rewritten to resume
+    done = subprocess.run(
+        [sys.executable, "-c", RESUME, str(Path(__file__).parent), str(out)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.splitlines()[-1] == (
+        f"{results}: cannot rewrite it to resume: File too large; it is as it was:"
+        " make room, then run again with --resume"
+    )
+    assert results.read_text(encoding="utf-8") == before
+    assert sorted(p.name for p in out.iterdir()) == ["results.jsonl"]

@@ -449,8 +449,15 @@ def run_cases(
     # Rewrite without a cut last line, so every appended row starts on its own line.
     text = "".join(json.dumps(r, allow_nan=False) + "\n" for r in old)
     part = results.with_name(results.name + ".part")
-    part.write_text(text, encoding="utf-8")
-    os.replace(part, results)  # never half a results file, even if stopped right here
+    try:
+        part.write_text(text, encoding="utf-8")
+        os.replace(part, results)  # never half a results file, even if stopped right here
+    except OSError as exc:  # a full disk: it said "No space left on device", no file
+        part.unlink(missing_ok=True)
+        raise InputError(
+            f"{results}: cannot rewrite it to resume: {exc.strerror or exc}; it is as it"
+            " was: make room, then run again with --resume"
+        ) from None
     trace_dir = str((output / "traces").resolve())
     return _collect(cases, old, executor, results, trace_dir, on_record, target)
 
