@@ -66,6 +66,6 @@ class LineNoise:
             parts.append(f"{total} unreadable frame{'s' * (total != 1)} ({why})")
         if self.echoes:
             parts.append(f"{self.echoes} of the host's own frames (an echo: a loopback?)")
-        if not parts:  # bytes, and no delimiter among them
-            return f"{self.bytes} bytes with no frame delimiter"
+        if not parts:  # bytes that made no frame: delimiters only, or no delimiter yet
+            return f"{self.bytes} bytes that made no frame"
         return " and ".join(parts) + (f" in {self.bytes} bytes" if self.bytes else "")
