@@ -133,8 +133,8 @@ def import_xml(
         The file written.
 
     Raises:
-        InputError: a path that is no file name (an output that is a folder too), or
-            an output that cannot be written.
+        InputError: a path that is no file name (an output that is a folder too), an
+            output not named ``.yaml`` or ``.yml``, or an output that cannot be written.
         LocatedError: the XML cannot be converted (at the XML's line and column).
         ValidationFailed: the converted tree does not load for the robot, each
             problem at ``xml_file:line:column``.
@@ -143,14 +143,19 @@ def import_xml(
     from pirate_bt.robot.loader import load_robot
 
     source = file_argument(xml_path, "xml_path")
-    output_file(out_path, "out_path")
-    reg = registry or default_registry()
-    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    text, where = _converted(source, reg)
-    out = Path(out_path)
+    out = output_file(out_path, "out_path")
     refuse_special(out)
     if out.exists() and out.resolve() == source.resolve():
         raise InputError(f"{out}: is the XML file being imported; nothing written")
+    if out.suffix.lower() not in (".yaml", ".yml"):  # YAML in b.xml: read back as XML, refused
+        raise InputError(
+            f"{out}: a pirate_bt tree is written to a .yaml file (as pirate-bt run and a"
+            f" subtree's ref read it), not {out.suffix or 'a name without a suffix'};"
+            " nothing written"
+        )
+    reg = registry or default_registry()
+    description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
+    text, where = _converted(source, reg)
     folder = out.parent if str(out.parent) else Path(".")
     # A missing folder is made, as for every other output of the library, and taken
     # away again when the tree does not load: a refused import leaves nothing.
