@@ -4,6 +4,10 @@ A bend built sharper than drawn (90 degrees where the map draws 45): the localis
 on the map's bend at half its drawn angle, then felt the rest of the turn as a new one
 and stopped on *the pipe turned by 30 deg ..., where the map has no turn within
 0.34 m*, naming no feature, though the map's bend was right behind the robot.
+
+A bend built less sharp than drawn (45 degrees where the map draws 90, level or up
+into a riser): the localiser fixed on it at half the drawn angle and the mission
+completed, the pipe heading 45 degrees off the map's and nothing said.
 """
 
 from __future__ import annotations
@@ -11,15 +15,41 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import pytest
+
 import pirate_bt
 from pirate_bt.pipes import Network, network_from_data
+from pirate_bt.robot import Half
+from pirate_bt.sim import model as sim_model
 from pirate_bt.task.route import parse_route
 
 
-def _bend(angle: str, *, before: str = "1.5 m") -> Network:
+@pytest.fixture
+def models(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """Every simulator model made, to read the truth at the end of a run."""
+    made: list[Any] = []
+    init = sim_model.PipeRobotModel.__init__
+
+    def keep(self: Any, *args: Any, **kwargs: Any) -> None:
+        init(self, *args, **kwargs)
+        made.append(self)
+
+    monkeypatch.setattr(sim_model.PipeRobotModel, "__init__", keep)
+    return made
+
+
+def _at_rest_and_held(model: Any) -> None:
+    truth = model.truth()
+    held = [truth.halves[half].clamped for half in (Half.FRONT, Half.REAR)]
+    assert all(held) if abs(truth.slope_rad) > 0.3 else any(held)  # both in a steep pipe
+    assert truth.velocity_mps == 0 and not truth.sliding
+    assert model.counters().violation_count == 0 and model.counters().damage_count == 0
+
+
+def _bend(angle: str, *, before: str = "1.5 m", direction: str = "right") -> Network:
     segments: list[dict[str, Any]] = [
         {"id": "a", "type": "straight", "length": before},
-        {"id": "b", "type": "bend", "direction": "right", "angle": angle},
+        {"id": "b", "type": "bend", "direction": direction, "angle": angle},
         {"id": "c", "type": "straight", "length": "2 m"},
     ]
     return network_from_data({"name": "bend", "diameter": "63 mm", "segments": segments})
@@ -40,3 +70,21 @@ def test_a_bend_sharper_than_drawn_is_named_as_that_bend() -> None:
     assert "the pipe turned by 9" in result.why  # the whole turn, not its rest (30 deg)
     assert result.counters.violations == 0 and result.counters.damage == 0
     assert result.why in json.loads(json.dumps(result.as_dict()))["why"]
+
+
+@pytest.mark.parametrize(
+    ("direction", "faults"), [("right", None), ("up", None), ("up", "drop=0.05,corrupt=0.01")]
+)
+def test_a_bend_less_sharp_than_drawn_is_named_as_that_bend(
+    models: list[Any], direction: str, faults: str | None
+) -> None:
+    route = parse_route(f"at the bend turn {direction}\nforward 0.5 m\n", "bend.route")
+    drawn, built = _bend("90 deg", direction=direction), _bend("45 deg", direction=direction)
+    result = pirate_bt.simulate_mission(route, network=drawn, truth=built, faults=faults, seed=2)
+    # was: success, 'mission completed: 3 PABs', with the pipe 45 deg off the map's
+    assert result.status == "failure" and result.safe_state
+    assert result.disagreement is not None and result.disagreement.feature == "b"
+    assert result.why.startswith("belief and map disagree: the pipe turned by 45 deg at 'b'")
+    assert f"where the map has it turning {direction} by 90 deg" in result.why
+    _at_rest_and_held(models[-1])  # up: on a 45 deg slope, both halves hold
+    assert json.loads(json.dumps(result.as_dict()))["why"] == result.why

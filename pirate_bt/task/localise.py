@@ -67,7 +67,7 @@ from pirate_bt.task.fixes import (
     wrap_angle,
 )
 from pirate_bt.task.planner import MapFeature, MissionPlan
-from pirate_bt.task.turn_angle import FixedTurn, overturned
+from pirate_bt.task.turn_angle import FixedTurn, overturned, undershot
 
 __all__ = [
     "DRIFT_PER_M",
@@ -266,6 +266,11 @@ class Localiser:
             f" {math.degrees(state.imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
             f" module ({imu_m:.2f} m)"
         )
+        short = undershot(self._fixed_turn, tangent, imu_m, self.plan.path, self.belief_m)
+        if short is not None:
+            self.mismatch = short[0]
+            self._disagree(state.stamp_s, short[2], short[1], imu, reach, None)
+            return
         if turn is not None and near and swung >= turn.angle_rad / 2:
             felt = self._felt_roll(turn, self._heading_ref, tangent)
             if felt is not None and abs(wrap_angle(felt - turn.roll_rad)) > _DIRECTION_MARGIN_RAD:
@@ -275,14 +280,9 @@ class Localiser:
                     f" {math.degrees(swung):.0f} deg at {self.belief_m:.2f} m (believed),"
                     f" where the map has {turn.segment!r} turning {drawn}"
                 )
-                self._disagree(
-                    state.stamp_s,
-                    turn,
-                    f"a turn {way} of {math.degrees(swung):.0f} deg",
-                    f"{imu}; the map's turn goes {drawn}",
-                    reach,
-                    None,
-                )
+                sensed = f"a turn {way} of {math.degrees(swung):.0f} deg"
+                evidence = f"{imu}; the map's turn goes {drawn}"
+                self._disagree(state.stamp_s, turn, sensed, evidence, reach, None)
                 return
             self._fixed_turn = FixedTurn(turn, self._heading_ref)
             middle = (turn.start_m + turn.end_m) / 2

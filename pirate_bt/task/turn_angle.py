@@ -9,25 +9,45 @@ at 1.90 m (believed), where the map has no turn within 0.34 m*, though the map's
 was right behind the robot and the pipe is not as drawn *there*. :func:`overturned`
 names it: the whole swing from the heading before the turn, against the turn's drawn
 angle.
+
+A bend built *less* sharp than drawn (45 degrees where the map draws 90, or 45
+degrees up where it draws a riser) was fixed on all the same, once the IMU had swung
+by half the drawn angle, and the mission then completed with the pipe heading 45
+degrees off the map's and nothing said. :func:`undershot` compares the whole swing
+with the map's once the rotational module is :data:`CHECK_AFTER_M` past the turn (and
+no other turn of the map is there yet), as the localiser does with a turn the map
+lacks: a difference of 30 degrees or more is a disagreement.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from pirate_bt.pipes.network import Path as PipePath
 from pirate_bt.task.fixes import Vec3, angle_between, roll_name
 from pirate_bt.task.planner import MapFeature
 
-__all__ = ["FixedTurn", "overturned"]
+__all__ = ["CHECK_AFTER_M", "TURN_DIFFERENCE_RAD", "FixedTurn", "overturned", "undershot"]
+
+CHECK_AFTER_M = 0.3
+"""How far past a turn's end on the map the rotational module is when its whole swing
+is compared with the map's (past the belief's error after a fix, 0.10 m, and the rest
+of a turn built longer than drawn)."""
+
+TURN_DIFFERENCE_RAD = math.radians(30.0)
+"""A turn whose whole swing differs from the map's by this much or more is not as
+drawn (the localiser's threshold for a turn the map lacks)."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class FixedTurn:
     """The last turn the localiser fixed on, and the IMU's heading before it."""
 
     feature: MapFeature
     before: Vec3
+    checked: bool = field(default=False)
+    """Its whole swing was compared with the map's (:func:`undershot`)."""
 
 
 def overturned(
@@ -58,3 +78,35 @@ def overturned(
         " drawn (or a turn the map does not have follows it)"
     )
     return mismatch, f"a turn of {total:.0f} deg through {turn.segment!r}", turn
+
+
+def undershot(
+    last: FixedTurn | None, tangent: Vec3, imu_m: float, path: PipePath, belief_m: float
+) -> tuple[str, str, MapFeature] | None:
+    """The mismatch, what was sensed and the turn, when ``last`` turned less than drawn.
+
+    Compared once, the first time the rotational module is :data:`CHECK_AFTER_M` past
+    the turn's end on the map with no other turn of the map begun; the map's swing is
+    its own tangents' (a slope drawn on the straight after the turn counts).
+    """
+    if last is None or last.checked:
+        return None
+    turn = last.feature
+    if imu_m < turn.end_m + CHECK_AFTER_M:
+        return None
+    last.checked = True
+    ahead = path.next_turn(turn.end_m + 1e-6)
+    if ahead is not None and ahead.start_m <= imu_m:
+        return None  # the map turns again there: its next turn is the matcher's
+    start = max(0.0, turn.start_m - 1e-6)
+    drawn = angle_between(path.tangent_at(imu_m), path.tangent_at(start))
+    felt = angle_between(tangent, last.before)
+    if drawn - felt < TURN_DIFFERENCE_RAD:
+        return None
+    mismatch = (
+        f"belief and map disagree: the pipe turned by {math.degrees(felt):.0f} deg at"
+        f" {turn.segment!r} ({belief_m:.2f} m believed), where the map has it turning"
+        f" {roll_name(turn.roll_rad)} by {math.degrees(drawn):.0f} deg: the turn there is"
+        " less sharp than drawn"
+    )
+    return mismatch, f"a turn of {math.degrees(felt):.0f} deg through {turn.segment!r}", turn
