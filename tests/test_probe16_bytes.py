@@ -20,11 +20,11 @@ import pytest
 from session_wire import CODEC, Wire, reply, state
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkLost
+from pirate_bt.errors import LinkLost, ProtocolMismatch
 from pirate_bt.link.codec import Heartbeat
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.testing import MemoryLink, memory_pair
-from pirate_bt.robot import load_robot
+from pirate_bt.robot import ControlMode, load_robot
 
 # -- 1. a flooded line is not a silent one -------------------------------------------------
 
@@ -194,3 +194,31 @@ def test_the_host_talks_to_a_bridge_written_from_the_protocol_page() -> None:
     assert state is not None and not link.health().estopped
     assert link.health().crc_errors == 0
     link.close()
+
+
+# -- 3. a NACK with a code the protocol does not have -----------------------------------------
+
+
+def _raw_nack(seq: int, kind: int, code: int) -> bytes:
+    body = bytes([1, 0x84]) + struct.pack("<HB", seq, 0) + bytes([kind, code])
+    return _cobs(body + struct.pack("<H", binascii.crc_hqx(body, 0))) + b"\x00"
+
+
+def test_a_setpoint_refused_with_an_unknown_nack_code_is_a_protocol_mismatch() -> None:
+    wire = Wire(hello=reply())
+    req = wire.session.send_setpoint(22, 1, ControlMode.VELOCITY, 5)
+    wire.far.write(_raw_nack(req.seq, 0x02, 42))
+    with pytest.raises(ProtocolMismatch) as caught:
+        wire.poll(0.01)
+    text = str(caught.value)
+    assert text.startswith("the bridge answered SETPOINT seq 2 with an unknown NACK code 42:")
+    assert "protocol mismatch" in text and "(the protocol's NACK codes are 1 to 10)" in text
+    assert req.tries == 1  # not sent again into a timeout
+
+
+def test_an_unknown_nack_code_answering_nothing_in_flight_is_only_counted() -> None:
+    wire = Wire(hello=reply())
+    wire.far.write(_raw_nack(40, 0x02, 42))
+    wire.poll(0.01)
+    assert wire.session.stats().crc_errors == 1
+    wire.session.ensure_alive()

@@ -32,6 +32,7 @@ from pirate_bt.link.codec import (
     Message,
     MsgType,
     Nack,
+    NackCode,
     State,
     StateLengthError,
     UnknownAckStatus,
@@ -246,9 +247,11 @@ class InboundMixin:
             _log.error(why)
 
     def _unknown_ack(self, item: UnknownAckStatus) -> None:
-        """An ``ACK`` with a status outside the protocol's table: when it answers a
-        request in flight (its type and seq), the bridge speaks another protocol, a
-        link error; else it is counted as a bad frame only (noise that passed the CRC)."""
+        """An ``ACK`` with a status (a ``NACK`` with a code) outside the protocol's table:
+        when it answers a request in flight (its type and seq), the bridge speaks another
+        protocol, a link error; else it is counted as a bad frame only (noise that passed
+        the CRC). Before 2026-11-30 such a ``NACK`` was only counted: the request was sent
+        again and failed as *not acknowledged*, though the bridge had answered it."""
         kind, seq = item.acked_type, item.seq
         ordered, hello = self._ordered, self._hello
         in_flight = (kind, seq) in self._oob or any(
@@ -257,10 +260,15 @@ class InboundMixin:
         if not in_flight or self._protocol_error is not None:
             return
         name = MsgType(kind).name
+        table = (
+            "ACK statuses are 0 APPLIED, 1 DUPLICATE and 2 STALE"
+            if item.answer == "ACK"
+            else f"NACK codes are 1 to {int(max(NackCode))}"
+        )
+        what = "status" if item.answer == "ACK" else "code"
         why = (
-            f"the bridge answered {name} seq {seq} with an unknown ACK status {item.status}:"
-            " a protocol mismatch (the protocol's ACK statuses are 0 APPLIED, 1 DUPLICATE"
-            " and 2 STALE)"
+            f"the bridge answered {name} seq {seq} with an unknown {item.answer} {what}"
+            f" {item.status}: a protocol mismatch (the protocol's {table})"
         )
         self._protocol_error = ProtocolMismatch(why)
         _log.error(why)

@@ -66,18 +66,21 @@ class BadCrc(FrameError):
 
 
 class UnknownAckStatus(FrameError):
-    """An ``ACK`` (good CRC and version) whose status is not in the protocol's table
-    (reason ``value``), with the request it names, so that the session can tell a
-    bridge answering a request in flight with it (a protocol mismatch) from noise."""
+    """An ``ACK`` (good CRC and version) whose status is not in the protocol's table, or
+    a ``NACK`` (``answer="NACK"``) whose error code is not (reason ``value``), with the
+    request it names, so that the session can tell a bridge answering a request in
+    flight with it (a protocol mismatch) from noise."""
 
-    def __init__(self, seq: int, acked_type: int, status: int) -> None:
+    def __init__(self, seq: int, acked_type: int, status: int, answer: str = "ACK") -> None:
         self.seq = seq
         self.acked_type = acked_type
         self.status = status
-        super().__init__("value", f"unknown ack status {status}")
+        self.answer = answer
+        what = "ack status" if answer == "ACK" else "nack code"
+        super().__init__("value", f"unknown {what} {status}")
 
     def __reduce__(self) -> tuple[object, ...]:
-        return (type(self), (self.seq, self.acked_type, self.status))
+        return (type(self), (self.seq, self.acked_type, self.status, self.answer))
 
 
 _HELLO = struct.Struct("<IB")
@@ -139,7 +142,7 @@ def decode_fixed(kind: MsgType, seq: int, arg: int, payload: bytes) -> Message:
         try:
             return Nack(seq, acked, NackCode(status))
         except ValueError:
-            raise FrameError("value", f"unknown nack code {status}") from None
+            raise UnknownAckStatus(seq, acked, status, "NACK") from None
     if kind is MsgType.HELLO:
         return Hello(seq, *_HELLO.unpack(payload))
     if kind is MsgType.HELLO_REPLY:
