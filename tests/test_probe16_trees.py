@@ -6,6 +6,8 @@
   A line break in a message was drawn as nothing (``x\\ny`` as ``xy``).
 - ``pirate-bt import btcpp a.xml -o b.xml`` wrote YAML into ``b.xml`` (replacing the
   XML there), which every reader then refused as "not well-formed XML".
+- A blackboard pointer as a subtree port's ``default`` (``{d}``) was refused as "write
+  $$d for the literal $d": the XML holds no ``$d``, and ``$$d`` there is the text ``$$d``.
 """
 
 from __future__ import annotations
@@ -66,3 +68,25 @@ def test_import_writes_a_yaml_file_only(
     assert out.read_text(encoding="utf-8") == "<root/>\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted({"a.xml", name})
     assert main(["import", "btcpp", str(source), "-o", str(tmp_path / "b.YML")]) == 0
+
+
+@pytest.mark.parametrize("pointer", ["{d}", "{=}"])
+@pytest.mark.parametrize("key", ["default", "example"])
+def test_a_pointer_as_a_port_s_default_is_refused_in_the_xml_s_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], pointer: str, key: str
+) -> None:
+    # was "default: '$d': a default names no parameter; write $$d for the literal $d":
+    # the XML holds no '$d', and '$$d' there is the text '$$d'
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<?xml version="1.0"?>\n<root BTCPP_format="4" main_tree_to_execute="t">\n'
+        '  <BehaviorTree ID="t"><wait duration="{d}"/></BehaviorTree>\n  <TreeNodesModel>\n'
+        f'    <SubTree ID="t"><input_port name="d" type="duration" {key}="{pointer}"/></SubTree>\n'
+        "  </TreeNodesModel>\n</root>\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    assert capsys.readouterr().err == (
+        f"{xml}:5:21: port 'd': {key} '{pointer}' is a blackboard pointer;"
+        f" a parameter's {key} is a value, not another parameter\n"
+    )

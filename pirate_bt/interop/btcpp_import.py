@@ -273,7 +273,7 @@ class _Importer:
             try:
                 for key in ("default", "example"):
                     if key in port.attrs:
-                        decl[key] = decode_value(port.attrs[key], kind, name)
+                        decl[key] = _port_value(port.attrs[key], kind, name, key)
                 if "choices" in port.attrs:
                     decl["choices"] = decode_value(port.attrs["choices"], "json")
             except ValueError as exc:
@@ -507,6 +507,23 @@ class _Importer:
             where, message = problems[0] if problems else ((), str(exc))
             field = ".".join(str(p) for p in where)
             raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
+
+
+def _port_value(text: str, kind: str, name: str, key: str) -> Any:
+    """A ``default`` or ``example`` of a subtree's port; a blackboard pointer (``{d}``)
+    is refused in the XML's words (the loader's would advise ``$$d``, which the XML
+    reads as the text ``$$d``).
+
+    Raises:
+        ValueError: the text does not fit the port's type, or it is a pointer.
+    """
+    value = decode_value(text, kind, name)
+    if isinstance(value, str) and PARAM_RE.match(value):
+        raise ValueError(
+            f"{key} {_shown(text)} is a blackboard pointer; a parameter's {key} is a value,"
+            " not another parameter"
+        )
+    return value
 
 
 def _has_reference(value: Any) -> bool:
