@@ -79,8 +79,10 @@ def test_garbage_before_the_last_good_frame_is_not_counted() -> None:
     for _ in range(5):
         wire.far.write(_GARBAGE)
         wire.poll(0.01)
+    assert wire.session.line_noise().startswith("20 unreadable frames (cobs 15, oversize 5)")
     wire.answer(state(1))  # a good frame: what came before it does not count
     wire.poll(0.01)
+    assert wire.session.line_noise() == ""
     with pytest.raises(LinkLost, match=r"^nothing heard from the bridge for 0\.5"):
         for _ in range(60):
             wire.poll(0.01)
@@ -222,3 +224,24 @@ def test_an_unknown_nack_code_answering_nothing_in_flight_is_only_counted() -> N
     wire.poll(0.01)
     assert wire.session.stats().crc_errors == 1
     wire.session.ensure_alive()
+
+
+def test_a_hello_answered_with_an_unknown_nack_code_is_named_at_connect() -> None:
+    clock = SimClock(1.0)
+    host, far = memory_pair()
+    hellos = []
+
+    def answer(_now: float) -> None:
+        for raw in far.read_available().split(b"\x00"):
+            if raw:
+                body = _uncobs(raw)
+                hellos.append(body[1])
+                far.write(_raw_nack(struct.unpack("<H", body[2:4])[0], body[1], 42))
+
+    clock.add_listener(answer)
+    with pytest.raises(ProtocolMismatch) as caught:
+        wrap_link(host, load_robot(), clock, reset_wait_s=0.0)
+    text = str(caught.value)
+    assert text.startswith("the bridge answered HELLO with an unknown NACK code 42"), text
+    assert "baud rate" not in text and "did not answer" not in text
+    assert hellos == [0x01]  # answered at once: not asked 16 times

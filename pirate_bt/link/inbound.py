@@ -159,6 +159,12 @@ class InboundMixin:
         one held."""
         return self._refused
 
+    def line_noise(self) -> str:
+        """What came from the bridge since its last good frame that made no good frame
+        (``""``: nothing), e.g. ``"204 unreadable frames (cobs 153, oversize 51) in 15963
+        bytes"`` (:mod:`pirate_bt.link.noise`)."""
+        return self._noise.text(self._last_heard_s)
+
     def _input_unlatched(self, flags: BridgeFlags) -> None:
         """``flags`` has ``ESTOP_INPUT`` but not ``ESTOP``: say so, once a session."""
         if self._input_unlatched_seen or self.config.protocol_minor < 2:

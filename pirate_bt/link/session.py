@@ -432,7 +432,7 @@ class Session(InboundMixin, ReaderMixin):
     def _unheard(self, how_long: str) -> str:
         """Why the link is lost, for ``how_long`` seconds: silence, or bytes that made no
         good frame (named, so that a flooded line is not taken for a silent bridge)."""
-        noise = self._noise.text(self._last_heard_s)
+        noise = self.line_noise()
         if not noise:
             return f"nothing heard from the bridge for {how_long} s"
         return f"no good frame from the bridge for {how_long} s: {noise}"

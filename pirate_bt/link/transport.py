@@ -36,6 +36,7 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     NackCode,
+    UnknownAckStatus,
     frame_time_s,
 )
 
@@ -344,6 +345,17 @@ def handshake(
                         raise ProtocolMismatch(
                             f"bridge speaks another protocol version ({item.detail}); "
                             f"host speaks {PROTOCOL_VERSION}"
+                        )
+                    if (
+                        isinstance(item, UnknownAckStatus)
+                        and item.seq == seq
+                        and item.acked_type == MsgType.HELLO
+                    ):  # answered, with a code the protocol does not have
+                        raise ProtocolMismatch(
+                            f"the bridge answered HELLO with an unknown {item.answer}"
+                            f" {'status' if item.answer == 'ACK' else 'code'} {item.status}:"
+                            " it does not follow the protocol"
+                            f" {PROTOCOL_VERSION}.{minor}"
                         )
                     heard[f"bad:{item.reason}"] += 1
                     continue
