@@ -8,6 +8,8 @@
   XML there), which every reader then refused as "not well-formed XML".
 - A blackboard pointer as a subtree port's ``default`` (``{d}``) was refused as "write
   $$d for the literal $d": the XML holds no ``$d``, and ``$$d`` there is the text ``$$d``.
+- BT.CPP's ``<Timeout msec>`` and ``<Sleep msec>`` were refused as having "no pirate_bt
+  counterpart", though docs/interop.md names ``timeout`` and ``wait`` as their own.
 """
 
 from __future__ import annotations
@@ -90,3 +92,35 @@ def test_a_pointer_as_a_port_s_default_is_refused_in_the_xml_s_words(
         f"{xml}:5:21: port 'd': {key} '{pointer}' is a blackboard pointer;"
         f" a parameter's {key} is a value, not another parameter\n"
     )
+
+
+@pytest.mark.parametrize(
+    ("node", "instead"),
+    [
+        ('<Timeout msec="500"><AlwaysSuccess/></Timeout>', '<timeout duration="500 ms">'),
+        ('<Sleep msec="250"/>', '<wait duration="250 ms">'),
+    ],
+)
+def test_bt_cpp_s_timeout_and_sleep_name_pirate_bt_s_own_node(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], node: str, instead: str
+) -> None:
+    # was "has no pirate_bt counterpart (see docs/interop.md)", where the table names them
+    xml = tmp_path / "t.xml"
+    xml.write_text(
+        '<?xml version="1.0"?>\n<root BTCPP_format="4">\n'
+        f'  <BehaviorTree ID="t">{node}</BehaviorTree>\n</root>\n',
+        encoding="utf-8",
+    )
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{xml}:3:24: BT.CPP node "), err
+    assert f"write pirate_bt's own {instead}" in err and err.count("\n") == 1, err
+    fixed = tmp_path / "fixed.xml"
+    fixed.write_text(
+        xml.read_text(encoding="utf-8")
+        .replace('<Timeout msec="500">', instead)
+        .replace("</Timeout>", "</timeout>")
+        .replace('<Sleep msec="250"/>', instead.replace(">", "/>")),
+        encoding="utf-8",
+    )
+    assert main(["validate", str(fixed)]) == 0, capsys.readouterr().err

@@ -28,6 +28,7 @@ from pirate_bt.interop.btcpp_models import (
     _shown,
     decode_value,
     node_models,
+    own_instead,
 )
 from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
 from pirate_bt.treefile.params import PARAM_RE
@@ -324,7 +325,8 @@ class _Importer:
             out = self.registered(element, tag, ports, name)
         elif tag in _BTCPP_BUILTINS:
             raise element.error(
-                f"BT.CPP node {_shown(tag)} has no pirate_bt counterpart (see docs/interop.md)"
+                f"BT.CPP node {_shown(tag)} has no pirate_bt counterpart"
+                + (own_instead(tag, attrs) or " (see docs/interop.md)")
             )
         else:
             known = sorted({*self.models, *FROM_BTCPP})

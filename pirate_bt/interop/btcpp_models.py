@@ -62,6 +62,26 @@ FROM_BTCPP: Final[dict[str, str]] = {
 }
 
 # BT.CPP's built-in node IDs (4.8): none of our tree IDs may take one of these names.
+_OWN_INSTEAD: Final = {"Timeout": ("timeout", "msec"), "Sleep": ("wait", "msec")}
+"""BT.CPP nodes whose pirate_bt counterpart is its own node (see docs/interop.md): the
+node to write instead, and BT.CPP's port of whole milliseconds."""
+
+
+def own_instead(tag: str, attrs: dict[str, str]) -> str:
+    """What to write for BT.CPP's ``tag`` (``Timeout``, ``Sleep``) in pirate_bt's own
+    node, the milliseconds as a duration (``<timeout duration="500 ms">``); empty when
+    ``tag`` has no such counterpart."""
+    if tag not in _OWN_INSTEAD:
+        return ""
+    kind, port = _OWN_INSTEAD[tag]
+    msec = attrs.get(port, "")
+    duration = f"{msec} ms" if msec.isascii() and msec.isdigit() else "..."
+    return (
+        " (it reads the wall clock in whole milliseconds); write pirate_bt's own"
+        f' <{kind} duration="{duration}">, which reads the run\'s clock (simulated or not)'
+    )
+
+
 _BTCPP_BUILTINS: Final = frozenset(
     {
         "AlwaysFailure",
