@@ -10,6 +10,7 @@
   $$d for the literal $d": the XML holds no ``$d``, and ``$$d`` there is the text ``$$d``.
 - BT.CPP's ``<Timeout msec>`` and ``<Sleep msec>`` were refused as having "no pirate_bt
   counterpart", though docs/interop.md names ``timeout`` and ``wait`` as their own.
+- A third sibling of the same name was told "(first at ...)" the second's place.
 """
 
 from __future__ import annotations
@@ -124,3 +125,21 @@ def test_bt_cpp_s_timeout_and_sleep_name_pirate_bt_s_own_node(
         encoding="utf-8",
     )
     assert main(["validate", str(fixed)]) == 0, capsys.readouterr().err
+
+
+def test_a_third_sibling_of_the_same_name_points_at_the_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the third said "(first at 5:7)", the second's place
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root:\n  type: sequence\n  children:\n"
+        "    - {type: success, name: a}\n    - {type: failure, name: a}\n"
+        "    - {type: running, name: a}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"{tree}:5:7: duplicate node name 'a' among siblings (first at {tree}:4:7)",
+        f"{tree}:6:7: duplicate node name 'a' among siblings (first at {tree}:4:7)",
+    ]

@@ -101,7 +101,7 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
                         child.called_at or child.location,
                     )
                 )
-            explicit[child.name] = child
+            explicit.setdefault(child.name, child)  # "first at" is the first, not the last
     used = set(explicit)
     counts: dict[str, int] = {}
     for child in children:
