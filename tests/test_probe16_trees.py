@@ -10,7 +10,8 @@
   $$d for the literal $d": the XML holds no ``$d``, and ``$$d`` there is the text ``$$d``.
 - BT.CPP's ``<Timeout msec>`` and ``<Sleep msec>`` were refused as having "no pirate_bt
   counterpart", though docs/interop.md names ``timeout`` and ``wait`` as their own.
-- A third sibling of the same name was told "(first at ...)" the second's place.
+- A third sibling of the same name was told "(first at ...)" the second's place, and
+  a key written a third time "(first written on line ...)" the second's line.
 """
 
 from __future__ import annotations
@@ -142,4 +143,17 @@ def test_a_third_sibling_of_the_same_name_points_at_the_first(
     assert capsys.readouterr().err.splitlines() == [
         f"{tree}:5:7: duplicate node name 'a' among siblings (first at {tree}:4:7)",
         f"{tree}:6:7: duplicate node name 'a' among siblings (first at {tree}:4:7)",
+    ]
+
+
+def test_a_key_written_three_times_points_at_the_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the third said "(first written on line 3)", the second's line
+    tree = tmp_path / "t.yaml"
+    tree.write_text("root: success\nname: a\nname: b\nname: c\n", encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"{tree}:3:1: duplicate key 'name' (first written on line 2)",
+        f"{tree}:4:1: duplicate key 'name' (first written on line 2)",
     ]

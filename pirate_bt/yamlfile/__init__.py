@@ -362,7 +362,7 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                             SourceLocation(locator.file, *node_mark(key_node)),
                         )
                     )
-                seen[key] = key_node
+                seen.setdefault(key, key_node)  # a third is told the first line too
                 locator.marks[(*path, key)] = node_mark(key_node)
                 items.append(((*path, key), value_node))
         elif isinstance(node, yaml.SequenceNode):
