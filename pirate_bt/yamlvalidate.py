@@ -74,6 +74,16 @@ def describe_error(error: Any) -> str:
     if kind in ("model_type", "model_attributes_type", "dict_type"):
         # pydantic's own wording names classes ("instance of Motor"): say the shape.
         msg = f"should be {_SHAPES[kind]}"
+    elif kind in ("too_short", "too_long") and error.get("ctx"):
+        # "List should have at least 1 item after validation, not 0", named by its key
+        ctx = error["ctx"]
+        bound = f"at least {ctx.get('min_length')}" if kind == "too_short" else ""
+        bound = bound or f"at most {ctx.get('max_length')}"
+        msg = f"must have {bound} item{'' if bound.endswith(' 1') else 's'}"
+        if ctx.get("actual_length") is not None:
+            msg += f", not {ctx['actual_length']}"
+        where = [p for p in loc if isinstance(p, str)]
+        return f"{where[-1]}: {msg}" if where else msg
     elif kind in _IN_WORDS and "input" in error:
         # "Input should be a valid integer": what to write, and what was written
         msg = f"must be {_IN_WORDS[kind]}, not {_as_written(error['input'])}"

@@ -12,6 +12,8 @@
   counterpart", though docs/interop.md names ``timeout`` and ``wait`` as their own.
 - A third sibling of the same name was told "(first at ...)" the second's place, and
   a key written a third time "(first written on line ...)" the second's line.
+- An empty ``choices: []`` or ``statuses: []`` was refused in pydantic's words, without
+  its key: "List should have at least 1 item after validation, not 0".
 """
 
 from __future__ import annotations
@@ -156,4 +158,21 @@ def test_a_key_written_three_times_points_at_the_first(
     assert capsys.readouterr().err.splitlines() == [
         f"{tree}:3:1: duplicate key 'name' (first written on line 2)",
         f"{tree}:4:1: duplicate key 'name' (first written on line 2)",
+    ]
+
+
+def test_an_empty_list_is_refused_by_its_key_in_the_file_s_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was "List should have at least 1 item after validation, not 0", no key named
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params: {a: {type: string, choices: [], default: x}}\n"
+        "root: {type: scripted, statuses: []}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"{tree}:1:28: choices: must have at least 1 item, not 0",
+        f"{tree}:2:24: scripted: statuses: must have at least 1 item, not 0",
     ]
