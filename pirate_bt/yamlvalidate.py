@@ -82,8 +82,8 @@ def describe_error(error: Any) -> str:
         msg = f"must have {bound} item{'' if bound.endswith(' 1') else 's'}"
         if ctx.get("actual_length") is not None:
             msg += f", not {ctx['actual_length']}"
-        where = [p for p in loc if isinstance(p, str)]
-        return f"{where[-1]}: {msg}" if where else msg
+        keys = [p for p in loc if isinstance(p, str)]
+        return f"{keys[-1]}: {msg}" if keys else msg
     elif kind in _IN_WORDS and "input" in error:
         # "Input should be a valid integer": what to write, and what was written
         msg = f"must be {_IN_WORDS[kind]}, not {_as_written(error['input'])}"
