@@ -210,3 +210,54 @@ def test_a_resume_the_disk_has_no_room_for_names_the_results_and_keeps_them(
     )
     assert results.read_text(encoding="utf-8") == before
     assert sorted(p.name for p in out.iterdir()) == ["results.jsonl"]
+
+
+# 4. `--output .` in a folder of one's own: its report.md, report.html, results.csv
+#    were replaced by the campaign's report without a word when the campaign ended.
+#    A folder without a row that holds one is refused before any case runs.
+
+
+SPEC = {
+    "name": "p16",
+    "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.2 m"}}],
+    "max_time": "60 s",
+}
+
+
+@pytest.mark.parametrize("name", ["report.md", "results.csv", "success_vs_drop.png"])
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_report_file_of_someone_elses_is_not_replaced(
+    tmp_path: Path, name: str, resume: bool
+) -> None:
+    from pirate_bt.campaign import run_campaign
+
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / name).write_text("my own notes\n", encoding="utf-8")
+    if resume:
+        (out / "results.jsonl").write_text("", encoding="utf-8")
+    seen: list[object] = []
+    with pytest.raises(InputError) as caught:
+        run_campaign(SPEC, output=out, resume=resume, workers=1, on_record=seen.append)
+    assert str(caught.value) == (
+        f"{out / name}: the campaign's report would replace it, and it is no campaign's"
+        f" ({out} holds no row, nor campaign.json); move it, or give another --output"
+    )
+    assert seen == []
+    assert (out / name).read_text(encoding="utf-8") == "my own notes\n"
+
+
+def test_the_command_refuses_an_output_holding_a_report_of_its_own(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt.cli import main
+
+    spec = tmp_path / "p.campaign.yaml"
+    spec.write_text(json.dumps(SPEC), encoding="utf-8")
+    (tmp_path / "report.md").write_text("# my project\n", encoding="utf-8")
+    code = main(["campaign", str(spec), "--output", str(tmp_path), "--quiet", "--workers", "1"])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"pirate-bt: {tmp_path / 'report.md'}: the")
+    assert (tmp_path / "report.md").read_text(encoding="utf-8") == "# my project\n"
+    assert not (tmp_path / "results.jsonl").exists()

@@ -345,21 +345,42 @@ def _check_output(
                 f"{results} holds {written} line{'s' if written != 1 else ''} already;"
                 " use --resume, or another --output"
             )
+        _check_no_report(output)
         return []
     numbered = _numbered_rows(results, warn=not quiet)
     if cases is not None:
         _check_ours(results, numbered, cases)
+    if not numbered:
+        _check_no_report(output)
     return [row for _line, row in numbered]
 
 
-REPORT_FILES = (
-    RESULTS_NAME + ".part",
-    RECORD_NAME,
+def _check_no_report(output: Path) -> None:
+    """Refuse a folder without rows that holds a file the report would replace.
+
+    A campaign's report is written with its rows: where there is none, and no
+    record of a campaign started there (``campaign.json``), a ``report.md`` or
+    ``results.csv`` is someone else's (``--output .`` in a project), and it was
+    overwritten without a word when the campaign ended.
+    """
+    if (output / RECORD_NAME).exists():
+        return
+    for name in _REPORT:
+        if (output / name).exists():
+            raise InputError(
+                f"{output / name}: the campaign's report would replace it, and it is no"
+                f" campaign's ({output} holds no row, nor {RECORD_NAME}); move it, or give another"
+                " --output"
+            )
+
+
+_REPORT = (
     "results.csv",
     "report.md",
     "report.html",
     *(f"success_vs_{key}.png" for key in ("drop", "corrupt", "dup")),
 )
+REPORT_FILES = (RESULTS_NAME + ".part", RECORD_NAME, *_REPORT)
 """The files a campaign writes into its output folder besides ``results.jsonl`` (the
 record of how it started, :mod:`pirate_bt.campaign.started`, and the report)."""
 
