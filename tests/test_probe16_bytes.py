@@ -20,7 +20,7 @@ import pytest
 from session_wire import CODEC, Wire, reply, state
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkLost, ProtocolMismatch
+from pirate_bt.errors import LinkLost, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.codec import Heartbeat
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.testing import MemoryLink, memory_pair
@@ -245,3 +245,14 @@ def test_a_hello_answered_with_an_unknown_nack_code_is_named_at_connect() -> Non
     assert text.startswith("the bridge answered HELLO with an unknown NACK code 42"), text
     assert "baud rate" not in text and "did not answer" not in text
     assert hellos == [0x01]  # answered at once: not asked 16 times
+
+
+def test_a_port_sending_only_zeros_at_connect_is_not_said_to_send_no_delimiter() -> None:
+    clock = SimClock(1.0)
+    host, far = memory_pair()
+    clock.add_listener(lambda _now: (far.read_available(), far.write(b"\x00" * 8)))
+    with pytest.raises(LinkTimeout) as caught:
+        wrap_link(host, load_robot(), clock, reset_wait_s=0.0)
+    text = str(caught.value)
+    assert "none a good frame (0x00 bytes, no frame between them)" in text, text
+    assert "no delimiter" not in text

@@ -339,6 +339,7 @@ def handshake(
         while clock.now() < deadline:
             data = link.read_available()
             heard["bytes"] += len(data)
+            heard["zeros"] += data.count(0)  # delimiters: a line in break reads as 0x00s
             for item in decoder.feed(data):
                 if isinstance(item, FrameError):
                     if item.reason == "version":
@@ -424,8 +425,9 @@ def _heard(heard: collections.Counter[str]) -> str:
     frames = [(k[6:], n) for k, n in sorted(heard.items()) if k.startswith("frame:")]
     bad = ", ".join(f"{k[4:]} {n}" for k, n in sorted(heard.items()) if k.startswith("bad:"))
     if not frames:
+        empty = "0x00 bytes, no frame between them" if heard["zeros"] else "no delimiter"
         return (
-            f": {heard['bytes']} bytes came back, none a good frame ({bad or 'no delimiter'}):"
+            f": {heard['bytes']} bytes came back, none a good frame ({bad or empty}):"
             " another baud rate, or not a PIRATEbay?"
         )
     if all(name == "HELLO" for name, _ in frames):
