@@ -14,6 +14,8 @@
   a key written a third time "(first written on line ...)" the second's line.
 - An empty ``choices: []`` or ``statuses: []`` was refused in pydantic's words, without
   its key: "List should have at least 1 item after validation, not 0".
+- A subtree no call used was not checked at all: a library of subtrees with a typo in one
+  not yet used validated "ok".
 """
 
 from __future__ import annotations
@@ -175,4 +177,27 @@ def test_an_empty_list_is_refused_by_its_key_in_the_file_s_words(
     assert capsys.readouterr().err.splitlines() == [
         f"{tree}:1:28: choices: must have at least 1 item, not 0",
         f"{tree}:2:24: scripted: statuses: must have at least 1 item, not 0",
+    ]
+
+
+def test_a_subtree_no_call_uses_is_checked_too(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was "ok": a library of subtrees with a typo in one not yet used
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root: {type: subtree, ref: used, params: {d: 1 s}}\n"
+        "subtrees:\n"
+        "  used: {params: {d: duration}, root: {type: wait, duration: $d}}\n"
+        "  later: {params: {d: duration}, root: {type: wiat, duration: $d}}\n"
+        "  fine: {params: {d: duration}, root: {type: wait, duration: $d}}\n"
+        "  loops: {root: {type: subtree, ref: loops}}\n"
+        "  typo: {params: {d: duration}, root: {type: wait, duration: $dd}}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"{tree}:4:41: unknown node type 'wiat'; did you mean 'wait'?",
+        f"{tree}:6:33: recursive subtree: {tree}#loops -> {tree}#loops",
+        f"{tree}:7:52: unknown parameter $dd (parameters: $d)",
     ]

@@ -153,6 +153,8 @@ class _FileReader:
         """Files read with refused values blanked out (:mod:`pirate_bt.treefile.refused`)."""
         self.board_unsure = _Names()
         """Blackboard keys whose declaration was refused: not checked against the nodes."""
+        self.expanded: set[str] = set()
+        """The subtrees a call used (``file#name``): the others are checked on their own."""
 
     # -- helpers
 

@@ -231,6 +231,7 @@ def load_tree(
     env = _Env(doc, values, (doc.file,), caller, unknown=unknown, declared=declared.names)
     # None when a node could not be read: the checks of the whole tree need every node
     spec = reader.tree(env, (), data)
+    reader.check_unused(doc)  # the subtrees no call used: checked all the same
     if spec is not None:
         _check_blackboard(spec, reader.blackboard, reader.errors, reader.board_unsure)
     if spec is not None and not reader.errors:

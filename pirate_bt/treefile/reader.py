@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
@@ -40,6 +40,9 @@ from pirate_bt.treefile.spec import (
     PathKey,
 )
 from pirate_bt.yamlvalidate import key_not_text, validation_problems
+
+if TYPE_CHECKING:
+    from pirate_bt.yamlfile import YamlDocument
 
 __all__ = []
 
@@ -255,6 +258,48 @@ class _Reader(_FileReader):
                 named.append(NodeSpec(str(item.get("type")), name, where, explicit_name=True))
         return out, ok, named
 
+    def check_unused(self, doc: YamlDocument) -> None:
+        """Check each subtree of ``doc`` that no call used, as far as it can be without
+        its parameters' values (a use of one is not checked): its node types, keys,
+        values and units, names and calls. A library of subtrees was "ok" with a typo in
+        one not yet used. Read by a reader of its own, so that what it finds is added to
+        the problems only (not the tree's files, blackboard or bounds)."""
+        subtrees = doc.data.get("subtrees") if isinstance(doc.data, dict) else None
+        if not isinstance(subtrees, dict) or self.too_deep or self.count > MAX_TREE_NODES:
+            return  # past a bound the rest was not read: not said to be unused either
+        side = type(self)(self.registry, self.robot, self.units_required, self.base_dir)
+        side.docs, side.headers_read = dict(self.docs), set(self.headers_read)
+        side.blackboard, side.blanked = dict(self.blackboard), set(self.blanked)
+        side.board_unsure = _Names(self.board_unsure.names, every=self.board_unsure.every)
+        total = 0
+        for name, body in subtrees.items():
+            ident = f"{doc.file}#{name}"
+            if not isinstance(name, str) or ident in self.expanded | side.expanded:
+                continue
+            where: PathKey = ("subtrees", name)
+            if not isinstance(body, dict):
+                if not side.blank(doc, body):
+                    side.error(doc, where, "a subtree is a mapping with 'root'")
+                continue
+            for key in body:
+                if key not in _SUBTREE_KEYS and not side.blank(doc, key):
+                    side.error(doc, (*where, key), unknown_key(key, _SUBTREE_KEYS))
+            declared = side.declared_params(
+                doc, (*where, "params"), body.get("params"), misspelt(body, "params", _SUBTREE_KEYS)
+            )
+            unknown = _Names(declared.names, every=declared.refused.every)
+            env = _Env(doc, {}, (doc.file, ident), unknown=unknown, declared=declared.names)
+            side.count = side.depth = 0
+            side.tree(env, where, body)
+            total += side.count
+            if side.too_deep or side.count > MAX_TREE_NODES:
+                break  # said once, as for the tree
+            if total > MAX_TREE_NODES:
+                break  # a thousand small subtrees that each call a big one: enough read
+        said = {str(e) for e in self.errors}
+        self.errors.extend(e for e in side.errors if str(e) not in said)
+        self.blanked |= side.blanked
+
     def composite(
         self, env: _Env, path: PathKey, raw: Mapping[str, Any], spec: NodeSpec
     ) -> NodeSpec | None:
@@ -386,6 +431,7 @@ class _Reader(_FileReader):
         else:
             body, body_path = target, ()
         ident = f"{target_doc.file}#{name}" if name else target_doc.file
+        self.expanded.add(ident)
         if ident in env.chain:
             loop = " -> ".join([*env.chain[env.chain.index(ident) :], ident])
             self.error(doc, (*path, "ref"), f"recursive subtree: {loop}")
