@@ -256,3 +256,55 @@ def test_a_port_sending_only_zeros_at_connect_is_not_said_to_send_no_delimiter()
     text = str(caught.value)
     assert "none a good frame (0x00 bytes, no frame between them)" in text, text
     assert "no delimiter" not in text
+
+
+# -- 5. a supervised run over a flooded line ----------------------------------------------------
+
+
+def test_a_supervised_run_names_a_flooded_line_not_silence() -> None:
+    # The link's own LinkLost named the flood (section 1), but the supervisor, which
+    # stops first (max_link_silence is shorter than the link's timeout), still said
+    # "link_silent: nothing heard from the bridge": LinkHealth now carries the noise.
+    from pirate_bt.safety import Supervisor
+
+    clock = SimClock(1.0)
+    host, far = memory_pair()
+    peer = DocBridge(clock, far)
+    link = wrap_link(host, peer.robot, clock, reset_wait_s=0.0)
+    sup = Supervisor(link, clock)
+    for _ in range(5):
+        clock.advance(0.05)
+        sup.tick()
+    assert sup.safe_state_reason is None and link.health().line_noise == ""
+    clock.remove_listener(peer.step)  # the bridge now sends only bytes that make no frame
+    for _ in range(10):
+        far.write(_GARBAGE)
+        clock.advance(0.05)
+        sup.tick()
+    reason = sup.safe_state_reason
+    assert reason is not None and reason.startswith(
+        "link_silent: no good frame from the bridge for 0."
+    ), reason
+    assert "unreadable frames (cobs " in reason and "oversize" in reason, reason
+    assert "nothing heard" not in reason
+    link.close()
+
+
+def test_a_silent_line_is_still_nothing_heard_for_the_supervisor() -> None:
+    from pirate_bt.safety import Supervisor
+
+    clock = SimClock(1.0)
+    host, far = memory_pair()
+    peer = DocBridge(clock, far)
+    link = wrap_link(host, peer.robot, clock, reset_wait_s=0.0)
+    sup = Supervisor(link, clock)
+    for _ in range(5):
+        clock.advance(0.05)
+        sup.tick()
+    clock.remove_listener(peer.step)
+    for _ in range(10):
+        clock.advance(0.05)
+        sup.tick()
+    reason = sup.safe_state_reason
+    assert reason is not None and "nothing heard from the bridge for 0." in reason, reason
+    link.close()

@@ -239,6 +239,8 @@ class SessionStats:
         faulted: Positions, in the STATE frame's board order (ascending id), of the
             boards whose status has ``FAULT`` (an H-bridge fault or over-current) in
             the latest STATE.
+        line_noise: What came since the last good frame that made no good frame
+            (``Session.line_noise``; ``""``: nothing).
     """
 
     connected: bool
@@ -260,3 +262,4 @@ class SessionStats:
     estop_input: bool = False
     bus_fault: bool = False
     faulted: tuple[int, ...] = ()
+    line_noise: str = ""

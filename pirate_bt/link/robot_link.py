@@ -400,7 +400,9 @@ class RobotLink:
             return _health_of(stats, self._board_ids_at(stats.faulted), session.refused_states())
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
-        figures = _HEALTH_FIGURES(session)
+        # The line's noise since the last good frame is not a counter the figures hold
+        # (an echo, bytes without a delimiter): it is read with them.
+        figures = (*_HEALTH_FIGURES(session), session.line_noise())
         if figures == self._health_figures:
             return self._health
         (
@@ -417,6 +419,7 @@ class RobotLink:
             resets,
             faulted,
             refused,
+            noise,
         ) = figures
         if completed != self._loss_completed:
             recent = session._recent
@@ -438,6 +441,7 @@ class RobotLink:
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
             faulted_boards=self._board_ids_at(faulted),
             states_refused=_refusals(refused),
+            line_noise=noise,
         )
         return self._health
 
@@ -566,4 +570,5 @@ def _health_of(
         bus_fault=s.bus_fault,
         faulted_boards=faulted_boards,
         states_refused=_refusals(refused),
+        line_noise=s.line_noise,
     )

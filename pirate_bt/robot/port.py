@@ -46,6 +46,10 @@ class LinkHealth:
         states_refused: ``STATE`` frames the link refused since the last one it took,
             as (reason, count) pairs (``("with a bad CRC", 12)``); empty while there are
             fewer than a few (a lossy line's damaged frames, made up for by the next).
+        line_noise: What came from the bridge since its last good frame that made no
+            good frame, for people (``"204 unreadable frames (cobs 153, oversize 51) in
+            15963 bytes"``), so that a flooded line is not taken for a silent bridge;
+            ``""`` when nothing came (or a port that cannot tell).
     """
 
     connected: bool
@@ -62,10 +66,19 @@ class LinkHealth:
     bus_fault: bool = False
     faulted_boards: tuple[int, ...] = ()
     states_refused: tuple[tuple[str, int], ...] = ()
+    line_noise: str = ""
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""
         return now_s - self.last_heard_s
+
+    def silence_text(self, silent_s: float) -> str:
+        """The bridge unheard for ``silent_s`` seconds, for people: *nothing heard from
+        the bridge for 0.510 s*, or, when bytes came that made no good frame, *no good
+        frame from the bridge for 0.510 s: 204 unreadable frames (...) in 15963 bytes*."""
+        if self.line_noise:
+            return f"no good frame from the bridge for {silent_s:.3f} s: {self.line_noise}"
+        return f"nothing heard from the bridge for {silent_s:.3f} s"
 
     def states_refused_text(self) -> str:
         """:attr:`states_refused` for people (``"STATE frames arrived but all 15 were

@@ -60,7 +60,8 @@ def wait_for_state(port: RobotPort, clock: Clock, timeout_s: float) -> None:
         if port.state() is not None:
             break
         if clock.now() >= deadline:
-            refused = port.health().states_refused_text()  # frames came, none was taken
+            health = port.health()  # frames came, none was taken; or bytes, no frame
+            refused = health.states_refused_text() or health.line_noise
             why = f": {refused}" if refused else ""
             raise LinkTimeout(f"no state from the robot within {timeout_s:g} s{why}")
         clock.sleep(step)

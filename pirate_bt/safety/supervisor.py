@@ -321,7 +321,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         if silent > self.robot.safety.max_link_silence:
             return Problem(
                 Reason.LINK_SILENT,
-                f"nothing heard from the bridge for {silent:.3f} s"
+                f"{health.silence_text(silent)}"
                 f" (allowed {self.robot.safety.max_link_silence:.3f} s)",
             )
         if health.faulted_boards:
@@ -433,7 +433,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     health = self._port.health()
                     silent = health.silent_for(now)
                     heard = (
-                        f"nothing heard from the bridge for {silent:.3f} s"
+                        health.silence_text(silent)
                         if silent >= no_state - 1e-9
                         else f"no state frame from the bridge for {no_state:.3f} s (the"
                         f" last frame heard, {silent:.3f} s ago, held no state)"
