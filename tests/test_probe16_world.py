@@ -7,7 +7,11 @@ and stopped on *the pipe turned by 30 deg ..., where the map has no turn within
 
 A bend built less sharp than drawn (45 degrees where the map draws 90, level or up
 into a riser): the localiser fixed on it at half the drawn angle and the mission
-completed, the pipe heading 45 degrees off the map's and nothing said.
+completed, the pipe heading 45 degrees off the map's and nothing said. At the top of
+a riser, a bend right built at 40 or 45 degrees where the map draws 90 was never fixed
+on at all (the IMU swings by less than half the drawn angle), and a short leg after it
+ended before the localiser missed the turn: the mission completed, the robot on a 45
+degree slope the map has as level.
 """
 
 from __future__ import annotations
@@ -88,3 +92,33 @@ def test_a_bend_less_sharp_than_drawn_is_named_as_that_bend(
     assert f"where the map has it turning {direction} by 90 deg" in result.why
     _at_rest_and_held(models[-1])  # up: on a 45 deg slope, both halves hold
     assert json.loads(json.dumps(result.as_dict()))["why"] == result.why
+
+
+def _riser_top(angle: str) -> Network:
+    segments: list[dict[str, Any]] = [
+        {"id": "level", "type": "straight", "length": "1 m"},
+        {"id": "foot", "type": "bend", "direction": "up"},
+        {"id": "riser", "type": "straight", "length": "1.5 m"},
+        {"id": "top", "type": "bend", "direction": "right", "angle": angle},
+        {"id": "run", "type": "straight", "length": "1.5 m"},
+    ]
+    return network_from_data({"name": "riser", "diameter": "63 mm", "segments": segments})
+
+
+@pytest.mark.parametrize(("angle", "faults"), [("40 deg", None), ("45 deg", "drop=0.05")])
+def test_a_riser_top_less_sharp_than_drawn_and_never_fixed_on_is_named(
+    models: list[Any], angle: str, faults: str | None
+) -> None:
+    route = parse_route("at the bend turn up\nat the bend turn right\nforward 0.5 m\n", "r.route")
+    result = pirate_bt.simulate_mission(
+        route, network=_riser_top("90 deg"), truth=_riser_top(angle), faults=faults, seed=3
+    )
+    # was: success, 'mission completed: 5 PABs', 'top' never fixed on
+    assert result.status == "failure" and result.safe_state
+    assert [fix.feature for fix in result.fixes] == ["foot"]
+    assert result.disagreement is not None and result.disagreement.feature == "top"
+    assert "and no further near 'top'" in result.why
+    assert "where the map has it turning right by 90 deg: the turn there is less sharp" in (
+        result.why
+    )
+    _at_rest_and_held(models[-1])

@@ -67,7 +67,7 @@ from pirate_bt.task.fixes import (
     wrap_angle,
 )
 from pirate_bt.task.planner import MapFeature, MissionPlan
-from pirate_bt.task.turn_angle import FixedTurn, overturned, undershot
+from pirate_bt.task.turn_angle import FixedTurn, TurnWatch, imu_evidence
 
 __all__ = [
     "DRIFT_PER_M",
@@ -175,7 +175,7 @@ class Localiser:
         self._last_state: RobotState | None = None
         self._heading_ref: Vec3 | None = None
         self._settle_after_m: float | None = None
-        self._fixed_turn: FixedTurn | None = None
+        self._turn_watch = TurnWatch(plan.path)
         self._pending = list(plan.features)
         offsets = robot.behind_front_tip_m()
         self._offset = offsets
@@ -261,12 +261,14 @@ class Localiser:
         turn = self._next_turn()
         reach = self.reach()
         near = turn is not None and turn.start_m - reach <= imu_m <= turn.end_m + reach
-        imu = (
-            f"IMU pitch {math.degrees(state.imu_rad.get('pitch', 0.0)):.1f} deg, yaw"
-            f" {math.degrees(state.imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
-            f" module ({imu_m:.2f} m)"
+        imu = imu_evidence(state.imu_rad, imu_m)
+        short = self._turn_watch.short(
+            turn if near else None,
+            swung,
+            tangent,
+            (imu_m, self.belief_m, self.distance_m),
+            lambda: self._drawn_slope(tangent, imu_m, reach),
         )
-        short = undershot(self._fixed_turn, tangent, imu_m, self.plan.path, self.belief_m)
         if short is not None:
             self.mismatch = short[0]
             self._disagree(state.stamp_s, short[2], short[1], imu, reach, None)
@@ -284,7 +286,7 @@ class Localiser:
                 evidence = f"{imu}; the map's turn goes {drawn}"
                 self._disagree(state.stamp_s, turn, sensed, evidence, reach, None)
                 return
-            self._fixed_turn = FixedTurn(turn, self._heading_ref)
+            self._turn_watch.last = FixedTurn(turn, self._heading_ref)
             middle = (turn.start_m + turn.end_m) / 2
             self._fix(turn, "imu", middle + self._imu_offset_m, state.stamp_s)
             self._settle_after_m = turn.end_m + 0.02
@@ -295,7 +297,7 @@ class Localiser:
                 # pipe goes on as drawn, and the new slope is the reference from now on
                 self._heading_ref = tangent
                 return
-            sharper = overturned(self._fixed_turn, tangent, imu_m, reach, self.belief_m)
+            sharper = self._turn_watch.overturned(tangent, imu_m, reach, self.belief_m)
             if sharper is not None:  # the turn fixed on goes on turning: not a new one
                 self.mismatch = sharper[0]
                 self._disagree(state.stamp_s, sharper[2], sharper[1], imu, reach, None)

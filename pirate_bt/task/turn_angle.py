@@ -16,19 +16,35 @@ by half the drawn angle, and the mission then completed with the pipe heading 45
 degrees off the map's and nothing said. :func:`undershot` compares the whole swing
 with the map's once the rotational module is :data:`CHECK_AFTER_M` past the turn (and
 no other turn of the map is there yet), as the localiser does with a turn the map
-lacks: a difference of 30 degrees or more is a disagreement.
+lacks: a difference of 30 degrees or more is a disagreement. A bend built so much
+less sharp that the IMU never swings by half its drawn angle (40 degrees where the top
+of a riser draws 90) was never fixed on, and a short leg after it ended before the
+localiser's reach did: the mission completed. A swing of 30 degrees or more near the
+map's next turn, held within :data:`STEADY_RAD` over :data:`CHECK_AFTER_M` of driving
+(the pipe turned, and turns no further), is that turn, less sharp than drawn
+(:meth:`TurnWatch.short`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from pirate_bt.pipes.network import Path as PipePath
 from pirate_bt.task.fixes import Vec3, angle_between, roll_name
 from pirate_bt.task.planner import MapFeature
 
-__all__ = ["CHECK_AFTER_M", "TURN_DIFFERENCE_RAD", "FixedTurn", "overturned", "undershot"]
+__all__ = [
+    "CHECK_AFTER_M",
+    "STEADY_RAD",
+    "TURN_DIFFERENCE_RAD",
+    "FixedTurn",
+    "TurnWatch",
+    "imu_evidence",
+    "overturned",
+    "undershot",
+]
 
 CHECK_AFTER_M = 0.3
 """How far past a turn's end on the map the rotational module is when its whole swing
@@ -38,6 +54,10 @@ of a turn built longer than drawn)."""
 TURN_DIFFERENCE_RAD = math.radians(30.0)
 """A turn whose whole swing differs from the map's by this much or more is not as
 drawn (the localiser's threshold for a turn the map lacks)."""
+
+STEADY_RAD = math.radians(2.0)
+"""A heading held within this over :data:`CHECK_AFTER_M` of driving is steady (a bend's
+swing moves it by 2 degrees in 3 mm of a 90 mm radius)."""
 
 
 @dataclass(slots=True)
@@ -110,3 +130,72 @@ def undershot(
         " less sharp than drawn"
     )
     return mismatch, f"a turn of {math.degrees(felt):.0f} deg through {turn.segment!r}", turn
+
+
+def imu_evidence(imu_rad: Mapping[str, float], imu_m: float) -> str:
+    """The IMU's reading at the rotational module, for a disagreement's evidence."""
+    return (
+        f"IMU pitch {math.degrees(imu_rad.get('pitch', 0.0)):.1f} deg, yaw"
+        f" {math.degrees(imu_rad.get('yaw', 0.0)):.1f} deg at the rotational"
+        f" module ({imu_m:.2f} m)"
+    )
+
+
+class TurnWatch:
+    """The localiser's check of the turns' angles against the map's, as it goes.
+
+    Args:
+        path: The mission's path on the map.
+    """
+
+    def __init__(self, path: PipePath) -> None:
+        self.path = path
+        self.last: FixedTurn | None = None
+        """The last turn fixed on (set by the localiser)."""
+        self._steady: tuple[Vec3, float] | None = None
+
+    def overturned(
+        self, tangent: Vec3, imu_m: float, reach_m: float, belief_m: float
+    ) -> tuple[str, str, MapFeature] | None:
+        """:func:`overturned` for the last turn fixed on."""
+        return overturned(self.last, tangent, imu_m, reach_m, belief_m)
+
+    def short(
+        self,
+        near: MapFeature | None,
+        swung: float,
+        tangent: Vec3,
+        where_m: tuple[float, float, float],
+        drawn_slope: Callable[[], bool],
+    ) -> tuple[str, str, MapFeature] | None:
+        """A turn less sharp than drawn, fixed on (:func:`undershot`) or not.
+
+        Args:
+            near: The map's next turn, when the rotational module is within its reach.
+            swung: The IMU's swing since the heading before it.
+            tangent: The pipe's direction at the IMU now.
+            where_m: The rotational module's place, the belief and the distance driven.
+            drawn_slope: Whether the IMU's heading is a slope the map draws there.
+        """
+        imu_m, belief_m, driven_m = where_m
+        found = undershot(self.last, tangent, imu_m, self.path, belief_m)
+        if found is not None or near is None:
+            self._steady = None
+            return found
+        if self._steady is None or angle_between(tangent, self._steady[0]) > STEADY_RAD:
+            self._steady = (tangent, driven_m)
+            return None
+        if driven_m - self._steady[1] < CHECK_AFTER_M or swung < TURN_DIFFERENCE_RAD:
+            return None
+        if swung >= near.angle_rad / 2 or near.angle_rad - swung < TURN_DIFFERENCE_RAD:
+            return None  # the localiser's to fix on
+        if drawn_slope():
+            return None  # a change of slope the map draws, not this turn
+        felt, drawn = math.degrees(swung), math.degrees(near.angle_rad)
+        mismatch = (
+            f"belief and map disagree: the pipe turned by {felt:.0f} deg and no further"
+            f" near {near.segment!r} ({belief_m:.2f} m believed), where the map has it"
+            f" turning {roll_name(near.roll_rad)} by {drawn:.0f} deg: the turn there is"
+            " less sharp than drawn"
+        )
+        return mismatch, f"a turn of {felt:.0f} deg near {near.segment!r}", near
