@@ -261,3 +261,81 @@ def test_the_command_refuses_an_output_holding_a_report_of_its_own(
     assert len(err) == 1 and err[0].startswith(f"pirate-bt: {tmp_path / 'report.md'}: the")
     assert (tmp_path / "report.md").read_text(encoding="utf-8") == "# my project\n"
     assert not (tmp_path / "results.jsonl").exists()
+
+
+# 5. Ctrl-C again while a stopped campaign waits for its cases in flight: it raised out
+#    of the pool's shutdown with the workers still running, and the process then sat
+#    in multiprocessing's exit joining them (a third Ctrl-C: a traceback from there).
+#    Now a second interrupt kills the workers, their servers and cases, and it ends.
+
+SLEEPER = textwrap.dedent(
+    """
+    import os, time
+    from pathlib import Path
+
+    def sleep(case, trace_dir):
+        Path(os.environ["P16_STARTED"], str(os.getpid())).write_text("")
+        time.sleep(600)
+    """
+)
+
+STOPPED = textwrap.dedent(
+    """
+    import signal, sys
+    from pathlib import Path
+    from pirate_bt.campaign import make_executor, run_cases
+    sys.path.insert(0, sys.argv[1])
+    from test_probe16_campaign import _cases
+    try:
+        with make_executor(workers=2) as (executor, _):
+            run_cases(_cases(2), Path(sys.argv[2]), executor, target="probe16_sleeper:sleep")
+    except KeyboardInterrupt:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+    """
+)
+
+
+def _gone(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat", encoding="utf-8") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
+def test_a_second_ctrl_c_stops_a_campaign_waiting_for_its_cases(helper: Path) -> None:
+    import signal
+    import time
+
+    (helper / "probe16_sleeper.py").write_text(SLEEPER, encoding="utf-8")
+    started = helper / "started"
+    started.mkdir()
+    env = {**os.environ, "P16_STARTED": str(started)}
+    command = [sys.executable, "-c", STOPPED, str(Path(__file__).parent), str(helper / "out")]
+    proc = subprocess.Popen(command, env=env, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        while len(list(started.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        cases = [int(p.name) for p in started.iterdir()]
+        assert len(cases) == 2
+        # to the campaign's process alone: its cases do not see it and sleep on
+        for _ in range(40):
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=0.5)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["interrupted"]
+    deadline = time.monotonic() + 10
+    while not all(map(_gone, cases)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert all(map(_gone, cases))

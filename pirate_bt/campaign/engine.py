@@ -43,6 +43,7 @@ from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import RESULTS_NAME, is_safe_name, safe_name
 from pirate_bt.campaign.sink import RowSink
 from pirate_bt.campaign.started import RECORD_NAME
+from pirate_bt.campaign.stopping import pool_killed_on_signal
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
 
@@ -206,8 +207,11 @@ def make_executor(
         pool = LocalPool(count)
         try:
             yield pool, f"{count} local worker{'s' if count != 1 else ''}"
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:  # Ctrl-C, SIGTERM: a second one kills the cases in flight
+            with pool_killed_on_signal(pool):
+                pool.shutdown(wait=True, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True, cancel_futures=True)
         return
     try:
         from pirate_bt.campaign.cluster import dask_executor
