@@ -16,6 +16,8 @@
   its key: "List should have at least 1 item after validation, not 0".
 - A subtree no call used was not checked at all: a library of subtrees with a typo in one
   not yet used validated "ok".
+- A tag YAML has no value for (``root: !include other.yaml``) was "YAML syntax error:
+  could not determine a constructor for the tag", though the syntax is fine.
 """
 
 from __future__ import annotations
@@ -201,3 +203,24 @@ def test_a_subtree_no_call_uses_is_checked_too(
         f"{tree}:6:33: recursive subtree: {tree}#loops -> {tree}#loops",
         f"{tree}:7:52: unknown parameter $dd (parameters: $d)",
     ]
+
+
+@pytest.mark.parametrize(
+    ("value", "tag"),
+    [
+        ("!include other.yaml", "'!include'"),
+        ("!!python/object:os.system {type: success}", "'!!python/object:os.system'"),
+    ],
+)
+def test_an_unknown_tag_is_not_called_a_syntax_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str, tag: str
+) -> None:
+    # was "YAML syntax error: could not determine a constructor for the tag ..."
+    tree = tmp_path / "t.yaml"
+    tree.write_text(f"root: {value}\n", encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err == (
+        f"{tree}:1:7: YAML tag {tag} is not known here: a value is text, a number, a"
+        " boolean, a list or a mapping, with no tag but YAML's own (!!str, !!int, !!float,"
+        " !!bool)\n"
+    )

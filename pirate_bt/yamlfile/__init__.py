@@ -32,7 +32,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, Final
 
 import yaml
 
@@ -431,7 +431,8 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         mark = exc.problem_mark or exc.context_mark
         where = _place(file, text, mark.line, mark.column) if mark is not None else loc
         problem = exc.problem or exc.context or "invalid YAML"
-        raise ValidationFailed([LocatedError(f"YAML syntax error: {problem}", where)]) from None
+        said = _unknown_tag(problem) or f"YAML syntax error: {problem}"
+        raise ValidationFailed([LocatedError(said, where)]) from None
     except yaml.reader.ReaderError as exc:
         # a character YAML does not allow (a control character): PyYAML has no mark for
         # it, and a message over two lines. The reader stops at the first one, so that
@@ -457,6 +458,23 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
     finally:
         loader.dispose()
     return YamlDocument(data, locator)
+
+
+_NO_CONSTRUCTOR: Final = "could not determine a constructor for the tag "
+
+
+def _unknown_tag(problem: str) -> str | None:
+    """A tag no value here has (``!include``, ``!!python/object:os.system``) in words that
+    say so; it was "YAML syntax error: could not determine a constructor for the tag",
+    though the file's syntax is fine. None for any other problem."""
+    if not problem.startswith(_NO_CONSTRUCTOR):
+        return None
+    tag = problem[len(_NO_CONSTRUCTOR) :].strip("'")
+    tag = "!!" + tag[len("tag:yaml.org,2002:") :] if tag.startswith("tag:yaml.org,2002:") else tag
+    return (
+        f"YAML tag {shown(tag)} is not known here: a value is text, a number, a boolean, a"
+        " list or a mapping, with no tag but YAML's own (!!str, !!int, !!float, !!bool)"
+    )
 
 
 def _place(file: str, text: str, line: int, column: int) -> SourceLocation:
