@@ -380,8 +380,14 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
                         f" (JSON {type(record).__name__}, not an object)"
                     )
                 records.append(record)
-    except rosbag2.ReaderError as exc:
+    except InputError:
+        raise
+    except (rosbag2.ReaderError, FileNotFoundError) as exc:
         raise InputError(f"{bag}: not a readable rosbag2 bag: {exc}") from None
-    except FileNotFoundError as exc:
-        raise InputError(f"{bag}: not a readable rosbag2 bag: {exc}") from None
+    except Exception as exc:  # a decompressor's (a zstd file cut short), or the metadata's
+        # text (not UTF-8): until 2026-11-30 these came out as EOFError, ZstdError or
+        # UnicodeDecodeError with a traceback
+        raise InputError(
+            f"{bag}: not a readable rosbag2 bag: {type(exc).__name__}: {exc}"
+        ) from None
     return records

@@ -1,0 +1,72 @@
+"""Probe 16: the interop files (rosbag2, MCAP) read back by a hostile but realistic user.
+
+Pure tests, no live server (those are in ``tests/test_probe16_interop_live.py``).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.errors import InputError
+from tests.trace_support import run_and_record
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import export_rosbag2
+
+    folder = tmp_path_factory.mktemp("bag")
+    trace = folder / "run.jsonl"
+    run_and_record(trace, ticks=3)
+    return export_rosbag2(trace, folder / "run_bag")
+
+
+def _copy(bag: Path, where: Path) -> Path:
+    copy = where / bag.name
+    shutil.copytree(bag, copy)
+    return copy
+
+
+def test_a_file_compressed_bag_cut_short_is_bad_input_not_an_eof_traceback(
+    bag: Path, tmp_path: Path
+) -> None:
+    # `ros2 bag record --compression-mode file --compression-format zstd` writes
+    # NAME.mcap.zstd; one copied in part (or whose recorder was killed while it
+    # compressed) raised EOFError from the decompressor, not the documented InputError
+    zstd = pytest.importorskip("zstandard")
+    from pirate_bt.interop.rosbag2 import read_rosbag2_records
+
+    copy = _copy(bag, tmp_path)
+    mcap = copy / f"{bag.name}.mcap"
+    packed = zstd.ZstdCompressor().compress(mcap.read_bytes())
+    mcap.unlink()
+    (copy / f"{mcap.name}.zstd").write_bytes(packed)
+    meta = copy / "metadata.yaml"
+    meta.write_text(
+        meta.read_text()
+        .replace("compression_format: ''", "compression_format: zstd")
+        .replace("compression_mode: ''", "compression_mode: file")
+        .replace(f"{bag.name}.mcap", f"{bag.name}.mcap.zstd")
+    )
+    whole = read_rosbag2_records(copy)  # the compressed bag is read
+    assert whole == read_rosbag2_records(bag)
+    (copy / f"{mcap.name}.zstd").write_bytes(packed[: len(packed) // 2])
+    with pytest.raises(InputError, match=r"not a readable rosbag2 bag: EOFError") as caught:
+        read_rosbag2_records(copy)
+    assert str(caught.value).startswith(f"{copy}: ")
+    assert "\n" not in str(caught.value)
+
+
+def test_a_bag_whose_metadata_is_not_utf8_is_bad_input_not_a_unicode_traceback(
+    bag: Path, tmp_path: Path
+) -> None:
+    from pirate_bt.interop.rosbag2 import read_rosbag2_records
+
+    copy = _copy(bag, tmp_path)
+    (copy / "metadata.yaml").write_bytes(b"\xff\xfe\x00 not yaml")
+    with pytest.raises(InputError, match=r"not a readable rosbag2 bag: UnicodeDecodeError"):
+        read_rosbag2_records(copy)
