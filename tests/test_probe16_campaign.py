@@ -339,3 +339,36 @@ def test_a_second_ctrl_c_stops_a_campaign_waiting_for_its_cases(helper: Path) ->
     while not all(map(_gone, cases)) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert all(map(_gone, cases))
+
+
+# 6. A simulator fault due after max_time (`@200s` for `@20s`, max_time 60 s) never
+#    happened: its point of the axis ran the runs of the point without it and the
+#    report showed it as a group of its own, all success. Now refused at its entry.
+
+
+def test_a_fault_due_after_max_time_is_refused_at_its_entry(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt.campaign import run_campaign
+    from pirate_bt.cli import main
+
+    spec = tmp_path / "late.campaign.yaml"
+    spec.write_text(
+        "name: late\n"
+        "runs: [{tree: straight, network: straight, params: {distance: 0.2 m}}]\n"
+        'sim_faults: [[], ["motor_stall:bend_1_drive@200s+2s"]]\n'
+        "max_time: 60 s\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(spec)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"{spec}:3:19: 'motor_stall:bend_1_drive@200s+2s' starts at 200 s, not before"
+        " max_time (60 s): it would never happen, and its runs be those without it"
+    )
+    data = {**SPEC, "sim_faults": [["motor_stall:bend_1_drive@1 min"]]}
+    with pytest.raises(InputError, match=r"^campaign spec: sim_faults\[0\]\[0\]: .* 60 s, not"):
+        run_campaign(data, output=tmp_path / "out", workers=1)
+    assert not (tmp_path / "out").exists()
+    # one due before the limit still runs
+    data["sim_faults"] = [["motor_stall:bend_1_drive@1s+1s"]]
+    assert run_campaign(data, workers=1).cases == 1

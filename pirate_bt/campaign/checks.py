@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.campaign.faulttimes import check_fault_times
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
@@ -49,6 +50,7 @@ def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
     ]
     if not faults:
         return
+    check_fault_times(spec)
     from pirate_bt.pipes import load_network
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.sim.bridge import SimBridge
