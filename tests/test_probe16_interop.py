@@ -70,3 +70,20 @@ def test_a_bag_whose_metadata_is_not_utf8_is_bad_input_not_a_unicode_traceback(
     (copy / "metadata.yaml").write_bytes(b"\xff\xfe\x00 not yaml")
     with pytest.raises(InputError, match=r"not a readable rosbag2 bag: UnicodeDecodeError"):
         read_rosbag2_records(copy)
+
+
+def test_a_bag_whose_trace_topic_yields_nothing_is_bad_input_not_an_empty_trace(
+    bag: Path, tmp_path: Path
+) -> None:
+    # a metadata.yaml whose QoS was edited (for playback) no longer matches the MCAP
+    # file's channels: rosbags then reads no message at all, and the bag's trace came
+    # back as [] (no header, no end: not a run), with no word of it
+    from pirate_bt.interop.rosbag2 import read_rosbag2_records
+
+    copy = _copy(bag, tmp_path)
+    meta = copy / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("reliability: reliable", "reliability: best_effort"))
+    with pytest.raises(
+        InputError, match=r"no message on /pirate/trace \(its metadata counts \d+\)"
+    ):
+        read_rosbag2_records(copy)

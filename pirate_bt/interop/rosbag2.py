@@ -380,6 +380,11 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
                         f" (JSON {type(record).__name__}, not an object)"
                     )
                 records.append(record)
+            if not records:  # a trace has a header at least: [] would be read as a run
+                counted = sum(c.msgcount for c in chosen)
+                raise InputError(
+                    f"{bag}: no message on {topic} (its metadata counts {counted}); no trace"
+                )
     except InputError:
         raise
     except (rosbag2.ReaderError, FileNotFoundError) as exc:
