@@ -372,3 +372,16 @@ def test_a_fault_due_after_max_time_is_refused_at_its_entry(
     # one due before the limit still runs
     data["sim_faults"] = [["motor_stall:bend_1_drive@1s+1s"]]
     assert run_campaign(data, workers=1).cases == 1
+
+
+def test_a_late_fault_beside_a_route_run_is_not_refused() -> None:
+    """A mission re-planned after a stop runs its rest with a time limit of its own."""
+    from pirate_bt.campaign.faulttimes import check_fault_times
+    from pirate_bt.campaign.spec import campaign_from_data
+
+    late = [["motor_stall:bend_1_drive@700s+2s"]]
+    check_fault_times(
+        campaign_from_data({**SPEC, "runs": [{"route": "straight"}], "sim_faults": late})
+    )
+    with pytest.raises(InputError, match="never happen"):
+        check_fault_times(campaign_from_data({**SPEC, "sim_faults": late}))
