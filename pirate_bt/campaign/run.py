@@ -386,7 +386,9 @@ def run_campaign(
             not fit its run's network, the output folder holds anything without
             ``resume`` or, with it, rows of another campaign, an input file changed
             since the campaign started there or another ``case_timeout``, Dask is
-            missing or unreachable.
+            missing or unreachable; a simulator fault due after ``max_time``; a
+            folder without rows holding a report file of someone else's; a row or
+            report file the disk has no room for (the rows before it stay).
         ConfigurationError: a named input file is missing (seen in the cases).
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``output``,
             cases in flight are not recorded; run again with ``resume=True``.
