@@ -68,6 +68,16 @@ def describe_error(error: Any) -> str:
         ctx = error.get("ctx") or {}
         tags = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected_tags", "")))
         return f"{_tag_key(error)}: {shown(ctx.get('tag'))} is not one of {', '.join(tags)}"
+    if kind in ("literal_error", "enum") and "input" in error:
+        # "Input should be 'front' or 'rear'": the choices as text, and what was written
+        expected = str((error.get("ctx") or {}).get("expected", ""))
+        choices = re.findall(r"'((?:[^'\\]|\\.)*)'", expected) or [
+            c for c in re.split(r",\s*|\s+or\s+", expected) if c
+        ]
+        if choices:
+            msg = f"{_as_written(error['input'])} is not one of {', '.join(choices)}"
+    elif kind == "finite_number" and "input" in error:
+        msg = f"must be a finite number, not {_as_written(error['input'])}"
     for prefix in ("Value error, ", "Assertion failed, "):
         if msg.startswith(prefix):
             msg = msg[len(prefix) :]
@@ -87,7 +97,11 @@ def describe_error(error: Any) -> str:
     elif kind in _IN_WORDS and "input" in error:
         # "Input should be a valid integer": what to write, and what was written
         msg = f"must be {_IN_WORDS[kind]}, not {_as_written(error['input'])}"
-    if kind in ("literal_error", "enum") or kind.endswith("_type") or kind.endswith("_parsing"):
+    if (
+        kind in ("literal_error", "enum", "finite_number")
+        or kind.endswith("_type")
+        or kind.endswith("_parsing")
+    ):
         where = ".".join(str(p) for p in loc if not isinstance(p, int))
         if where:
             return f"{where.split('.')[-1]}: {msg}"

@@ -224,3 +224,26 @@ def test_an_unknown_tag_is_not_called_a_syntax_error(
         " boolean, a list or a mapping, with no tag but YAML's own (!!str, !!int, !!float,"
         " !!bool)\n"
     )
+
+
+def test_a_choice_and_a_non_finite_number_are_refused_in_the_file_s_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # were "half: Input should be 'front' or 'rear'" (not what was written) and "Input
+    # should be a finite number" with no key named: docs/trees.md promises messages in
+    # the library's words, never the validator's
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: clamp, half: middle, torque: 0.5 N*m}\n"
+        "    - {type: check_blackboard, key: k, op: '<', value: .nan}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"{tree}:4:21: clamp: half: 'middle' is not one of front, rear",
+        f"{tree}:5:49: check_blackboard: value: must be a finite number, not nan",
+    ], err

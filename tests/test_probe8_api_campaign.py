@@ -214,10 +214,11 @@ def test_a_limit_without_its_unit_says_what_to_write(
 @pytest.mark.parametrize(
     ("line", "place"),
     [
-        # each was refused as "Input should be less than or equal to 1" (or 10)
-        ("link: {drop: [.nan]}", "4:15"),
-        ("link: {corrupt: [0, .inf]}", "4:21"),
-        ("as_built: {count: 2, scale: .nan}", "4:22"),
+        # each was refused as "Input should be less than or equal to 1" (or 10); then
+        # as "Input should be a finite number", naming no key and not the value
+        ("link: {drop: [.nan]}", "4:15: drop: must be a finite number, not nan"),
+        ("link: {corrupt: [0, .inf]}", "4:21: corrupt: must be a finite number, not inf"),
+        ("as_built: {count: 2, scale: .nan}", "4:22: scale: must be a finite number, not nan"),
     ],
 )
 def test_a_nan_or_infinite_rate_or_scale_is_called_what_it_is(
@@ -228,7 +229,7 @@ def test_a_nan_or_infinite_rate_or_scale_is_called_what_it_is(
     spec.write_text(f"name: n\nruns:\n  - {run}\n{line}\n", encoding="utf-8")
     assert main(["validate", str(spec)]) == 2
     err = capsys.readouterr().err
-    assert err == f"{spec}:{place}: Input should be a finite number\n", err
+    assert err == f"{spec}:{place}\n", err
 
 
 HELPER = """

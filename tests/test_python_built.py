@@ -118,7 +118,7 @@ def test_every_problem_is_reported(ctx: BuildContext) -> None:
     with pytest.raises(ValidationFailed) as exc:
         Clamp.from_params("c", {"half": "middle", "timeout": 0}, ctx)
     assert [e.message for e in exc.value.errors] == [
-        "c: half: Input should be 'front' or 'rear'",
+        "c: half: 'middle' is not one of front, rear",
         "c: missing required key 'torque'",
         "c: timeout: must be more than 0, not 0",
     ]
