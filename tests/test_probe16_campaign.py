@@ -5,6 +5,16 @@
    only ``pirate-bt: No space left on device``, naming no file. Now each row is one
    append, a refused one is undone to the last whole row, and the error names the
    file, the case and says to ``--resume``.
+2. A report file the disk had no room for: the same bare line, and a plot's part file
+   left behind. Now named, with how to write the report again.
+3. ``--resume`` on a disk still full: the same, and ``results.jsonl.part`` left behind.
+4. ``--output .`` in a project: its own ``report.md`` / ``results.csv`` were replaced by
+   the campaign's report. Refused before any case when the folder holds no row and no
+   ``campaign.json``.
+5. A second Ctrl-C while a stopped campaign waited for its cases in flight: the process
+   hung in ``multiprocessing``'s exit (a third: a traceback). Now it kills the workers.
+6. A simulator fault due after ``max_time`` never happened: its axis point was a copy of
+   the point without it. Refused at its entry (not beside a route run).
 """
 
 from __future__ import annotations
