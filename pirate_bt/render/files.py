@@ -82,7 +82,7 @@ def write_diagram(source: str, out: str | Path) -> Path:
         from pirate_bt.errors import InputError
 
         raise InputError(
-            f"out: {nodes:,} nodes are too many to draw (at most {MAX_DRAWN_NODES:,}; beyond,"
+            f"{out}: {nodes:,} nodes are too many to draw (at most {MAX_DRAWN_NODES:,}; beyond,"
             f" Graphviz takes seconds to minutes); {dot_path} was written for dot to draw"
         )
     if shutil.which("dot") is None:
