@@ -12,16 +12,25 @@ a riser, a bend right built at 40 or 45 degrees where the map draws 90 was never
 on at all (the IMU swings by less than half the drawn angle), and a short leg after it
 ended before the localiser missed the turn: the mission completed, the robot on a 45
 degree slope the map has as level.
+
+A network whose first straight is shorter than the robot put it in across the bend or
+tee after it: ``forward to the end`` "completed" 1.85 m short of the end (the bend
+under the robot blocked it and explained the block), on a pipe exactly as drawn; one
+beginning with a tee stopped on an opening "where the map has no T-joint". Such a
+start is refused before anything moves.
 """
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import LocatedError
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half
 from pirate_bt.sim import model as sim_model
@@ -122,3 +131,52 @@ def test_a_riser_top_less_sharp_than_drawn_and_never_fixed_on_is_named(
         result.why
     )
     _at_rest_and_held(models[-1])
+
+
+def _first(*first: dict[str, Any]) -> Network:
+    segments = [*first, {"id": "c", "type": "straight", "length": "2 m"}]
+    return network_from_data({"name": "short", "diameter": "63 mm", "segments": segments})
+
+
+SHORT_THEN_BEND = _first(
+    {"id": "a", "type": "straight", "length": "0.3 m"},
+    {"id": "b", "type": "bend", "direction": "right"},
+)
+TEE_FIRST = _first({"id": "t", "type": "tee", "branch": {"direction": "left", "segments": []}})
+
+
+@pytest.mark.parametrize(
+    ("network", "across"),
+    [(SHORT_THEN_BEND, "across the bend 'b' (0.30-0.44 m)"), (TEE_FIRST, "the T-joint 't'")],
+)
+def test_a_robot_put_in_across_a_bend_or_tee_is_refused_at_planning(
+    network: Network, across: str
+) -> None:
+    route = parse_route("forward to the end\n", "short.route")
+    # was: 'mission completed' 1.85 m short of the end (the bend), or a stop on an
+    # opening 'where the map has no T-joint' (the tee), on a pipe exactly as drawn
+    with pytest.raises(LocatedError) as refused:
+        pirate_bt.simulate_mission(route, network=network)
+    assert str(refused.value).startswith("short.route:1:1: 'forward to the end' cannot be planned")
+    assert across in str(refused.value) and "must be put in on straight pipe" in str(refused.value)
+
+
+def test_the_cli_and_a_navigation_refuse_such_a_start(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    net = tmp_path / "short.yaml"
+    net.write_text(
+        "schema_version: 1\nname: short\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: a, type: straight, length: 0.3 m}\n"
+        "  - {id: b, type: bend, direction: right}\n"
+        "  - {id: c, type: straight, length: 2 m}\n",
+        encoding="utf-8",
+    )
+    route = tmp_path / "short.route"
+    route.write_text(f"network {net}\nforward to the end\n", encoding="utf-8")
+    assert main(["mission", str(route), "--quiet"]) == 2
+    assert "across the bend 'b'" in capsys.readouterr().err
+    # a navigation plans from the belief: its first step is refused the same way
+    result = pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=net, map=net)
+    assert result.status == "failure"  # was: stuck after 5 straights that never moved
+    assert "across the bend 'b'" in result.why and result.truth_m == pytest.approx(0.515, abs=0.01)

@@ -59,6 +59,7 @@ from pirate_bt.task.plan import (
     robot_length_m,
 )
 from pirate_bt.task.route import Route, load_route
+from pirate_bt.task.start_check import check_start
 from pirate_bt.task.tree import mission_tree_spec
 from pirate_bt.task.walker import _TOL_M, _Walker
 
@@ -126,6 +127,8 @@ def plan_route(
     )
     if start_m is not None:
         walker.start_m = walker.s_m = start_m
+    else:  # put in at the network's start: on straight pipe?
+        check_start(route, walker.path, walker.start_m, walker.length_m)
     for step in route.steps:
         walker.walk(step)
     features = tuple(

@@ -27,6 +27,7 @@ from pirate_bt.task.plan import (
     robot_length_m,
 )
 from pirate_bt.task.route import RouteStep, parse_route
+from pirate_bt.task.start_check import check_start
 from pirate_bt.task.walker import _Walker
 
 __all__ = ["StepPlanner"]
@@ -112,6 +113,8 @@ class StepPlanner:
         route = parse_route("\n" * (index - 1) + line + "\n", where, name=where)
         (step,) = route.steps
         walker = self._walker
+        if not walker.pabs:  # the first step: the robot is where it was put in
+            check_start(route, walker.path, walker.start_m, walker.length_m)
         saved = (
             dict(walker.choices),
             walker.path,
