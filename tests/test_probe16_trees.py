@@ -247,3 +247,26 @@ def test_a_choice_and_a_non_finite_number_are_refused_in_the_file_s_words(
         f"{tree}:4:21: clamp: half: 'middle' is not one of front, rear",
         f"{tree}:5:49: check_blackboard: value: must be a finite number, not nan",
     ], err
+
+
+def test_a_number_compared_with_text_says_so_rather_than_only_false(tmp_path: Path) -> None:
+    # value="9" in a Groot2 file is text: 5 < '9' cannot be compared, and the failure
+    # only said "False" (probe 16); it now says why, and what to write
+    import pirate_bt
+
+    xml = tmp_path / "cb.xml"
+    xml.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="cb">\n'
+        '  <BehaviorTree ID="cb" _blackboard="json:{&quot;k&quot;:{&quot;default&quot;:5}}">\n'
+        '    <check_blackboard key="k" op="&lt;" value="9" />\n'
+        "  </BehaviorTree>\n"
+        "</root>\n",
+        encoding="utf-8",
+    )
+    result = pirate_bt.simulate_tree(xml)
+    assert not result.succeeded
+    assert "k=5 < '9': cannot compare int with str" in result.why, result.why
+    assert "write json:9 in XML" in result.why
+    fixed = xml.read_text(encoding="utf-8").replace('value="9"', 'value="json:9"')
+    xml.write_text(fixed, encoding="utf-8")
+    assert pirate_bt.simulate_tree(xml).succeeded

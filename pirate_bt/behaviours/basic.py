@@ -33,7 +33,7 @@ from pirate_bt.behaviours.base import (
     NoParams,
     Outcome,
 )
-from pirate_bt.errors import UnitError
+from pirate_bt.errors import UnitError, shown
 from pirate_bt.units import Duration, parse_quantity
 
 __all__ = [
@@ -307,7 +307,19 @@ class CheckBlackboard(Leaf):
         try:
             ok = _OPS[self.op](current, self.value)
         except TypeError:
-            ok = False
+            # 5 < '9': a number compared with text (an XML value without json:) is
+            # never true; the failure says why rather than only "False"
+            hint = (
+                " (a number written as text? write json:9 in XML, 9 in YAML)"
+                if {type(current), type(self.value)} & {str}
+                and {type(current), type(self.value)} & {int, float}
+                else ""
+            )
+            self.feedback_message = (
+                f"{self.key}={shown(current)} {self.op} {shown(self.value)}: cannot compare"
+                f" {type(current).__name__} with {type(self.value).__name__}{hint}"
+            )
+            return Status.FAILURE
         self.feedback_message = f"{self.key}={current!r} {self.op} {self.value!r}: {ok}"
         return Status.SUCCESS if ok else Status.FAILURE
 
