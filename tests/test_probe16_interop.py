@@ -5,8 +5,10 @@ Pure tests, no live server (those are in ``tests/test_probe16_interop_live.py``)
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -87,3 +89,56 @@ def test_a_bag_whose_trace_topic_yields_nothing_is_bad_input_not_an_empty_trace(
         InputError, match=r"no message on /pirate/trace \(its metadata counts \d+\)"
     ):
         read_rosbag2_records(copy)
+
+
+def _surrogate_tree() -> Any:
+    """A tree built in Python whose names and feedback hold lone surrogates (and a NUL):
+    tree files refuse them, Python does not."""
+    import py_trees
+    from py_trees.behaviours import StatusQueue
+    from py_trees.common import Status
+
+    py_trees.blackboard.Blackboard.clear()
+    running, success = Status.RUNNING, Status.SUCCESS
+    leaf = StatusQueue("dr\ud800ive\x00", [running, running, success], success)
+    leaf.feedback_message = "fb \udcff"
+    root = py_trees.composites.Sequence("ro\udfffot", memory=True, children=[leaf])
+    return py_trees.trees.BehaviourTree(root)
+
+
+def test_a_tree_with_a_lone_surrogate_is_traced_to_mcap_and_exported_as_to_jsonl(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # `.jsonl` kept such a name (JSON escapes it); `--trace RUN.mcap` failed the run with
+    # SinkError (the writer's UnicodeEncodeError: surrogates not allowed), and exporting
+    # the `.jsonl` to MCAP or to a bag was refused ("cannot convert this record") or, for
+    # the bag's trace topic, turned the character into '?'
+    pytest.importorskip("mcap")
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.mcap_trace import export_mcap, read_mcap_records
+    from pirate_bt.interop.rosbag2 import export_rosbag2, read_rosbag2_records
+    from pirate_bt.trace import read_trace
+    from tests import trace_support
+
+    monkeypatch.setattr(trace_support, "make_tree", _surrogate_tree)
+    jsonl, mcap = tmp_path / "run.jsonl", tmp_path / "run.mcap"
+    trace_support.run_and_record(jsonl, ticks=4)
+    trace_support.run_and_record(mcap, ticks=4)
+    records = [json.loads(line) for line in jsonl.read_text().splitlines()]
+    names = [node["name"] for node in records[0]["tree"]["nodes"]]
+    assert names == ["ro\udfffot", "dr\ud800ive\x00"]
+    assert read_trace(mcap).end is not None
+    assert read_mcap_records(mcap) == records
+    assert read_mcap_records(export_mcap(jsonl, tmp_path / "export.mcap")) == records
+    assert read_rosbag2_records(export_rosbag2(jsonl, tmp_path / "run_bag")) == records
+
+
+def test_every_message_with_a_lone_surrogate_is_utf8_json_read_back_the_same() -> None:
+    # the live server sends encode_message's bytes: the same UnicodeEncodeError turned
+    # the Foxglove view off for the rest of such a run
+    from pirate_bt.interop.foxglove_schemas import encode_message
+
+    message = {"name": "a\ud800b", "\udcffkey": [1.5, float("nan"), "ü\U0001f600"], "n": 3}
+    data = encode_message(message)
+    assert json.loads(data.decode("utf-8")) == {**message, "\udcffkey": [1.5, "nan", "ü\U0001f600"]}
+    assert "ü\U0001f600".encode() in data  # what has UTF-8 stays as it is

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["TOPICS", "encode_message", "missing_extra", "schema_of"]
+__all__ = ["TOPICS", "encode_message", "escape_surrogates", "missing_extra", "schema_of"]
 
 EXTRA_HINT = "pip install 'pirate-bt[foxglove]'"
 
@@ -60,6 +61,19 @@ encode_json = json.JSONEncoder(separators=(",", ":"), ensure_ascii=False).encode
 _encode_strict = json.JSONEncoder(separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode
 
 
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
+def _escaped(found: re.Match[str]) -> str:
+    return f"\\u{ord(found[0]):04x}"
+
+
+def escape_surrogates(text: str) -> str:
+    """JSON ``text`` with each lone surrogate (no UTF-8 has one) as its ``\\uXXXX`` escape,
+    which JSON reads back as the same character."""
+    return _SURROGATE.sub(_escaped, text)
+
+
 def missing_extra(what: str, module: str) -> str:
     """The one-line message for a missing optional dependency."""
     return f"{what} needs the '{module}' package: {EXTRA_HINT}"
@@ -85,9 +99,17 @@ def encode_message(message: Mapping[str, Any]) -> bytes:
     ``NaN`` exported to MCAP, or a mean wheel speed that overflowed was written so).
     """
     try:
-        return _encode_strict(message).encode("utf-8")
+        text = _encode_strict(message)
     except ValueError:
-        return _encode_strict(_finite(message)).encode("utf-8")
+        text = _encode_strict(_finite(message))
+    try:
+        return text.encode("utf-8")
+    except UnicodeEncodeError:
+        # A lone surrogate (in a name or a message of a tree built in Python) has no
+        # UTF-8: written as JSON's escape, read back as the same character. Until
+        # 2026-11-30 it stopped the trace's writer (`--trace RUN.mcap` failed the run
+        # with SinkError, where `.jsonl` kept it) and the export of such a trace.
+        return escape_surrogates(text).encode("utf-8")
 
 
 # --- schemas -----------------------------------------------------------------------

@@ -252,7 +252,10 @@ def _quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, fl
 
 def node_uuid(tree_name: str, node_id: str) -> bytes:
     """A node's UUID in tree messages: the same for the same tree and path id, every run."""
-    return uuid.uuid5(uuid.NAMESPACE_URL, f"pirate-bt:{tree_name}:{node_id}").bytes
+    # a lone surrogate (a tree built in Python) as its escape: it has no UTF-8, and
+    # uuid5 raised UnicodeEncodeError (the bag export failed, the live topics went off)
+    name = f"pirate-bt:{tree_name}:{node_id}".encode("utf-8", "backslashreplace")
+    return uuid.uuid5(uuid.NAMESPACE_URL, name.decode("utf-8")).bytes
 
 
 _ZERO_UUID = bytes(16)

@@ -39,6 +39,7 @@ from pirate_bt.errors import (
     file_argument,
     shown,
 )
+from pirate_bt.interop.foxglove_schemas import escape_surrogates
 from pirate_bt.interop.ros2_cdr import string_message
 from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
 from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _number
@@ -313,6 +314,8 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                     first = False
                     when = start_ns + round(float(record.get("t_s") or 0.0) * 1e9)
                     text = json.dumps(record, ensure_ascii=False, separators=(",", ":"))
+                    # a lone surrogate (a tree built in Python) escaped, not made '?'
+                    text = escape_surrogates(text)
                     writer.write(connection(TRACE_TOPIC, string_type), when, string_message(text))
                     if frame is None or mapper is None:
                         continue
