@@ -180,3 +180,15 @@ def test_the_cli_and_a_navigation_refuse_such_a_start(
     result = pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=net, map=net)
     assert result.status == "failure"  # was: stuck after 5 straights that never moved
     assert "across the bend 'b'" in result.why and result.truth_m == pytest.approx(0.515, abs=0.01)
+
+
+def test_a_return_through_a_bend_is_refused_without_saying_the_pabs_cannot_back() -> None:
+    route = parse_route("at the bend turn right\nforward 0.5 m\nreturn to start\n", "b.route")
+    with pytest.raises(LocatedError) as refused:
+        pirate_bt.plan_route(route, network=_bend("90 deg"))
+    message = str(refused.value)
+    assert message.startswith("b.route:3:1: 'return to start' cannot be planned")
+    # was: "the PABs do not drive backwards through a bend or T-joint yet", though
+    # bend-back and t-joint-back do (a survey backs through both)
+    assert "the PABs do not drive backwards" not in message
+    assert "bend-back and t-joint-back, are not planned on a map" in message

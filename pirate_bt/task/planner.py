@@ -210,9 +210,9 @@ def plan_return(plan: MissionPlan, belief_m: float, felt: list[str]) -> MissionP
 
     The way back is the pipe as the robot sensed it, not as the map has it: a
     feature the map has but the robot never felt (a bend that was never built)
-    is no obstacle. The PABs do not drive backwards through a bend or T-joint
-    yet, so a way back through a feature the robot did pass (``felt``) cannot be
-    planned.
+    is no obstacle. The backward PABs (``bend-back``, ``t-joint-back``) are not
+    planned on a map yet, so a way back through a feature the robot did pass
+    (``felt``) cannot be planned.
 
     Args:
         plan: The mission's plan.

@@ -245,8 +245,8 @@ class _Walker:
         if self.s_m - step.distance_m < floor - _TOL_M:
             raise LocatedError(
                 f"'{step.text}' does not fit the network: the robot can back up at most"
-                f" {max(self.s_m - floor, 0.0):.2f} m here (the PABs do not drive backwards"
-                " through a bend or T-joint, nor out of the pipe)",
+                f" {max(self.s_m - floor, 0.0):.2f} m here (a route's way back is not"
+                " planned through a bend or T-joint, nor out of the pipe)",
                 step.location,
             )
         self.straight(step, -step.distance_m, f"back {step.distance_m:g} m")
@@ -261,8 +261,9 @@ class _Walker:
             last = self.passed[-1]
             raise LocatedError(
                 f"'{step.text}' cannot be planned: the way back passes {last.segment!r}, and"
-                " the PABs do not drive backwards through a bend or T-joint yet"
-                " (pull the robot back by its tether)",
+                " a route's way back is not planned through a bend or T-joint yet (the"
+                " backward PABs, bend-back and t-joint-back, are not planned on a map: pull"
+                " the robot back by its tether)",
                 step.location,
             )
         distance = self.s_m - self.start_m
