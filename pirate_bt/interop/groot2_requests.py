@@ -9,6 +9,7 @@ set, inserted, removed or unlocked, the recorded transitions; or an error reply
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -127,7 +128,14 @@ class _Requests(_Hooks):
             else:
                 continue
             dump[name] = board or None  # BT.CPP's JSON of an empty blackboard is null
-        packed: bytes = self._msgpack.packb(jsonable(dump) if dump else None, use_bin_type=True)
+        value = jsonable(dump) if dump else None
+        try:
+            packed: bytes = self._msgpack.packb(value, use_bin_type=True)
+        except UnicodeEncodeError:
+            # a lone surrogate (a file name os.fsdecode made of bytes that are no UTF-8)
+            # has no UTF-8: shown as U+FFFD, as in the tree's XML. Until 2026-11-30 every
+            # blackboard request was an error reply, with a traceback in the run's log
+            packed = self._msgpack.packb(_without_surrogates(value), use_bin_type=True)
         return [packed]
 
     def _insert(self, run: _Run, text: bytes) -> list[bytes] | str:
@@ -222,6 +230,20 @@ def _known_names_in(names: bytes, known: list[str]) -> list[str]:
         if at >= 0 and name not in first:
             first[name] = at
     return sorted(first, key=first.__getitem__)
+
+
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
+def _without_surrogates(value: Any) -> Any:
+    """``value`` (plain JSON data) with each lone surrogate of its text as U+FFFD."""
+    if isinstance(value, str):
+        return _SURROGATE.sub("\ufffd", value)
+    if isinstance(value, dict):
+        return {_without_surrogates(k): _without_surrogates(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_without_surrogates(v) for v in value]
+    return value
 
 
 def _live_blackboard() -> dict[str, Any]:
