@@ -192,3 +192,24 @@ def test_a_return_through_a_bend_is_refused_without_saying_the_pabs_cannot_back(
     # bend-back and t-joint-back do (a survey backs through both)
     assert "the PABs do not drive backwards" not in message
     assert "bend-back and t-joint-back, are not planned on a map" in message
+
+
+def test_a_turn_built_nearer_than_the_reach_names_the_map_s_next_turn() -> None:
+    def two_bends(between: str) -> Network:
+        segments: list[dict[str, Any]] = [
+            {"id": "a", "type": "straight", "length": "1.5 m"},
+            {"id": "b1", "type": "bend", "direction": "right"},
+            {"id": "s", "type": "straight", "length": between},
+            {"id": "b2", "type": "bend", "direction": "left"},
+            {"id": "c", "type": "straight", "length": "2 m"},
+        ]
+        return network_from_data({"name": "two", "diameter": "63 mm", "segments": segments})
+
+    route = parse_route("at the bend turn right\nat the bend turn left\nforward 0.5 m\n", "t.route")
+    result = pirate_bt.simulate_mission(route, network=two_bends("1.5 m"), truth=two_bends("0.8 m"))
+    assert result.status == "failure" and result.safe_state
+    assert "where the map has no turn within" in result.why
+    # was: no feature named, though the map's 'b2' is drawn 0.65 m further on
+    assert "the map's next turn, 'b2', is drawn 0.6" in result.why
+    assert "is the pipe before it shorter than drawn" in result.why
+    assert result.disagreement is not None and result.disagreement.feature == "b2"

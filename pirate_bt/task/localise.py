@@ -67,7 +67,7 @@ from pirate_bt.task.fixes import (
     wrap_angle,
 )
 from pirate_bt.task.planner import MapFeature, MissionPlan
-from pirate_bt.task.turn_angle import FixedTurn, TurnWatch, imu_evidence
+from pirate_bt.task.turn_angle import FixedTurn, TurnWatch, imu_evidence, unmapped_turn
 
 __all__ = [
     "DRIFT_PER_M",
@@ -302,11 +302,7 @@ class Localiser:
                 self.mismatch = sharper[0]
                 self._disagree(state.stamp_s, sharper[2], sharper[1], imu, reach, None)
                 return
-            self.mismatch = (
-                f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
-                f" at {self.belief_m:.2f} m (believed), where the map has no turn within"
-                f" {reach:.2f} m"
-            )
+            self.mismatch = unmapped_turn(swung, (self.belief_m, imu_m), reach, turn)
             sensed = f"a turn of {math.degrees(swung):.0f} deg"
             self._disagree(state.stamp_s, None, sensed, imu, reach, turn)
 

@@ -44,6 +44,7 @@ __all__ = [
     "imu_evidence",
     "overturned",
     "undershot",
+    "unmapped_turn",
 ]
 
 CHECK_AFTER_M = 0.3
@@ -130,6 +131,30 @@ def undershot(
         " less sharp than drawn"
     )
     return mismatch, f"a turn of {math.degrees(felt):.0f} deg through {turn.segment!r}", turn
+
+
+def unmapped_turn(
+    swung: float, where_m: tuple[float, float], reach_m: float, ahead: MapFeature | None
+) -> str:
+    """The mismatch of a turn felt where the map has none within ``reach_m``.
+
+    ``where_m``: the belief (the front tip) and the rotational module's place, where the
+    turn was felt; ``ahead``: the map's next turn, named with how far on it is drawn
+    (it was not named: a turn drawn 0.7 m further on, built nearer, read as a turn
+    the map does not have at all).
+    """
+    belief_m, imu_m = where_m
+    text = (
+        f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
+        f" at {belief_m:.2f} m (believed), where the map has no turn within {reach_m:.2f} m"
+    )
+    if ahead is not None and ahead.start_m > imu_m:
+        text += (
+            f"; the map's next turn, {ahead.segment!r}, is drawn {ahead.start_m - imu_m:.2f} m"
+            f" further on (at {ahead.start_m:.2f} m): is the pipe before it shorter than drawn,"
+            " or is this a turn the map does not have?"
+        )
+    return text
 
 
 def imu_evidence(imu_rad: Mapping[str, float], imu_m: float) -> str:
