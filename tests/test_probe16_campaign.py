@@ -395,3 +395,27 @@ def test_a_late_fault_beside_a_route_run_is_not_refused() -> None:
     )
     with pytest.raises(InputError, match="never happen"):
         check_fault_times(campaign_from_data({**SPEC, "sim_faults": late}))
+
+
+def test_an_output_folder_nobody_may_write_in_is_named_with_what_to_do(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # '--output /sys/kernel' (as root) said 'pirate-bt: /sys/kernel/.campaign.lock:
+    # Permission denied': a file the user never named, and nothing of what to do
+    import errno
+
+    from pirate_bt.campaign import paths
+
+    real_open = os.open
+
+    def refusing_open(path: object, *args: object, **kwargs: object) -> int:
+        if str(path).endswith(paths.LOCK_NAME):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "open", refusing_open)
+    with pytest.raises(InputError) as caught, paths.campaign_lock(tmp_path):
+        pass
+    assert str(caught.value) == (
+        f"{tmp_path}: cannot write a campaign there (Permission denied); give another --output"
+    )

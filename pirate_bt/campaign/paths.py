@@ -106,7 +106,12 @@ def campaign_lock(folder: Path) -> Iterator[None]:
     """
     import fcntl
 
-    fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:  # a folder nobody may write in (/sys/kernel, a read-only disk)
+        raise InputError(
+            f"{folder}: cannot write a campaign there ({exc.strerror}); give another --output"
+        ) from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
