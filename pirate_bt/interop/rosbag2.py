@@ -361,6 +361,18 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
         with rosbag2.Reader(Path(bag)) as reader:
             chosen = [c for c in reader.connections if c.topic == topic]
             if not chosen:
+                # a bag exported with another namespace is pirate-bt's too: name it
+                others = sorted(
+                    c.topic
+                    for c in reader.connections
+                    if c.topic.rsplit("/", 1)[-1] == TRACE_TOPIC and c.msgtype == string_type
+                )
+                if others:
+                    where = others[0].rsplit("/", 1)[0] or "/"
+                    raise InputError(
+                        f"{bag}: no {topic} topic; its trace is {others[0]}: give"
+                        f" namespace={where!r} (the namespace it was exported in)"
+                    )
                 raise InputError(f"{bag}: no {topic} topic (not exported by pirate-bt?)")
             for connection in chosen:
                 if connection.msgtype != string_type:
