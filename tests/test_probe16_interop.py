@@ -164,3 +164,31 @@ def test_a_bag_exported_in_another_namespace_is_named_as_such_not_as_a_foreign_b
     assert read_rosbag2_records(bag, namespace=said.strip("'")) == [
         json.loads(line) for line in trace.read_text().splitlines()
     ]
+
+
+def test_a_bag_exported_into_the_current_empty_folder_fills_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # `pirate-bt trace export RUN.jsonl -o .` (or `./`) in an empty folder, which the docs
+    # take as a bag, was "internal error: WriterError: ..XXXXXXXX exists already" (exit 1):
+    # the bag was named after Path('.').name, which is ''
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import export_rosbag2, read_rosbag2_records
+
+    trace = tmp_path / "run.jsonl"
+    run_and_record(trace, ticks=3)
+    here = tmp_path / "here_bag"
+    here.mkdir()
+    inode = here.stat().st_ino
+    monkeypatch.chdir(here)
+    for target in (Path("."), Path("./")):
+        for made in here.iterdir():
+            made.unlink()
+        bag = export_rosbag2(trace, target)
+        assert bag == here
+        assert sorted(p.name for p in here.iterdir()) == ["here_bag.mcap", "metadata.yaml"]
+        assert here.stat().st_ino == inode  # filled, not replaced: a shell in it stays
+        assert read_rosbag2_records(Path(".")) == [
+            json.loads(line) for line in trace.read_text().splitlines()
+        ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["here_bag", "run.jsonl"]

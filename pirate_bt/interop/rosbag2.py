@@ -246,7 +246,10 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
         raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
     _trace_topic(namespace)  # a namespace ROS refuses: said before anything is read
     rosbag2 = _rosbags()
-    out = Path(str(file_argument(out_dir, "out_dir")).rstrip("/") or ".")
+    out = Path(str(file_argument(out_dir, "out_dir")).rstrip("/") or "/")
+    if out.name in ("", ".."):  # '.', '..', '/': the folder's own name (the bag's is made
+        # of it); '.' was an 'internal error: WriterError: ..XXXXXXXX exists already'
+        out = Path(os.path.abspath(out))
     try:
         taken = out.exists() and (not out.is_dir() or any(out.iterdir()))
     except OSError as exc:  # a name the system refuses (a part too long)
@@ -334,9 +337,12 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
                 ) from None
             if first:
                 raise InputError(f"{trace_path}: empty trace (no header)")
-        if out.exists():
-            out.rmdir()
-        bag.rename(out)
+        if out.is_dir():  # an empty folder given: filled, not replaced (the current
+            # folder, say: replaced, the user's shell would be left in a deleted one)
+            for part in sorted(bag.iterdir(), key=lambda made: made.name == "metadata.yaml"):
+                part.rename(out / part.name)  # the metadata last: then it is a bag
+        else:
+            bag.rename(out)
     finally:
         shutil.rmtree(temp, ignore_errors=True)
     return out
