@@ -192,3 +192,17 @@ def test_a_bag_exported_into_the_current_empty_folder_fills_it(
             json.loads(line) for line in trace.read_text().splitlines()
         ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["here_bag", "run.jsonl"]
+
+
+@pytest.mark.parametrize("text", ["::1", "fe80::1", "tcp/::1", "[::1", "[::1]:", "[]:7447"])
+def test_an_ipv6_router_without_its_brackets_is_refused_not_read_as_port_1(text: str) -> None:
+    # `--ros2 ::1` was the endpoint tcp/::1 (host ':', port 1): Zenoh opened the session
+    # and the run went on, its node waiting for a router there for ever; an unclosed '['
+    # was closed quietly
+    from pirate_bt.interop.ros2_option import parse_endpoint
+
+    with pytest.raises(InputError, match=r"write an IPv6 address in brackets.*tcp/\[") as caught:
+        parse_endpoint(text)
+    assert str(caught.value).startswith(f"--ros2 {text}: ")
+    assert parse_endpoint("[::1]") == "tcp/[::1]:7447"
+    assert parse_endpoint("tcp/[fe80::1]:7448") == "tcp/[fe80::1]:7448"

@@ -58,8 +58,17 @@ def parse_endpoint(text: str | None) -> str:
     if address.isascii() and address.isdigit():
         host, port = "127.0.0.1", address
     elif address.startswith("["):
-        inside, _, rest = address[1:].partition("]")
-        host, port = f"[{inside}]", rest.removeprefix(":") or "7447"
+        inside, closed, rest = address[1:].partition("]")
+        if not closed or not inside or (rest and not rest[1:]) or rest[:1] not in ("", ":"):
+            raise InputError(
+                f"--ros2 {text}: write an IPv6 address in brackets, then its port:"
+                f" {protocol}/[::1]:7447"
+            )
+        host, port = f"[{inside}]", rest[1:] or "7447"
+    elif address.count(":") > 1:  # '::1' was host ':' and port 1: Zenoh waited there
+        raise InputError(
+            f"--ros2 {text}: write an IPv6 address in brackets: {protocol}/[{address}]:7447"
+        )
     else:
         host, _, port = address.rpartition(":") if ":" in address else (address, "", "7447")
         host = host or "127.0.0.1"
