@@ -78,6 +78,7 @@ _WALL_CLOCK_MODULES = {
     "test_groot2.py",  # ZeroMQ clients, silences timed on the wall clock
     "test_interop_peers.py",
     "test_probe8_interop.py",
+    "test_probe16_interop_live.py",  # a live Groot2 server, wall-clock waits
 }
 """Modules whose tests wait on the wall clock (a bridge's silence limit, a live client's
 timeouts): in the real-time group too, so that none of them shares the CPU with another
