@@ -244,3 +244,15 @@ def test_a_survey_finds_a_branch_on_the_right_on_a_link_with_delay(tmp_path: Pat
     assert found.network is not None
     tee = next(s for s in found.network.spec.segments if s.type == "tee")
     assert tee.branch.direction is not None and tee.branch.direction.value == "right"
+
+
+def test_a_tee_removed_after_a_reducer_leaves_a_straight_of_its_own_length() -> None:
+    from pirate_bt.pipes.asbuilt import remove_feature
+
+    lab = pirate_bt.load_network("lab")  # tee-2 is after the reducer to 55 mm
+    without = Network(remove_feature(lab.spec, "tee-2"))
+    # was: 189 mm of straight (three times the network's 63 mm) for a 165 mm tee, and
+    # the whole line after it 24 mm longer than drawn
+    assert without.main_path().length_m == pytest.approx(lab.main_path().length_m, abs=1e-9)
+    run = next(s for s in without.spec.segments if s.id == "tee-2")
+    assert run.type == "straight" and run.length == pytest.approx(0.165)

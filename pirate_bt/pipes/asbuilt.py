@@ -43,7 +43,7 @@ from pirate_bt.pipes.model import (
     TeeBranchSpec,
     TeeSpec,
 )
-from pirate_bt.pipes.network import Network
+from pirate_bt.pipes.network import Network, PieceKind
 
 __all__ = [
     "AsBuiltBounds",
@@ -243,9 +243,17 @@ def remove_feature(spec: NetworkSpec, segment_id: str, *, name: str | None = Non
         ConfigurationError: no such segment, or it is not a tee or a bend.
     """
 
+    # a tee's default length is three times the pipe's diameter where it is (after a
+    # reducer to 55 mm, 165 mm): its run straight through, as the drawing has it
+    runs: dict[str, float] = {}
+    for path in Network(spec).paths():  # into its branch, a path holds half the run
+        for p in path.pieces:
+            if p.kind is PieceKind.TEE:
+                runs[p.segment] = max(runs.get(p.segment, 0.0), p.end_m - p.start_m)
+
     def edit(seg: SegmentSpec) -> list[SegmentSpec]:
         if isinstance(seg, TeeSpec):
-            length = seg.length if seg.length is not None else 3.0 * spec.diameter
+            length = seg.length if seg.length is not None else runs[segment_id]
             return [StraightSpec(type="straight", id=seg.id, length=length)]
         if isinstance(seg, BendSpec):
             return []
