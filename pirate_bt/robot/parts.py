@@ -34,6 +34,7 @@ from pirate_bt.units import (
 )
 
 __all__ = [
+    "IMU_AXES",
     "AccelerationMax",
     "AngleRange",
     "AngleSensor",
@@ -395,6 +396,10 @@ class SpringSensor(_Sensor):
         return Conversion(raw=self.raw, zero_raw=self.zero_raw, per_raw=self.per_raw)
 
 
+IMU_AXES: tuple[str, ...] = ("roll", "pitch", "yaw")
+"""The axes an IMU may report, as the firmware names them."""
+
+
 class ImuSensor(_Sensor):
     """An inertial unit reporting roll, pitch and yaw of its module."""
 
@@ -404,6 +409,20 @@ class ImuSensor(_Sensor):
     """angle of one raw step, e.g. `0.0879 deg`"""
     axes: tuple[str, ...] = ("roll", "pitch", "yaw")
     """channel names, one int16 each"""
+
+    @field_validator("axes")
+    @classmethod
+    def _axes_ok(cls, axes: tuple[str, ...]) -> tuple[str, ...]:
+        # the PICO firmware reads roll, pitch and yaw only (PB_SRC_IMU_*), and the
+        # host takes the IMU's roll and pitch by these names
+        for axis in axes:
+            if axis not in IMU_AXES:
+                raise ValueError(f"IMU axis {axis!r} is not one of {', '.join(IMU_AXES)}")
+        if len(set(axes)) != len(axes):
+            raise ValueError("an IMU axis is listed twice: each is one channel of its own")
+        if not axes:
+            raise ValueError(f"an IMU needs at least one axis ({', '.join(IMU_AXES)})")
+        return axes
 
     @property
     def channels(self) -> tuple[str, ...]:
