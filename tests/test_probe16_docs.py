@@ -155,3 +155,17 @@ def test_an_option_given_twice_names_the_paths_as_typed(
     err = capsys.readouterr().err
     assert f"({tmp_path / 'a.svg'} and b.svg)" in err
     assert "PosixPath" not in err
+
+
+def test_the_architecture_page_names_every_layer_the_import_rules_name() -> None:
+    # before: yamlfile/, yamlvalidate, filekinds and resources, four layers of
+    # pyproject's import-linter contract, were in no row of the table
+    layers = next(
+        contract["layers"]
+        for contract in _pyproject()["tool"]["importlinter"]["contracts"]
+        if contract["type"] == "layers"
+    )
+    names = [name.strip() for layer in layers for name in layer.split("|")]
+    text = (DOCS / "architecture.md").read_text(encoding="utf-8")
+    missing = [name for name in names if f"`{name}`" not in text and f"`{name}/`" not in text]
+    assert not missing, f"docs/architecture.md does not place {missing}"
