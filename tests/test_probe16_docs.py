@@ -169,3 +169,20 @@ def test_the_architecture_page_names_every_layer_the_import_rules_name() -> None
     text = (DOCS / "architecture.md").read_text(encoding="utf-8")
     missing = [name for name in names if f"`{name}`" not in text and f"`{name}/`" not in text]
     assert not missing, f"docs/architecture.md does not place {missing}"
+
+
+def test_the_hardware_pages_motor_example_validates_on_the_board_it_names(
+    tmp_path: Path,
+) -> None:
+    # before: the example took slot 1, which every board of the bundled robot with a
+    # free motor slot already uses: "board 28: motor slot 1 used twice"
+    from pirate_bt.robot import load_robot
+
+    snippet = _fenced_after(DOCS / "hardware.md", "## Add a motor")
+    robot_yaml = (REPO / "hardware" / "pirate.yaml").read_text(encoding="utf-8")
+    board = robot_yaml.index("  - id: 28\n")
+    motors = robot_yaml.index("    motors:\n", board) + len("    motors:\n")
+    mine = tmp_path / "my-robot.yaml"
+    mine.write_text(robot_yaml[:motors] + snippet + robot_yaml[motors:], encoding="utf-8")
+    robot = load_robot(mine)
+    assert robot.motor("rear_camera_tilt").function.value == "camera_tilt"
