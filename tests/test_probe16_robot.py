@@ -83,3 +83,44 @@ def test_imu_with_some_of_the_three_axes_still_loads(tmp_path: Path) -> None:
         "imu.roll",
         "imu.yaw",
     ]
+
+
+# -- bridge times and the freshness factor ------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "words"),
+    [
+        # the host slept this long on opening a real port: a run that never starts
+        ("reset_time: 1.5 s", "reset_time: 1e9 s", "reset_time: must be at most 60 s"),
+        # the firmware's header refused these, without a file or line, after validate
+        ("watchdog: 250 ms", "watchdog: 0.1 ms", "watchdog: must be at least 1 ms"),
+        ("state_period: 10 ms", "state_period: 100 min", "state_period: must be at most"),
+        # an infinite factor turned the protective layer's freshness check off
+        (
+            "stale_after_periods: 10",
+            "stale_after_periods: .inf",
+            "stale_after_periods: must be a finite number, not inf",
+        ),
+    ],
+)
+def test_bridge_times_and_freshness_factor_out_of_bounds_are_refused_where_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str, words: str
+) -> None:
+    path = variant(tmp_path, (old, new))
+    code, out = validate(path, capsys)
+    assert code == 2
+    assert f"{path}:{line_of(path, new.split(':')[0] + ':')}:3: {words}" in out
+
+
+def test_robot_header_of_a_valid_robot_at_the_bridge_time_bounds(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = variant(
+        tmp_path, ("watchdog: 250 ms", "watchdog: 1 ms"), ("reset_time: 1.5 s", "reset_time: 60 s")
+    )
+    out = tmp_path / "layout.h"
+    assert main(["robot", "header", str(path), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "#define PB_WATCHDOG_MS 1\n" in text
+    assert "#define PB_RESET_TIME_MS 60000\n" in text

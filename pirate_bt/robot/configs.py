@@ -151,7 +151,10 @@ class SafetyConfig(_Model):
     """Parameters of the protective layer (``pirate_bt.safety``); every field has a default."""
 
     stale_after_periods: float = Field(
-        10.0, gt=1, description="a reading older than this many sensor periods is stale"
+        10.0,
+        gt=1,
+        allow_inf_nan=False,
+        description="a reading older than this many sensor periods is stale",
     )
     max_link_silence: Duration = Field(
         0.5, gt=0, description="longest time without a valid frame before the link counts as lost"
@@ -182,6 +185,10 @@ class BridgeConfig(_Model):
 
     baud: int = Field(115200, ge=1200, le=4_000_000)
     """serial line speed (bit/s)"""
-    state_period: Duration = Field(gt=0, description="time between state frames")
-    watchdog: Duration = Field(gt=0, description="bridge stops drives when the host is silent")
-    reset_time: Duration = Field(ge=0, description="Arduino reset after DTR toggles on open")
+    # the bounds of the firmware's header (whole milliseconds, 1 ms .. 60 s); the host
+    # waits reset_time on opening a port, so it is bounded too
+    state_period: Duration = Field(ge=0.001, le=60, description="time between state frames")
+    watchdog: Duration = Field(
+        ge=0.001, le=60, description="bridge stops drives when the host is silent"
+    )
+    reset_time: Duration = Field(ge=0, le=60, description="Arduino reset after DTR toggles on open")
