@@ -186,3 +186,48 @@ def test_the_hardware_pages_motor_example_validates_on_the_board_it_names(
     mine.write_text(robot_yaml[:motors] + snippet + robot_yaml[motors:], encoding="utf-8")
     robot = load_robot(mine)
     assert robot.motor("rear_camera_tilt").function.value == "camera_tilt"
+
+
+@pytest.mark.xdist_group("real-time")  # a simulator served on TCP, stopped under the run
+def test_a_line_closed_under_a_run_ends_with_a_closing_stop_the_protocol_page_quotes() -> None:
+    # docs/protocol.md's table, "the line cut for good, or closed (EOF)": it quoted only
+    # "the closing stop was never acknowledged, nor was the e-stop sent after it"; a
+    # line closed at the far end says "was not confirmed (write ... failed ...), and the
+    # e-stop sent after it failed (...)"
+    import threading
+
+    import pirate_bt
+    from pirate_bt.robot import load_robot
+    from pirate_bt.sim import Simulator
+    from pirate_bt.sim.server import SimServer
+
+    row = next(
+        line
+        for line in (DOCS / "protocol.md").read_text(encoding="utf-8").splitlines()
+        if line.startswith("| the line cut for good, or closed (EOF)")
+    )
+    quoted = [
+        # each form up to its first detail: which read or write failed varies with timing
+        re.split(r"\(|\.\.\.", q)[0]
+        for q in re.findall(r"\*(the closing stop was [^*]+)\*", row)
+    ]
+    with Simulator("straight", load_robot()) as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        server.start()
+        stopper = threading.Timer(1.5, server.stop)  # the simulator's process killed
+        stopper.start()
+        try:
+            result = pirate_bt.run_tree(
+                "straight",
+                port=f"socket://{host}:{port}",
+                params={"distance": "1 m"},
+                max_time="30 s",
+            )
+        finally:
+            stopper.cancel()
+            server.stop()
+    assert result.exit_code == 3
+    closing = result.why.partition("; then ")[2]
+    assert closing, result.why  # the stop on close was not confirmed, and says so
+    assert closing.startswith(tuple(quoted)), (closing, quoted)
