@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from pirate_bt import simulate_tree
 from pirate_bt.cli import main
 from pirate_bt.errors import ValidationFailed
 from pirate_bt.robot import load_robot
@@ -124,3 +125,86 @@ def test_robot_header_of_a_valid_robot_at_the_bridge_time_bounds(
     text = out.read_text()
     assert "#define PB_WATCHDOG_MS 1\n" in text
     assert "#define PB_RESET_TIME_MS 60000\n" in text
+
+
+# -- a robot no run can drive is refused at load -------------------------------------
+
+ANGLE_TEMPLATE = "    zero_raw: 2048\n    per_raw: 0.087890625 deg"
+SPRING_TEMPLATE = "    raw: [0, 1023]\n    per_raw: 50 mN"
+
+
+@pytest.mark.parametrize(
+    ("edits", "anchor", "words"),
+    [
+        # a run stopped on "link_silent: no state frame from the bridge for 0.100 s"
+        (
+            [("state_period: 10 ms", "state_period: 150 ms")],
+            "state_period: 150 ms",
+            "a state frame every 150 ms is too slow for sensor 'camera_tilt_angle': its"
+            " readings count as stale after 100 ms",
+        ),
+        (
+            [("state_period: 10 ms", "state_period: 40 ms"), ("silence: 500 ms", "silence: 40 ms")],
+            "max_link_silence: 40 ms",
+            "max_link_silence 40 ms is not longer than the state period 40 ms",
+        ),
+        # every clamp timed out: "clamping rear: bend_3 20.5° 17.5 N"
+        (
+            [(ANGLE_TEMPLATE, "    zero_raw: 2048\n    per_raw: 0.01 deg")],
+            "raw: [0, 4095]",
+            "angle sensor of 'bend_1' reads -20.48 .. 20.47 deg, but its joint"
+            " 'bend_1_joint' moves -110 .. 110 deg (limits.angle)",
+        ),
+        # reads 0 .. 360 deg: a joint bent the other way read as 0
+        (
+            [(ANGLE_TEMPLATE, "    zero_raw: 0\n    per_raw: 0.087890625 deg")],
+            "raw: [0, 4095]",
+            "angle sensor of 'rotational' reads 0 .. 359.9 deg, but its joint 'rotate'",
+        ),
+        # every clamp timed out: "clamping rear: bend_3 83.1° 1.0 N"
+        (
+            [(SPRING_TEMPLATE, "    raw: [0, 1023]\n    per_raw: 1 mN")],
+            "raw: [0, 1023]",
+            "spring sensor of 'bend_4' reads at most 1.02 N, less than the wall force of a"
+            " holding clamp, 8.75 N (clamp.min_torque / clamp.lever_arm)",
+        ),
+    ],
+)
+def test_a_robot_no_run_can_drive_is_refused_by_validate_at_the_key_to_change(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    edits: list[tuple[str, str]],
+    anchor: str,
+    words: str,
+) -> None:
+    path = variant(tmp_path, *edits)
+    code, out = validate(path, capsys)
+    assert code == 2
+    line = next(
+        i for i, text in enumerate(path.read_text().split("\n"), 1) if text.strip() == anchor
+    )
+    assert f"{path}:{line}:" in out
+    assert words in out, out
+
+
+@pytest.mark.parametrize(
+    "edits",
+    [
+        # a slower bridge (its sensors still outlast a frame), another wheel
+        [
+            ("state_period: 10 ms", "state_period: 50 ms"),
+            ("wheel_radius: 12 mm", "wheel_radius: 20 mm"),
+        ],
+        # angle sensors reversed and offset, springs read from the other end
+        [
+            (ANGLE_TEMPLATE, "    zero_raw: 2100\n    per_raw: -0.087890625 deg"),
+            (SPRING_TEMPLATE, "    raw: [0, 1023]\n    zero_raw: 1023\n    per_raw: -50 mN"),
+        ],
+    ],
+)
+def test_legitimate_variants_validate_and_pass_a_bend(
+    tmp_path: Path, edits: list[tuple[str, str]]
+) -> None:
+    robot = load_robot(variant(tmp_path, *edits))
+    result = simulate_tree("bend", network="bend-right", params={"roll": "90 deg"}, robot=robot)
+    assert result.status == "success", result.why

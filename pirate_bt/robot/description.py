@@ -42,6 +42,7 @@ from pirate_bt.robot.configs import (
     MotionConfig,
     SafetyConfig,
 )
+from pirate_bt.robot.fitness import Workable, workable_problems
 from pirate_bt.robot.parts import (
     AccelerationMax,
     AngleRange,
@@ -331,6 +332,9 @@ class RobotDescription(_Model):
                         "contact_angles must be sorted by increasing diameter",
                     )
                 )
+        # a run's needs: fresh state, sensors that read what they are read for
+        parts = Workable(self.modules, self.boards, self.clamp, self.bridge, self.safety)
+        out.extend(workable_problems(parts))
         return out
 
     # -- role-based queries (higher layers use these, never board ids) -----

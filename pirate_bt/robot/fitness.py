@@ -1,0 +1,134 @@
+"""Rules that make a robot description workable, beyond its shape.
+
+A description can be well formed and still describe a robot no run can drive: a
+bridge that sends state frames less often than the protective layer allows a
+reading to age, or a joint sensor that cannot read the angles its joint moves to.
+:func:`workable_problems` finds those, each at the key to change, so that
+``pirate-bt validate`` says so instead of every run stopping on stale data or
+timing out mid-clamp.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pirate_bt.robot.configs import BridgeConfig, ClampConfig, SafetyConfig
+from pirate_bt.robot.parts import Board, Module, MotorFunction, Role, SensorKind
+
+__all__ = ["Workable", "workable_problems"]
+
+KeyPath = tuple[str | int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Workable:
+    """The parts of a robot description these rules read."""
+
+    modules: Sequence[Module]
+    boards: Sequence[Board]
+    clamp: ClampConfig
+    bridge: BridgeConfig
+    safety: SafetyConfig
+
+
+def _fmt_s(seconds: float) -> str:
+    return f"{seconds * 1000:g} ms"
+
+
+def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The rules a run needs of the file, each problem as ``(path, message)``."""
+    return [*_freshness(desc), *_sensor_ranges(desc)]
+
+
+def _freshness(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """No reading can be fresher than the last STATE frame: each reading's freshness
+    limit (``safety.stale_after_periods`` × its period) and the link's silence limit
+    must outlast a state period, or every run stops between two frames."""
+    out: list[tuple[KeyPath, str]] = []
+    period = desc.bridge.state_period
+    factor = desc.safety.stale_after_periods
+    tightest: tuple[float, str] | None = None
+    for board in desc.boards:
+        for sensor in board.sensors:
+            limit = factor * sensor.period
+            if limit <= period and (tightest is None or limit < tightest[0]):
+                tightest = (limit, sensor.name)
+    if tightest is not None:
+        limit, name = tightest
+        out.append(
+            (
+                ("bridge", "state_period"),
+                f"a state frame every {_fmt_s(period)} is too slow for sensor {name!r}: its"
+                f" readings count as stale after {_fmt_s(limit)} (safety.stale_after_periods"
+                f" {factor:g} x its period), before the next frame brings a fresh one, so"
+                " every run would stop on stale data; lengthen the sensor's period or"
+                " shorten the state period",
+            )
+        )
+    silence = desc.safety.max_link_silence
+    if silence <= period:
+        out.append(
+            (
+                ("safety", "max_link_silence"),
+                f"max_link_silence {_fmt_s(silence)} is not longer than the state period"
+                f" {_fmt_s(period)}: the link would count as lost between two state frames",
+            )
+        )
+    return out
+
+
+def _sensor_ranges(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The sensors the protective layer and the PABs read on a module (its first angle
+    sensor, its first spring sensor: boards by id, then slot) must reach the values
+    they are read for: a joint's angle limits, and the wall force of a holding clamp."""
+    out: list[tuple[KeyPath, str]] = []
+    first: dict[tuple[str, SensorKind], tuple[KeyPath, float, float]] = {}
+    order = sorted(range(len(desc.boards)), key=lambda b: desc.boards[b].id)
+    for b in order:
+        board = desc.boards[b]
+        for j in sorted(range(len(board.sensors)), key=lambda j: board.sensors[j].slot):
+            sensor = board.sensors[j]
+            lo, hi = sensor.conversion().si_range
+            first.setdefault((board.module, sensor.kind), (("boards", b, "sensors", j), lo, hi))
+    joints = {Role.BEND: MotorFunction.BEND, Role.ROTATIONAL: MotorFunction.ROTATE}
+    force = desc.clamp.holding_force_n
+    for module in desc.modules:
+        function = joints.get(module.role)
+        angle = first.get((module.name, SensorKind.ANGLE))
+        if function is not None and angle is not None:
+            path, lo, hi = angle
+            for board in desc.boards:
+                for motor in board.motors:
+                    limit = motor.limits.angle
+                    if board.module != module.name or motor.function is not function:
+                        continue
+                    if limit is not None and not lo - 1e-9 <= limit.min < limit.max <= hi + 1e-9:
+                        out.append(
+                            (
+                                (*path, "raw"),
+                                f"angle sensor of {module.name!r} reads {_deg(lo)} .. {_deg(hi)}"
+                                f" deg, but its joint {motor.name!r} moves {_deg(limit.min)} .."
+                                f" {_deg(limit.max)} deg (limits.angle): the host would misread"
+                                " the joint where the sensor saturates",
+                            )
+                        )
+        spring = first.get((module.name, SensorKind.SPRING))
+        if module.role is Role.BEND and spring is not None:
+            path, lo, hi = spring
+            if max(abs(lo), abs(hi)) < force * (1 - 1e-9):
+                out.append(
+                    (
+                        (*path, "raw"),
+                        f"spring sensor of {module.name!r} reads at most"
+                        f" {max(abs(lo), abs(hi)):.3g} N, less than the wall force of a"
+                        f" holding clamp, {force:.3g} N (clamp.min_torque / clamp.lever_arm):"
+                        " no clamp of this half could ever be confirmed",
+                    )
+                )
+    return out
+
+
+def _deg(rad: float) -> str:
+    return f"{math.degrees(rad):.4g}"
