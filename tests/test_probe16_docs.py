@@ -276,3 +276,15 @@ def test_a_line_closed_under_a_run_is_not_a_wall_of_the_same_errors(
     assert not repeated, repeated
     per_drive = [m for m in errors if m.startswith("could not send the stop of ")]
     assert len(per_drive) <= 1, per_drive
+
+
+def test_the_safety_pages_table_of_checks_names_every_reason_code() -> None:
+    # before: a command the link failed to send is refused `link_error`, a Reason no
+    # row of docs/safety.md's table named (nor any other line of the page)
+    from pirate_bt.safety.verdict import Reason
+
+    text = (DOCS / "safety.md").read_text(encoding="utf-8")
+    table = text[text.index("## The checks, in order") :].split("\n\n")[1]
+    named = set(re.findall(r"`([a-z_]+)`", table))
+    missing = sorted(reason.value for reason in Reason if reason.value not in named)
+    assert not missing, f"docs/safety.md's checks table does not name {missing}"
