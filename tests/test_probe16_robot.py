@@ -208,3 +208,25 @@ def test_legitimate_variants_validate_and_pass_a_bend(
     robot = load_robot(variant(tmp_path, *edits))
     result = simulate_tree("bend", network="bend-right", params={"roll": "90 deg"}, robot=robot)
     assert result.status == "success", result.why
+
+
+# -- out of scope (task/): a mission on a slower robot -------------------------------
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="pirate_bt/task/tree.py:76 passes a speed to a leg's PAB only when it differs"
+    " from motion.nominal_speed, so legs at the robot's cruise speed run at the bundled"
+    " trees' default 80 mm/s: on a robot whose drives stop at 50 mm/s the mission is"
+    " refused (drive: velocity: 80 mm/s is above bend_1_drive's limit 50 mm/s)",
+)
+def test_a_mission_on_a_slower_robot_drives_at_its_nominal_speed(tmp_path: Path) -> None:
+    from pirate_bt import simulate_mission
+
+    path = variant(
+        tmp_path,
+        ("nominal_speed: 80 mm/s", "nominal_speed: 40 mm/s"),
+        ("velocity: {max: 100 mm/s, policy: clip}", "velocity: {max: 50 mm/s, policy: clip}"),
+    )
+    result = simulate_mission("bend-right", robot=load_robot(path))
+    assert result.status == "success", result.why
