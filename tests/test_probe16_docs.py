@@ -120,6 +120,10 @@ def test_installation_lists_every_tool_make_test_runs() -> None:
     assert tools, "no tools found in the Makefile's test target"
     missing = [tool for tool in tools if tool.split()[0] not in paragraph]
     assert not missing, f"`make test` runs {missing}, which the page does not list"
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    said = next(line for line in readme.splitlines() if line.startswith("make test "))
+    missing = [tool for tool in tools if tool.split()[0] not in said]
+    assert not missing, f"the README's `make test` line leaves out {missing}"
 
 
 def _options_of(command: str, capsys: pytest.CaptureFixture[str]) -> set[str]:
