@@ -6,6 +6,8 @@ PIRATE variant would, and checks what `pirate-bt validate` (or a run) tells it.
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -230,3 +232,50 @@ def test_a_mission_on_a_slower_robot_drives_at_its_nominal_speed(tmp_path: Path)
     )
     result = simulate_mission("bend-right", robot=load_robot(path))
     assert result.status == "success", result.why
+
+
+# -- the firmware header of a lab's own file -----------------------------------------
+
+FIRMWARE = Path(__file__).resolve().parent.parent / "firmware" / "piratebay"
+
+
+def test_robot_header_of_a_file_with_a_non_ascii_name_is_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Before: "pirate-bt: internal error: UnicodeEncodeError: 'ascii' codec can't
+    # encode character '\xe9'" (exit 1), so `make firmware ROBOT=robot-modifié.yaml` failed.
+    path = variant(tmp_path, name="robot-modifié.yaml")
+    out = tmp_path / "layout.h"
+    assert main(["robot", "header", str(path), "-o", str(out)]) == 0
+    assert "robot-modifi?.yaml" in out.read_text(encoding="ascii").splitlines()[0]
+
+
+@pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc missing (make firmware)")
+def test_robot_header_compiles_with_a_trigraph_in_the_name_and_a_comment_end_in_the_path(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Before: the firmware's -std=c11 -Werror build failed on "trigraph ??! converted to
+    # |" (a robot named "... (rev B??!)"), and a path with "*/" closed the header's
+    # first comment early (a folder named "we*").
+    folder = tmp_path / "we*"
+    folder.mkdir()
+    path = variant(folder, ("name: PIRATE 2018", 'name: "PIRATE 2018 (rev B??!) */"'))
+    out = tmp_path / "layout.h"
+    assert main(["robot", "header", str(path), "-o", str(out)]) == 0
+    assert '#define PB_ROBOT_NAME "PIRATE 2018 (rev B\\?\\?!) */"' in out.read_text()
+    flags = ["-mmcu=atmega2560", "-DF_CPU=16000000UL", "-std=c11", "-Wall", "-Wextra"]
+    compiled = subprocess.run(
+        [
+            "avr-gcc",
+            *flags,
+            "-Werror",
+            "-fsyntax-only",
+            f"-I{tmp_path}",
+            f"-I{FIRMWARE}",
+            str(FIRMWARE / "robot_layout.c"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert compiled.returncode == 0, compiled.stderr
