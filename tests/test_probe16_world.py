@@ -256,3 +256,29 @@ def test_a_tee_removed_after_a_reducer_leaves_a_straight_of_its_own_length() -> 
     assert without.main_path().length_m == pytest.approx(lab.main_path().length_m, abs=1e-9)
     run = next(s for s in without.spec.segments if s.id == "tee-2")
     assert run.type == "straight" and run.length == pytest.approx(0.165)
+
+
+def test_a_stop_at_a_tee_the_re_plan_invented_asks_whether_the_pipe_is_wider(
+    models: list[Any],
+) -> None:
+    def riser(wide: bool) -> Network:
+        segments: list[dict[str, Any]] = [
+            {"id": "a", "type": "straight", "length": "1 m"},
+            {"id": "b", "type": "bend", "direction": "up"},
+            {"id": "c", "type": "straight", "length": "0.9 m" if wide else "2.5 m"},
+        ]
+        if wide:  # the riser's top 1.6 m is 118 mm wide: the clamps still reach it
+            segments.append(
+                {"id": "d", "type": "straight", "length": "1.6 m", "diameter": "118 mm"}
+            )
+        return network_from_data({"name": "riser", "diameter": "63 mm", "segments": segments})
+
+    route = parse_route("at the bend turn up\nforward 1.6 m\n", "r.route")
+    result = pirate_bt.simulate_mission(route, network=riser(False), truth=riser(True))
+    assert result.status == "failure" and result.safe_state
+    assert "'found-tee-1'" in result.why  # the re-plan took the widening for a tee
+    # was: only "... T-joint 'found-tee-1' ...: the pipe there is not as drawn", a tee
+    # the drawing does not have, with the pipe's width never asked about
+    assert "'found-tee-1' is no tee of the drawing" in result.why
+    assert "is the pipe there wider than the map has it?" in result.why
+    _at_rest_and_held(models[-1])

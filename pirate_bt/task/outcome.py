@@ -36,6 +36,7 @@ from pirate_bt.task.fixes import roll_name
 
 __all__ = [
     "END_OF_RUN",
+    "FOUND_TEE",
     "PAST_END_M",
     "PabOutcome",
     "explain_run",
@@ -240,6 +241,9 @@ def pab_outcomes(
     return out
 
 
+FOUND_TEE = "found-tee-"
+"""How a re-plan names a tee nobody drew that it put on the map (``found-tee-1``)."""
+
 PAST_END_M = 0.1
 """A bend or T-joint PAB blocked this far beyond where it was to leave the robot drove
 its search on past the feature the map has: said so, with how far (it read "at what the
@@ -291,6 +295,12 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
                 f" {feature!r} was to leave it ({planned.end_m:.2f} m): the pipe there is"
                 " not as drawn"
             )
+            if str(feature).startswith(FOUND_TEE):  # the re-plan's own tee, not drawn
+                what += (
+                    f"; {feature!r} is no tee of the drawing: an opening felt there was taken"
+                    " for a tee nobody drew, and no far side of it was met: is the pipe"
+                    " there wider than the map has it?"
+                )
     elif planned is not None:
         what = (
             f" where the map has clear pipe from {planned.start_m:.2f} m to {planned.end_m:.2f} m"

@@ -16,6 +16,7 @@ from pirate_bt.clock import Clock
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.mission import MissionResult, Observer, run_mission, truth_of
+from pirate_bt.task.outcome import FOUND_TEE
 from pirate_bt.task.plan import MissionPlan
 
 __all__ = ["carry_on", "joined", "replan_after", "return_to_start"]
@@ -101,7 +102,7 @@ def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     piece = plan.path.piece_at(d.sensed_at_m)
     if piece.kind.value != "straight":
         return None
-    tee_id = f"found-tee-{len(result.replans) + 1}"
+    tee_id = f"{FOUND_TEE}{len(result.replans) + 1}"
     tee_m = 3.0 * piece.diameter_start_m
     try:
         spec = insert_tee(
