@@ -16,9 +16,11 @@ Findings, each pinned below:
 - docs/console.md and docs/trees.md: the usage blocks of ``pirate-bt teleop`` and
   ``pirate-bt run`` left out options ``--help`` lists (``--foxglove``, ``--ros2``,
   ``--groot2``, ``--firmware-chain``, ...).
-- (code, not fixed here) ``-o a.svg --output b.svg`` is refused with
+- (code) ``-o a.svg --output b.svg`` was refused with
   ``(PosixPath('a.svg') and PosixPath('b.svg'))``: Python's repr of a path, where
-  ``--seed 1 --seed 2`` says ``(1 and 2)``. Marked ``xfail(strict=True)``.
+  ``--seed 1 --seed 2`` says ``(1 and 2)``; now ``(a.svg and b.svg)``.
+- (code) a line closed under a run logged one ERROR per drive for every stop sent into
+  it (27 lines, the same 9 three times); now one line, once while the link stays lost.
 """
 
 from __future__ import annotations
@@ -146,11 +148,6 @@ def test_a_usage_block_shows_every_option_of_the_commands_help(
     assert not missing, f"docs/{page}: the usage of pirate-bt {command} leaves out {missing}"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pirate_bt/cli/__init__.py:192 shows a path option's values with repr(): "
-    "(PosixPath('a.svg') and PosixPath('b.svg')); show str() of a Path",
-)
 def test_an_option_given_twice_names_the_paths_as_typed(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -238,12 +235,6 @@ def test_a_line_closed_under_a_run_ends_with_a_closing_stop_the_protocol_page_qu
 
 
 @pytest.mark.xdist_group("real-time")
-@pytest.mark.xfail(
-    strict=True,
-    reason="pirate_bt/safety/supervisor_decide.py:147,168 logs one ERROR per drive per "
-    "stop sent into a lost link (27 lines for one closed line, the same lines 3 times); "
-    "say the drives it could not stop in one line, once while the link stays lost",
-)
 def test_a_line_closed_under_a_run_is_not_a_wall_of_the_same_errors(
     caplog: pytest.LogCaptureFixture,
 ) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 import pytest
 
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkError
 from pirate_bt.robot import ControlMode, Half, MotorCommand, load_robot
 from pirate_bt.safety import (
     Clamp,
@@ -262,7 +263,75 @@ def test_a_stop_that_cannot_be_sent_is_logged(
     caplog.set_level(logging.ERROR, logger="pirate_bt.safety")
     v = sup.command(Stop())
     assert v.outcome is Outcome.PASS and v.sent == ()
-    assert "could not send stop: fake send failure" in [r.getMessage() for r in caplog.records]
+    drives = ", ".join(m.name for m in ROBOT.drive_motors())
+    said = [r.getMessage() for r in caplog.records]
+    assert said == [f"could not send the stop of {drives}: fake send failure"]
+    # said once while the link stays down (a closed line gave 27 lines: one per drive,
+    # at every stop sent into it)
+    assert sup.command(Stop()).sent == ()
+    assert [r.getMessage() for r in caplog.records] == said
+    # a stop that goes out ends the episode: the next failure is said again
+    port.fail_send = False
+    assert sup.command(Stop()).sent != ()
+    port.fail_send = True
+    sup.command(Stop())
+    assert [r.getMessage() for r in caplog.records] == said * 2
+
+
+class _Refusing(FakePort):
+    """A fake link that refuses the next ``fails`` sends, or any holding ``motor``."""
+
+    def __init__(self, clock: SimClock, fails: int = 0, motor: str | None = None) -> None:
+        super().__init__(ROBOT, clock)
+        self.fails, self.motor = fails, motor
+
+    def send(self, commands: Any) -> None:
+        if self.fails > 0 or any(c.motor == self.motor for c in commands):
+            self.fails -= 1
+            raise LinkError("refused")
+        super().send(commands)
+
+
+def test_a_stop_refused_for_an_earlier_failure_goes_out_at_the_second_try(
+    clock: SimClock, caplog: pytest.LogCaptureFixture
+) -> None:
+    port = _Refusing(clock, fails=1)
+    caplog.set_level(logging.INFO, logger="pirate_bt.safety")
+    v = Supervisor(port, clock).command(Stop())
+    zeros = tuple(MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in ROBOT.drive_motors())
+    assert v.sent == zeros and tuple(port.sent) == zeros
+    said = {r.getMessage(): r.levelname for r in caplog.records}
+    assert said.get("the stop went out at the second try (the first: refused)") == "WARNING"
+    assert "ERROR" not in said.values(), said
+
+
+def test_a_board_that_refuses_its_stop_keeps_only_its_own_drives_from_stopping(
+    clock: SimClock, caplog: pytest.LogCaptureFixture
+) -> None:
+    drives = [m.name for m in ROBOT.drive_motors()]
+    board = ROBOT.board_of(drives[0]).id
+    mine = [d for d in drives if ROBOT.board_of(d).id == board]
+    others = [d for d in drives if d not in mine]
+    assert others, "the bundled robot has drives on more than one board"
+    port = _Refusing(clock, motor=drives[0])
+    caplog.set_level(logging.ERROR, logger="pirate_bt.safety")
+    v = Supervisor(port, clock).command(Stop())
+    assert [c.motor for c in v.sent] == others and [c.motor for c in port.sent] == others
+    assert [r.getMessage() for r in caplog.records] == [
+        f"could not send the stop of {', '.join(mine)}: refused"
+    ]
+
+
+def test_a_stop_into_a_latched_e_stop_is_not_an_error(
+    sup: Supervisor, port: FakePort, caplog: pytest.LogCaptureFixture
+) -> None:
+    port.fail_send = True
+    port.estopped = True
+    caplog.set_level(logging.INFO, logger="pirate_bt.safety")
+    sup.command(Stop())
+    levels = {r.getMessage(): r.levelname for r in caplog.records}
+    assert "stop not sent (the e-stop is latched): fake send failure" in levels
+    assert "ERROR" not in levels.values(), levels
 
 
 # -- recording -------------------------------------------------------------------------------------

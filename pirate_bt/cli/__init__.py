@@ -25,7 +25,7 @@ import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any, NoReturn
 
 __all__ = [
@@ -188,8 +188,12 @@ class _StoreOnce(argparse._StoreAction):
                     if first[0] == option_string
                     else f"{first[0]}, then {option_string},"
                 )
+
+                def typed(value: Any) -> str:  # a path as typed, not PosixPath('a.svg')
+                    return str(value) if isinstance(value, PurePath) else shown(value)
+
                 parser.error(
-                    f"{spelt} given twice ({shown(first[1])} and {shown(values)}); give it once"
+                    f"{spelt} given twice ({typed(first[1])} and {typed(values)}); give it once"
                 )
             given[id(self)] = (option_string, values)
         super().__call__(parser, namespace, values, option_string)

@@ -181,6 +181,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self._targets: dict[Half, HalfTarget] = {}
         self._last_setpoint: dict[str, tuple[ControlMode, float, float]] = {}
         self._owners: dict[str, Any] = {}  # motor -> the tree node that last commanded it
+        self._stop_unsent_said = False  # a stop the link refused was said (once a loss)
         self._pending: list[str] = []
         self._decided: dict[str, Confirmation] = {}
         self._granted: set[str] = set()

@@ -83,6 +83,7 @@ class DecisionMixin:
     _expander: Expander
     _board_readings: dict[int, tuple[str, ...]]
     _owners: dict[str, Any]
+    _stop_unsent_said: bool
 
     if TYPE_CHECKING:  # defined by the supervisor and its authority side
 
@@ -140,11 +141,7 @@ class DecisionMixin:
         try:
             self._port.send(cmds)
         except LinkError as exc:
-            if self._mode is Mode.ESTOP or self._port.health().estopped:
-                # latched: the bridge has stopped everything and refuses setpoints
-                log.info("stop not sent (the e-stop is latched): %s", exc)
-            else:
-                log.error("could not send stop: %s", exc)
+            latched = self._mode is Mode.ESTOP or self._port.health().estopped
             try:
                 # the link reports an earlier request's failure before it sends (the
                 # stop did not go out): those failures are taken now, so ask again
@@ -152,23 +149,38 @@ class DecisionMixin:
             except LinkError:
                 pass
             else:
+                log.warning("the stop went out at the second try (the first: %s)", exc)
                 for c in cmds:
                     self._last_setpoint[c.motor] = (c.mode, 0.0, now)
+                self._stop_unsent_said = False
                 return cmds
             by_board: dict[int, list[MotorCommand]] = {}
             for c in cmds:
                 by_board.setdefault(self.robot.board_of(c.motor).id, []).append(c)
-            if len(by_board) < 2:
-                return ()
             sent: list[MotorCommand] = []
-            for group in by_board.values():
+            unsent: list[str] = []
+            last: LinkError = exc
+            for group in by_board.values() if len(by_board) > 1 else ():
                 try:
                     self._port.send(tuple(group))
                 except LinkError as again:
-                    log.error("could not send the stop of %s: %s", group[0].motor, again)
+                    unsent.extend(c.motor for c in group)
+                    last = again
                     continue
                 sent.extend(group)
+            if not sent:
+                unsent = [c.motor for c in cmds]
+            if latched:
+                # the bridge has stopped everything and refuses setpoints
+                log.info("stop not sent (the e-stop is latched): %s", exc)
+            elif unsent and not self._stop_unsent_said:
+                # one line, once while the link stays down (a closed line gave one line
+                # per drive, again at every stop sent into it)
+                self._stop_unsent_said = True
+                log.error("could not send the stop of %s: %s", ", ".join(unsent), last)
             cmds = tuple(sent)
+        else:
+            self._stop_unsent_said = False
         for c in cmds:
             self._last_setpoint[c.motor] = (c.mode, 0.0, now)
         return cmds
