@@ -37,7 +37,12 @@ __all__ = [
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("tree", metavar="TREE", help="the tree file (YAML)")
+    parser.add_argument(
+        "tree",
+        metavar="TREE",
+        help="the tree: a YAML file, a BehaviorTree.CPP / Groot2 XML file, or a bundled"
+        " tree's name (bend, straight, ...)",
+    )
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
