@@ -279,3 +279,28 @@ def test_robot_header_compiles_with_a_trigraph_in_the_name_and_a_comment_end_in_
         check=False,
     )
     assert compiled.returncode == 0, compiled.stderr
+
+
+FEEDBACK = "    feedback:\n      velocity: {raw: [-1200, 1200], per_raw: 0.1 mm/s}"
+
+
+@pytest.mark.parametrize(
+    ("per_raw", "words"),
+    [
+        # a reversed encoder: the PICO's uint16 read 65436 um/s, a speed 650 times off
+        ("-0.1 mm/s", "not -100 um/s"),
+        # rounded to 0, which the PICO takes as "no feedback": it reported 0 m/s for ever
+        ("0.4 um/s", "not 0.4 um/s"),
+    ],
+)
+def test_robot_header_refuses_a_velocity_feedback_the_pico_table_cannot_hold(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], per_raw: str, words: str
+) -> None:
+    new = FEEDBACK.replace("per_raw: 0.1 mm/s", f"per_raw: {per_raw}")
+    path = variant(tmp_path, (FEEDBACK, new))
+    out = tmp_path / "layout.h"
+    assert main(["robot", "header", str(path), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "motor 'bend_1_drive': the reference PICO firmware takes a velocity feedback" in err
+    assert words in err
+    assert not out.exists()

@@ -110,7 +110,9 @@ def board_io(robot: RobotDescription) -> tuple[list[ChannelIO], list[MotorIO]]:
     """The PICO boards' I/O tables (see the module docstring).
 
     Raises:
-        ConfigurationError: an IMU with other axes than roll, pitch, yaw.
+        ConfigurationError: an IMU with other axes than roll, pitch, yaw, or a value the
+            PICO firmware's tables cannot hold (a reversed or sub-micrometre velocity
+            feedback step, an IMU or position scale beyond int32).
     """
     channels = robot.state_channels()
     boards = sorted(robot.boards, key=lambda b: b.id)
@@ -181,9 +183,28 @@ def board_io(robot: RobotDescription) -> tuple[list[ChannelIO], list[MotorIO]]:
         circumference = round(2 * math.pi * radius * 1e6) if radius else 0
         velocity = motor.feedback.velocity
         per_raw = round(velocity.per_raw * 1e6) if velocity is not None else 0
+        if velocity is not None and not 1 <= per_raw <= 65535:
+            # a uint16 in the PICO's table: -100 became 65436, 0.4 became 0 (no feedback)
+            raise ConfigurationError(
+                f"motor {motor.name!r}: the reference PICO firmware takes a velocity feedback"
+                f" step of 1 .. 65535 um/s (whole, positive), not {velocity.per_raw * 1e6:g}"
+                " um/s: change feedback.velocity's raw range and per_raw"
+            )
+        if not -(2**31) <= position_q16 < 2**31 or not 0 <= circumference < 2**32:
+            raise ConfigurationError(
+                f"motor {motor.name!r}: its position scale or wheel circumference does not"
+                " fit the reference PICO firmware's table (int32, uint32)"
+            )
         out_motors.append(
             MotorIO(slot.index, angle_channel, position_q16, hold_duty, circumference, per_raw)
         )
+    for channel in out_channels:
+        if not -(2**31) <= channel.scale_q16 < 2**31:
+            raise ConfigurationError(
+                f"state channel {channels[channel.index].name!r}: its IMU scale"
+                f" ({channel.scale_q16} raw per 1/16 degree, Q16) does not fit the reference"
+                " PICO firmware's table (int32): make per_raw coarser"
+            )
     return out_channels, out_motors
 
 
