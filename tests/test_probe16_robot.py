@@ -304,3 +304,59 @@ def test_robot_header_refuses_a_velocity_feedback_the_pico_table_cannot_hold(
     assert "motor 'bend_1_drive': the reference PICO firmware takes a velocity feedback" in err
     assert words in err
     assert not out.exists()
+
+
+# -- out of scope (behaviours/, safety/): robots the PABs cannot drive, and say otherwise
+
+DRIVE_FEEDBACK = (
+    "    feedback:\n      velocity: {raw: [-1200, 1200], per_raw: 0.1 mm/s}\n"
+    "      current: {raw: [0, 1023], per_raw: 4 mA}\n"
+)
+
+
+def _why(path: Path, tree: str, network: str, params: dict[str, str]) -> str:
+    """Why a run of ``tree`` on the robot of ``path`` ended, or why it was refused."""
+    try:
+        robot = load_robot(path)
+        result = simulate_tree(tree, network=network, params=params, robot=robot)
+    except ValidationFailed as exc:
+        return str(exc)
+    return f"{result.status}: {result.why}"
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="docs/hardware.md makes a drive's feedback optional, but the drive behaviours"
+    " (pirate_bt/behaviours/drive.py) measure distance from it: with none the straight PAB"
+    " runs to its 120 s timeout and says 'drove 0.000 m at 0 mm/s (max current 0.00 A)',"
+    " and with current but no velocity it says 'blocked: every drive draws stall current"
+    " after 0.000 m'. Fix: refuse such a tree for such a robot when it loads (as a velocity"
+    " above the drives' limit is), naming the missing feedback",
+)
+@pytest.mark.parametrize(
+    "feedback", ["", "    feedback:\n      current: {raw: [0, 1023], per_raw: 4 mA}\n"]
+)
+def test_a_straight_run_on_drives_without_velocity_feedback_says_so(
+    tmp_path: Path, feedback: str
+) -> None:
+    path = variant(tmp_path, (DRIVE_FEEDBACK, feedback))
+    why = _why(path, "straight", "straight", {"distance": "1 m"})
+    assert "velocity feedback" in why, why
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="a robot with no spring sensors validates and runs a straight, but the bend PAB"
+    " is refused mid-run with 'refused drive(80 mm/s): half_transitioning: no drive while"
+    " the front half is transitioning (between unclamped and clamped)': the protective"
+    " layer (pirate_bt/safety/) cannot tell a clamp without them. Fix: say that the robot"
+    " has no spring sensor to confirm a clamp, at tree load or in the refusal",
+)
+def test_a_bend_on_a_robot_without_spring_sensors_says_so(tmp_path: Path) -> None:
+    edits = [
+        (f"      - {{<<: *spring_sensor, slot: 1, name: bend_{k}_spring}}\n", "")
+        for k in range(1, 5)
+    ]
+    path = variant(tmp_path, *edits)
+    why = _why(path, "bend", "bend-right", {"roll": "90 deg"})
+    assert "spring" in why, why
