@@ -170,6 +170,20 @@ SPRING_TEMPLATE = "    raw: [0, 1023]\n    per_raw: 50 mN"
             "spring sensor of 'bend_4' reads at most 1.02 N, less than the wall force of a"
             " holding clamp, 8.75 N (clamp.min_torque / clamp.lever_arm)",
         ),
+        # every clamp timed out: "clamping rear: bend_3 80.0° 0.0 N, bend_4 80.0° 0.0 N"
+        (
+            [("angle: {min: -110 deg, max: 110 deg,", "angle: {min: -80 deg, max: 80 deg,")],
+            "- {diameter: 63 mm, angle: 1.45 rad}",
+            "bend joint 'bend_1_joint' stops at 80 deg (limits.angle), short of the"
+            " wall-contact angle 83.08 deg of a 63 mm pipe: no half could clamp in it",
+        ),
+        # every front clamp timed out: "front tilt 30.0°"
+        (
+            [("angle: {min: -100 deg, max: 100 deg,", "angle: {min: -30 deg, max: 30 deg,")],
+            "angle: {min: -30 deg, max: 30 deg, policy: clip}",
+            "front tilt 'front_tilt' stops at 30 deg, short of 61.72 deg"
+            " (clamp.front_clear_angle + safety.angle_tolerance)",
+        ),
     ],
 )
 def test_a_robot_no_run_can_drive_is_refused_by_validate_at_the_key_to_change(

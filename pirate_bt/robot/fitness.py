@@ -39,7 +39,54 @@ def _fmt_s(seconds: float) -> str:
 
 def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The rules a run needs of the file, each problem as ``(path, message)``."""
-    return [*_freshness(desc), *_sensor_ranges(desc)]
+    return [*_freshness(desc), *_sensor_ranges(desc), *_reach(desc)]
+
+
+def _reach(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The joints must reach the angles a clamp needs: each wall-contact angle (a half's
+    joints press until their wheels touch the wall there), and the front tilt the front
+    clear angle plus its tolerance (where a front clamp first tilts the front module)."""
+    out: list[tuple[KeyPath, str]] = []
+    bends = {m.name for m in desc.modules if m.role is Role.BEND}
+    joints = [
+        m
+        for b in desc.boards
+        if b.module in bends
+        for m in b.motors
+        if m.function is MotorFunction.BEND
+    ]
+    for k, point in enumerate(desc.clamp.contact_angles):
+        for motor in joints:
+            limit = motor.limits.angle
+            if limit is not None and point.angle > limit.max + 1e-9:
+                out.append(
+                    (
+                        ("clamp", "contact_angles", k, "angle"),
+                        f"bend joint {motor.name!r} stops at {_deg(limit.max)} deg"
+                        f" (limits.angle), short of the wall-contact angle"
+                        f" {_deg(point.angle)} deg of a {point.diameter * 1000:g} mm pipe:"
+                        " no half could clamp in it",
+                    )
+                )
+                break
+    front = desc.modules[0].name if desc.modules else None
+    clear = desc.clamp.front_clear_angle + desc.safety.angle_tolerance
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            limit = motor.limits.angle
+            if board.module != front or motor.function is not MotorFunction.TILT:
+                continue
+            if limit is not None and clear > limit.max + 1e-9:
+                out.append(
+                    (
+                        ("boards", b, "motors", j, "limits", "angle"),
+                        f"front tilt {motor.name!r} stops at {_deg(limit.max)} deg, short of"
+                        f" {_deg(clear)} deg (clamp.front_clear_angle +"
+                        " safety.angle_tolerance), where a front clamp first tilts the"
+                        " front module clear: no front clamp could start",
+                    )
+                )
+    return out
 
 
 def _freshness(desc: Workable) -> list[tuple[KeyPath, str]]:
