@@ -401,6 +401,7 @@ def test_health_is_cached_until_a_figure_changes() -> None:
             failed=s.failed,
             duplicates=s.duplicates,
             estopped=s.estopped,
+            line_noise=s.line_noise,
         )
         assert _same_figures(health, expected)
         assert link.health() is health

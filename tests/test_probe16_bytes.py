@@ -21,8 +21,9 @@ from session_wire import CODEC, Wire, reply, state
 
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import LinkLost, LinkTimeout, ProtocolMismatch
-from pirate_bt.link.codec import Heartbeat
+from pirate_bt.link.codec import Ack, AckStatus, BridgeFlags, Heartbeat, MsgType
 from pirate_bt.link.opening import wrap_link
+from pirate_bt.link.requests import Outcome
 from pirate_bt.link.testing import MemoryLink, memory_pair
 from pirate_bt.robot import ControlMode, load_robot
 
@@ -308,3 +309,59 @@ def test_a_silent_line_is_still_nothing_heard_for_the_supervisor() -> None:
     reason = sup.safe_state_reason
     assert reason is not None and "nothing heard from the bridge for 0." in reason, reason
     link.close()
+
+
+# -- 6. a STATE from before the release of the latch, delivered after its ACK -------------------
+
+
+def _released(flags: BridgeFlags = BridgeFlags.ESTOP) -> Wire:
+    wire = Wire(hello=reply(flags=flags))
+    wire.answer(state(1, flags=flags))
+    wire.poll(0.01)
+    assert wire.session.stats().estopped
+    reset = wire.session.estop_reset()
+    wire.poll(0.001)
+    (msg,) = wire.sent()
+    wire.answer(Ack(msg.seq, MsgType.ESTOP_RESET, AckStatus.APPLIED))
+    wire.poll(0.001)
+    assert reset.outcome is Outcome.ACKED and not wire.session.stats().estopped
+    return wire
+
+
+def test_a_state_from_before_the_release_does_not_latch_the_host_again() -> None:
+    # A line that reorders (a relay, jitter) delivered a STATE sent before the release
+    # after its ACK: its ESTOP flag was taken as a new latch, and the supervisor then
+    # latched the bridge for real (probe 16, 'delay=30ms,jitter=10ms' seed 1)
+    wire = _released()
+    wire.answer(state(2, flags=BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    assert not wire.session.stats().estopped
+    wire.answer(state(3))  # the bridge's own word: released
+    wire.poll(0.01)
+    assert not wire.session.stats().estopped
+    # a latch after a STATE that showed it released is believed at once
+    wire.answer(state(4, flags=BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    assert wire.session.stats().estopped
+
+
+def test_a_latch_the_bridge_keeps_after_the_release_is_believed_from_the_third_state() -> None:
+    wire = _released()
+    seen = []
+    for seq in (2, 3, 4):
+        wire.answer(state(seq, flags=BridgeFlags.ESTOP))
+        wire.poll(0.01)
+        seen.append(wire.session.stats().estopped)
+    assert seen == [False, False, True]
+
+
+def test_the_host_s_own_e_stop_after_a_release_is_believed_at_once() -> None:
+    wire = _released()
+    stop = wire.session.estop()
+    wire.poll(0.001)
+    wire.answer(state(2, flags=BridgeFlags.ESTOP))
+    wire.poll(0.001)
+    assert wire.session.stats().estopped
+    wire.answer(Ack(stop.seq, MsgType.ESTOP, AckStatus.APPLIED))
+    wire.poll(0.001)
+    assert wire.session.stats().estopped

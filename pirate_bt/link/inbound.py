@@ -41,7 +41,13 @@ from pirate_bt.link.codec import (
 from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
-__all__ = ["BAD_STATES_BEFORE_MISMATCH", "STATES_KEPT", "STATE_REFUSALS", "InboundMixin"]
+__all__ = [
+    "BAD_STATES_BEFORE_MISMATCH",
+    "LATCHED_STATES_AFTER_RELEASE",
+    "STATES_KEPT",
+    "STATE_REFUSALS",
+    "InboundMixin",
+]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
@@ -49,6 +55,7 @@ _FAULT = int(BoardStatus.FAULT)
 _TIMEOUT = int(BoardStatus.TIMEOUT)
 _STATE = int(MsgType.STATE)
 _LATCH_BITS = int(BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT)
+_ESTOP = int(BridgeFlags.ESTOP)
 _INPUT_ONLY = int(BridgeFlags.ESTOP_INPUT)
 _NO_REFUSALS = (0, 0, 0)
 STATE_REFUSALS = ("with a bad CRC", "of another length", "out of sequence")
@@ -61,6 +68,12 @@ STALE_RESETS_BEFORE_MISMATCH = 3
 same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
 a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
 a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
+LATCHED_STATES_AFTER_RELEASE = 2
+"""``STATE`` frames after an acknowledged ``ESTOP_RESET`` whose ``ESTOP`` flag is not
+believed while no ``STATE`` without it came between: on a line that reorders (a relay, a
+link with jitter) they were sent before the release and delivered after its ``ACK``. The
+next one is believed (a latch the bridge took again at once, 30 ms late: its own latch
+holds meanwhile, and it refuses setpoints ``ESTOP_LATCHED``)."""
 STATES_KEPT = 64
 """STATE frames taken that the session keeps, newest last (:meth:`InboundMixin.states_taken`):
 a reader of the state folds those it has not seen, so that a reading fresh in one of them
@@ -108,6 +121,7 @@ class InboundMixin:
     # STATEs dropped in a row as not newer than the one held, and the first one's arrival
     # (see _on_state)
     _old_state_run: int = 0
+    _latch_discount: int = 0  # STATEs still not believed on ESTOP, after a release
     _old_run_from_s: float = 0.0
     # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
     _stale_reset_run: int = 0
@@ -293,6 +307,7 @@ class InboundMixin:
                 outcome = Outcome.STALE if item.status is AckStatus.STALE else Outcome.ACKED
                 if outcome is Outcome.ACKED and kind == MsgType.ESTOP_RESET:
                     self._flags &= ~BridgeFlags.ESTOP  # released now; the next STATE says so too
+                    self._latch_discount = LATCHED_STATES_AFTER_RELEASE
             self._settle(ordered, outcome, now)
             if outcome is not Outcome.STALE:
                 self._stale_run = 0
@@ -333,6 +348,7 @@ class InboundMixin:
             self._settle(req, Outcome.ACKED, now)
             if kind == MsgType.ESTOP:
                 self._flags |= BridgeFlags.ESTOP
+                self._latch_discount = 0  # the host's own e-stop: every STATE shows it
                 if seq_newer(item.seq, self._answered):
                     self._answered = item.seq
 
@@ -502,7 +518,15 @@ class InboundMixin:
         if taken is None:
             taken = self._taken = collections.deque(maxlen=STATES_KEPT)
         taken.append((item, now))
-        self._flags = item.flags
+        if self._latch_discount and bits & _ESTOP:
+            # sent before the release its ACK acknowledged (a reordering line): the
+            # latch it shows is gone, unless a later STATE still shows it
+            self._latch_discount -= 1
+            _log.debug("STATE seq %d: ESTOP from before the release, not taken", item.seq)
+            self._flags = BridgeFlags(bits & ~_ESTOP)
+        else:
+            self._latch_discount = 0
+            self._flags = item.flags
         if bits & _LATCH_BITS == _INPUT_ONLY:
             self._input_unlatched(item.flags)
         status = item.board_status

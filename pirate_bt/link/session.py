@@ -239,6 +239,7 @@ class Session(InboundMixin, ReaderMixin):
                 self._finish(req, Outcome.CANCELLED, now)
             self._queue.clear()
             self._ordered = None
+            self._latch_discount = 0  # a STATE that shows the latch from now on is believed
             req = Request(EStop(self._seq()), now)
             self._oob[(MsgType.ESTOP, req.seq)] = req
             try:
