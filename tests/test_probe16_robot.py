@@ -184,6 +184,14 @@ SPRING_TEMPLATE = "    raw: [0, 1023]\n    per_raw: 50 mN"
             "front tilt 'front_tilt' stops at 30 deg, short of 61.72 deg"
             " (clamp.front_clear_angle + safety.angle_tolerance)",
         ),
+        # every tree with a clamp was refused: 0.7 N*m "above the bend joints' limit
+        # 0.3 N*m", 0.3 N*m "below the minimum clamp torque 0.35 N*m"
+        (
+            [("torque: {max: 0.8 N*m, policy: refuse}", "torque: {max: 0.3 N*m, policy: refuse}")],
+            "torque: {max: 0.3 N*m, policy: refuse}",
+            "bend joint 'bend_1_joint' presses with at most 0.3 N*m (its torque limit and"
+            " mode), less than clamp.min_torque 0.35 N*m: no clamp could hold",
+        ),
     ],
 )
 def test_a_robot_no_run_can_drive_is_refused_by_validate_at_the_key_to_change(

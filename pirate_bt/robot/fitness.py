@@ -55,6 +55,35 @@ def _reach(desc: Workable) -> list[tuple[KeyPath, str]]:
         for m in b.motors
         if m.function is MotorFunction.BEND
     ]
+    need = desc.clamp.min_torque
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            if board.module not in bends or motor.function is not MotorFunction.BEND:
+                continue
+            path: KeyPath = ("boards", b, "motors", j)
+            torque = motor.modes.torque
+            if torque is None:
+                out.append(
+                    (
+                        (*path, "modes"),
+                        f"bend joint {motor.name!r} has no torque mode: a clamp presses the"
+                        " wheels on the wall with joint torque",
+                    )
+                )
+                continue
+            reach = min(
+                torque.si_range[1],
+                *([motor.limits.torque.max] if motor.limits.torque is not None else []),
+            )
+            if reach < need * (1 - 1e-9):
+                out.append(
+                    (
+                        (*path, "limits", "torque") if motor.limits.torque else (*path, "modes"),
+                        f"bend joint {motor.name!r} presses with at most {reach:g} N*m (its"
+                        f" torque limit and mode), less than clamp.min_torque {need:g} N*m:"
+                        " no clamp could hold",
+                    )
+                )
     for k, point in enumerate(desc.clamp.contact_angles):
         for motor in joints:
             limit = motor.limits.angle
