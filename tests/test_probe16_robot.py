@@ -382,3 +382,18 @@ def test_a_bend_on_a_robot_without_spring_sensors_says_so(tmp_path: Path) -> Non
     path = variant(tmp_path, *edits)
     why = _why(path, "bend", "bend-right", {"roll": "90 deg"})
     assert "spring" in why, why
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="pirate_bt/yamlvalidate.py:347 says only 'not a robot description: ... a file of"
+    " another kind?' for a tree given as --robot (or validate --kind hardware); it could name"
+    " the kind the keys match (pirate_bt.filekinds detects it: 'it looks like a behaviour tree')",
+)
+def test_a_tree_given_as_the_robot_is_named_as_a_tree(capsys: pytest.CaptureFixture[str]) -> None:
+    tree = Path(__file__).resolve().parent.parent / "trees" / "bend.yaml"
+    code = main(["validate", "--kind", "hardware", str(tree)])
+    out = capsys.readouterr().err
+    assert code == 2
+    assert "not a robot description" in out
+    assert "tree" in out.split("not a robot description", 1)[1], out
