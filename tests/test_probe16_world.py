@@ -31,7 +31,7 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import LocatedError
-from pirate_bt.pipes import Network, network_from_data
+from pirate_bt.pipes import Network, load_network, network_from_data
 from pirate_bt.robot import Half
 from pirate_bt.sim import model as sim_model
 from pirate_bt.task.route import parse_route
@@ -323,3 +323,42 @@ def test_a_jittery_link_does_not_latch_an_e_stop_nobody_pressed() -> None:
         seed=1,
     )
     assert result.status == "success", result.why
+
+
+def test_a_re_planned_rest_runs_in_the_mission_s_time_left(tmp_path: Path) -> None:
+    # carry_on ran each re-planned rest with a limit of its own, so a mission given
+    # max_time 60 s ran on to success after about 77 s (campaigns probe); the rest now
+    # gets the time left, and the why is the limit, not a failure the PAB recovered from
+    from pirate_bt.pipes.asbuilt import insert_tee
+
+    route = tmp_path / "extra.route"
+    route.write_text("network straight\nforward 1 m\ninspect 2 m slowly\nforward to the end\n")
+    truth = insert_tee(load_network("straight").spec, "run", 2.5)
+    result = pirate_bt.simulate_mission(route, truth=truth, max_time="60 s")
+    assert result.status == "failure", result.why
+    assert result.why.startswith("time limit of "), result.why
+    assert "was still running" in result.why
+    assert len(result.replans) == 1 and "T-joint the map does not have" in result.replans[0]
+    assert result.sim["violations"] == 0 and result.sim["damage"] == 0
+
+
+def test_a_time_limit_after_a_recovered_failure_is_the_cause(tmp_path: Path) -> None:
+    # a selector recovered from a refused clamp, then a wait ran into the time limit:
+    # the why named the refused clamp, which had not stopped anything
+    tree = tmp_path / "tl.yaml"
+    tree.write_text(
+        "name: tl\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - type: selector\n"
+        "      children:\n"
+        "        - {type: clamp, half: front, torque: 0.5 N*m, timeout: 0.2 s}\n"
+        "        - {type: success}\n"
+        "    - {type: wait, duration: 10 s}\n",
+        encoding="utf-8",
+    )
+    result = pirate_bt.simulate_tree(tree, max_time="2 s")
+    assert result.status == "failure"
+    assert result.why == "time limit of 2 s reached after 40 ticks; tl/wait was still running"
+    assert result.failing_node == "tl/wait"

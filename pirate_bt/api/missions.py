@@ -220,6 +220,7 @@ def _mission(
     def truth_for(p: Any) -> Any:
         return truth_of(p, sim) if sim is not None else None
 
+    started_s = connection.clock.now()
     result = run_plan(
         plan,
         connection.robot,
@@ -248,6 +249,8 @@ def _mission(
         period_s=period_s,
         map_tolerance=map_tolerance,
         observe=observe,
+        max_time_s=max_time_s,
+        started_s=started_s,
     )
     if result.succeeded:
         result.why += unsafe_note(result.counters)

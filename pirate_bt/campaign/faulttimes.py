@@ -1,11 +1,10 @@
 """A simulator fault that starts after the run's time limit: refused at its entry.
 
-A tree or a navigator run ends at ``max_time`` at the latest, so a fault due at
-or after it never happens: its point of the ``sim_faults`` axis ran the very runs of the point
-without it (a slip, ``@200s`` for ``@20s``, with ``max_time: 60 s``), counted as
-its own group in the report, all of it ``success``. (A route's mission can run on
-past it: a rest re-planned after a stop has a time limit of its own. A spec with a
-route run is not checked.)
+A tree, a navigator or a route's mission (re-planned rests included) ends at
+``max_time`` at the latest, so a fault due at or after it never happens: its point of
+the ``sim_faults`` axis ran the very runs of the point without it (a slip, ``@200s``
+for ``@20s``, with ``max_time: 60 s``), counted as its own group in the report, all of
+it ``success``.
 """
 
 from __future__ import annotations
@@ -17,14 +16,12 @@ __all__ = ["check_fault_times"]
 
 
 def check_fault_times(spec: CampaignSpec) -> None:
-    """Refuse a fault of ``sim_faults`` due at or after ``max_time`` (no route run).
+    """Refuse a fault of ``sim_faults`` due at or after ``max_time``.
 
     Raises:
         InputError: at the fault's entry (a :class:`~pirate_bt.errors.LocatedError`
             for a file).
     """
-    if any(run.route is not None for run in spec.runs):
-        return  # a mission's re-planned rest has a time limit of its own: it may run on
     from pirate_bt.sim.faults import parse_fault
 
     limit = spec.quantity("max_time", "time")

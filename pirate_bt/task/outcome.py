@@ -172,6 +172,17 @@ def explain_run(
         # the supervisor stopped the robot on its own: that came first
         return safe.reason, safe.node
     cause = failure_cause(root, before_s=safe.time_s if safe is not None else None)
+    if (
+        cause is not None
+        and cause.time_s is not None
+        and safe is None
+        and run.reason is StopReason.TIME_LIMIT
+        and cause.node not in run.stopped_nodes
+    ):
+        # failed, and the tree went on past it (a selector's next way): the limit
+        # stopped a tree still running, not this failure (a node retried until the
+        # limit is running again, and its failure stays the cause)
+        cause = None
     if cause is not None and cause.time_s is not None:
         return cause.reason, cause.node
     if safe is not None:

@@ -35,18 +35,33 @@ def carry_on(
     period_s: float = 0.05,
     map_tolerance: float = MAP_FRACTION,
     observe: Observer | None = None,
+    max_time_s: float | None = None,
+    started_s: float | None = None,
 ) -> MissionResult:
     """After a stop, re-plan and go on where the route still has one clear meaning.
 
     :func:`replan_after` decides; each re-planned rest runs from the belief the
     robot stopped with, after the safe state is left. Returns the joined result
     (``result.replans`` says what was done), or ``result`` itself.
+
+    ``max_time_s`` (from ``started_s``, clock time) bounds the whole mission: a rest
+    runs in the time left, and none starts once it is spent. Without it each rest has
+    its own estimate, as the first run had.
     """
     for _ in range(_MAX_REPLANS):
         again = replan_after(result)
         if again is None:
             break
         rest, note = again
+        left: float | None = None
+        if max_time_s is not None:
+            since = clock.now() - (started_s if started_s is not None else clock.now())
+            left = max_time_s - since
+            if left < period_s:
+                result.replans.append(
+                    f"not re-planned: the mission's time limit ({max_time_s:g} s) is spent"
+                )
+                break
         supervisor.resume()  # the route still has one clear meaning: go on
         more = run_mission(
             rest,
@@ -59,6 +74,7 @@ def carry_on(
             belief_m=result.belief_m,
             map_tolerance=map_tolerance,
             observe=observe,
+            max_time_s=left,
         )
         result = joined(result, more, note)
     return result
