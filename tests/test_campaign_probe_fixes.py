@@ -298,7 +298,7 @@ def test_a_tree_a_robot_of_the_axis_refuses_is_refused_at_the_robot(
     robot = (ROOT / "hardware" / "pirate.yaml").read_text("utf-8")
     assert "torque: {max: 0.8 N*m, policy: refuse}" in robot
     weak = robot.replace(
-        "torque: {max: 0.8 N*m, policy: refuse}", "torque: {max: 0.2 N*m, policy: refuse}"
+        "torque: {max: 0.8 N*m, policy: refuse}", "torque: {max: 0.5 N*m, policy: refuse}"
     )
     (tmp_path / "weak.yaml").write_text(weak, encoding="utf-8")
     text = (
@@ -306,7 +306,7 @@ def test_a_tree_a_robot_of_the_axis_refuses_is_refused_at_the_robot(
         "robots: [null, weak.yaml]\n"
     )
     spec = _spec(tmp_path, text)
-    # was: ok, and every weak.yaml case an error row ("ValidationFailed: ... 0.2 N*m")
+    # was: ok, and every weak.yaml case an error row ("ValidationFailed: ... 0.5 N*m")
     assert main(["validate", str(spec)]) == 2
     err = capsys.readouterr().err
     lines = [
@@ -316,7 +316,7 @@ def test_a_tree_a_robot_of_the_axis_refuses_is_refused_at_the_robot(
         line.startswith(f"FILE:{_column(text, 4, 'weak.yaml')}: robot 'weak.yaml': run 's': ")
         for line in lines
     ), err
-    assert "torque: 0.7 N*m is above the bend joints' limit 0.2 N*m" in lines[0]
+    assert "torque: 0.7 N*m is above the bend joints' limit 0.5 N*m" in lines[0]
     assert "trees/lib/clamp-" in lines[0]  # the tree's place
     assert main(["campaign", str(spec), "--output", str(tmp_path / "o"), "--quiet"]) == 2
     assert capsys.readouterr().err.splitlines() == [
@@ -332,7 +332,7 @@ def test_a_tree_a_robot_of_the_axis_refuses_is_refused_at_the_robot(
     assert main(["validate", str(route)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{route}:3:16: robot 'weak.yaml': run 'straight': ")
-    assert "clamp: torque: 0.7 N*m is above the bend joints' limit 0.2 N*m" in err
+    assert "clamp: torque: 0.7 N*m is above the bend joints' limit 0.5 N*m" in err
     # checked against the axis's robots only: a torque above the bundled robot's limit
     # (0.8 N*m) that a stronger robot takes
     strong = robot.replace("torque: {max: 0.8 N*m,", "torque: {max: 1.0 N*m,")
