@@ -339,12 +339,23 @@ def _refuse_another_kind(doc: YamlDocument, model: type[BaseModel], what: str) -
     unknown = [k for k in keys if k not in fields]
     if not required or not unknown or any(k in own for k in keys):
         return
+    from pirate_bt.filekinds import KINDS
+
+    looks = next(
+        (
+            f"it looks like a {kind.title} (it has {marker!r})"
+            for kind in KINDS.values()
+            for marker in kind.marker_keys
+            if marker in doc.data
+        ),
+        "a file of another kind?",
+    )
     raise ValidationFailed(
         [
             doc.locator.error(
                 (),
                 f"not {what}: it has none of its keys ({', '.join(sorted(own)[:6])}, ...) and"
-                f" keys it does not take ({', '.join(unknown[:4])}): a file of another kind?",
+                f" keys it does not take ({', '.join(unknown[:4])}): {looks}",
             )
         ]
     )

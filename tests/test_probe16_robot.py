@@ -237,14 +237,11 @@ def test_legitimate_variants_validate_and_pass_a_bend(
 # -- out of scope (task/): a mission on a slower robot -------------------------------
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pirate_bt/task/tree.py:76 passes a speed to a leg's PAB only when it differs"
-    " from motion.nominal_speed, so legs at the robot's cruise speed run at the bundled"
-    " trees' default 80 mm/s: on a robot whose drives stop at 50 mm/s the mission is"
-    " refused (drive: velocity: 80 mm/s is above bend_1_drive's limit 50 mm/s)",
-)
 def test_a_mission_on_a_slower_robot_drives_at_its_nominal_speed(tmp_path: Path) -> None:
+    # pirate_bt/task/tree.py passed a speed to a leg's PAB only when it differed from
+    # motion.nominal_speed, so legs at the robot's cruise speed ran at the trees' default
+    # 80 mm/s: on a robot whose drives stop at 50 mm/s the mission was refused
+    # (drive: velocity: 80 mm/s is above bend_1_drive's limit 50 mm/s)
     from pirate_bt import simulate_mission
 
     path = variant(
@@ -346,21 +343,15 @@ def _why(path: Path, tree: str, network: str, params: dict[str, str]) -> str:
     return f"{result.status}: {result.why}"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="docs/hardware.md makes a drive's feedback optional, but the drive behaviours"
-    " (pirate_bt/behaviours/drive.py) measure distance from it: with none the straight PAB"
-    " runs to its 120 s timeout and says 'drove 0.000 m at 0 mm/s (max current 0.00 A)',"
-    " and with current but no velocity it says 'blocked: every drive draws stall current"
-    " after 0.000 m'. Fix: refuse such a tree for such a robot when it loads (as a velocity"
-    " above the drives' limit is), naming the missing feedback",
-)
 @pytest.mark.parametrize(
     "feedback", ["", "    feedback:\n      current: {raw: [0, 1023], per_raw: 4 mA}\n"]
 )
 def test_a_straight_run_on_drives_without_velocity_feedback_says_so(
     tmp_path: Path, feedback: str
 ) -> None:
+    # a drive measures distance by its wheels' speed: with no velocity feedback the
+    # straight PAB ran to its 120 s timeout ('drove 0.000 m at 0 mm/s'), or with current
+    # alone said 'blocked: every drive draws stall current'; now refused at load
     path = variant(tmp_path, (DRIVE_FEEDBACK, feedback))
     why = _why(path, "straight", "straight", {"distance": "1 m"})
     assert "velocity feedback" in why, why
@@ -384,12 +375,6 @@ def test_a_bend_on_a_robot_without_spring_sensors_says_so(tmp_path: Path) -> Non
     assert "spring" in why, why
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pirate_bt/yamlvalidate.py:347 says only 'not a robot description: ... a file of"
-    " another kind?' for a tree given as --robot (or validate --kind hardware); it could name"
-    " the kind the keys match (pirate_bt.filekinds detects it: 'it looks like a behaviour tree')",
-)
 def test_a_tree_given_as_the_robot_is_named_as_a_tree(capsys: pytest.CaptureFixture[str]) -> None:
     tree = Path(__file__).resolve().parent.parent / "trees" / "bend.yaml"
     code = main(["validate", "--kind", "hardware", str(tree)])

@@ -240,7 +240,15 @@ class Drive(Primitive):
             )
         if params.less_key and params.until != "distance":
             problems.append("less_key: only with until: distance")
-        for motor in robot.drive_motors():
+        drives = robot.drive_motors()
+        if drives and not any(m.feedback.velocity for m in drives):
+            # it would drive "0.000 m" until its timeout, or call every drive blocked
+            problems.append(
+                "the robot's drives have no velocity feedback (feedback.velocity in its"
+                " description): a drive measures its distance and its grip by the wheels'"
+                " speed"
+            )
+        for motor in drives:
             lim = motor.limits.velocity
             if lim is not None and abs(params.velocity) > lim.max:
                 problems.append(

@@ -20,12 +20,27 @@ def _pab_file(trees_dir: Path, pab: str) -> Path:
     return path
 
 
-def _declared_params(path: Path) -> set[str]:
+def _declared_params(path: Path) -> dict[str, float | None]:
+    """The parameters a PAB tree declares, each with its default speed in m/s where it
+    is a velocity with a default (``None`` otherwise)."""
+    from pirate_bt.errors import UnitError
+    from pirate_bt.units import parse_quantity
     from pirate_bt.yamlfile import load_yaml
 
     data = load_yaml(path).data
     params = data.get("params") if isinstance(data, dict) else None
-    return set(params) if isinstance(params, dict) else set()
+    if not isinstance(params, dict):
+        return {}
+    declared: dict[str, float | None] = {}
+    for name, spec in params.items():
+        default = None
+        if isinstance(spec, dict) and spec.get("type") == "velocity" and "default" in spec:
+            try:
+                default = parse_quantity(spec["default"], "velocity")
+            except UnitError:
+                default = None  # the tree's own check says what is wrong with it
+        declared[str(name)] = default
+    return declared
 
 
 def mission_tree_spec(
@@ -50,7 +65,7 @@ def mission_tree_spec(
     from pirate_bt.resources import data_dir
 
     folder = trees_dir or data_dir("trees")
-    declared: dict[str, set[str]] = {}
+    declared: dict[str, dict[str, float | None]] = {}
     children: list[dict[str, Any]] = []
     for index, pab in enumerate(plan.pabs, start=1):
         name = pab.label(index)
@@ -73,9 +88,11 @@ def mission_tree_spec(
             params["distance_key"] = LEG_DISTANCE_KEY
             if pab.end_m > pab.start_m and "stop_at_feature" in declared[pab.pab]:
                 params["stop_at_feature"] = True
-        if speed is not None and speed != nominal_speed_mps:
+        if speed is not None:
             for key in ("speed", "velocity"):
-                if key in declared[pab.pab]:
+                # only where it differs from the tree's own default: a robot whose
+                # cruise speed is another (a slower drive) drives its legs at it
+                if key in declared[pab.pab] and declared[pab.pab][key] != speed:
                     params[key] = speed
         node: dict[str, Any] = {
             "type": "subtree",
