@@ -13,7 +13,9 @@ writing outputs) exits 130 for SIGINT and 143 for SIGTERM. A file that cannot be
 read or written (a directory, a missing folder that cannot be made, a full disk)
 is one line naming it, exit 2. ``-o -`` is standard output for the verbs that write
 text (:func:`write_to_stdout`) and refused by every other output (:func:`check_output`,
-:func:`check_folder_output`).
+:func:`check_folder_output`). A reader of standard output or error that went away
+(``| head -1``) leaves the exit code as it is; standard output that cannot be
+written (``> /dev/full``) is one line, exit 2 (:mod:`pirate_bt.cli.streams`).
 """
 
 from __future__ import annotations
@@ -301,17 +303,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in ("stdout", "stderr"):
         if getattr(sys, name) is None:  # closed by the caller (>&-): py_trees reads
             setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115  its encoding at import
+    from pirate_bt.cli import streams
+
     try:
         # from the first instruction: a Ctrl-C or SIGTERM while the command's modules
         # load is one line and 130 or 143, as during the command, not a traceback
-        with _sigterm_as_interrupt():
-            return _main(argv)
+        with _sigterm_as_interrupt(), streams.watched():
+            code = _main(argv)
     except Terminated:
         print("pirate-bt: terminated (SIGTERM)", file=sys.stderr)
-        return EXIT_SIGTERM
+        code = EXIT_SIGTERM
     except KeyboardInterrupt:
         print("pirate-bt: interrupted", file=sys.stderr)
-        return EXIT_SIGINT
+        code = EXIT_SIGINT
+    except BrokenPipeError:  # --help or --version into a closed pipe (| head -1)
+        code = EXIT_OK
+    except OSError as exc:  # --help or --version onto a full device
+        if not streams.stdout_failure(exc):
+            raise
+        print(f"pirate-bt: {streams.describe(exc)}", file=sys.stderr)
+        code = EXIT_INPUT
+    # now, not at the interpreter's exit: a reader that went away is no error, a full
+    # device is one line and exit 2, not "Exception ignored" and exit 120
+    return streams.finish(code)
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -370,6 +384,10 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def _os_error(exc: OSError) -> str:
     """One line for a file that could not be read or written: the file, then why."""
+    from pirate_bt.cli import streams
+
+    if streams.stdout_failure(exc):  # no file name: "No space left on device" alone
+        return streams.describe(exc)
     why = exc.strerror or str(exc) or type(exc).__name__
     name = exc.filename2 if exc.filename2 is not None else exc.filename
     return f"{name}: {why}" if name is not None else why

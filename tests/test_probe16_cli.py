@@ -1,0 +1,109 @@
+"""Probe 16, the command-line contract as a shell user and a script see it.
+
+A closed pipe (``| head -1``), a full device (``> /dev/full``), standard error
+whose reader went away: each is the command's exit code and at most one line,
+never ``Exception ignored`` and exit 120, a traceback, or exit 0 for nothing written.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _pirate_bt(args: list[str], stdout: int) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}  # as a shell has
+    return subprocess.run(
+        [sys.executable, "-m", "pirate_bt", *args],
+        stdout=stdout,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        timeout=60,
+        check=False,
+    )
+
+
+def _closed_pipe(args: list[str]) -> subprocess.CompletedProcess[str]:
+    """``pirate-bt ARGS | head -0``: the reader is gone before anything is written."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        return _pirate_bt(args, write)
+    finally:
+        os.close(write)
+
+
+@pytest.mark.parametrize(
+    ("args", "code"),
+    [
+        (["robot"], 0),  # was "Exception ignored ... BrokenPipeError", exit 120
+        (["--version"], 0),  # was a traceback from argparse, exit 1
+        (["validate", "trees/bend.yaml", "nosuch"], 2),  # the verdict, not 120
+    ],
+)
+def test_a_reader_that_went_away_leaves_the_exit_code_and_no_noise(
+    args: list[str], code: int
+) -> None:
+    done = _closed_pipe(args)
+    assert done.returncode == code, done.stderr
+    assert "Exception ignored" not in done.stderr
+    assert "Traceback" not in done.stderr
+    assert len(done.stderr.splitlines()) == (0 if code == 0 else 1), done.stderr
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full here")
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["robot", "header", "-o", "-"],  # was exit 0 and nothing said: the header lost
+        ["--help"],  # was "Exception ignored", exit 120
+    ],
+)
+def test_standard_output_on_a_full_device_is_one_line_and_exit_2(args: list[str]) -> None:
+    with open("/dev/full", "w") as full:
+        done = _pirate_bt(args, full.fileno())
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.splitlines() == ["pirate-bt: standard output: No space left on device"]
+
+
+class _FullStream(io.StringIO):
+    """A stream on a full device: every write fails as a full disk's does."""
+
+    def write(self, text: str) -> int:
+        raise OSError(28, "No space left on device")
+
+
+class _GoneStream(io.StringIO):
+    """A pipe whose reader went away."""
+
+    def write(self, text: str) -> int:
+        raise BrokenPipeError(32, "Broken pipe")
+
+
+def test_a_write_to_a_full_standard_output_names_it(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(sys, "stdout", _FullStream())
+    assert main(["schema", "hardware"]) == 2
+    # was "pirate-bt: No space left on device": no name for what could not be written
+    assert capsys.readouterr().err == "pirate-bt: standard output: No space left on device\n"
+
+
+def test_standard_error_gone_does_not_turn_a_failure_into_success(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``pirate-bt validate nosuch 2>&1 | head -0`` exited 0: the broken pipe on the
+    error line was taken for a closed standard output."""
+    monkeypatch.setattr(sys, "stderr", _GoneStream())
+    assert main(["validate", "nosuch"]) == 2
