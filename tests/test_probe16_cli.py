@@ -107,3 +107,14 @@ def test_standard_error_gone_does_not_turn_a_failure_into_success(
     error line was taken for a closed standard output."""
     monkeypatch.setattr(sys, "stderr", _GoneStream())
     assert main(["validate", "nosuch"]) == 2
+
+
+def test_teleop_with_standard_input_closed_says_it_needs_a_terminal(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pirate-bt teleop <&-`` was 'internal error: AttributeError: 'NoneType' object
+    has no attribute 'isatty'', exit 1: no terminal, as with ``< /dev/null``."""
+    monkeypatch.setattr(sys, "stdin", None)
+    assert main(["teleop"]) == 2
+    err = capsys.readouterr().err
+    assert err == "pirate-bt: the console needs a terminal; use --keys KEYS in scripts\n"

@@ -303,6 +303,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in ("stdout", "stderr"):
         if getattr(sys, name) is None:  # closed by the caller (>&-): py_trees reads
             setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115  its encoding at import
+    if sys.stdin is None:  # <&-: no terminal (teleop says so), not an AttributeError
+        sys.stdin = open(os.devnull)  # noqa: SIM115
     from pirate_bt.cli import streams
 
     try:
