@@ -138,7 +138,8 @@ class AuthorityMixin(DecisionMixin):
         """Change who is in charge; takes effect for the very next command.
 
         Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
-        ``SUPERVISED``) also leaves the safe state. ``ESTOP`` is :meth:`estop`;
+        ``SUPERVISED``) stops them too (the operator's speed is not the tree's) and
+        leaves the safe state. ``ESTOP`` is :meth:`estop`;
         leaving ``ESTOP`` needs :meth:`reset_estop`. A mode's text (``"estop"``) is
         that mode.
 
@@ -157,9 +158,12 @@ class AuthorityMixin(DecisionMixin):
                 return
             old, self._mode = self._mode, mode
             log.warning("mode %s -> %s", old, mode)
-            if mode is Mode.MANUAL:
+            if mode is Mode.MANUAL or old is Mode.MANUAL:
+                # taking over stops the tree's drives, and handing back the operator's:
+                # the tree resumes from still (a drive asks again for its own speed)
+                # rather than with wheels it did not set, which it counted as its own
                 self._send_stop()
-            else:
+            if mode is not Mode.MANUAL:
                 self._safe_reason = None
                 self._safe_error = None
                 self._refusals = 0
