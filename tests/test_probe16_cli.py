@@ -118,3 +118,33 @@ def test_teleop_with_standard_input_closed_says_it_needs_a_terminal(
     assert main(["teleop"]) == 2
     err = capsys.readouterr().err
     assert err == "pirate-bt: the console needs a terminal; use --keys KEYS in scripts\n"
+
+
+@pytest.fixture(scope="module")
+def trace_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("probe16") / "run.jsonl"
+    args = ["run", "straight", "--param", "distance=0.1m", "-q", "--max-time", "1s"]
+    assert main([*args, "--trace", str(path)]) == 1  # a short run, ended by its time limit
+    return path
+
+
+def test_a_rosbag_folder_that_cannot_be_made_is_named_by_its_option(
+    trace_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """'trace export -o run.jsonl/_bag' said 'out_dir: cannot write ...': the API's
+    parameter, not the option the user typed."""
+    capsys.readouterr()
+    assert main(["trace", "export", str(trace_file), "-o", f"{trace_file}/_bag"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: -o: ") and "is not a folder (on the way to '_bag')" in err
+    assert len(err.splitlines()) == 1, err
+
+
+def test_an_unknown_export_suffix_names_every_format_export_writes(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """The list of known formats left out the rosbag2 folder export also writes."""
+    assert main(["trace", "export", "run.jsonl", "-o", str(tmp_path / "run.txt")]) == 2
+    err = capsys.readouterr().err
+    assert "known: .btlog, .mcap, or a rosbag2 folder (a name ending in / or _bag)" in err
+    assert not (tmp_path / "run.txt").exists()

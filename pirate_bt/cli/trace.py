@@ -124,6 +124,9 @@ def _export(args: argparse.Namespace) -> int:
 
     target = str(args.output)
     if is_bag_path(target):
+        bag = target.rstrip("/") or "/"
+        if not Path(bag).exists():  # named by its option (the API's is "out_dir")
+            check_output(bag)
         print(f"wrote {export_rosbag2(args.trace, Path(target))}")
         return 0
     check_output(target)
@@ -132,7 +135,7 @@ def _export(args: argparse.Namespace) -> int:
     if suffix not in EXPORTS:
         raise InputError(
             f"{args.output}: unknown export format {suffix or '(no suffix)'!r};"
-            f" known: {', '.join(EXPORTS)}"
+            f" known: {', '.join(EXPORTS)}, or a rosbag2 folder (a name ending in / or _bag)"
         )
     module_name, function = EXPORTS[suffix]
     export = getattr(importlib.import_module(module_name), function)
