@@ -7,11 +7,20 @@ simulator's truth, and what the run says.
 
 from __future__ import annotations
 
+from fractions import Fraction
 from typing import Any
 
+import pytest
+
 import pirate_bt
-from pirate_bt.safety import Drive
+from pirate_bt.clock import SimClock
+from pirate_bt.robot import ControlMode, Half, MotorCommand, load_robot
+from pirate_bt.safety import Bend, Clamp, Drive, MoveFrontClear, Raw, Reason, Supervisor
+from pirate_bt.safety.commands import describe
 from pirate_bt.safety.operator import Mode, OperatorCommand, ScriptedOperator, SetMode
+from pirate_bt.safety.testing import FakePort
+
+ROBOT = load_robot()
 
 HOLD: list[dict[str, Any]] = [
     {"type": "clamp", "name": "clamp rear", "half": "rear", "torque": "0.7 N*m"},
@@ -57,3 +66,35 @@ def test_a_hand_back_does_not_leave_the_tree_s_drive_on_the_operator_s_wheels() 
         # it drove its 0.3 m forward after the operator's ~0.06 m back (0.0 before)
         assert moved > 0.2, moved
         assert not sim.counters().violations
+
+
+# -- numbers no float can hold ---------------------------------------------------------
+
+HUGE = 10**400  # an integer: "an integer [is read as] a float" (docs/safety.md)
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        Drive(HUGE),
+        Drive(-(10**5000)),  # more digits than Python turns into text, too
+        Clamp(Half.REAR, Fraction(HUGE, 3)),
+        Bend("bend_1", HUGE),
+        MoveFrontClear(HUGE),
+        Raw(MotorCommand("bend_1_drive", ControlMode.VELOCITY, HUGE)),
+    ],
+    ids=["drive", "drive-5000-digits", "clamp-fraction", "bend", "move-clear", "raw"],
+)
+def test_a_number_too_large_for_a_float_is_refused_not_raised(command: Any) -> None:
+    # float(10**400) raises OverflowError: it went up out of Supervisor.command() (and
+    # out of describe(), which logs the verdict) as a traceback, where a value that is
+    # no finite number is refused not_finite (until 2026-11-30)
+    clock = SimClock(100.0)
+    port = FakePort(ROBOT, clock)
+    sup = Supervisor(port, clock)
+    sup.tick()
+    verdict = sup.command(command)
+    assert verdict.refused and verdict.reason is Reason.NOT_FINITE, verdict
+    assert not port.sent
+    assert describe(command)  # shown in the log and the trace, whatever it holds
+    assert verdict.to_record()["command"]

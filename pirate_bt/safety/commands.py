@@ -130,8 +130,11 @@ def describe(command: Command) -> str:
     logged and traced like any other."""
     try:
         return _describe(command)
-    except (TypeError, ValueError, AttributeError):
-        return repr(command)[:200]
+    except (TypeError, ValueError, AttributeError, OverflowError):  # 10**400 is no float
+        try:
+            return repr(command)[:200]
+        except ValueError:  # an integer of more digits than Python turns into text
+            return f"{type(command).__name__}(a number too long to show)"
 
 
 def _describe(command: Command) -> str:

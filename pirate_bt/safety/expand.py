@@ -53,10 +53,14 @@ _NOT_NUMBERS = "command values must be finite numbers"  # tests pin it
 
 
 def _number(value: object) -> float | None:
-    """``value`` as a finite float, or ``None`` (text, ``None``, a bool, NaN, infinity)."""
+    """``value`` as a finite float, or ``None`` (text, ``None``, a bool, NaN, infinity,
+    an integer or fraction too large for a float: ``float(10**400)`` raises)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return None
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
     return number if math.isfinite(number) else None
 
 
