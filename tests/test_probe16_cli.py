@@ -138,13 +138,3 @@ def test_a_rosbag_folder_that_cannot_be_made_is_named_by_its_option(
     err = capsys.readouterr().err
     assert err.startswith("pirate-bt: -o: ") and "is not a folder (on the way to '_bag')" in err
     assert len(err.splitlines()) == 1, err
-
-
-def test_an_unknown_export_suffix_names_every_format_export_writes(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path
-) -> None:
-    """The list of known formats left out the rosbag2 folder export also writes."""
-    assert main(["trace", "export", "run.jsonl", "-o", str(tmp_path / "run.txt")]) == 2
-    err = capsys.readouterr().err
-    assert "known: .btlog, .mcap, or a rosbag2 folder (a name ending in / or _bag)" in err
-    assert not (tmp_path / "run.txt").exists()
