@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import logging
+import threading
 import time
 import traceback
 from collections import deque
@@ -254,7 +255,8 @@ class Runner:
         tick_budget_s: Longest acceptable tick in wall time (default: ``period_s``).
         safe_state: Called when a run ends without success (the supervisor's safe state).
         realtime: On a simulated clock, also wait in wall time so the run can be watched.
-        setup_timeout_s: Passed to ``BehaviourTree.setup``.
+        setup_timeout_s: Passed to ``BehaviourTree.setup`` (in the main thread only: py_trees
+            times it with a signal, so a run in another thread sets up without a limit).
         max_overruns_kept: How many overruns to list in the result.
         paused: Asked after the pre-tick hooks of every tick; while it answers
             ``True`` the tree is not ticked (its RUNNING nodes keep their state) but
@@ -392,7 +394,13 @@ class Runner:
         try:
             if self._loaded is not None:
                 self._loaded.write_blackboard_defaults()
-            self.tree.setup(timeout=self.setup_timeout_s)
+            timeout = self.setup_timeout_s
+            if threading.current_thread() is not threading.main_thread():
+                # py_trees times its setup with a signal, which only the main thread
+                # may set: a run in another thread (a planner's thread pool) raised
+                # "signal only works in main thread"; there the setup is not timed
+                timeout = py_trees.common.Duration.INFINITE.value
+            self.tree.setup(timeout=timeout)
             next_s = start_s
             while True:
                 now_s = self.clock.now()

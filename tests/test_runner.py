@@ -324,3 +324,43 @@ def test_a_hook_that_exits_and_an_error_that_cannot_be_said_end_the_run_safe() -
     runner.add_pre_tick(pre)
     result = runner.run()
     assert result.message == ("Unsayable: <its message cannot be shown: Unsayable.__str__ raised>")
+
+
+class _SlowSetup(py_trees.behaviour.Behaviour):
+    """Takes ``seconds`` of wall time to set up, then succeeds at once."""
+
+    def __init__(self, seconds: float) -> None:
+        super().__init__("slow setup")
+        self.seconds = seconds
+
+    def setup(self, **kwargs: object) -> None:
+        import time
+
+        time.sleep(self.seconds)
+
+    def update(self) -> Status:
+        return Status.SUCCESS
+
+
+def test_a_run_in_another_thread_sets_up_and_runs() -> None:
+    # py_trees times a tree's setup with a signal, which only the main thread may set:
+    # a run in a planner's thread (simulate_tree in a thread pool) ended at once with
+    # "ValueError: signal only works in main thread of the main interpreter"
+    import threading
+
+    out: list[object] = []
+
+    def run() -> None:
+        out.append(Runner(_SlowSetup(0.0), clock=SimClock(), setup_timeout_s=5.0).run())
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    thread.join()
+    (result,) = out
+    assert result.reason is StopReason.SUCCESS, result  # type: ignore[attr-defined]
+
+
+def test_a_setup_in_the_main_thread_is_still_timed() -> None:
+    result = Runner(_SlowSetup(0.5), clock=SimClock(), setup_timeout_s=0.05).run()
+    assert result.reason is StopReason.EXCEPTION
+    assert "tree setup interrupted or timed out" in result.message, result.message
