@@ -138,3 +138,10 @@ def test_a_rosbag_folder_that_cannot_be_made_is_named_by_its_option(
     err = capsys.readouterr().err
     assert err.startswith("pirate-bt: -o: ") and "is not a folder (on the way to '_bag')" in err
     assert len(err.splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("rate", ["20 Hz", "20Hz", "20"])
+def test_teleop_takes_a_rate_as_run_takes_it(rate: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """'teleop --rate 20Hz' was 'invalid float value', while 'run --rate 20' asks for
+    the unit: the same option, two syntaxes, each refusing the other's."""
+    assert main(["teleop", "--keys", "q", "--rate", rate]) == 0, capsys.readouterr().err

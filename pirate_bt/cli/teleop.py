@@ -210,7 +210,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--port", metavar="URL", help="a real robot: serial device or URL")
     parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
-    parser.add_argument("--rate", type=float, default=20.0, help="ticks per second (default 20)")
+    parser.add_argument(
+        "--rate",
+        default="20",
+        metavar="HZ",
+        help="ticks per second: 20, or 20 Hz as for 'pirate-bt run' (default 20)",
+    )
     parser.add_argument(
         "--tree",
         metavar="TREE",
@@ -296,13 +301,31 @@ def _runner_factory(
     return factory
 
 
+def _rate(text: str) -> float:
+    """``--rate``: a number of ticks per second, or a frequency as ``run --rate`` takes
+    it (``20 Hz``; ``--rate 20Hz`` was 'invalid float value' here while ``run`` asks
+    for the unit)."""
+    from pirate_bt.errors import UnitError
+    from pirate_bt.units import parse_quantity
+
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    try:
+        return parse_quantity(text, "frequency")
+    except UnitError as exc:
+        raise InputError(f"--rate: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.options import check_rate
     from pirate_bt.robot.loader import load_robot
 
-    check_rate(args.rate, None, "--rate")  # the API's limits: above 0 (nan too), 1000 Hz
+    rate_hz = _rate(args.rate)
+    check_rate(rate_hz, None, "--rate")  # the API's limits: above 0 (nan too), 1000 Hz
     robot = load_robot(args.robot)
-    period_s = 1.0 / args.rate
+    period_s = 1.0 / rate_hz
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
     if args.tree is not None and args.keys is not None:
         raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
