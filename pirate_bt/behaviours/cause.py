@@ -15,7 +15,11 @@ having to cooperate:
   failure in a selector's fallback gives way to the failure of the way the
   selector tried first (:func:`explaining_stamp`): a straight PAB's hold times out
   on a clamp, and its fallback, which asks whether the front half is over an
-  opening, fails too (it is not), later; the clamp is the cause.
+  opening, fails too (it is not), later; the clamp is the cause. A failure a
+  selector recovered from (a later child of it succeeded: :func:`recovered`) explains
+  nothing and is passed over: each of probe-tee's probes ends in a drive that fails
+  after its whole probe, which is how a probe says "straight on"; when no side turned,
+  the PAB's own reason (its safe state's) is the cause, not the last probe's drive.
 
 The layers above (a run's result, a mission's per-PAB outcome) add what only
 they know: an exception, the supervisor's own stop, a time limit, a map that
@@ -30,7 +34,14 @@ from dataclasses import dataclass
 import py_trees
 from py_trees.common import Status
 
-__all__ = ["FailureCause", "explaining_stamp", "failure_cause", "failures", "path_of"]
+__all__ = [
+    "FailureCause",
+    "explaining_stamp",
+    "failure_cause",
+    "failures",
+    "path_of",
+    "recovered",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,6 +122,23 @@ def _fails_itself(n: py_trees.behaviour.Behaviour) -> bool:
     return isinstance(n, py_trees.decorators.Decorator) and n.decorated.status != Status.FAILURE
 
 
+def recovered(n: py_trees.behaviour.Behaviour, root: py_trees.behaviour.Behaviour) -> bool:
+    """Did a selector at or under ``root`` recover from ``n``'s failure? One above
+    ``n`` that ended SUCCESS through a later child than the one ``n`` is under (its
+    fallback succeeded). Statuses as they are now: a selector ticked again since,
+    running or failed, has recovered from nothing yet."""
+    child = n
+    while child is not root and child.parent is not None:
+        parent = child.parent
+        if isinstance(parent, py_trees.composites.Selector) and parent.status == Status.SUCCESS:
+            current = parent.current_child
+            children = parent.children
+            if current in children and children.index(current) > children.index(child):
+                return True
+        child = parent
+    return False
+
+
 def failure_cause(
     node: py_trees.behaviour.Behaviour, *, before_s: float | None = None
 ) -> FailureCause | None:
@@ -125,13 +153,22 @@ def failure_cause(
     Returns:
         The latest time-stamped failure (within ``before_s``; a selector's first way
         rather than its fallback, see :func:`explaining_stamp`), else the deepest leaf
-        that ended FAILURE.
+        that ended FAILURE; failures a selector recovered from are passed over
+        (:func:`recovered`).
     """
     found = explaining_stamp(node, before_s=before_s)
     if found is not None:
         time_s, n, reason = found
         return FailureCause(path_of(n), reason, time_s, _depth(n))
-    plain = [c for c in failures(node) if c.time_s is None]
+    plain = [
+        FailureCause(path_of(n), n.feedback_message or f"{n.name} failed", None, _depth(n))
+        for n in node.iterate()
+        if _stamp(n) is None
+        and n.status == Status.FAILURE
+        and _fails_itself(n)
+        and not recovered(n, node)
+    ]
+    plain.sort(key=lambda c: -c.depth)
     return plain[0] if plain else None
 
 
@@ -144,7 +181,8 @@ def explaining_stamp(
     """The time-stamped failure under ``node`` that explains its end: ``(time, node,
     reason)``, or ``None`` when none is recorded (within ``before_s``).
 
-    The latest one, unless it lies in a selector's fallback (a child after the
+    The latest one not recovered from (:func:`recovered`), unless it lies in a
+    selector's fallback (a child after the
     first) and the failure before it (the latest one recorded up to the moment the
     failed node started) lies under a child the selector tried before: then that one,
     and so on up the tree. The fallback was tried *because* that child failed; its
@@ -154,7 +192,9 @@ def explaining_stamp(
     stamped: list[_Stamped] = []
     for n in node.iterate():
         stamp = _stamp(n)
-        if stamp is not None and (before_s is None or stamp[0] <= before_s + 1e-9):
+        if stamp is None or (before_s is not None and stamp[0] > before_s + 1e-9):
+            continue
+        if not recovered(n, node):
             stamped.append((stamp[0], n, stamp[1]))
     if not stamped:
         return None
