@@ -145,3 +145,22 @@ def test_teleop_takes_a_rate_as_run_takes_it(rate: str, capsys: pytest.CaptureFi
     """'teleop --rate 20Hz' was 'invalid float value', while 'run --rate 20' asks for
     the unit: the same option, two syntaxes, each refusing the other's."""
     assert main(["teleop", "--keys", "q", "--rate", rate]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--seed", "-1"], "--seed: give a whole number from 0 to 2**63 - 1, not -1"),
+        (["--faults", "drop=2"], "link fault drop='2': a probability must lie in [0, 1]"),
+        (["--faults", "motor_stall:nosuch@1s"], "fault motor_stall: unknown motor 'nosuch'"),
+    ],
+)
+def test_mission_refuses_a_bad_seed_or_fault_before_printing_its_plan(
+    option: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """'mission lab --seed -1' printed the whole plan (23 lines on stdout) and then
+    refused the seed, exit 2: a script read a plan for a mission that never ran."""
+    assert main(["mission", "lab", *option]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert len(err.splitlines()) == 1 and message in err, err

@@ -158,7 +158,13 @@ def execute(
         check_output(Path(args.output) / "report.md", "--output")
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
-    from pirate_bt.api.options import find
+    # the run's options, as the API checks them, before the plan is printed (a bad
+    # --faults or --seed was refused after the whole plan, on stdout, exit 2)
+    from pirate_bt.api.connection import check_fault_targets
+    from pirate_bt.api.options import find, seed_value, split_faults
+
+    seed_value(args.seed, "--seed")
+    check_fault_targets(split_faults(args.faults)[0], robot)
 
     # "lab" is the bundled lab.route, as for load_route (not the network lab.yaml)
     route = load_route(find("scenarios", args.route, ".route", "route"))
