@@ -164,3 +164,36 @@ def test_mission_refuses_a_bad_seed_or_fault_before_printing_its_plan(
     out, err = capsys.readouterr()
     assert out == ""
     assert len(err.splitlines()) == 1 and message in err, err
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["navigate", "route", "--seed", "-1"], "--seed: give a whole number"),
+        (["navigate", "route", "--max-time", "5"], "--max-time: '5' needs a unit"),
+        (["navigate", "route", "--rate", "5"], "--rate: '5' needs a unit"),
+        (["navigate", "route", "--deadline", "5"], "--deadline: '5' needs a unit"),
+        (["navigate", "route", "--max-steps", "0"], "--max-steps: give 1 to 1,000,000, not 0"),
+        (["survey", "-o", "s.yaml", "--search", "3"], "--search: '3' needs a unit"),
+        (["survey", "-o", "s.yaml", "--radius=-5mm"], "--radius must be positive, not '-5mm'"),
+        (["survey", "-o", "s.yaml", "--max-time", "5"], "--max-time: '5' needs a unit"),
+        (["run", "straight", "--seed", "-1"], "--seed: give a whole number"),
+        (["teleop", "--keys", "q", "--seed", "-1"], "--seed: give a whole number"),
+    ],
+)
+def test_a_bad_option_is_named_as_typed_not_by_the_api_parameter(
+    argv: list[str],
+    message: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """'navigate route --max-time 5' said 'max_time: ...', '--deadline 5' 'deadline:
+    ...', 'survey --search 3' 'explore: search: ...', 'run --seed -1' 'seed: ...': the
+    API's parameter names, not the options the user typed."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pirate-bt: {message}"), err
+    assert len(err.splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []  # nothing written (survey's -o s.yaml)

@@ -17,7 +17,14 @@ from pirate_bt.errors import InputError
 if TYPE_CHECKING:
     from pirate_bt.task.navigation import Decision
 
-__all__ = ["configure", "print_decisions", "print_summary", "run", "stepwise_options"]
+__all__ = [
+    "check_stepwise",
+    "configure",
+    "print_decisions",
+    "print_summary",
+    "run",
+    "stepwise_options",
+]
 
 
 def stepwise_options(parser: argparse.ArgumentParser, *, max_time_help: str) -> None:
@@ -35,6 +42,20 @@ def stepwise_options(parser: argparse.ArgumentParser, *, max_time_help: str) -> 
         help="with the simulator: run it behind the real firmwares in simavr (virtual time)",
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="print the summary only")
+
+
+def check_stepwise(args: argparse.Namespace) -> float:
+    """The options :func:`stepwise_options` adds, checked as the API checks them but
+    named as typed (the API said ``seed: ...`` and ``max_time: ...``); returns the
+    time limit in seconds.
+
+    Raises:
+        InputError: a seed or time limit the API would refuse.
+    """
+    from pirate_bt.api.options import NO_LIMIT, positive_time_s, seed_value
+
+    seed_value(args.seed, "--seed")
+    return positive_time_s(args.max_time, "--max-time", instead=NO_LIMIT)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -71,7 +92,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="TIME",
         help="wall time the navigator may take per decision (default 5 s)",
     )
-    parser.add_argument("--max-steps", type=int, default=500, help="step limit (default 500)")
+    parser.add_argument(
+        "--max-steps", type=int, default=500, metavar="N", help="step limit (default 500)"
+    )
     parser.add_argument("--rate", default="20 Hz", metavar="FREQ", help="tick rate (default 20 Hz)")
 
 
@@ -95,6 +118,24 @@ def print_summary(succeeded: bool, summary: str) -> None:
         print(f"pirate-bt: {summary}", file=sys.stderr)
 
 
+def _check_options(args: argparse.Namespace) -> None:
+    """``navigate``'s own options, named as typed (the API said ``rate: '5' needs a
+    unit``, ``deadline: ...``, ``max_steps: ...``)."""
+    from pirate_bt.api.navigation import MAX_DEADLINE_S, MAX_STEPS
+    from pirate_bt.api.options import positive_time_s, tick_period_s
+
+    max_time_s = check_stepwise(args)
+    tick_period_s(args.rate, max_time_s, option="--rate", limit_option="--max-time")
+    positive_time_s(
+        args.deadline,
+        "--deadline",
+        limit_s=MAX_DEADLINE_S,
+        instead="give a wall time such as '5 s'",
+    )
+    if not 1 <= args.max_steps <= MAX_STEPS:
+        raise InputError(f"--max-steps: give 1 to {MAX_STEPS:,}, not {args.max_steps}")
+
+
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.navigation import navigate
     from pirate_bt.cli.run import parse_params
@@ -107,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("navigate: name a navigator (`pirate-bt navigate --list`)")
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
+    _check_options(args)
     result = navigate(
         args.navigator,
         sim=args.sim,

@@ -18,7 +18,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from pirate_bt.api.options import MAX_RATE_HZ, check_rate, split_faults
+from pirate_bt.api.options import MAX_RATE_HZ, check_rate, seed_value, split_faults
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
@@ -222,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
     if max_time_s <= 0:
         raise InputError("--max-time must be positive")
     check_rate(rate_hz, max_time_s, "--rate", "--max-time")  # the API's own limits
+    seed_value(args.seed, "--seed")  # the API's check, named as typed (it said "seed:")
     params = parse_params(args.param)
     if args.trace is not None:
         check_trace_path(args.trace)

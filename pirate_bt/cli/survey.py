@@ -58,8 +58,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
+    from pirate_bt.api.options import quantity
     from pirate_bt.cli import check_output
+    from pirate_bt.cli.navigate import check_stepwise
 
+    check_stepwise(args)  # named as typed: the API said "seed:", "max_time:"
+    for option, value in (("--search", args.search), ("--radius", args.radius)):
+        if not quantity(value, "length", option) > 0:  # was "explore: search: ..."
+            raise InputError(f"{option} must be positive, not {value!r}")
     check_output(args.output)  # before the survey, not after it
     result = survey(
         sim=args.sim,

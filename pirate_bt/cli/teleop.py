@@ -319,11 +319,12 @@ def _rate(text: str) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pirate_bt.api.options import check_rate
+    from pirate_bt.api.options import check_rate, seed_value
     from pirate_bt.robot.loader import load_robot
 
     rate_hz = _rate(args.rate)
     check_rate(rate_hz, None, "--rate")  # the API's limits: above 0 (nan too), 1000 Hz
+    seed_value(args.seed, "--seed")  # the API's check, named as typed (it said "seed:")
     robot = load_robot(args.robot)
     period_s = 1.0 / rate_hz
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
