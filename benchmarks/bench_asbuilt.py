@@ -79,10 +79,17 @@ def _kind(reason: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from report import positive, positive_number
+
+    def scales(text: str) -> list[float]:
+        return [positive_number(s) for s in text.split(",")]
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("-n", "--variants", type=int, default=200, help="variants per scale")
-    parser.add_argument("--scales", default="1,2", help="bound scales, comma-separated")
-    parser.add_argument("--workers", type=int, default=2, help="process pool size")
+    parser.add_argument("-n", "--variants", type=positive, default=200, help="variants per scale")
+    parser.add_argument(
+        "--scales", type=scales, default="1,2", help="bound scales, comma-separated"
+    )
+    parser.add_argument("--workers", type=positive, default=2, help="process pool size")
     parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument(
         "--route", type=Path, default=LAB_ROUTE, help="the route (default scenarios/lab.route)"
@@ -93,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     logging.disable(logging.WARNING)
-    scales = [float(s) for s in args.scales.split(",")]
+    scales = args.scales
     started = time.perf_counter()
     rows: list[dict[str, Any]] = []
     if args.summarise is not None:

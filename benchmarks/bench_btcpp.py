@@ -75,7 +75,7 @@ import py_trees
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from bench_trace import Step  # noqa: E402 - this directory is not a package
-from report import publish  # noqa: E402
+from report import positive, publish  # noqa: E402
 
 RUNS = 5
 CPP_TICKS = 20_000
@@ -289,7 +289,9 @@ def cell(values: list[float], against: list[float] | None = None, bold: bool = F
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=RUNS, help=f"runs per engine (default {RUNS})")
+    parser.add_argument(
+        "--runs", type=positive, default=RUNS, help=f"runs per engine (default {RUNS})"
+    )
     args = parser.parse_args(argv)
     build = ticker_build()
     try:

@@ -35,6 +35,7 @@ It also prints the modules a case process still imported itself (none expected:
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -164,10 +165,19 @@ def _command(spec: Path, out: Path, extra: list[str]) -> float:
     return time.perf_counter() - start
 
 
-def main() -> None:
-    count = int(sys.argv[1]) if len(sys.argv) > 1 else 16
+def main(argv: list[str] | None = None) -> None:
+    from report import positive, skip_without
+
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("cases", nargs="?", type=positive, default=16, help="default 16")
+    parser.add_argument("rounds", nargs="?", type=positive, default=3, help="default 3")
+    args = parser.parse_args(argv)
+    skip_without(["distributed"], "cluster")
+    count = args.cases
     campaign = 3 * count  # cases of each whole command
-    rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 3
+    rounds = args.rounds
     os.environ["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(HERE), os.environ.get("PYTHONPATH", "")) if p
     )

@@ -50,10 +50,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import zmq
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
+from report import positive, skip_without  # noqa: E402 - benchmarks/ is not a package
+
+if __name__ == "__main__":
+    skip_without(["zmq", "msgpack"], "groot2")
+import zmq  # noqa: E402
+
 PIRATE_BT = str(Path(sys.executable).with_name("pirate-bt"))
 MISSION = [PIRATE_BT, "mission", "scenarios/lab.route", "--sim", "lab", "--quiet"]
 
@@ -452,8 +456,8 @@ def part_coverage(pairs: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--pairs", type=int, default=3, help="ABBA pairs (default 3)")
-    parser.add_argument("--ticks", type=int, default=20000, help="ticks of a scale run")
+    parser.add_argument("--pairs", type=positive, default=3, help="ABBA pairs (default 3)")
+    parser.add_argument("--ticks", type=positive, default=20000, help="ticks of a scale run")
     parser.add_argument("--only", nargs="*", choices=["mission", "account", "scale", "coverage"])
     args = parser.parse_args()
     print(f"Python {platform.python_version()}, {platform.machine()}, pyzmq {zmq.__version__},"

@@ -4,7 +4,8 @@ Run: ``.venv/bin/python benchmarks/bench_interop.py [PAIRS] [--tree DIR]
 [--no-sizes] [--only mcap,foxglove,jsonl]`` (default 3 ABBA pairs). ``--tree DIR``
 runs the commands from another source tree of pirate_bt (``git archive COMMIT |
 tar -x -C DIR``), with this tree's virtual environment, to compare a change with
-what came before on the same machine.
+what came before on the same machine. With ``--tree`` or ``--only`` the overhead
+table is printed, not published (``make bench`` keeps the page's table).
 
 - **Size per hour**: the lab mission (``pirate-bt mission scenarios/lab.route
   --sim lab --quiet --trace X``) written once per suffix (``.jsonl``,
@@ -26,6 +27,7 @@ what came before on the same machine.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import socket
@@ -238,7 +240,9 @@ def overhead(pairs: int) -> None:
                     target,
                 ]
             )
-    if TREE == ROOT and table:
+    if len(table) < len(OVERHEAD_LABELS):  # --only: the page's table keeps its three rows
+        print("(not published: --only measured some of the rows)")
+    elif TREE == ROOT:
         publish(
             "interop-overhead",
             [
@@ -256,19 +260,44 @@ def overhead(pairs: int) -> None:
         )
 
 
-if __name__ == "__main__":
-    args = sys.argv[1:]
-    if "--tree" in args:
-        at = args.index("--tree")
-        TREE = Path(args[at + 1]).resolve()
-        del args[at : at + 2]
+def _only(text: str) -> list[str]:
+    """``--only mcap,foxglove``: the overhead rows to measure, by a word of their name."""
+    words = [w.strip() for w in text.split(",") if w.strip()]
+    known = ("mcap", "foxglove", "jsonl")
+    unknown = [w for w in words if w not in known]
+    if unknown or not words:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected some of {','.join(known)}, comma-separated"
+        )
+    return [n for n in NAMES if any(w in n for w in words)]
+
+
+def main(argv: list[str] | None = None) -> int:
+    global TREE
+    from report import positive, skip_without
+
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("pairs", nargs="?", type=positive, default=3, help="ABBA pairs (3)")
+    parser.add_argument("--tree", type=Path, metavar="DIR", help="run another source tree")
+    parser.add_argument("--no-sizes", action="store_true", help="skip the size per hour")
+    parser.add_argument("--only", type=_only, metavar="mcap,foxglove,jsonl", help="these rows")
+    args = parser.parse_args(argv)
+    if args.tree is not None:
+        if not (args.tree / "pirate_bt").is_dir():
+            parser.error(f"--tree {args.tree}: not a source tree of pirate_bt (no pirate_bt/)")
+        TREE = args.tree.resolve()
     print(f"pirate_bt from {TREE}; load average {os.getloadavg()[0]:.2f}")
-    if "--only" in args:
-        at = args.index("--only")
-        NAMES[:] = [n for n in NAMES if any(w in n for w in args[at + 1].split(","))]
-        del args[at : at + 2]
-    if "--no-sizes" in args:
-        args.remove("--no-sizes")
-    else:
+    if args.only is not None:
+        NAMES[:] = args.only
+    if not args.no_sizes or NAMES != ["--trace RUN.jsonl"]:
+        skip_without(["mcap", "foxglove"], "foxglove")
+    if not args.no_sizes:
         sizes()
-    overhead(int(args[0]) if args else 3)
+    overhead(args.pairs)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -178,4 +178,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    from report import no_arguments
+
+    no_arguments(__doc__)
     main()

@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from report import publish
+from report import positive, publish
 
 REPO = Path(__file__).resolve().parent.parent
 TARGET_X = 250.0
@@ -137,7 +137,7 @@ def print_breakdown(runs: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="?", type=int, default=3)
+    parser.add_argument("runs", nargs="?", type=positive, default=3)
     parser.add_argument(
         "--no-breakdown",
         dest="breakdown",

@@ -30,10 +30,14 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def main(argv: list[str] | None = None) -> int:
+    from report import positive, positive_number
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("-n", "--variants", type=int, default=20, help="as-built variants")
-    parser.add_argument("--scale", type=float, default=1.0, help="times the as-built bounds")
-    parser.add_argument("--workers", type=int, default=2, help="case processes at once")
+    parser.add_argument("-n", "--variants", type=positive, default=20, help="as-built variants")
+    parser.add_argument(
+        "--scale", type=positive_number, default=1.0, help="times the as-built bounds"
+    )
+    parser.add_argument("--workers", type=positive, default=2, help="case processes at once")
     parser.add_argument("--output", type=Path, help="keep the campaign's folder here")
     args = parser.parse_args(argv)
     logging.disable(logging.WARNING)

@@ -12,6 +12,7 @@ whole run and for a 30 s zoom.
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import sys
 import tempfile
@@ -31,19 +32,39 @@ def _median(fn: Callable[[], object], runs: int = 5) -> float:
     return statistics.median(times)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("trace", nargs="?", type=Path, help="a run's trace (default: run one)")
+    args = parser.parse_args(argv)
+    if args.trace is not None and not args.trace.is_file():
+        print(f"error: {args.trace}: no such trace file", file=sys.stderr)
+        return 2
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from report import skip_without
+
+    skip_without(["matplotlib"], "plot")
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot  # imported once, outside the timings
 
     from pirate_bt.cli import main as cli
+    from pirate_bt.errors import PirateError
     from pirate_bt.render.plot import plot_series, plot_trace
     from pirate_bt.trace import read_trace
 
+    if args.trace is not None:
+        try:
+            read_trace(args.trace)
+        except PirateError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+
     with tempfile.TemporaryDirectory() as tmp:
-        if len(sys.argv) > 1:
-            path = Path(sys.argv[1])
+        if args.trace is not None:
+            path = args.trace
         else:
             out = Path(tmp) / "lab"
             cli(["mission", str(REPO / "scenarios" / "lab.route"), "-q", "--output", str(out)])
@@ -61,7 +82,8 @@ def main() -> None:
         print(f"plot_series     {series_s:.3f} s")
         print(f"plot (whole)    {plot_s:.3f} s")
         print(f"plot (30 s)     {zoom_s:.3f} s")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -39,6 +39,7 @@ process, and to be applied by the supervisor's next tick (median and maximum).
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import random
@@ -261,11 +262,28 @@ def estop_latency(count: int) -> None:
     print(f"  load average before {load[0]:.2f}, after {os.getloadavg()[0]:.2f}")
 
 
-if __name__ == "__main__":
-    args = sys.argv[1:]
-    if args and args[0] == "--estop":
-        estop_latency(int(args[1]) if len(args) > 1 else 20)
+def cli(argv: list[str] | None = None) -> int:
+    """The command line of the module docstring."""
+    from report import positive, skip_without
+
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("pairs", nargs="?", type=positive, default=4, help="ABBA pairs (4)")
+    parser.add_argument("--no-subscriber", action="store_true", help="the router alone")
+    parser.add_argument(
+        "--estop", nargs="?", type=positive, const=20, metavar="COUNT", help="e-stop latency"
+    )
+    args = parser.parse_args(argv)
+    skip_without(["zenoh"], "ros2")
+    if args.estop is None and not args.no_subscriber:  # the independent client
+        skip_without(["zenoh_ros2_sdk"], "dev")
+    if args.estop is not None:
+        estop_latency(args.estop)
     else:
-        quiet = "--no-subscriber" in args
-        numbers = [a for a in args if not a.startswith("--")]
-        main(int(numbers[0]) if numbers else 4, subscriber=not quiet)
+        main(args.pairs, subscriber=not args.no_subscriber)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(cli())

@@ -441,10 +441,14 @@ def table(rows: list[dict[str, Any]], wall: float, workers: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from report import positive, positive_number
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=20, help="as-built variants per network")
     parser.add_argument("--first", type=int, default=0, help="the first variant's number")
-    parser.add_argument("--scale", type=float, default=1.0, help="times the as-built bounds")
+    parser.add_argument(
+        "--scale", type=positive_number, default=1.0, help="times the as-built bounds"
+    )
     parser.add_argument(
         "--networks", default=",".join(NETWORKS), help="bundled networks, comma-separated"
     )
@@ -455,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
         default=2,
         help="insertions per survey at most: a branch left as a stub is surveyed by another",
     )
-    parser.add_argument("--workers", type=int, default=2, help="process pool size")
+    parser.add_argument("--workers", type=positive, default=2, help="process pool size")
     parser.add_argument("--rows", type=argparse.FileType("a"), help="append every case here")
     parser.add_argument(
         "--summarise",
@@ -471,6 +475,14 @@ def main(argv: list[str] | None = None) -> int:
         table(rows, 0.0, args.workers)
         return 0
     names = [n.strip() for n in args.networks.split(",") if n.strip()]
+    from pirate_bt.errors import PirateError
+    from pirate_bt.pipes import load_network
+
+    for name in names:  # a wrong name: one line now, not a worker's traceback later
+        try:
+            load_network(name)
+        except PirateError as exc:
+            parser.error(f"--networks: {exc}")
     cases: list[tuple[str, int | None]] = []
     for name in names:
         if not args.no_drawing:

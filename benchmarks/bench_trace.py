@@ -502,4 +502,7 @@ def publish_table(
 
 
 if __name__ == "__main__":
+    from report import no_arguments
+
+    no_arguments(__doc__)
     main()

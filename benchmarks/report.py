@@ -150,6 +150,62 @@ def command_line(argv: Sequence[str] | None = None) -> str:
     return shlex.join([shown, *(sys.argv if argv is None else argv)])
 
 
+def no_arguments(doc: str | None, argv: Sequence[str] | None = None) -> None:
+    """Parse the command line of a benchmark that takes no arguments.
+
+    ``--help`` prints the script's docstring (what it measures, how long it takes)
+    and exits 0; any argument is refused with argparse's one-line error (exit 2),
+    before a single figure is measured, instead of being ignored by a run of minutes.
+    """
+    parser = argparse.ArgumentParser(
+        description=doc, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.parse_args(argv)
+
+
+def positive(text: str) -> int:
+    """An argparse type: a count of runs, pairs or cases, 1 or more."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: at least 1")
+    return value
+
+
+def positive_number(text: str) -> float:
+    """An argparse type: a finite number above 0 (a scale of the as-built bounds)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: a number above 0")
+    return value
+
+
+def skip_without(modules: Sequence[str], extra: str) -> None:
+    """Exit 0 with one line, ``skipped: ...``, when an optional module cannot be imported.
+
+    A benchmark of an optional feature (Groot2, Foxglove, ROS 2, Dask, plots) calls
+    this before importing it: without the extra installed it publishes nothing, as
+    ``bench_firmware.py`` without simavr, and ``make bench`` goes on (the page's
+    table for it is kept, and the rewriter says so).
+    """
+    import importlib
+
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            print(
+                f"skipped: {name} cannot be imported ({exc}); install the {extra!r} extra:"
+                f" .venv/bin/pip install -e '.[{extra}]'"
+            )
+            raise SystemExit(0) from None
+
+
 # --- publishing ---------------------------------------------------------------------------
 
 
