@@ -20,6 +20,8 @@ from pathlib import Path
 from typing import Any, Final, Protocol, TypeVar
 
 from pirate_bt.errors import LocatedError, SourceLocation, shown
+from pirate_bt.trace.record_values import end_values_problem
+from pirate_bt.trace.records import end_problem
 
 __all__ = ["Pairs", "TickCheck", "checked_iteration", "tree_problem", "unchecked"]
 
@@ -147,6 +149,7 @@ def _roots_problem(roots: list[str]) -> str:
 
 
 def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: TickCheck) -> Pairs:
+    last_tick = 0
     for line, record in pairs:
         kind = record.get("type") if isinstance(record, dict) else None
         if kind == "header":
@@ -159,6 +162,11 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
                     )
         elif kind == "tick":
             tick(record, line, where)
+            last_tick = record["n"]  # the tick check made it a whole number
+        elif kind == "end":
+            problem = end_problem(record) or end_values_problem(record, last_tick)
+            if problem is not None:
+                raise LocatedError(problem, SourceLocation(str(where), line))
         yield line, record
 
 

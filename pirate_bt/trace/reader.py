@@ -44,6 +44,7 @@ from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
+from pirate_bt.trace.record_values import end_values_problem, tick_values_problem
 from pirate_bt.trace.records import (
     CODE_STATUS,
     FORMAT_NAME,
@@ -473,6 +474,8 @@ class Trace(TraceQueries):
 
 
 def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecord:
+    if (problem := tick_values_problem(record)) is not None:
+        raise LocatedError(f"bad tick record: {problem}", SourceLocation(str(where), line))
     try:
         return TickRecord(
             n=int(record["n"]),
@@ -586,7 +589,7 @@ def _records(
                 raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
             ticks.append(tick)
         elif kind == "end":
-            problem = end_problem(record)
+            problem = end_problem(record) or end_values_problem(record, ticks[-1].n if ticks else 0)
             if problem:
                 raise LocatedError(problem, loc)
             end, end_line = record, line

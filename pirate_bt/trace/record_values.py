@@ -1,0 +1,68 @@
+"""What a trace's tick and end records must hold to be counted, shown and plotted.
+
+The reader turned a tick's ``n`` with ``int`` and its ``t_s`` with ``float``, so a
+record edited by hand or written by another tool read as something else: ``n``
+``true`` became tick 1 and ``2.7`` tick 2 (then refused as *tick 2 does not follow
+tick 2*, naming no real fault), and ``NaN`` or ``Infinity`` (which Python's
+``json`` writes and reads though JSON has no such numbers) gave ``trace summary``
+a duration of ``nan s`` and ``trace plot`` a window it blamed on options nobody
+gave. An end record whose ``n`` was below the last tick's cut the run short in
+the summary (``ticks 5`` of a run of 136) and in ``trace show``. A tick's
+``events`` that held no objects ended ``trace summary`` with an internal error.
+These checks say so, on the record's line, as every other bad record is refused.
+
+A ``t_s`` that goes backwards is kept: it is the difference of the caller's
+clock, which may be a wall clock that was set back.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["end_values_problem", "tick_values_problem"]
+
+
+def _whole(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _shown(value: Any) -> str:
+    return json.dumps(value)[:40]
+
+
+def tick_values_problem(record: Mapping[str, Any]) -> str | None:
+    """What is wrong with a tick record's ``n``, ``t_s`` or ``events``, or ``None``.
+
+    ``n`` is a whole number from 1 (the first tick is 1), ``t_s`` a finite number
+    and ``events`` a list of objects (a missing one is the caller's to name).
+    """
+    n, t_s = record.get("n", 1), record.get("t_s", 0.0)  # missing: a KeyError, as before
+    if not _whole(n) or n < 1:
+        return f"n is the tick's number, a whole number from 1, not {_shown(n)}"
+    if not _finite(t_s):
+        return f"t_s is the tick's time, a finite number of seconds, not {_shown(t_s)}"
+    events = record.get("events", [])
+    if not isinstance(events, list) or not all(isinstance(e, dict) for e in events):
+        return f"events is a list of objects, not {_shown(events)}"
+    return None
+
+
+def end_values_problem(record: Mapping[str, Any], last_tick: int) -> str | None:
+    """What is wrong with an end record's ``t_s``, or its ``n`` given the last
+    tick record's number ``last_tick`` (0 without one), or ``None``."""
+    t_s, n = record.get("t_s", 0.0), record.get("n", 0)
+    if not _finite(t_s):
+        return (
+            f"bad end record: t_s is the run's time, a finite number of seconds, not {_shown(t_s)}"
+        )
+    if _whole(n) and n < last_tick:
+        last = f"n {n}, the run's last tick, is before tick {last_tick}"
+        return f"bad end record: {last}, which it records"
+    return None

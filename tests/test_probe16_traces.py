@@ -1,0 +1,129 @@
+"""Trace files read back as real life leaves them: edited by hand or by other tools,
+damaged, cut off. Every reader either reads what is there or refuses the file in
+one line naming the file and the record's line; never a traceback or a wrong figure.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import LocatedError
+from pirate_bt.trace import read_trace
+
+ROOT = Path(__file__).resolve().parents[1]
+
+Records = list[dict[str, Any]]
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
+    path = tmp_path_factory.mktemp("run") / "patrol.jsonl"
+    pirate_bt.simulate_tree(ROOT / "trees" / "examples" / "patrol.yaml", trace=path)
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def _write(path: Path, records: Records) -> Path:
+    # Python's json writes NaN and Infinity, which JSON has not: as another tool would
+    path.write_text("".join(json.dumps(r) + "\n" for r in records))
+    return path
+
+
+def _refused_everywhere(
+    path: Path, line: int, problem: str, capsys: pytest.CaptureFixture[str], kind: str = ""
+) -> None:
+    with pytest.raises(LocatedError) as caught:
+        read_trace(path)
+    assert str(caught.value).startswith(f"{path}:{line}:1: {kind}"), caught.value
+    assert problem in str(caught.value)
+    out = path.with_name("out.png")
+    for argv in (["summary", str(path)], ["plot", str(path), "-o", str(out)]):
+        assert main(["trace", *argv]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{path}:{line}:" in err[0] and problem in err[0], err
+    assert not out.exists()
+
+
+def _tick(records: Records, index: int, **changes: Any) -> Records:
+    ticks = [i for i, r in enumerate(records) if r["type"] == "tick"]
+    edited = [dict(r) for r in records]
+    edited[ticks[index]].update(changes)
+    return edited
+
+
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        # was read as tick 1 ("tick 1 does not follow tick 2", naming no real fault)
+        ({"n": True}, "n is the tick's number, a whole number from 1, not true"),
+        # was read as tick 2
+        ({"n": 2.7}, "not 2.7"),
+        ({"n": 0}, "a whole number from 1, not 0"),
+        # read, and summed into the summary's times
+        ({"t_s": float("nan")}, "t_s is the tick's time, a finite number of seconds, not NaN"),
+        ({"t_s": float("inf")}, "not Infinity"),
+        ({"t_s": "0.1"}, 'not "0.1"'),
+        # ended trace summary with "internal error: AttributeError"
+        ({"events": ["stalled", 5]}, 'events is a list of objects, not ["stalled", 5]'),
+    ],
+)
+def test_a_tick_whose_number_time_or_events_are_no_such_thing_is_refused_on_its_line(
+    records: Records,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: dict[str, Any],
+    problem: str,
+) -> None:
+    path = _write(tmp_path / "run.jsonl", _tick(records, 1, **change))
+    _refused_everywhere(path, 3, problem, capsys, "bad tick record: ")
+
+
+def test_an_end_record_with_a_time_of_nan_is_refused_not_a_duration_of_nan(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Was: summary "duration  nan s"; plot "plot window from 0 s to nan s: give
+    # finite numbers of seconds", blaming a window nobody gave.
+    edited = [*records[:-1], {**records[-1], "t_s": float("nan")}]
+    path = _write(tmp_path / "run.jsonl", edited)
+    _refused_everywhere(path, len(edited), "bad end record: t_s is the run's time", capsys)
+
+
+def test_an_end_record_before_the_last_tick_is_refused_not_a_run_cut_short(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Was: summary "ticks 2" for a run of 15, and trace show refused ticks it holds.
+    last = [r for r in records if r["type"] == "tick"][-1]["n"]
+    edited = [*records[:-1], {**records[-1], "n": 2}]
+    path = _write(tmp_path / "run.jsonl", edited)
+    problem = f"bad end record: n 2, the run's last tick, is before tick {last}"
+    _refused_everywhere(path, len(edited), problem, capsys)
+
+
+def test_a_clock_set_back_and_a_tick_with_no_change_still_read(
+    records: Records, tmp_path: Path
+) -> None:
+    # t_s is the caller's clock minus the start: a wall clock may go back.
+    edited = _tick(records, 2, t_s=-0.5)
+    trace = read_trace(_write(tmp_path / "run.jsonl", edited))
+    assert trace.outcome == "success" and trace.ticks[2].t_s == -0.5
+
+
+@pytest.mark.parametrize("suffix", [".btlog", ".mcap"])
+def test_trace_export_refuses_such_an_end_record_as_read_trace_does(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str], suffix: str
+) -> None:
+    # .mcap export converted it record by record and wrote the file (or, for a NaN
+    # time, "cannot convert this record: cannot convert float NaN to integer").
+    pytest.importorskip("mcap")
+    edited = [*records[:-1], {**records[-1], "n": 2}]
+    path = _write(tmp_path / "run.jsonl", edited)
+    out = tmp_path / f"out{suffix}"
+    assert main(["trace", "export", str(path), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{path}:{len(edited)}:1: bad end record: n 2" in err[0], err
+    assert not out.exists()
