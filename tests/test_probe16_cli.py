@@ -197,3 +197,42 @@ def test_a_bad_option_is_named_as_typed_not_by_the_api_parameter(
     assert err.startswith(f"pirate-bt: {message}"), err
     assert len(err.splitlines()) == 1, err
     assert list(tmp_path.iterdir()) == []  # nothing written (survey's -o s.yaml)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["demo", "-q", "--output", ""], "--output: empty; name a folder"),
+        (["mission", "lab", "-q", "--output", ""], "--output: empty; name a folder"),
+        (["mission", "lab", "--plan", "--sim", ""], "--sim: empty; name a network"),
+        (["mission", "lab", "--plan", "--network", ""], "--network: empty; name a network"),
+        (["run", "straight", "--sim", ""], "--sim: empty; name a network"),
+        (["run", "straight", "--robot", ""], "--robot: empty; name a file"),
+        (["teleop", "--keys", "q", "--sim", ""], "--sim: empty; name a network"),
+        (["render", "bend", "-o", ""], "-o/--output: empty; name a file"),
+    ],
+)
+def test_an_empty_value_is_refused_not_read_as_the_default_or_the_working_folder(
+    argv: list[str],
+    message: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """'demo --output "$DIR"' and 'mission lab --output "$DIR"' with DIR unset wrote
+    their report, trace and pictures into the working folder; '--sim "$NET"' ran in
+    the default network (straight, or the map), '--network ""' planned on the route's
+    own: a wrong run, exit 0, nothing said."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert (out, err) == ("", f"pirate-bt: {message}\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_options_where_empty_means_nothing_given_still_take_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["teleop", "--keys", ""]) == 0  # no keys: nothing played
+    assert main(["mission", "lab", "--plan", "--faults", ""]) == 0  # no faults
+    capsys.readouterr()

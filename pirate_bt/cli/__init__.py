@@ -201,6 +201,26 @@ class _StoreOnce(argparse._StoreAction):
         super().__call__(parser, namespace, values, option_string)
 
 
+# An option's value may be empty only where empty means something: no faults, no keys,
+# the root ROS namespace. Anywhere else '--output "$DIR"' with DIR unset ran demo and
+# mission into the working folder, and '--sim "$NET"' ran in the default network.
+_MAY_BE_EMPTY = frozenset({"faults", "keys", "ros_namespace"})
+_EMPTY_HINT = {  # metavar -> what to give
+    "DIR": "name a folder",
+    "NETWORK": "name a network",
+    "MAP": "name a network",
+    "SURVEYED": "name a network",
+    "TREE": "name a tree",
+    "ROUTE": "name a route",
+    "URL": "name a port",
+    "ADDRESS": "name a scheduler",
+}
+
+
+class _EmptyValue(Exception):
+    """An option given as ``''`` (:data:`_MAY_BE_EMPTY`): one line, exit 2."""
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, with a usage error in one line (DESIGN.md: one clear line each), not
     the usage block first; ``--help`` shows the usage. Subcommands' parsers are of
@@ -224,6 +244,19 @@ class _Parser(argparse.ArgumentParser):
         parsed, extras = super().parse_known_args(args, namespace)
         vars(parsed).pop(_GIVEN, None)  # one parse's bookkeeping, not an option
         return parsed, extras
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
+        if (
+            arg_string == ""
+            and action.option_strings
+            and action.dest not in _MAY_BE_EMPTY
+            and not isinstance(action, argparse._AppendAction)  # --param '' says its own
+        ):
+            metavar = action.metavar if isinstance(action.metavar, str) else ""
+            named_file = "FILE" in metavar or action.type is Path or action.dest == "output"
+            hint = _EMPTY_HINT.get(metavar, "name a file" if named_file else "give a value")
+            raise _EmptyValue(f"{'/'.join(action.option_strings)}: empty; {hint}")
+        return super()._get_value(action, arg_string)
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_INPUT, f"{self.prog}: {message} (see '{self.prog} --help')\n")
@@ -354,6 +387,9 @@ def _main(argv: Sequence[str] | None) -> int:
         args = sub.parse_args(rest)
     except SystemExit as exc:
         return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
+    except _EmptyValue as exc:
+        print(f"pirate-bt: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     args.debug = debug
     from pirate_bt.errors import PirateError
 

@@ -32,9 +32,15 @@ __all__ = ["configure", "run"]
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--output", type=Path, default=Path("demo-output"), help="folder for the outputs"
+        "--output",
+        type=Path,
+        default=Path("demo-output"),
+        metavar="DIR",
+        help="folder for the outputs (default demo-output)",
     )
-    parser.add_argument("--robot", type=Path, help="robot description (default: bundled)")
+    parser.add_argument(
+        "--robot", type=Path, metavar="FILE", help="robot description (default: bundled)"
+    )
     parser.add_argument(
         "--route",
         type=Path,
