@@ -150,6 +150,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if unknown:
         parser.error(f"no benchmark {', '.join(unknown)} (there are: {', '.join(by_name)})")
     overrides = _overrides(args.set)
+    unknown = [n for n in overrides if n not in by_name]
+    if unknown:  # a typo would otherwise run that script with its defaults, silently
+        parser.error(f"--set: no benchmark {', '.join(unknown)} (there are: {', '.join(by_name)})")
     steps = plan([by_name[n] for n in wanted] or every, args.full, overrides)
     if args.list:
         for script, script_args in steps:

@@ -110,3 +110,15 @@ def test_interop_only_some_rows_prints_them_but_keeps_the_pages_table(
     monkeypatch.setattr(interop, "NAMES", list(interop.OVERHEAD_LABELS))
     interop.overhead(1)
     assert [p.name for p in tmp_path.iterdir()] == ["interop-overhead.json"]
+
+
+def test_make_bench_refuses_set_for_a_benchmark_that_does_not_exist(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    run_all = load_benchmark("run_all")
+    with pytest.raises(SystemExit) as stop:  # a typo: not interop run with its defaults
+        run_all.main(["--list", "--set", "introp=5 --no-sizes"])
+    assert stop.value.code == 2
+    assert "--set: no benchmark introp" in capsys.readouterr().err.splitlines()[-1]
+    run_all.main(["--list", "--set", "interop=5 --no-sizes"])
+    assert "benchmarks/bench_interop.py 5 --no-sizes" in capsys.readouterr().out.splitlines()
