@@ -236,3 +236,19 @@ def test_options_where_empty_means_nothing_given_still_take_it(
     assert main(["teleop", "--keys", ""]) == 0  # no keys: nothing played
     assert main(["mission", "lab", "--plan", "--faults", ""]) == 0  # no faults
     capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["trace", "summary", ""], "TRACE: empty; name a file"),  # was '.: cannot read trace'
+        (["network", "perturb", "--seed", "1", ""], "MAP: empty; name a network"),  # '.:1:1:'
+        (["robot", "header", ""], "DESCRIPTION: empty; name a file"),  # '.:1:1: is a directory'
+        (["sim", "", "--duration", "1"], "NETWORK: empty; name a network"),  # "it is a folder"
+    ],
+)
+def test_an_empty_argument_is_named_not_read_as_the_working_folder(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv) == 2
+    assert capsys.readouterr().err == f"pirate-bt: {message}\n"

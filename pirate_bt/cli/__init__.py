@@ -214,6 +214,8 @@ _EMPTY_HINT = {  # metavar -> what to give
     "ROUTE": "name a route",
     "URL": "name a port",
     "ADDRESS": "name a scheduler",
+    "COMMAND": "name a command",
+    "SPEC": "name a file",  # campaign's (--faults '' is no faults)
 }
 
 
@@ -248,14 +250,17 @@ class _Parser(argparse.ArgumentParser):
     def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
         if (
             arg_string == ""
-            and action.option_strings
             and action.dest not in _MAY_BE_EMPTY
-            and not isinstance(action, argparse._AppendAction)  # --param '' says its own
+            # --param '' and validate '' say their own; a verb '' is no choice
+            and (action.option_strings or action.nargs in (None, "?"))
+            and not isinstance(action, argparse._AppendAction | argparse._SubParsersAction)
         ):
             metavar = action.metavar if isinstance(action.metavar, str) else ""
+            metavar = metavar or action.dest.upper()
             named_file = "FILE" in metavar or action.type is Path or action.dest == "output"
             hint = _EMPTY_HINT.get(metavar, "name a file" if named_file else "give a value")
-            raise _EmptyValue(f"{'/'.join(action.option_strings)}: empty; {hint}")
+            name = "/".join(action.option_strings) or metavar
+            raise _EmptyValue(f"{name}: empty; {hint}")
         return super()._get_value(action, arg_string)
 
     def error(self, message: str) -> NoReturn:
@@ -372,6 +377,9 @@ def _main(argv: Sequence[str] | None) -> int:
         top_args = top.parse_args(args_list[: split + 1] if split < len(args_list) else args_list)
     except SystemExit as exc:  # --help, --version, or a usage error already printed
         return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
+    except _EmptyValue as exc:
+        print(f"pirate-bt: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     if top_args.command is None:
         top.print_help(sys.stderr)
         return EXIT_INPUT
