@@ -9,12 +9,13 @@ import json
 from pathlib import Path
 from typing import Any
 
+import py_trees
 import pytest
 
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import LocatedError
-from pirate_bt.trace import read_trace
+from pirate_bt.trace import TraceRecorder, read_trace
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -127,3 +128,43 @@ def test_trace_export_refuses_such_an_end_record_as_read_trace_does(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{path}:{len(edited)}:1: bad end record: n 2" in err[0], err
     assert not out.exists()
+
+
+class _Says(py_trees.behaviour.Behaviour):
+    def update(self) -> py_trees.common.Status:
+        self.feedback_message = "loaded \ud800.yaml"  # half a UTF-16 pair: no character
+        return py_trees.common.Status.SUCCESS
+
+
+def test_half_a_utf16_pair_that_the_writer_escaped_reads_as_a_replacement_character(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The writer writes it as the JSON escape "\ud800"; trace summary and show then
+    # ended with "internal error: UnicodeEncodeError" printing it.
+    root = py_trees.composites.Sequence("r\udc00oot", memory=True, children=[_Says("says")])
+    tree = py_trees.trees.BehaviourTree(root)
+    path = tmp_path / "run.jsonl"
+    with TraceRecorder(path, tree, background=False) as recorder:
+        tree.add_post_tick_handler(recorder.post_tick_handler())
+        tree.tick()
+    assert b"\\ud800" in path.read_bytes()
+    trace = read_trace(path)
+    assert trace.feedback("says")[-1].message == "loaded \ufffd.yaml"
+    assert trace.nodes() == ["r\ufffdoot", "r\ufffdoot/says"]
+    for argv in (["summary", str(path)], ["show", str(path), "--tick", "1"]):
+        assert main(["trace", *argv]) == 0
+        out = capsys.readouterr().out
+        assert "r\ufffdoot" in out
+        out.encode()  # what a terminal is sent: raised UnicodeEncodeError
+
+
+def test_bytes_that_are_no_utf8_are_refused_at_their_column(
+    records: Records, tmp_path: Path
+) -> None:
+    path = tmp_path / "run.jsonl"
+    header = json.dumps(records[0]).encode()
+    at = header.index(b'"name"') + 9
+    path.write_bytes(header[:at] + b"\xff" + header[at:] + b"\n")
+    with pytest.raises(LocatedError) as caught:
+        read_trace(path)
+    assert str(caught.value).startswith(f"{path}:1:{at + 1}: not a trace record: ")  # was :1:1

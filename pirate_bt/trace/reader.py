@@ -44,7 +44,7 @@ from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
-from pirate_bt.trace.record_values import end_values_problem, tick_values_problem
+from pirate_bt.trace.record_values import end_values_problem, readable_text, tick_values_problem
 from pirate_bt.trace.records import (
     CODE_STATUS,
     FORMAT_NAME,
@@ -147,11 +147,11 @@ class TraceFormatReader:
 
     def _decode(self, number: int, line: bytes, last: bool) -> dict[str, Any]:
         try:
-            record = json.loads(line.rstrip(b"\r\n"))
+            record = readable_text(json.loads(line.rstrip(b"\r\n")), line)
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             if last and not line.endswith(b"\n"):
                 raise _CutOff from None
-            column = getattr(exc, "colno", 1)
+            column = getattr(exc, "colno", None) or getattr(exc, "start", 0) + 1
             raise LocatedError(
                 f"not a trace record: {getattr(exc, 'msg', exc)}",
                 SourceLocation(str(self.path), number, column),

@@ -13,16 +13,26 @@ These checks say so, on the record's line, as every other bad record is refused.
 
 A ``t_s`` that goes backwards is kept: it is the difference of the caller's
 clock, which may be a wall clock that was set back.
+
+A JSON escape of half a UTF-16 pair (``"\\ud800"``) is valid JSON but no
+character; the writer escapes so a feedback message or name that holds one (text
+decoded from bytes that were no UTF-8, say), and ``trace summary`` and ``show`` then
+ended with an internal error printing it. :func:`readable_text` reads each as
+U+FFFD, as a decoder reads bytes that are no UTF-8.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["end_values_problem", "tick_values_problem"]
+__all__ = ["end_values_problem", "readable_text", "tick_values_problem"]
+
+_HALF_PAIR_ESCAPE = re.compile(rb"\\u[dD][89abcdefABCDEF]")
+_HALF_PAIR = re.compile("[\ud800-\udfff]")
 
 
 def _whole(value: Any) -> bool:
@@ -66,3 +76,21 @@ def end_values_problem(record: Mapping[str, Any], last_tick: int) -> str | None:
         last = f"n {n}, the run's last tick, is before tick {last_tick}"
         return f"bad end record: {last}, which it records"
     return None
+
+
+def readable_text(record: Any, line: bytes) -> Any:
+    """``record`` (decoded from ``line``) with every lone surrogate in its text,
+    keys too, made U+FFFD; ``record`` itself unless ``line`` escapes one."""
+    if _HALF_PAIR_ESCAPE.search(line) is None:
+        return record
+    return _mended(record)
+
+
+def _mended(value: Any) -> Any:
+    if isinstance(value, str):
+        return _HALF_PAIR.sub("\ufffd", value)
+    if isinstance(value, list):
+        return [_mended(v) for v in value]
+    if isinstance(value, dict):
+        return {_mended(k): _mended(v) for k, v in value.items()}
+    return value
