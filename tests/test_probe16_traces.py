@@ -168,3 +168,26 @@ def test_bytes_that_are_no_utf8_are_refused_at_their_column(
     with pytest.raises(LocatedError) as caught:
         read_trace(path)
     assert str(caught.value).startswith(f"{path}:1:{at + 1}: not a trace record: ")  # was :1:1
+
+
+@pytest.mark.parametrize(
+    ("ticks", "said"),
+    [
+        (1, "nothing to plot: the run took no time (it ended at tick 1, at 0 s)"),
+        (0, "nothing to plot: it holds no tick"),  # killed before its first tick
+    ],
+)
+def test_plotting_a_run_that_took_no_time_says_so_not_a_window_nobody_gave(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str], ticks: int, said: str
+) -> None:
+    # A tree that fails at its first tick (a condition) ends at 0 s: "plot window
+    # from 0 s to 0 s is outside the trace (0 s to 0 s)", with no --from or --to.
+    pytest.importorskip("matplotlib")
+    first = {**records[1], "n": 1, "t_s": 0.0}
+    end = {**records[-1], "n": 1, "t_s": 0.0}
+    path = _write(tmp_path / "run.jsonl", [records[0], first, end] if ticks else records[:1])
+    out = tmp_path / "run.png"
+    out.write_bytes(b"the picture that was there")
+    assert main(["trace", "plot", str(path), "-o", str(out)]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {path}: {said}"
+    assert out.read_bytes() == b"the picture that was there"

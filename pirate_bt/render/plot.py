@@ -313,7 +313,8 @@ def plot_trace(
     Raises:
         ConfigurationError: matplotlib is not installed.
         ArgumentTypeError: ``trace`` is neither a ``Trace`` nor a path.
-        InputError: the trace file cannot be read (its line and column), the window
+        InputError: the trace file cannot be read (its line and column), the run
+            took no time (it ended in its first tick, at 0 s), the window
             is not finite, starts before the trace or after it, or is empty (an end
             past the trace's is cut to it), or ``out`` has no suffix matplotlib writes
             (``.png``, ``.svg``, ``.pdf``...).
@@ -328,6 +329,10 @@ def plot_trace(
             f" file, not {type(trace).__name__}"
         )
     duration = trace.duration_s
+    if duration <= 0 and start_s is None and end_s is None:  # ended in its first tick
+        n = trace.last_tick  # was "plot window from 0 s to 0 s is outside the trace"
+        took = f"the run took no time (it ended at tick {n}, at {duration:g} s)"
+        raise InputError(f"{trace.path}: nothing to plot: {took if n else 'it holds no tick'}")
     lo = 0.0 if start_s is None else start_s
     hi = duration if end_s is None else end_s
     # each refusal says which: "-5-9.25 s is empty or outside the trace" was said of a
