@@ -234,7 +234,7 @@ def main(argv: list[str] | None = None) -> None:
                 found[name] += _paired(executor, cases, target)
     for name, pairs in found.items():
         over = [p[2] - p[0] for p in pairs]
-        quart = statistics.quantiles(over, n=4)
+        quart = statistics.quantiles(over, n=4) if len(over) > 1 else over * 3  # 1 case, 1 round
         inside = statistics.median(p[3] - p[0] for p in pairs)
         outside = statistics.median(p[2] - p[3] for p in pairs)
         cpu = statistics.mean(p[4] - p[1] for p in pairs)

@@ -347,7 +347,8 @@ def table(rows: list[dict[str, Any]], wall: float, workers: int) -> None:
     drawings = "the drawing and " if any(r["variant"] is None for r in rows) else ""
     print(
         f"{len(rows)} surveys ({drawings}{len(variants)} as-built variants per network"
-        f" at x{', x'.join(f'{s:g}' for s in scales)} the bounds)"
+        + (f" at x{', x'.join(f'{s:g}' for s in scales)} the bounds" if scales else "")
+        + ")"
         + (f" in {wall:.0f} s wall on {workers} workers" if wall else "")
     )
     print(
