@@ -122,3 +122,12 @@ def test_make_bench_refuses_set_for_a_benchmark_that_does_not_exist(
     assert "--set: no benchmark introp" in capsys.readouterr().err.splitlines()[-1]
     run_all.main(["--list", "--set", "interop=5 --no-sizes"])
     assert "benchmarks/bench_interop.py 5 --no-sizes" in capsys.readouterr().out.splitlines()
+
+
+def test_bench_firmware_without_avr_gcc_skips_as_the_other_firmware_benchmarks() -> None:
+    # make bench only warns when it may not install the toolchain; a failing script
+    # would stop it with nothing written, where bench_firmware_sim.py skips
+    env = {**os.environ, "PATH": str(REPO / "no-such-bin")}
+    done = _bench("firmware", "--soak", "0", env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1].startswith("skipped: avr-gcc is missing")
