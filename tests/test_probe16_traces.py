@@ -191,3 +191,39 @@ def test_plotting_a_run_that_took_no_time_says_so_not_a_window_nobody_gave(
     assert main(["trace", "plot", str(path), "-o", str(out)]) == 2
     assert capsys.readouterr().err.strip() == f"pirate-bt: {path}: {said}"
     assert out.read_bytes() == b"the picture that was there"
+
+
+@pytest.mark.parametrize(
+    ("version", "problem"),
+    [
+        (2, "trace format version 2 is newer than this reader (1); update pirate_bt"),
+        # each was said to be "newer than this reader", or (0, true) read as version 1
+        ("1", 'trace format version "1" is no version (a whole number from 1)'),
+        (1.0, "trace format version 1.0 is no version"),
+        (None, "trace format version null is no version"),
+        (0, "trace format version 0 is no version"),
+        (True, "trace format version true is no version"),
+    ],
+)
+@pytest.mark.parametrize("suffix", [".mcap", "_bag"])
+def test_a_header_of_a_version_this_reader_cannot_read_is_refused_by_every_export(
+    records: Records,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    version: Any,
+    problem: str,
+    suffix: str,
+) -> None:
+    # trace export to .mcap and to a rosbag2 folder converted a version-2 trace as if
+    # it were version 1, where summary, show, plot and .btlog export refused it.
+    pytest.importorskip("mcap")
+    if suffix == "_bag":
+        pytest.importorskip("rosbags")
+    path = _write(tmp_path / "run.jsonl", [{**records[0], "version": version}, *records[1:]])
+    with pytest.raises(LocatedError, match="version"):
+        read_trace(path)
+    out = tmp_path / f"out{suffix}"
+    assert main(["trace", "export", str(path), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"pirate-bt: {path}:1:1: {problem}") and "\n" not in err, err
+    assert not out.exists()

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Final, Protocol, TypeVar
 
 from pirate_bt.errors import LocatedError, SourceLocation, shown
-from pirate_bt.trace.record_values import end_values_problem
+from pirate_bt.trace.record_values import end_values_problem, version_problem
 from pirate_bt.trace.records import end_problem
 
 __all__ = ["Pairs", "TickCheck", "checked_iteration", "tree_problem", "unchecked"]
@@ -153,6 +153,8 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
     for line, record in pairs:
         kind = record.get("type") if isinstance(record, dict) else None
         if kind == "header":
+            if (problem := version_problem(record.get("version"))) is not None:
+                raise LocatedError(problem, SourceLocation(str(where), line))
             tree = record.get("tree")
             if isinstance(tree, Mapping) and tree.get("nodes"):
                 problem = tree_problem(tree)

@@ -44,11 +44,15 @@ from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
-from pirate_bt.trace.record_values import end_values_problem, readable_text, tick_values_problem
+from pirate_bt.trace.record_values import (
+    end_values_problem,
+    readable_text,
+    tick_values_problem,
+    version_problem,
+)
 from pirate_bt.trace.records import (
     CODE_STATUS,
     FORMAT_NAME,
-    TRACE_VERSION,
     end_problem,
     objects,
     state_from_flat,
@@ -568,13 +572,8 @@ def _records(
                     + (steps if kind == "navigation" else ""),
                     loc,
                 )
-            version = record.get("version")
-            if not isinstance(version, int) or version > TRACE_VERSION:
-                raise LocatedError(
-                    f"trace format version {version!r} is newer than this reader"
-                    f" ({TRACE_VERSION}); update pirate_bt",
-                    loc,
-                )
+            if (problem := version_problem(record.get("version"))) is not None:
+                raise LocatedError(problem, loc)
             if not isinstance(record.get("tree"), dict) or not record["tree"].get("nodes"):
                 raise LocatedError("the header has no tree", loc)
             problem = tree_problem(record["tree"])

@@ -29,7 +29,9 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["end_values_problem", "readable_text", "tick_values_problem"]
+from pirate_bt.trace.records import TRACE_VERSION
+
+__all__ = ["end_values_problem", "readable_text", "tick_values_problem", "version_problem"]
 
 _HALF_PAIR_ESCAPE = re.compile(rb"\\u[dD][89abcdefABCDEF]")
 _HALF_PAIR = re.compile("[\ud800-\udfff]")
@@ -45,6 +47,24 @@ def _finite(value: Any) -> bool:
 
 def _shown(value: Any) -> str:
     return json.dumps(value)[:40]
+
+
+def version_problem(version: Any) -> str | None:
+    """What is wrong with a header's format ``version`` for this reader, or ``None``.
+
+    A version above :data:`~pirate_bt.trace.records.TRACE_VERSION` is a layout this
+    reader would misread (``trace export`` to ``.mcap`` and to a rosbag2 folder
+    converted such a file as if it were version 1); one that is no whole number
+    from 1 (``"1"``, ``1.0``, ``null``) was said to be "newer than this reader".
+    """
+    if _whole(version) and 1 <= version <= TRACE_VERSION:
+        return None
+    if _whole(version) and version > TRACE_VERSION:
+        return (
+            f"trace format version {version} is newer than this reader"
+            f" ({TRACE_VERSION}); update pirate_bt"
+        )
+    return f"trace format version {_shown(version)} is no version (a whole number from 1)"
 
 
 def tick_values_problem(record: Mapping[str, Any]) -> str | None:
