@@ -142,7 +142,7 @@ BENCH_DOC ?= docs/performance.md
 bench: $(STAMP) graphviz avr-toolchain
 	$(BIN)/python benchmarks/run_all.py --write $(BENCH_DOC) $(BENCH_ARGS)
 
-bench-doc: $(STAMP)
+bench-doc: $(if $(BENCH_RESULTS),$(STAMP))
 	@test -n "$(BENCH_RESULTS)" || { echo "usage: make bench-doc BENCH_RESULTS=DIR"; exit 2; }
 	$(BIN)/python benchmarks/report.py --write $(BENCH_DOC) $(BENCH_RESULTS)
 
