@@ -15,7 +15,7 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import LocatedError
-from pirate_bt.trace import TraceRecorder, read_trace
+from pirate_bt.trace import TraceRecorder, open_reader, read_trace
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -151,6 +151,8 @@ def test_half_a_utf16_pair_that_the_writer_escaped_reads_as_a_replacement_charac
     trace = read_trace(path)
     assert trace.feedback("says")[-1].message == "loaded \ufffd.yaml"
     assert trace.nodes() == ["r\ufffdoot", "r\ufffdoot/says"]
+    # the exports read the file as written, and convert the name as it is
+    assert next(iter(open_reader(path)))[1]["tree"]["name"] == "r\udc00oot"
     for argv in (["summary", str(path)], ["show", str(path), "--tick", "1"]):
         assert main(["trace", *argv]) == 0
         out = capsys.readouterr().out

@@ -114,6 +114,7 @@ class TraceFormatReader:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.truncated = False
+        self.readable = False  # read_trace's: text as shown (see readable_text)
 
     def _open(self) -> IO[bytes]:
         raise NotImplementedError
@@ -151,7 +152,7 @@ class TraceFormatReader:
 
     def _decode(self, number: int, line: bytes, last: bool) -> dict[str, Any]:
         try:
-            record = readable_text(json.loads(line.rstrip(b"\r\n")), line)
+            record = readable_text(json.loads(line.rstrip(b"\r\n")), line, self.readable)
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             if last and not line.endswith(b"\n"):
                 raise _CutOff from None
@@ -526,6 +527,7 @@ def read_trace(path: str | Path) -> Trace:
     """
     where = file_argument(path, "path")
     reader = open_reader(where)
+    reader.readable = True  # exports keep text as written; a Trace is shown
     try:
         header, ticks, end, end_line = _records(reader, where)
     except PirateError:

@@ -18,7 +18,8 @@ A JSON escape of half a UTF-16 pair (``"\\ud800"``) is valid JSON but no
 character; the writer escapes so a feedback message or name that holds one (text
 decoded from bytes that were no UTF-8, say), and ``trace summary`` and ``show`` then
 ended with an internal error printing it. :func:`readable_text` reads each as
-U+FFFD, as a decoder reads bytes that are no UTF-8.
+U+FFFD for :func:`~pirate_bt.trace.reader.read_trace`, as a decoder reads bytes
+that are no UTF-8.
 """
 
 from __future__ import annotations
@@ -98,10 +99,14 @@ def end_values_problem(record: Mapping[str, Any], last_tick: int) -> str | None:
     return None
 
 
-def readable_text(record: Any, line: bytes) -> Any:
+def readable_text(record: Any, line: bytes, mend: bool = True) -> Any:
     """``record`` (decoded from ``line``) with every lone surrogate in its text,
-    keys too, made U+FFFD; ``record`` itself unless ``line`` escapes one."""
-    if _HALF_PAIR_ESCAPE.search(line) is None:
+    keys too, made U+FFFD; ``record`` itself unless ``mend`` and ``line`` escapes one.
+
+    :func:`~pirate_bt.trace.reader.read_trace` mends (a :class:`Trace` is shown and
+    printed); the exports read records as written, so that a name converts as it is.
+    """
+    if not mend or _HALF_PAIR_ESCAPE.search(line) is None:
         return record
     return _mended(record)
 
