@@ -458,7 +458,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pairs", type=positive, default=3, help="ABBA pairs (default 3)")
     parser.add_argument("--ticks", type=positive, default=20000, help="ticks of a scale run")
-    parser.add_argument("--only", nargs="*", choices=["mission", "account", "scale", "coverage"])
+    parser.add_argument("--only", nargs="+", choices=["mission", "account", "scale", "coverage"])
     args = parser.parse_args()
     print(f"Python {platform.python_version()}, {platform.machine()}, pyzmq {zmq.__version__},"
           f" libzmq {zmq.zmq_version()}")  # fmt: skip

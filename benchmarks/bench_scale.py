@@ -300,7 +300,7 @@ PARTS = {"ticks": part_ticks, "sparse": part_sparse, "mission": part_mission, "l
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer and shorter runs")
-    parser.add_argument("--only", nargs="*", choices=sorted(PARTS), help="parts to run")
+    parser.add_argument("--only", nargs="+", choices=sorted(PARTS), help="parts to run")
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, Python {platform.python_version()}")
     for name in args.only or list(PARTS):

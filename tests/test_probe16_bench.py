@@ -58,6 +58,8 @@ def test_help_of_a_benchmark_without_options_prints_its_docstring_and_runs_nothi
         ("asbuilt", ["--scales", "1,x"], "argument --scales: 'x' is not a number"),
         ("survey", ["--networks", "nosuch"], "--networks: nosuch:1:1: no such network file"),
         ("plot", ["no-such-trace.jsonl"], "no-such-trace.jsonl: no such trace file"),
+        ("scale", ["--only"], "argument --only: expected at least one argument"),
+        ("groot2", ["--only"], "argument --only: expected at least one argument"),
     ],
 )
 def test_a_wrong_argument_is_one_line_before_anything_runs(
