@@ -229,3 +229,25 @@ def test_a_header_of_a_version_this_reader_cannot_read_is_refused_by_every_expor
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"pirate-bt: {path}:1:1: {problem}") and "\n" not in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        # ended trace summary with "internal error: TypeError: 'str' object is not a mapping"
+        ({"outcome": "error", "error": "boom"}, 'error is an object (node, exception), not "boom"'),
+        # were dropped from the summary's "after the last tick" without a word
+        ({"commands": "clamp(front)"}, 'commands is a list of objects, not "clamp(front)"'),
+        ({"commands": ["clamp(front)"]}, 'commands is a list of objects, not ["clamp(front)"]'),
+    ],
+)
+def test_an_end_record_whose_error_or_commands_are_no_such_thing_is_refused_on_its_line(
+    records: Records,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: dict[str, Any],
+    problem: str,
+) -> None:
+    edited = [*records[:-1], {**records[-1], **change}]
+    path = _write(tmp_path / "run.jsonl", edited)
+    _refused_everywhere(path, len(edited), problem, capsys, "bad end record: ")

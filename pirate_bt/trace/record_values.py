@@ -86,13 +86,19 @@ def tick_values_problem(record: Mapping[str, Any]) -> str | None:
 
 
 def end_values_problem(record: Mapping[str, Any], last_tick: int) -> str | None:
-    """What is wrong with an end record's ``t_s``, or its ``n`` given the last
-    tick record's number ``last_tick`` (0 without one), or ``None``."""
+    """What is wrong with an end record's ``t_s``, ``error`` (an object) or
+    ``commands`` (a list of objects, as a tick's), or its ``n`` given the last tick
+    record's number ``last_tick`` (0 without one), or ``None``."""
     t_s, n = record.get("t_s", 0.0), record.get("n", 0)
     if not _finite(t_s):
         return (
             f"bad end record: t_s is the run's time, a finite number of seconds, not {_shown(t_s)}"
         )
+    error, commands = record.get("error", {}), record.get("commands", [])
+    if not isinstance(error, dict):  # ended trace summary with an internal error
+        return f"bad end record: error is an object (node, exception), not {_shown(error)}"
+    if not isinstance(commands, list) or not all(isinstance(c, dict) for c in commands):
+        return f"bad end record: commands is a list of objects, not {_shown(commands)}"
     if _whole(n) and n < last_tick:
         last = f"n {n}, the run's last tick, is before tick {last_tick}"
         return f"bad end record: {last}, which it records"
