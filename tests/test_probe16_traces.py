@@ -251,3 +251,26 @@ def test_an_end_record_whose_error_or_commands_are_no_such_thing_is_refused_on_i
     edited = [*records[:-1], {**records[-1], **change}]
     path = _write(tmp_path / "run.jsonl", edited)
     _refused_everywhere(path, len(edited), problem, capsys, "bad end record: ")
+
+
+@pytest.mark.parametrize("joined", ["two runs", "two ends"])
+@pytest.mark.parametrize("out", ["", "out.btlog", "out.mcap"])
+def test_two_traces_joined_into_one_file_are_refused_where_they_join(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str], joined: str, out: str
+) -> None:
+    # `cat a.jsonl b.jsonl`: the second header was an "unknown record type 'header'";
+    # a second end record (a failure after a success) replaced the first without a word
+    # (summary: outcome failure), and .mcap export wrote both.
+    if out.endswith(".mcap"):
+        pytest.importorskip("mcap")
+    second = records if joined == "two runs" else [{**records[-1], "outcome": "failure"}]
+    path = _write(tmp_path / "run.jsonl", records + second)
+    problem = (
+        "a second header record: a trace holds one run (two files joined?)"
+        if joined == "two runs"
+        else f"a second end record (the first is on line {len(records)}): two files joined?"
+    )
+    argv = ["trace", "export", str(path), "-o", str(tmp_path / out)] if out else []
+    assert main(argv or ["trace", "summary", str(path)]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {path}:{len(records) + 1}:1: {problem}"
+    assert not (tmp_path / out).is_file()

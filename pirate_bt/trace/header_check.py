@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Final, Protocol, TypeVar
 
 from pirate_bt.errors import LocatedError, SourceLocation, shown
-from pirate_bt.trace.record_values import end_values_problem, version_problem
+from pirate_bt.trace.record_values import end_values_problem, stray_record, version_problem
 from pirate_bt.trace.records import end_problem
 
 __all__ = ["Pairs", "TickCheck", "checked_iteration", "tree_problem", "unchecked"]
@@ -149,7 +149,7 @@ def _roots_problem(roots: list[str]) -> str:
 
 
 def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: TickCheck) -> Pairs:
-    last_tick = 0
+    last_tick = first_end = header = 0  # lines of the end record and the header
     for line, record in pairs:
         kind = record.get("type") if isinstance(record, dict) else None
         if kind == "header":
@@ -162,13 +162,17 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
                     raise LocatedError(
                         f"bad tree in header: {problem}", SourceLocation(str(where), line)
                     )
+            if header:  # a second run's, whole (as checked)
+                raise LocatedError(stray_record("header"), SourceLocation(str(where), line))
+            header = line
         elif kind == "tick":
             tick(record, line, where)
             last_tick = record["n"]  # the tick check made it a whole number
         elif kind == "end":
-            problem = end_problem(record) or end_values_problem(record, last_tick)
+            problem = end_problem(record) or end_values_problem(record, last_tick, first_end)
             if problem is not None:
                 raise LocatedError(problem, SourceLocation(str(where), line))
+            first_end = line
         yield line, record
 
 

@@ -39,17 +39,12 @@ from pirate_bt.errors import (
     shown,
 )
 from pirate_bt.robot.state import RobotState
+from pirate_bt.trace import record_values as values
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
-from pirate_bt.trace.record_values import (
-    end_values_problem,
-    readable_text,
-    tick_values_problem,
-    version_problem,
-)
 from pirate_bt.trace.records import (
     CODE_STATUS,
     FORMAT_NAME,
@@ -152,7 +147,7 @@ class TraceFormatReader:
 
     def _decode(self, number: int, line: bytes, last: bool) -> dict[str, Any]:
         try:
-            record = readable_text(json.loads(line.rstrip(b"\r\n")), line, self.readable)
+            record = values.readable_text(json.loads(line.rstrip(b"\r\n")), line, self.readable)
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             if last and not line.endswith(b"\n"):
                 raise _CutOff from None
@@ -479,7 +474,7 @@ class Trace(TraceQueries):
 
 
 def _tick_record(record: Mapping[str, Any], line: int, where: Path) -> TickRecord:
-    if (problem := tick_values_problem(record)) is not None:
+    if (problem := values.tick_values_problem(record)) is not None:
         raise LocatedError(f"bad tick record: {problem}", SourceLocation(str(where), line))
     try:
         return TickRecord(
@@ -574,7 +569,7 @@ def _records(
                     + (steps if kind == "navigation" else ""),
                     loc,
                 )
-            if (problem := version_problem(record.get("version"))) is not None:
+            if (problem := values.version_problem(record.get("version"))) is not None:
                 raise LocatedError(problem, loc)
             if not isinstance(record.get("tree"), dict) or not record["tree"].get("nodes"):
                 raise LocatedError("the header has no tree", loc)
@@ -590,10 +585,11 @@ def _records(
                 raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
             ticks.append(tick)
         elif kind == "end":
-            problem = end_problem(record) or end_values_problem(record, ticks[-1].n if ticks else 0)
+            last = ticks[-1].n if ticks else 0
+            problem = end_problem(record) or values.end_values_problem(record, last, end_line)
             if problem:
                 raise LocatedError(problem, loc)
             end, end_line = record, line
         else:
-            raise LocatedError(f"unknown record type {kind!r}", loc)
+            raise LocatedError(values.stray_record(kind), loc)
     return header, ticks, end, end_line

@@ -30,9 +30,16 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
+from pirate_bt.errors import shown
 from pirate_bt.trace.records import TRACE_VERSION
 
-__all__ = ["end_values_problem", "readable_text", "tick_values_problem", "version_problem"]
+__all__ = [
+    "end_values_problem",
+    "readable_text",
+    "stray_record",
+    "tick_values_problem",
+    "version_problem",
+]
 
 _HALF_PAIR_ESCAPE = re.compile(rb"\\u[dD][89abcdefABCDEF]")
 _HALF_PAIR = re.compile("[\ud800-\udfff]")
@@ -85,10 +92,22 @@ def tick_values_problem(record: Mapping[str, Any]) -> str | None:
     return None
 
 
-def end_values_problem(record: Mapping[str, Any], last_tick: int) -> str | None:
+def stray_record(kind: str) -> str:
+    """What is wrong with a record of ``kind`` where no such record may be: after the
+    header, a header is a second run's (``cat a.jsonl b.jsonl``); it was "unknown"."""
+    if kind == "header":
+        return "a second header record: a trace holds one run (two files joined?)"
+    return f"unknown record type {shown(kind, 40)!r}"
+
+
+def end_values_problem(record: Mapping[str, Any], last_tick: int, first_end: int = 0) -> str | None:
     """What is wrong with an end record's ``t_s``, ``error`` (an object) or
     ``commands`` (a list of objects, as a tick's), or its ``n`` given the last tick
-    record's number ``last_tick`` (0 without one), or ``None``."""
+    record's number ``last_tick`` (0 without one), or ``None``. ``first_end`` is
+    the line of an end record before this one (a second one replaced the first).
+    """
+    if first_end:
+        return f"a second end record (the first is on line {first_end}): two files joined?"
     t_s, n = record.get("t_s", 0.0), record.get("n", 0)
     if not _finite(t_s):
         return (
