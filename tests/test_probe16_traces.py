@@ -274,3 +274,20 @@ def test_two_traces_joined_into_one_file_are_refused_where_they_join(
     assert main(argv or ["trace", "summary", str(path)]) == 2
     assert capsys.readouterr().err.strip() == f"pirate-bt: {path}:{len(records) + 1}:1: {problem}"
     assert not (tmp_path / out).is_file()
+
+
+@pytest.mark.parametrize(
+    ("start", "said"),
+    [
+        # was "run.jsonl:1:2: not a trace record: 'utf-8' codec can't decode byte 0x8b ..."
+        (b"\x1f\x8b\x08\x00", "a gzip-compressed trace, not JSON Lines: name it run.jsonl.gz"),
+        (b"\x89MCAP0\r\n", "an MCAP trace, not JSON Lines: name it run.mcap"),
+    ],
+)
+def test_a_compressed_or_mcap_trace_named_jsonl_is_named_as_such(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], start: bytes, said: str
+) -> None:
+    path = tmp_path / "run.jsonl"
+    path.write_bytes(start + bytes(range(256)))
+    assert main(["trace", "summary", str(path)]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {path}: {said}"

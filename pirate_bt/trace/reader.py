@@ -174,7 +174,7 @@ class JsonLinesReader(TraceFormatReader):
     suffixes = (".jsonl", ".ndjson")
 
     def _open(self) -> IO[bytes]:
-        return open(self.path, "rb")
+        return values.opened_as_text(self.path)  # a gzip or MCAP trace is named so
 
 
 class GzipJsonLinesReader(TraceFormatReader):

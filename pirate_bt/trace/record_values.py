@@ -28,13 +28,15 @@ import json
 import math
 import re
 from collections.abc import Mapping
-from typing import Any
+from pathlib import Path
+from typing import IO, Any, Final
 
-from pirate_bt.errors import shown
+from pirate_bt.errors import InputError, shown
 from pirate_bt.trace.records import TRACE_VERSION
 
 __all__ = [
     "end_values_problem",
+    "opened_as_text",
     "readable_text",
     "stray_record",
     "tick_values_problem",
@@ -122,6 +124,31 @@ def end_values_problem(record: Mapping[str, Any], last_tick: int, first_end: int
         last = f"n {n}, the run's last tick, is before tick {last_tick}"
         return f"bad end record: {last}, which it records"
     return None
+
+
+_BINARY: Final = {
+    b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz"),
+    b"\x89MCAP": ("an MCAP", ".mcap"),
+}
+"""The first bytes of the other formats a trace is written in, and their suffix."""
+
+
+def opened_as_text(path: Path) -> IO[bytes]:
+    """``path`` opened to be read as JSON Lines, unless it starts as another format
+    of trace does: a gzip-compressed or MCAP trace renamed ``.jsonl`` was "not a trace
+    record: 'utf-8' codec can't decode byte 0x8b", or its first line "cut off".
+
+    Raises:
+        InputError: it is gzip or MCAP, naming the suffix to give it.
+        OSError: it cannot be opened.
+    """
+    stream = open(path, "rb")  # noqa: SIM115 - returned open
+    start = stream.peek(5)[:5]
+    for magic, (kind, suffix) in _BINARY.items():
+        if start.startswith(magic):
+            stream.close()
+            raise InputError(f"{path}: {kind} trace, not JSON Lines: name it {path.stem}{suffix}")
+    return stream
 
 
 def readable_text(record: Any, line: bytes, mend: bool = True) -> Any:
