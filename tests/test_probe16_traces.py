@@ -291,3 +291,29 @@ def test_a_compressed_or_mcap_trace_named_jsonl_is_named_as_such(
     path.write_bytes(start + bytes(range(256)))
     assert main(["trace", "summary", str(path)]) == 2
     assert capsys.readouterr().err.strip() == f"pirate-bt: {path}: {said}"
+
+
+@pytest.mark.parametrize("out", ["out.mcap", "out_bag"])
+@pytest.mark.parametrize("order", ["repeated", "backwards", "after the end"])
+def test_export_refuses_ticks_out_of_order_as_read_trace_does(
+    records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str], out: str, order: str
+) -> None:
+    # .mcap and rosbag2 exports wrote such a trace, which read_trace of their own
+    # output (or of the .jsonl) then refused.
+    pytest.importorskip("mcap")
+    if out.endswith("_bag"):
+        pytest.importorskip("rosbags")
+    ticks = [r for r in records if r["type"] == "tick"]
+    if order == "after the end":
+        edited, line, problem = [*records, ticks[1]], len(records) + 1, "a tick after the end"
+    else:
+        stray = ticks[2] if order == "repeated" else ticks[0]
+        edited = [*records[:4], stray, *records[4:]]
+        line, problem = 5, f"tick {stray['n']} does not follow tick {ticks[2]['n']}"
+    path = _write(tmp_path / "run.jsonl", edited)
+    with pytest.raises(LocatedError, match=problem):
+        read_trace(path)
+    assert main(["trace", "export", str(path), "-o", str(tmp_path / out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"pirate-bt: {path}:{line}:1: {problem}") and "\n" not in err, err
+    assert not (tmp_path / out).exists()

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Final, Protocol, TypeVar
 
 from pirate_bt.errors import LocatedError, SourceLocation, shown
-from pirate_bt.trace.record_values import end_values_problem, stray_record, version_problem
+from pirate_bt.trace import record_values as values
 from pirate_bt.trace.records import end_problem
 
 __all__ = ["Pairs", "TickCheck", "checked_iteration", "tree_problem", "unchecked"]
@@ -153,7 +153,7 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
     for line, record in pairs:
         kind = record.get("type") if isinstance(record, dict) else None
         if kind == "header":
-            if (problem := version_problem(record.get("version"))) is not None:
+            if (problem := values.version_problem(record.get("version"))) is not None:
                 raise LocatedError(problem, SourceLocation(str(where), line))
             tree = record.get("tree")
             if isinstance(tree, Mapping) and tree.get("nodes"):
@@ -163,13 +163,16 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
                         f"bad tree in header: {problem}", SourceLocation(str(where), line)
                     )
             if header:  # a second run's, whole (as checked)
-                raise LocatedError(stray_record("header"), SourceLocation(str(where), line))
+                raise LocatedError(values.stray_record("header"), SourceLocation(str(where), line))
             header = line
         elif kind == "tick":
             tick(record, line, where)
-            last_tick = record["n"]  # the tick check made it a whole number
+            problem = values.order_problem(record["n"], last_tick, first_end)  # n: whole
+            if problem is not None:  # .mcap and bag exports wrote what no reader reads
+                raise LocatedError(problem, SourceLocation(str(where), line))
+            last_tick = record["n"]
         elif kind == "end":
-            problem = end_problem(record) or end_values_problem(record, last_tick, first_end)
+            problem = end_problem(record) or values.end_values_problem(record, last_tick, first_end)
             if problem is not None:
                 raise LocatedError(problem, SourceLocation(str(where), line))
             first_end = line

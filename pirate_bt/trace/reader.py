@@ -578,11 +578,9 @@ def _records(
                 raise LocatedError(f"bad tree in header: {problem}", loc)
             header = record
         elif kind == "tick":
-            if end is not None:
-                raise LocatedError("a tick after the end record", loc)
             tick = _tick_record(record, line, where)
-            if ticks and tick.n <= ticks[-1].n:
-                raise LocatedError(f"tick {tick.n} does not follow tick {ticks[-1].n}", loc)
+            if problem := values.order_problem(tick.n, ticks[-1].n if ticks else 0, end_line):
+                raise LocatedError(problem, loc)
             ticks.append(tick)
         elif kind == "end":
             last = ticks[-1].n if ticks else 0

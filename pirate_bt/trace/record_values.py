@@ -37,6 +37,7 @@ from pirate_bt.trace.records import TRACE_VERSION
 __all__ = [
     "end_values_problem",
     "opened_as_text",
+    "order_problem",
     "readable_text",
     "stray_record",
     "tick_values_problem",
@@ -100,6 +101,16 @@ def stray_record(kind: str) -> str:
     if kind == "header":
         return "a second header record: a trace holds one run (two files joined?)"
     return f"unknown record type {shown(kind, 40)!r}"
+
+
+def order_problem(n: int, last_tick: int, end_line: int) -> str | None:
+    """What is wrong with tick ``n`` coming after tick ``last_tick`` (0 before the
+    first) and, when ``end_line`` is not 0, after the end record on that line."""
+    if end_line:
+        return "a tick after the end record"
+    if last_tick and n <= last_tick:
+        return f"tick {n} does not follow tick {last_tick}"
+    return None
 
 
 def end_values_problem(record: Mapping[str, Any], last_tick: int, first_end: int = 0) -> str | None:
