@@ -84,6 +84,28 @@ def test_a_tick_whose_number_time_or_events_are_no_such_thing_is_refused_on_its_
     _refused_everywhere(path, 3, problem, capsys, "bad tick record: ")
 
 
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        # unset the keys "s", "t", "a", "r", "e" and "d" without a word
+        ({"bb_unset": "started"}, 'bb_unset is a list of blackboard keys, not "started"'),
+        ({"bb_unset": [1]}, "bb_unset is a list of blackboard keys, not [1]"),
+        # read as the object {"connected": false}
+        ({"link": [["connected", False]]}, 'link is an object, not [["connected", false]]'),
+        ({"state": [1, 2]}, "state is an object, not [1, 2]"),
+    ],
+)
+def test_a_tick_member_of_the_wrong_kind_is_refused_not_read_as_another(
+    records: Records,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: dict[str, Any],
+    problem: str,
+) -> None:
+    path = _write(tmp_path / "run.jsonl", _tick(records, 1, **change))
+    _refused_everywhere(path, 3, problem, capsys, "bad tick record: ")
+
+
 def test_an_end_record_with_a_time_of_nan_is_refused_not_a_duration_of_nan(
     records: Records, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -78,11 +78,17 @@ def version_problem(version: Any) -> str | None:
     return f"trace format version {_shown(version)} is no version (a whole number from 1)"
 
 
+_OBJECTS: Final = ("status", "feedback", "bb", "state", "link", "sim")
+"""The members of a tick record that map names to values."""
+
+
 def tick_values_problem(record: Mapping[str, Any]) -> str | None:
     """What is wrong with a tick record's ``n``, ``t_s`` or ``events``, or ``None``.
 
     ``n`` is a whole number from 1 (the first tick is 1), ``t_s`` a finite number
-    and ``events`` a list of objects (a missing one is the caller's to name).
+    (a missing one is the caller's to name), ``events`` a list of objects,
+    ``bb_unset`` a list of text and ``status``, ``feedback``, ``bb``, ``state``,
+    ``link`` and ``sim`` objects.
     """
     n, t_s = record.get("n", 1), record.get("t_s", 0.0)  # missing: a KeyError, as before
     if not _whole(n) or n < 1:
@@ -92,6 +98,12 @@ def tick_values_problem(record: Mapping[str, Any]) -> str | None:
     events = record.get("events", [])
     if not isinstance(events, list) or not all(isinstance(e, dict) for e in events):
         return f"events is a list of objects, not {_shown(events)}"
+    unset = record.get("bb_unset", [])  # text unset one key per character
+    if not isinstance(unset, list) or not all(isinstance(k, str) for k in unset):
+        return f"bb_unset is a list of blackboard keys, not {_shown(unset)}"
+    for member in _OBJECTS:  # a list of pairs read as an object
+        if not isinstance(record.get(member, {}), dict):
+            return f"{member} is an object, not {_shown(record[member])}"
     return None
 
 
