@@ -252,3 +252,26 @@ def test_an_empty_argument_is_named_not_read_as_the_working_folder(
 ) -> None:
     assert main(argv) == 2
     assert capsys.readouterr().err == f"pirate-bt: {message}\n"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["robot", "header", "-o", "layout.h"],
+        ["network", "perturb", "lab", "--seed", "1", "-o", "as-built.yaml"],
+        ["export", "btcpp", "bend", "-o", "bend.xml"],
+    ],
+)
+def test_the_path_written_is_on_standard_output_for_every_writer(
+    argv: list[str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """'robot header -o F' and 'network ... -o F' said 'wrote F' on standard error,
+    where export, import, render and trace say it on standard output: a script
+    reading the path written got nothing from these two."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    assert (out, err) == (f"wrote {argv[-1]}\n", "")

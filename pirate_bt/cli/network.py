@@ -183,7 +183,7 @@ def _write(text: str, output: Path | None) -> None:
         write_atomically(output, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
-    print(f"wrote {output}", file=sys.stderr)
+    print(f"wrote {output}")  # the path written, on stdout as every command says it
 
 
 def _bound_options(args: argparse.Namespace) -> str:

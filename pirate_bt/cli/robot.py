@@ -60,7 +60,7 @@ def _header(args: argparse.Namespace) -> int:
 
         check_output(args.output)
         write_header(robot, args.output, source)
-        print(f"wrote {args.output}", file=sys.stderr)
+        print(f"wrote {args.output}")  # the path written, on stdout as every command says it
     return 0
 
 
