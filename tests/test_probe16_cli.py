@@ -275,3 +275,16 @@ def test_the_path_written_is_on_standard_output_for_every_writer(
     assert main(argv) == 0
     out, err = capsys.readouterr()
     assert (out, err) == (f"wrote {argv[-1]}\n", "")
+
+
+def test_a_full_log_disk_does_not_stop_a_run_that_would_succeed(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """'pirate-bt run ... 2>>run.log' with the log's disk full: the live view's
+    failed write stopped the run mid-pipe, 'tree run ended without success: OSError:
+    [Errno 28] No space left on device', exit 1, where it succeeds."""
+    monkeypatch.setattr(sys, "stderr", _FullStream())
+    trace = tmp_path / "run.jsonl"
+    argv = ["run", "straight", "--param", "distance=0.1m", "--trace", str(trace)]
+    assert main(argv) == 0
+    assert '"outcome":"success"' in trace.read_text().replace(" ", "").splitlines()[-1]

@@ -10,7 +10,8 @@ text buffered whole, nothing at all and exit 0 though nothing was written.
 (no file name in the error) from any other, and :func:`finish` flushes both streams
 before the interpreter does: a reader that went away is no error (the command's exit
 code stands), a write that failed is one line naming standard output, exit 2 (a
-file that could not be written).
+file that could not be written). Standard error never stops a command: what cannot
+be written there (a full log disk) is lost, and the command runs on to its verdict.
 """
 
 from __future__ import annotations
@@ -52,22 +53,28 @@ class _Watched:
 
 
 class _Unheard(_Watched):
-    """Standard error whose reader went away (``2>&1 | head -1``): what is written
-    after goes nowhere, and the command goes on to its end and its exit code (a run
-    to its verdict, the robot to its safe state), as with standard error closed."""
+    """Standard error, which never stops the command: a reader that went away (``2>&1
+    | head -1``) sends what is written after to nowhere, and a write that fails (``2>>
+    log`` on a full disk) loses that message only; the command goes on to its end and
+    its exit code. The live view of a run writes here: a full log disk stopped the run
+    mid-pipe (exit 1) where it would have succeeded."""
 
     def write(self, text: str) -> int:
         try:
             return self._stream.write(text)
         except BrokenPipeError:
             _discard(self._stream)
-            return len(text)
+        except OSError:
+            pass
+        return len(text)
 
     def flush(self) -> None:
         try:
             self._stream.flush()
         except BrokenPipeError:
             _discard(self._stream)
+        except OSError:
+            pass
 
 
 _watching: list[_Watched] = []  # the stream watched during the last command
