@@ -339,3 +339,19 @@ def test_export_refuses_ticks_out_of_order_as_read_trace_does(
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"pirate-bt: {path}:{line}:1: {problem}") and "\n" not in err, err
     assert not (tmp_path / out).exists()
+
+
+def test_a_header_over_16_mib_reads_as_the_tree_it_holds(records: Records, tmp_path: Path) -> None:
+    # The header holds the tree: a tree file of 91,000 nodes 90 deep (within the
+    # limits of 100,000 nodes, 100 deep) ran and wrote a 38 MB header, which every
+    # reader refused as "a line longer than 16777216 bytes: not a trace".
+    header = json.loads(json.dumps(records[0]))
+    header["tree"]["nodes"][0]["name"] = "n" * (17 * 1024 * 1024)
+    path = _write(tmp_path / "run.jsonl", [header, *records[1:]])
+    trace = read_trace(path)
+    assert trace.outcome == "success" and len(trace.node("0").name) > 16 * 1024 * 1024
+    # a tick is no longer than that
+    tick = {**records[1], "feedback": {"0": "x" * (17 * 1024 * 1024)}}
+    _write(path, [records[0], tick, *records[2:]])
+    with pytest.raises(LocatedError, match=r"run\.jsonl:2:1: a line longer than 16777216 bytes"):
+        read_trace(path)

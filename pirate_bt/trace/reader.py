@@ -57,6 +57,7 @@ from pirate_bt.trace.structure import TreeStructure
 from pirate_bt.yamlfile import special_file
 
 __all__ = [
+    "MAX_HEADER_BYTES",
     "MAX_LINE_BYTES",
     "READERS",
     "GzipJsonLinesReader",
@@ -73,14 +74,20 @@ __all__ = [
 
 
 MAX_LINE_BYTES = 16 * 1024 * 1024
-"""The longest line of a JSON Lines trace (the header, which holds the tree, is the
-longest; a bundled tree's is a few kB). A longer line is no trace's."""
+"""The longest tick or end line of a JSON Lines trace. A longer line is no trace's."""
+
+MAX_HEADER_BYTES = 256 * 1024 * 1024
+"""The longest header line: it holds the tree, up to 100,000 nodes 100 deep, each
+with its path id, parent and children (a tree of 91,000 nodes 90 deep writes 38 MB;
+the header was held to 16 MiB and such a trace refused as 'not a trace')."""
 
 
 def _bounded_lines(stream: IO[bytes]) -> Iterator[bytes]:
-    """The lines of ``stream``, each read at most :data:`MAX_LINE_BYTES` + 1 long."""
-    while line := stream.readline(MAX_LINE_BYTES + 1):
+    """The lines of ``stream``, each read at most its limit + 1 long."""
+    limit = MAX_HEADER_BYTES
+    while line := stream.readline(limit + 1):
         yield line
+        limit = MAX_LINE_BYTES
 
 
 def _check_tick(record: Mapping[str, Any], line: int, where: Path) -> None:
@@ -129,9 +136,9 @@ class TraceFormatReader:
         with stream:
             pending: tuple[int, bytes] | None = None
             for number, line in enumerate(self._lines(stream), start=1):
-                if len(line) > MAX_LINE_BYTES:
+                if len(line) > (limit := MAX_HEADER_BYTES if number == 1 else MAX_LINE_BYTES):
                     raise LocatedError(
-                        f"a line longer than {MAX_LINE_BYTES} bytes: not a trace",
+                        f"a line longer than {limit} bytes: not a trace",
                         SourceLocation(str(self.path), number),
                     )
                 if pending is not None:
