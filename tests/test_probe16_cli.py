@@ -288,3 +288,40 @@ def test_a_full_log_disk_does_not_stop_a_run_that_would_succeed(
     argv = ["run", "straight", "--param", "distance=0.1m", "--trace", str(trace)]
     assert main(argv) == 0
     assert '"outcome":"success"' in trace.read_text().replace(" ", "").splitlines()[-1]
+
+
+def test_a_network_named_from_a_file_name_that_is_no_utf8_is_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """'network perturb $'\\xff.yaml' --seed 1' was 'internal error: UnicodeEncodeError:
+    ... surrogates not allowed', exit 1: the header names the file as bytes \\xff."""
+    source = os.fsdecode(bytes(tmp_path) + b"/\xff.yaml")
+    Path(source).write_text((ROOT / "scenarios" / "lab.yaml").read_text(encoding="utf-8"))
+    out = tmp_path / "as-built.yaml"
+    assert main(["network", "perturb", source, "--seed", "1", "-o", str(out)]) == 0
+    assert "\\xff.yaml" in out.read_text(encoding="utf-8").splitlines()[0]
+    assert main(["validate", str(out)]) == 0
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["survey", "-o", "s.yaml", "--name", "\udcff"],  # the whole survey ran first
+        ["network", "add-tee", "lab", "run-b", "1m", "--id", "\udcfe", "-o", "n.yaml"],
+    ],
+)
+def test_a_name_that_is_no_utf8_is_refused_before_any_work(
+    argv: list[str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """'survey --name $'\\xff'' surveyed the whole network, then failed in 'internal
+    error: ValidationError: ... unable to parse raw data as a unicode string' (four
+    lines, exit 1) and wrote nothing."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and "is not UTF-8 text" in err, err
+    assert list(tmp_path.iterdir()) == []

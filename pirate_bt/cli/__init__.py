@@ -37,6 +37,7 @@ __all__ = [
     "check_folder_output",
     "check_output",
     "main",
+    "utf8_text",
     "write_to_stdout",
 ]
 
@@ -153,6 +154,22 @@ def write_to_stdout(write: Callable[[Path], object], name: str) -> None:
         text = path.read_text(encoding="utf-8")
     sys.stdout.write(text)
     sys.stdout.flush()
+
+
+def utf8_text(value: str) -> str:
+    """An argparse ``type`` for a name written into a file (a network's name, a tee's
+    id): text, not bytes that are no UTF-8 (``$'\\xff'``, read as ``'\\udcff'``), which
+    failed only when the file was written, after the work, in an internal error.
+
+    Raises:
+        argparse.ArgumentTypeError: ``value`` holds bytes that are no UTF-8.
+    """
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = value.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+        raise argparse.ArgumentTypeError(f"'{shown}' is not UTF-8 text") from None
+    return value
 
 
 def _version() -> str:

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.cli import STDOUT
+from pirate_bt.cli import STDOUT, utf8_text
 from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
 from pirate_bt.units import parse_quantity
 
@@ -93,7 +93,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         choices=("up", "down", "left", "right"),
         help="where the new tee's branch leaves (default left)",
     )
-    add.add_argument("--id", default="extra-tee", help="the new tee's id (default extra-tee)")
+    add.add_argument(
+        "--id", default="extra-tee", type=utf8_text, help="the new tee's id (default extra-tee)"
+    )
     for sub in (perturb, remove, add):
         sub.add_argument(
             "-o",
@@ -238,6 +240,9 @@ def run(args: argparse.Namespace) -> int:
             what = f"the network with {args.id} {args.at} into {args.segment}"
     except ConfigurationError as exc:
         raise InputError(str(exc)) from None
+    # a file name of bytes that are no UTF-8 ($'\xff.yaml', read as '\udcff') shown as
+    # \xff: it was "internal error: UnicodeEncodeError ... surrogates not allowed", exit 1
+    header = header.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
     text = network_yaml(spec, header)
     _loads_back(text, args.output, what)
     _write(text, args.output)

@@ -18,6 +18,7 @@ __all__ = ["configure", "run"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
+    from pirate_bt.cli import utf8_text
     from pirate_bt.cli.navigate import stepwise_options
 
     where = parser.add_mutually_exclusive_group()
@@ -30,7 +31,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o", "--output", metavar="FILE", required=True, help="where to write the network (.yaml)"
     )
-    parser.add_argument("--name", default="surveyed", help="the network's name (default surveyed)")
+    parser.add_argument(
+        "--name", default="surveyed", type=utf8_text, help="the network's name (default surveyed)"
+    )
     parser.add_argument(
         "--extend",
         metavar="SURVEYED",
