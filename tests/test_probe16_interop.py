@@ -206,3 +206,50 @@ def test_an_ipv6_router_without_its_brackets_is_refused_not_read_as_port_1(text:
     assert str(caught.value).startswith(f"--ros2 {text}: ")
     assert parse_endpoint("[::1]") == "tcp/[::1]:7447"
     assert parse_endpoint("tcp/[fe80::1]:7448") == "tcp/[fe80::1]:7448"
+
+
+def test_a_bag_is_exported_into_folders_not_made_yet_and_they_go_if_it_fails(
+    tmp_path: Path,
+) -> None:
+    # every other export made the folders on the way; this one said 'out_dir: cannot
+    # write ...: No such file or directory' (the CLI probe)
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import export_rosbag2
+
+    trace = tmp_path / "run.jsonl"
+    run_and_record(trace, ticks=3)
+    out = export_rosbag2(trace, tmp_path / "new" / "deeper" / "run_bag")
+    assert (out / "metadata.yaml").is_file()
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"type": "tick", "t_s": 0}\n', encoding="utf-8")
+    with pytest.raises(InputError, match=r"bad\.jsonl:1:1: "):
+        export_rosbag2(bad, tmp_path / "other" / "x_bag")
+    assert not (tmp_path / "other").exists()  # nothing half-made left behind
+
+
+def test_a_tee_id_no_network_takes_is_one_line_not_a_validation_traceback() -> None:
+    # 'network add-tee lab run-c "1 m" --id é' was a four-line pydantic internal error
+    from pirate_bt.errors import ConfigurationError
+    from pirate_bt.pipes import load_network
+    from pirate_bt.pipes.asbuilt import insert_tee
+
+    spec = load_network("lab").spec
+    for bad in ("é", "2tee", "", "x" * 41):
+        with pytest.raises(ConfigurationError, match="is not a segment id"):
+            insert_tee(spec, "run-c", 1.0, tee_id=bad)
+    insert_tee(spec, "run-c", 1.0, tee_id="extra_2")
+
+
+def test_an_xml_file_named_in_bytes_that_are_no_utf8_is_imported(tmp_path: Path) -> None:
+    # 'import btcpp $'\xfe.xml' -o out.yaml' was 'internal error: UnicodeEncodeError'
+    import os
+
+    from pirate_bt.cli import main
+
+    xml = tmp_path / "s.xml"
+    assert main(["export", "btcpp", "straight", "-o", str(xml)]) == 0
+    odd = Path(os.fsdecode(bytes(tmp_path) + b"/\xfe.xml"))
+    xml.rename(odd)
+    out = tmp_path / "out.yaml"
+    assert main(["import", "btcpp", str(odd), "-o", str(out)]) == 0
+    assert out.read_text(encoding="utf-8").startswith("# Converted from \\xfe.xml ")

@@ -101,8 +101,11 @@ def _converted(
 ) -> tuple[str, dict[tuple[str | int, ...], SourceLocation]]:
     """The tree file's text for an XML file, and each YAML place's XML element."""
     data, where = _read(source, registry)
+    # a file name of bytes that are no UTF-8 ($'\xfe.xml', read as '\udcfe'): shown as
+    # \xfe, not an "internal error: UnicodeEncodeError" when the YAML is written
+    name = source.name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
     text = (
-        f"# Converted from {source.name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
+        f"# Converted from {name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
         + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
     )
     return text, where

@@ -30,7 +30,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.atomic import cut_name
+from pirate_bt.atomic import cut_name, new_folders_undone
 from pirate_bt.errors import (
     MAX_PATH,
     ArgumentTypeError,
@@ -237,9 +237,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
         ArgumentTypeError: ``namespace`` is not text.
         ConfigurationError: ``rosbags`` is missing.
     """
-    from pirate_bt.interop.rmw_zenoh import qualified_name
     from pirate_bt.trace.reader import open_reader
-    from pirate_bt.trace.structure import TreeStructure
 
     trace_path = file_argument(trace_path, "trace_path")
     if not isinstance(namespace, str):
@@ -260,15 +258,36 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
         raise InputError(f"{out}: exists and is not an empty directory; rosbag2 writes a new one")
     store = typestore()
     records = iter(open_reader(Path(trace_path)))
-    try:
-        # named after the target cut to 64 bytes (as write_atomically names its files):
-        # the whole name with a dot before and 9 characters after went over 255 bytes
-        folder = out.parent if str(out.parent) else "."
-        temp = Path(tempfile.mkdtemp(prefix=f".{cut_name(out.name)}.", dir=folder))
-    except OSError as exc:  # no such folder, a file on the way, no permission
-        raise InputError(
-            f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"
-        ) from None
+    folder = out.parent if str(out.parent) else Path(".")
+    # the folders on the way are made, as for every other export, and taken away again
+    # when the export fails (before 2026-11-30: 'No such file or directory')
+    with new_folders_undone(folder):
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            # named after the target cut to 64 bytes (as write_atomically names its
+            # files): the whole name with a dot before and 9 characters after went over
+            # 255 bytes
+            temp = Path(tempfile.mkdtemp(prefix=f".{cut_name(out.name)}.", dir=folder))
+        except OSError as exc:  # a file on the way, no permission
+            raise InputError(
+                f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"
+            ) from None
+        return _write_bag(rosbag2, store, records, trace_path, out, temp, namespace)
+
+
+def _write_bag(
+    rosbag2: Any,
+    store: Any,
+    records: Iterator[tuple[int, dict[str, Any]]],
+    trace_path: Path,
+    out: Path,
+    temp: Path,
+    namespace: str,
+) -> Path:
+    """Write the bag in ``temp`` and move it to ``out`` (:func:`export_rosbag2`)."""
+    from pirate_bt.interop.rmw_zenoh import qualified_name
+    from pirate_bt.trace.structure import TreeStructure
+
     bag = temp / out.name
     try:
         with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import random
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -283,6 +284,12 @@ def insert_tee(
         ConfigurationError: no such straight, ``at_m`` leaves no pipe on a side, or an
             id the network has already (the tee's, or ``SEGMENT-after``).
     """
+    if not isinstance(tee_id, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,39}", tee_id):
+        # a four-line pydantic "internal error" for 'network add-tee ... --id é'
+        raise ConfigurationError(
+            f"insert a tee: id {shown(tee_id)} is not a segment id: a letter, then letters,"
+            " digits, '_' or '-' (at most 40 characters)"
+        )
     network = Network(spec)
     ids = network.segment_ids()
     for new_id in (tee_id, f"{segment_id}-after"):
