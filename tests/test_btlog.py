@@ -141,7 +141,8 @@ def test_export_picks_the_format_by_suffix(
     assert main(["trace", "export", str(trace_path), "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert err == (
-        f"pirate-bt: {tmp_path / 'x.csv'}: unknown export format '.csv'; known: .btlog, .mcap"
+        f"pirate-bt: {tmp_path / 'x.csv'}: unknown export format '.csv'; known: .btlog, .mcap,"
+        " or a rosbag2 folder (a name ending in / or _bag)"
     )
     calls: list[tuple[Path, Path]] = []
     fake = types.ModuleType("pirate_bt.interop.mcap_trace")

@@ -135,7 +135,7 @@ def _export(args: argparse.Namespace) -> int:
     if suffix not in EXPORTS:
         raise InputError(
             f"{args.output}: unknown export format {suffix or '(no suffix)'!r};"
-            f" known: {', '.join(EXPORTS)}"
+            f" known: {', '.join(EXPORTS)}, or a rosbag2 folder (a name ending in / or _bag)"
         )
     module_name, function = EXPORTS[suffix]
     export = getattr(importlib.import_module(module_name), function)
