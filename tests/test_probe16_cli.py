@@ -325,3 +325,18 @@ def test_a_name_that_is_no_utf8_is_refused_before_any_work(
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and "is not UTF-8 text" in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_route_file_named_in_bytes_that_are_no_utf8_runs_as_a_mission(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 'mission $'\xfc.route'' was refused with '<dict>:1:1: name: must not contain
+    # control characters': the mission tree's name is the route's, made of the file name
+    import os
+    import shutil
+
+    repo = Path(__file__).resolve().parent.parent
+    odd = Path(os.fsdecode(bytes(tmp_path) + b"/\xfc\ta.route"))
+    shutil.copy(repo / "scenarios" / "straight.route", odd)
+    assert main(["mission", str(odd), "--quiet"]) == 0
+    assert capsys.readouterr().out.startswith("mission \\xfc\\ta: SUCCESS")

@@ -57,6 +57,16 @@ from pirate_bt.errors import (
 )
 from pirate_bt.units import parse_quantity, units_of
 
+
+def _printable(name: str) -> str:
+    """A file name as a route's (and its mission tree's) name: bytes that are no UTF-8
+    (``$'\\xfc.route'``, read as a lone surrogate) and control characters escaped, as
+    ``\\xfc``; a mission of such a file was refused with *<dict>:1:1: name: must not
+    contain control characters*, a place nobody wrote."""
+    text = name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
+
+
 __all__ = [
     "BEND_DIRECTIONS",
     "COMMAND_WORDS",
@@ -500,7 +510,7 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
         )
     if errors:
         raise ValidationFailed(errors)
-    route_name = name or Path(source).name.removesuffix(_SUFFIX)
+    route_name = name or _printable(Path(source).name.removesuffix(_SUFFIX))
     return Route(route_name, source, tuple(steps), network, network_loc)
 
 
