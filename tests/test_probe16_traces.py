@@ -5,7 +5,9 @@ one line naming the file and the record's line; never a traceback or a wrong fig
 
 from __future__ import annotations
 
+import gzip
 import json
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -355,3 +357,48 @@ def test_a_header_over_16_mib_reads_as_the_tree_it_holds(records: Records, tmp_p
     _write(path, [records[0], tick, *records[2:]])
     with pytest.raises(LocatedError, match=r"run\.jsonl:2:1: a line longer than 16777216 bytes"):
         read_trace(path)
+
+
+def _long_run(records: Records) -> list[bytes]:
+    """The lines of a long run: the ticks of ``records`` forty times over, renumbered."""
+    ticks = [r for r in records if r["type"] == "tick"] * 40
+    ticks = [{**t, "n": n, "t_s": n * 0.05} for n, t in enumerate(ticks, start=1)]
+    return [json.dumps(r).encode() + b"\n" for r in [records[0], *ticks, records[-1]]]
+
+
+def test_a_jsonl_gz_whose_end_a_crash_filled_with_nuls_reads_as_cut_off_there(
+    records: Records, tmp_path: Path
+) -> None:
+    # A machine that crashes saves the file's size but not its last blocks, which read
+    # as NUL bytes. The trace cut off there read as cut off, every whole line; with the
+    # NULs after it, it was "not readable as gzip after N lines" (N lines short too).
+    whole = gzip.compress(b"".join(_long_run(records)))
+    cut = whole[: len(whole) * 2 // 3]
+    (tmp_path / "cut.jsonl.gz").write_bytes(cut)
+    (tmp_path / "crashed.jsonl.gz").write_bytes(cut + b"\0" * 4096)
+    expected = [t.n for t in read_trace(tmp_path / "cut.jsonl.gz").ticks]
+    crashed = read_trace(tmp_path / "crashed.jsonl.gz")
+    assert crashed.outcome == "incomplete" and crashed.truncated and len(expected) > 100
+    # a line whose last compressed bytes were NULs is not told from the fill
+    assert [t.n for t in crashed.ticks] in (expected, expected[:-1])
+
+
+def test_a_damaged_jsonl_gz_is_refused_at_the_line_where_the_damage_is(
+    records: Records, tmp_path: Path
+) -> None:
+    # gzip.open decompresses many kB at a time: damage in a piece lost every line
+    # before it in the piece, and the error named an earlier line.
+    compressor, data, flushed = zlib.compressobj(wbits=31), b"", []
+    for line in _long_run(records):  # sync-flushed after every record, as written
+        data += compressor.compress(line) + compressor.flush(zlib.Z_SYNC_FLUSH)
+        flushed.append(len(data))
+    data += compressor.flush()
+    damaged = 300  # the first line it costs: the bytes after line 300 are no block
+    at = flushed[damaged - 1]
+    path = tmp_path / "run.jsonl.gz"
+    path.write_bytes(data[:at] + b"\xff" + data[at + 1 :])
+    with pytest.raises(LocatedError) as caught:
+        read_trace(path)
+    assert str(caught.value).startswith(
+        f"{path}:{damaged + 1}:1: not readable as gzip after {damaged} lines: "
+    )

@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import IO, Any, ClassVar, cast
+from typing import IO, Any, ClassVar
 
 import py_trees
 
@@ -43,6 +43,7 @@ from pirate_bt.trace import record_values as values
 from pirate_bt.trace.coverage import Coverage, NodeCoverage, name_paths
 from pirate_bt.trace.coverage_counts import coverage_problem
 from pirate_bt.trace.formats import refuse_folder, register_format, suffix_of
+from pirate_bt.trace.gzip_text import open_gzip_text
 from pirate_bt.trace.header_check import checked_iteration, tree_problem, unchecked
 from pirate_bt.trace.query import TraceQueries
 from pirate_bt.trace.records import (
@@ -190,7 +191,7 @@ class GzipJsonLinesReader(TraceFormatReader):
     suffixes = (".jsonl.gz",)
 
     def _open(self) -> IO[bytes]:
-        return cast(IO[bytes], gzip.open(self.path, "rb"))
+        return open_gzip_text(self.path)  # loses less to damage than gzip.open
 
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:
         number = 0
