@@ -356,7 +356,11 @@ def test_the_exports_name_a_path_that_is_no_file_name(run: Path, tmp_path: Path)
     # a folder as the output was an IsADirectoryError
     refused(lambda: export_mcap(run, tmp_path), "out_path", "is a folder")
     refused(lambda: export_btlog(run, tmp_path / f"{LONG_PART}.btlog"), "out_path")
-    refused(lambda: export_rosbag2(run, tmp_path / "no" / "such" / "bag"), "out_dir")
+    # the folders on the way to a bag are made (87cab6e), but not through a file
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x", encoding="utf-8")
+    refused(lambda: export_rosbag2(run, blocker / "such" / "bag"), "out_dir")
+    blocker.unlink()
     assert not Path("42").exists() and not Path("None").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
