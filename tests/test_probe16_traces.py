@@ -402,3 +402,37 @@ def test_a_damaged_jsonl_gz_is_refused_at_the_line_where_the_damage_is(
     assert str(caught.value).startswith(
         f"{path}:{damaged + 1}:1: not readable as gzip after {damaged} lines: "
     )
+
+
+class _FullDisk:
+    """A standard error on a full disk: every write refused."""
+
+    def __init__(self) -> None:
+        self.tries = 0
+
+    def isatty(self) -> bool:
+        return False
+
+    def write(self, text: str) -> int:
+        import errno
+
+        self.tries += 1
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    def flush(self) -> None:
+        return None
+
+
+def test_a_live_view_that_cannot_write_does_not_end_the_run(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # simulate_tree(live=True) with standard error on a full disk ended a run that
+    # would succeed, with the view's OSError (the CLI guarded its own runs only: the
+    # CLI probe); the view now switches itself off, as logging drops a record
+    import sys
+
+    full = _FullDisk()
+    monkeypatch.setattr(sys, "stderr", full)
+    result = pirate_bt.simulate_tree("straight", params={"distance": "0.1 m"}, live=True)
+    assert result.status == "success", result.why
+    assert full.tries == 1  # tried once, then left alone

@@ -72,12 +72,15 @@ class LiveView:
         self._last_draw = -float("inf")
         self._last_line = ""
         self._steps = self.structure.steps()
+        self._off = False  # the stream refused a write: the view is gone, not the run
         step_ids = {step.id for step in self._steps}
         self._step_nodes = [(i, n) for i, n in self._nodes if i in step_ids]
 
     def __call__(self, tree: object = None) -> None:
         """Note one tick (the signature of a py_trees post-tick handler)."""
         self._ticks += 1
+        if self._off:
+            return
         if self.redraw:
             now = time.monotonic()
             if now - self._last_draw < self.interval_s and not self._finished():
@@ -123,8 +126,7 @@ class LiveView:
         if self._drawn_lines:
             out.append(f"\x1b[{self._drawn_lines}F\x1b[J")
         out.append("\n".join(lines) + "\n")
-        self.stream.write("".join(out))
-        self.stream.flush()
+        self._write("".join(out))
         self._drawn_lines = len(lines)
 
     def _line(self) -> None:
@@ -149,8 +151,17 @@ class LiveView:
             self._last_line = key
             status = {node_id: STATUS_CODE[n.status] for node_id, n in self._step_nodes}
             status[self.structure.root.id] = STATUS_CODE[self._nodes[0][1].status]
-            self.stream.write(f"[{self._progress(status)}] {text}\n")
+            self._write(f"[{self._progress(status)}] {text}\n")
+
+    def _write(self, text: str) -> None:
+        """Write and flush; a stream that refuses (a full log disk, a closed terminal)
+        switches the view off, as Python's logging drops a record it cannot write: a
+        run that would succeed is not ended by its view (before 2026-11-30 it was)."""
+        try:
+            self.stream.write(text)
             self.stream.flush()
+        except (OSError, ValueError):  # ValueError: a file closed under the view
+            self._off = True
 
 
 def _nothing(_tree: object = None) -> None:
