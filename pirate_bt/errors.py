@@ -71,6 +71,7 @@ __all__ = [
     "SourceLocation",
     "UnitError",
     "ValidationFailed",
+    "bytes_escaped",
     "caller_location",
     "file_argument",
     "output_argument",
@@ -146,6 +147,14 @@ def said_of(exc: BaseException, limit: int | None = None) -> str:
 
 
 _ADDRESSED = re.compile(r"<.* at 0x[0-9a-fA-F]+>", re.DOTALL)
+
+
+def bytes_escaped(text: str) -> str:
+    """``text`` with the bytes that are no UTF-8 of a name the system gave
+    (``os.fsdecode`` reads ``$'\\xff.yaml'`` as ``'\\udcff.yaml'``) shown as ``\\xff``:
+    text that can be written to a file or a terminal, where the lone surrogate made
+    an ``internal error: UnicodeEncodeError``."""
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 def shown(value: object, limit: int = _SHOWN) -> str:

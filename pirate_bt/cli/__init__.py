@@ -167,8 +167,9 @@ def utf8_text(value: str) -> str:
     try:
         value.encode("utf-8")
     except UnicodeEncodeError:
-        shown = value.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
-        raise argparse.ArgumentTypeError(f"'{shown}' is not UTF-8 text") from None
+        from pirate_bt.errors import bytes_escaped
+
+        raise argparse.ArgumentTypeError(f"'{bytes_escaped(value)}' is not UTF-8 text") from None
     return value
 
 

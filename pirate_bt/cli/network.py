@@ -21,7 +21,7 @@ from typing import Any
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.cli import STDOUT, utf8_text
-from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed
+from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed, bytes_escaped
 from pirate_bt.units import parse_quantity
 
 __all__ = ["configure", "run"]
@@ -242,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(str(exc)) from None
     # a file name of bytes that are no UTF-8 ($'\xff.yaml', read as '\udcff') shown as
     # \xff: it was "internal error: UnicodeEncodeError ... surrogates not allowed", exit 1
-    header = header.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    header = bytes_escaped(header)
     text = network_yaml(spec, header)
     _loads_back(text, args.output, what)
     _write(text, args.output)

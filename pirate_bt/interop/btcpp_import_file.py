@@ -21,6 +21,7 @@ from pirate_bt.errors import (
     LocatedError,
     SourceLocation,
     ValidationFailed,
+    bytes_escaped,
     file_argument,
 )
 from pirate_bt.interop.btcpp_import import _read
@@ -103,7 +104,7 @@ def _converted(
     data, where = _read(source, registry)
     # a file name of bytes that are no UTF-8 ($'\xfe.xml', read as '\udcfe'): shown as
     # \xfe, not an "internal error: UnicodeEncodeError" when the YAML is written
-    name = source.name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    name = bytes_escaped(source.name)
     text = (
         f"# Converted from {name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
         + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)

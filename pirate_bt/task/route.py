@@ -53,6 +53,7 @@ from pirate_bt.errors import (
     SourceLocation,
     UnitError,
     ValidationFailed,
+    bytes_escaped,
     shown,
 )
 from pirate_bt.units import parse_quantity, units_of
@@ -63,8 +64,7 @@ def _printable(name: str) -> str:
     (``$'\\xfc.route'``, read as a lone surrogate) and control characters escaped, as
     ``\\xfc``; a mission of such a file was refused with *<dict>:1:1: name: must not
     contain control characters*, a place nobody wrote."""
-    text = name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
-    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in bytes_escaped(name))
 
 
 __all__ = [
