@@ -78,6 +78,7 @@ from pirate_bt.link.requests import (
 )
 from pirate_bt.link.transport import ByteLink
 from pirate_bt.robot.description import ControlMode
+from pirate_bt.robot.port import unheard_text
 
 __all__ = [
     "HEARTBEATS_PER_WATCHDOG",
@@ -434,10 +435,7 @@ class Session(InboundMixin, ReaderMixin):
     def _unheard(self, how_long: str) -> str:
         """Why the link is lost, for ``how_long`` seconds: silence, or bytes that made no
         good frame (named, so that a flooded line is not taken for a silent bridge)."""
-        noise = self.line_noise()
-        if not noise:
-            return f"nothing heard from the bridge for {how_long} s"
-        return f"no good frame from the bridge for {how_long} s: {noise}"
+        return unheard_text(how_long, self.line_noise())
 
     def _submit(
         self, msg: Setpoint | BulkSetpoints | EStopReset, wire: bytes | None = None

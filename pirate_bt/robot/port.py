@@ -18,7 +18,17 @@ from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
-__all__ = ["LinkHealth", "RobotPort"]
+__all__ = ["LinkHealth", "RobotPort", "unheard_text"]
+
+
+def unheard_text(how_long: str, line_noise: str) -> str:
+    """The bridge unheard for ``how_long`` seconds (``"0.510"``, ``"over 0.5"``), for
+    people: silence, or the bytes that came and made no good frame (``line_noise``), so
+    that a flooded line is not taken for a silent bridge. The link's ``LinkLost`` and
+    the supervisor's safe-state cause say it alike."""
+    if line_noise:
+        return f"no good frame from the bridge for {how_long} s: {line_noise}"
+    return f"nothing heard from the bridge for {how_long} s"
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,9 +86,7 @@ class LinkHealth:
         """The bridge unheard for ``silent_s`` seconds, for people: *nothing heard from
         the bridge for 0.510 s*, or, when bytes came that made no good frame, *no good
         frame from the bridge for 0.510 s: 204 unreadable frames (...) in 15963 bytes*."""
-        if self.line_noise:
-            return f"no good frame from the bridge for {silent_s:.3f} s: {self.line_noise}"
-        return f"nothing heard from the bridge for {silent_s:.3f} s"
+        return unheard_text(f"{silent_s:.3f}", self.line_noise)
 
     def states_refused_text(self) -> str:
         """:attr:`states_refused` for people (``"STATE frames arrived but all 15 were
