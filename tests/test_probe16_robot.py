@@ -362,7 +362,7 @@ def test_a_bend_on_a_robot_without_spring_sensors_says_so(tmp_path: Path) -> Non
     # clamp.unclamped_below and the wall) cannot be told from a clamp closing, so the
     # bend PAB's drive is refused half_transitioning; until 2026-11-30 the refusal did
     # not say why, now it names the bend modules with no spring sensor
-    # (pirate_bt/safety/springs.py)
+    # (check_transitioning in pirate_bt/safety/checks.py)
     edits = [
         (f"      - {{<<: *spring_sensor, slot: 1, name: bend_{k}_spring}}\n", "")
         for k in range(1, 5)

@@ -409,9 +409,36 @@ def check_transitioning(ctx: CheckContext, intent: Intent) -> Problem | None:
         ):
             return Problem(
                 Reason.HALF_TRANSITIONING,
-                f"no drive while the {half} half is {state} (between unclamped and clamped)",
+                f"no drive while the {half} half is {state} (between unclamped and clamped)"
+                + (_unsprung(ctx, half) if state is ClampState.TRANSITIONING else ""),
             )
     return None
+
+
+def _unsprung(ctx: CheckContext, half: Half) -> str:
+    """Why a half is transitioning on a robot with no spring sensor on some of its bend
+    modules (``""`` when every one has one): its joints between ``unclamped_below`` and
+    the wall cannot be told from a clamp closing (the bend PAB's 40 deg turn, a drive
+    after it refused with nothing to say it was the robot, before 2026-11-30)."""
+    robot = ctx.robot
+    missing: list[str] = []
+    for module in robot.bend_modules(half):
+        try:
+            robot.sensor_of(module.name, SensorKind.SPRING)
+        except KeyError:
+            missing.append(module.name)
+    if not missing:
+        return ""
+    angles = [ctx.state.joint_angle_rad.get(m.name) for m in robot.bend_modules(half)]
+    shown = ", ".join(f"{math.degrees(a):.1f}°" for a in angles if a is not None)
+    clamp = robot.clamp
+    wall = min(c.angle for c in clamp.contact_angles)
+    return (
+        f": the robot has no spring sensor on {', '.join(missing)} to confirm a clamp, so"
+        f" the {half} half's joints at {shown} (neither below clamp.unclamped_below"
+        f" {math.degrees(clamp.unclamped_below):.1f}° nor at the wall,"
+        f" {math.degrees(wall):.1f}°) cannot be told from a clamp closing"
+    )
 
 
 def _crossing_opening(ctx: CheckContext, half: Half) -> bool:

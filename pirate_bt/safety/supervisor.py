@@ -58,6 +58,7 @@ from pirate_bt.robot.description import (
 from pirate_bt.robot.port import LinkHealth, RobotPort
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import (
+    INVARIANTS,
     Check,
     ClampState,
     HalfTarget,
@@ -82,7 +83,6 @@ from pirate_bt.safety.operator import (
     Mode,
     OperatorInput,
 )
-from pirate_bt.safety.springs import default_checks
 from pirate_bt.safety.supervisor_authority import AuthorityMixin, as_mode
 from pirate_bt.safety.supervisor_decide import DecisionMixin, board_readings
 from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
@@ -149,8 +149,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         clock: The clock every freshness and rate check reads.
         mode: The mode to start in.
         inputs: Operator input sources drained at the start of every :meth:`tick`.
-        checks: The state invariants (default :data:`~pirate_bt.safety.checks.INVARIANTS`,
-            the transition check naming missing spring sensors: :mod:`~pirate_bt.safety.springs`).
+        checks: The state invariants (default :data:`~pirate_bt.safety.checks.INVARIANTS`).
         log_size: How many verdicts :attr:`verdicts` keeps.
     """
 
@@ -169,7 +168,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         self.robot: RobotDescription = port.robot
         self.clock = clock
         self.verdicts = VerdictLog(log_size)
-        self._checks: list[Check] = default_checks() if checks is None else list(checks)
+        self._checks: list[Check] = list(INVARIANTS if checks is None else checks)
         self._inputs: list[OperatorInput] = list(inputs)
         self._mode = as_mode(mode)  # its text too ("manual"); checks compare by identity
         self._tick = 0
