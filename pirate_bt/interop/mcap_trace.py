@@ -59,6 +59,7 @@ from pirate_bt.interop.mcap_writer import (
     load_mcap,
 )
 from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
+from pirate_bt.trace.record_values import readable_text
 from pirate_bt.trace.records import BAD_RECORD
 from pirate_bt.trace.sink import register_process_writer
 from pirate_bt.trace.writer import register_writer
@@ -148,9 +149,11 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
 
 
 def _read_messages(
-    path: str | Path,
+    path: str | Path, readable: bool = False
 ) -> tuple[list[tuple[str, dict[str, Any]]], bool, dict[str, str]]:
-    """:func:`read_mcap_messages`, and every channel's topic with its encoding."""
+    """:func:`read_mcap_messages`, and every channel's topic with its encoding; with
+    ``readable``, text mended as :func:`~pirate_bt.trace.record_values.readable_text`
+    mends a ``.jsonl`` line's (a :class:`~pirate_bt.trace.Trace` is shown)."""
     load_mcap()
     from mcap.exceptions import McapError
     from mcap.records import Channel, Footer, Message
@@ -174,7 +177,8 @@ def _read_messages(
                         number += 1
                         topic = channels.get(record.channel_id)
                         if topic is not None:
-                            out.append((topic, _json_object(path, number, topic, record.data)))
+                            message = _json_object(path, number, topic, record.data)
+                            out.append((topic, readable_text(message, record.data, readable)))
                     elif isinstance(record, Footer):
                         complete = True
             except InputError:
@@ -212,14 +216,16 @@ def _json_object(path: str | Path, number: int, topic: str, data: bytes) -> dict
     return message
 
 
-def _trace_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
+def _trace_messages(
+    path: str | Path, readable: bool = False
+) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
     """:func:`read_mcap_messages` of a file that should hold a pirate_bt trace.
 
     Raises:
         InputError: as :func:`read_mcap_messages`, and a file with no JSON
             ``/pirate/run`` channel (another tool's recording, a rosbag2 bag's MCAP).
     """
-    messages, cut, encodings = _read_messages(path)
+    messages, cut, encodings = _read_messages(path, readable)
     if not messages and encodings.get(RUN) != "json" and (encodings or not cut):
         # (a file cut before its channels is a run cut off at its start: said later)
         listed = ", ".join(f"{topic} ({encodings[topic]})" for topic in sorted(encodings)[:6])
@@ -256,7 +262,9 @@ class McapTraceReader(TraceFormatReader):
     suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
 
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
-        messages, cut = _trace_messages(self.path)
+        # read_trace's text as shown: half a UTF-16 pair ("\ud800") in a name was an
+        # internal error printing it, as it was for a .jsonl trace
+        messages, cut = _trace_messages(self.path, self.readable)
         self.truncated = cut
         yield from enumerate(records_from_messages(messages), start=1)
 
