@@ -320,6 +320,17 @@ class Drive(Primitive):
         if key:
             _write_blackboard(key, abs(self._odometry_m))
 
+    def _ramped(self, velocity: float) -> float:
+        """The speed to ask for this tick: ``velocity``, or where an acceleration limit
+        refuses a larger step (``policy: refuse``), the step toward it that it allows
+        (with ``clip`` the supervisor clips the step and the drive asks again)."""
+        refuses = any(
+            (acc := m.limits.acceleration) is not None and acc.policy.value == "refuse"
+            for m in self.robot.drive_motors()
+        )
+        reach = getattr(self.supervisor, "drive_reach", None)
+        return float(reach(velocity)) if refuses and reach is not None else velocity
+
     def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
         """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
         clamp = self.robot.clamp
@@ -463,14 +474,15 @@ class Drive(Primitive):
         if lost is not None:
             return self.fail(f"{lost} (after {travelled:.3f} m)")
         if not self._at_speed:
-            command = _commands().Drive(velocity)
+            asked = self._ramped(velocity)
+            command = _commands().Drive(asked)
             if self._resend and self.supervisor.check(command).refused:
                 pass  # asking again now would be refused: keep going, ask again later
             else:
                 ok, done = self.send(command)
                 if not ok:
                     return self.refused()
-                self._at_speed = done
+                self._at_speed = done and asked == velocity
         robot = self.robot
         stall_a = p.stall_current or 0.8 * robot.motion.drive_stall_current
         drives = robot.drive_motors()

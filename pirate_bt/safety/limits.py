@@ -6,6 +6,8 @@ limit's policy; :func:`limit` applies them all to one motor command.
 
 from __future__ import annotations
 
+import math
+
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
     ControlMode,
@@ -18,7 +20,7 @@ from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import Problem
 from pirate_bt.safety.verdict import Reason
 
-__all__ = ["limit", "measured"]
+__all__ = ["drive_reach", "limit", "measured"]
 
 
 def measured(robot: RobotDescription, motor: Motor, state: RobotState | None) -> float | None:
@@ -124,3 +126,39 @@ def limit(
     if problem is not None:
         return problem
     return value, notes
+
+
+def drive_reach(
+    robot: RobotDescription,
+    last_setpoint: dict[str, tuple[ControlMode, float, float]],
+    velocity: float,
+    state: RobotState | None,
+    now: float,
+) -> float:
+    """The drive speed nearest ``velocity`` that every drive motor's acceleration limit
+    lets a ``Drive`` reach now, as :func:`limit` judges it (from the same reference, over
+    the same time): ``velocity`` itself where no limit stands in the way.
+
+    A primitive steps its setpoint by this where a limit's policy refuses a larger step
+    (with ``clip`` the supervisor clips it the same way).
+    """
+    lo, hi = -math.inf, math.inf
+    window = robot.safety.rate_window
+    for motor in robot.drive_motors():
+        acc = motor.limits.acceleration
+        if acc is None:
+            continue
+        last = last_setpoint.get(motor.name)
+        if last is not None and last[0] is ControlMode.VELOCITY:
+            ref = last[1]
+            dt = min(max(now - last[2], 0.0), window)
+        else:
+            ref = measured(robot, motor, state) or 0.0
+            dt = window
+        step = acc.max * dt
+        # slowing down (toward 0, not past it) is never limited; a reversal is a speed-up
+        if ref >= 0.0:
+            lo, hi = max(lo, min(0.0, ref - step)), min(hi, ref + step)
+        else:
+            lo, hi = max(lo, ref - step), min(hi, max(0.0, ref + step))
+    return min(max(velocity, lo), hi)

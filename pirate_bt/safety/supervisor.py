@@ -78,6 +78,7 @@ from pirate_bt.safety.commands import (
     Unclamp,
 )
 from pirate_bt.safety.expand import Expander
+from pirate_bt.safety.limits import drive_reach
 from pirate_bt.safety.operator import (
     Confirmation,
     Mode,
@@ -468,6 +469,15 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         """What :meth:`command` would decide, without sending or recording anything."""
         with self._lock:
             return self._decide(command, source, send=False)
+
+    def drive_reach(self, velocity_mps: float) -> float:
+        """The drive speed nearest ``velocity_mps`` a ``Drive`` may ask for now without
+        a drive motor's acceleration limit refusing or clipping it (``velocity_mps``
+        itself where none does): a drive steps toward its speed by this, tick by tick."""
+        with self._lock:
+            return drive_reach(
+                self.robot, self._last_setpoint, velocity_mps, self._port.state(), self.clock.now()
+            )
 
     def require(self, command: Command, *, source: Source = Source.TREE) -> Verdict:
         """Like :meth:`command`, but a refusal raises.

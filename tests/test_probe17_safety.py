@@ -1,0 +1,35 @@
+"""Probe 17 of the protective layer and the behaviours: a robot description's limits,
+guards and the supervisor used from Python as the docs describe them, on the simulator.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pirate_bt
+
+ROOT = Path(__file__).resolve().parent.parent
+CLIP = "acceleration: {max: 400 mm/s^2, policy: clip}"
+
+
+def _refusing_robot(tmp_path: Path) -> Path:
+    """The bundled robot, its drives' acceleration limit refused rather than clipped."""
+    text = (ROOT / "hardware" / "pirate.yaml").read_text("utf-8")
+    assert CLIP in text
+    path = tmp_path / "refuse.yaml"
+    path.write_text(text.replace(CLIP, CLIP.replace("clip", "refuse")), encoding="utf-8")
+    return path
+
+
+# -- 1. limits with policy refuse ------------------------------------------------------
+
+
+def test_a_drive_steps_within_an_acceleration_limit_that_refuses(tmp_path: Path) -> None:
+    # A user who asks the supervisor to refuse over-acceleration (docs/safety.md, each
+    # limit's policy) could run no PAB at all: every drive asked for its full speed at
+    # once and was refused (*acceleration_limit: bend_1_drive: velocity change from 0 in
+    # 0.1 s: target 0.08 outside [-0.04, 0.04]*), until 2026-11-30. The drive now steps
+    # toward its speed by what the limit allows, as the clip policy did for it.
+    robot = _refusing_robot(tmp_path)
+    result = pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, robot=robot)
+    assert result.status == "success", result.why
