@@ -4,6 +4,10 @@ line and column, or the node); nothing is left half-written."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import py_trees
@@ -13,6 +17,36 @@ from pirate_bt.cli import main
 from pirate_bt.trace import TraceRecorder, read_trace
 
 ROOT = Path(__file__).resolve().parents[1]
+PY_CLI = [sys.executable, "-m", "pirate_bt"]
+
+
+@pytest.fixture(scope="module")
+def straight_trace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    import pirate_bt
+
+    path = tmp_path_factory.mktemp("run") / "straight.jsonl"
+    pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, trace=path)
+    return path
+
+
+def _on_a_full_disk(argv: list[str], limit: int = 20000) -> subprocess.CompletedProcess[str]:
+    import resource
+
+    def file_size_limit() -> None:  # a disk that fills as it writes, in the child only
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    # no .pyc written: a short write under the limit left a cut-off one in place
+    # ("EOFError: marshal data too short" for every later import of the module)
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    return subprocess.run(
+        [*PY_CLI, *argv],
+        preexec_fn=file_size_limit,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 class _Says(py_trees.behaviour.Behaviour):
@@ -41,3 +75,24 @@ def test_half_a_utf16_pair_in_an_mcap_trace_reads_as_a_replacement_character(
         out = capsys.readouterr().out
         assert "r\ufffdoot" in out
         out.encode()  # what a terminal is sent: raised UnicodeEncodeError
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs file size limits")
+@pytest.mark.parametrize("made", [False, True])
+def test_a_rosbag2_export_onto_a_full_disk_names_the_bag_and_leaves_nothing(
+    straight_trace: Path, tmp_path: Path, made: bool
+) -> None:
+    # It said only "pirate-bt: File too large": no file named, nothing said was written.
+    pytest.importorskip("rosbags")
+    bag = tmp_path / "deep" / "run_bag"
+    if made:  # an empty folder given is filled: it stays, empty
+        bag.mkdir(parents=True)
+    done = _on_a_full_disk(["trace", "export", str(straight_trace), "-o", f"{bag}/"])
+    assert done.returncode == 2, done
+    errors = done.stderr.strip().splitlines()
+    assert len(errors) == 1 and "Traceback" not in done.stderr, done.stderr
+    assert str(bag) in errors[0] and "cannot write" in errors[0], errors
+    assert "File too large" in errors[0]
+    if made:
+        assert list(bag.iterdir()) == []
+    assert [p.name for p in tmp_path.iterdir()] == (["deep"] if made else [])

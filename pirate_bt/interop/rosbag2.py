@@ -362,6 +362,10 @@ def _write_bag(
                 part.rename(out / part.name)  # the metadata last: then it is a bag
         else:
             bag.rename(out)
+    except OSError as exc:  # a full disk: was the bare 'File too large', no file named
+        raise InputError(
+            f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror or exc}"
+        ) from None
     finally:
         shutil.rmtree(temp, ignore_errors=True)
     return out
