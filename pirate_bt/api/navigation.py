@@ -33,6 +33,7 @@ from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
 from pirate_bt.task.navigators import builtin_name, check_navigator_map, load_navigator
 from pirate_bt.task.secure import hold_both
+from pirate_bt.task.start_check import check_map_start
 
 __all__ = ["MAX_DEADLINE_S", "MAX_STEPS", "navigate"]
 
@@ -194,6 +195,8 @@ def navigate(
             target = copy.deepcopy(target)
     # before anything moves, on a copy: a check_map that mutates the map changes nothing
     check_navigator_map(navigator, name, copy.deepcopy(map_network), deadline_s)
+    if map_network is not None:  # every step would be refused, the first after connecting
+        check_map_start(map_network, description, name)
     made = trace is not None and not Path(trace).exists()
     if trace is not None:  # every argument checked: an unknown navigator makes no folder
         _trace_folder(trace)

@@ -19,12 +19,14 @@ in straight pipe:
 
 from __future__ import annotations
 
-from pirate_bt.errors import LocatedError
+from pirate_bt.errors import InputError, LocatedError
+from pirate_bt.pipes.network import Network, Piece, PieceKind
 from pirate_bt.pipes.network import Path as PipePath
-from pirate_bt.pipes.network import PieceKind
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.task.plan import robot_length_m
 from pirate_bt.task.route import Route
 
-__all__ = ["check_start"]
+__all__ = ["check_map_start", "check_start"]
 
 _TOL_M = 1e-6
 _KINDS = {
@@ -34,14 +36,10 @@ _KINDS = {
 }
 
 
-def check_start(route: Route, path: PipePath, start_m: float, length_m: float) -> None:
-    """Refuse a start with a bend or a T-joint under the robot (front tip at ``start_m``).
-
-    Raises:
-        LocatedError: one is under it, at the route's first command.
-    """
+def _under(path: PipePath, start_m: float, length_m: float) -> Piece | None:
+    """The bend or T-joint under a robot ``length_m`` long with its front tip at ``start_m``."""
     rear_m = start_m - length_m
-    under = next(
+    return next(
         (
             piece
             for piece in path.pieces
@@ -51,14 +49,50 @@ def check_start(route: Route, path: PipePath, start_m: float, length_m: float) -
         ),
         None,
     )
+
+
+def _across(under: Piece, start_m: float, length_m: float) -> str:
+    return (
+        f"the robot ({length_m:.2f} m long) is put in"
+        f" with its front tip at {start_m:.2f} m, across the {_KINDS[under.kind]}"
+        f" {under.segment!r} ({under.start_m:.2f}-{under.end_m:.2f} m): it must be put"
+        " in on straight pipe (the network needs a straight at least as long as the"
+        " robot before its first bend or T-joint, or a start position with the whole"
+        " robot past it)"
+    )
+
+
+def check_start(route: Route, path: PipePath, start_m: float, length_m: float) -> None:
+    """Refuse a start with a bend or a T-joint under the robot (front tip at ``start_m``).
+
+    Raises:
+        LocatedError: one is under it, at the route's first command.
+    """
+    under = _under(path, start_m, length_m)
     if under is not None and route.steps:
         step = route.steps[0]
         raise LocatedError(
-            f"'{step.text}' cannot be planned: the robot ({length_m:.2f} m long) is put in"
-            f" with its front tip at {start_m:.2f} m, across the {_KINDS[under.kind]}"
-            f" {under.segment!r} ({under.start_m:.2f}-{under.end_m:.2f} m): it must be put"
-            " in on straight pipe (the network needs a straight at least as long as the"
-            " robot before its first bend or T-joint, or a start position with the whole"
-            " robot past it)",
+            f"'{step.text}' cannot be planned: {_across(under, start_m, length_m)}",
             step.location,
+        )
+
+
+def check_map_start(network: Network, robot: RobotDescription, name: str) -> None:
+    """Refuse a navigation whose map puts the robot in across a bend or a T-joint,
+    before anything connects: every step of it would be refused at its planning, the
+    first one after connecting (exit 1), where a mission is refused at planning
+    (exit 2).
+
+    Raises:
+        InputError: the map puts the robot in across one (named, as a mission's).
+    """
+    path = network.path({})
+    length_m = robot_length_m(robot)
+    start = network.spec.start.position
+    start_m = min(max(start if start is not None else length_m, length_m), path.length_m)
+    under = _under(path, start_m, length_m)
+    if under is not None:
+        raise InputError(
+            f"navigator {name!r} cannot start on the map {network.spec.name!r}:"
+            f" {_across(under, start_m, length_m)}"
         )

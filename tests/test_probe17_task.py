@@ -1,0 +1,81 @@
+"""The seventeenth probe of missions, navigation and surveys (docs/missions.md,
+docs/navigators.md), each test written from what a user saw.
+
+A navigation whose map put the robot in across a bend or a T-joint connected, and its
+first step was refused (exit 1), where a mission with that start is refused at
+planning (exit 2) with nothing connected.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+from pirate_bt.pipes import Network, network_from_data
+
+
+def _net(*segments: dict[str, Any]) -> Network:
+    return network_from_data({"name": "short", "diameter": "63 mm", "segments": list(segments)})
+
+
+SHORT_THEN_BEND = _net(
+    {"id": "a", "type": "straight", "length": "0.3 m"},
+    {"id": "b", "type": "bend", "direction": "right"},
+    {"id": "c", "type": "straight", "length": "2 m"},
+)
+TEE_FIRST = _net(
+    {"id": "t", "type": "tee", "branch": {"direction": "left", "segments": []}},
+    {"id": "c", "type": "straight", "length": "2 m"},
+)
+
+
+@pytest.mark.parametrize(
+    ("network", "across"),
+    [(SHORT_THEN_BEND, "across the bend 'b' (0.30-0.44 m)"), (TEE_FIRST, "the T-joint 't'")],
+)
+def test_a_navigation_put_in_across_a_feature_is_refused_before_connecting(
+    network: Network, across: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pirate_bt.api.navigation as navigation
+
+    def no_connect(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("connected")
+
+    monkeypatch.setattr(navigation, "connect", no_connect)
+    with pytest.raises(InputError) as refused:  # was: a failure after connecting
+        pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
+    message = str(refused.value)
+    assert message.startswith("navigator 'goal' cannot start on the map 'short':")
+    assert across in message and "must be put in on straight pipe" in message
+
+
+def test_the_cli_navigate_exits_2_on_such_a_map(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    net = tmp_path / "short.yaml"
+    net.write_text(
+        "schema_version: 1\nname: short\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: a, type: straight, length: 0.3 m}\n"
+        "  - {id: b, type: bend, direction: right}\n"
+        "  - {id: c, type: straight, length: 2 m}\n",
+        encoding="utf-8",
+    )
+    argv = ["navigate", "goal", "--sim", str(net), "--map", str(net), "--param", "segment=c"]
+    assert main(argv) == 2  # was 1, after connecting and a refused first step
+    err = capsys.readouterr().err
+    assert "across the bend 'b'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_map_with_room_for_the_robot_still_navigates() -> None:
+    network = _net(
+        {"id": "a", "type": "straight", "length": "1 m"},
+        {"id": "b", "type": "bend", "direction": "right"},
+        {"id": "c", "type": "straight", "length": "2 m"},
+    )
+    result = pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
+    assert result.status == "success", result.why
