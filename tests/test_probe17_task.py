@@ -79,3 +79,26 @@ def test_a_map_with_room_for_the_robot_still_navigates() -> None:
     )
     result = pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
     assert result.status == "success", result.why
+
+
+def test_a_survey_of_a_drop_writes_its_first_straight_at_its_length(tmp_path: Path) -> None:
+    # was 1.813 m for 2 m: the robot slid 0.19 m down the drop as it was put in,
+    # before its first clamp, and the odometry never saw it
+    network = network_from_data(
+        {
+            "name": "drop",
+            "diameter": "63 mm",
+            "slope": "-60 deg",
+            "segments": [
+                {"id": "a", "type": "straight", "length": "2 m"},
+                {"id": "b", "type": "bend", "direction": "right"},
+                {"id": "c", "type": "straight", "length": "1 m"},
+            ],
+        }
+    )
+    result = pirate_bt.survey(sim=network, output=tmp_path / "drop.yaml")
+    assert result.network is not None
+    first = result.network.spec.segments[0]
+    assert first.type == "straight" and first.length == pytest.approx(2.0, abs=0.02)
+    assert result.navigation.counters is not None
+    assert not result.navigation.counters.violations
