@@ -452,3 +452,38 @@ def test_run_names_are_labels_not_mathtext_or_files(tmp_path: Path) -> None:
     assert {p.parent for p in files} == {tmp_path / "out"}
     assert "&lt;b&gt;../t&lt;/b&gt;" in (tmp_path / "out" / "report.html").read_text()
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_a_target_that_is_not_there_is_refused_once_before_any_case(tmp_path: Path) -> None:
+    # each case process imported it and died of it: one error row per case
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match=r"^target: no module named 'no_such_module_17'"):
+        run_campaign(_spec(), output=out, target="no_such_module_17:run")
+    with pytest.raises(InputError, match=r"^target: pirate_bt\.campaign\.case has no function"):
+        run_campaign(_spec(), output=out, target="pirate_bt.campaign.case:nope")
+    assert not out.exists()
+
+
+def test_a_target_that_raises_as_it_is_imported_is_refused_with_its_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "broken_target_17.py").write_text("raise ValueError('no config')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(InputError, match=r"^target: importing broken_target_17 raised .*no config"):
+        run_campaign(_spec(), target="broken_target_17:run")
+
+
+def test_workers_beside_a_cluster_or_an_executor_is_refused_not_dropped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with ThreadPoolExecutor(1) as pool, pytest.raises(InputError, match="give one or the other"):
+        run_campaign(_spec(), executor=pool, workers=4)
+    with pytest.raises(InputError, match=r"^workers is the local pool's size; with scheduler"):
+        run_campaign(_spec(), scheduler="tcp://127.0.0.1:9", workers=2)
+    spec = tmp_path / "w.campaign.yaml"
+    spec.write_text("name: w\nruns:\n  - {tree: straight, network: straight}\n")
+    code = main(["campaign", str(spec), "--workers", "2", "--scheduler", "tcp://127.0.0.1:9"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--workers is the local pool's size; with --scheduler" in err, err
+    assert not (tmp_path / "campaign-w").exists() and not Path("campaign-w").exists()

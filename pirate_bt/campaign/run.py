@@ -20,6 +20,9 @@ validated, and only then does an executor start and a file get written.
 
 from __future__ import annotations
 
+import importlib
+import importlib.machinery
+import importlib.util
 import os
 import re
 import shlex
@@ -57,7 +60,7 @@ from pirate_bt.campaign.spec import (
 )
 from pirate_bt.campaign.started import Start, begin, write_record
 from pirate_bt.campaign.stats import GroupStats, group_stats
-from pirate_bt.errors import InputError, digit_count
+from pirate_bt.errors import InputError, digit_count, said_of
 
 __all__ = [
     "CampaignResult",
@@ -272,6 +275,33 @@ def _check_options(options: dict[str, Any]) -> None:
         raise InputError(f"executor: give a concurrent.futures executor, not {executor!r}"[:200])
 
 
+def _check_target(target: str, cluster: bool) -> None:
+    """The case function can be imported, as each case process will import it: a
+    module or function that is not there was one error row per case.
+
+    A module this process cannot find may still be the case processes': on a
+    ``PYTHONPATH`` given to them, or in a cluster's own environment; only a module
+    found nowhere is refused.
+    """
+    module, _, name = target.partition(":")
+    try:
+        spec = importlib.util.find_spec(module)
+    except Exception:  # a parent package that is missing, or raises as it is imported
+        spec = None
+    if spec is None:
+        top = module.partition(".")[0]
+        paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        if cluster or importlib.machinery.PathFinder.find_spec(top, paths) is not None:
+            return
+        raise InputError(f"target: no module named {module!r} (each case process imports it)")
+    try:
+        found = importlib.import_module(module)
+    except Exception as exc:  # it fails every case the same way
+        raise InputError(f"target: importing {module} raised {said_of(exc)}"[:300]) from None
+    if not callable(getattr(found, name, None)):
+        raise InputError(f"target: {module} has no function {name!r}"[:300])
+
+
 def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> float | None:
     """A case's wall-time limit in seconds (``"90 s"`` or seconds; ``None`` stays None).
 
@@ -342,8 +372,8 @@ def run_campaign(
             its folder, then as given (the working folder), then the bundled
             files; in data or a model, against ``base`` (default: the working
             folder), then the bundled files.
-        workers: Local worker processes (default: one per core); ignored with a
-            scheduler or an executor.
+        workers: Local worker processes (default: one per core); refused beside a
+            scheduler or an executor, which have workers of their own.
         scheduler: A Dask scheduler address (``tcp://host:8786``) instead.
         scheduler_file: A Dask scheduler file instead.
         scheduler_timeout: How long to keep trying to reach the scheduler before the
@@ -433,6 +463,13 @@ def run_campaign(
     chosen = [name for name, value in where_to.items() if value is not None]
     if len(chosen) > 1:
         raise InputError(f"give at most one of {' and '.join(chosen)}")
+    _check_target(target, cluster=bool(chosen) and executor is None)
+    if chosen and workers is not None:
+        # it was silently dropped: the cluster or the executor has workers of its own
+        raise InputError(
+            f"workers is the local pool's size; with {chosen[0]} the cases run on its own"
+            " workers (give one or the other)"
+        )
     if resume and output is None:
         raise InputError("resume needs an output folder")
     model = load_spec(spec, base)

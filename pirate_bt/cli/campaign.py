@@ -112,6 +112,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise InputError("--workers must be at least 1")
+    cluster = "--scheduler-file" if args.scheduler_file else "--scheduler" if args.scheduler else ""
+    if cluster and args.workers is not None:
+        raise InputError(
+            f"--workers is the local pool's size; with {cluster} the cases run on the"
+            " cluster's own workers (give one or the other)"
+        )
     if args.max_cases < 1:
         raise InputError("--max-cases must be at least 1")
     case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
