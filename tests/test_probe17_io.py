@@ -96,3 +96,45 @@ def test_a_rosbag2_export_onto_a_full_disk_names_the_bag_and_leaves_nothing(
     if made:
         assert list(bag.iterdir()) == []
     assert [p.name for p in tmp_path.iterdir()] == (["deep"] if made else [])
+
+
+@pytest.mark.parametrize(
+    ("argv", "faults", "where", "words"),
+    [
+        (["run", "straight", "--param", "distance=0.1m"], "drop=2", "1:1", "drop='2'"),
+        (["run", "straight", "--param", "distance=0.1m"], "drop=0.1  bogus=1", "1:11", "'bogus'"),
+        (
+            ["mission", "lab", "--plan"],
+            "drop=0.1;motor_stall:nosuch@1s",
+            "1:10",
+            "unknown motor 'nosuch'",
+        ),
+        (["mission", "lab", "--plan"], "drop=0.1,drop=0.2", "1:10", "'drop' is given twice"),
+        (["navigate", "goal", "--sim", "lab"], "x:y@1s", "1:1", "unknown fault kind 'x'"),
+        (
+            ["run", "straight", "--param", "distance=0.1m", "--port", "loop://"],
+            "drop=0.1 link_loss@1s",
+            "1:10",
+            "need the simulator, not a port",
+        ),
+    ],
+)
+def test_a_bad_faults_option_is_placed_at_its_column_like_every_bad_input(
+    argv: list[str],
+    faults: str,
+    where: str,
+    words: str,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # It said "pirate-bt: faults: ...", the API's argument name, where a bad --param
+    # says "--param:1:1: ...".
+    assert main([*argv, "--faults", faults]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.splitlines()) == 1, err
+    assert err.startswith(f"pirate-bt: --faults:{where}: ") and words in err, err
+
+
+def test_a_bad_sim_fault_option_is_named_as_typed(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "straight", "--fault", "motor_stall:nosuch@1s"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: --fault:1:1: fault motor_stall: unknown motor 'nosuch'")

@@ -67,8 +67,10 @@ def run(args: argparse.Namespace) -> int:
     # --faults or --seed left demo-output/robot.svg and the board table behind)
     from pirate_bt.api.connection import check_fault_targets
     from pirate_bt.api.options import seed_value, split_faults
+    from pirate_bt.cli.faults_option import check_faults_option
 
     seed_value(args.seed, "--seed")
+    check_faults_option(args, robot)  # at its column: it said "faults: ..."
     check_fault_targets(split_faults(args.faults)[0], robot)
 
     route = args.route or bundled("scenarios", "lab.route")

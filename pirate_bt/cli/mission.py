@@ -162,8 +162,10 @@ def execute(
     # --faults or --seed was refused after the whole plan, on stdout, exit 2)
     from pirate_bt.api.connection import check_fault_targets
     from pirate_bt.api.options import find, seed_value, split_faults
+    from pirate_bt.cli.faults_option import check_faults_option
 
     seed_value(args.seed, "--seed")
+    check_faults_option(args, robot)  # at its column: it said "faults: ..."
     check_fault_targets(split_faults(args.faults)[0], robot)
 
     # "lab" is the bundled lab.route, as for load_route (not the network lab.yaml)

@@ -53,8 +53,12 @@ def check_stepwise(args: argparse.Namespace) -> float:
         InputError: a seed or time limit the API would refuse.
     """
     from pirate_bt.api.options import NO_LIMIT, positive_time_s, seed_value
+    from pirate_bt.cli.faults_option import check_faults_option
+    from pirate_bt.robot.loader import load_robot
 
     seed_value(args.seed, "--seed")
+    if getattr(args, "faults", None):  # at its column, the bundled robot's targets
+        check_faults_option(args, load_robot())  # (it said "faults: ...")
     return positive_time_s(args.max_time, "--max-time", instead=NO_LIMIT)
 
 

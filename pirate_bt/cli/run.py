@@ -19,6 +19,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from pirate_bt.api.options import MAX_RATE_HZ, check_rate, seed_value, split_faults
+from pirate_bt.cli.faults_option import check_faults_option
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.units import parse_quantity
 
@@ -227,6 +228,7 @@ def run(args: argparse.Namespace) -> int:
     if args.trace is not None:
         check_trace_path(args.trace)
     robot = load_robot(args.robot)
+    check_faults_option(args, robot)  # at its column: it said "faults: ..."
     checked = load_tree_source(  # a YAML tree, or BehaviorTree.CPP XML
         find_tree(args.tree),  # a file, else a bundled tree; else the API's error
         robot=robot,

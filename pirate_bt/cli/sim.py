@@ -113,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     if args.firmware is not None:
         return _run_firmware(args, robot)
+    from pirate_bt.cli.faults_option import check_fault_options
+
+    check_fault_options(args.fault, robot)  # named as typed: it said "faults: ..."
     noise = SensorNoise.typical() if args.noise else None
     from pirate_bt.cli.run import open_foxglove, open_ros2
 
