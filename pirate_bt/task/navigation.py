@@ -298,7 +298,7 @@ class CheckedStep:
                 )
             verb = "forward" if self.distance_m >= 0 else "back"
             slowly = " slowly" if self.slow else ""
-            return f"{verb} {abs(self.distance_m):.4f} m{slowly}"
+            return f"{verb} {_number(abs(self.distance_m))} m{slowly}"
         if pab == "bend":  # a roll, or none: the next bend (a roll is checked on the plan)
             return f"at the bend turn {self.direction or ''}".rstrip()
         if pab == "t-joint":
@@ -313,7 +313,14 @@ class CheckedStep:
                 f"{self.step!r}: with a map, {pab} is not planned yet (the route"
                 " language has no backward PABs); it is for navigating without one"
             )
-        return f"pause {self.time_s:.4f} s"
+        return f"pause {_number(self.time_s)} s"
+
+
+def _number(value: float) -> str:
+    """``value`` for a route line: to 0.1 mm (or ms), as the plans name it, but never
+    rounded to zero or far off: a step of 1e-05 m was planned as '0.0000 m' and refused
+    with *'0.0000 m' must be more than zero*, though it is not and runs with no map."""
+    return f"{value:.4f}" if value >= 1e-3 else repr(value)
 
 
 _NOTHING_PASSED = (
