@@ -232,6 +232,9 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         self.velocity_mps = 0.0
         self.slipping = False
         self.sliding = False
+        self.held_as_put_in = True
+        """Held on its tether where it was put in, as an operator holds a robot until
+        it clamps: no slide until a half first clamps (then the falling rule applies)."""
         self._rotating_free = False
         self._update_contacts()
 

@@ -38,6 +38,7 @@ class MotionMixin(EventsMixin):
     velocity_mps: float
     slipping: bool
     sliding: bool
+    held_as_put_in: bool
     _choices: dict[str, TeeChoice]
     _halves: dict[Half, _Half]
     _front: _Half
@@ -77,6 +78,8 @@ class MotionMixin(EventsMixin):
         motion = self.robot.motion
         front, rear = self._front, self._rear
         clamped = [h for h in (front, rear) if h.clamped]
+        if clamped:
+            self.held_as_put_in = False  # the operator lets go once a half holds
         v_sum = 0.0
         n_wheels = 0
         for h in clamped:
@@ -98,7 +101,7 @@ class MotionMixin(EventsMixin):
         load_ratio = 0.0
         if not clamped:
             slope = self._slope_at(self.s_m - self._rot_offset)
-            if abs(slope) > motion.max_unclamped_slope:
+            if abs(slope) > motion.max_unclamped_slope and not self.held_as_put_in:
                 self.sliding = True
                 direction = -1.0 if slope > 0 else 1.0
                 moved = self._limit_to_path(direction * motion.slide_speed * dt_s)

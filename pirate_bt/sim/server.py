@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 import select
 import socket
@@ -51,6 +52,9 @@ def end_state(sim: Simulator) -> str:
             commanded.append(f"{motor.name} {setpoint.mode.value} {setpoint.value:g}")
     if truth.sliding:
         motion = f"robot sliding at {truth.velocity_mps:.3f} m/s"
+    elif sim.model.held_as_put_in and abs(truth.slope_rad) > robot.motion.max_unclamped_slope:
+        slope = math.degrees(abs(truth.slope_rad))
+        motion = f"robot held where it was put in, no half clamped yet on a {slope:.0f} deg slope"
     elif truth.velocity_mps:
         motion = f"robot moving at {truth.velocity_mps:.3f} m/s"
     else:
