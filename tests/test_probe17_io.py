@@ -4,6 +4,7 @@ line and column, or the node); nothing is left half-written."""
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import subprocess
@@ -138,3 +139,31 @@ def test_a_bad_sim_fault_option_is_named_as_typed(capsys: pytest.CaptureFixture[
     assert main(["sim", "straight", "--fault", "motor_stall:nosuch@1s"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("pirate-bt: --fault:1:1: fault motor_stall: unknown motor 'nosuch'")
+
+
+def _ascii_stream(monkeypatch: pytest.MonkeyPatch, name: str) -> io.BytesIO:
+    raw = io.BytesIO()
+    monkeypatch.setattr(sys, name, io.TextIOWrapper(raw, encoding="ascii", errors="strict"))
+    return raw
+
+
+def test_output_an_ascii_terminal_cannot_show_is_escaped_not_an_internal_error(
+    straight_trace: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # PYTHONIOENCODING=ascii (or a Latin-1 terminal): 'trace show' ended with
+    # "internal error: UnicodeEncodeError: 'ascii' codec can't encode character
+    # '\u25b6'", exit 1, after printing nothing
+    out = _ascii_stream(monkeypatch, "stdout")
+    assert main(["trace", "show", str(straight_trace), "--tick", "5"]) == 0
+    sys.stdout.flush()
+    assert b"\\u25b6 straight [Selector]  RUNNING" in out.getvalue()
+
+
+def test_an_error_an_ascii_terminal_cannot_show_keeps_its_exit_code(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    err = _ascii_stream(monkeypatch, "stderr")
+    assert main(["validate", str(tmp_path / "r\u00f6hre.yaml")]) == 2
+    sys.stderr.flush()
+    lines = err.getvalue().decode("ascii").splitlines()
+    assert len(lines) == 1 and "r\\xf6hre.yaml" in lines[0], lines

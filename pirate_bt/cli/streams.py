@@ -36,7 +36,7 @@ class _Watched:
 
     def write(self, text: str) -> int:
         try:
-            return self._stream.write(text)
+            return _write(self._stream, text)
         except OSError as exc:
             self.failure = exc
             raise
@@ -61,7 +61,7 @@ class _Unheard(_Watched):
 
     def write(self, text: str) -> int:
         try:
-            return self._stream.write(text)
+            return _write(self._stream, text)
         except BrokenPipeError:
             _discard(self._stream)
         except OSError:
@@ -75,6 +75,19 @@ class _Unheard(_Watched):
             _discard(self._stream)
         except OSError:
             pass
+
+
+def _write(stream: TextIO, text: str) -> int:
+    """``text`` written; what the stream's encoding cannot carry (a degree sign or
+    ``▶`` with ``PYTHONIOENCODING=ascii`` or a Latin-1 terminal, half a UTF-16 pair)
+    written as a backslash escape (``\\u25b6``), where it was an internal error."""
+    try:
+        return stream.write(text)
+    except UnicodeEncodeError:
+        encoding = getattr(stream, "encoding", None) or "utf-8"
+        escaped = text.encode(encoding, "backslashreplace").decode(encoding, "replace")
+        stream.write(escaped)
+        return len(text)
 
 
 _watching: list[_Watched] = []  # the stream watched during the last command
