@@ -122,3 +122,15 @@ def test_a_tiny_step_on_a_map_is_not_refused_as_zero(step: pirate_bt.Step) -> No
     # than zero (a line the navigator never wrote, rounded), though it runs with no map
     assert "must be more than zero" not in result.why
     assert result.status == "success", result.why
+
+
+def test_a_route_that_never_leaves_the_start_is_refused_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    route = tmp_path / "home.route"
+    route.write_text("network straight\nreturn to start\n", encoding="utf-8")
+    assert main(["mission", str(route), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    # was: '<dict>:1:1: needs a list of children' (the empty mission tree), no file named
+    assert "<dict>" not in err and len(err.splitlines()) == 1
+    assert f"{route}:2:1: 'return to start' plans nothing to do" in err

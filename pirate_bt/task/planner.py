@@ -131,6 +131,15 @@ def plan_route(
         check_start(route, walker.path, walker.start_m, walker.length_m)
     for step in route.steps:
         walker.walk(step)
+    if not walker.pabs and start_m is None and route.steps:
+        # a route of 'return to start' alone: its tree had no child, and the mission
+        # was refused as '<dict>:1:1: needs a list of children', naming no file
+        first = route.steps[0]
+        raise LocatedError(
+            f"'{first.text}' plans nothing to do: the robot is put in at the start"
+            f" ({walker.start_m:.2f} m), and the route never leaves it",
+            first.location,
+        )
     features = tuple(
         MapFeature(
             p.segment,
