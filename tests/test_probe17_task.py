@@ -134,3 +134,15 @@ def test_a_route_that_never_leaves_the_start_is_refused_at_its_line(
     # was: '<dict>:1:1: needs a list of children' (the empty mission tree), no file named
     assert "<dict>" not in err and len(err.splitlines()) == 1
     assert f"{route}:2:1: 'return to start' plans nothing to do" in err
+
+
+def test_the_route_navigator_refuses_return_to_start_before_connecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    route = tmp_path / "back.route"
+    route.write_text("network straight\nforward 1 m\nreturn to start\n", encoding="utf-8")
+    argv = ["navigate", "route", "--sim", "straight", "--map", "straight"]
+    assert main([*argv, "--param", f"route={route}", "--quiet"]) == 2  # was 1, after 1 m
+    err = capsys.readouterr().err.strip()
+    assert f"{route}:3: 'return to start' is not supported by the route navigator" in err
+    assert len(err.splitlines()) == 1

@@ -70,6 +70,12 @@ def _way(network: Network, choices: Mapping[str, str]) -> Any:
     return network.path(dict(choices))  # type: ignore[arg-type]
 
 
+_NO_RETURN = (
+    "{where}: {text!r} is not supported by the route navigator (pirate-bt mission runs"
+    " it as one planned mission)"
+)
+
+
 class RouteNavigator:
     """Follow a route, one command per step; stop at the first step that fails.
 
@@ -106,6 +112,8 @@ class RouteNavigator:
             )
             if needs_map and network is None:
                 raise ValueError(f"{where}: {command.text!r} needs a map (--map or map=...)")
+            if command.kind is StepKind.RETURN:  # refused at its step, after connecting
+                raise ValueError(_NO_RETURN.format(where=where, text=command.text))
             if command.kind is StepKind.GOTO and network is not None:
                 assert command.segment is not None
                 try:
@@ -175,7 +183,7 @@ class RouteNavigator:
             assert command.segment is not None
             self._goal = GoalNavigator(command.segment)
             return self.next_step(obs)
-        raise ValueError(f"{where}: {command.text!r} is not supported by the route navigator")
+        raise ValueError(_NO_RETURN.format(where=where, text=command.text))
 
 
 class GoalNavigator:
