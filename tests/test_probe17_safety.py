@@ -4,6 +4,7 @@ guards and the supervisor used from Python as the docs describe them, on the sim
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pirate_bt
@@ -33,3 +34,39 @@ def test_a_drive_steps_within_an_acceleration_limit_that_refuses(tmp_path: Path)
     robot = _refusing_robot(tmp_path)
     result = pirate_bt.simulate_tree("straight", params={"distance": "0.3 m"}, robot=robot)
     assert result.status == "success", result.why
+
+
+# -- 3. a halted joint -----------------------------------------------------------------
+
+
+def test_the_safe_state_brakes_a_rotation_on_its_way() -> None:
+    # Every stop, the supervisor's safe state included, brakes the rotation at once
+    # (docs/safety.md, *Stop category*). The safe state stopped the drives only: a
+    # rotate stopped by its timeout left its last rate-limited setpoint, and the halves
+    # went on turning 6° after the failed run had handed the robot back (18° to 24°),
+    # until 2026-11-30.
+    tree = {
+        "name": "p",
+        "root": {
+            "type": "sequence",
+            "children": [
+                {"type": "clamp", "name": "clamp rear", "half": "rear", "torque": "0.7 N*m"},
+                {
+                    "type": "timeout",
+                    "duration": "0.3 s",
+                    "child": {"type": "rotate", "name": "rot", "angle": "90 deg"},
+                },
+            ],
+        },
+    }
+    with pirate_bt.connect("straight") as robot:
+        result = robot.run(tree, max_time="30 s")
+        assert result.status == "failure", result.why
+        sim = robot.simulator
+        sup = robot.supervisor
+        at_end = sim.truth().rotation_rad
+        assert at_end > math.radians(5)  # it was turning
+        for _ in range(20):
+            sup.clock.sleep(0.05)
+            sup.tick()
+        assert abs(sim.truth().rotation_rad - at_end) < math.radians(0.5)

@@ -17,6 +17,8 @@ import threading
 from typing import TYPE_CHECKING
 
 from pirate_bt.errors import InputError, LinkError
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode, MotorFunction
 from pirate_bt.safety.commands import Command, Stop, member_of
 from pirate_bt.safety.operator import (
     Confirm,
@@ -74,7 +76,8 @@ class AuthorityMixin(DecisionMixin):
                 log.warning("safe state: %s", reason)
             else:
                 log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)
-            sent = self._send_stop()
+            braked = self._brake_rotation()  # before the stop, whose send is the last
+            sent = self._send_stop() + braked
             self._record(
                 Verdict(
                     Outcome.PASS,
@@ -85,6 +88,29 @@ class AuthorityMixin(DecisionMixin):
                     detail=f"safe state: {reason}",
                 )
             )
+
+    def _brake_rotation(self) -> tuple[MotorCommand, ...]:
+        """Brake the rotation where it is (PWM 0), as every stop does (docs/safety.md,
+        *Stop category*): a rotation on its way to its last setpoint would otherwise
+        finish that step after the safe state (6° on the bundled robot at 10 Hz)."""
+        if self._mode is Mode.ESTOP:
+            return ()  # the bridge has braked it, and takes no setpoint
+        cmds = tuple(
+            MotorCommand(m.name, ControlMode.PWM, 0.0)
+            for _, m in self.robot.motors()
+            if m.function is MotorFunction.ROTATE and m.modes.get(ControlMode.PWM) is not None
+        )
+        if not cmds:
+            return ()
+        try:
+            self._port.send(cmds)
+        except LinkError as exc:
+            log.info("could not brake the rotation: %s", exc)
+            return ()
+        now = self.clock.now()
+        for c in cmds:
+            self._last_setpoint[c.motor] = (c.mode, c.value, now)
+        return cmds
 
     def estop(self, reason: str = "e-stop") -> None:
         """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""

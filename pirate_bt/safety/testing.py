@@ -241,6 +241,8 @@ class FakePort:
                     if spring is not None:
                         self.values[spring] = 0.0
             elif fn is MotorFunction.ROTATE:
+                if c.mode is ControlMode.PWM and c.value == 0.0:
+                    continue  # a brake (every stop's): the halves stay where they are
                 clamped = sum(self.half_clamped(h) for h in Half)
                 if clamped != 1:
                     self.violations.events.append(f"rotate with {clamped} halves clamped")
