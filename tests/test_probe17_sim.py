@@ -10,15 +10,20 @@ clamps; from its first clamp on, an unclamped robot falls as before.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
+import pytest
+
 import pirate_bt
+from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
 from pirate_bt.sim import Simulator
+from pirate_bt.sim.faults import FaultTargetError
 from pirate_bt.sim.server import end_state
 
 ROBOT = load_robot()
@@ -81,3 +86,46 @@ def test_a_level_start_is_not_affected() -> None:
         _run(sim, clock, 1.0)
         assert end_state(sim).startswith("end state: robot at rest, drives stopped")
         assert math.isclose(sim.truth().front_m, 1.0)
+
+
+NETWORK = """schema_version: 1
+name: f
+diameter: 63 mm
+segments:
+  - {id: a, type: straight, length: 2 m}
+faults:
+  - {kind: link_loss, at: 1 s}
+"""
+
+
+def test_a_network_file_s_fault_naming_no_motor_is_refused_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    net = tmp_path / "f.yaml"
+    net.write_text(NETWORK + "  - kind: motor_stall\n    at: 1 s\n    target: nosuch\n")
+    argv = ["run", "straight", "--sim", str(net), "--param", "distance=0.2m", "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    # was: 'f.yaml: faults: fault motor_stall: ...', the file but not the place
+    assert err.startswith(f"pirate-bt: {net}:10:5: faults: fault motor_stall: unknown motor")
+    assert "\n" not in err
+
+
+def test_a_network_file_s_fault_with_no_target_says_it_needs_one(tmp_path: Path) -> None:
+    net = tmp_path / "f.yaml"
+    net.write_text(NETWORK + "  - {kind: board_reset, at: 2 s}\n")
+    with pytest.raises(FaultTargetError) as refused:
+        Simulator(net, ROBOT)
+    # was: 'fault board_reset: unknown board None (boards: ...)', and no line
+    assert str(refused.value).startswith(
+        f"{net}:8:5: faults: fault board_reset needs a target: a board (boards: 20, 21,"
+    )
+    # a network built in Python has no file: its source is named, as before
+    data = {
+        "name": "f",
+        "diameter": "63 mm",
+        "segments": [{"type": "straight", "length": "2 m"}],
+        "faults": [{"kind": "board_reset", "at": "2 s"}],
+    }
+    with pytest.raises(FaultTargetError, match=r"^<data>: faults: fault board_reset needs"):
+        Simulator(network_from_data(data), ROBOT)

@@ -66,30 +66,33 @@ def check_fault_target(fault: FaultSpec, robot: RobotDescription) -> None:
             raise FaultTargetError(
                 f"fault {fault.kind} takes no target ({target!r}): write {fault.kind}@AT"
             )
-    elif fault.kind == "motor_stall":
-        motors = [m.name for _, m in robot.motors()]
-        if target not in motors:
-            raise FaultTargetError(
-                f"fault {fault.kind}: unknown motor {target!r} (motors: {_known(motors)})"
-            )
+        return
+    if fault.kind == "motor_stall":
+        noun, plural, names = "motor", "motors", [m.name for _, m in robot.motors()]
+        found = target in names
     elif fault.kind in ("sensor_dropout", "sensor_stuck"):
-        channels = [c.name for c in robot.state_channels()]
-        if target not in channels:
-            raise FaultTargetError(
-                f"fault {fault.kind}: unknown state channel {target!r}"
-                f" (channels: {_known(channels)})"
-            )
+        noun, plural = "state channel", "channels"
+        names = [c.name for c in robot.state_channels()]
+        found = target in names
     elif fault.kind in ("board_reset", "board_fault"):
         boards = robot.board_ids()
-        if (
-            target is None
-            or not (target.isascii() and target.isdigit())
-            or int(target) not in boards
-        ):
-            raise FaultTargetError(
-                f"fault {fault.kind}: unknown board {target!r}"
-                f" (boards: {_known([str(b) for b in boards])})"
-            )
+        noun, plural, names = "board", "boards", [str(b) for b in boards]
+        found = (
+            target is not None
+            and target.isascii()
+            and target.isdigit()
+            and int(target) in boards  # '022' is board 22
+        )
+    else:
+        return
+    if target is None:  # a network file's fault written without one
+        raise FaultTargetError(
+            f"fault {fault.kind} needs a target: a {noun} ({plural}: {_known(names)})"
+        )
+    if not found:
+        raise FaultTargetError(
+            f"fault {fault.kind}: unknown {noun} {target!r} ({plural}: {_known(names)})"
+        )
 
 
 FAULT_KINDS: tuple[str, ...] = get_args(FaultKind)

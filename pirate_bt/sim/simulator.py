@@ -34,13 +34,14 @@ from typing import Any
 import serial
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, PirateError
 from pirate_bt.pipes import FaultSpec, Network, load_network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.counters import SimCounters, SimEvent
 from pirate_bt.sim.faults import FaultTargetError, parse_fault
 from pirate_bt.sim.model import PipeRobotModel, SensorNoise, SimTruth
+from pirate_bt.yamlfile import load_yaml
 
 __all__ = ["SCHEME", "Simulator", "lookup"]
 
@@ -82,6 +83,20 @@ def lookup(name: str) -> Simulator:
     if sim is None:
         raise KeyError(f"no simulator named {name!r} in this process (open: {sorted(_REGISTRY)})")
     return sim
+
+
+def _fault_place(network: Network, index: int) -> str:
+    """``file:line:column`` of the target of the network file's fault ``index`` (of
+    the fault when it has no target); the network's source alone when it was not
+    loaded from a file that still reads."""
+    source = network.source
+    try:
+        if not Path(source).is_file():
+            return source
+        document = load_yaml(source)
+    except (OSError, PirateError):
+        return source
+    return str(document.locator.locate(("faults", index, "target")))
 
 
 class Simulator:
@@ -133,10 +148,12 @@ class Simulator:
         self._counter_figures: tuple[Any, ...] | None = None
         self._violations: Mapping[str, int] = MappingProxyType({})
         self._damage: Mapping[str, int] = MappingProxyType({})
-        try:
-            self.bridge.schedule(network.faults)
-        except FaultTargetError as exc:  # said of the network file that holds the fault
-            raise FaultTargetError(f"{network.source}: faults: {exc}") from None
+        for index, fault in enumerate(network.faults):
+            try:
+                self.bridge.check_fault(fault)
+            except FaultTargetError as exc:  # said where the network file writes it
+                raise FaultTargetError(f"{_fault_place(network, index)}: faults: {exc}") from None
+        self.bridge.schedule(network.faults)
         self.schedule(faults)
         self.name = name or f"sim-{next(_NAMES)}"
         with _REGISTRY_LOCK:
