@@ -30,7 +30,7 @@ import pytest
 
 import pirate_bt
 from pirate_bt.cli import main
-from pirate_bt.errors import LocatedError
+from pirate_bt.errors import InputError, LocatedError
 from pirate_bt.pipes import Network, load_network, network_from_data
 from pirate_bt.robot import Half
 from pirate_bt.sim import model as sim_model
@@ -176,10 +176,10 @@ def test_the_cli_and_a_navigation_refuse_such_a_start(
     route.write_text(f"network {net}\nforward to the end\n", encoding="utf-8")
     assert main(["mission", str(route), "--quiet"]) == 2
     assert "across the bend 'b'" in capsys.readouterr().err
-    # a navigation plans from the belief: its first step is refused the same way
-    result = pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=net, map=net)
-    assert result.status == "failure"  # was: stuck after 5 straights that never moved
-    assert "across the bend 'b'" in result.why and result.truth_m == pytest.approx(0.515, abs=0.01)
+    # a navigation with that map is refused the same way, before it connects (its first
+    # step was refused after connecting, exit 1; before that, stuck after 5 straights)
+    with pytest.raises(InputError, match="across the bend 'b'"):
+        pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=net, map=net)
 
 
 def test_a_return_through_a_bend_is_refused_without_saying_the_pabs_cannot_back() -> None:
