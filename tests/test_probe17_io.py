@@ -167,3 +167,45 @@ def test_an_error_an_ascii_terminal_cannot_show_keeps_its_exit_code(
     sys.stderr.flush()
     lines = err.getvalue().decode("ascii").splitlines()
     assert len(lines) == 1 and "r\\xf6hre.yaml" in lines[0], lines
+
+
+_ALIASED_TREE = """\
+name: aliased
+root:
+  type: sequence
+  name: top
+  children:
+    - &grab
+      type: clamp
+      name: grab
+      half: front
+      torque: 50 N*m
+    - {type: wait, name: pause, duration: &d 1 kg}
+    - *grab
+    - {type: wait, name: again, duration: *d}
+"""
+
+
+def test_an_error_in_an_aliased_tree_node_is_placed_where_the_alias_is_used(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Each problem of the second use was placed at the anchor: "aliased.yaml:6:7:
+    # duplicate node name 'grab' among siblings (first at aliased.yaml:6:7)", and its
+    # torque was said once, at line 10, for two nodes.
+    path = tmp_path / "aliased.yaml"
+    path.write_text(_ALIASED_TREE)
+    assert main(["validate", str(path)]) == 2
+    said = [line.removeprefix("pirate-bt: ") for line in capsys.readouterr().err.splitlines()]
+    assert f"{path}:12:7: duplicate node name 'grab' among siblings (first at {path}:6:7)" in said
+    torque = [s.split(": clamp")[0] for s in said if "torque: 50 N*m" in s]
+    assert torque == [f"{path}:10:7", f"{path}:12:7"], said
+    mass = [s.split(": wait")[0] for s in said if "is a mass" in s]
+    assert mass == [f"{path}:11:33", f"{path}:13:33"], said
+
+
+def test_a_merged_value_is_still_placed_in_the_anchor_that_writes_it() -> None:
+    from pirate_bt.yamlfile import load_yaml_text
+
+    doc = load_yaml_text("a: &x\n  k: 1\nb:\n  <<: *x\n  j: 2\nc: [*x]\n")
+    assert str(doc.locator.locate(("b", "k"))) == "<string>:2:3"  # in the anchor
+    assert str(doc.locator.locate(("c", 0, "k"))) == "<string>:6:5"  # where *x is used

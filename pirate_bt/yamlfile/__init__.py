@@ -37,6 +37,7 @@ from typing import Any, BinaryIO, Final
 import yaml
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
+from pirate_bt.yamlfile.aliases import use_alias_places
 from pirate_bt.yamlfile.scalars import (
     INT_TAG,
     NOT_JSON,
@@ -426,6 +427,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         _walk(node, locator, errors)
         if errors:  # once each: a value an alias repeats was met once per use
             raise ValidationFailed(list({str(e): e for e in errors}.values()))
+        use_alias_places(text, _Loader, locator.marks)  # a '*alias' placed where it is used
         data = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
