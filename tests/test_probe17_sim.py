@@ -129,3 +129,13 @@ def test_a_network_file_s_fault_with_no_target_says_it_needs_one(tmp_path: Path)
     }
     with pytest.raises(FaultTargetError, match=r"^<data>: faults: fault board_reset needs"):
         Simulator(network_from_data(data), ROBOT)
+
+
+def test_a_list_of_faults_with_one_refused_schedules_none_of_them() -> None:
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock) as sim:
+        with pytest.raises(FaultTargetError, match="unknown motor 'nosuch'"):
+            sim.schedule(["motor_stall:bend_1_drive@1s", "motor_stall:nosuch@1s"])
+        _run(sim, clock, 2.0)
+        # was: the refused list's first fault was scheduled all the same
+        assert not [e for e in sim.events() if e.kind.value == "fault"], sim.events()

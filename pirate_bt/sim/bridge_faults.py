@@ -93,9 +93,10 @@ class FaultsMixin:
         Raises:
             FaultTargetError: a fault names a motor, channel or board the robot lacks.
         """
-        for fault in faults:
+        faults = list(faults)
+        for fault in faults:  # all or none: a refused list schedules nothing
             self.check_fault(fault)
-            self._pending.append(fault)
+        self._pending.extend(faults)
         self._pending.sort(key=lambda f: f.at)
 
     def _update_faults(self, now_s: float) -> None:
