@@ -152,3 +152,22 @@ def test_a_survey_campaign_runs_explore_on_as_built_variants_of_the_world(
     # (a joint swinging into the tee's opening is no diameter change: no extra step)
     assert all(r["steps"] == 11 for r in rows), [r["steps"] for r in rows]
     assert rows[0]["distance_m"] != rows[1]["distance_m"]
+
+
+def test_a_map_that_puts_the_robot_in_across_a_bend_stops_the_campaign_before_any_case(
+    tmp_path: Path,
+) -> None:
+    # navigate() refuses it before it connects: each case raised it, one error row each
+    net = tmp_path / "short.yaml"
+    net.write_text(
+        "schema_version: 1\nname: short\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: a, type: straight, length: 0.3 m}\n"
+        "  - {id: b, type: bend, direction: right}\n"
+        "  - {id: c, type: straight, length: 2 m}\n",
+        encoding="utf-8",
+    )
+    seen: list[Any] = []
+    run = {**GOAL, "network": str(net), "params": {"segment": "c"}}
+    with pytest.raises(InputError, match=r"runs\[0\]\.network.*across the bend 'b'"):
+        run_campaign(_spec(runs=[run]), on_record=seen.append)
+    assert seen == []

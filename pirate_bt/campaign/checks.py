@@ -512,7 +512,7 @@ def check_runs(
                 case.get("navigator"),
                 case["params"],
                 None if case.get("blind") else case.get("network"),
-                None if case.get("navigator") else case.get("robot"),
+                None if case.get("navigator") and case.get("blind") else case.get("robot"),
             ],
             sort_keys=True,
         )
@@ -520,7 +520,7 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            more = _check_navigator(case, spec, base)
+            more = _check_navigator(case, robots, spec, base)
         elif case["tree"]:
             more = _check_tree(case, robots, spec, base)
         else:
@@ -541,13 +541,15 @@ def _note(read: dict[Path, None], path: Path | None) -> None:
         pass
 
 
-def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -> list[str]:
+def _check_navigator(
+    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
+) -> list[str]:
     """Make the case's navigator once and check its map, as each case will.
 
     With the ``spec`` the case came from, a problem is placed at the run: a name
     no navigator has at its ``navigator``, a parameter the navigator refuses at
-    that parameter (or its ``params``), a map its ``check_map`` refuses at its
-    ``network``.
+    that parameter (or its ``params``), a map its ``check_map`` refuses, or one
+    that puts the case's robot in across a bend or a T-joint, at its ``network``.
 
     Returns:
         The files its parameters name that it read (the ``route`` navigator's route).
@@ -578,11 +580,14 @@ def _check_navigator(case: Case, spec: CampaignSpec | None, base: Path | None) -
     if callable(getattr(navigator, "check_map", None)):  # as navigate() will
         from pirate_bt.api.missions import load_network
         from pirate_bt.task.navigators import check_navigator_map
+        from pirate_bt.task.start_check import check_map_start
 
         drawn = None if case.get("blind") else (case.get("network") or "straight")
         the_map = None if drawn is None else load_network(drawn, base=base)
         try:
             check_navigator_map(navigator, case["navigator"], the_map)
+            if the_map is not None:  # as navigate() will, before it connects
+                check_map_start(the_map, robots(case.get("robot")), case["navigator"])
         except InputError as exc:
             given = case.get("network") is not None and not case.get("blind")
             raise placed(exc, "network" if given else "navigator") from None
