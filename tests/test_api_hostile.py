@@ -496,7 +496,7 @@ def test_a_fault_in_a_network_file_naming_no_motor_names_the_network_file(tmp_pa
     )
     text = refused(
         lambda: pirate_bt.simulate_tree("straight", network=network, params=PARAMS),
-        f"{network}: faults: fault motor_stall: unknown motor 'nope'",
+        f"{network}:11:25: faults: fault motor_stall: unknown motor 'nope'",
         kind=FaultTargetError,
     )
     assert text.startswith(str(network))

@@ -145,12 +145,12 @@ def test_dash_where_no_text_is_written_is_refused_before_any_work(
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["demo", "-q", "--faults", "bogus"], "faults: link fault 'bogus' is not key=value"),
-        (["demo", "-q", "--faults", "drop=2"], "faults: link fault drop='2': a probability"),
+        (["demo", "-q", "--faults", "bogus"], "--faults:1:1: link fault 'bogus' is not key=value"),
+        (["demo", "-q", "--faults", "drop=2"], "--faults:1:1: link fault drop='2': a probability"),
         (["demo", "-q", "--seed", "-1"], "--seed: give a whole number from 0"),
         (
             ["mission", "lab", "-q", "--faults", "drop=x", "--output", "out"],
-            "faults: link fault drop='x': not a number",
+            "--faults:1:1: link fault drop='x': not a number",
         ),
     ],
 )
