@@ -18,6 +18,7 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
@@ -139,3 +140,13 @@ def test_a_list_of_faults_with_one_refused_schedules_none_of_them() -> None:
         _run(sim, clock, 2.0)
         # was: the refused list's first fault was scheduled all the same
         assert not [e for e in sim.events() if e.kind.value == "fault"], sim.events()
+
+
+@pytest.mark.parametrize("start", [math.nan, math.inf, "1 m"])
+def test_a_start_that_is_no_finite_distance_is_refused(start: Any) -> None:
+    # nan put the robot's front tip at nan metres and the simulator ran on; text
+    # raised a TypeError from inside the model
+    with pytest.raises(InputError, match=r"^start_m: the front tip's distance is a finite"):
+        Simulator("straight", ROBOT, start_m=start)
+    with Simulator("straight", ROBOT, start_m=1e300) as sim:  # kept to the path's end
+        assert sim.truth().front_m == 5.0

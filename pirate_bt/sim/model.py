@@ -52,7 +52,7 @@ import random
 from collections.abc import Sequence
 from types import MappingProxyType
 
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.pipes import Network, Path, Piece, TeeChoice
 from pirate_bt.pipes.model import SegmentSpec, TeeSpec
 from pirate_bt.robot.commands import MotorCommand
@@ -122,7 +122,11 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         seed: Seed of the sensor noise; equal seeds give equal runs.
         noise: Sensor noise; noiseless by default.
         start_m: Front-tip distance at the start (default: the network's start
-            position, else the robot's length so its rear is at the entry).
+            position, else the robot's length so its rear is at the entry), in
+            metres, kept between the robot's length and the path's end.
+
+    Raises:
+        InputError: ``start_m`` that is no finite number of metres.
     """
 
     def __init__(
@@ -226,6 +230,14 @@ class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):
         start = network.spec.start
         if start_m is None:
             start_m = start.position if start.position is not None else self.length_m
+        elif (
+            isinstance(start_m, bool)
+            or not isinstance(start_m, int | float)
+            or not math.isfinite(start_m)
+        ):  # nan put the robot nowhere and ran on; text raised a TypeError
+            raise InputError(
+                f"start_m: the front tip's distance is a finite number of metres, not {start_m!r}"
+            )
         self.s_m = min(max(start_m, self.length_m), self.path.length_m)
         for h in self._halves.values():
             h.roll_rad = _wrap(start.roll)
