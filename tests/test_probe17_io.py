@@ -209,3 +209,19 @@ def test_a_merged_value_is_still_placed_in_the_anchor_that_writes_it() -> None:
     doc = load_yaml_text("a: &x\n  k: 1\nb:\n  <<: *x\n  j: 2\nc: [*x]\n")
     assert str(doc.locator.locate(("b", "k"))) == "<string>:2:3"  # in the anchor
     assert str(doc.locator.locate(("c", 0, "k"))) == "<string>:6:5"  # where *x is used
+
+
+@pytest.mark.parametrize("target", ["out.mcap", "out_bag/"])
+def test_an_export_of_a_trace_cut_inside_its_header_says_so_as_summary_does(
+    straight_trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], target: str
+) -> None:
+    # .mcap and rosbag2 exports called a 3000-byte file an "empty trace (no header)",
+    # where trace summary and the .btlog export said the header was cut off.
+    pytest.importorskip("mcap" if target.endswith(".mcap") else "rosbags")
+    cut = tmp_path / "cut.jsonl"
+    cut.write_bytes(straight_trace.read_bytes()[:3000])
+    assert main(["trace", "export", str(cut), "-o", str(tmp_path / target)]) == 2
+    err = capsys.readouterr().err
+    said = f"{cut}:1:1: the header record is cut off (the run was cut off before it was"
+    assert err.startswith(f"pirate-bt: {said} written") and err.count("\n") == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.jsonl"]

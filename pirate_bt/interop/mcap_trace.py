@@ -58,7 +58,7 @@ from pirate_bt.interop.mcap_writer import (
     compact_mcap,
     load_mcap,
 )
-from pirate_bt.trace.reader import TraceFormatReader, open_reader, register_reader
+from pirate_bt.trace.reader import TraceFormatReader, no_header, open_reader, register_reader
 from pirate_bt.trace.record_values import readable_text
 from pirate_bt.trace.records import BAD_RECORD
 from pirate_bt.trace.sink import register_process_writer
@@ -117,7 +117,7 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
                     f"{trace_path}:{line}: cannot convert this record: {exc}"
                 ) from None
         if first:
-            raise InputError(f"{trace_path}: empty trace (no header)")
+            raise no_header(trace_path, reader.truncated)
         writer.finish()
 
     try:

@@ -28,7 +28,7 @@ import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pirate_bt.atomic import cut_name, new_folders_undone
 from pirate_bt.errors import (
@@ -45,6 +45,9 @@ from pirate_bt.interop.ros2_option import DEFAULT_NAMESPACE
 from pirate_bt.interop.ros2_topics import CLOCK, TREE, Frame, Ros2Mapper, _number
 from pirate_bt.interop.ros2_types import missing, type_hash, typestore
 from pirate_bt.trace.records import BAD_RECORD
+
+if TYPE_CHECKING:
+    from pirate_bt.trace.reader import TraceFormatReader
 
 __all__ = [
     "BAD_RECORD",
@@ -257,7 +260,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     if taken:
         raise InputError(f"{out}: exists and is not an empty directory; rosbag2 writes a new one")
     store = typestore()
-    records = iter(open_reader(Path(trace_path)))
+    records = open_reader(Path(trace_path))
     folder = out.parent if str(out.parent) else Path(".")
     # the folders on the way are made, as for every other export, and taken away again
     # when the export fails (before 2026-11-30: 'No such file or directory')
@@ -278,7 +281,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
 def _write_bag(
     rosbag2: Any,
     store: Any,
-    records: Iterator[tuple[int, dict[str, Any]]],
+    records: TraceFormatReader,
     trace_path: Path,
     out: Path,
     temp: Path,
@@ -286,6 +289,7 @@ def _write_bag(
 ) -> Path:
     """Write the bag in ``temp`` and move it to ``out`` (:func:`export_rosbag2`)."""
     from pirate_bt.interop.rmw_zenoh import qualified_name
+    from pirate_bt.trace.reader import no_header
     from pirate_bt.trace.structure import TreeStructure
 
     bag = temp / out.name
@@ -355,7 +359,7 @@ def _write_bag(
                     f" {type(exc).__name__}: {exc}"
                 ) from None
             if first:
-                raise InputError(f"{trace_path}: empty trace (no header)")
+                raise no_header(trace_path, records.truncated)
         if out.is_dir():  # an empty folder given: filled, not replaced (the current
             # folder, say: replaced, the user's shell would be left in a deleted one)
             for part in sorted(bag.iterdir(), key=lambda made: made.name == "metadata.yaml"):

@@ -73,6 +73,7 @@ __all__ = [
     "TickRecord",
     "Trace",
     "TraceFormatReader",
+    "no_header",
     "open_reader",
     "read_trace",
     "register_reader",
@@ -285,6 +286,19 @@ class Trace(TraceQueries):
         return self.frame_at(n).robot_state()
 
 
+def no_header(where: str | Path, truncated: bool) -> InputError:
+    """The error for a trace with no header record: its only line cut off (``truncated``:
+    a reader's), or nothing in it. The exports say it as :func:`read_trace` does (they
+    called a file whose header was cut off an *empty trace*)."""
+    if truncated:
+        return LocatedError(
+            "the header record is cut off (the run was cut off before it was written,"
+            " or this is not a trace)",
+            SourceLocation(str(where), 1),
+        )
+    return InputError(f"{where}: empty trace (no header)")
+
+
 def read_trace(path: str | Path) -> Trace:
     """Read a trace file; its format is chosen by suffix (see :data:`READERS`).
 
@@ -319,13 +333,7 @@ def read_trace(path: str | Path) -> Trace:
             f"{where}: cannot read this trace: {type(exc).__name__}: {shown(str(exc), 200)}"
         ) from exc
     if header is None:
-        if reader.truncated:
-            raise LocatedError(
-                "the header record is cut off (the run was cut off before it was written,"
-                " or this is not a trace)",
-                SourceLocation(str(where), 1),
-            )
-        raise InputError(f"{where}: empty trace (no header)")
+        raise no_header(where, reader.truncated)
     try:
         trace = Trace(where, header, ticks, end, reader.truncated)
     except (KeyError, TypeError, ValueError) as exc:
