@@ -7,7 +7,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 import pirate_bt
+from pirate_bt.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 CLIP = "acceleration: {max: 400 mm/s^2, policy: clip}"
@@ -70,3 +73,53 @@ def test_the_safe_state_brakes_a_rotation_on_its_way() -> None:
             sup.clock.sleep(0.05)
             sup.tick()
         assert abs(sim.truth().rotation_rad - at_end) < math.radians(0.5)
+
+
+# -- guards ----------------------------------------------------------------------------
+
+
+def test_a_guard_on_the_robot_s_state_gets_a_robot(tmp_path: Path) -> None:
+    # A tree whose only robot node was a guard's state comparison ran with no robot
+    # (`pirate-bt run tree.yaml --sim straight` said *no robot*), and the guard failed
+    # with *no robot attached* although the user had asked for the simulator, until
+    # 2026-11-30.
+    tree = {
+        "name": "g",
+        "root": {
+            "type": "skip_if",
+            "condition": {"state": "imu.pitch", "op": ">", "value": "10 deg"},
+            "child": {"type": "success"},
+        },
+    }
+    result = pirate_bt.simulate_tree(tree)
+    assert result.status == "success", result.why
+
+
+@pytest.mark.parametrize(
+    ("node", "said"),
+    [
+        (
+            "{type: skip_if, condition: {state: joint_angle.bend_9, op: '>', value: 10 deg},"
+            " child: {type: success}}",
+            "'bend_9' is none of the robot's bend modules with an angle sensor (bend_1,",
+        ),
+        (
+            "{type: while, condition: [{state: motor_current.rotate, op: '>', value: 1 A}],"
+            " child: {type: success}}",
+            "'rotate' is none of the robot's motors that report a current",
+        ),
+        ("{type: state_fresh, channels: [imu.pich]}", "did you mean 'imu.pitch'?"),
+    ],
+)
+def test_a_guard_naming_what_the_robot_has_not_is_refused_at_load(
+    node: str, said: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It loaded and validated clean, then failed when ticked with a message that blamed
+    # the readings (*joint_angle.bend_9 has no reading*, *stale: imu.pich*), until
+    # 2026-11-30.
+    path = tmp_path / "g.yaml"
+    path.write_text(f"name: g\nroot: {node}\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"{path}:2:"), err
+    assert said in err and "\n" not in err, err

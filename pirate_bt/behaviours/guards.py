@@ -54,8 +54,9 @@ from pirate_bt.behaviours.base import (
     NodeParams,
     Outcome,
 )
+from pirate_bt.behaviours.guard_names import channel_problems, state_problems
 from pirate_bt.errors import UnitError, shown
-from pirate_bt.robot.description import Half, SensorKind
+from pirate_bt.robot.description import Half, RobotDescription, SensorKind
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
 from pirate_bt.safety.checks import front_tilt_channel, stale_channels
@@ -390,6 +391,10 @@ class StateFresh(_Condition):
 
     Params = StateFreshParams
 
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        return channel_problems(params.channels, robot)
+
     def holds(self, sup: Supervisor) -> tuple[bool, str]:
         wanted: list[str] = self.params.channels  # type: ignore[attr-defined]
         if wanted:
@@ -437,6 +442,11 @@ class _Precondition(GuardDecorator):
 
     Params = PreconditionParams
     check_while_running: ClassVar[bool] = False
+    needs_robot: ClassVar[bool] = True  # a state: comparison reads the robot
+
+    @classmethod
+    def check_limits(cls, params: Any, robot: RobotDescription) -> list[str]:
+        return state_problems(params.comparisons, robot)
 
     def __init__(
         self,
