@@ -225,3 +225,20 @@ def test_an_export_of_a_trace_cut_inside_its_header_says_so_as_summary_does(
     said = f"{cut}:1:1: the header record is cut off (the run was cut off before it was"
     assert err.startswith(f"pirate-bt: {said} written") and err.count("\n") == 1, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.jsonl"]
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_a_json_lines_trace_renamed_mcap_is_named_as_one(
+    straight_trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], gz: bool
+) -> None:
+    # It was "not a readable MCAP file: not a valid MCAP file, invalid magic: (123, 34,
+    # 116, 121, 112, 101, 34, 58)"; a .mcap renamed .jsonl is named as MCAP.
+    pytest.importorskip("mcap")
+    import gzip
+
+    data = straight_trace.read_bytes()
+    path = tmp_path / "run.mcap"
+    path.write_bytes(gzip.compress(data) if gz else data)
+    assert main(["trace", "summary", str(path)]) == 2
+    suffix = ".jsonl.gz" if gz else ".jsonl"
+    assert capsys.readouterr().err.endswith(f"trace, not MCAP: name it run{suffix}\n")

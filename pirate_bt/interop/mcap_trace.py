@@ -188,6 +188,7 @@ def _read_messages(
                     # a file cut inside its magic or first chunk says nothing of its own
                     reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
                     size = os.fstat(stream.fileno()).st_size
+                    _refuse_renamed(path, os.pread(stream.fileno(), 2, 0))
                     raise InputError(
                         f"{path}: not a readable MCAP file"
                         + (f": {reason}" if reason else f" (cut off or damaged: {size} bytes)")
@@ -200,6 +201,19 @@ def _read_messages(
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
     return out, not complete, encodings
+
+
+_RENAMED = {b"{": ("a JSON Lines", ".jsonl"), b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz")}
+
+
+def _refuse_renamed(path: str | Path, start: bytes) -> None:
+    """A ``.jsonl`` or ``.jsonl.gz`` trace renamed ``.mcap`` is named as one (it was
+    *not a valid MCAP file, invalid magic: (123, 34, 116, ...)*), as the ``.jsonl``
+    reader names an MCAP or gzip trace renamed ``.jsonl``."""
+    for magic, (kind, suffix) in _RENAMED.items():
+        if start.startswith(magic):
+            name = Path(path)
+            raise InputError(f"{path}: {kind} trace, not MCAP: name it {name.stem}{suffix}")
 
 
 def _json_object(path: str | Path, number: int, topic: str, data: bytes) -> dict[str, Any]:
