@@ -74,6 +74,7 @@ __all__ = [
     "bytes_escaped",
     "caller_location",
     "file_argument",
+    "kind_of",
     "output_argument",
     "said_of",
     "shown",
@@ -113,7 +114,8 @@ MAX_PATH = 4096
 _SHOWN = 40
 
 
-def _kind(value: object) -> str:
+def kind_of(value: object) -> str:
+    """What ``value`` is, for a message: ``None``, ``an int``, ``a float``."""
     if value is None:
         return "None"
     name = type(value).__name__
@@ -170,12 +172,12 @@ def shown(value: object, limit: int = _SHOWN) -> str:
     try:
         text = repr(value)
     except Exception:  # a repr of the caller's own that fails
-        return _kind(value)
+        return kind_of(value)
     if _ADDRESSED.fullmatch(text):  # object's own repr: its address tells a person nothing
         named = getattr(value, "__qualname__", None)  # a function's, a coroutine's
-        return f"{_kind(value)} ({named})" if isinstance(named, str) else _kind(value)
+        return f"{kind_of(value)} ({named})" if isinstance(named, str) else kind_of(value)
     if len(text) > limit:
-        return f"{text[:limit]}... ({_kind(value)})"
+        return f"{text[:limit]}... ({kind_of(value)})"
     return text
 
 
@@ -189,7 +191,9 @@ def file_argument(value: object, option: str) -> Path:
             name is (standard input or output); named by ``option``.
     """
     if not isinstance(value, str | os.PathLike):
-        raise ArgumentTypeError(f"{option}: give a file name (text or a Path), not {_kind(value)}")
+        raise ArgumentTypeError(
+            f"{option}: give a file name (text or a Path), not {kind_of(value)}"
+        )
     text = os.fspath(value)
     if not isinstance(text, str):
         raise ArgumentTypeError(f"{option}: give a file name as text, not bytes")

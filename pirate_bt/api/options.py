@@ -16,11 +16,19 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pirate_bt.errors import MAX_PATH, InputError, UnitError, digit_count, file_argument
+from pirate_bt.api.fault_text import MAX_FAULT_TEXT, MAX_FAULTS, split_faults
+from pirate_bt.errors import (
+    MAX_PATH,
+    InputError,
+    UnitError,
+    digit_count,
+    file_argument,
+    kind_of,
+)
 from pirate_bt.units import parse_quantity
 
 if TYPE_CHECKING:
@@ -74,22 +82,8 @@ MAX_TIME_S = 1e9
 MAX_SEED = 2**63 - 1
 """The largest seed (seeds are whole numbers from 0)."""
 
-MAX_FAULTS = 1000
-"""The most faults one run takes."""
-
-MAX_FAULT_TEXT = 200
-"""The longest fault (``motor_stall:bend_3_drive@5s+20s``)."""
-
 _MAX_QUANTITY_TEXT = 64
 _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
-
-
-def kind_of(value: object) -> str:
-    """What ``value`` is, for a message: ``None``, ``an int``, ``a float``."""
-    if value is None:
-        return "None"
-    name = type(value).__name__
-    return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"  # an int, a float
 
 
 def quantity(value: str | float | int, dimension: str, option: str) -> float:
@@ -420,48 +414,6 @@ def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
                     f"{option}: {key}: a {digit_count(value)}-digit number is too large"
                 ) from None
     return dict(params)
-
-
-def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | None]:
-    """Split a fault spec into simulator faults and a link fault spec.
-
-    Items are separated by ``,``, ``;`` or whitespace (or given as a list). An item
-    with ``@`` is a simulator fault (``motor_stall:bend_3_drive@5s+2s``); the others
-    are link byte faults (``drop=0.05``, ``corrupt=0.01``), joined into one spec.
-
-    Returns:
-        ``(simulator faults, link fault spec or None)``.
-
-    Raises:
-        InputError: too many faults, or a link fault that does not parse
-            (:func:`pirate_bt.link.faults.parse_fault_spec`): found here, where every
-            run checks its options, not when the link opens (a mission's output folder
-            was made by then, and ``pirate-bt demo`` had drawn the robot).
-    """
-    items: list[str] = []
-    if isinstance(faults, str):
-        items = [i for i in re.split(r"[,;\s]+", faults) if i]
-    elif faults is not None:
-        if isinstance(faults, bytes | bytearray | Mapping) or not isinstance(faults, Iterable):
-            raise InputError(
-                "faults: give text ('drop=0.05,motor_stall:bend_3_drive@5s') or a list of"
-                f" texts, not {kind_of(faults)}"
-            )
-        for part in faults:
-            if not isinstance(part, str):
-                raise InputError(f"faults: each item is text, not {kind_of(part)}")
-            items += [i for i in re.split(r"[,;\s]+", part) if i]
-    if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
-        raise InputError(
-            f"faults: at most {MAX_FAULTS} faults of at most {MAX_FAULT_TEXT} characters each"
-        )
-    sim = [i for i in items if "@" in i]
-    link = [i for i in items if "@" not in i]
-    if link:
-        from pirate_bt.link.faults import parse_fault_spec
-
-        parse_fault_spec(",".join(link))
-    return sim, (",".join(link) or None)
 
 
 def parse_target(target: Any) -> tuple[str, Any]:
