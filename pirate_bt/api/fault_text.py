@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 
 from pirate_bt.errors import InputError, kind_of
 
-__all__ = ["MAX_FAULTS", "MAX_FAULT_TEXT", "split_faults"]
+__all__ = ["MAX_FAULTS", "MAX_FAULT_TEXT", "fault_items", "split_faults"]
 
 MAX_FAULTS = 1000
 """The most faults one run takes."""
@@ -23,10 +23,26 @@ MAX_FAULT_TEXT = 200
 """The longest fault (``motor_stall:bend_3_drive@5s+20s``)."""
 
 
+# An item runs to the next ',', ';' or whitespace, but a number and its time unit
+# written apart ('@2 s', 'delay=20 ms') stay one item: split there, '2' was told it
+# "needs a unit" and 's' that it "is not key=value".
+_ITEM = re.compile(r"(?:[^,;\s]|(?<=\d)\s+(?=(?:ns|us|µs|ms|s|min|h)(?:[,;+\s]|$)))+")
+
+
+def fault_items(text: str) -> list[tuple[int, str]]:
+    """The items of one fault text, each with its column (1-based).
+
+    Items are separated by ``,``, ``;`` or whitespace, except that a number and its
+    time unit may stand apart (``motor_stall:bend_1_drive@2 s+1 s``).
+    """
+    return [(m.start() + 1, m.group()) for m in _ITEM.finditer(text)]
+
+
 def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | None]:
     """Split a fault spec into simulator faults and a link fault spec.
 
-    Items are separated by ``,``, ``;`` or whitespace (or given as a list). An item
+    Items are separated by ``,``, ``;`` or whitespace (or given as a list); a number
+    and its time unit may stand apart (``@2 s``, ``delay=20 ms``). An item
     with ``@`` is a simulator fault (``motor_stall:bend_3_drive@5s+2s``); the others
     are link byte faults (``drop=0.05``, ``corrupt=0.01``), joined into one spec.
 
@@ -41,7 +57,7 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
     """
     items: list[str] = []
     if isinstance(faults, str):
-        items = [i for i in re.split(r"[,;\s]+", faults) if i]
+        items = [item for _, item in fault_items(faults)]
     elif faults is not None:
         if isinstance(faults, bytes | bytearray | Mapping) or not isinstance(faults, Iterable):
             raise InputError(
@@ -51,7 +67,7 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
         for part in faults:
             if not isinstance(part, str):
                 raise InputError(f"faults: each item is text, not {kind_of(part)}")
-            items += [i for i in re.split(r"[,;\s]+", part) if i]
+            items += [item for _, item in fault_items(part)]
     if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
         raise InputError(
             f"faults: at most {MAX_FAULTS} faults of at most {MAX_FAULT_TEXT} characters each"

@@ -11,14 +11,11 @@ same text again and finds nothing more.
 from __future__ import annotations
 
 import argparse
-import re
 from typing import Any
 
 from pirate_bt.errors import InputError, LocatedError, SourceLocation
 
 __all__ = ["check_fault_options", "check_faults_option"]
-
-_ITEM = re.compile(r"[^,;\s]+")  # split_faults's separators: ',', ';', whitespace
 
 
 def check_faults_option(args: argparse.Namespace, robot: Any, option: str = "--faults") -> None:
@@ -49,11 +46,11 @@ def check_faults_option(args: argparse.Namespace, robot: Any, option: str = "--f
             "simulator faults (KIND:TARGET@AT) need the Python simulator; through the"
             " firmware only link faults (KEY=VALUE) apply"
         )
-    from pirate_bt.api.options import MAX_FAULT_TEXT, MAX_FAULTS
+    from pirate_bt.api.fault_text import MAX_FAULT_TEXT, MAX_FAULTS, fault_items
     from pirate_bt.link.faults import parse_fault_spec
     from pirate_bt.sim.faults import check_fault_target, parse_fault
 
-    items = [(m.start() + 1, m.group()) for m in _ITEM.finditer(text)]
+    items = fault_items(text)  # as split_faults splits them
 
     def at(column: int, problem: InputError) -> LocatedError:
         return LocatedError(str(problem), SourceLocation(option, 1, column))
