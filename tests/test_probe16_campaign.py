@@ -57,6 +57,10 @@ def helper(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path
 
 
+# no bytecode written under a file size limit: a cut .pyc of a module changed since its
+# last import would break every later import of it in the shared tree
+_NO_BYTECODE = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+
 # The campaign in a Python of its own whose files may not grow past LIMIT bytes
 # (RLIMIT_FSIZE: a write past it fails with EFBIG, as one fails on a full disk).
 FULL = textwrap.dedent(
@@ -85,6 +89,7 @@ def test_a_disk_that_fills_leaves_whole_rows_and_names_the_results_file(helper: 
     row = len(json.dumps({"id": "000000-p16", "index": 0, "run": "r"})) + 240
     done = subprocess.run(
         [sys.executable, "-c", FULL, str(Path(__file__).parent), str(out), str(row * 5 // 2)],
+        env=_NO_BYTECODE,
         capture_output=True,
         text=True,
         timeout=60,
@@ -163,6 +168,7 @@ PLOT = textwrap.dedent(
 def test_a_plot_the_disk_refuses_is_named_and_leaves_no_part_file(tmp_path: Path) -> None:
     done = subprocess.run(
         [sys.executable, "-c", PLOT, str(Path(__file__).parent), str(tmp_path)],
+        env=_NO_BYTECODE,
         capture_output=True,
         text=True,
         timeout=60,
@@ -208,6 +214,7 @@ def test_a_resume_the_disk_has_no_room_for_names_the_results_and_keeps_them(
     results.write_text(before, encoding="utf-8")  # a cut last line: rewritten to resume
     done = subprocess.run(
         [sys.executable, "-c", RESUME, str(Path(__file__).parent), str(out)],
+        env=_NO_BYTECODE,
         capture_output=True,
         text=True,
         timeout=60,
