@@ -59,7 +59,9 @@ def helper(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 # no bytecode written under a file size limit: a cut .pyc of a module changed since its
 # last import would break every later import of it in the shared tree
-_NO_BYTECODE = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+def _no_bytecode() -> dict[str, str]:
+    return {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}  # at the call: the helper's path
+
 
 # The campaign in a Python of its own whose files may not grow past LIMIT bytes
 # (RLIMIT_FSIZE: a write past it fails with EFBIG, as one fails on a full disk).
@@ -89,7 +91,7 @@ def test_a_disk_that_fills_leaves_whole_rows_and_names_the_results_file(helper: 
     row = len(json.dumps({"id": "000000-p16", "index": 0, "run": "r"})) + 240
     done = subprocess.run(
         [sys.executable, "-c", FULL, str(Path(__file__).parent), str(out), str(row * 5 // 2)],
-        env=_NO_BYTECODE,
+        env=_no_bytecode(),
         capture_output=True,
         text=True,
         timeout=60,
@@ -168,7 +170,7 @@ PLOT = textwrap.dedent(
 def test_a_plot_the_disk_refuses_is_named_and_leaves_no_part_file(tmp_path: Path) -> None:
     done = subprocess.run(
         [sys.executable, "-c", PLOT, str(Path(__file__).parent), str(tmp_path)],
-        env=_NO_BYTECODE,
+        env=_no_bytecode(),
         capture_output=True,
         text=True,
         timeout=60,
@@ -214,7 +216,7 @@ def test_a_resume_the_disk_has_no_room_for_names_the_results_and_keeps_them(
     results.write_text(before, encoding="utf-8")  # a cut last line: rewritten to resume
     done = subprocess.run(
         [sys.executable, "-c", RESUME, str(Path(__file__).parent), str(out)],
-        env=_NO_BYTECODE,
+        env=_no_bytecode(),
         capture_output=True,
         text=True,
         timeout=60,
