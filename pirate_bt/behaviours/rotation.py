@@ -61,6 +61,7 @@ class _Rotation(Primitive):
             ok, done = self.send(_commands().Rotate(self._target))
             if not ok:
                 return self.refused()
+            self._sent = True
             self._done_sending = done
         rotation = state.rotation_rad
         reached = (
@@ -72,6 +73,24 @@ class _Rotation(Primitive):
         self.feedback_message = f"rotating to {_deg(self._target)}: at {shown}"
         self._held = self._held + 1 if reached else 0
         return Status.SUCCESS if self._held >= _SETTLE_TICKS else Status.RUNNING
+
+    def initialise(self) -> None:
+        self._sent = False
+        super().initialise()
+
+    def stop_motion(self) -> None:
+        """Halted or failed on the way: hold the rotation where it reads, rather than let
+        it finish the step already sent (the safe state brakes it itself). A hold the
+        checks would refuse (no half clamped any more) is not asked for."""
+        sup = self.supervisor
+        if not getattr(self, "_sent", False) or sup.safe_state_reason is not None:
+            return
+        state = sup.state()
+        if state is None or state.rotation_rad is None:
+            return
+        hold = _commands().Rotate(state.rotation_rad)
+        if sup.check(hold).ok:
+            sup.command(hold)
 
 
 class Rotate(_Rotation):

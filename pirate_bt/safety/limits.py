@@ -84,13 +84,17 @@ def limit(
             )
         if problem is None and lim.angular_velocity is not None and reference is not None:
             step = lim.angular_velocity.max * dt
-            problem = bound(
-                Reason.ANGULAR_RATE_LIMIT,
-                lim.angular_velocity.policy,
-                reference - step,
-                reference + step,
-                f"angle step from {reference:g} in {dt:g} s: target",
-            )
+            # back toward where the joint is, from a setpoint it has not reached: it
+            # slows down and stops there, it cannot jerk (a node halted holds its joint)
+            at = measured(robot, motor, state) if last is not None else None
+            if at is None or not min(reference, at) <= value <= max(reference, at):
+                problem = bound(
+                    Reason.ANGULAR_RATE_LIMIT,
+                    lim.angular_velocity.policy,
+                    reference - step,
+                    reference + step,
+                    f"angle step from {reference:g} in {dt:g} s: target",
+                )
     elif mc.mode is ControlMode.TORQUE:
         if lim.torque is not None:
             problem = bound(
