@@ -18,7 +18,7 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, ValidationFailed
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
@@ -115,21 +115,24 @@ def test_a_network_file_s_fault_naming_no_motor_is_refused_at_its_line(
 def test_a_network_file_s_fault_with_no_target_says_it_needs_one(tmp_path: Path) -> None:
     net = tmp_path / "f.yaml"
     net.write_text(NETWORK + "  - {kind: board_reset, at: 2 s}\n")
-    with pytest.raises(FaultTargetError) as refused:
+    # the network itself is refused, at the fault (as `pirate-bt validate` does): it was
+    # 'fault board_reset: unknown board None (boards: ...)', with no line, from the
+    # simulator only, while validate said the file was valid
+    with pytest.raises(ValidationFailed) as refused:
         Simulator(net, ROBOT)
-    # was: 'fault board_reset: unknown board None (boards: ...)', and no line
-    assert str(refused.value).startswith(
-        f"{net}:8:5: faults: fault board_reset needs a target: a board (boards: 20, 21,"
-    )
-    # a network built in Python has no file: its source is named, as before
+    assert str(refused.value).startswith(f"{net}:8:5: board_reset needs a target: a board id")
     data = {
         "name": "f",
         "diameter": "63 mm",
         "segments": [{"type": "straight", "length": "2 m"}],
         "faults": [{"kind": "board_reset", "at": "2 s"}],
     }
-    with pytest.raises(FaultTargetError, match=r"^<data>: faults: fault board_reset needs"):
-        Simulator(network_from_data(data), ROBOT)
+    with pytest.raises(ValidationFailed, match=r"^<data>:1:1: board_reset needs a target"):
+        network_from_data(data)
+    # and a link loss given a target, which the simulator refused after validate passed
+    net.write_text(NETWORK + '  - {kind: link_loss, at: 2 s, target: "22"}\n')
+    with pytest.raises(ValidationFailed, match=r"f\.yaml:8:32: link_loss takes no target"):
+        Simulator(net, ROBOT)
 
 
 def test_a_list_of_faults_with_one_refused_schedules_none_of_them() -> None:
