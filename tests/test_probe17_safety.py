@@ -6,11 +6,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
+import py_trees
 import pytest
 
 import pirate_bt
+from pirate_bt.behaviours.guards import is_clamped, skip_if, state_fresh, while_
 from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
 
 ROOT = Path(__file__).resolve().parent.parent
 CLIP = "acceleration: {max: 400 mm/s^2, policy: clip}"
@@ -160,3 +164,25 @@ def test_a_rotate_halted_by_a_parallel_holds_where_it_is() -> None:
             sup.clock.sleep(0.05)
             sup.tick()
         assert abs(sim.truth().rotation_rad - at_end) < math.radians(1)
+
+
+@pytest.mark.parametrize(
+    "build",
+    [
+        lambda child: skip_if(child, "imu.pitch > 10 deg"),
+        lambda child: while_(child, None),
+        lambda child: skip_if(child, {"state": "imu.pitch", "op": ">", "value": "abc"}),
+        lambda child: is_clamped(None, "middle"),  # type: ignore[arg-type]
+        lambda child: state_fresh(None, "imu.pitch"),  # type: ignore[arg-type]
+    ],
+)
+def test_a_guard_built_in_python_with_bad_parameters_is_one_located_line(build: Any) -> None:
+    # The guards' Python builders raised pydantic's many-line ValidationError, a
+    # TypeError for condition=None, and took a text condition for a list of its
+    # letters, until 2026-11-30; they check their parameters as `Cls.build` does
+    # (docs/trees.md): one ValidationFailed at the caller's line.
+    child = py_trees.behaviours.Success(name="c")
+    with pytest.raises(ValidationFailed) as info:
+        build(child)
+    text = str(info.value)
+    assert text.split(":")[0].endswith("test_probe17_safety.py") and "\n" not in text, text

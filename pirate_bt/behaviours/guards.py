@@ -525,19 +525,15 @@ def _context(supervisor: Supervisor | None) -> BuildContext:
     return BuildContext(robot=supervisor.robot, clock=supervisor.clock, supervisor=supervisor)
 
 
-def _comparisons(
-    condition: Comparison | dict[str, Any] | Sequence[Comparison | dict[str, Any]],
-) -> Any:
-    items = [condition] if isinstance(condition, Comparison | dict) else list(condition)
-    # model_validate returns a Comparison as it is and checks a dict
-    return [Comparison.model_validate(c) for c in items]
+def _comparisons(condition: Any) -> Any:
+    # a text or None is judged by the parameters' checks (one line, the caller's line)
+    return list(condition) if isinstance(condition, list | tuple) else condition
 
 
 def is_clamped(supervisor: Supervisor | None, half: Half, name: str = "") -> IsClamped:
     """An ``is_clamped`` condition for planner code."""
-    return IsClamped(
-        name or f"is_clamped({half})", IsClampedParams(half=half), _context(supervisor)
-    )
+    name = name or f"is_clamped({half})"
+    return IsClamped(name, IsClamped.checked_params(name, {"half": half}), _context(supervisor))
 
 
 def link_healthy(supervisor: Supervisor | None, name: str = "link healthy") -> LinkHealthy:
@@ -551,12 +547,14 @@ def state_fresh(
     supervisor: Supervisor | None, channels: Sequence[str] = (), name: str = "state fresh"
 ) -> StateFresh:
     """A ``state_fresh`` condition for planner code."""
-    return StateFresh(name, StateFreshParams(channels=list(channels)), _context(supervisor))
+    wanted = {"channels": list(channels) if isinstance(channels, list | tuple) else channels}
+    return StateFresh(name, StateFresh.checked_params(name, wanted), _context(supervisor))
 
 
 def mode_is(supervisor: Supervisor | None, mode: Mode, name: str = "") -> ModeIs:
     """A ``mode_is`` condition for planner code."""
-    return ModeIs(name or f"mode_is({mode})", ModeIsParams(mode=mode), _context(supervisor))
+    name = name or f"mode_is({mode})"
+    return ModeIs(name, ModeIs.checked_params(name, {"mode": mode}), _context(supervisor))
 
 
 def _decorate(
@@ -566,8 +564,9 @@ def _decorate(
     supervisor: Supervisor | None,
     name: str,
 ) -> Any:
-    params = PreconditionParams(condition=_comparisons(condition))
-    return cls(name or f"{cls.__name__}({child.name})", child, params, _context(supervisor))
+    name = name or f"{cls.__name__}({child.name})"
+    params = cls.checked_params(name, {"condition": _comparisons(condition)})
+    return cls(name, child, params, _context(supervisor))  # type: ignore[arg-type]
 
 
 def skip_if(
