@@ -502,9 +502,12 @@ int main(int argc, char **argv) {
     }
     static elf_firmware_t bridge_fw, pico_fw;
     no_bridge = strcmp(argv[1], "-") == 0;
-    if ((!no_bridge &&
-         (access(argv[1], R_OK) != 0 || elf_read_firmware(argv[1], &bridge_fw) != 0)) ||
-        access(argv[2], R_OK) != 0 || elf_read_firmware(argv[2], &pico_fw) != 0) {
+    if ((!no_bridge && !elf_built_for("pirate-chain", argv[1], 6u, "bridge's ATmega2560")) ||
+        !elf_built_for("pirate-chain", argv[2], 5u, "PICO board's ATmega328p")) {
+        return 2;
+    }
+    if ((!no_bridge && elf_read_firmware(argv[1], &bridge_fw) != 0) ||
+        elf_read_firmware(argv[2], &pico_fw) != 0) {
         fprintf(stderr, "pirate-chain: cannot read the ELFs %s, %s\n", argv[1], argv[2]);
         return 2;
     }

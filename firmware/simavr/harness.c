@@ -184,7 +184,10 @@ int main(int argc, char **argv) {
     }
     elf_firmware_t fw;
     memset(&fw, 0, sizeof fw);
-    if (access(elf, R_OK) != 0 || elf_read_firmware(elf, &fw) != 0) {
+    if (!elf_built_for("pirate-simavr", elf, 6u, "bridge's ATmega2560")) {
+        return 2;
+    }
+    if (elf_read_firmware(elf, &fw) != 0) {
         fprintf(stderr, "pirate-simavr: cannot read the ELF %s\n", elf);
         return 2;
     }

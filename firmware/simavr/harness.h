@@ -52,6 +52,46 @@ static inline void no_level_polling(avr_t *avr) {
     }
 }
 
+/* Whether `path` is an AVR ELF built for the architecture `mach` (the e_flags'
+ * EF_AVR_MACH: 6 = avr6, the bridge's ATmega2560; 5 = avr5, a PICO's ATmega328p). If not,
+ * one line on stderr names the file and what it is. simavr's loader takes anything: a
+ * HEX, a text file or the other chip's ELF loaded as an empty or wrong flash that
+ * crashed at once or reset forever, with a pty that never answered. */
+static inline bool elf_built_for(const char *prog, const char *path, unsigned mach,
+                                 const char *chip) {
+    unsigned char h[52];
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "%s: cannot read %s: %s\n", prog, path, strerror(errno));
+        return false;
+    }
+    size_t n = fread(h, 1, sizeof h, f);
+    fclose(f);
+    if (n < sizeof h || memcmp(h, "\177ELF", 4) != 0) {
+        fprintf(stderr, "%s: %s is %s\n", prog, path,
+                n > 0 && h[0] == ':' ? "Intel HEX, not an ELF file: give the .elf built beside it"
+                                     : "not an ELF file");
+        return false;
+    }
+    unsigned machine = (unsigned)(h[18] | h[19] << 8);
+    if (h[4] != 1 || h[5] != 1 || machine != 83u) { /* ELFCLASS32, LSB, EM_AVR */
+        fprintf(stderr, "%s: %s is an ELF file, but not for an AVR (machine %u)\n", prog,
+                path, machine);
+        return false;
+    }
+    unsigned built = h[36] & 0x7Fu; /* EF_AVR_MACH */
+    if (built != mach) {
+        fprintf(stderr, "%s: %s is built for avr%u%s, not for the %s (avr%u)\n", prog, path,
+                built,
+                built == 5u   ? " (an ATmega328p: a PICO board's firmware?)"
+                : built == 6u ? " (an ATmega2560: the bridge's firmware?)"
+                              : "",
+                chip, mach);
+        return false;
+    }
+    return true;
+}
+
 /* channel.c (calls no other file): the records to and from the board simulator */
 typedef void (*channel_handler)(char type, const uint8_t *payload, uint16_t n);
 void channel_send_record(char type, const uint8_t *payload, uint16_t n);

@@ -1,0 +1,103 @@
+"""Probe 17, the embedded side: what a user of the firmwares and their harnesses meets.
+
+Each test here failed before the fix it names in its docstring.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from firmware_chain_support import build_chain, missing_chain
+
+ROOT = Path(__file__).resolve().parents[1]
+_PIRATE_BT = (sys.executable, "-m", "pirate_bt")
+
+
+@pytest.fixture(scope="module")
+def chain_builds() -> tuple[Path, Path, Path]:
+    """(bridge ELF, PICO ELF, pirate-chain), built; the simavr harness beside it."""
+    why = missing_chain()
+    if why:
+        pytest.skip(why)
+    return build_chain()
+
+
+def _sim(elf: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*_PIRATE_BT, "sim", "straight", "--firmware", str(elf), "--duration", "3"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+
+def test_sim_refuses_the_pico_elf_as_the_bridge(chain_builds: tuple[Path, Path, Path]) -> None:
+    """`pirate-bt sim --firmware pico.elf` ran the ATmega328p's code on the ATmega2560:
+    a pty that never answered, exit 0 and '2029 unexpected MCU resets' in the summary."""
+    _, pico, _ = chain_builds
+    done = _sim(pico)
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert f"{pico} is built for avr5 (an ATmega328p: a PICO board's firmware?)" in line
+    assert "not for the bridge's ATmega2560 (avr6)" in line
+    assert "Traceback" not in done.stderr
+
+
+def test_sim_names_a_hex_file_given_for_the_elf(chain_builds: tuple[Path, Path, Path]) -> None:
+    """The .hex beside the ELF (the file a user flashes) said 'the AVR crashed at cycle
+    131072 (pc 0x00000)', exit 3, as if the firmware were broken."""
+    bridge, _, _ = chain_builds
+    hex_file = bridge.with_suffix(".hex")
+    assert hex_file.is_file()
+    done = _sim(hex_file)
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.endswith(f"{hex_file} is Intel HEX, not an ELF file: give the .elf built beside it")
+
+
+def test_sim_names_a_file_that_is_no_elf(
+    chain_builds: tuple[Path, Path, Path], tmp_path: Path
+) -> None:
+    """Any other file was loaded as an empty flash: 'the AVR crashed', exit 3."""
+    text = tmp_path / "notes.elf"
+    text.write_text("not firmware\n")
+    done = _sim(text)
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.endswith(f"{text} is not an ELF file")
+
+
+def test_the_chain_refuses_its_two_elfs_swapped(chain_builds: tuple[Path, Path, Path]) -> None:
+    """pirate-chain loaded the bridge's ELF into every PICO core (and the other way
+    round) and ran it."""
+    bridge, pico, chain = chain_builds
+    done = subprocess.run(
+        [str(chain), str(pico), str(bridge), "22"],
+        input="",
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        f"pirate-chain: {pico} is built for avr5 (an ATmega328p: a PICO board's firmware?),"
+        " not for the bridge's ATmega2560 (avr6)"
+    )
+    done = subprocess.run(
+        [str(chain), "-", str(bridge), "22"],
+        input="",
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        f"pirate-chain: {bridge} is built for avr6 (an ATmega2560: the bridge's firmware?),"
+        " not for the PICO board's ATmega328p (avr5)"
+    )
