@@ -1,0 +1,70 @@
+"""Probe 17: a new user follows the manual as written (README.md, then every page in
+mkdocs.yml's order), runs what it shows and compares what comes back.
+
+Findings, each pinned below:
+
+- docs/campaigns.md, *Bad input*: a tree parameter its node refuses was quoted as
+  ``drive: Input should be greater than 0`` (pydantic's words); ``pirate-bt validate``
+  and ``pirate-bt campaign`` say ``drive: distance: must be more than 0 m, not 0.0 m``.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+DOCS = REPO / "docs"
+
+
+def _quoted(page: Path, start: str) -> str:
+    """The backquoted text on ``page`` that starts with ``start``, its lines joined."""
+    text = re.sub(r"\s*\n\s*", " ", page.read_text(encoding="utf-8"))
+    found = re.findall("`(" + re.escape(start) + "[^`]*)`", text)
+    assert len(found) == 1, f"{page.name}: {len(found)} quotes start {start!r}"
+    return str(found[0])
+
+
+def _as_pattern(quote: str) -> str:
+    """A quoted message as a regex: ``...`` stands for any text (a path, a list)."""
+    return ".*".join(re.escape(part) for part in quote.split("..."))
+
+
+def _validate(tmp: Path, name: str, text: str, capsys: pytest.CaptureFixture[str]) -> str:
+    (tmp / name).write_text(text, encoding="utf-8")
+    assert main(["validate", name]) == 2
+    return capsys.readouterr().err.strip()
+
+
+@pytest.mark.parametrize(
+    ("start", "spec"),
+    [
+        (  # a value the tree's drive refuses, placed at the value under the run's params
+            "h.campaign.yaml:4:14: parameter 'distance'",
+            "name: h\nruns:\n  - name: s\n    params: {distance: 0 m}\n"
+            "    tree: straight\n    network: straight\n",
+        ),
+        (  # a parameter without a default that the run leaves out, placed at its params
+            "h.campaign.yaml:4:33: run 'two'",
+            "name: h\nruns:\n"
+            "  - {name: one, tree: straight, network: straight, params: {distance: 1 m}}\n"
+            "  - {name: two, tree: straight, params: {velocity: 50 mm/s}}\n",
+        ),
+    ],
+)
+def test_the_campaign_pages_parameter_errors_are_what_validate_prints(
+    start: str,
+    spec: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # before: the page quoted "drive: Input should be greater than 0" for the first
+    quote = _quoted(DOCS / "campaigns.md", start)
+    monkeypatch.chdir(tmp_path)
+    printed = _validate(tmp_path, "h.campaign.yaml", spec, capsys)
+    assert re.fullmatch(_as_pattern(quote), printed), f"docs: {quote}\nprinted: {printed}"
