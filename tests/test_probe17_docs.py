@@ -6,6 +6,9 @@ Findings, each pinned below:
 - docs/campaigns.md, *Bad input*: a tree parameter its node refuses was quoted as
   ``drive: Input should be greater than 0`` (pydantic's words); ``pirate-bt validate``
   and ``pirate-bt campaign`` say ``drive: distance: must be more than 0 m, not 0.0 m``.
+- docs/networks.md, *Segments*: segments without an id were said to be named
+  ``main-1``, ``main-2``, ...; they are named by their place in the line, the segments
+  with an id counted too (after ``entry``, a bend without an id is ``main-2``).
 """
 
 from __future__ import annotations
@@ -68,3 +71,17 @@ def test_the_campaign_pages_parameter_errors_are_what_validate_prints(
     monkeypatch.chdir(tmp_path)
     printed = _validate(tmp_path, "h.campaign.yaml", spec, capsys)
     assert re.fullmatch(_as_pattern(quote), printed), f"docs: {quote}\nprinted: {printed}"
+
+
+def test_a_segment_without_an_id_is_named_as_the_networks_page_says(tmp_path: Path) -> None:
+    # before: "named main-1, main-2, ...": the first segment without an id after
+    # `entry` was taken for main-1; it is main-2 (its place in the line)
+    from pirate_bt.pipes import load_network
+
+    text = re.sub(r"\s*\n\s*", " ", (DOCS / "networks.md").read_text(encoding="utf-8"))
+    match = re.search(r"`(segments: \[[^`]+\])` names the bend `([^`]+)`", text)
+    assert match is not None, "networks.md: no example of a segment named by its place"
+    network = tmp_path / "n.yaml"
+    network.write_text(f"name: n\ndiameter: 63 mm\n{match[1]}\n", encoding="utf-8")
+    path = load_network(network).main_path()
+    assert [piece.segment for piece in path.pieces if piece.kind == "bend"] == [match[2]]
