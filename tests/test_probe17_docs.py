@@ -9,6 +9,11 @@ Findings, each pinned below:
 - docs/networks.md, *Segments*: segments without an id were said to be named
   ``main-1``, ``main-2``, ...; they are named by their place in the line, the segments
   with an id counted too (after ``entry``, a bend without an id is ``main-2``).
+- docs/installation.md said bundled files are found by name from any folder, and
+  docs/campaigns.md that a spec's relative names fall back on the bundled files: both
+  hold for trees, networks and routes, not for robots (``--robot pirate.yaml`` and a
+  campaign's ``robots: [hardware/pirate.yaml]`` outside the repository are *no such
+  file*). Both pages now say a robot is a path and ``null``/no option the bundled one.
 """
 
 from __future__ import annotations
@@ -85,3 +90,32 @@ def test_a_segment_without_an_id_is_named_as_the_networks_page_says(tmp_path: Pa
     network.write_text(f"name: n\ndiameter: 63 mm\n{match[1]}\n", encoding="utf-8")
     path = load_network(network).main_path()
     assert [piece.segment for piece in path.pieces if piece.kind == "bend"] == [match[2]]
+
+
+def test_a_robot_named_as_a_bundled_file_is_refused_as_the_installation_page_says(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: "bundled files are found by name from any folder", robots included by
+    # its words; --robot takes a path only
+    text = re.sub(r"\s*\n\s*", " ", (DOCS / "installation.md").read_text(encoding="utf-8"))
+    match = re.search(r"`pirate-bt (run straight --robot pirate\.yaml)` says \*([^*]+)\*", text)
+    assert match is not None, "installation.md: no word on --robot and bundled names"
+    monkeypatch.chdir(tmp_path)
+    assert main([*match[1].split(), "--param", "distance=0.1m", "-q"]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {match[2]}"
+
+
+def test_a_campaigns_robot_is_a_path_not_a_bundled_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # campaigns.md said every relative name falls back on the bundled files
+    text = re.sub(r"\s*\n\s*", " ", (DOCS / "campaigns.md").read_text(encoding="utf-8"))
+    assert "Robots have no bundled names" in text
+    monkeypatch.chdir(tmp_path)
+    spec = (
+        "name: c\nruns:\n"
+        "  - {name: a, tree: straight, network: straight, params: {distance: 1 m}}\n"
+        "robots: [hardware/pirate.yaml]\n"
+    )
+    printed = _validate(tmp_path, "c.campaign.yaml", spec, capsys)
+    assert printed == "c.campaign.yaml:4:10: robot 'hardware/pirate.yaml': no such file"
