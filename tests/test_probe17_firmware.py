@@ -5,6 +5,8 @@ Each test here failed before the fix it names in its docstring.
 
 from __future__ import annotations
 
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -101,3 +103,45 @@ def test_the_chain_refuses_its_two_elfs_swapped(chain_builds: tuple[Path, Path, 
         f"pirate-chain: {bridge} is built for avr6 (an ATmega2560: the bridge's firmware?),"
         " not for the PICO board's ATmega328p (avr5)"
     )
+
+
+def _eighteen_boards(folder: Path) -> Path:
+    """The default robot with nine more sensor boards: one more than COUNTERS carries."""
+    text = (ROOT / "hardware" / "pirate.yaml").read_text()
+    assert text.count("\nclamp:") == 1
+    extra = "".join(
+        f"  - id: {i}\n    module: rear\n    sensors:\n"
+        f"      - {{<<: *angle_sensor, slot: 0, name: extra_{i}_angle}}\n\n"
+        for i in range(29, 38)
+    )
+    path = folder / "eighteen.yaml"
+    path.write_text(text.replace("\nclamp:", "\n" + extra + "clamp:"))
+    return path
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="make missing")
+@pytest.mark.parametrize("firmware", ["piratebay", "pico"])
+def test_a_robot_the_protocol_cannot_carry_is_refused_at_its_line(
+    firmware: str, tmp_path: Path
+) -> None:
+    """`make firmware ROBOT=...` with 18 boards wrote the header and failed in the C
+    compiler: 'txq.h:24:1: error: static assertion failed: "COUNTERS fits one frame"'
+    among the compiler's include trail. `pirate-bt validate` named the file's line."""
+    robot = _eighteen_boards(tmp_path)
+    build = tmp_path / "build"
+    done = subprocess.run(
+        [
+            *("make", "-s", "-C", str(ROOT / "firmware" / firmware), f"BUILD={build}"),
+            *(f"ROBOT={robot}", f"PIRATE_BT={sys.executable} -m pirate_bt"),
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MAKEFLAGS": ""},
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode != 0
+    assert f"{robot}:62:1: robot 'PIRATE 2018': the robot description does not fit" in done.stderr
+    assert "18 boards need a 254-byte COUNTERS payload (max 247: 17 boards)" in done.stderr
+    assert "static assertion" not in done.stdout + done.stderr
+    assert not (build / "layout.h").exists()
