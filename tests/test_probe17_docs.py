@@ -14,6 +14,9 @@ Findings, each pinned below:
   hold for trees, networks and routes, not for robots (``--robot pirate.yaml`` and a
   campaign's ``robots: [hardware/pirate.yaml]`` outside the repository are *no such
   file*). Both pages now say a robot is a path and ``null``/no option the bundled one.
+- docs/networks.md's and docs/routes.md's tables of bundled files left out
+  ``lab-long.yaml`` and ``service-tees.yaml``, and ``lab-long.route``, which every
+  *bundled networks: ...* error names.
 """
 
 from __future__ import annotations
@@ -119,3 +122,22 @@ def test_a_campaigns_robot_is_a_path_not_a_bundled_name(
     )
     printed = _validate(tmp_path, "c.campaign.yaml", spec, capsys)
     assert printed == "c.campaign.yaml:4:10: robot 'hardware/pirate.yaml': no such file"
+
+
+@pytest.mark.parametrize(
+    ("page", "heading", "suffix"),
+    [
+        ("networks.md", "## Bundled scenarios", ".yaml"),
+        ("routes.md", "## Bundled routes", ".route"),
+    ],
+)
+def test_the_bundled_tables_list_every_bundled_file(page: str, heading: str, suffix: str) -> None:
+    # before: lab-long and service-tees (networks), lab-long (routes) were bundled, named
+    # by every "bundled networks: ..." error, and missing from the tables
+    from pirate_bt.resources import bundled_names
+
+    text = (DOCS / page).read_text(encoding="utf-8")
+    section = text[text.index(heading) :].split("\n## ", 1)[0]
+    listed = set(re.findall(r"`([\w-]+)" + re.escape(suffix) + "`", section))
+    missing = sorted(set(bundled_names("scenarios", suffix)) - listed)
+    assert not missing, f"docs/{page}, {heading}: no row for {missing}"
