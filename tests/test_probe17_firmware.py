@@ -145,3 +145,47 @@ def test_a_robot_the_protocol_cannot_carry_is_refused_at_its_line(
     assert "18 boards need a 254-byte COUNTERS payload (max 247: 17 boards)" in done.stderr
     assert "static assertion" not in done.stdout + done.stderr
     assert not (build / "layout.h").exists()
+
+
+@pytest.fixture(scope="module")
+def id_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One build folder for the `make id` tests: its layout.h is generated once."""
+    return tmp_path_factory.mktemp("pico-id") / "build"
+
+
+def _make_id(board_id: str, build: Path) -> subprocess.CompletedProcess[str]:
+    """`make -C firmware/pico id ID=...` with `echo` for avrdude: what it would run."""
+    return subprocess.run(
+        [
+            *("make", "-s", "-C", str(ROOT / "firmware" / "pico"), "id", f"ID={board_id}"),
+            *(f"BUILD={build}", "AVRDUDE=echo", f"PIRATE_BT={sys.executable} -m pirate_bt"),
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MAKEFLAGS": ""},
+        timeout=120,
+        check=False,
+    )
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="make missing")
+@pytest.mark.parametrize("board_id", ["300", "29", "022", "22 23", "0x16"])
+def test_make_id_writes_only_a_board_of_the_robot(board_id: str, id_build: Path) -> None:
+    """`make -C firmware/pico id ID=300` had avrdude write 0x12c,0x...ffd3 to the EEPROM,
+    ID=022 wrote id 18 (printf read it as octal), and ID=29 an id no board of the robot
+    has: each a board that never answers on the bus."""
+    done = _make_id(board_id, id_build)
+    assert done.returncode == 2
+    assert "eeprom:w:" not in done.stdout
+    robot = ROOT / "hardware" / "pirate.yaml"
+    assert (
+        f"make id: ID={board_id} is not a board of {robot}"
+        " (its boards: 20 21 22 23 24 25 26 27 28): nothing written"
+    ) in done.stderr
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="make missing")
+def test_make_id_writes_the_id_and_its_complement(id_build: Path) -> None:
+    done = _make_id("22", id_build)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().endswith("-U eeprom:w:0x16,0xe9:m")
