@@ -189,3 +189,27 @@ def test_make_id_writes_the_id_and_its_complement(id_build: Path) -> None:
     done = _make_id("22", id_build)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().endswith("-U eeprom:w:0x16,0xe9:m")
+
+
+@pytest.mark.skipif(
+    shutil.which("avr-gcc") is None or shutil.which("avr-size") is None,
+    reason="avr-gcc/avr-size missing: install Debian's gcc-avr and avr-libc (make firmware does)",
+)
+@pytest.mark.parametrize("firmware", ["piratebay", "pico"])
+def test_the_sizes_docs_firmware_md_shows_are_the_builds(firmware: str, tmp_path: Path) -> None:
+    """docs/firmware.md showed `make firmware` printing flash 8966 and 8152 bytes; the
+    builds took 8970 and 8216 (the last firmware commits did not update it)."""
+    done = subprocess.run(
+        [
+            *("make", "-s", "-C", str(ROOT / "firmware" / firmware), f"BUILD={tmp_path}"),
+            f"PIRATE_BT={sys.executable} -m pirate_bt",
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MAKEFLAGS": ""},
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    (line,) = [x for x in done.stdout.splitlines() if x.startswith(f"{firmware}.elf: flash ")]
+    assert line in (ROOT / "docs" / "firmware.md").read_text().splitlines()
