@@ -17,6 +17,9 @@ Findings, each pinned below:
 - docs/networks.md's and docs/routes.md's tables of bundled files left out
   ``lab-long.yaml`` and ``service-tees.yaml``, and ``lab-long.route``, which every
   *bundled networks: ...* error names.
+- docs/routes.md, *When the route is wrong*: the errors of a ``bad.route`` it never
+  showed, with ``bad.route:3:11`` for ``forward 2`` (the column is 10, where the unit
+  goes); the page now shows the file and what ``validate`` prints for it.
 """
 
 from __future__ import annotations
@@ -141,3 +144,18 @@ def test_the_bundled_tables_list_every_bundled_file(page: str, heading: str, suf
     listed = set(re.findall(r"`([\w-]+)" + re.escape(suffix) + "`", section))
     missing = sorted(set(bundled_names("scenarios", suffix)) - listed)
     assert not missing, f"docs/{page}, {heading}: no row for {missing}"
+
+
+def test_the_routes_pages_bad_route_gives_the_lines_it_shows(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: the page showed 'bad.route:3:11' for `forward 2` (it is 3:10) and not the
+    # file, so nobody could reproduce it
+    text = (DOCS / "routes.md").read_text(encoding="utf-8")
+    block = re.search(
+        r"^\$ cat bad\.route\n(.*?)^\$ pirate-bt validate bad\.route\n(.*?)^```", text, re.S | re.M
+    )
+    assert block is not None, "routes.md: no bad.route with its validate output"
+    monkeypatch.chdir(tmp_path)
+    printed = _validate(tmp_path, "bad.route", block[1], capsys)
+    assert printed.splitlines() == block[2].splitlines()
