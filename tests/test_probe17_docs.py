@@ -20,6 +20,9 @@ Findings, each pinned below:
 - docs/routes.md, *When the route is wrong*: the errors of a ``bad.route`` it never
   showed, with ``bad.route:3:11`` for ``forward 2`` (the column is 10, where the unit
   goes); the page now shows the file and what ``validate`` prints for it.
+- docs/console.md, *Scripts and tests*: ``--keys`` always ends with a line of the state
+  the keys left (``--keys '?'`` prints it twice); the page said only that ``?`` prints
+  it. It now says so and shows ``teleop --keys f`` with its output.
 """
 
 from __future__ import annotations
@@ -159,3 +162,14 @@ def test_the_routes_pages_bad_route_gives_the_lines_it_shows(
     monkeypatch.chdir(tmp_path)
     printed = _validate(tmp_path, "bad.route", block[1], capsys)
     assert printed.splitlines() == block[2].splitlines()
+
+
+def test_the_consoles_keys_example_prints_what_the_page_shows(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # before: the page said `?` prints the state, not that the last line always is
+    text = (DOCS / "console.md").read_text(encoding="utf-8")
+    block = re.search(r"^\$ pirate-bt (teleop --keys \S+)\n(.*?)^```", text, re.S | re.M)
+    assert block is not None, "console.md: no --keys example with its output"
+    assert main(block[1].split()) == 0
+    assert capsys.readouterr().out.splitlines() == block[2].splitlines()
