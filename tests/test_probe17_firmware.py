@@ -213,3 +213,36 @@ def test_the_sizes_docs_firmware_md_shows_are_the_builds(firmware: str, tmp_path
     assert done.returncode == 0, done.stderr
     (line,) = [x for x in done.stdout.splitlines() if x.startswith(f"{firmware}.elf: flash ")]
     assert line in (ROOT / "docs" / "firmware.md").read_text().splitlines()
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="make missing")
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        ("ESTOP_INPUT=None", "ESTOP_INPUT=None: choose d22 (the button input on D22) or none"),
+        ("ESTOP_INPUT=no", "ESTOP_INPUT=no: choose d22 (the button input on D22) or none"),
+        (
+            "HOST_LINK=USB",
+            "HOST_LINK=USB: choose usb (the Mega's USB port) or adapter"
+            " (a USB-serial adapter on D0/D1)",
+        ),
+    ],
+)
+def test_a_misspelt_build_option_is_refused(option: str, message: str, tmp_path: Path) -> None:
+    """`make firmware ESTOP_INPUT=None` built the bridge with its e-stop input (only the
+    exact word `none` drops it): a bench Mega without a button then boots latched and
+    answers every ESTOP_RESET `NACK NOT_READY`."""
+    done = subprocess.run(
+        [
+            *("make", "-s", "-C", str(ROOT / "firmware" / "piratebay"), f"BUILD={tmp_path}"),
+            *(option, f"PIRATE_BT={sys.executable} -m pirate_bt"),
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MAKEFLAGS": ""},
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert f"*** {message}.  Stop." in done.stderr
+    assert not (tmp_path / "piratebay.elf").exists()
