@@ -23,6 +23,9 @@ Findings, each pinned below:
 - docs/console.md, *Scripts and tests*: ``--keys`` always ends with a line of the state
   the keys left (``--keys '?'`` prints it twice); the page said only that ``?`` prints
   it. It now says so and shows ``teleop --keys f`` with its output.
+- docs/missions.md, *The demo*: the table of what ``demo-output/`` holds left out
+  ``coverage.svg`` (and the ``.dot`` sources), which the demo and ``mission --output``
+  write.
 """
 
 from __future__ import annotations
@@ -173,3 +176,20 @@ def test_the_consoles_keys_example_prints_what_the_page_shows(
     assert block is not None, "console.md: no --keys example with its output"
     assert main(block[1].split()) == 0
     assert capsys.readouterr().out.splitlines() == block[2].splitlines()
+
+
+def test_the_demos_table_names_every_file_a_missions_output_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: missions.md's table of demo-output/ left out coverage.svg
+    text = (DOCS / "missions.md").read_text(encoding="utf-8")
+    section = text[text.index("## The demo") :].split("\n## ", 1)[0]
+    table = set(re.findall(r"^\| `([\w.]+)`(?:, `([\w.]+)`)? \|", section, re.M))
+    named = {name for row in table for name in row if name}
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.route").write_text("network straight\nforward 0.3 m\n", encoding="utf-8")
+    assert main(["mission", "short.route", "--output", "out", "-q"]) == 0
+    capsys.readouterr()
+    written = {p.name for p in (tmp_path / "out").iterdir() if p.suffix != ".dot"}
+    assert written <= named, f"missions.md's demo table leaves out {sorted(written - named)}"
+    assert "robot.svg" in named
