@@ -193,3 +193,6 @@ def test_the_demos_table_names_every_file_a_missions_output_holds(
     written = {p.name for p in (tmp_path / "out").iterdir() if p.suffix != ".dot"}
     assert written <= named, f"missions.md's demo table leaves out {sorted(written - named)}"
     assert "robot.svg" in named
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    demo = readme[readme.index("## What `make demo` does") :].split("\n## ", 1)[0]
+    assert "coverage" in demo, "README.md: what make demo does leaves out the coverage diagram"
