@@ -26,6 +26,9 @@ Findings, each pinned below:
 - docs/missions.md, *The demo*: the table of what ``demo-output/`` holds left out
   ``coverage.svg`` (and the ``.dot`` sources), which the demo and ``mission --output``
   write.
+- docs/performance.md gave the firmware sizes of 2026-11-29 (bridge 8966 B, PICO
+  8152 B, 24.9 %); ``make firmware`` prints 8970 B and 8216 B (25.1 %), as
+  docs/firmware.md shows.
 """
 
 from __future__ import annotations
@@ -196,3 +199,25 @@ def test_the_demos_table_names_every_file_a_missions_output_holds(
     readme = (REPO / "README.md").read_text(encoding="utf-8")
     demo = readme[readme.index("## What `make demo` does") :].split("\n## ", 1)[0]
     assert "coverage" in demo, "README.md: what make demo does leaves out the coverage diagram"
+
+
+def test_the_performance_pages_firmware_sizes_are_the_firmware_pages() -> None:
+    # before: performance.md gave 8966 B and 8152 B (24.9 %), a day old; firmware.md
+    # shows what `make firmware` prints (tests/test_probe17_firmware.py builds it)
+    firmware = (DOCS / "firmware.md").read_text(encoding="utf-8")
+    performance = (DOCS / "performance.md").read_text(encoding="utf-8")
+    for elf, chip in (("piratebay", "bridge (ATmega2560)"), ("pico", "PICO (ATmega328p)")):
+        printed = re.search(
+            rf"^{elf}\.elf: flash (\d+) of \d+ bytes \(([\d.]+) %\), SRAM (\d+) of", firmware, re.M
+        )
+        assert printed is not None, f"firmware.md: no line for {elf}.elf"
+        flash, share, sram = printed.groups()
+        row = re.search(
+            rf"^\| {re.escape(chip)} flash / static SRAM \| ([^|]+)\|", performance, re.M
+        )
+        assert row is not None, f"performance.md: no row for the {chip}"
+        assert row[1].startswith(f"{flash} B of "), row[1]
+        assert f"({share} %) / {sram} B of" in row[1], row[1]
+    bridge = re.search(r"^\| flash \(\.text \+ \.data\) \| (\d+) B", performance, re.M)
+    assert bridge is not None
+    assert re.search(rf"^piratebay\.elf: flash {bridge[1]} of", firmware, re.M), bridge[1]
