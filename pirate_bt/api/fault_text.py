@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 
 from pirate_bt.errors import InputError, kind_of
 
-__all__ = ["MAX_FAULTS", "MAX_FAULT_TEXT", "fault_items", "split_faults"]
+__all__ = ["MAX_FAULTS", "MAX_FAULT_TEXT", "check_link_faults", "fault_items", "split_faults"]
 
 MAX_FAULTS = 1000
 """The most faults one run takes."""
@@ -79,3 +79,17 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
 
         parse_fault_spec(",".join(link))
     return sim, (",".join(link) or None)
+
+
+def check_link_faults(spec: str, option: str = "faults") -> None:
+    """Parse a link fault spec (``drop=0.05,corrupt=0.01``) for its errors only: the
+    command line's ``--faults`` places them at an item's column without reaching the
+    link itself (nothing above the protective layer imports it).
+
+    Raises:
+        InputError: an unknown key, a value out of range, a key given twice; the
+            message starts with ``option`` when it is not empty.
+    """
+    from pirate_bt.link.faults import parse_fault_spec
+
+    parse_fault_spec(spec, option=option)

@@ -46,8 +46,12 @@ def check_faults_option(args: argparse.Namespace, robot: Any, option: str = "--f
             "simulator faults (KIND:TARGET@AT) need the Python simulator; through the"
             " firmware only link faults (KEY=VALUE) apply"
         )
-    from pirate_bt.api.fault_text import MAX_FAULT_TEXT, MAX_FAULTS, fault_items
-    from pirate_bt.link.faults import parse_fault_spec
+    from pirate_bt.api.fault_text import (
+        MAX_FAULT_TEXT,
+        MAX_FAULTS,
+        check_link_faults,
+        fault_items,
+    )
     from pirate_bt.sim.faults import check_fault_target, parse_fault
 
     items = fault_items(text)  # as split_faults splits them
@@ -76,7 +80,7 @@ def check_faults_option(args: argparse.Namespace, robot: Any, option: str = "--f
                 check_fault_target(parse_fault(item, option=""), robot)
             else:  # the spec so far: a key given twice is placed at its second item
                 link.append(item)
-                parse_fault_spec(",".join(link), option="")
+                check_link_faults(",".join(link), option="")
         except LocatedError:
             raise
         except InputError as exc:

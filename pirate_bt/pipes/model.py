@@ -259,9 +259,7 @@ class NetworkSpec(_Model):
         for i, fault in enumerate(self.faults):  # what a fault's kind takes, as the
             # simulator checks it (which motor, channel or board: with the robot)
             if fault.kind == "link_loss" and fault.target is not None:
-                out.append(
-                    (("faults", i, "target"), "link_loss takes no target (the whole link)")
-                )
+                out.append((("faults", i, "target"), "link_loss takes no target (the whole link)"))
             elif fault.kind != "link_loss" and fault.target is None:
                 what = _FAULT_TARGETS[fault.kind]
                 out.append((("faults", i), f"{fault.kind} needs a target: {what}"))
