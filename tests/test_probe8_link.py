@@ -125,6 +125,13 @@ def test_the_command_line_refuses_a_robot_too_large_for_the_frames(
     assert code == 2, err
     assert "18 boards need a 254-byte COUNTERS payload (max 247: 17 boards)" in err
     assert "Traceback" not in err and "internal error" not in err
+    # nor is a C header written for it (the firmware build then died on a static
+    # assertion): refused at the file, as validate refuses it
+    header = tmp_path / "layout.h"
+    assert main(["robot", "header", str(path), "-o", str(header)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pirate-bt: {path}:") and "COUNTERS payload" in err, err
+    assert not header.exists()
 
 
 class _Flood:

@@ -51,7 +51,14 @@ def _header(args: argparse.Namespace) -> int:
     from pirate_bt.robot.header import render_header, write_header
 
     path = args.description or args.robot
-    robot = load_robot(path)
+    if path is not None:
+        from pirate_bt.filekinds import validate_file
+
+        # as `pirate-bt validate` checks it, the frames' fit included: a robot the wire
+        # protocol cannot carry got a header, then a C static assertion in the build
+        robot = validate_file(path, "hardware")
+    else:
+        robot = load_robot(path)
     source = str(path) if path is not None else "the bundled robot description"
     if args.output is None or str(args.output) == STDOUT:  # "-" was a file named "-"
         sys.stdout.write(render_header(robot, source))
