@@ -11,6 +11,7 @@ Split from :mod:`pirate_bt.yamlfile`, which reads the text.
 
 from __future__ import annotations
 
+import difflib
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, TypeVar
@@ -234,7 +235,39 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
                 e = {**e, "ctx": {**e["ctx"], "tag": value}}
         bound = _bound_as_written(e, _value_at(data, path), path)
         out.append((path, bound or describe_error({**e, "loc": path})))
-    return list(dict.fromkeys([*keys, *out]))
+    return list(dict.fromkeys([*keys, *_misspelt(out, entries)]))
+
+
+def _misspelt(
+    out: list[tuple[PathKey, str]], entries: list[tuple[PathKey, bool, bool, Any]]
+) -> list[tuple[PathKey, str]]:
+    """A key written close to a required key that is missing beside it (``torq:`` for
+    ``torque:``) as one problem, ``unknown key 'torq' (did you mean 'torque'?)``, where
+    it was two: the unknown key and the missing one."""
+    unknown = {path for path, _, _, e in entries if e.get("type") == "extra_forbidden"}
+    missing = {path for path, _, _, e in entries if e.get("type") == "missing"}
+    if not unknown or not missing:
+        return out
+    meant: dict[PathKey, PathKey] = {}
+    for path in unknown:
+        near = [
+            m
+            for m in missing
+            if m[:-1] == path[:-1] and isinstance(m[-1], str) and isinstance(path[-1], str)
+        ]
+        names = [str(m[-1]) for m in near]
+        close = difflib.get_close_matches(str(path[-1]), names, n=2, cutoff=0.7)
+        if len(close) == 1 and close[0] not in {str(m[-1]) for m in meant.values()}:
+            meant[path] = next(m for m in near if m[-1] == close[0])
+    taken = set(meant.values())
+    said: list[tuple[PathKey, str]] = []
+    for path, message in out:
+        if path in taken and message.startswith("missing required key"):
+            continue
+        if path in meant and message.startswith("unknown key"):
+            message = f"{message} (did you mean {shown(meant[path][-1])}?)"
+        said.append((path, message))
+    return said
 
 
 _BOUNDS = {"lt": "less than", "le": "at most", "gt": "more than", "ge": "at least"}

@@ -415,7 +415,9 @@ def test_an_unknown_tree_parameter_is_placed_at_its_key_in_the_spec(
     assert lines[0].replace(str(spec), "FILE") == (
         f"FILE:{_column(text, 3, 'distanse')}: unknown parameter 'distanse'"
         " (parameters: distance, torque, velocity, distance_key, stop_at_feature, stop_at_change)"
+        "; did you mean 'distance'?"
     )
+    assert len(lines) == 1, lines  # not also "'distance' has no default and was not given"
     assert not any("--param" in line for line in lines)
     with pytest.raises(InputError) as info:
         run_campaign(

@@ -288,11 +288,18 @@ root:
 def test_a_misspelt_value_given_is_said_before_the_parameter_it_leaves_out(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    # both are said, the caller's first: the misspelling is why 'distance' is missing
-    # (sorted by file, the tree's first, the missing one came first and hid the cause)
+    # one problem, said at the caller's misspelling, which is why 'distance' is missing
+    # (sorted by file, the tree's first, the missing one came first and hid the cause;
+    # then both were said, in two lines)
     from pirate_bt.cli import main
 
     assert main(["run", "straight", "--sim", "straight", "--param", "distanse=1 m"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
     assert lines[0].startswith("pirate-bt: --param:1:1: unknown parameter 'distanse'")
+    assert lines[0].endswith("; did you mean 'distance'?")
+    # a name close to no parameter that is owed keeps both problems
+    assert main(["run", "straight", "--sim", "straight", "--param", "speed=1 m/s"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2 and "did you mean" not in lines[0], lines
     assert lines[1].endswith("parameter 'distance' has no default and was not given")

@@ -12,6 +12,7 @@ checked against the nodes (``board_unsure``).
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -417,6 +418,19 @@ class _FileReader:
             [*lost.names, *declared.refused.names],
             every=lost.every or declared.refused.every,
         )
+        # a name given close to one that must be given and was not ('distanse' for
+        # 'distance') is one problem, said at the name given: it was two lines
+        owed = [
+            n
+            for n, d in decls.items()
+            if n not in given
+            and d.default is None
+            and not (use_examples and d.example is not None)
+            and n not in declared.no_default
+            and not (use_examples and n in declared.no_example)
+            and not (lost.names or lost.every)
+        ]
+        meant: dict[str, str] = {}
         for name, value in given.items():
             if name in lost:
                 continue
@@ -425,9 +439,14 @@ class _FileReader:
                 continue
             if name not in decls:
                 known = listed(declared.names) or "none declared"
+                close = difflib.get_close_matches(str(name), owed, n=2, cutoff=0.7)
+                hint = ""
+                if len(close) == 1 and close[0] not in meant.values():
+                    meant[str(name)] = close[0]
+                    hint = f"; did you mean {shown(close[0])}?"
                 self.errors.append(
                     LocatedError(
-                        f"unknown parameter {_shown(str(name))} (parameters: {known})",
+                        f"unknown parameter {_shown(str(name))} (parameters: {known}){hint}",
                         given_at(name),
                     )
                 )
@@ -444,6 +463,9 @@ class _FileReader:
                 unknown.add(name)
         for name, decl in decls.items():
             if name in values or name in given or name in lost:  # given but refused: said
+                continue
+            if name in meant.values():
+                unknown.add(name)  # said with the name given for it
                 continue
             if decl.default is not None:
                 values[name] = coerce_param(decl, decl.default)
