@@ -319,11 +319,14 @@ class _Builder:
                     cur.diameter_m = seg.diameter
                 if seg.slope is not None:
                     cur.set_slope(seg.slope, name, (*here, "slope"))
+                cur.where = (*here, "length")
                 pieces.append(cur.straight(name, PieceKind.STRAIGHT, seg.length))
             elif isinstance(seg, BendSpec):
                 _check_radius(name, seg.radius, cur.diameter_m, (*here, "radius"))
+                cur.where = (*here, "angle")
                 pieces.append(cur.turn(name, PieceKind.BEND, seg.roll_rad, seg.angle, seg.radius))
             elif isinstance(seg, ReducerSpec):
+                cur.where = (*here, "length")
                 pieces.append(cur.straight(name, PieceKind.REDUCER, seg.length, seg.diameter))
             elif isinstance(seg, TeeSpec):
                 length = seg.length if seg.length is not None else 3.0 * cur.diameter_m
@@ -333,6 +336,7 @@ class _Builder:
                 opening = cur.s_m + length / 2
                 radius = seg.branch.radius if seg.branch.radius is not None else cur.diameter_m
                 _check_radius(name, radius, cur.diameter_m, (*here, "branch", "radius"))
+                cur.where = (*here, "length")
                 if choice == "straight":
                     pieces.append(cur.straight(name, PieceKind.TEE, length, roll_rad=roll))
                     pieces[-1] = replace(pieces[-1], opening_m=opening)
@@ -364,6 +368,7 @@ class _Cursor:
     tangent: Vec3
     up: Vec3
     origin: Vec3
+    where: tuple[str | int, ...] = ("segments",)  # the key of the piece being laid
 
     def straight(
         self,
@@ -412,6 +417,13 @@ class _Cursor:
         return piece
 
     def _advance(self, piece: Piece, diameter_m: float) -> None:
+        if piece.end_m <= piece.start_m:  # 1 m + 1e-300 m is 1 m: a turn would divide by 0
+            raise NetworkGeometryError(
+                f"segment {piece.segment!r} has no length {piece.start_m:g} m along its line"
+                " (too short for a distance there to tell its start from its end);"
+                " make it longer or leave it out",
+                self.where,
+            )
         self.s_m = piece.end_m
         self.diameter_m = diameter_m
         self.origin = piece.position_at(piece.end_m)
