@@ -7,13 +7,15 @@ answer, where one line naming the argument or the file's place was due.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
 
 from pirate_bt.cli import main
-from pirate_bt.errors import ValidationFailed
-from pirate_bt.pipes import network_from_data
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, ValidationFailed
+from pirate_bt.pipes import load_network, network_from_data
+from pirate_bt.pipes.arguments import UnknownSegmentError
 
 
 def _line(*extra: dict[str, str]) -> dict[str, object]:
@@ -53,3 +55,60 @@ def test_validate_says_where_a_bend_has_no_length(
     err = capsys.readouterr().err
     assert f"{path}:5:33: segment 'main-2' has no length" in err
     assert "internal error" not in err
+
+
+LAB = load_network("lab")
+
+
+@pytest.mark.parametrize("method", ["slope_at", "diameter_at", "frame_at", "position_at"])
+def test_a_path_refuses_nan_for_a_distance(method: str) -> None:
+    """`main_path().slope_at(nan)` answered 0.0 (the first piece's slope) and
+    `position_at(nan)` a position of nans: a distance computed wrong upstream went on
+    as a level pipe."""
+    with pytest.raises(ArgumentValueError, match=r"^s_m: nan is no distance"):
+        getattr(LAB.main_path(), method)(math.nan)
+
+
+@pytest.mark.parametrize("value", ["12", None, True, b"1"])
+def test_a_path_refuses_a_distance_that_is_no_number(value: object) -> None:
+    """`slope_at("12")` raised *'<=' not supported between instances of 'float' and
+    'str'* from inside `Path.index_at`; `slope_at(True)` answered as at 1 m."""
+    with pytest.raises(ArgumentTypeError, match=r"^s_m: give a distance along the path"):
+        LAB.main_path().piece_at(value)  # type: ignore[arg-type]
+
+
+def test_a_path_refuses_a_whole_number_too_large_for_a_float() -> None:
+    with pytest.raises(ArgumentValueError, match="401-digit number is too large"):
+        LAB.main_path().diameter_at(10**400)
+
+
+def test_a_path_holds_distances_beyond_its_ends_as_documented() -> None:
+    main_path = LAB.main_path()
+    assert main_path.diameter_at(-5) == main_path.diameter_at(0.0)
+    assert main_path.diameter_at(math.inf) == main_path.diameter_at(main_path.length_m)
+
+
+@pytest.mark.parametrize("choice", ["sideways", None, "Branch"])
+def test_a_way_through_a_tee_other_than_straight_or_branch_is_refused(choice: object) -> None:
+    """`net.path({"tee-1": "sideways"})` gave the main path, as if straight on had been
+    asked: a planner's typo drove past the branch it meant."""
+    with pytest.raises(ArgumentValueError, match=r"^choices: tee 'tee-1': .* give 'straight'"):
+        LAB.path({"tee-1": choice})  # type: ignore[dict-item]
+
+
+@pytest.mark.parametrize("choices", [["tee-1"], "tee-1"])
+def test_choices_that_are_no_mapping_are_refused(choices: object) -> None:
+    """A list raised *dictionary update sequence element #0 has length 5; 2 is required*."""
+    with pytest.raises(ArgumentTypeError, match=r"^choices: give a mapping of tee ids"):
+        LAB.path(choices)  # type: ignore[arg-type]
+
+
+def test_an_unknown_tee_or_segment_is_an_input_error_and_still_a_key_error() -> None:
+    """`net.segment("nosuch")` was a bare `KeyError: 'nosuch'` naming no segment it has."""
+    with pytest.raises(UnknownSegmentError) as caught:
+        LAB.segment("nosuch")
+    assert isinstance(caught.value, InputError) and isinstance(caught.value, KeyError)
+    assert str(caught.value).startswith("unknown segment 'nosuch'; segments: entry, bend-a,")
+    with pytest.raises(KeyError, match="unknown tee 'tee-9'; tees: tee-1, tee-2"):
+        LAB.path({"tee-9": "branch"})
+    assert LAB.path({"tee-1": "branch"}).choices["tee-1"] == "branch"

@@ -26,6 +26,7 @@ from enum import StrEnum
 from typing import Literal
 
 from pirate_bt.errors import ConfigurationError
+from pirate_bt.pipes.arguments import checked_choices, distance_argument, unknown_segment
 from pirate_bt.pipes.model import (
     BendSpec,
     FaultSpec,
@@ -229,7 +230,13 @@ class Path:
         return out
 
     def index_at(self, s_m: float) -> int:
-        """Index of the piece holding distance ``s_m`` (ends belong to the next piece)."""
+        """Index of the piece holding distance ``s_m`` (ends belong to the next piece).
+
+        Raises:
+            ArgumentTypeError: ``s_m`` is no number; ArgumentValueError: it is ``nan``.
+        """
+        if type(s_m) is not float or s_m != s_m:  # every distance method asks here
+            s_m = distance_argument(s_m)
         pieces = self.pieces
         hint = self._hint[0]
         piece = pieces[hint]
@@ -513,21 +520,24 @@ class Network:
         return list(self._segments)
 
     def segment(self, segment_id: str) -> SegmentSpec:
-        """The file's spec of a segment (``KeyError`` if none)."""
-        return self._segments[segment_id]
+        """The file's spec of a segment (``UnknownSegmentError``, a ``KeyError``, if none)."""
+        try:
+            return self._segments[segment_id]
+        except (KeyError, TypeError):
+            raise unknown_segment("segment", segment_id, list(self._segments)) from None
 
     def path(self, choices: Mapping[str, TeeChoice] | None = None) -> Path:
         """The path taking ``choices`` at tees (``straight`` where not given).
 
         Raises:
-            KeyError: a choice names an unknown tee.
+            UnknownSegmentError: a choice names an unknown tee (an ``InputError`` and
+                a ``KeyError``).
+            ArgumentValueError: a choice is neither ``straight`` nor ``branch``.
+            ArgumentTypeError: ``choices`` is no mapping.
             ConfigurationError: the geometry is impossible (a slope on a vertical run).
         """
-        choices = dict(choices or {})
-        for tee in choices:
-            if tee not in self._tees:
-                raise KeyError(f"unknown tee {tee!r}; tees: {', '.join(self._tees) or 'none'}")
-        path = self._builder.build(choices)
+        checked = checked_choices(choices, list(self._tees))
+        path = self._builder.build(checked)  # type: ignore[arg-type]
         key = tuple(sorted(path.choices.items()))
         return self._cache.setdefault(key, path)
 
