@@ -427,6 +427,9 @@ void hal_init(void) {
     DDRD |= _BV(PD2) | _BV(PD4) | _BV(PD5) | _BV(PD6) | _BV(PD7);
     PORTD &= (uint8_t)~(_BV(PD2) | _BV(PD4) | _BV(PD5) | _BV(PD6) | _BV(PD7));
     PORTD |= _BV(PD3);
+    /* RXD with its pull-up: the transceiver's RO floats while this board sends (its
+     * /RE is DE, high), as the bridge's RXD1 has one */
+    PORTD |= _BV(PD0);
     DDRB |= _BV(PB0) | _BV(PB4) | _BV(PB5);
     PORTB &= (uint8_t)~(_BV(PB0) | _BV(PB4) | _BV(PB5));
     /* encoder inputs with pull-ups; pin-change interrupts */
