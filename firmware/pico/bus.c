@@ -61,6 +61,9 @@ static void build_reply(void) {
     if (bus.own_stop) {
         status |= STATUS_OWN_STOP;
     }
+    if (sensors_stale()) {
+        status |= STATUS_STALE;
+    }
     bus.body[n++] = status;
     for (uint8_t c = 0; c < board.n_channels; c++) {
         put16(bus.body + n, (uint16_t)sensors_channel(c));

@@ -17,6 +17,7 @@
 #define STATUS_FAULT 0x01u
 #define STATUS_MOTORS_OFF 0x02u
 #define STATUS_OWN_STOP 0x04u
+#define STATUS_STALE 0x08u /* a sensor has not been read for SENSOR_STALE_MS */
 
 struct bus_counts {
     uint16_t exchanges;  /* EXCHANGE frames to this board, answered */

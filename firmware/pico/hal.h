@@ -43,8 +43,9 @@ void hal_motor(uint8_t slot, enum hal_drive drive, int16_t duty);
 uint16_t hal_adc(uint8_t input);
 /* The running quadrature count of motor `slot`'s encoder (wraps). */
 int16_t hal_encoder(uint8_t slot);
-/* The IMU's latest heading, roll, pitch in 1/16 degree; false when it has none yet.
- * The first call starts reading the IMU (every 10 ms from then on). */
+/* The IMU's latest heading, roll, pitch in 1/16 degree; true when a read has
+ * succeeded since the last call (false: no new reading, `out` holds the last good one,
+ * or 0 before any). The first call starts reading the IMU (every 10 ms from then on). */
 bool hal_imu(int16_t out[3]);
 /* The H-bridge reports a fault (over-current, over-temperature). */
 bool hal_fault(void);

@@ -269,11 +269,17 @@ static volatile uint8_t twi_step; /* 0: idle */
 static volatile uint8_t twi_n;
 static volatile uint8_t imu_raw[6];
 static volatile int16_t imu_euler[3];
-static volatile bool imu_valid, imu_wanted;
+static volatile bool imu_new, imu_wanted; /* imu_new: a read succeeded since hal_imu() */
 
 static void twi_start(void) {
-    if (!imu_wanted || twi_step != 0) {
+    if (!imu_wanted) {
         return;
+    }
+    if (twi_step != 0) {
+        /* the last read has not finished in 10 ms (a slave holding SCL low, a lost
+         * interrupt): reset the TWI, which lets go of both lines, and start afresh */
+        TWCR = 0;
+        twi_step = 0;
     }
     twi_step = 1;
     TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN) | _BV(TWIE);
@@ -336,7 +342,7 @@ ISR(TWI_vect) {
                     for (uint8_t i = 0; i < 3u; i++) {
                         imu_euler[i] = (int16_t)(imu_raw[2u * i] | (uint16_t)imu_raw[2u * i + 1u] << 8);
                     }
-                    imu_valid = true;
+                    imu_new = true;
                 }
                 twi_stop();
                 return;
@@ -359,14 +365,15 @@ bool hal_imu(int16_t out[3]) {
         imu_wanted = true;
         imu_due = 9; /* the first read at the next tick, then every 10 ms */
     }
-    bool valid;
+    bool fresh;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        valid = imu_valid;
+        fresh = imu_new;
+        imu_new = false;
         for (uint8_t i = 0; i < 3u; i++) {
             out[i] = imu_euler[i];
         }
     }
-    return valid;
+    return fresh;
 }
 
 /* ---- the rest ---------------------------------------------------------------------- */

@@ -16,9 +16,9 @@ void pico_init(void) {
     hal_init();
     board_load(hal_board_id());
     bool warm = hal_warm_boot();
-    sensors_init();
-    motors_init(warm);
     last_ms = hal_ms();
+    sensors_init(last_ms);
+    motors_init(warm);
     bus_init(last_ms);
     pico_debug.magic = PICO_DEBUG_MAGIC;
     pico_debug.last_mcusr = hal_reset_cause();

@@ -12,10 +12,13 @@ static struct {
     int16_t counts[PICO_MAX_MOTORS][RING]; /* encoder count every 10 ms */
     uint8_t ring_at;
     uint32_t last_10ms;
+    uint32_t imu_ok_ms; /* the IMU's last successful read (boot until the first) */
+    bool stale;
 } s;
 
-void sensors_init(void) {
+void sensors_init(uint32_t now_ms) {
     memset(&s, 0, sizeof s);
+    s.imu_ok_ms = now_ms;
     for (uint8_t k = 0; k < PICO_MAX_MOTORS; k++) {
         for (uint8_t i = 0; i < RING; i++) {
             s.counts[k][i] = hal_encoder(k);
@@ -73,10 +76,17 @@ void sensors_tick(uint32_t now_ms) {
     }
     int16_t imu[3] = {0, 0, 0};
     bool have_imu = false;
+    s.stale = false;
     for (uint8_t c = 0; c < board.n_channels; c++) {
         uint8_t src = board.channel[c].source;
         if (src == PB_SRC_IMU_ROLL || src == PB_SRC_IMU_PITCH || src == PB_SRC_IMU_YAW) {
             have_imu = hal_imu(imu); /* a board without an IMU never starts the TWI */
+            if (have_imu) {
+                s.imu_ok_ms = now_ms;
+            }
+            /* an IMU that stops answering: its channels keep their last good values,
+             * and the reply says STALE until a read succeeds again */
+            s.stale = (uint32_t)(now_ms - s.imu_ok_ms) > SENSOR_STALE_MS;
             break;
         }
     }
@@ -116,6 +126,8 @@ void sensors_tick(uint32_t now_ms) {
         s.value[c] = clamp(v, ch->raw_lo, ch->raw_hi);
     }
 }
+
+bool sensors_stale(void) { return s.stale; }
 
 int16_t sensors_channel(uint8_t c) { return c < PICO_MAX_CHANNELS ? s.value[c] : 0; }
 

@@ -6,6 +6,7 @@
 #ifndef PICO_SENSORS_H
 #define PICO_SENSORS_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "board.h"
@@ -16,11 +17,16 @@
 #define ENCODER_CPR 3072L
 #endif
 #define VELOCITY_WINDOW_MS 40u
+/* A sensor read over a bus that can fail (the IMU on TWI, read every 10 ms) with no
+ * successful read for longer than this makes the reply's STALE (docs/board-bus.md). */
+#define SENSOR_STALE_MS 50u
 
-void sensors_init(void);
+void sensors_init(uint32_t now_ms);
 void sensors_tick(uint32_t now_ms);
 /* Channel c of this board (raw units), and motor k's measured speed (velocity raw). */
 int16_t sensors_channel(uint8_t c);
 int16_t sensors_speed(uint8_t k);
+/* A sensor of this board has not been read successfully for SENSOR_STALE_MS. */
+bool sensors_stale(void);
 
 #endif

@@ -33,6 +33,9 @@
 #define BUS_STATUS_FAULT 0x01u
 #define BUS_STATUS_MOTORS_OFF 0x02u
 #define BUS_STATUS_OWN_STOP 0x04u /* the board stopped itself: the master fell silent */
+/* a sensor of the board has not been read in its time: the reply carries its last good
+ * values, and the board's sensor channels (not its motors' feedback) are not fresh */
+#define BUS_STATUS_STALE 0x08u
 
 enum bus_result {
     BUS_BUSY = 0,  /* still sending or waiting */

@@ -10,10 +10,32 @@
 
 #define MARGIN_US 300u /* keep clear of the next period's start */
 
+#ifdef __AVR__
+#include <avr/pgmspace.h>
+#else
+#define PROGMEM
+#define pgm_read_byte(p) (*(const uint8_t *)(p))
+#endif
+
+/* The generated table of what produces each channel (the PICO's, layout.h): here only
+ * to tell a board's sensors from its motors' feedback (velocity, current), whose
+ * channels a reply's STALE leaves fresh. In flash; read once, into sensor_bits. */
+struct channel_io {
+    uint8_t board_index;
+    uint8_t source;
+    uint8_t slot;
+    int16_t raw_lo, raw_hi, zero_raw;
+    int32_t scale_q16;
+};
+#if PB_N_CHANNELS > 0
+static const struct channel_io channel_io[PB_N_CHANNELS] PROGMEM = PB_CHANNEL_IO_TABLE;
+#endif
+
 static struct {
     int16_t readings[PB_N_CHANNELS ? PB_N_CHANNELS : 1];
     uint8_t fresh_now[FRESH_BYTES ? FRESH_BYTES : 1];
     uint8_t fresh_done[FRESH_BYTES ? FRESH_BYTES : 1];
+    uint8_t sensor_bits[FRESH_BYTES ? FRESH_BYTES : 1]; /* channels a STALE concerns */
     uint8_t status[PB_N_BOARDS];
     struct board_counters counters[PB_N_BOARDS];
     bool bus_fault;
@@ -35,6 +57,14 @@ static struct {
 void poller_init(void) {
     memset(&poll, 0, sizeof poll);
     poll.cycle_done = true;
+#if PB_N_CHANNELS > 0
+    for (uint8_t ch = 0; ch < PB_N_CHANNELS; ch++) {
+        uint8_t src = pgm_read_byte(&channel_io[ch].source);
+        if (src != PB_SRC_VELOCITY && src != PB_SRC_CURRENT) {
+            poll.sensor_bits[ch >> 3] |= (uint8_t)(1u << (ch & 7u));
+        }
+    }
+#endif
     board_bus_init();
 }
 
@@ -132,9 +162,15 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
     if (result == BUS_OK) {
         memcpy(&poll.readings[board->first_channel], reply->readings,
                (size_t)board->n_channels * sizeof(int16_t));
+        /* STALE: the board's sensors were not read in time (the values are the last
+         * good ones); they stay not fresh, so the host's freshness check sees it */
+        uint8_t keep = reply->status & BUS_STATUS_STALE ? 0xFFu : 0u;
         for (uint8_t k = 0; k < board->n_channels; k++) {
             uint8_t ch = (uint8_t)(board->first_channel + k);
-            poll.fresh_now[ch >> 3] |= (uint8_t)(1u << (ch & 7u));
+            uint8_t bit = (uint8_t)(1u << (ch & 7u));
+            if (!(poll.sensor_bits[ch >> 3] & bit & keep)) {
+                poll.fresh_now[ch >> 3] |= bit;
+            }
         }
         uint8_t s = BOARD_ONLINE;
         if (reply->status & BUS_STATUS_FAULT) {

@@ -32,6 +32,8 @@
  *                        `until`), imu[3] i16 (heading, roll, pitch), fault u8
  *                    'E' u8: the bridge's e-stop contact (D22) opens (1) or closes (0)
  *                    'K' halt the bridge's core (killed: it neither runs nor drives)
+ *                    'I' board index u8, answers u8: that board's IMU stops answering
+ *                        its address (0: no ACK, as an IMU without power) or answers (1)
  *                    'X' reset the bridge's core (a DTR edge)
  *                    'W' watch: kind u8 (0: from the end of the next host frame fed to
  *                        the bridge after the frames queued now and `skip` more, 1: from
@@ -462,6 +464,10 @@ static void handle(char type, const uint8_t *payload, uint16_t n) {
     double t0 = wall_now();
     if (type == 'A') {
         step(payload, n);
+    } else if (type == 'I' && n >= 2) {
+        if (payload[0] < n_boards) {
+            board_imu_answers(payload[0], payload[1] != 0);
+        }
     } else if (no_bridge && type != 'Q') {
         return; /* nothing else applies without a bridge */
     } else if (type == 'E' && n >= 1) {

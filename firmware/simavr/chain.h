@@ -58,6 +58,8 @@ void board_attach(int b, avr_t *avr, uint8_t id);
  * the H-bridge fault line. */
 void board_inputs(int b, const uint16_t adc[4], const int32_t encoder[2], const int16_t imu[3],
                   bool fault, uint64_t from, uint64_t until);
+/* The IMU answers its address (true, from boot) or not (false: no ACK). */
+void board_imu_answers(int b, bool on);
 /* The H-bridge outputs now. */
 struct motor_sample board_sample(int b, int slot);
 

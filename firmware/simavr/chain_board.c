@@ -31,6 +31,7 @@ static struct board {
     uint8_t imu_reg[0x40];
     uint8_t imu_at;
     bool imu_selected, imu_addr_written;
+    bool imu_gone; /* it answers nothing (no ACK) */
 } boards[CHAIN_MAX_BOARDS];
 
 static void set_external(struct board *b, char port, uint8_t mask, uint8_t value) {
@@ -89,7 +90,7 @@ static void twi_out(avr_irq_t *irq, uint32_t value, void *param) {
         b->imu_selected = false;
     }
     if (v.u.twi.msg & TWI_COND_START) {
-        b->imu_selected = (v.u.twi.addr >> 1) == IMU_ADDR;
+        b->imu_selected = (v.u.twi.addr >> 1) == IMU_ADDR && !b->imu_gone;
         if (b->imu_selected) {
             if (!(v.u.twi.addr & 1u)) {
                 b->imu_addr_written = false; /* a write: the register address comes next */
@@ -130,6 +131,11 @@ void board_attach(int i, avr_t *avr, uint8_t id) {
     b->imu_reg[0] = 0xA0; /* BNO055 chip id */
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT), twi_out,
                             b);
+}
+
+void board_imu_answers(int i, bool on) {
+    boards[i].imu_gone = !on;
+    boards[i].imu_selected = false;
 }
 
 void board_inputs(int i, const uint16_t adc[4], const int32_t encoder[2], const int16_t imu[3],

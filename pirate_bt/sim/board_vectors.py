@@ -37,7 +37,7 @@ from pirate_bt.robot.description import ControlMode, RobotDescription
 __all__ = ["build_vectors", "main", "pico_inputs", "reply_hex", "request_hex"]
 
 EXCHANGE, STOP, REPLY = 0x01, 0x02, 0x81
-FAULT, MOTORS_OFF, OWN_STOP = 0x01, 0x02, 0x04
+FAULT, MOTORS_OFF, OWN_STOP, STALE = 0x01, 0x02, 0x04, 0x08
 PWM = MODE_CODES[ControlMode.PWM]
 TORQUE = MODE_CODES[ControlMode.TORQUE]
 VELOCITY = MODE_CODES[ControlMode.VELOCITY]

@@ -47,6 +47,7 @@ __all__ = [
     "STATUS_FAULT",
     "STATUS_MOTORS_OFF",
     "STATUS_OWN_STOP",
+    "STATUS_STALE",
     "BoardBus",
 ]
 
@@ -62,6 +63,9 @@ STATUS_MOTORS_OFF = 0x02
 """A motor of the board was never commanded since its boot (it coasts)."""
 STATUS_OWN_STOP = 0x04
 """The board stopped itself (the master fell silent) and holds that stop until a STOP."""
+STATUS_STALE = 0x08
+"""A sensor of the board has not been read within its time: the reply carries its last
+good values, and the bridge leaves the board's sensor channels not fresh."""
 BOARD_SILENCE_S = 0.1
 """A board that hears no frame addressed to it for this long stops itself."""
 _REPLY = 0x80
@@ -105,6 +109,12 @@ class BoardBus:
         self.own_stop: set[int] = set()
         """Boards holding their own stop (the master fell silent), until a STOP."""
         self.own_stops = 0
+        self.stale: dict[int, dict[int, int]] = {}
+        """Boards whose IMU is not being read (:meth:`set_stale`): the IMU channels'
+        values (by index in the board's reply) their replies carry meanwhile."""
+        imu = robot.imu()
+        imu_names = {f"{imu.name}.{axis}" for axis in imu.axes} if imu else set()
+        self._imu_channels = {c.index for c in channels if c.name in imu_names}
         self._heard_s = dict.fromkeys(self._slots, self.now_s)
         self._state: dict[tuple[int, int], tuple[int, int]] = {}
         self._pinned: dict[int, list[int]] = {}
@@ -233,6 +243,8 @@ class BoardBus:
             status |= STATUS_MOTORS_OFF
         if board in self.own_stop:
             status |= STATUS_OWN_STOP
+        if board in self.stale:
+            status |= STATUS_STALE
         return status
 
     def set_readings(self, board: int, raw: Iterable[int] | None) -> None:
@@ -245,6 +257,17 @@ class BoardBus:
         else:
             self._pinned[board] = list(raw)
 
+    def set_stale(self, board: int, stale: bool = True) -> None:
+        """``board``'s IMU stops answering (True) or answers again (False): meanwhile its
+        replies say ``STALE`` and carry the IMU's values of the moment it stopped (its
+        other channels go on), as the PICO firmware's do."""
+        if not stale:
+            self.stale.pop(board, None)
+        elif board not in self.stale:
+            lo, hi = self._channel_range.get(board, (0, 0))
+            now = self._readings(board, lo, hi)
+            self.stale[board] = {i - lo: now[i - lo] for i in self._imu_channels if lo <= i < hi}
+
     def raw_readings(self) -> list[int]:
         """Every state channel's raw value now, in layout order (computed once per period)."""
         if self._raw is None:
@@ -256,9 +279,14 @@ class BoardBus:
         """Every board's reply to an EXCHANGE now (wire bytes; b"" for a silent board)."""
         return {b: b"" if b in self.silent else self._reply(b) for b in self._slots}
 
+    def _readings(self, board: int, lo: int, hi: int) -> list[int]:
+        return list(self._pinned.get(board) or self.raw_readings()[lo:hi])
+
     def _reply(self, board: int) -> bytes:
         lo, hi = self._channel_range.get(board, (0, 0))
-        readings = self._pinned.get(board) or self.raw_readings()[lo:hi]
+        readings = self._readings(board, lo, hi)
+        for i, value in self.stale.get(board, {}).items():
+            readings[i] = value
         body = bytes((board, CMD_EXCHANGE | _REPLY, self.status(board))) + struct.pack(
             f"<{len(readings)}h", *readings
         )

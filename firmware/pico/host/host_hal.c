@@ -11,6 +11,7 @@
  *   pk_adc(input, value)          an ADC input's reading (0..1023)
  *   pk_encoder(slot, count)       an encoder's count
  *   pk_imu(h, r, p)               the IMU's Euler angles (1/16 degree)
+ *   pk_imu_silent(on)             the IMU stops answering (1) or answers again (0)
  *   pk_motor(slot, out3)          the H-bridge output: {drive, duty}
  *   pk_state(k, out2)             motor k's mode and raw setpoint
  *   pk_debug(out)                 the pico_debug record
@@ -31,7 +32,7 @@ static uint16_t tx_n;
 static uint16_t adc[4];
 static int16_t enc[2];
 static int16_t imu[3];
-static bool imu_set;
+static bool imu_set, imu_silent;
 static int16_t out_drive[2], out_duty[2];
 static uint16_t rx_at;
 
@@ -59,8 +60,11 @@ void hal_motor(uint8_t slot, enum hal_drive drive, int16_t duty) {
 uint16_t hal_adc(uint8_t input) { return input < 4 ? adc[input] : 0; }
 int16_t hal_encoder(uint8_t slot) { return enc[slot & 1u]; }
 bool hal_imu(int16_t out[3]) {
+    if (!imu_set || imu_silent) {
+        return false; /* no read succeeded: `out` keeps the last good values */
+    }
     memcpy(out, imu, sizeof imu);
-    return imu_set;
+    return true;
 }
 bool hal_fault(void) { return false; }
 void hal_feed(void) {}
@@ -122,6 +126,8 @@ void pk_imu(int16_t h, int16_t r, int16_t p) {
     imu[2] = p;
     imu_set = true;
 }
+
+void pk_imu_silent(uint8_t on) { imu_silent = on != 0; }
 
 void pk_motor(uint8_t slot, int16_t out[2]) {
     out[0] = out_drive[slot & 1u];
