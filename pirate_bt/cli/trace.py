@@ -15,7 +15,7 @@ __all__ = ["EXPORTS", "configure", "run"]
 def configure(parser: argparse.ArgumentParser) -> None:
     subs = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     summary = subs.add_parser(
-        "summary", help="outcome, duration, per-node counts, refusals, faults"
+        "summary", help="outcome and why, duration, per-node counts, refusals, faults"
     )
     summary.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     show = subs.add_parser("show", help="the tree with statuses at one tick")
@@ -57,8 +57,19 @@ def _summary(args: argparse.Namespace) -> int:
     from pirate_bt.trace.text import format_summary, summarise
 
     trace = read_trace(args.trace)
-    print("\n".join(format_summary(summarise(trace), trace.structure)))
+    lines = format_summary(summarise(trace), trace.structure)
+    why = trace.why  # the end record's reason: the first cause the run's own line gave
+    if why is not None:  # under the outcome (it said "failure" and nowhere why)
+        at = next((i for i, line in enumerate(lines) if line.startswith("outcome ")), 2)
+        lines.insert(at + 1, f"why       {_one_line(why)}")
+    print("\n".join(lines))
     return 0
+
+
+def _one_line(text: str) -> str:
+    """``text`` on one line, as a result's ``why`` is: line breaks and control
+    characters escaped (a feedback message may hold them; the trace keeps them)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _show(args: argparse.Namespace) -> int:
