@@ -541,7 +541,8 @@ BAD_REPLIES: dict[str, bytes] = {
 }
 GOOD_REPLIES: dict[str, bytes] = {
     "a_leading_delimiter": b"\x00" + _reply(22),
-    "unknown_status_bits": _reply(22, status=0xF8),
+    "unknown_status_bits": _reply(22, status=0xF0),  # bits 4-7: no meaning, ignored
+    "stale": _reply(22, status=0x08),  # bit 3: its sensors not read (not fresh)
     "all_zero_channels": _reply(22, channels=[0, 0, 0, 0]),
 }
 
