@@ -16,6 +16,8 @@ from pirate_bt.cli import main
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, ValidationFailed
 from pirate_bt.pipes import load_network, network_from_data
 from pirate_bt.pipes.arguments import UnknownSegmentError
+from pirate_bt.sim import Simulator
+from pirate_bt.sim.simulator import _REGISTRY
 
 
 def _line(*extra: dict[str, str]) -> dict[str, object]:
@@ -112,3 +114,66 @@ def test_an_unknown_tee_or_segment_is_an_input_error_and_still_a_key_error() -> 
     with pytest.raises(KeyError, match="unknown tee 'tee-9'; tees: tee-1, tee-2"):
         LAB.path({"tee-9": "branch"})
     assert LAB.path({"tee-1": "branch"}).choices["tee-1"] == "branch"
+
+
+@pytest.mark.parametrize(
+    ("argument", "value", "error", "said"),
+    [
+        ("robot", "hardware/pirate.yaml", ArgumentTypeError, "robot: give a RobotDescription"),
+        ("clock", "wall", ArgumentTypeError, "clock: give a SimClock or None, not a str"),
+        ("noise", "typical", ArgumentTypeError, "noise: give a SensorNoise or None, not a str"),
+        ("seed", -1, ArgumentValueError, "seed: -1 is not a whole number from 0 to 2**63 - 1"),
+        ("seed", 1.5, ArgumentTypeError, "seed: give a whole number, not a float"),
+        ("seed", None, ArgumentTypeError, "seed: give a whole number, not None"),
+        ("faults", None, ArgumentTypeError, "faults: give a fault's text or a list of them"),
+        ("faults", [5], ArgumentTypeError, "faults: a fault is text such as"),
+        ("name", "", ArgumentValueError, "name: '' cannot be the NAME of a sim://NAME URL"),
+        ("name", "a?b", ArgumentValueError, "name: 'a?b' cannot be the NAME of a sim://NAME"),
+        ("start_m", 10**400, ArgumentValueError, "start_m: the front tip's distance is a"),
+    ],
+)
+def test_a_simulator_refuses_a_wrong_argument_by_name(
+    argument: str, value: object, error: type[Exception], said: str
+) -> None:
+    """`Simulator("straight", "hardware/pirate.yaml")` raised *AttributeError: 'str'
+    object has no attribute 'clamp'*, `clock="wall"` *'str' object has no attribute
+    'now'*; seeds -1, 1.5 and None were taken (the API refuses them); `name="a?b"`
+    registered a simulator its own `url` (`sim://a?b`) could not reach, and `name=""`
+    was quietly replaced; `start_m=10**400` raised an `OverflowError`."""
+    with pytest.raises(error) as caught:
+        Simulator("straight", **{argument: value})  # type: ignore[arg-type]
+    assert str(caught.value).startswith(said)
+    assert not [name for name in _REGISTRY if name in ("", "a?b")]
+
+
+def test_one_fault_as_text_is_one_fault_not_its_characters() -> None:
+    """`Simulator(..., faults="board_reset:22@1s")` (the API's `faults=` takes text)
+    said *faults: bad fault 'b'*: the text was taken one character at a time."""
+    with Simulator("straight", faults="board_reset:22@1s") as sim:
+        sim.schedule("link_loss@2s+1s")
+        sim.advance_to(2.5)
+        kinds = [event.kind for event in sim.events()]
+    assert "fault" in kinds
+
+
+@pytest.mark.parametrize(
+    ("value", "error"),
+    [(math.inf, ArgumentValueError), (math.nan, ArgumentValueError), ("1", ArgumentTypeError)],
+)
+def test_advance_to_refuses_a_time_that_is_not_finite(value: object, error: type) -> None:
+    """`sim.advance_to(math.inf)` stepped the world 10 ms at a time for ever (the
+    process hung); `nan` did nothing, silently; `"1"` raised *can only concatenate
+    str (not "float") to str*."""
+    with Simulator("straight") as sim:
+        with pytest.raises(error, match=r"^now_s: "):
+            sim.advance_to(value)  # type: ignore[arg-type]
+        sim.advance_to(0.05)
+        assert sim.counters().state_frames_sent > 0
+
+
+@pytest.mark.parametrize("data", ["abc", None])
+def test_write_takes_bytes_only(data: object) -> None:
+    """`sim.write("abc")` said *must be str or None, not bytes* (the reverse of the
+    mistake) and `sim.write(None)` was taken silently."""
+    with Simulator("straight") as sim, pytest.raises(ArgumentTypeError, match=r"^data: give bytes"):
+        sim.write(data)  # type: ignore[arg-type]

@@ -24,17 +24,26 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 import threading
 from collections.abc import Iterable, Mapping
 from operator import attrgetter
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
+from urllib.parse import urlsplit
 
 import serial
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import ConfigurationError, PirateError
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ArgumentValueError,
+    ConfigurationError,
+    PirateError,
+    kind_of,
+    shown,
+)
 from pirate_bt.pipes import FaultSpec, Network, load_network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
@@ -85,6 +94,68 @@ def lookup(name: str) -> Simulator:
     return sim
 
 
+MAX_SEED = 2**63 - 1
+"""The largest seed, the API's (``pirate_bt.api.options.MAX_SEED``)."""
+
+
+def _faults_argument(faults: object) -> list[FaultSpec]:
+    """``faults`` as specs: one fault's text, or an iterable of texts and specs (a
+    text was iterated by its characters: ``faults: bad fault 'b'``)."""
+    if isinstance(faults, str):
+        faults = [faults]
+    if faults is None or isinstance(faults, bytes | Mapping) or not isinstance(faults, Iterable):
+        raise ArgumentTypeError(
+            f"faults: give a fault's text or a list of them (or FaultSpecs), not {kind_of(faults)}"
+        )
+    specs: list[FaultSpec] = []
+    for fault in faults:
+        if isinstance(fault, FaultSpec):
+            specs.append(fault)
+        elif isinstance(fault, str):
+            specs.append(parse_fault(fault))
+        else:
+            raise ArgumentTypeError(
+                f"faults: a fault is text such as 'board_reset:22@10s' or a FaultSpec,"
+                f" not {shown(fault)}"
+            )
+    return specs
+
+
+def _check_arguments(
+    robot: object, seed: object, clock: object, noise: object, name: object, start_m: object
+) -> None:
+    """Refuse a wrong argument in one line naming it, before anything is built (a
+    string robot was ``AttributeError: 'str' object has no attribute 'clamp'``)."""
+    for option, value, kind, hint in (
+        ("robot", robot, RobotDescription, "a RobotDescription (pirate_bt.robot.load_robot)"),
+        ("clock", clock, SimClock, "a SimClock"),
+        ("noise", noise, SensorNoise, "a SensorNoise"),
+    ):
+        if value is not None and not isinstance(value, kind):
+            raise ArgumentTypeError(f"{option}: give {hint} or None, not {kind_of(value)}")
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise ArgumentTypeError(f"seed: give a whole number, not {kind_of(seed)}")
+    if not 0 <= seed <= MAX_SEED:
+        raise ArgumentValueError(f"seed: {shown(seed)} is not a whole number from 0 to 2**63 - 1")
+    if name is not None and not isinstance(name, str):
+        raise ArgumentTypeError(f"name: give text or None, not {kind_of(name)}")
+    if name is not None and (
+        not name or len(name) > 200 or urlsplit(f"{SCHEME}://{name}").netloc != name
+    ):
+        raise ArgumentValueError(
+            f"name: {shown(name)} cannot be the NAME of a {SCHEME}://NAME URL; give text of"
+            " letters, digits, '-', '_' or '.' (at most 200 characters), or None"
+        )
+    if isinstance(start_m, int) and not isinstance(start_m, bool):
+        try:
+            float(start_m)
+        except OverflowError:
+            raise ArgumentValueError(
+                f"start_m: the front tip's distance is a finite number of metres,"
+                f" not {shown(start_m)}"
+            ) from None
+
+
 def _fault_place(network: Network, index: int) -> str:
     """``file:line:column`` of the target of the network file's fault ``index`` (of
     the fault when it has no target); the network's source alone when it was not
@@ -130,6 +201,8 @@ class Simulator:
         name: str | None = None,
         start_m: float | None = None,
     ) -> None:
+        _check_arguments(robot, seed, clock, noise, name, start_m)
+        specs = _faults_argument(faults)
         if robot is None:
             from pirate_bt.robot import load_robot
 
@@ -154,7 +227,7 @@ class Simulator:
             except FaultTargetError as exc:  # said where the network file writes it
                 raise FaultTargetError(f"{_fault_place(network, index)}: faults: {exc}") from None
         self.bridge.schedule(network.faults)
-        self.schedule(faults)
+        self.schedule(specs)
         self.name = name or f"sim-{next(_NAMES)}"
         with _REGISTRY_LOCK:
             if self.name in _REGISTRY:
@@ -173,10 +246,10 @@ class Simulator:
         """Inject faults at their simulated times (``FaultSpec`` or ``KIND[:TARGET]@AT[+DUR]``).
 
         Raises:
-            InputError: malformed fault text.
+            InputError: malformed fault text, or ``faults`` no text nor list of faults.
             ConfigurationError: unknown motor, channel or board.
         """
-        specs = [parse_fault(f) if isinstance(f, str) else f for f in faults]
+        specs = _faults_argument(faults)
         with self._lock:
             self.bridge.schedule(specs)
 
@@ -185,18 +258,35 @@ class Simulator:
             self.bridge.advance_to(now_s)
 
     def advance_to(self, now_s: float) -> None:
-        """Run the world up to ``now_s`` (the clock listener does this in process)."""
+        """Run the world up to ``now_s`` (the clock listener does this in process).
+
+        Raises:
+            ArgumentTypeError: ``now_s`` is no number; ArgumentValueError: it is not
+                finite (``inf`` stepped the world for ever, ``nan`` did nothing).
+        """
+        if isinstance(now_s, bool) or not isinstance(now_s, int | float):
+            raise ArgumentTypeError(f"now_s: give a time in seconds, not {kind_of(now_s)}")
+        try:
+            finite = math.isfinite(now_s)
+        except OverflowError:
+            finite = False
+        if not finite:
+            raise ArgumentValueError(f"now_s: {shown(now_s)} is not a finite time in seconds")
         self._on_clock(now_s)
 
     # -- bytes (used by the sim:// port and the pty/TCP server) ----------------------
 
     def write(self, data: bytes) -> None:
         """Bytes from the host to the bridge."""
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise ArgumentTypeError(f"data: give bytes, not {kind_of(data)}")
         with self._lock:
             self.bridge.receive(data)
 
     def read(self, size: int = -1) -> bytes:
         """Bytes from the bridge to the host (up to ``size``; all when negative)."""
+        if isinstance(size, bool) or not isinstance(size, int):
+            raise ArgumentTypeError(f"size: give a whole number of bytes, not {kind_of(size)}")
         with self._lock:
             return self.bridge.read(size)
 
