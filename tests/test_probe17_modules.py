@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -16,6 +17,7 @@ from pirate_bt.cli import main
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, ValidationFailed
 from pirate_bt.pipes import load_network, network_from_data
 from pirate_bt.pipes.arguments import UnknownSegmentError
+from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
 from pirate_bt.sim import Simulator
 from pirate_bt.sim.simulator import _REGISTRY
 
@@ -60,6 +62,7 @@ def test_validate_says_where_a_bend_has_no_length(
 
 
 LAB = load_network("lab")
+ROBOT = load_robot()
 
 
 @pytest.mark.parametrize("method", ["slope_at", "diameter_at", "frame_at", "position_at"])
@@ -177,3 +180,40 @@ def test_write_takes_bytes_only(data: object) -> None:
     mistake) and `sim.write(None)` was taken silently."""
     with Simulator("straight") as sim, pytest.raises(ArgumentTypeError, match=r"^data: give bytes"):
         sim.write(data)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("loader", [robot_from_data, network_from_data])
+@pytest.mark.parametrize("data", [None, ["name"], "lab"])
+def test_data_that_is_no_mapping_is_refused_by_name(loader: Any, data: object) -> None:
+    """`network_from_data(None)` and `robot_from_data(None)` raised *'NoneType' object
+    is not iterable*; a list *cannot convert dictionary update sequence element #0*."""
+    with pytest.raises(ArgumentTypeError, match=r"^data: give a mapping of the file's keys"):
+        loader(data)
+
+
+def test_a_state_builder_needs_a_robot_description() -> None:
+    """`StateBuilder("pirate")` raised *'str' object has no attribute 'state_channels'*."""
+    with pytest.raises(ArgumentTypeError, match=r"^robot: give a RobotDescription"):
+        StateBuilder("pirate")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("value", "error", "said"),
+    [
+        (math.nan, ArgumentValueError, "values: bend_1_angle: nan is not a finite number"),
+        (math.inf, ArgumentValueError, "values: bend_1_angle: inf is not a finite number"),
+        ("1", ArgumentTypeError, "values: bend_1_angle: give a number in SI units, not a str"),
+    ],
+)
+def test_encode_names_the_channel_it_cannot_encode(
+    value: object, error: type[Exception], said: str
+) -> None:
+    """`StateBuilder.encode({"bend_1_angle": nan})` raised *cannot convert float NaN to
+    integer* (inf an `OverflowError`), naming no channel; a value beyond the raw range
+    still saturates."""
+    builder = StateBuilder(ROBOT)
+    with pytest.raises(error) as caught:
+        builder.encode({"bend_1_angle": value})  # type: ignore[dict-item]
+    assert str(caught.value) == said
+    raw = builder.encode({"bend_1_angle": 1e300})
+    assert max(r for r in raw if r is not None) == 4095

@@ -22,6 +22,7 @@ from operator import attrgetter, itemgetter
 from types import MappingProxyType
 from typing import Any
 
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, kind_of, shown
 from pirate_bt.robot.description import (
     MotorFunction,
     RobotDescription,
@@ -189,6 +190,10 @@ class StateBuilder:
     """
 
     def __init__(self, robot: RobotDescription) -> None:
+        if not isinstance(robot, RobotDescription):
+            raise ArgumentTypeError(
+                f"robot: give a RobotDescription (pirate_bt.robot.load_robot), not {kind_of(robot)}"
+            )
         self.robot = robot
         self._channels = robot.state_channels()
         self._scales = [
@@ -348,9 +353,42 @@ class StateBuilder:
     def encode(self, values: Mapping[str, float]) -> list[int | None]:
         """SI values by channel name -> raw values in layout order (``None`` if absent).
 
-        This is the inverse of :meth:`build`, for the simulated bridge and tests.
+        This is the inverse of :meth:`build`, for the simulated bridge and tests. A
+        value beyond a channel's raw range saturates.
+
+        Raises:
+            ArgumentTypeError: ``values`` is no mapping, or a value no number.
+            ArgumentValueError: a value is not finite (nothing to saturate), named
+                by its channel (it was ``cannot convert float NaN to integer``).
         """
-        return [
-            spec.conversion.to_raw(values[spec.name]) if spec.name in values else None
-            for spec in self._channels
-        ]
+        try:
+            return [
+                spec.conversion.to_raw(values[spec.name]) if spec.name in values else None
+                for spec in self._channels
+            ]
+        except (TypeError, ValueError, OverflowError):
+            self._refuse(values)
+            raise
+
+    def _refuse(self, values: object) -> None:
+        """Raise the one-line error for what :meth:`encode` could not encode."""
+        if not isinstance(values, Mapping):
+            raise ArgumentTypeError(
+                f"values: give a mapping of channel names to SI values, not {kind_of(values)}"
+            ) from None
+        for spec in self._channels:
+            value = values.get(spec.name)
+            if value is None and spec.name not in values:
+                continue
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ArgumentTypeError(
+                    f"values: {spec.name}: give a number in SI units, not {kind_of(value)}"
+                ) from None
+            try:
+                finite = math.isfinite(value)
+            except OverflowError:
+                finite = False
+            if not finite:
+                raise ArgumentValueError(
+                    f"values: {spec.name}: {shown(value)} is not a finite number"
+                ) from None
