@@ -11,8 +11,22 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.options import kind_of, output_folder, report_extras
+from pirate_bt.errors import InputError
 
-__all__ = ["write_mission_outputs"]
+__all__ = ["OutputsNotWritten", "write_mission_outputs"]
+
+
+class OutputsNotWritten(InputError):
+    """A mission ran, but its report could not be written (``output=`` of
+    :func:`~pirate_bt.api.missions.simulate_mission` and
+    :func:`~pirate_bt.api.missions.run_mission`): the message names the file and then
+    the mission's own line with its first cause, and :attr:`result` holds the
+    mission's result, which a bare ``OSError`` lost."""
+
+    def __init__(self, message: str, result: Any) -> None:
+        super().__init__(message)
+        self.result = result
+        """The :class:`~pirate_bt.task.mission_result.MissionResult` of the run."""
 
 
 def write_mission_outputs(
@@ -26,16 +40,20 @@ def write_mission_outputs(
 ) -> list[Path]:
     """Write a mission's plots, tree diagram and report (``report.md``, ``report.html``).
 
-    A plot or diagram that cannot be made (no Graphviz ``dot``, no matplotlib) is
-    reported through ``warn`` and left out; the report is always written.
+    A plot or diagram that cannot be made (no Graphviz ``dot``, no matplotlib, a full
+    disk) is reported through ``warn``, naming the file, and left out: nothing of it is
+    left half-written. The report is always written, whole or not at all.
 
     Returns:
         The files written (the trace first, when there is one).
+
+    Raises:
+        InputError: ``output`` is no folder that takes files, or the report cannot be
+            written (``output: cannot write OUT/report.md: No space left on device``).
     """
     import logging
 
     log = warn or logging.getLogger("pirate_bt.api").warning
-    from pirate_bt.errors import InputError
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.report import plot_belief, write_report
 
@@ -60,7 +78,11 @@ def write_mission_outputs(
             pictures.append(("Joints, clamps and speed", plotted.name))
         except Exception as exc:  # a missing plot must not lose the report
             log(f"no trace plot: {exc}")
-    belief = plot_belief(result, out / "belief.png")
+    try:
+        belief = plot_belief(result, out / "belief.png")
+    except OSError as exc:  # a full disk: it was "No space left on device", no file
+        log(f"no belief plot: {_os_error(exc)}")
+        belief = None
     if belief is not None:
         files.append(belief)
         pictures.append(("Belief and truth", belief.name))
@@ -75,6 +97,8 @@ def write_mission_outputs(
         dot = out / "tree.dot"
         if dot.exists():
             files.append(dot)
+    except OSError as exc:  # the diagram cannot be written: the report still can be
+        log(f"no tree diagram: {_os_error(exc)}")
     if result.coverage is not None:
         try:
             from pirate_bt.render.tree import render_tree
@@ -86,7 +110,18 @@ def write_mission_outputs(
             dot = out / "coverage.dot"
             if dot.exists():
                 files.append(dot)
-    files += write_report(
-        result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
-    )
+        except OSError as exc:
+            log(f"no coverage diagram: {_os_error(exc)}")
+    try:
+        files += write_report(
+            result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
+        )
+    except OSError as exc:
+        raise InputError(f"output: cannot write {_os_error(exc)}") from None
     return files
+
+
+def _os_error(exc: OSError) -> str:
+    """``FILE: why`` for an output that could not be written."""
+    why = exc.strerror or str(exc) or type(exc).__name__
+    return f"{exc.filename}: {why}" if exc.filename is not None else why

@@ -30,7 +30,7 @@ from pirate_bt.api.live import (
     ros2_mission_observer,
     ros2_node,
 )
-from pirate_bt.api.mission_outputs import write_mission_outputs
+from pirate_bt.api.mission_outputs import OutputsNotWritten, write_mission_outputs
 from pirate_bt.api.options import (
     callback,
     file_name,
@@ -47,6 +47,7 @@ from pirate_bt.api.options import (
     writable_folder,
 )
 from pirate_bt.api.results import closing_why
+from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 
 if TYPE_CHECKING:
@@ -91,7 +92,6 @@ def load_network(network: Any, *, base: str | Path | None = None) -> Network:
 
 def _load_network(network: Any, base: str | Path | None, option: str) -> Network:
     """:func:`load_network` for the argument ``option`` (``network``, ``truth``)."""
-    from pirate_bt.errors import InputError
     from pirate_bt.pipes import Network, NetworkSpec
     from pirate_bt.pipes import load_network as load_file
     from pirate_bt.task.networks import resolve_network_path
@@ -134,7 +134,6 @@ def load_route(route: Any) -> Route:
     if isinstance(route, Route):
         return route
     from pirate_bt.api.options import find
-    from pirate_bt.errors import InputError
 
     if not isinstance(route, str | Path):
         raise InputError(
@@ -471,7 +470,11 @@ def _watched_mission(
         result.why = closing_why(result.succeeded, result.why, connection.close_error)
         result.close_error = connection.close_error
     if out is not None:
-        write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
+        try:
+            write_mission_outputs(result, out, wall_s=time.perf_counter() - started)
+        except InputError as exc:  # after the run: its result and first cause go with it
+            message = f"{exc}; the mission itself: {result.summary()}"
+            raise OutputsNotWritten(message, result) from None
     return result
 
 

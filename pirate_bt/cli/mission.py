@@ -9,7 +9,8 @@ other than the map (``pirate-bt network perturb``), the mission plans on a
 drawing and runs on the pipe as built. With ``--output DIR`` the trace, the
 tree diagram, the plots and the mission report are written there. Exit codes:
 0 the mission succeeded; 1 it failed and the robot was left in its safe state;
-2 invalid input; 3 link error.
+2 invalid input (and a report that cannot be written after a mission that
+succeeded; after one that failed, its own code stands); 3 link error.
 """
 
 from __future__ import annotations
@@ -225,16 +226,25 @@ def execute(
             )
     wall = time.perf_counter() - started
     files: list[Path] = []
-    if output is not None:
-        files = write_mission_outputs(
-            result,
-            output,
-            wall_s=wall,
-            extra_sections=extra_sections or [],
-            extra_pictures=extra_pictures or [],
-            warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
-        )
     summary = result.summary(wall_s=wall)
+    if output is not None:
+        try:
+            files = write_mission_outputs(
+                result,
+                output,
+                wall_s=wall,
+                extra_sections=extra_sections or [],
+                extra_pictures=extra_pictures or [],
+                warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
+            )
+        except InputError as exc:  # the report: the mission's own line first, its code
+            # (a full disk said "No space left on device" alone, the mission unsaid, exit 2)
+            stream.flush()
+            print(f"pirate-bt: {summary}", file=sys.stderr)
+            print(f"pirate-bt: {exc}", file=sys.stderr)
+            return MissionOutputs(
+                exc.exit_code if result.succeeded else result.exit_code, result, (), wall
+            )
     for note in (*result.replans, *result.map_notes):
         print(f"pirate-bt: {note}", file=sys.stderr)
     if result.succeeded:

@@ -15,9 +15,11 @@ pictures only, so it opens anywhere.
 from __future__ import annotations
 
 import html
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import IO
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.task.localise import DRIFT_PER_M, FIX_BOUND_M
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.planner import MissionPlan
@@ -380,10 +382,23 @@ def plot_belief(result: MissionResult, out: Path) -> Path | None:
     # the route's name as written, never as mathtext (a '$' in a file name made
     # matplotlib parse it, and a stray '\frac' ended the mission with an internal error)
     fig.suptitle(f"Localisation: {result.plan.route.name}", parse_math=False)
-    fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
+    try:
+        fig.tight_layout()
+        # whole or not at all, named by the picture (a full disk left a 0-byte belief.png
+        # and said "No space left on device" with no file)
+        write_whole(out, lambda stream: fig.savefig(stream, format="png"))
+    finally:
+        plt.close(fig)
     return out
+
+
+def write_whole(out: Path, fill: Callable[[IO[bytes]], object]) -> None:
+    """Write ``out`` whole or not at all (:func:`pirate_bt.atomic.write_atomically`);
+    an ``OSError`` names ``out``, not the temporary file beside it."""
+    try:
+        write_atomically(out, fill)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(out)) from exc
 
 
 def write_report(
@@ -401,7 +416,9 @@ def write_report(
     out_dir.mkdir(parents=True, exist_ok=True)
     lines = report_lines(result, pictures, extra, wall_time_s)
     md = out_dir / "report.md"
-    md.write_text("\n".join(lines), encoding="utf-8")
+    text = "\n".join(lines).encode("utf-8")
+    write_whole(md, lambda stream: stream.write(text))
     page = out_dir / "report.html"
-    page.write_text(markdown_to_html(lines, f"Mission {result.plan.route.name}"), encoding="utf-8")
+    html_text = markdown_to_html(lines, f"Mission {result.plan.route.name}").encode("utf-8")
+    write_whole(page, lambda stream: stream.write(html_text))
     return [md, page]
