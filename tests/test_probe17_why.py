@@ -116,3 +116,16 @@ def test_trace_summary_says_why_the_run_ended(
     assert lines[2] == "outcome   failure"
     assert lines[3].startswith(why), lines[:5]  # the same first cause as the run's line
     assert lines[3][len("why       ") :] in printed
+
+
+def test_a_tree_diagram_that_cannot_be_written_is_left_out_and_the_report_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    (out / "tree.dot").mkdir(parents=True)  # as a full disk refuses the diagram's source
+    argv = ["mission", str(_route(tmp_path)), "-q", "--output", str(out)]
+    assert main([*argv, "--faults", STALL]) == 1  # was 2, the mission's line unprinted
+    err = capsys.readouterr().err
+    assert f"pirate-bt: no tree diagram: out: cannot write '{out / 'tree.dot'}'" in err
+    assert "pirate-bt: mission short: FAILED - stall: bend_1_drive" in err
+    assert "stall: bend_1_drive" in (out / "report.md").read_text(encoding="utf-8")

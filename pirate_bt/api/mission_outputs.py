@@ -99,6 +99,8 @@ def write_mission_outputs(
             files.append(dot)
     except OSError as exc:  # the diagram cannot be written: the report still can be
         log(f"no tree diagram: {_os_error(exc)}")
+    except InputError as exc:  # its .dot file beside it cannot be written (a full disk)
+        log(f"no tree diagram: {exc}")
     if result.coverage is not None:
         try:
             from pirate_bt.render.tree import render_tree
@@ -112,6 +114,8 @@ def write_mission_outputs(
                 files.append(dot)
         except OSError as exc:
             log(f"no coverage diagram: {_os_error(exc)}")
+        except InputError as exc:
+            log(f"no coverage diagram: {exc}")
     try:
         files += write_report(
             result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
