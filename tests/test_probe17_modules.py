@@ -14,7 +14,10 @@ from typing import Any
 import pytest
 
 from pirate_bt.cli import main
+from pirate_bt.clock import SimClock
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, ValidationFailed
+from pirate_bt.link import open_link
+from pirate_bt.link.transport import Transport
 from pirate_bt.pipes import load_network, network_from_data
 from pirate_bt.pipes.arguments import UnknownSegmentError
 from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
@@ -217,3 +220,56 @@ def test_encode_names_the_channel_it_cannot_encode(
     assert str(caught.value) == said
     raw = builder.encode({"bend_1_angle": 1e300})
     assert max(r for r in raw if r is not None) == 4095
+
+
+@pytest.mark.parametrize(
+    ("argument", "value", "said"),
+    [
+        ("url", None, "url: give a port or pyserial URL as text, not None"),
+        ("url", b"sim://x", "url: give a port or pyserial URL as text, not a bytes"),
+        ("robot", None, "robot: give a RobotDescription"),
+        ("clock", None, "clock: give a Clock (SimClock, WallClock), not None"),
+        ("faults", 5, "faults: give a link fault spec"),
+        ("config", "fast", "config: give a SessionConfig or None, not a str"),
+        ("threaded", "no", "threaded: give True, False or None, not 'no'"),
+        ("reset_wait_s", math.nan, "reset_wait_s: nan is not a number of seconds from 0"),
+        ("write_timeout_s", math.nan, "write_timeout_s: nan is not a number of seconds"),
+    ],
+)
+def test_open_link_refuses_a_wrong_argument_by_name(
+    argument: str, value: object, said: str
+) -> None:
+    """`open_link(None, ...)` raised *'NoneType' object has no attribute 'partition'*,
+    a robot or clock of None an `AttributeError`, `faults=5` *'int' object has no
+    attribute 'active'*; `threaded="no"` was taken as true and `reset_wait_s=nan`
+    and `write_timeout_s=nan` as given."""
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock) as sim:
+        arguments: dict[str, Any] = {"url": sim.url, "robot": ROBOT, "clock": clock}
+        arguments[argument] = value
+        with pytest.raises(InputError) as caught:
+            open_link(**arguments)
+        assert str(caught.value).startswith(said)
+        assert sim.counters().frames_received == 0  # refused before anything was sent
+
+
+def test_a_bad_fault_spec_leaves_no_port_open(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`open_link(url, ..., faults="drop=2")` opened the port, then refused the spec and
+    left the port open (on a serial device, held until garbage collection; on the TCP
+    simulator, taken for the one host it serves). The spec is read before the port
+    opens now, and any failure after it closes the port."""
+    opened: list[Transport] = []
+    real_open = Transport.open
+
+    def recording_open(*args: Any, **kwargs: Any) -> Transport:
+        opened.append(real_open(*args, **kwargs))
+        return opened[-1]
+
+    monkeypatch.setattr(Transport, "open", recording_open)
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock) as sim:
+        with pytest.raises(InputError, match="drop='2': a probability must lie in"):
+            open_link(sim.url, ROBOT, clock, faults="drop=2")
+        with pytest.raises(InputError, match="drop='nan'"):
+            open_link(sim.url + "?faults=drop=nan", ROBOT, clock)
+    assert all(not transport.port.is_open for transport in opened)  # type: ignore[attr-defined]

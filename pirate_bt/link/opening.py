@@ -14,7 +14,15 @@ import math
 from dataclasses import replace
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ArgumentValueError,
+    LinkError,
+    LinkTimeout,
+    ProtocolMismatch,
+    kind_of,
+    shown,
+)
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.messages import HelloReply, NackCode
@@ -243,11 +251,21 @@ def open_link(
     Raises:
         LinkError: cannot open, other protocol/layout (``ProtocolMismatch``) or no
             answer (``LinkTimeout``).
-        InputError: a malformed fault spec.
+        InputError: a malformed fault spec, or an argument of the wrong type or value
+            (``ArgumentTypeError``, ``ArgumentValueError``), refused before the port
+            opens; a port is never left open when this raises.
     """
+    _check_arguments(url, robot, clock, config, reset_wait_s, write_timeout_s, threaded)
     clean_url, url_faults = split_fault_url(url)
     if faults is None:
         faults = url_faults
+    if isinstance(faults, str):  # parsed before the port opens: a bad spec left it open
+        faults = parse_fault_spec(faults)
+    elif faults is not None and not isinstance(faults, FaultSpec):
+        raise ArgumentTypeError(
+            f"faults: give a link fault spec (text such as 'drop=0.05') or None,"
+            f" not {kind_of(faults)}"
+        )
     real = is_real_port(clean_url)
     if reset_wait_s is None:
         reset_wait_s = robot.bridge.reset_time if real else 0.0
@@ -266,7 +284,53 @@ def open_link(
             release_boot_latch=release_boot_latch,
         )
     except LinkTimeout as exc:
+        transport.close()
         raise LinkTimeout(f"{clean_url}: {exc}") from exc
+    except BaseException:
+        transport.close()  # idempotent: the handshake's failure closed it already
+        raise
+
+
+_MAX_RESET_WAIT_S = 3600.0
+
+
+def _check_arguments(
+    url: object,
+    robot: object,
+    clock: object,
+    config: object,
+    reset_wait_s: object,
+    write_timeout_s: object,
+    threaded: object,
+) -> None:
+    """Refuse a wrong argument of :func:`open_link` in one line naming it (``None``
+    for ``url`` was *'NoneType' object has no attribute 'partition'*)."""
+    if not isinstance(url, str):
+        raise ArgumentTypeError(f"url: give a port or pyserial URL as text, not {kind_of(url)}")
+    if not url.strip():
+        raise ArgumentValueError("url: give a port or pyserial URL, not empty text")
+    if not isinstance(robot, RobotDescription):
+        raise ArgumentTypeError(
+            f"robot: give a RobotDescription (pirate_bt.robot.load_robot), not {kind_of(robot)}"
+        )
+    if not isinstance(clock, Clock):
+        raise ArgumentTypeError(f"clock: give a Clock (SimClock, WallClock), not {kind_of(clock)}")
+    if config is not None and not isinstance(config, SessionConfig):
+        raise ArgumentTypeError(f"config: give a SessionConfig or None, not {kind_of(config)}")
+    if threaded is not None and not isinstance(threaded, bool):
+        raise ArgumentTypeError(f"threaded: give True, False or None, not {shown(threaded)}")
+    for option, value, least, most in (
+        ("reset_wait_s", reset_wait_s, 0.0, _MAX_RESET_WAIT_S),
+        ("write_timeout_s", write_timeout_s, 1e-6, _MAX_RESET_WAIT_S),
+    ):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ArgumentTypeError(f"{option}: give seconds (a number), not {kind_of(value)}")
+        if not least <= value <= most:  # nan too
+            raise ArgumentValueError(
+                f"{option}: {shown(value)} is not a number of seconds from {least:g} to {most:g}"
+            )
 
 
 _WIRE_SCHEMES = ("socket://", "rfc2217://", "spy://")
