@@ -58,3 +58,11 @@ def test_a_mission_stopped_by_the_supervisor_names_its_pab_by_path() -> None:
     assert mission.failing_node == "mission/route/03 T-joint left (tee) (line 5)"
     assert mission.failed_pab is not None
     assert mission.failing_node.endswith("/" + mission.failed_pab.label)
+
+
+def test_a_mission_of_one_pab_says_it_in_the_singular(tmp_path: Path) -> None:
+    # was "mission completed: 1 PABs, ..."
+    route = tmp_path / "one.route"
+    route.write_text("network straight\nforward 0.3 m\n", encoding="utf-8")
+    result = pirate_bt.simulate_mission(route)
+    assert result.why.startswith("mission completed: 1 PAB, "), result.why

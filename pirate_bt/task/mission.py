@@ -42,7 +42,14 @@ from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.fixes import ShortLeg
 from pirate_bt.task.localise import MAP_FRACTION, Localiser
 from pirate_bt.task.mission_result import Leg, MissionResult, Sample, TimelineEntry
-from pirate_bt.task.outcome import PabOutcome, explain_run, link_cause, map_cause, pab_outcomes
+from pirate_bt.task.outcome import (
+    PabOutcome,
+    counted,
+    explain_run,
+    link_cause,
+    map_cause,
+    pab_outcomes,
+)
 from pirate_bt.task.plan import (
     LEG_DISTANCE_KEY,
     MAP_OK_KEY,
@@ -409,7 +416,7 @@ def _why(
     """The mission's first cause, the node it happened at (see :mod:`.outcome`), and
     whether a PAB's failure was named a map disagreement."""
     if run.succeeded:
-        return f"mission completed: {len(outcomes)} PABs, {run.message}", None, False
+        return f"mission completed: {counted(len(outcomes), 'PAB')}, {run.message}", None, False
     stopped = next((p for p in outcomes if p.outcome in ("failure", "stopped")), None)
     # the PAB's path from the root, as a node's inside it is (not its bare label)
     where = f"{route_path(root.children[-1])}/{stopped.label}" if stopped is not None else None

@@ -14,7 +14,7 @@ from pirate_bt.errors import LinkError, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.navigation import Decision, Step
-from pirate_bt.task.outcome import PabOutcome
+from pirate_bt.task.outcome import PabOutcome, counted
 
 __all__ = [
     "FailedStep",
@@ -152,11 +152,6 @@ class NavigationResult:
             f" {self.sim_time_s:.1f} s clock, {self.wall_s:.1f} s wall;"
             f" believed at {self.belief_m:.2f} m{truth})"
         )
-
-
-def counted(n: int, word: str) -> str:
-    """``1 step``, ``3 steps`` (``word`` with an ``s`` unless ``n`` is 1)."""
-    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 def steps_text(n: int) -> str:

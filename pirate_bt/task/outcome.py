@@ -39,6 +39,7 @@ __all__ = [
     "FOUND_TEE",
     "PAST_END_M",
     "PabOutcome",
+    "counted",
     "explain_run",
     "link_cause",
     "map_cause",
@@ -319,3 +320,8 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
     else:
         what = " where the map has it pass"
     return f"{where}{what} ({pab.label}: {pab.why})"
+
+
+def counted(n: int, word: str) -> str:
+    """``1 step``, ``3 steps`` (``word`` with an ``s`` unless ``n`` is 1)."""
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"

@@ -16,7 +16,7 @@ from pirate_bt.clock import Clock
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.mission import MissionResult, Observer, run_mission, truth_of
-from pirate_bt.task.outcome import FOUND_TEE
+from pirate_bt.task.outcome import FOUND_TEE, counted
 from pirate_bt.task.plan import MissionPlan
 
 __all__ = ["carry_on", "joined", "replan_after", "return_to_start"]
@@ -207,7 +207,7 @@ def joined(first: MissionResult, then: MissionResult, note: str) -> MissionResul
         # The whole mission's account, not the re-planned part's alone ("2 PABs").
         times = "once" if len(replans) == 1 else f"{len(replans)} times"
         ran = sum(p.outcome != "not run" for p in pabs)
-        why = f"mission completed: {ran} PABs, re-planned {times}"
+        why = f"mission completed: {counted(ran, 'PAB')}, re-planned {times}"
     return replace(
         then,
         why=why,
