@@ -7,6 +7,7 @@ answer, where one line naming the argument or the file's place was due.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,13 @@ import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, ValidationFailed
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ArgumentValueError,
+    InputError,
+    LocatedError,
+    ValidationFailed,
+)
 from pirate_bt.link import open_link
 from pirate_bt.link.transport import Transport
 from pirate_bt.pipes import load_network, network_from_data
@@ -23,6 +30,7 @@ from pirate_bt.pipes.arguments import UnknownSegmentError
 from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
 from pirate_bt.sim import Simulator
 from pirate_bt.sim.simulator import _REGISTRY
+from pirate_bt.trace import read_trace
 
 
 def _line(*extra: dict[str, str]) -> dict[str, object]:
@@ -273,3 +281,64 @@ def test_a_bad_fault_spec_leaves_no_port_open(monkeypatch: pytest.MonkeyPatch) -
         with pytest.raises(InputError, match="drop='nan'"):
             open_link(sim.url + "?faults=drop=nan", ROBOT, clock)
     assert all(not transport.port.is_open for transport in opened)  # type: ignore[attr-defined]
+
+
+def _trace_with(tmp_path: Path, tick: str) -> Path:
+    """A trace of one recorded tick and then ``tick``, with the header of a real run."""
+    header = json.dumps(
+        {"type": "header", "format": "pirate-bt-trace", "version": 1, "tree": _TREE}
+    )
+    path = tmp_path / "run.jsonl"
+    path.write_text(
+        f'{header}\n{{"type":"tick","n":1,"t_s":0.0,"state":{{"rotation_rad":0.0}}}}\n{tick}\n'
+    )
+    return path
+
+
+_TREE = {
+    "name": "t",
+    "nodes": [
+        {
+            "id": "0",
+            "name": "t",
+            "type": "Sequence",
+            "kind": "composite",
+            "parent": None,
+            "children": [],
+            "params": {},
+        }
+    ],
+}
+
+
+@pytest.mark.parametrize(
+    ("tick", "said"),
+    [
+        (
+            '{"type":"tick","n":2,"t_s":0.1,"state":{"rotation_rad":"x"}}',
+            'state: rotation_rad: "x" is no number',
+        ),
+        (
+            '{"type":"tick","n":2,"t_s":0.1,"state":{"rotation_rad":[1]}}',
+            "state: rotation_rad: [1] is no number",
+        ),
+        ('{"type":"tick","n":2,"t_s":0.1,"feedback":{"0":5}}', "feedback: node 0: 5 is no text"),
+        ('{"type":"tick","n":2,"t_s":0.1,"full":"yes"}', 'full is true or false, not "yes"'),
+    ],
+)
+def test_a_tick_value_of_the_wrong_kind_is_refused_at_its_line(
+    tmp_path: Path, tick: str, said: str
+) -> None:
+    """A state value `"x"` in a tick was read, and `trace.robot_state_at(2)` then raised
+    *ValueError: could not convert string to float: 'x'*; `[1]` became a silent `nan`,
+    a feedback of `5` was handed on as a number, and `"full": "yes"` read as true."""
+    path = _trace_with(tmp_path, tick)
+    with pytest.raises(LocatedError) as caught:
+        read_trace(path)
+    assert str(caught.value) == f"{path}:3:1: bad tick record: {said}"
+
+
+def test_the_spellings_of_nan_and_inf_still_read_as_numbers(tmp_path: Path) -> None:
+    path = _trace_with(tmp_path, '{"type":"tick","n":2,"t_s":0.1,"state":{"rotation_rad":"-inf"}}')
+    state = read_trace(path).robot_state_at(2)
+    assert state is not None and state.rotation_rad == -math.inf

@@ -104,6 +104,29 @@ def tick_values_problem(record: Mapping[str, Any]) -> str | None:
     for member in _OBJECTS:  # a list of pairs read as an object
         if not isinstance(record.get(member, {}), dict):
             return f"{member} is an object, not {_shown(record[member])}"
+    return _members_problem(record)
+
+
+_NONFINITE: Final = ("nan", "inf", "-inf")
+"""How a trace spells the numbers strict JSON cannot (``sink_encode.nonfinite_text``)."""
+
+
+def _members_problem(record: Mapping[str, Any]) -> str | None:
+    """What is wrong with a tick's state values (numbers, or ``nan``, ``inf``, ``-inf``:
+    ``"x"`` made ``robot_state_at`` raise *could not convert string to float*), its
+    feedback (text) or ``full`` (``true`` or ``false``), or ``None``."""
+    for key, value in record.get("state", {}).items():
+        if type(value) is not float and (
+            not isinstance(value, int | float | str)
+            or isinstance(value, bool)
+            or (isinstance(value, str) and value not in _NONFINITE)
+        ):
+            return f"state: {key}: {_shown(value)} is no number"
+    for node, text in record.get("feedback", {}).items():
+        if not isinstance(text, str):
+            return f"feedback: node {node}: {_shown(text)} is no text"
+    if not isinstance(record.get("full", False), bool):
+        return f"full is true or false, not {_shown(record['full'])}"
     return None
 
 
