@@ -322,7 +322,17 @@ def run_navigation(
                 break
             # the decision records what the navigator was told, not what it wrote into it
             told = replace(obs, choices=dict(obs.choices))
-            step, seconds, error, raised = _decide(navigator, obs, deadline_s, name)
+            try:
+                step, seconds, error, raised = _decide(navigator, obs, deadline_s, name)
+            except KeyboardInterrupt as exc:
+                # Ctrl-C while the navigator decides: a failure that leaves the robot
+                # safe, as one during a step is (it went out of the navigation, which
+                # neither stopped the robot nor said why in its records)
+                said = f"interrupted ({str(exc) or 'Ctrl-C'}) while navigator {name!r} decided"
+                result.why = first_then(name, failures, f"{said} step {index}")
+                result.failing_node = failures[0].failing_node if failures else None
+                supervisor.safe_state(result.why)
+                break
             checked: CheckedStep | None = None
             plan: MissionPlan | None = None
             if error is None and step is not None:
