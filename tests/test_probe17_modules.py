@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import math
+import socket
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +31,7 @@ from pirate_bt.pipes import load_network, network_from_data
 from pirate_bt.pipes.arguments import UnknownSegmentError
 from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
 from pirate_bt.sim import Simulator
+from pirate_bt.sim.server import ListenError, SimServer
 from pirate_bt.sim.simulator import _REGISTRY
 from pirate_bt.trace import read_trace
 
@@ -342,3 +345,63 @@ def test_the_spellings_of_nan_and_inf_still_read_as_numbers(tmp_path: Path) -> N
     path = _trace_with(tmp_path, '{"type":"tick","n":2,"t_s":0.1,"state":{"rotation_rad":"-inf"}}')
     state = read_trace(path).robot_state_at(2)
     assert state is not None and state.rotation_rad == -math.inf
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        ({"speed": math.inf}, "speed: inf is not a number above 0 and at most 100"),
+        ({"speed": math.nan}, "speed: nan is not a number above 0 and at most 100"),
+        ({"speed": "2"}, "speed: give a number, not a str"),
+        ({"tick_s": 0}, "tick_s: 0 is not a number above 0 and at most 1"),
+    ],
+)
+def test_a_sim_server_refuses_a_speed_or_tick_it_cannot_serve(
+    options: dict[str, Any], said: str
+) -> None:
+    """`SimServer(sim, speed=math.inf)` was taken, and its serving loop then stepped
+    the world for ever in one pass (the server hung, the host heard nothing); `nan`
+    froze the world, `"2"` raised *'<=' not supported*, and `tick_s=0` spun a core."""
+    with Simulator("straight") as sim, pytest.raises(InputError) as caught:
+        SimServer(sim, **options)
+    assert str(caught.value) == said
+
+
+def test_a_port_in_use_is_one_error_naming_the_address() -> None:
+    """`SimServer(sim).open_tcp(PORT)` on a port in use raised a bare *OSError: [Errno
+    98] Address already in use* (`pirate-bt sim --tcp PORT` printed only that), and
+    left its socket open."""
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen()
+    port = taken.getsockname()[1]
+    try:
+        with Simulator("straight") as sim:
+            server = SimServer(sim)
+            with pytest.raises(ListenError) as caught:
+                server.open_tcp(port)
+            assert str(caught.value).startswith(f"cannot listen on 127.0.0.1:{port}: ")
+            assert isinstance(caught.value, InputError) and isinstance(caught.value, OSError)
+            with pytest.raises(ArgumentValueError, match="port: 70000 is not a port"):
+                server.open_tcp(70000)
+            server.close()
+    finally:
+        taken.close()
+
+
+def test_one_server_serves_one_endpoint_from_one_loop() -> None:
+    """A second `open_tcp` left the first listener open and unserved; a second
+    `start()` ran two loops stepping one simulator and reading each other's bytes."""
+    with Simulator("straight") as sim:
+        server = SimServer(sim)
+        server.open_tcp(0)
+        try:
+            with pytest.raises(InputError, match="already serves"):
+                server.open_tcp(0)
+            server.start()
+            with pytest.raises(InputError, match="serving already"):
+                server.start()
+            assert [t for t in threading.enumerate() if t.name == "pirate-sim"] != []
+        finally:
+            server.stop()
+    assert [t for t in threading.enumerate() if t.name == "pirate-sim"] == []

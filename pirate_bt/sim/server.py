@@ -23,6 +23,7 @@ import threading
 import time
 import tty
 
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, kind_of, shown
 from pirate_bt.sim.simulator import Simulator
 
 __all__ = ["SimServer", "end_state"]
@@ -74,6 +75,27 @@ def end_state(sim: Simulator) -> str:
     return f"end state: {motion}, {drives}; {halves}; bridge {latch}, {watchdog}"
 
 
+MAX_SPEED = 100.0
+"""The fastest a server runs, in simulated seconds per wall second (``pirate-bt sim
+--speed``'s limit)."""
+
+
+class ListenError(InputError, OSError):
+    """The server cannot listen where it was asked (a port in use, an address not of
+    this machine); an ``InputError`` naming the address, and an ``OSError`` as before."""
+
+
+def _seconds(value: object, option: str, least: float, most: float) -> float:
+    """``value`` as a number of seconds (or a speed) in ``(least, most]``."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ArgumentTypeError(f"{option}: give a number, not {kind_of(value)}")
+    if not least < value <= most:  # nan too
+        raise ArgumentValueError(
+            f"{option}: {shown(value)} is not a number above {least:g} and at most {most:g}"
+        )
+    return float(value)
+
+
 class SimServer:
     """Serves one :class:`Simulator` on a pty or a TCP port, in real time.
 
@@ -84,11 +106,13 @@ class SimServer:
     """
 
     def __init__(self, sim: Simulator, *, speed: float = 1.0, tick_s: float = 0.002) -> None:
-        if speed <= 0:
-            raise ValueError("speed must be positive")
+        if not isinstance(sim, Simulator):
+            raise ArgumentTypeError(f"sim: give a Simulator, not {kind_of(sim)}")
+        # an infinite speed stepped the world for ever in one pass (a hung server), nan
+        # froze it, and a tick of 0 or below spun a core
         self.sim = sim
-        self.speed = speed
-        self.tick_s = tick_s
+        self.speed = _seconds(speed, "speed", 0.0, MAX_SPEED)
+        self.tick_s = _seconds(tick_s, "tick_s", 0.0, 1.0)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._master: int | None = None
@@ -102,6 +126,7 @@ class SimServer:
 
     def open_pty(self) -> str:
         """Create the pseudo-terminal and return the device path a host opens."""
+        self._check_unopened()
         master, slave = os.openpty()
         tty.setraw(slave)
         os.set_blocking(master, False)
@@ -110,11 +135,29 @@ class SimServer:
         return self.device
 
     def open_tcp(self, port: int, host: str = "127.0.0.1") -> tuple[str, int]:
-        """Listen on ``host:port`` (loopback by default; port 0 picks a free one)."""
+        """Listen on ``host:port`` (loopback by default; port 0 picks a free one).
+
+        Raises:
+            ArgumentTypeError, ArgumentValueError: a port that is no whole number from
+                0 to 65535, a host that is no text.
+            ListenError: the address cannot be listened on (in use, not this machine's).
+        """
+        if isinstance(port, bool) or not isinstance(port, int):
+            raise ArgumentTypeError(f"port: give a whole number, not {kind_of(port)}")
+        if not 0 <= port <= 65535:
+            raise ArgumentValueError(f"port: {shown(port)} is not a port from 0 to 65535")
+        if not isinstance(host, str):
+            raise ArgumentTypeError(f"host: give an address as text, not {kind_of(host)}")
+        self._check_unopened()
         listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind((host, port))
-        listener.listen(1)
+        try:
+            listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            listener.bind((host, port))
+            listener.listen(1)
+        except (OSError, UnicodeError) as exc:
+            listener.close()  # it was left open until garbage collection
+            reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            raise ListenError(f"cannot listen on {host}:{port}: {reason}") from None
         listener.setblocking(False)
         self._listener = listener
         name = listener.getsockname()
@@ -123,8 +166,19 @@ class SimServer:
 
     # -- loop -----------------------------------------------------------------------
 
+    def _check_unopened(self) -> None:
+        """One endpoint per server: a second left the first open and unserved."""
+        if self._master is not None or self._listener is not None:
+            raise InputError(
+                f"this server already serves {self.device or self.address}; one endpoint"
+                " per server (make another SimServer)"
+            )
+
     def start(self) -> None:
         """Serve in a background thread until :meth:`stop`."""
+        if self._thread is not None and self._thread.is_alive():
+            # two loops stepped one simulator and read each other's bytes
+            raise InputError("this server is serving already (start() was called before)")
         self._thread = threading.Thread(target=self.serve_forever, name="pirate-sim", daemon=True)
         self._thread.start()
 
@@ -136,7 +190,16 @@ class SimServer:
         self.close()
 
     def serve_forever(self, duration_s: float | None = None) -> None:
-        """Serve until :meth:`stop` (or for ``duration_s`` wall seconds)."""
+        """Serve until :meth:`stop` (or for ``duration_s`` wall seconds; ``nan`` served
+        for ever)."""
+        if duration_s is not None and (
+            isinstance(duration_s, bool)
+            or not isinstance(duration_s, int | float)
+            or math.isnan(duration_s)
+        ):
+            raise ArgumentValueError(
+                f"duration_s: give wall seconds or None (for ever), not {shown(duration_s)}"
+            )
         clock = self.sim.clock
         wall0 = time.monotonic()
         sim0 = clock.now()
