@@ -26,7 +26,7 @@ from typing import Annotated, Any, Final
 
 from pydantic import BeforeValidator, ValidationInfo, WithJsonSchema
 
-from pirate_bt.errors import UnitError
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, UnitError, kind_of
 
 __all__ = [
     "DIMENSIONS",
@@ -239,8 +239,7 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     Raises:
         UnitError: unknown unit, malformed text, or the wrong dimension.
     """
-    if dimension not in DIMENSIONS:
-        raise ValueError(f"unknown dimension {dimension!r}")
+    _dimension(dimension)
     if isinstance(value, bool):
         raise UnitError(f"expected {_article(dimension)} quantity, got {_shown(value)}")
     if isinstance(value, int | float):
@@ -279,6 +278,15 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     return result
 
 
+def _dimension(dimension: object) -> None:
+    """Refuse a dimension that is none of :data:`DIMENSIONS` (``format_quantity`` and
+    ``units_of`` raised a bare ``KeyError: 'lenght'``), naming the known ones."""
+    if not isinstance(dimension, str) or dimension not in DIMENSIONS:
+        raise ArgumentValueError(
+            f"dimension: unknown dimension {dimension!r}; known: {', '.join(DIMENSIONS)}"
+        )
+
+
 def in_unit_of(value_si: float, written: object) -> str | None:
     """``value_si`` in the unit ``written`` uses (``in_unit_of(pi / 2, "180 deg")`` is
     ``"90 deg"``), for a message in the words of a file; ``None`` when ``written`` is
@@ -297,7 +305,17 @@ def in_unit_of(value_si: float, written: object) -> str | None:
 
 
 def format_quantity(value_si: float, dimension: str, digits: int = 4) -> str:
-    """Format an SI value for people, e.g. ``format_quantity(1.5708, "angle") == "90 deg"``."""
+    """Format an SI value for people, e.g. ``format_quantity(1.5708, "angle") == "90 deg"``.
+
+    Raises:
+        ArgumentValueError: an unknown dimension, or ``digits`` not from 0 to 17.
+        ArgumentTypeError: ``value_si`` is no number.
+    """
+    _dimension(dimension)
+    if isinstance(value_si, bool) or not isinstance(value_si, int | float):
+        raise ArgumentTypeError(f"value_si: give a number in SI units, not {kind_of(value_si)}")
+    if isinstance(digits, bool) or not isinstance(digits, int) or not 0 <= digits <= 17:
+        raise ArgumentValueError(f"digits: give a whole number from 0 to 17, not {digits!r}")
     unit, scale = _DISPLAY[dimension]
     shown = f"{value_si * scale:.{digits}g}"
     return f"{shown} {unit}".strip()
@@ -305,6 +323,7 @@ def format_quantity(value_si: float, dimension: str, digits: int = 4) -> str:
 
 def units_of(dimension: str) -> list[str]:
     """List the single unit names whose dimension is ``dimension``."""
+    _dimension(dimension)
     want = DIMENSIONS[dimension]
     return [name for name, (_, dim) in _UNITS.items() if dim == want]
 

@@ -34,6 +34,7 @@ from pirate_bt.sim import Simulator
 from pirate_bt.sim.server import ListenError, SimServer
 from pirate_bt.sim.simulator import _REGISTRY
 from pirate_bt.trace import read_trace
+from pirate_bt.units import format_quantity, parse_quantity, units_of
 
 
 def _line(*extra: dict[str, str]) -> dict[str, object]:
@@ -405,3 +406,30 @@ def test_one_server_serves_one_endpoint_from_one_loop() -> None:
         finally:
             server.stop()
     assert [t for t in threading.enumerate() if t.name == "pirate-sim"] == []
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: parse_quantity("1 m", "lenght"),
+        lambda: format_quantity(1.0, "lenght"),
+        lambda: units_of("lenght"),
+    ],
+)
+def test_an_unknown_dimension_names_the_known_ones(call: Any) -> None:
+    """`format_quantity(1.0, "lenght")` and `units_of("lenght")` raised a bare
+    *KeyError: 'lenght'*; `parse_quantity` a `ValueError` naming no dimension it knows."""
+    with pytest.raises(ArgumentValueError) as caught:
+        call()
+    assert str(caught.value).startswith("dimension: unknown dimension 'lenght'; known: ")
+    assert "length, time, angle" in str(caught.value)
+
+
+def test_format_quantity_refuses_a_value_or_digits_it_cannot_format() -> None:
+    """`format_quantity("1", "length")` raised *can't multiply sequence by non-int of
+    type 'float'*, `digits=-1` *Format specifier missing precision*."""
+    with pytest.raises(ArgumentTypeError, match=r"^value_si: give a number in SI units"):
+        format_quantity("1", "length")  # type: ignore[arg-type]
+    with pytest.raises(ArgumentValueError, match=r"^digits: give a whole number from 0 to 17"):
+        format_quantity(1.0, "length", -1)
+    assert format_quantity(math.pi / 2, "angle") == "90 deg"
