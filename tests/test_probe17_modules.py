@@ -433,3 +433,17 @@ def test_format_quantity_refuses_a_value_or_digits_it_cannot_format() -> None:
     with pytest.raises(ArgumentValueError, match=r"^digits: give a whole number from 0 to 17"):
         format_quantity(1.0, "length", -1)
     assert format_quantity(math.pi / 2, "angle") == "90 deg"
+
+
+def test_a_tee_shorter_than_its_opening_is_refused() -> None:
+    """A tee of `length: 30 mm` in 63 mm pipe validated, though its branch opening (one
+    diameter wide, in its middle) reached 16 mm into the straights on either side, where
+    the simulator found wall: a half clamped over the hole there."""
+    tee = {"type": "tee", "length": "30 mm", "branch": {"direction": "left", "segments": []}}
+    with pytest.raises(ValidationFailed) as caught:
+        network_from_data(_line(tee), "f.yaml")
+    assert str(caught.value) == (
+        "f.yaml:1:1: segment 'main-2': a tee 30 mm long in a 63 mm pipe; its branch"
+        " opening is one diameter wide, so a tee is at least one diameter long"
+    )
+    assert network_from_data(_line({**tee, "length": "63 mm"})).tee_ids() == ["main-2"]

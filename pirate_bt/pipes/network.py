@@ -337,6 +337,13 @@ class _Builder:
                 pieces.append(cur.straight(name, PieceKind.REDUCER, seg.length, seg.diameter))
             elif isinstance(seg, TeeSpec):
                 length = seg.length if seg.length is not None else 3.0 * cur.diameter_m
+                if length < cur.diameter_m - _EPS:  # its opening reached into its neighbours
+                    raise NetworkGeometryError(
+                        f"segment {name!r}: a tee {length * 1000:g} mm long in a"
+                        f" {cur.diameter_m * 1000:g} mm pipe; its branch opening is one"
+                        " diameter wide, so a tee is at least one diameter long",
+                        (*here, "length"),
+                    )
                 roll = seg.branch.roll_rad
                 choice = choices.get(name, "straight")
                 taken[name] = choice
