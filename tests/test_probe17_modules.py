@@ -22,6 +22,7 @@ from pirate_bt.errors import (
     ArgumentTypeError,
     ArgumentValueError,
     InputError,
+    LinkError,
     LocatedError,
     ValidationFailed,
 )
@@ -447,3 +448,28 @@ def test_a_tee_shorter_than_its_opening_is_refused() -> None:
         " opening is one diameter wide, so a tee is at least one diameter long"
     )
     assert network_from_data(_line({**tee, "length": "63 mm"})).tee_ids() == ["main-2"]
+
+
+@pytest.mark.parametrize(
+    ("url", "said"),
+    [
+        (
+            "socket://127.0.0.1:99999",
+            "the port '99999' is not from 0 to 65535; give socket://HOST:PORT",
+        ),
+        ("socket://127.0.0.1", "no port; give socket://HOST:PORT"),
+        ("socket://:5760", "no host; give socket://HOST:PORT"),
+        (
+            "socket://127.0.0.1:5760?logging=verbose",
+            "logging='verbose' is none of debug, info, warning, error",
+        ),
+        ("rfc2217://host:x", "the port 'x' is not from 0 to 65535; give rfc2217://HOST:PORT"),
+    ],
+)
+def test_a_malformed_network_url_says_what_is_wrong(url: str, said: str) -> None:
+    """`--port socket://127.0.0.1:99999` said *cannot open ...: Could not open port ...:
+    'debug|info|warning|error'* (pyserial's own message, garbled), no port *'<=' not
+    supported between instances of 'int' and 'NoneType'*, `?logging=verbose` *'verbose'*."""
+    with pytest.raises(LinkError) as caught:
+        Transport.open(url, baud=115200)
+    assert str(caught.value) == f"cannot open {url}: {said}"

@@ -20,6 +20,7 @@ import collections
 import contextlib
 import logging
 from typing import Protocol, runtime_checkable
+from urllib.parse import parse_qs, urlsplit
 
 import serial
 
@@ -76,6 +77,31 @@ class HelloRefused(ProtocolMismatch):
             f" 1.{asked} and again with 1.1: it was built for another robot description",
             NackCode.BAD_LAYOUT,
         )
+
+
+_LOGGING = ("debug", "info", "warning", "error")
+
+
+def network_url_problem(url: str) -> str | None:
+    """What is wrong with a ``socket://`` or ``rfc2217://`` URL's host, port or logging
+    option, or ``None``. pyserial's own message for these was garbled: a port of 99999
+    said *'debug|info|warning|error'*, no port *'<=' not supported between instances of
+    'int' and 'NoneType'*, and ``?logging=verbose`` *'verbose'*."""
+    scheme, _, rest = url.partition("://")
+    if scheme not in ("socket", "rfc2217") or not rest:
+        return None
+    parts = urlsplit(url)
+    form = f"give {scheme}://HOST:PORT"
+    try:
+        port = parts.port
+    except ValueError:
+        return f"the port {parts.netloc.rpartition(':')[2]!r} is not from 0 to 65535; {form}"
+    if port is None or not parts.hostname:
+        return f"no {'port' if parts.hostname else 'host'}; {form}"
+    for level in parse_qs(parts.query).get("logging", []):
+        if level not in _LOGGING:
+            return f"logging={level!r} is none of {', '.join(_LOGGING)}"
+    return None
 
 
 def is_real_port(url: str) -> bool:
@@ -171,6 +197,9 @@ class Transport:
         """
         if write_timeout_s is None:
             write_timeout_s = 4 * frame_time_s(MAX_WIRE_BYTES, baud) + 0.05
+        problem = network_url_problem(url)
+        if problem is not None:
+            raise LinkError(f"cannot open {url}: {problem}")
         try:
             port = serial.serial_for_url(
                 url, baudrate=baud, timeout=0, write_timeout=write_timeout_s
