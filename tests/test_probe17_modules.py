@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import socket
+import subprocess
 import threading
 from pathlib import Path
 from typing import Any
 
+import py_trees
 import pytest
 
 from pirate_bt.cli import main
@@ -34,7 +37,7 @@ from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
 from pirate_bt.sim import Simulator
 from pirate_bt.sim.server import ListenError, SimServer
 from pirate_bt.sim.simulator import _REGISTRY
-from pirate_bt.trace import read_trace
+from pirate_bt.trace import TraceRecorder, read_trace
 from pirate_bt.units import format_quantity, parse_quantity, units_of
 
 
@@ -473,3 +476,37 @@ def test_a_malformed_network_url_says_what_is_wrong(url: str, said: str) -> None
     with pytest.raises(LinkError) as caught:
         Transport.open(url, baud=115200)
     assert str(caught.value) == f"cannot open {url}: {said}"
+
+
+def _writer_processes(path: Path) -> list[str]:
+    """Trace writer processes of this process that write ``path``."""
+    out = subprocess.run(
+        ["ps", "--ppid", str(os.getpid()), "-o", "args="], capture_output=True, text=True
+    ).stdout
+    return [line for line in out.splitlines() if "sink.py" in line and str(path) in line]
+
+
+@pytest.mark.parametrize("tree", [None, "straight"])
+def test_a_trace_recorder_for_no_tree_creates_nothing(tmp_path: Path, tree: object) -> None:
+    """`TraceRecorder("run.jsonl", None)` raised *'NoneType' object has no attribute
+    'name'* after it had created an empty `run.jsonl` (read back: *empty trace (no
+    header)*) and started its writer process, which ran on with nothing to write."""
+    path = tmp_path / "run.jsonl"
+    with pytest.raises(ArgumentTypeError, match=r"^tree: give a py_trees BehaviourTree"):
+        TraceRecorder(path, tree)  # type: ignore[arg-type]
+    assert not path.exists()
+    assert _writer_processes(path) == []
+
+
+def test_a_trace_recorder_names_a_destination_it_cannot_write(tmp_path: Path) -> None:
+    """A folder named `run.jsonl` raised `IsADirectoryError`, `/proc/x.jsonl` a
+    `FileNotFoundError`, and `None` *expected str, bytes or os.PathLike object*."""
+    tree = py_trees.trees.BehaviourTree(py_trees.behaviours.Success(name="ok"))
+    folder = tmp_path / "run.jsonl"
+    folder.mkdir()
+    with pytest.raises(InputError, match=r"run\.jsonl: cannot write trace: it is a folder"):
+        TraceRecorder(folder, tree)
+    with pytest.raises(InputError, match=r"^/proc/x.jsonl: cannot write trace: "):
+        TraceRecorder("/proc/x.jsonl", tree)
+    with pytest.raises(ArgumentTypeError, match=r"^destination: give a trace file name"):
+        TraceRecorder(None, tree)  # type: ignore[arg-type]

@@ -69,6 +69,7 @@ import py_trees
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.nodes import NodeReader
+from pirate_bt.trace.recorder_args import check_destination, check_tree, unwritable
 from pirate_bt.trace.records import (
     FORMAT_NAME,
     LINK_FIELDS,
@@ -242,29 +243,34 @@ class TraceRecorder:
         self._out: TraceFormatWriter | None = None
         self._sink: SinkProcess | None = None
         self._encoder: TickEncoder | None = None
+        check_tree(tree)  # before a file or a writer process exists
+        self.structure: TreeStructure = tree_structure(tree)
         if isinstance(destination, TraceFormatWriter):
             if background:
                 raise ValueError("an open format writer is written in-process (background=False)")
             self._out = destination
         else:
+            check_destination(destination)
             writer = WRITERS[suffix_of(destination, WRITERS)]
             name = getattr(writer, "__name__", type(writer).__name__)
-            if background is not False and WRITER_CLASSES.get(name) is writer:
-                try:
-                    self._sink = SinkProcess(destination, name, sync=sync)
-                except SinkError as exc:
-                    if background:
-                        raise
-                    logger.warning("%s; writing the trace in-process", exc)
-            elif background:
-                raise ValueError(f"{name} has no writer process; use background=False")
-            if self._sink is None:
-                self._out = writer(destination, sync=sync)
+            try:
+                if background is not False and WRITER_CLASSES.get(name) is writer:
+                    try:
+                        self._sink = SinkProcess(destination, name, sync=sync)
+                    except SinkError as exc:
+                        if background:
+                            raise
+                        logger.warning("%s; writing the trace in-process", exc)
+                elif background:
+                    raise ValueError(f"{name} has no writer process; use background=False")
+                if self._sink is None:
+                    self._out = writer(destination, sync=sync)
+            except OSError as exc:
+                raise unwritable(destination, exc) from None
         self.path = self._out.path if self._out is not None else Path(cast(str | Path, destination))
         self.background = self._sink is not None
         """Whether a writer process encodes and writes this trace."""
         self.clock: Clock = clock or WallClock()
-        self.structure: TreeStructure = tree_structure(tree)
         self.full_state = full_state
         self.readings = readings
         self.every_tick = every_tick
