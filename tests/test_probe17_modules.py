@@ -31,7 +31,7 @@ from pirate_bt.errors import (
 )
 from pirate_bt.link import open_link
 from pirate_bt.link.transport import Transport
-from pirate_bt.pipes import load_network, network_from_data
+from pirate_bt.pipes import Network, load_network, network_from_data
 from pirate_bt.pipes.arguments import UnknownSegmentError
 from pirate_bt.robot import StateBuilder, load_robot, robot_from_data
 from pirate_bt.sim import Simulator
@@ -510,3 +510,12 @@ def test_a_trace_recorder_names_a_destination_it_cannot_write(tmp_path: Path) ->
         TraceRecorder("/proc/x.jsonl", tree)
     with pytest.raises(ArgumentTypeError, match=r"^destination: give a trace file name"):
         TraceRecorder(None, tree)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("spec", ["lab", None, {"name": "x"}])
+def test_a_network_built_from_no_spec_says_how_to_load_one(spec: object) -> None:
+    """`Network("lab")` (the simulator and `load_network` take a name) raised *'str'
+    object has no attribute 'segments'*."""
+    with pytest.raises(ArgumentTypeError, match=r"^spec: give a NetworkSpec; .* load_network"):
+        Network(spec)  # type: ignore[arg-type]
+    assert Network(LAB.spec, "lab.yaml").main_path().length_m == LAB.main_path().length_m

@@ -20,7 +20,13 @@ from pirate_bt.errors import (
     shown,
 )
 
-__all__ = ["UnknownSegmentError", "checked_choices", "distance_argument", "unknown_segment"]
+__all__ = [
+    "UnknownSegmentError",
+    "check_spec",
+    "checked_choices",
+    "distance_argument",
+    "unknown_segment",
+]
 
 _CHOICES = ("straight", "branch")
 
@@ -36,6 +42,22 @@ def unknown_segment(what: str, name: object, known: Sequence[str]) -> UnknownSeg
     """The error for an id ``name`` that is none of ``known`` (``what``: tee, segment)."""
     listed = ", ".join(known) if len(known) <= 40 else ", ".join([*known[:40], "..."])
     return UnknownSegmentError(f"unknown {what} {shown(name)}; {what}s: {listed or 'none'}")
+
+
+def check_spec(spec: object, source: object) -> None:
+    """Refuse a ``Network(spec)`` whose spec is no ``NetworkSpec`` (``Network("lab")``
+    raised *'str' object has no attribute 'segments'*) or whose source is no text."""
+    from pirate_bt.pipes.model import NetworkSpec
+
+    if not isinstance(spec, NetworkSpec):
+        raise ArgumentTypeError(
+            "spec: give a NetworkSpec; a file or a bundled name is loaded with"
+            f" load_network(...), plain data with network_from_data(...), not {kind_of(spec)}"
+        )
+    if not isinstance(source, str):
+        raise ArgumentTypeError(
+            f"source: give text (where it was loaded from), not {kind_of(source)}"
+        )
 
 
 def distance_argument(s_m: object, option: str = "s_m") -> float:

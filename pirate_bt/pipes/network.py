@@ -26,7 +26,12 @@ from enum import StrEnum
 from typing import Literal
 
 from pirate_bt.errors import ConfigurationError
-from pirate_bt.pipes.arguments import checked_choices, distance_argument, unknown_segment
+from pirate_bt.pipes.arguments import (
+    check_spec,
+    checked_choices,
+    distance_argument,
+    unknown_segment,
+)
 from pirate_bt.pipes.model import (
     BendSpec,
     FaultSpec,
@@ -481,6 +486,7 @@ class Network:
     """
 
     def __init__(self, spec: NetworkSpec, source: str = "<network>") -> None:
+        check_spec(spec, source)
         self.spec = spec
         self.source = source
         self._builder = _Builder(spec)
