@@ -283,6 +283,9 @@ def test_a_feedback_message_that_is_no_text_is_the_why_as_text(
     assert isinstance(result.why, str) and result.why.startswith(why), result.why
     assert result.failing_node == "says"
     _check_trace(trace, result.why)
+    # the trace's feedback is text too (42 was written as a number, which a reader refuses)
+    fed = [text for tick in pirate_bt.read_trace(trace).ticks for text in tick.feedback.values()]
+    assert fed and all(isinstance(text, str) for text in fed), fed
 
 
 def test_a_node_is_handed_back_unwrapped_and_held_again_on_the_next_run() -> None:

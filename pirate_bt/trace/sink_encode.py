@@ -107,8 +107,16 @@ def rounded_json(value: Any) -> tuple[Any, str]:
 
 
 def value_json(value: Any) -> str:
-    """A feedback message (or anything else) as JSON text."""
-    return encode_str(value) if type(value) is str else encode_json(encode_value(value))
+    """A feedback message as a JSON string: text as it is, anything else a behaviour
+    set (a number, an object) as its ``str()`` (the trace's feedback is text, and a
+    reader refuses other kinds; an int 42 was written as the number 42)."""
+    if type(value) is str:
+        return encode_str(value)
+    try:
+        text = str(value)
+    except Exception as exc:  # a planner's feedback object whose __str__ raises
+        text = f"<{type(value).__name__}: not recorded: {type(exc).__name__}>"
+    return encode_str(text)
 
 
 # --- state -------------------------------------------------------------------------
