@@ -119,15 +119,21 @@ def run(args: argparse.Namespace) -> int:
     noise = SensorNoise.typical() if args.noise else None
     from pirate_bt.cli.run import open_foxglove, open_ros2
 
-    foxglove = open_foxglove(args)
-    try:
-        ros2 = open_ros2(args)
-    except BaseException:
-        if foxglove is not None:
-            foxglove.close()
-        raise
+    # the simulator first: its network's faults are checked as it is made, and a bad one
+    # said after a live view had been opened and announced (and left open)
     sim = Simulator(args.network, robot, seed=args.seed, noise=noise, faults=args.fault)
-    server = SimServer(sim, speed=args.speed)
+    try:
+        server = SimServer(sim, speed=args.speed)
+        foxglove = open_foxglove(args)
+        try:
+            ros2 = open_ros2(args)
+        except BaseException:
+            if foxglove is not None:
+                foxglove.close()
+            raise
+    except BaseException:
+        sim.close()
+        raise
     halt = None
     if foxglove is not None:
         from pirate_bt.interop.foxglove_live import publish_simulator
