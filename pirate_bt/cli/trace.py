@@ -57,19 +57,8 @@ def _summary(args: argparse.Namespace) -> int:
     from pirate_bt.trace.text import format_summary, summarise
 
     trace = read_trace(args.trace)
-    lines = format_summary(summarise(trace), trace.structure)
-    why = trace.why  # the end record's reason: the first cause the run's own line gave
-    if why is not None:  # under the outcome (it said "failure" and nowhere why)
-        at = next((i for i, line in enumerate(lines) if line.startswith("outcome ")), 2)
-        lines.insert(at + 1, f"why       {_one_line(why)}")
-    print("\n".join(lines))
+    print("\n".join(format_summary(summarise(trace), trace.structure)))
     return 0
-
-
-def _one_line(text: str) -> str:
-    """``text`` on one line, as a result's ``why`` is: line breaks and control
-    characters escaped (a feedback message may hold them; the trace keeps them)."""
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _show(args: argparse.Namespace) -> int:

@@ -116,6 +116,9 @@ class TraceSummary:
     """What each node did, as BT.CPP's ``TreeObserver`` counts it (from the end record)."""
     final_commands: list[dict[str, Any]] = field(default_factory=list)
     """Verdicts given after the last tick (the stops of the run's end; the end record)."""
+    why: str | None = None
+    """Why the run ended: the end record's reason, the first cause the run's own line
+    gave (``None`` without an end record)."""
 
 
 def summarise(trace: Trace) -> TraceSummary:
@@ -140,6 +143,7 @@ def summarise(trace: Trace) -> TraceSummary:
         nodes=nodes,
         header=trace.header,
         coverage=trace.coverage,
+        why=trace.why,
     )
     for tick in trace.ticks:
         for node_id, code in tick.status.items():
@@ -207,6 +211,12 @@ def coverage_lines(coverage: Coverage, limit: int = 12) -> list[str]:
     return lines
 
 
+def _one_line(text: str) -> str:
+    """``text`` on one line, as a result's ``why`` is: line breaks and control
+    characters escaped (a feedback message may hold them; the trace keeps them)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
     """A summary as lines of text."""
     header = summary.header
@@ -222,6 +232,7 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         f"trace     {summary.path}",
         f"tree      {summary.tree} ({len(structure)} nodes)",
         f"outcome   {outcome}",
+        *([f"why       {_one_line(summary.why)}"] if summary.why is not None else []),
         f"ticks     {summary.ticks}",
         f"duration  {summary.duration_s:.3f} s",
     ]
