@@ -7,32 +7,21 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import (
-    ArgumentTypeError,
     ConfigurationError,
     LocatedError,
     SourceLocation,
     ValidationFailed,
     file_argument,
-    kind_of,
 )
 from pirate_bt.pipes.model import NetworkSpec
 from pirate_bt.pipes.network import Network, NetworkGeometryError
 from pirate_bt.resources import bundled, bundled_names, missing
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
+from pirate_bt.yamlfile import YamlDocument, data_document, load_yaml
 from pirate_bt.yamlvalidate import validate_document
 
 __all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
 
 _FILE_CONTEXT = {"units_required": True}
-
-
-def _data(data: object, name: object) -> dict[str, Any]:
-    """``data`` as a dict (``None`` raised *'NoneType' object is not iterable*)."""
-    if not isinstance(data, Mapping):
-        raise ArgumentTypeError(f"data: give a mapping of the file's keys, not {kind_of(data)}")
-    if not isinstance(name, str):
-        raise ArgumentTypeError(f"name: give text (the name messages show), not {kind_of(name)}")
-    return dict(data)
 
 
 def network_from_document(doc: YamlDocument) -> Network:
@@ -56,7 +45,7 @@ def network_from_data(data: Mapping[str, Any], name: str = "<data>") -> Network:
         ArgumentTypeError: ``data`` is no mapping or ``name`` no text.
         ValidationFailed: every problem, each at ``name:1:1``.
     """
-    return network_from_document(YamlDocument(_data(data, name), Locator(name)))
+    return network_from_document(data_document(data, name))
 
 
 def load_network(path: str | Path) -> Network:

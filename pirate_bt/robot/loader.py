@@ -7,30 +7,19 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import (
-    ArgumentTypeError,
     LocatedError,
     SourceLocation,
     ValidationFailed,
     file_argument,
-    kind_of,
 )
 from pirate_bt.resources import default_robot_path
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
+from pirate_bt.yamlfile import YamlDocument, data_document, load_yaml
 from pirate_bt.yamlvalidate import validate_document
 
 __all__ = ["load_robot", "robot_from_data", "robot_from_document"]
 
 _FILE_CONTEXT = {"units_required": True, "defer_cross_checks": True}
-
-
-def _data(data: object, name: object) -> dict[str, Any]:
-    """``data`` as a dict (``None`` raised *'NoneType' object is not iterable*)."""
-    if not isinstance(data, Mapping):
-        raise ArgumentTypeError(f"data: give a mapping of the file's keys, not {kind_of(data)}")
-    if not isinstance(name, str):
-        raise ArgumentTypeError(f"name: give text (the name messages show), not {kind_of(name)}")
-    return dict(data)
 
 
 def robot_from_document(doc: YamlDocument) -> RobotDescription:
@@ -49,7 +38,7 @@ def robot_from_data(data: Mapping[str, Any], name: str = "<data>") -> RobotDescr
         ArgumentTypeError: ``data`` is no mapping or ``name`` no text.
         ValidationFailed: every problem, each at ``name:1:1``.
     """
-    return robot_from_document(YamlDocument(_data(data, name), Locator(name)))
+    return robot_from_document(data_document(data, name))
 
 
 def load_robot(path: str | Path | None = None) -> RobotDescription:

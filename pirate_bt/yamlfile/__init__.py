@@ -58,6 +58,7 @@ __all__ = [
     "Locator",
     "YamlDocument",
     "check_depth",
+    "data_document",
     "decode_text",
     "load_yaml",
     "load_yaml_text",
@@ -371,6 +372,23 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
                 locator.marks[(*path, index)] = node_mark(item)
                 items.append(((*path, index), item))
         stack.extend((child, at) for at, child in reversed(items))
+
+
+def data_document(data: object, name: object) -> YamlDocument:
+    """Plain data given from Python (as a file would load), as a document named
+    ``name`` (its problems placed at ``name:1:1``).
+
+    Raises:
+        ArgumentTypeError: ``data`` is no mapping (``None`` raised *'NoneType' object
+            is not iterable*) or ``name`` no text.
+    """
+    from pirate_bt.errors import ArgumentTypeError, kind_of
+
+    if not isinstance(data, Mapping):
+        raise ArgumentTypeError(f"data: give a mapping of the file's keys, not {kind_of(data)}")
+    if not isinstance(name, str):
+        raise ArgumentTypeError(f"name: give text (the name messages show), not {kind_of(name)}")
+    return YamlDocument(dict(data), Locator(name))
 
 
 def check_depth(data: Any, file: str) -> None:
