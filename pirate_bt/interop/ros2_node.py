@@ -103,9 +103,10 @@ class EStopInput:
         self.drained_ns = 0
         """When a supervisor last took an e-stop from here."""
 
-    def push(self, data: bool, heard_ns: int = 0) -> None:
-        """One ``std_msgs/Bool`` arrived (``heard_ns``: when, if known)."""
-        self.received += 1
+    def push(self, data: bool, heard_ns: int = 0, count: int = 1) -> None:
+        """``count`` ``std_msgs/Bool`` messages arrived, one of them ``true`` if ``data``
+        (``heard_ns``: when the first ``true``, or the last, arrived, if known)."""
+        self.received += count
         if data:
             self.heard_ns = heard_ns
             self.queued_ns = time.monotonic_ns()
@@ -291,7 +292,7 @@ class Ros2Node:
         kind = message[0]
         if kind == BOOL:
             if self.estop is not None:
-                self.estop.push(bool(message[1]), int(message[2]))
+                self.estop.push(bool(message[1]), int(message[2]), int(message[3]))
         elif kind == READY:
             self.session_id = str(message[1])
             self._ready.set()
