@@ -197,6 +197,9 @@ def survey(
             firmware=firmware,
         )
     if not navigation.succeeded and explore.network is None:
+        # blocked going straight on through a tee just found: the line ends there
+        ended = explore.ended_at_tee(navigation.failing_node, navigation.why)
+        navigation.why = ended or navigation.why
         explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
             navigation.why += f"; {explore.invalid}"  # what was surveyed is not written

@@ -34,25 +34,20 @@ steps also stop where the pipe changes (``stop_at_change``):
 - **a slope change**: the IMU's mean pitch moved by 0.25 degrees; the straight ends where
   the rotational module is, and the next one starts there (each straight's slope
   is written when it differs from what the line carries by over 0.25 degrees);
-- **a reducer**: a front joint at the wall read a diameter 2 mm off, and kept it
-  over 40 mm of travel; the robot
-  drives 0.25 m on through the cone and the front half reads the diameter beyond
-  it. A change that is not there then (the joint was swinging into a tee's
-  opening) is no reducer. The cone's length is not measured: it is written as the
-  network default, 50 mm, and its start placed from how much of the change the
-  joint had read.
+- **a reducer**: a front joint at the wall read a diameter 2 mm off, and kept it over
+  40 mm of travel; the robot drives 0.25 m on through the cone and the front half reads
+  the diameter beyond it (no change then: the joint was swinging into a tee's opening).
+  The cone is written as the network default, 50 mm, and its start placed from how
+  much of the change the joint had read.
 
-A bend's arc is ``radius x`` its turn: a bend turns as far as the IMU says it did
-(up or down: its pitch; left or right: the angle between the pipe's directions,
-from heading and pitch, either side; ``angle`` written, to 1 deg, when over 3 deg off
-90); a branch's turn is
-``diameter x 90 deg``. Diameters come from the rear half's wall-contact angles
-where each straight ends, slopes from the IMU.
+A bend's arc is ``radius x`` its turn (as far as the IMU says it turned; ``angle``
+written, to 1 deg, when over 3 deg off 90); a branch's turn is ``diameter x 90 deg``.
+Diameters come from the rear half's wall-contact angles, slopes from the IMU.
 
-Not yet: a reducer followed within 0.25 m by a tee or a bend (the drive through the
-cone stops there and the reducer is not written), bends met on a vertical run
-(backing through one fails: the survey stops safe with the cause named and what was
-surveyed so far written).
+Not yet (docs/navigators.md): a reducer within 0.25 m of a tee or a bend, bends met
+on a vertical run, and a tee whose way straight on is blocked just past it (an end
+cap): the robot stops there (:meth:`ExploreNavigator.ended_at_tee`), the line is
+written as ending at the tee and its branch is left to a second insertion.
 """
 
 from __future__ import annotations
@@ -103,6 +98,8 @@ _CONE_M = 0.05
 
 _CONE_PASS_M = 0.25
 """How far the robot drives through a reducer before the front half reads its diameter."""
+
+_EXTEND = "a second insertion (--extend) surveys it"
 
 _SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
@@ -165,6 +162,7 @@ class ExploreNavigator:
         self._trail: list[Passed] = []  # features passed from the start to here
         self._pending: list[PendingTee] = []
         self._target: PendingTee | None = None  # the tee a return goes to
+        self._crossing: PendingTee | None = None  # the tee being passed straight on
         self._backed: Passed | PendingTee | None = None  # what a return last drove up to
         self._pitch_before: float | None = None  # the IMU's pitch as a straight step began
         # being passed: the bend, the IMU's pitch and heading before it
@@ -200,6 +198,7 @@ class ExploreNavigator:
         if obs.last is not None and obs.last.outcome != "success":
             self.save(f"stopped: {obs.last.why}")
             return None  # the navigation's result names the failed step's cause
+        self._crossing = None
         if self._from_m is None:  # the start: the rear tip at the pipe's entry
             self._from_m = obs.belief.position_m - obs.robot_length_m
         if self._target is not None:
@@ -347,7 +346,26 @@ class ExploreNavigator:
         )
         self._from_m = start + 3 * diameter  # the tee's straight run, 3 x D
         self._trail.append(Passed("t-joint-back", "straight", self._from_m))
+        self._crossing = self._pending[-1]
         return Step("t-joint", direction="straight")
+
+    def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
+        """Stopped going straight on through a tee just found, the released front half
+        blocked past the opening: the line ends there (a cap, or a turn right after the
+        tee, not tried), the branch is left to a further insertion. The why, or ``None``."""
+        tee, self._crossing = self._crossing, None
+        front = f"{failing_node}".endswith("/front across")  # the released front half
+        if tee is None or not front or not why.startswith("blocked"):
+            return None
+        self._pending.remove(tee)
+        self._in_line = False  # surveyed to where it ends, at the tee
+        self.ends.append(f"{self._line_name} {self._after()}, blocked straight on just past it")
+        self.unexplored.append(f"{tee}: not entered, the robot stopped at the tee, {_EXTEND}")
+        return (
+            f"the way straight on through {tee.segment['id']} is blocked just past it"
+            f" (front across: {why.split(' (')[0]}), and the robot stopped there: {tee}"
+            f" is not entered, {_EXTEND}"
+        )
 
     def _on_the_way(self, obs: Observation, side: str, start: float, diameter: float) -> Step:
         """A second insertion met a tee: straight on, or into the branch on the way."""
