@@ -60,11 +60,12 @@ def test_a_capped_run_at_a_tee_ends_the_line_and_a_second_insertion_surveys_the_
     assert len(first.unexplored) == 1
     assert first.unexplored[0].startswith("tee-1's branch (left, 63 mm): not entered")
     assert "not surveyed to its end" not in pirate_bt.load_network(out).spec.description
-    assert "the main line after tee-1, blocked straight on just past it" in first.why
+    assert "the main line after tee-1, blocked just past it, no turn tried" in first.why
 
     second = pirate_bt.survey(sim=sim, extend=out, output=out)
     assert second.succeeded, second.why
     assert second.unexplored == []
+    assert "the main line after tee-1, blocked just past it, no turn tried" in second.why
     surveyed = pirate_bt.load_network(out)
     assert _lines(surveyed) == ["straight", ("tee", "left", ["straight"])]
     branch = surveyed.spec.segments[1].branch.segments[0]

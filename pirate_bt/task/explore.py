@@ -359,7 +359,7 @@ class ExploreNavigator:
             return None
         self._pending.remove(tee)
         self._in_line = False  # surveyed to where it ends, at the tee
-        self.ends.append(f"{self._line_name} {self._after()}, blocked straight on just past it")
+        self.ends.append(f"{self._line_name} {self._after()}, blocked just past it, no turn tried")
         self.unexplored.append(f"{tee}: not entered, the robot stopped at the tee, {_EXTEND}")
         return (
             f"the way straight on through {tee.segment['id']} is blocked just past it"
