@@ -174,3 +174,41 @@ def test_a_live_flood_of_false_on_the_estop_topic_is_read_as_few_messages_then_t
         if node is not None:
             node.close()
         router.close()
+
+
+# --- MCAP: another writer's file, compacted -------------------------------------------------
+
+
+def test_compacting_another_writers_mcap_file_keeps_its_profile_metadata_and_attachments(
+    tmp_path: Any,
+) -> None:
+    # compact_mcap copied schemas, channels and messages only: a rosbag2 bag's MCAP
+    # file lost its 'ros2' profile and its 'rosbag2' metadata record, and a recording's
+    # attachments were dropped, all without a word.
+    writer_module = pytest.importorskip("mcap.writer")
+    from mcap.reader import make_reader
+
+    from pirate_bt.interop.mcap_writer import compact_mcap
+
+    source = tmp_path / "recorded.mcap"
+    with open(source, "wb") as stream:
+        writer = writer_module.Writer(stream)
+        writer.start(profile="ros2", library="another recorder")
+        schema = writer.register_schema("std_msgs/msg/Bool", "ros2msg", b"bool data")
+        channel = writer.register_channel("/pirate/estop", "cdr", schema)
+        writer.add_message(channel, 5, b"\x00\x01\x00\x00\x01", 5)
+        writer.add_metadata("rosbag2", {"serialized_metadata": "version: 9"})
+        writer.add_attachment(1, 2, "calibration.yaml", "text/yaml", b"a: 1\n")
+        writer.finish()
+    out = compact_mcap(source, tmp_path / "compacted.mcap")
+    with open(out, "rb") as stream:
+        reader = make_reader(stream)
+        assert reader.get_header().profile == "ros2"
+        assert [(m.name, m.metadata) for m in reader.iter_metadata()] == [
+            ("rosbag2", {"serialized_metadata": "version: 9"})
+        ]
+        attachments = list(reader.iter_attachments())
+        assert [(a.name, a.media_type, a.data, a.log_time) for a in attachments] == [
+            ("calibration.yaml", "text/yaml", b"a: 1\n", 2)
+        ]
+        assert [m.data for _, _, m in reader.iter_messages()] == [b"\x00\x01\x00\x00\x01"]

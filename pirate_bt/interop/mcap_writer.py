@@ -106,12 +106,12 @@ class _Channels:
         )
 
 
-def _chunked_writer(stream: IO[bytes]) -> Any:
+def _chunked_writer(stream: IO[bytes], profile: str = "") -> Any:
     mcap = load_mcap()
     writer: Any = mcap.writer.Writer(
         stream, chunk_size=CHUNK_BYTES, compression=mcap.writer.CompressionType.LZ4
     )
-    writer.start(profile="", library=_library())
+    writer.start(profile=profile, library=_library())
     return writer
 
 
@@ -404,14 +404,14 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
             ``out_path`` keeps what comes before it); the output cannot be written.
     """
     load_mcap()
-    from mcap.records import Channel, Message, Schema
+    from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
 
     out = Path(out_path or path)
     in_place = out_path is None or _same_file(out, Path(path))
 
     def fill(stream: IO[bytes]) -> None:
-        writer = _chunked_writer(stream)
+        writer: Any = None
         schemas: dict[int, int] = {}
         channels: dict[int, int] = {}
         read = 0
@@ -420,7 +420,22 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
                 # CRCs checked: damage inside a chunk was copied on as it was read
                 for record in StreamReader(source, validate_crcs=True).records:
                     read += 1
-                    if isinstance(record, Schema) and record.id not in schemas:
+                    if writer is None:
+                        # the file's profile kept ("ros2" for a bag's file): until
+                        # 2026-11-30 it was dropped, with its metadata and attachments
+                        profile = record.profile if isinstance(record, Header) else ""
+                        writer = _chunked_writer(stream, profile)
+                    if isinstance(record, Metadata):
+                        writer.add_metadata(record.name, dict(record.metadata))
+                    elif isinstance(record, Attachment):
+                        writer.add_attachment(
+                            record.create_time,
+                            record.log_time,
+                            record.name,
+                            record.media_type,
+                            record.data,
+                        )
+                    elif isinstance(record, Schema) and record.id not in schemas:
                         schemas[record.id] = writer.register_schema(
                             record.name, record.encoding, record.data
                         )
@@ -456,7 +471,7 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
                 if not cut:
                     logger.warning("%s: damaged after %d records (%s): kept those", path, read, exc)
                 # a cut-off end: keep what was complete
-        writer.finish()
+        (writer or _chunked_writer(stream)).finish()
 
     try:
         return write_atomically(out, fill, durable=True)
