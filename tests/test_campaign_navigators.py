@@ -19,6 +19,8 @@ ROUTE = {
     "params": {"route": "t-joint-straight.route"},
 }
 
+SHORT_BEFORE_BEND = Path(__file__).parent / "data" / "networks" / "short-before-bend.yaml"
+
 
 def _spec(**changes: Any) -> dict[str, Any]:
     spec: dict[str, Any] = {
@@ -154,18 +156,9 @@ def test_a_survey_campaign_runs_explore_on_as_built_variants_of_the_world(
     assert rows[0]["distance_m"] != rows[1]["distance_m"]
 
 
-def test_a_map_that_puts_the_robot_in_across_a_bend_stops_the_campaign_before_any_case(
-    tmp_path: Path,
-) -> None:
+def test_a_map_that_puts_the_robot_in_across_a_bend_stops_the_campaign_before_any_case() -> None:
     # navigate() refuses it before it connects: each case raised it, one error row each
-    net = tmp_path / "short.yaml"
-    net.write_text(
-        "schema_version: 1\nname: short\ndiameter: 63 mm\nsegments:\n"
-        "  - {id: a, type: straight, length: 0.3 m}\n"
-        "  - {id: b, type: bend, direction: right}\n"
-        "  - {id: c, type: straight, length: 2 m}\n",
-        encoding="utf-8",
-    )
+    net = SHORT_BEFORE_BEND
     seen: list[Any] = []
     run = {**GOAL, "network": str(net), "params": {"segment": "c"}}
     with pytest.raises(InputError, match=r"runs\[0\]\.network.*across the bend 'b'"):

@@ -18,6 +18,8 @@ from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import Network, network_from_data
 
+SHORT_BEFORE_BEND = Path(__file__).parent / "data" / "networks" / "short-before-bend.yaml"
+
 
 def _net(*segments: dict[str, Any]) -> Network:
     return network_from_data({"name": "short", "diameter": "63 mm", "segments": list(segments)})
@@ -54,17 +56,8 @@ def test_a_navigation_put_in_across_a_feature_is_refused_before_connecting(
     assert across in message and "must be put in on straight pipe" in message
 
 
-def test_the_cli_navigate_exits_2_on_such_a_map(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    net = tmp_path / "short.yaml"
-    net.write_text(
-        "schema_version: 1\nname: short\ndiameter: 63 mm\nsegments:\n"
-        "  - {id: a, type: straight, length: 0.3 m}\n"
-        "  - {id: b, type: bend, direction: right}\n"
-        "  - {id: c, type: straight, length: 2 m}\n",
-        encoding="utf-8",
-    )
+def test_the_cli_navigate_exits_2_on_such_a_map(capsys: pytest.CaptureFixture[str]) -> None:
+    net = SHORT_BEFORE_BEND
     argv = ["navigate", "goal", "--sim", str(net), "--map", str(net), "--param", "segment=c"]
     assert main(argv) == 2  # was 1, after connecting and a refused first step
     err = capsys.readouterr().err
