@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import time
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +33,12 @@ def test_a_server_process_that_dies_mid_run_switches_the_view_off_not_the_run(
                 ticks.append(len(ticks) + 1)
                 if len(ticks) == 20:
                     os.kill(server.pid, signal.SIGKILL)
+                    # the server's reader thread notices its process's end on its own;
+                    # on a busy machine the run had ended (and closed the server, after
+                    # which a death is not said) before that thread ran
+                    deadline = time.monotonic() + 10.0
+                    while server.enabled and time.monotonic() < deadline:
+                        time.sleep(0.005)
 
             runner.add_post_tick(kill_at_20)
 
