@@ -77,10 +77,30 @@ def alias_places(text: str, loader: type[Any]) -> dict[PathKey, tuple[int, int, 
     return places
 
 
+_KEPT: dict[tuple[str, int], dict[PathKey, tuple[int, int, bool]]] = {}
+_MOST_KEPT = 16
+_LARGEST_KEPT = 256 * 1024  # characters: a file people write; at most 4 MiB kept
+
+
+def _alias_places(text: str, loader: type[Any]) -> dict[PathKey, tuple[int, int, bool]]:
+    """:func:`alias_places`, kept for the texts read again and again (a robot
+    description with anchors is loaded by every tree's validation); read only."""
+    if len(text) > _LARGEST_KEPT:
+        return alias_places(text, loader)
+    key = (text, id(loader))
+    places = _KEPT.get(key)
+    if places is None:
+        places = alias_places(text, loader)
+        if len(_KEPT) >= _MOST_KEPT:
+            _KEPT.clear()
+        _KEPT[key] = places
+    return places
+
+
 def use_alias_places(text: str, loader: type[Any], marks: dict[PathKey, tuple[int, int]]) -> None:
     """Place every path at or under an alias (``marks``, a :class:`Locator`'s) where
     the alias is written; under nested aliases, the outermost."""
-    places = alias_places(text, loader)
+    places = _alias_places(text, loader)
     if not places:
         return
     for path in marks:
