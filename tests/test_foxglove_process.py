@@ -56,3 +56,12 @@ def test_a_server_process_that_dies_mid_run_switches_the_view_off_not_the_run(
     assert not server.enabled
     assert server.failure is not None and "exit -9" in server.failure
     assert "Foxglove live view: its process" in caplog.text and "the run goes on" in caplog.text
+
+
+def test_a_server_process_killed_as_the_run_ends_is_said_to_have_died() -> None:
+    # its reader thread is told of the close first and says nothing after it: a view
+    # killed in the run's last moments was closed as if it had been there to the end
+    with FoxgloveServer(port=0) as server:
+        os.kill(server.pid, signal.SIGKILL)
+    assert not server.enabled
+    assert server.failure is not None and "exit -9" in server.failure

@@ -316,11 +316,16 @@ class FoxgloveServer:
                 self._proc.stdin.close()  # the end of its input: it finishes and exits
         self._reader.join(timeout_s)
         try:
-            self._proc.wait(max(0.1, timeout_s / 10))
+            code = self._proc.wait(max(0.1, timeout_s / 10))
         except subprocess.TimeoutExpired:
             logger.warning("Foxglove live view: its process did not finish; it is stopped")
             self._proc.kill()
             self._proc.wait()
+        else:
+            if code < 0 and self.enabled:
+                # killed before it was told to finish, and its reader, told of the close
+                # first, never said so: a view that died at the run's end was not said
+                self._switch_off(f"its process ended (exit {code})")
         if self._proc.stdout is not None:
             self._proc.stdout.close()
 
