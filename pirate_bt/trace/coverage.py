@@ -137,7 +137,7 @@ class CoverageRecorder:
     def __init__(self, tree: py_trees.trees.BehaviourTree, name: str | None = None) -> None:
         if not isinstance(tree, py_trees.trees.BehaviourTree):
             raise TypeError("coverage needs a py_trees BehaviourTree (it adds a visitor)")
-        from pirate_bt.behaviours.guards import _Precondition
+        from pirate_bt.behaviours.guards_nodes import _Precondition
 
         pairs = list(iter_with_ids(tree))
         self.tree = tree
