@@ -68,16 +68,14 @@ from pirate_bt.task.explore_parts import (
     bend_angle_deg,
     branch_leavable,
     check_output,
+    ends_note,
+    left_by_a_stop,
     metres,
     write_survey,
 )
 from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
-
-ENDS_UNSURE = "the line ends here, or turns at a roll the survey does not try"
-"""What a line's end found may be: ``probe-turn`` tries four rolls, and a bend at
-another (45 deg, 100 deg...) blocks every one of them as a cap does."""
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
@@ -552,33 +550,14 @@ class ExploreNavigator:
 
     def ends_note(self) -> str:
         """What the lines' ends found may be (``""``: none found)."""
-        if not self.ends:
-            return ""
-        return (
-            f"{ENDS_UNSURE}: {'; '.join(self.ends)} (the survey tries only up, down, left"
-            " and right)"
-        )
+        return ends_note(self.ends)
 
     def _left_by_a_stop(self) -> list[str]:
         """What a survey that stops here leaves unsurveyed, each named with why."""
-        out: list[str] = []
-        if self._in_line and self._target is None:
-            out.append(
-                f"{self._line_name} {self._after()}: not surveyed to its end,"
-                " the survey stopped in it"
-            )
-        ext = self._extension
+        in_it = self._in_line and self._target is None
+        line = f"{self._line_name} {self._after()}" if in_it else None
         tees = [t for t in (self._target, *reversed(self._pending)) if t is not None]
-        if self._way is None:  # on the way to a stub, the tees met are surveyed ones
-            out.extend(f"{tee}: not entered, the survey stopped first" for tee in tees)
-        elif ext is not None:  # stopped on the way to the stub
-            out.append(f"{ext.stub_name}'s branch: not entered, the survey stopped first")
-        if ext is not None:
-            out.extend(
-                f"{other}: not entered, a further insertion surveys it" for other in ext.others
-            )
-            out.extend(ext.notes)  # an earlier insertion's
-        return out
+        return left_by_a_stop(line, tees, self._way is not None, self._extension)
 
     def _write(self, stopped: str | None) -> bool:
         """Build the network of what was surveyed, and write it if asked to: written?"""

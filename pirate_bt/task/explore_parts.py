@@ -1,6 +1,7 @@
 """The ``explore`` navigator's parts: its constants, its parameters' checks, what
 it keeps of the pipe passed, and the network file it writes (split out of
-:mod:`pirate_bt.task.explore`, the driving).
+:mod:`pirate_bt.task.explore`, the driving), and the notes of what a stop leaves
+unsurveyed.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pirate_bt.units import parse_quantity
 
 __all__ = [
     "BACK_OUT_REACH_M",
+    "ENDS_UNSURE",
     "OPENING_STOP",
     "Passed",
     "PendingTee",
@@ -26,7 +28,9 @@ __all__ = [
     "bend_angle_deg",
     "branch_leavable",
     "check_output",
+    "ends_note",
     "invalid_network",
+    "left_by_a_stop",
     "metres",
     "write_survey",
 ]
@@ -174,6 +178,46 @@ class PendingTee:
 
     def __str__(self) -> str:
         return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"
+
+
+ENDS_UNSURE = "the line ends here, or turns at a roll the survey does not try"
+"""What a line's end found may be: ``probe-turn`` tries four rolls, and a bend at
+another (45 deg, 100 deg...) blocks every one of them as a cap does."""
+
+
+def ends_note(ends: list[str]) -> str:
+    """What the lines' ends found may be (``""``: none found)."""
+    if not ends:
+        return ""
+    return f"{ENDS_UNSURE}: {'; '.join(ends)} (the survey tries only up, down, left and right)"
+
+
+def left_by_a_stop(
+    line: str | None, tees: list[Any], on_the_way: bool, extension: Any
+) -> list[str]:
+    """What a survey that stops here leaves unsurveyed, each named with why.
+
+    Args:
+        line: The line the robot was in and where it was up to (``None``: none).
+        tees: The tees met and not entered, the next to enter first.
+        on_the_way: A second insertion on its way to the stub it surveys (the tees
+            met then are surveyed ones).
+        extension: That insertion's :class:`~pirate_bt.task.explore_extend.Extension`
+            (``None``: a first insertion).
+    """
+    out: list[str] = []
+    if line is not None:
+        out.append(f"{line}: not surveyed to its end, the survey stopped in it")
+    if not on_the_way:
+        out.extend(f"{tee}: not entered, the survey stopped first" for tee in tees)
+    elif extension is not None:  # stopped on the way to the stub
+        out.append(f"{extension.stub_name}'s branch: not entered, the survey stopped first")
+    if extension is not None:
+        out.extend(
+            f"{other}: not entered, a further insertion surveys it" for other in extension.others
+        )
+        out.extend(extension.notes)  # an earlier insertion's
+    return out
 
 
 def invalid_network(spec: Any) -> str | None:
