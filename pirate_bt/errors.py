@@ -53,6 +53,7 @@ from typing import Any
 
 __all__ = [
     "MAX_PATH",
+    "MAX_SEED",
     "ArgumentTypeError",
     "ArgumentValueError",
     "CommandRefused",
@@ -110,6 +111,10 @@ class ArgumentValueError(InputError, ValueError):
 MAX_PATH = 4096
 """The longest file name an argument may be (PATH_MAX on Linux; the API's
 ``pirate_bt.api.options.MAX_PATH`` is the same)."""
+
+MAX_SEED = 2**63 - 1
+"""The largest seed (seeds are whole numbers from 0): the API's, a campaign's and the
+simulator's (``pirate_bt.api.options.MAX_SEED`` is this one)."""
 
 _SHOWN = 40
 

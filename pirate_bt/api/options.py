@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 from pirate_bt.api.fault_text import MAX_FAULT_TEXT, MAX_FAULTS, split_faults
 from pirate_bt.errors import (
     MAX_PATH,
+    MAX_SEED,
     InputError,
     UnitError,
     digit_count,
@@ -78,9 +79,6 @@ one limit of the API, the command line (``--rate``) and campaigns (``rate:``).""
 
 MAX_TIME_S = 1e9
 """The longest time limit of a run (about 32 years of clock time)."""
-
-MAX_SEED = 2**63 - 1
-"""The largest seed (seeds are whole numbers from 0)."""
 
 _MAX_QUANTITY_TEXT = 64
 _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}

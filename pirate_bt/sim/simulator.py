@@ -37,6 +37,7 @@ import serial
 
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import (
+    MAX_SEED,
     ArgumentTypeError,
     ArgumentValueError,
     ConfigurationError,
@@ -92,10 +93,6 @@ def lookup(name: str) -> Simulator:
     if sim is None:
         raise KeyError(f"no simulator named {name!r} in this process (open: {sorted(_REGISTRY)})")
     return sim
-
-
-MAX_SEED = 2**63 - 1
-"""The largest seed, the API's (``pirate_bt.api.options.MAX_SEED``)."""
 
 
 def _faults_argument(faults: object) -> list[FaultSpec]:
