@@ -21,7 +21,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     show = subs.add_parser("show", help="the tree with statuses at one tick")
     show.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
     show.add_argument("--tick", type=int, help="tick number (default: the last; 0 is before)")
-    show.add_argument("--state", action="store_true", help="also print state, link and blackboard")
+    show.add_argument(
+        "--state",
+        action="store_true",
+        help="also print state, link, simulator counters, blackboard, commands and events",
+    )
     show.add_argument("--ascii", action="store_true", help="ASCII status marks only")
     plot = subs.add_parser("plot", help="joints, clamps, speed and rotation over time")
     plot.add_argument("trace", type=Path, help="trace file (.jsonl, .jsonl.gz or .mcap)")
@@ -82,12 +86,29 @@ def _show(args: argparse.Namespace) -> int:
             if values:
                 print(f"{title}:")
                 for key in sorted(values):
-                    print(f"  {key} = {json.dumps(values[key], ensure_ascii=False)}")
+                    print(f"  {key} = {_shown(title, key, values[key])}")
         for command in frame.commands:
             print(f"command: {json.dumps(command, ensure_ascii=False)}")
         for event in frame.events:
             print(f"event: {json.dumps(event, ensure_ascii=False)}")
     return 0
+
+
+#: The last part of a name that says its value is a quantity in a unit, not a count.
+_UNIT_ENDINGS = ("_m", "_s", "_rad", "_mps", "_a", "_v", "_deg", "_ratio", "_hz")
+
+
+def _shown(title: str, key: str, value: object) -> str:
+    """A value as ``trace show --state`` prints it: JSON, with the simulator's counts
+    (recorded as numbers, ``5.0``) printed as the whole numbers they are."""
+    if (
+        title == "sim"
+        and isinstance(value, float)
+        and value.is_integer()
+        and not key.endswith(_UNIT_ENDINGS)
+    ):
+        return str(int(value))
+    return json.dumps(value, ensure_ascii=False)
 
 
 def _plot(args: argparse.Namespace) -> int:
