@@ -23,7 +23,7 @@ from pirate_bt.errors import InputError, LocatedError
 from pirate_bt.pipes.network import Network, Piece, PieceKind
 from pirate_bt.pipes.network import Path as PipePath
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.task.plan import robot_length_m
+from pirate_bt.task.plan import PabContract, robot_length_m
 from pirate_bt.task.route import Route
 
 __all__ = ["check_map_start", "check_start"]
@@ -95,4 +95,19 @@ def check_map_start(network: Network, robot: RobotDescription, name: str) -> Non
         raise InputError(
             f"navigator {name!r} cannot start on the map {network.spec.name!r}:"
             f" {_across(under, start_m, length_m)}"
+        )
+    margin_m = PabContract().min_margin_m
+    ahead = next(
+        (p for p in path.pieces if p.kind in _KINDS and p.start_m >= start_m - _TOL_M), None
+    )
+    if ahead is not None and ahead.start_m - start_m < margin_m - _TOL_M:
+        # a step through it is refused at its planning, as a mission's route is (exit 2),
+        # and so is every straight: only waits were left, the first refusal after connecting
+        raise InputError(
+            f"navigator {name!r} cannot start on the map {network.spec.name!r}: the robot"
+            f" is put in with its front tip at {start_m:.2f} m, only"
+            f" {ahead.start_m - start_m:.2f} m before the {_KINDS[ahead.kind]}"
+            f" {ahead.segment!r}, less than the {margin_m:.2f} m margin: no step through it"
+            f" can be planned, nor a straight (the first bend or T-joint must be at least"
+            f" {margin_m:.2f} m ahead of the front tip where the robot is put in)"
         )

@@ -1,0 +1,88 @@
+"""The eighteenth probe of missions on a pipe as built, not as drawn (docs/missions.md,
+docs/navigators.md, docs/networks.md), each test written from what a user saw.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+from pirate_bt.pipes import Network, network_from_data
+
+
+def _net(name: str, *segments: dict[str, Any], **top: Any) -> Network:
+    data = {"name": name, "diameter": "63 mm", "segments": list(segments), **top}
+    return network_from_data(data)
+
+
+def _no_connect(monkeypatch: pytest.MonkeyPatch) -> None:
+    import pirate_bt.api.navigation as navigation
+
+    def no_connect(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("connected")
+
+    monkeypatch.setattr(navigation, "connect", no_connect)
+
+
+def _near(first_m: float, kind: str = "bend") -> Network:
+    feature: dict[str, Any] = (
+        {"id": "b", "type": "bend", "direction": "right"}
+        if kind == "bend"
+        else {"id": "b", "type": "tee", "branch": {"direction": "left", "segments": []}}
+    )
+    return _net(
+        "near",
+        {"id": "a", "type": "straight", "length": f"{first_m} m"},
+        feature,
+        {"id": "c", "type": "straight", "length": "2 m"},
+    )
+
+
+@pytest.mark.parametrize(("kind", "what"), [("bend", "bend 'b'"), ("tee", "T-joint 'b'")])
+def test_a_navigation_put_in_within_the_margin_of_a_feature_is_refused_before_connecting(
+    kind: str, what: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the robot (0.52 m) put in 0.06 m before the feature: a mission's route is refused
+    # at planning (exit 2), a navigation connected and its first step was refused (exit 1)
+    _no_connect(monkeypatch)
+    network = _near(0.58, kind)
+    with pytest.raises(InputError) as refused:
+        pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
+    message = str(refused.value)
+    assert message.startswith("navigator 'goal' cannot start on the map 'near':")
+    assert f"only 0.06 m before the {what}, less than the 0.10 m margin" in message
+
+
+def test_the_cli_navigate_exits_2_within_the_margin(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "near.yaml"
+    path.write_text(
+        "name: near\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: a, type: straight, length: 0.58 m}\n"
+        "  - {id: b, type: bend, direction: right}\n"
+        "  - {id: c, type: straight, length: 2 m}\n"
+    )
+    argv = ["navigate", "goal", "--sim", str(path), "--map", str(path), "--param", "segment=c"]
+    assert main(argv) == 2  # was 1, after connecting
+    err = capsys.readouterr().err
+    assert "less than the 0.10 m margin" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_start_just_at_the_margin_is_not_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    class Connected(Exception):
+        pass
+
+    import pirate_bt.api.navigation as navigation
+
+    def connect(*args: Any, **kwargs: Any) -> Any:
+        raise Connected
+
+    monkeypatch.setattr(navigation, "connect", connect)
+    network = _near(0.62)  # 0.10 m ahead: the planner's approach is allowed there
+    with pytest.raises(Connected):
+        pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
