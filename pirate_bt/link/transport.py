@@ -19,13 +19,20 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
+import math
 from typing import Protocol, runtime_checkable
 from urllib.parse import parse_qs, urlsplit
 
 import serial
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import FrameError, LinkError, LinkTimeout, ProtocolMismatch
+from pirate_bt.errors import (
+    FrameError,
+    InputError,
+    LinkError,
+    LinkTimeout,
+    ProtocolMismatch,
+)
 from pirate_bt.link.codec import (
     MAX_WIRE_BYTES,
     PROTOCOL_MINOR,
@@ -44,6 +51,7 @@ from pirate_bt.link.codec import (
 __all__ = [
     "ByteLink",
     "HelloRefused",
+    "PortURLError",
     "SerialLike",
     "Transport",
     "handshake",
@@ -80,28 +88,53 @@ class HelloRefused(ProtocolMismatch):
 
 
 _LOGGING = ("debug", "info", "warning", "error")
+_OPTIONS = {
+    "socket": ("logging",),
+    "rfc2217": ("logging", "ign_set_control", "poll_modem", "timeout"),
+}
+
+
+class PortURLError(InputError, LinkError):
+    """A ``socket://`` or ``rfc2217://`` URL that names no host and port: the user's
+    input, exit 2 (``InputError``), though still a ``LinkError`` to a caller that
+    catches the failure to connect."""
 
 
 def network_url_problem(url: str) -> str | None:
-    """What is wrong with a ``socket://`` or ``rfc2217://`` URL's host, port or logging
-    option, or ``None``. pyserial's own message for these was garbled: a port of 99999
+    """What is wrong with a ``socket://`` or ``rfc2217://`` URL's host, port or
+    options, or ``None``. pyserial's own message for these was garbled: a port of 99999
     said *'debug|info|warning|error'*, no port *'<=' not supported between instances of
     'int' and 'NoneType'*, and ``?logging=verbose`` *'verbose'*."""
     scheme, _, rest = url.partition("://")
-    if scheme not in ("socket", "rfc2217") or not rest:
+    if scheme not in _OPTIONS:
         return None
-    parts = urlsplit(url)
     form = f"give {scheme}://HOST:PORT"
+    try:
+        parts = urlsplit(url)
+    except ValueError as exc:  # an unclosed or malformed [IPv6] host
+        return f"no host and port in {rest!r} ({exc}); {form}"
     try:
         port = parts.port
     except ValueError:
         return f"the port {parts.netloc.rpartition(':')[2]!r} is not from 0 to 65535; {form}"
     if port is None or not parts.hostname:
         return f"no {'port' if parts.hostname else 'host'}; {form}"
-    for level in parse_qs(parts.query).get("logging", []):
-        if level not in _LOGGING:
-            return f"logging={level!r} is none of {', '.join(_LOGGING)}"
+    for option, values in parse_qs(parts.query, keep_blank_values=True).items():
+        if option not in _OPTIONS[scheme]:
+            return f"no option {option!r} (a {scheme}:// URL takes {', '.join(_OPTIONS[scheme])})"
+        for value in values:
+            if option == "logging" and value not in _LOGGING:
+                return f"logging={value!r} is none of {', '.join(_LOGGING)}"
+            if option == "timeout" and not _is_number(value):
+                return f"timeout={value!r} is not a number of seconds"
     return None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text)) and float(text) >= 0
+    except ValueError:
+        return False
 
 
 def is_real_port(url: str) -> bool:
@@ -199,7 +232,7 @@ class Transport:
             write_timeout_s = 4 * frame_time_s(MAX_WIRE_BYTES, baud) + 0.05
         problem = network_url_problem(url)
         if problem is not None:
-            raise LinkError(f"cannot open {url}: {problem}")
+            raise PortURLError(f"cannot open {url}: {problem}")
         try:
             port = serial.serial_for_url(
                 url, baudrate=baud, timeout=0, write_timeout=write_timeout_s
