@@ -42,7 +42,7 @@ from pirate_bt.robot.configs import (
     MotionConfig,
     SafetyConfig,
 )
-from pirate_bt.robot.fitness import Workable, workable_problems
+from pirate_bt.robot.fitness import Workable, motor_limit_problems, workable_problems
 from pirate_bt.robot.parts import (
     AccelerationMax,
     AngleRange,
@@ -280,7 +280,7 @@ class RobotDescription(_Model):
                         )
                     names.setdefault(item.name, path)
             for j, motor in enumerate(board.motors):
-                out.extend(_motor_limit_problems(motor, ("boards", b, "motors", j)))
+                out.extend(motor_limit_problems(motor, ("boards", b, "motors", j)))
 
         by_module: dict[str, list[Board]] = {}
         for board in self.boards:
@@ -478,43 +478,6 @@ class RobotDescription(_Model):
     def digest(self) -> str:
         """SHA-256 of the whole description, for traces and reports."""
         return hashlib.sha256(self.model_dump_json().encode()).hexdigest()
-
-
-def _motor_limit_problems(
-    motor: Motor, path: tuple[str | int, ...]
-) -> list[tuple[tuple[str | int, ...], str]]:
-    out: list[tuple[tuple[str | int, ...], str]] = []
-    lim = motor.limits
-
-    def inside(limit_value: float, mode: ControlMode, what: str, key: str) -> None:
-        conv = motor.modes.get(mode)
-        if conv is None:
-            return
-        lo, hi = conv.si_range
-        if not lo - 1e-12 <= limit_value <= hi + 1e-12:
-            out.append(
-                (
-                    (*path, "limits", key),
-                    f"motor {motor.name!r}: {what} limit {limit_value:g} lies outside the"
-                    f" {mode} mode's raw range ({lo:g} .. {hi:g} in SI)",
-                )
-            )
-
-    if lim.angle is not None:
-        inside(lim.angle.min, ControlMode.POSITION, "angle", "angle")
-        inside(lim.angle.max, ControlMode.POSITION, "angle", "angle")
-    if lim.torque is not None:
-        inside(lim.torque.max, ControlMode.TORQUE, "torque", "torque")
-    if lim.velocity is not None:
-        inside(lim.velocity.max, ControlMode.VELOCITY, "velocity", "velocity")
-    if motor.function is MotorFunction.DRIVE and motor.modes.velocity is None:
-        out.append(((*path, "modes"), f"drive motor {motor.name!r} needs a velocity mode"))
-    if motor.function in (MotorFunction.BEND, MotorFunction.ROTATE):
-        if motor.modes.position is None:
-            out.append(((*path, "modes"), f"joint motor {motor.name!r} needs a position mode"))
-        if lim.angle is None:
-            out.append(((*path, "limits"), f"joint motor {motor.name!r} needs an angle limit"))
-    return out
 
 
 @dataclass

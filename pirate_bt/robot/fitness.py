@@ -15,9 +15,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pirate_bt.robot.configs import BridgeConfig, ClampConfig, SafetyConfig
-from pirate_bt.robot.parts import Board, Module, MotorFunction, Role, SensorKind
+from pirate_bt.robot.parts import (
+    Board,
+    ControlMode,
+    Module,
+    Motor,
+    MotorFunction,
+    Role,
+    SensorKind,
+)
 
-__all__ = ["Workable", "workable_problems"]
+__all__ = ["Workable", "motor_limit_problems", "workable_problems"]
 
 KeyPath = tuple[str | int, ...]
 
@@ -208,3 +216,40 @@ def _sensor_ranges(desc: Workable) -> list[tuple[KeyPath, str]]:
 
 def _deg(rad: float) -> str:
     return f"{math.degrees(rad):.4g}"
+
+
+def motor_limit_problems(motor: Motor, path: KeyPath) -> list[tuple[KeyPath, str]]:
+    """A motor's limits against its modes' raw ranges, and the modes and limits its
+    function needs, each at its key under ``path``."""
+    out: list[tuple[KeyPath, str]] = []
+    lim = motor.limits
+
+    def inside(limit_value: float, mode: ControlMode, what: str, key: str) -> None:
+        conv = motor.modes.get(mode)
+        if conv is None:
+            return
+        lo, hi = conv.si_range
+        if not lo - 1e-12 <= limit_value <= hi + 1e-12:
+            out.append(
+                (
+                    (*path, "limits", key),
+                    f"motor {motor.name!r}: {what} limit {limit_value:g} lies outside the"
+                    f" {mode} mode's raw range ({lo:g} .. {hi:g} in SI)",
+                )
+            )
+
+    if lim.angle is not None:
+        inside(lim.angle.min, ControlMode.POSITION, "angle", "angle")
+        inside(lim.angle.max, ControlMode.POSITION, "angle", "angle")
+    if lim.torque is not None:
+        inside(lim.torque.max, ControlMode.TORQUE, "torque", "torque")
+    if lim.velocity is not None:
+        inside(lim.velocity.max, ControlMode.VELOCITY, "velocity", "velocity")
+    if motor.function is MotorFunction.DRIVE and motor.modes.velocity is None:
+        out.append(((*path, "modes"), f"drive motor {motor.name!r} needs a velocity mode"))
+    if motor.function in (MotorFunction.BEND, MotorFunction.ROTATE):
+        if motor.modes.position is None:
+            out.append(((*path, "modes"), f"joint motor {motor.name!r} needs a position mode"))
+        if lim.angle is None:
+            out.append(((*path, "limits"), f"joint motor {motor.name!r} needs an angle limit"))
+    return out
