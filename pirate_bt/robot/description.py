@@ -22,7 +22,7 @@ can point at ``file:line:column``.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Literal
@@ -129,6 +129,12 @@ def _in_words(path: KeyPath, message: str, first: KeyPath | None = None) -> str:
         return message
     where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first)
     return f"{message} (first at {where.lstrip('.')})"
+
+
+def _unknown(kind: str, name: object, known: Iterable[object]) -> KeyError:
+    """A lookup's miss, naming what the robot has."""
+    have = ", ".join(str(k) for k in known) or "none"
+    return KeyError(f"the robot has no {kind} {name!r} (it has: {have})")
 
 
 @dataclass(frozen=True, slots=True)
@@ -343,9 +349,12 @@ class RobotDescription(_Model):
         """The module called ``name``.
 
         Raises:
-            KeyError: no such module.
+            KeyError: no such module (its message names the robot's modules).
         """
-        return self._ix.modules[name]
+        try:
+            return self._ix.modules[name]
+        except KeyError:
+            raise _unknown("module", name, self._ix.modules) from None
 
     def bend_modules(self, half: Half) -> list[Module]:
         """The bend modules of a half, front to rear."""
@@ -382,21 +391,28 @@ class RobotDescription(_Model):
                 yield board, sensor
 
     def motor(self, name: str) -> Motor:
-        """The motor called ``name`` (``KeyError`` if none)."""
-        return self._ix.motors[name][1]
+        """The motor called ``name`` (``KeyError`` naming the robot's motors if none)."""
+        try:
+            return self._ix.motors[name][1]
+        except KeyError:
+            raise _unknown("motor", name, self._ix.motors) from None
 
     def board(self, board_id: int) -> Board:
         """The board with bus id ``board_id`` (``KeyError`` if none)."""
         for board in self.boards:
             if board.id == board_id:
                 return board
-        raise KeyError(f"no board with id {board_id}")
+        raise _unknown("board with id", board_id, [b.id for b in self.boards])
 
     def board_of(self, name: str) -> Board:
         """The board that carries motor or sensor ``name``."""
         if name in self._ix.motors:
             return self._ix.motors[name][0]
-        return self._ix.sensors[name][0]
+        try:
+            return self._ix.sensors[name][0]
+        except KeyError:
+            known = [*self._ix.motors, *self._ix.sensors]
+            raise _unknown("motor or sensor", name, known) from None
 
     def motor_of(self, module: str, function: MotorFunction) -> Motor:
         """The motor with ``function`` on ``module``'s boards (``KeyError`` if none)."""

@@ -1,0 +1,33 @@
+"""A robot description's lookups by name or id name what the robot has when they
+miss, so a planner script's typo says what it could have written."""
+
+from __future__ import annotations
+
+import pytest
+
+from pirate_bt.robot import load_robot
+
+
+@pytest.mark.parametrize(
+    ("lookup", "words"),
+    [
+        (lambda r: r.module("bend_9"), ["module 'bend_9'", "bend_1", "rotational"]),
+        (lambda r: r.motor("bend_1_jiont"), ["motor 'bend_1_jiont'", "bend_1_joint"]),
+        (lambda r: r.board(99), ["board with id 99", "20"]),
+        (lambda r: r.board_of("imu_x"), ["motor or sensor 'imu_x'", "imu", "bend_1_drive"]),
+    ],
+)
+def test_a_missed_lookup_names_what_the_robot_has(lookup: object, words: list[str]) -> None:
+    robot = load_robot()
+    with pytest.raises(KeyError) as raised:
+        lookup(robot)  # type: ignore[operator]
+    message = str(raised.value.args[0])
+    for word in words:
+        assert word in message, message
+
+
+def test_a_hit_still_gives_the_part() -> None:
+    robot = load_robot()
+    assert robot.module("bend_1").name == "bend_1"
+    assert robot.motor("bend_1_joint").name == "bend_1_joint"
+    assert robot.board_of("imu") is robot.board_of("imu")
