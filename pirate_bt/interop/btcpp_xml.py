@@ -170,10 +170,15 @@ def _decoded(data: bytes, file: str) -> str | None:
             f"XML declaration: {shown(name)} is not a text encoding", SourceLocation(file)
         ) from None
     except UnicodeDecodeError as exc:
-        before = data[: exc.start].decode(name, "replace")
+        try:
+            before = data[: exc.start].decode(name, "replace")
+        except UnicodeError:  # a codec without error handlers (idna): place it at 1:1
+            raise LocatedError(f"{why} ({exc.reason})", SourceLocation(file)) from None
         raise LocatedError(
             f"{why} (byte 0x{data[exc.start]:02x})", _at(before, len(before), file)
         ) from None
+    except UnicodeError as exc:  # a codec that fails without a place (punycode, undefined)
+        raise LocatedError(f"{why} ({exc})", SourceLocation(file)) from None
     bad = _SURROGATE.search(text)  # UTF-7 can spell half a surrogate pair
     if bad is not None:
         raise LocatedError(f"{why} (U+{ord(bad[0]):04X})", _at(text, bad.start(), file))
