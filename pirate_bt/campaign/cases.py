@@ -25,9 +25,11 @@ from typing import Any
 from pirate_bt.campaign.checks import check_axes, check_faults, check_runs
 from pirate_bt.campaign.inputs import check_inputs, resolve_name, source_of
 from pirate_bt.campaign.spec import CampaignSpec
+from pirate_bt.errors import ArgumentValueError
 
 __all__ = [
     "DEFAULT_MAX_CASES",
+    "MAX_CASES_CEILING",
     "Case",
     "check_axes",
     "check_faults",
@@ -43,6 +45,29 @@ Case = dict[str, Any]
 
 DEFAULT_MAX_CASES = 100_000
 """The most cases a campaign may expand to unless the caller allows more."""
+
+MAX_CASES_CEILING = 1_000_000
+"""The most a caller may allow: every case and its row are held in memory (about
+1 kB and a few kB each), so a limit raised to 10**9 let a spec of that size fill the
+machine's memory as it expanded instead of being refused."""
+
+
+def check_max_cases(max_cases: int, name: str = "max_cases") -> None:
+    """Refuse a limit below 1 or above :data:`MAX_CASES_CEILING`, naming ``name``.
+
+    Raises:
+        ArgumentValueError: one line (``--max-cases: at most 1,000,000 cases ...``), an
+            :class:`~pirate_bt.errors.InputError` and a ``ValueError``.
+    """
+    if max_cases < 1:
+        raise ArgumentValueError(f"{name} must be at least 1")
+    if max_cases > MAX_CASES_CEILING:
+        raise ArgumentValueError(
+            f"{name}: at most {MAX_CASES_CEILING:,} cases, not {max_cases:,} (every case and"
+            " its row are held in memory): split a larger campaign into several by"
+            " seeds.start, each into its own --output"
+        )
+
 
 # The parameters that define a group: every case parameter but the seed.
 GROUP_FIELDS = ("run", "robot", "map", "sim_faults", "drop", "corrupt", "dup")
@@ -63,10 +88,10 @@ def check_size(spec: CampaignSpec, max_cases: int = DEFAULT_MAX_CASES) -> int:
             the place of its longest axis (``big.campaign.yaml:9:17: the campaign
             expands to 1,000,000,000 cases, more than the limit of 100,000
             (max_cases): ...``). A :class:`~pirate_bt.errors.LocatedError` for a file.
-        ValueError: ``max_cases`` is below 1.
+        ArgumentValueError: ``max_cases`` is below 1 or above :data:`MAX_CASES_CEILING`
+            (an ``InputError`` and a ``ValueError``).
     """
-    if max_cases < 1:
-        raise ValueError("max_cases must be at least 1")
+    check_max_cases(max_cases)
     total = spec.size()
     if total <= max_cases:
         return total

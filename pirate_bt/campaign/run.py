@@ -44,6 +44,7 @@ from pirate_bt.campaign.cases import (
     check_axes,
     check_faults,
     check_inputs,
+    check_max_cases,
     check_runs,
     check_size,
     expand,
@@ -457,8 +458,7 @@ def run_campaign(
     )
     if workers is not None and workers < 1:
         raise InputError("workers must be at least 1")
-    if max_cases < 1:
-        raise InputError("max_cases must be at least 1")
+    check_max_cases(max_cases)
     where_to = {"scheduler": scheduler, "scheduler_file": scheduler_file, "executor": executor}
     chosen = [name for name, value in where_to.items() if value is not None]
     if len(chosen) > 1:

@@ -22,7 +22,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from pirate_bt.campaign.cases import DEFAULT_MAX_CASES
+from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
 from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -58,7 +58,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=int,
         default=DEFAULT_MAX_CASES,
         metavar="N",
-        help=f"refuse a spec that expands to more cases (default: {DEFAULT_MAX_CASES:,})",
+        help=(
+            f"refuse a spec that expands to more cases (default: {DEFAULT_MAX_CASES:,};"
+            f" at most {MAX_CASES_CEILING:,})"
+        ),
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -118,8 +121,7 @@ def run(args: argparse.Namespace) -> int:
             f"--workers is the local pool's size; with {cluster} the cases run on the"
             " cluster's own workers (give one or the other)"
         )
-    if args.max_cases < 1:
-        raise InputError("--max-cases must be at least 1")
+    check_max_cases(args.max_cases, "--max-cases")
     case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
     from pirate_bt.cli import check_folder_output
 

@@ -1,0 +1,83 @@
+"""Probe 18: campaign specs written from the docs, hostile and honest.
+
+Each test is a bug a researcher writing campaign specs met, fixed.
+"""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.campaign.cases import expand
+from pirate_bt.campaign.spec import campaign_from_data
+from pirate_bt.errors import InputError
+
+_HUGE = {
+    "name": "huge",
+    "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.2 m"}}],
+    "link": {"drop": [0.0, 0.1]},
+    "seeds": {"start": 0, "count": 1_000_000_000},
+}
+
+
+def _bounded(code: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` in a Python of its own with 1.5 GB of address space: a spec that
+    expands in memory fails there fast, not on the machine running the tests."""
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 29, 3 << 29))
+
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=limit,
+        check=False,
+    )
+
+
+def test_a_limit_raised_past_memory_is_refused_not_expanded(tmp_path: Path) -> None:
+    # max_cases=10**11 let a spec of 2 * 10**9 cases expand in memory: 7.8 GB
+    # within 20 s, until the machine ran out (a MemoryError, or the OOM killer).
+    code = f"""
+from pirate_bt.campaign import run_campaign
+from pirate_bt.errors import InputError
+try:
+    run_campaign({_HUGE!r}, max_cases=100_000_000_000, output="out")
+except InputError as error:
+    print(error)
+"""
+    done = _bounded(code, tmp_path)
+    assert done.returncode == 0, done.stderr[-500:]
+    assert done.stdout.startswith("max_cases: at most 1,000,000 cases, not 100,000,000,000")
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(InputError, match="at most 1,000,000"):
+        expand(campaign_from_data(_HUGE), max_cases=10**12)
+
+
+def test_the_command_refuses_a_limit_past_memory_in_one_line(tmp_path: Path) -> None:
+    (tmp_path / "big.campaign.yaml").write_text(
+        "name: big\nruns:\n  - {tree: straight, network: straight, params: {distance: 0.2 m}}\n"
+        "seeds: {count: 1000000000}\n"
+    )
+    code = """
+import sys
+from pirate_bt.cli import main
+sys.exit(main(["campaign", "big.campaign.yaml", "--max-cases", "99999999999", "--output", "o"]))
+"""
+    done = _bounded(code, tmp_path)
+    assert done.returncode == 2, done.stderr[-500:]
+    assert done.stderr.startswith("pirate-bt: --max-cases: at most 1,000,000 cases, not 99,999,")
+    assert done.stderr.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_ceiling_itself_is_still_allowed() -> None:
+    spec = {**_HUGE, "link": {"drop": [0.0]}, "seeds": {"count": 3}}
+    assert len(expand(campaign_from_data(spec), max_cases=1_000_000)) == 3
