@@ -49,7 +49,7 @@ from pirate_bt.pipes import FaultSpec, Network, load_network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.counters import SimCounters, SimEvent
-from pirate_bt.sim.faults import FaultTargetError, parse_fault
+from pirate_bt.sim.faults import FaultTargetError, format_fault, parse_fault
 from pirate_bt.sim.model import PipeRobotModel, SensorNoise, SimTruth
 from pirate_bt.yamlfile import load_yaml
 
@@ -153,9 +153,22 @@ def _check_arguments(
             ) from None
 
 
-def _fault_place(network: Network, index: int) -> str:
-    """``file:line:column`` of the target of the network file's fault ``index`` (of
-    the fault when it has no target); the network's source alone when it was not
+def _too_early(fault: FaultSpec, now_s: float) -> str | None:
+    """Why ``fault`` cannot be scheduled when the simulated time is ``now_s``: it starts
+    before (it started and ended in the same step, a board reset undone before the board
+    was ever missed, while the events said it happened); ``None`` when it can."""
+    if fault.at >= now_s - 1e-9:
+        return None
+    return (
+        f"{format_fault(fault)} starts at {fault.at:g} s, but the simulated time is"
+        f" {now_s:g} s already (a fault's time is the simulator's clock time): give"
+        f" {now_s:g} s or later"
+    )
+
+
+def _fault_place(network: Network, index: int, key: str = "target") -> str:
+    """``file:line:column`` of ``key`` of the network file's fault ``index`` (of the
+    fault when it has no such key); the network's source alone when it was not
     loaded from a file that still reads."""
     source = network.source
     try:
@@ -164,7 +177,7 @@ def _fault_place(network: Network, index: int) -> str:
         document = load_yaml(source)
     except (OSError, PirateError):
         return source
-    return str(document.locator.locate(("faults", index, "target")))
+    return str(document.locator.locate(("faults", index, key)))
 
 
 class Simulator:
@@ -223,6 +236,9 @@ class Simulator:
                 self.bridge.check_fault(fault)
             except FaultTargetError as exc:  # said where the network file writes it
                 raise FaultTargetError(f"{_fault_place(network, index)}: faults: {exc}") from None
+            early = _too_early(fault, self.bridge.now_s)
+            if early is not None:
+                raise ConfigurationError(f"{_fault_place(network, index, 'at')}: faults: {early}")
         self.bridge.schedule(network.faults)
         self.schedule(specs)
         self.name = name or f"sim-{next(_NAMES)}"
@@ -242,12 +258,22 @@ class Simulator:
     def schedule(self, faults: Iterable[FaultSpec | str]) -> None:
         """Inject faults at their simulated times (``FaultSpec`` or ``KIND[:TARGET]@AT[+DUR]``).
 
+        A fault's time is the simulator's clock time: one before the simulated time now
+        is refused (it would start and end in one step, doing nothing).
+
         Raises:
-            InputError: malformed fault text, or ``faults`` no text nor list of faults.
+            InputError: malformed fault text, or ``faults`` no text nor list of faults;
+                a fault that starts before the simulated time now (an
+                ``ArgumentValueError``). All or none: a refused list schedules nothing.
             ConfigurationError: unknown motor, channel or board.
         """
         specs = _faults_argument(faults)
         with self._lock:
+            now_s = self.bridge.now_s  # the world's time (advance_to moves it, not the clock)
+            for fault in specs:
+                early = _too_early(fault, now_s)
+                if early is not None:
+                    raise ArgumentValueError(f"faults: {early}")
             self.bridge.schedule(specs)
 
     def _on_clock(self, now_s: float) -> None:

@@ -1,0 +1,56 @@
+"""Probe 18: the simulator's scripted faults with hostile times, and its physics in risers.
+
+Each test names what a user saw before its fix.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import ArgumentValueError, ConfigurationError
+from pirate_bt.sim import Simulator
+
+# -- a fault before the simulated time ---------------------------------------------------
+
+
+def test_a_fault_scheduled_before_the_simulated_time_is_refused_not_a_blip() -> None:
+    # sim.schedule("board_reset:22@5s") at 10 s was taken: the board's reset started and
+    # ended in the same step (its 1.5 s ended at 6.5 s), so the board was never missed,
+    # while the events said "start board_reset 22", "end board_reset 22"
+    with Simulator("straight") as sim:
+        sim.advance_to(10.0)
+        with pytest.raises(ArgumentValueError) as refused:
+            sim.schedule(["link_loss@11s+1s", "board_reset:22@5s"])
+        assert str(refused.value) == (
+            "faults: board_reset:22@5s starts at 5 s, but the simulated time is 10 s already"
+            " (a fault's time is the simulator's clock time): give 10 s or later"
+        )
+        sim.advance_to(11.5)
+        assert not [e for e in sim.events() if e.kind == "fault"]  # all or none
+        sim.schedule("link_loss@11.5s+1s")  # now is not too early
+        sim.advance_to(12.0)
+        assert [e.detail for e in sim.events() if e.kind == "fault"] == ["start link_loss"]
+
+
+def test_faults_before_a_shared_clock_s_time_are_refused_where_they_are_written(
+    tmp_path: Path,
+) -> None:
+    # a simulator made on a clock at 100 s took faults=["motor_stall:bend_1_drive@5s+20s"]
+    # and ran it for no time at all
+    with pytest.raises(ArgumentValueError, match=r"^faults: motor_stall:bend_1_drive@5s\+20s"):
+        Simulator("straight", clock=SimClock(100.0), faults="motor_stall:bend_1_drive@5s+20s")
+    network = tmp_path / "net.yaml"
+    network.write_text(
+        "schema_version: 1\nname: net\ndiameter: 63 mm\nsegments:\n"
+        "  - {id: s, type: straight, length: 2 m}\nfaults:\n"
+        "  - {kind: link_loss, at: 5 s}\n  - {kind: board_reset, target: '22', at: 1 s}\n"
+    )
+    with pytest.raises(ConfigurationError) as refused:
+        Simulator(network, clock=SimClock(3.0))
+    assert str(refused.value).startswith(f"{network}:8:39: faults: board_reset:22@1s starts at 1 s")
+    with Simulator(network, clock=SimClock(1.0)) as sim:  # at the clock's time: taken
+        sim.advance_to(1.05)
+        assert [e.detail for e in sim.events() if e.kind == "fault"] == ["start board_reset 22"]
