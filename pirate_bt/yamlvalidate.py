@@ -95,6 +95,10 @@ def describe_error(error: Any) -> str:
             msg += f", not {ctx['actual_length']}"
         keys = [p for p in loc if isinstance(p, str)]
         return f"{keys[-1]}: {msg}" if keys else msg
+    elif kind in _TEXT_SHAPE and "input" in error:
+        # "String should match pattern '^[a-z]...'": the key, what was written, in words
+        keys = [p for p in loc if isinstance(p, str)]
+        return f"{keys[-1] + ': ' if keys else ''}{_text_shape(kind, error)}"
     elif kind in _IN_WORDS and "input" in error:
         # "Input should be a valid integer": what to write, and what was written
         msg = f"must be {_IN_WORDS[kind]}, not {_as_written(error['input'])}"
@@ -122,6 +126,41 @@ _IN_WORDS = {
 }
 """pydantic's error types whose words (``Input should be a valid integer``) are said in
 the library's: what the value must be, and the value as written."""
+
+
+_TEXT_SHAPE = ("string_pattern_mismatch", "string_too_short", "string_too_long")
+
+_PATTERN_WORDS = {
+    r"^[A-Za-z_][A-Za-z0-9_]*$": "an identifier (letters, digits and _, not first a digit)",
+    r"^/?[A-Za-z_][A-Za-z0-9_./]*$": (
+        "a blackboard key (letters, digits, _, . and /, not first a digit)"
+    ),
+    r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$": (
+        "a blackboard key (letters, digits, _ and /, not first a digit) or empty"
+    ),
+    r"^[a-z][a-z0-9_]*$": "lower_snake_case (the pattern [a-z][a-z0-9_]*)",
+    r"^[A-Za-z][A-Za-z0-9_-]*$": "a letter, then letters, digits, _ and -",
+}
+"""The text patterns of the models, in words (``key: 'a b' must be an identifier``);
+a pattern not here is shown as it is."""
+
+
+def _text_shape(kind: str, error: Any) -> str:
+    """A text of the wrong form or length, in the file's words: what was written and
+    what it must be (pydantic says *String should match pattern '^[a-z]...'*)."""
+    ctx = error.get("ctx") or {}
+    written = _as_written(error["input"])
+    if kind == "string_pattern_mismatch":
+        pattern = str(ctx.get("pattern", ""))
+        return f"{written} must be {_PATTERN_WORDS.get(pattern, f'text of the pattern {pattern}')}"
+    if kind == "string_too_short" and ctx.get("min_length") == 1:
+        return "must not be empty"
+    bound = "at least" if kind == "string_too_short" else "at most"
+    length = ctx.get("min_length" if kind == "string_too_short" else "max_length")
+    actual = len(error["input"]) if isinstance(error["input"], str) else None
+    return (
+        f"must be {bound} {length} characters long, not {actual if actual is not None else written}"
+    )
 
 
 def key_not_text(key: object) -> str:

@@ -1,0 +1,60 @@
+"""Probe 18 (hostile tree files and the node catalogue): what a user saw, each pinned.
+
+- A blackboard key that is no identifier (``key: 'a b'`` in ``set_blackboard`` or
+  ``check_blackboard``, ``blackboard: 'a b'`` in a guard) was refused in pydantic's
+  words, without the key or the value: *String should match pattern
+  '^[A-Za-z_][A-Za-z0-9_]*$'*; an empty one *String should have at least 1 character*.
+  A robot file's module named ``Bend 1`` or 50 characters long was told the same.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+
+def _validate(capsys: pytest.CaptureFixture[str], *paths: Path) -> list[str]:
+    assert main(["validate", *map(str, paths)]) == 2
+    return capsys.readouterr().err.strip().splitlines()
+
+
+def test_a_key_of_the_wrong_form_is_said_in_the_file_s_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard: {x: {type: number, default: 1}}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: check_blackboard, key: 'a b', op: '<', value: 1}\n"
+        "    - {type: set_blackboard, key: '', value: 1}\n"
+        "    - type: skip_if\n"
+        "      condition: {blackboard: 'a b', op: '<', value: 1}\n"
+        "      child: success\n",
+        encoding="utf-8",
+    )
+    lines = _validate(capsys, tree)
+    assert not any("should" in line or "pattern" in line for line in lines), lines
+    assert f"{tree}:5:32: check_blackboard: key: 'a b' must be an identifier" in lines[0]
+    assert lines[1] == f"{tree}:6:30: set_blackboard: key: must not be empty"
+    assert f"{tree}:8:19: skip_if: blackboard: 'a b' must be a blackboard key" in lines[2]
+
+
+def test_a_robot_module_name_of_the_wrong_form_says_the_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = Path("hardware/pirate.yaml").read_text(encoding="utf-8")
+    assert "{name: bend_1," in text
+    robot = tmp_path / "r.yaml"
+    robot.write_text(text.replace("{name: bend_1,", "{name: Bend 1,", 1), encoding="utf-8")
+    (line,) = _validate(capsys, robot)
+    assert line.endswith("name: 'Bend 1' must be lower_snake_case (the pattern [a-z][a-z0-9_]*)")
+    robot.write_text(
+        text.replace("{name: bend_1,", "{name: " + "b" * 50 + ",", 1), encoding="utf-8"
+    )
+    (line,) = _validate(capsys, robot)
+    assert line.endswith("name: must be at most 40 characters long, not 50")
