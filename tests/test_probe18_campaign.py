@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from pirate_bt.campaign.cases import expand
+from pirate_bt.campaign import load_campaign
+from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.spec import campaign_from_data
 from pirate_bt.errors import InputError
 
@@ -81,3 +82,21 @@ sys.exit(main(["campaign", "big.campaign.yaml", "--max-cases", "99999999999", "-
 def test_the_ceiling_itself_is_still_allowed() -> None:
     spec = {**_HUGE, "link": {"drop": [0.0]}, "seeds": {"count": 3}}
     assert len(expand(campaign_from_data(spec), max_cases=1_000_000)) == 3
+
+
+def test_a_fault_point_that_lists_one_fault_twice_is_the_point_once(tmp_path: Path) -> None:
+    # [X, X] runs exactly as [X] (the simulator's result is the same, counters and
+    # all), but the two points were taken as different and their identical,
+    # deterministic cases counted as independent samples.
+    stall = "motor_stall:bend_1_drive@5s+2s"
+    spec = tmp_path / "f.campaign.yaml"
+    spec.write_text(
+        "name: f\nruns:\n  - {tree: straight, network: straight, params: {distance: 0.2 m}}\n"
+        f'sim_faults: [["{stall}", "{stall}"], ["{stall}"]]\n'
+    )
+    with pytest.raises(InputError) as caught:
+        check_axes(load_campaign(spec))
+    assert str(caught.value) == (
+        f"{spec}:4:84: sim_faults[1] repeats sim_faults[0] ({stall}, {stall}): its cases would"
+        " run twice and be counted as independent samples; remove one"
+    )

@@ -84,10 +84,11 @@ def _file_identity(kind: str, name: str | None, folder: Path, route: str | None 
 
 
 def _fault_point(point: Sequence[str]) -> str:
-    """A point of the ``sim_faults`` axis as parsed (``@1s`` and ``@1 s`` alike), in any order."""
+    """A point of the ``sim_faults`` axis as parsed (``@1s`` and ``@1 s`` alike), in any
+    order, a fault listed twice as once (the simulator runs both points alike)."""
     from pirate_bt.sim.faults import parse_fault
 
-    parsed = [json.dumps(parse_fault(f).model_dump(mode="json"), sort_keys=True) for f in point]
+    parsed = {json.dumps(parse_fault(f).model_dump(mode="json"), sort_keys=True) for f in point}
     return json.dumps(sorted(parsed))
 
 
