@@ -5,6 +5,9 @@
   words, without the key or the value: *String should match pattern
   '^[A-Za-z_][A-Za-z0-9_]*$'*; an empty one *String should have at least 1 character*.
   A robot file's module named ``Bend 1`` or 50 characters long was told the same.
+- A tree nested 5000 levels deep in flow style (``{type: inverter, child: {...}}``) was
+  "YAML syntax error: exceeded maximum nesting depth" (libyaml's bound), though the
+  syntax is fine and docs/trees.md says values nested deeper than 256 levels are refused.
 """
 
 from __future__ import annotations
@@ -58,3 +61,17 @@ def test_a_robot_module_name_of_the_wrong_form_says_the_name(
     )
     (line,) = _validate(capsys, robot)
     assert line.endswith("name: must be at most 40 characters long, not 50")
+
+
+def test_a_tree_nested_5000_deep_in_flow_style_is_said_as_too_deep(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    depth = 5000
+    tree = tmp_path / "deep.yaml"
+    tree.write_text(
+        "root: " + "{type: inverter, child: " * depth + "success" + "}" * depth + "\n",
+        encoding="utf-8",
+    )
+    (line,) = _validate(capsys, tree)
+    assert line.startswith(f"{tree}:1:")
+    assert line.endswith(": values nested deeper than 256 levels"), line

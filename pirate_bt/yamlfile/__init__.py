@@ -452,6 +452,8 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         where = _place(file, text, mark.line, mark.column) if mark is not None else loc
         problem = exc.problem or exc.context or "invalid YAML"
         said = _unknown_tag(problem) or f"YAML syntax error: {problem}"
+        if problem == "exceeded maximum nesting depth":  # libyaml's bound (1000), not syntax
+            said = f"values nested deeper than {MAX_DEPTH} levels"
         raise ValidationFailed([LocatedError(said, where)]) from None
     except yaml.reader.ReaderError as exc:
         # a character YAML does not allow (a control character): PyYAML has no mark for
