@@ -5,13 +5,14 @@ Each test names what a user saw before its fix.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
 
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import ArgumentValueError, ConfigurationError
-from pirate_bt.sim import Simulator
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, ConfigurationError
+from pirate_bt.sim import SensorNoise, Simulator
 
 # -- a fault before the simulated time ---------------------------------------------------
 
@@ -54,3 +55,29 @@ def test_faults_before_a_shared_clock_s_time_are_refused_where_they_are_written(
     with Simulator(network, clock=SimClock(1.0)) as sim:  # at the clock's time: taken
         sim.advance_to(1.05)
         assert [e.detail for e in sim.events() if e.kind == "fault"] == ["start board_reset 22"]
+
+
+# -- sensor noise --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "error"),
+    [
+        ("force_n", math.inf, ArgumentValueError),  # OverflowError at the first STATE frame
+        ("angle_rad", math.nan, ArgumentValueError),  # taken: silently no noise
+        ("angle_rad", -0.5, ArgumentValueError),  # taken
+        ("current_a", "0.01", ArgumentTypeError),  # TypeError at the first STATE frame
+        ("velocity_mps", True, ArgumentTypeError),
+    ],
+)
+def test_a_noise_that_is_no_standard_deviation_is_refused_naming_it(
+    field: str, value: object, error: type[Exception]
+) -> None:
+    with pytest.raises(error, match=rf"^noise: {field}: "):
+        SensorNoise(**{field: value})  # type: ignore[arg-type]
+
+
+def test_a_valid_noise_still_runs() -> None:
+    with Simulator("straight", noise=SensorNoise(force_n=3, angle_rad=0.01)) as sim:
+        sim.advance_to(0.05)
+        assert sim.counters().state_frames_sent == 5

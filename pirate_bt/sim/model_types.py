@@ -16,6 +16,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, kind_of, shown
 from pirate_bt.pipes import TeeChoice
 from pirate_bt.robot.description import ControlMode, Half, MotorFunction
 
@@ -52,6 +53,26 @@ class SensorNoise:
     """On the wheel speeds the encoders read (m/s)."""
     current_a: float = 0.0
     """On the motor currents (A)."""
+
+    def __post_init__(self) -> None:
+        """Refuse a deviation that is no finite number of at least 0, naming it (``inf``
+        raised *OverflowError* at the first STATE frame, text a *TypeError*, ``nan``
+        and a negative one were taken)."""
+        for name in ("angle_rad", "force_n", "velocity_mps", "current_a"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ArgumentTypeError(
+                    f"noise: {name}: give a standard deviation (a number), not {kind_of(value)}"
+                )
+            try:
+                good = math.isfinite(value) and value >= 0
+            except OverflowError:  # a whole number too large for a float
+                good = False
+            if not good:
+                raise ArgumentValueError(
+                    f"noise: {name}: {shown(value)} is not a standard deviation: give a finite"
+                    " number of at least 0"
+                )
 
     @classmethod
     def typical(cls) -> SensorNoise:
