@@ -6,12 +6,16 @@ frame should contain, forged frames with a good CRC.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pytest
+from session_wire import LAYOUT, ROBOT, Wire, reply
 
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, LinkError
+from pirate_bt.link.codec import BridgeFlags, State
+from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.transport import Transport
 
 REPO = Path(__file__).resolve().parent.parent
@@ -51,3 +55,61 @@ def test_a_malformed_port_url_is_still_a_link_error_to_python() -> None:
         Transport.open("socket://", baud=115200)
     assert isinstance(caught.value, InputError)
     assert caught.value.exit_code == 2
+
+
+# -- a STATE with a reading no board reads ------------------------------------------------
+
+
+def _state(seq: int, values: list[int]) -> State:
+    return State(
+        seq,
+        BridgeFlags.NONE,
+        0,
+        (1 << LAYOUT.n_channels) - 1,
+        (1,) * LAYOUT.n_boards,
+        tuple(values),
+    )
+
+
+def test_a_reading_outside_its_raw_range_is_refused_not_taken(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A `STATE` (a damaged frame that passed the CRC, or a forged one) saying 32767 for
+    the camera tilt's angle sensor, whose raw range is 0..4095, was converted and taken
+    as fresh: 47 rad for a joint that turns through one. The reading is now refused (the
+    last one taken stays, with its old stamp), counted and logged once; the frame's
+    other readings are taken, and the channel's next reading in range is taken again."""
+    wire = Wire(hello=reply())
+    link = RobotLink(ROBOT, wire.session)
+    channels = ROBOT.state_channels()
+    good = [c.conversion.zero_raw for c in channels]
+    i = next(k for k, c in enumerate(channels) if c.name == "camera_tilt_angle")
+    j = next(k for k, c in enumerate(channels) if c.conversion.raw[1] > good[k] + 10 and k != i)
+    name, other = channels[i].name, channels[j].name
+    assert channels[i].conversion.raw == (0, 4095)
+    wire.answer(_state(1, good))
+    wire.poll(0.01)
+    first = link.state()
+    assert first is not None and first.readings[name].value == 0.0
+    bad = list(good)
+    bad[i], bad[j] = 32767, good[j] + 10
+    with caplog.at_level(logging.WARNING):
+        for seq in (2, 3):
+            wire.answer(_state(seq, bad))
+            wire.poll(0.01)
+            now = link.state()
+            assert now is not None
+    assert now.readings[name] == first.readings[name]  # the old reading, its old stamp
+    assert now.readings[other].stamp_s > first.readings[other].stamp_s  # the rest taken
+    assert now.readings[other].value != first.readings[other].value
+    assert link.readings_refused == 2
+    said = [r.getMessage() for r in caplog.records if "outside its raw range" in r.getMessage()]
+    assert said == [
+        f"STATE seq 2: {name} reads 32767, outside its raw range 0..4095: not taken (a"
+        " damaged or forged frame that passed the CRC, or a board that does not match the"
+        " robot description)"
+    ]
+    wire.answer(_state(4, good))
+    wire.poll(0.01)
+    again = link.state()
+    assert again is not None and again.readings[name].stamp_s > first.readings[name].stamp_s

@@ -29,6 +29,7 @@ from pirate_bt.link.away import BoardsAway
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
 from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.inbound import STATE_REFUSALS
+from pirate_bt.link.ranges import ReadingRanges
 from pirate_bt.link.session import Outcome, Request, Session, SessionStats
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
@@ -73,6 +74,7 @@ class RobotLink:
         self._robot = robot
         self.session = session
         self._states = StateBuilder(robot)
+        self._ranges = ReadingRanges(robot)  # a reading outside its raw range is refused
         self._commands = CommandCodec(robot)
         self._deadman = Deadman(robot, self._commands)  # a program that stops calling in
         slots = robot.setpoint_slots()
@@ -104,6 +106,11 @@ class RobotLink:
         """The description the link was opened with."""
         return self._robot
 
+    @property
+    def readings_refused(self) -> int:
+        """Fresh readings refused for a value outside their channel's raw range."""
+        return self._ranges.refused
+
     def poll(self) -> None:
         """Process pending input and due retries/heartbeats without blocking.
 
@@ -125,7 +132,7 @@ class RobotLink:
             return None
         frame, arrived_s = latest
         if frame.seq != self._snapshot_seq:
-            raw = frame.readings()
+            raw = self._ranges.readings(frame)
             if None in raw:
                 self._fold_missed(frame)
             self._snapshot = self._states.build(raw, arrived_s, self._snapshot)
@@ -147,7 +154,7 @@ class RobotLink:
         for frame, at_s in taken[start:]:
             if frame is newest:
                 break
-            self._snapshot = self._states.build(frame.readings(), at_s, self._snapshot)
+            self._snapshot = self._states.build(self._ranges.readings(frame), at_s, self._snapshot)
 
     def send(self, commands: Sequence[MotorCommand]) -> None:
         """Merge ``commands`` into the desired setpoints and send them in one frame.
