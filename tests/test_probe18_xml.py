@@ -3,12 +3,15 @@ user would export it (see docs/interop.md)."""
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from pirate_bt.cli import main
+from pirate_bt.interop.btcpp import export_xml
+from pirate_bt.treefile import load_tree
 
 _BODY = (
     '<root BTCPP_format="4"><BehaviorTree ID="M">'
@@ -45,3 +48,55 @@ def test_a_declared_codec_that_fails_without_a_place_is_refused_in_one_line(
     assert f"in.xml:1:1: not {encoding} text, as its XML declaration says" in err
     assert "internal error" not in err
     assert not out.parent.exists()
+
+
+_TYPED = """\
+name: typed
+params:
+  n: {type: integer, example: 1}
+  b: {type: boolean, default: false}
+  g: {type: string, default: g}
+blackboard:
+  k: {type: string}
+root:
+  type: sequence
+  children:
+    - {type: set_blackboard, key: k, value: $g}
+"""
+
+
+def _main_ports(xml: Path) -> dict[str, dict[str, str]]:
+    root = ET.parse(xml).getroot()
+    model = root.find("TreeNodesModel/SubTree[@ID='typed']")
+    assert model is not None
+    return {port.attrib["name"]: port.attrib for port in model}
+
+
+def test_a_param_the_run_reads_as_true_or_3_is_exported_as_bt_cpp_and_import_read_it(
+    tmp_path: Path, capsys: Any
+) -> None:
+    # "--param b=yes" runs as true and "+3" as 3, but the XML said default="yes" and
+    # "+3": BT.CPP reads neither, and importing the file just exported was refused
+    # ("port 'b': expected true or false, got 'yes'").
+    tree = tmp_path / "typed.yaml"
+    tree.write_text(_TYPED)
+    xml, back = tmp_path / "typed.xml", tmp_path / "back.yaml"
+    args = ["--param", "b=yes", "--param", "n=+3", "--param", "g=+3"]
+    assert main(["export", "btcpp", str(tree), "-o", str(xml), *args]) == 0
+    ports = _main_ports(xml)
+    assert ports["b"]["default"] == "true"
+    assert ports["n"]["default"] == "3"
+    assert ports["g"]["default"] == "+3"  # text stays the caller's text
+    assert main(["import", "btcpp", str(xml), "-o", str(back)]) == 0
+    assert load_tree(back).params == {"n": 3, "b": True, "g": "+3"}
+    capsys.readouterr()
+
+
+def test_params_given_from_python_as_values_are_exported(tmp_path: Path) -> None:
+    # export_xml(..., params={"n": 3}) runs as a tree does with them, but the export
+    # failed with "AttributeError: 'int' object has no attribute 'startswith'".
+    tree = tmp_path / "typed.yaml"
+    tree.write_text(_TYPED)
+    xml = export_xml(tree, tmp_path / "typed.xml", params={"n": 3, "b": True})
+    ports = _main_ports(xml)
+    assert (ports["n"]["default"], ports["b"]["default"]) == ("3", "true")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from pirate_bt.errors import ArgumentTypeError, InputError, LocatedError, file_argument
 from pirate_bt.interop.btcpp_models import (
@@ -272,6 +272,11 @@ class _Exporter:
     root_doc: YamlDocument
 
 
+_READ_AS_TEXT: Final = frozenset({"boolean", "integer"})
+"""Parameter types whose command-line text (``yes``, ``+3``) BT.CPP and the import do not
+read as a run does: written as the run read it."""
+
+
 def _model_element(model: NodeModel) -> ET.Element:
     element = ET.Element(model.category, {"ID": model.id})
     for port in model.ports:
@@ -285,14 +290,21 @@ def _model_element(model: NodeModel) -> ET.Element:
     return element
 
 
-def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, str]) -> ET.Element:
+def _subtree_model(
+    tree_id: str, decls: Mapping[str, Any], given: Mapping[str, Any], values: Mapping[str, Any]
+) -> ET.Element:
+    """``given``: the caller's parameters of this tree; ``values``: as the loader read them."""
     element = ET.Element("SubTree", {"ID": tree_id})
     for name, decl in decls.items():
         decl = {"type": decl} if isinstance(decl, str) else dict(decl)
         kind = str(decl.get("type", "string"))
         attrs = {"name": name, "type": kind}
-        if name in given:  # the caller's text, as it is: escaped as a file would write it
-            text = given[name]
+        text = given.get(name)
+        if name in given and (not isinstance(text, str) or kind in _READ_AS_TEXT):
+            # as the run read it: "yes" is true, "+3" is 3 (BT.CPP and the import read
+            # neither); a value given from Python (3, True) has no text of its own
+            attrs["default"] = encode_value(values[name], kind)
+        elif isinstance(text, str):  # the caller's text, as it is: escaped as a file would
             attrs["default"] = encode_value("$" + text if text.startswith("$") else text, kind)
         elif decl.get("default") is not None:
             attrs["default"] = encode_value(decl["default"], kind)
@@ -307,7 +319,7 @@ def _subtree_model(tree_id: str, decls: Mapping[str, Any], given: Mapping[str, s
 
 def tree_to_xml(
     path: str | Path | Mapping[str, Any],
-    params: Mapping[str, str] | None = None,
+    params: Mapping[str, Any] | None = None,
     registry: Registry | None = None,
     checked: Any = None,
 ) -> str:
@@ -359,7 +371,8 @@ def tree_to_xml(
     for element in exporter.trees:
         tree_id = element.get("ID", "")
         _doc, _where, decls = exporter.params[tree_id]
-        models.append(_subtree_model(tree_id, decls, given if tree_id == main_id else {}))
+        mine = given if tree_id == main_id else {}
+        models.append(_subtree_model(tree_id, decls, mine, loaded.params))
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, "unicode") + "\n"
 
@@ -367,7 +380,7 @@ def tree_to_xml(
 def export_xml(
     tree_path: str | Path,
     out_path: str | Path,
-    params: Mapping[str, str] | None = None,
+    params: Mapping[str, Any] | None = None,
     registry: Registry | None = None,
 ) -> Path:
     """Write ``tree_path`` as BT.CPP v4 XML to ``out_path`` (atomically); see :func:`tree_to_xml`.
