@@ -86,3 +86,29 @@ def test_a_start_just_at_the_margin_is_not_refused(monkeypatch: pytest.MonkeyPat
     network = _near(0.62)  # 0.10 m ahead: the planner's approach is allowed there
     with pytest.raises(Connected):
         pirate_bt.navigate(pirate_bt.GoalNavigator("c"), sim=network, map=network)
+
+
+class _OriginRaises:
+    """A navigator whose ``origin`` (docs/navigators.md: where its last step comes
+    from) is a property with a bug in it."""
+
+    def __init__(self) -> None:
+        self.asked = 0
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        self.asked += 1
+        return pirate_bt.Step("straight", distance="0.2 m") if self.asked == 1 else None
+
+    @property
+    def origin(self) -> tuple[str, int]:
+        raise RuntimeError("no route file open")
+
+
+def test_a_navigator_whose_origin_raises_ends_as_its_own_error_in_the_safe_state() -> None:
+    # was: the RuntimeError went out of pirate_bt.navigate() itself, after connecting,
+    # with no result and no why
+    result = pirate_bt.navigate(_OriginRaises(), sim="straight", map="straight")
+    assert result.status == "failure"
+    assert result.why == "navigator '_OriginRaises' raised RuntimeError: no route file open"
+    assert isinstance(result.error, RuntimeError) and result.navigator_raised
+    assert result.safe_state

@@ -144,17 +144,26 @@ def _origin(navigator: object, index: int) -> tuple[str | None, int]:
 
 
 def _decide(
-    navigator: Navigator, obs: Observation, deadline_s: float, name: str
-) -> tuple[Step | None, float, str | None, BaseException | None]:
+    navigator: Navigator, obs: Observation, deadline_s: float, name: str, mapped: bool
+) -> tuple[tuple[Step | None, tuple[str | None, int]], float, str | None, BaseException | None]:
     """Ask the navigator, on a thread of its own, within ``deadline_s`` of wall time:
-    its step, the wall time it took, and why its answer is refused with the exception
-    it raised, if it did."""
+    its step and, with a map (``mapped``), where it says the step comes from (its
+    ``origin``, read on that thread too: a property that raised went out of the
+    navigation as a bare exception, and one that hung had no deadline), the
+    wall time it took, and why its answer is refused with the exception it raised, if
+    it did."""
+
+    def ask() -> tuple[Step | None, tuple[str | None, int]]:
+        step = navigator.next_step(obs)
+        return step, _origin(navigator, obs.step + 1) if mapped else (None, obs.step + 1)
+
+    nothing: tuple[None, tuple[str | None, int]] = (None, (None, obs.step + 1))
     started = time.perf_counter()
-    done, step, exc = call_within(lambda: navigator.next_step(obs), deadline_s, f"navigator {name}")
+    done, answer, exc = call_within(ask, deadline_s, f"navigator {name}")
     seconds = time.perf_counter() - started
     if not done:
         return (
-            None,
+            nothing,
             seconds,
             (
                 f"navigator {name!r} took longer than its {deadline_s:g} s deadline to decide"
@@ -167,8 +176,8 @@ def _decide(
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
         text = said_of(exc)  # one line; nothing after the type when empty
         said = f"navigator {name!r} raised {type(exc).__name__}" + (f": {text}" if text else "")
-        return None, seconds, said, exc
-    return step, seconds, None, None
+        return nothing, seconds, said, exc
+    return answer, seconds, None, None
 
 
 class _Records:
@@ -323,7 +332,9 @@ def run_navigation(
             # the decision records what the navigator was told, not what it wrote into it
             told = replace(obs, choices=dict(obs.choices))
             try:
-                step, seconds, error, raised = _decide(navigator, obs, deadline_s, name)
+                (step, origin), seconds, error, raised = _decide(
+                    navigator, obs, deadline_s, name, planner is not None
+                )
             except KeyboardInterrupt as exc:
                 # Ctrl-C while the navigator decides: a failure that leaves the robot
                 # safe, as one during a step is (it went out of the navigation, which
@@ -341,7 +352,7 @@ def run_navigation(
                     if planner is not None:
                         rolled = step.pab == "bend" and "roll" in step.params
                         roll = checked.roll_rad if rolled else None
-                        source, line = _origin(navigator, index)
+                        source, line = origin
                         plan = planner.plan(
                             checked.route_line(), line, belief, roll_rad=roll, source=source
                         )
