@@ -9,12 +9,14 @@ import resource
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from pirate_bt.campaign import load_campaign
 from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.spec import campaign_from_data
+from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 
 _HUGE = {
@@ -100,3 +102,37 @@ def test_a_fault_point_that_lists_one_fault_twice_is_the_point_once(tmp_path: Pa
         f"{spec}:4:84: sim_faults[1] repeats sim_faults[0] ({stall}, {stall}): its cases would"
         " run twice and be counted as independent samples; remove one"
     )
+
+
+def test_ctrl_c_says_how_many_cases_were_kept_and_how_many_remain(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It said "results.jsonl keeps the cases done" whether none or 39 of 40 were.
+    import pirate_bt.campaign as campaign
+
+    real = campaign.run_campaign
+    seen: list[str] = []
+
+    def interrupted_after_two(spec: Any, **options: Any) -> Any:
+        def record(row: dict[str, Any]) -> None:
+            seen.append(row["id"])
+            if len(seen) == 2:
+                raise KeyboardInterrupt  # Ctrl-C as the second row arrives
+
+        return real(spec, **options, on_record=record)
+
+    monkeypatch.setattr(campaign, "run_campaign", interrupted_after_two)
+    spec = tmp_path / "c.campaign.yaml"
+    spec.write_text(
+        "name: c\nruns:\n  - {tree: straight, network: straight, params: {distance: 0.1 m}}\n"
+        "seeds: {count: 5}\nmax_time: 60 s\n"
+    )
+    out = tmp_path / "out"
+    code = main(["campaign", str(spec), "--workers", "1", "--output", str(out), "--quiet"])
+    assert code == 130
+    err = capsys.readouterr().err
+    assert err == (
+        f"pirate-bt: campaign interrupted; {out}/results.jsonl keeps 2 of its 5 cases (the"
+        " cases in flight are not recorded); run again with --resume to run the other 3\n"
+    )
+    assert len((out / "results.jsonl").read_text().splitlines()) == 2

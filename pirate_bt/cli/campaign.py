@@ -163,9 +163,19 @@ def run(args: argparse.Namespace) -> int:
         from pirate_bt.cli import EXIT_SIGINT, EXIT_SIGTERM, Terminated
 
         terminated = isinstance(exc, Terminated)
+        # how many: it said "keeps the cases done" with none done as with 39 of 40
+        from pirate_bt.campaign.engine import read_rows
+
+        total = spec.size()
+        try:
+            done = len(read_rows(output / "results.jsonl"))
+        except InputError:  # pragma: no cover - the file was ours a moment ago
+            done = 0
         print(
             f"pirate-bt: campaign {'terminated (SIGTERM)' if terminated else 'interrupted'};"
-            f" {output}/results.jsonl keeps the cases done; run again with --resume",
+            f" {output}/results.jsonl keeps {done:,} of its {total:,} cases (the cases in"
+            f" flight are not recorded); run again with --resume to run the other"
+            f" {total - done:,}",
             file=sys.stderr,
         )
         return EXIT_SIGTERM if terminated else EXIT_SIGINT
