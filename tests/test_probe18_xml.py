@@ -100,3 +100,43 @@ def test_params_given_from_python_as_values_are_exported(tmp_path: Path) -> None
     xml = export_xml(tree, tmp_path / "typed.xml", params={"n": 3, "b": True})
     ports = _main_ports(xml)
     assert (ports["n"]["default"], ports["b"]["default"]) == ("3", "true")
+
+
+def test_half_a_surrogate_pair_in_a_json_value_is_refused_at_its_element(
+    tmp_path: Path, capsys: Any
+) -> None:
+    # json:"\ude00" decoded to a string no file can hold: the import then said
+    # "YAML syntax error: found invalid Unicode character escape code" at the tree.
+    body = (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        '<root BTCPP_format="4" main_tree_to_execute="M">\n'
+        '<BehaviorTree ID="M" _blackboard="json:{&quot;k&quot;:'
+        '{&quot;type&quot;:&quot;string&quot;}}">\n'
+        "<Sequence>\n"
+        '  <set_blackboard key="k" value="json:&quot;\\ud83d\\ude00&quot;"/>\n'
+        '  <set_blackboard key="k" value="json:&quot;a\\ude00b&quot;"/>\n'
+        "</Sequence></BehaviorTree></root>\n"
+    )
+    code, err, out = _import(tmp_path, body.encode(), capsys)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "in.xml:6:3: set_blackboard: value: bad json: value: \\ude00 is half a" in err
+    assert "YAML" not in err
+    assert not out.parent.exists()
+
+
+def test_a_param_of_bytes_that_are_no_utf8_is_refused_at_export(
+    tmp_path: Path, capsys: Any
+) -> None:
+    # --param $'g=\xff' (argv reads it as '\udcff') was written as json:"\udcff", a
+    # file the import then refused with a YAML syntax error.
+    tree = tmp_path / "typed.yaml"
+    tree.write_text(_TYPED)
+    for out in (str(tmp_path / "t.xml"), "-"):
+        code = main(["export", "btcpp", str(tree), "-o", out, "--param", "g=\udcff"])
+        captured = capsys.readouterr()
+        assert code == 2
+        assert captured.out == ""
+        assert captured.err.count("\n") == 1
+        assert "parameter 'g': '\\udcff' holds U+DCFF" in captured.err
+    assert not (tmp_path / "t.xml").exists()

@@ -6,12 +6,20 @@
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Final
 
-from pirate_bt.errors import ArgumentTypeError, InputError, LocatedError, file_argument
+from pirate_bt.errors import (
+    ArgumentTypeError,
+    ArgumentValueError,
+    InputError,
+    LocatedError,
+    file_argument,
+    shown,
+)
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -51,6 +59,14 @@ def _params_argument(params: object) -> dict[str, Any]:
             "params: give a mapping of names to values ({'roll': '90 deg'}),"
             f" not {article} {name}"
         )
+    for key, value in params.items():
+        half = re.search("[\ud800-\udfff]", value) if isinstance(value, str) else None
+        if half is not None:  # a byte of the command line that is no UTF-8 ($'\xff')
+            raise ArgumentValueError(
+                f"parameter {key!r}: {shown(value)} holds U+{ord(half[0]):04X}, half a"
+                " surrogate pair (a byte that is no UTF-8 text), which XML cannot carry;"
+                " nothing written"
+            )
     return dict(params)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
@@ -421,6 +422,12 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
             raise ValueError(f"bad json: value: {str(exc).split(';')[0]}") from None
         if _json_depth(value) > _MAX_JSON_DEPTH:
             raise ValueError(f"bad json: nested deeper than {_MAX_JSON_DEPTH} levels")
+        # "\ud800" alone: no character (the tree file could not hold it)
+        half = re.search("[\ud800-\udfff]", json.dumps(value, ensure_ascii=False))
+        if half is not None:
+            raise ValueError(
+                f"bad json: value: \\u{ord(half[0]):04x} is half a surrogate pair, not a character"
+            )
         return value
     if len(text) >= 3 and text[0] == "{" and text[-1] == "}":
         name = port if text == "{=}" else text[1:-1]
