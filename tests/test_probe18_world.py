@@ -112,3 +112,23 @@ def test_a_navigator_whose_origin_raises_ends_as_its_own_error_in_the_safe_state
     assert result.why == "navigator '_OriginRaises' raised RuntimeError: no route file open"
     assert isinstance(result.error, RuntimeError) and result.navigator_raised
     assert result.safe_state
+
+
+def test_a_block_before_any_fix_names_the_maps_segment(tmp_path: Any) -> None:
+    # the map: 4 m of straight 'a'; the pipe: a bend nobody drew 1.5 m in. The why said
+    # only 'blocked the robot at 1.50 m (believed), where the map has no turn ...'
+    drawn = _net("drawn", {"id": "a", "type": "straight", "length": "4 m"})
+    built = _net(
+        "built",
+        {"id": "a", "type": "straight", "length": "1.5 m"},
+        {"id": "x", "type": "bend", "direction": "right"},
+        {"id": "b", "type": "straight", "length": "2 m"},
+    )
+    route = tmp_path / "on.route"
+    route.write_text("network drawn\nforward 3 m\n", encoding="utf-8")
+    result = pirate_bt.simulate_mission(str(route), network=drawn, truth=built)
+    assert result.status == "failure" and result.safe_state
+    assert result.why.startswith(
+        "belief and map disagree: the pipe blocked the robot at 1.50 m"
+        " (believed, 1.50 m into 'a'), where the map has no turn"
+    ), result.why

@@ -68,6 +68,7 @@ from pirate_bt.task.fixes import (
 )
 from pirate_bt.task.planner import MapFeature, MissionPlan
 from pirate_bt.task.turn_angle import FixedTurn, TurnWatch, imu_evidence, unmapped_turn
+from pirate_bt.task.where_believed import after_fix
 
 __all__ = [
     "DRIFT_PER_M",
@@ -431,7 +432,7 @@ class Localiser:
         if cut is not None and (near or at_end):
             self._cut_short(time_s, cut, near[0] if near else None, reach)
             return
-        after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""
+        after = after_fix(self.fixes, self.since_fix_m, self.plan.path, self.belief_m)
         self.mismatch = (
             f"belief and map disagree: the pipe blocked the robot at {front:.2f} m"
             f" (believed{after}), where the map has no turn and no end within {reach:.2f} m"
@@ -457,7 +458,7 @@ class Localiser:
         """A leg blocked short of its distance near a turn (or the end) the map has further
         on, not the turn the route takes next (whose PAB senses and crosses it), nor the
         end of a leg to the end: the pipe turns or ends nearer than drawn."""
-        after = f", {self.since_fix_m:.2f} m after {self.fixes[-1].feature!r}" if self.fixes else ""
+        after = after_fix(self.fixes, self.since_fix_m, self.plan.path, self.belief_m)
         there = (
             f"the turn {piece.segment!r} at {piece.start_m:.2f}-{piece.end_m:.2f} m"
             if piece is not None
