@@ -49,6 +49,24 @@ def test_a_malformed_port_url_is_bad_input_exit_2(
     assert lines[0].startswith(f"pirate-bt: cannot open {url}: {said}"), lines[0]
 
 
+@pytest.mark.parametrize(
+    ("url", "said"),
+    [
+        ("loop://?x=1", "no option 'x' (a loop:// URL takes logging)"),
+        ("loop://?logging=verbose", "logging='verbose' is none of debug, info, warning, error"),
+    ],
+)
+def test_a_loop_url_with_a_bad_option_is_bad_input_not_an_internal_error(
+    url: str, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--port 'loop://?x=1'` was *internal error: KeyError: 'debug|info|warning|error'*
+    (exit 1): pyserial's loop:// formats its own message wrongly."""
+    code = main(["run", STRAIGHT, "--param", "distance=0.1m", "--quiet", "--port", url])
+    err = capsys.readouterr().err
+    assert code == 2 and "internal error" not in err, err
+    assert err.strip() == f"pirate-bt: cannot open {url}: {said}"
+
+
 def test_a_malformed_port_url_is_still_a_link_error_to_python() -> None:
     """A caller that catches the failure to connect as a ``LinkError`` still does."""
     with pytest.raises(LinkError) as caught:

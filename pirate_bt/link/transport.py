@@ -89,22 +89,25 @@ class HelloRefused(ProtocolMismatch):
 
 _LOGGING = ("debug", "info", "warning", "error")
 _OPTIONS = {
+    "loop": ("logging",),
     "socket": ("logging",),
     "rfc2217": ("logging", "ign_set_control", "poll_modem", "timeout"),
 }
 
 
 class PortURLError(InputError, LinkError):
-    """A ``socket://`` or ``rfc2217://`` URL that names no host and port: the user's
-    input, exit 2 (``InputError``), though still a ``LinkError`` to a caller that
-    catches the failure to connect."""
+    """A ``socket://`` or ``rfc2217://`` URL that names no host and port, or a
+    ``loop://`` one with an option it does not take: the user's input, exit 2
+    (``InputError``), though still a ``LinkError`` to a caller that catches the failure
+    to connect."""
 
 
 def network_url_problem(url: str) -> str | None:
     """What is wrong with a ``socket://`` or ``rfc2217://`` URL's host, port or
-    options, or ``None``. pyserial's own message for these was garbled: a port of 99999
-    said *'debug|info|warning|error'*, no port *'<=' not supported between instances of
-    'int' and 'NoneType'*, and ``?logging=verbose`` *'verbose'*."""
+    options, or a ``loop://`` URL's options, or ``None``. pyserial's own message for
+    these was garbled: a port of 99999 said *'debug|info|warning|error'*, no port *'<='
+    not supported between instances of 'int' and 'NoneType'*, and ``?logging=verbose``
+    *'verbose'*; on ``loop://`` both raised a ``KeyError`` (an internal error)."""
     scheme, _, rest = url.partition("://")
     if scheme not in _OPTIONS:
         return None
@@ -113,12 +116,13 @@ def network_url_problem(url: str) -> str | None:
         parts = urlsplit(url)
     except ValueError as exc:  # an unclosed or malformed [IPv6] host
         return f"no host and port in {rest!r} ({exc}); {form}"
-    try:
-        port = parts.port
-    except ValueError:
-        return f"the port {parts.netloc.rpartition(':')[2]!r} is not from 0 to 65535; {form}"
-    if port is None or not parts.hostname:
-        return f"no {'port' if parts.hostname else 'host'}; {form}"
+    if scheme != "loop":  # loop:// reads its options only
+        try:
+            port = parts.port
+        except ValueError:
+            return f"the port {parts.netloc.rpartition(':')[2]!r} is not from 0 to 65535; {form}"
+        if port is None or not parts.hostname:
+            return f"no {'port' if parts.hostname else 'host'}; {form}"
     for option, values in parse_qs(parts.query, keep_blank_values=True).items():
         if option not in _OPTIONS[scheme]:
             return f"no option {option!r} (a {scheme}:// URL takes {', '.join(_OPTIONS[scheme])})"
@@ -237,7 +241,8 @@ class Transport:
             port = serial.serial_for_url(
                 url, baudrate=baud, timeout=0, write_timeout=write_timeout_s
             )
-        except (serial.SerialException, ValueError, OSError) as exc:
+        except (serial.SerialException, ValueError, OSError, KeyError) as exc:
+            # KeyError: pyserial formats some of its own messages wrongly
             raise LinkError(f"cannot open {url}: {exc}") from exc
         _log.info("opened %s at %d baud", url, baud)
         return cls(port, baud=baud, real_port=is_real_port(url), url=url)
