@@ -5,14 +5,20 @@ Each test names what a user saw before its fix.
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
 
 import pytest
 
+from pirate_bt.api.fault_text import fault_items, split_faults
+from pirate_bt.cli.faults_option import check_faults_option
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, ConfigurationError
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, ConfigurationError, LocatedError
+from pirate_bt.robot import load_robot
 from pirate_bt.sim import SensorNoise, Simulator
+
+ROBOT = load_robot()
 
 # -- a fault before the simulated time ---------------------------------------------------
 
@@ -81,3 +87,28 @@ def test_a_valid_noise_still_runs() -> None:
     with Simulator("straight", noise=SensorNoise(force_n=3, angle_rad=0.01)) as sim:
         sim.advance_to(0.05)
         assert sim.counters().state_frames_sent == 5
+
+
+# -- spaces around a fault's '@' and '+' -----------------------------------------------
+
+
+def test_spaces_around_a_fault_s_at_and_plus_keep_it_one_fault() -> None:
+    # --faults "link_loss@2s + 1s" said "--faults:1:14: link fault '+' is not key=value"
+    # (the '+' was split off as a link fault), though parse_fault reads the fault with
+    # those spaces, and faults=["link_loss@2s + 1s"] as a list item was taken
+    assert split_faults("link_loss@2s + 1s, drop=0.05") == (["link_loss@2s + 1s"], "drop=0.05")
+    assert fault_items("board_reset:22 @ 1 s;corrupt=0.01") == [
+        (1, "board_reset:22 @ 1 s"),
+        (22, "corrupt=0.01"),
+    ]
+    args = argparse.Namespace(faults="drop=0.05 motor_stall:bend_3_drive@5s + 20s")
+    check_faults_option(args, ROBOT)  # nothing to refuse
+    args = argparse.Namespace(faults="drop=0.05 motor_stall:nosuch@5s + 20s")
+    with pytest.raises(LocatedError, match=r"^--faults:1:11: fault motor_stall: unknown motor"):
+        check_faults_option(args, ROBOT)
+    with Simulator("straight", faults=split_faults("link_loss @ 1s + 1s")[0]) as sim:
+        sim.advance_to(2.5)
+        faults = [(e.time_s, e.detail) for e in sim.events() if e.kind == "fault"]
+    assert [detail for _, detail in faults] == ["start link_loss", "end link_loss"]
+    assert faults[0][0] == pytest.approx(1.0, abs=0.011)  # as written: from 1 s for 1 s
+    assert faults[1][0] == pytest.approx(2.0, abs=0.011)

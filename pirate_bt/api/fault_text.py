@@ -25,15 +25,21 @@ MAX_FAULT_TEXT = 200
 
 # An item runs to the next ',', ';' or whitespace, but a number and its time unit
 # written apart ('@2 s', 'delay=20 ms') stay one item: split there, '2' was told it
-# "needs a unit" and 's' that it "is not key=value".
-_ITEM = re.compile(r"(?:[^,;\s]|(?<=\d)\s+(?=(?:ns|us|µs|ms|s|min|h)(?:[,;+\s]|$)))+")
+# "needs a unit" and 's' that it "is not key=value". So do a simulator fault's '@' and
+# '+' with spaces around them ('link_loss@2s + 1s', as parse_fault reads it): split
+# there, '+' was told it was a link fault that "is not key=value".
+_ITEM = re.compile(
+    r"(?:[^,;\s]|(?<=\d)\s+(?=(?:ns|us|µs|ms|s|min|h)(?:[,;+\s]|$))"
+    r"|(?<=[^,;\s])\s+(?=[@+])|(?<=[@+])\s+(?=[^,;\s]))+"
+)
 
 
 def fault_items(text: str) -> list[tuple[int, str]]:
     """The items of one fault text, each with its column (1-based).
 
     Items are separated by ``,``, ``;`` or whitespace, except that a number and its
-    time unit may stand apart (``motor_stall:bend_1_drive@2 s+1 s``).
+    time unit may stand apart (``motor_stall:bend_1_drive@2 s+1 s``), and so may a
+    simulator fault's ``@`` and ``+`` from their neighbours (``link_loss@2s + 1s``).
     """
     return [(m.start() + 1, m.group()) for m in _ITEM.finditer(text)]
 
