@@ -140,3 +140,12 @@ def test_a_param_of_bytes_that_are_no_utf8_is_refused_at_export(
         assert captured.err.count("\n") == 1
         assert "parameter 'g': '\\udcff' holds U+DCFF" in captured.err
     assert not (tmp_path / "t.xml").exists()
+
+
+def test_import_names_its_own_argument_when_the_xml_file_is_a_dash(capsys: Any) -> None:
+    # "pirate-bt import btcpp - -o t.yaml" said "xml_path: '-' is no file here", the
+    # name of a Python parameter the command line never shows.
+    assert main(["import", "btcpp", "-", "-o", "t.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: file: '-' is no file here")
+    assert "xml_path" not in err

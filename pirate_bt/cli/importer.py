@@ -19,6 +19,7 @@ import importlib
 from pathlib import Path
 
 from pirate_bt.cli import STDOUT, check_output, write_to_stdout
+from pirate_bt.errors import file_argument
 
 __all__ = ["SOURCES", "configure", "run"]
 
@@ -49,6 +50,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # named as this command names it ("file"), not as the Python function does
+    file_argument(args.file, "file")
     module_name, function, _text = SOURCES[args.source]
     convert = getattr(importlib.import_module(module_name), function)
     if args.output == STDOUT:  # the tree only, checked as for a file; no "wrote" line
