@@ -112,3 +112,10 @@ def test_spaces_around_a_fault_s_at_and_plus_keep_it_one_fault() -> None:
     assert [detail for _, detail in faults] == ["start link_loss", "end link_loss"]
     assert faults[0][0] == pytest.approx(1.0, abs=0.011)  # as written: from 1 s for 1 s
     assert faults[1][0] == pytest.approx(2.0, abs=0.011)
+
+
+@pytest.mark.parametrize("network", [None, 123, b"straight", ["straight"]])
+def test_a_network_that_is_none_is_refused_naming_the_network(network: object) -> None:
+    # said "path: give a file name (text or a Path), not None": no argument is called path
+    with pytest.raises(ArgumentTypeError, match=r"^network: give a Network, a file name or a"):
+        Simulator(network)  # type: ignore[arg-type]

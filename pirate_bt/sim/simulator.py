@@ -119,10 +119,22 @@ def _faults_argument(faults: object) -> list[FaultSpec]:
 
 
 def _check_arguments(
-    robot: object, seed: object, clock: object, noise: object, name: object, start_m: object
+    network: object,
+    robot: object,
+    seed: object,
+    clock: object,
+    noise: object,
+    name: object,
+    start_m: object,
 ) -> None:
     """Refuse a wrong argument in one line naming it, before anything is built (a
-    string robot was ``AttributeError: 'str' object has no attribute 'clamp'``)."""
+    string robot was ``AttributeError: 'str' object has no attribute 'clamp'``; a
+    network of ``None`` was *path: give a file name ...*, naming no ``path``)."""
+    if not isinstance(network, Network | str | Path):
+        raise ArgumentTypeError(
+            f"network: give a Network, a file name or a bundled network's name, not"
+            f" {kind_of(network)}"
+        )
     for option, value, kind, hint in (
         ("robot", robot, RobotDescription, "a RobotDescription (pirate_bt.robot.load_robot)"),
         ("clock", clock, SimClock, "a SimClock"),
@@ -211,7 +223,7 @@ class Simulator:
         name: str | None = None,
         start_m: float | None = None,
     ) -> None:
-        _check_arguments(robot, seed, clock, noise, name, start_m)
+        _check_arguments(network, robot, seed, clock, noise, name, start_m)
         specs = _faults_argument(faults)
         if robot is None:
             from pirate_bt.robot import load_robot
