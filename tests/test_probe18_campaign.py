@@ -14,10 +14,13 @@ from typing import Any
 import pytest
 
 from pirate_bt.campaign import load_campaign
+from pirate_bt.campaign.case import run_case
 from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.spec import campaign_from_data
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from pirate_bt.task import navigators
+from pirate_bt.task.explore_parts import SurveyIncomplete
 
 _HUGE = {
     "name": "huge",
@@ -136,3 +139,42 @@ def test_ctrl_c_says_how_many_cases_were_kept_and_how_many_remain(
         " cases in flight are not recorded); run again with --resume to run the other 3\n"
     )
     assert len((out / "results.jsonl").read_text().splitlines()) == 2
+
+
+class _Incomplete:
+    """A survey that finds what it cannot survey at once, as ``explore`` does."""
+
+    def next_step(self, obs: Any) -> None:
+        raise SurveyIncomplete("an opening at 3.33 m with no branch the robot could steer into")
+
+
+class _Broken:
+    def next_step(self, obs: Any) -> None:
+        raise ZeroDivisionError("a bug in the planner")
+
+
+def test_a_survey_that_ends_incomplete_is_failed_safe_not_an_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # explore on an as-built variant it could not survey counted as an `error` (as a
+    # crash would), where `pirate-bt survey` calls the same end a failure, robot safe.
+    monkeypatch.setitem(navigators._BUILT_IN, "incomplete", _Incomplete)
+    monkeypatch.setitem(navigators._BUILT_IN, "broken", _Broken)
+    spec = campaign_from_data(
+        {
+            "name": "s",
+            "runs": [
+                {"navigator": "incomplete", "network": "t-joint", "blind": True},
+                {"navigator": "broken", "network": "t-joint", "blind": True},
+            ],
+            "max_time": "60 s",
+        }
+    )
+    incomplete, broken = (run_case(case) for case in expand(spec))
+    assert incomplete["outcome"] == "failed-safe"
+    assert incomplete["reason"] == (
+        "navigator 'incomplete' raised SurveyIncomplete: an opening at 3.33 m with no branch"
+        " the robot could steer into"
+    )
+    assert broken["outcome"] == "error"  # a bug in the navigator stays one
+    assert broken["reason"] == "navigator 'broken' raised ZeroDivisionError: a bug in the planner"

@@ -188,11 +188,16 @@ def _options(case: dict[str, Any]) -> dict[str, Any]:
 
 def _outcome(succeeded: bool, safe: bool, error: BaseException | None) -> str:
     """``success``; ``failed-safe`` (failed, robot left safe); ``error`` (a node raised,
-    the link was lost, or the robot was not left safe)."""
+    the link was lost, or the robot was not left safe). A survey that ends incomplete
+    (``explore``'s :class:`~pirate_bt.task.explore_parts.SurveyIncomplete`) is how that
+    navigator fails in a world it cannot survey, not a crash: failed-safe when safe."""
     from pirate_bt.errors import LinkError
+    from pirate_bt.task.explore_parts import SurveyIncomplete
 
     if succeeded:
         return "success"
+    if isinstance(error, SurveyIncomplete):
+        error = None  # `pirate-bt survey` says the same: a failure, exit 1
     if error is not None and not isinstance(error, LinkError):
         return "error"
     return "failed-safe" if safe and not isinstance(error, LinkError) else "error"
