@@ -8,6 +8,10 @@
 - A tree nested 5000 levels deep in flow style (``{type: inverter, child: {...}}``) was
   "YAML syntax error: exceeded maximum nesting depth" (libyaml's bound), though the
   syntax is fine and docs/trees.md says values nested deeper than 256 levels are refused.
+- A guard with an empty list of conditions (``skip_if``/``failure_if``/``while`` with
+  ``condition: []``) loaded clean and held vacuously: ``skip_if`` skipped its child
+  every time (a success, the child never run), ``failure_if`` always failed, ``while``
+  guarded nothing; ``eternal_guard`` with ``conditions: []`` was already refused.
 """
 
 from __future__ import annotations
@@ -75,3 +79,17 @@ def test_a_tree_nested_5000_deep_in_flow_style_is_said_as_too_deep(
     (line,) = _validate(capsys, tree)
     assert line.startswith(f"{tree}:1:")
     assert line.endswith(": values nested deeper than 256 levels"), line
+
+
+@pytest.mark.parametrize("guard", ["skip_if", "failure_if", "while"])
+def test_a_guard_with_an_empty_list_of_conditions_is_refused(
+    guard: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "g.yaml"
+    tree.write_text(
+        f"root:\n  type: {guard}\n  condition: []\n  child: {{type: log, message: ran}}\n",
+        encoding="utf-8",
+    )
+    assert _validate(capsys, tree) == [
+        f"{tree}:3:3: {guard}: condition: must have at least 1 item, not 0"
+    ]

@@ -425,7 +425,7 @@ class ModeIs(_Condition):
 
 
 class PreconditionParams(NodeParams):
-    condition: Comparison | list[Comparison] = Field(
+    condition: Comparison | Annotated[list[Comparison], Field(min_length=1)] = Field(
         description="a comparison, or a list of comparisons that must all hold"
     )
 
