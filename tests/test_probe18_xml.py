@@ -149,3 +149,20 @@ def test_import_names_its_own_argument_when_the_xml_file_is_a_dash(capsys: Any) 
     err = capsys.readouterr().err
     assert err.startswith("pirate-bt: file: '-' is no file here")
     assert "xml_path" not in err
+
+
+def test_sequence_star_is_bt_cpps_own_node_not_a_misspelt_sequence(
+    tmp_path: Path, capsys: Any
+) -> None:
+    # BT.CPP still registers SequenceStar (SequenceWithMemory's old name); the import
+    # called it unknown and advised "did you mean 'Sequence'?", a node that starts over
+    # after a failure where SequenceStar resumes.
+    body = (
+        '<root BTCPP_format="4"><BehaviorTree ID="M">\n'
+        "<SequenceStar><AlwaysSuccess/></SequenceStar></BehaviorTree></root>\n"
+    )
+    code, err, out = _import(tmp_path, body.encode(), capsys)
+    assert code == 2
+    assert "in.xml:2:1: BT.CPP node 'SequenceStar' has no pirate_bt counterpart" in err
+    assert "did you mean" not in err
+    assert not out.parent.exists()

@@ -113,6 +113,7 @@ _BTCPP_BUILTINS: Final = frozenset(
         "Script",
         "ScriptCondition",
         "Sequence",
+        "SequenceStar",  # SequenceWithMemory, by its old name (still registered)
         "SequenceWithMemory",
         "SetBlackboard",
         "SkipUnlessUpdated",
