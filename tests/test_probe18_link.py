@@ -10,16 +10,26 @@ import logging
 from pathlib import Path
 
 import pytest
-from session_wire import LAYOUT, ROBOT, Wire, reply
+from session_wire import LAYOUT, ROBOT, Peer, Wire, reply
 
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, LinkError
-from pirate_bt.link.codec import BridgeFlags, State
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    BridgeFlags,
+    EStop,
+    Heartbeat,
+    Message,
+    MsgType,
+    State,
+)
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.transport import Transport
 
 REPO = Path(__file__).resolve().parent.parent
 STRAIGHT = str(REPO / "trees" / "straight.yaml")
+ZERO = [c.conversion.zero_raw for c in ROBOT.state_channels()]
 
 
 @pytest.mark.parametrize(
@@ -131,3 +141,32 @@ def test_a_reading_outside_its_raw_range_is_refused_not_taken(
     wire.poll(0.01)
     again = link.state()
     assert again is not None and again.readings[name].stamp_s > first.readings[name].stamp_s
+
+
+# -- the close's e-stop, acknowledged ---------------------------------------------------------
+
+
+def test_a_close_whose_estop_is_acknowledged_says_the_drives_stopped(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A close whose drive stop was never acknowledged logged *could not stop the drives
+    on close: ...; e-stop sent* (an ERROR) and nothing more when the bridge took that
+    e-stop: the log left the user thinking the robot might still be moving. It now says
+    the e-stop was acknowledged (and ``close_error`` stays unset)."""
+
+    def answer(msg: Message) -> list[Message]:
+        if isinstance(msg, EStop):
+            return [Ack(msg.seq, MsgType.ESTOP, AckStatus.APPLIED)]
+        if isinstance(msg, Heartbeat):
+            return [Ack(msg.seq, MsgType.HEARTBEAT, AckStatus.APPLIED), _state(msg.seq, ZERO)]
+        return []  # the bulk: never acknowledged
+
+    peer = Peer(answer)
+    link = RobotLink(ROBOT, peer.session())
+    with caplog.at_level(logging.INFO):
+        link.close()
+    said = [r.getMessage() for r in caplog.records if r.name == "pirate_bt.link.robot_link"]
+    assert any(m.startswith("could not stop the drives on close:") for m in said), said
+    assert said[-1] == "the e-stop sent on close was acknowledged: the drives stopped", said
+    assert link.close_error is None
+    assert any(isinstance(m, EStop) for m in peer.seen)

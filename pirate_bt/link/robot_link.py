@@ -511,7 +511,8 @@ class RobotLink:
         except LinkError as why:
             estop = f"and the e-stop sent after it failed ({why})"
         else:
-            if req.outcome is Outcome.ACKED:
+            if req.outcome is Outcome.ACKED:  # said, after the stop's failure was logged
+                _log.warning("the e-stop sent on close was acknowledged: the drives stopped")
                 return
             if req.outcome is Outcome.FAILED:
                 estop = "nor was the e-stop sent after it"
