@@ -12,6 +12,8 @@
   ``condition: []``) loaded clean and held vacuously: ``skip_if`` skipped its child
   every time (a success, the child never run), ``failure_if`` always failed, ``while``
   guarded nothing; ``eternal_guard`` with ``conditions: []`` was already refused.
+- A file of two YAML documents (``---`` between two trees) was "YAML syntax error: but
+  found another document": half of PyYAML's sentence, and the syntax is fine.
 """
 
 from __future__ import annotations
@@ -92,4 +94,14 @@ def test_a_guard_with_an_empty_list_of_conditions_is_refused(
     )
     assert _validate(capsys, tree) == [
         f"{tree}:3:3: {guard}: condition: must have at least 1 item, not 0"
+    ]
+
+
+def test_a_stream_of_two_documents_is_said_so_not_a_syntax_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "two.yaml"
+    tree.write_text("root: success\n---\nroot: failure\n", encoding="utf-8")
+    assert _validate(capsys, tree) == [
+        f"{tree}:2:1: a second YAML document (after '---'): a file holds one"
     ]

@@ -454,6 +454,8 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         said = _unknown_tag(problem) or f"YAML syntax error: {problem}"
         if problem == "exceeded maximum nesting depth":  # libyaml's bound (1000), not syntax
             said = f"values nested deeper than {MAX_DEPTH} levels"
+        elif problem == "but found another document":  # a stream of two: valid YAML
+            said = "a second YAML document (after '---'): a file holds one"
         raise ValidationFailed([LocatedError(said, where)]) from None
     except yaml.reader.ReaderError as exc:
         # a character YAML does not allow (a control character): PyYAML has no mark for
