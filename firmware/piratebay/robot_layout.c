@@ -1,8 +1,21 @@
 /* The generated layout tables. They live in SRAM (avr-gcc copies them from flash
- * at start-up: 6 bytes per board, 20 per motor, 356 for the default robot): the
+ * at start-up: 6 bytes per board, 20 per motor, 374 for the default robot): the
  * checks of every SETPOINT and BULK_SETPOINTS read them, and reading them in place
  * is several times faster than copying each entry out of flash with memcpy_P. */
 #include "robot_layout.h"
+
+#ifdef __AVR__
+#include <avr/pgmspace.h>
+#define PB_IN_FLASH PROGMEM __attribute__((used, externally_visible))
+#else
+#define PB_IN_FLASH __attribute__((used))
+#endif
+
+/* The layout digest of the description this ELF was built for, under a symbol of its
+ * own, in flash (4 bytes, no SRAM): a simulator reads it from the ELF and refuses to
+ * put the firmware behind boards of another description (pirate-bt sim --firmware,
+ * the chain), as a host's HELLO refuses it at connect time. Nothing reads it here. */
+const uint32_t pb_layout_digest PB_IN_FLASH = PB_LAYOUT_DIGEST;
 
 static const struct pb_board boards[PB_N_BOARDS] = PB_BOARD_TABLE;
 #if PB_N_MOTORS > 0

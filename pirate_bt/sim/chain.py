@@ -43,6 +43,7 @@ from pirate_bt.errors import ConfigurationError, InputError, LinkError
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, MotorFunction, RobotDescription
 from pirate_bt.robot.header import board_io
+from pirate_bt.sim.chain_elf import check_built_for
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = [
@@ -255,7 +256,7 @@ class FirmwareChain:
         name: Registry name, the NAME of ``chain://NAME``.
 
     Raises:
-        InputError: an ELF is missing.
+        InputError: an ELF is missing, or built for another robot description.
         ConfigurationError: the harness is not built.
     """
 
@@ -273,6 +274,7 @@ class FirmwareChain:
         for elf in (bridge_elf, pico_elf):
             if not Path(elf).is_file():
                 raise InputError(f"{elf}: no such firmware ELF (build it with `make firmware`)")
+            check_built_for(elf, model.robot)  # boards of another layout: refused here
         self.harness = find_chain_harness(harness)
         self.physics = ChainPhysics(model)
         self.robot: RobotDescription = model.robot

@@ -36,6 +36,7 @@ from typing import IO
 from pirate_bt.errors import ConfigurationError, InputError, LinkError
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.boardbus import BUS_CLOCK_HZ, BoardBus
+from pirate_bt.sim.chain_elf import check_built_for
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = ["HARNESS_ENV", "FirmwareBridge", "find_harness"]
@@ -76,7 +77,7 @@ class FirmwareBridge:
         silent: Board ids that never answer.
 
     Raises:
-        InputError: the ELF is missing.
+        InputError: the ELF is missing, or built for another robot description.
         ConfigurationError: the harness is not built.
     """
 
@@ -95,6 +96,7 @@ class FirmwareBridge:
             raise InputError(f"{self.elf}: no such firmware ELF (build it with `make firmware`)")
         if speed <= 0:
             raise InputError("speed must be positive")
+        check_built_for(self.elf, model.robot)
         self.harness = find_harness(harness)
         # the harness answers a repeated exchange itself and passes it on only when it
         # differs: the boards here do not see every poll, so they keep no silence timer

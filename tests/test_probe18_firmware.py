@@ -1,0 +1,95 @@
+"""Probe 18, the embedded side: the firmwares and their simulators as a user meets them.
+
+Each test here failed before the fix it names in its docstring.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from firmware_chain_support import build_chain, missing_chain
+
+from pirate_bt.errors import InputError
+from pirate_bt.pipes import load_network
+from pirate_bt.robot import load_robot
+from pirate_bt.sim.chain import FirmwareChain
+from pirate_bt.sim.chain_elf import elf_layout_digest
+from pirate_bt.sim.model import PipeRobotModel
+
+ROOT = Path(__file__).resolve().parents[1]
+LONG = ROOT / "hardware" / "variants" / "pirate-long.yaml"
+
+
+@pytest.fixture(scope="module")
+def elfs() -> tuple[Path, Path]:
+    """(bridge ELF, PICO ELF) for the default robot, built."""
+    why = missing_chain()
+    if why:
+        pytest.skip(why)
+    bridge, pico, _ = build_chain()
+    return bridge, pico
+
+
+def test_both_elfs_say_which_description_they_were_built_for(elfs: tuple[Path, Path]) -> None:
+    """Nothing in an ELF said which robot description it was built for: a simulator
+    could not tell a bridge or a PICO of another robot from the right one."""
+    want = load_robot().layout_digest()
+    for elf in elfs:
+        assert elf_layout_digest(elf) == want, elf
+    assert elf_layout_digest(elfs[0].with_suffix(".hex")) is None  # no ELF: says nothing
+
+
+def test_sim_refuses_a_bridge_built_for_another_robot(elfs: tuple[Path, Path]) -> None:
+    """`pirate-bt sim --robot pirate-long.yaml --firmware` with the default robot's
+    bridge ran (exit 0): the bridge polled nine boards of eleven, and a host with the
+    long robot was told only 'the bridge reports its e-stop latched'."""
+    bridge, _ = elfs
+    args = ["sim", "straight", "--robot", str(LONG), "--firmware", str(bridge), "--duration", "1"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", *args],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert done.stdout == ""  # no pty was offered
+    (line,) = done.stderr.strip().splitlines()
+    digest = load_robot().layout_digest()
+    assert f"{bridge} was built for another robot description" in line
+    assert f"its layout digest 0x{digest:08x}" in line
+    assert "(--robot)" in line
+
+
+def test_chain_refuses_a_pico_built_for_another_robot(
+    elfs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The chain put a PICO ELF of another description behind the robot's boards (its
+    channel and motor tables another robot's), and nothing noticed."""
+    bridge, pico = elfs
+    other = tmp_path / "pico.elf"
+    shutil.copy(pico, other)
+    data = bytearray(other.read_bytes())
+    built = load_robot().layout_digest().to_bytes(4, "little")
+    assert data.count(built) == 1  # the digest's own four bytes, in flash
+    data[data.index(built) : data.index(built) + 4] = bytes(4)
+    other.write_bytes(bytes(data))
+    assert elf_layout_digest(other) == 0
+    model = PipeRobotModel(load_robot(), load_network("straight"))
+    chain: FirmwareChain | None = None
+    try:
+        with pytest.raises(InputError, match="was built for another robot description") as err:
+            chain = FirmwareChain(bridge, other, model)
+        assert str(other) in str(err.value)
+        assert "0x00000000" in str(err.value)
+    finally:
+        if chain is not None:
+            chain.close()
+    # the right pair is taken: the bridge is checked the same way and passes
+    long_model = PipeRobotModel(load_robot(LONG), load_network("straight"))
+    with pytest.raises(InputError, match=f"{bridge} was built for another"):
+        FirmwareChain(bridge, pico, long_model)
