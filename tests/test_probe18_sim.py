@@ -15,8 +15,12 @@ from pirate_bt.api.fault_text import fault_items, split_faults
 from pirate_bt.cli.faults_option import check_faults_option
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, ConfigurationError, LocatedError
-from pirate_bt.robot import load_robot
+from pirate_bt.pipes import network_from_data
+from pirate_bt.robot import Half, load_robot
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode
 from pirate_bt.sim import SensorNoise, Simulator
+from pirate_bt.sim.server import end_state
 
 ROBOT = load_robot()
 
@@ -119,3 +123,40 @@ def test_a_network_that_is_none_is_refused_naming_the_network(network: object) -
     # said "path: give a file name (text or a Path), not None": no argument is called path
     with pytest.raises(ArgumentTypeError, match=r"^network: give a Network, a file name or a"):
         Simulator(network)  # type: ignore[arg-type]
+
+
+# -- a slide that reached an end of the path ---------------------------------------------
+
+
+def _released_in(slope: str, seconds: float) -> str:
+    """The end state of a robot clamped in a straight of ``slope``, then let go."""
+    net = network_from_data(
+        {
+            "name": "steep",
+            "diameter": "63 mm",
+            "slope": slope,
+            "segments": [{"id": "s", "type": "straight", "length": "1 m"}],
+        }
+    )
+    with Simulator(net) as sim:
+        rear = ("bend_3_joint", "bend_4_joint")
+        for joint in rear:
+            sim.model.command(MotorCommand(joint, ControlMode.TORQUE, 0.7))
+        sim.advance_to(2.0)
+        assert sim.truth().halves[Half.REAR].clamped
+        for joint in rear:
+            sim.model.command(MotorCommand(joint, ControlMode.POSITION, 0.0))
+        sim.advance_to(2.0 + seconds)
+        assert sim.counters().violations == {"sliding": 1}
+        return end_state(sim)
+
+
+def test_a_slide_that_reached_the_end_of_a_drop_is_not_said_to_slide_at_0_m_s() -> None:
+    # said "robot sliding at 0.000 m/s" once the robot lay on the cap of the drop
+    assert _released_in("-90 deg", 1.0).startswith("end state: robot sliding at 0.200 m/s,")
+    assert _released_in("-90 deg", 4.0).startswith(
+        "end state: robot slid to the pipe's end and lies there, no half holding it,"
+    )
+    assert _released_in("90 deg", 1.0).startswith(
+        "end state: robot slid back out of the pipe's entry (the simulator keeps it there),"
+    )

@@ -51,8 +51,16 @@ def end_state(sim: Simulator) -> str:
         setpoint = sim.model.setpoint(motor.name)
         if setpoint is not None and setpoint.value != 0 and setpoint.mode != ControlMode.POSITION:
             commanded.append(f"{motor.name} {setpoint.mode.value} {setpoint.value:g}")
-    if truth.sliding:
+    if truth.sliding and truth.velocity_mps:
         motion = f"robot sliding at {truth.velocity_mps:.3f} m/s"
+    elif truth.sliding:  # a slide stops only at the path's ends (docs/simulator.md)
+        entry = truth.front_m <= sim.model.length_m + 1e-9
+        where = (
+            "back out of the pipe's entry (the simulator keeps it there)"
+            if entry
+            else "to the pipe's end and lies there"
+        )
+        motion = f"robot slid {where}, no half holding it"
     elif sim.model.held_as_put_in and abs(truth.slope_rad) > robot.motion.max_unclamped_slope:
         slope = math.degrees(abs(truth.slope_rad))
         motion = f"robot held where it was put in, no half clamped yet on a {slope:.0f} deg slope"
