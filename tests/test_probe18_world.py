@@ -132,3 +132,24 @@ def test_a_block_before_any_fix_names_the_maps_segment(tmp_path: Any) -> None:
         "belief and map disagree: the pipe blocked the robot at 1.50 m"
         " (believed, 1.50 m into 'a'), where the map has no turn"
     ), result.why
+
+
+def test_an_unmapped_turn_before_any_fix_names_the_maps_segment(tmp_path: Any) -> None:
+    # the map draws 'c' level; the pipe climbs it at 60 deg: the why said only 'the pipe
+    # turned by 60 deg at 1.76 m (believed), where the map has no turn ...'
+    drawn = _net(
+        "drawn",
+        {"id": "a", "type": "straight", "length": "1.5 m"},
+        {"id": "c", "type": "straight", "length": "3 m", "slope": "0 deg"},
+    )
+    built = _net(
+        "built",
+        {"id": "a", "type": "straight", "length": "1.5 m"},
+        {"id": "c", "type": "straight", "length": "3 m", "slope": "60 deg"},
+    )
+    route = tmp_path / "up.route"
+    route.write_text("network drawn\nforward to the end\n", encoding="utf-8")
+    result = pirate_bt.simulate_mission(str(route), network=drawn, truth=built)
+    assert result.status == "failure" and result.safe_state
+    assert "deg at 1.76 m (believed, 0.26 m into 'c'), where the map has no turn" in result.why
+    assert result.counters.violations == 0

@@ -303,7 +303,8 @@ class Localiser:
                 self.mismatch = sharper[0]
                 self._disagree(state.stamp_s, sharper[2], sharper[1], imu, reach, None)
                 return
-            self.mismatch = unmapped_turn(swung, (self.belief_m, imu_m), reach, turn)
+            placed = after_fix(self.fixes, self.since_fix_m, self.plan.path, self.belief_m)
+            self.mismatch = unmapped_turn(swung, (self.belief_m, imu_m), reach, turn, placed)
             sensed = f"a turn of {math.degrees(swung):.0f} deg"
             self._disagree(state.stamp_s, None, sensed, imu, reach, turn)
 

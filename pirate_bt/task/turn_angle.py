@@ -134,19 +134,24 @@ def undershot(
 
 
 def unmapped_turn(
-    swung: float, where_m: tuple[float, float], reach_m: float, ahead: MapFeature | None
+    swung: float,
+    where_m: tuple[float, float],
+    reach_m: float,
+    ahead: MapFeature | None,
+    placed: str = "",
 ) -> str:
     """The mismatch of a turn felt where the map has none within ``reach_m``.
 
     ``where_m``: the belief (the front tip) and the rotational module's place, where the
     turn was felt; ``ahead``: the map's next turn, named with how far on it is drawn
     (it was not named: a turn drawn 0.7 m further on, built nearer, read as a turn
-    the map does not have at all).
+    the map does not have at all); ``placed``: where the belief is on the map, after
+    *(believed* (:func:`~pirate_bt.task.where_believed.after_fix`).
     """
     belief_m, imu_m = where_m
     text = (
         f"belief and map disagree: the pipe turned by {math.degrees(swung):.0f} deg"
-        f" at {belief_m:.2f} m (believed), where the map has no turn within {reach_m:.2f} m"
+        f" at {belief_m:.2f} m (believed{placed}), where the map has no turn within {reach_m:.2f} m"
     )
     if ahead is not None and ahead.start_m > imu_m:
         text += (
