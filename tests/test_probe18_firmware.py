@@ -93,3 +93,20 @@ def test_chain_refuses_a_pico_built_for_another_robot(
     long_model = PipeRobotModel(load_robot(LONG), load_network("straight"))
     with pytest.raises(InputError, match=f"{bridge} was built for another"):
         FirmwareChain(bridge, pico, long_model)
+
+
+def test_firmware_sim_page_does_not_say_the_firmware_never_sleeps(
+    elfs: tuple[Path, Path],
+) -> None:
+    """docs/firmware-sim.md said the harness needs half a core because 'the firmware's
+    main loop never sleeps'; the bridge sleeps between interrupts (a SLEEP instruction
+    in its main loop), and the harness took about a fifth of a core."""
+    bridge, _ = elfs
+    disassembly = subprocess.run(
+        ["avr-objdump", "-d", str(bridge)], capture_output=True, text=True, check=True
+    ).stdout
+    assert "\tsleep" in disassembly
+    page = (ROOT / "docs" / "firmware-sim.md").read_text()
+    limits = page[page.index("## Limits") :]
+    assert "about half a CPU core" not in limits
+    assert "a fifth of a CPU core" in limits
