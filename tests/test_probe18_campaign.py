@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from pirate_bt.campaign import load_campaign
+from pirate_bt.campaign import load_campaign, run_campaign
 from pirate_bt.campaign.case import run_case
 from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.spec import campaign_from_data
@@ -178,3 +178,17 @@ def test_a_survey_that_ends_incomplete_is_failed_safe_not_an_error(
     )
     assert broken["outcome"] == "error"  # a bug in the navigator stays one
     assert broken["reason"] == "navigator 'broken' raised ZeroDivisionError: a bug in the planner"
+
+
+@pytest.mark.parametrize("name", ["no-such-folder", "a-file.yaml"])
+def test_a_base_that_is_not_a_folder_is_refused_not_passed_over(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str
+) -> None:
+    # A mistyped base (or a file) was passed over: every relative name then resolved
+    # against the working folder, silently, and a missing one was said missing there.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a-file.yaml").write_text("x: 1\n")
+    spec = {"name": "b", "runs": [{"tree": "mine.yaml", "params": {"distance": "0.1 m"}}]}
+    with pytest.raises(InputError) as caught:
+        run_campaign(spec, base=tmp_path / name, workers=1)
+    assert str(caught.value) == f"base: {str(tmp_path / name)!r} is not a folder"

@@ -271,6 +271,9 @@ def _check_options(options: dict[str, Any]) -> None:
     for name in ("scheduler_file", "output", "base"):
         if options[name] is not None:
             _path(options[name], name)
+    if options["base"] is not None and not Path(options["base"]).is_dir():
+        # else every relative name silently resolved against the working folder instead
+        raise InputError(f"base: {str(options['base'])[:200]!r} is not a folder")
     executor = options["executor"]
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise InputError(f"executor: give a concurrent.futures executor, not {executor!r}"[:200])
