@@ -14,6 +14,7 @@ from session_wire import LAYOUT, ROBOT, Peer, Wire, reply
 
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, LinkError
+from pirate_bt.link import vectors
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
@@ -170,3 +171,25 @@ def test_a_close_whose_estop_is_acknowledged_says_the_drives_stopped(
     assert said[-1] == "the e-stop sent on close was acknowledged: the drives stopped", said
     assert link.close_error is None
     assert any(isinstance(m, EStop) for m in peer.seen)
+
+
+# -- python -m pirate_bt.link.vectors FILE ----------------------------------------------------
+
+
+def test_the_vectors_writer_refuses_what_is_not_one_file_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`python -m pirate_bt.link.vectors --help` (docs/protocol.md, Test vectors) wrote
+    the vectors to a file named `--help`, extra arguments were ignored, and a file that
+    cannot be written (a folder) was a traceback."""
+    monkeypatch.chdir(tmp_path)
+    assert vectors.main(["--help"]) == 0
+    assert capsys.readouterr().out.startswith("usage: python -m pirate_bt.link.vectors [FILE]")
+    assert vectors.main(["a.json", "b.json"]) == 2
+    assert vectors.main([str(tmp_path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].endswith(": not 'a.json b.json'"), err
+    assert err[1] == f"{tmp_path}: cannot write: Is a directory", err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    assert vectors.main(["v.json"]) == 0
+    assert (tmp_path / "v.json").read_text() == vectors.dumps(ROBOT)

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 from typing import Any
 
 from pirate_bt.link.codec import FrameCodec
@@ -296,16 +295,35 @@ def dumps(robot: RobotDescription) -> str:
     return json.dumps(build_vectors(robot), indent=1) + "\n"
 
 
+_USAGE = "usage: python -m pirate_bt.link.vectors [FILE]  (default: standard output)"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Write the vectors of the default robot to ``argv[0]`` (default: stdout)."""
+    """Write the vectors of the default robot to ``argv[0]`` (default: stdout).
+
+    Returns 2, with one line on stderr, for anything but one file name (``--help``
+    was written to as a file) or a file that cannot be written (a traceback, before
+    2026-11-30); the file is written whole or not at all.
+    """
+    from pirate_bt.atomic import write_atomically
     from pirate_bt.robot.loader import load_robot
 
     args = sys.argv[1:] if argv is None else argv
-    text = dumps(load_robot())
-    if args:
-        Path(args[0]).write_text(text)
-    else:
-        sys.stdout.write(text)
+    if len(args) > 1 or (args and (args[0].startswith("-") or not args[0])):
+        if args == ["-h"] or args == ["--help"]:
+            print(_USAGE)
+            return 0
+        print(f"{_USAGE}: not {' '.join(args)!r}", file=sys.stderr)
+        return 2
+    data = dumps(load_robot()).encode()
+    if not args:
+        sys.stdout.write(data.decode())
+        return 0
+    try:
+        write_atomically(args[0], lambda stream: stream.write(data))
+    except OSError as exc:
+        print(f"{args[0]}: cannot write: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     return 0
 
 
