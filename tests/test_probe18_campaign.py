@@ -5,6 +5,7 @@ Each test is a bug a researcher writing campaign specs met, fixed.
 
 from __future__ import annotations
 
+import json
 import resource
 import subprocess
 import sys
@@ -192,3 +193,28 @@ def test_a_base_that_is_not_a_folder_is_refused_not_passed_over(
     with pytest.raises(InputError) as caught:
         run_campaign(spec, base=tmp_path / name, workers=1)
     assert str(caught.value) == f"base: {str(tmp_path / name)!r} is not a folder"
+
+
+def test_a_reason_with_a_hash_of_its_own_does_not_break_the_report(tmp_path: Path) -> None:
+    # Reasons alike but for their numbers count as one; a '#' in a reason was taken
+    # for a number, and `campaign report` (and every campaign's end) died with
+    # "internal error: ValueError: zip() argument 2 is longer than argument 1".
+    rows = []
+    for index, reason in enumerate(["item # missing", "item 3 missing", "item 4 missing"]):
+        rows.append(
+            {
+                "id": f"{index:06d}-0000000{index}",
+                "index": index,
+                "run": "r",
+                "tree": "straight",
+                "outcome": "error",
+                "reason": f"RuntimeError in top/exploder: {reason}",
+                "wall_time_s": 0.1,
+            }
+        )
+    results = tmp_path / "results.jsonl"
+    results.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    assert main(["campaign", "report", str(results)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    assert "- 2 × RuntimeError in top/exploder: item 3–4 missing\n" in report
+    assert "- 1 × RuntimeError in top/exploder: item # missing\n" in report

@@ -161,10 +161,12 @@ def _top_reasons(groups: Sequence[GroupStats], n: int = 8) -> list[tuple[str, in
     they count together and read ``for 0.50–0.55 s``; a number that does not vary is
     shown as written.
     """
-    clusters: dict[str, Counter[str]] = {}
+    # keyed by the text between the numbers: a '#' of a reason's own ("item # missing")
+    # was taken for a number ("item 3 missing") and the report died of a ValueError
+    clusters: dict[tuple[str, ...], Counter[str]] = {}
     for g in groups:
         for text, count in g.reasons.items():
-            clusters.setdefault(_NUMBER.sub("#", text), Counter())[text] += count
+            clusters.setdefault(tuple(_NUMBER.split(text)), Counter())[text] += count
     shown: Counter[str] = Counter()
     for texts in clusters.values():
         shown[_merged(list(texts))] += sum(texts.values())
