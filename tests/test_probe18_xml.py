@@ -9,7 +9,9 @@ from typing import Any
 
 import pytest
 
+from pirate_bt import load_xml_tree
 from pirate_bt.cli import main
+from pirate_bt.errors import ArgumentTypeError
 from pirate_bt.interop.btcpp import export_xml
 from pirate_bt.treefile import load_tree
 
@@ -166,3 +168,16 @@ def test_sequence_star_is_bt_cpps_own_node_not_a_misspelt_sequence(
     assert "in.xml:2:1: BT.CPP node 'SequenceStar' has no pirate_bt counterpart" in err
     assert "did you mean" not in err
     assert not out.parent.exists()
+
+
+@pytest.mark.parametrize("params", [["distance=1m"], "distance=1m"], ids=["list", "str"])
+def test_load_xml_tree_refuses_params_that_are_no_mapping_as_load_tree_does(
+    params: Any, tmp_path: Path
+) -> None:
+    # pirate_bt.load_tree says "params: give a mapping of names to values"; the same
+    # mistake with load_xml_tree was "TypeError: cannot convert dictionary update
+    # sequence element #0 to a sequence" (or a ValueError) from deep in the loader.
+    source = tmp_path / "in.xml"
+    source.write_text(_BODY)
+    with pytest.raises(ArgumentTypeError, match=r"^params: give a mapping of names to values"):
+        load_xml_tree(source, params=params)

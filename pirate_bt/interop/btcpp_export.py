@@ -43,9 +43,9 @@ _MAPPING = "<dict>"
 """The file name of a tree given as a mapping (as the loader names it)."""
 
 
-def _params_argument(params: object) -> dict[str, Any]:
-    """``params`` as given to :func:`tree_to_xml` or :func:`export_xml`: a mapping of
-    names to values, or None.
+def _params_mapping(params: object) -> dict[str, Any]:
+    """``params`` as given to a function that reads an XML tree or writes one: a
+    mapping of names to values, or None.
 
     Raises:
         ArgumentTypeError: not a mapping (a list of ``name=value`` texts, a string).
@@ -59,6 +59,18 @@ def _params_argument(params: object) -> dict[str, Any]:
             "params: give a mapping of names to values ({'roll': '90 deg'}),"
             f" not {article} {name}"
         )
+    return dict(params)
+
+
+def _params_argument(params: object) -> dict[str, Any]:
+    """``params`` as given to :func:`tree_to_xml` or :func:`export_xml`
+    (:func:`_params_mapping`), each a value XML can carry.
+
+    Raises:
+        ArgumentTypeError: not a mapping.
+        ArgumentValueError: a text holding half a surrogate pair.
+    """
+    params = _params_mapping(params)
     for key, value in params.items():
         half = re.search("[\ud800-\udfff]", value) if isinstance(value, str) else None
         if half is not None:  # a byte of the command line that is no UTF-8 ($'\xff')

@@ -24,6 +24,7 @@ from pirate_bt.errors import (
     bytes_escaped,
     file_argument,
 )
+from pirate_bt.interop.btcpp_export import _params_mapping
 from pirate_bt.interop.btcpp_import import _read
 from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
 from pirate_bt.treefile.registry import Registry, default_registry
@@ -249,6 +250,7 @@ def load_xml_tree(
     from pirate_bt.treefile import load_tree
 
     source = file_argument(xml_path, "xml_path")
+    given = None if params is None else _params_mapping(params)  # as load_tree refuses it
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
     text, where = _converted(source, reg)
@@ -260,7 +262,7 @@ def load_xml_tree(
             return load_tree(
                 converted,
                 robot=description,
-                params=params,
+                params=given,
                 params_from_text=params_from_text,
                 params_origin=params_origin,
                 use_examples=use_examples,
