@@ -51,6 +51,7 @@ import collections
 import contextlib
 import errno
 import logging
+import socket
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -210,7 +211,7 @@ class Groot2Server(_Requests):
                 try:
                     first = self._rep.bind_to_random_port(f"tcp://{where}", 20000, 60000)
                 except zmq.ZMQError as exc:
-                    raise InputError(f"--groot2 {host}: cannot listen: {exc}") from None
+                    raise _cannot_listen(host, host, exc) from None
                 try:
                     self._pub.bind(f"tcp://{where}:{first + 1}")
                     return int(first)
@@ -228,7 +229,7 @@ class Groot2Server(_Requests):
                         f"--groot2 {host}:{port}: port {number} is taken (another server, or"
                         " another run with --groot2?); pick another with --groot2 HOST:PORT"
                     ) from None
-                raise InputError(f"--groot2 {host}:{port}: cannot listen: {exc}") from None
+                raise _cannot_listen(f"{host}:{port}", host, exc) from None
         return port
 
     @property
@@ -424,6 +425,20 @@ class Groot2Server(_Requests):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _cannot_listen(given: str, host: str, exc: Any) -> InputError:
+    """The one line for a bind ZeroMQ refused. A host name that does not resolve is
+    ZeroMQ's ENODEV, which said *No such device* (with the random port it tried, for
+    port 0) until 2026-11-30: it is named an unknown host, as ``--foxglove`` names one."""
+    if exc.errno == errno.ENODEV:  # neither an address, a name nor an interface of ours
+        try:
+            socket.getaddrinfo(host, None)
+        except (OSError, UnicodeError) as lookup:
+            return InputError(f"--groot2 {given}: unknown host: {lookup}")
+    from zmq import strerror  # the reason alone (pyzmq's text adds the address tried)
+
+    return InputError(f"--groot2 {given}: cannot listen: {strerror(exc.errno)}")
 
 
 def _envelope(parts: Sequence[bytes]) -> list[bytes] | None:
