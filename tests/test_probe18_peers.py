@@ -43,3 +43,22 @@ def test_a_groot2_address_not_of_this_machine_names_no_random_port() -> None:
     assert (
         str(caught.value) == f"--groot2 {NOT_OURS}: cannot listen: Cannot assign requested address"
     )
+
+
+@pytest.mark.parametrize(
+    ("host", "says"), [(UNKNOWN_HOST, "unknown host: "), (NOT_OURS, "cannot listen: ")]
+)
+def test_a_foxglove_server_on_port_0_where_it_cannot_listen_is_one_clear_line(
+    host: str, says: str
+) -> None:
+    """With a given port the host was checked before the server's process started;
+    with port 0 it was not, and the SDK's error came back wrapped:
+    ``cannot start the server: RuntimeError: FoxgloveError: Failed to bind port: ...``."""
+    pytest.importorskip("foxglove")
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+
+    with pytest.raises(InputError) as caught:
+        FoxgloveServer(host, 0)
+    message = str(caught.value)
+    assert message.startswith(f"--foxglove {host}:0: {says}")
+    assert "RuntimeError" not in message and "FoxgloveError" not in message

@@ -89,9 +89,12 @@ _SCRIPT = Path(foxglove_process.__file__).resolve()
 
 
 def _port_free(host: str, port: int) -> None:
-    """Raise a clear error when ``host:port`` cannot be listened on (the SDK's is vague)."""
-    if port == 0:
-        return
+    """Raise a clear error when ``host:port`` cannot be listened on (the SDK's is vague).
+
+    Port 0 too: the host is looked up and an address of this machine asked for (until
+    2026-11-30 an unknown host or an address not ours with port 0 started the server's
+    process and said ``cannot start the server: RuntimeError: FoxgloveError: Failed to
+    bind port: ...``)."""
     try:
         infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
     except OSError as exc:
