@@ -14,6 +14,9 @@
   guarded nothing; ``eternal_guard`` with ``conditions: []`` was already refused.
 - A file of two YAML documents (``---`` between two trees) was "YAML syntax error: but
   found another document": half of PyYAML's sentence, and the syntax is fine.
+- A subtree named ``grip.yaml`` (or ``a#b``) loaded clean, though no ``ref`` can call it:
+  ``ref: grip.yaml`` is the file of that name (the named subtree silently never used, or
+  *subtree file 'grip.yaml' not found* beside a tree of that very name).
 """
 
 from __future__ import annotations
@@ -104,4 +107,24 @@ def test_a_stream_of_two_documents_is_said_so_not_a_syntax_error(
     tree.write_text("root: success\n---\nroot: failure\n", encoding="utf-8")
     assert _validate(capsys, tree) == [
         f"{tree}:2:1: a second YAML document (after '---'): a file holds one"
+    ]
+
+
+def test_a_subtree_name_no_ref_can_name_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "grip.yaml").write_text("root: success\n", encoding="utf-8")
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root: {type: subtree, ref: grip.yaml}\n"
+        "subtrees:\n"
+        "  grip.yaml: {root: failure}\n"
+        "  'a#b': {root: failure}\n"
+        "  ok: {root: success}\n",
+        encoding="utf-8",
+    )
+    lines = _validate(capsys, tree)
+    assert [line.split(": no ref")[0] for line in lines] == [
+        f"{tree}:3:3: subtree name 'grip.yaml'",
+        f"{tree}:4:3: subtree name 'a#b'",
     ]

@@ -257,6 +257,14 @@ class _FileReader:
             for key in subtrees:
                 if not isinstance(key, str):
                     self.error(doc, ("subtrees", str(key)), f"subtree name {key!r} must be text")
+                elif not key or "#" in key or key.endswith((".yaml", ".yml")):
+                    # a ref of it would name a file (x.yaml, x.yaml#t) or nothing: never it
+                    self.error(
+                        doc,
+                        ("subtrees", key),
+                        f"subtree name {shown(key)}: no ref can name it (a ref with '#' or"
+                        " ending .yaml or .yml names a file); rename it",
+                    )
         self.board(doc, data.get("blackboard", {}))
         return True
 
