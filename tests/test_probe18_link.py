@@ -25,6 +25,7 @@ from pirate_bt.link.codec import (
     MsgType,
     State,
 )
+from pirate_bt.link.faults import split_fault_url
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.transport import Transport
 
@@ -193,3 +194,19 @@ def test_the_vectors_writer_refuses_what_is_not_one_file_in_one_line(
     assert sorted(p.name for p in tmp_path.iterdir()) == []
     assert vectors.main(["v.json"]) == 0
     assert (tmp_path / "v.json").read_text() == vectors.dumps(ROBOT)
+
+
+@pytest.mark.parametrize("twice", ["faults=dup=0.2", "fault_seed=3&fault_seed=4"])
+def test_a_fault_option_given_twice_in_the_port_url_is_refused(
+    twice: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--port 'loop://?faults=drop=0.1&faults=dup=0.2'` rehearsed with dup=0.2 only:
+    the last `faults=` silently replaced the first (and the last `fault_seed=` the
+    first), so a run asked to lose frames lost none."""
+    url = f"loop://?faults=drop=0.1&{twice}"
+    key = twice.partition("=")[0]
+    with pytest.raises(InputError, match=rf"^faults: {key}= is given twice in the port URL"):
+        split_fault_url(url)
+    code = main(["run", STRAIGHT, "--param", "distance=0.1m", "--quiet", "--port", url])
+    assert code == 2
+    assert capsys.readouterr().err.startswith(f"pirate-bt: faults: {key}= is given twice")

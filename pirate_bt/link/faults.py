@@ -159,7 +159,8 @@ def split_fault_url(url: str) -> tuple[str, FaultSpec | None]:
         The URL for pyserial and the fault spec (``None`` if none was given).
 
     Raises:
-        InputError: the fault spec is malformed.
+        InputError: the fault spec is malformed, or ``faults`` or ``fault_seed`` is
+            given twice.
     """
     base, sep, query = url.partition("?")
     if not sep:
@@ -169,6 +170,12 @@ def split_fault_url(url: str) -> tuple[str, FaultSpec | None]:
     seed: str | None = None
     for part in query.split("&"):
         key, _, value = part.partition("=")
+        if key in ("faults", "fault_seed") and (spec_text if key == "faults" else seed) is not None:
+            # the last one silently won: faults=drop=0.1&faults=dup=0.2 dropped nothing
+            raise InputError(
+                f"faults: {key}= is given twice in the port URL; give it once"
+                " (faults=drop=0.1,dup=0.2: the faults joined by commas)"
+            )
         if key == "faults":
             spec_text = urllib.parse.unquote(value)
         elif key == "fault_seed":
