@@ -153,3 +153,24 @@ def test_an_unmapped_turn_before_any_fix_names_the_maps_segment(tmp_path: Any) -
     assert result.status == "failure" and result.safe_state
     assert "deg at 1.76 m (believed, 0.26 m into 'c'), where the map has no turn" in result.why
     assert result.counters.violations == 0
+
+
+def test_a_line_that_ends_short_of_the_map_is_said_when_taken_for_the_end(
+    tmp_path: Any,
+) -> None:
+    # 'forward to the end' on a line built 1 m shorter than drawn: blocked at the real
+    # end and accepted there (a success, docs/missions.md known limits), with nothing
+    # said of the map's extra metre
+    drawn = _net("drawn", {"id": "a", "type": "straight", "length": "4 m"})
+    built = _net("built", {"id": "a", "type": "straight", "length": "3 m"})
+    route = tmp_path / "end.route"
+    route.write_text("network drawn\nforward to the end\n", encoding="utf-8")
+    result = pirate_bt.simulate_mission(str(route), network=drawn, truth=built)
+    assert result.status == "success", result.why
+    assert result.map_notes == [
+        "the line ended (blocked) at 3.00 m (believed, 3.00 m into 'a'), 1.00 m before the"
+        " map's end of it at 4.00 m: taken for its end (the pipe ends nearer than drawn, or"
+        " turns where the map does not have it?)"
+    ]
+    exact = pirate_bt.simulate_mission(str(route), network=drawn, truth=drawn)
+    assert exact.status == "success" and exact.map_notes == []

@@ -59,6 +59,7 @@ from pirate_bt.task.plan import (
 )
 from pirate_bt.task.slope_watch import SlopeWatch
 from pirate_bt.task.tree import mission_tree_spec
+from pirate_bt.task.where_believed import ended_short
 from pirate_bt.trace.attach import counter_values
 from pirate_bt.trace.coverage import attach_coverage
 
@@ -268,6 +269,16 @@ def run_mission(
 
     found_s: list[float | None] = [None]  # when the localiser found its mismatch
 
+    def check_blocked(time_s: float, cut: ShortLeg | None) -> None:
+        """A leg ended blocked: a disagreement, or the end of the line (said when that
+        is short of the map's end)."""
+        localiser.blocked(time_s, cut)
+        if localiser.mismatch is None and cut is not None and cut.to_end:
+            args = (localiser.fixes, localiser.since_fix_m, plan.path, localiser.belief_m)
+            note = ended_short(*args, plan.contract.end_margin_m)
+            if note is not None:
+                slopes.notes.append(note)
+
     def noticed() -> None:
         if localiser.mismatch is not None and found_s[0] is None:
             found_s[0] = clock.now()
@@ -285,9 +296,7 @@ def run_mission(
         if name is not None and name != current[0]:
             ended = running[0]
             if ended is not None and _stopped_blocked(ended, pabs.get(ended.name)):
-                localiser.blocked(
-                    state.stamp_s if state is not None else now, _cut(ended, plan, legs)
-                )
+                check_blocked(state.stamp_s if state is not None else now, _cut(ended, plan, legs))
             timeline.append(TimelineEntry(now, name, localiser.belief_m, localiser.truth_m))
             start_leg(name)
             running[0] = child
@@ -343,7 +352,7 @@ def run_mission(
             # starts (a pipe that ends where the map has it go on is no success).
             state = supervisor.state()
             time_s = state.stamp_s if state is not None else clock.now() - start_s
-            localiser.blocked(time_s, _cut(last, plan, legs))
+            check_blocked(time_s, _cut(last, plan, legs))
             if localiser.mismatch is not None:
                 supervisor.safe_state(localiser.mismatch)
                 result = replace(

@@ -26,3 +26,23 @@ def after_fix(fixes: Sequence[Fix], since_fix_m: float, path: PipePath, belief_m
     piece = path.piece_at(belief_m)
     into_m = min(max(belief_m - piece.start_m, 0.0), piece.end_m - piece.start_m)
     return f", {into_m:.2f} m into {piece.segment!r}"
+
+
+def ended_short(
+    fixes: Sequence[Fix], since_fix_m: float, path: PipePath, belief_m: float, margin_m: float
+) -> str | None:
+    """The note of a leg blocked short of the map's end of the line and taken for the
+    end (a block within the localiser's reach of it is accepted there, a success), or
+    ``None`` when it stopped within ``margin_m`` (+ 0.10 m) of where the leg was to
+    stop. The mission said nothing of it: *mission completed*, with the map's line a
+    metre longer than the pipe."""
+    end_m = path.length_m
+    short_m = end_m - margin_m - belief_m
+    if short_m <= 0.10:
+        return None
+    return (
+        f"the line ended (blocked) at {belief_m:.2f} m (believed"
+        f"{after_fix(fixes, since_fix_m, path, belief_m)}), {end_m - belief_m:.2f} m before"
+        f" the map's end of it at {end_m:.2f} m: taken for its end (the pipe ends nearer"
+        " than drawn, or turns where the map does not have it?)"
+    )
