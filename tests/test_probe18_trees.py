@@ -17,6 +17,8 @@
 - A subtree named ``grip.yaml`` (or ``a#b``) loaded clean, though no ``ref`` can call it:
   ``ref: grip.yaml`` is the file of that name (the named subtree silently never used, or
   *subtree file 'grip.yaml' not found* beside a tree of that very name).
+- A tab in a tree's indentation, or a value starting with ``@`` or a backquote, was
+  "YAML syntax error: found character that cannot start any token", naming no character.
 """
 
 from __future__ import annotations
@@ -128,3 +130,16 @@ def test_a_subtree_name_no_ref_can_name_is_refused(
         f"{tree}:3:3: subtree name 'grip.yaml'",
         f"{tree}:4:3: subtree name 'a#b'",
     ]
+
+
+def test_a_tab_or_a_reserved_character_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tab = tmp_path / "tab.yaml"
+    tab.write_text("root:\r\n\ttype: success\r\n", encoding="utf-8")
+    at = tmp_path / "at.yaml"
+    at.write_text("\ufeffroot: {type: é, message: @x}\n", encoding="utf-8")
+    assert _validate(capsys, tab) == [
+        f"{tab}:2:1: YAML syntax error: a tab, where YAML indents with spaces"
+    ]
+    assert _validate(capsys, at) == [f"{at}:1:26: YAML syntax error: '@' cannot start a value"]

@@ -456,6 +456,11 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
             said = f"values nested deeper than {MAX_DEPTH} levels"
         elif problem == "but found another document":  # a stream of two: valid YAML
             said = "a second YAML document (after '---'): a file holds one"
+        elif problem == "found character that cannot start any token":  # libyaml: which?
+            lines = text.removeprefix("\ufeff").splitlines()
+            row = lines[where.line - 1] if 0 < (where.line or 0) <= len(lines) else ""
+            char = row[where.column - 1 : where.column] if where.column else ""
+            said = f"YAML syntax error: {_TOKEN_START.get(char, f'{char!r} cannot start a value')}"
         raise ValidationFailed([LocatedError(said, where)]) from None
     except yaml.reader.ReaderError as exc:
         # a character YAML does not allow (a control character): PyYAML has no mark for
@@ -499,6 +504,10 @@ def _unknown_tag(problem: str) -> str | None:
         f"YAML tag {shown(tag)} is not known here: a value is text, a number, a boolean, a"
         " list or a mapping, with no tag but YAML's own (!!str, !!int, !!float, !!bool)"
     )
+
+
+_TOKEN_START = {"\t": "a tab, where YAML indents with spaces", "": "a character cannot start here"}
+"""What libyaml's *found character that cannot start any token* found, in words."""
 
 
 def _place(file: str, text: str, line: int, column: int) -> SourceLocation:
