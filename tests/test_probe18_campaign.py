@@ -218,3 +218,27 @@ def test_a_reason_with_a_hash_of_its_own_does_not_break_the_report(tmp_path: Pat
     report = (tmp_path / "report.md").read_text()
     assert "- 2 × RuntimeError in top/exploder: item 3–4 missing\n" in report
     assert "- 1 × RuntimeError in top/exploder: item # missing\n" in report
+
+
+def test_a_resume_counts_the_rows_it_keeps_in_its_line_and_its_bar(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A resume of 3 cases with 1 done said "3 cases on ..." and its bar ended at
+    # "2/3 ... ok 2" with every case done: the kept rows were counted nowhere.
+    spec = {
+        "name": "r",
+        "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+        "seeds": {"count": 3},
+        "max_time": "60 s",
+    }
+    out = tmp_path / "out"
+    run_campaign(spec, workers=1, output=out)
+    results = out / "results.jsonl"
+    results.write_text(results.read_text().splitlines(keepends=True)[0])
+    capsys.readouterr()
+    said: list[str] = []
+    result = run_campaign(spec, workers=1, output=out, resume=True, progress=True, echo=said.append)
+    assert result.counts["success"] == 3
+    assert said == [f"campaign r: 3 cases (1 done, 2 to run) on 1 local worker -> {out}"]
+    bar = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert "| 3/3 [" in bar and bar.endswith("ok 3 safe 0 err 0 t/o 0]")

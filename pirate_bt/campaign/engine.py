@@ -304,7 +304,7 @@ _RESUME_OTHER = (
 
 def check_output(
     output: Path, resume: bool = False, cases: list[dict[str, Any]] | None = None
-) -> None:
+) -> list[dict[str, Any]]:
     """Make the output folder (if missing) and check that it can take this campaign's rows.
 
     Called before any worker starts, so that a bad ``--output`` costs nothing. It
@@ -320,8 +320,11 @@ def check_output(
         InputError: ``output`` is a file, or cannot be made; its results file is
             not a file; it holds any line and ``resume`` is off; with ``resume``,
             it holds a row that is not one of ``cases``.
+
+    Returns:
+        The rows there already that the campaign keeps (with ``resume``), else none.
     """
-    _check_output(output, resume, cases, quiet=True)
+    return _check_output(output, resume, cases, quiet=True)
 
 
 def _check_output(

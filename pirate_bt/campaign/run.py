@@ -483,6 +483,7 @@ def run_campaign(
     cases, inputs = _checked(model, source.base, max_cases)
     folder = Path(output) if output is not None else None
     start = Start(timeout_s, None)
+    before: list[dict[str, Any]] = []  # the rows a resume keeps
     # the folders this call makes are taken away again if it fails before writing in
     # them (a scheduler nobody answers left an empty campaign-NAME/ behind)
     undone = new_folders_undone(folder) if folder is not None else nullcontext()
@@ -492,7 +493,7 @@ def run_campaign(
             # one campaign at a time in a folder: two started together both passed the
             # check above and one's rows were lost; checked again once it is ours
             lock.enter_context(campaign_lock(folder))
-            check_output(folder, resume, cases)
+            before = check_output(folder, resume, cases)
             # resumed: the inputs and the case timeout it started with (started.py)
             spec_timeout_s = model.quantity("case_timeout", "time")
             start = begin(folder, resume, inputs, model.name, spec_timeout_s, timeout_s)
@@ -502,7 +503,7 @@ def run_campaign(
         return _run(
             model, cases, count, folder, resume, workers, executor, scheduler,
             scheduler_file, reach_s, command, spec, echo, progress, on_record, target, started,
-            start.record,
+            start.record, before,
         )  # fmt: skip
 
 
@@ -510,14 +511,16 @@ def _run(
     model: Any, cases: list[dict[str, Any]], count: int, folder: Path | None, resume: bool,
     workers: int | None, executor: Any, scheduler: Any, scheduler_file: Any, reach_s: float,
     command: str | None, spec: Any, echo: Any, progress: bool, on_record: Any, target: Any,
-    started: float, record: dict[str, Any] | None,
+    started: float, record: dict[str, Any] | None, before: list[dict[str, Any]],
 ) -> CampaignResult:  # fmt: skip
     """:func:`run_campaign` once its arguments are checked and its folder is its own;
-    ``record``, when given, is written as the cases start (a folder first written)."""
+    ``record``, when given, is written as the cases start (a folder first written);
+    ``before``, the rows a resume keeps (the bar and the line count them as done)."""
     if command is None and isinstance(spec, (str, os.PathLike)):
         command = f"pirate-bt campaign {shlex.quote(str(spec))}"
         command += f" --workers {workers}" if workers else ""
-    counts: Counter[str] = Counter()
+    # a resume's bar ended at 6/10 with "ok 6" when all 10 were done: count the kept rows
+    counts: Counter[str] = Counter(str(row.get("outcome")) for row in before)
     local = min(workers, max(count, 1)) if workers is not None else None  # no idle processes
     where = (
         _given(executor)
@@ -528,23 +531,37 @@ def _run(
     )
     with where as (pool, what):
         if echo is not None:
+            done = f" ({len(before)} done, {count - len(before)} to run)" if before else ""
             echo(
-                f"campaign {model.name}: {count} cases on {what} -> {folder or 'no output folder'}"
+                f"campaign {model.name}: {count} cases{done} on {what}"
+                f" -> {folder or 'no output folder'}"
             )
         from tqdm import tqdm
 
-        bar: Any = tqdm(total=count, unit="case", file=sys.stderr, disable=not progress, ncols=100)
+        bar: Any = tqdm(
+            total=count,
+            initial=len(before),
+            unit="case",
+            file=sys.stderr,
+            disable=not progress,
+            ncols=100,
+        )
 
-        def keep(row: dict[str, Any]) -> None:
-            counts[str(row.get("outcome"))] += 1
-            bar.update(1)
+        def show() -> None:
             bar.set_postfix_str(
                 f"ok {counts['success']} safe {counts['failed-safe']}"
                 f" err {counts['error']} t/o {counts['timeout']}",
                 refresh=False,
             )
+
+        def keep(row: dict[str, Any]) -> None:
+            counts[str(row.get("outcome"))] += 1
+            bar.update(1)
+            show()
             if on_record is not None:
                 on_record(row)
+
+        show()
 
         if folder is not None and record is not None:
             write_record(folder, record)  # here: a scheduler that never answered wrote nothing
