@@ -174,3 +174,46 @@ def test_a_line_that_ends_short_of_the_map_is_said_when_taken_for_the_end(
     ]
     exact = pirate_bt.simulate_mission(str(route), network=drawn, truth=drawn)
     assert exact.status == "success" and exact.map_notes == []
+
+
+class _Says:
+    def __init__(self, answer: Any) -> None:
+        self.answer = answer
+
+    def check_map(self, network: Any) -> Any:
+        return self.answer
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        return None
+
+
+class _AsyncCheck:
+    async def check_map(self, network: Any) -> None:
+        raise ValueError("never runs")
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        return None
+
+
+def test_a_check_map_that_returns_false_refuses_the_map(monkeypatch: pytest.MonkeyPatch) -> None:
+    # was: its answer was never read, and the navigation ran on the map it refused
+    _no_connect(monkeypatch)
+    with pytest.raises(InputError) as refused:
+        pirate_bt.navigate(_Says(False), map="straight")
+    assert str(refused.value) == (
+        "navigator '_Says': check_map returned False: the map is refused (raise ValueError"
+        " with the reason to say why)"
+    )
+
+
+def test_an_async_check_map_is_refused_not_skipped(monkeypatch: pytest.MonkeyPatch) -> None:
+    # was: the coroutine was never awaited (a RuntimeWarning), the check never ran
+    _no_connect(monkeypatch)
+    with pytest.raises(InputError, match="check_map is async def, and its check never ran"):
+        pirate_bt.navigate(_AsyncCheck(), map="straight")
+
+
+@pytest.mark.parametrize("answer", [None, True, "fine"])
+def test_a_check_map_that_returns_anything_else_lets_the_map_be(answer: Any) -> None:
+    result = pirate_bt.navigate(_Says(answer), map="straight")
+    assert result.status == "success", result.why

@@ -337,15 +337,16 @@ def check_navigator_map(
         return
     try:
         if deadline_s is None:
-            check_map(network)
+            answer = check_map(network)
         else:
-            done, _, raised = call_within(
+            done, answer, raised = call_within(
                 lambda: check_map(network), deadline_s, f"check_map {name}"
             )
             if not done:
                 raise InputError(f"check_map took longer than its {deadline_s:g} s deadline")
             if raised is not None:
                 raise raised
+        _check_answer(answer)
     except (ValueError, TypeError, InputError) as exc:
         if not isinstance(exc, InputError) and not raised_on_purpose(exc):
             # Python's own error on a line of the check (a bug: 'x' in self.method),
@@ -365,6 +366,27 @@ def check_navigator_map(
             f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
             + (f" (at {where})" if where else "")
         ) from None
+
+
+def _check_answer(answer: object) -> None:
+    """What a ``check_map`` returned: ``False`` refuses the map (it was ignored, and the
+    navigation ran on a map its navigator had said no to), and a coroutine (an
+    ``async def`` check, never awaited) is refused as one that checked nothing."""
+    import inspect
+
+    if inspect.isawaitable(answer):
+        close = getattr(answer, "close", None)
+        if callable(close):
+            close()  # no 'coroutine was never awaited' warning
+        raise InputError(
+            "check_map is async def, and its check never ran; write it as a plain def"
+            " that raises ValueError to refuse a map"
+        )
+    if answer is False:
+        raise InputError(
+            "check_map returned False: the map is refused (raise ValueError with the"
+            " reason to say why)"
+        )
 
 
 def _takes(factory: Callable[..., Any]) -> tuple[list[str], list[str]] | None:
