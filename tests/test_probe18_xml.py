@@ -181,3 +181,34 @@ def test_load_xml_tree_refuses_params_that_are_no_mapping_as_load_tree_does(
     source.write_text(_BODY)
     with pytest.raises(ArgumentTypeError, match=r"^params: give a mapping of names to values"):
         load_xml_tree(source, params=params)
+
+
+_UNREACHABLE = """\
+<root BTCPP_format="4">
+  <BehaviorTree ID="M">
+    <ReactiveFallback>
+      <AlwaysSuccess name="first"/>
+      <AlwaysFailure name="never"/>
+    </ReactiveFallback>
+  </BehaviorTree>
+</root>
+"""
+
+
+def test_the_loaders_warnings_about_an_xml_tree_name_the_xml_element(
+    tmp_path: Path, capsys: Any, caplog: Any
+) -> None:
+    # A child that can never run was warned about at the temporary YAML file the XML
+    # was converted to (/tmp/pirate-bt-xml-.../in.yaml:8:5, or .in.x1y2.yaml beside the
+    # output), a file gone by the time the user reads the line.
+    source = tmp_path / "in.xml"
+    source.write_text(_UNREACHABLE)
+    with caplog.at_level("WARNING", logger="pirate_bt.treefile"):
+        loaded = load_xml_tree(source)
+        assert main(["import", "btcpp", str(source), "-o", str(tmp_path / "t.yaml")]) == 0
+    capsys.readouterr()
+    said = [record.getMessage() for record in caplog.records]
+    assert len(said) == 2
+    for message in said:
+        assert message.startswith(f"{source}:5:7: warning: 'never' can never run")
+    assert [str(w.location) for w in loaded.warnings] == [f"{source}:5:7"]

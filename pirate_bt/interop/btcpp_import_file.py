@@ -6,10 +6,11 @@ Re-exported by :mod:`pirate_bt.interop.btcpp`.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -44,6 +45,15 @@ def _in_xml(
 ) -> list[LocatedError]:
     """The loader's errors about the converted YAML, each at the XML element it came
     from (the element of the node, subtree or parameter the YAML place is part of)."""
+    place = _placer(yaml_file, where)
+    return [place(error) for error in errors]
+
+
+def _placer(
+    yaml_file: Path, where: dict[tuple[str | int, ...], SourceLocation]
+) -> Callable[[LocatedError], LocatedError]:
+    """What places one of the loader's errors or warnings about the converted YAML at
+    its XML element (:func:`_in_xml`); the YAML is read once, here."""
     from pirate_bt.yamlfile import load_yaml
 
     try:
@@ -70,16 +80,69 @@ def _in_xml(
         target = in_xml(int(match[1]), int(match[2]))
         return str(target) if target is not None else match[0]
 
-    out: list[LocatedError] = []
-    for error in errors:
+    converted = yaml_file.resolve()
+
+    def placed(error: LocatedError) -> LocatedError:
         loc = error.location
         message = mentioned.sub(mention, error.message)
-        if loc is None or Path(loc.file).resolve() != yaml_file.resolve():
-            out.append(LocatedError(message, loc) if message != error.message else error)
-            continue
+        if loc is None or Path(loc.file).resolve() != converted:
+            return LocatedError(message, loc) if message != error.message else error
         target = in_xml(loc.line or 1, loc.column or 1)
-        out.append(LocatedError(message, target if target is not None else loc))
-    return out
+        return LocatedError(message, target if target is not None else loc)
+
+    return placed
+
+
+class _WarningsInXml(logging.Filter):
+    """Places the tree loader's logged warnings about the converted YAML at their XML
+    elements (they named the temporary file, gone once the call returns)."""
+
+    def __init__(self, yaml_file: Path, where: dict[tuple[str | int, ...], SourceLocation]):
+        super().__init__()
+        self.yaml_file = yaml_file
+        self.where = where
+        self.place: Callable[[LocatedError], LocatedError] | None = None
+
+    def placed(self, warning: LocatedError) -> LocatedError:
+        if self.place is None:  # the YAML is read at the first warning, if there is one
+            self.place = _placer(self.yaml_file, self.where)
+        return self.place(warning)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        args = record.args
+        if isinstance(args, tuple) and any(self._ours(a) for a in args):
+            record.args = tuple(
+                self.placed(a) if isinstance(a, LocatedError) and self._ours(a) else a for a in args
+            )
+        return True
+
+    def _ours(self, arg: object) -> bool:
+        """``arg`` is an error naming the converted file (not another thread's)."""
+        return isinstance(arg, LocatedError) and str(self.yaml_file) in str(arg)
+
+
+def _load_placed(
+    yaml_file: Path, where: dict[tuple[str | int, ...], SourceLocation], **kwargs: Any
+) -> LoadedTree:
+    """:func:`pirate_bt.treefile.load_tree` of the converted ``yaml_file``, each error
+    and warning (logged and kept) at its XML element.
+
+    Raises:
+        ValidationFailed: the tree does not load, each problem at its XML element.
+    """
+    from pirate_bt.treefile import load_tree
+
+    logger = logging.getLogger("pirate_bt.treefile")
+    placing = _WarningsInXml(yaml_file, where)
+    logger.addFilter(placing)
+    try:
+        loaded = load_tree(yaml_file, **kwargs)
+    except ValidationFailed as exc:
+        raise ValidationFailed(_in_xml(exc.errors, yaml_file, where)) from None
+    finally:
+        logger.removeFilter(placing)
+    loaded.warnings = [placing.placed(warning) for warning in loaded.warnings]
+    return loaded
 
 
 class _Dumper(yaml.SafeDumper):
@@ -184,8 +247,6 @@ def _write_loaded(
         InputError: the file cannot be written.
         ValidationFailed: the tree does not load (each problem at its XML element).
     """
-    from pirate_bt.treefile import load_tree
-
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(
@@ -197,10 +258,7 @@ def _write_loaded(
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             stream.write(text)
-        try:
-            load_tree(tmp, robot=robot, use_examples=True, registry=registry)
-        except ValidationFailed as exc:
-            raise ValidationFailed(_in_xml(exc.errors, tmp, where)) from None
+        _load_placed(tmp, where, robot=robot, use_examples=True, registry=registry)
         mask = os.umask(0o022)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
@@ -247,7 +305,6 @@ def load_xml_tree(
     """
     from pirate_bt.robot.description import RobotDescription
     from pirate_bt.robot.loader import load_robot
-    from pirate_bt.treefile import load_tree
 
     source = file_argument(xml_path, "xml_path")
     given = None if params is None else _params_mapping(params)  # as load_tree refuses it
@@ -258,16 +315,14 @@ def load_xml_tree(
         # named as the XML (a tree without a name takes its file's), cut to a legal name
         converted = Path(folder) / f"{cut_name(source.stem, 250)}.yaml"
         converted.write_text(text, encoding="utf-8")
-        try:
-            return load_tree(
-                converted,
-                robot=description,
-                params=given,
-                params_from_text=params_from_text,
-                params_origin=params_origin,
-                use_examples=use_examples,
-                registry=reg,
-                **options,
-            )
-        except ValidationFailed as exc:
-            raise ValidationFailed(_in_xml(exc.errors, converted, where)) from None
+        return _load_placed(
+            converted,
+            where,
+            robot=description,
+            params=given,
+            params_from_text=params_from_text,
+            params_origin=params_origin,
+            use_examples=use_examples,
+            registry=reg,
+            **options,
+        )
