@@ -6,6 +6,12 @@ ROS 2 node, MCAP and rosbag2 readers) and as the user who starts the servers.
 
 from __future__ import annotations
 
+import json
+import logging
+import socket
+import time
+from typing import Any
+
 import pytest
 
 from pirate_bt.errors import InputError
@@ -62,3 +68,52 @@ def test_a_foxglove_server_on_port_0_where_it_cannot_listen_is_one_clear_line(
     message = str(caught.value)
     assert message.startswith(f"--foxglove {host}:0: {says}")
     assert "RuntimeError" not in message and "FoxgloveError" not in message
+
+
+def _wait(predicate: Any, timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.05)
+    return bool(predicate())
+
+
+@pytest.mark.xdist_group("real-time")
+def test_a_ros2_node_that_reaches_no_router_says_so_and_says_when_it_does(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A run whose Zenoh router was not there said ``ROS 2 node /pirate/pirate_bt on
+    Zenoh tcp/...`` and nothing more: nobody saw it, nobody's e-stop reached it, and the
+    log had no word of it. It now says so, and says when a router is reached at last."""
+    zenoh = pytest.importorskip("zenoh")
+    from pirate_bt.interop.ros2_node import Ros2Node
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = int(probe.getsockname()[1])
+    caplog.set_level(logging.WARNING, logger="pirate_bt.interop.ros2_node")
+    node = Ros2Node(f"tcp/127.0.0.1:{port}")
+    router = None
+    try:
+        assert node.wait_ready(10.0)
+        assert _wait(lambda: not node.reached, 10.0)
+        lost = [r.getMessage() for r in caplog.records if "no Zenoh router" in r.getMessage()]
+        assert lost == [
+            f"ROS 2: no Zenoh router or peer reached at tcp/127.0.0.1:{port} (still trying):"
+            " the graph does not see this run, and /pirate/estop does not reach it"
+        ]
+        config = zenoh.Config()
+        for key, value in (
+            ("mode", "router"),
+            ("listen/endpoints", [f"tcp/127.0.0.1:{port}"]),
+            ("scouting/multicast/enabled", False),
+        ):
+            config.insert_json5(key, json.dumps(value))
+        router = zenoh.open(config)
+        assert _wait(lambda: node.reached, 20.0)
+        assert any("reached a Zenoh router" in r.getMessage() for r in caplog.records)
+    finally:
+        node.close()
+        if router is not None:
+            router.close()

@@ -44,6 +44,7 @@ from pirate_bt.interop.ros2_option import (
     parse_endpoint,
 )
 from pirate_bt.interop.ros2_process import BOOL, CLOSED, FAILED, FLUSHED, OFF, READY, WARN
+from pirate_bt.interop.ros2_reach import REACH
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
@@ -189,6 +190,9 @@ class Ros2Node:
         """The CPU time the publishing process spent (known once it is closed)."""
         self.failure: tuple[str, str] | None = None
         """``(kind, text)`` when the publishing process could not set up (see ``FAILED``)."""
+        self.reached = True
+        """False while the node's session reaches no Zenoh router or peer (said in the
+        log; see :mod:`~pirate_bt.interop.ros2_reach`)."""
         self._supervisors: list[Any] = []
         self._ready = threading.Event()
         self._lock = threading.Lock()
@@ -301,6 +305,20 @@ class Ros2Node:
             self.enabled = False
             logger.error("ROS 2 output: %s; it is switched off", message[1])
             self._ready.set()
+        elif kind == REACH:
+            self.reached = bool(message[1])
+            if self.reached:
+                logger.warning(
+                    "ROS 2: reached a Zenoh router or peer at %s: the graph sees this run",
+                    self.endpoint,
+                )
+            else:
+                logger.warning(
+                    "ROS 2: no Zenoh router or peer reached at %s (still trying): the graph"
+                    " does not see this run%s",
+                    self.endpoint,
+                    f", and {self.fq_estop} does not reach it" if self.estop is not None else "",
+                )
         elif kind == WARN:
             logger.warning("ROS 2: %s; ignored", message[1])
         elif kind == OFF:

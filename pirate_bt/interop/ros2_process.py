@@ -40,6 +40,8 @@ to the run's process (standard output)
     process publishes nothing more, the e-stop subscription stays);
     ``(WARN, text)`` for something the run's log should say (a message on the
     e-stop topic too short to read);
+    ``(REACH, reached)`` when the session reaches no router or peer a moment after
+    it opened, and whenever that changes (:mod:`~pirate_bt.interop.ros2_reach`);
     ``(FLUSHED, token, published)``; ``(CLOSED, published, cpu_s)`` last, with
     the CPU time the process spent (all its threads, Zenoh's included).
 
@@ -82,6 +84,7 @@ if not __package__:  # run as the publishing process's script
 
 from pirate_bt.interop import rmw_zenoh
 from pirate_bt.interop.process_pipe import PipeOutput
+from pirate_bt.interop.ros2_reach import ReachWatch
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES, TREE, Frame, Ros2Mapper, TreeShape
 from pirate_bt.interop.ros2_types import dds_type_name, type_hash
 
@@ -522,11 +525,14 @@ def main(argv: Sequence[str]) -> int:
         node.close()
         return 1
     out.send((READY, node.session_id))
+    watch = ReachWatch(session, out)
+    watch.start()
     try:
         wake_fd = int(config["wake_fd"])
         for batch in _batches(sys.stdin.fileno(), wake_fd, float(config["poll_s"])):
             node.handle(batch)
     finally:
+        watch.stop()
         node.close()
         out.send((CLOSED, node.published, time.process_time()))
     return 0
