@@ -41,6 +41,12 @@ def test_both_elfs_say_which_description_they_were_built_for(elfs: tuple[Path, P
     for elf in elfs:
         assert elf_layout_digest(elf) == want, elf
     assert elf_layout_digest(elfs[0].with_suffix(".hex")) is None  # no ELF: says nothing
+    for elf in elfs:  # in the ELF only: the chip's image (and the sizes) do not change
+        headers = subprocess.run(
+            ["avr-objdump", "-h", str(elf)], capture_output=True, text=True, check=True
+        ).stdout.splitlines()
+        (at,) = (i for i, line in enumerate(headers) if " .pb_layout " in line)
+        assert "ALLOC" not in headers[at + 1], headers[at : at + 2]
 
 
 def test_sim_refuses_a_bridge_built_for_another_robot(elfs: tuple[Path, Path]) -> None:

@@ -5,17 +5,19 @@
 #include "robot_layout.h"
 
 #ifdef __AVR__
-#include <avr/pgmspace.h>
-#define PB_IN_FLASH PROGMEM __attribute__((used, externally_visible))
+/* a section the chip never gets: not allocated (the ';' ends the flags GCC would add:
+ * an AVR assembler comment), so neither the HEX, the sizes nor simavr's image change */
+#define PB_IN_ELF \
+    __attribute__((section(".pb_layout,\"\",@progbits ;"), used, externally_visible))
 #else
-#define PB_IN_FLASH __attribute__((used))
+#define PB_IN_ELF __attribute__((used))
 #endif
 
 /* The layout digest of the description this ELF was built for, under a symbol of its
- * own, in flash (4 bytes, no SRAM): a simulator reads it from the ELF and refuses to
- * put the firmware behind boards of another description (pirate-bt sim --firmware,
- * the chain), as a host's HELLO refuses it at connect time. Nothing reads it here. */
-const uint32_t pb_layout_digest PB_IN_FLASH = PB_LAYOUT_DIGEST;
+ * own, in the ELF only: a simulator reads it there and refuses to put the firmware
+ * behind boards of another description (pirate-bt sim --firmware, the chain), as a
+ * host's HELLO refuses it at connect time. Nothing reads it here. */
+const uint32_t pb_layout_digest PB_IN_ELF = PB_LAYOUT_DIGEST;
 
 static const struct pb_board boards[PB_N_BOARDS] = PB_BOARD_TABLE;
 #if PB_N_MOTORS > 0

@@ -1,9 +1,11 @@
 """Which robot description a firmware ELF was built for, read from the ELF itself.
 
 Both firmwares (``firmware/piratebay``, ``firmware/pico``) keep the layout digest of
-the description they were built for in flash under the symbol ``pb_layout_digest``
-(``robot_layout.c``). A simulator that puts an ELF behind boards of one description
-reads it here and refuses an ELF built for another, in one line, before anything runs:
+the description they were built for under the symbol ``pb_layout_digest``
+(``robot_layout.c``), in a section of the ELF that is not loaded: the chip never gets
+it, and the HEX and the sizes are those of a build without it. A simulator that puts
+an ELF behind boards of one description reads it here and refuses an ELF built for
+another, in one line, before anything runs:
 ``pirate-bt sim --firmware`` (:class:`~pirate_bt.sim.firmware_bridge.FirmwareBridge`)
 and the whole chain (:class:`~pirate_bt.sim.chain.FirmwareChain`). Until 2026-11-30 the
 bridge built for ``hardware/variants/pirate-long.yaml`` ran behind the default robot's
