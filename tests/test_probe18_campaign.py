@@ -18,6 +18,7 @@ from pirate_bt.campaign import load_campaign, run_campaign
 from pirate_bt.campaign.case import run_case
 from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.spec import campaign_from_data
+from pirate_bt.campaign.stats import group_stats
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 from pirate_bt.task import navigators
@@ -242,3 +243,34 @@ def test_a_resume_counts_the_rows_it_keeps_in_its_line_and_its_bar(
     assert said == [f"campaign r: 3 cases (1 done, 2 to run) on 1 local worker -> {out}"]
     bar = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
     assert "| 3/3 [" in bar and bar.endswith("ok 3 safe 0 err 0 t/o 0]")
+
+
+def test_the_report_keeps_a_failure_reason_whole(tmp_path: Path) -> None:
+    # Reasons were cut at 120 characters without a mark: the report said "where the
+    # map has no turn" of "... no turn and no end within 0.61 m", and two causes
+    # alike for their first 120 characters counted as one.
+    head = (
+        "belief and map disagree: the pipe blocked the robot at 3.30 m (believed, 0.90 m"
+        " after 'tee'), where the map has no turn"
+    )
+    reasons = [f"{head} and no end within 0.61 m", f"{head} nor a bend within 0.61 m"]
+    rows = [
+        {
+            "id": f"{index:06d}-0000000{index}",
+            "index": index,
+            "run": "r",
+            "route": "t-joint",
+            "outcome": "failed-safe",
+            "reason": reason,
+            "wall_time_s": 0.1,
+        }
+        for index, reason in enumerate(reasons)
+    ]
+    results = tmp_path / "results.jsonl"
+    results.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    assert main(["campaign", "report", str(results)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    for reason in reasons:
+        assert f"- 1 × {reason}\n" in report
+    (group,) = group_stats([{**rows[0], "reason": "x" * 5000}])
+    assert list(group.reasons) == ["x" * 999 + "…"]  # a bound, and marked

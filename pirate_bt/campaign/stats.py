@@ -78,6 +78,18 @@ class GroupStats:
         return wilson_interval(self.success, self.n)
 
 
+REASON_CHARS = 1000
+"""The most of a failure reason a group keeps (and the report shows): whole, as a rule.
+It kept 120 characters and cut the rest without a mark, so the report read *where the
+map has no turn* for *... has no turn and no end within 0.61 m*, and two causes that
+differ past the 120th character were counted as one."""
+
+
+def _cause(reason: Any) -> str:
+    text = str(reason)
+    return text if len(text) <= REASON_CHARS else text[: REASON_CHARS - 1] + "…"
+
+
 def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
     """Rows gathered by group, in the order groups first appear by case index."""
     groups: dict[str, GroupStats] = {}
@@ -101,7 +113,7 @@ def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
         if outcome == "success" and distance and row.get("sim_time_s") is not None:
             g.seconds_per_m.append(float(row["sim_time_s"]) / float(distance))
         if outcome != "success":
-            g.reasons[str(row.get("reason"))[:120]] += 1
+            g.reasons[_cause(row.get("reason"))] += 1
             if row.get("failing_node"):
                 g.nodes[str(row["failing_node"])] += 1
     return list(groups.values())
