@@ -217,3 +217,16 @@ def test_an_async_check_map_is_refused_not_skipped(monkeypatch: pytest.MonkeyPat
 def test_a_check_map_that_returns_anything_else_lets_the_map_be(answer: Any) -> None:
     result = pirate_bt.navigate(_Says(answer), map="straight")
     assert result.status == "success", result.why
+
+
+def test_a_straight_past_the_end_says_how_far_the_line_really_goes(tmp_path: Any) -> None:
+    # was: 'only 4.44 m of pipe are left before the end of the line', where 4.49 m are
+    # (obs.to_end_m() said so): the 4.44 m is what a straight may drive, 0.05 m short
+    route = tmp_path / "far.route"
+    route.write_text("network straight\nforward 50 m\n", encoding="utf-8")
+    with pytest.raises(InputError) as refused:
+        pirate_bt.plan_route(str(route))
+    assert str(refused.value).endswith(
+        "'forward 50 m' does not fit the network: only 4.44 m of pipe are left to drive"
+        " (the line ends 4.49 m ahead, in 'run', and a straight stops 0.05 m before its end)"
+    )

@@ -217,9 +217,11 @@ class _Walker:
                     if feature.start_m - self.s_m > step.distance_m
                     else f"within {step.distance_m:g} m",
                 )
+            margin = self.contract.end_margin_m  # the end itself was said to be that near
             raise LocatedError(
                 f"'{step.text}' does not fit the network: only {max(room, 0.0):.2f} m of pipe"
-                f" are left before the end of the line (in {self.line_name()!r})",
+                f" are left to drive (the line ends {max(room, 0.0) + margin:.2f} m ahead, in"
+                f" {self.line_name()!r}, and a straight stops {margin:.2f} m before its end)",
                 step.location,
             )
         self.straight(step, step.distance_m, f"{verb} {step.distance_m:g} m", inspect=inspect)
