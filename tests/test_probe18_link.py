@@ -6,14 +6,16 @@ frame should contain, forged frames with a good CRC.
 
 from __future__ import annotations
 
+import binascii
 import logging
+import struct
 from pathlib import Path
 
 import pytest
 from session_wire import LAYOUT, ROBOT, Peer, Wire, reply
 
 from pirate_bt.cli import main
-from pirate_bt.errors import InputError, LinkError
+from pirate_bt.errors import InputError, LinkError, ProtocolMismatch
 from pirate_bt.link import vectors
 from pirate_bt.link.codec import (
     Ack,
@@ -26,6 +28,8 @@ from pirate_bt.link.codec import (
     State,
 )
 from pirate_bt.link.faults import split_fault_url
+from pirate_bt.link.framing import cobs_encode
+from pirate_bt.link.inbound import BAD_STATES_BEFORE_MISMATCH
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.transport import Transport
 
@@ -210,3 +214,47 @@ def test_a_fault_option_given_twice_in_the_port_url_is_refused(
     code = main(["run", STRAIGHT, "--param", "distance=0.1m", "--quiet", "--port", url])
     assert code == 2
     assert capsys.readouterr().err.startswith(f"pirate-bt: faults: {key}= is given twice")
+
+
+# -- the close after a protocol mismatch -----------------------------------------------------
+
+
+def _mismatch(peer: Peer) -> None:
+    """Three STATE frames of another length (a good CRC): the session's protocol mismatch."""
+    body = bytes([1, int(MsgType.STATE), 9, 0, 0]) + bytes(LAYOUT.state_payload_bytes + 2)
+    frame = cobs_encode(body + struct.pack("<H", binascii.crc_hqx(body, 0))) + b"\x00"
+    peer.far.write(frame * BAD_STATES_BEFORE_MISMATCH)
+
+
+@pytest.mark.parametrize("answers", [True, False])
+def test_the_close_after_a_protocol_mismatch_waits_for_its_estop(
+    answers: bool, caplog: pytest.LogCaptureFixture
+) -> None:
+    """After a protocol mismatch (three STATE frames of another layout) the close's
+    e-stop went out but every wait raised the mismatch at once: its ACK, which reads
+    the same whatever the layout, was never read, and the close said *the e-stop sent
+    after it failed (<the mismatch>): the robot may still be moving*, the mismatch told
+    twice, for a bridge that had taken it. The close now reads the line on for the
+    e-stop's answer; unanswered, it names the mismatch once."""
+
+    def answer(msg: Message) -> list[Message]:
+        if isinstance(msg, EStop) and answers:
+            return [Ack(msg.seq, MsgType.ESTOP, AckStatus.APPLIED)]
+        return []
+
+    peer = Peer(answer)
+    link = RobotLink(ROBOT, peer.session())
+    _mismatch(peer)
+    with pytest.raises(ProtocolMismatch):
+        link.poll()
+    with caplog.at_level(logging.INFO):
+        link.close()
+    assert any(isinstance(m, EStop) for m in peer.seen)
+    if answers:
+        assert link.close_error is None
+        said = [r.getMessage() for r in caplog.records]
+        assert "the e-stop sent on close was acknowledged: the drives stopped" in said
+    else:
+        why = str(link.close_error)
+        assert why.count("STATE frames in a row of another layout") == 1, why
+        assert "and the e-stop sent after it was not answered either: the robot may" in why

@@ -24,8 +24,9 @@ from collections.abc import Collection, Sequence
 from operator import attrgetter
 from typing import Any
 
-from pirate_bt.errors import LinkError, LinkTimeout
+from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.away import BoardsAway
+from pirate_bt.link.closing import wait_for_estop
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
 from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.inbound import STATE_REFUSALS
@@ -507,7 +508,10 @@ class RobotLink:
             and bulk.outcome is Outcome.PENDING
         )
         try:
-            req = self.session.wait(self.session.estop())
+            req = wait_for_estop(self.session, self.session.estop())
+        except ProtocolMismatch as why:  # named once when the stop's cause too
+            said = "" if str(why) in str(stop_error) else f" ({why})"
+            estop = f"and the e-stop sent after it was not answered either{said}"
         except LinkError as why:
             estop = f"and the e-stop sent after it failed ({why})"
         else:

@@ -1,0 +1,45 @@
+"""The close's e-stop, waited for through the session's own protocol mismatch.
+
+A session that found the bridge speaking another protocol (``ProtocolMismatch``: three
+``STATE`` frames of another layout, an unknown ``ACK`` status for a request in flight,
+a refused new session) raises that error from every wait. The e-stop a
+:meth:`RobotLink.close <pirate_bt.link.robot_link.RobotLink.close>` sends then went out
+but was never waited for: its ``ACK``, which reads the same whatever the layout, was
+not read, and the close reported *the e-stop sent after it failed (...): the robot
+may still be moving* for a bridge that had taken it (before 2026-11-30).
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+from pirate_bt.errors import ProtocolMismatch
+from pirate_bt.link.requests import Request
+from pirate_bt.link.session import Session
+
+__all__ = ["wait_for_estop"]
+
+
+def wait_for_estop(session: Session, request: Request) -> Request:
+    """:meth:`Session.wait` for the e-stop ``request``, reading the line on through a
+    protocol mismatch for the session's retry budget.
+
+    Raises:
+        ProtocolMismatch: the session's, when the e-stop is still unanswered then.
+        LinkError: the link was lost or failed meanwhile.
+    """
+    try:
+        return session.wait(request)
+    except ProtocolMismatch as mismatch:
+        clock, config = session.clock, session.config
+        deadline = clock.now() + config.give_up_s
+        while not request.done:
+            with contextlib.suppress(ProtocolMismatch):
+                session.poll()  # reads and handles what came, then raises the mismatch
+            now = clock.now()
+            if request.done:
+                break
+            if now >= deadline:
+                raise mismatch from None
+            clock.sleep(min(config.poll_step_s, deadline - now))
+        return request
