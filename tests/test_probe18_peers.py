@@ -117,3 +117,25 @@ def test_a_ros2_node_that_reaches_no_router_says_so_and_says_when_it_does(
         node.close()
         if router is not None:
             router.close()
+
+
+@pytest.mark.parametrize("request_kind", ["insert", "remove", "unlock"])
+def test_a_hook_request_with_a_number_of_thousands_of_digits_gets_no_python_advice(
+    request_kind: str,
+) -> None:
+    """Valid JSON whose number has more digits than Python converts was answered
+    ``not JSON: Exceeds the limit (4300 digits) for integer string conversion: ... use
+    sys.set_int_max_str_digits() to increase the limit``: called not JSON, and advice
+    for Python given to a Groot2 client's user."""
+    from pirate_bt.interop.groot2_protocol import (
+        HookError,
+        parse_hooks,
+        parse_remove,
+        parse_unlock,
+    )
+
+    parse = {"insert": parse_hooks, "remove": parse_remove, "unlock": parse_unlock}[request_kind]
+    text = b'{"uid": ' + b"9" * 5000 + b', "position": 0}'
+    with pytest.raises(HookError) as caught:
+        parse(text)
+    assert str(caught.value) == "hook: a number of 5000 digits is no UID, position or mode"

@@ -241,9 +241,25 @@ def _position(data: Mapping[str, Any]) -> int:
     return int(position)
 
 
+_DIGITS_READ = 4300
+"""The longest integer read (Python's limit for converting text to an integer)."""
+
+
+def _integer(text: str) -> int:
+    if len(text) > _DIGITS_READ:  # no UID, position or mode: named, not Python's advice
+        digits = len(text.lstrip("-"))
+        raise HookError(f"hook: a number of {digits} digits is no UID, position or mode")
+    return int(text)
+
+
 def _load(text: bytes) -> Any:
     try:
-        return json.loads(text.decode("utf-8"))
+        # an integer of more than 4,300 digits said "not JSON: Exceeds the limit (4300
+        # digits) for integer string conversion: ... use sys.set_int_max_str_digits() to
+        # increase the limit", advice for Python to the client's user, until 2026-11-30
+        return json.loads(text.decode("utf-8"), parse_int=_integer)
+    except HookError:
+        raise
     except (UnicodeDecodeError, ValueError) as exc:
         raise HookError(f"not JSON: {exc}") from None
     except RecursionError:  # [[[[...]]]] nested deeper than the parser goes
