@@ -212,3 +212,33 @@ def test_the_loaders_warnings_about_an_xml_tree_name_the_xml_element(
     for message in said:
         assert message.startswith(f"{source}:5:7: warning: 'never' can never run")
     assert [str(w.location) for w in loaded.warnings] == [f"{source}:5:7"]
+
+
+_WITH_SUBTREE = """\
+<root BTCPP_format="4" main_tree_to_execute="M">
+  <BehaviorTree ID="M">
+    <Sequence>
+      <SubTree ID="S"/>
+      <AlwaysSuccess name="after"/>
+    </Sequence>
+  </BehaviorTree>
+  <BehaviorTree ID="S">
+    <AlwaysSuccess name="inside"/>
+  </BehaviorTree>
+</root>
+"""
+
+
+def test_a_tree_run_from_xml_shows_its_subtrees_in_groot2(tmp_path: Path) -> None:
+    # LoadedTree.source was the temporary YAML file, removed before the run began: the
+    # Groot2 server could not export it again and showed the tree flattened, without
+    # its <SubTree>; LoadedTree.files named that file too, not the XML read.
+    from pirate_bt.interop.groot2_tree import served_tree
+
+    source = tmp_path / "in.xml"
+    source.write_text(_WITH_SUBTREE)
+    loaded = load_xml_tree(source)
+    assert loaded.files == [str(source)]
+    served = served_tree(loaded.behaviour_tree(), loaded.source, loaded.name, loaded)
+    trees = ET.fromstring(served.xml).findall("BehaviorTree")
+    assert [tree.get("ID") for tree in trees] == ["M", "S"]

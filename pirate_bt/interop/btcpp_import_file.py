@@ -163,8 +163,9 @@ _Dumper.add_representer(str, _str)
 
 def _converted(
     source: Path, registry: Registry
-) -> tuple[str, dict[tuple[str | int, ...], SourceLocation]]:
-    """The tree file's text for an XML file, and each YAML place's XML element."""
+) -> tuple[str, dict[tuple[str | int, ...], SourceLocation], dict[str, Any]]:
+    """The tree file's text for an XML file, each YAML place's XML element, and the
+    tree file's mapping."""
     data, where = _read(source, registry)
     # a file name of bytes that are no UTF-8 ($'\xfe.xml', read as '\udcfe'): shown as
     # \xfe, not an "internal error: UnicodeEncodeError" when the YAML is written
@@ -173,7 +174,7 @@ def _converted(
         f"# Converted from {name} (BehaviorTree.CPP v4 XML) by pirate-bt import btcpp.\n"
         + yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
     )
-    return text, where
+    return text, where, data
 
 
 def import_xml(
@@ -223,7 +224,7 @@ def import_xml(
         )
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    text, where = _converted(source, reg)
+    text, where, _data = _converted(source, reg)
     folder = out.parent if str(out.parent) else Path(".")
     # A missing folder is made, as for every other output of the library, and taken
     # away again when the tree does not load: a refused import leaves nothing.
@@ -310,12 +311,12 @@ def load_xml_tree(
     given = None if params is None else _params_mapping(params)  # as load_tree refuses it
     reg = registry or default_registry()
     description = robot if isinstance(robot, RobotDescription) else load_robot(robot)
-    text, where = _converted(source, reg)
+    text, where, data = _converted(source, reg)
     with tempfile.TemporaryDirectory(prefix="pirate-bt-xml-") as folder:
         # named as the XML (a tree without a name takes its file's), cut to a legal name
         converted = Path(folder) / f"{cut_name(source.stem, 250)}.yaml"
         converted.write_text(text, encoding="utf-8")
-        return _load_placed(
+        loaded = _load_placed(
             converted,
             where,
             robot=description,
@@ -326,3 +327,8 @@ def load_xml_tree(
             registry=reg,
             **options,
         )
+    # not the temporary file, gone now: the XML is what was read, and the mapping is
+    # what a Groot2 server exports again to show the subtrees (it showed none)
+    loaded.files = [str(source)]
+    loaded.source = data
+    return loaded
