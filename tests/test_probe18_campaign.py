@@ -274,3 +274,30 @@ def test_the_report_keeps_a_failure_reason_whole(tmp_path: Path) -> None:
         assert f"- 1 × {reason}\n" in report
     (group,) = group_stats([{**rows[0], "reason": "x" * 5000}])
     assert list(group.reasons) == ["x" * 999 + "…"]  # a bound, and marked
+
+
+def test_two_robots_of_one_file_name_are_two_groups(tmp_path: Path) -> None:
+    # robots: [a/robot.yaml, b/robot.yaml] made one group "robot=robot" of both
+    # robots' runs: the comparison the axis was written for was lost.
+    def row(index: int, robot: str, outcome: str) -> dict[str, Any]:
+        return {
+            "id": f"{index:06d}-0000000{index}",
+            "index": index,
+            "run": "r",
+            "tree": "straight",
+            "robot": robot,
+            "outcome": outcome,
+            "reason": "done" if outcome == "success" else "stall: bend_1_drive",
+            "wall_time_s": 0.1,
+        }
+
+    a, b = str(tmp_path / "a" / "robot.yaml"), str(tmp_path / "b" / "robot.yaml")
+    rows = [row(0, a, "success"), row(1, b, "failed-safe"), row(2, a, "success")]
+    groups = group_stats(rows)
+    assert [(g.key, g.n, g.success) for g in groups] == [
+        (f"r robot={a} drop=0 corrupt=0 dup=0", 2, 2),
+        (f"r robot={b} drop=0 corrupt=0 dup=0", 1, 0),
+    ]
+    # a robot alone under its name keeps the short label
+    (one,) = group_stats([row(0, a, "success")])
+    assert one.key == "r robot=robot drop=0 corrupt=0 dup=0"

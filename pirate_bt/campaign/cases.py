@@ -186,15 +186,16 @@ def expand(
     return cases
 
 
-def group_key(row: dict[str, Any]) -> str:
-    """One line naming a case's group (every parameter but the seed)."""
+def group_key(row: dict[str, Any], *, full: bool = False) -> str:
+    """One line naming a case's group (every parameter but the seed); a robot and a
+    truth by their file's stem, or with ``full`` as the row names them (two files of
+    one name in two folders)."""
     parts = [str(row.get("run"))]
     if row.get("blind"):
         parts.append("blind")
-    if row.get("robot"):
-        parts.append(f"robot={Path(str(row['robot'])).stem}")
-    if row.get("map"):
-        parts.append(f"truth={Path(str(row['map'])).stem}")
+    for key, said in (("robot", "robot"), ("map", "truth")):
+        if row.get(key):
+            parts.append(f"{said}={row[key] if full else Path(str(row[key])).stem}")
     if row.get("as_built") is not None:  # the variants of a group are its runs, like seeds
         parts.append(f"as-built x{float(row.get('as_built_scale') or 1.0):g}")
     if row.get("sim_faults"):

@@ -92,11 +92,16 @@ def _cause(reason: Any) -> str:
 
 def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
     """Rows gathered by group, in the order groups first appear by case index."""
-    groups: dict[str, GroupStats] = {}
+    groups: dict[tuple[str, str, str], GroupStats] = {}
+    firsts: dict[tuple[str, str, str], dict[str, Any]] = {}
     for row in sorted(rows, key=lambda r: int(r.get("index", 0))):
         key = group_key(row)
         params = {k: row.get(k) for k in ("run", "map", "robot", "drop", "corrupt", "dup")}
-        g = groups.setdefault(key, GroupStats(key=key, params=params))
+        # two robots (or truths) of one file name in two folders are two groups: they
+        # were one, of both robots' runs, under one label
+        identity = (key, str(row.get("robot")), str(row.get("map")))
+        firsts.setdefault(identity, row)
+        g = groups.setdefault(identity, GroupStats(key=key, params=params))
         g.n += 1
         outcome = row.get("outcome")
         g.success += outcome == "success"
@@ -116,4 +121,8 @@ def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
             g.reasons[_cause(row.get("reason"))] += 1
             if row.get("failing_node"):
                 g.nodes[str(row["failing_node"])] += 1
+    labels = Counter(g.key for g in groups.values())
+    for identity, g in groups.items():
+        if labels[g.key] > 1:
+            g.key = group_key(firsts[identity], full=True)
     return list(groups.values())
