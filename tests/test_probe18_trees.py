@@ -19,6 +19,9 @@
   *subtree file 'grip.yaml' not found* beside a tree of that very name).
 - A tab in a tree's indentation, or a value starting with ``@`` or a backquote, was
   "YAML syntax error: found character that cannot start any token", naming no character.
+- ``check_blackboard`` (or a guard's ``blackboard:`` comparison) of a key declared
+  ``length`` with ``value: 2 m`` and no ``unit:`` validated "ok", and every run failed at
+  it: *gap=1.0 < '2 m': cannot compare float with str*.
 """
 
 from __future__ import annotations
@@ -143,3 +146,31 @@ def test_a_tab_or_a_reserved_character_is_named(
         f"{tab}:2:1: YAML syntax error: a tab, where YAML indents with spaces"
     ]
     assert _validate(capsys, at) == [f"{at}:1:26: YAML syntax error: '@' cannot start a value"]
+
+
+def test_text_compared_with_a_number_key_is_refused_at_load(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "cmp.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  gap: {type: length, default: 1 m}\n"
+        "  n: {type: number, default: 1}\n"
+        "  s: {type: string, default: a}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: check_blackboard, key: gap, op: '<', value: 2 m}\n"
+        "    - type: while\n"
+        "      condition: {blackboard: n, op: '<', value: '9'}\n"
+        "      child: {type: check_blackboard, key: s, op: '==', value: b}\n"
+        "    - {type: check_blackboard, key: gap, op: '<', value: 2 m, unit: length}\n",
+        encoding="utf-8",
+    )
+    assert _validate(capsys, tree) == [
+        f"{tree}:8:7: check_blackboard: value: '2 m' is text, but blackboard key 'gap' is"
+        " declared length (text never equals a number and cannot be ordered with one);"
+        " give 'unit: length' to compare a quantity",
+        f"{tree}:9:7: while: value: '9' is text, but blackboard key 'n' is declared number"
+        " (text never equals a number and cannot be ordered with one)",
+    ]

@@ -7,10 +7,12 @@ blackboard key read is written or declared.
 
 from __future__ import annotations
 
-from collections.abc import Container
+from collections.abc import Container, Iterator
+from typing import Any
 
 from pirate_bt.behaviours.base import Outcome
 from pirate_bt.errors import LocatedError, SourceLocation, shown
+from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.spec import BlackboardDecl, NodeSpec
 
 __all__ = []
@@ -96,6 +98,20 @@ def _check_blackboard(
                 )
             writes.add(key)
         reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
+        for key, value in _text_compared(spec.params):
+            decl = declared.get(key, (None,))[0]
+            if decl is not None and decl.type in (*SI_UNITS, "number", "integer"):
+                # the key holds a number: text is never equal to it, nor ordered with it
+                unit = SI_UNITS.get(decl.type, ("",))[0]
+                errors.append(
+                    LocatedError(
+                        f"{spec.node_type}: value: {shown(value)} is text, but blackboard key"
+                        f" {shown(key)} is declared {decl.type} (text never equals a number"
+                        " and cannot be ordered with one)"
+                        + (f"; give 'unit: {unit}' to compare a quantity" if unit else ""),
+                        spec.location,
+                    )
+                )
     for key, spec in reads:
         if key in unsure:
             continue
@@ -114,3 +130,16 @@ def _check_blackboard(
                     spec.location,
                 )
             )
+
+
+def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
+    """The blackboard keys a node compares with a text value read as text (no ``unit``):
+    ``check_blackboard``'s and a guard's ``blackboard:`` comparisons."""
+    comparisons = getattr(params, "comparisons", None)
+    if comparisons is None and getattr(params, "op", "is_set") != "is_set":
+        comparisons = [params]
+    for c in comparisons or ():
+        key = getattr(c, "blackboard", None) or getattr(c, "key", None)
+        value = getattr(c, "value", None)
+        if isinstance(key, str) and isinstance(value, str) and getattr(c, "unit", 1) is None:
+            yield key, value
