@@ -301,3 +301,19 @@ def test_two_robots_of_one_file_name_are_two_groups(tmp_path: Path) -> None:
     # a robot alone under its name keeps the short label
     (one,) = group_stats([row(0, a, "success")])
     assert one.key == "r robot=robot drop=0 corrupt=0 dup=0"
+
+
+def test_the_report_again_keeps_the_campaigns_name(tmp_path: Path) -> None:
+    # `campaign report OUT/results.jsonl` ("the report again") titled it by the folder:
+    # the report of campaign 'smoke' in out/ became "# out".
+    spec = {
+        "name": "smoke",
+        "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+        "max_time": "60 s",
+    }
+    out = tmp_path / "out"
+    run_campaign(spec, workers=1, output=out)
+    assert (out / "report.md").read_text().startswith("# smoke\n")
+    assert main(["campaign", "report", str(out / "results.jsonl")]) == 0
+    assert (out / "report.md").read_text().startswith("# smoke\n")
+    assert "<title>smoke</title>" in (out / "report.html").read_text()

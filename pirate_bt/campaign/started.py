@@ -42,7 +42,15 @@ from pirate_bt.atomic import write_atomically
 from pirate_bt.campaign.paths import RESULTS_NAME
 from pirate_bt.errors import InputError, shown
 
-__all__ = ["FORMAT", "RECORD_NAME", "Start", "begin", "file_digest", "write_record"]
+__all__ = [
+    "FORMAT",
+    "RECORD_NAME",
+    "Start",
+    "begin",
+    "file_digest",
+    "recorded_name",
+    "write_record",
+]
 
 RECORD_NAME = "campaign.json"
 """The file in the output folder that records how the campaign started."""
@@ -230,6 +238,17 @@ def _read_record(path: Path) -> tuple[float, dict[str, str], str | None] | None:
         digests[file] = digest
     name = data.get("campaign")
     return float(timeout), digests, name if isinstance(name, str) else None
+
+
+def recorded_name(folder: Path) -> str | None:
+    """The campaign's name ``folder/campaign.json`` records (the report's title), or
+    ``None``: no record, not one a campaign wrote, or a name no title can hold."""
+    try:
+        record = _read_record(folder / RECORD_NAME)
+    except InputError:
+        return None
+    name = record[2] if record is not None else None
+    return name if name is not None and name.isprintable() and 0 < len(name) <= 100 else None
 
 
 def _check_inputs(folder: Path, digests: dict[str, str], inputs: Sequence[Path]) -> None:

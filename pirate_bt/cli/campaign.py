@@ -70,6 +70,7 @@ def _report(args: argparse.Namespace) -> int:
     from pirate_bt.campaign import read_rows
     from pirate_bt.campaign.engine import RESULTS_NAME
     from pirate_bt.campaign.report import write_report
+    from pirate_bt.campaign.started import recorded_name
 
     if not args.results:
         raise InputError("campaign report: give the results file (results.jsonl) or its folder")
@@ -81,7 +82,9 @@ def _report(args: argparse.Namespace) -> int:
     rows = read_rows(path)
     if not rows:
         raise InputError(f"{path}: no results in it")
-    for written in write_report(rows, path.parent, title=path.parent.name):
+    # the campaign's own name, as its end wrote the report (it became the folder's name)
+    title = recorded_name(path.parent) or path.parent.name
+    for written in write_report(rows, path.parent, title=title):
         print(f"wrote {written}")
     return 0
 
