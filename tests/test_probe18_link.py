@@ -15,8 +15,9 @@ import pytest
 from session_wire import LAYOUT, ROBOT, Peer, Wire, reply
 
 from pirate_bt.cli import main
+from pirate_bt.clock import SimClock
 from pirate_bt.errors import InputError, LinkError, ProtocolMismatch
-from pirate_bt.link import vectors
+from pirate_bt.link import open_link, vectors
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
@@ -258,3 +259,15 @@ def test_the_close_after_a_protocol_mismatch_waits_for_its_estop(
         why = str(link.close_error)
         assert why.count("STATE frames in a row of another layout") == 1, why
         assert "and the e-stop sent after it was not answered either: the robot may" in why
+
+
+@pytest.mark.parametrize("url", ["sim://[::1", "sim://", "chain://[x"])
+def test_an_in_process_url_without_a_name_says_so(url: str) -> None:
+    """`open_link("sim://[::1", ...)` said *Invalid IPv6 URL* (urlsplit's words, about
+    an address a simulator's URL never has) and `sim://` *no simulator named ''*."""
+    import pirate_bt.sim  # noqa: F401  (registers sim:// and chain://)
+
+    with pytest.raises(LinkError) as caught:
+        open_link(url, ROBOT, SimClock())
+    scheme = url.partition("://")[0]
+    assert str(caught.value) == f"cannot open {url}: expected a {scheme}://NAME URL, got {url!r}"

@@ -60,10 +60,14 @@ class InProcessSerial(SerialBase):
         self.is_open = True
 
     def from_url(self, url: str) -> World:
-        parts = urlsplit(url)
-        if parts.scheme != self.scheme:
-            raise SerialException(f"expected a {self.scheme}://NAME URL, got {url!r}")
+        wrong = SerialException(f"expected a {self.scheme}://NAME URL, got {url!r}")
+        try:
+            parts = urlsplit(url)
+        except ValueError:  # "sim://[x": urlsplit says "Invalid IPv6 URL", of no NAME
+            raise wrong from None
         name = parts.netloc or parts.path.lstrip("/")
+        if parts.scheme != self.scheme or not name:
+            raise wrong
         try:
             return self.lookup(name)
         except KeyError as exc:
