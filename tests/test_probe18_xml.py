@@ -242,3 +242,13 @@ def test_a_tree_run_from_xml_shows_its_subtrees_in_groot2(tmp_path: Path) -> Non
     served = served_tree(loaded.behaviour_tree(), loaded.source, loaded.name, loaded)
     trees = ET.fromstring(served.xml).findall("BehaviorTree")
     assert [tree.get("ID") for tree in trees] == ["M", "S"]
+
+
+def test_tree_to_xml_and_xml_to_tree_name_a_path_of_the_wrong_type() -> None:
+    # Both said only "TypeError: expected str, bytes or os.PathLike object, not int",
+    # from pathlib, where export_xml and import_xml name their argument.
+    from pirate_bt.interop.btcpp import tree_to_xml, xml_to_tree
+
+    for call in (tree_to_xml, xml_to_tree):
+        with pytest.raises(ArgumentTypeError, match=r"^path: give a file name .* not an int"):
+            call(5)  # type: ignore[arg-type]

@@ -371,7 +371,9 @@ def tree_to_xml(
 
     reg = registry or default_registry()
     given = _params_argument(params)
-    source: Path | Mapping[str, Any] = path if isinstance(path, Mapping) else Path(path)
+    source: Path | Mapping[str, Any] = (
+        path if isinstance(path, Mapping) else file_argument(path, "path")
+    )
     loaded = checked
     if loaded is None:
         loaded = load_tree(

@@ -15,7 +15,7 @@ from typing import Any, Final
 
 from pydantic import ValidationError
 
-from pirate_bt.errors import SourceLocation
+from pirate_bt.errors import SourceLocation, file_argument
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
@@ -545,7 +545,7 @@ def xml_to_tree(path: str | Path, registry: Registry | None = None) -> dict[str,
         LocatedError: the file cannot be read (at ``file:1:1``), or anything that
             cannot become a pirate_bt tree, located.
     """
-    return _read(Path(path), registry or default_registry())[0]
+    return _read(file_argument(path, "path"), registry or default_registry())[0]
 
 
 def _read(
