@@ -317,3 +317,37 @@ def test_the_report_again_keeps_the_campaigns_name(tmp_path: Path) -> None:
     assert main(["campaign", "report", str(out / "results.jsonl")]) == 0
     assert (out / "report.md").read_text().startswith("# smoke\n")
     assert "<title>smoke</title>" in (out / "report.html").read_text()
+
+
+def test_the_report_says_whose_counters_are_unknown(tmp_path: Path) -> None:
+    # A case that crashed has no counters (null); the report summed them as 0 and
+    # said "violations 0" with no word that one run's were never known.
+    rows = [
+        {
+            "id": f"{index:06d}-0000000{index}",
+            "index": index,
+            "run": "r",
+            "tree": "straight",
+            "outcome": outcome,
+            "reason": reason,
+            "wall_time_s": 0.1,
+            "violations": violations,
+            "damage": violations,
+        }
+        for index, (outcome, reason, violations) in enumerate(
+            [("success", "done", 0), ("error", "case process died (killed by SIGSEGV)", None)]
+        )
+    ]
+    results = tmp_path / "results.jsonl"
+    results.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    assert main(["campaign", "report", str(results)]) == 0
+    said = (
+        "1 of 2 runs ended without a result of their own (a crash, a hang, an exception"
+        " outside the run): their counters are unknown and not in these totals, violations"
+        " and damage included."
+    )
+    assert f"\n\n{said}\n" in (tmp_path / "report.md").read_text()
+    assert f"<p>{said}</p>" in (tmp_path / "report.html").read_text()
+    results.write_text(json.dumps(rows[0]) + "\n")
+    assert main(["campaign", "report", str(results)]) == 0
+    assert "without a result of their own" not in (tmp_path / "report.md").read_text()

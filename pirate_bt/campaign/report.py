@@ -325,6 +325,14 @@ def write_report(
     md += ["", "## Counters over all runs", ""]
     md += ["| " + " | ".join(row) + " |" for row in counters[:1]]
     md += ["|---|---|---|---|"] + ["| " + " | ".join(row) + " |" for row in counters[1:]]
+    # a crashed case has no counters: "violations 0" did not say they were unknown
+    unknown = sum(r.get("violations") is None for r in ordered)
+    untold = (
+        f"{unknown} of {len(ordered)} runs ended without a result of their own (a crash, a"
+        " hang, an exception outside the run): their counters are unknown and not in these"
+        " totals, violations and damage included."
+    )
+    md += ["", untold] if unknown else []
     coverage = _coverage(ordered)
     if coverage:
         md += ["", "## Coverage over all runs", ""]
@@ -352,6 +360,7 @@ def write_report(
     for row in counters[1:]:
         body.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>")
     body.append("</table>")
+    body += [f"<p>{esc(untold)}</p>"] if unknown else []
     if coverage:
         body.append("<h2>Coverage over all runs</h2>")
         for name, lines in coverage:
