@@ -22,6 +22,9 @@
 - ``check_blackboard`` (or a guard's ``blackboard:`` comparison) of a key declared
   ``length`` with ``value: 2 m`` and no ``unit:`` validated "ok", and every run failed at
   it: *gap=1.0 < '2 m': cannot compare float with str*.
+- Sibling names ``grip`` and ``grip`` + U+200B (zero width space), or a name holding
+  U+202E (shown reversed), loaded clean: two node paths that look the same everywhere
+  a name is shown (the live view, ``trace show``, the diagram).
 """
 
 from __future__ import annotations
@@ -173,4 +176,24 @@ def test_text_compared_with_a_number_key_is_refused_at_load(
         " give 'unit: length' to compare a quantity",
         f"{tree}:9:7: while: value: '9' is text, but blackboard key 'n' is declared number"
         " (text never equals a number and cannot be ordered with one)",
+    ]
+
+
+def test_a_name_with_an_invisible_or_direction_character_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "n.yaml"
+    tree.write_text(
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: success, name: grip}\n"
+        '    - {type: success, name: "grip\\u200b"}\n'
+        '    - {type: success, name: "\\u202egrip"}\n'
+        '    - {type: success, name: "\\U0001F468\\u200d\\U0001F469"}\n',
+        encoding="utf-8",
+    )
+    assert [line.split(" (an invisible")[0] for line in _validate(capsys, tree)] == [
+        f"{tree}:5:23: name: must not contain U+200B ZERO WIDTH SPACE",
+        f"{tree}:6:23: name: must not contain U+202E RIGHT-TO-LEFT OVERRIDE",
     ]

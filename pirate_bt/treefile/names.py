@@ -35,7 +35,22 @@ def name_problem(name: object) -> str | None:
         return "name: must not contain '/' (used in node paths)"
     if any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
         return "name: must not contain control characters"
+    hidden = next((c for c in name if c in _INVISIBLE), None)
+    if hidden is not None:  # 'grip' and 'grip\u200b' would be two names shown alike
+        return (
+            f"name: must not contain U+{ord(hidden):04X} {unicodedata.name(hidden, '')}"
+            " (an invisible or text-direction character: two names would look alike)"
+        )
     return None
+
+
+_INVISIBLE = frozenset(
+    "\u00ad\u061c\u180e\u200b\u200e\u200f\u202a\u202b\u202c\u202d\u202e"
+    "\u2060\u2061\u2062\u2063\u2064\u2066\u2067\u2068\u2069\ufeff"
+)
+"""Format characters a name may not hold: zero-width, soft hyphen and the bidirectional
+controls (a name with U+202E shows its text reversed). Joiners (U+200C, U+200D) stay:
+emoji sequences and some scripts need them."""
 
 
 def unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
