@@ -25,6 +25,8 @@
 - Sibling names ``grip`` and ``grip`` + U+200B (zero width space), or a name holding
   U+202E (shown reversed), loaded clean: two node paths that look the same everywhere
   a name is shown (the live view, ``trace show``, the diagram).
+- ``type: $p`` or ``ref: $p`` was *unknown node type '$p'* / *no subtree named '$p'*,
+  not saying that these keys take no parameter (docs/trees.md: never substituted).
 """
 
 from __future__ import annotations
@@ -196,4 +198,25 @@ def test_a_name_with_an_invisible_or_direction_character_is_refused(
     assert [line.split(" (an invisible")[0] for line in _validate(capsys, tree)] == [
         f"{tree}:5:23: name: must not contain U+200B ZERO WIDTH SPACE",
         f"{tree}:6:23: name: must not contain U+202E RIGHT-TO-LEFT OVERRIDE",
+    ]
+
+
+def test_a_parameter_as_a_type_or_ref_says_they_take_none(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "p.yaml"
+    tree.write_text(
+        "params: {p: {type: string, default: s}}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: $p}\n"
+        "    - {type: subtree, ref: $p}\n"
+        "subtrees: {s: {root: success}}\n",
+        encoding="utf-8",
+    )
+    said = " (type, name and ref take no $parameter: they are written as they are)"
+    assert _validate(capsys, tree) == [
+        f"{tree}:5:8: unknown node type '$p'{said}",
+        f"{tree}:6:23: no subtree named '$p'{said}",
     ]

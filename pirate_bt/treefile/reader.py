@@ -179,7 +179,7 @@ class _Reader(_FileReader):
         try:
             cls = self.registry.get(kind)
         except UnknownNode as exc:
-            self.error(doc, (*path, "type"), str(exc))
+            self.error(doc, (*path, "type"), f"{exc}{_NOT_SUBSTITUTED if _dollar(kind) else ''}")
             return None
         except ImportError as exc:
             self.error(doc, (*path, "type"), f"node type {kind!r} cannot be loaded: {exc}")
@@ -414,6 +414,7 @@ class _Reader(_FileReader):
                 known = [k for k in subtrees if isinstance(k, str)]
                 close = difflib.get_close_matches(name, known, n=2)
                 hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+                hint += _NOT_SUBSTITUTED if _dollar(name) and not hint else ""
                 where = f" in {target_doc.file}" if target_doc is not doc else ""
                 self.error(doc, (*path, "ref"), f"no subtree named {_shown(name)}{where}{hint}")
                 return None
@@ -483,3 +484,11 @@ class _Reader(_FileReader):
             result.explicit_name = True
         result.called_at = spec.location  # the outermost call's, set last
         return result
+
+
+_NOT_SUBSTITUTED = " (type, name and ref take no $parameter: they are written as they are)"
+
+
+def _dollar(text: object) -> bool:
+    """Whether ``text`` looks like a ``$parameter`` (not the literal ``$$``)."""
+    return isinstance(text, str) and text.startswith("$") and not text.startswith("$$")
