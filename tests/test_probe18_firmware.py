@@ -116,3 +116,50 @@ def test_firmware_sim_page_does_not_say_the_firmware_never_sleeps(
     limits = page[page.index("## Limits") :]
     assert "about half a CPU core" not in limits
     assert "a fifth of a CPU core" in limits
+
+
+@pytest.mark.parametrize(
+    ("ids", "words"),
+    [
+        (["300"], "board id '300' is not a number from 0 to 255"),  # was board 44
+        (["22x"], "board id '22x' is not a number from 0 to 255"),  # was 22
+        (["20", "abc"], "board id 'abc' is not a number from 0 to 255"),  # was 0
+        (["20", "21", "20"], "board id 20 given twice"),
+        ([str(i) for i in range(20, 38)], "18 board ids given, at most 17"),
+    ],
+)
+def test_the_chain_harness_refuses_board_ids_it_would_misread(
+    elfs: tuple[Path, Path], ids: list[str], words: str
+) -> None:
+    """pirate-chain read its board ids with atoi ('300' ran board 44, 'abc' board 0) and
+    kept the first 16 of them: a 17-board robot (the protocol's most) ran without its
+    last PICO, and the bridge could never release its boot latch."""
+    _, pico = elfs
+    harness = build_chain()[2]
+    done = subprocess.run(
+        [str(harness), "-", str(pico), *ids],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        timeout=30,
+        check=False,
+    )
+    assert done.returncode == 2, done
+    assert done.stderr.decode().strip().splitlines() == [f"pirate-chain: {words}"]
+    assert not done.stdout.startswith(b"P")  # no chain was started
+
+
+def test_the_chain_harness_runs_seventeen_boards(elfs: tuple[Path, Path]) -> None:
+    """The wire protocol carries 17 boards (docs/protocol.md); the chain ran 16."""
+    _, pico = elfs
+    ids = [str(i) for i in range(20, 37)]
+    done = subprocess.run(
+        [str(build_chain()[2]), "-", str(pico), *ids],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    n = int.from_bytes(done.stdout[1:3], "little")
+    assert done.stdout[:1] == b"P"
+    assert done.stdout[3 : 3 + n].decode() == "boards " + " ".join(ids)

@@ -506,6 +506,32 @@ int main(int argc, char **argv) {
         fprintf(stderr, "usage: pirate-chain BRIDGE.elf PICO.elf ID [ID...]\n");
         return 2;
     }
+    /* every id as given, or none: a truncated list (a 17th board) or an id read as
+     * another (atoi: "300" was board 44, "22x" 22, "abc" 0) left a board of the robot
+     * without its PICO, and the bridge could never release its boot latch */
+    n_boards = argc - 3;
+    if (n_boards > CHAIN_MAX_BOARDS) {
+        fprintf(stderr, "pirate-chain: %d board ids given, at most %d\n", n_boards,
+                CHAIN_MAX_BOARDS);
+        return 2;
+    }
+    for (int b = 0; b < n_boards; b++) {
+        char *end;
+        errno = 0;
+        long id = strtol(argv[3 + b], &end, 10);
+        if (errno || end == argv[3 + b] || *end || id < 0 || id > 255) {
+            fprintf(stderr, "pirate-chain: board id '%s' is not a number from 0 to 255\n",
+                    argv[3 + b]);
+            return 2;
+        }
+        for (int a = 0; a < b; a++) {
+            if (board_ids[a] == id) {
+                fprintf(stderr, "pirate-chain: board id %ld given twice\n", id);
+                return 2;
+            }
+        }
+        board_ids[b] = (uint8_t)id;
+    }
     static elf_firmware_t bridge_fw, pico_fw;
     no_bridge = strcmp(argv[1], "-") == 0;
     if ((!no_bridge && !elf_built_for("pirate-chain", argv[1], 6u, "bridge's ATmega2560")) ||
@@ -517,7 +543,6 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pirate-chain: cannot read the ELFs %s, %s\n", argv[1], argv[2]);
         return 2;
     }
-    n_boards = argc - 3 < CHAIN_MAX_BOARDS ? argc - 3 : CHAIN_MAX_BOARDS;
     pico_debug_at = find_symbol(&pico_fw, "pico_debug");
     if (!no_bridge) {
         cores[0] = make_core("atmega2560", &bridge_fw);
@@ -529,7 +554,6 @@ int main(int argc, char **argv) {
     char hello[512];
     int k = snprintf(hello, sizeof hello, "boards");
     for (int b = 0; b < n_boards; b++) {
-        board_ids[b] = (uint8_t)atoi(argv[3 + b]);
         cores[b + 1] = make_core("atmega328p", &pico_fw);
         board_attach(b, cores[b + 1], board_ids[b]);
         line_attach(b + 1, cores[b + 1], '0', 'D', 2, 'D', 2);

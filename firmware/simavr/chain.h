@@ -19,7 +19,7 @@
 #include <simavr/avr_eeprom.h>
 #include <simavr/avr_twi.h>
 
-#define CHAIN_MAX_BOARDS 16
+#define CHAIN_MAX_BOARDS 17 /* the wire protocol's most (docs/protocol.md: COUNTERS) */
 #define CHAIN_NODES (CHAIN_MAX_BOARDS + 1) /* node 0 is the bridge */
 #define QUANTUM_CYCLES 160u                /* 10 us: the cores run in lockstep slices */
 #define LINE_BYTE_CYCLES (HZ * 10u / 1000000u) /* one 8N1 byte at 1 Mbaud: 160 */
