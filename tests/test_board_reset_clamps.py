@@ -74,3 +74,54 @@ def test_a_stop_reaches_the_other_boards_while_one_reboots() -> None:
             robot.supervisor._port.send(  # around the supervisor, on purpose
                 [MotorCommand("bend_1_joint", ControlMode.TORQUE, 0.7)]
             )
+
+
+@pytest.mark.parametrize("second", ["board_reset:22@2.2s+0.5s", "board_reset:22@2s+0.5s"])
+def test_two_overlapping_resets_of_one_board_give_the_clamp_back_after_the_last(
+    second: str,
+) -> None:
+    # The second reset's start held the board's setpoints again while its motors were
+    # already off (nothing), and the first reset's end brought the board back while the
+    # second still ran: the clamp never came back (a robot in a riser slid 0.62 m).
+    clock = SimClock()
+    faults = ["board_reset:22@2s+0.5s", second]
+    with Simulator("straight", ROBOT, clock=clock, faults=faults) as sim:
+        clamp = [MotorCommand(f"bend_{i}_joint", ControlMode.TORQUE, 0.7) for i in (1, 2)]
+        for command in clamp:
+            sim.model.command(command)
+        clock.advance(2.6)  # the first reset is over; the second (if later) is not
+        if second.startswith("board_reset:22@2.2s"):
+            assert sim.model.setpoint("bend_1_joint") is None  # still rebooting
+        clock.advance(0.5)  # both are over
+        assert sim.model.setpoint("bend_1_joint") == clamp[0]
+        assert sim.truth().halves[Half.FRONT].clamped
+        ends = [e.detail for e in sim.events() if e.detail == "end board_reset 22"]
+        assert len(ends) == 2
+
+
+def test_a_stall_overlapped_by_another_of_the_same_motor_lasts_until_the_last_ends() -> None:
+    # the first stall's end freed the wheel while the second still ran
+    clock = SimClock()
+    stalls = ["motor_stall:bend_1_drive@1s+1s", "motor_stall:bend_1_drive@1.5s+1s"]
+    with Simulator("straight", ROBOT, clock=clock, faults=stalls) as sim:
+        for i in (1, 2, 3, 4):
+            sim.model.command(MotorCommand(f"bend_{i}_joint", ControlMode.TORQUE, 0.7))
+        clock.advance(0.5)
+        sim.model.command(MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.02))
+        clock.advance(1.7)  # 2.2 s: the first stall is over, the second goes on
+        assert sim.model.readings()["bend_1_drive.velocity"] == 0.0
+        clock.advance(0.5)  # 2.7 s: both are over
+        assert sim.model.readings()["bend_1_drive.velocity"] > 0.01
+
+
+def test_a_link_loss_overlapped_by_another_sends_nothing_until_the_last_ends() -> None:
+    clock = SimClock()
+    with Simulator(
+        "straight", ROBOT, clock=clock, faults=["link_loss@1s+1s", "link_loss@1.5s+1s"]
+    ) as sim:
+        clock.advance(2.1)
+        sent = sim.bridge.state_frames_sent
+        clock.advance(0.3)  # 2.4 s: the first loss is over, the second goes on
+        assert sim.bridge.state_frames_sent == sent
+        clock.advance(0.3)  # 2.7 s: both are over
+        assert sim.bridge.state_frames_sent > sent

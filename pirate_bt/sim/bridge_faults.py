@@ -144,7 +144,8 @@ class FaultsMixin:
             self._dropout.add(self._channel_index[target])
         elif spec.kind == "sensor_stuck":
             index = self._channel_index[target]
-            self._stuck[index] = self.model.readings()[target]
+            # a second stuck fault over the first keeps the value the first froze
+            self._stuck.setdefault(index, self.model.readings()[target])
         elif spec.kind == "board_reset":
             board = int(target)
             self._resetting.add(board)
@@ -152,9 +153,12 @@ class FaultsMixin:
             names = self._board_motors(board)
             # The bridge keeps its setpoints for the board's motors and hands them to
             # it at every exchange (firmware/piratebay/poller.c), so the board gets them
-            # back as soon as it answers again: its clamp comes back.
-            held = [self.model.setpoint(name) for name in names]
-            self._held_setpoints[board] = [c for c in held if c is not None]
+            # back as soon as it answers again: its clamp comes back. A second reset
+            # while the board is still down keeps what the first held (its motors are
+            # off by then: there is nothing newer to hold).
+            if board not in self._held_setpoints:
+                held = [self.model.setpoint(name) for name in names]
+                self._held_setpoints[board] = [c for c in held if c is not None]
             self.model.motors_off(names)
         elif spec.kind == "board_fault":
             board = int(target)
@@ -176,6 +180,10 @@ class FaultsMixin:
         spec = fault.spec
         target = spec.target or ""
         self.model.record(EventKind.FAULT, f"end {spec.kind} {target}".strip())
+        if any(f.spec.kind == spec.kind and f.spec.target == spec.target for f in self._active):
+            # another fault of the same kind and target goes on: the first to end undoes
+            # nothing (two overlapping resets left a clamp board's motors off for good)
+            return
         if spec.kind == "motor_stall":
             self.model.set_stalled(target, False)
         elif spec.kind == "sensor_dropout":
@@ -193,8 +201,6 @@ class FaultsMixin:
                     self.model.command(command)
         elif spec.kind == "board_fault":
             board = int(target)
-            if any(f.spec.kind == "board_fault" and f.spec.target == target for f in self._active):
-                return  # another fault of the same board goes on
             self._status_cache = None
             # the H-bridge is back on: the board drives its motors to the setpoints it
             # holds (the latest it was given, a stop's included)
