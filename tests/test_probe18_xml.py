@@ -252,3 +252,15 @@ def test_tree_to_xml_and_xml_to_tree_name_a_path_of_the_wrong_type() -> None:
     for call in (tree_to_xml, xml_to_tree):
         with pytest.raises(ArgumentTypeError, match=r"^path: give a file name .* not an int"):
             call(5)  # type: ignore[arg-type]
+
+
+def test_the_docs_do_not_promise_that_bt_cpp_applies_the_main_trees_defaults() -> None:
+    # docs/interop.md said a --param "becomes the default of the main tree's port in
+    # the XML, so the file runs in BT.CPP as it is". BT.CPP 4 applies a <SubTree>
+    # model's defaults only where a <SubTree> calls the tree (xml_parsing.cpp,
+    # recursivelyCreateSubtree); its main tree's nodes then failed with "unable to find
+    # the key [roll]". The page now says how to give BT.CPP those values.
+    text = " ".join((Path(__file__).parent.parent / "docs" / "interop.md").read_text().split())
+    assert "so the file runs in BT.CPP as it is" not in text
+    assert "never to the main tree (`main_tree_to_execute`)" in text
+    assert 'blackboard->set("roll", std::string("90 deg"))' in text
