@@ -14,9 +14,11 @@ from typing import Any
 
 import pytest
 
+from pirate_bt.campaign import case as case_module
 from pirate_bt.campaign import load_campaign, run_campaign
 from pirate_bt.campaign.case import run_case
 from pirate_bt.campaign.cases import check_axes, expand
+from pirate_bt.campaign.sink import RowSink
 from pirate_bt.campaign.spec import campaign_from_data
 from pirate_bt.campaign.stats import group_stats
 from pirate_bt.cli import main
@@ -351,3 +353,44 @@ def test_the_report_says_whose_counters_are_unknown(tmp_path: Path) -> None:
     results.write_text(json.dumps(rows[0]) + "\n")
     assert main(["campaign", "report", str(results)]) == 0
     assert "without a result of their own" not in (tmp_path / "report.md").read_text()
+
+
+def test_a_trace_the_disk_has_no_room_for_stops_the_campaign_not_a_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A full disk under traces/ made the case an `error` row ("SinkError: ... trace
+    # writer: OSError: [Errno 28] No space left on device") beside its half-written
+    # trace: the campaign stopped at the next row, and the resume after making room
+    # never ran the case again, so the disk's failure stayed in the statistics.
+    spec = campaign_from_data(
+        {
+            "name": "t",
+            "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "1 m"}}],
+            "keep_traces": "all",
+        }
+    )
+    (case,) = expand(spec)
+    traces = tmp_path / "traces"
+    said = (
+        f"{traces}/{case['id']}.jsonl: the trace writer failed (exit 1): trace writer:"
+        " OSError: [Errno 28] No space left on device"
+    )
+
+    def full(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
+        assert trace is not None
+        trace.write_text('{"type": "header"}\n{"type": "ti')  # as far as it got
+        return {"outcome": "error", "reason": f"SinkError: {said}"}
+
+    monkeypatch.setattr(case_module, "_tree_case", full)
+    record = run_case(case, str(traces))
+    assert not list(traces.iterdir())  # no half-written trace
+    results = tmp_path / "results.jsonl"
+    results.write_text("")
+    with RowSink(results) as sink, pytest.raises(InputError) as caught:
+        sink.write(record)
+    assert str(caught.value) == (
+        f"{traces}/{case['id']}.jsonl: No space left on device: cannot write case"
+        f" {case['id']}'s trace; the rows before it stay: make room, then run again with"
+        " --resume"
+    )
+    assert results.read_text() == ""  # not a row: a resume runs the case again

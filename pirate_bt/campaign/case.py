@@ -20,6 +20,7 @@ its wall-time limit, set by the engine).
 
 from __future__ import annotations
 
+import errno
 import math
 import shutil
 import time
@@ -309,6 +310,25 @@ def preload(case: dict[str, Any], trace_dir: str | None) -> tuple[str, ...]:
     return ()
 
 
+def _remove(trace: Path) -> None:
+    if trace.is_dir():
+        shutil.rmtree(trace, ignore_errors=True)
+    else:
+        trace.unlink(missing_ok=True)
+
+
+_NO_ROOM = {errno.ENOSPC: "No space left on device", errno.EDQUOT: "Disk quota exceeded"}
+
+
+def no_room(exc: BaseException | str) -> str | None:
+    """What a full disk or a quota said, if that is why ``exc`` was raised or a run
+    ended (the trace writer's process reports it as text: ``OSError: [Errno 28]
+    ...``, and a run ends with that as its cause); else ``None``."""
+    if isinstance(exc, OSError) and exc.errno in _NO_ROOM:
+        return _NO_ROOM[exc.errno]
+    return next((w for n, w in _NO_ROOM.items() if f"[Errno {n}] {w}" in str(exc)), None)
+
+
 def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, Any]:
     """Run one case and return its record; an exception becomes an ``error`` record.
 
@@ -344,15 +364,21 @@ def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, An
             case, "error", f"{type(exc).__name__}: {exc}", time.perf_counter() - started
         )
         record["traceback"] = traceback.format_exc(limit=-8)
+        if no_room(exc) and trace is not None:
+            # the disk's doing, not the case's: not a row (it stopped the campaign as an
+            # error row no resume ran again), and no half-written trace left behind
+            record["no_room"] = f"{trace}: {no_room(exc)}"
+            _remove(trace)
         return record
     if trace is not None and keep == "failures" and body["outcome"] == "success":
-        if trace.is_dir():
-            shutil.rmtree(trace, ignore_errors=True)
-        else:
-            trace.unlink(missing_ok=True)
+        _remove(trace)
         trace = None
     record = _base(case)
     record.update(body)
+    if trace is not None and body["outcome"] == "error" and no_room(str(body["reason"])):
+        record["no_room"] = f"{trace}: {no_room(str(body['reason']))}"
+        _remove(trace)
+        trace = None
     record.setdefault("violation_kinds", {})
     record.setdefault("damage_kinds", {})
     record["wall_time_s"] = round(time.perf_counter() - started, 3)

@@ -50,8 +50,14 @@ class RowSink:
 
         Raises:
             InputError: the file system refused it; the file ends at its last whole
-                row again.
+                row again. Or the case's trace met a full disk (``no_room``): not
+                written, so that a resume runs the case again.
         """
+        if record.get("no_room"):  # its trace met a full disk: the disk's, not a row
+            raise InputError(
+                f"{record['no_room']}: cannot write case {record.get('id')}'s trace; the"
+                " rows before it stay: make room, then run again with --resume"
+            )
         data = (json.dumps(record, allow_nan=False, default=str) + "\n").encode("utf-8")
         end = os.lseek(self._fd, 0, os.SEEK_END)
         try:
