@@ -230,3 +230,38 @@ def test_a_straight_past_the_end_says_how_far_the_line_really_goes(tmp_path: Any
         "'forward 50 m' does not fit the network: only 4.44 m of pipe are left to drive"
         " (the line ends 4.49 m ahead, in 'run', and a straight stops 0.05 m before its end)"
     )
+
+
+def test_an_unmapped_tee_well_before_a_mapped_one_is_re_planned_through(tmp_path: Any) -> None:
+    # docs/missions.md: a T-joint the map does not have, felt during a forward leg on a
+    # route that goes on along the line, is re-planned through. With a tee further on
+    # in the map (the lab's tee-2), the opening was taken as that tee's and the mission
+    # stopped: 'an opening was felt at 10.92 m ..., where the map has no T-joint within
+    # 0.89 m', on lab.route with a tee built 1.5 m into run-c
+    stub = {"direction": "left", "segments": [{"id": "s", "type": "straight", "length": "1 m"}]}
+    drawn = _net(
+        "drawn",
+        {"id": "a", "type": "straight", "length": "4 m"},
+        {"id": "t", "type": "tee", "branch": stub},
+        {"id": "b", "type": "straight", "length": "1.5 m"},
+    )
+    built = _net(
+        "built",
+        {"id": "a", "type": "straight", "length": "1.5 m"},
+        {"id": "x", "type": "tee", "branch": {"direction": "right", "segments": []}},
+        {"id": "a2", "type": "straight", "length": "2.311 m"},
+        {"id": "t", "type": "tee", "branch": stub},
+        {"id": "b", "type": "straight", "length": "1.5 m"},
+    )
+    route = tmp_path / "on.route"
+    route.write_text(
+        "network drawn\nforward 2.5 m\nat the T-joint go straight\nforward to the end\n",
+        encoding="utf-8",
+    )
+    result = pirate_bt.simulate_mission(str(route), network=drawn, truth=built)
+    assert result.status == "success", result.why
+    assert len(result.replans) == 1 and "found-tee-1" in result.replans[0]
+    # the note does not say the map has the far tee 't' within the window
+    assert "the map expected the T-joint 't' at 4.00-4.19 m (searched within" in result.replans[0]
+    assert result.counters.violations == 0
+    assert result.truth_m == pytest.approx(result.belief_m, abs=0.05)

@@ -152,10 +152,15 @@ class Disagreement:
 
     def describe(self) -> str:
         """One line: ``belief and map disagree at 4.62 m: ...``."""
-        expected = self.expected or "no feature"
+        # the feature expected may be far beyond the window (the map's next tee, 10 m
+        # on): 'the map has it within 0.89 m' said it was there
+        map_has = (
+            f"the map expected {self.expected} (searched within {self.window_m:.2f} m)"
+            if self.expected is not None
+            else f"the map has no feature within {self.window_m:.2f} m"
+        )
         sensed = self.sensed or "nothing"
         return (
-            f"belief and map disagree at {self.belief_m:.2f} m (believed): the map has"
-            f" {expected} within {self.window_m:.2f} m, the robot sensed {sensed}"
-            f" ({self.evidence})"
+            f"belief and map disagree at {self.belief_m:.2f} m (believed): {map_has}, the"
+            f" robot sensed {sensed} ({self.evidence})"
         )

@@ -80,6 +80,19 @@ def carry_on(
     return result
 
 
+def _beyond_reach(plan: MissionPlan, feature: str | None, at_m: float, reach_m: float) -> bool:
+    """Whether the map's next tee (``feature``, named by an opening's disagreement as
+    the one expected) is further than the matcher's reach from the opening felt at
+    ``at_m``: then the opening is not that tee, and a tee the map does not have. (Such
+    an opening on a line with a tee further on stopped the mission: the lab's route,
+    with a tee built 1.5 m into run-c, stopped there for tee-2, 10.6 m on.)"""
+    pieces = [p for p in plan.path.pieces if p.segment == feature and p.kind.value == "tee"]
+    if not pieces:
+        return False
+    opening_m = (pieces[0].start_m + pieces[0].end_m) / 2
+    return abs(opening_m - at_m) > reach_m + plan.robot_length_m
+
+
 def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     """Where a stop still leaves the route one clear meaning, the plan for the rest.
 
@@ -102,9 +115,11 @@ def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     from pirate_bt.task.route import Route, RouteStep, StepKind
 
     d = result.disagreement
-    if d is None or d.expected is not None or d.sensed_at_m is None or d.sensed_by is None:
+    if d is None or d.sensed_at_m is None or d.sensed_by is None:
         return None
     plan = result.plan
+    if d.expected is not None and not _beyond_reach(plan, d.feature, d.sensed_at_m, d.window_m):
+        return None  # the map's own tee, found nearer than drawn? no clear meaning
     robot = load_robot()
     if d.sensed_by not in {m.name for m in robot.bend_modules(Half.FRONT)}:
         return None
