@@ -27,10 +27,14 @@
   a name is shown (the live view, ``trace show``, the diagram).
 - ``type: $p`` or ``ref: $p`` was *unknown node type '$p'* / *no subtree named '$p'*,
   not saying that these keys take no parameter (docs/trees.md: never substituted).
+- A ``log`` node's message wrote its escape sequences to the terminal as they were: a
+  tree file could clear the screen, colour the text or go back over a line
+  (``"\\e[2J"``, ``"\\r"``) in the run's output.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pytest
@@ -220,3 +224,18 @@ def test_a_parameter_as_a_type_or_ref_says_they_take_none(
         f"{tree}:5:8: unknown node type '$p'{said}",
         f"{tree}:6:23: no subtree named '$p'{said}",
     ]
+
+
+def test_a_log_message_s_escape_sequences_reach_no_terminal(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    tree = tmp_path / "esc.yaml"
+    tree.write_text(
+        'root: {type: log, message: "hi\\e[2J\\e[31m done OK\\rnext\\n\\tline 2",'
+        " level: warning}\n",
+        encoding="utf-8",
+    )
+    with caplog.at_level(logging.WARNING, logger="pirate_bt.trees"):
+        assert main(["run", "-q", str(tree)]) == 0
+    (said,) = [r.getMessage() for r in caplog.records if r.name == "pirate_bt.trees"]
+    assert said == "hi\\x1b[2J\\x1b[31m done OK\\rnext\n\tline 2"

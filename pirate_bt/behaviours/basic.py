@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import operator
+import re
 from collections.abc import Callable
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -332,6 +333,9 @@ class LogParams(NodeParams):
     level: Literal["debug", "info", "warning", "error"] = Field("info", description="log level")
 
 
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
 class Log(Leaf):
     """Logs ``message`` (logger ``pirate_bt.trees``) and succeeds."""
 
@@ -339,7 +343,11 @@ class Log(Leaf):
 
     def __init__(self, name: str, params: LogParams, context: BuildContext) -> None:
         super().__init__(name, params, context)
-        self.message = params.message
+        # a terminal shows what is logged: an escape sequence in a tree file's message
+        # (clear the screen, colour, a carriage return over the line) is shown as text
+        self.message = "".join(
+            c if c in "\n\t" or not _CONTROL.match(c) else repr(c)[1:-1] for c in params.message
+        )
         self.level = logging.getLevelName(params.level.upper())
 
     @classmethod
