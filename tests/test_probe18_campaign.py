@@ -5,6 +5,7 @@ Each test is a bug a researcher writing campaign specs met, fixed.
 
 from __future__ import annotations
 
+import errno
 import json
 import resource
 import subprocess
@@ -16,6 +17,7 @@ import pytest
 
 from pirate_bt.campaign import case as case_module
 from pirate_bt.campaign import load_campaign, run_campaign
+from pirate_bt.campaign import report as report_module
 from pirate_bt.campaign.case import run_case
 from pirate_bt.campaign.cases import check_axes, expand
 from pirate_bt.campaign.sink import RowSink
@@ -394,3 +396,28 @@ def test_a_trace_the_disk_has_no_room_for_stops_the_campaign_not_a_row(
         " --resume"
     )
     assert results.read_text() == ""  # not a row: a resume runs the case again
+
+
+def test_a_report_a_read_only_folder_refuses_is_not_told_to_make_room(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # On a read-only file system it said "Read-only file system; ... make room".
+    results = tmp_path / "results.jsonl"
+    results.write_text(
+        json.dumps(
+            {"id": "000000-00000000", "index": 0, "run": "r", "tree": "straight"}
+            | {"outcome": "success", "reason": "done", "wall_time_s": 0.1}
+        )
+        + "\n"
+    )
+
+    def read_only(path: Path, write: Any) -> None:
+        raise OSError(errno.EROFS, "Read-only file system", str(path))
+
+    monkeypatch.setattr(report_module, "write_atomically", read_only)
+    assert main(["campaign", "report", str(results)]) == 2
+    assert capsys.readouterr().err == (
+        f"pirate-bt: {tmp_path}/results.csv: cannot write the report: Read-only file system;"
+        f" the rows stay in {results}: make the folder writable, then `pirate-bt campaign"
+        f" report {results}`\n"
+    )

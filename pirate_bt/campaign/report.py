@@ -10,6 +10,7 @@ escaped where they are shown (HTML, plot labels) and never name a file.
 from __future__ import annotations
 
 import csv
+import errno
 import html
 import io
 import json
@@ -65,9 +66,17 @@ def _unwritable(path: Path, exc: OSError) -> InputError:
     # A full disk said only "No space left on device", naming no file. Nothing is
     # left of the attempt (write_atomically; a plot's part file is removed).
     results = path.parent / "results.jsonl"
+    # "make room" was said of a read-only folder too, where no room helps
+    fix = (
+        "make room"
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT)
+        else "make the folder writable"
+        if exc.errno in (errno.EROFS, errno.EACCES, errno.EPERM)
+        else "fix that"
+    )
     return InputError(
         f"{path}: cannot write the report: {exc.strerror or exc}; the rows stay in"
-        f" {results}: make room, then `pirate-bt campaign report {results}`"
+        f" {results}: {fix}, then `pirate-bt campaign report {results}`"
     )
 
 
