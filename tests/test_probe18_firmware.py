@@ -163,3 +163,36 @@ def test_the_chain_harness_runs_seventeen_boards(elfs: tuple[Path, Path]) -> Non
     n = int.from_bytes(done.stdout[1:3], "little")
     assert done.stdout[:1] == b"P"
     assert done.stdout[3 : 3 + n].decode() == "boards " + " ".join(ids)
+
+
+def test_the_led_shows_the_latch_in_a_bridge_built_without_the_estop_input(
+    tmp_path: Path,
+) -> None:
+    """docs/firmware.md: D13 is lit while the e-stop is latched, any cause. A bridge
+    built `make firmware ESTOP_INPUT=none` (the bench without a button) never lit it:
+    the LED was driven only by the button's sampling, so it stayed dark while the bridge
+    sat latched from boot, and through a host ESTOP."""
+    if shutil.which("cc") is None or shutil.which("make") is None:
+        pytest.skip("no host C compiler (cc) or make")
+    from firmware_host import FIRMWARE, build_lock
+    from test_firmware_core import ESTOP, ESTOP_RESET, Bridge, frame
+
+    build = tmp_path / "none"
+    with build_lock():
+        options = ["HOST_OPT=-O1 -DPB_ESTOP_INPUT=0", f"PIRATE_BT={sys.executable} -m pirate_bt"]
+        made = subprocess.run(
+            ["make", "-s", "-C", str(FIRMWARE), "host", f"BUILD={build}", *options],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    assert made.returncode == 0, made.stderr
+    bridge = Bridge(build / "libpiratebay_host.so", load_robot())
+    bridge.run(5)
+    assert bridge.lib.fw_led() == 1  # booted latched
+    bridge.start()  # hello, ESTOP_RESET acknowledged: released
+    assert bridge.lib.fw_led() == 0
+    bridge.ask(frame(ESTOP, 3))
+    assert bridge.lib.fw_led() == 1
+    assert bridge.ask(frame(ESTOP_RESET, 4))[0].payload == bytes([ESTOP_RESET, 0])
+    assert bridge.lib.fw_led() == 0

@@ -45,10 +45,12 @@ void estop_input_poll(uint32_t now_ms) {
             in.pressed = false;
         }
     }
-    mcu_led(safety_estopped());
 #else
     (void)now_ms;
 #endif
+    /* the LED shows the latch whatever latched it, with or without a button input (a
+     * bridge built ESTOP_INPUT=none never lit it, though it boots latched) */
+    mcu_led(safety_estopped());
 }
 
 bool estop_input_pressed(void) { return in.pressed; }
