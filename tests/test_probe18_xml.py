@@ -264,3 +264,21 @@ def test_the_docs_do_not_promise_that_bt_cpp_applies_the_main_trees_defaults() -
     assert "so the file runs in BT.CPP as it is" not in text
     assert "never to the main tree (`main_tree_to_execute`)" in text
     assert 'blackboard->set("roll", std::string("90 deg"))' in text
+
+
+@pytest.mark.parametrize(
+    ("tag", "port", "ours"),
+    [("RetryUntilSuccessful", "num_attempts", "attempts"), ("Repeat", "num_cycles", "times")],
+)
+def test_a_count_bt_cpp_requires_is_asked_for_by_its_bt_cpp_name(
+    tag: str, port: str, ours: str, tmp_path: Path, capsys: Any
+) -> None:
+    # <RetryUntilSuccessful> without num_attempts (BT.CPP: "Missing parameter
+    # [num_attempts] in RetryNode") was refused as "retry: missing required key
+    # 'attempts'", a name the XML does not have (and refuses: "has no port 'attempts'").
+    body = f'<root BTCPP_format="4"><BehaviorTree ID="M">\n<{tag}><AlwaysSuccess/></{tag}>'
+    code, err, out = _import(tmp_path, (body + "</BehaviorTree></root>\n").encode(), capsys)
+    assert code == 2
+    assert f"in.xml:2:1: <{tag}> needs {port}" in err
+    assert f"'{ours}'" not in err
+    assert not out.parent.exists()

@@ -452,6 +452,10 @@ class _Importer:
             out["child"] = self.only_child(element)
             return out
         renames = {btcpp: ours for ours, btcpp in TO_BTCPP[kind][1].items()}
+        missing = sorted(set(renames) - set(ports))  # BT.CPP has no default for a count
+        if missing:
+            key = missing[0]
+            raise element.error(f'<{tag}> needs {key}, as in BT.CPP (<{tag} {key}="3">)')
         for key, text in ports.items():
             try:
                 value = decode_value(text, "integer", key)
