@@ -421,3 +421,20 @@ def test_a_report_a_read_only_folder_refuses_is_not_told_to_make_room(
         f" the rows stay in {results}: make the folder writable, then `pirate-bt campaign"
         f" report {results}`\n"
     )
+
+
+def test_the_reproduce_line_carries_the_limits_the_campaign_ran_with(tmp_path: Path) -> None:
+    # "Reproduce with: pirate-bt campaign c.campaign.yaml" left out --max-cases (the
+    # line then refused a spec the campaign had run) and --case-timeout.
+    spec = tmp_path / "c.campaign.yaml"
+    spec.write_text(
+        "name: c\nruns:\n  - {tree: straight, network: straight, params: {distance: 0.1 m}}\n"
+        "max_time: 60 s\n"
+    )
+    out = tmp_path / "out"
+    argv = ["campaign", str(spec), "--workers", "1", "--output", str(out), "--quiet"]
+    assert main([*argv, "--max-cases", "200000", "--case-timeout", "90 s"]) == 0
+    assert (
+        f"    pirate-bt campaign {spec} --workers 1 --case-timeout '90 s' --max-cases 200000\n"
+        in (out / "report.md").read_text()
+    )

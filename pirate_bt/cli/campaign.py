@@ -136,6 +136,11 @@ def run(args: argparse.Namespace) -> int:
     command = f"pirate-bt campaign {shlex.quote(str(Path(args.spec)))}"
     if args.workers:
         command += f" --workers {args.workers}"
+    # what the cases ran with: without them the line refused the spec, or ran it otherwise
+    if args.case_timeout is not None:
+        command += f" --case-timeout {shlex.quote(str(args.case_timeout))}"
+    if args.max_cases != DEFAULT_MAX_CASES:
+        command += f" --max-cases {args.max_cases}"
     started = False
 
     def echo(line: str) -> None:
