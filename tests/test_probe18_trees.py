@@ -29,7 +29,8 @@
   not saying that these keys take no parameter (docs/trees.md: never substituted).
 - A ``log`` node's message wrote its escape sequences to the terminal as they were: a
   tree file could clear the screen, colour the text or go back over a line
-  (``"\\e[2J"``, ``"\\r"``) in the run's output.
+  (``"\\e[2J"``, ``"\\r"``) in the run's output. So did a ``safe_state``'s ``reason``
+  (logged by the supervisor) and a ``confirm``'s ``step`` (shown to the operator).
 """
 
 from __future__ import annotations
@@ -239,3 +240,22 @@ def test_a_log_message_s_escape_sequences_reach_no_terminal(
         assert main(["run", "-q", str(tree)]) == 0
     (said,) = [r.getMessage() for r in caplog.records if r.name == "pirate_bt.trees"]
     assert said == "hi\\x1b[2J\\x1b[31m done OK\\rnext\n\tline 2"
+
+
+def test_an_operator_step_or_a_safe_state_reason_holds_no_control_character(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "ops.yaml"
+    tree.write_text(
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        '    - {type: safe_state, reason: "x\\e[2J"}\n'
+        '    - {type: confirm, step: "go\\r", child: success}\n'
+        "    - {type: safe_state, reason: fine é}\n",
+        encoding="utf-8",
+    )
+    assert _validate(capsys, tree) == [
+        f"{tree}:4:26: safe_state: reason: must not contain control characters ('\\x1b')",
+        f"{tree}:5:23: confirm: step: must not contain control characters ('\\r')",
+    ]

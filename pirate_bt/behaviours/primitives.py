@@ -37,11 +37,11 @@ every number about the robot from its description, and acquire the supervisor in
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field
+from pydantic import AfterValidator, Field, ValidationInfo
 
 from pirate_bt.behaviours.base import (
     BuildContext,
@@ -365,8 +365,19 @@ class MoveFrontClear(Primitive):
 # -- confirmation and safe state -----------------------------------------------------
 
 
+def _shown_text(text: str, info: ValidationInfo) -> str:
+    """Text shown to the operator and logged: no control character (an escape sequence
+    in a tree file would clear or rewrite the operator's terminal)."""
+    bad = next((c for c in text if c < " " or "\x7f" <= c <= "\x9f"), None)
+    if bad is not None:
+        raise ValueError(f"{info.field_name}: must not contain control characters ({bad!r})")
+    return text
+
+
 class ConfirmParams(NodeParams):
-    step: str = Field(min_length=1, description="the step's name shown to the operator")
+    step: Annotated[str, AfterValidator(_shown_text)] = Field(
+        min_length=1, description="the step's name shown to the operator"
+    )
 
 
 class Confirm(GuardDecorator):
@@ -437,7 +448,9 @@ class Confirm(GuardDecorator):
 
 
 class SafeStateParams(NodeParams):
-    reason: str = Field("recovery", description="why the tree puts the robot in its safe state")
+    reason: Annotated[str, AfterValidator(_shown_text)] = Field(
+        "recovery", description="why the tree puts the robot in its safe state"
+    )
 
 
 class SafeState(Leaf):
