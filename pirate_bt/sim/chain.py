@@ -473,6 +473,12 @@ class FirmwareChain:
         out["chain_speed_vs_real_time"] = self.now_s / self.wall_s if self.wall_s else 0.0
         return out
 
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called: a ``chain://`` port to it then fails as a
+        device unplugged does."""
+        return bool(getattr(self, "_closed", True))
+
     def close(self) -> None:
         """Stop the harness and free the name (idempotent)."""
         if getattr(self, "_closed", True):

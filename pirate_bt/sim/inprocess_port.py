@@ -81,9 +81,14 @@ class InProcessSerial(SerialBase):
         pass
 
     def _other_end(self) -> World:
-        if not self.is_open or self._world is None:
+        world = self._world
+        if not self.is_open or world is None:
             raise PortNotOpenError()
-        return self._world
+        if getattr(world, "closed", False):
+            # as a device unplugged: the world's bridge would otherwise still answer
+            # writes (heartbeats acknowledged) while no clock moves it
+            raise SerialException(f"{self.portstr}: the world at its other end was closed")
+        return world
 
     @property
     def in_waiting(self) -> int:

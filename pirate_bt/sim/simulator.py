@@ -384,6 +384,12 @@ class Simulator:
         with self._lock:
             return list(self.model.events)
 
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called: a ``sim://`` port to it then fails as a
+        device unplugged does."""
+        return self._closed
+
     def close(self) -> None:
         """Stop listening to the clock and free the name (idempotent)."""
         if self._closed:
