@@ -266,7 +266,7 @@ def build_vectors(robot: RobotDescription) -> dict[str, Any]:
     lay = codec.layout
     return {
         "description": (
-            "PIRATEbay protocol 1.1 test vectors for the default robot "
+            "PIRATEbay protocol 1.2 test vectors (1.1 is its subset) for the default robot "
             "(hardware/pirate.yaml); see docs/protocol.md, Test vectors, and the module "
             "pirate_bt/link/vectors.py that writes them. 'hex' is a wire frame with its "
             "0x00 delimiter. Messages: 'type' by name, enums by wire value, control modes "
