@@ -196,3 +196,35 @@ def test_the_led_shows_the_latch_in_a_bridge_built_without_the_estop_input(
     assert bridge.lib.fw_led() == 1
     assert bridge.ask(frame(ESTOP_RESET, 4))[0].payload == bytes([ESTOP_RESET, 0])
     assert bridge.lib.fw_led() == 0
+
+
+@pytest.mark.parametrize("value", ["5ms", "40000", "50", "0100"])
+def test_a_bus_timeout_the_build_cannot_use_stops_it_in_one_line(
+    tmp_path: Path, value: str
+) -> None:
+    """`make firmware BUS_TIMEOUT_US=5ms` (or 40000, past the 16-bit timer) stopped in
+    avr-gcc: 'invalid suffix "msu" on integer constant' under an include trail."""
+    if shutil.which("make") is None:
+        pytest.skip("make missing")
+    from firmware_host import FIRMWARE
+
+    done = subprocess.run(
+        [
+            "make",
+            "-s",
+            "-C",
+            str(FIRMWARE),
+            f"BUILD={tmp_path}",
+            f"BUS_TIMEOUT_US={value}",
+            f"PIRATE_BT={sys.executable} -m pirate_bt",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert f"BUS_TIMEOUT_US={value}: the board bus's reply timeout" in line
+    assert "from 100 to 30000" in line
+    assert not list(tmp_path.iterdir())  # nothing generated, nothing compiled
