@@ -265,3 +265,34 @@ def test_an_unmapped_tee_well_before_a_mapped_one_is_re_planned_through(tmp_path
     assert "the map expected the T-joint 't' at 4.00-4.19 m (searched within" in result.replans[0]
     assert result.counters.violations == 0
     assert result.truth_m == pytest.approx(result.belief_m, abs=0.05)
+
+
+def _t_joint(before_m: float, branch: list[dict[str, Any]]) -> Network:
+    return _net(
+        "t-joint",
+        {"id": "before", "type": "straight", "length": f"{before_m} m"},
+        {"id": "tee", "type": "tee", "branch": {"direction": "left", "segments": branch}},
+        {"id": "after", "type": "straight", "length": "2 m"},
+    )
+
+
+@pytest.mark.parametrize(
+    ("before_m", "branch"),
+    [
+        (1.4, [{"id": "branch", "type": "straight", "length": "2 m"}]),  # 30 % nearer
+        (2.0, []),  # the branch capped at the tee
+    ],
+)
+def test_a_turn_into_a_branch_not_as_drawn_names_the_tee(
+    before_m: float, branch: list[dict[str, Any]]
+) -> None:
+    # was: 'no wall: bend_1 swung to 110.0°, past every wall-contact angle (...)', the
+    # T-joint PAB's clamp, naming neither the map nor the tee
+    result = pirate_bt.simulate_mission(
+        "t-joint.route", network="t-joint", truth=_t_joint(before_m, branch)
+    )
+    assert result.status == "failure" and result.safe_state
+    assert result.why.startswith("map disagreement at "), result.why
+    assert "the pipe is not as drawn at T-joint 'tee' (left): a clamp turning" in result.why
+    assert result.mismatch == result.why
+    assert result.counters.violations == 0

@@ -294,6 +294,15 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
             f" {drawn} {feature!r}{toward}: the PAB's search met no turn or opening there"
             f" ({pab.label}: {pab.why})"
         )
+    if pab.why.startswith("no wall:") and feature and pab.kind == "t-joint":
+        way = (getattr(planned, "params", None) or {}).get("direction")
+        if way in ("left", "right"):  # a clamp in the turn into the branch met no wall
+            return (
+                f"map disagreement at {belief_m:.2f} m (believed): the pipe is not as drawn"
+                f" at T-joint {feature!r} ({way}): a clamp turning into its branch met no"
+                " wall (a tee nearer than drawn, with the front half over its opening, or a"
+                f" branch capped or not as drawn?) ({pab.label}: {pab.why})"
+            )
     if not pab.why.startswith("blocked"):
         return None
     where = f"map disagreement at {belief_m:.2f} m (believed): the pipe blocked the robot"
