@@ -253,8 +253,11 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
         if kind == "invalid_key" and path and isinstance(_value_at(data, path[:-1]), Mapping):
             path = path[:-1]  # at the mapping that holds it: the message names the key
         entries.append((path, tagged and ends_on_tag and kind in _SHAPES, tagged, e))
-    # Paths where some union branch failed on something other than shape.
+    # Paths where some union branch failed on something other than shape, or further in
+    # (the value had that branch's shape: a mapping for a comparison, a problem in its
+    # 'value' is the one to say, not that it might have been a list).
     substantive = [path for path, shape, tagged, _ in entries if tagged and not shape]
+    inner = [path for path, _, tagged, _ in entries if tagged]
     shapes: dict[PathKey, list[str]] = {}
     for path, shape, _, e in entries:
         if shape:
@@ -262,7 +265,9 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
     out: list[tuple[PathKey, str]] = []
     for path, shape, _, e in entries:
         if shape:
-            if any(p[: len(path)] == path for p in substantive):
+            if any(p[: len(path)] == path for p in substantive) or any(
+                len(p) > len(path) and p[: len(path)] == path for p in inner
+            ):
                 continue  # another branch of the same union says what is wrong
             name = next((str(p) for p in reversed(path) if isinstance(p, str)), "value")
             out.append((path, f"{name}: should be {' or '.join(dict.fromkeys(shapes[path]))}"))

@@ -31,6 +31,9 @@
   tree file could clear the screen, colour the text or go back over a line
   (``"\\e[2J"``, ``"\\r"``) in the run's output. So did a ``safe_state``'s ``reason``
   (logged by the supervisor) and a ``confirm``'s ``step`` (shown to the operator).
+- A guard's comparison with a ``value`` of no allowed shape (``value: [1]``) was two
+  lines, the second *condition: should be a list*, though the file wrote a comparison
+  (docs/trees.md: only the shape the file used is reported on).
 """
 
 from __future__ import annotations
@@ -258,4 +261,20 @@ def test_an_operator_step_or_a_safe_state_reason_holds_no_control_character(
     assert _validate(capsys, tree) == [
         f"{tree}:4:26: safe_state: reason: must not contain control characters ('\\x1b')",
         f"{tree}:5:23: confirm: step: must not contain control characters ('\\r')",
+    ]
+
+
+def test_a_comparison_s_bad_value_is_one_line_not_also_should_be_a_list(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "c.yaml"
+    tree.write_text(
+        "root:\n"
+        "  type: while\n"
+        "  condition: {state: imu.pitch, op: '<', value: [1]}\n"
+        "  child: success\n",
+        encoding="utf-8",
+    )
+    assert _validate(capsys, tree) == [
+        f"{tree}:3:42: while: value: should be true or false or a whole number or a number or text"
     ]
