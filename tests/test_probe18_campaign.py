@@ -438,3 +438,35 @@ def test_the_reproduce_line_carries_the_limits_the_campaign_ran_with(tmp_path: P
         f"    pirate-bt campaign {spec} --workers 1 --case-timeout '90 s' --max-cases 200000\n"
         in (out / "report.md").read_text()
     )
+
+
+def test_ctrl_c_leaves_no_trace_without_its_row(tmp_path: Path) -> None:
+    # Interrupted, the campaign left the traces of the cases in flight (cut where
+    # they were killed, or whole) under traces/ with no row naming them.
+    spec = {
+        "name": "k",
+        "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+        "seeds": {"count": 5},
+        "keep_traces": "all",
+        "max_time": "60 s",
+    }
+    out = tmp_path / "out"
+    ids = [case["id"] for case in expand(campaign_from_data(spec))]
+    seen: list[str] = []
+    mine = out / "traces" / "notes.txt"  # not a case's: stays
+
+    def record(row: dict[str, Any]) -> None:
+        seen.append(row["id"])
+        if len(seen) == 2:
+            late = next(i for i in ids if i not in seen)
+            (out / "traces" / f"{late}.jsonl").write_text('{"type": "header"}\n{"ty')
+            mine.write_text("mine\n")
+            raise KeyboardInterrupt  # Ctrl-C with a case in flight
+
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(spec, workers=1, output=out, on_record=record)
+    rows = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert sorted(p.name for p in (out / "traces").iterdir()) == sorted(
+        [*(Path(row["trace"]).name for row in rows), "notes.txt"]
+    )
+    assert len(rows) == 2

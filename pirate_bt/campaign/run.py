@@ -61,6 +61,7 @@ from pirate_bt.campaign.spec import (
 )
 from pirate_bt.campaign.started import Start, begin, write_record
 from pirate_bt.campaign.stats import GroupStats, group_stats
+from pirate_bt.campaign.unrecorded import drop_unrecorded_traces
 from pirate_bt.errors import InputError, digit_count, said_of
 
 __all__ = [
@@ -500,11 +501,16 @@ def run_campaign(
         if start.timeout_s is not None:  # not in the ids: the record keeps it
             for case in cases:
                 case["timeout_s"] = start.timeout_s
-        return _run(
-            model, cases, count, folder, resume, workers, executor, scheduler,
-            scheduler_file, reach_s, command, spec, echo, progress, on_record, target, started,
-            start.record, before,
-        )  # fmt: skip
+        try:
+            return _run(
+                model, cases, count, folder, resume, workers, executor, scheduler,
+                scheduler_file, reach_s, command, spec, echo, progress, on_record, target,
+                started, start.record, before,
+            )  # fmt: skip
+        except KeyboardInterrupt:  # no trace without its row left behind (unrecorded.py)
+            if folder is not None:
+                drop_unrecorded_traces(folder, cases)
+            raise
 
 
 def _run(
