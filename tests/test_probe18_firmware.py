@@ -228,3 +228,34 @@ def test_a_bus_timeout_the_build_cannot_use_stops_it_in_one_line(
     assert f"BUS_TIMEOUT_US={value}: the board bus's reply timeout" in line
     assert "from 100 to 30000" in line
     assert not list(tmp_path.iterdir())  # nothing generated, nothing compiled
+
+
+@pytest.mark.parametrize("value", ["0", "-3072", "3072.5", "40000"])
+def test_an_encoder_cpr_the_pico_cannot_use_stops_its_build_in_one_line(
+    tmp_path: Path, value: str
+) -> None:
+    """`make -C firmware/pico ENCODER_CPR=0` built a board dividing every speed by zero,
+    `-3072` one whose measured speed had the wrong sign (its velocity loop ran a moving
+    wheel up to full duty), both exit 0; `3072.5` compiled floating point in."""
+    if shutil.which("make") is None:
+        pytest.skip("make missing")
+    done = subprocess.run(
+        [
+            "make",
+            "-s",
+            "-C",
+            str(ROOT / "firmware" / "pico"),
+            f"BUILD={tmp_path}",
+            f"ENCODER_CPR={value}",
+            f"PIRATE_BT={sys.executable} -m pirate_bt",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert f"ENCODER_CPR={value}: the drive encoders' counts per wheel revolution" in line
+    assert "from 1 to 32768" in line
+    assert not list(tmp_path.iterdir())
