@@ -440,9 +440,13 @@ def test_the_reproduce_line_carries_the_limits_the_campaign_ran_with(tmp_path: P
     )
 
 
-def test_ctrl_c_leaves_no_trace_without_its_row(tmp_path: Path) -> None:
-    # Interrupted, the campaign left the traces of the cases in flight (cut where
-    # they were killed, or whole) under traces/ with no row naming them.
+@pytest.mark.parametrize(
+    "stop", [KeyboardInterrupt(), InputError("results.jsonl: No space left on device")]
+)
+def test_ctrl_c_leaves_no_trace_without_its_row(tmp_path: Path, stop: BaseException) -> None:
+    # Interrupted (or stopped by a full disk), the campaign left the traces of the
+    # cases in flight (cut where they were killed, or whole) under traces/ with no
+    # row naming them.
     spec = {
         "name": "k",
         "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
@@ -461,9 +465,9 @@ def test_ctrl_c_leaves_no_trace_without_its_row(tmp_path: Path) -> None:
             late = next(i for i in ids if i not in seen)
             (out / "traces" / f"{late}.jsonl").write_text('{"type": "header"}\n{"ty')
             mine.write_text("mine\n")
-            raise KeyboardInterrupt  # Ctrl-C with a case in flight
+            raise stop  # Ctrl-C, or a row the disk refused, with a case in flight
 
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(type(stop)):
         run_campaign(spec, workers=1, output=out, on_record=record)
     rows = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
     assert sorted(p.name for p in (out / "traces").iterdir()) == sorted(

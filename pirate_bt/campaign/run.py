@@ -507,7 +507,7 @@ def run_campaign(
                 scheduler_file, reach_s, command, spec, echo, progress, on_record, target,
                 started, start.record, before,
             )  # fmt: skip
-        except KeyboardInterrupt:  # no trace without its row left behind (unrecorded.py)
+        except BaseException:  # Ctrl-C, a full disk: no trace without its row (unrecorded.py)
             if folder is not None:
                 drop_unrecorded_traces(folder, cases)
             raise
