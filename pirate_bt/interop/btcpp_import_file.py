@@ -6,6 +6,7 @@ Re-exported by :mod:`pirate_bt.interop.btcpp`.
 
 from __future__ import annotations
 
+import bisect
 import logging
 import os
 import re
@@ -67,8 +68,10 @@ def _placer(
     places = sorted(by_place)
 
     def in_xml(line: int, column: int) -> SourceLocation | None:
-        before = [p for p in places if p <= (line, column)]
-        path = by_place[before[-1]] if before else ()
+        # the last place at or before (line, column): a bisection, where a scan of every
+        # place for each error took 40 s for 12,000 errors
+        at = bisect.bisect_right(places, (line, column))
+        path = by_place[places[at - 1]] if at else ()
         while path and path not in where:
             path = path[:-1]
         return where.get(path)
