@@ -34,6 +34,8 @@
 - A guard's comparison with a ``value`` of no allowed shape (``value: [1]``) was two
   lines, the second *condition: should be a list*, though the file wrote a comparison
   (docs/trees.md: only the shape the file used is reported on).
+- A guard's ``unit: furlong`` was *dimension: unknown dimension 'furlong'*, naming a
+  key the file does not have.
 """
 
 from __future__ import annotations
@@ -278,3 +280,29 @@ def test_a_comparison_s_bad_value_is_one_line_not_also_should_be_a_list(
     assert _validate(capsys, tree) == [
         f"{tree}:3:42: while: value: should be true or false or a whole number or a number or text"
     ]
+
+
+def test_a_guard_s_unknown_unit_names_the_unit_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "u.yaml"
+    tree.write_text(
+        "blackboard: {gap: {type: length, default: 1 m}}\n"
+        "root:\n"
+        "  type: while\n"
+        "  condition: {blackboard: gap, op: '<', value: 2 m, unit: furlong}\n"
+        "  child: success\n",
+        encoding="utf-8",
+    )
+    (line,) = _validate(capsys, tree)
+    assert line.startswith(f"{tree}:4:3: while: unit: 'furlong' is not one of dimensionless, "), (
+        line
+    )
+    slash = tmp_path / "slash.yaml"  # a guard's key with its leading '/' is the key
+    slash.write_text(
+        "blackboard: {n: {type: number, default: 1}}\n"
+        "root: {type: skip_if, condition: {blackboard: /n, op: '<', value: '9'}, child: success}\n",
+        encoding="utf-8",
+    )
+    (line,) = _validate(capsys, slash)
+    assert line.startswith(f"{slash}:2:1: skip_if: value: '9' is text, but blackboard key 'n'")

@@ -66,7 +66,7 @@ from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
 from pirate_bt.safety.checks import front_tilt_channel, stale_channels
 from pirate_bt.safety.supervisor_hold import half_channels
-from pirate_bt.units import parse_quantity
+from pirate_bt.units import DIMENSIONS, parse_quantity
 
 __all__ = [
     "STATE_VALUES",
@@ -162,6 +162,8 @@ class Comparison(NodeParams):
     def _check(self) -> Comparison:
         if (self.state is None) == (self.blackboard is None):
             raise ValueError("give exactly one of 'state' or 'blackboard'")
+        if self.unit is not None and self.unit not in DIMENSIONS:  # not 'dimension: ...'
+            raise ValueError(f"unit: {shown(self.unit)} is not one of {', '.join(DIMENSIONS)}")
         dimension = _dimension(self.state) if self.state is not None else self.unit
         _parse(self.value, dimension)
         if self.state in ("half.front", "half.rear") and str(self.value) not in {

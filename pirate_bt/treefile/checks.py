@@ -139,7 +139,7 @@ def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
     if comparisons is None and getattr(params, "op", "is_set") != "is_set":
         comparisons = [params]
     for c in comparisons or ():
-        key = getattr(c, "blackboard", None) or getattr(c, "key", None)
+        key = getattr(c, "key", None)  # a guard's without its leading '/'
         value = getattr(c, "value", None)
         if isinstance(key, str) and isinstance(value, str) and getattr(c, "unit", 1) is None:
             yield key, value
