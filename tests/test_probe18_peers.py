@@ -139,3 +139,62 @@ def test_a_hook_request_with_a_number_of_thousands_of_digits_gets_no_python_advi
     with pytest.raises(HookError) as caught:
         parse(text)
     assert str(caught.value) == "hook: a number of 5000 digits is no UID, position or mode"
+
+
+def test_a_foxglove_host_name_idna_refuses_is_an_unknown_host_not_an_internal_error() -> None:
+    """``--foxglove robot..lan:8765`` (a doubled dot) or a label over 63 characters:
+    the name lookup's IDNA codec raised UnicodeError, which no one caught: ``internal
+    error: UnicodeError: encoding with 'idna' codec failed``, exit 1."""
+    pytest.importorskip("foxglove")
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+
+    for host in ("robot..lan", "x" * 70):
+        with pytest.raises(InputError) as caught:
+            FoxgloveServer(host, 8765)
+        assert str(caught.value).startswith(f"--foxglove {host}:8765: unknown host: ")
+
+
+def test_a_groot2_host_name_idna_refuses_is_an_unknown_host() -> None:
+    pytest.importorskip("zmq")
+    from pirate_bt.interop.groot2_server import Groot2Server
+
+    with pytest.raises(InputError) as caught:
+        Groot2Server("robot..lan", 1667)
+    assert str(caught.value).startswith("--groot2 robot..lan:1667: unknown host: ")
+
+
+def test_a_foxglove_address_family_the_machine_lacks_is_one_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The probe socket of an IPv6 address was made outside the ``try``: on a machine
+    without IPv6, ``--foxglove [::1]:8765`` was an internal error (OSError)."""
+    pytest.importorskip("foxglove")
+    import errno
+
+    from pirate_bt.interop import foxglove_live
+
+    def no_family(*args: Any, **kwargs: Any) -> Any:
+        raise OSError(errno.EAFNOSUPPORT, "Address family not supported by protocol")
+
+    monkeypatch.setattr(foxglove_live.socket, "socket", no_family)
+    with pytest.raises(InputError) as caught:
+        foxglove_live.FoxgloveServer("::1", 8765)
+    assert str(caught.value) == (
+        "--foxglove [::1]:8765: cannot listen: Address family not supported by protocol"
+    )
+
+
+@pytest.mark.parametrize("option", ["--foxglove", "--groot2"])
+def test_an_ipv6_host_read_with_the_default_port_is_named_in_brackets(option: str) -> None:
+    """``::1:1700`` is an IPv6 address (the user meant ``[::1]:1700``): refused with
+    ``--groot2 ::1:1700:1667: cannot listen``, which hid how it had been read."""
+    if option == "--foxglove":
+        pytest.importorskip("foxglove")
+        from pirate_bt.interop.foxglove_live import FoxgloveServer as server
+    else:
+        pytest.importorskip("zmq")
+        from pirate_bt.interop.groot2_server import Groot2Server as server  # type: ignore[assignment]
+    port = 8765 if option == "--foxglove" else 1667
+    with pytest.raises(InputError) as caught:
+        server("::1:1700", port)
+    assert str(caught.value).startswith(f"{option} [::1:1700]:{port}: ")

@@ -94,23 +94,29 @@ def _port_free(host: str, port: int) -> None:
     Port 0 too: the host is looked up and an address of this machine asked for (until
     2026-11-30 an unknown host or an address not ours with port 0 started the server's
     process and said ``cannot start the server: RuntimeError: FoxgloveError: Failed to
-    bind port: ...``)."""
+    bind port: ...``). An IPv6 address is named in brackets (``::1:1700`` is one, read
+    with the default port: ``--foxglove [::1:1700]:8765: cannot listen: ...``)."""
+    where = f"[{host}]" if ":" in host else host
     try:
         infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
-    except OSError as exc:
-        raise InputError(f"--foxglove {host}:{port}: unknown host: {exc}") from None
+    except (OSError, UnicodeError) as exc:  # IDNA's for a name such as a..b
+        raise InputError(f"--foxglove {where}:{port}: unknown host: {exc}") from None
     family, kind, proto, _, address = infos[0]
-    with socket.socket(family, kind, proto) as probe:
+    try:  # the family too: IPv6 on a machine without it
+        probe = socket.socket(family, kind, proto)
+    except OSError as exc:
+        raise InputError(f"--foxglove {where}:{port}: cannot listen: {exc.strerror}") from None
+    with probe:
         probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             probe.bind(address)
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
                 raise InputError(
-                    f"--foxglove {host}:{port}: the port is taken (another server, or another"
+                    f"--foxglove {where}:{port}: the port is taken (another server, or another"
                     " run with --foxglove?); pick another with --foxglove HOST:PORT"
                 ) from None
-            raise InputError(f"--foxglove {host}:{port}: cannot listen: {exc.strerror}") from None
+            raise InputError(f"--foxglove {where}:{port}: cannot listen: {exc.strerror}") from None
 
 
 class FoxgloveServer:
@@ -202,7 +208,8 @@ class FoxgloveServer:
         if port == 0 and (not self._ready.wait(timeout_s) or self.failure is not None):
             why = self.failure or f"no answer in {timeout_s:g} s"
             self.close()
-            raise InputError(f"--foxglove {host}:{port}: cannot start the server: {why}")
+            where = f"[{host}]" if ":" in host else host
+            raise InputError(f"--foxglove {where}:{port}: cannot start the server: {why}")
         logger.info(
             "Foxglove WebSocket server on ws://%s:%d (process %d)", host, self.port, self.pid
         )

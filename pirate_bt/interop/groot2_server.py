@@ -211,25 +211,25 @@ class Groot2Server(_Requests):
                 try:
                     first = self._rep.bind_to_random_port(f"tcp://{where}", 20000, 60000)
                 except zmq.ZMQError as exc:
-                    raise _cannot_listen(host, host, exc) from None
+                    raise _cannot_listen(where, host, exc) from None
                 try:
                     self._pub.bind(f"tcp://{where}:{first + 1}")
                     return int(first)
                 except zmq.ZMQError:
                     self._rep.unbind(f"tcp://{where}:{first}")
-            raise InputError(f"--groot2 {host}: found no two free neighbouring ports")
+            raise InputError(f"--groot2 {where}: found no two free neighbouring ports")
         if not 0 < port < 65535:
-            raise InputError(f"--groot2 {host}:{port}: the port must be from 1 to 65534")
+            raise InputError(f"--groot2 {where}:{port}: the port must be from 1 to 65534")
         for sock, number in ((self._rep, port), (self._pub, port + 1)):
             try:
                 sock.bind(f"tcp://{where}:{number}")
             except zmq.ZMQError as exc:
                 if exc.errno == errno.EADDRINUSE:
                     raise InputError(
-                        f"--groot2 {host}:{port}: port {number} is taken (another server, or"
+                        f"--groot2 {where}:{port}: port {number} is taken (another server, or"
                         " another run with --groot2?); pick another with --groot2 HOST:PORT"
                     ) from None
-                raise _cannot_listen(f"{host}:{port}", host, exc) from None
+                raise _cannot_listen(f"{where}:{port}", host, exc) from None
         return port
 
     @property
