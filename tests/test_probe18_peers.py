@@ -19,6 +19,9 @@ from pirate_bt.errors import InputError
 UNKNOWN_HOST = "nosuchhost.invalid"  # RFC 6761: never resolves
 NOT_OURS = "192.0.2.1"  # RFC 5737 TEST-NET-1: an address of no machine here
 
+# the real-time group (tests/conftest.py): a ROS 2 node awaited on the wall clock
+pytestmark = pytest.mark.xdist_group("real-time")
+
 
 @pytest.mark.parametrize("port", [0, 1667])
 def test_a_groot2_host_that_does_not_resolve_is_named_unknown_not_no_such_device(
@@ -79,7 +82,6 @@ def _wait(predicate: Any, timeout_s: float) -> bool:
     return bool(predicate())
 
 
-@pytest.mark.xdist_group("real-time")
 def test_a_ros2_node_that_reaches_no_router_says_so_and_says_when_it_does(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
