@@ -36,6 +36,9 @@
   (docs/trees.md: only the shape the file used is reported on).
 - A guard's ``unit: furlong`` was *dimension: unknown dimension 'furlong'*, naming a
   key the file does not have.
+- ``Wait.build("w", duration="1 s", child=...)`` (a leaf given a child) built the leaf
+  and dropped the child: the planner's subtree never ran, and nothing said so; a
+  decorator given ``child="success"`` raised py_trees' TypeError naming no node.
 """
 
 from __future__ import annotations
@@ -306,3 +309,14 @@ def test_a_guard_s_unknown_unit_names_the_unit_key(
     )
     (line,) = _validate(capsys, slash)
     assert line.startswith(f"{slash}:2:1: skip_if: value: '9' is text, but blackboard key 'n'")
+
+
+def test_a_leaf_built_with_a_child_is_refused_not_run_without_it() -> None:
+    from pirate_bt.behaviours.basic import Inverter, Success, Wait
+    from pirate_bt.errors import ArgumentTypeError
+
+    with pytest.raises(ArgumentTypeError, match=r"^Wait\(w\): child: a leaf takes no child"):
+        Wait.build("w", duration="1 s", child=Success.build("s"))
+    with pytest.raises(ArgumentTypeError, match=r"^Inverter\(i\): child: give a py_trees"):
+        Inverter.build("i", child="success")
+    assert Inverter.build("i", child=Success.build("s")).children[0].name == "s"

@@ -177,6 +177,7 @@ class NodeMixin:
             ValueError: a decorator without a child.
         """
         _check_context(cls, context)
+        _check_child(cls, name, child)
         checked = cls.checked_params(name, params, context.robot)
         factory: Callable[..., py_trees.behaviour.Behaviour] = cls  # type: ignore[assignment]
         if cls.kind == "decorator":
@@ -309,10 +310,28 @@ def _checking(
         **kwargs: Any,
     ) -> py_trees.behaviour.Behaviour:
         _check_context(cls, context)
+        _check_child(cls, name, child)
         checked = cls.checked_params(name, params, context.robot)
         return build(cls, name, checked, context, child, **kwargs)
 
     return from_params
+
+
+def _check_child(cls: type[NodeMixin], name: object, child: object) -> None:
+    """A leaf given a child (which it would drop: the child never ran), or a child that
+    is no behaviour, refused by the node's name."""
+    if child is None:
+        return
+    if cls.kind != "decorator":
+        raise ArgumentTypeError(
+            f"{cls.__name__}({name}): child: a {cls.kind} takes no child (it would never"
+            " run); put the two in a sequence"
+        )
+    if not isinstance(child, py_trees.behaviour.Behaviour):
+        raise ArgumentTypeError(
+            f"{cls.__name__}({name}): child: give a py_trees behaviour"
+            f" (Success.build('s'), a tree's root), not {shown(child)}"
+        )
 
 
 def _check_context(cls: type, context: object) -> None:
