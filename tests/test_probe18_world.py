@@ -296,3 +296,26 @@ def test_a_turn_into_a_branch_not_as_drawn_names_the_tee(
     assert "the pipe is not as drawn at T-joint 'tee' (left): a clamp turning" in result.why
     assert result.mismatch == result.why
     assert result.counters.violations == 0
+
+
+def test_an_unmapped_opening_names_the_maps_segment_where_the_joint_felt_it() -> None:
+    # was: 'an opening was felt at 1.57 m (believed, by bend_1), where the map has no
+    # T-joint ...', no segment named
+    drawn = _net("drawn", {"id": "a", "type": "straight", "length": "4 m"})
+    built = _net(
+        "built",
+        {"id": "a", "type": "straight", "length": "1.5 m"},
+        {"id": "x", "type": "tee", "branch": {"direction": "left", "segments": []}},
+        {"id": "a2", "type": "straight", "length": "2.311 m"},
+    )
+
+    class Three:
+        def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+            return pirate_bt.Step("straight", distance="2.5 m") if obs.step == 0 else None
+
+    result = pirate_bt.navigate(Three(), sim=built, map=drawn)
+    assert result.status == "failure" and result.safe_state
+    assert result.why.startswith("belief and map disagree: an opening was felt at 1.5"), result.why
+    assert (
+        " m (believed, by bend_1, 1.5" in result.why and " m into 'a'), where the map" in result.why
+    )

@@ -373,11 +373,12 @@ class Localiser:
                 and not self._near_turn(here_m)
             ):
                 mapped_mm = self.plan.path.diameter_at(max(here_m, 0.0)) * 1000
+                placed = after_fix((), 0.0, self.plan.path, here_m)  # the joint's segment
                 # The joint found no wall where the map has pipe: a branch's opening, or
                 # a pipe wider than mapped; the joints alone cannot tell which.
                 self.mismatch = (
                     f"belief and map disagree: an opening was felt at {here_m:.2f} m"
-                    f" (believed, by {module}), where the map has no T-joint within"
+                    f" (believed, by {module}{placed}), where the map has no T-joint within"
                     f" {window:.2f} m (or the pipe is wider than the map's"
                     f" {mapped_mm:.0f} mm there)"
                 )
