@@ -318,3 +318,17 @@ def test_placing_many_loader_errors_at_their_elements_is_not_quadratic(tmp_path:
         sys.settrace(None)
     assert [str(e.location) for e in placed] == [str(xml)] * len(errors)
     assert lines < 40 * len(errors)
+
+
+@pytest.mark.parametrize("declared", ["UTF8", "utf_8", "cp65001"])
+@pytest.mark.parametrize("mark", [b"", b"\xef\xbb\xbf"], ids=["", "bom"])
+def test_another_name_of_utf8_in_the_declaration_reads_the_file_as_utf8(
+    declared: str, mark: bytes, tmp_path: Path, capsys: Any
+) -> None:
+    # Python knows these as UTF-8 but expat does not: pyexpat then read the file one
+    # byte per character and refused the first one that is not ASCII as "not
+    # well-formed (invalid token)", a file BT.CPP (TinyXML2: UTF-8) reads.
+    data = mark + f'<?xml version="1.0" encoding="{declared}"?>\n{_BODY}'.encode()
+    code, err, out = _import(tmp_path, data, capsys)
+    assert (code, err) == (0, "")
+    assert "name: caf\u00e9 \u65e5" in out.read_text(encoding="utf-8")

@@ -113,14 +113,18 @@ def parse_xml(path: Path) -> XmlElement:
 
 
 _DECLARED: Final = re.compile(
-    rb"""<\?xml\s+version\s*=\s*(["'])[^"']*\1\s+encoding\s*=\s*(["'])([A-Za-z][\w.-]*)\2""",
+    rb"""(?:\xef\xbb\xbf)?<\?xml\s+version\s*=\s*(["'])[^"']*\1\s+encoding\s*=\s*(["'])([A-Za-z][\w.-]*)\2""",
     re.ASCII,
 )
 """An XML declaration that names its encoding, written in ASCII at the file's start."""
-_EXPAT_READS: Final = frozenset({"utf-8", "utf-16", "utf-16-le", "utf-16-be", "iso8859-1", "ascii"})
-"""The encodings expat reads itself (by Python's names for them). Any other one a
-declaration names is decoded here with Python's codec: pyexpat would read a
-single-byte one that way too, but refuses every multi-byte one."""
+_EXPAT_READS: Final = frozenset(
+    {"UTF-8", "UTF-16", "UTF-16LE", "UTF-16BE", "ISO-8859-1", "US-ASCII"}
+)
+"""The encodings expat reads itself, by the names it knows them by (in any case). Any
+other name a declaration gives is decoded here with Python's codec: pyexpat would read
+a single-byte one that way too, but refuses every multi-byte one, and so every other
+name of UTF-8 (``UTF8``, ``utf_8``: "not well-formed (invalid token)" at the first
+character that is not ASCII)."""
 _UTF32: Final = {
     b"\x00\x00\xfe\xff": "UTF-32",  # the byte-order marks (the codec reads them)
     b"\xff\xfe\x00\x00": "UTF-32",
@@ -154,9 +158,14 @@ def _decoded(data: bytes, file: str) -> str | None:
         if match is None:
             return None
         name = match[3].decode("ascii")
+        if name.upper() in _EXPAT_READS:
+            return None
         try:
-            if codecs.lookup(name).name in _EXPAT_READS:
+            # after a UTF-8 byte-order mark, only another name of UTF-8 is decoded here;
+            # expat says what is wrong with any other name (it contradicts the mark)
+            if data.startswith(codecs.BOM_UTF8) and codecs.lookup(name).name != "utf-8":
                 return None
+            codecs.lookup(name)
         except LookupError:
             cut = name if len(name) <= 40 else f"{name[:40]}... ({len(name)} characters)"
             raise LocatedError(
@@ -182,7 +191,9 @@ def _decoded(data: bytes, file: str) -> str | None:
     bad = _SURROGATE.search(text)  # UTF-7 can spell half a surrogate pair
     if bad is not None:
         raise LocatedError(f"{why} (U+{ord(bad[0]):04X})", _at(text, bad.start(), file))
-    return text
+    # a byte-order mark the codec kept (UTF8 after EF BB BF) is no text: before it, the
+    # declared name took over again and the first character not ASCII was "invalid"
+    return text.removeprefix("\ufeff")
 
 
 def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
