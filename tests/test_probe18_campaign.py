@@ -474,3 +474,30 @@ def test_ctrl_c_leaves_no_trace_without_its_row(tmp_path: Path, stop: BaseExcept
         [*(Path(row["trace"]).name for row in rows), "notes.txt"]
     )
     assert len(rows) == 2
+
+
+@pytest.mark.parametrize(
+    "named",
+    ["torque: 0.7 N*m", "stop_at_feature: false", "velocity: 0.08 m/s", 'distance_key: ""'],
+)
+def test_a_run_naming_a_parameters_default_repeats_the_run_leaving_it(
+    tmp_path: Path, named: str
+) -> None:
+    # {distance: 0.2 m} and {distance: 0.2 m, torque: 0.7 N*m} (torque's default) run
+    # the same cases, but were taken as two runs and counted as independent samples.
+    spec = tmp_path / "d.campaign.yaml"
+    spec.write_text(
+        "name: d\nruns:\n"
+        "  - {name: a, tree: straight, network: straight, params: {distance: 0.2 m}}\n"
+        "  - {name: b, tree: straight, network: straight,"
+        f" params: {{distance: 20 cm, {named}}}}}\n"
+    )
+    with pytest.raises(InputError) as caught:
+        check_axes(load_campaign(spec))
+    assert str(caught.value) == (
+        f"{spec}:4:5: runs[1] repeats runs[0] ('a') under another name: its cases would run"
+        " twice and be counted as independent samples; remove one"
+    )
+    # another value of the parameter is another run
+    spec.write_text(spec.read_text().replace("20 cm", "30 cm"))
+    check_axes(load_campaign(spec))

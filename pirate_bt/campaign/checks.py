@@ -20,6 +20,7 @@ from typing import Any
 
 from pirate_bt.campaign.faulttimes import check_fault_times
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
+from pirate_bt.campaign.runparams import params_as_read
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
     ConfigurationError,
@@ -160,7 +161,7 @@ def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tupl
             kind,
             _file_identity(kind, name, folder) if kind != "navigator" else name,
             its_map,
-            {k: _param_identity(v) for k, v in sorted(run.params.items())},
+            {k: _param_identity(v) for k, v in sorted(params_as_read(run, folder).items())},
             run.blind,
         ]
         runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))

@@ -1,0 +1,46 @@
+"""A tree run's parameters as its tree will read them, for telling runs apart.
+
+Two runs of one tree whose parameters differ only where one leaves a parameter to
+its default and the other names that default (``{distance: 1 m}`` and ``{distance:
+1 m, torque: 0.7 N*m}`` for a ``torque`` declared with ``default: 0.7 N*m``) run
+the same cases: :func:`params_as_read` gives both the same parameters, the defaults
+filled in, so the spec's check of repeated axis entries
+(:func:`pirate_bt.campaign.checks.check_axes`) refuses the second. They were taken
+as two points, and their identical, deterministic cases counted as independent
+samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pirate_bt.campaign.inputs import resolve_name
+
+__all__ = ["params_as_read"]
+
+
+def params_as_read(run: Any, folder: Path) -> Mapping[str, Any]:
+    """``run.params`` with the tree's declared defaults filled in, each as the tree
+    reads it; ``run.params`` as written for a route or navigator run, or when the tree
+    does not load with them (its own check then says why)."""
+    tree = resolve_name(run.tree, folder)
+    if tree is None:
+        return dict(run.params)
+    from pirate_bt.api.running import load_tree_source
+    from pirate_bt.resources import find_file
+
+    # as a case passes them on: `true`, not `True` (cases.param_text)
+    params = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in run.params.items()}
+    try:
+        loaded = load_tree_source(
+            find_file("trees", tree),
+            robot=None,
+            params=params,
+            params_from_text=True,
+            params_origin="--param",
+        )
+    except Exception:
+        return dict(run.params)
+    return dict(loaded.params)
