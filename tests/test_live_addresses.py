@@ -34,6 +34,10 @@ def test_both_options_read_an_address_alike(
     [
         ("[::1", "write an IPv6 address in brackets, then its port: [::1]:PORT"),
         ("[::1]x", "write an IPv6 address in brackets, then its port: [::1]:PORT"),
+        # '::1:1700' is an IPv6 address of its own: port 1700 of ::1 was meant, most
+        # likely; it was taken as the host ::1:1700 on the default port (as --ros2 refuses)
+        ("::1:1700", "write an IPv6 address in brackets, then its port: [::1]:PORT"),
+        ("::1", "write an IPv6 address in brackets, then its port: [::1]:PORT"),
         ("1667:", "the port must be a number from 0 to 65534"),
         ("[::1]:", "the port must be a number from 0 to 65534"),
         ("robot:http", "the port must be a number from 0 to 65534"),

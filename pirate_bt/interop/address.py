@@ -1,8 +1,9 @@
 """``HOST:PORT`` as the live views' options take it (``--groot2``, ``--foxglove``).
 
 One parser for both, strict where a typo would otherwise pick another host: an
-unclosed ``[`` or text after ``]`` other than ``:PORT``, and a ``:`` with no port
-after it, are refused rather than read as a host name.
+unclosed ``[`` or text after ``]`` other than ``:PORT``, an IPv6 address without its
+brackets (``::1:1700``: port 1700 of ``::1``, or ``::1:1700`` itself?), and a ``:``
+with no port after it, are refused rather than read as a host name.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ def parse_host_port(
 
     Raises:
         InputError: a port that is not a number from 0 to ``max_port``, a ``:`` with no
-            port after it, or an IPv6 address whose ``[`` is not closed.
+            port after it, or an IPv6 address without its brackets or whose ``[`` is not
+            closed.
     """
     written = (text or "").strip()
     port_text: str | None = None
@@ -39,6 +41,12 @@ def parse_host_port(
             )
         host = inside or host
         port_text = rest[1:] if rest else None
+    elif written.count(":") > 1:
+        # '::1:1700' is itself an IPv6 address: the user may have meant [::1]:1700, or
+        # [::1:1700] on the default port; as --ros2 does, only brackets say which
+        raise InputError(
+            f"{option} {written}: write an IPv6 address in brackets, then its port: [::1]:PORT"
+        )
     elif written.count(":") == 1:
         given_host, _, port_text = written.partition(":")
         host = given_host or host
