@@ -501,3 +501,16 @@ def test_a_run_naming_a_parameters_default_repeats_the_run_leaving_it(
     # another value of the parameter is another run
     spec.write_text(spec.read_text().replace("20 cm", "30 cm"))
     check_axes(load_campaign(spec))
+
+
+def test_too_many_workers_is_said_of_the_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The command said "workers: at most 1024 local processes", the function's name.
+    spec = tmp_path / "w.campaign.yaml"
+    spec.write_text("name: w\nruns:\n  - {tree: straight, params: {distance: 0.1 m}}\n")
+    argv = ["campaign", str(spec), "--workers", "2000", "--output", str(tmp_path / "o")]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        "pirate-bt: --workers: at most 1024 local processes, not 2000\n"
+    )

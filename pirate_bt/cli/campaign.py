@@ -105,6 +105,8 @@ def _by_option(text: str) -> str:
     """
     if text.startswith("case_timeout: "):
         text = "--case-timeout: " + text.removeprefix("case_timeout: ")
+    if text.startswith("workers: "):  # "workers: at most 1024 local processes"
+        text = "--workers: " + text.removeprefix("workers: ")
     return _BY_OPTION.sub(lambda m: _OPTIONS[m.group(1)], text)
 
 
