@@ -259,3 +259,33 @@ def test_an_encoder_cpr_the_pico_cannot_use_stops_its_build_in_one_line(
     assert f"ENCODER_CPR={value}: the drive encoders' counts per wheel revolution" in line
     assert "from 1 to 32768" in line
     assert not list(tmp_path.iterdir())
+
+
+def test_the_chain_counts_encoder_edges_at_the_picos_own_resolution(
+    elfs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """`make firmware ENCODER_CPR=1024` (docs/board-bus.md: a build option) and the chain:
+    its physics turned wheel travel into 3072 counts a revolution whatever the PICO
+    divided by, so every speed the boards reported, and the odometry, was 3 times off."""
+    bridge, _ = elfs
+    made = subprocess.run(
+        [
+            "make",
+            "-s",
+            "-C",
+            str(ROOT / "firmware" / "pico"),
+            f"BUILD={tmp_path}",
+            "ENCODER_CPR=1024",
+            f"PIRATE_BT={sys.executable} -m pirate_bt",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert made.returncode == 0, made.stderr
+    pico = tmp_path / "pico.elf"
+    with FirmwareChain(bridge, pico, PipeRobotModel(load_robot(), load_network("straight"))) as c:
+        assert c.physics.encoder_cpr == 1024
+    with FirmwareChain(*elfs, PipeRobotModel(load_robot(), load_network("straight"))) as c:
+        assert c.physics.encoder_cpr == 3072

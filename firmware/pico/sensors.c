@@ -6,6 +6,10 @@
 
 #define RING (VELOCITY_WINDOW_MS / 10u)
 
+/* The build's ENCODER_CPR, in the ELF only: the chain's physics turns wheel travel into
+ * encoder counts with the figure this board divides by (pirate_bt.sim.chain). */
+const int32_t pico_encoder_cpr PB_IN_ELF = ENCODER_CPR;
+
 static struct {
     int16_t value[PICO_MAX_CHANNELS];
     int16_t speed[PICO_MAX_MOTORS];

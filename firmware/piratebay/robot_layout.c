@@ -4,15 +4,6 @@
  * is several times faster than copying each entry out of flash with memcpy_P. */
 #include "robot_layout.h"
 
-#ifdef __AVR__
-/* a section the chip never gets: not allocated (the ';' ends the flags GCC would add:
- * an AVR assembler comment), so neither the HEX, the sizes nor simavr's image change */
-#define PB_IN_ELF \
-    __attribute__((section(".pb_layout,\"\",@progbits ;"), used, externally_visible))
-#else
-#define PB_IN_ELF __attribute__((used))
-#endif
-
 /* The layout digest of the description this ELF was built for, under a symbol of its
  * own, in the ELF only: a simulator reads it there and refuses to put the firmware
  * behind boards of another description (pirate-bt sim --firmware, the chain), as a

@@ -43,6 +43,17 @@ struct pb_motor {
     struct pb_range range[PB_N_MODES];
 };
 
+/* A constant kept in the ELF only, for a simulator to read by its symbol (the layout
+ * digest; the PICO's ENCODER_CPR): a section the chip never gets, not allocated (the ';'
+ * ends the flags GCC would add: an AVR assembler comment), so neither the HEX, the sizes
+ * nor simavr's image change. */
+#ifdef __AVR__
+#define PB_IN_ELF \
+    __attribute__((section(".pb_layout,\"\",@progbits ;"), used, externally_visible))
+#else
+#define PB_IN_ELF __attribute__((used))
+#endif
+
 /* One motor's setpoint as the bridge holds it and sends it to the board. */
 struct pb_setpoint {
     uint8_t mode; /* PB_MODE_*, or PB_MODE_KEEP: not commanded / leave as it is */

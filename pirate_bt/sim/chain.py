@@ -43,7 +43,7 @@ from pirate_bt.errors import ConfigurationError, InputError, LinkError
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, MotorFunction, RobotDescription
 from pirate_bt.robot.header import board_io
-from pirate_bt.sim.chain_elf import check_built_for
+from pirate_bt.sim.chain_elf import CPR_SYMBOL, check_built_for, elf_u32
 from pirate_bt.sim.model import PipeRobotModel
 
 __all__ = [
@@ -276,7 +276,11 @@ class FirmwareChain:
                 raise InputError(f"{elf}: no such firmware ELF (build it with `make firmware`)")
             check_built_for(elf, model.robot)  # boards of another layout: refused here
         self.harness = find_chain_harness(harness)
-        self.physics = ChainPhysics(model)
+        # the encoder resolution the PICO was built with (make firmware ENCODER_CPR=...):
+        # the physics counted 3072 a revolution whatever it was, so speeds were off by
+        # the ratio; an ELF that does not say is taken to have the default
+        cpr = elf_u32(pico_elf, CPR_SYMBOL)
+        self.physics = ChainPhysics(model, encoder_cpr=cpr or PICO_ENCODER_CPR)
         self.robot: RobotDescription = model.robot
         self.clock = clock if clock is not None else SimClock()
         self.step_cycles = round(step_s * HZ)

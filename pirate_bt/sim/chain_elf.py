@@ -25,9 +25,11 @@ from pathlib import Path
 from pirate_bt.errors import InputError
 from pirate_bt.robot.description import RobotDescription
 
-__all__ = ["DIGEST_SYMBOL", "check_built_for", "elf_layout_digest"]
+__all__ = ["CPR_SYMBOL", "DIGEST_SYMBOL", "check_built_for", "elf_layout_digest", "elf_u32"]
 
 DIGEST_SYMBOL = "pb_layout_digest"
+CPR_SYMBOL = "pico_encoder_cpr"
+"""The PICO's ``ENCODER_CPR`` (encoder counts per wheel revolution), as it was built."""
 _SHT_SYMTAB = 2
 
 
@@ -37,17 +39,22 @@ def elf_layout_digest(path: str | os.PathLike[str]) -> int | None:
     An ELF built before the symbol existed, or a file that is no ELF32 (the
     harnesses refuse those themselves, naming what they are), says nothing.
     """
+    return elf_u32(path, DIGEST_SYMBOL)
+
+
+def elf_u32(path: str | os.PathLike[str], symbol: str) -> int | None:
+    """The 4-byte little-endian value of ``symbol`` in the ELF ``path``, or ``None``."""
     try:
         data = Path(path).read_bytes()
     except OSError:
         return None
     try:
-        return _digest(data)
+        return _symbol_u32(data, symbol)
     except (struct.error, IndexError, ValueError):
         return None
 
 
-def _digest(data: bytes) -> int | None:
+def _symbol_u32(data: bytes, symbol: str) -> int | None:
     if data[:4] != b"\x7fELF" or data[4] != 1 or data[5] != 1:  # ELF32, little-endian
         return None
     shoff, _, _, _, _, shentsize, shnum, _ = struct.unpack_from("<IIHHHHHH", data, 32)
@@ -61,7 +68,7 @@ def _digest(data: bytes) -> int | None:
         for at in range(offset, offset + size, entsize):
             name_at, value, sym_size, _, _, shndx = struct.unpack_from("<IIIBBH", data, at)
             end = data.index(b"\0", strings[4] + name_at)
-            if data[strings[4] + name_at : end] != DIGEST_SYMBOL.encode() or sym_size != 4:
+            if data[strings[4] + name_at : end] != symbol.encode() or sym_size != 4:
                 continue
             _, _, _, addr, at_file, in_file, *_ = sections[shndx]
             if not addr <= value <= addr + in_file - 4:
