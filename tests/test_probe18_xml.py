@@ -3,16 +3,18 @@ user would export it (see docs/interop.md)."""
 
 from __future__ import annotations
 
+import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 from pirate_bt import load_xml_tree
 from pirate_bt.cli import main
 from pirate_bt.errors import ArgumentTypeError
-from pirate_bt.interop.btcpp import export_xml
+from pirate_bt.interop.btcpp import export_xml, import_xml
 from pirate_bt.treefile import load_tree
 
 _BODY = (
@@ -332,3 +334,22 @@ def test_another_name_of_utf8_in_the_declaration_reads_the_file_as_utf8(
     code, err, out = _import(tmp_path, data, capsys)
     assert (code, err) == (0, "")
     assert "name: caf\u00e9 \u65e5" in out.read_text(encoding="utf-8")
+
+
+def test_a_subtree_parameters_description_survives_export_and_import(tmp_path: Path) -> None:
+    # It was written as the <input_port>'s text only: XML folds CR to LF there, and the
+    # import stripped the spaces around it; BT.CPP's parser reads a <SubTree> model
+    # port's description from its "description" attribute, which it did not have.
+    described = "  lead and\r\nCRLF\rCR & <x> ]]> \u00e9  "
+    tree = tmp_path / "d.yaml"
+    tree.write_text(
+        "name: d\nparams:\n"
+        f"  g: {{type: string, default: x, description: {json.dumps(described)}}}\n"
+        "blackboard:\n  k: {type: string}\n"
+        "root: {type: set_blackboard, key: k, value: $g}\n"
+    )
+    xml = export_xml(tree, tmp_path / "d.xml")
+    port = ET.parse(xml).getroot().find("TreeNodesModel/SubTree[@ID='d']/input_port")
+    assert port is not None and port.get("description") == described
+    back = import_xml(xml, tmp_path / "back.yaml")
+    assert yaml.safe_load(back.read_text())["params"]["g"]["description"] == described

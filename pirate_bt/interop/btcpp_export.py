@@ -340,6 +340,8 @@ def _subtree_model(
             attrs["example"] = encode_value(decl["example"], kind)
         if decl.get("choices"):
             attrs["choices"] = _json(list(decl["choices"]))
+        if decl.get("description"):  # where BT.CPP's parser reads a <SubTree> model's
+            attrs["description"] = str(decl["description"])  # (and spaces, CR survive)
         port = ET.SubElement(element, "input_port", attrs)
         port.text = str(decl["description"]) if decl.get("description") else None
     return element
