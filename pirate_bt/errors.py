@@ -269,7 +269,12 @@ class SourceLocation:
     column: int = 1
 
     def __str__(self) -> str:
-        return f"{self.file}:{self.line}:{self.column}"
+        file = self.file
+        if not file.isprintable():
+            # a name with an escape sequence or a line break (given on the command line,
+            # or a subtree's ref) is shown escaped: it reaches no terminal as written
+            file = "".join(c if c.isprintable() else repr(c)[1:-1] for c in bytes_escaped(file))
+        return f"{file}:{self.line}:{self.column}"
 
 
 class LocatedError(InputError):

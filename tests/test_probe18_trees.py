@@ -320,3 +320,17 @@ def test_a_leaf_built_with_a_child_is_refused_not_run_without_it() -> None:
     with pytest.raises(ArgumentTypeError, match=r"^Inverter\(i\): child: give a py_trees"):
         Inverter.build("i", child="success")
     assert Inverter.build("i", child=Success.build("s")).children[0].name == "s"
+
+
+def test_a_file_name_with_an_escape_sequence_is_shown_escaped_in_its_location(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a path holding ESC [2J (clear the screen) or a line break reached the terminal as
+    # written in every file:line:column
+    from pirate_bt.cli import main
+
+    bad = tmp_path / "a\x1b[2Jb\nc.yaml"
+    bad.write_text("x: [\n")
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "a\\x1b[2Jb\\nc.yaml:1:5: " in err, err
