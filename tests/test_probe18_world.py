@@ -319,3 +319,28 @@ def test_an_unmapped_opening_names_the_maps_segment_where_the_joint_felt_it() ->
     assert (
         " m (believed, by bend_1, 1.5" in result.why and " m into 'a'), where the map" in result.why
     )
+
+
+def test_a_survey_radius_no_pipe_could_have_is_refused_before_connecting(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # was: the whole network surveyed, then nothing written: "navigator 'explore' raised
+    # NetworkGeometryError: segment 'bend-1': a turn of radius 1 mm in a 63 mm pipe ..."
+    _no_connect(monkeypatch)
+    with pytest.raises(InputError, match="radius 1 mm is less than half the narrowest pipe"):
+        pirate_bt.survey(sim="bend-right", output=tmp_path / "s.yaml", radius="1 mm")
+    assert not (tmp_path / "s.yaml").exists()
+
+
+def test_a_survey_radius_under_half_the_pipe_stops_at_the_bend_with_what_it_had(
+    tmp_path: Any,
+) -> None:
+    out = tmp_path / "s.yaml"
+    result = pirate_bt.survey(sim="bend-right", output=out, radius="28 mm")
+    assert result.navigation.status == "failure" and result.navigation.safe_state
+    assert (
+        "a bend right after run-1: the radius given (28 mm) is less than half the pipe's"
+        " 63.0 mm" in result.navigation.why
+    )
+    assert result.network is not None and out.exists()  # what was surveyed, written
+    assert [s.id for s in pirate_bt.load_network(out).spec.segments] == ["run-1"]

@@ -98,6 +98,23 @@ class SurveyResult:
         )
 
 
+def _radius_fits(radius_m: float, robot: Any) -> None:
+    """Refuse, before anything connects, a bend radius under half the narrowest pipe the
+    robot fits: no bend it finds could be written (a bend's radius is at least half its
+    diameter). A survey with ``radius="1 mm"`` drove the whole network and then wrote
+    nothing, *navigator 'explore' raised NetworkGeometryError*."""
+    from pirate_bt.api.options import load_robot_like
+    from pirate_bt.errors import InputError
+
+    narrowest_m = min(p.diameter for p in load_robot_like(robot).clamp.contact_angles)
+    if radius_m < narrowest_m / 2 - 1e-9:
+        raise InputError(
+            f"explore: radius {radius_m * 1000:g} mm is less than half the narrowest pipe the"
+            f" robot fits ({narrowest_m * 1000:g} mm), and a bend's radius is at least half"
+            f" its pipe's diameter: give {narrowest_m * 500:g} mm or more"
+        )
+
+
 def survey(
     *,
     sim: Any = None,
@@ -161,6 +178,7 @@ def survey(
     explore = ExploreNavigator(
         output=output, search=search, radius=radius, name=name, extend=extend
     )
+    _radius_fits(explore.radius_m, robot)
     # a survey refused before it runs (a fault's unknown target) leaves no empty folder
     # made for its output, as navigate leaves none for its trace
     undone = (

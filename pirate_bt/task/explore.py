@@ -290,6 +290,16 @@ class ExploreNavigator:
         if felt.kind == "end":
             self.ends.append(f"{self._line_name} {self._after()}")
             return self._line_done(obs)
+        wide_m = obs.diameter_m
+        if wide_m is not None and self.radius_m < wide_m / 2 - 1e-9:
+            # the bend could not be written (its network would not validate), and neither
+            # could anything after it: the survey went on, then wrote nothing at all
+            raise self._incomplete(
+                f"a bend {felt.direction} {self._after()}: the radius given"
+                f" ({self.radius_m * 1000:g} mm) is less than half the pipe's"
+                f" {wide_m * 1000:.1f} mm, and a bend's is at least that; survey again with"
+                f" a radius of {wide_m * 500:.1f} mm or more"
+            )
         direction = str(felt.direction)
         segment: dict[str, Any] = {"id": self._id("bend"), "type": "bend", "direction": direction}
         if self.radius_m != 0.09:
