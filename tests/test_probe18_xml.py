@@ -353,3 +353,17 @@ def test_a_subtree_parameters_description_survives_export_and_import(tmp_path: P
     assert port is not None and port.get("description") == described
     back = import_xml(xml, tmp_path / "back.yaml")
     assert yaml.safe_load(back.read_text())["params"]["g"]["description"] == described
+
+
+def test_a_refused_port_value_names_its_port_once(tmp_path: Path, capsys: Any) -> None:
+    # was "set_blackboard: value: value: should be true or false or ...": the message
+    # already named the port, and the import named it again.
+    body = (
+        '<root BTCPP_format="4"><BehaviorTree ID="M" _blackboard="json:{&quot;k&quot;:'
+        '{&quot;type&quot;:&quot;string&quot;}}">\n'
+        '<set_blackboard key="k" value="json:{&quot;a&quot;:1}"/></BehaviorTree></root>\n'
+    )
+    code, err, _out = _import(tmp_path, body.encode(), capsys)
+    assert code == 2
+    assert "in.xml:2:1: set_blackboard: value: should be true or false" in err
+    assert "value: value:" not in err

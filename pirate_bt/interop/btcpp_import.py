@@ -512,6 +512,8 @@ class _Importer:
             problems = validation_problems(exc, params)
             where, message = problems[0] if problems else ((), str(exc))
             field = ".".join(str(p) for p in where)
+            if not field or message.startswith(f"{field}:"):  # "value: value: should be"
+                field = ""
             raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
 
 
