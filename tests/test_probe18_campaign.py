@@ -299,12 +299,18 @@ def test_two_robots_of_one_file_name_are_two_groups(tmp_path: Path) -> None:
     rows = [row(0, a, "success"), row(1, b, "failed-safe"), row(2, a, "success")]
     groups = group_stats(rows)
     assert [(g.key, g.n, g.success) for g in groups] == [
-        (f"r robot={a} drop=0 corrupt=0 dup=0", 2, 2),
-        (f"r robot={b} drop=0 corrupt=0 dup=0", 1, 0),
+        (f"r robot={a} drop=0.0 corrupt=0.0 dup=0.0", 2, 2),
+        (f"r robot={b} drop=0.0 corrupt=0.0 dup=0.0", 1, 0),
     ]
     # a robot alone under its name keeps the short label
     (one,) = group_stats([row(0, a, "success")])
     assert one.key == "r robot=robot drop=0 corrupt=0 dup=0"
+    # two drop rates alike to 6 digits were one group "drop=0.1" too
+    rates = [{**row(i, a, "success"), "drop": d} for i, d in enumerate([0.1, 0.1000001, 0.1])]
+    assert [(g.key, g.n) for g in group_stats(rates)] == [
+        ("r robot=" + a + " drop=0.1 corrupt=0.0 dup=0.0", 2),
+        ("r robot=" + a + " drop=0.1000001 corrupt=0.0 dup=0.0", 1),
+    ]
 
 
 def test_the_report_again_keeps_the_campaigns_name(tmp_path: Path) -> None:

@@ -188,19 +188,21 @@ def expand(
 
 def group_key(row: dict[str, Any], *, full: bool = False) -> str:
     """One line naming a case's group (every parameter but the seed); a robot and a
-    truth by their file's stem, or with ``full`` as the row names them (two files of
-    one name in two folders)."""
+    truth by their file's stem and numbers to 6 digits, or with ``full`` as the row
+    names them and in full (two files of one name in two folders; ``drop`` 0.1 and
+    0.1000001)."""
     parts = [str(row.get("run"))]
     if row.get("blind"):
         parts.append("blind")
     for key, said in (("robot", "robot"), ("map", "truth")):
         if row.get(key):
             parts.append(f"{said}={row[key] if full else Path(str(row[key])).stem}")
+    number = repr if full else (lambda x: f"{x:g}")
     if row.get("as_built") is not None:  # the variants of a group are its runs, like seeds
-        parts.append(f"as-built x{float(row.get('as_built_scale') or 1.0):g}")
+        parts.append(f"as-built x{number(float(row.get('as_built_scale') or 1.0))}")
     if row.get("sim_faults"):
         parts.append("+".join(row["sim_faults"]))
     # a row's rates may be null (a record made without its case): read as none
-    rates = {k: float(row.get(k) or 0) for k in ("drop", "corrupt", "dup")}
-    parts.append(f"drop={rates['drop']:g} corrupt={rates['corrupt']:g} dup={rates['dup']:g}")
+    rates = {k: number(float(row.get(k) or 0)) for k in ("drop", "corrupt", "dup")}
+    parts.append(f"drop={rates['drop']} corrupt={rates['corrupt']} dup={rates['dup']}")
     return " ".join(parts)

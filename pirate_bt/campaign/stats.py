@@ -92,16 +92,13 @@ def _cause(reason: Any) -> str:
 
 def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
     """Rows gathered by group, in the order groups first appear by case index."""
-    groups: dict[tuple[str, str, str], GroupStats] = {}
-    firsts: dict[tuple[str, str, str], dict[str, Any]] = {}
+    groups: dict[str, GroupStats] = {}
     for row in sorted(rows, key=lambda r: int(r.get("index", 0))):
         key = group_key(row)
         params = {k: row.get(k) for k in ("run", "map", "robot", "drop", "corrupt", "dup")}
-        # two robots (or truths) of one file name in two folders are two groups: they
-        # were one, of both robots' runs, under one label
-        identity = (key, str(row.get("robot")), str(row.get("map")))
-        firsts.setdefault(identity, row)
-        g = groups.setdefault(identity, GroupStats(key=key, params=params))
+        # two robots (or truths) of one file name in two folders, or two rates alike to 6
+        # digits, are two groups: they were one, of both's runs, under one label
+        g = groups.setdefault(group_key(row, full=True), GroupStats(key=key, params=params))
         g.n += 1
         outcome = row.get("outcome")
         g.success += outcome == "success"
@@ -124,5 +121,5 @@ def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
     labels = Counter(g.key for g in groups.values())
     for identity, g in groups.items():
         if labels[g.key] > 1:
-            g.key = group_key(firsts[identity], full=True)
+            g.key = identity
     return list(groups.values())
