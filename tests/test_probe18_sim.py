@@ -160,3 +160,22 @@ def test_a_slide_that_reached_the_end_of_a_drop_is_not_said_to_slide_at_0_m_s() 
     assert _released_in("90 deg", 1.0).startswith(
         "end state: robot slid back out of the pipe's entry (the simulator keeps it there),"
     )
+
+
+def test_a_board_id_written_as_a_number_in_a_network_file_is_the_board() -> None:
+    # 'target: 22' (YAML reads a number) was refused as 'target: must be text, not 22',
+    # while the octal hint for 'target: 022' said to write 22
+    network = network_from_data(
+        {
+            "name": "n22",
+            "diameter": "63 mm",
+            "segments": [{"type": "straight", "length": "2 m"}],
+            "faults": [{"kind": "board_reset", "target": 22, "at": "1 s"}],
+        }
+    )
+    (fault,) = network.spec.faults
+    assert fault.target == "22"
+    clock = SimClock()
+    with Simulator(network, clock=clock) as sim:
+        clock.advance(1.2)
+        assert [e.detail for e in sim.events() if e.kind == "fault"] == ["start board_reset 22"]

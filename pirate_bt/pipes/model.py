@@ -28,7 +28,7 @@ import math
 from enum import StrEnum
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from pirate_bt.units import Angle, Duration, Force, Length
 
@@ -200,6 +200,15 @@ class FaultSpec(_Model):
         description="motor name (motor_stall), sensor channel name (sensor_*), board id"
         " (board_reset, board_fault); none for link_loss",
     )
+
+    @field_validator("target", mode="before")
+    @classmethod
+    def _board_id_as_written(cls, value: object) -> object:
+        """A board id written as a number (``target: 22``, as YAML reads it) is the
+        board's name, text: it was refused (*must be text, not 22*)."""
+        if isinstance(value, int) and not isinstance(value, bool):
+            return str(value)
+        return value
 
 
 def _dotted(path: tuple[str | int, ...]) -> str:
