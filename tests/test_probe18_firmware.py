@@ -289,3 +289,42 @@ def test_the_chain_counts_encoder_edges_at_the_picos_own_resolution(
         assert c.physics.encoder_cpr == 1024
     with FirmwareChain(*elfs, PipeRobotModel(load_robot(), load_network("straight"))) as c:
         assert c.physics.encoder_cpr == 3072
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [("boot_ms", -5), ("boot_ms", 1.5), ("boot_ms", 120_000), ("speed", float("nan"))],
+)
+def test_the_firmware_bridge_refuses_a_boot_time_or_speed_the_harness_misreads(
+    elfs: tuple[Path, Path], option: str, value: float
+) -> None:
+    """FirmwareBridge(boot_ms=-5) started: the harness read it as 4294967291 ms, so the
+    pty ate every host byte for ever (a HELLO never answered); speed=nan passed its
+    `speed <= 0` and paced the MCU to NaN cycles."""
+    from pirate_bt.sim.firmware_bridge import FirmwareBridge
+
+    model = PipeRobotModel(load_robot(), load_network("straight"))
+    with pytest.raises(InputError, match="must be"):
+        FirmwareBridge(elfs[0], model, **{option: value})  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("args", [["--boot-ms", "-5"], ["--boot-ms", "abc"], ["--speed", "nan"]])
+def test_the_simavr_harness_refuses_a_boot_time_or_speed_it_would_misread(
+    elfs: tuple[Path, Path], args: list[str]
+) -> None:
+    """pirate-simavr read --boot-ms with atoi ('-5': a bootloader for 49 days) and took
+    --speed nan."""
+    from pirate_bt.sim.firmware_bridge import find_harness
+
+    done = subprocess.run(
+        [str(find_harness()), *args, str(elfs[0])],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert done.returncode == 2, done
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("usage: pirate-simavr")
+    assert done.stdout == ""

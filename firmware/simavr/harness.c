@@ -166,20 +166,29 @@ static uint32_t find_symbol(const elf_firmware_t *fw, const char *name) {
 int main(int argc, char **argv) {
     const char *elf = NULL;
     double speed = 1.0;
-    for (int i = 1; i < argc; i++) {
+    bool bad = false;
+    for (int i = 1; i < argc && !bad; i++) {
+        char *end = NULL;
         if (strcmp(argv[i], "--boot-ms") == 0 && i + 1 < argc) {
-            boot_ms = (unsigned)atoi(argv[++i]);
+            /* whole milliseconds, at most a minute: atoi took "-5" as 4294967291 ms, a
+             * bootloader that ate every host byte for ever, and "abc" as 0 */
+            errno = 0;
+            long ms = strtol(argv[++i], &end, 10);
+            bad = errno || end == argv[i] || *end || ms < 0 || ms > 60000;
+            boot_ms = (unsigned)ms;
         } else if (strcmp(argv[i], "--speed") == 0 && i + 1 < argc) {
-            speed = atof(argv[++i]);
+            /* a finite rate: "nan" passed `speed <= 0` and paced the MCU to NaN cycles */
+            speed = strtod(argv[++i], &end);
+            bad = end == argv[i] || *end || !(speed > 0 && speed <= 100);
         } else if (argv[i][0] != '-' && !elf) {
             elf = argv[i];
         } else {
-            elf = NULL;
-            break;
+            bad = true;
         }
     }
-    if (!elf || speed <= 0) {
-        fprintf(stderr, "usage: pirate-simavr [--boot-ms MS] [--speed X] PIRATEBAY.elf\n");
+    if (!elf || bad) {
+        fprintf(stderr, "usage: pirate-simavr [--boot-ms MS] [--speed X] PIRATEBAY.elf (MS a"
+                        " whole number 0..60000, X more than 0 and at most 100)\n");
         return 2;
     }
     elf_firmware_t fw;

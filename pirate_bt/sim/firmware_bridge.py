@@ -94,8 +94,14 @@ class FirmwareBridge:
         self.elf = Path(elf)
         if not self.elf.is_file():
             raise InputError(f"{self.elf}: no such firmware ELF (build it with `make firmware`)")
-        if speed <= 0:
-            raise InputError("speed must be positive")
+        if not 0 < speed <= 100:  # NaN too: the harness paced the MCU to NaN cycles
+            raise InputError(f"speed must be more than 0 and at most 100, not {speed}")
+        if isinstance(boot_ms, bool) or not isinstance(boot_ms, int) or not 0 <= boot_ms <= 60000:
+            # the harness took -5 as 4294967291 ms: a bootloader eating host bytes for ever
+            raise InputError(
+                "the bootloader time (--boot-ms) must be a whole number of milliseconds"
+                f" from 0 to 60000, not {boot_ms!r}"
+            )
         check_built_for(self.elf, model.robot)
         self.harness = find_harness(harness)
         # the harness answers a repeated exchange itself and passes it on only when it
