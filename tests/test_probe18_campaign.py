@@ -520,3 +520,25 @@ def test_too_many_workers_is_said_of_the_option(
     assert capsys.readouterr().err == (
         "pirate-bt: --workers: at most 1024 local processes, not 2000\n"
     )
+
+
+def test_a_spec_from_python_may_hold_numpy_counts_and_paths(tmp_path: Path) -> None:
+    # seeds: {count: np.int64(3)} was refused ("must be a whole number, not
+    # np.int64(3)") beside a NumPy float rate that was taken; a Path for a file name
+    # was refused as "must be text, not PosixPath(...)".
+    import numpy as np
+
+    tree = tmp_path / "mine.yaml"
+    tree.write_text((Path(__file__).parents[1] / "trees" / "straight.yaml").read_text())
+    spec = campaign_from_data(
+        {
+            "name": "np",
+            "runs": [{"tree": tree, "network": "straight", "params": {"distance": "0.1 m"}}],
+            "seeds": {"start": np.int32(2), "count": np.int64(3)},
+            "link": {"drop": np.array([0.0, 0.1])},
+            "robots": [None, Path(__file__).parents[1] / "hardware" / "pirate.yaml"],
+        }
+    )
+    assert (spec.seeds.start, spec.seeds.count, spec.runs[0].tree) == (2, 3, str(tree))
+    with pytest.raises(InputError, match=r"seeds\.count: must be a whole number, not np\.True_"):
+        campaign_from_data({"name": "b", "runs": [{"route": "lab"}], "seeds": {"count": np.True_}})

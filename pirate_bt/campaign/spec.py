@@ -48,6 +48,7 @@ from pydantic import (
 )
 
 from pirate_bt.api.options import MAX_RATE_HZ, MAX_SEED, MAX_TIME_S
+from pirate_bt.campaign.plain import plain
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
 from pirate_bt.yamlfile import Locator, load_yaml
@@ -580,6 +581,7 @@ def campaign_from_data(
     source = SpecSource(name, Path(base) if base is not None else Path("."))
     if not isinstance(data, Mapping):
         raise source.error((), "a campaign must be a mapping of keys")
+    data = plain(data, name)  # a NumPy count, a Path: as the YAML would say them (plain.py)
     try:
         spec = CampaignSpec.model_validate(dict(data), context=_CONTEXT)
     except ValidationError as exc:
