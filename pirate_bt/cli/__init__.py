@@ -37,6 +37,7 @@ __all__ = [
     "check_folder_output",
     "check_output",
     "main",
+    "stdout_open",
     "utf8_text",
     "write_to_stdout",
 ]
@@ -141,6 +142,10 @@ def check_folder_output(path: str | os.PathLike[str] | None, option: str = "--ou
         raise InputError(f"{option} -: a folder of outputs, not standard output; name the folder")
 
 
+_stdout_closed = False
+"""Whether this command started with standard output closed (``>&-``)."""
+
+
 def write_to_stdout(write: Callable[[Path], object], name: str) -> None:
     """``-o -``: ``write`` (the API's writer, given the path to write) writes into a
     temporary folder, as it would anywhere (checked, whole, or nothing), and the text
@@ -148,12 +153,28 @@ def write_to_stdout(write: Callable[[Path], object], name: str) -> None:
     name in it (its suffix may pick the format)."""
     import tempfile
 
+    stdout_open(name)
     with tempfile.TemporaryDirectory(prefix="pirate-bt-") as folder:
         path = Path(folder) / name
         write(path)
         text = path.read_text(encoding="utf-8")
     sys.stdout.write(text)
     sys.stdout.flush()
+
+
+def stdout_open(name: str) -> None:
+    """Refuse to write ``name`` to standard output when the command started with it
+    closed (``>&-``): :func:`main` put the null device in its place (py_trees reads
+    its encoding at import), where the text went nowhere while the command said
+    nothing and exited 0.
+
+    Raises:
+        InputError: standard output is closed.
+    """
+    if _stdout_closed:
+        from pirate_bt.errors import InputError
+
+        raise InputError(f"standard output is closed; {name} not written")
 
 
 def utf8_text(value: str) -> str:
@@ -356,6 +377,8 @@ def _check_subsystem(spec: str, logger_name: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    global _stdout_closed
+    _stdout_closed = sys.stdout is None
     for name in ("stdout", "stderr"):
         if getattr(sys, name) is None:  # closed by the caller (>&-): py_trees reads
             setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115  its encoding at import

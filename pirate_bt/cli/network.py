@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.cli import STDOUT, utf8_text
+from pirate_bt.cli import STDOUT, stdout_open, utf8_text
 from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed, bytes_escaped
 from pirate_bt.units import parse_quantity
 
@@ -171,6 +171,7 @@ def _loads_back(text: str, output: Path | None, what: str) -> None:
 
 def _write(text: str, output: Path | None) -> None:
     if output is None:
+        stdout_open("the network file")
         sys.stdout.write(text)
         return
     if output.is_dir():

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import STDOUT
+from pirate_bt.cli import STDOUT, stdout_open
 from pirate_bt.errors import InputError
 from pirate_bt.render.files import write_diagram
 from pirate_bt.robot.diagram import board_table, robot_graph
@@ -61,6 +61,7 @@ def _header(args: argparse.Namespace) -> int:
         robot = load_robot(path)
     source = str(path) if path is not None else "the bundled robot description"
     if args.output is None or str(args.output) == STDOUT:  # "-" was a file named "-"
+        stdout_open("the header")
         sys.stdout.write(render_header(robot, source))
     else:
         from pirate_bt.cli import check_output
