@@ -542,3 +542,22 @@ def test_a_spec_from_python_may_hold_numpy_counts_and_paths(tmp_path: Path) -> N
     assert (spec.seeds.start, spec.seeds.count, spec.runs[0].tree) == (2, 3, str(tree))
     with pytest.raises(InputError, match=r"seeds\.count: must be a whole number, not np\.True_"):
         campaign_from_data({"name": "b", "runs": [{"route": "lab"}], "seeds": {"count": np.True_}})
+
+
+def test_a_survey_campaign_may_not_write_its_surveys_outside_its_folder(tmp_path: Path) -> None:
+    # params: {output: /anywhere/x.yaml} made every case of the explore navigator write
+    # its survey to that one file, outside the output folder ("nothing a spec says
+    # becomes a path outside the output folder"), each case over the last.
+    spec = tmp_path / "s.campaign.yaml"
+    spec.write_text(
+        "name: s\nruns:\n  - {navigator: explore, network: t-joint, blind: true,"
+        " params: {output: /tmp/escaped.yaml}}\n"
+    )
+    with pytest.raises(InputError) as caught:
+        run_campaign(spec, workers=1, output=tmp_path / "out")
+    assert str(caught.value) == (
+        f"{spec}:3:66: run 'explore': every case of navigator 'explore' would write its"
+        " survey to this one file, outside the campaign's folder; leave 'output' out (a"
+        " campaign writes only into its own folder)"
+    )
+    assert not (tmp_path / "out").exists()

@@ -132,6 +132,16 @@ def check_inputs(spec: CampaignSpec, base: Path | None = None) -> None:
             check(("runs", i, "tree"), "tree", run.tree)
         if run.network is not None:
             check(("runs", i, "network"), "network", run.network, route)
+        if run.navigator == "explore" and "output" in run.params:
+            # every case wrote its survey to that one file, wherever it was
+            problems.append(
+                (
+                    ("runs", i, "params", "output"),
+                    f"run {run.label!r}: every case of navigator 'explore' would write its"
+                    " survey to this one file, outside the campaign's folder; leave"
+                    " 'output' out (a campaign writes only into its own folder)",
+                )
+            )
     for i, robot in enumerate(spec.robots):
         if robot is not None:
             check(("robots", i), "robot", robot)
