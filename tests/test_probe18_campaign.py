@@ -549,9 +549,10 @@ def test_a_survey_campaign_may_not_write_its_surveys_outside_its_folder(tmp_path
     # its survey to that one file, outside the output folder ("nothing a spec says
     # becomes a path outside the output folder"), each case over the last.
     spec = tmp_path / "s.campaign.yaml"
+    escaped = tmp_path / "escaped.yaml"
     spec.write_text(
         "name: s\nruns:\n  - {navigator: explore, network: t-joint, blind: true,"
-        " params: {output: /tmp/escaped.yaml}}\n"
+        f" params: {{output: {escaped}}}}}\n"
     )
     with pytest.raises(InputError) as caught:
         run_campaign(spec, workers=1, output=tmp_path / "out")
@@ -560,4 +561,4 @@ def test_a_survey_campaign_may_not_write_its_surveys_outside_its_folder(tmp_path
         " survey to this one file, outside the campaign's folder; leave 'output' out (a"
         " campaign writes only into its own folder)"
     )
-    assert not (tmp_path / "out").exists()
+    assert not (tmp_path / "out").exists() and not escaped.exists()
