@@ -142,20 +142,31 @@ def wrap_link(
     )
     if threaded:
         session.start_reader(cfg.poll_step_s)
+    kept = ""
     if reply.flags & BridgeFlags.ESTOP:
         if release_boot_latch and reply.sessions == 1:
             try:
-                _release_boot_latch(session, reply.boot_id, cfg.give_up_s)
+                kept = _release_boot_latch(session, reply.boot_id, cfg.give_up_s)
             except BaseException:
                 session.close()
                 raise
         else:
             _log.warning("the bridge's e-stop is latched (from an earlier session); reset it")
-    return RobotLink(robot, session)
+            kept = (
+                "latched in an earlier session (reset it)"
+                if release_boot_latch
+                else "latched at the handshake, and this link was opened not to release it"
+            )
+    robot_link = RobotLink(robot, session)
+    robot_link.latch_kept = kept
+    return robot_link
 
 
-def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> None:
+def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> str:
     """Release the latch the bridge booted with (see :func:`wrap_link`).
+
+    Returns:
+        ``""`` when released; else why the latch stays, for people.
 
     Raises:
         LinkTimeout: the release was never acknowledged.
@@ -187,13 +198,14 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> Non
         _log.info("releasing the boot latch again: a stale frame started a new session")
     if req.outcome is Outcome.ACKED:
         _log.info("released the latch the bridge booted with")
-    elif req.outcome is Outcome.NACKED or session.bridge_resets:
+        return ""
+    if req.outcome is Outcome.NACKED or session.bridge_resets:
         # refused, or the bridge reset meanwhile: the latch stays, a latched e-stop
-        _log.warning(
-            "the bridge's boot latch was not released: %s %s",
-            req.outcome.value,
-            req.nack.name if req.nack else "",
-        )
+        nack = req.nack.name if req.nack else ""
+        _log.warning("the bridge's boot latch was not released: %s %s", req.outcome.value, nack)
+        if req.outcome is Outcome.NACKED:
+            return f"the release of its boot latch was refused (NACK {nack})".replace(" )", ")")
+        return "the bridge reset while its boot latch was released, and booted latched again"
     elif req.outcome is Outcome.STALE:
         # answered at once, but not applied: no e-stop overtook it, so the bridge's
         # duplicate filter is ahead of the HELLO it just took. Not a slow round trip.

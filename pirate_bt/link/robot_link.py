@@ -99,6 +99,8 @@ class RobotLink:
         self._health = LinkHealth(connected=False)
         self._loss_completed = -1
         self._loss_ratio = 0.0
+        self.latch_kept = ""
+        """Why the latch the bridge had at the handshake stays (``LinkHealth.latch_kept``)."""
         self.close_error: LinkError | None = None
         """Set by :meth:`close` when it could not make sure the robot stopped (see there)."""
 
@@ -410,7 +412,7 @@ class RobotLink:
         # without the lock and without building a SessionStats first.
         # The line's noise since the last good frame is not a counter the figures hold
         # (an echo, bytes without a delimiter): it is read with them.
-        figures = (*_HEALTH_FIGURES(session), session.line_noise())
+        figures = (*_HEALTH_FIGURES(session), session.line_noise(), self.latch_kept)
         if figures == self._health_figures:
             return self._health
         (
@@ -428,6 +430,7 @@ class RobotLink:
             faulted,
             refused,
             noise,
+            _kept,
         ) = figures
         if completed != self._loss_completed:
             recent = session._recent
@@ -450,6 +453,7 @@ class RobotLink:
             faulted_boards=self._board_ids_at(faulted),
             states_refused=_refusals(refused),
             line_noise=noise,
+            latch_kept=self.latch_kept,
         )
         return self._health
 

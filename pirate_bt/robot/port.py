@@ -60,6 +60,10 @@ class LinkHealth:
             good frame, for people (``"204 unreadable frames (cobs 153, oversize 51) in
             15963 bytes"``), so that a flooded line is not taken for a silent bridge;
             ``""`` when nothing came (or a port that cannot tell).
+        latch_kept: Why the e-stop latch the bridge had when the link opened is still
+            latched, for people (``"the release of its boot latch was refused (NACK
+            NOT_READY) with board 22 reporting FAULT"``); ``""`` when the link
+            released it, or found none.
     """
 
     connected: bool
@@ -77,6 +81,7 @@ class LinkHealth:
     faulted_boards: tuple[int, ...] = ()
     states_refused: tuple[tuple[str, int], ...] = ()
     line_noise: str = ""
+    latch_kept: str = ""
 
     def silent_for(self, now_s: float) -> float:
         """Seconds since the bridge was last heard."""

@@ -316,6 +316,18 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     "the bridge reports its e-stop latched: it reset in the middle of the"
                     " session and booted latched (check the robot, then reset the e-stop)",
                 )
+            if health.latch_kept:  # the latch the link found when it opened, kept: why
+                faulted = health.faulted_boards
+                boards = (
+                    f"; board {', '.join(map(str, faulted))} reports FAULT (a bridge keeps"
+                    " its latch while a board is in FAULT or TIMEOUT)"
+                    if faulted
+                    else ""
+                )
+                return Problem(
+                    Reason.ESTOP_LATCHED,
+                    f"the bridge reports its e-stop latched: {health.latch_kept}{boards}",
+                )
             return Problem(Reason.ESTOP_LATCHED, "the bridge reports its e-stop latched")
         if not health.connected:
             return Problem(Reason.LINK_DOWN, "the link to the robot is not connected")

@@ -351,15 +351,24 @@ def state_from_flat(values: Mapping[str, Any], stamp_s: float) -> RobotState:
 
 #: The fields of :class:`LinkHealth` a trace records, in the order of
 #: :func:`link_health_raw`: all but ``bridge_resets``, ``bus_fault``,
-#: ``faulted_boards``, ``states_refused`` and ``line_noise``, which the trace schema
+#: ``faulted_boards``, ``states_refused``, ``line_noise`` and ``latch_kept``, which the trace schema
 #: predates (a reset mid-session shows as the bridge's latch and the supervisor's e-stop
 #: cause; a bus or board fault as the supervisor's safe-state cause, which names the
 #: boards; refused STATE frames as ``crc_errors``, ``duplicates`` and the safe-state
-#: cause; a line's noise as ``crc_errors`` and the safe-state cause).
+#: cause; a line's noise as ``crc_errors`` and the safe-state cause; a latch kept
+#: from the start as the supervisor's e-stop cause).
 LINK_FIELDS: tuple[str, ...] = tuple(
     f
     for f in LinkHealth.__dataclass_fields__
-    if f not in ("bridge_resets", "bus_fault", "faulted_boards", "states_refused", "line_noise")
+    if f
+    not in (
+        "bridge_resets",
+        "bus_fault",
+        "faulted_boards",
+        "states_refused",
+        "line_noise",
+        "latch_kept",
+    )
 )
 
 link_health_raw: Callable[[LinkHealth], tuple[Any, ...]] = attrgetter(*LINK_FIELDS)
