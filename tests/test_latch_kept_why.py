@@ -56,3 +56,25 @@ def test_a_latch_released_at_the_handshake_leaves_nothing_to_say() -> None:
             assert link.health().latch_kept == ""
         finally:
             link.close()
+
+
+def test_a_kept_latch_released_later_is_forgotten_for_the_next_latch() -> None:
+    clock = SimClock()
+    with Simulator("straight", ROBOT, clock=clock, faults=["board_fault:22@0s+0.5s"]) as sim:
+        clock.advance(0.1)
+        link = open_link(sim.url, ROBOT, clock)
+        try:
+            assert link.health().latch_kept
+            clock.advance(0.6)  # the fault is over: the operator resets the e-stop
+            link.poll()
+            link.reset_estop()
+            clock.advance(0.05)
+            link.poll()
+            assert not link.health().estopped
+            assert link.health().latch_kept == ""
+            link.estop()  # a new latch, of its own cause
+            clock.advance(0.05)
+            link.poll()
+            assert link.health().estopped and link.health().latch_kept == ""
+        finally:
+            link.close()

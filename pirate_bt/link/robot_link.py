@@ -436,6 +436,10 @@ class RobotLink:
             recent = session._recent
             self._loss_ratio = (sum(recent) / len(recent)) if recent else 0.0
             self._loss_completed = completed
+        estopped = session._estopped(flags)
+        if not estopped and self.latch_kept:
+            self.latch_kept = ""  # released since: a later latch has causes of its own
+            figures = (*figures[:-1], "")
         self._health_figures = figures
         self._health = LinkHealth(
             connected=not (lost or closed),
@@ -446,7 +450,7 @@ class RobotLink:
             retries=retries,
             failed=failed,
             duplicates=dups,
-            estopped=session._estopped(flags),
+            estopped=estopped,
             estop_input=session._estop_input(flags),
             bridge_resets=resets,
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
