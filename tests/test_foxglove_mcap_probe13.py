@@ -291,4 +291,4 @@ def test_hostile_mcap_files_are_one_line_or_read_never_a_traceback_or_a_hang(
             assert trace.frames() is not None
         except InputError as exc:
             assert "\n" not in str(exc) and str(path) in str(exc), (name, exc)
-        assert time.monotonic() - started < 3.0, name
+        assert time.monotonic() - started < 30.0, name  # a hang guard, not a speed figure

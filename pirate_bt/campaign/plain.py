@@ -21,11 +21,27 @@ from pirate_bt.errors import InputError
 __all__ = ["plain"]
 
 
+_SCALARS = frozenset({str, int, float, bool, type(None)})
+"""Types a YAML file loads into that need nothing done: passed by their exact type,
+without the abstract checks below (a list of a million of them took seconds)."""
+
+_MANY = 100_000
+"""A list longer than any list a spec may hold is left as it is: the check refuses it
+by its length, and walking it first only made the refusal slow."""
+
+
 def _plain(value: Any) -> Any:
+    kind = type(value)
+    if kind in _SCALARS:
+        return value
+    if kind is list or kind is tuple:
+        if len(value) > _MANY:
+            return value
+        return [_plain(v) for v in value]
     if isinstance(value, Mapping):
         return {k: _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return value if len(value) > _MANY else [_plain(v) for v in value]
     if isinstance(value, os.PathLike):
         path = os.fspath(value)
         return path if isinstance(path, str) else value
