@@ -135,8 +135,11 @@ def _check_blackboard(
 def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
     """The blackboard keys a node compares with a text value read as text (no ``unit``):
     ``check_blackboard``'s and a guard's ``blackboard:`` comparisons."""
-    comparisons = getattr(params, "comparisons", None)
-    if comparisons is None and getattr(params, "op", "is_set") != "is_set":
+    # the fields by the class, not getattr with a default: a pydantic model raises and
+    # catches an AttributeError for each missing one (two a node, every node of a tree)
+    fields = getattr(type(params), "model_fields", {})
+    comparisons = params.comparisons if "comparisons" in fields else None
+    if comparisons is None and "op" in fields and params.op != "is_set":
         comparisons = [params]
     for c in comparisons or ():
         key = getattr(c, "key", None)  # a guard's without its leading '/'
