@@ -132,14 +132,21 @@ def _check_blackboard(
             )
 
 
+def _has(params: Any, name: str) -> bool:
+    """Whether ``params`` has a field or a class attribute (a property) ``name``."""
+    kind = type(params)
+    return name in getattr(kind, "model_fields", ()) or any(
+        name in k.__dict__ for k in kind.__mro__
+    )
+
+
 def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
     """The blackboard keys a node compares with a text value read as text (no ``unit``):
     ``check_blackboard``'s and a guard's ``blackboard:`` comparisons."""
-    # the fields by the class, not getattr with a default: a pydantic model raises and
+    # looked up by the class, not getattr with a default: a pydantic model raises and
     # catches an AttributeError for each missing one (two a node, every node of a tree)
-    fields = getattr(type(params), "model_fields", {})
-    comparisons = params.comparisons if "comparisons" in fields else None
-    if comparisons is None and "op" in fields and params.op != "is_set":
+    comparisons = params.comparisons if _has(params, "comparisons") else None
+    if comparisons is None and _has(params, "op") and params.op != "is_set":
         comparisons = [params]
     for c in comparisons or ():
         key = getattr(c, "key", None)  # a guard's without its leading '/'
