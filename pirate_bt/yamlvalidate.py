@@ -14,7 +14,8 @@ from __future__ import annotations
 import difflib
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any, TypeVar
+from types import UnionType
+from typing import Annotated, Any, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
@@ -226,7 +227,9 @@ def _value_at(data: Any, path: PathKey) -> Any:
     return data
 
 
-def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tuple[PathKey, str]]:
+def validation_problems(
+    exc: ValidationError, data: Any = _NO_DATA, model: Any = None
+) -> list[tuple[PathKey, str]]:
     """pydantic's errors as ``(path into data, message)``: one clear message per problem.
 
     Union branches that failed only because the value has another shape (the
@@ -239,6 +242,8 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
         exc: The validation error.
         data: The input that was validated (to tell real keys from union tags);
             without it every location element is taken as a key.
+        model: The model validated, to name a known key close to an unknown one
+            (``seed:`` for ``seeds:``); without it only a missing required key is.
     """
     entries = []
     keys: list[tuple[PathKey, str]] = []
@@ -279,17 +284,24 @@ def validation_problems(exc: ValidationError, data: Any = _NO_DATA) -> list[tupl
                 e = {**e, "ctx": {**e["ctx"], "tag": value}}
         bound = _bound_as_written(e, _value_at(data, path), path)
         out.append((path, bound or describe_error({**e, "loc": path})))
-    return list(dict.fromkeys([*keys, *_misspelt(out, entries)]))
+    return list(dict.fromkeys([*keys, *_misspelt(out, entries, model, data)]))
 
 
 def _misspelt(
-    out: list[tuple[PathKey, str]], entries: list[tuple[PathKey, bool, bool, Any]]
+    out: list[tuple[PathKey, str]],
+    entries: list[tuple[PathKey, bool, bool, Any]],
+    model: Any = None,
+    data: Any = _NO_DATA,
 ) -> list[tuple[PathKey, str]]:
     """A key written close to a required key that is missing beside it (``torq:`` for
     ``torque:``) as one problem, ``unknown key 'torq' (did you mean 'torque'?)``, where
-    it was two: the unknown key and the missing one."""
+    it was two: the unknown key and the missing one. With ``model``, an unknown key
+    close to one known key of the model at its place (an optional one: ``distanse:``
+    for ``distance:``, ``seed:`` for ``seeds:``) says so too."""
     unknown = {path for path, _, _, e in entries if e.get("type") == "extra_forbidden"}
     missing = {path for path, _, _, e in entries if e.get("type") == "missing"}
+    if unknown and not missing and model is not None:
+        return _close_to_known(out, unknown, model, data)
     if not unknown or not missing:
         return out
     meant: dict[PathKey, PathKey] = {}
@@ -311,7 +323,87 @@ def _misspelt(
         if path in meant and message.startswith("unknown key"):
             message = f"{message} (did you mean {shown(meant[path][-1])}?)"
         said.append((path, message))
-    return said
+    return said if model is None else _close_to_known(said, unknown - set(meant), model, data)
+
+
+def _close_to_known(
+    out: list[tuple[PathKey, str]], unknown: set[PathKey], model: Any, data: Any
+) -> list[tuple[PathKey, str]]:
+    """Each unknown key's message with the one known key of ``model`` at its place it
+    is close to, if one stands out (and it is not written beside it already)."""
+    meant: dict[PathKey, str] = {}
+    for path in unknown:
+        if not path or not isinstance(path[-1], str):
+            continue
+        beside = _value_at(data, path[:-1])
+        written = set(beside) if isinstance(beside, Mapping) else set()
+        best = _nearest(path[-1], field_names_at(model, path[:-1]) - written)
+        if best is not None:
+            meant[path] = best
+    if not meant:
+        return out
+    return [
+        (path, f"{message} (did you mean {shown(meant[path])}?)")
+        if path in meant and message.startswith("unknown key") and "did you mean" not in message
+        else (path, message)
+        for path, message in out
+    ]
+
+
+def _nearest(written: str, known: set[str]) -> str | None:
+    """The known key ``written`` is closest to, when one stands out: at least 0.7 alike
+    and clearly nearer than the next (``distanse``: ``distance``, not ``distance_key``)."""
+    scored = sorted(
+        ((difflib.SequenceMatcher(None, written, k).ratio(), k) for k in known), reverse=True
+    )
+    if not scored or scored[0][0] < 0.7:
+        return None
+    if len(scored) > 1 and scored[0][0] - scored[1][0] < 0.1:
+        return None
+    return scored[0][1]
+
+
+def field_names_at(model: Any, path: PathKey) -> set[str]:
+    """The keys the pydantic model ``model`` takes at ``path`` into its data: its own
+    fields' names and aliases at ``()``, a field's model's further in (through
+    optional values, unions, lists and mappings of text keys); empty where no model
+    is known."""
+    kinds = [model]
+    for part in path:
+        inner: list[Any] = []
+        for kind in kinds:
+            for ann in _branches(kind):
+                fields = getattr(ann, "model_fields", None) if isinstance(ann, type) else None
+                if isinstance(part, str) and fields is not None:
+                    field = fields.get(part) or next(
+                        (f for f in fields.values() if f.alias == part), None
+                    )
+                    if field is not None:
+                        inner.append(field.annotation)
+                    continue
+                args = get_args(ann)
+                origin = get_origin(ann)
+                if isinstance(part, int) and origin in (list, tuple, Sequence) and args:
+                    inner.append(args[0])
+                elif isinstance(part, str) and origin in (dict, Mapping) and len(args) == 2:
+                    inner.append(args[1])
+        kinds = inner
+    names: set[str] = set()
+    for kind in kinds:
+        for ann in _branches(kind):
+            fields = getattr(ann, "model_fields", None) if isinstance(ann, type) else None
+            for name, field in (fields or {}).items():
+                names.add(field.alias or name)
+    return names
+
+
+def _branches(ann: Any) -> list[Any]:
+    """``ann`` without ``Annotated`` and ``Optional``, a union as its members."""
+    while get_origin(ann) is Annotated:
+        ann = get_args(ann)[0]
+    if get_origin(ann) in (Union, UnionType):
+        return [b for a in get_args(ann) for b in _branches(a)]
+    return [ann]
 
 
 _BOUNDS = {"lt": "less than", "le": "at most", "gt": "more than", "ge": "at least"}
@@ -338,7 +430,7 @@ def _bound_as_written(error: Any, value: Any, path: PathKey) -> str | None:
 
 
 def pydantic_errors(
-    exc: ValidationError, locator: Locator, data: Any = _NO_DATA
+    exc: ValidationError, locator: Locator, data: Any = _NO_DATA, model: Any = None
 ) -> list[LocatedError]:
     """Translate pydantic's errors into located ones, in file order.
 
@@ -346,8 +438,9 @@ def pydantic_errors(
         exc: The validation error.
         locator: Where each path of the file was written.
         data: The validated input, to tell keys from pydantic's union tags.
+        model: The model validated (a key close to one of its known keys says so).
     """
-    errors = [locator.error(path, msg) for path, msg in validation_problems(exc, data)]
+    errors = [locator.error(path, msg) for path, msg in validation_problems(exc, data, model)]
     errors.sort(key=lambda e: (e.location.line, e.location.column))
     return unique_errors(errors)
 
@@ -389,7 +482,7 @@ def validate_document(
     try:
         value = model.model_validate(doc.data, context=context)
     except ValidationError as exc:
-        raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data)) from None
+        raise ValidationFailed(pydantic_errors(exc, doc.locator, doc.data, model)) from None
     cross_check = getattr(value, "cross_check", None)
     problems: list[tuple[Any, ...]] = cross_check() if callable(cross_check) else []
     if problems:

@@ -254,7 +254,7 @@ class NodeMixin:
             try:
                 checked = cls.Params.model_validate(data)
             except ValidationError as exc:
-                problems = params_problems(exc, data)
+                problems = params_problems(exc, data, cls.Params)
         else:
             problems = [
                 f"parameters: expected {cls.Params.__name__} or a mapping of its keys,"
@@ -342,7 +342,7 @@ def _check_context(cls: type, context: object) -> None:
         )
 
 
-def params_problems(exc: ValidationError, data: Any) -> list[str]:
+def params_problems(exc: ValidationError, data: Any, model: Any = None) -> list[str]:
     """A node's pydantic errors as the YAML loader words them, each naming its key.
 
     A file's message points at the key, so it need not name it (``Input should be
@@ -357,7 +357,7 @@ def params_problems(exc: ValidationError, data: Any) -> list[str]:
     from pirate_bt.yamlvalidate import validation_problems  # only on the error path
 
     out: list[str] = []
-    for path, message in validation_problems(exc, data):
+    for path, message in validation_problems(exc, data, model):
         if path and not (message.startswith(f"{path[-1]}:") or f"key {str(path[-1])!r}" in message):
             where = "".join(
                 f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))

@@ -585,7 +585,7 @@ def campaign_from_data(
     try:
         spec = CampaignSpec.model_validate(dict(data), context=_CONTEXT)
     except ValidationError as exc:
-        raise source.errors(validation_problems(exc, dict(data))) from None
+        raise source.errors(validation_problems(exc, dict(data), CampaignSpec)) from None
     return _remember(spec, source)
 
 

@@ -197,7 +197,7 @@ class _Reader(_FileReader):
                 raw_params, context={"units_required": self.units_required}
             )
         except ValidationError as exc:
-            for at_key, msg in validation_problems(exc, raw_params):
+            for at_key, msg in validation_problems(exc, raw_params, cls.Params):
                 at = (*path, *at_key)
                 if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
                     self.value_error(env, at, f"{kind}: {msg}")
