@@ -68,6 +68,34 @@ class SurveyResult:
         """The command line's exit code: 0 whole, 1 stopped safe or incomplete, 3 link."""
         return self.navigation.exit_code
 
+    @property
+    def counters(self) -> Any:
+        """The navigation's :class:`~pirate_bt.Counters`, as every other result's."""
+        return self.navigation.counters
+
+    @property
+    def safe_state(self) -> bool:
+        """The robot was left in its safe state (the navigation's)."""
+        return self.navigation.safe_state
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON values, as every other result's: the navigation's
+        (:meth:`NavigationResult.as_dict <pirate_bt.NavigationResult.as_dict>`) with
+        ``survey``: what was found (``counts``), the network found as its file's
+        values (``network``, ``None`` when nothing was), ``output`` and
+        ``unexplored``."""
+        out = self.navigation.as_dict()
+        network = None
+        if self.network is not None:
+            network = self.network.spec.model_dump(mode="json", exclude_none=True)
+        out["survey"] = {
+            "counts": self.counts(),
+            "network": network,
+            "output": None if self.output is None else str(self.output),
+            "unexplored": list(self.unexplored),
+        }
+        return out
+
     def counts(self) -> dict[str, int]:
         """Straights, bends, tees and reducers found, over every line."""
         out = {"straight": 0, "bend": 0, "tee": 0, "reducer": 0}
