@@ -168,8 +168,17 @@ class TeleopSession:
         if key == "?":
             self.show_state()
             return True
+        kept = (self.velocity_mps, self.rotation_rad, self.bend_rad)
+        refused = False
         for action in self.actions(key):
-            self.sup.apply(action)
+            verdict = self.sup.apply(action)
+            refused = refused or (verdict is not None and verdict.refused)
+        if refused:
+            # A refused key changes nothing, the setpoints it stepped included: kept, a
+            # refused 'w' (not in control, a half transitioning) was sent again every
+            # tick after a takeover, and the robot drove off at a speed the operator
+            # had seen refused; two refused 'd' made the next one a 15° turn.
+            self.velocity_mps, self.rotation_rad, self.bend_rad = kept
         return True
 
     def step(self) -> None:
