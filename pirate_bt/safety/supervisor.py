@@ -49,7 +49,13 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import CommandRefused, EStopLatched, InputError, LinkError
+from pirate_bt.errors import (
+    CommandRefused,
+    EStopLatched,
+    InputError,
+    LinkError,
+    ProtocolMismatch,
+)
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -409,7 +415,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                 self._port.poll()
             except LinkError as exc:
                 if not self.in_safe_state:
-                    self.safe_state(f"link lost: {exc}", error=exc)
+                    # a bridge of another layout or protocol still hears the host: the
+                    # link is not lost (and the safe state's stop falls back to its e-stop)
+                    lost = "protocol mismatch" if isinstance(exc, ProtocolMismatch) else "link lost"
+                    self.safe_state(f"{lost}: {exc}", error=exc)
                 return
             problem = self.link_problem()
             if problem is not None and problem.reason is Reason.ESTOP_LATCHED:

@@ -16,7 +16,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LinkError
+from pirate_bt.errors import LinkError, ProtocolMismatch
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, Half, RobotDescription
 from pirate_bt.robot.port import RobotPort
@@ -173,6 +173,16 @@ class DecisionMixin:
             if latched:
                 # the bridge has stopped everything and refuses setpoints
                 log.info("stop not sent (the e-stop is latched): %s", exc)
+            elif unsent and isinstance(exc, ProtocolMismatch):
+                # the bridge speaks another layout or protocol: no setpoint goes out, but
+                # its e-stop frame reads the same whatever the layout, and the bridge
+                # always takes it (the stop category: drives stopped, clamps held)
+                self._port.estop()
+                if not self._stop_unsent_said:
+                    self._stop_unsent_said = True
+                    log.error(
+                        "could not send the stop of %s: %s; e-stop sent", ", ".join(unsent), exc
+                    )
             elif unsent and not self._stop_unsent_said:
                 # one line, once while the link stays down (a closed line gave one line
                 # per drive, again at every stop sent into it)

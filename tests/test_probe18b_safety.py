@@ -1,0 +1,56 @@
+"""The protective layer in its modes, probed from docs/safety.md and docs/protocol.md.
+
+Each test pins a bug a user saw, fixed here.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+from session_wire import ROBOT, Peer
+from test_probe18_link import _mismatch
+
+from pirate_bt.errors import ProtocolMismatch
+from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.safety.supervisor import Supervisor
+
+# -- a protocol mismatch in the middle of a session ------------------------------------------
+
+
+def _estop_acked(msg: Message) -> list[Message]:
+    if isinstance(msg, EStop):
+        return [Ack(msg.seq, MsgType.ESTOP, AckStatus.APPLIED)]
+    return []
+
+
+def test_a_protocol_mismatch_is_named_so_and_its_safe_state_sends_the_estop(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """After three STATE frames of another layout the supervisor's safe state said
+    *link lost: the bridge sent 3 STATE frames ...* for a bridge that still hears the
+    host, and its stop could not go out (*could not send the stop of ...*): nothing
+    stopped the drives until the connection closed, or the bridge's watchdog. The
+    cause is now a protocol mismatch (still a link error, exit 3), and the stop falls
+    back to the e-stop, which the bridge takes whatever the layout (docs/protocol.md)."""
+    peer = Peer(_estop_acked)
+    link = RobotLink(ROBOT, peer.session())
+    sup = Supervisor(link, peer.clock)
+    _mismatch(peer)
+    with caplog.at_level(logging.INFO, logger="pirate_bt.safety"):
+        sup.tick()
+    peer.clock.sleep(0.05)  # the bridge reads what the host wrote
+    why = sup.safe_state_reason or ""
+    assert why.startswith("protocol mismatch: the bridge sent 3 STATE frames"), why
+    assert "link lost" not in why
+    assert isinstance(sup.safe_state_error, ProtocolMismatch)
+    assert any(isinstance(m, EStop) for m in peer.seen), peer.seen  # before any close
+    said = [
+        r.getMessage()
+        for r in caplog.records
+        if r.name == "pirate_bt.safety" and r.levelno >= logging.ERROR
+    ]
+    assert len(said) == 1 and said[0].endswith("; e-stop sent"), said
+    sup.close()
+    assert link.close_error is None
