@@ -201,12 +201,15 @@ def _sensor_ranges(desc: Workable) -> list[tuple[KeyPath, str]]:
         spring = first.get((module.name, SensorKind.SPRING))
         if module.role is Role.BEND and spring is not None:
             path, lo, hi = spring
-            if max(abs(lo), abs(hi)) < force * (1 - 1e-9):
+            # a pressing wheel's force is positive (a reversed sensor has a negative
+            # per_raw and reads it positive): a range that only reaches it as a
+            # negative number saturates at its top, however large its magnitude
+            if hi < force * (1 - 1e-9):
                 out.append(
                     (
                         (*path, "raw"),
                         f"spring sensor of {module.name!r} reads at most"
-                        f" {max(abs(lo), abs(hi)):.3g} N, less than the wall force of a"
+                        f" {hi + 0.0:.3g} N, less than the wall force of a"
                         f" holding clamp, {force:.3g} N (clamp.min_torque / clamp.lever_arm):"
                         " no clamp of this half could ever be confirmed",
                     )

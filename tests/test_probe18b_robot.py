@@ -1,0 +1,86 @@
+"""Probe 18b: a lab's own PIRATE variant, a copy of hardware/pirate.yaml edited.
+
+Each test edits the bundled robot the way someone describing their own robot
+would, and checks what `pirate-bt validate` tells them: a description no run can
+drive correctly is refused in one line at the key to change, and the legitimate
+edit next to it still validates.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.robot import load_robot
+
+GOOD = (Path(__file__).resolve().parent.parent / "hardware" / "pirate.yaml").read_text()
+FEEDBACK_VELOCITY = "      velocity: {raw: [-1200, 1200], per_raw: 0.1 mm/s}\n      current"
+FEEDBACK_CURRENT = "      current: {raw: [0, 1023], per_raw: 4 mA}"
+SPRING_SCALE = "    per_raw: 50 mN"
+
+
+def variant(tmp_path: Path, *edits: tuple[str, str]) -> Path:
+    """A copy of the bundled robot with each ``(old, new)`` replaced once."""
+    text = GOOD
+    for old, new in edits:
+        assert text.count(old) == 1, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / "my-robot.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def where(path: Path, anchor: str) -> str:
+    """``path:line:column`` of the only line holding ``anchor``, at its first non-blank."""
+    found = [
+        (n, line.index(anchor.lstrip()) + 1)
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if anchor in line
+    ]
+    assert len(found) == 1, (anchor, found)
+    return f"{path}:{found[0][0]}:{found[0][1]}"
+
+
+def refusal(path: Path, capsys: pytest.CaptureFixture[str]) -> list[str]:
+    """The lines `pirate-bt validate` prints for a refused file (exit 2)."""
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    with pytest.raises(ValidationFailed):
+        load_robot(path)
+    return lines
+
+
+def accepted(path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["validate", str(path)])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+
+
+# -- a spring sensor whose range only reaches the clamp force as a negative number ----
+
+
+def test_a_spring_sensor_with_a_negative_scale_on_a_positive_raw_range_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # raw 0..1023 at -50 mN reads 0 .. -51 N: a pressing wheel's (positive) force
+    # saturates at 0 N, so no clamp is ever confirmed and every run times out
+    # clamping; the check compared the range's magnitude (51 N) and let it pass
+    path = variant(tmp_path, (SPRING_SCALE, "    per_raw: -50 mN"))
+    lines = refusal(path, capsys)
+    assert len(lines) == 4  # one per bend module, each at the sensor's raw range
+    assert lines[0].startswith(where(path, "    raw: [0, 1023]") + ": ")
+    assert "spring sensor of 'bend_1' reads at most 0 N" in lines[0]
+    assert "8.75 N" in lines[0]
+
+
+def test_a_reversed_spring_sensor_reading_the_force_positive_validates(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = variant(
+        tmp_path,
+        ("    raw: [0, 1023]\n    per_raw: 50 mN", "    raw: [-1023, 0]\n    per_raw: -50 mN"),
+    )
+    accepted(path, capsys)
