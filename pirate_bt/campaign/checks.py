@@ -20,6 +20,7 @@ from typing import Any
 
 from pirate_bt.campaign.faulttimes import check_fault_times
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
+from pirate_bt.campaign.navchecks import check_route_navigator
 from pirate_bt.campaign.runparams import params_as_read
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
@@ -586,12 +587,13 @@ def _check_navigator(
 
         drawn = None if case.get("blind") else (case.get("network") or "straight")
         the_map = None if drawn is None else load_network(drawn, base=base)
+        given = case.get("network") is not None and not case.get("blind")
         try:
             check_navigator_map(navigator, case["navigator"], the_map)
+            check_route_navigator(navigator, the_map, case.get("network"))
             if the_map is not None:  # as navigate() will, before it connects
                 check_map_start(the_map, robots(case.get("robot")), case["navigator"])
         except InputError as exc:
-            given = case.get("network") is not None and not case.get("blind")
             raise placed(exc, "network" if given else "navigator") from None
     source = getattr(getattr(navigator, "route", None), "source", None)  # a parameter's file
     return [source] if isinstance(source, str) else []
