@@ -13,10 +13,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from pirate_bt.campaign import campaign_from_data
+from pirate_bt.campaign.checks import check_axes
 from pirate_bt.cli import main
+from pirate_bt.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -70,3 +74,30 @@ def test_a_route_navigator_on_its_own_network_by_any_name_still_validates(
         "as_built: {count: 2}\n"
     )
     assert _validate(tmp_path, text, capsys) == (0, "")
+
+
+# --- 2. a navigator's parameter left to its default, and named -------------------------
+
+
+def test_a_navigator_run_naming_its_default_repeats_the_run_leaving_it_out() -> None:
+    def spec(search: str) -> Any:
+        return campaign_from_data(
+            {
+                "name": "c",
+                "runs": [
+                    {"name": "a", "navigator": "explore", "network": "t-joint", "blind": True},
+                    {
+                        "name": "b",
+                        "navigator": "explore",
+                        "network": "t-joint",
+                        "blind": True,
+                        "params": {"search": search},
+                    },
+                ],
+            }
+        )
+
+    for same in ("3 m", "300 cm", "3m"):
+        with pytest.raises(InputError, match=r"runs\[1\] repeats runs\[0\] \('a'\)"):
+            check_axes(spec(same))
+    check_axes(spec("2 m"))  # another value is another point

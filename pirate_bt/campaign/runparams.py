@@ -23,8 +23,13 @@ __all__ = ["params_as_read"]
 
 def params_as_read(run: Any, folder: Path) -> Mapping[str, Any]:
     """``run.params`` with the tree's declared defaults filled in, each as the tree
-    reads it; ``run.params`` as written for a route or navigator run, or when the tree
-    does not load with them (its own check then says why)."""
+    reads it; a navigator run's with the defaults of its signature filled in (``explore``'s
+    ``search: 3 m``); ``run.params`` as written for a route run, or when the tree does
+    not load with them (its own check then says why)."""
+    if run.navigator is not None:  # its defaults as its signature gives them
+        from pirate_bt.task.navigators import navigator_defaults
+
+        return {**navigator_defaults(run.navigator), **run.params}
     tree = resolve_name(run.tree, folder)
     if tree is None:
         return dict(run.params)

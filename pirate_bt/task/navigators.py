@@ -51,6 +51,7 @@ __all__ = [
     "RouteNavigator",
     "check_navigator_map",
     "load_navigator",
+    "navigator_defaults",
     "navigator_names",
 ]
 
@@ -308,6 +309,26 @@ def _registered() -> dict[str, Any]:
 def builtin_name(navigator: object) -> str | None:
     """The name of a built-in navigator's class (``ExploreNavigator()``: ``explore``)."""
     return next((n for n, cls in _BUILT_IN.items() if type(navigator) is cls), None)
+
+
+def navigator_defaults(name: str) -> dict[str, str | float | int | bool]:
+    """The parameters navigator ``name`` leaves to a default, with their defaults (those
+    written as text, a number or a boolean): ``explore``'s ``search`` is ``3 m``. Empty
+    for a name no navigator has, or a signature that cannot be read."""
+    import inspect
+
+    factory: Any = _BUILT_IN.get(name)
+    try:
+        if factory is None and (entry := _registered().get(name)) is not None:
+            factory = entry.load()
+        parameters = inspect.signature(factory).parameters.values()
+    except Exception:  # a broken plug-in: making it says why
+        return {}
+    return {
+        p.name: p.default
+        for p in parameters
+        if isinstance(p.default, str | float | int | bool) and not p.name.startswith("_")
+    }
 
 
 def navigator_names() -> list[str]:
