@@ -17,10 +17,12 @@ from typing import Any
 
 import pytest
 
-from pirate_bt.campaign import campaign_from_data
-from pirate_bt.campaign.checks import check_axes
+from pirate_bt.campaign import campaign_from_data, run_campaign
+from pirate_bt.campaign.cases import expand
+from pirate_bt.campaign.checks import check_axes, check_runs
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from tests.hostile_support import InstantExecutor
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -101,3 +103,48 @@ def test_a_navigator_run_naming_its_default_repeats_the_run_leaving_it_out() -> 
         with pytest.raises(InputError, match=r"runs\[1\] repeats runs\[0\] \('a'\)"):
             check_axes(spec(same))
     check_axes(spec("2 m"))  # another value is another point
+
+
+# --- 3. explore's extend file, for --resume --------------------------------------------
+
+
+def _stub(path: Path) -> None:
+    text = (ROOT / "scenarios" / "t-joint.yaml").read_text(encoding="utf-8")
+    text = text.replace(
+        "      segments:\n        - {id: branch, type: straight, length: 2 m}\n",
+        "      segments: []\n",
+    )
+    assert "segments: []" in text
+    path.write_text(text, encoding="utf-8")
+
+
+def test_explores_extend_file_is_an_input_resume_checks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    _stub(tmp_path / "first.yaml")
+    spec = {
+        "name": "c",
+        "runs": [
+            {
+                "name": "second",
+                "navigator": "explore",
+                "network": "t-joint",
+                "blind": True,
+                "params": {"extend": "first.yaml"},
+            }
+        ],
+        "seeds": {"start": 0, "count": 2},
+    }
+    read = check_runs(expand(campaign_from_data(spec)))
+    assert tmp_path / "first.yaml" in read
+    out = tmp_path / "out"
+    run_campaign(spec, output=out, executor=InstantExecutor())
+    results = out / "results.jsonl"
+    results.write_bytes(results.read_bytes().splitlines(keepends=True)[0])
+    with (tmp_path / "first.yaml").open("a", encoding="utf-8") as stream:
+        stream.write("# edited after the campaign started\n")
+    # was: resumed, the rows of the old survey and the new one mixed in one file
+    with pytest.raises(InputError, match=r"first\.yaml: changed since the campaign"):
+        run_campaign(spec, output=out, resume=True, executor=InstantExecutor())
+    assert len(results.read_bytes().splitlines()) == 1

@@ -20,7 +20,7 @@ from typing import Any
 
 from pirate_bt.campaign.faulttimes import check_fault_times
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
-from pirate_bt.campaign.navchecks import check_route_navigator
+from pirate_bt.campaign.navchecks import check_route_navigator, navigator_files
 from pirate_bt.campaign.runparams import params_as_read
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
@@ -595,5 +595,4 @@ def _check_navigator(
                 check_map_start(the_map, robots(case.get("robot")), case["navigator"])
         except InputError as exc:
             raise placed(exc, "network" if given else "navigator") from None
-    source = getattr(getattr(navigator, "route", None), "source", None)  # a parameter's file
-    return [source] if isinstance(source, str) else []
+    return navigator_files(navigator)  # its parameters' files: --resume digests them

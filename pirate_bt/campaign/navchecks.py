@@ -1,10 +1,12 @@
-"""A navigator run's checks beyond making it: its route's network line.
+"""A navigator run's checks beyond making it: its route's network line, its files.
 
 A ``route`` navigator whose route's ``network`` line names another network than the
 run's map (its ``network``, default ``straight``) is refused at the run, as a route
 run's is (:func:`pirate_bt.campaign.checks.check_runs`): it passed ``validate`` and
 failed at its first turn in every case (*'at the T-joint go left' does not fit the
-network*).
+network*). :func:`navigator_files` names the files a navigator's parameters make it
+read (a route, ``explore``'s ``extend``), so that ``--resume`` digests them: a changed
+``extend`` file was resumed silently.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Any
 
 from pirate_bt.errors import InputError
 
-__all__ = ["check_route_navigator"]
+__all__ = ["check_route_navigator", "navigator_files"]
 
 
 def check_route_navigator(navigator: Any, the_map: Any, given: str | None) -> None:
@@ -52,3 +54,19 @@ def check_route_navigator(navigator: Any, the_map: Any, given: str | None) -> No
         " a route navigator's 'network' is the map its route is planned on; give the"
         " route's own, and list simulated truths under 'maps' or 'as_built'"
     )
+
+
+def navigator_files(navigator: Any) -> list[str]:
+    """The files a navigator's parameters made it read: the ``route`` navigator's
+    route, ``explore``'s ``extend`` network."""
+    files: list[str] = []
+    source = getattr(getattr(navigator, "route", None), "source", None)
+    if isinstance(source, str):
+        files.append(source)
+    from pirate_bt.task.explore import ExploreNavigator
+
+    if type(navigator) is ExploreNavigator:
+        extend = getattr(navigator, "_extend", None)
+        if isinstance(extend, str | Path):
+            files.append(str(extend))
+    return files
