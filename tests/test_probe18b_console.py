@@ -7,12 +7,19 @@ off at it (the console re-sends the kept speed every tick in manual).
 
 from __future__ import annotations
 
+import asyncio
+import io
+import logging
 import math
+
+import pytest
 
 from pirate_bt.cli.teleop import TeleopSession
 from pirate_bt.robot import load_robot
 from pirate_bt.safety import Mode
 from pirate_bt.safety.factory import open_supervisor
+
+pytestmark = pytest.mark.xdist_group("real-time")
 
 
 def _steps(session: TeleopSession, n: int) -> None:
@@ -51,5 +58,70 @@ def test_refused_rotate_presses_do_not_add_up() -> None:
         _keys(session, "mr", ticks=30)  # take over, clamp the rear half
         _keys(session, "d")
         assert math.isclose(session.rotation_rad, math.radians(5))  # was 20°
+    finally:
+        sup.close()
+
+
+def test_keys_that_did_nothing_say_why_in_scripts() -> None:
+    out = io.StringIO()
+    sup = open_supervisor(load_robot(), network="straight", seed=1, mode=Mode.MANUAL)
+    session = TeleopSession(sup, out)
+    try:
+        _keys(session, "emoy")
+    finally:
+        sup.close()
+    text = out.getvalue()
+    # was: nothing at all for m, o and y; the operator could not tell a key was lost
+    assert "IGNORED take over: the e-stop is latched (x resets it)" in text, text
+    assert "IGNORED hand back: the e-stop is latched" in text
+    assert "IGNORED confirm: no step is waiting" in text
+
+
+def test_a_reset_the_bridge_refuses_says_so_and_why() -> None:
+    out = io.StringIO()
+    sup = open_supervisor(
+        load_robot(),
+        network="straight",
+        seed=1,
+        mode=Mode.MANUAL,
+        sim_faults=["board_fault:26@1s+2s"],
+    )
+    session = TeleopSession(sup, out)
+    try:
+        _keys(session, "e", ticks=30)  # t = 1.5 s: board 26 in fault
+        _keys(session, "x")
+        assert sup.mode is Mode.ESTOP
+        assert "IGNORED e-stop reset: e-stop reset nacked NOT_READY" in out.getvalue()
+        _steps(session, 50)  # recovered
+        _keys(session, "x")
+        assert sup.mode is Mode.MANUAL and sup.estop_reset_refusal is None
+    finally:
+        sup.close()
+
+
+def test_the_console_shows_ignored_keys_and_the_protective_layers_errors() -> None:
+    from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
+
+    sup = open_supervisor(load_robot(), network="straight", seed=3, mode=Mode.MANUAL)
+    engine = ConsoleEngine(TeleopSession(sup), period_s=0.05, wall_period_s=0.002)
+    app = OperatorConsole(engine)
+
+    async def scenario() -> None:
+        async with app.run_test(size=(150, 45)) as pilot:
+            await pilot.press("e", "m")
+            for _ in range(300):
+                if app.last is not None and any("IGNORED" in v for v in app.last.verdicts):
+                    break
+                await pilot.pause(0.02)
+            logging.getLogger("pirate_bt.safety").error("could not send the stop of x: gone")
+            await pilot.pause(0.1)
+            panel = str(app.query_one("#verdicts").render())
+            assert "IGNORED take over: the e-stop is latched" in panel, panel
+            assert "error: could not send the stop of x: gone" in panel, panel
+            await pilot.press("q")
+            await pilot.pause(0.2)
+
+    try:
+        asyncio.run(scenario())
     finally:
         sup.close()

@@ -87,6 +87,8 @@ class TeleopSession:
         self._repeats = 0
         self.after_step: list[Callable[[], None]] = []
         """Called after every :meth:`step`."""
+        self.notes: list[Callable[[str], None]] = []
+        """Called with a line for a key that had no effect and no verdict says why."""
         if out is not None:
             supervisor.add_listener(self._show)
 
@@ -169,6 +171,7 @@ class TeleopSession:
             self.show_state()
             return True
         kept = (self.velocity_mps, self.rotation_rad, self.bend_rad)
+        waiting = bool(self.sup.pending_confirmations())
         refused = False
         for action in self.actions(key):
             verdict = self.sup.apply(action)
@@ -179,7 +182,32 @@ class TeleopSession:
             # tick after a takeover, and the robot drove off at a speed the operator
             # had seen refused; two refused 'd' made the next one a 15° turn.
             self.velocity_mps, self.rotation_rad, self.bend_rad = kept
+        why = self._ignored(key, waiting)
+        if why is not None:
+            self._note(f"IGNORED {why}")
         return True
+
+    def _ignored(self, key: str, waiting: bool) -> str | None:
+        """Why an operator action had no effect, when it is one a refusal says nothing
+        of (before 2026-11-30 the console dropped these in silence: 'm' in an e-stop,
+        a reset the bridge refused, 'y' with nothing waiting)."""
+        estopped = self.sup.mode is Mode.ESTOP
+        if key in "mo" and estopped:
+            what = "take over" if key == "m" else "hand back"
+            return f"{what}: the e-stop is latched (x resets it)"
+        if key == "x" and estopped:
+            why = (self.sup.estop_reset_refusal or "the bridge refused it").splitlines()[0]
+            return f"e-stop reset: {why}; the e-stop stays latched (try x again)"
+        if key in "yn" and not waiting:
+            return f"{'confirm' if key == 'y' else 'deny'}: no step is waiting"
+        return None
+
+    def _note(self, text: str) -> None:
+        for hook in self.notes:
+            hook(text)
+        if self.out is not None:
+            self.flush()
+            print(f"  {text}", file=self.out)
 
     def step(self) -> None:
         """One tick: supervisor housekeeping, keep the drive setpoint alive, then the

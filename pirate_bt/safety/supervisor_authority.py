@@ -48,6 +48,8 @@ class AuthorityMixin(DecisionMixin):
     _pending: list[str]
     _decided: dict[str, Confirmation]
     _lock: threading.RLock
+    estop_reset_refusal: str | None = None
+    """Why the bridge refused the last e-stop reset (``None``: it did not)."""
 
     if TYPE_CHECKING:  # defined by the supervisor
 
@@ -146,12 +148,14 @@ class AuthorityMixin(DecisionMixin):
             True when the e-stop is released (or was not latched).
         """
         with self._lock:
+            self.estop_reset_refusal = None
             if self._mode is not Mode.ESTOP:
                 return True
             try:
                 self._port.reset_estop()
             except LinkError as exc:
                 log.error("e-stop reset refused: %s; the e-stop stays latched", exc)
+                self.estop_reset_refusal = str(exc)
                 return False
             self._mode = Mode.MANUAL
             self._estop_reason = None

@@ -39,7 +39,7 @@ KEY_HELP: tuple[tuple[str, str], ...] = (
 )
 
 _LEVEL_STYLE = {"ok": "green", "warn": "yellow", "alarm": "bold red"}
-_VERDICT_STYLE = {"PASS": "", "CLIP": "yellow", "REFUSE": "red"}
+_VERDICT_STYLE = {"PASS": "", "CLIP": "yellow", "REFUSE": "red", "IGNORED": "yellow"}
 
 
 class _ConsoleLog(logging.Handler):
@@ -50,8 +50,13 @@ class _ConsoleLog(logging.Handler):
         self.app = app
 
     def emit(self, record: logging.LogRecord) -> None:
-        if record.name.startswith("pirate_bt.safety"):
-            return  # verdicts are in the verdict panel already
+        if record.name.startswith("pirate_bt.safety") and (
+            record.levelno < logging.ERROR or str(record.msg).startswith("e-stop reset refused")
+        ):
+            # Verdicts are in the verdict panel already, and a refused reset is a line
+            # of its own there; the protective layer's errors are not (a stop that could
+            # not be sent, a protective clamp refused: they were dropped before 2026-11-30).
+            return
         first = (record.getMessage().splitlines() or [""])[0]
         self.app.log_lines.append(f"{record.levelname.lower()}: {first}")
 

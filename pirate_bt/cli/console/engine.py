@@ -83,6 +83,7 @@ class ConsoleEngine:
         self.keys: queue.SimpleQueue[str] = queue.SimpleQueue()
         self.feed = VerdictFeed()
         self.sup.add_listener(self.feed.add)
+        session.notes.append(lambda text: self.feed.note(self.sup.clock.now(), text))
         self.stop_event = threading.Event()
         self.finished: str | None = None
         self.result: Any = None

@@ -177,6 +177,12 @@ class VerdictFeed:
         del self.lines[: -self.maxlen]
         return True
 
+    def note(self, stamp_s: float, text: str) -> None:
+        """Add a line that is no verdict (an operator key that had no effect)."""
+        self._last, self._count = None, 0
+        self.lines.append(f"{stamp_s:8.2f} s  {text}")
+        del self.lines[: -self.maxlen]
+
     def extend(self, verdicts: Iterable[Verdict]) -> None:
         for verdict in verdicts:
             self.add(verdict)
