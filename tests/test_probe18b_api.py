@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import threading
 from pathlib import Path
 
 import pirate_bt
@@ -26,3 +27,34 @@ def test_survey_result_has_what_api_md_says_every_navigation_result_has(
     assert plain["survey"]["unexplored"] == result.unexplored
     segments = plain["survey"]["network"]["segments"]
     assert [s["type"] for s in segments].count("tee") == result.counts()["tee"] == 1
+
+
+def test_a_second_run_on_a_busy_connection_is_refused_not_interleaved() -> None:
+    # two threads ran trees on one connection at once: both ticked the same robot,
+    # each failed on the other's motor conflict and the robot was left in its safe
+    # state; the second is refused now, and the first runs as if alone
+    seen: list[str] = []
+
+    with pirate_bt.connect("sim:straight") as robot:
+
+        def second() -> None:
+            try:
+                robot.run("straight", params={"distance": "0.2 m"})
+                seen.append("ran")
+            except pirate_bt.InputError as exc:
+                seen.append(str(exc))
+
+        def observe(runner: object, connection: object) -> None:
+            thread = threading.Thread(target=second)
+            thread.start()
+            thread.join()
+
+        first = robot.run("straight", params={"distance": "0.3 m"}, observe=observe)
+        assert seen == [
+            "connection: simulator: straight is running a tree already; run one tree at"
+            " a time on a connection"
+        ]
+        assert first.status == "success", first.why
+        assert robot.counters().safe_states == 0
+        again = robot.run("straight", params={"distance": "0.1 m"})
+        assert again.status == "success", again.why

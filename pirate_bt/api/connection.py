@@ -22,6 +22,7 @@ faults ``KEY=VALUE`` (``"drop=0.05,corrupt=0.01"``), comma-separated.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from types import TracebackType
@@ -94,6 +95,7 @@ class Connection:
         self.seed = seed
         self.description = description
         self._closed = False
+        self._running = threading.Lock()
         self.close_error: LinkError | None = None
         """Set by :meth:`close` when the link could not make sure the robot stopped (its
         closing stop and the e-stop after it never acknowledged)."""
@@ -152,19 +154,33 @@ class Connection:
         """Run a tree on this connection to its end (see :func:`pirate_bt.simulate_tree`).
 
         A failed run is a result, not an exception; the robot is then left in its
-        safe state and :attr:`RunResult.why` says why.
+        safe state and :attr:`RunResult.why` says why. One run at a time: a run asked
+        for while another runs on this connection (from another thread) is refused.
+
+        Raises:
+            InputError: a bad option, a closed connection, or a run already going on.
         """
-        return run_on(
-            self,
-            tree,
-            params=params,
-            max_time=max_time,
-            rate=rate,
-            trace=trace,
-            realtime=realtime,
-            live=live,
-            observe=observe,
-        )
+        if not self._running.acquire(blocking=False):
+            # two trees ticked the same robot at once: each failed on the other's
+            # motor conflict, and the robot was left in its safe state
+            raise InputError(
+                f"connection: {self.description} is running a tree already; run one tree"
+                " at a time on a connection"
+            )
+        try:
+            return run_on(
+                self,
+                tree,
+                params=params,
+                max_time=max_time,
+                rate=rate,
+                trace=trace,
+                realtime=realtime,
+                live=live,
+                observe=observe,
+            )
+        finally:
+            self._running.release()
 
     def runner(
         self,
