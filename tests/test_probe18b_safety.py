@@ -6,14 +6,19 @@ Each test pins a bug a user saw, fixed here.
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
 
 import pytest
 from session_wire import ROBOT, Peer
 from test_probe18_link import _mismatch
 
+import pirate_bt
+from pirate_bt.api import Connection
 from pirate_bt.errors import ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.robot import ControlMode, MotorCommand
+from pirate_bt.safety import Outcome, Raw, Reason
 from pirate_bt.safety.supervisor import Supervisor
 
 # -- a protocol mismatch in the middle of a session ------------------------------------------
@@ -54,3 +59,36 @@ def test_a_protocol_mismatch_is_named_so_and_its_safe_state_sends_the_estop(
     assert len(said) == 1 and said[0].endswith("; e-stop sent"), said
     sup.close()
     assert link.close_error is None
+
+
+# -- a value beyond what a motor's mode can carry ---------------------------------------------
+
+
+@pytest.fixture
+def sim_robot() -> Iterator[Connection]:
+    with pirate_bt.connect("sim:straight") as connection:
+        connection.supervisor.tick()
+        yield connection
+
+
+@pytest.mark.parametrize(("value", "reaches"), [(1e308, 1.0), (150.0, 1.0), (-1.0, 0.0)])
+def test_a_raw_pwm_beyond_its_raw_range_is_clipped_and_says_so(
+    sim_robot: Connection, value: float, reaches: float
+) -> None:
+    """`supervisor.command(Raw(MotorCommand("front_leds", PWM, 1e308)))` raised
+    *OverflowError: cannot convert float infinity to integer* out of the link's
+    conversion, and 150 (15 000 %) or -1 *passed*, the verdict's `sent` showing the
+    value while the link saturated it to the raw range unsaid. Such a value is now
+    clipped to what the raw range carries, `raw_range`, the verdict saying so."""
+    sup = sim_robot.supervisor
+    verdict = sup.command(Raw(MotorCommand("front_leds", ControlMode.PWM, value)))
+    assert verdict.outcome is Outcome.CLIP and verdict.reason is Reason.RAW_RANGE, verdict
+    assert "front_leds: pwm" in verdict.detail and "its raw range" in verdict.detail
+    (sent,) = verdict.sent
+    assert sent.value == pytest.approx(reaches)
+
+
+def test_a_raw_pwm_at_the_end_of_its_range_passes(sim_robot: Connection) -> None:
+    """Full duty (1.0, which the raw range's 255 steps of 0.392 % round to) is in range."""
+    verdict = sim_robot.supervisor.command(Raw(MotorCommand("front_leds", ControlMode.PWM, 1.0)))
+    assert verdict.outcome is Outcome.PASS, verdict

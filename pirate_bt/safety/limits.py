@@ -129,6 +129,18 @@ def limit(
             )
     if problem is not None:
         return problem
+    conversion = motor.modes.get(mc.mode)
+    if conversion is not None:
+        # what the mode's raw range can carry: the link would saturate a value beyond
+        # it unsaid (and one too large for an integer raised from the conversion)
+        # (as the link rounds it: a value that rounds into the range is in it)
+        raw_lo, raw_hi = conversion.raw
+        raw = value / conversion.per_raw + conversion.zero_raw
+        if not raw_lo - 0.5 <= raw <= raw_hi + 0.5:
+            lo, hi = conversion.si_range
+            text = f"{motor.name}: {mc.mode} {value:g} outside [{lo:g}, {hi:g}], its raw range"
+            value = conversion.to_si(raw_lo if raw < raw_lo else raw_hi)
+            notes.append((Reason.RAW_RANGE, f"{text}, clipped to {value:g}"))
     return value, notes
 
 

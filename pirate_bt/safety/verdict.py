@@ -144,6 +144,7 @@ class Reason(StrEnum):
     VELOCITY_LIMIT = "velocity_limit"
     ANGULAR_RATE_LIMIT = "angular_rate_limit"
     ACCELERATION_LIMIT = "acceleration_limit"
+    RAW_RANGE = "raw_range"
     CLAMP_TORQUE_TOO_LOW = "clamp_torque_too_low"
     # state invariants
     OTHER_HALF_NOT_CLAMPED = "other_half_not_clamped"
