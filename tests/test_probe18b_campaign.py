@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 from typing import Any
 
@@ -148,3 +149,26 @@ def test_explores_extend_file_is_an_input_resume_checks(
     with pytest.raises(InputError, match=r"first\.yaml: changed since the campaign"):
         run_campaign(spec, output=out, resume=True, executor=InstantExecutor())
     assert len(results.read_bytes().splitlines()) == 1
+
+
+# --- 4. results.csv and spreadsheets ----------------------------------------------------
+
+
+def test_results_csv_writes_no_cell_a_spreadsheet_runs_as_a_formula(tmp_path: Path) -> None:
+    from pirate_bt.campaign.report import write_report
+
+    spec = {"name": "c", "runs": [{"name": "=HYPERLINK(\"x\")", "tree": "straight",
+                                   "params": {"distance": "0.1 m"}}]}  # fmt: skip
+    result = run_campaign(spec, output=None, executor=InstantExecutor())
+    rows = [dict(row) for row in result.rows]
+    rows[0].update(reason="-2+3 cmd", failing_node="@SUM(A1)", sim_time_s=-1.5)
+    write_report(rows, tmp_path, title="t")
+    with (tmp_path / "results.csv").open(encoding="utf-8", newline="") as stream:
+        row = next(csv.DictReader(stream))
+    # was: written raw, and a spreadsheet opening the file ran them as formulas
+    assert row["run"] == '\'=HYPERLINK("x")'
+    assert row["reason"] == "'-2+3 cmd" and row["failing_node"] == "'@SUM(A1)"
+    assert row["sim_time_s"] == "-1.5"  # a number stays a number
+    assert row["outcome"] == "success" and row["params"].startswith("{")
+    # results.jsonl, which the report is made again from, keeps the text as it was
+    assert "'" not in rows[0]["run"]

@@ -89,8 +89,21 @@ def _csv(rows: Sequence[dict[str, Any]]) -> str:
         for key in ("params", "violation_kinds", "damage_kinds"):
             flat[key] = json.dumps(row.get(key) or {}, sort_keys=True)
         flat["sim_faults"] = " ".join(row.get("sim_faults") or [])
-        writer.writerow(flat)
+        writer.writerow({k: _cell(v) for k, v in flat.items()})
     return buf.getvalue()
+
+
+_FORMULA = ("=", "+", "-", "@", "\t", "\r")
+"""What a spreadsheet takes a text cell starting with for a formula (CSV injection)."""
+
+
+def _cell(value: Any) -> Any:
+    """A text cell a spreadsheet would run as a formula (a run named ``=HYPERLINK(...)``,
+    a reason starting with ``-``) with a leading apostrophe, which spreadsheets show as
+    text; numbers, booleans and every other text stay as they are."""
+    if isinstance(value, str) and value.startswith(_FORMULA):
+        return "'" + value
+    return value
 
 
 def _pct(x: float) -> str:
