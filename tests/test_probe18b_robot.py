@@ -84,3 +84,44 @@ def test_a_reversed_spring_sensor_reading_the_force_positive_validates(
         ("    raw: [0, 1023]\n    per_raw: 50 mN", "    raw: [-1023, 0]\n    per_raw: -50 mN"),
     )
     accepted(path, capsys)
+
+
+# -- a drive's velocity feedback that saturates below the speed it is driven at -------
+
+
+@pytest.mark.parametrize(
+    ("feedback", "reads"),
+    [
+        ("{raw: [-1200, 1200], per_raw: 0.05 mm/s}", "reads -60 .. 60 mm/s"),  # too coarse
+        ("{raw: [0, 1200], per_raw: 0.1 mm/s}", "reads 0 .. 120 mm/s"),  # forward only
+    ],
+)
+def test_a_velocity_feedback_that_cannot_read_the_commanded_speed_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], feedback: str, reads: str
+) -> None:
+    # with feedback reading at most 60 mm/s, a drive at 80 mm/s counted 3/4 of the
+    # distance it drove: the bend-right mission "believed at 3.88 m, truly 4.06 m"
+    path = variant(
+        tmp_path,
+        (FEEDBACK_VELOCITY, f"      velocity: {feedback}\n      current"),
+    )
+    lines = refusal(path, capsys)
+    assert len(lines) == 6  # every drive, at the template's feedback velocity raw range
+    at = where(path, f"      velocity: {feedback}").rsplit(":", 1)[0]
+    assert lines[0].startswith(f"{at}:18: velocity feedback of 'bend_1_drive' {reads}")
+    assert "commanded -100 .. 100 mm/s" in lines[0]
+    assert "under-count the distance" in lines[0]
+
+
+def test_a_velocity_feedback_that_reads_the_limited_speed_validates(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # reads +-100 mm/s: the drive's limit, though its mode could be asked for 120
+    path = variant(
+        tmp_path,
+        (
+            FEEDBACK_VELOCITY,
+            "      velocity: {raw: [-1000, 1000], per_raw: 0.1 mm/s}\n      current",
+        ),
+    )
+    accepted(path, capsys)

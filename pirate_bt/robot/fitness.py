@@ -47,7 +47,44 @@ def _fmt_s(seconds: float) -> str:
 
 def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The rules a run needs of the file, each problem as ``(path, message)``."""
-    return [*_freshness(desc), *_sensor_ranges(desc), *_reach(desc)]
+    return [*_freshness(desc), *_sensor_ranges(desc), *_reach(desc), *_drive_feedback(desc)]
+
+
+def _drive_feedback(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A drive's feedback must read what it is read for: its wheel speed at every
+    speed the drive may be commanded, both ways (a drive measures its distance by it,
+    so a reading that saturates below the commanded speed under-counts the distance
+    and the robot drives on past its goal)."""
+    out: list[tuple[KeyPath, str]] = []
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            mode = motor.modes.velocity
+            if motor.function is not MotorFunction.DRIVE or mode is None:
+                continue
+            path: KeyPath = ("boards", b, "motors", j, "feedback")
+            velocity = motor.feedback.velocity
+            if velocity is not None:
+                back, fwd = mode.si_range
+                if motor.limits.velocity is not None:
+                    top = motor.limits.velocity.max
+                    back, fwd = max(back, -top), min(fwd, top)
+                lo, hi = velocity.si_range
+                if not (lo - 1e-9 <= back and fwd <= hi + 1e-9):
+                    out.append(
+                        (
+                            (*path, "velocity", "raw"),
+                            f"velocity feedback of {motor.name!r} reads {_mm_s(lo)} .."
+                            f" {_mm_s(hi)} mm/s, but the drive may be commanded {_mm_s(back)}"
+                            f" .. {_mm_s(fwd)} mm/s (its velocity mode and limit): the"
+                            " reading would saturate, under-count the distance driven and"
+                            " the robot drive on past its goal",
+                        )
+                    )
+    return out
+
+
+def _mm_s(value: float) -> str:
+    return f"{value * 1000:.4g}"
 
 
 def _reach(desc: Workable) -> list[tuple[KeyPath, str]]:
