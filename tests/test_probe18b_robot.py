@@ -125,3 +125,38 @@ def test_a_velocity_feedback_that_reads_the_limited_speed_validates(
         ),
     )
     accepted(path, capsys)
+
+
+# -- a drive's current feedback that cannot read what a blocked wheel draws -----------
+
+
+@pytest.mark.parametrize(
+    ("feedback", "reads"),
+    [
+        ("{raw: [0, 1023], per_raw: 1 mA}", "reads at most 1.02 A"),  # mA per step mistaken
+        ("{raw: [0, 1023], per_raw: -4 mA}", "reads at most 0 A"),  # reversed on a 0.. range
+    ],
+)
+def test_a_current_feedback_that_cannot_read_a_stall_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], feedback: str, reads: str
+) -> None:
+    # a blocked wheel draws motion.drive_stall_current (1.5 A) and a drive tells a
+    # stall by 0.8 of it: a reading stuck at 1.02 A (or 0 A) never showed one, and the
+    # bend-right mission timed out after 120 s pushing the front half into the turn
+    path = variant(tmp_path, (FEEDBACK_CURRENT, f"      current: {feedback}"))
+    lines = refusal(path, capsys)
+    assert len(lines) == 6  # every drive, at the template's feedback current raw range
+    at = where(path, f"      current: {feedback}").rsplit(":", 1)[0]
+    assert lines[0].startswith(f"{at}:17: current feedback of 'bend_1_drive' {reads},")
+    assert "motion.drive_stall_current 1.5 A" in lines[0]
+
+
+def test_a_current_feedback_that_reads_the_stall_current_validates(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = variant(
+        tmp_path,
+        (FEEDBACK_CURRENT, "      current: {raw: [0, 1023], per_raw: 1 mA}"),
+        ("drive_stall_current: 1.5 A", "drive_stall_current: 1 A"),
+    )
+    accepted(path, capsys)

@@ -339,7 +339,9 @@ class RobotDescription(_Model):
                     )
                 )
         # a run's needs: fresh state, sensors that read what they are read for
-        parts = Workable(self.modules, self.boards, self.clamp, self.bridge, self.safety)
+        parts = Workable(
+            self.modules, self.boards, self.clamp, self.bridge, self.safety, self.motion
+        )
         out.extend(workable_problems(parts))
         return out
 

@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pirate_bt.robot.configs import BridgeConfig, ClampConfig, SafetyConfig
+from pirate_bt.robot.configs import BridgeConfig, ClampConfig, MotionConfig, SafetyConfig
 from pirate_bt.robot.parts import (
     Board,
     ControlMode,
@@ -39,6 +39,7 @@ class Workable:
     clamp: ClampConfig
     bridge: BridgeConfig
     safety: SafetyConfig
+    motion: MotionConfig
 
 
 def _fmt_s(seconds: float) -> str:
@@ -54,7 +55,8 @@ def _drive_feedback(desc: Workable) -> list[tuple[KeyPath, str]]:
     """A drive's feedback must read what it is read for: its wheel speed at every
     speed the drive may be commanded, both ways (a drive measures its distance by it,
     so a reading that saturates below the commanded speed under-counts the distance
-    and the robot drives on past its goal)."""
+    and the robot drives on past its goal), and its current up to what a blocked wheel
+    draws (``motion.drive_stall_current``; a drive tells a stall by it)."""
     out: list[tuple[KeyPath, str]] = []
     for b, board in enumerate(desc.boards):
         for j, motor in enumerate(board.motors):
@@ -78,6 +80,20 @@ def _drive_feedback(desc: Workable) -> list[tuple[KeyPath, str]]:
                             f" .. {_mm_s(fwd)} mm/s (its velocity mode and limit): the"
                             " reading would saturate, under-count the distance driven and"
                             " the robot drive on past its goal",
+                        )
+                    )
+            current = motor.feedback.current
+            stall = desc.motion.drive_stall_current
+            if current is not None:
+                top = current.si_range[1]
+                if top < stall * (1 - 1e-9):
+                    out.append(
+                        (
+                            (*path, "current", "raw"),
+                            f"current feedback of {motor.name!r} reads at most"
+                            f" {top + 0.0:.3g} A, less than motion.drive_stall_current"
+                            f" {stall:.3g} A (what a blocked wheel draws): a stalled or"
+                            " stuck wheel would go unnoticed",
                         )
                     )
     return out
