@@ -160,6 +160,8 @@ class _Index:
         for node_id, path in self.paths.items():
             self.by_path.setdefault(path, []).append(node_id)
         self.status: dict[str, list[StatusChange]] = {n.id: [] for n in structure}
+        # each node's first tick with each status: first_tick without a scan
+        self.first: dict[str, dict[str, int]] = {n.id: {} for n in structure}
         self.feedback: dict[str, list[FeedbackChange]] = {n.id: [] for n in structure}
         last_status = {n.id: "I" for n in structure}
         last_feedback = {n.id: "" for n in structure}
@@ -169,6 +171,7 @@ class _Index:
                     last_status[node_id] = code
                     word = STATUS_WORDS.get(code, code)
                     self.status[node_id].append(StatusChange(tick.n, tick.t_s, word))
+                    self.first[node_id].setdefault(word, tick.n)
             for node_id, message in tick.feedback.items():
                 if node_id in last_feedback and last_feedback[node_id] != message:
                     last_feedback[node_id] = message
@@ -365,12 +368,11 @@ class TraceQueries:
             NodeLookupError: see :meth:`node`.
         """
         tick = self.tick_number(tick)
-        status = "INVALID"
-        for change in self.statuses(node):
-            if change.tick > tick:
-                break
-            status = change.status
-        return status
+        # a search, not a copy and a walk of every change: a loop over a run's 100,000
+        # ticks took minutes, each call as long as the node's history
+        changes = self._index().status[self.node(node).id]
+        at = bisect_right(changes, tick, key=operator.attrgetter("tick"))
+        return changes[at - 1].status if at else "INVALID"
 
     def first_tick(self, node: NodeRef, status: str | py_trees.common.Status) -> int | None:
         """The first tick at whose end ``node`` had ``status``; ``None`` if it never did.
@@ -385,11 +387,10 @@ class TraceQueries:
             True
         """
         code = status_code(status)
-        word = STATUS_WORDS[code]
-        changes = self.statuses(node)
+        node_id = self.node(node).id
         if code == "I":
             return 0
-        return next((c.tick for c in changes if c.status == word), None)
+        return self._index().first[node_id].get(STATUS_WORDS[code])
 
     def feedback(self, node: NodeRef) -> list[FeedbackChange]:
         """Every change of ``node``'s feedback message, in order.

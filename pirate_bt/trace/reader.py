@@ -151,6 +151,7 @@ class Trace(TraceQueries):
         self.ticks = ticks
         self.end = end
         self.truncated = truncated
+        self._replayed: tuple[_Replay, int] | None = None  # frame_at's last replay
 
     @property
     def last_tick(self) -> int:
@@ -216,37 +217,11 @@ class Trace(TraceQueries):
 
     def frames(self) -> Iterator[TickFrame]:
         """The whole picture after every recorded tick, in order (tick 0 first)."""
-        status = {n.id: "I" for n in self.structure}
-        feedback = {n.id: "" for n in self.structure}
-        bb: dict[str, Any] = {}
-        state: dict[str, Any] = {}
-        link: dict[str, Any] = {}
-        sim: dict[str, Any] = {}
-        yield TickFrame(0, 0.0, dict(status), dict(feedback), {}, {}, {}, {})
+        replay = _Replay(self.structure)
+        yield replay.frame(0, 0.0)
         for tick in self.ticks:
-            status.update(tick.status)
-            feedback.update(tick.feedback)
-            bb.update(tick.bb)
-            for key in tick.bb_unset:
-                bb.pop(key, None)
-            if tick.full:
-                state = dict(tick.state)
-            else:
-                state.update(tick.state)
-            link.update(tick.link)
-            sim.update(tick.sim)
-            yield TickFrame(
-                tick.n,
-                tick.t_s,
-                dict(status),
-                dict(feedback),
-                dict(bb),
-                dict(state),
-                dict(link),
-                dict(sim),
-                tick.commands,
-                tick.events,
-            )
+            replay.apply(tick)
+            yield replay.frame(tick.n, tick.t_s, tick.commands, tick.events)
 
     def frame_at(self, n: int) -> TickFrame:
         """The whole picture at the end of tick ``n`` (0 is before the first tick).
@@ -258,24 +233,22 @@ class Trace(TraceQueries):
             InputError: ``n`` is not a whole number, negative or beyond the last tick.
         """
         n = self.tick_number(n, "n")
-        found: TickFrame | None = None
-        for frame in self.frames():
-            if frame.n > n:
-                break
-            found = frame
-        assert found is not None
+        # the changes replayed up to tick n, from where the last call stopped when that
+        # was not after it: a loop over the ticks replayed the run from its start at
+        # each one (with a picture of every tick on the way), quadratic in its length
+        replay, done = self._replayed or (_Replay(self.structure), 0)
+        if done and self.ticks[done - 1].n > n:
+            replay, done = _Replay(self.structure), 0
+        while done < len(self.ticks) and self.ticks[done].n <= n:
+            replay.apply(self.ticks[done])
+            done += 1
+        self._replayed = (replay, done)
+        found = self.ticks[done - 1] if done else None
+        if found is None:
+            return replay.frame(n, 0.0)
         if found.n != n:
-            return TickFrame(
-                n,
-                found.t_s,
-                found.status,
-                found.feedback,
-                found.blackboard,
-                found.state,
-                found.link,
-                found.sim,
-            )
-        return found
+            return replay.frame(n, found.t_s)
+        return replay.frame(n, found.t_s, found.commands, found.events)
 
     def statuses_at(self, n: int) -> dict[str, py_trees.common.Status]:
         """Every node's status at the end of tick ``n``."""
@@ -284,6 +257,52 @@ class Trace(TraceQueries):
     def robot_state_at(self, n: int) -> RobotState | None:
         """The robot state at the end of tick ``n`` (``None`` if none was recorded yet)."""
         return self.frame_at(n).robot_state()
+
+
+class _Replay:
+    """The values of a trace as its tick records change them, from before tick 1."""
+
+    def __init__(self, structure: TreeStructure) -> None:
+        self.status = {n.id: "I" for n in structure}
+        self.feedback = {n.id: "" for n in structure}
+        self.bb: dict[str, Any] = {}
+        self.state: dict[str, Any] = {}
+        self.link: dict[str, Any] = {}
+        self.sim: dict[str, Any] = {}
+
+    def apply(self, tick: TickRecord) -> None:
+        self.status.update(tick.status)
+        self.feedback.update(tick.feedback)
+        self.bb.update(tick.bb)
+        for key in tick.bb_unset:
+            self.bb.pop(key, None)
+        if tick.full:
+            self.state = dict(tick.state)
+        else:
+            self.state.update(tick.state)
+        self.link.update(tick.link)
+        self.sim.update(tick.sim)
+
+    def frame(
+        self,
+        n: int,
+        t_s: float,
+        commands: tuple[Mapping[str, Any], ...] = (),
+        events: tuple[Mapping[str, Any], ...] = (),
+    ) -> TickFrame:
+        """The picture now, as tick ``n`` at ``t_s`` (copies: the replay goes on)."""
+        return TickFrame(
+            n,
+            t_s,
+            dict(self.status),
+            dict(self.feedback),
+            dict(self.bb),
+            dict(self.state),
+            dict(self.link),
+            dict(self.sim),
+            commands,
+            events,
+        )
 
 
 def no_header(where: str | Path, truncated: bool) -> InputError:

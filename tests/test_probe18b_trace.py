@@ -1,0 +1,136 @@
+"""Probe 18b: traces read back, queried and exported, as a user of traces meets them."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pirate_bt.trace import read_trace
+from pirate_bt.trace.reader import Trace
+
+HEADER = {
+    "type": "header",
+    "format": "pirate-bt-trace",
+    "version": 1,
+    "tree": {
+        "name": "pab",
+        "nodes": [
+            {
+                "id": "0",
+                "name": "pab",
+                "type": "Sequence",
+                "kind": "composite",
+                "parent": None,
+                "children": ["0.0"],
+            },
+            {
+                "id": "0.0",
+                "name": "clamp rear",
+                "type": "Clamp",
+                "kind": "leaf",
+                "parent": "0",
+                "children": [],
+            },
+        ],
+    },
+}
+
+
+def write_trace(path: Path, records: list[dict[str, Any]]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in [HEADER, *records]), encoding="utf-8")
+    return path
+
+
+def flapping(tmp_path: Path, ticks: int) -> Trace:
+    """A run whose leaf turns RUNNING and SUCCESS by turns, one change a tick."""
+    records = [
+        {
+            "type": "tick",
+            "n": n,
+            "t_s": n * 0.01,
+            "status": {"0": "R", "0.0": "R" if n % 2 else "S"},
+            "state": {"rotation_rad": n * 1e-3},
+        }
+        for n in range(1, ticks + 1)
+    ]
+    records.append({"type": "end", "n": ticks, "t_s": ticks * 0.01, "outcome": "success"})
+    return read_trace(write_trace(tmp_path / "flap.jsonl", records))
+
+
+class Counted(list[Any]):
+    """A list that counts the items read from it."""
+
+    reads = 0
+
+    def __iter__(self) -> Iterator[Any]:
+        for item in super().__iter__():
+            Counted.reads += 1
+            yield item
+
+    def __getitem__(self, index: Any) -> Any:
+        Counted.reads += 1
+        return super().__getitem__(index)
+
+
+# -- queries over a long run are not quadratic
+
+
+def test_status_at_over_every_tick_does_not_walk_the_history_each_time(tmp_path: Path) -> None:
+    # status_at copied the node's whole list of changes and walked it at each call: a
+    # loop over a 100,000-tick run's ticks took minutes
+    trace = flapping(tmp_path, 1000)
+    expected = ["INVALID"] + ["RUNNING" if n % 2 else "SUCCESS" for n in range(1, 1001)]
+    index = trace._index()
+    index.status["0.0"] = Counted(index.status["0.0"])
+    Counted.reads = 0
+    got = [trace.status_at("clamp rear", n) for n in range(1001)]
+    assert got == expected
+    assert Counted.reads < 30 * 1001  # a search per call (it read 500,000 changes)
+
+
+def test_first_tick_does_not_walk_the_history(tmp_path: Path) -> None:
+    trace = flapping(tmp_path, 1000)
+    index = trace._index()
+    index.status["0.0"] = Counted(index.status["0.0"])
+    Counted.reads = 0
+    for _ in range(100):
+        assert trace.first_tick("clamp rear", "FAILURE") is None
+        assert trace.first_tick("clamp rear", "success") == 2
+        assert trace.first_tick("pab", "RUNNING") == 1
+        assert trace.first_tick("clamp rear", "INVALID") == 0
+    assert Counted.reads < 1000  # it read every change for each call
+
+
+def test_frame_at_over_every_tick_replays_the_run_once(tmp_path: Path) -> None:
+    # frame_at replayed the run from its start (a copy of every value at every tick on
+    # the way) at each call: `trace show`/`render --tick` per tick was quadratic
+    trace = flapping(tmp_path, 1000)
+    whole = {frame.n: frame for frame in trace.frames()}
+    trace.ticks = Counted(trace.ticks)
+    Counted.reads = 0
+    for n in range(1001):
+        assert trace.frame_at(n) == whole[n]
+    assert Counted.reads < 10 * 1001  # was half a million
+    assert trace.frame_at(3) == whole[3]  # and back again
+    assert trace.frame_at(0) == whole[0]
+
+
+def test_frame_at_of_a_tick_that_wrote_no_record_is_the_last_one_renumbered(
+    tmp_path: Path,
+) -> None:
+    records = [
+        {"type": "tick", "n": 1, "t_s": 0.01, "status": {"0": "R", "0.0": "R"}},
+        {"type": "tick", "n": 4, "t_s": 0.04, "status": {"0.0": "S"}, "events": [{"kind": "note"}]},
+        {"type": "end", "n": 6, "t_s": 0.06, "outcome": "success"},
+    ]
+    trace = read_trace(write_trace(tmp_path / "gaps.jsonl", records))
+    for n, t_s, leaf in [(5, 0.04, "S"), (2, 0.01, "R"), (0, 0.0, "I"), (6, 0.04, "S")]:
+        frame = trace.frame_at(n)
+        assert (frame.n, frame.t_s, frame.status["0.0"], frame.events) == (n, t_s, leaf, ())
+    assert trace.frame_at(4).events == ({"kind": "note"},)
+    with pytest.raises(ValueError, match="no tick 7"):
+        trace.frame_at(7)
