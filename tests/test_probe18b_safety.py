@@ -18,7 +18,8 @@ from pirate_bt.errors import ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, MotorCommand
-from pirate_bt.safety import Outcome, Raw, Reason
+from pirate_bt.safety import Outcome, Raw, Reason, operator
+from pirate_bt.safety.operator import Mode
 from pirate_bt.safety.supervisor import Supervisor
 
 # -- a protocol mismatch in the middle of a session ------------------------------------------
@@ -92,3 +93,27 @@ def test_a_raw_pwm_at_the_end_of_its_range_passes(sim_robot: Connection) -> None
     """Full duty (1.0, which the raw range's 255 steps of 0.392 % round to) is in range."""
     verdict = sim_robot.supervisor.command(Raw(MotorCommand("front_leds", ControlMode.PWM, 1.0)))
     assert verdict.outcome is Outcome.PASS, verdict
+
+
+# -- an e-stop reset the bridge refuses -------------------------------------------------------
+
+
+def test_a_refused_estop_reset_says_which_board_keeps_it_latched() -> None:
+    """With board 26 rebooting, `reset_estop()` returned false and said only *e-stop
+    reset nacked NOT_READY*; the operator had to guess why. It now names what the host
+    sees: the board whose every reading is stale, and before they go stale what the
+    bridge's NOT_READY means."""
+    with pirate_bt.connect("sim:straight", faults="board_reset:26@0.5s") as robot:
+        sup, clock = robot.supervisor, robot.supervisor.clock
+        sup.apply(operator.EStop())
+        said = []
+        for _ in range(8):
+            clock.sleep(0.1)
+            sup.tick()
+            if clock.now() > 0.55:
+                assert not sup.reset_estop() and sup.mode is Mode.ESTOP
+                said.append(sup.estop_reset_refusal or "")
+    assert said[0].startswith("e-stop reset nacked NOT_READY: the bridge cannot confirm")
+    assert (
+        said[-1] == "e-stop reset nacked NOT_READY: board 26 is not answering (every reading stale)"
+    )

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from pirate_bt.errors import InputError, LinkError
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, MotorFunction
+from pirate_bt.safety.checks import stale_channels
 from pirate_bt.safety.commands import Command, Stop, member_of
 from pirate_bt.safety.operator import (
     Confirm,
@@ -154,13 +155,46 @@ class AuthorityMixin(DecisionMixin):
             try:
                 self._port.reset_estop()
             except LinkError as exc:
-                log.error("e-stop reset refused: %s; the e-stop stays latched", exc)
-                self.estop_reset_refusal = str(exc)
+                why = self._reset_refused_why(exc)
+                log.error("e-stop reset refused: %s; the e-stop stays latched", why)
+                self.estop_reset_refusal = why
                 return False
             self._mode = Mode.MANUAL
             self._estop_reason = None
             log.warning("e-stop reset by the operator; mode manual")
             return True
+
+    def _reset_refused_why(self, exc: LinkError) -> str:
+        """The bridge's refusal of a reset, with what the host sees of its cause (a
+        bare *e-stop reset nacked NOT_READY* left the operator to guess)."""
+        health = self._port.health()
+        parts: list[str] = []
+        if health.estop_input:
+            parts.append("its hardware e-stop input is pressed")
+        if health.bus_fault:
+            parts.append("no board answers the bus (BUS_FAULT)")
+        if health.faulted_boards:
+            ids = ", ".join(str(b) for b in health.faulted_boards)
+            parts.append(f"board {ids} reports FAULT")
+        state = self._port.state()
+        if state is not None:
+            now = self.clock.now()
+            away = [
+                str(board)
+                for board, names in sorted(self._board_readings.items())
+                if names
+                and board not in health.faulted_boards
+                and len(stale_channels(self.robot, state, names, now)) == len(names)
+            ]
+            if away:
+                parts.append(f"board {', '.join(away)} is not answering (every reading stale)")
+        if not parts and "NOT_READY" in str(exc):
+            # a board the bridge lost (TIMEOUT) before its readings here go stale
+            parts.append(
+                "the bridge cannot confirm every motor is held: a board not answering it"
+                " (rebooting?) or in fault"
+            )
+        return f"{exc}: {'; '.join(parts)}" if parts else str(exc)
 
     # -- operator authority ---------------------------------------------------
 
