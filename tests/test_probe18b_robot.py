@@ -160,3 +160,26 @@ def test_a_current_feedback_that_reads_the_stall_current_validates(
         ("drive_stall_current: 1.5 A", "drive_stall_current: 1 A"),
     )
     accepted(path, capsys)
+
+
+# -- a cruise speed the drives may not go ---------------------------------------------
+
+
+def test_a_nominal_speed_above_the_drives_limit_is_refused_at_the_nominal_speed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # every mission on it was refused when it loaded, placed at "<dict>:1:1" (a
+    # parameter of the planned tree), never at the robot file's line
+    path = variant(tmp_path, ("nominal_speed: 80 mm/s", "nominal_speed: 150 mm/s"))
+    lines = refusal(path, capsys)
+    assert lines == [
+        f"{where(path, 'nominal_speed: 150 mm/s')}: nominal_speed 150 mm/s is faster than"
+        " drive 'bend_1_drive' may go (100 mm/s, its velocity mode and limit): a mission"
+        " drives at the nominal speed, and every one would be refused when it loads"
+    ]
+
+
+def test_a_nominal_speed_at_the_drives_limit_validates(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    accepted(variant(tmp_path, ("nominal_speed: 80 mm/s", "nominal_speed: 100 mm/s")), capsys)

@@ -48,7 +48,40 @@ def _fmt_s(seconds: float) -> str:
 
 def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The rules a run needs of the file, each problem as ``(path, message)``."""
-    return [*_freshness(desc), *_sensor_ranges(desc), *_reach(desc), *_drive_feedback(desc)]
+    return [
+        *_freshness(desc),
+        *_sensor_ranges(desc),
+        *_reach(desc),
+        *_drive_feedback(desc),
+        *_cruise(desc),
+    ]
+
+
+def _cruise(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """Every drive must run at ``motion.nominal_speed``: a mission drives its straights
+    at that speed, and a tree asking a drive for more than it may go is refused."""
+    slowest: tuple[float, str] | None = None
+    for board in desc.boards:
+        for motor in board.motors:
+            mode = motor.modes.velocity
+            if motor.function is not MotorFunction.DRIVE or mode is None:
+                continue
+            top = mode.si_range[1]
+            if motor.limits.velocity is not None:
+                top = min(top, motor.limits.velocity.max)
+            if slowest is None or top < slowest[0]:
+                slowest = (top, motor.name)
+    speed = desc.motion.nominal_speed
+    if slowest is None or speed <= slowest[0] * (1 + 1e-9):
+        return []
+    return [
+        (
+            ("motion", "nominal_speed"),
+            f"nominal_speed {_mm_s(speed)} mm/s is faster than drive {slowest[1]!r} may go"
+            f" ({_mm_s(slowest[0])} mm/s, its velocity mode and limit): a mission drives at"
+            " the nominal speed, and every one would be refused when it loads",
+        )
+    ]
 
 
 def _drive_feedback(desc: Workable) -> list[tuple[KeyPath, str]]:
