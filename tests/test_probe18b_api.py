@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import socket
 import threading
 from pathlib import Path
+
+import pytest
 
 import pirate_bt
 
@@ -58,3 +61,54 @@ def test_a_second_run_on_a_busy_connection_is_refused_not_interleaved() -> None:
         assert robot.counters().safe_states == 0
         again = robot.run("straight", params={"distance": "0.1 m"})
         assert again.status == "success", again.why
+
+
+def _refused_port() -> str:
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        return f"socket://127.0.0.1:{s.getsockname()[1]}"
+
+
+def test_a_mission_refused_at_connect_leaves_no_empty_output_folder(tmp_path: Path) -> None:
+    # run_mission(..., output="out/run1") on a port that did not answer raised its
+    # LinkError and left out/run1 made and empty
+    with pytest.raises(pirate_bt.LinkError):
+        pirate_bt.run_mission(
+            "scenarios/bend-right.route", port=_refused_port(), output=tmp_path / "out" / "run1"
+        )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_mission_refused_for_its_live_view_leaves_no_empty_trace_folder(
+    tmp_path: Path,
+) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        with pytest.raises(pirate_bt.InputError, match="the port is taken"):
+            pirate_bt.simulate_mission(
+                "scenarios/bend-right.route",
+                foxglove=f"127.0.0.1:{taken.getsockname()[1]}",
+                trace=tmp_path / "runs" / "a" / "trace.jsonl",
+            )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_navigation_refused_at_connect_leaves_no_folder_on_its_trace_way(
+    tmp_path: Path,
+) -> None:
+    # the trace folder itself was taken away again, the folder made above it was not
+    class Once:
+        def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+            return None
+
+    with pytest.raises(pirate_bt.InputError, match="faults"):
+        pirate_bt.navigate(
+            Once(),
+            sim="straight",
+            faults="motor_stall:no_such_drive@1s",
+            trace=tmp_path / "a" / "b",
+        )
+    with pytest.raises(pirate_bt.LinkError):
+        pirate_bt.navigate(Once(), port=_refused_port(), trace=tmp_path / "c" / "d")
+    assert list(tmp_path.iterdir()) == []

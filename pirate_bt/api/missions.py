@@ -11,8 +11,9 @@ with its outcome and cause, and names the first cause of a stop
 
 from __future__ import annotations
 
+import contextlib
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -47,6 +48,7 @@ from pirate_bt.api.options import (
     writable_folder,
 )
 from pirate_bt.api.results import closing_why
+from pirate_bt.atomic import new_folders_undone
 from pirate_bt.errors import InputError
 from pirate_bt.task.localise import MAP_FRACTION
 
@@ -417,6 +419,22 @@ def simulate_mission(
     )
 
 
+@contextlib.contextmanager
+def _folders_undone(out: Path | None, trace_path: Path | None, option: str) -> Iterator[None]:
+    """Make the output and trace folders (before anything connects or moves); when
+    the block raises, take away again those it made that are still empty."""
+    trace_folder = trace_path.parent if trace_path is not None else None
+    with contextlib.ExitStack() as stack:
+        for folder in (out, trace_folder):
+            if folder is not None:
+                stack.enter_context(new_folders_undone(folder))
+        if out is not None:
+            writable_folder(out, "output")
+        if trace_folder is not None:
+            writable_folder(trace_folder, option)
+        yield
+
+
 def _watched_mission(
     open_connection: Callable[[], Any],
     plan: Any,
@@ -440,12 +458,11 @@ def _watched_mission(
     foxglove, ros2, ros_domain_id, ros_namespace, groot2, observe = views
     out = Path(output) if output is not None else None
     trace_path = Path(trace) if trace is not None else (out / "trace.jsonl" if out else None)
-    if out is not None:  # before anything connects or moves
-        writable_folder(out, "output")
-    if trace_path is not None:
-        writable_folder(trace_path.parent, "trace" if trace is not None else "output")
     started = time.perf_counter()
     with (
+        # a mission refused before it runs (a port that does not answer, a live view's
+        # port taken) leaves no empty folder made for its outputs
+        _folders_undone(out, trace_path, "trace" if trace is not None else "output"),
         foxglove_server(foxglove) as server,
         ros2_node(ros2, domain_id=ros_domain_id, namespace=ros_namespace) as node,
         groot2_server(groot2) as groot2_view,

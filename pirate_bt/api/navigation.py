@@ -27,6 +27,7 @@ from pirate_bt.api.options import (
     tick_period_s,
 )
 from pirate_bt.api.results import closing_why
+from pirate_bt.atomic import new_folders_undone
 from pirate_bt.errors import InputError, shown
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
@@ -44,11 +45,17 @@ MAX_DEADLINE_S = 24 * 3600.0
 """The longest wall time one decision of a navigator may be given (a day)."""
 
 
-def _trace_folder(trace: Any) -> None:
-    from pirate_bt.api.options import output_folder, writable_folder
+def _trace_folder(trace: Any) -> Path:
+    from pirate_bt.api.options import output_folder
+
+    return output_folder(trace, "trace")
+
+
+def _make_trace_folder(folder: Path) -> None:
+    from pirate_bt.api.options import writable_folder
 
     # made and written to before anything connects: /proc/x was a bare FileNotFoundError
-    writable_folder(output_folder(trace, "trace"), "trace")
+    writable_folder(folder, "trace")
 
 
 def _network(value: Any, what: str) -> Any:
@@ -197,16 +204,14 @@ def navigate(
     check_navigator_map(navigator, name, copy.deepcopy(map_network), deadline_s)
     if map_network is not None:  # every step would be refused, the first after connecting
         check_map_start(map_network, description, name)
-    made = trace is not None and not Path(trace).exists()
-    if trace is not None:  # every argument checked: an unknown navigator makes no folder
-        _trace_folder(trace)
-    try:
+    # every argument checked: an unknown navigator makes no folder; one refused at
+    # connect (a fault's unknown target, a port that does not answer) leaves none made
+    # on the way to it either (the trace folder alone was taken away: x/y left x)
+    folder = _trace_folder(trace) if trace is not None else None
+    with new_folders_undone(folder) if folder is not None else contextlib.nullcontext():
+        if folder is not None:
+            _make_trace_folder(folder)
         connection = connect(target, robot=description, seed=seed, faults=faults, firmware=firmware)
-    except BaseException:
-        if made:  # refused at connect (a fault's unknown target): leave no empty folder
-            with contextlib.suppress(OSError):
-                Path(trace).rmdir()  # type: ignore[arg-type]
-        raise
     with connection:
         simulator = connection.simulator
         truth_for = None
