@@ -18,7 +18,9 @@ from pirate_bt.errors import ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, MotorCommand
-from pirate_bt.safety import Outcome, Raw, Reason, operator
+from pirate_bt.safety import Drive, Outcome, Raw, Reason, operator
+from pirate_bt.safety.checks import stale_channels
+from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.operator import Mode
 from pirate_bt.safety.supervisor import Supervisor
 
@@ -117,3 +119,28 @@ def test_a_refused_estop_reset_says_which_board_keeps_it_latched() -> None:
     assert (
         said[-1] == "e-stop reset nacked NOT_READY: board 26 is not answering (every reading stale)"
     )
+
+
+# -- a stop that could not reach a board away -------------------------------------------------
+
+
+def test_a_drive_whose_board_was_away_at_the_stop_is_stopped_when_it_answers_again() -> None:
+    """A drive at 30 mm/s, then board 26 reboots: the safe state (stale data) stops the
+    other drives, bend_3_drive's stop is refused (its board away for good). When the
+    board answered again 1.5 s later, the bridge handed it the setpoints it kept,
+    0.03 m/s: bend_3_drive turned on, fresh readings and all, in the safe state, for as
+    long as the connection stayed open. The supervisor now sends that stop again once
+    the board answers."""
+    sup = open_supervisor(network="straight", sim_faults=["board_reset:26@0.5s"])
+    try:
+        sup.tick()
+        assert sup.command(Drive(0.03)).ok
+        for _ in range(30):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        state = sup.state()
+        assert state is not None and sup.in_safe_state
+        assert not stale_channels(sup.robot, state, ["bend_3_drive.velocity"], sup.clock.now())
+        assert state.drive_velocity_mps["bend_3_drive"] == pytest.approx(0.0, abs=1e-3)
+    finally:
+        sup.close()

@@ -420,6 +420,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     lost = "protocol mismatch" if isinstance(exc, ProtocolMismatch) else "link lost"
                     self.safe_state(f"{lost}: {exc}", error=exc)
                 return
+            self._resend_owed_stop()
             problem = self.link_problem()
             if problem is not None and problem.reason is Reason.ESTOP_LATCHED:
                 if self._mode is not Mode.ESTOP:

@@ -84,6 +84,9 @@ class DecisionMixin:
     _board_readings: dict[int, tuple[str, ...]]
     _owners: dict[str, Any]
     _stop_unsent_said: bool
+    # drives whose stop could not reach their board (away for good): sent again each
+    # tick until it goes out, or another command for them does
+    _stop_owed: frozenset[str] = frozenset()
 
     if TYPE_CHECKING:  # defined by the supervisor and its authority side
 
@@ -153,6 +156,7 @@ class DecisionMixin:
                 for c in cmds:
                     self._last_setpoint[c.motor] = (c.mode, 0.0, now)
                 self._stop_unsent_said = False
+                self._stop_owed = frozenset()
                 return cmds
             by_board: dict[int, list[MotorCommand]] = {}
             for c in cmds:
@@ -170,6 +174,9 @@ class DecisionMixin:
                 sent.extend(group)
             if not sent:
                 unsent = [c.motor for c in cmds]
+            # a latch has stopped every drive; otherwise a board that answers again gets
+            # the setpoints its bridge kept for it, its drive's last speed among them
+            self._stop_owed = frozenset() if latched else frozenset(unsent)
             if latched:
                 # the bridge has stopped everything and refuses setpoints
                 log.info("stop not sent (the e-stop is latched): %s", exc)
@@ -191,9 +198,39 @@ class DecisionMixin:
             cmds = tuple(sent)
         else:
             self._stop_unsent_said = False
+            self._stop_owed = frozenset()
         for c in cmds:
             self._last_setpoint[c.motor] = (c.mode, 0.0, now)
         return cmds
+
+    def _resend_owed_stop(self) -> None:
+        """Send again, board by board, the stop of the drives it could not reach: the
+        bridge hands a board that answers again the setpoints it keeps for it, so a
+        drive whose board was away when the robot stopped went on at its last speed
+        once the board was back, in the safe state (before 2026-11-30)."""
+        if not self._stop_owed or self._mode is Mode.ESTOP:
+            return
+        by_board: dict[int, list[MotorCommand]] = {}
+        for m in self.robot.drive_motors():
+            if m.name in self._stop_owed:
+                mc = MotorCommand(m.name, ControlMode.VELOCITY, 0.0)
+                by_board.setdefault(self.robot.board_of(m.name).id, []).append(mc)
+        now = self.clock.now()
+        state = self._port.state()
+        for board, group in by_board.items():
+            names = self._board_readings.get(board, ())
+            if state is None or len(stale_channels(self.robot, state, names, now)) == len(names):
+                continue  # still away (every reading stale): again next tick
+            try:
+                self._port.send(tuple(group))
+            except LinkError as exc:
+                log.info("the stop of board %d's drives not sent yet: %s", board, exc)
+                continue
+            motors = [c.motor for c in group]
+            self._stop_owed = self._stop_owed - set(motors)
+            for c in group:
+                self._last_setpoint[c.motor] = (c.mode, 0.0, now)
+            log.warning("the stop of %s went out (its board answers again)", ", ".join(motors))
 
     def _boards_not_answering(
         self, cmds: tuple[MotorCommand, ...], state: RobotState, now_s: float
@@ -363,6 +400,8 @@ class DecisionMixin:
                 return self._refuse(command, source, Reason.LINK_ERROR, str(exc))
             for mc in sent:
                 self._last_setpoint[mc.motor] = (mc.mode, mc.value, now)
+            if self._stop_owed:  # a later command than the stop owed
+                self._stop_owed = self._stop_owed - {mc.motor for mc in sent}
             issuer = current_issuer() if source is not Source.OPERATOR else None
             for mc in sent:
                 self._owners[mc.motor] = issuer
