@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from pirate_bt.errors import InputError
 from pirate_bt.trace import read_trace
 from pirate_bt.trace.reader import Trace
 
@@ -134,3 +135,43 @@ def test_frame_at_of_a_tick_that_wrote_no_record_is_the_last_one_renumbered(
     assert trace.frame_at(4).events == ({"kind": "note"},)
     with pytest.raises(ValueError, match="no tick 7"):
         trace.frame_at(7)
+
+
+# -- a record of a type no trace holds
+
+
+def annotated(tmp_path: Path) -> Path:
+    records = [
+        {"type": "tick", "n": 1, "t_s": 0.01, "status": {"0": "R", "0.0": "R"}},
+        {"type": "annotation", "n": 1, "text": "from a newer writer"},
+        {"type": "end", "n": 1, "t_s": 0.01, "outcome": "success"},
+    ]
+    return write_trace(tmp_path / "run.jsonl", records)
+
+
+def test_an_unknown_record_type_is_named_once_quoted(tmp_path: Path) -> None:
+    # it said: unknown record type "'annotation'"
+    trace = annotated(tmp_path)
+    with pytest.raises(InputError) as caught:
+        read_trace(trace)
+    assert str(caught.value).startswith(f"{trace}:3:1: unknown record type 'annotation':")
+
+
+@pytest.mark.parametrize("target", ["out.mcap", "out_bag"])
+def test_every_export_refuses_an_unknown_record_as_read_trace_does(
+    tmp_path: Path, target: str, capsys: pytest.CaptureFixture[str], monkeypatch: Any
+) -> None:
+    # the rosbag2 export wrote a bag of it (exit 0); the .mcap export said "cannot
+    # convert this record: not a trace record type" without the column
+    from pirate_bt.cli import main
+
+    trace = annotated(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["trace", "export", str(trace), "-o", target]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"pirate-bt: {trace}:3:1: unknown record type 'annotation':"
+        " a trace holds a header, ticks and an end"
+    )
+    assert not (tmp_path / target).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.jsonl"]

@@ -176,6 +176,9 @@ def _checked(pairs: Iterable[tuple[int, dict[str, Any]]], where: Path, tick: Tic
             if problem is not None:
                 raise LocatedError(problem, SourceLocation(str(where), line))
             first_end = line
+        elif header and kind is not None:  # as read_trace refuses it: the exports wrote
+            # a bag of it (a .mcap export said "cannot convert", without the column)
+            raise LocatedError(values.stray_record(kind), SourceLocation(str(where), line))
         yield line, record
 
 

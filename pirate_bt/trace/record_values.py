@@ -135,7 +135,8 @@ def stray_record(kind: str) -> str:
     header, a header is a second run's (``cat a.jsonl b.jsonl``); it was "unknown"."""
     if kind == "header":
         return "a second header record: a trace holds one run (two files joined?)"
-    return f"unknown record type {shown(kind, 40)!r}"
+    # shown() quotes it once (it said "'note'"); a control character is escaped
+    return f"unknown record type {shown(kind, 40)}: a trace holds a header, ticks and an end"
 
 
 def order_problem(n: int, last_tick: int, end_line: int) -> str | None:
