@@ -112,3 +112,16 @@ def test_a_navigation_refused_at_connect_leaves_no_folder_on_its_trace_way(
     with pytest.raises(pirate_bt.LinkError):
         pirate_bt.navigate(Once(), port=_refused_port(), trace=tmp_path / "c" / "d")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_survey_that_writes_no_file_leaves_no_folder_made_for_it(tmp_path: Path) -> None:
+    # "nothing was surveyed: no file is written", and out/a was left made and empty
+    result = pirate_bt.survey(
+        sim="straight",
+        output=tmp_path / "out" / "a" / "surveyed.yaml",
+        faults="motor_stall:bend_3_drive@0s+1000s",
+    )
+    assert result.status == "failure"
+    assert result.why.endswith("nothing was surveyed: no file is written")
+    assert result.output is None
+    assert list(tmp_path.iterdir()) == []

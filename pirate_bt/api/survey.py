@@ -143,6 +143,23 @@ def _radius_fits(radius_m: float, robot: Any) -> None:
         )
 
 
+def _folders_to_make(output: Path | None) -> list[Path]:
+    """The folders on the way to ``output`` that do not exist yet, innermost first."""
+    if output is None:
+        return []
+    return [p for p in (output.parent, *output.parent.parents) if not p.exists()]
+
+
+def _take_away(made: list[Path]) -> None:
+    """Take away again the folders a survey made for a file it did not write (*nothing
+    was surveyed: no file is written* left them, empty), while they are empty."""
+    for path in made:
+        try:
+            path.rmdir()
+        except OSError:  # one that holds anything stays, and so do those above it
+            break
+
+
 def survey(
     *,
     sim: Any = None,
@@ -214,6 +231,7 @@ def survey(
         if explore.output is not None
         else contextlib.nullcontext()
     )
+    made = _folders_to_make(explore.output)
     with undone:
         if explore.output is not None:  # before anything connects, as navigate's trace
             from pirate_bt.api.options import output_path, writable_folder
@@ -255,6 +273,8 @@ def survey(
                 navigation.why += f"; {nothing}"  # as a survey that ends on its own says
     if explore.ends and explore.ends_note() not in navigation.why:
         navigation.why += f"; {explore.ends_note()}"  # a written end may be a bend
+    if explore.network is None:  # no file written: no folder made for it stays either
+        _take_away(made)
     network = None
     if explore.network is not None:
         from pirate_bt.pipes import Network
