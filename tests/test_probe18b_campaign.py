@@ -172,3 +172,27 @@ def test_results_csv_writes_no_cell_a_spreadsheet_runs_as_a_formula(tmp_path: Pa
     assert row["outcome"] == "success" and row["params"].startswith("{")
     # results.jsonl, which the report is made again from, keeps the text as it was
     assert "'" not in rows[0]["run"]
+
+
+def test_a_navigators_route_beside_the_spec_is_found_from_another_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # params: {route: my.route} was read from the working folder: a spec run from
+    # elsewhere said 'my.route:1:1: no such file' for the route beside it, as the docs
+    # promise for the spec's own file names
+    from pirate_bt.campaign.spec import load_campaign
+
+    folder = tmp_path / "spec"
+    folder.mkdir()
+    (folder / "my.route").write_text("network straight\nforward 0.2 m\n")
+    spec_file = folder / "nav.campaign.yaml"
+    spec_file.write_text(
+        "name: navrel\nruns:\n  - {navigator: route, network: straight,"
+        " params: {route: my.route}}\nseeds: {count: 1}\n"
+    )
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    (case,) = expand(load_campaign(spec_file))
+    assert case["params"]["route"] == str((folder / "my.route").resolve())
+    assert main(["validate", str(spec_file)]) == 0

@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -150,6 +151,8 @@ def expand(
     )
     for run, robot, truth, sim_faults, (drop, corrupt, dup) in axes:
         params = {k: param_text(v) for k, v in sorted(run.params.items())}
+        if run.navigator is not None:  # its file parameters, as a tree's or a route's name
+            params.update(_navigator_files(run.navigator, params, resolve))
         for variant, seed in itertools.product(
             variants, range(spec.seeds.start, spec.seeds.start + spec.seeds.count)
         ):
@@ -206,3 +209,20 @@ def group_key(row: dict[str, Any], *, full: bool = False) -> str:
     rates = {k: number(float(row.get(k) or 0)) for k in ("drop", "corrupt", "dup")}
     parts.append(f"drop={rates['drop']} corrupt={rates['corrupt']} dup={rates['dup']}")
     return " ".join(parts)
+
+
+def _navigator_files(
+    navigator: str, params: dict[str, str], resolve: Callable[[str | None], str | None]
+) -> dict[str, str]:
+    """A navigator run's parameters that name a file (``route``'s ``route``,
+    ``explore``'s ``extend``), resolved against the spec's folder when a file is there:
+    they were read from the working folder, so a spec run from elsewhere did not find
+    the route beside it."""
+    from pirate_bt.task.navigators import navigator_file_params
+
+    out: dict[str, str] = {}
+    for key in navigator_file_params(navigator) & params.keys():
+        found = resolve(params[key])
+        if found is not None:
+            out[key] = found
+    return out

@@ -311,6 +311,27 @@ def builtin_name(navigator: object) -> str | None:
     return next((n for n, cls in _BUILT_IN.items() if type(navigator) is cls), None)
 
 
+_FILE_PARAMS: dict[str, frozenset[str]] = {
+    "route": frozenset({"route"}),
+    "explore": frozenset({"extend"}),
+}
+"""The built-in navigators' parameters that name a file (a campaign resolves them
+against the spec's folder, as it does its trees and routes)."""
+
+
+def navigator_file_params(name: str) -> frozenset[str]:
+    """The parameters of navigator ``name`` that name a file: a built-in's, or a plug-in
+    factory's ``file_params`` attribute (empty when it has none)."""
+    if name in _FILE_PARAMS:
+        return _FILE_PARAMS[name]
+    try:
+        entry = _registered().get(name)
+        factory = entry.load() if entry is not None else None
+    except Exception:  # a broken plug-in: making it says why
+        return frozenset()
+    return frozenset(getattr(factory, "file_params", ()))
+
+
 def navigator_defaults(name: str) -> dict[str, str | float | int | bool]:
     """The parameters navigator ``name`` leaves to a default, with their defaults (those
     written as text, a number or a boolean): ``explore``'s ``search`` is ``3 m``. Empty
