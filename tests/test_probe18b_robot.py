@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from pirate_bt import simulate_tree
 from pirate_bt.cli import main
 from pirate_bt.errors import ValidationFailed
 from pirate_bt.robot import load_robot
@@ -183,3 +184,83 @@ def test_a_nominal_speed_at_the_drives_limit_validates(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     accepted(variant(tmp_path, ("nominal_speed: 80 mm/s", "nominal_speed: 100 mm/s")), capsys)
+
+
+# -- a joint motor and the angle sensor the host reads it by, on different slots ------
+
+BEND_2 = (
+    "      - {<<: *bend_motor, name: bend_2_joint}\n"
+    "      - {<<: *drive_motor, slot: 1, name: bend_2_drive}\n"
+    "    sensors:\n"
+    "      - {<<: *angle_sensor, slot: 0, name: bend_2_angle}\n"
+    "      - {<<: *spring_sensor, slot: 1, name: bend_2_spring}"
+)
+
+
+def test_a_bend_joint_whose_angle_sensor_is_on_the_other_slot_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the board closes the joint's loop on the angle sensor of its own slot (and the
+    # simulator feeds that sensor the joint's angle): with the sensors swapped the
+    # host read 0 deg while the joint pressed, and every front clamp timed out
+    swapped = BEND_2.replace("slot: 0, name: bend_2_angle", "slot: 1, name: bend_2_angle")
+    swapped = swapped.replace("slot: 1, name: bend_2_spring", "slot: 0, name: bend_2_spring")
+    path = variant(tmp_path, (BEND_2, swapped))
+    lines = refusal(path, capsys)
+    assert lines == [
+        f"{where(path, '        slot: 0')}: bend joint 'bend_2_joint' of 'bend_2' (board 23,"
+        " slot 0): its board has no angle sensor on slot 0; the board closes the joint's"
+        " position loop on the angle sensor of the joint's own slot: put the module's angle"
+        " sensor there"
+    ]
+
+
+def test_a_rotate_motor_on_the_board_without_the_rotation_sensor_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a second rotate motor on board 24 (whose slot 0 is the IMU) became the one the
+    # host drives: "timeout: not done after 10 s (rotating to 90.0 deg: at 0.0 deg)"
+    drive_a = "      - {<<: *drive_motor, slot: 1, name: rotational_drive_a}"
+    path = variant(
+        tmp_path,
+        (drive_a, f"      - {{<<: *bend_motor, name: rotate_b, function: rotate}}\n{drive_a}"),
+    )
+    lines = refusal(path, capsys)
+    assert len(lines) == 1
+    assert (
+        "rotate joint 'rotate_b' of 'rotational' (board 24, slot 0): its board has no" in (lines[0])
+    )
+
+
+def test_a_second_angle_sensor_read_before_the_joints_own_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    extra = (
+        "  - id: 19\n    module: bend_1\n    sensors:\n"
+        "      - {<<: *angle_sensor, slot: 0, name: bend_1_extra}\n\n  - id: 23\n"
+    )
+    path = variant(tmp_path, ("  - id: 23\n", extra))
+    lines = refusal(path, capsys)
+    assert len(lines) == 1
+    assert (
+        "the host reads the joint from 'bend_1_extra', the module's first angle sensor,"
+        " not from 'bend_1_angle' on the joint's slot" in lines[0]
+    )
+
+
+def test_a_bend_board_wired_the_other_way_round_validates_and_clamps(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the joint and its angle sensor on slot 1, the drive and the spring on slot 0
+    mirrored = (
+        "      - {<<: *bend_motor, slot: 1, name: bend_2_joint}\n"
+        "      - {<<: *drive_motor, slot: 0, name: bend_2_drive}\n"
+        "    sensors:\n"
+        "      - {<<: *angle_sensor, slot: 1, name: bend_2_angle}\n"
+        "      - {<<: *spring_sensor, slot: 0, name: bend_2_spring}"
+    )
+    path = variant(tmp_path, (BEND_2, mirrored))
+    accepted(path, capsys)
+    result = simulate_tree("straight", robot=path, network="straight", params={"distance": "0.2 m"})
+    assert result.status == "success", result.why
+    assert result.counters.violations == 0

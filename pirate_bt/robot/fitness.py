@@ -54,7 +54,61 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *_reach(desc),
         *_drive_feedback(desc),
         *_cruise(desc),
+        *_joint_sensors(desc),
     ]
+
+
+def _joint_sensors(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A joint's angle sensor sits on the joint motor's own board and slot: the PICO
+    board closes the joint's position loop on it (and the simulator feeds it the
+    joint's angle), while the host reads the module's first angle sensor (boards by
+    id, then slot) and commands its first joint motor. The two must be one pair, or
+    the joint moves unseen and every clamp or rotation times out."""
+    out: list[tuple[KeyPath, str]] = []
+    joints = {Role.BEND: MotorFunction.BEND, Role.ROTATIONAL: MotorFunction.ROTATE}
+    order = sorted(range(len(desc.boards)), key=lambda b: desc.boards[b].id)
+    for module in desc.modules:
+        function = joints.get(module.role)
+        if function is None:
+            continue
+        motor_at: tuple[int, int] | None = None
+        read = None
+        for b in order:
+            board = desc.boards[b]
+            if board.module != module.name:
+                continue
+            for j in sorted(range(len(board.motors)), key=lambda j: board.motors[j].slot):
+                if motor_at is None and board.motors[j].function is function:
+                    motor_at = (b, j)
+            for sensor in sorted(board.sensors, key=lambda s: s.slot):
+                if read is None and sensor.kind is SensorKind.ANGLE:
+                    read = sensor
+        if motor_at is None or read is None:
+            continue  # the description's own check: the module needs both
+        b, j = motor_at
+        board, motor = desc.boards[b], desc.boards[b].motors[j]
+        own = next(
+            (s for s in board.sensors if s.slot == motor.slot and s.kind is SensorKind.ANGLE),
+            None,
+        )
+        if own is read:
+            continue
+        where = (
+            f"its board has no angle sensor on slot {motor.slot}"
+            if own is None
+            else f"the host reads the joint from {read.name!r}, the module's first angle"
+            f" sensor, not from {own.name!r} on the joint's slot"
+        )
+        out.append(
+            (
+                ("boards", b, "motors", j, "slot"),
+                f"{function} joint {motor.name!r} of {module.name!r} (board {board.id},"
+                f" slot {motor.slot}): {where}; the board closes the joint's position loop on"
+                " the angle sensor of the joint's own slot: put the module's angle sensor"
+                " there",
+            )
+        )
+    return out
 
 
 def _cruise(desc: Workable) -> list[tuple[KeyPath, str]]:
