@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import pickle
 import socket
 import threading
 from pathlib import Path
 
+import py_trees
 import pytest
 
 import pirate_bt
@@ -125,3 +127,37 @@ def test_a_survey_that_writes_no_file_leaves_no_folder_made_for_it(tmp_path: Pat
     assert result.why.endswith("nothing was surveyed: no file is written")
     assert result.output is None
     assert list(tmp_path.iterdir()) == []
+
+
+class _TwoArgumentError(Exception):
+    """An exception of a common shape: pickled, it cannot be read back."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+def test_a_run_whose_node_raised_an_unpicklable_exception_still_pickles() -> None:
+    # a process pool running robot.run(...) in its workers broke (BrokenProcessPool)
+    # when a planner's node raised such an exception: the result could not be read back
+    from pirate_bt.behaviours.base import Leaf, NodeParams
+
+    class Boom(Leaf):
+        Params = NodeParams
+
+        def update(self) -> py_trees.common.Status:
+            raise _TwoArgumentError(7, "sensor said no")
+
+    with pirate_bt.connect("sim:straight") as robot:
+        result = robot.run(Boom.build("boom", robot.context()), max_time="2 s")
+    assert isinstance(result.error, _TwoArgumentError)  # the caller's own, as raised
+    back = pickle.loads(pickle.dumps(result))
+    assert (back.status, back.why, back.failing_node) == (
+        "failure",
+        "_TwoArgumentError in boom: sensor said no",
+        "boom",
+    )
+    assert str(back.error) == "_TwoArgumentError: sensor said no"
+    assert back.loop is not None and back.loop.error is back.error
+    assert back.exit_code == result.exit_code == 1
+    assert back.as_dict() == result.as_dict()

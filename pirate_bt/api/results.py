@@ -7,17 +7,44 @@ carry one :class:`~pirate_bt.safety.tally.Counters` type.
 
 from __future__ import annotations
 
+import pickle
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError
+from pirate_bt.errors import LinkError, said_of
 from pirate_bt.runner import RunResult as LoopResult
 from pirate_bt.runner import StopReason
 from pirate_bt.safety.tally import Counters
 from pirate_bt.trace.coverage import Coverage
 
-__all__ = ["RunResult", "after_close", "closing_why", "exit_code"]
+__all__ = [
+    "RunResult",
+    "UnpicklableError",
+    "after_close",
+    "closing_why",
+    "exit_code",
+    "portable_error",
+]
+
+
+class UnpicklableError(Exception):
+    """Stands in, in a result sent to another process, for the exception that ended its
+    run when that one cannot be pickled and read back: its type's name and message."""
+
+
+def portable_error(error: BaseException | None) -> BaseException | None:
+    """``error`` itself when it can be pickled and read back, else a stand-in of the same
+    message: a :class:`~pirate_bt.errors.LinkError` for a link error (exit code 3), else
+    an :class:`UnpicklableError`."""
+    if error is None:
+        return None
+    try:
+        pickle.loads(pickle.dumps(error))
+        return error
+    except Exception:  # any way a planner's own exception class can refuse
+        text = f"{type(error).__name__}: {said_of(error)}"
+        return LinkError(text) if isinstance(error, LinkError) else UnpicklableError(text)
 
 
 def exit_code(succeeded: bool, error: BaseException | None) -> int:
@@ -91,6 +118,18 @@ class RunResult:
     def succeeded(self) -> bool:
         """True when the tree succeeded (``status == "success"``)."""
         return self.status == "success"
+
+    def __getstate__(self) -> dict[str, Any]:
+        # to another process (a pool's worker, Dask) whatever a planner's node raised:
+        # an exception that cannot be pickled and read back (a class whose __init__
+        # takes two arguments) broke the pool, the result that says why lost with it
+        state = dict(self.__dict__)
+        error = portable_error(self.error)
+        if error is not self.error:
+            state["error"] = error
+            if self.loop is not None and self.loop.error is self.error:
+                state["loop"] = replace(self.loop, error=error)
+        return state
 
     @property
     def exit_code(self) -> int:
