@@ -175,3 +175,42 @@ def test_every_export_refuses_an_unknown_record_as_read_trace_does(
     )
     assert not (tmp_path / target).exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.jsonl"]
+
+
+# -- names and messages with control characters
+
+
+def test_summary_and_show_keep_a_name_with_control_characters_on_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a node named with a line break, an escape sequence, a NUL or a right-to-left
+    # override (a tree built in Python, a hand-made trace) broke the summary's row in
+    # two and recoloured the terminal; a feedback message in `show` the same
+    from pirate_bt.cli import main
+
+    header = json.loads(json.dumps(HEADER))
+    header["tree"]["nodes"][1]["name"] = "clamp\x1b[31m rear\nhalf\t\x00\u202e"
+    records = [
+        {
+            "type": "tick",
+            "n": 1,
+            "t_s": 0.01,
+            "status": {"0": "R", "0.0": "F"},
+            "feedback": {"0.0": "stalled\r\x1b[2Jgone"},
+            "bb": {"key\nx": "v\x07"},
+        },
+        {"type": "end", "n": 1, "t_s": 0.01, "outcome": "failure", "reason": "why\nnot"},
+    ]
+    path = tmp_path / "ctl.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in [header, *records]), encoding="utf-8")
+    assert main(["trace", "summary", str(path)]) == 0
+    summary = capsys.readouterr().out
+    assert main(["trace", "show", str(path), "--state"]) == 0
+    show = capsys.readouterr().out
+    for text in (summary, show):
+        assert not any(c in text for c in "\x1b\x00\r\t\x07\u202e")
+    rows = summary.splitlines()
+    assert any(r.startswith("    clamp\\x1b[31m rear\\nhalf\\t\\x00\\u202e  ") for r in rows)
+    assert "why       why\\nnot" in rows
+    assert any(r.endswith("[Clamp]  FAILURE  -- stalled\\r\\x1b[2Jgone") for r in show.splitlines())
+    assert '  key\\nx = "v\\u0007"' in show.splitlines()

@@ -67,12 +67,13 @@ def _summary(args: argparse.Namespace) -> int:
 
 def _show(args: argparse.Namespace) -> int:
     from pirate_bt.trace.reader import read_trace
-    from pirate_bt.trace.text import tree_text
+    from pirate_bt.trace.text import one_line, tree_text
 
     trace = read_trace(args.trace)
     tick = trace.last_tick if args.tick is None else args.tick
     frame = trace.frame_at(tick)
-    print(f"{trace.structure.name}: tick {frame.n} of {trace.last_tick}, t = {frame.t_s:.3f} s")
+    name = one_line(trace.structure.name)  # a line break or escape of the file's, escaped
+    print(f"{name}: tick {frame.n} of {trace.last_tick}, t = {frame.t_s:.3f} s")
     print(
         "\n".join(tree_text(trace.structure, frame.status, frame.feedback, ascii_only=args.ascii))
     )
@@ -86,11 +87,11 @@ def _show(args: argparse.Namespace) -> int:
             if values:
                 print(f"{title}:")
                 for key in sorted(values):
-                    print(f"  {key} = {_shown(title, key, values[key])}")
+                    print(one_line(f"  {key} = {_shown(title, key, values[key])}"))
         for command in frame.commands:
-            print(f"command: {json.dumps(command, ensure_ascii=False)}")
+            print(one_line(f"command: {json.dumps(command, ensure_ascii=False)}"))
         for event in frame.events:
-            print(f"event: {json.dumps(event, ensure_ascii=False)}")
+            print(one_line(f"event: {json.dumps(event, ensure_ascii=False)}"))
     return 0
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "coverage_lines",
     "format_summary",
     "node_names",
+    "one_line",
     "summarise",
     "tree_text",
 ]
@@ -65,13 +66,16 @@ def tree_text(
             hidden.add(node.id)
         tag = _KIND_TAG.get(node.kind, "")
         kind = f"{tag}{node.type}" if node.type != node.name else tag
-        label = f"{node.name} [{kind}]" if kind else node.name
+        # a name or message with a line break, an escape sequence or a NUL (a tree
+        # built in Python, a hand-made trace) broke its line or recoloured the terminal
+        name = one_line(node.name)
+        label = f"{name} [{one_line(kind)}]" if kind else name
         line = f"{'    ' * node.depth}{marks.get(code, '?')} {label}"
         if code != "I":
             line += f"  {STATUS_WORD[code]}"
         message = feedback.get(node.id, "")
         if message:
-            line += f"  -- {message}"
+            line += f"  -- {one_line(message)}"
         if colour:
             line = f"{_ANSI.get(code, '')}{line}{_RESET}"
         lines.append(line)
@@ -211,9 +215,13 @@ def coverage_lines(coverage: Coverage, limit: int = 12) -> list[str]:
     return lines
 
 
-def _one_line(text: str) -> str:
+def one_line(text: str) -> str:
     """``text`` on one line, as a result's ``why`` is: line breaks and control
-    characters escaped (a feedback message may hold them; the trace keeps them)."""
+    characters escaped (a feedback message or a node's name may hold them; the trace
+    keeps them). Text without them is returned as it is, so a second pass changes
+    nothing."""
+    if text.isprintable():
+        return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
@@ -232,7 +240,7 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         f"trace     {summary.path}",
         f"tree      {summary.tree} ({len(structure)} nodes)",
         f"outcome   {outcome}",
-        *([f"why       {_one_line(summary.why)}"] if summary.why is not None else []),
+        *([f"why       {summary.why}"] if summary.why is not None else []),
         f"ticks     {summary.ticks}",
         f"duration  {summary.duration_s:.3f} s",
     ]
@@ -244,14 +252,14 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
     lines.append(
         f"commands  {summary.commands} ({summary.clips} clipped, {len(summary.refusals)} refused)"
     )
-    width = max((len(n.name) + 4 * n.depth for n in structure), default=4)
+    width = max((len(one_line(n.name)) + 4 * n.depth for n in structure), default=4)
     coverage = summary.coverage.by_id() if summary.coverage is not None else {}
     extra = f" {'ticks':>7} {'trans':>6} {'halts':>5} {'skips':>5}" if coverage else ""
     lines.append("")
     lines.append(f"{'node':<{width}}  {'runs':>5} {'ok':>5} {'fail':>5} {'running':>10}{extra}")
     for node in structure:
         entry = summary.nodes[node.id]
-        name = f"{'    ' * node.depth}{node.name}"
+        name = f"{'    ' * node.depth}{one_line(node.name)}"
         counts = ""
         seen = coverage.get(node.id)
         if seen is not None:
@@ -292,4 +300,5 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
             if isinstance(node_id, str) and node_id in structure:
                 where = f" at {structure.node(node_id).name}"
             lines.append(f"  tick {fault['tick']}: {fault.get('kind')}{where}: {text}")
-    return lines
+    # every line on one line: names, reasons, commands and messages come from the file
+    return [one_line(line) for line in lines]
