@@ -214,3 +214,52 @@ def test_summary_and_show_keep_a_name_with_control_characters_on_its_line(
     assert "why       why\\nnot" in rows
     assert any(r.endswith("[Clamp]  FAILURE  -- stalled\\r\\x1b[2Jgone") for r in show.splitlines())
     assert '  key\\nx = "v\\u0007"' in show.splitlines()
+
+
+# -- .btlog export
+
+
+def test_btlog_export_of_a_tree_too_wide_names_the_trace(tmp_path: Path) -> None:
+    # it said only "the tree has 65536 nodes; ...", naming no file
+    from pirate_bt.interop.btlog import export_btlog
+
+    leaves = [
+        {"id": f"0.{i}", "name": f"w{i}", "type": "Wait", "kind": "leaf", "parent": "0"}
+        for i in range(65535)
+    ]
+    root = {
+        "id": "0",
+        "name": "wide",
+        "type": "Sequence",
+        "kind": "composite",
+        "parent": None,
+        "children": [leaf["id"] for leaf in leaves],
+    }
+    header = {**HEADER, "tree": {"name": "wide", "nodes": [root, *leaves]}}
+    for leaf in leaves:
+        leaf["children"] = []
+    path = tmp_path / "wide.jsonl"
+    path.write_text(json.dumps(header) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as caught:
+        export_btlog(path, tmp_path / "wide.btlog")
+    assert str(caught.value) == (
+        f"{path}: the tree has 65536 nodes; BehaviorTree.CPP (a .btlog, Groot2)"
+        " numbers at most 65535"
+    )
+    assert not (tmp_path / "wide.btlog").exists()
+
+
+def test_btlog_export_of_a_tick_before_the_start_says_so(tmp_path: Path) -> None:
+    # a wall clock set back: t_s may go back, below 0; it said "beyond a .btlog"
+    from pirate_bt.interop.btlog import export_btlog
+
+    records = [
+        {"type": "tick", "n": 1, "t_s": 0.5, "status": {"0": "R", "0.0": "R"}},
+        {"type": "tick", "n": 2, "t_s": -0.25, "status": {"0.0": "S"}},
+    ]
+    path = write_trace(tmp_path / "back.jsonl", records)
+    with pytest.raises(InputError) as caught:
+        export_btlog(path, tmp_path / "back.btlog")
+    assert str(caught.value) == (
+        f"{path}: tick 2 at -0.25 s is before the run's start; a .btlog holds no time before it"
+    )

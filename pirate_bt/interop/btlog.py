@@ -242,7 +242,12 @@ def trace_transitions(trace: Any) -> list[Transition]:
         if not tick.status:
             continue
         time_us = round(tick.t_s * 1_000_000)
-        if not 0 <= time_us <= _MAX_US:
+        if time_us < 0:  # a wall clock set back (it said "beyond a .btlog")
+            raise InputError(
+                f"{trace.path}: tick {tick.n} at {tick.t_s} s is before the run's start;"
+                " a .btlog holds no time before it"
+            )
+        if time_us > _MAX_US:
             raise InputError(f"{trace.path}: tick {tick.n} at {tick.t_s} s is beyond a .btlog")
         new: dict[str, str] = {}
         for node_id, code in tick.status.items():
@@ -361,7 +366,10 @@ def export_btlog(trace_path: Path, out_path: Path, registry: Registry | None = N
 
     out = output_argument(out_path, "out_path")
     trace = read_trace(file_argument(trace_path, "trace_path"))
-    xml = structure_xml(trace.structure, registry)
+    try:
+        xml = structure_xml(trace.structure, registry)
+    except InputError as exc:  # it named no file: "the tree has 70001 nodes; ..."
+        raise InputError(f"{trace.path}: {exc}") from None
     try:
         return write_btlog(out, xml, _start_us(trace.header), trace_transitions(trace))
     except OSError as exc:
