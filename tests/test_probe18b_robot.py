@@ -264,3 +264,27 @@ def test_a_bend_board_wired_the_other_way_round_validates_and_clamps(
     result = simulate_tree("straight", robot=path, network="straight", params={"distance": "0.2 m"})
     assert result.status == "success", result.why
     assert result.counters.violations == 0
+
+
+# -- a bridge watchdog that outlasts the host's patience ------------------------------
+
+
+def test_a_watchdog_longer_than_the_link_silence_limit_is_refused_at_the_watchdog(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # on a lost link the host gave up (exit 3) after 0.5 s, "the robot may still be
+    # moving until its bridge's watchdog stops it": here a minute later
+    path = variant(tmp_path, ("watchdog: 250 ms", "watchdog: 60 s"))
+    lines = refusal(path, capsys)
+    assert lines == [
+        f"{where(path, 'watchdog: 60 s')}: watchdog 60000 ms is longer than"
+        " safety.max_link_silence 500 ms: on a lost link the host gives up after 500 ms,"
+        " and the bridge alone can stop the wheels, after 60000 ms; the robot would drive"
+        " on blind meanwhile (make the watchdog no longer than the silence limit)"
+    ]
+
+
+def test_a_watchdog_as_long_as_the_link_silence_limit_validates(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    accepted(variant(tmp_path, ("watchdog: 250 ms", "watchdog: 500 ms")), capsys)

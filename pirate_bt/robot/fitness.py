@@ -300,6 +300,18 @@ def _freshness(desc: Workable) -> list[tuple[KeyPath, str]]:
                 f" {_fmt_s(period)}: the link would count as lost between two state frames",
             )
         )
+    watchdog = desc.bridge.watchdog
+    if watchdog > silence * (1 + 1e-9):
+        out.append(
+            (
+                ("bridge", "watchdog"),
+                f"watchdog {_fmt_s(watchdog)} is longer than safety.max_link_silence"
+                f" {_fmt_s(silence)}: on a lost link the host gives up after"
+                f" {_fmt_s(silence)}, and the bridge alone can stop the wheels, after"
+                f" {_fmt_s(watchdog)}; the robot would drive on blind meanwhile (make the"
+                " watchdog no longer than the silence limit)",
+            )
+        )
     return out
 
 
