@@ -144,3 +144,66 @@ def test_a_drive_whose_board_was_away_at_the_stop_is_stopped_when_it_answers_aga
         assert state.drive_velocity_mps["bend_3_drive"] == pytest.approx(0.0, abs=1e-3)
     finally:
         sup.close()
+
+
+# -- confirmations across an e-stop and a hand-over -------------------------------------------
+
+
+class _Operator:
+    """Confirms every step waiting, but for a while (from 4 s to 6 s) when it e-stops
+    the robot, resets the e-stop and hands the robot back (supervised)."""
+
+    releases = True
+
+    def __init__(self, sup: Supervisor) -> None:
+        self.sup = sup
+
+    def poll(self, tick: int, now: float) -> list[operator.OperatorAction]:
+        out: list[operator.OperatorAction] = []
+        if not 4.0 <= now < 6.0:
+            out += [operator.Confirm(step) for step in self.sup.pending_confirmations()]
+        for at, action in (
+            (4.0, operator.EStop()),
+            (4.5, operator.ResetEStop()),
+            (5.0, operator.SetMode(Mode.SUPERVISED)),
+        ):
+            if at <= now < at + 0.05:
+                out.append(action)
+        return out
+
+
+def test_a_step_confirmed_before_an_estop_waits_again_after_its_reset() -> None:
+    """Supervised, a drive confirmed and under way, an e-stop, its reset and the
+    hand-back to supervised: the e-stop forgot the grant but kept its answer, so the
+    drive's commands were refused `not_confirmed` while nothing waited for the operator
+    to confirm: the run sat still to its time limit, its why blaming the e-stop. The
+    steps confirmed before an e-stop now wait again, and the run goes on once the
+    operator confirms."""
+    with pirate_bt.connect("sim:straight", mode="supervised") as robot:
+        robot.supervisor.add_input(_Operator(robot.supervisor))
+        result = robot.run("straight", params={"distance": "0.5 m"}, max_time="30 s")
+    assert result.status == "success", result.why
+
+
+def test_confirmations_follow_the_estop_and_the_mode() -> None:
+    sup = open_supervisor(network="straight", mode="supervised")
+    try:
+        sup.tick()
+        assert sup.request_confirmation("drive").value == "pending"
+        sup.confirm("drive")
+        assert sup.check(Drive(0.03)).ok
+        sup.apply(operator.EStop())
+        assert sup.reset_estop()
+        sup.set_mode(Mode.SUPERVISED)
+        # the step waits again: the operator sees it, and its commands wait for him
+        assert sup.pending_confirmations() == ["drive"]
+        assert sup.request_confirmation("drive").value == "pending"
+        assert sup.check(Drive(0.03)).reason is Reason.NOT_CONFIRMED
+        assert sup.confirm() == "drive" and sup.check(Drive(0.03)).ok
+        # a step waiting when the operator hands over to autonomous waits no more
+        assert sup.request_confirmation("bend").value == "pending"
+        sup.set_mode(Mode.AUTONOMOUS)
+        assert sup.pending_confirmations() == []
+        assert sup.request_confirmation("bend").value == "granted"
+    finally:
+        sup.close()

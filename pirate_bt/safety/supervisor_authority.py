@@ -124,6 +124,13 @@ class AuthorityMixin(DecisionMixin):
                 log.exception("e-stop could not be sent")
             self._mode = Mode.ESTOP
             self._estop_reason = reason
+            # the steps confirmed before wait again, for the operator to confirm after
+            # the reset: a step's node asks only once, so a grant forgotten alone (its
+            # answer kept) left its commands refused, with nothing waiting to confirm
+            for step in self._granted:
+                self._decided.pop(step, None)
+                if step not in self._pending:
+                    self._pending.append(step)
             self._granted.clear()
             log.error("E-STOP: %s", reason)
             self._record(
@@ -227,6 +234,11 @@ class AuthorityMixin(DecisionMixin):
                 # the tree resumes from still (a drive asks again for its own speed)
                 # rather than with wheels it did not set, which it counted as its own
                 self._send_stop()
+            if mode is Mode.AUTONOMOUS:  # no step waits for an operator there
+                for step in self._pending:
+                    self._decided[step] = Confirmation.GRANTED
+                    self._granted.add(step)
+                self._pending.clear()
             if mode is not Mode.MANUAL:
                 self._safe_reason = None
                 self._safe_error = None
@@ -291,6 +303,8 @@ class AuthorityMixin(DecisionMixin):
             if self._mode is Mode.AUTONOMOUS:
                 self._decided[step] = Confirmation.GRANTED
                 self._granted.add(step)
+                if step in self._pending:  # it waited in supervised mode
+                    self._pending.remove(step)
                 return Confirmation.GRANTED
             if step not in self._pending:
                 self._pending.append(step)
