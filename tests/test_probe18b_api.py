@@ -161,3 +161,33 @@ def test_a_run_whose_node_raised_an_unpicklable_exception_still_pickles() -> Non
     assert back.loop is not None and back.loop.error is back.error
     assert back.exit_code == result.exit_code == 1
     assert back.as_dict() == result.as_dict()
+
+
+def test_numpy_numbers_are_numbers_to_the_api() -> None:
+    # seed=numpy.int64(3) was refused: "give a whole number ..., not np.int64(3)";
+    # rate=numpy.float32(25) "give text with a unit or a number in SI units, not a
+    # float32"; navigate's max_steps and survey's search likewise
+    np = pytest.importorskip("numpy")
+    plain = pirate_bt.simulate_tree("straight", params={"distance": 0.2}, seed=3, rate=25)
+    result = pirate_bt.simulate_tree(
+        "straight",
+        params={"distance": 0.2},
+        seed=np.int64(3),
+        rate=np.float32(25),
+        max_time=np.int32(60),
+    )
+    assert result.as_dict() | {"wall_s": 0} == plain.as_dict() | {"wall_s": 0}
+    json.dumps(result.as_dict())
+
+    class Twice:
+        def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+            return pirate_bt.Step("straight", distance="0.2 m") if obs.step < 2 else None
+
+    navigation = pirate_bt.navigate(
+        Twice(), sim="straight", max_steps=np.int64(5), seed=np.uint8(1)
+    )
+    assert (navigation.status, navigation.steps) == ("success", 2)
+    survey = pirate_bt.survey(sim="straight", search=np.float32(2.0))
+    assert survey.status == "success", survey.why
+    with pytest.raises(pirate_bt.InputError, match=r"seed: give a whole number"):
+        pirate_bt.simulate_tree("straight", params={"distance": 0.2}, seed=np.bool_(True))

@@ -20,6 +20,7 @@ from pirate_bt.api.options import (
     load_robot_like,
     network_name,
     params_mapping,
+    plain_number,
     port_url,
     positive_time_s,
     seed_value,
@@ -149,6 +150,7 @@ def navigate(
         raise InputError("navigate: give sim= or port=, not both")
     if port is not None:
         port_url(port)
+    max_steps = plain_number(max_steps)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int):
         raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}"[:200])
     if not 1 <= max_steps <= MAX_STEPS:

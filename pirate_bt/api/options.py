@@ -14,6 +14,8 @@ says what is allowed (docs/api.md, *Arguments the API refuses*).
 from __future__ import annotations
 
 import math
+import numbers
+import operator
 import os
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -57,6 +59,7 @@ __all__ = [
     "output_path",
     "params_mapping",
     "parse_target",
+    "plain_number",
     "port_url",
     "positive_time_s",
     "quantity",
@@ -84,6 +87,20 @@ _MAX_QUANTITY_TEXT = 64
 _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
 
 
+def plain_number(value: Any) -> Any:
+    """A NumPy scalar (or any other ``numbers.Integral`` or ``numbers.Real`` but a bool)
+    as the plain ``int`` or ``float`` it stands for; anything else as it is. A seed of
+    ``numpy.int64(3)`` was refused as no whole number, a rate of ``numpy.float32(20)``
+    as no number."""
+    if isinstance(value, bool | int | float | str):  # a NumPy bool is neither of those below
+        return value
+    if isinstance(value, numbers.Integral):
+        return operator.index(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    return value
+
+
 def quantity(value: str | float | int, dimension: str, option: str) -> float:
     """A quantity given as text with its unit (``"600 s"``) or as an SI number.
 
@@ -93,6 +110,7 @@ def quantity(value: str | float | int, dimension: str, option: str) -> float:
             named by ``option``.
     """
     example = _EXAMPLE.get(dimension, "1 m")
+    value = plain_number(value)
     if isinstance(value, bool) or not isinstance(value, str | int | float):
         raise InputError(
             f"{option}: give text with a unit ({example!r}) or a number in SI units,"
@@ -219,6 +237,7 @@ def seed_value(seed: object, option: str = "seed") -> int:
     Raises:
         InputError: anything else (a bool, a float, text, a negative or huge number).
     """
+    seed = plain_number(seed)  # a NumPy integer is a whole number too
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
         huge = isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) >= 10**40
         shown = f"a {digit_count(seed)}-digit number" if huge else repr(seed)  # type: ignore[arg-type]

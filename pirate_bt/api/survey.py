@@ -220,8 +220,14 @@ def survey(
         if result.unexplored:
             pirate_bt.survey(sim="t-joint", extend="surveyed.yaml", output="surveyed.yaml")
     """
-    explore = ExploreNavigator(
-        output=output, search=search, radius=radius, name=name, extend=extend
+    from pirate_bt.api.options import plain_number
+
+    explore = ExploreNavigator(  # a NumPy length as the number it is
+        output=output,
+        search=plain_number(search),
+        radius=plain_number(radius),
+        name=name,
+        extend=extend,
     )
     _radius_fits(explore.radius_m, robot)
     # a survey refused before it runs (a fault's unknown target) leaves no empty folder
