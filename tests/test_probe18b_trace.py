@@ -263,3 +263,31 @@ def test_btlog_export_of_a_tick_before_the_start_says_so(tmp_path: Path) -> None
     assert str(caught.value) == (
         f"{path}: tick 2 at -0.25 s is before the run's start; a .btlog holds no time before it"
     )
+
+
+# -- why: the run's first cause, as the run's result said it
+
+
+@pytest.mark.parametrize("message", ["plain broke\nsecond line", "  tabs\tand\r\nbreaks  "])
+def test_why_of_a_crash_whose_message_has_line_breaks_is_the_results(
+    tmp_path: Path, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the result folds the message's whitespace; the trace's why then said the
+    # exception a second time: 'RuntimeError in boom: plain broke second line; boom:
+    # RuntimeError: plain broke\nsecond line', and so did `trace summary`
+    import py_trees
+
+    import pirate_bt
+    from pirate_bt.cli import main
+
+    class Boom(py_trees.behaviour.Behaviour):
+        def update(self) -> py_trees.common.Status:
+            raise RuntimeError(message)
+
+    path = tmp_path / "boom.jsonl"
+    result = pirate_bt.simulate_tree(Boom("boom"), trace=path)
+    assert result.why is not None and result.why.startswith("RuntimeError in boom: ")
+    assert read_trace(path).why == result.why
+    capsys.readouterr()
+    assert main(["trace", "summary", str(path)]) == 0
+    assert f"why       {result.why}" in capsys.readouterr().out.splitlines()
