@@ -191,3 +191,14 @@ def test_numpy_numbers_are_numbers_to_the_api() -> None:
     assert survey.status == "success", survey.why
     with pytest.raises(pirate_bt.InputError, match=r"seed: give a whole number"):
         pirate_bt.simulate_tree("straight", params={"distance": 0.2}, seed=np.bool_(True))
+
+
+def test_numpy_numbers_are_si_numbers_as_tree_parameters() -> None:
+    # params={"distance": numpy.float32(0.25)} was refused "parameter 'distance':
+    # expected a length quantity such as '1 m'", where 0.25 is a quarter metre
+    np = pytest.importorskip("numpy")
+    plain = pirate_bt.simulate_tree("straight", params={"distance": 0.25})
+    result = pirate_bt.simulate_tree("straight", params={"distance": np.float32(0.25)})
+    assert result.as_dict() | {"wall_s": 0} == plain.as_dict() | {"wall_s": 0}
+    loaded = pirate_bt.load_tree("bend", params={"roll": np.int64(0)})
+    assert loaded.params["roll"] == pirate_bt.load_tree("bend", params={"roll": 0}).params["roll"]

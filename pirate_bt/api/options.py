@@ -430,7 +430,9 @@ def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
                 raise InputError(
                     f"{option}: {key}: a {digit_count(value)}-digit number is too large"
                 ) from None
-    return dict(params)
+    # a NumPy number as the SI number it is: numpy.float32(0.2) was "expected a length
+    # quantity such as '1 m'"
+    return {key: plain_number(value) for key, value in params.items()}
 
 
 def parse_target(target: Any) -> tuple[str, Any]:
