@@ -291,3 +291,26 @@ def test_why_of_a_crash_whose_message_has_line_breaks_is_the_results(
     capsys.readouterr()
     assert main(["trace", "summary", str(path)]) == 0
     assert f"why       {result.why}" in capsys.readouterr().out.splitlines()
+
+
+def test_summary_why_of_a_long_message_is_the_results_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the result leaves the middle of a why over 1000 characters out; the summary
+    # printed the trace's whole 20,000 characters (the trace keeps them: Trace.why)
+    import py_trees
+
+    import pirate_bt
+    from pirate_bt.cli import main
+
+    class Boom(py_trees.behaviour.Behaviour):
+        def update(self) -> py_trees.common.Status:
+            raise RuntimeError("x" * 20000 + " the end")
+
+    path = tmp_path / "long.jsonl"
+    result = pirate_bt.simulate_tree(Boom("boom"), trace=path)
+    assert result.why is not None and "characters)..." in result.why
+    assert read_trace(path).why == "RuntimeError in boom: " + "x" * 20000 + " the end"
+    capsys.readouterr()
+    assert main(["trace", "summary", str(path)]) == 0
+    assert f"why       {result.why}" in capsys.readouterr().out.splitlines()

@@ -225,6 +225,14 @@ def one_line(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
+def _why_line(why: str) -> str:
+    """``why`` as the run's own line said it (``RunResult.why``): escaped, and the middle
+    of a long one left out; a 20,000-character exception was printed whole."""
+    from pirate_bt.behaviours.foreign import one_line as result_why
+
+    return result_why(why)
+
+
 def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]:
     """A summary as lines of text."""
     header = summary.header
@@ -240,7 +248,7 @@ def format_summary(summary: TraceSummary, structure: TreeStructure) -> list[str]
         f"trace     {summary.path}",
         f"tree      {summary.tree} ({len(structure)} nodes)",
         f"outcome   {outcome}",
-        *([f"why       {summary.why}"] if summary.why is not None else []),
+        *([f"why       {_why_line(summary.why)}"] if summary.why is not None else []),
         f"ticks     {summary.ticks}",
         f"duration  {summary.duration_s:.3f} s",
     ]
