@@ -17,8 +17,8 @@ from pirate_bt.api import Connection
 from pirate_bt.errors import ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
-from pirate_bt.robot import ControlMode, MotorCommand
-from pirate_bt.safety import Drive, Outcome, Raw, Reason, operator
+from pirate_bt.robot import ControlMode, Half, MotorCommand
+from pirate_bt.safety import Clamp, Drive, Outcome, Raw, Reason, Source, operator
 from pirate_bt.safety.checks import stale_channels
 from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.operator import Mode
@@ -205,5 +205,37 @@ def test_confirmations_follow_the_estop_and_the_mode() -> None:
         sup.set_mode(Mode.AUTONOMOUS)
         assert sup.pending_confirmations() == []
         assert sup.request_confirmation("bend").value == "granted"
+    finally:
+        sup.close()
+
+
+# -- the rate limits after an e-stop ----------------------------------------------------------
+
+
+def test_the_first_drive_after_an_estop_reset_is_held_to_its_acceleration_limit() -> None:
+    """Driving at 80 mm/s, an e-stop (the wheels stop), its reset: the operator's
+    `Drive(0.1)` *passed* whole, the acceleration limit reckoned from the 0.08 m/s set
+    before the e-stop, which the wheels no longer turned at (0.4 m/s² lets 0.04 m/s
+    from standstill in 0.1 s). The e-stop's stop is now the drives' last setpoint."""
+    sup = open_supervisor(network="straight")
+    try:
+        sup.tick()
+        assert sup.command(Clamp(Half.REAR, 0.7)).ok
+        for _ in range(15):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        for _ in range(5):
+            sup.command(Drive(0.08))
+            sup.clock.sleep(0.1)
+            sup.tick()
+        sup.apply(operator.EStop())
+        for _ in range(5):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        assert sup.reset_estop() and sup.mode is Mode.MANUAL
+        verdict = sup.command(Drive(0.1), source=Source.OPERATOR)
+        assert verdict.reason is Reason.ACCELERATION_LIMIT, verdict
+        assert "velocity change from 0 in 0.1 s" in verdict.detail
+        assert all(mc.value == pytest.approx(0.04) for mc in verdict.sent)
     finally:
         sup.close()

@@ -124,6 +124,7 @@ class AuthorityMixin(DecisionMixin):
                 log.exception("e-stop could not be sent")
             self._mode = Mode.ESTOP
             self._estop_reason = reason
+            self._stopped_by_estop()
             # the steps confirmed before wait again, for the operator to confirm after
             # the reset: a step's node asks only once, so a grant forgotten alone (its
             # answer kept) left its commands refused, with nothing waiting to confirm
@@ -142,6 +143,19 @@ class AuthorityMixin(DecisionMixin):
                     detail=f"e-stop: {reason}",
                 )
             )
+
+    def _stopped_by_estop(self) -> None:
+        """Take the e-stop's stop category as the last setpoints: drives at 0, the
+        rotation and every other motor but the bend joints braked (their next position
+        setpoint steps from where they read). The setpoints from before the e-stop were
+        kept: after its reset, a drive of 0.1 m/s from standstill passed whole, its
+        acceleration limit reckoned from the 0.08 m/s the wheels no longer turned at."""
+        now = self.clock.now()
+        for _, motor in self.robot.motors():
+            if motor.function is MotorFunction.DRIVE:
+                self._last_setpoint[motor.name] = (ControlMode.VELOCITY, 0.0, now)
+            elif motor.function is not MotorFunction.BEND:
+                self._last_setpoint.pop(motor.name, None)
 
     def reset_estop(self) -> bool:
         """Release a latched e-stop (operator action); the supervisor comes back in ``MANUAL``.
