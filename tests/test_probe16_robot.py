@@ -316,7 +316,16 @@ def test_robot_header_refuses_a_velocity_feedback_the_pico_table_cannot_hold(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], per_raw: str, words: str
 ) -> None:
     new = FEEDBACK.replace("per_raw: 0.1 mm/s", f"per_raw: {per_raw}")
-    path = variant(tmp_path, (FEEDBACK, new))
+    edits = [(FEEDBACK, new)]
+    if per_raw == "0.4 um/s":
+        # int16 steps of 0.4 um/s read at most 13 mm/s: a robot whose drives go no faster
+        # (validate refuses a feedback that cannot read the drives' speed, e5c80c7)
+        edits = [
+            (FEEDBACK, new.replace("raw: [-1200, 1200]", "raw: [-32768, 32767]")),
+            ("velocity: {max: 100 mm/s, policy: clip}", "velocity: {max: 10 mm/s, policy: clip}"),
+            ("nominal_speed: 80 mm/s", "nominal_speed: 10 mm/s"),
+        ]
+    path = variant(tmp_path, *edits)
     out = tmp_path / "layout.h"
     assert main(["robot", "header", str(path), "-o", str(out)]) == 2
     err = capsys.readouterr().err
