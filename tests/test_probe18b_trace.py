@@ -314,3 +314,57 @@ def test_summary_why_of_a_long_message_is_the_results_one_line(
     capsys.readouterr()
     assert main(["trace", "summary", str(path)]) == 0
     assert f"why       {result.why}" in capsys.readouterr().out.splitlines()
+
+
+# -- a named pipe given as a trace
+
+
+def _writer_once(fifo: Path) -> Any:
+    """A thread that opens ``fifo`` for writing (when a reader opens it) and closes it:
+    a reader that opens the pipe then reads an empty file, where it would wait."""
+    import threading
+
+    thread = threading.Thread(target=lambda: open(fifo, "wb").close(), daemon=True)
+    thread.start()
+    return thread
+
+
+def _release(fifo: Path, thread: Any) -> None:
+    import os
+
+    if thread.is_alive():  # nobody opened it (as it should be): let the writer go
+        descriptor = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+        thread.join(5)
+        os.close(descriptor)
+
+
+@pytest.mark.parametrize("name", ["run.mcap", "run.jsonl"])
+def test_a_named_pipe_is_refused_in_every_trace_format(tmp_path: Path, name: str) -> None:
+    # an .mcap reader (its own __iter__) opened the pipe and waited on it for ever
+    import os
+
+    fifo = tmp_path / name
+    os.mkfifo(fifo)
+    thread = _writer_once(fifo)
+    try:
+        with pytest.raises(InputError) as caught:
+            read_trace(fifo)
+    finally:
+        _release(fifo, thread)
+    assert str(caught.value) == f"{fifo}: cannot read trace: it is a named pipe, not a file"
+
+
+def test_read_btlog_refuses_a_named_pipe(tmp_path: Path) -> None:
+    import os
+
+    from pirate_bt.interop.btlog import read_btlog
+
+    fifo = tmp_path / "run.btlog"
+    os.mkfifo(fifo)
+    thread = _writer_once(fifo)
+    try:
+        with pytest.raises(InputError) as caught:
+            read_btlog(fifo)
+    finally:
+        _release(fifo, thread)
+    assert str(caught.value) == f"{fifo}: cannot read: it is a named pipe, not a file"

@@ -50,7 +50,7 @@ from pirate_bt.interop.btcpp_xml import write_atomic_bytes
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
-from pirate_bt.yamlfile import read_at_most
+from pirate_bt.yamlfile import read_at_most, special_file
 
 __all__ = [
     "MAGIC",
@@ -308,6 +308,9 @@ def read_btlog(path: str | Path) -> BtLog:
             not fit the file.
     """
     where = file_argument(path, "path")
+    kind = special_file(where)  # a named pipe nobody writes to was waited on for ever
+    if kind is not None:
+        raise InputError(f"{where}: cannot read: it is {kind}, not a file")
     try:
         with where.open("rb") as stream:  # at most MAX_BTLOG_BYTES: /dev/zero never ends
             data = read_at_most(stream, MAX_BTLOG_BYTES)

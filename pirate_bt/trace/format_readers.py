@@ -222,7 +222,13 @@ def open_reader(path: str | Path) -> TraceFormatReader:
         ConfigurationError: the suffix needs an optional part that is not installed.
     """
     refuse_folder(path)
-    return READERS[suffix_of(path, READERS)](path)
+    factory = READERS[suffix_of(path, READERS)]
+    # for every format: an .mcap reader (its own __iter__) opened a named pipe and
+    # waited on it for ever
+    kind = special_file(Path(path))
+    if kind is not None:
+        raise InputError(f"{path}: cannot read trace: it is {kind}, not a file")
+    return factory(path)
 
 
 @dataclass(frozen=True)
