@@ -14,7 +14,7 @@ from test_probe18_link import _mismatch
 
 import pirate_bt
 from pirate_bt.api import Connection
-from pirate_bt.errors import ProtocolMismatch
+from pirate_bt.errors import InputError, ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, Half, MotorCommand
@@ -237,5 +237,27 @@ def test_the_first_drive_after_an_estop_reset_is_held_to_its_acceleration_limit(
         assert verdict.reason is Reason.ACCELERATION_LIMIT, verdict
         assert "velocity change from 0 in 0.1 s" in verdict.detail
         assert all(mc.value == pytest.approx(0.04) for mc in verdict.sent)
+    finally:
+        sup.close()
+
+
+# -- a confirmation of no step ----------------------------------------------------------------
+
+
+def test_a_confirmation_of_no_step_is_bad_input(caplog: pytest.LogCaptureFixture) -> None:
+    """`Deny([1])` from an operator input raised `TypeError: unhashable type: 'list'`
+    out of the supervisor's tick (the run ended on it), and `Confirm(5)` granted a step
+    no node can ask for. Both are refused as input, one line, nothing changed; the tick
+    logs the input's error and goes on (docs/safety.md, *Operator authority*)."""
+    scripted = operator.ScriptedOperator(at_tick=[(2, operator.Deny([1]))])  # type: ignore[arg-type]
+    sup = open_supervisor(network="straight", mode="supervised", inputs=[scripted])
+    try:
+        with caplog.at_level(logging.ERROR, logger="pirate_bt.safety"):
+            sup.tick()
+            sup.tick()
+        assert any("not a step: [1]" in r.getMessage() for r in caplog.records)
+        with pytest.raises(InputError, match=r"^not a step: 5 \(a step's text"):
+            sup.apply(operator.Confirm(5))  # type: ignore[arg-type]
+        assert sup.request_confirmation("5").value == "pending"
     finally:
         sup.close()

@@ -338,14 +338,28 @@ class AuthorityMixin(DecisionMixin):
         return list(self._pending)
 
     def confirm(self, step: str | None = None) -> str | None:
-        """Grant ``step`` (or the oldest pending one); returns the step granted."""
+        """Grant ``step`` (or the oldest pending one); returns the step granted.
+
+        Raises:
+            InputError: ``step`` is neither text nor ``None``.
+        """
         return self._decide_step(step, Confirmation.GRANTED)
 
     def deny(self, step: str | None = None) -> str | None:
-        """Deny ``step`` (or the oldest pending one); returns the step denied."""
+        """Deny ``step`` (or the oldest pending one); returns the step denied.
+
+        Raises:
+            InputError: ``step`` is neither text nor ``None``.
+        """
         return self._decide_step(step, Confirmation.DENIED)
 
     def _decide_step(self, step: str | None, answer: Confirmation) -> str | None:
+        if step is not None and not isinstance(step, str):
+            # Deny([1]) raised TypeError out of the tick that drained it (the run ended
+            # on it), Confirm(5) granted a step no node can ask for
+            raise InputError(
+                f"not a step: {step!r} (a step's text, or None: the oldest waiting)"[:200]
+            )
         with self._lock:
             if step is None:
                 if not self._pending:
