@@ -202,3 +202,17 @@ def test_numpy_numbers_are_si_numbers_as_tree_parameters() -> None:
     assert result.as_dict() | {"wall_s": 0} == plain.as_dict() | {"wall_s": 0}
     loaded = pirate_bt.load_tree("bend", params={"roll": np.int64(0)})
     assert loaded.params["roll"] == pirate_bt.load_tree("bend", params={"roll": 0}).params["roll"]
+
+
+def test_connect_takes_a_network_spec_as_simulate_tree_and_navigate_do() -> None:
+    # missions.md builds as-built variants as NetworkSpecs (perturb_network); connect()
+    # refused one, "cannot connect to a NetworkSpec", where simulate_tree's network=,
+    # simulate_mission's truth= and navigate's sim= take it
+    spec = pirate_bt.load_network("bend-right").spec
+    with pirate_bt.connect(spec) as robot:
+        assert robot.description == "simulator: bend-right"
+        result = robot.run("straight", params={"distance": "0.2 m"})
+    with pirate_bt.connect("sim:bend-right") as robot:
+        named = robot.run("straight", params={"distance": "0.2 m"})
+    assert result.status == "success", result.why
+    assert (result.ticks, result.sim_time_s) == (named.ticks, named.sim_time_s)

@@ -6,7 +6,8 @@ opens the link itself). The target says where the robot is:
 
 - ``"sim"`` or ``"sim:NETWORK"`` - the built-in simulator in a pipe network (a
   bundled name such as ``"lab"`` or a file), on a simulated clock;
-- a network file (``"scenarios/bend-right.yaml"``) or a loaded ``Network`` - the same;
+- a network file (``"scenarios/bend-right.yaml"``), a loaded ``Network`` or a
+  ``NetworkSpec`` - the same;
 - ``"firmware:NETWORK"`` (or a simulator target with ``firmware=True``) - the same
   pipe physics behind the real firmwares: the bridge and one reference PICO board
   per board id, each its own ELF in simavr, on one simulated RS485 line, in virtual
@@ -270,8 +271,8 @@ def connect(
 
     Args:
         target: ``"sim"``, ``"sim:NETWORK"``, ``"firmware:NETWORK"`` (``sim://NETWORK``
-            is the same), a network file
-            or ``Network``, or a serial port / pyserial URL (see the module docstring).
+            is the same), a network file, a ``Network`` or a ``NetworkSpec``, or a
+            serial port / pyserial URL (see the module docstring).
         robot: The robot description: a loaded one, a file, or ``None`` for the
             bundled ``hardware/pirate.yaml``.
         seed: The simulator's seed (and the link faults'); ignored on a real robot.

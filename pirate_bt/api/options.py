@@ -442,18 +442,20 @@ def parse_target(target: Any) -> tuple[str, Any]:
     Raises:
         InputError: a target that is neither.
     """
-    from pirate_bt.pipes import Network
+    from pirate_bt.pipes import Network, NetworkSpec
 
     if target is None:
         return "sim", DEFAULT_NETWORK
     if isinstance(target, Network):
         return "sim", target
+    if isinstance(target, NetworkSpec):  # as simulate_tree's network= and navigate's sim=
+        return "sim", Network(target, f"<{target.name}>")
     if isinstance(target, Path):
         return "sim", target
     if not isinstance(target, str):
         raise InputError(
             f"connect: cannot connect to {kind_of(target)};"
-            ' give "sim:NETWORK", a network file or a serial port URL'
+            ' give "sim:NETWORK", a network file, a Network or a serial port URL'
         )
     text = target.strip()
     if not text:
