@@ -261,3 +261,24 @@ def test_a_confirmation_of_no_step_is_bad_input(caplog: pytest.LogCaptureFixture
         assert sup.request_confirmation("5").value == "pending"
     finally:
         sup.close()
+
+
+# -- a stop with no reason --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("reason", [None, ""])
+def test_a_safe_stop_with_no_reason_is_a_safe_state(reason: str | None) -> None:
+    """`SafeStop(None)` (or `safe_state(None)` from planner code) stopped the drives but
+    kept no cause, and no cause is how the supervisor tells it is not in its safe state:
+    the tree's next drive passed. `EStop(None)` latched with no reason, which a
+    primitive took for no e-stop. Both now keep a cause saying none was given."""
+    sup = open_supervisor(network="straight")
+    try:
+        sup.tick()
+        sup.apply(operator.SafeStop(reason))  # type: ignore[arg-type]
+        assert sup.in_safe_state and sup.safe_state_reason == "safe state (no reason given)"
+        assert sup.command(Drive(0.02)).reason is Reason.SAFE_STATE
+        sup.apply(operator.EStop(reason))  # type: ignore[arg-type]
+        assert sup.estop_reason == "e-stop (no reason given)"
+    finally:
+        sup.close()

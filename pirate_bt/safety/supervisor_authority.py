@@ -71,6 +71,7 @@ class AuthorityMixin(DecisionMixin):
         :class:`~pirate_bt.errors.LinkError` of a lost link): kept with it as
         :attr:`safe_state_error`, so a run that ends on it exits as a link error.
         """
+        reason = _reason_text(reason, "safe state")
         with self._lock:
             first = self._safe_reason is None
             if first:
@@ -117,6 +118,7 @@ class AuthorityMixin(DecisionMixin):
 
     def estop(self, reason: str = "e-stop") -> None:
         """E-stop: always passes, stops everything on the bridge, latches ``ESTOP``."""
+        reason = _reason_text(reason, "e-stop")
         with self._lock:
             try:
                 self._port.estop()
@@ -374,6 +376,16 @@ class AuthorityMixin(DecisionMixin):
                 self._granted.discard(step)
             log.warning("operator %s %r", answer, step)
             return step
+
+
+def _reason_text(reason: object, what: str) -> str:
+    """``reason`` as the text a safe state or an e-stop keeps: ``None`` (or no text) as
+    the cause was taken for no safe state at all (``safe_state_reason`` is ``None``
+    outside it): ``SafeStop(None)`` stopped the drives and the tree's next drive passed,
+    and ``EStop(None)`` latched with no reason, so a primitive did not fail on it."""
+    if reason is None or (isinstance(reason, str) and not reason.strip()):
+        return f"{what} (no reason given)"
+    return reason if isinstance(reason, str) else str(reason)
 
 
 def as_mode(mode: object) -> Mode:
