@@ -368,3 +368,13 @@ def test_read_btlog_refuses_a_named_pipe(tmp_path: Path) -> None:
     finally:
         _release(fifo, thread)
     assert str(caught.value) == f"{fifo}: cannot read: it is a named pipe, not a file"
+
+
+def test_frame_at_reads_the_ticks_the_trace_holds_now(tmp_path: Path) -> None:
+    # frame_at goes on from its last call; ticks cut or replaced start it again
+    trace = flapping(tmp_path, 20)
+    assert trace.frame_at(15).state["rotation_rad"] == 0.015
+    trace.ticks = trace.ticks[:10]
+    assert trace.frame_at(12).state["rotation_rad"] == 0.01
+    trace.ticks = [*trace.ticks, *flapping(tmp_path, 20).ticks[10:]]
+    assert trace.frame_at(16).state["rotation_rad"] == 0.016

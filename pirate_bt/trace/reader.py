@@ -151,7 +151,8 @@ class Trace(TraceQueries):
         self.ticks = ticks
         self.end = end
         self.truncated = truncated
-        self._replayed: tuple[_Replay, int] | None = None  # frame_at's last replay
+        # frame_at's last replay: of which ticks, and how many of them
+        self._replayed: tuple[list[TickRecord], _Replay, int] | None = None
 
     @property
     def last_tick(self) -> int:
@@ -236,13 +237,13 @@ class Trace(TraceQueries):
         # the changes replayed up to tick n, from where the last call stopped when that
         # was not after it: a loop over the ticks replayed the run from its start at
         # each one (with a picture of every tick on the way), quadratic in its length
-        replay, done = self._replayed or (_Replay(self.structure), 0)
-        if done and self.ticks[done - 1].n > n:
-            replay, done = _Replay(self.structure), 0
+        ticks, replay, done = self._replayed or (self.ticks, _Replay(self.structure), 0)
+        if ticks is not self.ticks or done > len(ticks) or (done and ticks[done - 1].n > n):
+            replay, done = _Replay(self.structure), 0  # earlier, or other ticks given
         while done < len(self.ticks) and self.ticks[done].n <= n:
             replay.apply(self.ticks[done])
             done += 1
-        self._replayed = (replay, done)
+        self._replayed = (self.ticks, replay, done)
         found = self.ticks[done - 1] if done else None
         if found is None:
             return replay.frame(n, 0.0)
