@@ -219,7 +219,9 @@ class DecisionMixin:
         state = self._port.state()
         for board, group in by_board.items():
             names = self._board_readings.get(board, ())
-            if state is None or len(stale_channels(self.robot, state, names, now)) == len(names):
+            if state is None or (
+                names and len(stale_channels(self.robot, state, names, now)) == len(names)
+            ):
                 continue  # still away (every reading stale): again next tick
             try:
                 self._port.send(tuple(group))
