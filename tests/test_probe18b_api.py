@@ -216,3 +216,26 @@ def test_connect_takes_a_network_spec_as_simulate_tree_and_navigate_do() -> None
         named = robot.run("straight", params={"distance": "0.2 m"})
     assert result.status == "success", result.why
     assert (result.ticks, result.sim_time_s) == (named.ticks, named.sim_time_s)
+
+
+class _Straights:
+    def __init__(self, steps: int) -> None:
+        self.steps = steps
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        return pirate_bt.Step("straight", distance="0.1 m") if obs.step < self.steps else None
+
+
+def test_a_navigation_into_an_earlier_ones_trace_folder_leaves_only_its_own_steps(
+    tmp_path: Path,
+) -> None:
+    # 2 steps into the folder of a navigation of 3 left step-003.jsonl beside the new
+    # navigation.jsonl, a step the new one never ran
+    folder = tmp_path / "trace"
+    pirate_bt.navigate(_Straights(3), sim="straight", trace=folder)
+    (folder / "notes.txt").write_text("mine")
+    result = pirate_bt.navigate(_Straights(2), sim="straight", trace=folder)
+    assert result.steps == 2
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == ["navigation.jsonl", "notes.txt", "step-001.jsonl", "step-002.jsonl"]
+    assert pirate_bt.read_trace(folder / "step-002.jsonl").outcome == "success"

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import inspect
+import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,19 @@ def _make_trace_folder(folder: Path) -> None:
 
     # made and written to before anything connects: /proc/x was a bare FileNotFoundError
     writable_folder(folder, "trace")
+
+
+def _clear_old_steps(folder: Path) -> None:
+    """Take away the step traces an earlier navigation left in ``folder``: a navigation of
+    2 steps into the folder of one of 4 left ``step-003.jsonl`` and ``step-004.jsonl``
+    beside its own ``navigation.jsonl``, read as its steps."""
+    for path in folder.glob("step-*.jsonl"):
+        if _STEP_FILE.fullmatch(path.name) and path.is_file():
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+
+
+_STEP_FILE = re.compile(r"step-\d{3,}\.jsonl")
 
 
 def _network(value: Any, what: str) -> Any:
@@ -215,6 +229,8 @@ def navigate(
             _make_trace_folder(folder)
         connection = connect(target, robot=description, seed=seed, faults=faults, firmware=firmware)
     with connection:
+        if folder is not None:
+            _clear_old_steps(folder)
         simulator = connection.simulator
         truth_for = None
         truth_now = None
