@@ -11,6 +11,9 @@ import asyncio
 import io
 import logging
 import math
+import os
+import sys
+from collections.abc import Callable
 
 import pytest
 
@@ -125,3 +128,55 @@ def test_the_console_shows_ignored_keys_and_the_protective_layers_errors() -> No
         asyncio.run(scenario())
     finally:
         sup.close()
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="a pty")
+def test_sigterm_under_the_full_screen_ends_the_console_in_one_line() -> None:
+    import pty
+    import select
+    import signal
+    import time
+
+    pid, fd = pty.fork()
+    if pid == 0:  # the console, on a terminal of its own
+        os.environ["TERM"] = "xterm-256color"
+        os.execv(sys.executable, [sys.executable, "-m", "pirate_bt", "teleop", "--sim", "straight"])
+    out = b""
+
+    def read_until(done: Callable[[], bool], limit_s: float) -> None:
+        nonlocal out
+        end = time.monotonic() + limit_s
+        closed = False
+        while not done() and time.monotonic() < end:
+            if closed:
+                time.sleep(0.1)
+            elif select.select([fd], [], [], 0.1)[0]:
+                try:
+                    out += os.read(fd, 65536)
+                except OSError:  # the terminal closed: wait for the process alone
+                    closed = True
+
+    try:
+        read_until(lambda: b"mm/s" in out, 60)  # the screen is up: a motion line
+        assert b"mm/s" in out, out[-500:]
+        read_until(lambda: False, 4)
+        os.kill(pid, signal.SIGTERM)
+        ended: list[int] = []
+
+        def exited() -> bool:
+            waited, status = os.waitpid(pid, os.WNOHANG)
+            if waited:
+                ended.append(os.waitstatus_to_exitcode(status))
+            return bool(ended)
+
+        read_until(exited, 30)
+        # was: "terminated (SIGTERM)", then the engine thread, blocked on a screen
+        # loop that was gone, kept the process alive for good
+        assert ended == [143], out[-500:]
+        assert b"pirate-bt: terminated (SIGTERM)" in out
+        assert b"Traceback" not in out
+    finally:
+        if not ended:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        os.close(fd)

@@ -437,7 +437,10 @@ def _run_session(
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
         engine = ConsoleEngine(session, period_s=period_s, runner_factory=factory)
-        OperatorConsole(engine, title=f"pirate-bt teleop - {where}").run()
+        try:
+            OperatorConsole(engine, title=f"pirate-bt teleop - {where}").run()
+        finally:
+            engine.stop()  # a SIGTERM in the screen's loop left the engine ticking on
         if engine.finished:
             print(engine.finished)
         return 0

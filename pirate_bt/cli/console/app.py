@@ -9,13 +9,15 @@ the start of the next tick; the screen never calls the supervisor itself.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from typing import Any, ClassVar
 
 from rich.text import Text
-from textual import events, work
+from textual import events, on, work
 from textual.app import App, ComposeResult
 from textual.containers import Horizontal, Vertical
+from textual.message import Message
 from textual.widgets import Footer, Header, Static
 
 from pirate_bt.cli.console.engine import ConsoleEngine
@@ -59,6 +61,14 @@ class _ConsoleLog(logging.Handler):
             return
         first = (record.getMessage().splitlines() or [""])[0]
         self.app.log_lines.append(f"{record.levelname.lower()}: {first}")
+
+
+class _Published(Message):
+    """A snapshot from the engine thread."""
+
+    def __init__(self, snapshot: Snapshot | None) -> None:
+        super().__init__()
+        self.snapshot = snapshot  # None: the engine has ended
 
 
 class OperatorConsole(App[int]):
@@ -131,10 +141,24 @@ class OperatorConsole(App[int]):
         try:
             self.engine.run(self._publish)
         finally:
-            self.call_from_thread(self.exit, 0)
+            self._post(None)
 
     def _publish(self, snapshot: Snapshot) -> None:
-        self.call_from_thread(self.show, snapshot)
+        self._post(snapshot)
+
+    def _post(self, snapshot: Snapshot | None) -> None:
+        # Posted, not called: call_from_thread waits for the screen's loop, and a loop a
+        # SIGTERM or SIGHUP had ended never answered, so the engine thread hung there,
+        # the process with it (before 2026-11-30).
+        with contextlib.suppress(RuntimeError):  # a closed loop: nobody is looking
+            self.post_message(_Published(snapshot))
+
+    @on(_Published)
+    def _published(self, message: _Published) -> None:
+        if message.snapshot is None:
+            self.exit(0)
+        else:
+            self.show(message.snapshot)
 
     @staticmethod
     def _keys_text() -> Text:

@@ -88,6 +88,8 @@ class ConsoleEngine:
         self.finished: str | None = None
         self.result: Any = None
         self._tree: _TreeView | None = None
+        self._idle = threading.Event()
+        self._idle.set()
 
     # -- called from the screen's thread
 
@@ -97,6 +99,17 @@ class ConsoleEngine:
 
     def quit(self) -> None:
         self.stop_event.set()
+
+    def stop(self, timeout_s: float = 10.0) -> bool:
+        """Quit and wait for the engine thread to end (a running tree stopped safe);
+        returns False if it did not within ``timeout_s``.
+
+        For a screen that ended without unmounting (SIGTERM or SIGHUP raised in its
+        loop): the engine thread ticked on, re-sending the operator's drive, and the
+        process never exited (before 2026-11-30).
+        """
+        self.stop_event.set()
+        return self._idle.wait(timeout_s)
 
     # -- the engine thread
 
@@ -139,13 +152,17 @@ class ConsoleEngine:
 
     def run(self, publish: Publish) -> None:
         """Tick until the operator quits; call ``publish(snapshot)`` after each tick."""
-        if self.runner_factory is not None:
-            self._run_tree(publish)
-        while not self.stop_event.is_set():
-            self.session.step()
-            self._apply_keys()
-            publish(self.snapshot())
-            self._wait()
+        self._idle.clear()
+        try:
+            if self.runner_factory is not None:
+                self._run_tree(publish)
+            while not self.stop_event.is_set():
+                self.session.step()
+                self._apply_keys()
+                publish(self.snapshot())
+                self._wait()
+        finally:
+            self._idle.set()
 
     def _run_tree(self, publish: Publish) -> None:
         assert self.runner_factory is not None
