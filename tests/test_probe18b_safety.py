@@ -282,3 +282,53 @@ def test_a_safe_stop_with_no_reason_is_a_safe_state(reason: str | None) -> None:
         assert sup.estop_reason == "e-stop (no reason given)"
     finally:
         sup.close()
+
+
+# -- a deny of a step under way ---------------------------------------------------------------
+
+
+class _Denier:
+    """Confirms every step waiting until 4 s, then denies the drive under way."""
+
+    releases = True
+
+    def __init__(self, sup: Supervisor) -> None:
+        self.sup = sup
+
+    def poll(self, tick: int, now: float) -> list[operator.OperatorAction]:
+        if now < 4.0:
+            return [operator.Confirm(step) for step in self.sup.pending_confirmations()]
+        if now < 4.05:
+            return [operator.Deny("drive along the straight")]
+        return []
+
+
+def test_a_deny_of_the_step_under_way_stops_it() -> None:
+    """Supervised, the straight PAB's drive confirmed and at speed, the operator denies
+    it: nothing changed, the drive (which asks once, and sends nothing more at speed)
+    went on and the run *succeeded*, 1 m driven under the operator's deny. A deny of a
+    step under way now stops the robot: its safe state, the run failing on the deny."""
+    with pirate_bt.connect("sim:straight", mode="supervised") as robot:
+        robot.supervisor.add_input(_Denier(robot.supervisor))
+        result = robot.run("straight", params={"distance": "1 m"}, max_time="40 s")
+    assert result.status == "failure"
+    assert result.why == "the operator denied 'drive along the straight' while it ran"
+
+
+def test_a_deny_of_a_step_the_estop_interrupted_stops_it_too() -> None:
+    sup = open_supervisor(network="straight", mode="supervised")
+    try:
+        sup.tick()
+        sup.request_confirmation("drive")
+        sup.confirm("drive")
+        sup.apply(operator.EStop())
+        assert sup.reset_estop()
+        sup.set_mode(Mode.SUPERVISED)
+        assert sup.deny() == "drive"
+        assert sup.safe_state_reason == "the operator denied 'drive' while it ran"
+        # a step that only waited is denied without a stop
+        sup.resume()
+        sup.request_confirmation("bend")
+        assert sup.deny() == "bend" and not sup.in_safe_state
+    finally:
+        sup.close()

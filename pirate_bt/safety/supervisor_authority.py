@@ -49,6 +49,8 @@ class AuthorityMixin(DecisionMixin):
     _pending: list[str]
     _decided: dict[str, Confirmation]
     _lock: threading.RLock
+    # steps granted when an e-stop came, waiting again: their nodes still run
+    _interrupted: frozenset[str] = frozenset()
     estop_reset_refusal: str | None = None
     """Why the bridge refused the last e-stop reset (``None``: it did not)."""
 
@@ -134,6 +136,7 @@ class AuthorityMixin(DecisionMixin):
                 self._decided.pop(step, None)
                 if step not in self._pending:
                     self._pending.append(step)
+            self._interrupted = self._interrupted | self._granted
             self._granted.clear()
             log.error("E-STOP: %s", reason)
             self._record(
@@ -332,6 +335,7 @@ class AuthorityMixin(DecisionMixin):
         with self._lock:
             self._decided.pop(step, None)
             self._granted.discard(step)
+            self._interrupted = self._interrupted - {step}
             if step in self._pending:
                 self._pending.remove(step)
 
@@ -370,11 +374,17 @@ class AuthorityMixin(DecisionMixin):
             if step in self._pending:
                 self._pending.remove(step)
             self._decided[step] = answer
+            running = step in self._granted or step in self._interrupted
+            self._interrupted = self._interrupted - {step}
             if answer is Confirmation.GRANTED:
                 self._granted.add(step)
             else:
                 self._granted.discard(step)
             log.warning("operator %s %r", answer, step)
+            if running and answer is Confirmation.DENIED:
+                # its node asked once and goes on: a drive at speed sends nothing more,
+                # and went on to succeed under the operator's deny
+                self.safe_state(f"the operator denied {step!r} while it ran")
             return step
 
 
