@@ -239,3 +239,24 @@ def test_a_navigation_into_an_earlier_ones_trace_folder_leaves_only_its_own_step
     names = sorted(p.name for p in folder.iterdir())
     assert names == ["navigation.jsonl", "notes.txt", "step-001.jsonl", "step-002.jsonl"]
     assert pirate_bt.read_trace(folder / "step-002.jsonl").outcome == "success"
+
+
+def test_a_tree_built_on_one_connection_is_refused_on_another() -> None:
+    # a root built once with robot.context() and run on the next connection commanded
+    # the first one's robot: closed, the run failed "link_down: the link to the robot is
+    # not connected"; open, this robot never moved and the run ran out its time limit
+    from pirate_bt.behaviours.primitives import Clamp
+
+    with pirate_bt.connect("sim:straight") as first, pirate_bt.connect("sim:straight") as second:
+        root = py_trees.composites.Sequence("mine", memory=True)
+        root.add_child(Clamp.build("clamp", first.context(), half="rear", torque="0.7 N*m"))
+        with pytest.raises(pirate_bt.InputError) as refused:
+            second.run(root)
+        assert str(refused.value) == (
+            "tree: 'mine/clamp' was built with another connection's context(); build it with"
+            " this connection's (simulator: straight): its commands would go to the other robot"
+        )
+        with pytest.raises(pirate_bt.InputError, match="another connection's context"):
+            second.runner(root)
+        assert second.counters().safe_states == 0
+        assert first.run(root).status == "success"

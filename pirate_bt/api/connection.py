@@ -140,6 +140,36 @@ class Connection:
                 f"connection: {self.description} is closed; open another with pirate_bt.connect()"
             )
 
+    def check_built_here(self, tree: Any) -> None:
+        """Refuse a tree built in Python whose nodes were built with another connection's
+        :meth:`context`: their commands would go to that connection's robot (or, closed,
+        nowhere), while this one's runner ticks them. A root built once and run on one
+        connection after another failed *link_down: the link to the robot is not
+        connected*, or ran out its time limit, this robot never moving.
+
+        Raises:
+            InputError: naming the first such node.
+        """
+        import py_trees
+
+        from pirate_bt.behaviours.base import BuildContext
+        from pirate_bt.runner import node_path
+
+        root = tree.root if isinstance(tree, py_trees.trees.BehaviourTree) else tree
+        if not isinstance(root, py_trees.behaviour.Behaviour):
+            return  # a file, a mapping or a LoadedTree is built for this connection
+        for node in root.iterate():
+            context = getattr(node, "context", None)
+            if isinstance(context, BuildContext) and context.supervisor not in (
+                None,
+                self.supervisor,
+            ):
+                raise InputError(
+                    f"tree: {node_path(node)!r} was built with another connection's"
+                    f" context(); build it with this connection's ({self.description}):"
+                    " its commands would go to the other robot"
+                )
+
     def run(
         self,
         tree: Any,
@@ -169,6 +199,7 @@ class Connection:
                 " at a time on a connection"
             )
         try:
+            self.check_built_here(tree)
             return run_on(
                 self,
                 tree,
@@ -216,6 +247,7 @@ class Connection:
         if not setup > 0:
             raise InputError(f"setup_timeout_s: {setup_timeout_s!r} must be positive")
         self.check_open()
+        self.check_built_here(tree)
         return supervised_runner(
             self,
             as_loaded(tree, self.robot, params),
