@@ -260,3 +260,14 @@ def test_a_tree_built_on_one_connection_is_refused_on_another() -> None:
             second.runner(root)
         assert second.counters().safe_states == 0
         assert first.run(root).status == "success"
+
+
+def test_simulate_tree_refuses_a_tree_built_on_a_connection() -> None:
+    # it ran out its time limit, "s/c was still running", its clamp commanding the
+    # connection's robot while the simulator it started stood still
+    from pirate_bt.behaviours.primitives import Clamp
+
+    with pirate_bt.connect("sim:straight") as robot:
+        root = Clamp.build("clamp", robot.context(), half="rear", torque="0.7 N*m")
+        with pytest.raises(pirate_bt.InputError, match="'clamp' was built with another"):
+            pirate_bt.simulate_tree(root, max_time="5 s")

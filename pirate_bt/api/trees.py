@@ -174,6 +174,7 @@ def simulate_tree(
             faults=faults,
             firmware=firmware,
         ) as connection:
+            connection.check_built_here(checked)  # no node commanding another robot
             result = run_on(connection, checked, count_from_open=True, **options)
         return after_close(result, connection.close_error)  # the robot stopped?
 
@@ -228,6 +229,7 @@ def run_tree(
         groot2_server(groot2) as groot2_view,
         connect(port, robot=description, faults=faults) as connection,
     ):
+        connection.check_built_here(checked)  # no node commanding another robot
         result = run_on(
             connection,
             checked,
