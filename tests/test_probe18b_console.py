@@ -180,3 +180,54 @@ def test_sigterm_under_the_full_screen_ends_the_console_in_one_line() -> None:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
         os.close(fd)
+
+
+def test_ctrl_c_in_the_console_stops_a_running_tree_safe() -> None:
+    import dataclasses
+    import sys as _sys
+
+    from pirate_bt.behaviours.base import BuildContext
+    from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
+    from pirate_bt.resources import find_file
+    from pirate_bt.runner import Runner
+    from pirate_bt.treefile import build, load_tree
+
+    sup = open_supervisor(load_robot(), network="straight", seed=2, mode=Mode.AUTONOMOUS)
+    checked = load_tree(find_file("trees", "straight"), robot=sup.robot, params={"distance": "2 m"})
+
+    def factory() -> Runner:
+        context = BuildContext(robot=sup.robot, clock=sup.clock, supervisor=sup)
+        tree = dataclasses.replace(checked, root=build(checked.spec, context))
+        return Runner(
+            tree,
+            clock=sup.clock,
+            period_s=0.05,
+            safe_state=lambda: sup.safe_state("console test"),
+            paused=lambda: bool(sup.tree_paused),
+            setup_timeout_s=_sys.float_info.max,
+        )
+
+    engine = ConsoleEngine(
+        TeleopSession(sup), period_s=0.05, wall_period_s=0.002, runner_factory=factory
+    )
+    app = OperatorConsole(engine)
+
+    async def scenario() -> None:
+        async with app.run_test(size=(150, 45)) as pilot:
+            for _ in range(600):
+                if app.last is not None and any("RUNNING" in line for line in app.last.tree):
+                    break
+                await pilot.pause(0.02)
+            await pilot.press("ctrl+c")  # was: an unknown key, nothing happened
+            for _ in range(300):
+                if engine.result is not None:
+                    break
+                await pilot.pause(0.02)
+
+    try:
+        asyncio.run(scenario())
+    finally:
+        sup.close()
+    assert engine.result is not None, "Ctrl-C did not stop the tree"
+    assert engine.result.reason.value == "interrupted"
+    assert engine.result.safe_state_called

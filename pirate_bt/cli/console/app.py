@@ -37,7 +37,7 @@ KEY_HELP: tuple[tuple[str, str], ...] = (
     ("y / n", "confirm / deny the waiting step"),
     ("p / u", "safe state / leave it"),
     ("e / x", "e-stop / reset the e-stop"),
-    ("q", "quit (a running tree stops safe)"),
+    ("q", "quit (a running tree stops safe; Ctrl-C too)"),
 )
 
 _LEVEL_STYLE = {"ok": "green", "warn": "yellow", "alarm": "bold red"}
@@ -197,7 +197,9 @@ class OperatorConsole(App[int]):
         self.query_one("#tree", Static).update(Text(tree))
 
     def on_key(self, event: events.Key) -> None:
-        key = " " if event.key == "space" else event.character
+        # Ctrl-C quits as q does (a running tree interrupted, the robot left safe), as it
+        # stops 'pirate-bt run'; it was taken for an unknown key and did nothing.
+        key = {"space": " ", "ctrl+c": "q"}.get(event.key, event.character)
         if key is None or len(key) != 1:
             return
         event.stop()
