@@ -231,3 +231,22 @@ def test_ctrl_c_in_the_console_stops_a_running_tree_safe() -> None:
     assert engine.result is not None, "Ctrl-C did not stop the tree"
     assert engine.result.reason.value == "interrupted"
     assert engine.result.safe_state_called
+
+
+def test_hand_back_returns_to_supervised_when_taken_over_from_it() -> None:
+    sup = open_supervisor(load_robot(), network="straight", seed=1, mode=Mode.SUPERVISED)
+    session = TeleopSession(sup)
+    try:
+        _keys(session, "m")
+        assert sup.mode is Mode.MANUAL
+        _keys(session, "o")
+        assert sup.mode is Mode.SUPERVISED  # was autonomous: the tree's steps stopped asking
+    finally:
+        sup.close()
+    sup = open_supervisor(load_robot(), network="straight", seed=1, mode=Mode.MANUAL)
+    session = TeleopSession(sup)
+    try:
+        _keys(session, "o")
+        assert sup.mode is Mode.AUTONOMOUS  # started in manual: as before
+    finally:
+        sup.close()

@@ -70,6 +70,10 @@ class TeleopSession:
         self.velocity_mps = 0.0
         self._stopped = (False, False)  # (in the safe state, e-stopped) at the last step
         self.rotation_rad = 0.0
+        self.hand_back_mode = (
+            Mode.SUPERVISED if supervisor.mode is Mode.SUPERVISED else Mode.AUTONOMOUS
+        )
+        """What ``o`` hands back to: the mode taken over from (autonomous at first)."""
         self.bend_rad = 0.0
         robot = supervisor.robot
         limit = robot.joint_motor(robot.all_bend_modules()[0].name).limits.torque
@@ -145,9 +149,13 @@ class TeleopSession:
         elif key == "v":
             yield OperatorCommand(Tilt(0.0))
         elif key == "m":
+            if self.sup.mode in (Mode.SUPERVISED, Mode.AUTONOMOUS):
+                self.hand_back_mode = self.sup.mode
             yield SetMode(Mode.MANUAL)
         elif key == "o":
-            yield SetMode(Mode.AUTONOMOUS)
+            # back to the mode taken over from: a supervised tree went on autonomous
+            # after a takeover and hand-back, its steps no longer asked (before 2026-11-30)
+            yield SetMode(self.hand_back_mode)
         elif key == "y":
             yield Confirm()
         elif key == "n":
