@@ -378,3 +378,54 @@ def test_frame_at_reads_the_ticks_the_trace_holds_now(tmp_path: Path) -> None:
     assert trace.frame_at(12).state["rotation_rad"] == 0.01
     trace.ticks = [*trace.ticks, *flapping(tmp_path, 20).ticks[10:]]
     assert trace.frame_at(16).state["rotation_rad"] == 0.016
+
+
+# -- TraceRecorder's options
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        ({"full_state": "no"}, "full_state: give True or False, not 'no'"),
+        ({"sync": 1}, "sync: give True or False, not 1"),
+        ({"background": "yes"}, "background: give True or False or None, not 'yes'"),
+        ({"meta": [1]}, "meta: give a mapping of names to values or None, not a list"),
+        ({"seed": "7"}, "seed: give a whole number or None, not a str"),
+        ({"scenario": 5}, "scenario: give text or None, not an int"),
+    ],
+)
+def test_trace_recorder_refuses_an_option_of_the_wrong_type_before_the_file(
+    tmp_path: Path, options: dict[str, Any], said: str
+) -> None:
+    # full_state="no" recorded every value and wrote "no" into the header; meta=[1]
+    # raised a bare TypeError and left an empty file (an "empty trace" when read)
+    import py_trees
+
+    from pirate_bt.errors import ArgumentTypeError
+    from pirate_bt.trace import TraceRecorder
+
+    path = tmp_path / "run.jsonl"
+    with pytest.raises(ArgumentTypeError) as caught:
+        TraceRecorder(path, py_trees.behaviours.Success("ok"), **options)
+    assert str(caught.value) == said
+    assert not path.exists()
+
+
+def test_trace_recorder_takes_its_options_as_documented(tmp_path: Path) -> None:
+    import py_trees
+
+    from pirate_bt.trace import TraceRecorder
+
+    path = tmp_path / "run.jsonl"
+    options: dict[str, Any] = {"full_state": True, "sync": False, "background": None}
+    with TraceRecorder(
+        path, py_trees.behaviours.Success("ok"), seed=7, scenario="s", meta={"a": 1}, **options
+    ) as recorder:
+        recorder.record_tick()
+    header = read_trace(path).header
+    assert (header["full_state"], header["seed"], header["scenario"], header["meta"]) == (
+        True,
+        7,
+        "s",
+        {"a": 1},
+    )

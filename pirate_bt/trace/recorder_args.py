@@ -11,16 +11,19 @@ place that cannot be written (``/proc/x.jsonl``) a ``FileNotFoundError``.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import py_trees
 
-from pirate_bt.errors import ArgumentTypeError, InputError, kind_of
+from pirate_bt.errors import ArgumentTypeError, InputError, kind_of, shown
 
 __all__ = [
     "TraceFolderError",
     "TraceWriteError",
     "check_destination",
+    "check_options",
     "check_tree",
     "unwritable",
 ]
@@ -58,3 +61,33 @@ def check_destination(destination: object) -> None:
 def unwritable(destination: object, exc: OSError) -> TraceWriteError:
     """The one-line error for a trace file that cannot be created or written."""
     return TraceWriteError(f"{destination}: cannot write trace: {exc.strerror or exc}")
+
+
+_FLAGS = ("full_state", "readings", "every_tick", "blackboard", "sync")
+_OPTIONAL_FLAGS = ("background", "track_nodes")
+
+
+def check_options(options: Mapping[str, Any]) -> None:
+    """Refuse an option of the wrong type, naming it, before anything is opened.
+
+    ``full_state="no"`` recorded every value (``"no"`` is true) and wrote ``"no"`` into
+    the header, where a reader expects ``true`` or ``false``; ``meta=[1]`` raised a bare
+    ``TypeError`` after the file had been created, leaving it empty (*empty trace (no
+    header)* when read).
+    """
+    for name in _FLAGS + _OPTIONAL_FLAGS:
+        value = options.get(name)
+        if not isinstance(value, bool) and not (value is None and name in _OPTIONAL_FLAGS):
+            allowed = "True or False" + (" or None" if name in _OPTIONAL_FLAGS else "")
+            raise ArgumentTypeError(f"{name}: give {allowed}, not {shown(value)}")
+    meta = options.get("meta")
+    if meta is not None and not isinstance(meta, Mapping):
+        raise ArgumentTypeError(
+            f"meta: give a mapping of names to values or None, not {kind_of(meta)}"
+        )
+    seed = options.get("seed")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+        raise ArgumentTypeError(f"seed: give a whole number or None, not {kind_of(seed)}")
+    scenario = options.get("scenario")
+    if scenario is not None and not isinstance(scenario, str):
+        raise ArgumentTypeError(f"scenario: give text or None, not {kind_of(scenario)}")

@@ -69,7 +69,12 @@ import py_trees
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.nodes import NodeReader
-from pirate_bt.trace.recorder_args import check_destination, check_tree, unwritable
+from pirate_bt.trace.recorder_args import (
+    check_destination,
+    check_options,
+    check_tree,
+    unwritable,
+)
 from pirate_bt.trace.records import (
     FORMAT_NAME,
     LINK_FIELDS,
@@ -244,6 +249,7 @@ class TraceRecorder:
         self._sink: SinkProcess | None = None
         self._encoder: TickEncoder | None = None
         check_tree(tree)  # before a file or a writer process exists
+        check_options(locals())
         self.structure: TreeStructure = tree_structure(tree)
         if isinstance(destination, TraceFormatWriter):
             if background:
