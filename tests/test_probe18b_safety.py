@@ -18,7 +18,7 @@ from pirate_bt.errors import InputError, ProtocolMismatch
 from pirate_bt.link.codec import Ack, AckStatus, EStop, Message, MsgType
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, Half, MotorCommand
-from pirate_bt.safety import Clamp, Drive, Outcome, Raw, Reason, Source, operator
+from pirate_bt.safety import Clamp, Drive, Outcome, Raw, Reason, Source, Tilt, operator
 from pirate_bt.safety.checks import stale_channels
 from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.operator import Mode
@@ -233,6 +233,8 @@ def test_the_first_drive_after_an_estop_reset_is_held_to_its_acceleration_limit(
             sup.clock.sleep(0.1)
             sup.tick()
         assert sup.reset_estop() and sup.mode is Mode.MANUAL
+        sup.clock.sleep(0.1)
+        sup.tick()
         verdict = sup.command(Drive(0.1), source=Source.OPERATOR)
         assert verdict.reason is Reason.ACCELERATION_LIMIT, verdict
         assert "velocity change from 0 in 0.1 s" in verdict.detail
@@ -330,5 +332,37 @@ def test_a_deny_of_a_step_the_estop_interrupted_stops_it_too() -> None:
         sup.resume()
         sup.request_confirmation("bend")
         assert sup.deny() == "bend" and not sup.in_safe_state
+    finally:
+        sup.close()
+
+
+def test_a_command_after_an_estop_reset_does_not_restart_the_drives() -> None:
+    """Driving at 80 mm/s, an e-stop, its reset: the link kept the setpoints from before
+    the e-stop and sends its whole table with any command, so the operator's first
+    command after the reset, a front tilt, set the robot driving at 80 mm/s again. The
+    reset now puts the setpoints in the stop the bridge applied (docs/protocol.md: a
+    reset never restarts motion by itself)."""
+    sup = open_supervisor(network="straight")
+    try:
+        sup.tick()
+        assert sup.command(Clamp(Half.REAR, 0.7)).ok
+        for _ in range(15):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        for _ in range(5):
+            sup.command(Drive(0.08))
+            sup.clock.sleep(0.1)
+            sup.tick()
+        sup.apply(operator.EStop())
+        sup.clock.sleep(0.3)
+        sup.tick()
+        assert sup.reset_estop()
+        assert sup.command(Tilt(0.1), source=Source.OPERATOR).ok
+        for _ in range(5):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        state = sup.state()
+        assert state is not None
+        assert all(abs(v) < 1e-3 for v in state.drive_velocity_mps.values()), state
     finally:
         sup.close()

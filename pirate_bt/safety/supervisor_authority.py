@@ -188,7 +188,30 @@ class AuthorityMixin(DecisionMixin):
             self._mode = Mode.MANUAL
             self._estop_reason = None
             log.warning("e-stop reset by the operator; mode manual")
+            self._table_to_stop_category()
             return True
+
+    def _table_to_stop_category(self) -> None:
+        """After a reset, the setpoints the link sends (its whole table, with any next
+        command) are those of the stop the bridge applied: drives at 0, the rotation and
+        every other motor but the bend joints braked (PWM 0). The link kept the ones from
+        before the e-stop: a camera tilt after the reset sent them, and the robot drove
+        off at its old 80 mm/s (before 2026-11-30)."""
+        cmds = [MotorCommand(m.name, ControlMode.VELOCITY, 0.0) for m in self.robot.drive_motors()]
+        cmds += [
+            MotorCommand(m.name, ControlMode.PWM, 0.0)
+            for _, m in self.robot.motors()
+            if m.function not in (MotorFunction.DRIVE, MotorFunction.BEND)
+            and m.modes.get(ControlMode.PWM) is not None
+        ]
+        try:
+            self._port.send(tuple(cmds))
+        except LinkError as exc:
+            log.error("the setpoints from before the e-stop could not be stopped: %s", exc)
+            return
+        now = self.clock.now()
+        for c in cmds:
+            self._last_setpoint[c.motor] = (c.mode, 0.0, now)
 
     def _reset_refused_why(self, exc: LinkError) -> str:
         """The bridge's refusal of a reset, with what the host sees of its cause (a
