@@ -429,3 +429,27 @@ def test_trace_recorder_takes_its_options_as_documented(tmp_path: Path) -> None:
         "s",
         {"a": 1},
     )
+
+
+# -- a trace renamed .jsonl.gz
+
+
+@pytest.mark.parametrize(
+    ("start", "said"),
+    [
+        (b"", "a JSON Lines trace, not gzip-compressed: name it run.jsonl"),
+        (b"\x89MCAP0\r\n", "an MCAP trace, not gzip-compressed: name it run.mcap"),
+    ],
+)
+def test_a_trace_renamed_jsonl_gz_is_told_its_name(
+    tmp_path: Path, start: bytes, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it was "not readable as gzip after 0 lines: Not a gzipped file (b'{\"')", where a
+    # gzip trace renamed .jsonl is told "name it run.jsonl.gz"
+    from pirate_bt.cli import main
+
+    text = write_trace(tmp_path / "x.jsonl", []).read_bytes()
+    path = tmp_path / "run.jsonl.gz"
+    path.write_bytes(start + text if start else text)
+    assert main(["trace", "summary", str(path)]) == 2
+    assert capsys.readouterr().err.strip() == f"pirate-bt: {path}: {said}"

@@ -160,6 +160,7 @@ class GzipJsonLinesReader(TraceFormatReader):
     suffixes = (".jsonl.gz",)
 
     def _open(self) -> IO[bytes]:
+        values.refuse_not_gzip(self.path)  # renamed: the name to give it
         return open_gzip_text(self.path)  # loses less to damage than gzip.open
 
     def _lines(self, stream: IO[bytes]) -> Iterator[bytes]:

@@ -198,6 +198,24 @@ def opened_as_text(path: Path) -> IO[bytes]:
     return stream
 
 
+def refuse_not_gzip(path: Path) -> None:
+    """Refuse a ``.jsonl.gz`` trace that starts as JSON Lines or MCAP does, naming the
+    suffix to give it: it was "not readable as gzip after 0 lines: Not a gzipped file
+    (b'{"')", where a gzip trace renamed ``.jsonl`` is told its name.
+
+    Raises:
+        InputError: it is JSON Lines or MCAP.
+        OSError: it cannot be opened.
+    """
+    with open(path, "rb") as stream:
+        start = stream.read(5)
+    base = path.name[: -len(".jsonl.gz")] if path.name.lower().endswith(".jsonl.gz") else path.stem
+    if start.startswith(b"\x89MCAP"):
+        raise InputError(f"{path}: an MCAP trace, not gzip-compressed: name it {base}.mcap")
+    if start.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"{"):
+        raise InputError(f"{path}: a JSON Lines trace, not gzip-compressed: name it {base}.jsonl")
+
+
 def readable_text(record: Any, line: bytes, mend: bool = True) -> Any:
     """``record`` (decoded from ``line``) with every lone surrogate in its text,
     keys too, made U+FFFD; ``record`` itself unless ``mend`` and ``line`` escapes one.
