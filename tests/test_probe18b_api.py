@@ -271,3 +271,37 @@ def test_simulate_tree_refuses_a_tree_built_on_a_connection() -> None:
         root = Clamp.build("clamp", robot.context(), half="rear", torque="0.7 N*m")
         with pytest.raises(pirate_bt.InputError, match="'clamp' was built with another"):
             pirate_bt.simulate_tree(root, max_time="5 s")
+
+
+def test_a_mission_result_and_a_campaign_result_pickle() -> None:
+    # a MissionResult held the py_trees tree ("cannot pickle 'generator' object"), and a
+    # CampaignResult its counts as a MappingProxyType: neither came back from a pool
+    import pickle
+
+    import pirate_bt
+
+    mission = pirate_bt.simulate_mission("straight")
+    back = pickle.loads(pickle.dumps(mission))
+    assert back.status == mission.status and back.why == mission.why
+    assert [p.outcome for p in back.pabs] == [p.outcome for p in mission.pabs]
+    assert back.tree is None
+    spec = {
+        "name": "p",
+        "runs": [{"tree": "straight", "params": {"distance": "0.1 m"}}],
+        "seeds": {"count": 1},
+    }
+    campaign = pirate_bt.run_campaign(spec)
+    again = pickle.loads(pickle.dumps(campaign))
+    assert dict(again.counts) == dict(campaign.counts) and again.counts["success"] == 1
+    with pytest.raises(TypeError):
+        again.counts["success"] = 2  # type: ignore[index]
+
+
+def test_a_step_takes_numpy_numbers_as_si_numbers() -> None:
+    import numpy as np
+
+    from pirate_bt.task.navigation import Step, _quantity
+
+    assert _quantity(Step("straight", distance=np.float32(0.25)), "distance", "length", "1 m") == (
+        pytest.approx(0.25)
+    )

@@ -34,7 +34,6 @@ from concurrent.futures import Executor
 from contextlib import ExitStack, contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any
 
 from pirate_bt.atomic import new_folders_undone
@@ -60,7 +59,7 @@ from pirate_bt.campaign.spec import (
     spec_source,
 )
 from pirate_bt.campaign.started import Start, begin, write_record
-from pirate_bt.campaign.stats import GroupStats, group_stats
+from pirate_bt.campaign.stats import Counts, GroupStats, group_stats
 from pirate_bt.campaign.unrecorded import drop_unrecorded_traces
 from pirate_bt.errors import InputError, digit_count, said_of
 
@@ -586,7 +585,7 @@ def _run(
         name=model.name,
         rows=tuple(rows),
         groups=tuple(group_stats(rows)),
-        counts=MappingProxyType(dict(total)),
+        counts=Counts(total),
         violations=sum(int(r.get("violations") or 0) for r in rows),
         damage=sum(int(r.get("damage") or 0) for r in rows),
         output=folder,

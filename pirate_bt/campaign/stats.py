@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from pirate_bt.campaign.cases import group_key
 
-__all__ = ["GroupStats", "group_stats", "percentile", "wilson_interval"]
+__all__ = ["Counts", "GroupStats", "group_stats", "percentile", "wilson_interval"]
 
 Z95 = 1.959963984540054
 
@@ -123,3 +123,29 @@ def group_stats(rows: Sequence[dict[str, Any]]) -> list[GroupStats]:
         if labels[g.key] > 1:
             g.key = identity
     return list(groups.values())
+
+
+class Counts(Mapping[str, int]):
+    """Cases per outcome, read-only, and a result that pickles (a process pool, Dask):
+    a ``MappingProxyType`` does not, so a :class:`~pirate_bt.campaign.run.CampaignResult`
+    holding one could not be sent back from a worker."""
+
+    __slots__ = ("_counts",)
+
+    def __init__(self, counts: Mapping[str, int]) -> None:
+        self._counts = dict(counts)
+
+    def __getitem__(self, key: str) -> int:
+        return self._counts[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._counts)
+
+    def __len__(self) -> int:
+        return len(self._counts)
+
+    def __repr__(self) -> str:
+        return f"Counts({self._counts!r})"
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Counts, (self._counts,))

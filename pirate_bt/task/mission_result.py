@@ -140,6 +140,13 @@ class MissionResult:
     stopped (its closing stop and the e-stop after it never acknowledged): the mission
     is then a failure, exit 3, whatever its PABs did, and :attr:`why` says so."""
 
+    def __getstate__(self) -> object:
+        """Pickled without the py_trees tree (its generators do not pickle): a result
+        sent back from a process pool keeps everything else."""
+        state = dict(self.__dict__)
+        state["tree"] = None
+        return state
+
     @property
     def succeeded(self) -> bool:
         """True when every PAB of the plan succeeded and the close stopped the robot."""

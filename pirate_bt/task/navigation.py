@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import linecache
 import math
+import numbers
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -423,7 +424,7 @@ def _quantity(step: Step, key: str, dimension: str, example: str) -> float:
         raise InvalidStep(f"{step!r}: {step.pab} needs {key} (e.g. {key}={example!r})")
     if isinstance(value, bool):
         raise InvalidStep(f"{step!r}: {key} must be a {dimension}, not {value!r}")
-    if isinstance(value, int | float):
+    if isinstance(value, numbers.Real):  # a NumPy number too (np.float32(0.3))
         try:
             number = float(value)
         except OverflowError:  # an integer too large for a float
