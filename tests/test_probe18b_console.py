@@ -250,3 +250,21 @@ def test_hand_back_returns_to_supervised_when_taken_over_from_it() -> None:
         assert sup.mode is Mode.AUTONOMOUS  # started in manual: as before
     finally:
         sup.close()
+
+
+def test_keys_against_a_link_that_was_lost_exit_3(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pirate_bt.api.connection as connection
+    from pirate_bt.cli import main
+
+    real = connection.connect
+
+    def lossy(*args: object, **kwargs: object) -> object:
+        return real(*args, faults="link_loss@1s", **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(connection, "connect", lossy)
+    code = main(["teleop", "--sim", "straight", "--keys", "mr" + "." * 60])
+    err = capsys.readouterr().err
+    assert code == 3, err  # was 0: the script was told all went well
+    assert "link lost" in err

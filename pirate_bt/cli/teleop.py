@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
 from pirate_bt.cli.console.view import millimetres_per_s, verdict_text
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LinkError
 from pirate_bt.robot.description import Half, MotorFunction, RobotDescription
 from pirate_bt.safety import (
     Bend,
@@ -290,6 +290,27 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_groot2_option(parser)
 
 
+def _check_link(sup: Supervisor) -> None:
+    """Exit 3 when the link was lost during the session (it exited 0: a script of keys
+    against a bridge that had died was told all went well, before 2026-11-30).
+
+    Raises:
+        LinkError: the link is lost (the safe state's reason when it says so).
+    """
+    health = sup.health()
+    if health.connected:
+        return
+    reason = sup.safe_state_reason or ""
+    if not reason.startswith("link lost"):
+        heard = health.last_heard_s
+        reason = "link lost during the teleop" + (
+            f": nothing heard from the bridge since t = {heard:.2f} s"
+            if math.isfinite(heard)
+            else ""
+        )
+    raise LinkError(reason)
+
+
 def _run_keys(session: TeleopSession, keys: str, period_s: float) -> int:
     sup = session.sup
     for key in keys:
@@ -440,7 +461,9 @@ def _run_session(
 
             session.after_step.append(serve_ros2(ros2, sup, robot=robot))
         if args.keys is not None:
-            return _run_keys(session, args.keys, period_s)
+            _run_keys(session, args.keys, period_s)
+            _check_link(sup)
+            return 0
         factory = _runner_factory(checked, connection, period_s, groot2)
         from pirate_bt.cli.console import ConsoleEngine, OperatorConsole
 
@@ -451,6 +474,7 @@ def _run_session(
             engine.stop()  # a SIGTERM in the screen's loop left the engine ticking on
         if engine.finished:
             print(engine.finished)
+        _check_link(sup)
         return 0
     finally:
         connection.close()
