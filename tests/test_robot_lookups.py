@@ -31,3 +31,15 @@ def test_a_hit_still_gives_the_part() -> None:
     assert robot.module("bend_1").name == "bend_1"
     assert robot.motor("bend_1_joint").name == "bend_1_joint"
     assert robot.board_of("imu") is robot.board_of("imu")
+
+
+def test_a_value_whose_raw_value_overflows_saturates() -> None:
+    # CommandCodec.to_raw(1e308 of PWM duty) raised OverflowError: value / per_raw is inf
+    from pirate_bt.robot.commands import CommandCodec, MotorCommand
+    from pirate_bt.robot.description import ControlMode
+
+    codec = CommandCodec(load_robot())
+    lo, hi = load_robot().motor("front_leds").modes.pwm.raw  # type: ignore[union-attr]
+    for value, raw in ((1e308, hi), (-1e308, lo), (1e30, hi)):
+        setpoint = codec.to_raw(MotorCommand("front_leds", ControlMode.PWM, value))
+        assert setpoint.raw_value == raw, value

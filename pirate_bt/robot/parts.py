@@ -177,10 +177,11 @@ class Conversion(_Model):
         return (raw - self.zero_raw) * self.per_raw
 
     def to_raw(self, value_si: float) -> int:
-        """The nearest raw value, saturated to the raw range."""
-        raw = round(value_si / self.per_raw + self.zero_raw)
+        """The nearest raw value, saturated to the raw range (a value so large that its
+        raw value overflows a float saturates too: it raised ``OverflowError``)."""
+        scaled = value_si / self.per_raw + self.zero_raw
         lo, hi = self.raw
-        return lo if raw < lo else hi if raw > hi else raw
+        return hi if scaled >= hi else lo if scaled <= lo else round(scaled)
 
     @property
     def si_range(self) -> tuple[float, float]:
