@@ -268,3 +268,17 @@ def test_keys_against_a_link_that_was_lost_exit_3(
     err = capsys.readouterr().err
     assert code == 3, err  # was 0: the script was told all went well
     assert "link lost" in err
+
+
+def test_a_stop_the_supervisor_made_says_what_made_it() -> None:
+    out = io.StringIO()
+    sup = open_supervisor(load_robot(), network="straight", seed=1, mode=Mode.MANUAL)
+    session = TeleopSession(sup, out)
+    try:
+        _keys(session, "pxe")
+    finally:
+        sup.close()
+    text = out.getvalue()
+    # was "PASS   stop [supervisor]" for both, saying nothing of why
+    assert "stop [supervisor] safe_state: safe state: operator stop (teleop)" in text, text
+    assert "stop [supervisor] estop_latched: e-stop: operator e-stop (teleop)" in text, text

@@ -139,6 +139,11 @@ def verdict_text(verdict: Verdict) -> str:
         reason = verdict.reason.value if verdict.reason else "refused"
         detail = verdict.detail.split(";")[0].strip()
         return f"{head} {reason}" + (f": {detail}" if detail else "")
+    if verdict.reason is not None:
+        # a stop the supervisor made says what made it (it was "PASS stop [supervisor]"
+        # for an e-stop, from the console or the bridge's button, and a safe state alike)
+        detail = verdict.detail.split(";")[0].strip()
+        return f"{head} {verdict.reason.value}" + (f": {detail}" if detail else "")
     return head
 
 
