@@ -296,7 +296,10 @@ def test_damaged_traces_are_one_line_naming_file_and_line(
     not_gzip = tmp_path / "plain.jsonl.gz"
     not_gzip.write_bytes(data)
     assert main(["trace", "show", str(not_gzip)]) == 2
-    assert f"{not_gzip}:1:1: not readable as gzip" in one_error_line(capsys.readouterr().err)
+    # a JSON Lines trace named .jsonl.gz is told the name to give it (cb351af)
+    assert f"{not_gzip}: a JSON Lines trace, not gzip-compressed: name it plain.jsonl" in (
+        one_error_line(capsys.readouterr().err)
+    )
     packed = gzip.compress(data)
     damaged = tmp_path / "damaged.jsonl.gz"
     damaged.write_bytes(packed[:-8] + bytes(b ^ 0xFF for b in packed[-8:-4]) + packed[-4:])
