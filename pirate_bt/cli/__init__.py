@@ -6,10 +6,11 @@ Verbs live in their own modules and are imported only when chosen, so
 of DESIGN.md: 0 success, 1 the tree or mission failed (robot left safe), 2 invalid
 input, 3 link or hardware error. ``--debug`` (before or after the verb) shows tracebacks.
 
-Interruptions: SIGTERM is handled as Ctrl-C (SIGINT) is, so a running tree is stopped
-by the runner and the robot left in its safe state (the run then ends with 1, as
-every run that does not succeed). An interrupt outside a run (loading, planning,
-writing outputs) exits 130 for SIGINT and 143 for SIGTERM. A file that cannot be
+Interruptions: SIGTERM, and SIGHUP unless ignored (``nohup``), are handled as Ctrl-C
+(SIGINT) is, so a running tree is stopped by the runner and the robot left in its
+safe state (the run then ends with 1, as every run that does not succeed). An
+interrupt outside a run (loading, planning, writing outputs) exits 130 for SIGINT,
+143 for SIGTERM and 129 for SIGHUP. A file that cannot be
 read or written (a directory, a missing folder that cannot be made, a full disk)
 is one line naming it, exit 2. ``-o -`` is standard output for the verbs that write
 text (:func:`write_to_stdout`) and refused by every other output (:func:`check_output`,
@@ -71,21 +72,29 @@ EXIT_SIGTERM = 143
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread as Ctrl-C raises ``KeyboardInterrupt``.
+    """SIGTERM (or SIGHUP: the terminal closed, an ssh session dropped), raised in the
+    main thread as Ctrl-C raises ``KeyboardInterrupt``.
 
     A ``KeyboardInterrupt``, so everything that stops safely on Ctrl-C (the runner:
     running nodes stopped, the robot in its safe state, the trace's end record) does
-    the same on SIGTERM; its text names the signal.
+    the same; its text names the signal, and :attr:`exit_code` is 128 + its number
+    (143 for SIGTERM, 129 for SIGHUP).
     """
 
-    def __init__(self) -> None:
-        super().__init__("SIGTERM")
+    def __init__(self, name: str = "SIGTERM") -> None:
+        super().__init__(name)
+        self.signal_name = name
+
+    @property
+    def exit_code(self) -> int:
+        number = getattr(signal, self.signal_name, None)
+        return 128 + int(number) if number is not None else EXIT_SIGTERM
 
 
 def _terminate(signum: int, frame: object) -> None:
-    # Once: a second SIGTERM kills at once, as before, should the safe stop hang.
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    raise Terminated
+    # Once: a second signal kills at once, as before, should the safe stop hang.
+    signal.signal(signum, signal.SIG_DFL)
+    raise Terminated(signal.Signals(signum).name)
 
 
 def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
@@ -391,9 +400,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # load is one line and 130 or 143, as during the command, not a traceback
         with _sigterm_as_interrupt(), streams.watched():
             code = _main(argv)
-    except Terminated:
-        print("pirate-bt: terminated (SIGTERM)", file=sys.stderr)
-        code = EXIT_SIGTERM
+    except Terminated as exc:
+        print(f"pirate-bt: terminated ({exc.signal_name})", file=sys.stderr)
+        code = exc.exit_code
     except KeyboardInterrupt:
         print("pirate-bt: interrupted", file=sys.stderr)
         code = EXIT_SIGINT
@@ -481,21 +490,28 @@ def _os_error(exc: OSError) -> str:
 
 
 class _sigterm_as_interrupt:
-    """SIGTERM raises :class:`Terminated` in the main thread while the verb runs.
+    """SIGTERM, and SIGHUP unless it is ignored (``nohup``), raise :class:`Terminated`
+    in the main thread while the verb runs: a closed terminal or a dropped ssh session
+    stops the robot safely with one line, where it killed the process outright and left
+    the drives to the bridge's watchdog.
 
-    Restores the handler before it on exit (``main`` also runs inside tests); does
+    Restores the handlers before it on exit (``main`` also runs inside tests); does
     nothing off the main thread, where no handler can be set.
     """
 
     def __enter__(self) -> None:
-        self._set = False
-        try:
-            self._previous = signal.getsignal(signal.SIGTERM)
-            signal.signal(signal.SIGTERM, _terminate)
-            self._set = True
-        except ValueError:  # not the main thread
-            pass
+        self._previous: dict[int, Any] = {}
+        names = ("SIGTERM", "SIGHUP")
+        for number in (getattr(signal, n) for n in names if hasattr(signal, n)):
+            try:
+                before = signal.getsignal(number)
+                if number != signal.SIGTERM and before is signal.SIG_IGN:
+                    continue  # nohup: the caller asked for the run to outlive its terminal
+                signal.signal(number, _terminate)
+            except ValueError:  # not the main thread
+                return
+            self._previous[number] = before
 
     def __exit__(self, *exc: object) -> None:
-        if self._set:
-            signal.signal(signal.SIGTERM, self._previous or signal.SIG_DFL)
+        for number, before in self._previous.items():
+            signal.signal(number, before or signal.SIG_DFL)

@@ -170,9 +170,9 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         if not started:
             raise
-        from pirate_bt.cli import EXIT_SIGINT, EXIT_SIGTERM, Terminated
+        from pirate_bt.cli import EXIT_SIGINT, Terminated
 
-        terminated = isinstance(exc, Terminated)
+        terminated = exc if isinstance(exc, Terminated) else None
         # how many: it said "keeps the cases done" with none done as with 39 of 40
         from pirate_bt.campaign.engine import read_rows
 
@@ -182,13 +182,14 @@ def run(args: argparse.Namespace) -> int:
         except InputError:  # pragma: no cover - the file was ours a moment ago
             done = 0
         print(
-            f"pirate-bt: campaign {'terminated (SIGTERM)' if terminated else 'interrupted'};"
+            f"pirate-bt: campaign"
+            f" {f'terminated ({terminated.signal_name})' if terminated else 'interrupted'};"
             f" {output}/results.jsonl keeps {done:,} of its {total:,} cases (the cases in"
             f" flight are not recorded); run again with --resume to run the other"
             f" {total - done:,}",
             file=sys.stderr,
         )
-        return EXIT_SIGTERM if terminated else EXIT_SIGINT
+        return terminated.exit_code if terminated else EXIT_SIGINT
     print(f"campaign {result.name}: {result.summary()}")
     for written in result.files:
         print(f"wrote {written}")
