@@ -248,6 +248,8 @@ class FakePort:
                     self.violations.events.append(f"rotate with {clamped} halves clamped")
                 self.values[self.rotation_channel] = c.value
             elif fn is MotorFunction.TILT and self.tilt_channel is not None:
+                if c.mode is ControlMode.PWM and c.value == 0.0:
+                    continue  # a brake (a reset's stop category): the module stays
                 if self.half_clamped(Half.FRONT) and abs(c.value) < robot.clamp.front_clear_angle:
                     self.violations.events.append("front module pushed into the front clamp")
                 self.values[self.tilt_channel] = c.value
