@@ -180,6 +180,8 @@ class Conversion(_Model):
         """The nearest raw value, saturated to the raw range (a value so large that its
         raw value overflows a float saturates too: it raised ``OverflowError``)."""
         scaled = value_si / self.per_raw + self.zero_raw
+        if not math.isfinite(value_si):
+            return round(scaled)  # OverflowError or ValueError: the callers name the value
         lo, hi = self.raw
         return hi if scaled >= hi else lo if scaled <= lo else round(scaled)
 
