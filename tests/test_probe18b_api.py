@@ -157,7 +157,9 @@ def test_a_run_whose_node_raised_an_unpicklable_exception_still_pickles() -> Non
         "_TwoArgumentError in boom: sensor said no",
         "boom",
     )
-    assert str(back.error) == "_TwoArgumentError: sensor said no"
+    # the stand-in's text; or, where tblib's pickling support is installed (importing
+    # Dask's distributed does so for the whole process), the error itself read back
+    assert str(back.error) in ("_TwoArgumentError: sensor said no", "sensor said no")
     assert back.loop is not None and back.loop.error is back.error
     assert back.exit_code == result.exit_code == 1
     assert back.as_dict() == result.as_dict()
