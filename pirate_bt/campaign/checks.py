@@ -595,4 +595,4 @@ def _check_navigator(
                 check_map_start(the_map, robots(case.get("robot")), case["navigator"])
         except InputError as exc:
             raise placed(exc, "network" if given else "navigator") from None
-    return navigator_files(navigator)  # its parameters' files: --resume digests them
+    return navigator_files(navigator, case["navigator"], params)  # --resume digests them

@@ -56,17 +56,19 @@ def check_route_navigator(navigator: Any, the_map: Any, given: str | None) -> No
     )
 
 
-def navigator_files(navigator: Any) -> list[str]:
+def navigator_files(navigator: Any, name: str, params: dict[str, Any]) -> list[str]:
     """The files a navigator's parameters made it read: the ``route`` navigator's
-    route, ``explore``'s ``extend`` network."""
+    route (the file its route was loaded from), and each other parameter
+    :func:`~pirate_bt.task.navigators.navigator_file_params` names (``explore``'s
+    ``extend``, a plug-in's ``file_params``), as the case gives it."""
+    from pirate_bt.task.navigators import navigator_file_params
+
     files: list[str] = []
     source = getattr(getattr(navigator, "route", None), "source", None)
     if isinstance(source, str):
         files.append(source)
-    from pirate_bt.task.explore import ExploreNavigator
-
-    if type(navigator) is ExploreNavigator:
-        extend = getattr(navigator, "_extend", None)
-        if isinstance(extend, str | Path):
-            files.append(str(extend))
+    for key in sorted(navigator_file_params(name) - {"route"}):
+        value = params.get(key)
+        if isinstance(value, str | Path):
+            files.append(str(value))
     return files
