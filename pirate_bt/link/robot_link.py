@@ -100,7 +100,9 @@ class RobotLink:
         self._loss_completed = -1
         self._loss_ratio = 0.0
         self.latch_kept = ""
-        """Why the latch the bridge had at the handshake stays (``LinkHealth.latch_kept``)."""
+        """Why the latch the bridge had at the handshake stays (``LinkHealth.latch_kept``):
+        set by the opener before any health is read, cleared once the latch is released
+        (a health with it is built only when a figure changed: the release is one)."""
         self.close_error: LinkError | None = None
         """Set by :meth:`close` when it could not make sure the robot stopped (see there)."""
 
@@ -412,7 +414,7 @@ class RobotLink:
         # without the lock and without building a SessionStats first.
         # The line's noise since the last good frame is not a counter the figures hold
         # (an echo, bytes without a delimiter): it is read with them.
-        figures = (*_HEALTH_FIGURES(session), session.line_noise(), self.latch_kept)
+        figures = (*_HEALTH_FIGURES(session), session.line_noise())
         if figures == self._health_figures:
             return self._health
         (
@@ -430,16 +432,14 @@ class RobotLink:
             faulted,
             refused,
             noise,
-            _kept,
         ) = figures
         if completed != self._loss_completed:
             recent = session._recent
             self._loss_ratio = (sum(recent) / len(recent)) if recent else 0.0
             self._loss_completed = completed
         estopped = session._estopped(flags)
-        if not estopped and self.latch_kept:
+        if not estopped:
             self.latch_kept = ""  # released since: a later latch has causes of its own
-            figures = (*figures[:-1], "")
         self._health_figures = figures
         self._health = LinkHealth(
             connected=not (lost or closed),
