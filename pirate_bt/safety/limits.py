@@ -131,15 +131,14 @@ def limit(
         return problem
     conversion = motor.modes.get(mc.mode)
     if conversion is not None:
-        # what the mode's raw range can carry: the link would saturate a value beyond
-        # it unsaid (and one too large for an integer raised from the conversion)
-        # (as the link rounds it: a value that rounds into the range is in it)
-        raw_lo, raw_hi = conversion.raw
-        raw = value / conversion.per_raw + conversion.zero_raw
-        if not raw_lo - 0.5 <= raw <= raw_hi + 0.5:
-            lo, hi = conversion.si_range
+        # what the mode's raw range can carry, in SI (the description's own range): the
+        # link would saturate a value beyond it unsaid. As the link rounds, a value
+        # within half a raw step of the range is in it.
+        lo, hi = conversion.si_range
+        half_step = abs(conversion.per_raw) / 2
+        if not lo - half_step <= value <= hi + half_step:
             text = f"{motor.name}: {mc.mode} {value:g} outside [{lo:g}, {hi:g}], its raw range"
-            value = conversion.to_si(raw_lo if raw < raw_lo else raw_hi)
+            value = lo if value < lo else hi
             notes.append((Reason.RAW_RANGE, f"{text}, clipped to {value:g}"))
     return value, notes
 
