@@ -445,3 +445,37 @@ def test_stops_keep_the_clamps_in_a_riser_through_the_firmware(tmp_path: Path) -
         finally:
             sup.close()
         assert bridge.figures()["unexpected_resets"] == 0
+
+
+@needs_simavr
+def test_a_host_slow_to_read_gets_every_frame_whole_when_it_reads() -> None:
+    """A host that does not read the pty for seconds (a loaded machine: the test
+    process starved) finds every frame whole when it reads again, in order.
+
+    The pty holds about 17 KB; the bridge sends about 7.5 KB/s of STATEs. The
+    harness used to throw away what it had not yet written when the pty was full,
+    cutting frames in two (a CRC mismatch the host could only blame on the firmware:
+    a conformance test failed so once in a loaded suite). The bytes now wait in the
+    harness, as in a USB serial adapter's and its driver's buffers, up to 64 KB.
+    """
+    elf, harness = build()
+    robot = load_robot()
+    bridge = FirmwareBridge(
+        elf, PipeRobotModel(robot, load_network("straight")), harness=harness, boot_ms=0
+    )
+    try:
+        host = HostEnd(bridge.start(), robot)  # the open resets the MCU
+        bridge.wait_resets(1)
+        time.sleep(4.0)  # about 30 KB sent, none read
+        bridge.hold()
+        data = bytearray()
+        while select.select([host.fd], [], [], 0.5)[0]:
+            data += os.read(host.fd, 65536)
+        got = host.decoder.feed(bytes(data))
+        assert got and not [m for m in got if isinstance(m, Exception)]
+        seqs = [m.seq for m in got]
+        assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))  # none missing
+        assert len(data) > 24_000 and bridge.figures()["host_bytes_out_dropped"] == 0
+        os.close(host.fd)
+    finally:
+        bridge.close()

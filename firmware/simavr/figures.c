@@ -80,7 +80,7 @@ int figures_text(char *out, size_t size, const struct mcu_stats *m) {
                      "rx_overruns %u\nbus_replies %llu\nbus_unanswered %llu\nbus_repeats %llu\n"
                      "bus_stops %llu\nhost_queue_bytes %u\n"
                      "host_framing_errors %u\nbus_framing_errors %u\nbus_bytes_lost %u\n"
-                     "bus_echo_bytes %u\nboard_own_stops %u\nestop_input_trips %u\n",
+                     "bus_echo_bytes %u\nboard_own_stops %u\nestop_input_trips %u\nhost_bytes_out_dropped %llu\n",
                      (unsigned long long)mcu->cycle, (double)mcu->cycle / HZ,
                      (unsigned long long)m->dtr_resets,
                      (unsigned long long)m->unexpected_resets, debug_u16(2),
@@ -91,7 +91,8 @@ int figures_text(char *out, size_t size, const struct mcu_stats *m) {
                      debug_u16(18), (unsigned long long)bus->replies,
                      (unsigned long long)bus->unanswered, (unsigned long long)bus->repeats,
                      (unsigned long long)bus->stops, host_queue_bytes(), debug_u16(20),
-                     debug_u16(22), debug_u16(24), debug_u16(26), debug_u16(28), debug_u16(30));
+                     debug_u16(22), debug_u16(24), debug_u16(26), debug_u16(28), debug_u16(30),
+                     (unsigned long long)host->bytes_out_dropped);
     k += put_stat(out + k, size - (size_t)k, "state_encode_cycles", &state_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "bulk_decode_apply_cycles", &bulk_cycles, 1.0);
     k += put_stat(out + k, size - (size_t)k, "estop_to_bus_stop_us", &estop_us, HZ / 1e6);

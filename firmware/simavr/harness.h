@@ -102,6 +102,7 @@ bool channel_service(channel_handler handle);
 /* host.c (calls channel.c): USART0 on the pty */
 struct host_stats {
     uint64_t bytes_in, bytes_dropped, frames_out;
+    uint64_t bytes_out_dropped; /* MCU bytes lost to a host that did not read */
     uint64_t last_delimiter; /* cycle at which the last host 0x00 entered the MCU */
 };
 /* Wires USART0; `on_open` is called when a host opens the pty (the DTR edge). */

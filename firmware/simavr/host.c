@@ -42,8 +42,13 @@ static void host_out(avr_irq_t *irq, uint32_t value, void *param) {
     if (value == 0) {
         stats.frames_out++;
     }
-    if (host_open && host_out_n < sizeof host_out_buf) {
+    if (!host_open) {
+        return;
+    }
+    if (host_out_n < sizeof host_out_buf) {
         host_out_buf[host_out_n++] = (uint8_t)value;
+    } else {
+        stats.bytes_out_dropped++; /* a host that has not read for seconds loses bytes */
     }
 }
 
@@ -136,8 +141,9 @@ void host_service_pty(void) {
         if (w > 0) {
             memmove(host_out_buf, host_out_buf + w, host_out_n - (size_t)w);
             host_out_n -= (unsigned)w;
-        } else if (w < 0 && errno == EAGAIN) {
-            host_out_n = 0; /* a host that does not read loses bytes, as on a real UART */
         }
+        /* EAGAIN: the pty is full (the host is slow to read, as a loaded machine may
+         * make it for a while): the bytes wait here, as in a USB serial adapter's and
+         * the host driver's buffers, and only what overflows this buffer is lost. */
     }
 }
