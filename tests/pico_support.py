@@ -32,15 +32,18 @@ def _make(*args: str) -> subprocess.CompletedProcess[str]:
         )
 
 
-def build_pico_host(build: Path) -> Path:
+def build_pico_host(build: Path, *, encoder_cpr: int | None = None) -> Path:
     """The host library of the board logic, built into ``build``.
+
+    ``encoder_cpr``: the build option ``ENCODER_CPR`` (default: the Makefile's).
 
     Raises:
         RuntimeError: no C compiler or make (the message says so), or the build failed.
     """
     if shutil.which("cc") is None or shutil.which("make") is None:
         raise RuntimeError("no host C compiler (cc) or make")
-    done = _make(f"BUILD={build}", "host")
+    options = [f"ENCODER_CPR={encoder_cpr}"] if encoder_cpr is not None else []
+    done = _make(f"BUILD={build}", *options, "host")
     if done.returncode != 0:
         raise RuntimeError(f"building the PICO host library failed:\n{done.stderr}")
     return build / "libpico_host.so"

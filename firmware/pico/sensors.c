@@ -18,12 +18,61 @@ static struct {
     uint32_t last_10ms;
     uint32_t imu_ok_ms; /* the IMU's last successful read (boot until the first) */
     bool stale;
+    struct speed_scale {
+        uint64_t num; /* raw = counts x num / den: 25 x circumference / (CPR x step), */
+        uint32_t den; /* in lowest terms (0: no velocity feedback) */
+        uint32_t half;
+        uint8_t shift; /* den == 1 << shift, or DIVIDE */
+    } scale[PICO_MAX_MOTORS];
 } s;
+
+#define DIVIDE 0xFFu
+#define SPEED_MAX 32767u
+
+static uint32_t gcd32(uint32_t a, uint32_t b) {
+    while (b != 0) {
+        uint32_t r = a % b;
+        a = b;
+        b = r;
+    }
+    return a;
+}
+
+/* Motor k's speed scale, worked out once at boot (the divisions here run once). A speed
+ * is counts over 40 ms x (1000 / 40) x circumference / (ENCODER_CPR x one velocity raw
+ * unit): in 32 bits the numerator overflowed above 65 mm/s with ENCODER_CPR=32768, so
+ * the fraction is kept in lowest terms. For the robot descriptions' wheels and steps its
+ * numerator is below 65536 (the default robot's 37699 at every ENCODER_CPR), and a
+ * reading is a 32-bit multiply and a shift (den a power of two) or one 32-bit division,
+ * as before; any other is done in 64 bits, still exact. */
+static void speed_scale(uint8_t k) {
+    struct speed_scale *sc = &s.scale[k];
+    const struct pico_motor_io *io = &board.motor_io[k];
+    sc->den = 0;
+    if (io->velocity_um_s == 0 || io->circumference_um == 0) {
+        return;
+    }
+    uint64_t num = (uint64_t)(1000u / VELOCITY_WINDOW_MS) * io->circumference_um;
+    uint32_t den = (uint32_t)ENCODER_CPR * io->velocity_um_s; /* < 2^31 */
+    uint32_t g = gcd32(den, (uint32_t)(num % den));
+    sc->num = num / g;
+    sc->den = den / g;
+    sc->half = sc->den >> 1;
+    sc->shift = DIVIDE;
+    for (uint8_t b = 0; b < 32u; b++) {
+        if (sc->den == (uint32_t)1 << b) {
+            sc->shift = b;
+        }
+    }
+}
 
 void sensors_init(uint32_t now_ms) {
     memset(&s, 0, sizeof s);
     s.imu_ok_ms = now_ms;
     for (uint8_t k = 0; k < PICO_MAX_MOTORS; k++) {
+        if (k < board.n_motors) {
+            speed_scale(k);
+        }
         for (uint8_t i = 0; i < RING; i++) {
             s.counts[k][i] = hal_encoder(k);
         }
@@ -41,6 +90,23 @@ static int16_t clamp(int32_t v, int16_t lo, int16_t hi) {
     return v < lo ? lo : v > hi ? hi : (int16_t)v;
 }
 
+/* `counts` x the scale, rounded half away from zero and held to +-32767: exact for every
+ * count of the 16-bit window. The magnitude is unsigned: |counts| <= 32768 and num <
+ * 65536 keep the product and its rounding below 2^32. */
+static int16_t scaled(int16_t counts, const struct speed_scale *sc) {
+    uint16_t m = counts < 0 ? (uint16_t)(0u - (uint16_t)counts) : (uint16_t)counts;
+    uint32_t q;
+    if (sc->num <= 0xFFFFu) {
+        uint32_t x = (uint32_t)m * (uint32_t)sc->num + sc->half;
+        q = sc->shift != DIVIDE ? x >> sc->shift : x / sc->den;
+    } else {
+        uint64_t x = ((uint64_t)m * sc->num + sc->half) / sc->den; /* < 2^53 */
+        q = x > SPEED_MAX ? SPEED_MAX : (uint32_t)x;
+    }
+    int16_t v = (int16_t)(q > SPEED_MAX ? SPEED_MAX : q);
+    return counts < 0 ? (int16_t)-v : v;
+}
+
 /* Motor k's speed in its velocity feedback's raw unit, from the encoder's counts over
  * the last 40 ms: counts/s x circumference / counts per revolution. */
 static void speeds(void) {
@@ -49,16 +115,7 @@ static void speeds(void) {
         int16_t now = hal_encoder(board.motor[k].slot);
         int16_t counts = (int16_t)(now - s.counts[k][oldest]);
         s.counts[k][oldest] = now;
-        const struct pico_motor_io *io = &board.motor_io[k];
-        if (io->velocity_um_s == 0 || io->circumference_um == 0) {
-            s.speed[k] = 0;
-            continue;
-        }
-        int32_t num = (int32_t)counts * (int32_t)(1000u / VELOCITY_WINDOW_MS) *
-                      (int32_t)io->circumference_um;
-        int32_t den = ENCODER_CPR * (int32_t)io->velocity_um_s;
-        int32_t half = den >> 1; /* den > 0: den / 2 without a library division */
-        s.speed[k] = (int16_t)((num + (num >= 0 ? half : -half)) / den);
+        s.speed[k] = s.scale[k].den == 0 ? 0 : scaled(counts, &s.scale[k]);
     }
     s.ring_at = oldest;
 }

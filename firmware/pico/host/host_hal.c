@@ -15,12 +15,15 @@
  *   pk_motor(slot, out3)          the H-bridge output: {drive, duty}
  *   pk_state(k, out2)             motor k's mode and raw setpoint
  *   pk_debug(out)                 the pico_debug record
+ *   pk_channel(c)                 this board's state channel c (raw), as the reply says
+ *   pk_speed(k)                   motor k's measured speed (velocity raw), as its loop sees
  */
 #include <string.h>
 
 #include "../hal.h"
 #include "../motors.h"
 #include "../pico.h"
+#include "../sensors.h"
 
 static uint64_t now_us;
 static uint8_t eeprom_id;
@@ -141,5 +144,9 @@ void pk_state(uint8_t k, int16_t out[2]) {
 }
 
 void pk_debug(struct pico_debug *out) { *out = pico_debug; }
+
+int16_t pk_channel(uint8_t c) { return sensors_channel(c); }
+
+int16_t pk_speed(uint8_t k) { return sensors_speed(k); }
 
 uint64_t pk_now_us(void) { return now_us; }
