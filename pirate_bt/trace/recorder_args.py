@@ -10,6 +10,7 @@ place that cannot be written (``/proc/x.jsonl``) a ``FileNotFoundError``.
 
 from __future__ import annotations
 
+import errno
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -18,11 +19,13 @@ from typing import Any
 import py_trees
 
 from pirate_bt.errors import ArgumentTypeError, InputError, kind_of, shown
+from pirate_bt.trace.sink_formats import BUSY, TraceBusyError, held
 
 __all__ = [
     "TraceFolderError",
     "TraceWriteError",
     "check_destination",
+    "check_free",
     "check_options",
     "check_tree",
     "unwritable",
@@ -58,9 +61,28 @@ def check_destination(destination: object) -> None:
         raise TraceFolderError(f"{destination}: cannot write trace: it is a folder, not a file")
 
 
+def check_free(destination: str | os.PathLike[str]) -> None:
+    """Refuse a trace file that another run is writing now, before a run connects.
+
+    The recorder refuses it anyway, when it is made (see
+    :func:`pirate_bt.trace.sink_formats.claim`); this says so before anything moves.
+
+    Raises:
+        TraceWriteError: another writer holds the file (its ``strerror`` is the reason).
+    """
+    if held(destination):
+        raise unwritable(destination, TraceBusyError(errno.EWOULDBLOCK, BUSY))
+
+
 def unwritable(destination: object, exc: OSError) -> TraceWriteError:
-    """The one-line error for a trace file that cannot be created or written."""
-    return TraceWriteError(f"{destination}: cannot write trace: {exc.strerror or exc}")
+    """The one-line error for a trace file that cannot be created or written.
+
+    Its ``strerror`` is the reason alone, for a caller that names the file itself.
+    """
+    reason = exc.strerror or str(exc)
+    error = TraceWriteError(f"{destination}: cannot write trace: {reason}")
+    error.strerror = reason
+    return error
 
 
 _FLAGS = ("full_state", "readings", "every_tick", "blackboard", "sync")

@@ -127,6 +127,7 @@ from pirate_bt.trace.sink_formats import (
     GzipJsonLinesWriter,
     JsonLinesWriter,
     TraceFormatWriter,
+    claim,
     load_writer,
     register_process_writer,
     writer_spec,
@@ -189,8 +190,10 @@ class SinkError(RuntimeError):
 class SinkProcess:
     """A writer process fed with messages over a pipe and a ring (see the module docstring).
 
-    The trace file is opened (created, truncated) here, so an unwritable path
-    fails at once in the caller's process; the writer process inherits it.
+    The trace file is opened (created, taken for this run, truncated: see
+    :func:`~pirate_bt.trace.sink_formats.claim`) here, so an unwritable path, or one
+    another run is writing, fails at once in the caller's process; the writer process
+    inherits it.
 
     Args:
         path: The trace file.
@@ -198,6 +201,7 @@ class SinkProcess:
         sync: fsync after every record.
 
     Raises:
+        TraceBusyError: another writer holds the file (it is left as it was).
         OSError: the file cannot be opened.
         SinkError: the process cannot start.
     """
@@ -211,7 +215,9 @@ class SinkProcess:
 
         cls = WRITER_CLASSES[writer]
         cls.preflight(self.path)  # what is missing is said here, not by a dead process
-        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        # Taken (locked) before it is emptied: a file another run is writing is refused
+        # and stays whole; the writer process inherits the descriptor and the lock.
+        fd = claim(self.path, truncate=True)
         created = Ring.create()
         self._ring: Ring | None = created[0] if created is not None else None
         ring_fd = created[1] if created is not None else -1

@@ -15,8 +15,10 @@ from ``pirate_bt`` it imports only :mod:`pirate_bt.trace.sink_encode`.
 
 from __future__ import annotations
 
+import errno
 import gzip
 import os
+import stat
 import sys
 import zlib
 from collections.abc import Mapping, Sequence
@@ -29,20 +31,108 @@ __all__ = [
     "WRITER_CLASSES",
     "GzipJsonLinesWriter",
     "JsonLinesWriter",
+    "TraceBusyError",
     "TraceFormatWriter",
+    "claim",
+    "held",
     "load_writer",
     "register_process_writer",
     "writer_spec",
 ]
 
 
+BUSY = (
+    "another run is writing it (a trace holds one run); name another file,"
+    " or wait until that run has ended"
+)
+"""Why :func:`claim` refuses a file (the strerror of :class:`TraceBusyError`)."""
+
+
+class TraceBusyError(BlockingIOError):
+    """A trace file that another writer holds (:func:`claim`); nothing of it was changed."""
+
+
+def claim(path: Path, truncate: bool) -> int:
+    """Open ``path`` for writing (created if missing) and take it for one writer.
+
+    Two runs writing one trace at once (``simulate_tree(..., trace="same.jsonl")`` in
+    three threads or processes) mixed their lines into a file no reader could read,
+    each truncating what the others had written. A writer takes an exclusive advisory
+    lock (``flock``) on the file's open description before it truncates: the lock
+    goes with the descriptor into the writer process and lasts until the last writer
+    of the run closes the file, even when the recording process was killed. A second
+    writer of the same file (by any name: a symbolic or hard link is the same file)
+    is refused before it changes a byte of it. A file that is not a regular one (a
+    device) is not locked; where ``flock`` does not exist or the file system refuses
+    it, the file is written as before.
+
+    Args:
+        path: The trace file.
+        truncate: Empty it once it is taken (a writer that opens it again itself,
+            with ``"wb"``, does not need this).
+
+    Returns:
+        The open descriptor; the lock lasts while it (or a copy) is open.
+
+    Raises:
+        TraceBusyError: another writer holds the file.
+        OSError: it cannot be opened.
+    """
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
+    try:
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            try:
+                import fcntl
+
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise TraceBusyError(errno.EWOULDBLOCK, BUSY, str(path)) from None
+            except (ImportError, OSError):  # no flock here: written as before
+                pass
+            if truncate:
+                os.ftruncate(fd, 0)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def held(path: str | os.PathLike[str]) -> bool:
+    """Whether another writer holds ``path`` now (:func:`claim` would refuse it).
+
+    A look that changes nothing, for a check before a run connects; the writer's own
+    :func:`claim` still decides (a run may take the file in between).
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # no wait for a pipe's writer
+    except OSError:
+        return False
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return False
+        import fcntl
+
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except (ImportError, OSError):
+        return False
+    finally:
+        os.close(fd)  # and with it the lock taken to look
+    return False
+
+
 class TraceFormatWriter:
     """Writes trace records to a file in one format; subclasses implement ``_open``.
+
+    Opened without ``fd``, the file is first taken for this writer (:func:`claim`):
+    a file another writer holds raises :class:`TraceBusyError`, and is left as it was.
 
     Args:
         path: Where to write (created or truncated).
         sync: Also ``fsync`` after every record, for power loss (slower).
-        fd: An open file descriptor for ``path`` to write to instead of opening it.
+        fd: An open file descriptor for ``path`` to write to instead of opening it
+            (already taken, as a writer process's is).
     """
 
     suffixes: ClassVar[tuple[str, ...]] = ()
@@ -50,9 +140,21 @@ class TraceFormatWriter:
     def __init__(self, path: str | Path, sync: bool = False, fd: int | None = None) -> None:
         self.path = Path(path)
         self.sync = sync
+        self._claim: IO[bytes] | None = None
         if fd is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = self._open(fd)
+            # its own descriptor: a subclass's _open may open the path itself
+            self._claim = open(claim(self.path, truncate=False), "wb", buffering=0)  # noqa: SIM115
+        try:
+            self._file = self._open(fd)
+        except BaseException:
+            self._release()
+            raise
+
+    def _release(self) -> None:
+        held = getattr(self, "_claim", None)  # (a subclass may not call __init__)
+        if held is not None and not held.closed:
+            held.close()
 
     def _open(self, fd: int | None) -> IO[bytes]:
         raise NotImplementedError
@@ -101,9 +203,12 @@ class TraceFormatWriter:
             self.write_line(line)
 
     def close(self) -> None:
-        """Flush and close the file (idempotent)."""
-        if not self._file.closed:
-            self._file.close()
+        """Flush and close the file (idempotent); another writer may take it then."""
+        try:
+            if not self._file.closed:
+                self._file.close()
+        finally:
+            self._release()
 
 
 class JsonLinesWriter(TraceFormatWriter):
