@@ -32,10 +32,13 @@ def _make(*args: str) -> subprocess.CompletedProcess[str]:
         )
 
 
-def build_pico_host(build: Path, *, encoder_cpr: int | None = None) -> Path:
+def build_pico_host(
+    build: Path, *, encoder_cpr: int | None = None, robot: Path | None = None
+) -> Path:
     """The host library of the board logic, built into ``build``.
 
-    ``encoder_cpr``: the build option ``ENCODER_CPR`` (default: the Makefile's).
+    ``encoder_cpr``: the build option ``ENCODER_CPR``; ``robot``: the robot description
+    (default: the Makefile's, 3072 and ``hardware/pirate.yaml``).
 
     Raises:
         RuntimeError: no C compiler or make (the message says so), or the build failed.
@@ -43,6 +46,7 @@ def build_pico_host(build: Path, *, encoder_cpr: int | None = None) -> Path:
     if shutil.which("cc") is None or shutil.which("make") is None:
         raise RuntimeError("no host C compiler (cc) or make")
     options = [f"ENCODER_CPR={encoder_cpr}"] if encoder_cpr is not None else []
+    options += [f"ROBOT={robot}"] if robot is not None else []
     done = _make(f"BUILD={build}", *options, "host")
     if done.returncode != 0:
         raise RuntimeError(f"building the PICO host library failed:\n{done.stderr}")

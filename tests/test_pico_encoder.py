@@ -13,6 +13,8 @@ import ctypes
 import itertools
 import math
 import shutil
+from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import pytest
@@ -25,10 +27,21 @@ BOARD = 22  # the front drive's board: its drive motor on slot 1
 DRIVE_SLOT = 1
 
 
-def _drive() -> tuple[int, int, int, int, int]:
-    """Board 22's drive: (its motor index, its velocity channel's index on the board,
-    wheel circumference in um, one velocity raw unit in um/s, the raw range's top)."""
-    robot = load_robot()
+@dataclass(frozen=True)
+class Drive:
+    """Board 22's drive in a robot description: its motor index, its velocity channel's
+    index on the board, wheel circumference in um, one velocity raw unit in um/s, and
+    the raw range's top."""
+
+    motor: int
+    channel: int
+    circumference_um: int
+    velocity_um_s: int
+    raw_top: int
+
+
+def _drive(robot_file: Path | None = None) -> Drive:
+    robot = load_robot(robot_file)
     board = robot.board(BOARD)
     motors = sorted(board.motors, key=lambda m: m.slot)
     k = [m.slot for m in motors].index(DRIVE_SLOT)
@@ -39,15 +52,13 @@ def _drive() -> tuple[int, int, int, int, int]:
     c = next(i for i, ch in enumerate(channels) if ch.name.endswith(f"{drive.name}.velocity"))
     radius = robot.module(board.module).wheel_radius
     assert radius
-    return k, c, round(2 * math.pi * radius * 1e6), round(velocity.per_raw * 1e6), velocity.raw[1]
+    circumference = round(2 * math.pi * radius * 1e6)
+    return Drive(k, c, circumference, round(velocity.per_raw * 1e6), velocity.raw[1])
 
 
-MOTOR, CHANNEL, CIRCUMFERENCE_UM, VELOCITY_UM_S, RAW_TOP = _drive()
-
-
-def _libraries(tmp: pytest.TempPathFactory, cpr: int) -> Path:
+def _library(tmp: pytest.TempPathFactory, cpr: int, robot_file: Path | None = None) -> Path:
     try:
-        return build_pico_host(tmp.mktemp(f"pico-host-{cpr}"), encoder_cpr=cpr)
+        return build_pico_host(tmp.mktemp(f"pico-host-{cpr}"), encoder_cpr=cpr, robot=robot_file)
     except RuntimeError as exc:
         if "no host C compiler" in str(exc):
             pytest.skip(f"{exc}: the PICO logic cannot be built")
@@ -57,24 +68,25 @@ def _libraries(tmp: pytest.TempPathFactory, cpr: int) -> Path:
 @pytest.fixture(scope="module")
 def fine(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The PICO built with the finest resolution its Makefile takes."""
-    return _libraries(tmp_path_factory, 32768)
+    return _library(tmp_path_factory, 32768)
 
 
 @pytest.fixture(scope="module")
 def default(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _libraries(tmp_path_factory, 3072)
+    return _library(tmp_path_factory, 3072)
 
 
 class Board:
     """One board of a host build (a private copy of the library: its own state)."""
 
-    def __init__(self, library: Path, workdir: Path, cpr: int) -> None:
+    def __init__(self, library: Path, workdir: Path, cpr: int, drive: Drive) -> None:
         copy = workdir / f"pico-{cpr}-{next(_COPIES)}.so"  # never over a loaded one
         shutil.copy(library, copy)
         self.lib = ctypes.CDLL(str(copy), mode=ctypes.RTLD_LOCAL)
         self.lib.pk_channel.restype = ctypes.c_int16
         self.lib.pk_speed.restype = ctypes.c_int16
         self.cpr = cpr
+        self.drive = drive
         self.lib.pk_boot(BOARD, 0)
 
     def turn_at(self, speed_mm_s: float, ms: int = 100) -> list[int]:
@@ -87,7 +99,9 @@ class Board:
         counts = []
         for t in range(ms):
             if t % 10 == 5:
-                count = round(speed_mm_s * 1000 * (t / 1000) * self.cpr / CIRCUMFERENCE_UM)
+                count = round(
+                    speed_mm_s * 1000 * (t / 1000) * self.cpr / self.drive.circumference_um
+                )
                 counts.append(count)
                 self.lib.pk_encoder(DRIVE_SLOT, ctypes.c_int16(((count + 32768) % 65536) - 32768))
             self.lib.pk_run_us(1000)
@@ -97,8 +111,24 @@ class Board:
         """The speed the page's formula gives for the last 40 ms, rounded half away from
         zero, in velocity raw units (before the channel's raw range)."""
         window = counts[-2] - counts[-6]  # the samples at 90 ms and 50 ms
-        exact = abs(window) * 25 * CIRCUMFERENCE_UM / (self.cpr * VELOCITY_UM_S)
-        return int(math.copysign(math.floor(exact + 0.5), window))
+        d = self.drive
+        exact = Fraction(abs(window) * 25 * d.circumference_um, self.cpr * d.velocity_um_s)
+        return int(math.copysign(min(32767, math.floor(exact + Fraction(1, 2))), window))
+
+    def check(self, speeds: list[float]) -> None:
+        """At each speed: the loop's speed is the formula's, and the velocity channel
+        that, held to the channel's raw range."""
+        d = self.drive
+        per_count = 25 * d.circumference_um / (self.cpr * d.velocity_um_s)  # raw per count
+        for speed in speeds:
+            counts = self.turn_at(speed)
+            want = self.expected(counts)
+            true_raw = speed * 1000 / d.velocity_um_s
+            assert abs(want - true_raw) <= per_count + 1  # the test's own arithmetic
+            got = self.lib.pk_speed(d.motor)
+            assert got == want, f"ENCODER_CPR={self.cpr} at {speed} mm/s: speed {got}, not {want}"
+            reported = self.lib.pk_channel(d.channel)
+            assert reported == max(-d.raw_top, min(d.raw_top, want)), f"{speed} mm/s: {reported}"
 
 
 SPEEDS_MM_S = [-200.0, -120.0, -100.0, -80.0, -65.0, 0.0, 30.0, 66.0, 80.0, 100.0, 120.0, 200.0]
@@ -113,14 +143,20 @@ def test_a_drive_reports_its_speed_at_every_speed_the_robot_reaches(
     +621: counts x 25 x the circumference overflowed 32 bits from 66 mm/s, so the
     velocity loop drove a wheel already at its setpoint harder and the host saw it
     reverse. The default 3072 stays as it was."""
-    board = Board(fine if cpr == 32768 else default, tmp_path, cpr)
-    per_count = 25 * CIRCUMFERENCE_UM / (cpr * VELOCITY_UM_S)  # raw units per count
-    for speed in SPEEDS_MM_S:
-        counts = board.turn_at(speed)
-        want = board.expected(counts)
-        true_raw = speed * 1000 / VELOCITY_UM_S
-        assert abs(want - true_raw) <= per_count + 1  # the test's own arithmetic
-        got = board.lib.pk_speed(MOTOR)
-        assert got == want, f"ENCODER_CPR={cpr} at {speed} mm/s: loop speed {got}, not {want}"
-        reported = board.lib.pk_channel(CHANNEL)
-        assert reported == max(-RAW_TOP, min(RAW_TOP, want)), f"{speed} mm/s: {reported}"
+    Board(fine if cpr == 32768 else default, tmp_path, cpr, _drive()).check(SPEEDS_MM_S)
+
+
+def test_a_wheel_whose_speed_scale_needs_more_than_16_bits_is_read_exactly(
+    tmp_path_factory: pytest.TempPathFactory, tmp_path: Path
+) -> None:
+    """A wheel of radius 12.0001 mm (circumference 75399 um, odd): with ENCODER_CPR=32768
+    the speed fraction in lowest terms is 75399/131072, beyond the 32-bit path; the
+    board works it in 64 bits and reads every speed as exactly."""
+    text = (Path(__file__).parents[1] / "hardware" / "pirate.yaml").read_text()
+    assert "wheel_radius: 12 mm" in text
+    robot_file = tmp_path / "odd-wheel.yaml"
+    robot_file.write_text(text.replace("wheel_radius: 12 mm", "wheel_radius: 12.0001 mm"))
+    drive = _drive(robot_file)
+    assert drive.circumference_um == 75399
+    library = _library(tmp_path_factory, 32768, robot_file)
+    Board(library, tmp_path, 32768, drive).check(SPEEDS_MM_S)
