@@ -160,3 +160,15 @@ def test_a_wheel_whose_speed_scale_needs_more_than_16_bits_is_read_exactly(
     assert drive.circumference_um == 75399
     library = _library(tmp_path_factory, 32768, robot_file)
     Board(library, tmp_path, 32768, drive).check(SPEEDS_MM_S)
+
+
+def test_a_host_build_follows_encoder_cpr_in_the_same_build_directory(
+    tmp_path_factory: pytest.TempPathFactory, tmp_path: Path
+) -> None:
+    """`make host ENCODER_CPR=32768` into a directory built before with the default kept
+    the old library: ENCODER_CPR was not among the flags that make a host build again,
+    so a board counting 32768 per revolution read 80 mm/s as 10.7 times that."""
+    build = tmp_path_factory.mktemp("pico-host-again")
+    build_pico_host(build, encoder_cpr=3072)
+    library = build_pico_host(build, encoder_cpr=32768)
+    Board(library, tmp_path, 32768, _drive()).check([80.0])
