@@ -149,9 +149,16 @@ class NodeLookupError(InputError, KeyError):
 
 
 class _Index:
-    """Per-node status and feedback changes, built once from the tick records."""
+    """Per-node status and feedback changes, built from the tick records.
+
+    It remembers which ticks it read (the list, how many of it, and the last one), so
+    that a query can tell in a few comparisons whether it still answers for
+    ``trace.ticks``: a list replaced or cut (``trace.ticks = trace.ticks[:10]``) is read
+    again, one that grew (ticks appended to it) is read on from where it stopped.
+    """
 
     def __init__(self, structure: TreeStructure, ticks: Sequence[Any]) -> None:
+        self.structure = structure
         self.paths: dict[str, str] = {}
         for node in structure:
             parent = self.paths.get(node.parent) if node.parent is not None else None
@@ -163,19 +170,12 @@ class _Index:
         # each node's first tick with each status: first_tick without a scan
         self.first: dict[str, dict[str, int]] = {n.id: {} for n in structure}
         self.feedback: dict[str, list[FeedbackChange]] = {n.id: [] for n in structure}
-        last_status = {n.id: "I" for n in structure}
-        last_feedback = {n.id: "" for n in structure}
-        for tick in ticks:
-            for node_id, code in tick.status.items():
-                if node_id in last_status and last_status[node_id] != code:
-                    last_status[node_id] = code
-                    word = STATUS_WORDS.get(code, code)
-                    self.status[node_id].append(StatusChange(tick.n, tick.t_s, word))
-                    self.first[node_id].setdefault(word, tick.n)
-            for node_id, message in tick.feedback.items():
-                if node_id in last_feedback and last_feedback[node_id] != message:
-                    last_feedback[node_id] = message
-                    self.feedback[node_id].append(FeedbackChange(tick.n, tick.t_s, message))
+        self._last_status = {n.id: "I" for n in structure}
+        self._last_feedback = {n.id: "" for n in structure}
+        self.ticks: Sequence[Any] = ticks
+        self.read = 0
+        self.last_read: Any = None
+        self.read_on()
         # Within a tick a child finishes before its parent, an earlier sibling before
         # a later one: post-order.
         self.finish_order: dict[str, int] = {}
@@ -188,6 +188,35 @@ class _Index:
             stack.append((node_id, True))
             for child in reversed(structure.node(node_id).children):
                 stack.append((child, False))
+
+    def answers_for(self, structure: TreeStructure, ticks: Sequence[Any]) -> bool | None:
+        """``True``: it holds every change of ``ticks``; ``None``: it holds a start of
+        them (they grew since), :meth:`read_on` completes it; ``False``: other ticks."""
+        read = self.read
+        if structure is not self.structure or ticks is not self.ticks or len(ticks) < read:
+            return False
+        if read and ticks[read - 1] is not self.last_read:
+            return False  # the list was changed in place
+        return True if len(ticks) == read else None
+
+    def read_on(self) -> None:
+        """Take in the ticks after the last one read."""
+        last_status, last_feedback = self._last_status, self._last_feedback
+        ticks = self.ticks
+        for at in range(self.read, len(ticks)):
+            tick = ticks[at]
+            for node_id, code in tick.status.items():
+                if node_id in last_status and last_status[node_id] != code:
+                    last_status[node_id] = code
+                    word = STATUS_WORDS.get(code, code)
+                    self.status[node_id].append(StatusChange(tick.n, tick.t_s, word))
+                    self.first[node_id].setdefault(word, tick.n)
+            for node_id, message in tick.feedback.items():
+                if node_id in last_feedback and last_feedback[node_id] != message:
+                    last_feedback[node_id] = message
+                    self.feedback[node_id].append(FeedbackChange(tick.n, tick.t_s, message))
+        self.read = len(ticks)
+        self.last_read = ticks[-1] if ticks else None
 
 
 class TraceQueries:
@@ -231,9 +260,19 @@ class TraceQueries:
         return number
 
     def _index(self) -> _Index:
+        # Built once, and again only when the ticks (or the tree) are not the ones it
+        # read: a trace whose ticks were replaced, cut or appended to answered from the
+        # old ticks (a node that failed in an appended tick had never failed).
         index = self._query_index
-        if index is None:
-            index = self._query_index = _Index(self.structure, self.ticks)
+        ticks = self.ticks
+        if index is not None:
+            fits = index.answers_for(self.structure, ticks)
+            if fits:
+                return index
+            if fits is None:  # grown: read on
+                index.read_on()
+                return index
+        index = self._query_index = _Index(self.structure, ticks)
         return index
 
     # --- nodes ---------------------------------------------------------------------

@@ -1,0 +1,62 @@
+"""Trace queries answer for the ticks the trace holds now, not those of the first query.
+
+``TraceQueries`` built its index of status and feedback changes once, at the first
+query: ticks replaced, cut or appended to afterwards were not seen (a node that failed
+in an appended tick had never failed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import py_trees
+import pytest
+from py_trees.behaviours import StatusQueue
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.trace import Trace, TraceRecorder, read_trace
+
+
+def _recorded(path: Path, ticks: int) -> Trace:
+    """A run of ``ticks`` ticks: ``a`` runs, then succeeds; ``b`` runs, then fails (tick 3)."""
+    py_trees.blackboard.Blackboard.clear()
+    s, f, r = Status.SUCCESS, Status.FAILURE, Status.RUNNING
+    root = py_trees.composites.Sequence(
+        "pab", memory=True, children=[StatusQueue("a", [r, s], s), StatusQueue("b", [r, f], f)]
+    )
+    tree = py_trees.trees.BehaviourTree(root)
+    clock = SimClock()
+    with TraceRecorder(path, tree, clock=clock, background=False) as recorder:
+        for _ in range(ticks):
+            clock.advance(0.1)
+            tree.tick()
+            recorder.record_tick()
+    return read_trace(path)
+
+
+@pytest.fixture
+def runs(tmp_path: Path) -> tuple[Trace, Trace]:
+    return _recorded(tmp_path / "short.jsonl", 2), _recorded(tmp_path / "long.jsonl", 3)
+
+
+def test_ticks_appended_after_a_query_are_answered_for(runs: tuple[Trace, Trace]) -> None:
+    short, long = runs
+    assert short.failures() == []
+    assert [c.status for c in short.statuses("b")] == ["RUNNING"]
+    short.ticks.extend(long.ticks[len(short.ticks) :])  # the same list, grown
+    assert [(f.tick, f.path) for f in short.failures()] == [(3, "pab/b"), (3, "pab")]
+    assert [c.status for c in short.statuses("b")] == ["RUNNING", "FAILURE"]
+    assert short.first_tick("b", "FAILURE") == 3
+
+
+def test_ticks_replaced_or_cut_after_a_query_are_answered_for(runs: tuple[Trace, Trace]) -> None:
+    short, long = runs
+    third = long.ticks[-1]
+    assert (third.n, long.first_tick("b", "FAILURE")) == (3, 3)
+    long.ticks = long.ticks[:2]  # another list, cut
+    assert long.first_tick("b", "FAILURE") is None
+    assert long.failures() == []
+    assert short.statuses("b")[-1].status == "RUNNING"
+    short.ticks[-1] = third  # changed in place: the same list, as long as before
+    assert [c.status for c in short.statuses("b")] == ["FAILURE"]
