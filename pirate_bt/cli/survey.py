@@ -16,6 +16,9 @@ from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
 
+_EXTEND = "extend: "
+"""How the API's messages about ``extend=`` start (:mod:`pirate_bt.task.explore_extend`)."""
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.cli import utf8_text
@@ -70,20 +73,26 @@ def run(args: argparse.Namespace) -> int:
         if not quantity(value, "length", option) > 0:  # was "explore: search: ..."
             raise InputError(f"{option} must be positive, not {value!r}")
     check_output(args.output)  # before the survey, not after it
-    result = survey(
-        sim=args.sim,
-        port=args.port,
-        output=args.output,
-        name=args.name,
-        search=args.search,
-        radius=args.radius,
-        seed=args.seed,
-        faults=args.faults,
-        trace=args.trace,
-        max_time=args.max_time,
-        firmware=args.firmware_chain,
-        extend=args.extend,
-    )
+    try:
+        result = survey(
+            sim=args.sim,
+            port=args.port,
+            output=args.output,
+            name=args.name,
+            search=args.search,
+            radius=args.radius,
+            seed=args.seed,
+            faults=args.faults,
+            trace=args.trace,
+            max_time=args.max_time,
+            firmware=args.firmware_chain,
+            extend=args.extend,
+        )
+    except InputError as exc:
+        if type(exc) is InputError and str(exc).startswith(_EXTEND):
+            # the API names its argument (extend: ...); here it is the option typed
+            raise InputError("--extend: " + str(exc).removeprefix(_EXTEND)) from None
+        raise
     if not args.quiet:
         print_decisions(result.navigation.decisions)
     for note in result.navigation.notes:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, shown
 from pirate_bt.task.explore_frame import imu_side
 
 __all__ = ["NOT_SURVEYED", "Extension", "earlier", "earlier_ends", "load_extension"]
@@ -131,11 +131,22 @@ def _counts(segments: list[dict[str, Any]], counts: dict[str, int]) -> None:
             _counts((seg.get("branch") or {}).get("segments") or [], counts)
 
 
+def _named(source: Any, spec: Any) -> str:
+    """The surveyed network as the caller gave it: the file (and its network's name),
+    else the network's name (it said only ``'surveyed'``, for every file)."""
+    if isinstance(source, str | Path):
+        return f"{shown(str(source))} (network {shown(spec.name)})"
+    return f"the network {shown(spec.name)}"
+
+
 def load_extension(source: Any) -> Extension:
     """Read a surveyed network (a path or a ``NetworkSpec``/``Network``) to extend.
 
     Raises:
-        InputError: it cannot be read, or it has no stub to extend.
+        InputError: it cannot be read, or it has no stub to extend; the message starts
+            ``extend:``, the argument's name (``pirate_bt.survey(extend=...)``,
+            ``ExploreNavigator(extend=...)``, the navigator's ``extend`` parameter);
+            ``pirate-bt survey`` says ``--extend:``.
     """
     import yaml
 
@@ -150,14 +161,11 @@ def load_extension(source: Any) -> Extension:
         except FileNotFoundError:
             pass  # a bundled name, or the loader's "no such file"
         except OSError as exc:  # a name the system refuses (a part too long)
-            raise InputError(
-                f"survey --extend: cannot read {str(source)[:80]!r}: {exc.strerror}"
-            ) from None
+            raise InputError(f"extend: cannot read {str(source)[:80]!r}: {exc.strerror}") from None
         spec = load_network(Path(source)).spec
     elif not isinstance(spec, NetworkSpec):
-        raise InputError(
-            "survey --extend: give a surveyed network file, a Network or a NetworkSpec,"
-            f" not a {type(source).__name__}"
+        raise InputError(  # it said "not a int"
+            f"extend: give a surveyed network file, a Network or a NetworkSpec, not {shown(source)}"
         )
     data = yaml.safe_load(network_yaml(spec))
     stubs = _stubs(data["segments"], [], [], diameter_m=float(spec.diameter))
@@ -165,7 +173,7 @@ def load_extension(source: Any) -> Extension:
     if not stubs:
         cut = f" (a line not surveyed to its end is not extended: {notes[0]})" if notes else ""
         raise InputError(
-            f"survey --extend: {getattr(spec, 'name', source)!r} has no tee branch left as a"
+            f"extend: {_named(source, spec)} has no tee branch left as a"
             f" stub: there is nothing to extend{cut}"[:400]
         )
     way, sides, stub = stubs[0]
