@@ -120,7 +120,9 @@ def test_run_cases_refuses_foreign_rows_before_any_case(tmp_path: Path) -> None:
     pool = InstantExecutor()
     with pytest.raises(InputError, match=r"results\.jsonl:2: 1 row of 2 is not a case") as info:
         run_cases(edited, out, pool, resume=True)
-    assert str(info.value).endswith(RESUME_HINT)
+    assert str(info.value).endswith(
+        RESUME_HINT.replace("--resume", "resume=True").replace("--output", "output=")
+    )
     assert pool.ids == []
     assert (out / "results.jsonl").read_bytes() == before
 

@@ -177,7 +177,8 @@ def test_several_edited_inputs_are_one_line_naming_the_first(here: Path) -> None
     with pytest.raises(InputError) as info:
         run_campaign("tree.campaign.yaml", output="out", resume=True, executor=InstantExecutor())
     assert str(info.value) == (
-        f"net.yaml: changed since the campaign in out started (and 1 more input file); {AGAIN}"
+        "net.yaml: changed since the campaign in out started (and 1 more input file);"
+        " rerun without resume=True into another output="
     )
 
 

@@ -102,7 +102,7 @@ def test_a_disk_that_fills_leaves_whole_rows_and_names_the_results_file(helper: 
     assert len(lines) == 1, done.stderr
     results = out / "results.jsonl"
     assert lines[0].startswith(f"{results}: cannot write case 0000"), lines[0]
-    assert "--resume" in lines[0]
+    assert "resume=True" in lines[0]  # run_cases: the API's words
     text = results.read_text(encoding="utf-8")
     assert text.endswith("\n")  # no cut row
     kept = [json.loads(line) for line in text.splitlines()]
@@ -225,7 +225,7 @@ def test_a_resume_the_disk_has_no_room_for_names_the_results_and_keeps_them(
     assert done.returncode == 2, done.stderr
     assert done.stderr.splitlines()[-1] == (
         f"{results}: cannot rewrite it to resume: File too large; it is as it was:"
-        " make room, then run again with --resume"
+        " make room, then run again with resume=True"
     )
     assert results.read_text(encoding="utf-8") == before
     assert sorted(p.name for p in out.iterdir()) == ["results.jsonl"]
@@ -260,7 +260,7 @@ def test_a_report_file_of_someone_elses_is_not_replaced(
         run_campaign(SPEC, output=out, resume=resume, workers=1, on_record=seen.append)
     assert str(caught.value) == (
         f"{out / name}: the campaign's report would replace it, and it is no campaign's"
-        f" ({out} holds no row, nor campaign.json); move it, or give another --output"
+        f" ({out} holds no row, nor campaign.json); move it, or give another output="
     )
     assert seen == []
     assert (out / name).read_text(encoding="utf-8") == "my own notes\n"

@@ -399,7 +399,7 @@ def test_a_trace_the_disk_has_no_room_for_stops_the_campaign_not_a_row(
     assert str(caught.value) == (
         f"{traces}/{case['id']}.jsonl: No space left on device: cannot write case"
         f" {case['id']}'s trace; the rows before it stay: make room, then run again with"
-        " --resume"
+        " resume=True"
     )
     assert results.read_text() == ""  # not a row: a resume runs the case again
 

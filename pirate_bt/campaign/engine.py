@@ -42,7 +42,7 @@ from typing import Any, ParamSpec, TypeVar
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import RESULTS_NAME, is_safe_name, safe_name
 from pirate_bt.campaign.sink import RowSink
-from pirate_bt.campaign.started import RECORD_NAME
+from pirate_bt.campaign.started import OUTPUT, RECORD_NAME, RESUME
 from pirate_bt.campaign.stopping import pool_killed_on_signal
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError
@@ -298,7 +298,7 @@ def _numbered_rows(path: Path, *, warn: bool) -> list[tuple[int, dict[str, Any]]
 
 
 _RESUME_OTHER = (
-    "--resume continues the campaign that wrote them: give the same spec, or another --output"
+    f"{RESUME} continues the campaign that wrote them: give the same spec, or another {OUTPUT}"
 )
 
 
@@ -332,7 +332,7 @@ def _check_output(
 ) -> list[dict[str, Any]]:
     """:func:`check_output`; the rows to keep (``resume``: read, with warnings unless ``quiet``)."""
     if output.exists() and not output.is_dir():
-        raise InputError(f"{output}: the output is a file, not a folder; give another --output")
+        raise InputError(f"{output}: the output is a file, not a folder; give another {OUTPUT}")
     try:
         output.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -341,7 +341,7 @@ def _check_output(
         ) from None
     results = output / RESULTS_NAME
     if results.exists() and not results.is_file():
-        raise InputError(f"{results}: not a file; give another --output")
+        raise InputError(f"{results}: not a file; give another {OUTPUT}")
     _check_fixed_names(output)
     if not resume:
         # Any line at all, even none a row: never overwrite what someone else may need.
@@ -350,7 +350,7 @@ def _check_output(
         if written:
             raise InputError(
                 f"{results} holds {written} line{'s' if written != 1 else ''} already;"
-                " use --resume, or another --output"
+                f" use {RESUME}, or another {OUTPUT}"
             )
         _check_no_report(output)
         return []
@@ -377,7 +377,7 @@ def _check_no_report(output: Path) -> None:
             raise InputError(
                 f"{output / name}: the campaign's report would replace it, and it is no"
                 f" campaign's ({output} holds no row, nor {RECORD_NAME}); move it, or give another"
-                " --output"
+                f" {OUTPUT}"
             )
 
 
@@ -402,14 +402,14 @@ def _check_fixed_names(output: Path) -> None:
     traces = output / "traces"
     if traces.exists() and not traces.is_dir():
         raise InputError(
-            f"{traces}: not a folder (the kept traces go there); give another --output"
+            f"{traces}: not a folder (the kept traces go there); give another {OUTPUT}"
         )
     for name in REPORT_FILES:
         path = output / name
         if path.exists() and not path.is_file():
-            raise InputError(f"{path}: not a file (the campaign writes it); give another --output")
+            raise InputError(f"{path}: not a file (the campaign writes it); give another {OUTPUT}")
     if not os.access(output, os.W_OK | os.X_OK):
-        raise InputError(f"{output}: cannot write in the output folder; give another --output")
+        raise InputError(f"{output}: cannot write in the output folder; give another {OUTPUT}")
 
 
 def _check_ours(
@@ -484,7 +484,7 @@ def run_cases(
         part.unlink(missing_ok=True)
         raise InputError(
             f"{results}: cannot rewrite it to resume: {exc.strerror or exc}; it is as it"
-            " was: make room, then run again with --resume"
+            f" was: make room, then run again with {RESUME}"
         ) from None
     trace_dir = str((output / "traces").resolve())
     return _collect(cases, old, executor, results, trace_dir, on_record, target)

@@ -17,6 +17,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.campaign.started import RESUME
 from pirate_bt.errors import InputError
 
 __all__ = ["RowSink"]
@@ -56,7 +57,7 @@ class RowSink:
         if record.get("no_room"):  # its trace met a full disk: the disk's, not a row
             raise InputError(
                 f"{record['no_room']}: cannot write case {record.get('id')}'s trace; the"
-                " rows before it stay: make room, then run again with --resume"
+                f" rows before it stay: make room, then run again with {RESUME}"
             )
         data = (json.dumps(record, allow_nan=False, default=str) + "\n").encode("utf-8")
         end = os.lseek(self._fd, 0, os.SEEK_END)
@@ -70,5 +71,5 @@ class RowSink:
             raise InputError(
                 f"{self.path}: cannot write case {record.get('id')}'s row:"
                 f" {exc.strerror or exc}; the rows before it stay: make room,"
-                " then run again with --resume"
+                f" then run again with {RESUME}"
             ) from None

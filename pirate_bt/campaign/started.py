@@ -61,7 +61,15 @@ FORMAT = 1
 _MAX_RECORD_BYTES = 64_000_000
 """The largest record read: far above any campaign's inputs (a line each)."""
 
-_AGAIN = "rerun without --resume into another --output"
+RESUME = "resume=True"
+"""How a message names resuming: ``run_campaign``'s argument (``pirate-bt campaign``
+says ``--resume``)."""
+
+OUTPUT = "output="
+"""How a message names the output folder: ``run_campaign``'s argument
+(``pirate-bt campaign`` says ``--output``)."""
+
+_AGAIN = f"rerun without {RESUME} into another {OUTPUT}"
 _HEX = re.compile(r"[0-9a-f]{64}")
 
 
@@ -118,7 +126,8 @@ def begin(
     Raises:
         InputError: resuming, one line: an input changed since the campaign started
             (``scenarios/lab.route: changed since the campaign in OUT started; rerun
-            without --resume into another --output``), a case timeout other than the
+            without resume=True into another output=``; ``pirate-bt campaign`` names its
+            options), a case timeout other than the
             one it started with, another name than it started with, or a record that
             cannot be read.
     """
@@ -161,7 +170,7 @@ def write_record(folder: Path, record: dict[str, Any]) -> None:
         write_atomically(folder / RECORD_NAME, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(
-            f"{folder / RECORD_NAME}: cannot write: {exc.strerror or exc}; give another --output"
+            f"{folder / RECORD_NAME}: cannot write: {exc.strerror or exc}; give another {OUTPUT}"
         ) from None
 
 

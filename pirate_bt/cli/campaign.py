@@ -23,6 +23,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
+from pirate_bt.campaign.started import OUTPUT, RESUME
 from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -94,6 +95,10 @@ _OPTIONS = {
     "scheduler_timeout": "--scheduler-timeout",
 }
 _BY_OPTION = re.compile(r"\b(" + "|".join(_OPTIONS) + r")\b")
+_WORDS = {RESUME: "--resume", OUTPUT: "--output"}
+# a word of advice, after a space and before the end, a space or punctuation (not a
+# folder named "x output=y" at the start of the line)
+_BY_WORD = re.compile(r"(?<= )(?:" + "|".join(map(re.escape, _WORDS)) + r")(?=$|[\s;,.)])")
 
 
 def _by_option(text: str) -> str:
@@ -107,6 +112,8 @@ def _by_option(text: str) -> str:
         text = "--case-timeout: " + text.removeprefix("case_timeout: ")
     if text.startswith("workers: "):  # "workers: at most 1024 local processes"
         text = "--workers: " + text.removeprefix("workers: ")
+    # what to do next, in the words typed: the API says "use resume=True, or another output="
+    text = _BY_WORD.sub(lambda m: _WORDS[m.group(0)], text)
     return _BY_OPTION.sub(lambda m: _OPTIONS[m.group(1)], text)
 
 
