@@ -7,6 +7,7 @@ in an appended tick had never failed).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import py_trees
@@ -16,6 +17,7 @@ from py_trees.common import Status
 
 from pirate_bt.clock import SimClock
 from pirate_bt.trace import Trace, TraceRecorder, read_trace
+from pirate_bt.trace.text import summarise
 
 
 def _recorded(path: Path, ticks: int) -> Trace:
@@ -60,3 +62,30 @@ def test_ticks_replaced_or_cut_after_a_query_are_answered_for(runs: tuple[Trace,
     assert short.statuses("b")[-1].status == "RUNNING"
     short.ticks[-1] = third  # changed in place: the same list, as long as before
     assert [c.status for c in short.statuses("b")] == ["FAILURE"]
+
+
+def test_the_summary_counts_a_repeated_status_once(tmp_path: Path) -> None:
+    """A tick record that gives a node the status it had is no change: the summary's
+    ``runs``/``ok``/``fail`` are counts of changes, as the docs and ``statuses()`` say."""
+    path = tmp_path / "run.jsonl"
+    s, f, r = Status.SUCCESS, Status.FAILURE, Status.RUNNING
+    root = StatusQueue("probe", [r, r, s, s, f, f], f)
+    clock = SimClock()
+    with TraceRecorder(path, root, clock=clock, background=False, every_tick=True) as recorder:
+        for _ in range(6):
+            clock.advance(0.5)
+            root.tick_once()
+            recorder.record_tick()
+    # as a trace written by another tool may have it: every tick gives the status
+    lines = path.read_text().splitlines()
+    codes = "RRSSFF"
+    for at, code in enumerate(codes, start=1):
+        record = json.loads(lines[at])
+        record["status"] = {"0": code}
+        lines[at] = json.dumps(record)
+    path.write_text("\n".join(lines) + "\n")
+    trace = read_trace(path)
+    assert [c.status for c in trace.statuses("probe")] == ["RUNNING", "SUCCESS", "FAILURE"]
+    counted = summarise(trace).nodes["0"]
+    assert (counted.runs, counted.successes, counted.failures) == (2, 1, 1)
+    assert counted.running_s == pytest.approx(1.0)  # ticks 1 to 3: 0.5 s to 1.5 s

@@ -129,7 +129,8 @@ def summarise(trace: Trace) -> TraceSummary:
     """Count what every node did, and collect refusals and faults.
 
     Counts are of status *changes*: a condition that succeeds tick after tick
-    counts once, since a trace stores only what changed. A run starts whenever a
+    counts once, since a trace stores only what changed (a tick record that gives a
+    node the status it already had changes nothing). A run starts whenever a
     node turns RUNNING, SUCCESS or FAILURE from anything but RUNNING, so a node
     that finishes within the tick it started in (a refused command, a condition)
     counts as a run too: ``runs`` is never below ``ok + fail``.
@@ -152,12 +153,15 @@ def summarise(trace: Trace) -> TraceSummary:
     for tick in trace.ticks:
         for node_id, code in tick.status.items():
             entry = nodes.get(node_id)
-            if entry is None:
+            before = last_code.get(node_id, "I")
+            if entry is None or code == before:
+                # the same status again is no change (a trace written by another tool,
+                # or by hand, may repeat it): counted once, as trace.statuses() lists it
                 continue
             started = running_since.pop(node_id, None)
             if started is not None:
                 entry.running_s += tick.t_s - started
-            if code in ("R", "S", "F") and last_code.get(node_id) != "R":
+            if code in ("R", "S", "F") and before != "R":
                 entry.runs += 1
             last_code[node_id] = code
             if code == "R":
