@@ -86,10 +86,20 @@ static void derive(uint8_t k) {
         break;
     }
     case PB_MODE_POSITION: {
+        /* In 64 bits, once per setpoint: raw x position_q16 overflowed 32 bits for a
+         * position unit 16 times the angle sensor's, and the joint drove the other way.
+         * A target beyond what the sensor reads is held at its end. */
         int8_t c = board.angle_channel[k];
-        derived[k] = c < 0 ? 0
-                           : board.channel[c].zero_raw +
-                                 ((int32_t)raw * board.motor_io[k].position_q16) / 65536;
+        if (c < 0) {
+            derived[k] = 0;
+            break;
+        }
+        const struct pico_channel *ch = &board.channel[c];
+        int64_t target =
+            ch->zero_raw + ((int64_t)raw * board.motor_io[k].position_q16) / 65536;
+        derived[k] = target < ch->raw_lo   ? ch->raw_lo
+                     : target > ch->raw_hi ? ch->raw_hi
+                                           : (int32_t)target;
         break;
     }
     default:
