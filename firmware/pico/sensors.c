@@ -23,6 +23,7 @@ static struct {
         uint32_t den; /* in lowest terms (0: no velocity feedback) */
         uint32_t half;
         uint8_t shift; /* den == 1 << shift, or DIVIDE */
+        bool wide;     /* num >= 2^16: in 64 bits */
     } scale[PICO_MAX_MOTORS];
 } s;
 
@@ -58,6 +59,7 @@ static void speed_scale(uint8_t k) {
     sc->num = num / g;
     sc->den = den / g;
     sc->half = sc->den >> 1;
+    sc->wide = sc->num > 0xFFFFu;
     sc->shift = DIVIDE;
     for (uint8_t b = 0; b < 32u; b++) {
         if (sc->den == (uint32_t)1 << b) {
@@ -96,8 +98,8 @@ static int16_t clamp(int32_t v, int16_t lo, int16_t hi) {
 static int16_t scaled(int16_t counts, const struct speed_scale *sc) {
     uint16_t m = counts < 0 ? (uint16_t)(0u - (uint16_t)counts) : (uint16_t)counts;
     uint32_t q;
-    if (sc->num <= 0xFFFFu) {
-        uint32_t x = (uint32_t)m * (uint32_t)sc->num + sc->half;
+    if (!sc->wide) {
+        uint32_t x = (uint32_t)m * (uint16_t)sc->num + sc->half;
         q = sc->shift != DIVIDE ? x >> sc->shift : x / sc->den;
     } else {
         uint64_t x = ((uint64_t)m * sc->num + sc->half) / sc->den; /* < 2^53 */

@@ -17,7 +17,7 @@
 #define ENCODER_CPR 3072L
 #endif
 static_assert(ENCODER_CPR >= 1 && ENCODER_CPR <= 32768L,
-              "ENCODER_CPR: counts per wheel revolution, 1 to 32768 (a speed divides by it)");
+              "ENCODER_CPR: counts per wheel revolution, 1 to 32768 (40 ms of counts in int16)");
 #define VELOCITY_WINDOW_MS 40u
 /* A sensor read over a bus that can fail (the IMU on TWI, read every 10 ms) with no
  * successful read for longer than this makes the reply's STALE (docs/board-bus.md). */
