@@ -7,6 +7,7 @@ in an appended tick had never failed).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -89,3 +90,15 @@ def test_the_summary_counts_a_repeated_status_once(tmp_path: Path) -> None:
     counted = summarise(trace).nodes["0"]
     assert (counted.runs, counted.successes, counted.failures) == (2, 1, 1)
     assert counted.running_s == pytest.approx(1.0)  # ticks 1 to 3: 0.5 s to 1.5 s
+
+
+def test_a_frame_after_a_tick_replaced_in_place_is_of_the_new_tick(
+    runs: tuple[Trace, Trace],
+) -> None:
+    short, _ = runs
+    assert short.statuses_at(2)["0.1"] == Status.RUNNING
+    second = short.ticks[-1]
+    # the same list, its last tick (2: b RUNNING) replaced by one where b failed
+    short.ticks[-1] = dataclasses.replace(second, status={**second.status, "0.1": "F"})
+    assert short.statuses_at(2)["0.1"] == Status.FAILURE
+    assert short.statuses("b")[-1].status == "FAILURE"

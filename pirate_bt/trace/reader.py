@@ -152,7 +152,7 @@ class Trace(TraceQueries):
         self.end = end
         self.truncated = truncated
         # frame_at's last replay: of which ticks, and how many of them
-        self._replayed: tuple[list[TickRecord], _Replay, int] | None = None
+        self._replayed: tuple[list[TickRecord], _Replay, int, TickRecord | None] | None = None
 
     @property
     def last_tick(self) -> int:
@@ -237,13 +237,24 @@ class Trace(TraceQueries):
         # the changes replayed up to tick n, from where the last call stopped when that
         # was not after it: a loop over the ticks replayed the run from its start at
         # each one (with a picture of every tick on the way), quadratic in its length
-        ticks, replay, done = self._replayed or (self.ticks, _Replay(self.structure), 0)
-        if ticks is not self.ticks or done > len(ticks) or (done and ticks[done - 1].n > n):
-            replay, done = _Replay(self.structure), 0  # earlier, or other ticks given
+        ticks, replay, done, last = self._replayed or (
+            self.ticks,
+            _Replay(self.structure),
+            0,
+            None,
+        )
+        if (
+            ticks is not self.ticks
+            or done > len(ticks)
+            or (done and (ticks[done - 1] is not last or last.n > n))
+        ):
+            # earlier, or other ticks given (a list put in its place, or its last
+            # replayed tick replaced in it)
+            replay, done = _Replay(self.structure), 0
         while done < len(self.ticks) and self.ticks[done].n <= n:
             replay.apply(self.ticks[done])
             done += 1
-        self._replayed = (self.ticks, replay, done)
+        self._replayed = (self.ticks, replay, done, self.ticks[done - 1] if done else None)
         found = self.ticks[done - 1] if done else None
         if found is None:
             return replay.frame(n, 0.0)
