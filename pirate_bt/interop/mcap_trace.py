@@ -28,7 +28,8 @@ Two ways in:
 
 :func:`read_mcap_records` turns a file back into the trace's records, and
 :class:`McapTraceReader` offers them to :func:`pirate_bt.trace.read_trace`'s
-table of readers.
+table of readers, one by one as the file is read, chunk by chunk (a long run's
+file is never held whole).
 
 The format registers itself: importing this module calls :func:`register`, and
 pirate-bt's ``pirate_bt.trace_formats`` entry point (``mcap =
@@ -144,63 +145,96 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
             JSON channel is no JSON object (named by its number among the messages).
         ConfigurationError: the ``mcap`` package is missing.
     """
-    messages, cut, _ = _read_messages(path)
-    return messages, cut
+    messages = _Messages(path)
+    return list(messages), messages.cut
 
 
-def _read_messages(
-    path: str | Path, readable: bool = False
-) -> tuple[list[tuple[str, dict[str, Any]]], bool, dict[str, str]]:
-    """:func:`read_mcap_messages`, and every channel's topic with its encoding; with
-    ``readable``, text mended as :func:`~pirate_bt.trace.record_values.readable_text`
-    mends a ``.jsonl`` line's (a :class:`~pirate_bt.trace.Trace` is shown)."""
-    load_mcap()
-    from mcap.exceptions import McapError
-    from mcap.records import Channel, Footer, Message
-    from mcap.stream_reader import StreamReader
+class _Messages:
+    """The JSON messages of an MCAP file as :func:`read_mcap_messages` reads them, one
+    at a time as the file is read, chunk by chunk: a long run's trace is never held
+    whole (its reader held every message of a 100,000-tick run before the first
+    record). Iterated once; then ``cut`` says whether the file was cut off (no
+    footer), ``encodings`` gives every channel's topic with its encoding and
+    ``count`` the messages given. With ``readable``, text is mended as
+    :func:`~pirate_bt.trace.record_values.readable_text` mends a ``.jsonl`` line's (a
+    :class:`~pirate_bt.trace.Trace` is shown).
 
-    channels: dict[int, str] = {}
-    encodings: dict[str, str] = {}
-    out: list[tuple[str, dict[str, Any]]] = []
-    complete = False
-    number = 0
-    try:
-        with open(path, "rb") as stream:
-            try:
-                # CRCs checked: a damaged chunk read as garbage, or as a cut-off run
-                for record in StreamReader(stream, skip_magic=False, validate_crcs=True).records:
+    The errors are :func:`read_mcap_messages`'s, raised where the reading meets
+    them: after the messages before the damage were given.
+    """
+
+    def __init__(self, path: str | Path, readable: bool = False) -> None:
+        self.path = path
+        self.readable = readable
+        self.cut = True
+        self.encodings: dict[str, str] = {}
+        self.count = 0
+
+    def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
+        load_mcap()
+        from mcap.records import Channel, Footer, Message
+        from mcap.stream_reader import StreamReader
+
+        try:
+            stream = open(self.path, "rb")  # noqa: SIM115 (closed with the generator)
+        except OSError as exc:
+            raise InputError(f"{self.path}: cannot read: {exc.strerror or exc}") from None
+        with stream:
+            # CRCs checked: a damaged chunk read as garbage, or as a cut-off run
+            records = StreamReader(stream, skip_magic=False, validate_crcs=True).records
+            channels: dict[int, str] = {}
+            number = 0
+            while True:
+                given: tuple[str, dict[str, Any]] | None = None
+                try:
+                    record = next(records)  # the library reads a chunk when it needs one
                     if isinstance(record, Channel):
-                        encodings.setdefault(record.topic, record.message_encoding)
+                        self.encodings.setdefault(record.topic, record.message_encoding)
                         if record.message_encoding == "json":
                             channels[record.id] = record.topic
                     elif isinstance(record, Message):
                         number += 1
                         topic = channels.get(record.channel_id)
                         if topic is not None:
-                            message = _json_object(path, number, topic, record.data)
-                            out.append((topic, readable_text(message, record.data, readable)))
+                            message = _json_object(self.path, number, topic, record.data)
+                            given = topic, readable_text(message, record.data, self.readable)
                     elif isinstance(record, Footer):
-                        complete = True
-            except InputError:
-                raise
-            except Exception as exc:  # the reader's, a decompressor's (zstd, lz4)
-                if not out and not encodings:
-                    # a file cut inside its magic or first chunk says nothing of its own
-                    reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
-                    size = os.fstat(stream.fileno()).st_size
-                    _refuse_renamed(path, os.pread(stream.fileno(), 2, 0))
-                    raise InputError(
-                        f"{path}: not a readable MCAP file"
-                        + (f": {reason}" if reason else f" (cut off or damaged: {size} bytes)")
-                    ) from None
-                if not _cut_off(exc, stream):  # damage before the end is no cut-off run
-                    raise InputError(
-                        f"{path}: damaged after {number} message{'s' if number != 1 else ''}:"
-                        f" {type(exc).__name__}: {exc}"
-                    ) from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    return out, not complete, encodings
+                        self.cut = False
+                except StopIteration:
+                    return
+                except InputError:
+                    raise
+                except Exception as exc:  # the reader's, a decompressor's (zstd, lz4)
+                    self._stopped(exc, stream, number)
+                    return  # cut off: what came before it is the run
+                if given is not None:
+                    self.count += 1
+                    yield given
+
+    def _stopped(self, exc: Exception, stream: IO[bytes], number: int) -> None:
+        """Raise the error of the reading stopped by ``exc``, unless the file was cut
+        off there (the run was killed)."""
+        from mcap.exceptions import McapError
+
+        path = self.path
+        try:
+            if not self.count and not self.encodings:
+                # a file cut inside its magic or first chunk says nothing of its own
+                reason = str(exc) if isinstance(exc, McapError) and str(exc) else ""
+                size = os.fstat(stream.fileno()).st_size
+                _refuse_renamed(path, os.pread(stream.fileno(), 2, 0))
+                raise InputError(
+                    f"{path}: not a readable MCAP file"
+                    + (f": {reason}" if reason else f" (cut off or damaged: {size} bytes)")
+                ) from None
+            cut = _cut_off(exc, stream)
+        except OSError as error:
+            raise InputError(f"{path}: cannot read: {error.strerror or error}") from None
+        if not cut:  # damage before the end is no cut-off run
+            raise InputError(
+                f"{path}: damaged after {number} message{'s' if number != 1 else ''}:"
+                f" {type(exc).__name__}: {exc}"
+            ) from None
 
 
 _RENAMED = {b"{": ("a JSON Lines", ".jsonl"), b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz")}
@@ -230,31 +264,33 @@ def _json_object(path: str | Path, number: int, topic: str, data: bytes) -> dict
     return message
 
 
-def _trace_messages(
-    path: str | Path, readable: bool = False
-) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
-    """:func:`read_mcap_messages` of a file that should hold a pirate_bt trace.
+class _TraceMessages(_Messages):
+    """:class:`_Messages` of a file that should hold a pirate_bt trace.
 
     Raises:
         InputError: as :func:`read_mcap_messages`, and a file with no JSON
-            ``/pirate/run`` channel (another tool's recording, a rosbag2 bag's MCAP).
+            ``/pirate/run`` channel (another tool's recording, a rosbag2 bag's MCAP),
+            once it is read through with no JSON message.
     """
-    messages, cut, encodings = _read_messages(path, readable)
-    if not messages and encodings.get(RUN) != "json" and (encodings or not cut):
-        # (a file cut before its channels is a run cut off at its start: said later)
-        listed = ", ".join(f"{topic} ({encodings[topic]})" for topic in sorted(encodings)[:6])
-        more = ", ..." if len(encodings) > 6 else ""
-        hint = ""
-        if "cdr" in encodings.values():
-            hint = (
-                "; a rosbag2 bag's trace is read by pirate_bt.interop.rosbag2.read_rosbag2_records"
+
+    def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
+        yield from super().__iter__()
+        encodings = self.encodings
+        if not self.count and encodings.get(RUN) != "json" and (encodings or not self.cut):
+            # (a file cut before its channels is a run cut off at its start: said later)
+            listed = ", ".join(f"{topic} ({encodings[topic]})" for topic in sorted(encodings)[:6])
+            more = ", ..." if len(encodings) > 6 else ""
+            hint = ""
+            if "cdr" in encodings.values():
+                hint = (
+                    "; a rosbag2 bag's trace is read by"
+                    " pirate_bt.interop.rosbag2.read_rosbag2_records"
+                )
+            raise InputError(
+                f"{self.path}: not a pirate_bt trace: no JSON {RUN} channel"
+                + (f" (its channels: {listed}{more})" if listed else "")
+                + hint
             )
-        raise InputError(
-            f"{path}: not a pirate_bt trace: no JSON {RUN} channel"
-            + (f" (its channels: {listed}{more})" if listed else "")
-            + hint
-        )
-    return messages, cut
 
 
 def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
@@ -263,14 +299,15 @@ def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
     Raises:
         InputError: the file cannot be read, is not MCAP or holds no pirate_bt trace.
     """
-    messages, _ = _trace_messages(path)
-    return list(records_from_messages(messages))
+    return list(records_from_messages(_TraceMessages(path)))
 
 
 class McapTraceReader(TraceFormatReader):
     """Reads a pirate_bt MCAP file back as trace records (registered for ``.mcap``).
 
-    Records are numbered from 1 in order (an MCAP file has no lines).
+    Records are numbered from 1 in order (an MCAP file has no lines). They are
+    given as the file is read, chunk by chunk; ``truncated`` is set once they have
+    all been given.
     """
 
     suffixes: ClassVar[tuple[str, ...]] = (".mcap",)
@@ -278,9 +315,9 @@ class McapTraceReader(TraceFormatReader):
     def __iter__(self) -> Iterator[tuple[int, dict[str, Any]]]:
         # read_trace's text as shown: half a UTF-16 pair ("\ud800") in a name was an
         # internal error printing it, as it was for a .jsonl trace
-        messages, cut = _trace_messages(self.path, self.readable)
-        self.truncated = cut
+        messages = _TraceMessages(self.path, self.readable)
         yield from enumerate(records_from_messages(messages), start=1)
+        self.truncated = messages.cut
 
 
 def register() -> None:
