@@ -33,6 +33,7 @@ from typing import Any
 from pirate_bt.errors import InputError, said_of
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
+from pirate_bt.task.navigate_route_map import check_route_on_map
 from pirate_bt.task.navigation import (
     Navigator,
     Observation,
@@ -104,7 +105,10 @@ class RouteNavigator:
 
         Raises:
             ValueError: ``forward to the end`` or ``go to`` without a map, or a ``go to``
-                segment the map has no straight of that name for (named by its line).
+                segment the map has no straight of that name for (named by its line);
+                a route written for another network than the map (or for none) that
+                does not fit the map, planned whole on it as a mission plans it
+                (:mod:`pirate_bt.task.navigate_route_map`).
         """
         for command in self.route.steps:
             where = f"{self.route.source}:{command.line}"
@@ -121,6 +125,8 @@ class RouteNavigator:
                     GoalNavigator(command.segment).check_map(network)
                 except ValueError as exc:
                     raise ValueError(f"{where}: {exc}") from None
+        if network is not None:  # a route of another network: planned whole on the map
+            check_route_on_map(self.route, network)
 
     def next_step(self, obs: Observation) -> Step | None:
         if obs.step == 0:  # a new navigation follows the route from its first command
