@@ -99,3 +99,17 @@ def test_on_its_own_map_a_leg_is_still_fitted_to_the_turn_as_it_runs(tmp_path: P
         "route", map=ROOT / "scenarios" / "bend-right.yaml", params={"route": str(route)}
     )
     assert result.status == "success", result.why
+
+
+def test_a_route_in_a_deep_folder_keeps_the_map_in_its_line(
+    tmp_path: Path, connects: list[object]
+) -> None:
+    folder = tmp_path / ("deep" * 30)
+    folder.mkdir()
+    route = folder / "bend-right.route"
+    route.write_bytes(BEND_RIGHT.read_bytes())
+    with pytest.raises(InputError) as caught:
+        pirate_bt.navigate("route", map="straight", params={"route": str(route)})
+    # was cut at 300 characters: "..., and the map is" and no map
+    assert str(caught.value) == REFUSED.replace(str(BEND_RIGHT), str(route))
+    assert connects == []

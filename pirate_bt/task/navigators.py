@@ -64,6 +64,7 @@ ENTRY_POINT_GROUP = "pirate_bt.navigators"
 _CONTRACT = PabContract()
 _TOL_M = 1e-3
 _SLACK, _SLACK_M = 0.1, 0.3
+_REFUSAL_LIMIT = 600  # a check_map's refusal, in characters: its middle is left out past it
 """How much longer than the room before the next turn a route's leg may be, and be
 shortened to fit (10 % of the leg and 0.3 m: where the last turn really ended)."""
 
@@ -404,8 +405,12 @@ def check_navigator_map(
                 f"navigator {name!r}: check_map raised {type(exc).__name__}:"
                 f" {said_of(exc)[:200]} (at {raised_at(exc)})"
             ) from None
-        # one line, as every error: a check_map's message may hold newlines
-        raise InputError(f"navigator {name!r}: {said_of(exc)}"[:300]) from None
+        # one line, as every error: a check_map's message may hold newlines; a long one
+        # keeps its end (route's: "... and the map is 'straight'", cut at 300 characters)
+        from pirate_bt.behaviours.foreign import one_line
+
+        said = one_line(f"navigator {name!r}: {said_of(exc)}", _REFUSAL_LIMIT)
+        raise InputError(said) from None
     except (Exception, SystemExit) as exc:  # the navigator's own error, one located line
         _log.debug("navigator %r: check_map raised", name, exc_info=exc)
         text = said_of(exc)[:200]
