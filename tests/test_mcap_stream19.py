@@ -11,6 +11,7 @@ file damaged after its first chunks is still refused whole, not read in part.
 from __future__ import annotations
 
 import math
+import os
 import zlib
 from pathlib import Path
 from typing import IO, Any
@@ -159,3 +160,46 @@ def test_exporting_a_damaged_mcap_leaves_nothing(long_mcap: Path, tmp_path: Path
     with pytest.raises(InputError, match="damaged after"):
         mcap_trace.export_mcap(damaged, out)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["damaged.mcap"]
+
+
+@pytest.mark.parametrize("read", ["read_mcap_records", "read_mcap_messages"])
+def test_a_file_descriptor_number_is_no_file_name_and_is_left_open(
+    long_mcap: Path, read: str
+) -> None:
+    # a number was opened as a file descriptor, read, and closed (0: standard input)
+    fd = os.open(long_mcap, os.O_RDONLY)
+    try:
+        with pytest.raises(InputError, match=r"^path: give a file name .*not an int$"):
+            getattr(mcap_trace, read)(fd)
+        assert os.fstat(fd).st_size == long_mcap.stat().st_size  # still open
+    finally:
+        os.close(fd)
+
+
+@pytest.mark.parametrize(
+    ("path", "said"),
+    [
+        (None, "path: give a file name (text or a Path), not None"),
+        ("run\0.mcap", "path: a file name may not hold a NUL character"),
+    ],
+)
+def test_no_file_name_is_one_line_not_a_traceback(path: Any, said: str) -> None:
+    # None was a TypeError, a NUL a ValueError, from open()
+    with pytest.raises(InputError) as caught:
+        mcap_trace.read_mcap_records(path)
+    assert str(caught.value) == said
+
+
+def test_a_named_pipe_is_refused_not_waited_on(tmp_path: Path) -> None:
+    fifo = tmp_path / "run.mcap"
+    os.mkfifo(fifo)
+    # held open here with bytes in it, so that a reader that opens it anyway fails
+    # (invalid magic) instead of waiting for ever for a writer
+    held = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)
+    try:
+        os.write(held, b"not an MCAP file, nor a trace\n")
+        with pytest.raises(InputError) as caught:
+            mcap_trace.read_mcap_records(fifo)
+        assert str(caught.value) == f"{fifo}: cannot read: it is a named pipe, not a file"
+    finally:
+        os.close(held)

@@ -64,6 +64,7 @@ from pirate_bt.trace.record_values import readable_text
 from pirate_bt.trace.records import BAD_RECORD
 from pirate_bt.trace.sink import register_process_writer
 from pirate_bt.trace.writer import register_writer
+from pirate_bt.yamlfile import special_file
 
 __all__ = [
     "McapTraceReader",
@@ -141,7 +142,9 @@ def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]
         The messages, and whether the file was cut off (no footer).
 
     Raises:
-        InputError: the file cannot be read or is not MCAP, or a whole message of a
+        InputError: ``path`` is no file name (a number, ``None``, empty; see
+            :func:`~pirate_bt.errors.file_argument`) or no file (a folder, a named
+            pipe), the file cannot be read or is not MCAP, or a whole message of a
             JSON channel is no JSON object (named by its number among the messages).
         ConfigurationError: the ``mcap`` package is missing.
     """
@@ -164,7 +167,12 @@ class _Messages:
     """
 
     def __init__(self, path: str | Path, readable: bool = False) -> None:
-        self.path = path
+        # a number was taken for a file descriptor (0: standard input, read and closed),
+        # None or a NUL was a traceback, a named pipe nobody writes to was waited on
+        self.path = file_argument(path, "path")
+        kind = special_file(self.path)
+        if kind is not None:
+            raise InputError(f"{self.path}: cannot read: it is {kind}, not a file")
         self.readable = readable
         self.cut = True
         self.encodings: dict[str, str] = {}
@@ -297,7 +305,8 @@ def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
     """The trace records an MCAP file written by pirate_bt holds (see :func:`export_mcap`).
 
     Raises:
-        InputError: the file cannot be read, is not MCAP or holds no pirate_bt trace.
+        InputError: as :func:`read_mcap_messages`, and a file that holds no pirate_bt
+            trace.
     """
     return list(records_from_messages(_TraceMessages(path)))
 
