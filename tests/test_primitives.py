@@ -237,7 +237,7 @@ def test_bend_fails_on_a_bad_sign() -> None:
     rig = Rig()
     rig.port.clamp_half(Half.REAR, 0.7)
     py_trees.blackboard.Blackboard.set("/steer_sign", 3)
-    node = rig.node(Bend, BendParams(module="bend_1", angle=0.5, sign_from="steer_sign"))
+    node = rig.node(Bend, BendParams(module="bend_1", angle=0.7, sign_from="steer_sign"))
     assert rig.run(node) == Status.FAILURE
     assert "not +1 or -1" in node.feedback_message
 

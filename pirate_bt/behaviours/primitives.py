@@ -283,6 +283,16 @@ class Bend(Primitive):
                 )
             if lim is not None and params.sign_from and not lim.min <= -params.angle <= lim.max:
                 problems.append(f"angle: -{_exact_deg(params.angle)} is beyond {name}'s range")
+        steer = robot.motion.steer_angle
+        if params.sign_from and abs(params.angle) < steer:
+            # a bend that steers a half toward a turn (the sign align_roll chose): below
+            # the robot's steer angle the half does not count as steered, and the drive
+            # into the turn would only block at its mouth
+            problems.append(
+                f"angle: {_exact_deg(params.angle)} steers less than the robot's"
+                f" motion.steer_angle ({_exact_deg(steer)}): the half would not enter a turn"
+                " (give the tree's steer parameter at least that)"
+            )
         return problems
 
     @classmethod

@@ -221,7 +221,7 @@ def run_mission(
     """
     from pirate_bt.treefile import load_tree
 
-    spec = mission_tree_spec(plan, trees_dir, robot.motion.nominal_speed)
+    spec = mission_tree_spec(plan, trees_dir, robot.motion.nominal_speed, robot.motion.steer_angle)
     loaded = load_tree(spec, robot=robot, clock=clock, supervisor=supervisor)
     limit = max_time_s or estimate_time_s(plan, robot.motion.nominal_speed)
     reason_box = ["mission ended without success"]

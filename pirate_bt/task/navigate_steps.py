@@ -27,6 +27,7 @@ from pirate_bt.task.mission import MissionResult, run_mission
 from pirate_bt.task.navigation import CheckedStep, Felt
 from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run, link_cause
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
+from pirate_bt.task.tree import steer_param
 
 __all__ = ["StepRun", "run_blind", "run_mapped"]
 
@@ -148,8 +149,16 @@ def _blind_node(checked: CheckedStep, robot: RobotDescription) -> dict[str, Any]
     else:
         params = {"direction": checked.direction}
     if pab in _PROBES:
-        return {"type": "subtree", "name": pab, "ref": str(data_dir("trees") / f"{pab}.yaml")}
+        ref = data_dir("trees") / f"{pab}.yaml"
+        steer = steer_param(ref, robot.motion.steer_angle)
+        return {
+            "type": "subtree",
+            "name": pab,
+            "ref": str(ref),
+            **({"params": steer} if steer else {}),
+        }
     ref = data_dir("trees") / _BLIND_FILES.get(pab, PAB_FILES.get(pab, ""))
+    params.update(steer_param(ref, robot.motion.steer_angle))
     return {"type": "subtree", "name": pab, "ref": str(ref.resolve()), "params": params}
 
 

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import ConfigurationError
 from pirate_bt.task.plan import LEG_DISTANCE_KEY, MAP_OK_KEY, PAB_FILES, MissionPlan
 
-__all__ = ["mission_tree_spec"]
+__all__ = ["STEER_MARGIN_RAD", "mission_tree_spec", "steer_param"]
+
+STEER_MARGIN_RAD = math.radians(10.0)
+"""How far past the robot's ``motion.steer_angle`` a PAB steers a half when its tree's
+own ``steer`` default is too little for the robot (the bundled trees steer 40°, the
+reference robot counts 30° as steered)."""
 
 
 def _pab_file(trees_dir: Path, pab: str) -> Path:
@@ -21,8 +27,8 @@ def _pab_file(trees_dir: Path, pab: str) -> Path:
 
 
 def _declared_params(path: Path) -> dict[str, float | None]:
-    """The parameters a PAB tree declares, each with its default speed in m/s where it
-    is a velocity with a default (``None`` otherwise)."""
+    """The parameters a PAB tree declares, each with its default in SI units where it
+    is a velocity or an angle with a default (``None`` otherwise)."""
     from pirate_bt.errors import UnitError
     from pirate_bt.units import parse_quantity
     from pirate_bt.yamlfile import load_yaml
@@ -34,19 +40,36 @@ def _declared_params(path: Path) -> dict[str, float | None]:
     declared: dict[str, float | None] = {}
     for name, spec in params.items():
         default = None
-        if isinstance(spec, dict) and spec.get("type") == "velocity" and "default" in spec:
+        kind = spec.get("type") if isinstance(spec, dict) else None
+        if kind in ("velocity", "angle") and "default" in spec:
             try:
-                default = parse_quantity(spec["default"], "velocity")
+                default = parse_quantity(spec["default"], str(kind))
             except UnitError:
                 default = None  # the tree's own check says what is wrong with it
         declared[str(name)] = default
     return declared
 
 
+def steer_param(path: Path, steer_angle_rad: float) -> dict[str, float]:
+    """``{"steer": angle}`` for the PAB tree at ``path`` when it declares a ``steer``
+    parameter whose default is too little for a robot that counts ``steer_angle_rad``
+    (its ``motion.steer_angle``) as steered: the robot's angle and
+    :data:`STEER_MARGIN_RAD`. Empty where the default is enough (within half the
+    margin of it or more), so a run with the reference robot is as before."""
+    declared = _declared_params(path)
+    if "steer" not in declared:
+        return {}
+    default = declared["steer"]
+    if default is not None and default >= steer_angle_rad + STEER_MARGIN_RAD / 2:
+        return {}
+    return {"steer": steer_angle_rad + STEER_MARGIN_RAD}
+
+
 def mission_tree_spec(
     plan: MissionPlan,
     trees_dir: Path | None = None,
     nominal_speed_mps: float | None = None,
+    steer_angle_rad: float | None = None,
 ) -> dict[str, Any]:
     """The plan as one tree, in the mapping form of :func:`pirate_bt.treefile.load_tree`.
 
@@ -58,6 +81,9 @@ def mission_tree_spec(
         trees_dir: Where the PAB trees are (default: the bundled ``trees/``).
         nominal_speed_mps: The robot's cruise speed; with it, slow straights pass
             ``speed`` when the straight PAB declares that parameter.
+        steer_angle_rad: The robot's ``motion.steer_angle``; with it, a PAB whose tree
+            declares ``steer`` with a default too little for the robot is passed
+            enough (:func:`steer_param`).
 
     Raises:
         ConfigurationError: a PAB tree file is missing.
@@ -94,6 +120,8 @@ def mission_tree_spec(
                 # cruise speed is another (a slower drive) drives its legs at it
                 if key in declared[pab.pab] and declared[pab.pab][key] != speed:
                     params[key] = speed
+        if steer_angle_rad is not None:
+            params.update(steer_param(path, steer_angle_rad))
         node: dict[str, Any] = {
             "type": "subtree",
             "name": name,
