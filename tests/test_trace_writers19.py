@@ -163,3 +163,31 @@ def test_a_file_being_written_is_found_before_a_run_connects(tmp_path: Path) -> 
     first.close()
     check_free(path)
     assert read_trace(path).end is not None  # the look changed nothing
+
+
+def test_a_run_to_a_file_being_written_is_refused_before_it_starts(tmp_path: Path) -> None:
+    """The API's checks before anything connects include the trace file being free:
+    nothing is started, no safe state is entered for it (it used to be found only when
+    the recorder was made, after the simulator had started)."""
+    path = tmp_path / "busy.jsonl"
+    first = TraceRecorder(path, _tree(), clock=SimClock())
+    try:
+        with pytest.raises(InputError) as raised:
+            pirate_bt.simulate_tree("straight", params={"distance": "0.1 m"}, trace=path)
+        assert str(raised.value).startswith(f"trace: cannot write {path}: another run")
+        done = subprocess.run(
+            [
+                *(sys.executable, "-m", "pirate_bt", "run", "straight"),
+                *("--param", "distance=0.1m", "--sim", "straight", "--trace", str(path)),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+        assert done.returncode == 2, done.stderr
+        assert "safe state" not in done.stderr  # refused before anything ran
+        assert "another run is writing it" in done.stderr.strip().splitlines()[-1]
+    finally:
+        first.close()
+    assert read_trace(path).end is not None  # the first run's trace whole

@@ -477,10 +477,11 @@ def check_trace(trace: Any, option: str = "trace", inputs: Mapping[str, Any] | N
 
     Raises:
         InputError: a bad name, an unknown suffix (the known ones listed), a directory,
-            a pipe or device, or an input of the run.
+            a pipe or device, an input of the run, or a file another run is writing.
     """
     from pirate_bt.errors import InputError
     from pirate_bt.trace.formats import suffix_of
+    from pirate_bt.trace.recorder_args import TraceWriteError, check_free
     from pirate_bt.trace.writer import WRITERS
 
     path = output_path(trace, option, inputs)
@@ -488,6 +489,10 @@ def check_trace(trace: Any, option: str = "trace", inputs: Mapping[str, Any] | N
         suffix_of(str(path), WRITERS)
     except InputError as exc:
         raise InputError(f"{option}: {exc}") from None
+    try:
+        check_free(path)  # another run writing it now: say so before anything connects
+    except TraceWriteError as exc:
+        raise InputError(f"{option}: cannot write {path}: {exc.strerror}") from None
     return path
 
 

@@ -191,7 +191,8 @@ def check_trace_path(path: str) -> None:
     """Refuse a ``--trace`` path that can never be written, before anything connects.
 
     Raises:
-        InputError: an unknown suffix (the known ones listed), or a directory.
+        InputError: an unknown suffix (the known ones listed), a directory, or a file
+            another run is writing.
     """
     from pirate_bt.cli import check_output
     from pirate_bt.trace.formats import suffix_of
@@ -199,6 +200,12 @@ def check_trace_path(path: str) -> None:
 
     suffix_of(path, WRITERS)
     check_output(path, "--trace")
+    from pirate_bt.trace.recorder_args import TraceWriteError, check_free
+
+    try:
+        check_free(path)  # another run writing it now
+    except TraceWriteError as exc:
+        raise InputError(f"--trace: cannot write {path}: {exc.strerror}") from None
 
 
 def check_firmware_chain(args: argparse.Namespace) -> None:
