@@ -203,3 +203,29 @@ def test_a_named_pipe_is_refused_not_waited_on(tmp_path: Path) -> None:
         assert str(caught.value) == f"{fifo}: cannot read: it is a named pipe, not a file"
     finally:
         os.close(held)
+
+
+def test_another_tools_json_recording_is_no_trace_not_an_empty_one(tmp_path: Path) -> None:
+    # JSON messages on other topics were read as no records at all: read_mcap_records
+    # gave [] and read_trace (pirate-bt trace summary) said "empty trace (no header)"
+    from mcap.writer import Writer
+
+    foreign = tmp_path / "diagnostics.mcap"
+    with open(foreign, "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema(name="d", encoding="jsonschema", data=b"{}")
+        channel = writer.register_channel("/diagnostics", "json", schema)
+        for n in range(3):
+            writer.add_message(channel, n, b'{"level": 0}', n)
+        writer.finish()
+    said = (
+        f"{foreign}: not a pirate_bt trace: no JSON /pirate/run channel"
+        " (its channels: /diagnostics (json))"
+    )
+    with pytest.raises(InputError) as caught:
+        mcap_trace.read_mcap_records(foreign)
+    assert str(caught.value) == said
+    with pytest.raises(InputError) as caught:
+        pirate_bt.read_trace(foreign)
+    assert str(caught.value) == said

@@ -277,15 +277,16 @@ class _TraceMessages(_Messages):
 
     Raises:
         InputError: as :func:`read_mcap_messages`, and a file with no JSON
-            ``/pirate/run`` channel (another tool's recording, a rosbag2 bag's MCAP),
-            once it is read through with no JSON message.
+            ``/pirate/run`` channel (another tool's recording, JSON or not, a rosbag2
+            bag's MCAP), once it is read through.
     """
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
         yield from super().__iter__()
         encodings = self.encodings
-        if not self.count and encodings.get(RUN) != "json" and (encodings or not self.cut):
-            # (a file cut before its channels is a run cut off at its start: said later)
+        if encodings.get(RUN) != "json" and (encodings or not self.cut):
+            # (a file cut before its channels is a run cut off at its start: said later;
+            # another tool's JSON messages were read as an "empty trace (no header)")
             listed = ", ".join(f"{topic} ({encodings[topic]})" for topic in sorted(encodings)[:6])
             more = ", ..." if len(encodings) > 6 else ""
             hint = ""
