@@ -109,3 +109,53 @@ def test_the_campaign_command_names_its_options(
     assert _one_error(capsys) == (
         f"{out / 'results.jsonl'} holds 1 line already; use --resume, or another --output"
     )
+
+
+def test_a_held_folder_and_too_many_cases_name_the_argument_or_the_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The campaign's lock and the ceiling on cases also named ``--output`` from Python."""
+    from pirate_bt.campaign.cases import check_max_cases
+    from pirate_bt.campaign.paths import campaign_lock
+    from pirate_bt.errors import ArgumentValueError
+
+    out = tmp_path / "held"
+    out.mkdir()
+    with campaign_lock(out):  # another campaign writing there now
+        with pytest.raises(InputError) as raised:
+            run_campaign(SPEC, output=out, workers=1)
+        assert str(raised.value).endswith("wait for it, or give another output=")
+        spec = tmp_path / "w19.campaign.yaml"
+        spec.write_text(
+            "name: w19\nruns:\n  - {tree: straight, network: straight,"
+            " params: {distance: 0.2 m}}\nmax_time: 60 s\n",
+            encoding="utf-8",
+        )
+        assert main(["campaign", str(spec), "--output", str(out), "--quiet"]) == 2
+        assert _one_error(capsys).endswith("wait for it, or give another --output")
+    with pytest.raises(ArgumentValueError, match=r"each into its own output=$"):
+        check_max_cases(10**9)
+    with pytest.raises(ArgumentValueError, match=r"each into its own --output$"):
+        check_max_cases(10**9, "--max-cases")
+
+
+def test_a_refused_campaign_leaves_the_holders_lock_file_in_place(tmp_path: Path) -> None:
+    """A campaign refused because another holds the folder used to remove the holder's
+    lock file (the folder held nothing else yet: the holder had just started, or was
+    waiting for its scheduler), so a third campaign made a new one and went in beside
+    the holder: two campaigns writing one folder."""
+    from pirate_bt.campaign.paths import LOCK_NAME, campaign_lock
+
+    out = tmp_path / "held"
+    out.mkdir()
+    with campaign_lock(out):
+        for _ in range(2):  # the second would have found no lock to respect
+            with (
+                pytest.raises(InputError, match="another campaign is writing there"),
+                campaign_lock(out),
+            ):
+                pass
+        assert (out / LOCK_NAME).exists()
+    assert not (out / LOCK_NAME).exists()  # the holder leaves the folder as it found it
+    with campaign_lock(out):  # and the folder may be taken again
+        pass

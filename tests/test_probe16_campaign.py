@@ -428,5 +428,5 @@ def test_an_output_folder_nobody_may_write_in_is_named_with_what_to_do(
     with pytest.raises(InputError) as caught, paths.campaign_lock(tmp_path):
         pass
     assert str(caught.value) == (
-        f"{tmp_path}: cannot write a campaign there (Permission denied); give another --output"
+        f"{tmp_path}: cannot write a campaign there (Permission denied); give another output="
     )

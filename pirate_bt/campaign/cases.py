@@ -25,6 +25,7 @@ from typing import Any
 
 from pirate_bt.campaign.checks import check_axes, check_faults, check_runs
 from pirate_bt.campaign.inputs import check_inputs, resolve_name, source_of
+from pirate_bt.campaign.paths import OUTPUT
 from pirate_bt.campaign.spec import CampaignSpec
 from pirate_bt.errors import ArgumentValueError
 
@@ -66,7 +67,7 @@ def check_max_cases(max_cases: int, name: str = "max_cases") -> None:
         raise ArgumentValueError(
             f"{name}: at most {MAX_CASES_CEILING:,} cases, not {max_cases:,} (every case and"
             " its row are held in memory): split a larger campaign into several by"
-            " seeds.start, each into its own --output"
+            f" seeds.start, each into its own {'--output' if name.startswith('--') else OUTPUT}"
         )
 
 

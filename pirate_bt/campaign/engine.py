@@ -40,9 +40,9 @@ from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, row_problem
-from pirate_bt.campaign.paths import RESULTS_NAME, is_safe_name, safe_name
+from pirate_bt.campaign.paths import OUTPUT, RESULTS_NAME, RESUME, is_safe_name, safe_name
 from pirate_bt.campaign.sink import RowSink
-from pirate_bt.campaign.started import OUTPUT, RECORD_NAME, RESUME
+from pirate_bt.campaign.started import RECORD_NAME
 from pirate_bt.campaign.stopping import pool_killed_on_signal
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError

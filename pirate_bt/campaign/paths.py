@@ -26,10 +26,20 @@ from pathlib import Path
 
 from pirate_bt.errors import InputError
 
+RESUME = "resume=True"
+"""How a message names resuming: ``run_campaign``'s argument (``pirate-bt campaign``
+says ``--resume``)."""
+
+OUTPUT = "output="
+"""How a message names the output folder: ``run_campaign``'s argument
+(``pirate-bt campaign`` says ``--output``)."""
+
 __all__ = [
     "LOCK_NAME",
     "MAX_SAFE_NAME",
+    "OUTPUT",
     "RESULTS_NAME",
+    "RESUME",
     "campaign_lock",
     "inside",
     "is_safe_name",
@@ -106,24 +116,38 @@ def campaign_lock(folder: Path) -> Iterator[None]:
     """
     import fcntl
 
-    try:
-        fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:  # a folder nobody may write in (/sys/kernel, a read-only disk)
-        raise InputError(
-            f"{folder}: cannot write a campaign there ({exc.strerror}); give another --output"
-        ) from None
-    try:
+    lock = folder / LOCK_NAME
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:  # a folder nobody may write in (/sys/kernel, a read-only disk)
+            raise InputError(
+                f"{folder}: cannot write a campaign there ({exc.strerror}); give another {OUTPUT}"
+            ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
+            os.close(fd)  # the holder's lock file is the holder's: left as it is
             raise InputError(
                 f"{folder}: another campaign is writing there now; wait for it, or give"
-                " another --output"
+                f" another {OUTPUT}"
             ) from None
+        # The campaign that held it may have removed the file as it ended, between our
+        # open and our lock: a lock on a file no longer in the folder holds nothing.
+        try:
+            held = os.stat(lock)
+        except FileNotFoundError:
+            held = None
+        mine = os.fstat(fd)
+        if held is not None and (held.st_dev, held.st_ino) == (mine.st_dev, mine.st_ino):
+            break
+        os.close(fd)
+    try:
         yield
     finally:
         if not any(p.name != LOCK_NAME for p in folder.iterdir()):
             # refused before it wrote anything (a scheduler that did not answer): leave
-            # the folder as empty as it was made
-            (folder / LOCK_NAME).unlink(missing_ok=True)
+            # the folder as empty as it was made (removed while still held, so no
+            # campaign waiting on this file takes a lock that holds nothing)
+            lock.unlink(missing_ok=True)
         os.close(fd)

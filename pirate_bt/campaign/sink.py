@@ -17,7 +17,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.campaign.started import RESUME
+from pirate_bt.campaign.paths import RESUME
 from pirate_bt.errors import InputError
 
 __all__ = ["RowSink"]

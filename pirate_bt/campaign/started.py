@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.campaign.paths import RESULTS_NAME
+from pirate_bt.campaign.paths import OUTPUT, RESULTS_NAME, RESUME
 from pirate_bt.errors import InputError, shown
 
 __all__ = [
@@ -61,13 +61,6 @@ FORMAT = 1
 _MAX_RECORD_BYTES = 64_000_000
 """The largest record read: far above any campaign's inputs (a line each)."""
 
-RESUME = "resume=True"
-"""How a message names resuming: ``run_campaign``'s argument (``pirate-bt campaign``
-says ``--resume``)."""
-
-OUTPUT = "output="
-"""How a message names the output folder: ``run_campaign``'s argument
-(``pirate-bt campaign`` says ``--output``)."""
 
 _AGAIN = f"rerun without {RESUME} into another {OUTPUT}"
 _HEX = re.compile(r"[0-9a-f]{64}")

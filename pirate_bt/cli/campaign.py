@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
-from pirate_bt.campaign.started import OUTPUT, RESUME
+from pirate_bt.campaign.paths import OUTPUT, RESUME
 from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]

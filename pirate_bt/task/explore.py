@@ -97,7 +97,7 @@ _CONE_M = 0.05
 _CONE_PASS_M = 0.25
 """How far the robot drives through a reducer before the front half reads its diameter."""
 
-_EXTEND = "a second insertion (--extend) surveys it"
+_EXTEND = "a second insertion (extend=, pirate-bt survey --extend) surveys it"
 
 _SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
