@@ -229,3 +229,25 @@ def test_another_tools_json_recording_is_no_trace_not_an_empty_one(tmp_path: Pat
     with pytest.raises(InputError) as caught:
         pirate_bt.read_trace(foreign)
     assert str(caught.value) == said
+
+
+def test_compact_mcap_checks_its_arguments_as_the_readers_do(tmp_path: Path) -> None:
+    # compact_mcap(None) was a TypeError traceback and a named pipe hung until killed
+    from pirate_bt.errors import ArgumentTypeError
+    from pirate_bt.interop.mcap_writer import compact_mcap
+
+    with pytest.raises(ArgumentTypeError, match=r"^path: give a file name"):
+        compact_mcap(None)  # type: ignore[arg-type]
+    with pytest.raises(ArgumentTypeError, match=r"^path: give a file name"):
+        compact_mcap(0)  # type: ignore[arg-type]
+    fifo = tmp_path / "run.mcap"
+    os.mkfifo(fifo)
+    held = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)
+    try:
+        os.write(held, b"not an MCAP file\n")
+        with pytest.raises(InputError) as caught:
+            compact_mcap(fifo)
+        assert str(caught.value) == f"{fifo}: cannot read: it is a named pipe, not a file"
+    finally:
+        os.close(held)
+    assert not list(tmp_path.glob("*.mcap.*"))  # nothing half-written beside it

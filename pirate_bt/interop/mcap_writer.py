@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import cut_name, write_atomically
-from pirate_bt.errors import ConfigurationError, InputError
+from pirate_bt.errors import ConfigurationError, InputError, file_argument, output_argument
 from pirate_bt.interop.foxglove_topics import (
     TOPICS,
     TopicMapper,
@@ -403,6 +403,16 @@ def compact_mcap(path: Path, out_path: Path | None = None) -> Path:
             end and would be replaced (what follows the damage would be lost; another
             ``out_path`` keeps what comes before it); the output cannot be written.
     """
+    from pirate_bt.yamlfile import special_file
+
+    # checked as read_mcap_records checks its path: a number was opened as a file
+    # descriptor, None was a TypeError traceback, a named pipe was waited on for ever
+    path = file_argument(path, "path")
+    kind = special_file(path)
+    if kind is not None:
+        raise InputError(f"{path}: cannot read: it is {kind}, not a file")
+    if out_path is not None:
+        out_path = output_argument(out_path, "out_path")
     load_mcap()
     from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
