@@ -47,7 +47,9 @@ def test_an_output_folder_the_campaign_cannot_finish_is_refused_before_any_case(
     out.mkdir()
     make(out)  # type: ignore[operator]
     pool = InstantExecutor()
-    refused(lambda: run_campaign(SPEC, executor=pool, output=out), *words, "--output")
+    refused(
+        lambda: run_campaign(SPEC, executor=pool, output=out), *words, "output="
+    )  # the API names its argument
     assert pool.ids == []  # no case ran
     assert not (out / "results.jsonl").exists()
 
