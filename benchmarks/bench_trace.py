@@ -46,7 +46,6 @@ from pathlib import Path
 from typing import Any
 
 import py_trees
-from py_trees.common import Status
 from trace_inputs import (  # noqa: F401 (re-exported: bench_btcpp, bench_scale)
     STEPS,
     TICK_S,
@@ -54,13 +53,13 @@ from trace_inputs import (  # noqa: F401 (re-exported: bench_btcpp, bench_scale)
     Step,
     extras_up_front,
     fifty_node_tree,
+    record_pab_ticks,
     robot_state,
 )
 
 from pirate_bt.clock import SimClock
-from pirate_bt.robot.port import LinkHealth
 from pirate_bt.runner import Runner
-from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder
+from pirate_bt.trace import TickExtras, TraceRecorder
 
 
 def time_ticks(
@@ -194,21 +193,7 @@ def size_per_hour(suffix: str, seconds: float = 60.0) -> float:
     ticks = int(seconds / TICK_S)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / f"run{suffix}"
-        tree = fifty_node_tree(step_ticks=200)
-        clock = SimClock()
-        with TraceRecorder(path, tree, clock=clock) as rec:
-            for n in range(1, ticks + 1):
-                clock.advance(TICK_S)
-                tree.tick()
-                if tree.root.status != Status.RUNNING:
-                    tree.root.stop(Status.INVALID)  # start the PAB again
-                rec.record_tick(
-                    TickExtras(
-                        state=robot_state(n, clock.now()),
-                        commands=(CommandRecord("drive(80 mm/s)", "pass"),) if n % 10 == 0 else (),
-                        link=LinkHealth(connected=True, retries=n // 3000),
-                    )
-                )
+        record_pab_ticks(path, ticks)
         return path.stat().st_size * 3600.0 / seconds
 
 

@@ -31,12 +31,7 @@ import tempfile
 from datetime import date
 from pathlib import Path
 
-from py_trees.common import Status
-from trace_inputs import TICK_S, fifty_node_tree, robot_state
-
-from pirate_bt.clock import SimClock
-from pirate_bt.robot.port import LinkHealth
-from pirate_bt.trace import CommandRecord, TickExtras, TraceRecorder
+from trace_inputs import record_pab_ticks
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -117,22 +112,8 @@ def make_traces(folder: Path, ticks: int) -> tuple[Path, Path]:
     """The ``.jsonl`` trace of ``ticks`` ticks and its ``.mcap`` export, in ``folder``."""
     jsonl, mcap = folder / f"read-{ticks}.jsonl", folder / f"read-{ticks}.mcap"
     if not jsonl.exists():
-        tree = fifty_node_tree(step_ticks=200)
-        clock = SimClock()
         partial = jsonl.with_suffix(".part.jsonl")
-        with TraceRecorder(partial, tree, clock=clock) as rec:
-            for n in range(1, ticks + 1):
-                clock.advance(TICK_S)
-                tree.tick()
-                if tree.root.status != Status.RUNNING:
-                    tree.root.stop(Status.INVALID)  # start the PAB again
-                rec.record_tick(
-                    TickExtras(
-                        state=robot_state(n, clock.now()),
-                        commands=(CommandRecord("drive(80 mm/s)", "pass"),) if n % 10 == 0 else (),
-                        link=LinkHealth(connected=True, retries=n // 3000),
-                    )
-                )
+        record_pab_ticks(partial, ticks)
         partial.rename(jsonl)
     if not mcap.exists():
         from pirate_bt.interop.mcap_trace import export_mcap

@@ -153,3 +153,28 @@ class RunSnapshots:
             commands=(CommandRecord("drive(80 mm/s)", "pass"),),
             link=LinkHealth(connected=True, retries=n // 1000),
         )
+
+
+def record_pab_ticks(path: Path, ticks: int) -> None:
+    """Write ``path``: the 50-node tree's trace of ``ticks`` ticks, the PAB started
+    again each time it ends, each tick's state, link health and a command every tenth
+    tick made in the tick as a run makes them (``bench_trace``'s file sizes and
+    ``bench_trace_read``'s large traces)."""
+    from pirate_bt.clock import SimClock
+    from pirate_bt.trace import TraceRecorder
+
+    tree = fifty_node_tree(step_ticks=200)
+    clock = SimClock()
+    with TraceRecorder(path, tree, clock=clock) as rec:
+        for n in range(1, ticks + 1):
+            clock.advance(TICK_S)
+            tree.tick()
+            if tree.root.status != Status.RUNNING:
+                tree.root.stop(Status.INVALID)  # start the PAB again
+            rec.record_tick(
+                TickExtras(
+                    state=robot_state(n, clock.now()),
+                    commands=(CommandRecord("drive(80 mm/s)", "pass"),) if n % 10 == 0 else (),
+                    link=LinkHealth(connected=True, retries=n // 3000),
+                )
+            )
