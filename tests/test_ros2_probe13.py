@@ -120,12 +120,6 @@ def _config(**settings: Any) -> Any:
     return config
 
 
-def by_key_max(by_key: dict[str, list[tuple[int, int, bytes]]], part: str) -> int:
-    """The highest sequence number a publisher of a key holding ``part`` sent (as far
-    as the recording subscriber saw): no subscriber can have had more messages."""
-    return max(got[-1][0] for key, got in by_key.items() if part in key)
-
-
 def _parse(token: str) -> dict[str, str]:
     """A token as rmw_zenoh's ``Entity::make(keyexpr)`` reads it (None-free, demangled)."""
     parts = token.split("/")
@@ -230,7 +224,6 @@ def test_a_live_node_as_an_rmw_zenoh_graph_cache_and_subscribers_see_it() -> Non
         assert len({gid for _, _, gid in got}) == 1
         assert all(abs(stamp - time.time_ns()) < 60e9 for _, stamp, _ in got)
     assert len({got[0][2] for got in by_key.values()}) == len(by_key)  # a GID each
-    # twenty subscribers of one topic each got its messages, no more than were sent
-    # (how many each got depends on what congestion dropped on a loaded machine)
-    sent = by_key_max(by_key, "/joint_states/")
-    assert all(1 <= len(g) <= sent for g in many)
+    # twenty subscribers of one topic each got its messages (how many depends on what
+    # congestion dropped on a loaded machine)
+    assert all(len(g) >= 1 for g in many)
