@@ -24,7 +24,13 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 
 from pirate_bt.robot.commands import MotorCommand
-from pirate_bt.robot.description import Half, MotorFunction, RobotDescription, SensorKind
+from pirate_bt.robot.description import (
+    ControlMode,
+    Half,
+    MotorFunction,
+    RobotDescription,
+    SensorKind,
+)
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.commands import Command
 from pirate_bt.safety.verdict import Reason
@@ -130,6 +136,8 @@ class CheckContext:
         now_s: Clock time of the decision.
         halves: Clamp state of each half.
         targets: What the supervisor last asked each half to do (none yet: absent).
+        setpoints: The last setpoint sent to each motor, ``(mode, value, time)``: where
+            a motor is still going after its reading (none sent yet: absent).
     """
 
     robot: RobotDescription
@@ -137,6 +145,7 @@ class CheckContext:
     now_s: float
     halves: Mapping[Half, ClampState] = field(default_factory=dict)
     targets: Mapping[Half, HalfTarget] = field(default_factory=dict)
+    setpoints: Mapping[str, tuple[ControlMode, float, float]] = field(default_factory=dict)
 
 
 Check = Callable[[CheckContext, Intent], Problem | None]
@@ -460,8 +469,14 @@ def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
     clear = ctx.robot.clamp.front_clear_angle - ctx.robot.safety.angle_tolerance
     if Half.FRONT in intent.clamps or Half.FRONT in intent.presses:
         tilt = ctx.state.front_tilt_rad
-        if tilt is None or abs(tilt) < clear:
+        # where its last setpoint still takes it counts as where it is: a tilt back from
+        # clear, sent a moment before, swings the module into the wheels' way after a
+        # clamp checked on the reading alone (front_pressed damage, before 2026-11-30)
+        going = _tilt_setpoint(ctx)
+        if tilt is None or not _clear_path(tilt, going, clear):
             shown = "unknown" if tilt is None else f"{math.degrees(tilt):.1f}°"
+            if tilt is not None and going is not None and going != tilt:
+                shown += f", on its way to {math.degrees(going):.1f}°"
             return Problem(
                 Reason.FRONT_NOT_CLEAR,
                 f"move the front module clear (|tilt| >= "
@@ -487,6 +502,26 @@ def check_front_clear(ctx: CheckContext, intent: Intent) -> Problem | None:
                 f" unclamped (it is {front})",
             )
     return None
+
+
+def _tilt_setpoint(ctx: CheckContext) -> float | None:
+    """The front tilt's last position setpoint (``None``: none, or not a position)."""
+    try:
+        motor = ctx.robot.motor_of(ctx.robot.modules[0].name, MotorFunction.TILT)
+    except KeyError:
+        return None
+    last = ctx.setpoints.get(motor.name)
+    return last[1] if last is not None and last[0] is ControlMode.POSITION else None
+
+
+def _clear_path(tilt: float, going: float | None, clear: float) -> bool:
+    """The module is clear where it reads and, when a setpoint moves it, all the way
+    there: both beyond the clear angle, on the same side."""
+    if abs(tilt) < clear:
+        return False
+    return going is None or (
+        abs(going) >= clear and math.copysign(1.0, going) == math.copysign(1.0, tilt)
+    )
 
 
 INVARIANTS: list[Check] = [

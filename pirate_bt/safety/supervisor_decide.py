@@ -378,6 +378,7 @@ class DecisionMixin:
                 now,
                 half_states(self.robot, state, self._targets),
                 dict(self._targets),
+                dict(self._last_setpoint),
             )
             for check in self._checks:
                 found = check(ctx, intent)

@@ -284,7 +284,11 @@ class HoldMixin:
             f" (pitch {math.degrees(pitch):.0f}°): the supervisor clamps"
         )
         self.safe_state(cause)  # the drives stop first; a first cause before stays first
-        ctx = CheckContext(self.robot, state, now_s, halves, dict(self._targets))
+        # the live setpoints: the front module's tilt clear, sent on a tick before the
+        # clamp, is where the module is going
+        ctx = CheckContext(
+            self.robot, state, now_s, halves, dict(self._targets), self._last_setpoint
+        )
         for half in todo:
             if (
                 half is Half.FRONT

@@ -1,0 +1,57 @@
+"""The protective layer in its modes, probed from docs/safety.md as a planner would.
+
+Each test pins a bug a user saw, fixed here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+import pirate_bt
+from pirate_bt.api import Connection
+from pirate_bt.robot import Half
+from pirate_bt.safety import Outcome, Reason
+
+
+@pytest.fixture
+def sim_robot() -> Iterator[Connection]:
+    with pirate_bt.connect("sim:straight") as connection:
+        connection.supervisor.tick()
+        yield connection
+
+
+def _ticks(connection: Connection, n: int) -> None:
+    sup = connection.supervisor
+    for _ in range(n):
+        sup.clock.sleep(0.1)
+        sup.tick()
+
+
+# -- a clamp of the front half while the front module is on its way back ----------------------
+
+
+def test_a_front_clamp_waits_for_a_tilt_back_on_its_way(sim_robot: Connection) -> None:
+    """With the front module tilted clear (61.7°), a `Tilt(0)` (rate-limited to a step
+    to 52.7°) and then `Clamp(front, 0.7)` *passed*: the check read the tilt where the
+    module still was, not where its setpoint was taking it, and the module swung into
+    the front wheels' way as they pressed the wall (the simulator counted
+    `front_pressed` damage). The clamp is now refused until the module is clear all the
+    way to its setpoint, and passes once it is sent clear again."""
+    sup = sim_robot.supervisor
+    for _ in range(8):
+        assert sup.move_front_clear().ok
+        _ticks(sim_robot, 1)
+    assert sup.tilt(0.0).ok  # back toward the middle: a step of 9°
+    verdict = sup.clamp(Half.FRONT, 0.7)
+    assert verdict.outcome is Outcome.REFUSE and verdict.reason is Reason.FRONT_NOT_CLEAR
+    assert "on its way to 52.7°" in verdict.detail, verdict.detail
+    _ticks(sim_robot, 10)
+    assert sup.simulator is not None
+    assert not sup.simulator.counters().damage, sup.simulator.counters()
+    assert sup.move_front_clear().ok  # sent clear again, and there: the clamp passes
+    _ticks(sim_robot, 5)
+    assert sup.clamp(Half.FRONT, 0.7).ok
+    _ticks(sim_robot, 10)
+    assert not sup.simulator.counters().damage, sup.simulator.counters()
