@@ -208,9 +208,27 @@ class _Exporter:
         if raw.get("name"):
             element.set("name", _text(doc, (*path, "name"), raw["name"]))
         decls = self.declared(target, name)
-        for key, value in (raw.get("params") or {}).items():
+        given = raw.get("params") or {}
+        for key, value in given.items():
             element.set(key, self.value(doc, value, decls.get(key, "string")))
+        for key in self.empty_defaults(target, name):
+            # BT.CPP takes a model's empty default for none (the call "is not remapping
+            # a mandatory port"): the empty text is given here, where it reads as itself
+            if key not in given:
+                element.set(key, "")
         return element
+
+    def empty_defaults(self, doc: YamlDocument, name: str) -> list[str]:
+        """The parameters of tree ``name`` of ``doc`` whose default is written as empty
+        port text (``default: ""``)."""
+        body = doc.data["subtrees"][name] if name else doc.data
+        return [
+            key
+            for key, decl in (body.get("params") or {}).items()
+            if isinstance(decl, dict)
+            and decl.get("default") is not None
+            and encode_value(decl["default"], str(decl.get("type", "string"))) == ""
+        ]
 
     def declared(self, doc: YamlDocument, name: str) -> dict[str, str]:
         body = doc.data["subtrees"][name] if name else doc.data

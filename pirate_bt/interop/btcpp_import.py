@@ -375,6 +375,8 @@ class _Importer:
                     f" of {_shown(target)}"
                     f" (parameters: {known}; declare them in <TreeNodesModel>)"
                 )
+            if text == "" and decl.get("default") == "":
+                continue  # its default, written out for BT.CPP (it takes default="" for none)
             try:
                 given[key] = decode_value(text, decl["type"], key)
             except ValueError as exc:
