@@ -409,7 +409,10 @@ class RobotLink:
         if session.threaded:
             # A reader thread mutates the session: take its consistent, locked snapshot.
             stats = session.stats()
-            return _health_of(stats, self._board_ids_at(stats.faulted), session.refused_states())
+            if not stats.estopped:
+                self.latch_kept = ""  # released since, as below (it was left out here)
+            faulted = self._board_ids_at(stats.faulted)
+            return _health_of(stats, faulted, session.refused_states(), self.latch_kept)
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
         # The line's noise since the last good frame is not a counter the figures hold
@@ -573,7 +576,7 @@ def _refusals(counts: tuple[int, int, int]) -> tuple[tuple[str, int], ...]:
 
 
 def _health_of(
-    s: SessionStats, faulted_boards: tuple[int, ...], refused: tuple[int, int, int]
+    s: SessionStats, faulted: tuple[int, ...], refused: tuple[int, int, int], latch_kept: str
 ) -> LinkHealth:
     return LinkHealth(
         connected=s.connected,
@@ -588,7 +591,8 @@ def _health_of(
         estop_input=s.estop_input,
         bridge_resets=s.bridge_resets,
         bus_fault=s.bus_fault,
-        faulted_boards=faulted_boards,
+        faulted_boards=faulted,
         states_refused=_refusals(refused),
         line_noise=s.line_noise,
+        latch_kept=latch_kept,
     )
