@@ -178,6 +178,19 @@ def _too_early(fault: FaultSpec, now_s: float) -> str | None:
     )
 
 
+def _a_step_at_least(fault: FaultSpec, robot: RobotDescription) -> FaultSpec:
+    """``fault`` lasting at least one state period, the world's step: a shorter one
+    (``board_reset:26@3s+1ms``) started and ended in the same step, so the board was never
+    missed and the link never lost while the events said it happened."""
+    step = robot.bridge.state_period
+    duration = fault.duration
+    if duration is None and fault.kind == "board_reset":
+        duration = robot.bridge.reset_time
+    if duration is None or duration >= step:
+        return fault
+    return fault.model_copy(update={"duration": step})
+
+
 def _fault_place(network: Network, index: int, key: str = "target") -> str:
     """``file:line:column`` of ``key`` of the network file's fault ``index`` (of the
     fault when it has no such key); the network's source alone when it was not
@@ -251,7 +264,7 @@ class Simulator:
             early = _too_early(fault, self.bridge.now_s)
             if early is not None:
                 raise ConfigurationError(f"{_fault_place(network, index, 'at')}: faults: {early}")
-        self.bridge.schedule(network.faults)
+        self.bridge.schedule([_a_step_at_least(f, robot) for f in network.faults])
         self.schedule(specs)
         self.name = name or f"sim-{next(_NAMES)}"
         with _REGISTRY_LOCK:
@@ -271,7 +284,9 @@ class Simulator:
         """Inject faults at their simulated times (``FaultSpec`` or ``KIND[:TARGET]@AT[+DUR]``).
 
         A fault's time is the simulator's clock time: one before the simulated time now
-        is refused (it would start and end in one step, doing nothing).
+        is refused (it would start and end in one step, doing nothing). A fault lasts at
+        least one state period (``bridge.state_period``, the world's step): a shorter
+        duration is taken as one period.
 
         Raises:
             InputError: malformed fault text, or ``faults`` no text nor list of faults;
@@ -286,7 +301,7 @@ class Simulator:
                 early = _too_early(fault, now_s)
                 if early is not None:
                     raise ArgumentValueError(f"faults: {early}")
-            self.bridge.schedule(specs)
+            self.bridge.schedule([_a_step_at_least(f, self.robot) for f in specs])
 
     def _on_clock(self, now_s: float) -> None:
         with self._lock:

@@ -1,0 +1,93 @@
+"""Probe 19: the simulator's faults and physics in vertical pipes, at other angles.
+
+Each test names what a user saw before its fix.
+"""
+
+from __future__ import annotations
+
+from pirate_bt.pipes import Network, network_from_data
+from pirate_bt.robot import Half, load_robot
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode
+from pirate_bt.sim import Simulator
+
+ROBOT = load_robot()
+
+
+def _riser(faults: list[dict[str, str]] | None = None) -> Network:
+    """A bend up at 0.3 m, then two metres of vertical pipe: a robot put in at 1.5 m
+    hangs in the riser, its rotational module in vertical pipe."""
+    return network_from_data(
+        {
+            "schema_version": 1,
+            "name": "up",
+            "diameter": "63 mm",
+            "segments": [
+                {"id": "a", "type": "straight", "length": "0.3 m"},
+                {"id": "b", "type": "bend", "direction": "up"},
+                {"id": "r", "type": "straight", "length": "2 m"},
+            ],
+            "faults": faults or [],
+        }
+    )
+
+
+def _hanging_on_the_rear_clamp(network: Network | None = None) -> Simulator:
+    """A simulator whose robot hangs in the riser on its rear clamp alone, at 2.9 s."""
+    sim = Simulator(network or _riser(), ROBOT, start_m=1.5)
+    for joint in ("bend_3_joint", "bend_4_joint"):
+        sim.model.command(MotorCommand(joint, ControlMode.TORQUE, 0.7))
+    sim.advance_to(2.9)
+    truth = sim.truth()
+    assert truth.halves[Half.REAR].clamped and not truth.halves[Half.FRONT].clamped
+    return sim
+
+
+def _rear_let_go(sim: Simulator, start_s: float, end_s: float) -> bool:
+    """Whether the rear half was unclamped after some step from ``start_s`` to ``end_s``
+    (looked at every 2 ms: no step's end is missed, however its time rounds)."""
+    let_go = False
+    for k in range(round((end_s - start_s) / 0.002) + 1):
+        sim.advance_to(start_s + k * 0.002)
+        let_go = let_go or not sim.truth().halves[Half.REAR].clamped
+    return let_go
+
+
+# -- a fault shorter than the world's step ---------------------------------------------
+
+
+def test_a_fault_shorter_than_a_step_still_happens() -> None:
+    # board_reset:26@3s+1ms started and ended in the same 10 ms step: the events said
+    # 'start board_reset 26', 'end board_reset 26', and the board was never missed -
+    # the clamp it holds never let go, a robot hanging on it never slipped
+    sim = _hanging_on_the_rear_clamp()
+    sim.schedule("board_reset:26@3s+1ms")
+    assert _rear_let_go(sim, 3.0, 3.1)  # the board was down a step, its clamp off
+    sim.advance_to(3.5)
+    assert sim.truth().halves[Half.REAR].clamped  # back, as the bridge hands it its clamp
+    counters = sim.counters()
+    assert dict(counters.violations) == {"sliding": 1}
+    assert 0 < counters.slide_m < 0.01
+    # the same for a link loss of a microsecond: a frame the host writes then is lost
+    sim.schedule("link_loss@3.6s+1us")
+    lost = 0
+    for k in range(20):  # a frame written after each step of 3.6 s to 3.64 s
+        sim.advance_to(3.6 + k * 0.002)
+        sim.write(b"\x01\x02\x03\x00")
+        lost = sim.counters().frames_dropped
+    assert lost >= 1
+    assert [e.detail for e in sim.events() if e.kind == "fault"] == [
+        "start board_reset 26",
+        "end board_reset 26",
+        "start link_loss",
+        "end link_loss",
+    ]
+
+
+def test_a_network_file_s_fault_shorter_than_a_step_still_happens() -> None:
+    network = _riser([{"kind": "board_fault", "target": "26", "at": "3 s", "duration": "2 ms"}])
+    sim = _hanging_on_the_rear_clamp(network)
+    assert _rear_let_go(sim, 3.0, 3.1)
+    sim.advance_to(3.5)
+    assert sim.truth().halves[Half.REAR].clamped
+    assert dict(sim.counters().violations) == {"sliding": 1}
