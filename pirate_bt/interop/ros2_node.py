@@ -40,6 +40,7 @@ from pirate_bt.interop.ros2_option import (
     DEFAULT_ENDPOINT,
     DEFAULT_NAMESPACE,
     check_names,
+    check_node_args,
     domain_from_env,
     parse_endpoint,
 )
@@ -146,7 +147,8 @@ class Ros2Node:
 
     Raises:
         ConfigurationError: ``eclipse-zenoh`` is missing, or no process can be started.
-        InputError: a bad endpoint, domain id or namespace.
+        InputError: a bad endpoint, domain id, namespace or rate, or an argument of the
+            wrong kind (``ArgumentTypeError``, an ``InputError`` too).
     """
 
     _PROCESS_OPTIONS: ClassVar[dict[str, Any]] = {}
@@ -165,6 +167,7 @@ class Ros2Node:
     ) -> None:
         if importlib.util.find_spec("zenoh") is None:
             raise ConfigurationError(missing("--ros2", "eclipse-zenoh"))
+        check_node_args(endpoint, domain_id, namespace, name, rate_hz)
         self.endpoint = parse_endpoint(endpoint)
         self.domain_id = domain_from_env() if domain_id is None else int(domain_id)
         if not 0 <= self.domain_id <= 232:
@@ -174,8 +177,6 @@ class Ros2Node:
         )
         self.fq_estop = rmw_zenoh.qualified_name(self.namespace, ESTOP)
         self.name = name
-        if rate_hz <= 0:
-            raise InputError("the ROS 2 rate must be positive")
         self.period_s = 1.0 / rate_hz
         self.estop = EStopInput(self.fq_estop) if estop else None
         self.enabled = True

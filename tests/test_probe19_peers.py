@@ -1,0 +1,61 @@
+"""Probe 19: other implementations of the live protocols, and the servers a planner opens.
+
+Found by acting as a peer of each protocol (a Groot2 client, a Foxglove client, a
+ROS 2 node, MCAP and rosbag2 readers) and as planner code that opens the live views'
+servers itself (``Ros2Node``, ``Groot2Server``, ``FoxgloveServer``), with values read
+from a configuration file or the environment.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from typing import Any
+
+import pytest
+
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError
+
+
+def _no_process(monkeypatch: pytest.MonkeyPatch, module: Any) -> None:
+    """Make starting a process fail the test: a refusal must come before one starts."""
+
+    def refuse(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError(f"a process was started: {args[0]!r}")
+
+    monkeypatch.setattr(module.subprocess, "Popen", refuse)
+    assert module.subprocess is subprocess
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "kind", "says"),
+    [
+        ({"rate_hz": math.nan}, ArgumentValueError, "rate_hz: give a positive, finite number"),
+        ({"rate_hz": math.inf}, ArgumentValueError, "rate_hz: give a positive, finite number"),
+        ({"rate_hz": "20"}, ArgumentTypeError, "rate_hz: give a number, not a str"),
+        ({"domain_id": 3.7}, ArgumentTypeError, "domain_id: give a whole number from 0 to 232"),
+        ({"domain_id": True}, ArgumentTypeError, "domain_id: give a whole number from 0 to 232"),
+        ({"domain_id": "3"}, ArgumentTypeError, "domain_id: give a whole number from 0 to 232"),
+        ({"namespace": 5}, ArgumentTypeError, "namespace: give text, not an int"),
+        ({"endpoint": 7447}, ArgumentTypeError, "endpoint: give text, not an int"),
+        ({"name": None}, ArgumentTypeError, "name: give text, not None"),
+    ],
+)
+def test_a_ros2_node_refuses_an_argument_it_cannot_use_before_its_process_starts(
+    monkeypatch: pytest.MonkeyPatch, kwargs: dict[str, Any], kind: type, says: str
+) -> None:
+    """``Ros2Node(rate_hz=nan)`` started the node's process, which died at its first wait
+    with a traceback on the run's terminal (the run went on unseen, its e-stop topic
+    unheard); ``rate_hz=inf`` made it poll without rest (a third of a core);
+    ``domain_id=3.7`` joined domain 3 and ``True`` domain 1; text for a number, or a
+    number for text, was a ``TypeError`` or ``AttributeError`` traceback."""
+    pytest.importorskip("zenoh")
+    from pirate_bt.interop import ros2_node
+
+    _no_process(monkeypatch, ros2_node)
+    with pytest.raises(kind) as caught:
+        ros2_node.Ros2Node(**kwargs)
+    message = str(caught.value)
+    assert isinstance(caught.value, InputError)
+    assert message.startswith("ROS 2 node: ") and says in message, message
+    assert "\n" not in message
