@@ -112,6 +112,9 @@ STATE_VALUES: dict[str, str | None] = {
 }
 """State values a comparison may name, with their dimension (``None``: a word or a boolean)."""
 
+_WORDS = frozenset(k for k, dim in STATE_VALUES.items() if dim is None)
+"""State values that are a word or a boolean: equal or not, never less or more."""
+
 _MISSING = object()
 
 
@@ -165,7 +168,18 @@ class Comparison(NodeParams):
         if self.unit is not None and self.unit not in DIMENSIONS:  # not 'dimension: ...'
             raise ValueError(f"unit: {shown(self.unit)} is not one of {', '.join(DIMENSIONS)}")
         dimension = _dimension(self.state) if self.state is not None else self.unit
+        if dimension is not None and isinstance(self.value, bool):  # True == 1.0 rad
+            raise ValueError(
+                f"value: {str(self.value).lower()} is a boolean, but a quantity"
+                f" ({dimension.replace('_', ' ')}) is compared: write it with its unit"
+            )
         _parse(self.value, dimension)
+        if self.state == "link.healthy" and not isinstance(self.value, bool):
+            raise ValueError(f"value: link.healthy is true or false, not {shown(self.value)}")
+        if self.state in _WORDS and self.op not in ("==", "!="):
+            raise ValueError(
+                f"op: {self.op!r} orders numbers; {self.state} is compared with == or !="
+            )
         if self.state in ("half.front", "half.rear") and str(self.value) not in {
             s.value for s in ClampState
         }:
