@@ -5,11 +5,17 @@ Each test names what a user saw before its fix.
 
 from __future__ import annotations
 
+import math
+
+import pytest
+
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
 from pirate_bt.sim import Simulator
+from pirate_bt.sim.script import ModelSink, ScriptedDrive
 
 ROBOT = load_robot()
 
@@ -91,3 +97,45 @@ def test_a_network_file_s_fault_shorter_than_a_step_still_happens() -> None:
     sim.advance_to(3.5)
     assert sim.truth().halves[Half.REAR].clamped
     assert dict(sim.counters().violations) == {"sliding": 1}
+
+
+# -- the scripted drive's arguments -------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("argument", "value", "error", "words"),
+    [
+        # ZeroDivisionError: float division by zero, in the first drive_to
+        ("speed_mps", 0.0, ArgumentValueError, "speed_mps: 0.0 is not a number of m/s above 0"),
+        # ValueError: a clock cannot go back (-18.3 s)
+        ("speed_mps", -0.08, ArgumentValueError, "speed_mps: -0.08 is not"),
+        # taken: run_path() 'drove' the network and the robot never moved from 0.515 m
+        ("speed_mps", math.nan, ArgumentValueError, "speed_mps: nan is not"),
+        # taken: waited a tenth of the time its wheels needed, stopped 0.6 m in
+        ("speed_mps", 10.0, ArgumentValueError, "and at most 0.1"),
+        # TypeError: must be real number, not str
+        ("speed_mps", "80 mm/s", ArgumentTypeError, "speed_mps: give a number of m/s, not a str"),
+        # ValueError: cannot convert float NaN to integer, at the link's first clamp
+        ("clamp_torque_nm", math.nan, ArgumentValueError, "clamp_torque_nm: nan is not"),
+        # taken: steered to inf and stuck at every bend
+        ("steer_rad", math.inf, ArgumentValueError, "steer_rad: inf is not"),
+    ],
+)
+def test_a_scripted_drive_refuses_an_amount_it_cannot_drive_naming_it(
+    argument: str, value: object, error: type[Exception], words: str
+) -> None:
+    with Simulator("bend-right", ROBOT) as sim:
+        with pytest.raises(error) as refused:
+            ScriptedDrive(sim, ModelSink(sim), **{argument: value})  # type: ignore[arg-type]
+        assert words in str(refused.value)
+        assert "\n" not in str(refused.value)
+        assert sim.truth().front_m == sim.model.length_m  # nothing was sent
+
+
+def test_a_scripted_drive_refuses_what_is_no_simulator_or_sink() -> None:
+    with Simulator("straight", ROBOT) as sim:
+        with pytest.raises(ArgumentTypeError, match=r"^sim: give a Simulator, not a str$"):
+            ScriptedDrive("straight", ModelSink(sim))  # type: ignore[arg-type]
+        with pytest.raises(ArgumentTypeError, match=r"^sink: give a CommandSink"):
+            ScriptedDrive(sim, sim)  # type: ignore[arg-type]
+        ScriptedDrive(sim, ModelSink(sim), speed_mps=0.1, steer_rad=math.pi)  # the limits

@@ -22,6 +22,7 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, kind_of, shown
 from pirate_bt.pipes import Piece, PieceKind
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, Half, MotorFunction, RobotDescription
@@ -79,6 +80,22 @@ class LinkSink:
             self.port.poll()
 
 
+def _amount(name: str, value: object, unit: str, most: float | None = None) -> float:
+    """``value`` as a finite number above 0 (and at most ``most``), else one line naming
+    the argument: a speed of 0 was a *ZeroDivisionError*, a negative one *a clock cannot
+    go back*, ``nan`` a drive that never moved while the script went on as if it had."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ArgumentTypeError(f"{name}: give a number of {unit}, not {kind_of(value)}")
+    try:
+        good = math.isfinite(value) and value > 0 and (most is None or value <= most)
+    except OverflowError:  # a whole number too large for a float
+        good = False
+    if not good:
+        bound = f" and at most {most:g}" if most is not None else ""
+        raise ArgumentValueError(f"{name}: {shown(value)} is not a number of {unit} above 0{bound}")
+    return float(value)
+
+
 def rotation_for_turn(turn_roll_rad: float, rear_roll_rad: float) -> tuple[float, int]:
     """The rotate-joint angle and steer sign that align the front half with a turn.
 
@@ -108,8 +125,14 @@ class ScriptedDrive:
         sim: The simulator (read for ground truth).
         sink: Where commands go.
         clamp_torque_nm: Joint torque of a clamp.
-        steer_rad: Joint angle (magnitude) when steering into a turn.
-        speed_mps: Driving speed.
+        steer_rad: Joint angle (magnitude) when steering into a turn, up to pi.
+        speed_mps: Driving speed (default the robot's ``motion.nominal_speed``), at most
+            its drive motors' velocity limit.
+
+    Raises:
+        InputError: an argument of the wrong type (``ArgumentTypeError``), or a torque,
+            angle or speed that is no finite number above 0, an angle above pi, a speed
+            above the drives' limit (``ArgumentValueError``).
     """
 
     def __init__(
@@ -121,13 +144,27 @@ class ScriptedDrive:
         steer_rad: float = math.radians(35),
         speed_mps: float | None = None,
     ) -> None:
+        if not isinstance(sim, Simulator):
+            raise ArgumentTypeError(f"sim: give a Simulator, not {kind_of(sim)}")
+        if not all(callable(getattr(sink, verb, None)) for verb in ("send", "wait")):
+            raise ArgumentTypeError(
+                f"sink: give a CommandSink (ModelSink, LinkSink), not {kind_of(sink)}"
+            )
         robot: RobotDescription = sim.robot
+        fastest = min(
+            (m.limits.velocity.max for m in robot.drive_motors() if m.limits.velocity),
+            default=None,
+        )
         self.sim = sim
         self.sink = sink
         self.robot = robot
-        self.clamp_torque_nm = clamp_torque_nm
-        self.steer_rad = steer_rad
-        self.speed_mps = speed_mps if speed_mps is not None else robot.motion.nominal_speed
+        self.clamp_torque_nm = _amount("clamp_torque_nm", clamp_torque_nm, "N*m")
+        self.steer_rad = _amount("steer_rad", steer_rad, "radians", math.pi)
+        self.speed_mps = (
+            _amount("speed_mps", speed_mps, "m/s", fastest)
+            if speed_mps is not None
+            else robot.motion.nominal_speed
+        )
         self._joints = {
             half: [robot.joint_motor(m.name).name for m in robot.bend_modules(half)]
             for half in Half
