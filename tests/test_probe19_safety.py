@@ -12,7 +12,9 @@ import pytest
 import pirate_bt
 from pirate_bt.api import Connection
 from pirate_bt.robot import Half
-from pirate_bt.safety import Outcome, Reason
+from pirate_bt.safety import Drive, Outcome, Reason, operator
+from pirate_bt.safety.factory import open_supervisor
+from pirate_bt.safety.operator import Confirmation, Mode
 
 
 @pytest.fixture
@@ -55,3 +57,38 @@ def test_a_front_clamp_waits_for_a_tilt_back_on_its_way(sim_robot: Connection) -
     assert sup.clamp(Half.FRONT, 0.7).ok
     _ticks(sim_robot, 10)
     assert not sup.simulator.counters().damage, sup.simulator.counters()
+
+
+# -- a change of mode that is no hand-back ------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("start", "to"), [("autonomous", "supervised"), ("supervised", "autonomous")]
+)
+def test_a_change_between_autonomous_and_supervised_does_not_resume(start: str, to: str) -> None:
+    """An operator's stop (`SafeStop`) followed by `SetMode` between autonomous and
+    supervised left the safe state, as a `Resume` does: the step granted before the stop
+    drove on (`drive(20 mm/s)` passed) with no one having resumed, and the stop's cause
+    was gone. Only a hand-back from manual (the operator giving back the robot he held)
+    leaves it now; a `Resume` still does."""
+    sup = open_supervisor(network="straight", mode=start)
+    try:
+        sup.tick()
+        if sup.request_confirmation("drive") is not Confirmation.GRANTED:
+            sup.confirm("drive")
+        assert sup.check(Drive(0.02)).ok
+        sup.apply(operator.SafeStop("operator stop"))
+        sup.apply(operator.SetMode(to))
+        assert sup.mode is Mode(to)
+        assert sup.safe_state_reason == "operator stop"
+        verdict = sup.drive(0.02)
+        assert verdict.reason is Reason.SAFE_STATE, verdict
+        # taking over and handing back is the operator's resume, as before
+        sup.apply(operator.SetMode("manual"))
+        sup.apply(operator.SetMode(to))
+        assert not sup.in_safe_state and sup.check(Drive(0.02)).ok
+        sup.apply(operator.SafeStop("again"))
+        sup.apply(operator.Resume())
+        assert not sup.in_safe_state
+    finally:
+        sup.close()

@@ -250,9 +250,10 @@ class AuthorityMixin(DecisionMixin):
     def set_mode(self, mode: Mode) -> None:
         """Change who is in charge; takes effect for the very next command.
 
-        Taking over (``MANUAL``) stops the drives. Handing back (``AUTONOMOUS`` or
-        ``SUPERVISED``) stops them too (the operator's speed is not the tree's) and
-        leaves the safe state. ``ESTOP`` is :meth:`estop`;
+        Taking over (``MANUAL``) stops the drives. Handing back (from ``MANUAL`` to
+        ``AUTONOMOUS`` or ``SUPERVISED``) stops them too (the operator's speed is not the
+        tree's) and leaves the safe state, as :meth:`resume` does; a change between
+        ``AUTONOMOUS`` and ``SUPERVISED`` leaves it as it is. ``ESTOP`` is :meth:`estop`;
         leaving ``ESTOP`` needs :meth:`reset_estop`. A mode's text (``"estop"``) is
         that mode.
 
@@ -281,7 +282,10 @@ class AuthorityMixin(DecisionMixin):
                     self._decided[step] = Confirmation.GRANTED
                     self._granted.add(step)
                 self._pending.clear()
-            if mode is not Mode.MANUAL:
+            if old is Mode.MANUAL:
+                # a hand-back: the operator, who had the robot, gives it back. A change
+                # between autonomous and supervised is no resume: it left an operator's
+                # stop (and every other cause) and let the granted steps drive on
                 self._safe_reason = None
                 self._safe_error = None
                 self._refusals = 0
