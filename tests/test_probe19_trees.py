@@ -1,0 +1,74 @@
+"""Probe 19 (hostile tree files and the node catalogue): what a user saw, each pinned.
+
+- A guard's comparison that could never mean anything loaded clean: ``{state: mode, op:
+  '<', value: autonomous}`` and ``half.front < clamped`` compared the words' spelling,
+  ``{state: link.healthy, value: maybe}`` never held (and ``value: 1`` held as true),
+  and ``{state: imu.pitch, value: true}`` held when the pitch was exactly 1 rad (a
+  boolean is the number 1); ``check_blackboard`` already refused a boolean with a unit.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+
+
+def _validate(capsys: pytest.CaptureFixture[str], *paths: Path) -> list[str]:
+    assert main(["validate", *map(str, paths)]) == 2
+    return capsys.readouterr().err.strip().splitlines()
+
+
+def test_a_guard_comparison_that_cannot_mean_anything_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  gap: {type: length, default: 1 m}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - type: skip_if\n"
+        "      condition: {state: mode, op: '<', value: autonomous}\n"
+        "      child: success\n"
+        "    - type: skip_if\n"
+        "      condition: {state: half.front, op: '>=', value: clamped}\n"
+        "      child: success\n"
+        "    - type: while\n"
+        "      condition: {state: link.healthy, value: maybe}\n"
+        "      child: success\n"
+        "    - type: while\n"
+        "      condition: {state: link.healthy, value: 1}\n"
+        "      child: success\n"
+        "    - type: failure_if\n"
+        "      condition: {state: link.healthy, op: '>', value: false}\n"
+        "      child: success\n"
+        "    - type: failure_if\n"
+        "      condition: {state: imu.pitch, value: true}\n"
+        "      child: success\n"
+        "    - type: failure_if\n"
+        "      condition: [{blackboard: gap, unit: length, op: '<', value: false}]\n"
+        "      child: success\n"
+        "    - type: failure_if\n"  # what may be said stays allowed
+        "      condition:\n"
+        "        - {state: link.healthy, op: '!=', value: true}\n"
+        "        - {state: mode, op: '!=', value: manual}\n"
+        "        - {state: half.rear, value: clamped}\n"
+        "        - {state: imu.pitch, op: '<', value: 10 deg}\n"
+        "      child: success\n"
+    )
+    t = tree
+    assert _validate(capsys, tree) == [
+        f"{t}:7:7: skip_if: op: '<' orders numbers; mode is compared with == or !=",
+        f"{t}:10:7: skip_if: op: '>=' orders numbers; half.front is compared with == or !=",
+        f"{t}:13:7: while: value: link.healthy is true or false, not 'maybe'",
+        f"{t}:16:7: while: value: link.healthy is true or false, not 1",
+        f"{t}:19:7: failure_if: op: '>' orders numbers; link.healthy is compared with == or !=",
+        f"{t}:22:7: failure_if: value: true is a boolean, but a quantity (angle) is compared:"
+        " write it with its unit",
+        f"{t}:25:19: failure_if: value: false is a boolean, but a quantity (length) is"
+        " compared: write it with its unit",
+    ]
