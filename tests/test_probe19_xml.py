@@ -8,6 +8,10 @@ Findings, each with its test below:
   ``default=""``, which BT.CPP takes for no default: every call of that subtree that
   left the parameter out was refused by BT.CPP ("is defining a mandatory port ...
   but you are not remapping it");
+- a file in which another tree calls the main tree (main_tree_to_execute), as
+  docs/interop.md suggests for running an exported tree in BT.CPP with its defaults
+  (``<BehaviorTree ID="run"><SubTree ID="bend_2"/></BehaviorTree>``), was refused by
+  import, validate and run with "no subtree named 'bend_2'", a tree the file has;
 """
 
 from __future__ import annotations
@@ -82,3 +86,42 @@ def test_bt_cpp_builds_a_call_that_leaves_an_empty_default_out(
     )
     assert result.returncode == 0, result.stdout + result.stderr
     capsys.readouterr()
+
+
+_CALLED_MAIN = (
+    '<root BTCPP_format="4" main_tree_to_execute="M">'
+    '<BehaviorTree ID="M"><Sequence name="main">{body}</Sequence></BehaviorTree>'
+    '<BehaviorTree ID="run"><SubTree ID="M" name="the main tree"/></BehaviorTree>'
+    "</root>\n"
+)
+
+
+def test_a_main_tree_another_tree_calls_is_imported_as_root_and_as_subtree(
+    tmp_path: Path, capsys: Any
+) -> None:
+    source = tmp_path / "called.xml"
+    source.write_text(_CALLED_MAIN.format(body='<AlwaysSuccess name="ok"/>'), encoding="utf-8")
+    out = tmp_path / "called.yaml"
+    assert main(["import", "btcpp", str(source), "-o", str(out)]) == 0
+    assert "no subtree named" not in capsys.readouterr().err
+    data = yaml.safe_load(out.read_text(encoding="utf-8"))
+    assert data["name"] == "M"
+    assert data["subtrees"]["M"]["root"] == data["root"]
+    assert data["subtrees"]["run"]["root"] == {
+        "type": "subtree",
+        "name": "the main tree",
+        "ref": "M",
+    }
+    assert main(["validate", str(source)]) == 0
+
+
+def test_a_problem_of_a_called_main_tree_is_reported_once(tmp_path: Path, capsys: Any) -> None:
+    source = tmp_path / "called.xml"
+    body = '<drive velocity="9 m/s" distance="1 m"/>'
+    source.write_text(_CALLED_MAIN.format(body=body), encoding="utf-8")
+    out = tmp_path / "called.yaml"
+    assert main(["import", "btcpp", str(source), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert "called.xml:1:92: drive: velocity: 9000 mm/s is above" in err
+    assert not out.exists()

@@ -64,6 +64,8 @@ class _Importer:
         its element. The mapping is kept (alive) beside its element: a mapping that was
         freed would leave its ``id()`` to a later one, which would then be placed at an
         element it does not come from (:meth:`place`, :meth:`locations`)."""
+        self.called: set[str] = set()
+        """The IDs of the trees a ``<SubTree>`` calls (:meth:`check_cycles`)."""
         self.depth = 0
         """How deep :meth:`node` is (bounded by the loader's MAX_TREE_DEPTH)."""
 
@@ -155,8 +157,8 @@ class _Importer:
         out["root"] = self.node(main_tree.children[0])
         subtrees: dict[str, Any] = {}
         for tree_id, element in self.trees.items():
-            if tree_id == main:
-                continue
+            if tree_id == main and main not in self.called:
+                continue  # a main tree another calls is also a subtree: the YAML's root is none
             body: dict[str, Any] = {}
             self.place(body, element)
             if "_description" in element.attrs:
@@ -231,6 +233,7 @@ class _Importer:
                         f"<SubTree ID={_shown(target)}>: no such <BehaviorTree>"
                         + _suggest(target, list(self.trees))
                     )
+                self.called.add(target)
                 if state.get(target) == 1:
                     loop = " -> ".join([*chain[chain.index(target) :], target])
                     raise element.error(f"recursive subtree: {loop}")

@@ -45,9 +45,12 @@ def _in_xml(
     where: dict[tuple[str | int, ...], SourceLocation],
 ) -> list[LocatedError]:
     """The loader's errors about the converted YAML, each at the XML element it came
-    from (the element of the node, subtree or parameter the YAML place is part of)."""
+    from (the element of the node, subtree or parameter the YAML place is part of),
+    each once: a main tree another tree calls is in the YAML twice, as its root and as
+    a subtree, and its problems are found at the same elements twice."""
     place = _placer(yaml_file, where)
-    return [place(error) for error in errors]
+    placed = (place(error) for error in errors)
+    return list({str(error): error for error in placed}.values())
 
 
 def _placer(
