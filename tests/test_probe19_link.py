@@ -7,13 +7,33 @@ Each test pins a bug a user saw, fixed here.
 
 from __future__ import annotations
 
-from session_wire import CODEC, CONFIG, ROBOT, reply
+import dataclasses
+import math
+import re
 
-from pirate_bt.clock import WallClock
+import pytest
+from session_wire import CODEC, CONFIG, LAYOUT, ROBOT, Wire, reply
+
+import pirate_bt
+from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import FrameError
-from pirate_bt.link.codec import Ack, BridgeFlags, FrameDecoder, Heartbeat, Hello, MsgType
+from pirate_bt.link import opening
+from pirate_bt.link.codec import (
+    Ack,
+    BridgeFlags,
+    FrameDecoder,
+    Heartbeat,
+    Hello,
+    MsgType,
+    State,
+)
+from pirate_bt.link.framing import cobs_decode
 from pirate_bt.link.opening import wrap_link
+from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.testing import MemoryLink, memory_pair
+from pirate_bt.link.transport import ByteLink
+
+ZERO = tuple(c.conversion.zero_raw for c in ROBOT.state_channels())
 
 
 class _LatchedBridge:
@@ -64,3 +84,92 @@ def test_a_link_with_a_reader_thread_says_why_the_latch_was_kept() -> None:
         assert health.latch_kept == "latched in an earlier session (reset it)"
     finally:
         link.session.close()
+
+
+# -- a line that repeats the held STATE ------------------------------------------------------
+
+
+class _Repeater:
+    """A line that, from ``after_s`` of clock time on, delivers none of the bridge's bytes
+    but the last STATE frame it passed, again and again, one a state period (a serial
+    adapter or relay stuck re-sending its buffer). The host's bytes go through."""
+
+    def __init__(self, inner: ByteLink, _spec: object, clock: Clock, after_s: float = 2.0) -> None:
+        self.inner, self.clock = inner, clock
+        self._after_s = clock.now() + after_s
+        self._pending = b""
+        self._state = b""
+        self._next_s = math.inf
+
+    @property
+    def baud(self) -> int:
+        return self.inner.baud
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def read_available(self) -> bytes:
+        data, now = self.inner.read_available(), self.clock.now()
+        if now < self._after_s:
+            *frames, self._pending = (self._pending + data).split(b"\x00")
+            for frame in frames:
+                if frame and cobs_decode(frame)[1] == MsgType.STATE:
+                    self._state = frame + b"\x00"
+            return data
+        copies = 0
+        self._next_s = min(self._next_s, now)
+        while self._next_s <= now:
+            self._next_s += ROBOT.bridge.state_period
+            copies += 1
+        return self._state * copies
+
+    def drain_input(self) -> int:
+        return self.inner.drain_input()
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def test_a_line_that_repeats_the_held_state_is_not_taken_for_a_resync() -> None:
+    """A `STATE` frame repeated on the line (the very frame the host holds, the same seq)
+    is dropped as not newer; after ten in a row over an ack timeout the host "resynchronised"
+    on it (*10 STATEs in a row not newer than seq 196: resynchronised on seq 196*), as if
+    the held frame were a damaged one from the future, stamped it as just arrived and
+    forgot the frames it had refused, again every eleven frames."""
+    wire = Wire(hello=reply())
+    link = RobotLink(ROBOT, wire.session)
+    frame = State(
+        5, BridgeFlags.NONE, 0, (1 << LAYOUT.n_channels) - 1, (1,) * LAYOUT.n_boards, ZERO
+    )
+    wire.answer(frame)
+    wire.poll(0.01)
+    arrived = wire.session.latest_state()
+    assert arrived is not None
+    for _ in range(40):  # 0.4 s of the same frame, one a state period
+        wire.answer(frame)
+        wire.poll(0.01)
+    assert wire.session.latest_state() == arrived  # not taken again, nor re-stamped
+    assert link.health().states_refused == (("out of sequence", 40),)
+    wire.answer(dataclasses.replace(frame, seq=6))  # a new one is taken at once
+    wire.poll(0.01)
+    assert link.state() is not None and link.health().states_refused == ()
+
+
+def test_a_run_on_a_line_that_repeats_the_held_state_says_so(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The run then stopped on *link_silent: no state frame from the bridge for 0.150 s
+    (the last frame heard, 0.000 s ago, held no state)*: the resync had cleared the count
+    of refused frames, and the why said the frames heard held no state, where each held
+    the same old one."""
+    monkeypatch.setattr(opening, "FaultyLink", _Repeater)  # the line, for faults= below
+    result = pirate_bt.simulate_tree(
+        "straight", network="straight", params={"distance": "1.5 m"}, faults="delay=1us"
+    )
+    assert result.status == "failure"
+    said = re.match(
+        r"link_silent: no state frame taken for 0\.150 s: STATE frames arrived but all (\d+)"
+        r" were refused \((\d+) out of sequence\), so its readings are stale: ",
+        result.why,
+    )
+    assert said is not None and said[1] == said[2], result.why

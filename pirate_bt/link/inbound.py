@@ -492,9 +492,12 @@ class InboundMixin:
             # coming for an ack timeout tell a far-ahead held frame. Old ones that come
             # in a burst (a relay that held back or replays a stretch of traffic) are
             # dropped however many: taking the eleventh made every later one "newer".
+            # The held frame itself again (a relay or adapter that repeats it) is never
+            # one to resynchronise on: taken, it hid that no new STATE came.
             if (
                 self._old_state_run <= OLD_STATES_BEFORE_RESYNC
                 or now - self._old_run_from_s < self.config.ack_timeout_s
+                or item.seq == last.seq
             ):
                 self.duplicates += 1
                 crc, length, old = self._refused
