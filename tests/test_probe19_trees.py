@@ -5,6 +5,10 @@
   ``{state: link.healthy, value: maybe}`` never held (and ``value: 1`` held as true),
   and ``{state: imu.pitch, value: true}`` held when the pitch was exactly 1 rad (a
   boolean is the number 1); ``check_blackboard`` already refused a boolean with a unit.
+- Sibling names ``grip`` and ``grip `` (a trailing space), `` grip`` or ``grip`` + U+00A0
+  (a no-break space) loaded as two siblings that look the same wherever a name is shown,
+  and a name holding U+2028 (``"a\\Lb"`` in double quotes) broke the node's path over
+  two lines in the log and ``trace show``.
 """
 
 from __future__ import annotations
@@ -71,4 +75,32 @@ def test_a_guard_comparison_that_cannot_mean_anything_is_refused(
         " write it with its unit",
         f"{t}:25:19: failure_if: value: false is a boolean, but a quantity (length) is"
         " compared: write it with its unit",
+    ]
+
+
+def test_a_name_with_an_edge_space_or_an_odd_space_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        'name: "patrol "\n'
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: success, name: grip}\n"
+        '    - {type: success, name: "grip "}\n'
+        '    - {type: success, name: " grip"}\n'
+        '    - {type: success, name: "grip\\_x"}\n'
+        '    - {type: success, name: "a\\Lb"}\n'
+        '    - {type: success, name: "clamp front"}\n'
+    )
+    t = tree
+    edge = "name: must not begin or end with a space (two names would look alike)"
+    odd = "(a space other than ' ', or a line break: two names would look alike)"
+    assert _validate(capsys, tree) == [
+        f"{t}:1:1: {edge}",
+        f"{t}:6:23: {edge}",
+        f"{t}:7:23: {edge}",
+        f"{t}:8:23: name: must not contain U+00A0 NO-BREAK SPACE {odd}",
+        f"{t}:9:23: name: must not contain U+2028 LINE SEPARATOR {odd}",
     ]

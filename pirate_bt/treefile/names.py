@@ -35,6 +35,14 @@ def name_problem(name: object) -> str | None:
         return "name: must not contain '/' (used in node paths)"
     if any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
         return "name: must not contain control characters"
+    if name != name.strip():  # 'grip' and 'grip ' are shown alike
+        return "name: must not begin or end with a space (two names would look alike)"
+    odd = next((c for c in name if unicodedata.category(c) in _SPACES and c != " "), None)
+    if odd is not None:  # a no-break space looks like a space; U+2028 breaks the line
+        return (
+            f"name: must not contain U+{ord(odd):04X} {unicodedata.name(odd, '')}"
+            " (a space other than ' ', or a line break: two names would look alike)"
+        )
     hidden = next((c for c in name if c in _INVISIBLE), None)
     if hidden is not None:  # 'grip' and 'grip\u200b' would be two names shown alike
         return (
@@ -43,6 +51,9 @@ def name_problem(name: object) -> str | None:
         )
     return None
 
+
+_SPACES = frozenset({"Zs", "Zl", "Zp"})
+"""Unicode's spaces and line and paragraph separators: in a name, only U+0020."""
 
 _INVISIBLE = frozenset(
     "\u00ad\u061c\u180e\u200b\u200e\u200f\u202a\u202b\u202c\u202d\u202e"
