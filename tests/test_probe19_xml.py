@@ -125,3 +125,35 @@ def test_a_problem_of_a_called_main_tree_is_reported_once(tmp_path: Path, capsys
     assert err.count("\n") == 1, err
     assert "called.xml:1:92: drive: velocity: 9000 mm/s is above" in err
     assert not out.exists()
+
+
+def test_the_docs_recipe_to_run_a_main_tree_in_bt_cpp_gives_an_empty_default_at_the_call(
+    checker: Path, tmp_path: Path, capsys: Any
+) -> None:
+    # docs/interop.md said a tree of one's own calling the main tree "takes the
+    # defaults": BT.CPP refuses straight.yaml's distance_key (default "") so called
+    xml = tmp_path / "s.xml"
+    tree = ROOT / "trees" / "straight.yaml"
+    assert main(["export", "btcpp", str(tree), "--param", "distance=1m", "-o", str(xml)]) == 0
+    capsys.readouterr()
+    text = xml.read_text(encoding="utf-8").replace(
+        'main_tree_to_execute="straight"', 'main_tree_to_execute="run"'
+    )
+    page = (ROOT / "docs" / "interop.md").read_text(encoding="utf-8")
+    results = {}
+    for call in ('<SubTree ID="straight"/>', '<SubTree ID="straight" distance_key=""/>'):
+        wrapped = tmp_path / "run.xml"
+        wrapped.write_text(
+            text.replace("</root>", f'<BehaviorTree ID="run">{call}</BehaviorTree></root>'),
+            encoding="utf-8",
+        )
+        results[call] = subprocess.run(
+            [str(checker), str(wrapped)], capture_output=True, text=True, timeout=60, check=False
+        )
+    refused = results['<SubTree ID="straight"/>']
+    assert refused.returncode != 0
+    said = "is defining a mandatory port called [distance_key], but you are not remapping it"
+    assert said in refused.stdout + refused.stderr
+    assert results['<SubTree ID="straight" distance_key=""/>'].returncode == 0
+    assert '`<SubTree ID="straight" distance_key=""/>`' in " ".join(page.split())
+    assert f"*{said}*" in " ".join(page.split())
