@@ -6,15 +6,18 @@ Each test names what a user saw before its fix.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError
+from pirate_bt.link.codec import FrameCodec
+from pirate_bt.link.messages import EStopReset, Hello, Setpoint
 from pirate_bt.pipes import Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
-from pirate_bt.sim import Simulator
+from pirate_bt.sim import SimCounters, Simulator
 from pirate_bt.sim.script import ModelSink, ScriptedDrive
 
 ROBOT = load_robot()
@@ -139,3 +142,25 @@ def test_a_scripted_drive_refuses_what_is_no_simulator_or_sink() -> None:
         with pytest.raises(ArgumentTypeError, match=r"^sink: give a CommandSink"):
             ScriptedDrive(sim, sim)  # type: ignore[arg-type]
         ScriptedDrive(sim, ModelSink(sim), speed_mps=0.1, steer_rad=math.pi)  # the limits
+
+
+# -- what frames_dropped counts ----------------------------------------------------------
+
+
+def test_a_request_for_a_rebooting_board_is_rejected_not_dropped() -> None:
+    # docs/simulator.md and SimCounters said frames_dropped counted the frames 'lost to
+    # link loss or a rebooting board': the bridge NACKs such a request (BUS_ERROR), a
+    # rejected frame, and nothing but a link loss drops one
+    codec = FrameCodec.for_robot(ROBOT)
+    with Simulator("straight", ROBOT, faults="board_reset:22@1s") as sim:
+        sim.write(codec.encode(Hello(1, codec.layout.digest)))
+        sim.write(codec.encode(EStopReset(2)))
+        sim.advance_to(1.1)
+        sim.write(codec.encode(Setpoint(3, 22, 1, ControlMode.VELOCITY, 0)))  # bend_1_drive
+        counters = sim.counters()
+        assert (counters.frames_rejected, counters.frames_dropped) == (1, 0)
+    page = (Path(__file__).parent.parent / "docs" / "simulator.md").read_text(encoding="utf-8")
+    said = page[page.index("`frames_dropped` (") :].split(")", 1)[0]
+    assert "link_loss" in said and "board_reset" in said and "rejected" in said
+    assert SimCounters.__doc__ is not None
+    assert "resetting board." not in SimCounters.__doc__

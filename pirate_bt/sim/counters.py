@@ -59,7 +59,8 @@ class SimCounters:
         slide_m: Distance slid back while unclamped.
         frames_received: Intact frames decoded from the host.
         frames_rejected: Frames refused: bad CRC or framing, or NACKed requests.
-        frames_dropped: Host frames lost to an injected link loss or a resetting board.
+        frames_dropped: Host frames lost to an injected link loss (a request for a board
+            in ``board_reset`` is refused, ``NACK BUS_ERROR``: in ``frames_rejected``).
         commands_executed: Motor setpoints applied to the model.
         state_frames_sent: STATE frames sent to the host.
         watchdog_trips: Times the bridge watchdog stopped the drives.
