@@ -164,3 +164,26 @@ def test_a_request_for_a_rebooting_board_is_rejected_not_dropped() -> None:
     assert "link_loss" in said and "board_reset" in said and "rejected" in said
     assert SimCounters.__doc__ is not None
     assert "resetting board." not in SimCounters.__doc__
+
+
+# -- where a slide stops -----------------------------------------------------------------
+
+
+def test_a_slide_down_a_riser_stops_at_its_foot_as_the_page_says() -> None:
+    # docs/simulator.md said a slide 'only stops at the path's ends': down riser.yaml's
+    # riser it stops where the rotational module's slope is gentle, across the foot bend
+    with Simulator("riser", ROBOT, start_m=3.5) as sim:
+        for joint in ("bend_3_joint", "bend_4_joint"):
+            sim.model.command(MotorCommand(joint, ControlMode.TORQUE, 0.7))
+        sim.advance_to(3.0)
+        sim.schedule("board_fault:26@3s")  # the rear clamp's power off, for good
+        sim.advance_to(20.0)
+        truth = sim.truth()
+        assert not truth.sliding and truth.velocity_mps == 0.0
+        assert sim.model.length_m < truth.front_m < sim.model.path.length_m
+        assert truth.module_segment["front"] == "riser"
+        assert truth.module_segment["rotational"] == "foot"
+        assert dict(sim.counters().violations) == {"sliding": 1}
+    page = (Path(__file__).parent.parent / "docs" / "simulator.md").read_text(encoding="utf-8")
+    assert "it only stops at the path's ends" not in page
+    assert "at the foot of `riser.yaml`'s riser it lies across the" in page

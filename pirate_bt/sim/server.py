@@ -53,7 +53,7 @@ def end_state(sim: Simulator) -> str:
             commanded.append(f"{motor.name} {setpoint.mode.value} {setpoint.value:g}")
     if truth.sliding and truth.velocity_mps:
         motion = f"robot sliding at {truth.velocity_mps:.3f} m/s"
-    elif truth.sliding:  # a slide stops only at the path's ends (docs/simulator.md)
+    elif truth.sliding:  # sliding, not moving: held at the path's ends (docs/simulator.md)
         entry = truth.front_m <= sim.model.length_m + 1e-9
         where = (
             "back out of the pipe's entry (the simulator keeps it there)"
