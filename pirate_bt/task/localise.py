@@ -55,6 +55,7 @@ from collections.abc import Callable
 from pirate_bt.pipes.network import Piece, PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
+from pirate_bt.task.blocked_why import blocked_mismatch
 from pirate_bt.task.fixes import (
     Disagreement,
     Fix,
@@ -435,18 +436,11 @@ class Localiser:
             self._cut_short(time_s, cut, near[0] if near else None, reach)
             return
         after = after_fix(self.fixes, self.since_fix_m, self.plan.path, self.belief_m)
-        self.mismatch = (
-            f"belief and map disagree: the pipe blocked the robot at {front:.2f} m"
-            f" (believed{after}), where the map has no turn and no end within {reach:.2f} m"
-        )
         last = self.fixes[-1].feature if self.fixes else None
         kinds = {p.kind for p in self.plan.path.pieces if p.segment == last}
-        if kinds == {PieceKind.TEE}:  # a tee the route goes straight through (not into its branch)
-            self.mismatch += (
-                f"; {last!r} was passed straight through: are its main and branch swapped"
-                " in the ground (the way on leading into the branch)?"
-            )
+        through = last if kinds == {PieceKind.TEE} else None  # a tee passed straight through
         turn = self._next_turn()
+        self.mismatch = blocked_mismatch(front, after, reach, through, (turn, end_m))
         self._disagree(
             time_s,
             turn,

@@ -1,0 +1,66 @@
+"""The nineteenth probe of missions on a pipe as built, not as drawn (docs/missions.md,
+docs/navigators.md, docs/networks.md), each test written from what a user saw.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pirate_bt
+from pirate_bt.pipes import Network, network_from_data
+
+
+def _net(name: str, *segments: dict[str, Any], **top: Any) -> Network:
+    data = {"name": name, "diameter": "63 mm", "segments": list(segments), **top}
+    return network_from_data(data)
+
+
+def _route(tmp_path: Path, text: str) -> str:
+    path = tmp_path / "probe.route"
+    path.write_text("network drawn\n" + text, encoding="utf-8")
+    return str(path)
+
+
+def test_a_block_short_of_the_routes_bend_names_the_maps_next_turn(tmp_path: Path) -> None:
+    # 'a' built 30 % shorter than drawn: the leg up to the bend is blocked at the real
+    # bend, 0.90 m before the map's, beyond the matcher's reach. The why said only
+    # "where the map has no turn and no end within 0.86 m", though the route's next
+    # command turns at the map's bend 'b', drawn 0.90 m further on.
+    drawn = _net(
+        "drawn",
+        {"id": "a", "type": "straight", "length": "3 m"},
+        {"id": "b", "type": "bend", "direction": "right"},
+        {"id": "c", "type": "straight", "length": "3 m"},
+    )
+    built = _net(
+        "built",
+        {"id": "a", "type": "straight", "length": "2.1 m"},
+        {"id": "b", "type": "bend", "direction": "right"},
+        {"id": "c", "type": "straight", "length": "2.1 m"},
+    )
+    route = _route(tmp_path, "at the bend turn right\nforward to the end\n")
+    result = pirate_bt.simulate_mission(route, network=drawn, truth=built)
+    assert result.status == "failure" and result.safe_state
+    assert result.counters.violations == 0
+    assert result.why.startswith(
+        "belief and map disagree: the pipe blocked the robot at 2.10 m (believed, 2.10 m"
+        " into 'a'), where the map has no turn and no end within"
+    ), result.why
+    assert result.why.endswith(
+        "; the map's next turn, 'b', is drawn 0.90 m further on (at 3.00 m): is the pipe"
+        " before it shorter than drawn, or does it turn or end where the map does not have it?"
+    ), result.why
+
+
+def test_a_block_with_no_turn_ahead_names_the_maps_end_of_the_line(tmp_path: Path) -> None:
+    # a cap 2 m in, where the map draws 4 m of straight: 'forward 3 m' is blocked there
+    drawn = _net("drawn", {"id": "a", "type": "straight", "length": "4 m"})
+    built = _net("built", {"id": "a", "type": "straight", "length": "2 m"})
+    route = _route(tmp_path, "forward 3 m\n")
+    result = pirate_bt.simulate_mission(route, network=drawn, truth=built)
+    assert result.status == "failure" and result.safe_state
+    assert result.why.endswith(
+        "; the map's line ends 2.00 m further on (at 4.00 m): does the pipe end nearer than"
+        " drawn, or turn where the map does not have it?"
+    ), result.why
