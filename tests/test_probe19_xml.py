@@ -157,3 +157,51 @@ def test_the_docs_recipe_to_run_a_main_tree_in_bt_cpp_gives_an_empty_default_at_
     assert results['<SubTree ID="straight" distance_key=""/>'].returncode == 0
     assert '`<SubTree ID="straight" distance_key=""/>`' in " ".join(page.split())
     assert f"*{said}*" in " ".join(page.split())
+
+
+_POINTERS = (
+    '<root BTCPP_format="4" main_tree_to_execute="M">'
+    '<BehaviorTree ID="M"><Sequence>'
+    '<drive velocity="80 mm/s" distance=" {d} "/>'
+    '<drive velocity="80 mm/s" distance="="/>'
+    '<SubTree ID="A" msg="="/>'
+    "</Sequence></BehaviorTree>"
+    '<BehaviorTree ID="A"><log message="{msg}"/></BehaviorTree>'
+    "<TreeNodesModel>"
+    '<SubTree ID="M"><input_port name="d" type="length" default="1 m"/>'
+    '<input_port name="distance" type="length" default="2 m"/></SubTree>'
+    '<SubTree ID="A"><input_port name="msg" type="string"/></SubTree>'
+    "</TreeNodesModel></root>\n"
+)
+
+
+def test_port_text_bt_cpp_reads_as_a_pointer_is_imported_as_a_parameter(
+    tmp_path: Path, capsys: Any
+) -> None:
+    source = tmp_path / "p.xml"
+    source.write_text(_POINTERS, encoding="utf-8")
+    out = tmp_path / "p.yaml"
+    assert main(["import", "btcpp", str(source), "-o", str(out)]) == 0, capsys.readouterr().err
+    data = yaml.safe_load(out.read_text(encoding="utf-8"))
+    first, second, call = data["root"]["children"]
+    assert first["distance"] == "$d"  # was the text ' {d} ': "not a quantity"
+    assert second["distance"] == "$distance"  # was the text '='
+    assert call["params"] == {"msg": "="}  # a <SubTree>'s "=" is text in BT.CPP too
+
+
+@pytest.mark.parametrize("text", [" {x}", "{x} ", "  {note}  ", "="])
+def test_text_bt_cpp_would_read_as_a_pointer_is_exported_as_text(
+    text: str, tmp_path: Path, capsys: Any
+) -> None:
+    source = tmp_path / "t.yaml"
+    tree = {"name": "t", "root": {"type": "log", "name": "l", "message": text}}
+    source.write_text(yaml.safe_dump(tree), encoding="utf-8")
+    xml, back = tmp_path / "t.xml", tmp_path / "back.yaml"
+    assert main(["export", "btcpp", str(source), "-o", str(xml)]) == 0
+    node = ET.parse(xml).getroot().find("BehaviorTree/log")
+    assert node is not None
+    written = node.attrib["message"]
+    assert written.startswith("json:")
+    assert main(["import", "btcpp", str(xml), "-o", str(back)]) == 0
+    assert yaml.safe_load(back.read_text(encoding="utf-8"))["root"]["message"] == text
+    capsys.readouterr()

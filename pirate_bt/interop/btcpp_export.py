@@ -310,7 +310,9 @@ class _Exporter:
         for key, value in params.items():
             port = model.port(key)
             port_type = port.type if port else "boolean"
-            element.set(renames.get(key, key), self.value(doc, value, port_type))
+            text = self.value(doc, value, port_type)
+            # a node's port "=" is BT.CPP's pointer to the port's own key: the text as JSON
+            element.set(renames.get(key, key), _json(text) if text == "=" else text)
         if "child" in raw:
             element.append(self.node(doc, (*path, "child"), raw["child"]))
         return element

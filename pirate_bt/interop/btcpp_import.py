@@ -463,7 +463,7 @@ class _Importer:
             raise element.error(f'<{tag}> needs {key}, as in BT.CPP (<{tag} {key}="3">)')
         for key, text in ports.items():
             try:
-                value = decode_value(text, "integer", key)
+                value = decode_value(_own_key(text), "integer", key)
             except ValueError as exc:
                 raise element.error(f"{key}: {exc}") from None
             if isinstance(value, int) and value < 1:
@@ -492,7 +492,7 @@ class _Importer:
                     + _suggest(key, [p.name for p in model.ports])
                 )
             try:
-                params[key] = decode_value(text, port.type, key)
+                params[key] = decode_value(_own_key(text), port.type, key)
             except ValueError as exc:
                 raise element.error(f"{kind}: {key}: {exc}") from None
         if kind != "parallel":
@@ -537,6 +537,11 @@ def _port_value(text: str, kind: str, name: str, key: str) -> Any:
             " not another parameter"
         )
     return value
+
+
+def _own_key(text: str) -> str:
+    """A node's port text; ``=`` is BT.CPP's pointer to the port's own key, as ``{=}``."""
+    return "{=}" if text == "=" else text
 
 
 def _has_reference(value: Any) -> bool:

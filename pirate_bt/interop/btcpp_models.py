@@ -377,6 +377,15 @@ def _json_depth(value: Any) -> int:
     return deepest
 
 
+def _pointer(text: str) -> str | None:
+    """The blackboard key ``text`` points to as BT.CPP reads it (its
+    ``isBlackboardPointer``: ``{key}`` with any spaces around it), or None."""
+    inner = text.strip(" ")
+    if len(inner) >= 3 and inner[0] == "{" and inner[-1] == "}":
+        return inner[1:-1]
+    return None
+
+
 def encode_value(value: Any, port_type: str) -> str:
     """A YAML value as BT.CPP port text.
 
@@ -392,6 +401,7 @@ def encode_value(value: Any, port_type: str) -> str:
             value = value[1:]
         if (
             (value.startswith("{") and value.endswith("}"))
+            or _pointer(value)
             or value.startswith("json:")
             or not _xml_safe(value)
         ):
@@ -430,8 +440,9 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
                 f"bad json: value: \\u{ord(half[0]):04x} is half a surrogate pair, not a character"
             )
         return value
-    if len(text) >= 3 and text[0] == "{" and text[-1] == "}":
-        name = port if text == "{=}" else text[1:-1]
+    pointer = _pointer(text)
+    if pointer is not None:
+        name = port if pointer == "=" else pointer
         if not name.isidentifier():
             raise ValueError(
                 f"blackboard pointer {_shown(text)}: pirate_bt parameters are identifiers"
