@@ -187,3 +187,31 @@ def test_a_slide_down_a_riser_stops_at_its_foot_as_the_page_says() -> None:
     page = (Path(__file__).parent.parent / "docs" / "simulator.md").read_text(encoding="utf-8")
     assert "it only stops at the path's ends" not in page
     assert "at the foot of `riser.yaml`'s riser it lies across the" in page
+
+
+# -- a slide names its cause -------------------------------------------------------------
+
+
+def _slide(sim: Simulator) -> str:
+    return next(e.detail for e in sim.events() if e.detail.startswith("sliding:"))
+
+
+def test_a_slide_names_the_joints_that_let_go_and_why() -> None:
+    # a slide's violation said 'sliding: unclamped on a 90 deg slope' whatever let go: a
+    # clamp board's power cut, a clamp too weak, a clamp released
+    sim = _hanging_on_the_rear_clamp()
+    sim.schedule("board_fault:26@3s+0.5s")  # bend_3's H-bridge off: its joint goes limp
+    sim.advance_to(4.0)
+    assert _slide(sim) == (
+        "sliding: unclamped on a 90 deg slope (front: bend_1_joint unpowered at 0.0 deg,"
+        " bend_2_joint unpowered at 0.0 deg; rear: bend_3_joint unpowered at 83.1 deg)"
+    )
+    sim = _hanging_on_the_rear_clamp()
+    sim.model.command(MotorCommand("bend_4_joint", ControlMode.TORQUE, 0.2))  # too weak
+    sim.model.command(MotorCommand("bend_1_joint", ControlMode.POSITION, 0.0))
+    sim.model.command(MotorCommand("bend_2_joint", ControlMode.POSITION, 0.0))
+    sim.advance_to(3.5)
+    assert _slide(sim).endswith(
+        "(front: bend_1_joint free of the wall at 0.0 deg, bend_2_joint free of the wall"
+        " at 0.0 deg; rear: bend_4_joint presses 0.20 N*m (a clamp needs 0.35))"
+    )

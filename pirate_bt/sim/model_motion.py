@@ -46,6 +46,7 @@ class MotionMixin(EventsMixin):
     _drives: list[_Motor]
     _rot_offset: float
     _slope_cache: dict[int, float]
+    _walls: dict[str, float | None]
     _turns_path: Path | None
     _turns: list[Piece]
     _turn_ends: list[float]
@@ -108,7 +109,9 @@ class MotionMixin(EventsMixin):
                 self._tally.slide_m += abs(moved)
                 if not was_sliding:
                     self._violation(
-                        "sliding", f"unclamped on a {math.degrees(slope):.0f} deg slope"
+                        "sliding",
+                        f"unclamped on a {math.degrees(slope):.0f} deg slope"
+                        f" ({self._why_unclamped(front)}; {self._why_unclamped(rear)})",
                     )
             elif any_cmd:
                 self.slipping = True
@@ -154,6 +157,29 @@ class MotionMixin(EventsMixin):
         if (self._tees and moved) or self._tees_path is not self.path:
             self._decide_tees()
         self._drive_feedback(load_ratio, stuck_front or stuck_rear)
+
+    def _why_unclamped(self, half: _Half) -> str:
+        """Why ``half`` holds nothing, joint by joint, for a slide's violation (it said
+        only *unclamped on a 90 deg slope*, not which joint let go, nor why)."""
+        clamp = self.robot.clamp
+        why = []
+        for j in half.joints:
+            wall = self._walls.get(j.name, math.inf)
+            if j.mode is None:
+                why.append(f"{j.name} unpowered at {math.degrees(j.angle_rad):.1f} deg")
+            elif j.stalled:
+                why.append(f"{j.name} stalled")
+            elif wall is None:
+                why.append(f"{j.name} over a tee opening")
+            elif j.press_nm <= 0.0:
+                why.append(f"{j.name} free of the wall at {math.degrees(j.angle_rad):.1f} deg")
+            elif not clamp.holds(j.press_nm):
+                why.append(
+                    f"{j.name} presses {j.press_nm:.2f} N*m (a clamp needs {clamp.min_torque:g})"
+                )
+        if not why:  # every joint presses, but not all on one side
+            why.append("its joints press on both sides")
+        return f"{half.half.value}: {', '.join(why)}"
 
     def _slope_at(self, s_m: float) -> float:
         piece = self.path.piece_at(s_m)
