@@ -9,6 +9,11 @@
   (a no-break space) loaded as two siblings that look the same wherever a name is shown,
   and a name holding U+2028 (``"a\\Lb"`` in double quotes) broke the node's path over
   two lines in the log and ``trace show``.
+- ``<<: [*slow, *fast]`` took ``fast``'s ``duration`` (PyYAML 6.0.4 keeps the first of
+  two merged keys only when their texts are one Python object: a one-letter key, not
+  ``duration``), where YAML's merge and every editor take the first mapping's; and
+  ``<<: [*fast, {duration: 3 deg}]`` was refused with *'3 deg' is an angle* placed at
+  ``fast``'s ``duration: 1 s``.
 """
 
 from __future__ import annotations
@@ -104,3 +109,29 @@ def test_a_name_with_an_edge_space_or_an_odd_space_is_refused(
         f"{t}:8:23: name: must not contain U+00A0 NO-BREAK SPACE {odd}",
         f"{t}:9:23: name: must not contain U+2028 LINE SEPARATOR {odd}",
     ]
+
+
+def test_a_merge_of_two_anchors_takes_the_first_s_value_as_yaml_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pirate_bt.treefile import load_tree
+
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - &slow {type: wait, name: slow, duration: 2 s}\n"
+        "    - &fast {type: wait, name: fast, duration: 1 s}\n"
+        "    - <<: [*slow, *fast]\n"
+        "      name: merged\n"
+        "    - <<: [*fast, {duration: 3 deg}]\n"
+        "      name: first\n"
+        "    - <<: [*slow, *fast]\n"
+        "      name: own\n"
+        "      duration: 4 s\n"
+    )
+    loaded = load_tree(tree)
+    waits = {child.name: child.params.duration for child in loaded.root.children}
+    assert waits == {"slow": 2.0, "fast": 1.0, "merged": 2.0, "first": 1.0, "own": 4.0}
+    assert main(["validate", str(tree)]) == 0

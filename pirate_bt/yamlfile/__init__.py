@@ -38,6 +38,7 @@ import yaml
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.yamlfile.aliases import use_alias_places
+from pirate_bt.yamlfile.merge import SpecMergeLoader
 from pirate_bt.yamlfile.scalars import (
     INT_TAG,
     NOT_JSON,
@@ -159,7 +160,7 @@ def refuse_hidden_break(text: str, name: str, what: str) -> None:
     raise ValidationFailed([LocatedError(message, SourceLocation(name, len(breaks) + 1, column))])
 
 
-_Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_Loader: type[yaml.SafeLoader] = SpecMergeLoader  # libyaml's when there; merges as YAML does
 
 
 @dataclass
