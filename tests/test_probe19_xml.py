@@ -205,3 +205,19 @@ def test_text_bt_cpp_would_read_as_a_pointer_is_exported_as_text(
     assert main(["import", "btcpp", str(xml), "-o", str(back)]) == 0
     assert yaml.safe_load(back.read_text(encoding="utf-8"))["root"]["message"] == text
     capsys.readouterr()
+
+
+def test_a_bad_byte_after_lines_ending_in_cr_is_placed_on_its_line(
+    tmp_path: Path, capsys: Any
+) -> None:
+    text = (
+        '<?xml version="1.0" encoding="Shift_JIS"?>\r<root BTCPP_format="4">\r'
+        '<BehaviorTree ID="M">\r<AlwaysSuccess name="\u65e5"/>\r</BehaviorTree>\r'
+    )
+    source = tmp_path / "cr.xml"
+    source.write_bytes(text.encode("shift_jis") + b"  \x81")
+    out = tmp_path / "cr.yaml"
+    assert main(["import", "btcpp", str(source), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "cr.xml:6:3: not Shift_JIS text, as its XML declaration says (byte 0x81)" in err
+    assert not out.exists()

@@ -135,9 +135,11 @@ _SURROGATE: Final = re.compile("[\ud800-\udfff]")
 
 
 def _at(text: str, end: int, file: str) -> SourceLocation:
-    """The line and column (in characters, as expat counts them) of ``text[end]``."""
-    line_start = text.rfind("\n", 0, end) + 1
-    return SourceLocation(file, text.count("\n", 0, end) + 1, end - line_start + 1)
+    """The line and column (in characters, as expat counts them) of ``text[end]``; a
+    line ends at LF, CR LF or a lone CR, as XML's line ends are."""
+    before = text[:end].replace("\r\n", "\n").replace("\r", "\n")
+    line_start = before.rfind("\n") + 1
+    return SourceLocation(file, before.count("\n") + 1, len(before) - line_start + 1)
 
 
 def _decoded(data: bytes, file: str) -> str | None:
