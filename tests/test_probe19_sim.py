@@ -13,7 +13,7 @@ import pytest
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError
 from pirate_bt.link.codec import FrameCodec
 from pirate_bt.link.messages import EStopReset, Hello, Setpoint
-from pirate_bt.pipes import Network, network_from_data
+from pirate_bt.pipes import FaultSpec, Network, network_from_data
 from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
@@ -215,3 +215,22 @@ def test_a_slide_names_the_joints_that_let_go_and_why() -> None:
         "(front: bend_1_joint free of the wall at 0.0 deg, bend_2_joint free of the wall"
         " at 0.0 deg; rear: bend_4_joint presses 0.20 N*m (a clamp needs 0.35))"
     )
+
+
+# -- one FaultSpec ---------------------------------------------------------------------
+
+
+def test_one_fault_spec_is_one_fault() -> None:
+    # Simulator(faults=FaultSpec(...)) and sim.schedule(FaultSpec(...)) were refused as
+    # 'a fault is text ... or a FaultSpec, not ('kind', 'board_reset')': the spec was
+    # iterated field by field, as a text once was character by character
+    spec = FaultSpec(kind="board_reset", at=1.0, target="22")
+    with Simulator("straight", ROBOT, faults=spec) as sim:
+        sim.schedule(FaultSpec(kind="link_loss", at=2.6, duration=0.2))
+        sim.advance_to(3.0)
+        assert [e.detail for e in sim.events() if e.kind == "fault"] == [
+            "start board_reset 22",
+            "end board_reset 22",
+            "start link_loss",
+            "end link_loss",
+        ]

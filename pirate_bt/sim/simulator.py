@@ -96,9 +96,10 @@ def lookup(name: str) -> Simulator:
 
 
 def _faults_argument(faults: object) -> list[FaultSpec]:
-    """``faults`` as specs: one fault's text, or an iterable of texts and specs (a
-    text was iterated by its characters: ``faults: bad fault 'b'``)."""
-    if isinstance(faults, str):
+    """``faults`` as specs: one fault's text or spec, or an iterable of texts and specs (a
+    text was iterated by its characters: ``faults: bad fault 'b'``; a spec by its fields:
+    *a fault is text ... or a FaultSpec, not ('kind', 'board_reset')*)."""
+    if isinstance(faults, str | FaultSpec):
         faults = [faults]
     if faults is None or isinstance(faults, bytes | Mapping) or not isinstance(faults, Iterable):
         raise ArgumentTypeError(
