@@ -64,3 +64,34 @@ def test_a_block_with_no_turn_ahead_names_the_maps_end_of_the_line(tmp_path: Pat
         "; the map's line ends 2.00 m further on (at 4.00 m): does the pipe end nearer than"
         " drawn, or turn where the map does not have it?"
     ), result.why
+
+
+class _FromFile:
+    """A navigator that says its one step comes from a file whose name has a newline."""
+
+    origin = ("two\nlines.route", 2)
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        return pirate_bt.Step("straight", distance="0.3 m") if obs.step == 0 else None
+
+
+def test_an_origin_with_a_control_character_is_no_origin() -> None:
+    # was: ValidationFailed '<dict>:1:1: name: must not contain control characters' out
+    # of pirate_bt.navigate() itself, after connecting, with no result
+    result = pirate_bt.navigate(_FromFile(), sim="straight", map="straight")
+    assert result.status == "success", result.why
+    assert [p.label for p in result.pabs] == ["01 straight 0.3 m (line 1)"]
+
+
+class _LineTrue:
+    origin = ("f.route", True)
+
+    def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+        return pirate_bt.Step("bend", direction="left")
+
+
+def test_an_origin_whose_line_is_a_bool_is_no_origin() -> None:
+    # was: placed at 'f.route:1:1', True taken for line 1
+    result = pirate_bt.navigate(_LineTrue(), sim="bend-right", map="bend-right")
+    assert result.status == "failure" and result.safe_state
+    assert "invalid step Step('bend', direction='left'): <navigator _LineTrue>:1:1:" in result.why

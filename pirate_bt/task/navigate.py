@@ -130,13 +130,19 @@ def _odometer(counters: Callable[[], Any] | None) -> float | None:
 
 def _origin(navigator: object, index: int) -> tuple[str | None, int]:
     """Where the navigator says its last step comes from (``origin``: a file and a line,
-    as the route navigator keeps it), else ``None`` and the step's number."""
+    as the route navigator keeps it), else ``None`` and the step's number. A file name
+    that cannot be one line of a place (empty, or with a control character: it ended the
+    navigation with a bare ``ValidationFailed`` when its step's tree was named after it)
+    or a line that is a bool is no origin."""
     origin = getattr(navigator, "origin", None)
     if (
         isinstance(origin, tuple)
         and len(origin) == 2
         and isinstance(origin[0], str)
+        and origin[0].isprintable()
+        and origin[0].strip() != ""
         and isinstance(origin[1], int)
+        and not isinstance(origin[1], bool)
         and 0 < origin[1] <= 1_000_000
     ):
         return origin[0], origin[1]
