@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from pirate_bt.errors import ArgumentTypeError, ArgumentValueError
+from pirate_bt.api.fault_text import split_faults
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError
 from pirate_bt.link.codec import FrameCodec
 from pirate_bt.link.messages import EStopReset, Hello, Setpoint
 from pirate_bt.pipes import FaultSpec, Network, network_from_data
@@ -234,3 +235,14 @@ def test_one_fault_spec_is_one_fault() -> None:
             "start link_loss",
             "end link_loss",
         ]
+
+
+def test_the_api_names_a_fault_spec_given_for_fault_text() -> None:
+    # split_faults (simulate_tree's faults=) said 'faults: each item is text, not a tuple'
+    # for one FaultSpec: it was read field by field
+    with pytest.raises(InputError) as refused:
+        split_faults(FaultSpec(kind="board_reset", at=1.0, target="22"))
+    assert str(refused.value).endswith("not a FaultSpec (write it as text: 'board_reset:22@1s')")
+    with pytest.raises(InputError, match=r"each item is text, not a FaultSpec \(write it"):
+        split_faults([FaultSpec(kind="link_loss", at=1.5, duration=0.25)])
+    assert split_faults("link_loss@1.5s+0.25s") == (["link_loss@1.5s+0.25s"], None)

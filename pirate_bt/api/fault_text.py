@@ -61,18 +61,22 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
             run checks its options, not when the link opens (a mission's output folder
             was made by then, and ``pirate-bt demo`` had drawn the robot).
     """
+    from pirate_bt.pipes import FaultSpec
+
     items: list[str] = []
     if isinstance(faults, str):
         items = [item for _, item in fault_items(faults)]
     elif faults is not None:
-        if isinstance(faults, bytes | bytearray | Mapping) or not isinstance(faults, Iterable):
+        if isinstance(faults, bytes | bytearray | Mapping | FaultSpec) or not isinstance(
+            faults, Iterable
+        ):  # a FaultSpec is iterable (its fields): it was 'each item is text, not a tuple'
             raise InputError(
                 "faults: give text ('drop=0.05,motor_stall:bend_3_drive@5s') or a list of"
-                f" texts, not {kind_of(faults)}"
+                f" texts, not {kind_of(faults)}{_as_text(faults)}"
             )
         for part in faults:
             if not isinstance(part, str):
-                raise InputError(f"faults: each item is text, not {kind_of(part)}")
+                raise InputError(f"faults: each item is text, not {kind_of(part)}{_as_text(part)}")
             items += [item for _, item in fault_items(part)]
     if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
         raise InputError(
@@ -85,6 +89,17 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
 
         parse_fault_spec(",".join(link))
     return sim, (",".join(link) or None)
+
+
+def _as_text(value: object) -> str:
+    """For a ``FaultSpec`` given where its text is wanted, that text as a hint."""
+    from pirate_bt.pipes import FaultSpec
+
+    if not isinstance(value, FaultSpec):
+        return ""
+    from pirate_bt.sim.faults import format_fault
+
+    return f" (write it as text: {format_fault(value)!r})"
 
 
 def check_link_faults(spec: str, option: str = "faults") -> None:
