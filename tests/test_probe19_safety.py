@@ -5,12 +5,15 @@ Each test pins a bug a user saw, fixed here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
 import pirate_bt
 from pirate_bt.api import Connection
+from pirate_bt.errors import InputError
 from pirate_bt.robot import Half
 from pirate_bt.safety import Drive, Outcome, Reason, operator
 from pirate_bt.safety.factory import open_supervisor
@@ -90,5 +93,48 @@ def test_a_change_between_autonomous_and_supervised_does_not_resume(start: str, 
         sup.apply(operator.SafeStop("again"))
         sup.apply(operator.Resume())
         assert not sup.in_safe_state
+    finally:
+        sup.close()
+
+
+# -- a scripted operator's times and ticks ------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("script", "said"),
+    [
+        ({"at_time": [("0.2 s", operator.EStop())]}, None),
+        ({"at_time": [(None, operator.EStop())]}, "at_time: expected a time quantity"),
+        (
+            {"at_time": [(math.nan, operator.EStop()), (0.2, operator.SetMode("manual"))]},
+            "at_time: nan is not a finite number",
+        ),
+        (
+            {"at_tick": [(math.nan, operator.EStop()), (2, operator.SetMode("manual"))]},
+            "at_tick: nan is not a tick number (a whole number)",
+        ),
+        ({"at_tick": [("2", operator.EStop())]}, "at_tick: '2' is not a tick number"),
+        ({"at_tick": [operator.EStop()]}, "at_tick: not a (when, action) pair: EStop("),
+    ],
+)
+def test_a_scripted_operator_checks_its_schedule(script: dict[str, Any], said: str | None) -> None:
+    """`ScriptedOperator(at_time=[("0.2 s", EStop())])` (a time as text, as a run's
+    `max_time` takes it) or a time of `None` raised `TypeError: '<=' not supported ...`
+    out of every `supervisor.tick()`, ending a run on an internal error; a NaN time or
+    tick sorted ahead held back every action after it, so a takeover scripted for 0.2 s
+    never came, without a word. A time as text is now read as a time; anything that is
+    no finite time, no whole tick or no pair is one line at construction."""
+    if said is not None:
+        with pytest.raises(InputError) as caught:
+            operator.ScriptedOperator(**script)
+        assert str(caught.value).startswith(said), caught.value
+        assert "\n" not in str(caught.value)
+        return
+    sup = open_supervisor(network="straight", inputs=[operator.ScriptedOperator(**script)])
+    try:
+        for _ in range(3):
+            sup.clock.sleep(0.1)
+            sup.tick()
+        assert sup.mode is Mode.ESTOP
     finally:
         sup.close()

@@ -25,12 +25,15 @@ the terminal teleop (``pirate-bt teleop``) is another.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Protocol, runtime_checkable
 
+from pirate_bt.errors import InputError
 from pirate_bt.safety.commands import Command
+from pirate_bt.units import parse_quantity
 
 __all__ = [
     "Confirm",
@@ -144,8 +147,15 @@ class ScriptedOperator:
     """Operator actions scheduled by tick number or by clock time.
 
     Args:
-        at_tick: ``(tick, action)`` pairs; an action is due at the start of that tick.
-        at_time: ``(time_s, action)`` pairs; due at the first tick at or after that time.
+        at_tick: ``(tick, action)`` pairs; an action is due at the start of that tick
+            (a whole number).
+        at_time: ``(time, action)`` pairs; due at the first tick at or after that time
+            (seconds, or a time as text: ``"5 s"``).
+
+    Raises:
+        InputError: a pair that is none, a tick that is no whole number or a time that
+            is no finite time (checked here: a time as text raised ``TypeError`` out of
+            every supervisor tick, and a NaN held back every action after it).
 
     Example:
         >>> from pirate_bt.safety.operator import Mode, ScriptedOperator, SetMode
@@ -159,8 +169,10 @@ class ScriptedOperator:
         at_tick: Iterable[tuple[int, OperatorAction]] = (),
         at_time: Iterable[tuple[float, OperatorAction]] = (),
     ) -> None:
-        self._by_tick = sorted(at_tick, key=lambda p: p[0])
-        self._by_time = sorted(at_time, key=lambda p: p[0])
+        ticks = [(_tick(tick), action) for tick, action in _pairs(at_tick, "at_tick")]
+        times = [(_time(when), action) for when, action in _pairs(at_time, "at_time")]
+        self._by_tick = sorted(ticks, key=lambda p: p[0])
+        self._by_time = sorted(times, key=lambda p: p[0])
         self._queue: list[OperatorAction] = []
 
     def push(self, action: OperatorAction) -> None:
@@ -181,3 +193,26 @@ class ScriptedOperator:
     def exhausted(self) -> bool:
         """True when every scripted action has been handed out."""
         return not (self._by_tick or self._by_time or self._queue)
+
+
+def _pairs(items: Iterable[object], name: str) -> list[tuple[object, OperatorAction]]:
+    """``items`` as ``(when, action)`` pairs, or a one-line :class:`InputError`."""
+    pairs: list[tuple[object, OperatorAction]] = []
+    for item in items:
+        if not isinstance(item, tuple | list) or len(item) != 2:
+            raise InputError(f"{name}: not a (when, action) pair: {item!r}"[:200])
+        pairs.append((item[0], item[1]))
+    return pairs
+
+
+def _tick(value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(f"at_tick: {value!r} is not a tick number (a whole number)"[:200])
+    return int(value)
+
+
+def _time(value: object) -> float:
+    try:
+        return parse_quantity(value, "time", require_unit=False)
+    except InputError as exc:
+        raise InputError(f"at_time: {exc}"[:200]) from None
