@@ -14,6 +14,8 @@
   ``duration``), where YAML's merge and every editor take the first mapping's; and
   ``<<: [*fast, {duration: 3 deg}]`` was refused with *'3 deg' is an angle* placed at
   ``fast``'s ``duration: 1 s``.
+- A subtree call whose ``ref`` is no name (``ref: [a.yaml]``, ``ref: ''``, ``ref: 5``)
+  was told *subtree needs a 'ref'*, beside the ``ref`` it has.
 """
 
 from __future__ import annotations
@@ -135,3 +137,22 @@ def test_a_merge_of_two_anchors_takes_the_first_s_value_as_yaml_does(
     waits = {child.name: child.params.duration for child in loaded.root.children}
     assert waits == {"slow": 2.0, "fast": 1.0, "merged": 2.0, "first": 1.0, "own": 4.0}
     assert main(["validate", str(tree)]) == 0
+
+
+@pytest.mark.parametrize(
+    ("ref", "written"),
+    [
+        ("[a.yaml]", "a list"),
+        ("''", "empty"),
+        ("5", "5 (a number: quote a name)"),
+        ("{file: a.yaml}", "a mapping"),
+    ],
+)
+def test_a_ref_that_is_no_name_is_said_so_not_missing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], ref: str, written: str
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(f"root: {{type: subtree, ref: {ref}}}\n")
+    assert _validate(capsys, tree) == [
+        f"{tree}:1:23: ref: must be a subtree's name, FILE.yaml or FILE.yaml#NAME, not {written}"
+    ]

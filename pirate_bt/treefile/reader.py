@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
-from pirate_bt.errors import SourceLocation
+from pirate_bt.errors import SourceLocation, shown
 from pirate_bt.treefile.header import _Env as _Env  # the loader's, kept importable here
 from pirate_bt.treefile.header import _FileReader, _Names, misspelt
 from pirate_bt.treefile.names import (
@@ -380,7 +380,7 @@ class _Reader(_FileReader):
         if self.blank(doc, ref):
             return None  # YAML refused it (said there): which tree is meant is unknown
         if not isinstance(ref, str) or not ref:
-            self.error(doc, (*path, "ref") if "ref" in raw else path, "subtree needs a 'ref'")
+            self.error(doc, (*path, "ref") if "ref" in raw else path, _ref_problem(raw))
             return None
         file_part, hash_sign, tree_name = ref.partition("#")
         own = doc.data.get("subtrees") if isinstance(doc.data, dict) else None
@@ -492,3 +492,20 @@ _NOT_SUBSTITUTED = " (type, name and ref take no $parameter: they are written as
 def _dollar(text: object) -> bool:
     """Whether ``text`` looks like a ``$parameter`` (not the literal ``$$``)."""
     return isinstance(text, str) and text.startswith("$") and not text.startswith("$$")
+
+
+def _ref_problem(raw: Mapping[str, Any]) -> str:
+    """What is wrong with a subtree call's ``ref`` that is no text or empty: it was
+    *subtree needs a 'ref'* beside a ``ref: [a.yaml]`` the file has."""
+    if "ref" not in raw:
+        return "subtree needs a 'ref'"
+    ref = raw["ref"]
+    if ref is None or ref == "":
+        written = "empty"
+    elif isinstance(ref, list | dict):
+        written = "a list" if isinstance(ref, list) else "a mapping"
+    else:
+        written = str(ref).lower() if isinstance(ref, bool) else shown(ref)
+        if isinstance(ref, int | float) and not isinstance(ref, bool):
+            written += " (a number: quote a name)"
+    return f"ref: must be a subtree's name, FILE.yaml or FILE.yaml#NAME, not {written}"
