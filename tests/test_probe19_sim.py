@@ -246,3 +246,24 @@ def test_the_api_names_a_fault_spec_given_for_fault_text() -> None:
     with pytest.raises(InputError, match=r"each item is text, not a FaultSpec \(write it"):
         split_faults([FaultSpec(kind="link_loss", at=1.5, duration=0.25)])
     assert split_faults("link_loss@1.5s+0.25s") == (["link_loss@1.5s+0.25s"], None)
+
+
+# -- one board, two spellings ------------------------------------------------------------
+
+
+def test_two_resets_of_one_board_by_two_spellings_are_one_fault() -> None:
+    # '026' is board 26 (it is taken as such), but board_reset:026@3.2s over
+    # board_reset:26@3s+2s was another fault: its end, at 4.7 s, brought board 26 back
+    # while the first reset still ran to 5 s (the events said 'end board_reset 026')
+    sim = _hanging_on_the_rear_clamp()
+    sim.schedule(["board_reset:26@3s+2s", "board_reset:026@3.2s"])  # to 5 s, to 4.7 s
+    sim.advance_to(4.9)
+    assert not sim.truth().halves[Half.REAR].clamped  # board 26 still down
+    sim.advance_to(5.1)
+    assert sim.truth().halves[Half.REAR].clamped
+    assert [e.detail for e in sim.events() if e.kind == "fault"] == [
+        "start board_reset 26",
+        "start board_reset 26",
+        "end board_reset 26",
+        "end board_reset 26",
+    ]

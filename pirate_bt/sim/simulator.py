@@ -179,17 +179,29 @@ def _too_early(fault: FaultSpec, now_s: float) -> str | None:
     )
 
 
-def _a_step_at_least(fault: FaultSpec, robot: RobotDescription) -> FaultSpec:
-    """``fault`` lasting at least one state period, the world's step: a shorter one
-    (``board_reset:26@3s+1ms``) started and ended in the same step, so the board was never
-    missed and the link never lost while the events said it happened."""
+def _as_scheduled(fault: FaultSpec, robot: RobotDescription) -> FaultSpec:
+    """``fault`` as the bridge runs it: lasting at least one state period, the world's
+    step (``board_reset:26@3s+1ms`` started and ended in the same step, so the board was
+    never missed and the link never lost while the events said it happened), and a board
+    named by its number (``022`` is board 22: ``board_reset:022@2s`` over
+    ``board_reset:22@1s+3s`` was another fault, and its end brought the board back while
+    the first still ran)."""
+    update: dict[str, object] = {}
+    target = fault.target
+    if (
+        fault.kind in ("board_reset", "board_fault")
+        and target
+        and target.isascii()
+        and target.isdigit()
+    ):
+        update["target"] = str(int(target))
     step = robot.bridge.state_period
     duration = fault.duration
     if duration is None and fault.kind == "board_reset":
         duration = robot.bridge.reset_time
-    if duration is None or duration >= step:
-        return fault
-    return fault.model_copy(update={"duration": step})
+    if duration is not None and duration < step:
+        update["duration"] = step
+    return fault.model_copy(update=update) if update else fault
 
 
 def _fault_place(network: Network, index: int, key: str = "target") -> str:
@@ -265,7 +277,7 @@ class Simulator:
             early = _too_early(fault, self.bridge.now_s)
             if early is not None:
                 raise ConfigurationError(f"{_fault_place(network, index, 'at')}: faults: {early}")
-        self.bridge.schedule([_a_step_at_least(f, robot) for f in network.faults])
+        self.bridge.schedule([_as_scheduled(f, robot) for f in network.faults])
         self.schedule(specs)
         self.name = name or f"sim-{next(_NAMES)}"
         with _REGISTRY_LOCK:
@@ -302,7 +314,7 @@ class Simulator:
                 early = _too_early(fault, now_s)
                 if early is not None:
                     raise ArgumentValueError(f"faults: {early}")
-            self.bridge.schedule([_a_step_at_least(f, self.robot) for f in specs])
+            self.bridge.schedule([_as_scheduled(f, self.robot) for f in specs])
 
     def _on_clock(self, now_s: float) -> None:
         with self._lock:
