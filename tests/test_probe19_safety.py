@@ -5,6 +5,7 @@ Each test pins a bug a user saw, fixed here.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -138,3 +139,41 @@ def test_a_scripted_operator_checks_its_schedule(script: dict[str, Any], said: s
         assert sup.mode is Mode.ESTOP
     finally:
         sup.close()
+
+
+# -- a verdict listener that raises ---------------------------------------------------------------
+
+
+def test_a_listener_that_raises_is_no_refusal_and_stops_no_stop(
+    sim_robot: Connection, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A listener added with `sup.add_listener(fn)` that raised (a planner's bug, a file
+    it writes to closed) raised out of `command()` after the command had gone out: the
+    caller saw an exception for a drive at 20 mm/s that was under way. It raised out of
+    `safe_state()` and `estop()` too, which never raise (in a tick, the protective
+    hold's clamps after the safe state were not sent). The error is now logged once,
+    one line, and the verdict stands."""
+    sup = sim_robot.supervisor
+    calls: list[str] = []
+
+    def broken(verdict: Any) -> None:
+        calls.append(str(verdict.command))
+        raise RuntimeError("the file is closed\nsecond line")
+
+    sup.add_listener(broken)
+    with caplog.at_level(logging.DEBUG, logger="pirate_bt.safety"):
+        assert sup.drive(0.02).outcome is Outcome.PASS
+        sup.safe_state("operator stop")
+        sup.estop("button")
+    assert sup.in_safe_state and sup.mode is Mode.ESTOP
+    assert len(calls) == 3  # called on, every verdict
+    said = [
+        r.getMessage()
+        for r in caplog.records
+        if r.levelno >= logging.ERROR and "listener" in r.getMessage()
+    ]
+    assert said == [
+        "verdict listener test_a_listener_that_raises_is_no_refusal_and_stops_no_stop.<locals>"
+        ".broken raised RuntimeError: the file is closed (the verdict stands; listeners are"
+        " called on)"
+    ], said

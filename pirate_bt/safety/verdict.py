@@ -233,6 +233,7 @@ class VerdictLog:
     def __init__(self, maxlen: int = 1000) -> None:
         self._items: deque[Verdict] = deque(maxlen=maxlen)
         self._listeners: list[VerdictListener] = []
+        self._failed: set[int] = set()  # listeners whose error was logged
 
     def append(self, verdict: Verdict) -> None:
         self._items.append(verdict)
@@ -241,7 +242,27 @@ class VerdictLog:
             level = logging.WARNING
         log.log(level, "%s", verdict)
         for listener in tuple(self._listeners):
-            listener(verdict)
+            try:
+                listener(verdict)
+            except Exception as exc:
+                # a listener's error is not the command's: it raised out of command()
+                # after the command had gone out, and out of safe_state() and estop(),
+                # which never raise (the protective hold's clamps after it not sent)
+                self._listener_failed(listener, exc)
+
+    def _listener_failed(self, listener: VerdictListener, exc: Exception) -> None:
+        """Log a listener's error, once per listener (it is called again)."""
+        first = id(listener) not in self._failed
+        self._failed.add(id(listener))
+        name = getattr(listener, "__qualname__", None) or repr(listener)[:80]
+        text = (str(exc).splitlines() or [""])[0][:200]
+        log.log(
+            logging.ERROR if first else logging.DEBUG,
+            "verdict listener %s raised %s: %s (the verdict stands; listeners are called on)",
+            name,
+            type(exc).__name__,
+            text,
+        )
 
     def add_listener(self, listener: VerdictListener) -> None:
         """Call ``listener(verdict)`` for every verdict from now on."""
