@@ -16,6 +16,10 @@
   ``fast``'s ``duration: 1 s``.
 - A subtree call whose ``ref`` is no name (``ref: [a.yaml]``, ``ref: ''``, ``ref: 5``)
   was told *subtree needs a 'ref'*, beside the ``ref`` it has.
+- ``check_blackboard`` (or a guard's ``blackboard:`` comparison) of a key declared
+  ``string`` with ``value: 5``, or of one declared ``boolean`` with ``value: 1`` or
+  ``'yes'``, validated "ok" and compared a number with text (never equal) or took 1 for
+  true; probe 18 refused only text compared with a key declared a number.
 """
 
 from __future__ import annotations
@@ -155,4 +159,39 @@ def test_a_ref_that_is_no_name_is_said_so_not_missing(
     tree.write_text(f"root: {{type: subtree, ref: {ref}}}\n")
     assert _validate(capsys, tree) == [
         f"{tree}:1:23: ref: must be a subtree's name, FILE.yaml or FILE.yaml#NAME, not {written}"
+    ]
+
+
+def test_a_value_of_another_kind_than_its_key_s_declaration_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  label: {type: string, default: '5'}\n"
+        "  go: {type: boolean, default: true}\n"
+        "  count: {type: integer, default: 1}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: check_blackboard, key: label, value: 5}\n"
+        "    - type: skip_if\n"
+        "      condition: {blackboard: go, value: 1}\n"
+        "      child: success\n"
+        "    - {type: check_blackboard, key: go, value: 'yes'}\n"
+        "    - {type: check_blackboard, key: count, op: '>=', value: true}\n"
+        "    - {type: check_blackboard, key: label, value: '5'}\n"  # as declared: fine
+        "    - {type: check_blackboard, key: go, op: '!=', value: false}\n"
+        "    - {type: check_blackboard, key: count, op: '<', value: 3}\n"
+    )
+    t = tree
+    assert _validate(capsys, tree) == [
+        f"{t}:8:7: check_blackboard: value: 5 is a number, but blackboard key 'label' is"
+        " declared string (text never equals it; quote it for text)",
+        f"{t}:9:7: skip_if: value: 1 is a number, but blackboard key 'go' is declared"
+        " boolean (write true or false)",
+        f"{t}:12:7: check_blackboard: value: 'yes' is text, but blackboard key 'go' is"
+        " declared boolean (write true or false)",
+        f"{t}:13:7: check_blackboard: value: true is a boolean, but blackboard key 'count'"
+        " is declared integer (write a number)",
     ]

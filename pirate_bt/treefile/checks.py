@@ -98,20 +98,11 @@ def _check_blackboard(
                 )
             writes.add(key)
         reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
-        for key, value in _text_compared(spec.params):
+        for key, value in _compared(spec.params):
             decl = declared.get(key, (None,))[0]
-            if decl is not None and decl.type in (*SI_UNITS, "number", "integer"):
-                # the key holds a number: text is never equal to it, nor ordered with it
-                unit = SI_UNITS.get(decl.type, ("",))[0]
-                errors.append(
-                    LocatedError(
-                        f"{spec.node_type}: value: {shown(value)} is text, but blackboard key"
-                        f" {shown(key)} is declared {decl.type} (text never equals a number"
-                        " and cannot be ordered with one)"
-                        + (f"; give 'unit: {unit}' to compare a quantity" if unit else ""),
-                        spec.location,
-                    )
-                )
+            problem = None if decl is None else _kind_problem(key, value, decl.type)
+            if problem is not None:
+                errors.append(LocatedError(f"{spec.node_type}: value: {problem}", spec.location))
     for key, spec in reads:
         if key in unsure:
             continue
@@ -140,8 +131,31 @@ def _has(params: Any, name: str) -> bool:
     )
 
 
-def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
-    """The blackboard keys a node compares with a text value read as text (no ``unit``):
+def _kind_problem(key: str, value: object, declared: str) -> str | None:
+    """Why a value of ``value``'s kind never compares as meant with a key declared
+    ``declared`` (text with a number, a number or a boolean with text or a boolean)."""
+    of = f"blackboard key {shown(key)} is declared {declared}"
+    if declared in (*SI_UNITS, "number", "integer"):
+        if isinstance(value, str):  # the key holds a number: text never equals it
+            unit = SI_UNITS.get(declared, ("",))[0]
+            return (
+                f"{shown(value)} is text, but {of} (text never equals a number and cannot"
+                " be ordered with one)"
+                + (f"; give 'unit: {unit}' to compare a quantity" if unit else "")
+            )
+        if isinstance(value, bool):  # true is the number 1
+            return f"{str(value).lower()} is a boolean, but {of} (write a number)"
+    if declared == "string" and not isinstance(value, str):  # 5 never equals '5'
+        what = "a boolean" if isinstance(value, bool) else "a number"
+        return f"{shown(value)} is {what}, but {of} (text never equals it; quote it for text)"
+    if declared == "boolean" and not isinstance(value, bool):  # 1 == true, 'yes' never
+        what = "text" if isinstance(value, str) else "a number"
+        return f"{shown(value)} is {what}, but {of} (write true or false)"
+    return None
+
+
+def _compared(params: Any) -> Iterator[tuple[str, object]]:
+    """The blackboard keys a node compares with a value taken as written (no ``unit``):
     ``check_blackboard``'s and a guard's ``blackboard:`` comparisons."""
     # looked up by the class, not getattr with a default: a pydantic model raises and
     # catches an AttributeError for each missing one (two a node, every node of a tree)
@@ -151,5 +165,5 @@ def _text_compared(params: Any) -> Iterator[tuple[str, str]]:
     for c in comparisons or ():
         key = getattr(c, "key", None)  # a guard's without its leading '/'
         value = getattr(c, "value", None)
-        if isinstance(key, str) and isinstance(value, str) and getattr(c, "unit", 1) is None:
+        if isinstance(key, str) and value is not None and getattr(c, "unit", 1) is None:
             yield key, value
