@@ -20,6 +20,7 @@ from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
 from pirate_bt.sim import SimCounters, Simulator
 from pirate_bt.sim.script import ModelSink, ScriptedDrive
+from pirate_bt.sim.server import end_state
 
 ROBOT = load_robot()
 
@@ -267,3 +268,22 @@ def test_two_resets_of_one_board_by_two_spellings_are_one_fault() -> None:
         "end board_reset 26",
         "end board_reset 26",
     ]
+
+
+# -- the end state of a robot that fell --------------------------------------------------
+
+
+def test_the_end_state_says_the_robot_slid_before_it_came_to_rest() -> None:
+    # pirate-bt sim's end state said 'robot at rest' of a robot that had slid 2.2 m
+    # down the riser when its clamp's power went off and lay at its foot
+    with Simulator("riser", ROBOT, start_m=3.5) as sim:
+        for joint in ("bend_3_joint", "bend_4_joint"):
+            sim.model.command(MotorCommand(joint, ControlMode.TORQUE, 0.7))
+        sim.advance_to(3.0)
+        assert end_state(sim).startswith("end state: robot at rest, drives stopped;")
+        sim.schedule("board_fault:26@3s")
+        sim.advance_to(20.0)
+        assert end_state(sim).startswith(
+            "end state: robot at rest after sliding 2.23 m with no half holding it (1 slide),"
+            " drives stopped; front half not clamped, rear half not clamped;"
+        )

@@ -68,6 +68,13 @@ def end_state(sim: Simulator) -> str:
         motion = f"robot moving at {truth.velocity_mps:.3f} m/s"
     else:
         motion = "robot at rest"
+    counters = sim.counters()
+    if counters.slide_m > 0 and not truth.sliding:  # it fell, then stopped or held again
+        slides = counters.violations.get("sliding", 0)
+        motion += (
+            f" after sliding {counters.slide_m:.2f} m with no half holding it"
+            f" ({slides} slide{'' if slides == 1 else 's'})"
+        )
     drives = "still commanded: " + ", ".join(commanded) if commanded else "drives stopped"
     halves = ", ".join(
         f"{half.value} half {'clamped' if h.clamped else 'not clamped'}"
