@@ -177,3 +177,24 @@ def test_a_listener_that_raises_is_no_refusal_and_stops_no_stop(
         ".broken raised RuntimeError: the file is closed (the verdict stands; listeners are"
         " called on)"
     ], said
+
+
+# -- a supervisor started latched -----------------------------------------------------------------
+
+
+def test_a_supervisor_started_in_mode_estop_latches_the_bridge_with_a_reason() -> None:
+    """`open_supervisor(mode="estop")` (a mode may be given as its text) set the mode
+    alone: the bridge was not latched, and every refusal and the run's why said *e-stop
+    latched (None)*. It is now an e-stop as `SetMode("estop")` is, sent to the bridge,
+    with its reason."""
+    sup = open_supervisor(network="straight", mode="estop")
+    try:
+        sup.tick()
+        assert sup.port.health().estopped
+        verdict = sup.drive(0.02)
+        assert verdict.reason is Reason.ESTOP_LATCHED
+        assert verdict.detail == "e-stop latched (the supervisor was started in mode estop)"
+        assert sup.run_halted == "e-stop latched: the supervisor was started in mode estop"
+        assert sup.reset_estop() and sup.mode is Mode.MANUAL
+    finally:
+        sup.close()

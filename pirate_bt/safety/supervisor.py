@@ -210,6 +210,11 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
         """Set by :meth:`close` when the port could not make sure the robot stopped."""
         self.simulator: Simulator | None = None
         """The in-process simulator behind the port, when there is one."""
+        if self._mode is Mode.ESTOP:
+            # started latched: an e-stop as SetMode("estop") is, sent to the bridge with
+            # its reason (it was a mode alone: the bridge not latched, 'e-stop latched
+            # (None)' on every refusal)
+            self.estop("the supervisor was started in mode estop")
 
     # -- what the layers above read ---------------------------------------
 
