@@ -287,3 +287,19 @@ def test_the_end_state_says_the_robot_slid_before_it_came_to_rest() -> None:
             "end state: robot at rest after sliding 2.23 m with no half holding it (1 slide),"
             " drives stopped; front half not clamped, rear half not clamped;"
         )
+
+
+@pytest.mark.parametrize("step", ["drive_to", "bend", "rotate"])
+def test_a_scripted_step_to_nowhere_is_refused_and_the_clock_kept(step: str) -> None:
+    # drive_to(nan) advanced the shared clock by nan seconds: sim.clock.now() read nan
+    # from then on, and the world never stepped again
+    with Simulator("straight", ROBOT) as sim:
+        drive = ScriptedDrive(sim, ModelSink(sim))
+        drive.start()
+        now = sim.clock.now()
+        args: tuple[object, ...] = (math.nan,) if step != "bend" else (Half.FRONT, math.nan)
+        with pytest.raises(ArgumentValueError, match=r"is not a finite number of"):
+            getattr(drive, step)(*args)
+        assert sim.clock.now() == now
+        drive.drive_to(1.0)  # the world goes on
+        assert abs(sim.truth().front_m - 1.0) < 0.01

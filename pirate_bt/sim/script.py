@@ -96,6 +96,20 @@ def _amount(name: str, value: object, unit: str, most: float | None = None) -> f
     return float(value)
 
 
+def _finite(name: str, value: object, unit: str) -> float:
+    """``value`` as a finite number, else one line naming it (``drive_to(nan)`` advanced
+    the shared clock by ``nan`` seconds: the clock read ``nan`` from then on)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ArgumentTypeError(f"{name}: give a number of {unit}, not {kind_of(value)}")
+    try:
+        good = math.isfinite(value)
+    except OverflowError:  # a whole number too large for a float
+        good = False
+    if not good:
+        raise ArgumentValueError(f"{name}: {shown(value)} is not a finite number of {unit}")
+    return float(value)
+
+
 def rotation_for_turn(turn_roll_rad: float, rear_roll_rad: float) -> tuple[float, int]:
     """The rotate-joint angle and steer sign that align the front half with a turn.
 
@@ -206,6 +220,7 @@ class ScriptedDrive:
 
     def bend(self, half: Half, angle_rad: float) -> None:
         """Set a half's joints to ``angle_rad`` (0 releases a clamp, ±steer steers)."""
+        angle_rad = _finite("angle_rad", angle_rad, "radians")
         self.sink.send(
             [MotorCommand(n, ControlMode.POSITION, angle_rad) for n in self._joints[half]]
         )
@@ -214,6 +229,7 @@ class ScriptedDrive:
 
     def rotate(self, angle_rad: float) -> None:
         """Set the rotate joint (exactly one half must be clamped)."""
+        angle_rad = _finite("angle_rad", angle_rad, "radians")
         delta = angle_rad - self.truth.rotation_rad
         self.sink.send([MotorCommand(self._rotate, ControlMode.POSITION, angle_rad)])
         rate = self.robot.motor(self._rotate).limits.angular_velocity
@@ -222,7 +238,12 @@ class ScriptedDrive:
         self.log.append(f"rotate {math.degrees(angle_rad):.0f} deg")
 
     def drive_to(self, front_m: float) -> None:
-        """Drive until the front tip is at ``front_m`` (then stop)."""
+        """Drive until the front tip is at ``front_m`` (then stop).
+
+        Raises:
+            InputError: ``front_m`` is no finite number of metres.
+        """
+        front_m = _finite("front_m", front_m, "metres")
         distance = front_m - self.truth.front_m
         if abs(distance) < 1e-3:
             return
