@@ -95,3 +95,39 @@ def test_an_origin_whose_line_is_a_bool_is_no_origin() -> None:
     result = pirate_bt.navigate(_LineTrue(), sim="bend-right", map="bend-right")
     assert result.status == "failure" and result.safe_state
     assert "invalid step Step('bend', direction='left'): <navigator _LineTrue>:1:1:" in result.why
+
+
+class _Answers:
+    def __init__(self, step: object) -> None:
+        self.step = step
+
+    def next_step(self, obs: pirate_bt.Observation) -> Any:
+        return self.step if obs.step == 0 else None
+
+
+class _OwnRepr(pirate_bt.Step):
+    def __repr__(self) -> str:
+        raise RuntimeError("no repr")
+
+
+def test_a_step_whose_direction_is_an_array_is_an_invalid_step() -> None:
+    # was: ValueError 'The truth value of an array with more than one element is
+    # ambiguous' out of pirate_bt.navigate() itself, after connecting, with no result
+    import numpy as np
+
+    step = pirate_bt.Step("t-joint", direction=np.array(["left", "right"]))
+    for kwargs in ({"map": "t-joint"}, {}):
+        result = pirate_bt.navigate(_Answers(step), sim="t-joint", **kwargs)
+        assert result.status == "failure" and result.safe_state
+        assert result.why.startswith("navigator '_Answers' asked for an invalid step:")
+        assert "a T-joint is left by" in result.why
+
+
+def test_a_step_of_a_subclass_whose_repr_raises_is_run_as_a_plain_step() -> None:
+    # was: RuntimeError 'no repr' out of pirate_bt.navigate(), after connecting
+    ran = pirate_bt.navigate(_Answers(_OwnRepr("straight", distance="0.3 m")), sim="straight")
+    assert ran.status == "success", ran.why
+    assert repr(ran.decisions[0].step) == "Step('straight', distance='0.3 m')"
+    refused = pirate_bt.navigate(_Answers(_OwnRepr("bend", direction="aslant")), sim="straight")
+    assert refused.status == "failure" and refused.safe_state
+    assert "Step('bend', direction='aslant'): a bend turns up, down, left or right" in refused.why

@@ -62,6 +62,7 @@ from pirate_bt.task.navigation import (
     Step,
     call_within,
     check_step,
+    plain,
     raised_at,
 )
 from pirate_bt.task.outcome import PabOutcome, unsafe_note
@@ -350,6 +351,8 @@ def run_navigation(
                 result.failing_node = failures[0].failing_node if failures else None
                 supervisor.safe_state(result.why)
                 break
+            if isinstance(step, Step):  # its own __repr__ or __eq__ is not reached again
+                step = plain(step)
             checked: CheckedStep | None = None
             plan: MissionPlan | None = None
             if error is None and step is not None:

@@ -223,7 +223,7 @@ class Step:
 
     def __repr__(self) -> str:
         args = "".join(f", {k}={shown(v)}" for k, v in self.params.items())
-        return f"Step({self.pab!r}{args})"
+        return f"Step({shown(self.pab)}{args})"
 
     def to_json(self) -> dict[str, Any]:
         """``{"pab": ..., "params": {...}}`` with every value as text or a number."""
@@ -451,6 +451,16 @@ def _flag(step: Step, key: str) -> bool:
     return value
 
 
+def plain(step: Step) -> Step:
+    """``step`` as a plain :class:`Step` (a subclass's own ``__repr__``, a PAB name of a
+    ``str`` subclass with its own ``__eq__``, are left behind: one that raised ended the
+    navigation with a bare exception, out of ``navigate()``)."""
+    pab = str.__str__(step.pab) if isinstance(step.pab, str) else step.pab
+    if type(step) is Step and type(step.pab) is type(pab):
+        return step
+    return Step(pab, **dict(step.params))
+
+
 def check_step(step: object) -> CheckedStep:
     """Check a step's PAB and parameters; its values in SI units.
 
@@ -460,8 +470,10 @@ def check_step(step: object) -> CheckedStep:
     """
     if not isinstance(step, Step):
         raise InvalidStep(f"a navigator returned {shown(step)}, not a Step (or None when done)")
-    if step.pab not in STEP_PABS:
-        raise InvalidStep(f"{step!r}: unknown PAB {step.pab!r} (known: {', '.join(STEP_PABS)})")
+    step = plain(step)
+    if not isinstance(step.pab, str) or step.pab not in STEP_PABS:
+        known = ", ".join(STEP_PABS)
+        raise InvalidStep(f"{step!r}: unknown PAB {shown(step.pab)} (known: {known})")
     unknown = sorted(set(step.params) - set(_KNOWN[step.pab]))
     if unknown:
         raise InvalidStep(
@@ -501,14 +513,14 @@ def check_step(step: object) -> CheckedStep:
         )
     if step.pab == "t-joint":
         direction = step.params.get("direction")
-        if direction not in _TEE_WAYS:
+        if not isinstance(direction, str) or direction not in _TEE_WAYS:
             raise InvalidStep(
                 f"{step!r}: a T-joint is left by {', '.join(_TEE_WAYS)}, not {shown(direction)}"
             )
         return CheckedStep(step, direction=str(direction))
     if step.pab == "t-joint-back":
         direction = step.params.get("direction")
-        if direction not in _BACK_WAYS:
+        if not isinstance(direction, str) or direction not in _BACK_WAYS:
             raise InvalidStep(
                 f"{step!r}: a T-joint is left backwards by the way it was passed"
                 f" ({', '.join(_BACK_WAYS)}), not {shown(direction)}"
