@@ -20,6 +20,9 @@
   ``string`` with ``value: 5``, or of one declared ``boolean`` with ``value: 1`` or
   ``'yes'``, validated "ok" and compared a number with text (never equal) or took 1 for
   true; probe 18 refused only text compared with a key declared a number.
+- A blackboard key declared ``boolean`` with ``default: maybe`` (or ``integer`` with
+  ``1.5``, ``string`` with ``5``, ``number`` with ``1 m``, ``integer`` with ``$p``: a
+  default takes no parameter) validated "ok" and wrote that value before the first tick.
 """
 
 from __future__ import annotations
@@ -194,4 +197,32 @@ def test_a_value_of_another_kind_than_its_key_s_declaration_is_refused(
         " declared boolean (write true or false)",
         f"{t}:13:7: check_blackboard: value: true is a boolean, but blackboard key 'count'"
         " is declared integer (write a number)",
+    ]
+
+
+def test_a_blackboard_default_of_another_kind_than_its_type_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params:\n"
+        "  p: {type: integer, default: 3}\n"
+        "blackboard:\n"
+        "  go: {type: boolean, default: maybe}\n"
+        "  count: {type: integer, default: 1.5}\n"
+        "  label: {type: string, default: 5}\n"
+        "  gap: {type: number, default: 1 m}\n"
+        "  k: {type: integer, default: $p}\n"
+        "  fine: {type: number, default: 2}\n"
+        "  any: {default: [1, x]}\n"
+        "root: success\n"
+    )
+    t = tree
+    assert _validate(capsys, tree) == [
+        f"{t}:4:23: default: 'maybe' is not true or false (the key is boolean)",
+        f"{t}:5:26: default: 1.5 is not a whole number (the key is integer)",
+        f"{t}:6:25: default: 5 is not text (the key is string)",
+        f"{t}:7:23: default: '1 m' is not a number (the key is number)",
+        f"{t}:8:22: default: '$p' is not a whole number (the key is integer); a default"
+        " takes no $parameter",
     ]

@@ -8,7 +8,7 @@ tree file allows.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
@@ -17,7 +17,7 @@ import py_trees
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from pirate_bt.behaviours.base import NodeMixin
-from pirate_bt.errors import LocatedError, SourceLocation, UnitError
+from pirate_bt.errors import LocatedError, SourceLocation, UnitError, shown
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.units import parse_quantity
 
@@ -73,12 +73,28 @@ class BlackboardDecl(BaseModel):
         number is SI, as it always was here (and as the XML export writes it)."""
         _finite(value)
         kind = info.data.get("type")
+        wanted = _PLAIN_KINDS.get(str(kind))
+        if wanted is not None and value is not None and not wanted[0](value):
+            # a boolean key holding 'maybe' never equals true, nor '5' the number 5
+            hint = "; a default takes no $parameter" if str(value).startswith("$") else ""
+            raise ValueError(
+                f"default: {shown(value)} is not {wanted[1]} (the key is {kind}){hint}"
+            )
         if kind in SI_UNITS and value is not None:
             try:
                 return parse_quantity(value, SI_UNITS[kind][0], require_unit=False)
             except UnitError as exc:
                 raise ValueError(f"default: {exc}") from None
         return value
+
+
+_PLAIN_KINDS: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "boolean": (lambda v: isinstance(v, bool), "true or false"),
+    "integer": (lambda v: isinstance(v, int) and not isinstance(v, bool), "a whole number"),
+    "number": (lambda v: isinstance(v, int | float) and not isinstance(v, bool), "a number"),
+    "string": (lambda v: isinstance(v, str), "text"),
+}
+"""What a blackboard default of a plain type must be, and that in words."""
 
 
 def _finite(value: Any) -> None:
