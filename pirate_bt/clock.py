@@ -20,6 +20,8 @@ from typing import Protocol, runtime_checkable
 
 __all__ = ["Clock", "SimClock", "WallClock"]
 
+_INF = float("inf")
+
 
 @runtime_checkable
 class Clock(Protocol):
@@ -91,10 +93,13 @@ class SimClock:
         """Move time forward by ``seconds`` and notify listeners.
 
         Raises:
-            ValueError: if ``seconds`` is negative; monotonic time never goes back.
+            ValueError: if ``seconds`` is negative (monotonic time never goes back), or
+                not finite (the clock would read ``nan`` or ``inf`` from then on).
         """
-        if seconds < 0:
-            raise ValueError(f"a clock cannot go back ({seconds} s)")
+        if not 0 <= seconds < _INF:  # also nan, for which every comparison is false
+            if seconds < 0:
+                raise ValueError(f"a clock cannot go back ({seconds} s)")
+            raise ValueError(f"a clock moves by a finite time, not {seconds} s")
         with self._lock:
             self._now += seconds
             now = self._now

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from pirate_bt.clock import Clock, SimClock, WallClock
@@ -35,3 +37,14 @@ def test_both_clocks_satisfy_the_protocol() -> None:
     wall.sleep(0.001)
     assert wall.now() > before
     assert not wall.is_simulated and SimClock().is_simulated
+
+
+@pytest.mark.parametrize("seconds", [math.nan, math.inf])
+def test_a_sim_clock_refuses_a_time_that_is_no_finite_number(seconds: float) -> None:
+    # advance(nan) was taken (nan < 0 is false) and the clock read nan for good, so
+    # every deadline and timeout of a run on it compared false
+    clock = SimClock()
+    clock.advance(1.0)
+    with pytest.raises(ValueError, match="finite"):
+        clock.advance(seconds)
+    assert clock.now() == 1.0
