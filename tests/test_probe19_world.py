@@ -131,3 +131,15 @@ def test_a_step_of_a_subclass_whose_repr_raises_is_run_as_a_plain_step() -> None
     refused = pirate_bt.navigate(_Answers(_OwnRepr("bend", direction="aslant")), sim="straight")
     assert refused.status == "failure" and refused.safe_state
     assert "Step('bend', direction='aslant'): a bend turns up, down, left or right" in refused.why
+
+
+def test_a_numpy_truth_value_is_a_flag_as_a_numpy_number_is_a_distance() -> None:
+    # was: "slow must be true or false, not np.True_": a step whose flag came out of a
+    # NumPy comparison failed the navigation, where a NumPy distance was taken
+    import numpy as np
+
+    step = pirate_bt.Step("straight", distance=np.float64(0.3), slow=np.float64(0.3) > 0.2)
+    result = pirate_bt.navigate(_Answers(step), sim="straight")
+    assert result.status == "success", result.why
+    refused = pirate_bt.navigate(_Answers(pirate_bt.Step("straight", distance="0.3 m", slow=1)))
+    assert refused.status == "failure" and "slow must be true or false, not 1" in refused.why

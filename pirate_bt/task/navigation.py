@@ -446,6 +446,9 @@ def _quantity(step: Step, key: str, dimension: str, example: str) -> float:
 
 def _flag(step: Step, key: str) -> bool:
     value = step.params.get(key, False)
+    kind = type(value)
+    if kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_"):
+        return bool(value)  # a NumPy comparison's answer, as a NumPy number is a distance
     if not isinstance(value, bool):
         raise InvalidStep(f"{step!r}: {key} must be true or false, not {shown(value)}")
     return value
