@@ -303,3 +303,25 @@ def test_a_scripted_step_to_nowhere_is_refused_and_the_clock_kept(step: str) -> 
         assert sim.clock.now() == now
         drive.drive_to(1.0)  # the world goes on
         assert abs(sim.truth().front_m - 1.0) < 0.01
+
+
+@pytest.mark.parametrize(
+    "faults",
+    [
+        ["board_fault:26@3s+0.5s", "board_reset:26@3.2s"],  # the fault ends first
+        ["board_reset:26@3.2s", "board_fault:26@3.3s+0.2s"],  # a fault inside the reset
+    ],
+    ids=["fault-then-reset", "fault-inside-reset"],
+)
+def test_a_board_fault_that_ends_during_a_reset_brings_nothing_back_early(
+    faults: list[str],
+) -> None:
+    # board_fault:26@3s+0.5s with board_reset:26@3.2s drove the rear clamp again from
+    # 3.5 s, while board 26 was down until 4.7 s: the fault's end commanded the
+    # setpoints it held, rebooting board or not
+    sim = _hanging_on_the_rear_clamp()
+    sim.schedule(faults)
+    sim.advance_to(4.6)
+    assert not sim.truth().halves[Half.REAR].clamped  # board 26 still rebooting
+    sim.advance_to(5.2)
+    assert sim.truth().halves[Half.REAR].clamped  # back with the reset's end

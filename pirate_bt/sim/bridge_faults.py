@@ -157,7 +157,10 @@ class FaultsMixin:
             # while the board is still down keeps what the first held (its motors are
             # off by then: there is nothing newer to hold).
             if board not in self._held_setpoints:
-                held = [self.model.setpoint(name) for name in names]
+                # a board in FAULT holds the setpoints it was given with its H-bridge
+                # off: those, not its motors' (off), are what it gets back
+                faulted = self._faulted.get(board, {})
+                held = [faulted.get(name) or self.model.setpoint(name) for name in names]
                 self._held_setpoints[board] = [c for c in held if c is not None]
             self.model.motors_off(names)
         elif spec.kind == "board_fault":
@@ -203,10 +206,17 @@ class FaultsMixin:
             board = int(target)
             self._status_cache = None
             # the H-bridge is back on: the board drives its motors to the setpoints it
-            # holds (the latest it was given, a stop's included)
-            for kept in self._faulted.pop(board, {}).values():
-                if kept is not None:
-                    self.model.command(kept)
+            # holds (the latest it was given, a stop's included); a board still
+            # rebooting drives nothing until its reset ends, which hands them back
+            kept = self._faulted.pop(board, {})
+            if board in self._resetting:
+                held = self._held_setpoints.setdefault(board, [])
+                have = {c.motor for c in held}
+                held.extend(c for c in kept.values() if c is not None and c.motor not in have)
+                return
+            for command in kept.values():
+                if command is not None:
+                    self.model.command(command)
         elif spec.kind == "link_loss":
             self._link_lost = False
             self._lost_partial = False
