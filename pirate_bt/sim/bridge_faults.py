@@ -214,9 +214,9 @@ class FaultsMixin:
                 have = {c.motor for c in held}
                 held.extend(c for c in kept.values() if c is not None and c.motor not in have)
                 return
-            for command in kept.values():
-                if command is not None:
-                    self.model.command(command)
+            for setpoint in kept.values():
+                if setpoint is not None:
+                    self.model.command(setpoint)
         elif spec.kind == "link_loss":
             self._link_lost = False
             self._lost_partial = False
