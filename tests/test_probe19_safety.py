@@ -19,6 +19,7 @@ from pirate_bt.robot import Half
 from pirate_bt.safety import Drive, Outcome, Reason, operator
 from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.operator import Confirmation, Mode
+from pirate_bt.safety.tally import VerdictTally
 
 
 @pytest.fixture
@@ -196,5 +197,30 @@ def test_a_supervisor_started_in_mode_estop_latches_the_bridge_with_a_reason() -
         assert verdict.detail == "e-stop latched (the supervisor was started in mode estop)"
         assert sup.run_halted == "e-stop latched: the supervisor was started in mode estop"
         assert sup.reset_estop() and sup.mode is Mode.MANUAL
+    finally:
+        sup.close()
+
+
+# -- the count of safe states ----------------------------------------------------------------------
+
+
+def test_each_entry_into_the_safe_state_is_counted() -> None:
+    """A stop, a resume and a new stop (and once more after a takeover) counted
+    `safe_states` 1: a resume records no verdict, so the tally still took the robot for
+    in its first safe state when the next one came. Each entry counts now; a stop
+    repeated in the safe state still counts once."""
+    sup = open_supervisor(network="straight")
+    try:
+        tally = VerdictTally(sup)
+        sup.tick()
+        sup.apply(operator.SafeStop("one"))
+        sup.apply(operator.SafeStop("one again"))  # in it already: no new entry
+        sup.apply(operator.Resume())
+        sup.apply(operator.SafeStop("two"))
+        sup.apply(operator.SetMode("manual"))
+        sup.apply(operator.SetMode("autonomous"))  # the hand-back resumes
+        sup.apply(operator.SafeStop("three"))
+        assert tally.counters().safe_states == 3
+        assert tally.first_safe_state is not None and tally.first_safe_state.reason == "one"
     finally:
         sup.close()

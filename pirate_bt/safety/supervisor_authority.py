@@ -53,6 +53,9 @@ class AuthorityMixin(DecisionMixin):
     _interrupted: frozenset[str] = frozenset()
     estop_reset_refusal: str | None = None
     """Why the bridge refused the last e-stop reset (``None``: it did not)."""
+    safe_state_entries: int = 0
+    """How many times the robot has entered its safe state (a stop repeated in it
+    counts once; a resume and a new cause count again)."""
 
     if TYPE_CHECKING:  # defined by the supervisor
 
@@ -79,6 +82,7 @@ class AuthorityMixin(DecisionMixin):
             if first:
                 self._safe_reason = reason
                 self._safe_error = error
+                self.safe_state_entries += 1
                 log.warning("safe state: %s", reason)
             else:
                 log.debug("safe state again: %s (first cause kept: %s)", reason, self._safe_reason)

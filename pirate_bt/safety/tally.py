@@ -145,6 +145,7 @@ class VerdictTally:
         self.estops = 0
         self.first_safe_state: SafeStateEntry | None = None
         self._in_safe_state = bool(supervisor.in_safe_state)
+        self._entries = getattr(supervisor, "safe_state_entries", None)
         # link and simulator figures already counted before this tally started
         self._base: dict[str, Any] = {} if from_open else self._raw()
         supervisor.add_listener(self._on_verdict)
@@ -164,9 +165,14 @@ class VerdictTally:
                     verdict.stamp_s, verdict.detail or "e-stop", verdict.node_name
                 )
         if verdict.reason is Reason.SAFE_STATE and verdict.source is Source.SUPERVISOR:
-            if not self._in_safe_state:
+            # the supervisor's own count where it keeps one: a resume sends no verdict,
+            # so a stop, a resume and a new stop looked like one entry (3 counted as 1)
+            entries = getattr(self.supervisor, "safe_state_entries", None)
+            new = not self._in_safe_state if entries is None else entries != self._entries
+            if new:
                 self.safe_states += 1
                 self._in_safe_state = True
+                self._entries = entries
             if self.first_safe_state is None:
                 reason = self.supervisor.safe_state_reason or verdict.detail
                 self.first_safe_state = SafeStateEntry(verdict.stamp_s, reason, verdict.node_name)
