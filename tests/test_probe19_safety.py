@@ -224,3 +224,28 @@ def test_each_entry_into_the_safe_state_is_counted() -> None:
         assert tally.first_safe_state is not None and tally.first_safe_state.reason == "one"
     finally:
         sup.close()
+
+
+# -- open_supervisor's own arguments ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        ({"mode": "bogus"}, "not a mode: 'bogus'"),
+        ({"state_timeout_s": math.nan}, "state_timeout_s: nan is not a finite number"),
+        ({"state_timeout_s": -1}, "state_timeout_s: -1 s is negative"),
+    ],
+)
+def test_open_supervisor_checks_its_arguments_before_opening_the_port(
+    options: dict[str, Any], said: str
+) -> None:
+    """`open_supervisor(url=..., mode="bogus")` opened the port, waited for the robot's
+    first state and only then refused the mode (the Supervisor's), leaving the port
+    open; on a port that cannot be opened the user was told about the port, not the
+    mode. A NaN `state_timeout_s` waited for a first state for ever. Both are refused
+    now before anything opens, one line."""
+    with pytest.raises(InputError) as caught:
+        open_supervisor(url="/dev/pirate-bt-no-such-port", **options)
+    assert str(caught.value).startswith(said), caught.value
+    assert "\n" not in str(caught.value)

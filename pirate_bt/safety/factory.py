@@ -23,12 +23,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pirate_bt.clock import Clock, SimClock, WallClock
-from pirate_bt.errors import ConfigurationError, LinkTimeout
+from pirate_bt.errors import ConfigurationError, InputError, LinkTimeout
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.loader import load_robot
 from pirate_bt.robot.port import RobotPort
 from pirate_bt.safety.operator import Mode, OperatorInput
 from pirate_bt.safety.supervisor import Supervisor
+from pirate_bt.safety.supervisor_authority import as_mode
+from pirate_bt.units import parse_quantity
 
 if TYPE_CHECKING:
     from pirate_bt.pipes import FaultSpec, Network
@@ -112,12 +114,24 @@ def open_supervisor(
         A supervisor holding the connected port.
 
     Raises:
+        InputError: a mode that is none, or a ``state_timeout_s`` that is no finite
+            time (seconds, or text: ``"5 s"``); checked before anything opens.
         ConfigurationError: simulator options with a ``url``, or the simulator on a
             clock that is not a ``SimClock``.
         LinkError: cannot connect, or no state in time.
     """
     from pirate_bt.link import open_link
 
+    # before anything opens: a mode that is none was refused by the Supervisor after the
+    # port (a robot's serial port) had been opened, and left it open; a NaN timeout
+    # waited for the first state for ever
+    mode = as_mode(mode)
+    try:
+        state_timeout_s = parse_quantity(state_timeout_s, "time", require_unit=False)
+    except InputError as exc:
+        raise InputError(f"state_timeout_s: {exc}"[:200]) from None
+    if state_timeout_s < 0:
+        raise InputError(f"state_timeout_s: {state_timeout_s:g} s is negative")
     robot = robot if robot is not None else load_robot()
     if url is not None:
         if network is not None or seed != 0 or tuple(sim_faults):
