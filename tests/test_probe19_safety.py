@@ -249,3 +249,29 @@ def test_open_supervisor_checks_its_arguments_before_opening_the_port(
         open_supervisor(url="/dev/pirate-bt-no-such-port", **options)
     assert str(caught.value).startswith(said), caught.value
     assert "\n" not in str(caught.value)
+
+
+# -- drive_reach of what is no speed ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["text", "none", "nan", "bool", "huge", "too long to show"])
+def test_drive_reach_of_no_speed_is_one_line(sim_robot: Connection, name: str) -> None:
+    """`sup.drive_reach("80 mm/s")` (docs/safety.md: the speed a drive may ask for now)
+    raised `TypeError: '>' not supported between instances of 'float' and 'str'` from
+    inside the reckoning, and NaN came back as NaN. It is one `InputError` line now."""
+    value = {
+        "text": "80 mm/s",
+        "none": None,
+        "nan": math.nan,
+        "bool": True,
+        "huge": 10**400,
+        "too long to show": 10**5000,
+    }[name]
+    with pytest.raises(InputError) as caught:
+        sim_robot.supervisor.drive_reach(value)  # type: ignore[arg-type]
+    text = str(caught.value)
+    assert text.startswith("drive_reach: ") and text.endswith(
+        "is no speed (a finite number of m/s)"
+    )
+    assert "\n" not in text and len(text) < 200
+    assert sim_robot.supervisor.drive_reach(0.05) == pytest.approx(0.04)

@@ -500,7 +500,18 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
     def drive_reach(self, velocity_mps: float) -> float:
         """The drive speed nearest ``velocity_mps`` a ``Drive`` may ask for now without
         a drive motor's acceleration limit refusing or clipping it (``velocity_mps``
-        itself where none does): a drive steps toward its speed by this, tick by tick."""
+        itself where none does): a drive steps toward its speed by this, tick by tick.
+
+        Raises:
+            InputError: ``velocity_mps`` is no finite number (``"80 mm/s"`` raised
+                ``TypeError`` from inside the reckoning, NaN came back as NaN).
+        """
+        if not _finite(velocity_mps):
+            try:
+                shown = repr(velocity_mps)[:80]
+            except ValueError:  # an integer of more digits than Python turns into text
+                shown = "a number too long to show"
+            raise InputError(f"drive_reach: {shown} is no speed (a finite number of m/s)")
         with self._lock:
             return drive_reach(
                 self.robot, self._last_setpoint, velocity_mps, self._port.state(), self.clock.now()
@@ -570,3 +581,13 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
             finally:
                 if self.simulator is not None:
                     self.simulator.close()
+
+
+def _finite(value: object) -> bool:
+    """A real, finite number (not a bool, not text, not one too large for a float)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
