@@ -19,7 +19,9 @@
 - ``check_blackboard`` (or a guard's ``blackboard:`` comparison) of a key declared
   ``string`` with ``value: 5``, or of one declared ``boolean`` with ``value: 1`` or
   ``'yes'``, validated "ok" and compared a number with text (never equal) or took 1 for
-  true; probe 18 refused only text compared with a key declared a number.
+  true; probe 18 refused only text compared with a key declared a number. And
+  ``set_blackboard`` wrote ``'yes'`` to a key declared ``boolean`` and the text
+  ``'2 m'`` (no ``unit:``) to one declared ``length``: every later comparison failed.
 - A blackboard key declared ``boolean`` with ``default: maybe`` (or ``integer`` with
   ``1.5``, ``string`` with ``5``, ``number`` with ``1 m``, ``integer`` with ``$p``: a
   default takes no parameter) validated "ok" and wrote that value before the first tick.
@@ -225,4 +227,31 @@ def test_a_blackboard_default_of_another_kind_than_its_type_is_refused(
         f"{t}:7:23: default: '1 m' is not a number (the key is number)",
         f"{t}:8:22: default: '$p' is not a whole number (the key is integer); a default"
         " takes no $parameter",
+    ]
+
+
+def test_set_blackboard_of_another_kind_than_its_key_s_declaration_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  go: {type: boolean, default: false}\n"
+        "  gap: {type: length, default: 1 m}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: set_blackboard, key: go, value: 'yes'}\n"
+        "    - {type: set_blackboard, key: gap, value: 2 m}\n"
+        "    - {type: set_blackboard, key: gap, value: 2 m, unit: length}\n"  # fine
+        "    - {type: set_blackboard, key: go, value: true}\n"  # fine
+        "    - {type: check_blackboard, key: go, value: true}\n"
+    )
+    t = tree
+    assert _validate(capsys, tree) == [
+        f"{t}:7:7: set_blackboard: value: 'yes' is text, but blackboard key 'go' is declared"
+        " boolean (write true or false)",
+        f"{t}:8:7: set_blackboard: value: '2 m' is text, but blackboard key 'gap' is declared"
+        " length (text never equals a number and cannot be ordered with one); give"
+        " 'unit: length' to write a quantity",
     ]

@@ -98,9 +98,9 @@ def _check_blackboard(
                 )
             writes.add(key)
         reads.extend((key, spec) for key in spec.cls.blackboard_reads(spec.params))
-        for key, value in _compared(spec.params):
+        for key, value, verb in _compared(spec.params):
             decl = declared.get(key, (None,))[0]
-            problem = None if decl is None else _kind_problem(key, value, decl.type)
+            problem = None if decl is None else _kind_problem(key, value, decl.type, verb)
             if problem is not None:
                 errors.append(LocatedError(f"{spec.node_type}: value: {problem}", spec.location))
     for key, spec in reads:
@@ -131,7 +131,7 @@ def _has(params: Any, name: str) -> bool:
     )
 
 
-def _kind_problem(key: str, value: object, declared: str) -> str | None:
+def _kind_problem(key: str, value: object, declared: str, verb: str) -> str | None:
     """Why a value of ``value``'s kind never compares as meant with a key declared
     ``declared`` (text with a number, a number or a boolean with text or a boolean)."""
     of = f"blackboard key {shown(key)} is declared {declared}"
@@ -141,7 +141,7 @@ def _kind_problem(key: str, value: object, declared: str) -> str | None:
             return (
                 f"{shown(value)} is text, but {of} (text never equals a number and cannot"
                 " be ordered with one)"
-                + (f"; give 'unit: {unit}' to compare a quantity" if unit else "")
+                + (f"; give 'unit: {unit}' to {verb} a quantity" if unit else "")
             )
         if isinstance(value, bool):  # true is the number 1
             return f"{str(value).lower()} is a boolean, but {of} (write a number)"
@@ -154,16 +154,20 @@ def _kind_problem(key: str, value: object, declared: str) -> str | None:
     return None
 
 
-def _compared(params: Any) -> Iterator[tuple[str, object]]:
-    """The blackboard keys a node compares with a value taken as written (no ``unit``):
-    ``check_blackboard``'s and a guard's ``blackboard:`` comparisons."""
+def _compared(params: Any) -> Iterator[tuple[str, object, str]]:
+    """The blackboard keys a node compares with, or writes, a value taken as written (no
+    ``unit``): ``check_blackboard``'s and a guard's ``blackboard:`` comparisons, and
+    ``set_blackboard``'s value."""
     # looked up by the class, not getattr with a default: a pydantic model raises and
     # catches an AttributeError for each missing one (two a node, every node of a tree)
     comparisons = params.comparisons if _has(params, "comparisons") else None
+    verb = "compare"
     if comparisons is None and _has(params, "op") and params.op != "is_set":
         comparisons = [params]
+    elif comparisons is None and _has(params, "key") and _has(params, "value"):
+        comparisons, verb = [params], "write"  # set_blackboard: compared later
     for c in comparisons or ():
         key = getattr(c, "key", None)  # a guard's without its leading '/'
         value = getattr(c, "value", None)
         if isinstance(key, str) and value is not None and getattr(c, "unit", 1) is None:
-            yield key, value
+            yield key, value, verb
