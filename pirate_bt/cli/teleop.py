@@ -125,9 +125,11 @@ class TeleopSession:
         robot = self.sup.robot
         front = [m.name for m in robot.bend_modules(Half.FRONT)]
         if key in "ws":
-            yield OperatorCommand(
-                Drive(self._speed(SPEED_STEP_MPS if key == "w" else -SPEED_STEP_MPS))
-            )
+            speed = self._speed(SPEED_STEP_MPS if key == "w" else -SPEED_STEP_MPS)
+            # down to 0 is a stop, which always passes: Drive(0) is judged on the
+            # readings like any drive, and while a board reboots it was refused as
+            # stale and the robot drove on at the speed before
+            yield OperatorCommand(Drive(speed) if speed != 0.0 else Stop())
         elif key == " ":
             self.velocity_mps = 0.0
             yield OperatorCommand(Stop())
