@@ -25,6 +25,10 @@
 - A blackboard key declared ``boolean`` with ``default: maybe`` (or ``integer`` with
   ``1.5``, ``string`` with ``5``, ``number`` with ``1 m``, ``integer`` with ``$p``: a
   default takes no parameter) validated "ok" and wrote that value before the first tick.
+- A pipe network or a robot description given as a tree (``pirate-bt run
+  hardware/pirate.yaml``, a ``ref:`` to the wrong file) was a line for each of its
+  top-level keys (*unknown key 'schema_version'*, *missing required key 'root'*, ...),
+  where a tree given as a robot or a network is one line saying what it looks like.
 """
 
 from __future__ import annotations
@@ -255,3 +259,26 @@ def test_set_blackboard_of_another_kind_than_its_key_s_declaration_is_refused(
         " length (text never equals a number and cannot be ordered with one); give"
         " 'unit: length' to write a quantity",
     ]
+
+
+def test_a_file_of_another_kind_given_as_a_tree_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    network = tmp_path / "net.yaml"
+    network.write_text(
+        "schema_version: 1\n"
+        "diameter: 63 mm\n"
+        "start: {segment: a}\n"
+        "segments:\n"
+        "  - {id: a, kind: straight, length: 2 m}\n"
+    )
+    tree = tmp_path / "t.yaml"
+    tree.write_text("root: {type: subtree, ref: net.yaml}\n")
+    said = (
+        f"{network}:1:1: not a behaviour tree: it has none of its keys (blackboard, params,"
+        " root, subtrees) and keys it does not take (schema_version, diameter, start,"
+        " segments): it looks like a pipe network (it has 'segments')"
+    )
+    assert _validate(capsys, tree) == [said]
+    assert main(["validate", "--kind", "tree", str(network)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [said]

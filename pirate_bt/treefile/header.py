@@ -232,6 +232,10 @@ class _FileReader:
             return False
         if doc.file in self.headers_read:
             return True
+        other = _another_kind(data)
+        if other is not None:  # a line for each of its keys said nothing more
+            self.error(doc, (), other)
+            return False
         self.headers_read.add(doc.file)
         for key in data:
             if key not in _TOP_KEYS and not self.blank(doc, key):
@@ -493,3 +497,25 @@ class _FileReader:
                 self.error(doc, where, missing)
                 unknown.add(name)
         return values, unknown
+
+
+def _another_kind(data: Mapping[Any, Any]) -> str | None:
+    """One line for a file of another kind given as a tree (a robot description, a pipe
+    network, a campaign): none of a tree's keys, and a key that marks that kind. Each of
+    its keys was a line of its own (*unknown key 'schema_version'*, *missing required
+    key 'root'*, ...), as other kinds already said of a tree given as them."""
+    own = _TOP_KEYS - {"name", "description"}
+    if any(key in own for key in data):
+        return None
+    from pirate_bt.filekinds import KINDS
+
+    for kind in KINDS.values():
+        marker = next((m for m in kind.marker_keys if m in data and m not in own), None)
+        if marker is not None:
+            unknown = [str(k) for k in data if k not in _TOP_KEYS]
+            return (
+                f"not a behaviour tree: it has none of its keys ({', '.join(sorted(own))}) and"
+                f" keys it does not take ({', '.join(unknown[:4])}): it looks like a"
+                f" {kind.title} (it has {marker!r})"
+            )
+    return None
