@@ -3,8 +3,13 @@ connections never closed, runs from threads, results kept and sent on."""
 
 from __future__ import annotations
 
+import contextlib
 import gc
+import os
 import weakref
+from pathlib import Path
+
+import pytest
 
 import pirate_bt
 
@@ -27,3 +32,33 @@ def test_a_runner_outliving_its_unreferenced_connection_still_runs() -> None:
     gc.collect()
     gc.collect()
     assert runner.run().succeeded
+
+
+def _open_here(path: Path) -> list[str]:
+    """The file descriptors of this process open on ``path``."""
+    fds = Path("/proc/self/fd")
+    found = []
+    for fd in fds.iterdir():
+        with contextlib.suppress(OSError):
+            if os.readlink(fd).startswith(str(path)):
+                found.append(fd.name)
+    return found
+
+
+@pytest.mark.parametrize("name", ["run.jsonl", "run.mcap"])
+def test_an_observer_that_raises_leaves_no_trace_file_open_or_written(
+    tmp_path: Path, name: str
+) -> None:
+    def observe(runner: object, connection: object) -> None:
+        raise RuntimeError("my observer broke")
+
+    trace = tmp_path / name
+    with pytest.raises(RuntimeError, match="my observer broke"):
+        pirate_bt.simulate_tree(
+            "straight", params={"distance": "0.1 m"}, observe=observe, trace=trace
+        )
+    with pirate_bt.connect("sim:straight") as robot, pytest.raises(RuntimeError):
+        robot.run("straight", params={"distance": "0.1 m"}, observe=observe, trace=trace)
+    # an empty trace was left behind ('empty trace (no header)'), its file still open
+    assert not trace.exists()
+    assert _open_here(tmp_path) == []

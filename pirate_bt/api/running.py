@@ -392,15 +392,18 @@ def run_on(
 
         attach_live_view(runner)
     trace_path = Path(trace) if trace is not None else None
+    recorder = None
     if trace_path is not None:
 
         def end_reason(loop: Any) -> str:
             first = tally.first_safe_state if tally is not None else None
             return as_text(explain_run(loop, runner.tree.root, first)[0])
 
-        _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
+        recorder = _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
-        observe(runner, connection)
+        from pirate_bt.api.observing import call_observer
+
+        call_observer(observe, runner, connection, recorder, trace_path)
         contain_hooks(runner)
     held = supervisor.safe_state_reason if supervisor is not None else None
     try:
@@ -503,7 +506,7 @@ def _attach_trace(
     robot: Any,
     meta: Mapping[str, Any] | None,
     why: Callable[[Any], str],
-) -> None:
+) -> Any:
     from pirate_bt.trace import attach_trace, supervised_extras
 
     extras = None
@@ -519,7 +522,7 @@ def _attach_trace(
         options["meta"] = dict(meta)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        attach_trace(
+        return attach_trace(
             runner,
             path,
             extras=extras,
