@@ -143,7 +143,7 @@ def _kind_problem(key: str, value: object, declared: str, verb: str) -> str | No
                 " be ordered with one)"
                 + (f"; give 'unit: {unit}' to {verb} a quantity" if unit else "")
             )
-        if isinstance(value, bool):  # true is the number 1
+        if isinstance(value, bool) and verb == "compare":  # true is the number 1
             return f"{str(value).lower()} is a boolean, but {of} (write a number)"
     if declared == "string" and not isinstance(value, str):  # 5 never equals '5'
         what = "a boolean" if isinstance(value, bool) else "a number"
