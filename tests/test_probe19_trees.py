@@ -29,6 +29,9 @@
   hardware/pirate.yaml``, a ``ref:`` to the wrong file) was a line for each of its
   top-level keys (*unknown key 'schema_version'*, *missing required key 'root'*, ...),
   where a tree given as a robot or a network is one line saying what it looks like.
+- ``{type: drive, until: blocked, distance: 1 m}`` loaded clean and the distance was
+  ignored: the drive went on to its ``max_distance`` (3 m); ``distance_key`` with
+  another ``until`` was read (and could fail the drive) and ignored all the same.
 """
 
 from __future__ import annotations
@@ -282,3 +285,27 @@ def test_a_file_of_another_kind_given_as_a_tree_is_one_line(
     assert _validate(capsys, tree) == [said]
     assert main(["validate", "--kind", "tree", str(network)]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [said]
+
+
+def test_a_drive_s_distance_with_another_until_is_refused_not_ignored(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  d: {type: length, default: 1 m}\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: drive, velocity: 80 mm/s, until: blocked, distance: 1 m}\n"
+        "    - {type: drive, velocity: 80 mm/s, until: front_opening, distance_key: d}\n"
+        "    - {type: drive, velocity: 80 mm/s, distance: 1 m}\n"  # until: distance
+        "    - {type: drive, velocity: 80 mm/s, until: blocked, max_distance: 1 m}\n"
+    )
+    t = tree
+    assert _validate(capsys, tree) == [
+        f"{t}:6:56: drive: distance: only with until: distance (max_distance bounds a drive"
+        " until blocked)",
+        f"{t}:7:62: drive: distance_key: only with until: distance (max_distance bounds a"
+        " drive until front_opening)",
+    ]

@@ -240,6 +240,12 @@ class Drive(Primitive):
             )
         if params.less_key and params.until != "distance":
             problems.append("less_key: only with until: distance")
+        for key in ("distance", "distance_key"):  # else ignored: it drove max_distance
+            if getattr(params, key) and params.until != "distance":
+                problems.append(
+                    f"{key}: only with until: distance (max_distance bounds a drive until"
+                    f" {params.until})"
+                )
         drives = robot.drive_motors()
         if drives and not any(m.feedback.velocity for m in drives):
             # it would drive "0.000 m" until its timeout, or call every drive blocked
