@@ -51,6 +51,7 @@ import collections
 import contextlib
 import errno
 import logging
+import math
 import socket
 import threading
 import time
@@ -59,8 +60,8 @@ from typing import Any
 
 import py_trees
 
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, kind_of, shown
 from pirate_bt.errors import ConfigurationError as ConfigurationError
-from pirate_bt.errors import InputError
 from pirate_bt.interop.groot2_hooks import _replace as _replace
 from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
 from pirate_bt.interop.groot2_option import DEFAULT_HOST, parse_groot2_address
@@ -133,13 +134,16 @@ class Groot2Server(_Requests):
 
     Raises:
         ConfigurationError: ``pyzmq`` or ``msgpack`` is missing (the ``groot2`` extra).
-        InputError: a port is taken or the host cannot be listened on.
+        InputError: a port is taken or the host cannot be listened on; an argument of
+            the wrong kind (``ArgumentTypeError``) or a heartbeat that is not a positive,
+            finite number of seconds (``ArgumentValueError``).
     """
 
     def __init__(
         self, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, heartbeat_s: float = 5.0
     ) -> None:
         zmq, self._msgpack = _load()
+        _check_args(host, port, heartbeat_s)
         self._zmq = zmq
         self.host = host
         self.heartbeat_s = heartbeat_s
@@ -425,6 +429,29 @@ class Groot2Server(_Requests):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _check_args(host: object, port: object, heartbeat_s: object) -> None:
+    """Refuse what the server cannot use, before anything binds. Until 2026-11-30 a port
+    given as text (read from a file or the environment) was a ``TypeError`` traceback,
+    ``port=1.5`` bound ports 1 and 2 (ZeroMQ reads the digits it can), and a heartbeat of
+    ``nan``, 0 or less removed every hook as soon as it was set (against a robot, a held
+    breakpoint then put it in its safe state), ``inf`` never (the fail-safe was off)."""
+    if not isinstance(host, str):
+        raise ArgumentTypeError(f"Groot2Server: host: give text, not {kind_of(host)}")
+    if isinstance(port, bool) or not isinstance(port, int):
+        raise ArgumentTypeError(
+            f"Groot2Server: port: give a whole number from 0 to 65534, not {shown(port)}"
+        )
+    if isinstance(heartbeat_s, bool) or not isinstance(heartbeat_s, int | float):
+        raise ArgumentTypeError(
+            f"Groot2Server: heartbeat_s: give a number of seconds, not {kind_of(heartbeat_s)}"
+        )
+    if not (math.isfinite(heartbeat_s) and heartbeat_s > 0):
+        raise ArgumentValueError(
+            f"Groot2Server: heartbeat_s: give a positive, finite number of seconds (the"
+            f" silence after which every hook is removed), not {shown(heartbeat_s)}"
+        )
 
 
 def _cannot_listen(given: str, host: str, exc: Any) -> InputError:
