@@ -59,3 +59,73 @@ def test_a_ros2_node_refuses_an_argument_it_cannot_use_before_its_process_starts
     assert isinstance(caught.value, InputError)
     assert message.startswith("ROS 2 node: ") and says in message, message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "kind", "says"),
+    [
+        (("127.0.0.1", "1667"), {}, ArgumentTypeError, "port: give a whole number from 0 to 65534"),
+        (("127.0.0.1", 1.5), {}, ArgumentTypeError, "port: give a whole number from 0 to 65534"),
+        (("127.0.0.1", True), {}, ArgumentTypeError, "port: give a whole number from 0 to 65534"),
+        ((None, 0), {}, ArgumentTypeError, "host: give text, not None"),
+        (("127.0.0.1", 0), {"heartbeat_s": math.nan}, ArgumentValueError, "heartbeat_s: give a"),
+        (("127.0.0.1", 0), {"heartbeat_s": 0}, ArgumentValueError, "heartbeat_s: give a"),
+        (("127.0.0.1", 0), {"heartbeat_s": math.inf}, ArgumentValueError, "heartbeat_s: give a"),
+        (("127.0.0.1", 0), {"heartbeat_s": "5"}, ArgumentTypeError, "heartbeat_s: give a number"),
+    ],
+)
+def test_a_groot2_server_refuses_an_argument_it_cannot_use_before_it_binds(
+    args: tuple[Any, ...], kwargs: dict[str, Any], kind: type, says: str
+) -> None:
+    """A port read from the environment as text was a ``TypeError`` traceback;
+    ``port=1.5`` bound ports 1 and 2 (ZeroMQ reads the digits it can); a heartbeat of
+    ``nan`` or 0 removed every hook as soon as it was set (against a robot, a held
+    breakpoint then put it in its safe state) and ``inf`` turned the fail-safe off."""
+    pytest.importorskip("zmq")
+    from pirate_bt.interop import groot2_server
+
+    made: list[Any] = []
+    real = groot2_server.Groot2Server._bind
+
+    def bind(self: Any, host: str, port: int) -> int:
+        made.append(port)
+        return real(self, host, port)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(groot2_server.Groot2Server, "_bind", bind)
+        with pytest.raises(kind) as caught:
+            groot2_server.Groot2Server(*args, **kwargs).close()
+    message = str(caught.value)
+    assert isinstance(caught.value, InputError)
+    assert message.startswith("Groot2Server: ") and says in message, message
+    assert "\n" not in message
+    assert made == []  # refused before anything was bound
+
+
+@pytest.mark.parametrize(
+    ("args", "kind", "says"),
+    [
+        (("127.0.0.1", 70000), ArgumentValueError, "port: give a whole number from 0 to 65535"),
+        (("127.0.0.1", -1), ArgumentValueError, "port: give a whole number from 0 to 65535"),
+        (("127.0.0.1", True), ArgumentTypeError, "port: give a whole number from 0 to 65535"),
+        (("127.0.0.1", "8765"), ArgumentTypeError, "port: give a whole number from 0 to 65535"),
+        ((None, 0), ArgumentTypeError, "host: give text, not None"),
+    ],
+)
+def test_a_foxglove_server_refuses_a_port_it_cannot_use_before_its_process_starts(
+    monkeypatch: pytest.MonkeyPatch, args: tuple[Any, ...], kind: type, says: str
+) -> None:
+    """``FoxgloveServer(host, 70000)`` started the server's process and returned a
+    server that never listened, with no error (its ``failure`` said ``OverflowError:
+    number too large to fit in target type``); ``-1`` and ``True`` were called an
+    unknown host; ``None`` for the host was a ``TypeError`` traceback."""
+    pytest.importorskip("foxglove")
+    from pirate_bt.interop import foxglove_live
+
+    _no_process(monkeypatch, foxglove_live)
+    with pytest.raises(kind) as caught:
+        foxglove_live.FoxgloveServer(*args)
+    message = str(caught.value)
+    assert isinstance(caught.value, InputError)
+    assert message.startswith("FoxgloveServer: ") and says in message, message
+    assert "unknown host" not in message and "\n" not in message

@@ -52,6 +52,7 @@ from pirate_bt.interop.foxglove_option import (
     DEFAULT_HOST,
     DEFAULT_PORT,
     add_foxglove_option,
+    check_server_args,
     parse_address,
 )
 from pirate_bt.interop.foxglove_process import (
@@ -133,7 +134,8 @@ class FoxgloveServer:
 
     Raises:
         ConfigurationError: ``foxglove-sdk`` is missing, or no process can be started.
-        InputError: the port is taken or the host cannot be listened on.
+        InputError: the port is taken or the host cannot be listened on; a host or port
+            of the wrong kind (``ArgumentTypeError``) or a port out of range.
     """
 
     _PROCESS_OPTIONS: ClassVar[dict[str, Any]] = {}
@@ -150,6 +152,7 @@ class FoxgloveServer:
     ) -> None:
         if importlib.util.find_spec("foxglove") is None:
             raise ConfigurationError(missing_extra("--foxglove", "foxglove-sdk"))
+        check_server_args(host, port)
         _port_free(host, port)
         self.host = host
         self.port: int = port
