@@ -129,3 +129,28 @@ def test_a_foxglove_server_refuses_a_port_it_cannot_use_before_its_process_start
     assert isinstance(caught.value, InputError)
     assert message.startswith("FoxgloveServer: ") and says in message, message
     assert "unknown host" not in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("bag", "kind", "says"),
+    [
+        (None, ArgumentTypeError, "bag: give a file name (text or a Path), not None"),
+        (5, ArgumentTypeError, "bag: give a file name (text or a Path), not an int"),
+        (b"run_bag", ArgumentTypeError, "bag: give a file name (text or a Path), not a bytes"),
+        ("run\0_bag", ArgumentValueError, "bag: a file name may not hold a NUL character"),
+        ("", ArgumentValueError, "bag: the file name is empty"),
+    ],
+)
+def test_reading_a_bag_by_no_file_name_is_refused_as_the_export_refuses_one(
+    bag: object, kind: type, says: str
+) -> None:
+    """``read_rosbag2_records(None)`` said ``None: not a readable rosbag2 bag: TypeError:
+    expected str, bytes or os.PathLike object, not NoneType``, a NUL was written into the
+    line as it was, and ``""`` was 'Expected metadata file '.' does not exist'; the
+    export names its argument and says what it takes."""
+    pytest.importorskip("rosbags")
+    from pirate_bt.interop.rosbag2 import read_rosbag2_records
+
+    with pytest.raises(kind) as caught:
+        read_rosbag2_records(bag)  # type: ignore[arg-type]
+    assert str(caught.value) == says

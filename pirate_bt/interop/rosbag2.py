@@ -382,9 +382,14 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
         InputError: not a bag, no trace topic in it, or a message on it that is no
             trace record (named by its number on the topic, from 1); a namespace ROS 2
             refuses.
-        ArgumentTypeError: ``namespace`` is not text.
+        ArgumentTypeError: ``namespace`` is not text, ``bag`` no file name (``None``, a
+            number, bytes), as :func:`export_rosbag2` refuses one.
+        ArgumentValueError: ``bag`` is empty or holds a NUL.
         ConfigurationError: ``rosbags`` is missing.
     """
+    # until 2026-11-30 such a name went to rosbags: 'None: not a readable rosbag2 bag:
+    # TypeError: expected str, bytes or os.PathLike object', a NUL written into the line
+    bag = file_argument(bag, "bag")
     topic = _trace_topic(namespace)
     rosbag2 = _rosbags()
     store = typestore()
