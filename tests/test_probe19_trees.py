@@ -32,6 +32,10 @@
 - ``{type: drive, until: blocked, distance: 1 m}`` loaded clean and the distance was
   ignored: the drive went on to its ``max_distance`` (3 m); ``distance_key`` with
   another ``until`` was read (and could fail the drive) and ignored all the same.
+- An ``eternal_guard`` whose conditions held a drive of 0.2 m (or a wait, or a sequence
+  holding one) loaded clean, and on the simulator the robot drove 2.1 m in 30 s: the
+  guard re-checks its conditions every tick, so each time the drive was done the next
+  tick started it again, its child interrupted each time.
 """
 
 from __future__ import annotations
@@ -308,4 +312,31 @@ def test_a_drive_s_distance_with_another_until_is_refused_not_ignored(
         " until blocked)",
         f"{t}:7:62: drive: distance_key: only with until: distance (max_distance bounds a"
         " drive until front_opening)",
+    ]
+
+
+def test_an_eternal_guard_condition_that_can_be_running_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n"
+        "  go: {type: boolean, default: true}\n"
+        "root:\n"
+        "  type: eternal_guard\n"
+        "  conditions:\n"
+        "    - {type: check_blackboard, key: go, value: true}\n"
+        "    - {type: drive, velocity: 80 mm/s, distance: 0.2 m}\n"
+        "    - {type: sequence, name: both, children: [{type: is_clamped, half: rear},"
+        " {type: wait, duration: 1 s}]}\n"
+        "  child: {type: wait, duration: 3 s}\n"
+    )
+    t = tree
+    said = (
+        "can be running: a condition answers success or failure in the tick (once done,"
+        " the next tick would start it again); put it in the child"
+    )
+    assert _validate(capsys, tree) == [
+        f"{t}:7:7: eternal_guard: condition 'drive' {said}",
+        f"{t}:8:7: eternal_guard: condition 'both' {said}",
     ]

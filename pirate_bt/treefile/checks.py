@@ -75,6 +75,26 @@ def _outcomes(spec: NodeSpec, warnings: list[LocatedError]) -> frozenset[Outcome
     return frozenset(result)
 
 
+def _check_conditions(root: NodeSpec, errors: list[LocatedError]) -> None:
+    """An ``eternal_guard``'s conditions answer in the tick: one that can be running (a
+    drive, a wait) is started again each time it is done, as the guard re-checks its
+    conditions every tick (a drive of 0.2 m there drove 2 m in 30 s, its child
+    interrupted each time); its place is the child."""
+    for spec in root.walk():
+        if spec.node_type != "eternal_guard":
+            continue
+        for condition in spec.conditions:
+            if "running" in _outcomes(condition, []):
+                errors.append(
+                    LocatedError(
+                        f"eternal_guard: condition {condition.name!r} can be running: a"
+                        " condition answers success or failure in the tick (once done, the"
+                        " next tick would start it again); put it in the child",
+                        condition.location,
+                    )
+                )
+
+
 def _check_blackboard(
     root: NodeSpec,
     declared: dict[str, tuple[BlackboardDecl, SourceLocation]],

@@ -45,7 +45,7 @@ from pirate_bt.errors import (
     file_argument,
 )
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.treefile.checks import _check_blackboard, _outcomes
+from pirate_bt.treefile.checks import _check_blackboard, _check_conditions, _outcomes
 from pirate_bt.treefile.header import misspelt
 from pirate_bt.treefile.reader import _Env, _Reader
 from pirate_bt.treefile.refused import read_tree_yaml, shows_blank
@@ -234,6 +234,7 @@ def load_tree(
     reader.check_unused(doc)  # the subtrees no call used: checked all the same
     if spec is not None:
         _check_blackboard(spec, reader.blackboard, reader.errors, reader.board_unsure)
+        _check_conditions(spec, reader.errors)
     if spec is not None and not reader.errors:
         if not spec.explicit_name:
             name = data.get("name")
