@@ -62,3 +62,19 @@ def test_an_observer_that_raises_leaves_no_trace_file_open_or_written(
     # an empty trace was left behind ('empty trace (no header)'), its file still open
     assert not trace.exists()
     assert _open_here(tmp_path) == []
+
+
+def test_a_firmware_connection_never_closed_stops_its_chain() -> None:
+    from firmware_chain_support import build_chain, missing_chain
+
+    why = missing_chain()
+    if why:
+        pytest.skip(why)
+    build_chain()
+    robot = pirate_bt.connect("firmware:straight")
+    chain = robot.simulator.chain
+    del robot
+    gc.collect()
+    gc.collect()
+    # its simavr process ran on for the life of the planner's process, three files open
+    assert chain.closed

@@ -105,11 +105,11 @@ class Connection:
 
         self.tally = VerdictTally(supervisor, from_open=True)
         # a connection never closed kept its in-process simulator registered (sim://NAME)
-        # for the life of the process: a planner's loop of connect() without close()
-        # grew by ~200 kB a run. Once nothing holds the supervisor (a runner of
-        # runner() keeps it), the simulator is let go.
-        let_go = getattr(getattr(supervisor, "simulator", None), "close", None)
-        if simulator is None and callable(let_go):
+        # for the life of the process (~200 kB a run of a loop of connect() without
+        # close()), its firmware chain's simavr process running. Once nothing holds the
+        # supervisor (a runner of runner() keeps it), the simulator is let go.
+        let_go = getattr(simulator or getattr(supervisor, "simulator", None), "close", None)
+        if callable(let_go):
             weakref.finalize(supervisor, let_go)
 
     @property
