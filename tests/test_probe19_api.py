@@ -8,10 +8,15 @@ import gc
 import os
 import weakref
 from pathlib import Path
+from typing import Any
 
+import py_trees
 import pytest
+from py_trees.common import Status
 
 import pirate_bt
+from pirate_bt.behaviours.base import Leaf, NodeParams
+from pirate_bt.behaviours.primitives import Clamp, Drive, MoveFrontClear
 
 
 def test_a_connection_never_closed_lets_its_simulator_go() -> None:
@@ -78,3 +83,49 @@ def test_a_firmware_connection_never_closed_stops_its_chain() -> None:
     gc.collect()
     # its simavr process ran on for the life of the planner's process, three files open
     assert chain.closed
+
+
+class _CtrlCAsItStops(Leaf):
+    """Runs beside a drive; fails at its 80th tick, and Ctrl-C lands in its terminate()
+    as the runner stops the running nodes."""
+
+    Params = NodeParams
+    needs_robot = False
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.ticks = 0
+
+    def update(self) -> Status:
+        self.ticks += 1
+        return Status.FAILURE if self.ticks == 80 else Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if self.ticks >= 80:
+            raise KeyboardInterrupt
+
+
+def test_ctrl_c_as_the_runner_stops_the_nodes_leaves_the_robot_in_its_safe_state() -> None:
+    with pirate_bt.connect("sim:straight") as robot:
+        ctx = robot.context()
+        legs = py_trees.composites.Sequence(name="legs", memory=True)
+        legs.add_children(
+            [
+                Clamp.build("clamp rear", ctx, half="rear", torque="0.7 N*m"),
+                MoveFrontClear.build("front clear", ctx),
+                Clamp.build("clamp front", ctx, half="front", torque="0.7 N*m"),
+                Drive.build("drive", ctx, velocity="80 mm/s", distance="2 m"),
+            ]
+        )
+        root = py_trees.composites.Parallel(
+            name="both", policy=py_trees.common.ParallelPolicy.SuccessOnAll()
+        )
+        root.add_children([legs, _CtrlCAsItStops.build("watch", ctx)])
+        with pytest.raises(KeyboardInterrupt):
+            robot.run(root, max_time="60 s")
+        # it went out with the drive at 80 mm/s and no safe state entered: planner code
+        # that caught it ran its next tree on a robot taken for fine
+        assert robot.supervisor.in_safe_state
+        assert "interrupted (Ctrl-C)" in (robot.supervisor.safe_state_reason or "")
+        after = robot.run("straight", params={"distance": "0.1 m"})
+        assert after.why.startswith("the robot is in its safe state: interrupted (Ctrl-C)")

@@ -406,8 +406,10 @@ def run_on(
         call_observer(observe, runner, connection, recorder, trace_path)
         contain_hooks(runner)
     held = supervisor.safe_state_reason if supervisor is not None else None
+    from pirate_bt.api.observing import run_to_rest
+
     try:
-        loop = runner.run()
+        loop = run_to_rest(runner, supervisor)
     finally:
         if tally is not None:
             tally.detach()
