@@ -129,3 +129,17 @@ def test_ctrl_c_as_the_runner_stops_the_nodes_leaves_the_robot_in_its_safe_state
         assert "interrupted (Ctrl-C)" in (robot.supervisor.safe_state_reason or "")
         after = robot.run("straight", params={"distance": "0.1 m"})
         assert after.why.startswith("the robot is in its safe state: interrupted (Ctrl-C)")
+
+
+def test_a_tree_built_without_a_robot_runs_again_and_again() -> None:
+    # the first run bound its nodes to its connection for good: the second was refused,
+    # 'was built with another connection's context(); build it with this connection's'
+    root = pirate_bt.load_tree("straight", params={"distance": "0.1 m"}).root
+    assert [pirate_bt.simulate_tree(root, seed=seed).status for seed in (0, 1)] == [
+        "success",
+        "success",
+    ]
+    tree = pirate_bt.load_tree("straight", params={"distance": "0.1 m"}).behaviour_tree()
+    for _ in range(2):
+        with pirate_bt.connect("sim:straight") as robot:
+            assert robot.run(tree).succeeded

@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import py_trees
 
+from pirate_bt.api.binding import unbinder
+from pirate_bt.api.observing import call_observer, run_to_rest
 from pirate_bt.api.options import (
     callback,
     find,
@@ -295,6 +297,7 @@ def supervised_runner(
     if connection is not None:
         clock, robot = connection.clock, connection.robot
     clock = clock if clock is not None else SimClock()
+    give_back = unbinder(tree)
     built = _build_on(tree, connection, clock, robot)
     supervisor = connection.supervisor if connection is not None else None
 
@@ -334,6 +337,7 @@ def supervised_runner(
     from pirate_bt.behaviours.foreign import let_go
 
     runner.add_finish(lambda _result: let_go(_root(built)))
+    runner.add_finish(give_back)
     return runner
 
 
@@ -401,13 +405,9 @@ def run_on(
 
         recorder = _attach_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
-        from pirate_bt.api.observing import call_observer
-
         call_observer(observe, runner, connection, recorder, trace_path)
         contain_hooks(runner)
     held = supervisor.safe_state_reason if supervisor is not None else None
-    from pirate_bt.api.observing import run_to_rest
-
     try:
         loop = run_to_rest(runner, supervisor)
     finally:
