@@ -67,6 +67,14 @@ def test_an_observer_that_raises_leaves_no_trace_file_open_or_written(
     # an empty trace was left behind ('empty trace (no header)'), its file still open
     assert not trace.exists()
     assert _open_here(tmp_path) == []
+    with pytest.raises(RuntimeError, match="my observer broke"):  # a mission's the same
+        pirate_bt.simulate_mission(
+            Path(__file__).resolve().parents[1] / "scenarios" / "straight.route",
+            observe=observe,
+            trace=trace,
+        )
+    assert not trace.exists()
+    assert _open_here(tmp_path) == []
 
 
 def test_a_firmware_connection_never_closed_stops_its_chain() -> None:

@@ -323,12 +323,13 @@ def run_mission(
         first = tally.first_safe_state
         return first_mismatch() or explain_run(run, runner.tree.root, first)[0]
 
+    recorder = None
     if trace_path is not None:
         from pirate_bt.trace import attach_trace, supervised_extras
 
         extras = supervised_extras(supervisor, counters=counters, more=localiser.values)
         trace_path.parent.mkdir(parents=True, exist_ok=True)
-        attach_trace(
+        recorder = attach_trace(
             runner,
             trace_path,
             extras=extras,
@@ -343,7 +344,10 @@ def run_mission(
 
         attach_live_view(runner, live_stream)
     if observe is not None:
-        observe(runner, localiser.values)
+        from pirate_bt.trace.attach import call_observer
+
+        # one that raises leaves no trace of a run that never started
+        call_observer(observe, runner, localiser.values, recorder, trace_path)
     try:
         result = runner.run()
         last = running[0]

@@ -19,6 +19,7 @@ What ``pirate-bt run`` does::
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from collections.abc import Callable
 from operator import attrgetter
@@ -35,6 +36,7 @@ _log = logging.getLogger(__name__)
 __all__ = [
     "attach_live_view",
     "attach_trace",
+    "call_observer",
     "counter_values",
     "node_id_for_path",
     "outcome_of_result",
@@ -297,3 +299,23 @@ def supervised_extras(
         return TickExtras(state=state(), commands=records, link=health(), sim=sim or None)
 
     return extras
+
+
+def call_observer(
+    observe: Any, runner: Any, connection: Any, recorder: Any, trace_path: Path | None
+) -> None:
+    """Call ``observe(runner, connection)`` (a mission's: ``observe(runner, values)``);
+    when it raises (the planner's own error,
+    before anything moved), close the trace attached for the run and remove its file
+    before the exception goes on: no trace of a run that never ran. It was left empty
+    with its file open, one file descriptor lost a call.
+    """
+    try:
+        observe(runner, connection)
+    except BaseException:
+        if recorder is not None and trace_path is not None:
+            with contextlib.suppress(Exception):
+                recorder.close("error", reason="the run did not start")
+            with contextlib.suppress(OSError):
+                trace_path.unlink()
+        raise
