@@ -32,14 +32,12 @@ missing. Tracebacks are logged at DEBUG only: the result carries them.
 from __future__ import annotations
 
 import dataclasses
-import enum
 import logging
 import threading
 import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import py_trees
@@ -47,6 +45,7 @@ from py_trees.common import Status
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import said_of
+from pirate_bt.run_result import Overrun, RunResult, StopReason, TickInfo
 
 __all__ = [
     "SETTLE_LIMIT_S",
@@ -65,92 +64,6 @@ _RAISED = (Exception, SystemExit, GeneratorExit)
 """What a node, a hook or a callback may raise that the runner holds: anything but
 Ctrl-C (``KeyboardInterrupt``). A ``sys.exit()`` in a behaviour or a hook went out of
 :meth:`Runner.run` past the safe stop, the robot still driving (probe of 2026-11-30)."""
-
-
-class StopReason(enum.StrEnum):
-    """Why a run ended."""
-
-    SUCCESS = "success"
-    FAILURE = "failure"
-    TIME_LIMIT = "time_limit"
-    EXCEPTION = "exception"
-    INTERRUPTED = "interrupted"
-
-
-@dataclass(frozen=True, slots=True)
-class Overrun:
-    """A tick that took longer than the budget."""
-
-    tick: int
-    duration_s: float
-    budget_s: float
-
-
-@dataclass(frozen=True, slots=True)
-class TickInfo:
-    """What a hook sees.
-
-    Attributes:
-        tick: Tick number, from 1.
-        time_s: Clock time at the start of the tick (seconds since the run began).
-        tree: The ``py_trees`` tree (visit it for node statuses).
-        status: The root's status after the tick (``None`` in pre-tick hooks).
-        duration_s: Wall time the tick took (``None`` in pre-tick hooks).
-    """
-
-    tick: int
-    time_s: float
-    tree: py_trees.trees.BehaviourTree
-    status: Status | None = None
-    duration_s: float | None = None
-
-
-@dataclass(frozen=True)
-class RunResult:
-    """How a run ended.
-
-    Attributes:
-        outcome: ``"success"`` or ``"failure"`` (every non-success end is a failure).
-        reason: Why it ended, as a :class:`StopReason`.
-        message: One line for people.
-        ticks: Ticks completed or attempted.
-        sim_time_s: Clock time the run took (simulated time on a SimClock).
-        wall_time_s: Wall time the run took.
-        failing_node: Path of the node that raised (``None`` if none raised).
-        error: The exception that ended the run, if any.
-        traceback: Its formatted traceback.
-        overruns: Ticks over budget (at most ``max_overruns_kept`` listed).
-        overrun_count: All ticks over budget.
-        max_tick_s: Longest tick (wall time).
-        mean_tick_s: Mean tick (wall time).
-        safe_state_called: The safe-state callback ran.
-        stopped_nodes: Paths of the RUNNING nodes the runner stopped.
-        paused_ticks: Ticks skipped because the tree was paused (an operator in MANUAL).
-        settle_ticks: Ticks after the tree's end, while the robot came to rest (the
-            runner's ``settle``); counted in ``ticks`` too.
-    """
-
-    outcome: str
-    reason: StopReason
-    message: str
-    ticks: int
-    sim_time_s: float
-    wall_time_s: float
-    failing_node: str | None = None
-    error: BaseException | None = None
-    traceback: str | None = None
-    overruns: tuple[Overrun, ...] = ()
-    overrun_count: int = 0
-    max_tick_s: float = 0.0
-    mean_tick_s: float = 0.0
-    safe_state_called: bool = False
-    stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
-    paused_ticks: int = 0
-    settle_ticks: int = 0
-
-    @property
-    def succeeded(self) -> bool:
-        return self.outcome == "success"
 
 
 Hook = Callable[[TickInfo], None]
