@@ -13,7 +13,8 @@ What py_trees leaves to its user, the runner does:
   node (deepest first, so ``terminate()`` cancels motion), calls the safe-state
   callback (the supervisor's "stop drives, hold clamps") and ends with failure.
 - **Ctrl-C.** A ``KeyboardInterrupt`` during a tick or a wait is handled the
-  same way; finish hooks still run, so traces are written. (``pirate-bt`` raises
+  same way; finish hooks still run, so traces are written (a Ctrl-C in one of them
+  ends the run interrupted and the others still run). (``pirate-bt`` raises
   one for SIGTERM too.) A second Ctrl-C during the safe stop does not cut it short:
   the safe state is asked for again.
 - **Any non-success end** (failure, time limit) also stops running nodes and
@@ -404,6 +405,20 @@ class Runner:
         for on_finish in self.finish:
             try:
                 on_finish(result)
+            except KeyboardInterrupt as exc:
+                # Ctrl-C while the run's outputs close: the hooks after it still run (the
+                # promise of a Ctrl-C in a tick), and a run without an error before ends
+                # interrupted, the robot left safe; it went out of run() past them
+                _log.warning("interrupted (Ctrl-C) while the run's outputs were written")
+                if result.error is None:
+                    result = dataclasses.replace(
+                        result,
+                        outcome="failure",
+                        reason=StopReason.INTERRUPTED,
+                        message=f"interrupted ({str(exc) or 'Ctrl-C'}) as the run ended",
+                        error=exc,
+                        safe_state_called=result.safe_state_called or self._call_safe_state(),
+                    )
             except _RAISED as exc:
                 _log.debug("finish hook failed", exc_info=True)
                 if result.error is None:

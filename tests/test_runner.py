@@ -79,6 +79,26 @@ def test_ctrl_c_ends_in_the_safe_state_and_runs_finish_hooks() -> None:
     assert finished == [result]
 
 
+def test_ctrl_c_in_a_finish_hook_still_runs_the_others_and_ends_interrupted() -> None:
+    # a Ctrl-C while a step's trace closed went out of run() past the hooks after it
+    # (a survey lost its navigation record's end and its file)
+    root = py_trees.behaviours.Success(name="done")
+    safe: list[str] = []
+    finished: list[object] = []
+
+    def interrupted(result: object) -> None:
+        raise KeyboardInterrupt
+
+    runner = Runner(root, clock=SimClock(), safe_state=lambda: safe.append("safe"))
+    runner.add_finish(interrupted)
+    runner.add_finish(finished.append)
+    result = runner.run()
+    assert result.reason is StopReason.INTERRUPTED and result.outcome == "failure"
+    assert result.message == "interrupted (Ctrl-C) as the run ended"
+    assert safe == ["safe"] and result.safe_state_called
+    assert len(finished) == 1  # the hook after it ran
+
+
 def test_ctrl_c_while_waiting_between_ticks() -> None:
     class Interrupting(SimClock):
         def sleep(self, seconds: float) -> None:
