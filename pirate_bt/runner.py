@@ -371,7 +371,8 @@ class Runner:
             tb_text = "".join(traceback.format_exception(exc))
             reason = StopReason.EXCEPTION
             where = f" in {failing}" if failing else ""
-            message = f"{type(exc).__name__}{where}: {said_of(exc)}"
+            said = said_of(exc)  # "MemoryError in s/boom", not "...: " with nothing said
+            message = f"{type(exc).__name__}{where}" + (f": {said}" if said else "")
             _log.debug("run ended by an exception%s:\n%s", where, tb_text)
         stopped: tuple[str, ...] = ()
         safe_called = False
@@ -428,7 +429,8 @@ class Runner:
                         result,
                         outcome="failure",
                         reason=StopReason.EXCEPTION,
-                        message=f"{type(exc).__name__}: {said_of(exc)}",
+                        message=f"{type(exc).__name__}"
+                        + (f": {said}" if (said := said_of(exc)) else ""),
                         error=exc,
                         traceback="".join(traceback.format_exception(exc)),
                         safe_state_called=result.safe_state_called or self._call_safe_state(),

@@ -384,3 +384,14 @@ def test_a_setup_in_the_main_thread_is_still_timed() -> None:
     result = Runner(_SlowSetup(0.5), clock=SimClock(), setup_timeout_s=0.05).run()
     assert result.reason is StopReason.EXCEPTION
     assert "tree setup interrupted or timed out" in result.message, result.message
+
+
+def test_an_exception_with_nothing_to_say_ends_its_message_with_where() -> None:
+    # a bare MemoryError() read "MemoryError in boom: ", a colon before nothing
+    class Bare(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            raise MemoryError
+
+    result = Runner(Bare("boom"), clock=SimClock()).run()
+    assert result.reason is StopReason.EXCEPTION
+    assert result.message == "MemoryError in boom"
