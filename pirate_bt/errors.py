@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 import re
 import sys
 from collections.abc import Iterable
@@ -71,12 +72,14 @@ __all__ = [
     "SafetyError",
     "SourceLocation",
     "UnitError",
+    "UnpicklableError",
     "ValidationFailed",
     "bytes_escaped",
     "caller_location",
     "file_argument",
     "kind_of",
     "output_argument",
+    "portable_error",
     "said_of",
     "shown",
 ]
@@ -444,3 +447,22 @@ class EStopLatched(SafetyError):
 
 class ExecutionError(PirateError):
     """A tree or mission failed while running."""
+
+
+class UnpicklableError(Exception):
+    """Stands in, in a result sent to another process, for the exception that ended its
+    run when that one cannot be pickled and read back: its type's name and message."""
+
+
+def portable_error(error: BaseException | None) -> BaseException | None:
+    """``error`` itself when it can be pickled and read back, else a stand-in of the same
+    message: a :class:`~pirate_bt.errors.LinkError` for a link error (exit code 3), else
+    an :class:`UnpicklableError`."""
+    if error is None:
+        return None
+    try:
+        pickle.loads(pickle.dumps(error))
+        return error
+    except Exception:  # any way a planner's own exception class can refuse
+        text = f"{type(error).__name__}: {said_of(error)}"
+        return LinkError(text) if isinstance(error, LinkError) else UnpicklableError(text)

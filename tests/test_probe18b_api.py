@@ -307,3 +307,22 @@ def test_a_step_takes_numpy_numbers_as_si_numbers() -> None:
     assert _quantity(Step("straight", distance=np.float32(0.25)), "distance", "length", "1 m") == (
         pytest.approx(0.25)
     )
+
+
+def test_mission_and_navigation_results_with_an_unpicklable_error_still_pickle() -> None:
+    # a MissionResult or NavigationResult whose error was such an exception broke a
+    # process pool (BrokenProcessPool), as a RunResult's did before the stand-in
+    import dataclasses
+
+    from pirate_bt.task.navigate_result import NavigationResult
+
+    mission = pirate_bt.simulate_mission(
+        Path(__file__).resolve().parents[1] / "scenarios" / "straight.route"
+    )
+    raised = _TwoArgumentError(7, "sensor said no")
+    mission = dataclasses.replace(mission, run=dataclasses.replace(mission.run, error=raised))
+    navigation = NavigationResult(navigator="mine", status="failure", why="w", error=raised)
+    for result in (mission, navigation):
+        back = pickle.loads(pickle.dumps(result))
+        assert str(back.error) in ("_TwoArgumentError: sensor said no", "sensor said no")
+        assert back.status == result.status

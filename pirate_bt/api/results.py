@@ -7,12 +7,11 @@ carry one :class:`~pirate_bt.safety.tally.Counters` type.
 
 from __future__ import annotations
 
-import pickle
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError, said_of
+from pirate_bt.errors import LinkError, UnpicklableError, portable_error
 from pirate_bt.runner import RunResult as LoopResult
 from pirate_bt.runner import StopReason
 from pirate_bt.safety.tally import Counters
@@ -26,25 +25,6 @@ __all__ = [
     "exit_code",
     "portable_error",
 ]
-
-
-class UnpicklableError(Exception):
-    """Stands in, in a result sent to another process, for the exception that ended its
-    run when that one cannot be pickled and read back: its type's name and message."""
-
-
-def portable_error(error: BaseException | None) -> BaseException | None:
-    """``error`` itself when it can be pickled and read back, else a stand-in of the same
-    message: a :class:`~pirate_bt.errors.LinkError` for a link error (exit code 3), else
-    an :class:`UnpicklableError`."""
-    if error is None:
-        return None
-    try:
-        pickle.loads(pickle.dumps(error))
-        return error
-    except Exception:  # any way a planner's own exception class can refuse
-        text = f"{type(error).__name__}: {said_of(error)}"
-        return LinkError(text) if isinstance(error, LinkError) else UnpicklableError(text)
 
 
 def exit_code(succeeded: bool, error: BaseException | None) -> int:

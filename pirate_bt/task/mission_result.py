@@ -8,11 +8,11 @@ exports them as before.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError
+from pirate_bt.errors import LinkError, portable_error
 from pirate_bt.runner import RunResult
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.localise import Disagreement, Fix
@@ -145,6 +145,11 @@ class MissionResult:
         sent back from a process pool keeps everything else."""
         state = dict(self.__dict__)
         state["tree"] = None
+        # whatever a planner's node raised: one that cannot be pickled and read back (a
+        # class whose __init__ takes two arguments) broke the pool, the result with it
+        error = portable_error(self.run.error)
+        if error is not self.run.error:
+            state["run"] = replace(self.run, error=error)
         return state
 
     @property

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError, said_of
+from pirate_bt.errors import LinkError, portable_error, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.navigation import Decision, Step
@@ -95,6 +95,14 @@ class NavigationResult:
     notes: list[str] = field(default_factory=list)
     """What was done after the end: a half a failed step left free in a steep pipe
     clamped (:func:`pirate_bt.task.secure.hold_both`)."""
+
+    def __getstate__(self) -> object:
+        """Pickled with a stand-in for an ``error`` that cannot be pickled and read back
+        (a navigator's own exception class whose ``__init__`` takes two arguments broke
+        a process pool, and the result that says why with it)."""
+        state = dict(self.__dict__)
+        state["error"] = portable_error(self.error)
+        return state
 
     @property
     def succeeded(self) -> bool:
