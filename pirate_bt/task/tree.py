@@ -56,7 +56,11 @@ def steer_param(path: Path, steer_angle_rad: float) -> dict[str, float]:
     (its ``motion.steer_angle``) as steered: the robot's angle and
     :data:`STEER_MARGIN_RAD`. Empty where the default is enough (within half the
     margin of it or more), so a run with the reference robot is as before."""
-    declared = _declared_params(path)
+    return _steer_for(_declared_params(path), steer_angle_rad)
+
+
+def _steer_for(declared: dict[str, float | None], steer_angle_rad: float) -> dict[str, float]:
+    """:func:`steer_param` of a tree's declared parameters (read once per PAB kind)."""
     if "steer" not in declared:
         return {}
     default = declared["steer"]
@@ -121,7 +125,7 @@ def mission_tree_spec(
                 if key in declared[pab.pab] and declared[pab.pab][key] != speed:
                     params[key] = speed
         if steer_angle_rad is not None:
-            params.update(steer_param(path, steer_angle_rad))
+            params.update(_steer_for(declared[pab.pab], steer_angle_rad))
         node: dict[str, Any] = {
             "type": "subtree",
             "name": name,
