@@ -154,3 +154,24 @@ def test_reading_a_bag_by_no_file_name_is_refused_as_the_export_refuses_one(
     with pytest.raises(kind) as caught:
         read_rosbag2_records(bag)  # type: ignore[arg-type]
     assert str(caught.value) == says
+
+
+@pytest.mark.parametrize("record", [None, ["tick"], "tick"])
+def test_a_record_that_is_no_mapping_is_left_out_not_raised(record: Any) -> None:
+    """``FoxgloveServer.publish_record`` says it never raises; ``None``, a list or text
+    raised ``TypeError``/``ValueError`` out of ``dict(record)`` into the run's hook."""
+    pytest.importorskip("foxglove")
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+
+    class Handed:
+        def __init__(self) -> None:
+            self.given: list[Any] = []
+
+        def _hand_over(self, *args: Any) -> None:
+            self.given.append(args)
+
+    server = Handed()
+    FoxgloveServer.publish_record(server, record)  # type: ignore[arg-type]
+    assert server.given == []
+    FoxgloveServer.publish_record(server, {"type": "tick", "n": 1})  # type: ignore[arg-type]
+    assert len(server.given) == 1

@@ -304,7 +304,12 @@ class FoxgloveServer:
 
     def publish_record(self, record: Mapping[str, Any]) -> None:
         """Publish one trace record as data (it waits for room in the pipe at most a few
-        seconds; never raises)."""
+        seconds). A record that is no mapping is left out and logged; never raises."""
+        if not isinstance(record, Mapping):
+            logger.warning(
+                "foxglove: a record that is no mapping left out (%s)", type(record).__name__
+            )
+            return
         try:
             self._hand_over(None, (RECORD, dict(record)))
         except ValueError:  # a value marshal does not carry: as JSON text would have it
