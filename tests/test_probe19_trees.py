@@ -340,3 +340,25 @@ def test_an_eternal_guard_condition_that_can_be_running_is_refused(
         f"{t}:7:7: eternal_guard: condition 'drive' {said}",
         f"{t}:8:7: eternal_guard: condition 'both' {said}",
     ]
+
+
+def test_a_subtree_call_that_can_never_run_is_warned_of_where_it_is_called(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # the warning was placed at the called tree's root (sub.yaml:3:3), a place the
+    # author of main.yaml did not write and where nothing is wrong
+    (tmp_path / "sub.yaml").write_text(
+        "name: sub\nroot:\n  type: sequence\n  name: inner\n  children:\n"
+        "    - {type: success, name: ok}\n",
+        encoding="utf-8",
+    )
+    main_yaml = tmp_path / "main.yaml"
+    main_yaml.write_text(
+        "name: main\nroot:\n  type: sequence\n  name: top\n  children:\n"
+        "    - {type: failure, name: never}\n"
+        "    - {type: subtree, name: call sub, ref: sub.yaml}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(main_yaml)]) == 0
+    said = caplog.text
+    assert f"{main_yaml}:7:7: warning: 'call sub' can never run" in said, said

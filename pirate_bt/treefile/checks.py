@@ -63,7 +63,7 @@ def _outcomes(spec: NodeSpec, warnings: list[LocatedError]) -> frozenset[Outcome
                 LocatedError(
                     f"warning: {child.name!r} can never run: {blocker[0].name!r} before it in"
                     f" {spec.node_type} {spec.name!r} {_describe_outcomes(blocker[1])}",
-                    child.location,
+                    child.called_at or child.location,  # a subtree: where it is called
                 )
             )
             continue
