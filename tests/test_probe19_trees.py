@@ -362,3 +362,21 @@ def test_a_subtree_call_that_can_never_run_is_warned_of_where_it_is_called(
     assert main(["validate", str(main_yaml)]) == 0
     said = caplog.text
     assert f"{main_yaml}:7:7: warning: 'call sub' can never run" in said, said
+
+
+@pytest.mark.parametrize(
+    ("merged", "column", "says"),
+    [
+        ("[1]", 8, "expected a mapping to merge, but found scalar"),
+        ("5", 7, "expected a mapping or list of mappings to merge, but found scalar"),
+    ],
+)
+def test_a_merge_key_of_no_mapping_is_said_so_not_a_syntax_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], merged: str, column: int, says: str
+) -> None:
+    # '<<: [1]' is well-formed YAML; it was reported as a 'YAML syntax error'
+    tree = tmp_path / "m.yaml"
+    tree.write_text(f"name: m\nroot:\n  <<: {merged}\n  type: success\n", encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"{tree}:3:{column}: merge key (<<): {says}"

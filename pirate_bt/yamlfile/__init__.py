@@ -453,7 +453,10 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         where = _place(file, text, mark.line, mark.column) if mark is not None else loc
         problem = exc.problem or exc.context or "invalid YAML"
         said = _unknown_tag(problem) or f"YAML syntax error: {problem}"
-        if problem == "exceeded maximum nesting depth":  # libyaml's bound (1000), not syntax
+        if problem.startswith("expected a mapping") and "for merging" in problem:
+            # well-formed YAML whose merge key (<<) names no mapping: not its syntax
+            said = f"merge key (<<): {problem.replace('for merging, but', 'to merge, but')}"
+        elif problem == "exceeded maximum nesting depth":  # libyaml's bound (1000), not syntax
             said = f"values nested deeper than {MAX_DEPTH} levels"
         elif problem == "but found another document":  # a stream of two: valid YAML
             said = "a second YAML document (after '---'): a file holds one"
