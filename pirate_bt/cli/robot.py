@@ -64,9 +64,14 @@ def _header(args: argparse.Namespace) -> int:
         stdout_open("the header")
         sys.stdout.write(render_header(robot, source))
     else:
+        from pirate_bt.api.options import not_an_input
         from pirate_bt.cli import check_output
+        from pirate_bt.resources import default_robot_path
 
         check_output(args.output)
+        # header r.yaml -o r.yaml replaced the robot description with C, exit 0
+        described = path if path is not None else default_robot_path()
+        not_an_input(args.output, "-o", {"robot description": described})
         write_header(robot, args.output, source)
         print(f"wrote {args.output}")  # the path written, on stdout as every command says it
     return 0

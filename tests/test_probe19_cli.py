@@ -1,0 +1,37 @@
+"""Probe 19, the command-line contract: outputs that are the command's own input, and
+errors that leave standard output empty."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.resources import default_robot_path
+
+
+@pytest.mark.parametrize("how", ["positional", "--robot", "symlink"])
+def test_a_header_onto_its_robot_description_is_refused_and_the_description_kept(
+    tmp_path: Path, how: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    robot = tmp_path / "r.yaml"
+    shutil.copyfile(default_robot_path(), robot)
+    before = robot.read_bytes()
+    out = robot
+    if how == "symlink":
+        out = tmp_path / "layout.h"
+        out.symlink_to(robot)
+    args = (
+        ["robot", "header", str(robot), "-o", str(out)]
+        if how == "positional"
+        else ["robot", "--robot", str(robot), "header", "-o", str(out)]
+    )
+    assert main(args) == 2  # was 0: the robot description replaced by a C header
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        f"pirate-bt: -o: {out} is the robot description file; name another file"
+    ]
+    assert robot.read_bytes() == before
