@@ -247,6 +247,10 @@ class ExploreNavigator:
         assert self._from_m is not None
         if at_m < self._from_m + _SETTLED_M:  # the joints were leaving the feature before
             return self._search(obs)
+        if self._diameter_m is None and obs.diameter_m is not None:
+            # a cone in the first straight: its diameter is the network's, read by the rear
+            # half there now (nothing had read one: the file said 63 mm, whatever the pipe)
+            self._diameter_m = self._diameter_now = obs.diameter_m
         self._cone = (at_m, obs.pitch_rad)
         return Step("straight", distance=_CONE_PASS_M, stop_at_feature=True)
 

@@ -1,0 +1,44 @@
+"""Probe 19 of the survey mode: networks written from docs/networks.md, surveyed with
+``pirate_bt.survey``; what a user sees (the file written, its numbers, the why)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import pirate_bt
+from pirate_bt.pipes import load_network
+
+
+def _network(tmp_path: Path, name: str, diameter: str, segments: str) -> Path:
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(
+        f"schema_version: 1\nname: {name}\ndiameter: {diameter}\nsegments:\n{segments}",
+        encoding="utf-8",
+    )
+    return path
+
+
+@pytest.mark.parametrize(("before", "after"), [("55 mm", "70 mm"), ("70 mm", "55 mm")])
+def test_a_reducer_in_the_first_straight_keeps_the_pipes_own_diameter(
+    tmp_path: Path, before: str, after: str
+) -> None:
+    # the network's diameter was written as 63 mm (a default) whatever the pipe, when
+    # the first straight ended at a cone: a map 8 mm off what the robot clamps in
+    truth = _network(
+        tmp_path,
+        "cone",
+        before,
+        "  - {id: a, type: straight, length: 1.5 m}\n"
+        f"  - {{id: r, type: reducer, diameter: {after}}}\n"
+        "  - {id: d, type: straight, length: 1.5 m}\n",
+    )
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=str(truth), output=out)
+    assert result.succeeded, result.why
+    surveyed = load_network(out)
+    assert abs(surveyed.main_path().diameter_at(0.1) * 1000 - float(before.split()[0])) < 0.5
+    kinds = [s.type for s in surveyed.spec.segments]
+    assert kinds == ["straight", "reducer", "straight"]
+    assert abs(surveyed.main_path().length_m - 3.05) < 0.05
