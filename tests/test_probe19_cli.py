@@ -35,3 +35,16 @@ def test_a_header_onto_its_robot_description_is_refused_and_the_description_kept
         f"pirate-bt: -o: {out} is the robot description file; name another file"
     ]
     assert robot.read_bytes() == before
+
+
+def test_robot_draw_to_a_suffix_it_cannot_draw_prints_no_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "boards.txt"
+    assert main(["robot", "--draw", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""  # was the whole board table, then the error
+    assert captured.err.splitlines() == [
+        "pirate-bt: --draw: cannot draw to 'boards.txt': use .dot, .svg or .png"
+    ]
+    assert not out.exists()
