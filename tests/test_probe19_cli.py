@@ -48,3 +48,23 @@ def test_robot_draw_to_a_suffix_it_cannot_draw_prints_no_table(
         "pirate-bt: --draw: cannot draw to 'boards.txt': use .dot, .svg or .png"
     ]
     assert not out.exists()
+
+
+def test_trace_export_onto_the_trace_it_reads_is_refused_and_the_trace_kept(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("mcap")
+    jsonl = tmp_path / "run.jsonl"
+    mcap = tmp_path / "run.mcap"
+    assert main(["run", "straight", "--param", "distance=0.2m", "--trace", str(jsonl)]) == 0
+    assert main(["trace", "export", str(jsonl), "-o", str(mcap)]) == 0
+    before = mcap.read_bytes()
+    capsys.readouterr()
+    # was "wrote run.mcap", exit 0: the trace rewritten while it was being read
+    assert main(["trace", "export", str(mcap), "-o", str(mcap)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        f"pirate-bt: -o: {mcap} is the trace file; name another file"
+    ]
+    assert mcap.read_bytes() == before

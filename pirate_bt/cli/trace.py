@@ -153,6 +153,10 @@ def _export(args: argparse.Namespace) -> int:
         return 0
     check_output(target)
     args.output = Path(target)
+    from pirate_bt.api.options import not_an_input
+
+    # export t.mcap -o t.mcap wrote over the trace it was reading, exit 0
+    not_an_input(args.output, "-o", {"trace": args.trace})
     suffix = args.output.suffix.lower()
     if suffix not in EXPORTS:
         raise InputError(
