@@ -3,6 +3,7 @@ errors that leave standard output empty."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -68,3 +69,39 @@ def test_trace_export_onto_the_trace_it_reads_is_refused_and_the_trace_kept(
         f"pirate-bt: -o: {mcap} is the trace file; name another file"
     ]
     assert mcap.read_bytes() == before
+
+
+def test_campaign_report_on_a_file_of_no_results_is_one_warning_and_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    # a trace given by mistake: every line JSON, none a case's result
+    trace = tmp_path / "run.jsonl"
+    trace.write_text("".join(f'{{"tick": {i}}}\n' for i in range(500)), encoding="utf-8")
+    assert main(["campaign", "report", str(trace)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        f"pirate-bt: {trace}: no results in it; none of its 500 rows is a case's result"
+    ]
+    warned = [r.getMessage() for r in caplog.records if r.name.startswith("pirate_bt.campaign")]
+    # was 500 warnings, one per line, before the error
+    assert warned == [f"{trace}:1: skipped a row that is not a case's result: no case id"]
+    assert not (tmp_path / "report.md").exists()
+
+
+def test_campaign_report_still_warns_of_every_bad_row_beside_good_ones(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    from pirate_bt.campaign import campaign_from_data, expand
+    from pirate_bt.campaign.case import error_record
+
+    spec = {"name": "h", "runs": [{"tree": "straight"}], "seeds": {"count": 1}}
+    good = [error_record(c, "success", "done", 0.1) for c in expand(campaign_from_data(spec))]
+    results = tmp_path / "results.jsonl"
+    lines = [json.dumps({"tick": i}) for i in range(3)] + [json.dumps(good[0])]
+    results.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    assert main(["campaign", "report", str(results)]) == 0
+    warned = [r.getMessage() for r in caplog.records if r.name.startswith("pirate_bt.campaign")]
+    assert warned == [
+        f"{results}:{n}: skipped a row that is not a case's result: no case id" for n in (1, 2, 3)
+    ]

@@ -20,7 +20,9 @@ import argparse
 import re
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
 from pirate_bt.campaign.paths import OUTPUT, RESUME
@@ -80,14 +82,43 @@ def _report(args: argparse.Namespace) -> int:
         path = path / RESULTS_NAME
     if not path.exists():
         raise InputError(f"{path}: no such results file")
-    rows = read_rows(path)
-    if not rows:
-        raise InputError(f"{path}: no results in it")
+    rows = _read_results(path, read_rows)
     # the campaign's own name, as its end wrote the report (it became the folder's name)
     title = recorded_name(path.parent) or path.parent.name
     for written in write_report(rows, path.parent, title=title):
         print(f"wrote {written}")
     return 0
+
+
+def _read_results(path: Path, read_rows: Callable[[Path], list[Any]]) -> list[Any]:
+    """``read_rows``, its warnings (one per line skipped) held back until it is known
+    whether any row is a case's: a file with none (a trace given by mistake) was a
+    warning for every one of its lines, thousands, before the one line of the error;
+    now the first of them, then that line.
+
+    Raises:
+        InputError: no row of the file is a case's result.
+    """
+    import logging
+
+    held: list[logging.LogRecord] = []
+
+    def hold(record: logging.LogRecord) -> bool:
+        held.append(record)
+        return False
+
+    logger = logging.getLogger("pirate_bt.campaign.engine")
+    logger.addFilter(hold)
+    try:
+        rows = read_rows(path)
+    finally:
+        logger.removeFilter(hold)
+    for record in held if rows else held[:1]:
+        logger.handle(record)
+    if not rows:
+        more = f"; none of its {len(held):,} rows is a case's result" if len(held) > 1 else ""
+        raise InputError(f"{path}: no results in it{more}")
+    return rows
 
 
 _OPTIONS = {
