@@ -42,3 +42,29 @@ def test_a_reducer_in_the_first_straight_keeps_the_pipes_own_diameter(
     kinds = [s.type for s in surveyed.spec.segments]
     assert kinds == ["straight", "reducer", "straight"]
     assert abs(surveyed.main_path().length_m - 3.05) < 0.05
+
+
+def test_a_tee_whose_branch_side_cannot_be_told_keeps_the_straight_up_to_it(
+    tmp_path: Path,
+) -> None:
+    # a branch capped 10 cm in: probe-tee fails; the 1.5 m driven up to the tee was
+    # surveyed, but the survey said "nothing was surveyed: no file is written"
+    truth = _network(
+        tmp_path,
+        "short-branch",
+        "51 mm",
+        "  - {id: a, type: straight, length: 1.5 m}\n"
+        "  - {id: t, type: tee, branch: {direction: left, segments:"
+        " [{type: straight, length: 0.1 m}]}}\n"
+        "  - {id: d, type: straight, length: 1 m}\n",
+    )
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=str(truth), output=out)
+    assert not result.succeeded and result.exit_code == 1 and result.safe_state
+    assert "probe-tee" in result.why and "nothing was surveyed" not in result.why
+    assert result.unexplored == [
+        "the main line after run-1: not surveyed to its end, the survey stopped in it"
+    ]
+    surveyed = load_network(out)
+    assert [s.type for s in surveyed.spec.segments] == ["straight"]
+    assert abs(surveyed.main_path().length_m - 1.5) < 0.03

@@ -270,7 +270,8 @@ def survey(
         # blocked going straight on through a tee just found: the line ends there
         ended = explore.ended_at_tee(navigation.failing_node, navigation.why)
         navigation.why = ended or navigation.why
-        explore.save(f"stopped: {navigation.why}")  # a failed step: keep what was surveyed
+        last = navigation.decisions[-1] if navigation.decisions else None
+        explore.save(f"stopped: {navigation.why}", last)  # a failed step: keep what was surveyed
         if explore.invalid is not None and explore.invalid not in navigation.why:
             navigation.why += f"; {explore.invalid}"  # what was surveyed is not written
         elif explore.network is None and explore.output is not None:

@@ -333,10 +333,7 @@ class ExploreNavigator:
         write_in_frame(self.segments, self._diameter_m, segment["id"], segment)
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
-        assert self._opening_m is not None
-        diameter = obs.diameter_m or self._diameter_m or 0.063
-        a, b = OPENING_STOP
-        start = self._opening_m - (a + b * diameter)
+        start, diameter = self._opening(obs)
         if felt is None or felt.kind != "tee" or felt.direction is None:
             self._close_straight(obs, start)  # surveyed up to the opening, not beyond
             raise self._incomplete(
@@ -360,6 +357,12 @@ class ExploreNavigator:
         self._trail.append(Passed("t-joint-back", "straight", self._from_m))
         self._crossing = self._pending[-1]
         return Step("t-joint", direction="straight")
+
+    def _opening(self, obs: Observation) -> tuple[float, float]:
+        """Where the tee whose opening was felt starts, and the pipe's diameter there."""
+        assert self._opening_m is not None
+        diameter = obs.diameter_m or self._diameter_m or 0.063
+        return self._opening_m - (OPENING_STOP[0] + OPENING_STOP[1] * diameter), diameter
 
     def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
         """Stopped going straight on through a tee just found, the released front half
@@ -539,16 +542,20 @@ class ExploreNavigator:
                 self._slope_deg = pitch
         self._line.append(segment)
 
-    def save(self, stopped: str) -> None:
+    def save(self, stopped: str, failed: Any = None) -> None:
         """Write what was surveyed so far, saying why the survey stopped.
 
-        A step that fails ends the navigation before the navigator is asked again,
-        so the caller saves (:func:`pirate_bt.survey` does); the straight the robot
-        was in is left out (its end was not reached). What the stop left unsurveyed is
-        added to :attr:`unexplored` (and so to the file): the line the robot was in,
-        and every tee branch not entered.
+        A failed step ends the navigation before the navigator is asked again, so the
+        caller saves (:func:`pirate_bt.survey`), with the decision whose step failed
+        (``failed``): the straight the robot was in is left out, unless a probe failed
+        at its end (then written up to it). What the stop left unsurveyed is added to
+        :attr:`unexplored` (and to the file): the line it was in, every branch not entered.
         """
         if self.invalid is None:  # else it ended on that, with every line to its end
+            pab = getattr(getattr(failed, "step", None), "pab", None)
+            if pab in ("probe-tee", "probe-turn") and self._way is None:  # a line's end felt
+                end = self._opening(failed.observation)[0] if pab == "probe-tee" else None
+                self._close_straight(failed.observation, end or self._blocked_m or 0.0)
             self._note_stop()
             self._write(stopped)
 
