@@ -125,8 +125,15 @@ static void ten_bit_bytes(int c) {
     }
 }
 
+static void set_estop_input(bool open);
+static bool estop_open;
+
 static void run_core(avr_t *avr, uint64_t until) {
     while (avr->cycle < until) {
+        if (avr->pc == 0 && avr == cores[0] && !no_bridge) {
+            /* a reset (X, the watchdog) cleared PINA: the e-stop contact outlives it */
+            set_estop_input(estop_open);
+        }
         int state = avr_run(avr);
         if (state == cpu_Done || state == cpu_Crashed) {
             fprintf(stderr, "pirate-chain: %s %s at cycle %llu (pc 0x%05x)\n",
@@ -215,10 +222,16 @@ static void attach_host(avr_t *avr) {
     avr_cycle_timer_register(avr, HOST_BYTE_CYCLES, feed_host, NULL);
 }
 
+/* A reset clears simavr's PINA (its ioport keeps no external level through avr_reset):
+ * run_core puts the contact back at the bridge's reset vector, or a button held down
+ * through a reset read released, and the bridge released its latch with it pressed. */
 static void set_estop_input(bool open) {
+    estop_open = open;
     avr_ioport_external_t ext = {.name = 'A', .mask = 0x01, .value = open ? 0x01 : 0x00};
     avr_ioctl(cores[0], AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &ext);
-    avr_raise_irq(avr_io_getirq(cores[0], AVR_IOCTL_IOPORT_GETIRQ('A'), 0), open ? 1 : 0);
+    avr_irq_t *pin = avr_io_getirq(cores[0], AVR_IOCTL_IOPORT_GETIRQ('A'), 0);
+    avr_raise_irq(pin, open ? 0 : 1); /* the irq drops a raise of the level it holds, */
+    avr_raise_irq(pin, open ? 1 : 0); /* which a reset's cleared PINA no longer has */
 }
 
 /* -- the bus cycle figure: from the first request of a cycle to the last reply ------ */

@@ -91,11 +91,19 @@ static void reset_mcu(void) {
 }
 
 /* The e-stop contact between PA0 (Mega D22) and GND: closed holds the pin low against
- * the firmware's pull-up, open lets the pull-up win. */
+ * the firmware's pull-up, open lets the pull-up win. A reset clears simavr's PINA (its
+ * ioport keeps no external level through avr_reset), so the contact is put back at the
+ * reset vector: a button held down through a reset (DTR, watchdog) stays pressed, as on
+ * a real Mega, where the bridge released its latch with the button still pressed. */
+static bool estop_open;
+
 static void set_estop_input(bool open) {
+    estop_open = open;
     avr_ioport_external_t ext = {.name = 'A', .mask = 0x01, .value = open ? 0x01 : 0x00};
     avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL('A'), &ext);
-    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('A'), 0), open ? 1 : 0);
+    avr_irq_t *pin = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('A'), 0);
+    avr_raise_irq(pin, open ? 0 : 1); /* the irq drops a raise of the level it holds, */
+    avr_raise_irq(pin, open ? 1 : 0); /* which a reset's cleared PINA no longer has */
 }
 
 /* Handles one record from the boards. */
@@ -133,9 +141,12 @@ static void run_until(uint64_t target) {
             avr_cycle_timer_process(avr);
             continue;
         }
-        if (avr->pc == 0 && !reset_expected) {
-            /* the reset vector, not by us: watchdog, crash, jump */
-            mcu_stats.unexpected_resets++;
+        if (avr->pc == 0) {
+            if (!reset_expected) {
+                /* the reset vector, not by us: watchdog, crash, jump */
+                mcu_stats.unexpected_resets++;
+            }
+            set_estop_input(estop_open); /* the contact outlives the reset */
         }
         int state = avr_run(avr);
         reset_expected = false;
