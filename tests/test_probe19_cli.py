@@ -105,3 +105,15 @@ def test_campaign_report_still_warns_of_every_bad_row_beside_good_ones(
     assert warned == [
         f"{results}:{n}: skipped a row that is not a case's result: no case id" for n in (1, 2, 3)
     ]
+
+
+def test_network_output_name_too_long_is_named_by_its_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / ("a" * 5000 + ".yaml")
+    assert main(["network", "perturb", "lab", "--seed", "1", "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    (line,) = captured.err.splitlines()  # was the whole 5000-character name, then why
+    assert line.startswith("pirate-bt: -o: a file name of ")
+    assert line.endswith(" characters is too long (at most 4096)")

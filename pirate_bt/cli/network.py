@@ -207,6 +207,12 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
     from pirate_bt.resources import find_file, missing
 
+    if args.output is not None and str(args.output) == STDOUT:  # was a file named "-"
+        args.output = None
+    if args.output is not None:  # before any work; a name too long was an OSError's line
+        from pirate_bt.cli import check_output
+
+        check_output(args.output)
     source = find_file("scenarios", args.map)
     if missing(source):  # named as --sim names it, not as the bundled path never typed
         from pirate_bt.task.networks import resolve_network_path
@@ -216,8 +222,6 @@ def run(args: argparse.Namespace) -> int:
         except FileNotFoundError as exc:
             raise InputError(str(exc)) from None
     network = load_network(source)
-    if args.output is not None and str(args.output) == STDOUT:  # was a file named "-"
-        args.output = None
     if args.output is not None:  # perturb br2.yaml -o br2.yaml replaced its input
         not_an_input(args.output, "-o", {"input network": source})
     try:
