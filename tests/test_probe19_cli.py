@@ -117,3 +117,28 @@ def test_network_output_name_too_long_is_named_by_its_option(
     (line,) = captured.err.splitlines()  # was the whole 5000-character name, then why
     assert line.startswith("pirate-bt: -o: a file name of ")
     assert line.endswith(" characters is too long (at most 4096)")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["navigate", "goal", "--sim", "lab", "--map", "lab", "--param", "segment=run-d"],
+        ["survey", "-o", "{tmp}/surveyed.yaml"],
+    ],
+    ids=["navigate", "survey"],
+)
+def test_a_trace_folder_that_is_a_file_is_named_by_its_option(
+    tmp_path: Path, argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    blocker = tmp_path / "runs"
+    blocker.write_text("mine\n", encoding="utf-8")
+    args = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    assert main([*args, "--trace", str(blocker), "-q"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    # was "trace: ...", the API's parameter, not the option typed
+    assert captured.err.splitlines() == [
+        f"pirate-bt: --trace: {blocker} is a file, not a folder; give a folder"
+    ]
+    assert blocker.read_text(encoding="utf-8") == "mine\n"
+    assert not (tmp_path / "surveyed.yaml").exists()

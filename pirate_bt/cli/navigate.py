@@ -122,6 +122,21 @@ def print_summary(succeeded: bool, summary: str) -> None:
         print(f"pirate-bt: {summary}", file=sys.stderr)
 
 
+_TRACE = "trace: "
+"""How the API's messages about its ``trace=`` folder start (``trace: x is a file``)."""
+
+
+def trace_as_typed(exc: InputError) -> None:
+    """Raise the API's ``trace: ...`` again as ``--trace: ...``, the option typed (it
+    said ``trace: out is a file, not a folder``); return for any other message.
+
+    Raises:
+        InputError: ``exc`` is about the trace folder.
+    """
+    if str(exc).startswith(_TRACE):
+        raise InputError("--trace: " + str(exc).removeprefix(_TRACE)) from None
+
+
 def _check_options(args: argparse.Namespace) -> None:
     """``navigate``'s own options, named as typed (the API said ``rate: '5' needs a
     unit``, ``deadline: ...``, ``max_steps: ...``)."""
@@ -153,21 +168,25 @@ def run(args: argparse.Namespace) -> int:
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
     _check_options(args)
-    result = navigate(
-        args.navigator,
-        sim=args.sim,
-        port=args.port,
-        map=args.map,
-        params=parse_params(args.param),
-        seed=args.seed,
-        faults=args.faults,
-        trace=args.trace,
-        max_time=args.max_time,
-        deadline=args.deadline,
-        max_steps=args.max_steps,
-        rate=args.rate,
-        firmware=args.firmware_chain,
-    )
+    try:
+        result = navigate(
+            args.navigator,
+            sim=args.sim,
+            port=args.port,
+            map=args.map,
+            params=parse_params(args.param),
+            seed=args.seed,
+            faults=args.faults,
+            trace=args.trace,
+            max_time=args.max_time,
+            deadline=args.deadline,
+            max_steps=args.max_steps,
+            rate=args.rate,
+            firmware=args.firmware_chain,
+        )
+    except InputError as exc:
+        trace_as_typed(exc)
+        raise
     if not args.quiet:
         print_decisions(result.decisions)
     for note in result.notes:

@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
     from pirate_bt.api.options import quantity
     from pirate_bt.cli import check_output
-    from pirate_bt.cli.navigate import check_stepwise
+    from pirate_bt.cli.navigate import check_stepwise, trace_as_typed
 
     check_stepwise(args)  # named as typed: the API said "seed:", "max_time:"
     for option, value in (("--search", args.search), ("--radius", args.radius)):
@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         if type(exc) is InputError and str(exc).startswith(_EXTEND):
             # the API names its argument (extend: ...); here it is the option typed
             raise InputError("--extend: " + str(exc).removeprefix(_EXTEND)) from None
+        trace_as_typed(exc)
         raise
     if not args.quiet:
         print_decisions(result.navigation.decisions)
