@@ -68,3 +68,36 @@ def test_a_tee_whose_branch_side_cannot_be_told_keeps_the_straight_up_to_it(
     surveyed = load_network(out)
     assert [s.type for s in surveyed.spec.segments] == ["straight"]
     assert abs(surveyed.main_path().length_m - 1.5) < 0.03
+
+
+def test_a_tee_too_close_after_another_is_left_a_stub_and_the_other_branch_surveyed(
+    tmp_path: Path,
+) -> None:
+    # two 51 mm tees 0.45 m apart: turning into the second's branch began with the rear
+    # half over the first's opening; the survey stopped "no wall: bend_3 swung to 110"
+    # and left the first tee's branch unsurveyed too
+    truth = _network(
+        tmp_path,
+        "close-tees",
+        "51 mm",
+        "  - {id: a, type: straight, length: 1.5 m}\n"
+        "  - {id: t1, type: tee, branch: {direction: left, segments:"
+        " [{type: straight, length: 1 m}]}}\n"
+        "  - {id: m, type: straight, length: 0.45 m}\n"
+        "  - {id: t2, type: tee, branch: {direction: right, segments:"
+        " [{type: straight, length: 1 m}]}}\n"
+        "  - {id: d, type: straight, length: 1 m}\n",
+    )
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=str(truth), output=out)
+    assert not result.succeeded and result.exit_code == 1, result.why
+    assert "no wall" not in result.why and result.counters.violations == 0
+    assert result.unexplored == [
+        "tee-2's branch (right, 51 mm): not entered, the tee starts 0.45 m after the tee"
+        " before it, and a turn into its branch would start with the rear half over that"
+        " tee's opening"
+    ]
+    surveyed = load_network(out)
+    tees = [s for s in surveyed.spec.segments if s.type == "tee"]
+    assert [len(t.branch.segments) for t in tees] == [1, 0]  # tee-1's branch surveyed
+    assert abs(surveyed.path({"tee-1": "branch"}).length_m - 2.657) < 0.03

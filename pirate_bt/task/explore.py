@@ -71,6 +71,8 @@ from pirate_bt.task.explore_parts import (
     ends_note,
     left_by_a_stop,
     metres,
+    rear_over_opening,
+    tee_start,
     write_survey,
 )
 from pirate_bt.task.navigation import Felt, Observation, Step
@@ -333,7 +335,9 @@ class ExploreNavigator:
         write_in_frame(self.segments, self._diameter_m, segment["id"], segment)
 
     def _probed_tee(self, obs: Observation, felt: Felt | None) -> Step | None:
-        start, diameter = self._opening(obs)
+        assert self._opening_m is not None
+        diameter = obs.diameter_m or self._diameter_m or 0.063
+        start = tee_start(self._opening_m, diameter)
         if felt is None or felt.kind != "tee" or felt.direction is None:
             self._close_straight(obs, start)  # surveyed up to the opening, not beyond
             raise self._incomplete(
@@ -358,12 +362,6 @@ class ExploreNavigator:
         self._crossing = self._pending[-1]
         return Step("t-joint", direction="straight")
 
-    def _opening(self, obs: Observation) -> tuple[float, float]:
-        """Where the tee whose opening was felt starts, and the pipe's diameter there."""
-        assert self._opening_m is not None
-        diameter = obs.diameter_m or self._diameter_m or 0.063
-        return self._opening_m - (OPENING_STOP[0] + OPENING_STOP[1] * diameter), diameter
-
     def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
         """Stopped going straight on through a tee just found, the released front half
         blocked past the opening: the line ends there (a cap, or a turn right after the
@@ -382,12 +380,12 @@ class ExploreNavigator:
             f" is not entered, {_EXTEND}"
         )
 
-    def _on_the_way(self, obs: Observation, side: str, start: float, diameter: float) -> Step:
+    def _on_the_way(self, obs: Observation, side: str, start: float, d: float) -> Step | None:
         """A second insertion met a tee: straight on, or into the branch on the way."""
         assert self._way is not None and self._extension is not None
         ordinal, self._tees_met = self._tees_met, self._tees_met + 1
         if ordinal != self._way[0]:
-            self._from_m = start + 3 * diameter
+            self._from_m = start + 3 * d
             self._trail.append(Passed("t-joint-back", "straight", self._from_m))
             return Step("t-joint", direction="straight")
         expected = self._extension.sides[len(self._extension.way) - len(self._way)]
@@ -409,7 +407,7 @@ class ExploreNavigator:
             self._counts = dict(self._extension.counts)
         # the side the IMU found: the surveyed file may hold the branch as a roll only
         self._target = PendingTee(
-            segment, start, diameter, self._slope_deg, depth=len(self._trail), imu_side=side
+            segment, start, d, self._slope_deg, depth=len(self._trail), imu_side=side
         )
         return self._return(obs)
 
@@ -445,7 +443,7 @@ class ExploreNavigator:
             )
         return None
 
-    def _return(self, obs: Observation) -> Step:
+    def _return(self, obs: Observation) -> Step | None:
         """The next step back to :attr:`_target`, or into its branch once there."""
         tee = self._target
         assert tee is not None
@@ -462,6 +460,11 @@ class ExploreNavigator:
         # back before the tee: the front tip where a turn PAB starts from, a
         # mission's approach before the middle of the opening; then into the branch
         approach = tee.start_m + 1.5 * tee.diameter_m - _APPROACH_M
+        rear = approach - obs.robot_length_m + obs.joint_behind_m
+        if close := rear_over_opening(tee, self._trail[-1] if self._trail else None, rear):
+            self._target = self._backed = None
+            self.unexplored.append(close)  # and on to the next branch, if one is left
+            return self._line_done(obs)
         if obs.belief.position_m > approach + 0.02 and self._backed is not tee:
             self._backed = tee
             return Step("straight", distance=approach - obs.belief.position_m)
@@ -554,7 +557,8 @@ class ExploreNavigator:
         if self.invalid is None:  # else it ended on that, with every line to its end
             pab = getattr(getattr(failed, "step", None), "pab", None)
             if pab in ("probe-tee", "probe-turn") and self._way is None:  # a line's end felt
-                end = self._opening(failed.observation)[0] if pab == "probe-tee" else None
+                seen = failed.observation.diameter_m or self._diameter_m or 0.063
+                end = tee_start(self._opening_m or 0.0, seen) if pab == "probe-tee" else None
                 self._close_straight(failed.observation, end or self._blocked_m or 0.0)
             self._note_stop()
             self._write(stopped)

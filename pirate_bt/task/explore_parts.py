@@ -32,6 +32,8 @@ __all__ = [
     "invalid_network",
     "left_by_a_stop",
     "metres",
+    "rear_over_opening",
+    "tee_start",
     "write_survey",
 ]
 
@@ -178,6 +180,27 @@ class PendingTee:
 
     def __str__(self) -> str:
         return f"{self.segment['id']}'s branch ({self.side}, {self.diameter_m * 1000:.0f} mm)"
+
+
+def tee_start(opening_m: float, diameter_m: float) -> float:
+    """Where a tee starts whose opening a straight step felt at ``opening_m``."""
+    return opening_m - (OPENING_STOP[0] + OPENING_STOP[1] * diameter_m)
+
+
+def rear_over_opening(tee: PendingTee, before: Passed | None, rear_joint_m: float) -> str | None:
+    """Why the robot does not turn into ``tee``'s branch: where such a turn starts, its
+    rear half's last joint (at ``rear_joint_m``) would be over the opening of the tee
+    passed straight on just ``before`` it, with no wall to clamp (a mission is not
+    planned there either); ``None`` when it is clear of it."""
+    if before is None or before.pab != "t-joint-back" or before.way != "straight":
+        return None
+    if rear_joint_m >= before.end_m - tee.diameter_m + 0.01:  # the opening's far edge
+        return None
+    return (
+        f"{tee}: not entered, the tee starts {tee.start_m - before.end_m:.2f} m after the"
+        " tee before it, and a turn into its branch would start with the rear half over"
+        " that tee's opening"
+    )
 
 
 ENDS_UNSURE = "the line ends here, or turns at a roll the survey does not try"
