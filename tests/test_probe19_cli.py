@@ -142,3 +142,24 @@ def test_a_trace_folder_that_is_a_file_is_named_by_its_option(
     ]
     assert blocker.read_text(encoding="utf-8") == "mine\n"
     assert not (tmp_path / "surveyed.yaml").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [(["render", "straight", "-o"], "-o"), (["robot", "--draw"], "--draw")],
+    ids=["render", "robot"],
+)
+def test_a_folder_where_the_dot_source_goes_is_refused_before_any_work(
+    tmp_path: Path, argv: list[str], option: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "q.dot").mkdir()
+    picture = tmp_path / "q.svg"
+    assert main([*argv, str(picture)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""  # robot printed its board table first
+    # render said "out: cannot write 'q.dot' ...", the API's parameter
+    assert captured.err.splitlines() == [
+        f"pirate-bt: {option}: cannot write 'q.dot' beside 'q.svg', the diagram's source:"
+        " it is a folder"
+    ]
+    assert not picture.exists()

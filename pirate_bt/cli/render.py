@@ -15,7 +15,7 @@ from pathlib import Path
 from pirate_bt.cli import check_output
 from pirate_bt.errors import InputError
 
-__all__ = ["configure", "run"]
+__all__ = ["check_diagram", "configure", "run"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -38,6 +38,29 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="a tree parameter, e.g. --param roll=90deg (repeatable; a parameter not given"
         " takes the tree's declared example)",
     )
+
+
+def check_diagram(out: Path, option: str) -> None:
+    """A diagram's output, named by its option, before any work: a file that can be
+    written, a suffix that can be drawn (render_tree said ``out:``), and no folder where
+    the ``.dot`` source goes beside a picture (``-o q.svg`` beside a folder ``q.dot``
+    said ``out: cannot write 'q.dot'`` after the tree was read; ``robot --draw`` printed
+    the board table first).
+
+    Raises:
+        InputError: any of them.
+    """
+    from pirate_bt.render.files import DIAGRAM_SUFFIXES
+
+    check_output(out, option)
+    if out.suffix.lower() not in DIAGRAM_SUFFIXES:
+        raise InputError(f"{option}: cannot draw to {out.name!r}: use .dot, .svg or .png")
+    beside = out.with_suffix(".dot")
+    if beside != out and beside.is_dir():
+        raise InputError(
+            f"{option}: cannot write {beside.name!r} beside {out.name!r}, the diagram's"
+            " source: it is a folder"
+        )
 
 
 def _is_trace(path: Path) -> bool:
@@ -64,13 +87,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--coverage needs --trace (or a trace file as TREE)")
     if args.coverage and args.tick is not None:
         raise InputError("--coverage colours by the whole run: leave out --tick")
-    check_output(args.output)
-    from pirate_bt.render.files import DIAGRAM_SUFFIXES
-
-    if args.output.suffix.lower() not in DIAGRAM_SUFFIXES:  # named by the option, not
-        raise InputError(  # render_tree's "out:", and before the tree or trace is read
-            f"-o: cannot draw to {args.output.name!r}: use .dot, .svg or .png"
-        )
+    check_diagram(args.output, "-o")  # before the tree or trace is read
     trace: Trace | None = None
     structure: TreeStructure
     drawn: Trace | LoadedTree  # given to render_tree, which never draws over its files

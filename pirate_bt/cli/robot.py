@@ -82,12 +82,9 @@ def run(args: argparse.Namespace) -> int:
         return _header(args)
     robot = load_robot(args.robot)
     if args.draw:
-        from pirate_bt.cli import check_output
-        from pirate_bt.render.files import DIAGRAM_SUFFIXES
+        from pirate_bt.cli.render import check_diagram
 
-        check_output(args.draw, "--draw")  # before the table: nothing printed for bad input
-        if args.draw.suffix.lower() not in DIAGRAM_SUFFIXES:  # was after the table: both
-            raise InputError(f"--draw: cannot draw to {args.draw.name!r}: use .dot, .svg or .png")
+        check_diagram(args.draw, "--draw")  # before the table: nothing printed for bad input
     print(f"{robot.name}: {len(robot.modules)} modules, {len(robot.boards)} boards")
     print(format_table(board_table(robot)))
     if args.draw:
