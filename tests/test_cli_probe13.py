@@ -292,7 +292,7 @@ def test_export_refuses_an_output_not_named_xml(
     [
         (["run", "-", "--sim", "straight"], "tree"),
         (["mission", "-"], "route"),
-        (["trace", "summary", "-"], "path"),
+        (["trace", "summary", "-"], "trace"),
     ],
 )
 def test_a_dash_as_an_input_says_files_are_read_by_name(

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.cli import check_output
+from pirate_bt.errors import file_argument
 
 __all__ = ["EXPORTS", "configure", "run"]
 
@@ -178,6 +179,9 @@ def run(args: argparse.Namespace) -> int:
         "schema": _schema,
         "export": _export,
     }
+    if getattr(args, "trace", None) is not None:
+        # named as the user typed it ('trace: ...'), not the library's parameter
+        file_argument(args.trace, "trace")
     code = actions[args.action](args)
     sys.stdout.flush()
     return code
