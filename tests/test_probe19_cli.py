@@ -163,3 +163,11 @@ def test_a_folder_where_the_dot_source_goes_is_refused_before_any_work(
         " it is a folder"
     ]
     assert not picture.exists()
+
+
+def test_an_output_name_the_system_refuses_is_no_input_to_the_library() -> None:
+    # not_an_input's target.exists() raised OSError (File name too long) for a part of
+    # over 255 bytes, a raw line for planner code that had not checked the name first
+    from pirate_bt.api.options import not_an_input
+
+    not_an_input(Path("x" * 300 + ".jsonl"), "trace", {"tree": "trees/bend.yaml"})
