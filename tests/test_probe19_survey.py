@@ -101,3 +101,42 @@ def test_a_tee_too_close_after_another_is_left_a_stub_and_the_other_branch_surve
     tees = [s for s in surveyed.spec.segments if s.type == "tee"]
     assert [len(t.branch.segments) for t in tees] == [1, 0]  # tee-1's branch surveyed
     assert abs(surveyed.path({"tee-1": "branch"}).length_m - 2.657) < 0.03
+
+
+@pytest.mark.parametrize(
+    ("segments", "start", "says"),
+    [
+        # 0.3 m, then a bend up: the survey wrote 'run-2, 275 mm at 23.9 deg', exit 0
+        (
+            "  - {id: a, type: straight, length: 0.3 m}\n"
+            "  - {id: b, type: bend, direction: up}\n"
+            "  - {id: c, type: straight, length: 1 m}\n",
+            "",
+            "puts it in across the bend 'b'",
+        ),
+        # 0.4 m of pipe: the survey wrote 515 mm, exit 0
+        ("  - {id: a, type: straight, length: 0.4 m}\n", "", "main line of 0.40 m"),
+        # put in 1.5 m deep in 3 m of pipe: the survey wrote 2.013 m, exit 0
+        (
+            "  - {id: a, type: straight, length: 3 m}\n",
+            "start: {position: 1.5 m}\n",
+            "front tip at 1.50 m (start.position)",
+        ),
+    ],
+    ids=["across-a-bend", "shorter-than-the-robot", "put-in-deep"],
+)
+def test_a_simulated_pipe_the_robot_is_not_put_in_at_the_mouth_of_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], segments: str, start: str, says: str
+) -> None:
+    from pirate_bt.cli import main
+
+    truth = tmp_path / "t.yaml"
+    truth.write_text(
+        f"schema_version: 1\nname: t\ndiameter: 63 mm\n{start}segments:\n{segments}",
+        encoding="utf-8",
+    )
+    out = tmp_path / "surveyed.yaml"
+    assert main(["survey", "--sim", str(truth), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pirate-bt: --sim: a survey measures its first straight") and says in err
+    assert len(err.splitlines()) == 1 and not out.exists()

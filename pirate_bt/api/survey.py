@@ -150,6 +150,43 @@ def _folders_to_make(output: Path | None) -> list[Path]:
     return [p for p in (output.parent, *output.parent.parents) if not p.exists()]
 
 
+def _put_in_straight(sim: Any, robot: Any) -> None:
+    """Refuse, before anything connects, a simulated pipe that puts the robot in across a
+    bend or a T-joint, or longer than its main line, or further in than its length (a
+    ``start`` position): the survey measures its first straight from the rear tip at the
+    pipe's mouth, and wrote pipe that is not there (0.3 m of straight, then a bend up:
+    *run-2, 275 mm at 23.9 deg*, exit 0)."""
+    from pirate_bt.api.options import load_robot_like
+    from pirate_bt.errors import InputError
+    from pirate_bt.pipes import Network, PieceKind, load_network
+    from pirate_bt.task.plan import robot_length_m
+
+    try:  # a network that does not load is refused where the simulator loads it
+        net = sim if isinstance(sim, Network) else load_network(sim or "straight")
+        path = net.path({})
+    except Exception:
+        return
+    length_m = robot_length_m(load_robot_like(robot))
+    given = net.spec.start.position
+    front_m = min(max(given if given is not None else length_m, length_m), path.length_m)
+    turns = (PieceKind.BEND, PieceKind.TEE, PieceKind.TEE_TURN)
+    under = [p for p in path.pieces if p.kind in turns and p.start_m < front_m - 1e-6]
+    if front_m < length_m - 1e-6:
+        why = f"has a main line of {path.length_m:.2f} m, shorter than the robot"
+    elif front_m > length_m + 1e-6:
+        why = f"puts its front tip at {front_m:.2f} m (start.position), not at the mouth"
+    elif under:
+        kind = "bend" if under[0].kind is PieceKind.BEND else "T-joint"
+        why = f"puts it in across the {kind} {under[0].segment!r}: it must be on straight pipe"
+    else:
+        return
+    raise InputError(
+        f"sim: a survey measures its first straight from the pipe's mouth, the robot"
+        f" ({length_m:.2f} m long) put in just inside it, and the simulated network"
+        f" {net.spec.name!r} {why}"
+    )
+
+
 def _take_away(made: list[Path]) -> None:
     """Take away again the folders a survey made for a file it did not write (*nothing
     was surveyed: no file is written* left them, empty), while they are empty."""
@@ -230,6 +267,8 @@ def survey(
         extend=extend,
     )
     _radius_fits(explore.radius_m, robot)
+    if port is None and extend is None:  # a second insertion follows the first's map
+        _put_in_straight(sim, robot)
     # a survey refused before it runs (a fault's unknown target) leaves no empty folder
     # made for its output, as navigate leaves none for its trace
     undone = (

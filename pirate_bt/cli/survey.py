@@ -92,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         if type(exc) is InputError and str(exc).startswith(_EXTEND):
             # the API names its argument (extend: ...); here it is the option typed
             raise InputError("--extend: " + str(exc).removeprefix(_EXTEND)) from None
+        if type(exc) is InputError and str(exc).startswith("sim: a survey measures"):
+            raise InputError("--" + str(exc)) from None  # the option typed
         trace_as_typed(exc)
         raise
     if not args.quiet:
