@@ -61,7 +61,12 @@ from pirate_bt.errors import InputError
 from pirate_bt.task.explore_extend import Extension, earlier_ends, load_extension
 from pirate_bt.task.explore_frame import write_in_frame
 from pirate_bt.task.explore_parts import (
+    APPROACH_M,
+    CONE_M,
+    CONE_PASS_M,
+    MARGIN_M,
     OPENING_STOP,
+    SETTLED_M,
     Passed,
     PendingTee,
     SurveyIncomplete,
@@ -81,23 +86,6 @@ __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leava
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
-
-_APPROACH_M = 0.25
-"""Where a turn into a branch starts: the front tip this far before the middle of
-the opening (the planner's ``approach_m``)."""
-
-_MARGIN_M = 0.25
-"""How far short of a feature a return's straight drive stops: the backward PAB
-searches the rest (up to 3 m) with its own sensing."""
-
-_SETTLED_M = 0.05
-"""A change felt this close after the feature before is the robot leaving that feature."""
-
-_CONE_M = 0.05
-"""A reducer's cone length, written (the network default; the robot does not measure it)."""
-
-_CONE_PASS_M = 0.25
-"""How far the robot drives through a reducer before the front half reads its diameter."""
 
 _EXTEND = "a second insertion (extend=, pirate-bt survey --extend) surveys it"
 
@@ -235,7 +223,7 @@ class ExploreNavigator:
         """The IMU's pitch changed with the rotational module at ``at_m``: a new straight
         starts there (unless the module was only leaving the feature before)."""
         assert self._from_m is not None
-        if at_m < self._from_m + _SETTLED_M:
+        if at_m < self._from_m + SETTLED_M:
             return
         self._close_straight(obs, at_m, pitch_rad=self._pitch_before)
         self._from_m = at_m
@@ -247,14 +235,14 @@ class ExploreNavigator:
         half reads the diameter beyond it (:meth:`_reducer_done`).
         """
         assert self._from_m is not None
-        if at_m < self._from_m + _SETTLED_M:  # the joints were leaving the feature before
+        if at_m < self._from_m + SETTLED_M:  # the joints were leaving the feature before
             return self._search(obs)
         if self._diameter_m is None and obs.diameter_m is not None:
             # a cone in the first straight: its diameter is the network's, read by the rear
             # half there now (nothing had read one: the file said 63 mm, whatever the pipe)
             self._diameter_m = self._diameter_now = obs.diameter_m
         self._cone = (at_m, obs.pitch_rad)
-        return Step("straight", distance=_CONE_PASS_M, stop_at_feature=True)
+        return Step("straight", distance=CONE_PASS_M, stop_at_feature=True)
 
     def _reducer_done(self, obs: Observation) -> None:
         """The front half is through the cone: write the straight up to it and the
@@ -271,7 +259,7 @@ class ExploreNavigator:
             return
         # the joint had read 2 mm of the change this far into the cone (length assumed),
         # and the drive went on while the change held
-        lead = _CONE_M * DIAMETER_CHANGE_M / abs(diameter - self._diameter_now)
+        lead = CONE_M * DIAMETER_CHANGE_M / abs(diameter - self._diameter_now)
         start = at_m - DIAMETER_SETTLE_M - lead
         self._close_straight(obs, start, pitch_rad=pitch, diameter_m=self._diameter_now)
         self._line.append(
@@ -279,11 +267,11 @@ class ExploreNavigator:
                 "id": self._id("reducer"),
                 "type": "reducer",
                 "diameter": f"{diameter * 1000:.1f} mm",
-                "length": f"{_CONE_M * 1000:g} mm",
+                "length": f"{CONE_M * 1000:g} mm",
             }
         )
         self._diameter_now = diameter
-        self._from_m = start + _CONE_M
+        self._from_m = start + CONE_M
         self._pitch_before = obs.pitch_rad
 
     def _probed_turn(self, obs: Observation, felt: Felt | None) -> Step | None:
@@ -450,7 +438,7 @@ class ExploreNavigator:
         if len(self._trail) > tee.depth:
             passed = self._trail[-1]
             rear = obs.belief.position_m - obs.robot_length_m
-            gap = rear - passed.end_m - _MARGIN_M
+            gap = rear - passed.end_m - MARGIN_M
             if self._backed is not passed and gap > 0.05:
                 self._backed = passed
                 return Step("straight", distance=-gap)
@@ -459,7 +447,7 @@ class ExploreNavigator:
             return Step(passed.pab, direction=passed.way)
         # back before the tee: the front tip where a turn PAB starts from, a
         # mission's approach before the middle of the opening; then into the branch
-        approach = tee.start_m + 1.5 * tee.diameter_m - _APPROACH_M
+        approach = tee.start_m + 1.5 * tee.diameter_m - APPROACH_M
         rear = approach - obs.robot_length_m + obs.joint_behind_m
         if close := rear_over_opening(tee, self._trail[-1] if self._trail else None, rear):
             self._target = self._backed = None

@@ -19,9 +19,14 @@ from pirate_bt.task.explore_extend import NOT_SURVEYED
 from pirate_bt.units import parse_quantity
 
 __all__ = [
+    "APPROACH_M",
     "BACK_OUT_REACH_M",
+    "CONE_M",
+    "CONE_PASS_M",
     "ENDS_UNSURE",
+    "MARGIN_M",
     "OPENING_STOP",
+    "SETTLED_M",
     "Passed",
     "PendingTee",
     "SurveyIncomplete",
@@ -36,6 +41,23 @@ __all__ = [
     "tee_start",
     "write_survey",
 ]
+
+APPROACH_M = 0.25
+"""Where a turn into a branch starts: the front tip this far before the middle of
+the opening (the planner's ``approach_m``)."""
+
+MARGIN_M = 0.25
+"""How far short of a feature a return's straight drive stops: the backward PAB
+searches the rest (up to 3 m) with its own sensing."""
+
+SETTLED_M = 0.05
+"""A change felt this close after the feature before is the robot leaving that feature."""
+
+CONE_M = 0.05
+"""A reducer's cone length, written (the network default; the robot does not measure it)."""
+
+CONE_PASS_M = 0.25
+"""How far the robot drives through a reducer before the front half reads its diameter."""
 
 OPENING_STOP = (0.177, 0.55)
 """Where a straight step with ``stop_at_feature`` stops over a tee's opening: the
