@@ -122,19 +122,17 @@ def print_summary(succeeded: bool, summary: str) -> None:
         print(f"pirate-bt: {summary}", file=sys.stderr)
 
 
-_TRACE = "trace: "
-"""How the API's messages about its ``trace=`` folder start (``trace: x is a file``)."""
-
-
-def trace_as_typed(exc: InputError) -> None:
-    """Raise the API's ``trace: ...`` again as ``--trace: ...``, the option typed (it
-    said ``trace: out is a file, not a folder``); return for any other message.
+def as_typed(exc: InputError, *starts: str) -> None:
+    """Raise the API's message again with the argument it names as the option typed
+    (``trace: out is a file, not a folder`` is ``--trace: ...`` here) when it begins
+    with one of ``starts`` (``"trace: "``); return for any other message.
 
     Raises:
-        InputError: ``exc`` is about the trace folder.
+        InputError: ``exc``'s message begins with one of ``starts``.
     """
-    if str(exc).startswith(_TRACE):
-        raise InputError("--trace: " + str(exc).removeprefix(_TRACE)) from None
+    text = str(exc)
+    if text.startswith(starts):
+        raise InputError(f"--{text}") from None
 
 
 def _check_options(args: argparse.Namespace) -> None:
@@ -185,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
             firmware=args.firmware_chain,
         )
     except InputError as exc:
-        trace_as_typed(exc)
+        as_typed(exc, "trace: ")
         raise
     if not args.quiet:
         print_decisions(result.decisions)

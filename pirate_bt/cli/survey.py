@@ -16,9 +16,6 @@ from pirate_bt.errors import InputError
 
 __all__ = ["configure", "run"]
 
-_EXTEND = "extend: "
-"""How the API's messages about ``extend=`` start (:mod:`pirate_bt.task.explore_extend`)."""
-
 
 def configure(parser: argparse.ArgumentParser) -> None:
     from pirate_bt.cli import utf8_text
@@ -66,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
     from pirate_bt.api.options import quantity
     from pirate_bt.cli import check_output
-    from pirate_bt.cli.navigate import check_stepwise, trace_as_typed
+    from pirate_bt.cli.navigate import as_typed, check_stepwise
 
     check_stepwise(args)  # named as typed: the API said "seed:", "max_time:"
     for option, value in (("--search", args.search), ("--radius", args.radius)):
@@ -89,12 +86,8 @@ def run(args: argparse.Namespace) -> int:
             extend=args.extend,
         )
     except InputError as exc:
-        if type(exc) is InputError and str(exc).startswith(_EXTEND):
-            # the API names its argument (extend: ...); here it is the option typed
-            raise InputError("--extend: " + str(exc).removeprefix(_EXTEND)) from None
-        if type(exc) is InputError and str(exc).startswith("sim: a survey measures"):
-            raise InputError("--" + str(exc)) from None  # the option typed
-        trace_as_typed(exc)
+        # the API names its arguments; here they are the options typed
+        as_typed(exc, "extend: ", "sim: a survey measures", "trace: ")
         raise
     if not args.quiet:
         print_decisions(result.navigation.decisions)
