@@ -17,7 +17,7 @@ import pytest
 import pirate_bt
 from pirate_bt.campaign import run_campaign
 from pirate_bt.cli import main
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, shown
 
 ROOT = Path(__file__).resolve().parents[1]
 NO_STUB = ROOT / "scenarios" / "straight.yaml"  # a network with no tee branch left
@@ -41,7 +41,7 @@ def test_survey_extend_from_the_api_names_the_argument(tmp_path: Path) -> None:
         pirate_bt.survey(sim="straight", extend=str(NO_STUB), output=tmp_path / "s.yaml")
     # was: "survey --extend: 'straight' has no tee branch ..." (no file, a flag)
     assert str(caught.value) == (
-        f"extend: {str(NO_STUB)!r} (network 'straight') has no tee branch left as a stub:"
+        f"extend: {shown(str(NO_STUB))} (network 'straight') has no tee branch left as a stub:"
         " there is nothing to extend"
     )
     assert not (tmp_path / "s.yaml").exists()
@@ -63,7 +63,8 @@ def test_survey_extend_on_the_command_line_names_the_option(
     code = main(["survey", "--sim", "straight", "--extend", str(NO_STUB), "-o", str(out)])
     assert code == 2
     assert _one_error(capsys) == (
-        f"--extend: {str(NO_STUB)!r} (network 'straight') has no tee branch left as a stub:"
+        f"--extend: {shown(str(NO_STUB))} (network 'straight') has no tee branch left as a"
+        " stub:"
         " there is nothing to extend"
     )
     assert not out.exists()
