@@ -21,7 +21,6 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Collection, Sequence
-from operator import attrgetter
 from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
@@ -29,9 +28,14 @@ from pirate_bt.link.away import BoardsAway
 from pirate_bt.link.closing import wait_for_estop
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
 from pirate_bt.link.deadman import Deadman
-from pirate_bt.link.inbound import STATE_REFUSALS
+from pirate_bt.link.health import (
+    HEALTH_FIGURES,
+    REFUSED_STATES_REPORTED,
+    health_of,
+    refusals,
+)
 from pirate_bt.link.ranges import ReadingRanges
-from pirate_bt.link.session import Outcome, Request, Session, SessionStats
+from pirate_bt.link.session import Outcome, Request, Session
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
@@ -40,25 +44,6 @@ from pirate_bt.robot.state import RobotState, StateBuilder
 __all__ = ["REFUSED_STATES_REPORTED", "RobotLink"]
 
 _log = logging.getLogger(__name__)
-
-# The session figures health() is made of, read in one C call. ``completed`` is there
-# because every request that enters the loss window also bumps it, so the loss ratio
-# (a sum over the window) is only recomputed when it moved.
-_HEALTH_FIGURES = attrgetter(
-    "_lost",
-    "_closed",
-    "_last_heard_s",
-    "_rtt_s",
-    "crc_errors",
-    "retries",
-    "failed",
-    "duplicates",
-    "completed",
-    "_flags",
-    "bridge_resets",
-    "_faulted",
-    "_refused",
-)
 
 
 class RobotLink:
@@ -412,12 +397,12 @@ class RobotLink:
             if not stats.estopped:
                 self.latch_kept = ""  # released since, as below (it was left out here)
             faulted = self._board_ids_at(stats.faulted)
-            return _health_of(stats, faulted, session.refused_states(), self.latch_kept)
+            return health_of(stats, faulted, session.refused_states(), self.latch_kept)
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
         # The line's noise since the last good frame is not a counter the figures hold
         # (an echo, bytes without a delimiter): it is read with them.
-        figures = (*_HEALTH_FIGURES(session), session.line_noise())
+        figures = (*HEALTH_FIGURES(session), session.line_noise())
         if figures == self._health_figures:
             return self._health
         (
@@ -458,7 +443,7 @@ class RobotLink:
             bridge_resets=resets,
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
             faulted_boards=self._board_ids_at(faulted),
-            states_refused=_refusals(refused),
+            states_refused=refusals(refused),
             line_noise=noise,
             latch_kept=self.latch_kept,
         )
@@ -558,41 +543,4 @@ def _not_answering(late: list[tuple[int, float]], what: str) -> str:
     return (
         f"board {', '.join(str(b) for b, _ in late)} is not answering the bridge"
         f" (TIMEOUT, {old}: rebooting?): its setpoints {what}"
-    )
-
-
-REFUSED_STATES_REPORTED = 5
-"""STATE frames refused in a row (none taken between) before ``LinkHealth.states_refused``
-reports them: one or two are a lossy line's damaged or duplicated frames, which the next
-good one makes up for; a run of them is what leaves the host without state."""
-
-
-def _refusals(counts: tuple[int, int, int]) -> tuple[tuple[str, int], ...]:
-    """The session's refused STATE counts as (reason, count) pairs, zeros left out; none
-    below :data:`REFUSED_STATES_REPORTED` in all."""
-    if sum(counts) < REFUSED_STATES_REPORTED:
-        return ()
-    return tuple((why, n) for why, n in zip(STATE_REFUSALS, counts, strict=True) if n)
-
-
-def _health_of(
-    s: SessionStats, faulted: tuple[int, ...], refused: tuple[int, int, int], latch_kept: str
-) -> LinkHealth:
-    return LinkHealth(
-        connected=s.connected,
-        last_heard_s=s.last_heard_s,
-        rtt_s=s.rtt_s,
-        loss_ratio=s.loss_ratio,
-        crc_errors=s.crc_errors,
-        retries=s.retries,
-        failed=s.failed,
-        duplicates=s.duplicates,
-        estopped=s.estopped,
-        estop_input=s.estop_input,
-        bridge_resets=s.bridge_resets,
-        bus_fault=s.bus_fault,
-        faulted_boards=faulted,
-        states_refused=_refusals(refused),
-        line_noise=s.line_noise,
-        latch_kept=latch_kept,
     )

@@ -1,0 +1,72 @@
+"""The link's health (:class:`~pirate_bt.robot.port.LinkHealth`) from the session's
+figures: which figures, and the refused ``STATE`` frames as (reason, count) pairs.
+
+Split out of :mod:`pirate_bt.link.robot_link`, whose ``RobotLink.health`` uses them.
+"""
+
+from __future__ import annotations
+
+from operator import attrgetter
+
+from pirate_bt.link.inbound import STATE_REFUSALS
+from pirate_bt.link.session import SessionStats
+from pirate_bt.robot.port import LinkHealth
+
+__all__ = ["HEALTH_FIGURES", "REFUSED_STATES_REPORTED", "health_of", "refusals"]
+
+# The session figures health() is made of, read in one C call. ``completed`` is there
+# because every request that enters the loss window also bumps it, so the loss ratio
+# (a sum over the window) is only recomputed when it moved.
+HEALTH_FIGURES = attrgetter(
+    "_lost",
+    "_closed",
+    "_last_heard_s",
+    "_rtt_s",
+    "crc_errors",
+    "retries",
+    "failed",
+    "duplicates",
+    "completed",
+    "_flags",
+    "bridge_resets",
+    "_faulted",
+    "_refused",
+)
+
+
+REFUSED_STATES_REPORTED = 5
+"""STATE frames refused in a row (none taken between) before ``LinkHealth.states_refused``
+reports them: one or two are a lossy line's damaged or duplicated frames, which the next
+good one makes up for; a run of them is what leaves the host without state."""
+
+
+def refusals(counts: tuple[int, int, int]) -> tuple[tuple[str, int], ...]:
+    """The session's refused STATE counts as (reason, count) pairs, zeros left out; none
+    below :data:`REFUSED_STATES_REPORTED` in all."""
+    if sum(counts) < REFUSED_STATES_REPORTED:
+        return ()
+    return tuple((why, n) for why, n in zip(STATE_REFUSALS, counts, strict=True) if n)
+
+
+def health_of(
+    s: SessionStats, faulted: tuple[int, ...], refused: tuple[int, int, int], latch_kept: str
+) -> LinkHealth:
+    """The health of a threaded session, from its locked snapshot ``s``."""
+    return LinkHealth(
+        connected=s.connected,
+        last_heard_s=s.last_heard_s,
+        rtt_s=s.rtt_s,
+        loss_ratio=s.loss_ratio,
+        crc_errors=s.crc_errors,
+        retries=s.retries,
+        failed=s.failed,
+        duplicates=s.duplicates,
+        estopped=s.estopped,
+        estop_input=s.estop_input,
+        bridge_resets=s.bridge_resets,
+        bus_fault=s.bus_fault,
+        faulted_boards=faulted,
+        states_refused=refusals(refused),
+        line_noise=s.line_noise,
+        latch_kept=latch_kept,
+    )
