@@ -118,17 +118,22 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
     explicit: dict[str, NodeSpec] = {}
     for child in children:
         if child.explicit_name:
-            first = explicit.get(child.name)
+            # 'café' composed (U+00E9) and decomposed (e + U+0301) are shown alike
+            first = explicit.get(unicodedata.normalize("NFC", child.name))
             if first is not None:  # a subtree's root: the mistake is the call's
+                other = (
+                    "" if first.name == child.name else " (the same text, in another Unicode form)"
+                )
                 errors.append(
                     LocatedError(
                         f"duplicate node name {shown_name(child.name)} among siblings"
-                        f" (first at {first.called_at or first.location})",
+                        f" (first at {first.called_at or first.location}){other}",
                         child.called_at or child.location,
                     )
                 )
-            explicit.setdefault(child.name, child)  # "first at" is the first, not the last
-    used = set(explicit)
+            # "first at" is the first, not the last
+            explicit.setdefault(unicodedata.normalize("NFC", child.name), child)
+    used = {child.name for child in explicit.values()}
     counts: dict[str, int] = {}
     for child in children:
         if child.explicit_name:

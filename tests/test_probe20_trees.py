@@ -1,0 +1,74 @@
+"""Probe 20: hostile tree files, YAML and BehaviorTree.CPP v4 XML (docs/trees.md,
+docs/interop.md).
+
+Findings, each with its test below:
+
+- two sibling names that are the same text in two Unicode forms (``café`` with U+00E9,
+  and ``cafe`` + U+0301) loaded as two siblings, shown alike in every node path (the
+  trace summary showed two rows ``café``), where docs/trees.md refuses names that would
+  make two names look alike;
+"""
+
+from __future__ import annotations
+
+import unicodedata
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pirate_bt.cli import main
+
+COMPOSED = unicodedata.normalize("NFC", "café")
+DECOMPOSED = unicodedata.normalize("NFD", "café")
+
+
+def _xml(body: str) -> str:
+    return (
+        '<?xml version="1.0"?>\n<root BTCPP_format="4" main_tree_to_execute="main">\n'
+        f'<BehaviorTree ID="main">{body}</BehaviorTree>\n</root>\n'
+    )
+
+
+@pytest.mark.parametrize("suffix", ["yaml", "xml"])
+def test_two_sibling_names_that_differ_only_in_unicode_form_are_a_duplicate(
+    tmp_path: Path, capsys: Any, suffix: str
+) -> None:
+    assert COMPOSED != DECOMPOSED
+    tree = tmp_path / f"t.{suffix}"
+    if suffix == "yaml":
+        tree.write_text(
+            "root:\n  type: sequence\n  children:\n"
+            f"    - {{type: success, name: {COMPOSED}}}\n"
+            f"    - {{type: success, name: {DECOMPOSED}}}\n",
+            encoding="utf-8",
+        )
+        place = "5:7"
+    else:
+        tree.write_text(
+            _xml(
+                f'<Sequence><AlwaysSuccess name="{COMPOSED}"/>'
+                f'<AlwaysSuccess name="{DECOMPOSED}"/></Sequence>'
+            ),
+            encoding="utf-8",
+        )
+        place = "3:63"
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"t.{suffix}:{place}: duplicate node name" in err
+    assert "another Unicode form" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_the_same_name_twice_in_one_form_is_said_as_before(tmp_path: Path, capsys: Any) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root:\n  type: sequence\n  children:\n"
+        f"    - {{type: success, name: {DECOMPOSED}}}\n"
+        f"    - {{type: success, name: {DECOMPOSED}}}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(":4:7)"), err
+    assert "Unicode form" not in err
