@@ -325,7 +325,7 @@ def run_navigation(
                 map=shown_map,
                 time_s=clock.now() - start_s,
                 choices=dict(planner.choices) if planner is not None else {},
-                history=tuple(history),
+                history=tuple((plain(s), o) for s, o in history),  # the navigator's to edit
                 robot_length_m=robot_length,
                 imu_behind_m=behind[robot.rotational_module().name],
                 joint_behind_m=min(behind[m.name] for m in robot.bend_modules(Half.FRONT)),
@@ -337,7 +337,9 @@ def run_navigation(
                 result.why += went_on(disagreements)
                 break
             # the decision records what the navigator was told, not what it wrote into it
-            told = replace(obs, choices=dict(obs.choices))
+            told = replace(
+                obs, choices=dict(obs.choices), history=tuple((plain(s), o) for s, o in history)
+            )
             try:
                 (step, origin), seconds, error, raised = _decide(
                     navigator, obs, deadline_s, name, planner is not None
@@ -351,8 +353,8 @@ def run_navigation(
                 result.failing_node = failures[0].failing_node if failures else None
                 supervisor.safe_state(result.why)
                 break
-            if isinstance(step, Step):  # its own __repr__ or __eq__ is not reached again
-                step = plain(step)
+            if isinstance(step, Step):  # a copy: its own __repr__ or __eq__ is not reached
+                step = plain(step)  # again, and the navigator's later edits change nothing
             checked: CheckedStep | None = None
             plan: MissionPlan | None = None
             if error is None and step is not None:

@@ -455,12 +455,12 @@ def _flag(step: Step, key: str) -> bool:
 
 
 def plain(step: Step) -> Step:
-    """``step`` as a plain :class:`Step` (a subclass's own ``__repr__``, a PAB name of a
-    ``str`` subclass with its own ``__eq__``, are left behind: one that raised ended the
-    navigation with a bare exception, out of ``navigate()``)."""
+    """``step`` as a plain :class:`Step` of its own (a subclass's own ``__repr__``, a PAB
+    name of a ``str`` subclass with its own ``__eq__``, are left behind: one that raised
+    ended the navigation with a bare exception, out of ``navigate()``), with a copy of
+    its parameters: a navigator that edits the step it gave (or one in ``obs.history``)
+    changes nothing recorded (every decision read as the last edit)."""
     pab = str.__str__(step.pab) if isinstance(step.pab, str) else step.pab
-    if type(step) is Step and type(step.pab) is type(pab):
-        return step
     return Step(pab, **dict(step.params))
 
 
