@@ -7,6 +7,10 @@ Findings, each with its test below:
   and ``cafe`` + U+0301) loaded as two siblings, shown alike in every node path (the
   trace summary showed two rows ``café``), where docs/trees.md refuses names that would
   make two names look alike;
+- an XML integer port of 5000 digits (``num_attempts``, ``num_cycles``) was said to be
+  *expected an integer*, and a ``json:`` one was said in Python's words (*Exceeds the
+  limit (4300 digits) for integer string conversion*); the YAML loader says *a number
+  of 5000 digits is too long*, and so do they now.
 """
 
 from __future__ import annotations
@@ -72,3 +76,31 @@ def test_the_same_name_twice_in_one_form_is_said_as_before(tmp_path: Path, capsy
     err = capsys.readouterr().err.strip()
     assert err.endswith(":4:7)"), err
     assert "Unicode form" not in err
+
+
+@pytest.mark.parametrize(
+    ("element", "said"),
+    [
+        (
+            '<RetryUntilSuccessful num_attempts="{n}"><AlwaysSuccess/></RetryUntilSuccessful>',
+            "num_attempts: a number of 5000 digits is too long",
+        ),
+        (
+            '<Repeat num_cycles="{n}"><AlwaysSuccess/></Repeat>',
+            "num_cycles: a number of 5000 digits is too long",
+        ),
+        (
+            '<check_blackboard key="k" op="==" value="json:{n}"/>',
+            "value: bad json: value: a number of 5000 digits is too long",
+        ),
+    ],
+)
+def test_an_xml_integer_too_long_to_read_is_said_to_be_too_long(
+    tmp_path: Path, capsys: Any, element: str, said: str
+) -> None:
+    tree = tmp_path / "t.xml"
+    tree.write_text(_xml(element.replace("{n}", "9" * 5000)), encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(said), err
+    assert "expected an integer" not in err and "4300" not in err

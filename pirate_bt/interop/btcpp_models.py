@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
@@ -430,7 +431,9 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
         except RecursionError:
             raise ValueError(f"bad json: nested deeper than {_MAX_JSON_DEPTH} levels") from None
         except ValueError as exc:  # NaN, Infinity; a number too long for Python
-            raise ValueError(f"bad json: value: {str(exc).split(';')[0]}") from None
+            digits = _too_long(text[5:])
+            said = f"a number of {digits} digits is too long" if digits else str(exc).split(";")[0]
+            raise ValueError(f"bad json: value: {said}") from None
         if _json_depth(value) > _MAX_JSON_DEPTH:
             raise ValueError(f"bad json: nested deeper than {_MAX_JSON_DEPTH} levels")
         # "\ud800" alone: no character (the tree file could not hold it)
@@ -460,6 +463,9 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
                 raise ValueError(text)
             return int(text) if port_type == "integer" else float(text)
         except ValueError:  # also an integer too long for Python to read
+            digits = _too_long(text) if re.fullmatch(r"\s*[+-]?[0-9]+\s*", text) else 0
+            if digits:  # as the YAML loader says it: it is an integer, past what is read
+                raise ValueError(f"a number of {digits} digits is too long") from None
             raise ValueError(f"expected {words}, got {_shown(text)}") from None
     if port_type == "boolean":
         lowered = text.strip().lower()
@@ -469,3 +475,11 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
             return False
         raise ValueError(f"expected true or false, got {_shown(text)}")
     return text
+
+
+def _too_long(text: str) -> int:
+    """The digits of the longest run of ASCII digits in ``text`` when it is longer than
+    Python reads as an integer (``sys.get_int_max_str_digits()``), else 0."""
+    longest = max((len(run) for run in re.findall("[0-9]+", text)), default=0)
+    limit = sys.get_int_max_str_digits()
+    return longest if limit and longest > limit else 0
