@@ -35,21 +35,34 @@ HEALTH_FIGURES = attrgetter(
 
 
 REFUSED_STATES_REPORTED = 5
-"""STATE frames refused in a row (none taken between) before ``LinkHealth.states_refused``
-reports them: one or two are a lossy line's damaged or duplicated frames, which the next
-good one makes up for; a run of them is what leaves the host without state."""
+"""STATE frames refused in a row before ``LinkHealth.states_refused`` reports them while
+the session has taken no ``STATE`` yet (the connect): until one is taken nothing says the
+bridge speaks this protocol, and a bridge at another baud rate makes the odd frame whose
+damaged type byte says ``STATE``. Once one was taken, every refused frame since the
+last one taken is reported: only the supervisor asks why, when no ``STATE`` was taken
+for its staleness limit, and then one or two refused frames are part of the answer
+(before 2026-11-30 they were left out, and the why said *the last frame heard ... held
+no state*)."""
 
 
-def refusals(counts: tuple[int, int, int]) -> tuple[tuple[str, int], ...]:
+def refusals(counts: tuple[int, int, int], *, taken: bool) -> tuple[tuple[str, int], ...]:
     """The session's refused STATE counts as (reason, count) pairs, zeros left out; none
-    below :data:`REFUSED_STATES_REPORTED` in all."""
-    if sum(counts) < REFUSED_STATES_REPORTED:
+    below :data:`REFUSED_STATES_REPORTED` in all unless a ``STATE`` was ``taken`` in the
+    session. (``taken`` only turns true as a frame is taken, which sets the counts to
+    zero: a health cached on the counts stays right.)"""
+    total = sum(counts)
+    if not total or (total < REFUSED_STATES_REPORTED and not taken):
         return ()
     return tuple((why, n) for why, n in zip(STATE_REFUSALS, counts, strict=True) if n)
 
 
 def health_of(
-    s: SessionStats, faulted: tuple[int, ...], refused: tuple[int, int, int], latch_kept: str
+    s: SessionStats,
+    faulted: tuple[int, ...],
+    refused: tuple[int, int, int],
+    latch_kept: str,
+    *,
+    taken: bool,
 ) -> LinkHealth:
     """The health of a threaded session, from its locked snapshot ``s``."""
     return LinkHealth(
@@ -66,7 +79,7 @@ def health_of(
         bridge_resets=s.bridge_resets,
         bus_fault=s.bus_fault,
         faulted_boards=faulted,
-        states_refused=refusals(refused),
+        states_refused=refusals(refused, taken=taken),
         line_noise=s.line_noise,
         latch_kept=latch_kept,
     )

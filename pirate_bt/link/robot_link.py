@@ -397,7 +397,8 @@ class RobotLink:
             if not stats.estopped:
                 self.latch_kept = ""  # released since, as below (it was left out here)
             faulted = self._board_ids_at(stats.faulted)
-            return health_of(stats, faulted, session.refused_states(), self.latch_kept)
+            taken = session.latest_state() is not None
+            return health_of(stats, faulted, session.refused_states(), self.latch_kept, taken=taken)
         # Polled session: only this thread changes the figures, so they can be read
         # without the lock and without building a SessionStats first.
         # The line's noise since the last good frame is not a counter the figures hold
@@ -443,7 +444,7 @@ class RobotLink:
             bridge_resets=resets,
             bus_fault=bool(flags & BridgeFlags.BUS_FAULT),
             faulted_boards=self._board_ids_at(faulted),
-            states_refused=refusals(refused),
+            states_refused=refusals(refused, taken=session.latest_state() is not None),
             line_noise=noise,
             latch_kept=self.latch_kept,
         )
