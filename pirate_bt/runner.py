@@ -16,7 +16,10 @@ What py_trees leaves to its user, the runner does:
   same way; finish hooks still run, so traces are written (a Ctrl-C in one of them
   ends the run interrupted and the others still run). (``pirate-bt`` raises
   one for SIGTERM too.) A second Ctrl-C during the safe stop does not cut it short:
-  the safe state is asked for again.
+  the safe state is asked for again. A Ctrl-C raised in a node's ``terminate()`` as
+  the runner stops the running nodes goes out of :meth:`Runner.run`, to stop the
+  program, but only once the other nodes are stopped, the safe state called (the
+  first cause kept) and the finish hooks run.
 - **Any non-success end** (failure, time limit) also stops running nodes and
   calls the safe state: the robot is left safe whenever a run does not succeed.
 - **Tick budget.** Each tick's duration (wall time, ``time.perf_counter``) is
@@ -290,6 +293,11 @@ class Runner:
 
         Returns:
             The :class:`RunResult`; ``outcome`` is ``"failure"`` for every end but success.
+
+        Raises:
+            KeyboardInterrupt: Ctrl-C raised in a node's ``terminate()`` (or its
+                ``shutdown()``) as the run ended; raised once the robot is in its safe
+                state and the finish hooks have seen the result (the first cause).
         """
         wall0 = time.perf_counter()
         start_s = self.clock.now()
@@ -376,14 +384,15 @@ class Runner:
             _log.debug("run ended by an exception%s:\n%s", where, tb_text)
         stopped: tuple[str, ...] = ()
         safe_called = False
+        pending: BaseException | None = None  # a Ctrl-C in a terminate(): out of run() last
         if reason is not StopReason.SUCCESS:
-            stopped = self._stop_running(root)
+            stopped, pending = self._stop_running(root)
             self.stop_message = message  # the first cause, for the safe-state callback
             safe_called = self._call_safe_state()
         loop_ticks = ticks
         settle_ticks = self._come_to_rest(ticks, start_s)
         ticks += settle_ticks
-        self._shutdown()
+        pending = self._shutdown() or pending
         result = RunResult(
             outcome="success" if reason is StopReason.SUCCESS else "failure",
             reason=reason,
@@ -435,6 +444,10 @@ class Runner:
                         traceback="".join(traceback.format_exception(exc)),
                         safe_state_called=result.safe_state_called or self._call_safe_state(),
                     )
+        if pending is not None:
+            # the robot is in its safe state and the outputs are written: the Ctrl-C goes
+            # on, to stop the program (it went out past the safe stop, the robot driving)
+            raise pending
         return result
 
     def _wait_until(self, when_s: float) -> None:
@@ -445,25 +458,40 @@ class Runner:
             time.sleep(delay)
         self.clock.sleep(delay)
 
-    def _stop_running(self, root: py_trees.behaviour.Behaviour) -> tuple[str, ...]:
-        """Stop every RUNNING node, deepest first (py_trees leaves them running)."""
+    def _stop_running(
+        self, root: py_trees.behaviour.Behaviour
+    ) -> tuple[tuple[str, ...], BaseException | None]:
+        """Stop every RUNNING node, deepest first (py_trees leaves them running); the
+        nodes stopped, and the first Ctrl-C (or other ``BaseException`` the runner does
+        not hold) a ``terminate()`` raised, held until the robot is safe and the run's
+        outputs are written: the nodes after it are stopped all the same."""
         running = [n for n in root.iterate() if n.status == Status.RUNNING]
         stopped: list[str] = []
+        held: BaseException | None = None
         for node in running:  # iterate() yields children before their parents
             if node.status != Status.RUNNING:
                 continue  # already stopped through a parent
             try:
                 node.stop(Status.INVALID)
-            except _RAISED as exc:
-                _log.error(
-                    "terminate() of %s raised %s: %s",
-                    node_path(node),
-                    type(exc).__name__,
-                    said_of(exc),
-                )
-                _log.debug("terminate() raised", exc_info=True)
+            except BaseException as exc:
+                if isinstance(exc, _RAISED):
+                    _log.error(
+                        "terminate() of %s raised %s: %s",
+                        node_path(node),
+                        type(exc).__name__,
+                        said_of(exc),
+                    )
+                    _log.debug("terminate() raised", exc_info=True)
+                else:
+                    _log.warning(
+                        "%s in terminate() of %s as the run ended: the robot is put in"
+                        " its safe state before it goes on",
+                        type(exc).__name__,
+                        node_path(node),
+                    )
+                    held = held or exc
             stopped.append(node_path(node))
-        return tuple(stopped)
+        return tuple(stopped), held
 
     def _come_to_rest(self, ticks: int, start_s: float) -> int:
         """Tick without the tree until ``settle`` says the robot is at rest; how many."""
@@ -518,9 +546,14 @@ class Runner:
             return True
         return False
 
-    def _shutdown(self) -> None:
+    def _shutdown(self) -> BaseException | None:
+        """Shut the tree down; a Ctrl-C there is handed back, to go on once the run's
+        outputs are written."""
         try:
             self.tree.shutdown()
         except _RAISED as exc:
             _log.error("tree shutdown raised %s: %s", type(exc).__name__, said_of(exc))
             _log.debug("tree shutdown raised", exc_info=True)
+        except BaseException as exc:
+            return exc
+        return None

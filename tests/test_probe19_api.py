@@ -134,9 +134,11 @@ def test_ctrl_c_as_the_runner_stops_the_nodes_leaves_the_robot_in_its_safe_state
         # it went out with the drive at 80 mm/s and no safe state entered: planner code
         # that caught it ran its next tree on a robot taken for fine
         assert robot.supervisor.in_safe_state
-        assert "interrupted (Ctrl-C)" in (robot.supervisor.safe_state_reason or "")
+        # the runner's own safe state, the first cause kept (the Ctrl-C in the tick)
+        reason = "tree run ended without success: interrupted (Ctrl-C)"
+        assert robot.supervisor.safe_state_reason == reason
         after = robot.run("straight", params={"distance": "0.1 m"})
-        assert after.why.startswith("the robot is in its safe state: interrupted (Ctrl-C)")
+        assert after.why.startswith(f"the robot is in its safe state: {reason}")
 
 
 def test_a_tree_built_without_a_robot_runs_again_and_again() -> None:

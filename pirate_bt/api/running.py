@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import py_trees
 
 from pirate_bt.api.binding import unbinder
-from pirate_bt.api.observing import call_observer, run_to_rest
+from pirate_bt.api.observing import call_observer
 from pirate_bt.api.options import (
     find,
     flag,
@@ -410,7 +410,7 @@ def run_on(
         contain_hooks(runner)
     held = supervisor.safe_state_reason if supervisor is not None else None
     try:
-        loop = run_to_rest(runner, supervisor)
+        loop = runner.run()
     finally:
         if tally is not None:
             tally.detach()

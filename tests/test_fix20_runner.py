@@ -1,0 +1,61 @@
+"""The runner's and the API's leftovers of the twentieth session: a Ctrl-C in a node's
+terminate() as the run ends, what is said after a link loss, a supervised run with no
+operator, and reasons of any length."""
+
+from __future__ import annotations
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from pirate_bt.clock import SimClock
+from pirate_bt.runner import Runner, RunResult, StopReason
+
+
+class _Moving(py_trees.behaviour.Behaviour):
+    """Runs forever; records how it was stopped."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.stopped_with: Status | None = None
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        self.stopped_with = new_status
+
+
+class _CtrlCWhenStopped(py_trees.behaviour.Behaviour):
+    """Runs forever; Ctrl-C lands in its terminate() when the runner stops it."""
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            raise KeyboardInterrupt
+
+
+def test_a_ctrl_c_in_terminate_as_the_run_ends_goes_on_only_once_the_robot_is_safe() -> None:
+    # a Runner used directly (as the missions use it): the Ctrl-C went out of run() from
+    # the first terminate(), the drive beside it never stopped, no safe state called and
+    # the trace never ended; only the API's Connection.run made the robot safe
+    interrupted = _CtrlCWhenStopped("watch")
+    drive = _Moving("drive")
+    root = py_trees.composites.Parallel(
+        "both", py_trees.common.ParallelPolicy.SuccessOnAll(), [interrupted, drive]
+    )
+    clock = SimClock()
+    runner = Runner(root, clock=clock, period_s=0.05, max_time_s=0.2)
+    safe: list[str | None] = []
+    runner.safe_state = lambda: safe.append(runner.stop_message)
+    finished: list[RunResult] = []
+    runner.add_finish(finished.append)
+    with pytest.raises(KeyboardInterrupt):
+        runner.run()
+    assert drive.stopped_with == Status.INVALID
+    assert safe == ["time limit of 0.2 s reached after 4 ticks"]  # the first cause
+    assert [r.reason for r in finished] == [StopReason.TIME_LIMIT]
+    assert finished[0].safe_state_called
+    assert finished[0].stopped_nodes == ("both/watch", "both/drive", "both")
