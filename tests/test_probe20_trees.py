@@ -10,7 +10,10 @@ Findings, each with its test below:
 - an XML integer port of 5000 digits (``num_attempts``, ``num_cycles``) was said to be
   *expected an integer*, and a ``json:`` one was said in Python's words (*Exceeds the
   limit (4300 digits) for integer string conversion*); the YAML loader says *a number
-  of 5000 digits is too long*, and so do they now.
+  of 5000 digits is too long*, and so do they now;
+- a ``parallel`` with ``policy: selected`` whose named children succeed was taken to
+  never finish when another child is always running: the node after it was warned of
+  as one that *can never run*, while the run ran it and succeeded.
 """
 
 from __future__ import annotations
@@ -104,3 +107,32 @@ def test_an_xml_integer_too_long_to_read_is_said_to_be_too_long(
     err = capsys.readouterr().err.strip()
     assert err.endswith(said), err
     assert "expected an integer" not in err and "4300" not in err
+
+
+def test_a_parallel_that_succeeds_on_its_selected_children_lets_the_next_one_run() -> None:
+    from pirate_bt.treefile import load_tree
+
+    def tree(selected: list[str]) -> dict[str, Any]:
+        return {
+            "root": {
+                "type": "sequence",
+                "children": [
+                    {
+                        "type": "parallel",
+                        "policy": "selected",
+                        "selected": selected,
+                        "children": [
+                            {"type": "success", "name": "done"},
+                            {"type": "running", "name": "spin"},
+                        ],
+                    },
+                    {"type": "log", "name": "after", "message": "past the parallel"},
+                ],
+            }
+        }
+
+    assert load_tree(tree(["done"])).warnings == []
+    waiting = [w.message for w in load_tree(tree(["spin"])).warnings]
+    assert waiting == [
+        "warning: 'after' can never run: 'parallel' before it in sequence 'sequence' never finishes"
+    ]

@@ -47,8 +47,13 @@ def _outcomes(spec: NodeSpec, warnings: list[LocatedError]) -> frozenset[Outcome
         for _, o in child_out:
             out |= {x for x in o if x != "success"}
         policy = spec.params["policy"]
-        if (policy == "one" and any("success" in o for _, o in child_out)) or (
-            policy != "one" and all("success" in o for _, o in child_out)
+        # 'selected': the named children's successes are the parallel's (py_trees'
+        # SuccessOnSelected); the others' outcomes but a failure do not end it
+        needed = [
+            o for c, o in child_out if policy != "selected" or c.name in spec.params["selected"]
+        ]
+        if (policy == "one" and any("success" in o for o in needed)) or (
+            policy != "one" and all("success" in o for o in needed)
         ):
             out.add("success")
         if len(child_out) > 1 or "running" in out:
