@@ -4,6 +4,7 @@ missions), run against the navigation API."""
 from __future__ import annotations
 
 import pickle
+from collections.abc import Iterator
 
 import pirate_bt
 from pirate_bt import Observation, Step
@@ -34,3 +35,29 @@ def test_a_navigator_that_edits_a_step_it_gave_does_not_rewrite_the_record() -> 
     assert round(result.belief_m, 1) == 0.7  # what was driven, as recorded
     back = pickle.loads(pickle.dumps(result))
     assert [d.step for d in back.decisions] == [d.step for d in result.decisions]
+
+
+_STALL = "motor_stall:bend_3_drive@5s+20s"
+
+
+def _faults() -> Iterator[str]:
+    yield _STALL
+
+
+def test_faults_given_as_a_generator_are_run_not_dropped() -> None:
+    # faults=(f for f in ...) was read by the option check and handed on empty: each
+    # run "succeeded" with no fault in it
+    tree = pirate_bt.simulate_tree(
+        "bend", network="bend-right", params={"roll": "90 deg"}, faults=_faults()
+    )
+    assert tree.status == "failure" and tree.why.startswith("stall: bend_3_drive"), tree.why
+    mission = pirate_bt.simulate_mission(
+        "scenarios/bend-right.route", faults=iter(["motor_stall:bend_3_drive@25s+20s"])
+    )
+    assert mission.status == "failure", mission.why
+    assert mission.why.startswith("stall: bend_3_drive"), mission.why
+    nav = pirate_bt.navigate(
+        "goal", map="bend-right", params={"segment": "after"}, faults=map(str, [_STALL])
+    )
+    assert nav.status == "failure" and nav.why.startswith("stall: bend_3_drive"), nav.why
+    assert nav.safe_state

@@ -31,6 +31,7 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 from pirate_bt.api.options import (
+    fault_list,
     flag,
     load_robot_like,
     network_name,
@@ -358,7 +359,7 @@ def connect(
         raise InputError(f"mode: {mode!r} is not one of {', '.join(names)}"[:200])
     start_mode = Mode(mode)
     description = load_robot_like(robot)
-    sim_faults, link_faults = split_faults(faults)
+    sim_faults, link_faults = split_faults(fault_list(faults))  # an endless one: refused
     options: dict[str, Any] = {}
     if link_faults is not None:
         options["faults"] = link_faults if "seed=" in link_faults else f"{link_faults},seed={seed}"

@@ -34,6 +34,7 @@ from pirate_bt.api.live import (
 from pirate_bt.api.mission_outputs import OutputsNotWritten, write_mission_outputs
 from pirate_bt.api.options import (
     callback,
+    fault_list,
     file_name,
     flag,
     fraction,
@@ -389,6 +390,7 @@ def simulate_mission(
     """
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
+    faults = fault_list(faults)  # a generator: read once, checked and then run
     checks: dict[str, Any] = {
         "seed": seed,
         "faults": faults,
@@ -532,6 +534,7 @@ def run_mission(
     port_url(port)
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
+    faults = fault_list(faults)  # a generator: read once, checked and then run
     checks: dict[str, Any] = {"faults": faults, "trace": trace, "output": output, "live": live}
     checks |= {"observe": observe, "views": (foxglove, ros2, ros_domain_id, ros_namespace, groot2)}
     checks["inputs"] = {"route": plan_or_route, "robot": robot}

@@ -17,6 +17,7 @@ from typing import Any
 from pirate_bt.api.connection import connect
 from pirate_bt.api.options import (
     NO_LIMIT,
+    fault_list,
     fraction,
     load_robot_like,
     network_name,
@@ -176,6 +177,7 @@ def navigate(
     )
     fraction(map_tolerance, "map_tolerance")
     seed = seed_value(seed)
+    faults = fault_list(faults)  # a generator: read once, checked and then run
     split_faults(faults)
     if trace is not None:  # its name now; the folder is made once every argument is checked
         from pirate_bt.api.options import output_folder

@@ -13,12 +13,13 @@ says what is allowed (docs/api.md, *Arguments the API refuses*).
 
 from __future__ import annotations
 
+import itertools
 import math
 import numbers
 import operator
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -48,6 +49,7 @@ __all__ = [
     "NO_LIMIT",
     "callback",
     "check_rate",
+    "fault_list",
     "file_name",
     "find",
     "flag",
@@ -229,6 +231,16 @@ def flag(value: object, option: str) -> bool:
     if not isinstance(value, bool):
         raise InputError(f"{option}: give True or False, not {value!r}"[:200])
     return value
+
+
+def fault_list(faults: Any) -> Any:
+    """``faults`` to check, then run: a one-shot iterator (a generator, ``map(...)``) read
+    once into a list, of at most ``MAX_FAULTS + 1`` (an endless one is refused as too
+    many, not read for ever). Checked, then handed on, it reached the run read empty:
+    the run "succeeded" with no fault in it. Anything else as it is."""
+    if isinstance(faults, Iterator) and not isinstance(faults, str):
+        return list(itertools.islice(faults, MAX_FAULTS + 1))
+    return faults
 
 
 def seed_value(seed: object, option: str = "seed") -> int:

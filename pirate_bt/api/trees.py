@@ -24,6 +24,7 @@ from pirate_bt.api.live import (
     tree_observer,
 )
 from pirate_bt.api.options import (
+    fault_list,
     file_name,
     flag,
     load_robot_like,
@@ -127,6 +128,7 @@ def simulate_tree(
     check_live_options(foxglove, ros2, ros_domain_id, ros_namespace, groot2)
     seed = seed_value(seed)
     flag(firmware, "firmware")
+    faults = fault_list(faults)  # a generator: read once, checked and then run
     split_faults(faults)
     if trace is not None:
         check_trace(trace, inputs={"tree": tree, "network": network, "robot": robot})
@@ -220,6 +222,7 @@ def run_tree(
     if trace is not None:
         check_trace(trace, inputs={"tree": tree, "robot": robot})
     check_live_options(foxglove, ros2, ros_domain_id, ros_namespace, groot2)
+    faults = fault_list(faults)  # a generator: read once, checked and then run
     split_faults(faults)
     description = load_robot_like(robot)
     checked = as_loaded(tree, description, params)
