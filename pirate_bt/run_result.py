@@ -11,7 +11,21 @@ from dataclasses import dataclass, field
 import py_trees
 from py_trees.common import Status
 
-__all__ = ["Overrun", "RunResult", "StopReason", "TickInfo"]
+__all__ = ["REASON_LIMIT", "Overrun", "RunResult", "StopReason", "TickInfo", "cut_reason"]
+
+REASON_LIMIT = 1000
+"""The most characters of a run's stop message (and of the safe-state reason a runner
+gives): a node's exception or feedback can say anything, 100 kB included."""
+
+
+def cut_reason(text: str, limit: int = REASON_LIMIT) -> str:
+    """``text`` cut to at most ``limit`` characters, its start kept (the first cause)
+    and its end saying how much was left out: ``RuntimeError in s/boom: xxx... (99024
+    more characters)``."""
+    if len(text) <= limit:
+        return text
+    keep = max(0, limit - len(f"... ({len(text)} more characters)"))
+    return f"{text[:keep]}... ({len(text) - keep} more characters)"
 
 
 class StopReason(enum.StrEnum):
@@ -59,7 +73,7 @@ class RunResult:
     Attributes:
         outcome: ``"success"`` or ``"failure"`` (every non-success end is a failure).
         reason: Why it ended, as a :class:`StopReason`.
-        message: One line for people.
+        message: One line for people (at most :data:`REASON_LIMIT` characters).
         ticks: Ticks completed or attempted.
         sim_time_s: Clock time the run took (simulated time on a SimClock).
         wall_time_s: Wall time the run took.
@@ -94,6 +108,10 @@ class RunResult:
     stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
     paused_ticks: int = 0
     settle_ticks: int = 0
+
+    def __post_init__(self) -> None:
+        # a 100 kB exception message went whole into the result, the trace and the report
+        object.__setattr__(self, "message", cut_reason(self.message))
 
     @property
     def succeeded(self) -> bool:

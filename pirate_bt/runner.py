@@ -49,7 +49,7 @@ from py_trees.common import Status
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import said_of
-from pirate_bt.run_result import Overrun, RunResult, StopReason, TickInfo
+from pirate_bt.run_result import Overrun, RunResult, StopReason, TickInfo, cut_reason
 
 __all__ = [
     "SETTLE_LIMIT_S",
@@ -387,7 +387,8 @@ class Runner:
         pending: BaseException | None = None  # a Ctrl-C in a terminate(): out of run() last
         if reason is not StopReason.SUCCESS:
             stopped, pending = self._stop_running(root)
-            self.stop_message = message  # the first cause, for the safe-state callback
+            # the first cause, for the safe-state callback, cut as the result's message is
+            self.stop_message = cut_reason(message)
             safe_called = self._call_safe_state()
         loop_ticks = ticks
         settle_ticks = self._come_to_rest(ticks, start_s)

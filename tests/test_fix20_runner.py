@@ -59,3 +59,45 @@ def test_a_ctrl_c_in_terminate_as_the_run_ends_goes_on_only_once_the_robot_is_sa
     assert [r.reason for r in finished] == [StopReason.TIME_LIMIT]
     assert finished[0].safe_state_called
     assert finished[0].stopped_nodes == ("both/watch", "both/drive", "both")
+
+
+class _Raises(py_trees.behaviour.Behaviour):
+    """Raises an exception with a 100 kB message on its first tick."""
+
+    def update(self) -> Status:
+        raise RuntimeError("x" * 100_000)
+
+
+def test_a_100_kb_exception_message_is_cut_in_the_result_and_the_safe_state() -> None:
+    # the whole 100 kB went into the result's message and the safe-state reason, and
+    # from there into the trace's verdicts, the log and the next run's refusal
+    runner = Runner(_Raises("boom"), clock=SimClock())
+    safe: list[str | None] = []
+    runner.safe_state = lambda: safe.append(runner.stop_message)
+    result = runner.run()
+    assert result.reason is StopReason.EXCEPTION
+    assert len(result.message) <= 1000
+    assert result.message.startswith("RuntimeError in boom: xxx")
+    kept, _, left = result.message.rpartition("... (")
+    assert left.endswith(" more characters)")  # what was left out, counted
+    assert len(kept) + int(left.split()[0]) == len("RuntimeError in boom: ") + 100_000
+    assert safe == [result.message]
+
+
+class _FailsWithALongWord(py_trees.behaviour.Behaviour):
+    """Fails on its first tick, its feedback 100 kB long."""
+
+    def update(self) -> Status:
+        self.feedback_message = "no way through: " + "y" * 100_000
+        return Status.FAILURE
+
+
+def test_a_long_failure_cause_is_cut_in_the_connection_s_safe_state_reason() -> None:
+    import pirate_bt
+
+    with pirate_bt.connect("sim:straight") as robot:
+        result = robot.run(_FailsWithALongWord("probe"))
+        reason = robot.supervisor.safe_state_reason or ""
+    assert result.status == "failure"
+    assert reason.startswith("tree run ended without success: no way through: yyy")
+    assert len(reason) <= 1100 and reason.endswith(" more characters)")
