@@ -5,6 +5,11 @@ its fix.
    and been refused (out of sequence, say) said *the last frame heard ... held no
    state*: the frames were left out below ``REFUSED_STATES_REPORTED``. Once a ``STATE``
    was taken in the session every refused one is reported, with its reason.
+2. A line cut toward the bridge only (the host's frames lost, the bridge's STATEs still
+   coming): the close said *the closing stop was never acknowledged, nor was the e-stop
+   sent after it: the robot may still be moving until its bridge's watchdog stops it*,
+   while the bridge's own STATEs reported its watchdog tripped (the drives stopped). The
+   close now says which way the line failed and that the watchdog stopped the drives.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from pirate_bt.link.codec import MsgType
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.robot_link import REFUSED_STATES_REPORTED, RobotLink
 from pirate_bt.link.transport import Transport
-from pirate_bt.robot import load_robot
+from pirate_bt.robot import ControlMode, MotorCommand, load_robot
 from pirate_bt.safety.factory import wait_for_state
 from pirate_bt.safety.supervisor import Supervisor
 from pirate_bt.sim import Simulator
@@ -71,6 +76,35 @@ class _ReplayThenNoState:
         self.inner.close()
 
 
+class _Deaf:
+    """The simulator's byte link that loses every host frame from ``from_s`` on."""
+
+    def __init__(self, inner: Transport, clock: SimClock, from_s: float) -> None:
+        self.inner, self.clock, self.from_s = inner, clock, from_s
+        self.baud = inner.baud
+
+    def read_available(self) -> bytes:
+        return self.inner.read_available()
+
+    def write(self, data: bytes) -> None:
+        if self.clock.now() < self.from_s:
+            self.inner.write(data)
+
+    def drain_input(self) -> int:
+        return self.inner.drain_input()
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+class _DeafAndDumb(_Deaf):
+    """:class:`_Deaf`, and the bridge's frames lost too from ``from_s`` on."""
+
+    def read_available(self) -> bytes:
+        data = self.inner.read_available()
+        return data if self.clock.now() < self.from_s else b""
+
+
 def _run_with_states_replayed(replays: int) -> str:
     clock = SimClock()
     sim = Simulator("straight", ROBOT, clock=clock)
@@ -113,3 +147,42 @@ def test_one_refused_state_is_reported_once_a_state_was_taken() -> None:
         "a STATE frame arrived but was refused (1 out of sequence)"
     )
     assert REFUSED_STATES_REPORTED > 1  # before any was taken, one is not (test_link_leftovers13)
+
+
+# -- 2. a line cut toward the bridge only: what the close says --------------------------------
+
+
+def test_a_close_on_a_line_cut_toward_the_bridge_says_so_and_that_the_watchdog_stopped() -> None:
+    clock = SimClock()
+    sim = Simulator("straight", ROBOT, clock=clock)
+    transport = Transport.open(sim.url, baud=ROBOT.bridge.baud)
+    link = wrap_link(_Deaf(transport, clock, 2.0), ROBOT, clock)
+    try:
+        wait_for_state(link, clock, 5.0)
+        link.send([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.02)])
+        clock.sleep(2.0 - clock.now())
+    finally:
+        link.close()
+        sim.close()
+    assert sim.bridge.watchdog_tripped
+    assert str(link.close_error) == (
+        "the closing stop was never acknowledged, nor was the e-stop sent after it: the"
+        " bridge reports its watchdog tripped, so its drives are stopped (it hears nothing"
+        " from the host: the line toward the bridge is down?)"
+    )
+
+
+def test_a_close_on_a_line_cut_both_ways_still_says_the_robot_may_be_moving() -> None:
+    clock = SimClock()
+    sim = Simulator("straight", ROBOT, clock=clock)
+    transport = Transport.open(sim.url, baud=ROBOT.bridge.baud)
+    link = wrap_link(_DeafAndDumb(transport, clock, 2.0), ROBOT, clock)
+    try:
+        wait_for_state(link, clock, 5.0)
+        clock.sleep(2.0 - clock.now())
+    finally:
+        link.close()
+        sim.close()
+    text = str(link.close_error)
+    assert text.endswith(": the robot may still be moving until its bridge's watchdog stops it")
+    assert "toward the bridge" not in text and "STATE" not in text, text

@@ -525,10 +525,19 @@ class RobotLink:
             stop = "never acknowledged"
         else:
             stop = f"not confirmed ({stop_error})"
-        self.close_error = LinkError(
-            f"the closing stop was {stop}, {estop}: the robot may still be moving until its"
-            " bridge's watchdog stops it"
-        )
+        # the bridge's own frames may tell that the line toward it is down, and that its
+        # watchdog has stopped the drives already (docs/protocol.md, Faults on the line)
+        if self.session.stats().watchdog:
+            after = (
+                ": the bridge reports its watchdog tripped, so its drives are stopped (it"
+                " hears nothing from the host: the line toward the bridge is down?)"
+            )
+        else:
+            after = (
+                f"{self._one_way_hint()}: the robot may still be moving until its bridge's"
+                " watchdog stops it"
+            )
+        self.close_error = LinkError(f"the closing stop was {stop}, {estop}{after}")
         _log.error("%s", self.close_error)
 
     def __enter__(self) -> RobotLink:
