@@ -61,3 +61,11 @@ def test_faults_given_as_a_generator_are_run_not_dropped() -> None:
     )
     assert nav.status == "failure" and nav.why.startswith("stall: bend_3_drive"), nav.why
     assert nav.safe_state
+
+
+def test_a_step_is_a_value_a_planner_can_keep_in_a_set() -> None:
+    # a frozen dataclass, yet hash(Step(...)) raised TypeError: unhashable type: 'dict'
+    seen = {Step("straight", distance="1 m"), Step("bend", direction="left")}
+    assert Step("straight", distance="1 m") in seen
+    assert Step("straight", distance="2 m") not in seen
+    assert hash(Step("wait", time=1)) == hash(Step("wait", time=1.0))

@@ -225,6 +225,9 @@ class Step:
         args = "".join(f", {k}={shown(v)}" for k, v in self.params.items())
         return f"Step({shown(self.pab)}{args})"
 
+    def __hash__(self) -> int:  # a value, as frozen says: a set of steps, a dict's key
+        return hash((self.pab, frozenset(self.params.items())))
+
     def to_json(self) -> dict[str, Any]:
         """``{"pab": ..., "params": {...}}`` with every value as text or a number."""
         return {
