@@ -73,13 +73,11 @@ from pirate_bt.task.explore_parts import (
     bend_angle_deg,
     branch_leavable,
     check_output,
-    ends_note,
-    left_by_a_stop,
     metres,
     rear_over_opening,
     tee_start,
-    write_survey,
 )
+from pirate_bt.task.explore_record import SurveyRecord
 from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
@@ -89,11 +87,8 @@ _TURN = {"up": 90.0, "down": -90.0}
 
 _EXTEND = "a second insertion (extend=, pirate-bt survey --extend) surveys it"
 
-_SLOPE_WRITTEN_DEG = 0.25
-"""A straight's slope is written when it differs from what the line carries by more."""
 
-
-class ExploreNavigator:
+class ExploreNavigator(SurveyRecord):
     """Survey a network with no map: straights, bends, tees and their branches.
 
     Args:
@@ -474,121 +469,3 @@ class ExploreNavigator:
         self._slope_deg = tee.slope_deg + _TURN.get(tee.side, 0.0)
         self._trail.append(Passed("t-joint-back", tee.side, turn_end))
         return Step("t-joint", direction=tee.side)
-
-    # -- what was found
-
-    def _id(self, kind: str) -> str:
-        self._counts[kind] = self._counts.get(kind, 0) + 1
-        return f"{'run' if kind == 'straight' else kind}-{self._counts[kind]}"
-
-    def _incomplete(self, why: str, *, cut: bool = True) -> SurveyIncomplete:
-        """End the survey with ``why``: write what was surveyed, and say where (only if
-        it was written). ``cut``: it ends inside a line (not at a line's end)."""
-        if cut:
-            self._note_stop()
-        where = ""
-        if self._write(why):
-            where = f"; the survey so far is written to {self.output}"
-        elif self.invalid is not None:
-            where = f"; {self.invalid}"
-        elif self.output is not None:
-            where = "; nothing was surveyed: no file is written"
-        return SurveyIncomplete(why + where)
-
-    def _close_straight(
-        self,
-        obs: Observation,
-        end_m: float,
-        *,
-        pitch_rad: float | None = None,
-        diameter_m: float | None = None,
-    ) -> None:
-        """Write the straight from :attr:`_from_m` to ``end_m``, with the diameter and
-        the slope read (``pitch_rad``, ``diameter_m``: what it had, read before a change)."""
-        assert self._from_m is not None
-        length = end_m - self._from_m
-        if length < 0.005:  # a feature right after a feature: no straight between
-            return
-        segment: dict[str, Any] = {
-            "id": self._id("straight"),
-            "type": "straight",
-            "length": f"{length:.3f} m",
-        }
-        # read where the straight ends, the rear half holding in it; the first one
-        # read is the network's, a straight that differs by over 2 mm says so
-        read = obs.diameter_m if diameter_m is None else diameter_m
-        if read is not None and self._diameter_m is None:
-            self._diameter_m = self._diameter_now = read
-        elif read is not None and abs(read - self._diameter_now) > DIAMETER_CHANGE_M:
-            segment["diameter"] = f"{read * 1000:.1f} mm"
-            self._diameter_now = read
-        pitch_rad = obs.pitch_rad if pitch_rad is None else pitch_rad
-        if pitch_rad is not None:
-            pitch = math.degrees(pitch_rad)
-            # the slope carried in as the IMU reads it (a bend down from -2.8 deg carries
-            # -92.8, past plumb, read -87.2): a plumb drop there is written plumb
-            carried = math.degrees(math.asin(math.sin(math.radians(self._slope_deg))))
-            if abs(pitch - carried) > _SLOPE_WRITTEN_DEG:  # not as carried in
-                segment["slope"] = f"{pitch:.1f} deg"
-                self._slope_deg = pitch
-        self._line.append(segment)
-
-    def save(self, stopped: str, failed: Any = None) -> None:
-        """Write what was surveyed so far, saying why the survey stopped.
-
-        A failed step ends the navigation before the navigator is asked again, so the
-        caller saves (:func:`pirate_bt.survey`), with the decision whose step failed
-        (``failed``): the straight the robot was in is left out, unless a probe failed
-        at its end (then written up to it). What the stop left unsurveyed is added to
-        :attr:`unexplored` (and to the file): the line it was in, every branch not entered.
-        """
-        if self.invalid is None:  # else it ended on that, with every line to its end
-            pab = getattr(getattr(failed, "step", None), "pab", None)
-            if pab in ("probe-tee", "probe-turn") and self._way is None:  # a line's end felt
-                seen = failed.observation.diameter_m or self._diameter_m or 0.063
-                end = tee_start(self._opening_m or 0.0, seen) if pab == "probe-tee" else None
-                self._close_straight(failed.observation, end or self._blocked_m or 0.0)
-            self._note_stop()
-            self._write(stopped)
-
-    def _note_stop(self) -> None:
-        if not self._stop_noted:  # once
-            self._stop_noted = True
-            self.unexplored.extend(self._left_by_a_stop())
-
-    def _after(self) -> str:
-        """Where the line being surveyed is up to: ``after run-2``, ``from its start``."""
-        last = next((str(s["id"]) for s in reversed(self._line) if "id" in s), None)
-        return f"after {last}" if last else "from its start"
-
-    def ends_note(self) -> str:
-        """What the lines' ends found may be (``""``: none found)."""
-        return ends_note(self.ends)
-
-    def _left_by_a_stop(self) -> list[str]:
-        """What a survey that stops here leaves unsurveyed, each named with why."""
-        in_it = self._in_line and self._target is None
-        line = f"{self._line_name} {self._after()}" if in_it else None
-        tees = [t for t in (self._target, *reversed(self._pending)) if t is not None]
-        return left_by_a_stop(line, tees, self._way is not None, self._extension)
-
-    def _write(self, stopped: str | None) -> bool:
-        """Build the network of what was surveyed, and write it if asked to: written?"""
-        if not any(s["type"] == "straight" for s in self.segments):
-            return False  # nothing surveyed: no network to write
-        ext = self._extension
-        self.network, invalid, written = write_survey(
-            name=self.name,
-            segments=self.segments,
-            diameter_m=self._diameter_m,
-            stopped=stopped,
-            insertion="" if ext is None else f" ({ext.stub_name}'s branch by a second insertion)",
-            earlier_stop=None if ext is None else ext.stopped,
-            ends_note=self.ends_note() if self.ends else "",
-            unexplored=self.unexplored,
-            radius_m=self.radius_m,
-            output=self.output,
-        )
-        if invalid is not None:
-            self.invalid = invalid
-        return written
