@@ -58,6 +58,7 @@ __all__ = [
     "Runner",
     "StopReason",
     "TickInfo",
+    "link_lost_note",
     "node_path",
     "tick_tree",
 ]
@@ -86,6 +87,17 @@ def node_path(node: py_trees.behaviour.Behaviour) -> str:
         names.append(current.name)
         current = current.parent
     return "/".join(reversed(names))
+
+
+def link_lost_note(supervisor: Any) -> str | None:
+    """What is true of a robot whose link is lost at the end of a run, or ``None`` while
+    the link is up (``supervisor.health().connected``): a run's ``rest_unknown``."""
+    if supervisor.health().connected:
+        return None
+    return (
+        "the link is lost: the robot's state at the end of the run is unknown"
+        " (the bridge's watchdog stops its motors)"
+    )
 
 
 def tick_tree(tree: py_trees.trees.BehaviourTree) -> None:
@@ -196,6 +208,10 @@ class Runner:
             result's ``ticks`` and ``settle_ticks`` and its clock time; an error in
             them is logged and ends the settling, never the result.
         settle_limit_s: The longest the end of a run waits for ``settle``.
+        rest_unknown: Asked when ``settle`` still answers ``False`` at ``settle_limit_s``:
+            a text when the robot's state cannot be known (the link lost), logged
+            instead of "the robot was not at rest", which is then not known either
+            (:func:`link_lost_note` for a supervisor).
     """
 
     def __init__(
@@ -214,6 +230,7 @@ class Runner:
         halted: Callable[[], str | None] | None = None,
         settle: Callable[[], bool] | None = None,
         settle_limit_s: float = SETTLE_LIMIT_S,
+        rest_unknown: Callable[[], str | None] | None = None,
     ) -> None:
         if period_s <= 0:
             raise ValueError(f"period must be positive, got {period_s}")
@@ -241,6 +258,7 @@ class Runner:
         self.halted = halted
         self.settle = settle
         self.settle_limit_s = settle_limit_s
+        self.rest_unknown = rest_unknown
         self.pre_tick: list[Hook] = []
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
@@ -268,6 +286,7 @@ class Runner:
             safe_state=lambda: supervisor.end_safe(end_reason()),
             halted=lambda: supervisor.run_halted,
             settle=supervisor.come_to_rest,
+            rest_unknown=lambda: link_lost_note(supervisor),
             **options,
         )
         if tick_supervisor:
@@ -505,10 +524,14 @@ class Runner:
         try:
             while not self.settle():
                 if self.clock.now() >= deadline_s - 1e-9:
-                    _log.warning(
-                        "the robot was not at rest %.1f s after the run ended",
-                        self.settle_limit_s,
-                    )
+                    unknown = self.rest_unknown() if self.rest_unknown is not None else None
+                    if unknown is not None:  # after a link loss nothing says it moves
+                        _log.warning("%s", unknown)
+                    else:
+                        _log.warning(
+                            "the robot was not at rest %.1f s after the run ended",
+                            self.settle_limit_s,
+                        )
                     break
                 next_s += self.period_s
                 self._wait_until(next_s)

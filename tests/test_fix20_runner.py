@@ -4,6 +4,11 @@ operator, and reasons of any length."""
 
 from __future__ import annotations
 
+import logging
+import types
+from pathlib import Path
+from typing import Any
+
 import py_trees
 import pytest
 from py_trees.common import Status
@@ -101,3 +106,66 @@ def test_a_long_failure_cause_is_cut_in_the_connection_s_safe_state_reason() -> 
     assert result.status == "failure"
     assert reason.startswith("tree run ended without success: no way through: yyy")
     assert len(reason) <= 1100 and reason.endswith(" more characters)")
+
+
+_STEEP = """schema_version: 1
+name: steep
+diameter: 63 mm
+slope: 90 deg
+segments:
+  - {id: up, type: straight, length: 2 m}
+"""
+
+
+def test_after_a_link_loss_the_end_of_a_run_does_not_say_the_robot_was_not_at_rest(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a protective clamp was on its way in a vertical pipe when the link was lost: the end
+    # of the run said "the robot was not at rest 2.0 s after the run ended", which nothing
+    # heard from the robot could say; the robot's state is unknown
+    import pirate_bt
+
+    network = tmp_path / "steep.yaml"
+    network.write_text(_STEEP, encoding="utf-8")
+    caplog.set_level(logging.WARNING, logger="pirate_bt.runner")
+    with pirate_bt.connect(str(network), faults="link_loss@2s") as robot:
+        result = robot.run("straight", params={"distance": "0.3 m"}, max_time="10 s")
+    assert result.status == "failure" and result.why.startswith("link_silent: ")
+    said = [r.getMessage() for r in caplog.records if r.name == "pirate_bt.runner"]
+    assert said == [
+        "the link is lost: the robot's state at the end of the run is unknown"
+        " (the bridge's watchdog stops its motors)"
+    ]
+
+
+class _LinkLost:
+    """A supervisor as the end of a run sees it once the link is lost."""
+
+    run_halted = None
+
+    def tick(self) -> None:
+        pass
+
+    def end_safe(self, reason: str) -> None:
+        pass
+
+    def come_to_rest(self) -> bool:
+        return False  # a protective clamp still landing, as far as anyone knows
+
+    def health(self) -> Any:
+        return types.SimpleNamespace(connected=False)
+
+
+def test_a_mission_s_runner_says_the_same_after_a_link_loss(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.WARNING, logger="pirate_bt.runner")
+    runner = Runner.supervised(
+        _Moving("drive"), _LinkLost(), clock=SimClock(), end_reason=lambda: "x", max_time_s=0.1
+    )
+    runner.run()
+    said = [r.getMessage() for r in caplog.records if r.name == "pirate_bt.runner"]
+    assert said == [
+        "the link is lost: the robot's state at the end of the run is unknown"
+        " (the bridge's watchdog stops its motors)"
+    ]

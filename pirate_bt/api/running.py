@@ -294,7 +294,7 @@ def supervised_runner(
         setup_timeout_s: py_trees' setup timeout (``sys.float_info.max`` skips its
             signal, which only the main thread may set).
     """
-    from pirate_bt.runner import Runner
+    from pirate_bt.runner import Runner, link_lost_note
 
     if connection is not None:
         clock, robot = connection.clock, connection.robot
@@ -332,6 +332,7 @@ def supervised_runner(
         paused=(lambda: supervisor.tree_paused) if supervisor is not None else None,
         halted=(lambda: supervisor.run_halted) if supervisor is not None else None,
         settle=supervisor.come_to_rest if supervisor is not None else None,
+        rest_unknown=(lambda: link_lost_note(supervisor)) if supervisor is not None else None,
         setup_timeout_s=setup_timeout_s,
     )
     if supervisor is not None:
