@@ -6,8 +6,11 @@ from __future__ import annotations
 import pickle
 from collections.abc import Iterator
 
+import pytest
+
 import pirate_bt
 from pirate_bt import Observation, Step
+from pirate_bt.task import parse_route
 
 
 class _HalvesTheLast:
@@ -69,3 +72,13 @@ def test_a_step_is_a_value_a_planner_can_keep_in_a_set() -> None:
     assert Step("straight", distance="1 m") in seen
     assert Step("straight", distance="2 m") not in seen
     assert hash(Step("wait", time=1)) == hash(Step("wait", time=1.0))
+
+
+def test_a_number_in_other_digits_is_refused_where_it_is_written() -> None:
+    # '２' (a full-width digit, as an IME types it) was read as a number, and the
+    # refusal of '２ m' as 'not a quantity' was placed at the unit, column 11
+    with pytest.raises(pirate_bt.ValidationFailed) as caught:
+        parse_route("network lab\nforward ２ m\n", "wide.route")
+    assert str(caught.value) == (
+        "wide.route:2:9: forward: '２' is not a number; write e.g. 'forward 2.5 m'"
+    )

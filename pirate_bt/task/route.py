@@ -122,7 +122,7 @@ _FEATURES = {
     "tee": "t-joint",
     "junction": "t-joint",
 }
-_NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 _NETWORK_FILE_RE = re.compile(r"^[^\x00-\x1f]+\.ya?ml$")
 """A network file on a route's ``network`` line: a path ending in .yaml or .yml,
