@@ -13,7 +13,9 @@ Findings, each with its test below:
   of 5000 digits is too long*, and so do they now;
 - a ``parallel`` with ``policy: selected`` whose named children succeed was taken to
   never finish when another child is always running: the node after it was warned of
-  as one that *can never run*, while the run ran it and succeeded.
+  as one that *can never run*, while the run ran it and succeeded;
+- ``<ReactiveSequence _pirate_bt="bogus">`` was refused as *_pirate_bt='bogus' is only
+  known on a <ReactiveSequence>*, which it was on.
 """
 
 from __future__ import annotations
@@ -136,3 +138,32 @@ def test_a_parallel_that_succeeds_on_its_selected_children_lets_the_next_one_run
     assert waiting == [
         "warning: 'after' can never run: 'parallel' before it in sequence 'sequence' never finishes"
     ]
+
+
+def test_an_unknown_pirate_bt_mark_on_a_reactive_sequence_is_said_so(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.xml"
+    tree.write_text(
+        _xml(
+            '<ReactiveSequence _pirate_bt="guard"><AlwaysSuccess/><AlwaysSuccess/>'
+            "</ReactiveSequence>"
+        ),
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        "t.xml:3:25: _pirate_bt='guard' is not known:"
+        ' pirate_bt writes only _pirate_bt="eternal_guard"'
+    ), err
+    tree.write_text(
+        _xml('<Sequence _pirate_bt="eternal_guard"><AlwaysSuccess/></Sequence>'),
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert (
+        capsys.readouterr()
+        .err.strip()
+        .endswith("t.xml:3:25: _pirate_bt='eternal_guard' is only known on a <ReactiveSequence>")
+    )

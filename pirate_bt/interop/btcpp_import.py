@@ -425,8 +425,11 @@ class _Importer:
             out["conditions"] = kids[:-1]
             out["child"] = kids[-1]
             return out
-        if hint is not None:
-            raise element.error(f"{_HINT}={_shown(hint)} is only known on a <ReactiveSequence>")
+        if hint is not None:  # a ReactiveSequence's other value is no mark pirate_bt wrote
+            where = "is only known on a <ReactiveSequence>"
+            if tag == "ReactiveSequence":
+                where = 'is not known: pirate_bt writes only _pirate_bt="eternal_guard"'
+            raise element.error(f"{_HINT}={_shown(hint)} {where}")
         out = self.named(kind, name)
         if tag in ("Sequence", "ReactiveSequence", "Fallback", "ReactiveFallback"):
             memory = tag in ("Sequence", "Fallback")
