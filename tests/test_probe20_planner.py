@@ -82,3 +82,32 @@ def test_a_number_in_other_digits_is_refused_where_it_is_written() -> None:
     assert str(caught.value) == (
         "wide.route:2:9: forward: '２' is not a number; write e.g. 'forward 2.5 m'"
     )
+
+
+class _CheckedByAProperty:
+    @property
+    def check_map(self) -> object:
+        raise RuntimeError("no map check here")
+
+    def next_step(self, obs: Observation) -> Step | None:
+        return None
+
+
+class _DecidesByAProperty:
+    @property
+    def next_step(self) -> object:
+        raise KeyError("planner")
+
+
+def test_a_navigator_whose_method_cannot_be_read_is_refused_in_one_line() -> None:
+    # the property's own RuntimeError (KeyError) went out of navigate() bare
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.navigate(_CheckedByAProperty(), sim="straight", map="straight")
+    said = str(caught.value)
+    assert said.startswith(
+        "navigator '_CheckedByAProperty': reading its check_map raised RuntimeError:"
+        " no map check here (at "
+    ), said
+    assert caught.value.exit_code == 2
+    with pytest.raises(pirate_bt.InputError, match=r"^navigator '_DecidesByAProperty': "):
+        pirate_bt.navigate(_DecidesByAProperty(), sim="straight")

@@ -35,7 +35,12 @@ from pirate_bt.errors import InputError, shown
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
-from pirate_bt.task.navigators import builtin_name, check_navigator_map, load_navigator
+from pirate_bt.task.navigators import (
+    builtin_name,
+    check_navigator_map,
+    load_navigator,
+    navigator_method,
+)
 from pirate_bt.task.secure import hold_both
 from pirate_bt.task.start_check import check_map_start
 
@@ -192,7 +197,7 @@ def navigate(
         if isinstance(navigator, type):  # its next_step would be called unbound
             cls = navigator.__name__
             raise InputError(f"navigate: give an instance of {cls} ({cls}(...)), not the class")
-        decide = getattr(navigator, "next_step", None)
+        decide = navigator_method(navigator, "next_step", type(navigator).__name__)
         if not callable(decide):
             raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
         if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):

@@ -53,6 +53,7 @@ __all__ = [
     "check_navigator_map",
     "load_navigator",
     "navigator_defaults",
+    "navigator_method",
     "navigator_names",
 ]
 
@@ -313,6 +314,25 @@ def _registered() -> dict[str, Any]:
     return found
 
 
+def navigator_method(navigator: object, method: str, name: str) -> Any:
+    """``navigator``'s attribute ``method`` (``None`` when it has none), read as planner
+    code is run: a property or ``__getattr__`` that raises is the navigator's own error,
+    one located line, not a bare exception out of ``navigate()`` or a campaign.
+
+    Raises:
+        InputError: reading it raised (anything but ``AttributeError``).
+    """
+    try:
+        return getattr(navigator, method, None)
+    except Exception as exc:
+        _log.debug("navigator %r: reading %s raised", name, method, exc_info=exc)
+        where = raised_at(exc)
+        raise InputError(
+            f"navigator {name!r}: reading its {method} raised {type(exc).__name__}:"
+            f" {said_of(exc)[:200]}" + (f" (at {where})" if where else "")
+        ) from None
+
+
 def builtin_name(navigator: object) -> str | None:
     """The name of a built-in navigator's class (``ExploreNavigator()``: ``explore``)."""
     return next((n for n, cls in _BUILT_IN.items() if type(navigator) is cls), None)
@@ -381,7 +401,7 @@ def check_navigator_map(
             its traceback logged at DEBUG), or it took longer than ``deadline_s``;
             nothing has connected.
     """
-    check_map = getattr(navigator, "check_map", None)
+    check_map = navigator_method(navigator, "check_map", name)
     if not callable(check_map):
         return
     try:
