@@ -58,7 +58,7 @@ from pirate_bt.robot.commands import CommandCodec, MotorCommand, RawSetpoint
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.state import StateBuilder
 from pirate_bt.sim.bridge_faults import ActiveFault, FaultsMixin
-from pirate_bt.sim.bridge_state import MAX_PENDING_BYTES, StateFramesMixin
+from pirate_bt.sim.bridge_state import BRIDGE_HEARTBEAT_S, MAX_PENDING_BYTES, StateFramesMixin
 from pirate_bt.sim.counters import EventKind, SimCounters
 from pirate_bt.sim.model import PipeRobotModel
 
@@ -193,6 +193,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
     def _send(self, msg: Message) -> None:
         if not self._link_lost:
             self._out += self.codec.encode(msg)
+            self._beat_due_s = self.now_s + BRIDGE_HEARTBEAT_S
 
     # -- boot -----------------------------------------------------------------------
 
@@ -223,6 +224,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         self._state_seq = 0
         self._last_rx_s = self.now_s
         self._next_frame_s = self.now_s + self.period_s
+        self._beat_due_s = self.now_s + BRIDGE_HEARTBEAT_S
         # COUNTERS count since boot; the simulator's own figures run on across resets
         self._boot_base = self._totals()
         self._board_timeouts = dict.fromkeys(self._boards, 0)
@@ -481,8 +483,16 @@ class SimBridge(StateFramesMixin, FaultsMixin):
     # -- time -----------------------------------------------------------------------
 
     def advance_to(self, now_s: float) -> None:
-        """Run the world up to clock time ``now_s``: physics, faults, watchdog, STATE frames."""
-        while self._next_frame_s <= now_s + 1e-12:
+        """Run the world up to clock time ``now_s``: physics, faults, watchdog, STATE frames
+        (and a BRIDGE_HEARTBEAT where the line would be silent for 50 ms)."""
+        while True:
+            beat_s = self._beat_due_s
+            if beat_s < self._next_frame_s - 1e-9 and beat_s <= now_s + 1e-12:
+                self.now_s = beat_s
+                self._send_heartbeat()
+                continue
+            if self._next_frame_s > now_s + 1e-12:
+                break
             t = self._next_frame_s
             self.now_s = t
             self._update_faults(t)

@@ -12,14 +12,18 @@ from __future__ import annotations
 import math
 
 from pirate_bt.link.codec import BoardStatus, BridgeFlags, FrameCodec
+from pirate_bt.link.messages import BridgeHeartbeat
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.state import StateBuilder
 from pirate_bt.sim.model import PipeRobotModel
 
-__all__ = ["MAX_PENDING_BYTES", "StateFramesMixin"]
+__all__ = ["BRIDGE_HEARTBEAT_S", "MAX_PENDING_BYTES", "StateFramesMixin"]
 
 MAX_PENDING_BYTES = 1 << 16
 """Bytes the bridge queues for a host that does not read before it drops state frames."""
+BRIDGE_HEARTBEAT_S = 0.05
+"""A bridge that has sent no frame for this long sends a BRIDGE_HEARTBEAT (docs/protocol.md;
+the firmware's ``BRIDGE_HEARTBEAT_MS``): only with a state period over 50 ms."""
 
 
 class StateFramesMixin:
@@ -47,6 +51,8 @@ class StateFramesMixin:
     _link_lost: bool
     _state_seq: int
     _ack_seq: int
+    _beat_due_s: float
+    now_s: float
     state_frames_sent: int
     state_frames_unread: int
 
@@ -101,6 +107,15 @@ class StateFramesMixin:
             self._state_seq, flags, self._ack_seq, mask, status, raw
         )
         self.state_frames_sent += 1
+        self._beat_due_s = self.now_s + BRIDGE_HEARTBEAT_S
+
+    def _send_heartbeat(self) -> None:
+        """BRIDGE_HEARTBEAT, on the STATE frames' counter: nothing sent for 50 ms."""
+        self._beat_due_s = self.now_s + BRIDGE_HEARTBEAT_S
+        if self._link_lost or len(self._out) > MAX_PENDING_BYTES:
+            return
+        self._state_seq = (self._state_seq + 1) & 0xFFFF
+        self._out += self.codec.encode(BridgeHeartbeat(self._state_seq, self._flags()))
 
     def _encode(self, values: list[float]) -> list[int]:
         """SI readings -> raw int16 values with the robot's conversions (saturating)."""

@@ -1,0 +1,289 @@
+"""Probe 20: a clean-room peer of the PIRATEbay wire protocol against our bridge and host.
+
+``tests/cleanroom_peer.py`` implements the protocol from docs/protocol.md alone (no
+``pirate_bt.link``). As a host it talks to the simulated bridge (in process on a
+virtual clock, and served on TCP by ``SimServer``); as a bridge it serves a TCP socket
+that our host connects to.
+"""
+
+from __future__ import annotations
+
+import itertools
+import struct
+
+import pytest
+from cleanroom_peer import (
+    ACK,
+    APPLIED,
+    BAD_LAYOUT,
+    BAD_LENGTH,
+    BAD_MODE,
+    BAD_SLOT,
+    BRIDGE_HEARTBEAT,
+    BULK,
+    COUNTERS,
+    COUNTERS_REQUEST,
+    DUPLICATE,
+    ESTOP,
+    ESTOP_LATCHED,
+    ESTOP_RESET,
+    F_ESTOP,
+    F_NO_SESSION,
+    F_WATCHDOG,
+    HEARTBEAT,
+    HELLO,
+    HELLO_REPLY,
+    KEEP,
+    NACK,
+    NOT_READY,
+    OUT_OF_RANGE,
+    SETPOINT,
+    STALE,
+    STATE,
+    UNKNOWN_TYPE,
+    Decoder,
+    Frame,
+    Layout,
+    bulk,
+    cobs_encode,
+    crc16,
+    frame,
+    hello,
+    layout_of,
+    parse_hello_reply,
+)
+
+from pirate_bt.robot import load_robot
+from pirate_bt.robot.description import RobotDescription
+from pirate_bt.sim.bridge import SimBridge
+from pirate_bt.sim.bridge_port import bridge_for
+
+ROBOT: RobotDescription = load_robot()
+LAYOUT: Layout = layout_of(ROBOT)
+DRIVES = [
+    name for board in ROBOT.boards for m in board.motors if (name := m.name).endswith("drive")
+]
+
+
+class VirtualBridge:
+    """The simulated bridge in process, reached through bytes only, on a virtual clock."""
+
+    def __init__(self) -> None:
+        self.bridge: SimBridge = bridge_for(ROBOT, record_applied=False)
+        self.now_s = 0.0
+        self.decoder = Decoder()
+        self.states: list[Frame] = []
+        self.errors: list[str] = []
+
+    def step(self, data: bytes = b"", dt: float = 0.001) -> list[Frame]:
+        """Write ``data``, let ``dt`` pass, and return the answers (STATEs kept aside)."""
+        if data:
+            self.bridge.receive(data)
+        self.now_s += dt
+        self.bridge.advance_to(self.now_s)
+        answers = []
+        for item in self.decoder.feed(self.bridge.read()):
+            if isinstance(item, str):
+                self.errors.append(item)
+            elif item.kind in (STATE, BRIDGE_HEARTBEAT):
+                self.states.append(item)
+            else:
+                answers.append(item)
+        return answers
+
+    def one(self, data: bytes) -> Frame:
+        answers = self.step(data)
+        assert len(answers) == 1, answers
+        return answers[0]
+
+    def session(self) -> None:
+        """HELLO, then release the boot latch, as a host does at connect."""
+        reply = self.one(hello(1, LAYOUT))
+        assert reply.kind == HELLO_REPLY
+        assert self.one(frame(ESTOP_RESET, 2)).payload == bytes([ESTOP_RESET, APPLIED])
+
+    def counters(self) -> tuple[int, ...]:
+        reply = self.one(frame(COUNTERS_REQUEST, 77))
+        assert reply.kind == COUNTERS
+        return struct.unpack_from("<5I", reply.payload)
+
+    def flags(self) -> int:
+        self.step(dt=0.011)
+        return self.states[-1].arg
+
+    def drives(self) -> list[object]:
+        return [self.bridge.model.setpoint(name) for name in DRIVES]
+
+
+def _drive_entries(raw: int) -> list[tuple[int, int]]:
+    return [(3, raw) if role == "drive" else (KEEP, 0) for _, _, role, _ in LAYOUT.motors]
+
+
+def test_the_clean_room_layout_digest_and_crc_are_the_pages() -> None:
+    """The digest text and CRC as the page spells them give the bridge's own."""
+    assert crc16(b"123456789") == 0x31C3
+    bridge = VirtualBridge()
+    reply = bridge.one(hello(1, LAYOUT))
+    fields = parse_hello_reply(reply.payload)
+    assert fields["digest"] == LAYOUT.digest
+    assert (fields["channels"], fields["motors"]) == (len(LAYOUT.channels), len(LAYOUT.motors))
+    assert (fields["minor"], fields["sessions"], fields["watchdog_ms"]) == (2, 1, 250)
+    assert 0x5000 <= fields["firmware"] <= 0x5FFF
+    assert reply.arg & F_ESTOP and not reply.arg & F_NO_SESSION
+
+
+def test_the_bridge_boots_latched_and_refuses_ordered_requests_before_a_hello() -> None:
+    bridge = VirtualBridge()
+    bridge.step(dt=0.05)
+    assert bridge.states and all(s.arg == F_ESTOP | F_NO_SESSION for s in bridge.states)
+    seqs = [s.seq for s in bridge.states]
+    assert seqs[0] == 1 and seqs == list(range(1, len(seqs) + 1))
+    nack = bridge.one(bulk(5, _drive_entries(300)))
+    assert (nack.kind, nack.seq, nack.payload) == (NACK, 5, bytes([BULK, NOT_READY]))
+    ack = bridge.one(frame(ESTOP, 9))
+    assert (ack.kind, ack.payload) == (ACK, bytes([ESTOP, APPLIED]))
+    # the first HELLO sets `last` whatever its seq, even older than the ESTOP's
+    assert bridge.one(hello(3, LAYOUT)).kind == HELLO_REPLY
+    assert bridge.one(frame(ESTOP_RESET, 4)).payload == bytes([ESTOP_RESET, APPLIED])
+
+
+@pytest.mark.parametrize(
+    ("name", "wire"),
+    [
+        ("bad crc", frame(BULK, 3, b"\x03\x90\x01" * 16)[:-3] + b"\x55\x00"),
+        ("version 2", frame(BULK, 3, b"".join(b"\x03\x90\x01" for _ in range(16)), version=2)),
+        ("short", cobs_encode(b"\x01\x03\x03\x00") + b"\x00"),
+        ("cobs", b"\x09\x01\x03\x00"),
+        ("oversize", b"\x11" * 300 + b"\x00"),
+        ("254 non-zero bytes and a trailing 01 block", b"\xff" + b"\x01" * 254 + b"\x01\x00"),
+    ],
+)
+def test_a_bad_frame_is_dropped_unanswered_moves_nothing_and_does_not_feed_the_watchdog(
+    name: str, wire: bytes
+) -> None:
+    bridge = VirtualBridge()
+    bridge.session()
+    before = bridge.drives()
+    rx_before = bridge.counters()[0]
+    # 300 ms of nothing but the bad frame, every 20 ms: the watchdog trips
+    for _ in range(15):
+        assert bridge.step(wire, dt=0.02) == [], name
+    assert bridge.drives() == before
+    assert bridge.flags() & F_WATCHDOG, name
+    rx, crc, framing, *_ = bridge.counters()
+    assert rx == rx_before + 1  # the COUNTERS_REQUEST itself, none of the bad frames
+    assert crc + framing >= 15
+
+
+def test_intact_frames_of_the_wrong_type_or_length_are_nacked_and_feed_the_watchdog() -> None:
+    bridge = VirtualBridge()
+    bridge.session()
+    for wire, kind, code in [
+        (frame(0x42, 11), 0x42, UNKNOWN_TYPE),
+        (frame(STATE, 12, LAYOUT.state_payload()), STATE, UNKNOWN_TYPE),
+        (frame(0x00, 13), 0x00, UNKNOWN_TYPE),
+        (frame(HEARTBEAT, 14, b"\x00"), HEARTBEAT, BAD_LENGTH),
+        (frame(HELLO, 15, struct.pack("<I", LAYOUT.digest)), HELLO, BAD_LENGTH),
+        (frame(BULK, 16, b"\x03\x00\x00" * 15), BULK, BAD_LENGTH),
+    ]:
+        for _ in range(3):
+            nack = bridge.one(wire)
+            assert (nack.kind, nack.payload) == (NACK, bytes([kind, code])), hex(kind)
+            bridge.step(dt=0.1)
+    assert not bridge.flags() & F_WATCHDOG
+
+
+def test_a_frame_cut_anywhere_and_garbage_between_frames_still_reach_the_bridge() -> None:
+    bridge = VirtualBridge()
+    bridge.session()
+    wire = bulk(3, _drive_entries(400))
+    for byte in wire:
+        bridge.step(bytes([byte]), dt=0.0005)
+    bridge.step(dt=0.011)
+    ack_seq, _ = LAYOUT.parse_state(bridge.states[-1].payload)
+    assert ack_seq == 3
+    # garbage with no delimiter before a frame spoils that frame only; a lone 0x00 flushes
+    assert bridge.step(b"\x13\x37\x42" + frame(HEARTBEAT, 1)) == []
+    assert bridge.one(b"\x13\x37\x42\x00" + frame(HEARTBEAT, 2)).kind == ACK
+    assert bridge.one(b"\x00\x00\x00" + frame(HEARTBEAT, 3) + b"\x00\x00").seq == 3
+
+
+def test_the_duplicate_filter_and_the_nack_codes_as_the_page_orders_them() -> None:
+    bridge = VirtualBridge()
+    bridge.session()
+    assert bridge.step(bulk(3, _drive_entries(400))) == []
+    dup = bridge.one(bulk(3, _drive_entries(400)))
+    assert dup.payload == bytes([BULK, DUPLICATE])
+    stale = bridge.one(bulk(2, _drive_entries(-400)))
+    assert stale.payload == bytes([BULK, STALE])
+    # keep in a SETPOINT, a slot with no motor, a raw value out of range
+    motor_board, motor_slot = LAYOUT.motors[0][0], LAYOUT.motors[0][1]
+    keep = bridge.one(frame(SETPOINT, 4, bytes([motor_slot, KEEP, 0, 0]), arg=motor_board))
+    assert keep.payload == bytes([SETPOINT, BAD_MODE])
+    empty = bridge.one(frame(SETPOINT, 5, bytes([7, 0, 0, 0]), arg=motor_board))
+    assert empty.payload == bytes([SETPOINT, BAD_SLOT])
+    far = bridge.one(bulk(6, _drive_entries(5000)))
+    assert far.payload == bytes([BULK, OUT_OF_RANGE])
+    # a refused request moves `last`: its copy gets the same NACK, an older one STALE
+    assert bridge.one(bulk(6, _drive_entries(5000))).payload == bytes([BULK, OUT_OF_RANGE])
+    assert bridge.one(bulk(5, _drive_entries(5000))).payload == bytes([BULK, STALE])
+    # e-stop: latched, setpoints refused, nothing moves
+    assert bridge.one(frame(ESTOP, 7)).payload == bytes([ESTOP, APPLIED])
+    latched = bridge.one(bulk(8, _drive_entries(300)))
+    assert latched.payload == bytes([BULK, ESTOP_LATCHED])
+    assert all(s is None or s.value == 0 for s in bridge.drives())
+
+
+def test_hello_with_another_minor_or_digest_is_refused_and_changes_nothing() -> None:
+    bridge = VirtualBridge()
+    for payload in [
+        struct.pack("<IB", LAYOUT.digest, 0),
+        struct.pack("<IB", LAYOUT.digest, 3),
+        struct.pack("<IB", LAYOUT.digest ^ 1, 2),
+    ]:
+        nack = bridge.one(frame(HELLO, 1, payload))
+        assert nack.payload == bytes([HELLO, BAD_LAYOUT])
+    assert bridge.flags() & F_NO_SESSION
+
+
+def test_a_bridge_with_a_long_state_period_sends_bridge_heartbeats_between_states() -> None:
+    """The page: ``BRIDGE_HEARTBEAT`` is sent when the bridge has sent no frame for 50 ms
+    (never with a 10 ms state period). The simulated bridge never sent one: with an
+    80 ms state period (a description the validator takes) the line was silent for
+    80 ms at a time, where the firmware bridge beats every 50 ms."""
+    slow = ROBOT.model_copy(
+        update={"bridge": ROBOT.bridge.model_copy(update={"state_period": 0.08})}
+    )
+    bridge = bridge_for(slow, record_applied=False)
+    decoder = Decoder()
+    heard: list[tuple[float, Frame]] = []
+    now = 0.0
+    for _ in range(400):
+        now += 0.001
+        bridge.advance_to(now)
+        heard += [(now, f) for f in decoder.feed(bridge.read()) if isinstance(f, Frame)]
+    kinds = [(round(t, 3), f.kind, f.seq) for t, f in heard]
+    beats = [k for k in kinds if k[1] == BRIDGE_HEARTBEAT]
+    assert beats, kinds
+    # the first 50 ms after boot (no frame yet), then 50 ms after each STATE
+    assert kinds[:4] == [
+        (0.05, BRIDGE_HEARTBEAT, 1),
+        (0.08, STATE, 2),
+        (0.13, BRIDGE_HEARTBEAT, 3),
+        (0.16, STATE, 4),
+    ], kinds
+    booted = F_ESTOP | F_NO_SESSION  # (and WATCHDOG from 0.25 s: no host)
+    assert all(f.arg & booted == booted for _, f in heard)
+    assert all(not f.payload for _, f in heard if f.kind == BRIDGE_HEARTBEAT)
+    assert [f.seq for _, f in heard] == list(range(1, len(heard) + 1))
+    gaps = [b - a for (a, _), (b, _) in itertools.pairwise(heard)]
+    assert max(gaps) <= 0.05 + 1e-9
+    # an answer is a frame too: 30 ms after a STATE, it puts the next beat off past
+    # the next STATE (due 50 ms after the answer)
+    assert kinds[-1][:2] == (0.4, STATE)
+    bridge.advance_to(0.43)
+    assert decoder.feed(bridge.read()) == []
+    bridge.receive(frame(HEARTBEAT, 9))
+    bridge.advance_to(0.47)
+    got = [f.kind for f in decoder.feed(bridge.read()) if isinstance(f, Frame)]
+    assert got == [ACK], got
