@@ -20,6 +20,7 @@ from pirate_bt.link import (
     open_link,
     wrap_link,
 )
+from pirate_bt.link.inbound import STATE_REFUSALS
 from pirate_bt.link.testing import FdPort, memory_pair
 from pirate_bt.robot import ControlMode, MotorCommand, RobotPort, load_robot
 from pirate_bt.robot.port import LinkHealth
@@ -401,6 +402,12 @@ def test_health_is_cached_until_a_figure_changes() -> None:
             failed=s.failed,
             duplicates=s.duplicates,
             estopped=s.estopped,
+            # once a STATE was taken, every one refused since the last one taken
+            states_refused=tuple(
+                (why, n)
+                for why, n in zip(STATE_REFUSALS, link.session.refused_states(), strict=True)
+                if n
+            ),
             line_noise=s.line_noise,
         )
         assert _same_figures(health, expected)
