@@ -15,7 +15,11 @@ Findings, each with its test below:
   never finish when another child is always running: the node after it was warned of
   as one that *can never run*, while the run ran it and succeeded;
 - ``<ReactiveSequence _pirate_bt="bogus">`` was refused as *_pirate_bt='bogus' is only
-  known on a <ReactiveSequence>*, which it was on.
+  known on a <ReactiveSequence>*, which it was on;
+- a value of ``$name`` and a line break (``message: "$greeting\\n"``, or a ``|`` block)
+  was taken for the parameter, the line break dropped (``$`` of a regular expression
+  also matches before a last line break), where ``$name`` and a space is refused as no
+  whole value (*write $name, or $$ for a literal $*); export wrote it as ``{greeting}``.
 """
 
 from __future__ import annotations
@@ -167,3 +171,20 @@ def test_an_unknown_pirate_bt_mark_on_a_reactive_sequence_is_said_so(
         .err.strip()
         .endswith("t.xml:3:25: _pirate_bt='eternal_guard' is only known on a <ReactiveSequence>")
     )
+
+
+@pytest.mark.parametrize("value", ['"$greeting\\n"', "|\n      $greeting"])
+def test_a_parameter_and_a_line_break_is_no_whole_value(
+    tmp_path: Path, capsys: Any, value: str
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params:\n  greeting: {type: string, default: hi}\n"
+        f"root:\n  type: log\n  message: {value}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("t.yaml:5:3: '$greeting\\n': write $name, or $$ for a literal $"), err
+    assert main(["export", "btcpp", str(tree), "-o", str(tmp_path / "t.xml")]) == 2
+    assert not (tmp_path / "t.xml").exists()

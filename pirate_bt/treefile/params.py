@@ -40,7 +40,10 @@ __all__ = [
     "written_value",
 ]
 
-PARAM_RE: Final = re.compile(r"^\$(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
+PARAM_RE: Final = re.compile(r"^\$(?P<name>[A-Za-z_][A-Za-z0-9_]*)\Z")
+"""A whole value that names a parameter (``$roll``), to the end: ``$`` would also match
+before a last line break, and ``$roll`` and a line break (a ``|`` block's) is no whole
+value, as ``$roll`` and a space is not."""
 
 # parameter type -> (units dimension, SI unit written after the number)
 SI_UNITS: Final[dict[str, tuple[str, str]]] = {
