@@ -10,19 +10,27 @@ its fix.
    sent after it: the robot may still be moving until its bridge's watchdog stops it*,
    while the bridge's own STATEs reported its watchdog tripped (the drives stopped). The
    close now says which way the line failed and that the watchdog stopped the drives.
+3. A new session's first ``STATE`` was taken whatever it carried: a frame the bridge sent
+   before it took the session's ``HELLO`` (delivered late, or left in a buffer), say one of
+   the old boot after a reset, was taken, and every genuine frame of the new boot (seq
+   counted from 1) was then refused as older until the host resynchronised. A frame whose
+   ``ack_seq`` names a bulk the host did not send in this session is refused now
+   (counted, logged), and after a new session of the same boot the seq must be newer.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
-from session_wire import Wire, state
+import pytest
+from session_wire import LAYOUT, Wire, reply, state
 
 from pirate_bt.api.connection import Connection
 from pirate_bt.api.running import run_on
 from pirate_bt.clock import SimClock
 from pirate_bt.link import framing
-from pirate_bt.link.codec import MsgType
+from pirate_bt.link.codec import BridgeFlags, Hello, MsgType
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.robot_link import REFUSED_STATES_REPORTED, RobotLink
 from pirate_bt.link.transport import Transport
@@ -186,3 +194,98 @@ def test_a_close_on_a_line_cut_both_ways_still_says_the_robot_may_be_moving() ->
     text = str(link.close_error)
     assert text.endswith(": the robot may still be moving until its bridge's watchdog stops it")
     assert "toward the bridge" not in text and "STATE" not in text, text
+
+
+# -- 3. a frame of the session before is not the new session's first --------------------------
+
+
+def _new_session(wire: Wire, boot_id: int) -> int:
+    """The bridge resets (a NO_SESSION frame); its new session's reply, of ``boot_id``.
+    Returns the HELLO's seq."""
+    wire.answer(state(7, flags=BridgeFlags.NO_SESSION | BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    hello = next(m for m in wire.sent() if isinstance(m, Hello))
+    wire.answer(reply(seq=hello.seq, boot_id=boot_id, sessions=1, flags=BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    return hello.seq
+
+
+def _bulk(wire: Wire) -> int:
+    """A bulk sent: its seq."""
+    n = LAYOUT.n_motors
+    return wire.session.send_bulk([ControlMode.VELOCITY] * n, [0] * n).seq
+
+
+def _bulk_applied(wire: Wire, seq: int) -> int:
+    """A bulk sent, and the STATE ``seq`` that acknowledges it taken: the bulk's seq."""
+    bulk = _bulk(wire)
+    wire.poll(0.01)
+    wire.answer(state(seq, ack_seq=bulk))
+    wire.poll(0.01)
+    assert _taken_seqs(wire)[-1] == seq
+    return bulk
+
+
+def _taken_seqs(wire: Wire) -> list[int]:
+    return [frame.seq for frame, _ in wire.session.states_taken()]
+
+
+def test_a_state_of_the_old_boot_delivered_after_the_new_session_is_refused(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    wire = Wire(hello=reply(boot_id=7))
+    old = _bulk_applied(wire, 5000)
+    hello = _new_session(wire, boot_id=8)
+    assert wire.session.bridge_resets == 1
+    with caplog.at_level(logging.WARNING, "pirate_bt.link.session"):
+        # the old boot's last frames, late (a relay's buffer), then the new boot's
+        wire.answer(state(5001, ack_seq=old), state(5002, ack_seq=old), state(1), state(2))
+        wire.poll(0.01)
+    assert _taken_seqs(wire)[-2:] == [1, 2]  # before: 5001, and 1 and 2 refused as older
+    said = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
+    assert said == [
+        f"STATE seq 5001 refused: it acknowledges BULK_SETPOINTS seq {old}, which the host did not"
+        f" send in this session (started by HELLO seq {hello}): a frame of the session"
+        " before, delivered late"
+    ]
+    assert wire.session.duplicates >= 2
+
+
+def test_refused_frames_of_the_session_before_are_counted_until_one_is_taken() -> None:
+    wire = Wire(hello=reply(boot_id=7))
+    old = _bulk_applied(wire, 5000)
+    _new_session(wire, boot_id=8)
+    wire.answer(state(5001, ack_seq=old), state(5002, ack_seq=old))
+    wire.poll(0.01)
+    assert wire.session.refused_states() == (0, 0, 2)
+    wire.answer(state(1))
+    wire.poll(0.01)
+    assert wire.session.refused_states() == (0, 0, 0) and _taken_seqs(wire)[-1] == 1
+
+
+def test_a_new_session_of_the_same_boot_takes_no_state_older_than_the_one_held() -> None:
+    wire = Wire(hello=reply(boot_id=7))
+    wire.answer(state(500))
+    wire.poll(0.01)
+    wire.answer(state(490, flags=BridgeFlags.NO_SESSION))  # a stale boot frame: not a reset
+    wire.poll(0.01)
+    hello = next(m for m in wire.sent() if isinstance(m, Hello))
+    wire.answer(reply(seq=hello.seq, boot_id=7, sessions=2))
+    wire.poll(0.01)
+    wire.answer(state(499), state(501))  # 499: sent before 500, delivered late
+    wire.poll(0.01)
+    assert _taken_seqs(wire) == [500, 501]  # before: [500, 499, 501]
+    assert wire.session.refused_states() == (0, 0, 0)
+
+
+def test_a_new_sessions_states_acknowledging_its_own_bulks_are_taken() -> None:
+    wire = Wire(hello=reply(boot_id=7))
+    wire.answer(state(10))
+    wire.poll(0.01)
+    hello = _new_session(wire, boot_id=8)
+    bulk = _bulk(wire)
+    wire.poll(0.01)
+    wire.answer(state(1, ack_seq=bulk))
+    wire.poll(0.01)
+    assert bulk not in (0, hello)
+    assert _taken_seqs(wire)[-1] == 1 and wire.session.refused_states() == (0, 0, 0)

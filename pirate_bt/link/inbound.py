@@ -129,6 +129,13 @@ class InboundMixin:
     _bad_state_run: int = 0
     # STATE frames refused since the last one taken: bad CRC, another length, not newer
     _refused: tuple[int, int, int] = _NO_REFUSALS
+    # the seq of the HELLO that started the session, and the next ordered seq to send
+    _session_hello: int = 0
+    _next_seq: int
+    # the session's HELLO_REPLY shows the boot of the session before: STATE seqs run on
+    _same_boot: bool = False
+    # a STATE of another session was refused (and logged) since the last HELLO_REPLY
+    _other_session_said: bool = False
     # ESTOP_INPUT without ESTOP was seen (and logged) in this session
     _input_unlatched_seen: bool = False
     # (board position, arrival of the last STATE that showed it answering) for each board
@@ -415,6 +422,9 @@ class InboundMixin:
         self._hello = None
         self._answered = item.seq
         self._accept_any_state = True
+        self._session_hello = item.seq
+        self._same_boot = previous is not None and previous.boot_id == item.boot_id
+        self._other_session_said = False
         self.sessions += 1
         self._settle(hello, Outcome.ACKED, now)
         if item.flags & BridgeFlags.ESTOP:
@@ -455,6 +465,31 @@ class InboundMixin:
         _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
         self._start_session(now, "the bridge was reset")
 
+    def _of_another_session(self, item: State) -> bool:
+        """Whether ``item``, a ``STATE`` come before any of this session was taken, is one
+        the bridge sent before it took the session's ``HELLO`` (delivered late or out of
+        order, or left in a buffer): its ``ack_seq`` names a ``BULK_SETPOINTS`` the host did
+        not send in this session, where a new session's is 0 until one of its own is
+        applied (docs/protocol.md, Sessions). Such a frame is refused as out of sequence,
+        counted, and logged once a session."""
+        ack, hello = item.ack_seq, self._session_hello
+        if not ack or (seq_newer(ack, hello) and not seq_newer(ack, self._next_seq - 1)):
+            return False
+        self.duplicates += 1
+        crc, length, old = self._refused
+        self._refused = (crc, length, old + 1)
+        if not self._other_session_said:
+            self._other_session_said = True
+            _log.warning(
+                "STATE seq %d refused: it acknowledges BULK_SETPOINTS seq %d, which the host"
+                " did not send in this session (started by HELLO seq %d): a frame of the"
+                " session before, delivered late",
+                item.seq,
+                ack,
+                hello,
+            )
+        return True
+
     def _boards_away_since(
         self, status: tuple[int, ...], last: State | None, last_s: float, now: float
     ) -> tuple[tuple[int, float], ...]:
@@ -480,11 +515,17 @@ class InboundMixin:
             self._bridge_reset(now)
             return
         self._stale_reset_run = 0
-        if self._accept_any_state:
+        first = self._accept_any_state  # of the session: its seq is free after a reset
+        if first:
             if self._hello is not None:
                 return  # a state of the old session, before the new one's reply
-            self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
-        elif last is not None and not seq_newer(item.seq, last.seq):
+            if self._of_another_session(item):
+                return
+        if (
+            (not first or self._same_boot)
+            and last is not None
+            and not seq_newer(item.seq, last.seq)
+        ):
             self._old_state_run += 1
             if self._old_state_run == 1:
                 self._old_run_from_s = now
@@ -512,6 +553,7 @@ class InboundMixin:
                 last.seq,
                 item.seq,
             )
+        self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         self._old_state_run = 0
         self._refused = _NO_REFUSALS
         previous_s = self._state_at_s

@@ -138,6 +138,7 @@ class Session(InboundMixin, ReaderMixin):
         self._next_useq = 1
         # the last ordered seq the bridge answered (the HELLO's, to start with)
         self._answered = (self._next_seq - 1) & 0xFFFF
+        self._session_hello = self._answered
         self._stale_run = 0  # ordered requests answered STALE in a row
         self._queue: collections.deque[Request] = collections.deque()
         self._ordered: Request | None = None  # the one SETPOINT/BULK/ESTOP_RESET in flight
