@@ -289,3 +289,12 @@ def test_a_new_sessions_states_acknowledging_its_own_bulks_are_taken() -> None:
     wire.poll(0.01)
     assert bulk not in (0, hello)
     assert _taken_seqs(wire)[-1] == 1 and wire.session.refused_states() == (0, 0, 0)
+
+
+def test_a_first_state_acknowledging_a_bulk_not_sent_yet_is_refused() -> None:
+    wire = Wire(hello=reply(boot_id=7))
+    _bulk_applied(wire, 10)
+    hello = _new_session(wire, boot_id=8)
+    wire.answer(state(1, ack_seq=(hello + 5) & 0xFFFF))  # newer than any bulk sent
+    wire.poll(0.01)
+    assert wire.session.refused_states() == (0, 0, 1) and _taken_seqs(wire)[-1] == 10
