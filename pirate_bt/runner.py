@@ -58,6 +58,7 @@ __all__ = [
     "Runner",
     "StopReason",
     "TickInfo",
+    "halted_by",
     "link_lost_note",
     "node_path",
     "tick_tree",
@@ -97,6 +98,26 @@ def link_lost_note(supervisor: Any) -> str | None:
     return (
         "the link is lost: the robot's state at the end of the run is unknown"
         " (the bridge's watchdog stops its motors)"
+    )
+
+
+def halted_by(supervisor: Any, root: py_trees.behaviour.Behaviour | None = None) -> str | None:
+    """A runner's ``halted``: ``supervisor.run_halted``, or a step of ``root`` waiting in
+    supervised mode for a confirmation no attached operator input could give (the run
+    waited out its time limit, 600 s by default, in wall time on a robot)."""
+    halt: str | None = supervisor.run_halted
+    if halt is not None or supervisor.operator_attached or supervisor.mode != "supervised":
+        return halt
+    pending = supervisor.pending_confirmations()
+    if not pending:
+        return None
+    waiting = f"waiting for the operator to confirm {pending[0]!r}"  # the node's feedback
+    nodes = [] if root is None else list(root.iterate())
+    who = [n for n in nodes if n.status == Status.RUNNING and n.feedback_message == waiting]
+    return (
+        f"{node_path(who[0]) if who else 'the tree'} waits for an operator to confirm"
+        f" {pending[0]!r} (supervised mode), and no operator input is attached: attach"
+        " one (supervisor.add_input) or run in autonomous mode"
     )
 
 
@@ -208,10 +229,8 @@ class Runner:
             result's ``ticks`` and ``settle_ticks`` and its clock time; an error in
             them is logged and ends the settling, never the result.
         settle_limit_s: The longest the end of a run waits for ``settle``.
-        rest_unknown: Asked when ``settle`` still answers ``False`` at ``settle_limit_s``:
-            a text when the robot's state cannot be known (the link lost), logged
-            instead of "the robot was not at rest", which is then not known either
-            (:func:`link_lost_note` for a supervisor).
+        rest_unknown: Asked if the robot is still not at rest at ``settle_limit_s``: a text
+            when its state cannot be known (:func:`link_lost_note`), logged instead.
     """
 
     def __init__(
@@ -284,7 +303,7 @@ class Runner:
             tree,
             clock=clock,
             safe_state=lambda: supervisor.end_safe(end_reason()),
-            halted=lambda: supervisor.run_halted,
+            halted=lambda: halted_by(supervisor, runner.tree.root),
             settle=supervisor.come_to_rest,
             rest_unknown=lambda: link_lost_note(supervisor),
             **options,
@@ -481,10 +500,8 @@ class Runner:
     def _stop_running(
         self, root: py_trees.behaviour.Behaviour
     ) -> tuple[tuple[str, ...], BaseException | None]:
-        """Stop every RUNNING node, deepest first (py_trees leaves them running); the
-        nodes stopped, and the first Ctrl-C (or other ``BaseException`` the runner does
-        not hold) a ``terminate()`` raised, held until the robot is safe and the run's
-        outputs are written: the nodes after it are stopped all the same."""
+        """Stop every RUNNING node, deepest first (py_trees leaves them running); the nodes
+        stopped, and the first Ctrl-C a ``terminate()`` raised (the others still stopped)."""
         running = [n for n in root.iterate() if n.status == Status.RUNNING]
         stopped: list[str] = []
         held: BaseException | None = None

@@ -169,3 +169,36 @@ def test_a_mission_s_runner_says_the_same_after_a_link_loss(
         "the link is lost: the robot's state at the end of the run is unknown"
         " (the bridge's watchdog stops its motors)"
     ]
+
+
+def test_a_supervised_run_with_no_operator_fails_at_its_first_confirmation() -> None:
+    # nobody attached could ever confirm the step: the run waited out its whole time
+    # limit (600 s by default, in wall time on a robot) before it failed
+    import pirate_bt
+
+    with pirate_bt.connect("sim:straight", mode="supervised") as robot:
+        result = robot.run("straight", params={"distance": "0.3 m"}, max_time="60 s")
+    assert result.status == "failure" and result.sim_time_s < 1.0
+    assert result.why == (
+        "straight/pass straight/hold or over an opening/hold waits for an operator to"
+        " confirm 'hold the pipe with both halves' (supervised mode), and no operator"
+        " input is attached: attach one (supervisor.add_input) or run in autonomous mode"
+    )
+
+
+def test_a_runner_of_your_own_still_waits_for_confirmations_given_through_the_supervisor() -> None:
+    # the operator console confirms through the supervisor (y), attaching no input: its
+    # robot.runner(...) must not end at the first step it asks for
+    import pirate_bt
+
+    with pirate_bt.connect("sim:straight", mode="supervised") as robot:
+        runner = robot.runner("straight", params={"distance": "0.1 m"}, max_time="30 s")
+        sup = robot.supervisor
+
+        def key_y_now_and_then(info: Any) -> None:
+            if info.tick % 10 == 0 and sup.pending_confirmations():
+                sup.confirm()
+
+        runner.add_pre_tick(key_y_now_and_then)
+        loop = runner.run()
+    assert loop.succeeded, loop.message

@@ -366,6 +366,7 @@ def run_on(
     count from the moment the connection opened (its handshake's retries included),
     for a connection opened for this one run."""
     from pirate_bt.behaviours.foreign import as_text, blocked_ticks, contain_hooks, one_line
+    from pirate_bt.runner import halted_by
     from pirate_bt.safety.tally import Counters, VerdictTally
 
     period_s, max_time_s = run_limits(max_time, rate)
@@ -387,6 +388,10 @@ def run_on(
         max_time_s=max_time_s,
         realtime=realtime,
     )
+    if supervisor is not None:
+        # a step nobody attached could confirm ends the run (robot.runner(...) leaves it
+        # to its caller: the console confirms through the supervisor, attaching no input)
+        runner.halted = lambda: halted_by(supervisor, runner.tree.root)
     from pirate_bt.trace.coverage import attach_coverage
 
     coverage = attach_coverage(runner, _name(checked))
