@@ -19,7 +19,10 @@ Findings, each with its test below:
 - a value of ``$name`` and a line break (``message: "$greeting\\n"``, or a ``|`` block)
   was taken for the parameter, the line break dropped (``$`` of a regular expression
   also matches before a last line break), where ``$name`` and a space is refused as no
-  whole value (*write $name, or $$ for a literal $*); export wrote it as ``{greeting}``.
+  whole value (*write $name, or $$ for a literal $*); export wrote it as ``{greeting}``;
+- such a value that is no ``$name`` (``duration: "$d "``, ``attempts: "$ 3"``) was one
+  mistake said in two lines, the second checking the text as the node's value (*wait:
+  not a quantity: '$d '*), where docs/trees.md promises one line.
 """
 
 from __future__ import annotations
@@ -188,3 +191,21 @@ def test_a_parameter_and_a_line_break_is_no_whole_value(
     assert err.endswith("t.yaml:5:3: '$greeting\\n': write $name, or $$ for a literal $"), err
     assert main(["export", "btcpp", str(tree), "-o", str(tmp_path / "t.xml")]) == 2
     assert not (tmp_path / "t.xml").exists()
+
+
+@pytest.mark.parametrize(
+    ("node", "said"),
+    [
+        ('{type: wait, duration: "$d "}', "'$d ': write $name, or $$ for a literal $"),
+        ('{type: retry, attempts: "$ 3", child: success}', "'$ 3': write $name, or $$"),
+    ],
+)
+def test_a_dollar_that_names_no_parameter_is_one_line(
+    tmp_path: Path, capsys: Any, node: str, said: str
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(f"params:\n  d: {{type: duration, default: 1 s}}\nroot: {node}\n")
+    assert main(["validate", str(tree)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert said in lines[0]

@@ -88,6 +88,8 @@ class _Reader(_FileReader):
                 return None
             if value.startswith("$"):
                 self.error(env.doc, path, f"{_shown(value)}: write $name, or $$ for a literal $")
+                self.unbound.append(path)  # one mistake, one line: not also checked as text
+                return None
             return value
         if isinstance(value, dict):
             out = {}
