@@ -294,7 +294,8 @@ class PeerBridge:
         self.estopped = True
         self.session = False
         self.ack_seq = 0
-        self.values = [(lo + hi) // 2 for lo, hi in layout.channel_raw]
+        # readings at rest: 0 where the raw range is signed (an IMU, a speed), else mid-range
+        self.values = [0 if lo < 0 <= hi else (lo + hi) // 2 for lo, hi in layout.channel_raw]
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="peer-bridge", daemon=True)
         self._thread.start()

@@ -9,7 +9,10 @@ that our host connects to.
 from __future__ import annotations
 
 import itertools
+import socket
 import struct
+import time
+from collections.abc import Callable, Iterator
 
 import pytest
 from cleanroom_peer import (
@@ -44,6 +47,7 @@ from cleanroom_peer import (
     Decoder,
     Frame,
     Layout,
+    PeerBridge,
     bulk,
     cobs_encode,
     crc16,
@@ -57,6 +61,8 @@ from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.bridge_port import bridge_for
+from pirate_bt.sim.server import SimServer
+from pirate_bt.sim.simulator import Simulator
 
 ROBOT: RobotDescription = load_robot()
 LAYOUT: Layout = layout_of(ROBOT)
@@ -287,3 +293,161 @@ def test_a_bridge_with_a_long_state_period_sends_bridge_heartbeats_between_state
     bridge.advance_to(0.47)
     got = [f.kind for f in decoder.feed(bridge.read()) if isinstance(f, Frame)]
     assert got == [ACK], got
+
+
+# --- over TCP, in real time: our simulator as the bridge, and the page's bridge ------------
+
+
+class TcpHost:
+    """The page's host on a TCP socket: frames as they come, waited for by event."""
+
+    def __init__(self, address: tuple[str, int]) -> None:
+        self.sock = socket.create_connection(address, timeout=10.0)
+        self.sock.settimeout(0.05)
+        self.decoder = Decoder()
+        self.closed = False
+
+    def send(self, data: bytes) -> None:
+        self.sock.sendall(data)
+
+    def until(self, test: Callable[[Frame], bool], limit_s: float = 20.0) -> list[Frame]:
+        """Frames up to and including the first that passes ``test`` (fails after
+        ``limit_s``)."""
+        seen: list[Frame] = []
+        deadline = time.monotonic() + limit_s
+        while time.monotonic() < deadline:
+            try:
+                data = self.sock.recv(4096)
+            except TimeoutError:
+                continue
+            if not data:
+                self.closed = True
+                break
+            for item in self.decoder.feed(data):
+                if isinstance(item, Frame):
+                    seen.append(item)
+                    if test(item):
+                        return seen
+        raise AssertionError(f"not heard within {limit_s} s: {[(f.kind, f.seq) for f in seen]}")
+
+    def answer(self, limit_s: float = 20.0) -> Frame:
+        return self.until(lambda f: f.kind not in (STATE, BRIDGE_HEARTBEAT), limit_s)[-1]
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+@pytest.fixture
+def served() -> Iterator[tuple[str, int]]:
+    server = SimServer(Simulator("straight"))
+    address = server.open_tcp(0)
+    server.start()
+    try:
+        yield address
+    finally:
+        server.stop()
+
+
+@pytest.mark.xdist_group("real-time")
+def test_the_simulator_on_tcp_answers_the_pages_host_and_never_moves_on_a_bad_frame(
+    served: tuple[str, int],
+) -> None:
+    host = TcpHost(served)
+    try:
+        boot = host.until(lambda f: f.kind == STATE)[-1]
+        assert boot.arg & (F_ESTOP | F_NO_SESSION) == F_ESTOP | F_NO_SESSION
+        host.send(b"\x00" + hello(1, LAYOUT))
+        reply = host.answer()
+        assert reply.kind == HELLO_REPLY and reply.seq == 1
+        assert parse_hello_reply(reply.payload)["digest"] == LAYOUT.digest
+        host.send(frame(ESTOP_RESET, 2))
+        assert host.answer().payload == bytes([ESTOP_RESET, APPLIED])
+        # bad frames get no answer: the next answer is the good heartbeat's
+        bad_crc = frame(BULK, 3, b"\x03\x90\x01" * 16)[:-3] + b"\x55\x00"
+        host.send(bad_crc + b"\xff" * 300 + b"\x00" + frame(BULK, 4, b"\x03", version=2))
+        host.send(frame(HEARTBEAT, 50))
+        ack = host.answer()
+        assert (ack.kind, ack.seq, ack.payload) == (ACK, 50, bytes([HEARTBEAT, APPLIED]))
+        # a frame cut in two across writes, garbage before its own delimiter
+        wire = frame(0x42, 51)
+        host.send(b"\x99\x98\x00" + wire[:4])
+        time.sleep(0.05)  # the halves go in two segments (no assertion on time)
+        host.send(wire[4:])
+        nack = host.answer()
+        assert (nack.kind, nack.seq, nack.payload) == (NACK, 51, bytes([0x42, UNKNOWN_TYPE]))
+        # no bulk was applied: ack_seq is still 0
+        state = host.until(lambda f: f.kind == STATE)[-1]
+        assert LAYOUT.parse_state(state.payload)[0] == 0
+        # the host falls silent: the watchdog trips (no latch)
+        tripped = host.until(lambda f: f.kind == STATE and bool(f.arg & F_WATCHDOG))[-1]
+        assert not tripped.arg & F_ESTOP
+        host.send(frame(ESTOP, 5))
+        assert host.answer().payload == bytes([ESTOP, APPLIED])
+    finally:
+        host.close()
+    # a second host while one is connected is hung up on; a new one after it finds the
+    # bridge as the last left it (no DTR reset over TCP): latched, in a session
+    again = TcpHost(served)
+    try:
+        second = TcpHost(served)
+        with pytest.raises(AssertionError):
+            second.until(lambda f: True, limit_s=20.0)
+        assert second.closed
+        second.close()
+        state = again.until(lambda f: f.kind == STATE)[-1]
+        assert state.arg & (F_ESTOP | F_NO_SESSION) == F_ESTOP
+    finally:
+        again.close()
+
+
+def _stopped(frames: list[Frame]) -> bool:
+    """The host sent an ESTOP, or a bulk with every drive at velocity 0."""
+    for f in frames:
+        if f.kind == ESTOP:
+            return True
+        if f.kind == BULK:
+            entries = [struct.unpack_from("<Bh", f.payload, 3 * i) for i in range(16)]
+            drives = [e for e, m in zip(entries, LAYOUT.motors, strict=True) if m[2] == "drive"]
+            if all(e == (3, 0) for e in drives):
+                return True
+    return False
+
+
+@pytest.mark.xdist_group("real-time")
+@pytest.mark.parametrize(
+    ("hostile", "says"),
+    [
+        (
+            lambda n, peer: (
+                LAYOUT.state_payload(ack_seq=peer.ack_seq, values=peer.values) + b"\x00\x00",
+                peer.flags(),
+            ),
+            "protocol mismatch: the bridge sent 3 STATE frames in a row of another layout",
+        ),
+        (
+            lambda n, peer: (
+                LAYOUT.state_payload(ack_seq=peer.ack_seq, values=peer.values, status=1 | 2),
+                peer.flags(),
+            ),
+            "report FAULT",
+        ),
+    ],
+    ids=["state-of-another-layout", "every-board-in-fault"],
+)
+def test_our_host_refuses_a_hostile_bridge_in_one_line_and_stops_the_robot(
+    hostile: Callable[[int, PeerBridge], tuple[bytes, int]], says: str
+) -> None:
+    """The page's bridge on TCP; after 0.3 s of good STATEs it turns hostile."""
+    import pirate_bt
+
+    peer = PeerBridge(
+        LAYOUT,
+        state=lambda n, p: hostile(n, p) if n > 30 and p.session and not p.estopped else None,
+    )
+    try:
+        result = pirate_bt.run_tree("straight", port=peer.url, params={"distance": "0.1 m"})
+        assert result.exit_code == 3, result.why
+        assert says in result.why and "\n" not in result.why, result.why
+        assert peer.wait_for(_stopped), [(f.kind, f.seq) for f in peer.received]
+    finally:
+        peer.close()
