@@ -22,7 +22,10 @@ Findings, each with its test below:
   whole value (*write $name, or $$ for a literal $*); export wrote it as ``{greeting}``;
 - such a value that is no ``$name`` (``duration: "$d "``, ``attempts: "$ 3"``) was one
   mistake said in two lines, the second checking the text as the node's value (*wait:
-  not a quantity: '$d '*), where docs/trees.md promises one line.
+  not a quantity: '$d '*), where docs/trees.md promises one line;
+- a parameter declared under a name that is a Python identifier but not ASCII
+  (``café``) was taken, and every ``$café`` refused as *write $name, or $$ for a literal
+  $*, which it was: the declaration is now refused, saying why, and its uses not again.
 """
 
 from __future__ import annotations
@@ -209,3 +212,34 @@ def test_a_dollar_that_names_no_parameter_is_one_line(
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1, lines
     assert said in lines[0]
+
+
+@pytest.mark.parametrize("suffix", ["yaml", "xml"])
+def test_a_parameter_name_no_dollar_can_name_is_refused_where_declared(
+    tmp_path: Path, capsys: Any, suffix: str
+) -> None:
+    tree = tmp_path / f"t.{suffix}"
+    if suffix == "yaml":
+        tree.write_text(
+            "params:\n  café: {type: string, default: x}\nroot: {type: log, message: $café}\n",
+            encoding="utf-8",
+        )
+        place = "2:3"
+    else:
+        tree.write_text(
+            _xml('<SubTree ID="a" café="x"/>').replace(
+                "</root>",
+                '<BehaviorTree ID="a"><log message="{café}"/></BehaviorTree>'
+                '<TreeNodesModel><SubTree ID="a"><input_port name="café" type="string"/>'
+                "</SubTree></TreeNodesModel></root>",
+            ),
+            encoding="utf-8",
+        )
+        place = "4:92"
+    assert main(["validate", str(tree)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].endswith(
+        f"t.{suffix}:{place}: parameter name 'café' must be an identifier"
+        " of ASCII letters, digits and '_', as $name is written"
+    ), lines

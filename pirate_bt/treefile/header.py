@@ -24,7 +24,13 @@ from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, sho
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.names import name_problem, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
-from pirate_bt.treefile.params import ParamDecl, coerce_param, listed, written_value
+from pirate_bt.treefile.params import (
+    PARAM_RE,
+    ParamDecl,
+    coerce_param,
+    listed,
+    written_value,
+)
 from pirate_bt.treefile.refused import holds_blank, read_tree_yaml
 from pirate_bt.treefile.registry import Registry
 from pirate_bt.treefile.spec import _TOP_KEYS, BlackboardDecl, PathKey
@@ -345,8 +351,13 @@ class _FileReader:
                 continue  # said where it is; no $name can name it
             if isinstance(name, str):
                 out.names.append(name)
-            if not isinstance(name, str) or not name.isidentifier():
-                self.error(doc, at, f"parameter name {_written(name)} must be an identifier")
+            if not isinstance(name, str) or not PARAM_RE.fullmatch(f"${name}"):
+                ascii_only = ""  # 'café' is a Python identifier, but no $café names it
+                if isinstance(name, str) and name.isidentifier():
+                    ascii_only = " of ASCII letters, digits and '_', as $name is written"
+                self.error(
+                    doc, at, f"parameter name {_written(name)} must be an identifier{ascii_only}"
+                )
                 if isinstance(name, str):
                     out.refused.add(name)
                 continue

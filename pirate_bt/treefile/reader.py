@@ -87,7 +87,10 @@ class _Reader(_FileReader):
                 self.unbound.append(path)
                 return None
             if value.startswith("$"):
-                self.error(env.doc, path, f"{_shown(value)}: write $name, or $$ for a literal $")
+                if value[1:] not in env.unknown:  # '$café': its declaration is refused
+                    self.error(
+                        env.doc, path, f"{_shown(value)}: write $name, or $$ for a literal $"
+                    )
                 self.unbound.append(path)  # one mistake, one line: not also checked as text
                 return None
             return value
