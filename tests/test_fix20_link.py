@@ -10,6 +10,9 @@ its fix.
    sent after it: the robot may still be moving until its bridge's watchdog stops it*,
    while the bridge's own STATEs reported its watchdog tripped (the drives stopped). The
    close now says which way the line failed and that the watchdog stopped the drives.
+   So does a connect on such a line: it said only *the bridge did not answer HELLO (16
+   tries): it sent 95 STATE but never answered*, though those STATEs reported the
+   bridge's watchdog tripped (it heard no HELLO).
 3. A new session's first ``STATE`` was taken whatever it carried: a frame the bridge sent
    before it took the session's ``HELLO`` (delivered late, or left in a buffer), say one of
    the old boot after a reset, was taken, and every genuine frame of the new boot (seq
@@ -24,15 +27,18 @@ import logging
 from pathlib import Path
 
 import pytest
-from session_wire import LAYOUT, Wire, reply, state
+from session_wire import CODEC, LAYOUT, Wire, reply, state
 
 from pirate_bt.api.connection import Connection
 from pirate_bt.api.running import run_on
+from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkTimeout
 from pirate_bt.link import framing
 from pirate_bt.link.codec import BridgeFlags, Hello, MsgType
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.robot_link import REFUSED_STATES_REPORTED, RobotLink
+from pirate_bt.link.testing import memory_pair
 from pirate_bt.link.transport import Transport
 from pirate_bt.robot import ControlMode, MotorCommand, load_robot
 from pirate_bt.safety.factory import wait_for_state
@@ -298,3 +304,29 @@ def test_a_first_state_acknowledging_a_bulk_not_sent_yet_is_refused() -> None:
     wire.answer(state(1, ack_seq=(hello + 5) & 0xFFFF))  # newer than any bulk sent
     wire.poll(0.01)
     assert wire.session.refused_states() == (0, 0, 1) and _taken_seqs(wire)[-1] == 10
+
+
+# -- 2b. a connect on a line cut toward the bridge --------------------------------------------
+
+
+def test_a_connect_on_a_line_cut_toward_the_bridge_says_so(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["run", str(STRAIGHT), "--sim", "straight", "--param", "distance=0.2m"]
+    argv += ["--faults", "drop=1,direction=tx"]
+    assert main([*argv, "--quiet"]) == 3
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.endswith(
+        " STATE but never answered: its STATE frames report its watchdog tripped (it hears"
+        " nothing from the host: the line toward the bridge is down?)"
+    ), last
+
+
+def test_a_connect_to_a_bridge_that_hears_but_ignores_hello_does_not_blame_the_line() -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    frames = iter(range(1, 10_000))  # STATEs without WATCHDOG: it hears the host
+    clock.add_listener(lambda now: far.write(CODEC.encode(state(next(frames)))))
+    with pytest.raises(LinkTimeout) as caught:
+        wrap_link(host, ROBOT, clock)
+    assert str(caught.value).endswith(" STATE but never answered"), caught.value

@@ -37,6 +37,7 @@ from pirate_bt.link.codec import (
     MAX_WIRE_BYTES,
     PROTOCOL_MINOR,
     PROTOCOL_VERSION,
+    BridgeFlags,
     FrameCodec,
     FrameDecoder,
     Hello,
@@ -44,6 +45,7 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     NackCode,
+    State,
     UnknownAckStatus,
     frame_time_s,
 )
@@ -428,6 +430,8 @@ def handshake(
                     heard[f"bad:{item.reason}"] += 1
                     continue
                 heard[f"frame:{item.TYPE.name}"] += 1
+                if isinstance(item, State):  # the newest says whether it hears the host
+                    heard["deaf"] = int(bool(item.flags & BridgeFlags.WATCHDOG))
                 if isinstance(item, Nack) and item.seq == seq and item.acked_type == MsgType.HELLO:
                     if item.error is NackCode.BAD_LENGTH:
                         raise HelloRefused(
@@ -503,4 +507,10 @@ def _heard(heard: collections.Counter[str]) -> str:
         f": it sent {', '.join(f'{n} {name}' for name, n in frames)}"
         + (f" and bad frames ({bad})" if bad else "")
         + " but never answered"
+        + (
+            ": its STATE frames report its watchdog tripped (it hears nothing from the host:"
+            " the line toward the bridge is down?)"
+            if heard["deaf"]
+            else ""
+        )
     )
