@@ -46,6 +46,7 @@ from pirate_bt.behaviours.primitive import (
     _read_metres,
     _write_blackboard,
 )
+from pirate_bt.behaviours.slip_watch import SlipWatch, no_turn_felt
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState
@@ -307,6 +308,7 @@ class Drive(Primitive):
         """How far back (metres of travel) a sensed slope change began: 0 otherwise."""
         self._first_step = True
         self._grip = GripWatch(self.robot)
+        self._slip = SlipWatch(self.robot)
         self._edge = OpeningEdge(self.robot, self._opening_halves(self._velocity()))
         self._write_travelled()
         if p.overshoot_key:
@@ -479,6 +481,12 @@ class Drive(Primitive):
         lost = self._grip.update(state, now)
         if lost is not None:
             return self.fail(f"{lost} (after {travelled:.3f} m)")
+        slip = self._slip.update(state, now, travelled)
+        if slip is not None:
+            if p.stop_when_turned:  # the turn into a tee's branch, and none was felt
+                slip += no_turn_felt(self._heading0, _heading_vector(state.imu_rad), p.turn_angle)
+            search = f"no feature ({p.until}) before slipping" if p.until != "distance" else ""
+            return self.fail(f"{search or 'slipping'}: {slip}")
         if not self._at_speed:
             asked = self._ramped(velocity)
             command = _commands().Drive(asked)

@@ -1,0 +1,98 @@
+"""A drive's watch on wheel slip: the wheels turn while no half holds the robot.
+
+PIRATE moves only on a half whose wheels the clamp presses on the wall. When no half
+holds - the one half that held has a joint swung off the wall over a tee's opening
+while the other half is released, say - the wheels turn in place: the robot stays
+where it is (or slides down a slope) while the odometry counts distance it does not
+travel. A drive that waits for a feature (a turn, a block) would spin its whole
+search out, 3 m of odometry at 80 mm/s, and then fail as if the pipe had no
+feature, its odometry far ahead of the robot.
+
+The host reads it from the halves' clamp states (the supervisor's own reading of
+the joint angles and springs, :func:`~pirate_bt.safety.checks.classify_half`): no
+half clamped, with the drive commanding the wheels, for :data:`SLIP_S`.
+:class:`GripWatch <pirate_bt.behaviours.grip.GripWatch>` names a joint that stopped
+where it pressed (a stalled joint motor) sooner; this watch names the rest: a joint
+off the wall (over an opening, or a pipe wider than the clamp reaches), a half
+released or letting go.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pirate_bt.robot.description import Half, RobotDescription
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety import ClampState
+from pirate_bt.safety.checks import classify_half
+
+__all__ = ["SLIP_S", "SlipWatch"]
+
+SLIP_S = 0.5
+"""How long no half may hold the robot while the wheels are driven before the drive
+fails (ten ticks at 20 Hz; longer than a stalled joint's
+:data:`~pirate_bt.behaviours.grip.GRIP_LOST_S`, which names its own cause first)."""
+
+_HALVES = tuple(Half)
+
+
+class SlipWatch:
+    """Watches that some half holds the robot while a drive turns its wheels."""
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self.robot = robot
+        clamp = robot.clamp
+        self._beyond = max(c.angle for c in clamp.contact_angles) + 2 * robot.safety.angle_tolerance
+        self._since: float | None = None
+        self._from_m = 0.0  # odometry where no half held any more
+
+    def update(self, state: RobotState, now_s: float, travelled_m: float) -> str | None:
+        """Read one state ``travelled_m`` into the drive; the slip, for people, once it
+        has lasted, else ``None``. A half whose clamp state cannot be read (a reading
+        missing) counts as holding: a slip is called only on readings that say so."""
+        robot = self.robot
+        kinds = {h: classify_half(robot, state, h) for h in _HALVES}
+        if any(k in (ClampState.CLAMPED, ClampState.UNKNOWN) for k in kinds.values()):
+            self._since = None
+            return None
+        if self._since is None:
+            self._since = now_s
+            self._from_m = travelled_m
+        if now_s - self._since < SLIP_S - 1e-9:
+            return None
+        halves = "; ".join(self._half_why(state, h, k) for h, k in kinds.items())
+        return (
+            f"no half holds the robot after {self._from_m:.3f} m ({halves}): the wheels"
+            " turn in place"
+        )
+
+    def _half_why(self, state: RobotState, half: Half, kind: ClampState) -> str:
+        """Why ``half`` holds nothing, for people: ``front released``, ``rear bend_3
+        off the wall at 110.0°, over an opening``."""
+        if kind is ClampState.UNCLAMPED:
+            return f"{half} released"
+        off = []
+        for module in self.robot.bend_modules(half):
+            angle = state.joint_angle_rad.get(module.name)
+            if angle is not None and abs(angle) > self._beyond:
+                off.append(f"{module.name} off the wall at {math.degrees(abs(angle)):.1f}°")
+        if off:
+            return f"{half} {', '.join(off)}, over an opening"
+        return f"{half} {kind.value}"
+
+
+def no_turn_felt(
+    heading0: tuple[float, float, float] | None,
+    heading: tuple[float, float, float] | None,
+    turn_angle_rad: float,
+) -> str:
+    """What a slip means in a drive into a tee's branch (``stop_when_turned``) that felt
+    no turn: the front half, steered one way, slid on over the opening, and the rear
+    half reached it - the branch may leave on the other side. ``heading0`` and
+    ``heading`` are the IMU's unit vectors along the pipe at the start and now."""
+    turned = ""
+    if heading0 is not None and heading is not None:
+        dot = sum(a * b for a, b in zip(heading0, heading, strict=True))
+        angle = math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+        turned = f" (the IMU turned {angle:.1f}° of the {math.degrees(turn_angle_rad):g}°)"
+    return f"; no turn felt{turned}: the tee's branch may leave on the other side"
