@@ -25,7 +25,8 @@ Findings, each with its test below:
   not a quantity: '$d '*), where docs/trees.md promises one line;
 - a parameter declared under a name that is a Python identifier but not ASCII
   (``café``) was taken, and every ``$café`` refused as *write $name, or $$ for a literal
-  $*, which it was: the declaration is now refused, saying why, and its uses not again.
+  $*, which it was: the declaration is now refused, saying why, and its uses not again;
+  an XML pointer ``{café}`` was said in the YAML's words (*'$café': write $name*).
 """
 
 from __future__ import annotations
@@ -229,13 +230,13 @@ def test_a_parameter_name_no_dollar_can_name_is_refused_where_declared(
         tree.write_text(
             _xml('<SubTree ID="a" café="x"/>').replace(
                 "</root>",
-                '<BehaviorTree ID="a"><log message="{café}"/></BehaviorTree>'
+                '<BehaviorTree ID="a"><AlwaysSuccess/></BehaviorTree>'
                 '<TreeNodesModel><SubTree ID="a"><input_port name="café" type="string"/>'
                 "</SubTree></TreeNodesModel></root>",
             ),
             encoding="utf-8",
         )
-        place = "4:92"
+        place = "4:85"
     assert main(["validate", str(tree)]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1, lines
@@ -243,3 +244,16 @@ def test_a_parameter_name_no_dollar_can_name_is_refused_where_declared(
         f"t.{suffix}:{place}: parameter name 'café' must be an identifier"
         " of ASCII letters, digits and '_', as $name is written"
     ), lines
+
+
+def test_an_xml_pointer_no_parameter_can_be_is_said_in_the_xml_s_words(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.xml"
+    tree.write_text(_xml('<log message="{café}"/>'), encoding="utf-8")
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        "t.xml:3:25: log: message: blackboard pointer '{café}': pirate_bt parameters are"
+        " identifiers of ASCII letters, digits and '_'"
+    ), err

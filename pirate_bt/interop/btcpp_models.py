@@ -446,9 +446,10 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
     pointer = _pointer(text)
     if pointer is not None:
         name = port if pointer == "=" else pointer
-        if not name.isidentifier():
+        if not PARAM_RE.fullmatch("$" + name):  # '{café}': no $café names a parameter
             raise ValueError(
                 f"blackboard pointer {_shown(text)}: pirate_bt parameters are identifiers"
+                " of ASCII letters, digits and '_'"
             )
         return "$" + name
     if text.startswith("$"):
