@@ -244,7 +244,9 @@ def parse_hello_reply(payload: bytes) -> dict[str, int]:
     return dict(zip((*names, "sessions"), values, strict=True))
 
 
-def hello_reply_payload(layout: Layout, *, minor: int = 2, sessions: int = 1) -> bytes:
+def hello_reply_payload(
+    layout: Layout, *, minor: int = 2, sessions: int = 1, boot_id: int = 0x1234
+) -> bytes:
     return struct.pack(
         "<IBBHHBHB",
         layout.digest,
@@ -253,7 +255,7 @@ def hello_reply_payload(layout: Layout, *, minor: int = 2, sessions: int = 1) ->
         250,
         0x0001,
         minor,
-        0x1234,
+        boot_id,
         sessions,
     )
 
@@ -294,11 +296,18 @@ class PeerBridge:
         self.estopped = True
         self.session = False
         self.ack_seq = 0
+        self.boot_id = 0x1234
+        self.sessions = 0
         # readings at rest: 0 where the raw range is signed (an IMU, a speed), else mid-range
         self.values = [0 if lo < 0 <= hi else (lo + hi) // 2 for lo, hi in layout.channel_raw]
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="peer-bridge", daemon=True)
         self._thread.start()
+
+    def reset(self) -> None:
+        """A bridge reset: latched, no session, a new boot id."""
+        self.estopped, self.session, self.ack_seq, self.sessions = True, False, 0, 0
+        self.boot_id = (self.boot_id + 1) & 0xFFFF
 
     def flags(self) -> int:
         return (F_ESTOP if self.estopped else 0) | (0 if self.session else F_NO_SESSION)
@@ -317,11 +326,13 @@ class PeerBridge:
         if f.kind == HELLO:
             self.session = True
             self.ack_seq = 0
+            self.sessions = min(self.sessions + 1, 255)
         override = self.on_frame(f) if self.on_frame is not None else None
         if override is not None:
             return override
         if f.kind == HELLO:
-            return frame(HELLO_REPLY, f.seq, hello_reply_payload(self.layout), self.flags())
+            payload = hello_reply_payload(self.layout, sessions=self.sessions, boot_id=self.boot_id)
+            return frame(HELLO_REPLY, f.seq, payload, self.flags())
         if f.kind == ESTOP_RESET:
             self.estopped = False
             return frame(ACK, f.seq, bytes([ESTOP_RESET, APPLIED]))

@@ -49,6 +49,7 @@ from cleanroom_peer import (
     Layout,
     PeerBridge,
     bulk,
+    cobs_decode,
     cobs_encode,
     crc16,
     frame,
@@ -59,6 +60,7 @@ from cleanroom_peer import (
 
 from pirate_bt.robot import load_robot
 from pirate_bt.robot.description import RobotDescription
+from pirate_bt.sim.boardbus import BoardBus
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.bridge_port import bridge_for
 from pirate_bt.sim.server import SimServer
@@ -431,11 +433,15 @@ def _stopped(frames: list[Frame]) -> bool:
             ),
             "report FAULT",
         ),
+        (
+            lambda n, peer: peer.reset(),
+            "e-stop: the bridge reports its e-stop latched: it reset in the middle of the session",
+        ),
     ],
-    ids=["state-of-another-layout", "every-board-in-fault"],
+    ids=["state-of-another-layout", "every-board-in-fault", "bridge-reset"],
 )
 def test_our_host_refuses_a_hostile_bridge_in_one_line_and_stops_the_robot(
-    hostile: Callable[[int, PeerBridge], tuple[bytes, int]], says: str
+    hostile: Callable[[int, PeerBridge], tuple[bytes, int] | None], says: str
 ) -> None:
     """The page's bridge on TCP; after 0.3 s of good STATEs it turns hostile."""
     import pirate_bt
@@ -451,3 +457,64 @@ def test_our_host_refuses_a_hostile_bridge_in_one_line_and_stops_the_robot(
         assert peer.wait_for(_stopped), [(f.kind, f.seq) for f in peer.received]
     finally:
         peer.close()
+
+
+# --- the board bus: the page's master against the Python boards ---------------------------
+
+
+def _bus_frame(addr: int, cmd: int, payload: bytes) -> bytes:
+    body = bytes([addr, cmd]) + payload
+    return cobs_encode(body + struct.pack("<H", crc16(body)))
+
+
+def test_the_python_boards_answer_the_pages_bus_master() -> None:
+    """docs/board-bus.md from the master's side: replies, keep, own stop, STOP, noise."""
+    bus = BoardBus(bridge_for(ROBOT).model)
+    now = 0.0
+
+    def send(
+        addr: int, entries: list[tuple[int, int]], cmd: int = 1, dt: float = 0.001
+    ) -> int | None:
+        nonlocal now
+        now += dt
+        reply = bus.handle(
+            now, _bus_frame(addr, cmd, b"".join(struct.pack("<Bh", *e) for e in entries))
+        )
+        if not reply:
+            return None
+        assert reply.endswith(b"\x00") and b"\x00" not in reply[:-1]
+        body = cobs_decode(reply[:-1])
+        assert body is not None and crc16(body[:-2]) == struct.unpack("<H", body[-2:])[0]
+        channels = sum(1 for b, _ in LAYOUT.channels if b == addr)
+        assert (body[0], body[1], len(body)) == (addr, 0x81, 5 + 2 * channels)
+        return body[2]
+
+    keep = {b: [(KEEP, 0)] * sum(1 for m in LAYOUT.motors if m[0] == b) for b in LAYOUT.boards}
+    for board in LAYOUT.boards:  # nothing commanded since boot: MOTORS_OFF
+        assert send(board, keep[board]) == 0x02
+    assert send(22, [(KEEP, 0), (3, 400)]) == 0x02  # the bend joint still never commanded
+    assert bus.motor_state(22, 1) == (3, 400)
+    # a keep's raw, a mode the motor lacks, a value out of range: ignored
+    assert send(22, [(KEEP, 1234), (1, 5)]) == 0x02
+    assert send(22, [(KEEP, 0), (3, 5000)]) == 0x02
+    assert bus.motor_state(22, 1) == (3, 400)
+    # not the master's voice for board 22: frames to others, bad frames, no broadcast
+    for wire in [
+        _bus_frame(22, 1, b"\xff\x00\x00"),  # a payload not 3 bytes per motor
+        _bus_frame(22, 3, b"\xff\x00\x00" * 2),  # an unknown cmd
+        _bus_frame(22, 0x81, b"\xff\x00\x00" * 2),  # a reply
+        _bus_frame(0, 1, b""),
+        _bus_frame(0xFF, 1, b""),
+        _bus_frame(22, 1, b"\xff\x00\x00" * 2)[:-1] + b"\x01",  # its CRC damaged
+    ]:
+        now += 0.001
+        assert bus.handle(now, wire) == b""
+    for _ in range(12):
+        assert send(23, keep[23], dt=0.01) is not None
+    # 100 ms without a good frame to it: board 22 stopped itself (brake), joints held
+    assert send(22, [(KEEP, 0), (3, 400)]) == 0x02 | 0x04
+    assert bus.motor_state(22, 1) == (0, 0)
+    # a STOP (not answered) ends its own stop; the next EXCHANGE applies again
+    assert send(22, [(KEEP, 0), (0, 0)], cmd=2) is None
+    assert send(22, [(KEEP, 0), (3, 300)]) == 0x02
+    assert bus.motor_state(22, 1) == (3, 300)
