@@ -53,6 +53,7 @@ _EXPORTS: dict[str, str] = {
     "load_navigator": "pirate_bt.task.navigators",
     "navigator_names": "pirate_bt.task.navigators",
     "Felt": "pirate_bt.task.navigation",
+    "OffWall": "pirate_bt.task.navigation",
     "RouteNavigator": "pirate_bt.task.navigators",
     "GoalNavigator": "pirate_bt.task.navigators",
     "ExploreNavigator": "pirate_bt.task.explore",
@@ -120,6 +121,7 @@ __all__ = [
     "NavigationResult",
     "Navigator",
     "Observation",
+    "OffWall",
     "PabOutcome",
     "PirateError",
     "RouteNavigator",
@@ -217,7 +219,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.task.fixes import Disagreement, Fix
     from pirate_bt.task.mission import MissionResult
     from pirate_bt.task.navigate import NavigationResult
-    from pirate_bt.task.navigation import Felt, Navigator, Observation, Step
+    from pirate_bt.task.navigation import Felt, Navigator, Observation, OffWall, Step
     from pirate_bt.task.navigators import (
         GoalNavigator,
         RouteNavigator,

@@ -76,6 +76,7 @@ from pirate_bt.task.explore_parts import (
     metres,
     rear_over_opening,
     tee_start,
+    unprobed_opening,
 )
 from pirate_bt.task.explore_record import SurveyRecord
 from pirate_bt.task.navigation import Felt, Observation, Step
@@ -194,6 +195,13 @@ class ExploreNavigator(SurveyRecord):
             return self._probed_turn(obs, felt)
         if pab == "probe-tee":
             return self._probed_tee(obs, felt)
+        forward = pab in ("bend", "t-joint") or (  # explore's own steps: distances in m
+            pab == "straight" and float(obs.history[-1][0].params.get("distance", 0)) > 0
+        )
+        if forward and self._in_line and self._way is None and self._from_m is not None:
+            crossed = unprobed_opening(obs.off_wall, self._from_m)
+            if crossed is not None:
+                return self._unprobed(obs, crossed)
         if self._cone is not None:  # the leading joints are through a reducer now
             self._reducer_done(obs)
         if pab == "straight" and felt is not None and felt.kind == "feature":
@@ -344,6 +352,24 @@ class ExploreNavigator(SurveyRecord):
         self._trail.append(Passed("t-joint-back", "straight", self._from_m))
         self._crossing = self._pending[-1]
         return Step("t-joint", direction="straight")
+
+    def _unprobed(self, obs: Observation, crossed: Any) -> Step | None:
+        """A step carried a joint across an opening it did not stop at: the line is
+        surveyed up to it, and left there (its tee's branch is not known)."""
+        assert self._from_m is not None
+        self._cone = None
+        before = self._after()
+        start = tee_start(crossed.where_m + obs.joint_behind_m, obs.diameter_m or 0.063)
+        self._close_straight(obs, max(start, self._from_m))
+        self._in_line = False  # surveyed to the opening, not beyond
+        self.unexplored.append(
+            f"{self._line_name} {self._after()}: not surveyed past an opening"
+            f" {max(start - self._from_m, 0.0):.2f} m {before}, which {crossed.joint}"
+            " crossed with no step stopping at it (a tee this close to the feature"
+            " before it is not probed): its tee and the line beyond it are left to a"
+            " survey by hand"
+        )
+        return self._line_done(obs)
 
     def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
         """Stopped going straight on through a tee just found, the released front half

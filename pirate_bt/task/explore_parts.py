@@ -39,6 +39,7 @@ __all__ = [
     "metres",
     "rear_over_opening",
     "tee_start",
+    "unprobed_opening",
     "write_survey",
 ]
 
@@ -207,6 +208,23 @@ class PendingTee:
 def tee_start(opening_m: float, diameter_m: float) -> float:
     """Where a tee starts whose opening a straight step felt at ``opening_m``."""
     return opening_m - (OPENING_STOP[0] + OPENING_STOP[1] * diameter_m)
+
+
+UNPROBED_MARGIN_M = 0.03
+"""An opening a joint felt this far or more past where the line's straight began (the
+feature before it ends there) is one no step stopped at."""
+
+
+def unprobed_opening(off_wall: Any, from_m: float) -> Any:
+    """The first opening a forward step carried a joint across, past ``from_m`` (where
+    the straight being surveyed began), with the joint back at the wall behind it: an
+    opening no step stopped at, so no probe told its branch (a second tee close after
+    the one passed straight on). A joint still off the wall as the step ended is not
+    one: the next straight step starts over it and stops there. ``None``: none."""
+    for episode in off_wall:
+        if episode.back_m is not None and episode.where_m > from_m + UNPROBED_MARGIN_M:
+            return episode
+    return None
 
 
 def rear_over_opening(tee: PendingTee, before: Passed | None, rear_joint_m: float) -> str | None:

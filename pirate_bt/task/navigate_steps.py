@@ -24,7 +24,7 @@ from pirate_bt.runner import Runner
 from pirate_bt.runner import RunResult as TreeRun
 from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.mission import MissionResult, run_mission
-from pirate_bt.task.navigation import CheckedStep, Felt
+from pirate_bt.task.navigation import CheckedStep, Felt, OffWall
 from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run, link_cause
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 from pirate_bt.task.tree import steer_param
@@ -59,6 +59,8 @@ class StepRun:
     """Blind steps: the state stamp the odometry ended on."""
     off_wall: bool = False
     """Blind steps: a bend joint swung off the wall during the step (over an opening)."""
+    openings: tuple[OffWall, ...] = ()
+    """Blind steps: each time a bend joint swung off the wall, oldest first."""
 
 
 def _felt_on_map(mission: MissionResult) -> list[Felt]:
@@ -206,18 +208,27 @@ def run_blind(
     beyond = max(c.angle for c in robot.clamp.contact_angles) + 2 * robot.safety.angle_tolerance
     joints = [m.name for m in robot.all_bend_modules()]
     off_wall = [False]
+    behind = robot.behind_front_tip_m()
+    away: dict[str, int] = {}  # the joints off the wall now -> their episode
+    episodes: list[list[Any]] = []  # [joint, belief off, belief back] as OffWall has them
 
     def after(_info: Any) -> None:
         state = supervisor.state()
         if state is None:
             return
-        if not off_wall[0]:
-            angles = state.joint_angle_rad
-            off_wall[0] = any(abs(angles.get(name, 0.0)) > beyond for name in joints)
         if odometry[1] == odometry[1]:  # not nan: a previous stamp
             speed = state.mean_drive_velocity_mps(state.stamp_s - window_s)
             odometry[0] += speed * max(0.0, state.stamp_s - odometry[1])
         odometry[1] = state.stamp_s
+        angles = state.joint_angle_rad
+        for name in joints:
+            if abs(angles.get(name, 0.0)) > beyond:
+                if name not in away:
+                    away[name] = len(episodes)
+                    episodes.append([name, odometry[0], None])
+            elif name in away:
+                episodes[away.pop(name)][2] = odometry[0]
+        off_wall[0] = off_wall[0] or bool(away)
 
     runner.add_post_tick(after)
     tally = VerdictTally(supervisor)
@@ -315,4 +326,5 @@ def run_blind(
         ticks=run.ticks,
         stamp_s=odometry[1],
         off_wall=off_wall[0],
+        openings=tuple(OffWall(n, at, back, behind[n]) for n, at, back in episodes),
     )

@@ -66,7 +66,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.errors import shown as said_briefly
-from pirate_bt.task.observation import Ahead, Belief, Felt, Observation
+from pirate_bt.task.observation import Ahead, Belief, Felt, Observation, OffWall
 from pirate_bt.task.route import MAX_WAIT_S
 from pirate_bt.units import parse_quantity
 
@@ -81,6 +81,7 @@ __all__ = [
     "InvalidStep",
     "Navigator",
     "Observation",
+    "OffWall",
     "Step",
     "check_step",
     "raised_at",

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from pirate_bt.pipes import Network
     from pirate_bt.task.outcome import PabOutcome
 
-__all__ = ["Ahead", "Belief", "Felt", "Observation"]
+__all__ = ["Ahead", "Belief", "Felt", "Observation", "OffWall"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,34 @@ class Felt:
 
 
 @dataclass(frozen=True)
+class OffWall:
+    """A bend joint that swung off the wall during a step with no map: over an opening
+    (a tee's branch), as the drive tells one (past every wall-contact angle).
+
+    Attributes:
+        joint: The bend module (``bend_1``: the front half's first).
+        at_m: The belief (the front tip) when it swung off.
+        back_m: The belief when it was back within the wall-contact angles;
+            ``None``: still off the wall as the step ended.
+        behind_m: How far the joint (its module's middle) is behind the front tip:
+            the opening's near edge is about ``at_m - behind_m`` along the way.
+    """
+
+    joint: str
+    at_m: float
+    back_m: float | None
+    behind_m: float
+
+    @property
+    def where_m(self) -> float:
+        """Where along the way the joint swung off: about the opening's near edge."""
+        return self.at_m - self.behind_m
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: round(v, 4) if isinstance(v, float) else v for k, v in self.__dict__.items()}
+
+
+@dataclass(frozen=True)
 class Ahead:
     """The next feature on the map (:meth:`Observation.next_feature`).
 
@@ -121,6 +149,10 @@ class Observation:
         yaw_rad: The pipe's heading at the rotational module, from the IMU (the
             world's frame: only its change means anything without a map, e.g. across
             a bend left or right; ``None`` without a reading).
+        off_wall: Without a map: every time a bend joint swung off the wall during the
+            last step (over an opening), oldest first. A step that drives the robot
+            across two openings (a second tee close after the one passed) shows the
+            second here, where ``felt`` names only the feature the step was for.
     """
 
     step: int
@@ -138,6 +170,7 @@ class Observation:
     imu_behind_m: float = 0.0
     joint_behind_m: float = 0.0
     yaw_rad: float | None = None
+    off_wall: tuple[OffWall, ...] = ()
 
     def next_feature(self) -> Ahead | None:
         """The next bend or T-joint ahead on the map, along the way taken so far.
@@ -187,4 +220,5 @@ class Observation:
             "choices": dict(self.choices),
             "diameter_m": None if self.diameter_m is None else round(self.diameter_m, 5),
             "pitch_rad": None if self.pitch_rad is None else round(self.pitch_rad, 5),
+            **({"off_wall": [o.to_json() for o in self.off_wall]} if self.off_wall else {}),
         }
