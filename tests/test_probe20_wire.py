@@ -9,10 +9,12 @@ that our host connects to.
 from __future__ import annotations
 
 import itertools
+import json
 import socket
 import struct
 import time
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 from cleanroom_peer import (
@@ -518,3 +520,45 @@ def test_the_python_boards_answer_the_pages_bus_master() -> None:
     assert send(22, [(KEEP, 0), (0, 0)], cmd=2) is None
     assert send(22, [(KEEP, 0), (3, 300)]) == 0x02
     assert bus.motor_state(22, 1) == (3, 300)
+
+
+# --- python -m pirate_bt.sim.board_vectors ----------------------------------------------
+
+
+def test_the_board_vectors_writer_takes_one_file_and_fails_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``python -m pirate_bt.sim.board_vectors`` (docs/board-bus.md, Vectors) run anywhere
+    but the checkout's root was a FileNotFoundError traceback; ``--help`` wrote a file
+    named ``--help``; a folder or a file it cannot write was a traceback; a second
+    argument was ignored; the file was written in place (half a file on a failure)."""
+    from pirate_bt.sim import board_vectors
+
+    monkeypatch.chdir(tmp_path)
+    assert board_vectors.main(["--help"]) == 0
+    assert "usage" in capsys.readouterr().out
+    assert not (tmp_path / "--help").exists()
+    for args in (["a.json", "b.json"], ["-x"], [""]):
+        assert board_vectors.main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "usage" in err, err
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("x")
+    for name in ("folder", "file/v.json"):
+        assert board_vectors.main([name]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{name}: cannot write") and err.count("\n") == 1, err
+    # with no file named, from anywhere: the checkout's own file (the tests compare it)
+    written: list[Path] = []
+    monkeypatch.setattr(
+        board_vectors,
+        "write_atomically",
+        lambda path, fill: written.append(Path(path)),
+        raising=False,
+    )
+    assert board_vectors.main([]) == 0
+    assert written == [Path(__file__).parent / "data" / "board_bus_vectors.json"]
+    monkeypatch.undo()
+    assert board_vectors.main([str(tmp_path / "v.json")]) == 0
+    assert json.loads((tmp_path / "v.json").read_text()) == board_vectors.build_vectors(ROBOT)

@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.atomic import write_atomically
 from pirate_bt.link.codec import MODE_CODES, MODE_KEEP, cobs_encode, crc16
 from pirate_bt.robot.description import ControlMode, RobotDescription
 
@@ -379,14 +380,41 @@ def build_vectors(robot: RobotDescription) -> dict[str, Any]:
     }
 
 
+_USAGE = "usage: python -m pirate_bt.sim.board_vectors [FILE]"
+_CHECKOUT_FILE = Path(__file__).resolve().parents[2] / "tests" / "data" / "board_bus_vectors.json"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Write the vectors (default: ``tests/data/board_bus_vectors.json``)."""
+    """Write the vectors to ``argv[0]`` (default: the checkout's
+    ``tests/data/board_bus_vectors.json``, wherever it is run from).
+
+    Returns 2, with one line on stderr, for anything but one file name (``--help`` was
+    written to as a file), a file that cannot be written, or no file named outside a
+    checkout (each a traceback, before 2026-11-30); the file is written whole or not
+    at all.
+    """
     from pirate_bt.robot.loader import load_robot
 
     args = sys.argv[1:] if argv is None else argv
-    out = Path(args[0]) if args else Path("tests/data/board_bus_vectors.json")
-    data = build_vectors(load_robot())
-    out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    if args in (["-h"], ["--help"]):
+        print(_USAGE)
+        return 0
+    if len(args) > 1 or (args and (args[0].startswith("-") or not args[0])):
+        print(f"{_USAGE}: not {' '.join(args)!r}", file=sys.stderr)
+        return 2
+    if args:
+        out = args[0]
+    elif _CHECKOUT_FILE.parent.is_dir():
+        out = str(_CHECKOUT_FILE)
+    else:
+        print(f"{_USAGE}: no checkout's tests/data here; name the file to write", file=sys.stderr)
+        return 2
+    data = (json.dumps(build_vectors(load_robot()), indent=1) + "\n").encode()
+    try:
+        write_atomically(out, lambda stream: stream.write(data))
+    except OSError as exc:
+        print(f"{out}: cannot write: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     return 0
 
 
