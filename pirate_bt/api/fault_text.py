@@ -78,6 +78,8 @@ def split_faults(faults: str | Iterable[str] | None) -> tuple[list[str], str | N
             if not isinstance(part, str):
                 raise InputError(f"faults: each item is text, not {kind_of(part)}{_as_text(part)}")
             items += [item for _, item in fault_items(part)]
+            if len(items) > MAX_FAULTS:  # an endless iterator is refused, not read for ever
+                break
     if len(items) > MAX_FAULTS or any(len(i) > MAX_FAULT_TEXT for i in items):
         raise InputError(
             f"faults: at most {MAX_FAULTS} faults of at most {MAX_FAULT_TEXT} characters each"
