@@ -55,6 +55,7 @@ from typing import Any
 __all__ = [
     "MAX_PATH",
     "MAX_SEED",
+    "REASON_LIMIT",
     "ArgumentTypeError",
     "ArgumentValueError",
     "CommandRefused",
@@ -76,6 +77,7 @@ __all__ = [
     "ValidationFailed",
     "bytes_escaped",
     "caller_location",
+    "cut_reason",
     "file_argument",
     "kind_of",
     "output_argument",
@@ -120,6 +122,21 @@ MAX_SEED = 2**63 - 1
 simulator's (``pirate_bt.api.options.MAX_SEED`` is this one)."""
 
 _SHOWN = 40
+
+
+REASON_LIMIT = 1000
+"""The most characters of a run's stop message (and of the safe-state reason a runner
+gives): a node's exception or feedback can say anything, 100 kB included."""
+
+
+def cut_reason(text: str, limit: int = REASON_LIMIT) -> str:
+    """``text`` cut to at most ``limit`` characters, its start kept (the first cause)
+    and its end saying how much was left out: ``RuntimeError in s/boom: xxx... (99024
+    more characters)``."""
+    if len(text) <= limit:
+        return text
+    keep = max(0, limit - len(f"... ({len(text)} more characters)"))
+    return f"{text[:keep]}... ({len(text) - keep} more characters)"
 
 
 def kind_of(value: object) -> str:

@@ -11,21 +11,9 @@ from dataclasses import dataclass, field
 import py_trees
 from py_trees.common import Status
 
+from pirate_bt.errors import REASON_LIMIT, cut_reason
+
 __all__ = ["REASON_LIMIT", "Overrun", "RunResult", "StopReason", "TickInfo", "cut_reason"]
-
-REASON_LIMIT = 1000
-"""The most characters of a run's stop message (and of the safe-state reason a runner
-gives): a node's exception or feedback can say anything, 100 kB included."""
-
-
-def cut_reason(text: str, limit: int = REASON_LIMIT) -> str:
-    """``text`` cut to at most ``limit`` characters, its start kept (the first cause)
-    and its end saying how much was left out: ``RuntimeError in s/boom: xxx... (99024
-    more characters)``."""
-    if len(text) <= limit:
-        return text
-    keep = max(0, limit - len(f"... ({len(text)} more characters)"))
-    return f"{text[:keep]}... ({len(text) - keep} more characters)"
 
 
 class StopReason(enum.StrEnum):

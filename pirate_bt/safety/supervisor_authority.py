@@ -16,7 +16,7 @@ import logging
 import threading
 from typing import TYPE_CHECKING
 
-from pirate_bt.errors import InputError, LinkError
+from pirate_bt.errors import InputError, LinkError, cut_reason
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode, MotorFunction
 from pirate_bt.safety.checks import stale_channels
@@ -426,7 +426,7 @@ def _reason_text(reason: object, what: str) -> str:
     and ``EStop(None)`` latched with no reason, so a primitive did not fail on it."""
     if reason is None or (isinstance(reason, str) and not reason.strip()):
         return f"{what} (no reason given)"
-    return reason if isinstance(reason, str) else str(reason)
+    return cut_reason(reason if isinstance(reason, str) else str(reason))
 
 
 def as_mode(mode: object) -> Mode:
