@@ -139,7 +139,7 @@ def _run_with_states_replayed(replays: int) -> str:
 def test_a_run_that_stops_after_two_refused_states_names_them() -> None:
     why = _run_with_states_replayed(2)
     assert why.startswith("link_silent: no state frame taken for 0.1"), why
-    assert "STATE frames arrived but all 2 were refused (2 out of sequence)" in why
+    assert "two STATE frames arrived but both were refused (2 out of sequence)" in why
     assert "held no state" not in why
 
 

@@ -54,8 +54,9 @@ class LinkHealth:
         faulted_boards: Ids of the boards whose latest status has ``FAULT`` (an
             H-bridge fault or over-current: the board cannot drive its motors).
         states_refused: ``STATE`` frames the link refused since the last one it took,
-            as (reason, count) pairs (``("with a bad CRC", 12)``); empty while there are
-            fewer than a few (a lossy line's damaged frames, made up for by the next).
+            as (reason, count) pairs (``("with a bad CRC", 12)``); before the session's
+            first STATE was taken, empty while there are fewer than a few (a lossy
+            line's damaged frames, made up for by the next); after it, every one.
         line_noise: What came from the bridge since its last good frame that made no
             good frame, for people (``"204 unreadable frames (cobs 153, oversize 51) in
             15963 bytes"``), so that a flooded line is not taken for a silent bridge;
@@ -100,6 +101,8 @@ class LinkHealth:
         counts = ", ".join(f"{n} {why}" for why, n in self.states_refused)
         if total == 1:
             return f"a STATE frame arrived but was refused ({counts})"
+        if total == 2:
+            return f"two STATE frames arrived but both were refused ({counts})"
         return f"STATE frames arrived but all {total} were refused ({counts})" if total else ""
 
 
