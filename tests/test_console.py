@@ -114,6 +114,17 @@ def _wait_for(
     return asyncio.ensure_future(wait())
 
 
+async def _press(app: object, pilot: object, key: str) -> None:
+    """``key`` to the console as ``pilot.press`` sends it, without the waits for an idle
+    process that follow it there: the engine's thread keeps this process busy, so each
+    ran out its 1 s limit (2 s a key, 10 of the full-screen test's 11 s). What a key
+    does is waited for as an event, by :func:`_wait_for`."""
+    from textual import events
+
+    app.post_message(events.Key(key, key))  # type: ignore[attr-defined]
+    await pilot.pause(0)  # type: ignore[attr-defined]
+
+
 def _line(snapshot: Snapshot, label: str) -> str:
     return next(line.text for line in snapshot.status if line.label == label)
 
@@ -129,25 +140,25 @@ def test_full_screen_console_drives_and_e_stops_the_simulator() -> None:
     async def scenario() -> None:
         async with app.run_test(size=(150, 45)) as pilot:
             await _wait_for(app, pilot, lambda s: True, "a first snapshot")
-            await pilot.press("r")
+            await _press(app, pilot, "r")
             await _wait_for(
                 app, pilot, lambda s: _line(s, "rear half").startswith("CLAMPED"), "rear clamped"
             )
-            await pilot.press("a")  # rotate with one half clamped: passes
-            await pilot.press("f")  # clamp front without moving it clear: refused
+            await _press(app, pilot, "a")  # rotate with one half clamped: passes
+            await _press(app, pilot, "f")  # clamp front without moving it clear: refused
             await _wait_for(
                 app,
                 pilot,
                 lambda s: any("REFUSE" in v and "front_not_clear" in v for v in s.verdicts),
                 "the refused front clamp",
             )
-            await pilot.press("e")
+            await _press(app, pilot, "e")
             await _wait_for(app, pilot, lambda s: "LATCHED" in _line(s, "e-stop"), "the e-stop")
             assert app.last is not None and _line(app.last, "mode") == "ESTOP"
             # The screen shows what the engine published: the status panel text.
             status = str(app.query_one("#status").render())
             assert "LATCHED" in status and "CLAMPED" in status
-            await pilot.press("x")
+            await _press(app, pilot, "x")
             await _wait_for(app, pilot, lambda s: _line(s, "e-stop") == "clear", "the reset")
             await pilot.press("q")
             await pilot.pause(0.2)
@@ -207,17 +218,24 @@ def test_supervised_tree_waits_for_the_operator_in_the_console(answer: str) -> N
             assert any("RUNNING" in line for line in app.last.tree)
             pending = str(app.query_one("#pending").render())
             assert first in pending
-            await pilot.press(answer)
+            await _press(app, pilot, answer)
             if answer == "y":
                 await _wait_for(
                     app, pilot, lambda s: first not in s.pending, "the granted step move on"
                 )
-                # Keep granting until the tree finishes.
+                # Keep granting until the tree finishes: each step as it waits.
                 for _ in range(20):
+                    await _wait_for(
+                        app, pilot, lambda s: bool(s.pending) or bool(s.finished), "a step"
+                    )
                     if app.last is not None and app.last.finished:
                         break
-                    await pilot.press("y")
-                    await pilot.pause(0.2)
+                    assert app.last is not None
+                    step = app.last.pending[0]
+                    await _press(app, pilot, "y")
+                    await _wait_for(
+                        app, pilot, lambda s, step=step: step not in s.pending, f"{step} granted"
+                    )
                 await _wait_for(app, pilot, lambda s: s.finished is not None, "the end")
             else:
                 await _wait_for(app, pilot, lambda s: s.finished is not None, "the end")
