@@ -26,7 +26,11 @@ Findings, each with its test below:
 - a parameter declared under a name that is a Python identifier but not ASCII
   (``café``) was taken, and every ``$café`` refused as *write $name, or $$ for a literal
   $*, which it was: the declaration is now refused, saying why, and its uses not again;
-  an XML pointer ``{café}`` was said in the YAML's words (*'$café': write $name*).
+  an XML pointer ``{café}`` was said in the YAML's words (*'$café': write $name*);
+- ``ref: Grip.YAML`` beside a file ``Grip.YAML`` (which ``pirate-bt run`` and
+  ``validate`` read as a tree file) was *no subtree named 'Grip.YAML'*, and a subtree
+  named ``Grip.YAML`` loaded, exported as a BT.CPP ID that ``import`` took for a name:
+  the ``.yaml`` and ``.yml`` endings are now read in any case, as ``.xml`` already was.
 """
 
 from __future__ import annotations
@@ -257,3 +261,26 @@ def test_an_xml_pointer_no_parameter_can_be_is_said_in_the_xml_s_words(
         "t.xml:3:25: log: message: blackboard pointer '{café}': pirate_bt parameters are"
         " identifiers of ASCII letters, digits and '_'"
     ), err
+
+
+def test_a_yaml_ending_in_capitals_names_a_file_in_a_ref(tmp_path: Path, capsys: Any) -> None:
+    (tmp_path / "Grip.YAML").write_text("root: {type: log, name: grip, message: g}\n")
+    tree = tmp_path / "t.yaml"
+    tree.write_text("root: {type: subtree, ref: Grip.YAML}\n")
+    assert main(["validate", str(tree)]) == 0
+    out = tmp_path / "t.xml"
+    assert main(["export", "btcpp", str(tree), "-o", str(out)]) == 0
+    back = tmp_path / "back.yaml"
+    assert main(["import", "btcpp", str(out), "-o", str(back)]) == 0
+    assert main(["run", str(back), "--quiet"]) == 0
+    capsys.readouterr()
+    tree.write_text("root: {type: subtree, ref: x}\nsubtrees:\n  x.YML: {root: success}\n")
+    assert main(["validate", str(tree)]) == 2
+    assert "t.yaml:3:3: subtree name 'x.YML': no ref can name it" in capsys.readouterr().err
+    out.write_text(
+        _xml('<SubTree ID="x.Yaml"/>').replace(
+            "</root>", '<BehaviorTree ID="x.Yaml"><AlwaysSuccess/></BehaviorTree></root>'
+        )
+    )
+    assert main(["validate", str(out)]) == 2
+    assert "tree ID 'x.Yaml' would read as a file" in capsys.readouterr().err

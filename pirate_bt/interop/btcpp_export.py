@@ -147,7 +147,7 @@ class _Exporter:
         # an ID pirate_bt's import would read as a file reference (a '#', a .yaml
         # ending) could not come back: BT.CPP took the file, `import btcpp` refused it
         tree_id = tree_id.replace("#", "_")
-        if tree_id.endswith((".yaml", ".yml")):
+        if tree_id.lower().endswith((".yaml", ".yml")):
             tree_id += "_"
         base, n = tree_id, 1
         while tree_id in self.taken:
@@ -198,7 +198,7 @@ class _Exporter:
     def subtree(self, doc: YamlDocument, path: tuple[str | int, ...], raw: Any) -> ET.Element:
         ref: str = raw["ref"]
         file_part, hash_sign, tree_name = ref.partition("#")
-        if file_part.endswith((".yaml", ".yml")):
+        if file_part.lower().endswith((".yaml", ".yml")):
             target = self.document(Path(doc.file).parent / file_part)
             name = tree_name if hash_sign else ""
         else:

@@ -96,7 +96,7 @@ class _Importer:
                     )
                 if tree_id in self.models or tree_id in _BTCPP_BUILTINS:
                     raise child.error(f"tree ID {_shown(tree_id)} is the name of a node type")
-                if "#" in tree_id or tree_id.endswith((".yaml", ".yml")):
+                if "#" in tree_id or tree_id.lower().endswith((".yaml", ".yml")):
                     raise child.error(
                         f"tree ID {_shown(tree_id)} would read as a file in a pirate_bt subtree"
                         " reference: no '#', no .yaml or .yml ending"

@@ -267,7 +267,7 @@ class _FileReader:
             for key in subtrees:
                 if not isinstance(key, str):
                     self.error(doc, ("subtrees", str(key)), f"subtree name {key!r} must be text")
-                elif not key or "#" in key or key.endswith((".yaml", ".yml")):
+                elif not key or "#" in key or key.lower().endswith((".yaml", ".yml")):
                     # a ref of it would name a file (x.yaml, x.yaml#t) or nothing: never it
                     self.error(
                         doc,

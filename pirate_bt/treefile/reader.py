@@ -397,7 +397,7 @@ class _Reader(_FileReader):
                 " file: convert it with pirate-bt import btcpp, and give the .yaml",
             )
             return None
-        if file_part.endswith((".yaml", ".yml")):
+        if file_part.lower().endswith((".yaml", ".yml")):  # Grip.YAML too, as `run` reads it
             base = Path(doc.file).parent if doc.file not in ("<dict>",) else self.base_dir
             target_doc = self.read_file(base / file_part, doc, (*path, "ref"))
             if target_doc is None or not self.header(target_doc):
