@@ -13,7 +13,15 @@ from py_trees.common import Status
 
 from pirate_bt.errors import REASON_LIMIT, cut_reason
 
-__all__ = ["REASON_LIMIT", "Overrun", "RunResult", "StopReason", "TickInfo", "cut_reason"]
+__all__ = [
+    "REASON_LIMIT",
+    "Overrun",
+    "RunInterrupted",
+    "RunResult",
+    "StopReason",
+    "TickInfo",
+    "cut_reason",
+]
 
 
 class StopReason(enum.StrEnum):
@@ -104,3 +112,18 @@ class RunResult:
     @property
     def succeeded(self) -> bool:
         return self.outcome == "success"
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A Ctrl-C that came as the run ended (in a node's ``terminate()``, the tree's
+    ``shutdown()``), let out of :meth:`~pirate_bt.runner.Runner.run` only once the robot
+    was left in its safe state and the run's outputs were written: a
+    ``KeyboardInterrupt`` still (it stops the program), with how the run ended.
+
+    Attributes:
+        result: The run's :class:`RunResult`.
+    """
+
+    def __init__(self, result: RunResult) -> None:
+        super().__init__(result.message)
+        self.result = result

@@ -48,13 +48,21 @@ from py_trees.common import Status
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import said_of
-from pirate_bt.run_result import Overrun, RunResult, StopReason, TickInfo, cut_reason
+from pirate_bt.run_result import (
+    Overrun,
+    RunInterrupted,
+    RunResult,
+    StopReason,
+    TickInfo,
+    cut_reason,
+)
 from pirate_bt.tree_tick import culprit as _culprit
 from pirate_bt.tree_tick import halted_by, link_lost_note, node_path, tick_tree
 
 __all__ = [
     "SETTLE_LIMIT_S",
     "Overrun",
+    "RunInterrupted",
     "RunResult",
     "Runner",
     "StopReason",
@@ -375,7 +383,7 @@ class Runner:
         if pending is not None:
             # the robot is in its safe state and the outputs are written: the Ctrl-C goes
             # on, to stop the program (it went out past the safe stop, the robot driving)
-            raise pending
+            raise RunInterrupted(result) from pending
         return result
 
     def _wait_until(self, when_s: float) -> None:

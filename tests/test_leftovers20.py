@@ -6,12 +6,17 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+import py_trees
 import pytest
+from py_trees.common import Status
 
 import pirate_bt
+from pirate_bt import cli
 from pirate_bt.api import split_faults
 from pirate_bt.api.fault_text import MAX_FAULTS
+from pirate_bt.clock import SimClock
 from pirate_bt.errors import InputError
+from pirate_bt.runner import RunInterrupted, Runner
 
 
 def test_a_safe_state_reason_a_node_gives_itself_is_cut() -> None:
@@ -47,3 +52,52 @@ def test_split_faults_refuses_an_endless_iterator_without_reading_it_all() -> No
     with pytest.raises(InputError, match=f"at most {MAX_FAULTS} faults"):
         split_faults(faults())
     assert read <= MAX_FAULTS + 2
+
+
+class _CtrlCWhenStopped(py_trees.behaviour.Behaviour):
+    """Runs forever; Ctrl-C lands in its terminate() when the runner stops it."""
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            raise KeyboardInterrupt
+
+
+def _interrupted_run() -> RunInterrupted:
+    runner = Runner(_CtrlCWhenStopped("watch"), clock=SimClock(), period_s=0.05, max_time_s=0.2)
+    runner.safe_state = lambda: None
+    with pytest.raises(RunInterrupted) as caught:
+        runner.run()
+    return caught.value
+
+
+def test_a_ctrl_c_as_the_run_ends_goes_out_with_how_the_run_ended() -> None:
+    exc = _interrupted_run()
+    assert isinstance(exc, KeyboardInterrupt)  # it still stops the program
+    assert isinstance(exc.__cause__, KeyboardInterrupt)
+    assert exc.result.outcome == "failure" and exc.result.safe_state_called
+    assert exc.result.message.startswith("time limit of 0.2 s reached")
+
+
+def test_the_command_line_exits_1_on_a_ctrl_c_that_came_as_a_run_ended(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the robot moved and was left safe: 130 ('interrupted') says nothing moved
+    exc = _interrupted_run()
+
+    def _run(argv: object) -> int:
+        raise exc
+
+    monkeypatch.setattr(cli, "_main", _run)
+    assert cli.main(["run", "x.yaml"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("pirate-bt: FAILURE - time limit of 0.2 s reached")
+    assert err.rstrip().endswith("the robot was left in its safe state")
+
+    def _before(argv: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_main", _before)
+    assert cli.main(["run", "x.yaml"]) == 130

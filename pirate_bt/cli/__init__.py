@@ -400,12 +400,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         # load is one line and 130 or 143, as during the command, not a traceback
         with _sigterm_as_interrupt(), streams.watched():
             code = _main(argv)
-    except Terminated as exc:
-        print(f"pirate-bt: terminated ({exc.signal_name})", file=sys.stderr)
-        code = exc.exit_code
-    except KeyboardInterrupt:
-        print("pirate-bt: interrupted", file=sys.stderr)
-        code = EXIT_SIGINT
+    except KeyboardInterrupt as exc:
+        code = _interrupted(exc)
     except BrokenPipeError:  # --help or --version into a closed pipe (| head -1)
         code = EXIT_OK
     except OSError as exc:  # --help or --version onto a full device
@@ -416,6 +412,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     # now, not at the interpreter's exit: a reader that went away is no error, a full
     # device is one line and exit 2, not "Exception ignored" and exit 120
     return streams.finish(code)
+
+
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    """Say how a Ctrl-C (or a signal) ended the command; its exit code."""
+    ended = sys.modules.get("pirate_bt.run_result")  # loaded by any run
+    if ended is not None and isinstance(exc, ended.RunInterrupted):
+        # it came as a run ended (a node's terminate()), let out once the robot was
+        # safe and the outputs written: a failed run, exit 1, not "nothing has moved"
+        print(
+            f"pirate-bt: FAILURE - {exc.result.message}; the robot was left in its safe state",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    if isinstance(exc, Terminated):
+        print(f"pirate-bt: terminated ({exc.signal_name})", file=sys.stderr)
+        return exc.exit_code
+    print("pirate-bt: interrupted", file=sys.stderr)
+    return EXIT_SIGINT
 
 
 def _main(argv: Sequence[str] | None) -> int:
