@@ -30,7 +30,11 @@ Findings, each with its test below:
 - ``ref: Grip.YAML`` beside a file ``Grip.YAML`` (which ``pirate-bt run`` and
   ``validate`` read as a tree file) was *no subtree named 'Grip.YAML'*, and a subtree
   named ``Grip.YAML`` loaded, exported as a BT.CPP ID that ``import`` took for a name:
-  the ``.yaml`` and ``.yml`` endings are now read in any case, as ``.xml`` already was.
+  the ``.yaml`` and ``.yml`` endings are now read in any case, as ``.xml`` already was;
+- a bad value in ``params=`` given from Python to an XML tree
+  (``pirate_bt.load_tree("t.xml", params=...)``, ``simulate_tree``, ``load_xml_tree``,
+  ``export_xml``) was said at ``--param:1:1``, an option nobody gave, where a YAML
+  tree's is said at the planner's line, as docs/trees.md says.
 """
 
 from __future__ import annotations
@@ -284,3 +288,26 @@ def test_a_yaml_ending_in_capitals_names_a_file_in_a_ref(tmp_path: Path, capsys:
     )
     assert main(["validate", str(out)]) == 2
     assert "tree ID 'x.Yaml' would read as a file" in capsys.readouterr().err
+
+
+def test_a_bad_param_given_to_an_xml_tree_from_python_is_at_the_caller_s_line(
+    tmp_path: Path,
+) -> None:
+    import pirate_bt
+    from pirate_bt.errors import ValidationFailed
+    from pirate_bt.interop.btcpp import export_xml
+
+    tree = Path(__file__).resolve().parents[1] / "trees" / "straight.yaml"
+    xml = tmp_path / "t.xml"
+    assert main(["export", "btcpp", "straight", "-o", str(xml), "--param", "distance=1m"]) == 0
+    calls = [
+        lambda: pirate_bt.load_tree(xml, params={"distance": "9 deg"}),
+        lambda: pirate_bt.load_xml_tree(xml, params={"distance": "9 deg"}),
+        lambda: export_xml(tree, tmp_path / "o.xml", params={"distance": "9 deg"}),
+    ]
+    for call in calls:
+        with pytest.raises(ValidationFailed) as caught:
+            call()
+        where = caught.value.errors[0].location
+        assert Path(where.file).name == "test_probe20_trees.py", str(caught.value)
+        assert where.line > 1

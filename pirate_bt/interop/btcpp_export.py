@@ -32,7 +32,7 @@ from pirate_bt.interop.btcpp_models import (
     encode_value,
     node_models,
 )
-from pirate_bt.interop.btcpp_xml import output_file, write_atomic
+from pirate_bt.interop.btcpp_xml import caller_params_origin, output_file, write_atomic
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
@@ -399,7 +399,12 @@ def tree_to_xml(
     loaded = checked
     if loaded is None:
         loaded = load_tree(
-            source, params=given, params_from_text=True, use_examples=True, registry=reg
+            source,
+            params=given,
+            params_from_text=True,
+            use_examples=True,
+            registry=reg,
+            params_origin=caller_params_origin() if given else None,
         )
     exporter = _Exporter(reg, node_models(reg))
     if isinstance(source, Mapping):

@@ -28,7 +28,12 @@ from pirate_bt.errors import (
 )
 from pirate_bt.interop.btcpp_export import _params_mapping
 from pirate_bt.interop.btcpp_import import _read
-from pirate_bt.interop.btcpp_xml import cut_name, output_file, refuse_special
+from pirate_bt.interop.btcpp_xml import (
+    caller_params_origin,
+    cut_name,
+    output_file,
+    refuse_special,
+)
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.yamlfile import HIDDEN_BREAK, plain_reads_as_number
 
@@ -328,7 +333,7 @@ def load_xml_tree(
             robot=description,
             params=given,
             params_from_text=params_from_text,
-            params_origin=params_origin,
+            params_origin=params_origin or (caller_params_origin() if given else None),
             use_examples=use_examples,
             registry=reg,
             **options,

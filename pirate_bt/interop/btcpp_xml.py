@@ -32,6 +32,7 @@ from pirate_bt.errors import (
     InputError,
     LocatedError,
     SourceLocation,
+    caller_location,
     file_argument,
     output_argument,
     shown,
@@ -43,6 +44,7 @@ __all__ = [
     "MAX_ELEMENTS",
     "MAX_XML_BYTES",
     "XmlElement",
+    "caller_params_origin",
     "cut_name",
     "output_file",
     "parse_xml",
@@ -328,3 +330,13 @@ def write_atomic_bytes(path: Path, data: bytes) -> Path:
         return write_atomically(path, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+
+
+def caller_params_origin() -> SourceLocation | str:
+    """Where a caller's ``params`` were given, for their errors: the planner's file and
+    line past the XML conversion, the tree loader and the API (``planner.py:7:1``, as
+    :func:`pirate_bt.treefile.load_tree` says of a YAML tree's), or ``--param`` when
+    pirate_bt's own command called (the loader alone saw the conversion as the caller)."""
+    package = Path(__file__).resolve().parent.parent
+    skip = (package / "interop", package / "treefile", package / "api")
+    return caller_location(skip=skip) or "--param"
