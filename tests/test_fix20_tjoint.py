@@ -8,7 +8,7 @@ Before the fix the wheels spun in place for 14 s (a mission: 20 s), the odometry
 1.1 m (1.6 m) ahead of the robot, and the run failed only when the drive had counted
 its 3 m search out: ``no feature (blocked) within 3 m``, or in a mission the
 localiser's ``no turn was felt by 3.96 m``. The drive now fails on the slip half a
-second after no half holds, and says the branch may leave on the other side.
+second after no half holds, and says the branch may leave on another side than steered into.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def test_a_turn_into_a_branch_built_on_the_other_side_ends_on_the_slip(
     assert "\n" not in why
     assert why.startswith("no feature (blocked) before slipping: no half holds the robot after")
     assert "rear bend_3 off the wall" in why and "the wheels turn in place" in why
-    assert "the tee's branch may leave on the other side" in why
+    assert "the tee's branch may leave on another side than steered into" in why
     # the wheels stopped within a second of spinning in place, not after the whole search
     lead = _odometry_lead_m(trace, "front into turn")
     assert 0.0 <= lead < 0.1, lead  # before: 1.12 m ahead
@@ -78,8 +78,8 @@ def test_a_mission_whose_map_draws_the_branch_on_the_wrong_side_names_the_tee(
     assert mission.status == "failure"
     tee = next(p for p in mission.pabs if p.kind == "t-joint")
     assert tee.outcome == "failure"  # before: 'stopped' by the localiser 31 s in
-    assert "before slipping" in tee.why and "may leave on the other side" in tee.why
-    assert "T-joint 'tee' (left)" in mission.why and "other side" in mission.why
+    assert "before slipping" in tee.why and "may leave on another side" in tee.why
+    assert "T-joint 'tee' (left)" in mission.why and "another side" in mission.why
 
 
 def test_a_distance_drive_on_a_half_that_lets_go_over_an_opening_fails(tmp_path: Path) -> None:
@@ -101,4 +101,4 @@ def test_a_distance_drive_on_a_half_that_lets_go_over_an_opening_fails(tmp_path:
     assert result.status == "failure" and result.safe_state
     assert result.why.startswith("slipping: no half holds the robot after")
     assert "front released" in result.why and "over an opening" in result.why
-    assert "other side" not in result.why  # nothing here says a branch was turned into
+    assert "another side" not in result.why  # nothing here says a branch was turned into

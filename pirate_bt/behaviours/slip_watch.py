@@ -88,11 +88,12 @@ def no_turn_felt(
 ) -> str:
     """What a slip means in a drive into a tee's branch (``stop_when_turned``) that felt
     no turn: the front half, steered one way, slid on over the opening, and the rear
-    half reached it - the branch may leave on the other side. ``heading0`` and
-    ``heading`` are the IMU's unit vectors along the pipe at the start and now."""
+    half reached it - the branch may leave on another side (the other side, or up or
+    down). ``heading0`` and ``heading`` are the IMU's unit vectors along the pipe at the
+    start and now."""
     turned = ""
     if heading0 is not None and heading is not None:
         dot = sum(a * b for a, b in zip(heading0, heading, strict=True))
         angle = math.degrees(math.acos(max(-1.0, min(1.0, dot))))
         turned = f" (the IMU turned {angle:.1f}° of the {math.degrees(turn_angle_rad):g}°)"
-    return f"; no turn felt{turned}: the tee's branch may leave on the other side"
+    return f"; no turn felt{turned}: the tee's branch may leave on another side than steered into"
