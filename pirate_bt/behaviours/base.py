@@ -60,12 +60,22 @@ above the bend joints' limit 0.8 N*m``.
 from __future__ import annotations
 
 import functools
+import operator
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
 
 import py_trees
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import (
+    AllowInfNan,
+    BaseModel,
+    ConfigDict,
+    Strict,
+    StrictBool,
+    StrictInt,
+    StrictStr,
+    ValidationError,
+)
 
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import (
@@ -83,6 +93,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ALL_OUTCOMES",
+    "COMPARISONS",
     "BuildContext",
     "GuardDecorator",
     "Leaf",
@@ -91,10 +102,25 @@ __all__ = [
     "NodeMixin",
     "NodeParams",
     "Outcome",
+    "Scalar",
     "params_problems",
 ]
 
 NodeKind = Literal["leaf", "decorator"]
+
+# A float is finite: every comparison with NaN is false ('!=' would always hold)
+Scalar = StrictBool | StrictInt | Annotated[float, Strict(), AllowInfNan(False)] | StrictStr
+"""A constant a node compares with or writes (check_blackboard, set_blackboard, guards)."""
+
+COMPARISONS: dict[str, Callable[[Any, Any], bool]] = {
+    "==": operator.eq,
+    "!=": operator.ne,
+    "<": operator.lt,
+    "<=": operator.le,
+    ">": operator.gt,
+    ">=": operator.ge,
+}
+"""The comparisons a node's ``op`` names."""
 Outcome = Literal["success", "failure", "running"]
 ALL_OUTCOMES: frozenset[Outcome] = frozenset({"success", "failure", "running"})
 

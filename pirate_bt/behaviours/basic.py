@@ -14,17 +14,17 @@ from __future__ import annotations
 
 import logging
 import math
-import operator
 import re
 from collections.abc import Callable
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import AllowInfNan, Field, Strict, StrictBool, StrictInt, StrictStr, model_validator
+from pydantic import Field, StrictInt, model_validator
 
 from pirate_bt.behaviours.base import (
     ALL_OUTCOMES,
+    COMPARISONS,
     BuildContext,
     GuardDecorator,
     Leaf,
@@ -33,6 +33,7 @@ from pirate_bt.behaviours.base import (
     NodeParams,
     NoParams,
     Outcome,
+    Scalar,
 )
 from pirate_bt.errors import UnitError, shown
 from pirate_bt.units import Duration, parse_quantity
@@ -61,8 +62,6 @@ __all__ = [
 
 _log = logging.getLogger("pirate_bt.trees")
 
-# A float is finite: every comparison with NaN is false ('!=' would always hold)
-Scalar = StrictBool | StrictInt | Annotated[float, Strict(), AllowInfNan(False)] | StrictStr
 _STATUS: dict[str, Status] = {
     "success": Status.SUCCESS,
     "failure": Status.FAILURE,
@@ -250,16 +249,6 @@ class SetBlackboard(Leaf):
         return Status.SUCCESS
 
 
-_OPS: dict[str, Callable[[Any, Any], bool]] = {
-    "==": operator.eq,
-    "!=": operator.ne,
-    "<": operator.lt,
-    "<=": operator.le,
-    ">": operator.gt,
-    ">=": operator.ge,
-}
-
-
 class CheckBlackboardParams(NodeParams):
     key: str = Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", description="key")
     op: Literal["==", "!=", "<", "<=", ">", ">=", "is_set"] = Field(
@@ -306,7 +295,7 @@ class CheckBlackboard(Leaf):
             return Status.SUCCESS
         current = self.blackboard.get(self.key)
         try:
-            ok = _OPS[self.op](current, self.value)
+            ok = COMPARISONS[self.op](current, self.value)
         except TypeError:
             # 5 < '9': a number compared with text (an XML value without json:) is
             # never true; the failure says why rather than only "False"

@@ -44,20 +44,21 @@ expression language and nothing is evaluated. A state value's unit is known, so
 from __future__ import annotations
 
 import logging
-import operator
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Annotated, Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import AllowInfNan, Field, Strict, StrictBool, StrictInt, StrictStr, model_validator
+from pydantic import Field, model_validator
 
 from pirate_bt.behaviours.base import (
+    COMPARISONS,
     BuildContext,
     GuardDecorator,
     Leaf,
     NodeParams,
     Outcome,
+    Scalar,
 )
 from pirate_bt.behaviours.guard_names import channel_problems, state_problems
 from pirate_bt.errors import UnitError, shown
@@ -82,17 +83,6 @@ __all__ = [
 
 _log = logging.getLogger("pirate_bt.behaviours")
 
-# A float is finite: every comparison with NaN is false ('!=' would always hold)
-Scalar = StrictBool | StrictInt | Annotated[float, Strict(), AllowInfNan(False)] | StrictStr
-
-_OPS: dict[str, Callable[[Any, Any], bool]] = {
-    "==": operator.eq,
-    "!=": operator.ne,
-    "<": operator.lt,
-    "<=": operator.le,
-    ">": operator.gt,
-    ">=": operator.ge,
-}
 
 STATE_VALUES: dict[str, str | None] = {
     "imu.roll": "angle",
@@ -332,7 +322,7 @@ class _Evaluator:
                 if stale is not None:
                     return None, f"{comparison.state} cannot be read: {stale}"
             try:
-                ok = _OPS[comparison.op](current, constant)
+                ok = COMPARISONS[comparison.op](current, constant)
             except TypeError:
                 return None, f"cannot compare {shown(current)} {comparison.op} {shown(constant)}"
             if not ok:
