@@ -177,10 +177,6 @@ class VerdictTally:
                 reason = self.supervisor.safe_state_reason or verdict.detail
                 self.first_safe_state = SafeStateEntry(verdict.stamp_s, reason, verdict.node_name)
 
-    def reset_safe_state(self) -> None:
-        """Forget the first safe-state entry (after the operator resumed)."""
-        self.first_safe_state = None
-
     def detach(self) -> None:
         """Stop listening."""
         self.supervisor.verdicts.remove_listener(self._on_verdict)
