@@ -12,17 +12,9 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
+from pirate_bt.behaviours.cause import path_of as node_path
+
 __all__ = ["culprit", "exhaust", "halted_by", "link_lost_note", "node_path", "tick_tree"]
-
-
-def node_path(node: py_trees.behaviour.Behaviour) -> str:
-    """The node's path from the root, names joined by ``/``."""
-    names: list[str] = []
-    current: py_trees.behaviour.Behaviour | None = node
-    while current is not None:
-        names.append(current.name)
-        current = current.parent
-    return "/".join(reversed(names))
 
 
 def link_lost_note(supervisor: Any) -> str | None:
