@@ -80,6 +80,9 @@ def test_a_mission_whose_map_draws_the_branch_on_the_wrong_side_names_the_tee(
     assert tee.outcome == "failure"  # before: 'stopped' by the localiser 31 s in
     assert "before slipping" in tee.why and "may leave on another side" in tee.why
     assert "T-joint 'tee' (left)" in mission.why and "another side" in mission.why
+    # the mission's own words: it met an opening, not nothing (as a search that met no
+    # turn or opening said before)
+    assert "the PAB's search met no turn: the robot slipped over an opening" in mission.why
 
 
 def test_a_distance_drive_on_a_half_that_lets_go_over_an_opening_fails(tmp_path: Path) -> None:

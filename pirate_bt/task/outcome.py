@@ -289,10 +289,15 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
         if not isinstance(way, str) and isinstance(params.get("roll"), int | float):
             way = roll_name(float(params["roll"]))
         toward = f" ({way})" if isinstance(way, str) else ""
+        met = (  # it slipped over an opening it met, no half holding (SlipWatch)
+            "met no turn: the robot slipped over an opening (a branch on another side"
+            " than drawn?)"
+            if "before slipping" in pab.why
+            else "met no turn or opening there"
+        )
         return (
             f"map disagreement at {belief_m:.2f} m (believed): the pipe is not as drawn at"
-            f" {drawn} {feature!r}{toward}: the PAB's search met no turn or opening there"
-            f" ({pab.label}: {pab.why})"
+            f" {drawn} {feature!r}{toward}: the PAB's search {met} ({pab.label}: {pab.why})"
         )
     if pab.why.startswith("no wall:") and feature and pab.kind == "t-joint":
         way = (getattr(planned, "params", None) or {}).get("direction")
