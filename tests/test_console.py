@@ -129,7 +129,6 @@ def _line(snapshot: Snapshot, label: str) -> str:
     return next(line.text for line in snapshot.status if line.label == label)
 
 
-@pytest.mark.slow
 def test_full_screen_console_drives_and_e_stops_the_simulator() -> None:
     from pirate_bt.cli.console import OperatorConsole
 
