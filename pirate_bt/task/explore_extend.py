@@ -16,6 +16,7 @@ first one. The driving is the navigator's.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -23,7 +24,8 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import InputError, shown
-from pirate_bt.task.explore_frame import imu_side
+from pirate_bt.task.explore_frame import SIDE_TOLERANCE_DEG, imu_side
+from pirate_bt.units import parse_quantity
 
 __all__ = ["NOT_SURVEYED", "Extension", "earlier", "earlier_ends", "load_extension"]
 
@@ -74,9 +76,11 @@ def _stubs(
     sides: list[str],
     root: list[dict[str, Any]] | None = None,
     diameter_m: float | None = None,
+    tees: tuple[dict[str, Any], ...] = (),
 ) -> list[Any]:
-    """Every stub, depth-first: ``(way, sides, segment)``; each side as the IMU reads it
-    (a branch written with its ``roll`` in a twisted frame: explore_frame)."""
+    """Every stub, depth-first: ``(way, sides, segment, tees)``; each side as the IMU
+    reads it (a branch written with its ``roll`` in a twisted frame: explore_frame),
+    ``tees`` the tee segments turned into on the way, the stub's last."""
     out: list[Any] = []
     ordinal = 0
     root = segments if root is None else root
@@ -87,11 +91,29 @@ def _stubs(
         here = [*way, ordinal]
         side = [*sides, imu_side(root, diameter_m, seg)]
         if not branch.get("segments"):
-            out.append((here, side, seg))
+            out.append((here, side, seg, (*tees, seg)))
         else:
-            out.extend(_stubs(branch["segments"], here, side, root, diameter_m))
+            out.extend(_stubs(branch["segments"], here, side, root, diameter_m, (*tees, seg)))
         ordinal += 1
     return out
+
+
+def _no_side(source: Any, spec: Any, sides: list[str], tees: tuple[dict[str, Any], ...]) -> None:
+    """Refuse a way to the stub through a tee whose branch leaves on none of the four
+    sides the survey takes (a hand-edited ``roll: -45 deg`` was read as ``up``)."""
+    for side, tee in zip(sides, tees, strict=True):
+        if side == "None":
+            roll = str((tee.get("branch") or {}).get("roll"))
+            try:
+                roll = f"{math.degrees(parse_quantity(roll, 'angle')):.1f} deg"
+            except (ValueError, InputError):
+                roll = shown(roll)
+            raise InputError(
+                f"extend: {_named(source, spec)}: {tee.get('id') or 'a tee'}'s branch"
+                f" leaves at roll {roll}, none of up, down, left or right (within"
+                f" {SIDE_TOLERANCE_DEG:g} deg as the robot's IMU reads it there): a survey"
+                f" turns only into a branch on one of those sides"[:400]
+            )
 
 
 NOT_SURVEYED = "Not surveyed: "
@@ -169,14 +191,15 @@ def load_extension(source: Any) -> Extension:
         )
     data = yaml.safe_load(network_yaml(spec))
     stubs = _stubs(data["segments"], [], [], diameter_m=float(spec.diameter))
-    notes, stopped = earlier(spec.description, [str(seg.get("id")) for _, _, seg in stubs])
+    notes, stopped = earlier(spec.description, [str(seg.get("id")) for _, _, seg, _ in stubs])
     if not stubs:
         cut = f" (a line not surveyed to its end is not extended: {notes[0]})" if notes else ""
         raise InputError(
             f"extend: {_named(source, spec)} has no tee branch left as a"
             f" stub: there is nothing to extend{cut}"[:400]
         )
-    way, sides, stub = stubs[0]
+    way, sides, stub, tees = stubs[0]
+    _no_side(source, spec, sides, tees)
     counts: dict[str, int] = {}
     _counts(data["segments"], counts)
     return Extension(
@@ -184,7 +207,7 @@ def load_extension(source: Any) -> Extension:
         way=list(way),
         sides=list(sides),
         stub=stub,
-        others=[f"{seg.get('id') or 'a tee'}'s branch" for _, _, seg in stubs[1:]],
+        others=[f"{seg.get('id') or 'a tee'}'s branch" for _, _, seg, _ in stubs[1:]],
         counts=counts,
         diameter_m=float(spec.diameter),
         notes=notes,

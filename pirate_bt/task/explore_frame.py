@@ -21,7 +21,13 @@ from typing import Any
 from pirate_bt.errors import InputError
 from pirate_bt.pipes import DIRECTION_ROLL_RAD, Direction
 
-__all__ = ["TWIST_WRITTEN_DEG", "frame_twist_rad", "imu_side", "write_in_frame"]
+__all__ = [
+    "SIDE_TOLERANCE_DEG",
+    "TWIST_WRITTEN_DEG",
+    "frame_twist_rad",
+    "imu_side",
+    "write_in_frame",
+]
 
 TWIST_WRITTEN_DEG = 5.0
 """A turn found where the surveyed frame is twisted more than this off gravity's up is
@@ -29,6 +35,12 @@ written with its ``roll`` in the frame; within it, with the IMU's direction word
 probes find a turn within ``motion.alignment_tolerance`` (8 deg) of the roll they try,
 so a turn written either way is within 8 deg of the pipe's (a pipe drawn ``up`` in a
 frame twisted 3 deg, as an as-built variant's slopes twist it, keeps ``up``)."""
+
+SIDE_TOLERANCE_DEG = 8.0
+"""A tee's branch written as a ``roll`` leaves on one of the four sides the survey
+takes when the IMU reads that roll within this of the side (the 2018 robot's
+``motion.alignment_tolerance``; a survey writes the roll it found within 0.05 deg).
+Further off (a hand-edited ``roll: -45 deg``) it leaves on none of them."""
 
 
 def frame_twist_rad(
@@ -72,8 +84,9 @@ def write_in_frame(
 
 def imu_side(segments: list[dict[str, Any]], diameter_m: float | None, tee: dict[str, Any]) -> str:
     """The side a tee's branch leaves on as the IMU reads it: its ``direction``, or, for
-    one written with its ``roll`` in a twisted frame, the nearest of the four to that
-    roll as the IMU reads it (``"None"`` when it cannot be told)."""
+    one written with its ``roll`` in a twisted frame, the one of the four within
+    :data:`SIDE_TOLERANCE_DEG` of that roll as the IMU reads it (``"None"`` when it
+    cannot be told, or is none of the four: it read a roll of -45 deg as ``up``)."""
     branch = tee.get("branch") or {}
     if branch.get("direction") is not None or "roll" not in branch:
         return str(branch.get("direction"))
@@ -88,6 +101,6 @@ def imu_side(segments: list[dict[str, Any]], diameter_m: float | None, tee: dict
         return "None"
     imu = roll + twist
     for direction, cardinal in DIRECTION_ROLL_RAD.items():
-        if abs(math.remainder(imu - cardinal, 2 * math.pi)) <= math.radians(45.0):
+        if abs(math.remainder(imu - cardinal, 2 * math.pi)) <= math.radians(SIDE_TOLERANCE_DEG):
             return str(direction.value)
     return "None"
