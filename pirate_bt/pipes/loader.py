@@ -9,6 +9,7 @@ from typing import Any
 from pirate_bt.errors import (
     ConfigurationError,
     LocatedError,
+    PirateError,
     SourceLocation,
     ValidationFailed,
     file_argument,
@@ -19,7 +20,13 @@ from pirate_bt.resources import bundled, bundled_names, missing
 from pirate_bt.yamlfile import YamlDocument, data_document, load_yaml
 from pirate_bt.yamlvalidate import validate_document
 
-__all__ = ["load_network", "network_from_data", "network_from_document", "network_schema"]
+__all__ = [
+    "load_network",
+    "network_from_data",
+    "network_from_document",
+    "network_place",
+    "network_schema",
+]
 
 _FILE_CONTEXT = {"units_required": True}
 
@@ -68,6 +75,18 @@ def load_network(path: str | Path) -> Network:
             raise ValidationFailed([LocatedError(message, SourceLocation(str(p)))])
         p = candidate
     return network_from_document(load_yaml(p))
+
+
+def network_place(network: Network, path: tuple[str | int, ...]) -> str | None:
+    """``file:line:column`` of ``path`` (keys from the file's top) in the file ``network``
+    was loaded from; ``None`` when it was not loaded from a file that still reads."""
+    try:
+        if not Path(network.source).is_file():
+            return None
+        document = load_yaml(network.source)
+    except (OSError, PirateError):
+        return None
+    return str(document.locator.locate(path))
 
 
 def network_schema() -> dict[str, Any]:

@@ -54,6 +54,7 @@ from types import MappingProxyType
 
 from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.pipes import Network, Path, Piece, TeeChoice
+from pirate_bt.pipes.loader import network_place
 from pirate_bt.pipes.model import SegmentSpec, TeeSpec
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
@@ -85,7 +86,9 @@ def _check_diameters(robot: RobotDescription, network: Network) -> None:
     """Refuse a pipe narrower than the robot's wall-contact table: it does not fit.
 
     A pipe wider than the table is simulated: the wheels never reach its wall
-    (:meth:`PipeRobotModel._wall_angle`), so the robot cannot clamp there.
+    (:meth:`PipeRobotModel._wall_angle`), so the robot cannot clamp there. The refusal
+    is said at the diameter's ``file:line:column`` in the network's file (before
+    2026-11-30 it named the segment alone, no file).
 
     Raises:
         ConfigurationError: the network, a straight or a reducer is narrower than the
@@ -93,24 +96,26 @@ def _check_diameters(robot: RobotDescription, network: Network) -> None:
     """
     low = min(p.diameter for p in robot.clamp.contact_angles)
 
-    def check(d: float, where: str) -> None:
+    def check(d: float, where: str, key: tuple[str | int, ...]) -> None:
         if d < low - 1e-9:
+            place = network_place(network, key)
             raise ConfigurationError(
-                f"pipe network {network.name!r}: {where} is {d * 1000:g} mm wide, but the"
+                ("" if place is None else f"{place}: ")
+                + f"pipe network {network.name!r}: {where} is {d * 1000:g} mm wide, but the"
                 f" robot fits only in pipes of {low * 1000:g} mm and more (its"
                 " clamp.contact_angles)"
             )
 
-    def walk(segments: Sequence[SegmentSpec], prefix: str) -> None:
+    def walk(segments: Sequence[SegmentSpec], prefix: str, key: tuple[str | int, ...]) -> None:
         for i, seg in enumerate(segments):
             name = seg.id or f"{prefix}-{i + 1}"
             if isinstance(seg, TeeSpec):
-                walk(seg.branch.segments, f"{name}-b")
+                walk(seg.branch.segments, f"{name}-b", (*key, i, "branch", "segments"))
             elif seg.type != "bend" and seg.diameter is not None:
-                check(seg.diameter, f"segment {name!r}")
+                check(seg.diameter, f"segment {name!r}", (*key, i, "diameter"))
 
-    check(network.spec.diameter, "the start of its main line")
-    walk(network.spec.segments, "main")
+    check(network.spec.diameter, "the start of its main line", ("diameter",))
+    walk(network.spec.segments, "main", ("segments",))
 
 
 class PipeRobotModel(JointsMixin, MotionMixin, ReadingsMixin, EventsMixin):

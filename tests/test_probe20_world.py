@@ -1,0 +1,65 @@
+"""The twentieth probe of the world the simulator runs (docs/simulator.md,
+docs/networks.md): vertical pipes, falls, and a world that differs from the map, each
+test written from what a user saw.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.errors import ConfigurationError
+from pirate_bt.sim import Simulator
+
+NARROW = """name: narrow
+diameter: 63 mm
+segments:
+  - {id: a, type: straight, length: 2 m}
+  - {id: b, type: bend, direction: up}
+  - {id: c, type: straight, length: 1 m}
+  - {id: r, type: reducer, diameter: 45 mm}
+  - {id: e, type: straight, length: 1.5 m}
+"""
+
+NARROW_BRANCH = """name: narrow-branch
+diameter: 63 mm
+segments:
+  - {id: a, type: straight, length: 2 m}
+  - type: tee
+    branch:
+      direction: left
+      segments:
+        - {type: straight, length: 1 m}
+        - {type: reducer, diameter: 50 mm}
+  - {id: e, type: straight, length: 1.5 m}
+"""
+
+
+def test_a_pipe_too_narrow_for_the_robot_is_refused_at_its_diameter_in_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was: "pipe network 'narrow': segment 'r' is 45 mm wide, ..." with no file, line
+    # or column, from the simulator, `pirate-bt sim` and `pirate-bt mission --sim`
+    narrow = tmp_path / "narrow.yaml"
+    narrow.write_text(NARROW, encoding="utf-8")
+    with pytest.raises(ConfigurationError) as refused:
+        Simulator(narrow)
+    assert str(refused.value) == (
+        f"{narrow}:7:28: pipe network 'narrow': segment 'r' is 45 mm wide, but the robot"
+        " fits only in pipes of 51 mm and more (its clamp.contact_angles)"
+    )
+    branch = tmp_path / "branch.yaml"
+    branch.write_text(NARROW_BRANCH, encoding="utf-8")
+    assert main(["sim", str(branch), "--duration", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        f"{branch}:10:27: pipe network 'narrow-branch': segment 'main-2-b-2' is 50 mm wide,"
+        " but the robot fits only in pipes of 51 mm and more (its clamp.contact_angles)"
+    ), err
+    assert len(err.splitlines()) == 1
+    start = tmp_path / "start.yaml"
+    start.write_text(NARROW.replace("63 mm", "45 mm"), encoding="utf-8")
+    with pytest.raises(ConfigurationError, match=rf"^{start}:2:1: pipe network 'narrow': the"):
+        Simulator(start)
