@@ -49,7 +49,7 @@ from pirate_bt.interop.foxglove_topics import (
     schema_of,
 )
 from pirate_bt.interop.mcap_chunks import ChunkedCopy
-from pirate_bt.trace.sink_formats import TraceFormatWriter
+from pirate_bt.trace.sink_formats import TraceFormatWriter, _to_null
 
 __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap"]
 
@@ -331,6 +331,17 @@ class McapTraceWriter(TraceFormatWriter):
     def cut_off(self) -> None:
         """The run was cut off: :meth:`close` leaves the file unchunked, with no footer."""
         self._cut = True
+
+    def _forked(self) -> None:
+        # In a forked copy: the chunked twin is the run's, not to be renamed over the
+        # trace nor removed by this copy's close (which writes nothing then).
+        file = getattr(self, "_twin_file", None)
+        if self._twin_path is not None and file is not None and not file.closed:
+            _to_null(file.fileno())  # its buffer is flushed into nothing
+            file.close()
+        self._twin = self._twin_path = None
+        self._cut = True
+        super()._forked()
 
     def close(self) -> None:
         """Finish the file: the chunked twin renamed over it, or its footer (idempotent)."""

@@ -127,7 +127,9 @@ from pirate_bt.trace.sink_formats import (
     GzipJsonLinesWriter,
     JsonLinesWriter,
     TraceFormatWriter,
+    _to_null,
     claim,
+    let_go_in_forks,
     load_writer,
     register_process_writer,
     writer_spec,
@@ -271,6 +273,19 @@ class SinkProcess:
         self._bell_s = self._put_s = -math.inf
         self._capacity = self._ring.capacity if self._ring is not None else 0
         self._largest = self._capacity // 8
+        let_go_in_forks(self)
+
+    def _forked(self) -> None:
+        """In a process forked from the run's: let go of the writer process (see
+        :func:`~pirate_bt.trace.sink_formats.let_go_in_forks`). Its pipe kept the writer
+        process waiting, and with it the trace's lock, for as long as this copy lived;
+        what this copy sends goes nowhere, the ring is left to the run, and ``close``
+        neither waits for the writer process nor stops it."""
+        stderr = self._proc.stderr
+        _to_null(self._fd, *([stderr.fileno()] if stderr is not None and not stderr.closed else []))
+        self._ring = None
+        self._largest = 0
+        self._closed = True
 
     @property
     def pid(self) -> int:

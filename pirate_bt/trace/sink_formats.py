@@ -15,11 +15,13 @@ from ``pirate_bt`` it imports only :mod:`pirate_bt.trace.sink_encode`.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import gzip
 import os
 import stat
 import sys
+import weakref
 import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -35,6 +37,7 @@ __all__ = [
     "TraceFormatWriter",
     "claim",
     "held",
+    "let_go_in_forks",
     "load_writer",
     "register_process_writer",
     "writer_spec",
@@ -122,6 +125,52 @@ def held(path: str | os.PathLike[str]) -> bool:
     return False
 
 
+_OURS: weakref.WeakSet[Any] = weakref.WeakSet()
+"""What holds a trace open in this process (writers, writer processes' pipes)."""
+
+
+def let_go_in_forks(holder: Any) -> None:
+    """Have a process forked from this one let go of ``holder``'s trace (its ``_forked``).
+
+    A process forked without ``exec`` (``multiprocessing``'s ``fork`` start method, a
+    planner's ``os.fork``) got a copy of every descriptor, and with the copy of a
+    claimed one a share in its ``flock``: once the run had ended, another run was
+    refused the trace (*another run is writing it*) for as long as the child lived,
+    and a run killed meanwhile left its writer process waiting for the end of a pipe
+    the child still held. In the child, ``holder._forked()`` points its descriptors at
+    ``/dev/null`` (the numbers stay taken, so nothing else is written through them)
+    and makes its ``close`` leave the trace alone: the trace is its run's, in the
+    process that made the writer.
+    """
+    _OURS.add(holder)
+
+
+def _let_go() -> None:
+    """In a forked child: let go of every trace this process's parent holds."""
+    for holder in list(_OURS):
+        with contextlib.suppress(OSError, ValueError):  # ValueError: a file with no descriptor
+            holder._forked()
+    _OURS.clear()
+
+
+def _to_null(*fds: int) -> None:
+    """Point the descriptors ``fds`` (those still open) at ``/dev/null``."""
+    null = os.open(os.devnull, os.O_RDWR)
+    try:
+        for fd in fds:
+            try:
+                os.fstat(fd)
+            except OSError:
+                continue  # closed already
+            os.dup2(null, fd, inheritable=False)
+    finally:
+        os.close(null)
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_let_go)
+
+
 class TraceFormatWriter:
     """Writes trace records to a file in one format; subclasses implement ``_open``.
 
@@ -150,6 +199,17 @@ class TraceFormatWriter:
         except BaseException:
             self._release()
             raise
+        let_go_in_forks(self)
+
+    def _forked(self) -> None:
+        """In a process forked from this writer's: let go of the file (see
+        :func:`let_go_in_forks`); what this copy writes goes nowhere."""
+        held = getattr(self, "_claim", None)
+        fds = [] if held is None or held.closed else [held.fileno()]
+        file = getattr(self, "_file", None)
+        if file is not None and not file.closed:
+            fds.append(file.fileno())
+        _to_null(*fds)
 
     def _release(self) -> None:
         held = getattr(self, "_claim", None)  # (a subclass may not call __init__)
