@@ -6,7 +6,8 @@ Findings, each with its test below:
 - two sibling names that are the same text in two Unicode forms (``café`` with U+00E9,
   and ``cafe`` + U+0301) loaded as two siblings, shown alike in every node path (the
   trace summary showed two rows ``café``), where docs/trees.md refuses names that would
-  make two names look alike;
+  make two names look alike; and so did two names that differ only by a zero-width
+  joiner (``grip`` and ``grip`` + U+200D), which a name may hold for emoji and scripts;
 - an XML integer port of 5000 digits (``num_attempts``, ``num_cycles``) was said to be
   *expected an integer*, and a ``json:`` one was said in Python's words (*Exceeds the
   limit (4300 digits) for integer string conversion*); the YAML loader says *a number
@@ -311,3 +312,21 @@ def test_a_bad_param_given_to_an_xml_tree_from_python_is_at_the_caller_s_line(
         where = caught.value.errors[0].location
         assert Path(where.file).name == "test_probe20_trees.py", str(caught.value)
         assert where.line > 1
+
+
+def test_two_sibling_names_that_differ_only_by_a_joiner_are_a_duplicate(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "root:\n  type: sequence\n  children:\n"
+        "    - {type: success, name: grip}\n"
+        '    - {type: success, name: "grip\\u200d"}\n'
+        '    - {type: success, name: "\U0001f468\\u200d\U0001f469"}\n',
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "t.yaml:5:7: duplicate node name 'grip\\u200d' among siblings" in err
+    assert err.endswith(":4:7) (the same text but for a zero-width joiner, U+200C or U+200D)")
+    assert len(err.splitlines()) == 1

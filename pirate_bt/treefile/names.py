@@ -118,21 +118,17 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
     explicit: dict[str, NodeSpec] = {}
     for child in children:
         if child.explicit_name:
-            # 'café' composed (U+00E9) and decomposed (e + U+0301) are shown alike
-            first = explicit.get(unicodedata.normalize("NFC", child.name))
+            first = explicit.get(_alike(child.name))
             if first is not None:  # a subtree's root: the mistake is the call's
-                other = (
-                    "" if first.name == child.name else " (the same text, in another Unicode form)"
-                )
                 errors.append(
                     LocatedError(
                         f"duplicate node name {shown_name(child.name)} among siblings"
-                        f" (first at {first.called_at or first.location}){other}",
+                        f" (first at {first.called_at or first.location})"
+                        f"{_how_alike(first.name, child.name)}",
                         child.called_at or child.location,
                     )
                 )
-            # "first at" is the first, not the last
-            explicit.setdefault(unicodedata.normalize("NFC", child.name), child)
+            explicit.setdefault(_alike(child.name), child)  # "first at": the first
     used = {child.name for child in explicit.values()}
     counts: dict[str, int] = {}
     for child in children:
@@ -147,3 +143,22 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
         counts[base] = n
         child.name = name
         used.add(name)
+
+
+_JOINERS = str.maketrans("", "", "\u200c\u200d")
+
+
+def _alike(name: str) -> str:
+    """``name`` as it is shown: 'café' composed (U+00E9) and decomposed (e + U+0301)
+    alike, and without the zero-width joiners a name may hold (``grip`` + U+200D is
+    shown as ``grip``)."""
+    return unicodedata.normalize("NFC", name).translate(_JOINERS)
+
+
+def _how_alike(first: str, second: str) -> str:
+    """Why two names that are not the same text are a duplicate, if they are not."""
+    if first == second:
+        return ""
+    if unicodedata.normalize("NFC", first) == unicodedata.normalize("NFC", second):
+        return " (the same text, in another Unicode form)"
+    return " (the same text but for a zero-width joiner, U+200C or U+200D)"
