@@ -67,3 +67,46 @@ def test_a_stub_at_a_roll_near_one_of_the_four_names_that_side(
     surveyed = tmp_path / "surveyed.yaml"
     surveyed.write_text(STUB_AT_A_ROLL.format(roll=roll))
     assert load_extension(surveyed).sides == [side]
+
+
+S_BEND = """\
+schema_version: 1
+name: s-bend
+diameter: 63 mm
+segments:
+- {id: before, type: straight, length: 1.5 m}
+- {id: b1, type: bend, direction: left}
+- {id: mid, type: straight, length: 0.5 m}
+- {id: b2, type: bend, direction: right}
+- {id: after, type: straight, length: 1.5 m}
+"""
+
+
+def test_a_second_bend_too_close_after_a_bend_is_named_where_the_robot_met_it(
+    tmp_path: Path,
+) -> None:
+    """An S-bend 0.5 m apart stopped the survey with the bend PAB's own words, 'blocked:
+    every drive draws stall current after 0.346 m (a turn the robot may not take, or the
+    end of the pipe?)', which said neither where nor why the survey stopped."""
+    network = tmp_path / "s-bend.yaml"
+    network.write_text(S_BEND)
+    out = tmp_path / "surveyed.yaml"
+    result = pirate_bt.survey(sim=str(network), output=out)
+    assert not result.succeeded and result.exit_code == 1 and result.navigation.safe_state
+    assert result.why.startswith("the robot stopped in bend-1: its front half was blocked 0."), (
+        result.why
+    )
+    where = float(result.why.split("blocked ")[1].split(" m after")[0])
+    assert abs(where - 0.5) < 0.05  # the second bend, built 0.5 m after the first
+    assert "(a second bend, or the pipe's end)" in result.why
+    assert "the survey cannot pass a bend this close after a bend" in result.why
+    assert result.unexplored == [
+        f"the main line after bend-1: not surveyed past {where:.2f} m after bend-1, where the"
+        " front half was blocked as the rear half turned through bend-1: left to a survey by hand"
+    ]
+    written = pirate_bt.load_network(out)
+    assert [(s.id, s.type) for s in written.spec.segments] == [
+        ("run-1", "straight"),
+        ("bend-1", "bend"),
+    ]
+    assert "the robot stopped in bend-1" in written.spec.description

@@ -308,6 +308,10 @@ def survey(
     if not navigation.succeeded and explore.network is None:
         # blocked going straight on through a tee just found: the line ends there
         ended = explore.ended_at_tee(navigation.failing_node, navigation.why)
+        # blocked passing a bend just found: a second one (or the end) too close after it
+        ended = ended or explore.ended_in_bend(
+            navigation.failing_node, navigation.why, navigation.belief_m
+        )
         navigation.why = ended or navigation.why
         last = navigation.decisions[-1] if navigation.decisions else None
         explore.save(f"stopped: {navigation.why}", last)  # a failed step: keep what was surveyed

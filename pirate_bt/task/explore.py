@@ -389,6 +389,28 @@ class ExploreNavigator(SurveyRecord):
             f" is not entered, {_EXTEND}"
         )
 
+    def ended_in_bend(self, failing_node: str | None, why: str, front_m: float) -> str | None:
+        """Stopped passing a bend just found: its front half through, the front tip (at
+        ``front_m``) was blocked before the rear half was through, by a second bend (or the
+        pipe's end) closer after it than the bend PAB passes. The why, or ``None``."""
+        rear = f"{failing_node}".endswith("/rear through turn")
+        if self._bend is None or self._from_m is None or not rear or not why.startswith("blocked"):
+            return None
+        bend = str(self._bend[0]["id"])
+        write_in_frame(self.segments, self._diameter_m, bend, self._bend[0])
+        self._bend, self._in_line = None, False  # surveyed to the bend, not beyond
+        where = f"{max(front_m - self._from_m, 0.0):.2f} m after {bend}"
+        self.unexplored.append(
+            f"{self._line_name} after {bend}: not surveyed past {where}, where the front"
+            f" half was blocked as the rear half turned through {bend}: left to a survey by hand"
+        )
+        return (
+            f"the robot stopped in {bend}: its front half was blocked {where} (a second bend,"
+            f" or the pipe's end) before the rear half was through (rear through turn:"
+            f" {why.split(' (')[0]}); the survey cannot pass a bend this close after a bend,"
+            f" so the line after {bend} is left to a survey by hand"
+        )
+
     def _on_the_way(self, obs: Observation, side: str, start: float, d: float) -> Step | None:
         """A second insertion met a tee: straight on, or into the branch on the way."""
         assert self._way is not None and self._extension is not None
