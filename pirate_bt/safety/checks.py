@@ -54,6 +54,7 @@ __all__ = [
     "is_steep",
     "pressing_over_opening",
     "released_force_n",
+    "sensed_half",
     "stale_channels",
 ]
 
@@ -159,7 +160,31 @@ def released_force_n(robot: RobotDescription) -> float:
     return robot.safety.release_force_fraction * robot.clamp.holding_force_n
 
 
+_LAST_STATE: tuple[RobotState | None, RobotDescription | None, dict[Half, ClampState]]
+_LAST_STATE = (None, None, {})
+"""The halves classified on the last state read: the supervisor's checks and hold, and a
+drive's grip and slip watches, each classify the same state in a tick. Kept with the
+state and the robot themselves (both immutable), so an entry is never served for
+another; one tuple, read and replaced whole, so two runs in two threads do not mix."""
+
+
 def classify_half(robot: RobotDescription, state: RobotState, half: Half) -> ClampState:
+    """A half's clamp state from its sensors alone (:func:`sensed_half`), worked out
+    once per state."""
+    global _LAST_STATE
+    last = _LAST_STATE
+    if last[0] is state and last[1] is robot:
+        known = last[2].get(half)
+        if known is not None:
+            return known
+        found = last[2][half] = sensed_half(robot, state, half)
+        return found
+    found = sensed_half(robot, state, half)
+    _LAST_STATE = (state, robot, {half: found})
+    return found
+
+
+def sensed_half(robot: RobotDescription, state: RobotState, half: Half) -> ClampState:
     """A half's clamp state from its sensors alone.
 
     With spring sensors on every bend module of the half, the normal force decides:
