@@ -330,3 +330,13 @@ def test_two_sibling_names_that_differ_only_by_a_joiner_are_a_duplicate(
     assert "t.yaml:5:7: duplicate node name 'grip\\u200d' among siblings" in err
     assert err.endswith(":4:7) (the same text but for a zero-width joiner, U+200C or U+200D)")
     assert len(err.splitlines()) == 1
+
+
+def test_the_tree_schema_names_what_a_parameter_s_name_may_be() -> None:
+    import re
+
+    from pirate_bt.treefile import tree_schema
+
+    pattern = tree_schema()["properties"]["params"]["propertyNames"]["pattern"]
+    assert re.search(pattern, "roll") and re.search(pattern, "_x2")
+    assert not re.search(pattern, "café") and not re.search(pattern, "2x")

@@ -96,7 +96,12 @@ def tree_schema(registry: Registry | None = None) -> dict[str, Any]:
         "type": "object",
         "properties": {
             "description": {"type": "string"},
-            "params": {"type": "object", "additionalProperties": ParamDecl.model_json_schema()},
+            "params": {
+                "type": "object",
+                # what $name can name (an editor flags 'café:', as the loader refuses it)
+                "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
+                "additionalProperties": ParamDecl.model_json_schema(),
+            },
             "root": _NODE,
         },
         "required": ["root"],
