@@ -3,6 +3,7 @@ MCAP files written by another tool (the ``mcap`` library's Writer)."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import pytest
 
 from pirate_bt.trace import read_trace
 from pirate_bt.trace.sink_formats import held
+from tests.trace_support import run_and_record
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -145,3 +147,73 @@ def test_a_run_killed_with_a_forked_child_alive_leaves_its_trace_written_and_fre
         os.kill(child, 0)  # (the child is still alive)
     finally:
         _let_child_go(run)
+
+
+def _other_tool_mcap(records: list[dict[str, Any]], out: Path, ties_reversed: bool) -> None:
+    """``records`` as another tool writes them with the ``mcap`` library's Writer: the
+    messages in log-time order (those of one time in pirate_bt's order, or channel by
+    channel in reverse order of topic names; one channel's in order), channels of its own
+    beside pirate_bt's (JSON and Protobuf) whose messages a trace reader must ignore."""
+    from mcap.writer import Writer
+
+    from pirate_bt.interop.foxglove_topics import TopicMapper
+
+    mapper = TopicMapper()
+    messages = [m for record in records for m in mapper.messages(record)]
+    order = list(range(len(messages)))
+    if ties_reversed:  # one time's messages channel by channel, the header's last
+        order.sort(key=lambda i: messages[i].topic, reverse=True)
+        order.sort(key=lambda i: messages[i].log_time_ns)
+    with out.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        other = writer.register_schema(name="x.Other", encoding="jsonschema", data=b"{}")
+        proto = writer.register_schema(name="x.Proto", encoding="protobuf", data=b"\0")
+        extra = [
+            writer.register_channel("/other/json", "json", other),
+            writer.register_channel("/other/proto", "protobuf", proto),
+        ]
+        channels: dict[str, int] = {}
+        for i in order:
+            message = messages[i]
+            if message.topic not in channels:
+                schema = writer.register_schema(message.topic, "jsonschema", b"{}")
+                channels[message.topic] = writer.register_channel(message.topic, "json", schema)
+            when = message.log_time_ns
+            data = json.dumps(message.message).encode()
+            writer.add_message(channels[message.topic], when, data, when)
+            for channel in extra:
+                writer.add_message(channel, when, b'{"x": 1}', when)
+        writer.finish()
+
+
+def test_an_mcap_of_another_tool_is_read_whatever_the_order_of_messages_of_one_time(
+    tmp_path: Path,
+) -> None:
+    from pirate_bt.interop.mcap_trace import read_mcap_records
+
+    source = tmp_path / "run.jsonl"
+    run_and_record(source, ticks=6)
+    records = [json.loads(line) for line in source.read_text().splitlines()]
+    first = next(r for r in records if r["type"] == "tick")
+    first["t_s"] = 0.0  # the first tick at the run's start: the header's log time
+    assert records[-1]["type"] == "end"
+    assert records[-1]["t_s"] == records[-2]["t_s"]  # the end at the last tick's
+    as_written = tmp_path / "in-order.mcap"
+    _other_tool_mcap(records, as_written, ties_reversed=False)
+    reversed_ties = tmp_path / "ties-reversed.mcap"
+    _other_tool_mcap(records, reversed_ties, ties_reversed=True)
+    # before: "the first record is no header"
+    assert read_mcap_records(reversed_ties) == read_mcap_records(as_written)
+    trace = read_trace(reversed_ties)
+    outcome = read_trace(source).outcome
+    assert (trace.outcome, trace.last_tick, len(trace.ticks)) == (outcome, 6, 6)
+    done = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "trace", "summary", str(reversed_ties)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert f"outcome   {outcome}" in done.stdout

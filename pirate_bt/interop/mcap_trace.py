@@ -49,7 +49,7 @@ from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import InputError, file_argument, output_argument
-from pirate_bt.interop.foxglove_schemas import RUN
+from pirate_bt.interop.foxglove_schemas import END, RUN
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
 from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
@@ -179,6 +179,11 @@ class _Messages:
         self.count = 0
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
+        for _, topic, message in self.timed():
+            yield topic, message
+
+    def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
+        """The messages as ``(log_time, topic, message)``, in file order."""
         load_mcap()
         from mcap.records import Channel, Footer, Message
         from mcap.stream_reader import StreamReader
@@ -193,7 +198,7 @@ class _Messages:
             channels: dict[int, str] = {}
             number = 0
             while True:
-                given: tuple[str, dict[str, Any]] | None = None
+                given: tuple[int, str, dict[str, Any]] | None = None
                 try:
                     record = next(records)  # the library reads a chunk when it needs one
                     if isinstance(record, Channel):
@@ -205,7 +210,8 @@ class _Messages:
                         topic = channels.get(record.channel_id)
                         if topic is not None:
                             message = _json_object(self.path, number, topic, record.data)
-                            given = topic, readable_text(message, record.data, self.readable)
+                            text = readable_text(message, record.data, self.readable)
+                            given = record.log_time, topic, text
                     elif isinstance(record, Footer):
                         self.cut = False
                 except StopIteration:
@@ -281,8 +287,8 @@ class _TraceMessages(_Messages):
             bag's MCAP), once it is read through.
     """
 
-    def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
-        yield from super().__iter__()
+    def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
+        yield from super().timed()
         encodings = self.encodings
         if encodings.get(RUN) != "json" and (encodings or not self.cut):
             # (a file cut before its channels is a run cut off at its start: said later;
@@ -302,6 +308,42 @@ class _TraceMessages(_Messages):
             )
 
 
+_RANK = {RUN: 0, END: 2}
+"""Where a message goes among those of one log time: the header first, the end last."""
+
+
+def _in_order(timed: Iterator[tuple[int, str, dict[str, Any]]]) -> Iterator[tuple[str, Any]]:
+    """The messages in the order of the records they rebuild, whatever the order of those
+    that share a log time.
+
+    MCAP does not order messages of equal log time, and another tool (the ``mcap``
+    library's ``Writer``, a merge, a recorder sorting by time) may write them in any
+    order: a run's header shares its log time with its first tick, its end with its last
+    tick. Read in file order, a file that put the first tick's messages before the header
+    was refused (*the first record is no header*), and one that put the end before the
+    last tick's messages read a tick after the end. Each run of messages of one log time
+    is put in order by what they are: the header, then the ticks' messages by tick number
+    (in file order within a tick), then the end. Messages of different log times keep
+    their file order.
+    """
+    group: list[tuple[int, int, int, str, dict[str, Any]]] = []
+    time = None
+    for log_time, topic, message in timed:
+        if log_time != time and group:
+            group.sort()  # (rank, tick, place): stable by place
+            for *_, name, data in group:
+                yield name, data
+            group = []
+        time = log_time
+        rank = _RANK.get(topic, 1)
+        n = message.get("n")
+        tick = n if rank == 1 and isinstance(n, int) and not isinstance(n, bool) else 0
+        group.append((rank, tick, len(group), topic, message))
+    group.sort()
+    for *_, name, data in group:
+        yield name, data
+
+
 def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
     """The trace records an MCAP file written by pirate_bt holds (see :func:`export_mcap`).
 
@@ -309,7 +351,7 @@ def read_mcap_records(path: str | Path) -> list[dict[str, Any]]:
         InputError: as :func:`read_mcap_messages`, and a file that holds no pirate_bt
             trace.
     """
-    return list(records_from_messages(_TraceMessages(path)))
+    return list(records_from_messages(_in_order(_TraceMessages(path).timed())))
 
 
 class McapTraceReader(TraceFormatReader):
@@ -326,7 +368,7 @@ class McapTraceReader(TraceFormatReader):
         # read_trace's text as shown: half a UTF-16 pair ("\ud800") in a name was an
         # internal error printing it, as it was for a .jsonl trace
         messages = _TraceMessages(self.path, self.readable)
-        yield from enumerate(records_from_messages(messages), start=1)
+        yield from enumerate(records_from_messages(_in_order(messages.timed())), start=1)
         self.truncated = messages.cut
 
 
