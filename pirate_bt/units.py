@@ -157,6 +157,18 @@ def _shown(value: object, *, quoted: bool = True) -> str:
     return repr(value) if quoted else text
 
 
+def _number_goes_on(text: str, match: re.Match[str]) -> bool:
+    """Whether what follows the number read is more of a number written otherwise: a
+    decimal comma, a digit group or a second dot, a hex, binary or octal prefix after
+    the '0' read (each right after it), or a second number ('1 5 s'; the unit '1' of
+    '1/s' is a unit)."""
+    rest = match["unit"]
+    glued = match.end("num") < len(text) and not text[match.end("num")].isspace()
+    if glued and re.match(r"[,_.]|[xXbBoO][0-9A-Fa-f]", rest):
+        return True
+    return bool(re.match(r"[0-9]", rest)) and not re.match(r"1(?:$|[*/·^\s])", rest)
+
+
 def _parse_unit(expr: str, original: str) -> tuple[float, _Dim]:
     factor = 1.0
     dim = [0, 0, 0, 0, 0]
@@ -256,6 +268,12 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
         match = _QUANTITY_RE.match(value)
         if match is None:
             raise UnitError(f"not a quantity: {_shown(value)} (expected e.g. '90 deg', '80 mm/s')")
+        if _number_goes_on(value, match):  # '1,5 s', '0x10 s', '1_000 mm', '1 5 s'
+            example = f"1.5 {_DISPLAY[dimension][0]}".strip() if dimension in _DISPLAY else "1.5"
+            raise UnitError(
+                f"not a quantity: {_shown(value)}: write the number in decimal digits with a"
+                f" dot (e.g. '{example}'), one number, then its unit"
+            )
         factor, dim = _parse_unit(match["unit"], value)
         expected = DIMENSIONS[dimension]
         if not match["unit"] and dimension != "dimensionless":

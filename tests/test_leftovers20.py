@@ -17,6 +17,7 @@ from pirate_bt.api.fault_text import MAX_FAULTS
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import InputError
 from pirate_bt.runner import RunInterrupted, Runner
+from pirate_bt.units import parse_quantity
 
 
 def test_a_safe_state_reason_a_node_gives_itself_is_cut() -> None:
@@ -101,3 +102,19 @@ def test_the_command_line_exits_1_on_a_ctrl_c_that_came_as_a_run_ended(
 
     monkeypatch.setattr(cli, "_main", _before)
     assert cli.main(["run", "x.yaml"]) == 130
+
+
+@pytest.mark.parametrize("written", ["1,5 s", "0x10 s", "1_000 s", "0b11 s", "1 5 s", "1.2.3 s"])
+def test_a_number_written_otherwise_is_said_to_be_one(written: str) -> None:
+    # '1,5 s' said "unknown unit ',5'", '0x10 s' "unknown unit 'x10'": the unit was fine
+    with pytest.raises(InputError) as caught:
+        parse_quantity(written, "time")
+    said = str(caught.value)
+    assert "unknown unit" not in said
+    assert "write the number in decimal digits with a dot (e.g. '1.5 s')" in said
+
+
+@pytest.mark.parametrize(("written", "si"), [("2 1/s", 2.0), ("5s", 5.0), ("1e3 ms", 1.0)])
+def test_units_after_a_number_still_read(written: str, si: float) -> None:
+    dimension = "frequency" if "/" in written else "time"
+    assert parse_quantity(written, dimension) == pytest.approx(si)
