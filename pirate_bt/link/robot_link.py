@@ -510,7 +510,13 @@ class RobotLink:
             said = "" if str(why) in str(stop_error) else f" ({why})"
             estop = f"and the e-stop sent after it was not answered either{said}"
         except LinkError as why:
-            estop = f"and the e-stop sent after it failed ({why})"
+            # lost as the bridge reported it hears nothing from the host: said below
+            deaf = self.session._lost_why and self.session.stats().watchdog
+            estop = (
+                "nor was the e-stop sent after it"
+                if deaf
+                else f"and the e-stop sent after it failed ({why})"
+            )
         else:
             if req.outcome is Outcome.ACKED:  # said, after the stop's failure was logged
                 _log.warning("the e-stop sent on close was acknowledged: the drives stopped")

@@ -27,7 +27,8 @@ and does everything ``docs/protocol.md`` asks of the host:
   new session with a ``HELLO``, failing what was in flight; starts one too before
   its ordered counter runs :data:`SESSION_RENEW_GAP` ahead of the bridge;
 - declares the link lost (:class:`~pirate_bt.errors.LinkLost`) when nothing valid
-  was heard for the link timeout;
+  was heard for the link timeout, or when the bridge's frames report its watchdog
+  tripped (it hears nothing from the host) for the link timeout while the host fed it;
 - keeps health figures (RTT, loss ratio, CRC errors, retries, last heard).
 
 **Polled, not threaded.** All of this happens in :meth:`Session.poll`, which
@@ -96,6 +97,7 @@ HELLO_TRIES = 16
 """Tries of a mid-session HELLO before the link is declared lost."""
 
 _ORDERED = (Setpoint, BulkSetpoints, EStopReset)
+_WATCHDOG = int(BridgeFlags.WATCHDOG)
 
 
 def _next(seq: int) -> int:
@@ -169,6 +171,8 @@ class Session(InboundMixin, ReaderMixin):
         self.sessions = 1
         self._flags = BridgeFlags.NONE if hello_reply is None else hello_reply.flags
         self._lost = False  # pragma: no mutate (None is falsy as False is)
+        self._lost_why = ""  # why the link was lost, when not for silence
+        self._deaf_from_s = now  # the bridge reports WATCHDOG in every poll since then
         self._closed = False  # pragma: no mutate (None is falsy as False is)
         self._init_reader()
         self.last_hello_reply: HelloReply | None = hello_reply
@@ -343,6 +347,7 @@ class Session(InboundMixin, ReaderMixin):
                     handle(item, now)
                 if self._last_heard_s == heard_s:  # no good frame in them
                     self._noise.note_bytes(heard_s, len(data))
+                self._check_heard(now)
             if self._lost or now - self._last_heard_s > self.config.link_timeout_s:
                 self._check_alive()  # lost (for good), closed, refused: raises
                 self._lose(now)  # nothing valid heard for the link timeout
@@ -413,9 +418,31 @@ class Session(InboundMixin, ReaderMixin):
         self._ordered = None  # pragma: no mutate (the session is over)
         self._hello = None  # pragma: no mutate (the session is over)
 
+    def _check_heard(self, now: float) -> None:
+        """Declare the link lost when the bridge has reported its watchdog tripped in every
+        poll for over the link timeout while the host kept sending (not in a handshake, nor
+        while the host sent nothing: no poll, or the dead man's handle holding back)."""
+        cfg = self.config
+        if (
+            not int(self._flags) & _WATCHDOG
+            or self._hello is not None
+            or now >= self._feed_until_s
+            or now - self._last_sent_s > 2 * cfg.heartbeat_period_s
+        ):
+            self._deaf_from_s = now
+        elif now - self._deaf_from_s > self.config.link_timeout_s:
+            self._lost = True
+            self._lost_why = (
+                f"the bridge reports its watchdog tripped for over {self.config.link_timeout_s}"
+                " s: it hears nothing from the host (the line toward the bridge is down?)"
+            )
+            _log.error("link lost: %s", self._lost_why)
+            self._fail_all(now)
+            raise LinkLost(self._lost_why)
+
     def _check_alive(self) -> None:
         if self._lost:
-            raise LinkLost(self._unheard(f"over {self.config.link_timeout_s}"))
+            raise LinkLost(self._lost_why or self._unheard(f"over {self.config.link_timeout_s}"))
         if self._closed:
             raise LinkError("session closed")
         if self._protocol_error is not None:

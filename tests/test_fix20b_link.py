@@ -1,0 +1,107 @@
+"""The link's follow-ups of the twentieth session, each pinned by a test that failed before
+its fix.
+
+1. A line cut toward the bridge only (the host's frames lost, the bridge's STATEs still
+   coming, each with ``WATCHDOG`` set) during an idle tree: the run said *tree succeeded*
+   while the bridge reported for 1.5 s that it heard nothing from the host. The session
+   now declares the link lost when the bridge's frames report its watchdog tripped for
+   longer than the link timeout while the host fed it, as it does when it hears nothing
+   from the bridge for that long.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from session_wire import Wire, state
+
+from pirate_bt.api.connection import Connection
+from pirate_bt.api.running import RunResult, run_on
+from pirate_bt.clock import SimClock
+from pirate_bt.errors import LinkLost
+from pirate_bt.link.codec import BridgeFlags
+from pirate_bt.link.opening import wrap_link
+from pirate_bt.link.transport import Transport
+from pirate_bt.robot import load_robot
+from pirate_bt.safety.factory import wait_for_state
+from pirate_bt.safety.supervisor import Supervisor
+from pirate_bt.sim import Simulator
+
+ROBOT = load_robot()
+STRAIGHT = Path(__file__).parents[1] / "trees" / "straight.yaml"
+IDLE = {"root": {"type": "wait", "name": "idle", "duration": "3 s"}}
+
+
+class _CutTowardTheBridge:
+    """The simulator's byte link that loses every host frame from ``from_s`` to
+    ``until_s`` (clock time); the bridge's frames all come."""
+
+    def __init__(self, inner: Transport, clock: SimClock, from_s: float, until_s: float) -> None:
+        self.inner, self.clock, self.from_s, self.until_s = inner, clock, from_s, until_s
+        self.baud = inner.baud
+
+    def read_available(self) -> bytes:
+        return self.inner.read_available()
+
+    def write(self, data: bytes) -> None:
+        if not self.from_s <= self.clock.now() < self.until_s:
+            self.inner.write(data)
+
+    def drain_input(self) -> int:
+        return self.inner.drain_input()
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def _idle_run_with_the_line_cut(from_s: float, until_s: float) -> tuple[RunResult, Simulator]:
+    clock = SimClock()
+    sim = Simulator("straight", ROBOT, clock=clock)
+    transport = Transport.open(sim.url, baud=ROBOT.bridge.baud)
+    link = wrap_link(_CutTowardTheBridge(transport, clock, from_s, until_s), ROBOT, clock)
+    wait_for_state(link, clock, 5.0)
+    supervisor = Supervisor(link, clock)
+    supervisor.attach_simulator(sim)
+    connection = Connection(
+        ROBOT, clock, supervisor, simulated=True, target="x", seed=0, description="cut"
+    )
+    with connection:
+        result = run_on(connection, IDLE, max_time="30 s")
+    return result, sim
+
+
+# -- 1. the bridge's watchdog flag, reported for longer than the link timeout ------------------
+
+
+def test_an_idle_run_whose_bridge_hears_nothing_from_the_host_ends_on_a_lost_link() -> None:
+    result, sim = _idle_run_with_the_line_cut(1.0, 2.5)
+    assert sim.bridge.watchdog_trips >= 1
+    assert result.status == "failure" and result.exit_code == 3, result.why
+    assert result.why == (
+        "link lost: the bridge reports its watchdog tripped for over 0.5 s: it hears nothing"
+        " from the host (the line toward the bridge is down?)"
+    )
+
+
+def test_a_short_cut_toward_the_bridge_is_counted_not_acted_on() -> None:
+    # one trip, over at the next host frame (docs/safety.md): the run goes on
+    result, sim = _idle_run_with_the_line_cut(1.0, 1.3)
+    assert sim.bridge.watchdog_trips == 1
+    assert result.status == "success", result.why
+
+
+def test_a_bridge_tripped_while_the_host_holds_its_heartbeats_back_is_not_taken_as_deaf() -> None:
+    # the dead man's handle stops the heartbeats on purpose: the trip is the host's doing
+    wire = Wire()
+    wire.session.feed_watchdog_until(wire.clock.now())
+    for seq in range(2, 120):  # 1.2 s of STATEs reporting the watchdog tripped
+        wire.answer(state(seq, flags=BridgeFlags.WATCHDOG))
+        wire.poll(0.01)
+    assert wire.session.stats().connected
+    wire.session.feed_watchdog_until(float("inf"))
+    with pytest.raises(LinkLost, match="it hears nothing from the host"):
+        for seq in range(120, 240):  # fed again: after the link timeout, a deaf bridge
+            wire.answer(state(seq, flags=BridgeFlags.WATCHDOG))
+            wire.poll(0.01)
+    assert wire.clock.now() < 8.0 + 1.2 + 0.6  # within the link timeout (0.5 s) and a poll
