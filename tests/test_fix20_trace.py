@@ -149,7 +149,9 @@ def test_a_run_killed_with_a_forked_child_alive_leaves_its_trace_written_and_fre
         _let_child_go(run)
 
 
-def _other_tool_mcap(records: list[dict[str, Any]], out: Path, ties_reversed: bool) -> None:
+def _other_tool_mcap(
+    records: list[dict[str, Any]], out: Path, ties_reversed: bool, other: bytes = b'{"x": 1}'
+) -> None:
     """``records`` as another tool writes them with the ``mcap`` library's Writer: the
     messages in log-time order (those of one time in pirate_bt's order, or channel by
     channel in reverse order of topic names; one channel's in order), channels of its own
@@ -167,10 +169,10 @@ def _other_tool_mcap(records: list[dict[str, Any]], out: Path, ties_reversed: bo
     with out.open("wb") as stream:
         writer = Writer(stream)
         writer.start(profile="", library="another tool")
-        other = writer.register_schema(name="x.Other", encoding="jsonschema", data=b"{}")
+        json_schema = writer.register_schema(name="x.Other", encoding="jsonschema", data=b"{}")
         proto = writer.register_schema(name="x.Proto", encoding="protobuf", data=b"\0")
         extra = [
-            writer.register_channel("/other/json", "json", other),
+            writer.register_channel("/other/json", "json", json_schema),
             writer.register_channel("/other/proto", "protobuf", proto),
         ]
         channels: dict[str, int] = {}
@@ -183,7 +185,7 @@ def _other_tool_mcap(records: list[dict[str, Any]], out: Path, ties_reversed: bo
             data = json.dumps(message.message).encode()
             writer.add_message(channels[message.topic], when, data, when)
             for channel in extra:
-                writer.add_message(channel, when, b'{"x": 1}', when)
+                writer.add_message(channel, when, other, when)
         writer.finish()
 
 
@@ -217,3 +219,14 @@ def test_an_mcap_of_another_tool_is_read_whatever_the_order_of_messages_of_one_t
     )
     assert done.returncode == 0, done.stderr
     assert f"outcome   {outcome}" in done.stdout
+
+
+def test_a_json_channel_of_another_tool_beside_the_trace_is_skipped(tmp_path: Path) -> None:
+    source = tmp_path / "run.jsonl"
+    run_and_record(source, ticks=3)
+    records = [json.loads(line) for line in source.read_text().splitlines()]
+    out = tmp_path / "with-other.mcap"
+    _other_tool_mcap(records, out, ties_reversed=False, other=b"[1, 2]")
+    # before: "with-other.mcap: message 2 (on /other/json) is JSON list, not an object"
+    trace = read_trace(out)
+    assert (trace.last_tick, trace.outcome) == (3, read_trace(source).outcome)

@@ -49,7 +49,7 @@ from typing import IO, Any, ClassVar
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.errors import InputError, file_argument, output_argument
-from pirate_bt.interop.foxglove_schemas import END, RUN
+from pirate_bt.interop.foxglove_schemas import END, RUN, TOPICS
 from pirate_bt.interop.foxglove_topics import TopicMapper, records_from_messages
 from pirate_bt.interop.mcap_writer import (
     McapTraceWriter,
@@ -177,6 +177,8 @@ class _Messages:
         self.cut = True
         self.encodings: dict[str, str] = {}
         self.count = 0
+        self.topics: frozenset[str] | None = None
+        """The topics whose messages are given (``None``: every JSON channel's)."""
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
         for _, topic, message in self.timed():
@@ -203,7 +205,9 @@ class _Messages:
                     record = next(records)  # the library reads a chunk when it needs one
                     if isinstance(record, Channel):
                         self.encodings.setdefault(record.topic, record.message_encoding)
-                        if record.message_encoding == "json":
+                        if record.message_encoding == "json" and (
+                            self.topics is None or record.topic in self.topics
+                        ):
                             channels[record.id] = record.topic
                     elif isinstance(record, Message):
                         number += 1
@@ -286,6 +290,12 @@ class _TraceMessages(_Messages):
             ``/pirate/run`` channel (another tool's recording, JSON or not, a rosbag2
             bag's MCAP), once it is read through.
     """
+
+    def __init__(self, path: str | Path, readable: bool = False) -> None:
+        super().__init__(path, readable)
+        # Another tool's channels beside the trace's are not read: a JSON one whose
+        # message was no object (a list) refused the whole trace.
+        self.topics = frozenset(TOPICS)
 
     def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
         yield from super().timed()
