@@ -290,8 +290,7 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
             way = roll_name(float(params["roll"]))
         toward = f" ({way})" if isinstance(way, str) else ""
         met = (  # it slipped over an opening it met, no half holding (SlipWatch)
-            "met no turn: the robot slipped over an opening (a branch on another side"
-            " than drawn?)"
+            "met no turn: the robot slipped over an opening (a branch on another side than drawn?)"
             if "before slipping" in pab.why
             else "met no turn or opening there"
         )
