@@ -20,10 +20,37 @@ way whenever the tree sends, and one lost reply ends none.
 
 from __future__ import annotations
 
+from pirate_bt.link.codec import BoardStatus
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
-__all__ = ["BoardsAway"]
+__all__ = ["BoardsAway", "away_since"]
+
+_TIMEOUT = int(BoardStatus.TIMEOUT)
+
+
+def away_since(
+    away: tuple[tuple[int, float], ...],
+    status: tuple[int, ...],
+    last: tuple[int, ...] | None,
+    last_s: float,
+    now: float,
+) -> tuple[tuple[int, float], ...]:
+    """The session's ``boards_away`` for a ``STATE`` of board ``status`` arriving at
+    ``now``, after one of board status ``last`` (``None``: none) that arrived at
+    ``last_s``, with ``away`` the boards away before it: for each board in ``TIMEOUT``,
+    its position in the frame's board order and the arrival of the last ``STATE`` that
+    showed it answering (or of this one, when none did)."""
+    since = dict(away)
+    out: list[tuple[int, float]] = []
+    for i, s in enumerate(status):
+        if s & _TIMEOUT:
+            if i not in since:
+                # newly away: last seen answering in the STATE before this one
+                seen = last is not None and not last[i] & _TIMEOUT
+                since[i] = last_s if seen else now
+            out.append((i, since[i]))
+    return tuple(out)
 
 
 class BoardsAway:

@@ -17,6 +17,7 @@ import math
 import threading
 
 from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
+from pirate_bt.link.away import away_since
 from pirate_bt.link.codec import (
     Ack,
     AckStatus,
@@ -52,7 +53,6 @@ __all__ = [
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
 _FAULT = int(BoardStatus.FAULT)
-_TIMEOUT = int(BoardStatus.TIMEOUT)
 _STATE = int(MsgType.STATE)
 _LATCH_BITS = int(BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT)
 _ESTOP = int(BridgeFlags.ESTOP)
@@ -490,22 +490,6 @@ class InboundMixin:
             )
         return True
 
-    def _boards_away_since(
-        self, status: tuple[int, ...], last: State | None, last_s: float, now: float
-    ) -> tuple[tuple[int, float], ...]:
-        """:meth:`boards_away` for a ``STATE`` of board ``status``, after ``last`` (which
-        arrived at ``last_s``)."""
-        since = dict(self._away_since)
-        away: list[tuple[int, float]] = []
-        for i, s in enumerate(status):
-            if s & _TIMEOUT:
-                if i not in since:
-                    # newly away: last seen answering in the STATE before this one
-                    seen = last is not None and not last.board_status[i] & _TIMEOUT
-                    since[i] = last_s if seen else now
-                away.append((i, since[i]))
-        return tuple(away)
-
     def _on_state(self, item: State, now: float) -> None:
         last = self._state
         self._bad_state_run = 0
@@ -577,7 +561,8 @@ class InboundMixin:
         status = item.board_status
         if last is None or status != last.board_status:  # a tuple compare: one changed
             self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)
-            self._away_since = self._boards_away_since(status, last, previous_s, now)
+            before = None if last is None else last.board_status
+            self._away_since = away_since(self._away_since, status, before, previous_s, now)
         ordered = self._ordered
         if (
             ordered is not None
