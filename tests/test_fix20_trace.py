@@ -3,6 +3,7 @@ MCAP files written by another tool (the ``mcap`` library's Writer)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -89,8 +90,9 @@ def _fork_run(path: Path, background: bool, child_closes: bool, killed: bool) ->
 
 
 def _let_child_go(run: Any) -> None:
-    run.stdin.write("x")
-    run.stdin.close()
+    with contextlib.suppress(OSError):  # (a child gone already)
+        run.stdin.write("x")
+        run.stdin.close()
 
 
 def _free_within(path: Path, limit_s: float) -> bool:
@@ -141,7 +143,7 @@ def test_a_run_killed_with_a_forked_child_alive_leaves_its_trace_written_and_fre
         assert run.wait(30) == -signal.SIGKILL
         # the writer process wrote what it was handed and let the file go; before, it
         # waited for the end of a pipe the child still held, the file locked meanwhile
-        assert _free_within(path, 30.0)
+        assert _free_within(path, 60.0)
         trace = read_trace(path)
         assert (trace.last_tick, trace.outcome) == (3, "incomplete")
         os.kill(child, 0)  # (the child is still alive)
