@@ -5,12 +5,14 @@ test written from what a user saw.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.errors import ConfigurationError
+from pirate_bt.pipes import load_network
 from pirate_bt.sim import Simulator
 
 NARROW = """name: narrow
@@ -63,3 +65,31 @@ def test_a_pipe_too_narrow_for_the_robot_is_refused_at_its_diameter_in_the_file(
     start.write_text(NARROW.replace("63 mm", "45 mm"), encoding="utf-8")
     with pytest.raises(ConfigurationError, match=rf"^{start}:2:1: pipe network 'narrow': the"):
         Simulator(start)
+
+
+STEEP = """name: steep
+diameter: 63 mm
+segments:
+  - {id: a, type: straight, length: 2 m}
+  - {id: c, type: straight, length: 2 m, slope: 88 deg}
+  - {id: e, type: straight, length: 1 m}
+"""
+
+
+def test_every_variant_of_a_run_just_short_of_plumb_is_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was: seed 2 laid 'c' at 90 deg (88 deg tilted past plumb, held there), and 'e',
+    # which keeps 88 deg, was a slope set on a vertical run: exit 2, "segment 'e':
+    # cannot set a slope on a vertical run; use a bend", a segment nobody had sloped
+    drawn = tmp_path / "steep.yaml"
+    drawn.write_text(STEEP, encoding="utf-8")
+    for seed in range(8):
+        out = tmp_path / f"v{seed}.yaml"
+        assert main(["network", "perturb", str(drawn), "--seed", str(seed), "-o", str(out)]) == 0
+        capsys.readouterr()
+        variant = load_network(out).main_path()
+        for segment in ("c", "e"):
+            piece = next(p for p in variant.pieces if p.segment == segment)
+            slope = math.degrees(variant.slope_at((piece.start_m + piece.end_m) / 2))
+            assert 85.0 - 1e-6 <= slope < 90.0, (seed, segment, slope)  # never past plumb

@@ -60,6 +60,12 @@ plumb in every variant. Every other run's slope is perturbed, a steep one too (a
 at 70 deg was laid plumb, 20 deg off its drawing, as was one leaning back past plumb,
 120 deg after a bend up from a 30 deg slope, which set_slope writes as 60 deg)."""
 
+_STEEPEST = math.radians(89.999)
+"""The steepest a run that is not plumb is laid: a file's slope is written to 0.001
+deg. A run at 88 deg tilted past plumb was laid at 90 deg, so the run after it, which
+kept its own slope, was a slope set on a vertical run: ``pirate-bt network perturb``
+refused one seed in eight (*segment 'e': cannot set a slope on a vertical run*)."""
+
 
 @dataclass(frozen=True)
 class AsBuiltBounds:
@@ -164,7 +170,7 @@ def perturb_network(
                 drawn = slopes.get(seg_name, seg.slope or 0.0)
                 tilt = rng.uniform(-1.0, 1.0) * bounds.slope_rad
                 if abs(drawn) < math.pi / 2 - _PLUMB_TOL:
-                    slope = max(-math.pi / 2, min(math.pi / 2, drawn + tilt))
+                    slope = max(-_STEEPEST, min(_STEEPEST, drawn + tilt))
                 else:  # risers and drops are set plumb, whatever the run before them
                     slope = math.copysign(math.pi / 2, drawn)
                 out.append(
