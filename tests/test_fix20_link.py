@@ -263,10 +263,10 @@ def test_refused_frames_of_the_session_before_are_counted_until_one_is_taken() -
     _new_session(wire, boot_id=8)
     wire.answer(state(5001, ack_seq=old), state(5002, ack_seq=old))
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 2)
+    assert wire.session.refused_states() == (0, 0, 2, 0)
     wire.answer(state(1))
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 0) and _taken_seqs(wire)[-1] == 1
+    assert wire.session.refused_states() == (0, 0, 0, 0) and _taken_seqs(wire)[-1] == 1
 
 
 def test_a_new_session_of_the_same_boot_takes_no_state_older_than_the_one_held() -> None:
@@ -281,7 +281,7 @@ def test_a_new_session_of_the_same_boot_takes_no_state_older_than_the_one_held()
     wire.answer(state(499), state(501))  # 499: sent before 500, delivered late
     wire.poll(0.01)
     assert _taken_seqs(wire) == [500, 501]  # before: [500, 499, 501]
-    assert wire.session.refused_states() == (0, 0, 0)
+    assert wire.session.refused_states() == (0, 0, 0, 0)
 
 
 def test_a_new_sessions_states_acknowledging_its_own_bulks_are_taken() -> None:
@@ -294,7 +294,7 @@ def test_a_new_sessions_states_acknowledging_its_own_bulks_are_taken() -> None:
     wire.answer(state(1, ack_seq=bulk))
     wire.poll(0.01)
     assert bulk not in (0, hello)
-    assert _taken_seqs(wire)[-1] == 1 and wire.session.refused_states() == (0, 0, 0)
+    assert _taken_seqs(wire)[-1] == 1 and wire.session.refused_states() == (0, 0, 0, 0)
 
 
 def test_a_first_state_acknowledging_a_bulk_not_sent_yet_is_refused() -> None:
@@ -303,7 +303,7 @@ def test_a_first_state_acknowledging_a_bulk_not_sent_yet_is_refused() -> None:
     hello = _new_session(wire, boot_id=8)
     wire.answer(state(1, ack_seq=(hello + 5) & 0xFFFF))  # newer than any bulk sent
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 1) and _taken_seqs(wire)[-1] == 10
+    assert wire.session.refused_states() == (0, 0, 1, 0) and _taken_seqs(wire)[-1] == 10
 
 
 # -- 2b. a connect on a line cut toward the bridge --------------------------------------------

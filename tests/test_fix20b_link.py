@@ -7,6 +7,9 @@ its fix.
    now declares the link lost when the bridge's frames report its watchdog tripped for
    longer than the link timeout while the host fed it, as it does when it hears nothing
    from the bridge for that long.
+2. ``STATE`` frames with a good CRC but another protocol ``version`` were not counted
+   among the refused ones: a run whose bridge sent nothing else said *no state frame
+   from the bridge ... (the last frame heard, 0.000 s ago, held no state)*.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from pirate_bt.api.connection import Connection
 from pirate_bt.api.running import RunResult, run_on
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import LinkLost
-from pirate_bt.link.codec import BridgeFlags
+from pirate_bt.link import framing
+from pirate_bt.link.codec import BridgeFlags, MsgType
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.transport import Transport
 from pirate_bt.robot import load_robot
@@ -105,3 +109,56 @@ def test_a_bridge_tripped_while_the_host_holds_its_heartbeats_back_is_not_taken_
             wire.answer(state(seq, flags=BridgeFlags.WATCHDOG))
             wire.poll(0.01)
     assert wire.clock.now() < 8.0 + 1.2 + 0.6  # within the link timeout (0.5 s) and a poll
+
+
+# -- 2. STATE frames of another protocol version are counted among the refused -----------------
+
+
+class _OtherVersionFrom:
+    """The simulator's byte link that, from ``from_s`` on, gives every ``STATE`` the
+    protocol version 2 at offset 0, with its CRC made good again."""
+
+    def __init__(self, inner: Transport, clock: SimClock, from_s: float) -> None:
+        self.inner, self.clock, self.from_s = inner, clock, from_s
+        self.baud = inner.baud
+        self._held = b""
+
+    def read_available(self) -> bytes:
+        self._held += self.inner.read_available()
+        *frames, self._held = self._held.split(b"\x00")
+        out = bytearray()
+        for frame in frames:
+            body = framing.cobs_decode(frame) if frame else b""
+            if len(body) > 2 and body[1] == MsgType.STATE and self.clock.now() >= self.from_s:
+                head = bytes([2]) + body[1:-2]
+                frame = framing.cobs_encode(head + framing.crc16(head).to_bytes(2, "little"))
+            out += frame + b"\x00"
+        return bytes(out)
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def drain_input(self) -> int:
+        return self.inner.drain_input()
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def test_a_run_whose_state_frames_turn_to_another_version_names_them() -> None:
+    clock = SimClock()
+    sim = Simulator("straight", ROBOT, clock=clock)
+    transport = Transport.open(sim.url, baud=ROBOT.bridge.baud)
+    link = wrap_link(_OtherVersionFrom(transport, clock, 2.0), ROBOT, clock)
+    wait_for_state(link, clock, 5.0)
+    supervisor = Supervisor(link, clock)
+    supervisor.attach_simulator(sim)
+    connection = Connection(
+        ROBOT, clock, supervisor, simulated=True, target="x", seed=0, description="v2"
+    )
+    with connection:
+        result = run_on(connection, STRAIGHT, params={"distance": "1 m"}, max_time="30 s")
+    assert result.exit_code == 3, result.why
+    assert result.why.startswith("link_silent: no state frame taken for 0.1"), result.why
+    assert "were refused (" in result.why and " of another protocol version)" in result.why
+    assert "held no state" not in result.why

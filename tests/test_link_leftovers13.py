@@ -236,15 +236,20 @@ def test_the_session_counts_the_states_it_refuses_by_reason_until_one_is_taken()
     wire = Wire()
     wire.answer(state(10))
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 0)
+    assert wire.session.refused_states() == (0, 0, 0, 0)
     wire.far.write(_bad_crc(state(11)) + _bad_crc(state(12)) + _long_state(state(13)))
     wire.answer(state(9), state(10))  # older, and the one held again
     wire.poll(0.01)
-    assert wire.session.refused_states() == (2, 1, 2)
-    assert STATE_REFUSALS == ("with a bad CRC", "of another length", "out of sequence")
+    assert wire.session.refused_states() == (2, 1, 2, 0)
+    assert STATE_REFUSALS == (
+        "with a bad CRC",
+        "of another length",
+        "out of sequence",
+        "of another protocol version",
+    )
     wire.answer(state(14))
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 0)
+    assert wire.session.refused_states() == (0, 0, 0, 0)
 
 
 def test_a_damaged_frame_of_another_type_is_not_counted_as_a_state() -> None:
@@ -253,7 +258,7 @@ def test_a_damaged_frame_of_another_type_is_not_counted_as_a_state() -> None:
     ack[-1] ^= 0xFF
     wire.far.write(framing.cobs_encode(bytes(ack)) + b"\x00")
     wire.poll(0.01)
-    assert wire.session.refused_states() == (0, 0, 0) and wire.session.crc_errors == 1
+    assert wire.session.refused_states() == (0, 0, 0, 0) and wire.session.crc_errors == 1
 
 
 def test_link_health_reports_refused_states_from_a_run_of_them() -> None:

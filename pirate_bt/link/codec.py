@@ -102,6 +102,7 @@ from pirate_bt.link.payloads import (
     _HELLO_REPLY,
     _SETPOINT,
     BadCrc,
+    OtherVersion,
     StateLengthError,
     UnknownAckStatus,
     decode_fixed,
@@ -139,6 +140,7 @@ __all__ = [
     "MsgType",
     "Nack",
     "NackCode",
+    "OtherVersion",
     "Setpoint",
     "State",
     "StateLengthError",
@@ -448,7 +450,7 @@ class FrameCodec:
     def _state_from_body(self, body: bytes) -> State:
         """A STATE frame whose length and CRC are checked, from one unpack of its body."""
         if body[0] != PROTOCOL_VERSION:
-            raise FrameError("version", f"protocol version {body[0]}, expected {PROTOCOL_VERSION}")
+            raise OtherVersion(body[1], body[0], PROTOCOL_VERSION)
         # Consecutive STATE frames mostly differ only in their seq (bytes 2-3) and CRC:
         # then the fields decoded last time are reused (immutable, so shared safely)
         # and only the seq is read.
@@ -509,7 +511,7 @@ class FrameCodec:
             return self._state_from_body(body)
         version, code, seq, arg = _HEADER.unpack_from(body)
         if version != PROTOCOL_VERSION:
-            raise FrameError("version", f"protocol version {version}, expected {PROTOCOL_VERSION}")
+            raise OtherVersion(code, version, PROTOCOL_VERSION)
         payload = body[HEADER_BYTES : n - 2]
         kind = _TYPE_BY_CODE.get(code)
         if kind is None:

@@ -45,7 +45,7 @@ for its staleness limit, and then one or two refused frames are part of the answ
 no state*)."""
 
 
-def refusals(counts: tuple[int, int, int], *, taken: bool) -> tuple[tuple[str, int], ...]:
+def refusals(counts: tuple[int, ...], *, taken: bool) -> tuple[tuple[str, int], ...]:
     """The session's refused STATE counts as (reason, count) pairs, zeros left out; none
     below :data:`REFUSED_STATES_REPORTED` in all unless a ``STATE`` was ``taken`` in the
     session. (``taken`` only turns true as a frame is taken, which sets the counts to
@@ -59,7 +59,7 @@ def refusals(counts: tuple[int, int, int], *, taken: bool) -> tuple[tuple[str, i
 def health_of(
     s: SessionStats,
     faulted: tuple[int, ...],
-    refused: tuple[int, int, int],
+    refused: tuple[int, ...],
     latch_kept: str,
     *,
     taken: bool,

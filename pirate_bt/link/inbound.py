@@ -34,6 +34,7 @@ from pirate_bt.link.codec import (
     MsgType,
     Nack,
     NackCode,
+    OtherVersion,
     State,
     StateLengthError,
     UnknownAckStatus,
@@ -57,8 +58,13 @@ _STATE = int(MsgType.STATE)
 _LATCH_BITS = int(BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT)
 _ESTOP = int(BridgeFlags.ESTOP)
 _INPUT_ONLY = int(BridgeFlags.ESTOP_INPUT)
-_NO_REFUSALS = (0, 0, 0)
-STATE_REFUSALS = ("with a bad CRC", "of another length", "out of sequence")
+_NO_REFUSALS = (0, 0, 0, 0)
+STATE_REFUSALS = (
+    "with a bad CRC",
+    "of another length",
+    "out of sequence",
+    "of another protocol version",
+)
 """Why a ``STATE`` frame was not taken, in the order of :meth:`InboundMixin.refused_states`
 (a bad CRC is the frame's own, unchecked, type byte saying ``STATE``)."""
 OLD_STATES_BEFORE_RESYNC = 10
@@ -128,7 +134,7 @@ class InboundMixin:
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
     # STATE frames refused since the last one taken: bad CRC, another length, not newer
-    _refused: tuple[int, int, int] = _NO_REFUSALS
+    _refused: tuple[int, ...] = _NO_REFUSALS
     # the seq of the HELLO that started the session, and the next ordered seq to send
     _session_hello: int = 0
     _next_seq: int
@@ -174,10 +180,10 @@ class InboundMixin:
         with self._lock:
             return () if self._taken is None else tuple(self._taken)
 
-    def refused_states(self) -> tuple[int, int, int]:
+    def refused_states(self) -> tuple[int, ...]:
         """``STATE`` frames refused since the last one taken (or the session's start), by
         reason (:data:`STATE_REFUSALS`): a bad CRC, another length, not newer than the
-        one held."""
+        one held, another protocol version."""
         return self._refused
 
     def line_noise(self) -> str:
@@ -228,12 +234,11 @@ class InboundMixin:
             self.crc_errors += 1
             self._noise.note_frame(self._last_heard_s, item.reason)
             _log.debug("dropped frame: %s", item)
-            crc, length, old = self._refused
             if isinstance(item, StateLengthError):
-                self._refused = (crc, length + 1, old)
+                self._refuse_state(1)
                 self._bad_state(item)
-            elif isinstance(item, BadCrc) and item.claimed_type == _STATE:
-                self._refused = (crc + 1, length, old)
+            elif isinstance(item, BadCrc | OtherVersion) and item.claimed_type == _STATE:
+                self._refuse_state(0 if isinstance(item, BadCrc) else 3)
             elif isinstance(item, UnknownAckStatus):
                 self._unknown_ack(item)
             return
@@ -259,6 +264,12 @@ class InboundMixin:
                 self._bridge_reset(now)
         elif isinstance(item, HelloReply):
             self._on_hello_reply(item, now)
+
+    def _refuse_state(self, why: int) -> None:
+        """Count a refused ``STATE`` frame, by its index in :data:`STATE_REFUSALS`."""
+        counts = list(self._refused)
+        counts[why] += 1
+        self._refused = tuple(counts)
 
     def _bad_state(self, item: StateLengthError) -> None:
         """A STATE of another length: counted; :data:`BAD_STATES_BEFORE_MISMATCH` in a
@@ -476,8 +487,7 @@ class InboundMixin:
         if not ack or (seq_newer(ack, hello) and not seq_newer(ack, self._next_seq - 1)):
             return False
         self.duplicates += 1
-        crc, length, old = self._refused
-        self._refused = (crc, length, old + 1)
+        self._refuse_state(2)
         if not self._other_session_said:
             self._other_session_said = True
             _log.warning(
@@ -525,8 +535,7 @@ class InboundMixin:
                 or item.seq == last.seq
             ):
                 self.duplicates += 1
-                crc, length, old = self._refused
-                self._refused = (crc, length, old + 1)
+                self._refuse_state(2)
                 return
             # So many in a row: the held STATE is the odd one (a damaged frame that
             # passed the CRC with a far seq, say), and every genuine STATE would be

@@ -31,7 +31,7 @@ from pirate_bt.link.messages import (
     Setpoint,
 )
 
-__all__ = ["BadCrc", "StateLengthError", "UnknownAckStatus", "decode_fixed"]
+__all__ = ["BadCrc", "OtherVersion", "StateLengthError", "UnknownAckStatus", "decode_fixed"]
 
 
 class StateLengthError(FrameError):
@@ -63,6 +63,21 @@ class BadCrc(FrameError):
 
     def __reduce__(self) -> tuple[object, ...]:
         return (type(self), (self.claimed_type, self.crc))
+
+
+class OtherVersion(FrameError):
+    """A frame (good CRC) of another protocol major version (reason ``version``), with
+    the type byte it claims (``claimed_type``), so that the session can tell a run of
+    ``STATE`` frames it refused from silence."""
+
+    def __init__(self, claimed_type: int, version: int, expected: int) -> None:
+        self.claimed_type = claimed_type
+        self.version = version
+        self.expected = expected
+        super().__init__("version", f"protocol version {version}, expected {expected}")
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (self.claimed_type, self.version, self.expected))
 
 
 class UnknownAckStatus(FrameError):
