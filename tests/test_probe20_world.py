@@ -11,9 +11,10 @@ from pathlib import Path
 import pytest
 
 from pirate_bt.cli import main
-from pirate_bt.errors import ConfigurationError
+from pirate_bt.errors import ConfigurationError, InputError
 from pirate_bt.pipes import load_network
 from pirate_bt.sim import Simulator
+from pirate_bt.sim.script import ModelSink, ScriptedDrive
 
 NARROW = """name: narrow
 diameter: 63 mm
@@ -93,3 +94,26 @@ def test_every_variant_of_a_run_just_short_of_plumb_is_written(
             piece = next(p for p in variant.pieces if p.segment == segment)
             slope = math.degrees(variant.slope_at((piece.start_m + piece.end_m) / 2))
             assert 85.0 - 1e-6 <= slope < 90.0, (seed, segment, slope)  # never past plumb
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"stop_before_end_m": "0.1 m"}, "stop_before_end_m: give a number of metres, not"),
+        ({"stop_before_end_m": math.nan}, "stop_before_end_m: nan is not a finite number"),
+        ({"stop_before_end_m": -1.0}, "stop_before_end_m: -1.0 is not a number of metres of"),
+        ({"progress": "log"}, "progress: give a function of a segment's name, or None, not"),
+    ],
+)
+def test_a_scripted_drive_refuses_a_bad_run_path_argument_before_anything_moves(
+    kwargs: dict[str, object], said: str
+) -> None:
+    # was: "0.1 m" drove the whole riser, then raised TypeError 'unsupported operand';
+    # nan was refused as front_m after the drive; progress="log" raised "'str' object
+    # is not callable" at the foot of the riser, the robot in its bend
+    with Simulator("riser") as sim:
+        drive = ScriptedDrive(sim, ModelSink(sim))
+        with pytest.raises(InputError) as refused:
+            drive.run_path(**kwargs)  # type: ignore[arg-type]
+        assert str(refused.value).startswith(said), str(refused.value)
+        assert sim.counters().distance_m == 0.0 and sim.counters().commands_executed == 0

@@ -294,7 +294,26 @@ class ScriptedDrive:
     def run_path(
         self, stop_before_end_m: float = 0.1, progress: Callable[[str], None] | None = None
     ) -> None:
-        """Drive the current path to its end, passing every turn and tee straight."""
+        """Drive the current path to its end, passing every turn and tee straight.
+
+        Raises:
+            InputError: ``stop_before_end_m`` is no finite number of metres of at least 0
+                (refused before anything moves: ``"0.1 m"`` drove the whole path, then
+                raised *TypeError: unsupported operand*; ``nan`` was refused as
+                ``front_m``, an argument nobody gave, after the drive), or ``progress``
+                is no function (it raised *'str' object is not callable* at the first
+                turn, the robot in it).
+        """
+        stop_m = _finite("stop_before_end_m", stop_before_end_m, "metres")
+        if stop_m < 0:
+            raise ArgumentValueError(
+                f"stop_before_end_m: {shown(stop_before_end_m)} is not a number of metres"
+                " of at least 0 (the robot cannot stop beyond the pipe's end)"
+            )
+        if progress is not None and not callable(progress):
+            raise ArgumentTypeError(
+                f"progress: give a function of a segment's name, or None, not {kind_of(progress)}"
+            )
         self.start()
         path = self.sim.model.path
         for piece in path.pieces:
@@ -308,4 +327,4 @@ class ScriptedDrive:
                 continue
             if progress is not None:
                 progress(piece.segment)
-        self.drive_to(path.length_m - stop_before_end_m)
+        self.drive_to(path.length_m - stop_m)
