@@ -27,6 +27,7 @@ from typing import Any
 from distributed import Client
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from pirate_bt.campaign.cancelled import CasesNotRun, LostSchedulerNoise
 from pirate_bt.campaign.workers import prestart, stop_servers
 from pirate_bt.errors import InputError, said_of
 
@@ -230,6 +231,8 @@ def dask_executor(
             f"cannot reach the Dask scheduler at {address}:"
             f" {type(exc).__name__}: {said_of(exc, 120)}"
         ) from None
+    noise = LostSchedulerNoise()  # a scheduler gone is said once, by the campaign
+    logging.getLogger("distributed.client").addFilter(noise)
     try:
         try:
             client.register_plugin(CaseServerPlugin(), name=PLUGIN_NAME)
@@ -239,5 +242,8 @@ def dask_executor(
         nworkers = len(client.scheduler_info().get("workers", {}))
         yield executor, f"Dask cluster at {client.scheduler.address} ({nworkers} workers)"
         executor.shutdown(wait=False)
+    except CasesNotRun as exc:  # its cases cancelled: say whose
+        raise CasesNotRun(f"Dask cluster at {address}: {exc}") from None
     finally:
         client.close()
+        logging.getLogger("distributed.client").removeFilter(noise)

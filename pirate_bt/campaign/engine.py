@@ -33,19 +33,20 @@ import stat
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
+from pirate_bt.campaign.cancelled import not_run
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import OUTPUT, RESULTS_NAME, RESUME, is_safe_name, safe_name
 from pirate_bt.campaign.sink import RowSink
 from pirate_bt.campaign.started import RECORD_NAME
 from pirate_bt.campaign.stopping import pool_killed_on_signal
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, said_of
 
 __all__ = [
     "DEFAULT_TARGET",
@@ -529,6 +530,7 @@ def _collect(
     pool = executor if isinstance(executor, LocalPool) else None
     fruitless = 0
     most = len(todo)  # pool replacements, at most
+    unrun = 0  # cancelled by the executor, never run: no row (cancelled.py)
     try:
         with contextlib.ExitStack() as stack:
             sink = stack.enter_context(RowSink(results)) if results else None
@@ -552,7 +554,11 @@ def _collect(
                         if pool is not None and isinstance(exc, BrokenProcessPool):
                             broken.append(future)  # lost, or to run again: see below
                             continue
-                        record = error_record(case, "error", f"worker lost: {exc}", 0.0)
+                        if isinstance(exc, CancelledError):
+                            unrun += 1
+                            continue
+                        why = said_of(exc, 1000) or type(exc).__name__
+                        record = error_record(case, "error", f"worker lost: {why}", 0.0)
                     ran += 1
                     keep(record)
                 todo = []
@@ -571,6 +577,8 @@ def _collect(
                     else:
                         todo.append(case)
                 todo.sort(key=_seed_major)
+            if unrun:
+                raise not_run(results, unrun, len(rows), len(cases))
     except BaseException:
         for future in futures:
             future.cancel()

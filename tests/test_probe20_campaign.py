@@ -1,0 +1,90 @@
+"""Hostile campaign runs from docs/campaigns.md (the twentieth probe).
+
+A Dask scheduler that went away while a campaign ran: its client cancelled every
+case it had not handed back, and each became an ``error`` row, ``worker lost: ``
+with no reason, exit 0, and ``--resume`` never ran them (they had rows); the
+client's closing logged its ``CancelledError`` tracebacks on standard error.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.campaign import run_campaign
+from pirate_bt.errors import InputError
+
+pytest.importorskip("distributed")
+
+WAIT_S = 60.0
+"""How long a scheduler may take to start (ended as soon as it has)."""
+
+
+@contextmanager
+def _scheduler(folder: Path) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    """A ``dask scheduler`` process of its own (its address, the process)."""
+    file = folder / "scheduler.json"
+    dask = Path(sys.executable).with_name("dask")
+    where = ["--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(file)]
+    process = subprocess.Popen(
+        [str(dask), "scheduler", *where, "--no-dashboard"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + WAIT_S
+        address = None
+        while address is None:
+            assert process.poll() is None, "the scheduler ended as it started"
+            assert time.monotonic() < deadline, f"no scheduler file after {WAIT_S:g} s"
+            try:
+                address = json.loads(file.read_text(encoding="utf-8"))["address"]
+            except (OSError, ValueError, KeyError):
+                time.sleep(0.05)
+        yield address, process
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
+def test_a_scheduler_that_goes_away_stops_the_campaign_instead_of_error_rows(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    out = tmp_path / "out"
+    spec = {
+        "name": "gone",
+        "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+        "seeds": {"count": 3},
+        "max_time": "60 s",
+    }
+    with _scheduler(tmp_path) as (address, process):
+
+        def scheduler_dies(_line: str) -> None:  # as the campaign starts, before its cases
+            process.kill()
+            process.wait()
+
+        with caplog.at_level(logging.INFO), pytest.raises(InputError) as caught:
+            run_campaign(
+                spec, scheduler=address, scheduler_timeout=2, output=out, echo=scheduler_dies
+            )
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith(f"Dask cluster at {address}: the executor cancelled 3 of the 3 ")
+    assert message.endswith("keeps 0 of its 3 cases: run again with resume=True to run the other 3")
+    # no case that never ran is a row: a resume runs them all
+    assert (out / "results.jsonl").read_text(encoding="utf-8") == ""
+    assert list(out.glob("traces/*")) == []
+    lost = [r for r in caplog.records if r.name == "distributed.client" and r.levelname == "ERROR"]
+    assert lost == [], [r.getMessage() for r in lost]
