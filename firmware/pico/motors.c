@@ -64,15 +64,19 @@ void motors_init(bool warm) {
     save();
 }
 
-static int16_t range_top(const struct pb_motor *m, uint8_t mode) {
+/* The top of a mode's raw range, max(|lo|, hi), unsigned: a range from -32768 has 32768
+ * (in int16, -(-32768) is -32768 again, and the top came out as hi: torque -1023 of
+ * [-32768, 1023] ran at full duty). */
+static uint16_t range_top(const struct pb_motor *m, uint8_t mode) {
     int16_t lo = m->range[mode].lo;
     int16_t hi = m->range[mode].hi;
-    int16_t a = lo < 0 ? (int16_t)-lo : lo;
-    return a > hi ? a : hi;
+    uint16_t a = lo < 0 ? (uint16_t)-(int32_t)lo : (uint16_t)lo;
+    uint16_t h = hi < 0 ? 0u : (uint16_t)hi;
+    return h > a ? h : a;
 }
 
 static int16_t limit(int32_t v, int16_t top);
-static int16_t range_top(const struct pb_motor *m, uint8_t mode);
+static uint16_t range_top(const struct pb_motor *m, uint8_t mode);
 
 static void derive(uint8_t k) {
     const struct pb_motor *m = &board.motor[k];
@@ -81,8 +85,8 @@ static void derive(uint8_t k) {
     case PB_MODE_PWM:
     case PB_MODE_TORQUE:
     case PB_MODE_VELOCITY: {
-        int16_t top = range_top(m, state[k].mode);
-        derived[k] = top > 0 ? limit((int32_t)raw * 255 / top, 255) : 0;
+        uint16_t top = range_top(m, state[k].mode);
+        derived[k] = top > 0 ? limit((int32_t)raw * 255 / (int32_t)top, 255) : 0;
         break;
     }
     case PB_MODE_POSITION: {
