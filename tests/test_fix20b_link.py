@@ -10,10 +10,15 @@ its fix.
 2. ``STATE`` frames with a good CRC but another protocol ``version`` were not counted
    among the refused ones: a run whose bridge sent nothing else said *no state frame
    from the bridge ... (the last frame heard, 0.000 s ago, held no state)*.
+3. A bridge that marks boards ``TIMEOUT`` while their readings come fresh: the link's
+   refusal said *board 26, 27 is not answering the bridge (TIMEOUT, readings 5.100 s
+   old: rebooting?)*, though no reading was old. It says how long every STATE showed
+   them away, and that their readings came fresh.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -24,7 +29,7 @@ from pirate_bt.api.running import RunResult, run_on
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import LinkLost
 from pirate_bt.link import framing
-from pirate_bt.link.codec import BridgeFlags, MsgType
+from pirate_bt.link.codec import BoardStatus, BridgeFlags, FrameCodec, MsgType, State
 from pirate_bt.link.opening import wrap_link
 from pirate_bt.link.transport import Transport
 from pirate_bt.robot import load_robot
@@ -33,6 +38,7 @@ from pirate_bt.safety.supervisor import Supervisor
 from pirate_bt.sim import Simulator
 
 ROBOT = load_robot()
+CODEC = FrameCodec.for_robot(ROBOT)
 STRAIGHT = Path(__file__).parents[1] / "trees" / "straight.yaml"
 IDLE = {"root": {"type": "wait", "name": "idle", "duration": "3 s"}}
 
@@ -162,3 +168,62 @@ def test_a_run_whose_state_frames_turn_to_another_version_names_them() -> None:
     assert result.why.startswith("link_silent: no state frame taken for 0.1"), result.why
     assert "were refused (" in result.why and " of another protocol version)" in result.why
     assert "held no state" not in result.why
+
+
+# -- 3. boards TIMEOUT with fresh readings: the time since, not "readings old" -----------------
+
+
+class _BoardsTimeout:
+    """The simulator's byte link whose ``STATE`` frames all mark ``boards`` ``TIMEOUT``,
+    their readings still fresh."""
+
+    def __init__(self, inner: Transport, boards: tuple[int, ...]) -> None:
+        self.inner = inner
+        self.baud = inner.baud
+        self.positions = [ROBOT.board_ids().index(b) for b in boards]
+        self._held = b""
+
+    def read_available(self) -> bytes:
+        self._held += self.inner.read_available()
+        *frames, self._held = self._held.split(b"\x00")
+        out = bytearray()
+        for frame in frames:
+            body = framing.cobs_decode(frame) if frame else b""
+            if len(body) > 2 and body[1] == MsgType.STATE:
+                msg = CODEC.decode(frame)
+                assert isinstance(msg, State)
+                status = list(msg.board_status)
+                for i in self.positions:
+                    status[i] = int(BoardStatus.TIMEOUT)
+                out += CODEC.encode(dataclasses.replace(msg, board_status=tuple(status)))
+                continue
+            out += frame + b"\x00"
+        return bytes(out)
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def drain_input(self) -> int:
+        return self.inner.drain_input()
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def test_boards_marked_timeout_with_fresh_readings_are_not_said_to_have_old_readings() -> None:
+    clock = SimClock()
+    sim = Simulator("straight", ROBOT, clock=clock)
+    transport = Transport.open(sim.url, baud=ROBOT.bridge.baud)
+    link = wrap_link(_BoardsTimeout(transport, (26, 27)), ROBOT, clock)
+    wait_for_state(link, clock, 5.0)
+    supervisor = Supervisor(link, clock)
+    supervisor.attach_simulator(sim)
+    connection = Connection(
+        ROBOT, clock, supervisor, simulated=True, target="x", seed=0, description="away"
+    )
+    with connection:
+        result = run_on(connection, STRAIGHT, params={"distance": "1 m"}, max_time="30 s")
+    assert result.exit_code == 3, result.why
+    assert "board 26, 27 is not answering the bridge (TIMEOUT in every STATE for " in result.why
+    assert " s, though the readings came fresh in them): its setpoints" in result.why
+    assert "s old" not in result.why

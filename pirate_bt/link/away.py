@@ -20,11 +20,13 @@ way whenever the tree sends, and one lost reply ends none.
 
 from __future__ import annotations
 
+import math
+
 from pirate_bt.link.codec import BoardStatus
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
-__all__ = ["BoardsAway", "away_since"]
+__all__ = ["BoardsAway", "away_since", "not_answering"]
 
 _TIMEOUT = int(BoardStatus.TIMEOUT)
 
@@ -95,9 +97,12 @@ class BoardsAway:
         boards: set[int],
         state: RobotState | None,
         at_s: float,
-    ) -> list[tuple[int, float]]:
-        """``(board, seconds)`` for each of ``boards`` away for good (see the module), the
-        seconds being the age of its freshest reading (at least).
+    ) -> list[tuple[int, float, bool]]:
+        """``(board, seconds, fresh)`` for each of ``boards`` away for good (see the
+        module): the seconds since a ``STATE`` last showed it answering, or the age of its
+        freshest reading; ``fresh`` when its readings still came fresh all the while (a
+        bridge that marks it ``TIMEOUT`` yet passes its readings on), so that the
+        seconds are no readings' age.
 
         Args:
             away: The boards away (:meth:`by_id`), with the last time each answered.
@@ -105,16 +110,39 @@ class BoardsAway:
             state: The ``RobotState`` the link last gave (``None``: none yet).
             at_s: The arrival time of the newest ``STATE``.
         """
-        out: list[tuple[int, float]] = []
+        out: list[tuple[int, float, bool]] = []
         for board in sorted(boards & away.keys()):
             since = away[board]
             gone = at_s - since
-            if gone > self._grace_s[board]:
-                out.append((board, gone))
-                continue
             limits = self._limits[board]
-            if limits and state is not None and state.stamp_s > since:
-                ages = [(state.age_s(name, at_s), limit) for name, limit in limits]
-                if all(age > limit for age, limit in ages):
-                    out.append((board, min(age for age, _ in ages)))
+            ages = [(state.age_s(n, at_s), limit) for n, limit in limits] if state else []
+            if gone > self._grace_s[board]:
+                out.append((board, gone, any(age <= limit for age, limit in ages)))
+                continue
+            if (
+                ages
+                and state is not None
+                and state.stamp_s > since
+                and all(age > limit for age, limit in ages)
+            ):
+                out.append((board, min(age for age, _ in ages), False))
         return out
+
+
+def not_answering(late: list[tuple[int, float, bool]], what: str) -> str:
+    """The link's refusal of a command for boards away for good (:meth:`BoardsAway.overdue`),
+    for people: *board 22 is not answering the bridge (TIMEOUT, readings 0.110 s old:
+    rebooting?): its setpoints cannot be delivered*."""
+    age = max(t for _, t, _ in late)
+    boards = ", ".join(str(b) for b, _, _ in late)
+    if any(fresh for _, _, fresh in late):
+        # before 2026-11-30 said "readings 5.100 s old" of readings fresh in every frame
+        return (
+            f"board {boards} is not answering the bridge (TIMEOUT in every STATE for"
+            f" {age:.3f} s, though the readings came fresh in them): its setpoints {what}"
+        )
+    old = f"readings {age:.3f} s old" if math.isfinite(age) else "no fresh reading"
+    return (
+        f"board {boards} is not answering the bridge (TIMEOUT, {old}: rebooting?): its"
+        f" setpoints {what}"
+    )

@@ -19,12 +19,11 @@ all, carries it again (docs/protocol.md, Sequence numbers).
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Collection, Sequence
 from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
-from pirate_bt.link.away import BoardsAway
+from pirate_bt.link.away import BoardsAway, not_answering
 from pirate_bt.link.closing import wait_for_estop
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
 from pirate_bt.link.deadman import Deadman
@@ -176,7 +175,7 @@ class RobotLink:
             deferred = {raw.board for raw in raws} & away.keys()
             late = self._overdue(away, deferred)
             if late:
-                raise LinkError(_not_answering(late, "cannot be delivered"))
+                raise LinkError(not_answering(late, "cannot be delivered"))
         for raw in raws:
             i = self._slot_index[(raw.board, raw.slot)]
             self._modes[i] = raw.mode
@@ -187,7 +186,7 @@ class RobotLink:
         self._send_table(away.keys())
         self._deadman.renew(self.session, self._modes, self._raw)
 
-    def _overdue(self, away: dict[int, float], boards: set[int]) -> list[tuple[int, float]]:
+    def _overdue(self, away: dict[int, float], boards: set[int]) -> list[tuple[int, float, bool]]:
         """Those of ``boards`` away with every reading stale (:mod:`pirate_bt.link.away`)."""
         if not boards & away.keys():
             return []
@@ -233,7 +232,7 @@ class RobotLink:
             away = self._away.by_id(self.session.boards_away())
             late = self._overdue(away, deferred & self._away.owed)
             if late:
-                raise LinkError(_not_answering(late, "were not delivered"))
+                raise LinkError(not_answering(late, "were not delivered"))
             if clock.now() >= deadline:
                 raise LinkTimeout(
                     f"board {', '.join(map(str, sorted(deferred)))} did not answer the bridge"
@@ -551,12 +550,3 @@ class RobotLink:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _not_answering(late: list[tuple[int, float]], what: str) -> str:
-    age = max(t for _, t in late)
-    old = f"readings {age:.3f} s old" if math.isfinite(age) else "no fresh reading"
-    return (
-        f"board {', '.join(str(b) for b, _ in late)} is not answering the bridge"
-        f" (TIMEOUT, {old}: rebooting?): its setpoints {what}"
-    )
