@@ -88,3 +88,35 @@ def test_a_scheduler_that_goes_away_stops_the_campaign_instead_of_error_rows(
     assert list(out.glob("traces/*")) == []
     lost = [r for r in caplog.records if r.name == "distributed.client" and r.levelname == "ERROR"]
     assert lost == [], [r.getMessage() for r in lost]
+
+
+SMALL = """\
+name: small
+runs:
+  - {name: a, tree: straight, network: straight, params: {distance: 0.1 m}}
+max_time: 60 s
+"""
+
+
+@pytest.mark.parametrize("others", [{}, {"report.md": "# our notes\n"}])
+def test_a_campaign_json_of_someone_elses_is_not_replaced(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], others: dict[str, str]
+) -> None:
+    from pirate_bt.cli import main
+
+    # a spec named campaign.json run into its own folder, or a project's file of that name
+    spec = tmp_path / "campaign.json"
+    spec.write_text(SMALL, encoding="utf-8")
+    for name, text in others.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    code = main(["campaign", str(spec), "--output", str(tmp_path), "--workers", "1", "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert err == (
+        f"pirate-bt: {spec}: the campaign's record would replace it, and it is no campaign's"
+        f" ({tmp_path} holds no row); move it, or give another --output"
+    )
+    assert spec.read_text(encoding="utf-8") == SMALL
+    for name, text in others.items():
+        assert (tmp_path / name).read_text(encoding="utf-8") == text
+    assert not (tmp_path / "results.jsonl").exists()

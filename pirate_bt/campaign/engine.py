@@ -43,7 +43,7 @@ from pirate_bt.campaign.cancelled import not_run
 from pirate_bt.campaign.case import error_record, row_problem
 from pirate_bt.campaign.paths import OUTPUT, RESULTS_NAME, RESUME, is_safe_name, safe_name
 from pirate_bt.campaign.sink import RowSink
-from pirate_bt.campaign.started import RECORD_NAME
+from pirate_bt.campaign.started import RECORD_NAME, holds_a_record
 from pirate_bt.campaign.stopping import pool_killed_on_signal
 from pirate_bt.campaign.workers import pool_markers, run_in_server, start_pool_worker, tracked
 from pirate_bt.errors import InputError, said_of
@@ -371,7 +371,7 @@ def _check_no_report(output: Path) -> None:
     ``results.csv`` is someone else's (``--output .`` in a project), and it was
     overwritten without a word when the campaign ended.
     """
-    if (output / RECORD_NAME).exists():
+    if holds_a_record(output):  # one no campaign wrote is refused
         return
     for name in _REPORT:
         if (output / name).exists():

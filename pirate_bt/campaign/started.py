@@ -48,6 +48,7 @@ __all__ = [
     "Start",
     "begin",
     "file_digest",
+    "holds_a_record",
     "recorded_name",
     "write_record",
 ]
@@ -240,6 +241,24 @@ def _read_record(path: Path) -> tuple[float, dict[str, str], str | None] | None:
         digests[file] = digest
     name = data.get("campaign")
     return float(timeout), digests, name if isinstance(name, str) else None
+
+
+def holds_a_record(folder: Path) -> bool:
+    """Whether ``folder`` holds a campaign's record; for a folder holding no row.
+
+    Raises:
+        InputError: it holds a ``campaign.json`` no campaign wrote (a spec of that
+            name run into its own folder, a project's file): the campaign's record
+            would replace it, where it was overwritten without a word.
+    """
+    path = folder / RECORD_NAME
+    try:
+        return _read_record(path) is not None
+    except InputError:
+        raise InputError(
+            f"{path}: the campaign's record would replace it, and it is no campaign's"
+            f" ({folder} holds no row); move it, or give another {OUTPUT}"
+        ) from None
 
 
 def recorded_name(folder: Path) -> str | None:
