@@ -14,6 +14,9 @@ its fix.
    refusal said *board 26, 27 is not answering the bridge (TIMEOUT, readings 5.100 s
    old: rebooting?)*, though no reading was old. It says how long every STATE showed
    them away, and that their readings came fresh.
+4. A ``HELLO_REPLY`` whose ``sessions`` is 0 (the count includes the session it starts:
+   at least 1) was taken silently, and a boot latch with it was kept as an earlier
+   session's. It is a protocol mismatch at connect now (exit 3).
 """
 
 from __future__ import annotations
@@ -22,15 +25,24 @@ import dataclasses
 from pathlib import Path
 
 import pytest
-from session_wire import Wire, state
+from session_wire import Wire, reply, state
 
 from pirate_bt.api.connection import Connection
 from pirate_bt.api.running import RunResult, run_on
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkLost
+from pirate_bt.errors import LinkLost, ProtocolMismatch
 from pirate_bt.link import framing
-from pirate_bt.link.codec import BoardStatus, BridgeFlags, FrameCodec, MsgType, State
+from pirate_bt.link.codec import (
+    BoardStatus,
+    BridgeFlags,
+    FrameCodec,
+    FrameDecoder,
+    Hello,
+    MsgType,
+    State,
+)
 from pirate_bt.link.opening import wrap_link
+from pirate_bt.link.testing import memory_pair
 from pirate_bt.link.transport import Transport
 from pirate_bt.robot import load_robot
 from pirate_bt.safety.factory import wait_for_state
@@ -227,3 +239,38 @@ def test_boards_marked_timeout_with_fresh_readings_are_not_said_to_have_old_read
     assert "board 26, 27 is not answering the bridge (TIMEOUT in every STATE for " in result.why
     assert " s, though the readings came fresh in them): its setpoints" in result.why
     assert "s old" not in result.why
+
+
+# -- 4. a HELLO_REPLY that counts no session ------------------------------------------------
+
+
+def _bridge_answering_hello_with(clock: SimClock, far: Transport, **changes: object) -> None:
+    decoder = FrameDecoder(CODEC)
+
+    def step(_now: float) -> None:
+        for msg in decoder.feed(far.read_available()):
+            if isinstance(msg, Hello):
+                far.write(CODEC.encode(reply(msg.seq, minor=msg.minor, **changes)))
+
+    clock.add_listener(step)
+
+
+def test_a_hello_reply_that_counts_no_session_is_a_protocol_mismatch() -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    _bridge_answering_hello_with(clock, far, sessions=0, flags=BridgeFlags.ESTOP)
+    with pytest.raises(ProtocolMismatch) as caught:
+        wrap_link(host, ROBOT, clock)
+    assert str(caught.value) == (
+        "the bridge's HELLO_REPLY counts 0 sessions since boot: the count includes the session"
+        " it starts, so it is at least 1 (a bridge that does not follow the protocol)"
+    )
+
+
+def test_a_hello_reply_that_counts_one_session_is_taken() -> None:
+    clock = SimClock()
+    host, far = memory_pair()
+    _bridge_answering_hello_with(clock, far, sessions=1)
+    link = wrap_link(host, ROBOT, clock)
+    assert link.health().connected
+    link.session.close()

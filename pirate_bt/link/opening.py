@@ -134,6 +134,7 @@ def wrap_link(
                     raise
                 raise HelloRefused.under_both_minors(codec.layout.digest, asked) from None
         _check_watchdog(reply, robot)
+        _check_sessions(reply)
     except BaseException:
         byte_link.close()
         raise
@@ -381,4 +382,23 @@ def _check_watchdog(reply: HelloReply, robot: RobotDescription) -> None:
             f"the bridge's watchdog is {reply.watchdog_ms} ms, shorter than its line can keep"
             f" fed (ten heartbeats a period, each {frame_ms:.2f} ms at {robot.bridge.baud}"
             f" baud: at least {least_ms} ms); a firmware built for another robot description?"
+        )
+
+
+def _check_sessions(reply: HelloReply) -> None:
+    """Refuse a reply that counts no session: the count includes the session the
+    ``HELLO`` started (docs/protocol.md, Payloads), and the host releases a latch it finds
+    on the first session only (a count of 0 made it take a boot latch for an earlier
+    session's, silently).
+
+    Raises:
+        ProtocolMismatch: ``sessions`` is 0.
+    """
+    from pirate_bt.errors import ProtocolMismatch
+
+    if reply.sessions < 1:
+        raise ProtocolMismatch(
+            f"the bridge's HELLO_REPLY counts {reply.sessions} sessions since boot: the count"
+            " includes the session it starts, so it is at least 1 (a bridge that does not"
+            " follow the protocol)"
         )
