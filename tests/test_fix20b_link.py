@@ -17,6 +17,8 @@ its fix.
 4. A ``HELLO_REPLY`` whose ``sessions`` is 0 (the count includes the session it starts:
    at least 1) was taken silently, and a boot latch with it was kept as an earlier
    session's. It is a protocol mismatch at connect now (exit 3).
+5. ``SimServer`` said *this server already serves ('127.0.0.1', 39999)* on a second
+   ``open_tcp``: a Python tuple, not the ``127.0.0.1:39999`` a user types.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from session_wire import Wire, reply, state
 from pirate_bt.api.connection import Connection
 from pirate_bt.api.running import RunResult, run_on
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LinkLost, ProtocolMismatch
+from pirate_bt.errors import InputError, LinkLost, ProtocolMismatch
 from pirate_bt.link import framing
 from pirate_bt.link.codec import (
     BoardStatus,
@@ -48,6 +50,7 @@ from pirate_bt.robot import load_robot
 from pirate_bt.safety.factory import wait_for_state
 from pirate_bt.safety.supervisor import Supervisor
 from pirate_bt.sim import Simulator
+from pirate_bt.sim.server import SimServer
 
 ROBOT = load_robot()
 CODEC = FrameCodec.for_robot(ROBOT)
@@ -274,3 +277,21 @@ def test_a_hello_reply_that_counts_one_session_is_taken() -> None:
     link = wrap_link(host, ROBOT, clock)
     assert link.health().connected
     link.session.close()
+
+
+# -- 5. the simulator server names its address as HOST:PORT --------------------------------
+
+
+def test_a_second_tcp_endpoint_names_the_first_as_host_colon_port() -> None:
+    with Simulator("straight") as sim:
+        server = SimServer(sim)
+        host, port = server.open_tcp(0)
+        try:
+            with pytest.raises(InputError) as caught:
+                server.open_tcp(0)
+        finally:
+            server.stop()
+    assert str(caught.value) == (
+        f"this server already serves {host}:{port}; one endpoint per server (make another"
+        " SimServer)"
+    )

@@ -184,9 +184,10 @@ class SimServer:
     def _check_unopened(self) -> None:
         """One endpoint per server: a second left the first open and unserved."""
         if self._master is not None or self._listener is not None:
+            where = self.device or (self.address and f"{self.address[0]}:{self.address[1]}")
             raise InputError(
-                f"this server already serves {self.device or self.address}; one endpoint"
-                " per server (make another SimServer)"
+                f"this server already serves {where}; one endpoint per server (make another"
+                " SimServer)"
             )
 
     def start(self) -> None:
