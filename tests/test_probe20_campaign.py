@@ -120,3 +120,64 @@ def test_a_campaign_json_of_someone_elses_is_not_replaced(
     for name, text in others.items():
         assert (tmp_path / name).read_text(encoding="utf-8") == text
     assert not (tmp_path / "results.jsonl").exists()
+
+
+def test_a_tls_scheduler_dask_is_configured_for_runs_the_campaign(tmp_path: Path) -> None:
+    # Dask's client connects with the TLS of Dask's configuration; the campaign's own
+    # check of the scheduler connected without it and refused every tls:// scheduler
+    # ("no Dask scheduler answered at tls://...: its reply is not Dask's protocol")
+    import shutil
+
+    import dask
+    from distributed import LocalCluster
+    from distributed.security import Security
+
+    openssl = shutil.which("openssl")
+    if openssl is None:
+        pytest.skip("no openssl to make a certificate with")
+    cert, key = str(tmp_path / "cert.pem"), str(tmp_path / "key.pem")
+    made = ["-keyout", key, "-out", cert, "-subj", "/CN=localhost", "-days", "2"]
+    subprocess.run(
+        [openssl, "req", "-x509", "-newkey", "rsa:2048", "-nodes", *made],
+        check=True,
+        capture_output=True,
+        timeout=WAIT_S,
+    )
+    roles = ("scheduler", "worker", "client")
+    security = Security(  # type: ignore[no-untyped-call]
+        tls_ca_file=cert,
+        require_encryption=True,
+        **{
+            f"tls_{role}_{part}": file
+            for role in roles
+            for part, file in (("cert", cert), ("key", key))
+        },
+    )
+    config = {
+        "distributed.comm.require-encryption": True,
+        "distributed.comm.tls.ca-file": cert,
+        "distributed.comm.tls.client.cert": cert,
+        "distributed.comm.tls.client.key": key,
+    }
+    with (
+        dask.config.set(config),
+        LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=False,
+            dashboard_address=None,
+            security=security,
+            protocol="tls://",
+            host="127.0.0.1",
+        ) as cluster,
+    ):
+        address = cluster.scheduler_address
+        assert address.startswith("tls://")
+        spec = {
+            "name": "tls",
+            "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+            "max_time": "60 s",
+        }
+        result = run_campaign(spec, scheduler=address, scheduler_timeout=WAIT_S)
+    assert result.executor == f"Dask cluster at {address} (1 workers)"
+    assert result.summary() == "1 runs: 1 success, 0 failed safe, 0 error, 0 timeout"

@@ -143,11 +143,17 @@ async def _handshake(address: str, timeout_s: float) -> None:
     import asyncio
 
     from distributed.comm.core import CommClosedError, connect
+    from distributed.security import Security
 
+    # as the client will connect: with the TLS of Dask's configuration (a tls://
+    # scheduler was refused here, "its reply is not Dask's protocol", for want of it)
+    security: Any = Security()  # type: ignore[no-untyped-call]
     try:
         # connect is untyped; its own timeout covers the TCP connection only.
         comm: Any = await asyncio.wait_for(
-            connect(address, timeout=timeout_s),  # type: ignore[no-untyped-call]
+            connect(  # type: ignore[no-untyped-call]
+                address, timeout=timeout_s, **security.get_connection_args("client")
+            ),
             timeout_s + 0.5,
         )
     except TimeoutError:  # before OSError: TimeoutError is one
