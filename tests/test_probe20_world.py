@@ -117,3 +117,31 @@ def test_a_scripted_drive_refuses_a_bad_run_path_argument_before_anything_moves(
             drive.run_path(**kwargs)  # type: ignore[arg-type]
         assert str(refused.value).startswith(said), str(refused.value)
         assert sim.counters().distance_m == 0.0 and sim.counters().commands_executed == 0
+
+
+RISER_TOP = """name: rb
+diameter: 63 mm
+segments:
+  - {id: a, type: straight, length: 2 m}
+  - {id: b, type: bend, direction: up}
+  - {id: c, type: straight, length: 2 m}
+  - {id: e, type: bend, direction: left}
+  - {id: f, type: straight, length: 2 m, slope: 5 deg}
+"""
+
+
+def test_removing_a_riser_s_top_bend_says_which_edit_cannot_be_built(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was: "pirate-bt: segment 'f': cannot set a slope on a vertical run; use a bend",
+    # naming a segment the command was not given and not the edit that made it so
+    drawn = tmp_path / "rb.yaml"
+    drawn.write_text(RISER_TOP, encoding="utf-8")
+    out = tmp_path / "no-e.yaml"
+    assert main(["network", "remove", str(drawn), "e", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "pirate-bt: the network without e cannot be built: segment 'f': cannot set a slope"
+        " on a vertical run; use a bend"
+    ), err
+    assert not out.exists()
