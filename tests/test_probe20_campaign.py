@@ -181,3 +181,23 @@ def test_a_tls_scheduler_dask_is_configured_for_runs_the_campaign(tmp_path: Path
         result = run_campaign(spec, scheduler=address, scheduler_timeout=WAIT_S)
     assert result.executor == f"Dask cluster at {address} (1 workers)"
     assert result.summary() == "1 runs: 1 success, 0 failed safe, 0 error, 0 timeout"
+
+
+def test_a_tls_scheduler_without_tls_configured_is_said_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it was "no Dask scheduler answered at tls://...: its reply is not Dask's
+    # protocol (TypeError: ...)": nothing had answered, nothing was even sent
+    from pirate_bt.cli import main
+
+    spec = tmp_path / "s.campaign.yaml"
+    spec.write_text(SMALL, encoding="utf-8")
+    out = tmp_path / "out"
+    options = ["--output", str(out), "--scheduler-timeout", "1 s", "--quiet"]
+    code = main(["campaign", str(spec), "--scheduler", "tls://127.0.0.1:9", *options])
+    assert code == 2
+    assert capsys.readouterr().err.strip() == (
+        "pirate-bt: cannot reach the Dask scheduler at tls://127.0.0.1:9: no TLS is configured"
+        " for Dask's client (distributed.comm.tls.ca-file, .client.cert, .client.key)"
+    )
+    assert not out.exists()

@@ -167,6 +167,14 @@ async def _handshake(address: str, timeout_s: float) -> None:
     comm.abort()
 
 
+def _no_tls() -> bool:
+    """Whether Dask's configuration gives its client no TLS to connect with."""
+    from distributed.security import Security
+
+    security: Any = Security()  # type: ignore[no-untyped-call]
+    return security.get_connection_args("client").get("ssl_context") is None
+
+
 def _check_scheduler(address: str, timeout_s: float) -> None:
     """Refuse an address where no Dask scheduler completes a handshake within ``timeout_s``.
 
@@ -190,6 +198,11 @@ def _check_scheduler(address: str, timeout_s: float) -> None:
             get_address_host_port(address)
     except Exception as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    if scheme == "tls" and _no_tls():  # Dask's TypeError was said as the far end's reply
+        raise InputError(
+            f"cannot reach the Dask scheduler at {address}: no TLS is configured for"
+            " Dask's client (distributed.comm.tls.ca-file, .client.cert, .client.key)"
+        )
     with ThreadPoolExecutor(1, thread_name_prefix="pirate_bt-dask-check") as pool:
         future = pool.submit(asyncio.run, _handshake(address, timeout_s))
         try:
