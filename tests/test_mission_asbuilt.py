@@ -280,7 +280,9 @@ def test_a_branch_on_the_other_side_than_drawn_is_a_named_disagreement(tmp_path:
     result = simulate_mission(REPO / "scenarios" / "lab-service.route", truth=str(truth))
     assert not result.succeeded and result.run.safe_state_called
     assert result.why.startswith("map disagreement at "), result.why
-    assert "T-joint 'tee-1' (left)" in result.why and "no turn or opening" in result.why
+    # it slipped over the opening on the other side (SlipWatch), and says so
+    assert "T-joint 'tee-1' (left)" in result.why
+    assert "the robot slipped over an opening" in result.why
     failed = result.failed_pab
     assert failed is not None and failed.kind == "t-joint" and failed.why.startswith("no feature")
     assert result.sim["violations"] == 0 and result.sim["damage"] == 0
