@@ -30,6 +30,7 @@ import subprocess
 import sys
 import threading
 import time
+import weakref
 from collections import deque
 from pathlib import Path
 from typing import Any, ClassVar
@@ -194,7 +195,8 @@ class Ros2Node:
         self.reached = True
         """False while the node's session reaches no Zenoh router or peer (said in the
         log; see :mod:`~pirate_bt.interop.ros2_reach`)."""
-        self._supervisors: list[Any] = []
+        self._supervisors: list[weakref.ref[Any]] = []
+        """The supervisors attached, held weakly, so that each goes with its run."""
         self._ready = threading.Event()
         self._lock = threading.Lock()
         self._flushed = threading.Condition()
@@ -369,9 +371,12 @@ class Ros2Node:
         """Let ``supervisor`` drain the e-stop topic (once per supervisor)."""
         if self.estop is None or supervisor is None:
             return
-        if any(s is supervisor for s in self._supervisors):
+        # Weakly: a node shared by many runs kept every run's supervisor, and with it
+        # the run's simulator and link, for as long as the node was open.
+        self._supervisors = [ref for ref in self._supervisors if ref() is not None]
+        if any(ref() is supervisor for ref in self._supervisors):
             return
-        self._supervisors.append(supervisor)
+        self._supervisors.append(weakref.ref(supervisor))
         supervisor.add_input(self.estop)
 
     # --- handing over ------------------------------------------------------------------------

@@ -1,0 +1,52 @@
+"""Probe 20: other implementations of the live protocols, as a peer (and planner code
+sharing one live view between runs) would use them.
+
+Found by acting as a ROS 2 graph, a Foxglove client and a Groot2 client written from
+their specs, and as planner code that opens the live views' servers once and runs many
+trees through them (docs/ros2.md, docs/interop-foxglove.md, docs/interop-groot2.md).
+"""
+
+from __future__ import annotations
+
+import gc
+import weakref
+from typing import Any
+
+import pytest
+
+
+def test_a_ros2_node_shared_by_many_runs_does_not_keep_every_runs_supervisor() -> None:
+    """docs/ros2.md offers an open ``Ros2Node`` "to share between runs". It kept every
+    run's supervisor (which holds the run's simulator, link and verdicts) for as long as
+    it was open: a planner looping over seeds with one node grew by a whole run each
+    time. A run's supervisor now goes with its run; the e-stop topic still reaches the
+    run going on."""
+    pytest.importorskip("zenoh")
+    import pirate_bt
+    from pirate_bt.interop.ros2_live import Ros2Node
+    from pirate_bt.safety.supervisor import Supervisor
+
+    made: list[weakref.ref[Any]] = []
+    real_init = Supervisor.__init__
+
+    def remember(self: Any, *args: Any, **kwargs: Any) -> None:
+        real_init(self, *args, **kwargs)
+        made.append(weakref.ref(self))
+
+    with pytest.MonkeyPatch.context() as patch, Ros2Node("tcp/127.0.0.1:1") as node:
+        patch.setattr(Supervisor, "__init__", remember)
+        for seed in range(4):
+            result = pirate_bt.simulate_tree(
+                "straight",
+                network="straight",
+                params={"distance": "0.05 m"},
+                seed=seed,
+                ros2=node,
+            )
+            assert result.status == "success", result.why
+        del result
+        gc.collect()
+        assert len(made) == 4
+        kept = [ref for ref in made if ref() is not None]
+        # what a run keeps of the last one it knew of (a module's cache) is not the node's
+        assert len(kept) <= 2, f"{len(kept)} of 4 runs' supervisors are still alive"
