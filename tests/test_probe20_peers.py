@@ -50,3 +50,22 @@ def test_a_ros2_node_shared_by_many_runs_does_not_keep_every_runs_supervisor() -
         kept = [ref for ref in made if ref() is not None]
         # what a run keeps of the last one it knew of (a module's cache) is not the node's
         assert len(kept) <= 2, f"{len(kept)} of 4 runs' supervisors are still alive"
+
+
+def test_an_estop_heard_between_two_runs_on_a_shared_node_stops_the_next_run() -> None:
+    """docs/ros2.md's Limits: a ``true`` heard while no run goes on is kept for the next
+    run on the node (pressed while the robot stood, it is meant for its next move)."""
+    pytest.importorskip("zenoh")
+    import pirate_bt
+    from pirate_bt.interop.ros2_live import Ros2Node
+
+    params = {"distance": "0.05 m"}
+    with Ros2Node("tcp/127.0.0.1:1") as node:
+        first = pirate_bt.simulate_tree("straight", network="straight", params=params, ros2=node)
+        assert first.status == "success", first.why
+        assert node.estop is not None
+        node.estop.push(True)  # as the node's reader thread does for a true on the topic
+        second = pirate_bt.simulate_tree("straight", network="straight", params=params, ros2=node)
+    assert second.status == "failure"
+    assert second.why == "e-stop: ROS 2 e-stop on /pirate/estop"
+    assert second.ticks == 1
