@@ -9,6 +9,7 @@ trees through them (docs/ros2.md, docs/interop-foxglove.md, docs/interop-groot2.
 from __future__ import annotations
 
 import gc
+import json
 import weakref
 from typing import Any
 
@@ -69,3 +70,65 @@ def test_an_estop_heard_between_two_runs_on_a_shared_node_stops_the_next_run() -
     assert second.status == "failure"
     assert second.why == "e-stop: ROS 2 e-stop on /pirate/estop"
     assert second.ticks == 1
+
+
+class _StatusClient:
+    """A Foxglove client (tests/foxglove_ws.py) that keeps the server's status messages."""
+
+    def __init__(self, port: int) -> None:
+        from foxglove_ws import FoxgloveClient
+
+        self.client = FoxgloveClient("127.0.0.1", port, timeout_s=20.0)
+        self.statuses: list[dict[str, Any]] = []
+        handle = self.client._handle
+
+        def keep(opcode: int, data: bytes) -> None:
+            if opcode == 1 and b'"status"' in data:
+                self.statuses.append(json.loads(data))
+            handle(opcode, data)
+
+        self.client._handle = keep  # type: ignore[method-assign]
+
+
+def test_a_client_asking_what_a_read_only_server_lacks_gets_a_status_naming_it() -> None:
+    """docs/interop-foxglove.md: the server is read-only (no parameters, services,
+    assets, connection graph or client publishing). A client written from the ws-protocol
+    spec that asks for them anyway, advertising a channel of its own to publish to the
+    robot among them, gets one error status each, naming the capability, and the
+    connection stays; a client offering no protocol the server speaks is refused at the
+    handshake."""
+    pytest.importorskip("foxglove")
+    from pirate_bt.interop.foxglove_live import FoxgloveServer
+
+    asked = [
+        ({"op": "getParameters", "parameterNames": ["a"], "id": "x"}, "parameters"),
+        ({"op": "setParameters", "parameters": [{"name": "a", "value": 1}]}, "parameters"),
+        ({"op": "subscribeParameterUpdates", "parameterNames": ["a"]}, "parametersSubscribe"),
+        ({"op": "subscribeConnectionGraph"}, "connection graph"),
+        ({"op": "fetchAsset", "uri": "file:///etc/passwd", "requestId": 1}, "assets"),
+        (
+            {
+                "op": "advertise",
+                "channels": [
+                    {"id": 1, "topic": "/pirate/estop", "encoding": "json", "schemaName": "x"}
+                ],
+            },
+            "clientPublish",
+        ),
+    ]
+    with FoxgloveServer(port=0) as server:
+        peer = _StatusClient(server.port)
+        for message, _ in asked:
+            peer.client.send_json(message)
+        assert peer.client.wait_for(lambda _: len(peer.statuses) >= len(asked), 20.0)
+        says = sorted(s["message"] for s in peer.statuses)
+        for _, capability in asked:
+            wanted = f"Server does not support {capability} capability"
+            assert wanted in says, says
+        assert all(s["level"] == 2 for s in peer.statuses)  # error
+        # the connection stays: it can still subscribe and be answered
+        assert peer.client.wait_for(lambda c: "/pirate/run" in c.channels, 20.0)
+        from foxglove_ws import FoxgloveClient
+
+        with pytest.raises(ConnectionError, match="400 Bad Request"):
+            FoxgloveClient("127.0.0.1", server.port, subprotocols=("ros1",))
