@@ -15,6 +15,12 @@ half clamped, with the drive commanding the wheels, for :data:`SLIP_S`.
 where it pressed (a stalled joint motor) sooner; this watch names the rest: a joint
 off the wall (over an opening, or a pipe wider than the clamp reaches), a half
 released or letting go.
+
+In a steep pipe (an IMU pitch beyond ``motion.max_unclamped_slope``) there is no
+window: a robot no half holds there slides down at once, so the first state that says
+so ends the drive (a riser's tee whose branch was built off the drawing: the rear
+half, the only one holding, reaches the opening and the robot slides on every step
+it drives over it).
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety import ClampState
 from pirate_bt.safety.checks import classify_half
+from pirate_bt.safety.supervisor_hold import why_half_holds_nothing
 
 __all__ = ["SLIP_S", "SlipWatch"]
 
@@ -41,8 +48,6 @@ class SlipWatch:
 
     def __init__(self, robot: RobotDescription) -> None:
         self.robot = robot
-        clamp = robot.clamp
-        self._beyond = max(c.angle for c in clamp.contact_angles) + 2 * robot.safety.angle_tolerance
         self._since: float | None = None
         self._from_m = 0.0  # odometry where no half held any more
 
@@ -58,27 +63,20 @@ class SlipWatch:
         if self._since is None:
             self._since = now_s
             self._from_m = travelled_m
-        if now_s - self._since < SLIP_S - 1e-9:
+        pitch = state.imu_rad.get("pitch")
+        steep = pitch is not None and abs(pitch) > robot.motion.max_unclamped_slope
+        if not steep and now_s - self._since < SLIP_S - 1e-9:
             return None
-        halves = "; ".join(self._half_why(state, h, k) for h, k in kinds.items())
+        halves = "; ".join(why_half_holds_nothing(robot, state, h, k) for h, k in kinds.items())
+        if steep and pitch is not None:
+            return (
+                f"no half holds the robot after {self._from_m:.3f} m ({halves}): it slides"
+                f" down the steep pipe (pitch {math.degrees(pitch):.0f}°)"
+            )
         return (
             f"no half holds the robot after {self._from_m:.3f} m ({halves}): the wheels"
             " turn in place"
         )
-
-    def _half_why(self, state: RobotState, half: Half, kind: ClampState) -> str:
-        """Why ``half`` holds nothing, for people: ``front released``, ``rear bend_3
-        off the wall at 110.0°, over an opening``."""
-        if kind is ClampState.UNCLAMPED:
-            return f"{half} released"
-        off = []
-        for module in self.robot.bend_modules(half):
-            angle = state.joint_angle_rad.get(module.name)
-            if angle is not None and abs(angle) > self._beyond:
-                off.append(f"{module.name} off the wall at {math.degrees(abs(angle)):.1f}°")
-        if off:
-            return f"{half} {', '.join(off)}, over an opening"
-        return f"{half} {kind.value}"
 
 
 def no_turn_felt(

@@ -52,6 +52,7 @@ __all__ = [
     "STILL_MPS",
     "HoldMixin",
     "hold_torque",
+    "why_half_holds_nothing",
 ]
 
 log = logging.getLogger("pirate_bt.safety")
@@ -81,6 +82,56 @@ def hold_torque(robot: RobotDescription) -> float:
     ]
     torque = HOLD_TORQUE_FRACTION * min(limits) if limits else 2 * robot.clamp.min_torque
     return max(torque, robot.clamp.min_torque)
+
+
+def why_half_holds_nothing(
+    robot: RobotDescription, state: RobotState, half: Half, kind: ClampState
+) -> str:
+    """Why ``half`` (of clamp state ``kind``) holds nothing, joint by joint, for people:
+    ``front released``, ``rear bend_3 off the wall at 110.0°, over an opening``, ``rear
+    bend_3 off the wall at 84.0° with its spring at 0.0 N, over an opening`` (a joint
+    bent as far as the half's holding joints, or further, pressing on nothing: it
+    swings out over a tee's opening), ``front bend_1 presses 4.0 N at 83.1° (a clamp
+    holds from 8.75 N)``. A drive's slip and the protective hold say it alike."""
+    if kind is ClampState.UNCLAMPED:
+        return f"{half} released"
+    clamp = robot.clamp
+    tol = robot.safety.angle_tolerance
+    beyond = max(c.angle for c in clamp.contact_angles) + 2 * tol
+    wall_min = min(c.angle for c in clamp.contact_angles) - tol
+    joints = []
+    for module in robot.bend_modules(half):
+        angle = state.joint_angle_rad.get(module.name)
+        force = state.clamp_force_n.get(module.name)
+        joints.append((module.name, None if angle is None else abs(angle), force))
+    held = [
+        a
+        for _, a, f in joints
+        if a is not None and a >= wall_min and (f is None or clamp.holds_force(abs(f)))
+    ]
+    off: list[str] = []
+    other: list[str] = []
+    for name, angle, force in joints:
+        if angle is None:
+            other.append(f"{name} unread")
+            continue
+        deg = math.degrees(angle)
+        if angle > beyond:
+            off.append(f"{name} off the wall at {deg:.1f}°")
+        elif force is None or clamp.holds_force(abs(force)):
+            continue  # at the wall, or no spring to say otherwise
+        elif held and angle >= min(held) - tol:
+            off.append(f"{name} off the wall at {deg:.1f}° with its spring at {abs(force):.1f} N")
+        else:
+            need = clamp.min_torque / clamp.lever_arm
+            other.append(
+                f"{name} presses {abs(force):.1f} N at {deg:.1f}° (a clamp holds from {need:.2f} N)"
+            )
+    if off:
+        return f"{half} {', '.join(off)}, over an opening"
+    if other:
+        return f"{half} {', '.join(other)}"
+    return f"{half} {kind.value}"
 
 
 def half_channels(robot: RobotDescription) -> dict[Half, tuple[str, ...]]:
@@ -283,7 +334,16 @@ class HoldMixin:
             f"{Reason.STEEP_PIPE_UNCLAMPED}: no half holds the robot in a steep pipe"
             f" (pitch {math.degrees(pitch):.0f}°): the supervisor clamps"
         )
-        self.safe_state(cause)  # the drives stop first; a first cause before stays first
+        # why, joint by joint: the run's why names the joint over an opening, the half
+        # released (before: only that no half held)
+        why = "; ".join(
+            f"{h} readings stale"
+            if k is ClampState.CLAMPED
+            else why_half_holds_nothing(self.robot, state, h, k)
+            for h, k in halves.items()
+        )
+        # the drives stop first; a first cause before stays first
+        self.safe_state(f"{cause}; {why}")
         # the live setpoints: the front module's tilt clear, sent on a tick before the
         # clamp, is where the module is going
         ctx = CheckContext(

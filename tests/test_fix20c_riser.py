@@ -1,0 +1,108 @@
+"""No half holds in a riser: the run says why, and stops before the slide (fix 20c).
+
+A tee in a riser whose branch is built 10 deg or more off the drawing: the T-joint PAB
+steers the front half into the drawn side, the front slides on over the opening, and
+the rear half, the only one holding, is driven onto the opening: the robot slides on
+every step its first rear joint swings off the wall. The protective hold caught it,
+but the run's why said only that no half held (``...: the supervisor clamps``); it now
+says, joint by joint, why: the rear joint off the wall over an opening, the front
+released. A drive in a steep pipe fails at the first state no half holds (on the
+level it waits half a second of spinning wheels).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import yaml
+
+import pirate_bt
+from pirate_bt.behaviours.slip_watch import SlipWatch
+from pirate_bt.clock import SimClock
+from pirate_bt.robot import Half, load_robot
+from pirate_bt.safety.testing import FakePort
+
+ROOT = Path(__file__).resolve().parent.parent
+VTEE = ROOT / "tests" / "data" / "networks" / "vtee.yaml"
+ROBOT = load_robot()
+
+
+def _riser_tee(tmp_path: Path, branch_roll: str) -> Path:
+    """The riser with a tee drawn with its branch left (``vtee``), a route that turns
+    into it, and the pipe as built with the branch at roll ``branch_roll``; the route."""
+    (tmp_path / "vtee.yaml").write_text(VTEE.read_text(encoding="utf-8"), encoding="utf-8")
+    built = yaml.safe_load(VTEE.read_text(encoding="utf-8"))
+    branch = built["segments"][3]["branch"]
+    del branch["direction"]
+    branch["roll"] = branch_roll
+    (tmp_path / "built.yaml").write_text(yaml.safe_dump(built, sort_keys=False), encoding="utf-8")
+    route = tmp_path / "vtee.route"
+    route.write_text(
+        "network vtee.yaml\nat the bend turn up\nat the T-joint go left\n", encoding="utf-8"
+    )
+    return route
+
+
+def test_a_riser_tee_built_off_the_drawing_says_the_holding_half_is_over_the_opening(
+    tmp_path: Path,
+) -> None:
+    route = _riser_tee(tmp_path, "-80 deg")
+    result = pirate_bt.simulate_mission(route, truth=tmp_path / "built.yaml")
+    assert result.status == "failure"
+    tee = next(p for p in result.pabs if p.kind == "t-joint")
+    assert tee.outcome == "failure"
+    why = tee.why
+    assert "\n" not in why
+    # the hold's words stay first (the run's first cause), the joints say why
+    assert why.startswith(
+        "steep_pipe_unclamped: no half holds the robot in a steep pipe (pitch 90°):"
+        " the supervisor clamps; "
+    ), why
+    # was: nothing after 'the supervisor clamps'
+    assert "front released" in why
+    assert "rear bend_3 off the wall at" in why and "over an opening" in why
+    assert "with its spring at 0.0 N" in why
+    assert result.counters.damage == 0
+
+
+def test_a_drive_in_a_steep_pipe_fails_at_the_first_state_no_half_holds() -> None:
+    clock = SimClock(10.0)
+    port = FakePort(ROBOT, clock)
+    port.clamp_half(Half.REAR, 0.7)
+    port.free_half(Half.FRONT, math.radians(40))  # steered, off the wall
+    port.set_pitch(math.radians(90))
+    watch = SlipWatch(ROBOT)
+    state = port.state()
+    assert state is not None
+    assert watch.update(state, clock.now(), 1.0) is None  # the rear half holds
+    # the rear's first joint swings past the wall over an opening: its spring reads 0
+    wall = ROBOT.clamp.contact_angle(0.063)
+    port.set(bend_3_angle=wall + math.radians(0.8), bend_3_spring=0.0)
+    clock.advance(0.05)
+    state = port.state()
+    assert state is not None
+    said = watch.update(state, clock.now(), 1.004)
+    # was: None for half a second of states, the robot sliding on every one of them
+    assert said is not None
+    assert said.startswith("no half holds the robot after 1.004 m (front released; rear")
+    assert "bend_3 off the wall at" in said and "over an opening" in said
+    assert said.endswith("it slides down the steep pipe (pitch 90°)")
+
+
+def test_on_the_level_a_drive_still_waits_half_a_second_before_calling_a_slip() -> None:
+    clock = SimClock(10.0)
+    port = FakePort(ROBOT, clock)
+    port.clamp_half(Half.REAR, 0.7)
+    port.free_half(Half.FRONT, math.radians(40))
+    wall = ROBOT.clamp.contact_angle(0.063)
+    port.set(bend_3_angle=wall + math.radians(0.8), bend_3_spring=0.0)
+    watch = SlipWatch(ROBOT)
+    state = port.state()
+    assert state is not None
+    assert watch.update(state, clock.now(), 1.0) is None
+    clock.advance(0.5)
+    state = port.state()
+    assert state is not None
+    said = watch.update(state, clock.now(), 1.0)
+    assert said is not None and said.endswith("the wheels turn in place")
