@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -106,3 +107,31 @@ def test_on_the_level_a_drive_still_waits_half_a_second_before_calling_a_slip() 
     assert state is not None
     said = watch.update(state, clock.now(), 1.0)
     assert said is not None and said.endswith("the wheels turn in place")
+
+
+def _riser_with(faults: str) -> tuple[pirate_bt.RunResult, Any]:
+    """Up the riser's bend, then 2 m up the riser with ``faults``: the second run's
+    result, and the simulator's truth as the run hands the robot back."""
+    with pirate_bt.connect("riser", faults=faults) as robot:
+        assert robot.run("bend", params={"roll": "0 deg"}).succeeded  # 24 s: in the riser
+        result = robot.run("straight", params={"distance": "2 m"})
+        sim = robot.simulator
+        assert sim is not None
+        return result, sim.truth()
+
+
+def test_both_clamp_boards_rebooting_in_a_riser_are_named_in_the_why() -> None:
+    result, _ = _riser_with("board_reset:22@25s,board_reset:26@25s")
+    assert result.status == "failure" and result.safe_state
+    # was: 'stale data: bend_1_angle (0.100 s), ..., bend_3_spring (0.100 s)' and no word
+    # of the boards the bridge said were not answering
+    assert result.why.startswith("stale data: bend_1_angle (0.100 s)"), result.why
+    assert result.why.endswith(
+        ": boards 22, 26 are not answering the bridge (TIMEOUT: rebooting?)"
+    ), result.why
+
+
+def test_one_clamp_board_rebooting_in_a_riser_is_named_in_the_why() -> None:
+    result, _ = _riser_with("board_reset:26@25s")
+    assert result.why.startswith("stale data: bend_3_angle"), result.why
+    assert result.why.endswith(": board 26 is not answering the bridge (TIMEOUT: rebooting?)")

@@ -26,7 +26,7 @@ from pirate_bt.link.codec import BoardStatus
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import RobotState
 
-__all__ = ["BoardsAway", "away_since", "not_answering"]
+__all__ = ["BoardsAway", "away_since", "not_answering", "stale_because_away"]
 
 _TIMEOUT = int(BoardStatus.TIMEOUT)
 
@@ -146,3 +146,21 @@ def not_answering(late: list[tuple[int, float, bool]], what: str) -> str:
         f"board {boards} is not answering the bridge (TIMEOUT, {old}: rebooting?): its"
         f" setpoints {what}"
     )
+
+
+def stale_because_away(
+    robot: RobotDescription, away: tuple[int, ...], stale: list[tuple[str, float]]
+) -> str:
+    """Why ``stale`` readings (name, age) went stale when the bridge reports boards
+    ``away`` in ``TIMEOUT``, for people, to go after their names: *: boards 22, 26 are
+    not answering the bridge (TIMEOUT: rebooting?)*; empty when no stale reading is of
+    a board away (a sensor dropping out)."""
+    names = {n for n, _ in stale}
+    boards = [
+        b for b in away if any(c.board == b and c.name in names for c in robot.state_channels())
+    ]
+    if not boards:
+        return ""
+    shown = ", ".join(str(b) for b in boards)
+    verb = "board {} is" if len(boards) == 1 else "boards {} are"
+    return f": {verb.format(shown)} not answering the bridge (TIMEOUT: rebooting?)"

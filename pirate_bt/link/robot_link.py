@@ -129,6 +129,13 @@ class RobotLink:
             self._snapshot_frame = frame
         return self._snapshot
 
+    def boards_not_answering(self) -> tuple[int, ...]:
+        """The boards the bridge's latest ``STATE`` reports in ``TIMEOUT`` (not answering
+        it: a reboot, a lost reply), by id: what the supervisor names when their readings
+        go stale. Optional on a port (not in :class:`~pirate_bt.robot.port.RobotPort`);
+        read only then, not every tick."""
+        return tuple(sorted(self._away.by_id(self.session.boards_away())))
+
     def _fold_missed(self, newest: State) -> None:
         """Fold into the snapshot, oldest first, the STATEs taken since it was built and
         before ``newest``: a channel ``newest`` does not mark fresh keeps the reading of

@@ -56,6 +56,7 @@ from pirate_bt.errors import (
     LinkError,
     ProtocolMismatch,
 )
+from pirate_bt.link.away import stale_because_away
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -471,8 +472,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                         heard = f"no state frame taken for {no_state:.3f} s: {refused}"
                     cause = f"{Reason.LINK_SILENT}: {heard}, so its readings are stale: {names}"
                     self.safe_state(cause, error=LinkError(cause))
-                else:
-                    self.safe_state(f"stale data: {names}")
+                else:  # a board the bridge reports in TIMEOUT (rebooting) is the cause
+                    away: tuple[int, ...] = getattr(self._port, "boards_not_answering", tuple)()
+                    why = stale_because_away(self.robot, away, stale)
+                    self.safe_state(f"stale data: {names}{why}")
             self._hold_in_steep_pipe(state, now)
 
     # -- commands ------------------------------------------------------------
