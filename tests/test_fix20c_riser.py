@@ -135,3 +135,14 @@ def test_one_clamp_board_rebooting_in_a_riser_is_named_in_the_why() -> None:
     result, _ = _riser_with("board_reset:26@25s")
     assert result.why.startswith("stale data: bend_3_angle"), result.why
     assert result.why.endswith(": board 26 is not answering the bridge (TIMEOUT: rebooting?)")
+
+
+def test_a_run_ended_by_both_clamp_boards_rebooting_hands_back_a_held_robot() -> None:
+    # nothing holds while both clamp boards reboot (1.5 s) and the robot slides; the end
+    # of the run waits for the boards and their clamps (the bridge hands a board that
+    # answers again the setpoints it keeps). Was: the run handed the robot back 0.35 s
+    # after the reset, sliding at 0.2 m/s, neither half clamped
+    result, truth = _riser_with("board_reset:22@25s,board_reset:26@25s")
+    assert result.status == "failure"
+    assert not truth.sliding
+    assert all(h.clamped for h in truth.halves.values())

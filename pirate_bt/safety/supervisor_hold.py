@@ -167,6 +167,10 @@ class HoldMixin:
     _hold_sent_s: float
     _was_steep: bool
     _hold_torque: float
+    _hold_away: frozenset[Half] = frozenset()
+    """Halves whose protective clamp the link refused, their board away (rebooting):
+    the end of a run waits for them as for a clamp on its way (the bridge hands a board
+    that answers again the setpoints it keeps, the clamp among them)."""
     _checks: list[Check]
     _expander: Expander
     _half_channels: dict[Half, tuple[str, ...]]
@@ -184,7 +188,7 @@ class HoldMixin:
     @property
     def holding(self) -> bool:
         """True while a protective clamp is on its way and no half holds yet."""
-        return bool(self._holding) or self._hold_clearing
+        return bool(self._holding or self._hold_away) or self._hold_clearing
 
     def end_safe(self, reason: str) -> None:
         """The safe state at the end of a run that did not succeed: :meth:`safe_state`
@@ -304,6 +308,7 @@ class HoldMixin:
                     # slide ended.
                     return
                 self._holding.clear()
+                self._hold_away = frozenset()
                 self._hold_clearing = False
                 return
             if pitch is None or not was_steep or self._halves_holding(state, now_s)[1]:
@@ -318,6 +323,7 @@ class HoldMixin:
         halves, holding = self._halves_holding(state, now_s)
         if holding:
             self._holding.clear()
+            self._hold_away = frozenset()
             self._hold_clearing = False
             self._hold_refused.clear()  # a later episode logs its refusals again
             self._ever_held = True
@@ -381,7 +387,10 @@ class HoldMixin:
             try:
                 self._port.send(cmds)
             except LinkError as exc:  # its board is away: again next tick
-                log.error("could not clamp the %s half: %s", half, exc)
+                if half not in self._hold_away:  # said once, not every tick
+                    log.error("could not clamp the %s half: %s", half, exc)
+                    self._hold_away |= {half}
+                    self._hold_sent_s = now_s
                 continue
             self._holding.add(half)
             if half is Half.FRONT:
