@@ -146,3 +146,34 @@ def test_a_run_ended_by_both_clamp_boards_rebooting_hands_back_a_held_robot() ->
     assert result.status == "failure"
     assert not truth.sliding
     assert all(h.clamped for h in truth.halves.values())
+
+
+def _lost_hold(away: tuple[int, ...]) -> bool:
+    """A robot held by its front half in a riser, then held by nothing, and every send
+    failing; the port reports boards ``away`` in TIMEOUT. Does the end of the run wait
+    for a clamp (``holding``)?"""
+    from pirate_bt.safety import Supervisor
+
+    clock = SimClock(10.0)
+    port = FakePort(ROBOT, clock)
+    port.clamp_half(Half.FRONT, 0.7)
+    port.set_pitch(math.radians(90))
+    port.boards_not_answering = lambda: away  # type: ignore[attr-defined]
+    sup = Supervisor(port, clock)
+    sup.tick()
+    assert not sup.holding  # the front half holds
+    port.free_half(Half.FRONT, math.radians(83))
+    port.fail_send = True
+    clock.advance(0.05)
+    sup.tick()
+    assert sup.in_safe_state
+    return sup.holding
+
+
+def test_the_end_of_a_run_waits_for_a_clamp_only_when_its_board_reboots() -> None:
+    # the clamp boards in TIMEOUT: the bridge gives them their clamps back when they
+    # answer, and the end of the run waits for that
+    assert _lost_hold((22, 23, 26, 27))
+    # the sends fail for another reason (the link lost): nothing comes back, and the
+    # end of a run does not wait 3 s for it
+    assert not _lost_hold(())

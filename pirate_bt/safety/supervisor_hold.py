@@ -387,10 +387,16 @@ class HoldMixin:
             try:
                 self._port.send(cmds)
             except LinkError as exc:  # its board is away: again next tick
-                if half not in self._hold_away:  # said once, not every tick
-                    log.error("could not clamp the %s half: %s", half, exc)
+                # a board the bridge reports rebooting gets its clamp back from the
+                # bridge when it answers: the end of a run waits for that (not for a
+                # link that is lost)
+                away: tuple[int, ...] = getattr(self._port, "boards_not_answering", tuple)()
+                if half in self._hold_away:
+                    continue  # said once, not every tick
+                if {self.robot.board_of(c.motor).id for c in cmds} & set(away):
                     self._hold_away |= {half}
                     self._hold_sent_s = now_s
+                log.error("could not clamp the %s half: %s", half, exc)
                 continue
             self._holding.add(half)
             if half is Half.FRONT:
