@@ -130,13 +130,16 @@ gives): a node's exception or feedback can say anything, 100 kB included."""
 
 
 def cut_reason(text: str, limit: int = REASON_LIMIT) -> str:
-    """``text`` cut to at most ``limit`` characters, its start kept (the first cause)
-    and its end saying how much was left out: ``RuntimeError in s/boom: xxx... (99024
-    more characters)``."""
+    """``text`` in at most ``limit`` characters: its middle left out, saying how much,
+    as the API's ``why`` is cut (:func:`pirate_bt.behaviours.foreign.one_line`). The
+    start (the node, the first cause) and the end (what was raised: after a long node
+    path) are both kept: ``RuntimeError in boom: xxx...(99024 characters)...x the end``."""
     if len(text) <= limit:
         return text
-    keep = max(0, limit - len(f"... ({len(text)} more characters)"))
-    return f"{text[:keep]}... ({len(text) - keep} more characters)"
+    mark = f"...({len(text)} characters)..."
+    half = max(0, (limit - len(mark)) // 2)
+    left = len(text) - 2 * half
+    return f"{text[:half]}...({left} characters)...{text[len(text) - half :]}"
 
 
 def kind_of(value: object) -> str:

@@ -69,7 +69,9 @@ class RunResult:
     Attributes:
         outcome: ``"success"`` or ``"failure"`` (every non-success end is a failure).
         reason: Why it ended, as a :class:`StopReason`.
-        message: One line for people (at most :data:`REASON_LIMIT` characters).
+        message: One line for people, whole (the trace's end record keeps it; the
+            safe-state reason the runner gives is cut to :data:`REASON_LIMIT`
+            characters, and so is the API's ``why``).
         ticks: Ticks completed or attempted.
         sim_time_s: Clock time the run took (simulated time on a SimClock).
         wall_time_s: Wall time the run took.
@@ -104,10 +106,6 @@ class RunResult:
     stopped_nodes: tuple[str, ...] = field(default_factory=tuple)
     paused_ticks: int = 0
     settle_ticks: int = 0
-
-    def __post_init__(self) -> None:
-        # a 100 kB exception message went whole into the result, the trace and the report
-        object.__setattr__(self, "message", cut_reason(self.message))
 
     @property
     def succeeded(self) -> bool:

@@ -54,7 +54,6 @@ from pirate_bt.run_result import (
     RunResult,
     StopReason,
     TickInfo,
-    cut_reason,
 )
 from pirate_bt.tree_tick import culprit as _culprit
 from pirate_bt.tree_tick import halted_by, link_lost_note, node_path, tick_tree
@@ -322,8 +321,8 @@ class Runner:
         pending: BaseException | None = None  # a Ctrl-C in a terminate(): out of run() last
         if reason is not StopReason.SUCCESS:
             stopped, pending = self._stop_running(root)
-            # the first cause, for the safe-state callback, cut as the result's message is
-            self.stop_message = cut_reason(message)
+            # the first cause, for the safe-state callback (a supervisor cuts what it keeps)
+            self.stop_message = message
             safe_called = self._call_safe_state()
         loop_ticks = ticks
         settle_ticks = self._come_to_rest(ticks, start_s)

@@ -38,7 +38,6 @@ from pirate_bt.api.results import RunResult
 from pirate_bt.api.run_trace import attach_run_trace, check_run_options, check_trace
 from pirate_bt.clock import SimClock
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
-from pirate_bt.run_result import cut_reason
 from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause, unsafe_note
 
 if TYPE_CHECKING:
@@ -316,7 +315,8 @@ def supervised_runner(
             if runner.tree.root.status == py_trees.common.Status.FAILURE
             else None
         )
-        stopped = cut_reason(cause.reason) if cause is not None else runner.stop_message
+        # whole: the supervisor cuts the reason it keeps once (a cut here was cut again)
+        stopped = cause.reason if cause is not None else runner.stop_message
         own = f"{END_OF_RUN}: {stopped}" if stopped else END_OF_RUN
         supervisor.end_safe(supervisor.safe_state_reason or own)
 
