@@ -111,13 +111,6 @@ def imu_probe(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return elf, build / "imu-probe"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the reference PICO never takes its BNO055 out of CONFIGMODE; the fix (firmware/"
-    "pico/hal_avr.c) needs tests/data/board_bus_vectors.json's imu_and_drive step later than"
-    " 5 ms after boot and the chain's IMU (firmware/simavr/chain_board.c) to keep the mode"
-    " written: both outside this probe's files",
-)
 @pytest.mark.parametrize(
     ("euler", "channels"),
     [

@@ -39,6 +39,9 @@ FUSES = {.low = PICO_LFUSE, .high = PICO_HFUSE, .extended = PICO_EFUSE};
 #define RX_RING 64u
 #define IMU_ADDR 0x28u
 #define IMU_EULER_REG 0x1Au /* heading, roll, pitch: int16 LE each, 1/16 degree */
+#define IMU_OPR_MODE_REG 0x3Du /* operation mode: 0 CONFIGMODE (outputs 0) at power-on */
+#define IMU_MODE_FUSION 0x08u /* the fusion modes are 8 and up */
+#define IMU_MODE_IMU 0x08u    /* accelerometer and gyroscope fusion */
 #define STACK_PAINT 0xC5u
 
 static_assert((RX_RING & (RX_RING - 1u)) == 0, "power of two");
@@ -262,11 +265,23 @@ int16_t hal_encoder(uint8_t slot) {
     return v;
 }
 
-/* ---- the IMU on TWI: START, address+W, register, repeated START, address+R, six
- * bytes, STOP; interrupt-driven, started every 10 ms once someone asked ------------- */
+/* ---- the IMU on TWI, interrupt-driven, one transfer every 10 ms once someone asked --
+ * A BNO055 powers up (and resets) in CONFIGMODE, where its output registers read 0: a
+ * board that only read the Euler registers took 0, 0, 0 for good, fresh, and the host a
+ * level robot in a riser. So each 10 ms slot does one of: read OPR_MODE (after boot and
+ * after any transfer that failed: the IMU may have reset), write OPR_MODE = IMU (a fusion
+ * mode without the magnetometer, which a steel pipe would bend: heading is relative to
+ * the IMU's start) when it reads CONFIGMODE, or read heading, roll, pitch. An IMU in a
+ * fusion mode is never written to again (that could restart its fusion).
+ * A read: START, address+W, register, repeated START, address+R, n bytes, STOP. A write:
+ * START, address+W, register, value, STOP. */
+
+enum imu_action { IMU_READ_MODE, IMU_WRITE_MODE, IMU_READ_EULER };
 
 static volatile uint8_t twi_step; /* 0: idle */
 static volatile uint8_t twi_n;
+static volatile uint8_t twi_want; /* bytes to read */
+static volatile uint8_t imu_action;
 static volatile uint8_t imu_raw[6];
 static volatile int16_t imu_euler[3];
 static volatile bool imu_new, imu_wanted; /* imu_new: a read succeeded since hal_imu() */
@@ -276,10 +291,11 @@ static void twi_start(void) {
         return;
     }
     if (twi_step != 0) {
-        /* the last read has not finished in 10 ms (a slave holding SCL low, a lost
+        /* the last transfer has not finished in 10 ms (a slave holding SCL low, a lost
          * interrupt): reset the TWI, which lets go of both lines, and start afresh */
         TWCR = 0;
         twi_step = 0;
+        imu_action = IMU_READ_MODE;
     }
     twi_step = 1;
     TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN) | _BV(TWIE);
@@ -290,12 +306,34 @@ static void twi_stop(void) {
     twi_step = 0;
 }
 
+/* A transfer that went wrong: the IMU may have reset; ask its mode again next slot. */
+static void twi_fail(void) {
+    imu_action = IMU_READ_MODE;
+    twi_stop();
+}
+
+/* A transfer done: what the next slot does. */
+static void twi_done(void) {
+    if (imu_action == IMU_READ_MODE) {
+        /* low nibble 0: CONFIGMODE, its outputs 0; a fusion mode (8 and up) is read */
+        imu_action = (imu_raw[0] & 0x0Fu) >= IMU_MODE_FUSION ? IMU_READ_EULER : IMU_WRITE_MODE;
+    } else if (imu_action == IMU_WRITE_MODE) {
+        imu_action = IMU_READ_EULER; /* 10 ms later: it switches in 7 ms */
+    } else {
+        for (uint8_t i = 0; i < 3u; i++) {
+            imu_euler[i] = (int16_t)(imu_raw[2u * i] | (uint16_t)imu_raw[2u * i + 1u] << 8);
+        }
+        imu_new = true;
+    }
+    twi_stop();
+}
+
 ISR(TWI_vect) {
     uint8_t status = TWSR & 0xF8u;
     switch (twi_step) {
     case 1: /* START sent */
         if (status != 0x08u) {
-            twi_stop();
+            twi_fail();
             return;
         }
         TWDR = (uint8_t)(IMU_ADDR << 1);
@@ -303,58 +341,69 @@ ISR(TWI_vect) {
         break;
     case 2: /* SLA+W sent: 0x18 (simavr 1.6 says 0x28 when TWDR was written first) */
         if (status != 0x18u && status != 0x28u) {
-            twi_stop();
+            twi_fail();
             return;
         }
-        TWDR = IMU_EULER_REG;
+        TWDR = imu_action == IMU_READ_EULER ? IMU_EULER_REG : IMU_OPR_MODE_REG;
         twi_step = 3;
         break;
-    case 3: /* register sent: repeated START */
+    case 3: /* register sent: the value (a write), or a repeated START (a read) */
         if (status != 0x28u) {
-            twi_stop();
+            twi_fail();
             return;
+        }
+        if (imu_action == IMU_WRITE_MODE) {
+            TWDR = IMU_MODE_IMU;
+            twi_step = 7;
+            break;
         }
         twi_step = 4;
         TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN) | _BV(TWIE);
         return;
     case 4: /* repeated START sent */
         if (status != 0x10u) {
-            twi_stop();
+            twi_fail();
             return;
         }
         TWDR = (uint8_t)(IMU_ADDR << 1 | 1u);
         twi_step = 5;
         twi_n = 0;
+        twi_want = imu_action == IMU_READ_EULER ? 6u : 1u;
         break;
-    case 5: /* SLA+R sent, then data */
+    case 5: /* SLA+R sent, then data: ACK all but the last byte */
         if (status == 0x40u) {
-            TWCR = _BV(TWINT) | _BV(TWEN) | _BV(TWIE) | _BV(TWEA);
+            TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | _BV(TWIE) | (twi_want > 1u ? _BV(TWEA) : 0));
             twi_step = 6;
             return;
         }
-        twi_stop();
+        twi_fail();
         return;
     case 6:
         if (status == 0x50u || status == 0x58u) {
             imu_raw[twi_n++] = TWDR;
-            if (twi_n >= 6u || status == 0x58u) {
-                if (twi_n >= 6u) {
-                    for (uint8_t i = 0; i < 3u; i++) {
-                        imu_euler[i] = (int16_t)(imu_raw[2u * i] | (uint16_t)imu_raw[2u * i + 1u] << 8);
-                    }
-                    imu_new = true;
-                }
-                twi_stop();
+            if (twi_n >= twi_want) {
+                twi_done();
                 return;
             }
-            /* ACK all but the last byte */
-            TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | _BV(TWIE) | (twi_n < 5u ? _BV(TWEA) : 0));
+            if (status == 0x58u) {
+                twi_fail(); /* the last byte came early */
+                return;
+            }
+            TWCR = (uint8_t)(_BV(TWINT) | _BV(TWEN) | _BV(TWIE) |
+                             (twi_n + 1u < twi_want ? _BV(TWEA) : 0));
             return;
         }
-        twi_stop();
+        twi_fail();
+        return;
+    case 7: /* the mode written */
+        if (status != 0x28u) {
+            twi_fail();
+            return;
+        }
+        twi_done();
         return;
     default:
-        twi_stop();
+        twi_fail();
         return;
     }
     TWCR = _BV(TWINT) | _BV(TWEN) | _BV(TWIE);

@@ -106,10 +106,17 @@ static void twi_out(avr_irq_t *irq, uint32_t value, void *param) {
         if (!b->imu_addr_written) {
             b->imu_at = v.u.twi.data & 0x3Fu;
             b->imu_addr_written = true;
+        } else { /* a register written (OPR_MODE): kept, as a BNO055 keeps it */
+            b->imu_reg[b->imu_at & 0x3Fu] = v.u.twi.data;
+            b->imu_at = (uint8_t)((b->imu_at + 1u) & 0x3Fu);
         }
     }
     if (v.u.twi.msg & TWI_COND_READ) {
-        uint8_t data = b->imu_reg[b->imu_at & 0x3Fu];
+        uint8_t at = b->imu_at & 0x3Fu;
+        /* a BNO055 in CONFIGMODE (OPR_MODE 0x3D low nibble below 8, as at power-on)
+         * reads 0 on its output registers (0x08-0x35): only a fusion mode fills them */
+        bool config = (b->imu_reg[0x3D] & 0x0Fu) < 0x08u;
+        uint8_t data = config && at >= 0x08u && at <= 0x35u ? 0u : b->imu_reg[at];
         b->imu_at = (uint8_t)((b->imu_at + 1u) & 0x3Fu);
         avr_raise_irq(in, avr_twi_irq_msg(TWI_COND_READ, v.u.twi.addr, data));
     }

@@ -330,8 +330,11 @@ def build_vectors(robot: RobotDescription) -> dict[str, Any]:
             "description": "board 24: IMU roll, pitch, yaw, the drive's speed and current",
             "board": 24,
             "steps": [
+                # 40 ms after boot: a BNO055 starts in CONFIGMODE, its outputs 0; the
+                # board reads the mode, sets a fusion mode, and reads the angles 10 ms
+                # later (firmware/pico/hal_avr.c)
                 step(
-                    5,
+                    40,
                     24,
                     ch24,
                     request_hex(24, EXCHANGE, [(VELOCITY, 0)]),
