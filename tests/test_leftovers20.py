@@ -118,3 +118,25 @@ def test_a_number_written_otherwise_is_said_to_be_one(written: str) -> None:
 def test_units_after_a_number_still_read(written: str, si: float) -> None:
     dimension = "frequency" if "/" in written else "time"
     assert parse_quantity(written, dimension) == pytest.approx(si)
+
+
+def test_the_simulator_s_ros2_node_declares_no_estop_it_cannot_hear(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # pirate-bt sim --ros2 declared an e-stop subscription (ros2 topic info listed it)
+    # though the simulator has no supervisor and dropped what it heard
+    pytest.importorskip("zenoh")
+    import argparse
+
+    from pirate_bt.cli.run import open_ros2
+
+    args = argparse.Namespace(ros2="tcp/127.0.0.1:7447", ros_domain_id=0, ros_namespace="/pirate")
+    for estop in (False, True):
+        node = open_ros2(args, estop=estop)
+        try:
+            assert (node.estop is None) is (not estop)
+        finally:
+            node.close()
+    said = capsys.readouterr().err.splitlines()
+    assert said[0].endswith("(no e-stop: nothing here to stop)")
+    assert said[1].endswith("(e-stop: /pirate/estop)")

@@ -129,8 +129,10 @@ def open_foxglove(args: argparse.Namespace) -> Any:
     return server
 
 
-def open_ros2(args: argparse.Namespace) -> Any:
+def open_ros2(args: argparse.Namespace, *, estop: bool = True) -> Any:
     """The ROS 2 node of ``--ros2 [ENDPOINT]``, or ``None`` without the option.
+    ``estop=False``: a command with no supervisor to stop (``sim``), whose node must
+    not declare an e-stop subscription nothing would hear.
 
     Raises:
         InputError: a bad endpoint, domain id or namespace.
@@ -140,10 +142,13 @@ def open_ros2(args: argparse.Namespace) -> Any:
         return None
     from pirate_bt.interop.ros2_live import Ros2Node
 
-    node = Ros2Node(args.ros2, domain_id=args.ros_domain_id, namespace=args.ros_namespace)
+    node = Ros2Node(
+        args.ros2, domain_id=args.ros_domain_id, namespace=args.ros_namespace, estop=estop
+    )
+    stop = f"e-stop: {node.fq_estop}" if estop else "no e-stop: nothing here to stop"
     print(
         f"pirate-bt: ROS 2 node {node.namespace}/{node.name} on Zenoh {node.endpoint},"
-        f" domain {node.domain_id} (e-stop: {node.fq_estop})",
+        f" domain {node.domain_id} ({stop})",
         file=sys.stderr,
     )
     return node

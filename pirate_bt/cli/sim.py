@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         server = SimServer(sim, speed=args.speed)
         foxglove = open_foxglove(args)
         try:
-            ros2 = open_ros2(args)
+            ros2 = open_ros2(args, estop=False)  # no supervisor: no e-stop to hear
         except BaseException:
             if foxglove is not None:
                 foxglove.close()
