@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import math
 import numbers
-from dataclasses import replace
+from dataclasses import fields, replace
 
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import (
@@ -34,6 +34,7 @@ from pirate_bt.safety.commands import (
     MoveFrontClear,
     Raw,
     Rotate,
+    Stop,
     Tilt,
     Unclamp,
     member_of,
@@ -50,6 +51,7 @@ _FREE_FUNCTIONS = frozenset(
 
 _NUMBERS = ("torque_nm", "velocity_mps", "angle_rad", "sign")
 _NOT_NUMBERS = "command values must be finite numbers"  # tests pin it
+_KINDS = (Clamp, Unclamp, Drive, Bend, Rotate, Tilt, MoveFrontClear, Stop, Raw)
 
 
 def _number(value: object) -> float | None:
@@ -72,40 +74,60 @@ def well_formed(command: Command) -> Command | Problem:
     (no bend module is of the half ``"rear"``) and ``Unclamp(None)`` raised. A half
     given as its text (``"rear"``) is read as that half, a control mode likewise, and a
     number must be a real, finite one (not a bool, not text); anything else is refused.
+
+    Every field is read once, here, and a command that is not of its own plain type
+    with plain values (a ``float``, a ``str``, a member) is rebuilt as one: the checks
+    and the motor commands sent read that copy. A subclass whose field is a property,
+    or a ``str`` or ``float`` subclass, could otherwise answer the checks one value and
+    the expansion another (a ``Drive`` read finite here and NaN later went out at the
+    raw range's 120 mm/s).
     """
-    changes: dict[str, object] = {}
+    kind = next((k for k in _KINDS if isinstance(command, k)), None)
+    if kind is None:
+        return command  # no command: the expansion refuses it by name
+    values = {f.name: getattr(command, f.name) for f in fields(kind)}
+    read = dict(values)
     for name in _NUMBERS:
-        if hasattr(command, name):
-            value = getattr(command, name)
-            number = _number(value)
+        if name in values:
+            number = _number(values[name])
             if number is None:
                 return Problem(Reason.NOT_FINITE, _NOT_NUMBERS)
-            if type(value) is not float and name != "sign":
-                changes[name] = number
-    if isinstance(command, Raw):
-        mc = command.command
-        if not isinstance(mc, MotorCommand) or not isinstance(mc.motor, str):
+            values[name] = number
+    if "sign" in values:
+        values["sign"] = 1 if values["sign"] >= 0 else -1
+    if kind is Raw:
+        mc = values["command"]
+        if not isinstance(mc, MotorCommand):
             return Problem(Reason.UNKNOWN_TARGET, f"not a motor command: {mc!r}"[:200])
-        value = _number(mc.value)
+        motor, mode, raw_value = mc.motor, mc.mode, mc.value
+        if not isinstance(motor, str):
+            return Problem(Reason.UNKNOWN_TARGET, f"not a motor command: {mc!r}"[:200])
+        value = _number(raw_value)
         if value is None:
             return Problem(Reason.NOT_FINITE, _NOT_NUMBERS)
-        mode = member_of(ControlMode, mc.mode)
-        if mode is None:
-            return Problem(Reason.MODE_NOT_ALLOWED, f"{mc.mode!r} is not a control mode"[:200])
-        if mode is not mc.mode or type(mc.value) is not float:
-            changes["command"] = MotorCommand(mc.motor, mode, value)
-    if isinstance(command, Clamp | Unclamp) and not isinstance(command.half, Half):
-        half = member_of(Half, command.half)
+        member = member_of(ControlMode, mode)
+        if member is None:
+            return Problem(Reason.MODE_NOT_ALLOWED, f"{mode!r} is not a control mode"[:200])
+        plain = MotorCommand(str.__str__(motor), member, value)
+        same = plain.motor is motor and plain.mode is mode and plain.value is raw_value
+        if type(mc) is not MotorCommand or not same:
+            values["command"] = plain
+    if "half" in values:
+        half = member_of(Half, values["half"])
         if half is None:
             return Problem(
-                Reason.UNKNOWN_TARGET, f"not a half: {command.half!r} (front or rear)"[:200]
+                Reason.UNKNOWN_TARGET, f"not a half: {values['half']!r} (front or rear)"[:200]
             )
-        changes["half"] = half
-    if isinstance(command, Bend) and not isinstance(command.module, str):
-        return Problem(Reason.UNKNOWN_TARGET, f"{command.module!r} is not a bend module"[:200])
-    if isinstance(command, MoveFrontClear) and command.sign not in (1, -1):
-        changes["sign"] = 1 if command.sign >= 0 else -1
-    return replace(command, **changes) if changes else command  # type: ignore[arg-type]
+        values["half"] = half
+    if kind is Bend:
+        if not isinstance(values["module"], str):
+            return Problem(
+                Reason.UNKNOWN_TARGET, f"{values['module']!r} is not a bend module"[:200]
+            )
+        values["module"] = str.__str__(values["module"])
+    if type(command) is kind and all(values[k] is read[k] for k in values):
+        return command  # plain already: the command checked is the one it came from
+    return kind(**values)
 
 
 class Expander:
