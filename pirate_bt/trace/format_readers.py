@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import sys
 import zlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -133,12 +134,25 @@ class TraceFormatReader:
                 f"not a trace record: {getattr(exc, 'msg', exc)}",
                 SourceLocation(str(self.path), number, column),
             ) from None
+        except (ValueError, RecursionError) as exc:  # valid JSON Python's json cannot hold
+            raise LocatedError(
+                f"not a trace record: {_beyond_json(exc)}", SourceLocation(str(self.path), number)
+            ) from None
         if not isinstance(record, dict) or not isinstance(record.get("type"), str):
             raise LocatedError(
                 "not a trace record: expected a JSON object with a 'type'",
                 SourceLocation(str(self.path), number),
             )
         return record
+
+
+def _beyond_json(exc: ValueError | RecursionError) -> str:
+    """What a line of valid JSON holds that no trace does, in a user's words."""
+    if isinstance(exc, RecursionError):
+        return "values nested deeper than a trace's reader goes"
+    if "integer string conversion" in str(exc):
+        return f"a whole number longer than {sys.get_int_max_str_digits()} digits"
+    return str(exc)
 
 
 class _CutOff(Exception):

@@ -1,0 +1,94 @@
+"""Probe of the twentieth session: hand-written traces read back, drawn and plotted
+(``pirate-bt trace summary|show|plot``, ``render --trace``), from docs/formats/trace.md."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pirate_bt.cli import main
+
+_NODES = [
+    {
+        "id": "0",
+        "name": "pab",
+        "type": "Sequence",
+        "kind": "composite",
+        "parent": None,
+        "children": ["0.0"],
+    },
+    {
+        "id": "0.0",
+        "name": "clamp rear",
+        "type": "Clamp",
+        "kind": "leaf",
+        "parent": "0",
+        "children": [],
+    },
+]
+
+
+def _records() -> list[dict[str, Any]]:
+    """The example of docs/formats/trace.md."""
+    return [
+        {
+            "type": "header",
+            "format": "pirate-bt-trace",
+            "version": 1,
+            "tree": {"name": "pab", "nodes": _NODES},
+            "robot": {"name": "PIRATE 2018", "digest": "5f2c..."},
+            "clock": "simulated",
+            "tick_period_s": 0.01,
+            "full_state": False,
+            "readings": False,
+            "meta": {},
+        },
+        {"type": "tick", "n": 1, "t_s": 0.01, "status": {"0": "R", "0.0": "R"}},
+        {"type": "tick", "n": 2, "t_s": 0.02, "state": {"joint_angle_rad.bend_3": 0.2}},
+        {"type": "tick", "n": 3, "t_s": 0.03, "status": {"0": "S", "0.0": "S"}},
+        {"type": "end", "n": 3, "t_s": 0.03, "outcome": "success"},
+    ]
+
+
+def _write(path: Path, records: list[dict[str, Any]]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in records), encoding="utf-8")
+    return path
+
+
+def _commands(path: Path, out: Path) -> list[list[str]]:
+    return [
+        ["trace", "summary", str(path)],
+        ["trace", "show", str(path), "--state"],
+        ["trace", "plot", str(path), "-o", str(out / "plot.png")],
+        ["render", str(path), "--trace", str(path), "--tick", "2", "-o", str(out / "d.dot")],
+    ]
+
+
+@pytest.mark.parametrize(
+    ("value", "said"),
+    [
+        ("9" * 5000, "a whole number longer than 4300 digits"),
+        ("[" * 5000 + "]" * 5000, "values nested deeper than a trace's reader goes"),
+    ],
+    ids=["a number of 5000 digits", "lists 5000 deep"],
+)
+def test_valid_json_that_python_cannot_hold_is_refused_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str, said: str
+) -> None:
+    """JSON allows a number of any length and any depth; Python's json refuses both.
+    Such a line was 'cannot read this trace: ValueError: Exceeds the limit (4300 digits)
+    ... use sys.set_int_max_str_digits()', naming no line (and RecursionError alike)."""
+    records = _records()
+    records[2]["bb"] = {"k": "HERE"}
+    text = "".join(json.dumps(r) + "\n" for r in records).replace('"HERE"', value)
+    path = tmp_path / "run.jsonl"
+    path.write_text(text, encoding="utf-8")
+    for argv in _commands(path, tmp_path):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err == f"pirate-bt: {path}:3:1: not a trace record: {said}", argv
+    assert not (tmp_path / "plot.png").exists()
+    assert not (tmp_path / "d.dot").exists()
