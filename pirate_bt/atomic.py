@@ -50,7 +50,8 @@ def write_atomically(
 
     Raises:
         OSError: the file cannot be written (``IsADirectoryError`` for a folder);
-            nothing is left of the attempt.
+            nothing is left of the attempt. A write that failed (a full disk) names
+            ``path`` as its ``filename``, not the temporary file or nothing.
     """
     out = Path(path)
     target = Path(os.path.realpath(out)) if out.is_symlink() else out
@@ -58,8 +59,12 @@ def write_atomically(
         raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(out))
     target.parent.mkdir(parents=True, exist_ok=True)
     if target.exists() and not target.is_file():
-        with open(target, "wb") as stream:
-            fill(stream)
+        try:
+            with open(target, "wb") as stream:
+                fill(stream)
+        except OSError as exc:
+            _name(exc, out)
+            raise
         return target
     fd, temp = tempfile.mkstemp(
         prefix=f".{cut_name(target.name)}.", suffix=".part", dir=target.parent
@@ -77,11 +82,23 @@ def write_atomically(
                 stream.flush()
                 os.fsync(stream.fileno())
         os.replace(temp, target)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(temp)
+        if isinstance(exc, OSError):
+            _name(exc, out)
         raise
     return target
+
+
+_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+
+
+def _name(exc: OSError, path: Path) -> None:
+    """Give ``exc`` ``path`` as its file when a write failed without one (a full disk
+    said only "No space left on device": ``robot header -o x.h``, onto /dev/full)."""
+    if exc.filename is None and exc.errno in _WRITE_ERRORS:
+        exc.filename = str(path)
 
 
 @contextlib.contextmanager
