@@ -33,3 +33,49 @@ def test_a_header_onto_a_full_disk_names_the_file(
     assert captured.out == ""
     # was "pirate-bt: No space left on device": which file, of which command?
     assert captured.err.splitlines() == [f"pirate-bt: {out}: No space left on device"]
+
+
+@needs_dev_full
+def test_a_diagram_onto_a_full_disk_is_named_by_its_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = _full(tmp_path, "tree.dot")
+    assert main(["render", "straight", "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    # was "out: cannot write ...", render_tree's parameter, no option of the command
+    assert captured.err.splitlines() == [
+        f"pirate-bt: -o: cannot write '{out}': No space left on device"
+    ]
+
+
+@needs_dev_full
+def test_a_trace_export_onto_a_full_disk_is_named_by_its_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("mcap")
+    trace = tmp_path / "run.jsonl"
+    assert main(["run", "straight", "--param", "distance=0.1m", "--trace", str(trace)]) == 0
+    out = _full(tmp_path, "run.mcap")
+    capsys.readouterr()
+    assert main(["trace", "export", str(trace), "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    # was "out_path: cannot write ...", export_mcap's parameter
+    assert captured.err.splitlines() == [
+        f"pirate-bt: -o: cannot write {out}: No space left on device"
+    ]
+
+
+def test_a_survey_output_not_named_yaml_is_named_by_its_option(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["survey", "-q", "-o", "net.txt"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    # was "output: net.txt is not ...", the API's parameter, not the -o typed
+    assert captured.err.splitlines() == [
+        "pirate-bt: -o: net.txt is not a .yaml file name; the surveyed network is written as YAML"
+    ]
+    assert list(tmp_path.iterdir()) == []

@@ -35,6 +35,7 @@ __all__ = [
     "COMMANDS",
     "STDOUT",
     "Terminated",
+    "as_option",
     "check_folder_output",
     "check_output",
     "main",
@@ -131,6 +132,21 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
         ) from None
     os.close(handle)
     os.unlink(probe)
+
+
+def as_option(exc: Exception, parameter: str, option: str) -> None:
+    """Raise the library's ``exc`` again with the parameter its message begins with
+    (``out_path: cannot write t.mcap: No space left on device``) named as the option
+    typed (``-o: ...``); return for any other message.
+
+    Raises:
+        InputError: ``exc``'s message begins with ``parameter: ``.
+    """
+    from pirate_bt.errors import InputError
+
+    text = str(exc)
+    if text.startswith(f"{parameter}: "):
+        raise InputError(f"{option}: {text[len(parameter) + 2 :]}") from None
 
 
 STDOUT = "-"

@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import check_output
+from pirate_bt.cli import as_option, check_output
 from pirate_bt.errors import InputError
 
 __all__ = ["check_diagram", "configure", "run"]
@@ -142,5 +142,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     except ValueError as exc:
         raise InputError(str(exc)) from None
+    except InputError as exc:  # a full disk said "out: cannot write 'q.dot': ..."
+        as_option(exc, "out", "-o")
+        raise
     print(f"drew {written}")
     return 0

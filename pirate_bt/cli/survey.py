@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     if args.port is not None and args.firmware_chain:
         raise InputError("--firmware-chain runs the simulator; with --port the robot is real")
     from pirate_bt.api.options import quantity
-    from pirate_bt.cli import check_output
+    from pirate_bt.cli import as_option, check_output
     from pirate_bt.cli.navigate import as_typed, check_stepwise
 
     check_stepwise(args)  # named as typed: the API said "seed:", "max_time:"
@@ -88,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
     except InputError as exc:
         # the API names its arguments; here they are the options typed
         as_typed(exc, "extend: ", "sim: a survey measures", "trace: ")
+        as_option(exc, "output", "-o")  # "output: x.txt is not a .yaml file name"
         raise
     if not args.quiet:
         print_decisions(result.navigation.decisions)

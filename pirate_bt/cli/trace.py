@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import check_output
+from pirate_bt.cli import as_option, check_output
 from pirate_bt.errors import file_argument
 
 __all__ = ["EXPORTS", "configure", "run"]
@@ -166,7 +166,11 @@ def _export(args: argparse.Namespace) -> int:
         )
     module_name, function = EXPORTS[suffix]
     export = getattr(importlib.import_module(module_name), function)
-    written = export(args.trace, args.output)
+    try:
+        written = export(args.trace, args.output)
+    except InputError as exc:  # a full disk said "out_path: cannot write t.mcap: ..."
+        as_option(exc, "out_path", "-o")
+        raise
     print(f"wrote {written}")
     return 0
 
