@@ -33,7 +33,8 @@ def halted_by(supervisor: Any, root: py_trees.behaviour.Behaviour | None = None)
     supervised mode for a confirmation no attached operator input could give (the run
     waited out its time limit, 600 s by default, in wall time on a robot)."""
     halt: str | None = supervisor.run_halted
-    if halt is not None or supervisor.operator_attached or supervisor.mode != "supervised":
+    # every tick: the mode first (a property read), the inputs only in supervised mode
+    if halt is not None or supervisor.mode != "supervised" or supervisor.operator_attached:
         return halt
     pending = supervisor.pending_confirmations()
     if not pending:

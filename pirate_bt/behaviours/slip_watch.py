@@ -40,7 +40,8 @@ SLIP_S = 0.5
 fails (ten ticks at 20 Hz; longer than a stalled joint's
 :data:`~pirate_bt.behaviours.grip.GRIP_LOST_S`, which names its own cause first)."""
 
-_HALVES = tuple(Half)
+_HOLDING = frozenset({ClampState.CLAMPED, ClampState.UNKNOWN})
+"""A half that holds the robot, or whose readings cannot tell (counted as holding)."""
 
 
 class SlipWatch:
@@ -56,10 +57,15 @@ class SlipWatch:
         has lasted, else ``None``. A half whose clamp state cannot be read (a reading
         missing) counts as holding: a slip is called only on readings that say so."""
         robot = self.robot
-        kinds = {h: classify_half(robot, state, h) for h in _HALVES}
-        if any(k in (ClampState.CLAMPED, ClampState.UNKNOWN) for k in kinds.values()):
+        front = classify_half(robot, state, Half.FRONT)
+        if front in _HOLDING:  # every drive tick: no dict, no generator (a drive's cost)
             self._since = None
             return None
+        rear = classify_half(robot, state, Half.REAR)
+        if rear in _HOLDING:
+            self._since = None
+            return None
+        kinds = {Half.FRONT: front, Half.REAR: rear}
         if self._since is None:
             self._since = now_s
             self._from_m = travelled_m
