@@ -79,3 +79,19 @@ def test_a_survey_output_not_named_yaml_is_named_by_its_option(
         "pirate-bt: -o: net.txt is not a .yaml file name; the surveyed network is written as YAML"
     ]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_trace_plot_that_cannot_be_written_is_named_as_the_belief_plot_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    route = tmp_path / "short.route"
+    route.write_text("network straight\nforward 0.2 m\n", encoding="utf-8")
+    out = tmp_path / "out"
+    (out / "plot.png").mkdir(parents=True)  # no file can be written there
+    (out / "belief.png").mkdir()
+    assert main(["mission", str(route), "-q", "--output", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    # was "no trace plot: [Errno 21] Is a directory: '.../plot.png'", Python's repr
+    assert f"pirate-bt: no trace plot: {out / 'plot.png'}: Is a directory" in err
+    assert f"pirate-bt: no belief plot: {out / 'belief.png'}: Is a directory" in err
+    assert (out / "report.md").is_file()

@@ -76,6 +76,8 @@ def write_mission_outputs(
             plotted = plot_trace(read_trace(result.trace_path), out / "plot.png")
             files.append(plotted)
             pictures.append(("Joints, clamps and speed", plotted.name))
+        except OSError as exc:  # as the belief plot's: "FILE: why", not "[Errno 28] ..."
+            log(f"no trace plot: {_os_error(exc)}")
         except Exception as exc:  # a missing plot must not lose the report
             log(f"no trace plot: {exc}")
     try:
