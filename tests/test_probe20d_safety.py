@@ -5,15 +5,20 @@ Each test pins a bug a user saw, fixed here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import pytest
 
+from pirate_bt.clock import SimClock
+from pirate_bt.robot import Half, load_robot
 from pirate_bt.robot.commands import MotorCommand
 from pirate_bt.robot.description import ControlMode
-from pirate_bt.safety import Drive, Raw
+from pirate_bt.safety import Drive, Raw, Reason
+from pirate_bt.safety.checks import CheckContext, Intent, Problem
 from pirate_bt.safety.factory import open_supervisor
 from pirate_bt.safety.supervisor import Supervisor
+from pirate_bt.safety.testing import FakePort
 
 
 @pytest.fixture
@@ -76,3 +81,31 @@ def test_a_command_is_read_once_and_what_was_checked_is_what_is_sent(sup: Superv
     state = sup.state()
     assert state is not None
     assert max(abs(v) for v in state.drive_velocity_mps.values()) < 1e-3, state
+
+
+# -- a check of yours that raises, as the supervisor clamps a robot in a steep pipe -------------
+
+
+def test_a_check_that_raises_does_not_hold_back_the_protective_clamp() -> None:
+    """A check added with `sup.add_check` written for drives (`intent.drive_mps < 0.05`,
+    a `TypeError` on any other command) raised out of `tick()` when the robot's only
+    holding half let go 30° up a pipe: the protective clamp was never sent, and the
+    next tick raised again, the robot left sliding. The hold now passes over a check
+    that cannot judge it (and logs it); a check that refuses still refuses."""
+    clock = SimClock(100.0)
+    port = FakePort(load_robot(), clock)
+    port.clamp_half(Half.FRONT)
+    port.set_pitch(math.radians(30))
+    sup = Supervisor(port, clock)
+    sup.tick()
+
+    def slow_drives_only(ctx: CheckContext, intent: Intent) -> Problem | None:
+        assert intent.drive_mps is not None  # written for drives: raises on a clamp
+        return None
+
+    sup.add_check(slow_drives_only)
+    port.free_half(Half.FRONT)
+    clock.advance(0.05)
+    sup.tick()
+    clamps = [v for v in sup.verdicts if v.reason is Reason.STEEP_PIPE_UNCLAMPED and v.sent]
+    assert clamps and sup.holding, sup.verdicts[-3:]

@@ -35,6 +35,7 @@ from pirate_bt.safety.checks import (
     CheckContext,
     ClampState,
     HalfTarget,
+    Intent,
     Problem,
     check_steep_pipe,
     half_states,
@@ -132,6 +133,25 @@ def why_half_holds_nothing(
     if other:
         return f"{half} {', '.join(other)}"
     return f"{half} {kind.value}"
+
+
+def objection(checks: list[Check], ctx: CheckContext, intent: Intent) -> Problem | None:
+    """The first problem ``checks`` find with a protective action, a check that raises
+    (one of yours, ``sup.add_check``) logged and passed over: the protective clamp of a
+    robot in a steep pipe is not held back by a check that cannot judge it (until
+    2026-11-30 its exception went out of every ``tick()`` and no clamp was sent)."""
+    for check in checks:
+        try:
+            problem = check(ctx, intent)
+        except Exception as exc:  # a user's check must not drop the robot
+            name = getattr(check, "__qualname__", None) or repr(check)[:80]
+            log.error(
+                "check %s raised %s on a protective action: %s", name, type(exc).__name__, exc
+            )
+            continue
+        if problem is not None:
+            return problem
+    return None
 
 
 def half_channels(robot: RobotDescription) -> dict[Half, tuple[str, ...]]:
@@ -365,9 +385,7 @@ class HoldMixin:
             command = Clamp(half, self._hold_torque)
             intent = self._expander.expand(command, state)
             problem = (
-                intent
-                if isinstance(intent, Problem)
-                else next((p for c in self._checks if (p := c(ctx, intent)) is not None), None)
+                intent if isinstance(intent, Problem) else objection(self._checks, ctx, intent)
             )
             if problem is not None or isinstance(intent, Problem):
                 # the invariants still hold: the front half does not clamp with the front
@@ -434,7 +452,8 @@ class HoldMixin:
             return False
         # check_steep_pipe asks for a clamp first, and this tilt is what lets the clamp
         # land (it moves no wheel): the other checks hold as for any tilt
-        if any(c(ctx, intent) is not None for c in self._checks if c is not check_steep_pipe):
+        checks = [c for c in self._checks if c is not check_steep_pipe]
+        if objection(checks, ctx, intent) is not None:
             return False
         cmds: list[MotorCommand] = []
         for mc in intent.motor_commands:
