@@ -4,12 +4,15 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+from pirate_bt.render.files import write_diagram
 
 _NODES = [
     {
@@ -92,3 +95,21 @@ def test_valid_json_that_python_cannot_hold_is_refused_at_its_line(
         assert err == f"pirate-bt: {path}:3:1: not a trace record: {said}", argv
     assert not (tmp_path / "plot.png").exists()
     assert not (tmp_path / "d.dot").exists()
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="needs Graphviz's dot")
+def test_a_source_graphviz_refuses_is_one_line_naming_the_picture(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Whatever Graphviz refuses is one line naming the picture, with the .dot kept,
+    not an internal error with Graphviz's lines printed above it."""
+    out = tmp_path / "bad.svg"
+    with pytest.raises(InputError) as caught:
+        write_diagram("digraph { a [label=<<b></b>>] }", out)
+    said = str(caught.value)
+    assert "\n" not in said
+    assert said.startswith(f"{out}: Graphviz could not draw it (dot exit 1: Error: syntax error")
+    assert said.endswith(f"; {tmp_path / 'bad.dot'} was written")
+    assert not out.exists()
+    assert (tmp_path / "bad.dot").read_text(encoding="utf-8").startswith("digraph")
+    assert capsys.readouterr().err == ""

@@ -65,6 +65,8 @@ def write_diagram(source: str, out: str | Path) -> Path:
             (the ``.dot`` file has been written all the same); its ``filename``
             is ``None``, unlike that of a file that cannot be written.
         ValueError: an unsupported suffix.
+        InputError: too many nodes to draw, or Graphviz failed (the ``.dot`` file
+            has been written).
         OSError: a file cannot be written.
     """
     out = Path(out)
@@ -92,5 +94,15 @@ def write_diagram(source: str, out: str | Path) -> Path:
         )
     import graphviz
 
-    write_file(out, graphviz.Source(source).pipe(format=suffix[1:]))
+    try:  # Graphviz's complaints are said here, in one line, not on standard error
+        picture = graphviz.Source(source).pipe(format=suffix[1:], quiet=True)
+    except graphviz.CalledProcessError as exc:
+        from pirate_bt.errors import InputError
+
+        said = " ".join(bytes(exc.stderr or b"").decode("utf-8", "replace").split())
+        raise InputError(
+            f"{out}: Graphviz could not draw it (dot exit {exc.returncode}: {said[:300] or '-'});"
+            f" {dot_path} was written"
+        ) from None
+    write_file(out, picture)
     return out
