@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import json
 import shutil
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
+import py_trees
 import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError
 from pirate_bt.render.files import write_diagram
+from pirate_bt.render.tree import render_tree
 
 _NODES = [
     {
@@ -95,6 +98,31 @@ def test_valid_json_that_python_cannot_hold_is_refused_at_its_line(
         assert err == f"pirate-bt: {path}:3:1: not a trace record: {said}", argv
     assert not (tmp_path / "plot.png").exists()
     assert not (tmp_path / "d.dot").exists()
+
+
+def _nameless() -> list[dict[str, Any]]:
+    records = _records()
+    for node in records[0]["tree"]["nodes"]:
+        node["name"] = ""
+    return records
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="needs Graphviz's dot")
+def test_a_node_with_an_empty_name_is_drawn(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A node named '' (a py_trees behaviour made with name='', a trace's header) gave
+    Graphviz the label <b></b>, which it refuses: 'internal error: CalledProcessError',
+    exit 1, with Graphviz's own lines on standard error and no picture."""
+    path = _write(tmp_path / "run.jsonl", _nameless())
+    for suffix in (".svg", ".png"):
+        out = tmp_path / f"tick{suffix}"
+        assert main(["render", str(path), "--trace", str(path), "--tick", "2", "-o", str(out)]) == 0
+        assert capsys.readouterr().err == ""
+        assert out.stat().st_size > 0
+    root = py_trees.composites.Sequence("", memory=True, children=[py_trees.behaviours.Success("")])
+    drawn = render_tree(root, tmp_path / "py.svg")
+    assert ET.parse(drawn).getroot().tag.endswith("svg")
 
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="needs Graphviz's dot")

@@ -167,7 +167,7 @@ def _coverage_row(seen: NodeCoverage) -> str:
 def _label(
     node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
 ) -> str:
-    rows = [f"<b>{_html(node.name)}</b>"]
+    rows = [f"<b>{_html(node.name) or ' '}</b>"]  # <b></b> is no label to Graphviz
     if node.type and node.type != node.name:
         rows.append(f'<font point-size="8">{_html(node.type)}</font>')
     for key, value in node.params.items():
