@@ -95,3 +95,21 @@ def test_a_trace_plot_that_cannot_be_written_is_named_as_the_belief_plot_is(
     assert f"pirate-bt: no trace plot: {out / 'plot.png'}: Is a directory" in err
     assert f"pirate-bt: no belief plot: {out / 'belief.png'}: Is a directory" in err
     assert (out / "report.md").is_file()
+
+
+def test_a_mission_never_writes_its_report_over_its_own_route(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    route = tmp_path / "report.md"  # a route may be named anything
+    text = "network straight\nforward 0.2 m\n"
+    route.write_text(text, encoding="utf-8")
+    assert main(["mission", str(route), "--output", str(tmp_path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""  # refused before the plan is printed
+    # was exit 0, the route replaced by the mission's report
+    assert captured.err.splitlines() == [
+        f"pirate-bt: --output: {route} is the route file, where the mission writes its"
+        " report.md; name another folder"
+    ]
+    assert route.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]

@@ -13,7 +13,19 @@ from typing import Any
 from pirate_bt.api.options import kind_of, output_folder, report_extras
 from pirate_bt.errors import InputError
 
-__all__ = ["OutputsNotWritten", "write_mission_outputs"]
+__all__ = ["OUTPUT_NAMES", "OutputsNotWritten", "write_mission_outputs"]
+
+OUTPUT_NAMES = (
+    "plot.png",
+    "belief.png",
+    "tree.svg",
+    "tree.dot",
+    "coverage.svg",
+    "coverage.dot",
+    "report.md",
+    "report.html",
+)
+"""The files :func:`write_mission_outputs` writes into its folder (the trace aside)."""
 
 
 class OutputsNotWritten(InputError):

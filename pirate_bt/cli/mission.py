@@ -121,6 +121,27 @@ def _fraction(text: str, option: str) -> float:
     return value
 
 
+def _outputs_not_inputs(args: argparse.Namespace, inputs: dict[str, object]) -> None:
+    """``--output DIR`` never writes over the mission's own files, before the run: a
+    route kept as ``DIR/report.md`` was replaced by the report, exit 0.
+
+    Raises:
+        InputError: a file the mission writes in ``DIR`` is one of ``inputs``.
+    """
+    from pirate_bt.api.mission_outputs import OUTPUT_NAMES
+    from pirate_bt.api.options import not_an_input
+
+    names = OUTPUT_NAMES if getattr(args, "trace", None) else ("trace.jsonl", *OUTPUT_NAMES)
+    for name in names:
+        try:
+            not_an_input(Path(args.output) / name, "--output", inputs)
+        except InputError as exc:
+            said = str(exc).removesuffix("; name another file")
+            raise InputError(
+                f"{said}, where the mission writes its {name}; name another folder"
+            ) from None
+
+
 def execute(
     args: argparse.Namespace,
     *,
@@ -176,6 +197,16 @@ def execute(
     truth = network
     if args.sim not in (None, map_name, route.network):
         truth = load_network_for(route, args.sim, option="--sim")
+    if args.output is not None and not args.plan:
+        _outputs_not_inputs(
+            args,
+            {
+                "route": route.source,
+                "network": network.source,
+                "simulated network": truth.source,
+                "robot description": args.robot,
+            },
+        )
     plan = plan_route(route, network, robot)
     from pirate_bt.task.mission import estimate_time_s
 
