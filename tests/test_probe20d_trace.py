@@ -4,7 +4,10 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -141,3 +144,23 @@ def test_a_source_graphviz_refuses_is_one_line_naming_the_picture(
     assert not out.exists()
     assert (tmp_path / "bad.dot").read_text(encoding="utf-8").startswith("digraph")
     assert capsys.readouterr().err == ""
+
+
+def test_a_plot_is_drawn_whatever_backend_mplbackend_names(tmp_path: Path) -> None:
+    """A plot is drawn with Agg; MPLBACKEND naming a backend matplotlib does not know
+    (a typo in a shell's profile) made 'pirate-bt trace plot' an internal error
+    (ValueError: Key backend: 'bogus' is not a valid value ...), exit 1. Run in a
+    process of its own, where matplotlib is first imported by the plot."""
+    path = _write(tmp_path / "run.jsonl", _records())
+    out = tmp_path / "run.png"
+    env = {**os.environ, "MPLBACKEND": "bogus", "PYTHONDONTWRITEBYTECODE": "1"}
+    done = subprocess.run(
+        [sys.executable, "-m", "pirate_bt", "trace", "plot", str(path), "-o", str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert (done.returncode, done.stderr) == (0, "")
+    assert out.read_bytes().startswith(b"\x89PNG")

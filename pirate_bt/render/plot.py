@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import io
 import math
+import os
+import sys
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -349,8 +351,7 @@ def plot_trace(
     hi = min(hi, duration)
     zoomed = start_s is not None or end_s is not None
     try:
-        import matplotlib
-
+        matplotlib = _matplotlib()
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -447,6 +448,20 @@ def _draw(
     finally:
         plt.close(fig)
     return write_file(out, picture.getvalue())
+
+
+def _matplotlib() -> Any:
+    """matplotlib, imported whatever ``MPLBACKEND`` says: a plot is drawn with Agg, and a
+    name matplotlib does not know there (``MPLBACKEND=bogus``) made its import raise."""
+    if "matplotlib" in sys.modules:
+        return sys.modules["matplotlib"]
+    screen = os.environ.pop("MPLBACKEND", None)
+    try:
+        import matplotlib
+    finally:
+        if screen is not None:
+            os.environ["MPLBACKEND"] = screen
+    return matplotlib
 
 
 def picture_format(out: Path) -> str:
