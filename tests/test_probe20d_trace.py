@@ -16,8 +16,9 @@ import py_trees
 import pytest
 
 from pirate_bt.cli import main
-from pirate_bt.errors import InputError
+from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.render.files import write_diagram
+from pirate_bt.render.plot import plot_trace
 from pirate_bt.render.tree import render_tree
 
 _NODES = [
@@ -164,3 +165,14 @@ def test_a_plot_is_drawn_whatever_backend_mplbackend_names(tmp_path: Path) -> No
     )
     assert (done.returncode, done.stderr) == (0, "")
     assert out.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("given", ["1", True, [1]], ids=["text", "True", "a list"])
+def test_plot_trace_refuses_a_window_that_is_no_number(tmp_path: Path, given: object) -> None:
+    """plot_trace(start_s="1") ended with Python's 'ValueError: Unknown
+    format code 'g' for object of type 'str'', and start_s=True drew from 1 s."""
+    path = _write(tmp_path / "run.jsonl", _records())
+    for option in ("start_s", "end_s"):
+        with pytest.raises(ArgumentTypeError, match=f"plot_trace: {option}: give a number"):
+            plot_trace(path, tmp_path / "run.png", **{option: given})  # type: ignore[arg-type]
+    assert not (tmp_path / "run.png").exists()

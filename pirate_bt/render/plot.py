@@ -314,7 +314,8 @@ def plot_trace(
 
     Raises:
         ConfigurationError: matplotlib is not installed.
-        ArgumentTypeError: ``trace`` is neither a ``Trace`` nor a path.
+        ArgumentTypeError: ``trace`` is neither a ``Trace`` nor a path, or ``start_s``
+            or ``end_s`` is no number (``True`` and ``"1"`` are not).
         InputError: the trace file cannot be read (its line and column), the run
             took no time (it ended in its first tick, at 0 s), the window
             is not finite, starts before the trace or after it, or is empty (an end
@@ -330,6 +331,11 @@ def plot_trace(
             f"plot_trace: trace: give a Trace (pirate_bt.read_trace) or the path of a trace"
             f" file, not {type(trace).__name__}"
         )
+    for option, given in (("start_s", start_s), ("end_s", end_s)):  # "1" failed in format()
+        if given is not None and (isinstance(given, bool) or not isinstance(given, int | float)):
+            raise ArgumentTypeError(
+                f"plot_trace: {option}: give a number of seconds, not {type(given).__name__}"
+            )
     duration = trace.duration_s
     if duration <= 0 and start_s is None and end_s is None:  # ended in its first tick
         n = trace.last_tick  # was "plot window from 0 s to 0 s is outside the trace"
