@@ -176,3 +176,43 @@ def test_plot_trace_refuses_a_window_that_is_no_number(tmp_path: Path, given: ob
         with pytest.raises(ArgumentTypeError, match=f"plot_trace: {option}: give a number"):
             plot_trace(path, tmp_path / "run.png", **{option: given})  # type: ignore[arg-type]
     assert not (tmp_path / "run.png").exists()
+
+
+def _many_pabs(name_chars: int, pabs: int = 40) -> list[dict[str, Any]]:
+    """A root sequence of ``pabs`` steps, one after another, 0.1 s each."""
+    children = [f"0.{i}" for i in range(pabs)]
+    nodes: list[dict[str, Any]] = [
+        {"id": "0", "name": "mission", "type": "Sequence", "kind": "composite", "parent": None}
+    ]
+    nodes[0]["children"] = children
+    for i, child in enumerate(children):
+        name = f"{i + 1:02d} " + "pass the long straight " * (name_chars // 23 + 1)
+        nodes.append(
+            {"id": child, "name": name[:name_chars], "type": "Wait", "kind": "leaf", "parent": "0"}
+        )
+        nodes[-1]["children"] = []
+    records = _records()[:1]
+    records[0]["tree"] = {"name": "mission", "nodes": nodes}
+    for i, child in enumerate(children):
+        status = {child: "R", "0": "R"} if i == 0 else {children[i - 1]: "S", child: "R"}
+        state = {"rotation_rad": i / 100}
+        records.append(
+            {"type": "tick", "n": i + 1, "t_s": i / 10, "status": status, "state": state}
+        )
+    last = len(children) + 1
+    records.append({"type": "tick", "n": last, "t_s": last / 10, "status": {children[-1]: "S"}})
+    records.append({"type": "end", "n": last, "t_s": last / 10, "outcome": "success"})
+    return records
+
+
+def test_a_plot_of_many_pabs_with_long_names_is_drawn(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The PABs too short to name in their band are listed under the plot; 40 PABs of
+    300-character names took more lines than the figure is high, and 'trace plot'
+    ended with 'internal error: ValueError: bottom cannot be >= top', no picture."""
+    path = _write(tmp_path / "run.jsonl", _many_pabs(300))
+    out = tmp_path / "run.png"
+    assert main(["trace", "plot", str(path), "-o", str(out)]) == 0
+    assert capsys.readouterr().err == ""
+    assert out.read_bytes().startswith(b"\x89PNG")

@@ -48,6 +48,8 @@ _STEP_COLOURS = ("#dbeafe", "#dcfce7", "#fef3c7", "#fce7f3", "#e0e7ff", "#ccfbf1
 _LABEL_PT = 7.0
 # Width of one character of the label font, in points (a generous average).
 _CHAR_PT = 0.62 * _LABEL_PT
+_LEGEND_LINES = 8  # the PABs listed under a plot: lines at most
+_LEGEND_ENTRY = 80  # characters of one PAB's name there at most
 
 
 @dataclass(frozen=True)
@@ -442,8 +444,7 @@ def _draw(
         fig.suptitle(title or f"{trace.structure.name}: {trace.outcome}{window}", y=0.99)
         bottom = 0.06
         if legend:
-            text = "PABs too short to name here: " + "   ".join(legend)
-            wrapped = textwrap.fill(text, width=int(plot_px / (_CHAR_PT * dpi / 72.0)))
+            wrapped = _legend_text(legend, int(plot_px / (_CHAR_PT * dpi / 72.0)))
             lines = wrapped.count("\n") + 1
             height_in = fig.get_figheight()
             bottom = 0.06 + lines * (_LABEL_PT + 3) / 72.0 / height_in
@@ -454,6 +455,17 @@ def _draw(
     finally:
         plt.close(fig)
     return write_file(out, picture.getvalue())
+
+
+def _legend_text(legend: list[str], width: int) -> str:
+    """The PABs listed under a plot, in at most :data:`_LEGEND_LINES` lines of ``width``:
+    a list of long names (a 20,000-character one) took more lines than the figure is
+    high, and matplotlib refused the layout (*bottom cannot be >= top*)."""
+    entries = [e if len(e) <= _LEGEND_ENTRY else e[: _LEGEND_ENTRY - 1] + "…" for e in legend]
+    lines = textwrap.wrap("PABs too short to name here: " + "   ".join(entries), width=width)
+    if len(lines) > _LEGEND_LINES:
+        lines = [*lines[: _LEGEND_LINES - 1], "… (more than fit here)"]
+    return "\n".join(lines)
 
 
 def _matplotlib() -> Any:
