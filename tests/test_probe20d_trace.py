@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -18,8 +19,9 @@ import pytest
 from pirate_bt.cli import main
 from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.render.files import write_diagram
-from pirate_bt.render.plot import plot_trace
+from pirate_bt.render.plot import plot_series, plot_trace
 from pirate_bt.render.tree import render_tree
+from pirate_bt.trace import read_trace
 
 _NODES = [
     {
@@ -216,3 +218,20 @@ def test_a_plot_of_many_pabs_with_long_names_is_drawn(
     assert main(["trace", "plot", str(path), "-o", str(out)]) == 0
     assert capsys.readouterr().err == ""
     assert out.read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_plot_shows_control_characters_in_names_as_escapes(tmp_path: Path) -> None:
+    """A PAB or tree named with a control character (a NUL, a line break: a tree built in
+    Python, a hand-made trace) was drawn as written: matplotlib warned 'Glyph 0 missing
+    from font(s)' on standard error, and a line break split a strip's label in two.
+    They are shown as escapes, as trace summary and show print them."""
+    records = _many_pabs(20, pabs=3)
+    records[0]["tree"]["name"] = "mission\x00"
+    records[0]["tree"]["nodes"][1]["name"] = "01 clamp\x00rear\nnow"
+    path = _write(tmp_path / "run.jsonl", records)
+    series = plot_series(read_trace(path), 0.0, 0.4)
+    assert [span.name for span in series.pabs][:1] == ["01 clamp\\x00rear\\nnow"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["trace", "plot", str(path), "-o", str(tmp_path / "run.png")]) == 0
+    assert not [w for w in caught if "Glyph" in str(w.message)]

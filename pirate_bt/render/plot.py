@@ -35,6 +35,7 @@ from pirate_bt.errors import ArgumentTypeError, ConfigurationError, InputError
 from pirate_bt.render.files import write_file
 from pirate_bt.trace.reader import Trace, read_trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
+from pirate_bt.trace.text import one_line
 
 __all__ = ["PlotSeries", "StepSpan", "pab_nodes", "plot_series", "plot_trace", "strip_labels"]
 
@@ -128,7 +129,7 @@ class _Spans:
 
     def __init__(self, nodes: list[NodeInfo]) -> None:
         self.order = {n.id: i for i, n in enumerate(nodes)}
-        self.names = {n.id: n.name for n in nodes}
+        self.names = {n.id: one_line(n.name) for n in nodes}  # "\x00": a glyph no font has
         self.running: set[str] = set()
         self.active: tuple[str, float] | None = None
         self.spans: list[StepSpan] = []
@@ -441,7 +442,8 @@ def _draw(
         axes[-1].set_xlim(lo, hi)
         axes[-1].set_xlabel("time (s)")
         window = f" ({lo:g}-{hi:g} s)" if zoomed else ""
-        fig.suptitle(title or f"{trace.structure.name}: {trace.outcome}{window}", y=0.99)
+        name = one_line(trace.structure.name)
+        fig.suptitle(title or f"{name}: {trace.outcome}{window}", y=0.99)
         bottom = 0.06
         if legend:
             wrapped = _legend_text(legend, int(plot_px / (_CHAR_PT * dpi / 72.0)))
