@@ -113,3 +113,15 @@ def test_a_mission_never_writes_its_report_over_its_own_route(
     ]
     assert route.read_text(encoding="utf-8") == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+def test_teleop_refuses_a_tree_parameter_with_no_tree(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # was exit 0: the parameter dropped without a word, the robot driven by hand
+    assert main(["teleop", "--keys", "q", "--param", "distance=1m"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""  # nothing played
+    assert captured.err.splitlines() == [
+        "pirate-bt: --param distance=1m: a tree's parameter; give the tree with --tree"
+    ]

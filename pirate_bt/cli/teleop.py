@@ -273,7 +273,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="a tree parameter (repeatable), as for 'pirate-bt run'",
+        help="a parameter of --tree's tree (repeatable), as for 'pirate-bt run'",
     )
     parser.add_argument(
         "--mode",
@@ -398,6 +398,8 @@ def run(args: argparse.Namespace) -> int:
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
     if args.tree is not None and args.keys is not None:
         raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
+    if args.param and args.tree is None:  # it was dropped without a word, exit 0
+        raise InputError(f"--param {args.param[0]}: a tree's parameter; give the tree with --tree")
     checked = _load_tree(args, robot)
     if args.keys is None and not sys.stdin.isatty():
         if args.tree is not None:
