@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import shutil
@@ -50,7 +51,7 @@ def _records() -> list[dict[str, Any]]:
             "type": "header",
             "format": "pirate-bt-trace",
             "version": 1,
-            "tree": {"name": "pab", "nodes": _NODES},
+            "tree": {"name": "pab", "nodes": copy.deepcopy(_NODES)},
             "robot": {"name": "PIRATE 2018", "digest": "5f2c..."},
             "clock": "simulated",
             "tick_period_s": 0.01,
@@ -235,3 +236,28 @@ def test_a_plot_shows_control_characters_in_names_as_escapes(tmp_path: Path) -> 
         warnings.simplefilter("always")
         assert main(["trace", "plot", str(path), "-o", str(tmp_path / "run.png")]) == 0
     assert not [w for w in caught if "Glyph" in str(w.message)]
+
+
+def test_a_trace_of_another_tree_is_named_in_one_short_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """'render TREE --trace T' of another tree's trace said both names whole (a line of
+    10 kB for a 10,000-character name), and a node named '' in the trace was 'missing'."""
+    long = _records()
+    long[0]["tree"]["nodes"][0]["name"] = "x" * 10_000
+    long_path = _write(tmp_path / "long.jsonl", long)
+    nameless = _write(tmp_path / "nameless.jsonl", _nameless())
+    good = _write(tmp_path / "good.jsonl", _records())
+    out = str(tmp_path / "d.dot")
+    assert main(["render", str(good), "--trace", str(long_path), "-o", out]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"pirate-bt: {long_path} is not a trace of {good}: node '0' is 'pab'")
+    assert err.endswith("(10000 characters) in the trace")
+    assert len(err) < 400
+    assert main(["render", str(good), "--trace", str(nameless), "-o", out]) == 2
+    assert capsys.readouterr().err.strip().endswith("is 'pab' in the tree but '' in the trace")
+    with pytest.raises(InputError) as caught:
+        render_tree(good, out, trace=long_path, tick=1)
+    assert len(str(caught.value)) < 400
+    assert str(caught.value).endswith("(10000 characters) in the trace")
+    assert not Path(out).exists()

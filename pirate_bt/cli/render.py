@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from pirate_bt.cli import as_option, check_output
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, shown
 
 __all__ = ["check_diagram", "configure", "run"]
 
@@ -111,11 +111,12 @@ def run(args: argparse.Namespace) -> int:
     if args.trace is not None:
         trace = read_trace(args.trace)
         for node in structure:
-            recorded = node.id in trace.structure and trace.structure.node(node.id).name
-            if recorded != node.name:
+            recorded = trace.structure.node(node.id).name if node.id in trace.structure else None
+            if recorded != node.name:  # names cut: a 10 kB one was said whole
                 raise InputError(
-                    f"{args.trace} is not a trace of {args.tree}: node {node.id} is"
-                    f" {node.name!r} in the tree but {recorded or 'missing'!r} in the trace"
+                    f"{args.trace} is not a trace of {args.tree}: node {shown(node.id, 60)} is"
+                    f" {shown(node.name, 100)} in the tree but"
+                    f" {'missing' if recorded is None else shown(recorded, 100)} in the trace"
                 )
     status = feedback = None
     title = None

@@ -371,11 +371,13 @@ def _refuse_overwriting(target: Path, tree: object, trace: object) -> None:
 
 def _check_trace_fits(structure: TreeStructure, trace: Trace) -> None:
     for node in structure:
-        recorded = node.id in trace.structure and trace.structure.node(node.id).name
-        if recorded != node.name:
+        recorded = trace.structure.node(node.id).name if node.id in trace.structure else None
+        if recorded != node.name:  # each name cut (a 10 kB one was said whole); '' is a name
+            was = "missing" if recorded is None else shown(recorded, 100)
             raise InputError(
-                f"{trace.path} is not a trace of tree {structure.name!r}: node {node.id} is"
-                f" {node.name!r} in the tree but {recorded or 'missing'!r} in the trace"
+                f"{trace.path} is not a trace of tree {shown(structure.name, 100)}: node"
+                f" {shown(node.id, 60)} is {shown(node.name, 100)} in the tree but {was}"
+                " in the trace"
             )
 
 
