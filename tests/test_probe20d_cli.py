@@ -125,3 +125,12 @@ def test_teleop_refuses_a_tree_parameter_with_no_tree(
     assert captured.err.splitlines() == [
         "pirate-bt: --param distance=1m: a tree's parameter; give the tree with --tree"
     ]
+
+
+def test_a_plan_of_one_pab_says_one_pab(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    route = tmp_path / "short.route"
+    route.write_text("network straight\nforward 0.2 m\n", encoding="utf-8")
+    assert main(["mission", str(route), "--plan"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    # was "1 PABs", where the mission's own line says "1 PAB"
+    assert first == f"route {route} on map straight: 1 PAB, 0.20 m"

@@ -215,7 +215,8 @@ def execute(
     if not args.quiet or args.plan:
         on = f" (simulator: {truth.name})" if truth is not network else ""
         print(
-            f"route {route.source} on map {network.name}{on}: {len(plan.pabs)} PABs,"
+            f"route {route.source} on map {network.name}{on}: {len(plan.pabs)}"
+            f" PAB{'' if len(plan.pabs) == 1 else 's'},"
             f" {plan.distance_m:.2f} m",
             file=stream,
         )
