@@ -134,3 +134,29 @@ def test_a_plan_of_one_pab_says_one_pab(tmp_path: Path, capsys: pytest.CaptureFi
     first = capsys.readouterr().out.splitlines()[0]
     # was "1 PABs", where the mission's own line says "1 PAB"
     assert first == f"route {route} on map straight: 1 PAB, 0.20 m"
+
+
+@pytest.mark.parametrize(
+    ("argv", "verb", "unknown"),
+    [
+        (["trace", "plot", "t.jsonl", "-o", "p.png", "--start", "2"], "trace plot", "--start 2"),
+        (["export", "btcpp", "straight", "bend", "-o", "x.xml"], "export btcpp", "bend"),
+        (["network", "perturb", "n.yaml", "--seed", "1", "--bogus"], "network perturb", "--bogus"),
+    ],
+)
+def test_an_unknown_argument_of_an_action_points_at_the_action_s_help(
+    argv: list[str],
+    verb: str,
+    unknown: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    # was "pirate-bt trace: ... (see 'pirate-bt trace --help')", a page that lists
+    # none of plot's options
+    assert capsys.readouterr().err.splitlines() == [
+        f"pirate-bt {verb}: unrecognized arguments: {unknown} (see 'pirate-bt {verb} --help')"
+    ]
+    assert list(tmp_path.iterdir()) == []

@@ -265,6 +265,26 @@ class _StoreOnce(argparse._StoreAction):
         super().__call__(parser, namespace, values, option_string)
 
 
+class _SubCommands(argparse._SubParsersAction):  # type: ignore[type-arg]
+    """argparse's sub-commands (``trace show``, ``export btcpp``), whose parser names
+    what it does not know: ``trace plot t.jsonl -o p.png --start 2`` said *pirate-bt
+    trace: unrecognized arguments: --start 2 (see 'pirate-bt trace --help')*, a page
+    that lists no option of ``plot``'s."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        super().__call__(parser, namespace, values, option_string)
+        unknown = vars(namespace).pop(argparse._UNRECOGNIZED_ARGS_ATTR, None)
+        if unknown:
+            chosen = self._name_parser_map[values[0]]
+            chosen.error(f"unrecognized arguments: {' '.join(unknown)}")
+
+
 # An option's value may be empty only where empty means something: no faults, no keys,
 # the root ROS namespace. Anywhere else '--output "$DIR"' with DIR unset ran demo and
 # mission into the working folder, and '--sim "$NET"' ran in the default network.
@@ -303,6 +323,7 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self.register("action", None, _StoreOnce)
         self.register("action", "store", _StoreOnce)
+        self.register("action", "parsers", _SubCommands)
 
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
