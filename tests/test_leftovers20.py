@@ -4,7 +4,11 @@ endless iterator to the public ``split_faults``."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from collections.abc import Iterator
+from pathlib import Path
 
 import py_trees
 import pytest
@@ -140,3 +144,27 @@ def test_the_simulator_s_ros2_node_declares_no_estop_it_cannot_hear(
     said = capsys.readouterr().err.splitlines()
     assert said[0].endswith("(no e-stop: nothing here to stop)")
     assert said[1].endswith("(e-stop: /pirate/estop)")
+
+
+def test_a_campaign_report_draws_its_plot_whatever_mplbackend_names(tmp_path: Path) -> None:
+    # the trace's plot imported matplotlib with MPLBACKEND set aside (705ec81); the
+    # campaign's report imported it itself, and MPLBACKEND=bogus made that raise when it
+    # came first in the process
+    script = (
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from pirate_bt.campaign.report import _plots\n"
+        "rows = [{'run': 'r', 'drop': d, 'outcome': 'success'} for d in (0.0, 0.1)]\n"
+        "print([p.name for p in _plots(rows, Path(sys.argv[1]))])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script, str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MPLBACKEND": "bogus"},
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "success_vs_drop.png" in done.stdout
+    assert (tmp_path / "success_vs_drop.png").stat().st_size > 0

@@ -265,9 +265,9 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
     swept = [k for k in ("drop", "corrupt", "dup") if len({r.get(k) for r in rows}) > 1]
     if not swept:
         return []
-    import matplotlib
+    from pirate_bt.render.plot import import_matplotlib
 
-    matplotlib.use("Agg")
+    import_matplotlib().use("Agg")  # whatever MPLBACKEND names
     import matplotlib.pyplot as plt
 
     from pirate_bt.campaign.stats import wilson_interval

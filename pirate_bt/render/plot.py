@@ -37,7 +37,15 @@ from pirate_bt.trace.reader import Trace, read_trace
 from pirate_bt.trace.structure import NodeInfo, TreeStructure
 from pirate_bt.trace.text import one_line
 
-__all__ = ["PlotSeries", "StepSpan", "pab_nodes", "plot_series", "plot_trace", "strip_labels"]
+__all__ = [
+    "PlotSeries",
+    "StepSpan",
+    "import_matplotlib",
+    "pab_nodes",
+    "plot_series",
+    "plot_trace",
+    "strip_labels",
+]
 
 _PANELS = (
     ("joint_angle_rad.", "joint angle (deg)", 180.0 / math.pi),
@@ -360,7 +368,7 @@ def plot_trace(
     hi = min(hi, duration)
     zoomed = start_s is not None or end_s is not None
     try:
-        matplotlib = _matplotlib()
+        matplotlib = import_matplotlib()
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -470,9 +478,11 @@ def _legend_text(legend: list[str], width: int) -> str:
     return "\n".join(lines)
 
 
-def _matplotlib() -> Any:
+def import_matplotlib() -> Any:
     """matplotlib, imported whatever ``MPLBACKEND`` says: a plot is drawn with Agg, and a
-    name matplotlib does not know there (``MPLBACKEND=bogus``) made its import raise."""
+    name matplotlib does not know there (``MPLBACKEND=bogus``) made its import raise
+    (the plot here, the mission's and the campaign's reports: the first one in a
+    process imports it)."""
     if "matplotlib" in sys.modules:
         return sys.modules["matplotlib"]
     screen = os.environ.pop("MPLBACKEND", None)

@@ -346,9 +346,9 @@ def plot_belief(result: MissionResult, out: Path) -> Path | None:
     if not result.samples:
         return None
     try:
-        import matplotlib
+        from pirate_bt.render.plot import import_matplotlib
 
-        matplotlib.use("Agg")
+        import_matplotlib().use("Agg")  # whatever MPLBACKEND names
         import matplotlib.pyplot as plt
     except ImportError:
         return None
