@@ -160,3 +160,38 @@ def test_an_unknown_argument_of_an_action_points_at_the_action_s_help(
         f"pirate-bt {verb}: unrecognized arguments: {unknown} (see 'pirate-bt {verb} --help')"
     ]
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "message"),
+    [
+        (
+            ["--draw", "boards.svg"],
+            [],
+            "--draw: 'robot header' draws nothing; run 'pirate-bt robot --draw OUT' on its own",
+        ),
+        (
+            ["--robot", "a.yaml"],
+            ["b.yaml"],
+            "two robot descriptions (a.yaml by --robot, b.yaml after header): give one",
+        ),
+    ],
+)
+def test_robot_header_refuses_what_it_would_drop(
+    before: list[str],
+    after: list[str],
+    message: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from pirate_bt.resources import default_robot_path
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("a.yaml", "b.yaml"):
+        (tmp_path / name).write_bytes(default_robot_path().read_bytes())
+    # was exit 0: the header written, no drawing, or b.yaml's header and a.yaml unread
+    assert main(["robot", *before, "header", *after, "-o", "layout.h"]) == 2
+    assert capsys.readouterr().err.splitlines() == [f"pirate-bt: {message}"]
+    assert not (tmp_path / "layout.h").exists()
+    assert not (tmp_path / "boards.svg").exists()

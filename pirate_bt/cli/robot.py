@@ -79,6 +79,16 @@ def _header(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "action", None) == "header":
+        # each was dropped without a word: no drawing, or the other description's header
+        if args.draw is not None:
+            raise InputError(
+                "--draw: 'robot header' draws nothing; run 'pirate-bt robot --draw OUT' on its own"
+            )
+        if args.robot is not None and args.description is not None:
+            raise InputError(
+                f"two robot descriptions ({args.robot} by --robot, {args.description} after"
+                " header): give one"
+            )
         return _header(args)
     robot = load_robot(args.robot)
     if args.draw:
