@@ -189,7 +189,7 @@ def test_mcap_export_refuses_a_tick_without_n_as_btlog_export_does(
     path = _write(tmp_path / "non.jsonl", records)
     for out in ("x.btlog", "x.mcap"):
         result = _cli("trace", "export", path, "-o", tmp_path / out, cwd=tmp_path)
-        _refused(result, f"{path}:2:", "bad tick record: KeyError: 'n'")
+        _refused(result, f"{path}:2:", "bad tick record: no n: a tick record holds its number n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["non.jsonl"]
 
 

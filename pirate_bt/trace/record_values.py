@@ -86,11 +86,14 @@ def tick_values_problem(record: Mapping[str, Any]) -> str | None:
     """What is wrong with a tick record's ``n``, ``t_s`` or ``events``, or ``None``.
 
     ``n`` is a whole number from 1 (the first tick is 1), ``t_s`` a finite number
-    (a missing one is the caller's to name), ``events`` a list of objects,
+    (both there), ``events`` a list of objects,
     ``bb_unset`` a list of text and ``status``, ``feedback``, ``bb``, ``state``,
     ``link`` and ``sim`` objects.
     """
-    n, t_s = record.get("n", 1), record.get("t_s", 0.0)  # missing: a KeyError, as before
+    for name in ("n", "t_s"):  # said 'KeyError: 'n'' until the twentieth session
+        if name not in record:
+            return f"no {name}: a tick record holds its number n and its time t_s"
+    n, t_s = record["n"], record["t_s"]
     if not _whole(n) or n < 1:
         return f"n is the tick's number, a whole number from 1, not {_shown(n)}"
     if not _finite(t_s):
