@@ -195,3 +195,28 @@ def test_robot_header_refuses_what_it_would_drop(
     assert capsys.readouterr().err.splitlines() == [f"pirate-bt: {message}"]
     assert not (tmp_path / "layout.h").exists()
     assert not (tmp_path / "boards.svg").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [
+        (
+            ["run", "straight", "--param", "distance=0.1m", "-q", "--ros-domain-id", "5"],
+            "--ros-domain-id",
+        ),
+        (["mission", "straight", "--plan", "--ros-namespace=/site"], "--ros-namespace"),
+        (["teleop", "--keys", "q", "--ros-domain-id", "3"], "--ros-domain-id"),
+    ],
+)
+def test_a_ros2_option_without_ros2_is_refused(
+    argv: list[str], option: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # was exit 0, the option dropped without a word (the API refuses it)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    verb = argv[0]
+    assert captured.err.splitlines() == [
+        f"pirate-bt {verb}: {option} is for --ros2: add --ros2 [ENDPOINT] or leave it out"
+        f" (see 'pirate-bt {verb} --help')"
+    ]

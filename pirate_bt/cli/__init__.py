@@ -469,6 +469,15 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
     return EXIT_SIGINT
 
 
+def _ros2_options_alone(parser: _Parser, args: argparse.Namespace, given: list[str]) -> None:
+    """``--ros-domain-id`` or ``--ros-namespace`` without ``--ros2`` was dropped without
+    a word (``run T --ros-domain-id 5``, exit 0; the API refuses it)."""
+    if "ros2" in vars(args) and args.ros2 is None:
+        for option in ("--ros-domain-id", "--ros-namespace"):
+            if any(a == option or a.startswith(f"{option}=") for a in given):
+                parser.error(f"{option} is for --ros2: add --ros2 [ENDPOINT] or leave it out")
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     top = _top_parser()
@@ -494,6 +503,7 @@ def _main(argv: Sequence[str] | None) -> int:
     rest = [a for i, a in enumerate(rest) if i >= end or a != "--debug"]
     try:
         args = sub.parse_args(rest)
+        _ros2_options_alone(sub, args, rest[: rest.index("--")] if "--" in rest else rest)
     except SystemExit as exc:
         return EXIT_INPUT if exc.code not in (0, None) else EXIT_OK
     except _EmptyValue as exc:
