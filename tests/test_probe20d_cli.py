@@ -220,3 +220,24 @@ def test_a_ros2_option_without_ros2_is_refused(
         f"pirate-bt {verb}: {option} is for --ros2: add --ros2 [ENDPOINT] or leave it out"
         f" (see 'pirate-bt {verb} --help')"
     ]
+
+
+def test_a_scheduler_timeout_with_no_scheduler_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    spec = tmp_path / "tiny.campaign.yaml"
+    spec.write_text(
+        "name: tiny\nruns:\n  - {name: s, tree: straight, network: straight,"
+        " params: {distance: 0.1 m}}\nseeds: {start: 0, count: 1}\n",
+        encoding="utf-8",
+    )
+    # was exit 0: the local pool ran, the option dropped without a word
+    assert main(["campaign", str(spec), "-q", "--workers", "1", "--scheduler-timeout", "3 s"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        "pirate-bt: --scheduler-timeout is for --scheduler or --scheduler-file: the local"
+        " pool needs no reaching; leave it out"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny.campaign.yaml"]

@@ -45,7 +45,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scheduler-timeout",
         metavar="TIME",
-        default="10 s",
         help="how long to keep trying to reach the Dask scheduler (default 10 s)",
     )
     parser.add_argument("--output", metavar="DIR", help="results folder (default: campaign-NAME)")
@@ -164,6 +163,11 @@ def run(args: argparse.Namespace) -> int:
             f"--workers is the local pool's size; with {cluster} the cases run on the"
             " cluster's own workers (give one or the other)"
         )
+    if args.scheduler_timeout is not None and not cluster:  # it was dropped without a word
+        raise InputError(
+            "--scheduler-timeout is for --scheduler or --scheduler-file: the local pool"
+            " needs no reaching; leave it out"
+        )
     check_max_cases(args.max_cases, "--max-cases")
     case_timeout = case_timeout_s(args.case_timeout, "--case-timeout")
     from pirate_bt.cli import check_folder_output
@@ -194,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             scheduler=args.scheduler,
             scheduler_file=args.scheduler_file,
-            scheduler_timeout=args.scheduler_timeout,
+            scheduler_timeout=args.scheduler_timeout or "10 s",
             output=output,
             resume=args.resume,
             case_timeout=case_timeout,
