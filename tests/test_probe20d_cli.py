@@ -241,3 +241,26 @@ def test_a_scheduler_timeout_with_no_scheduler_is_refused(
         " pool needs no reaching; leave it out"
     ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny.campaign.yaml"]
+
+
+def test_a_diagram_whose_source_would_replace_the_tree_is_named_by_its_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    from pirate_bt.resources import data_dir
+
+    trees = tmp_path / "trees"
+    shutil.copytree(data_dir("trees"), trees)
+    tree = trees / "mine.dot"  # a tree file may be named anything
+    tree.write_bytes((trees / "straight.yaml").read_bytes())
+    before = tree.read_bytes()
+    assert main(["render", str(tree), "-o", str(trees / "mine.svg")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    # was "out: writing ...", render_tree's parameter
+    assert captured.err.splitlines() == [
+        f"pirate-bt: -o: writing '{tree}' would replace '{tree}', a file being drawn;"
+        " nothing written"
+    ]
+    assert tree.read_bytes() == before

@@ -141,10 +141,9 @@ def run(args: argparse.Namespace) -> int:
             raise
         print(f"pirate-bt: {exc}", file=sys.stderr)
         return 0
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
-    except InputError as exc:  # a full disk said "out: cannot write 'q.dot': ..."
+    except (ValueError, InputError) as exc:
+        # a full disk said "out: cannot write 'q.dot': ...", render_tree's parameter
         as_option(exc, "out", "-o")
-        raise
+        raise InputError(str(exc)) from None
     print(f"drew {written}")
     return 0
