@@ -264,3 +264,27 @@ def test_a_diagram_whose_source_would_replace_the_tree_is_named_by_its_option(
         " nothing written"
     ]
     assert tree.read_bytes() == before
+
+
+@pytest.mark.parametrize("drawing", ["boards.dot", "boards.svg"])
+def test_robot_draw_never_replaces_its_robot_description(
+    drawing: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from pirate_bt.resources import default_robot_path
+
+    monkeypatch.chdir(tmp_path)
+    robot = tmp_path / "boards.dot"  # a description may be named anything
+    robot.write_bytes(default_robot_path().read_bytes())
+    before = robot.read_bytes()
+    # was exit 0: the description replaced by the drawing (or the .svg's source beside it)
+    assert main(["robot", "--robot", "boards.dot", "--draw", drawing]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        "pirate-bt: --draw: boards.dot is the robot description file; name another file"
+    ]
+    assert robot.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["boards.dot"]

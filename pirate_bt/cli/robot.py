@@ -95,6 +95,13 @@ def run(args: argparse.Namespace) -> int:
         from pirate_bt.cli.render import check_diagram
 
         check_diagram(args.draw, "--draw")  # before the table: nothing printed for bad input
+        from pirate_bt.api.options import not_an_input
+        from pirate_bt.resources import default_robot_path
+
+        # a description named r.dot was replaced by the drawing's source, exit 0
+        described = {"robot description": args.robot or default_robot_path()}
+        for drawn in dict.fromkeys((args.draw, args.draw.with_suffix(".dot"))):
+            not_an_input(drawn, "--draw", described)
     print(f"{robot.name}: {len(robot.modules)} modules, {len(robot.boards)} boards")
     print(format_table(board_table(robot)))
     if args.draw:
