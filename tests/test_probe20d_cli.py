@@ -288,3 +288,32 @@ def test_robot_draw_never_replaces_its_robot_description(
     ]
     assert robot.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["boards.dot"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [
+        (["run", "straight", "--param", "distance=1m", "-q", "--sim", "nosuch"], "--sim"),
+        (["teleop", "--keys", "q", "--sim", "nosuch"], "--sim"),
+        (["navigate", "explore", "-q", "--sim", "nosuch"], "--sim"),
+        (["navigate", "goal", "-q", "--map", "nosuch", "--param", "segment=x"], "--map"),
+        (["survey", "-q", "--sim", "nosuch", "-o", "s.yaml"], "--sim"),
+    ],
+)
+def test_a_network_that_is_not_there_is_named_by_its_option(
+    argv: list[str],
+    option: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    err = captured.err.splitlines()
+    # was "network: no network 'nosuch'" (run, teleop), "sim: ..." or "map: ..." (the
+    # API's parameters); mission said "--sim:1:1: ..."
+    assert len(err) == 1, err
+    assert err[0].startswith(f"pirate-bt: {option}: no network 'nosuch'; bundled networks:"), err
+    assert list(tmp_path.iterdir()) == []

@@ -183,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
             firmware=args.firmware_chain,
         )
     except InputError as exc:
-        as_typed(exc, "trace: ")
+        as_typed(exc, "trace: ", "sim: ", "map: ")  # "sim: no network 'x'", the API's
         raise
     if not args.quiet:
         print_decisions(result.decisions)

@@ -264,14 +264,20 @@ def run(args: argparse.Namespace) -> int:
         if args.port is not None:
             result = run_tree(checked, port=args.port, **options)
         else:
-            result = simulate_tree(
-                checked,
-                network=args.sim or "straight",
-                seed=args.seed,
-                realtime=args.realtime,
-                firmware=getattr(args, "firmware_chain", False),
-                **options,
-            )
+            try:
+                result = simulate_tree(
+                    checked,
+                    network=args.sim or "straight",
+                    seed=args.seed,
+                    realtime=args.realtime,
+                    firmware=getattr(args, "firmware_chain", False),
+                    **options,
+                )
+            except InputError as exc:  # "network: no network 'x'", the API's parameter
+                from pirate_bt.cli import as_option
+
+                as_option(exc, "network", "--sim")
+                raise
     if result.succeeded:
         print(result.summary())
         return 0

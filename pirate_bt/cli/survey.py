@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         )
     except InputError as exc:
         # the API names its arguments; here they are the options typed
-        as_typed(exc, "extend: ", "sim: a survey measures", "trace: ")
+        as_typed(exc, "extend: ", "sim: ", "trace: ")
         as_option(exc, "output", "-o")  # "output: x.txt is not a .yaml file name"
         raise
     if not args.quiet:

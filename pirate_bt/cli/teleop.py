@@ -445,12 +445,19 @@ def _run_session(
 
     foxglove, ros2, groot2 = views
     target = args.port if args.port is not None else f"sim:{args.sim or 'straight'}"
-    connection = connect(
-        target,
-        robot=robot,
-        seed=args.seed if args.port is None else 0,
-        mode=mode.value,
-    )
+    try:
+        connection = connect(
+            target,
+            robot=robot,
+            seed=args.seed if args.port is None else 0,
+            mode=mode.value,
+        )
+    except InputError as exc:  # "network: no network 'x'", the API's parameter
+        if args.port is None:
+            from pirate_bt.cli import as_option
+
+            as_option(exc, "network", "--sim")
+        raise
     sup = connection.supervisor
     where = connection.description
     try:
