@@ -23,7 +23,6 @@ import pytest
 
 from pirate_bt.cli import main
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import InputError
 from pirate_bt.runner import Runner, StopReason
 from pirate_bt.trace import read_trace
 
@@ -67,17 +66,21 @@ def test_a_bad_log_level_is_bad_input(capsys: pytest.CaptureFixture[str]) -> Non
     assert "bad --log 'link=loud'" in one_error_line(capsys.readouterr().err)
 
 
-def test_debug_after_the_verb_shows_the_traceback(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_debug_after_the_verb_shows_the_traceback(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     import pirate_bt.cli.validate as validate
 
     def boom(*_: object, **__: object) -> None:
         raise RuntimeError("kaboom")
 
     monkeypatch.setattr(validate, "validate_file", boom)
-    with pytest.raises(RuntimeError, match="kaboom"):
+    with pytest.raises(RuntimeError, match="kaboom"):  # an internal error goes out whole
         main(["validate", "x.yaml", "--debug"])
-    with pytest.raises(InputError, match="cannot read trace"):  # after a verb's action too
-        main(["trace", "summary", "no-such.jsonl", "--debug"])
+    # after a verb's action too; an input error keeps its exit code (it re-raised: exit 1)
+    assert main(["trace", "summary", "no-such.jsonl", "--debug"]) == 2
+    said = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in said and "cannot read trace" in said
 
 
 def test_sim_refuses_a_port_or_duration_that_cannot_be(capsys: pytest.CaptureFixture[str]) -> None:

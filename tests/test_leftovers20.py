@@ -168,3 +168,18 @@ def test_a_campaign_report_draws_its_plot_whatever_mplbackend_names(tmp_path: Pa
     assert done.returncode == 0, done.stderr[-2000:]
     assert "success_vs_drop.png" in done.stdout
     assert (tmp_path / "success_vs_drop.png").stat().st_size > 0
+
+
+def test_debug_shows_the_traceback_and_keeps_the_exit_code(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # --debug re-raised the error: every bad input (2) or link error (3) exited 1, which
+    # says the tree failed and the robot was left safe
+    argv = ["run", "straight", "--param", "distance=1m", "--param", "distance=2m"]
+    assert cli.main(argv) == 2
+    plain = capsys.readouterr().err
+    assert cli.main(["--debug", *argv]) == 2
+    debugged = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in debugged
+    assert debugged.rstrip().endswith(plain.strip())
+    assert cli.main([*argv, "--debug"]) == 2

@@ -27,6 +27,7 @@ import logging
 import os
 import signal
 import sys
+import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path, PurePath
 from typing import Any, NoReturn
@@ -517,8 +518,8 @@ def _main(argv: Sequence[str] | None) -> int:
         code: int = module.run(args)  # SIGTERM and Ctrl-C: main's handlers, as loading
         return code
     except PirateError as exc:
-        if debug:
-            raise
+        if debug:  # the traceback too, and the same exit code (a raise made every one 1)
+            traceback.print_exc()
         for line in str(exc).splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
@@ -526,7 +527,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return EXIT_OK
     except OSError as exc:
         if debug:
-            raise
+            traceback.print_exc()
         print(f"pirate-bt: {_os_error(exc)}", file=sys.stderr)
         return EXIT_INPUT
     except Exception as exc:
