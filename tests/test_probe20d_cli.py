@@ -10,6 +10,8 @@ import pytest
 
 from pirate_bt.cli import main
 
+REPO = Path(__file__).resolve().parent.parent
+
 needs_dev_full = pytest.mark.skipif(
     not os.path.exists("/dev/full"), reason="needs /dev/full (a device that is always full)"
 )
@@ -298,6 +300,8 @@ def test_robot_draw_never_replaces_its_robot_description(
         (["navigate", "explore", "-q", "--sim", "nosuch"], "--sim"),
         (["navigate", "goal", "-q", "--map", "nosuch", "--param", "segment=x"], "--map"),
         (["survey", "-q", "--sim", "nosuch", "-o", "s.yaml"], "--sim"),
+        # the mission too: it said "--sim:1:1: ...", a file's place for an option
+        (["mission", str(REPO / "scenarios" / "lab.route"), "-q", "--sim", "nosuch"], "--sim"),
     ],
 )
 def test_a_network_that_is_not_there_is_named_by_its_option(

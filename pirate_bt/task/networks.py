@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pirate_bt.errors import LocatedError, SourceLocation, shown
+from pirate_bt.errors import InputError, LocatedError, SourceLocation, shown
 from pirate_bt.pipes import Network, load_network
 from pirate_bt.task.route import Route
 
@@ -68,7 +68,8 @@ def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") ->
     """The network a mission runs in: ``--sim`` if given, else the route's ``network`` line.
 
     Raises:
-        LocatedError: neither is given, or the named network does not exist.
+        LocatedError: neither is given, or the network the route names does not exist.
+        InputError: the network ``option`` names does not exist.
         ValidationFailed: the network file does not validate.
     """
     name = sim or route.network
@@ -83,5 +84,7 @@ def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") ->
         path = resolve_network_path(name, base)
     except FileNotFoundError as exc:
         where = route.network_location if sim is None and route.network_location else None
-        raise LocatedError(str(exc), where or SourceLocation(option)) from None
+        if where is None:  # an option or a parameter, no place in a file: '--sim:1:1:' was
+            raise InputError(f"{option}: {exc}") from None
+        raise LocatedError(str(exc), where) from None
     return load_network(path)
