@@ -183,3 +183,33 @@ def test_debug_shows_the_traceback_and_keeps_the_exit_code(
     assert "Traceback (most recent call last)" in debugged
     assert debugged.rstrip().endswith(plain.strip())
     assert cli.main([*argv, "--debug"]) == 2
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_closed_trace_leaves_a_forked_child_s_descriptors_alone(tmp_path: Path) -> None:
+    # a closed writer process stayed among what a fork lets go of: in the child its old
+    # pipe's number, taken since by another pipe (a process pool's), was pointed at
+    # /dev/null, so the pool's forked worker sent its results nowhere and a campaign in
+    # that process waited for ever (tests/test_probe16_campaign.py hung in the suite)
+    from pirate_bt.trace.sink import SinkProcess
+
+    sink = SinkProcess(tmp_path / "run.jsonl", "JsonLinesWriter")
+    old_fd = sink._fd
+    sink.close()  # the run ended; the object lives on (a result, a recorder)
+    r, w = os.pipe()  # the lowest free numbers: the closed pipe's among them
+    if old_fd not in (r, w):
+        os.dup2(w, old_fd)  # make sure one of the new pipe's ends has the old number
+        os.close(w)
+        w = old_fd
+    pid = os.fork()
+    if pid == 0:  # the child: its copy of the new pipe must still be that pipe
+        try:
+            os.write(w, b"through")
+        finally:
+            os._exit(0)
+    os.close(w)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    with os.fdopen(r, "rb") as reading:
+        assert reading.read() == b"through"
+    assert sink.path.exists()

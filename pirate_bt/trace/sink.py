@@ -129,6 +129,7 @@ from pirate_bt.trace.sink_formats import (
     TraceFormatWriter,
     _to_null,
     claim,
+    forget_in_forks,
     let_go_in_forks,
     load_writer,
     register_process_writer,
@@ -281,6 +282,8 @@ class SinkProcess:
         process waiting, and with it the trace's lock, for as long as this copy lived;
         what this copy sends goes nowhere, the ring is left to the run, and ``close``
         neither waits for the writer process nor stops it."""
+        if self._closed:  # closed in the run's process: its descriptor's number may be
+            return  # another's now (a process pool's pipe, which /dev/null hung)
         stderr = self._proc.stderr
         _to_null(self._fd, *([stderr.fileno()] if stderr is not None and not stderr.closed else []))
         self._ring = None
@@ -387,6 +390,7 @@ class SinkProcess:
         if self._closed:
             return
         self._closed = True
+        forget_in_forks(self)
         assert self._proc.stdin is not None
         # No last bell: at the end of its input the writer process reads the ring to the end.
         with contextlib.suppress(BrokenPipeError):

@@ -36,6 +36,7 @@ __all__ = [
     "TraceBusyError",
     "TraceFormatWriter",
     "claim",
+    "forget_in_forks",
     "held",
     "let_go_in_forks",
     "load_writer",
@@ -143,6 +144,14 @@ def let_go_in_forks(holder: Any) -> None:
     process that made the writer.
     """
     _OURS.add(holder)
+
+
+def forget_in_forks(holder: Any) -> None:
+    """``holder`` has closed its trace: a process forked from now on leaves it alone.
+    Its descriptors' numbers may be another's by then (a process pool's pipe: pointed
+    at ``/dev/null`` in the pool's forked worker, the pool's results went nowhere and
+    the campaign waited for ever)."""
+    _OURS.discard(holder)
 
 
 def _let_go() -> None:
@@ -269,6 +278,7 @@ class TraceFormatWriter:
                 self._file.close()
         finally:
             self._release()
+            forget_in_forks(self)
 
 
 class JsonLinesWriter(TraceFormatWriter):
