@@ -213,3 +213,17 @@ def test_a_closed_trace_leaves_a_forked_child_s_descriptors_alone(tmp_path: Path
     with os.fdopen(r, "rb") as reading:
         assert reading.read() == b"through"
     assert sink.path.exists()
+
+
+def test_simulate_mission_never_writes_its_report_over_its_own_route(tmp_path: Path) -> None:
+    # the command line refuses it since 478465f; simulate_mission(output=DIR) ran the
+    # mission and wrote its report over a route kept as DIR/report.md
+    repo = Path(__file__).resolve().parent.parent
+    route = tmp_path / "report.md"
+    route.write_text((repo / "scenarios" / "t-joint-straight.route").read_text())
+    before = route.read_bytes()
+    with pytest.raises(InputError) as caught:
+        pirate_bt.simulate_mission(route, output=tmp_path)
+    assert str(caught.value).endswith("where the mission writes its report.md; name another folder")
+    assert route.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]

@@ -13,7 +13,7 @@ from typing import Any
 from pirate_bt.api.options import kind_of, output_folder, report_extras
 from pirate_bt.errors import InputError
 
-__all__ = ["OUTPUT_NAMES", "OutputsNotWritten", "write_mission_outputs"]
+__all__ = ["OUTPUT_NAMES", "OutputsNotWritten", "outputs_not_inputs", "write_mission_outputs"]
 
 OUTPUT_NAMES = (
     "plot.png",
@@ -26,6 +26,28 @@ OUTPUT_NAMES = (
     "report.html",
 )
 """The files :func:`write_mission_outputs` writes into its folder (the trace aside)."""
+
+
+def outputs_not_inputs(
+    folder: str | Path, option: str, inputs: dict[str, Any], *, trace_there: bool
+) -> None:
+    """A mission's output ``folder`` never writes over its own files, before the run: a
+    route kept as ``DIR/report.md`` was replaced by the report, exit 0. ``trace_there``:
+    the trace goes into the folder too (``trace.jsonl``).
+
+    Raises:
+        InputError: a file the mission writes in ``folder`` is one of ``inputs``.
+    """
+    from pirate_bt.api.options import not_an_input
+
+    for name in ("trace.jsonl", *OUTPUT_NAMES) if trace_there else OUTPUT_NAMES:
+        try:
+            not_an_input(Path(folder) / name, option, inputs)
+        except InputError as exc:
+            said = str(exc).removesuffix("; name another file")
+            raise InputError(
+                f"{said}, where the mission writes its {name}; name another folder"
+            ) from None
 
 
 class OutputsNotWritten(InputError):

@@ -31,7 +31,11 @@ from pirate_bt.api.live import (
     ros2_mission_observer,
     ros2_node,
 )
-from pirate_bt.api.mission_outputs import OutputsNotWritten, write_mission_outputs
+from pirate_bt.api.mission_outputs import (
+    OutputsNotWritten,
+    outputs_not_inputs,
+    write_mission_outputs,
+)
 from pirate_bt.api.options import (
     callback,
     fault_list,
@@ -300,14 +304,16 @@ def _options(
     seed_value(checks.get("seed", 0))
     split_faults(checks.get("faults"))
     callback(checks.get("observe"), "observe")
+    inputs: dict[str, Any] = {
+        k: v for k, v in checks.get("inputs", {}).items() if isinstance(v, str | Path)
+    }
+    inputs |= {"route": plan.route.source, "network": getattr(plan.network, "source", None)}
     if checks.get("trace") is not None:
-        inputs: dict[str, Any] = {
-            k: v for k, v in checks.get("inputs", {}).items() if isinstance(v, str | Path)
-        }
-        inputs |= {"route": plan.route.source, "network": getattr(plan.network, "source", None)}
         check_trace(checks["trace"], inputs=inputs)
     if checks.get("output") is not None:
         output_folder(checks["output"])
+        there = checks.get("trace") is None  # the trace goes into the output folder
+        outputs_not_inputs(checks["output"], "output", inputs, trace_there=there)
     check_live_options(*checks.get("views", (None,) * 5))
     return period_s, max_time_s
 

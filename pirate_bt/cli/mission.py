@@ -122,24 +122,15 @@ def _fraction(text: str, option: str) -> float:
 
 
 def _outputs_not_inputs(args: argparse.Namespace, inputs: dict[str, object]) -> None:
-    """``--output DIR`` never writes over the mission's own files, before the run: a
-    route kept as ``DIR/report.md`` was replaced by the report, exit 0.
+    """``--output DIR`` never writes over the mission's own files, before the run.
 
     Raises:
         InputError: a file the mission writes in ``DIR`` is one of ``inputs``.
     """
-    from pirate_bt.api.mission_outputs import OUTPUT_NAMES
-    from pirate_bt.api.options import not_an_input
+    from pirate_bt.api.mission_outputs import outputs_not_inputs
 
-    names = OUTPUT_NAMES if getattr(args, "trace", None) else ("trace.jsonl", *OUTPUT_NAMES)
-    for name in names:
-        try:
-            not_an_input(Path(args.output) / name, "--output", inputs)
-        except InputError as exc:
-            said = str(exc).removesuffix("; name another file")
-            raise InputError(
-                f"{said}, where the mission writes its {name}; name another folder"
-            ) from None
+    there = not getattr(args, "trace", None)
+    outputs_not_inputs(args.output, "--output", dict(inputs), trace_there=there)
 
 
 def execute(
