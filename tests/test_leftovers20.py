@@ -227,3 +227,22 @@ def test_simulate_mission_never_writes_its_report_over_its_own_route(tmp_path: P
     assert str(caught.value).endswith("where the mission writes its report.md; name another folder")
     assert route.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+@pytest.mark.parametrize("extra", [["--slope", "1000deg"], ["--slope", "20deg", "--scale", "10"]])
+def test_a_slope_bound_past_plumb_is_refused(
+    extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it was taken, every slope clamped to 90, and the file's header said "slopes ±1000 deg"
+    repo = Path(__file__).resolve().parent.parent
+    out = tmp_path / "v.yaml"
+    argv = ["network", "perturb", str(repo / "scenarios" / "lab.yaml"), "--seed", "1"]
+    assert cli.main([*argv, *extra, "-o", str(out)]) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1 and "is more than 90 deg, past plumb" in said[0]
+    assert not out.exists()
+    from pirate_bt.errors import ConfigurationError
+    from pirate_bt.pipes.asbuilt import AsBuiltBounds
+
+    with pytest.raises(ConfigurationError, match="past plumb"):
+        AsBuiltBounds(slope_rad=2.0)

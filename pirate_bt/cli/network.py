@@ -14,6 +14,7 @@ MAP``.
 from __future__ import annotations
 
 import argparse
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -138,10 +139,17 @@ def _bounds(args: argparse.Namespace) -> Any:
     points = load_robot(args.robot).clamp.contact_angles
     if not 0 < args.scale <= _MAX_SCALE:
         raise InputError(f"--scale must be a positive number, at most {_MAX_SCALE:g}")
+    slope = _quantity(args.slope, "angle", "--slope")
+    if slope * args.scale > math.pi / 2 + 1e-9:  # was taken, and each slope clamped to 90
+        raise InputError(
+            f"--slope: {args.slope!r}"
+            + (f" x --scale {args.scale:g}" if args.scale != 1 else "")
+            + " is more than 90 deg, past plumb: a slope changes by at most 90 deg"
+        )
     return AsBuiltBounds(
         length_fraction=_fraction(args.length, "--length"),
         length_max_m=_quantity(args.length_max, "length", "--length-max"),
-        slope_rad=_quantity(args.slope, "angle", "--slope"),
+        slope_rad=slope,
         diameter_fraction=_fraction(args.diameter, "--diameter"),
         diameter_min_m=points[0].diameter,
         diameter_max_m=points[-1].diameter,

@@ -93,6 +93,11 @@ class AsBuiltBounds:
                 raise ConfigurationError(f"as-built bounds: {name} must not be negative")
         if self.length_fraction >= 1.0:
             raise ConfigurationError("as-built bounds: length_fraction must be below 1")
+        if self.slope_rad > math.pi / 2 + 1e-9:  # past plumb: no slope a run can have
+            raise ConfigurationError(
+                f"as-built bounds: slope_rad {math.degrees(self.slope_rad):g} deg is more"
+                " than 90 deg, past plumb (a run's slope is laid within ±90 deg)"
+            )
         if self.diameter_min_m > self.diameter_max_m:
             raise ConfigurationError("as-built bounds: diameter_min_m is above diameter_max_m")
 
