@@ -232,3 +232,37 @@ def test_a_json_channel_of_another_tool_beside_the_trace_is_skipped(tmp_path: Pa
     # before: "with-other.mcap: message 2 (on /other/json) is JSON list, not an object"
     trace = read_trace(out)
     assert (trace.last_tick, trace.outcome) == (3, read_trace(source).outcome)
+
+
+def test_an_mcap_of_another_tool_written_channel_by_channel_is_read_in_time_order(
+    tmp_path: Path,
+) -> None:
+    # MCAP does not require log-time order; one channel written after another was read
+    # in file order and refused: "the first record is no header"
+    from mcap.writer import Writer
+
+    from pirate_bt.interop.foxglove_topics import TopicMapper
+    from pirate_bt.interop.mcap_trace import read_mcap_records
+
+    source = tmp_path / "run.jsonl"
+    run_and_record(source, ticks=6)
+    records = [json.loads(line) for line in source.read_text().splitlines()]
+    mapper = TopicMapper()
+    messages = [m for record in records for m in mapper.messages(record)]
+    in_order = tmp_path / "in-order.mcap"
+    _other_tool_mcap(records, in_order, ties_reversed=False)
+    by_channel = tmp_path / "by-channel.mcap"
+    with by_channel.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        channels: dict[str, int] = {}
+        for topic in sorted({m.topic for m in messages}, reverse=True):  # the header's last
+            schema = writer.register_schema(topic, "jsonschema", b"{}")
+            channels[topic] = writer.register_channel(topic, "json", schema)
+            for m in (m for m in messages if m.topic == topic):
+                data = json.dumps(m.message).encode()
+                writer.add_message(channels[topic], m.log_time_ns, data, m.log_time_ns)
+        writer.finish()
+    assert read_mcap_records(by_channel) == read_mcap_records(in_order)
+    trace = read_trace(by_channel)
+    assert (trace.last_tick, len(trace.ticks)) == (6, 6)

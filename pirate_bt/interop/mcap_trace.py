@@ -132,7 +132,8 @@ def export_mcap(trace_path: Path, out_path: Path) -> Path:
 
 
 def read_mcap_messages(path: str | Path) -> tuple[list[tuple[str, dict[str, Any]]], bool]:
-    """Every JSON message of an MCAP file, in file order, as ``(topic, message)``.
+    """Every JSON message of an MCAP file as ``(topic, message)``, in file order (in
+    log-time order when another library wrote the file: :meth:`_Messages.timed`).
 
     Reads with the ``mcap`` library's stream reader, so a file without a summary
     (a run that was killed) reads too, up to its last complete record. Messages of
@@ -179,15 +180,36 @@ class _Messages:
         self.count = 0
         self.topics: frozenset[str] | None = None
         """The topics whose messages are given (``None``: every JSON channel's)."""
+        self.foreign = False
+        """The file's header names another library than pirate_bt (read at its start)."""
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
         for _, topic, message in self.timed():
             yield topic, message
 
     def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
+        """The messages as ``(log_time, topic, message)``: in file order from pirate_bt's
+        own files (written in log-time order, read as they come), in log-time order from
+        another tool's, whose header names another library: MCAP does not require a file
+        in log-time order, and one written channel by channel was refused (*the first
+        record is no header*). Another tool's messages are read whole first, then given
+        sorted by log time (those of one time in file order)."""
+        buffered: list[tuple[int, str, dict[str, Any]]] = []
+        try:
+            for item in self._file_order():
+                if self.foreign:
+                    buffered.append(item)
+                else:
+                    yield item
+        except Exception:
+            yield from sorted(buffered, key=lambda m: m[0])  # what came before the damage
+            raise
+        yield from sorted(buffered, key=lambda m: m[0])
+
+    def _file_order(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
         """The messages as ``(log_time, topic, message)``, in file order."""
         load_mcap()
-        from mcap.records import Channel, Footer, Message
+        from mcap.records import Channel, Footer, Header, Message
         from mcap.stream_reader import StreamReader
 
         try:
@@ -218,6 +240,8 @@ class _Messages:
                             given = record.log_time, topic, text
                     elif isinstance(record, Footer):
                         self.cut = False
+                    elif isinstance(record, Header):
+                        self.foreign = not record.library.startswith("pirate_bt")
                 except StopIteration:
                     return
                 except InputError:
