@@ -50,7 +50,7 @@ from pirate_bt.behaviours.slip_watch import SlipWatch, no_turn_felt
 from pirate_bt.robot.description import Half, RobotDescription
 from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState
-from pirate_bt.safety.checks import classify_half
+from pirate_bt.safety.checks import classify_half, off_wall_rad
 from pirate_bt.units import Angle, Current, Duration, Length, Velocity
 
 __all__ = [
@@ -341,8 +341,7 @@ class Drive(Primitive):
 
     def _off_wall(self, state: RobotState, half: Half) -> dict[str, bool]:
         """Per bend module of ``half``: has its joint swung past every wall-contact angle?"""
-        clamp = self.robot.clamp
-        beyond = max(c.angle for c in clamp.contact_angles) + 2 * self.robot.safety.angle_tolerance
+        beyond = off_wall_rad(self.robot)
         return {
             m.name: abs(state.joint_angle_rad.get(m.name, 0.0)) > beyond
             for m in self.robot.bend_modules(half)

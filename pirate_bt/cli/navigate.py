@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from pirate_bt.cli import as_option
 from pirate_bt.errors import InputError
 
 if TYPE_CHECKING:
@@ -130,9 +131,9 @@ def as_typed(exc: InputError, *starts: str) -> None:
     Raises:
         InputError: ``exc``'s message begins with one of ``starts``.
     """
-    text = str(exc)
-    if text.startswith(starts):
-        raise InputError(f"--{text}") from None
+    for start in starts:  # the parameter's name as the option's
+        name = start.removesuffix(": ")
+        as_option(exc, name, f"--{name}")
 
 
 def _check_options(args: argparse.Namespace) -> None:

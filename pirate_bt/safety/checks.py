@@ -52,6 +52,7 @@ __all__ = [
     "front_tilt_channel",
     "half_states",
     "is_steep",
+    "off_wall_rad",
     "pressing_over_opening",
     "released_force_n",
     "sensed_half",
@@ -151,6 +152,13 @@ class CheckContext:
 
 Check = Callable[[CheckContext, Intent], Problem | None]
 """An invariant: ``None`` when the command may go, else the :class:`Problem`."""
+
+
+def off_wall_rad(robot: RobotDescription) -> float:
+    """The joint angle past which a bend joint is off the wall, over an opening (a tee's
+    branch): past every wall-contact angle of the clamp table, with two angle tolerances
+    to spare (the host does not know the pipe's diameter)."""
+    return max(c.angle for c in robot.clamp.contact_angles) + 2 * robot.safety.angle_tolerance
 
 
 def released_force_n(robot: RobotDescription) -> float:

@@ -39,6 +39,7 @@ from pirate_bt.safety.checks import (
     Problem,
     check_steep_pipe,
     half_states,
+    off_wall_rad,
     stale_channels,
 )
 from pirate_bt.safety.commands import Clamp, MoveFrontClear
@@ -98,7 +99,7 @@ def why_half_holds_nothing(
         return f"{half} released"
     clamp = robot.clamp
     tol = robot.safety.angle_tolerance
-    beyond = max(c.angle for c in clamp.contact_angles) + 2 * tol
+    beyond = off_wall_rad(robot)
     wall_min = min(c.angle for c in clamp.contact_angles) - tol
     joints = []
     for module in robot.bend_modules(half):

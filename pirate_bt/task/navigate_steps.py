@@ -22,6 +22,7 @@ from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.state import wheel_fresh_window_s
 from pirate_bt.runner import Runner
 from pirate_bt.runner import RunResult as TreeRun
+from pirate_bt.safety.checks import off_wall_rad
 from pirate_bt.safety.tally import VerdictTally
 from pirate_bt.task.mission import MissionResult, run_mission
 from pirate_bt.task.navigation import CheckedStep, Felt, OffWall
@@ -205,7 +206,7 @@ def run_blind(
     odometry = [belief_m, stamp_s]  # belief, last stamp
     window_s = wheel_fresh_window_s(robot)  # odometry counts fresh, agreeing wheels
     # past every wall-contact angle: a joint over an opening (as the drive tells one)
-    beyond = max(c.angle for c in robot.clamp.contact_angles) + 2 * robot.safety.angle_tolerance
+    beyond = off_wall_rad(robot)
     joints = [m.name for m in robot.all_bend_modules()]
     off_wall = [False]
     behind = robot.behind_front_tip_m()
