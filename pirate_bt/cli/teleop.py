@@ -53,6 +53,26 @@ __all__ = ["TeleopSession", "configure", "run"]
 
 SPEED_STEP_MPS = 0.02
 ANGLE_STEP_RAD = math.radians(5)
+SCRIPT_KEYS = "wsfFrRad[]cvmoynpuexq? ."
+"""The keys ``--keys`` plays: the console's (:data:`pirate_bt.cli.console.app.KEY_HELP`),
+``?`` (print the state) and ``.`` (a tick with no key)."""
+
+
+def check_keys(keys: str) -> None:
+    """Refuse a ``--keys`` script with a character that is no key, before anything is
+    sent (before 2026-11-30 an unknown character, a typo or a capital ``W``, was a
+    tick with nothing done, and the script went on without a word, exit 0).
+
+    Raises:
+        InputError: names the character, its position (from 1) and the keys known.
+    """
+    for position, key in enumerate(keys, start=1):
+        if key not in SCRIPT_KEYS:
+            known = " ".join("space" if k == " " else k for k in SCRIPT_KEYS if k != ".")
+            raise InputError(
+                f"--keys: {key!r} (character {position}) is no key; the keys are {known},"
+                " and '.' waits a tick"
+            )
 
 
 class TeleopSession:
@@ -398,6 +418,8 @@ def run(args: argparse.Namespace) -> int:
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
     if args.tree is not None and args.keys is not None:
         raise InputError("--keys drives the teleop only; run a tree with 'pirate-bt run'")
+    if args.keys is not None:
+        check_keys(args.keys)
     if args.param and args.tree is None:  # it was dropped without a word, exit 0
         raise InputError(f"--param {args.param[0]}: a tree's parameter; give the tree with --tree")
     checked = _load_tree(args, robot)

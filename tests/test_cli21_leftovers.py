@@ -1,0 +1,35 @@
+"""Session 21, the command line's leftovers: inputs that were taken without a word (a
+teleop script's unknown key, ...) and messages that named the wrong thing."""
+
+from __future__ import annotations
+
+import pytest
+
+from pirate_bt.cli import main
+
+
+def test_an_unknown_teleop_key_is_refused_before_anything_is_sent(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pirate_bt.api.connection as connection
+
+    def never(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the robot was reached")
+
+    monkeypatch.setattr(connection, "connect", never)
+    # 'W' (a capital, caps lock on) was a tick with nothing done, exit 0
+    assert main(["teleop", "--keys", "ffW."]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert len(err.splitlines()) == 1
+    assert err.startswith("pirate-bt: --keys: 'W' (character 3) is no key; the keys are ")
+    for known in ("w", "s", "space", "q", "?"):
+        assert f" {known}" in err
+    assert "'.' waits a tick" in err
+
+
+def test_a_dot_in_teleop_keys_waits_a_tick(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["teleop", "--keys", "..?"]) == 0, capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert out.splitlines()[-1].startswith("  mode manual;")
