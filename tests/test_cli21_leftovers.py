@@ -33,3 +33,17 @@ def test_a_dot_in_teleop_keys_waits_a_tick(capsys: pytest.CaptureFixture[str]) -
     out, err = capsys.readouterr()
     assert err == ""
     assert out.splitlines()[-1].startswith("  mode manual;")
+
+
+def test_a_sim_seed_without_noise_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # it seeds the sensor noise alone: without --noise it was taken, and the simulator
+    # served was the same whatever the seed, exit 0
+    assert main(["sim", "--tcp", "0", "--duration", "0.1", "--seed", "3"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""  # nothing served
+    assert err == (
+        "pirate-bt: --seed is for --noise (it seeds the sensor noise; without noise nothing"
+        " in the simulator is random): add --noise or leave it out\n"
+    )
+    assert main(["sim", "--tcp", "0", "--duration", "0.1", "--seed", "3", "--noise"]) == 0
+    assert capsys.readouterr().out.startswith("socket://127.0.0.1:")

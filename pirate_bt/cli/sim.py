@@ -42,7 +42,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument(
         "--tcp", type=int, metavar="PORT", help="serve on 127.0.0.1:PORT (0 picks a free port)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        metavar="N",
+        help="seed of --noise's sensor noise (default 0); nothing else in the simulator is random",
+    )
     parser.add_argument("--noise", action="store_true", help="add typical sensor noise")
     parser.add_argument(
         "--fault",
@@ -101,7 +107,17 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--duration must be a positive number of seconds, not {args.duration:g}")
     from pirate_bt.api.options import seed_value
 
-    seed_value(args.seed, "--seed")  # as run, mission and teleop: it served seed -1
+    if args.seed is not None:
+        seed_value(args.seed, "--seed")  # as run, mission and teleop: it served seed -1
+        if not args.noise:
+            # it seeds the sensor noise and nothing else: without --noise it was taken
+            # and served the same simulator whatever it was, without a word
+            raise InputError(
+                "--seed is for --noise (it seeds the sensor noise; without noise nothing"
+                " in the simulator is random): add --noise or leave it out"
+            )
+    else:
+        args.seed = 0
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise InputError(f"--tcp {args.tcp}: a port is 0 to 65535 (0 picks a free one)")
     if args.firmware is None and args.boot_ms is not None:
