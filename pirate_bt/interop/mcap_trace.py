@@ -66,6 +66,9 @@ from pirate_bt.trace.sink import register_process_writer
 from pirate_bt.trace.writer import register_writer
 from pirate_bt.yamlfile import special_file
 
+_Timed = tuple[int, int, int, str, dict[str, Any]]
+"""A message as it is read: ``(log_time, channel, sequence, topic, message)``."""
+
 __all__ = [
     "McapTraceReader",
     "McapTraceWriter",
@@ -193,21 +196,28 @@ class _Messages:
         another tool's, whose header names another library: MCAP does not require a file
         in log-time order, and one written channel by channel was refused (*the first
         record is no header*). Another tool's messages are read whole first, then given
-        sorted by log time (those of one time in file order)."""
-        buffered: list[tuple[int, str, dict[str, Any]]] = []
-        try:
+        sorted by log time (those of one time in file order). Either way one channel's
+        messages of one log time are given in the order of their ``sequence`` where the
+        writer filled it (:func:`_by_sequence`)."""
+        buffered: list[_Timed] = []
+
+        def own() -> Iterator[_Timed]:
             for item in self._file_order():
                 if self.foreign:
                     buffered.append(item)
                 else:
                     yield item
-        except Exception:
-            yield from sorted(buffered, key=lambda m: m[0])  # what came before the damage
-            raise
-        yield from sorted(buffered, key=lambda m: m[0])
 
-    def _file_order(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
-        """The messages as ``(log_time, topic, message)``, in file order."""
+        try:
+            yield from _by_sequence(own())
+        except Exception:  # what came before the damage
+            yield from _by_sequence(iter(sorted(buffered, key=lambda m: m[0])))
+            raise
+        yield from _by_sequence(iter(sorted(buffered, key=lambda m: m[0])))
+
+    def _file_order(self) -> Iterator[_Timed]:
+        """The messages as ``(log_time, channel, sequence, topic, message)``, in file
+        order."""
         load_mcap()
         from mcap.records import Channel, Footer, Header, Message
         from mcap.stream_reader import StreamReader
@@ -222,7 +232,7 @@ class _Messages:
             channels: dict[int, str] = {}
             number = 0
             while True:
-                given: tuple[int, str, dict[str, Any]] | None = None
+                given: _Timed | None = None
                 try:
                     record = next(records)  # the library reads a chunk when it needs one
                     if isinstance(record, Channel):
@@ -237,7 +247,13 @@ class _Messages:
                         if topic is not None:
                             message = _json_object(self.path, number, topic, record.data)
                             text = readable_text(message, record.data, self.readable)
-                            given = record.log_time, topic, text
+                            given = (
+                                record.log_time,
+                                record.channel_id,
+                                record.sequence,
+                                topic,
+                                text,
+                            )
                     elif isinstance(record, Footer):
                         self.cut = False
                     elif isinstance(record, Header):
@@ -277,6 +293,51 @@ class _Messages:
                 f"{path}: damaged after {number} message{'s' if number != 1 else ''}:"
                 f" {type(exc).__name__}: {exc}"
             ) from None
+
+
+def _by_sequence(items: Iterator[_Timed]) -> Iterator[tuple[int, str, dict[str, Any]]]:
+    """``items`` (in log-time order, or at least those of one log time side by side) as
+    ``(log_time, topic, message)``, one channel's messages of one log time in the order
+    of their ``sequence``.
+
+    MCAP's ``sequence`` is the publisher's counter: where it is not 0 it is unique per
+    channel and increases over time. pirate_bt's writers fill it; a tool that rewrites
+    the file (a merge, a sort, a filter) keeps it but may write the messages of one log
+    time in any order, and two commands of one tick, written in reverse, were read in
+    reverse. Each channel's messages of one time are put back in sequence order in the
+    places that channel's messages held among that time's (the other channels' keep
+    theirs); a channel with a message whose sequence is 0 (not filled) keeps its file
+    order.
+    """
+    group: list[_Timed] = []
+    try:
+        for item in items:
+            if group and item[0] != group[0][0]:
+                yield from _in_sequence(group)
+                group = []
+            group.append(item)
+    except Exception:  # what came before the damage, then the damage
+        yield from _in_sequence(group)
+        raise
+    yield from _in_sequence(group)
+
+
+def _in_sequence(group: list[_Timed]) -> Iterator[tuple[int, str, dict[str, Any]]]:
+    """One log time's messages as :func:`_by_sequence` gives them."""
+    if len(group) > 1:
+        places: dict[int, list[int]] = {}
+        for place, item in enumerate(group):
+            places.setdefault(item[1], []).append(place)
+        if len(places) < len(group):  # a channel with more than one message
+            ordered = list(group)
+            for held in places.values():
+                if len(held) > 1 and all(group[place][2] for place in held):
+                    by_sequence = sorted(held, key=lambda place: group[place][2])
+                    for place, source in zip(held, by_sequence, strict=True):
+                        ordered[place] = group[source]
+            group = ordered
+    for log_time, _, _, topic, message in group:
+        yield log_time, topic, message
 
 
 _RENAMED = {b"{": ("a JSON Lines", ".jsonl"), b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz")}
