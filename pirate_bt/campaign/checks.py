@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.faulttimes import check_fault_times
-from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
-from pirate_bt.campaign.navchecks import check_route_navigator, navigator_files
+from pirate_bt.campaign.inputs import find_input, resolve_name, run_index, source_of
+from pirate_bt.campaign.navchecks import check_navigator
 from pirate_bt.campaign.runparams import params_as_read
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
@@ -223,11 +223,6 @@ def check_axes(spec: CampaignSpec, base: Path | None = None) -> None:
             )
 
 
-def _run_index(spec: CampaignSpec, case: Case) -> int | None:
-    """The index in ``spec.runs`` of the run ``case`` is of (run names are distinct)."""
-    return next((i for i, run in enumerate(spec.runs) if run.label == case.get("run")), None)
-
-
 def _robot_index(spec: CampaignSpec, folder: Path, case: Case) -> int | None:
     """The index in ``spec.robots`` of the robot ``case`` runs."""
     robot = case.get("robot")
@@ -260,7 +255,7 @@ def _params_problems(
     tree 'bad.xml': unknown node type 'NoSuchNode' (at bad.xml:4:7)``.
     """
     source = source_of(spec)
-    index = _run_index(spec, case)
+    index = run_index(spec, case)
     if index is None:
         return exc
     params: dict[str, str] = case["params"]
@@ -436,7 +431,7 @@ def _check_route(
             problem = key, str(exc)
     if problem is not None:
         key, message = problem
-        index = None if spec is None else _run_index(spec, case)
+        index = None if spec is None else run_index(spec, case)
         if spec is None or index is None:
             raise InputError(f"run {run!r}: {message}")
         raise source_of(spec).error(("runs", index, key), f"run {run!r}: {message}")
@@ -523,7 +518,7 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            more = _check_navigator(case, robots, spec, base)
+            more = check_navigator(case, robots, spec, base)
         elif case["tree"]:
             more = _check_tree(case, robots, spec, base)
         else:
@@ -542,57 +537,3 @@ def _note(read: dict[Path, None], path: Path | None) -> None:
             read.setdefault(path.resolve(), None)
     except (OSError, RuntimeError, ValueError):  # pragma: no cover - checked before
         pass
-
-
-def _check_navigator(
-    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
-) -> list[str]:
-    """Make the case's navigator once and check its map, as each case will.
-
-    With the ``spec`` the case came from, a problem is placed at the run: a name
-    no navigator has at its ``navigator``, a parameter the navigator refuses at
-    that parameter (or its ``params``), a map its ``check_map`` refuses, or one
-    that puts the case's robot in across a bend or a T-joint, at its ``network``.
-
-    Returns:
-        The files its parameters name that it read (the ``route`` navigator's route).
-    """
-    from pirate_bt.task.navigators import load_navigator
-
-    run = str(case.get("run"))
-    params: dict[str, Any] = case["params"]
-
-    def placed(exc: InputError, key: str) -> InputError:
-        index = None if spec is None else _run_index(spec, case)
-        if spec is None or index is None:
-            return InputError(f"run {run!r}: {exc}")
-        path: tuple[str | int, ...] = ("runs", index, key)
-        if key == "params":
-            named = next((k for k in params if f"'{k}'" in str(exc)), None)
-            path = (*path, named) if named is not None else path
-        return source_of(spec).error(path, f"run {run!r}: {exc}")
-
-    try:  # made once, as each case will: an unknown name or parameter stops here
-        navigator = load_navigator(case["navigator"], params)
-    except InputError as exc:
-        text = str(exc)
-        named = text.startswith(("no navigator named", "navigator: give")) or any(
-            words in text for words in (" failed to load: ", "has no next_step")
-        )
-        raise placed(exc, "navigator" if named or not params else "params") from None
-    if callable(getattr(navigator, "check_map", None)):  # as navigate() will
-        from pirate_bt.api.missions import load_network
-        from pirate_bt.task.navigators import check_navigator_map
-        from pirate_bt.task.start_check import check_map_start
-
-        drawn = None if case.get("blind") else (case.get("network") or "straight")
-        the_map = None if drawn is None else load_network(drawn, base=base)
-        given = case.get("network") is not None and not case.get("blind")
-        try:
-            check_navigator_map(navigator, case["navigator"], the_map)
-            check_route_navigator(navigator, the_map, case.get("network"))
-            if the_map is not None:  # as navigate() will, before it connects
-                check_map_start(the_map, robots(case.get("robot")), case["navigator"])
-        except InputError as exc:
-            raise placed(exc, "network" if given else "navigator") from None
-    return navigator_files(navigator, case["navigator"], params)  # --resume digests them

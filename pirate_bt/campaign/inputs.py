@@ -13,15 +13,29 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource, spec_source
 
-__all__ = ["check_inputs", "find_input", "input_problem", "is_file", "resolve_name", "source_of"]
+__all__ = [
+    "check_inputs",
+    "find_input",
+    "input_problem",
+    "is_file",
+    "resolve_name",
+    "run_index",
+    "source_of",
+]
 
 
 def source_of(spec: CampaignSpec) -> SpecSource:
     """Where ``spec`` came from (a stand-in naming the campaign for a model built otherwise)."""
     return spec_source(spec) or SpecSource(f"campaign {spec.name!r}", Path("."))
+
+
+def run_index(spec: CampaignSpec, case: dict[str, Any]) -> int | None:
+    """The index in ``spec.runs`` of the run ``case`` is of (run names are distinct)."""
+    return next((i for i, run in enumerate(spec.runs) if run.label == case.get("run")), None)
 
 
 def is_file(path: Path) -> bool:

@@ -1,4 +1,8 @@
-"""A navigator run's checks beyond making it: its route's network line, its files.
+"""A navigator run's checks: made once with its parameters, its map, its route's
+network line, its files.
+
+:func:`check_navigator` makes a case's navigator once and checks its map, as each case
+will (:func:`pirate_bt.campaign.checks.check_runs` calls it for every distinct one).
 
 A ``route`` navigator whose route's ``network`` line names another network than the
 run's map (its ``network``, default ``straight``) is refused at the run, as a route
@@ -11,12 +15,15 @@ read (a route, ``explore``'s ``extend``), so that ``--resume`` digests them: a c
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.campaign.inputs import run_index, source_of
+from pirate_bt.campaign.spec import CampaignSpec
 from pirate_bt.errors import InputError
 
-__all__ = ["check_route_navigator", "navigator_files"]
+__all__ = ["check_navigator", "check_route_navigator", "navigator_files"]
 
 
 def check_route_navigator(navigator: Any, the_map: Any, given: str | None) -> None:
@@ -72,3 +79,60 @@ def navigator_files(navigator: Any, name: str, params: dict[str, Any]) -> list[s
         if isinstance(value, str | Path):
             files.append(str(value))
     return files
+
+
+def check_navigator(
+    case: dict[str, Any],
+    robots: Callable[[str | None], Any],
+    spec: CampaignSpec | None,
+    base: Path | None,
+) -> list[str]:
+    """Make the case's navigator once and check its map, as each case will.
+
+    With the ``spec`` the case came from, a problem is placed at the run: a name
+    no navigator has at its ``navigator``, a parameter the navigator refuses at
+    that parameter (or its ``params``), a map its ``check_map`` refuses, or one
+    that puts the case's robot in across a bend or a T-joint, at its ``network``.
+
+    Returns:
+        The files its parameters name that it read (the ``route`` navigator's route).
+    """
+    from pirate_bt.task.navigators import load_navigator
+
+    run = str(case.get("run"))
+    params: dict[str, Any] = case["params"]
+
+    def placed(exc: InputError, key: str) -> InputError:
+        index = None if spec is None else run_index(spec, case)
+        if spec is None or index is None:
+            return InputError(f"run {run!r}: {exc}")
+        path: tuple[str | int, ...] = ("runs", index, key)
+        if key == "params":
+            named = next((k for k in params if f"'{k}'" in str(exc)), None)
+            path = (*path, named) if named is not None else path
+        return source_of(spec).error(path, f"run {run!r}: {exc}")
+
+    try:  # made once, as each case will: an unknown name or parameter stops here
+        navigator = load_navigator(case["navigator"], params)
+    except InputError as exc:
+        text = str(exc)
+        named = text.startswith(("no navigator named", "navigator: give")) or any(
+            words in text for words in (" failed to load: ", "has no next_step")
+        )
+        raise placed(exc, "navigator" if named or not params else "params") from None
+    if callable(getattr(navigator, "check_map", None)):  # as navigate() will
+        from pirate_bt.api.missions import load_network
+        from pirate_bt.task.navigators import check_navigator_map
+        from pirate_bt.task.start_check import check_map_start
+
+        drawn = None if case.get("blind") else (case.get("network") or "straight")
+        the_map = None if drawn is None else load_network(drawn, base=base)
+        given = case.get("network") is not None and not case.get("blind")
+        try:
+            check_navigator_map(navigator, case["navigator"], the_map)
+            check_route_navigator(navigator, the_map, case.get("network"))
+            if the_map is not None:  # as navigate() will, before it connects
+                check_map_start(the_map, robots(case.get("robot")), case["navigator"])
+        except InputError as exc:
+            raise placed(exc, "network" if given else "navigator") from None
+    return navigator_files(navigator, case["navigator"], params)  # --resume digests them
