@@ -11,12 +11,11 @@ stay in the session.
 from __future__ import annotations
 
 import collections
-import dataclasses
 import logging
 import math
 import threading
 
-from pirate_bt.errors import FrameError, LinkError, ProtocolMismatch
+from pirate_bt.errors import FrameError, ProtocolMismatch
 from pirate_bt.link.away import away_since
 from pirate_bt.link.codec import (
     Ack,
@@ -28,7 +27,6 @@ from pirate_bt.link.codec import (
     BulkSetpoints,
     Counters,
     FrameCodec,
-    Hello,
     HelloReply,
     Message,
     MsgType,
@@ -40,12 +38,14 @@ from pirate_bt.link.codec import (
     UnknownAckStatus,
     seq_newer,
 )
+from pirate_bt.link.hellos import STALE_RESETS_BEFORE_MISMATCH, HelloMixin
 from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
 __all__ = [
     "BAD_STATES_BEFORE_MISMATCH",
     "LATCHED_STATES_AFTER_RELEASE",
+    "STALE_RESETS_BEFORE_MISMATCH",
     "STATES_KEPT",
     "STATE_REFUSALS",
     "InboundMixin",
@@ -69,11 +69,6 @@ STATE_REFUSALS = (
 (a bad CRC is the frame's own, unchecked, type byte saying ``STATE``)."""
 OLD_STATES_BEFORE_RESYNC = 10
 """STATEs dropped in a row as not newer than the held one before the next is taken."""
-STALE_RESETS_BEFORE_MISMATCH = 3
-"""New sessions in a row started by a ``NO_SESSION`` frame whose ``HELLO_REPLY`` showed the
-same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
-a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
-a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
 LATCHED_STATES_AFTER_RELEASE = 2
 """``STATE`` frames after an acknowledged ``ESTOP_RESET`` whose ``ESTOP`` flag is not
 believed while no ``STATE`` without it came between: on a line that reorders (a relay, a
@@ -91,72 +86,46 @@ noise that passed the CRC (about 1 in 65 536 damaged frames); three in a row is 
 bridge built for another layout."""
 
 
-class InboundMixin:
-    """The receive side of a session (mixed into :class:`~pirate_bt.link.session.Session`)."""
+class InboundMixin(HelloMixin):
+    """The receive side of a session (mixed into :class:`~pirate_bt.link.session.Session`);
+    the frames that start and end sessions in :class:`~pirate_bt.link.hellos.HelloMixin`."""
 
     # set by the session
     codec: FrameCodec
     config: SessionConfig
-    last_hello_reply: HelloReply | None
     rtt_samples: collections.deque[float]
     crc_errors: int
     duplicates: int
     unexpected: int
-    sessions: int
-    bridge_resets: int
     _last_heard_s: float
     _noise: LineNoise
     _oob: dict[tuple[int, int], Request]
     _ordered: Request | None
-    _hello: Request | None
     _queue: collections.deque[Request]
     _lock: threading.RLock
     # the STATEs taken, with their arrival, newest last (see states_taken)
     _taken: collections.deque[tuple[State, float]] | None = None
-    _answered: int
     _stale_run: int
-    _flags: BridgeFlags
-    _protocol_error: LinkError | None
-    _accept_any_state: bool
     _state: State | None
     _state_at_s: float
     _faulted: tuple[int, ...]
     _rtt_s: float
-    # the boot id when a NO_SESSION frame started a new session, until its reply
-    _reset_boot_id: int | None = None
     # STATEs dropped in a row as not newer than the one held, and the first one's arrival
     # (see _on_state)
     _old_state_run: int = 0
     _latch_discount: int = 0  # STATEs still not believed on ESTOP, after a release
     _old_run_from_s: float = 0.0
-    # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
-    _stale_reset_run: int = 0
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
     # STATE frames refused since the last one taken: bad CRC, another length, not newer
     _refused: tuple[int, ...] = _NO_REFUSALS
-    # the seq of the HELLO that started the session, and the next ordered seq to send
-    _session_hello: int = 0
+    # the next ordered seq to send
     _next_seq: int
-    # the session's HELLO_REPLY shows the boot of the session before: STATE seqs run on
-    _same_boot: bool = False
-    # a STATE of another session was refused (and logged) since the last HELLO_REPLY
-    _other_session_said: bool = False
     # ESTOP_INPUT without ESTOP was seen (and logged) in this session
     _input_unlatched_seen: bool = False
     # (board position, arrival of the last STATE that showed it answering) for each board
     # the newest STATE reports in TIMEOUT (see boards_away)
     _away_since: tuple[tuple[int, float], ...] = ()
-
-    # the send side, in the session
-    def _finish(self, req: Request, outcome: Outcome, now: float) -> None:
-        raise NotImplementedError
-
-    def _service(self, now: float) -> None:
-        raise NotImplementedError
-
-    def _start_session(self, now: float, why: str) -> None:
-        raise NotImplementedError
 
     def _estop_input(self, flags: BridgeFlags) -> bool:
         """``ESTOP_INPUT`` in ``flags``, read in a 1.2 session only (in 1.1 bits 4-7 are
@@ -369,112 +338,6 @@ class InboundMixin:
                 self._latch_discount = 0  # the host's own e-stop: every STATE shows it
                 if seq_newer(item.seq, self._answered):
                     self._answered = item.seq
-
-    def _refused_session(self, hello: Request, why: str) -> None:
-        self._hello = None  # pragma: no mutate (refused: every call raises before reading it)
-        self._finish(hello, Outcome.NACKED, self._last_heard_s)
-        self._protocol_error = ProtocolMismatch(why)
-        _log.error(why)
-
-    def _on_hello_reply(self, item: HelloReply, now: float) -> None:
-        hello = self._hello
-        if hello is None or item.seq != hello.seq:
-            self.duplicates += 1
-            self._unasked_session(item, now)
-            return
-        layout = self.codec.layout
-        assert isinstance(hello.msg, Hello)  # a new session's request is always a HELLO
-        asked = hello.msg.minor
-        if item.layout_digest != layout.digest:
-            self._refused_session(hello, "the bridge answered a new session with another layout")
-            return
-        if item.minor != asked:
-            self._refused_session(
-                hello,
-                f"the bridge answered a new session with protocol 1.{item.minor}; the host"
-                f" asked for 1.{asked} (same layout)",
-            )
-            return
-        if int(item.flags) & _NO_SESSION:  # the reply's flags are those after the HELLO
-            self._refused_session(
-                hello,
-                "the bridge answered HELLO with NO_SESSION still set: it took no session"
-                " (a bridge that does not follow the protocol)",
-            )
-            return
-        previous = self.last_hello_reply
-        reset_from, self._reset_boot_id = self._reset_boot_id, None
-        if previous is not None and previous.boot_id != item.boot_id:
-            _log.warning("the bridge was reset (boot id %d -> %d)", previous.boot_id, item.boot_id)
-        elif reset_from == item.boot_id:
-            # The same boot: the NO_SESSION frame was stale, a boot STATE sent before the
-            # bridge took the first HELLO and delivered after its reply (a reordering
-            # link). Not a reset: not counted. What it failed stays failed.
-            self.bridge_resets -= 1
-            self._stale_reset_run += 1
-            if self._stale_reset_run >= STALE_RESETS_BEFORE_MISMATCH:
-                self._refused_session(
-                    hello,
-                    f"the bridge took {self._stale_reset_run} HELLOs in a row without a reset"
-                    f" (boot id {item.boot_id} unchanged) but sent NO_SESSION after each:"
-                    " it never keeps a session (a bridge that does not follow the protocol)",
-                )
-                return
-            _log.warning(
-                "a stale NO_SESSION frame (reordered link?) started a new session;"
-                " the bridge was not reset (boot id %d unchanged)",
-                item.boot_id,
-            )
-        self.last_hello_reply = item
-        self.config = self.config.heeding(item.watchdog_ms)  # a new bridge may differ
-        self._flags = item.flags
-        if int(item.flags) & _LATCH_BITS == _INPUT_ONLY:
-            self._input_unlatched(item.flags)
-        self._hello = None
-        self._answered = item.seq
-        self._accept_any_state = True
-        self._session_hello = item.seq
-        self._same_boot = previous is not None and previous.boot_id == item.boot_id
-        self._other_session_said = False
-        self.sessions += 1
-        self._settle(hello, Outcome.ACKED, now)
-        if item.flags & BridgeFlags.ESTOP:
-            _log.warning("new session: the bridge's e-stop is latched (reset it to move)")
-        self._service(now)
-
-    def _unasked_session(self, item: HelloReply, now: float) -> None:
-        """A ``HELLO_REPLY`` no ``HELLO`` in flight asked for: a doubled reply (the same
-        session count) is only counted; one of the same boot with another session count
-        answered a ``HELLO`` that restarted the session under the host (a replayed frame,
-        or a late retry of the host's own): the bridge applied its stop category and moved
-        its duplicate filter back to that old seq, so old frames would be applied again.
-        A session of the host's own puts the filter ahead of them."""
-        previous = self.last_hello_reply
-        if (
-            self._hello is not None
-            or previous is None
-            or item.boot_id != previous.boot_id
-            or item.sessions == previous.sessions
-            or item.layout_digest != self.codec.layout.digest
-        ):
-            return
-        self.last_hello_reply = dataclasses.replace(previous, sessions=item.sessions)
-        _log.error(
-            "the bridge started session %d for HELLO seq %d, which the host did not send now"
-            " (a replayed or late frame): its duplicate filter went back to that seq",
-            item.sessions,
-            item.seq,
-        )
-        self._start_session(now, "the bridge took a HELLO the host did not send now")
-
-    def _bridge_reset(self, now: float) -> None:
-        if self._hello is not None:
-            return  # a new session is already on its way
-        self.bridge_resets += 1
-        previous = self.last_hello_reply
-        self._reset_boot_id = None if previous is None else previous.boot_id
-        _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
-        self._start_session(now, "the bridge was reset")
 
     def _of_another_session(self, item: State) -> bool:
         """Whether ``item``, a ``STATE`` come before any of this session was taken, is one
