@@ -428,6 +428,14 @@ def run_navigation(
                     since_fix_m=odometer_m - fixed_at_m,
                     fixed_before=fixed_feature,
                 )
+                if not ran.succeeded and planner is not None:
+                    # a turn never felt was not taken: the belief stays on the main line
+                    fixes = ran.mission.fixes if ran.mission is not None else ()
+                    for tee in planner.forget_unfelt(plan, (f.feature for f in fixes)):
+                        ran.why += (
+                            f"; no turn into the branch of {tee!r} was felt: the robot is believed"
+                            f" on the main line, in {planner.segment_at(ran.belief_m)!r}"
+                        )
             else:
                 ran = run_blind(
                     checked,

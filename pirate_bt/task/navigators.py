@@ -258,12 +258,16 @@ class GoalNavigator:
         for path in network.paths():
             if any(path.choices.get(t, c) != c for t, c in obs.choices.items()):
                 continue
+            if _branch_behind(path, obs.choices, here):
+                continue
             for piece in path.pieces:
                 if piece.segment == self.segment:
                     if best is None or piece.start_m < best[1].start_m:
                         best = (path, piece)
                     break
         if best is None:
+            if _map_stop(obs):  # a turn that failed left the robot on the main line: the
+                return None  # navigation ends on that failure, its cause first
             raise ValueError(f"{self.segment!r} cannot be reached from here")
         path, goal = best
         if goal.kind is not PieceKind.STRAIGHT:
@@ -289,6 +293,19 @@ class GoalNavigator:
         if target - here > 0.01:
             return Step("straight", distance=target - here)
         return None
+
+
+def _branch_behind(path: Any, choices: Mapping[str, str], here_m: float) -> bool:
+    """``path`` turns into the branch of a tee the front tip is past with no way taken
+    there: the robot went on along the main line (a turn into the branch that failed
+    before it was felt leaves the robot there, and the way taken at the tee as it was)."""
+    return any(
+        piece.kind is PieceKind.TEE
+        and piece.segment not in choices
+        and piece.start_m <= here_m + _TOL_M
+        and path.choices.get(piece.segment) == "branch"
+        for piece in path.pieces
+    )
 
 
 _DISAGREEMENTS = ("belief and map disagree", "map disagreement")

@@ -13,10 +13,10 @@ A refused step leaves the planner as it was.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 from pirate_bt.errors import LocatedError
-from pirate_bt.pipes import Network, PieceKind
+from pirate_bt.pipes import Network, PieceKind, TeeChoice
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.task.plan import (
     _DIRECTION_TOL_RAD,
@@ -55,6 +55,8 @@ class StepPlanner:
         self.source = source
         self.contract = contract or PabContract()
         empty = parse_route("pause 1 s\n", source, name=source)  # replaced by each step
+        # the ways taken, and how many features passed, before the last step planned
+        self._before: tuple[dict[str, TeeChoice], int] = ({}, 0)
         self._walker = _Walker(
             empty,
             network,
@@ -137,6 +139,7 @@ class StepPlanner:
             del walker.pabs[n_pabs:]
             del walker.passed[n_passed:]
             raise
+        self._before = (saved[0], saved[4])
         pabs = tuple(walker.pabs[saved[3] :])
         # The features this step passes, and the next one ahead: a map whose lengths are
         # off puts it nearer than drawn, and the step may feel it early (a fix, as in a
@@ -161,6 +164,40 @@ class StepPlanner:
             robot_length_m=walker.length_m,
             contract=self.contract,
         )
+
+    def forget_unfelt(self, plan: MissionPlan, fixed: Iterable[str]) -> tuple[str, ...]:
+        """After ``plan`` (the last step planned) failed: forget the way it took at a
+        T-joint it never fixed on (``fixed``: the features the step's localiser fixed
+        on), so the way taken there is what it was before the step.
+
+        A turn into a tee's branch is fixed on when the IMU feels the turn. One that
+        failed before it did (the branch leaves on another side than drawn, and the
+        robot slipped over the opening) left the robot on the main line, where the
+        belief now is; before, the belief went on along the branch and the next step
+        was planned there.
+
+        Returns:
+            The T-joints whose branch the step was to turn into and did not.
+        """
+        walker = self._walker
+        choices, n_passed = self._before
+        fixed = set(fixed)
+        tees = dict.fromkeys(
+            p.feature
+            for p in plan.pabs
+            if p.pab == "t-joint" and p.feature is not None and p.feature not in fixed
+        )
+        turned = tuple(t for t in tees if walker.choices.get(t) == "branch")
+        for tee in tees:
+            before = choices.get(tee)
+            if before is None:
+                walker.choices.pop(tee, None)
+            else:
+                walker.choices[tee] = before
+            walker.passed[n_passed:] = [p for p in walker.passed[n_passed:] if p.segment != tee]
+        if tees:
+            walker.path = self.network.path(walker.choices)
+        return turned
 
 
 def _check_roll(walker: _Walker, step: RouteStep, roll_rad: float) -> None:
