@@ -92,7 +92,8 @@ def check_navigator(
     With the ``spec`` the case came from, a problem is placed at the run: a name
     no navigator has at its ``navigator``, a parameter the navigator refuses at
     that parameter (or its ``params``), a map its ``check_map`` refuses, or one
-    that puts the case's robot in across a bend or a T-joint, at its ``network``.
+    that puts the case's robot in across a bend or a T-joint, at its ``network``; a
+    blind run's navigator that needs a map, at its ``blind``.
 
     Returns:
         The files its parameters name that it read (the ``route`` navigator's route).
@@ -134,5 +135,18 @@ def check_navigator(
             if the_map is not None:  # as navigate() will, before it connects
                 check_map_start(the_map, robots(case.get("robot")), case["navigator"])
         except InputError as exc:
+            if the_map is None:  # blind: said at its 'blind', in the spec's words
+                raise placed(_blind(exc), "blind") from None
             raise placed(exc, "network" if given else "navigator") from None
     return navigator_files(navigator, case["navigator"], params)  # --resume digests them
+
+
+def _blind(exc: InputError) -> InputError:
+    """A blind run's map refusal in a spec's words: the navigators say how to give a map
+    on the command line and in Python (*needs a map (--map or map=...)*), which a spec
+    has neither of; its key is ``blind``."""
+    text = str(exc).replace(" (--map or map=...)", "")
+    return InputError(
+        f"{text}; 'blind: true' gives the run no map: leave 'blind' out (its 'network'"
+        " is then its map)"
+    )
