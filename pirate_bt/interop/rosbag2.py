@@ -394,7 +394,7 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
     rosbag2 = _rosbags()
     store = typestore()
     string_type = "std_msgs/msg/String"
-    records: list[dict[str, Any]] = []
+    records: list[tuple[int, dict[str, Any]]] = []
     try:
         with rosbag2.Reader(Path(bag)) as reader:
             chosen = [c for c in reader.connections if c.topic == topic]
@@ -418,7 +418,7 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
                         f"{bag}: {topic} holds {connection.msgtype}, not {string_type}"
                         " (not exported by pirate-bt?)"
                     )
-            for number, (_, _, raw) in enumerate(reader.messages(connections=chosen), start=1):
+            for number, (_, stamp, raw) in enumerate(reader.messages(connections=chosen), start=1):
                 # a message rosbags cannot decode, or whose text is no JSON object, is
                 # named here (it raised the decoder's own error, or gave a list back)
                 try:
@@ -432,7 +432,7 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
                         f"{bag}: message {number} on {topic} is no trace record"
                         f" (JSON {type(record).__name__}, not an object)"
                     )
-                records.append(record)
+                records.append((stamp, record))
             if not records:  # a trace has a header at least: [] would be read as a run
                 counted = sum(c.msgcount for c in chosen)
                 raise InputError(
@@ -448,4 +448,37 @@ def read_rosbag2_records(bag: Path, *, namespace: str = DEFAULT_NAMESPACE) -> li
         raise InputError(
             f"{bag}: not a readable rosbag2 bag: {type(exc).__name__}: {exc}"
         ) from None
-    return records
+    return list(_in_record_order(records))
+
+
+_RANK = {"header": 0, "end": 2}
+"""Where a record goes among those of one timestamp: the header first, the end last."""
+
+
+def _in_record_order(stamped: list[tuple[int, dict[str, Any]]]) -> Iterator[dict[str, Any]]:
+    """The trace topic's records (in timestamp order, as rosbags reads them) in the order
+    of the trace, whatever the order of those that share a timestamp.
+
+    A run's end shares its timestamp with its last tick, and rosbag2 leaves the order of
+    messages of one timestamp to the writer: a bag written again by another tool (rosbags'
+    ``Writer``, a conversion, a merge) that put the end first was read with the end before
+    the last tick. Each run of records of one timestamp is put in order by what they are:
+    the header, then the ticks by number (in bag order within one number), then the end.
+    Records of different timestamps keep their order (ticks out of order stay so, and are
+    refused where a trace is read).
+    """
+    group: list[tuple[int, int, int, dict[str, Any]]] = []
+    time = None
+    for stamp, record in stamped:
+        if stamp != time and group:
+            group.sort(key=lambda item: item[:3])
+            yield from (item[3] for item in group)
+            group = []
+        time = stamp
+        kind = record.get("type")
+        rank = _RANK.get(kind, 1) if isinstance(kind, str) else 1
+        n = record.get("n")
+        tick = n if rank == 1 and isinstance(n, int) and not isinstance(n, bool) else 0
+        group.append((rank, tick, len(group), record))
+    group.sort(key=lambda item: item[:3])
+    yield from (item[3] for item in group)
