@@ -12,12 +12,18 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
+from typing import TYPE_CHECKING
 
 from pirate_bt.errors import LinkError, ProtocolMismatch
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, Hello, HelloReply
+from pirate_bt.link.framing import frame_time_s
 from pirate_bt.link.requests import Outcome, Request, SessionConfig
 
-__all__ = ["STALE_RESETS_BEFORE_MISMATCH", "HelloMixin"]
+if TYPE_CHECKING:
+    from pirate_bt.link.transport import ByteLink
+
+__all__ = ["STALE_RESETS_BEFORE_MISMATCH", "HelloMixin", "reply_problem"]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
@@ -28,6 +34,41 @@ STALE_RESETS_BEFORE_MISMATCH = 3
 same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
 a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
 a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
+_HEARTBEAT_FRAME_BYTES = 9
+"""A HEARTBEAT on the wire: COBS, header, CRC and delimiter (docs/protocol.md)."""
+
+
+def reply_problem(reply: HelloReply, baud: int) -> str | None:
+    """Why the host cannot take ``reply``, a ``HELLO_REPLY`` to its own ``HELLO`` (the
+    connect's or a new session's), or ``None``; checked after the layout, the minor and
+    the flags:
+
+    - a watchdog its own line cannot keep fed: the host heartbeats ten times a watchdog
+      period (docs/protocol.md, Timing), and half the line is the most heartbeats may
+      take (a bridge saying 1 ms had the host heartbeat every 0.1 ms, and trip all the
+      same); 0 is a bridge that does not say;
+    - a session count of 0: the count includes the session the ``HELLO`` started, and
+      the host releases a latch it finds on the first session only.
+
+    Before 2026-11-30 the connect took both; until 2026-11-30 a new session's reply in
+    the middle of a connection did.
+    """
+    if reply.watchdog_ms > 0:
+        frame_ms = 1000 * frame_time_s(_HEARTBEAT_FRAME_BYTES, baud)
+        least_ms = math.ceil(2 * 10 * frame_ms)
+        if reply.watchdog_ms < least_ms:
+            return (
+                f"the bridge's watchdog is {reply.watchdog_ms} ms, shorter than its line can"
+                f" keep fed (ten heartbeats a period, each {frame_ms:.2f} ms at {baud} baud:"
+                f" at least {least_ms} ms); a firmware built for another robot description?"
+            )
+    if reply.sessions < 1:
+        return (
+            f"the bridge's HELLO_REPLY counts {reply.sessions} sessions since boot: the count"
+            " includes the session it starts, so it is at least 1 (a bridge that does not"
+            " follow the protocol)"
+        )
+    return None
 
 
 class HelloMixin:
@@ -36,6 +77,7 @@ class HelloMixin:
     :class:`~pirate_bt.link.inbound.InboundMixin`)."""
 
     # set by the session
+    link: ByteLink
     codec: FrameCodec
     config: SessionConfig
     last_hello_reply: HelloReply | None
@@ -107,6 +149,10 @@ class HelloMixin:
                 " (a bridge that does not follow the protocol)",
             )
             return
+        problem = reply_problem(item, self.link.baud)
+        if problem is not None:  # as the connect's (docs/protocol.md, Payloads and Timing)
+            self._refused_session(hello, problem)
+            return
         previous = self.last_hello_reply
         reset_from, self._reset_boot_id = self._reset_boot_id, None
         if previous is not None and previous.boot_id != item.boot_id:
@@ -153,7 +199,11 @@ class HelloMixin:
         answered a ``HELLO`` that restarted the session under the host (a replayed frame,
         or a late retry of the host's own): the bridge applied its stop category and moved
         its duplicate filter back to that old seq, so old frames would be applied again.
-        A session of the host's own puts the filter ahead of them."""
+        A session of the host's own puts the filter ahead of them. One that counts no
+        session at all says the bridge holds none: the host's session is lost."""
+        if item.sessions < 1:
+            self._session_lost(item)
+            return
         previous = self.last_hello_reply
         if (
             self._hello is not None
@@ -180,3 +230,21 @@ class HelloMixin:
         self._reset_boot_id = None if previous is None else previous.boot_id
         _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
         self._start_session(now, "the bridge was reset")
+
+    def _session_lost(self, item: HelloReply) -> None:
+        """A ``HELLO_REPLY`` no ``HELLO`` in flight asked for that counts 0 sessions since
+        boot: the bridge says it holds no session while the host is in one, so the session
+        the host started is not the bridge's (a bridge that rebooted, or one that does not
+        follow the protocol, which counts the session a ``HELLO`` starts). A link error:
+        the session ends (exit 3), and the close's stop falls back to the e-stop, which a
+        bridge takes in any state. Until 2026-11-30 such a reply restarted the session."""
+        if self._protocol_error is not None:
+            return
+        why = (
+            f"the bridge sent a HELLO_REPLY (seq {item.seq}) that counts {item.sessions}"
+            " sessions since boot, in the middle of the host's session (started by HELLO seq"
+            f" {self._session_hello}): the bridge holds no session, so the host's is lost"
+            " (the bridge rebooted, or does not follow the protocol)"
+        )
+        self._protocol_error = ProtocolMismatch(why)
+        _log.error(why)

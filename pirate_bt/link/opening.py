@@ -25,6 +25,7 @@ from pirate_bt.errors import (
 )
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
+from pirate_bt.link.hellos import reply_problem
 from pirate_bt.link.messages import HelloReply, NackCode
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.session import Outcome, Session, SessionConfig
@@ -133,8 +134,9 @@ def wrap_link(
                 if again.code is not NackCode.BAD_LAYOUT:
                     raise
                 raise HelloRefused.under_both_minors(codec.layout.digest, asked) from None
-        _check_watchdog(reply, robot)
-        _check_sessions(reply)
+        problem = reply_problem(reply, robot.bridge.baud)  # as a new session's reply
+        if problem is not None:
+            raise ProtocolMismatch(problem)
     except BaseException:
         byte_link.close()
         raise
@@ -353,52 +355,3 @@ def _over_a_wire(url: str) -> bool:
     """A URL to another process or device that keeps its own time (a bridge behind
     ser2net, a simulator served on TCP), not an in-process one (``loop://``, ``sim://``)."""
     return url.lower().startswith(_WIRE_SCHEMES)
-
-
-_HEARTBEAT_FRAME_BYTES = 9
-"""A HEARTBEAT on the wire: COBS, header, CRC and delimiter (docs/protocol.md)."""
-
-
-def _check_watchdog(reply: HelloReply, robot: RobotDescription) -> None:
-    """Refuse a bridge whose watchdog its own line cannot keep fed.
-
-    The host heartbeats ten times a watchdog period (docs/protocol.md); a bridge
-    reporting 1 ms had the host send a heartbeat every 0.1 ms, more than its line
-    carries, and trip all the same. Half the line is the most heartbeats may take.
-    0 is a bridge that does not say: the description's watchdog is used.
-
-    Raises:
-        ProtocolMismatch: the bridge's watchdog is shorter than that.
-    """
-    from pirate_bt.errors import ProtocolMismatch
-    from pirate_bt.link.framing import frame_time_s
-
-    if reply.watchdog_ms <= 0:
-        return
-    frame_ms = 1000 * frame_time_s(_HEARTBEAT_FRAME_BYTES, robot.bridge.baud)
-    least_ms = math.ceil(2 * 10 * frame_ms)
-    if reply.watchdog_ms < least_ms:
-        raise ProtocolMismatch(
-            f"the bridge's watchdog is {reply.watchdog_ms} ms, shorter than its line can keep"
-            f" fed (ten heartbeats a period, each {frame_ms:.2f} ms at {robot.bridge.baud}"
-            f" baud: at least {least_ms} ms); a firmware built for another robot description?"
-        )
-
-
-def _check_sessions(reply: HelloReply) -> None:
-    """Refuse a reply that counts no session: the count includes the session the
-    ``HELLO`` started (docs/protocol.md, Payloads), and the host releases a latch it finds
-    on the first session only (a count of 0 made it take a boot latch for an earlier
-    session's, silently).
-
-    Raises:
-        ProtocolMismatch: ``sessions`` is 0.
-    """
-    from pirate_bt.errors import ProtocolMismatch
-
-    if reply.sessions < 1:
-        raise ProtocolMismatch(
-            f"the bridge's HELLO_REPLY counts {reply.sessions} sessions since boot: the count"
-            " includes the session it starts, so it is at least 1 (a bridge that does not"
-            " follow the protocol)"
-        )
