@@ -63,7 +63,7 @@ def test_a_malformed_port_url_is_bad_input_exit_2(
     lines = [line for line in err.splitlines() if line.startswith("pirate-bt:")]
     assert len(lines) == 1 and "Traceback" not in err, err
     assert code == 2, err
-    assert lines[0].startswith(f"pirate-bt: cannot open {url}: {said}"), lines[0]
+    assert lines[0].startswith(f"pirate-bt: --port: cannot open {url}: {said}"), lines[0]
 
 
 @pytest.mark.parametrize(
@@ -81,7 +81,7 @@ def test_a_loop_url_with_a_bad_option_is_bad_input_not_an_internal_error(
     code = main(["run", STRAIGHT, "--param", "distance=0.1m", "--quiet", "--port", url])
     err = capsys.readouterr().err
     assert code == 2 and "internal error" not in err, err
-    assert err.strip() == f"pirate-bt: cannot open {url}: {said}"
+    assert err.strip() == f"pirate-bt: --port: cannot open {url}: {said}"
 
 
 def test_a_malformed_port_url_is_still_a_link_error_to_python() -> None:

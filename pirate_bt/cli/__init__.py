@@ -479,6 +479,21 @@ def _ros2_options_alone(parser: _Parser, args: argparse.Namespace, given: list[s
                 parser.error(f"{option} is for --ros2: add --ros2 [ENDPOINT] or leave it out")
 
 
+def _port_named(text: str, exc: Exception, args: argparse.Namespace) -> str:
+    """A verb's ``--port`` named as typed in an error about it: the API's ``port:``
+    (``port: 'bogus:x' is not a serial port ...``), or a URL refused as input before it
+    opened (``PortURLError``, which carries the URL: ``cannot open bogus://x: no URL
+    scheme 'bogus' here: ...``). A port that cannot be opened (a link error) is named
+    by its URL only."""
+    if getattr(args, "port", None) is None:
+        return text
+    if text.startswith("port: "):
+        return f"--port: {text.removeprefix('port: ')}"
+    if getattr(exc, "port_url", None) and getattr(exc, "exit_code", None) == EXIT_INPUT:
+        return f"--port: {text}"
+    return text
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     top = _top_parser()
@@ -520,7 +535,7 @@ def _main(argv: Sequence[str] | None) -> int:
     except PirateError as exc:
         if debug:  # the traceback too, and the same exit code (a raise made every one 1)
             traceback.print_exc()
-        for line in str(exc).splitlines() or [type(exc).__name__]:
+        for line in _port_named(str(exc), exc, args).splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
     except BrokenPipeError:

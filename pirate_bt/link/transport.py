@@ -49,6 +49,7 @@ from pirate_bt.link.codec import (
     UnknownAckStatus,
     frame_time_s,
 )
+from pirate_bt.link.port_urls import scheme_problem
 
 __all__ = [
     "ByteLink",
@@ -61,8 +62,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger(__name__)
-
-_VIRTUAL_PREFIXES = ("loop://", "socket://", "spy://", "rfc2217://", "hwgrep://", "alt://")
 
 
 class HelloRefused(ProtocolMismatch):
@@ -98,10 +97,18 @@ _OPTIONS = {
 
 
 class PortURLError(InputError, LinkError):
-    """A ``socket://`` or ``rfc2217://`` URL that names no host and port, or a
-    ``loop://`` one with an option it does not take: the user's input, exit 2
+    """A URL of a scheme no handler here has (``bogus://x``), a ``spy://`` or ``hwgrep://``
+    one that names nothing, a ``socket://`` or ``rfc2217://`` one that names no host and
+    port, or a ``loop://`` one with an option it does not take: the user's input, exit 2
     (``InputError``), though still a ``LinkError`` to a caller that catches the failure
-    to connect."""
+    to connect. :attr:`port_url` is the URL (a command line names its option by it)."""
+
+    def __init__(self, message: str, port_url: str = "") -> None:
+        super().__init__(message)
+        self.port_url = port_url
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (type(self), (str(self), self.port_url))
 
 
 def network_url_problem(url: str) -> str | None:
@@ -232,13 +239,15 @@ class Transport:
             The open transport.
 
         Raises:
+            PortURLError: the URL is malformed or of a scheme no handler here has (an
+                ``InputError`` too).
             LinkError: the port cannot be opened.
         """
         if write_timeout_s is None:
             write_timeout_s = 4 * frame_time_s(MAX_WIRE_BYTES, baud) + 0.05
-        problem = network_url_problem(url)
+        problem = scheme_problem(url) or network_url_problem(url)
         if problem is not None:
-            raise PortURLError(f"cannot open {url}: {problem}")
+            raise PortURLError(f"cannot open {url}: {problem}", url)
         try:
             port = serial.serial_for_url(
                 url, baudrate=baud, timeout=0, write_timeout=write_timeout_s
