@@ -40,6 +40,7 @@ from pirate_bt.safety.checks import (
     check_steep_pipe,
     half_states,
     off_wall_rad,
+    released_force_n,
     stale_channels,
 )
 from pirate_bt.safety.commands import Clamp, MoveFrontClear
@@ -52,6 +53,7 @@ __all__ = [
     "HOLD_SETTLE_S",
     "HOLD_TORQUE_FRACTION",
     "STILL_MPS",
+    "STOPPED_FRACTION",
     "HoldMixin",
     "hold_torque",
     "why_half_holds_nothing",
@@ -70,6 +72,12 @@ HOLD_SETTLE_S = 3.0
 
 STILL_MPS = 0.002
 """A wheel reading at most this fast (m/s) is still, for the end of a run."""
+
+STOPPED_FRACTION = 0.25
+"""A joint pressing nothing within this share of ``safety.angle_tolerance`` (0.43° on
+the bundled robot, five counts of its angle sensors) of the angle a partner joint of its
+half presses the wall at stopped there (its motor stalled): one over a tee's opening
+swings on under its clamp torque (0.9° in one 10 ms state at 90°/s)."""
 
 
 def hold_torque(robot: RobotDescription) -> float:
@@ -94,7 +102,10 @@ def why_half_holds_nothing(
     bend_3 off the wall at 84.0° with its spring at 0.0 N, over an opening`` (a joint
     bent as far as the half's holding joints, or further, pressing on nothing: it
     swings out over a tee's opening), ``front bend_1 presses 4.0 N at 83.1° (a clamp
-    holds from 8.75 N)``. A drive's slip and the protective hold say it alike."""
+    holds from 8.75 N)``, ``front bend_1 presses 0.0 N at 83.1°, stopped at the wall (a
+    stalled joint motor?)`` (a released force at the angle its partner presses at, within
+    :data:`STOPPED_FRACTION` of the angle tolerance: a joint pressing nothing over an
+    opening swings on past it). A drive's slip and the protective hold say it alike."""
     if kind is ClampState.UNCLAMPED:
         return f"{half} released"
     clamp = robot.clamp
@@ -111,7 +122,10 @@ def why_half_holds_nothing(
         for _, a, f in joints
         if a is not None and a >= wall_min and (f is None or clamp.holds_force(abs(f)))
     ]
+    still = tol * STOPPED_FRACTION
+    released = released_force_n(robot)
     off: list[str] = []
+    stopped: list[str] = []
     other: list[str] = []
     for name, angle, force in joints:
         if angle is None:
@@ -122,6 +136,15 @@ def why_half_holds_nothing(
             off.append(f"{name} off the wall at {deg:.1f}°")
         elif force is None or clamp.holds_force(abs(force)):
             continue  # at the wall, or no spring to say otherwise
+        elif held and abs(force) < released and min(abs(angle - a) for a in held) <= still:
+            # at the very angle its partner presses the wall at, pressing nothing: the
+            # joint stopped at the wall (its motor stalled, its power gone). One over an
+            # opening swings on past it under its clamp torque (until 2026-11-30 it was
+            # said to be 'over an opening' in a riser that had none)
+            stopped.append(
+                f"{name} presses {abs(force):.1f} N at {deg:.1f}°, stopped at the wall"
+                " (a stalled joint motor?)"
+            )
         elif held and angle >= min(held) - tol:
             off.append(f"{name} off the wall at {deg:.1f}° with its spring at {abs(force):.1f} N")
         else:
@@ -129,10 +152,10 @@ def why_half_holds_nothing(
             other.append(
                 f"{name} presses {abs(force):.1f} N at {deg:.1f}° (a clamp holds from {need:.2f} N)"
             )
-    if off:
-        return f"{half} {', '.join(off)}, over an opening"
-    if other:
-        return f"{half} {', '.join(other)}"
+    said = [f"{', '.join(off)}, over an opening"] if off else []
+    said += stopped + other
+    if said:
+        return f"{half} {', '.join(said)}"
     return f"{half} {kind.value}"
 
 
