@@ -3,6 +3,7 @@ column and keys), a Dask cluster with no workers."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -34,3 +35,47 @@ def test_a_blind_navigator_that_needs_a_map_is_named_at_its_blind_key(
     assert err.startswith(f"pirate-bt: {spec}:{line}:{column}: run ")
     assert "needs a map; 'blind: true' gives the run no map: leave 'blind' out" in err
     assert not out.exists()
+
+
+TWO_CASES = """\
+name: two
+runs:
+  - {name: a, tree: straight, network: straight, params: {distance: 0.1 m}}
+seeds: {start: 0, count: 2}
+max_time: 60 s
+"""
+
+
+def test_a_dask_cluster_with_no_workers_is_a_link_error_and_resume_runs_its_cases(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    spec = tmp_path / "two.campaign.yaml"
+    spec.write_text(TWO_CASES)
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--output", str(out), "-q", "--workers", "1"]) == 0
+    results = out / "results.jsonl"
+    kept = results.read_text().splitlines()[0] + "\n"
+    results.write_text(kept)  # one case done, one to run, as an interrupted campaign's
+    capsys.readouterr()
+    with LocalCluster(
+        n_workers=0, processes=False, dashboard_address=None, protocol="tcp://", host="127.0.0.1"
+    ) as cluster:
+        address = cluster.scheduler_address
+        resume = ["campaign", str(spec), "--output", str(out), "-q", "--resume"]
+        # it waited for ever for workers nobody had started
+        assert main([*resume, "--scheduler", address, "--scheduler-timeout", "2 s"]) == 3
+        out_text, err = capsys.readouterr()
+        assert out_text == ""  # no "campaign two: 2 cases on ..." line: nothing started
+        assert err == (
+            f"pirate-bt: the Dask scheduler at {address} has no workers after 2 s: start"
+            f" workers (dask worker {address}), or give a longer --scheduler-timeout\n"
+        )
+        assert results.read_text() == kept  # no case written as an error
+        cluster.scale(1)
+        assert main([*resume, "--scheduler", address, "--scheduler-timeout", "60 s"]) == 0
+    rows = [json.loads(line) for line in results.read_text().splitlines()]
+    assert sorted(row["seed"] for row in rows) == [0, 1]
+    assert {row["outcome"] for row in rows} == {"success"}

@@ -61,6 +61,30 @@ def _scheduler(folder: Path) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
         process.wait()
 
 
+@contextmanager
+def _worker(address: str) -> Iterator[None]:
+    """A ``dask worker`` process of its own at ``address``, there once this yields (a
+    campaign waits for a scheduler's first worker no longer than its timeout)."""
+    from distributed import Client
+
+    dask = Path(sys.executable).with_name("dask")
+    one = ["--nworkers", "1", "--nthreads", "1", "--no-nanny", "--no-dashboard"]
+    process = subprocess.Popen(
+        [str(dask), "worker", address, *one],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        with Client(address, timeout=WAIT_S) as client:  # type: ignore[no-untyped-call]
+            client.wait_for_workers(1, timeout=WAIT_S)
+        yield
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
 def test_a_scheduler_that_goes_away_stops_the_campaign_instead_of_error_rows(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -71,7 +95,7 @@ def test_a_scheduler_that_goes_away_stops_the_campaign_instead_of_error_rows(
         "seeds": {"count": 3},
         "max_time": "60 s",
     }
-    with _scheduler(tmp_path) as (address, process):
+    with _scheduler(tmp_path) as (address, process), _worker(address):
 
         def scheduler_dies(_line: str) -> None:  # as the campaign starts, before its cases
             process.kill()

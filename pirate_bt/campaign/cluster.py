@@ -29,7 +29,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from pirate_bt.campaign.cancelled import CasesNotRun, LostSchedulerNoise
 from pirate_bt.campaign.workers import prestart, stop_servers
-from pirate_bt.errors import InputError, said_of
+from pirate_bt.errors import InputError, LinkError, said_of
 
 __all__ = ["PLUGIN_NAME", "CaseServerPlugin", "dask_executor", "dask_setup"]
 
@@ -218,6 +218,24 @@ def _check_scheduler(address: str, timeout_s: float) -> None:
             ) from None
 
 
+def _wait_for_a_worker(client: Any, address: str, timeout_s: float) -> None:
+    """Wait up to ``timeout_s`` for the scheduler to have a worker.
+
+    With none, the cases were handed to it and the campaign waited for ever, for
+    workers nobody had started (or a SLURM job that never left the queue).
+
+    Raises:
+        LinkError: No worker within ``timeout_s``; nothing was handed to the cluster.
+    """
+    try:
+        client.wait_for_workers(1, timeout=timeout_s)
+    except TimeoutError:
+        raise LinkError(
+            f"the Dask scheduler at {address} has no workers after {timeout_s:g} s: start"
+            f" workers (dask worker {address}), or give a longer scheduler_timeout"
+        ) from None
+
+
 @contextmanager
 def dask_executor(
     scheduler: str | None, scheduler_file: str | None, timeout_s: float = 10.0
@@ -227,12 +245,14 @@ def dask_executor(
     ``timeout_s``: how long to keep trying to reach the scheduler (one that is still
     starting may refuse a connection for a while). The handshake is bounded by it
     too, whatever the far end does; the client starts only once a Dask scheduler
-    has answered.
+    has answered. Then it waits as long again for the scheduler's first worker.
 
     Raises:
         InputError: The scheduler cannot be reached or does not answer as one, or
             its scheduler file is not there within ``timeout_s`` (Dask's client would
             wait for it for ever) or is not a scheduler file.
+        LinkError: The scheduler has no worker within ``timeout_s`` after it answered
+            (nothing has been handed to it).
     """
     if scheduler is not None:
         address = scheduler
@@ -253,6 +273,7 @@ def dask_executor(
     noise = LostSchedulerNoise()  # a scheduler gone is said once, by the campaign
     logging.getLogger("distributed.client").addFilter(noise)
     try:
+        _wait_for_a_worker(client, address, timeout_s)
         try:
             client.register_plugin(CaseServerPlugin(), name=PLUGIN_NAME)
         except Exception as exc:  # the cases still start their servers themselves

@@ -197,7 +197,8 @@ def make_executor(
         scheduler: A Dask scheduler address (``tcp://host:8786``).
         scheduler_file: A Dask scheduler file (as ``dask-scheduler --scheduler-file``
             writes, and dask-jobqueue set-ups share).
-        scheduler_timeout_s: How long to keep trying to reach the scheduler.
+        scheduler_timeout_s: How long to keep trying to reach the scheduler, then to
+            wait for a worker there.
 
     Raises:
         InputError: Dask is asked for but not installed, or cannot be reached.

@@ -380,8 +380,8 @@ def run_campaign(
             scheduler or an executor, which have workers of their own.
         scheduler: A Dask scheduler address (``tcp://host:8786``) instead.
         scheduler_file: A Dask scheduler file instead.
-        scheduler_timeout: How long to keep trying to reach the scheduler before the
-            campaign is refused (``"30 s"`` or seconds; default 10 s).
+        scheduler_timeout: How long to try to reach the scheduler, then to wait for a
+            worker there (``"30 s"`` or seconds; default 10 s; LinkError after it).
         executor: A ``concurrent.futures`` executor of your own instead (it is not
             shut down here).
         output: The folder for ``results.jsonl``, ``traces/`` and the report.

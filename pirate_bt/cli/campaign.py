@@ -26,7 +26,7 @@ from typing import Any
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
 from pirate_bt.campaign.paths import OUTPUT, RESUME
-from pirate_bt.errors import InputError
+from pirate_bt.errors import InputError, LinkError
 
 __all__ = ["configure", "run"]
 
@@ -45,7 +45,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scheduler-timeout",
         metavar="TIME",
-        help="how long to keep trying to reach the Dask scheduler (default 10 s)",
+        help="how long to keep trying to reach the Dask scheduler, then to wait for a"
+        " worker there (default 10 s)",
     )
     parser.add_argument("--output", metavar="DIR", help="results folder (default: campaign-NAME)")
     parser.add_argument("--resume", action="store_true", help="skip the cases already done")
@@ -209,6 +210,8 @@ def run(args: argparse.Namespace) -> int:
         )
     except InputError as exc:
         raise InputError(_by_option(str(exc))) from None
+    except LinkError as exc:  # a cluster with no worker: "give a longer --scheduler-timeout"
+        raise LinkError(_by_option(str(exc))) from None
     except KeyboardInterrupt as exc:
         if not started:
             raise
