@@ -81,7 +81,8 @@ def test_a_report_that_cannot_be_written_keeps_the_missions_line_and_code(
     said = "FAILED - stall: bend_1_drive" if faults else "SUCCESS - mission completed"
     # the mission's own line, then the output's (only the output's was printed, exit 2)
     assert lines[-2].startswith(f"pirate-bt: mission short: {said}"), lines
-    assert lines[-1] == f"pirate-bt: output: cannot write {out / 'report.html'}: Is a directory"
+    # the option typed (it said "output:", the API's parameter, until the 21st session)
+    assert lines[-1] == f"pirate-bt: --output: cannot write {out / 'report.html'}: Is a directory"
 
 
 def test_simulate_mission_whose_report_cannot_be_written_keeps_its_result(
@@ -126,6 +127,7 @@ def test_a_tree_diagram_that_cannot_be_written_is_left_out_and_the_report_writte
     argv = ["mission", str(_route(tmp_path)), "-q", "--output", str(out)]
     assert main([*argv, "--faults", STALL]) == 1  # was 2, the mission's line unprinted
     err = capsys.readouterr().err
-    assert f"pirate-bt: no tree diagram: out: cannot write '{out / 'tree.dot'}'" in err
+    # "out:" was render_tree's parameter, an option of no command
+    assert f"pirate-bt: no tree diagram: --output: cannot write '{out / 'tree.dot'}'" in err
     assert "pirate-bt: mission short: FAILED - stall: bend_1_drive" in err
     assert "stall: bend_1_drive" in (out / "report.md").read_text(encoding="utf-8")

@@ -71,19 +71,23 @@ def write_mission_outputs(
     extra_sections: Sequence[tuple[str, list[str]]] = (),
     extra_pictures: Sequence[tuple[str, str]] = (),
     warn: Callable[[str], None] | None = None,
+    option: str = "output",
 ) -> list[Path]:
     """Write a mission's plots, tree diagram and report (``report.md``, ``report.html``).
 
     A plot or diagram that cannot be made (no Graphviz ``dot``, no matplotlib, a full
     disk) is reported through ``warn``, naming the file, and left out: nothing of it is
-    left half-written. The report is always written, whole or not at all.
+    left half-written. The report is always written, whole or not at all. ``option``
+    is how the caller's user named ``output`` (a command's ``--output``): the
+    messages name it.
 
     Returns:
         The files written (the trace first, when there is one).
 
     Raises:
         InputError: ``output`` is no folder that takes files, or the report cannot be
-            written (``output: cannot write OUT/report.md: No space left on device``).
+            written (``output: cannot write OUT/report.md: No space left on device``),
+            named ``option``.
     """
     import logging
 
@@ -94,11 +98,13 @@ def write_mission_outputs(
     if not isinstance(result, MissionResult):
         raise InputError(f"result: give a MissionResult, not {kind_of(result)}")
     report_extras(wall_s, extra_sections, extra_pictures, warn)  # before the folder
-    out = output_folder(output)
+    if not isinstance(option, str) or not option:
+        raise InputError(f"option: give the name of the output option, not {kind_of(option)}")
+    out = output_folder(output, option)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"output: cannot make the folder {out}: {exc.strerror or exc}") from None
+        raise InputError(f"{option}: cannot make the folder {out}: {exc.strerror or exc}") from None
     files: list[Path] = []
     pictures: list[tuple[str, str]] = []
     if result.trace_path is not None and result.trace_path.exists():
@@ -136,7 +142,7 @@ def write_mission_outputs(
     except OSError as exc:  # the diagram cannot be written: the report still can be
         log(f"no tree diagram: {_os_error(exc)}")
     except InputError as exc:  # its .dot file beside it cannot be written (a full disk)
-        log(f"no tree diagram: {exc}")
+        log(f"no tree diagram: {_as_option(exc, option)}")
     if result.coverage is not None:
         try:
             from pirate_bt.render.tree import render_tree
@@ -151,14 +157,21 @@ def write_mission_outputs(
         except OSError as exc:
             log(f"no coverage diagram: {_os_error(exc)}")
         except InputError as exc:
-            log(f"no coverage diagram: {exc}")
+            log(f"no coverage diagram: {_as_option(exc, option)}")
     try:
         files += write_report(
             result, out, [*pictures, *extra_pictures], list(extra_sections), wall_s or result.wall_s
         )
     except OSError as exc:
-        raise InputError(f"output: cannot write {_os_error(exc)}") from None
+        raise InputError(f"{option}: cannot write {_os_error(exc)}") from None
     return files
+
+
+def _as_option(exc: InputError, option: str) -> str:
+    """A diagram's error in the caller's words: ``render_tree`` names its own parameter
+    (``out: cannot write 'OUT/tree.dot': ...``), which nobody calling this gave."""
+    text = str(exc)
+    return f"{option}: {text.removeprefix('out: ')}" if text.startswith("out: ") else text
 
 
 def _os_error(exc: OSError) -> str:

@@ -259,6 +259,7 @@ def execute(
                 extra_sections=extra_sections or [],
                 extra_pictures=extra_pictures or [],
                 warn=lambda text: print(f"pirate-bt: {text}", file=sys.stderr),
+                option="--output",
             )
         except InputError as exc:  # the report: the mission's own line first, its code
             # (a full disk said "No space left on device" alone, the mission unsaid, exit 2)
