@@ -23,7 +23,9 @@
  *   chain -> Python: 'P' text "boards ID..." once ready
  *                    'a' step done: cycle u64; host bytes out (u16 n, bytes); then per
  *                        board, per motor slot 0 and 1: drive u8 (0 off, 1 brake, 2 run),
- *                        mean duty while running over the step i16
+ *                        mean duty while running over the step i16; then u16: how many
+ *                        of the 'A' record's host bytes were taken (the others did not
+ *                        fit the queue to the line: Python sends them again later)
  *                    'w' a watch ended: start cycle u64, then per watched motor the
  *                        cycle u64 its output first read off or brake after the start
  *                    'S' figures, "name value" lines
@@ -44,6 +46,8 @@
 
 #define MAX_CORES CHAIN_NODES
 #define HOST_RING 65536u
+/* host bytes out in one 'a' record: its length is a u16, with the motors and `taken` */
+#define HOST_OUT_RECORD (65535u - 12u - 6u * CHAIN_MAX_BOARDS)
 
 static avr_t *cores[MAX_CORES];
 static bool no_bridge; /* Python is the bus master (the vectors) */
@@ -368,8 +372,12 @@ static void step(const uint8_t *p, uint16_t n) {
     uint64_t until = get_u64(p);
     uint16_t host_n = get_u16(p + 8);
     const uint8_t *q = p + 10;
-    for (unsigned i = 0; i < host_n; i++) {
-        host_q[host_q_head++ % HOST_RING] = q[i];
+    /* a serial line loses no byte to a host that writes faster than its rate: what does
+     * not fit the queue stays with the host (Python) and comes again in a later step;
+     * the queue used to wrap over bytes not yet fed, splicing later frames into earlier */
+    unsigned taken = 0;
+    while (taken < host_n && host_q_head - host_q_tail < HOST_RING) {
+        host_q[host_q_head++ % HOST_RING] = q[taken++];
     }
     q += host_n;
     for (int b = 0; b < n_boards; b++) {
@@ -391,14 +399,18 @@ static void step(const uint8_t *p, uint16_t n) {
     }
     advance(until);
     /* the answer */
-    static uint8_t out[16 + HOST_RING + 6 * CHAIN_MAX_BOARDS];
+    static uint8_t out[HOST_OUT_RECORD + 12 + 6 * CHAIN_MAX_BOARDS];
     channel_put_u64(out, now);
     unsigned k = 8;
-    out[k++] = (uint8_t)host_out_n;
-    out[k++] = (uint8_t)(host_out_n >> 8);
-    memcpy(out + k, host_out, host_out_n);
-    k += host_out_n;
-    host_out_n = 0;
+    /* a record carries at most 65535 bytes: what the bridge sent beyond that in one step
+     * (a step of seconds) goes in the next record */
+    unsigned sent = host_out_n < HOST_OUT_RECORD ? host_out_n : HOST_OUT_RECORD;
+    out[k++] = (uint8_t)sent;
+    out[k++] = (uint8_t)(sent >> 8);
+    memcpy(out + k, host_out, sent);
+    k += sent;
+    memmove(host_out, host_out + sent, host_out_n - sent);
+    host_out_n -= sent;
     for (int b = 0; b < n_boards; b++) {
         for (int slot = 0; slot < 2; slot++) {
             struct motor_sample s = board_sample(b, slot);
@@ -413,6 +425,8 @@ static void step(const uint8_t *p, uint16_t n) {
             out[k++] = (uint8_t)((uint16_t)mean >> 8);
         }
     }
+    out[k++] = (uint8_t)taken;
+    out[k++] = (uint8_t)(taken >> 8);
     channel_send_record('a', out, (uint16_t)k);
 }
 

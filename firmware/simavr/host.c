@@ -123,16 +123,23 @@ void host_service_pty(void) {
         return;
     }
     if (p.revents & POLLIN) {
+        /* Only what the queue to the MCU has room for: the rest stays in the pty, whose
+         * buffer fills and then holds the host's writes, as a serial port's driver does
+         * (a host faster than the line waits, and loses nothing). The queue used to take
+         * every byte and drop what did not fit (host_bytes_dropped). */
         uint8_t buf[4096];
-        ssize_t r = read(master, buf, sizeof buf);
+        size_t room = sizeof buf;
+        bool booting = mcu->cycle < boot_until;
+        if (!booting && RING - (hostq_head - hostq_tail) < room) {
+            room = RING - (hostq_head - hostq_tail);
+        }
+        ssize_t r = room ? read(master, buf, room) : 0;
         for (ssize_t i = 0; i < r; i++) {
-            if (mcu->cycle < boot_until) {
+            if (booting) {
                 stats.bytes_dropped++; /* the bootloader eats them */
-            } else if (hostq_head - hostq_tail < RING) {
+            } else {
                 hostq[hostq_head++ % RING] = buf[i];
                 stats.bytes_in++;
-            } else {
-                stats.bytes_dropped++;
             }
         }
     }

@@ -68,6 +68,9 @@ CHAIN_HARNESS_ENV = "PIRATE_CHAIN"
 PICO_ENCODER_CPR = 3072
 """Encoder counts per wheel revolution: the PICO firmware's ``ENCODER_CPR`` build option."""
 OFF, BRAKE, RUN = 0, 1, 2
+HOST_BYTES_PER_STEP = 16_384
+"""Host bytes sent to the harness with one step at most (1.4 s of a 115200-baud line;
+its queue to the bridge's USART0 holds 64 KB and takes what fits, the rest waits here)."""
 
 _REPO = Path(__file__).resolve().parents[2]
 _REGISTRY: dict[str, FirmwareChain] = {}
@@ -364,8 +367,9 @@ class FirmwareChain:
     def _step(self, until: int) -> None:
         started = time.perf_counter()
         physics = self.physics
-        host = bytes(self._in)
-        self._in.clear()
+        # a record's length is a u16: a host that wrote more since the last step (faster
+        # than the line) has the rest sent in later steps, as a serial driver holds it
+        host = bytes(self._in[:HOST_BYTES_PER_STEP])
         payload = bytearray(struct.pack("<QH", until, len(host)))
         payload += host
         for board in physics.boards:
@@ -387,6 +391,9 @@ class FirmwareChain:
                 drive, duty = struct.unpack_from("<Bh", data, at)
                 outputs[(board, slot)] = (drive, duty)
                 at += 3
+        # the host bytes the harness's queue to the line took; the others wait here
+        taken = struct.unpack_from("<H", data, at)[0] if len(data) >= at + 2 else len(host)
+        del self._in[:taken]
         self.outputs = outputs
         physics.apply(outputs)
         physics.step(self.step_cycles / HZ)
