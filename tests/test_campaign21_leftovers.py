@@ -79,3 +79,39 @@ def test_a_dask_cluster_with_no_workers_is_a_link_error_and_resume_runs_its_case
     rows = [json.loads(line) for line in results.read_text().splitlines()]
     assert sorted(row["seed"] for row in rows) == [0, 1]
     assert {row["outcome"] for row in rows} == {"success"}
+
+
+class RaisesAsMade:
+    """A plug-in navigator whose making raises (a bug of its own, not a refusal)."""
+
+    def __init__(self, speed: str = "1") -> None:
+        raise RuntimeError(f"no speed {speed}")
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never made
+        return None
+
+
+def test_a_navigator_whose_making_raises_is_placed_at_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from pirate_bt.task import navigators as registry
+
+    plugin = EntryPoint(
+        name="raises-as-made", value=f"{__name__}:RaisesAsMade", group=registry.ENTRY_POINT_GROUP
+    )
+    monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
+    spec = tmp_path / "nav.campaign.yaml"
+    run = "  - {name: r, navigator: raises-as-made, network: lab, params: {speed: '2'}}"
+    spec.write_text(f"name: rogue\nruns:\n{run}\n")
+    # was 'pirate-bt: internal error: RuntimeError: no speed 2 (rerun with --debug)', exit 1
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    column = run.index("params") + 1
+    assert err.startswith(
+        f"{spec}:3:{column}: run 'r': navigator 'raises-as-made' raised RuntimeError as it was"
+        " made: no speed 2 (at "
+    )
+    assert len(err.splitlines()) == 1
+    assert __file__.removesuffix("c") in err  # the place it was raised

@@ -120,7 +120,11 @@ def check_navigator(
         named = text.startswith(("no navigator named", "navigator: give")) or any(
             words in text for words in (" failed to load: ", "has no next_step")
         )
-        raise placed(exc, "navigator" if named or not params else "params") from None
+        where = "navigator" if named or not params else "params"
+        raise placed(exc, where) from None
+    except Exception as exc:  # its maker's own error (a plug-in's bug): was 'internal error'
+        where = "params" if params else "navigator"
+        raise placed(_made_raised(case["navigator"], exc), where) from exc
     if callable(getattr(navigator, "check_map", None)):  # as navigate() will
         from pirate_bt.api.missions import load_network
         from pirate_bt.task.navigators import check_navigator_map
@@ -149,4 +153,17 @@ def _blind(exc: InputError) -> InputError:
     return InputError(
         f"{text}; 'blind: true' gives the run no map: leave 'blind' out (its 'network'"
         " is then its map)"
+    )
+
+
+def _made_raised(name: str, exc: Exception) -> InputError:
+    """A navigator whose making raised (not a refusal :func:`load_navigator` words: a
+    ``RuntimeError`` of its ``__init__``), named with the place it was raised."""
+    from pirate_bt.errors import said_of
+    from pirate_bt.task.navigation import raised_at
+
+    at = raised_at(exc)
+    return InputError(
+        f"navigator {name!r} raised {type(exc).__name__} as it was made:"
+        f" {said_of(exc, 200)}" + (f" (at {at})" if at else "")
     )
