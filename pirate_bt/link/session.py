@@ -47,7 +47,6 @@ import logging
 import math
 import threading
 from collections.abc import Sequence
-from typing import NoReturn
 
 from pirate_bt.clock import Clock
 from pirate_bt.errors import LinkError, LinkLost, LinkTimeout
@@ -67,6 +66,7 @@ from pirate_bt.link.codec import (
     State,
 )
 from pirate_bt.link.inbound import InboundMixin
+from pirate_bt.link.liveness import LivenessMixin
 from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.reader import ReaderMixin
 from pirate_bt.link.requests import (
@@ -79,7 +79,6 @@ from pirate_bt.link.requests import (
 )
 from pirate_bt.link.transport import ByteLink
 from pirate_bt.robot.description import ControlMode
-from pirate_bt.robot.port import unheard_text
 
 __all__ = [
     "HEARTBEATS_PER_WATCHDOG",
@@ -97,14 +96,13 @@ HELLO_TRIES = 16
 """Tries of a mid-session HELLO before the link is declared lost."""
 
 _ORDERED = (Setpoint, BulkSetpoints, EStopReset)
-_WATCHDOG = int(BridgeFlags.WATCHDOG)
 
 
 def _next(seq: int) -> int:
     return (seq + 1) & 0xFFFF or 1
 
 
-class Session(InboundMixin, ReaderMixin):
+class Session(InboundMixin, LivenessMixin, ReaderMixin):
     """Request tracking and liveness over a connected byte link.
 
     Args:
@@ -417,53 +415,6 @@ class Session(InboundMixin, ReaderMixin):
         # the session is over (closed or lost): nothing reads these two again
         self._ordered = None  # pragma: no mutate (the session is over)
         self._hello = None  # pragma: no mutate (the session is over)
-
-    def _check_heard(self, now: float) -> None:
-        """Declare the link lost when the bridge has reported its watchdog tripped in every
-        poll for over the link timeout while the host kept sending (not in a handshake, nor
-        while the host sent nothing: no poll, or the dead man's handle holding back)."""
-        cfg = self.config
-        if (
-            not int(self._flags) & _WATCHDOG
-            or self._hello is not None
-            or now >= self._feed_until_s
-            or now - self._last_sent_s > 2 * cfg.heartbeat_period_s
-        ):
-            self._deaf_from_s = now
-        elif now - self._deaf_from_s > self.config.link_timeout_s:
-            self._lost = True
-            self._lost_why = (
-                f"the bridge reports its watchdog tripped for over {self.config.link_timeout_s}"
-                " s: it hears nothing from the host (the line toward the bridge is down?)"
-            )
-            _log.error("link lost: %s", self._lost_why)
-            self._fail_all(now)
-            raise LinkLost(self._lost_why)
-
-    def _check_alive(self) -> None:
-        if self._lost:
-            raise LinkLost(self._lost_why or self._unheard(f"over {self.config.link_timeout_s}"))
-        if self._closed:
-            raise LinkError("session closed")
-        if self._protocol_error is not None:
-            raise self._protocol_error
-
-    def _lose(self, now: float) -> NoReturn:
-        """Declare the link lost (nothing valid heard for the link timeout) and fail all."""
-        self._lost = True
-        silent = now - self._last_heard_s
-        why = self._unheard(f"{silent:.3f}")
-        if why.startswith("nothing"):
-            _log.error("link lost: bridge silent for %.3f s", silent)
-        else:
-            _log.error("link lost: %s", why)
-        self._fail_all(now)
-        raise LinkLost(why)
-
-    def _unheard(self, how_long: str) -> str:
-        """Why the link is lost, for ``how_long`` seconds: silence, or bytes that made no
-        good frame (named, so that a flooded line is not taken for a silent bridge)."""
-        return unheard_text(how_long, self.line_noise())
 
     def _submit(
         self, msg: Setpoint | BulkSetpoints | EStopReset, wire: bytes | None = None
