@@ -115,3 +115,16 @@ def test_a_navigator_whose_making_raises_is_placed_at_the_run(
     )
     assert len(err.splitlines()) == 1
     assert __file__.removesuffix("c") in err  # the place it was raised
+
+
+def test_a_navigator_parameter_a_run_lacks_is_asked_for_under_params(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "nav.campaign.yaml"
+    spec.write_text("name: nav\nruns:\n  - {name: g, navigator: goal, network: lab}\n")
+    assert main(["validate", str(spec)]) == 2
+    # said '(--param segment=...; it takes: segment)', the command line's option
+    assert capsys.readouterr().err == (
+        f"{spec}:3:15: run 'g': navigator 'goal' needs the parameter 'segment'"
+        " (params: {segment: ...}; it takes: segment)\n"
+    )

@@ -15,6 +15,7 @@ read (a route, ``explore``'s ``extend``), so that ``--resume`` digests them: a c
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -121,7 +122,7 @@ def check_navigator(
             words in text for words in (" failed to load: ", "has no next_step")
         )
         where = "navigator" if named or not params else "params"
-        raise placed(exc, where) from None
+        raise placed(InputError(_in_spec_words(text)), where) from None
     except Exception as exc:  # its maker's own error (a plug-in's bug): was 'internal error'
         where = "params" if params else "navigator"
         raise placed(_made_raised(case["navigator"], exc), where) from exc
@@ -154,6 +155,16 @@ def _blind(exc: InputError) -> InputError:
         f"{text}; 'blind: true' gives the run no map: leave 'blind' out (its 'network'"
         " is then its map)"
     )
+
+
+_PARAM_OPTION = re.compile(r"\(--param (\S+?)=\.\.\.;")
+
+
+def _in_spec_words(text: str) -> str:
+    """A navigator's refusal in a spec's words: a parameter it needs is asked for as the
+    command line gives it (*needs the parameter 'segment' (--param segment=...; ...)*);
+    in a spec it goes under the run's ``params``."""
+    return _PARAM_OPTION.sub(lambda m: f"(params: {{{m.group(1)}: ...}};", text)
 
 
 def _made_raised(name: str, exc: Exception) -> InputError:
