@@ -27,6 +27,7 @@ from pirate_bt.link.codec import (
     BulkSetpoints,
     Counters,
     FrameCodec,
+    FrameDecoder,
     HelloReply,
     Message,
     MsgType,
@@ -99,6 +100,7 @@ class InboundMixin(HelloMixin):
     unexpected: int
     _last_heard_s: float
     _noise: LineNoise
+    _decoder: FrameDecoder
     _oob: dict[tuple[int, int], Request]
     _ordered: Request | None
     _queue: collections.deque[Request]
@@ -158,8 +160,13 @@ class InboundMixin(HelloMixin):
     def line_noise(self) -> str:
         """What came from the bridge since its last good frame that made no good frame
         (``""``: nothing), e.g. ``"204 unreadable frames (cobs 153, oversize 51) in 15963
-        bytes"`` (:mod:`pirate_bt.link.noise`)."""
-        return self._noise.text(self._last_heard_s)
+        bytes"`` (:mod:`pirate_bt.link.noise`). A frame begun in the read of the last good
+        frame and never ended (a bridge silent mid-frame) is named by its bytes, as when
+        they came in a read of their own (before 2026-11-30: *nothing heard*)."""
+        said = self._noise.text(self._last_heard_s)
+        if said or not self._decoder.pending_bytes:
+            return said
+        return f"{self._decoder.pending_bytes} bytes that made no frame"
 
     def _input_unlatched(self, flags: BridgeFlags) -> None:
         """``flags`` has ``ESTOP_INPUT`` but not ``ESTOP``: say so, once a session."""

@@ -378,7 +378,7 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
                 estop_input=self._estop_input(self._flags),
                 bus_fault=bool(self._flags & BridgeFlags.BUS_FAULT),
                 faulted=self._faulted,
-                line_noise=self._noise.text(self._last_heard_s),
+                line_noise=self.line_noise(),
             )
 
     def close(self) -> None:
