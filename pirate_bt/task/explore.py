@@ -46,7 +46,7 @@ Diameters come from the rear half's wall-contact angles, slopes from the IMU.
 
 Not yet (docs/navigators.md): a reducer within 0.25 m of a tee or a bend, bends met
 on a vertical run, and a tee whose way straight on is blocked just past it (an end
-cap): the robot stops there (:meth:`ExploreNavigator.ended_at_tee`), the line is
+cap): the robot stops there (:meth:`SurveyRecord.ended_at_tee`), the line is
 written as ending at the tee and its branch is left to a second insertion.
 """
 
@@ -85,8 +85,6 @@ __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leava
 
 _TURN = {"up": 90.0, "down": -90.0}
 """The slope change of a bend up or down (left and right keep it)."""
-
-_EXTEND = "a second insertion (extend=, pirate-bt survey --extend) surveys it"
 
 
 class ExploreNavigator(SurveyRecord):
@@ -370,46 +368,6 @@ class ExploreNavigator(SurveyRecord):
             " survey by hand"
         )
         return self._line_done(obs)
-
-    def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
-        """Stopped going straight on through a tee just found, the released front half
-        blocked past the opening: the line ends there (a cap, or a turn right after the
-        tee, not tried), the branch is left to a further insertion. The why, or ``None``."""
-        tee, self._crossing = self._crossing, None
-        front = f"{failing_node}".endswith("/front across")  # the released front half
-        if tee is None or not front or not why.startswith("blocked"):
-            return None
-        self._pending.remove(tee)
-        self._in_line = False  # surveyed to where it ends, at the tee
-        self.ends.append(f"{self._line_name} {self._after()}, blocked just past it, no turn tried")
-        self.unexplored.append(f"{tee}: not entered, the robot stopped at the tee, {_EXTEND}")
-        return (
-            f"the way straight on through {tee.segment['id']} is blocked just past it"
-            f" (front across: {why.split(' (')[0]}), and the robot stopped there: {tee}"
-            f" is not entered, {_EXTEND}"
-        )
-
-    def ended_in_bend(self, failing_node: str | None, why: str, front_m: float) -> str | None:
-        """Stopped passing a bend just found: its front half through, the front tip (at
-        ``front_m``) was blocked before the rear half was through, by a second bend (or the
-        pipe's end) closer after it than the bend PAB passes. The why, or ``None``."""
-        rear = f"{failing_node}".endswith("/rear through turn")
-        if self._bend is None or self._from_m is None or not rear or not why.startswith("blocked"):
-            return None
-        bend = str(self._bend[0]["id"])
-        write_in_frame(self.segments, self._diameter_m, bend, self._bend[0])
-        self._bend, self._in_line = None, False  # surveyed to the bend, not beyond
-        where = f"{max(front_m - self._from_m, 0.0):.2f} m after {bend}"
-        self.unexplored.append(
-            f"{self._line_name} after {bend}: not surveyed past {where}, where the front"
-            f" half was blocked as the rear half turned through {bend}: left to a survey by hand"
-        )
-        return (
-            f"the robot stopped in {bend}: its front half was blocked {where} (a second bend,"
-            f" or the pipe's end) before the rear half was through (rear through turn:"
-            f" {why.split(' (')[0]}); the survey cannot pass a bend this close after a bend,"
-            f" so the line after {bend} is left to a survey by hand"
-        )
 
     def _on_the_way(self, obs: Observation, side: str, start: float, d: float) -> Step | None:
         """A second insertion met a tee: straight on, or into the branch on the way."""

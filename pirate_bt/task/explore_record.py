@@ -1,6 +1,7 @@
 """What the ``explore`` navigator found, and the network file it writes: the part of
 :class:`~pirate_bt.task.explore.ExploreNavigator` that keeps the record (split out of
-:mod:`pirate_bt.task.explore`, the driving). Its attributes are set by the navigator.
+:mod:`pirate_bt.task.explore`, the driving), and the words of a stop at a feature it
+found. Its attributes are set by the navigator.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from typing import Any
 
 from pirate_bt.behaviours.drive import DIAMETER_CHANGE_M
 from pirate_bt.task.explore_extend import Extension
+from pirate_bt.task.explore_frame import write_in_frame
 from pirate_bt.task.explore_parts import (
     PendingTee,
     SurveyIncomplete,
@@ -21,7 +23,10 @@ from pirate_bt.task.explore_parts import (
 )
 from pirate_bt.task.navigation import Observation
 
-__all__ = ["SLOPE_WRITTEN_DEG", "SurveyRecord"]
+__all__ = ["EXTEND", "SLOPE_WRITTEN_DEG", "SurveyRecord"]
+
+EXTEND = "a second insertion (extend=, pirate-bt survey --extend) surveys it"
+"""What leaves a stub to a further insertion, as the notes say it."""
 
 SLOPE_WRITTEN_DEG = 0.25
 """A straight's slope is written when it differs from what the line carries by more."""
@@ -51,6 +56,8 @@ class SurveyRecord:
     _slope_deg: float
     _pending: list[PendingTee]
     _target: PendingTee | None
+    _crossing: PendingTee | None
+    _bend: tuple[dict[str, Any], float | None, float | None] | None
     _extension: Extension | None
     _way: list[int] | None
 
@@ -169,3 +176,43 @@ class SurveyRecord:
         if invalid is not None:
             self.invalid = invalid
         return written
+
+    def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
+        """Stopped going straight on through a tee just found, the released front half
+        blocked past the opening: the line ends there (a cap, or a turn right after the
+        tee, not tried), the branch is left to a further insertion. The why, or ``None``."""
+        tee, self._crossing = self._crossing, None
+        front = f"{failing_node}".endswith("/front across")  # the released front half
+        if tee is None or not front or not why.startswith("blocked"):
+            return None
+        self._pending.remove(tee)
+        self._in_line = False  # surveyed to where it ends, at the tee
+        self.ends.append(f"{self._line_name} {self._after()}, blocked just past it, no turn tried")
+        self.unexplored.append(f"{tee}: not entered, the robot stopped at the tee, {EXTEND}")
+        return (
+            f"the way straight on through {tee.segment['id']} is blocked just past it"
+            f" (front across: {why.split(' (')[0]}), and the robot stopped there: {tee}"
+            f" is not entered, {EXTEND}"
+        )
+
+    def ended_in_bend(self, failing_node: str | None, why: str, front_m: float) -> str | None:
+        """Stopped passing a bend just found: its front half through, the front tip (at
+        ``front_m``) was blocked before the rear half was through, by a second bend (or the
+        pipe's end) closer after it than the bend PAB passes. The why, or ``None``."""
+        rear = f"{failing_node}".endswith("/rear through turn")
+        if self._bend is None or self._from_m is None or not rear or not why.startswith("blocked"):
+            return None
+        bend = str(self._bend[0]["id"])
+        write_in_frame(self.segments, self._diameter_m, bend, self._bend[0])
+        self._bend, self._in_line = None, False  # surveyed to the bend, not beyond
+        where = f"{max(front_m - self._from_m, 0.0):.2f} m after {bend}"
+        self.unexplored.append(
+            f"{self._line_name} after {bend}: not surveyed past {where}, where the front"
+            f" half was blocked as the rear half turned through {bend}: left to a survey by hand"
+        )
+        return (
+            f"the robot stopped in {bend}: its front half was blocked {where} (a second bend,"
+            f" or the pipe's end) before the rear half was through (rear through turn:"
+            f" {why.split(' (')[0]}); the survey cannot pass a bend this close after a bend,"
+            f" so the line after {bend} is left to a survey by hand"
+        )
