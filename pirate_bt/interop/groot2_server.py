@@ -7,7 +7,10 @@ default, on 127.0.0.1) and PUB on PORT + 1, speaking protocol 2 of BT.CPP 4.10
 (:mod:`pirate_bt.interop.groot2_protocol`). In Groot2, "Connect" to the host
 with those two ports: it loads the tree (with its subtrees, see
 :mod:`pirate_bt.interop.groot2_tree`), polls the statuses, reads the
-blackboards, records transitions, and sets breakpoints.
+blackboards, records transitions, and sets breakpoints. The two TCP ports are a
+relay process's (:mod:`pirate_bt.interop.groot2_relay`), which passes requests,
+replies and notices to this process's sockets over Unix sockets: a client's
+connections cost the run's process nothing.
 
 **Off the tick path.** The server has its own thread. The tick thread only
 copies the nodes whose status changed into a 3-byte-per-node buffer, from the
@@ -49,19 +52,25 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import errno
+import json
 import logging
 import math
-import socket
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import py_trees
 
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, kind_of, shown
 from pirate_bt.errors import ConfigurationError as ConfigurationError
+from pirate_bt.interop import groot2_relay
 from pirate_bt.interop.groot2_hooks import _replace as _replace
 from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
 from pirate_bt.interop.groot2_option import DEFAULT_HOST, parse_groot2_address
@@ -122,6 +131,13 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+_RELAY = Path(groot2_relay.__file__).resolve()
+RELAYED_REPLIES = 64
+"""Replies this process holds for the relay (every client's; it reads them at once)."""
+RELAY_START_S = 30.0
+"""The longest wait for the relay process to listen (a loaded machine's start-up)."""
+RELAY_STOP_S = 5.0
+
 
 class Groot2Server(_Requests):
     """Groot2's live view of a running tree (see the module docstring).
@@ -152,28 +168,27 @@ class Groot2Server(_Requests):
         # the reply to the next request for good after a message with no envelope from a
         # peer that had gone by the time it was read (its ROUTER's rollback left the
         # reply's routing half-done); Groot2's REQ then waited for ever.
+        # Both are bound to Unix sockets in a folder of the user's; the TCP ports Groot2
+        # connects to are the relay process's (groot2_relay): a client's connections
+        # cost this process no file descriptor and no buffer.
         self._rep = self._context.socket(zmq.ROUTER)
         self._pub = self._context.socket(zmq.PUB)
         for sock in (self._rep, self._pub):
             sock.setsockopt(zmq.LINGER, 0)
             sock.setsockopt(zmq.SNDTIMEO, 1000)
-            if ":" in host:  # ZeroMQ binds an IPv6 address only with this set
-                sock.setsockopt(zmq.IPV6, 1)
         self._rep.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
-        self._rep.setsockopt(zmq.SNDHWM, REPLIES_QUEUED)
-        # requests read ahead for a client (ZeroMQ's default, 1,000 of up to 1 MiB each,
-        # let one client that sent faster than they were answered make the run's process
-        # hold 1 GB); a client sending more waits, as TCP makes it
+        # every client's replies go through the relay: one pipe, which it reads at once
+        self._rep.setsockopt(zmq.SNDHWM, RELAYED_REPLIES)
+        # requests read ahead (ZeroMQ's default, 1,000 of up to 1 MiB each, let a client
+        # that sent faster than they were answered make the run's process hold 1 GB); the
+        # relay holds the rest in the clients' own pipes, as TCP makes them wait
         self._rep.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
-        # A subscriber's subscriptions wait in its pipe until a notice is published (rare):
-        # unbounded, a subscriber sending 1 MB ones as fast as it could grew the run's
-        # process by 15 MB a second (1,000 of any size read ahead); Groot2's is one byte.
-        self._pub.setsockopt(zmq.MAXMSGSIZE, MAX_SUBSCRIPTION_BYTES)
-        self._pub.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
+        self._relay: subprocess.Popen[bytes] | None = None
+        self._folder = tempfile.mkdtemp(prefix="pirate-groot2-")  # 0700: the user's
         try:
             self.port = self._bind(host, port)
         except BaseException:
-            self._context.destroy(linger=0)
+            self._end_relay()
             raise
         self._cond = threading.Condition()
         self._run: _Run | None = None
@@ -208,33 +223,63 @@ class Groot2Server(_Requests):
     # -- sockets
 
     def _bind(self, host: str, port: int) -> int:
+        """Bind the sockets to the folder's Unix sockets, start the relay on ``host``
+        and ``port`` and return the port it listens on."""
         zmq = self._zmq
+        rep, pub = (f"ipc://{os.path.join(self._folder, name)}" for name in ("rep", "pub"))
+        try:
+            self._rep.bind(rep)
+            self._pub.bind(pub)
+        except zmq.ZMQError as exc:  # a temporary folder's name too long for a Unix socket
+            raise ConfigurationError(
+                f"--groot2: cannot make the server's sockets in {self._folder}: {exc}"
+            ) from None
+        config = {
+            "host": host,
+            "port": port,
+            "rep": rep,
+            "pub": pub,
+            "sys_path": list(sys.path),
+            "max_request_bytes": MAX_REQUEST_BYTES,
+            "max_subscription_bytes": MAX_SUBSCRIPTION_BYTES,
+            "replies_queued": REPLIES_QUEUED,
+            "requests_queued": REQUESTS_QUEUED,
+        }
+        try:
+            self._relay = subprocess.Popen(
+                [sys.executable, "-I", str(_RELAY), json.dumps(config)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                start_new_session=True,  # a signal to the run's process group spares it
+            )
+        except OSError as exc:
+            raise ConfigurationError(f"--groot2: cannot start the relay process: {exc}") from None
         where = f"[{host}]" if ":" in host else host
-        if port == 0:
-            for _ in range(64):
-                try:
-                    first = self._rep.bind_to_random_port(f"tcp://{where}", 20000, 60000)
-                except zmq.ZMQError as exc:
-                    raise _cannot_listen(where, host, exc) from None
-                try:
-                    self._pub.bind(f"tcp://{where}:{first + 1}")
-                    return int(first)
-                except zmq.ZMQError:
-                    self._rep.unbind(f"tcp://{where}:{first}")
-            raise InputError(f"--groot2 {where}: found no two free neighbouring ports")
-        if not 0 < port < 65535:
-            raise InputError(f"--groot2 {where}:{port}: the port must be from 1 to 65534")
-        for sock, number in ((self._rep, port), (self._pub, port + 1)):
+        said = groot2_relay.first_line(self._relay.stdout, RELAY_START_S)
+        if said is None:
+            raise InputError(
+                f"--groot2 {where}:{port}: cannot start the server: no answer in"
+                f" {RELAY_START_S:g} s"
+            )
+        if "error" in said:
+            raise InputError(str(said["error"]))
+        return int(said["port"])
+
+    def _end_relay(self) -> None:
+        """Close the sockets, end the relay process and remove the folder."""
+        self._context.destroy(linger=0)
+        relay, self._relay = self._relay, None
+        if relay is not None:
+            with contextlib.suppress(OSError):
+                assert relay.stdin is not None and relay.stdout is not None
+                relay.stdin.close()  # it ends when its standard input closes
+                relay.stdout.close()
             try:
-                sock.bind(f"tcp://{where}:{number}")
-            except zmq.ZMQError as exc:
-                if exc.errno == errno.EADDRINUSE:
-                    raise InputError(
-                        f"--groot2 {where}:{port}: port {number} is taken (another server, or"
-                        " another run with --groot2?); pick another with --groot2 HOST:PORT"
-                    ) from None
-                raise _cannot_listen(f"{where}:{port}", host, exc) from None
-        return port
+                relay.wait(RELAY_STOP_S)
+            except subprocess.TimeoutExpired:
+                relay.kill()
+                relay.wait()
+        shutil.rmtree(self._folder, ignore_errors=True)
 
     @property
     def address(self) -> str:
@@ -422,7 +467,7 @@ class Groot2Server(_Requests):
             self._remove_all_locked()
         self._stop.set()
         self._thread.join(timeout=2.0)
-        self._context.destroy(linger=0)
+        self._end_relay()
 
     def __enter__(self) -> Groot2Server:
         return self
@@ -452,20 +497,6 @@ def _check_args(host: object, port: object, heartbeat_s: object) -> None:
             f"Groot2Server: heartbeat_s: give a positive, finite number of seconds (the"
             f" silence after which every hook is removed), not {shown(heartbeat_s)}"
         )
-
-
-def _cannot_listen(given: str, host: str, exc: Any) -> InputError:
-    """The one line for a bind ZeroMQ refused. A host name that does not resolve is
-    ZeroMQ's ENODEV, which said *No such device* (with the random port it tried, for
-    port 0) until 2026-11-30: it is named an unknown host, as ``--foxglove`` names one."""
-    if exc.errno == errno.ENODEV:  # neither an address, a name nor an interface of ours
-        try:
-            socket.getaddrinfo(host, None)
-        except (OSError, UnicodeError) as lookup:
-            return InputError(f"--groot2 {given}: unknown host: {lookup}")
-    from zmq import strerror  # the reason alone (pyzmq's text adds the address tried)
-
-    return InputError(f"--groot2 {given}: cannot listen: {strerror(exc.errno)}")
 
 
 def _envelope(parts: Sequence[bytes]) -> list[bytes] | None:

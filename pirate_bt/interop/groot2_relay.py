@@ -1,0 +1,214 @@
+"""The Groot2 server's TCP ports, in a process of their own: Groot2's clients never
+reach the run's process.
+
+:class:`~pirate_bt.interop.groot2_server.Groot2Server` answers requests in the run's
+process, on two ZeroMQ sockets bound to Unix sockets in a folder only its user can
+enter. This process (``groot2_relay.py CONFIG``, started by the server) listens on
+the TCP ports Groot2 connects to (a ROUTER on PORT, a PUB on PORT + 1) and relays:
+
+- each client's requests to the server, and each reply back to its client (the
+  ROUTER's routing parts travel with them, so the server answers each client as REP
+  would); a client's requests are read only while the server's pipe has room, so one
+  that sends without waiting makes no other client wait (ZeroMQ reads the clients in
+  turn), and holds at most a few requests here;
+- the server's breakpoint notices to every subscriber.
+
+Every connection a client opens is this process's: a client opening thousands of
+connections (each a file descriptor and ZeroMQ's buffers) costs the run's process
+nothing. Until 2026-11-30 the server listened in the run's process, and 266
+connections that sent nothing made a run under ``ulimit -n 200`` fail at once:
+*straight.yaml: cannot read: Too many open files*, exit 2.
+
+It tells the server on its standard output, one JSON line: ``{"port": N}`` once it
+listens, or ``{"error": "..."}`` (the one line to show) if it cannot. It ends when
+its standard input closes (the server closed, or the run's process ended). Only the
+standard library and ``pyzmq``: it imports nothing else of pirate_bt.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import signal
+import socket
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["first_line", "main"]
+
+NICE = 5
+"""The relay yields the CPU to the run (Groot2 polls ten times a second)."""
+
+
+class Refused(Exception):
+    """A port the relay cannot listen on: the one line to show."""
+
+
+def main(argv: Sequence[str]) -> int:
+    """The relay: ``groot2_relay.py CONFIG`` (JSON: host, port, rep, pub, sys_path and
+    the sockets' limits)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's Ctrl-C is for the run
+    config = json.loads(argv[1])
+    with contextlib.suppress(OSError):
+        os.nice(NICE)
+    if config.get("sys_path"):
+        sys.path[:] = config["sys_path"]  # find pyzmq where the run's process found it
+    import zmq
+
+    context = zmq.Context()
+    try:
+        front, notices = _listen(zmq, context, config)
+    except Refused as exc:
+        _tell({"error": str(exc)})
+        context.destroy(linger=0)
+        return 1
+    server = context.socket(zmq.DEALER)
+    server.setsockopt(zmq.LINGER, 0)
+    server.setsockopt(zmq.SNDHWM, int(config["requests_queued"]))
+    server.connect(config["rep"])
+    heard = context.socket(zmq.SUB)
+    heard.setsockopt(zmq.LINGER, 0)
+    heard.setsockopt(zmq.SUBSCRIBE, b"")
+    heard.connect(config["pub"])
+    _tell({"port": front.getsockopt(zmq.LAST_ENDPOINT).decode().rsplit(":", 1)[1]})
+    try:
+        _relay(zmq, front, notices, server, heard)
+    finally:
+        context.destroy(linger=0)
+    return 0
+
+
+def first_line(stdout: Any, within_s: float) -> dict[str, Any] | None:
+    """The relay's first line (JSON) read off its standard output (in the server's
+    process), or ``None`` if none came within ``within_s``."""
+    import select
+    import time
+
+    fd = stdout.fileno()
+    deadline = time.monotonic() + within_s
+    line = b""
+    while not line.endswith(b"\n"):
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            return None
+        chunk = os.read(fd, 4096)
+        if not chunk:  # it ended without a word (its error went to the terminal)
+            return {"error": "--groot2: the relay process ended at its start"}
+        line += chunk
+    said = json.loads(line)
+    return said if isinstance(said, dict) else None
+
+
+def _tell(message: dict[str, Any]) -> None:
+    os.write(1, (json.dumps(message) + "\n").encode())
+
+
+def _listen(zmq: Any, context: Any, config: dict[str, Any]) -> tuple[Any, Any]:
+    """The ROUTER and the PUB, bound to the ports Groot2 connects to."""
+    front = context.socket(zmq.ROUTER)
+    notices = context.socket(zmq.PUB)
+    host = str(config["host"])
+    for sock in (front, notices):
+        sock.setsockopt(zmq.LINGER, 0)
+        sock.setsockopt(zmq.SNDTIMEO, 1000)
+        if ":" in host:  # ZeroMQ binds an IPv6 address only with this set
+            sock.setsockopt(zmq.IPV6, 1)
+    front.setsockopt(zmq.MAXMSGSIZE, int(config["max_request_bytes"]))
+    front.setsockopt(zmq.SNDHWM, int(config["replies_queued"]))
+    front.setsockopt(zmq.RCVHWM, int(config["requests_queued"]))
+    # A subscriber's subscriptions wait in its pipe until a notice is published (rare).
+    notices.setsockopt(zmq.MAXMSGSIZE, int(config["max_subscription_bytes"]))
+    notices.setsockopt(zmq.RCVHWM, int(config["requests_queued"]))
+    _bind(zmq, front, notices, host, int(config["port"]))
+    return front, notices
+
+
+def _bind(zmq: Any, front: Any, notices: Any, host: str, port: int) -> None:
+    where = f"[{host}]" if ":" in host else host
+    if port == 0:
+        for _ in range(64):
+            try:
+                first = front.bind_to_random_port(f"tcp://{where}", 20000, 60000)
+            except zmq.ZMQError as exc:
+                raise _cannot_listen(where, host, exc) from None
+            try:
+                notices.bind(f"tcp://{where}:{first + 1}")
+                return
+            except zmq.ZMQError:
+                front.unbind(f"tcp://{where}:{first}")
+        raise Refused(f"--groot2 {where}: found no two free neighbouring ports")
+    if not 0 < port < 65535:
+        raise Refused(f"--groot2 {where}:{port}: the port must be from 1 to 65534")
+    for sock, number in ((front, port), (notices, port + 1)):
+        try:
+            sock.bind(f"tcp://{where}:{number}")
+        except zmq.ZMQError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise Refused(
+                    f"--groot2 {where}:{port}: port {number} is taken (another server, or"
+                    " another run with --groot2?); pick another with --groot2 HOST:PORT"
+                ) from None
+            raise _cannot_listen(f"{where}:{port}", host, exc) from None
+
+
+def _cannot_listen(given: str, host: str, exc: Any) -> Refused:
+    """The one line for a bind ZeroMQ refused. A host name that does not resolve is
+    ZeroMQ's ENODEV, which said *No such device* (with the random port it tried, for
+    port 0) until 2026-11-30: it is named an unknown host, as ``--foxglove`` names one."""
+    if exc.errno == errno.ENODEV:  # neither an address, a name nor an interface of ours
+        try:
+            socket.getaddrinfo(host, None)
+        except (OSError, UnicodeError) as lookup:
+            return Refused(f"--groot2 {given}: unknown host: {lookup}")
+    from zmq import strerror  # the reason alone (pyzmq's text adds the address tried)
+
+    return Refused(f"--groot2 {given}: cannot listen: {strerror(exc.errno)}")
+
+
+def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any) -> None:
+    poller = zmq.Poller()
+    poller.register(server, zmq.POLLIN)
+    poller.register(heard, zmq.POLLIN)
+    poller.register(0, zmq.POLLIN)  # the server's end of the pipe: closed, the relay ends
+    reading = False  # whether the clients are read (only while the server has room)
+    while True:
+        room = bool(server.getsockopt(zmq.EVENTS) & zmq.POLLOUT)
+        if room != reading:
+            if room:
+                poller.register(front, zmq.POLLIN)
+                poller.unregister(server)
+                poller.register(server, zmq.POLLIN)
+            else:
+                poller.unregister(front)
+                poller.register(server, zmq.POLLIN | zmq.POLLOUT)
+            reading = room
+        ready = dict(poller.poll(1000))
+        if 0 in ready and not os.read(0, 4096):
+            return
+        if ready.get(server, 0) & zmq.POLLIN:
+            with contextlib.suppress(zmq.Again):
+                while True:
+                    reply = server.recv_multipart(zmq.NOBLOCK)
+                    # a client gone, or one that does not read: dropped, as before
+                    with contextlib.suppress(zmq.ZMQError):
+                        front.send_multipart(reply, zmq.NOBLOCK)
+        if ready.get(heard, 0) & zmq.POLLIN:
+            with contextlib.suppress(zmq.Again):
+                while True:
+                    notice = heard.recv_multipart(zmq.NOBLOCK)
+                    with contextlib.suppress(zmq.ZMQError):  # a courtesy, as before
+                        notices.send_multipart(notice, zmq.NOBLOCK)
+        if reading and ready.get(front, 0) & zmq.POLLIN:
+            with contextlib.suppress(zmq.Again):
+                while server.getsockopt(zmq.EVENTS) & zmq.POLLOUT:
+                    request = front.recv_multipart(zmq.NOBLOCK)
+                    server.send_multipart(request, zmq.NOBLOCK)
+
+
+if __name__ == "__main__":
+    status = main(sys.argv)
+    sys.stderr.flush()
+    os._exit(status)

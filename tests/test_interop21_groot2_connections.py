@@ -1,0 +1,84 @@
+"""Groot2's live port against a client opening many connections: they cost the run's
+process no file descriptor (the ports are a relay process's), so the run goes on."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+zmq = pytest.importorskip("zmq")
+pytest.importorskip("msgpack")
+
+from pirate_bt.interop import groot2_protocol as proto  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CONNECTIONS = 300
+
+# A run's process with room for 256 files (the server started first: its relay keeps the
+# test's limit), serving Groot2 on port 0; it runs a tree once the test says "go".
+_RUN = """
+import resource, sys
+import pirate_bt
+from pirate_bt.interop.groot2_server import Groot2Server
+
+server = Groot2Server(port=0)
+hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+resource.setrlimit(resource.RLIMIT_NOFILE, (256, hard))
+print(server.port, flush=True)
+sys.stdin.readline()
+try:
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "0.02m"}, max_time="60 s", groot2=server
+    )
+    print(result.status, flush=True)
+except Exception as exc:
+    print(f"{type(exc).__name__}: {exc}", flush=True)
+finally:
+    server.close()
+"""
+
+
+def test_many_connections_to_groot2_s_port_cost_the_run_no_file(tmp_path: Path) -> None:
+    run = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(_RUN)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    context = zmq.Context()
+    try:
+        assert run.stdout is not None and run.stdin is not None
+        port = int(run.stdout.readline())
+        poller = zmq.Poller()
+        clients = []  # every connection held open until the run has ended
+        for n in range(CONNECTIONS):
+            client = context.socket(zmq.REQ)
+            clients.append(client)
+            client.setsockopt(zmq.LINGER, 0)
+            client.connect(f"tcp://127.0.0.1:{port}")
+            client.send(proto.pack_request(ord("S"), n))
+            poller.register(client, zmq.POLLIN)
+        answered = 0
+        deadline = time.monotonic() + 30  # a generous limit: answered in well under 1 s
+        while answered < CONNECTIONS and time.monotonic() < deadline:
+            for client, _ in poller.poll(500):
+                client.recv_multipart()  # "no tree is running yet": any reply will do
+                poller.unregister(client)
+                answered += 1
+        run.stdin.write("go\n")
+        run.stdin.flush()
+        said, _ = run.communicate(timeout=120)
+        # before: 244 answered, then the run said "OSError: [Errno 24] Too many open
+        # files: '.../pirate_bt/api/__init__.py'" (the server's connections were the run's)
+        assert (answered, said.strip(), run.returncode) == (CONNECTIONS, "success", 0)
+    finally:
+        context.destroy(linger=0)
+        if run.poll() is None:
+            run.kill()
+            run.wait(60)
