@@ -4,6 +4,7 @@ column and keys), a Dask cluster with no workers."""
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -91,30 +92,53 @@ class RaisesAsMade:
         return None
 
 
+class ExitsAsMade:
+    """A plug-in navigator whose making ends the process."""
+
+    def __init__(self, speed: str = "1") -> None:
+        sys.exit(0)
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never made
+        return None
+
+
+@pytest.mark.parametrize(
+    ("made", "said"),
+    [
+        # was 'pirate-bt: internal error: RuntimeError: no speed 2 (rerun with --debug)'
+        (RaisesAsMade, "RuntimeError as it was made: no speed 2 (at "),
+        # 'validate' and 'campaign' ended with exit 0, nothing said and nothing run
+        (ExitsAsMade, "SystemExit as it was made: 0 (at "),
+    ],
+    ids=["raises", "exits"],
+)
 def test_a_navigator_whose_making_raises_is_placed_at_the_run(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    made: type,
+    said: str,
 ) -> None:
     from importlib.metadata import EntryPoint
 
     from pirate_bt.task import navigators as registry
 
     plugin = EntryPoint(
-        name="raises-as-made", value=f"{__name__}:RaisesAsMade", group=registry.ENTRY_POINT_GROUP
+        name="rogue", value=f"{__name__}:{made.__name__}", group=registry.ENTRY_POINT_GROUP
     )
     monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
     spec = tmp_path / "nav.campaign.yaml"
-    run = "  - {name: r, navigator: raises-as-made, network: lab, params: {speed: '2'}}"
+    run = "  - {name: r, navigator: rogue, network: lab, params: {speed: '2'}}"
     spec.write_text(f"name: rogue\nruns:\n{run}\n")
-    # was 'pirate-bt: internal error: RuntimeError: no speed 2 (rerun with --debug)', exit 1
-    assert main(["validate", str(spec)]) == 2
-    err = capsys.readouterr().err
-    column = run.index("params") + 1
-    assert err.startswith(
-        f"{spec}:3:{column}: run 'r': navigator 'raises-as-made' raised RuntimeError as it was"
-        " made: no speed 2 (at "
-    )
-    assert len(err.splitlines()) == 1
-    assert __file__.removesuffix("c") in err  # the place it was raised
+    out = tmp_path / "out"
+    for argv in (["validate", str(spec)], ["campaign", str(spec), "--output", str(out), "-q"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.removeprefix("pirate-bt: ")
+        column = run.index("params") + 1
+        assert err.startswith(f"{spec}:3:{column}: run 'r': navigator 'rogue' raised {said}")
+        assert len(err.splitlines()) == 1
+        assert __file__.removesuffix("c") in err  # the place it was raised
+    assert not out.exists()
 
 
 def test_a_navigator_parameter_a_run_lacks_is_asked_for_under_params(

@@ -123,7 +123,8 @@ def check_navigator(
         )
         where = "navigator" if named or not params else "params"
         raise placed(InputError(_in_spec_words(text)), where) from None
-    except Exception as exc:  # its maker's own error (a plug-in's bug): was 'internal error'
+    except (Exception, SystemExit) as exc:  # its maker's own (a plug-in's bug): was 'internal
+        # error', and a sys.exit(0) ended 'campaign' and 'validate' with exit 0 and no word
         where = "params" if params else "navigator"
         raise placed(_made_raised(case["navigator"], exc), where) from exc
     if callable(getattr(navigator, "check_map", None)):  # as navigate() will
@@ -167,7 +168,7 @@ def _in_spec_words(text: str) -> str:
     return _PARAM_OPTION.sub(lambda m: f"(params: {{{m.group(1)}: ...}};", text)
 
 
-def _made_raised(name: str, exc: Exception) -> InputError:
+def _made_raised(name: str, exc: BaseException) -> InputError:
     """A navigator whose making raised (not a refusal :func:`load_navigator` words: a
     ``RuntimeError`` of its ``__init__``), named with the place it was raised."""
     from pirate_bt.errors import said_of
