@@ -9,9 +9,15 @@ from __future__ import annotations
 import re
 
 import pytest
+from cleanroom_peer import HELLO_REPLY, STATE, PeerBridge, frame, hello_reply_payload
 from session_wire import CODEC, Wire, reply, state
+from test_link21_sessions import LAYOUT as PAGE_LAYOUT
+from test_link21_sessions import _stopped
 
-from pirate_bt.errors import LinkLost
+from pirate_bt.errors import LinkLost, ProtocolMismatch
+from pirate_bt.link.codec import BridgeFlags, Hello
+
+LAYOUT = CODEC.layout
 
 
 @pytest.mark.parametrize("same_read", [True, False], ids=["with-a-good-frame", "alone"])
@@ -38,3 +44,99 @@ def test_a_bridge_silent_mid_frame_is_named_by_the_bytes_it_sent(same_read: bool
         r"no good frame from the bridge for 0\.5\d\d s: 20 bytes that made no frame",
         str(caught.value),
     ), str(caught.value)
+
+
+# -- a reply to a request never made: a HELLO_REPLY of another boot ------------------------
+
+
+def _in_session() -> Wire:
+    wire = Wire(hello=reply(sessions=1))
+    wire.answer(state(1))
+    wire.poll(0.01)
+    return wire
+
+
+def test_an_unasked_hello_reply_of_another_boot_is_a_bridge_reset() -> None:
+    """The bridge was reset and took a HELLO the host did not send: its boot id says so.
+    It was only counted, and the new boot's STATEs (numbered from 1) were refused as out
+    of sequence until the run ended on *link_silent*."""
+    wire = _in_session()
+    wire.answer(reply(seq=5, sessions=1, boot_id=8, flags=BridgeFlags.ESTOP))
+    wire.poll(0.01)
+    hellos = [m for m in wire.sent() if isinstance(m, Hello)]
+    assert len(hellos) == 1  # a session of the host's own
+    assert wire.session.stats().bridge_resets == 1
+    wire.answer(reply(seq=hellos[0].seq, sessions=2, boot_id=8, flags=BridgeFlags.ESTOP))
+    wire.answer(state(2, flags=BridgeFlags.ESTOP))  # the new boot's second STATE
+    wire.poll(0.01)
+    stats = wire.session.stats()
+    assert (stats.bridge_resets, stats.sessions, stats.estopped) == (1, 2, True)
+    assert wire.session.latest_state() is not None
+    assert wire.session.latest_state()[0].seq == 2  # taken, not refused as older than 1
+
+
+def test_a_stale_hello_reply_of_another_boot_is_not_counted_as_a_reset(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A reply of the boot before (a relay's buffer): the host's own new session shows the
+    boot unchanged, and the reset is taken back, as for a stale NO_SESSION frame."""
+    wire = _in_session()
+    wire.answer(reply(seq=5, sessions=3, boot_id=6))
+    wire.poll(0.01)
+    (hello,) = [m for m in wire.sent() if isinstance(m, Hello)]
+    wire.answer(reply(seq=hello.seq, sessions=2, boot_id=7))
+    wire.poll(0.01)
+    assert wire.session.stats().bridge_resets == 0
+    assert (
+        "a stale HELLO_REPLY of boot id 6, not 7, that the host did not ask for (reordered"
+        " link?) started a new session; the bridge was not reset (boot id 7 unchanged)"
+    ) in caplog.text
+
+
+def test_the_reply_to_a_new_session_with_other_channel_counts_is_refused() -> None:
+    """The digest alone was checked in the middle of a connection; the connect checks the
+    channel and motor counts too."""
+    wire = _in_session()
+    wire.answer(state(2, flags=BridgeFlags.NO_SESSION))
+    wire.poll(0.01)
+    (hello,) = [m for m in wire.sent() if isinstance(m, Hello)]
+    wire.answer(reply(seq=hello.seq, sessions=1, boot_id=8, n_channels=LAYOUT.n_channels + 1))
+    with pytest.raises(ProtocolMismatch) as caught:
+        wire.poll(0.01)
+    assert str(caught.value) == "the bridge answered a new session with another layout"
+
+
+@pytest.mark.xdist_group("real-time")
+def test_a_run_whose_bridge_resets_and_answers_another_s_hello_ends_in_one_line() -> None:
+    """The page's bridge on TCP resets after 0.3 s, takes a HELLO the host did not send
+    and numbers its STATEs from 1 again: exit 3, *it reset in the middle of the session*,
+    one line, the robot stopped (before: *link_silent: ... 10 out of sequence*)."""
+    import pirate_bt
+
+    reset_at: list[int] = []
+
+    def hostile(n: int, peer: PeerBridge) -> bytes | None:
+        if not reset_at:
+            if n <= 30 or not peer.session or peer.estopped:
+                return None
+            reset_at.append(n)
+            peer.reset()  # latched, a new boot id, no session
+            peer.session, peer.sessions = True, 1  # and someone else's HELLO taken
+            unasked = frame(
+                HELLO_REPLY, 5, hello_reply_payload(PAGE_LAYOUT, boot_id=peer.boot_id), peer.flags()
+            )
+        else:
+            unasked = b""
+        seq = n - reset_at[0] + 1
+        payload = PAGE_LAYOUT.state_payload(ack_seq=peer.ack_seq, values=peer.values)
+        return unasked + frame(STATE, seq, payload, peer.flags())
+
+    peer = PeerBridge(PAGE_LAYOUT, state=hostile)
+    try:
+        result = pirate_bt.run_tree("straight", port=peer.url, params={"distance": "0.1 m"})
+        assert result.exit_code == 3, result.why
+        assert "it reset in the middle of the session" in result.why, result.why
+        assert "\n" not in result.why, result.why
+        assert peer.wait_for(_stopped), [(f.kind, f.seq) for f in peer.received]
+    finally:
+        peer.close()

@@ -92,6 +92,8 @@ class HelloMixin:
     _accept_any_state: bool
     # the boot id when a NO_SESSION frame started a new session, until its reply
     _reset_boot_id: int | None = None
+    # the frame that showed that reset, for the log when it was a stale one
+    _reset_seen: str = "NO_SESSION frame"
     # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
     _stale_reset_run: int = 0
     # the seq of the HELLO that started the session
@@ -132,7 +134,11 @@ class HelloMixin:
         layout = self.codec.layout
         assert isinstance(hello.msg, Hello)  # a new session's request is always a HELLO
         asked = hello.msg.minor
-        if item.layout_digest != layout.digest:
+        if (
+            item.layout_digest != layout.digest
+            or item.n_channels != layout.n_channels
+            or item.n_motors != layout.n_motors
+        ):  # the counts too, as the connect checks them (until 2026-11-30 not here)
             self._refused_session(hello, "the bridge answered a new session with another layout")
             return
         if item.minor != asked:
@@ -172,8 +178,9 @@ class HelloMixin:
                 )
                 return
             _log.warning(
-                "a stale NO_SESSION frame (reordered link?) started a new session;"
+                "a stale %s (reordered link?) started a new session;"
                 " the bridge was not reset (boot id %d unchanged)",
+                self._reset_seen,
                 item.boot_id,
             )
         self.last_hello_reply = item
@@ -200,11 +207,27 @@ class HelloMixin:
         or a late retry of the host's own): the bridge applied its stop category and moved
         its duplicate filter back to that old seq, so old frames would be applied again.
         A session of the host's own puts the filter ahead of them. One that counts no
-        session at all says the bridge holds none: the host's session is lost."""
+        session at all says the bridge holds none: the host's session is lost. One of
+        another boot says the bridge was reset and took a ``HELLO`` since (not the
+        host's): a bridge reset, as a ``NO_SESSION`` frame shows one (until 2026-11-30 it
+        was only counted, and the new boot's ``STATE`` frames, numbered from 1 again,
+        were refused as out of sequence until the run ended on *link_silent*)."""
         if item.sessions < 1:
             self._session_lost(item)
             return
         previous = self.last_hello_reply
+        if (
+            self._hello is None
+            and previous is not None
+            and item.boot_id != previous.boot_id
+            and item.layout_digest == self.codec.layout.digest
+        ):
+            self._bridge_reset(
+                now,
+                f"HELLO_REPLY of boot id {item.boot_id}, not {previous.boot_id}, that the"
+                " host did not ask for",
+            )
+            return
         if (
             self._hello is not None
             or previous is None
@@ -222,13 +245,17 @@ class HelloMixin:
         )
         self._start_session(now, "the bridge took a HELLO the host did not send now")
 
-    def _bridge_reset(self, now: float) -> None:
+    def _bridge_reset(self, now: float, seen: str = "") -> None:
+        """A bridge reset, seen in a ``NO_SESSION`` frame or in ``seen`` (a reply of
+        another boot): counted, what was in flight failed, and a new session of the
+        host's own (whose reply's boot id tells a stale frame from a reset)."""
         if self._hello is not None:
             return  # a new session is already on its way
         self.bridge_resets += 1
         previous = self.last_hello_reply
         self._reset_boot_id = None if previous is None else previous.boot_id
-        _log.error("the bridge was reset (NO_SESSION): in-flight requests failed")
+        self._reset_seen = seen or "NO_SESSION frame"
+        _log.error("the bridge was reset (%s): in-flight requests failed", seen or "NO_SESSION")
         self._start_session(now, "the bridge was reset")
 
     def _session_lost(self, item: HelloReply) -> None:
