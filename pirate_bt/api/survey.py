@@ -307,10 +307,12 @@ def survey(
         )
     if not navigation.succeeded and explore.network is None:
         # blocked going straight on through a tee just found: the line ends there
-        ended = explore.ended_at_tee(navigation.failing_node, navigation.why)
-        # blocked passing a bend just found: a second one (or the end) too close after it
+        # (or over a second opening close after it, no half holding)
+        ended = explore.ended_at_tee(navigation.failing_node, navigation.why, navigation.off_wall)
+        # blocked passing a bend just found: a second one (or the end) too close after it,
+        # or a tee's opening there
         ended = ended or explore.ended_in_bend(
-            navigation.failing_node, navigation.why, navigation.belief_m
+            navigation.failing_node, navigation.why, navigation.belief_m, navigation.off_wall
         )
         navigation.why = ended or navigation.why
         last = navigation.decisions[-1] if navigation.decisions else None

@@ -38,6 +38,7 @@ __all__ = [
     "left_by_a_stop",
     "metres",
     "rear_over_opening",
+    "slipped_over",
     "tee_start",
     "unprobed_opening",
     "write_survey",
@@ -225,6 +226,18 @@ def unprobed_opening(off_wall: Any, from_m: float) -> Any:
         if episode.back_m is not None and episode.where_m > from_m + UNPROBED_MARGIN_M:
             return episode
     return None
+
+
+def slipped_over(why: str, openings: Any, from_m: float) -> tuple[Any, str] | None:
+    """The opening past ``from_m`` that a failed step's joint swung off the wall over,
+    when the step failed because no half held the robot there (the drive's slip, its
+    joints named over an opening), with the slip's words (``slipping: no half holds the
+    robot after 0.086 m``); ``None`` for any other failure."""
+    slip = why.find("slipping: no half holds the robot")
+    if slip < 0 or "over an opening" not in why:
+        return None
+    crossed = next((o for o in openings if o.where_m > from_m + UNPROBED_MARGIN_M), None)
+    return None if crossed is None else (crossed, why[slip:].split(" (")[0])
 
 
 def rear_over_opening(tee: PendingTee, before: Passed | None, rear_joint_m: float) -> str | None:

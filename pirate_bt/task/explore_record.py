@@ -18,6 +18,7 @@ from pirate_bt.task.explore_parts import (
     SurveyIncomplete,
     ends_note,
     left_by_a_stop,
+    slipped_over,
     tee_start,
     write_survey,
 )
@@ -177,13 +178,40 @@ class SurveyRecord:
             self.invalid = invalid
         return written
 
-    def ended_at_tee(self, failing_node: str | None, why: str) -> str | None:
-        """Stopped going straight on through a tee just found, the released front half
-        blocked past the opening: the line ends there (a cap, or a turn right after the
-        tee, not tried), the branch is left to a further insertion. The why, or ``None``."""
+    def ended_at_tee(self, failing_node: str | None, why: str, openings: Any = ()) -> str | None:
+        """Stopped going straight on through a tee just found: the released front half
+        blocked past the opening (the line ends there: a cap, or a turn right after the
+        tee, not tried), or the front half over a second opening as the rear half crossed
+        the first, so that no half held (a tee close after it). The branch is left to a
+        further insertion. ``openings``: the failed step's (``OffWall``). The why, or
+        ``None``."""
         tee, self._crossing = self._crossing, None
-        front = f"{failing_node}".endswith("/front across")  # the released front half
-        if tee is None or not front or not why.startswith("blocked"):
+        node = f"{failing_node}"
+        if tee is None or self._from_m is None:
+            return None
+        slipped = slipped_over(why, openings, self._from_m) if "/rear across" in node else None
+        if slipped is not None:
+            crossed, slip = slipped
+            self._pending.remove(tee)
+            self._in_line = False  # surveyed to the tee, not beyond
+            name = tee.segment["id"]
+            where = f"{crossed.where_m - self._from_m:.2f} m after {name}"
+            self.unexplored.append(
+                f"{self._line_name} after {name}: not surveyed past an opening {where},"
+                f" which the front half was over as the rear half crossed {name}'s opening"
+                " (two tees this close are not passed straight on): its tee and the line"
+                " beyond it are left to a survey by hand"
+            )
+            self.unexplored.append(f"{tee}: not entered, the robot stopped at the tee, {EXTEND}")
+            return (
+                f"the robot stopped going straight through {name}: as its rear half crossed"
+                f" {name}'s opening, the front half, which must hold the robot then, was over"
+                f" a second opening {where} (a tee this close after a tee), and no half held"
+                f" ({node.rsplit('/', 1)[-1]}: {slip}); the survey cannot pass two tees this"
+                f" close straight on, so the line after {name} is left to a survey by hand,"
+                f" and {tee} is not entered, {EXTEND}"
+            )
+        if not node.endswith("/front across") or not why.startswith("blocked"):
             return None
         self._pending.remove(tee)
         self._in_line = False  # surveyed to where it ends, at the tee
@@ -195,16 +223,39 @@ class SurveyRecord:
             f" is not entered, {EXTEND}"
         )
 
-    def ended_in_bend(self, failing_node: str | None, why: str, front_m: float) -> str | None:
+    def ended_in_bend(
+        self, failing_node: str | None, why: str, front_m: float, openings: Any = ()
+    ) -> str | None:
         """Stopped passing a bend just found: its front half through, the front tip (at
         ``front_m``) was blocked before the rear half was through, by a second bend (or the
-        pipe's end) closer after it than the bend PAB passes. The why, or ``None``."""
+        pipe's end) closer after it than the bend PAB passes, or the front half, which
+        holds the robot while the rear half turns, crossed a tee's opening there and no
+        half held (``openings``: the failed step's). The why, or ``None``."""
         rear = f"{failing_node}".endswith("/rear through turn")
-        if self._bend is None or self._from_m is None or not rear or not why.startswith("blocked"):
+        if self._bend is None or self._from_m is None or not rear:
+            return None
+        slipped = slipped_over(why, openings, self._from_m)
+        if slipped is None and not why.startswith("blocked"):
             return None
         bend = str(self._bend[0]["id"])
         write_in_frame(self.segments, self._diameter_m, bend, self._bend[0])
         self._bend, self._in_line = None, False  # surveyed to the bend, not beyond
+        if slipped is not None:
+            crossed, slip = slipped
+            where = f"{crossed.where_m - self._from_m:.2f} m after {bend}"
+            self.unexplored.append(
+                f"{self._line_name} after {bend}: not surveyed past an opening {where}, which"
+                f" the front half crossed as the rear half turned through {bend} (a tee this"
+                " close after a bend is not passed): its tee and the line beyond it are left"
+                " to a survey by hand"
+            )
+            return (
+                f"the robot stopped in {bend}: as its rear half turned through {bend}, the"
+                f" front half, which must hold the robot then, crossed an opening {where} (a"
+                f" tee this close after a bend), and no half held (rear through turn: {slip});"
+                f" the survey cannot pass a tee this close after a bend, so the line after"
+                f" {bend} and that tee are left to a survey by hand"
+            )
         where = f"{max(front_m - self._from_m, 0.0):.2f} m after {bend}"
         self.unexplored.append(
             f"{self._line_name} after {bend}: not surveyed past {where}, where the front"

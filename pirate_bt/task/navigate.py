@@ -546,6 +546,7 @@ def run_navigation(
         tally.detach()
         result.belief_m = belief
         result.truth_m = truth_m
+        result.off_wall = ran.openings if ran is not None else ()
         result.sim_time_s = clock.now() - start_s
         result.wall_s = time.perf_counter() - wall_started
         result.safe_state = bool(supervisor.in_safe_state)

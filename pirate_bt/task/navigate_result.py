@@ -13,7 +13,7 @@ from typing import Any
 from pirate_bt.errors import LinkError, portable_error, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
-from pirate_bt.task.navigation import Decision, Step
+from pirate_bt.task.navigation import Decision, OffWall, Step
 from pirate_bt.task.outcome import PabOutcome, counted
 
 __all__ = [
@@ -95,6 +95,10 @@ class NavigationResult:
     notes: list[str] = field(default_factory=list)
     """What was done after the end: a half a failed step left free in a steep pipe
     clamped (:func:`pirate_bt.task.secure.hold_both`)."""
+    off_wall: tuple[OffWall, ...] = ()
+    """With no map: every time a bend joint swung off the wall during the last step
+    run, oldest first (what ``obs.off_wall`` holds after a step; a failed step's too,
+    though no navigator is asked after it): where a step stopped over an opening."""
 
     def __getstate__(self) -> object:
         """Pickled with a stand-in for an ``error`` that cannot be pickled and read back

@@ -1,0 +1,101 @@
+"""Tees a survey cannot pass or probe: the stop names the tee, where it is, and why.
+
+Until the twenty-first session each of these stopped safe in words that named no tee:
+a tee 0.05 m after a bend, or two tees 0.05 m apart, with the drive's slip (*slipping:
+no half holds the robot after 0.086 m ...*); two 51 mm tees 0.3 m apart with the
+supervisor's refusal (*refused unclamp(front): other_half_not_clamped ...*); a tee in
+100 mm pipe as *an opening ... with no branch the robot could steer into*, as if it had
+none. Each is something the robot cannot do (DOMAIN.md: the half over an opening
+cannot clamp, so the other must hold), and the survey now says which tee, where, and
+why, with the line written up to it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+import pirate_bt
+
+
+def _survey(tmp_path: Path, segments: list[dict[str, Any]], diameter_mm: int = 63) -> Any:
+    network = tmp_path / "net.yaml"
+    network.write_text(
+        yaml.safe_dump(
+            {
+                "schema_version": 1,
+                "name": "net",
+                "diameter": f"{diameter_mm} mm",
+                "segments": segments,
+            },
+            sort_keys=False,
+        ),
+        encoding="utf-8",
+    )
+    result = pirate_bt.survey(sim=str(network), output=tmp_path / "surveyed.yaml")
+    assert result.exit_code == 1 and not result.succeeded
+    assert result.navigation.safe_state
+    assert result.navigation.counters.violations == 0
+    assert result.navigation.sim["damage"] == 0
+    assert "\n" not in result.why
+    return result
+
+
+def _tee(name: str, side: str) -> dict[str, Any]:
+    branch = [{"id": f"{name}-b", "type": "straight", "length": "0.6 m"}]
+    return {"id": name, "type": "tee", "branch": {"direction": side, "segments": branch}}
+
+
+def _straight(name: str, length: str) -> dict[str, Any]:
+    return {"id": name, "type": "straight", "length": length}
+
+
+def _written(tmp_path: Path) -> list[dict[str, Any]]:
+    data = yaml.safe_load((tmp_path / "surveyed.yaml").read_text(encoding="utf-8"))
+    segments: list[dict[str, Any]] = data["segments"]
+    return segments
+
+
+def test_a_tee_just_after_a_bend_is_named_where_the_robot_stopped(tmp_path: Path) -> None:
+    result = _survey(
+        tmp_path,
+        [
+            _straight("before", "1.2 m"),
+            {"id": "b", "type": "bend", "direction": "right"},
+            _straight("mid", "0.05 m"),
+            _tee("t", "left"),
+            _straight("after", "0.8 m"),
+        ],
+    )
+    why = result.why
+    # before: 'slipping: no half holds the robot after 0.086 m (front bend_1 off ...'
+    assert why.startswith("the robot stopped in bend-1: as its rear half turned through bend-1,")
+    assert (
+        "crossed an opening 0.1" in why and "m after bend-1 (a tee this close after a bend)" in why
+    )
+    assert "(rear through turn: slipping: no half holds the robot after" in why
+    assert "the survey cannot pass a tee this close after a bend" in why
+    assert any("not surveyed past an opening 0.1" in u for u in result.unexplored)
+    assert [s["type"] for s in _written(tmp_path)] == ["straight", "bend"]
+
+
+def test_two_tees_0_05_m_apart_are_named_where_the_robot_stopped(tmp_path: Path) -> None:
+    result = _survey(
+        tmp_path,
+        [
+            _straight("before", "1.2 m"),
+            _tee("t1", "left"),
+            _straight("mid", "0.05 m"),
+            _tee("t2", "right"),
+            _straight("after", "0.8 m"),
+        ],
+    )
+    why = result.why
+    # before: 'no feature (opening_passed) before slipping: no half holds the robot ...'
+    assert why.startswith("the robot stopped going straight through tee-1: as its rear half")
+    assert "a second opening 0.1" in why and "m after tee-1 (a tee this close after a tee)" in why
+    assert "tee-1's branch (left, 63 mm) is not entered, a second insertion" in why
+    assert any("tee-1's branch (left, 63 mm): not entered" in u for u in result.unexplored)
+    assert [s["type"] for s in _written(tmp_path)] == ["straight", "tee"]
