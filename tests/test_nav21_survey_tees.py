@@ -99,3 +99,28 @@ def test_two_tees_0_05_m_apart_are_named_where_the_robot_stopped(tmp_path: Path)
     assert "tee-1's branch (left, 63 mm) is not entered, a second insertion" in why
     assert any("tee-1's branch (left, 63 mm): not entered" in u for u in result.unexplored)
     assert [s["type"] for s in _written(tmp_path)] == ["straight", "tee"]
+
+
+def test_a_51_mm_tee_0_3_m_after_a_tee_is_not_probed_and_named(tmp_path: Path) -> None:
+    result = _survey(
+        tmp_path,
+        [
+            _straight("before", "1.2 m"),
+            _tee("t1", "left"),
+            _straight("mid", "0.3 m"),
+            _tee("t2", "right"),
+            _straight("after", "0.8 m"),
+        ],
+        diameter_mm=51,
+    )
+    why = result.why
+    # before: 'refused unclamp(front): other_half_not_clamped: ...'
+    assert "refused" not in why and "other_half_not_clamped" not in why
+    assert "the robot stopped over the opening of a tee 0.3" in why
+    assert "probe-tee would hold the robot there by its rear half alone" in why
+    assert "over tee-1's opening" in why
+    assert any("tee-1's branch (left, 51 mm): not entered" in u for u in result.unexplored)
+    segments = _written(tmp_path)
+    assert [s["type"] for s in segments] == ["straight", "tee", "straight"]
+    run_2 = float(segments[2]["length"].split()[0]) / 1000
+    assert abs(run_2 - 0.3) < 0.02  # the line written up to the second tee

@@ -66,6 +66,7 @@ from pirate_bt.task.explore_parts import (
     CONE_PASS_M,
     MARGIN_M,
     OPENING_STOP,
+    PROBE_BEFORE_M,
     SETTLED_M,
     Passed,
     PendingTee,
@@ -78,7 +79,7 @@ from pirate_bt.task.explore_parts import (
     tee_start,
     unprobed_opening,
 )
-from pirate_bt.task.explore_record import SurveyRecord
+from pirate_bt.task.explore_record import EXTEND, SurveyRecord
 from pirate_bt.task.navigation import Felt, Observation, Step
 
 __all__ = ["OPENING_STOP", "ExploreNavigator", "SurveyIncomplete", "branch_leavable"]
@@ -205,7 +206,7 @@ class ExploreNavigator(SurveyRecord):
         if pab == "straight" and felt is not None and felt.kind == "feature":
             if felt.how == "opening":
                 self._opening_m = felt.at_m
-                return Step("probe-tee")
+                return self._rear_over_tee(obs) or Step("probe-tee")
             if felt.how == "slope":
                 self._slope_changed(obs, felt.at_m - obs.imu_behind_m)
                 return self._search(obs)
@@ -350,6 +351,47 @@ class ExploreNavigator(SurveyRecord):
         self._trail.append(Passed("t-joint-back", "straight", self._from_m))
         self._crossing = self._pending[-1]
         return Step("t-joint", direction="straight")
+
+    def _rear_over_tee(self, obs: Observation) -> Step | None:
+        """Over an opening just after a tee passed straight on: where ``probe-tee`` would
+        hold the robot by its rear half alone, its last joint would be over that tee's
+        opening, with no wall to clamp (the probe was refused, *other_half_not_clamped*).
+        The survey stops there, named, with the line written up to the opening; ``None``
+        when the rear half is clear of it.
+
+        Raises:
+            SurveyIncomplete: the rear half would be over the opening.
+        """
+        before = self._trail[-1] if self._trail else None
+        if before is None or (before.pab, before.way) != ("t-joint-back", "straight"):
+            return None
+        if self._opening_m is None or self._from_m is None or not obs.rear_joint_behind_m:
+            return None
+        diameter = obs.diameter_m or self._diameter_m or 0.063
+        start = tee_start(self._opening_m, diameter)
+        rear = start + 1.5 * diameter - PROBE_BEFORE_M - obs.rear_joint_behind_m
+        if rear >= before.end_m - diameter + 0.01:  # past that opening's far edge
+            return None
+        self._close_straight(obs, max(start, self._from_m))
+        self._in_line = False  # surveyed to the opening, not beyond
+        tee = self._line[-2]["id"] if len(self._line) > 1 else "the tee"  # [tee, straight]
+        where = f"the opening of a tee {max(start - before.end_m, 0.0):.2f} m after {tee}"
+        self.unexplored.append(
+            f"{self._line_name} {self._after()}: not surveyed past {where} (a tee this close"
+            " after a tee is not probed): its tee and the line beyond it are left to a"
+            " survey by hand"
+        )
+        self.unexplored.extend(
+            f"{t}: not entered, the robot stopped over the opening after {tee}, {EXTEND}"
+            for t in reversed(self._pending)
+        )
+        self._pending.clear()
+        raise self._incomplete(
+            f"the robot stopped over {where}: probe-tee would hold the robot there by its"
+            f" rear half alone, with the half's last joint over {tee}'s opening and no wall"
+            " to clamp, so the tee is not probed (a tee this close after a tee); the line"
+            f" is surveyed up to it, and the rest is named in the file"
+        )
 
     def _unprobed(self, obs: Observation, crossed: Any) -> Step | None:
         """A step carried a joint across an opening it did not stop at: the line is

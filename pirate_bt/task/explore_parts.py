@@ -26,6 +26,7 @@ __all__ = [
     "ENDS_UNSURE",
     "MARGIN_M",
     "OPENING_STOP",
+    "PROBE_BEFORE_M",
     "SETTLED_M",
     "Passed",
     "PendingTee",
@@ -66,6 +67,11 @@ OPENING_STOP = (0.177, 0.55)
 front tip ``a + b x diameter`` past the tee's start (the bundled robot at its
 nominal speed, measured in 51 to 80 mm tees within 3 mm; the first front joint
 swings off the wall over the opening's near edge, a little late)."""
+
+PROBE_BEFORE_M = 0.08
+"""Where ``probe-tee`` holds the robot to probe: the front tip up to this far before the
+middle of the opening (52 to 62 mm in 51 to 63 mm tees, 77 mm on a link with delay),
+the rear half alone holding."""
 
 BACK_OUT_REACH_M = 0.1075
 """How far behind the front half's trailing end the rear half's first bend module

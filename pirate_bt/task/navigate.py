@@ -329,6 +329,7 @@ def run_navigation(
                 robot_length_m=robot_length,
                 imu_behind_m=behind[robot.rotational_module().name],
                 joint_behind_m=min(behind[m.name] for m in robot.bend_modules(Half.FRONT)),
+                rear_joint_behind_m=max(behind[m.name] for m in robot.bend_modules(Half.REAR)),
                 off_wall=ran.openings if ran is not None else (),
                 **_sensed(robot, supervisor.state()),
             )

@@ -146,6 +146,9 @@ class Observation:
             front tip: where a ``slope`` change was felt.
         joint_behind_m: How far the front half's first bend module (its middle) is
             behind the front tip: where an opening or a ``diameter`` change was felt.
+        rear_joint_behind_m: How far the rear half's last bend module (its middle) is
+            behind the front tip: the last joint to leave an opening the robot passes
+            (0 when not told).
         yaw_rad: The pipe's heading at the rotational module, from the IMU (the
             world's frame: only its change means anything without a map, e.g. across
             a bend left or right; ``None`` without a reading).
@@ -171,6 +174,7 @@ class Observation:
     joint_behind_m: float = 0.0
     yaw_rad: float | None = None
     off_wall: tuple[OffWall, ...] = ()
+    rear_joint_behind_m: float = 0.0
 
     def next_feature(self) -> Ahead | None:
         """The next bend or T-joint ahead on the map, along the way taken so far.
