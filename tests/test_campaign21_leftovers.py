@@ -152,3 +152,32 @@ def test_a_navigator_parameter_a_run_lacks_is_asked_for_under_params(
         f"{spec}:3:15: run 'g': navigator 'goal' needs the parameter 'segment'"
         " (params: {segment: ...}; it takes: segment)\n"
     )
+
+
+@pytest.mark.parametrize(
+    ("run", "extra", "named"),
+    [
+        ("{tree: straight, network: bad.yaml, params: {distance: 0.2 m}}", "", "runs[0].network"),
+        ("{route: straight}", "maps: [null, bad.yaml]\n", "maps[1]"),
+        ("{tree: straight, params: {distance: 0.2 m}}", "robots: [null, bad.yaml]\n", "robots[1]"),
+        ("{route: bad.route}", "", "runs[0].route"),
+    ],
+    ids=["network", "maps", "robots", "route"],
+)
+def test_a_named_file_that_does_not_parse_is_told_with_the_spec_entry_naming_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], run: str, extra: str, named: str
+) -> None:
+    (tmp_path / "bad.yaml").write_text("segments: [\n")  # no network, no robot: no YAML
+    (tmp_path / "bad.route").write_text("forward 1 m\nsideways 2 m\n")
+    spec = tmp_path / "s.campaign.yaml"
+    text = f"name: h\nruns:\n  - {run}\n{extra}"
+    spec.write_text(text)
+    assert main(["validate", str(spec)]) == 2
+    err = capsys.readouterr().err
+    # the file's own place first, as before; which entry of the spec named it was not said
+    assert err.startswith(str(tmp_path / ("bad.route" if "route" in named else "bad.yaml")))
+    line = 3 if named.startswith("runs") else 4  # a run's key, an axis's entry
+    at = named.split(".")[-1] if named.startswith("runs") else "bad.yaml"
+    column = text.splitlines()[line - 1].index(at) + 1
+    assert err.endswith(f" (named by {named} at {spec}:{line}:{column})\n")
+    assert len(err.splitlines()) == 1

@@ -229,6 +229,38 @@ def _robot_index(spec: CampaignSpec, folder: Path, case: Case) -> int | None:
     return next((i for i, r in enumerate(spec.robots) if resolve_name(r, folder) == robot), None)
 
 
+def _entry(
+    spec: CampaignSpec | None, base: Path | None, case: Case, kind: str
+) -> tuple[str | int, ...] | None:
+    """The key path of the spec's entry that names the case's ``kind`` of file (its
+    run's ``network`` or ``route``, its ``robots`` or ``maps`` entry), or None."""
+    if spec is None:
+        return None
+    if kind in ("network", "route"):
+        index = run_index(spec, case)
+        return None if index is None else ("runs", index, kind)
+    folder = base if base is not None else source_of(spec).base
+    axis, name = ("robots", spec.robots) if kind == "robot" else ("maps", spec.maps)
+    given = case.get(kind)
+    found = next((i for i, e in enumerate(name) if resolve_name(e, folder) == given), None)
+    return None if found is None else (axis, found)
+
+
+def _named_at(
+    exc: ValidationFailed, spec: CampaignSpec | None, entry: tuple[str | int, ...] | None
+) -> ValidationFailed:
+    """A named file's problems, each at its place in that file, with the spec's entry
+    that names it: a network that did not parse was told at its own line alone, and
+    which run, robot or truth of the spec had named it was left to guess."""
+    if spec is None or entry is None:
+        return exc
+    where = source_of(spec).where(entry)
+    said = f"runs[{entry[1]}].{entry[2]}" if entry[0] == "runs" else f"{entry[0]}[{entry[1]}]"
+    return ValidationFailed(
+        LocatedError(f"{e.message} (named by {said} at {where})", e.location) for e in exc.errors
+    )
+
+
 def _joined(errors: Sequence[InputError]) -> InputError:
     """Several problems as one error, one line each (a ``ValidationFailed`` if all are located)."""
     if len(errors) == 1:
@@ -419,7 +451,10 @@ def _check_route(
     from pirate_bt.treefile.loader import load_tree
 
     route_file = find("scenarios", case["route"], ".route")
-    validate_file(route_file, "route")
+    try:
+        validate_file(route_file, "route")
+    except ValidationFailed as exc:
+        raise _named_at(exc, spec, _entry(spec, base, case, "route")) from None
     run = str(case.get("run"))
     robot = robots(case.get("robot"))
     problem = _route_problem(case, route_file)
@@ -468,7 +503,7 @@ def check_runs(
 
     Raises:
         ValidationFailed: a tree, route, network (or truth map) or robot file does
-            not validate.
+            not validate (a route, network, map or robot: with the spec's entry).
         InputError: a route that does not fit its run's network; a navigator that
             cannot be made.
         ConfigurationError: a named file (tree, route, network, map, robot) is
@@ -498,7 +533,10 @@ def check_runs(
                 if path is not None and what is not None and (what, path) not in valid:
                     # as each case will load it: a bad network or robot file is the
                     # campaign's input error, not an error row of every case
-                    validate_file(path, what)
+                    try:
+                        validate_file(path, what)
+                    except ValidationFailed as exc:
+                        raise _named_at(exc, spec, _entry(spec, base, case, kind)) from None
                     valid.add((what, path))
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
