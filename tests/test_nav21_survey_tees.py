@@ -124,3 +124,17 @@ def test_a_51_mm_tee_0_3_m_after_a_tee_is_not_probed_and_named(tmp_path: Path) -
     assert [s["type"] for s in segments] == ["straight", "tee", "straight"]
     run_2 = float(segments[2]["length"].split()[0]) / 1000
     assert abs(run_2 - 0.3) < 0.02  # the line written up to the second tee
+
+
+def test_a_tee_in_100_mm_pipe_is_not_said_to_have_no_branch(tmp_path: Path) -> None:
+    result = _survey(
+        tmp_path,
+        [_straight("before", "1.2 m"), _tee("t1", "left"), _straight("after", "0.8 m")],
+        diameter_mm=100,
+    )
+    why = result.why
+    # before: 'an opening at 1.22 m with no branch the robot could steer into'
+    assert "no branch the robot could steer into" not in why
+    assert "in 100 mm pipe, where probe-tee felt no branch turn on any side" in why
+    assert "in pipe over 85 mm it cannot" in why
+    assert [s["type"] for s in _written(tmp_path)] == ["straight"]

@@ -67,6 +67,7 @@ from pirate_bt.task.explore_parts import (
     MARGIN_M,
     OPENING_STOP,
     PROBE_BEFORE_M,
+    PROBE_WIDEST_M,
     SETTLED_M,
     Passed,
     PendingTee,
@@ -330,6 +331,18 @@ class ExploreNavigator(SurveyRecord):
         start = tee_start(self._opening_m, diameter)
         if felt is None or felt.kind != "tee" or felt.direction is None:
             self._close_straight(obs, start)  # surveyed up to the opening, not beyond
+            if diameter > PROBE_WIDEST_M:  # a branch it cannot feel: on to the others
+                self._in_line = False
+                self.unexplored.append(
+                    f"{self._line_name} {self._after()}: not surveyed past an opening at"
+                    f" {self._opening_m:.2f} m in {diameter * 1000:.0f} mm pipe, where"
+                    " probe-tee felt no branch turn on any side, and in pipe over"
+                    f" {PROBE_WIDEST_M * 1000:.0f} mm it cannot: the IMU would have to turn"
+                    " into the branch before bend III, which holds the robot while the"
+                    " front half is free, reached the opening; its tee and the line beyond"
+                    " it are left to a survey by hand"
+                )
+                return self._line_done(obs)
             raise self._incomplete(
                 f"an opening at {self._opening_m:.2f} m with no branch the robot could steer"
                 " into (probe-tee found none)"

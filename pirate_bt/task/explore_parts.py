@@ -27,6 +27,7 @@ __all__ = [
     "MARGIN_M",
     "OPENING_STOP",
     "PROBE_BEFORE_M",
+    "PROBE_WIDEST_M",
     "SETTLED_M",
     "Passed",
     "PendingTee",
@@ -72,6 +73,13 @@ PROBE_BEFORE_M = 0.08
 """Where ``probe-tee`` holds the robot to probe: the front tip up to this far before the
 middle of the opening (52 to 62 mm in 51 to 63 mm tees, 77 mm on a link with delay),
 the rear half alone holding."""
+
+PROBE_WIDEST_M = 0.085
+"""``probe-tee`` feels a branch's turn in tees up to about this diameter (the bundled
+robot, a branch's radius one diameter: 80 mm found, 90 and 100 mm not). The IMU, on
+the rotational module, must turn 8 degrees into the branch while bend III, 70 mm behind
+it, still holds the wall short of the opening (the front half hangs free); the turn
+starts in the middle of the opening, and in a wider tee that is too far on."""
 
 BACK_OUT_REACH_M = 0.1075
 """How far behind the front half's trailing end the rear half's first bend module
