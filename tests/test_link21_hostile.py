@@ -10,12 +10,23 @@ import re
 
 import pytest
 from cleanroom_peer import HELLO_REPLY, STATE, PeerBridge, frame, hello_reply_payload
-from session_wire import CODEC, Wire, reply, state
+from session_wire import CODEC, ROBOT, Peer, Wire, reply, state
 from test_link21_sessions import LAYOUT as PAGE_LAYOUT
 from test_link21_sessions import _stopped
 
-from pirate_bt.errors import LinkLost, ProtocolMismatch
-from pirate_bt.link.codec import BridgeFlags, Hello
+from pirate_bt.errors import LinkError, LinkLost, ProtocolMismatch
+from pirate_bt.link.codec import (
+    Ack,
+    AckStatus,
+    BridgeFlags,
+    BulkSetpoints,
+    Heartbeat,
+    Hello,
+    Message,
+    MsgType,
+)
+from pirate_bt.link.robot_link import RobotLink
+from pirate_bt.robot import ControlMode, MotorCommand
 
 LAYOUT = CODEC.layout
 
@@ -140,3 +151,38 @@ def test_a_run_whose_bridge_resets_and_answers_another_s_hello_ends_in_one_line(
         assert peer.wait_for(_stopped), [(f.kind, f.seq) for f in peer.received]
     finally:
         peer.close()
+
+
+# -- replies with the wrong sequence number ------------------------------------------------
+
+
+def _answering_with_another_seq(msg: Message) -> list[Message]:
+    """A bridge that acknowledges every bulk with the seq after its own, and heartbeats
+    as it should (so the link stays heard)."""
+    if isinstance(msg, Heartbeat):
+        return [Ack(msg.seq, MsgType.HEARTBEAT, AckStatus.APPLIED)]
+    if isinstance(msg, BulkSetpoints):
+        return [Ack((msg.seq + 1) & 0xFFFF, MsgType.BULK_SETPOINTS, AckStatus.APPLIED)]
+    return []
+
+
+def test_a_request_answered_with_another_seq_fails_naming_those_answers() -> None:
+    """The bridge answered each try with another seq: the request fails after its tries,
+    and the failure says the bridge answered, not *though the bridge's STATE frames still
+    arrive (does it hear the host?)*: it hears the host."""
+    peer = Peer(_answering_with_another_seq)
+    link = RobotLink(ROBOT, peer.session())
+    drive = [MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.01)]
+    link.send(drive)
+    for i in range(40):
+        peer.far.write(CODEC.encode(state(100 + i)))  # STATEs go on arriving
+        peer.clock.advance(0.01)
+        link.poll()
+    with pytest.raises(LinkError) as caught:
+        link.send(drive)
+    assert str(caught.value) == (
+        "1 earlier request(s) failed; last: BulkSetpoints seq 2 not acknowledged after 3"
+        " tries, though the bridge sent 3 answers meanwhile that matched no request in"
+        " flight (another seq or type than asked: does it follow the protocol?)"
+    )
+    link.close()

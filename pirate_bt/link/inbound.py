@@ -76,6 +76,9 @@ believed while no ``STATE`` without it came between: on a line that reorders (a 
 link with jitter) they were sent before the release and delivered after its ``ACK``. The
 next one is believed (a latch the bridge took again at once, 30 ms late: its own latch
 holds meanwhile, and it refuses setpoints ``ESTOP_LATCHED``)."""
+UNMATCHED_KEPT = 64
+"""Answers that matched no request in flight whose arrival the session keeps
+(:meth:`InboundMixin.answers_unmatched_since`)."""
 STATES_KEPT = 64
 """STATE frames taken that the session keeps, newest last (:meth:`InboundMixin.states_taken`):
 a reader of the state folds those it has not seen, so that a reading fresh in one of them
@@ -100,6 +103,8 @@ class InboundMixin(HelloMixin):
     unexpected: int
     _last_heard_s: float
     _noise: LineNoise
+    # the arrival of the last answers (ACK, NACK) that matched no request in flight
+    _unmatched: collections.deque[float]
     _decoder: FrameDecoder
     _oob: dict[tuple[int, int], Request]
     _ordered: Request | None
@@ -156,6 +161,13 @@ class InboundMixin(HelloMixin):
         reason (:data:`STATE_REFUSALS`): a bad CRC, another length, not newer than the
         one held, another protocol version."""
         return self._refused
+
+    def answers_unmatched_since(self, since_s: float) -> int:
+        """``ACK`` and ``NACK`` frames that matched no request in flight (a late answer to
+        a request retried or given up, or one with another seq or type than any asked),
+        arrived at or after the clock time ``since_s`` (the last
+        :data:`UNMATCHED_KEPT`)."""
+        return sum(1 for at_s in tuple(self._unmatched) if at_s >= since_s)
 
     def line_noise(self) -> str:
         """What came from the bridge since its last good frame that made no good frame
@@ -330,6 +342,7 @@ class InboundMixin(HelloMixin):
         req = self._oob.pop((kind, item.seq), None)
         if req is None:
             self.duplicates += 1  # a late answer to a retried or given-up request
+            self._unmatched.append(now)  # or one with another seq or type than asked
             return
         if isinstance(item, Nack):
             req.nack = item.error

@@ -346,20 +346,34 @@ class RobotLink:
                 why = "answered STALE (not applied)"
             else:
                 why = "not acknowledged"
-            hint = "" if last.nack or last.outcome is Outcome.STALE else self._one_way_hint()
+            hint = (
+                ""
+                if last.nack or last.outcome is Outcome.STALE
+                else self._one_way_hint(last.first_sent_s)
+            )
             raise LinkError(
                 f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
                 f"seq {last.seq} {why} after {last.tries} tries{hint}"
             )
 
-    def _one_way_hint(self) -> str:
-        """Why a request went unanswered, when the bridge's own frames tell: its watchdog
-        tripped (it heard nothing from the host), or its STATEs still arrive (the line from
-        the bridge works; the one toward it may not). ``""`` when they tell nothing."""
+    def _one_way_hint(self, since_s: float | None = None) -> str:
+        """Why a request first sent at ``since_s`` went unanswered, when the bridge's own
+        frames tell: its watchdog tripped (it heard nothing from the host), it answered
+        meanwhile with answers that matched no request (it hears the host, but answers
+        with another seq or type: before 2026-11-30 such a bridge was asked *does it hear
+        the host?*), or its STATEs still arrive (the line from the bridge works; the one
+        toward it may not). ``""`` when they tell nothing."""
         if self.session.stats().watchdog:
             return (
                 ": the bridge reports its watchdog tripped (it hears nothing from the host:"
                 " the line toward the bridge is down?)"
+            )
+        unmatched = 0 if since_s is None else self.session.answers_unmatched_since(since_s)
+        if unmatched:
+            return (
+                f", though the bridge sent {unmatched} answer{'s' * (unmatched != 1)} meanwhile"
+                " that matched no request in flight (another seq or type than asked: does it"
+                " follow the protocol?)"
             )
         latest = self.session.latest_state()
         if (
@@ -546,8 +560,8 @@ class RobotLink:
             )
         else:
             after = (
-                f"{self._one_way_hint()}: the robot may still be moving until its bridge's"
-                " watchdog stops it"
+                f"{self._one_way_hint(None if bulk is None else bulk.first_sent_s)}: the"
+                " robot may still be moving until its bridge's watchdog stops it"
             )
         self.close_error = LinkError(f"the closing stop was {stop}, {estop}{after}")
         _log.error("%s", self.close_error)

@@ -65,7 +65,7 @@ from pirate_bt.link.codec import (
     Setpoint,
     State,
 )
-from pirate_bt.link.inbound import InboundMixin
+from pirate_bt.link.inbound import UNMATCHED_KEPT, InboundMixin
 from pirate_bt.link.liveness import LivenessMixin
 from pirate_bt.link.noise import LineNoise
 from pirate_bt.link.reader import ReaderMixin
@@ -149,6 +149,7 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
         self._last_sent_s = now
         self._last_heard_s = now  # the handshake reply was heard just now
         self._noise = LineNoise()  # what came since then that made no good frame
+        self._unmatched: collections.deque[float] = collections.deque(maxlen=UNMATCHED_KEPT)
         self._state: State | None = None
         self._faulted: tuple[int, ...] = ()  # positions of the latest STATE's boards in FAULT
         self._accept_any_state = True  # the first STATE after a HELLO_REPLY, whatever its seq
