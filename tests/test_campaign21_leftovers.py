@@ -181,3 +181,15 @@ def test_a_named_file_that_does_not_parse_is_told_with_the_spec_entry_naming_it(
     column = text.splitlines()[line - 1].index(at) + 1
     assert err.endswith(f" (named by {named} at {spec}:{line}:{column})\n")
     assert len(err.splitlines()) == 1
+
+
+def test_a_named_file_of_a_spec_given_as_data_is_told_with_its_entry(tmp_path: Path) -> None:
+    from pirate_bt import run_campaign
+    from pirate_bt.errors import ValidationFailed
+
+    (tmp_path / "bad.yaml").write_text("segments: [\n")
+    run = {"tree": "straight", "network": "bad.yaml", "params": {"distance": "0.2 m"}}
+    with pytest.raises(ValidationFailed) as refused:
+        run_campaign({"name": "h", "runs": [run]}, base=tmp_path)
+    # data has no lines: the entry once, not 'runs[0].network at campaign spec: runs[0]...'
+    assert str(refused.value).endswith(" (named by campaign spec: runs[0].network)")

@@ -254,10 +254,12 @@ def _named_at(
     which run, robot or truth of the spec had named it was left to guess."""
     if spec is None or entry is None:
         return exc
-    where = source_of(spec).where(entry)
+    source = source_of(spec)
     said = f"runs[{entry[1]}].{entry[2]}" if entry[0] == "runs" else f"{entry[0]}[{entry[1]}]"
+    # data has no lines: "campaign 'h': maps[1]" names the entry already
+    by = f"{said} at {source.where(entry)}" if source.locator is not None else source.where(entry)
     return ValidationFailed(
-        LocatedError(f"{e.message} (named by {said} at {where})", e.location) for e in exc.errors
+        LocatedError(f"{e.message} (named by {by})", e.location) for e in exc.errors
     )
 
 
