@@ -47,3 +47,14 @@ def test_a_sim_seed_without_noise_is_refused(capsys: pytest.CaptureFixture[str])
     )
     assert main(["sim", "--tcp", "0", "--duration", "0.1", "--seed", "3", "--noise"]) == 0
     assert capsys.readouterr().out.startswith("socket://127.0.0.1:")
+
+
+def test_a_teleop_seed_is_refused_it_seeds_nothing(capsys: pytest.CaptureFixture[str]) -> None:
+    # taken, exit 0, and the session was the same whatever the seed
+    assert main(["teleop", "--keys", "q", "--seed", "3"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == (
+        "pirate-bt: --seed: the teleop's simulator has no sensor noise and no faults, nothing"
+        " in it is random; leave --seed out\n"
+    )

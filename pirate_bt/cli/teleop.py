@@ -8,7 +8,7 @@ attached (``--tree``), a condensed verdict log, the steps a supervised tree is
 waiting on, and the keys (see :data:`pirate_bt.cli.console.app.KEY_HELP`).
 
 Without ``--port`` the session drives the built-in simulator (``--sim NETWORK``,
-default the straight pipe; ``--seed N``), paced to the terminal. ``--keys`` plays a
+default the straight pipe), paced to the terminal. ``--keys`` plays a
 string of keys, one per tick, without a terminal (for scripts), and prints one
 line per verdict that was not a plain pass.
 """
@@ -275,7 +275,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " (the default, in the straight pipe)",
     )
     where.add_argument("--port", metavar="URL", help="a real robot: serial device or URL")
-    parser.add_argument("--seed", type=int, default=0, help="simulator random seed (default 0)")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help=argparse.SUPPRESS,  # kept to say why it is refused: nothing to seed
+    )
     parser.add_argument("--robot", metavar="FILE", help="robot description (default: bundled)")
     parser.add_argument(
         "--rate",
@@ -412,7 +417,14 @@ def run(args: argparse.Namespace) -> int:
 
     rate_hz = _rate(args.rate)
     check_rate(rate_hz, None, "--rate")  # the API's limits: above 0 (nan too), 1000 Hz
-    seed_value(args.seed, "--seed")  # the API's check, named as typed (it said "seed:")
+    if args.seed is not None:
+        seed_value(args.seed, "--seed")  # the API's check, named as typed (it said "seed:")
+        # it seeded nothing (no noise, no link faults in the teleop; a port has no
+        # simulator) and was taken without a word, whatever it was
+        raise InputError(
+            "--seed: the teleop's simulator has no sensor noise and no faults, nothing"
+            " in it is random; leave --seed out"
+        )
     robot = load_robot(args.robot)
     period_s = 1.0 / rate_hz
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
@@ -471,7 +483,7 @@ def _run_session(
         connection = connect(
             target,
             robot=robot,
-            seed=args.seed if args.port is None else 0,
+            seed=0,
             mode=mode.value,
         )
     except InputError as exc:  # "network: no network 'x'", the API's parameter
