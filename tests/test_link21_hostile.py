@@ -6,6 +6,8 @@ docs/protocol.md, Bad frames and Timing.
 
 from __future__ import annotations
 
+import math
+import random
 import re
 
 import pytest
@@ -24,6 +26,7 @@ from pirate_bt.link.codec import (
     Hello,
     Message,
     MsgType,
+    State,
 )
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.robot import ControlMode, MotorCommand
@@ -185,4 +188,111 @@ def test_a_request_answered_with_another_seq_fails_naming_those_answers() -> Non
         " tries, though the bridge sent 3 answers meanwhile that matched no request in"
         " flight (another seq or type than asked: does it follow the protocol?)"
     )
+    link.close()
+
+
+# -- bytes no frame should contain: skipped, counted, never taken --------------------------
+
+
+def _frame(kind: int, payload: bytes, seq: int = 7, arg: int = 0) -> bytes:
+    """A frame whose CRC is good, whatever it carries (the clean-room peer's encoder)."""
+    return frame(kind, seq, payload, arg)
+
+
+def _cut_at_every_position() -> bytes:
+    whole = CODEC.encode(state(50))
+    return b"".join(whole[:k] + b"\x00" for k in range(1, len(whole) - 1))
+
+
+_STATE_BYTES = len(CODEC.encode(state(1))) - 9  # the payload: COBS, header, CRC, delimiter off
+_HOSTILE = {
+    "random-bytes": (random.Random(21).randbytes(4000), "crc_errors"),
+    "lying-length": (
+        b"".join(
+            _frame(kind, bytes(n))
+            for kind, n in (
+                (0x81, 13),
+                (0x81, 15),
+                (0x82, _STATE_BYTES - 1),
+                (0x82, _STATE_BYTES + 1),
+                (0x83, 1),
+                (0x83, 3),
+                (0x84, 0),
+                (0x85, 19),
+                (0x85, 21 + 13 * 9),
+                (0x86, 1),
+            )
+        ),
+        "crc_errors",
+    ),
+    "unknown-types": (
+        b"".join(_frame(kind, b"\x01\x02") for kind in (0x00, 0x08, 0x7F, 0x80, 0x87, 0xFF)),
+        "crc_errors",
+    ),
+    "unknown-ack-status-and-nack-code": (
+        _frame(0x83, bytes([0x04, 9])) + _frame(0x84, bytes([0x02, 0])),
+        "crc_errors",
+    ),
+    "sync-flood": (b"\x00" * 5000, None),
+    "cut-at-every-position": (_cut_at_every_position(), "crc_errors"),
+    "answers-to-nothing": (
+        _frame(0x83, bytes([0x02, 0]), seq=900)  # ACK of a SETPOINT never sent
+        + _frame(0x84, bytes([0x03, 7]), seq=901)  # NACK of a bulk never sent
+        + _frame(0x83, bytes([0x04, 0]), seq=902),  # ACK of a heartbeat never sent
+        "duplicates",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(_HOSTILE))
+def test_bytes_no_frame_should_contain_are_skipped_counted_and_never_taken(name: str) -> None:
+    """docs/protocol.md, Bad frames: a receiver drops a bad frame, counts it and carries on
+    at the next delimiter. The host raises nothing, takes nothing of them (its newest STATE
+    stays the last good one), counts them, and takes the next good STATE."""
+    hostile, counter = _HOSTILE[name]
+    wire = _in_session()
+    before = wire.session.stats()
+    wire.far.write(hostile + b"\x00")
+    wire.poll(0.01)
+    latest = wire.session.latest_state()
+    assert latest is not None and latest[0] == state(1)  # nothing of them taken
+    after = wire.session.stats()
+    if counter is None:  # delimiters alone: an empty frame is no frame
+        assert (after.crc_errors, after.duplicates) == (before.crc_errors, before.duplicates)
+    else:
+        assert getattr(after, counter) > getattr(before, counter)
+    assert after.connected
+    wire.answer(state(2))
+    wire.poll(0.01)
+    latest = wire.session.latest_state()
+    assert latest is not None and latest[0] == state(2)  # the next good one is taken
+
+
+@pytest.mark.parametrize("raw", [32767, -32768], ids=["max", "min"])
+def test_a_state_of_extreme_raw_values_is_never_taken_as_a_reading(raw: int) -> None:
+    """Every channel fresh at int16's end (a forged or damaged frame that passed the CRC):
+    a channel whose raw range excludes it keeps its last reading and stamp, the IMU's
+    (int16's whole range) takes it, every value stays finite, and each refusal counts."""
+    wire = _in_session()
+    link = RobotLink(ROBOT, wire.session)
+    fresh = (1 << LAYOUT.n_channels) - 1
+    good = State(2, BridgeFlags.NONE, 0, fresh, (1,) * LAYOUT.n_boards, (0,) * LAYOUT.n_channels)
+    wire.answer(good)
+    wire.poll(0.01)
+    first = link.state()
+    assert first is not None
+    extreme = (raw,) * LAYOUT.n_channels
+    wire.answer(State(3, BridgeFlags.NONE, 0, fresh, (1,) * LAYOUT.n_boards, extreme))
+    wire.poll(0.01)
+    second = link.state()
+    assert second is not None and second is not first
+    lows = {c.name: c.conversion.raw for c in ROBOT.state_channels()}
+    refused = [name for name, (lo, hi) in lows.items() if not lo <= raw <= hi]
+    assert refused and link.readings_refused == len(refused)
+    for name, reading in second.readings.items():
+        assert math.isfinite(reading.value), name
+        if name in refused:
+            assert reading == first.readings[name], name  # the last good one, its stamp
+        else:
+            assert reading.stamp_s > first.readings[name].stamp_s, name
     link.close()
