@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
-from pirate_bt.errors import REASON_LIMIT, cut_reason
+from pirate_bt.errors import REASON_LIMIT, cut_reason, portable_error
 
 __all__ = [
     "REASON_LIMIT",
@@ -111,6 +112,14 @@ class RunResult:
     def succeeded(self) -> bool:
         return self.outcome == "success"
 
+    def __getstate__(self) -> dict[str, Any]:
+        # to another process (a pool's worker, with a RunInterrupted) whatever a
+        # planner's node raised: one that cannot be read back goes as an
+        # UnpicklableError of its type's name and message (as the API's RunResult)
+        state = dict(self.__dict__)
+        state["error"] = portable_error(self.error)
+        return state
+
 
 class RunInterrupted(KeyboardInterrupt):
     """A Ctrl-C that came as the run ended (in a node's ``terminate()``, the tree's
@@ -125,3 +134,8 @@ class RunInterrupted(KeyboardInterrupt):
     def __init__(self, result: RunResult) -> None:
         super().__init__(result.message)
         self.result = result
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # made again from its result, not its message (a process pool's worker sends it
+        # back pickled: read back from the message, it raised AttributeError there)
+        return (type(self), (self.result,), dict(self.__dict__))

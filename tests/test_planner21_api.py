@@ -1,0 +1,84 @@
+"""What a planner script written from the docs met in the twenty-first session: results
+and exceptions that go back from a process pool's worker (docs/api.md: "run them ...
+in parallel in processes ... every result pickles")."""
+
+from __future__ import annotations
+
+import pickle
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+import pirate_bt
+from pirate_bt.errors import UnpicklableError
+from pirate_bt.runner import RunInterrupted
+
+
+class _CtrlCWhenStopped(py_trees.behaviour.Behaviour):
+    """Runs for ever; a Ctrl-C lands in its terminate() as the runner stops it."""
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            raise KeyboardInterrupt
+
+
+class _TwoArgs(Exception):
+    """A planner's exception that pickles but cannot be read back (two arguments)."""
+
+    def __init__(self, what: str, code: int) -> None:
+        super().__init__(f"{what} ({code})")
+
+
+class _RaisesAtTick2(py_trees.behaviour.Behaviour):
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.ticks = 0
+
+    def update(self) -> Status:
+        self.ticks += 1
+        if self.ticks == 2:
+            raise _TwoArgs("sensor gone", 7)
+        return Status.RUNNING
+
+
+def _interrupted(root: py_trees.behaviour.Behaviour) -> RunInterrupted:
+    with pytest.raises(RunInterrupted) as caught:
+        pirate_bt.simulate_tree(root, max_time="1 s")
+    return caught.value
+
+
+def test_a_run_interrupted_goes_back_from_a_process_pool_with_its_result() -> None:
+    # a worker of a ProcessPoolExecutor running simulate_tree gets the terminal's Ctrl-C
+    # too; the RunInterrupted it raises is pickled back to the planner's process, where
+    # reading it back raised AttributeError: 'str' object has no attribute 'message'
+    # (its __init__ takes the result, its args hold the message): BrokenProcessPool
+    sent = _interrupted(
+        py_trees.composites.Sequence("s", memory=True, children=[_CtrlCWhenStopped("watch")])
+    )
+    back = pickle.loads(pickle.dumps(sent))
+    assert isinstance(back, RunInterrupted) and isinstance(back, KeyboardInterrupt)
+    assert back.result.outcome == "failure"
+    assert back.result.message == sent.result.message
+    assert "time limit of 1 s" in back.result.message
+    assert str(back) == str(sent)
+
+
+def test_a_run_interrupted_whose_run_ended_on_a_planner_s_exception_still_goes_back() -> None:
+    # the run's first cause is a planner's exception that cannot be read back: it goes
+    # as an UnpicklableError with its type's name and message, as a RunResult's does
+    root = py_trees.composites.Parallel(
+        "p",
+        policy=py_trees.common.ParallelPolicy.SuccessOnAll(),
+        children=[_CtrlCWhenStopped("watch"), _RaisesAtTick2("sensor")],
+    )
+    sent = _interrupted(root)
+    assert isinstance(sent.result.error, _TwoArgs)  # the caller's own keeps it as raised
+    back = pickle.loads(pickle.dumps(sent))
+    assert isinstance(back.result.error, UnpicklableError)
+    assert "_TwoArgs: sensor gone (7)" in str(back.result.error)
+    assert back.result.failing_node == sent.result.failing_node
+    assert "sensor gone (7)" in back.result.message
