@@ -193,3 +193,28 @@ def test_a_named_file_of_a_spec_given_as_data_is_told_with_its_entry(tmp_path: P
         run_campaign({"name": "h", "runs": [run]}, base=tmp_path)
     # data has no lines: the entry once, not 'runs[0].network at campaign spec: runs[0]...'
     assert str(refused.value).endswith(" (named by campaign spec: runs[0].network)")
+
+
+class _HugeReason:
+    """A navigator whose error says ten megabytes."""
+
+    def next_step(self, obs: object) -> None:
+        raise RuntimeError("x" * 10_000_000)
+
+
+def test_a_case_s_reason_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pirate_bt.campaign import campaign_from_data, expand
+    from pirate_bt.campaign.case import REASON_LIMIT, run_case
+    from pirate_bt.task import navigators
+
+    monkeypatch.setitem(navigators._BUILT_IN, "huge", _HugeReason)
+    spec = campaign_from_data(
+        {"name": "h", "runs": [{"navigator": "huge", "network": "straight"}], "max_time": "60 s"}
+    )
+    (case,) = expand(spec)
+    record = run_case(case)
+    # a 10 MB row, in results.jsonl and results.csv alike, for each such case
+    assert record["outcome"] == "error"
+    assert record["reason"].startswith("navigator 'huge' raised RuntimeError: xxx")
+    assert len(record["reason"]) == REASON_LIMIT and record["reason"].endswith("…")
+    assert len(json.dumps(record)) < 3 * REASON_LIMIT

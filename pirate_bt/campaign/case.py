@@ -41,6 +41,19 @@ __all__ = [
 
 OUTCOMES = ("success", "failed-safe", "error", "timeout")
 
+REASON_LIMIT = 4000
+"""The most characters of a row's ``reason`` (then cut with ``…``): a navigator that
+raised with a 10 MB message wrote a 10 MB row, in ``results.jsonl`` and ``results.csv``
+alike, for every case."""
+
+
+def _bounded(reason: object) -> object:
+    """``reason`` cut to :data:`REASON_LIMIT` characters (its start: the first cause)."""
+    if isinstance(reason, str) and len(reason) > REASON_LIMIT:
+        return f"{reason[: REASON_LIMIT - 1]}…"
+    return reason
+
+
 PRELOAD = (
     "pirate_bt.api.trees",
     "pirate_bt.api.missions",
@@ -108,7 +121,7 @@ def error_record(case: dict[str, Any], outcome: str, reason: str, wall_s: float)
     record = _base(case)
     record.update(
         outcome=outcome,
-        reason=reason,
+        reason=_bounded(reason),
         failing_node=None,
         sim_time_s=None,
         wall_time_s=round(wall_s, 3),
@@ -363,7 +376,11 @@ def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, An
         record = error_record(
             case, "error", f"{type(exc).__name__}: {exc}", time.perf_counter() - started
         )
-        record["traceback"] = traceback.format_exc(limit=-8)
+        from pirate_bt.errors import said_of
+
+        # the frames, then the message bounded as the reason is (format_exc wrote it whole)
+        frames = "".join(traceback.format_tb(exc.__traceback__, limit=-8))
+        record["traceback"] = f"{frames}{type(exc).__name__}: {said_of(exc, REASON_LIMIT)}"
         if no_room(exc) and trace is not None:
             # the disk's doing, not the case's: not a row (it stopped the campaign as an
             # error row no resume ran again), and no half-written trace left behind
@@ -379,6 +396,7 @@ def run_case(case: dict[str, Any], trace_dir: str | None = None) -> dict[str, An
         record["no_room"] = f"{trace}: {no_room(str(body['reason']))}"
         _remove(trace)
         trace = None
+    record["reason"] = _bounded(record.get("reason"))
     record.setdefault("violation_kinds", {})
     record.setdefault("damage_kinds", {})
     record["wall_time_s"] = round(time.perf_counter() - started, 3)
