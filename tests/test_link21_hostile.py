@@ -185,8 +185,30 @@ def test_a_request_answered_with_another_seq_fails_naming_those_answers() -> Non
         link.send(drive)
     assert str(caught.value) == (
         "1 earlier request(s) failed; last: BulkSetpoints seq 2 not acknowledged after 3"
-        " tries, though the bridge sent 3 answers meanwhile that matched no request in"
-        " flight (another seq or type than asked: does it follow the protocol?)"
+        " tries, though the bridge sent 3 answers meanwhile to requests the host never made"
+        " (another seq or type than any asked: does it follow the protocol?)"
+    )
+    link.close()
+
+
+def test_a_late_answer_to_a_request_given_up_is_no_answer_to_one_never_made() -> None:
+    """A slow line: the answer comes after the request was given up. That is no sign of a
+    bridge that answers requests never made, and the failure says what it said."""
+    wire = _in_session()
+    link = RobotLink(ROBOT, wire.session)
+    drive = [MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.01)]
+    link.send(drive)
+    (bulk,) = [m for m in wire.sent() if isinstance(m, BulkSetpoints)]
+    for i in range(30):
+        wire.answer(state(2 + i))  # STATEs that acknowledge nothing
+        wire.poll(0.01)
+    wire.answer(Ack(bulk.seq, MsgType.BULK_SETPOINTS, AckStatus.DUPLICATE))  # too late
+    wire.poll(0.01)
+    with pytest.raises(LinkError) as caught:
+        link.send(drive)
+    assert str(caught.value).endswith(
+        "not acknowledged after 3 tries, though the bridge's STATE frames still arrive (does"
+        " it hear the host?)"
     )
     link.close()
 

@@ -50,6 +50,7 @@ __all__ = [
     "STATES_KEPT",
     "STATE_REFUSALS",
     "InboundMixin",
+    "unasked_text",
 ]
 
 _log = logging.getLogger("pirate_bt.link.session")
@@ -60,6 +61,17 @@ _LATCH_BITS = int(BridgeFlags.ESTOP | BridgeFlags.ESTOP_INPUT)
 _ESTOP = int(BridgeFlags.ESTOP)
 _INPUT_ONLY = int(BridgeFlags.ESTOP_INPUT)
 _NO_REFUSALS = (0, 0, 0, 0)
+_UNTRACKED = frozenset({int(MsgType.HEARTBEAT), int(MsgType.COUNTERS_REQUEST)})
+_ORDERED_TYPES = frozenset(
+    int(t)
+    for t in (
+        MsgType.HELLO,
+        MsgType.SETPOINT,
+        MsgType.BULK_SETPOINTS,
+        MsgType.ESTOP,
+        MsgType.ESTOP_RESET,
+    )
+)
 STATE_REFUSALS = (
     "with a bad CRC",
     "of another length",
@@ -77,8 +89,8 @@ link with jitter) they were sent before the release and delivered after its ``AC
 next one is believed (a latch the bridge took again at once, 30 ms late: its own latch
 holds meanwhile, and it refuses setpoints ``ESTOP_LATCHED``)."""
 UNMATCHED_KEPT = 64
-"""Answers that matched no request in flight whose arrival the session keeps
-(:meth:`InboundMixin.answers_unmatched_since`)."""
+"""Answers to requests the host never made whose arrival the session keeps
+(:meth:`InboundMixin.answers_unasked_since`)."""
 STATES_KEPT = 64
 """STATE frames taken that the session keeps, newest last (:meth:`InboundMixin.states_taken`):
 a reader of the state folds those it has not seen, so that a reading fresh in one of them
@@ -88,6 +100,14 @@ BAD_STATES_BEFORE_MISMATCH = 3
 not the layout's before the session ends on a protocol mismatch. One could be line
 noise that passed the CRC (about 1 in 65 536 damaged frames); three in a row is a
 bridge built for another layout."""
+
+
+def unasked_text(n: int) -> str:
+    """``n`` answers to requests never made, for a failure's words (after *the bridge*)."""
+    return (
+        f"sent {n} answer{'s' * (n != 1)} meanwhile to requests the host never made (another"
+        " seq or type than any asked: does it follow the protocol?)"
+    )
 
 
 class InboundMixin(HelloMixin):
@@ -103,8 +123,9 @@ class InboundMixin(HelloMixin):
     unexpected: int
     _last_heard_s: float
     _noise: LineNoise
-    # the arrival of the last answers (ACK, NACK) that matched no request in flight
+    # the arrival of the last answers (ACK, NACK) to requests the host never made
     _unmatched: collections.deque[float]
+    _next_useq: int
     _decoder: FrameDecoder
     _oob: dict[tuple[int, int], Request]
     _ordered: Request | None
@@ -162,12 +183,22 @@ class InboundMixin(HelloMixin):
         one held, another protocol version."""
         return self._refused
 
-    def answers_unmatched_since(self, since_s: float) -> int:
-        """``ACK`` and ``NACK`` frames that matched no request in flight (a late answer to
-        a request retried or given up, or one with another seq or type than any asked),
-        arrived at or after the clock time ``since_s`` (the last
-        :data:`UNMATCHED_KEPT`)."""
+    def answers_unasked_since(self, since_s: float) -> int:
+        """``ACK`` and ``NACK`` frames that answer a request the host never made (another
+        seq or type than any it sent: not a late answer to one retried or given up),
+        arrived at or after the clock time ``since_s`` (the last :data:`UNMATCHED_KEPT`)."""
         return sum(1 for at_s in tuple(self._unmatched) if at_s >= since_s)
+
+    def _never_asked(self, kind: int, seq: int) -> bool:
+        """Whether no request of type ``kind`` ever had ``seq``: a type the host never
+        sends, or a seq its counter for that type has not reached (0 it never gives)."""
+        if kind in _UNTRACKED:
+            after = self._next_useq
+        elif kind in _ORDERED_TYPES:
+            after = self._next_seq
+        else:
+            return True
+        return seq == 0 or seq_newer(seq, (after - 2) % 0xFFFF + 1)  # newer than the last
 
     def line_noise(self) -> str:
         """What came from the bridge since its last good frame that made no good frame
@@ -342,7 +373,8 @@ class InboundMixin(HelloMixin):
         req = self._oob.pop((kind, item.seq), None)
         if req is None:
             self.duplicates += 1  # a late answer to a retried or given-up request
-            self._unmatched.append(now)  # or one with another seq or type than asked
+            if self._never_asked(kind, item.seq):  # or one with another seq or type
+                self._unmatched.append(now)
             return
         if isinstance(item, Nack):
             req.nack = item.error

@@ -33,6 +33,7 @@ from pirate_bt.link.health import (
     health_of,
     refusals,
 )
+from pirate_bt.link.inbound import unasked_text
 from pirate_bt.link.ranges import ReadingRanges
 from pirate_bt.link.session import Outcome, Request, Session
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -359,22 +360,18 @@ class RobotLink:
     def _one_way_hint(self, since_s: float | None = None) -> str:
         """Why a request first sent at ``since_s`` went unanswered, when the bridge's own
         frames tell: its watchdog tripped (it heard nothing from the host), it answered
-        meanwhile with answers that matched no request (it hears the host, but answers
-        with another seq or type: before 2026-11-30 such a bridge was asked *does it hear
-        the host?*), or its STATEs still arrive (the line from the bridge works; the one
+        meanwhile requests the host never made (it hears the host, but answers with
+        another seq or type: before 2026-11-30 such a bridge was asked *does it hear the
+        host?*), or its STATEs still arrive (the line from the bridge works; the one
         toward it may not). ``""`` when they tell nothing."""
         if self.session.stats().watchdog:
             return (
                 ": the bridge reports its watchdog tripped (it hears nothing from the host:"
                 " the line toward the bridge is down?)"
             )
-        unmatched = 0 if since_s is None else self.session.answers_unmatched_since(since_s)
-        if unmatched:
-            return (
-                f", though the bridge sent {unmatched} answer{'s' * (unmatched != 1)} meanwhile"
-                " that matched no request in flight (another seq or type than asked: does it"
-                " follow the protocol?)"
-            )
+        unasked = 0 if since_s is None else self.session.answers_unasked_since(since_s)
+        if unasked:
+            return f", though the bridge {unasked_text(unasked)}"
         latest = self.session.latest_state()
         if (
             latest is not None
