@@ -3,6 +3,8 @@ teleop script's unknown key, ...) and messages that named the wrong thing."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from pirate_bt.cli import main
@@ -58,3 +60,35 @@ def test_a_teleop_seed_is_refused_it_seeds_nothing(capsys: pytest.CaptureFixture
         "pirate-bt: --seed: the teleop's simulator has no sensor noise and no faults, nothing"
         " in it is random; leave --seed out\n"
     )
+
+
+ROW = (
+    '{"id": "000000-0a1b2c3d", "index": 0, "run": "a", "seed": 0, "outcome": "success",'
+    ' "reason": "done", "sim_time_s": 1.0, "wall_time_s": 0.5}\n'
+)
+
+
+@pytest.mark.parametrize(
+    "option",
+    [["--output", "elsewhere"], ["--workers", "2"], ["--resume"], ["--case-timeout", "9 s"]],
+    ids=["output", "workers", "resume", "case-timeout"],
+)
+def test_campaign_report_refuses_the_options_of_a_run(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    option: list[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    results = tmp_path / "results.jsonl"
+    results.write_text(ROW)
+    # was taken and dropped, exit 0: '--output elsewhere' wrote the report beside the
+    # results, not where it was asked for
+    assert main(["campaign", "report", str(results), *option]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == (
+        f"pirate-bt: campaign report: {option[0]} is for running a campaign; the report runs"
+        " no case and is written beside its results file\n"
+    )
+    assert list(tmp_path.iterdir()) == [results]  # no report written

@@ -77,6 +77,25 @@ def _report(args: argparse.Namespace) -> int:
 
     if not args.results:
         raise InputError("campaign report: give the results file (results.jsonl) or its folder")
+    given = [
+        option
+        for option, value in (
+            ("--output", args.output),
+            ("--resume", args.resume or None),
+            ("--workers", args.workers),
+            ("--scheduler", args.scheduler),
+            ("--scheduler-file", args.scheduler_file),
+            ("--scheduler-timeout", args.scheduler_timeout),
+            ("--case-timeout", args.case_timeout),
+            ("--max-cases", None if args.max_cases == DEFAULT_MAX_CASES else args.max_cases),
+        )
+        if value is not None
+    ]
+    if given:  # dropped without a word: '--output X' wrote the report beside the results
+        raise InputError(
+            f"campaign report: {given[0]} is for running a campaign; the report runs no case"
+            " and is written beside its results file"
+        )
     path = Path(args.results)
     if path.is_dir():
         path = path / RESULTS_NAME
