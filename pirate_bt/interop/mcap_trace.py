@@ -187,33 +187,28 @@ class _Messages:
         """The file's header names another library than pirate_bt (read at its start)."""
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
-        for _, topic, message in self.timed():
+        for _, topic, message in _by_sequence(self.timed()):
             yield topic, message
 
-    def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
-        """The messages as ``(log_time, topic, message)``: in file order from pirate_bt's
-        own files (written in log-time order, read as they come), in log-time order from
-        another tool's, whose header names another library: MCAP does not require a file
-        in log-time order, and one written channel by channel was refused (*the first
-        record is no header*). Another tool's messages are read whole first, then given
-        sorted by log time (those of one time in file order). Either way one channel's
-        messages of one log time are given in the order of their ``sequence`` where the
-        writer filled it (:func:`_by_sequence`)."""
+    def timed(self) -> Iterator[_Timed]:
+        """The messages as ``(log_time, channel, sequence, topic, message)``: in file
+        order from pirate_bt's own files (written in log-time order, read as they come),
+        in log-time order from another tool's, whose header names another library: MCAP
+        does not require a file in log-time order, and one written channel by channel was
+        refused (*the first record is no header*). Another tool's messages are read whole
+        first, then given sorted by log time (those of one time in file order; see
+        :func:`_sequenced` for one channel's)."""
         buffered: list[_Timed] = []
-
-        def own() -> Iterator[_Timed]:
+        try:
             for item in self._file_order():
                 if self.foreign:
                     buffered.append(item)
                 else:
                     yield item
-
-        try:
-            yield from _by_sequence(own())
-        except Exception:  # what came before the damage
-            yield from _by_sequence(iter(sorted(buffered, key=lambda m: m[0])))
+        except Exception:
+            yield from sorted(buffered, key=lambda m: m[0])  # what came before the damage
             raise
-        yield from _by_sequence(iter(sorted(buffered, key=lambda m: m[0])))
+        yield from sorted(buffered, key=lambda m: m[0])
 
     def _file_order(self) -> Iterator[_Timed]:
         """The messages as ``(log_time, channel, sequence, topic, message)``, in file
@@ -296,9 +291,27 @@ class _Messages:
 
 
 def _by_sequence(items: Iterator[_Timed]) -> Iterator[tuple[int, str, dict[str, Any]]]:
-    """``items`` (in log-time order, or at least those of one log time side by side) as
-    ``(log_time, topic, message)``, one channel's messages of one log time in the order
-    of their ``sequence``.
+    """``items`` (those of one log time side by side) as ``(log_time, topic, message)``,
+    one channel's messages of one log time in the order of their ``sequence``
+    (:func:`_sequenced`)."""
+    group: list[_Timed] = []
+    try:
+        for item in items:
+            if group and item[0] != group[0][0]:
+                for log_time, _, _, topic, message in _sequenced(group):
+                    yield log_time, topic, message
+                group = []
+            group.append(item)
+    except Exception:  # what came before the damage, then the damage
+        for log_time, _, _, topic, message in _sequenced(group):
+            yield log_time, topic, message
+        raise
+    for log_time, _, _, topic, message in _sequenced(group):
+        yield log_time, topic, message
+
+
+def _sequenced(group: list[_Timed]) -> list[_Timed]:
+    """One log time's messages, each channel's in the order of their ``sequence``.
 
     MCAP's ``sequence`` is the publisher's counter: where it is not 0 it is unique per
     channel and increases over time. pirate_bt's writers fill it; a tool that rewrites
@@ -309,35 +322,18 @@ def _by_sequence(items: Iterator[_Timed]) -> Iterator[tuple[int, str, dict[str, 
     theirs); a channel with a message whose sequence is 0 (not filled) keeps its file
     order.
     """
-    group: list[_Timed] = []
-    try:
-        for item in items:
-            if group and item[0] != group[0][0]:
-                yield from _in_sequence(group)
-                group = []
-            group.append(item)
-    except Exception:  # what came before the damage, then the damage
-        yield from _in_sequence(group)
-        raise
-    yield from _in_sequence(group)
-
-
-def _in_sequence(group: list[_Timed]) -> Iterator[tuple[int, str, dict[str, Any]]]:
-    """One log time's messages as :func:`_by_sequence` gives them."""
-    if len(group) > 1:
-        places: dict[int, list[int]] = {}
-        for place, item in enumerate(group):
-            places.setdefault(item[1], []).append(place)
-        if len(places) < len(group):  # a channel with more than one message
-            ordered = list(group)
-            for held in places.values():
-                if len(held) > 1 and all(group[place][2] for place in held):
-                    by_sequence = sorted(held, key=lambda place: group[place][2])
-                    for place, source in zip(held, by_sequence, strict=True):
-                        ordered[place] = group[source]
-            group = ordered
-    for log_time, _, _, topic, message in group:
-        yield log_time, topic, message
+    if len(group) < 2 or len({item[1] for item in group}) == len(group):
+        return group  # no channel with two messages: nothing to order
+    places: dict[int, list[int]] = {}
+    for place, item in enumerate(group):
+        places.setdefault(item[1], []).append(place)
+    ordered = list(group)
+    for held in places.values():
+        if len(held) > 1 and all(group[place][2] for place in held):
+            by_sequence = sorted(held, key=lambda place: group[place][2])
+            for place, source in zip(held, by_sequence, strict=True):
+                ordered[place] = group[source]
+    return ordered
 
 
 _RENAMED = {b"{": ("a JSON Lines", ".jsonl"), b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz")}
@@ -382,7 +378,7 @@ class _TraceMessages(_Messages):
         # message was no object (a list) refused the whole trace.
         self.topics = frozenset(TOPICS)
 
-    def timed(self) -> Iterator[tuple[int, str, dict[str, Any]]]:
+    def timed(self) -> Iterator[_Timed]:
         yield from super().timed()
         encodings = self.encodings
         if encodings.get(RUN) != "json" and (encodings or not self.cut):
@@ -407,7 +403,7 @@ _RANK = {RUN: 0, END: 2}
 """Where a message goes among those of one log time: the header first, the end last."""
 
 
-def _in_order(timed: Iterator[tuple[int, str, dict[str, Any]]]) -> Iterator[tuple[str, Any]]:
+def _in_order(timed: Iterator[_Timed]) -> Iterator[tuple[str, Any]]:
     """The messages in the order of the records they rebuild, whatever the order of those
     that share a log time.
 
@@ -418,24 +414,30 @@ def _in_order(timed: Iterator[tuple[int, str, dict[str, Any]]]) -> Iterator[tupl
     was refused (*the first record is no header*), and one that put the end before the
     last tick's messages read a tick after the end. Each run of messages of one log time
     is put in order by what they are: the header, then the ticks' messages by tick number
-    (in file order within a tick), then the end. Messages of different log times keep
-    their file order.
+    (in file order within a tick, one channel's by sequence: :func:`_sequenced`), then
+    the end. Messages of different log times keep their file order.
     """
-    group: list[tuple[int, int, int, str, dict[str, Any]]] = []
+    group: list[_Timed] = []
     time = None
-    for log_time, topic, message in timed:
-        if log_time != time and group:
-            group.sort()  # (rank, tick, place): stable by place
-            for *_, name, data in group:
-                yield name, data
+    for item in timed:
+        if item[0] != time and group:
+            yield from _one_time_in_order(group)
             group = []
-        time = log_time
+        time = item[0]
+        group.append(item)
+    yield from _one_time_in_order(group)
+
+
+def _one_time_in_order(group: list[_Timed]) -> Iterator[tuple[str, Any]]:
+    """One log time's messages as :func:`_in_order` gives them."""
+    keyed: list[tuple[int, int, int, str, dict[str, Any]]] = []
+    for _, _, _, topic, message in _sequenced(group):
         rank = _RANK.get(topic, 1)
         n = message.get("n")
         tick = n if rank == 1 and isinstance(n, int) and not isinstance(n, bool) else 0
-        group.append((rank, tick, len(group), topic, message))
-    group.sort()
-    for *_, name, data in group:
+        keyed.append((rank, tick, len(keyed), topic, message))
+    keyed.sort()  # (rank, tick, place): stable by place
+    for *_, name, data in keyed:
         yield name, data
 
 
