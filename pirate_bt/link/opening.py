@@ -26,6 +26,7 @@ from pirate_bt.errors import (
 from pirate_bt.link.codec import BridgeFlags, FrameCodec, FrameDecoder
 from pirate_bt.link.faults import FaultSpec, FaultyLink, parse_fault_spec, split_fault_url
 from pirate_bt.link.hellos import reply_problem
+from pirate_bt.link.inbound import unasked_text
 from pirate_bt.link.messages import HelloReply, NackCode
 from pirate_bt.link.robot_link import RobotLink
 from pirate_bt.link.session import Outcome, Session, SessionConfig
@@ -177,6 +178,7 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> str
         ProtocolMismatch: it was answered with an ``ACK`` status the protocol does not
             have (or another mismatch ended the session meanwhile).
     """
+    started_s = session.clock.now()
     for _ in range(_RELEASE_TRIES):
         try:
             req = session.wait(session.estop_reset())
@@ -219,10 +221,13 @@ def _release_boot_latch(session: Session, boot_id: int, give_up_s: float) -> str
         )
     else:
         # never acknowledged (the round trip outlasts the retry budget, or the link
-        # failed): a link error, not an e-stop the operator has to reset
+        # failed, or the bridge answers with another seq): a link error, not an e-stop
+        # the operator has to reset
+        unasked = session.answers_unasked_since(started_s)
+        why = f"the bridge {unasked_text(unasked)}" if unasked else "round trip too long?"
         raise LinkTimeout(
             "the bridge did not acknowledge the release of its boot latch within "
-            f"{give_up_s:.3g} s ({req.outcome.value}; round trip too long?)"
+            f"{give_up_s:.3g} s ({req.outcome.value}; {why})"
         )
 
 

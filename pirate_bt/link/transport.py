@@ -411,6 +411,7 @@ def handshake(
     hello = Hello(seq, codec.layout.digest, minor)
     wire = b"\x00" + codec.encode(hello)  # the leading 0x00 flushes a half-received frame
     heard: collections.Counter[str] = collections.Counter()  # what came back instead
+    other_seqs: set[int] = set()  # the seqs of HELLO_REPLYs to another HELLO than ours
     for attempt in range(1, attempts + 1):
         link.write(wire)
         deadline = clock.now() + reply_timeout_s
@@ -465,6 +466,8 @@ def handshake(
                         "does not follow the protocol",
                         item.error,
                     )
+                if isinstance(item, HelloReply) and item.seq != seq:
+                    other_seqs.add(item.seq)
                 if isinstance(item, HelloReply) and item.seq == seq:
                     if item.minor != minor:
                         raise ProtocolMismatch(
@@ -495,11 +498,17 @@ def handshake(
             clock.sleep(min(step_s, max(deadline - clock.now(), 0.0)))
         # each attempt at INFO: the last one fails the connect with one line of its own
         _log.info("no HELLO reply (attempt %d of %d)", attempt, attempts)
-    raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries){_heard(heard)}")
+    said = _heard(heard, seq, other_seqs)
+    raise LinkTimeout(f"the bridge did not answer HELLO ({attempts} tries){said}")
 
 
-def _heard(heard: collections.Counter[str]) -> str:
-    """What came back from a port that never answered HELLO, for the error's line."""
+def _heard(
+    heard: collections.Counter[str], seq: int = 0, other_seqs: set[int] | None = None
+) -> str:
+    """What came back from a port that never answered HELLO (``seq``), for the error's
+    line; ``other_seqs``: those of the ``HELLO_REPLY`` frames that came to another seq (a
+    bridge that answers with another seq than asked: before 2026-11-30 they were named
+    as if it never answered, *it sent 16 HELLO_REPLY, 96 STATE but never answered*)."""
     if not heard["bytes"]:
         return ": nothing came back"
     frames = [(k[6:], n) for k, n in sorted(heard.items()) if k.startswith("frame:")]
@@ -512,8 +521,19 @@ def _heard(heard: collections.Counter[str]) -> str:
         )
     if all(name == "HELLO" for name, _ in frames):
         return ": only its own HELLO came back (an echo: a loopback?)"
+    sent = [f"{n} {name}" for name, n in frames]
+    if other_seqs:  # answers, but to another HELLO than the one sent
+        shown = ", ".join(str(s) for s in sorted(other_seqs)[:3])
+        to = f"each to seq {shown}" if len(other_seqs) == 1 else f"to seqs {shown}"
+        more = ", ..." if len(other_seqs) > 3 else ""
+        sent = [
+            f"{part} ({to}{more}, not the HELLO's seq {seq})"
+            if part.endswith(" HELLO_REPLY")
+            else part
+            for part in sent
+        ]
     return (
-        f": it sent {', '.join(f'{n} {name}' for name, n in frames)}"
+        f": it sent {', '.join(sent)}"
         + (f" and bad frames ({bad})" if bad else "")
         + " but never answered"
         + (
