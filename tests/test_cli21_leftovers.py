@@ -92,3 +92,16 @@ def test_campaign_report_refuses_the_options_of_a_run(
         " no case and is written beside its results file\n"
     )
     assert list(tmp_path.iterdir()) == [results]  # no report written
+
+
+@pytest.mark.parametrize("seed", ["-1", str(2**63)])
+def test_network_perturb_refuses_a_seed_no_campaign_takes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], seed: str
+) -> None:
+    out = tmp_path / "v.yaml"
+    # '--seed -1' wrote variant 1 (random.Random(-1) is Random(1)) named 'lab-asbuilt--1'
+    assert main(["network", "perturb", "lab", "--seed", seed, "-o", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"pirate-bt: --seed: give a whole number from 0 to 2**63 - 1, not {seed}\n"
+    )
+    assert not out.exists()

@@ -215,6 +215,12 @@ def run(args: argparse.Namespace) -> int:
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
     from pirate_bt.resources import find_file, missing
 
+    if args.action == "perturb":
+        from pirate_bt.api.options import seed_value
+
+        # a campaign's as_built variants are 0 to 2**63 - 1: '--seed -1' wrote variant 1
+        # (Python's random seeds by the number's size) under another name
+        seed_value(args.seed, "--seed")
     if args.output is not None and str(args.output) == STDOUT:  # was a file named "-"
         args.output = None
     if args.output is not None:  # before any work; a name too long was an OSError's line
