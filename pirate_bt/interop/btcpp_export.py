@@ -33,6 +33,7 @@ from pirate_bt.interop.btcpp_models import (
     node_models,
 )
 from pirate_bt.interop.btcpp_xml import caller_params_origin, output_file, write_atomic
+from pirate_bt.treefile.names import printable
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.yamlfile import Locator, YamlDocument, load_yaml
@@ -83,7 +84,7 @@ def _params_argument(params: object) -> dict[str, Any]:
 
 
 def _located(doc: YamlDocument, path: tuple[str | int, ...], message: str) -> LocatedError:
-    return LocatedError(message, doc.locator.locate(path))
+    return LocatedError(printable(message), doc.locator.locate(path))
 
 
 def _text(doc: YamlDocument, path: tuple[str | int, ...], text: str) -> str:

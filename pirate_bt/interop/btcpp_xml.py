@@ -37,6 +37,7 @@ from pirate_bt.errors import (
     output_argument,
     shown,
 )
+from pirate_bt.treefile.names import printable
 from pirate_bt.yamlfile import read_at_most, special_kind
 
 __all__ = [
@@ -71,8 +72,9 @@ class XmlElement:
     text: str = ""
 
     def error(self, message: str) -> LocatedError:
-        """A located error at this element."""
-        return LocatedError(message, self.location)
+        """A located error at this element; what a terminal would act on in it (a
+        tree ID's control character) is written as its escape."""
+        return LocatedError(printable(message), self.location)
 
 
 class _Refused(Exception):

@@ -22,7 +22,7 @@ from pydantic import ValidationError
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.treefile.names import name_problem, unknown_key
+from pirate_bt.treefile.names import name_problem, printable, unknown_key
 from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import (
     PARAM_RE,
@@ -166,7 +166,7 @@ class _FileReader:
     # -- helpers
 
     def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
-        self.errors.append(doc.locator.error(path, message))
+        self.errors.append(doc.locator.error(path, printable(message)))
 
     def blank(self, doc: YamlDocument, value: Any) -> bool:
         """Whether ``value`` (of ``doc``) is or holds a value YAML refused, which was said

@@ -17,6 +17,7 @@ __all__ = [
     "name_problem",
     "node_label",
     "non_text_keys",
+    "printable",
     "shown_name",
     "unknown_key",
 ]
@@ -25,6 +26,17 @@ __all__ = [
 def shown_name(text: str) -> str:
     """``text`` quoted for a message, cut short when it is long (a hostile file's)."""
     return repr(text) if len(text) <= 60 else repr(text[:57] + "...")
+
+
+def printable(text: str) -> str:
+    """``text`` for a one-line message: a character a terminal acts on or does not show
+    (a control character such as ESC or CR, a line break, U+202E) written as its escape
+    (``\\x1b``, ``\\r``, ``\\u202e``). A subtree's name or a file's path shown as written (a
+    recursion's chain) could clear the screen or rewrite the line. Text without them is
+    returned as it is."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def name_problem(name: object) -> str | None:
