@@ -82,3 +82,47 @@ def test_many_connections_to_groot2_s_port_cost_the_run_no_file(tmp_path: Path) 
         if run.poll() is None:
             run.kill()
             run.wait(60)
+
+
+_KILLED = """
+import sys, time
+from pirate_bt.interop.groot2_server import Groot2Server
+
+server = Groot2Server(port=0)
+print(server._folder, server._relay.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def _running(pid: str) -> bool:
+    """Whether process ``pid`` runs (a zombie nobody reaped has ended)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def test_a_run_killed_while_serving_groot2_leaves_no_relay_and_no_folder() -> None:
+    run = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(_KILLED)],
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    try:
+        assert run.stdout is not None
+        folder, relay = run.stdout.readline().split()
+        assert Path(folder).is_dir()
+        run.kill()
+        run.wait(60)
+        deadline = time.monotonic() + 30  # a generous limit: gone in well under 1 s
+        while time.monotonic() < deadline and (Path(folder).exists() or _running(relay)):
+            time.sleep(0.05)
+        # before: the relay ended, and the folder stayed in the temporary folder
+        assert not _running(relay)
+        assert not Path(folder).exists()
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait(60)

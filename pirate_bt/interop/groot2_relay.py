@@ -21,8 +21,9 @@ connections that sent nothing made a run under ``ulimit -n 200`` fail at once:
 
 It tells the server on its standard output, one JSON line: ``{"port": N}`` once it
 listens, or ``{"error": "..."}`` (the one line to show) if it cannot. It ends when
-its standard input closes (the server closed, or the run's process ended). Only the
-standard library and ``pyzmq``: it imports nothing else of pirate_bt.
+its standard input closes (the server closed, or the run's process ended), and
+removes the server's folder (which a run killed with SIGKILL would leave behind). Only
+the standard library and ``pyzmq``: it imports nothing else of pirate_bt.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import contextlib
 import errno
 import json
 import os
+import shutil
 import signal
 import socket
 import sys
@@ -78,6 +80,8 @@ def main(argv: Sequence[str]) -> int:
         _relay(zmq, front, notices, server, heard)
     finally:
         context.destroy(linger=0)
+        # the server's folder: gone with the server, or left by a run that was killed
+        shutil.rmtree(str(config.get("folder") or ""), ignore_errors=True)
     return 0
 
 

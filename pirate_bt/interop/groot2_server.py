@@ -239,6 +239,7 @@ class Groot2Server(_Requests):
             "port": port,
             "rep": rep,
             "pub": pub,
+            "folder": self._folder,
             "sys_path": list(sys.path),
             "max_request_bytes": MAX_REQUEST_BYTES,
             "max_subscription_bytes": MAX_SUBSCRIPTION_BYTES,
