@@ -9,6 +9,9 @@
 #include "uart.h"
 
 #define MARGIN_US 300u /* keep clear of the next period's start */
+/* A board not heard for this long has stopped itself (its silence time, docs/board-bus.md)
+ * or lost its power: the rest of the robot stops too, as on its OWN_STOP. */
+#define BOARD_AWAY_MS 100u
 
 #ifdef __AVR__
 #include <avr/pgmspace.h>
@@ -38,6 +41,9 @@ static struct {
     uint8_t sensor_bits[FRESH_BYTES ? FRESH_BYTES : 1]; /* channels a STALE concerns */
     uint8_t status[PB_N_BOARDS];
     struct board_counters counters[PB_N_BOARDS];
+    uint16_t heard_ms[PB_N_BOARDS]; /* each board's last good reply (boot: boot time),
+                                     * in ms mod 65536: 100 ms is all it measures */
+    bool away[PB_N_BOARDS]; /* not heard for BOARD_AWAY_MS: the robot stopped for it */
     bool bus_fault;
     bool stop_pending;
     uint8_t stop_next;   /* board whose STOP goes out next */
@@ -57,6 +63,10 @@ static struct {
 void poller_init(void) {
     memset(&poll, 0, sizeof poll);
     poll.cycle_done = true;
+    uint16_t now = (uint16_t)timer_ms();
+    for (uint8_t b = 0; b < PB_N_BOARDS; b++) {
+        poll.heard_ms[b] = now;
+    }
 #if PB_N_CHANNELS > 0
     for (uint8_t ch = 0; ch < PB_N_CHANNELS; ch++) {
         uint8_t src = pgm_read_byte(&channel_io[ch].source);
@@ -181,6 +191,8 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
         }
         poll.status[b] = s;
         poll.any_ok = true;
+        poll.heard_ms[b] = (uint16_t)timer_ms();
+        poll.away[b] = false;
         if (reply->status & BUS_STATUS_OWN_STOP) {
             /* the board stopped itself (it heard no master for its silence time):
              * the whole robot stops, and the STOP to every board ends its own stop */
@@ -201,6 +213,14 @@ static void done(enum bus_result result, const struct bus_reply *reply) {
             return;
         }
         poll.status[b] = BOARD_TIMEOUT;
+        uint16_t unheard = (uint16_t)((uint16_t)timer_ms() - poll.heard_ms[b]);
+        if (!poll.away[b] && unheard > BOARD_AWAY_MS) {
+            /* once an absence: it has stopped on its own (or has no power), and when it
+             * answers again it gets the stop setpoints, not the ones it had (a drive that
+             * came back restarted alone, the host having stopped the others) */
+            poll.away[b] = true;
+            safety_stop();
+        }
     }
     poll.busy = false;
     poll.polled++;
