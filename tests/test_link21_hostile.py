@@ -21,6 +21,7 @@ from pirate_bt.link.codec import (
     Ack,
     AckStatus,
     BridgeFlags,
+    BridgeHeartbeat,
     BulkSetpoints,
     Heartbeat,
     Hello,
@@ -318,3 +319,48 @@ def test_a_state_of_extreme_raw_values_is_never_taken_as_a_reading(raw: int) -> 
         else:
             assert reading.stamp_s > first.readings[name].stamp_s, name
     link.close()
+
+
+# -- frames that restart the session again and again --------------------------------------
+
+
+def _answer_hellos(wire: Wire, sessions: int) -> None:
+    for msg in wire.sent():
+        if isinstance(msg, Hello):
+            wire.answer(reply(seq=msg.seq, sessions=sessions, boot_id=7))
+
+
+def test_no_session_heartbeats_between_good_states_end_the_session_in_the_end() -> None:
+    """A BRIDGE_HEARTBEAT with NO_SESSION between STATEs without it, every 50 ms, the boot
+    unchanged: each started a session of the host's (the bridge applying its stop category
+    each time) for as long as the run went on, since a good STATE between them reset the
+    count of stale resets in a row."""
+    wire = _in_session()
+    with pytest.raises(ProtocolMismatch) as caught:
+        for i in range(40):
+            wire.answer(BridgeHeartbeat(100 + i, BridgeFlags.NO_SESSION), state(2 + i))
+            wire.poll(0.025)
+            _answer_hellos(wire, sessions=2 + i)
+            wire.poll(0.025)
+    assert str(caught.value).startswith(
+        "the bridge's frames started 16 sessions within 5 s that were not the bridge's own"
+        " reset (NO_SESSION frames of a boot it is still in):"
+    ), str(caught.value)
+    assert i < 20  # ended within a second, not at the loop's end
+
+
+def test_unasked_hello_replies_again_and_again_end_the_session() -> None:
+    """A HELLO_REPLY the host did not ask for, with a new session count, every 50 ms: each
+    made the host start a session of its own, for as long as the run went on."""
+    wire = _in_session()
+    with pytest.raises(ProtocolMismatch) as caught:
+        for i in range(40):
+            wire.answer(reply(seq=1000 + i, sessions=10 + 2 * i, boot_id=7), state(2 + i))
+            wire.poll(0.025)
+            _answer_hellos(wire, sessions=11 + 2 * i)
+            wire.poll(0.025)
+    assert str(caught.value).startswith(
+        "the bridge's frames started 4 sessions within 0.5 s that were not the bridge's own"
+        " reset (HELLO_REPLYs the host did not ask for):"
+    ), str(caught.value)
+    assert i < 8

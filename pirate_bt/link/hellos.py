@@ -10,6 +10,7 @@ reply no ``HELLO`` in flight asked for, and a bridge reset seen in a frame with
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import logging
 import math
@@ -23,7 +24,13 @@ from pirate_bt.link.requests import Outcome, Request, SessionConfig
 if TYPE_CHECKING:
     from pirate_bt.link.transport import ByteLink
 
-__all__ = ["STALE_RESETS_BEFORE_MISMATCH", "HelloMixin", "reply_problem"]
+__all__ = [
+    "SESSIONS_CHURN_LIMIT",
+    "STALE_RESETS_BEFORE_MISMATCH",
+    "STALE_RESETS_CHURN_LIMIT",
+    "HelloMixin",
+    "reply_problem",
+]
 
 _log = logging.getLogger("pirate_bt.link.session")
 _NO_SESSION = int(BridgeFlags.NO_SESSION)
@@ -34,6 +41,19 @@ STALE_RESETS_BEFORE_MISMATCH = 3
 same boot id (no ``STATE`` without ``NO_SESSION`` between them) before the session ends on
 a protocol mismatch. One or two are boot frames a reordering link delivered late; more is
 a bridge that answers ``HELLO`` but never leaves ``NO_SESSION``."""
+SESSIONS_CHURN_LIMIT = 4
+"""Sessions that replies (``HELLO_REPLY``) the host did not ask for may start within the link
+timeout before the session ends on a protocol mismatch: each makes the bridge apply its
+stop category. A replayed ``HELLO`` or a late retry of the host's own makes one or two;
+one every period is a bridge that does not follow the protocol, or frames forged on the
+line."""
+STALE_RESETS_CHURN_LIMIT = 16
+"""Sessions that stale ``NO_SESSION`` frames (the reply showing the boot unchanged) may
+start within ten link timeouts, whatever came between them, before the session ends on a
+protocol mismatch (:data:`STALE_RESETS_BEFORE_MISMATCH` counts those in a row). A
+reordering link delivers late only the boot frames sent before the first ``HELLO``, a
+few; a bridge that sends ``NO_SESSION`` between good ``STATE`` frames every period restarted
+the session every period for as long as a run went on (before 2026-11-30)."""
 _HEARTBEAT_FRAME_BYTES = 9
 """A HEARTBEAT on the wire: COBS, header, CRC and delimiter (docs/protocol.md)."""
 
@@ -94,6 +114,8 @@ class HelloMixin:
     _reset_boot_id: int | None = None
     # the frame that showed that reset, for the log when it was a stale one
     _reset_seen: str = "NO_SESSION frame"
+    # when the bridge's frames last started a session that was not its own reset, by kind
+    _churn: dict[str, collections.deque[float]] | None = None
     # sessions in a row a stale NO_SESSION frame started (see _on_hello_reply)
     _stale_reset_run: int = 0
     # the seq of the HELLO that started the session
@@ -177,6 +199,14 @@ class HelloMixin:
                     " it never keeps a session (a bridge that does not follow the protocol)",
                 )
                 return
+            seen = (
+                "NO_SESSION frames of a boot it is still in"
+                if self._reset_seen.startswith("NO_SESSION")
+                else "stale HELLO_REPLYs of another boot"
+            )
+            if self._churned(now, seen, STALE_RESETS_CHURN_LIMIT, 10):
+                self._refused_session(hello, str(self._protocol_error))
+                return
             _log.warning(
                 "a stale %s (reordered link?) started a new session;"
                 " the bridge was not reset (boot id %d unchanged)",
@@ -237,6 +267,8 @@ class HelloMixin:
         ):
             return
         self.last_hello_reply = dataclasses.replace(previous, sessions=item.sessions)
+        if self._churned(now, "HELLO_REPLYs the host did not ask for", SESSIONS_CHURN_LIMIT, 1):
+            return
         _log.error(
             "the bridge started session %d for HELLO seq %d, which the host did not send now"
             " (a replayed or late frame): its duplicate filter went back to that seq",
@@ -275,3 +307,26 @@ class HelloMixin:
         )
         self._protocol_error = ProtocolMismatch(why)
         _log.error(why)
+
+    def _churned(self, now: float, what: str, limit: int, timeouts: int) -> bool:
+        """Note a session the bridge's frames (``what``) started that was not its own
+        reset; when ``limit`` of that kind came within ``timeouts`` link timeouts, end the
+        session (a protocol mismatch) and say so. Before 2026-11-30 a frame that restarted
+        the session every period did so for as long as a run went on."""
+        if self._churn is None:
+            self._churn = {}
+        churn = self._churn.setdefault(what, collections.deque(maxlen=limit))
+        churn.append(now)
+        window = timeouts * self.config.link_timeout_s
+        if len(churn) < limit or now - churn[0] > window:
+            return False
+        if self._protocol_error is None:
+            why = (
+                f"the bridge's frames started {len(churn)} sessions within {window:g} s that"
+                f" were not the bridge's own reset ({what}): each makes it stop its drives (a"
+                " bridge that does not follow the protocol, or frames forged or replayed on"
+                " the line)"
+            )
+            self._protocol_error = ProtocolMismatch(why)
+            _log.error(why)
+        return True
