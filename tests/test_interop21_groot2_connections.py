@@ -126,3 +126,20 @@ def test_a_run_killed_while_serving_groot2_leaves_no_relay_and_no_folder() -> No
         if run.poll() is None:
             run.kill()
             run.wait(60)
+
+
+@pytest.mark.parametrize("said", [b"Warning: something\n", b"[1, 2]\n", b'{"x": 1}\n'])
+def test_a_relay_that_says_something_else_than_its_port_is_one_line(said: bytes) -> None:
+    # before: a JSONDecodeError traceback (or a KeyError on 'port')
+    import os
+
+    from pirate_bt.interop.groot2_relay import first_line
+
+    read, write = os.pipe()
+    with os.fdopen(read, "rb") as stdout:
+        os.write(write, said)
+        os.close(write)
+        answer = first_line(stdout, 30)
+    assert answer is not None and set(answer) == {"error"}
+    assert answer["error"].startswith("--groot2: the relay process said ")
+    assert "\n" not in answer["error"]

@@ -102,8 +102,13 @@ def first_line(stdout: Any, within_s: float) -> dict[str, Any] | None:
         if not chunk:  # it ended without a word (its error went to the terminal)
             return {"error": "--groot2: the relay process ended at its start"}
         line += chunk
-    said = json.loads(line)
-    return said if isinstance(said, dict) else None
+    try:
+        said = json.loads(line)
+    except ValueError:
+        said = None
+    if not isinstance(said, dict) or not ("port" in said or "error" in said):
+        return {"error": f"--groot2: the relay process said {line[:80]!r}, not its port"}
+    return said
 
 
 def _tell(message: dict[str, Any]) -> None:
