@@ -335,7 +335,9 @@ def connect(
         ValidationFailed: a robot description or network that does not validate.
         ConfigurationError: ``firmware`` and the firmwares or simavr harness are not
             built.
-        LinkError: the robot cannot be reached.
+        LinkError: the robot cannot be reached. A port URL that is itself wrong (a
+            scheme no handler has, ``bogus://x``) is a ``PortURLError``, an
+            ``InputError`` too (exit 2).
 
     Example::
 
