@@ -8,9 +8,12 @@ the TCP ports Groot2 connects to (a ROUTER on PORT, a PUB on PORT + 1) and relay
 
 - each client's requests to the server, and each reply back to its client (the
   ROUTER's routing parts travel with them, so the server answers each client as REP
-  would); a client's requests are read only while the server's pipe has room, so one
-  that sends without waiting makes no other client wait (ZeroMQ reads the clients in
-  turn), and holds at most a few requests here;
+  would). One request at a time: the next is read once the server has answered (or
+  after :data:`REPLY_WAIT_S`), and ZeroMQ reads the clients in turn, so a client that
+  sends without waiting has Groot2's request wait behind one of its own at most, as
+  when the server listened itself; the rest wait in its pipe here (a few) and in its
+  TCP connection. A message that is no request (no envelope) is dropped here, as the
+  server drops it;
 - the server's breakpoint notices to every subscriber.
 
 Every connection a client opens is this process's: a client opening thousands of
@@ -36,6 +39,7 @@ import shutil
 import signal
 import socket
 import sys
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,6 +47,9 @@ __all__ = ["first_line", "main"]
 
 NICE = 5
 """The relay yields the CPU to the run (Groot2 polls ten times a second)."""
+REPLY_WAIT_S = 5.0
+"""The longest wait for the server's reply before the next request goes (a reply that
+failed to be sent is logged by the server and never comes)."""
 
 
 class Refused(Exception):
@@ -89,7 +96,6 @@ def first_line(stdout: Any, within_s: float) -> dict[str, Any] | None:
     """The relay's first line (JSON) read off its standard output (in the server's
     process), or ``None`` if none came within ``within_s``."""
     import select
-    import time
 
     fd = stdout.fileno()
     deadline = time.monotonic() + within_s
@@ -178,43 +184,53 @@ def _cannot_listen(given: str, host: str, exc: Any) -> Refused:
 
 
 def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any) -> None:
+    """Relay until the standard input closes: one request at a time to the server."""
     poller = zmq.Poller()
     poller.register(server, zmq.POLLIN)
     poller.register(heard, zmq.POLLIN)
     poller.register(0, zmq.POLLIN)  # the server's end of the pipe: closed, the relay ends
-    reading = False  # whether the clients are read (only while the server has room)
+    poller.register(front, zmq.POLLIN)
+    asked = 0.0  # when the request the server answers now went (0: none)
     while True:
-        room = bool(server.getsockopt(zmq.EVENTS) & zmq.POLLOUT)
-        if room != reading:
-            if room:
-                poller.register(front, zmq.POLLIN)
-                poller.unregister(server)
-                poller.register(server, zmq.POLLIN)
-            else:
-                poller.unregister(front)
-                poller.register(server, zmq.POLLIN | zmq.POLLOUT)
-            reading = room
         ready = dict(poller.poll(1000))
         if 0 in ready and not os.read(0, 4096):
             return
-        if ready.get(server, 0) & zmq.POLLIN:
-            with contextlib.suppress(zmq.Again):
-                while True:
-                    reply = server.recv_multipart(zmq.NOBLOCK)
-                    # a client gone, or one that does not read: dropped, as before
-                    with contextlib.suppress(zmq.ZMQError):
-                        front.send_multipart(reply, zmq.NOBLOCK)
+        if asked and time.monotonic() - asked > REPLY_WAIT_S:
+            asked = 0.0  # no reply (the server gave up on it): the others' turn
         if ready.get(heard, 0) & zmq.POLLIN:
             with contextlib.suppress(zmq.Again):
                 while True:
                     notice = heard.recv_multipart(zmq.NOBLOCK)
                     with contextlib.suppress(zmq.ZMQError):  # a courtesy, as before
                         notices.send_multipart(notice, zmq.NOBLOCK)
-        if reading and ready.get(front, 0) & zmq.POLLIN:
+        if ready.get(server, 0) & zmq.POLLIN:
             with contextlib.suppress(zmq.Again):
-                while server.getsockopt(zmq.EVENTS) & zmq.POLLOUT:
-                    request = front.recv_multipart(zmq.NOBLOCK)
-                    server.send_multipart(request, zmq.NOBLOCK)
+                while True:
+                    reply = server.recv_multipart(zmq.NOBLOCK)
+                    asked = 0.0
+                    # a client gone, or one that does not read: dropped, as before
+                    with contextlib.suppress(zmq.ZMQError):
+                        front.send_multipart(reply, zmq.NOBLOCK)
+        while not asked:
+            try:
+                request = front.recv_multipart(zmq.NOBLOCK)  # the clients in turn
+            except zmq.Again:
+                break
+            if _envelope_ends(request) is None:
+                continue  # not a request (REP drops it too): nobody to answer
+            server.send_multipart(request)
+            asked = time.monotonic()
+        # the clients are read only when the server has no request of theirs to answer
+        poller.register(front, 0 if asked else zmq.POLLIN)
+
+
+def _envelope_ends(parts: Sequence[bytes]) -> int | None:
+    """Where a request's routing envelope ends (its empty part, REQ's delimiter), as the
+    server finds it; ``None`` when there is none, or no request after it."""
+    for index in range(1, len(parts) - 1):
+        if not parts[index]:
+            return index
+    return None
 
 
 if __name__ == "__main__":
