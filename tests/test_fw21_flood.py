@@ -23,6 +23,7 @@ from cleanroom_peer import (
     APPLIED,
     BRIDGE_HEARTBEAT,
     ESTOP_RESET,
+    HEARTBEAT,
     HELLO_REPLY,
     KEEP,
     MODE_CODES,
@@ -38,6 +39,7 @@ from cleanroom_peer import (
 from firmware_chain_support import missing_chain, open_chain
 from firmware_sim_support import HostEnd, build, missing_toolchain
 
+from pirate_bt.link.messages import Ack
 from pirate_bt.pipes import load_network
 from pirate_bt.robot import load_robot
 from pirate_bt.sim.chain import FirmwareChain
@@ -157,5 +159,44 @@ def test_the_simavr_harness_makes_a_host_faster_than_the_line_wait_not_lose_byte
         assert figures["host_bytes_dropped"] == 0, figures
         assert figures["unexpected_resets"] == 0
         os.close(host.fd)
+    finally:
+        bridge.close()
+
+
+@needs_simavr
+def test_what_a_closed_host_left_unsent_never_reaches_the_next_boot() -> None:
+    """A serial port closed with bytes still waiting loses them with the DTR reset of
+    the next open; the harness's back-pressure must not hand them to the next boot."""
+    elf, harness = build()
+    bridge = FirmwareBridge(
+        elf, PipeRobotModel(ROBOT, load_network("straight")), harness=harness, boot_ms=0
+    )
+    try:
+        device = bridge.start()
+        first = HostEnd(device, ROBOT)
+        bridge.wait_resets(1)
+        os.set_blocking(first.fd, False)
+        data = memoryview(b"".join(frame(HEARTBEAT, seq) for seq in range(1, 9000)))  # 80 KB
+        deadline = time.monotonic() + 60
+        while data and time.monotonic() < deadline:
+            if select.select([], [first.fd], [], 0.1)[1]:
+                with contextlib.suppress(BlockingIOError):
+                    data = data[os.write(first.fd, data) :]
+            if bridge.figures()["host_queue_bytes"] >= 60_000:
+                break  # the harness's queue is full: the rest waits in the pty
+        # every byte the harness took so far went to the first boot (or was lost with it)
+        taken = int(bridge.figures()["host_bytes_in"])
+        os.close(first.fd)
+        time.sleep(0.2)
+        second = HostEnd(device, ROBOT)  # the open resets the MCU
+        bridge.wait_resets(2)
+        heard = second.read(1.5)  # the second host sends nothing
+        beat = len(frame(HEARTBEAT, 1))  # 9 bytes, whatever the seq
+        late = [m.seq for m in heard if isinstance(m, Ack) and m.seq > taken // beat + 1]
+        assert late == [], (
+            f"{len(late)} heartbeats the first host wrote before it closed were answered"
+            f" after (seq {late[0]} to {late[-1]}; the first boot took {taken // beat})"
+        )
+        os.close(second.fd)
     finally:
         bridge.close()

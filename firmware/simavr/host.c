@@ -118,6 +118,13 @@ void host_service_pty(void) {
     } else if (!open_now && host_open) {
         host_open = false;
         host_out_n = 0;
+        /* what the host wrote that the queue had no room for goes with it (the next open
+         * resets the MCU, whose bootloader would eat it): it must not reach the next boot */
+        uint8_t junk[4096];
+        ssize_t r;
+        while ((r = read(master, junk, sizeof junk)) > 0) {
+            stats.bytes_dropped += (uint64_t)r;
+        }
     }
     if (!host_open) {
         return;
