@@ -138,3 +138,31 @@ def test_a_tee_in_100_mm_pipe_is_not_said_to_have_no_branch(tmp_path: Path) -> N
     assert "in 100 mm pipe, where probe-tee felt no branch turn on any side" in why
     assert "in pipe over 85 mm it cannot" in why
     assert [s["type"] for s in _written(tmp_path)] == ["straight"]
+
+
+def test_a_tee_0_2_m_after_a_tee_that_the_pab_carried_the_front_onto_is_named(
+    tmp_path: Path,
+) -> None:
+    # going straight through tee-1, the T-joint PAB ends with the front half over the
+    # second tee's opening: the way back to tee-1's branch (t-joint-back) starts by
+    # clamping that half, and there is no wall for it
+    result = _survey(
+        tmp_path,
+        [
+            _straight("before", "1.2 m"),
+            _tee("t1", "left"),
+            _straight("mid", "0.2 m"),
+            _tee("t2", "right"),
+            _straight("after", "0.8 m"),
+        ],
+    )
+    why = result.why
+    # before: 'no wall: bend_2 swung to 110.0°, past every wall-contact angle ...'
+    assert "no wall:" not in why and "bend_2 swung" not in why
+    assert "the robot stopped with its front half over an opening 0.2" in why
+    assert "m after tee-1, which the step before carried it onto" in why
+    assert any("tee-1's branch (left, 63 mm): not entered" in u for u in result.unexplored)
+    segments = _written(tmp_path)
+    assert [s["type"] for s in segments] == ["straight", "tee", "straight"]
+    run_2 = float(segments[2]["length"].split()[0]) / 1000
+    assert abs(run_2 - 0.2) < 0.03  # the line written up to the second tee

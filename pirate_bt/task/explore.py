@@ -394,11 +394,7 @@ class ExploreNavigator(SurveyRecord):
             " after a tee is not probed): its tee and the line beyond it are left to a"
             " survey by hand"
         )
-        self.unexplored.extend(
-            f"{t}: not entered, the robot stopped over the opening after {tee}, {EXTEND}"
-            for t in reversed(self._pending)
-        )
-        self._pending.clear()
+        self._leave_pending(f"the robot stopped over the opening after {tee}")
         raise self._incomplete(
             f"the robot stopped over {where}: probe-tee would hold the robot there by its"
             f" rear half alone, with the half's last joint over {tee}'s opening and no wall"
@@ -422,7 +418,26 @@ class ExploreNavigator(SurveyRecord):
             " before it is not probed): its tee and the line beyond it are left to a"
             " survey by hand"
         )
+        if any(o.back_m is None and o.behind_m < obs.imu_behind_m for o in obs.off_wall):
+            # the step ended with the front half over the opening: a way back (the backward
+            # PABs) starts by clamping that half, and there is no wall for it there
+            where = f"{max(start - self._from_m, 0.0):.2f} m {before}"
+            self._leave_pending(f"the robot stopped over the opening {where}")
+            raise self._incomplete(
+                f"the robot stopped with its front half over an opening {where}, which the"
+                " step before carried it onto with no step stopping at it (a tee this close"
+                " to the feature before it is not probed): the front half has no wall to"
+                " clamp there, so the survey cannot back to the branches it left; the line"
+                " is surveyed up to the opening, and the rest is named in the file"
+            )
         return self._line_done(obs)
+
+    def _leave_pending(self, stopped: str) -> None:
+        """Every tee branch not entered yet is left to a further insertion: ``stopped``."""
+        self.unexplored.extend(
+            f"{t}: not entered, {stopped}, {EXTEND}" for t in reversed(self._pending)
+        )
+        self._pending.clear()
 
     def _on_the_way(self, obs: Observation, side: str, start: float, d: float) -> Step | None:
         """A second insertion met a tee: straight on, or into the branch on the way."""
