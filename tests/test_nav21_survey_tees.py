@@ -166,3 +166,21 @@ def test_a_tee_0_2_m_after_a_tee_that_the_pab_carried_the_front_onto_is_named(
     assert [s["type"] for s in segments] == ["straight", "tee", "straight"]
     run_2 = float(segments[2]["length"].split()[0]) / 1000
     assert abs(run_2 - 0.2) < 0.03  # the line written up to the second tee
+
+
+def test_a_navigation_s_last_step_openings_are_in_its_plain_json(tmp_path: Path) -> None:
+    # NavigationResult.off_wall (the failed step's joints off the wall, where the survey
+    # placed the tee it names) is in as_dict(), which gives all of the result
+    import json
+
+    navigator = pirate_bt.Step("straight", distance=3.0, stop_at_feature=True)
+
+    class _ToTheTee:
+        def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+            return navigator if obs.step == 0 else None
+
+    result = pirate_bt.navigate(_ToTheTee(), sim="t-joint")
+    assert result.succeeded, result.why
+    assert result.off_wall and result.off_wall[-1].back_m is None  # stopped over it
+    data = json.loads(json.dumps(result.as_dict()))
+    assert data["off_wall"] == [o.to_json() for o in result.off_wall]

@@ -144,6 +144,7 @@ class NavigationResult:
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_s": round(self.wall_s, 3),
             "notes": list(self.notes),
+            "off_wall": [o.to_json() for o in self.off_wall],
             "decisions": [d.to_json() for d in self.decisions],
             "pabs": [p.as_dict() for p in self.pabs],
             "missions": [m.as_dict() for m in self.missions],
