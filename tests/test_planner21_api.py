@@ -5,13 +5,14 @@ in parallel in processes ... every result pickles")."""
 from __future__ import annotations
 
 import pickle
+from typing import Any
 
 import py_trees
 import pytest
 from py_trees.common import Status
 
 import pirate_bt
-from pirate_bt.errors import UnpicklableError
+from pirate_bt.errors import InputError, UnpicklableError
 from pirate_bt.runner import RunInterrupted
 
 
@@ -82,3 +83,60 @@ def test_a_run_interrupted_whose_run_ended_on_a_planner_s_exception_still_goes_b
     assert "_TwoArgs: sensor gone (7)" in str(back.result.error)
     assert back.result.failing_node == sent.result.failing_node
     assert "sensor gone (7)" in back.result.message
+
+
+@pytest.mark.parametrize(
+    ("run", "shape"),
+    [
+        (
+            lambda observe: pirate_bt.simulate_tree(
+                py_trees.behaviours.Success("ok"), observe=observe
+            ),
+            "observe(runner, connection)",
+        ),
+        (
+            lambda observe: pirate_bt.simulate_mission("straight", observe=observe),
+            "observe(runner, values)",
+        ),
+    ],
+    ids=["tree", "mission"],
+)
+def test_an_observer_that_cannot_take_the_runner_is_refused_in_one_line(
+    run: Any, shape: str
+) -> None:
+    # docs/api.md: every argument is checked before anything connects and a bad one is
+    # one InputError line naming it; an observe= of the wrong shape went out of the
+    # call as Python's bare "TypeError: <lambda>() takes 0 positional arguments but 2
+    # were given", and an async def was called, never awaited, its hooks never attached,
+    # and the run went on as if observed (a RuntimeWarning the only sign)
+    async def attach(runner: Any, connection: Any) -> None:
+        runner.post_tick.append(print)
+
+    for observe, said in [
+        (lambda: None, "<lambda>()"),
+        (lambda runner: None, "<lambda>(runner)"),
+        (attach, "is an async def"),
+    ]:
+        with pytest.raises(InputError) as caught:
+            run(observe)
+        message = str(caught.value)
+        assert message.startswith("observe: ") and "\n" not in message
+        assert said in message and shape in message
+
+
+def test_an_observer_of_any_callable_shape_that_takes_two_arguments_runs() -> None:
+    # a bound method, a callable object, *args and a default third argument all take
+    # (runner, connection): not refused
+    seen: list[str] = []
+
+    class Hooks:
+        def attach(self, runner: Any, connection: Any, extra: int = 0) -> None:
+            seen.append("method")
+
+        def __call__(self, *args: Any) -> None:
+            seen.append(f"call {len(args)}")
+
+    for observe in (Hooks().attach, Hooks()):
+        result = pirate_bt.simulate_tree(py_trees.behaviours.Success("ok"), observe=observe)
+        assert result.status == "success"
+    assert seen == ["method", "call 2"]

@@ -36,8 +36,8 @@ from pirate_bt.api.mission_outputs import (
     outputs_not_inputs,
     write_mission_outputs,
 )
+from pirate_bt.api.observing import check_observer
 from pirate_bt.api.options import (
-    callback,
     fault_list,
     file_name,
     flag,
@@ -303,7 +303,7 @@ def _options(
         flag(checks.get(name, False), name)
     seed_value(checks.get("seed", 0))
     split_faults(checks.get("faults"))
-    callback(checks.get("observe"), "observe")
+    check_observer(checks.get("observe"), "observe(runner, values)")
     inputs: dict[str, Any] = {
         k: v for k, v in checks.get("inputs", {}).items() if isinstance(v, str | Path)
     }

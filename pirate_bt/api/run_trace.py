@@ -10,7 +10,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.api.options import callback, flag, output_path
+from pirate_bt.api.observing import check_observer
+from pirate_bt.api.options import flag, output_path
 
 __all__ = ["attach_run_trace", "check_run_options", "check_trace"]
 
@@ -27,7 +28,7 @@ def check_run_options(
     """
     flag(realtime, "realtime")
     flag(live, "live")
-    callback(observe, "observe")
+    check_observer(observe)
     if trace is not None:
         check_trace(trace)
 
