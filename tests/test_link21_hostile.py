@@ -364,3 +364,29 @@ def test_unasked_hello_replies_again_and_again_end_the_session() -> None:
         " reset (HELLO_REPLYs the host did not ask for):"
     ), str(caught.value)
     assert i < 8
+
+
+def test_a_close_whose_estop_wait_ends_before_its_give_up_says_it_was_never_answered(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """On a flooded line the reader thread polls late, and the close's wait for its e-stop
+    (the e-stop's own retry budget) ends before the poll that gives it up: the close said
+    *and the e-stop sent after it failed (Request(EStop seq=10 pending) not answered within
+    0.240 s)*, a request's repr for what is an e-stop never acknowledged."""
+    wire = _in_session()  # a bridge that answers nothing
+    link = RobotLink(ROBOT, wire.session)
+    session = wire.session
+    wait = session.wait
+    late = session.config.ack_timeout_s  # the last poll comes after the wait's end
+
+    def wait_polled_late(request: object, timeout_s: float | None = None) -> object:
+        return wait(request, late)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(session, "wait", wait_polled_late)
+    for i in range(3):
+        wire.answer(state(2 + i))
+        wire.poll(0.01)
+    link.close()
+    assert str(link.close_error).startswith(
+        "the closing stop was never acknowledged, nor was the e-stop sent after it"
+    ), str(link.close_error)

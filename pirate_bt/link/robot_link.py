@@ -526,6 +526,12 @@ class RobotLink:
         except ProtocolMismatch as why:  # named once when the stop's cause too
             said = "" if str(why) in str(stop_error) else f" ({why})"
             estop = f"and the e-stop sent after it was not answered either{said}"
+        except LinkTimeout:
+            # its wait (its retry budget) ended before the poll that gives it up (a reader
+            # thread that polled late, on a flooded line): never acknowledged, as much as
+            # one given up (before 2026-11-30: "... failed (Request(EStop seq=10 pending)
+            # not answered within 0.240 s)")
+            estop = "nor was the e-stop sent after it"
         except LinkError as why:
             # lost as the bridge reported it hears nothing from the host: said below
             deaf = self.session._lost_why and self.session.stats().watchdog
