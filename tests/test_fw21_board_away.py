@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from cleanroom_peer import HEARTBEAT, KEEP, frame
+from firmware_chain_support import missing_chain, open_chain
 from firmware_host import build_host_library
 from test_fw21_cleanroom_firmware import (
     LAYOUT,
@@ -34,6 +35,7 @@ from test_fw21_cleanroom_firmware import (
     drive_entries,
     running,
 )
+from test_fw21_flood import ChainHost
 
 BOARDS = sorted(ROBOT.board_ids())
 AWAY = 24  # the rotational drive A and the IMU
@@ -131,3 +133,39 @@ def test_a_board_that_misses_a_few_polls_stops_nothing(peer: FirmwarePeer) -> No
     host.wait(0.2)
     assert set(peer.drives().values()) == {(VELOCITY, 400)}, peer.drives()
     assert PWM not in {mode for mode, _ in peer.drives().values()}
+
+
+# -- through the whole chain: the reference PICO's AVR build loses its power --------------
+
+RUN, BRAKE = 2, 1
+
+
+@pytest.mark.skipif(missing_chain() is not None, reason=f"the chain in simavr: {missing_chain()}")
+def test_a_pico_that_loses_its_power_mid_drive_comes_back_braked_through_the_chain() -> None:
+    """The bridge ELF and nine PICO ELFs in simavr: board 24 (the rotational drive A)
+    loses its power while every drive runs; the host stops the others (board 24's
+    entries keep); board 24 boots again. Before, its drive restarted alone at the
+    bridge's old setpoint (duty 100 while every other drive was braked)."""
+    with open_chain() as (chain, _clock):
+        host = ChainHost(chain)
+        host.session()
+        host.step(bulk(3, drive_entries(400)), 0.1)
+        drives = [(b, s) for b, s, role, _ in LAYOUT.motors if role == "drive"]
+        assert {chain.outputs[key][0] for key in drives} == {RUN}
+        chain.power_board(AWAY, False)
+        beat = iter(range(100, 200))
+        for _ in range(3):
+            host.step(frame(HEARTBEAT, next(beat)), 0.02)
+        stop = [
+            (KEEP, 0) if board == AWAY else entry
+            for (board, _, _, _), entry in zip(LAYOUT.motors, drive_entries(0), strict=True)
+        ]
+        host.step(bulk(4, stop), 0.02)
+        for _ in range(12):
+            host.step(frame(HEARTBEAT, next(beat)), 0.02)
+        assert chain.outputs[(AWAY, 1)][0] == 0  # no power: limp
+        chain.power_board(AWAY, True)
+        for _ in range(10):
+            host.step(frame(HEARTBEAT, next(beat)), 0.02)
+        assert {key: chain.outputs[key][0] for key in drives} == dict.fromkeys(drives, BRAKE)
+        assert host.errors == []

@@ -37,6 +37,9 @@
  *                    'I' board index u8, answers u8: that board's IMU stops answering
  *                        its address (0: no ACK, as an IMU without power) or answers (1)
  *                    'X' reset the bridge's core (a DTR edge)
+ *                    'O' board index u8, powered u8: that board loses its power (0: its
+ *                        core stops, off the line, its H-bridges off) or gets it back (1:
+ *                        a power-on reset, its SRAM cleared, and it runs from now)
  *                    'W' watch: kind u8 (0: from the end of the next host frame fed to
  *                        the bridge after the frames queued now and `skip` more, 1: from
  *                        now), skip u8, n u8, then n x (board index u8, slot u8)
@@ -56,6 +59,7 @@ static int n_boards;
 static uint8_t board_ids[CHAIN_MAX_BOARDS];
 static uint64_t now;
 static bool bridge_halted;
+static bool board_unpowered[CHAIN_MAX_BOARDS]; /* 'O': its core does not run */
 static uint32_t bridge_debug_at, pico_debug_at;
 
 /* the host link: bytes in (fed at the line's rate), bytes out */
@@ -339,7 +343,7 @@ static void advance(uint64_t until) {
     while (now < until) {
         uint64_t q1 = now + QUANTUM_CYCLES < until ? now + QUANTUM_CYCLES : until;
         for (int c = 0; c <= n_boards; c++) {
-            if (c == 0 && (bridge_halted || no_bridge)) {
+            if ((c == 0 && (bridge_halted || no_bridge)) || (c > 0 && board_unpowered[c - 1])) {
                 continue;
             }
             run_core(cores[c], q1);
@@ -487,6 +491,34 @@ static void figures(void) {
     channel_send_record('S', (const uint8_t *)text, (uint16_t)k);
 }
 
+/* A PICO board loses its power, or gets it back: a power-on reset from now, with its
+ * SRAM cleared (what .noinit kept is gone: a cold boot), its EEPROM (its id) kept. */
+static void power_board(int b, bool on) {
+    avr_t *avr = cores[b + 1];
+    if (!on) {
+        if (!board_unpowered[b]) {
+            board_unpowered[b] = true;
+            line_detach(b + 1);
+            board_power(b, false);
+        }
+        return;
+    }
+    if (!board_unpowered[b]) {
+        return;
+    }
+    avr->cycle = now; /* it was not running: it starts now, not where it stopped (and
+                       * the pin changes of its reset are stamped now on the line) */
+    avr_reset(avr); /* also clears its cycle timers: ours start again */
+    avr->cycle = now;
+    memset(avr->data + 0x100, 0, (size_t)avr->ramend + 1u - 0x100u);
+    avr_regbit_set(avr, avr->reset_flags.porf);
+    no_level_polling(avr);
+    arm_fence(avr);
+    board_power(b, true);
+    line_reattach(b + 1);
+    board_unpowered[b] = false;
+}
+
 static void handle(char type, const uint8_t *payload, uint16_t n) {
     double t0 = wall_now();
     if (type == 'A') {
@@ -508,6 +540,8 @@ static void handle(char type, const uint8_t *payload, uint16_t n) {
         avr_cycle_timer_register(cores[0], HOST_BYTE_CYCLES, feed_host, NULL);
         arm_fence(cores[0]);
         host_q_tail = host_q_head;
+    } else if (type == 'O' && n >= 2 && payload[0] < n_boards) {
+        power_board(payload[0], payload[1] != 0);
     } else if (type == 'W' && n >= 3) {
         memset(&watch, 0, sizeof watch);
         watch.on = true;

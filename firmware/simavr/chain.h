@@ -36,6 +36,8 @@ struct line_stats {
 void line_attach(int n, avr_t *avr, char uart, char de_port, int de_bit, char re_port, int re_bit);
 /* Stop hearing and driving for node n (a halted core). */
 void line_detach(int n);
+/* A node detached by line_detach is on the line again. */
+void line_reattach(int n);
 /* After every core ran to `until`: put the bytes that started before it on the line. */
 void line_settle(uint64_t until);
 const struct line_stats *line_stats(void);
@@ -62,5 +64,8 @@ void board_inputs(int b, const uint16_t adc[4], const int32_t encoder[2], const 
 void board_imu_answers(int b, bool on);
 /* The H-bridge outputs now. */
 struct motor_sample board_sample(int b, int slot);
+/* The board's power: off, its H-bridges are off (the motors limp) and its IMU forgets
+ * its mode; on again, its pins' external levels are put back (after its MCU's reset). */
+void board_power(int b, bool on);
 
 #endif

@@ -32,6 +32,7 @@ static struct board {
     uint8_t imu_at;
     bool imu_selected, imu_addr_written;
     bool imu_gone; /* it answers nothing (no ACK) */
+    bool unpowered; /* the board has no power: its outputs are off */
 } boards[CHAIN_MAX_BOARDS];
 
 static void set_external(struct board *b, char port, uint8_t mask, uint8_t value) {
@@ -180,7 +181,24 @@ void board_inputs(int i, const uint16_t adc[4], const int32_t encoder[2], const 
     }
 }
 
+void board_power(int i, bool on) {
+    struct board *b = &boards[i];
+    b->unpowered = !on;
+    if (!on) {
+        memset(b->imu_reg, 0, sizeof b->imu_reg); /* a BNO055 powers up in CONFIGMODE */
+        b->imu_reg[0] = 0xA0;
+        b->imu_selected = false;
+        return;
+    }
+    set_external(b, 'D', 0x08, b->ext_d); /* the reset cleared the pins' levels */
+    drive_encoder(b, 0, true);
+    drive_encoder(b, 1, true);
+}
+
 struct motor_sample board_sample(int i, int slot) {
+    if (boards[i].unpowered) {
+        return (struct motor_sample){0, 0}; /* no power: the H-bridge is off, it coasts */
+    }
     const uint8_t *d = boards[i].avr->data;
     uint8_t tccr = d[R_TCCR0A], portd = d[R_PORTD], portb = d[R_PORTB];
     bool pwm = slot == 0 ? (tccr & 0x80u) : (tccr & 0x20u);

@@ -131,6 +131,8 @@ void line_attach(int i, avr_t *avr, char uart, char de_port, int de_bit, char re
 
 void line_detach(int i) { nodes[i].detached = true; }
 
+void line_reattach(int i) { nodes[i].detached = false; }
+
 void line_on_frame(line_frame_fn fn) { frame_fn = fn; }
 
 void line_on_byte(line_tap_fn fn) { tap_fn = fn; }

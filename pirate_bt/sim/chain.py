@@ -433,6 +433,13 @@ class FirmwareChain:
         with self._lock:
             self._send("K")
 
+    def power_board(self, board: int, on: bool) -> None:
+        """Cut the power of PICO ``board`` (its core stops, off the line, its motors limp),
+        or give it back (a power-on reset: a cold boot, its id kept in its EEPROM)."""
+        index = self.physics.boards.index(board)
+        with self._lock:
+            self._send("O", bytes((index, int(on))))
+
     def watch_stops(self, cause: str, motors: Sequence[tuple[int, int]]) -> None:
         """Start timing until every motor in ``motors`` ((board, slot)) stops driving.
 
