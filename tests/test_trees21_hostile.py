@@ -9,7 +9,12 @@ Findings, each with its test below:
   went raw into the one line said of it: a recursion's chain (*recursive subtree: a
   <CR>b -> a<CR>b*), *no subtree named 'x' in FILE* and export's *NAME: U+001B cannot be
   written in XML*. On a terminal the line was rewritten or the screen cleared, where a
-  node's name with one is refused and a file's path at the line's start is escaped.
+  node's name with one is refused and a file's path at the line's start is escaped;
+- a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
+  ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
+  default, without a word, and ``level: !!null error`` was said to be *null is not one
+  of ...*; a value tagged ``!!timestamp`` was taken whatever its text (``message:
+  !!timestamp hello``), where ``!!int abc`` and ``!!bool 3`` are refused at their place.
 """
 
 from __future__ import annotations
@@ -17,7 +22,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.yamlfile import load_yaml_text
 
 
 def _said(capsys: Any) -> str:
@@ -96,3 +105,47 @@ def test_export_names_a_subtree_it_cannot_write_escaped(tmp_path: Path, capsys: 
     assert "\x1b" not in err
     assert err.strip().endswith("t.yaml:3:3: a\\x1bb: U+001B cannot be written in XML")
     assert not out.exists()
+
+
+def test_a_null_tag_on_text_is_refused_where_it_is_not_taken_for_no_value(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params: {p: {type: duration, default: !!null 5 s}}\n"
+        "root:\n  type: sequence\n  children:\n"
+        "    - {type: wait, name: !!null grip, duration: $p}\n"
+        "    - {type: log, message: !!timestamp hello, level: !!null error}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"{tree}:1:39: a YAML !!null value is null, ~ or nothing, not '5 s'",
+        f"{tree}:5:26: a YAML !!null value is null, ~ or nothing, not 'grip'",
+        f"{tree}:6:28: a YAML !!timestamp value is a date such as 2001-12-14, not 'hello'",
+        f"{tree}:6:54: a YAML !!null value is null, ~ or nothing, not 'error'",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [
+        ("a: !!null\n", None),
+        ("a: !!null ~\n", None),
+        ("a: !!null null\n", None),
+        ('a: !!null ""\n', None),
+        ("a: ~\n", None),
+        ("a: !!timestamp 2001-12-14\n", "2001-12-14"),
+        ("a: 2001-12-14\n", "2001-12-14"),
+    ],
+)
+def test_null_and_a_date_written_as_yaml_writes_them_are_read_as_before(
+    text: str, value: object
+) -> None:
+    assert load_yaml_text(text, "f.yaml").data == {"a": value}
+
+
+def test_a_null_tag_on_text_is_refused_in_every_file_kind() -> None:
+    with pytest.raises(ValidationFailed) as caught:
+        load_yaml_text("segments: !!null none\n", "n.yaml")
+    assert str(caught.value) == "n.yaml:1:11: a YAML !!null value is null, ~ or nothing, not 'none'"

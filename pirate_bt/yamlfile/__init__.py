@@ -44,7 +44,6 @@ from pirate_bt.yamlfile.scalars import (
     NOT_JSON,
     STR_TAG,
     TEXT_KEYS,
-    TIMESTAMP_TAG,
     VALUE_WORDS,
     node_mark,
     not_json,
@@ -306,10 +305,6 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
             errors.append(not_json(node, locator.file))
             continue
         if isinstance(node, yaml.ScalarNode):
-            if node.tag == TIMESTAMP_TAG:
-                # YAML 1.1 reads a bare 2001-12-14 as a date, which no file kind has: the
-                # text as written, as in YAML 1.2 (a check then sees text, a writer writes it)
-                node.tag = STR_TAG
             problem = yaml11_number(node, locator.file)
             if problem is not None:
                 errors.append(problem)

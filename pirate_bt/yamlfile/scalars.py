@@ -69,8 +69,40 @@ def node_mark(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
+def _implicit(tag: str) -> re.Pattern[str]:
+    """The pattern YAML 1.1 reads a plain value's text as ``tag`` by."""
+    return next(
+        pattern
+        for resolvers in yaml.resolver.Resolver.yaml_implicit_resolvers.values()
+        for resolved, pattern in resolvers
+        if resolved == tag
+    )
+
+
+_WRITTEN = {
+    NULL_TAG: ("null, ~ or nothing", _implicit(NULL_TAG)),
+    TIMESTAMP_TAG: ("a date such as 2001-12-14", yaml.constructor.SafeConstructor.timestamp_regexp),
+}
+"""What a value tagged ``!!null`` or ``!!timestamp`` must be written as: PyYAML builds
+``!!null main`` as null whatever its text (a node's ``name: !!null main`` was no name,
+a parameter's ``default: !!null 5 s`` no default, without a word) and takes any text for
+``!!timestamp``."""
+
+
 def unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
-    """A value whose explicit tag its text does not fit (``!!int abc``, ``!!bool 3``)."""
+    """A value whose explicit tag its text does not fit (``!!int abc``, ``!!bool 3``,
+    ``!!null main``, ``!!timestamp soon``). A date, tagged or not, becomes the text
+    written (YAML 1.2 reads it so, and no file kind has a date)."""
+    if node.tag in _WRITTEN:
+        words, pattern = _WRITTEN[node.tag]
+        if not pattern.match(node.value) or "\n" in node.value:
+            return LocatedError(
+                f"a YAML {_short(node.tag)} value is {words}, not {shown(node.value)}",
+                SourceLocation(file, *node_mark(node)),
+            )
+        if node.tag == TIMESTAMP_TAG:
+            node.tag = STR_TAG
+        return None
     if node.tag not in _TAGGED:
         return None
     try:
@@ -82,6 +114,10 @@ def unfit(node: yaml.ScalarNode, file: str) -> LocatedError | None:
             SourceLocation(file, *node_mark(node)),
         )
     return None
+
+
+def _short(tag: str) -> str:
+    return "!!" + tag.rsplit(":", 1)[-1]
 
 
 def yaml11_number(node: yaml.Node, file: str) -> LocatedError | None:
