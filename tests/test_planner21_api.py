@@ -140,3 +140,26 @@ def test_an_observer_of_any_callable_shape_that_takes_two_arguments_runs() -> No
         result = pirate_bt.simulate_tree(py_trees.behaviours.Success("ok"), observe=observe)
         assert result.status == "success"
     assert seen == ["method", "call 2"]
+
+
+class _Broken(py_trees.behaviour.Behaviour):
+    def update(self) -> Status:
+        raise RuntimeError("sensor gone")
+
+
+def test_the_summary_of_a_tree_built_in_python_is_one_line_whatever_its_names() -> None:
+    # docs/api.md: summary() is the line `pirate-bt run` prints and why is one line a
+    # terminal can print; a tree built in Python (no file's name checks) named with a
+    # line break or an escape sequence put them raw into summary(), its name first and
+    # its failing node after the why: two lines, the second a terminal's clear-screen
+    root = py_trees.composites.Sequence(
+        "survey\nrun \x1b[2J", memory=True, children=[_Broken("probe\rA")]
+    )
+    result = pirate_bt.simulate_tree(root)
+    line = result.summary()
+    assert line.isprintable(), repr(line)
+    assert line.startswith("survey\\nrun \\x1b[2J: FAILURE - RuntimeError")
+    assert "sensor gone" in line
+    # the result's own fields keep the names as given
+    assert result.tree == "survey\nrun \x1b[2J"
+    assert result.failing_node == "survey\nrun \x1b[2J/probe\rA"

@@ -117,12 +117,15 @@ class RunResult:
         return 3 if self.close_error is not None else exit_code(self.succeeded, self.error)
 
     def summary(self) -> str:
-        """One line for people, as ``pirate-bt run`` prints it."""
-        node = self.failing_node
+        """One line for people, as ``pirate-bt run`` prints it (the names of a tree built
+        in Python escaped as its ``why`` is: a line break as ``\\n``)."""
+        from pirate_bt.behaviours.foreign import one_line
+
+        node = one_line(self.failing_node) if self.failing_node else None
         where = f" at {node}" if node and not self.succeeded and node not in self.why else ""
         overruns = self.loop.overrun_count if self.loop is not None else 0
         return (
-            f"{self.tree}: {self.status.upper()} - {self.why}{where}"
+            f"{one_line(self.tree)}: {self.status.upper()} - {self.why}{where}"
             f" ({self.target}; {self.ticks} ticks, {self.sim_time_s:.2f} s clock,"
             f" {self.wall_s:.2f} s wall" + (f", {overruns} tick overruns" if overruns else "") + ")"
         )
