@@ -390,3 +390,33 @@ def test_a_close_whose_estop_wait_ends_before_its_give_up_says_it_was_never_answ
     assert str(link.close_error).startswith(
         "the closing stop was never acknowledged, nor was the e-stop sent after it"
     ), str(link.close_error)
+
+
+def test_a_reading_out_of_range_is_named_once_though_older_frames_are_folded_after(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The newest STATE is checked first, then the older ones taken since the last snapshot
+    (a reading fresh in one of them only is not lost): an older one in range made the
+    channel 'read in range again', and the next older one out of range named it a second
+    time, after the newest (seq 4, then seq 3), though it never read in range since."""
+    wire = _in_session()
+    link = RobotLink(ROBOT, wire.session)
+    fresh = (1 << LAYOUT.n_channels) - 1
+    mid = tuple(2048 if c.conversion.raw == (0, 4095) else 0 for c in ROBOT.state_channels())
+    bad = (32767, *mid[1:])  # camera_tilt_angle, raw range 0..4095
+    boards = (1,) * LAYOUT.n_boards
+    wire.answer(State(2, BridgeFlags.NONE, 0, fresh, boards, mid))
+    wire.poll(0.01)
+    assert link.state() is not None
+    wire.answer(
+        State(3, BridgeFlags.NONE, 0, fresh, boards, mid),
+        State(4, BridgeFlags.NONE, 0, fresh, boards, bad),
+        State(5, BridgeFlags.NONE, 0, fresh, boards, bad),
+    )
+    wire.poll(0.01)
+    with caplog.at_level("WARNING", logger="pirate_bt.link.robot_link"):
+        link.state()
+    named = [r.getMessage() for r in caplog.records if "camera_tilt_angle reads" in r.getMessage()]
+    assert len(named) == 1, named
+    assert link.readings_refused == 2  # seq 4 and 5, each counted
+    link.close()

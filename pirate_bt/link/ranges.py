@@ -45,10 +45,13 @@ class ReadingRanges:
         self.refused = 0
         """Fresh readings refused since the link opened."""
 
-    def readings(self, frame: State) -> list[int | None]:
+    def readings(self, frame: State, *, older: bool = False) -> list[int | None]:
         """``frame``'s raw readings, ``None`` where the channel is not fresh or its value
         lies outside the channel's raw range (refused: counted, and logged once until
-        the channel reads in range again)."""
+        the channel reads in range again). ``older``: a frame older than one already
+        checked (folded into a snapshot after the newest), whose readings in range say
+        nothing of the channel now: they do not end its refusal's silence (before
+        2026-11-30 such a frame made the next older one out of range logged again)."""
         raw = frame.readings()
         values = frame.raw_values
         for lo, hi, get in self._groups:
@@ -56,13 +59,14 @@ class ReadingRanges:
             if min(group) < lo or max(group) > hi:
                 break
         else:
-            if self._said:
+            if self._said and not older:
                 self._said.clear()
             return raw
         for i, value in enumerate(raw):
             name = self._names[i]
             if value is None or self._lows[i] <= value <= self._highs[i]:
-                self._said.discard(name)
+                if not older:
+                    self._said.discard(name)
                 continue
             raw[i] = None
             self.refused += 1

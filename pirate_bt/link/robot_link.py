@@ -151,7 +151,8 @@ class RobotLink:
         for frame, at_s in taken[start:]:
             if frame is newest:
                 break
-            self._snapshot = self._states.build(self._ranges.readings(frame), at_s, self._snapshot)
+            raw = self._ranges.readings(frame, older=True)  # checked after the newest
+            self._snapshot = self._states.build(raw, at_s, self._snapshot)
 
     def send(self, commands: Sequence[MotorCommand]) -> None:
         """Merge ``commands`` into the desired setpoints and send them in one frame.
