@@ -185,6 +185,8 @@ class _Messages:
         """The topics whose messages are given (``None``: every JSON channel's)."""
         self.foreign = False
         """The file's header names another library than pirate_bt (read at its start)."""
+        self.indexed = False
+        """Read in log-time order by the ``mcap`` library's indexed reader (:meth:`_indexed`)."""
 
     def __iter__(self) -> Iterator[tuple[str, dict[str, Any]]]:
         for _, topic, message in _by_sequence(self.timed()):
@@ -195,13 +197,14 @@ class _Messages:
         order from pirate_bt's own files (written in log-time order, read as they come),
         in log-time order from another tool's, whose header names another library: MCAP
         does not require a file in log-time order, and one written channel by channel was
-        refused (*the first record is no header*). Another tool's messages are read whole
+        refused (*the first record is no header*). Another tool's file with an index is
+        read by it (:meth:`_indexed`); one without (cut off, unchunked) is read whole
         first, then given sorted by log time (those of one time in file order; see
         :func:`_sequenced` for one channel's)."""
         buffered: list[_Timed] = []
         try:
             for item in self._file_order():
-                if self.foreign:
+                if self.foreign and not self.indexed:
                     buffered.append(item)
                 else:
                     yield item
@@ -222,6 +225,11 @@ class _Messages:
         except OSError as exc:
             raise InputError(f"{self.path}: cannot read: {exc.strerror or exc}") from None
         with stream:
+            indexed = self._indexed(stream)
+            if indexed is not None:
+                yield from indexed
+                return
+            stream.seek(0)
             # CRCs checked: a damaged chunk read as garbage, or as a cut-off run
             records = StreamReader(stream, skip_magic=False, validate_crcs=True).records
             channels: dict[int, str] = {}
@@ -263,6 +271,58 @@ class _Messages:
                 if given is not None:
                     self.count += 1
                     yield given
+
+    def _indexed(self, stream: IO[bytes]) -> Iterator[_Timed] | None:
+        """Another tool's file with an index (chunks, a summary), in log-time order as
+        the ``mcap`` library's indexed reader gives it: chunk by chunk, holding the chunks
+        whose times overlap. Until 2026-11-30 another tool's file was read whole before
+        its first record (its every message, decoded: a long run's trace written with
+        foxglove-sdk grew the reader to many times the file). ``None``: pirate_bt's own
+        file (read as it comes), or one with no index or no summary (cut off, unchunked,
+        damaged, not MCAP: the stream reader reads it, and says what is wrong)."""
+        from mcap.reader import SeekingReader
+
+        try:
+            reader = SeekingReader(stream, validate_crcs=True)
+            if reader.get_header().library.startswith("pirate_bt"):
+                return None
+            summary = reader.get_summary()
+        except Exception:  # the mcap library's, a decompressor's, an OSError
+            return None
+        if summary is None or not summary.chunk_indexes:
+            return None
+        self.foreign = self.indexed = True
+        return self._by_index(reader, summary)
+
+    def _by_index(self, reader: Any, summary: Any) -> Iterator[_Timed]:
+        channels: dict[int, str] = {}
+        for channel in summary.channels.values():
+            self.encodings.setdefault(channel.topic, channel.message_encoding)
+            if channel.message_encoding == "json" and (
+                self.topics is None or channel.topic in self.topics
+            ):
+                channels[channel.id] = channel.topic
+        messages = reader.iter_messages(topics=sorted(set(channels.values())))
+        number = 0
+        while True:
+            try:
+                _, _, record = next(messages)
+            except StopIteration:
+                break
+            except Exception as exc:  # a damaged chunk (CRC, decompressor): no cut-off run
+                raise InputError(
+                    f"{self.path}: damaged after {number} message{'s' if number != 1 else ''}:"
+                    f" {type(exc).__name__}: {exc}"
+                ) from None
+            number += 1
+            topic = channels.get(record.channel_id)
+            if topic is None:
+                continue
+            message = _json_object(self.path, number, topic, record.data)
+            text = readable_text(message, record.data, self.readable)
+            self.count += 1
+            yield record.log_time, record.channel_id, record.sequence, topic, text
+        self.cut = False
 
     def _stopped(self, exc: Exception, stream: IO[bytes], number: int) -> None:
         """Raise the error of the reading stopped by ``exc``, unless the file was cut
