@@ -126,6 +126,25 @@ def test_a_51_mm_tee_0_3_m_after_a_tee_is_not_probed_and_named(tmp_path: Path) -
     assert abs(run_2 - 0.3) < 0.02  # the line written up to the second tee
 
 
+def test_a_63_mm_tee_0_3_m_after_a_tee_is_still_probed(tmp_path: Path) -> None:
+    # the rear half's last joint is clear of the first tee's opening there (3.5 mm as
+    # built): the probe tells the second tee's branch, and the survey is not stopped
+    result = _survey(
+        tmp_path,
+        [
+            _straight("before", "1.2 m"),
+            _tee("t1", "left"),
+            _straight("mid", "0.3 m"),
+            _tee("t2", "right"),
+            _straight("after", "0.8 m"),
+        ],
+    )
+    assert "stopped over the opening" not in result.why
+    segments = _written(tmp_path)
+    assert [s["type"] for s in segments[:4]] == ["straight", "tee", "straight", "tee"]
+    assert segments[3]["branch"]["direction"] == "right"
+
+
 def test_a_tee_in_100_mm_pipe_is_not_said_to_have_no_branch(tmp_path: Path) -> None:
     result = _survey(
         tmp_path,

@@ -67,6 +67,7 @@ from pirate_bt.task.explore_parts import (
     MARGIN_M,
     OPENING_STOP,
     PROBE_BEFORE_M,
+    PROBE_OVER_M,
     PROBE_WIDEST_M,
     SETTLED_M,
     Passed,
@@ -383,7 +384,7 @@ class ExploreNavigator(SurveyRecord):
         diameter = obs.diameter_m or self._diameter_m or 0.063
         start = tee_start(self._opening_m, diameter)
         rear = start + 1.5 * diameter - PROBE_BEFORE_M - obs.rear_joint_behind_m
-        if rear >= before.end_m - diameter + 0.01:  # past that opening's far edge
+        if rear > before.end_m - diameter - PROBE_OVER_M:  # onto that opening's far edge?
             return None
         self._close_straight(obs, max(start, self._from_m))
         self._in_line = False  # surveyed to the opening, not beyond

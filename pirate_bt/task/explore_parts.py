@@ -27,6 +27,7 @@ __all__ = [
     "MARGIN_M",
     "OPENING_STOP",
     "PROBE_BEFORE_M",
+    "PROBE_OVER_M",
     "PROBE_WIDEST_M",
     "SETTLED_M",
     "Passed",
@@ -69,10 +70,16 @@ front tip ``a + b x diameter`` past the tee's start (the bundled robot at its
 nominal speed, measured in 51 to 80 mm tees within 3 mm; the first front joint
 swings off the wall over the opening's near edge, a little late)."""
 
-PROBE_BEFORE_M = 0.08
+PROBE_BEFORE_M = 0.062
 """Where ``probe-tee`` holds the robot to probe: the front tip up to this far before the
-middle of the opening (52 to 62 mm in 51 to 63 mm tees, 77 mm on a link with delay),
+middle of the opening (52 to 62 mm in 51 to 63 mm tees; 77 mm on a link with delay),
 the rear half alone holding."""
+
+PROBE_OVER_M = 0.01
+"""A probe is not tried where, by the survey's lengths (good to about this), the rear
+half's last joint would be this far or more onto the opening of the tee before: two
+51 mm tees 0.3 m apart, 26 mm onto it (the probe was refused); not two 63 mm tees
+0.3 m apart, 3.5 mm clear of it as built (the probe tells the branch)."""
 
 PROBE_WIDEST_M = 0.085
 """``probe-tee`` feels a branch's turn in tees up to about this diameter (the bundled
