@@ -13,10 +13,12 @@ import pytest
 import pirate_bt
 from pirate_bt.cli import main
 from pirate_bt.errors import InputError, LinkError
+from pirate_bt.link.port_urls import url_schemes
 from pirate_bt.link.transport import PortURLError, Transport
 
 STRAIGHT = str(Path(__file__).resolve().parent.parent / "trees" / "straight.yaml")
-SCHEMES = "alt://, hwgrep://, loop://, rfc2217://, socket://, spy://"
+# pyserial's own schemes (cp2110:// too where its hid module is installed)
+SCHEMES = ", ".join(f"{s}://" for s in url_schemes())
 NO_SCHEME = "here: a port is a device (/dev/ttyACM0, COM3) or a URL of " + SCHEMES
 
 
@@ -65,6 +67,14 @@ def test_a_well_formed_port_that_cannot_be_opened_stays_a_link_error(
     code, lines = _run(device, capsys)
     assert code == 3
     assert len(lines) == 1 and lines[0].startswith(f"pirate-bt: cannot open {device}: ")
+
+
+def test_the_schemes_named_are_pyserial_s_and_not_the_simulator_s() -> None:
+    import pirate_bt.sim  # noqa: F401  (registers sim:// and chain://)
+
+    schemes = set(url_schemes())
+    assert {"alt", "hwgrep", "loop", "rfc2217", "socket", "spy"} <= schemes
+    assert not schemes & {"sim", "chain"}
 
 
 def test_connect_refuses_a_port_of_no_scheme_here_as_input() -> None:
