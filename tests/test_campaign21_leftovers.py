@@ -218,3 +218,59 @@ def test_a_case_s_reason_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
     assert record["reason"].startswith("navigator 'huge' raised RuntimeError: xxx")
     assert len(record["reason"]) == REASON_LIMIT and record["reason"].endswith("…")
     assert len(json.dumps(record)) < 3 * REASON_LIMIT
+
+
+def test_a_dask_cluster_that_loses_every_worker_stops_and_resume_runs_the_rest(
+    tmp_path: Path,
+) -> None:
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    from pirate_bt import run_campaign
+    from pirate_bt.errors import LinkError
+
+    spec = {
+        "name": "lost",
+        "runs": [{"tree": "straight", "network": "straight", "params": {"distance": "0.1 m"}}],
+        "seeds": {"count": 6},
+        "max_time": "60 s",
+    }
+    out = tmp_path / "out"
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=False,
+        dashboard_address=None,
+        protocol="tcp://",
+        host="127.0.0.1",
+    ) as cluster:
+        address = cluster.scheduler_address
+        seen: list[str] = []
+
+        def lose_the_workers(row: dict[str, object]) -> None:
+            seen.append(str(row["id"]))
+            if len(seen) == 1:
+                cluster.scale(0)  # as a worker killed, the cluster's last
+
+        # it waited for ever for a worker to come back, the cases out neither run nor given back
+        with pytest.raises(LinkError) as stopped:
+            run_campaign(
+                spec, scheduler=address, scheduler_timeout=2, output=out, on_record=lose_the_workers
+            )
+        message = str(stopped.value)
+        assert message.startswith(
+            f"the Dask scheduler at {address} has had no workers for 2 s (they were lost);"
+        )
+        kept = (out / "results.jsonl").read_text().splitlines()
+        assert 1 <= len(kept) < 6  # the rows of the cases that ran, whole
+        assert message.endswith(
+            f"keeps {len(kept)} of its 6 cases: run again with resume=True to run the other"
+            f" {6 - len(kept)}"
+        )
+        cluster.scale(1)
+        result = run_campaign(
+            spec, scheduler=address, scheduler_timeout=60, output=out, resume=True
+        )
+    assert result.summary() == "6 runs: 6 success, 0 failed safe, 0 error, 0 timeout"
+    rows = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert sorted(row["seed"] for row in rows) == list(range(6))

@@ -20,7 +20,18 @@ __all__ = ["CasesNotRun", "LostSchedulerNoise", "not_run"]
 
 
 class CasesNotRun(InputError):
-    """The executor cancelled cases before they ran (its Dask scheduler is gone?)."""
+    """The executor cancelled cases before they ran (its Dask scheduler is gone?).
+
+    Attributes:
+        kept: Rows the campaign has (old and new); ``None`` when not told.
+        total: Its cases (``None``: not told).
+        rest: What the message says after the cancelled cases: how many rows the
+            results file keeps and what to run next.
+    """
+
+    kept: int | None = None
+    total: int | None = None
+    rest: str = ""
 
 
 def not_run(results: Path | None, unrun: int, kept: int, total: int) -> CasesNotRun:
@@ -37,11 +48,15 @@ def not_run(results: Path | None, unrun: int, kept: int, total: int) -> CasesNot
         " (its Dask scheduler went away?)"
     )
     if results is None:
-        return CasesNotRun(f"{what}; {kept} cases ran")
-    return CasesNotRun(
-        f"{what}; {results} keeps {kept} of its {total} cases: run again with {RESUME}"
-        f" to run the other {total - kept}"
-    )
+        rest = f"{kept} cases ran"
+    else:
+        rest = (
+            f"{results} keeps {kept} of its {total} cases: run again with {RESUME}"
+            f" to run the other {total - kept}"
+        )
+    error = CasesNotRun(f"{what}; {rest}")
+    error.kept, error.total, error.rest = kept, total, rest
+    return error
 
 
 class LostSchedulerNoise(logging.Filter):

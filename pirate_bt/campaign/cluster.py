@@ -236,6 +236,76 @@ def _wait_for_a_worker(client: Any, address: str, timeout_s: float) -> None:
         ) from None
 
 
+class _Watched(Executor):
+    """The client's executor, watching that the cluster keeps a worker while cases are
+    out: one whose workers were all lost waited for ever for new ones, the cases out
+    neither run nor given back. With no worker for ``timeout_s`` it cancels the cases
+    out (the campaign stops as when its scheduler went away: they have no row, a
+    resume runs them) and says so in :attr:`gave_up`."""
+
+    def __init__(self, executor: Executor, client: Any, timeout_s: float) -> None:
+        import threading
+
+        self._executor = executor
+        self._client = client
+        self._timeout_s = timeout_s
+        self._out: set[Any] = set()
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self.gave_up = False
+        """Whether it cancelled the cases out: the cluster had no worker for the timeout."""
+        self._thread = threading.Thread(
+            target=self._watch, name="pirate_bt-dask-watch", daemon=True
+        )
+        self._thread.start()
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Any:
+        future = self._executor.submit(fn, *args, **kwargs)
+        with self._lock:
+            self._out.add(future)
+        future.add_done_callback(self._back)
+        return future
+
+    def _back(self, future: Any) -> None:
+        with self._lock:
+            self._out.discard(future)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self.stop_watching()
+        if cancel_futures:  # Dask's ClientExecutor.shutdown takes no cancel_futures
+            with self._lock:
+                out = list(self._out)
+            for future in out:
+                future.cancel()
+        self._executor.shutdown(wait=wait)
+
+    def stop_watching(self) -> None:
+        """End the watch (its thread is gone within one wait of its client)."""
+        self._stop.set()
+
+    def _watch(self) -> None:
+        while not self._stop.wait(0.5):
+            with self._lock:
+                if not self._out:
+                    continue
+            try:  # returns at once while a worker is there
+                self._client.wait_for_workers(1, timeout=self._timeout_s)
+                continue
+            except TimeoutError:
+                pass
+            except Exception:  # the scheduler gone: the client gives the cases back itself
+                continue
+            if self._stop.is_set() or self._client.status != "running":
+                continue
+            with self._lock:
+                out = list(self._out)
+            if out:
+                self.gave_up = True
+                for future in out:
+                    future.cancel()
+                return
+
+
 @contextmanager
 def dask_executor(
     scheduler: str | None, scheduler_file: str | None, timeout_s: float = 10.0
@@ -270,6 +340,7 @@ def dask_executor(
             f"cannot reach the Dask scheduler at {address}:"
             f" {type(exc).__name__}: {said_of(exc, 120)}"
         ) from None
+    executor: _Watched | None = None
     noise = LostSchedulerNoise()  # a scheduler gone is said once, by the campaign
     logging.getLogger("distributed.client").addFilter(noise)
     try:
@@ -278,12 +349,19 @@ def dask_executor(
             client.register_plugin(CaseServerPlugin(), name=PLUGIN_NAME)
         except Exception as exc:  # the cases still start their servers themselves
             _log.warning("case servers not started ahead on the Dask workers: %s", exc)
-        executor = client.get_executor(pure=False)
+        executor = _Watched(client.get_executor(pure=False), client, timeout_s)
         nworkers = len(client.scheduler_info().get("workers", {}))
         yield executor, f"Dask cluster at {client.scheduler.address} ({nworkers} workers)"
         executor.shutdown(wait=False)
-    except CasesNotRun as exc:  # its cases cancelled: say whose
+    except CasesNotRun as exc:  # its cases cancelled: say whose, and why when it is known
+        if executor is not None and executor.gave_up:
+            raise LinkError(
+                f"the Dask scheduler at {address} has had no workers for {timeout_s:g} s"
+                f" (they were lost); the cases not run were cancelled; {exc.rest}"
+            ) from None
         raise CasesNotRun(f"Dask cluster at {address}: {exc}") from None
     finally:
+        if executor is not None:
+            executor.stop_watching()  # the thread ends with its client, however it ended
         client.close()
         logging.getLogger("distributed.client").removeFilter(noise)
