@@ -284,26 +284,29 @@ class _Watched(Executor):
         self._stop.set()
 
     def _watch(self) -> None:
+        import time
+
+        since: float | None = None  # when the cluster was last seen with no worker
         while not self._stop.wait(0.5):
             with self._lock:
-                if not self._out:
-                    continue
-            try:  # returns at once while a worker is there
-                self._client.wait_for_workers(1, timeout=self._timeout_s)
-                continue
-            except TimeoutError:
-                pass
+                waiting = bool(self._out)
+            try:  # the count alone: not every worker's description, twice a second
+                workers = self._client.scheduler_info(n_workers=0).get("n_workers")
             except Exception:  # the scheduler gone: the client gives the cases back itself
+                workers = None
+            if not waiting or workers != 0 or self._client.status != "running":
+                since = None
                 continue
-            if self._stop.is_set() or self._client.status != "running":
+            now = time.monotonic()
+            since = now if since is None else since
+            if now - since < self._timeout_s:
                 continue
             with self._lock:
                 out = list(self._out)
-            if out:
-                self.gave_up = True
-                for future in out:
-                    future.cancel()
-                return
+            self.gave_up = True
+            for future in out:
+                future.cancel()
+            return
 
 
 @contextmanager
