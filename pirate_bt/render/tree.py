@@ -37,10 +37,7 @@ behaviour, a :class:`~pirate_bt.trace.TreeStructure`, or a trace (a file or a
 
 from __future__ import annotations
 
-import html
-import json
 import os
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -58,10 +55,19 @@ from pirate_bt.errors import (
     shown,
 )
 from pirate_bt.render.files import DIAGRAM_SUFFIXES, write_diagram
+from pirate_bt.render.labels import (
+    COVERAGE_BANDS,
+    STATUS_FILL,
+    STATUS_WORD,
+    attrs_text,
+    band,
+    label,
+    quoted,
+)
 from pirate_bt.trace.coverage import Coverage, NodeCoverage
 from pirate_bt.trace.formats import suffix_of
 from pirate_bt.trace.reader import READERS, Trace, read_trace
-from pirate_bt.trace.structure import NodeInfo, TreeStructure, tree_structure
+from pirate_bt.trace.structure import TreeStructure, tree_structure
 
 if TYPE_CHECKING:
     from typing import TypeAlias
@@ -98,103 +104,6 @@ KIND_STYLE: Mapping[str, Mapping[str, str]] = {
     "leaf": {"shape": "box", "style": "rounded,filled", "fillcolor": "#e5e7eb"},
 }
 _COMPOSITE_SHAPE = {"Selector": "octagon", "Parallel": "parallelogram"}
-
-#: status code -> fill colour.
-STATUS_FILL: Mapping[str, str] = {
-    "S": "#86efac",
-    "F": "#fca5a5",
-    "R": "#fcd34d",
-    "I": "#ffffff",
-}
-_STATUS_WORD = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING", "I": "not ticked"}
-
-#: (fewest ticks, fill colour, words) per band of a node's tick count, for coverage.
-COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
-    (0, "#ffffff", "never ran"),
-    (1, "#dbeafe", "1-9 ticks"),
-    (10, "#93c5fd", "10-99 ticks"),
-    (100, "#3b82f6", "100-999 ticks"),
-    (1000, "#1d4ed8", "1000+ ticks"),
-)
-_MAX_PARAM_CHARS = 40
-
-
-_UNWRITABLE = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
-"""Characters an HTML-like Graphviz label (read as XML) cannot carry, the C1 controls,
-and a line break (``\\n``, ``\\r``), which it would draw as nothing."""
-
-
-def _html(text: str) -> str:
-    """``text`` for an HTML-like label: escaped, each control character (a hostile
-    tree's or trace's: ``"\\x07"`` in a log message) shown as its escape, which Graphviz
-    would otherwise refuse, failing the whole drawing, a line break too (Graphviz drew
-    ``"x\\ny"`` as ``xy``), and a backslash doubled: Graphviz reads ``\\N``, ``\\G``
-    and ``\\E`` in an HTML-like label as well (a message ``C:\\New`` was drawn with the
-    node's id in place of ``\\N``)."""
-    shown_text = _UNWRITABLE.sub(lambda m: repr(m[0])[1:-1], text)
-    return html.escape(shown_text).replace("\\", "\\\\")
-
-
-def _quoted(text: str) -> str:
-    """``text`` inside a quoted DOT string: as :func:`_html`, whose backslash is doubled
-    there too (a name ending in ``\\`` would end the string; ``\\G`` would become the
-    graph's id)."""
-    return _html(text)
-
-
-def _param_text(value: object) -> str:
-    if isinstance(value, float):
-        text = f"{value:.4g}"
-    elif isinstance(value, str):
-        text = value
-    else:
-        text = json.dumps(value, separators=(",", ":"))
-    if len(text) > _MAX_PARAM_CHARS:
-        text = text[: _MAX_PARAM_CHARS - 1] + "…"
-    return text
-
-
-def _band(ticks: int) -> tuple[int, str, str]:
-    return [band for band in COVERAGE_BANDS if ticks >= band[0]][-1]
-
-
-def _coverage_row(seen: NodeCoverage) -> str:
-    parts = [f"ticks {seen.ticks}", f"ok {seen.successes}", f"fail {seen.failures}"]
-    parts += [f"{name} {n}" for name, n in (("halts", seen.halts), ("skips", seen.skips)) if n]
-    return f'<font point-size="8"><i>{_html(" · ".join(parts))}</i></font>'
-
-
-def _label(
-    node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
-) -> str:
-    rows = [f"<b>{_html(node.name) or ' '}</b>"]  # <b></b> is no label to Graphviz
-    if node.type and node.type != node.name:
-        rows.append(f'<font point-size="8">{_html(node.type)}</font>')
-    for key, value in node.params.items():
-        if value is None:
-            continue
-        rows.append(f'<font point-size="8">{_html(str(key))}: {_html(_param_text(value))}</font>')
-    if status is not None and status != "I":
-        word = _STATUS_WORD[status]
-        text = f"{word}: {feedback}" if feedback else word
-        if len(text) > _MAX_PARAM_CHARS:
-            text = text[: _MAX_PARAM_CHARS - 1] + "…"
-        rows.append(f'<font point-size="8"><i>{_html(text)}</i></font>')
-    if seen is not None:
-        rows.append(_coverage_row(seen))
-    return "<" + "<br/>".join(rows) + ">"
-
-
-def _attrs(attrs: Mapping[str, str]) -> str:
-    """DOT attributes; the label is HTML-like (made by :func:`_label`), every other value
-    a quoted string (an id read from a trace may look like ``<...>`` too)."""
-    out = []
-    for key, value in attrs.items():
-        if key == "label":
-            out.append(f"{key}={value}")
-        else:
-            out.append(f'{key}="{_quoted(value)}"')
-    return ", ".join(out)
 
 
 def _is_trace_file(path: str | Path) -> bool:
@@ -489,7 +398,7 @@ def tree_graph(
     lines = [
         "digraph tree {",
         "  graph [rankdir=TB, ordering=out, nodesep=0.25, ranksep=0.45,"
-        f' fontname=Helvetica, labelloc=t, label="{_quoted(caption)}"];',
+        f' fontname=Helvetica, labelloc=t, label="{quoted(caption)}"];',
         '  node [fontname=Helvetica, fontsize=10, style=filled, margin="0.12,0.04"];',
         "  edge [arrowsize=0.6];",
     ]
@@ -501,10 +410,10 @@ def tree_graph(
         counted = seen.get(node.id) if coverage is not None else None
         if code is not None:
             attrs["fillcolor"] = STATUS_FILL.get(code, STATUS_FILL["I"])
-            attrs["tooltip"] = f"{node.id} {_STATUS_WORD.get(code, code)}"
+            attrs["tooltip"] = f"{node.id} {STATUS_WORD.get(code, code)}"
         elif coverage is not None:
             ticks = counted.ticks if counted is not None else 0
-            _, colour, words = _band(ticks)
+            _, colour, words = band(ticks)
             attrs["fillcolor"] = colour
             attrs["tooltip"] = f"{node.id} {words}"
             if ticks >= 100:
@@ -514,11 +423,11 @@ def tree_graph(
         else:
             attrs["tooltip"] = f"{node.id} {node.kind}"
         attrs["id"] = node.id
-        attrs["label"] = _label(node, code, feedback.get(node.id, ""), counted)
-        lines.append(f'  "{_quoted(node.id)}" [{_attrs(attrs)}];')
+        attrs["label"] = label(node, code, feedback.get(node.id, ""), counted)
+        lines.append(f'  "{quoted(node.id)}" [{attrs_text(attrs)}];')
     for node in structure:
         for child in node.children:
-            lines.append(f'  "{_quoted(node.id)}" -> "{_quoted(child)}";')
+            lines.append(f'  "{quoted(node.id)}" -> "{quoted(child)}";')
     lines.append("}")
     return "\n".join(lines) + "\n"
 

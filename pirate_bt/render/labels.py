@@ -1,0 +1,115 @@
+"""The labels and attributes of a tree diagram's nodes (split from
+:mod:`pirate_bt.render.tree`, which lays the diagram out): each node's name, type,
+parameters, status at a tick or coverage, as an HTML-like Graphviz label a hostile
+tree's text cannot break, and its fill colours.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+from collections.abc import Mapping
+
+from pirate_bt.trace.coverage import NodeCoverage
+from pirate_bt.trace.structure import NodeInfo
+
+__all__ = ["COVERAGE_BANDS", "STATUS_FILL", "STATUS_WORD", "attrs_text", "band", "label", "quoted"]
+
+
+#: status code -> fill colour.
+STATUS_FILL: Mapping[str, str] = {
+    "S": "#86efac",
+    "F": "#fca5a5",
+    "R": "#fcd34d",
+    "I": "#ffffff",
+}
+STATUS_WORD = {"S": "SUCCESS", "F": "FAILURE", "R": "RUNNING", "I": "not ticked"}
+
+#: (fewest ticks, fill colour, words) per band of a node's tick count, for coverage.
+COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
+    (0, "#ffffff", "never ran"),
+    (1, "#dbeafe", "1-9 ticks"),
+    (10, "#93c5fd", "10-99 ticks"),
+    (100, "#3b82f6", "100-999 ticks"),
+    (1000, "#1d4ed8", "1000+ ticks"),
+)
+_MAX_PARAM_CHARS = 40
+
+
+_UNWRITABLE = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
+"""Characters an HTML-like Graphviz label (read as XML) cannot carry, the C1 controls,
+and a line break (``\\n``, ``\\r``), which it would draw as nothing."""
+
+
+def _html(text: str) -> str:
+    """``text`` for an HTML-like label: escaped, each control character (a hostile
+    tree's or trace's: ``"\\x07"`` in a log message) shown as its escape, which Graphviz
+    would otherwise refuse, failing the whole drawing, a line break too (Graphviz drew
+    ``"x\\ny"`` as ``xy``), and a backslash doubled: Graphviz reads ``\\N``, ``\\G``
+    and ``\\E`` in an HTML-like label as well (a message ``C:\\New`` was drawn with the
+    node's id in place of ``\\N``)."""
+    shown_text = _UNWRITABLE.sub(lambda m: repr(m[0])[1:-1], text)
+    return html.escape(shown_text).replace("\\", "\\\\")
+
+
+def quoted(text: str) -> str:
+    """``text`` inside a quoted DOT string: as :func:`_html`, whose backslash is doubled
+    there too (a name ending in ``\\`` would end the string; ``\\G`` would become the
+    graph's id)."""
+    return _html(text)
+
+
+def _param_text(value: object) -> str:
+    if isinstance(value, float):
+        text = f"{value:.4g}"
+    elif isinstance(value, str):
+        text = value
+    else:
+        text = json.dumps(value, separators=(",", ":"))
+    if len(text) > _MAX_PARAM_CHARS:
+        text = text[: _MAX_PARAM_CHARS - 1] + "…"
+    return text
+
+
+def band(ticks: int) -> tuple[int, str, str]:
+    return [band for band in COVERAGE_BANDS if ticks >= band[0]][-1]
+
+
+def _coverage_row(seen: NodeCoverage) -> str:
+    parts = [f"ticks {seen.ticks}", f"ok {seen.successes}", f"fail {seen.failures}"]
+    parts += [f"{name} {n}" for name, n in (("halts", seen.halts), ("skips", seen.skips)) if n]
+    return f'<font point-size="8"><i>{_html(" · ".join(parts))}</i></font>'
+
+
+def label(
+    node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
+) -> str:
+    rows = [f"<b>{_html(node.name) or ' '}</b>"]  # <b></b> is no label to Graphviz
+    if node.type and node.type != node.name:
+        rows.append(f'<font point-size="8">{_html(node.type)}</font>')
+    for key, value in node.params.items():
+        if value is None:
+            continue
+        rows.append(f'<font point-size="8">{_html(str(key))}: {_html(_param_text(value))}</font>')
+    if status is not None and status != "I":
+        word = STATUS_WORD[status]
+        text = f"{word}: {feedback}" if feedback else word
+        if len(text) > _MAX_PARAM_CHARS:
+            text = text[: _MAX_PARAM_CHARS - 1] + "…"
+        rows.append(f'<font point-size="8"><i>{_html(text)}</i></font>')
+    if seen is not None:
+        rows.append(_coverage_row(seen))
+    return "<" + "<br/>".join(rows) + ">"
+
+
+def attrs_text(attrs: Mapping[str, str]) -> str:
+    """DOT attributes; the label is HTML-like (made by :func:`_label`), every other value
+    a quoted string (an id read from a trace may look like ``<...>`` too)."""
+    out = []
+    for key, value in attrs.items():
+        if key == "label":
+            out.append(f"{key}={value}")
+        else:
+            out.append(f'{key}="{quoted(value)}"')
+    return ", ".join(out)
