@@ -10,6 +10,12 @@ Findings, each with its test below:
   <CR>b -> a<CR>b*), *no subtree named 'x' in FILE* and export's *NAME: U+001B cannot be
   written in XML*. On a terminal the line was rewritten or the screen cleared, where a
   node's name with one is refused and a file's path at the line's start is escaped;
+- a tree whose node's name (or the tree's) is longer than Graphviz takes in a label
+  (16,384 characters) was not drawn; at 200,000 characters Graphviz stopped reading
+  half-way, the BrokenPipeError went out of ``render_tree`` and ``pirate-bt render``
+  took it for its own output closed: exit 0, the ``.dot`` written, no picture, not a
+  word. A diagram now shows at most 80 characters of a name (its end as ``…``, as a
+  parameter's 40), and dot is fed so that its exit and words are said however it stops;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -149,3 +155,37 @@ def test_a_null_tag_on_text_is_refused_in_every_file_kind() -> None:
     with pytest.raises(ValidationFailed) as caught:
         load_yaml_text("segments: !!null none\n", "n.yaml")
     assert str(caught.value) == "n.yaml:1:11: a YAML !!null value is null, ~ or nothing, not 'none'"
+
+
+def test_a_tree_with_names_too_long_for_graphviz_is_drawn_with_them_cut(
+    tmp_path: Path, capsys: Any
+) -> None:
+    long = "n" * 200_000
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        f"name: {'t' * 200_000}\n"
+        f"root: {{type: sequence, name: {long}, children: [{{type: success, name: {long}x}}]}}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "t.svg"
+    assert main(["render", str(tree), "-o", str(out)]) == 0
+    assert capsys.readouterr().out.strip() == f"drew {out}"
+    drawn = out.read_text(encoding="utf-8")
+    assert "n" * 79 + "…" in drawn
+    assert "n" * 80 not in drawn
+
+
+def test_a_diagram_graphviz_stops_reading_half_way_is_said_not_taken_for_a_closed_output(
+    tmp_path: Path,
+) -> None:
+    from pirate_bt.errors import InputError
+    from pirate_bt.render.files import write_diagram
+
+    out = tmp_path / "t.svg"
+    # an HTML-like label longer than Graphviz takes: dot stops reading at it
+    source = "digraph tree {\n  a [label=<<b>" + "x" * 400_000 + "</b>>];\n}\n"
+    with pytest.raises(InputError) as caught:
+        write_diagram(source, out)
+    assert str(caught.value).startswith(f"{out}: Graphviz could not draw it (dot exit 1: ")
+    assert not out.exists()
+    assert (tmp_path / "t.dot").read_text(encoding="utf-8") == source

@@ -12,6 +12,7 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
 from pirate_bt.atomic import write_atomically
@@ -92,17 +93,20 @@ def write_diagram(source: str, out: str | Path) -> Path:
             f"Graphviz 'dot' is not installed, so {out} was not drawn; {dot_path} was written"
             " (install it with: apt-get install graphviz)"
         )
-    import graphviz
-
-    try:  # Graphviz's complaints are said here, in one line, not on standard error
-        picture = graphviz.Source(source).pipe(format=suffix[1:], quiet=True)
-    except graphviz.CalledProcessError as exc:
+    # Graphviz's complaints are said here, in one line, not on standard error. dot is
+    # fed by subprocess.run, which gives its exit and words also when it stopped reading
+    # half-way (graphviz.Source.pipe raised BrokenPipeError there, which the command
+    # line took for its own output closed: exit 0, no picture, not a word).
+    done = subprocess.run(
+        ["dot", f"-T{suffix[1:]}"], input=source.encode("utf-8"), capture_output=True, check=False
+    )
+    if done.returncode != 0:
         from pirate_bt.errors import InputError
 
-        said = " ".join(bytes(exc.stderr or b"").decode("utf-8", "replace").split())
+        said = " ".join(done.stderr.decode("utf-8", "replace").split())
         raise InputError(
-            f"{out}: Graphviz could not draw it (dot exit {exc.returncode}: {said[:300] or '-'});"
+            f"{out}: Graphviz could not draw it (dot exit {done.returncode}: {said[:300] or '-'});"
             f" {dot_path} was written"
-        ) from None
-    write_file(out, picture)
+        )
+    write_file(out, done.stdout)
     return out

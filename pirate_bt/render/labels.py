@@ -14,7 +14,17 @@ from collections.abc import Mapping
 from pirate_bt.trace.coverage import NodeCoverage
 from pirate_bt.trace.structure import NodeInfo
 
-__all__ = ["COVERAGE_BANDS", "STATUS_FILL", "STATUS_WORD", "attrs_text", "band", "label", "quoted"]
+__all__ = [
+    "COVERAGE_BANDS",
+    "MAX_NAME_CHARS",
+    "STATUS_FILL",
+    "STATUS_WORD",
+    "attrs_text",
+    "band",
+    "cut",
+    "label",
+    "quoted",
+]
 
 
 #: status code -> fill colour.
@@ -35,6 +45,10 @@ COVERAGE_BANDS: tuple[tuple[int, str, str], ...] = (
     (1000, "#1d4ed8", "1000+ ticks"),
 )
 _MAX_PARAM_CHARS = 40
+MAX_NAME_CHARS = 80
+"""The most characters of a node's name or type, or of the tree's, a diagram shows: a
+hostile tree's 200,000-character name made a label Graphviz refuses (an HTML-like
+string of more than 16,384 characters), and no picture."""
 
 
 _UNWRITABLE = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
@@ -67,9 +81,12 @@ def _param_text(value: object) -> str:
         text = value
     else:
         text = json.dumps(value, separators=(",", ":"))
-    if len(text) > _MAX_PARAM_CHARS:
-        text = text[: _MAX_PARAM_CHARS - 1] + "…"
-    return text
+    return cut(text, _MAX_PARAM_CHARS)
+
+
+def cut(text: str, limit: int) -> str:
+    """``text`` cut to ``limit`` characters, its end shown as ``…``."""
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def band(ticks: int) -> tuple[int, str, str]:
@@ -85,9 +102,10 @@ def _coverage_row(seen: NodeCoverage) -> str:
 def label(
     node: NodeInfo, status: str | None, feedback: str, seen: NodeCoverage | None = None
 ) -> str:
-    rows = [f"<b>{_html(node.name) or ' '}</b>"]  # <b></b> is no label to Graphviz
+    name = cut(node.name, MAX_NAME_CHARS)
+    rows = [f"<b>{_html(name) or ' '}</b>"]  # <b></b> is no label to Graphviz
     if node.type and node.type != node.name:
-        rows.append(f'<font point-size="8">{_html(node.type)}</font>')
+        rows.append(f'<font point-size="8">{_html(cut(node.type, MAX_NAME_CHARS))}</font>')
     for key, value in node.params.items():
         if value is None:
             continue

@@ -57,10 +57,12 @@ from pirate_bt.errors import (
 from pirate_bt.render.files import DIAGRAM_SUFFIXES, write_diagram
 from pirate_bt.render.labels import (
     COVERAGE_BANDS,
+    MAX_NAME_CHARS,
     STATUS_FILL,
     STATUS_WORD,
     attrs_text,
     band,
+    cut,
     label,
     quoted,
 )
@@ -394,7 +396,8 @@ def tree_graph(
     seen = _coverage_by_node(structure, coverage)
     if coverage is not None and title is None:
         title = f"coverage: {coverage.summary()} (white: never ran; darker: more ticks)"
-    caption = structure.name if title is None else f"{structure.name}: {title}"
+    named = cut(structure.name, MAX_NAME_CHARS)
+    caption = named if title is None else f"{named}: {title}"
     lines = [
         "digraph tree {",
         "  graph [rankdir=TB, ordering=out, nodesep=0.25, ranksep=0.45,"
