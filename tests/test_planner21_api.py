@@ -163,3 +163,40 @@ def test_the_summary_of_a_tree_built_in_python_is_one_line_whatever_its_names() 
     # the result's own fields keep the names as given
     assert result.tree == "survey\nrun \x1b[2J"
     assert result.failing_node == "survey\nrun \x1b[2J/probe\rA"
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        ({"registry": "default"}, "registry: give a Registry"),
+        ({"use_examples": "no"}, "use_examples: give True or False"),
+        ({"clock": "wall"}, "clock: give a clock"),
+        ({"supervisor": "robot"}, "supervisor: give a Supervisor"),
+        ({"params_from_text": True}, "load_tree: no option 'params_from_text'"),
+        ({"colour": 1}, "load_tree: no option 'colour'"),
+    ],
+)
+def test_load_tree_checks_the_options_it_passes_on(options: dict[str, Any], said: str) -> None:
+    # docs/api.md: every public function checks its arguments and answers a bad one in
+    # one line naming it, never a traceback from deep inside; pirate_bt.load_tree passed
+    # **options on unchecked: registry='default' raised AttributeError: 'str' object has
+    # no attribute 'get' from the loader, use_examples='no' was true, a clock or
+    # supervisor of text was taken, and params_from_text=True raised "TypeError:
+    # pirate_bt.api.running.load_tree_source() got multiple values for keyword argument"
+    with pytest.raises(InputError) as caught:
+        pirate_bt.load_tree("straight", params={"distance": "0.1 m"}, **options)
+    message = str(caught.value)
+    assert message.startswith(said) and "\n" not in message
+    if said.startswith("load_tree: no option"):
+        assert isinstance(caught.value, TypeError)  # as Python's own was
+        assert "registry, use_examples, clock, supervisor" in message
+
+
+def test_load_tree_takes_the_options_it_documents() -> None:
+    from pirate_bt.clock import SimClock
+    from pirate_bt.treefile import default_registry
+
+    tree = pirate_bt.load_tree(
+        "bend", registry=default_registry(), use_examples=True, clock=SimClock(), supervisor=None
+    )
+    assert tree.name == "bend"

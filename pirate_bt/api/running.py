@@ -467,6 +467,50 @@ def run_on(
     )
 
 
+LOAD_OPTIONS = ("registry", "use_examples", "clock", "supervisor")
+"""The options :func:`load_tree` passes on to :func:`pirate_bt.treefile.load_tree`."""
+
+
+def _load_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`load_tree`'s ``**options``, each checked: one it does not pass on, or a
+    value of another type, was taken on to a traceback from inside the loader (a
+    ``registry`` of text), read as true (``use_examples="no"``) or kept unused.
+
+    Raises:
+        ArgumentTypeError: the first that is wrong, named.
+    """
+    from pirate_bt.errors import ArgumentTypeError, shown
+    from pirate_bt.safety import Supervisor
+    from pirate_bt.treefile import Registry
+
+    for name, value in options.items():
+        if name not in LOAD_OPTIONS:
+            raise ArgumentTypeError(
+                f"load_tree: no option {name!r}"[:100]
+                + f"; it takes params, robot, check_robot, {', '.join(LOAD_OPTIONS)}"
+            )
+        if name == "use_examples":
+            flag(value, name)
+        elif value is None:
+            continue
+        elif name == "registry" and not isinstance(value, Registry):
+            raise ArgumentTypeError(
+                "registry: give a Registry (pirate_bt.treefile.default_registry(), with"
+                f" your node types added) or None, not {shown(value)}"
+            )
+        elif name == "clock" and not callable(getattr(value, "now", None)):
+            raise ArgumentTypeError(
+                f"clock: give a clock (pirate_bt.clock.SimClock(), WallClock()) or None, not"
+                f" {shown(value)}"
+            )
+        elif name == "supervisor" and not isinstance(value, Supervisor):
+            raise ArgumentTypeError(
+                "supervisor: give a Supervisor (a connection's robot.supervisor) or None,"
+                f" not {shown(value)}"
+            )
+    return dict(options)
+
+
 def load_tree(
     tree: Any,
     *,
@@ -490,8 +534,9 @@ def load_tree(
         robot: The robot description (a loaded one, a file; default: bundled).
         params: The tree's parameters.
         check_robot: Check against the robot's limits.
-        **options: Passed to :func:`pirate_bt.treefile.load_tree` (``registry``,
-            ``use_examples``, ``clock``, ``supervisor``).
+        **options: Passed to :func:`pirate_bt.treefile.load_tree`: ``registry`` (a
+            ``Registry``), ``use_examples`` (``True``/``False``), ``clock`` (a clock),
+            ``supervisor`` (a ``Supervisor``), each or ``None``; no other.
 
     Returns:
         pirate_bt.treefile.LoadedTree: The checked tree (``root``, ``params``,
@@ -499,6 +544,7 @@ def load_tree(
 
     Raises:
         ValidationFailed: every problem, each at ``file:line:column``.
+        ArgumentTypeError: an option it does not take, or one of another type.
 
     Example::
 
@@ -508,6 +554,7 @@ def load_tree(
     from pirate_bt.api.options import load_robot_like
 
     description = load_robot_like(robot) if flag(check_robot, "check_robot") else None
+    options = _load_options(options)
     if isinstance(tree, Mapping):
         source: Any = tree
     elif isinstance(tree, str | Path):
