@@ -82,15 +82,41 @@ __all__ = [
     "kind_of",
     "output_argument",
     "portable_error",
+    "reduce_error",
     "said_of",
     "shown",
 ]
 
 
+def _rebuilt(cls: type[BaseException], args: tuple[Any, ...], state: dict[str, Any]) -> Any:
+    """``cls``'s error with ``args`` and ``state``, made without calling its ``__init__``
+    (see :func:`reduce_error`)."""
+    error = cls.__new__(cls, *args)
+    error.args = args
+    error.__dict__.update(state)
+    return error
+
+
+def reduce_error(error: BaseException) -> tuple[Any, ...]:
+    """``__reduce__`` of an error whose ``__init__`` takes other arguments than its
+    ``args``: it is rebuilt from its ``args`` and attributes, so it goes to and comes
+    back from another process (a process pool, Dask) whole. Python's own reduction
+    calls ``cls(*args)``, which for such an error raises as the other process reads it
+    back, and a process pool then breaks (``BrokenProcessPool``) and loses every result
+    (until 2026-11-30, a ``NodeLookupError`` raised in a pool's worker)."""
+    return (_rebuilt, (type(error), error.args, dict(error.__dict__)))
+
+
 class PirateError(Exception):
-    """Base of every error the library raises on purpose."""
+    """Base of every error the library raises on purpose.
+
+    Each one, of any subclass, can be pickled and read back whole (its message, its
+    attributes), as a process pool or Dask sends it (:func:`reduce_error`)."""
 
     exit_code: int = 1
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return reduce_error(self)
 
 
 class InputError(PirateError):

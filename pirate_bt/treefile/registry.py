@@ -29,9 +29,10 @@ import importlib
 import logging
 from collections.abc import Iterator
 from importlib.metadata import entry_points
-from typing import Final
+from typing import Any, Final
 
 from pirate_bt.behaviours.base import NodeMixin
+from pirate_bt.errors import reduce_error
 
 __all__ = [
     "BUILTIN_NODES",
@@ -107,6 +108,9 @@ class UnknownNode(KeyError):
 
     def __str__(self) -> str:
         return str(self.args[0])
+
+    def __reduce__(self) -> tuple[Any, ...]:  # across processes (pools, Dask) intact
+        return reduce_error(self)
 
 
 class Registry:
