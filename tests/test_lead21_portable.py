@@ -3,6 +3,7 @@ exception a worker raised back to the caller by pickling it."""
 
 from __future__ import annotations
 
+import copy
 import pickle
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -58,3 +59,23 @@ def test_an_error_with_its_own_arguments_is_read_back_whole(error: Exception) ->
     assert vars(back) == vars(error)
     if isinstance(error, PirateError):
         assert back.exit_code == error.exit_code
+
+
+def test_a_robot_description_goes_to_a_pool_worker_and_runs_there() -> None:
+    robot = pirate_bt.load_robot()
+    with ProcessPoolExecutor(1) as pool:
+        result = pool.submit(
+            pirate_bt.simulate_tree, "straight", params={"distance": "0.05 m"}, robot=robot
+        ).result(timeout=120)
+    assert result.succeeded, result.why
+
+
+def test_a_robot_description_copies_whole() -> None:
+    robot = pirate_bt.load_robot()
+    for copied in (copy.deepcopy(robot), pickle.loads(pickle.dumps(robot))):
+        assert copied == robot and copied.digest() == robot.digest()
+        # what is looked up through its index is its own, not the original's
+        board = copied.board_of("bend_1_joint")
+        assert any(board is b for b in copied.boards)
+        assert not any(board is b for b in robot.boards)
+        assert copied.motor("bend_1_joint") == robot.motor("bend_1_joint")

@@ -21,9 +21,10 @@ can point at ``file:line:column``.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from types import MappingProxyType
 from typing import Any, Literal
 
@@ -498,6 +499,9 @@ class RobotDescription(_Model):
         return hashlib.sha256(self.model_dump_json().encode()).hexdigest()
 
 
+_READ_ONLY = ("periods", "bend")
+
+
 @dataclass
 class _Index:
     modules: dict[str, Module]
@@ -510,6 +514,28 @@ class _Index:
     drives: tuple[Motor, ...]
     periods: Mapping[str, float]
     bend: Mapping[Half, tuple[Module, ...]]
+
+    # A read-only mapping (``periods``, ``bend``) neither pickles nor deep-copies: the
+    # index goes as plain dicts and is read back read-only, so a description goes to a
+    # process pool's worker (``executor.submit(simulate_tree, ..., robot=robot)``) and
+    # is deep-copied whole (until 2026-11-30 both raised "cannot pickle 'mappingproxy'").
+    def _plain(self) -> dict[str, Any]:
+        return {
+            f.name: dict(value) if isinstance(value, MappingProxyType) else value
+            for f in fields(self)
+            for value in (getattr(self, f.name),)
+        }
+
+    @classmethod
+    def _from_plain(cls, plain: dict[str, Any]) -> _Index:
+        read_only: dict[str, Any] = {k: MappingProxyType(plain[k]) for k in _READ_ONLY}
+        return cls(**{**plain, **read_only})
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (_Index._from_plain, (self._plain(),))
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> _Index:
+        return _Index._from_plain(copy.deepcopy(self._plain(), memo))
 
     @classmethod
     def build(cls, desc: RobotDescription) -> _Index:
