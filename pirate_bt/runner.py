@@ -325,8 +325,16 @@ class Runner:
             self.stop_message = message
             safe_called = self._call_safe_state()
         loop_ticks = ticks
-        settle_ticks = self._come_to_rest(ticks, start_s)
+        settle_ticks, settle_interrupted = self._come_to_rest(ticks, start_s)
         ticks += settle_ticks
+        if settle_interrupted is not None and error is None:
+            # a Ctrl-C while the wheels ramped down after the tree ended: the run ends
+            # interrupted, the robot put in its safe state (until 2026-11-30 a success)
+            reason, error = StopReason.INTERRUPTED, settle_interrupted
+            message = (
+                f"interrupted ({str(settle_interrupted) or 'Ctrl-C'}) as the robot came to rest"
+            )
+            safe_called = safe_called or self._call_safe_state()
         pending = self._shutdown() or pending
         result = RunResult(
             outcome="success" if reason is StopReason.SUCCESS else "failure",
@@ -426,14 +434,17 @@ class Runner:
             stopped.append(node_path(node))
         return tuple(stopped), held
 
-    def _come_to_rest(self, ticks: int, start_s: float) -> int:
-        """Tick without the tree until ``settle`` says the robot is at rest; how many."""
+    def _come_to_rest(self, ticks: int, start_s: float) -> tuple[int, KeyboardInterrupt | None]:
+        """Tick without the tree until ``settle`` says the robot is at rest; how many, and
+        the Ctrl-C that cut it short (the wheels were stopped: it ends the run
+        interrupted, not out of ``run()``)."""
         if self.settle is None:
-            return 0
+            return 0, None
         root = self.tree.root
         deadline_s = self.clock.now() + self.settle_limit_s
         next_s = self.clock.now()
         n = 0
+        interrupted: KeyboardInterrupt | None = None
         try:
             while not self.settle():
                 if self.clock.now() >= deadline_s - 1e-9:
@@ -456,14 +467,15 @@ class Runner:
                 held = TickInfo(ticks + n, elapsed_s, self.tree, root.status, 0.0)
                 for hook in self.post_tick:
                     hook(held)
-        except KeyboardInterrupt:  # a Ctrl-C while the wheels ramp down: they were stopped
+        except KeyboardInterrupt as exc:  # a Ctrl-C while the wheels ramp down
             _log.warning("interrupted while the robot came to rest")
+            interrupted = exc
         except _RAISED as exc:
             _log.error(
                 "coming to rest at the end of the run: %s: %s", type(exc).__name__, said_of(exc)
             )
             _log.debug("settling raised", exc_info=True)
-        return n
+        return n, interrupted
 
     def _call_safe_state(self) -> bool:
         if self.safe_state is None:

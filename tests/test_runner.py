@@ -99,6 +99,56 @@ def test_ctrl_c_in_a_finish_hook_still_runs_the_others_and_ends_interrupted() ->
     assert len(finished) == 1  # the hook after it ran
 
 
+class _Ramping:
+    """A robot whose wheels ramp down for ever after the run, and a Ctrl-C on the second
+    tick of that: ``settle`` for the runner, ``interrupt`` for its post-tick hooks."""
+
+    def __init__(self) -> None:
+        self.asked = 0
+        self.interrupted = False
+
+    def settle(self) -> bool:
+        self.asked += 1
+        return False
+
+    def interrupt(self, info: object) -> None:
+        if self.asked == 2 and not self.interrupted:
+            self.interrupted = True
+            raise KeyboardInterrupt
+
+
+def test_ctrl_c_while_the_robot_comes_to_rest_after_a_success_ends_interrupted() -> None:
+    # the tree succeeded and the wheels ramp down; a Ctrl-C then was only logged and the
+    # run said success (exit 0), its robot not put in its safe state
+    root = py_trees.behaviours.Success(name="done")
+    safe: list[str] = []
+    ramping = _Ramping()
+    runner = Runner(
+        root, clock=SimClock(), safe_state=lambda: safe.append("safe"), settle=ramping.settle
+    )
+    runner.add_post_tick(ramping.interrupt)
+    result = runner.run()
+    assert ramping.interrupted
+    assert result.reason is StopReason.INTERRUPTED and result.outcome == "failure"
+    assert result.message == "interrupted (Ctrl-C) as the robot came to rest"
+    assert isinstance(result.error, KeyboardInterrupt)
+    assert safe == ["safe"] and result.safe_state_called
+
+
+def test_ctrl_c_while_coming_to_rest_after_a_failure_keeps_the_first_cause() -> None:
+    root, _ = _tree(Boom("check", on_tick=2))
+    safe: list[str] = []
+    ramping = _Ramping()
+    runner = Runner(
+        root, clock=SimClock(), safe_state=lambda: safe.append("safe"), settle=ramping.settle
+    )
+    runner.add_post_tick(ramping.interrupt)
+    result = runner.run()
+    assert ramping.interrupted
+    assert result.reason is StopReason.EXCEPTION and "sensor exploded" in result.message
+    assert safe == ["safe"]
+
+
 def test_ctrl_c_while_waiting_between_ticks() -> None:
     class Interrupting(SimClock):
         def sleep(self, seconds: float) -> None:
