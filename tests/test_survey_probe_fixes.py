@@ -32,6 +32,9 @@ def test_a_survey_that_loses_the_link_exits_3(tmp_path: Path) -> None:
     result = pirate_bt.survey(sim="straight", output=out, faults="link_loss@5s")
     assert not result.succeeded and result.exit_code == 3, result.why
     assert isinstance(result.navigation.error, LinkError)
+    # the survey's own result names it too, as every result does (it had no `error`)
+    assert result.error is result.navigation.error
+    assert result.close_error is result.navigation.close_error
 
 
 # -- F8: a survey that stops names what it did not survey, in the result and the file

@@ -78,6 +78,18 @@ class SurveyResult:
         """The robot was left in its safe state (the navigation's)."""
         return self.navigation.safe_state
 
+    @property
+    def error(self) -> BaseException | None:
+        """The exception that ended the survey, if one did (a lost link: ``LinkError``),
+        as every other result's (the navigation's)."""
+        return self.navigation.error
+
+    @property
+    def close_error(self) -> Any:
+        """Set when closing the link after the survey could not make the robot safe (the
+        navigation's :attr:`~pirate_bt.task.navigate_result.NavigationResult.close_error`)."""
+        return self.navigation.close_error
+
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON values, as every other result's: the navigation's
         (:meth:`NavigationResult.as_dict <pirate_bt.NavigationResult.as_dict>`) with
