@@ -143,3 +143,35 @@ def test_a_relay_that_says_something_else_than_its_port_is_one_line(said: bytes)
     assert answer is not None and set(answer) == {"error"}
     assert answer["error"].startswith("--groot2: the relay process said ")
     assert "\n" not in answer["error"]
+
+
+_FORKS = """
+import os, sys, time
+from pirate_bt.interop.groot2_server import Groot2Server
+
+server = Groot2Server(port=0)
+relay = server._relay
+child = os.fork()
+if child == 0:
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # the test reads this process's lines
+    time.sleep(600)  # a pool's worker, living on
+    os._exit(0)
+server.close()
+print(relay.returncode, flush=True)
+os.kill(child, 9)
+os.waitpid(child, 0)
+"""
+
+
+def test_a_forked_child_does_not_keep_the_relay_of_a_closed_server() -> None:
+    # before: -9: the child's copy of the relay's pipe kept it running after the server
+    # closed it, and the server killed it after waiting 5 s for it to end
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(_FORKS)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+        check=False,
+    )
+    assert (done.returncode, done.stdout.strip()) == (0, "0"), done.stderr[-2000:]

@@ -118,6 +118,7 @@ from pirate_bt.interop.groot2_run import _Run as _Run
 from pirate_bt.interop.groot2_tree import ServedTree
 from pirate_bt.interop.groot2_tree import served_tree as served_tree
 from pirate_bt.trace.coverage import CoverageRecorder, attach_coverage
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
 from pirate_bt.trace.structure import iter_with_ids as iter_with_ids
 from pirate_bt.trace.structure import jsonable as jsonable
 
@@ -184,12 +185,14 @@ class Groot2Server(_Requests):
         # relay holds the rest in the clients' own pipes, as TCP makes them wait
         self._rep.setsockopt(zmq.RCVHWM, REQUESTS_QUEUED)
         self._relay: subprocess.Popen[bytes] | None = None
+        self._copy = False  # a forked process's copy of a server (see _forked)
         self._folder = tempfile.mkdtemp(prefix="pirate-groot2-")  # 0700: the user's
         try:
             self.port = self._bind(host, port)
         except BaseException:
             self._end_relay()
             raise
+        let_go_in_forks(self)
         self._cond = threading.Condition()
         self._run: _Run | None = None
         self._pending: _Pending | None = None
@@ -462,13 +465,28 @@ class Groot2Server(_Requests):
 
     def close(self) -> None:
         """Stop the server (idempotent); a held breakpoint goes on."""
-        if self._stop.is_set():
+        if self._copy or self._stop.is_set():
             return
         with self._cond:
             self._remove_all_locked()
         self._stop.set()
         self._thread.join(timeout=2.0)
         self._end_relay()
+        forget_in_forks(self)
+
+    def _forked(self) -> None:
+        """In a forked process: let go of the relay (its pipe points at ``/dev/null``,
+        ``close`` does nothing). The child's copy of the pipe kept the relay listening
+        after the server closed, for as long as the child lived (a pool's worker)."""
+        self._copy = True
+        relay = self._relay
+        if relay is not None and relay.stdin is not None and relay.stdout is not None:
+            null = os.open(os.devnull, os.O_RDWR)
+            try:
+                for fd in (relay.stdin.fileno(), relay.stdout.fileno()):
+                    os.dup2(null, fd, inheritable=False)
+            finally:
+                os.close(null)
 
     def __enter__(self) -> Groot2Server:
         return self
