@@ -526,8 +526,12 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             raise InputError(f"no navigator named {name!r} (known: {', '.join(navigator_names())})")
         try:
             factory = entry.load()
-        except Exception as exc:  # a broken plug-in is named, not a traceback
-            raise InputError(f"navigator {name!r} ({entry.value}) failed to load: {exc}") from exc
+        except (Exception, SystemExit) as exc:  # a broken plug-in is named, not a traceback
+            # (a sys.exit() of its module's ended the command with its code and no word)
+            raise InputError(
+                f"navigator {name!r} ({entry.value[:200]}) failed to load:"
+                f" {said_of(exc, 300) or type(exc).__name__}"
+            ) from exc
     assert factory is not None
     takes = _takes(factory)
     given = dict(params or {})
@@ -548,8 +552,16 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
     except TypeError as exc:
         known = f" (it takes: {', '.join(takes[0]) or 'none'})" if takes is not None else ""
         raise InputError(f"navigator {name!r}: {exc}{known}"[:300]) from None
-    except (ValueError, OSError) as exc:
-        raise InputError(f"navigator {name!r}: {exc}") from None
+    except (ValueError, OSError) as exc:  # a refusal of its parameters, one line
+        raise InputError(f"navigator {name!r}: {said_of(exc, _REFUSAL_LIMIT)}") from None
+    except (Exception, SystemExit) as exc:  # its maker's own error (a plug-in's bug): it was
+        # 'internal error', and a sys.exit(0) ended `navigate` with exit 0 and no word
+        _log.debug("navigator %r raised as it was made", name, exc_info=exc)
+        at = raised_at(exc)
+        raise InputError(
+            f"navigator {name!r} raised {type(exc).__name__} as it was made:"
+            f" {said_of(exc, 200)}" + (f" (at {at})" if at else "")
+        ) from exc
     if not callable(getattr(navigator, "next_step", None)):
         raise InputError(f"navigator {name!r} made {navigator!r}, which has no next_step(obs)")
     return navigator  # type: ignore[no-any-return]

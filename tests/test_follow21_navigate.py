@@ -1,0 +1,99 @@
+"""Session 21, follow-ups of `pirate-bt navigate` and the API's load_navigator: a
+plug-in navigator whose making raises (or exits) is named in one line, exit 2; a
+parameter a navigator needs is asked for in the caller's words; a navigator's huge
+message is bounded. docs/navigators.md."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+import pirate_bt
+from pirate_bt.cli import main
+from pirate_bt.errors import InputError
+
+
+class RaisesAsMade:
+    """A plug-in navigator whose making raises (a bug of its own, not a refusal)."""
+
+    def __init__(self, speed: str = "1") -> None:
+        raise RuntimeError(f"no speed {speed}")
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never made
+        return None
+
+
+class ExitsAsMade:
+    """A plug-in navigator whose making ends the process."""
+
+    def __init__(self, speed: str = "1") -> None:
+        sys.exit(0)
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never made
+        return None
+
+
+def _plug_in(monkeypatch: pytest.MonkeyPatch, made: type) -> None:
+    from importlib.metadata import EntryPoint
+
+    from pirate_bt.task import navigators as registry
+
+    plugin = EntryPoint(
+        name="rogue", value=f"{__name__}:{made.__name__}", group=registry.ENTRY_POINT_GROUP
+    )
+    monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
+
+
+def _line_of(cls: type, text: str) -> int:
+    import inspect
+
+    lines, first = inspect.getsourcelines(cls)
+    return first + next(i for i, line in enumerate(lines) if text in line)
+
+
+@pytest.mark.parametrize(
+    ("made", "said", "where"),
+    [
+        # was 'pirate-bt: internal error: RuntimeError: no speed 1 (rerun with --debug)', exit 1
+        (RaisesAsMade, "RuntimeError as it was made: no speed 1", "raise RuntimeError"),
+        # was exit 0, nothing said and nothing run
+        (ExitsAsMade, "SystemExit as it was made: 0", "sys.exit(0)"),
+    ],
+    ids=["raises", "exits"],
+)
+def test_a_navigator_whose_making_raises_is_named_with_where_it_raised(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    made: type,
+    said: str,
+    where: str,
+) -> None:
+    _plug_in(monkeypatch, made)
+    place = f"{__file__.removesuffix('c')}:{_line_of(made, where)}"
+    assert main(["navigate", "rogue", "--sim", "straight", "-q"]) == 2
+    assert capsys.readouterr().err == f"pirate-bt: navigator 'rogue' raised {said} (at {place})\n"
+    with pytest.raises(InputError) as caught:  # the API says the same
+        pirate_bt.load_navigator("rogue")
+    assert str(caught.value) == f"navigator 'rogue' raised {said} (at {place})"
+    with pytest.raises(InputError, match=r"^navigator 'rogue' raised "):
+        pirate_bt.navigate("rogue", sim="straight")
+
+
+def test_a_navigator_whose_module_exits_as_it_loads_is_named(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from pirate_bt.task import navigators as registry
+
+    (tmp_path / "exits_on_import.py").write_text("import sys\nsys.exit(3)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    plugin = EntryPoint(name="gone", value="exits_on_import:Nav", group=registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
+    # its sys.exit(3) ended `navigate` with exit 3 and not a word
+    assert main(["navigate", "gone", "--sim", "straight", "-q"]) == 2
+    assert capsys.readouterr().err == (
+        "pirate-bt: navigator 'gone' (exits_on_import:Nav) failed to load: 3\n"
+    )
