@@ -97,3 +97,20 @@ def test_a_navigator_whose_module_exits_as_it_loads_is_named(
     assert capsys.readouterr().err == (
         "pirate-bt: navigator 'gone' (exits_on_import:Nav) failed to load: 3\n"
     )
+
+
+def test_a_parameter_a_navigator_needs_is_asked_for_in_the_caller_s_words(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # a Python caller was told '(--param segment=...; ...)', an option it has not
+    with pytest.raises(InputError) as caught:
+        pirate_bt.load_navigator("goal")
+    assert str(caught.value) == (
+        "navigator 'goal' needs the parameter 'segment' (params={'segment': ...};"
+        " it takes: segment)"
+    )
+    assert main(["navigate", "goal", "--sim", "straight", "-q"]) == 2
+    assert capsys.readouterr().err == (
+        "pirate-bt: navigator 'goal' needs the parameter 'segment' (--param segment=...;"
+        " it takes: segment)\n"
+    )

@@ -222,7 +222,8 @@ def test_a_navigator_s_missing_or_unknown_parameter_is_named_with_those_it_takes
     with pytest.raises(InputError) as caught:
         pirate_bt.load_navigator("goal")
     assert str(caught.value) == (
-        "navigator 'goal' needs the parameter 'segment' (--param segment=...; it takes: segment)"
+        "navigator 'goal' needs the parameter 'segment' (params={'segment': ...};"
+        " it takes: segment)"
     )
     with pytest.raises(InputError, match=r"'segmnt' \(it takes: segment\)$"):
         pirate_bt.load_navigator("goal", {"segmnt": "upper"})

@@ -158,13 +158,13 @@ def _blind(exc: InputError) -> InputError:
     )
 
 
-_PARAM_OPTION = re.compile(r"\(--param (\S+?)=\.\.\.;")
+_PARAM_OPTION = re.compile(r"\(params=\{'(\w+)': \.\.\.\};")
 
 
 def _in_spec_words(text: str) -> str:
-    """A navigator's refusal in a spec's words: a parameter it needs is asked for as the
-    command line gives it (*needs the parameter 'segment' (--param segment=...; ...)*);
-    in a spec it goes under the run's ``params``."""
+    """A navigator's refusal in a spec's words: a parameter it needs is asked for as a
+    Python caller gives it (*needs the parameter 'segment' (params={'segment': ...};
+    ...)*); in a spec it goes under the run's ``params``."""
     return _PARAM_OPTION.sub(lambda m: f"(params: {{{m.group(1)}: ...}};", text)
 
 

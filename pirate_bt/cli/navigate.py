@@ -8,6 +8,7 @@ decision (unless ``--quiet``) and the result's summary. Exit codes as for ``run`
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -136,6 +137,11 @@ def as_typed(exc: InputError, *starts: str) -> None:
         as_option(exc, name, f"--{name}")
 
 
+_PARAMS_ASKED = re.compile(r"\(params=\{'(\w+)': \.\.\.\};")
+"""A parameter a navigator needs, as the API asks a Python caller for it
+(*needs the parameter 'segment' (params={'segment': ...}; it takes: segment)*)."""
+
+
 def _check_options(args: argparse.Namespace) -> None:
     """``navigate``'s own options, named as typed (the API said ``rate: '5' needs a
     unit``, ``deadline: ...``, ``max_steps: ...``)."""
@@ -185,6 +191,9 @@ def run(args: argparse.Namespace) -> int:
         )
     except InputError as exc:
         as_typed(exc, "trace: ", "sim: ", "map: ")  # "sim: no network 'x'", the API's
+        asked = _PARAMS_ASKED.sub(lambda m: f"(--param {m.group(1)}=...;", str(exc))
+        if asked != str(exc):  # a parameter it needs, as this command takes it
+            raise InputError(asked) from exc
         raise
     if not args.quiet:
         print_decisions(result.decisions)

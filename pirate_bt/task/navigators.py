@@ -535,12 +535,12 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
     assert factory is not None
     takes = _takes(factory)
     given = dict(params or {})
-    if takes is not None:  # a parameter it needs, named as the command line gives it
+    if takes is not None:  # a parameter it needs, named as a Python caller gives it
         missing = [n for n in takes[1] if n not in given and not set(given) - set(takes[0])]
         if missing:  # (Python's words were "GoalNavigator.__init__() missing 1 ...")
-            raise InputError(
-                f"navigator {name!r} needs the parameter {missing[0]!r} (--param"
-                f" {missing[0]}=...; it takes: {', '.join(takes[0])})"[:300]
+            raise InputError(  # in a Python caller's words: the command line says --param
+                f"navigator {name!r} needs the parameter {missing[0]!r}"
+                f" (params={{{missing[0]!r}: ...}}; it takes: {', '.join(takes[0])})"[:300]
             )
         unknown = sorted(set(given) - set(takes[0]))
         if unknown:  # (Python's words were "__init__() got an unexpected keyword ...")
