@@ -217,7 +217,8 @@ def test_a_case_s_reason_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
     # a 10 MB row, in results.jsonl and results.csv alike, for each such case
     assert record["outcome"] == "error"
     assert record["reason"].startswith("navigator 'huge' raised RuntimeError: xxx")
-    assert len(record["reason"]) == REASON_LIMIT and record["reason"].endswith("…")
+    # (the navigation bounds a navigator's message itself now, to 1,000 characters)
+    assert len(record["reason"]) <= REASON_LIMIT
     assert len(json.dumps(record)) < 3 * REASON_LIMIT
 
 

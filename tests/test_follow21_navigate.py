@@ -5,6 +5,7 @@ message is bounded. docs/navigators.md."""
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -33,6 +34,13 @@ class ExitsAsMade:
 
     def next_step(self, obs: object) -> None:  # pragma: no cover - never made
         return None
+
+
+class SaysMuch:
+    """A plug-in navigator whose first decision raises with a 1 MB message."""
+
+    def next_step(self, obs: object) -> None:
+        raise RuntimeError("x" * 1_000_000 + " the end")
 
 
 def _plug_in(monkeypatch: pytest.MonkeyPatch, made: type) -> None:
@@ -114,3 +122,18 @@ def test_a_parameter_a_navigator_needs_is_asked_for_in_the_caller_s_words(
         "pirate-bt: navigator 'goal' needs the parameter 'segment' (--param segment=...;"
         " it takes: segment)\n"
     )
+
+
+def test_a_navigator_s_huge_message_is_bounded_on_the_terminal_and_in_the_trace(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    _plug_in(monkeypatch, SaysMuch)
+    trace = tmp_path / "trace"
+    assert main(["navigate", "rogue", "--sim", "straight", "--trace", str(trace)]) == 1
+    out, err = capsys.readouterr()
+    # it printed the whole message twice (2 MB) and wrote it three times (3 MB)
+    assert len(out) + len(err) < 20_000
+    assert sum(p.stat().st_size for p in trace.iterdir()) < 50_000
+    failed = [line for line in err.splitlines() if line.startswith("pirate-bt: ")]
+    assert len(failed) == 1 and "navigator 'rogue' raised RuntimeError: xxx" in failed[0]
+    assert re.search(r"\.\.\.x+ the end \(0 steps", failed[0])  # its start and end kept

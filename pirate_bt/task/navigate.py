@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LocatedError, ValidationFailed, said_of
+from pirate_bt.errors import LocatedError, ValidationFailed, cut_reason, said_of
 from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.parts import Half
@@ -183,6 +183,9 @@ def _decide(
         _log.debug("navigator %r raised at %s", name, raised_at(exc), exc_info=exc)
         text = said_of(exc)  # one line; nothing after the type when empty
         said = f"navigator {name!r} raised {type(exc).__name__}" + (f": {text}" if text else "")
+        # bounded as every reason is: a 10 MB message was printed twice and written
+        # three times into navigation.jsonl (the decision, the result, its why)
+        said = cut_reason(said)
         return nothing, seconds, said, exc
     return answer, seconds, None, None
 
