@@ -412,12 +412,9 @@ class _Reader(_FileReader):
         if name:
             subtrees = target.get("subtrees") or {}
             if not isinstance(subtrees, dict) or name not in subtrees:
-                import difflib
-
                 if not isinstance(subtrees, dict) or name in map(str, subtrees):
                     return None  # header() said what is wrong with the subtrees
-                known = [k for k in subtrees if isinstance(k, str)]
-                close = difflib.get_close_matches(name, known, n=2)
+                close = self.close_names(name, [k for k in subtrees if isinstance(k, str)])
                 hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
                 hint += _NOT_SUBSTITUTED if _dollar(name) and not hint else ""
                 where = f" in {target_doc.file}" if target_doc is not doc else ""
