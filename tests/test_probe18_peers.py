@@ -173,12 +173,12 @@ def test_a_foxglove_address_family_the_machine_lacks_is_one_line(
     pytest.importorskip("foxglove")
     import errno
 
-    from pirate_bt.interop import foxglove_live
+    from pirate_bt.interop import foxglove_live, foxglove_server
 
     def no_family(*args: Any, **kwargs: Any) -> Any:
         raise OSError(errno.EAFNOSUPPORT, "Address family not supported by protocol")
 
-    monkeypatch.setattr(foxglove_live.socket, "socket", no_family)
+    monkeypatch.setattr(foxglove_server.socket, "socket", no_family)
     with pytest.raises(InputError) as caught:
         foxglove_live.FoxgloveServer("::1", 8765)
     assert str(caught.value) == (

@@ -120,9 +120,9 @@ def test_a_foxglove_server_refuses_a_port_it_cannot_use_before_its_process_start
     number too large to fit in target type``); ``-1`` and ``True`` were called an
     unknown host; ``None`` for the host was a ``TypeError`` traceback."""
     pytest.importorskip("foxglove")
-    from pirate_bt.interop import foxglove_live
+    from pirate_bt.interop import foxglove_live, foxglove_server
 
-    _no_process(monkeypatch, foxglove_live)
+    _no_process(monkeypatch, foxglove_server)
     with pytest.raises(kind) as caught:
         foxglove_live.FoxgloveServer(*args)
     message = str(caught.value)
