@@ -132,12 +132,12 @@ the library's: what the value must be, and the value as written."""
 _TEXT_SHAPE = ("string_pattern_mismatch", "string_too_short", "string_too_long")
 
 _PATTERN_WORDS = {
-    r"^[A-Za-z_][A-Za-z0-9_]*$": "an identifier (letters, digits and _, not first a digit)",
+    r"^[A-Za-z_][A-Za-z0-9_]*$": ("an identifier (ASCII letters, digits and _, not first a digit)"),
     r"^/?[A-Za-z_][A-Za-z0-9_./]*$": (
-        "a blackboard key (letters, digits, _, . and /, not first a digit)"
+        "a blackboard key (ASCII letters, digits, _, . and /, not first a digit)"
     ),
     r"^(/?[A-Za-z_][A-Za-z0-9_/]*)?$": (
-        "a blackboard key (letters, digits, _ and /, not first a digit) or empty"
+        "a blackboard key (ASCII letters, digits, _ and /, not first a digit) or empty"
     ),
     r"^[a-z][a-z0-9_]*$": "lower_snake_case (the pattern [a-z][a-z0-9_]*)",
     r"^[A-Za-z][A-Za-z0-9_-]*$": "a letter, then letters, digits, _ and -",

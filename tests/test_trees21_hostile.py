@@ -20,6 +20,10 @@ Findings, each with its test below:
   you mean*: a file of 3,000 such refs and 3,000 subtrees took five minutes to validate
   (0.1 ms a comparison of similar names). One load now compares at most
   ``SUGGESTION_BUDGET`` (20,000) names for its hints; the lines past it have none;
+- a blackboard key declared under a name that is a Python identifier but not ASCII
+  (``café:``) was taken, where ``pirate-bt schema tree`` refuses it and every node's
+  ``key`` refuses it as *must be an identifier (letters, digits and _, ...)*, which
+  ``café`` is: it is refused where it is declared now, and the words say ASCII;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -219,3 +223,21 @@ def test_did_you_mean_hints_stop_once_a_load_has_compared_its_budget_of_names(
     )
     assert sum("did you mean" in line for line in lines) == 16
     assert lines[-1] == f"{tree}:63:23: no subtree named 'subtre_59'"
+
+
+def test_a_blackboard_key_that_is_no_ascii_identifier_is_refused_where_it_is_declared(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard:\n  café: {type: integer, external: true}\n"
+        "root: {type: check_blackboard, key: café, op: '==', value: 1}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"{tree}:2:3: blackboard key 'café' must be an identifier of ASCII letters, digits and"
+        " '_', not first a digit",
+        f"{tree}:3:32: check_blackboard: key: 'café' must be an identifier (ASCII letters,"
+        " digits and _, not first a digit)",
+    ]

@@ -309,8 +309,15 @@ class _FileReader:
             if self.blank(doc, key):
                 self.board_unsure.every = True  # said; which key the nodes meant is unknown
                 continue
-            if not isinstance(key, str) or not key.isidentifier():
-                self.error(doc, where, f"blackboard key {_written(key)} must be an identifier")
+            if not isinstance(key, str) or not PARAM_RE.fullmatch(f"${key}"):
+                # as a node names it: 'café' is a Python identifier, but no node's key: it
+                # was declared, and every node reading it refused
+                self.error(
+                    doc,
+                    where,
+                    f"blackboard key {_written(key)} must be an identifier of ASCII letters,"
+                    " digits and '_', not first a digit",
+                )
                 if isinstance(key, str):
                     self.board_unsure.add(key)
                 continue
