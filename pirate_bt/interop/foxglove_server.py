@@ -40,6 +40,7 @@ from pirate_bt.interop.foxglove_process import (
 )
 from pirate_bt.interop.foxglove_topics import TopicMessage, missing_extra
 from pirate_bt.trace.sink import unframe
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
 
 __all__ = ["FoxgloveServer"]
 
@@ -166,6 +167,7 @@ class FoxgloveServer:
             daemon=True,
         )
         self._reader.start()
+        let_go_in_forks(self)
         # The port was free a moment ago (_port_free): only port 0 has to wait to be known;
         # otherwise the server starts while the run is prepared (what is handed over
         # meanwhile waits in the pipe), and a failure is logged and switches the view off.
@@ -307,6 +309,22 @@ class FoxgloveServer:
                 self._switch_off(f"its process ended (exit {code})")
         if self._proc.stdout is not None:
             self._proc.stdout.close()
+        forget_in_forks(self)
+
+    def _forked(self) -> None:
+        """In a process forked from the run's (``multiprocessing``'s ``fork``, a planner's
+        ``os.fork``): let go of the server's process. The child's copy of its pipe kept
+        it running after :meth:`close`, which waited 11 s for it, then killed it and
+        warned that it *did not finish*. The pipe points at ``/dev/null`` here, and
+        ``close`` does nothing."""
+        self._closed = True
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            for pipe in (self._proc.stdin, self._proc.stdout):
+                if pipe is not None:
+                    os.dup2(null, pipe.fileno(), inheritable=False)
+        finally:
+            os.close(null)
 
     def __enter__(self) -> FoxgloveServer:
         return self

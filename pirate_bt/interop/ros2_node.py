@@ -50,6 +50,7 @@ from pirate_bt.interop.ros2_reach import REACH
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
 
 __all__ = ["ESTOP", "EStopInput", "Ros2Node"]
 
@@ -250,6 +251,7 @@ class Ros2Node:
             target=self._read, args=(self._proc.stdout.fileno(),), name="pirate-ros2", daemon=True
         )
         self._reader.start()
+        let_go_in_forks(self)
         logger.info(
             "ROS 2 node %s/%s on Zenoh %s, domain %d (process %d)",
             self.namespace,
@@ -489,6 +491,22 @@ class Ros2Node:
             self._proc.wait()
         if self._proc.stdout is not None:
             self._proc.stdout.close()
+        forget_in_forks(self)
+
+    def _forked(self) -> None:
+        """In a process forked from the run's: let go of the publishing process, as
+        :meth:`FoxgloveServer._forked <pirate_bt.interop.foxglove_server.FoxgloveServer._forked>`
+        does (its pipes kept it running after :meth:`close`, which waited 11 s, then
+        killed it)."""
+        self._closed = True
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            fds = [self._wake_fd]
+            fds += [pipe.fileno() for pipe in (self._proc.stdin, self._proc.stdout) if pipe]
+            for fd in fds:
+                os.dup2(null, fd, inheritable=False)
+        finally:
+            os.close(null)
 
     def __enter__(self) -> Ros2Node:
         return self
