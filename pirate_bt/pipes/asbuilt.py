@@ -25,6 +25,7 @@ as a network file.
 from __future__ import annotations
 
 import math
+import operator
 import random
 import re
 from collections.abc import Sequence
@@ -33,7 +34,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from pirate_bt.errors import ConfigurationError, shown
+from pirate_bt.errors import MAX_SEED, ConfigurationError, InputError, shown
 from pirate_bt.pipes.model import (
     DIRECTION_ROLL_RAD,
     BendSpec,
@@ -136,6 +137,20 @@ def _slopes(network: Network) -> dict[str, float]:
     return out
 
 
+def _variant_seed(seed: object) -> int:
+    """A variant's seed as every seed is taken: ``random.Random`` seeds by a number's
+    size, so -1 gave variant 1 under another name, and it took a float or text too.
+
+    Raises:
+        InputError: anything but a whole number from 0 to :data:`MAX_SEED`.
+    """
+    if not isinstance(seed, bool) and hasattr(type(seed), "__index__"):
+        seed = operator.index(seed)  # type: ignore[arg-type]  # a NumPy integer too
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise InputError(f"seed: give a whole number from 0 to 2**63 - 1, not {shown(seed)}")
+    return seed
+
+
 def perturb_network(
     spec: NetworkSpec,
     seed: int,
@@ -156,8 +171,11 @@ def perturb_network(
         uniformly within the bounds.
 
     Raises:
+        InputError: a seed that is not a whole number from 0 to 2**63 - 1 (as every
+            seed, a campaign's ``as_built`` variants' and ``network perturb --seed``).
         ConfigurationError: the drawing's geometry cannot be built.
     """
+    seed = _variant_seed(seed)
     bounds = bounds or AsBuiltBounds()
     rng = random.Random(seed)
     slopes = _slopes(Network(spec))
