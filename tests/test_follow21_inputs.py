@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import pytest
 
+from pirate_bt.cli import main
 from pirate_bt.errors import InputError
+from pirate_bt.link.port_urls import url_schemes
 
 
 @pytest.mark.parametrize(
@@ -33,3 +35,34 @@ def test_perturb_network_takes_every_seed_a_campaign_does() -> None:
     assert perturb_network(drawing, np.int64(3)) == perturb_network(drawing, 3)
     assert perturb_network(drawing, 0) != perturb_network(drawing, 1)
     perturb_network(drawing, 2**63 - 1)
+
+
+@pytest.mark.parametrize(
+    ("url", "said"),
+    [
+        ("bogus://x", "no URL scheme 'bogus' here: a port is a device (/dev/ttyACM0, COM3) or"),
+        ("spy://", "nothing after spy://; give spy://DEVICE"),
+        ("socket://localhost", "no port; give socket://HOST:PORT"),
+    ],
+    ids=["scheme", "nothing", "no-port"],
+)
+def test_a_mission_s_port_url_is_refused_before_the_plan_is_printed(
+    url: str, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the whole plan was printed on stdout, then the port was refused, exit 2
+    assert main(["mission", "lab", "--port", url]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.startswith(f"pirate-bt: --port: cannot open {url}: {said}")
+    assert len(err.splitlines()) == 1
+    if url == "bogus://x":
+        assert err.rstrip("\n").endswith(", ".join(f"{s}://" for s in url_schemes()))
+
+
+def test_the_api_refuses_a_port_url_before_it_plans() -> None:
+    import pirate_bt
+    from pirate_bt.link.transport import PortURLError
+
+    # a route that does not fit its map: planning it would be the refusal said first
+    with pytest.raises(PortURLError, match=r"^cannot open bogus://x: no URL scheme 'bogus'"):
+        pirate_bt.run_mission("lab", network="straight", port="bogus://x")

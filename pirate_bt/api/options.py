@@ -505,7 +505,8 @@ def port_url(port: object, option: str = "port") -> str:
     """A real robot's serial port or pyserial URL (not a simulator target).
 
     Raises:
-        InputError: anything else, named by ``option``.
+        InputError: anything else, named by ``option``; a URL opening it would refuse
+            (``bogus://x``), as that says it (``PortURLError``: *cannot open bogus://x*).
     """
     kind = None
     if isinstance(port, str) and port.strip():
@@ -519,6 +520,13 @@ def port_url(port: object, option: str = "port") -> str:
             " socket://HOST:PORT)"[:240]
         )
     assert isinstance(port, str)
+    from pirate_bt.link.faults import split_fault_url
+    from pirate_bt.link.port_urls import scheme_problem
+    from pirate_bt.link.transport import PortURLError, network_url_problem
+
+    url = split_fault_url(port)[0]  # as opening it checks it, before anything is done
+    if problem := scheme_problem(url) or network_url_problem(url):  # (a plan was printed)
+        raise PortURLError(f"cannot open {url}: {problem}", url)
     return port
 
 

@@ -178,6 +178,10 @@ def execute(
     from pirate_bt.cli.faults_option import check_faults_option
 
     seed_value(args.seed, "--seed")
+    if args.port is not None:  # its URL's scheme: it was refused after the whole plan
+        from pirate_bt.api.options import port_url
+
+        port_url(args.port)  # named --port as typed by the command line
     check_faults_option(args, robot)  # at its column: it said "faults: ..."
     check_fault_targets(split_faults(args.faults)[0], robot)
 
