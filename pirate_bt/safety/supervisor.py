@@ -35,6 +35,8 @@ The class is split along its seams, one mixin per module:
   safe state, the e-stop, modes, operator actions and step confirmations.
 - :mod:`pirate_bt.safety.supervisor_hold` (:class:`HoldMixin`): the protective
   hold, which clamps on its own when nothing holds the robot in a steep pipe.
+- :mod:`pirate_bt.safety.supervisor_stall` (:class:`StallMixin`): lets a joint go
+  that stays still short of its position setpoint (a stalled motor).
 
 This module keeps :class:`Supervisor` itself: its construction, what the layers
 above read, the tick, the command entry points, the simulator and closing.
@@ -95,6 +97,7 @@ from pirate_bt.safety.port_view import PortView
 from pirate_bt.safety.supervisor_authority import AuthorityMixin, as_mode
 from pirate_bt.safety.supervisor_decide import DecisionMixin, board_readings
 from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
+from pirate_bt.safety.supervisor_stall import StallMixin
 from pirate_bt.safety.verdict import (
     Reason,
     Source,
@@ -111,7 +114,7 @@ __all__ = ["PortView", "Supervisor"]
 log = logging.getLogger("pirate_bt.safety")
 
 
-class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
+class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
     """Checks every command against limits, invariants and authority; the only sender.
 
     Args:
@@ -440,6 +443,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin):
                     why = stale_because_away(self.robot, away, stale)
                     self.safe_state(f"stale data: {names}{why}")
             self._hold_in_steep_pipe(state, now)
+            self._watch_stalls(state, now)
 
     # -- commands ------------------------------------------------------------
 

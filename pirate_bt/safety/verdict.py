@@ -152,6 +152,7 @@ class Reason(StrEnum):
     HALF_TRANSITIONING = "half_transitioning"
     FRONT_NOT_CLEAR = "front_not_clear"
     STEEP_PIPE_UNCLAMPED = "steep_pipe_unclamped"
+    JOINT_STALLED = "joint_stalled"
     MOTOR_CONFLICT = "motor_conflict"
 
 

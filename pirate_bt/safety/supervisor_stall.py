@@ -1,0 +1,150 @@
+"""The watch on joints that do not follow their position setpoints: a stalled motor.
+
+A joint motor in position mode whose joint cannot move (its motor or gear blocked: the
+simulator's ``motor_stall``) drives its loop to saturation: it applies its stall
+torque, over its torque limit, and a motor held over its limit longer than
+``motion.over_torque_time`` is damaged. Until 2026-11-30 nothing on the host noticed: a
+bend joint stalled for two seconds while a bend or T-joint PAB steered its half
+(``scenarios/bend-right.route`` with ``motor_stall:bend_3_joint@32s+2s``) over-torqued,
+and the mission *completed*, with the simulator's one damage event in its message.
+
+The host reads no joint current, but it reads the angle. A joint whose position
+setpoint has been more than ``safety.angle_tolerance`` away for :data:`JOINT_STALL_S`
+while its reading stayed still (within a quarter of that tolerance), pressing nothing
+(its spring, where it has one, under the released force: a joint stopped by the wall
+presses the wall), is stalled: the supervisor enters its safe state naming it and lets
+that joint go (torque 0: its loop no longer pushes), a verdict of its own. A moving
+joint covers its tolerance in a few hundredths of a second (90°/s on the bundled robot);
+a setpoint is rate-limited to one tick's step, so a joint that follows reaches it by
+the next tick. A request the link sent again meanwhile starts the wait again (the
+setpoint may have reached the board late).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import TYPE_CHECKING
+
+from pirate_bt.errors import LinkError
+from pirate_bt.robot.commands import MotorCommand
+from pirate_bt.robot.description import ControlMode, Half, RobotDescription
+from pirate_bt.robot.port import RobotPort
+from pirate_bt.robot.state import RobotState
+from pirate_bt.safety.checks import released_force_n, stale_channels
+from pirate_bt.safety.commands import Raw
+from pirate_bt.safety.operator import Mode
+from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
+
+__all__ = ["JOINT_STALL_S", "StallMixin"]
+
+log = logging.getLogger("pirate_bt.safety")
+
+JOINT_STALL_S = 0.1
+"""How long (clock time) a joint may stay still short of its position setpoint before
+it counts as stalled: two ticks at 20 Hz, well inside the 0.3 s a saturated motor
+takes to be damaged (``motion.over_torque_time`` of the bundled robot)."""
+
+
+class StallMixin:
+    """The stalled-joint watch of :class:`~pirate_bt.safety.supervisor.Supervisor`."""
+
+    robot: RobotDescription
+    _port: RobotPort
+    _mode: Mode
+    _last_setpoint: dict[str, tuple[ControlMode, float, float]]
+    _half_channels: dict[Half, tuple[str, ...]]
+
+    if TYPE_CHECKING:
+
+        def safe_state(self, reason: str, *, error: BaseException | None = None) -> None: ...
+
+        def _record(self, verdict: Verdict) -> Verdict: ...
+
+    def _stall_joints(self) -> list[tuple[str, str, Half]]:
+        """``(motor, module, half)`` of every joint watched: the bend joints. Not the
+        rotation: on a lossy link it was seen still short of its setpoint for 0.1 s
+        with no retry counted (tests/test_pabs_backwards.py's link faults), a false stop."""
+        joints: list[tuple[str, str, Half]] | None = getattr(self, "_stall_list", None)
+        if joints is None:
+            joints = [
+                (self.robot.joint_motor(m.name).name, m.name, half)
+                for half in Half
+                for m in self.robot.bend_modules(half)
+            ]
+            self._stall_list = joints
+            self._stall_since: dict[str, tuple[float, float, int]] = {}
+            self._stall_let_go: set[str] = set()
+        return joints
+
+    def _watch_stalls(self, state: RobotState, now_s: float) -> None:
+        """Let a joint that stays still short of its position setpoint go (see the
+        module), once per joint until it is commanded again."""
+        joints = self._stall_joints()
+        if self._mode is Mode.ESTOP:
+            return
+        tol = self.robot.safety.angle_tolerance
+        still = tol / 4
+        released = released_force_n(self.robot)
+        since = self._stall_since
+        for motor, module, half in joints:
+            setpoint = self._last_setpoint.get(motor)
+            if setpoint is None or setpoint[0] is not ControlMode.POSITION:
+                since.pop(motor, None)
+                self._stall_let_go.discard(motor)
+                continue
+            if motor in self._stall_let_go:
+                continue
+            angle = state.joint_angle_rad.get(module)
+            force = state.clamp_force_n.get(module)
+            if (
+                angle is None
+                or abs(angle - setpoint[1]) <= tol
+                or (force is not None and abs(force) >= released)
+                or stale_channels(self.robot, state, self._half_channels[half], now_s)
+            ):
+                since.pop(motor, None)
+                continue
+            # timed by the readings' own stamps (no new state is no evidence), and
+            # started again when the link retried a request meanwhile: the setpoint
+            # may have reached the board late (a lossy link)
+            health = self._port.health()
+            resent = health.retries + health.failed
+            first = since.get(motor)
+            if first is None or abs(angle - first[1]) > still or resent != first[2]:
+                since[motor] = (state.stamp_s, angle, resent)
+                continue
+            if state.stamp_s - first[0] < JOINT_STALL_S - 1e-9:
+                continue
+            self._let_joint_go(motor, angle, setpoint[1], state.stamp_s - first[0], now_s)
+
+    def _let_joint_go(
+        self, motor: str, angle: float, target: float, for_s: float, now_s: float
+    ) -> None:
+        """Enter the safe state naming the stalled ``motor`` and send it torque 0."""
+        cause = (
+            f"{Reason.JOINT_STALLED}: {motor} does not move toward its setpoint: at"
+            f" {math.degrees(angle):.1f}°, asked {math.degrees(target):.1f}°, for"
+            f" {for_s:.2f} s (a stalled joint motor?): the supervisor lets it go"
+        )
+        self.safe_state(cause)
+        cmd = MotorCommand(motor, ControlMode.TORQUE, 0.0)
+        try:
+            self._port.send((cmd,))
+        except LinkError as exc:  # its board away: its motor is off anyway
+            log.error("could not let %s go: %s", motor, exc)
+            return
+        self._stall_let_go.add(motor)
+        self._stall_since.pop(motor, None)
+        self._last_setpoint[motor] = (ControlMode.TORQUE, 0.0, now_s)
+        log.warning("stalled joint let go: %s", cause)
+        self._record(
+            Verdict(
+                Outcome.PASS,
+                Raw(cmd),
+                Source.SUPERVISOR,
+                sent=(cmd,),
+                reason=Reason.JOINT_STALLED,
+                detail=f"protective release: {cause}",
+            )
+        )
