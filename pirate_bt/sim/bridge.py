@@ -109,6 +109,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         self._slots = robot.setpoint_slots()
         self._motor_at = {(s.board, s.slot): s.motor for s in self._slots}
         self._stop_commands = _stop_commands(robot)
+        self._motor_board = {s.motor.name: s.board for s in self._slots}
         self.period_s = robot.bridge.state_period
         self.watchdog_s = robot.bridge.watchdog
         self.now_s = start_s
@@ -228,12 +229,26 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         # COUNTERS count since boot; the simulator's own figures run on across resets
         self._boot_base = self._totals()
         self._board_timeouts = dict.fromkeys(self._boards, 0)
+        # each board's last answer (boot counts as one), and the boards the robot stopped
+        # for, not heard for BOARD_AWAY_S (firmware/piratebay/poller.c)
+        self._heard_s = dict.fromkeys(self._boards, self.now_s)
+        self._all_heard_s = self.now_s
+        self._away: set[int] = set()
         self._apply_stop()
 
     def _apply_stop(self) -> None:
-        """The stop category: drives velocity 0, rotate and other PWM 0, bend unchanged."""
+        """The stop category: drives velocity 0, rotate and other PWM 0, bend unchanged.
+
+        A board that is rebooting gets them when it answers again (the bridge keeps them
+        for it, as for every board): its motors stay off meanwhile.
+        """
         for command in self._stop_commands:
-            self.model.command(command)
+            board = self._motor_board[command.motor]
+            if board in self._resetting:
+                held = self._held_setpoints.setdefault(board, [])
+                held[:] = [c for c in held if c.motor != command.motor] + [command]
+            else:
+                self.model.command(command)
         self._motors_off = set(self._boards)
         self._status_cache = None
 
@@ -497,8 +512,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
             self.now_s = t
             self._update_faults(t)
             self._watchdog(t)
-            for board in self._resetting:
-                self._board_timeouts[board] += 1
+            self._poll_boards(t)
             self.model.step(self.period_s)
             self._send_state()
             self._next_frame_s = t + self.period_s

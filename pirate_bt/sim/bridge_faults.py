@@ -25,9 +25,14 @@ from pirate_bt.sim.counters import EventKind
 from pirate_bt.sim.faults import check_fault_target
 from pirate_bt.sim.model import PipeRobotModel
 
-__all__ = ["ActiveFault", "FaultsMixin"]
+__all__ = ["BOARD_AWAY_S", "ActiveFault", "FaultsMixin"]
 
 _log = logging.getLogger("pirate_bt.sim.bridge")
+
+BOARD_AWAY_S = 0.1
+"""A board the bridge has had no answer from for longer has stopped on its own, or lost
+its power: the whole robot stops, once an absence, as on its ``OWN_STOP``
+(docs/board-bus.md; ``BOARD_AWAY_MS`` in firmware/piratebay/poller.c)."""
 
 
 @dataclass
@@ -54,6 +59,10 @@ class FaultsMixin:
     _active: list[ActiveFault]
     _resetting: set[int]
     _held_setpoints: dict[int, list[MotorCommand]]
+    _board_timeouts: dict[int, int]
+    _heard_s: dict[int, float]
+    _all_heard_s: float
+    _away: set[int]
     _faulted: dict[int, dict[str, MotorCommand | None]]
     _dropout: set[int]
     _stuck: dict[int, float]
@@ -114,6 +123,40 @@ class FaultsMixin:
         if self._faulted:
             self._hold_faulted()
 
+    def _apply_stop(self) -> None:
+        raise NotImplementedError
+
+    def _poll_boards(self, now_s: float) -> None:
+        """This period's poll of every board: a board that is rebooting does not answer.
+
+        Each failed poll counts a timeout. A board not heard for more than
+        :data:`BOARD_AWAY_S` (from its last answer, or the bridge's boot) stops the whole
+        robot once an absence, as the firmware bridge does: the stop category, so when it
+        answers again it gets the stop setpoints (its drive braked, its clamp back), not
+        the ones it had.
+        """
+        if not self._resetting:
+            self._all_heard_s = now_s  # every board answered
+            if self._away:
+                self._away.clear()
+            return
+        for board in self._boards:
+            if board not in self._resetting:
+                self._heard_s[board] = now_s
+                self._away.discard(board)
+                continue
+            self._board_timeouts[board] += 1
+            heard_s = max(self._heard_s[board], self._all_heard_s)
+            if board not in self._away and now_s - heard_s > BOARD_AWAY_S + 1e-9:
+                self._away.add(board)
+                self._apply_stop()
+                self.model.record(
+                    EventKind.BOARD_AWAY,
+                    f"board {board} not heard for {BOARD_AWAY_S * 1000:.0f} ms: "
+                    "drives and rotation stopped, clamps held",
+                )
+                _log.warning("board %d not heard since %.3f s: robot stopped", board, heard_s)
+
     def _hold_faulted(self) -> None:
         """Keep a faulted board's motors off before the physics steps.
 
@@ -153,7 +196,8 @@ class FaultsMixin:
             names = self._board_motors(board)
             # The bridge keeps its setpoints for the board's motors and hands them to
             # it at every exchange (firmware/piratebay/poller.c), so the board gets them
-            # back as soon as it answers again: its clamp comes back. A second reset
+            # back as soon as it answers again: its clamp comes back (its drive stopped,
+            # if it was away past BOARD_AWAY_S: _poll_boards). A second reset
             # while the board is still down keeps what the first held (its motors are
             # off by then: there is nothing newer to hold).
             if board not in self._held_setpoints:
@@ -199,8 +243,9 @@ class FaultsMixin:
             self._status_cache = None
             for command in self._held_setpoints.pop(board, []):
                 if self.model.setpoint(command.motor) is None or self._is_bend(command.motor):
-                    # a stop of the bridge's during the reset set the drives' and the
-                    # rotation's stop setpoints (kept); a bend joint keeps its own
+                    # what the bridge kept for it: a stop of the bridge's during the reset
+                    # (the board's own absence past BOARD_AWAY_S among them) made them the
+                    # stop setpoints, a bend joint's its own
                     self.model.command(command)
         elif spec.kind == "board_fault":
             board = int(target)

@@ -35,6 +35,9 @@ class EventKind(StrEnum):
     """An injected fault started or ended."""
     WATCHDOG = "watchdog"
     """The bridge watchdog tripped: drives stopped, clamps held."""
+    BOARD_AWAY = "board_away"
+    """The bridge had not heard a board for 100 ms (a ``board_reset``): drives stopped,
+    clamps held."""
 
 
 @dataclass(frozen=True, slots=True)
