@@ -38,6 +38,7 @@ import yaml
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.yamlfile.aliases import use_alias_places
+from pirate_bt.yamlfile.count import refuse_too_many_values
 from pirate_bt.yamlfile.merge import SpecMergeLoader
 from pirate_bt.yamlfile.scalars import (
     INT_TAG,
@@ -428,6 +429,7 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
     if not text.strip():
         raise ValidationFailed([LocatedError("file is empty", loc)])
     refuse_hidden_break(text, file, "YAML")
+    refuse_too_many_values(text, _Loader, file)  # before 1 kB a value is composed
     # libyaml's parser (when PyYAML was built with it) is ~10x faster and keeps marks.
     loader = _Loader(text)
     try:
