@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import gc
 import json
+import time
 import weakref
 from typing import Any
 
@@ -46,13 +47,19 @@ def test_a_ros2_node_shared_by_many_runs_does_not_keep_every_runs_supervisor() -
             )
             assert result.status == "success", result.why
         del result
-        gc.collect()
         assert len(made) == 6
-        kept = [ref for ref in made if ref() is not None]
         # what a run keeps of the last one it knew of (a module's cache) is not the node's,
         # nor what a loaded machine's threads still hold for a moment (a fresh clone's CI
-        # run found 3 of 4 alive); before, the node kept every one of them: 6 of 6
-        assert len(kept) <= 3, f"{len(kept)} of 6 runs' supervisors are still alive"
+        # run found 3 of 4 alive, a loaded one 4 of 6): those let go within seconds, so
+        # the count is polled; before, the node kept every one of them for good: 6 of 6
+        deadline = time.monotonic() + 30.0
+        while True:
+            gc.collect()
+            kept = [ref for ref in made if ref() is not None]
+            if len(kept) <= 2 or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        assert len(kept) <= 2, f"{len(kept)} of 6 runs' supervisors are still alive"
 
 
 def test_an_estop_heard_between_two_runs_on_a_shared_node_stops_the_next_run() -> None:
