@@ -29,6 +29,9 @@ Findings, each with its test below:
   1.2 GB of memory and 30 s before *this holds more than 100000 values*. A large text's
   values are now counted on the event stream first (``yamlfile.count``), with the same
   words at the same place;
+- a guard's comparison written with check_blackboard's ``op: is_set`` (and so no
+  ``value``) was one mistake said in two lines, *missing required key 'value'* and
+  *op: 'is_set' is not one of ...*: it is one line now, naming check_blackboard;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -270,3 +273,20 @@ def test_a_file_of_too_many_values_is_refused_before_its_node_graph_is_built() -
 def test_a_large_file_within_the_bound_is_read_whole() -> None:
     text = "root: [" + ", ".join(["1    "] * 30_000) + "]\n"  # counted: 180,000 characters
     assert len(load_yaml_text(text, "wide.yaml").data["root"]) == 30_000
+
+
+def test_a_guard_written_with_is_set_is_one_line_naming_check_blackboard(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "blackboard: {k: {type: number, default: 1}}\n"
+        "root:\n  type: skip_if\n  condition: {blackboard: k, op: is_set}\n  child: success\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"{tree}:4:3: skip_if: op: 'is_set' is check_blackboard's; a guard compares with a"
+        " value (==, !=, <, <=, >, >=): to test whether a key is set, use a check_blackboard"
+        " with op: is_set"
+    ]

@@ -151,6 +151,18 @@ class Comparison(NodeParams):
         None, description="for blackboard keys: parse value as a quantity of this dimension"
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _no_is_set(cls, data: Any) -> Any:
+        # check_blackboard's op, written without a value: one line, not also 'value'
+        if isinstance(data, dict) and data.get("op") == "is_set":
+            raise ValueError(
+                "op: 'is_set' is check_blackboard's; a guard compares with a value (==, !=,"
+                " <, <=, >, >=): to test whether a key is set, use a check_blackboard with"
+                " op: is_set"
+            )
+        return data
+
     @model_validator(mode="after")
     def _check(self) -> Comparison:
         if (self.state is None) == (self.blackboard is None):
