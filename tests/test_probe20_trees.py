@@ -252,6 +252,7 @@ def test_a_parameter_name_no_dollar_can_name_is_refused_where_declared(
     assert lines[0].endswith(
         f"t.{suffix}:{place}: parameter name 'café' must be an identifier"
         " of ASCII letters, digits and '_', as $name is written"
+        " ('é' is U+00E9 LATIN SMALL LETTER E WITH ACUTE)"
     ), lines
 
 

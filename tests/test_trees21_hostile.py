@@ -32,6 +32,11 @@ Findings, each with its test below:
 - a guard's comparison written with check_blackboard's ``op: is_set`` (and so no
   ``value``) was one mistake said in two lines, *missing required key 'value'* and
   *op: 'is_set' is not one of ...*: it is one line now, naming check_blackboard;
+- a parameter declared as ``x`` + U+212A KELVIN SIGN (refused: not ASCII) and used as
+  ``$xK`` was said as *parameter name 'xK' must be an identifier of ASCII letters ...*
+  and *unknown parameter $xK (parameters: $xK)*: two names shown alike, the second
+  line listing the refused one as declared. The refusal names the character
+  (*('K' is U+212A KELVIN SIGN)*), and a refused name is not listed;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -245,7 +250,7 @@ def test_a_blackboard_key_that_is_no_ascii_identifier_is_refused_where_it_is_dec
     assert main(["validate", str(tree)]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [
         f"{tree}:2:3: blackboard key 'café' must be an identifier of ASCII letters, digits and"
-        " '_', not first a digit",
+        " '_', not first a digit ('é' is U+00E9 LATIN SMALL LETTER E WITH ACUTE)",
         f"{tree}:3:32: check_blackboard: key: 'café' must be an identifier (ASCII letters,"
         " digits and _, not first a digit)",
     ]
@@ -289,4 +294,21 @@ def test_a_guard_written_with_is_set_is_one_line_naming_check_blackboard(
         f"{tree}:4:3: skip_if: op: 'is_set' is check_blackboard's; a guard compares with a"
         " value (==, !=, <, <=, >, >=): to test whether a key is set, use a check_blackboard"
         " with op: is_set"
+    ]
+
+
+def test_a_parameter_refused_for_a_look_alike_character_names_it_and_is_not_listed(
+    tmp_path: Path, capsys: Any
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "params:\n  x\u212a: {type: integer, default: 1}\n"
+        "root: {type: retry, attempts: $xK, child: success}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"{tree}:2:3: parameter name 'x\u212a' must be an identifier of ASCII letters, digits"
+        " and '_', as $name is written ('\u212a' is U+212A KELVIN SIGN)",
+        f"{tree}:3:21: unknown parameter $xK (parameters: none declared)",
     ]

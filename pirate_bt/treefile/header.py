@@ -13,6 +13,7 @@ checked against the nodes (``board_unsure``).
 from __future__ import annotations
 
 import difflib
+import unicodedata
 from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,15 @@ SUGGESTION_BUDGET = 20_000
 """The most names one load compares for its *did you mean* hints. Each comparison of
 similar names costs about 0.1 ms: 3,000 refs to no subtree, each compared with a file's
 3,000 subtrees, took five minutes to validate."""
+
+
+def _not_ascii(name: str) -> str:
+    """Which character of ``name`` is not ASCII, by its code point: a Kelvin sign K
+    (U+212A) looks like K, so ``'xK'`` said alone looks like a valid name."""
+    odd = next((c for c in name if not c.isascii()), None)
+    if odd is None:
+        return ""
+    return f" ({odd!r} is U+{ord(odd):04X} {unicodedata.name(odd, 'a character')})"
 
 
 def misspelt(body: Mapping[Any, Any], key: str, allowed: frozenset[str]) -> bool:
@@ -316,7 +326,8 @@ class _FileReader:
                     doc,
                     where,
                     f"blackboard key {_written(key)} must be an identifier of ASCII letters,"
-                    " digits and '_', not first a digit",
+                    " digits and '_', not first a digit"
+                    + (_not_ascii(key) if isinstance(key, str) else ""),
                 )
                 if isinstance(key, str):
                     self.board_unsure.add(key)
@@ -378,6 +389,7 @@ class _FileReader:
                 ascii_only = ""  # 'café' is a Python identifier, but no $café names it
                 if isinstance(name, str) and name.isidentifier():
                     ascii_only = " of ASCII letters, digits and '_', as $name is written"
+                    ascii_only += _not_ascii(name)
                 self.error(
                     doc, at, f"parameter name {_written(name)} must be an identifier{ascii_only}"
                 )

@@ -80,6 +80,9 @@ class _Reader(_FileReader):
                     self.unbound.append(path)  # said where it is declared or given
                     return None
                 names = [*env.values, *(n for n in env.declared if n not in env.values)]
+                # not a refused declaration ('x\u212a', a Kelvin sign): said on its own
+                # line, and listed it looked like the '$xK' said to be unknown
+                names = [n for n in names if PARAM_RE.fullmatch(f"${n}")]
                 known = listed(names, "$") or "none declared"
                 self.error(
                     env.doc, path, f"unknown parameter ${_shown(name)[1:-1]} (parameters: {known})"
