@@ -114,9 +114,10 @@ def imu_probe(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 @pytest.mark.parametrize(
     ("euler", "channels"),
     [
-        # heading 10, roll 20, pitch -30 degrees (1/16 degree on the IMU's registers)
-        ((160, 320, -480), [3491, -5236, 1745]),
-        ((-1440, -720, 1200), [-7854, 13090, -15708]),  # heading -90, roll -45, pitch 75
+        # heading 10, roll 20, pitch -30 degrees (1/16 degree on the IMU's registers);
+        # the heading grows clockwise, the yaw counter-clockwise in (-180, 180]
+        ((160, 320, -480), [3491, -5236, -1745]),
+        ((4320, -720, 1200), [-7854, 13090, 15708]),  # heading 270, roll -45, pitch 75
     ],
 )
 def test_the_board_reads_its_bno055_s_angles_not_the_zeros_of_its_config_mode(

@@ -134,9 +134,9 @@ CASES = [
     ),
     Case(
         "imu-range-reversed",
-        "raw: [-32768, 32767]",
-        "raw: [32767, -32768]",
-        "raw: [32767",
+        "raw: [-31416, 31416]",
+        "raw: [31416, -31416]",
+        "raw: [31416",
         "must be increasing",
     ),
     Case(

@@ -132,6 +132,23 @@ static uint8_t motor_of(uint8_t slot) {
     return 0;
 }
 
+#define HEADING_TURN 5760 /* 360 degrees in the IMU's 1/16 degree */
+
+/* The yaw, in (-180, 180] degrees (1/16 degree) counter-clockwise seen from above, of
+ * a heading in 0..360 degrees clockwise (a BNO055's; a value outside is taken modulo a
+ * turn): as the simulator's atan2 and docs/simulator.md read yaw. Scaled as it was, a
+ * heading past about 188 degrees clamped at the channel's end (a left turn of 90
+ * degrees, heading 270, read 188 degrees). */
+static int32_t yaw_of_heading(int32_t heading) {
+    int32_t yaw = -(heading % HEADING_TURN); /* (-360, 360) degrees */
+    if (yaw <= -HEADING_TURN / 2) {
+        yaw += HEADING_TURN;
+    } else if (yaw > HEADING_TURN / 2) {
+        yaw -= HEADING_TURN;
+    }
+    return yaw;
+}
+
 void sensors_tick(uint32_t now_ms) {
     if ((uint32_t)(now_ms - s.last_10ms) >= 10u) {
         s.last_10ms = now_ms;
@@ -175,7 +192,11 @@ void sensors_tick(uint32_t now_ms) {
             uint8_t axis = ch->source == PB_SRC_IMU_YAW ? 0u
                            : ch->source == PB_SRC_IMU_ROLL ? 1u
                                                             : 2u;
-            int64_t q = (int64_t)imu[axis] * ch->scale_q16;
+            int32_t angle = imu[axis];
+            if (axis == 0u) {
+                angle = yaw_of_heading(angle);
+            }
+            int64_t q = (int64_t)angle * ch->scale_q16;
             v = ch->zero_raw + (int32_t)((q + (q >= 0 ? 32768 : -32768)) / 65536);
             break;
         }

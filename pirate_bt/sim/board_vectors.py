@@ -67,12 +67,19 @@ def reply_hex(addr: int, status: int, channels: list[int]) -> str:
     return _wire(bytes((addr, REPLY, status)) + values)
 
 
+def heading_of_yaw(yaw_lsb: int) -> int:
+    """The IMU's heading register (a BNO055's: 0..360 degrees clockwise, in 1/16 degree)
+    that the reference PICO reads as ``yaw_lsb`` (1/16 degree counter-clockwise)."""
+    return -yaw_lsb % 5760
+
+
 def pico_inputs(robot: RobotDescription, board: int, channels: list[int]) -> dict[str, Any]:
     """The reference board's inputs that make its channels read ``channels``.
 
     An ADC channel spans its raw range over 0..1023 (raw = lo + adc * (hi - lo + 1) /
     1024); a velocity channel reads 0 (the encoders stand still); an IMU axis is the
-    IMU's 1/16 degree in the channel's unit (heading is yaw).
+    IMU's 1/16 degree in the channel's unit (yaw is the heading, clockwise 0..360
+    degrees, turned counter-clockwise and wrapped to (-180, 180]).
 
     Raises:
         ValueError: a value the board cannot produce exactly.
@@ -109,7 +116,11 @@ def pico_inputs(robot: RobotDescription, board: int, channels: list[int]) -> dic
             rounded = abs(q) // 65536 * (1 if q >= 0 else -1)  # C division truncates
             if spec.conversion.zero_raw + rounded != value:
                 raise ValueError(f"{spec.name}: {value} is not an IMU reading")
-            imu[{"imu_yaw": 0, "imu_roll": 1, "imu_pitch": 2}[source]] = lsb
+            if source == "imu_yaw":
+                # the IMU's heading grows clockwise, 0..360 degrees; yaw counter-clockwise
+                imu[0] = heading_of_yaw(lsb)
+            else:
+                imu[{"imu_roll": 1, "imu_pitch": 2}[source]] = lsb
     return {"adc": adc, "imu": imu}
 
 

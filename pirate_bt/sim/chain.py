@@ -220,8 +220,11 @@ class ChainPhysics:
                 adc[c.slot if c.source == "adc" else 2 + c.slot] = max(0, min(1023, reading))
             elif c.source.startswith("imu_") and c.scale_q16:
                 lsb = round((self.raw(c.index) - c.zero) * 65536 / c.scale_q16)
-                axis = {"imu_yaw": 0, "imu_roll": 1, "imu_pitch": 2}[c.source]
-                imu[axis] = max(-32768, min(32767, lsb))
+                if c.source == "imu_yaw":  # a BNO055's heading: 0..360 degrees clockwise
+                    imu[0] = -lsb % 5760
+                else:
+                    axis = {"imu_roll": 1, "imu_pitch": 2}[c.source]
+                    imu[axis] = max(-32768, min(32767, lsb))
         encoders = [round(self._counts.get((board, slot), 0.0)) for slot in (0, 1)]
         return struct.pack("<4H2i3hB", *adc, *encoders, *imu, 0)
 
