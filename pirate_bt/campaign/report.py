@@ -114,6 +114,17 @@ def _seconds(x: float | None) -> str:
     return "-" if x is None else f"{x:.1f}"
 
 
+def _interval(g: GroupStats) -> str:
+    """The success rate's 95 % Wilson interval over the group's distinct runs; a group
+    whose seeds all repeat one run has none to give (30 identical runs said
+    88.6–100.0 %, as if they were 30 samples)."""
+    if g.deterministic:
+        return f"deterministic: 1 distinct run of {g.n}"
+    low, high = g.interval
+    said = f"{100 * low:.1f}–{100 * high:.1f} %"
+    return said if g.distinct_runs >= g.n else f"{said} ({g.distinct_runs} distinct runs of {g.n})"
+
+
 def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
     head = ["group", "runs", "success", "95 % Wilson", "failed safe", "errors", "timeouts"]
     head += ["violations", "damage", "p50 s", "p95 s"]
@@ -122,7 +133,6 @@ def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
         head += ["steps p50", "s per m p50"]
     out = [head]
     for g in groups:
-        low, high = g.interval
         extra = []
         if steps:
             per_m = percentile(g.seconds_per_m, 50)
@@ -132,7 +142,7 @@ def _table(groups: Sequence[GroupStats]) -> list[list[str]]:
                 g.key,
                 str(g.n),
                 _pct(g.success_rate),
-                f"{100 * low:.1f}–{100 * high:.1f} %",
+                _interval(g),
                 _pct(g.failed_safe_rate),
                 str(g.errors),
                 str(g.timeouts),
@@ -270,7 +280,7 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
     import_matplotlib().use("Agg")  # whatever MPLBACKEND names
     import matplotlib.pyplot as plt
 
-    from pirate_bt.campaign.stats import wilson_interval
+    from pirate_bt.campaign.stats import success_interval
 
     files: list[Path] = []
     for key in swept:
@@ -282,7 +292,7 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
             for x in xs:
                 at = [r for r in mine if float(r.get(key) or 0.0) == x]
                 ok = sum(r.get("outcome") == "success" for r in at)
-                low, high = wilson_interval(ok, len(at))
+                low, high = success_interval(at)  # over distinct runs, as the table's
                 rates.append(ok / len(at))
                 lows.append(low)
                 highs.append(high)

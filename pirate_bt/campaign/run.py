@@ -59,7 +59,7 @@ from pirate_bt.campaign.spec import (
     spec_source,
 )
 from pirate_bt.campaign.started import Start, begin, write_record
-from pirate_bt.campaign.stats import Counts, GroupStats, group_stats
+from pirate_bt.campaign.stats import Counts, GroupStats, group_stats, note_repeated_seeds
 from pirate_bt.campaign.unrecorded import drop_unrecorded_traces
 from pirate_bt.errors import InputError, digit_count, said_of
 
@@ -203,6 +203,7 @@ def _checked(
     cases = expand(model, base, max_cases=max_cases)
     inputs = check_runs(cases, model, base)
     check_faults(model, base)
+    note_repeated_seeds(cases)  # 30 seeds of a run that draws nothing are one run
     return cases, inputs
 
 
