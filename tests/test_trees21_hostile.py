@@ -37,6 +37,9 @@ Findings, each with its test below:
   and *unknown parameter $xK (parameters: $xK)*: two names shown alike, the second
   line listing the refused one as declared. The refusal names the character
   (*('K' is U+212A KELVIN SIGN)*), and a refused name is not listed;
+- a BT.CPP ``<SubTree>`` call with a port its model does not declare listed every port
+  of the model, whole: 5,000 ports of 200-character names made one line of 1 MB. It
+  lists 20, each cut, as the YAML loader's *unknown parameter* does;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -312,3 +315,25 @@ def test_a_parameter_refused_for_a_look_alike_character_names_it_and_is_not_list
         " and '_', as $name is written ('\u212a' is U+212A KELVIN SIGN)",
         f"{tree}:3:21: unknown parameter $xK (parameters: none declared)",
     ]
+
+
+def test_an_xml_call_s_unknown_port_lists_at_most_twenty_of_the_model_s(
+    tmp_path: Path, capsys: Any
+) -> None:
+    ports = "".join(
+        f'<input_port name="p{i}_{"x" * 200}" type="string" default="a"/>' for i in range(30)
+    )
+    tree = tmp_path / "t.xml"
+    tree.write_text(
+        '<root BTCPP_format="4" main_tree_to_execute="A">\n'
+        f'<TreeNodesModel><SubTree ID="B">{ports}</SubTree></TreeNodesModel>\n'
+        '<BehaviorTree ID="A"><SubTree ID="B" nope="1"/></BehaviorTree>\n'
+        '<BehaviorTree ID="B"><AlwaysSuccess/></BehaviorTree>\n</root>\n',
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"{tree}:3:22: <SubTree ID='B'>: port 'nope' is not a parameter of 'B'")
+    assert "p19_xxx" in err and "p20_" not in err
+    assert err.endswith("..., ... (10 more); declare them in <TreeNodesModel>)")
+    assert len(err) < 1500
