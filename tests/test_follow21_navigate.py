@@ -8,6 +8,7 @@ from __future__ import annotations
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -137,3 +138,38 @@ def test_a_navigator_s_huge_message_is_bounded_on_the_terminal_and_in_the_trace(
     failed = [line for line in err.splitlines() if line.startswith("pirate-bt: ")]
     assert len(failed) == 1 and "navigator 'rogue' raised RuntimeError: xxx" in failed[0]
     assert re.search(r"\.\.\.x+ the end \(0 steps", failed[0])  # its start and end kept
+
+
+class HugeStep:
+    """A navigator asking for a step of a 1 MB parameter (refused: not a distance)."""
+
+    def next_step(self, obs: object) -> object:
+        from pirate_bt import Step
+
+        return Step("straight", distance="1" * 1_000_000 + " m")
+
+
+class HugeOrigin:
+    """A navigator whose origin names a 'file' of 1 MB."""
+
+    origin = ("z" * 1_000_000, 1)
+
+    def next_step(self, obs: Any) -> object:
+        from pirate_bt import Step
+
+        return Step("straight", distance="0.1 m") if obs.step < 1 else None
+
+
+@pytest.mark.parametrize(
+    ("navigator", "mapped"), [(HugeStep, False), (HugeOrigin, True)], ids=["step", "origin"]
+)
+def test_a_navigator_s_huge_texts_are_not_written_whole_into_its_trace(
+    tmp_path: Path, navigator: type, mapped: bool
+) -> None:
+    # the step's 1 MB parameter was written whole into navigation.jsonl; the origin's
+    # 'file' headed step-001.jsonl twice (its route's name and source)
+    trace = tmp_path / "trace"
+    pirate_bt.navigate(navigator(), sim="straight", map="straight" if mapped else None, trace=trace)
+    sizes = {p.name: p.stat().st_size for p in trace.iterdir()}
+    assert "navigation.jsonl" in sizes
+    assert all(size < 100_000 for size in sizes.values()), sizes

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from pirate_bt.clock import Clock
-from pirate_bt.errors import LocatedError, ValidationFailed, cut_reason, said_of
+from pirate_bt.errors import MAX_PATH, LocatedError, ValidationFailed, cut_reason, said_of
 from pirate_bt.pipes import Network
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.robot.parts import Half
@@ -133,8 +133,9 @@ def _origin(navigator: object, index: int) -> tuple[str | None, int]:
     """Where the navigator says its last step comes from (``origin``: a file and a line,
     as the route navigator keeps it), else ``None`` and the step's number. A file name
     that cannot be one line of a place (empty, or with a control character: it ended the
-    navigation with a bare ``ValidationFailed`` when its step's tree was named after it)
-    or a line that is a bool is no origin."""
+    navigation with a bare ``ValidationFailed`` when its step's tree was named after it),
+    one longer than a file's name may be (it headed every step's trace whole) or a line
+    that is a bool is no origin."""
     origin = getattr(navigator, "origin", None)
     if (
         isinstance(origin, tuple)
@@ -142,6 +143,7 @@ def _origin(navigator: object, index: int) -> tuple[str | None, int]:
         and isinstance(origin[0], str)
         and origin[0].isprintable()
         and origin[0].strip() != ""
+        and len(origin[0]) <= MAX_PATH  # no file's name: it headed each step's trace whole
         and isinstance(origin[1], int)
         and not isinstance(origin[1], bool)
         and 0 < origin[1] <= 1_000_000
@@ -202,7 +204,8 @@ class _Records:
 
     def write(self, record: dict[str, Any]) -> None:
         if self._file is not None:
-            self._file.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+            text = json.dumps(_bounded(record), allow_nan=False, default=str)
+            self._file.write(text + "\n")
             self._file.flush()
 
     def step_trace(self, index: int) -> Path | None:
@@ -212,6 +215,18 @@ class _Records:
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def _bounded(value: Any) -> Any:
+    """A record with every text cut to :data:`~pirate_bt.errors.MAX_PATH` characters
+    (its middle left out): a navigator's step of a 1 MB parameter was written whole."""
+    if isinstance(value, str):
+        return cut_reason(value, MAX_PATH)
+    if isinstance(value, dict):
+        return {_bounded(k): _bounded(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_bounded(v) for v in value]
+    return value
 
 
 def run_navigation(
