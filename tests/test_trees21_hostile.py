@@ -40,6 +40,8 @@ Findings, each with its test below:
 - a BT.CPP ``<SubTree>`` call with a port its model does not declare listed every port
   of the model, whole: 5,000 ports of 200-character names made one line of 1 MB. It
   lists 20, each cut, as the YAML loader's *unknown parameter* does;
+- a loop through 10,000 BT.CPP trees (``T0`` calls ``T1`` ... calls ``T0``) was said with
+  its whole chain, one line of 89 kB: a long chain is said with its middle left out;
 - a value tagged ``!!null`` whatever its text was null (PyYAML's reading): a node's
   ``name: !!null grip`` loaded as no name, a parameter's ``default: !!null 5 s`` as no
   default, without a word, and ``level: !!null error`` was said to be *null is not one
@@ -337,3 +339,21 @@ def test_an_xml_call_s_unknown_port_lists_at_most_twenty_of_the_model_s(
     assert "p19_xxx" in err and "p20_" not in err
     assert err.endswith("..., ... (10 more); declare them in <TreeNodesModel>)")
     assert len(err) < 1500
+
+
+def test_a_long_recursion_is_said_with_the_middle_of_its_chain_left_out(
+    tmp_path: Path, capsys: Any
+) -> None:
+    n = 300
+    trees = "".join(
+        f'<BehaviorTree ID="T{i}"><SubTree ID="T{(i + 1) % n}"/></BehaviorTree>\n' for i in range(n)
+    )
+    tree = tmp_path / "t.xml"
+    tree.write_text(
+        f'<root BTCPP_format="4" main_tree_to_execute="T0">\n{trees}</root>\n', encoding="utf-8"
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"{tree}:301:25: recursive subtree: T0 -> T1 -> T2 -> T3 -> T4 -> ... (291 more)"
+        " -> T296 -> T297 -> T298 -> T299 -> T0"
+    )

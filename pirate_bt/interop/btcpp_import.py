@@ -31,7 +31,7 @@ from pirate_bt.interop.btcpp_models import (
     own_instead,
 )
 from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
-from pirate_bt.treefile.params import PARAM_RE, listed
+from pirate_bt.treefile.params import PARAM_RE, chain_text, listed
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import MAX_NODES
@@ -235,7 +235,7 @@ class _Importer:
                     )
                 self.called.add(target)
                 if state.get(target) == 1:
-                    loop = " -> ".join([*chain[chain.index(target) :], target])
+                    loop = chain_text([*chain[chain.index(target) :], target])
                     raise element.error(f"recursive subtree: {loop}")
                 if state.get(target) is None:
                     state[target] = 1

@@ -35,6 +35,7 @@ __all__ = [
     "SI_UNITS",
     "ParamDecl",
     "ParamType",
+    "chain_text",
     "coerce_param",
     "listed",
     "written_value",
@@ -172,6 +173,15 @@ def written_value(value: Any) -> Any:
 def _cut(text: str, limit: int = 40) -> str:
     """``text`` as it is, or cut to ``limit`` characters ending in ``...``."""
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def chain_text(names: list[str], most: int = 10) -> str:
+    """A recursion's chain for a message, ``a -> b -> a``; a longer one than ``most``
+    with its middle left out (a loop through 10,000 XML trees was an 89 kB line)."""
+    if len(names) <= most:
+        return " -> ".join(names)
+    half = most // 2
+    return " -> ".join([*names[:half], f"... ({len(names) - 2 * half} more)", *names[-half:]])
 
 
 def listed(names: list[str], mark: str = "", most: int = 20) -> str:

@@ -27,7 +27,7 @@ from pirate_bt.treefile.names import (
     unknown_key,
 )
 from pirate_bt.treefile.names import shown_name as _shown
-from pirate_bt.treefile.params import PARAM_RE, listed
+from pirate_bt.treefile.params import PARAM_RE, chain_text, listed
 from pirate_bt.treefile.registry import UnknownNode
 from pirate_bt.treefile.spec import (
     _COMMON_KEYS,
@@ -439,7 +439,7 @@ class _Reader(_FileReader):
         ident = f"{target_doc.file}#{name}" if name else target_doc.file
         self.expanded.add(ident)
         if ident in env.chain:
-            loop = " -> ".join([*env.chain[env.chain.index(ident) :], ident])
+            loop = chain_text([*env.chain[env.chain.index(ident) :], ident])
             self.error(doc, (*path, "ref"), f"recursive subtree: {loop}")
             return None
         allowed = _SUBTREE_KEYS if name else _TOP_KEYS
