@@ -229,6 +229,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         # COUNTERS count since boot; the simulator's own figures run on across resets
         self._boot_base = self._totals()
         self._board_timeouts = dict.fromkeys(self._boards, 0)
+        self._board_retries = dict.fromkeys(self._boards, 0)
         # each board's last answer (boot counts as one), and the boards the robot stopped
         # for, not heard for BOARD_AWAY_S (firmware/piratebay/poller.c)
         self._heard_s = dict.fromkeys(self._boards, self.now_s)
@@ -309,7 +310,15 @@ class SimBridge(StateFramesMixin, FaultsMixin):
                 framing,
                 dups,
                 trips,
-                tuple(BoardCounters(b, self._board_timeouts[b] & 0xFFFFFFFF) for b in self._boards),
+                tuple(
+                    BoardCounters(
+                        b,
+                        self._board_timeouts[b] & 0xFFFFFFFF,
+                        0,
+                        self._board_retries[b] & 0xFFFFFFFF,
+                    )
+                    for b in self._boards
+                ),
             )
         )
 

@@ -60,6 +60,7 @@ class FaultsMixin:
     _resetting: set[int]
     _held_setpoints: dict[int, list[MotorCommand]]
     _board_timeouts: dict[int, int]
+    _board_retries: dict[int, int]
     _heard_s: dict[int, float]
     _all_heard_s: float
     _away: set[int]
@@ -129,7 +130,9 @@ class FaultsMixin:
     def _poll_boards(self, now_s: float) -> None:
         """This period's poll of every board: a board that is rebooting does not answer.
 
-        Each failed poll counts a timeout. A board not heard for more than
+        A poll that gets no answer counts as the firmware's does (docs/board-bus.md):
+        a timeout, a retry, and the retry's timeout (one board away leaves the period
+        the time to retry it). A board not heard for more than
         :data:`BOARD_AWAY_S` (from its last answer, or the bridge's boot) stops the whole
         robot once an absence, as the firmware bridge does: the stop category, so when it
         answers again it gets the stop setpoints (its drive braked, its clamp back), not
@@ -145,7 +148,8 @@ class FaultsMixin:
                 self._heard_s[board] = now_s
                 self._away.discard(board)
                 continue
-            self._board_timeouts[board] += 1
+            self._board_timeouts[board] += 2
+            self._board_retries[board] += 1
             heard_s = max(self._heard_s[board], self._all_heard_s)
             if board not in self._away and now_s - heard_s > BOARD_AWAY_S + 1e-9:
                 self._away.add(board)
