@@ -295,8 +295,9 @@ def test_bytes_no_frame_should_contain_are_skipped_counted_and_never_taken(name:
 @pytest.mark.parametrize("raw", [32767, -32768], ids=["max", "min"])
 def test_a_state_of_extreme_raw_values_is_never_taken_as_a_reading(raw: int) -> None:
     """Every channel fresh at int16's end (a forged or damaged frame that passed the CRC):
-    a channel whose raw range excludes it keeps its last reading and stamp, the IMU's
-    (int16's whole range) takes it, every value stays finite, and each refusal counts."""
+    a channel whose raw range excludes it keeps its last reading and stamp (the IMU's
+    too: its raw range is ±π, -31416..31416), every value stays finite, and each refusal
+    counts."""
     wire = _in_session()
     link = RobotLink(ROBOT, wire.session)
     fresh = (1 << LAYOUT.n_channels) - 1

@@ -99,3 +99,24 @@ def test_an_imu_reading_no_imu_gives_is_not_taken() -> None:
     raw[pitch] = 31416  # +pi: taken
     frame = State(3, BridgeFlags.NONE, 0, fresh, (1,) * len(ROBOT.board_ids()), tuple(raw))
     assert ranges.readings(frame)[pitch] == 31416
+
+
+@pytest.mark.parametrize(
+    "description",
+    sorted(p.name for p in (Path(__file__).parents[1] / "hardware" / "variants").glob("*.yaml")),
+)
+def test_every_bundled_variants_imu_reading_past_pi_is_not_taken(description: str) -> None:
+    """The variants beside hardware/pirate.yaml kept the IMU's int16 range after it
+    became +-pi: a STATE saying 32767 (188 degrees) was taken from their IMUs."""
+    robot = load_robot(Path(__file__).parents[1] / "hardware" / "variants" / description)
+    channels = robot.state_channels()
+    imus = [i for i, c in enumerate(channels) if c.dimension == "angle" and "imu" in c.name]
+    fresh = (1 << len(channels)) - 1
+    raw = [c.conversion.zero_raw for c in channels]
+    for i in imus:
+        raw[i] = 32767
+    frame = State(2, BridgeFlags.NONE, 0, fresh, (1,) * len(robot.board_ids()), tuple(raw))
+    ranges = ReadingRanges(robot)
+    readings = ranges.readings(frame)
+    assert imus and all(readings[i] is None for i in imus)
+    assert ranges.refused == len(imus)

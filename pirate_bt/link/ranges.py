@@ -34,8 +34,9 @@ class ReadingRanges:
         self._lows = tuple(c.conversion.raw[0] for c in channels)
         self._highs = tuple(c.conversion.raw[1] for c in channels)
         # The fast check: the channels grouped by range (a few groups), each group's
-        # values fetched in one C call and bounded by its min and max; int16's whole
-        # range (an IMU's) needs no check.
+        # values fetched in one C call and bounded by its min and max; a channel of
+        # int16's whole range needs no check (the IMU's is ±π, -31416..31416, since
+        # 2026-11-30: a STATE saying 32767 said pitch 188°).
         groups: dict[tuple[int, int], list[int]] = {}
         for i, bounds in enumerate(zip(self._lows, self._highs, strict=True)):
             if bounds != (-32768, 32767):
