@@ -538,9 +538,13 @@ def _main(argv: Sequence[str] | None) -> int:
         for line in _port_named(str(exc), exc, args).splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
-    except BrokenPipeError:
-        return EXIT_OK
     except OSError as exc:
+        from pirate_bt.cli import streams
+
+        if isinstance(exc, BrokenPipeError) and streams.stdout_failure(exc):
+            return EXIT_OK  # the reader of standard output went away (| head -1)
+        # any other broken pipe (a helper process's, a socket's) is an error of the
+        # command, said in one line: until 2026-11-30 every one was exit 0, unsaid
         if debug:
             traceback.print_exc()
         print(f"pirate-bt: {_os_error(exc)}", file=sys.stderr)
