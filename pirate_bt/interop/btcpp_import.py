@@ -452,7 +452,11 @@ class _Importer:
             out["children"] = self.children(element, 1)
             return out
         if tag == "RunOnce":
-            if ports.get("then_skip", "true").lower() not in ("false", "0"):
+            try:
+                then_skip = decode_value(ports.get("then_skip", "true"), "boolean")
+            except ValueError as exc:
+                raise element.error(f"then_skip: {exc}") from None
+            if then_skip is not False:  # also a pointer ({skip}), which a run cannot know
                 raise element.error(
                     '<RunOnce> without then_skip="false" returns SKIPPED after the first'
                     " run, a status pirate_bt does not have"

@@ -455,27 +455,58 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
     if text.startswith("$"):
         return "$" + text
     if port_type in ("integer", "number"):
-        # ASCII digits, as BT.CPP and a --param read them: Python's int() and float() also
-        # take '1_0' and other scripts' digits ('\u0663' was 3); nan and inf are read,
-        # for the loader to refuse as every other file's
-        words = "an integer" if port_type == "integer" else "a number"
-        try:
-            if not text.isascii() or "_" in text:
-                raise ValueError(text)
-            return int(text) if port_type == "integer" else float(text)
-        except ValueError:  # also an integer too long for Python to read
-            digits = _too_long(text) if re.fullmatch(r"\s*[+-]?[0-9]+\s*", text) else 0
-            if digits:  # as the YAML loader says it: it is an integer, past what is read
-                raise ValueError(f"a number of {digits} digits is too long") from None
-            raise ValueError(f"expected {words}, got {_shown(text)}") from None
+        return _number(text, port_type)
     if port_type == "boolean":
-        lowered = text.strip().lower()
-        if lowered in ("true", "1"):
+        if text in _TRUE:
             return True
-        if lowered in ("false", "0"):
+        if text in _FALSE:
             return False
-        raise ValueError(f"expected true or false, got {_shown(text)}")
+        raise ValueError(
+            f"expected true or false, got {_shown(text)}"
+            " (BT.CPP reads true, True, TRUE or 1, false, False, FALSE or 0)"
+        )
     return text
+
+
+# What BT.CPP's convertFromString reads (std::from_chars, base 10): an optional '-' and
+# the digits, no '+', no spaces, no '_'; a number also '.5', '5.', '1e5', inf and nan.
+# BT.CPP reads the longest such start of the text and drops the rest ('3abc' is 3).
+# Before 4.9 a number was read with std::stod, which also takes '+1.5' and ' 1.5':
+# what 4.9 reads is what every version reads.
+_INTEGER_RE: Final = re.compile(r"-?[0-9]+")
+_NUMBER_RE: Final = re.compile(
+    r"-?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf(?:inity)?|nan)", re.IGNORECASE
+)
+_TRUE: Final = frozenset({"true", "True", "TRUE", "1"})
+_FALSE: Final = frozenset({"false", "False", "FALSE", "0"})
+
+
+def _number(text: str, port_type: str) -> int | float:
+    """An integer or number port's text, taken when BT.CPP reads all of it; refused
+    otherwise, saying what BT.CPP does with it (refuses it, or reads only its start,
+    which would run with another value than the text says). nan and inf are read, for
+    the loader to refuse as every other file's."""
+    integer = port_type == "integer"
+    form = _INTEGER_RE if integer else _NUMBER_RE
+    if text.isascii() and form.fullmatch(text):
+        digits = _too_long(text) if integer else 0
+        if digits:  # as the YAML loader says it: it is an integer, past what is read
+            raise ValueError(f"a number of {digits} digits is too long")
+        return int(text) if integer else float(text)
+    words = "an integer" if integer else "a number"
+    who = "BT.CPP" if integer else "BT.CPP 4.9 and later"  # 4.8 read a number with stod
+    start = form.match(text)
+    if text[:1].isspace():
+        why = f"{who} reads no space before it"
+    elif start is not None:
+        why = f"{who} would read it as {_shown(start[0])}, dropping the rest; write {words} alone"
+    elif text[:1] == "+":
+        why = f"{who} reads no '+': write it without"
+    else:
+        why = f"{who} reads an optional '-' and the digits 0-9" + (
+            "" if integer else ", a '.' and an exponent"
+        )
+    raise ValueError(f"expected {words}, got {_shown(text)}: {why}")
 
 
 def _too_long(text: str) -> int:
