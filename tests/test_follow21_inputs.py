@@ -66,3 +66,24 @@ def test_the_api_refuses_a_port_url_before_it_plans() -> None:
     # a route that does not fit its map: planning it would be the refusal said first
     with pytest.raises(PortURLError, match=r"^cannot open bogus://x: no URL scheme 'bogus'"):
         pirate_bt.run_mission("lab", network="straight", port="bogus://x")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"bounds": "x"}, "bounds: give an AsBuiltBounds (None: the defaults), not a str"),
+        ({"name": 5}, "name: give the variant's name as text, not an int"),
+        ({"name": " "}, "name: empty; give the variant's name, or None for the default"),
+    ],
+    ids=["bounds", "name-int", "name-empty"],
+)
+def test_perturb_network_refuses_bounds_and_names_of_the_wrong_kind(
+    kwargs: dict[str, object], said: str
+) -> None:
+    from pirate_bt.pipes import load_network
+    from pirate_bt.pipes.asbuilt import perturb_network
+
+    # bounds='x' raised "'str' object has no attribute 'describe'"; name=5 named it 5
+    with pytest.raises(InputError) as caught:
+        perturb_network(load_network("lab").spec, 3, **kwargs)  # type: ignore[arg-type]
+    assert str(caught.value) == said

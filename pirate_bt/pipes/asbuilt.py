@@ -34,7 +34,14 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from pirate_bt.errors import MAX_SEED, ConfigurationError, InputError, shown
+from pirate_bt.errors import (
+    MAX_SEED,
+    ArgumentTypeError,
+    ArgumentValueError,
+    ConfigurationError,
+    kind_of,
+    shown,
+)
 from pirate_bt.pipes.model import (
     DIRECTION_ROLL_RAD,
     BendSpec,
@@ -146,9 +153,28 @@ def _variant_seed(seed: object) -> int:
     """
     if not isinstance(seed, bool) and hasattr(type(seed), "__index__"):
         seed = operator.index(seed)  # type: ignore[arg-type]  # a NumPy integer too
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
-        raise InputError(f"seed: give a whole number from 0 to 2**63 - 1, not {shown(seed)}")
+    said = f"seed: give a whole number from 0 to 2**63 - 1, not {shown(seed)}"
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise ArgumentTypeError(said)
+    if not 0 <= seed <= MAX_SEED:
+        raise ArgumentValueError(said)
     return seed
+
+
+def _variant_name(name: object) -> str | None:
+    """A variant's ``name=``: text, or ``None`` for the default (``name=5`` was the
+    network's name unchecked, and ``''`` the default unsaid).
+
+    Raises:
+        InputError: anything else (``ArgumentTypeError``, ``ArgumentValueError``).
+    """
+    if name is None:
+        return None
+    if not isinstance(name, str):
+        raise ArgumentTypeError(f"name: give the variant's name as text, not {kind_of(name)}")
+    if not name.strip():
+        raise ArgumentValueError("name: empty; give the variant's name, or None for the default")
+    return name
 
 
 def perturb_network(
@@ -172,10 +198,16 @@ def perturb_network(
 
     Raises:
         InputError: a seed that is not a whole number from 0 to 2**63 - 1 (as every
-            seed, a campaign's ``as_built`` variants' and ``network perturb --seed``).
+            seed, a campaign's ``as_built`` variants' and ``network perturb --seed``),
+            bounds that are no ``AsBuiltBounds``, a name that is no text or empty.
         ConfigurationError: the drawing's geometry cannot be built.
     """
     seed = _variant_seed(seed)
+    name = _variant_name(name)
+    if bounds is not None and not isinstance(bounds, AsBuiltBounds):  # was an AttributeError
+        raise ArgumentTypeError(
+            f"bounds: give an AsBuiltBounds (None: the defaults), not {kind_of(bounds)}"
+        )
     bounds = bounds or AsBuiltBounds()
     rng = random.Random(seed)
     slopes = _slopes(Network(spec))
