@@ -16,11 +16,11 @@ from typing import Any, Final
 from pydantic import ValidationError
 
 from pirate_bt.errors import SourceLocation, file_argument
+from pirate_bt.interop.btcpp_import_ports import subtree_ports
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _HINT,
     _MODEL_TAGS,
-    _PARAM_TYPES,
     _SCRIPT_ATTRS,
     BTCPP_FORMAT,
     FROM_BTCPP,
@@ -252,41 +252,7 @@ class _Importer:
         model = self.subtree_models.get(tree_id)
         if model is None:
             return {}
-        out: dict[str, Any] = {}
-        for port in model.children:
-            if port.tag != "input_port":
-                raise port.error(
-                    f"<{port.tag}>: a pirate_bt subtree takes input ports (its parameters) only"
-                )
-            name = port.attrs.get("name", "")
-            if not name.isidentifier():
-                raise port.error(f"port name {_shown(name)} must be an identifier")
-            if name in out:
-                raise port.error(
-                    f"a second input_port {_shown(name)} in <SubTree ID={_shown(tree_id)}>"
-                )
-            kind = port.attrs.get("type", "string")
-            if kind not in _PARAM_TYPES:
-                raise port.error(
-                    f"port {_shown(name)}: type {_shown(kind)} is not a pirate_bt parameter type"
-                    f" ({', '.join(sorted(_PARAM_TYPES))})"
-                )
-            decl: dict[str, Any] = {"type": kind}
-            if placed:
-                self.place(decl, port)
-            try:
-                for key in ("default", "example"):
-                    if key in port.attrs:
-                        decl[key] = _port_value(port.attrs[key], kind, name, key)
-                if "choices" in port.attrs:
-                    decl["choices"] = decode_value(port.attrs["choices"], "json")
-            except ValueError as exc:
-                raise port.error(f"port {_shown(name)}: {exc}") from None
-            description = port.attrs.get("description") or port.text.strip()
-            if description:
-                decl["description"] = description
-            out[name] = decl
-        return out
+        return subtree_ports(tree_id, model, self.place if placed else None)
 
     def node(self, element: XmlElement) -> dict[str, Any]:
         if self.depth >= MAX_TREE_DEPTH:
@@ -527,23 +493,6 @@ class _Importer:
             if not field or message.startswith(f"{field}:"):  # "value: value: should be"
                 field = ""
             raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
-
-
-def _port_value(text: str, kind: str, name: str, key: str) -> Any:
-    """A ``default`` or ``example`` of a subtree's port; a blackboard pointer (``{d}``)
-    is refused in the XML's words (the loader's would advise ``$$d``, which the XML
-    reads as the text ``$$d``).
-
-    Raises:
-        ValueError: the text does not fit the port's type, or it is a pointer.
-    """
-    value = decode_value(text, kind, name)
-    if isinstance(value, str) and PARAM_RE.match(value):
-        raise ValueError(
-            f"{key} {_shown(text)} is a blackboard pointer; a parameter's {key} is a value,"
-            " not another parameter"
-        )
-    return value
 
 
 def _own_key(text: str) -> str:
