@@ -149,7 +149,8 @@ def navigate(
             own error; a success the simulator judged unsafe says so.
 
     Raises:
-        InputError: an unknown navigator or parameter, a bad option, a map or
+        InputError: an unknown navigator or parameter, a navigator by name whose
+            making raised (named with where it raised), a bad option, a map or
             network that does not load, a navigator class given instead of an
             instance, or a map the navigator's ``check_map`` refuses or fails on.
         LinkError: the robot cannot be reached.

@@ -500,8 +500,12 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
     """The navigator called ``name``, made with ``params`` (keyword arguments).
 
     Raises:
-        InputError: no such navigator (the known ones are listed), parameters it does
-            not take, or an object without ``next_step``.
+        InputError: no such navigator (the known ones are listed), a parameter it needs
+            and is not given (asked for as ``params={'segment': ...}``), parameters it
+            does not take, an object without ``next_step``; a plug-in that does not
+            load, or whose making raised anything else (a ``sys.exit()`` too), in one
+            line with where it raised (*navigator 'mine' raised RuntimeError as it was
+            made: ... (at FILE:LINE)*).
     """
     if not isinstance(name, str):
         raise InputError(f"navigator: give a navigator's name as text, not {name!r}"[:200])
