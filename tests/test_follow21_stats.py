@@ -90,3 +90,13 @@ def test_seeds_that_repeat_each_as_built_variant_count_each_variant_once(
     low, high = wilson_interval(2, 3)
     table = (tmp_path / "r" / "report.md").read_text()
     assert f"| 15 | 66.7 % | {100 * low:.1f}–{100 * high:.1f} % (3 distinct runs of 15) |" in table
+
+
+def test_rows_of_one_run_that_disagree_are_said_to(tmp_path: Path) -> None:
+    # one case timed out (a wall-time limit under load): the same run, another outcome
+    rows = [_row(i, i) for i in range(3)] + [_row(3, 3, "timeout")]
+    write_report(rows, tmp_path / "r")
+    assert (
+        "| 4 | 75.0 % | deterministic: 1 distinct run of 4, its rows disagree (wall time or a"
+        " crash) |"
+    ) in (tmp_path / "r" / "report.md").read_text()

@@ -118,8 +118,9 @@ def _interval(g: GroupStats) -> str:
     """The success rate's 95 % Wilson interval over the group's distinct runs; a group
     whose seeds all repeat one run has none to give (30 identical runs said
     88.6–100.0 %, as if they were 30 samples)."""
-    if g.deterministic:
-        return f"deterministic: 1 distinct run of {g.n}"
+    if g.deterministic:  # rows of one run that differ: a wall-time limit, a crash
+        split = ", its rows disagree (wall time or a crash)" if 0 < g.success < g.n else ""
+        return f"deterministic: 1 distinct run of {g.n}{split}"
     low, high = g.interval
     said = f"{100 * low:.1f}–{100 * high:.1f} %"
     return said if g.distinct_runs >= g.n else f"{said} ({g.distinct_runs} distinct runs of {g.n})"
