@@ -146,13 +146,17 @@ class _Importer:
         params = self.params(main)
         if params:
             out["params"] = params
-        if "_blackboard" in main_tree.attrs:
-            try:
-                board = decode_value(main_tree.attrs["_blackboard"], "json")
-            except ValueError as exc:
-                raise main_tree.error(f"_blackboard: {exc}") from None
-            if not isinstance(board, dict):
-                raise main_tree.error("_blackboard: a JSON object of key -> declaration")
+        # one blackboard a file, as a tree file's: every tree's _blackboard (a subtree's
+        # was dropped unread), the main tree's first
+        board: dict[str, Any] = {}
+        for element in (main_tree, *(t for t in self.trees.values() if t is not main_tree)):
+            for key, decl in _blackboard(element).items():
+                if board.setdefault(key, decl) != decl:
+                    raise element.error(
+                        f"_blackboard: key {_shown(key)} is declared otherwise by another"
+                        " <BehaviorTree> of the file; a file has one blackboard"
+                    )
+        if board:
             out["blackboard"] = board
         out["root"] = self.node(main_tree.children[0])
         subtrees: dict[str, Any] = {}
@@ -493,6 +497,24 @@ class _Importer:
             if not field or message.startswith(f"{field}:"):  # "value: value: should be"
                 field = ""
             raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
+
+
+def _blackboard(tree: XmlElement) -> dict[str, Any]:
+    """A tree's ``_blackboard``: its keys' declarations, JSON after ``json:``."""
+    text = tree.attrs.get("_blackboard")
+    if text is None:
+        return {}
+    form = """_blackboard='json:{"k": {"type": "number"}}'"""
+    if not text.startswith("json:"):
+        what = "JSON needs" if text.lstrip().startswith("{") else "the declarations take"
+        raise tree.error(f"_blackboard: {what} the json: prefix, as in {form}")
+    try:
+        board = decode_value(text, "json")
+    except ValueError as exc:
+        raise tree.error(f"_blackboard: {exc}") from None
+    if not isinstance(board, dict):
+        raise tree.error(f"_blackboard: a JSON object of key -> declaration, as in {form}")
+    return board
 
 
 def _own_key(text: str) -> str:

@@ -104,6 +104,28 @@ def _placer(
     return placed
 
 
+_UNDECLARED = re.compile(
+    r"(?P<head>blackboard key (?P<key>'[A-Za-z_][A-Za-z0-9_]*'|.+?) is (?:read|written)"
+    r" but not declared)(?: under 'blackboard:')?$"
+)
+
+
+def _in_xml_words(error: LocatedError, yaml_file: Path) -> LocatedError:
+    """A loader's error about the converted YAML as an XML author reads it: a key is
+    declared in a ``<BehaviorTree>``'s ``_blackboard`` attribute, not under
+    ``blackboard:``."""
+    match = _UNDECLARED.match(error.message)
+    loc = error.location
+    if match is None or loc is None or Path(loc.file).resolve() != yaml_file.resolve():
+        return error  # a key of another (YAML) file is declared under its blackboard:
+    key = match["key"][1:-1] if match["key"].startswith("'") else "k"
+    return LocatedError(
+        f"{match['head']} in a <BehaviorTree>'s _blackboard attribute"
+        f""" (_blackboard='json:{{"{key}": {{"type": "number"}}}}', with the key's type)""",
+        loc,
+    )
+
+
 class _WarningsInXml(logging.Filter):
     """Places the tree loader's logged warnings about the converted YAML at their XML
     elements (they named the temporary file, gone once the call returns)."""
@@ -149,7 +171,8 @@ def _load_placed(
     try:
         loaded = load_tree(yaml_file, **kwargs)
     except ValidationFailed as exc:
-        raise ValidationFailed(_in_xml(exc.errors, yaml_file, where)) from None
+        errors = tuple(_in_xml_words(error, yaml_file) for error in exc.errors)
+        raise ValidationFailed(_in_xml(errors, yaml_file, where)) from None
     finally:
         logger.removeFilter(placing)
     loaded.warnings = [placing.placed(warning) for warning in loaded.warnings]

@@ -447,6 +447,11 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
     if pointer is not None:
         name = port if pointer == "=" else pointer
         if not PARAM_RE.fullmatch("$" + name):  # '{café}': no $café names a parameter
+            if _is_json(text):  # '{"k": 1}': JSON, which BT.CPP reads after json: only
+                raise ValueError(
+                    f"{_shown(text)} reads as a blackboard pointer: JSON needs the json:"
+                    " prefix (json:{...})"
+                )
             raise ValueError(
                 f"blackboard pointer {_shown(text)}: pirate_bt parameters are identifiers"
                 " of ASCII letters, digits and '_'"
@@ -507,6 +512,14 @@ def _number(text: str, port_type: str) -> int | float:
             "" if integer else ", a '.' and an exponent"
         )
     raise ValueError(f"expected {words}, got {_shown(text)}: {why}")
+
+
+def _is_json(text: str) -> bool:
+    try:
+        json.loads(text, parse_constant=_refuse_constant)
+    except (ValueError, RecursionError):
+        return False
+    return True
 
 
 def _too_long(text: str) -> int:
