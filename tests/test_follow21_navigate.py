@@ -173,3 +173,20 @@ def test_a_navigator_s_huge_texts_are_not_written_whole_into_its_trace(
     sizes = {p.name: p.stat().st_size for p in trace.iterdir()}
     assert "navigation.jsonl" in sizes
     assert all(size < 100_000 for size in sizes.values()), sizes
+
+
+def _decides(self: object, obs: object) -> None:
+    raise RuntimeError("boom")
+
+
+@pytest.mark.parametrize("name", ["N" * 1_000_000, "Plan\nner"], ids=["huge", "newline"])
+def test_a_navigator_class_s_name_is_one_bounded_line_of_its_summary(name: str) -> None:
+    # its summary held a class's name whole: 1 MB, or two lines
+    navigator = type(name, (), {"next_step": _decides})()
+    result = pirate_bt.navigate(navigator, sim="straight")
+    summary = result.summary()
+    assert len(summary) < 2_000 and summary.isprintable()
+    assert summary.startswith(f"navigator {name[:20]}".replace("\n", "\\n"))
+    with pytest.raises(InputError) as caught:  # the class, not an instance: bounded too
+        pirate_bt.navigate(type(navigator), sim="straight")
+    assert len(str(caught.value)) < 1_000 and str(caught.value).isprintable()

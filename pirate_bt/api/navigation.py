@@ -31,6 +31,7 @@ from pirate_bt.api.options import (
 )
 from pirate_bt.api.results import closing_why
 from pirate_bt.atomic import new_folders_undone
+from pirate_bt.behaviours.foreign import one_line
 from pirate_bt.errors import InputError, shown
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
@@ -195,23 +196,25 @@ def navigate(
     else:
         if params:
             raise InputError("navigate: params= is for a navigator given by name")
+        # its class's name as one printable line, bounded: one of 1 MB (or with a newline)
+        # was every message's and the result's summary's, the line `navigate` prints
+        kind = one_line(type(navigator).__name__, 80)
         if isinstance(navigator, type):  # its next_step would be called unbound
-            cls = navigator.__name__
+            cls = one_line(navigator.__name__, 80)
             raise InputError(f"navigate: give an instance of {cls} ({cls}(...)), not the class")
-        decide = navigator_method(navigator, "next_step", type(navigator).__name__)
+        decide = navigator_method(navigator, "next_step", kind)
         if not callable(decide):
             raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
         if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):
             raise InputError(  # its answer was a coroutine, refused only after connecting
-                f"navigate: {type(navigator).__name__}.next_step is async def; write it as"
+                f"navigate: {kind}.next_step is async def; write it as"
                 " a plain def that returns a Step, or None when done"
             )
         if inspect.isgeneratorfunction(decide):  # a yield in it: it returns a generator
             raise InputError(
-                f"navigate: {type(navigator).__name__}.next_step yields; write it to return"
-                " a Step, or None when done"
+                f"navigate: {kind}.next_step yields; write it to return a Step, or None when done"
             )
-        name = builtin_name(navigator) or type(navigator).__name__
+        name = builtin_name(navigator) or kind
     description = load_robot_like(robot)
     map_network = _network(map, "map") if map is not None else None
     target: Any
