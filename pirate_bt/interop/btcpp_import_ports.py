@@ -55,7 +55,7 @@ def subtree_ports(
                 if key in port.attrs:
                     decl[key] = port_value(port.attrs[key], kind, name, key)
             if "choices" in port.attrs:
-                decl["choices"] = decode_value(port.attrs["choices"], "json")
+                decl["choices"] = _choices(port.attrs["choices"])
         except ValueError as exc:
             raise port.error(f"port {_shown(name)}: {exc}") from None
         description = port.attrs.get("description") or port.text.strip()
@@ -63,6 +63,18 @@ def subtree_ports(
             decl["description"] = description
         out[name] = decl
     return out
+
+
+def _choices(text: str) -> Any:
+    """A port's ``choices``: ``a;b;c``, as a node model writes them (and BT.CPP a list
+    port's text), or ``json:["a", "b"]``, as the export writes a subtree's (a choice
+    holding ``;``). The loader checks what the list holds."""
+    value = decode_value(text, "json") if text.startswith("json:") else text.split(";")
+    if not isinstance(value, list) or not text or value == []:
+        raise ValueError(
+            f'choices {_shown(text)}: a list of one or more, written a;b;c or json:["a", "b"]'
+        )
+    return value
 
 
 def port_value(text: str, kind: str, name: str, key: str) -> Any:
