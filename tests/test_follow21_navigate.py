@@ -190,3 +190,23 @@ def test_a_navigator_class_s_name_is_one_bounded_line_of_its_summary(name: str) 
     with pytest.raises(InputError) as caught:  # the class, not an instance: bounded too
         pirate_bt.navigate(type(navigator), sim="straight")
     assert len(str(caught.value)) < 1_000 and str(caught.value).isprintable()
+
+
+def test_a_campaign_naming_a_navigator_whose_module_exits_is_refused_at_its_run(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from pirate_bt.task import navigators as registry
+
+    (tmp_path / "exits_as_listed.py").write_text("import sys\nsys.exit(3)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    plugin = EntryPoint(name="gone", value="exits_as_listed:Nav", group=registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
+    spec = tmp_path / "g.campaign.yaml"
+    spec.write_text("name: g\nruns:\n  - {name: r, navigator: gone, network: lab}\n")
+    # its files' parameters were asked for first, and its sys.exit(3) ended 'validate'
+    assert main(["validate", str(spec)]) == 2
+    assert capsys.readouterr().err == (
+        f"{spec}:3:15: run 'r': navigator 'gone' (exits_as_listed:Nav) failed to load: 3\n"
+    )

@@ -371,7 +371,7 @@ def navigator_file_params(name: str) -> frozenset[str]:
     try:
         entry = _registered().get(name)
         factory = entry.load() if entry is not None else None
-    except Exception:  # a broken plug-in: making it says why
+    except (Exception, SystemExit):  # a broken plug-in (one that exits): making it says why
         return frozenset()
     return frozenset(getattr(factory, "file_params", ()))
 
@@ -387,7 +387,7 @@ def navigator_defaults(name: str) -> dict[str, str | float | int | bool]:
         if factory is None and (entry := _registered().get(name)) is not None:
             factory = entry.load()
         parameters = inspect.signature(factory).parameters.values()
-    except Exception:  # a broken plug-in: making it says why
+    except (Exception, SystemExit):  # a broken plug-in (one that exits): making it says why
         return {}
     return {
         p.name: p.default
