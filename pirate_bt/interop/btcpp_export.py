@@ -25,10 +25,12 @@ from pirate_bt.interop.btcpp_models import (
     _HINT,
     _PARALLEL_MODEL,
     BTCPP_FORMAT,
+    PORT_NAME_RULE,
     TO_BTCPP,
     NodeModel,
     _json,
     _xml_safe,
+    btcpp_port_name,
     encode_value,
     node_models,
 )
@@ -97,23 +99,16 @@ def _text(doc: YamlDocument, path: tuple[str | int, ...], text: str) -> str:
 
 
 def _port_name(doc: YamlDocument, path: tuple[str | int, ...], name: str) -> None:
-    """Refuse a parameter name BT.CPP takes for no port (its ``IsAllowedPortName``).
-
-    A ``<SubTree>`` attribute named ``ID`` or ``name`` is the call's own, one whose
-    first character is no ASCII letter is ignored by BT.CPP's parser, and ``_while``,
-    ``_skipIf``, ``_onSuccess``... are its pre- and post-condition scripts: the value
-    of such a parameter was silently lost in BT.CPP, or ran as a script, or (``ID``)
-    named another tree.
-    """
-    first = name[:1]
-    if first.isascii() and first.isalpha() and name not in ("name", "ID"):
+    """Refuse a parameter name BT.CPP takes for no port (:func:`btcpp_port_name`): the
+    value of such a parameter was silently lost in BT.CPP, or ran as a script, or
+    (``ID``) named another tree."""
+    if btcpp_port_name(name):
         return
     raise _located(
         doc,
         path,
-        f"parameter {name!r}: BehaviorTree.CPP takes no port of this name (a port name"
-        " starts with a letter A-Z or a-z and is not 'name' or 'ID'; one starting with"
-        " '_' is BT.CPP's own, such as _while or _skipIf); rename it to export the tree",
+        f"parameter {name!r}: BehaviorTree.CPP takes no port of this name ({PORT_NAME_RULE});"
+        " rename it to export the tree",
     )
 
 

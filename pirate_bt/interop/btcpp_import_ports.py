@@ -9,7 +9,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from pirate_bt.interop.btcpp_models import _PARAM_TYPES, _shown, decode_value
+from pirate_bt.interop.btcpp_models import (
+    _PARAM_TYPES,
+    PORT_NAME_RULE,
+    _shown,
+    btcpp_port_name,
+    decode_value,
+)
 from pirate_bt.interop.btcpp_xml import XmlElement
 from pirate_bt.treefile.params import PARAM_RE
 
@@ -37,6 +43,11 @@ def subtree_ports(
         name = port.attrs.get("name", "")
         if not name.isidentifier():
             raise port.error(f"port name {_shown(name)} must be an identifier")
+        if not btcpp_port_name(name):  # export would refuse it; no call can give it
+            raise port.error(
+                f"port name {_shown(name)}: BehaviorTree.CPP takes no port of this name"
+                f" ({PORT_NAME_RULE}); rename it"
+            )
         if name in out:
             raise port.error(
                 f"a second input_port {_shown(name)} in <SubTree ID={_shown(tree_id)}>"

@@ -329,6 +329,25 @@ def _class_model(name: str, cls: type[NodeMixin]) -> NodeModel:
     return model
 
 
+PORT_NAME_RULE: Final = (
+    "a port name starts with a letter A-Z or a-z and is not 'name' or 'ID'; one starting"
+    " with '_' is BT.CPP's own, such as _while or _skipIf"
+)
+"""What BT.CPP takes for a port at a ``<SubTree>`` call (:func:`btcpp_port_name`)."""
+
+
+def btcpp_port_name(name: str) -> bool:
+    """Whether BT.CPP takes ``name`` for a port (its ``IsAllowedPortName``).
+
+    A ``<SubTree>`` attribute named ``ID`` or ``name`` is the call's own, one whose
+    first character is no ASCII letter is ignored by BT.CPP's parser, and ``_while``,
+    ``_skipIf``, ``_onSuccess``... are its pre- and post-condition scripts; BT.CPP 4.9
+    and later refuse a ``<SubTree>`` model's port of a reserved name.
+    """
+    first = name[:1]
+    return first.isascii() and first.isalpha() and name not in ("name", "ID")
+
+
 # -- values ----------------------------------------------------------------------------
 
 
