@@ -210,3 +210,25 @@ def test_a_campaign_naming_a_navigator_whose_module_exits_is_refused_at_its_run(
     assert capsys.readouterr().err == (
         f"{spec}:3:15: run 'r': navigator 'gone' (exits_as_listed:Nav) failed to load: 3\n"
     )
+
+
+class ExitsAsRead:
+    """A plug-in navigator whose next_step is a property that ends the process."""
+
+    @property
+    def next_step(self) -> Any:
+        sys.exit(0)
+
+
+def test_a_navigator_whose_next_step_exits_as_it_is_read_is_named(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _plug_in(monkeypatch, ExitsAsRead)
+    place = f"{__file__.removesuffix('c')}:{_line_of(ExitsAsRead, 'sys.exit(0)')}"
+    # `navigate` ended with exit 0 and not a word; navigate(ExitsAsRead()) let it out
+    assert main(["navigate", "rogue", "--sim", "straight", "-q"]) == 2
+    assert capsys.readouterr().err == (
+        f"pirate-bt: navigator 'rogue': reading its next_step raised SystemExit: 0 (at {place})\n"
+    )
+    with pytest.raises(InputError, match=r"^navigator 'ExitsAsRead': reading its next_step"):
+        pirate_bt.navigate(ExitsAsRead(), sim="straight")

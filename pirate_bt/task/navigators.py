@@ -30,7 +30,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, said_of
+from pirate_bt.errors import InputError, said_of, shown
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate_route_map import check_route_on_map
@@ -341,7 +341,7 @@ def navigator_method(navigator: object, method: str, name: str) -> Any:
     """
     try:
         return getattr(navigator, method, None)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:  # a sys.exit() there ended `navigate`, exit 0
         _log.debug("navigator %r: reading %s raised", name, method, exc_info=exc)
         where = raised_at(exc)
         raise InputError(
@@ -566,6 +566,6 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             f"navigator {name!r} raised {type(exc).__name__} as it was made:"
             f" {said_of(exc, 200)}" + (f" (at {at})" if at else "")
         ) from exc
-    if not callable(getattr(navigator, "next_step", None)):
-        raise InputError(f"navigator {name!r} made {navigator!r}, which has no next_step(obs)")
+    if not callable(navigator_method(navigator, "next_step", name)):  # read as navigate() does
+        raise InputError(f"navigator {name!r} made {shown(navigator)}, which has no next_step(obs)")
     return navigator  # type: ignore[no-any-return]
