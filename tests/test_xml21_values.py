@@ -194,3 +194,27 @@ def test_a_port_value_is_taken_only_when_bt_cpp_reads_all_of_it(
             assert not btcpp or "would read it as" in said or port_type == "number", said
         else:
             assert btcpp, f"{text!r} is taken as {port_type}, BT.CPP refuses it"
+
+
+_PARALLEL = (
+    '<root BTCPP_format="4"><BehaviorTree ID="m">\n'
+    '  <Parallel success_count="{value}" failure_count="1"><AlwaysSuccess/><AlwaysSuccess/>'
+    "</Parallel>\n</BehaviorTree></root>\n"
+)
+
+
+def test_parallel_s_counts_are_read_as_bt_cpp_reads_an_int(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # '01' is BT.CPP's 1 (policy one); '+1' BT.CPP refuses, for its '+', not for the count
+    xml, out = tmp_path / "t.xml", tmp_path / "t.yaml"
+    xml.write_text(_PARALLEL.format(value="01"), encoding="utf-8")
+    assert main(["import", "btcpp", str(xml), "-o", str(out)]) == 0, capsys.readouterr().err
+    assert yaml.safe_load(out.read_text(encoding="utf-8"))["root"]["policy"] == "one"
+    xml.write_text(_PARALLEL.format(value="+1"), encoding="utf-8")
+    assert main(["validate", str(xml)]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"{xml}:2:3: success_count: expected an integer, got '+1': BT.CPP reads no '+':"
+        " write it without\n"
+    ), err

@@ -409,9 +409,15 @@ class _Importer:
             return out
         if tag == "Parallel":
             counts = (ports.get("success_count", "-1"), ports.get("failure_count", "1"))
-            if counts == ("-1", "1"):
+            read: list[Any] = []
+            for key, text in zip(("success_count", "failure_count"), counts, strict=True):
+                try:  # as BT.CPP reads an int ('01' is 1, '+1' is refused)
+                    read.append(decode_value(text, "integer", key))
+                except ValueError as exc:
+                    raise element.error(f"{key}: {exc}") from None
+            if read == [-1, 1]:
                 pass  # policy: all, synchronised (the defaults)
-            elif counts == ("1", "1"):
+            elif read == [1, 1]:
                 out["policy"] = "one"
             else:
                 raise element.error(
