@@ -232,3 +232,29 @@ def test_a_navigator_whose_next_step_exits_as_it_is_read_is_named(
     )
     with pytest.raises(InputError, match=r"^navigator 'ExitsAsRead': reading its next_step"):
         pirate_bt.navigate(ExitsAsRead(), sim="straight")
+
+
+class CheckRaisesAsRead:
+    """A plug-in navigator whose check_map is a property that raises."""
+
+    @property
+    def check_map(self) -> Any:
+        raise RuntimeError("no check")
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never asked
+        return None
+
+
+def test_a_campaign_navigator_whose_check_map_raises_as_it_is_read_is_placed(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    _plug_in(monkeypatch, CheckRaisesAsRead)
+    place = f"{__file__.removesuffix('c')}:{_line_of(CheckRaisesAsRead, 'no check')}"
+    spec = tmp_path / "c.campaign.yaml"
+    spec.write_text("name: c\nruns:\n  - {name: r, navigator: rogue, network: lab}\n")
+    # was 'internal error: RuntimeError: no check (rerun with --debug)', exit 1
+    assert main(["validate", str(spec)]) == 2
+    assert capsys.readouterr().err == (
+        f"{spec}:3:15: run 'r': navigator 'rogue': reading its check_map raised"
+        f" RuntimeError: no check (at {place})\n"
+    )

@@ -99,7 +99,7 @@ def check_navigator(
     Returns:
         The files its parameters name that it read (the ``route`` navigator's route).
     """
-    from pirate_bt.task.navigators import load_navigator
+    from pirate_bt.task.navigators import load_navigator, navigator_method
 
     run = str(case.get("run"))
     params: dict[str, Any] = case["params"]
@@ -127,7 +127,11 @@ def check_navigator(
         # error', and a sys.exit(0) ended 'campaign' and 'validate' with exit 0 and no word
         where = "params" if params else "navigator"
         raise placed(_made_raised(case["navigator"], exc), where) from exc
-    if callable(getattr(navigator, "check_map", None)):  # as navigate() will
+    try:  # read as navigate() reads it: a property that raised was an 'internal error'
+        check_map = navigator_method(navigator, "check_map", case["navigator"])
+    except InputError as exc:
+        raise placed(exc, "navigator") from None
+    if callable(check_map):  # as navigate() will
         from pirate_bt.api.missions import load_network
         from pirate_bt.task.navigators import check_navigator_map
         from pirate_bt.task.start_check import check_map_start
