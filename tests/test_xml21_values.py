@@ -218,3 +218,24 @@ def test_parallel_s_counts_are_read_as_bt_cpp_reads_an_int(
         f"{xml}:2:3: success_count: expected an integer, got '+1': BT.CPP reads no '+':"
         " write it without\n"
     ), err
+
+
+_NUMBER_TREE = """\
+name: t
+params:
+  x: {type: number, default: 1.0}
+blackboard:
+  k: {type: number}
+root: {type: set_blackboard, key: k, value: $x}
+"""
+
+
+@pytest.mark.parametrize("given", ["+1.5", "+.15e1"])
+def test_a_number_param_given_as_bt_cpp_does_not_read_it_is_exported_as_the_run_read_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], given: str
+) -> None:
+    source, xml, back = tmp_path / "t.yaml", tmp_path / "t.xml", tmp_path / "back.yaml"
+    source.write_text(_NUMBER_TREE, encoding="utf-8")
+    assert main(["export", "btcpp", str(source), "--param", f"x={given}", "-o", str(xml)]) == 0
+    assert main(["import", "btcpp", str(xml), "-o", str(back)]) == 0, capsys.readouterr().err
+    assert yaml.safe_load(back.read_text(encoding="utf-8"))["params"]["x"]["default"] == 1.5

@@ -316,9 +316,9 @@ class _Exporter:
     root_doc: YamlDocument
 
 
-_READ_AS_TEXT: Final = frozenset({"boolean", "integer"})
-"""Parameter types whose command-line text (``yes``, ``+3``) BT.CPP and the import do not
-read as a run does: written as the run read it."""
+_READ_AS_TEXT: Final = frozenset({"boolean", "integer", "number"})
+"""Parameter types whose command-line text (``yes``, ``+3``, ``+1.5``) BT.CPP and the
+import do not read as a run does: written as the run read it."""
 
 
 def _model_element(model: NodeModel) -> ET.Element:
