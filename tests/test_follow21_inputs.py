@@ -87,3 +87,18 @@ def test_perturb_network_refuses_bounds_and_names_of_the_wrong_kind(
     with pytest.raises(InputError) as caught:
         perturb_network(load_network("lab").spec, 3, **kwargs)  # type: ignore[arg-type]
     assert str(caught.value) == said
+
+
+@pytest.mark.parametrize("limit", ["0 s", "-5 s", "1e300 s"])
+def test_a_mission_s_time_limit_is_refused_before_the_plan_is_printed(
+    limit: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the whole plan was printed, then 'max_time: ...' (the API's name) refused it; -5 s
+    # was refused as a tick rate too high for it
+    assert main(["mission", "lab", "--max-time", limit]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == (
+        f"pirate-bt: --max-time: {limit!r} is out of range; give a time above 0 s and at"
+        " most 1e+09 s\n"
+    )

@@ -153,7 +153,12 @@ def execute(
 
     stream = out or sys.stdout
     rate_hz = _quantity(args.rate, "frequency", "--rate")
-    max_time_s = _quantity(args.max_time, "time", "--max-time") if args.max_time else None
+    max_time_s = None
+    if args.max_time is not None:  # as the API takes it: 0 s, -5 s and 1e300 s were
+        # refused as 'max_time' after the whole plan (or, -5 s, as a rate too high)
+        from pirate_bt.api.options import NO_LIMIT, positive_time_s
+
+        max_time_s = positive_time_s(args.max_time, "--max-time", instead=NO_LIMIT)
     if rate_hz <= 0:
         raise InputError("--rate must be positive")
     from pirate_bt.cli import check_folder_output
