@@ -107,3 +107,29 @@ def test_a_key_two_trees_declare_otherwise_is_refused_at_the_second(
         "t.xml:5:1: _blackboard: key 'ready' is declared otherwise by another <BehaviorTree>"
         " of the file; a file has one blackboard\n"
     ), err
+
+
+@pytest.mark.parametrize(
+    ("declared", "value", "advice"),
+    [
+        (
+            "integer",
+            "5",
+            "(text never equals a number and cannot be ordered with one; a number"
+            ' is written value="json:5")',
+        ),
+        ("string", "json:5", "(text never equals it; for text, write the value without json:)"),
+        ("boolean", "yes", "(write json:true or json:false)"),
+    ],
+)
+def test_a_value_of_the_wrong_kind_is_told_how_xml_writes_the_right_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], declared: str, value: str, advice: str
+) -> None:
+    # the loader's advice was YAML's ("quote it for text", "write true or false"): in XML
+    # value="5" is text and value="json:5" a number
+    board = f""" _blackboard='json:{{"ready": {{"type": "{declared}"}}}}'"""
+    body = f'<set_blackboard key="ready" value="{value}"/>'
+    code, err = _validate(tmp_path, capsys, board=board, body=body)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("t.xml:3:1: set_blackboard: value: "), err
+    assert err.endswith(f"is declared {declared} {advice}\n"), err

@@ -108,22 +108,53 @@ _UNDECLARED = re.compile(
     r"(?P<head>blackboard key (?P<key>'[A-Za-z_][A-Za-z0-9_]*'|.+?) is (?:read|written)"
     r" but not declared)(?: under 'blackboard:')?$"
 )
+_TEXT_FOR_NUMBER = re.compile(
+    r".*: value: '(?P<text>[^']*)' is text, but blackboard key .* is declared"
+    r" .*\(text never equals a number and cannot be ordered with one\)(?P<tail>.*)$"
+)
+_JSON_NUMBER = re.compile(r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?")
+
+
+_VALUE_PORTS = ("check_blackboard: value: ", "set_blackboard: value: ")
+"""Nodes whose compared ``value`` is a port of its own (``value="5"``)."""
+_YAML_ADVICE = {  # the loader's advice in YAML's terms -> in the XML's
+    "(text never equals it; quote it for text)": (
+        "(text never equals it; for text, write the value without json:)"
+    ),
+    "(write true or false)": "(write json:true or json:false)",
+}
 
 
 def _in_xml_words(error: LocatedError, yaml_file: Path) -> LocatedError:
     """A loader's error about the converted YAML as an XML author reads it: a key is
     declared in a ``<BehaviorTree>``'s ``_blackboard`` attribute, not under
-    ``blackboard:``."""
-    match = _UNDECLARED.match(error.message)
-    loc = error.location
-    if match is None or loc is None or Path(loc.file).resolve() != yaml_file.resolve():
-        return error  # a key of another (YAML) file is declared under its blackboard:
-    key = match["key"][1:-1] if match["key"].startswith("'") else "k"
-    return LocatedError(
-        f"{match['head']} in a <BehaviorTree>'s _blackboard attribute"
-        f""" (_blackboard='json:{{"{key}": {{"type": "number"}}}}', with the key's type)""",
-        loc,
-    )
+    ``blackboard:``; a value's kind is chosen with ``json:`` (``value="5"`` is text,
+    ``value="json:5"`` a number), not with YAML's quotes."""
+    message, loc = error.message, error.location
+    if loc is None or "blackboard key " not in message:
+        return error
+    if Path(loc.file).resolve() != yaml_file.resolve():
+        return error  # another (YAML) file's: said in its words
+    match = _UNDECLARED.match(message)
+    if match is not None:
+        key = match["key"][1:-1] if match["key"].startswith("'") else "k"
+        said = (
+            f"{match['head']} in a <BehaviorTree>'s _blackboard attribute"
+            f""" (_blackboard='json:{{"{key}": {{"type": "number"}}}}', with the key's type)"""
+        )
+        return LocatedError(said, loc)
+    if not message.startswith(_VALUE_PORTS):
+        return error  # a guard's comparison is JSON in the XML: its value is JSON's
+    match = _TEXT_FOR_NUMBER.match(message)
+    if match is not None and not match["tail"]:
+        written = match["text"] if _JSON_NUMBER.fullmatch(match["text"]) else "5"
+        return LocatedError(f'{message[:-1]}; a number is written value="json:{written}")', loc)
+    if match is not None:  # a quantity: "give 'unit: length' to compare a quantity"
+        return LocatedError(re.sub(r"give 'unit: (\w+)'", r'give unit="\1"', message), loc)
+    for yaml_words, xml_words in _YAML_ADVICE.items():
+        if message.endswith(yaml_words):
+            return LocatedError(message[: -len(yaml_words)] + xml_words, loc)
+    return error
 
 
 class _WarningsInXml(logging.Filter):
