@@ -542,7 +542,9 @@ def test_the_readings_every_decision_relies_on_follow_the_robot(tmp_path: Path) 
         robot_variant(
             tmp_path / "c",
             (
-                "    sensors:\n      - slot: 0\n" + IMU + "        raw: [-31416, 31416]\n"
+                "    sensors:\n      - slot: 0\n"
+                + IMU
+                + "        raw: [-31416, 31416]          # +-pi: the angles an IMU reads\n"
                 "        per_raw: 0.1 mrad\n        period: 10 ms\n        assumption: true\n",
                 "    sensors: []\n",
             ),
