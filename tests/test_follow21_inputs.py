@@ -102,3 +102,16 @@ def test_a_mission_s_time_limit_is_refused_before_the_plan_is_printed(
         f"pirate-bt: --max-time: {limit!r} is out of range; give a time above 0 s and at"
         " most 1e+09 s\n"
     )
+
+
+def test_a_mission_s_firmware_chain_with_a_port_is_refused_before_the_plan_is_printed(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # the whole plan was printed first
+    assert main(["mission", "lab", "--firmware-chain", "--port", "/dev/pirate-bt-no-tty"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == (
+        "pirate-bt: --firmware-chain runs the simulator through the firmwares; with --port"
+        " the real bridge runs its own\n"
+    )

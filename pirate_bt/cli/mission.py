@@ -183,6 +183,7 @@ def execute(
     from pirate_bt.cli.faults_option import check_faults_option
 
     seed_value(args.seed, "--seed")
+    check_firmware_chain(args)  # with --port: it was refused after the whole plan
     if args.port is not None:  # its URL's scheme: it was refused after the whole plan
         from pirate_bt.api.options import port_url
 
@@ -212,17 +213,21 @@ def execute(
 
     limit_s = max_time_s or estimate_time_s(plan, robot.motion.nominal_speed)
     check_rate(rate_hz, limit_s, "--rate", args.max_time or "the plan's time limit")
-    if not args.quiet or args.plan:
-        on = f" (simulator: {truth.name})" if truth is not network else ""
-        print(
-            f"route {route.source} on map {network.name}{on}: {len(plan.pabs)}"
-            f" PAB{'' if len(plan.pabs) == 1 else 's'},"
-            f" {plan.distance_m:.2f} m",
-            file=stream,
-        )
-        for line in plan.describe():
-            print(f"  {line}", file=stream)
+
+    def show_plan() -> None:
+        if not args.quiet or args.plan:
+            on = f" (simulator: {truth.name})" if truth is not network else ""
+            print(
+                f"route {route.source} on map {network.name}{on}: {len(plan.pabs)}"
+                f" PAB{'' if len(plan.pabs) == 1 else 's'},"
+                f" {plan.distance_m:.2f} m",
+                file=stream,
+            )
+            for line in plan.describe():
+                print(f"  {line}", file=stream)
+
     if args.plan:
+        show_plan()
         return MissionOutputs(0)
     output: Path | None = args.output
     trace_path = output / "trace.jsonl" if output is not None else None
@@ -230,8 +235,8 @@ def execute(
         trace_path = args.trace
     from pirate_bt.api.missions import run_mission, simulate_mission, write_mission_outputs
 
-    check_firmware_chain(args)
-    with live_outputs(args) as (server, node, groot2):
+    with live_outputs(args) as (server, node, groot2):  # opened before the plan is shown:
+        show_plan()  # an --foxglove host that does not resolve was refused after it
         options: dict[str, Any] = {
             "faults": args.faults,
             "trace": trace_path,
