@@ -223,7 +223,7 @@ class HelloMixin:
         self._accept_any_state = True
         self._session_hello = item.seq
         self._same_boot = previous is not None and previous.boot_id == item.boot_id
-        self._other_session_said = False
+        self._other_session_said = False  # pragma: no mutate (None is falsy as False is)
         self.sessions += 1
         self._settle(hello, Outcome.ACKED, now)
         if item.flags & BridgeFlags.ESTOP:
