@@ -2,6 +2,7 @@
  * overview and the records). The interfaces of its files, bottom to top:
  *
  *   chain.c        main: the cores, the lockstep scheduler, the host link, the records
+ *     |   chain_figures.c  the bus cycle figure and the 'S' record of figures
  *     |   \
  *     |   chain_board.c  one PICO board's pins: ADC, encoders, IMU (a TWI slave),
  *     |                  the H-bridge outputs sampled
@@ -67,5 +68,14 @@ struct motor_sample board_sample(int b, int slot);
 /* The board's power: off, its H-bridges are off (the motors limp) and its IMU forgets
  * its mode; on again, its pins' external levels are put back (after its MCU's reset). */
 void board_power(int b, bool on);
+
+/* chain_figures.c: the figures ('S'). Watch the line's frames for the bus cycle (the
+ * boards polled first and last; trace_frames: every frame to stderr). */
+void figures_watch_line(uint8_t first, uint8_t last, bool trace_frames);
+/* Wall time spent stepping, for the speed against real time. */
+void figures_add_wall(double seconds);
+/* Send the 'S' record: the figures at cycle `now`. */
+void figures_send(uint64_t now, avr_t *const *cores, int n_boards, const uint8_t *board_ids,
+                  uint32_t bridge_debug_at, uint32_t pico_debug_at);
 
 #endif
