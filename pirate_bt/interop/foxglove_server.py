@@ -40,7 +40,7 @@ from pirate_bt.interop.foxglove_process import (
 )
 from pirate_bt.interop.foxglove_topics import TopicMessage, missing_extra
 from pirate_bt.trace.sink import unframe
-from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks, to_null
 
 __all__ = ["FoxgloveServer"]
 
@@ -318,13 +318,7 @@ class FoxgloveServer:
         warned that it *did not finish*. The pipe points at ``/dev/null`` here, and
         ``close`` does nothing."""
         self._closed = True
-        null = os.open(os.devnull, os.O_RDWR)
-        try:
-            for pipe in (self._proc.stdin, self._proc.stdout):
-                if pipe is not None:
-                    os.dup2(null, pipe.fileno(), inheritable=False)
-        finally:
-            os.close(null)
+        to_null(*(pipe.fileno() for pipe in (self._proc.stdin, self._proc.stdout) if pipe))
 
     def __enter__(self) -> FoxgloveServer:
         return self

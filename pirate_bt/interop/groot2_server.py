@@ -118,7 +118,7 @@ from pirate_bt.interop.groot2_run import _Run as _Run
 from pirate_bt.interop.groot2_tree import ServedTree
 from pirate_bt.interop.groot2_tree import served_tree as served_tree
 from pirate_bt.trace.coverage import CoverageRecorder, attach_coverage
-from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks, to_null
 from pirate_bt.trace.structure import iter_with_ids as iter_with_ids
 from pirate_bt.trace.structure import jsonable as jsonable
 
@@ -481,12 +481,7 @@ class Groot2Server(_Requests):
         self._copy = True
         relay = self._relay
         if relay is not None and relay.stdin is not None and relay.stdout is not None:
-            null = os.open(os.devnull, os.O_RDWR)
-            try:
-                for fd in (relay.stdin.fileno(), relay.stdout.fileno()):
-                    os.dup2(null, fd, inheritable=False)
-            finally:
-                os.close(null)
+            to_null(relay.stdin.fileno(), relay.stdout.fileno())
 
     def __enter__(self) -> Groot2Server:
         return self

@@ -49,7 +49,7 @@ from pirate_bt.interop.foxglove_topics import (
     schema_of,
 )
 from pirate_bt.interop.mcap_chunks import ChunkedCopy
-from pirate_bt.trace.sink_formats import TraceFormatWriter, _to_null
+from pirate_bt.trace.sink_formats import TraceFormatWriter, to_null
 
 __all__ = ["CHUNK_BYTES", "McapTraceWriter", "compact_mcap", "load_mcap"]
 
@@ -337,7 +337,7 @@ class McapTraceWriter(TraceFormatWriter):
         # trace nor removed by this copy's close (which writes nothing then).
         file = getattr(self, "_twin_file", None)
         if self._twin_path is not None and file is not None and not file.closed:
-            _to_null(file.fileno())  # its buffer is flushed into nothing
+            to_null(file.fileno())  # its buffer is flushed into nothing
             file.close()
         self._twin = self._twin_path = None
         self._cut = True

@@ -50,7 +50,7 @@ from pirate_bt.interop.ros2_reach import REACH
 from pirate_bt.interop.ros2_topics import TOPIC_TYPES
 from pirate_bt.interop.ros2_types import missing
 from pirate_bt.safety.operator import EStop, OperatorAction
-from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks, to_null
 
 __all__ = ["ESTOP", "EStopInput", "Ros2Node"]
 
@@ -499,14 +499,8 @@ class Ros2Node:
         does (its pipes kept it running after :meth:`close`, which waited 11 s, then
         killed it)."""
         self._closed = True
-        null = os.open(os.devnull, os.O_RDWR)
-        try:
-            fds = [self._wake_fd]
-            fds += [pipe.fileno() for pipe in (self._proc.stdin, self._proc.stdout) if pipe]
-            for fd in fds:
-                os.dup2(null, fd, inheritable=False)
-        finally:
-            os.close(null)
+        pipes = (pipe.fileno() for pipe in (self._proc.stdin, self._proc.stdout) if pipe)
+        to_null(self._wake_fd, *pipes)
 
     def __enter__(self) -> Ros2Node:
         return self

@@ -127,12 +127,12 @@ from pirate_bt.trace.sink_formats import (
     GzipJsonLinesWriter,
     JsonLinesWriter,
     TraceFormatWriter,
-    _to_null,
     claim,
     forget_in_forks,
     let_go_in_forks,
     load_writer,
     register_process_writer,
+    to_null,
     writer_spec,
 )
 from pirate_bt.trace.sink_messages import _LENGTH, _MARSHAL_VERSION, _PIPE_BYTES, _POLL_S
@@ -285,7 +285,7 @@ class SinkProcess:
         if self._closed:  # closed in the run's process: its descriptor's number may be
             return  # another's now (a process pool's pipe, which /dev/null hung)
         stderr = self._proc.stderr
-        _to_null(self._fd, *([stderr.fileno()] if stderr is not None and not stderr.closed else []))
+        to_null(self._fd, *([stderr.fileno()] if stderr is not None and not stderr.closed else []))
         self._ring = None
         self._largest = 0
         self._closed = True

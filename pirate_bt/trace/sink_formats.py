@@ -41,6 +41,7 @@ __all__ = [
     "let_go_in_forks",
     "load_writer",
     "register_process_writer",
+    "to_null",
     "writer_spec",
 ]
 
@@ -162,7 +163,7 @@ def _let_go() -> None:
     _OURS.clear()
 
 
-def _to_null(*fds: int) -> None:
+def to_null(*fds: int) -> None:
     """Point the descriptors ``fds`` (those still open) at ``/dev/null``."""
     null = os.open(os.devnull, os.O_RDWR)
     try:
@@ -218,7 +219,7 @@ class TraceFormatWriter:
         file = getattr(self, "_file", None)
         if file is not None and not file.closed:
             fds.append(file.fileno())
-        _to_null(*fds)
+        to_null(*fds)
 
     def _release(self) -> None:
         held = getattr(self, "_claim", None)  # (a subclass may not call __init__)
