@@ -39,7 +39,7 @@ REPLAY = ROOT / "tests" / "data" / "btcpp" / "replay.yaml"
 class Client:
     """What Groot2 does, over pyzmq: REQ to the server, SUB to its notices."""
 
-    def __init__(self, port: int, timeout_ms: int = 5000) -> None:
+    def __init__(self, port: int, timeout_ms: int = 30_000) -> None:
         self.context = zmq.Context()
         self.req = self.context.socket(zmq.REQ)
         self.req.setsockopt(zmq.RCVTIMEO, timeout_ms)

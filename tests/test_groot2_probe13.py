@@ -33,6 +33,7 @@ from pirate_bt.interop.groot2_protocol import HookError, parse_hooks  # noqa: E4
 
 ROOT = Path(__file__).resolve().parent.parent
 
+REPLY_WAIT_MS = 30_000
 built = test_groot2_oracle.programs  # the oracle's two programs, built once: a fixture
 
 # the real-time group (tests/conftest.py): live servers, answers awaited on the wall clock
@@ -61,13 +62,18 @@ class Both:
     def socket(self, name: str) -> Any:
         sock = self.context.socket(zmq.REQ)
         sock.setsockopt(zmq.LINGER, 0)
-        sock.setsockopt(zmq.RCVTIMEO, 5000)
+        # a generous wait (answers take well under a millisecond): CI's failure of
+        # 2026-12-01 was one reply of 1,280 not come in 5 s, on a loaded machine
+        sock.setsockopt(zmq.RCVTIMEO, REPLY_WAIT_MS)
         sock.connect(f"tcp://127.0.0.1:{self.ports[name]}")
         return sock
 
     def ask(self, name: str, *parts: bytes) -> list[bytes]:
         self.sockets[name].send_multipart(list(parts))
-        reply: list[bytes] = self.sockets[name].recv_multipart()
+        try:
+            reply: list[bytes] = self.sockets[name].recv_multipart()
+        except zmq.Again:  # which server, and which request, failed to answer
+            pytest.fail(f"{name}: no reply in {REPLY_WAIT_MS} ms to {parts!r}")
         return reply
 
     def both(self, *parts: bytes) -> tuple[list[bytes], list[bytes]]:
