@@ -2,7 +2,7 @@
 
 This is where raw integers stop. Incoming STATE frames become
 :class:`~pirate_bt.robot.state.RobotState` snapshots through
-:class:`~pirate_bt.robot.state.StateBuilder`; outgoing
+:class:`~pirate_bt.link.snapshots.Snapshots`; outgoing
 :class:`~pirate_bt.robot.commands.MotorCommand` objects become raw setpoints
 through :class:`~pirate_bt.robot.commands.CommandCodec` and go out as one
 BULK_SETPOINTS frame carrying the full desired table (motors never commanded are
@@ -25,7 +25,7 @@ from typing import Any
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.away import BoardsAway, not_answering
 from pirate_bt.link.closing import wait_for_estop
-from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest, State
+from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
 from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.health import (
     HEALTH_FIGURES,
@@ -34,12 +34,12 @@ from pirate_bt.link.health import (
     refusals,
 )
 from pirate_bt.link.inbound import unasked_text
-from pirate_bt.link.ranges import ReadingRanges
 from pirate_bt.link.session import Outcome, Request, Session
+from pirate_bt.link.snapshots import Snapshots
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
-from pirate_bt.robot.state import RobotState, StateBuilder
+from pirate_bt.robot.state import RobotState
 
 __all__ = ["REFUSED_STATES_REPORTED", "RobotLink"]
 
@@ -59,8 +59,7 @@ class RobotLink:
     def __init__(self, robot: RobotDescription, session: Session) -> None:
         self._robot = robot
         self.session = session
-        self._states = StateBuilder(robot)
-        self._ranges = ReadingRanges(robot)  # a reading outside its raw range is refused
+        self._snaps = Snapshots(robot)  # the STATEs taken, as snapshots
         self._commands = CommandCodec(robot)
         self._deadman = Deadman(robot, self._commands)  # a program that stops calling in
         slots = robot.setpoint_slots()
@@ -74,9 +73,6 @@ class RobotLink:
         self._acked_modes: list[ControlMode | None] = [None] * len(slots)
         self._acked_raw: list[int] = [0] * len(slots)
         self._unsettled: list[Request] = []  # bulks sent whose outcome is not yet taken in
-        self._snapshot: RobotState | None = None
-        self._snapshot_seq: int | None = None
-        self._snapshot_frame: State | None = None
         self._last_bulk: Request | None = None
         self._away = BoardsAway(robot)  # boards in TIMEOUT, and commands deferred for them
         self._deferred: set[int] = set()  # the boards the last send() deferred
@@ -99,7 +95,7 @@ class RobotLink:
     @property
     def readings_refused(self) -> int:
         """Fresh readings refused for a value outside their channel's raw range."""
-        return self._ranges.refused
+        return self._snaps.ranges.refused
 
     def poll(self) -> None:
         """Process pending input and due retries/heartbeats without blocking.
@@ -117,18 +113,7 @@ class RobotLink:
 
     def state(self) -> RobotState | None:
         """The latest state snapshot, or ``None`` before the first state frame."""
-        latest = self.session.latest_state()
-        if latest is None:
-            return None
-        frame, arrived_s = latest
-        if frame.seq != self._snapshot_seq:
-            raw = self._ranges.readings(frame)
-            if None in raw:
-                self._fold_missed(frame)
-            self._snapshot = self._states.build(raw, arrived_s, self._snapshot)
-            self._snapshot_seq = frame.seq
-            self._snapshot_frame = frame
-        return self._snapshot
+        return self._snaps.current(self.session)
 
     def boards_not_answering(self) -> tuple[int, ...]:
         """The boards the bridge's latest ``STATE`` reports in ``TIMEOUT`` (not answering
@@ -136,23 +121,6 @@ class RobotLink:
         go stale. Optional on a port (not in :class:`~pirate_bt.robot.port.RobotPort`);
         read only then, not every tick."""
         return tuple(sorted(self._away.by_id(self.session.boards_away())))
-
-    def _fold_missed(self, newest: State) -> None:
-        """Fold into the snapshot, oldest first, the STATEs taken since it was built and
-        before ``newest``: a channel ``newest`` does not mark fresh keeps the reading of
-        the last STATE that did, with that STATE's arrival as its stamp, not an older
-        one's (a bridge whose poll cycle spans several state periods)."""
-        taken = self.session.states_taken()
-        start = 0
-        for i in range(len(taken) - 1, -1, -1):
-            if taken[i][0] is self._snapshot_frame:
-                start = i + 1
-                break
-        for frame, at_s in taken[start:]:
-            if frame is newest:
-                break
-            raw = self._ranges.readings(frame, older=True)  # checked after the newest
-            self._snapshot = self._states.build(raw, at_s, self._snapshot)
 
     def send(self, commands: Sequence[MotorCommand]) -> None:
         """Merge ``commands`` into the desired setpoints and send them in one frame.
@@ -201,7 +169,7 @@ class RobotLink:
             return []
         latest = self.session.latest_state()
         at_s = latest[1] if latest is not None else self.session.clock.now()
-        return self._away.overdue(away, boards, self._snapshot, at_s)
+        return self._away.overdue(away, boards, self._snaps.snapshot, at_s)
 
     def _send_table(self, away: Collection[int]) -> None:
         """Send the whole table, the entries of the boards in ``away`` as keep."""
