@@ -25,10 +25,11 @@ Parts:
 ``scale``
     The 3,101-node tree of ``bench_scale.py`` (K = 100 copies of the 31-node PAB
     subtree), ticked by the runner on a simulated clock with the server attached:
-    the status reply's size, and its round trip (request sent to reply read, the
-    client in this process on loopback) while the tree ticks, median and 99th
-    percentile over 2,000 requests; the runner's µs per tick with and without the
-    server and a 10 Hz client.
+    the status reply's size, and its round trip (request sent to reply read on
+    loopback, the client a process of its own as Groot2 is) while the tree ticks,
+    median and 99th percentile over 2,000 requests, and over 500 with the client a
+    thread of the ticking process (which waits for the interpreter's lock); the
+    runner's µs per tick with and without the server and a 10 Hz client.
 ``coverage``
     What counting coverage costs (every run counts it): the lab mission in this
     process with the coverage recorder and with it replaced by a stub, ABBA pairs
@@ -309,13 +310,17 @@ def part_scale(ticks: int) -> None:
     nodes = bench_scale.count_nodes(bench_scale.mission_tree(100))
     print(f"\n# the status reply of the {nodes:,}-node tree of bench_scale.py")
     answer_s, size = _answer_time(5000)
-    times, _ = _round_trips(2000)
-    times.sort()
+    times = sorted(_round_trips(2000)[0])
+    threaded = sorted(_round_trips(500, in_process=True)[0])
     print(
         f"status reply: {size:,} bytes (22-byte header + 3 bytes x {nodes:,} nodes);"
         f" the server answers in {1e6 * answer_s:.1f} µs (median of 5,000);"
-        f" round trip while the tree ticks: median {1e6 * statistics.median(times):.0f} µs,"
-        f" p99 {1e6 * times[int(0.99 * len(times))]:.0f} µs over {len(times)} requests"
+        f" round trip while the tree ticks, the client a process of its own (as Groot2):"
+        f" median {1e6 * statistics.median(times):.0f} µs,"
+        f" p99 {1e6 * times[int(0.99 * len(times))]:.0f} µs over {len(times)} requests;"
+        f" the client a thread of the run's process (its interpreter's lock):"
+        f" median {1e6 * statistics.median(threaded):.0f} µs,"
+        f" p99 {1e6 * threaded[int(0.99 * len(threaded))]:.0f} µs over {len(threaded)}"
     )
     from pirate_bt.interop import groot2_server as gs
 
@@ -373,8 +378,38 @@ def _answer_time(requests: int) -> tuple[float, int]:
     return statistics.median(times), sum(map(len, reply))
 
 
-def _round_trips(requests: int) -> tuple[list[float], int]:
-    """Status round trips, as fast as the client can ask, while the scale tree ticks."""
+_CLIENT = """
+import json, sys, time
+import zmq
+port, requests, request = int(sys.argv[1]), int(sys.argv[2]), bytes.fromhex(sys.argv[3])
+context = zmq.Context()
+sock = context.socket(zmq.REQ)
+sock.setsockopt(zmq.RCVTIMEO, 60000)
+sock.connect(f"tcp://127.0.0.1:{port}")
+times, size = [], 0
+for _ in range(requests):
+    started = time.perf_counter()
+    sock.send(request)
+    reply = sock.recv_multipart()
+    times.append(time.perf_counter() - started)
+    size = sum(map(len, reply))
+context.destroy(linger=0)
+print(json.dumps([times, size]))
+"""
+
+
+def _round_trips(requests: int, in_process: bool = False) -> tuple[list[float], int]:
+    """Status round trips, as fast as the client can ask, while the scale tree ticks.
+
+    The client is a process of its own, as Groot2 is (``in_process``: a thread of the
+    run's process). A client thread shares the interpreter's lock with the ticking tree:
+    each time its ``recv`` returns it waits for the tick thread to let go of the lock,
+    up to Python's switch interval (5 ms), and the server's thread does too; that wait,
+    not the server nor the relay, was the 15-22 ms round trip measured so until
+    2026-12-01 (with ``sys.setswitchinterval`` at 0.5 ms it was 1.6 ms, at 20 ms 50 ms).
+    """
+    import json
+
     import bench_scale
     import py_trees
 
@@ -389,8 +424,10 @@ def _round_trips(requests: int) -> tuple[list[float], int]:
     times: list[float] = []
     size = [0]
     done = threading.Event()
+    request = pack_request(ord("S"))
     with Groot2Server(port=0) as server:
         server.serve(tree, recorder=recorder)
+        server.served()  # made before the first request (the scale part times it apart)
 
         def client() -> None:
             context = zmq.Context()
@@ -398,20 +435,36 @@ def _round_trips(requests: int) -> tuple[list[float], int]:
             sock.connect(f"tcp://127.0.0.1:{server.port}")
             for _ in range(requests):
                 started = time.perf_counter()
-                sock.send(pack_request(ord("S")))
+                sock.send(request)
                 reply = sock.recv_multipart()
                 times.append(time.perf_counter() - started)
                 size[0] = sum(map(len, reply))
             context.destroy(linger=0)
             done.set()
 
-        thread = threading.Thread(target=client, daemon=True)
-        thread.start()
-        while not done.is_set():
-            tick_tree(tree)
-            recorder.record_tick()
-        thread.join(10)
-    return times, size[0]
+        if in_process:
+            thread = threading.Thread(target=client, daemon=True)
+            thread.start()
+            while not done.is_set():
+                tick_tree(tree)
+                recorder.record_tick()
+            thread.join(10)
+            return times, size[0]
+        command = [sys.executable, "-c", _CLIENT, str(server.port), str(requests), request.hex()]
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE)
+        try:
+            while proc.poll() is None:
+                tick_tree(tree)
+                recorder.record_tick()
+            out, _ = proc.communicate(timeout=60)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        if proc.returncode != 0:
+            raise SystemExit(f"the round-trip client failed (exit {proc.returncode})")
+        got, got_size = json.loads(out)
+    return [float(t) for t in got], int(got_size)
 
 
 def part_coverage(pairs: int) -> None:
