@@ -12,15 +12,23 @@ from __future__ import annotations
 import importlib
 import importlib.machinery
 import importlib.util
+import inspect
 import os
 import re
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.spec import MAX_CASE_TIMEOUT_S
-from pirate_bt.errors import InputError, digit_count, said_of
+from pirate_bt.errors import ArgumentTypeError, InputError, digit_count, said_of, shown
 
-__all__ = ["MAX_WORKERS", "case_timeout_s", "check_options", "check_target", "given_path"]
+__all__ = [
+    "MAX_WORKERS",
+    "case_timeout_s",
+    "check_callback",
+    "check_options",
+    "check_target",
+    "given_path",
+]
 
 
 MAX_WORKERS = 1024
@@ -35,6 +43,42 @@ def given_path(value: Any, name: str) -> Path:
     if len(text) > 4096 or "\0" in text:
         raise InputError(f"{name}: a name of {len(text)} characters (or with a NUL) is no file")
     return Path(text)
+
+
+def check_callback(value: Any, name: str, argument: str) -> None:
+    """``value`` is ``None`` or a plain function the campaign can call as
+    ``name(argument)``: one positional argument, not an ``async def`` (called, never
+    awaited: it would never run). Checked before anything is read, as the API checks
+    ``observe=`` (:func:`pirate_bt.api.observing.check_observer`): a callback of the
+    wrong arity raised a bare ``TypeError`` from deep inside once a case had run.
+
+    Raises:
+        ArgumentTypeError: one line naming ``name``, what it takes and how it is called.
+    """
+    if value is None:
+        return
+    if not callable(value):
+        raise ArgumentTypeError(f"{name}: give a function (or None), not {shown(value)}")
+    label = (getattr(value, "__qualname__", None) or type(value).__name__).rsplit(".", 1)[-1]
+    label = label[:60]
+    # a callable object's own __call__ (an async one never runs either)
+    call = None if inspect.isroutine(value) else inspect.getattr_static(value, "__call__", None)
+    if inspect.iscoroutinefunction(value) or inspect.iscoroutinefunction(call):
+        raise ArgumentTypeError(
+            f"{name}: {label} is an async def, which {name}({argument}) would call and never"
+            " run; give a plain function"
+        )
+    try:
+        signature = inspect.signature(value)
+    except (TypeError, ValueError):  # a builtin without one: called as it is
+        return
+    try:
+        signature.bind(None)
+    except TypeError:
+        raise ArgumentTypeError(
+            f"{name}: {label}{signature} cannot be called as {name}({argument});"
+            f" give a function of one argument"[:300]
+        ) from None
 
 
 _TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*")
@@ -58,9 +102,8 @@ def check_options(options: dict[str, Any]) -> None:
     for name in ("resume", "progress"):
         if not isinstance(options[name], bool):
             raise InputError(f"{name}: give True or False, not {options[name]!r}"[:200])
-    for name in ("on_record", "echo"):
-        if options[name] is not None and not callable(options[name]):
-            raise InputError(f"{name}: give a function (or None), not {options[name]!r}"[:200])
+    check_callback(options["on_record"], "on_record", "row")
+    check_callback(options["echo"], "echo", "line")
     for name in ("scheduler", "command", "target"):
         if options[name] is not None and not isinstance(options[name], str):
             raise InputError(f"{name}: give text, not {options[name]!r}"[:200])

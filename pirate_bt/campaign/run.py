@@ -275,8 +275,8 @@ def run_campaign(
             before anything is built (see :func:`~pirate_bt.campaign.cases.check_size`).
         base: Where relative names of a spec given as data resolve.
         progress: Show a progress bar (tqdm, on standard error).
-        on_record: Called with each case's record as it arrives.
-        echo: Called with one line before the cases start
+        on_record: Called with each case's record as it arrives, ``on_record(row)``.
+        echo: Called with one line before the cases start, ``echo(line)``
             (``campaign NAME: N cases on WHAT -> OUTPUT``); the command passes ``print``.
         command: The command that reproduces the campaign, for the report (default
             for a file: ``pirate-bt campaign FILE [--workers N]``).
@@ -287,6 +287,8 @@ def run_campaign(
         CampaignResult: The rows, per-group statistics and counts.
 
     Raises:
+        ArgumentTypeError: an ``on_record`` or ``echo`` that cannot be called with one
+            argument, or is an ``async def`` (before the spec is read; an InputError).
         InputError: a bad spec or option (one line each, located in a file): it
             does not validate, an axis names a point twice, it expands past
             ``max_cases``, a named input file is missing or not a file, a tree or
