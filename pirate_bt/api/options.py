@@ -17,6 +17,7 @@ import itertools
 import math
 import numbers
 import operator
+import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
@@ -85,11 +86,21 @@ _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
 
 
 def plain_number(value: Any) -> Any:
-    """A NumPy scalar (or any other ``numbers.Integral`` or ``numbers.Real`` but a bool)
-    as the plain ``int`` or ``float`` it stands for; anything else as it is. A seed of
-    ``numpy.int64(3)`` was refused as no whole number, a rate of ``numpy.float32(20)``
-    as no number."""
-    if isinstance(value, bool | int | float | str):  # a NumPy bool is neither of those below
+    """A NumPy scalar as the Python value it stands for (``numpy.float64(0.2)`` as
+    ``0.2``, ``numpy.bool_(True)`` as ``True``, ``numpy.str_("x")`` as ``"x"``), and any
+    other ``numbers.Integral`` or ``numbers.Real`` but a bool as the plain ``int`` or
+    ``float`` it stands for; anything else as it is. A seed of ``numpy.int64(3)`` was
+    refused as no whole number, a rate of ``numpy.float32(20)`` as no number, a boolean
+    parameter of ``numpy.bool_(True)`` as no boolean. NumPy is not imported: a value
+    can be one of its scalars only once NumPy is."""
+    if type(value) in (bool, int, float, str):
+        return value
+    numpy = sys.modules.get("numpy")
+    if numpy is not None and isinstance(value, numpy.generic):
+        item = value.item()  # a NumPy bool is neither of the kinds below
+        if isinstance(item, bool | int | float | str):
+            return item
+    if isinstance(value, bool | int | float | str):  # a subclass, as it is
         return value
     if isinstance(value, numbers.Integral):
         return operator.index(value)
@@ -223,6 +234,7 @@ def flag(value: object, option: str) -> bool:
     Raises:
         InputError: anything else.
     """
+    value = plain_number(value)  # a NumPy bool is one
     if not isinstance(value, bool):
         raise InputError(f"{option}: give True or False, not {value!r}"[:200])
     return value
@@ -260,6 +272,7 @@ def fraction(value: object, option: str) -> float:
     Raises:
         InputError: not a number, or out of range (``nan`` too).
     """
+    value = plain_number(value)  # a NumPy number is one
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InputError(
             f"{option}: give a number at least 0 and below 1 (0.1 = 10 %), not {kind_of(value)}"
