@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import socket
 from typing import Any
 
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, kind_of, shown
@@ -18,6 +19,7 @@ __all__ = [
     "DEFAULT_NAMESPACE",
     "MAX_DOMAIN_ID",
     "add_ros2_options",
+    "check_endpoint_host",
     "check_names",
     "check_node_args",
     "domain_from_env",
@@ -48,14 +50,15 @@ def parse_endpoint(text: str | None) -> str:
     text = (text or "").strip()
     if not text:
         return DEFAULT_ENDPOINT
+    given = _typed(text)
     protocol, slash, address = text.partition("/")
     if not slash:
         protocol, address = "tcp", text
     if protocol not in _PROTOCOLS:
-        raise InputError(f"--ros2 {text}: unknown Zenoh protocol {protocol!r} (tcp/HOST:PORT)")
+        raise InputError(f"--ros2 {given}: unknown Zenoh protocol {protocol!r} (tcp/HOST:PORT)")
     if protocol == "unixsock-stream":
         if not address:
-            raise InputError(f"--ros2 {text}: a unix socket needs a path (unixsock-stream/PATH)")
+            raise InputError(f"--ros2 {given}: a unix socket needs a path (unixsock-stream/PATH)")
         return text
     if address.isascii() and address.isdigit():
         host, port = "127.0.0.1", address
@@ -63,20 +66,53 @@ def parse_endpoint(text: str | None) -> str:
         inside, closed, rest = address[1:].partition("]")
         if not closed or not inside or (rest and not rest[1:]) or rest[:1] not in ("", ":"):
             raise InputError(
-                f"--ros2 {text}: write an IPv6 address in brackets, then its port:"
+                f"--ros2 {given}: write an IPv6 address in brackets, then its port:"
                 f" {protocol}/[::1]:7447"
             )
         host, port = f"[{inside}]", rest[1:] or "7447"
     elif address.count(":") > 1:  # '::1' was host ':' and port 1: Zenoh waited there
         raise InputError(
-            f"--ros2 {text}: write an IPv6 address in brackets: {protocol}/[{address}]:7447"
+            f"--ros2 {given}: write an IPv6 address in brackets:"
+            f" {_typed(f'{protocol}/[{address}]:7447')}"
         )
     else:
         host, _, port = address.rpartition(":") if ":" in address else (address, "", "7447")
         host = host or "127.0.0.1"
     if not (port.isascii() and port.isdigit()) or not 0 < int(port) <= 65535:
-        raise InputError(f"--ros2 {text}: the port must be a number from 1 to 65535")
+        raise InputError(f"--ros2 {given}: the port must be a number from 1 to 65535")
     return f"{protocol}/{host}:{int(port)}"
+
+
+def _typed(text: str) -> str:
+    """An endpoint as typed, for a message: as it is when printable and short, else
+    its ``repr`` cut (``--ros2 $'a\\nb:1'`` was a message of two lines)."""
+    return text if text.isprintable() and len(text) <= 80 else shown(text, 80)
+
+
+def check_endpoint_host(text: str | None) -> None:
+    """Refuse an endpoint whose host does not resolve (``--ros2 bogus``,
+    ``--ros2 routr.lan:7447``), as ``--foxglove`` and ``--groot2`` refuse theirs, before
+    the node's process starts. Until the twenty-second session the run went on, its node
+    trying for ever to reach a router at a name that does not exist: the graph never saw
+    the run and its e-stop topic never reached it (the log said so 2 s in, once).
+
+    A host that resolves but where no router listens yet is no error: the node joins
+    the graph when the router starts (docs/ros2.md). A unix socket has no host.
+
+    Raises:
+        InputError: the endpoint does not parse (:func:`parse_endpoint`), or its host
+            does not resolve.
+    """
+    endpoint = parse_endpoint(text)
+    protocol, _, address = endpoint.partition("/")
+    if protocol == "unixsock-stream":
+        return
+    host, _, port = address.rpartition(":")
+    try:  # UnicodeError: IDNA's, for a name such as a..b or a label over 63 characters
+        socket.getaddrinfo(host.removeprefix("[").removesuffix("]"), int(port))
+    except (OSError, UnicodeError, ValueError) as exc:
+        given = _typed((text or "").strip() or endpoint)
+        raise InputError(f"--ros2 {given}: unknown host: {exc}") from None
 
 
 def domain_from_env() -> int:
@@ -167,6 +203,8 @@ def check_node_args(
     Raises:
         ArgumentTypeError: a value of the wrong kind.
         ArgumentValueError: a rate that is not a positive, finite number.
+        InputError: an endpoint that does not parse, or whose host does not resolve
+            (:func:`check_endpoint_host`).
     """
     for label, value in (("endpoint", endpoint), ("namespace", namespace), ("name", name)):
         if not isinstance(value, str) and not (label == "endpoint" and value is None):
@@ -183,6 +221,8 @@ def check_node_args(
             f"ROS 2 node: rate_hz: give a positive, finite number of frames a second,"
             f" not {shown(rate_hz)}"
         )
+    assert endpoint is None or isinstance(endpoint, str)  # checked above
+    check_endpoint_host(endpoint)  # last: it may ask a name server
 
 
 def add_ros2_options(parser: Any) -> None:
