@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.connection import connect
+from pirate_bt.api.observing import uncallable_with
 from pirate_bt.api.options import (
     NO_LIMIT,
     fault_list,
@@ -32,7 +33,7 @@ from pirate_bt.api.options import (
 from pirate_bt.api.results import closing_why
 from pirate_bt.atomic import new_folders_undone
 from pirate_bt.behaviours.foreign import one_line
-from pirate_bt.errors import InputError, shown
+from pirate_bt.errors import ArgumentTypeError, InputError, shown
 from pirate_bt.task.localise import MAP_FRACTION
 from pirate_bt.task.navigate import NavigationResult, run_navigation
 from pirate_bt.task.navigation import Navigator
@@ -92,6 +93,40 @@ def _network(value: Any, what: str) -> Any:
             f"{what}: give a network name, a file, a NetworkSpec or a Network, not {shown(value)}"
         )
     return load_network(network_name(value, what))
+
+
+def _check_next_step(navigator: Any) -> str:
+    """``navigator``'s class name (one printable line, bounded: one of 1 MB, or with a
+    newline, was every message's and the result's summary's) once its ``next_step`` is
+    a plain method ``next_step(obs)`` can call.
+
+    Raises:
+        InputError: no such method, an ``async def`` or a generator (its answer was
+            refused only after connecting), or one of the wrong arity (a bare
+            ``TypeError`` once connected: *navigator 'N' raised TypeError:
+            N.next_step() takes 1 positional argument but 2 were given*).
+    """
+    kind = one_line(type(navigator).__name__, 80)
+    decide = navigator_method(navigator, "next_step", kind)
+    if not callable(decide):
+        raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
+    if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):
+        raise InputError(
+            f"navigate: {kind}.next_step is async def; write it as"
+            " a plain def that returns a Step, or None when done"
+        )
+    if inspect.isgeneratorfunction(decide):  # a yield in it: it returns a generator
+        raise InputError(
+            f"navigate: {kind}.next_step yields; write it to return a Step, or None when done"
+        )
+    signature = uncallable_with(decide, 1)
+    if signature is not None:
+        signature = signature.replace(return_annotation=inspect.Signature.empty)
+        raise ArgumentTypeError(
+            f"navigate: {kind}.next_step{signature} cannot be called as next_step(obs);"
+            " give it one argument, the observation"[:300]
+        )
+    return kind
 
 
 def navigate(
@@ -193,28 +228,14 @@ def navigate(
     if isinstance(navigator, str):
         name = navigator
         navigator = load_navigator(navigator, params_mapping(params))
+        _check_next_step(navigator)  # a plug-in's, before anything connects
     else:
         if params:
             raise InputError("navigate: params= is for a navigator given by name")
-        # its class's name as one printable line, bounded: one of 1 MB (or with a newline)
-        # was every message's and the result's summary's, the line `navigate` prints
-        kind = one_line(type(navigator).__name__, 80)
         if isinstance(navigator, type):  # its next_step would be called unbound
             cls = one_line(navigator.__name__, 80)
             raise InputError(f"navigate: give an instance of {cls} ({cls}(...)), not the class")
-        decide = navigator_method(navigator, "next_step", kind)
-        if not callable(decide):
-            raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
-        if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):
-            raise InputError(  # its answer was a coroutine, refused only after connecting
-                f"navigate: {kind}.next_step is async def; write it as"
-                " a plain def that returns a Step, or None when done"
-            )
-        if inspect.isgeneratorfunction(decide):  # a yield in it: it returns a generator
-            raise InputError(
-                f"navigate: {kind}.next_step yields; write it to return a Step, or None when done"
-            )
-        name = builtin_name(navigator) or kind
+        name = builtin_name(navigator) or _check_next_step(navigator)
     description = load_robot_like(robot)
     map_network = _network(map, "map") if map is not None else None
     target: Any

@@ -13,7 +13,7 @@ from pirate_bt.api.options import callback
 from pirate_bt.errors import InputError
 from pirate_bt.trace.attach import call_observer
 
-__all__ = ["call_observer", "check_observer"]
+__all__ = ["call_observer", "check_observer", "uncallable_with"]
 
 
 def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> None:
@@ -35,14 +35,25 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
             f"observe: {name} is an async def, which {shape} would never run (its hooks"
             " never attached); give a plain function"
         )
-    try:
-        signature = inspect.signature(observe)
-    except (TypeError, ValueError):  # a builtin without one: called as it is
-        return
-    try:
-        signature.bind(None, None)
-    except TypeError:
+    signature = uncallable_with(observe, 2)
+    if signature is not None:
         raise InputError(
             f"observe: {name}{signature} cannot be called as {shape}, before the run to"
             " attach hooks; give a function of two arguments"[:300]
-        ) from None
+        )
+
+
+def uncallable_with(function: Any, count: int) -> inspect.Signature | None:
+    """``function``'s signature when it cannot be called with ``count`` positional
+    arguments (planner code's callback or method of the wrong arity, found before the
+    run, not as a bare ``TypeError`` once it is called); ``None`` when it can, or when
+    it has no signature to read (a builtin: called as it is)."""
+    try:
+        signature = inspect.signature(function)
+    except Exception:  # a builtin without one, or its own __signature__ that raises
+        return None
+    try:
+        signature.bind(*[None] * count)
+    except TypeError:
+        return signature
+    return None
