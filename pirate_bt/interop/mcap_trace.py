@@ -41,9 +41,12 @@ is opened, and its absence is one clear line then.
 
 from __future__ import annotations
 
+import contextlib
+import heapq
+import itertools
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import IO, Any, ClassVar
 
@@ -68,6 +71,10 @@ from pirate_bt.yamlfile import special_file
 
 _Timed = tuple[int, int, int, str, dict[str, Any]]
 """A message as it is read: ``(log_time, channel, sequence, topic, message)``."""
+MERGED_RUNS = 32
+"""The most stretches of non-decreasing log times another tool's file without an index
+is merged from, each read by a reader of its own (one open file each): a file written
+channel by channel has one a channel."""
 
 __all__ = [
     "McapTraceReader",
@@ -198,22 +205,65 @@ class _Messages:
         in log-time order from another tool's, whose header names another library: MCAP
         does not require a file in log-time order, and one written channel by channel was
         refused (*the first record is no header*). Another tool's file with an index is
-        read by it (:meth:`_indexed`); one without (cut off, unchunked) is read whole
-        first, then given sorted by log time (those of one time in file order; see
+        read by it (:meth:`_indexed`); one without (cut off, unchunked) is read as it
+        comes too (:meth:`_merged`): once to find where its log times go back, then its
+        stretches in log time merged (those of one time in file order; see
         :func:`_sequenced` for one channel's)."""
-        buffered: list[_Timed] = []
+        runs = [0]  # where each stretch of non-decreasing log times starts
+        last: int | None = None
+        given = 0
         try:
             for item in self._file_order():
                 if self.foreign and not self.indexed:
-                    buffered.append(item)
+                    if last is not None and item[0] < last:
+                        runs.append(given)
+                    last = item[0]
+                    given += 1
                 else:
                     yield item
         except Exception:
-            yield from sorted(buffered, key=lambda m: m[0])  # what came before the damage
+            if given:  # what came before the damage, then the damage
+                yield from self._merged(runs, given)
             raise
-        yield from sorted(buffered, key=lambda m: m[0])
+        if given:
+            yield from self._merged(runs, given)
 
-    def _file_order(self) -> Iterator[_Timed]:
+    def _merged(self, runs: list[int], given: int) -> Iterator[_Timed]:
+        """The first ``given`` messages of another tool's file without an index, in
+        log-time order (a stable sort: those of one time in file order), read again as
+        they come: each stretch of non-decreasing log times (``runs``: where each starts)
+        by a reader of its own, merged. Until 2026-12-01 the whole file was read into
+        memory before its first message was given (every message decoded: many times
+        the file). A file whose times go back more than :data:`MERGED_RUNS` times
+        (shuffled) is read whole and sorted, as before."""
+        self.count = 0
+        if len(runs) > MERGED_RUNS:
+            everything = list(itertools.islice(self._again()._file_order(), given))
+            self.count = len(everything)
+            yield from sorted(everything, key=lambda m: m[0])
+            return
+        ends = [*runs[1:], given]
+        readings = [self._again()._file_order() for _ in runs]
+        stretches = [
+            itertools.islice(reading, start, end)
+            for reading, start, end in zip(readings, runs, ends, strict=True)
+        ]
+        try:
+            for item in heapq.merge(*stretches, key=lambda m: m[0]):  # stable
+                self.count += 1
+                yield item
+        finally:
+            for reading in readings:  # each closes its file
+                with contextlib.suppress(Exception):
+                    reading.close()
+
+    def _again(self) -> _Messages:
+        """A reader of the same file and topics, for one more reading."""
+        again = _Messages(self.path, self.readable)
+        again.topics = self.topics
+        return again
+
+    def _file_order(self) -> Generator[_Timed, None, None]:
         """The messages as ``(log_time, channel, sequence, topic, message)``, in file
         order."""
         load_mcap()
