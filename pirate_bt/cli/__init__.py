@@ -146,9 +146,17 @@ def as_option(exc: Exception, parameter: str, option: str) -> None:
     """
     from pirate_bt.errors import InputError
 
-    text = str(exc)
+    named = _option_named(str(exc), parameter, option)
+    if named is not None:
+        raise InputError(named) from None
+
+
+def _option_named(text: str, parameter: str, option: str) -> str | None:
+    """``text`` with the ``parameter: `` it begins with written ``option: ``, or ``None``
+    when it does not begin so: the one rewording of :func:`as_option` and ``--port``'s."""
     if text.startswith(f"{parameter}: "):
-        raise InputError(f"{option}: {text[len(parameter) + 2 :]}") from None
+        return f"{option}: {text[len(parameter) + 2 :]}"
+    return None
 
 
 STDOUT = "-"
@@ -354,18 +362,17 @@ def _ros2_options_alone(parser: Parser, args: argparse.Namespace, given: list[st
 
 
 def _port_named(text: str, exc: Exception, args: argparse.Namespace) -> str:
-    """A verb's ``--port`` named as typed in an error about it: the API's ``port:``
-    (``port: 'bogus:x' is not a serial port ...``), or a URL refused as input before it
-    opened (``PortURLError``, which carries the URL: ``cannot open bogus://x: no URL
-    scheme 'bogus' here: ...``). A port that cannot be opened (a link error) is named
-    by its URL only."""
+    """A verb's ``--port`` named as typed in an error about it, as :func:`as_option`
+    names other parameters: the API's ``port:`` (``port: 'bogus:x' is not a serial port
+    ...``), or a URL refused as input before it opened (``PortURLError``, which carries
+    the URL: ``cannot open bogus://x: no URL scheme 'bogus' here: ...``), raised by
+    every verb's connection, so named here once. A port that cannot be opened (a link
+    error) is named by its URL only. The error's exit code is kept."""
     if getattr(args, "port", None) is None:
         return text
-    if text.startswith("port: "):
-        return f"--port: {text.removeprefix('port: ')}"
     if getattr(exc, "port_url", None) and getattr(exc, "exit_code", None) == EXIT_INPUT:
-        return f"--port: {text}"
-    return text
+        text = f"port: {text}"  # the URL's parameter, which its message does not name
+    return _option_named(text, "port", "--port") or text
 
 
 def _main(argv: Sequence[str] | None) -> int:
