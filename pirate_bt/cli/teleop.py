@@ -425,6 +425,12 @@ def run(args: argparse.Namespace) -> int:
             "--seed: the teleop's simulator has no sensor noise and no faults, nothing"
             " in it is random; leave --seed out"
         )
+    if args.port is not None:
+        from pirate_bt.api.options import port_url
+
+        # a real robot's: 'sim:lab' drove a simulator, and 'bogus' was told as the
+        # API's "connect: 'bogus' is neither a network ... nor a serial port"
+        port_url(args.port)  # named --port as typed by the command line
     robot = load_robot(args.robot)
     period_s = 1.0 / rate_hz
     mode = Mode(args.mode) if args.mode else (Mode.SUPERVISED if args.tree else Mode.MANUAL)
