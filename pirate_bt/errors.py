@@ -41,7 +41,9 @@ no NUL, at most :data:`MAX_PATH` characters).
 
 from __future__ import annotations
 
+import contextlib
 import math
+import operator
 import os
 import pickle
 import re
@@ -84,6 +86,7 @@ __all__ = [
     "portable_error",
     "reduce_error",
     "said_of",
+    "seed_argument",
     "shown",
 ]
 
@@ -295,6 +298,28 @@ def output_argument(value: object, option: str) -> Path:
             f"{option}: cannot write {shown(str(path), MAX_PATH)}: {exc.strerror or exc}"
         ) from None
     return path
+
+
+def seed_argument(seed: object, option: str = "seed") -> int:
+    """A seed given as an argument: a whole number from 0 to :data:`MAX_SEED`, the one
+    rule of the API's ``seed=`` (``pirate_bt.api.options.seed_value``) and an as-built
+    variant's (``pirate_bt.pipes.asbuilt.perturb_network``). Anything with
+    ``__index__`` but a bool (a NumPy integer) is a whole number.
+
+    Raises:
+        ArgumentTypeError: not a whole number (a bool, a float, text).
+        ArgumentValueError: negative or above :data:`MAX_SEED` (``random.Random``
+            seeds by a number's size, so -1 was seed 1 under another name).
+    """
+    if not isinstance(seed, bool) and hasattr(type(seed), "__index__"):
+        with contextlib.suppress(Exception):  # its own __index__ raises: no whole number
+            seed = operator.index(seed)  # type: ignore[arg-type]
+    said = f"{option}: give a whole number from 0 to 2**63 - 1, not {shown(seed)}"
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise ArgumentTypeError(said)
+    if not 0 <= seed <= MAX_SEED:
+        raise ArgumentValueError(said)
+    return seed
 
 
 @dataclass(frozen=True, slots=True)

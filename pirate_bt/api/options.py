@@ -35,7 +35,15 @@ from pirate_bt.api.file_options import (
     port_url,
     writable_folder,
 )
-from pirate_bt.errors import MAX_PATH, MAX_SEED, InputError, UnitError, digit_count, kind_of
+from pirate_bt.errors import (
+    MAX_PATH,
+    MAX_SEED,
+    InputError,
+    UnitError,
+    digit_count,
+    kind_of,
+    seed_argument,
+)
 from pirate_bt.units import parse_quantity
 
 __all__ = [
@@ -251,19 +259,13 @@ def fault_list(faults: Any) -> Any:
 
 
 def seed_value(seed: object, option: str = "seed") -> int:
-    """A seed: a whole number from 0 to :data:`MAX_SEED`.
+    """A seed: a whole number from 0 to :data:`MAX_SEED`
+    (:func:`pirate_bt.errors.seed_argument`, the one rule of the library).
 
     Raises:
         InputError: anything else (a bool, a float, text, a negative or huge number).
     """
-    seed = plain_number(seed)  # a NumPy integer is a whole number too
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
-        huge = isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) >= 10**40
-        shown = f"a {digit_count(seed)}-digit number" if huge else repr(seed)  # type: ignore[arg-type]
-        if len(shown) > 40:
-            shown = kind_of(seed)
-        raise InputError(f"{option}: give a whole number from 0 to 2**63 - 1, not {shown}")
-    return seed
+    return seed_argument(plain_number(seed), option)  # a NumPy integer is a whole number
 
 
 def fraction(value: object, option: str) -> float:

@@ -25,7 +25,6 @@ as a network file.
 from __future__ import annotations
 
 import math
-import operator
 import random
 import re
 from collections.abc import Sequence
@@ -35,11 +34,11 @@ from typing import Any
 from pydantic import ValidationError
 
 from pirate_bt.errors import (
-    MAX_SEED,
     ArgumentTypeError,
     ArgumentValueError,
     ConfigurationError,
     kind_of,
+    seed_argument,
     shown,
 )
 from pirate_bt.pipes.model import (
@@ -145,20 +144,14 @@ def _slopes(network: Network) -> dict[str, float]:
 
 
 def _variant_seed(seed: object) -> int:
-    """A variant's seed as every seed is taken: ``random.Random`` seeds by a number's
-    size, so -1 gave variant 1 under another name, and it took a float or text too.
+    """A variant's seed as every seed is taken (:func:`pirate_bt.errors.seed_argument`):
+    ``random.Random`` seeds by a number's size, so -1 gave variant 1 under another
+    name, and it took a float or text too.
 
     Raises:
-        InputError: anything but a whole number from 0 to :data:`MAX_SEED`.
+        InputError: anything but a whole number from 0 to 2**63 - 1.
     """
-    if not isinstance(seed, bool) and hasattr(type(seed), "__index__"):
-        seed = operator.index(seed)  # type: ignore[arg-type]  # a NumPy integer too
-    said = f"seed: give a whole number from 0 to 2**63 - 1, not {shown(seed)}"
-    if isinstance(seed, bool) or not isinstance(seed, int):
-        raise ArgumentTypeError(said)
-    if not 0 <= seed <= MAX_SEED:
-        raise ArgumentValueError(said)
-    return seed
+    return seed_argument(seed)
 
 
 def _variant_name(name: object) -> str | None:
