@@ -115,16 +115,22 @@ def limit(
             )
         ref = reference or 0.0
         # Slowing down is never limited: stopping must always be possible. A reversal
-        # (the wheels told to turn the other way) is a speed-up.
+        # (the wheels told to turn the other way) stops at once and speeds up the other
+        # way by at most one step from the old speed, as drive_reach reckons it: until
+        # the twenty-second session it was clipped to ref - step, so the wheels went on
+        # forward (at 60 mm/s from 80) where a stop would have stopped them.
         faster = abs(value) > abs(ref)  # pragma: no mutate (>=: an equal speed is inside any bound)
         speeding = faster or (value * ref < 0)
         if problem is None and lim.acceleration is not None and speeding:
             step = lim.acceleration.max * dt
+            lo, hi = ref - step, ref + step
+            if value * ref < 0:  # a reversal: the stop on its way is free
+                lo, hi = min(lo, 0.0), max(hi, 0.0)
             problem = bound(
                 Reason.ACCELERATION_LIMIT,
                 lim.acceleration.policy,
-                ref - step,
-                ref + step,
+                lo,
+                hi,
                 f"velocity change from {ref:g} in {dt:g} s: target",
             )
     if problem is not None:
