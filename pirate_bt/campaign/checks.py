@@ -254,13 +254,18 @@ def _named_at(
     which run, robot or truth of the spec had named it was left to guess."""
     if spec is None or entry is None:
         return exc
+    return ValidationFailed(_named_by(e, spec, entry) for e in exc.errors)
+
+
+def _named_by(
+    error: LocatedError, spec: CampaignSpec, entry: tuple[str | int, ...]
+) -> LocatedError:
+    """``error`` at its own place, ending with the spec's ``entry`` that named its file."""
     source = source_of(spec)
     said = f"runs[{entry[1]}].{entry[2]}" if entry[0] == "runs" else f"{entry[0]}[{entry[1]}]"
     # data has no lines: "campaign 'h': maps[1]" names the entry already
     by = f"{said} at {source.where(entry)}" if source.locator is not None else source.where(entry)
-    return ValidationFailed(
-        LocatedError(f"{e.message} (named by {by})", e.location) for e in exc.errors
-    )
+    return LocatedError(f"{error.message} (named by {by})", error.location)
 
 
 def _joined(errors: Sequence[InputError]) -> InputError:
@@ -281,9 +286,11 @@ def _params_problems(
     The tree loader places a parameter's problem at ``--param:1:1`` (the command
     line's option); in a campaign the parameter was written in ``runs[i].params``,
     at its own key when the problem names it. A problem of a YAML tree file itself
-    stays where it is written, but a parameter it declares without a default that the
-    run does not give is placed at the run (``spec.yaml:3:5: run 'b': parameter
-    'distance' has no default and was not given (declared at tree.yaml:6:1)``); one
+    stays where it is written, followed by the run's entry that named the tree
+    (``(named by runs[1].tree at spec.yaml:4:15)``), but a parameter it declares
+    without a default that the run does not give is placed at the run
+    (``spec.yaml:3:5: run 'b': parameter 'distance' has no default and was not
+    given (declared at tree.yaml:6:1)``); one
     of a BehaviorTree.CPP XML file (malformed, an unknown node) is placed at the
     run's ``tree`` entry, naming the XML's own place: ``spec.yaml:3:15: run 'a':
     tree 'bad.xml': unknown node type 'NoSuchNode' (at bad.xml:4:7)``.
@@ -308,8 +315,8 @@ def _params_problems(
                 where = ("runs", index, "params") if params else ("runs", index)
                 message = f"run {case.get('run')!r}: {error.message} (declared at {error.location})"
                 found.append(source.error(where, message))
-            else:
-                found.append(error)
+            else:  # the tree's own (or a subtree's), and which run named the tree
+                found.append(_named_by(error, spec, ("runs", index, "tree")))
             continue
         path: tuple[str | int, ...] = ("runs", index, "params")
         name = next((k for k in params if f"parameter {k!r}" in error.message), None)
