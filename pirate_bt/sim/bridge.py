@@ -235,6 +235,7 @@ class SimBridge(StateFramesMixin, FaultsMixin):
         self._heard_s = dict.fromkeys(self._boards, self.now_s)
         self._all_heard_s = self.now_s
         self._away: set[int] = set()
+        self._bus_fault = False  # no board answered the last poll cycle
         self._apply_stop()
 
     def _apply_stop(self) -> None:
@@ -483,6 +484,8 @@ class SimBridge(StateFramesMixin, FaultsMixin):
             flags |= BridgeFlags.ESTOP
         if self.watchdog_tripped:
             flags |= BridgeFlags.WATCHDOG
+        if self._bus_fault:
+            flags |= BridgeFlags.BUS_FAULT
         if self.no_session:
             flags |= BridgeFlags.NO_SESSION
         if self._minor >= 2 and (self.estop_input or self._input_tripped):

@@ -64,6 +64,7 @@ class FaultsMixin:
     _heard_s: dict[int, float]
     _all_heard_s: float
     _away: set[int]
+    _bus_fault: bool
     _faulted: dict[int, dict[str, MotorCommand | None]]
     _dropout: set[int]
     _stuck: dict[int, float]
@@ -136,8 +137,12 @@ class FaultsMixin:
         :data:`BOARD_AWAY_S` (from its last answer, or the bridge's boot) stops the whole
         robot once an absence, as the firmware bridge does: the stop category, so when it
         answers again it gets the stop setpoints (its drive braked, its clamp back), not
-        the ones it had.
+        the ones it had. A period in which no board answers sets ``BUS_FAULT`` until
+        one answers again, as the firmware's cycle with no answer does.
         """
+        # BUS_FAULT: no board answered this period's poll cycle (docs/protocol.md, bridge
+        # flags; the firmware's finish_cycle): every board rebooting at once
+        self._bus_fault = bool(self._resetting) and self._resetting.issuperset(self._boards)
         if not self._resetting:
             self._all_heard_s = now_s  # every board answered
             if self._away:
