@@ -10,6 +10,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.api.observing import check_callback
 from pirate_bt.api.options import kind_of, output_folder, report_extras
 from pirate_bt.errors import InputError
 
@@ -98,6 +99,7 @@ def write_mission_outputs(
     if not isinstance(result, MissionResult):
         raise InputError(f"result: give a MissionResult, not {kind_of(result)}")
     report_extras(wall_s, extra_sections, extra_pictures, warn)  # before the folder
+    check_callback(warn, "warn", "warn(message)", 1)  # a lambda: None failed as it warned
     if not isinstance(option, str) or not option:
         raise InputError(f"option: give the name of the output option, not {kind_of(option)}")
     out = output_folder(output, option)

@@ -10,10 +10,10 @@ import inspect
 from typing import Any
 
 from pirate_bt.api.options import callback
-from pirate_bt.errors import InputError
+from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.trace.attach import call_observer
 
-__all__ = ["call_observer", "check_observer", "uncallable_with"]
+__all__ = ["call_observer", "check_callback", "check_observer", "uncallable_with"]
 
 
 def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> None:
@@ -57,3 +57,36 @@ def uncallable_with(function: Any, count: int) -> inspect.Signature | None:
     except TypeError:
         return signature
     return None
+
+
+_COUNTS = {0: "no arguments", 1: "one argument", 2: "two arguments", 3: "three arguments"}
+
+
+def check_callback(value: Any, option: str, shape: str, count: int) -> None:
+    """``value`` is ``None`` or a plain function ``shape`` (``"warn(message)"``) can call
+    with ``count`` positional arguments: not an ``async def`` (called, never awaited,
+    it would never run), and not one of the wrong arity, which was a bare
+    ``TypeError`` from inside once it was called, after work had been done.
+
+    Raises:
+        ArgumentTypeError: one line naming ``option``, what it takes and how it is called.
+    """
+    callback(value, option)
+    if value is None:
+        return
+    name = getattr(value, "__qualname__", None) or type(value).__name__
+    name = str(name).rsplit(".", 1)[-1][:60]
+    # a callable object's own __call__ (an async one never runs either)
+    call = None if inspect.isroutine(value) else inspect.getattr_static(value, "__call__", None)
+    if inspect.iscoroutinefunction(value) or inspect.iscoroutinefunction(call):
+        raise ArgumentTypeError(
+            f"{option}: {name} is an async def, which {shape} would call and never run;"
+            " give a plain function"
+        )
+    signature = uncallable_with(value, count)
+    if signature is not None:
+        signature = signature.replace(return_annotation=inspect.Signature.empty)
+        raise ArgumentTypeError(
+            f"{option}: {name}{signature} cannot be called as {shape}; give a function of"
+            f" {_COUNTS.get(count, f'{count} arguments')}"[:300]
+        )

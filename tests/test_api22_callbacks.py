@@ -1,0 +1,59 @@
+"""Session 22: a callback the API would call with the wrong arity, or never run (an
+async def), is refused before any work is done, as observe= is (docs/api.md,
+*Arguments the API refuses*)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import pirate_bt
+from pirate_bt.errors import ArgumentTypeError
+
+
+@pytest.fixture(scope="module")
+def mission() -> Any:
+    return pirate_bt.simulate_mission("bend-right")
+
+
+async def _async_warn(message: str) -> None:  # pragma: no cover - never run
+    return None
+
+
+class _TwoArguments:
+    def __call__(self, message: str, extra: str) -> None:  # pragma: no cover
+        return None
+
+
+@pytest.mark.parametrize(
+    ("warn", "said"),
+    [
+        (
+            lambda: None,
+            "warn: <lambda>() cannot be called as warn(message); give a function of one argument",
+        ),
+        (
+            _TwoArguments(),
+            "warn: _TwoArguments(message: 'str', extra: 'str') cannot be called as"
+            " warn(message); give a function of one argument",
+        ),
+        (
+            _async_warn,
+            "warn: _async_warn is an async def, which warn(message) would call and never"
+            " run; give a plain function",
+        ),
+    ],
+    ids=["none", "two", "async"],
+)
+def test_a_warn_callback_it_cannot_call_is_refused_before_the_output_folder_is_made(
+    mission: Any, tmp_path: Path, warn: Any, said: str
+) -> None:
+    # lambda: None was taken, and failed with Python's bare TypeError once a plot could
+    # not be made and the report was half done; an async def never ran
+    out = tmp_path / "out"
+    with pytest.raises(ArgumentTypeError) as caught:
+        pirate_bt.write_mission_outputs(mission, out, warn=warn)
+    assert str(caught.value) == said
+    assert not out.exists()
