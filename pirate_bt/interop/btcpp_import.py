@@ -19,13 +19,16 @@ from pirate_bt.errors import SourceLocation, file_argument
 from pirate_bt.interop.btcpp_import_ports import subtree_ports
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
+    _FALSE,
     _HINT,
     _MODEL_TAGS,
     _SCRIPT_ATTRS,
+    _TRUE,
     BTCPP_FORMAT,
     FROM_BTCPP,
     TO_BTCPP,
     _shown,
+    btcpp_port_name,
     decode_value,
     node_models,
     own_instead,
@@ -289,7 +292,8 @@ class _Importer:
         name = attrs.pop("name", None)
         description = attrs.pop("_description", None)
         hint = attrs.pop(_HINT, None)
-        ports = {k: v for k, v in attrs.items() if not k.startswith("_") and k != "ID"}
+        # BT.CPP ignores an attribute it takes for no port (IsAllowedPortName): '_x', 'éx'
+        ports = {k: v for k, v in attrs.items() if btcpp_port_name(k)}
         if tag == "SubTree":
             out = self.subtree(element, ports, name)
         elif tag in FROM_BTCPP and tag not in self.models:
@@ -333,8 +337,14 @@ class _Importer:
         if element.children:
             raise element.error("<SubTree> must not have children")
         target = element.attrs.get("ID", "")
-        if element.attrs.get("_autoremap") not in (None, "false", "False", "FALSE", "0"):
-            raise element.error("_autoremap is not supported: remap each port explicitly")
+        autoremap = element.attrs.get("_autoremap")
+        if autoremap is not None and autoremap not in _FALSE:
+            if autoremap in _TRUE:
+                raise element.error("_autoremap is not supported: remap each port explicitly")
+            raise element.error(  # BT.CPP: "convertFromString(): invalid bool conversion"
+                f"_autoremap={_shown(autoremap)}: expected true or false"
+                " (BT.CPP reads true, True, TRUE or 1, false, False, FALSE or 0)"
+            )
         declared = self.params(target, placed=False)  # only to check the call
         out = self.named("subtree", name)
         out["ref"] = target
