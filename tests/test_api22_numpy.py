@@ -42,3 +42,23 @@ def test_a_numpy_scalar_stands_for_its_python_value_in_every_option() -> None:
     assert type(plain_number(numpy.float64(0.5))) is float
     with pytest.raises(pirate_bt.InputError, match="realtime: give True or False"):
         flag(numpy.int8(1), "realtime")
+
+
+def test_a_numpy_false_turns_a_live_view_off_and_a_numpy_domain_id_is_a_number() -> None:
+    # numpy.bool_(False) was refused as "foxglove: give True, an address 'HOST:PORT' or an
+    # open FoxgloveServer, not a bool"; numpy.int64(3) as a ROS domain id "from 0 to 232"
+    off = numpy.bool_(False)
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "0.05 m"}, foxglove=off, ros2=off, groot2=off
+    )
+    assert result.succeeded
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.simulate_tree(
+            "straight", params={"distance": "0.05 m"}, ros_domain_id=numpy.int64(3)
+        )
+    assert str(caught.value) == "ros_domain_id and ros_namespace are for ros2=; give ros2= too"
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.simulate_tree(
+            "straight", params={"distance": "0.05 m"}, groot2=numpy.int64(70000)
+        )
+    assert str(caught.value) == "groot2: the port must be a number from 0 to 65534"

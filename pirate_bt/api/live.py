@@ -23,6 +23,8 @@ import contextlib
 from collections.abc import Callable, Iterator
 from typing import Any
 
+from pirate_bt.api.options import plain_number
+
 __all__ = [
     "FoxgloveOption",
     "Groot2Option",
@@ -77,6 +79,12 @@ def check_live_options(
     """
     from pirate_bt.errors import InputError
 
+    # a NumPy truth value or integer as the Python one (numpy.bool_(False) is off; it
+    # was "not a bool"), as the options below read them (foxglove_server, ...)
+    foxglove, ros2, ros_domain_id, groot2 = map(
+        plain_number, (foxglove, ros2, ros_domain_id, groot2)
+    )
+
     def server(value: Any, option: str, module: str, name: str, numbers: bool = False) -> None:
         if value is None or isinstance(value, bool | str):
             return
@@ -121,6 +129,7 @@ def foxglove_server(option: FoxgloveOption) -> Iterator[Any]:
         InputError: a bad address, or the port is taken.
         ConfigurationError: the ``foxglove`` extra is missing.
     """
+    option = plain_number(option)  # as check_live_options read it
     if option is None or option is False:
         yield None
         return
@@ -205,6 +214,7 @@ def ros2_node(
         InputError: a bad endpoint, domain id or namespace.
         ConfigurationError: the ``ros2`` extra is missing.
     """
+    option, domain_id = plain_number(option), plain_number(domain_id)  # as checked
     if option is None or option is False:
         yield None
         return
@@ -280,6 +290,7 @@ def groot2_server(option: Groot2Option) -> Iterator[Any]:
         InputError: a bad address, or a port is taken.
         ConfigurationError: the ``groot2`` extra is missing.
     """
+    option = plain_number(option)  # as check_live_options read it
     if option is None or option is False:
         yield None
         return
