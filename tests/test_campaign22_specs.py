@@ -52,3 +52,27 @@ def test_a_tree_file_of_a_spec_given_as_data_is_told_with_its_entry(tmp_path: Pa
     with pytest.raises(InputError) as refused:
         run_campaign({"name": "h", "runs": [{"tree": "bad.yaml"}]}, base=tmp_path)
     assert str(refused.value).endswith(" (named by campaign spec: runs[0].tree)")
+
+
+def _rows() -> list[dict[str, object]]:
+    return [
+        {"id": f"{i:06d}-h22", "index": i, "run": "r", "seed": i, "drop": 0.1}
+        | {"outcome": "success", "reason": "fine", "sim_time_s": 1.0}
+        for i in range(2)
+    ]
+
+
+def test_a_results_file_an_editor_saved_with_a_bom_keeps_its_first_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import json
+
+    from pirate_bt.campaign import read_rows
+
+    results = tmp_path / "results.jsonl"
+    text = "".join(json.dumps(row) + "\n" for row in _rows())
+    results.write_bytes(b"\xef\xbb\xbf" + text.encode())  # Notepad's "UTF-8"
+    # its first row was 'skipped a line that is not a JSON row': the report lost it, and
+    # a --resume ran that case again and rewrote the file without the row
+    assert read_rows(results) == _rows()
+    assert "skipped" not in caplog.text

@@ -24,6 +24,7 @@ case id must be a safe file name (:func:`pirate_bt.campaign.paths.safe_name`):
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import json
 import logging
@@ -268,7 +269,8 @@ def _numbered_rows(path: Path, *, warn: bool) -> list[tuple[int, dict[str, Any]]
     rows: list[tuple[int, dict[str, Any]]] = []
     if not path.exists():
         return rows
-    data = _read(path)
+    # an editor's UTF-8 "signature" (a BOM) made the first row no JSON row: skipped
+    data = _read(path).removeprefix(codecs.BOM_UTF8)
     lines = data.splitlines()
     first: dict[object, int] = {}
     for number, line in enumerate(lines, start=1):
