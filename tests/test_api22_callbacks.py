@@ -57,3 +57,38 @@ def test_a_warn_callback_it_cannot_call_is_refused_before_the_output_folder_is_m
         pirate_bt.write_mission_outputs(mission, out, warn=warn)
     assert str(caught.value) == said
     assert not out.exists()
+
+
+def _observe_yields(runner: Any, connection: Any) -> Any:  # pragma: no cover - never run
+    runner.add_post_tick(lambda info: None)
+    yield
+
+
+class _CallYields:
+    def __call__(self, runner: Any, connection: Any) -> Any:  # pragma: no cover
+        yield
+
+
+@pytest.mark.parametrize(
+    ("observe", "name"), [(_observe_yields, "_observe_yields"), (_CallYields(), "_CallYields")]
+)
+def test_an_observe_that_yields_is_refused_before_the_run(observe: Any, name: str) -> None:
+    # a generator function's body never ran: no hook attached, the run went on unobserved
+    # and succeeded, nothing said
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.simulate_tree("straight", params={"distance": "0.05 m"}, observe=observe)
+    assert str(caught.value) == (
+        f"observe: {name} is a generator function (it yields), which observe(runner,"
+        " connection) would never run (its hooks never attached); give a plain function"
+    )
+
+
+def test_a_warn_that_yields_is_refused(mission: Any, tmp_path: Path) -> None:
+    def warn(message: str) -> Any:  # pragma: no cover - never run
+        yield message
+
+    with pytest.raises(
+        ArgumentTypeError, match=r"^warn: warn is a generator function \(it yields\)"
+    ):
+        pirate_bt.write_mission_outputs(mission, tmp_path / "out", warn=warn)
+    assert not (tmp_path / "out").exists()

@@ -28,11 +28,10 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
         return
     name = getattr(observe, "__qualname__", None) or type(observe).__name__
     name = name.rsplit(".", 1)[-1][:60]
-    # a callable object's own __call__ (an async one never runs either)
-    call = None if inspect.isroutine(observe) else inspect.getattr_static(observe, "__call__")
-    if inspect.iscoroutinefunction(observe) or inspect.iscoroutinefunction(call):
+    what = _never_runs(observe)
+    if what is not None:
         raise InputError(
-            f"observe: {name} is an async def, which {shape} would never run (its hooks"
+            f"observe: {name} is {what}, which {shape} would never run (its hooks"
             " never attached); give a plain function"
         )
     signature = uncallable_with(observe, 2)
@@ -41,6 +40,24 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
             f"observe: {name}{signature} cannot be called as {shape}, before the run to"
             " attach hooks; give a function of two arguments"[:300]
         )
+
+
+def _never_runs(function: Any) -> str | None:
+    """What ``function`` is when calling it runs none of its body: ``"an async def"``
+    (a coroutine, never awaited) or ``"a generator function (it yields)"`` (a generator,
+    never iterated: an ``observe`` with a ``yield`` in it attached no hook, the run went
+    on unobserved and nothing said so); ``None`` for a plain function. A callable
+    object is judged by its own ``__call__``."""
+    try:
+        call = None if inspect.isroutine(function) else inspect.getattr_static(function, "__call__")
+    except AttributeError:
+        call = None
+    for each in (function, call):
+        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
+            return "an async def"
+        if inspect.isgeneratorfunction(each):
+            return "a generator function (it yields)"
+    return None
 
 
 def uncallable_with(function: Any, count: int) -> inspect.Signature | None:
@@ -76,11 +93,10 @@ def check_callback(value: Any, option: str, shape: str, count: int) -> None:
         return
     name = getattr(value, "__qualname__", None) or type(value).__name__
     name = str(name).rsplit(".", 1)[-1][:60]
-    # a callable object's own __call__ (an async one never runs either)
-    call = None if inspect.isroutine(value) else inspect.getattr_static(value, "__call__", None)
-    if inspect.iscoroutinefunction(value) or inspect.iscoroutinefunction(call):
+    what = _never_runs(value)
+    if what is not None:
         raise ArgumentTypeError(
-            f"{option}: {name} is an async def, which {shape} would call and never run;"
+            f"{option}: {name} is {what}, which {shape} would call and never run;"
             " give a plain function"
         )
     signature = uncallable_with(value, count)
