@@ -130,3 +130,75 @@ def test_every_request_a_client_waits_for_is_answered_to_it(tmp_path: Any) -> No
         "gives up": REQUESTS - REQUESTS // 5,
         "several": REQUESTS,
     }
+
+
+# A run's process whose soft limit of open files is 128 (its hard one as it was) serving
+# Groot2 on port 0: the relay starts under that limit.
+_LIMITED = """
+import resource, sys
+import py_trees
+from pirate_bt.interop.groot2_server import Groot2Server
+
+hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+resource.setrlimit(resource.RLIMIT_NOFILE, (128, hard))
+root = py_trees.composites.Sequence("root", memory=False)
+root.add_children([py_trees.behaviours.Running("leaf")])
+tree = py_trees.trees.BehaviourTree(root)
+tree.setup()
+with Groot2Server(port=0) as server:
+    server.serve(tree)
+    server.served()
+    print(server.port, flush=True)
+    sys.stdin.readline()
+"""
+IDLE_CONNECTIONS = 300
+
+
+def test_groot2_connects_while_another_client_holds_more_connections_than_the_run_s_limit() -> None:
+    """The relay holds the connections: its limit of open files is its hard limit, not
+    the run's soft one (before: with 128, Groot2 could not connect past 300 idle
+    connections, and the relay's ZeroMQ spun failing to accept)."""
+    import resource
+    import socket
+    import subprocess
+    import sys
+    import textwrap
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 2 * IDLE_CONNECTIONS:
+        pytest.skip(f"a hard limit of {hard} open files leaves the relay no room")
+    if soft != resource.RLIM_INFINITY and soft < IDLE_CONNECTIONS + 64:
+        pytest.skip(f"this process may open only {soft} files")
+    run = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(_LIMITED)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    idle: list[socket.socket] = []
+    context = zmq.Context()
+    try:
+        assert run.stdout is not None and run.stdin is not None
+        port = int(run.stdout.readline())
+        for _ in range(IDLE_CONNECTIONS):  # connected, never a word
+            try:
+                idle.append(socket.create_connection(("127.0.0.1", port), timeout=10))
+            except TimeoutError:  # not accepted: its listen queue full
+                break
+        groot2 = _socket(context, zmq.REQ, port)
+        groot2.send(pack_request(ord("S"), 1667))
+        try:
+            reply = groot2.recv_multipart()
+        except zmq.Again:
+            reply = [b"no reply in 30 s"]
+        assert (len(idle), _uid(reply)) == (IDLE_CONNECTIONS, 1667), reply
+        run.stdin.write("done\n")
+        run.stdin.flush()
+        run.wait(60)
+    finally:
+        for sock in idle:
+            sock.close()
+        context.destroy(linger=0)
+        if run.poll() is None:
+            run.kill()
+            run.wait(60)
