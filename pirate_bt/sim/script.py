@@ -291,6 +291,25 @@ class ScriptedDrive:
         self.clamp(Half.REAR)
         self.bend(Half.FRONT, 0.0)
 
+    def over_step(self, at_m: float) -> None:
+        """Cross an abrupt widening at ``at_m`` as a tee's opening is crossed.
+
+        A half whose joint passes a step out to a wider pipe is off the wall until its
+        joints have swung out to it, so it must not be the half that holds: the free
+        front crosses with the rear holding, then the front holds while the rear
+        crosses. Until the twenty-second session the script crossed a step with the
+        rear half alone holding, and up a riser with a step from 63 to 80 mm the robot
+        slid 384 times, 0.77 m in all, and stopped 1.1 m short of where it said.
+        """
+        at_m = _finite("at_m", at_m, "metres")
+        self.drive_to(at_m + 0.25)
+        self.clamp(Half.FRONT)
+        self.bend(Half.REAR, 0.0)
+        self.drive_to(at_m + 0.5)
+        self.clamp(Half.REAR)
+        self.bend(Half.FRONT, 0.0)
+        self.log.append(f"over the step at {at_m:.2f} m")
+
     def run_path(
         self, stop_before_end_m: float = 0.1, progress: Callable[[str], None] | None = None
     ) -> None:
@@ -316,14 +335,19 @@ class ScriptedDrive:
             )
         self.start()
         path = self.sim.model.path
+        before = 0.0  # the diameter where the last piece ended
         for piece in path.pieces:
+            wider = before > 0.0 and piece.diameter_start_m > before + 1e-9
+            before = piece.diameter_end_m
             if piece.end_m <= self.truth.front_m:
                 continue
+            if wider and piece.start_m > self.truth.front_m:
+                self.over_step(piece.start_m)  # a step out to a wider pipe: no half holds
             if piece.is_turn:
                 self.through_turn(piece)
             elif piece.kind is PieceKind.TEE:
                 self.over_tee(piece)
-            else:
+            elif not wider:
                 continue
             if progress is not None:
                 progress(piece.segment)
