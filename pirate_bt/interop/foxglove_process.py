@@ -63,6 +63,7 @@ if not __package__:  # run as the server process's script
 
 from pirate_bt.interop.foxglove_schemas import RUN, TOPICS, encode_message, schema_of
 from pirate_bt.interop.foxglove_topics import TopicMapper, TopicMessage
+from pirate_bt.interop.groot2_relay import room_for_connections
 from pirate_bt.interop.process_pipe import PipeOutput
 from pirate_bt.trace.sink import END, LINE, SETUP, TICK, TickEncoder, read_messages
 
@@ -363,6 +364,12 @@ def main(argv: Sequence[str]) -> int:
     # after this) yields the CPU to the run; lagging only merges ticks (foxglove_backlog).
     with contextlib.suppress(OSError):
         os.nice(int(config.get("nice", NICE)))
+    # Every client's connection is one of this process's files. At the run's soft limit
+    # (1,024 in most shells) foxglove-sdk's server stopped listening for good: until
+    # 2026-12-01 a client holding 128 idle connections to a server started under a soft
+    # limit of 128 left every later client refused, the run unaware. Its hard limit now
+    # (past it the SDK still stops listening).
+    room_for_connections()
     out = PipeOutput(sys.stdout.fileno())
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find the SDK where the run's process found it

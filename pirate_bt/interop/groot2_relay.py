@@ -43,13 +43,13 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["first_line", "main"]
+__all__ = ["first_line", "main", "room_for_connections"]
 
 NICE = 5
 """The relay yields the CPU to the run (Groot2 polls ten times a second)."""
 FILES_WANTED = 1 << 16
 """The relay's limit of open files when its hard limit is unlimited (or above what the
-kernel allows a process): see :func:`_room_for_connections`."""
+kernel allows a process): see :func:`room_for_connections`."""
 REPLY_WAIT_S = 5.0
 """The longest wait for the server's reply before the next request goes (a reply that
 failed to be sent is logged by the server and never comes)."""
@@ -66,7 +66,7 @@ def main(argv: Sequence[str]) -> int:
     config = json.loads(argv[1])
     with contextlib.suppress(OSError):
         os.nice(NICE)
-    _room_for_connections()
+    room_for_connections()
     if config.get("sys_path"):
         sys.path[:] = config["sys_path"]  # find pyzmq where the run's process found it
     import zmq
@@ -96,14 +96,15 @@ def main(argv: Sequence[str]) -> int:
     return 0
 
 
-def _room_for_connections() -> None:
+def room_for_connections() -> None:
     """Raise this process's limit of open files to the most it may have (its hard limit):
     every connection a client opens is one here. Under the run's soft limit (1,024 in
     most shells) a client holding that many idle connections kept Groot2 from connecting,
     and ZeroMQ's listener, failing to accept (*Too many open files*), spun: until
     2026-12-01, 300 connections to a relay started under a soft limit of 128 took it 28 %
     of a CPU for as long as they stayed (it still does at the hard limit). Only this
-    process's limit is raised, never the run's."""
+    process's limit is raised, never the run's. The Foxglove server's process calls it
+    too (:mod:`pirate_bt.interop.foxglove_process`)."""
     try:
         import resource
     except ImportError:  # not POSIX
