@@ -30,7 +30,8 @@ Hooks: ``pre_tick`` hooks run before each tick (poll the robot link here),
 :class:`RunResult`. A hook that raises is treated like a behaviour that raises; a
 finish hook that raises (a trace that cannot be completed) turns a successful run
 into a failure (``exception``), so that what was asked for is never silently
-missing. Tracebacks are logged at DEBUG only: the result carries them.
+missing; after a run that failed, its first cause is kept and the hook's error is
+logged as a warning. Tracebacks are logged at DEBUG only: the result carries them.
 """
 
 from __future__ import annotations
@@ -374,7 +375,14 @@ class Runner:
                     )
             except _RAISED as exc:
                 _log.debug("finish hook failed", exc_info=True)
-                if result.error is None:
+                if result.error is None and result.outcome != "success":
+                    # a run that had failed keeps its first cause (a stall, not the
+                    # hook's error after it); what the hook could not do is said
+                    _log.warning(
+                        "after the run failed, a finish hook raised %s",
+                        f"{type(exc).__name__}" + (f": {said}" if (said := said_of(exc)) else ""),
+                    )
+                elif result.error is None:
                     # What the run was asked to leave behind (its trace) is not there:
                     # not a success, and the robot is left safe as after any failure.
                     result = dataclasses.replace(

@@ -1,0 +1,35 @@
+"""Session 22: the first cause of a failed run survives a finish hook of planner code
+(attached through observe=) that raises as the run ends (docs/api.md)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pirate_bt
+
+STALL = "motor_stall:bend_3_drive@1s+20s"
+
+
+def _finish_raises(runner: Any, connection: Any) -> None:
+    def hook(result: Any) -> None:
+        raise RuntimeError("my report could not be written")
+
+    runner.add_finish(hook)
+
+
+def test_a_finish_hook_that_raises_after_a_stall_keeps_the_stall_as_the_first_cause() -> None:
+    # was: why 'RuntimeError: my report could not be written', the stall lost
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "0.3 m"}, faults=STALL, observe=_finish_raises
+    )
+    assert not result.succeeded and result.safe_state
+    assert result.why.startswith("stall: bend_3_drive draws"), result.why
+    assert result.error is None and result.exit_code == 1
+
+
+def test_a_finish_hook_that_raises_after_a_success_still_fails_the_run() -> None:
+    result = pirate_bt.simulate_tree(
+        "straight", params={"distance": "0.05 m"}, observe=_finish_raises
+    )
+    assert not result.succeeded and result.safe_state
+    assert result.why == "RuntimeError: my report could not be written"
