@@ -76,7 +76,9 @@ void sensors_init(uint32_t now_ms) {
             speed_scale(k);
         }
         for (uint8_t i = 0; i < RING; i++) {
-            s.counts[k][i] = hal_encoder(k);
+            /* the encoder of the motor's slot, as every later sample (speeds()): this read
+             * encoder k, slot 0's counter on a board whose one motor is on slot 1 */
+            s.counts[k][i] = hal_encoder(board.motor[k].slot);
         }
     }
 }
