@@ -6,7 +6,11 @@ expat directly, not with a general-purpose tree builder:
 - a ``<!DOCTYPE>`` is refused outright: a BT.CPP file never needs one, and
   without it there are no entity declarations, so no "billion laughs"
   expansion and no external entity can be read;
-- the file size, the number of elements and the nesting depth are bounded;
+- the file size, the number of elements and the nesting depth are bounded, and so
+  is each name, attribute value and text (:data:`MAX_XML_VALUE` characters): the
+  file is fed to expat a piece at a time, and a tag or comment that is still not
+  closed :data:`MAX_XML_TOKEN` bytes after it opened is refused there, before expat
+  has buffered more of it (one 13 MB attribute took minutes and hundreds of MB);
 - a named pipe, a socket or a block device is refused before it is opened (a pipe
   nobody writes to would be waited on for ever);
 - an encoding expat cannot read itself (a multi-byte one such as Shift_JIS, or
@@ -44,6 +48,8 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_ELEMENTS",
     "MAX_XML_BYTES",
+    "MAX_XML_TOKEN",
+    "MAX_XML_VALUE",
     "XmlElement",
     "caller_params_origin",
     "cut_name",
@@ -59,6 +65,14 @@ MAX_ELEMENTS: Final = 200_000
 """The most elements a file may hold."""
 MAX_DEPTH: Final = 256
 """The deepest nesting of elements."""
+MAX_XML_VALUE: Final = 65_536
+"""The longest tag or attribute name, attribute value, or text of one element, in
+characters (a node's name, a description or a port's value: a person writes a line)."""
+MAX_XML_TOKEN: Final = 1024 * 1024
+"""The longest tag (with its attributes), comment, CDATA section or processing
+instruction, in bytes: what expat holds before it calls back."""
+_PIECE: Final = 64 * 1024
+"""The bytes given to expat at a time."""
 
 
 @dataclass
@@ -205,8 +219,12 @@ def _decoded(data: bytes, file: str) -> str | None:
 def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     """Parse XML bytes; ``file`` names the source in error messages (see :func:`parse_xml`)."""
     text = _decoded(data, file)
-    parser = expat.ParserCreate()
+    # decoded text is given to expat as UTF-8, which overrides the declared encoding
+    payload = data if text is None else text.encode("utf-8")
+    parser = expat.ParserCreate(None if text is None else "utf-8")
     stack: list[XmlElement] = []
+    texts: list[list[str]] = []  # each open element's text, in pieces (joined at its end)
+    text_sizes: list[int] = []
     roots: list[XmlElement] = []
     count = 0
 
@@ -223,6 +241,13 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
             refuse(f"more than {MAX_ELEMENTS} elements")
         if len(stack) >= MAX_DEPTH:
             refuse(f"elements nested deeper than {MAX_DEPTH} levels")
+        if len(tag) > MAX_XML_VALUE:
+            refuse(f"a tag name of {len(tag)} characters{_OVER}")
+        for key, value in attrs.items():
+            if len(key) > MAX_XML_VALUE:
+                refuse(f"<{_cut(tag)}>: an attribute name of {len(key)} characters{_OVER}")
+            if len(value) > MAX_XML_VALUE:
+                refuse(f"<{_cut(tag)}> {_cut(key)}: a value of {len(value)} characters{_OVER}")
         line, column = here()
         element = XmlElement(tag, dict(attrs), SourceLocation(file, line, column))
         if stack:
@@ -230,13 +255,25 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
         else:
             roots.append(element)
         stack.append(element)
+        texts.append([])
+        text_sizes.append(0)
 
     def end(tag: str) -> None:
-        stack.pop()
+        stack.pop().text = "".join(texts.pop())
+        text_sizes.pop()
 
     def chars(text: str) -> None:
         if stack:
-            stack[-1].text += text
+            text_sizes[-1] += len(text)
+            if text_sizes[-1] > MAX_XML_VALUE:
+                where = stack[-1].location
+                raise _Refused(
+                    f"<{_cut(stack[-1].tag)}>: more than {MAX_XML_VALUE} characters of text"
+                    " (the most an XML name, value or text may have)",
+                    where.line or 1,
+                    where.column or 1,
+                )
+            texts[-1].append(text)
 
     def doctype(*_args: object) -> None:
         refuse("a DOCTYPE is not allowed in a BehaviorTree.CPP file (no DTDs, no entities)")
@@ -251,8 +288,21 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     parser.EntityDeclHandler = entity
     parser.ExternalEntityRefHandler = lambda *_a: refuse("external entities are not allowed")  # type: ignore[assignment]
     try:
-        # Text is given to expat as UTF-8, which then overrides the declared encoding.
-        parser.Parse(data if text is None else text, True)
+        fed = 0
+        while fed < len(payload):
+            piece = payload[fed : fed + _PIECE]
+            parser.Parse(piece, False)
+            fed += len(piece)
+            # what expat holds unparsed: a tag, comment... not closed yet
+            held_from = max(parser.CurrentByteIndex, 0)
+            if fed - held_from > MAX_XML_TOKEN:
+                what = _token_kind(payload[held_from : held_from + 9])
+                raise _Refused(
+                    f"{what} still not closed after {MAX_XML_TOKEN} bytes (the most one may have)",
+                    parser.CurrentLineNumber,
+                    parser.CurrentColumnNumber + 1,
+                )
+        parser.Parse(b"", True)
     except _Refused as exc:
         raise LocatedError(exc.message, SourceLocation(file, exc.line, exc.column)) from None
     except expat.ExpatError as exc:
@@ -271,6 +321,27 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
+
+
+_OVER: Final = f", more than the {MAX_XML_VALUE} an XML name, value or text may have"
+
+
+def _cut(name: str) -> str:
+    """A tag or attribute name for a message, cut short when long."""
+    return printable(name if len(name) <= 60 else name[:57] + "...")
+
+
+def _token_kind(start: bytes) -> str:
+    """What the markup starting with ``start`` is, for a message."""
+    if start.startswith(b"<!--"):
+        return "a comment"
+    if start.startswith(b"<![CDATA["):
+        return "a CDATA section"
+    if start.startswith(b"<?"):
+        return "a processing instruction"
+    if start.startswith(b"<"):
+        return "a tag"
+    return "markup"
 
 
 def refuse_special(path: Path) -> None:
