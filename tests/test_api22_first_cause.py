@@ -3,7 +3,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
+
+import pytest
 
 import pirate_bt
 
@@ -33,3 +36,21 @@ def test_a_finish_hook_that_raises_after_a_success_still_fails_the_run() -> None
     )
     assert not result.succeeded and result.safe_state
     assert result.why == "RuntimeError: my report could not be written"
+
+
+def test_an_observe_that_closes_its_connection_is_refused_before_the_run(tmp_path: Path) -> None:
+    # was a run that went on, a failure 'link lost: session closed', exit 3 (a link
+    # error, the link fine), and its trace left behind
+    trace = tmp_path / "t.jsonl"
+    with pirate_bt.connect() as robot, pytest.raises(pirate_bt.InputError) as caught:
+        robot.run(
+            "straight",
+            params={"distance": "0.05 m"},
+            trace=trace,
+            observe=lambda runner, connection: connection.close(),
+        )
+    assert str(caught.value) == (
+        "observe: it closed the connection (simulator: straight) before the run; close it"
+        " once the run has ended (or use with pirate_bt.connect() as robot:)"
+    )
+    assert not trace.exists()

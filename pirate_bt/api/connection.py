@@ -138,6 +138,11 @@ class Connection:
         """
         return as_loaded(tree, self.robot, params)
 
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` has been called (nothing more runs on it)."""
+        return self._closed
+
     def check_open(self) -> None:
         """Refuse to run on a closed connection.
 

@@ -37,7 +37,13 @@ from pirate_bt.api.options import (
 from pirate_bt.api.results import RunResult
 from pirate_bt.api.run_trace import attach_run_trace, check_run_options, check_trace
 from pirate_bt.clock import SimClock
-from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, caller_location
+from pirate_bt.errors import (
+    InputError,
+    LocatedError,
+    SourceLocation,
+    ValidationFailed,
+    caller_location,
+)
 from pirate_bt.task.outcome import END_OF_RUN, explain_run, link_cause, unsafe_note
 
 if TYPE_CHECKING:
@@ -79,7 +85,6 @@ def as_loaded(
         ValidationFailed: the tree or a parameter does not validate.
         InputError: parameters for a tree that is not YAML, or an unknown kind of tree.
     """
-    from pirate_bt.errors import InputError
     from pirate_bt.treefile import LoadedTree
 
     params_mapping(params)
@@ -344,6 +349,15 @@ def supervised_runner(
     return runner
 
 
+def _closed_by_observe(_runner: Any, connection: Any) -> None:
+    """Refuse a run whose ``observe`` closed its connection as it attached its hooks (it
+    went on, failed as *link lost: session closed*, exit 3: the link was fine)."""
+    raise InputError(
+        f"observe: it closed the connection ({connection.description}) before the run;"
+        " close it once the run has ended (or use with pirate_bt.connect() as robot:)"
+    )
+
+
 def run_on(
     connection: Any,
     tree: Any,
@@ -415,6 +429,8 @@ def run_on(
     if observe is not None:
         call_observer(observe, runner, connection, recorder, trace_path)
         contain_hooks(runner)
+        if connection is not None and connection.closed:  # (its trace removed as unrun)
+            call_observer(_closed_by_observe, runner, connection, recorder, trace_path)
     held = supervisor.safe_state_reason if supervisor is not None else None
     try:
         loop = runner.run()
@@ -560,8 +576,6 @@ def load_tree(
     elif isinstance(tree, str | Path):
         source = find_tree(tree)
     else:
-        from pirate_bt.errors import InputError
-
         raise InputError(
             f"tree: give a tree file, a bundled name or a mapping, not {kind_of(tree)}"
         )
