@@ -80,3 +80,43 @@ def test_foxglove_connects_while_another_client_holds_more_connections_than_the_
         if run.poll() is None:
             run.kill()
             run.wait(60)
+
+
+def test_a_blackboard_value_too_long_for_the_live_view_is_shown_by_its_size() -> None:
+    """Every blackboard change republishes the whole board, and the SDK holds 1,024
+    messages for a client that does not read: before, a 2 MB value beside a counter set
+    every tick grew the server's process by 2 MB a tick for such a client (606 MB in
+    300 ticks). A live client is sent the board within 64 KiB, the largest values shown
+    by their size; the others as they are."""
+    import json
+    from pathlib import Path
+    from tempfile import TemporaryDirectory
+
+    from pirate_bt.interop.foxglove_server import FoxgloveServer
+    from tests.trace_support import run_and_record
+
+    with TemporaryDirectory() as folder:
+        trace = Path(folder) / "run.jsonl"
+        run_and_record(trace, ticks=2)
+        header = json.loads(trace.read_text().splitlines()[0])
+    big = "x" * 200_000
+    with FoxgloveServer(port=0) as server:
+        client = FoxgloveClient("127.0.0.1", server.port)
+        try:
+            assert client.wait_for(lambda c: "/pirate/blackboard" in c.channels, 10)
+            client.subscribe("/pirate/blackboard")
+            assert client.wait_for(lambda _: server.subscriptions >= 1, 10)
+            server.publish_record(header)
+            for n in (1, 2):
+                bb = {"counter": n, "path": [0.5] * 10, **({"map": big} if n == 1 else {})}
+                server.publish_record({"type": "tick", "n": n, "t_s": n / 100, "bb": bb})
+            assert client.wait_for(lambda c: len(c.of("/pirate/blackboard")) >= 2, 20)
+            boards = client.of("/pirate/blackboard")
+        finally:
+            client.close()
+    shown = "(200,002 bytes of JSON: too long for the live view)"
+    assert [board["set"].get("map") for board in boards] == [shown, None]
+    assert [board["values"] for board in boards] == [
+        {"counter": n, "path": [0.5] * 10, "map": shown} for n in (1, 2)
+    ]
+    assert all(len(json.dumps(board)) <= 64 * 1024 for board in boards)  # the docs' 64 KiB

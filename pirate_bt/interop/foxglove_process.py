@@ -61,7 +61,13 @@ if not __package__:  # run as the server process's script
         _package.__path__ = [_folder]
         sys.modules[_name] = _package
 
-from pirate_bt.interop.foxglove_schemas import RUN, TOPICS, encode_message, schema_of
+from pirate_bt.interop.foxglove_schemas import (
+    BLACKBOARD,
+    RUN,
+    TOPICS,
+    encode_message,
+    schema_of,
+)
 from pirate_bt.interop.foxglove_topics import TopicMapper, TopicMessage
 from pirate_bt.interop.groot2_relay import room_for_connections
 from pirate_bt.interop.process_pipe import PipeOutput
@@ -325,7 +331,10 @@ class Server:
             raise RuntimeError("publishing fails on purpose (fail_publishing)")
         channel = self.channels[message.topic]
         if channel.has_sinks():  # a topic nobody subscribed to is not even encoded
-            channel.log(encode_message(message.message), log_time=message.log_time_ns)
+            data = encode_message(message.message)
+            if message.topic == BLACKBOARD and len(data) > LIVE_BLACKBOARD_BYTES:
+                data = encode_message(_shortened(message.message, len(data)))
+            channel.log(data, log_time=message.log_time_ns)
             self.published += 1
 
     def close(self, within_s: float = STOP_S) -> None:
@@ -354,6 +363,40 @@ class _Listener:
 
     def on_unsubscribe(self, client: Any, channel: Any) -> None:
         return None
+
+
+LIVE_BLACKBOARD_BYTES = 64 * 1024
+"""The longest ``/pirate/blackboard`` message a live client is sent (JSON bytes): the
+largest values are shown shortened (:func:`_shortened`) until it fits."""
+
+
+def _shortened(board: Mapping[str, Any], size: int) -> dict[str, Any]:
+    """A blackboard message of ``size`` bytes of JSON, its largest ``values`` and ``set``
+    entries replaced, largest first, by a line saying their size until it is at most
+    :data:`LIVE_BLACKBOARD_BYTES`.
+
+    Every change republishes the whole board (its ``values``), and the SDK holds up to
+    1,024 messages for a client that does not read: until 2026-12-01 a board holding a
+    value of 2 MB, beside a counter set every tick, grew this process by 2 MB a tick
+    for such a client (606 MB after 300 ticks). A trace or an MCAP file holds the values
+    whole."""
+    shortened = dict(board)
+    sizes: list[tuple[int, str, str]] = []
+    for part in ("values", "set"):
+        values = board.get(part)
+        if isinstance(values, Mapping):
+            shortened[part] = dict(values)
+            for key, value in values.items():
+                if isinstance(value, str | list | dict):
+                    sizes.append((len(encode_message({"": value})) - 5, part, key))
+    sizes.sort(reverse=True)
+    for value_size, part, key in sizes:
+        if size <= LIVE_BLACKBOARD_BYTES:
+            break
+        line = f"({value_size:,} bytes of JSON: too long for the live view)"
+        shortened[part][key] = line
+        size -= value_size - len(line) - 2
+    return shortened
 
 
 def main(argv: Sequence[str]) -> int:
