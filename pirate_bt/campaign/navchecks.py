@@ -96,23 +96,59 @@ def check_navigator(
     that puts the case's robot in across a bend or a T-joint, at its ``network``; a
     blind run's navigator that needs a map, at its ``blind``.
 
+    An installed navigator is made and checked in a forked process first
+    (:func:`~pirate_bt.campaign.rehearsal.rehearse`): one that ends that process (an
+    ``os._exit``, a signal) or is still at it after the spec's ``case_timeout`` is
+    refused at its ``navigator``, where it ended or hung ``validate`` and the campaign.
+
     Returns:
         The files its parameters name that it read (the ``route`` navigator's route).
     """
+    from pirate_bt.campaign.rehearsal import rehearse
+
+    if case["navigator"] not in BUILT_IN_NAVIGATORS:
+        timeout_s = spec.quantity("case_timeout", "time") if spec is not None else 300.0
+        try:
+            rehearse(case["navigator"], lambda: _check(case, robots, spec, base), timeout_s)
+        except InputError as exc:
+            raise _placed(exc, "navigator", case, spec) from None
+    return _check(case, robots, spec, base)
+
+
+BUILT_IN_NAVIGATORS = frozenset({"route", "goal", "explore"})
+"""The navigators of pirate_bt itself (``pirate_bt.task.navigators``): not rehearsed."""
+
+
+def _placed(
+    exc: InputError, key: str, case: dict[str, Any], spec: CampaignSpec | None
+) -> InputError:
+    """``exc`` at the case's run in the spec: its ``key`` (a parameter it names, under
+    ``params``), with the run's name."""
+    run = str(case.get("run"))
+    params: dict[str, Any] = case["params"]
+    index = None if spec is None else run_index(spec, case)
+    if spec is None or index is None:
+        return InputError(f"run {run!r}: {exc}")
+    path: tuple[str | int, ...] = ("runs", index, key)
+    if key == "params":
+        named = next((k for k in params if f"'{k}'" in str(exc)), None)
+        path = (*path, named) if named is not None else path
+    return source_of(spec).error(path, f"run {run!r}: {exc}")
+
+
+def _check(
+    case: dict[str, Any],
+    robots: Callable[[str | None], Any],
+    spec: CampaignSpec | None,
+    base: Path | None,
+) -> list[str]:
+    """:func:`check_navigator`'s checks, in this process."""
     from pirate_bt.task.navigators import load_navigator, navigator_method
 
-    run = str(case.get("run"))
     params: dict[str, Any] = case["params"]
 
     def placed(exc: InputError, key: str) -> InputError:
-        index = None if spec is None else run_index(spec, case)
-        if spec is None or index is None:
-            return InputError(f"run {run!r}: {exc}")
-        path: tuple[str | int, ...] = ("runs", index, key)
-        if key == "params":
-            named = next((k for k in params if f"'{k}'" in str(exc)), None)
-            path = (*path, named) if named is not None else path
-        return source_of(spec).error(path, f"run {run!r}: {exc}")
+        return _placed(exc, key, case, spec)
 
     try:  # made once, as each case will: an unknown name or parameter stops here
         navigator = load_navigator(case["navigator"], params)

@@ -1,0 +1,113 @@
+"""Session 22: an installed navigator that ends or hangs the process it is made in is
+refused at its run, in one line, where it ended or hung `validate` and `campaign`."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+PLUG_IN = textwrap.dedent(
+    """
+    import os, signal, time
+
+    class ExitsAsMade:
+        def __init__(self, **params):
+            os._exit(7)
+        def next_step(self, obs):
+            return None
+
+    class KilledCheckingItsMap:
+        def check_map(self, network):
+            os.kill(os.getpid(), signal.SIGKILL)
+        def next_step(self, obs):
+            return None
+
+    class HangsAsMade:
+        def __init__(self, **params):
+            while True:
+                time.sleep(0.2)
+        def next_step(self, obs):
+            return None
+
+    class ForksAndExits:
+        def __init__(self, **params):
+            if os.fork() != 0:
+                os._exit(0)  # the parent goes; its child carries on as if it were made
+        def next_step(self, obs):
+            return None
+    """
+)
+
+ENTRY_POINTS = """\
+[pirate_bt.navigators]
+exits = rogue22:ExitsAsMade
+killed = rogue22:KilledCheckingItsMap
+hangs = rogue22:HangsAsMade
+forks = rogue22:ForksAndExits
+"""
+
+
+def _install(folder: Path) -> dict[str, str]:
+    """The plug-in installed where a Python given this environment finds it."""
+    (folder / "rogue22.py").write_text(PLUG_IN)
+    info = folder / "rogue22-0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: rogue22\nVersion: 0\n")
+    (info / "entry_points.txt").write_text(ENTRY_POINTS)
+    return {**os.environ, "PYTHONPATH": str(folder)}
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [
+        # was exit 7 and not a word
+        ("exits", "ended the process as it was made (or checked its map): exit status 7"),
+        # was exit 137 (-9) and not a word
+        ("killed", "ended the process as it was made (or checked its map): killed by SIGKILL"),
+        # was a 'validate' that never ended
+        ("hangs", "was still being made (or checking its map) after 2 s, the case timeout"),
+        # was exit 0 and not a word: 'validate' ended, its forked child went on
+        ("forks", "ended the process as it was made (or checked its map): exit status 0"),
+    ],
+    ids=["os-exit", "sigkill", "hang", "fork"],
+)
+def test_a_navigator_that_ends_or_hangs_its_process_is_refused_at_its_run(
+    tmp_path: Path, name: str, said: str
+) -> None:
+    env = _install(tmp_path)
+    spec = tmp_path / "n.campaign.yaml"
+    spec.write_text(
+        f"name: n\nruns:\n  - {{name: r, navigator: {name}, network: lab}}\ncase_timeout: 2 s\n"
+    )
+    out = tmp_path / "out"
+    for verb in (["validate"], ["campaign", "-q", "--output", str(out)]):
+        done = subprocess.run(
+            [sys.executable, "-m", "pirate_bt", *verb, str(spec)],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,  # killed after it (subprocess.run)
+        )
+        assert done.returncode == 2, (verb, done.returncode, done.stderr[-500:])
+        prefix = "pirate-bt: " if verb[0] == "campaign" else ""
+        assert done.stderr.splitlines() == [
+            f"{prefix}{spec}:3:15: run 'r': navigator {name!r} {said}"
+            + (
+                "; each case would die of it"
+                if "ended" in said
+                else ": each case would time out making it"
+            )
+        ]
+    assert not out.exists()
+
+
+def test_the_navigators_not_rehearsed_are_the_built_in_ones() -> None:
+    from pirate_bt.campaign.navchecks import BUILT_IN_NAVIGATORS
+    from pirate_bt.task import navigators
+
+    assert set(navigators._BUILT_IN) == BUILT_IN_NAVIGATORS
