@@ -132,6 +132,8 @@ class SimServer:
         self._thread: threading.Thread | None = None
         self._master: int | None = None
         self._slave: int | None = None
+        self._pty_poll: select.poll | None = None
+        self._host_open = False  # a host has the pty open
         self._listener: socket.socket | None = None
         self._client: socket.socket | None = None
         self.device: str | None = None
@@ -140,14 +142,40 @@ class SimServer:
     # -- endpoints ------------------------------------------------------------------
 
     def open_pty(self) -> str:
-        """Create the pseudo-terminal and return the device path a host opens."""
+        """Create the pseudo-terminal and return the device path a host opens.
+
+        A host opening it resets the bridge, as opening a real bridge's port does (its
+        DTR edge): the host meets a bridge that booted latched, not the last host's
+        session, latch or half-received frame.
+        """
         self._check_unopened()
         master, slave = os.openpty()
         tty.setraw(slave)
         os.set_blocking(master, False)
-        self._master, self._slave = master, slave
         self.device = os.ttyname(slave)
+        # from now on the master reports a hang-up while no host has the device open
+        os.close(slave)
+        self._master = master
+        self._pty_poll = select.poll()
+        self._pty_poll.register(master, select.POLLIN)
+        self._host_open = False
         return self.device
+
+    def _pty_host(self) -> bool:
+        """Whether a host has the pty open; its opening resets the bridge (a DTR edge)."""
+        assert self._pty_poll is not None
+        try:
+            events = self._pty_poll.poll(0)
+        except (OSError, ValueError):
+            return False
+        open_now = not any(flags & select.POLLHUP for _, flags in events)
+        if open_now and not self._host_open:
+            self.sim.bridge.reset()
+            _log.info("host opened %s: bridge reset (DTR)", self.device)
+        elif not open_now and self._host_open:
+            _log.info("host closed %s", self.device)
+        self._host_open = open_now
+        return open_now
 
     def open_tcp(self, port: int, host: str = "127.0.0.1") -> tuple[str, int]:
         """Listen on ``host:port`` (loopback by default; port 0 picks a free one).
@@ -234,7 +262,8 @@ class SimServer:
 
     def _wait(self, timeout_s: float) -> None:
         fds: list[int | socket.socket] = []
-        if self._master is not None:
+        if self._master is not None and self._host_open:
+            # (with no host the master reports its hang-up at once: no select on it)
             fds.append(self._master)
         if self._client is not None:
             fds.append(self._client)
@@ -248,6 +277,8 @@ class SimServer:
 
     def _read(self) -> bytes:
         if self._master is not None:
+            if not self._pty_host():
+                return b""
             try:
                 return os.read(self._master, 4096)
             except (BlockingIOError, OSError):
@@ -296,6 +327,8 @@ class SimServer:
 
     def _write(self, data: bytes) -> None:
         if self._master is not None:
+            if not self._host_open:
+                return  # no host has the pty open: the bridge talks to nobody
             with contextlib.suppress(BlockingIOError, OSError):
                 os.write(self._master, data)  # a full pty drops bytes, like a full UART
         elif self._client is not None:
