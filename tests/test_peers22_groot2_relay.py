@@ -202,3 +202,28 @@ def test_groot2_connects_while_another_client_holds_more_connections_than_the_ru
         if run.poll() is None:
             run.kill()
             run.wait(60)
+
+
+def test_a_request_over_1_mib_in_many_parts_never_reaches_the_run_s_process() -> None:
+    """ZeroMQ's limit of 1 MiB is each part's: before, a request of 300 parts of 1 MiB
+    reached the server, and the run's process grew by 600 MB reading it. A request over
+    1 MiB in all is dropped by the relay, unanswered, as one part over 1 MiB is; the
+    client's next request is answered."""
+    tree = _tree()
+    context = zmq.Context()
+    with Groot2Server(port=0) as server:
+        server.serve(tree)
+        assert server.served() is not None
+        sock = _socket(context, zmq.DEALER, server.port)
+        try:
+            part = bytes(64 * 1024)
+            sock.send_multipart([b"", pack_request(ord("S"), 1), *[part] * 20])  # 1.25 MiB
+            sock.send_multipart([b"", pack_request(ord("S"), 2)])
+            try:
+                reply = sock.recv_multipart()[1:]
+            except zmq.Again:
+                reply = [b"no reply in 30 s"]
+            assert (_uid(reply), server.requests) == (2, 1)
+        finally:
+            sock.close()
+            context.destroy(linger=0)

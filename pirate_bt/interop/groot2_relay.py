@@ -88,7 +88,7 @@ def main(argv: Sequence[str]) -> int:
     heard.connect(config["pub"])
     _tell({"port": front.getsockopt(zmq.LAST_ENDPOINT).decode().rsplit(":", 1)[1]})
     try:
-        _relay(zmq, front, notices, server, heard)
+        _relay(zmq, front, notices, server, heard, int(config["max_request_bytes"]))
     finally:
         context.destroy(linger=0)
         # the server's folder: gone with the server, or left by a run that was killed
@@ -214,8 +214,9 @@ def _cannot_listen(given: str, host: str, exc: Any) -> Refused:
     return Refused(f"--groot2 {given}: cannot listen: {strerror(exc.errno)}")
 
 
-def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any) -> None:
-    """Relay until the standard input closes: one request at a time to the server."""
+def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: int) -> None:
+    """Relay until the standard input closes: one request at a time to the server, none
+    over ``most`` bytes (:func:`_too_big`)."""
     poller = zmq.Poller()
     poller.register(server, zmq.POLLIN)
     poller.register(heard, zmq.POLLIN)
@@ -249,10 +250,29 @@ def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any) -> None:
                 break
             if _envelope_ends(request) is None:
                 continue  # not a request (REP drops it too): nobody to answer
+            if _too_big(request, most):
+                continue  # as ZeroMQ drops a part over the limit, unanswered
             server.send_multipart(request)
             asked = time.monotonic()
         # the clients are read only when the server has no request of theirs to answer
         poller.register(front, 0 if asked else zmq.POLLIN)
+
+
+ENVELOPE_BYTES = 4096
+"""The most bytes of a request's routing envelope (a REQ client's is its 5-byte identity
+and the empty delimiter; a DEALER may add parts of its own)."""
+
+
+def _too_big(parts: Sequence[bytes], most: int) -> bool:
+    """Whether a request (envelope, delimiter, then its parts) holds more than ``most``
+    bytes after its envelope, or an envelope over :data:`ENVELOPE_BYTES`. ZeroMQ's limit
+    (``MAXMSGSIZE``) is each part's: until 2026-12-01 one request of 300 parts of 1 MiB
+    reached the server, and the run's process grew by 600 MB reading it (the relay, a
+    process of its own, still holds it until it is dropped here)."""
+    ends = _envelope_ends(parts)
+    assert ends is not None
+    envelope = sum(len(part) for part in parts[: ends + 1])
+    return envelope > ENVELOPE_BYTES or sum(len(part) for part in parts[ends + 1 :]) > most
 
 
 def _envelope_ends(parts: Sequence[bytes]) -> int | None:

@@ -21,7 +21,8 @@ bounded buffer (1,000, as BT.CPP). Requests are answered from those buffers
 under a short lock; a reply that fails is logged and never reaches the tick. After
 each request the thread rests four times the CPU time it took, so that no client takes
 more than a fifth of the interpreter the tick runs in.
-Requests larger than 1 MiB are dropped by ZeroMQ before they are read.
+Requests larger than 1 MiB are dropped before they are read (a part over 1 MiB by
+ZeroMQ, many parts adding up to more by the relay).
 
 **Hooks meet the protective layer.** A hook is installed on its node before the
 next tick (never from the server's thread). A *breakpoint* holds the tick
