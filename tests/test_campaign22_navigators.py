@@ -111,3 +111,38 @@ def test_the_navigators_not_rehearsed_are_the_built_in_ones() -> None:
     from pirate_bt.task import navigators
 
     assert set(navigators._BUILT_IN) == BUILT_IN_NAVIGATORS
+
+
+def test_a_word_the_rehearsal_s_child_says_just_before_it_ends_is_heard(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import select
+    from types import SimpleNamespace
+
+    from pirate_bt.campaign import rehearsal
+
+    real_fork, real_select = os.fork, select.select
+    children: list[int] = []
+
+    def fork() -> int:
+        pid = real_fork()
+        if pid:
+            children.append(pid)
+        return pid
+
+    waits: list[object] = []
+
+    def late(read: list[int], write: list[int], error: list[int], timeout: float) -> object:
+        waits.append(timeout)
+        if len(waits) == 1:  # its word and its end both come while this wait runs out
+            real_select(read, [], [], 30)
+            os.waitid(os.P_PID, children[0], os.WEXITED | os.WNOWAIT)  # ended, not reaped
+            return [], [], []
+        return real_select(read, write, error, timeout)
+
+    monkeypatch.setattr(os, "fork", fork)
+    monkeypatch.setattr(rehearsal, "select", SimpleNamespace(select=late))
+    # a navigator made and checked at once: its end was seen, and its word left unread
+    # ("ended the process as it was made ...: exit status 0")
+    rehearsal.rehearse("fine", lambda: None, 30.0)
+    assert len(waits) == 2

@@ -100,8 +100,9 @@ def _wait_for(fd: int, pid: int, timeout_s: float) -> tuple[bytes | None, int | 
             said = os.read(fd, 1)
             return said, (_reap(pid) if said == _DONE else _ended(pid))
         ended = _ended(pid)
-        if ended is not None:
-            return b"", ended
+        if ended is not None:  # its word may have come since the select: read it
+            ready, _, _ = select.select([fd], [], [], 0)
+            return (os.read(fd, 1) if ready else b""), ended
 
 
 def _ended(pid: int) -> int | None:
