@@ -43,24 +43,28 @@ BOARDS = sorted(ROBOT.board_ids())
 AWAY_S = 0.4  # every board silent this long
 
 
-def _firmware_host(tmp: Path) -> object:
-    from firmware_host import FirmwareHostBridge, build_host_library
+@pytest.fixture(scope="module")
+def library(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The bridge firmware's C built for this machine, once for the module."""
+    from firmware_host import build_host_library
 
     try:
-        library = build_host_library(tmp / "build")
+        return build_host_library(tmp_path_factory.mktemp("fw22-bus"))
     except RuntimeError as exc:
         if "no host C compiler" in str(exc):
             pytest.skip(f"{exc}: the firmware cannot be built for the host")
         raise
-    return FirmwareHostBridge(ROBOT, library, tmp / "copies")
 
 
 @pytest.fixture(params=["sim", "firmware-host"])
-def bridge(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+def bridge(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator:
     if request.param == "sim":
         under_test = InProcessSimBridge(ROBOT)
     else:
-        under_test = _firmware_host(tmp_path_factory.mktemp("fw22-bus"))
+        from firmware_host import FirmwareHostBridge
+
+        library = request.getfixturevalue("library")
+        under_test = FirmwareHostBridge(ROBOT, library, tmp_path)
     try:
         yield under_test
     finally:

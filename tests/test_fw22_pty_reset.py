@@ -19,6 +19,7 @@ import os
 import struct
 import time
 import tty
+from collections.abc import Callable
 
 from cleanroom_peer import (
     ACK,
@@ -62,6 +63,13 @@ def _answer(fd: int, decoder: Decoder, kind: int, request: bytes, seq: int) -> F
     raise AssertionError(f"no answer of type {kind:#x} to seq {seq} within 20 s")
 
 
+def _until(condition: Callable[[], bool], what: str) -> None:
+    deadline = time.monotonic() + 20.0
+    while not condition():
+        assert time.monotonic() < deadline, f"not within 20 s: {what}"
+        time.sleep(0.01)
+
+
 def _connection(device: str, *, half_frame: bool = False) -> Frame:
     """Open the pty, HELLO; release the latch and latch it again (an operator's e-stop);
     close (mid-frame, with ``half_frame``). The HELLO_REPLY."""
@@ -89,7 +97,7 @@ def test_opening_the_simulators_pty_resets_its_bridge_as_a_real_port_does() -> N
         server.start()
         try:
             first = _connection(device, half_frame=True)
-            time.sleep(0.1)  # the first host is gone for a while
+            _until(lambda: not server.host_connected, "the server sees the first host leave")
             second = _connection(device)
         finally:
             server.stop()

@@ -161,6 +161,12 @@ class SimServer:
         self._host_open = False
         return self.device
 
+    @property
+    def host_connected(self) -> bool:
+        """A host has the pty open, or a TCP host is connected (as the serving loop last
+        saw it)."""
+        return self._host_open if self._master is not None else self._client is not None
+
     def _pty_host(self) -> bool:
         """Whether a host has the pty open; its opening resets the bridge (a DTR edge)."""
         assert self._pty_poll is not None
