@@ -226,6 +226,7 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     texts: list[list[str]] = []  # each open element's text, in pieces (joined at its end)
     text_sizes: list[int] = []
     roots: list[XmlElement] = []
+    seen = [False]  # a comment before the first element
     count = 0
 
     def here() -> tuple[int, int]:
@@ -281,11 +282,25 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     def entity(*_args: object) -> None:
         refuse("entity declarations are not allowed")
 
+    def instruction(target: str, _data: str) -> None:
+        # tinyxml2, BT.CPP's parser, reads <?...?> as a declaration, which may only
+        # come before everything else: anywhere else it refuses the file
+        if stack or roots or seen[0]:
+            refuse(
+                f"a processing instruction (<?{_cut(target)} ...?>) is only allowed before"
+                " everything else in the file (BehaviorTree.CPP refuses it here)"
+            )
+
+    def comment(_text: str) -> None:
+        seen[0] = True
+
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
     parser.StartDoctypeDeclHandler = doctype
     parser.EntityDeclHandler = entity
+    parser.ProcessingInstructionHandler = instruction
+    parser.CommentHandler = comment
     parser.ExternalEntityRefHandler = lambda *_a: refuse("external entities are not allowed")  # type: ignore[assignment]
     try:
         fed = 0
