@@ -46,13 +46,17 @@ class ReadingRanges:
         self.refused = 0
         """Fresh readings refused since the link opened."""
 
-    def readings(self, frame: State, *, older: bool = False) -> list[int | None]:
+    def readings(
+        self, frame: State, *, older: bool = False, quiet: bool = False
+    ) -> list[int | None]:
         """``frame``'s raw readings, ``None`` where the channel is not fresh or its value
         lies outside the channel's raw range (refused: counted, and logged once until
         the channel reads in range again). ``older``: a frame older than one already
         checked (folded into a snapshot after the newest), whose readings in range say
         nothing of the channel now: they do not end its refusal's silence (before
-        2026-11-30 such a frame made the next older one out of range logged again)."""
+        2026-11-30 such a frame made the next older one out of range logged again).
+        ``quiet``: a frame read again (a snapshot of it built once more): a refusal is
+        neither counted nor logged a second time (implies ``older``)."""
         raw = frame.readings()
         values = frame.raw_values
         for lo, hi, get in self._groups:
@@ -60,16 +64,18 @@ class ReadingRanges:
             if min(group) < lo or max(group) > hi:
                 break
         else:
-            if self._said and not older:
+            if self._said and not (older or quiet):
                 self._said.clear()
             return raw
         for i, value in enumerate(raw):
             name = self._names[i]
             if value is None or self._lows[i] <= value <= self._highs[i]:
-                if not older:
+                if not (older or quiet):
                     self._said.discard(name)
                 continue
             raw[i] = None
+            if quiet:
+                continue
             self.refused += 1
             if name not in self._said:
                 self._said.add(name)

@@ -115,6 +115,14 @@ class RobotLink:
         """The latest state snapshot, or ``None`` before the first state frame."""
         return self._snaps.current(self.session)
 
+    def states_between(self, after: RobotState, newest: RobotState) -> tuple[RobotState, ...]:
+        """Snapshots of the STATEs taken after ``after`` and before ``newest`` (two
+        snapshots :meth:`state` returned), oldest first: what a 20 Hz tick reading the
+        newest does not see of a 100 Hz bridge. Optional on a port (not in
+        :class:`~pirate_bt.robot.port.RobotPort`); built only when asked
+        (:meth:`~pirate_bt.link.snapshots.Snapshots.between`)."""
+        return self._snaps.between(self.session, after, newest)
+
     def boards_not_answering(self) -> tuple[int, ...]:
         """The boards the bridge's latest ``STATE`` reports in ``TIMEOUT`` (not answering
         it: a reboot, a lost reply), by id: what the supervisor names when their readings

@@ -442,7 +442,7 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
                     away: tuple[int, ...] = getattr(self._port, "boards_not_answering", tuple)()
                     why = stale_because_away(self.robot, away, stale)
                     self.safe_state(f"stale data: {names}{why}")
-            self._hold_in_steep_pipe(state, now)
+            self._hold_each_state(state, now)
             self._watch_stalls(state, now)
 
     # -- commands ------------------------------------------------------------

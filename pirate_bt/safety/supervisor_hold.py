@@ -211,6 +211,8 @@ class HoldMixin:
     _hold_sent_s: float
     _was_steep: bool
     _hold_torque: float
+    _hold_seen: RobotState | None = None
+    """The newest snapshot the hold read on the last tick (see :meth:`_hold_each_state`)."""
     _hold_away: frozenset[Half] = frozenset()
     """Halves whose protective clamp the link refused, their board away (rebooting):
     the end of a run waits for them as for a clamp on its way (the bridge hands a board
@@ -327,6 +329,46 @@ class HoldMixin:
             and not stale_channels(self.robot, state, self._half_channels[h], now_s)
         ]
         return halves, holding
+
+    def _hold_each_state(self, state: RobotState, now_s: float) -> None:
+        """The protective hold on ``state`` (the newest), and on the STATEs since the last
+        tick when the newest shows a half holding: a 20 Hz tick reads one STATE in five,
+        and a half riding a tee's opening may hold nothing in one of the four it does not
+        read and hold again in the fifth (the robot slid meanwhile). The first of them in
+        a steep pipe in which no half holds (by its readings' freshness at its arrival)
+        is acted on as the newest would be (the safe state, the protective clamp), once;
+        the newest is judged after it. Only where the hold may act and is not acting: once
+        a half has held, not latched, no protective clamp on its way, steep now or on the
+        last tick; elsewhere (most ticks) it costs a few lookups. A port without
+        ``states_between`` (an optional method; a test's fake) is judged on its newest
+        STATE only, as before."""
+        seen, self._hold_seen = self._hold_seen, state
+        if (
+            seen is not None
+            and seen is not state
+            and (self._ever_held or self._run_ended)
+            and self._mode is not Mode.ESTOP
+            and not self.holding
+        ):
+            limit = self.robot.motion.max_unclamped_slope
+            pitch = state.imu_rad.get("pitch")
+            steep = pitch is not None and abs(pitch) > limit
+            between = getattr(self._port, "states_between", None)
+            if (
+                (steep or self._was_steep)
+                and between is not None
+                and self._halves_holding(state, now_s)[1]  # else the newest says it
+            ):
+                for earlier in between(seen, state):
+                    tilt = earlier.imu_rad.get("pitch")
+                    if (
+                        tilt is not None
+                        and abs(tilt) > limit
+                        and not self._halves_holding(earlier, earlier.stamp_s)[1]
+                    ):
+                        self._hold_in_steep_pipe(earlier, earlier.stamp_s)
+                        break
+        self._hold_in_steep_pipe(state, now_s)
 
     def _hold_in_steep_pipe(self, state: RobotState, now_s: float) -> None:
         """Clamp what may clamp when nothing holds the robot in a steep pipe any more."""
