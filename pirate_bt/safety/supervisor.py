@@ -37,6 +37,8 @@ The class is split along its seams, one mixin per module:
   hold, which clamps on its own when nothing holds the robot in a steep pipe.
 - :mod:`pirate_bt.safety.supervisor_stall` (:class:`StallMixin`): lets a joint go
   that stays still short of its position setpoint (a stalled motor).
+- :mod:`pirate_bt.safety.supervisor_stale` (:func:`stale_cause`): why the safety
+  readings went stale, for the safe state's cause (the link silent, or a board away).
 
 This module keeps :class:`Supervisor` itself: its construction, what the layers
 above read, the tick, the command entry points, the simulator and closing.
@@ -58,7 +60,6 @@ from pirate_bt.errors import (
     LinkError,
     ProtocolMismatch,
 )
-from pirate_bt.link.away import stale_because_away
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -97,6 +98,7 @@ from pirate_bt.safety.port_view import PortView
 from pirate_bt.safety.supervisor_authority import AuthorityMixin, as_mode
 from pirate_bt.safety.supervisor_decide import DecisionMixin, board_readings
 from pirate_bt.safety.supervisor_hold import HoldMixin, half_channels, hold_torque
+from pirate_bt.safety.supervisor_stale import stale_cause
 from pirate_bt.safety.supervisor_stall import StallMixin
 from pirate_bt.safety.verdict import (
     Reason,
@@ -418,30 +420,8 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
                 return
             stale = stale_channels(self.robot, state, self._base_channels, now)
             if stale and not self.in_safe_state:
-                names = ", ".join(f"{n} ({a:.3f} s)" for n, a in stale[:4])
-                no_state = now - state.stamp_s
-                if no_state >= min(age for _, age in stale) - 1e-9:
-                    # no STATE frame came since these readings were fresh: they went
-                    # stale because the link fell silent, which is the first cause (a
-                    # link error, exit 3), found before max_link_silence runs out. Its
-                    # newest STATE, not its newest frame: an ACK heard after the last
-                    # STATE (then nothing) made the same silence "stale data", exit 1.
-                    health = self._port.health()
-                    silent = health.silent_for(now)
-                    heard = (
-                        health.silence_text(silent)
-                        if silent >= no_state - 1e-9
-                        else f"no state frame from the bridge for {no_state:.3f} s (the"
-                        f" last frame heard, {silent:.3f} s ago, held no state)"
-                    )
-                    if refused := health.states_refused_text():  # not silent: refused
-                        heard = f"no state frame taken for {no_state:.3f} s: {refused}"
-                    cause = f"{Reason.LINK_SILENT}: {heard}, so its readings are stale: {names}"
-                    self.safe_state(cause, error=LinkError(cause))
-                else:  # a board the bridge reports in TIMEOUT (rebooting) is the cause
-                    away: tuple[int, ...] = getattr(self._port, "boards_not_answering", tuple)()
-                    why = stale_because_away(self.robot, away, stale)
-                    self.safe_state(f"stale data: {names}{why}")
+                cause, error = stale_cause(self.robot, self._port, state, stale, now)
+                self.safe_state(cause, error=error)
             self._hold_each_state(state, now)
             self._watch_stalls(state, now)
 
