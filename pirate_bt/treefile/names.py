@@ -45,23 +45,30 @@ def name_problem(name: object) -> str | None:
         return "name: must be non-empty text"
     if "/" in name:
         return "name: must not contain '/' (used in node paths)"
-    if any(unicodedata.category(c) in ("Cc", "Cs") for c in name):
+    # each character asked about once: a hostile file's name may have millions
+    distinct = set(name)
+    if any(unicodedata.category(c) in ("Cc", "Cs") for c in distinct):
         return "name: must not contain control characters"
     if name != name.strip():  # 'grip' and 'grip ' are shown alike
         return "name: must not begin or end with a space (two names would look alike)"
-    odd = next((c for c in name if unicodedata.category(c) in _SPACES and c != " "), None)
+    odd = _first(name, {c for c in distinct if unicodedata.category(c) in _SPACES} - {" "})
     if odd is not None:  # a no-break space looks like a space; U+2028 breaks the line
         return (
             f"name: must not contain U+{ord(odd):04X} {unicodedata.name(odd, '')}"
             " (a space other than ' ', or a line break: two names would look alike)"
         )
-    hidden = next((c for c in name if c in _INVISIBLE), None)
+    hidden = _first(name, distinct & _INVISIBLE)
     if hidden is not None:  # 'grip' and 'grip\u200b' would be two names shown alike
         return (
             f"name: must not contain U+{ord(hidden):04X} {unicodedata.name(hidden, '')}"
             " (an invisible or text-direction character: two names would look alike)"
         )
     return None
+
+
+def _first(text: str, found: set[str]) -> str | None:
+    """Which of ``found`` (characters of ``text``) comes first in ``text``."""
+    return min(found, key=text.index) if found else None
 
 
 _SPACES = frozenset({"Zs", "Zl", "Zp"})
