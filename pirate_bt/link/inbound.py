@@ -147,6 +147,10 @@ class InboundMixin(HelloMixin):
     _bad_state_run: int = 0
     # STATE frames refused since the last one taken: bad CRC, another length, not newer
     _refused: tuple[int, ...] = _NO_REFUSALS
+    # frames dropped unread since the last STATE taken, by reason, and how many: what the
+    # refused STATE counts cannot name (see unreadable_since_state)
+    _unreadable: collections.Counter[str] | None = None
+    _unreadable_n: int = 0
     # the next ordered seq to send
     _next_seq: int
     # ESTOP_INPUT without ESTOP was seen (and logged) in this session
@@ -182,6 +186,21 @@ class InboundMixin(HelloMixin):
         reason (:data:`STATE_REFUSALS`): a bad CRC, another length, not newer than the
         one held, another protocol version."""
         return self._refused
+
+    def unreadable_since_state(self) -> str:
+        """The frames that came since the last ``STATE`` taken (or the session's start)
+        and could not be read, and are not among :meth:`refused_states` (a frame cut or
+        damaged before its type could be trusted: ``cobs``, ``crc``, ``oversize``, ...),
+        for people: ``"15 unreadable frames (cobs 12, crc 3)"``, ``""`` when none came.
+        Unlike :meth:`line_noise`, a good frame that is no ``STATE`` (an ``ACK``, the
+        bridge's heartbeat) does not start it again: a bridge that answers but whose
+        STATEs all arrive garbled is told from one that sends none."""
+        with self._lock:
+            n, counts = self._unreadable_n, self._unreadable
+            if not n or counts is None:
+                return ""
+            why = ", ".join(f"{reason} {k}" for reason, k in sorted(counts.items()))
+            return f"{n} unreadable frame{'s' * (n != 1)} ({why})"
 
     def answers_unasked_since(self, since_s: float) -> int:
         """``ACK`` and ``NACK`` frames that answer a request the host never made (another
@@ -260,6 +279,11 @@ class InboundMixin(HelloMixin):
                 self._refuse_state(0 if isinstance(item, BadCrc) else 3)
             elif isinstance(item, UnknownAckStatus):
                 self._unknown_ack(item)
+            else:  # no STATE refusal names it: counted till the next STATE taken
+                if self._unreadable is None:
+                    self._unreadable = collections.Counter()
+                self._unreadable[item.reason] += 1
+                self._unreadable_n += 1
             return
         if item.TYPE < 0x80:  # pragma: no mutate (no message type is 0x80)
             self.unexpected += 1  # our own frames (loop://) or a confused peer
@@ -464,6 +488,10 @@ class InboundMixin(HelloMixin):
         self._accept_any_state = False  # pragma: no mutate (None is falsy as False is)
         self._old_state_run = 0
         self._refused = _NO_REFUSALS
+        if self._unreadable_n:
+            self._unreadable_n = 0
+            if self._unreadable is not None:
+                self._unreadable.clear()
         previous_s = self._state_at_s
         self._state = item
         self._state_at_s = now

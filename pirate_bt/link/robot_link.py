@@ -115,6 +115,13 @@ class RobotLink:
         """The latest state snapshot, or ``None`` before the first state frame."""
         return self._snaps.current(self.session)
 
+    def noise_since_state(self) -> str:
+        """The unreadable frames that came since the last ``STATE`` taken, for people
+        (``"15 unreadable frames (cobs 15)"``; ``""``: none): what the supervisor adds
+        when no ``STATE`` came for its staleness limit while other frames did. Optional
+        on a port (not in :class:`~pirate_bt.robot.port.RobotPort`); read only then."""
+        return self.session.unreadable_since_state()
+
     def states_between(self, after: RobotState, newest: RobotState) -> tuple[RobotState, ...]:
         """Snapshots of the STATEs taken after ``after`` and before ``newest`` (two
         snapshots :meth:`state` returned), oldest first: what a 20 Hz tick reading the

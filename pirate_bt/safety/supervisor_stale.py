@@ -46,6 +46,14 @@ def stale_cause(
         )
         if refused := health.states_refused_text():  # not silent: refused
             heard = f"no state frame taken for {no_state:.3f} s: {refused}"
+        if silent < no_state - 1e-9:
+            # good frames came since the last STATE (ACKs, heartbeats), so the line's
+            # noise since the last good frame says nothing of the STATEs: name what
+            # came unreadable since the last STATE (garbled STATEs, likely), so that a
+            # noisy line is not taken for a bridge that stopped sending its state
+            noise: str = getattr(port, "noise_since_state", str)()
+            if noise:
+                heard = f"{heard}; {noise} came since the last STATE taken"
         cause = f"{Reason.LINK_SILENT}: {heard}, so its readings are stale: {names}"
         return cause, LinkError(cause)
     # a board the bridge reports in TIMEOUT (rebooting) is the cause
