@@ -135,6 +135,9 @@ class HelloMixin:
     def _service(self, now: float) -> None:
         raise NotImplementedError
 
+    def _transmit(self, req: Request) -> None:
+        raise NotImplementedError
+
     def _start_session(self, now: float, why: str) -> None:
         raise NotImplementedError
 

@@ -402,6 +402,19 @@ class InboundMixin(HelloMixin):
             return
         if isinstance(item, Nack):
             req.nack = item.error
+            if kind == MsgType.ESTOP and req.tries <= self.config.max_retries:
+                # A frame that fails the bridge's checks is no command (docs/protocol.md,
+                # Checks): it did not latch. Damaged past its CRC, or mangled on the way:
+                # sent again at once, the same frame, as a lost copy is (it is applied
+                # whatever its seq); after every try, the link says so (estop_not_taken)
+                _log.warning(
+                    "the bridge refused e-stop seq %d (NACK %s): not latched; sent again",
+                    item.seq,
+                    item.error.name,
+                )
+                self._oob[(kind, item.seq)] = req
+                self._transmit(req)
+                return
             self._settle(req, Outcome.NACKED, now)
         elif item.status is AckStatus.STALE:
             req.ack_status = item.status  # not applied: a failure, never an acknowledgement

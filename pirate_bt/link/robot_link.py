@@ -24,7 +24,7 @@ from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.away import BoardsAway, not_answering
-from pirate_bt.link.closing import wait_for_estop
+from pirate_bt.link.closing import estop_not_taken, wait_for_estop
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
 from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.health import (
@@ -102,6 +102,8 @@ class RobotLink:
 
         Raises:
             LinkLost: nothing valid heard for longer than the configured time.
+            EStopNotTaken: an e-stop the bridge refused or never answered on every try,
+                and its STATEs show no latch (raised once).
         """
         if self.session.threaded:
             self.session.check_reader()
@@ -110,6 +112,9 @@ class RobotLink:
             self.session.poll()
         if self._away.owed:
             self._redeliver()
+        estop = self.session.take_estop_not_taken()
+        if estop is not None and not self.session.latch_reported:
+            raise estop_not_taken(estop)  # once: the supervisor stops the drives
 
     def state(self) -> RobotState | None:
         """The latest state snapshot, or ``None`` before the first state frame."""

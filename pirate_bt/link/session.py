@@ -176,6 +176,7 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
         self._init_reader()
         self.last_hello_reply: HelloReply | None = hello_reply
         self._pending_failures: list[Request] = []
+        self._estop_not_taken: Request | None = None  # see take_estop_not_taken
         self._due_s = -math.inf  # no retry, give-up or heartbeat is due before this time
 
     # --- public -----------------------------------------------------------------------------
@@ -320,6 +321,17 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
         """
         with self._lock:
             self._check_alive()
+
+    def take_estop_not_taken(self) -> Request | None:
+        """An ``ESTOP`` the bridge refused (``NACK``) or never answered on every try since
+        the last call, or ``None``: the bridge did not latch, and nothing else will say so
+        (its ``STATE`` frames only show no latch). Taken out of :meth:`take_failures`'s
+        list too: it is said once, by the caller of this."""
+        with self._lock:
+            req, self._estop_not_taken = self._estop_not_taken, None
+            if req is not None and req in self._pending_failures:
+                self._pending_failures.remove(req)
+            return req
 
     def take_failures(self) -> list[Request]:
         """Requests that failed, were refused or came back stale since the last call."""
@@ -472,6 +484,8 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
             req.msg, Heartbeat | Hello
         ):
             self._pending_failures.append(req)
+            if type(req.msg) is EStop and outcome is not Outcome.STALE:
+                self._estop_not_taken = req  # refused or unanswered on every try
         self._recent.append(outcome is Outcome.FAILED or req.tries > 1)
 
     def _start_session(self, now: float, why: str) -> None:

@@ -60,6 +60,7 @@ from pirate_bt.errors import (
     LinkError,
     ProtocolMismatch,
 )
+from pirate_bt.link.closing import EStopNotTaken
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -391,7 +392,13 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
                 if not self.in_safe_state:
                     # a bridge of another layout or protocol still hears the host: the
                     # link is not lost (and the safe state's stop falls back to its e-stop)
-                    lost = "protocol mismatch" if isinstance(exc, ProtocolMismatch) else "link lost"
+                    lost = (
+                        "protocol mismatch"
+                        if isinstance(exc, ProtocolMismatch)
+                        else "e-stop not latched"  # the drives stop by setpoint instead
+                        if isinstance(exc, EStopNotTaken)
+                        else "link lost"
+                    )
                     self.safe_state(f"{lost}: {exc}", error=exc)
                 return
             self._resend_owed_stop()
