@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import stat
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -36,7 +37,8 @@ def write_atomically(
 
     Its folder is made if missing. A symbolic link is followed (its target is replaced,
     the link stays). A path that exists and is not a regular file (a device such as
-    ``/dev/null``, a pipe) is written in place, never replaced. The new file gets the
+    ``/dev/null``, a pipe) is written in place, never replaced; a named pipe nobody
+    reads is refused at once (``ENXIO``), not waited on. The new file gets the
     old one's permissions, or what ``open()`` would have given.
 
     Args:
@@ -60,7 +62,7 @@ def write_atomically(
     target.parent.mkdir(parents=True, exist_ok=True)
     if target.exists() and not target.is_file():
         try:
-            with open(target, "wb") as stream:
+            with _opened_in_place(target, out) as stream:
                 fill(stream)
         except OSError as exc:
             _name(exc, out)
@@ -89,6 +91,23 @@ def write_atomically(
             _name(exc, out)
         raise
     return target
+
+
+def _opened_in_place(target: Path, out: Path) -> IO[bytes]:
+    """``target``, not a regular file, opened to be written in place. A named pipe is
+    opened without waiting: one nobody reads is refused (``ENXIO``, naming ``out``, the
+    path as given), where ``open()`` waited for a reader for ever; one that is read is
+    then written as any file."""
+    if not stat.S_ISFIFO(target.stat().st_mode):
+        return open(target, "wb")
+    try:
+        fd = os.open(target, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OSError(errno.ENXIO, "a named pipe nobody reads", str(out)) from None
+        raise
+    os.set_blocking(fd, True)
+    return open(fd, "wb")
 
 
 _WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})

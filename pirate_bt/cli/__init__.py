@@ -26,6 +26,7 @@ import importlib
 import logging
 import os
 import signal
+import stat
 import sys
 import traceback
 from collections.abc import Callable, Sequence
@@ -42,6 +43,7 @@ __all__ = [
     "check_folder_output",
     "check_output",
     "main",
+    "refuse_pipe",
     "stdout_open",
     "utf8_text",
     "write_to_stdout",
@@ -105,8 +107,8 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
     by its option (``errors.output_argument``, the API's rule).
 
     Raises:
-        InputError: ``path`` is a folder, a file is on its way, the system refuses the
-            name, or its folder takes no file.
+        InputError: ``path`` is a folder, a named pipe or a socket, a file is on its
+            way, the system refuses the name, or its folder takes no file.
     """
     import tempfile
 
@@ -119,6 +121,7 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
     if isinstance(path, str) and path.endswith(("/", os.sep)):  # Path() drops it: x.xml/
         raise InputError(f"{option}: {path} ends in '/', a folder; name the file to write")
     target = output_argument(path, option)
+    refuse_pipe(target, option)
     # A folder that exists but takes no file (read-only, /proc): found now, not after
     # a survey or a campaign has run. Probed with a file made and removed at once in
     # the nearest folder that exists (the others are made in it).
@@ -134,6 +137,29 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> None:
         ) from None
     os.close(handle)
     os.unlink(probe)
+
+
+def refuse_pipe(path: str | os.PathLike[str], option: str) -> None:
+    """Refuse an output that is a named pipe or a socket (a link to one too): a named
+    pipe nobody read was waited on for ever (``render -o``, ``robot header -o``, ``trace
+    plot -o``, ``trace export -o x.mcap``, a mission's ``plot.png``), and a socket
+    cannot be opened. A device (``/dev/null``) is written in place
+    (:func:`pirate_bt.atomic.write_atomically`), as before.
+
+    Raises:
+        InputError: ``path`` is a named pipe or a socket, named by ``option``.
+    """
+    try:  # followed, as a write would follow a link
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+        from pirate_bt.errors import MAX_PATH, InputError, shown
+
+        kind = "a named pipe" if stat.S_ISFIFO(mode) else "a socket"
+        raise InputError(
+            f"{option}: {shown(os.fspath(path), MAX_PATH)} is {kind}, not a file to write"
+        )
 
 
 def as_option(exc: Exception, parameter: str, option: str) -> None:

@@ -53,13 +53,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pirate_bt.cli.mission import execute
+    from pirate_bt.cli.mission import check_outputs_in, execute
 
     path = args.robot or default_robot_path()
     robot = load_robot(path)
     # bad input is refused before anything is printed or written: the route, and an
     # output folder that cannot be made or written in
-    from pirate_bt.cli import check_folder_output, check_output
+    from pirate_bt.cli import check_folder_output
     from pirate_bt.filekinds import validate_file
 
     check_folder_output(args.output)  # not a folder named "-"
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
     route = args.route or bundled("scenarios", "lab.route")
     validate_file(route, "route")
-    check_output(Path(args.output) / "report.md", "--output")
+    check_outputs_in(Path(args.output), trace_there=True, also=("robot.svg",))
     print(f"validated {path}: {robot.name}")
     print(
         f"state frame: {len(robot.state_channels())} channels;"

@@ -28,6 +28,26 @@ from pirate_bt.units import parse_quantity
 __all__ = ["MissionOutputs", "configure", "execute", "run"]
 
 
+def check_outputs_in(folder: Path, *, trace_there: bool, also: tuple[str, ...] = ()) -> None:
+    """Check a mission's ``--output`` folder before anything is planned or run: its
+    report as ``-o`` checks a file (a folder that takes no file), and each other file it
+    writes there (``also``: the caller's own) for a named pipe, which was waited on for
+    ever at the end (``plot.png``), or refused as the API's ``trace: DIR/trace.jsonl
+    ...``, an option nobody typed. A picture that cannot be written otherwise (a folder
+    in its place) is said after the run, which it does not fail.
+
+    Raises:
+        InputError: the report cannot be written, or a file is a named pipe or a socket.
+    """
+    from pirate_bt.api.mission_outputs import OUTPUT_NAMES
+    from pirate_bt.cli import check_output, refuse_pipe
+
+    check_output(folder / "report.md", "--output")
+    traced = ("trace.jsonl",) if trace_there else ()
+    for name in (*also, *traced, *OUTPUT_NAMES):
+        refuse_pipe(folder / name, "--output")
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("route", metavar="ROUTE", help="the route file (.route)")
     where = parser.add_mutually_exclusive_group()
@@ -170,10 +190,9 @@ def execute(
     if args.output is not None and not args.plan:
         # named --output, not "trace" (DIR/trace.jsonl was the first path checked)
         from pirate_bt.api.options import output_folder
-        from pirate_bt.cli import check_output
 
         output_folder(args.output, "--output")
-        check_output(Path(args.output) / "report.md", "--output")
+        check_outputs_in(Path(args.output), trace_there=args.trace is None)
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     # the run's options, as the API checks them, before the plan is printed (a bad

@@ -205,6 +205,9 @@ def check_trace_path(path: str) -> None:
 
     suffix_of(path, WRITERS)
     check_output(path, "--trace")
+    from pirate_bt.api.options import output_path
+
+    output_path(path, "--trace")  # the API's rule (no device), named as typed: "trace: ..."
     from pirate_bt.trace.recorder_args import TraceWriteError, check_free
 
     try:
