@@ -25,6 +25,7 @@ as a network file.
 from __future__ import annotations
 
 import math
+import numbers
 import random
 import re
 from collections.abc import Sequence
@@ -74,6 +75,16 @@ kept its own slope, was a slope set on a vertical run: ``pirate-bt network pertu
 refused one seed in eight (*segment 'e': cannot set a slope on a vertical run*)."""
 
 
+_FIELDS = (
+    "length_fraction",
+    "length_max_m",
+    "slope_rad",
+    "diameter_fraction",
+    "diameter_min_m",
+    "diameter_max_m",
+)
+
+
 @dataclass(frozen=True)
 class AsBuiltBounds:
     """How far an as-built network may differ from its drawing.
@@ -95,9 +106,21 @@ class AsBuiltBounds:
     diameter_max_m: float = 0.120
 
     def __post_init__(self) -> None:
+        for name in _FIELDS:  # each a finite number (a NumPy one as its float)
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                # text or None was a bare TypeError ('<' not supported ...)
+                raise ArgumentTypeError(
+                    f"as-built bounds: {name}: give a number, not {kind_of(value)}"
+                )
+            if not math.isfinite(value):  # nan was taken: every variant's lengths nan
+                raise ConfigurationError(f"as-built bounds: {name} {value!r} is not finite")
+            object.__setattr__(self, name, float(value))
         for name in ("length_fraction", "length_max_m", "slope_rad", "diameter_fraction"):
             if getattr(self, name) < 0:
                 raise ConfigurationError(f"as-built bounds: {name} must not be negative")
+        if not self.diameter_min_m > 0:
+            raise ConfigurationError("as-built bounds: diameter_min_m must be above 0")
         if self.length_fraction >= 1.0:
             raise ConfigurationError("as-built bounds: length_fraction must be below 1")
         if self.slope_rad > math.pi / 2 + 1e-9:  # past plumb: no slope a run can have
@@ -109,7 +132,17 @@ class AsBuiltBounds:
             raise ConfigurationError("as-built bounds: diameter_min_m is above diameter_max_m")
 
     def scaled(self, factor: float) -> AsBuiltBounds:
-        """The same bounds ``factor`` times as wide (the clampable range stays)."""
+        """The same bounds ``factor`` times as wide (the clampable range stays).
+
+        Raises:
+            ArgumentTypeError: ``factor`` is no number.
+            ConfigurationError: ``factor`` is not finite, or the bounds it makes are
+                out of range (a negative factor, a slope past plumb).
+        """
+        if isinstance(factor, bool) or not isinstance(factor, numbers.Real):
+            raise ArgumentTypeError(f"factor: give a number, not {kind_of(factor)}")
+        if not math.isfinite(factor):  # nan made every bound nan
+            raise ConfigurationError(f"as-built bounds: a scale of {factor!r} is not finite")
         return replace(
             self,
             length_fraction=min(self.length_fraction * factor, 0.9),
@@ -167,7 +200,7 @@ def _variant_name(name: object) -> str | None:
         raise ArgumentTypeError(f"name: give the variant's name as text, not {kind_of(name)}")
     if not name.strip():
         raise ArgumentValueError("name: empty; give the variant's name, or None for the default")
-    return name
+    return str(name)  # a NumPy text (numpy.str_) was the name YAML could not write
 
 
 def perturb_network(
