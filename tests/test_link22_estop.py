@@ -117,3 +117,32 @@ def test_an_estop_whose_answers_are_lost_but_latched_is_not_said_not_taken() -> 
             sup.tick()
     assert not sup.in_safe_state, sup.safe_state_reason
     assert sup.mode is Mode.ESTOP
+
+
+def test_an_estop_answered_stale_with_no_latch_stops_the_drives_and_says_so() -> None:
+    """docs/protocol.md: an ESTOP latches whatever its seq, and is answered ACK APPLIED.
+    A bridge that answered it STALE (not applied) and showed no latch was taken as
+    latched too (found probing: the same hole as a NACK)."""
+    wire = Wire(hello=reply(sessions=1))
+    link = RobotLink(ROBOT, wire.session)
+    wire.answer(_state(1))
+    wire.poll(0.01)
+    sup = Supervisor(link, wire.clock)
+    sup.tick()
+    wire.sent()
+    sup.estop("operator stop")
+    for seq in range(2, 40):
+        for msg in wire.sent():
+            if isinstance(msg, EStop):
+                wire.answer(Ack(msg.seq, int(MsgType.ESTOP), AckStatus.STALE))
+        wire.answer(_state(seq))
+        wire.clock.advance(0.01)
+        if seq % 5 == 0:
+            sup.tick()
+        if sup.in_safe_state:
+            break
+    why = sup.safe_state_reason
+    assert why is not None
+    assert why.startswith("e-stop not latched: the bridge did not latch the e-stop"), why
+    assert "answered it STALE, not applied" in why, why
+    assert sup.mode is Mode.ESTOP

@@ -15,27 +15,31 @@ from __future__ import annotations
 import contextlib
 
 from pirate_bt.errors import LinkError, ProtocolMismatch
-from pirate_bt.link.requests import Request
+from pirate_bt.link.requests import Outcome, Request
 from pirate_bt.link.session import Session
 
 __all__ = ["EStopNotTaken", "estop_not_taken", "wait_for_estop"]
 
 
 class EStopNotTaken(LinkError):
-    """The bridge refused (``NACK``) or never answered an ``ESTOP`` on every try, and
-    its ``STATE`` frames show no latch: the robot was not stopped by it. A frame that
-    fails the bridge's checks (a stray byte, a damaged length) is no command."""
+    """The bridge refused (``NACK``) or never answered an ``ESTOP`` on every try, or
+    answered it ``STALE``, and its ``STATE`` frames show no latch: the robot was not
+    stopped by it. A frame that fails the bridge's checks (a stray byte, a damaged
+    length) is no command."""
 
 
 def estop_not_taken(request: Request) -> EStopNotTaken:
     """The error for the ``ESTOP`` ``request`` the bridge did not take, in one line."""
     tries = f"{request.tries} tr{'ies' if request.tries != 1 else 'y'}"
-    how = (
-        f"refused it (NACK {request.nack.name}) on {'all ' * (request.tries > 1)}{tries}"
-        " (a frame that fails the bridge's checks is no command)"
-        if request.nack is not None
-        else f"did not answer it in {tries}"
-    )
+    if request.nack is not None:
+        how = (
+            f"refused it (NACK {request.nack.name}) on {'all ' * (request.tries > 1)}{tries}"
+            " (a frame that fails the bridge's checks is no command)"
+        )
+    elif request.outcome is Outcome.STALE:
+        how = "answered it STALE, not applied (an ESTOP latches whatever its seq)"
+    else:
+        how = f"did not answer it in {tries}"
     return EStopNotTaken(
         f"the bridge did not latch the e-stop (ESTOP seq {request.seq}): it {how}, and its"
         " STATEs show no latch"

@@ -323,10 +323,11 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
             self._check_alive()
 
     def take_estop_not_taken(self) -> Request | None:
-        """An ``ESTOP`` the bridge refused (``NACK``) or never answered on every try since
-        the last call, or ``None``: the bridge did not latch, and nothing else will say so
-        (its ``STATE`` frames only show no latch). Taken out of :meth:`take_failures`'s
-        list too: it is said once, by the caller of this."""
+        """An ``ESTOP`` the bridge refused (``NACK``) or never answered on every try, or
+        answered ``STALE`` (not applied), since the last call, or ``None``: the bridge did
+        not latch, and nothing else will say so (its ``STATE`` frames only show no latch).
+        Taken out of :meth:`take_failures`'s list too: it is said once, by the caller of
+        this."""
         with self._lock:
             req, self._estop_not_taken = self._estop_not_taken, None
             if req is not None and req in self._pending_failures:
@@ -484,8 +485,10 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
             req.msg, Heartbeat | Hello
         ):
             self._pending_failures.append(req)
-            if type(req.msg) is EStop and outcome is not Outcome.STALE:
-                self._estop_not_taken = req  # refused or unanswered on every try
+            if type(req.msg) is EStop:
+                # refused or unanswered on every try, or answered STALE (which
+                # docs/protocol.md rules out: an ESTOP latches whatever its seq)
+                self._estop_not_taken = req
         self._recent.append(outcome is Outcome.FAILED or req.tries > 1)
 
     def _start_session(self, now: float, why: str) -> None:
