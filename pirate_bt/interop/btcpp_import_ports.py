@@ -19,7 +19,22 @@ from pirate_bt.interop.btcpp_models import (
 from pirate_bt.interop.btcpp_xml import XmlElement
 from pirate_bt.treefile.params import PARAM_RE
 
-__all__ = ["port_value", "subtree_ports"]
+__all__ = ["CPP_TYPES", "port_value", "subtree_ports"]
+
+_INTEGERS = (
+    "int", "unsigned", "unsigned int", "short", "unsigned short", "long", "unsigned long",
+    "long long", "unsigned long long", "int8_t", "int16_t", "int32_t", "int64_t", "uint8_t",
+    "uint16_t", "uint32_t", "uint64_t", "size_t", "std::size_t",
+)  # fmt: skip
+CPP_TYPES: dict[str, str] = {
+    **dict.fromkeys(_INTEGERS, "integer"),
+    **dict.fromkeys(("double", "float"), "number"),
+    "bool": "boolean",
+    **dict.fromkeys(("std::string", "string", "BT::StringView", "std::string_view"), "string"),
+}
+"""The C++ type names a BT.CPP model writes (``BT::demangle``'s, as BT.CPP's own
+``writeTreeNodesModelXML`` and Groot2 do) read as the pirate_bt parameter type they hold.
+BT.CPP itself reads no type of a ``<SubTree>`` model's port (its values are text)."""
 
 
 def subtree_ports(
@@ -52,11 +67,13 @@ def subtree_ports(
             raise port.error(
                 f"a second input_port {_shown(name)} in <SubTree ID={_shown(tree_id)}>"
             )
-        kind = port.attrs.get("type", "string")
+        written = port.attrs.get("type", "string")
+        kind = CPP_TYPES.get(" ".join(written.split()), written)
         if kind not in _PARAM_TYPES:
             raise port.error(
-                f"port {_shown(name)}: type {_shown(kind)} is not a pirate_bt parameter type"
-                f" ({', '.join(sorted(_PARAM_TYPES))})"
+                f"port {_shown(name)}: type {_shown(written)} is not a pirate_bt parameter type"
+                f" ({', '.join(sorted(_PARAM_TYPES))}) nor a C++ type of one (int, double,"
+                " bool, std::string...)"
             )
         decl: dict[str, Any] = {"type": kind}
         if place is not None:
