@@ -219,6 +219,12 @@ def _run_firmware(args: argparse.Namespace, robot: RobotDescription) -> int:
         raise InputError("--firmware serves on a pty only (the Arduino's USB serial); drop --tcp")
     if args.fault:
         raise InputError("--fault is not supported with --firmware (the bridge is the firmware)")
+    for option in ("foxglove", "ros2"):
+        if getattr(args, option) is not None:  # it was dropped without a word, exit 0
+            raise InputError(
+                f"--{option} is not served with --firmware (it shows the Python"
+                " simulator); drop one of them"
+            )
     boot_ms = 500 if args.boot_ms is None else args.boot_ms
     if boot_ms < 0:
         raise InputError("--boot-ms must not be negative")
