@@ -54,3 +54,27 @@ def test_an_observe_that_closes_its_connection_is_refused_before_the_run(tmp_pat
         " once the run has ended (or use with pirate_bt.connect() as robot:)"
     )
     assert not trace.exists()
+
+
+def test_a_connection_closed_during_its_run_says_so_first() -> None:
+    import threading
+
+    def close_at_tick_20(runner: Any, connection: Any) -> None:
+        ticks = [0]
+
+        def hook(info: Any) -> None:
+            ticks[0] += 1
+            if ticks[0] == 20:  # another thread of the planner's closes it mid-run
+                closer = threading.Thread(target=connection.close)
+                closer.start()
+                closer.join(timeout=30)
+
+        runner.add_post_tick(hook)
+
+    # was 'link lost: session closed' alone: a link error, where planner code closed it
+    with pirate_bt.connect() as robot:
+        result = robot.run("straight", params={"distance": "0.3 m"}, observe=close_at_tick_20)
+    assert not result.succeeded
+    assert result.why == (
+        "the connection (simulator: straight) was closed during the run: link lost: session closed"
+    )

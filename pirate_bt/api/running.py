@@ -440,6 +440,9 @@ def run_on(
     first_stop = tally.first_safe_state if tally is not None else None
     why, failing = explain_run(loop, runner.tree.root, first_stop)
     why = as_text(why)  # a planner's feedback message may be no text (42)
+    if connection is not None and connection.closed and not loop.succeeded:
+        # by planner code, from another thread or a hook: its first cause, not the link's
+        why = f"the connection ({connection.description}) was closed during the run: {why}"
     never_left = supervisor is not None and supervisor.safe_state_reason == held
     if held is not None and never_left and not loop.succeeded:
         # held in the safe state a run before this one left it in, all along: this run
