@@ -111,3 +111,14 @@ def test_the_command_line_says_it_in_one_line(
         " (the most one may have)\n"
     )
     assert not (tmp_path / "t.yaml").exists()
+
+
+def test_a_huge_comment_in_utf16_is_named_a_comment(tmp_path: Path) -> None:
+    # what is held was named from its first bytes, which in UTF-16 hold NULs: 'a tag'
+    xml = tmp_path / "t.xml"
+    text = _HEAD + "<!-- " + "c" * MAX_XML_TOKEN + " --><AlwaysSuccess/>" + _TAIL
+    xml.write_bytes(text.encode("utf-16"))
+    assert _refused(xml) == (
+        f"{xml}:2:22: a comment still not closed after {MAX_XML_TOKEN} bytes"
+        " (the most one may have)"
+    )

@@ -311,7 +311,7 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
             # what expat holds unparsed: a tag, comment... not closed yet
             held_from = max(parser.CurrentByteIndex, 0)
             if fed - held_from > MAX_XML_TOKEN:
-                what = _token_kind(payload[held_from : held_from + 9])
+                what = _token_kind(payload[held_from : held_from + 18].replace(b"\x00", b""))
                 raise _Refused(
                     f"{what} still not closed after {MAX_XML_TOKEN} bytes (the most one may have)",
                     parser.CurrentLineNumber,
