@@ -13,7 +13,7 @@ from pirate_bt.api.options import callback
 from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.trace.attach import call_observer
 
-__all__ = ["call_observer", "check_callback", "check_observer", "uncallable_with"]
+__all__ = ["call_observer", "check_callback", "check_observer", "never_runs", "uncallable_with"]
 
 
 def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> None:
@@ -28,7 +28,7 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
         return
     name = getattr(observe, "__qualname__", None) or type(observe).__name__
     name = name.rsplit(".", 1)[-1][:60]
-    what = _never_runs(observe)
+    what = never_runs(observe)
     if what is not None:
         raise InputError(
             f"observe: {name} is {what}, which {shape} would never run (its hooks"
@@ -42,7 +42,7 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
         )
 
 
-def _never_runs(function: Any) -> str | None:
+def never_runs(function: Any) -> str | None:
     """What ``function`` is when calling it runs none of its body: ``"an async def"``
     (a coroutine, never awaited) or ``"a generator function (it yields)"`` (a generator,
     never iterated: an ``observe`` with a ``yield`` in it attached no hook, the run went
@@ -93,7 +93,7 @@ def check_callback(value: Any, option: str, shape: str, count: int) -> None:
         return
     name = getattr(value, "__qualname__", None) or type(value).__name__
     name = str(name).rsplit(".", 1)[-1][:60]
-    what = _never_runs(value)
+    what = never_runs(value)
     if what is not None:
         raise ArgumentTypeError(
             f"{option}: {name} is {what}, which {shape} would call and never run;"
