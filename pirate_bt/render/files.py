@@ -32,7 +32,8 @@ def write_file(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` whole or not at all (its folder is made if missing).
 
     A symbolic link is followed (its target is replaced). A path that exists and is
-    not a regular file (a device such as ``/dev/stdout``, a pipe) is written in place.
+    not a regular file (a device such as ``/dev/stdout``, a pipe) is written in place;
+    a named pipe nobody reads is refused at once (``ENXIO``), never waited on.
 
     Returns:
         ``path`` as a :class:`~pathlib.Path`.
