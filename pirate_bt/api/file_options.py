@@ -192,13 +192,17 @@ def parse_target(target: Any) -> tuple[str, Any]:
 
 
 def port_url(port: object, option: str = "port") -> str:
-    """A real robot's serial port or pyserial URL (not a simulator target).
+    """A real robot's serial port or pyserial URL (not a simulator target), as text: a
+    device given as a path (``Path("/dev/ttyACM0")``) is its name (it was refused as
+    *not a serial port*, beside the example of that very name).
 
     Raises:
         InputError: anything else, named by ``option``; a URL opening it would refuse
             (``bogus://x``), as that says it (``PortURLError``: *cannot open bogus://x*).
     """
     kind = None
+    if isinstance(port, os.PathLike) and isinstance(name := os.fspath(port), str):
+        port = name  # a device's path; a network file is no port (refused below)
     if isinstance(port, str) and port.strip():
         try:
             kind = parse_target(port)[0]
@@ -217,7 +221,7 @@ def port_url(port: object, option: str = "port") -> str:
     url = split_fault_url(port)[0]  # as opening it checks it, before anything is done
     if problem := scheme_problem(url) or network_url_problem(url):  # (a plan was printed)
         raise PortURLError(f"cannot open {url}: {problem}", url)
-    return port
+    return str(port)
 
 
 def load_robot_like(robot: Any) -> RobotDescription:

@@ -506,7 +506,7 @@ def _watched_mission(
 def run_mission(
     plan_or_route: Any,
     *,
-    port: str,
+    port: str | Path,
     network: Any = None,
     faults: str | Iterable[str] | None = None,
     trace: str | Path | None = None,
@@ -537,7 +537,7 @@ def run_mission(
         result = pirate_bt.run_mission("lab.route", port="/dev/ttyACM0")
         print(result.why)
     """
-    port_url(port)
+    port = port_url(port)
     description = load_robot_like(robot)
     plan = _plan(plan_or_route, network, description)
     faults = fault_list(faults)  # a generator: read once, checked and then run

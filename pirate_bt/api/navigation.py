@@ -133,7 +133,7 @@ def navigate(
     navigator: Navigator | str,
     *,
     sim: Any = None,
-    port: str | None = None,
+    port: str | Path | None = None,
     map: Any = None,
     params: Mapping[str, Any] | None = None,
     seed: int = 0,
@@ -206,7 +206,7 @@ def navigate(
     if sim is not None and port is not None:
         raise InputError("navigate: give sim= or port=, not both")
     if port is not None:
-        port_url(port)
+        port = port_url(port)
     max_steps = plain_number(max_steps)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int):
         raise InputError(f"max_steps must be a positive whole number, not {max_steps!r}"[:200])

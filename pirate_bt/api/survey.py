@@ -212,7 +212,7 @@ def _take_away(made: list[Path]) -> None:
 def survey(
     *,
     sim: Any = None,
-    port: str | None = None,
+    port: str | Path | None = None,
     output: str | Path | None = None,
     seed: int = 0,
     faults: str | Iterable[str] | None = None,

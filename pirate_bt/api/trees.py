@@ -184,7 +184,7 @@ def simulate_tree(
 def run_tree(
     tree: Any,
     *,
-    port: str,
+    port: str | Path,
     params: Mapping[str, Any] | None = None,
     faults: str | Iterable[str] | None = None,
     trace: str | Path | None = None,
@@ -216,7 +216,7 @@ def run_tree(
                                     params={"distance": "1 m"})
         print(result.summary())
     """
-    port_url(port)
+    port = port_url(port)
     run_limits(max_time, rate)
     check_run_options(trace=trace, live=live, observe=observe)
     if trace is not None:
