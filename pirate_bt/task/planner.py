@@ -124,6 +124,7 @@ def plan_route(
         rear_lead_m(robot),
         contract,
         robot.motion.max_unclamped_slope,
+        max(c.diameter for c in robot.clamp.contact_angles),
     )
     if start_m is not None:
         walker.start_m = walker.s_m = start_m

@@ -64,6 +64,7 @@ class StepPlanner:
             rear_lead_m(robot),
             self.contract,
             robot.motion.max_unclamped_slope,
+            max(c.diameter for c in robot.clamp.contact_angles),
         )
 
     @property

@@ -102,9 +102,11 @@ class _Walker:
         rear_lead_m: float,
         contract: PabContract,
         max_unclamped_slope_rad: float = math.radians(10.0),
+        clamp_max_m: float = math.inf,
     ) -> None:
         self.route = route
         self.steep_sin = math.sin(max_unclamped_slope_rad)
+        self.clamp_max_m = clamp_max_m
         self.network = network
         self.length_m = length_m
         self.rear_lead_m = rear_lead_m
@@ -136,7 +138,41 @@ class _Walker:
             StepKind.GOTO: self.goto,
             StepKind.RETURN: self.return_to_start,
         }[step.kind]
+        before_m = self.s_m
         handler(step)
+        self._check_wide(step, before_m)
+
+    def _check_wide(self, step: RouteStep, before_m: float) -> None:
+        """No part of the robot in pipe wider than it clamps in, where ``step`` takes it.
+
+        There the wheels never reach the wall: no half can hold or drive the robot, so a
+        PAB's hold fails (*no wall*), and a leg's drive stops as its front joints swing
+        past every wall-contact angle, as over an opening. Until the twenty-second
+        session such a leg ended there and the mission said it had completed: 'forward
+        to the end' into a 130 mm straight stopped 1.3 m short of the end, exit 0.
+        """
+        if not math.isfinite(self.clamp_max_m):
+            return
+        lo = max(min(before_m, self.s_m) - self.length_m, 0.0)
+        hi = max(before_m, self.s_m)
+        path = self.path
+        for piece in path.pieces[path.index_at(lo) :]:
+            if piece.start_m >= hi - _TOL_M:
+                break
+            a, b = max(piece.start_m, lo), min(piece.end_m, hi)
+            if b - a <= _TOL_M:
+                continue
+            widest = max(path.diameter_at(a + _TOL_M), path.diameter_at(b - _TOL_M))
+            if widest > self.clamp_max_m + 1e-9:
+                raise LocatedError(
+                    f"'{step.text}' cannot be planned: {piece.segment!r}"
+                    f" ({piece.start_m:.2f}-{piece.end_m:.2f} m) is {widest * 1000:.0f} mm"
+                    f" wide where the robot would be, and it clamps in pipes of at most"
+                    f" {self.clamp_max_m * 1000:.0f} mm (its clamp.contact_angles): its"
+                    " wheels would not reach the wall there, and no half could hold or"
+                    " drive it",
+                    step.location,
+                )
 
     # -- map queries
 
