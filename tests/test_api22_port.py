@@ -37,3 +37,12 @@ def test_a_network_file_given_as_a_port_is_still_refused() -> None:
         pirate_bt.InputError, match=r"^port: 'scenarios/straight.yaml' is not a serial port"
     ):
         pirate_bt.run_tree("straight", port=Path("scenarios/straight.yaml"))
+
+
+def test_connect_to_a_device_given_as_a_path_opens_that_port() -> None:
+    # was read as a network file: "network: no network '/dev/...'; bundled networks: ..."
+    with pytest.raises(LinkError) as caught:
+        pirate_bt.connect(DEVICE)
+    assert str(caught.value).startswith(f"cannot open {DEVICE}")
+    with pirate_bt.connect(Path("scenarios/straight.yaml")) as robot:  # a network file
+        assert robot.simulator is not None

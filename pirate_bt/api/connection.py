@@ -318,7 +318,8 @@ def connect(
     Args:
         target: ``"sim"``, ``"sim:NETWORK"``, ``"firmware:NETWORK"`` (``sim://NETWORK``
             is the same), a network file, a ``Network`` or a ``NetworkSpec``, or a
-            serial port / pyserial URL (see the module docstring).
+            serial port / pyserial URL (see the module docstring); a path under
+            ``/dev/`` (``Path("/dev/ttyACM0")``) is that port.
         robot: The robot description: a loaded one, a file, or ``None`` for the
             bundled ``hardware/pirate.yaml``.
         seed: The simulator's seed (and the link faults'); ignored on a real robot.

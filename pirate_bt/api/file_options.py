@@ -157,8 +157,12 @@ def parse_target(target: Any) -> tuple[str, Any]:
         return "sim", target
     if isinstance(target, NetworkSpec):  # as simulate_tree's network= and navigate's sim=
         return "sim", Network(target, f"<{target.name}>")
-    if isinstance(target, Path):
-        return "sim", target
+    if isinstance(target, os.PathLike) and isinstance(name := os.fspath(target), str):
+        # a device named as a path (Path("/dev/ttyACM0")) is that port, as its text is;
+        # it was read as a network file: "no network '/dev/ttyACM0'"
+        if _PORT.match(name) and not name.endswith((".yaml", ".yml")):
+            return "port", name
+        return "sim", Path(name)
     if not isinstance(target, str):
         raise InputError(
             f"connect: cannot connect to {kind_of(target)};"
