@@ -23,6 +23,7 @@ from pirate_bt.errors import LocatedError, ValidationFailed, shown
 from pirate_bt.yamlfile import VALUE_WORDS, Locator, PathKey, YamlDocument
 
 __all__ = [
+    "close_matches",
     "describe_error",
     "key_not_text",
     "pydantic_errors",
@@ -312,7 +313,7 @@ def _misspelt(
             if m[:-1] == path[:-1] and isinstance(m[-1], str) and isinstance(path[-1], str)
         ]
         names = [str(m[-1]) for m in near]
-        close = difflib.get_close_matches(str(path[-1]), names, n=2, cutoff=0.7)
+        close = close_matches(str(path[-1]), names, n=2, cutoff=0.7)
         if len(close) == 1 and close[0] not in {str(m[-1]) for m in meant.values()}:
             meant[path] = next(m for m in near if m[-1] == close[0])
     taken = set(meant.values())
@@ -350,11 +351,35 @@ def _close_to_known(
     ]
 
 
+def close_matches(
+    word: str, possibilities: Iterable[str], n: int = 3, cutoff: float = 0.6
+) -> list[str]:
+    """:func:`difflib.get_close_matches`, asked only of the possibilities whose length
+    alone does not keep them under ``cutoff`` (a ratio is at most twice the shorter
+    length over both): the same answer, but a hostile file's name of 13 MB is no longer
+    indexed character by character (600 MB) to be compared with names of ten."""
+    size = len(word)
+    fit = [p for p in possibilities if _may_reach(size, len(p), cutoff)]
+    return difflib.get_close_matches(word, fit, n, cutoff) if fit else []
+
+
+def _may_reach(one: int, other: int, cutoff: float) -> bool:
+    """Whether texts of these lengths can be ``cutoff`` alike (difflib's ratio)."""
+    total = one + other
+    return total == 0 or 2.0 * min(one, other) / total >= cutoff
+
+
 def _nearest(written: str, known: set[str]) -> str | None:
     """The known key ``written`` is closest to, when one stands out: at least 0.7 alike
     and clearly nearer than the next (``distanse``: ``distance``, not ``distance_key``)."""
     scored = sorted(
-        ((difflib.SequenceMatcher(None, written, k).ratio(), k) for k in known), reverse=True
+        (
+            (difflib.SequenceMatcher(None, written, k).ratio(), k)
+            for k in known
+            # one under 0.6 is neither the one (0.7) nor 0.1 behind it
+            if _may_reach(len(written), len(k), 0.6)
+        ),
+        reverse=True,
     )
     if not scored or scored[0][0] < 0.7:
         return None

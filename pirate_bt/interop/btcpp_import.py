@@ -8,7 +8,6 @@ checked as it is read.
 
 from __future__ import annotations
 
-import difflib
 import logging
 from pathlib import Path
 from typing import Any, Final
@@ -38,7 +37,7 @@ from pirate_bt.treefile.params import PARAM_RE, chain_text, listed
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import MAX_NODES
-from pirate_bt.yamlvalidate import validation_problems
+from pirate_bt.yamlvalidate import close_matches, validation_problems
 
 __all__ = ["xml_to_tree"]
 
@@ -47,7 +46,7 @@ _log = logging.getLogger("pirate_bt.interop.btcpp")
 
 
 def _suggest(name: str, known: list[str]) -> str:
-    close = difflib.get_close_matches(name, known, n=2)
+    close = close_matches(name, known, n=2)
     return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
 
 

@@ -12,7 +12,6 @@ checked against the nodes (``board_unsure``).
 
 from __future__ import annotations
 
-import difflib
 import unicodedata
 from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,7 +35,7 @@ from pirate_bt.treefile.refused import holds_blank, read_tree_yaml
 from pirate_bt.treefile.registry import Registry
 from pirate_bt.treefile.spec import _TOP_KEYS, BlackboardDecl, PathKey
 from pirate_bt.yamlfile import YamlDocument
-from pirate_bt.yamlvalidate import validation_problems
+from pirate_bt.yamlvalidate import close_matches, validation_problems
 
 __all__ = []
 
@@ -61,12 +60,8 @@ def _not_ascii(name: str) -> str:
 def misspelt(body: Mapping[Any, Any], key: str, allowed: frozenset[str]) -> bool:
     """Whether ``body`` lacks ``key`` and has an unknown key that its message calls a
     misspelling of it (``blackbaord``: did you mean 'blackboard'?)."""
-    import difflib
-
     return key not in body and any(
-        isinstance(k, str)
-        and k not in allowed
-        and difflib.get_close_matches(k, sorted(allowed), n=1) == [key]
+        isinstance(k, str) and k not in allowed and close_matches(k, sorted(allowed), n=1) == [key]
         for k in body
     )
 
@@ -189,7 +184,7 @@ class _FileReader:
         if self.compared + len(known) > SUGGESTION_BUDGET:
             return []
         self.compared += len(known)
-        return difflib.get_close_matches(name, known, n=2)
+        return close_matches(name, known, n=2)
 
     def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
         self.errors.append(doc.locator.error(path, printable(message)))
@@ -497,7 +492,7 @@ class _FileReader:
                 continue
             if name not in decls:
                 known = listed(declared.names) or "none declared"
-                close = difflib.get_close_matches(str(name), owed, n=2, cutoff=0.7)
+                close = close_matches(str(name), owed, n=2, cutoff=0.7)
                 hint = ""
                 if len(close) == 1 and close[0] not in meant.values():
                     meant[str(name)] = close[0]

@@ -10,7 +10,7 @@ from typing import Any
 
 from pirate_bt.errors import LocatedError
 from pirate_bt.treefile.spec import NodeSpec, PathKey
-from pirate_bt.yamlvalidate import key_not_text
+from pirate_bt.yamlvalidate import close_matches, key_not_text
 
 __all__ = [
     "dedupe",
@@ -87,11 +87,9 @@ def unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
     """A key a node (or a tree) does not take, with the nearest one or those allowed; a
     key that is not text (a mapping's from Python) is said to be so (``key 5 must be
     text; allowed: children, memory``)."""
-    import difflib
-
     if not isinstance(key, str):
         return f"{key_not_text(key)}; allowed: {', '.join(sorted(allowed))}"
-    close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
+    close = close_matches(str(key), sorted(allowed), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
     return f"unknown key {shown_name(key)}{hint}"
 

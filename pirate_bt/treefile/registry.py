@@ -24,7 +24,6 @@ motion primitives (``clamp``, ``unclamp``, ``drive``, ``bend``, ``rotate``).
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import logging
 from collections.abc import Iterator
@@ -33,6 +32,7 @@ from typing import Any, Final
 
 from pirate_bt.behaviours.base import NodeMixin
 from pirate_bt.errors import reduce_error
+from pirate_bt.yamlvalidate import close_matches
 
 __all__ = [
     "BUILTIN_NODES",
@@ -164,7 +164,7 @@ class Registry:
 
     def suggest(self, name: str) -> list[str]:
         """Registered or structural names close to ``name`` (for error messages)."""
-        return difflib.get_close_matches(name, [*self.names(), *RESERVED], n=3, cutoff=0.6)
+        return close_matches(name, [*self.names(), *RESERVED], n=3, cutoff=0.6)
 
     def get(self, name: str) -> type[NodeMixin]:
         """The class registered as ``name``, importing it on first use.
