@@ -1,5 +1,5 @@
 """Session 22: perturb_network's bounds and name given as planner code gives them
-(docs/missions.md, as-built variants): NaN, infinity, text or None refused in one line
+(docs/networks.md, As-built variants): NaN, infinity, text or None refused in one line
 naming the bound, NumPy values taken as the Python ones."""
 
 from __future__ import annotations
