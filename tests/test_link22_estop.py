@@ -146,3 +146,45 @@ def test_an_estop_answered_stale_with_no_latch_stops_the_drives_and_says_so() ->
     assert why.startswith("e-stop not latched: the bridge did not latch the e-stop"), why
     assert "answered it STALE, not applied" in why, why
     assert sup.mode is Mode.ESTOP
+
+
+def _after_an_acked_estop(shown: list[bool]) -> Supervisor:
+    """A supervisor whose bridge acknowledges the e-stop and then sends STATEs with the
+    ``ESTOP`` flag as ``shown`` says, one every 10 ms, the supervisor ticking every 50."""
+    wire = Wire(hello=reply(sessions=1))
+    link = RobotLink(ROBOT, wire.session)
+    wire.answer(_state(1))
+    wire.poll(0.01)
+    sup = Supervisor(link, wire.clock)
+    sup.tick()
+    wire.sent()
+    sup.estop("operator stop")
+    for seq, latched in enumerate(shown, start=2):
+        for msg in wire.sent():
+            if isinstance(msg, EStop):
+                wire.answer(Ack(msg.seq, int(MsgType.ESTOP), AckStatus.APPLIED))
+        wire.answer(_state(seq, BridgeFlags.ESTOP if latched else BridgeFlags.NONE))
+        wire.clock.advance(0.01)
+        if seq % 5 == 0:
+            sup.tick()
+        if sup.in_safe_state:
+            break
+    return sup
+
+
+def test_an_estop_acknowledged_but_never_shown_latched_stops_the_drives() -> None:
+    """A bridge that answers ACK APPLIED to the e-stop and drives on (docs/protocol.md:
+    an ESTOP latches at once, and every STATE after shows it). Found probing."""
+    sup = _after_an_acked_estop([False] * 30)
+    why = sup.safe_state_reason
+    assert why is not None
+    assert why.startswith("e-stop not latched: the bridge did not latch the e-stop"), why
+    assert "acknowledged it (ACK APPLIED), but the STATEs it sent since show no latch" in why
+    assert sup.mode is Mode.ESTOP
+
+
+def test_an_estop_shown_latched_a_state_late_is_taken() -> None:
+    # one STATE sent before the bridge read the ESTOP, delivered after its ACK
+    sup = _after_an_acked_estop([False, True] + [True] * 28)
+    assert not sup.in_safe_state, sup.safe_state_reason
+    assert sup.mode is Mode.ESTOP

@@ -23,9 +23,9 @@ __all__ = ["EStopNotTaken", "estop_not_taken", "wait_for_estop"]
 
 class EStopNotTaken(LinkError):
     """The bridge refused (``NACK``) or never answered an ``ESTOP`` on every try, or
-    answered it ``STALE``, and its ``STATE`` frames show no latch: the robot was not
-    stopped by it. A frame that fails the bridge's checks (a stray byte, a damaged
-    length) is no command."""
+    answered it ``STALE``, or acknowledged it, and its ``STATE`` frames show no latch:
+    the robot was not stopped by it. A frame that fails the bridge's checks (a stray
+    byte, a damaged length) is no command."""
 
 
 def estop_not_taken(request: Request) -> EStopNotTaken:
@@ -35,6 +35,12 @@ def estop_not_taken(request: Request) -> EStopNotTaken:
         how = (
             f"refused it (NACK {request.nack.name}) on {'all ' * (request.tries > 1)}{tries}"
             " (a frame that fails the bridge's checks is no command)"
+        )
+    elif request.outcome is Outcome.ACKED:
+        return EStopNotTaken(
+            f"the bridge did not latch the e-stop (ESTOP seq {request.seq}): it acknowledged"
+            " it (ACK APPLIED), but the STATEs it sent since show no latch (docs/protocol.md:"
+            " an ESTOP latches at once)"
         )
     elif request.outcome is Outcome.STALE:
         how = "answered it STALE, not applied (an ESTOP latches whatever its seq)"

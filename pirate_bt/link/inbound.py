@@ -88,6 +88,12 @@ believed while no ``STATE`` without it came between: on a line that reorders (a 
 link with jitter) they were sent before the release and delivered after its ``ACK``. The
 next one is believed (a latch the bridge took again at once, 30 ms late: its own latch
 holds meanwhile, and it refuses setpoints ``ESTOP_LATCHED``)."""
+ESTOP_UNSHOWN_STATES = 3
+"""``STATE`` frames in a row without ``ESTOP`` after an ``ESTOP`` the bridge acknowledged
+(no ``ESTOP_RESET`` acknowledged since) before the session takes it as not latched
+(:meth:`~pirate_bt.link.session.Session.take_estop_not_taken`): a bridge that answers
+``ACK APPLIED`` and drives on (docs/protocol.md: an ``ESTOP`` latches at once). One or
+two could have been sent before the ``ESTOP`` was read and delivered after its ``ACK``."""
 UNMATCHED_KEPT = 64
 """Answers to requests the host never made whose arrival the session keeps
 (:meth:`InboundMixin.answers_unasked_since`)."""
@@ -142,6 +148,10 @@ class InboundMixin(HelloMixin):
     # (see _on_state)
     _old_state_run: int = 0
     _latch_discount: int = 0  # STATEs still not believed on ESTOP, after a release
+    # an acknowledged ESTOP no STATE has shown yet, and the STATEs since (ESTOP_UNSHOWN_STATES)
+    _estop_unshown: Request | None = None
+    _estop_unshown_run: int = 0
+    _estop_not_taken: Request | None  # the session's (see Session.take_estop_not_taken)
     _old_run_from_s: float = 0.0
     # STATEs of another length in a row, since the last good one (see _bad_state)
     _bad_state_run: int = 0
@@ -369,6 +379,7 @@ class InboundMixin(HelloMixin):
                 if outcome is Outcome.ACKED and kind == MsgType.ESTOP_RESET:
                     self._flags &= ~BridgeFlags.ESTOP  # released now; the next STATE says so too
                     self._latch_discount = LATCHED_STATES_AFTER_RELEASE
+                    self._estop_unshown = None  # released: no STATE need show it now
             self._settle(ordered, outcome, now)
             if outcome is not Outcome.STALE:
                 self._stale_run = 0
@@ -425,6 +436,7 @@ class InboundMixin(HelloMixin):
             if kind == MsgType.ESTOP:
                 self._flags |= BridgeFlags.ESTOP
                 self._latch_discount = 0  # the host's own e-stop: every STATE shows it
+                self._estop_unshown, self._estop_unshown_run = req, 0
                 if seq_newer(item.seq, self._answered):
                     self._answered = item.seq
 
@@ -523,6 +535,12 @@ class InboundMixin(HelloMixin):
             self._flags = item.flags
         if bits & _LATCH_BITS == _INPUT_ONLY:
             self._input_unlatched(item.flags)
+        if self._estop_unshown is not None:  # an acknowledged ESTOP the STATEs must show
+            self._estop_unshown_run = 0 if bits & _ESTOP else self._estop_unshown_run + 1
+            if bits & _ESTOP:
+                self._estop_unshown = None
+            elif self._estop_unshown_run >= ESTOP_UNSHOWN_STATES:
+                self._estop_not_taken, self._estop_unshown = self._estop_unshown, None
         status = item.board_status
         if last is None or status != last.board_status:  # a tuple compare: one changed
             self._faulted = tuple(i for i, s in enumerate(status) if s & _FAULT)
