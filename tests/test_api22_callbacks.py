@@ -92,3 +92,32 @@ def test_a_warn_that_yields_is_refused(mission: Any, tmp_path: Path) -> None:
     ):
         pirate_bt.write_mission_outputs(mission, tmp_path / "out", warn=warn)
     assert not (tmp_path / "out").exists()
+
+
+def _runs_it(runner: Any, other: Any) -> None:
+    runner.run()
+
+
+RAN_IT = (
+    "observe: it called runner.run(); attach hooks only (runner.add_post_tick, add_finish,"
+    " ...): the run starts once observe returns"
+)
+
+
+def test_an_observe_that_runs_the_runner_itself_is_refused(tmp_path: Path) -> None:
+    # the tree ran whole inside observe, then again: the result said the second run
+    # ('succeeded after 19 ticks'), the first lost
+    trace = tmp_path / "t.jsonl"
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.simulate_tree(
+            "straight", params={"distance": "0.05 m"}, trace=trace, observe=_runs_it
+        )
+    assert str(caught.value) == RAN_IT
+    assert not trace.exists()
+
+
+def test_a_mission_observe_that_runs_the_runner_itself_is_refused() -> None:
+    # the mission ran inside observe, then again from where it ended: 'map disagreement'
+    with pytest.raises(pirate_bt.InputError) as caught:
+        pirate_bt.simulate_mission("bend-right", observe=_runs_it)
+    assert str(caught.value) == RAN_IT

@@ -36,7 +36,7 @@ from pirate_bt.api.mission_outputs import (
     outputs_not_inputs,
     write_mission_outputs,
 )
-from pirate_bt.api.observing import check_observer
+from pirate_bt.api.observing import attach_only, check_observer
 from pirate_bt.api.options import (
     fault_list,
     file_name,
@@ -488,7 +488,7 @@ def _watched_mission(
             map_tolerance=map_tolerance,
             live=live,
             realtime=realtime,
-            observe=chain(live_view, ros2_view, groot2_live, observe),
+            observe=chain(live_view, ros2_view, groot2_live, attach_only(observe)),
             return_on_stop=return_on_stop,
         )
     if connection.close_error is not None:  # the robot stopped? (api.results.after_close)

@@ -13,7 +13,14 @@ from pirate_bt.api.options import callback
 from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.trace.attach import call_observer
 
-__all__ = ["call_observer", "check_callback", "check_observer", "never_runs", "uncallable_with"]
+__all__ = [
+    "attach_only",
+    "call_observer",
+    "check_callback",
+    "check_observer",
+    "never_runs",
+    "uncallable_with",
+]
 
 
 def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> None:
@@ -106,3 +113,37 @@ def check_callback(value: Any, option: str, shape: str, count: int) -> None:
             f"{option}: {name}{signature} cannot be called as {shape}; give a function of"
             f" {_COUNTS.get(count, f'{count} arguments')}"[:300]
         )
+
+
+def attach_only(observe: Any) -> Any:
+    """``observe`` as the API calls it: to attach hooks to the runner it is given, which
+    the API then runs. A ``runner.run()`` called from inside it is refused: it ran the
+    whole tree while its hooks were attached, and the API then ran it again (a tree run
+    twice, the first result lost; a mission's second run failing on a pipe already
+    driven, *map disagreement*). ``None`` stays ``None``.
+
+    Raises:
+        InputError: (from ``runner.run()`` inside ``observe``) one line saying so.
+    """
+    if observe is None:
+        return None
+
+    def refuse(*_args: Any, **_kwargs: Any) -> Any:
+        raise InputError(
+            "observe: it called runner.run(); attach hooks only (runner.add_post_tick,"
+            " add_finish, ...): the run starts once observe returns"
+        )
+
+    def attaching(runner: Any, other: Any) -> None:
+        try:
+            runner.run = refuse  # this runner's own, for the call only
+        except AttributeError:  # a runner that takes no attribute: as it is
+            observe(runner, other)
+            return
+        try:
+            observe(runner, other)
+        finally:
+            if runner.__dict__.get("run") is refuse:
+                del runner.run
+
+    return attaching

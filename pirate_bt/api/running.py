@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import py_trees
 
 from pirate_bt.api.binding import unbinder
-from pirate_bt.api.observing import call_observer
+from pirate_bt.api.observing import attach_only, call_observer
 from pirate_bt.api.options import (
     find,
     flag,
@@ -427,7 +427,7 @@ def run_on(
 
         recorder = attach_run_trace(runner, trace_path, connection, robot, trace_meta, end_reason)
     if observe is not None:
-        call_observer(observe, runner, connection, recorder, trace_path)
+        call_observer(attach_only(observe), runner, connection, recorder, trace_path)
         contain_hooks(runner)
         if connection is not None and connection.closed:  # (its trace removed as unrun)
             call_observer(_closed_by_observe, runner, connection, recorder, trace_path)
