@@ -62,3 +62,12 @@ def test_a_numpy_false_turns_a_live_view_off_and_a_numpy_domain_id_is_a_number()
             "straight", params={"distance": "0.05 m"}, groot2=numpy.int64(70000)
         )
     assert str(caught.value) == "groot2: the port must be a number from 0 to 65534"
+
+
+def test_numpy_text_names_and_values_of_parameters_are_plain_text() -> None:
+    yaml = pytest.importorskip("yaml")
+    # a numpy.str_ name stayed one in LoadedTree.params: yaml.safe_dump refused it
+    # ("cannot represent an object")
+    tree = pirate_bt.load_tree("straight", params={numpy.str_("distance"): numpy.str_("0.2 m")})
+    assert {type(name) for name in tree.params} == {str}
+    assert "distance: 0.2 m" in yaml.safe_dump(dict(tree.params))

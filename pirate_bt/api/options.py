@@ -357,4 +357,4 @@ def params_mapping(params: object, option: str = "params") -> dict[str, Any]:
                 ) from None
     # a NumPy number as the SI number it is: numpy.float32(0.2) was "expected a length
     # quantity such as '1 m'"
-    return {key: plain_number(value) for key, value in params.items()}
+    return {str(key): plain_number(value) for key, value in params.items()}  # numpy.str_ too
