@@ -76,3 +76,29 @@ def test_a_results_file_an_editor_saved_with_a_bom_keeps_its_first_row(
     # a --resume ran that case again and rewrote the file without the row
     assert read_rows(results) == _rows()
     assert "skipped" not in caplog.text
+
+
+def test_a_report_of_runs_named_as_long_as_a_spec_allows_says_no_warning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+    import warnings
+
+    rows = [
+        {"id": f"{i:06d}-h22", "index": i, "run": f"run {i} " + "n" * 192, "seed": 0}
+        | {"drop": drop, "outcome": "success", "reason": "fine", "sim_time_s": 1.0}
+        for i, drop in enumerate([0.0, 0.1, 0.0, 0.1])
+    ]
+    for row in rows[2:]:
+        row["run"] = rows[0]["run"] if row["index"] == 2 else rows[1]["run"]
+    assert all(len(str(row["run"])) <= 200 for row in rows)  # a spec's limit
+    results = tmp_path / "results.jsonl"
+    results.write_text("".join(json.dumps(row) + "\n" for row in rows))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always", UserWarning)
+        assert main(["campaign", "report", str(results)]) == 0
+    # was '.../report.py:310: UserWarning: Tight layout not applied. ...' and
+    # '  fig.tight_layout()' on standard error after the report's lines
+    assert [str(w.message) for w in seen if issubclass(w.category, UserWarning)] == []
+    assert capsys.readouterr().err == ""
+    assert (tmp_path / "success_vs_drop.png").is_file()

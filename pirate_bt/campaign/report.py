@@ -16,6 +16,7 @@ import io
 import json
 import os
 import re
+import warnings
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -271,6 +272,10 @@ def _coverage(rows: Sequence[dict[str, Any]], limit: int = 15) -> list[tuple[str
     return out
 
 
+_LABEL = 40
+"""The most characters of a run's name in a plot's legend."""
+
+
 def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
     """Success rate against each swept link fault rate, one line per run."""
     swept = [k for k in ("drop", "corrupt", "dup") if len({r.get(k) for r in rows}) > 1]
@@ -283,10 +288,16 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
 
     from pirate_bt.campaign.stats import success_interval
 
+    runs = sorted({str(r.get("run")) for r in rows})
+    # Cut to what a legend shows (a 200-character name overflowed the figure), unless
+    # two would then read alike; the table names each whole.
+    cut = {run: run if len(run) <= _LABEL else run[: _LABEL - 1] + "…" for run in runs}
+    if len(set(cut.values())) < len(cut):
+        cut = {run: run for run in runs}
     files: list[Path] = []
     for key in swept:
         fig, ax = plt.subplots(figsize=(6, 4))
-        for run in sorted({str(r.get("run")) for r in rows}):
+        for run in runs:
             mine = [r for r in rows if str(r.get("run")) == run]
             xs = sorted({float(r.get(key) or 0.0) for r in mine})
             rates, lows, highs = [], [], []
@@ -299,7 +310,7 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
                 highs.append(high)
             # A run's name is the spec's text: shown as written, never as mathtext
             # (a '$' would make matplotlib parse it, and fail on a stray '\frac').
-            label = run.replace("$", r"\$")
+            label = cut[run].replace("$", r"\$")
             ax.plot([100 * x for x in xs], rates, marker="o", label=label)
             ax.fill_between([100 * x for x in xs], lows, highs, alpha=0.2)
         ax.set_xlabel(f"{key} rate (%)")
@@ -307,7 +318,11 @@ def _plots(rows: Sequence[dict[str, Any]], folder: Path) -> list[Path]:
         ax.set_ylim(0, 1.02)
         ax.grid(True, alpha=0.3)
         ax.legend()
-        fig.tight_layout()
+        with warnings.catch_warnings():
+            # a legend larger than the figure (many runs) leaves the layout as it was:
+            # matplotlib's UserWarning went to standard error, two lines with a path
+            warnings.simplefilter("ignore", UserWarning)
+            fig.tight_layout()
         target = folder / f"success_vs_{key}.png"
         tmp = folder / f".success_vs_{key}.part.png"
         try:
