@@ -31,6 +31,16 @@ CASES = {
     "mission output": (["mission", "lab", "--output", "{dir}"], "--output", "plot.png"),
     "mission trace": (["mission", "lab", "--output", "{dir}"], "--output", "trace.jsonl"),
     "demo output": (["demo", "--output", "{dir}"], "--output", "robot.svg"),
+    "survey trace": (
+        ["survey", "-q", "-o", "{dir}.yaml", "--trace", "{dir}"],
+        "--trace",
+        "navigation.jsonl",
+    ),
+    "survey step": (
+        ["survey", "-q", "-o", "{dir}.yaml", "--trace", "{dir}"],
+        "--trace",
+        "step-001.jsonl",
+    ),
 }
 
 
@@ -42,7 +52,8 @@ def test_a_named_pipe_as_an_output_is_refused_before_any_work(
     opened the pipe and waited for a reader for ever; run --trace said the API's
     'trace: ... is not a regular file', an option nobody typed; mission --output waited
     at the end for plot.png or said 'trace: DIR/trace.jsonl ...'; demo waited on its
-    robot.svg."""
+    robot.svg; survey and navigate --trace DIR waited on DIR/navigation.jsonl (or a
+    step's trace)."""
     argv, option, name = CASES[case]
     folder = tmp_path / "out"
     folder.mkdir()

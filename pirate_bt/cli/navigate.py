@@ -11,6 +11,7 @@ import argparse
 import re
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pirate_bt.cli import as_option
@@ -52,13 +53,20 @@ def check_stepwise(args: argparse.Namespace) -> float:
     time limit in seconds.
 
     Raises:
-        InputError: a seed or time limit the API would refuse.
+        InputError: a seed or time limit the API would refuse, or a file the steps write
+            in ``--trace`` that is a named pipe (one was waited on for ever).
     """
     from pirate_bt.api.options import NO_LIMIT, positive_time_s, seed_value
+    from pirate_bt.cli import refuse_pipe
     from pirate_bt.cli.faults_option import check_faults_option
     from pirate_bt.robot.loader import load_robot
 
     seed_value(args.seed, "--seed")
+    folder = Path(args.trace) if getattr(args, "trace", None) else None
+    if folder is not None and folder.is_dir():
+        steps = sorted(p.name for p in folder.glob("step-*.jsonl"))
+        for name in ("navigation.jsonl", *steps):
+            refuse_pipe(folder / name, "--trace")
     if getattr(args, "faults", None):  # at its column, the bundled robot's targets
         check_faults_option(args, load_robot())  # (it said "faults: ...")
     return positive_time_s(args.max_time, "--max-time", instead=NO_LIMIT)
