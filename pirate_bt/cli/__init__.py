@@ -291,20 +291,27 @@ def _configure_logging(specs: Sequence[str], debug: bool) -> None:
         format="%(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
+    from pirate_bt.errors import InputError
+
     levels = ("debug", "info", "warning", "error", "critical")
+    chosen: dict[str, tuple[str, str]] = {}  # logger -> (spec, level)
     for spec in specs:
         name, equals, level = spec.partition("=")
         if not name or not equals or level.lower() not in levels:
-            from pirate_bt.errors import InputError
-
             raise InputError(
                 f"bad --log {spec[:80]!r}: write SUBSYSTEM=LEVEL, e.g. link=debug, with a"
                 f" level of {', '.join(levels)}"
             )
-        level_no = logging.getLevelName(level.upper())
         logger_name = name if name.startswith("pirate_bt") else f"pirate_bt.{name}"
         _check_subsystem(spec, logger_name)
-        logging.getLogger(logger_name).setLevel(level_no)
+        first = chosen.setdefault(logger_name, (spec, level.lower()))
+        if first[1] != level.lower():  # the last was taken, without a word
+            raise InputError(
+                f"--log: {first[0][:80]!r}, then {spec[:80]!r}: two levels for one"
+                " subsystem; give one"
+            )
+    for logger_name, (_, level) in chosen.items():
+        logging.getLogger(logger_name).setLevel(logging.getLevelName(level.upper()))
 
 
 def _check_subsystem(spec: str, logger_name: str) -> None:
