@@ -146,3 +146,41 @@ def test_a_word_the_rehearsal_s_child_says_just_before_it_ends_is_heard(
     # ("ended the process as it was made ...: exit status 0")
     rehearsal.rehearse("fine", lambda: None, 30.0)
     assert len(waits) == 2
+
+
+class SlowToMake:
+    """A plug-in navigator that takes a while to be made (a model to load)."""
+
+    def __init__(self, **params: str) -> None:
+        import time
+
+        time.sleep(1.5)
+
+    def next_step(self, obs: object) -> None:  # pragma: no cover - never asked
+        return None
+
+
+def test_a_case_timeout_given_beside_the_spec_s_is_the_rehearsal_s_limit(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from pirate_bt.campaign import campaign_from_data, expand
+    from pirate_bt.campaign.checks import check_runs
+    from pirate_bt.errors import InputError
+    from pirate_bt.task import navigators as registry
+
+    plugin = EntryPoint(
+        name="slow", value=f"{__name__}:SlowToMake", group=registry.ENTRY_POINT_GROUP
+    )
+    monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
+    spec = campaign_from_data(
+        {"name": "s", "runs": [{"navigator": "slow", "network": "lab"}], "case_timeout": "0.5 s"},
+        base=tmp_path,
+    )
+    cases = expand(spec, tmp_path)
+    with pytest.raises(InputError, match=r"still being made .* after 0\.5 s"):
+        check_runs(cases, spec, tmp_path)
+    # --case-timeout 60 s (case_timeout=60): its cases have a minute each to make it, and
+    # it was refused all the same after the spec's half second
+    check_runs(cases, spec, tmp_path, 60.0)

@@ -490,7 +490,10 @@ def _check_route(
 
 
 def check_runs(
-    cases: list[Case], spec: CampaignSpec | None = None, base: Path | None = None
+    cases: list[Case],
+    spec: CampaignSpec | None = None,
+    base: Path | None = None,
+    case_timeout_s: float | None = None,
 ) -> list[Path]:
     """Load every distinct tree (with its parameters) and route once per robot, before any case.
 
@@ -501,7 +504,9 @@ def check_runs(
     spec, a tree or a route's PAB trees that only a robot of the ``robots`` axis
     refuses at that robot's entry (naming the tree's place), and a route that is
     not its run's ``network``'s (its own ``network`` line names another, or it
-    does not fit) at the run.
+    does not fit) at the run. ``case_timeout_s``, a case timeout given beside the
+    spec's (``--case-timeout``), is the longest an installed navigator may take to be
+    made, if longer than the spec's.
 
     Returns:
         Every input file the checks read, resolved, once each in the order first
@@ -565,7 +570,7 @@ def check_runs(
             continue
         seen.add(key)
         if case.get("navigator"):
-            more = check_navigator(case, robots, spec, base)
+            more = check_navigator(case, robots, spec, base, case_timeout_s)
         elif case["tree"]:
             more = _check_tree(case, robots, spec, base)
         else:

@@ -87,6 +87,7 @@ def check_navigator(
     robots: Callable[[str | None], Any],
     spec: CampaignSpec | None,
     base: Path | None,
+    case_timeout_s: float | None = None,
 ) -> list[str]:
     """Make the case's navigator once and check its map, as each case will.
 
@@ -98,7 +99,8 @@ def check_navigator(
 
     An installed navigator is made and checked in a forked process first
     (:func:`~pirate_bt.campaign.rehearsal.rehearse`): one that ends that process (an
-    ``os._exit``, a signal) or is still at it after the spec's ``case_timeout`` is
+    ``os._exit``, a signal) or is still at it after the case timeout (the spec's, or
+    ``case_timeout_s`` if longer: ``--case-timeout``) is
     refused at its ``navigator``, where it ended or hung ``validate`` and the campaign.
 
     Returns:
@@ -108,6 +110,7 @@ def check_navigator(
 
     if case["navigator"] not in BUILT_IN_NAVIGATORS:
         timeout_s = spec.quantity("case_timeout", "time") if spec is not None else 300.0
+        timeout_s = max(timeout_s, case_timeout_s or 0.0)  # never shorter than the cases'
         try:
             rehearse(case["navigator"], lambda: _check(case, robots, spec, base), timeout_s)
         except InputError as exc:

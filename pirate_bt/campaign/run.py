@@ -191,13 +191,14 @@ def checked_cases(
 
 
 def _checked(
-    model: CampaignSpec, base: Path | None, max_cases: int
+    model: CampaignSpec, base: Path | None, max_cases: int, timeout_s: float | None = None
 ) -> tuple[list[dict[str, Any]], list[Path]]:
-    """:func:`checked_cases`, and the input files the checks read (what a resume checks)."""
+    """:func:`checked_cases`, and the input files the checks read (what a resume checks);
+    ``timeout_s``, a case timeout given beside the spec's."""
     check_axes(model, base)
     check_inputs(model, base)
     cases = expand(model, base, max_cases=max_cases)
-    inputs = check_runs(cases, model, base)
+    inputs = check_runs(cases, model, base, timeout_s)
     check_faults(model, base)
     note_repeated_seeds(cases)  # 30 seeds of a run that draws nothing are one run
     return cases, inputs
@@ -356,7 +357,7 @@ def run_campaign(
     count = check_size(model, max_cases)  # before anything is built
     timeout_s = case_timeout_s(case_timeout)
     reach_s = case_timeout_s(scheduler_timeout, "scheduler_timeout") or 10.0  # at most a week
-    cases, inputs = _checked(model, source.base, max_cases)
+    cases, inputs = _checked(model, source.base, max_cases, timeout_s)
     folder = Path(output) if output is not None else None
     start = Start(timeout_s, None)
     before: list[dict[str, Any]] = []  # the rows a resume keeps
