@@ -434,12 +434,34 @@ def _why(
     # the PAB's path from the root, as a node's inside it is (not its bare label)
     where = f"{route_path(root.children[-1])}/{stopped.label}" if stopped is not None else None
     if mismatch is not None:
-        return mismatch, where, False
+        return mismatch + _unfelt_but_passed(outcomes, plan, localiser), where, False
     if stopped is not None and stopped.outcome == "failure":
         planned = {pab.label(i): pab for i, pab in enumerate(plan.pabs, start=1)}
         named = map_cause(stopped, planned.get(stopped.label), localiser.belief_m)
         return named or stopped.why, stopped.failing_node or where, named is not None
     return (*explain_run(run, root, tally.first_safe_state), False)
+
+
+def _unfelt_but_passed(outcomes: list[PabOutcome], plan: MissionPlan, localiser: Localiser) -> str:
+    """A turn the IMU never felt, which the bend PAB through it passed: the IMU is the
+    suspect, not the map. The bend PAB completes only where its steered front was held
+    at a turn and its rear then drove through one (a cap, or a bend the other way,
+    fails it), so a stuck IMU pitch read as *the map has 'foot' ..., but no turn was
+    felt*, a map's error, until the twenty-second session."""
+    found = localiser.disagreement
+    if found is None or found.sensed is not None or found.feature is None:
+        return ""
+    if not found.evidence.startswith("the IMU swung"):
+        return ""
+    done = {p.label for p in outcomes if p.outcome == "success"}
+    for index, pab in enumerate(plan.pabs, start=1):
+        if pab.pab == "bend" and pab.feature == found.feature and pab.label(index) in done:
+            swing = found.evidence.split(",")[0].removeprefix("the IMU ")
+            return (
+                f"; yet the bend PAB through {found.feature!r} completed before it, so the"
+                f" IMU, which {swing}, may be stuck"
+            )
+    return ""
 
 
 def truth_on_map(plan: MissionPlan, truth_path: Any, truth_m: float) -> float:
