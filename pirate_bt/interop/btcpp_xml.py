@@ -18,7 +18,10 @@ expat directly, not with a general-purpose tree builder:
   characters; bytes that are not what the declaration says are refused where
   they are;
 - every element keeps the line and column where it starts, so that any later
-  problem is reported as ``file:line:column: message``.
+  problem is reported as ``file:line:column: message``;
+- an attribute value holding a tab or a line break as written (not as ``&#9;`` or
+  ``&#10;``) keeps it, as BT.CPP's parser (tinyxml2) keeps it, where XML's rules (and
+  expat) make each a space: a multi-line ``_description`` stays multi-line.
 """
 
 from __future__ import annotations
@@ -227,6 +230,7 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     text_sizes: list[int] = []
     roots: list[XmlElement] = []
     seen = [False]  # a comment before the first element
+    raw = _RawTags(data, text)
     count = 0
 
     def here() -> tuple[int, int]:
@@ -250,7 +254,10 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
             if len(value) > MAX_XML_VALUE:
                 refuse(f"<{_cut(tag)}> {_cut(key)}: a value of {len(value)} characters{_OVER}")
         line, column = here()
-        element = XmlElement(tag, dict(attrs), SourceLocation(file, line, column))
+        values = dict(attrs)
+        if any(" " in v for v in values.values()):  # maybe a tab or line break as written
+            values.update(raw.kept_whitespace(line, column))
+        element = XmlElement(tag, values, SourceLocation(file, line, column))
         if stack:
             stack[-1].children.append(element)
         else:
@@ -336,6 +343,68 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
+
+
+_START_TAG: Final = re.compile(r"<[^\s/>]+((?:\s+[^\s=]+\s*=\s*(?:\"[^\"]*\"|'[^']*'))*)\s*/?>")
+_ATTRIBUTE: Final = re.compile(r"([^\s=]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
+_REFERENCE: Final = re.compile(r"&(#x[0-9a-fA-F]+|#[0-9]+|lt|gt|amp|quot|apos);")
+_NAMED: Final = {"lt": "<", "gt": ">", "amp": "&", "quot": '"', "apos": "'"}
+_BREAK: Final = re.compile(r"\r\n|\r|\n")
+
+
+def _referenced(match: re.Match[str]) -> str:
+    name = match[1]
+    if name.startswith("#x"):
+        return chr(int(name[2:], 16))
+    if name.startswith("#"):
+        return chr(int(name[1:]))
+    return _NAMED[name]
+
+
+class _RawTags:
+    """The start tags as written, for the attribute values expat normalised: XML makes
+    a tab or line break written in a value a space; tinyxml2 keeps it (a CR LF or a lone
+    CR as LF). Read only for an element whose values hold a space."""
+
+    def __init__(self, data: bytes, text: str | None) -> None:
+        self.data = data
+        self.text = text
+        self.starts: list[int] | None = None
+
+    def document(self) -> str | None:
+        if self.text is None:
+            name = "utf-8-sig"
+            if self.data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+                name = "utf-16"
+            else:
+                match = _DECLARED.match(self.data)
+                if match is not None and match[3].decode("ascii").upper() != "UTF-8":
+                    name = match[3].decode("ascii")
+            try:
+                self.text = self.data.decode(name).removeprefix("\ufeff")
+            except (LookupError, UnicodeError):
+                return None
+        return self.text
+
+    def kept_whitespace(self, line: int, column: int) -> dict[str, str]:
+        """The values of the start tag at ``line``:``column`` that hold a tab or line
+        break as written, as tinyxml2 reads them."""
+        text = self.document()
+        if text is None:
+            return {}
+        if self.starts is None:
+            self.starts = [0, *(m.end() for m in _BREAK.finditer(text))]
+        if line > len(self.starts):
+            return {}
+        tag = _START_TAG.match(text, self.starts[line - 1] + column - 1)
+        if tag is None or not any(c in tag[1] for c in "\t\n\r"):
+            return {}
+        kept: dict[str, str] = {}
+        for attribute in _ATTRIBUTE.finditer(tag[1]):
+            value = attribute[2] if attribute[2] is not None else attribute[3]
+            if any(c in value for c in "\t\n\r"):
+                kept[attribute[1]] = _REFERENCE.sub(_referenced, _BREAK.sub("\n", value))
+        return kept
 
 
 _OVER: Final = f", more than the {MAX_XML_VALUE} an XML name, value or text may have"
