@@ -449,7 +449,8 @@ def _main(argv: Sequence[str] | None) -> int:
     except PirateError as exc:
         if debug:  # the traceback too, and the same exit code (a raise made every one 1)
             traceback.print_exc()
-        for line in _port_named(str(exc), exc, args).splitlines() or [type(exc).__name__]:
+        said = _typed_escaped(_port_named(str(exc), exc, args), args_list)
+        for line in said.splitlines() or [type(exc).__name__]:
             print(f"pirate-bt: {line}", file=sys.stderr)
         return exc.exit_code
     except OSError as exc:
@@ -461,7 +462,7 @@ def _main(argv: Sequence[str] | None) -> int:
         # command, said in one line: until 2026-11-30 every one was exit 0, unsaid
         if debug:
             traceback.print_exc()
-        print(f"pirate-bt: {_os_error(exc)}", file=sys.stderr)
+        print(f"pirate-bt: {_typed_escaped(_os_error(exc), args_list)}", file=sys.stderr)
         return EXIT_INPUT
     except Exception as exc:
         if debug:
@@ -471,6 +472,18 @@ def _main(argv: Sequence[str] | None) -> int:
             file=sys.stderr,
         )
         return EXIT_FAILED
+
+
+def _typed_escaped(text: str, typed: Sequence[str]) -> str:
+    """``text`` with each argument typed that holds a control character (a file named
+    ``$'a\\nb.jsonl'``) shown escaped, as the file checks show it (``a\\nb.yaml:1:1``):
+    a message naming it was cut into two lines, ``pirate-bt: a`` and ``pirate-bt:
+    b.jsonl: cannot read trace: ...``. The longest first (``--trace=x`` holds ``x``)."""
+    for arg in sorted({a for a in typed if not a.isprintable()}, key=len, reverse=True):
+        for value in (arg, arg.partition("=")[2]):
+            if value and not value.isprintable() and value in text:
+                text = text.replace(value, repr(value)[1:-1])
+    return text
 
 
 def _os_error(exc: OSError) -> str:
