@@ -122,3 +122,13 @@ def test_a_huge_comment_in_utf16_is_named_a_comment(tmp_path: Path) -> None:
         f"{xml}:2:22: a comment still not closed after {MAX_XML_TOKEN} bytes"
         " (the most one may have)"
     )
+
+
+def test_the_indentation_between_many_children_is_no_text_over_the_limit(
+    tmp_path: Path,
+) -> None:
+    # 19ead77 counted it: a <Sequence> of 7,300 indented children was refused as
+    # 'more than 65536 characters of text'
+    children = "".join(f'\n        <wait name="w{i}" duration="1 s"/>' for i in range(8000))
+    xml = _write(tmp_path, f"\n    <Sequence>{children}\n    </Sequence>\n")
+    assert len(xml_to_tree(xml)["root"]["children"]) == 8000

@@ -272,6 +272,8 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
 
     def chars(text: str) -> None:
         if stack:
+            if not text_sizes[-1] and text.isspace():
+                return  # the indentation between children (a text is only read stripped)
             text_sizes[-1] += len(text)
             if text_sizes[-1] > MAX_XML_VALUE:
                 where = stack[-1].location
