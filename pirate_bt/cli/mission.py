@@ -192,7 +192,7 @@ def execute(
         from pirate_bt.api.options import output_folder
 
         output_folder(args.output, "--output")
-        check_outputs_in(Path(args.output), trace_there=args.trace is None)
+        check_outputs_in(Path(args.output), trace_there=getattr(args, "trace", None) is None)
     tolerance = _fraction(getattr(args, "map_tolerance", "10%"), "--map-tolerance")
     robot = load_robot(args.robot)
     # the run's options, as the API checks them, before the plan is printed (a bad
