@@ -32,3 +32,13 @@ def test_a_file_name_with_a_newline_is_one_line_of_error(
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1, lines
     assert lines[0].startswith("pirate-bt: " + said.replace("{x}", f"{tmp_path}/a\\nb"))
+
+
+def test_a_file_written_with_a_newline_in_its_name_is_said_on_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: 'drew .../a' and 'b.dot' on two lines of standard output."""
+    out = tmp_path / "a\nb.dot"
+    assert main(["render", "straight", "-o", str(out)]) == 0
+    assert out.is_file()
+    assert capsys.readouterr().out.splitlines() == [f"drew {tmp_path}/a\\nb.dot"]

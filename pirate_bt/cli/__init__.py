@@ -44,6 +44,7 @@ __all__ = [
     "check_output",
     "main",
     "refuse_pipe",
+    "said_path",
     "stdout_open",
     "utf8_text",
     "write_to_stdout",
@@ -472,6 +473,14 @@ def _main(argv: Sequence[str] | None) -> int:
             file=sys.stderr,
         )
         return EXIT_FAILED
+
+
+def said_path(path: str | os.PathLike[str]) -> str:
+    """A path for a line of output (``wrote PATH``, ``drew PATH``): as it is when
+    printable, else escaped (``a\\nb.dot``), so that a file named with a newline is
+    not said on two lines."""
+    text = os.fspath(path)
+    return text if text.isprintable() else repr(text)[1:-1]
 
 
 def _typed_escaped(text: str, typed: Sequence[str]) -> str:

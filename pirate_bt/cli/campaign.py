@@ -26,6 +26,7 @@ from typing import Any
 
 from pirate_bt.campaign.cases import DEFAULT_MAX_CASES, MAX_CASES_CEILING, check_max_cases
 from pirate_bt.campaign.paths import OUTPUT, RESUME
+from pirate_bt.cli import said_path
 from pirate_bt.errors import InputError, LinkError
 
 __all__ = ["configure", "run"]
@@ -105,7 +106,7 @@ def _report(args: argparse.Namespace) -> int:
     # the campaign's own name, as its end wrote the report (it became the folder's name)
     title = recorded_name(path.parent) or path.parent.name
     for written in write_report(rows, path.parent, title=title):
-        print(f"wrote {written}")
+        print(f"wrote {said_path(written)}")
     return 0
 
 
@@ -256,5 +257,5 @@ def run(args: argparse.Namespace) -> int:
         return terminated.exit_code if terminated else EXIT_SIGINT
     print(f"campaign {result.name}: {result.summary()}")
     for written in result.files:
-        print(f"wrote {written}")
+        print(f"wrote {said_path(written)}")
     return 0

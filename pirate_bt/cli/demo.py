@@ -21,6 +21,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from pirate_bt.cli import said_path
 from pirate_bt.cli.robot import format_table
 from pirate_bt.render.files import write_diagram
 from pirate_bt.resources import bundled, default_robot_path
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     pictures: list[tuple[str, str]] = []
     try:
         written = write_diagram(robot_graph(robot), out / "robot.svg")
-        print(f"drew {written}")
+        print(f"drew {said_path(written)}")
         pictures.append(("The robot", written.name))
     except FileNotFoundError as exc:
         if exc.filename is not None:  # a file that cannot be written, not a missing Graphviz

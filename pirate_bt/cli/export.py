@@ -15,7 +15,7 @@ import argparse
 import importlib
 from pathlib import Path
 
-from pirate_bt.cli import STDOUT, check_output, write_to_stdout
+from pirate_bt.cli import STDOUT, check_output, said_path, write_to_stdout
 
 __all__ = ["TARGETS", "configure", "run"]
 
@@ -62,5 +62,5 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output)
     # a name that is no file: a bundled tree's, else the API's error listing them
     written = export(find_tree(args.tree), args.output, params)
-    print(f"wrote {written}")
+    print(f"wrote {said_path(written)}")
     return 0

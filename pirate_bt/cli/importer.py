@@ -18,7 +18,7 @@ import argparse
 import importlib
 from pathlib import Path
 
-from pirate_bt.cli import STDOUT, check_output, write_to_stdout
+from pirate_bt.cli import STDOUT, check_output, said_path, write_to_stdout
 from pirate_bt.errors import file_argument
 
 __all__ = ["SOURCES", "configure", "run"]
@@ -60,5 +60,5 @@ def run(args: argparse.Namespace) -> int:
         return 0
     check_output(args.output)
     written = convert(args.file, args.output, robot=args.robot)
-    print(f"wrote {written}")
+    print(f"wrote {said_path(written)}")
     return 0

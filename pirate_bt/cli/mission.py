@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from pirate_bt.cli import said_path
 from pirate_bt.errors import InputError
 from pirate_bt.units import parse_quantity
 
@@ -311,7 +312,7 @@ def execute(
         print(f"pirate-bt: {summary}", file=sys.stderr)
         code = result.exit_code  # 3: a lost link, or a close that left it moving
     for path in files:
-        print(f"wrote {path}", file=stream)
+        print(f"wrote {said_path(path)}", file=stream)
     return MissionOutputs(code, result, tuple(files), wall)
 
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.atomic import write_atomically
-from pirate_bt.cli import STDOUT, stdout_open, utf8_text
+from pirate_bt.cli import STDOUT, said_path, stdout_open, utf8_text
 from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed, bytes_escaped
 from pirate_bt.units import parse_quantity
 
@@ -194,7 +194,7 @@ def _write(text: str, output: Path | None) -> None:
         write_atomically(output, lambda stream: stream.write(data))
     except OSError as exc:
         raise InputError(f"-o {output}: cannot write there: {exc.strerror or exc}") from None
-    print(f"wrote {output}")  # the path written, on stdout as every command says it
+    print(f"wrote {said_path(output)}")  # the path written, on stdout as every command says it
 
 
 def _bound_options(args: argparse.Namespace) -> str:

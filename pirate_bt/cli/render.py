@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import as_option, check_output
+from pirate_bt.cli import as_option, check_output, said_path
 from pirate_bt.errors import InputError, shown
 
 __all__ = ["check_diagram", "configure", "run"]
@@ -145,5 +145,5 @@ def run(args: argparse.Namespace) -> int:
         # a full disk said "out: cannot write 'q.dot': ...", render_tree's parameter
         as_option(exc, "out", "-o")
         raise InputError(str(exc)) from None
-    print(f"drew {written}")
+    print(f"drew {said_path(written)}")
     return 0

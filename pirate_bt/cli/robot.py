@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import STDOUT, stdout_open
+from pirate_bt.cli import STDOUT, said_path, stdout_open
 from pirate_bt.errors import InputError
 from pirate_bt.render.files import write_diagram
 from pirate_bt.robot.diagram import board_table, robot_graph
@@ -73,7 +73,9 @@ def _header(args: argparse.Namespace) -> int:
         described = path if path is not None else default_robot_path()
         not_an_input(args.output, "-o", {"robot description": described})
         write_header(robot, args.output, source)
-        print(f"wrote {args.output}")  # the path written, on stdout as every command says it
+        print(
+            f"wrote {said_path(args.output)}"
+        )  # the path written, on stdout as every command says it
     return 0
 
 
@@ -116,5 +118,5 @@ def run(args: argparse.Namespace) -> int:
             return 0
         except ValueError as exc:
             raise InputError(f"--draw {args.draw}: {exc}") from None
-        print(f"drew {written}")
+        print(f"drew {said_path(written)}")
     return 0

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from pirate_bt.cli import as_option, check_output, stdout_open
+from pirate_bt.cli import as_option, check_output, said_path, stdout_open
 from pirate_bt.errors import file_argument
 
 __all__ = ["EXPORTS", "configure", "run"]
@@ -122,7 +122,7 @@ def _plot(args: argparse.Namespace) -> int:
     trace = read_trace(args.trace)
     check_output(args.output)
     out = plot_trace(trace, args.output, start_s=args.start, end_s=args.end)
-    print(f"plotted {out}")
+    print(f"plotted {said_path(out)}")
     return 0
 
 
@@ -153,7 +153,7 @@ def _export(args: argparse.Namespace) -> int:
         bag = target.rstrip("/") or "/"
         if not Path(bag).exists():  # named by its option (the API's is "out_dir")
             check_output(bag)
-        print(f"wrote {export_rosbag2(args.trace, Path(target))}")
+        print(f"wrote {said_path(export_rosbag2(args.trace, Path(target)))}")
         return 0
     check_output(target)
     args.output = Path(target)
@@ -174,7 +174,7 @@ def _export(args: argparse.Namespace) -> int:
     except InputError as exc:  # a full disk said "out_path: cannot write t.mcap: ..."
         as_option(exc, "out_path", "-o")
         raise
-    print(f"wrote {written}")
+    print(f"wrote {said_path(written)}")
     return 0
 
 
