@@ -317,12 +317,21 @@ class CheckBlackboard(Leaf):
 # -- messages and scripts -----------------------------------------------------------
 
 
+# a log line is read by people: longer text is a mistake (or a hostile file), refused at
+# load rather than logged, kept in the node and copied into every trace that shows it
+LOG_MESSAGE_MAX = 10_000
+
+
 class LogParams(NodeParams):
-    message: str = Field(description="text to log")
+    message: str = Field(
+        max_length=LOG_MESSAGE_MAX,
+        description=f"text to log (at most {LOG_MESSAGE_MAX:,} characters)",
+    )
     level: Literal["debug", "info", "warning", "error"] = Field("info", description="log level")
 
 
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+# the control characters shown as their escapes: all but a line break and a tab
+_SHOWN_ESCAPED = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
 
 
 class Log(Leaf):
@@ -334,9 +343,8 @@ class Log(Leaf):
         super().__init__(name, params, context)
         # a terminal shows what is logged: an escape sequence in a tree file's message
         # (clear the screen, colour, a carriage return over the line) is shown as text
-        self.message = "".join(
-            c if c in "\n\t" or not _CONTROL.match(c) else repr(c)[1:-1] for c in params.message
-        )
+        # (one pass over the text, not a string per character)
+        self.message = _SHOWN_ESCAPED.sub(lambda m: repr(m.group())[1:-1], params.message)
         self.level = logging.getLevelName(params.level.upper())
 
     @classmethod
