@@ -33,14 +33,13 @@ from typing import Any
 from pirate_bt.errors import InputError, said_of, shown
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
+from pirate_bt.task.navigate_checks import REFUSAL_LIMIT, check_navigator_map, navigator_method
 from pirate_bt.task.navigate_route_map import check_route_on_map
 from pirate_bt.task.navigation import (
     Navigator,
     Observation,
     Step,
-    call_within,
     raised_at,
-    raised_on_purpose,
 )
 from pirate_bt.task.plan import PabContract, direction_name
 from pirate_bt.task.route import Route, RouteStep, StepKind, load_route
@@ -65,7 +64,6 @@ ENTRY_POINT_GROUP = "pirate_bt.navigators"
 _CONTRACT = PabContract()
 _TOL_M = 1e-3
 _SLACK, _SLACK_M = 0.1, 0.3
-_REFUSAL_LIMIT = 600  # a check_map's refusal, in characters: its middle is left out past it
 """How much longer than the room before the next turn a route's leg may be, and be
 shortened to fit (10 % of the leg and 0.3 m: where the last turn really ended)."""
 
@@ -331,25 +329,6 @@ def _registered() -> dict[str, Any]:
     return found
 
 
-def navigator_method(navigator: object, method: str, name: str) -> Any:
-    """``navigator``'s attribute ``method`` (``None`` when it has none), read as planner
-    code is run: a property or ``__getattr__`` that raises is the navigator's own error,
-    one located line, not a bare exception out of ``navigate()`` or a campaign.
-
-    Raises:
-        InputError: reading it raised (anything but ``AttributeError``).
-    """
-    try:
-        return getattr(navigator, method, None)
-    except (Exception, SystemExit) as exc:  # a sys.exit() there ended `navigate`, exit 0
-        _log.debug("navigator %r: reading %s raised", name, method, exc_info=exc)
-        where = raised_at(exc)
-        raise InputError(
-            f"navigator {name!r}: reading its {method} raised {type(exc).__name__}:"
-            f" {said_of(exc)[:200]}" + (f" (at {where})" if where else "")
-        ) from None
-
-
 def builtin_name(navigator: object) -> str | None:
     """The name of a built-in navigator's class (``ExploreNavigator()``: ``explore``)."""
     return next((n for n, cls in _BUILT_IN.items() if type(navigator) is cls), None)
@@ -399,84 +378,6 @@ def navigator_defaults(name: str) -> dict[str, str | float | int | bool]:
 def navigator_names() -> list[str]:
     """Every navigator name: the built-ins and those of installed packages."""
     return sorted({*_BUILT_IN, *_registered()})
-
-
-def check_navigator_map(
-    navigator: Any, name: str, network: Network | None, deadline_s: float | None = None
-) -> None:
-    """A navigator's own check of the map it will be given (its optional
-    ``check_map(map)``), as bad input, before anything connects: what
-    :func:`~pirate_bt.api.navigation.navigate` and a campaign ask first.
-
-    With ``deadline_s`` the check runs on a thread of its own and may take that much
-    wall time, as a decision may (``navigate``'s ``deadline``).
-
-    Raises:
-        InputError: the navigator refused the map (a ``ValueError``, ``TypeError``
-            or ``InputError``: its message), its check failed (any other
-            exception: a bug in the navigator, named with the place it was raised,
-            its traceback logged at DEBUG), or it took longer than ``deadline_s``;
-            nothing has connected.
-    """
-    check_map = navigator_method(navigator, "check_map", name)
-    if not callable(check_map):
-        return
-    try:
-        if deadline_s is None:
-            answer = check_map(network)
-        else:
-            done, answer, raised = call_within(
-                lambda: check_map(network), deadline_s, f"check_map {name}"
-            )
-            if not done:
-                raise InputError(f"check_map took longer than its {deadline_s:g} s deadline")
-            if raised is not None:
-                raise raised
-        _check_answer(answer)
-    except (ValueError, TypeError, InputError) as exc:
-        if not isinstance(exc, InputError) and not raised_on_purpose(exc):
-            # Python's own error on a line of the check (a bug: 'x' in self.method),
-            # not a refusal written as a raise: said as a bug, with its place
-            _log.debug("navigator %r: check_map raised", name, exc_info=exc)
-            raise InputError(
-                f"navigator {name!r}: check_map raised {type(exc).__name__}:"
-                f" {said_of(exc)[:200]} (at {raised_at(exc)})"
-            ) from None
-        # one line, as every error: a check_map's message may hold newlines; a long one
-        # keeps its end (route's: "... and the map is 'straight'", cut at 300 characters)
-        from pirate_bt.behaviours.foreign import one_line
-
-        said = one_line(f"navigator {name!r}: {said_of(exc)}", _REFUSAL_LIMIT)
-        raise InputError(said) from None
-    except (Exception, SystemExit) as exc:  # the navigator's own error, one located line
-        _log.debug("navigator %r: check_map raised", name, exc_info=exc)
-        text = said_of(exc)[:200]
-        where = raised_at(exc)
-        raise InputError(
-            f"navigator {name!r}: check_map raised {type(exc).__name__}: {text}"
-            + (f" (at {where})" if where else "")
-        ) from None
-
-
-def _check_answer(answer: object) -> None:
-    """What a ``check_map`` returned: ``False`` refuses the map (it was ignored, and the
-    navigation ran on a map its navigator had said no to), and a coroutine (an
-    ``async def`` check, never awaited) is refused as one that checked nothing."""
-    import inspect
-
-    if inspect.isawaitable(answer):
-        close = getattr(answer, "close", None)
-        if callable(close):
-            close()  # no 'coroutine was never awaited' warning
-        raise InputError(
-            "check_map is async def, and its check never ran; write it as a plain def"
-            " that raises ValueError to refuse a map"
-        )
-    if answer is False:
-        raise InputError(
-            "check_map returned False: the map is refused (raise ValueError with the"
-            " reason to say why)"
-        )
 
 
 def _takes(factory: Callable[..., Any]) -> tuple[list[str], list[str]] | None:
@@ -557,7 +458,7 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
         known = f" (it takes: {', '.join(takes[0]) or 'none'})" if takes is not None else ""
         raise InputError(f"navigator {name!r}: {exc}{known}"[:300]) from None
     except (ValueError, OSError) as exc:  # a refusal of its parameters, one line
-        raise InputError(f"navigator {name!r}: {said_of(exc, _REFUSAL_LIMIT)}") from None
+        raise InputError(f"navigator {name!r}: {said_of(exc, REFUSAL_LIMIT)}") from None
     except (Exception, SystemExit) as exc:  # its maker's own error (a plug-in's bug): it was
         # 'internal error', and a sys.exit(0) ended `navigate` with exit 0 and no word
         _log.debug("navigator %r raised as it was made", name, exc_info=exc)
