@@ -90,6 +90,14 @@ def end_state(sim: Simulator) -> str:
     return f"end state: {motion}, {drives}; {halves}; bridge {latch}, {watchdog}"
 
 
+BACKLOG_BYTES = 65536
+"""Bytes of frames a server keeps for a host that does not read while the OS buffer
+(a pty's, a socket's) is full: about 8 s of ``STATE`` frames at real time, as a USB
+serial adapter's and its driver's buffers hold them (the simavr harness keeps as much).
+Beyond it the oldest whole frames are dropped and counted, never part of a frame."""
+
+_SOCKET_BUFFER = 16384  # a TCP host's send buffer in the kernel (doubled by Linux): about a pty's
+
 MAX_SPEED = 100.0
 """The fastest a server runs, in simulated seconds per wall second (``pirate-bt sim
 --speed``'s limit)."""
@@ -138,6 +146,16 @@ class SimServer:
         self._client: socket.socket | None = None
         self.device: str | None = None
         self.address: tuple[str, int] | None = None
+        # frames the OS buffer could not take yet, whole but for the head, which may be
+        # the rest of a frame partly written (``_cut``)
+        self._backlog = bytearray()
+        self._cut = False
+        self._dropping = False  # frames were dropped since the backlog was last empty
+        self.frames_dropped = 0
+        """Whole frames dropped for a host that did not read (beyond :data:`BACKLOG_BYTES`
+        waiting)."""
+        self.bytes_dropped = 0
+        """The bytes of those frames."""
 
     # -- endpoints ------------------------------------------------------------------
 
@@ -177,8 +195,10 @@ class SimServer:
         open_now = not any(flags & select.POLLHUP for _, flags in events)
         if open_now and not self._host_open:
             self.sim.bridge.reset()
+            self._forget_backlog()
             _log.info("host opened %s: bridge reset (DTR)", self.device)
         elif not open_now and self._host_open:
+            self._forget_backlog()
             _log.info("host closed %s", self.device)
         self._host_open = open_now
         return open_now
@@ -262,7 +282,7 @@ class SimServer:
                 self.sim.write(incoming)
             clock.advance_to(sim0 + wall * self.speed)
             outgoing = self.sim.read()
-            if outgoing:
+            if outgoing or self._backlog:
                 self._write(outgoing)
             self._wait(self.tick_s)
 
@@ -310,6 +330,10 @@ class SimServer:
             return
         client.setblocking(False)
         client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        # the kernel's own send buffer grows to megabytes (minutes of frames at real
+        # time); bounded as a pty's is, so what waits for a host that does not read is
+        # the server's backlog, dropped by whole frames
+        client.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, _SOCKET_BUFFER)
         self._client = client
         _log.info("host connected from %s:%d", *peer)
 
@@ -328,19 +352,71 @@ class SimServer:
                 _log.info("host disconnected")
                 self._client.close()
                 self._client = None
+                self._forget_backlog()  # the next host starts at a frame's start
             received += data
         return bytes(received)
 
     def _write(self, data: bytes) -> None:
+        """Send the bridge's frames to the host, whole: what the OS buffer cannot take
+        waits (up to :data:`BACKLOG_BYTES`), and a host that does not read loses whole
+        frames, oldest first, counted. Until 2026-12-01 the rest of a write the buffer
+        could not take was thrown away, cutting a frame in two (a CRC error the host
+        could only blame on the bridge)."""
         if self._master is not None:
             if not self._host_open:
                 return  # no host has the pty open: the bridge talks to nobody
-            with contextlib.suppress(BlockingIOError, OSError):
-                os.write(self._master, data)  # a full pty drops bytes, like a full UART
-        elif self._client is not None:
-            with contextlib.suppress(BlockingIOError, OSError):
-                self._client.sendall(data)
-        # with no host connected, the bridge talks to nobody
+        elif self._client is None:
+            return  # with no host connected, the bridge talks to nobody
+        self._backlog += data
+        self._flush()
+        if len(self._backlog) > BACKLOG_BYTES:
+            self._drop_oldest(len(self._backlog) - BACKLOG_BYTES)
+        elif not self._backlog and self._dropping:
+            self._dropping = False
+            _log.info("the host reads again (%d frames dropped so far)", self.frames_dropped)
+
+    def _flush(self) -> None:
+        """Write what the OS buffer takes of the backlog."""
+        while self._backlog:
+            try:
+                if self._master is not None:
+                    written = os.write(self._master, self._backlog)
+                elif self._client is not None:
+                    written = self._client.send(self._backlog)
+                else:
+                    return
+            except OSError:  # full (BlockingIOError), or the host gone: read next pass
+                return
+            if written <= 0:
+                return
+            self._cut = self._backlog[written - 1] != 0  # a frame ends with its 0x00
+            del self._backlog[:written]
+
+    def _drop_oldest(self, excess: int) -> None:
+        """Drop whole frames, oldest first, until ``excess`` bytes are gone; the rest of a
+        frame partly written is kept (the host has its start)."""
+        start = self._backlog.find(0) + 1 if self._cut else 0
+        end = self._backlog.find(0, start + excess - 1)
+        if (self._cut and start == 0) or end < 0:
+            return  # no whole frame to drop (bytes not from the bridge): keep them
+        dropped = self._backlog[start : end + 1]
+        del self._backlog[start : end + 1]
+        self.frames_dropped += dropped.count(0)  # each frame ends with its one 0x00
+        self.bytes_dropped += len(dropped)
+        if not self._dropping:
+            self._dropping = True
+            _log.warning(
+                "the host does not read: %d KiB of frames wait; the oldest are dropped,"
+                " whole (%d so far)",
+                BACKLOG_BYTES // 1024,
+                self.frames_dropped,
+            )
+
+    def _forget_backlog(self) -> None:
+        """A new host (or none) starts at the start of a frame: nothing left to it."""
+        self._backlog.clear()
+        self._cut = False
+        self._dropping = False
 
     def close(self) -> None:
         """Close every endpoint (idempotent)."""
