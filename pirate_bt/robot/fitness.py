@@ -25,9 +25,15 @@ from pirate_bt.robot.parts import (
     SensorKind,
 )
 
-__all__ = ["Workable", "motor_limit_problems", "workable_problems"]
+__all__ = ["BOARD_SILENCE_S", "Workable", "motor_limit_problems", "workable_problems"]
 
 KeyPath = tuple[str | int, ...]
+
+BOARD_SILENCE_S = 0.1
+"""A board that hears no poll from the bridge for this long stops itself and says
+``OWN_STOP``, on which the bridge stops the whole robot: the reference PICO firmware's
+``BOARD_SILENCE_MS`` (firmware/pico/bus.h), the simulated boards' too
+(docs/board-bus.md, Board-side timeout). A robot description cannot change it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,11 +56,32 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The rules a run needs of the file, each problem as ``(path, message)``."""
     return [
         *_freshness(desc),
+        *_board_polls(desc),
         *_sensor_ranges(desc),
         *_reach(desc),
         *_drive_feedback(desc),
         *_cruise(desc),
         *_joint_sensors(desc),
+    ]
+
+
+def _board_polls(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The bridge polls each board once a state period, and a board stops itself after
+    :data:`BOARD_SILENCE_S` without a poll: a state period of half that time or less
+    leaves a poll room to run late in its period without stopping the robot."""
+    period = desc.bridge.state_period
+    most = BOARD_SILENCE_S / 2
+    if period <= most * (1 + 1e-9):
+        return []
+    return [
+        (
+            ("bridge", "state_period"),
+            f"a state period of {_fmt_s(period)} is too long for the boards: the bridge"
+            " polls each board once a state period, and a PICO board stops itself after"
+            f" {_fmt_s(BOARD_SILENCE_S)} without a poll (docs/board-bus.md, Board-side"
+            " timeout), on which the bridge stops the whole robot; make it at most"
+            f" {_fmt_s(most)}, half that time, so that a poll running late stops nothing",
+        )
     ]
 
 

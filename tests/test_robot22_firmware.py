@@ -1,0 +1,75 @@
+"""Robot descriptions that validated but could not work on the reference firmware.
+
+Each test edits a copy of hardware/pirate.yaml as a lab describing its robot might,
+and checks that ``pirate-bt validate`` refuses it in one line at the key to change,
+where before the simulator drove it and the reference PICO boards did not.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pirate_bt.cli import main
+from pirate_bt.errors import ValidationFailed
+from pirate_bt.robot import load_robot
+
+GOOD = (Path(__file__).resolve().parent.parent / "hardware" / "pirate.yaml").read_text()
+
+
+def variant(tmp_path: Path, *edits: tuple[str, str]) -> Path:
+    """A copy of the bundled robot with every ``old`` replaced by ``new``."""
+    text = GOOD
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / "my-robot.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def line_of(path: Path, anchor: str) -> int:
+    lines = [i for i, line in enumerate(path.read_text().splitlines(), 1) if anchor in line]
+    assert len(lines) == 1, (anchor, lines)
+    return lines[0]
+
+
+def validate(path: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, list[str]]:
+    code = main(["validate", str(path)])
+    out = capsys.readouterr()
+    return code, (out.out + out.err).splitlines()
+
+
+# A bridge sending a state frame every 150 ms, its sensors and silence limits made to
+# fit (before, this validated: the PICO boards stop themselves after 100 ms without a
+# poll, so every reply said OWN_STOP and the bridge stopped the robot every cycle).
+SLOW_BRIDGE = (
+    ("state_period: 10 ms", "state_period: 150 ms"),
+    ("    period: 10 ms", "    period: 50 ms"),  # every sensor's
+    ("watchdog: 250 ms", "watchdog: 500 ms"),
+    ("max_link_silence: 500 ms", "max_link_silence: 1 s"),
+)
+
+
+def test_a_state_period_the_boards_time_out_in_is_refused_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = variant(tmp_path, *SLOW_BRIDGE)
+    code, lines = validate(path, capsys)
+    assert code == 2
+    assert len(lines) == 1, lines
+    line = line_of(path, "state_period: 150 ms")
+    assert lines[0].startswith(f"{path}:{line}:3: a state period of 150 ms is too long"), lines
+    assert "a PICO board stops itself after 100 ms without a poll" in lines[0]
+    assert "make it at most 50 ms" in lines[0]
+    with pytest.raises(ValidationFailed, match="state period of 150 ms is too long"):
+        load_robot(path)
+
+
+@pytest.mark.parametrize("period", ["50 ms", "20 ms"])
+def test_a_state_period_of_half_the_boards_silence_time_or_less_validates(
+    tmp_path: Path, period: str
+) -> None:
+    robot = load_robot(variant(tmp_path, ("state_period: 10 ms", f"state_period: {period}")))
+    assert robot.bridge.state_period <= 0.05
