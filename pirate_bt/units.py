@@ -30,6 +30,7 @@ from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, UnitError, k
 
 __all__ = [
     "DIMENSIONS",
+    "MAGNITUDE_LIMITS",
     "Acceleration",
     "Angle",
     "AngularVelocity",
@@ -41,6 +42,7 @@ __all__ = [
     "Length",
     "Torque",
     "Velocity",
+    "check_magnitude",
     "format_quantity",
     "parse_quantity",
     "quantity_type",
@@ -294,6 +296,40 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
     if not math.isfinite(result):
         raise UnitError(f"{_shown(value)} is not a finite number")
     return result
+
+
+MAGNITUDE_LIMITS: Final[dict[str, float]] = {
+    "length": 1e6,  # 1,000 km of pipe
+    "time": 1e9,  # 31 years, the longest run a mission allows (max_time)
+    "angle": 1e6,  # some 159,000 turns
+    "velocity": 1e3,
+    "angular_velocity": 1e4,
+    "acceleration": 1e4,
+    "force": 1e7,
+    "torque": 1e6,
+    "frequency": 1e9,
+    "current": 1e4,
+    "mass": 1e6,
+}
+"""The largest magnitude, in SI units, a value of a tree's parameter can mean, per
+dimension: far beyond any pipe robot, short of a number that only overflows what is
+computed from it (a distance of 2**62 m was a finite double, and taken)."""
+
+
+def check_magnitude(value_si: float, dimension: str, written: object) -> None:
+    """Refuse ``value_si`` (``written`` as given) beyond :data:`MAGNITUDE_LIMITS` for
+    ``dimension`` (``dimensionless`` has none).
+
+    Raises:
+        UnitError: ``'1e300 m' is out of range: a length is at most 1e+06 m``.
+    """
+    _dimension(dimension)
+    limit = MAGNITUDE_LIMITS.get(dimension)
+    if limit is not None and abs(value_si) > limit:
+        raise UnitError(
+            f"{_shown(written)} is out of range: {_article(dimension)} is at most"
+            f" {limit:g} {_SI[dimension]} (either sign)"
+        )
 
 
 def _dimension(dimension: object) -> None:

@@ -28,7 +28,7 @@ from typing import Any, Final, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from pirate_bt.errors import UnitError, shown
-from pirate_bt.units import parse_quantity
+from pirate_bt.units import check_magnitude, parse_quantity
 
 __all__ = [
     "PARAM_RE",
@@ -123,6 +123,7 @@ def coerce_param(
             # text, or a file's value, needs its unit
             written = isinstance(value, str) or units_required
             si = parse_quantity(value, dimension, require_unit=written)
+            check_magnitude(si, dimension, value)
         except UnitError as exc:
             raise ValueError(str(exc)) from None
         return f"{si!r} {unit}"
