@@ -73,3 +73,54 @@ def test_a_state_period_of_half_the_boards_silence_time_or_less_validates(
 ) -> None:
     robot = load_robot(variant(tmp_path, ("state_period: 10 ms", f"state_period: {period}")))
     assert robot.bridge.state_period <= 0.05
+
+
+def test_a_position_mode_without_an_angle_sensor_on_its_slot_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before, this validated: the reference PICO braked camera_pan on every position
+    # setpoint (it has no angle channel to close the loop on), the simulator moved it
+    path = variant(tmp_path, ("      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n", ""))
+    code, lines = validate(path, capsys)
+    assert code == 2
+    assert len(lines) == 1, lines
+    text = path.read_text().splitlines()
+    pan = next(i for i, line in enumerate(text) if "name: camera_pan" in line)
+    line = next(i for i in range(pan, len(text)) if "position:" in text[i]) + 1
+    assert lines[0].startswith(f"{path}:{line}:"), lines
+    assert (
+        "motor 'camera_pan' (board 20, slot 1) has a position mode, but its board has no"
+        " angle sensor on slot 1" in lines[0]
+    )
+    assert "brakes the motor on every position setpoint" in lines[0]
+
+
+def test_a_sensor_of_another_kind_on_the_slot_does_not_close_a_position_loop(
+    tmp_path: Path,
+) -> None:
+    path = variant(
+        tmp_path,
+        (
+            "      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n",
+            "      - {<<: *spring_sensor, slot: 1, name: camera_pan_spring}\n",
+        ),
+    )
+    with pytest.raises(ValidationFailed, match=r"'camera_pan' .* no angle sensor on slot 1"):
+        load_robot(path)
+
+
+def test_a_motor_without_a_position_mode_needs_no_angle_sensor(tmp_path: Path) -> None:
+    path = variant(
+        tmp_path,
+        ("      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n", ""),
+        (
+            "        name: camera_pan\n        function: camera_pan\n        modes:\n"
+            "          pwm: {raw: [-255, 255], per_raw: 0.392156862745098 %}\n"
+            "          position: {raw: [-2048, 2047], per_raw: 0.087890625 deg}\n"
+            "        limits:\n          angle: {min: -90 deg, max: 90 deg, policy: clip}\n",
+            "        name: camera_pan\n        function: camera_pan\n        modes:\n"
+            "          pwm: {raw: [-255, 255], per_raw: 0.392156862745098 %}\n",
+        ),
+    )
+    robot = load_robot(path)
+    assert robot.motor("camera_pan").modes.position is None

@@ -54,6 +54,7 @@ def _fmt_s(seconds: float) -> str:
 
 def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The rules a run needs of the file, each problem as ``(path, message)``."""
+    joints = _joint_sensors(desc)
     return [
         *_freshness(desc),
         *_board_polls(desc),
@@ -61,7 +62,8 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *_reach(desc),
         *_drive_feedback(desc),
         *_cruise(desc),
-        *_joint_sensors(desc),
+        *joints,
+        *_position_sensors(desc, {path[:4] for path, _ in joints}),
     ]
 
 
@@ -83,6 +85,33 @@ def _board_polls(desc: Workable) -> list[tuple[KeyPath, str]]:
             f" {_fmt_s(most)}, half that time, so that a poll running late stops nothing",
         )
     ]
+
+
+def _position_sensors(desc: Workable, told: set[KeyPath]) -> list[tuple[KeyPath, str]]:
+    """A motor with a ``position`` mode needs an angle sensor on its own board and slot:
+    the board closes the position loop on it, and without one brakes the motor on
+    every position setpoint (docs/board-bus.md, Modes on the board). A joint whose
+    sensor :func:`_joint_sensors` already placed (``told``: board and motor paths) is
+    not told twice."""
+    out: list[tuple[KeyPath, str]] = []
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            if motor.modes.position is None or ("boards", b, "motors", j) in told:
+                continue
+            if any(s.slot == motor.slot and s.kind is SensorKind.ANGLE for s in board.sensors):
+                continue
+            out.append(
+                (
+                    ("boards", b, "motors", j, "modes", "position"),
+                    f"motor {motor.name!r} (board {board.id}, slot {motor.slot}) has a"
+                    f" position mode, but its board has no angle sensor on slot"
+                    f" {motor.slot}: the board closes the position loop on the angle sensor"
+                    " of the motor's own slot, and without one brakes the motor on every"
+                    f" position setpoint; put an angle sensor on slot {motor.slot} of board"
+                    f" {board.id}, or remove the position mode",
+                )
+            )
+    return out
 
 
 def _joint_sensors(desc: Workable) -> list[tuple[KeyPath, str]]:
