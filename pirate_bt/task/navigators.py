@@ -30,7 +30,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, said_of, shown
+from pirate_bt.errors import InputError, LocatedError, ValidationFailed, said_of, shown
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate_checks import REFUSAL_LIMIT, check_navigator_map, navigator_method
@@ -454,6 +454,10 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             raise InputError(f"{said} (it takes: {known})"[:300])
     try:
         navigator = factory(**given)
+    except InputError as exc:  # a refusal of its parameters (a route file not found),
+        # not its maker's bug: it was "navigator 'route' raised ValidationFailed as it was
+        # made: ... (at .../route.py:545)"
+        raise _refusal(name, exc, given) from None
     except TypeError as exc:
         known = f" (it takes: {', '.join(takes[0]) or 'none'})" if takes is not None else ""
         raise InputError(f"navigator {name!r}: {exc}{known}"[:300]) from None
@@ -470,3 +474,40 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
     if not callable(navigator_method(navigator, "next_step", name)):  # read as navigate() does
         raise InputError(f"navigator {name!r} made {shown(navigator)}, which has no next_step(obs)")
     return navigator  # type: ignore[no-any-return]
+
+
+def _refusal(name: str, exc: InputError, given: Mapping[str, Any]) -> InputError:
+    """A navigator's :class:`InputError` as it was made, as a refusal of its parameters:
+    one line naming the navigator and, where it can be told, the parameter (*navigator
+    'route', parameter 'route': missing.route:1:1: no such file*). A file's several
+    problems give the first and how many more."""
+    from pirate_bt.behaviours.foreign import one_line
+
+    errors = exc.errors if isinstance(exc, ValidationFailed) else ()
+    text = said_of(errors[0] if errors else exc)
+    if len(errors) > 1:
+        more = len(errors) - 1
+        text += f" (and {more} more problem{'s' if more > 1 else ''} there)"
+    key = _parameter_of(name, exc, text, given)
+    if key is None:
+        return InputError(one_line(f"navigator {name!r}: {text}", REFUSAL_LIMIT))
+    text = text.removeprefix(f"{key}: ")  # its own words named it: named once
+    return InputError(one_line(f"navigator {name!r}, parameter {key!r}: {text}", REFUSAL_LIMIT))
+
+
+def _parameter_of(name: str, exc: InputError, text: str, given: Mapping[str, Any]) -> str | None:
+    """The parameter a refusal is about: the one its words begin with (*segment: give
+    ...*); for a file's problem the one parameter given that names a file (``route``'s
+    ``route``, ``explore``'s ``extend``, a plug-in's ``file_params``); else the one
+    whose value the words quote, or the only one given; ``None`` when none can be told."""
+    starts = [k for k in given if text.startswith(f"{k}: ")]
+    if starts:
+        return starts[0]
+    if isinstance(exc, ValidationFailed | LocatedError):
+        files = [k for k in sorted(navigator_file_params(name)) if k in given]
+        if len(files) == 1:
+            return files[0]
+    quoted = [k for k in given if isinstance(given[k], str | Path) and str(given[k]) in text]
+    if len(quoted) == 1 and str(given[quoted[0]]):
+        return quoted[0]
+    return next(iter(given)) if len(given) == 1 else None
