@@ -78,21 +78,37 @@ _NO_RETURN = (
 )
 
 
+def _route_file(name: str | Path) -> Path:
+    """The route file ``name`` means, found as :func:`pirate_bt.simulate_mission` finds
+    one (``api.file_options.find``): the path when something is there, else a bundled
+    route, ``.route`` added to a name without a suffix: ``"bend-right"`` is
+    ``scenarios/bend-right.route``, where it was the network ``bend-right.yaml`` (*a
+    YAML file, not a route*)."""
+    from pirate_bt.resources import data_dir, exists, missing
+
+    path = Path(name)
+    if not missing(path) or path.is_absolute() or len(path.parts) > 1:
+        return path
+    folder = data_dir("scenarios")
+    if not path.suffix and exists(folder / f"{path}.route"):
+        return folder / f"{path}.route"
+    return folder / path.name if exists(folder / path.name) else path
+
+
 class RouteNavigator:
     """Follow a route, one command per step; stop at the first step that fails.
 
     Args:
         route: A route file (``scenarios/lab.route``), a bundled route's name
-            (``lab.route``) or a parsed ``Route``.
+            (``lab.route``, or ``lab``: a route, not the network ``lab.yaml``) or a
+            parsed ``Route``.
     """
 
     def __init__(self, route: str | Path | Route) -> None:
         if not isinstance(route, str | Path | Route):
             raise InputError(f"route: give a route file, a bundled name or a Route, not {route!r}")
         if not isinstance(route, Route):
-            from pirate_bt.resources import find_file
-
-            route = load_route(find_file("scenarios", str(route)))
+            route = load_route(_route_file(route))
         self.route = route
         self._goal: GoalNavigator | None = None
         self._next = 0
