@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import io
 import math
+import numbers
 import os
 import sys
 import textwrap
@@ -301,6 +302,14 @@ def _strip(ax: Any, spans: list[StepSpan], px_per_s: float, dpi: float, what: st
     return legend
 
 
+def _seconds(given: float) -> float:
+    """``given`` as a float; a whole number too large for one is infinite (refused)."""
+    try:
+        return float(given)
+    except OverflowError:
+        return math.inf if given > 0 else -math.inf
+
+
 def plot_trace(
     trace: Trace | str | Path,
     out: str | Path,
@@ -342,11 +351,16 @@ def plot_trace(
             f"plot_trace: trace: give a Trace (pirate_bt.read_trace) or the path of a trace"
             f" file, not {type(trace).__name__}"
         )
+    window_s: list[float | None] = []
     for option, given in (("start_s", start_s), ("end_s", end_s)):  # "1" failed in format()
-        if given is not None and (isinstance(given, bool) or not isinstance(given, int | float)):
+        # any real number but a bool, as a plain float: numpy.int64(1) and
+        # numpy.float32(2) were refused, numpy.float64 (a float) taken
+        if given is not None and (isinstance(given, bool) or not isinstance(given, numbers.Real)):
             raise ArgumentTypeError(
                 f"plot_trace: {option}: give a number of seconds, not {type(given).__name__}"
             )
+        window_s.append(None if given is None else _seconds(given))
+    start_s, end_s = window_s
     duration = trace.duration_s
     if duration <= 0 and start_s is None and end_s is None:  # ended in its first tick
         n = trace.last_tick  # was "plot window from 0 s to 0 s is outside the trace"

@@ -37,6 +37,7 @@ behaviour, a :class:`~pirate_bt.trace.TreeStructure`, or a trace (a file or a
 
 from __future__ import annotations
 
+import operator
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -180,8 +181,17 @@ def _check_arguments(
             )
     if trace is not None and not isinstance(trace, Trace):
         file_argument(trace, "trace")
-    if tick is not None and (isinstance(tick, bool) or not isinstance(tick, int)):
-        raise ArgumentTypeError(f"tick: give a tick's number (a whole number), not {shown(tick)}")
+    if tick is not None:
+        # a whole number as Trace.frame_at takes one (Trace.tick_number): anything with
+        # __index__ but a bool, so numpy.int64(3) too (it was refused here, taken there)
+        try:
+            whole = not isinstance(tick, bool) and isinstance(operator.index(tick), int)  # type: ignore[arg-type]
+        except Exception:  # no __index__, or its own raises
+            whole = False
+        if not whole:
+            raise ArgumentTypeError(
+                f"tick: give a tick's number (a whole number), not {shown(tick)}"
+            )
     _mapping(params, "params", "a mapping of parameter names to values")
     for key in params or {}:  # type: ignore[attr-defined]
         if not isinstance(key, str):
