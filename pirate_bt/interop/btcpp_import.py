@@ -289,6 +289,11 @@ class _Importer:
                 )
         out: dict[str, Any] = {}
         name = attrs.pop("name", None)
+        if name is not None and not name.strip():
+            # BT.CPP takes name="" (or blank) as it is, an instance shown by its type in
+            # Groot2; a pirate_bt name is never blank: the node takes its type's name,
+            # as with no name attribute
+            name = None
         description = attrs.pop("_description", None)
         hint = attrs.pop(_HINT, None)
         # BT.CPP ignores an attribute it takes for no port (IsAllowedPortName): '_x', 'éx'
