@@ -30,7 +30,7 @@ import codecs
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Final
+from typing import Any, Final
 from xml.parsers import expat
 
 from pirate_bt.atomic import cut_name, write_atomically
@@ -42,6 +42,7 @@ from pirate_bt.errors import (
     caller_location,
     file_argument,
     output_argument,
+    reduce_error,
     shown,
 )
 from pirate_bt.treefile.names import printable
@@ -95,11 +96,16 @@ class XmlElement:
 
 
 class _Refused(Exception):
+    """A limit the reader met at a place (parse_xml's own: said as a LocatedError)."""
+
     def __init__(self, message: str, line: int, column: int) -> None:
         super().__init__(message)
         self.message = message
         self.line = line
         self.column = column
+
+    def __reduce__(self) -> tuple[Any, ...]:  # across processes (pools, Dask) intact
+        return reduce_error(self)
 
 
 def parse_xml(path: Path) -> XmlElement:
