@@ -64,6 +64,7 @@ def check_navigator_map(
     if not callable(check_map):
         return
     try:
+        _check_shape(check_map)  # as next_step's is: a yield, or the wrong arity
         if deadline_s is None:
             answer = check_map(network)
         else:
@@ -100,20 +101,63 @@ def check_navigator_map(
         ) from None
 
 
-def _check_answer(answer: object) -> None:
-    """What a ``check_map`` returned: ``False`` refuses the map (it was ignored, and the
-    navigation ran on a map its navigator had said no to), and a coroutine (an
-    ``async def`` check, never awaited) is refused as one that checked nothing."""
+_NEVER_RAN = (
+    "and its check never ran; write it as a plain def that raises ValueError to refuse a map"
+)
+
+
+def _check_shape(check_map: Any) -> None:
+    """``check_map``'s shape, before it is called, as ``next_step``'s is
+    (:func:`pirate_bt.api.navigation._check_next_step`, with the words of
+    :func:`pirate_bt.api.observing.never_runs` and ``uncallable_with``, which this layer
+    cannot import): an ``async def`` or a generator function (a ``yield`` in it: its
+    body never runs, and a check that raised ``ValueError`` was taken for one that
+    passed), its own or a callable object's ``__call__``; and one that cannot be called
+    with one argument (it was said as a ``TypeError`` raised in this file).
+
+    Raises:
+        InputError: which of them, and how to write it.
+    """
     import inspect
 
-    if inspect.isawaitable(answer):
-        close = getattr(answer, "close", None)
-        if callable(close):
-            close()  # no 'coroutine was never awaited' warning
-        raise InputError(
-            "check_map is async def, and its check never ran; write it as a plain def"
-            " that raises ValueError to refuse a map"
+    try:
+        call = (
+            None if inspect.isroutine(check_map) else inspect.getattr_static(check_map, "__call__")
         )
+    except AttributeError:
+        call = None
+    for each in (check_map, call):
+        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
+            raise InputError(f"check_map is async def, {_NEVER_RAN}")
+        if inspect.isgeneratorfunction(each):
+            raise InputError(f"check_map yields, {_NEVER_RAN}")
+    try:
+        signature = inspect.signature(check_map)
+    except Exception:  # a builtin without one, or its own __signature__ that raises
+        return
+    try:
+        signature.bind(None)
+    except TypeError:
+        signature = signature.replace(return_annotation=inspect.Signature.empty)
+        raise InputError(
+            f"check_map{signature} cannot be called as check_map(map); give it one"
+            " argument, the map"[:300]
+        ) from None
+
+
+def _check_answer(answer: object) -> None:
+    """What a ``check_map`` returned: ``False`` refuses the map (it was ignored, and the
+    navigation ran on a map its navigator had said no to), and a coroutine or a
+    generator (an ``async def`` check, never awaited; one that yields, never iterated)
+    is refused as one that checked nothing."""
+    import inspect
+
+    if inspect.isawaitable(answer) or inspect.isgenerator(answer) or inspect.isasyncgen(answer):
+        close = getattr(answer, "close", None)
+        if callable(close) and not inspect.isasyncgen(answer):
+            close()  # no 'coroutine was never awaited' warning
+        said = "yields" if inspect.isgenerator(answer) else "is async def"
+        raise InputError(f"check_map {said}, {_NEVER_RAN}")
     if answer is False:
         raise InputError(
             "check_map returned False: the map is refused (raise ValueError with the"
