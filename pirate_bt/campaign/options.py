@@ -12,7 +12,6 @@ from __future__ import annotations
 import importlib
 import importlib.machinery
 import importlib.util
-import inspect
 import os
 import re
 from pathlib import Path
@@ -48,37 +47,35 @@ def given_path(value: Any, name: str) -> Path:
 def check_callback(value: Any, name: str, argument: str) -> None:
     """``value`` is ``None`` or a plain function the campaign can call as
     ``name(argument)``: one positional argument, not an ``async def`` (called, never
-    awaited: it would never run). Checked before anything is read, as the API checks
-    ``observe=`` (:func:`pirate_bt.api.observing.check_observer`): a callback of the
-    wrong arity raised a bare ``TypeError`` from deep inside once a case had run.
+    awaited) nor a generator function (a ``yield`` in it: called, never iterated), whose
+    body would never run (a generator ``on_record`` passed zero rows with no word).
+    Checked before anything is read, as the API checks ``observe=``
+    (:func:`pirate_bt.api.observing.never_runs` and ``uncallable_with``): a callback of
+    the wrong arity raised a bare ``TypeError`` from deep inside once a case had run.
 
     Raises:
         ArgumentTypeError: one line naming ``name``, what it takes and how it is called.
     """
+    from pirate_bt.api.observing import never_runs, uncallable_with
+
     if value is None:
         return
     if not callable(value):
         raise ArgumentTypeError(f"{name}: give a function (or None), not {shown(value)}")
     label = (getattr(value, "__qualname__", None) or type(value).__name__).rsplit(".", 1)[-1]
     label = label[:60]
-    # a callable object's own __call__ (an async one never runs either)
-    call = None if inspect.isroutine(value) else inspect.getattr_static(value, "__call__", None)
-    if inspect.iscoroutinefunction(value) or inspect.iscoroutinefunction(call):
+    what = never_runs(value)  # its own, or a callable object's __call__
+    if what is not None:
         raise ArgumentTypeError(
-            f"{name}: {label} is an async def, which {name}({argument}) would call and never"
+            f"{name}: {label} is {what}, which {name}({argument}) would call and never"
             " run; give a plain function"
         )
-    try:
-        signature = inspect.signature(value)
-    except (TypeError, ValueError):  # a builtin without one: called as it is
-        return
-    try:
-        signature.bind(None)
-    except TypeError:
+    signature = uncallable_with(value, 1)
+    if signature is not None:
         raise ArgumentTypeError(
             f"{name}: {label}{signature} cannot be called as {name}({argument});"
             f" give a function of one argument"[:300]
-        ) from None
+        )
 
 
 _TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*")
