@@ -206,11 +206,19 @@ def test_the_front_tilt_is_read_by_the_angle_sensor_at_its_motor_s_slot(tmp_path
 def test_without_a_sensor_at_its_slot_the_front_module_s_angle_sensor_reads_it(
     tmp_path: Path,
 ) -> None:
+    # a tilt motor with no position mode: one with a position mode needs an angle sensor
+    # on its own slot (its board closes the loop on it), or the robot is refused at load
     robot = variant(
         tmp_path,
         (
             "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: front_tilt_angle}\n",
             "    sensors: []\n",
+        ),
+        (
+            "        function: tilt\n        modes: *joint_modes\n",
+            "        function: tilt\n        modes:\n"
+            "          pwm: {raw: [-255, 255], per_raw: 0.392156862745098 %}\n"
+            "          torque: {raw: [-1023, 1023], per_raw: 1 mN*m}\n",
         ),
     )
     assert front_tilt_channel(robot) == "camera_tilt_angle"

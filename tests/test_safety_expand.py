@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from pirate_bt.clock import SimClock
+from pirate_bt.errors import ValidationFailed
 from pirate_bt.robot import ControlMode, Half, MotorCommand, load_robot
 from pirate_bt.safety import (
     Bend,
@@ -338,7 +339,9 @@ def test_a_joint_motor_on_a_module_that_is_not_a_bend_module_is_no_bend_target(
 
 
 def test_a_tilt_motor_without_an_angle_sensor_cannot_be_commanded(tmp_path: Path) -> None:
-    """No angle reading on the front module: nothing can check a tilt, so it is no target."""
+    """No angle reading on the front module: nothing can check a tilt, so it is no target.
+    (Its motors then have no position mode: a board closes a position loop on the angle
+    sensor of the motor's slot, and a robot without one is refused at load.)"""
     robot = load_robot(
         robot_variant(
             tmp_path,
@@ -350,6 +353,17 @@ def test_a_tilt_motor_without_an_angle_sensor_cannot_be_commanded(tmp_path: Path
                 "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: camera_tilt_angle}\n"
                 "      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n",
                 "    sensors: []\n",
+            ),
+            (
+                "          position: {raw: [-2048, 2047], per_raw: 0.087890625 deg}\n"
+                "        limits:\n          angle: {min: -90 deg,",
+                "        limits:\n          angle: {min: -90 deg,",
+            ),
+            (
+                "        function: tilt\n        modes: *joint_modes\n",
+                "        function: tilt\n        modes:\n"
+                "          pwm: {raw: [-255, 255], per_raw: 0.392156862745098 %}\n"
+                "          torque: {raw: [-1023, 1023], per_raw: 1 mN*m}\n",
             ),
         )
     )
@@ -474,29 +488,24 @@ def test_a_raw_tilt_is_judged_like_a_tilt(sup: Supervisor, port: FakePort) -> No
     assert intent(raw("front_tilt", ControlMode.POSITION, 0.5)).front_tilt_rad == 0.5
 
 
-def test_a_raw_tilt_without_a_tilt_reading_is_no_target(tmp_path: Path) -> None:
-    robot = load_robot(
-        robot_variant(
-            tmp_path,
-            (
-                "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: front_tilt_angle}\n",
-                "    sensors: []\n",
-            ),
-            (
-                "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: camera_tilt_angle}\n"
-                "      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n",
-                "    sensors: []\n",
-            ),
-        )
+def test_a_position_tilt_without_a_tilt_reading_is_refused_at_load(tmp_path: Path) -> None:
+    """A front tilt with a position mode and no angle sensor on its slot: its board could
+    not close the loop (the reference PICO brakes it), so the robot is refused at load
+    (since 53fb687; before, the expander answered a raw tilt: no front tilt motor)."""
+    path = robot_variant(
+        tmp_path,
+        (
+            "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: front_tilt_angle}\n",
+            "    sensors: []\n",
+        ),
+        (
+            "    sensors:\n      - {<<: *angle_sensor, slot: 0, name: camera_tilt_angle}\n"
+            "      - {<<: *angle_sensor, slot: 1, name: camera_pan_angle}\n",
+            "    sensors: []\n",
+        ),
     )
-    found = Expander(robot).expand(
-        raw("front_tilt", ControlMode.POSITION, 0.5), FakePort(robot, SimClock()).state()
-    )
-    assert isinstance(found, Problem)
-    assert (found.reason, found.detail) == (
-        Reason.UNKNOWN_TARGET,
-        "this robot has no front tilt motor",
-    )
+    with pytest.raises(ValidationFailed, match=r"motor 'front_tilt' .* has a position mode"):
+        load_robot(path)
 
 
 def test_a_raw_tilt_commands_the_motor_it_names(tmp_path: Path) -> None:
@@ -509,6 +518,11 @@ def test_a_raw_tilt_commands_the_motor_it_names(tmp_path: Path) -> None:
                 "          pwm: {raw: [0, 255], per_raw: 0.392156862745098 %}",
                 "        name: rear_tilt\n        function: tilt\n        modes:\n"
                 "          position: {raw: [-2048, 2047], per_raw: 0.087890625 deg}",
+            ),
+            (  # its board closes the position loop on the angle sensor of its slot
+                "      - {<<: *angle_sensor, slot: 0, name: rear_angle}\n",
+                "      - {<<: *angle_sensor, slot: 0, name: rear_angle}\n"
+                "      - {<<: *angle_sensor, slot: 1, name: rear_tilt_angle}\n",
             ),
         )
     )
