@@ -35,7 +35,7 @@ from pirate_bt.link.health import (
 )
 from pirate_bt.link.inbound import unasked_text
 from pirate_bt.link.session import Outcome, Request, Session
-from pirate_bt.link.snapshots import Snapshots
+from pirate_bt.link.snapshots import AppliedSetpoints, Snapshots
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
 from pirate_bt.robot.description import ControlMode, RobotDescription
 from pirate_bt.robot.port import LinkHealth
@@ -60,6 +60,7 @@ class RobotLink:
         self._robot = robot
         self.session = session
         self._snaps = Snapshots(robot)  # the STATEs taken, as snapshots
+        self._applied = AppliedSetpoints(robot)  # what the bridge holds, by ack_seq
         self._commands = CommandCodec(robot)
         self._deadman = Deadman(robot, self._commands)  # a program that stops calling in
         slots = robot.setpoint_slots()
@@ -135,6 +136,13 @@ class RobotLink:
         (:meth:`~pirate_bt.link.snapshots.Snapshots.between`)."""
         return self._snaps.between(self.session, after, newest)
 
+    def setpoint_applied(self, motor: str) -> MotorCommand | None:
+        """The setpoint ``motor``'s board holds by the newest ``STATE``'s ``ack_seq`` (a
+        superseded bulk's too), in SI; ``None`` when none is known. Optional on a port
+        (not in :class:`~pirate_bt.robot.port.RobotPort`): the stalled-joint watch
+        waits for a joint only once its board has the setpoint."""
+        return self._applied.applied(self.session, motor)
+
     def boards_not_answering(self) -> tuple[int, ...]:
         """The boards the bridge's latest ``STATE`` reports in ``TIMEOUT`` (not answering
         it: a reboot, a lost reply), by id: what the supervisor names when their readings
@@ -198,6 +206,8 @@ class RobotLink:
             modes = [None if b in away else m for b, m in zip(self._slot_board, modes, strict=True)]
         self._last_bulk = self.session.send_bulk(modes, self._raw)
         self._unsettled.append(self._last_bulk)
+        assert isinstance(self._last_bulk.msg, BulkSetpoints)
+        self._applied.sent(self._last_bulk.msg)
 
     def _redeliver(self) -> None:
         """Send the table again when a board with a deferred command is back."""

@@ -8,22 +8,32 @@ bend joint stalled for two seconds while a bend or T-joint PAB steered its half
 (``scenarios/bend-right.route`` with ``motor_stall:bend_3_joint@32s+2s``) over-torqued,
 and the mission *completed*, with the simulator's one damage event in its message.
 
-The host reads no joint current, but it reads the angle. A joint whose position
-setpoint has been more than ``safety.angle_tolerance`` away for :data:`JOINT_STALL_S`
-while its reading stayed still (within a quarter of that tolerance), pressing nothing
-(its spring, where it has one, under the released force: a joint stopped by the wall
-presses the wall), is stalled: the supervisor enters its safe state naming it and lets
-that joint go (torque 0: its loop no longer pushes), a verdict of its own. A moving
-joint covers its tolerance in a few hundredths of a second (90°/s on the bundled robot);
-a setpoint is rate-limited to one tick's step, so a joint that follows reaches it by
-the next tick. A request the link sent again meanwhile starts the wait again (the
-setpoint may have reached the board late).
+The host reads no joint current, but it reads the angle. A joint whose board holds a
+position setpoint more than ``safety.angle_tolerance`` away from its reading for
+:data:`JOINT_STALL_S` while that reading stayed still (within a quarter of that
+tolerance), pressing nothing (its spring, where it has one, under the released force:
+a joint stopped by the wall presses the wall), is stalled: the supervisor enters its
+safe state naming it and lets that joint go (torque 0: its loop no longer pushes), a
+verdict of its own. A moving joint covers its tolerance in a few hundredths of a second
+(90°/s on the bundled robot); a setpoint is rate-limited to one tick's step, so a joint
+that follows reaches it by the next tick.
+
+The wait starts only once the board is known to have the setpoint: a
+``BULK_SETPOINTS`` is acknowledged by a later ``STATE``'s ``ack_seq``, and the link
+tells which setpoint each board holds by it (``setpoint_applied``, an optional port
+method). Until 2026-12-01 the wait started from the supervisor's own setpoint and
+again only on a retry the link counted; on a lossy link a setpoint lost or late (a
+superseded bulk is never retried) was taken for a stalled motor: ``riser.route`` with
+``drop=0.1,corrupt=0.05,delay=20ms`` stopped on *bend_2_joint ... at 0.0°, asked
+18.0°*. A port without ``setpoint_applied`` (a test's fake) is judged as before: its
+last setpoint, the wait started again on a retry.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from pirate_bt.errors import LinkError
@@ -87,6 +97,9 @@ class StallMixin:
         still = tol / 4
         released = released_force_n(self.robot)
         since = self._stall_since
+        applied: Callable[[str], MotorCommand | None] | None = getattr(
+            self._port, "setpoint_applied", None
+        )
         for motor, module, half in joints:
             setpoint = self._last_setpoint.get(motor)
             if setpoint is None or setpoint[0] is not ControlMode.POSITION:
@@ -95,21 +108,30 @@ class StallMixin:
                 continue
             if motor in self._stall_let_go:
                 continue
+            target = setpoint[1]
+            if applied is not None:
+                held = applied(motor)  # what the board holds, by the STATEs' ack_seq
+                if held is None or held.mode is not ControlMode.POSITION:
+                    since.pop(motor, None)  # not yet known on the board: no wait
+                    continue
+                target = held.value
             angle = state.joint_angle_rad.get(module)
             force = state.clamp_force_n.get(module)
             if (
                 angle is None
-                or abs(angle - setpoint[1]) <= tol
+                or abs(angle - target) <= tol
                 or (force is not None and abs(force) >= released)
                 or stale_channels(self.robot, state, self._half_channels[half], now_s)
             ):
                 since.pop(motor, None)
                 continue
-            # timed by the readings' own stamps (no new state is no evidence), and
-            # started again when the link retried a request meanwhile: the setpoint
-            # may have reached the board late (a lossy link)
-            health = self._port.health()
-            resent = health.retries + health.failed
+            # timed by the readings' own stamps (no new state is no evidence); on a port
+            # that cannot tell what the board holds, started again when the link
+            # retried a request meanwhile (the setpoint may have reached it late)
+            resent = 0
+            if applied is None:
+                health = self._port.health()
+                resent = health.retries + health.failed
             first = since.get(motor)
             if first is None or abs(angle - first[1]) > still or resent != first[2]:
                 since[motor] = (state.stamp_s, angle, resent)
