@@ -10,6 +10,7 @@ timing out mid-clamp.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -62,9 +63,77 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *_reach(desc),
         *_drive_feedback(desc),
         *_cruise(desc),
+        *_contradictions(desc),
         *joints,
         *_position_sensors(desc, {path[:4] for path, _ in joints}),
     ]
+
+
+def _contradictions(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """Numbers of the clamp and the motion that contradict each other or the motors:
+    a wall-contact table whose angle goes back and forth with the diameter, an
+    ``unclamped_below`` at or past the first wall contact, a free drive current no
+    smaller than a stalled one, and a position-mode hold torque more than a joint with
+    a position mode may press with (its torque mode's top and its torque limit: a joint
+    held by the wall presses with the hold torque)."""
+    out: list[tuple[KeyPath, str]] = []
+    clamp, motion = desc.clamp, desc.motion
+    pts = clamp.contact_angles
+    steps = [b.angle - a.angle for a, b in itertools.pairwise(pts)]
+    way = next((d > 0 for d in steps if d != 0), True)  # rising, as the first step goes
+    k = next((i + 1 for i, d in enumerate(steps) if d == 0 or (d > 0) != way), None)
+    if k is not None:
+        out.append(
+            (
+                ("clamp", "contact_angles", k, "angle"),
+                f"the wall-contact angle {_deg(pts[k].angle)} deg of a"
+                f" {pts[k].diameter * 1000:g} mm pipe does not go on the way the angles"
+                f" before it go ({', '.join(_deg(p.angle) for p in pts[: k + 1])} deg):"
+                " the angles must rise (or fall) with the diameter throughout, or a"
+                " joint's angle at the wall names two pipes",
+            )
+        )
+    first = min(abs(p.angle) for p in pts)
+    if clamp.unclamped_below >= first - 1e-12:
+        out.append(
+            (
+                ("clamp", "unclamped_below"),
+                f"unclamped_below {_deg(clamp.unclamped_below)} deg is not below the"
+                f" smallest wall-contact angle {_deg(first)} deg (clamp.contact_angles):"
+                " a joint at the wall would count as unclamped",
+            )
+        )
+    if motion.drive_free_current >= motion.drive_stall_current:
+        out.append(
+            (
+                ("motion", "drive_free_current"),
+                f"drive_free_current {motion.drive_free_current:.3g} A is not less than"
+                f" drive_stall_current {motion.drive_stall_current:.3g} A: a free wheel"
+                " draws less than a blocked one",
+            )
+        )
+    hold = motion.position_hold_torque
+    weakest: tuple[float, str] | None = None
+    for board in desc.boards:
+        for motor in board.motors:
+            if motor.modes.position is None:
+                continue
+            reach = [motor.modes.torque.si_range[1]] if motor.modes.torque else []
+            if motor.limits.torque is not None:
+                reach.append(motor.limits.torque.max)
+            if reach and (weakest is None or min(reach) < weakest[0]):
+                weakest = (min(reach), motor.name)
+    if weakest is not None and hold > weakest[0] * (1 + 1e-9):
+        out.append(
+            (
+                ("motion", "position_hold_torque"),
+                f"position_hold_torque {hold:g} N*m is more than {weakest[1]!r} may press"
+                f" with ({weakest[0]:g} N*m, its torque mode and limit): a position-mode"
+                " joint held by the wall presses with the hold torque (the reference PICO"
+                " limits its loop's duty to it), past the joint's own limit",
+            )
+        )
+    return out
 
 
 def _board_polls(desc: Workable) -> list[tuple[KeyPath, str]]:
