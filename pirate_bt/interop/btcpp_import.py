@@ -15,7 +15,12 @@ from typing import Any, Final
 from pydantic import ValidationError
 
 from pirate_bt.errors import SourceLocation, file_argument
-from pirate_bt.interop.btcpp_import_ports import subtree_ports
+from pirate_bt.interop.btcpp_import_ports import (
+    has_reference,
+    own_key,
+    subtree_ports,
+    tree_blackboard,
+)
 from pirate_bt.interop.btcpp_models import (
     _BTCPP_BUILTINS,
     _FALSE,
@@ -33,7 +38,7 @@ from pirate_bt.interop.btcpp_models import (
     own_instead,
 )
 from pirate_bt.interop.btcpp_xml import XmlElement, parse_xml
-from pirate_bt.treefile.params import PARAM_RE, chain_text, listed
+from pirate_bt.treefile.params import chain_text, listed
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import MAX_NODES
@@ -152,7 +157,7 @@ class _Importer:
         # was dropped unread), the main tree's first
         board: dict[str, Any] = {}
         for element in (main_tree, *(t for t in self.trees.values() if t is not main_tree)):
-            for key, decl in _blackboard(element).items():
+            for key, decl in tree_blackboard(element).items():
                 if board.setdefault(key, decl) != decl:
                     raise element.error(
                         f"_blackboard: key {_shown(key)} is declared otherwise by another"
@@ -460,7 +465,7 @@ class _Importer:
             raise element.error(f'<{tag}> needs {key}, as in BT.CPP (<{tag} {key}="3">)')
         for key, text in ports.items():
             try:
-                value = decode_value(_own_key(text), "integer", key)
+                value = decode_value(own_key(text), "integer", key)
             except ValueError as exc:
                 raise element.error(f"{key}: {exc}") from None
             if isinstance(value, int) and value < 1:
@@ -489,7 +494,7 @@ class _Importer:
                     + _suggest(key, [p.name for p in model.ports])
                 )
             try:
-                params[key] = decode_value(_own_key(text), port.type, key)
+                params[key] = decode_value(own_key(text), port.type, key)
             except ValueError as exc:
                 raise element.error(f"{kind}: {key}: {exc}") from None
         if kind != "parallel":
@@ -505,7 +510,7 @@ class _Importer:
 
     def check_params(self, element: XmlElement, kind: str, params: dict[str, Any]) -> None:
         """Validate a node's parameters here, where the XML can be pointed at."""
-        if _has_reference(params):
+        if has_reference(params):
             return  # checked when the converted tree is loaded, with the values bound
         cls = self.registry.get(kind)
         try:
@@ -517,39 +522,6 @@ class _Importer:
             if not field or message.startswith(f"{field}:"):  # "value: value: should be"
                 field = ""
             raise element.error(f"{kind}: {field + ': ' if field else ''}{message}") from None
-
-
-def _blackboard(tree: XmlElement) -> dict[str, Any]:
-    """A tree's ``_blackboard``: its keys' declarations, JSON after ``json:``."""
-    text = tree.attrs.get("_blackboard")
-    if text is None:
-        return {}
-    form = """_blackboard='json:{"k": {"type": "number"}}'"""
-    if not text.startswith("json:"):
-        what = "JSON needs" if text.lstrip().startswith("{") else "the declarations take"
-        raise tree.error(f"_blackboard: {what} the json: prefix, as in {form}")
-    try:
-        board = decode_value(text, "json")
-    except ValueError as exc:
-        raise tree.error(f"_blackboard: {exc}") from None
-    if not isinstance(board, dict):
-        raise tree.error(f"_blackboard: a JSON object of key -> declaration, as in {form}")
-    return board
-
-
-def _own_key(text: str) -> str:
-    """A node's port text; ``=`` is BT.CPP's pointer to the port's own key, as ``{=}``."""
-    return "{=}" if text == "=" else text
-
-
-def _has_reference(value: Any) -> bool:
-    if isinstance(value, str):
-        return PARAM_RE.match(value) is not None
-    if isinstance(value, dict):
-        return any(_has_reference(v) for v in value.values())
-    if isinstance(value, list):
-        return any(_has_reference(v) for v in value)
-    return False
 
 
 def xml_to_tree(path: str | Path, registry: Registry | None = None) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """BehaviorTree.CPP v4 XML import, a subtree's ports: the ``<input_port>`` elements of a
 ``<SubTree>`` model in ``<TreeNodesModel>`` read as the subtree's declared parameters
 (name, type, default, example, choices, description), and a port's ``default`` or
-``example`` read as a value. Used by :mod:`pirate_bt.interop.btcpp_import`.
+``example`` read as a value, a node's port text (``=``) and a tree's ``_blackboard``.
+Used by :mod:`pirate_bt.interop.btcpp_import`.
 """
 
 from __future__ import annotations
@@ -19,7 +20,14 @@ from pirate_bt.interop.btcpp_models import (
 from pirate_bt.interop.btcpp_xml import XmlElement
 from pirate_bt.treefile.params import PARAM_RE
 
-__all__ = ["CPP_TYPES", "port_value", "subtree_ports"]
+__all__ = [
+    "CPP_TYPES",
+    "has_reference",
+    "own_key",
+    "port_value",
+    "subtree_ports",
+    "tree_blackboard",
+]
 
 _INTEGERS = (
     "int", "unsigned", "unsigned int", "short", "unsigned short", "long", "unsigned long",
@@ -120,3 +128,37 @@ def port_value(text: str, kind: str, name: str, key: str) -> Any:
             " not another parameter"
         )
     return value
+
+
+def tree_blackboard(tree: XmlElement) -> dict[str, Any]:
+    """A tree's ``_blackboard``: its keys' declarations, JSON after ``json:``."""
+    text = tree.attrs.get("_blackboard")
+    if text is None:
+        return {}
+    form = """_blackboard='json:{"k": {"type": "number"}}'"""
+    if not text.startswith("json:"):
+        what = "JSON needs" if text.lstrip().startswith("{") else "the declarations take"
+        raise tree.error(f"_blackboard: {what} the json: prefix, as in {form}")
+    try:
+        board = decode_value(text, "json")
+    except ValueError as exc:
+        raise tree.error(f"_blackboard: {exc}") from None
+    if not isinstance(board, dict):
+        raise tree.error(f"_blackboard: a JSON object of key -> declaration, as in {form}")
+    return board
+
+
+def own_key(text: str) -> str:
+    """A node's port text; ``=`` is BT.CPP's pointer to the port's own key, as ``{=}``."""
+    return "{=}" if text == "=" else text
+
+
+def has_reference(value: Any) -> bool:
+    """``value`` (a node's ports, read) names a parameter (``$name``) somewhere."""
+    if isinstance(value, str):
+        return PARAM_RE.match(value) is not None
+    if isinstance(value, dict):
+        return any(has_reference(v) for v in value.values())
+    if isinstance(value, list):
+        return any(has_reference(v) for v in value)
+    return False
