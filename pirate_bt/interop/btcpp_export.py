@@ -155,6 +155,10 @@ class _Exporter:
         body = data["subtrees"][name] if name else data
         id_path = ("subtrees", name) if name else ("name",)
         element = ET.Element("BehaviorTree", {"ID": _text(doc, id_path, tree_id)})
+        if name and doc is self.root_doc and tree_id != name:
+            # BT.CPP refuses a tree ID that is a node type's, and two trees of one ID:
+            # the name the ID could not be is kept beside it, for import to restore
+            element.set("_name", _text(doc, id_path, name))
         if isinstance(body.get("description"), str):
             element.set("_description", _text(doc, (*prefix, "description"), body["description"]))
         self.trees.append(element)

@@ -55,6 +55,11 @@ def _suggest(name: str, known: list[str]) -> str:
     return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
 
 
+def _file_like(name: str) -> bool:
+    """A pirate_bt subtree reference would read ``name`` as a file's."""
+    return "#" in name or name.lower().endswith((".yaml", ".yml"))
+
+
 _UNNAMED: Final = "BehaviorTree_0"
 """The ID BT.CPP gives a lone <BehaviorTree> written without one."""
 
@@ -75,6 +80,8 @@ class _Importer:
         """The IDs of the trees a ``<SubTree>`` calls (:meth:`check_cycles`)."""
         self.depth = 0
         """How deep :meth:`node` is (bounded by the loader's MAX_TREE_DEPTH)."""
+        self.keys: dict[str, str] = {}
+        """Each tree's ID -> its name under ``subtrees:`` (:meth:`subtree_keys`)."""
 
     def read(self) -> dict[str, Any]:
         root = self.root
@@ -103,7 +110,7 @@ class _Importer:
                     )
                 if tree_id in self.models or tree_id in _BTCPP_BUILTINS:
                     raise child.error(f"tree ID {_shown(tree_id)} is the name of a node type")
-                if "#" in tree_id or tree_id.lower().endswith((".yaml", ".yml")):
+                if _file_like(tree_id):
                     raise child.error(
                         f"tree ID {_shown(tree_id)} would read as a file in a pirate_bt subtree"
                         " reference: no '#', no .yaml or .yml ending"
@@ -165,6 +172,7 @@ class _Importer:
                     )
         if board:
             out["blackboard"] = board
+        self.keys = self.subtree_keys(main)
         out["root"] = self.node(main_tree.children[0])
         subtrees: dict[str, Any] = {}
         for tree_id, element in self.trees.items():
@@ -178,10 +186,24 @@ class _Importer:
             if params:
                 body["params"] = params
             body["root"] = self.node(element.children[0])
-            subtrees[tree_id] = body
+            subtrees[self.keys.get(tree_id, tree_id)] = body
         if subtrees:
             out["subtrees"] = subtrees
         return out
+
+    def subtree_keys(self, main: str) -> dict[str, str]:
+        """Each tree's name under ``subtrees:``: its ID, or the ``_name`` export writes
+        where BT.CPP refuses the name as an ID (``ID="wait_2" _name="wait"``) unless
+        another tree goes by it or a ref would read it as a file (the main tree's is the
+        file's name)."""
+        keys = {tree_id: tree_id for tree_id in self.trees}
+        used = set(self.trees) if main in self.called else set(self.trees) - {main}
+        for tree_id, element in self.trees.items():
+            wanted = element.attrs.get("_name", "")
+            if tree_id != main and wanted and wanted not in used and not _file_like(wanted):
+                keys[tree_id] = wanted
+                used.add(wanted)
+        return keys
 
     def read_models(self, models: XmlElement) -> None:
         for model in models.children:
@@ -356,7 +378,7 @@ class _Importer:
             )
         declared = self.params(target, placed=False)  # only to check the call
         out = self.named("subtree", name)
-        out["ref"] = target
+        out["ref"] = self.keys.get(target, target)
         given: dict[str, Any] = {}
         for key, text in ports.items():
             decl = declared.get(key)
