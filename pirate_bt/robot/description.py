@@ -177,8 +177,8 @@ class RobotDescription(_Model):
     )
     modules: list[Module] = Field(min_length=3)
     """modules front to rear"""
-    boards: list[Board] = Field(min_length=1)
-    """PICO boards on the RS485 bus"""
+    boards: list[Board] = Field(min_length=1, max_length=254)
+    """PICO boards on the RS485 bus (ids 1 to 254, each once)"""
     clamp: ClampConfig
     motion: MotionConfig
     bridge: BridgeConfig
