@@ -156,14 +156,21 @@ def raised_at(exc: BaseException) -> str | None:
 def raised_on_purpose(exc: BaseException) -> bool:
     """Whether the innermost frame of ``exc``'s traceback is a ``raise`` statement: a
     refusal written as one, not Python's own error on a line of the planner's code
-    (``'run-d' in self.find``: a ``TypeError`` from a bug). True when the source
-    cannot be read (nothing to tell it by)."""
+    (``'run-d' in self.find``: a ``TypeError`` from a bug), told by the instruction that
+    raised (``if m is None: raise ValueError(...)`` too, once said as a bug), else by
+    its line (true when the source cannot be read)."""
+    import dis
+
     tb = exc.__traceback__
     if tb is None:
         return True
     while tb.tb_next is not None:
         tb = tb.tb_next
-    line = linecache.getline(tb.tb_frame.f_code.co_filename, tb.tb_lineno)
+    code, at = tb.tb_frame.f_code, tb.tb_lasti
+    op = next((i.opname for i in dis.get_instructions(code) if i.offset == at), None)
+    if op is not None:
+        return op in ("RAISE_VARARGS", "RERAISE")
+    line = linecache.getline(code.co_filename, tb.tb_lineno)
     return not line.strip() or line.lstrip().startswith("raise")
 
 
