@@ -30,7 +30,15 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import InputError, LocatedError, ValidationFailed, said_of, shown
+from pirate_bt.errors import (
+    InputError,
+    LocatedError,
+    ValidationFailed,
+    file_argument,
+    kind_of,
+    said_of,
+    shown,
+)
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate_checks import REFUSAL_LIMIT, check_navigator_map, navigator_method
@@ -105,10 +113,12 @@ class RouteNavigator:
     """
 
     def __init__(self, route: str | Path | Route) -> None:
-        if not isinstance(route, str | Path | Route):
-            raise InputError(f"route: give a route file, a bundled name or a Route, not {route!r}")
-        if not isinstance(route, Route):
-            route = load_route(_route_file(route))
+        if not isinstance(route, str | Path | Route):  # as simulate_mission says it
+            raise InputError(
+                f"route: give a route file, a bundled name or a Route, not {kind_of(route)}"
+            )
+        if not isinstance(route, Route):  # '' was the working folder, a NUL Python's words
+            route = load_route(_route_file(file_argument(route, "route")))
         self.route = route
         self._goal: GoalNavigator | None = None
         self._next = 0
