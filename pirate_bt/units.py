@@ -386,9 +386,12 @@ def _validator(dimension: str) -> Any:
     def validate(value: object, info: ValidationInfo) -> float:
         context = info.context if isinstance(info.context, dict) else {}
         try:
-            return parse_quantity(
+            si = parse_quantity(
                 value, dimension, require_unit=bool(context.get("units_required", False))
             )
+            if context.get("magnitude_limits"):  # a tree's node: MAGNITUDE_LIMITS bound it
+                check_magnitude(si, dimension, value)
+            return si
         except UnitError as exc:
             # pydantic wraps ValueError into a located validation error.
             raise ValueError(str(exc)) from None

@@ -58,3 +58,40 @@ def test_an_absurd_value_at_a_subtree_call_is_refused_at_its_place(tmp_path: Pat
 
 def test_a_long_but_possible_distance_is_taken() -> None:
     assert load_tree("straight", params={"distance": "1000 km"}).params["distance"] == "1000000.0 m"
+
+
+def test_an_absurd_quantity_written_as_a_node_s_key_is_refused_at_its_place(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "k.yaml"
+    path.write_text(
+        "name: t\n"
+        "root:\n"
+        "  type: sequence\n"
+        "  children:\n"
+        "    - {type: wait, duration: 1e300 s}\n"
+        "    - {type: drive, velocity: 80 mm/s, distance: 2000 km}\n"
+        "    - {type: wait, duration: 10 h}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"{path}:5:20: wait: '1e300 s' is out of range: a time is at most 1e+09 s (either sign)",
+        f"{path}:6:40: drive: '2000 km' {SAID}",
+    ]
+
+
+def test_an_absurd_quantity_in_bt_cpp_xml_is_refused_at_its_element(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    xml = tmp_path / "k.xml"
+    xml.write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="T">'
+        '<wait duration="1e300 s"/></BehaviorTree></root>\n',
+        encoding="utf-8",
+    )
+    assert main(["import", "btcpp", str(xml), "-o", str(tmp_path / "k.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{xml}:1:" in err
+    assert "'1e300 s' is out of range: a time is at most 1e+09 s" in err
+    assert not (tmp_path / "k.yaml").exists()

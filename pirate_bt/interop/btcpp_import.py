@@ -536,7 +536,9 @@ class _Importer:
             return  # checked when the converted tree is loaded, with the values bound
         cls = self.registry.get(kind)
         try:
-            cls.Params.model_validate(params, context={"units_required": True})
+            cls.Params.model_validate(
+                params, context={"units_required": True, "magnitude_limits": True}
+            )
         except ValidationError as exc:
             problems = validation_problems(exc, params)
             where, message = problems[0] if problems else ((), str(exc))

@@ -202,7 +202,8 @@ class _Reader(_FileReader):
             self.error(doc, (*path, *at_key), f"{label}: {_in(at_key)}{key_not_text(key)}")
         try:
             spec.params = cls.Params.model_validate(
-                raw_params, context={"units_required": self.units_required}
+                raw_params,
+                context={"units_required": self.units_required, "magnitude_limits": True},
             )
         except ValidationError as exc:
             for at_key, msg in validation_problems(exc, raw_params, cls.Params):
