@@ -124,3 +124,44 @@ def test_a_motor_without_a_position_mode_needs_no_angle_sensor(tmp_path: Path) -
     )
     robot = load_robot(path)
     assert robot.motor("camera_pan").modes.position is None
+
+
+FRONT_LEDS = (
+    "      - slot: 1\n        name: front_leds\n        function: leds\n        modes:\n"
+    "          pwm: {raw: [0, 255], per_raw: 0.392156862745098 %}\n"
+)
+DRIVE_FEEDBACK = (
+    "    feedback:\n      velocity: {raw: [-1200, 1200], per_raw: 0.1 mm/s}\n"
+    "      current: {raw: [0, 1023], per_raw: 4 mA}\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        # a drive on the front module, which has no wheels: the PICO's speed scale is 0
+        (
+            (FRONT_LEDS, "      - {<<: *drive_motor, slot: 1, name: front_drive}\n"),
+            "motor 'front_drive' has a velocity mode, but its module 'front' has no wheel_radius",
+        ),
+        # drives that report no speed: the PICO's speed scale is 0 too
+        (
+            (DRIVE_FEEDBACK, "    feedback:\n      current: {raw: [0, 1023], per_raw: 4 mA}\n"),
+            "motor 'bend_1_drive' has a velocity mode, but it has no velocity feedback",
+        ),
+    ],
+)
+def test_a_velocity_mode_the_board_cannot_close_its_loop_on_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], edit: tuple[str, str], words: str
+) -> None:
+    # before, the first validated and the simulator drove the wheel at the speed asked,
+    # while the reference PICO read a speed of 0 and its loop wound up to full duty
+    path = variant(tmp_path, edit)
+    code, lines = validate(path, capsys)
+    assert code == 2
+    assert words in lines[0], lines
+    assert "drives at full duty whatever speed is asked" in lines[0]
+    # the velocity mode, in the drive_motor template every drive takes its modes from
+    anchor = "      velocity: {raw: [-1200, 1200]"
+    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if anchor in text)
+    assert lines[0].startswith(f"{path}:{line}:"), lines

@@ -62,6 +62,7 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *_sensor_ranges(desc),
         *_reach(desc),
         *_drive_feedback(desc),
+        *_velocity_loops(desc),
         *_cruise(desc),
         *_contradictions(desc),
         *joints,
@@ -233,6 +234,36 @@ def _joint_sensors(desc: Workable) -> list[tuple[KeyPath, str]]:
                 " there",
             )
         )
+    return out
+
+
+def _velocity_loops(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A motor with a ``velocity`` mode needs what its board's speed loop reads: the
+    wheel's speed, from encoder counts through its module's ``wheel_radius``, in the
+    unit of its ``feedback.velocity``. The reference PICO, without either, reads a speed
+    of 0, and its loop winds up to full duty whatever speed is asked."""
+    out: list[tuple[KeyPath, str]] = []
+    radius = {m.name: m.wheel_radius for m in desc.modules}
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            if motor.modes.velocity is None:
+                continue
+            lacks = []
+            if motor.feedback.velocity is None:
+                lacks.append("it has no velocity feedback")
+            if radius.get(board.module) is None:
+                lacks.append(f"its module {board.module!r} has no wheel_radius")
+            if lacks:
+                out.append(
+                    (
+                        ("boards", b, "motors", j, "modes", "velocity"),
+                        f"motor {motor.name!r} has a velocity mode, but {' and '.join(lacks)}:"
+                        " its board's speed loop works the wheel's speed out of the"
+                        " wheel_radius, in feedback.velocity's unit, and without"
+                        f" {'them' if len(lacks) > 1 else 'it'} reads 0 and drives at full"
+                        " duty whatever speed is asked",
+                    )
+                )
     return out
 
 
