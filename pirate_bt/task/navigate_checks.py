@@ -13,7 +13,7 @@ from typing import Any
 
 from pirate_bt.errors import InputError, said_of
 from pirate_bt.pipes import Network
-from pirate_bt.task.navigation import call_within, raised_at, raised_on_purpose
+from pirate_bt.task.navigate_planner import call_within, raised_at, raised_on_purpose
 
 __all__ = ["REFUSAL_LIMIT", "check_navigator_map", "navigator_method"]
 

@@ -56,16 +56,15 @@ with none it is checked on what the steps so far passed (:class:`BlindTrail`).
 
 from __future__ import annotations
 
-import linecache
 import math
 import numbers
-import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 from pirate_bt.errors import InputError, UnitError
 from pirate_bt.errors import shown as said_briefly
+from pirate_bt.task.navigate_planner import call_within, raised_at, raised_on_purpose
 from pirate_bt.task.observation import Ahead, Belief, Felt, Observation, OffWall
 from pirate_bt.task.route import MAX_WAIT_S
 from pirate_bt.units import parse_quantity
@@ -83,8 +82,10 @@ __all__ = [
     "Observation",
     "OffWall",
     "Step",
+    "call_within",
     "check_step",
     "raised_at",
+    "raised_on_purpose",
     "shown",
 ]
 
@@ -141,61 +142,6 @@ def shown(value: object, limit: int = 80) -> str:
     if text.startswith("<") and " at 0x" in text:  # object's own: its type, not its address
         return said_briefly(value)
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
-
-
-def raised_at(exc: BaseException) -> str | None:
-    """``file:line`` of the frame that raised ``exc`` (the innermost of its traceback)."""
-    tb = exc.__traceback__
-    if tb is None:
-        return None
-    while tb.tb_next is not None:
-        tb = tb.tb_next
-    return f"{tb.tb_frame.f_code.co_filename}:{tb.tb_lineno}"
-
-
-def raised_on_purpose(exc: BaseException) -> bool:
-    """Whether the innermost frame of ``exc``'s traceback is a ``raise`` statement: a
-    refusal written as one, not Python's own error on a line of the planner's code
-    (``'run-d' in self.find``: a ``TypeError`` from a bug), told by the instruction that
-    raised (``if m is None: raise ValueError(...)`` too, once said as a bug), else by
-    its line (true when the source cannot be read)."""
-    import dis
-
-    tb = exc.__traceback__
-    if tb is None:
-        return True
-    while tb.tb_next is not None:
-        tb = tb.tb_next
-    code, at = tb.tb_frame.f_code, tb.tb_lasti
-    op = next((i.opname for i in dis.get_instructions(code) if i.offset == at), None)
-    if op is not None:
-        return op in ("RAISE_VARARGS", "RERAISE")
-    line = linecache.getline(code.co_filename, tb.tb_lineno)
-    return not line.strip() or line.lstrip().startswith("raise")
-
-
-def call_within(
-    call: Callable[[], Any], deadline_s: float, name: str
-) -> tuple[bool, Any, BaseException | None]:
-    """Run planner code (a navigator's decision, its map check) on a daemon thread of
-    its own, for at most ``deadline_s`` of wall time: ``(True, value, None)`` when it
-    returned, ``(True, None, exception)`` when it raised (anything, handed to the
-    caller's thread), ``(False, None, None)`` when it is still running (left to run:
-    it holds nothing of ours)."""
-    box: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            box["value"] = call()
-        except BaseException as exc:  # planner code's error is the caller's to judge
-            box["error"] = exc
-
-    thread = threading.Thread(target=run, name=name, daemon=True)
-    thread.start()
-    thread.join(deadline_s)
-    if thread.is_alive():
-        return False, None, None
-    return True, box.get("value"), box.get("error")
 
 
 def _json_value(value: object) -> bool | int | float | str:
