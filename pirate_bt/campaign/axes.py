@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.campaign.inputs import find_input, resolve_name, source_of
+from pirate_bt.campaign.loads import Loads
 from pirate_bt.campaign.runparams import params_as_read
 from pirate_bt.campaign.spec import CampaignSpec
 from pirate_bt.errors import InputError
@@ -91,7 +92,9 @@ def _run_map(run: Any, folder: Path) -> str:
     return _file_identity("network", own, folder, route) if own is not None else ""
 
 
-def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
+def _axis_entries(
+    spec: CampaignSpec, folder: Path, loads: Loads
+) -> list[tuple[str, list[tuple[str, str]]]]:
     """Each axis as ``(its key path, [(an entry's identity, how it reads), ...])``.
 
     An entry left to its default (``null``) is that default: the bundled robot's file,
@@ -111,7 +114,10 @@ def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tupl
             kind,
             _file_identity(kind, name, folder) if kind != "navigator" else name,
             its_map,
-            {k: _param_identity(v) for k, v in sorted(params_as_read(run, folder).items())},
+            {
+                k: _param_identity(v)
+                for k, v in sorted(params_as_read(run, folder, loads.tree).items())
+            },
             run.blind,
         ]
         runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))
@@ -144,12 +150,16 @@ def _axis_entries(spec: CampaignSpec, folder: Path) -> list[tuple[str, list[tupl
     return axes
 
 
-def check_axes(spec: CampaignSpec, base: Path | None = None) -> None:
+def check_axes(spec: CampaignSpec, base: Path | None = None, loads: Loads | None = None) -> None:
     """Refuse an axis that names one point twice, at the second entry.
 
     Two equal entries (after normalising: ``0`` and ``0.0``, a file by two names,
     faults written apart or in another order, a run under another name) run the
     same deterministic cases, which the report would count as independent samples.
+
+    ``loads``: what this check of the spec loaded so far (each run's tree with its
+    parameters, loaded here for its defaults, is loaded once; :mod:`~pirate_bt.campaign.
+    loads`).
 
     Raises:
         InputError: the first repeated entry, one line naming the entry it repeats
@@ -157,7 +167,7 @@ def check_axes(spec: CampaignSpec, base: Path | None = None) -> None:
     """
     source = source_of(spec)
     folder = base if base is not None else source.base
-    for key, entries in _axis_entries(spec, folder):
+    for key, entries in _axis_entries(spec, folder, loads or Loads()):
         first: dict[str, int] = {}
         for i, (identity, _shown) in enumerate(entries):
             j = first.setdefault(identity, i)

@@ -22,6 +22,7 @@ from typing import Any
 from pirate_bt.campaign.axes import check_axes
 from pirate_bt.campaign.faulttimes import check_fault_times
 from pirate_bt.campaign.inputs import find_input, resolve_name, run_index, source_of
+from pirate_bt.campaign.loads import Loads
 from pirate_bt.campaign.navchecks import check_navigator
 from pirate_bt.campaign.spec import CampaignSpec, SpecSource
 from pirate_bt.errors import (
@@ -37,12 +38,13 @@ __all__ = ["check_axes", "check_faults", "check_runs"]
 Case = dict[str, Any]
 
 
-def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
+def check_faults(spec: CampaignSpec, base: Path | None = None, loads: Loads | None = None) -> None:
     """Check every simulator fault's target (a motor, state channel or board) on every robot.
 
     Call after :func:`check_runs` (the robot files then validate). Each case would
     meet the same problem when its simulator is made: it is the spec's, located at
-    its ``sim_faults`` entry.
+    its ``sim_faults`` entry. ``loads``: the check's robots, loaded once
+    (:mod:`~pirate_bt.campaign.loads`; those :func:`check_runs` loaded).
 
     Raises:
         InputError: a fault names a motor, channel or board a robot lacks
@@ -55,7 +57,6 @@ def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
         return
     check_fault_times(spec)
     from pirate_bt.pipes import load_network
-    from pirate_bt.robot.loader import load_robot
     from pirate_bt.sim.bridge import SimBridge
     from pirate_bt.sim.faults import parse_fault
     from pirate_bt.sim.model import PipeRobotModel
@@ -63,9 +64,10 @@ def check_faults(spec: CampaignSpec, base: Path | None = None) -> None:
     source = source_of(spec)
     folder = base if base is not None else source.base
     world = load_network("straight")
+    robots = loads if loads is not None else Loads()
     for robot_name in dict.fromkeys(spec.robots):
         resolved = resolve_name(robot_name, folder)
-        bridge = SimBridge(PipeRobotModel(load_robot(resolved), world))
+        bridge = SimBridge(PipeRobotModel(robots(resolved), world))
         for (i, j), text in faults:
             try:
                 bridge.check_fault(parse_fault(text))
@@ -197,28 +199,23 @@ def _robot_problems(
     return _joined(found)
 
 
-class _Robots:
-    """Each robot description of the cases, loaded once (``None``: the bundled one)."""
-
-    def __init__(self) -> None:
-        self._loaded: dict[str | None, Any] = {}
-
-    def __call__(self, name: str | None) -> Any:
-        from pirate_bt.robot.loader import load_robot
-
-        if name not in self._loaded:
-            self._loaded[name] = load_robot(name) if name is not None else load_robot()
-        return self._loaded[name]
-
-
 def _check_tree(
-    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
+    case: Case, robots: Loads, spec: CampaignSpec | None, base: Path | None
 ) -> list[str]:
     """Load the case's tree with its parameters against its robot, as the case will
     (a YAML tree, or a BehaviorTree.CPP XML file as :func:`pirate_bt.simulate_tree`
-    reads it); the files it read (the tree file, then its subtrees' files)."""
+    reads it); the files it read (the tree file, then its subtrees' files).
+
+    The tree with these parameters is loaded once for every robot (``robots.tree``),
+    and each robot's limits asked of its nodes; only a robot that refuses it (or a
+    tree that does not load) loads it again, to be said as the loader says it."""
     from pirate_bt.api.running import load_tree_source
     from pirate_bt.resources import find_file
+
+    once = robots.tree(case["tree"], case["params"])
+    if once is not None and robots.fits(once, robots(case.get("robot"))):
+        # an XML tree is read through a YAML copy of its own: the XML is the file read
+        return [str(find_file("trees", case["tree"]))] if _is_xml(case["tree"]) else once.files
 
     def load(robot: Any) -> list[str]:
         source = find_file("trees", case["tree"])
@@ -292,7 +289,7 @@ def _route_problem(case: Case, route_file: Path) -> tuple[str, str] | None:
 
 
 def _check_route(
-    case: Case, robots: _Robots, spec: CampaignSpec | None, base: Path | None
+    case: Case, robots: Loads, spec: CampaignSpec | None, base: Path | None
 ) -> list[str]:
     """Plan the case's route on its map for its robot and build its PAB trees, as the case will.
 
@@ -345,6 +342,7 @@ def check_runs(
     spec: CampaignSpec | None = None,
     base: Path | None = None,
     case_timeout_s: float | None = None,
+    loads: Loads | None = None,
 ) -> list[Path]:
     """Load every distinct tree (with its parameters) and route once per robot, before any case.
 
@@ -357,7 +355,9 @@ def check_runs(
     not its run's ``network``'s (its own ``network`` line names another, or it
     does not fit) at the run. ``case_timeout_s``, a case timeout given beside the
     spec's (``--case-timeout``), is the longest an installed navigator may take to be
-    made, if longer than the spec's.
+    made, if longer than the spec's. ``loads``: what this check of the spec loaded so
+    far (:mod:`~pirate_bt.campaign.loads`): each robot file and each distinct tree
+    with its parameters is loaded once.
 
     Returns:
         Every input file the checks read, resolved, once each in the order first
@@ -380,7 +380,7 @@ def check_runs(
     read: dict[Path, None] = {}  # in the order first read
     files: dict[tuple[str, str, str | None], str | None] = {}
     valid: set[tuple[str, Path]] = set()
-    robots = _Robots()
+    robots = loads if loads is not None else Loads()
     for case in cases:
         route = case.get("route")
         names = [("tree", case.get("tree"), None), ("route", route, None)]
@@ -399,10 +399,12 @@ def check_runs(
                     # as each case will load it: a bad network or robot file is the
                     # campaign's input error, not an error row of every case
                     try:
-                        validate_file(path, what)
+                        described = validate_file(path, what)
                     except ValidationFailed as exc:
                         raise _named_at(exc, spec, _entry(spec, base, case, kind)) from None
                     valid.add((what, path))
+                    if kind == "robot":  # loaded once: the checks below ask for it
+                        robots.keep_robot(name, described)
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
         key = json.dumps(

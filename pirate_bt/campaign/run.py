@@ -45,6 +45,7 @@ from pirate_bt.campaign.cases import (
     expand,
 )
 from pirate_bt.campaign.engine import DEFAULT_TARGET, check_output, make_executor, run_cases
+from pirate_bt.campaign.loads import Loads
 from pirate_bt.campaign.options import case_timeout_s, check_options, check_target, given_path
 from pirate_bt.campaign.paths import campaign_lock, slug
 from pirate_bt.campaign.spec import (
@@ -195,11 +196,12 @@ def _checked(
 ) -> tuple[list[dict[str, Any]], list[Path]]:
     """:func:`checked_cases`, and the input files the checks read (what a resume checks);
     ``timeout_s``, a case timeout given beside the spec's."""
-    check_axes(model, base)
+    loads = Loads()  # each robot and each tree with its parameters loaded once
+    check_axes(model, base, loads)
     check_inputs(model, base)
     cases = expand(model, base, max_cases=max_cases)
-    inputs = check_runs(cases, model, base, timeout_s)
-    check_faults(model, base)
+    inputs = check_runs(cases, model, base, timeout_s, loads)
+    check_faults(model, base, loads)
     note_repeated_seeds(cases)  # 30 seeds of a run that draws nothing are one run
     return cases, inputs
 

@@ -12,7 +12,7 @@ samples.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,11 +21,19 @@ from pirate_bt.campaign.inputs import resolve_name
 __all__ = ["params_as_read"]
 
 
-def params_as_read(run: Any, folder: Path) -> Mapping[str, Any]:
+def params_as_read(
+    run: Any, folder: Path, load: Callable[[str, Mapping[str, str]], Any] | None = None
+) -> Mapping[str, Any]:
     """``run.params`` with the tree's declared defaults filled in, each as the tree
     reads it; a navigator run's with the defaults of its signature filled in (``explore``'s
     ``search: 3 m``); ``run.params`` as written for a route run, or when the tree does
-    not load with them (its own check then says why)."""
+    not load with them (its own check then says why).
+
+    ``load(tree, params)`` loads the tree with its parameters (texts) and no robot,
+    ``None`` when it does not load: a check's :meth:`~pirate_bt.campaign.loads.Loads.
+    tree`, which loads each once for all the checks of a spec (default: a load of its
+    own).
+    """
     if run.navigator is not None:  # its defaults as its signature gives them
         from pirate_bt.task.navigators import navigator_defaults
 
@@ -33,19 +41,11 @@ def params_as_read(run: Any, folder: Path) -> Mapping[str, Any]:
     tree = resolve_name(run.tree, folder)
     if tree is None:
         return dict(run.params)
-    from pirate_bt.api.running import load_tree_source
-    from pirate_bt.resources import find_file
+    if load is None:
+        from pirate_bt.campaign.loads import Loads
 
+        load = Loads().tree
     # as a case passes them on: `true`, not `True` (cases.param_text)
     params = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in run.params.items()}
-    try:
-        loaded = load_tree_source(
-            find_file("trees", tree),
-            robot=None,
-            params=params,
-            params_from_text=True,
-            params_origin="--param",
-        )
-    except Exception:
-        return dict(run.params)
-    return dict(loaded.params)
+    loaded = load(tree, params)
+    return dict(run.params) if loaded is None else dict(loaded.params)
