@@ -226,6 +226,13 @@ def _given(executor: Executor) -> Iterator[tuple[Executor, str]]:
     yield executor, f"the given executor ({type(executor).__name__})"
 
 
+@contextmanager
+def _nothing_to_run() -> Iterator[tuple[Executor, str]]:
+    """No executor for a resume with every case done: no pool started, no cluster
+    reached (the base class's ``submit`` refuses, and nothing is submitted)."""
+    yield Executor(), "no worker (every case was done)"
+
+
 def run_campaign(
     spec: SpecInput,
     *,
@@ -406,20 +413,23 @@ def _run(
     # a resume's bar ended at 6/10 with "ok 6" when all 10 were done: count the kept rows
     counts: Counter[str] = Counter(str(row.get("outcome")) for row in before)
     local = min(workers, max(count, 1)) if workers is not None else None  # no idle processes
-    where = (
-        _given(executor)
-        if executor is not None
-        else make_executor(
+    # a resume of a campaign whose every case has its row started a pool (or reached for
+    # a cluster) to run nothing: "(8 done, 0 to run) on 1 local worker"
+    all_done = bool(before) and len(before) >= count
+    if executor is not None:
+        where = _given(executor)
+    elif all_done:
+        where = _nothing_to_run()
+    else:
+        where = make_executor(
             local, scheduler, None if scheduler_file is None else str(scheduler_file), reach_s
         )
-    )
     with where as (pool, what):
         if echo is not None:
             done = f" ({len(before)} done, {count - len(before)} to run)" if before else ""
-            echo(
-                f"campaign {model.name}: {count} cases{done} on {what}"
-                f" -> {folder or 'no output folder'}"
-            )
+            on = ": all done, no worker started" if all_done else f" on {what}"
+            to = folder or "no output folder"
+            echo(f"campaign {model.name}: {count} cases{done}{on} -> {to}")
         from tqdm import tqdm
 
         bar: Any = tqdm(
