@@ -39,6 +39,15 @@ def variant(tmp_path: Path, old: str, new: str) -> Path:
             "- {diameter: 80 mm, angle: 1.45 rad}",
             "the wall-contact angle 83.08 deg of a 80 mm pipe does not go on",
         ),
+        # every tree with a bend was refused: "bend: angle: 40.0° steers less than the
+        # robot's motion.steer_angle (200.0°) ... (give the tree's steer parameter at
+        # least that)", which no joint stopping at 110 deg could be given
+        (
+            "steer_angle: 30 deg",
+            "steer_angle: 200 deg",
+            "bend joint 'bend_1_joint' stops at 110 deg (limits.angle), short of 201.7 deg"
+            " (motion.steer_angle + safety.angle_tolerance)",
+        ),
         (
             "unclamped_below: 0.35 rad",
             "unclamped_below: 1.5 rad",

@@ -348,7 +348,8 @@ def _mm_s(value: float) -> str:
 
 def _reach(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The joints must reach the angles a clamp needs: each wall-contact angle (a half's
-    joints press until their wheels touch the wall there), and the front tilt the front
+    joints press until their wheels touch the wall there), the steer angle plus its
+    tolerance (where a joint counts as steered into a turn), and the front tilt the front
     clear angle plus its tolerance (where a front clamp first tilts the front module)."""
     out: list[tuple[KeyPath, str]] = []
     bends = {m.name for m in desc.modules if m.role is Role.BEND}
@@ -402,6 +403,20 @@ def _reach(desc: Workable) -> list[tuple[KeyPath, str]]:
                     )
                 )
                 break
+    steer = desc.motion.steer_angle + desc.safety.angle_tolerance
+    for motor in joints:
+        limit = motor.limits.angle
+        if limit is not None and steer > limit.max + 1e-9:
+            out.append(
+                (
+                    ("motion", "steer_angle"),
+                    f"bend joint {motor.name!r} stops at {_deg(limit.max)} deg (limits.angle),"
+                    f" short of {_deg(steer)} deg (motion.steer_angle +"
+                    " safety.angle_tolerance), where a joint counts as steered into a turn:"
+                    " no tree could steer a half into a bend or a T-joint",
+                )
+            )
+            break
     front = desc.modules[0].name if desc.modules else None
     clear = desc.clamp.front_clear_angle + desc.safety.angle_tolerance
     for b, board in enumerate(desc.boards):
