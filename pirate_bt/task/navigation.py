@@ -144,6 +144,12 @@ def shown(value: object, limit: int = 80) -> str:
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
+def _name(key: str) -> str:
+    """A step parameter's name as a ``repr`` shows it: as written, or quoted and cut
+    (one of 100,000 characters was shown whole, twice, in an invalid step's why)."""
+    return key if key.isidentifier() and len(key) <= 40 else shown(key, 40)
+
+
 def _json_value(value: object) -> bool | int | float | str:
     """A step parameter as a trace record holds it: a number or text (an integer too
     large for a float, or any other object, as text)."""
@@ -176,7 +182,7 @@ class Step:
         object.__setattr__(self, "params", dict(params))
 
     def __repr__(self) -> str:
-        args = "".join(f", {k}={shown(v)}" for k, v in self.params.items())
+        args = "".join(f", {_name(k)}={shown(v)}" for k, v in self.params.items())
         return f"Step({shown(self.pab)}{args})"
 
     def __hash__(self) -> int:  # a value, as frozen says: a set of steps, a dict's key
@@ -437,7 +443,7 @@ def check_step(step: object) -> CheckedStep:
     unknown = sorted(set(step.params) - set(_KNOWN[step.pab]))
     if unknown:
         raise InvalidStep(
-            f"{step!r}: {step.pab} has no parameter {unknown[0]!r}"
+            f"{step!r}: {step.pab} has no parameter {shown(unknown[0], 40)}"
             f" (it takes {', '.join(_KNOWN[step.pab])})"
         )
     if step.pab == "straight":
