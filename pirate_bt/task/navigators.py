@@ -497,6 +497,14 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             f"navigator {name!r} raised {type(exc).__name__} as it was made:"
             f" {said_of(exc, 200)}" + (f" (at {at})" if at else "")
         ) from exc
+    if isinstance(navigator, type):  # its next_step unbound: was 'type.next_step(self, obs)'
+        from pirate_bt.behaviours.foreign import one_line
+
+        cls = one_line(navigator.__name__, 80)
+        raise InputError(
+            f"navigator {name!r} made the class {cls}, not a navigator: its entry point"
+            f" should make an instance ({cls}(...))"
+        )
     if not callable(navigator_method(navigator, "next_step", name)):  # read as navigate() does
         raise InputError(f"navigator {name!r} made {shown(navigator)}, which has no next_step(obs)")
     return navigator  # type: ignore[no-any-return]
