@@ -1,0 +1,112 @@
+"""Rules of a robot description that the reference PICO firmware sets.
+
+A description the simulator drives can still be one the reference PICO boards cannot:
+they stop themselves when the bridge polls them too seldom, close a position loop only
+on an angle sensor of the motor's own slot, and a speed loop only on a wheel's speed
+they can work out. :mod:`pirate_bt.robot.fitness` asks these rules with its own.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from pirate_bt.robot.parts import SensorKind
+
+if TYPE_CHECKING:
+    from pirate_bt.robot.fitness import Workable
+
+__all__ = [
+    "BOARD_SILENCE_S",
+    "board_poll_problems",
+    "position_sensor_problems",
+    "velocity_loop_problems",
+]
+
+KeyPath = tuple[str | int, ...]
+
+BOARD_SILENCE_S = 0.1
+"""A board that hears no poll from the bridge for this long stops itself and says
+``OWN_STOP``, on which the bridge stops the whole robot: the reference PICO firmware's
+``BOARD_SILENCE_MS`` (firmware/pico/bus.h), the simulated boards' too
+(docs/board-bus.md, Board-side timeout). A robot description cannot change it."""
+
+
+def board_poll_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The bridge polls each board once a state period, and a board stops itself after
+    :data:`BOARD_SILENCE_S` without a poll: a state period of half that time or less
+    leaves a poll room to run late in its period without stopping the robot."""
+    period = desc.bridge.state_period
+    most = BOARD_SILENCE_S / 2
+    if period <= most * (1 + 1e-9):
+        return []
+    return [
+        (
+            ("bridge", "state_period"),
+            f"a state period of {_fmt_ms(period)} is too long for the boards: the bridge"
+            " polls each board once a state period, and a PICO board stops itself after"
+            f" {_fmt_ms(BOARD_SILENCE_S)} without a poll (docs/board-bus.md, Board-side"
+            " timeout), on which the bridge stops the whole robot; make it at most"
+            f" {_fmt_ms(most)}, half that time, so that a poll running late stops nothing",
+        )
+    ]
+
+
+def position_sensor_problems(desc: Workable, told: set[KeyPath]) -> list[tuple[KeyPath, str]]:
+    """A motor with a ``position`` mode needs an angle sensor on its own board and slot:
+    the board closes the position loop on it, and without one brakes the motor on
+    every position setpoint (docs/board-bus.md, Modes on the board). A joint whose
+    sensor the fitness rules already placed (``told``: its board and motor path) is not
+    told twice."""
+    out: list[tuple[KeyPath, str]] = []
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            if motor.modes.position is None or ("boards", b, "motors", j) in told:
+                continue
+            if any(s.slot == motor.slot and s.kind is SensorKind.ANGLE for s in board.sensors):
+                continue
+            out.append(
+                (
+                    ("boards", b, "motors", j, "modes", "position"),
+                    f"motor {motor.name!r} (board {board.id}, slot {motor.slot}) has a"
+                    f" position mode, but its board has no angle sensor on slot"
+                    f" {motor.slot}: the board closes the position loop on the angle sensor"
+                    " of the motor's own slot, and without one brakes the motor on every"
+                    f" position setpoint; put an angle sensor on slot {motor.slot} of board"
+                    f" {board.id}, or remove the position mode",
+                )
+            )
+    return out
+
+
+def velocity_loop_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A motor with a ``velocity`` mode needs what its board's speed loop reads: the
+    wheel's speed, from encoder counts through its module's ``wheel_radius``, in the
+    unit of its ``feedback.velocity``. The reference PICO, without either, reads a speed
+    of 0, and its loop winds up to full duty whatever speed is asked."""
+    out: list[tuple[KeyPath, str]] = []
+    radius = {m.name: m.wheel_radius for m in desc.modules}
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            if motor.modes.velocity is None:
+                continue
+            lacks = []
+            if motor.feedback.velocity is None:
+                lacks.append("it has no velocity feedback")
+            if radius.get(board.module) is None:
+                lacks.append(f"its module {board.module!r} has no wheel_radius")
+            if lacks:
+                out.append(
+                    (
+                        ("boards", b, "motors", j, "modes", "velocity"),
+                        f"motor {motor.name!r} has a velocity mode, but {' and '.join(lacks)}:"
+                        " its board's speed loop works the wheel's speed out of the"
+                        " wheel_radius, in feedback.velocity's unit, and without"
+                        f" {'them' if len(lacks) > 1 else 'it'} reads 0 and drives at full"
+                        " duty whatever speed is asked",
+                    )
+                )
+    return out
+
+
+def _fmt_ms(seconds: float) -> str:
+    return f"{seconds * 1000:g} ms"
