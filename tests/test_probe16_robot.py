@@ -119,8 +119,13 @@ def test_bridge_times_and_freshness_factor_out_of_bounds_are_refused_where_writt
 def test_robot_header_of_a_valid_robot_at_the_bridge_time_bounds(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    # a 1 ms watchdog needs a line fast enough for ten heartbeats a millisecond in half
+    # of it: at 4 Mbaud a heartbeat takes 22.5 us (at 115200 baud validate refuses it)
     path = variant(
-        tmp_path, ("watchdog: 250 ms", "watchdog: 1 ms"), ("reset_time: 1.5 s", "reset_time: 60 s")
+        tmp_path,
+        ("watchdog: 250 ms", "watchdog: 1 ms"),
+        ("reset_time: 1.5 s", "reset_time: 60 s"),
+        ("baud: 115200", "baud: 4000000"),
     )
     out = tmp_path / "layout.h"
     assert main(["robot", "header", str(path), "-o", str(out)]) == 0

@@ -165,3 +165,35 @@ def test_a_velocity_mode_the_board_cannot_close_its_loop_on_is_refused(
     anchor = "      velocity: {raw: [-1200, 1200]"
     line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if anchor in text)
     assert lines[0].startswith(f"{path}:{line}:"), lines
+
+
+def test_a_watchdog_its_line_cannot_keep_fed_is_refused_at_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before, this validated, and every run was refused at the handshake, to the
+    # simulator as to the bridge: "the bridge's watchdog is 250 ms, shorter than its line
+    # can keep fed (...); a firmware built for another robot description?"
+    path = variant(tmp_path, ("baud: 115200", "baud: 2400"))
+    code, lines = validate(path, capsys)
+    assert code == 2
+    assert lines == [
+        f"{path}:{line_of(path, 'watchdog: 250 ms')}:3: watchdog 250 ms is too short for its"
+        " line at 2400 baud: the host sends ten heartbeats a watchdog period, each 37.50 ms"
+        " on the line, and they may take at most half of it, so the watchdog must be at"
+        " least 750 ms (docs/protocol.md, Heartbeats); lengthen it (and"
+        " safety.max_link_silence with it) or raise the baud"
+    ]
+    fixed = variant(
+        tmp_path,
+        ("baud: 115200", "baud: 2400"),
+        ("watchdog: 250 ms", "watchdog: 750 ms"),
+        ("max_link_silence: 500 ms", "max_link_silence: 750 ms"),
+    )
+    assert load_robot(fixed).bridge.watchdog == pytest.approx(0.75)
+
+
+def test_the_heartbeat_s_size_is_the_link_s() -> None:
+    from pirate_bt.link import hellos
+    from pirate_bt.robot.firmware_fit import HEARTBEAT_WIRE_BYTES
+
+    assert hellos._HEARTBEAT_FRAME_BYTES == HEARTBEAT_WIRE_BYTES

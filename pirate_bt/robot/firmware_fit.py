@@ -8,6 +8,7 @@ they can work out. :mod:`pirate_bt.robot.fitness` asks these rules with its own.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from pirate_bt.robot.parts import SensorKind
@@ -17,7 +18,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BOARD_SILENCE_S",
+    "HEARTBEAT_WIRE_BYTES",
     "board_poll_problems",
+    "heartbeat_problems",
     "position_sensor_problems",
     "velocity_loop_problems",
 ]
@@ -29,6 +32,33 @@ BOARD_SILENCE_S = 0.1
 ``OWN_STOP``, on which the bridge stops the whole robot: the reference PICO firmware's
 ``BOARD_SILENCE_MS`` (firmware/pico/bus.h), the simulated boards' too
 (docs/board-bus.md, Board-side timeout). A robot description cannot change it."""
+
+
+HEARTBEAT_WIRE_BYTES = 9
+"""A HEARTBEAT frame on the wire (docs/protocol.md; the link's own figure, which the
+tests hold equal to this one)."""
+
+
+def heartbeat_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """The host sends ten heartbeats a watchdog period, and they may take at most half
+    the line (docs/protocol.md, Heartbeats): a watchdog shorter than that at the
+    description's baud is refused by the host when it connects, to the simulator as to
+    the bridge, as a firmware built for another description."""
+    baud = desc.bridge.baud
+    frame_ms = 1000 * HEARTBEAT_WIRE_BYTES * 10 / baud
+    least_ms = math.ceil(2 * 10 * frame_ms)
+    if round(desc.bridge.watchdog * 1000) >= least_ms:
+        return []
+    return [
+        (
+            ("bridge", "watchdog"),
+            f"watchdog {_fmt_ms(desc.bridge.watchdog)} is too short for its line at {baud}"
+            f" baud: the host sends ten heartbeats a watchdog period, each {frame_ms:.2f} ms"
+            f" on the line, and they may take at most half of it, so the watchdog must be at"
+            f" least {least_ms} ms (docs/protocol.md, Heartbeats); lengthen it (and"
+            " safety.max_link_silence with it) or raise the baud",
+        )
+    ]
 
 
 def board_poll_problems(desc: Workable) -> list[tuple[KeyPath, str]]:

@@ -19,6 +19,7 @@ from pirate_bt.robot.configs import BridgeConfig, ClampConfig, MotionConfig, Saf
 from pirate_bt.robot.firmware_fit import (
     BOARD_SILENCE_S,
     board_poll_problems,
+    heartbeat_problems,
     position_sensor_problems,
     velocity_loop_problems,
 )
@@ -59,6 +60,7 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     return [
         *_freshness(desc),
         *board_poll_problems(desc),
+        *heartbeat_problems(desc),
         *_sensor_ranges(desc),
         *_reach(desc),
         *_drive_feedback(desc),
