@@ -99,3 +99,12 @@ def test_a_plug_in_s_input_error_as_it_is_made_is_a_refusal_of_its_parameters(
     with pytest.raises(InputError) as caught:
         pirate_bt.navigate("picky", params=params, sim="straight")
     assert str(caught.value) == said
+
+
+def test_a_refusal_that_names_its_navigator_and_parameter_says_each_once() -> None:
+    with pytest.raises(InputError) as caught:
+        pirate_bt.load_navigator("explore", {"search": "-1 m"})
+    assert str(caught.value) == (
+        "navigator 'explore', parameter 'search': search must be positive and at most 1000 m,"
+        " not '-1 m'"
+    )

@@ -522,6 +522,7 @@ def _refusal(name: str, exc: InputError, given: Mapping[str, Any]) -> InputError
     if len(errors) > 1:
         more = len(errors) - 1
         text += f" (and {more} more problem{'s' if more > 1 else ''} there)"
+    text = text.removeprefix(f"{name}: ")  # its own name ('explore: search: ...'): said once
     key = _parameter_of(name, exc, text, given)
     if key is None:
         return InputError(one_line(f"navigator {name!r}: {text}", REFUSAL_LIMIT))
