@@ -55,6 +55,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="file to write; its suffix picks the format (a name ending in / or _bag:"
         " a rosbag2 directory)",
     )
+    export.add_argument(
+        "--ros-distro",
+        metavar="DISTRO",
+        help="for a rosbag2 directory: the ROS 2 distribution that will read it; humble"
+        " or iron writes bag format 8, jazzy (the default), kilted or rolling 9",
+    )
 
 
 def _summary(args: argparse.Namespace) -> int:
@@ -149,12 +155,26 @@ def _export(args: argparse.Namespace) -> int:
     from pirate_bt.interop.rosbag2 import export_rosbag2, is_bag_path
 
     target = str(args.output)
+    distro = getattr(args, "ros_distro", None)
     if is_bag_path(target):
+        from pirate_bt.interop.rosbag2 import DEFAULT_ROS_DISTRO, bag_version
+
+        if distro is not None:
+            try:
+                bag_version(distro)
+            except InputError as exc:  # named by its option (the API's is "ros_distro")
+                raise InputError(str(exc).replace("ros_distro ", "--ros-distro ", 1)) from None
         bag = target.rstrip("/") or "/"
         if not Path(bag).exists():  # named by its option (the API's is "out_dir")
             check_output(bag)
-        print(f"wrote {said_path(export_rosbag2(args.trace, Path(target)))}")
+        written = export_rosbag2(args.trace, Path(target), ros_distro=distro or DEFAULT_ROS_DISTRO)
+        print(f"wrote {said_path(written)}")
         return 0
+    if distro is not None:  # it would be dropped without a word
+        raise InputError(
+            "--ros-distro is for a rosbag2 directory (-o NAME/ or NAME_bag),"
+            f" not {said_path(target)}"
+        )
     check_output(target)
     args.output = Path(target)
     from pirate_bt.api.options import not_an_input

@@ -13,10 +13,18 @@ trace as its JSON text, so the bag holds the whole run and
 
 The bag is written beside the target under a temporary name and renamed into
 place when complete: an error leaves nothing half-written. Bags are written with
-`rosbags <https://gitlab.com/ternaris/rosbags>`_ (storage ``mcap``, bag format
-version 9, the RIHS01 type hashes in the metadata); the messages are the live
-output's own CDR (:mod:`pirate_bt.interop.ros2_cdr`), which the tests read back
-with rosbags.
+`rosbags <https://gitlab.com/ternaris/rosbags>`_ (storage ``mcap``, the RIHS01
+type hashes in the metadata); the messages are the live output's own CDR
+(:mod:`pirate_bt.interop.ros2_cdr`), which the tests read back with rosbags.
+
+The bag format's version is the one the ROS 2 distribution that reads the bag
+understands (:data:`ROS_DISTROS`): 9 for Jazzy and later (the default), 8 for
+Humble and Iron. Version 9 writes each topic's ``offered_qos_profiles`` as a YAML
+list with the policies by name; Humble's and Iron's rosbag2 read that field as text
+(``as<std::string>()``, rosbag2_storage's ``yaml.hpp``/``metadata_io.cpp``) and
+stop at it, ``yaml-cpp: ... bad conversion``, and their player reads the policies
+as numbers. Version 8 writes the list as text, the policies as numbers, in the
+metadata and in the MCAP channels alike, and Jazzy reads it too.
 """
 
 from __future__ import annotations
@@ -51,7 +59,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BAD_RECORD",
+    "DEFAULT_ROS_DISTRO",
+    "ROS_DISTROS",
     "TRACE_TOPIC",
+    "bag_version",
     "export_rosbag2",
     "frames_from_records",
     "is_bag_path",
@@ -62,6 +73,32 @@ __all__ = [
 
 TRACE_TOPIC = "trace"
 """The topic (relative to the namespace) that holds every trace record as JSON text."""
+
+ROS_DISTROS: dict[str, int] = {"humble": 8, "iron": 8, "jazzy": 9, "kilted": 9, "rolling": 9}
+"""The rosbag2 format version written for the distribution that will read the bag:
+Humble and Iron read version 8 and not 9; Jazzy and later read both."""
+
+DEFAULT_ROS_DISTRO = "jazzy"
+
+
+def bag_version(ros_distro: object) -> int:
+    """The bag format version for ``ros_distro`` (a name of :data:`ROS_DISTROS`, in
+    any case).
+
+    Raises:
+        ArgumentTypeError: ``ros_distro`` is not text.
+        InputError: a distribution the export does not know.
+    """
+    if not isinstance(ros_distro, str):
+        raise ArgumentTypeError(f"ros_distro: give a distribution's name, not {shown(ros_distro)}")
+    version = ROS_DISTROS.get(ros_distro.lower())
+    if version is None:
+        raise InputError(
+            f"ros_distro {shown(ros_distro)}: not a ROS 2 distribution the rosbag2 export"
+            f" writes for; give one of {', '.join(ROS_DISTROS)}"
+        )
+    return version
+
 
 _TASK = "task."
 
@@ -223,21 +260,31 @@ def _offered_qos(topic: str) -> Any:
     )
 
 
-def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_NAMESPACE) -> Path:
+def export_rosbag2(
+    trace_path: Path,
+    out_dir: Path,
+    *,
+    namespace: str = DEFAULT_NAMESPACE,
+    ros_distro: str = DEFAULT_ROS_DISTRO,
+) -> Path:
     """Convert a trace file to a rosbag2 directory (MCAP storage, CDR).
 
     Args:
         trace_path: The trace (any suffix :func:`pirate_bt.trace.read_trace` reads).
         out_dir: The bag directory to write; it must not exist, or be empty.
         namespace: The namespace of the topics.
+        ros_distro: The ROS 2 distribution that will read the bag (:data:`ROS_DISTROS`):
+            ``"humble"`` or ``"iron"`` writes bag format version 8, which they read;
+            ``"jazzy"`` (the default) and later, version 9.
 
     Returns:
         ``out_dir``.
 
     Raises:
         InputError: a path that is no file name, the trace cannot be read or is not a
-            trace; ``out_dir`` is not empty or cannot be made; a namespace ROS 2 refuses.
-        ArgumentTypeError: ``namespace`` is not text.
+            trace; ``out_dir`` is not empty or cannot be made; a namespace ROS 2 refuses;
+            a ``ros_distro`` it does not know.
+        ArgumentTypeError: ``namespace`` or ``ros_distro`` is not text.
         ConfigurationError: ``rosbags`` is missing.
     """
     from pirate_bt.trace.reader import open_reader
@@ -246,6 +293,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
     if not isinstance(namespace, str):
         raise ArgumentTypeError(f"namespace: give text, not {shown(namespace)}")
     _trace_topic(namespace)  # a namespace ROS refuses: said before anything is read
+    version = bag_version(ros_distro)
     rosbag2 = _rosbags()
     out = Path(str(file_argument(out_dir, "out_dir")).rstrip("/") or "/")
     if out.name in ("", ".."):  # '.', '..', '/': the folder's own name (the bag's is made
@@ -275,7 +323,7 @@ def export_rosbag2(trace_path: Path, out_dir: Path, *, namespace: str = DEFAULT_
             raise InputError(
                 f"out_dir: cannot write {shown(str(out), MAX_PATH)}: {exc.strerror}"
             ) from None
-        return _write_bag(rosbag2, store, records, trace_path, out, temp, namespace)
+        return _write_bag(rosbag2, store, records, trace_path, out, temp, namespace, version)
 
 
 def _write_bag(
@@ -286,15 +334,18 @@ def _write_bag(
     out: Path,
     temp: Path,
     namespace: str,
+    version: int,
 ) -> Path:
-    """Write the bag in ``temp`` and move it to ``out`` (:func:`export_rosbag2`)."""
+    """Write the bag in ``temp`` and move it to ``out`` (:func:`export_rosbag2`), in bag
+    format ``version``."""
     from pirate_bt.interop.rmw_zenoh import qualified_name
     from pirate_bt.trace.reader import no_header
     from pirate_bt.trace.structure import TreeStructure
 
     bag = temp / out.name
     try:
-        with rosbag2.Writer(bag, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as writer:
+        plugin = rosbag2.StoragePlugin.MCAP
+        with rosbag2.Writer(bag, version=version, storage_plugin=plugin) as writer:
             connections: dict[str, Any] = {}
 
             def connection(topic: str, type_name: str) -> Any:
