@@ -31,22 +31,8 @@ FRAMES_UNREAD = 5000
 times what the OS buffers and the server's backlog hold together."""
 
 
-@contextmanager
-def _pty_host(server: SimServer) -> Iterator[Callable[[], bytes]]:
-    fd = os.open(server.open_pty(), os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
-    try:
-
-        def read() -> bytes:
-            if not select.select([fd], [], [], 0.05)[0]:
-                return b""
-            try:
-                return os.read(fd, 65536)
-            except BlockingIOError:
-                return b""
-
-        yield read
-    finally:
-        os.close(fd)
+def _pty_host(server: SimServer) -> AbstractContextManager[Callable[[], bytes]]:
+    return _pty_host_of(server.open_pty())
 
 
 @contextmanager
@@ -109,3 +95,55 @@ def test_a_host_that_stops_reading_then_reads_gets_only_whole_frames(
     # every frame missing was dropped whole and counted (more may have been dropped
     # after the last frame the host read, had it been slow again before the end)
     assert 0 < missing <= server.frames_dropped
+
+
+def test_a_host_that_opens_the_pty_gets_nothing_the_last_host_left_unread() -> None:
+    """The kernel kept what a host that closed the pty had not read (some 20 KB, the
+    last frame perhaps cut) and gave it to the next host before the new bridge's
+    frames: some 230 frames of the last session, then a CRC error where the cut frame
+    ran into the new session's first."""
+    decoder = FrameDecoder(FrameCodec.for_robot(ROBOT))
+    got: list[object] = []
+    with Simulator("straight", ROBOT) as sim:
+        server = SimServer(sim, speed=100.0)
+        try:
+            device = server.open_pty()
+            server.start()
+            first = os.open(device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+            try:  # it reads nothing while the bridge sends, then closes
+                _wait(lambda: server.frames_dropped > 0, "frames dropped for the first host")
+            finally:
+                os.close(first)
+            _wait(lambda: not server.host_connected, "the server sees the first host leave")
+            with _pty_host_of(device) as read:
+
+                def some_frames() -> bool:
+                    got.extend(decoder.feed(read()))
+                    return len(got) > 200
+
+                _wait(some_frames, "frames for the second host")
+        finally:
+            server.stop()
+    errors = [m for m in got if isinstance(m, FrameError)]
+    assert not errors, f"{len(errors)} frames cut, e.g. {errors[0]}"
+    seqs = [m.seq for m in got if not isinstance(m, FrameError)]
+    # its own session's frames from the bridge's reset on, none of the last session's
+    assert seqs[0] == 1 and all(b > a for a, b in itertools.pairwise(seqs))
+
+
+@contextmanager
+def _pty_host_of(device: str) -> Iterator[Callable[[], bytes]]:
+    fd = os.open(device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+
+        def read() -> bytes:
+            if not select.select([fd], [], [], 0.05)[0]:
+                return b""
+            try:
+                return os.read(fd, 65536)
+            except BlockingIOError:
+                return b""
+
+        yield read
+    finally:
+        os.close(fd)

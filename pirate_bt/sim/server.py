@@ -19,6 +19,7 @@ import math
 import os
 import select
 import socket
+import termios
 import threading
 import time
 import tty
@@ -199,9 +200,24 @@ class SimServer:
             _log.info("host opened %s: bridge reset (DTR)", self.device)
         elif not open_now and self._host_open:
             self._forget_backlog()
+            self._drain_pty()
             _log.info("host closed %s", self.device)
         self._host_open = open_now
         return open_now
+
+    def _drain_pty(self) -> None:
+        """Throw away what the host that closed the pty left unread: the kernel keeps it
+        for the next host (some 20 KB: the last session's frames, the last perhaps cut,
+        read before the new bridge's), in the pty's buffers and in the line discipline's
+        4 KB on the device's side."""
+        assert self._master is not None and self.device is not None
+        with contextlib.suppress(OSError, termios.error):
+            termios.tcflush(self._master, termios.TCOFLUSH)
+            device = os.open(self.device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+            try:
+                termios.tcflush(device, termios.TCIFLUSH)
+            finally:
+                os.close(device)
 
     def open_tcp(self, port: int, host: str = "127.0.0.1") -> tuple[str, int]:
         """Listen on ``host:port`` (loopback by default; port 0 picks a free one).
