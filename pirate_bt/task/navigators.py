@@ -370,15 +370,32 @@ against the spec's folder, as it does its trees and routes)."""
 
 def navigator_file_params(name: str) -> frozenset[str]:
     """The parameters of navigator ``name`` that name a file: a built-in's, or a plug-in
-    factory's ``file_params`` attribute (empty when it has none)."""
+    factory's ``file_params`` attribute (empty when it has none; one name given as text
+    is that name, where it was read as its letters).
+
+    Raises:
+        InputError: ``file_params`` is not names (a number was a bare ``TypeError``).
+    """
     if name in _FILE_PARAMS:
         return _FILE_PARAMS[name]
     try:
         entry = _registered().get(name)
         factory = entry.load() if entry is not None else None
+        given = getattr(factory, "file_params", ())
     except (Exception, SystemExit):  # a broken plug-in (one that exits): making it says why
         return frozenset()
-    return frozenset(getattr(factory, "file_params", ()))
+    if isinstance(given, str):
+        return frozenset({given})
+    try:
+        names = frozenset(given)
+    except TypeError:
+        names = frozenset({0})  # refused below
+    if not all(isinstance(n, str) for n in names):
+        raise InputError(
+            f"navigator {name!r}: file_params: give the names of the parameters that name a"
+            f" file (file_params = frozenset({{'plan'}})), not {shown(given)}"
+        )
+    return names
 
 
 def navigator_defaults(name: str) -> dict[str, str | float | int | bool]:
@@ -539,7 +556,10 @@ def _parameter_of(name: str, exc: InputError, text: str, given: Mapping[str, Any
     if starts:
         return starts[0]
     if isinstance(exc, ValidationFailed | LocatedError):
-        files = [k for k in sorted(navigator_file_params(name)) if k in given]
+        try:  # a plug-in's file_params that are no names: its own refusal is said
+            files = [k for k in sorted(navigator_file_params(name)) if k in given]
+        except InputError:
+            files = []
         if len(files) == 1:
             return files[0]
     quoted = [k for k in given if isinstance(given[k], str | Path) and str(given[k]) in text]
