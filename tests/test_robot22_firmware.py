@@ -171,25 +171,24 @@ def test_a_watchdog_its_line_cannot_keep_fed_is_refused_at_its_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # before, this validated, and every run was refused at the handshake, to the
-    # simulator as to the bridge: "the bridge's watchdog is 250 ms, shorter than its line
+    # simulator as to the bridge: "the bridge's watchdog is 150 ms, shorter than its line
     # can keep fed (...); a firmware built for another robot description?"
-    path = variant(tmp_path, ("baud: 115200", "baud: 2400"))
+    path = variant(
+        tmp_path, ("baud: 115200", "baud: 9600"), ("watchdog: 250 ms", "watchdog: 150 ms")
+    )
     code, lines = validate(path, capsys)
     assert code == 2
     assert lines == [
-        f"{path}:{line_of(path, 'watchdog: 250 ms')}:3: watchdog 250 ms is too short for its"
-        " line at 2400 baud: the host sends ten heartbeats a watchdog period, each 37.50 ms"
+        f"{path}:{line_of(path, 'watchdog: 150 ms')}:3: watchdog 150 ms is too short for its"
+        " line at 9600 baud: the host sends ten heartbeats a watchdog period, each 9.38 ms"
         " on the line, and they may take at most half of it, so the watchdog must be at"
-        " least 750 ms (docs/protocol.md, Heartbeats); lengthen it (and"
+        " least 188 ms (docs/protocol.md, Heartbeats); lengthen it (and"
         " safety.max_link_silence with it) or raise the baud"
     ]
     fixed = variant(
-        tmp_path,
-        ("baud: 115200", "baud: 2400"),
-        ("watchdog: 250 ms", "watchdog: 750 ms"),
-        ("max_link_silence: 500 ms", "max_link_silence: 750 ms"),
+        tmp_path, ("baud: 115200", "baud: 9600"), ("watchdog: 250 ms", "watchdog: 188 ms")
     )
-    assert load_robot(fixed).bridge.watchdog == pytest.approx(0.75)
+    assert load_robot(fixed).bridge.watchdog == pytest.approx(0.188)
 
 
 def test_the_heartbeat_s_size_is_the_link_s() -> None:
@@ -197,3 +196,37 @@ def test_the_heartbeat_s_size_is_the_link_s() -> None:
     from pirate_bt.robot.firmware_fit import HEARTBEAT_WIRE_BYTES
 
     assert hellos._HEARTBEAT_FRAME_BYTES == HEARTBEAT_WIRE_BYTES
+
+
+def test_a_line_too_slow_for_a_fresh_state_frame_is_refused_at_the_baud(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before, this validated and the simulator (which has no line) ran every tree; a
+    # bridge at 4800 baud can send a 76-byte STATE only every 158 ms, and every reading
+    # counts as stale after 100 ms
+    path = variant(
+        tmp_path, ("baud: 115200", "baud: 4800"), ("watchdog: 250 ms", "watchdog: 400 ms")
+    )
+    code, lines = validate(path, capsys)
+    assert code == 2
+    assert lines == [
+        f"{path}:{line_of(path, 'baud: 4800')}:3: a STATE frame of 76 bytes takes 158.3 ms at"
+        " 4800 baud, so the bridge can send one only that often, and readings of"
+        " 'camera_tilt_angle' count as stale after 100 ms (safety.stale_after_periods x its"
+        " period): every run on the bridge would stop on stale data; raise the baud"
+    ]
+    # 9600 baud: a STATE every 79 ms, fresher than the 100 ms the readings allow
+    slower = variant(tmp_path, ("baud: 115200", "baud: 9600"))
+    assert load_robot(slower).bridge.baud == 9600
+
+
+@pytest.mark.parametrize(
+    "name", ["pirate.yaml", "variants/pirate-long.yaml", "variants/pirate-rear-imu.yaml"]
+)
+def test_the_state_frame_s_size_is_the_link_s(name: str) -> None:
+    from pirate_bt.link.layout import WireLayout
+    from pirate_bt.robot.firmware_fit import state_wire_bytes
+
+    robot = load_robot(Path(__file__).resolve().parent.parent / "hardware" / name)
+    layout = WireLayout.from_robot(robot)
+    assert state_wire_bytes(robot) == layout.wire_bytes(layout.state_payload_bytes)

@@ -22,6 +22,8 @@ __all__ = [
     "board_poll_problems",
     "heartbeat_problems",
     "position_sensor_problems",
+    "state_line_problems",
+    "state_wire_bytes",
     "velocity_loop_problems",
 ]
 
@@ -57,6 +59,50 @@ def heartbeat_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
             f" on the line, and they may take at most half of it, so the watchdog must be at"
             f" least {least_ms} ms (docs/protocol.md, Heartbeats); lengthen it (and"
             " safety.max_link_silence with it) or raise the baud",
+        )
+    ]
+
+
+def state_wire_bytes(desc: Workable) -> int:
+    """A STATE frame of the description's layout on the wire (docs/protocol.md, Budget
+    of one cycle): header 5, ack_seq 2, fresh mask, board status nibbles, 2 bytes a
+    channel, CRC 2, COBS 1 and a delimiter (the link's own figure, which the tests hold
+    equal to this one)."""
+    channels = sum(len(s.channel_names()) for b in desc.boards for s in b.sensors) + sum(
+        (m.feedback.velocity is not None) + (m.feedback.current is not None)
+        for b in desc.boards
+        for m in b.motors
+    )
+    payload = 2 + (channels + 7) // 8 + (len(desc.boards) + 1) // 2 + 2 * channels
+    body = 5 + payload + 2
+    return body + (body + 253) // 254 + 1
+
+
+def state_line_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A bridge sends a STATE each period, or as often as its line carries one when
+    the frame takes longer: then no reading can be fresher than that, and one whose
+    freshness limit (``safety.stale_after_periods`` x its period, the state period for
+    a motor's feedback) is no longer goes stale between two frames on the bridge,
+    where the simulator, which has no line, keeps it fresh."""
+    line_s = state_wire_bytes(desc) * 10 / desc.bridge.baud
+    if line_s <= desc.bridge.state_period:
+        return []
+    factor = desc.safety.stale_after_periods
+    limits = [(factor * s.period, s.name) for b in desc.boards for s in b.sensors]
+    if any(m.feedback.velocity or m.feedback.current for b in desc.boards for m in b.motors):
+        limits.append((factor * desc.bridge.state_period, "a motor's feedback"))
+    limit, name = min(limits, key=lambda item: item[0], default=(math.inf, ""))
+    if limit > line_s:
+        return []
+    shown = name if name.startswith("a motor") else repr(name)
+    return [
+        (
+            ("bridge", "baud"),
+            f"a STATE frame of {state_wire_bytes(desc)} bytes takes {_fmt_ms(line_s)} at"
+            f" {desc.bridge.baud} baud, so the bridge can send one only that often, and"
+            f" readings of {shown} count as stale after {_fmt_ms(limit)}"
+            " (safety.stale_after_periods x its period): every run on the bridge would stop"
+            " on stale data; raise the baud",
         )
     ]
 
@@ -139,4 +185,4 @@ def velocity_loop_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
 
 
 def _fmt_ms(seconds: float) -> str:
-    return f"{seconds * 1000:g} ms"
+    return f"{seconds * 1000:.4g} ms"

@@ -21,6 +21,7 @@ from pirate_bt.robot.firmware_fit import (
     board_poll_problems,
     heartbeat_problems,
     position_sensor_problems,
+    state_line_problems,
     velocity_loop_problems,
 )
 from pirate_bt.robot.parts import (
@@ -61,6 +62,7 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *_freshness(desc),
         *board_poll_problems(desc),
         *heartbeat_problems(desc),
+        *state_line_problems(desc),
         *_sensor_ranges(desc),
         *_reach(desc),
         *_drive_feedback(desc),
