@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.connection import connect
-from pirate_bt.api.observing import uncallable_with
+from pirate_bt.api.observing import never_runs, uncallable_with
 from pirate_bt.api.options import (
     NO_LIMIT,
     fault_list,
@@ -110,12 +110,13 @@ def _check_next_step(navigator: Any) -> str:
     decide = navigator_method(navigator, "next_step", kind)
     if not callable(decide):
         raise InputError(f"navigate: {shown(navigator)} has no next_step(obs) method")
-    if inspect.iscoroutinefunction(decide) or inspect.isasyncgenfunction(decide):
+    never = never_runs(decide)  # its own, or a callable object's __call__ (that connected)
+    if never == "an async def":
         raise InputError(
             f"navigate: {kind}.next_step is async def; write it as"
             " a plain def that returns a Step, or None when done"
         )
-    if inspect.isgeneratorfunction(decide):  # a yield in it: it returns a generator
+    if never is not None:  # a yield in it: it returns a generator
         raise InputError(
             f"navigate: {kind}.next_step yields; write it to return a Step, or None when done"
         )
