@@ -9,12 +9,9 @@ they can work out. :mod:`pirate_bt.robot.fitness` asks these rules with its own.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from pirate_bt.robot.parts import SensorKind
-
-if TYPE_CHECKING:
-    from pirate_bt.robot.fitness import Workable
+from pirate_bt.robot.workable import KeyPath, Workable
 
 __all__ = [
     "BOARD_SILENCE_S",
@@ -26,8 +23,6 @@ __all__ = [
     "state_wire_bytes",
     "velocity_loop_problems",
 ]
-
-KeyPath = tuple[str | int, ...]
 
 BOARD_SILENCE_S = 0.1
 """A board that hears no poll from the bridge for this long stops itself and says

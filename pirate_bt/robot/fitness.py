@@ -12,10 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
 
-from pirate_bt.robot.configs import BridgeConfig, ClampConfig, MotionConfig, SafetyConfig
 from pirate_bt.robot.firmware_fit import (
     BOARD_SILENCE_S,
     board_poll_problems,
@@ -25,30 +22,15 @@ from pirate_bt.robot.firmware_fit import (
     velocity_loop_problems,
 )
 from pirate_bt.robot.parts import (
-    Board,
     ControlMode,
-    Module,
     Motor,
     MotorFunction,
     Role,
     SensorKind,
 )
+from pirate_bt.robot.workable import KeyPath, Workable
 
 __all__ = ["BOARD_SILENCE_S", "Workable", "motor_limit_problems", "workable_problems"]
-
-KeyPath = tuple[str | int, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class Workable:
-    """The parts of a robot description these rules read."""
-
-    modules: Sequence[Module]
-    boards: Sequence[Board]
-    clamp: ClampConfig
-    bridge: BridgeConfig
-    safety: SafetyConfig
-    motion: MotionConfig
 
 
 def _fmt_s(seconds: float) -> str:
