@@ -1,9 +1,11 @@
 """Rules of a robot description that the reference PICO firmware sets.
 
-A description the simulator drives can still be one the reference PICO boards cannot:
-they stop themselves when the bridge polls them too seldom, close a position loop only
-on an angle sensor of the motor's own slot, and a speed loop only on a wheel's speed
-they can work out. :mod:`pirate_bt.robot.fitness` asks these rules with its own.
+A description the simulator drives can still be one the reference firmware cannot:
+the PICO boards stop themselves when the bridge polls them too seldom, close a
+position loop only on an angle sensor of the motor's own slot, and a speed loop only
+on a wheel's speed they can work out; the bridge's serial line, which the simulator
+does not have, must carry the host's heartbeats and a fresh enough STATE.
+:mod:`pirate_bt.robot.fitness` asks these rules with its own.
 """
 
 from __future__ import annotations
