@@ -84,3 +84,27 @@ def test_a_robot_that_refuses_a_tree_is_still_told_at_its_entry(tmp_path: Path) 
     assert first.startswith(f"{spec}:{3 + RUNS + ROBOTS}:5: ")
     assert "robot 'strong.yaml': run 's1': parameter 'torque': clamp: torque: 0.7 N*m" in first
     assert "is below the minimum clamp torque 0.8 N*m" in first
+
+
+def test_a_parameter_every_robot_refuses_is_the_run_s_not_the_first_robot_s(
+    tmp_path: Path,
+) -> None:
+    # 'velocity: 0' no robot takes: it was said at the first robot's entry, as that
+    # robot's problem ("robot 'robot0.yaml': run 's1': parameter 'velocity': ...")
+    for i in range(2):
+        shutil.copy(default_robot_path(), tmp_path / f"robot{i}.yaml")
+    spec = tmp_path / "v.campaign.yaml"
+    spec.write_text(
+        "name: v\nruns:\n"
+        "  - {name: s1, tree: straight, network: straight,"
+        " params: {distance: 1 m, velocity: 0 m/s}}\n"
+        "robots: [robot0.yaml, robot1.yaml]\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ValidationFailed) as caught:
+        validate_campaign_file(spec)
+    first = str(caught.value).splitlines()[0]
+    column = spec.read_text(encoding="utf-8").splitlines()[2].index("velocity: 0") + 1
+    assert first.startswith(
+        f"{spec}:3:{column}: parameter 'velocity': drive: velocity: must not be 0 (used at "
+    ), first

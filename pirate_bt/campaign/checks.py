@@ -238,14 +238,25 @@ def _check_tree(
         if spec is None:
             raise
         axis = _axis_robot(spec, base, case)
-        if axis is not None:
-            try:
-                load(None)  # without a robot's limits: is it this robot that refuses it?
-            except ValidationFailed:
-                pass  # the tree's own problem (or its parameters')
-            else:
-                raise _robot_problems(*axis, str(case.get("run")), exc) from None
+        # this robot's, when another takes it; else the tree's own problem or its
+        # parameters' (a velocity of 0, which every robot refuses, was said at the
+        # first robot's entry as that robot's, when it was a run's parameter)
+        if axis is not None and once is not None and _taken_by_another(once, robots, spec, base):
+            raise _robot_problems(*axis, str(case.get("run")), exc) from None
         raise _params_problems(spec, base, case, exc) from None
+
+
+def _taken_by_another(loaded: Any, robots: Loads, spec: CampaignSpec, base: Path | None) -> bool:
+    """Whether a robot of the axis, or the bundled one, takes ``loaded`` (its limits)."""
+    folder = base if base is not None else source_of(spec).base
+    for name in dict.fromkeys([None, *(resolve_name(r, folder) for r in spec.robots)]):
+        try:
+            robot = robots(name)
+        except (InputError, OSError):  # its own problem, said at its own cases
+            continue
+        if robots.fits(loaded, robot):
+            return True
+    return False
 
 
 def _axis_robot(
