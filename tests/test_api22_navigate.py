@@ -83,7 +83,7 @@ def test_a_plug_in_s_next_step_of_the_wrong_arity_is_refused_at_the_command_line
     monkeypatch.setattr(registry, "entry_points", lambda group: [plugin])
     assert main(["navigate", "rogue", "--sim", "straight", "-q"]) == 2
     assert capsys.readouterr().err == (
-        "pirate-bt: navigate: NoObservation.next_step() cannot be called as next_step(obs);"
+        "pirate-bt: navigator 'rogue': next_step() cannot be called as next_step(obs);"
         " give it one argument, the observation\n"
     )
     assert connected == []

@@ -8,6 +8,7 @@ Split from :mod:`pirate_bt.task.navigators`, which still offers both names.
 
 from __future__ import annotations
 
+import inspect
 import logging
 from typing import Any
 
@@ -15,7 +16,13 @@ from pirate_bt.errors import InputError, said_of
 from pirate_bt.pipes import Network
 from pirate_bt.task.navigate_planner import call_within, raised_at, raised_on_purpose
 
-__all__ = ["REFUSAL_LIMIT", "check_navigator_map", "navigator_method"]
+__all__ = [
+    "REFUSAL_LIMIT",
+    "check_navigator_map",
+    "check_next_step_shape",
+    "navigator_method",
+    "shape_problem",
+]
 
 _log = logging.getLogger("pirate_bt.task.navigators")
 
@@ -106,43 +113,73 @@ _NEVER_RAN = (
 )
 
 
+def shape_problem(function: Any) -> str | inspect.Signature | None:
+    """What keeps planner code's method (``next_step``, ``check_map``) from being called
+    with one argument and run, found before it is called, in the words of
+    :func:`pirate_bt.api.observing.never_runs` and ``uncallable_with`` (which this layer
+    cannot import): ``"async def"`` or ``"yields"`` (a coroutine or generator function,
+    its own or a callable object's ``__call__``: its body never runs), its signature
+    when it cannot be called with one argument, ``None`` when it can (or has no
+    signature to read)."""
+    try:
+        call = None if inspect.isroutine(function) else inspect.getattr_static(function, "__call__")
+    except AttributeError:
+        call = None
+    for each in (function, call):
+        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
+            return "async def"
+        if inspect.isgeneratorfunction(each):
+            return "yields"
+    try:
+        signature = inspect.signature(function)
+    except Exception:  # a builtin without one, or its own __signature__ that raises
+        return None
+    try:
+        signature.bind(None)
+    except TypeError:
+        return signature.replace(return_annotation=inspect.Signature.empty)
+    return None
+
+
 def _check_shape(check_map: Any) -> None:
-    """``check_map``'s shape, before it is called, as ``next_step``'s is
-    (:func:`pirate_bt.api.navigation._check_next_step`, with the words of
-    :func:`pirate_bt.api.observing.never_runs` and ``uncallable_with``, which this layer
-    cannot import): an ``async def`` or a generator function (a ``yield`` in it: its
-    body never runs, and a check that raised ``ValueError`` was taken for one that
-    passed), its own or a callable object's ``__call__``; and one that cannot be called
-    with one argument (it was said as a ``TypeError`` raised in this file).
+    """``check_map``'s shape, before it is called, as ``next_step``'s is: an ``async
+    def`` or one that yields (its body never runs: a check that raised ``ValueError``
+    was taken for one that passed), or one that cannot be called with one argument (it
+    was said as a ``TypeError`` raised in this file).
 
     Raises:
         InputError: which of them, and how to write it.
     """
-    import inspect
-
-    try:
-        call = (
-            None if inspect.isroutine(check_map) else inspect.getattr_static(check_map, "__call__")
-        )
-    except AttributeError:
-        call = None
-    for each in (check_map, call):
-        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
-            raise InputError(f"check_map is async def, {_NEVER_RAN}")
-        if inspect.isgeneratorfunction(each):
-            raise InputError(f"check_map yields, {_NEVER_RAN}")
-    try:
-        signature = inspect.signature(check_map)
-    except Exception:  # a builtin without one, or its own __signature__ that raises
-        return
-    try:
-        signature.bind(None)
-    except TypeError:
-        signature = signature.replace(return_annotation=inspect.Signature.empty)
+    problem = shape_problem(check_map)
+    if isinstance(problem, str):
         raise InputError(
-            f"check_map{signature} cannot be called as check_map(map); give it one"
-            " argument, the map"[:300]
-        ) from None
+            f"check_map {'is async def' if problem == 'async def' else problem}, {_NEVER_RAN}"
+        )
+    if problem is not None:
+        raise InputError(
+            f"check_map{problem} cannot be called as check_map(map); give it one argument, the map"[
+                :300
+            ]
+        )
+
+
+def check_next_step_shape(next_step: Any) -> str | None:
+    """Why ``next_step`` cannot be called as ``next_step(obs)`` and run (an ``async
+    def``, a generator, the wrong arity), in words a message goes on from (*next_step
+    yields; ...*), or ``None``."""
+    problem = shape_problem(next_step)
+    if problem == "async def":
+        return (
+            "next_step is async def; write it as a plain def that returns a Step, or None when done"
+        )
+    if problem == "yields":
+        return "next_step yields; write it to return a Step, or None when done"
+    if problem is not None:
+        return (
+            f"next_step{problem} cannot be called as next_step(obs); give it one argument,"
+            " the observation"
+        )
+    return None
 
 
 def _check_answer(answer: object) -> None:
@@ -150,8 +187,6 @@ def _check_answer(answer: object) -> None:
     navigation ran on a map its navigator had said no to), and a coroutine or a
     generator (an ``async def`` check, never awaited; one that yields, never iterated)
     is refused as one that checked nothing."""
-    import inspect
-
     if inspect.isawaitable(answer) or inspect.isgenerator(answer) or inspect.isasyncgen(answer):
         close = getattr(answer, "close", None)
         if callable(close) and not inspect.isasyncgen(answer):

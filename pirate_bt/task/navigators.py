@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.errors import (
+    ArgumentTypeError,
     InputError,
     LocatedError,
     ValidationFailed,
@@ -41,7 +42,12 @@ from pirate_bt.errors import (
 )
 from pirate_bt.pipes import Network, PieceKind
 from pirate_bt.task.explore import ExploreNavigator
-from pirate_bt.task.navigate_checks import REFUSAL_LIMIT, check_navigator_map, navigator_method
+from pirate_bt.task.navigate_checks import (
+    REFUSAL_LIMIT,
+    check_navigator_map,
+    check_next_step_shape,
+    navigator_method,
+)
 from pirate_bt.task.navigate_route_map import check_route_on_map
 from pirate_bt.task.navigation import (
     Navigator,
@@ -522,8 +528,12 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
             f"navigator {name!r} made the class {cls}, not a navigator: its entry point"
             f" should make an instance ({cls}(...))"
         )
-    if not callable(navigator_method(navigator, "next_step", name)):  # read as navigate() does
+    decide = navigator_method(navigator, "next_step", name)  # read as navigate() does
+    if not callable(decide):
         raise InputError(f"navigator {name!r} made {shown(navigator)}, which has no next_step(obs)")
+    problem = check_next_step_shape(decide)  # a campaign's cases would each have failed on it
+    if problem is not None:
+        raise ArgumentTypeError(f"navigator {name!r}: {problem}"[:300])
     return navigator  # type: ignore[no-any-return]
 
 
