@@ -10,7 +10,10 @@ from __future__ import annotations
 import itertools
 import os
 import select
+import signal
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
@@ -147,3 +150,45 @@ def _pty_host_of(device: str) -> Iterator[Callable[[], bytes]]:
         yield read
     finally:
         os.close(fd)
+
+
+SIM = [sys.executable, "-m", "pirate_bt", "sim", "straight"]
+
+
+def test_pirate_bt_sim_says_how_many_frames_it_dropped_when_it_stops() -> None:
+    """The count reaches the operator: a warning when the dropping starts, and a line
+    of its own beside the counters when ``pirate-bt sim`` stops."""
+    proc = subprocess.Popen(
+        # --duration: the bound of the wait below, which only a server that never says
+        # it drops frames reaches
+        [*SIM, "--tcp", "0", "--speed", "100", "--duration", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        assert proc.stdout is not None and proc.stderr is not None
+        url = proc.stdout.readline().strip()  # socket://127.0.0.1:PORT
+        host, port = url.removeprefix("socket://").rsplit(":", 1)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.connect((host, int(port)))  # and reads nothing
+        said = []
+        for line in proc.stderr:  # (the bridge's watchdog warns first: no host speaks)
+            said.append(line)
+            if "the host does not read: 64 KiB of frames wait" in line:
+                break
+        assert "the host does not read" in said[-1], said
+        proc.send_signal(signal.SIGTERM)
+        _out, err = proc.communicate(timeout=60)
+    finally:
+        sock.close()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    dropped = [line for line in err.splitlines() if "frames dropped" in line]
+    assert len(dropped) == 1 and dropped[0].endswith(  # said once, at the end
+        "bytes): a host did not read while 64 KiB of them waited"
+    ), err
+    assert int(dropped[0].split()[0]) > 0

@@ -187,7 +187,14 @@ def run(args: argparse.Namespace) -> int:
         f" {c.commands_executed} commands",
         file=sys.stderr,
     )
-    from pirate_bt.sim.server import end_state
+    from pirate_bt.sim.server import BACKLOG_BYTES, end_state
+
+    if server.frames_dropped:  # whole frames, beyond the backlog a host left unread
+        print(
+            f"{server.frames_dropped} frames dropped ({server.bytes_dropped} bytes): a host"
+            f" did not read while {BACKLOG_BYTES // 1024} KiB of them waited",
+            file=sys.stderr,
+        )
 
     print(end_state(sim), file=sys.stderr)
     return 0
