@@ -183,8 +183,8 @@ def check_next_step_shape(next_step: Any) -> str | None:
 
 
 def _check_answer(answer: object) -> None:
-    """What a ``check_map`` returned: ``False`` refuses the map (it was ignored, and the
-    navigation ran on a map its navigator had said no to), and a coroutine or a
+    """What a ``check_map`` returned: ``False`` (NumPy's too) refuses the map (it was
+    ignored, and the navigation ran on a map its navigator had said no to), and a coroutine or a
     generator (an ``async def`` check, never awaited; one that yields, never iterated)
     is refused as one that checked nothing."""
     if inspect.isawaitable(answer) or inspect.isgenerator(answer) or inspect.isasyncgen(answer):
@@ -193,7 +193,10 @@ def _check_answer(answer: object) -> None:
             close()  # no 'coroutine was never awaited' warning
         said = "yields" if inspect.isgenerator(answer) else "is async def"
         raise InputError(f"check_map {said}, {_NEVER_RAN}")
-    if answer is False:
+    kind = type(answer)  # NumPy's false too: what a comparison of NumPy numbers gives
+    if answer is False or (
+        kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_") and not answer
+    ):
         raise InputError(
             "check_map returned False: the map is refused (raise ValueError with the"
             " reason to say why)"
