@@ -343,7 +343,7 @@ def test_the_command_line_runs_a_navigator_and_names_a_bad_one() -> None:
         ("goal", {"segment": "nosuch"}, "lab", "the map 'lab' has no segment 'nosuch'"),
         ("goal", {"segment": "bend-a"}, "lab", "'bend-a' is a bend: give a straight segment"),
         ("goal", {"segment": "run-b"}, None, "the goal navigator needs a map"),
-        ("route", {"route": "lab-service.route"}, None, "lab-service.route:5: 'go to service-1'"),
+        ("route", {"route": "lab-service.route"}, None, "lab-service.route:5:1: 'go to service-1'"),
         ("route", {"route": "lab-service.route"}, "bend-right", "has no segment 'service-1'"),
         ("route", {"route": "bend-right.route"}, None, "'inspect to the end' needs a map"),
     ],

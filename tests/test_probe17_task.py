@@ -137,5 +137,5 @@ def test_the_route_navigator_refuses_return_to_start_before_connecting(
     argv = ["navigate", "route", "--sim", "straight", "--map", "straight"]
     assert main([*argv, "--param", f"route={route}", "--quiet"]) == 2  # was 1, after 1 m
     err = capsys.readouterr().err.strip()
-    assert f"{route}:3: 'return to start' is not supported by the route navigator" in err
+    assert f"{route}:3:1: 'return to start' is not supported by the route navigator" in err
     assert len(err.splitlines()) == 1

@@ -143,7 +143,7 @@ class RouteNavigator:
                 (:mod:`pirate_bt.task.navigate_route_map`).
         """
         for command in self.route.steps:
-            where = f"{self.route.source}:{command.line}"
+            where = f"{self.route.source}:{command.line}:1"
             needs_map = command.kind is StepKind.GOTO or (
                 command.kind in (StepKind.FORWARD, StepKind.INSPECT) and command.distance_m is None
             )
@@ -185,7 +185,7 @@ class RouteNavigator:
 
     def _step(self, command: RouteStep, obs: Observation) -> Step | None:
         kind = command.kind
-        where = f"{self.route.source}:{command.line}"
+        where = f"{self.route.source}:{command.line}:1"
         if kind in (StepKind.FORWARD, StepKind.INSPECT):
             slow = command.slowly or kind is StepKind.INSPECT
             distance = command.distance_m
