@@ -72,6 +72,8 @@ _WALL_CLOCK_MODULES = {
     "test_link_transport.py",
     "test_link_lost_exit.py",
     "test_sim_server.py",  # the simulator on TCP and a pty
+    "test_sim22_backlog.py",  # the same, a host that stops reading
+    "test_fw22_pty_reset.py",  # a host on the simulator's pty, its bridge's watchdog
     "test_console.py",  # the operator console on a live simulator
     "test_foxglove_live.py",  # live clients, runs at real time
     "test_mcap_process.py",
