@@ -10,6 +10,7 @@ import inspect
 from typing import Any
 
 from pirate_bt.api.options import callback
+from pirate_bt.callables import never_runs, uncallable_with
 from pirate_bt.errors import ArgumentTypeError, InputError
 from pirate_bt.trace.attach import call_observer
 
@@ -47,40 +48,6 @@ def check_observer(observe: Any, shape: str = "observe(runner, connection)") -> 
             f"observe: {name}{signature} cannot be called as {shape}, before the run to"
             " attach hooks; give a function of two arguments"[:300]
         )
-
-
-def never_runs(function: Any) -> str | None:
-    """What ``function`` is when calling it runs none of its body: ``"an async def"``
-    (a coroutine, never awaited) or ``"a generator function (it yields)"`` (a generator,
-    never iterated: an ``observe`` with a ``yield`` in it attached no hook, the run went
-    on unobserved and nothing said so); ``None`` for a plain function. A callable
-    object is judged by its own ``__call__``."""
-    try:
-        call = None if inspect.isroutine(function) else inspect.getattr_static(function, "__call__")
-    except AttributeError:
-        call = None
-    for each in (function, call):
-        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
-            return "an async def"
-        if inspect.isgeneratorfunction(each):
-            return "a generator function (it yields)"
-    return None
-
-
-def uncallable_with(function: Any, count: int) -> inspect.Signature | None:
-    """``function``'s signature when it cannot be called with ``count`` positional
-    arguments (planner code's callback or method of the wrong arity, found before the
-    run, not as a bare ``TypeError`` once it is called); ``None`` when it can, or when
-    it has no signature to read (a builtin: called as it is)."""
-    try:
-        signature = inspect.signature(function)
-    except Exception:  # a builtin without one, or its own __signature__ that raises
-        return None
-    try:
-        signature.bind(*[None] * count)
-    except TypeError:
-        return signature
-    return None
 
 
 _COUNTS = {0: "no arguments", 1: "one argument", 2: "two arguments", 3: "three arguments"}

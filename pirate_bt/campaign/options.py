@@ -50,13 +50,13 @@ def check_callback(value: Any, name: str, argument: str) -> None:
     awaited) nor a generator function (a ``yield`` in it: called, never iterated), whose
     body would never run (a generator ``on_record`` passed zero rows with no word).
     Checked before anything is read, as the API checks ``observe=``
-    (:func:`pirate_bt.api.observing.never_runs` and ``uncallable_with``): a callback of
+    (:func:`pirate_bt.callables.never_runs` and ``uncallable_with``): a callback of
     the wrong arity raised a bare ``TypeError`` from deep inside once a case had run.
 
     Raises:
         ArgumentTypeError: one line naming ``name``, what it takes and how it is called.
     """
-    from pirate_bt.api.observing import never_runs, uncallable_with
+    from pirate_bt.callables import never_runs, uncallable_with
 
     if value is None:
         return

@@ -12,6 +12,7 @@ import inspect
 import logging
 from typing import Any
 
+from pirate_bt.callables import never_runs, uncallable_with
 from pirate_bt.errors import InputError, said_of
 from pirate_bt.pipes import Network
 from pirate_bt.task.navigate_planner import call_within, raised_at, raised_on_purpose
@@ -115,30 +116,18 @@ _NEVER_RAN = (
 
 def shape_problem(function: Any) -> str | inspect.Signature | None:
     """What keeps planner code's method (``next_step``, ``check_map``) from being called
-    with one argument and run, found before it is called, in the words of
-    :func:`pirate_bt.api.observing.never_runs` and ``uncallable_with`` (which this layer
-    cannot import): ``"async def"`` or ``"yields"`` (a coroutine or generator function,
-    its own or a callable object's ``__call__``: its body never runs), its signature
-    when it cannot be called with one argument, ``None`` when it can (or has no
-    signature to read)."""
-    try:
-        call = None if inspect.isroutine(function) else inspect.getattr_static(function, "__call__")
-    except AttributeError:
-        call = None
-    for each in (function, call):
-        if inspect.iscoroutinefunction(each) or inspect.isasyncgenfunction(each):
-            return "async def"
-        if inspect.isgeneratorfunction(each):
-            return "yields"
-    try:
-        signature = inspect.signature(function)
-    except Exception:  # a builtin without one, or its own __signature__ that raises
+    with one argument and run, found before it is called
+    (:func:`pirate_bt.callables.never_runs` and ``uncallable_with``): ``"async def"``
+    or ``"yields"`` (a coroutine or generator function, its own or a callable object's
+    ``__call__``: its body never runs), its signature when it cannot be called with
+    one argument, ``None`` when it can (or has no signature to read)."""
+    what = never_runs(function)
+    if what is not None:
+        return "async def" if what == "an async def" else "yields"
+    signature = uncallable_with(function, 1)
+    if signature is None:
         return None
-    try:
-        signature.bind(None)
-    except TypeError:
-        return signature.replace(return_annotation=inspect.Signature.empty)
-    return None
+    return signature.replace(return_annotation=inspect.Signature.empty)
 
 
 def _check_shape(check_map: Any) -> None:
