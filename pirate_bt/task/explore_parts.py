@@ -6,6 +6,7 @@ unsurveyed.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from dataclasses import dataclass
@@ -177,6 +178,18 @@ def check_output(output: Any) -> Path | None:
     path = Path(output)
     if path.is_dir():
         raise InputError(f"explore: output: {path} is a directory; name a .yaml file")
+    if path.exists() and not path.is_file():
+        raise InputError(f"explore: output: {path} is not a regular file (a pipe or a device)")
+    # the folder it goes in, made when the survey is written: the nearest folder on its
+    # way that exists must be one this process can write in (a survey of 42 steps ended
+    # on 'No such file or directory' before 2026-12-01, nothing written)
+    for parent in path.absolute().parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"explore: output: {path}: {parent} is not a directory")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise InputError(f"explore: output: {path}: cannot write in {parent}")
+            break
     return path
 
 
@@ -400,8 +413,13 @@ def write_survey(
             "\nends at the last feature surveyed in it: neither is a capped end."
         )
     text = network_yaml(spec, header=header)
-    output.parent.mkdir(parents=True, exist_ok=True)
     part = output.with_name(output.name + ".part")
-    part.write_text(text, encoding="utf-8")
-    os.replace(part, output)  # never half a file
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        part.write_text(text, encoding="utf-8")
+        os.replace(part, output)  # never half a file
+    except OSError as exc:  # the survey's result says it (the network is still returned)
+        with contextlib.suppress(OSError):
+            part.unlink()
+        return spec, f"the survey could not be written to {output}: {exc.strerror or exc}", False
     return spec, None, True
