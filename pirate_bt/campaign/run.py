@@ -20,6 +20,7 @@ validated, and only then does an executor start and a file get written.
 
 from __future__ import annotations
 
+import logging
 import os
 import shlex
 import sys
@@ -47,7 +48,7 @@ from pirate_bt.campaign.cases import (
 from pirate_bt.campaign.engine import DEFAULT_TARGET, check_output, make_executor, run_cases
 from pirate_bt.campaign.loads import Loads
 from pirate_bt.campaign.options import case_timeout_s, check_options, check_target, given_path
-from pirate_bt.campaign.paths import campaign_lock, slug
+from pirate_bt.campaign.paths import RESULTS_NAME, campaign_lock, slug
 from pirate_bt.campaign.spec import (
     CampaignSpec,
     SpecSource,
@@ -375,6 +376,10 @@ def run_campaign(
     undone = new_folders_undone(folder) if folder is not None else nullcontext()
     with undone, ExitStack() as lock:
         if folder is not None:
+            if resume and not (folder / RESULTS_NAME).is_file():  # a typo in --output?
+                logging.getLogger("pirate_bt.campaign").warning(
+                    "%s: nothing to resume (no %s there): every case runs", folder, RESULTS_NAME
+                )
             check_output(folder, resume, cases)  # before any worker starts, warning of no line
             # one campaign at a time in a folder: two started together both passed the
             # check above and one's rows were lost; checked again once it is ours
