@@ -238,7 +238,7 @@ class GoalNavigator:
 
     def __init__(self, segment: str) -> None:
         if not isinstance(segment, str) or not segment:
-            raise InputError(f"segment: give a segment's id as text, not {segment!r}")
+            raise InputError(f"segment: give a segment's id as text, not {shown(segment)}")
         self.segment = segment
 
     def check_map(self, network: Network | None) -> None:
