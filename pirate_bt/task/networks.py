@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, shown
@@ -41,8 +42,12 @@ def resolve_network_path(name: str, base_dir: Path | None = None) -> Path:
     bundled = sorted(p.stem for p in data_dir("scenarios").glob("*.yaml"))
     # a route or other file given where a network goes: say why it is not one
     kind = ": a network file ends in .yaml" if _is_file(plain) else ""
-    if not kind and _is_dir(plain):  # "no network '/tmp'" read as if nothing were there
-        kind = ": it is a folder; a network is a .yaml file"
+    for candidate in [*candidates, plain]:
+        if kind:
+            break
+        what = _not_a_file(candidate)  # "no network '/tmp'" read as if nothing were there
+        if what:
+            kind = f": it is {what}; a network is a .yaml file"
     raise FileNotFoundError(
         f"no network {shown(name)}{kind}; bundled networks: {', '.join(bundled)}"
     )
@@ -57,11 +62,23 @@ def _is_file(path: Path) -> bool:
         return False
 
 
-def _is_dir(path: Path) -> bool:
+_NOT_FILES = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a named pipe"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a device"),
+    (stat.S_ISBLK, "a device"),
+)
+
+
+def _not_a_file(path: Path) -> str | None:
+    """What ``path`` is when it exists and is no regular file (``a folder``, ``a named
+    pipe``, ...), else None. Only stat()ed, never opened: a named pipe's open blocks."""
     try:
-        return path.is_dir()
-    except (OSError, ValueError):
-        return False
+        mode = path.stat().st_mode
+    except (OSError, ValueError):  # none there, a name the system refuses, a NUL
+        return None
+    return next((what for test, what in _NOT_FILES if test(mode)), None)
 
 
 def load_network_for(route: Route, sim: str | None, *, option: str = "--sim") -> Network:
