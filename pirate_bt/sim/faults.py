@@ -37,6 +37,7 @@ __all__ = [
     "check_fault_target",
     "format_fault",
     "parse_fault",
+    "write_fault",
 ]
 
 
@@ -135,10 +136,7 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
         )
     match = _FAULT_RE.match(text)
     if match is None:
-        raise InputError(
-            f"{prefix}bad fault {shown(text)}; write KIND[:TARGET]@AT[+DURATION], e.g."
-            " link_loss@5s+1s"
-        )
+        raise InputError(prefix + _what_is_wrong(text))
     kind = match["kind"]
     if kind not in FAULT_KINDS:
         raise InputError(
@@ -152,7 +150,10 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
                 f" {kind}@AT[+DURATION]"
             )
     elif target is None:
-        raise InputError(f"{prefix}fault {kind} needs a target: {kind}:NAME@AT")
+        then = f"+{match['duration']}" if match["duration"] else ""
+        raise InputError(
+            f"{prefix}fault {kind} needs a target: {write_fault(kind, then, match['at'])}"
+        )
     try:
         at = parse_quantity(match["at"], "time")
         duration = (
@@ -165,6 +166,76 @@ def parse_fault(text: str, *, option: str = "faults") -> FaultSpec:
     if duration is not None and duration <= 0:
         raise InputError(f"{prefix}bad fault {shown(text)}: its duration must be positive")
     return FaultSpec(kind=kind, at=at, duration=duration, target=target)
+
+
+# The parts of a fault whatever they hold (an empty target, time or duration), to say
+# which is missing where _FAULT_RE does not match.
+_PARTS_RE = re.compile(
+    r"^\s*(?P<kind>[A-Za-z_]+)(?P<colon>:(?P<target>[^@+]*))?\s*@\s*(?P<at>[^+]*?)"
+    r"\s*(?P<plus>\+\s*(?P<duration>.*?))?\s*$"
+)
+
+# A target each kind of simulator fault takes, for the examples (the bundled robot's).
+_EXAMPLE_TARGETS = {
+    "motor_stall": "bend_1_drive",
+    "sensor_dropout": "bend_3_spring",
+    "sensor_stuck": "rotation_angle",
+    "board_reset": "22",
+    "board_fault": "22",
+}
+
+
+def write_fault(kind: str, then: str = "", at: str = "") -> str:
+    """How to write a simulator fault of ``kind`` (its duration ``then`` and time ``at``,
+    where given), with an example: ``write board_reset:BOARD@AT[+DURATION], e.g.
+    board_reset:22@5s`` (the wording of ``pirate_bt.api.fault_text``)."""
+    form = then or "[+DURATION]"
+    at = at or "5s"
+    if kind in NO_TARGET_KINDS:
+        return f"write {kind}@AT{form}, e.g. {kind}@{at}{then}"
+    noun = "BOARD" if kind.startswith("board_") else "NAME"
+    target = _EXAMPLE_TARGETS.get(kind, noun)
+    return f"write {kind}:{noun}@AT{form}, e.g. {kind}:{target}@{at}{then}"
+
+
+def _what_is_wrong(text: str) -> str:
+    """What a fault ``_FAULT_RE`` does not match lacks (its target, its time, its
+    duration after ``+``), with an example of its own kind."""
+    parts = _PARTS_RE.match(text)
+    if parts is None or parts["kind"] not in FAULT_KINDS:
+        if parts is not None:
+            return f"unknown fault kind {shown(parts['kind'])}; known: {', '.join(FAULT_KINDS)}"
+        return f"bad fault {shown(text)}; write KIND[:TARGET]@AT[+DURATION], e.g. link_loss@5s+1s"
+    kind, target, at = parts["kind"], (parts["target"] or "").strip(), parts["at"]
+    then = f"+{parts['duration']}" if parts["duration"] else ""
+    if kind in NO_TARGET_KINDS and parts["colon"]:
+        return (
+            f"fault {kind} takes no target, so {shown(text)} is bad; {write_fault(kind, then, at)}"
+        )
+    lacks = []
+    if kind not in NO_TARGET_KINDS and not target:
+        lacks.append("its target")
+    if not at:
+        lacks.append("its time")
+    if parts["plus"] and not parts["duration"]:
+        lacks.append("its duration after '+'")
+    if lacks:
+        what = " and ".join([", ".join(lacks[:-1]), lacks[-1]] if len(lacks) > 1 else lacks)
+        if target and kind not in NO_TARGET_KINDS:  # their own target in the example
+            written = f"{kind}:{target}"
+            form = then or "[+DURATION]"
+            how = f"write {written}@AT{form}, e.g. {written}@{at or '5s'}{then or ''}"
+            if parts["plus"] and not parts["duration"]:
+                how = f"write {written}@AT+DURATION, e.g. {written}@{at or '5s'}+1s"
+        elif parts["plus"] and not parts["duration"]:
+            how = write_fault(kind, "+1s", at).replace("@AT+1s", "@AT+DURATION", 1)
+        else:
+            how = write_fault(kind, then, at)
+        return f"simulator fault {shown(text)} lacks {what}: {how}"
+    return (
+        f"bad fault {shown(text)}: its target {shown(target)} is not a name (letters,"
+        f" digits, '_', '.'); {write_fault(kind, then, at)}"
+    )
 
 
 def format_fault(fault: FaultSpec) -> str:
