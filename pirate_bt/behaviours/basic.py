@@ -20,7 +20,7 @@ from typing import Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field, StrictInt, model_validator
+from pydantic import Field, StrictInt, ValidationInfo, model_validator
 
 from pirate_bt.behaviours.base import (
     ALL_OUTCOMES,
@@ -36,7 +36,7 @@ from pirate_bt.behaviours.base import (
     Scalar,
 )
 from pirate_bt.errors import UnitError, shown
-from pirate_bt.units import Duration, parse_quantity
+from pirate_bt.units import Duration, check_magnitude, parse_quantity
 
 __all__ = [
     "CheckBlackboard",
@@ -198,11 +198,18 @@ Dimension = Literal[
 ]
 
 
-def _value(raw: Scalar, dimension: str | None) -> Scalar:
+def _value(raw: Scalar, dimension: str | None, info: ValidationInfo | None = None) -> Scalar:
+    """``raw`` in SI units when it is a quantity (``dimension``); bounded by
+    :data:`~pirate_bt.units.MAGNITUDE_LIMITS` where the validation context asks for it
+    (a tree file's node, as its other quantities are)."""
     if dimension is None:
         return raw
     try:
-        return parse_quantity(raw, dimension, require_unit=isinstance(raw, str))
+        si = parse_quantity(raw, dimension, require_unit=isinstance(raw, str))
+        context = info.context if info is not None else None
+        if isinstance(context, dict) and context.get("magnitude_limits"):
+            check_magnitude(si, dimension, raw)
+        return si
     except UnitError as exc:
         raise ValueError(str(exc)) from None
 
@@ -215,8 +222,8 @@ class SetBlackboardParams(NodeParams):
     )
 
     @model_validator(mode="after")
-    def _parse(self) -> SetBlackboardParams:
-        _value(self.value, self.unit)
+    def _parse(self, info: ValidationInfo) -> SetBlackboardParams:
+        _value(self.value, self.unit, info)
         return self
 
     @property
@@ -258,11 +265,11 @@ class CheckBlackboardParams(NodeParams):
     unit: Dimension | None = Field(None, description="parse value as a quantity (SI)")
 
     @model_validator(mode="after")
-    def _check(self) -> CheckBlackboardParams:
+    def _check(self, info: ValidationInfo) -> CheckBlackboardParams:
         if self.op != "is_set" and self.value is None:
             raise ValueError(f"op {self.op!r} needs a value")
         if self.value is not None:
-            _value(self.value, self.unit)
+            _value(self.value, self.unit, info)
         return self
 
 

@@ -49,7 +49,7 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import py_trees
 from py_trees.common import Status
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, model_validator
 
 from pirate_bt.behaviours.base import (
     COMPARISONS,
@@ -67,7 +67,7 @@ from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
 from pirate_bt.safety.checks import front_tilt_channel, stale_channels
 from pirate_bt.safety.supervisor_hold import half_channels
-from pirate_bt.units import DIMENSIONS, parse_quantity
+from pirate_bt.units import DIMENSIONS, check_magnitude, parse_quantity
 
 __all__ = [
     "STATE_VALUES",
@@ -125,15 +125,22 @@ def _dimension(path: str) -> str | None:
     )
 
 
-def _parse(raw: Scalar, dimension: str | None) -> Scalar:
+def _parse(raw: Scalar, dimension: str | None, info: ValidationInfo | None = None) -> Scalar:
+    """``raw`` in SI units when it is a quantity; bounded by
+    :data:`~pirate_bt.units.MAGNITUDE_LIMITS` where the validation context asks for it
+    (a tree file's node, as its other quantities are)."""
     if dimension is None or isinstance(raw, bool):
         return raw
     try:
-        return parse_quantity(
+        si = parse_quantity(
             raw,
             dimension,
             require_unit=isinstance(raw, str),  # pragma: no mutate (None acts as False)
         )
+        context = info.context if info is not None else None
+        if isinstance(context, dict) and context.get("magnitude_limits"):
+            check_magnitude(si, dimension, raw)
+        return si
     except UnitError as exc:
         raise ValueError(str(exc)) from None
 
@@ -164,7 +171,7 @@ class Comparison(NodeParams):
         return data
 
     @model_validator(mode="after")
-    def _check(self) -> Comparison:
+    def _check(self, info: ValidationInfo) -> Comparison:
         if (self.state is None) == (self.blackboard is None):
             raise ValueError("give exactly one of 'state' or 'blackboard'")
         if self.unit is not None and self.unit not in DIMENSIONS:  # not 'dimension: ...'
@@ -175,7 +182,7 @@ class Comparison(NodeParams):
                 f"value: {str(self.value).lower()} is a boolean, but a quantity"
                 f" ({dimension.replace('_', ' ')}) is compared: write it with its unit"
             )
-        _parse(self.value, dimension)
+        _parse(self.value, dimension, info)
         if self.state == "link.healthy" and not isinstance(self.value, bool):
             raise ValueError(f"value: link.healthy is true or false, not {shown(self.value)}")
         if self.state in _WORDS and self.op not in ("==", "!="):
