@@ -122,13 +122,6 @@ def check_link_faults(spec: str, option: str = "faults") -> None:
 
 
 # A target each kind of simulator fault takes, for the examples (the bundled robot's).
-_EXAMPLE_TARGETS = {
-    "motor_stall": "bend_1_drive",
-    "sensor_dropout": "bend_3_spring",
-    "sensor_stuck": "rotation_angle",
-    "board_reset": "22",
-    "board_fault": "22",
-}
 _NO_TIME = re.compile(r"(?P<kind>[A-Za-z_]+)(?::(?P<target>[^+=@]*))?(?:\+(?P<duration>.*))?")
 
 
@@ -136,38 +129,27 @@ def _simulator_fault_without_time(item: str) -> str | None:
     """What a simulator fault written without its ``@AT`` lacks, with an example; None
     for an item that is no simulator fault (a link fault, right or wrong). Without an
     ``@`` it is taken for a link fault, and was told it "is not key=value"."""
-    from pirate_bt.sim.faults import FAULT_KINDS, NO_TARGET_KINDS
+    from pirate_bt.sim.faults import FAULT_KINDS, NO_TARGET_KINDS, write_fault
 
     key, equals, _ = item.partition("=")
     if equals:  # board_reset=22: a simulator fault's kind as a link fault's key
         kind = key.strip()
         if kind not in FAULT_KINDS:
             return None
-        return f"{shown(item)} is a simulator fault, not a link fault (KEY=VALUE): {_write(kind)}"
+        how = write_fault(kind)
+        return f"{shown(item)} is a simulator fault, not a link fault (KEY=VALUE): {how}"
     match = _NO_TIME.fullmatch(item)
     if match is None or match["kind"] not in FAULT_KINDS:
         return None
     kind, target, duration = match["kind"], match["target"], match["duration"]
     then = f"+{duration}" if duration else ""
     if kind in NO_TARGET_KINDS:
-        return f"simulator fault {shown(item)} lacks its time: {_write(kind, then)}"
+        return f"simulator fault {shown(item)} lacks its time: {write_fault(kind, then)}"
     if not target:
-        return f"simulator fault {shown(item)} lacks its target and its time: {_write(kind, then)}"
+        how = write_fault(kind, then)
+        return f"simulator fault {shown(item)} lacks its target and its time: {how}"
     written = f"{kind}:{target}"
     return (
         f"simulator fault {shown(item)} lacks its time: write {written}@AT{then or '[+DURATION]'},"
         f" e.g. {written}@5s{then}"
     )
-
-
-def _write(kind: str, then: str = "") -> str:
-    """How to write a simulator fault of ``kind`` (its duration ``then``, if given),
-    with an example."""
-    from pirate_bt.sim.faults import NO_TARGET_KINDS
-
-    form = then or "[+DURATION]"
-    if kind in NO_TARGET_KINDS:
-        return f"write {kind}@AT{form}, e.g. {kind}@5s{then}"
-    noun = "BOARD" if kind.startswith("board_") else "NAME"
-    target = _EXAMPLE_TARGETS.get(kind, noun)
-    return f"write {kind}:{noun}@AT{form}, e.g. {kind}:{target}@5s{then}"
