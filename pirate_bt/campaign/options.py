@@ -50,32 +50,19 @@ def check_callback(value: Any, name: str, argument: str) -> None:
     awaited) nor a generator function (a ``yield`` in it: called, never iterated), whose
     body would never run (a generator ``on_record`` passed zero rows with no word).
     Checked before anything is read, as the API checks ``observe=``
-    (:func:`pirate_bt.callables.never_runs` and ``uncallable_with``): a callback of
+    (:func:`pirate_bt.api.observing.check_callback`, in its words): a callback of
     the wrong arity raised a bare ``TypeError`` from deep inside once a case had run.
 
     Raises:
         ArgumentTypeError: one line naming ``name``, what it takes and how it is called.
     """
-    from pirate_bt.callables import never_runs, uncallable_with
+    from pirate_bt.api.observing import check_callback as check_api_callback
 
     if value is None:
         return
     if not callable(value):
         raise ArgumentTypeError(f"{name}: give a function (or None), not {shown(value)}")
-    label = (getattr(value, "__qualname__", None) or type(value).__name__).rsplit(".", 1)[-1]
-    label = label[:60]
-    what = never_runs(value)  # its own, or a callable object's __call__
-    if what is not None:
-        raise ArgumentTypeError(
-            f"{name}: {label} is {what}, which {name}({argument}) would call and never"
-            " run; give a plain function"
-        )
-    signature = uncallable_with(value, 1)
-    if signature is not None:
-        raise ArgumentTypeError(
-            f"{name}: {label}{signature} cannot be called as {name}({argument});"
-            f" give a function of one argument"[:300]
-        )
+    check_api_callback(value, name, f"{name}({argument})", 1)  # the API's words
 
 
 _TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*")
