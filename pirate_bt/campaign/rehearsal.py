@@ -19,15 +19,19 @@ rehearsed.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import select
 import signal
+import threading
 import time
 from collections.abc import Callable
 
 from pirate_bt.errors import InputError
 
 __all__ = ["rehearse"]
+
+_log = logging.getLogger(__name__)
 
 _DONE = b"1"
 
@@ -42,6 +46,13 @@ def rehearse(name: str, check: Callable[[], object], timeout_s: float) -> None:
             still running after ``timeout_s``; it and its process group are killed.
     """
     if not hasattr(os, "fork"):  # pragma: no cover - campaigns need POSIX (docs)
+        return
+    if threading.active_count() > 1:
+        # a fork copies only this thread: a lock another thread holds (the import lock,
+        # logging's) stays held in the child for ever, and a navigator fine in every case
+        # would be refused after the case timeout. Planner code calling run_campaign
+        # from a threaded program is not rehearsed; the command line has one thread.
+        _log.debug("navigator %r not rehearsed: %d threads", name, threading.active_count())
         return
     read_end, write_end = os.pipe()
     pid = os.fork()
