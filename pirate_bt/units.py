@@ -382,16 +382,32 @@ def units_of(dimension: str) -> list[str]:
     return [name for name, (_, dim) in _UNITS.items() if dim == want]
 
 
+def parse_in_context(
+    value: object, dimension: str, context: object, *, require_unit: bool
+) -> float:
+    """``value`` parsed in SI units (:func:`parse_quantity`) and, where the validation
+    ``context`` asks for it (``magnitude_limits``: a tree file's node), bounded by
+    :data:`MAGNITUDE_LIMITS`, as every quantity of a node's parameters is.
+
+    Raises:
+        UnitError: not a quantity of ``dimension``, or out of range.
+    """
+    si = parse_quantity(value, dimension, require_unit=require_unit)
+    if isinstance(context, dict) and context.get("magnitude_limits"):
+        check_magnitude(si, dimension, value)
+    return si
+
+
 def _validator(dimension: str) -> Any:
     def validate(value: object, info: ValidationInfo) -> float:
         context = info.context if isinstance(info.context, dict) else {}
         try:
-            si = parse_quantity(
-                value, dimension, require_unit=bool(context.get("units_required", False))
+            return parse_in_context(
+                value,
+                dimension,
+                context,
+                require_unit=bool(context.get("units_required", False)),
             )
-            if context.get("magnitude_limits"):  # a tree's node: MAGNITUDE_LIMITS bound it
-                check_magnitude(si, dimension, value)
-            return si
         except UnitError as exc:
             # pydantic wraps ValueError into a located validation error.
             raise ValueError(str(exc)) from None

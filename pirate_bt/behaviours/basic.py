@@ -36,7 +36,7 @@ from pirate_bt.behaviours.base import (
     Scalar,
 )
 from pirate_bt.errors import UnitError, shown
-from pirate_bt.units import Duration, check_magnitude, parse_quantity
+from pirate_bt.units import Duration, parse_in_context
 
 __all__ = [
     "CheckBlackboard",
@@ -205,11 +205,8 @@ def _value(raw: Scalar, dimension: str | None, info: ValidationInfo | None = Non
     if dimension is None:
         return raw
     try:
-        si = parse_quantity(raw, dimension, require_unit=isinstance(raw, str))
         context = info.context if info is not None else None
-        if isinstance(context, dict) and context.get("magnitude_limits"):
-            check_magnitude(si, dimension, raw)
-        return si
+        return parse_in_context(raw, dimension, context, require_unit=isinstance(raw, str))
     except UnitError as exc:
         raise ValueError(str(exc)) from None
 

@@ -67,7 +67,7 @@ from pirate_bt.robot.state import RobotState, wheel_fresh_window_s
 from pirate_bt.safety import ClampState, Mode, Supervisor
 from pirate_bt.safety.checks import front_tilt_channel, stale_channels
 from pirate_bt.safety.supervisor_hold import half_channels
-from pirate_bt.units import DIMENSIONS, check_magnitude, parse_quantity
+from pirate_bt.units import DIMENSIONS, parse_in_context
 
 __all__ = [
     "STATE_VALUES",
@@ -132,15 +132,13 @@ def _parse(raw: Scalar, dimension: str | None, info: ValidationInfo | None = Non
     if dimension is None or isinstance(raw, bool):
         return raw
     try:
-        si = parse_quantity(
+        context = info.context if info is not None else None
+        return parse_in_context(
             raw,
             dimension,
+            context,
             require_unit=isinstance(raw, str),  # pragma: no mutate (None acts as False)
         )
-        context = info.context if info is not None else None
-        if isinstance(context, dict) and context.get("magnitude_limits"):
-            check_magnitude(si, dimension, raw)
-        return si
     except UnitError as exc:
         raise ValueError(str(exc)) from None
 
