@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import json
 import struct
+import sys
 import threading
 import time
+import traceback
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
@@ -72,9 +74,25 @@ class Both:
         self.sockets[name].send_multipart(list(parts))
         try:
             reply: list[bytes] = self.sockets[name].recv_multipart()
-        except zmq.Again:  # which server, and which request, failed to answer
-            pytest.fail(f"{name}: no reply in {REPLY_WAIT_MS} ms to {parts!r}")
+        except zmq.Again:  # which server, and which request, failed to answer, and why
+            why = self.why_silent() if name == "ours" else ""
+            pytest.fail(f"{name}: no reply in {REPLY_WAIT_MS} ms to {parts!r}{why}")
         return reply
+
+    def why_silent(self) -> str:
+        """What our server's side was doing: its relay process, its thread (where)."""
+        server = self.session.ours
+        relay = server._relay
+        thread = server._thread
+        frame = sys._current_frames().get(thread.ident or -1)
+        where = "".join(traceback.format_stack(frame)[-4:]) if frame is not None else "-"
+        ended = None if relay is None else relay.poll()
+        state = "gone" if relay is None else "running" if ended is None else f"ended ({ended})"
+        return (
+            f"; relay: {state},"
+            f" requests answered: {server.requests}, server thread alive:"
+            f" {thread.is_alive()}, at:\n{where}"
+        )
 
     def both(self, *parts: bytes) -> tuple[list[bytes], list[bytes]]:
         """Both replies, the tree's UUID (random, per server) cut off their headers."""
