@@ -45,7 +45,8 @@ run ends there.
 **Its parts.** The served run and the state the parts share:
 :mod:`pirate_bt.interop.groot2_run`; the hooks on the tick thread:
 :mod:`pirate_bt.interop.groot2_hooks`; the requests:
-:mod:`pirate_bt.interop.groot2_requests`. Here: the sockets, the statuses after
+:mod:`pirate_bt.interop.groot2_requests`; the relay process as the server holds it:
+:mod:`pirate_bt.interop.groot2_ports`. Here: the sockets, the statuses after
 each tick, the server thread, and :func:`attach_groot2`.
 """
 
@@ -53,28 +54,25 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import json
 import logging
 import math
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import py_trees
 
-from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, InputError, kind_of, shown
+from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, kind_of, shown
 from pirate_bt.errors import ConfigurationError as ConfigurationError
-from pirate_bt.interop import groot2_relay
 from pirate_bt.interop.groot2_hooks import _replace as _replace
 from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
 from pirate_bt.interop.groot2_option import DEFAULT_HOST, parse_groot2_address
+from pirate_bt.interop.groot2_ports import end_relay, relay_to_null, start_relay
 from pirate_bt.interop.groot2_protocol import DEFAULT_PORT, Hook
 from pirate_bt.interop.groot2_protocol import ERROR as ERROR
 from pirate_bt.interop.groot2_protocol import IDLE_FROM as IDLE_FROM
@@ -119,7 +117,7 @@ from pirate_bt.interop.groot2_run import _Run as _Run
 from pirate_bt.interop.groot2_tree import ServedTree
 from pirate_bt.interop.groot2_tree import served_tree as served_tree
 from pirate_bt.trace.coverage import CoverageRecorder, attach_coverage
-from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks, to_null
+from pirate_bt.trace.sink_formats import forget_in_forks, let_go_in_forks
 from pirate_bt.trace.structure import iter_with_ids as iter_with_ids
 from pirate_bt.trace.structure import jsonable as jsonable
 
@@ -133,12 +131,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_RELAY = Path(groot2_relay.__file__).resolve()
 RELAYED_REPLIES = 64
 """Replies this process holds for the relay (every client's; it reads them at once)."""
-RELAY_START_S = 30.0
-"""The longest wait for the relay process to listen (a loaded machine's start-up)."""
-RELAY_STOP_S = 5.0
 
 
 class Groot2Server(_Requests):
@@ -238,52 +232,23 @@ class Groot2Server(_Requests):
             raise ConfigurationError(
                 f"--groot2: cannot make the server's sockets in {self._folder}: {exc}"
             ) from None
-        config = {
-            "host": host,
-            "port": port,
+        sockets = {
             "rep": rep,
             "pub": pub,
             "folder": self._folder,
-            "sys_path": list(sys.path),
             "max_request_bytes": MAX_REQUEST_BYTES,
             "max_subscription_bytes": MAX_SUBSCRIPTION_BYTES,
             "replies_queued": REPLIES_QUEUED,
             "requests_queued": REQUESTS_QUEUED,
         }
-        try:
-            self._relay = subprocess.Popen(
-                [sys.executable, "-I", str(_RELAY), json.dumps(config)],
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                start_new_session=True,  # a signal to the run's process group spares it
-            )
-        except OSError as exc:
-            raise ConfigurationError(f"--groot2: cannot start the relay process: {exc}") from None
-        where = f"[{host}]" if ":" in host else host
-        said = groot2_relay.first_line(self._relay.stdout, RELAY_START_S)
-        if said is None:
-            raise InputError(
-                f"--groot2 {where}:{port}: cannot start the server: no answer in"
-                f" {RELAY_START_S:g} s"
-            )
-        if "error" in said:
-            raise InputError(str(said["error"]))
-        return int(said["port"])
+        self._relay, listening = start_relay(host, port, sockets)
+        return listening
 
     def _end_relay(self) -> None:
         """Close the sockets, end the relay process and remove the folder."""
         self._context.destroy(linger=0)
         relay, self._relay = self._relay, None
-        if relay is not None:
-            with contextlib.suppress(OSError):
-                assert relay.stdin is not None and relay.stdout is not None
-                relay.stdin.close()  # it ends when its standard input closes
-                relay.stdout.close()
-            try:
-                relay.wait(RELAY_STOP_S)
-            except subprocess.TimeoutExpired:
-                relay.kill()
-                relay.wait()
+        end_relay(relay)
         shutil.rmtree(self._folder, ignore_errors=True)
 
     @property
@@ -480,9 +445,7 @@ class Groot2Server(_Requests):
         ``close`` does nothing). The child's copy of the pipe kept the relay listening
         after the server closed, for as long as the child lived (a pool's worker)."""
         self._copy = True
-        relay = self._relay
-        if relay is not None and relay.stdin is not None and relay.stdout is not None:
-            to_null(relay.stdin.fileno(), relay.stdout.fileno())
+        relay_to_null(self._relay)
 
     def __enter__(self) -> Groot2Server:
         return self
