@@ -73,6 +73,7 @@ __all__ = [
     "parse_remove",
     "parse_unlock",
     "reply_header",
+    "routing_envelope",
     "unpack_reply_header",
     "unpack_request",
 ]
@@ -334,3 +335,13 @@ def hooks_json(hooks: Sequence[Hook]) -> bytes:
     return json.dumps([h.to_json() for h in hooks], sort_keys=True, separators=(",", ":")).encode(
         "utf-8"
     )
+
+
+def routing_envelope(parts: Sequence[bytes]) -> list[bytes] | None:
+    """The routing envelope of a message read off the ROUTER socket, as REP keeps it for
+    the reply: the parts up to the first empty one (the REQ socket's delimiter) and that
+    one; ``None`` when there is none, or no request after it."""
+    for index in range(1, len(parts) - 1):
+        if not parts[index]:
+            return list(parts[: index + 1])
+    return None

@@ -55,7 +55,6 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
-import math
 import os
 import shutil
 import subprocess
@@ -67,13 +66,12 @@ from typing import Any
 
 import py_trees
 
-from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, kind_of, shown
 from pirate_bt.errors import ConfigurationError as ConfigurationError
 from pirate_bt.interop.groot2_hooks import _replace as _replace
 from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
-from pirate_bt.interop.groot2_option import DEFAULT_HOST, parse_groot2_address
+from pirate_bt.interop.groot2_option import DEFAULT_HOST, check_server_args, parse_groot2_address
 from pirate_bt.interop.groot2_ports import end_relay, relay_to_null, start_relay
-from pirate_bt.interop.groot2_protocol import DEFAULT_PORT, Hook
+from pirate_bt.interop.groot2_protocol import DEFAULT_PORT, Hook, routing_envelope
 from pirate_bt.interop.groot2_protocol import ERROR as ERROR
 from pirate_bt.interop.groot2_protocol import IDLE_FROM as IDLE_FROM
 from pirate_bt.interop.groot2_protocol import NOT_FOUND as NOT_FOUND
@@ -155,12 +153,12 @@ class Groot2Server(_Requests):
         self, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, heartbeat_s: float = 5.0
     ) -> None:
         zmq, self._msgpack = _load()
-        _check_args(host, port, heartbeat_s)
+        check_server_args(host, port, heartbeat_s)
         self._zmq = zmq
         self.host = host
         self.heartbeat_s = heartbeat_s
         self._context = zmq.Context()
-        # ROUTER, with REP's envelope handled here (_envelope): libzmq's REP (4.3.5) lost
+        # ROUTER, with REP's envelope handled here (routing_envelope): libzmq's REP (4.3.5) lost
         # the reply to the next request for good after a message with no envelope from a
         # peer that had gone by the time it was read (its ROUTER's rollback left the
         # reply's routing half-done); Groot2's REQ then waited for ever.
@@ -382,7 +380,7 @@ class Groot2Server(_Requests):
                     parts = self._rep.recv_multipart(zmq.NOBLOCK)
                 except zmq.Again:
                     continue
-                envelope = _envelope(parts)
+                envelope = routing_envelope(parts)
                 if envelope is None:
                     continue  # not a request (REP drops it too): nobody to answer
                 reply = self._answer(parts[len(envelope) :])
@@ -452,39 +450,6 @@ class Groot2Server(_Requests):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _check_args(host: object, port: object, heartbeat_s: object) -> None:
-    """Refuse what the server cannot use, before anything binds. Until 2026-11-30 a port
-    given as text (read from a file or the environment) was a ``TypeError`` traceback,
-    ``port=1.5`` bound ports 1 and 2 (ZeroMQ reads the digits it can), and a heartbeat of
-    ``nan``, 0 or less removed every hook as soon as it was set (against a robot, a held
-    breakpoint then put it in its safe state), ``inf`` never (the fail-safe was off)."""
-    if not isinstance(host, str):
-        raise ArgumentTypeError(f"Groot2Server: host: give text, not {kind_of(host)}")
-    if isinstance(port, bool) or not isinstance(port, int):
-        raise ArgumentTypeError(
-            f"Groot2Server: port: give a whole number from 0 to 65534, not {shown(port)}"
-        )
-    if isinstance(heartbeat_s, bool) or not isinstance(heartbeat_s, int | float):
-        raise ArgumentTypeError(
-            f"Groot2Server: heartbeat_s: give a number of seconds, not {kind_of(heartbeat_s)}"
-        )
-    if not (math.isfinite(heartbeat_s) and heartbeat_s > 0):
-        raise ArgumentValueError(
-            f"Groot2Server: heartbeat_s: give a positive, finite number of seconds (the"
-            f" silence after which every hook is removed), not {shown(heartbeat_s)}"
-        )
-
-
-def _envelope(parts: Sequence[bytes]) -> list[bytes] | None:
-    """The routing envelope of a message read off the ROUTER socket, as REP keeps it for
-    the reply: the parts up to the first empty one (the REQ socket's delimiter) and that
-    one; ``None`` when there is none, or no request after it."""
-    for index in range(1, len(parts) - 1):
-        if not parts[index]:
-            return list(parts[: index + 1])
-    return None
 
 
 def attach_groot2(
