@@ -67,10 +67,11 @@ from typing import Any
 import py_trees
 
 from pirate_bt.errors import ConfigurationError as ConfigurationError
+from pirate_bt.errors import InputError
 from pirate_bt.interop.groot2_hooks import _replace as _replace
 from pirate_bt.interop.groot2_hooks import _stop_drives as _stop_drives
 from pirate_bt.interop.groot2_option import DEFAULT_HOST, check_server_args, parse_groot2_address
-from pirate_bt.interop.groot2_ports import end_relay, relay_to_null, start_relay
+from pirate_bt.interop.groot2_ports import end_relay, relay_ended, relay_to_null, start_relay
 from pirate_bt.interop.groot2_protocol import DEFAULT_PORT, Hook, routing_envelope
 from pirate_bt.interop.groot2_protocol import ERROR as ERROR
 from pirate_bt.interop.groot2_protocol import IDLE_FROM as IDLE_FROM
@@ -131,6 +132,10 @@ logger = logging.getLogger(__name__)
 
 RELAYED_REPLIES = 64
 """Replies this process holds for the relay (every client's; it reads them at once)."""
+RELAY_LOOK_S = 1.0
+"""How often the server's thread looks whether the relay process still runs."""
+RELAY_RESTARTS = 3
+"""How many times a relay that ended is started again before the server gives up."""
 
 
 class Groot2Server(_Requests):
@@ -180,6 +185,10 @@ class Groot2Server(_Requests):
         self._relay: subprocess.Popen[bytes] | None = None
         self._copy = False  # a forked process's copy of a server (see _forked)
         self._folder = tempfile.mkdtemp(prefix="pirate-groot2-")  # 0700: the user's
+        self._endpoints: tuple[str, ...] = ()
+        self._relay_lock = threading.Lock()  # a restart (server thread) against close()
+        self._relay_restarts = 0
+        self._relay_looked = time.monotonic()
         try:
             self.port = self._bind(host, port)
         except BaseException:
@@ -226,6 +235,7 @@ class Groot2Server(_Requests):
         try:
             self._rep.bind(rep)
             self._pub.bind(pub)
+            self._endpoints = (rep, pub)
         except zmq.ZMQError as exc:  # a temporary folder's name too long for a Unix socket
             raise ConfigurationError(
                 f"--groot2: cannot make the server's sockets in {self._folder}: {exc}"
@@ -374,6 +384,9 @@ class Groot2Server(_Requests):
                 ready = dict(poller.poll(50))
                 self._publish()
                 self._heartbeat()
+                if time.monotonic() - self._relay_looked >= RELAY_LOOK_S:
+                    self._relay_looked = time.monotonic()
+                    self._look_at_relay()
                 if self._rep not in ready:
                     continue
                 try:
@@ -394,6 +407,52 @@ class Groot2Server(_Requests):
                     return
                 logger.exception("Groot2: the server loop failed; it goes on")
                 time.sleep(0.05)
+
+    def _look_at_relay(self) -> None:
+        """Start the relay again where it ended while the server serves (killed, or its
+        pipe closed by another's mistake): until 2026-12-01 the server went on without
+        a word, and Groot2 (and every client after it) waited for replies that never
+        came. It is started on the same ports, at most :data:`RELAY_RESTARTS` times;
+        Groot2 reconnects by itself (a request it had sent is lost with the relay)."""
+        relay = self._relay
+        if relay is None or (how := relay_ended(relay)) is None:
+            return
+        with self._relay_lock:
+            if self._stop.is_set() or self._relay is not relay:
+                return  # closing: the relay's end is close()'s
+            if self._relay_restarts >= RELAY_RESTARTS:
+                self._lose_relay(how, f"it ended {RELAY_RESTARTS + 1} times")
+                return
+            self._relay_restarts += 1
+            old = self._folder
+            try:
+                for sock, endpoint in zip((self._rep, self._pub), self._endpoints, strict=True):
+                    sock.unbind(endpoint)
+                self._folder = tempfile.mkdtemp(prefix="pirate-groot2-")
+                self.port = self._bind(self.host, self.port)
+            except (self._zmq.ZMQError, OSError, ConfigurationError, InputError) as exc:
+                self._lose_relay(how, f"it could not be started again: {exc}")
+                return
+            finally:
+                shutil.rmtree(old, ignore_errors=True)
+        logger.warning(
+            "Groot2: the relay process listening on %s ended (%s); started again on the"
+            " same ports (Groot2 reconnects by itself)",
+            self.address,
+            how,
+        )
+
+    def _lose_relay(self, how: str, why: str) -> None:
+        """The relay is gone for good: say so once; the run goes on without Groot2."""
+        self._relay = None
+        self.enabled = False
+        logger.error(
+            "Groot2: the relay process listening on %s ended (%s) and %s: Groot2 can no"
+            " longer connect; the run goes on without it",
+            self.address,
+            how,
+            why,
+        )
 
     def _rest(self, spent_s: float) -> None:
         """After a request, rest :data:`REST_PER_CPU` times the CPU time it took (at most
@@ -435,7 +494,8 @@ class Groot2Server(_Requests):
             self._remove_all_locked()
         self._stop.set()
         self._thread.join(timeout=2.0)
-        self._end_relay()
+        with self._relay_lock:  # a restart under way finishes first, then ends here
+            self._end_relay()
         forget_in_forks(self)
 
     def _forked(self) -> None:
