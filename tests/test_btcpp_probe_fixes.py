@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import os
+import re
 import threading
 from pathlib import Path
 
@@ -176,7 +177,10 @@ def test_an_unknown_parameter_at_a_call_is_reported_at_the_call(tmp_path: Path) 
         import_xml(source, tmp_path / "t.yaml")
     lines = sorted({e.location.line for e in raised.value.errors})
     assert lines == [5, 6, 7, 8, 9], [str(e) for e in raised.value.errors]
-    assert all("unknown parameter $p" in e.message for e in raised.value.errors)
+    assert all(
+        re.match(r"\{p\d\}: the <BehaviorTree> this node is in has no port 'p\d'", e.message)
+        for e in raised.value.errors
+    )
     assert not (tmp_path / "t.yaml").exists()
 
 
@@ -206,8 +210,9 @@ def test_the_groot2_style_call_without_a_declared_parameter_is_placed_at_7_7(
     assert (code, err) == (
         2,
         [
-            f"pirate-bt: {tmp_path / 't.xml'}:7:7: unknown parameter $torque"
-            " (parameters: none declared)"
+            f"pirate-bt: {tmp_path / 't.xml'}:7:7: {{torque}}: the <BehaviorTree> this node"
+            " is in has no port 'torque' (its ports: none declared); declare it in that"
+            ' tree\'s <SubTree> model in <TreeNodesModel>: <input_port name="torque"/>'
         ],
     )
 

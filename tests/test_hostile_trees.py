@@ -480,7 +480,11 @@ def test_an_unknown_pointer_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     code, err = run_import_cli(tmp_path, capsys, _xml(body))
     assert (code, err) == (
         2,
-        [_at(tmp_path, "3:22") + "unknown parameter $d (parameters: none declared)"],
+        [
+            _at(tmp_path, "3:22") + "{d}: the <BehaviorTree> this node is in has no port 'd'"
+            " (its ports: none declared); declare it in that tree's <SubTree> model in"
+            ' <TreeNodesModel>: <input_port name="d"/>'
+        ],
     )
 
 

@@ -112,6 +112,11 @@ _TEXT_FOR_NUMBER = re.compile(
     r".*: value: '(?P<text>[^']*)' is text, but blackboard key .* is declared"
     r" .*\(text never equals a number and cannot be ordered with one\)(?P<tail>.*)$"
 )
+_UNKNOWN_POINTER = re.compile(
+    r"unknown parameter \$(?P<name>[A-Za-z_][A-Za-z0-9_]*) \(parameters: (?P<known>.*)\)$"
+)
+"""The loader's word for a ``$x`` no tree declares: in the XML, a pointer ``{x}``."""
+_DOLLARS = re.compile(r"(^|, )\$")
 _JSON_NUMBER = re.compile(r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?")
 
 
@@ -126,15 +131,25 @@ _YAML_ADVICE = {  # the loader's advice in YAML's terms -> in the XML's
 
 
 def _in_xml_words(error: LocatedError, yaml_file: Path) -> LocatedError:
-    """A loader's error about the converted YAML as an XML author reads it: a key is
+    """A loader's error about the converted YAML as an XML author reads it: ``{x}``
+    names a port of the tree's ``<SubTree>`` model, not a ``$x``; a key is
     declared in a ``<BehaviorTree>``'s ``_blackboard`` attribute, not under
     ``blackboard:``; a value's kind is chosen with ``json:`` (``value="5"`` is text,
     ``value="json:5"`` a number), not with YAML's quotes."""
     message, loc = error.message, error.location
-    if loc is None or "blackboard key " not in message:
+    pointer = _UNKNOWN_POINTER.match(message)
+    if loc is None or (pointer is None and "blackboard key " not in message):
         return error
     if Path(loc.file).resolve() != yaml_file.resolve():
         return error  # another (YAML) file's: said in its words
+    if pointer is not None:  # {x}: BT.CPP's pointer, the tree's parameter $x
+        name, ports = pointer["name"], _DOLLARS.sub(r"\1", pointer["known"])
+        return LocatedError(
+            f"{{{name}}}: the <BehaviorTree> this node is in has no port {name!r}"
+            f" (its ports: {ports}); declare it in that tree's <SubTree> model in"
+            f' <TreeNodesModel>: <input_port name="{name}"/>',
+            loc,
+        )
     match = _UNDECLARED.match(message)
     if match is not None:
         key = match["key"][1:-1] if match["key"].startswith("'") else "k"
