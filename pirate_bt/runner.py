@@ -42,6 +42,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from typing import Any
 
 import py_trees
@@ -178,6 +179,10 @@ class Runner:
         self.pre_tick: list[Hook] = []
         self.post_tick: list[Hook] = []
         self.finish: list[Callable[[RunResult], None]] = []
+        self.guard: Callable[[], AbstractContextManager[object]] | None = None
+        """Entered around each :meth:`run` (``None``: none): a connection's runner holds
+        its connection with it, so that one tree at a time ticks the robot, and a run
+        asked for while another runs on it is refused before anything moves."""
 
     @classmethod
     def supervised(
@@ -233,7 +238,15 @@ class Runner:
             KeyboardInterrupt: Ctrl-C raised in a node's ``terminate()`` (or its
                 ``shutdown()``) as the run ended; raised once the robot is in its safe
                 state and the finish hooks have seen the result (the first cause).
+            Exception: what :attr:`guard` raises to refuse the run, before its first tick
+                (a connection's ``InputError``: it runs a tree already).
         """
+        if self.guard is None:
+            return self._run()
+        with self.guard():
+            return self._run()
+
+    def _run(self) -> RunResult:
         wall0 = time.perf_counter()
         start_s = self.clock.now()
         ticks = 0

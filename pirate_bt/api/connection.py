@@ -25,7 +25,8 @@ from __future__ import annotations
 import logging
 import threading
 import weakref
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
@@ -205,6 +206,29 @@ class Connection:
         Raises:
             InputError: a bad option, a closed connection, or a run already going on.
         """
+        self.check_built_here(tree)
+        return run_on(  # holds this connection for the run (one_run)
+            self,
+            tree,
+            params=params,
+            max_time=max_time,
+            rate=rate,
+            trace=trace,
+            realtime=realtime,
+            live=live,
+            observe=observe,
+        )
+
+    @contextmanager
+    def one_run(self) -> Iterator[None]:
+        """Hold this connection for one run: every run on it holds it (:meth:`run`,
+        :func:`pirate_bt.simulate_tree`'s and :func:`pirate_bt.run_tree`'s, a runner of
+        :meth:`runner`), so that one tree at a time ticks its robot.
+
+        Raises:
+            InputError: a run holds it already (on another thread, or this run's
+                ``observe`` or hooks asked for another); or it is closed.
+        """
         if not self._running.acquire(blocking=False):
             # two trees ticked the same robot at once: each failed on the other's
             # motor conflict, and the robot was left in its safe state
@@ -213,18 +237,8 @@ class Connection:
                 " at a time on a connection"
             )
         try:
-            self.check_built_here(tree)
-            return run_on(
-                self,
-                tree,
-                params=params,
-                max_time=max_time,
-                rate=rate,
-                trace=trace,
-                realtime=realtime,
-                live=live,
-                observe=observe,
-            )
+            self.check_open()
+            yield
         finally:
             self._running.release()
 
@@ -262,13 +276,17 @@ class Connection:
             raise InputError(f"setup_timeout_s: {setup_timeout_s!r} must be positive")
         self.check_open()
         self.check_built_here(tree)
-        return supervised_runner(
+        runner = supervised_runner(
             self,
             as_loaded(tree, self.robot, params),
             period_s=period_s,
             max_time_s=limit,
             setup_timeout_s=setup,
         )
+        # its run() holds this connection as every run does: one beside robot.run() or
+        # another runner (a thread, an observe) ticked the same robot, both failing
+        runner.guard = self.one_run
+        return runner
 
     def counters(self) -> Counters:
         """The counters since the connection opened (:class:`~pirate_bt.safety.tally.Counters`)."""

@@ -378,18 +378,70 @@ def run_on(
 
     The result's counters count this run only, unless ``count_from_open``: then they
     count from the moment the connection opened (its handshake's retries included),
-    for a connection opened for this one run."""
-    from pirate_bt.behaviours.foreign import as_text, blocked_ticks, contain_hooks, one_line
-    from pirate_bt.runner import halted_by
-    from pirate_bt.safety.tally import Counters, VerdictTally
+    for a connection opened for this one run.
 
+    The connection is held for the run (:meth:`Connection.one_run`): a run asked for on
+    it meanwhile, by ``simulate_tree``'s ``observe`` or a hook, another thread or a
+    runner of ``connection.runner()``, is refused (until the twenty-third session only
+    ``Connection.run`` held it, and the two trees ticked one robot: each failed on the
+    other's *motor_conflict*, the robot left in its safe state)."""
     period_s, max_time_s = run_limits(max_time, rate)
     check_run_options(trace=trace, realtime=realtime, live=live, observe=observe)
     if trace is not None:
         check_trace(trace, inputs={"tree": tree})
     if connection is not None:
         connection.check_open()
-        robot = connection.robot
+        with connection.one_run():
+            return _run_held(
+                connection,
+                tree,
+                params=params,
+                period_s=period_s,
+                max_time_s=max_time_s,
+                trace=trace,
+                realtime=realtime,
+                live=live,
+                observe=observe,
+                robot=connection.robot,
+                trace_meta=trace_meta,
+                count_from_open=count_from_open,
+            )
+    return _run_held(
+        None,
+        tree,
+        params=params,
+        period_s=period_s,
+        max_time_s=max_time_s,
+        trace=trace,
+        realtime=realtime,
+        live=live,
+        observe=observe,
+        robot=robot,
+        trace_meta=trace_meta,
+        count_from_open=count_from_open,
+    )
+
+
+def _run_held(
+    connection: Any,
+    tree: Any,
+    *,
+    params: Mapping[str, Any] | None,
+    period_s: float,
+    max_time_s: float,
+    trace: str | Path | None,
+    realtime: bool,
+    live: bool,
+    observe: Observer | None,
+    robot: Any,
+    trace_meta: Mapping[str, Any] | None,
+    count_from_open: bool,
+) -> RunResult:
+    """:func:`run_on` once its arguments are checked and its connection held."""
+    from pirate_bt.behaviours.foreign import as_text, blocked_ticks, contain_hooks, one_line
+    from pirate_bt.runner import halted_by
+    from pirate_bt.safety.tally import Counters, VerdictTally
+
     checked = as_loaded(tree, robot, params)
     clock = connection.clock if connection is not None else SimClock()
     supervisor = connection.supervisor if connection is not None else None
