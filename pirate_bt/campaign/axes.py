@@ -69,6 +69,21 @@ def _param_identity(value: str | bool | int | float) -> str:
     return value
 
 
+def _navigator_file_identities(navigator: str, params: Any, folder: Path) -> dict[str, str]:
+    """A navigator run's parameters that name a file (``route``'s ``route``,
+    ``explore``'s ``extend``, a plug-in's ``file_params``), each as the file it names:
+    ``t-joint`` and ``t-joint.route`` were two points of one route."""
+    from pirate_bt.task.navigators import navigator_file_params
+
+    kinds = {"route": "route", "extend": "network"} if navigator in ("route", "explore") else {}
+    out: dict[str, str] = {}
+    for key in navigator_file_params(navigator) & params.keys():
+        value = params[key]
+        if isinstance(value, str):
+            out[key] = "file " + _file_identity(kinds.get(key, "file"), value, folder)
+    return out
+
+
 def _run_map(run: Any, folder: Path) -> str:
     """The identity of the network a run is planned on or runs in, its default filled in.
 
@@ -110,14 +125,17 @@ def _axis_entries(
     for run, its_map in zip(spec.runs, maps_of_runs, strict=True):
         kind = "tree" if run.tree else "route" if run.route else "navigator"
         name = run.tree or run.route or run.navigator
+        params = {
+            k: _param_identity(v)
+            for k, v in sorted(params_as_read(run, folder, loads.tree).items())
+        }
+        if run.navigator is not None:  # a file by its name or its path: one file
+            params.update(_navigator_file_identities(run.navigator, run.params, folder))
         identity = [
             kind,
             _file_identity(kind, name, folder) if kind != "navigator" else name,
             its_map,
-            {
-                k: _param_identity(v)
-                for k, v in sorted(params_as_read(run, folder, loads.tree).items())
-            },
+            params,
             run.blind,
         ]
         runs.append((json.dumps(identity, sort_keys=True), repr(run.label)))
@@ -146,7 +164,8 @@ def _axis_entries(
     ]
     for key in ("drop", "corrupt", "dup"):
         rates: list[float] = getattr(spec.link, key)
-        axes.append((f"link.{key}", [(repr(float(r)), f"{r:g}") for r in rates]))
+        # -0.0 is 0 (it was another point, as repr tells them apart)
+        axes.append((f"link.{key}", [(repr(float(r) + 0.0), f"{r:g}") for r in rates]))
     return axes
 
 
