@@ -22,7 +22,13 @@ from pydantic import ValidationError
 
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.robot.description import RobotDescription
-from pirate_bt.treefile.names import name_problem, printable, unknown_key
+from pirate_bt.treefile.names import (
+    name_problem,
+    odd_character,
+    printable,
+    skeleton,
+    unknown_key,
+)
 from pirate_bt.treefile.names import shown_name as _shown
 from pirate_bt.treefile.params import (
     PARAM_RE,
@@ -285,7 +291,17 @@ class _FileReader:
         elif subtrees is not None and not isinstance(subtrees, dict):
             self.error(doc, ("subtrees",), "subtrees: a mapping of name -> tree")
         elif isinstance(subtrees, dict):
+            seen: dict[str, str] = {}  # each name's skeleton -> the first name of it
             for key in subtrees:
+                if isinstance(key, str) and seen.setdefault(skeleton(key), key) != key:
+                    first = seen[skeleton(key)]
+                    self.error(
+                        doc,
+                        ("subtrees", key),
+                        f"subtree name {shown(key)} looks like {shown(first)} (at"
+                        f" {doc.locator.locate(('subtrees', first))}:"
+                        f" {odd_character(first, key)}); a ref could mean either: rename one",
+                    )
                 if not isinstance(key, str):
                     self.error(doc, ("subtrees", str(key)), f"subtree name {key!r} must be text")
                 elif not key or "#" in key or key.lower().endswith((".yaml", ".yml")):

@@ -13,12 +13,15 @@ from pirate_bt.treefile.spec import NodeSpec, PathKey
 from pirate_bt.yamlvalidate import close_matches, key_not_text
 
 __all__ = [
+    "alike_note",
     "dedupe",
     "name_problem",
     "node_label",
     "non_text_keys",
+    "odd_character",
     "printable",
     "shown_name",
+    "skeleton",
     "unknown_key",
 ]
 
@@ -90,7 +93,11 @@ def unknown_key(key: object, allowed: frozenset[str] | set[str]) -> str:
     if not isinstance(key, str):
         return f"{key_not_text(key)}; allowed: {', '.join(sorted(allowed))}"
     close = close_matches(str(key), sorted(allowed), n=1)
-    hint = f"; did you mean {close[0]!r}?" if close else f"; allowed: {', '.join(sorted(allowed))}"
+    hint = (
+        f"; did you mean {close[0]!r}?{alike_note(key, close[0])}"
+        if close
+        else f"; allowed: {', '.join(sorted(allowed))}"
+    )
     return f"unknown key {shown_name(key)}{hint}"
 
 
@@ -135,7 +142,7 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
     explicit: dict[str, NodeSpec] = {}
     for child in children:
         if child.explicit_name:
-            first = explicit.get(_alike(child.name))
+            first = explicit.get(skeleton(child.name))
             if first is not None:  # a subtree's root: the mistake is the call's
                 errors.append(
                     LocatedError(
@@ -145,7 +152,7 @@ def dedupe(children: list[NodeSpec], errors: list[LocatedError]) -> None:
                         child.called_at or child.location,
                     )
                 )
-            explicit.setdefault(_alike(child.name), child)  # "first at": the first
+            explicit.setdefault(skeleton(child.name), child)  # "first at": the first
     used = {child.name for child in explicit.values()}
     counts: dict[str, int] = {}
     for child in children:
@@ -178,4 +185,55 @@ def _how_alike(first: str, second: str) -> str:
         return ""
     if unicodedata.normalize("NFC", first) == unicodedata.normalize("NFC", second):
         return " (the same text, in another Unicode form)"
-    return " (the same text but for a zero-width joiner, U+200C or U+200D)"
+    if _alike(first) == _alike(second):
+        return " (the same text but for a zero-width joiner, U+200C or U+200D)"
+    return f" (shown alike: {odd_character(first, second)})"
+
+
+# -- look-alikes ------------------------------------------------------------------------
+
+_LOOK_ALIKES = str.maketrans(
+    # Cyrillic, Greek and Armenian letters drawn as a Latin one (after Unicode's
+    # confusables.txt, UTS #39), and the dotless i
+    "аеорсухѕіјԁԛԝһӏАВЕКМНОРСТХУЅІЈӀԚԜΑΒΕΖΗΙΚΜΝΟΡΤΥΧονιργօսհոı",
+    "aeopcyxsijdqwhlABEKMHOPCTXYSIJlQWABEZHIKMNOPTYXovipyouhni",
+)
+
+
+def skeleton(name: str) -> str:
+    """``name`` as it is seen: compatibility forms folded (NFKC: a full-width 'ｇ' is 'g'),
+    invisible characters dropped (format characters: zero-width spaces and joiners, the
+    soft hyphen, bidirectional controls; variation selectors), every space a ' ', and
+    each Cyrillic, Greek or Armenian letter drawn as a Latin one read as that one. Two
+    names of one skeleton look alike on a screen, in a trace and in a diagram."""
+    folded = unicodedata.normalize("NFKC", name)
+    shown = {ord(c): _seen(c) for c in set(folded)}  # each distinct character asked once
+    return unicodedata.normalize("NFC", folded.translate(shown).translate(_LOOK_ALIKES))
+
+
+def _seen(c: str) -> str:
+    """What a character shows as: nothing for an invisible one, ' ' for a space."""
+    category = unicodedata.category(c)
+    if category == "Cf" or "\ufe00" <= c <= "\ufe0f" or c == "\u034f":
+        return ""
+    return " " if category in _SPACES else c
+
+
+def odd_character(first: str, second: str) -> str:
+    """The first character by which ``second`` differs from ``first`` although the two
+    look alike, named: ``'у' is U+0443 CYRILLIC SMALL LETTER U``."""
+    if unicodedata.normalize("NFC", first) == unicodedata.normalize("NFC", second):
+        return "the same text in another Unicode form (an accent composed or not)"
+    for text, other in ((second, set(first)), (first, set(second))):
+        odd = next((c for c in text if c not in other), None)
+        if odd is not None:
+            return f"{odd!r} is U+{ord(odd):04X} {unicodedata.name(odd, 'a character')}"
+    return "the same characters in another order"  # not reached for names of one skeleton
+
+
+def alike_note(name: str, suggestion: str) -> str:
+    """For a *did you mean* whose suggestion looks just like the name given (a node type
+    'wаit', Cyrillic а, and 'wait'): what differs, `` ('а' is U+0430 ...)``; else ''."""
+    if name == suggestion or skeleton(name) != skeleton(suggestion):
+        return ""
+    return f" ({odd_character(suggestion, name)})"

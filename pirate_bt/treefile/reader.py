@@ -20,6 +20,7 @@ from pirate_bt.errors import SourceLocation, shown
 from pirate_bt.treefile.header import _Env as _Env  # the loader's, kept importable here
 from pirate_bt.treefile.header import _FileReader, _Names, misspelt
 from pirate_bt.treefile.names import (
+    alike_note,
     dedupe,
     name_problem,
     node_label,
@@ -420,6 +421,7 @@ class _Reader(_FileReader):
                     return None  # header() said what is wrong with the subtrees
                 close = self.close_names(name, [k for k in subtrees if isinstance(k, str)])
                 hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+                hint += alike_note(name, close[0]) if len(close) == 1 else ""
                 hint += _NOT_SUBSTITUTED if _dollar(name) and not hint else ""
                 where = f" in {target_doc.file}" if target_doc is not doc else ""
                 self.error(doc, (*path, "ref"), f"no subtree named {_shown(name)}{where}{hint}")

@@ -103,6 +103,10 @@ class UnknownNode(KeyError):
         self.name = name
         self.suggestions = suggestions
         hint = f"; did you mean {' or '.join(repr(s) for s in suggestions)}?" if suggestions else ""
+        if len(suggestions) == 1:  # 'wаit' (Cyrillic а) for 'wait': shown alike
+            from pirate_bt.treefile.names import alike_note
+
+            hint += alike_note(name, suggestions[0])
         shown = repr(name) if len(name) <= 60 else repr(name[:57] + "...")
         super().__init__(f"unknown node type {shown}{hint}")
 
