@@ -13,7 +13,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["call_within", "raised_at", "raised_on_purpose"]
+__all__ = ["call_within", "import_failure", "raised_at", "raised_on_purpose"]
 
 
 def raised_at(exc: BaseException) -> str | None:
@@ -24,6 +24,38 @@ def raised_at(exc: BaseException) -> str | None:
     while tb.tb_next is not None:
         tb = tb.tb_next
     return f"{tb.tb_frame.f_code.co_filename}:{tb.tb_lineno}"
+
+
+def import_failure(exc: BaseException, limit: int = 300) -> str:
+    """Why a plug-in's module did not import, in one line: the exception's type, its
+    words and where it was raised in a file outside Python's import machinery and
+    pirate_bt (a ``SyntaxError`` at its line and column). Python's words alone where no
+    such file is to blame (the plug-in's module is not there) and for a ``sys.exit()``
+    (its code). It said the words alone (*name 'speed' is not defined*): no type, no
+    place."""
+    import importlib
+    import os
+
+    from pirate_bt.errors import said_of
+
+    words = said_of(exc, limit) or type(exc).__name__
+    if isinstance(exc, SystemExit):
+        return words
+    if isinstance(exc, SyntaxError) and exc.filename and exc.lineno:
+        column = f":{exc.offset}" if exc.offset else ""
+        return f"SyntaxError: {exc.msg} (at {exc.filename}:{exc.lineno}{column})"[:limit]
+    ours = (
+        os.path.dirname(importlib.__file__) + os.sep,
+        os.path.dirname(os.path.dirname(__file__)) + os.sep,  # pirate_bt's own
+    )
+    at = None
+    tb = exc.__traceback__
+    while tb is not None:
+        name = tb.tb_frame.f_code.co_filename
+        if not name.startswith("<") and not name.startswith(ours):
+            at = f"{name}:{tb.tb_lineno}"
+        tb = tb.tb_next
+    return words if at is None else f"{type(exc).__name__}: {words} (at {at})"
 
 
 def raised_on_purpose(exc: BaseException) -> bool:

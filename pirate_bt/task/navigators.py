@@ -48,6 +48,7 @@ from pirate_bt.task.navigate_checks import (
     check_next_step_shape,
     navigator_method,
 )
+from pirate_bt.task.navigate_planner import import_failure
 from pirate_bt.task.navigate_route_map import check_route_on_map
 from pirate_bt.task.navigation import (
     Navigator,
@@ -483,8 +484,7 @@ def load_navigator(name: str, params: Mapping[str, Any] | None = None) -> Naviga
         except (Exception, SystemExit) as exc:  # a broken plug-in is named, not a traceback
             # (a sys.exit() of its module's ended the command with its code and no word)
             raise InputError(
-                f"navigator {name!r} ({entry.value[:200]}) failed to load:"
-                f" {said_of(exc, 300) or type(exc).__name__}"
+                f"navigator {name!r} ({entry.value[:200]}) failed to load: {import_failure(exc)}"
             ) from exc
     assert factory is not None
     takes = _takes(factory)
