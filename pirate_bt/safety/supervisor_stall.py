@@ -16,7 +16,9 @@ a joint stopped by the wall presses the wall), is stalled: the supervisor enters
 safe state naming it and lets that joint go (torque 0: its loop no longer pushes), a
 verdict of its own. A moving joint covers its tolerance in a few hundredths of a second
 (90°/s on the bundled robot); a setpoint is rate-limited to one tick's step, so a joint
-that follows reaches it by the next tick.
+that follows reaches it by the next tick. The rotation is watched so too (from
+2026-12-01; before, a jammed rotate joint pushed on until the rotate step's ten-second
+timeout), read from its angle sensor, with no spring to press.
 
 The wait starts only once the board is known to have the setpoint: a
 ``BULK_SETPOINTS`` is acknowledged by a later ``STATE``'s ``ack_seq``, and the link
@@ -38,7 +40,7 @@ from typing import TYPE_CHECKING
 
 from pirate_bt.errors import LinkError
 from pirate_bt.robot.commands import MotorCommand
-from pirate_bt.robot.description import ControlMode, Half, RobotDescription
+from pirate_bt.robot.description import ControlMode, Half, RobotDescription, SensorKind
 from pirate_bt.robot.port import RobotPort
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import released_force_n, stale_channels
@@ -47,6 +49,10 @@ from pirate_bt.safety.operator import Mode
 from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
 
 __all__ = ["JOINT_STALL_S", "StallMixin"]
+
+_Joint = tuple[str, str, tuple[str, ...], bool]
+"""A watched joint: its motor, its module, the channels that must be fresh to judge it,
+and whether it is the rotation (read from ``rotation_rad``, not ``joint_angle_rad``)."""
 
 log = logging.getLogger("pirate_bt.safety")
 
@@ -71,17 +77,17 @@ class StallMixin:
 
         def _record(self, verdict: Verdict) -> Verdict: ...
 
-    def _stall_joints(self) -> list[tuple[str, str, Half]]:
-        """``(motor, module, half)`` of every joint watched: the bend joints. Not the
-        rotation: on a lossy link it was seen still short of its setpoint for 0.1 s
-        with no retry counted (tests/test_pabs_backwards.py's link faults), a false stop."""
-        joints: list[tuple[str, str, Half]] | None = getattr(self, "_stall_list", None)
+    def _stall_joints(self) -> list[_Joint]:
+        """``(motor, module, channels, rotation)`` of every joint watched: each bend joint (its
+        half's angle and spring channels) and the rotation (its angle channel)."""
+        joints: list[_Joint] | None = getattr(self, "_stall_list", None)
         if joints is None:
             joints = [
-                (self.robot.joint_motor(m.name).name, m.name, half)
+                (self.robot.joint_motor(m.name).name, m.name, self._half_channels[half], False)
                 for half in Half
                 for m in self.robot.bend_modules(half)
             ]
+            joints.extend(_rotation_joint(self.robot))
             self._stall_list = joints
             self._stall_since: dict[str, tuple[float, float, int]] = {}
             self._stall_let_go: set[str] = set()
@@ -100,7 +106,7 @@ class StallMixin:
         applied: Callable[[str], MotorCommand | None] | None = getattr(
             self._port, "setpoint_applied", None
         )
-        for motor, module, half in joints:
+        for motor, module, channels, rotation in joints:
             setpoint = self._last_setpoint.get(motor)
             if setpoint is None or setpoint[0] is not ControlMode.POSITION:
                 since.pop(motor, None)
@@ -115,13 +121,15 @@ class StallMixin:
                     since.pop(motor, None)  # not yet known on the board: no wait
                     continue
                 target = held.value
-            angle = state.joint_angle_rad.get(module)
-            force = state.clamp_force_n.get(module)
+            if rotation:
+                angle, force = state.rotation_rad, None
+            else:
+                angle, force = state.joint_angle_rad.get(module), state.clamp_force_n.get(module)
             if (
                 angle is None
                 or abs(angle - target) <= tol
                 or (force is not None and abs(force) >= released)
-                or stale_channels(self.robot, state, self._half_channels[half], now_s)
+                or stale_channels(self.robot, state, channels, now_s)
             ):
                 since.pop(motor, None)
                 continue
@@ -143,14 +151,17 @@ class StallMixin:
     def _let_joint_go(
         self, motor: str, angle: float, target: float, for_s: float, now_s: float
     ) -> None:
-        """Enter the safe state naming the stalled ``motor`` and send it torque 0."""
+        """Enter the safe state naming the stalled ``motor`` and let it go: torque 0, or
+        PWM 0 where it has no torque mode (the safe state brakes the rotation so)."""
         cause = (
             f"{Reason.JOINT_STALLED}: {motor} does not move toward its setpoint: at"
             f" {math.degrees(angle):.1f}°, asked {math.degrees(target):.1f}°, for"
             f" {for_s:.2f} s (a stalled joint motor?): the supervisor lets it go"
         )
         self.safe_state(cause)
-        cmd = MotorCommand(motor, ControlMode.TORQUE, 0.0)
+        modes = self.robot.motor(motor).modes
+        mode = ControlMode.TORQUE if modes.get(ControlMode.TORQUE) is not None else ControlMode.PWM
+        cmd = MotorCommand(motor, mode, 0.0)
         try:
             self._port.send((cmd,))
         except LinkError as exc:  # its board away: its motor is off anyway
@@ -158,7 +169,7 @@ class StallMixin:
             return
         self._stall_let_go.add(motor)
         self._stall_since.pop(motor, None)
-        self._last_setpoint[motor] = (ControlMode.TORQUE, 0.0, now_s)
+        self._last_setpoint[motor] = (mode, 0.0, now_s)
         log.warning("stalled joint let go: %s", cause)
         self._record(
             Verdict(
@@ -170,3 +181,15 @@ class StallMixin:
                 detail=f"protective release: {cause}",
             )
         )
+
+
+def _rotation_joint(robot: RobotDescription) -> list[_Joint]:
+    """The rotation as a watched joint, where the robot has a rotate motor and a
+    rotation angle sensor: ``[(motor, module, (angle channel,), True)]``; else ``[]``."""
+    try:
+        module = robot.rotational_module().name
+        motor = robot.rotate_motor().name
+        channel = robot.sensor_of(module, SensorKind.ANGLE).name
+    except (KeyError, StopIteration):
+        return []
+    return [(motor, module, (channel,), True)]
