@@ -15,8 +15,11 @@ degrees up where it draws a riser) was fixed on all the same, once the IMU had s
 by half the drawn angle, and the mission then completed with the pipe heading 45
 degrees off the map's and nothing said. :func:`undershot` compares the whole swing
 with the map's once the rotational module is :data:`CHECK_AFTER_M` past the turn (and
-no other turn of the map is there yet), as the localiser does with a turn the map
-lacks: a difference of 30 degrees or more is a disagreement. A bend built so much
+no other turn of the map is there yet): a difference of :data:`ANGLE_DIFFERENCE_RAD`
+(15 degrees) or more either way is a disagreement, less sharp or sharper than drawn.
+It was 30 degrees, the threshold of a turn the map lacks, and one way only: a bend
+drawn 90 degrees and built 60 (or drawn 60 and built 90, a plumb riser the map has
+at 60 degrees) sat on the threshold, and the mission completed. A bend built so much
 less sharp that the IMU never swings by half its drawn angle (40 degrees where the top
 of a riser draws 90) was never fixed on, and a short leg after it ended before the
 localiser's reach did: the mission completed. A swing of 30 degrees or more near the
@@ -36,6 +39,7 @@ from pirate_bt.task.fixes import Vec3, angle_between, roll_name
 from pirate_bt.task.planner import MapFeature
 
 __all__ = [
+    "ANGLE_DIFFERENCE_RAD",
     "CHECK_AFTER_M",
     "STEADY_RAD",
     "TURN_DIFFERENCE_RAD",
@@ -55,6 +59,14 @@ of a turn built longer than drawn)."""
 TURN_DIFFERENCE_RAD = math.radians(30.0)
 """A turn whose whole swing differs from the map's by this much or more is not as
 drawn (the localiser's threshold for a turn the map lacks)."""
+
+ANGLE_DIFFERENCE_RAD = math.radians(15.0)
+"""A turn fixed on whose whole swing, the rotational module past it, differs from the
+map's by this much or more, either way, is not as drawn (:func:`undershot`). Past the
+turn the swing is read on straight pipe, to the IMU's noise (0.11 degrees): what else
+moves it is the slope of the straights on either side, which an as-built variant
+tilts by up to 3 degrees each (:mod:`pirate_bt.pipes.asbuilt`), 6 degrees at most
+between them, 12 at twice the bounds."""
 
 STEADY_RAD = math.radians(2.0)
 """A heading held within this over :data:`CHECK_AFTER_M` of driving is steady (a bend's
@@ -104,7 +116,8 @@ def overturned(
 def undershot(
     last: FixedTurn | None, tangent: Vec3, imu_m: float, path: PipePath, belief_m: float
 ) -> tuple[str, str, MapFeature] | None:
-    """The mismatch, what was sensed and the turn, when ``last`` turned less than drawn.
+    """The mismatch, what was sensed and the turn, when ``last`` turned otherwise than
+    drawn: less sharp, or sharper, by :data:`ANGLE_DIFFERENCE_RAD` or more.
 
     Compared once, the first time the rotational module is :data:`CHECK_AFTER_M` past
     the turn's end on the map with no other turn of the map begun; the map's swing is
@@ -122,13 +135,13 @@ def undershot(
     start = max(0.0, turn.start_m - 1e-6)
     drawn = angle_between(path.tangent_at(imu_m), path.tangent_at(start))
     felt = angle_between(tangent, last.before)
-    if drawn - felt < TURN_DIFFERENCE_RAD:
+    if abs(drawn - felt) < ANGLE_DIFFERENCE_RAD:
         return None
     mismatch = (
         f"belief and map disagree: the pipe turned by {math.degrees(felt):.0f} deg at"
         f" {turn.segment!r} ({belief_m:.2f} m believed), where the map has it turning"
         f" {roll_name(turn.roll_rad)} by {math.degrees(drawn):.0f} deg: the turn there is"
-        " less sharp than drawn"
+        f" {'less sharp' if felt < drawn else 'sharper'} than drawn"
     )
     return mismatch, f"a turn of {math.degrees(felt):.0f} deg through {turn.segment!r}", turn
 
