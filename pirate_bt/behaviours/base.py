@@ -51,10 +51,13 @@ Planner code builds nodes in Python with the same checks as a file::
     clamp = Clamp.build("clamp front", context, half="front", torque="0.5 N*m")
 
 Numbers are SI, text with a unit is parsed (``"90 deg"``), and every problem -
-an unknown key, a wrong unit, a torque beyond the robot's limit (when
-``context.robot`` is set) - raises :class:`~pirate_bt.errors.ValidationFailed`
-located at the caller's line: ``planner.py:12:1: clamp front: torque: 50 N*m is
-above the bend joints' limit 0.8 N*m``.
+an unknown key, a wrong unit, a quantity beyond :data:`~pirate_bt.units.MAGNITUDE_LIMITS`
+as in a file, a torque beyond the robot's limit (when ``context.robot`` is set) -
+raises :class:`~pirate_bt.errors.ValidationFailed` located at the caller's line:
+``planner.py:12:1: clamp front: torque: 50 N*m is above the bend joints' limit 0.8
+N*m``. A node constructed from a ``Params`` instance (``Drive("d", DriveParams(...),
+context)``, which no loader checked) has its quantities bounded the same way, an
+:class:`~pirate_bt.errors.ArgumentValueError` naming the node and the parameter.
 """
 
 from __future__ import annotations
@@ -80,6 +83,7 @@ from pydantic import (
 from pirate_bt.clock import Clock, WallClock
 from pirate_bt.errors import (
     ArgumentTypeError,
+    ArgumentValueError,
     LocatedError,
     SourceLocation,
     ValidationFailed,
@@ -136,6 +140,35 @@ class NodeParams(BaseModel):
     """Base of every node's parameter model: unknown keys are errors, values are frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+_BOUNDED: dict[str, Any] = {"magnitude_limits": True}
+"""The validation context of a node's parameters however the node is built: every
+quantity bounded by :data:`~pirate_bt.units.MAGNITUDE_LIMITS`, as a tree file's are.
+Built in Python they were not (``Drive.build("d", velocity=0.08, distance=1e300)``
+ran a drive of 1e300 m)."""
+
+
+def _bound_problems(params: NodeParams) -> list[str]:
+    """The problems of a ``Params`` instance that nothing validated with the bounds:
+    its values validated again, with them (an instance made with ``model_construct``,
+    which validates nothing, has its ``nan`` found too)."""
+    data = params.model_dump(exclude_unset=True)
+    try:
+        type(params).model_validate(data, context=dict(_BOUNDED))
+    except ValidationError as exc:
+        return params_problems(exc, data, type(params))
+    return []
+
+
+def _check_bounded(node: object, name: str, params: object) -> None:
+    """Refuse ``params`` of a node constructed directly beyond the bounds a file has,
+    in one line naming the node and the parameter."""
+    if not isinstance(params, NodeParams):
+        return  # not this contract's (the node's own code reads what it was given)
+    problems = _bound_problems(params)
+    if problems:
+        raise ArgumentValueError(f"{type(node).__name__}({name!r}): {'; '.join(problems)}")
 
 
 class NoParams(NodeParams):
@@ -278,7 +311,7 @@ class NodeMixin:
         elif params is None or isinstance(params, Mapping):
             data = dict(params or {})
             try:
-                checked = cls.Params.model_validate(data)
+                checked = cls.Params.model_validate(data, context=dict(_BOUNDED))
             except ValidationError as exc:
                 problems = params_problems(exc, data, cls.Params)
         else:
@@ -420,6 +453,7 @@ class Leaf(NodeMixin, py_trees.behaviour.Behaviour):
     """
 
     def __init__(self, name: str, params: NodeParams, context: BuildContext) -> None:
+        _check_bounded(self, name, params)
         super().__init__(name=name)
         self.params = params
         self.context = context
@@ -466,6 +500,7 @@ class GuardDecorator(NodeMixin, py_trees.decorators.Decorator):
         params: NodeParams,
         context: BuildContext,
     ) -> None:
+        _check_bounded(self, name, params)
         super().__init__(name=name, child=child)
         self.params = params
         self.context = context
