@@ -240,9 +240,7 @@ def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: in
                 while True:
                     reply = server.recv_multipart(zmq.NOBLOCK)
                     asked = 0.0
-                    # a client gone, or one that does not read: dropped, as before
-                    with contextlib.suppress(zmq.ZMQError):
-                        front.send_multipart(reply, zmq.NOBLOCK)
+                    _to_client(zmq, front, reply)
         while not asked:
             try:
                 request = front.recv_multipart(zmq.NOBLOCK)  # the clients in turn
@@ -256,6 +254,24 @@ def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: in
             asked = time.monotonic()
         # the clients are read only when the server has no request of theirs to answer
         poller.register(front, 0 if asked else zmq.POLLIN)
+
+
+def _to_client(zmq: Any, front: Any, reply: list[bytes]) -> None:
+    """Send ``reply`` to its client; dropped when the client is gone or holds
+    :data:`~pirate_bt.interop.groot2_run.REPLIES_QUEUED` replies it has not read.
+
+    The ROUTER's commands are processed first (``EVENTS``). ZeroMQ counts a client's
+    unsent replies from what its I/O thread last *said* it had taken, a command the
+    socket reads only now and then: at most once a millisecond on a send, and never
+    while the relay waits for the server (the socket is not polled then). Until
+    2026-12-01 a client asking back to back (Groot2 asks ten times a second, a probe
+    or another client faster) had one reply in a few hundred dropped as if it had 4
+    unread, while it had none: Groot2's REQ socket then waited for it for ever, and a
+    client sending 8 requests before reading lost some of the 8 replies, where
+    BT.CPP's server answers every one."""
+    with contextlib.suppress(zmq.ZMQError):  # gone, or does not read: dropped, as before
+        front.getsockopt(zmq.EVENTS)
+        front.send_multipart(reply, zmq.NOBLOCK)
 
 
 ENVELOPE_BYTES = 4096
