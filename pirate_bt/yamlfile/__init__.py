@@ -566,8 +566,9 @@ def decode_text(raw: bytes, name: str, what: str) -> str:
             (:func:`load_yaml_text`, ``parse_route``: :func:`refuse_hidden_break`).
     """
     loc = SourceLocation(name)
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise ValidationFailed([LocatedError("UTF-16 text; save the file as UTF-8", loc)])
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff")):  # byte-order marks
+        bits = 32 if raw.startswith((b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")) else 16
+        raise ValidationFailed([LocatedError(f"UTF-{bits} text; save the file as UTF-8", loc)])
     if b"\x00" in raw:
         raise ValidationFailed([LocatedError(f"binary file, not {what} text", loc)])
     try:
