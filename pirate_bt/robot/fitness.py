@@ -28,6 +28,7 @@ from pirate_bt.robot.parts import (
     Role,
     SensorKind,
 )
+from pirate_bt.robot.policy_fit import policy_problems
 from pirate_bt.robot.workable import KeyPath, Workable
 
 __all__ = ["BOARD_SILENCE_S", "Workable", "motor_limit_problems", "workable_problems"]
@@ -51,6 +52,7 @@ def workable_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
         *velocity_loop_problems(desc),
         *_cruise(desc),
         *_contradictions(desc),
+        *policy_problems(desc),
         *joints,
         *position_sensor_problems(desc, {path[:4] for path, _ in joints}),
     ]
