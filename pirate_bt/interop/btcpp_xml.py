@@ -337,6 +337,8 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
         raise LocatedError(exc.message, SourceLocation(file, exc.line, exc.column)) from None
     except expat.ExpatError as exc:
         message = expat.ErrorString(exc.code) if exc.code is not None else str(exc)
+        if exc.code == expat.errors.codes[expat.errors.XML_ERROR_INVALID_TOKEN]:
+            message = _bad_byte(payload, parser.ErrorByteIndex, text is not None) or message
         raise LocatedError(
             f"not well-formed XML: {message}", SourceLocation(file, exc.lineno, exc.offset + 1)
         ) from None
@@ -351,6 +353,31 @@ def parse_xml_bytes(data: bytes, file: str) -> XmlElement:
     if not roots:
         raise LocatedError("no XML element found", SourceLocation(file))
     return roots[0]
+
+
+def _bad_byte(payload: bytes, at: int, utf8: bool) -> str | None:
+    """What expat's "invalid token" at byte ``at`` of ``payload`` is, where it is a byte
+    no UTF-8 text holds (a file saved as Latin-1 without saying so, a NUL): None for
+    any other token, or where the file names another encoding."""
+    if not 0 <= at < len(payload):
+        return None
+    if not utf8:  # expat reads the bytes: as UTF-8 unless a mark or declaration says not
+        declared = _DECLARED.match(payload)
+        if payload.startswith((b"\xff\xfe", b"\xfe\xff")) or (
+            declared is not None and declared[3].decode("ascii").upper() != "UTF-8"
+        ):
+            return None
+    if payload[at] == 0:
+        return "a NUL byte (U+0000), which XML does not allow"
+    try:
+        payload[at : at + 4].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start == 0:
+            return (
+                f"not UTF-8 text (byte 0x{payload[at]:02x}): save the file as UTF-8, or name"
+                """ its encoding (<?xml version="1.0" encoding="ISO-8859-1"?>)"""
+            )
+    return None
 
 
 _START_TAG: Final = re.compile(r"<[^\s/>]+((?:\s+[^\s=]+\s*=\s*(?:\"[^\"]*\"|'[^']*'))*)\s*/?>")
