@@ -456,8 +456,8 @@ def load_yaml_text(text: str, file: str = "<string>") -> YamlDocument:
         elif problem == "exceeded maximum nesting depth":  # libyaml's bound (1000), not syntax
             said = f"values nested deeper than {MAX_DEPTH} levels"
         elif problem == "second occurrence" and exc.context_mark is not None:  # &a twice
-            first = _place(file, text, exc.context_mark.line, exc.context_mark.column)
-            said = f"YAML anchor defined twice (first at line {first.line}); name each its own"
+            earlier = _place(file, text, exc.context_mark.line, exc.context_mark.column)
+            said = f"YAML anchor defined twice (first at line {earlier.line}); name each its own"
         elif problem == "but found another document":  # a stream of two: valid YAML
             said = "a second YAML document (after '---'): a file holds one"
         elif problem == "found character that cannot start any token":  # libyaml: which?
