@@ -270,8 +270,11 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
     way: a turn the map does not have, a tee's branch where it has a bend, a bend
     that is not the one drawn. A bend or T-joint PAB whose sensing drove its whole
     search without meeting the feature (``no feature (...) within 3 m``) is the pipe
-    not turning, or a branch not on the map's side. One motor drawing stall current
-    alone is a motor's trouble, not the map's.
+    not turning, or a branch not on the map's side; so is a T-joint PAB turning into a
+    branch in a steep pipe whose holding half drove onto the opening (the protective
+    hold's *steep_pipe_unclamped: ... over an opening*: on the level the drive names
+    the slip, there the hold acts first). One motor drawing stall current alone is a
+    motor's trouble, not the map's.
 
     Args:
         pab: The PAB that failed.
@@ -298,6 +301,20 @@ def map_cause(pab: PabOutcome, planned: Any, belief_m: float) -> str | None:
             f"map disagreement at {belief_m:.2f} m (believed): the pipe is not as drawn at"
             f" {drawn} {feature!r}{toward}: the PAB's search {met} ({pab.label}: {pab.why})"
         )
+    if (
+        pab.why.startswith("steep_pipe_unclamped:")
+        and "over an opening" in pab.why
+        and feature
+        and pab.kind == "t-joint"
+    ):
+        way = (getattr(planned, "params", None) or {}).get("direction")
+        if way in ("left", "right"):  # the holding half drove onto the opening: no turn met
+            return (
+                f"map disagreement at {belief_m:.2f} m (believed): the pipe is not as drawn"
+                f" at T-joint {feature!r} ({way}): the PAB's search met no turn: the holding"
+                " half reached an opening in a steep pipe and let go of the wall (a branch on"
+                f" another side than drawn?) ({pab.label}: {pab.why})"
+            )
     if pab.why.startswith("no wall:") and feature and pab.kind == "t-joint":
         way = (getattr(planned, "params", None) or {}).get("direction")
         if way in ("left", "right"):  # a clamp in the turn into the branch met no wall
