@@ -284,6 +284,8 @@ class McapTraceWriter(TraceFormatWriter):
         return self._twin is not None
 
     def _open(self, fd: int | None) -> IO[bytes]:
+        if fd is None:
+            fd = self._claimed()  # the file claimed, not the path again
         if fd is not None:
             return open(fd, "wb", buffering=0)
         return open(self.path, "wb", buffering=0)

@@ -68,8 +68,10 @@ def claim(path: Path, truncate: bool) -> int:
     of the run closes the file, even when the recording process was killed. A second
     writer of the same file (by any name: a symbolic or hard link is the same file)
     is refused before it changes a byte of it. A file that is not a regular one (a
-    device) is not locked; where ``flock`` does not exist or the file system refuses
-    it, the file is written as before.
+    device, a named pipe something reads) is not locked; where ``flock`` does not exist
+    or the file system refuses it, the file is written as before. A named pipe nobody
+    reads is refused at once (``ENXIO``: *it is a named pipe nobody reads, not a file*),
+    never waited on.
 
     Args:
         path: The trace file.
@@ -83,8 +85,16 @@ def claim(path: Path, truncate: bool) -> int:
         TraceBusyError: another writer holds the file.
         OSError: it cannot be opened.
     """
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
     try:
+        # never waits: a named pipe nobody reads (made at the path after the run's
+        # checks) held the run at its start for ever; O_NONBLOCK refuses it at once
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK, 0o666)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:  # a named pipe nobody reads, or a socket
+            raise OSError(errno.ENXIO, _not_a_file(path), str(path)) from None
+        raise
+    try:
+        os.set_blocking(fd, True)  # written as before (a pipe that has a reader, a device)
         if stat.S_ISREG(os.fstat(fd).st_mode):
             try:
                 import fcntl
@@ -100,6 +110,19 @@ def claim(path: Path, truncate: bool) -> int:
         os.close(fd)
         raise
     return fd
+
+
+def _not_a_file(path: Path) -> str:
+    """Why :func:`claim` cannot open ``path`` for writing without waiting."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        mode = 0
+    if stat.S_ISSOCK(mode):
+        return "it is a socket, not a file"
+    if stat.S_ISFIFO(mode):
+        return "it is a named pipe nobody reads, not a file"
+    return os.strerror(errno.ENXIO)
 
 
 def held(path: str | os.PathLike[str]) -> bool:
@@ -229,6 +252,23 @@ class TraceFormatWriter:
     def _open(self, fd: int | None) -> IO[bytes]:
         raise NotImplementedError
 
+    def _claimed(self) -> int | None:
+        """A new descriptor of the file :func:`claim` took for this writer, emptied (a
+        regular file), or ``None`` (given ``fd``). A format's ``_open`` writes there
+        rather than opening the path again: another file may be there by then (a named
+        pipe made after the run's checks was waited on for ever)."""
+        held = self._claim
+        if held is None or held.closed:
+            return None
+        fd = os.dup(held.fileno())
+        try:
+            if stat.S_ISREG(os.fstat(fd).st_mode):
+                os.ftruncate(fd, 0)
+        except BaseException:
+            os.close(fd)
+            raise
+        return fd
+
     @classmethod
     def preflight(cls, path: Path) -> None:
         """Raise what would stop this writer from opening ``path``, in the recording process.
@@ -289,6 +329,8 @@ class JsonLinesWriter(TraceFormatWriter):
 
     def _open(self, fd: int | None) -> IO[bytes]:
         # Unbuffered: each record goes to the kernel in write(), nothing waits in Python.
+        if fd is None:
+            fd = self._claimed()
         if fd is not None:
             return open(fd, "wb", buffering=0)
         return open(self.path, "wb", buffering=0)
@@ -322,6 +364,8 @@ class GzipJsonLinesWriter(TraceFormatWriter):
     suffixes = (".jsonl.gz",)
 
     def _open(self, fd: int | None) -> IO[bytes]:
+        if fd is None:
+            fd = self._claimed()
         if fd is not None:
             self._raw = open(fd, "wb")  # noqa: SIM115 - closed by close()
         else:
