@@ -158,14 +158,18 @@ def test_the_goal_navigator_keeps_the_first_disagreement_it_went_on_from() -> No
 
 
 def test_three_failed_steps_in_a_row_keep_the_first_cause_first() -> None:
-    truth = Network(insert_tee(pirate_bt.load_network("lab").spec, "run-b", 1.5, "left"))
-    result = pirate_bt.navigate("goal", sim=truth, map="lab", params={"segment": "run-d"})
+    # a tee built 0.8 m before the drawn one, within the localiser's reach of it: no
+    # clear meaning, so no step re-plans through it (one built further from any drawn
+    # tee, 1.5 m into the lab's run-b, is passed since the twenty-third session:
+    # tests/test_nav23_found_tee.py)
+    truth = Network(insert_tee(pirate_bt.load_network("t-joint").spec, "before", 1.2, "right"))
+    result = pirate_bt.navigate("goal", sim=truth, map="t-joint", params={"segment": "after"})
     assert not result.succeeded and result.safe_state
     assert result.why.startswith("belief and map disagree: an opening was felt at "), result.why
     assert (
-        "(step 2, Step('t-joint', direction='straight')); navigator 'goal' went on," in result.why
+        "(step 1, Step('t-joint', direction='straight')); navigator 'goal' went on," in result.why
     )
-    assert "and steps 2 to 4 failed in a row, the last: no wall: bend_3" in result.why
+    assert "and steps 1 to 3 failed in a row, the last: no wall: bend_3" in result.why
     assert result.why.endswith("; it is stopped")
 
 

@@ -447,6 +447,8 @@ def run_navigation(
                     since_fix_m=odometer_m - fixed_at_m,
                     fixed_before=fixed_feature,
                 )
+                if ran.mission is not None:  # a tee the map lacks, passed: the step re-planned
+                    result.notes += [f"step {index} ({step!r}): {n}" for n in ran.mission.replans]
                 if not ran.succeeded and planner is not None:
                     # a turn never felt was not taken: the belief stays on the main line
                     fixes = ran.mission.fixes if ran.mission is not None else ()

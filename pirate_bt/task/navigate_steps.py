@@ -101,6 +101,7 @@ def run_mapped(
     from pirate_bt.task.mission import estimate_time_s
 
     limit = min(max_time_s, estimate_time_s(plan, robot.motion.nominal_speed))
+    started_s = clock.now()
     mission = run_mission(
         plan,
         robot,
@@ -116,6 +117,23 @@ def run_mapped(
         since_fix_m=since_fix_m,
         fixed_before=fixed_before,
     )
+    if not mission.succeeded:
+        # a tee the map does not have, felt on a forward leg: the step goes on along
+        # this line through it, as a mission does (one clear meaning), the map corrected
+        from pirate_bt.task.replan import carry_on
+
+        mission = carry_on(
+            mission,
+            robot,
+            supervisor,
+            clock,
+            truth_for=truth_for,
+            counters=counters,
+            period_s=period_s,
+            map_tolerance=map_tolerance,
+            max_time_s=limit,
+            started_s=started_s,
+        )
     return StepRun(
         mission.succeeded,
         mission.why,
