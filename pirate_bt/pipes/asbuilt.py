@@ -28,6 +28,7 @@ import math
 import numbers
 import random
 import re
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -203,6 +204,54 @@ def _variant_name(name: object) -> str | None:
     return str(name)  # a NumPy text (numpy.str_) was the name YAML could not write
 
 
+def _segment_id(segment_id: object) -> str:
+    """A segment's id as text (``remove_feature(spec, None)`` said *the network 'lab'
+    has no None*, a ``ConfigurationError`` as if the id were only unknown).
+
+    Raises:
+        ArgumentTypeError: anything but text.
+    """
+    if not isinstance(segment_id, str):
+        raise ArgumentTypeError(
+            f"segment_id: give a segment's id as text, not {kind_of(segment_id)}"
+        )
+    return str(segment_id)
+
+
+def _distance_in(at_m: object) -> float:
+    """``insert_tee``'s ``at_m``: metres, a number (a NumPy one too) or text with a unit
+    (``"1.5 m"``, as ``network add-tee`` takes it); ``"1.5 m"`` and ``None`` were
+    Python's bare *'<' not supported between instances of 'float' and 'str'*.
+
+    Raises:
+        ArgumentTypeError: no number and no text.
+        ArgumentValueError: text that is no length, or a number that is not finite.
+    """
+    from pirate_bt.errors import UnitError
+    from pirate_bt.units import parse_quantity
+
+    if isinstance(at_m, bool) or not isinstance(at_m, numbers.Real | str):
+        raise ArgumentTypeError(
+            f"at_m: give a distance into the straight (metres, or text such as '1.5 m'),"
+            f" not {kind_of(at_m)}"
+        )
+    try:
+        value = at_m if isinstance(at_m, str) else float(at_m)
+        return parse_quantity(value, "length", require_unit=isinstance(at_m, str))
+    except (UnitError, OverflowError) as exc:
+        raise ArgumentValueError(f"at_m: {exc}") from None
+
+
+def _flag(value: object, option: str) -> bool:
+    """``True`` or ``False`` (NumPy's too): ``keep_length="no"`` was true."""
+    numpy = sys.modules.get("numpy")  # not imported for this
+    if numpy is not None and isinstance(value, numpy.bool_):
+        return bool(value)
+    if isinstance(value, bool):
+        return value
+    raise ArgumentTypeError(f"{option}: give True or False, not {shown(value)}")
+
+
 def perturb_network(
     spec: NetworkSpec,
     seed: int,
@@ -291,6 +340,9 @@ def perturb_network(
 def _edit(
     spec: NetworkSpec, segment_id: str, edit: Any, what: str, name: str | None
 ) -> NetworkSpec:
+    if not isinstance(spec, NetworkSpec):
+        Network(spec)  # says what to give instead (load_network, network_from_data)
+    name = _variant_name(name)  # name=5 was the variant's name, '' the default unsaid
     found = [False]
 
     def line(segments: Sequence[SegmentSpec], prefix: str) -> list[SegmentSpec]:
@@ -332,7 +384,10 @@ def remove_feature(spec: NetworkSpec, segment_id: str, *, name: str | None = Non
 
     Raises:
         ConfigurationError: no such segment, or it is not a tee or a bend.
+        InputError: ``spec`` is no ``NetworkSpec``, ``segment_id`` no text, ``name``
+            no text or empty (as :func:`perturb_network`'s).
     """
+    segment_id = _segment_id(segment_id)
 
     # a tee's default length is three times the pipe's diameter where it is (after a
     # reducer to 55 mm, 165 mm): its run straight through, as the drawing has it
@@ -370,10 +425,19 @@ def insert_tee(
     it, as when a map is corrected where a robot found a tee); the branch is a
     capped stub pointing ``direction``.
 
+    ``at_m`` is metres (a NumPy number too) or text with a unit (``"1.5 m"``).
+
     Raises:
         ConfigurationError: no such straight, ``at_m`` leaves no pipe on a side, or an
             id the network has already (the tee's, or ``SEGMENT-after``).
+        InputError: ``spec`` is no ``NetworkSpec``, ``segment_id`` no text, ``at_m`` no
+            length, ``keep_length`` not ``True`` or ``False``, ``name`` no text or empty.
     """
+    if not isinstance(spec, NetworkSpec):
+        Network(spec)  # says what to give instead (load_network, network_from_data)
+    segment_id = _segment_id(segment_id)
+    at_m = _distance_in(at_m)
+    keep_length = _flag(keep_length, "keep_length")
     if not isinstance(tee_id, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,39}", tee_id):
         # a four-line pydantic "internal error" for 'network add-tee ... --id é'
         raise ConfigurationError(
@@ -477,8 +541,18 @@ def network_yaml(spec: NetworkSpec, header: str = "") -> str:
     Args:
         spec: The network.
         header: Comment lines to put on top (``#`` is added).
+
+    Raises:
+        ArgumentTypeError: ``spec`` is no ``NetworkSpec`` (a ``Network``'s is its
+            ``.spec``), or ``header`` no text (each was an ``AttributeError``).
     """
     from pirate_bt.yamlfile.scalars import dump_yaml
+
+    if not isinstance(spec, NetworkSpec):
+        hint = " (a Network's is its .spec)" if isinstance(spec, Network) else ""
+        raise ArgumentTypeError(f"spec: give a NetworkSpec{hint}, not {kind_of(spec)}")
+    if not isinstance(header, str):
+        raise ArgumentTypeError(f"header: give text, not {kind_of(header)}")
 
     data: dict[str, Any] = {
         "schema_version": spec.schema_version,
