@@ -60,6 +60,16 @@ def _file_like(name: str) -> bool:
     return "#" in name or name.lower().endswith((".yaml", ".yml"))
 
 
+def _no_json(element: XmlElement, key: str, text: str) -> None:
+    """A count of BT.CPP's own nodes is an int port, read by ``convertFromString<int>``
+    (``std::from_chars``), which takes no ``json:`` (``json:true`` is no count to it)."""
+    if text.startswith("json:"):
+        raise element.error(
+            f"{key}={_shown(text)}: BT.CPP reads <{element.tag}>'s {key} as an int, digits"
+            f' only, not json: ({key}="1")'
+        )
+
+
 _UNNAMED: Final = "BehaviorTree_0"
 """The ID BT.CPP gives a lone <BehaviorTree> written without one."""
 
@@ -452,6 +462,7 @@ class _Importer:
             counts = (ports.get("success_count", "-1"), ports.get("failure_count", "1"))
             read: list[Any] = []
             for key, text in zip(("success_count", "failure_count"), counts, strict=True):
+                _no_json(element, key, text)
                 try:  # as BT.CPP reads an int ('01' is 1, '+1' is refused)
                     read.append(decode_value(text, "integer", key))
                 except ValueError as exc:
@@ -486,6 +497,7 @@ class _Importer:
             key = missing[0]
             raise element.error(f'<{tag}> needs {key}, as in BT.CPP (<{tag} {key}="3">)')
         for key, text in ports.items():
+            _no_json(element, key, text)
             try:
                 value = decode_value(own_key(text), "integer", key)
             except ValueError as exc:
