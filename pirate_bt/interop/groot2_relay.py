@@ -38,6 +38,7 @@ import os
 import shutil
 import signal
 import socket
+import struct
 import sys
 import time
 from collections.abc import Sequence
@@ -53,6 +54,10 @@ kernel allows a process): see :func:`room_for_connections`."""
 REPLY_WAIT_S = 5.0
 """The longest wait for the server's reply before the next request goes (a reply that
 failed to be sent is logged by the server and never comes)."""
+RELISTEN_S = 1.0
+"""How long a port stops listening once accepting on it ran out of file descriptors
+(see :class:`_Port`)."""
+_OUT_OF_FILES = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
 
 
 class Refused(Exception):
@@ -86,9 +91,10 @@ def main(argv: Sequence[str]) -> int:
     heard.setsockopt(zmq.LINGER, 0)
     heard.setsockopt(zmq.SUBSCRIBE, b"")
     heard.connect(config["pub"])
-    _tell({"port": front.getsockopt(zmq.LAST_ENDPOINT).decode().rsplit(":", 1)[1]})
+    ports = [_Port(zmq, sock) for sock in (front, notices)]
+    _tell({"port": ports[0].endpoint.rsplit(":", 1)[1]})
     try:
-        _relay(zmq, front, notices, server, heard, int(config["max_request_bytes"]))
+        _relay(zmq, front, notices, server, heard, int(config["max_request_bytes"]), ports)
     finally:
         context.destroy(linger=0)
         # the server's folder: gone with the server, or left by a run that was killed
@@ -102,7 +108,7 @@ def room_for_connections() -> None:
     most shells) a client holding that many idle connections kept Groot2 from connecting,
     and ZeroMQ's listener, failing to accept (*Too many open files*), spun: until
     2026-12-01, 300 connections to a relay started under a soft limit of 128 took it 28 %
-    of a CPU for as long as they stayed (it still does at the hard limit). Only this
+    of a CPU for as long as they stayed (past the hard limit, see :class:`_Port`). Only this
     process's limit is raised, never the run's. The Foxglove server's process calls it
     too (:mod:`pirate_bt.interop.foxglove_process`)."""
     try:
@@ -214,19 +220,68 @@ def _cannot_listen(given: str, host: str, exc: Any) -> Refused:
     return Refused(f"--groot2 {given}: cannot listen: {strerror(exc.errno)}")
 
 
-def _relay(zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: int) -> None:
+class _Port:
+    """A TCP port of the relay's, watched for accepts that fail for want of descriptors.
+
+    A client holding more connections than the relay may have open (its hard limit)
+    made ZeroMQ's listener spin: the connection it cannot accept stays queued, and it
+    tries again at once, for as long as they stay (until 2026-12-01: 28 % of a CPU with a
+    hard limit of 128 and 300 connections, and Groot2 could not connect). On the first
+    such failure the port stops listening for :data:`RELISTEN_S` (ZeroMQ closes the
+    connections it had accepted there, every client's: Groot2 reconnects by itself),
+    then listens again on the same port.
+    """
+
+    def __init__(self, zmq: Any, sock: Any) -> None:
+        self.sock = sock
+        self.endpoint: str = sock.getsockopt(zmq.LAST_ENDPOINT).decode()
+        self.failures = sock.get_monitor_socket(zmq.EVENT_ACCEPT_FAILED)
+        self.again_at = 0.0  # when it listens again (0: it listens)
+
+    def heard(self, zmq: Any) -> None:
+        """Read the failures; stop listening after one for want of descriptors."""
+        short = False
+        with contextlib.suppress(zmq.Again):
+            while True:
+                event = self.failures.recv_multipart(zmq.NOBLOCK)
+                if len(event[0]) == 6 and struct.unpack("=hi", event[0])[1] in _OUT_OF_FILES:
+                    short = True
+        if short and not self.again_at:
+            with contextlib.suppress(zmq.ZMQError):
+                self.sock.unbind(self.endpoint)
+            self.again_at = time.monotonic() + RELISTEN_S
+
+    def relisten(self, zmq: Any) -> None:
+        """Listen again once its pause is over (later again if the port is taken)."""
+        if self.again_at and time.monotonic() >= self.again_at:
+            try:
+                self.sock.bind(self.endpoint)
+                self.again_at = 0.0
+            except zmq.ZMQError:
+                self.again_at = time.monotonic() + RELISTEN_S
+
+
+def _relay(
+    zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: int, ports: list[_Port]
+) -> None:
     """Relay until the standard input closes: one request at a time to the server, none
-    over ``most`` bytes (:func:`_too_big`)."""
+    over ``most`` bytes (:func:`_too_big`); ``ports`` paused while out of descriptors."""
     poller = zmq.Poller()
     poller.register(server, zmq.POLLIN)
     poller.register(heard, zmq.POLLIN)
     poller.register(0, zmq.POLLIN)  # the server's end of the pipe: closed, the relay ends
     poller.register(front, zmq.POLLIN)
+    for port in ports:
+        poller.register(port.failures, zmq.POLLIN)
     asked = 0.0  # when the request the server answers now went (0: none)
     while True:
-        ready = dict(poller.poll(1000))
+        ready = dict(poller.poll(250 if any(port.again_at for port in ports) else 1000))
         if 0 in ready and not os.read(0, 4096):
             return
+        for port in ports:
+            if port.failures in ready:
+                port.heard(zmq)
+            port.relisten(zmq)
         if asked and time.monotonic() - asked > REPLY_WAIT_S:
             asked = 0.0  # no reply (the server gave up on it): the others' turn
         if ready.get(heard, 0) & zmq.POLLIN:
