@@ -17,6 +17,7 @@ from pydantic import ValidationError
 from pirate_bt.errors import SourceLocation, file_argument
 from pirate_bt.interop.btcpp_import_ports import (
     has_reference,
+    no_json,
     own_key,
     subtree_ports,
     tree_blackboard,
@@ -58,16 +59,6 @@ def _suggest(name: str, known: list[str]) -> str:
 def _file_like(name: str) -> bool:
     """A pirate_bt subtree reference would read ``name`` as a file's."""
     return "#" in name or name.lower().endswith((".yaml", ".yml"))
-
-
-def _no_json(element: XmlElement, key: str, text: str) -> None:
-    """A count of BT.CPP's own nodes is an int port, read by ``convertFromString<int>``
-    (``std::from_chars``), which takes no ``json:`` (``json:true`` is no count to it)."""
-    if text.startswith("json:"):
-        raise element.error(
-            f"{key}={_shown(text)}: BT.CPP reads <{element.tag}>'s {key} as an int, digits"
-            f' only, not json: ({key}="1")'
-        )
 
 
 _UNNAMED: Final = "BehaviorTree_0"
@@ -462,7 +453,7 @@ class _Importer:
             counts = (ports.get("success_count", "-1"), ports.get("failure_count", "1"))
             read: list[Any] = []
             for key, text in zip(("success_count", "failure_count"), counts, strict=True):
-                _no_json(element, key, text)
+                no_json(element, key, text)
                 try:  # as BT.CPP reads an int ('01' is 1, '+1' is refused)
                     read.append(decode_value(text, "integer", key))
                 except ValueError as exc:
@@ -497,7 +488,7 @@ class _Importer:
             key = missing[0]
             raise element.error(f'<{tag}> needs {key}, as in BT.CPP (<{tag} {key}="3">)')
         for key, text in ports.items():
-            _no_json(element, key, text)
+            no_json(element, key, text)
             try:
                 value = decode_value(own_key(text), "integer", key)
             except ValueError as exc:

@@ -1,7 +1,8 @@
 """BehaviorTree.CPP v4 XML import, a subtree's ports: the ``<input_port>`` elements of a
 ``<SubTree>`` model in ``<TreeNodesModel>`` read as the subtree's declared parameters
 (name, type, default, example, choices, description), and a port's ``default`` or
-``example`` read as a value, a node's port text (``=``) and a tree's ``_blackboard``.
+``example`` read as a value, a node's port text (``=``) and a tree's ``_blackboard``,
+and the counts of BT.CPP's own nodes.
 Used by :mod:`pirate_bt.interop.btcpp_import`.
 """
 
@@ -23,6 +24,7 @@ from pirate_bt.treefile.params import PARAM_RE
 __all__ = [
     "CPP_TYPES",
     "has_reference",
+    "no_json",
     "own_key",
     "port_value",
     "subtree_ports",
@@ -162,3 +164,13 @@ def has_reference(value: Any) -> bool:
     if isinstance(value, list):
         return any(has_reference(v) for v in value)
     return False
+
+
+def no_json(element: XmlElement, key: str, text: str) -> None:
+    """A count of BT.CPP's own nodes is an int port, read by ``convertFromString<int>``
+    (``std::from_chars``), which takes no ``json:`` (``json:true`` is no count to it)."""
+    if text.startswith("json:"):
+        raise element.error(
+            f"{key}={_shown(text)}: BT.CPP reads <{element.tag}>'s {key} as an int, digits"
+            f' only, not json: ({key}="1")'
+        )
