@@ -17,6 +17,7 @@ from pydantic import ValidationError
 from pirate_bt.errors import SourceLocation, file_argument
 from pirate_bt.interop.btcpp_import_ports import (
     has_reference,
+    literal,
     no_json,
     own_key,
     subtree_ports,
@@ -538,9 +539,9 @@ class _Importer:
         if has_reference(params):
             return  # checked when the converted tree is loaded, with the values bound
         cls = self.registry.get(kind)
-        try:
+        try:  # each value as the XML wrote it and a run reads it: '$$x' is the text '$x'
             cls.Params.model_validate(
-                params, context={"units_required": True, "magnitude_limits": True}
+                literal(params), context={"units_required": True, "magnitude_limits": True}
             )
         except ValidationError as exc:
             problems = validation_problems(exc, params)

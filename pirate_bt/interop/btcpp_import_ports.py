@@ -24,6 +24,7 @@ from pirate_bt.treefile.params import PARAM_RE
 __all__ = [
     "CPP_TYPES",
     "has_reference",
+    "literal",
     "no_json",
     "own_key",
     "port_value",
@@ -174,3 +175,15 @@ def no_json(element: XmlElement, key: str, text: str) -> None:
             f"{key}={_shown(text)}: BT.CPP reads <{element.tag}>'s {key} as an int, digits"
             f' only, not json: ({key}="1")'
         )
+
+
+def literal(value: Any) -> Any:
+    """``value`` (a node's parameters as the tree file holds them) with each text the
+    file escapes (``$$x``, written for the XML's ``$x``) read as a run reads it."""
+    if isinstance(value, str):
+        return value[1:] if value.startswith("$$") else value
+    if isinstance(value, dict):
+        return {k: literal(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [literal(v) for v in value]
+    return value
