@@ -28,6 +28,8 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.errors import shown
+
 __all__ = [
     "OUTCOMES",
     "PRELOAD",
@@ -163,10 +165,28 @@ def row_problem(row: Any) -> str | None:
         return f"index {row['index']!r} is not a case number"
     if "outcome" in row and row["outcome"] not in OUTCOMES:
         return f"outcome {row['outcome']!r} is not one of {', '.join(OUTCOMES)}"
-    for key in (*_COUNTER_KEYS, "ticks", "steps"):
+    for key in (*_COUNTER_KEYS, "ticks", "steps", "seed", "as_built"):
         if not _count(row.get(key)):
-            return f"{key} {row.get(key)!r} is not a count"
-    for key in ("sim_time_s", "wall_time_s", "distance_m", "drop", "corrupt", "dup"):
+            return f"{key} {shown(row.get(key))} is not a count"
+    # what the report shows as text: a value of another kind was shown as a group
+    # ("{'a': 1} drop=0.1 ...") or a reason; an as_built_scale that is no number ended
+    # `campaign report` in an internal error
+    for key in ("run", "tree", "route", "network", "robot", "map", "navigator", "reason"):
+        if row.get(key) is not None and not isinstance(row[key], str):
+            return f"{key} {shown(row[key])} is not text"
+    if row.get("failing_node") is not None and not isinstance(row["failing_node"], str):
+        return f"failing_node {shown(row['failing_node'])} is not text"
+    if row.get("blind") is not None and not isinstance(row["blind"], bool):
+        return f"blind {shown(row['blind'])} is not true or false"
+    for key in (
+        "sim_time_s",
+        "wall_time_s",
+        "distance_m",
+        "drop",
+        "corrupt",
+        "dup",
+        "as_built_scale",
+    ):
         if not _number(row.get(key)):
             return f"{key} {row.get(key)!r} is not a number"
     for key in ("violation_kinds", "damage_kinds"):
