@@ -45,7 +45,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 if not __package__:  # run as the server process's script
@@ -85,6 +85,7 @@ __all__ = [
     "POLL_S",
     "READY",
     "RECORD",
+    "RELISTEN_S",
     "STOP_S",
     "STREAM",
     "SUBSCRIBED",
@@ -115,6 +116,10 @@ total once per round (:meth:`Server.subscribed`)."""
 
 LOG_LINES = 10
 """The SDK's log lines written to the run's standard error per minute at most."""
+
+RELISTEN_S = 1.0
+"""How often the process looks whether the SDK's server still listens
+(:meth:`Server._relisten_loop`)."""
 
 STOP_S = 2.0
 """How long stopping the SDK's server may take before the process exits without it.
@@ -164,6 +169,12 @@ def _quiet_sdk_log() -> None:
     sdk = logging.getLogger("foxglove")
     sdk.addHandler(_FewLines())
     sdk.propagate = False
+    _said.addHandler(_FewLines())  # its own few lines: never crowded out by the SDK's
+    _said.propagate = False
+
+
+_said = logging.getLogger("pirate_bt.interop.foxglove_process")
+"""What this process itself says on standard error (as the SDK's lines are written)."""
 
 
 class Server:
@@ -200,16 +211,80 @@ class Server:
         self.subscriptions = 0
         self.published = 0
         self.enabled = True
-        self.server = foxglove.start_server(
-            name=str(config["name"]),
-            host=str(config["host"]),
-            port=int(config["port"]),
-            server_listener=_Listener(self),
-            context=self.context,
-            message_backlog_size=int(config["backlog"]),
-        )
+        listener = _Listener(self)
+
+        def start(port: int) -> Any:
+            return foxglove.start_server(
+                name=str(config["name"]),
+                host=str(config["host"]),
+                port=port,
+                server_listener=listener,
+                context=self.context,
+                message_backlog_size=int(config["backlog"]),
+            )
+
+        self.server: Any = start(int(config["port"]))
         self.port = int(self.server.port)
         threading.Thread(target=self._late_loop, name="pirate-foxglove-late", daemon=True).start()
+        self.closing = threading.Event()
+        self.swap = threading.Lock()
+        """Held while the server is started again (:meth:`_relisten_loop`) or closed."""
+        self.tables = _tcp_tables()
+        if self.tables:
+            threading.Thread(
+                target=self._relisten_loop,
+                args=(start,),
+                name="pirate-foxglove-listen",
+                daemon=True,
+            ).start()
+
+    def _relisten_loop(self, start: Callable[[int], Any]) -> None:
+        """Start the SDK's server again where it stopped listening, on the same port.
+
+        foxglove-sdk's server stops listening for good when an accept fails for want of
+        descriptors: until 2026-12-01 a client holding more connections than this
+        process may have open (its hard limit, ``ulimit -Hn``) left every later client
+        refused for the rest of the run, even once it had gone. Every
+        :data:`RELISTEN_S` this thread looks whether the port still listens (the
+        kernel's table of TCP sockets, read through descriptors kept open for it); where
+        it does not, the old server is stopped (in a thread of its own: its clients'
+        connections are closed, which frees their descriptors; a connection that never
+        finished its handshake may hold its stop) and a new one listens on the same port
+        as soon as a descriptor is free. Clients reconnect by themselves.
+        """
+        while not self.closing.wait(RELISTEN_S):
+            if self._listening() is not False:
+                continue
+            with self.swap:
+                if self.closing.is_set():
+                    return
+                old, self.server = self.server, None
+                if old is not None:
+                    _said.warning(
+                        "port %d stopped listening (a client held more connections than"
+                        " this process may open); it listens again as soon as it can",
+                        self.port,
+                    )
+                    threading.Thread(target=_stop_quietly, args=(old,), daemon=True).start()
+                try:
+                    self.server = start(self.port)
+                except Exception:  # no descriptor free yet, or the port taken: later
+                    continue
+
+    def _listening(self) -> bool | None:
+        """Whether something listens on :attr:`port` (``None``: cannot tell)."""
+        suffix = f":{self.port:04X}".encode()
+        for table in self.tables:
+            try:
+                table.seek(0)
+                text = table.read()
+            except OSError:
+                return None
+            for line in text.split(b"\n")[1:]:
+                fields = line.split()
+                if len(fields) > 3 and fields[3] == b"0A" and fields[1].endswith(suffix):
+                    return True
+        return False
 
     def subscribed(self, topic: str) -> None:
         """Note a subscription (from the SDK's thread); :meth:`_late_loop` acts on it."""
@@ -339,17 +414,38 @@ class Server:
 
     def close(self, within_s: float = STOP_S) -> None:
         """Stop the SDK's server, waiting at most ``within_s`` for it (:data:`STOP_S`)."""
-        stopper = threading.Thread(target=self._stop, name="pirate-foxglove-stop", daemon=True)
+        with self.swap:  # not started again meanwhile
+            self.closing.set()
+            server, self.server = self.server, None
+        if server is None:
+            return
+        stopper = threading.Thread(
+            target=_stop_quietly, args=(server, True), name="pirate-foxglove-stop", daemon=True
+        )
         stopper.start()
         stopper.join(within_s)
 
-    def _stop(self) -> None:
-        try:
-            self.server.stop()
-        except Exception:  # stopping must not hide what was published
+
+def _stop_quietly(server: Any, say: bool = False) -> None:
+    """Stop an SDK server; a failure is printed when ``say`` (it must not hide what was
+    published)."""
+    try:
+        server.stop()
+    except Exception:
+        if say:
             import traceback
 
             traceback.print_exc()
+
+
+def _tcp_tables() -> list[Any]:
+    """The kernel's tables of TCP sockets (``/proc/net/tcp``, ``tcp6``), open for good: read
+    when this process may have no descriptor left. None where there are none (not Linux)."""
+    tables = []
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with contextlib.suppress(OSError):
+            tables.append(open(name, "rb", buffering=0))  # noqa: SIM115 - kept open
+    return tables
 
 
 class _Listener:
