@@ -229,7 +229,7 @@ def test_render_tree_from_a_tree_file_a_loaded_tree_or_a_behaviour_tree(tmp_path
     assert tree_graph(loaded.root) == by_path
     # Parameters of a tree file, as on the command line.
     far = dot_nodes(tree_graph(str(STRAIGHT), params={"distance": "1.5 m"}))
-    assert "distance: 1.5<" in far[DRIVE]["label"]
+    assert "distance: 1.5 m<" in far[DRIVE]["label"]
 
 
 def test_render_tree_coloured_by_a_trace_at_a_tick(straight_run: Path, tmp_path: Path) -> None:

@@ -6,11 +6,14 @@ tree's text cannot break, and its fill colours.
 
 from __future__ import annotations
 
+import functools
 import html
 import json
 import re
 from collections.abc import Mapping
+from typing import Any, Final, get_args
 
+from pirate_bt import units
 from pirate_bt.trace.coverage import NodeCoverage
 from pirate_bt.trace.structure import NodeInfo
 
@@ -84,6 +87,54 @@ def _param_text(value: object) -> str:
     return cut(text, _MAX_PARAM_CHARS)
 
 
+_SI_UNIT_OF: Final = {
+    id(get_args(quantity)[1]): unit
+    for quantity, unit in (
+        (units.Length, "m"),
+        (units.Duration, "s"),
+        (units.Angle, "rad"),
+        (units.Velocity, "m/s"),
+        (units.AngularVelocity, "rad/s"),
+        (units.Acceleration, "m/s^2"),
+        (units.Force, "N"),
+        (units.Torque, "N*m"),
+        (units.Frequency, "Hz"),
+        (units.Current, "A"),
+    )
+}
+"""Each quantity type's validator (one object a type, shared by every field of it) ->
+the SI unit a node holds its value in."""
+
+
+def _unit_of(metadata: Any, annotation: Any) -> str | None:
+    """The SI unit of a parameter given by ``metadata`` and ``annotation`` (its
+    quantity type, also inside ``Duration | None``), if it is a quantity."""
+    for item in (*metadata, *getattr(annotation, "__metadata__", ())):
+        if id(item) in _SI_UNIT_OF:
+            return _SI_UNIT_OF[id(item)]
+    for arg in get_args(annotation):
+        found = _unit_of((), arg)
+        if found is not None:
+            return found
+    return None
+
+
+@functools.cache
+def si_units(node_type: str) -> Mapping[str, str]:
+    """The SI unit of each quantity parameter of the node class ``node_type`` names (a
+    registered node type's class, as a diagram names it: ``Wait``); none for another."""
+    from pirate_bt.treefile.registry import default_registry
+
+    registry = default_registry()
+    for name in registry.names():
+        cls = registry.get(name)
+        if cls.__name__ == node_type:
+            fields = getattr(getattr(cls, "Params", None), "model_fields", {})
+            found = {k: _unit_of(f.metadata, f.annotation) for k, f in fields.items()}
+            return {k: unit for k, unit in found.items() if unit is not None}
+    return {}
+
+
 def cut(text: str, limit: int) -> str:
     """``text`` cut to ``limit`` characters, its end shown as ``…``."""
     return text if len(text) <= limit else text[: limit - 1] + "…"
@@ -106,10 +157,14 @@ def label(
     rows = [f"<b>{_html(name) or ' '}</b>"]  # <b></b> is no label to Graphviz
     if node.type and node.type != node.name:
         rows.append(f'<font point-size="8">{_html(cut(node.type, MAX_NAME_CHARS))}</font>')
+    si = si_units(node.type) if node.params else {}
     for key, value in node.params.items():
         if value is None:
             continue
-        rows.append(f'<font point-size="8">{_html(str(key))}: {_html(_param_text(value))}</font>')
+        text = _param_text(value)
+        if key in si and isinstance(value, (int, float)) and not isinstance(value, bool):
+            text = f"{text} {si[key]}"  # the value as the node holds it: in SI (40 deg: rad)
+        rows.append(f'<font point-size="8">{_html(str(key))}: {_html(text)}</font>')
     if status is not None and status != "I":
         word = STATUS_WORD[status]
         text = f"{word}: {feedback}" if feedback else word
