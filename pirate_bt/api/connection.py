@@ -22,6 +22,7 @@ faults ``KEY=VALUE`` (``"drop=0.05,corrupt=0.01"``), comma-separated.
 
 from __future__ import annotations
 
+import functools
 import logging
 import threading
 import weakref
@@ -40,6 +41,7 @@ from pirate_bt.api.options import (
     seed_value,
     split_faults,
 )
+from pirate_bt.api.process_run import only_run
 from pirate_bt.api.running import as_loaded, run_on
 from pirate_bt.clock import Clock, SimClock, WallClock
 from pirate_bt.errors import InputError, LinkError
@@ -285,7 +287,7 @@ class Connection:
         )
         # its run() holds this connection as every run does: one beside robot.run() or
         # another runner (a thread, an observe) ticked the same robot, both failing
-        runner.guard = self.one_run
+        runner.guard = functools.partial(_held_for_runner, self)
         return runner
 
     def counters(self) -> Counters:
@@ -320,6 +322,14 @@ class Connection:
 
     def __repr__(self) -> str:
         return f"<Connection {self.description}{' (closed)' if self._closed else ''}>"
+
+
+@contextmanager
+def _held_for_runner(connection: Connection) -> Iterator[None]:
+    """What a runner of :meth:`Connection.runner` holds while it runs: its connection
+    and this process's run (:func:`pirate_bt.api.process_run.only_run`)."""
+    with connection.one_run(), only_run("a runner of connection.runner()"):
+        yield
 
 
 def connect(

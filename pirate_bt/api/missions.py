@@ -52,6 +52,7 @@ from pirate_bt.api.options import (
     tick_period_s,
     writable_folder,
 )
+from pirate_bt.api.process_run import one_run_in_process
 from pirate_bt.api.results import closing_why
 from pirate_bt.atomic import new_folders_undone
 from pirate_bt.errors import InputError
@@ -318,6 +319,7 @@ def _options(
     return period_s, max_time_s
 
 
+@one_run_in_process("simulate_mission")
 def simulate_mission(
     plan_or_route: Any,
     *,
@@ -503,6 +505,7 @@ def _watched_mission(
     return result
 
 
+@one_run_in_process("run_mission")
 def run_mission(
     plan_or_route: Any,
     *,

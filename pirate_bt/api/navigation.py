@@ -30,6 +30,7 @@ from pirate_bt.api.options import (
     split_faults,
     tick_period_s,
 )
+from pirate_bt.api.process_run import one_run_in_process
 from pirate_bt.api.results import closing_why
 from pirate_bt.atomic import new_folders_undone
 from pirate_bt.behaviours.foreign import one_line
@@ -130,6 +131,7 @@ def _check_next_step(navigator: Any) -> str:
     return kind
 
 
+@one_run_in_process("navigate")
 def navigate(
     navigator: Navigator | str,
     *,

@@ -34,6 +34,7 @@ from pirate_bt.api.options import (
     params_mapping,
     run_limits,
 )
+from pirate_bt.api.process_run import only_run
 from pirate_bt.api.results import RunResult
 from pirate_bt.api.run_trace import attach_run_trace, check_run_options, check_trace
 from pirate_bt.clock import SimClock
@@ -391,7 +392,7 @@ def run_on(
         check_trace(trace, inputs={"tree": tree})
     if connection is not None:
         connection.check_open()
-        with connection.one_run():
+        with connection.one_run(), only_run("Connection.run"):
             return _run_held(
                 connection,
                 tree,
@@ -406,20 +407,21 @@ def run_on(
                 trace_meta=trace_meta,
                 count_from_open=count_from_open,
             )
-    return _run_held(
-        None,
-        tree,
-        params=params,
-        period_s=period_s,
-        max_time_s=max_time_s,
-        trace=trace,
-        realtime=realtime,
-        live=live,
-        observe=observe,
-        robot=robot,
-        trace_meta=trace_meta,
-        count_from_open=count_from_open,
-    )
+    with only_run("a run"):
+        return _run_held(
+            None,
+            tree,
+            params=params,
+            period_s=period_s,
+            max_time_s=max_time_s,
+            trace=trace,
+            realtime=realtime,
+            live=live,
+            observe=observe,
+            robot=robot,
+            trace_meta=trace_meta,
+            count_from_open=count_from_open,
+        )
 
 
 def _run_held(

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.navigation import navigate
+from pirate_bt.api.process_run import one_run_in_process
 from pirate_bt.atomic import new_folders_undone
 from pirate_bt.task.explore import ExploreNavigator
 from pirate_bt.task.navigate import NavigationResult
@@ -209,6 +210,7 @@ def _take_away(made: list[Path]) -> None:
             break
 
 
+@one_run_in_process("survey")
 def survey(
     *,
     sim: Any = None,

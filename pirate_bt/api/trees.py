@@ -33,6 +33,7 @@ from pirate_bt.api.options import (
     seed_value,
     split_faults,
 )
+from pirate_bt.api.process_run import one_run_in_process
 from pirate_bt.api.results import RunResult, after_close
 from pirate_bt.api.running import (
     Observer,
@@ -47,6 +48,7 @@ from pirate_bt.errors import ArgumentTypeError, shown
 __all__ = ["run_tree", "simulate_tree"]
 
 
+@one_run_in_process("simulate_tree")
 def simulate_tree(
     tree: Any,
     *,
@@ -181,6 +183,7 @@ def simulate_tree(
         return after_close(result, connection.close_error)  # the robot stopped?
 
 
+@one_run_in_process("run_tree")
 def run_tree(
     tree: Any,
     *,
