@@ -6,12 +6,13 @@ given an ``output`` folder; planner code calls it on a result of its own.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from pirate_bt.api.observing import check_callback
-from pirate_bt.api.options import kind_of, output_folder, report_extras
+from pirate_bt.api.options import kind_of, output_folder, plain_number, report_extras
 from pirate_bt.errors import InputError
 
 __all__ = ["OUTPUT_NAMES", "OutputsNotWritten", "outputs_not_inputs", "write_mission_outputs"]
@@ -98,6 +99,8 @@ def write_mission_outputs(
 
     if not isinstance(result, MissionResult):
         raise InputError(f"result: give a MissionResult, not {kind_of(result)}")
+    wall_s = plain_number(wall_s)  # a NumPy number is seconds too (it was refused)
+    extra_pictures = _picture_names(extra_pictures)  # a Path is a file name too
     report_extras(wall_s, extra_sections, extra_pictures, warn)  # before the folder
     check_callback(warn, "warn", "warn(message)", 1)  # a lambda: None failed as it warned
     if not isinstance(option, str) or not option:
@@ -167,6 +170,21 @@ def write_mission_outputs(
     except OSError as exc:
         raise InputError(f"{option}: cannot write {_os_error(exc)}") from None
     return files
+
+
+def _picture_names(pictures: Any) -> Any:
+    """``extra_pictures`` with each file name given as a path (``Path("scan.png")``) as
+    its text, which the report links to; anything else as it is, for
+    :func:`~pirate_bt.api.options.report_extras` to take or refuse (a ``Path`` was
+    refused, *each item is a (caption, file name) pair*)."""
+    if isinstance(pictures, str | bytes) or not isinstance(pictures, Sequence):
+        return pictures
+    return [
+        (item[0], os.fspath(item[1]))
+        if isinstance(item, tuple | list) and len(item) == 2 and isinstance(item[1], os.PathLike)
+        else item
+        for item in pictures
+    ]
 
 
 def _as_option(exc: InputError, option: str) -> str:
