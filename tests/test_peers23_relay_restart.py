@@ -9,6 +9,8 @@ import logging
 import os
 import signal
 import socket
+import subprocess
+import threading
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -85,6 +87,7 @@ def test_a_killed_relay_is_started_again_on_the_same_ports(
     reply = _status(port, 30_000)  # a client as Groot2 reconnects: the same port
     assert reply is not None and reply[0] != b"error"
     assert server.port == port and server.enabled
+    assert killed.stdin.closed and killed.stdout.closed  # the ended one's pipes let go
     said = [r.getMessage() for r in caplog.records]
     assert any(
         f"relay process listening on 127.0.0.1:{port} ended (signal 9 (SIGKILL));"
@@ -131,3 +134,43 @@ def test_a_relay_that_keeps_ending_is_given_up_after_a_few_starts(
     lines = [r.getMessage() for r in caplog.records]
     assert sum("started again" in line for line in lines) == 1
     assert any("it ended 2 times: Groot2 can no longer connect" in line for line in lines)
+
+
+def test_a_relay_in_front_of_a_stalled_server_still_ends_when_the_server_closes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The relay sends the server nothing that would block it: with the server stalled
+    and its queue full, a request is dropped, and the relay still sees its standard
+    input close (before: it blocked in the send and was killed after 5 s)."""
+    from pirate_bt.interop import groot2_ports
+
+    start = groot2_ports.start_relay
+    monkeypatch.setattr(  # the next request goes after 50 ms without a reply, not 5 s
+        groot2_server, "start_relay", lambda h, p, s: start(h, p, {**s, "reply_wait_s": 0.05})
+    )
+    release = threading.Event()
+    monkeypatch.setattr(Groot2Server, "_answer", lambda self, parts: release.wait(60) and [])
+    made = Groot2Server(port=0)
+    relay = made._relay
+    assert relay is not None
+    context = zmq.Context()
+    try:
+        clients = []
+        for _ in range(30):  # more than the relay's and the server's queues hold
+            sock = context.socket(zmq.DEALER)
+            sock.setsockopt(zmq.LINGER, 0)
+            sock.connect(f"tcp://127.0.0.1:{made.port}")
+            # 200 kB each: past what the Unix socket's buffers hold, too
+            sock.send_multipart([b"", pack_request(ord("B")), b"x" * 200_000])
+            clients.append(sock)
+        time.sleep(3)  # every request has had its turn at the relay by now
+        assert relay.stdin is not None
+        relay.stdin.close()  # as the server's close does (its sockets still open here)
+        try:
+            assert relay.wait(timeout=10) == 0  # it ended by itself
+        except subprocess.TimeoutExpired:
+            pytest.fail("the relay, blocked sending to the stalled server, did not end")
+    finally:
+        release.set()
+        context.destroy(linger=0)
+        made.close()

@@ -53,7 +53,8 @@ FILES_WANTED = 1 << 16
 kernel allows a process): see :func:`room_for_connections`."""
 REPLY_WAIT_S = 5.0
 """The longest wait for the server's reply before the next request goes (a reply that
-failed to be sent is logged by the server and never comes)."""
+failed to be sent is logged by the server and never comes); the configuration's
+``reply_wait_s`` if it has one."""
 RELISTEN_S = 1.0
 """How long a port stops listening once accepting on it ran out of file descriptors
 (see :class:`_Port`)."""
@@ -94,7 +95,8 @@ def main(argv: Sequence[str]) -> int:
     ports = [_Port(zmq, sock) for sock in (front, notices)]
     _tell({"port": ports[0].endpoint.rsplit(":", 1)[1]})
     try:
-        _relay(zmq, front, notices, server, heard, int(config["max_request_bytes"]), ports)
+        wait_s = float(config.get("reply_wait_s", REPLY_WAIT_S))
+        _relay(zmq, front, notices, server, heard, int(config["max_request_bytes"]), ports, wait_s)
     finally:
         context.destroy(linger=0)
         # the server's folder: gone with the server, or left by a run that was killed
@@ -262,7 +264,14 @@ class _Port:
 
 
 def _relay(
-    zmq: Any, front: Any, notices: Any, server: Any, heard: Any, most: int, ports: list[_Port]
+    zmq: Any,
+    front: Any,
+    notices: Any,
+    server: Any,
+    heard: Any,
+    most: int,
+    ports: list[_Port],
+    wait_s: float = REPLY_WAIT_S,
 ) -> None:
     """Relay until the standard input closes: one request at a time to the server, none
     over ``most`` bytes (:func:`_too_big`); ``ports`` paused while out of descriptors."""
@@ -275,14 +284,18 @@ def _relay(
         poller.register(port.failures, zmq.POLLIN)
     asked = 0.0  # when the request the server answers now went (0: none)
     while True:
-        ready = dict(poller.poll(250 if any(port.again_at for port in ports) else 1000))
+        timeout_ms = 250 if any(port.again_at for port in ports) else 1000
+        if asked:  # woken when the wait for the server's reply is over, not up to 1 s later
+            left_ms = (asked + wait_s - time.monotonic()) * 1000
+            timeout_ms = max(1, min(timeout_ms, int(left_ms) + 1))
+        ready = dict(poller.poll(timeout_ms))
         if 0 in ready and not os.read(0, 4096):
             return
         for port in ports:
             if port.failures in ready:
                 port.heard(zmq)
             port.relisten(zmq)
-        if asked and time.monotonic() - asked > REPLY_WAIT_S:
+        if asked and time.monotonic() - asked > wait_s:
             asked = 0.0  # no reply (the server gave up on it): the others' turn
         if ready.get(heard, 0) & zmq.POLLIN:
             with contextlib.suppress(zmq.Again):
@@ -305,7 +318,10 @@ def _relay(
                 continue  # not a request (REP drops it too): nobody to answer
             if _too_big(request, most):
                 continue  # as ZeroMQ drops a part over the limit, unanswered
-            server.send_multipart(request)
+            try:  # never blocks: the relay must still see its standard input close
+                server.send_multipart(request, zmq.NOBLOCK)
+            except zmq.Again:  # the server has stalled with requests queued: dropped,
+                continue  # unanswered, as ZeroMQ drops what exceeds a full queue
             asked = time.monotonic()
         # the clients are read only when the server has no request of theirs to answer
         poller.register(front, 0 if asked else zmq.POLLIN)

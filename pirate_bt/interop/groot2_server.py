@@ -415,7 +415,7 @@ class Groot2Server(_Requests):
         came. It is started on the same ports, at most :data:`RELAY_RESTARTS` times;
         Groot2 reconnects by itself (a request it had sent is lost with the relay)."""
         relay = self._relay
-        if relay is None or (how := relay_ended(relay)) is None:
+        if relay is None or self._stop.is_set() or (how := relay_ended(relay)) is None:
             return
         with self._relay_lock:
             if self._stop.is_set() or self._relay is not relay:
@@ -424,6 +424,7 @@ class Groot2Server(_Requests):
                 self._lose_relay(how, f"it ended {RELAY_RESTARTS + 1} times")
                 return
             self._relay_restarts += 1
+            end_relay(relay)  # its pipes (it has ended: no wait)
             old = self._folder
             try:
                 for sock, endpoint in zip((self._rep, self._pub), self._endpoints, strict=True):
@@ -444,6 +445,7 @@ class Groot2Server(_Requests):
 
     def _lose_relay(self, how: str, why: str) -> None:
         """The relay is gone for good: say so once; the run goes on without Groot2."""
+        end_relay(self._relay)  # its pipes (it has ended: no wait)
         self._relay = None
         self.enabled = False
         logger.error(
@@ -495,6 +497,8 @@ class Groot2Server(_Requests):
         self._stop.set()
         self._thread.join(timeout=2.0)
         with self._relay_lock:  # a restart under way finishes first, then ends here
+            if self._thread.is_alive():  # it was restarting the relay: it stops now
+                self._thread.join(timeout=2.0)
             self._end_relay()
         forget_in_forks(self)
 
