@@ -49,7 +49,7 @@ from pirate_bt.task.navigate_result import (
     unrecovered,
     went_on,
 )
-from pirate_bt.task.navigate_steps import StepRun, run_blind, run_mapped
+from pirate_bt.task.navigate_steps import StepRun, plan_mapped, run_blind, run_mapped
 from pirate_bt.task.navigation import (
     Belief,
     BlindTrail,
@@ -384,8 +384,8 @@ def run_navigation(
                         rolled = step.pab == "bend" and "roll" in step.params
                         roll = checked.roll_rad if rolled else None
                         source, line = origin
-                        plan = planner.plan(
-                            checked.route_line(), line, belief, roll_rad=roll, source=source
+                        plan = plan_mapped(
+                            planner, checked.route_line(), line, belief, roll, source, robot_length
                         )
                     else:
                         checked.check_blind(belief, trail)

@@ -30,7 +30,7 @@ from pirate_bt.task.outcome import END_OF_RUN, PabOutcome, explain_run, link_cau
 from pirate_bt.task.plan import PAB_FILES, MissionPlan, direction_name
 from pirate_bt.task.tree import steer_param
 
-__all__ = ["StepRun", "run_blind", "run_mapped"]
+__all__ = ["StepRun", "plan_mapped", "run_blind", "run_mapped"]
 
 _PROBES = {"probe-turn": "/probe_roll", "probe-tee": "/probe_side"}
 """The probe PABs (a tree with no parameters) and the blackboard key each answers on."""
@@ -78,6 +78,51 @@ def _felt_on_map(mission: MissionResult) -> list[Felt]:
             direction = "straight" if way == "straight" else direction_name(piece.roll_rad)
         out.append(Felt(kind, fix.after_m, fix.feature, direction, fix.how))
     return out
+
+
+def plan_mapped(
+    planner: Any,
+    line: str,
+    index: int,
+    belief_m: float,
+    roll_rad: float | None,
+    source: str | None,
+    robot_length_m: float,
+) -> MissionPlan:
+    """A step planned on the map from the belief (:meth:`~pirate_bt.task.step_planner.
+    StepPlanner.plan`); a T-joint step refused there because the robot's front tip is
+    past the start of a tee its body straddles (the leg before stopped over an opening
+    nearer than drawn: a fix put the belief past the tee's start) is planned from the
+    tee's approach point, as a mission plans its re-planned rest: the T-joint PAB
+    crosses the tee from where the robot stands. It was refused as the navigator's
+    invalid step (*'at the T-joint go straight' does not fit the network: there is no
+    T-joint ahead on 'b'*), where a mission on the same map and pipe went on.
+
+    Raises:
+        LocatedError: the step does not fit the map (from the belief, as before).
+        ValidationFailed: the line does not parse.
+    """
+    from pirate_bt.errors import LocatedError
+
+    try:
+        return planner.plan(line, index, belief_m, roll_rad=roll_rad, source=source)  # type: ignore[no-any-return]
+    except LocatedError as exc:
+        refused = exc
+    walker = planner._walker  # the way taken so far, on which the steps are planned
+    straddled = [
+        p
+        for p in walker.path.pieces
+        if p.kind is PieceKind.TEE
+        and p.segment not in walker.choices
+        and p.start_m < belief_m < p.end_m + robot_length_m
+    ]
+    if not line.startswith("at the T-joint") or not straddled:
+        raise refused
+    at_m = straddled[0].start_m - planner.contract.approach_m
+    try:
+        return planner.plan(line, index, at_m, roll_rad=roll_rad, source=source)  # type: ignore[no-any-return]
+    except LocatedError:
+        raise refused from None
 
 
 def run_mapped(
