@@ -9,10 +9,16 @@ from __future__ import annotations
 from operator import attrgetter
 
 from pirate_bt.link.inbound import STATE_REFUSALS
-from pirate_bt.link.session import SessionStats
+from pirate_bt.link.session import Session, SessionStats
 from pirate_bt.robot.port import LinkHealth
 
-__all__ = ["HEALTH_FIGURES", "REFUSED_STATES_REPORTED", "health_of", "refusals"]
+__all__ = [
+    "HEALTH_FIGURES",
+    "REFUSED_STATES_REPORTED",
+    "health_of",
+    "lossy_text",
+    "refusals",
+]
 
 # The session figures health() is made of, read in one C call. ``completed`` is there
 # because every request that enters the loss window also bumps it, so the loss ratio
@@ -82,4 +88,28 @@ def health_of(
         states_refused=refusals(refused, taken=taken),
         line_noise=s.line_noise,
         latch_kept=latch_kept,
+    )
+
+
+def lossy_text(session: Session, marks: tuple[int, int, int]) -> str:
+    """What the line lost since ``marks`` (a request's ``marks``: the session's
+    unreadable frames, heartbeats sent and answered at its first send), said after a
+    request not acknowledged on any try: ``""`` unless the bridge answered some of the
+    host's heartbeats meanwhile (it hears the host) while others went unanswered or
+    frames from it were unreadable. A request lost on every try of a lossy line is
+    then named as loss, not as a bridge that may not hear the host."""
+    garbled0, sent0, answered0 = marks
+    sent = session.heartbeats_sent - sent0
+    answered = session.heartbeats_answered - answered0
+    garbled = session.crc_errors - garbled0
+    if answered <= 0 or (answered >= sent and garbled <= 0):
+        return ""
+    lost = [f"{sent - answered} of the host's {sent} heartbeats went unanswered"]
+    if answered >= sent:
+        lost = []
+    if garbled > 0:
+        lost.append(f"{garbled} frame{'s' * (garbled != 1)} from the bridge were unreadable")
+    return (
+        f": the link loses frames (meanwhile {' and '.join(lost)}; the bridge answered"
+        f" {answered}, so it hears the host): each try was lost on the line"
     )

@@ -169,6 +169,7 @@ class Request:
         "acked_at_s",
         "created_s",
         "first_sent_s",
+        "marks",
         "msg",
         "nack",
         "outcome",
@@ -184,6 +185,9 @@ class Request:
         self.created_s = created_s
         self.sent_at_s = math.nan
         self.first_sent_s = math.nan
+        # the session's unreadable frames, heartbeats sent and heartbeats answered at
+        # the first send: what the line lost while this request was tried
+        self.marks = (0, 0, 0)
         self.acked_at_s = math.nan
         self.tries = 0
         self.outcome = Outcome.PENDING

@@ -31,9 +31,11 @@ from pirate_bt.link.health import (
     HEALTH_FIGURES,
     REFUSED_STATES_REPORTED,
     health_of,
+    lossy_text,
     refusals,
 )
 from pirate_bt.link.inbound import unasked_text
+from pirate_bt.link.resend import BulkResends
 from pirate_bt.link.session import Outcome, Request, Session
 from pirate_bt.link.snapshots import AppliedSetpoints, Snapshots
 from pirate_bt.robot.commands import CommandCodec, MotorCommand
@@ -75,6 +77,7 @@ class RobotLink:
         self._acked_raw: list[int] = [0] * len(slots)
         self._unsettled: list[Request] = []  # bulks sent whose outcome is not yet taken in
         self._last_bulk: Request | None = None
+        self._resends = BulkResends()  # a table lost on every try goes again
         self._away = BoardsAway(robot)  # boards in TIMEOUT, and commands deferred for them
         self._deferred: set[int] = set()  # the boards the last send() deferred
         self._health_figures: tuple[Any, ...] | None = None
@@ -111,6 +114,10 @@ class RobotLink:
             self._deadman.renew(self.session, self._modes, self._raw)
         else:
             self.session.poll()
+        if self._resends.due(self.session, self._last_bulk):
+            self._send_table(self._away.by_id(self.session.boards_away()).keys())
+            assert self._last_bulk is not None
+            self._resends.sent(self._last_bulk)
         if self._away.owed:
             self._redeliver()
         estop = self.session.take_estop_not_taken()
@@ -349,20 +356,23 @@ class RobotLink:
             hint = (
                 ""
                 if last.nack or last.outcome is Outcome.STALE
-                else self._one_way_hint(last.first_sent_s)
+                else self._one_way_hint(last.first_sent_s, last)
             )
             raise LinkError(
                 f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
                 f"seq {last.seq} {why} after {last.tries} tries{hint}"
             )
 
-    def _one_way_hint(self, since_s: float | None = None) -> str:
+    def _one_way_hint(self, since_s: float | None = None, req: Request | None = None) -> str:
         """Why a request first sent at ``since_s`` went unanswered, when the bridge's own
         frames tell: its watchdog tripped (it heard nothing from the host), it answered
         meanwhile requests the host never made (it hears the host, but answers with
         another seq or type: before 2026-11-30 such a bridge was asked *does it hear the
-        host?*), or its STATEs still arrive (the line from the bridge works; the one
-        toward it may not). ``""`` when they tell nothing."""
+        host?*), the line lost frames while ``req`` was tried (the bridge answered some of
+        the host's heartbeats, so it hears the host: :func:`lossy_text`; before
+        2026-12-01 a request lost on every try of a lossy line was asked *does it hear
+        the host?* too), or its STATEs still arrive (the line from the bridge works; the
+        one toward it may not). ``""`` when they tell nothing."""
         if self.session.stats().watchdog:
             return (
                 ": the bridge reports its watchdog tripped (it hears nothing from the host:"
@@ -371,6 +381,9 @@ class RobotLink:
         unasked = 0 if since_s is None else self.session.answers_unasked_since(since_s)
         if unasked:
             return f", though the bridge {unasked_text(unasked)}"
+        lossy = "" if req is None else lossy_text(self.session, req.marks)
+        if lossy:
+            return lossy
         latest = self.session.latest_state()
         if (
             latest is not None
@@ -562,7 +575,7 @@ class RobotLink:
             )
         else:
             after = (
-                f"{self._one_way_hint(None if bulk is None else bulk.first_sent_s)}: the"
+                f"{self._one_way_hint(None if bulk is None else bulk.first_sent_s, bulk)}: the"
                 " robot may still be moving until its bridge's watchdog stops it"
             )
         self.close_error = LinkError(f"the closing stop was {stop}, {estop}{after}")

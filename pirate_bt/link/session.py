@@ -158,6 +158,8 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
         self.rtt_samples: collections.deque[float] = collections.deque(maxlen=10_000)
         self._recent: collections.deque[bool] = collections.deque(maxlen=self.config.loss_window)
         self.crc_errors = 0
+        self.heartbeats_sent = 0
+        self.heartbeats_answered = 0
         self.retries = 0
         self.failed = 0
         self.duplicates = 0
@@ -334,6 +336,15 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
                 self._pending_failures.remove(req)
             return req
 
+    def forget_failure(self, req: Request) -> bool:
+        """Take ``req`` out of :meth:`take_failures`'s list (a bulk whose table the link
+        sends again, :mod:`pirate_bt.link.resend`); whether it was there."""
+        with self._lock:
+            if req in self._pending_failures:
+                self._pending_failures.remove(req)
+                return True
+            return False
+
     def take_failures(self) -> list[Request]:
         """Requests that failed, were refused or came back stale since the last call."""
         with self._lock:
@@ -447,6 +458,7 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
             self.retries += 1
         else:
             req.first_sent_s = now
+            req.marks = (self.crc_errors, self.heartbeats_sent, self.heartbeats_answered)
         req.tries += 1
         req.sent_at_s = now
         self._last_sent_s = now
@@ -462,6 +474,8 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
         req.outcome = outcome
         req.acked_at_s = now
         self.completed += 1
+        if outcome is Outcome.ACKED and isinstance(req.msg, Heartbeat):
+            self.heartbeats_answered += 1
         if outcome is Outcome.SUPERSEDED:
             self.superseded += 1
             return
@@ -552,6 +566,7 @@ class Session(InboundMixin, LivenessMixin, ReaderMixin):
                 now,  # pragma: no mutate (an internal request's time: nothing reads it)
             )
             self._oob[(MsgType.HEARTBEAT, hb.seq)] = hb
+            self.heartbeats_sent += 1
             self._transmit(hb)
         # the next time anything above can be due (a conservative bound: acks only delay it)
         # (an earlier bound only costs a poll that finds nothing to do; an oob request is
