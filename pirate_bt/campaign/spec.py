@@ -199,7 +199,7 @@ class RunItem(BaseModel):
     def label(self) -> str:
         if self.name:
             return self.name
-        return Path(str(self.tree or self.route or self.navigator)).name.split(".")[0]
+        return self.navigator or Path(str(self.tree or self.route)).name.split(".")[0]
 
 
 class SeedRange(BaseModel):
