@@ -60,7 +60,8 @@ from pirate_bt.task.plan import (
 )
 from pirate_bt.task.route import Route, load_route
 from pirate_bt.task.start_check import check_start
-from pirate_bt.task.tree import mission_tree_spec
+from pirate_bt.task.traction import Traction
+from pirate_bt.task.tree import mission_tree_spec, pab_torque_nm
 from pirate_bt.task.walker import _TOL_M, _Walker
 
 __all__ = [
@@ -130,8 +131,15 @@ def plan_route(
         walker.start_m = walker.s_m = start_m
     else:  # put in at the network's start: on straight pipe?
         check_start(route, walker.path, walker.start_m, walker.length_m)
+    torque = pab_torque_nm()
+    traction = Traction.of(robot, network.tether_drag_per_m, torque) if torque is not None else None
     for step in route.steps:
+        made = len(walker.pabs)
         walker.walk(step)
+        for pab in walker.pabs[made:]:
+            problem = traction.problem(walker.path, pab) if traction is not None else None
+            if problem is not None:  # its wheels would turn in place (task/traction.py)
+                raise LocatedError(f"'{step.text}' cannot be planned: {problem}", step.location)
     if not walker.pabs and start_m is None and route.steps:
         # a route of 'return to start' alone: its tree had no child, and the mission
         # was refused as '<dict>:1:1: needs a list of children', naming no file

@@ -28,7 +28,7 @@ def _pab_file(trees_dir: Path, pab: str) -> Path:
 
 def _declared_params(path: Path) -> dict[str, float | None]:
     """The parameters a PAB tree declares, each with its default in SI units where it
-    is a velocity or an angle with a default (``None`` otherwise)."""
+    is a velocity, an angle or a torque with a default (``None`` otherwise)."""
     from pirate_bt.errors import UnitError
     from pirate_bt.units import parse_quantity
     from pirate_bt.yamlfile import load_yaml
@@ -41,13 +41,22 @@ def _declared_params(path: Path) -> dict[str, float | None]:
     for name, spec in params.items():
         default = None
         kind = spec.get("type") if isinstance(spec, dict) else None
-        if kind in ("velocity", "angle") and "default" in spec:
+        if kind in ("velocity", "angle", "torque") and "default" in spec:
             try:
                 default = parse_quantity(spec["default"], str(kind))
             except UnitError:
                 default = None  # the tree's own check says what is wrong with it
         declared[str(name)] = default
     return declared
+
+
+def pab_torque_nm(trees_dir: Path | None = None) -> float | None:
+    """The clamp torque the bend PAB presses with when a mission gives none (its
+    ``torque`` parameter's default), or ``None`` where its tree declares none."""
+    from pirate_bt.resources import data_dir
+
+    path = (trees_dir or data_dir("trees")) / PAB_FILES["bend"]
+    return _declared_params(path).get("torque") if path.is_file() else None
 
 
 def steer_param(path: Path, steer_angle_rad: float) -> dict[str, float]:
