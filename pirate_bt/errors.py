@@ -386,7 +386,9 @@ class ValidationFailed(InputError):
     Python caller, may all appear).
 
     Args:
-        errors: The problems, at least one.
+        errors: The problems, at least one: a list of :class:`LocatedError`, or one.
+            A message as text (planner code's own check, ``ValidationFailed("the map
+            has no tee")``) is one problem at the line that raised it.
 
     Attributes:
         errors: A tuple of :class:`LocatedError`, in the order found (files:
@@ -397,12 +399,31 @@ class ValidationFailed(InputError):
 
     Raises:
         ValueError: ``errors`` is empty.
+        ArgumentTypeError: ``errors`` holds anything but ``LocatedError`` objects (text
+            was taken as one problem per character, its letters one per line; a single
+            ``LocatedError`` was Python's *not iterable*).
     """
 
-    def __init__(self, errors: Iterable[LocatedError]) -> None:
+    def __init__(self, errors: Iterable[LocatedError] | LocatedError | str) -> None:
+        if isinstance(errors, LocatedError):
+            errors = (errors,)
+        elif isinstance(errors, str):
+            where = caller_location() or SourceLocation("<python>")
+            errors = (LocatedError(errors, where),)
+        elif not isinstance(errors, Iterable) or isinstance(errors, bytes | bytearray):
+            raise ArgumentTypeError(
+                f"errors: give LocatedErrors (a list of them), or a message as text, not"
+                f" {kind_of(errors)}"
+            )
         self.errors: tuple[LocatedError, ...] = tuple(errors)
         if not self.errors:
             raise ValueError("ValidationFailed needs at least one error")
+        for error in self.errors:
+            if not isinstance(error, LocatedError):
+                raise ArgumentTypeError(
+                    "errors: each is a LocatedError(message, SourceLocation(file, line,"
+                    f" column)), not {kind_of(error)}"
+                )
         super().__init__("\n".join(str(e) for e in self.errors))
 
     def __reduce__(self) -> tuple[Any, ...]:
