@@ -4,7 +4,9 @@ start, the robot's body across the opening) was refused as the navigator's inval
 (*'at the T-joint go straight' does not fit the network: there is no T-joint ahead on
 'b'*), where a mission on the same map and pipe crossed the tee and went on (the route
 navigator in 3 of 6 as-built variants of the lab at three times the bounds). It is now
-planned from the tee's approach point, as a mission's re-planned rest is."""
+planned from the tee's approach point, as a mission's re-planned rest is. A forward leg
+from there, which stopped at once over the opening and was a success that moved nothing,
+is refused, naming the tee."""
 
 from __future__ import annotations
 
@@ -31,10 +33,10 @@ segments:
 ROUTE = "network m23\n\nforward 2.2 m\nat the T-joint go straight\nforward 1 m\n"
 
 
-def _run(tmp_path: Path, first_m: str) -> pirate_bt.NavigationResult:
+def _run(tmp_path: Path, first_m: str, route: str = ROUTE) -> pirate_bt.NavigationResult:
     (tmp_path / "m23.yaml").write_text(MAP)
     (tmp_path / "truth.yaml").write_text(MAP.replace("length: 3 m}", f"length: {first_m}}}"))
-    (tmp_path / "m.route").write_text(ROUTE)
+    (tmp_path / "m.route").write_text(route)
     navigator = load_navigator("route", {"route": str(tmp_path / "m.route")})
     return pirate_bt.navigate(navigator, sim=tmp_path / "truth.yaml", map=tmp_path / "m23.yaml")
 
@@ -68,3 +70,16 @@ def test_a_tee_step_past_the_tee_is_refused_as_before(tmp_path: Path) -> None:
     assert result.status == "failure"
     assert "asked for an invalid step Step('t-joint', direction='straight')" in result.why
     assert "there is no T-joint ahead" in result.why
+
+
+def test_a_forward_leg_from_across_the_tee_is_refused_naming_it(tmp_path: Path) -> None:
+    result = _run(tmp_path, "2.2 m", ROUTE.replace("at the T-joint go straight\n", ""))
+    # was: success, 'done after 2 steps', the second (forward 1 m) moving nothing: the
+    # straight PAB stopped at once over the opening
+    assert result.status == "failure"
+    assert result.why.endswith(
+        "'forward 1.0000 m' does not fit the network: the robot is across the T-joint 'tee'"
+        " (3.00-3.19 m), over its opening, where a straight stops at once; write 'at the"
+        " T-joint go straight' (or into the branch) to cross it"
+    )
+    assert result.safe_state and result.steps == 1

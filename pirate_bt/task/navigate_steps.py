@@ -98,16 +98,17 @@ def plan_mapped(
     invalid step (*'at the T-joint go straight' does not fit the network: there is no
     T-joint ahead on 'b'*), where a mission on the same map and pipe went on.
 
+    A forward leg from across such a tee is refused, naming it: the straight PAB stops
+    at once over an opening (for a T-joint PAB after it), and the step was a success
+    that moved nothing.
+
     Raises:
-        LocatedError: the step does not fit the map (from the belief, as before).
+        LocatedError: the step does not fit the map (from the belief, as before), or
+            is a forward leg from across a tee.
         ValidationFailed: the line does not parse.
     """
     from pirate_bt.errors import LocatedError
 
-    try:
-        return planner.plan(line, index, belief_m, roll_rad=roll_rad, source=source)  # type: ignore[no-any-return]
-    except LocatedError as exc:
-        refused = exc
     walker = planner._walker  # the way taken so far, on which the steps are planned
     straddled = [
         p
@@ -116,6 +117,24 @@ def plan_mapped(
         and p.segment not in walker.choices
         and p.start_m < belief_m < p.end_m + robot_length_m
     ]
+    try:
+        plan: MissionPlan = planner.plan(line, index, belief_m, roll_rad=roll_rad, source=source)
+    except LocatedError as exc:
+        refused = exc
+    else:
+        forward = [p for p in plan.pabs if p.pab == "straight" and p.end_m > p.start_m]
+        if straddled and forward and forward[0] is plan.pabs[0]:
+            # a leg from over the opening stops at once (the straight PAB's shortcut for
+            # a T-joint PAB after it): it was a success that moved nothing
+            tee = straddled[0]
+            raise LocatedError(
+                f"{line!r} does not fit the network: the robot is across the T-joint"
+                f" {tee.segment!r} ({tee.start_m:.2f}-{tee.end_m:.2f} m), over its opening,"
+                " where a straight stops at once; write 'at the T-joint go straight' (or"
+                " into the branch) to cross it",
+                plan.route.steps[0].location,
+            )
+        return plan
     if not line.startswith("at the T-joint") or not straddled:
         raise refused
     at_m = straddled[0].start_m - planner.contract.approach_m
