@@ -376,6 +376,17 @@ def _refuse_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are each written once: Python's reader keeps the last of
+    two (``{"k": 1, "k": 2}`` read as ``{"k": 2}``), where a tree file refuses both."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"duplicate key {_shown(key)} in an object")
+        out[key] = value
+    return out
+
+
 def _finite(text: str) -> float:
     value = float(text)
     if not math.isfinite(value):
@@ -444,7 +455,12 @@ def decode_value(text: str, port_type: str, port: str = "") -> Any:
     """
     if text.startswith("json:"):
         try:
-            value = json.loads(text[5:], parse_constant=_refuse_constant, parse_float=_finite)
+            value = json.loads(
+                text[5:],
+                parse_constant=_refuse_constant,
+                parse_float=_finite,
+                object_pairs_hook=_unique_keys,
+            )
         except json.JSONDecodeError as exc:
             raise ValueError(f"bad json: value: {exc.msg}") from None
         except RecursionError:
