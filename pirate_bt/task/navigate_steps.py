@@ -195,7 +195,7 @@ def run_mapped(
             counters=counters,
             period_s=period_s,
             map_tolerance=map_tolerance,
-            max_time_s=limit,
+            max_time_s=max_time_s,  # the navigation's time left: the rest has its own estimate
             started_s=started_s,
         )
     return StepRun(
