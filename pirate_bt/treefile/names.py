@@ -10,6 +10,7 @@ from typing import Any
 
 from pirate_bt.errors import LocatedError
 from pirate_bt.treefile.spec import NodeSpec, PathKey
+from pirate_bt.yamlfile.alike import alike_note, odd_character, skeleton
 from pirate_bt.yamlvalidate import close_matches, key_not_text
 
 __all__ = [
@@ -188,52 +189,3 @@ def _how_alike(first: str, second: str) -> str:
     if _alike(first) == _alike(second):
         return " (the same text but for a zero-width joiner, U+200C or U+200D)"
     return f" (shown alike: {odd_character(first, second)})"
-
-
-# -- look-alikes ------------------------------------------------------------------------
-
-_LOOK_ALIKES = str.maketrans(
-    # Cyrillic, Greek and Armenian letters drawn as a Latin one (after Unicode's
-    # confusables.txt, UTS #39), and the dotless i
-    "аеорсухѕіјԁԛԝһӏАВЕКМНОРСТХУЅІЈӀԚԜΑΒΕΖΗΙΚΜΝΟΡΤΥΧονιργօսհոı",
-    "aeopcyxsijdqwhlABEKMHOPCTXYSIJlQWABEZHIKMNOPTYXovipyouhni",
-)
-
-
-def skeleton(name: str) -> str:
-    """``name`` as it is seen: compatibility forms folded (NFKC: a full-width 'ｇ' is 'g'),
-    invisible characters dropped (format characters: zero-width spaces and joiners, the
-    soft hyphen, bidirectional controls; variation selectors), every space a ' ', and
-    each Cyrillic, Greek or Armenian letter drawn as a Latin one read as that one. Two
-    names of one skeleton look alike on a screen, in a trace and in a diagram."""
-    folded = unicodedata.normalize("NFKC", name)
-    shown = {ord(c): _seen(c) for c in set(folded)}  # each distinct character asked once
-    return unicodedata.normalize("NFC", folded.translate(shown).translate(_LOOK_ALIKES))
-
-
-def _seen(c: str) -> str:
-    """What a character shows as: nothing for an invisible one, ' ' for a space."""
-    category = unicodedata.category(c)
-    if category == "Cf" or "\ufe00" <= c <= "\ufe0f" or c == "\u034f":
-        return ""
-    return " " if category in _SPACES else c
-
-
-def odd_character(first: str, second: str) -> str:
-    """The first character by which ``second`` differs from ``first`` although the two
-    look alike, named: ``'у' is U+0443 CYRILLIC SMALL LETTER U``."""
-    if unicodedata.normalize("NFC", first) == unicodedata.normalize("NFC", second):
-        return "the same text in another Unicode form (an accent composed or not)"
-    for text, other in ((second, set(first)), (first, set(second))):
-        odd = next((c for c in text if c not in other), None)
-        if odd is not None:
-            return f"{odd!r} is U+{ord(odd):04X} {unicodedata.name(odd, 'a character')}"
-    return "the same characters in another order"  # not reached for names of one skeleton
-
-
-def alike_note(name: str, suggestion: str) -> str:
-    """For a *did you mean* whose suggestion looks just like the name given (a node type
-    'wаit', Cyrillic а, and 'wait'): what differs, `` ('а' is U+0430 ...)``; else ''."""
-    if name == suggestion or skeleton(name) != skeleton(suggestion):
-        return ""
-    return f" ({odd_character(suggestion, name)})"
