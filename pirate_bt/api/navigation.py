@@ -62,6 +62,35 @@ def _trace_folder(trace: Any) -> Path:
     return output_folder(trace, "trace")
 
 
+def _not_a_trace_file(trace: Any) -> Path:
+    """``trace`` as a navigation takes it: a folder, not a name of a trace file. A tree's
+    and a mission's ``trace=`` is a file, and ``trace="nav.jsonl"`` here made a folder
+    named ``nav.jsonl``, ``navigation.jsonl`` and the step traces in it. A folder that is
+    there already is taken whatever its name.
+
+    Raises:
+        InputError: a name that ends as a trace file does (``.jsonl``, ``.mcap``, ...),
+            one line naming ``trace``; or a bad folder (:func:`output_folder`).
+    """
+    from pirate_bt.errors import ConfigurationError
+    from pirate_bt.trace.formats import suffix_of
+    from pirate_bt.trace.writer import WRITERS
+
+    folder = _trace_folder(trace)
+    if folder.is_dir():
+        return folder
+    try:
+        suffix = suffix_of(folder, WRITERS)
+    except (InputError, ConfigurationError):  # no trace file's name: a folder's
+        return folder
+    stem = str(folder)[: -len(suffix)] or "trace"
+    raise InputError(
+        f"trace: {folder} is the name of a trace file ({suffix}), but a navigation writes"
+        " a folder: navigation.jsonl (every decision) and one trace per step"
+        f" (step-001.jsonl, ...); give a folder, e.g. {stem!r}"
+    )
+
+
 def _make_trace_folder(folder: Path) -> None:
     from pirate_bt.api.options import writable_folder
 
@@ -225,9 +254,7 @@ def navigate(
     faults = fault_list(faults)  # a generator: read once, checked and then run
     split_faults(faults)
     if trace is not None:  # its name now; the folder is made once every argument is checked
-        from pirate_bt.api.options import output_folder
-
-        output_folder(trace, "trace")
+        _not_a_trace_file(trace)
     if isinstance(navigator, str):
         name = navigator
         navigator = load_navigator(navigator, params_mapping(params))
