@@ -356,7 +356,9 @@ class LocatedError(InputError):
 
     Args:
         message: What is wrong, for people (see ``message`` below).
-        location: Where it is.
+        location: Where it is; ``None`` (or left out, as planner code raising one of its
+            own may) is the line of Python that made it (``<python>:1:1`` when that is
+            pirate_bt's own). It was required, and ``None`` printed ``None: message``.
 
     Attributes:
         message: What is wrong, without the location; by convention it starts
@@ -369,7 +371,9 @@ class LocatedError(InputError):
     ``trees/t.yaml:4:34: clamp: torque: 50 N*m is above the bend joints' limit 0.8 N*m``.
     """
 
-    def __init__(self, message: str, location: SourceLocation) -> None:
+    def __init__(self, message: str, location: SourceLocation | None = None) -> None:
+        if location is None:
+            location = caller_location() or SourceLocation("<python>")
         self.message = message
         self.location = location
         super().__init__(f"{location}: {message}")

@@ -56,3 +56,14 @@ def test_anything_else_is_refused_in_one_line(errors: object, message: str) -> N
         ValidationFailed(errors)  # type: ignore[arg-type]
     assert str(refused.value) == message
     assert isinstance(refused.value, InputError) and isinstance(refused.value, TypeError)
+
+
+@pytest.mark.parametrize("location", [(), (None,)])
+def test_a_located_error_without_a_place_is_at_the_line_that_made_it(
+    location: tuple[None, ...],
+) -> None:
+    error = LocatedError("the map has no tee", *location)
+    assert error.location.file.endswith("test_api23_validation_failed.py")
+    assert str(error) == f"{error.location}: the map has no tee"
+    assert not str(error).startswith("None")
+    assert str(pickle.loads(pickle.dumps(error))) == str(error)
