@@ -21,6 +21,7 @@ from pydantic import BaseModel, ValidationError
 
 from pirate_bt.errors import LocatedError, ValidationFailed, shown
 from pirate_bt.yamlfile import VALUE_WORDS, Locator, PathKey, YamlDocument
+from pirate_bt.yamlfile.alike import alike_note
 
 __all__ = [
     "close_matches",
@@ -322,9 +323,16 @@ def _misspelt(
         if path in taken and message.startswith("missing required key"):
             continue
         if path in meant and message.startswith("unknown key"):
-            message = f"{message} (did you mean {shown(meant[path][-1])}?)"
+            message = _did_you_mean(message, str(path[-1]), str(meant[path][-1]))
         said.append((path, message))
     return said if model is None else _close_to_known(said, unknown - set(meant), model, data)
+
+
+def _did_you_mean(message: str, written: str, meant: str) -> str:
+    """``message`` with its *did you mean*, and which character differs where the two
+    names look alike (``'durаtion'``, a Cyrillic а, for ``duration``)."""
+    note = alike_note(written, meant)[2:-1]  # its own parentheses dropped
+    return f"{message} (did you mean {shown(meant)}?{' ' + note if note else ''})"
 
 
 def _close_to_known(
@@ -344,7 +352,7 @@ def _close_to_known(
     if not meant:
         return out
     return [
-        (path, f"{message} (did you mean {shown(meant[path])}?)")
+        (path, _did_you_mean(message, str(path[-1]), meant[path]))
         if path in meant and message.startswith("unknown key") and "did you mean" not in message
         else (path, message)
         for path, message in out

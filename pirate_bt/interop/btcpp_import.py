@@ -44,6 +44,7 @@ from pirate_bt.treefile.params import chain_text, listed
 from pirate_bt.treefile.registry import Registry, default_registry
 from pirate_bt.treefile.spec import MAX_TREE_DEPTH
 from pirate_bt.yamlfile import MAX_NODES
+from pirate_bt.yamlfile.alike import alike_among, alike_note
 from pirate_bt.yamlvalidate import close_matches, validation_problems
 
 __all__ = ["xml_to_tree"]
@@ -54,7 +55,8 @@ _log = logging.getLogger("pirate_bt.interop.btcpp")
 
 def _suggest(name: str, known: list[str]) -> str:
     close = close_matches(name, known, n=2)
-    return f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+    note = alike_note(name, close[0]) if len(close) == 1 else ""  # 'durаtion', Cyrillic а
+    return f"; did you mean {' or '.join(map(repr, close))}?{note}" if close else ""
 
 
 def _file_like(name: str) -> bool:
@@ -390,6 +392,7 @@ class _Importer:
                     f"<SubTree ID={_shown(target)}>: port {_shown(key)} is not a parameter"
                     f" of {_shown(target)}"
                     f" (parameters: {known}; declare them in <TreeNodesModel>)"
+                    + alike_among(key, list(declared))
                 )
             if text == "" and decl.get("default") == "":
                 continue  # its default, written out for BT.CPP (it takes default="" for none)

@@ -23,6 +23,7 @@ from pydantic import ValidationError
 from pirate_bt.errors import LocatedError, SourceLocation, ValidationFailed, shown
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.names import (
+    alike_among,
     name_problem,
     odd_character,
     printable,
@@ -513,6 +514,7 @@ class _FileReader:
                 if len(close) == 1 and close[0] not in meant.values():
                     meant[str(name)] = close[0]
                     hint = f"; did you mean {shown(close[0])}?"
+                hint += alike_among(str(name), [str(n) for n in decls])
                 self.errors.append(
                     LocatedError(
                         f"unknown parameter {_shown(str(name))} (parameters: {known}){hint}",

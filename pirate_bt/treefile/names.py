@@ -10,10 +10,11 @@ from typing import Any
 
 from pirate_bt.errors import LocatedError
 from pirate_bt.treefile.spec import NodeSpec, PathKey
-from pirate_bt.yamlfile.alike import alike_note, odd_character, skeleton
+from pirate_bt.yamlfile.alike import alike_among, alike_note, odd_character, skeleton
 from pirate_bt.yamlvalidate import close_matches, key_not_text
 
 __all__ = [
+    "alike_among",
     "alike_note",
     "dedupe",
     "name_problem",

@@ -11,7 +11,7 @@ from __future__ import annotations
 import unicodedata
 from typing import Final
 
-__all__ = ["alike_note", "odd_character", "skeleton"]
+__all__ = ["alike_among", "alike_note", "odd_character", "skeleton"]
 
 _SPACES: Final = frozenset({"Zs", "Zl", "Zp"})
 """Unicode's spaces and line and paragraph separators: each shown as a space."""
@@ -61,3 +61,14 @@ def alike_note(name: str, suggestion: str) -> str:
     if name == suggestion or skeleton(name) != skeleton(suggestion):
         return ""
     return f" ({odd_character(suggestion, name)})"
+
+
+def alike_among(name: str, known: list[str]) -> str:
+    """For a name refused as unknown beside the ``known`` ones: the known name it looks
+    just like, `` ('spеed' looks like 'speed': 'е' is U+0435 ...)``; else ''. At most
+    the first 1,000 known names are compared (a hostile file's may be thousands)."""
+    seen = skeleton(name)
+    for other in known[:1000]:
+        if other != name and skeleton(other) == seen:
+            return f" ({name!r} looks like {other!r}: {odd_character(other, name)})"
+    return ""
