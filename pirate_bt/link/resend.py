@@ -13,9 +13,12 @@ of the docs' campaign did so.
 The table goes again at most :data:`MAX_BULK_RESENDS` times in a row (a row ends when a
 ``STATE``'s ``ack_seq`` reaches the table sent again): a bridge that never acknowledges a
 bulk (one that does not hear the host, or does not follow docs/protocol.md) is still
-reported, after that many more tries. A bridge whose ``STATE`` reports its watchdog
-tripped hears nothing from the host, and one that answered meanwhile requests the host
-never made does not follow the protocol: their bulk is reported at once, as before.
+reported, after that many more tries. While the bridge's ``STATE`` reports its
+watchdog tripped it has heard nothing from the host (deaf, or every frame lost): the
+table goes again only once a ``STATE`` shows it hears the host again, and a deaf
+bridge's bulk is reported at the next send, as before (the link is lost after
+``link_timeout_s`` of such reports). One that answered meanwhile requests the host never
+made does not follow the protocol: its bulk is reported, as before.
 """
 
 from __future__ import annotations
@@ -55,13 +58,16 @@ class BulkResends:
             return False
         if bulk.outcome is not Outcome.FAILED or bulk.tries == 0:
             return False  # answered, still tried, or never sent (a session ended)
-        self._judged = bulk
         stats = session.stats()
+        if stats.watchdog and stats.connected:
+            # it heard nothing from the host for its watchdog period (a deaf bridge, or
+            # every frame lost): judged again once a STATE shows it hears the host again
+            return False
+        self._judged = bulk
         if (
             self.in_a_row >= MAX_BULK_RESENDS
             or not stats.connected
             or stats.estopped
-            or stats.watchdog  # it hears nothing from the host: said as such
             or session.answers_unasked_since(bulk.first_sent_s)  # it answers, but not this
         ):
             return False
