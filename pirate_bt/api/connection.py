@@ -323,6 +323,24 @@ class Connection:
     def __repr__(self) -> str:
         return f"<Connection {self.description}{' (closed)' if self._closed else ''}>"
 
+    def __reduce__(self) -> Any:
+        """Refuse to go to another process or be copied: a connection is its open link
+        (and its simulator), which only this process holds (``pool.submit(robot.run,
+        ...)`` failed *cannot pickle '_thread.RLock' object*, naming nothing).
+
+        Raises:
+            ArgumentTypeError: always, saying what to do instead (an ``InputError`` and
+                the ``TypeError`` pickle and ``copy`` expect).
+        """
+        from pirate_bt.errors import ArgumentTypeError
+
+        raise ArgumentTypeError(
+            f"connection: {self.description} cannot be pickled or copied: it is this"
+            " process's open link to its robot; in another process (a pool's worker) open"
+            " one there (pirate_bt.connect(...), or pool.submit(pirate_bt.simulate_tree,"
+            " ...), whose arguments and result pickle)"
+        )
+
 
 @contextmanager
 def _held_for_runner(connection: Connection) -> Iterator[None]:
