@@ -77,3 +77,31 @@ def test_a_plain_misspelling_keeps_its_words(
     assert capsys.readouterr().err == (
         f"{path}:2:20: wait: unknown key 'durtion' (did you mean 'duration'?)\n"
     )
+
+
+def test_names_refused_by_thousands_are_compared_in_work_bounded_by_both(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # each unknown parameter of a call compared its skeleton with every declared one's
+    # anew: 300 beside 300 made 90,000 skeletons (a hostile file, minutes at its cap)
+    from pirate_bt.yamlfile import alike
+
+    made: list[str] = []
+    real = alike.skeleton
+
+    def counted(name: str) -> str:
+        made.append(name)
+        return real(name)
+
+    monkeypatch.setattr(alike, "skeleton", counted)
+    declared = "".join(f"      p{i}: {{type: length, default: 1 m}}\n" for i in range(300))
+    given = ", ".join(f"q{i}: 1 m" for i in range(300))
+    path = tmp_path / "t.yaml"
+    path.write_text(
+        f"name: t\nroot: {{type: subtree, ref: s, params: {{{given}}}}}\nsubtrees:\n  s:\n"
+        f"    params:\n{declared}    root: {{type: wait, duration: 1 s}}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(path)]) == 2
+    assert len(capsys.readouterr().err.splitlines()) == 300
+    assert len(made) <= 4 * 600

@@ -8,6 +8,7 @@ import and :mod:`pirate_bt.yamlvalidate` (a misspelt key's *did you mean*).
 
 from __future__ import annotations
 
+import functools
 import unicodedata
 from typing import Final
 
@@ -65,10 +66,19 @@ def alike_note(name: str, suggestion: str) -> str:
 
 def alike_among(name: str, known: list[str]) -> str:
     """For a name refused as unknown beside the ``known`` ones: the known name it looks
-    just like, `` ('spеed' looks like 'speed': 'е' is U+0435 ...)``; else ''. At most
-    the first 1,000 known names are compared (a hostile file's may be thousands)."""
-    seen = skeleton(name)
-    for other in known[:1000]:
-        if other != name and skeleton(other) == seen:
-            return f" ({name!r} looks like {other!r}: {odd_character(other, name)})"
-    return ""
+    just like, `` ('spеed' looks like 'speed': 'е' is U+0435 ...)``; else ''. The first
+    1,000 known names are compared, their skeletons made once for every name refused
+    beside them (a hostile file may refuse thousands beside thousands)."""
+    other = _by_skeleton(tuple(known[:1000])).get(skeleton(name))
+    if other is None or other == name:
+        return ""
+    return f" ({name!r} looks like {other!r}: {odd_character(other, name)})"
+
+
+@functools.lru_cache(maxsize=8)
+def _by_skeleton(known: tuple[str, ...]) -> dict[str, str]:
+    """Each skeleton of ``known`` -> the first name of it."""
+    out: dict[str, str] = {}
+    for other in known:
+        out.setdefault(skeleton(other), other)
+    return out
