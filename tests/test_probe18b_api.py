@@ -7,6 +7,7 @@ import pickle
 import socket
 import threading
 from pathlib import Path
+from typing import Any
 
 import py_trees
 import pytest
@@ -165,6 +166,14 @@ def test_a_run_whose_node_raised_an_unpicklable_exception_still_pickles() -> Non
     assert back.as_dict() == result.as_dict()
 
 
+def _simulated(record: dict[str, Any]) -> dict[str, Any]:
+    """A result's record without what the wall clock decides: its wall time, and its
+    overruns (ticks over their wall-clock budget: one in a suite on a heavily loaded
+    machine, none on a quiet one)."""
+    counters = {k: v for k, v in record["counters"].items() if k != "overruns"}
+    return record | {"wall_s": 0, "counters": counters}
+
+
 def test_numpy_numbers_are_numbers_to_the_api() -> None:
     # seed=numpy.int64(3) was refused: "give a whole number ..., not np.int64(3)";
     # rate=numpy.float32(25) "give text with a unit or a number in SI units, not a
@@ -178,7 +187,7 @@ def test_numpy_numbers_are_numbers_to_the_api() -> None:
         rate=np.float32(25),
         max_time=np.int32(60),
     )
-    assert result.as_dict() | {"wall_s": 0} == plain.as_dict() | {"wall_s": 0}
+    assert _simulated(result.as_dict()) == _simulated(plain.as_dict())
     json.dumps(result.as_dict())
 
     class Twice:
@@ -201,7 +210,7 @@ def test_numpy_numbers_are_si_numbers_as_tree_parameters() -> None:
     np = pytest.importorskip("numpy")
     plain = pirate_bt.simulate_tree("straight", params={"distance": 0.25})
     result = pirate_bt.simulate_tree("straight", params={"distance": np.float32(0.25)})
-    assert result.as_dict() | {"wall_s": 0} == plain.as_dict() | {"wall_s": 0}
+    assert _simulated(result.as_dict()) == _simulated(plain.as_dict())
     loaded = pirate_bt.load_tree("bend", params={"roll": np.int64(0)})
     assert loaded.params["roll"] == pirate_bt.load_tree("bend", params={"roll": 0}).params["roll"]
 
