@@ -99,6 +99,9 @@ def _placer(
         if loc is None or Path(loc.file).resolve() != converted:
             return LocatedError(message, loc) if message != error.message else error
         target = in_xml(loc.line or 1, loc.column or 1)
+        if message.startswith("name: ") and marks.get(("name",)) == (loc.line, loc.column):
+            # the tree file's name is the main <BehaviorTree>'s ID (or its _name)
+            message = f"<BehaviorTree> ID (the tree's name): {message.removeprefix('name: ')}"
         return LocatedError(message, target if target is not None else loc)
 
     return placed
