@@ -41,6 +41,7 @@ from pirate_bt.yamlfile.aliases import use_alias_places
 from pirate_bt.yamlfile.count import refuse_too_many_values
 from pirate_bt.yamlfile.merge import SpecMergeLoader
 from pirate_bt.yamlfile.scalars import (
+    BOOL_TAG,
     INT_TAG,
     NOT_JSON,
     STR_TAG,
@@ -160,6 +161,7 @@ def refuse_hidden_break(text: str, name: str, what: str) -> None:
     raise ValidationFailed([LocatedError(message, SourceLocation(name, len(breaks) + 1, column))])
 
 
+_BOOLS: Final = ("true", "false")
 _Loader: type[yaml.SafeLoader] = SpecMergeLoader  # libyaml's when there; merges as YAML does
 
 
@@ -169,6 +171,8 @@ class Locator:
 
     file: str
     marks: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
+    yes_no: dict[PathKey, str] = field(default_factory=dict)
+    """Each value YAML 1.1 read as a boolean though written otherwise (``no``, ``on``)."""
 
     def locate(self, path: Sequence[str | int]) -> SourceLocation:
         """The place of ``path``, or of its deepest written ancestor.
@@ -322,6 +326,8 @@ def _walk(root: yaml.Node, locator: Locator, errors: list[LocatedError]) -> None
             problem = unfit(node, locator.file)
             if problem is not None:
                 errors.append(problem)
+            elif node.tag == BOOL_TAG and not node.style and node.value.lower() not in _BOOLS:
+                locator.yes_no[path] = node.value
             continue
         items: list[tuple[PathKey, yaml.Node]] = []
         if isinstance(node, yaml.MappingNode):
