@@ -28,9 +28,7 @@ spec came from, so later checks can point at ``file:line:column``.
 from __future__ import annotations
 
 import os
-import weakref
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -49,9 +47,10 @@ from pydantic import (
 
 from pirate_bt.api.options import MAX_RATE_HZ, MAX_SEED, MAX_TIME_S
 from pirate_bt.campaign.plain import plain
+from pirate_bt.campaign.source import SpecSource, remember, spec_source
 from pirate_bt.errors import InputError, LocatedError, SourceLocation, UnitError, ValidationFailed
 from pirate_bt.units import parse_quantity
-from pirate_bt.yamlfile import Locator, load_yaml
+from pirate_bt.yamlfile import load_yaml
 from pirate_bt.yamlvalidate import validate_document, validation_problems
 
 __all__ = [
@@ -288,7 +287,6 @@ class LinkAxes(BaseModel):
 
 
 def _fault(text: str) -> str:
-    from pirate_bt.errors import InputError
     from pirate_bt.sim.faults import parse_fault
 
     try:
@@ -463,75 +461,6 @@ class CampaignSpec(BaseModel):
 _CONTEXT: dict[str, Any] = {}
 
 
-@dataclass(frozen=True)
-class SpecSource:
-    """Where a spec came from, to word later errors about it.
-
-    Attributes:
-        name: The file, or ``campaign spec`` for one given as data.
-        base: The folder relative file names resolve against first (the file's
-            folder; the working folder for data).
-        locator: Where each key was written (files only).
-    """
-
-    name: str
-    base: Path
-    locator: Locator | None = None
-
-    def where(self, path: Sequence[str | int]) -> str:
-        """``file:line:column`` of a key path, or ``campaign spec: runs[0].tree`` for data."""
-        if self.locator is not None:
-            return str(self.locator.locate(path))
-        return f"{self.name}: {_dotted(path)}" if path else self.name
-
-    def error(self, path: Sequence[str | int], message: str) -> InputError:
-        """One problem at a key path: a :class:`LocatedError` for a file."""
-        if self.locator is not None:
-            return self.locator.error(path, message)
-        # A message that names its key already is not given it twice
-        # ("campaign spec: runs: runs: ...").
-        dotted = _dotted(path)
-        if dotted and message.startswith((f"{dotted} ", f"{dotted}:")):
-            return InputError(f"{self.name}: {message}")
-        key = path[-1] if path else None
-        if isinstance(key, str) and message.startswith(f"{key}: "):
-            message = message[len(key) + 2 :]
-        return InputError(f"{self.where(path)}: {message}")
-
-    def errors(self, problems: Sequence[tuple[Sequence[str | int], str]]) -> InputError:
-        """Several problems as one error (one line each)."""
-        found = [self.error(path, message) for path, message in problems]
-        located = [e for e in found if isinstance(e, LocatedError)]
-        if located and len(located) == len(found):
-            return found[0] if len(found) == 1 else ValidationFailed(located)
-        return found[0] if len(found) == 1 else InputError("\n".join(map(str, found)))
-
-
-def _dotted(path: Sequence[str | int]) -> str:
-    out = ""
-    for element in path:
-        out += f"[{element}]" if isinstance(element, int) else f".{element}"
-    return out.lstrip(".")
-
-
-# Where each spec came from, beside the (frozen, compared-by-value) model itself.
-_SOURCES: dict[int, SpecSource] = {}
-
-
-def _remember(spec: CampaignSpec, source: SpecSource) -> CampaignSpec:
-    _SOURCES[id(spec)] = source
-    weakref.finalize(spec, _SOURCES.pop, id(spec), None)
-    return spec
-
-
-def spec_source(spec: CampaignSpec) -> SpecSource | None:
-    """Where ``spec`` was loaded from (:func:`load_campaign`, :func:`campaign_from_data`).
-
-    ``None`` for a model built some other way.
-    """
-    return _SOURCES.get(id(spec))
-
-
 def load_campaign(path: str | Path) -> CampaignSpec:
     """Load and check a campaign file.
 
@@ -557,7 +486,7 @@ def load_campaign(path: str | Path) -> CampaignSpec:
         )
     doc = load_yaml(p)
     spec = validate_document(doc, CampaignSpec, "a campaign", _CONTEXT)
-    return _remember(spec, SpecSource(str(path), p.parent, doc.locator))
+    return remember(spec, SpecSource(str(path), p.parent, doc.locator))
 
 
 def campaign_from_data(
@@ -586,7 +515,7 @@ def campaign_from_data(
         spec = CampaignSpec.model_validate(dict(data), context=_CONTEXT)
     except ValidationError as exc:
         raise source.errors(validation_problems(exc, dict(data), CampaignSpec)) from None
-    return _remember(spec, source)
+    return remember(spec, source)
 
 
 def campaign_schema() -> dict[str, Any]:
