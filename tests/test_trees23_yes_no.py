@@ -49,3 +49,22 @@ def test_true_and_a_quoted_no_keep_their_meaning(
     assert capsys.readouterr().err.replace(str(tree), "t.yaml") == (
         "t.yaml:7:19: log: message: must be text, not true\n"
     )
+
+
+def test_a_parameter_s_declaration_and_a_call_s_value_say_it_too(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tree = tmp_path / "t.yaml"
+    tree.write_text(
+        "name: t\nroot: {type: subtree, ref: s, params: {m: no}}\nsubtrees:\n  s:\n"
+        "    params:\n      m: {type: string}\n      side: {type: string, choices: [on, x],"
+        " default: x}\n    root: {type: log, message: $m}\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(tree)]) == 2
+    assert sorted(capsys.readouterr().err.replace(str(tree), "t.yaml").splitlines()) == [
+        "t.yaml:2:40: parameter 'm': expected a string, got False"
+        " (YAML reads a plain no as false: quote it for the text)",
+        "t.yaml:7:38: choices: must be text, not true"
+        " (YAML reads a plain on as true: quote it for the text)",
+    ]

@@ -194,6 +194,7 @@ class _FileReader:
         return close_matches(name, known, n=2)
 
     def error(self, doc: YamlDocument, path: Sequence[str | int], message: str) -> None:
+        message += yes_no_note(doc, path)
         self.errors.append(doc.locator.error(path, printable(message)))
 
     def blank(self, doc: YamlDocument, value: Any) -> bool:
@@ -530,7 +531,10 @@ class _FileReader:
                     units_required=in_file and self.units_required,
                 )
             except ValueError as exc:
-                self.errors.append(LocatedError(f"parameter {shown(name)}: {exc}", given_at(name)))
+                note = yes_no_note(doc, (*where, "params", name)) if in_file else ""
+                self.errors.append(
+                    LocatedError(f"parameter {shown(name)}: {exc}{note}", given_at(name))
+                )
                 unknown.add(name)
         for name, decl in decls.items():
             if name in values or name in given or name in lost:  # given but refused: said
@@ -556,6 +560,16 @@ class _FileReader:
                 self.error(doc, where, missing)
                 unknown.add(name)
         return values, unknown
+
+
+def yes_no_note(doc: YamlDocument, path: Sequence[str | int]) -> str:
+    """Where the value refused at ``path`` is a plain ``no``, ``yes``, ``on`` or ``off``,
+    which YAML 1.1 reads as a boolean (``message: no``: *must be text, not false*): so."""
+    plain = doc.locator.yes_no.get(tuple(path))
+    if plain is None:
+        return ""
+    meaning = "true" if plain.lower() in ("yes", "on") else "false"
+    return f" (YAML reads a plain {plain} as {meaning}: quote it for the text)"
 
 
 def _another_kind(data: Mapping[Any, Any]) -> str | None:

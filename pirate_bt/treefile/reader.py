@@ -210,10 +210,6 @@ class _Reader(_FileReader):
             for at_key, msg in validation_problems(exc, raw_params, cls.Params):
                 at = (*path, *at_key)
                 if not any(at[: len(u)] == u or u[: len(at)] == at for u in unknown):
-                    plain = doc.locator.yes_no.get(at)
-                    if plain is not None:  # message: no -> 'must be text, not false'
-                        meaning = "true" if plain.lower() in ("yes", "on") else "false"
-                        msg += f" (YAML reads a plain {plain} as {meaning}: quote it for the text)"
                     self.value_error(env, at, f"{kind}: {msg}")
             spec.params = None
         if unknown or bad_keys:
