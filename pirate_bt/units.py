@@ -21,7 +21,10 @@ SI: ``BendParams(angle=1.57)`` is 1.57 rad.
 from __future__ import annotations
 
 import math
+import numbers
+import operator
 import re
+import sys
 from typing import Annotated, Any, Final
 
 from pydantic import BeforeValidator, ValidationInfo, WithJsonSchema
@@ -45,6 +48,7 @@ __all__ = [
     "check_magnitude",
     "format_quantity",
     "parse_quantity",
+    "plain_number",
     "quantity_type",
     "units_of",
 ]
@@ -224,6 +228,36 @@ _SI: Final[dict[str, str]] = {
 Python, and in BehaviorTree.CPP's own ports (radians, metres per second)."""
 
 
+def plain_number(value: Any) -> Any:
+    """A NumPy scalar, or a 0-d NumPy array, as the Python value it stands for
+    (``numpy.float64(0.2)`` and ``numpy.array(0.2)`` as ``0.2``, ``numpy.bool_(True)``
+    as ``True``, ``numpy.str_("x")`` as ``"x"``), and any other ``numbers.Integral`` or
+    ``numbers.Real`` but a bool as the plain ``int`` or ``float`` it stands for;
+    anything else as it is. The one reading of a number given in Python, at every
+    edge of the API (:mod:`pirate_bt.api.options` re-exports it), a node's parameters
+    and a quantity: a seed of ``numpy.int64(3)`` was refused as no whole number, a
+    velocity of ``numpy.float32(0.08)`` as no velocity, a boolean parameter of
+    ``numpy.bool_(True)`` as no boolean. NumPy is not imported: a value can be one of
+    its scalars only once NumPy is."""
+    if type(value) in (bool, int, float, str):
+        return value
+    numpy = sys.modules.get("numpy")
+    if numpy is not None and (
+        isinstance(value, numpy.generic) or (isinstance(value, numpy.ndarray) and value.ndim == 0)
+    ):
+        item = value.item()  # a NumPy bool is neither of the kinds below
+        if isinstance(item, bool | int | float | str):
+            return item
+        return value  # a 0-d array of something else (a date, an object) stays one
+    if isinstance(value, bool | int | float | str):  # a subclass, as it is
+        return value
+    if isinstance(value, numbers.Integral):
+        return operator.index(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    return value
+
+
 def _needs_unit(value: int | float | str, dimension: str) -> str:
     """The message for a bare number of a dimensioned quantity: the number with the SI
     unit, and the same value in the unit people read when that is another one
@@ -254,6 +288,7 @@ def parse_quantity(value: object, dimension: str, *, require_unit: bool = True) 
         UnitError: unknown unit, malformed text, or the wrong dimension.
     """
     _dimension(dimension)
+    value = plain_number(value)  # numpy.float32(0.08) is a number in SI, as a float is
     if isinstance(value, bool):
         raise UnitError(f"expected {_article(dimension)} quantity, got {_shown(value)}")
     if isinstance(value, int | float):

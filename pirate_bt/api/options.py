@@ -15,9 +15,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import numbers
-import operator
-import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
@@ -44,7 +41,7 @@ from pirate_bt.errors import (
     kind_of,
     seed_argument,
 )
-from pirate_bt.units import parse_quantity
+from pirate_bt.units import parse_quantity, plain_number
 
 __all__ = [
     "DEFAULT_NETWORK",
@@ -91,30 +88,6 @@ MAX_TIME_S = 1e9
 
 _MAX_QUANTITY_TEXT = 64
 _EXAMPLE = {"time": "600 s", "frequency": "20 Hz", "length": "1 m"}
-
-
-def plain_number(value: Any) -> Any:
-    """A NumPy scalar as the Python value it stands for (``numpy.float64(0.2)`` as
-    ``0.2``, ``numpy.bool_(True)`` as ``True``, ``numpy.str_("x")`` as ``"x"``), and any
-    other ``numbers.Integral`` or ``numbers.Real`` but a bool as the plain ``int`` or
-    ``float`` it stands for; anything else as it is. A seed of ``numpy.int64(3)`` was
-    refused as no whole number, a rate of ``numpy.float32(20)`` as no number, a boolean
-    parameter of ``numpy.bool_(True)`` as no boolean. NumPy is not imported: a value
-    can be one of its scalars only once NumPy is."""
-    if type(value) in (bool, int, float, str):
-        return value
-    numpy = sys.modules.get("numpy")
-    if numpy is not None and isinstance(value, numpy.generic):
-        item = value.item()  # a NumPy bool is neither of the kinds below
-        if isinstance(item, bool | int | float | str):
-            return item
-    if isinstance(value, bool | int | float | str):  # a subclass, as it is
-        return value
-    if isinstance(value, numbers.Integral):
-        return operator.index(value)
-    if isinstance(value, numbers.Real):
-        return float(value)
-    return value
 
 
 def quantity(value: str | float | int, dimension: str, option: str) -> float:

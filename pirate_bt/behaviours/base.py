@@ -91,6 +91,7 @@ from pirate_bt.errors import (
     shown,
 )
 from pirate_bt.safety.verdict import enter_issuer, issuing, leave_issuer
+from pirate_bt.units import plain_number
 
 if TYPE_CHECKING:
     from pirate_bt.robot.description import RobotDescription
@@ -309,7 +310,7 @@ class NodeMixin:
         if isinstance(params, cls.Params):
             checked = params
         elif params is None or isinstance(params, Mapping):
-            data = dict(params or {})
+            data = {key: _plain(value) for key, value in dict(params or {}).items()}
             try:
                 checked = cls.Params.model_validate(data, context=dict(_BOUNDED))
             except ValidationError as exc:
@@ -352,6 +353,16 @@ class NodeMixin:
     ) -> frozenset[Outcome]:
         """For decorators: the statuses given the child's; default: anything."""
         return ALL_OUTCOMES
+
+
+def _plain(value: Any) -> Any:
+    """A parameter given in Python with a NumPy scalar (or a 0-d array) read as the
+    number, boolean or text it stands for, also in a list of them: as SI numbers,
+    ``numpy.float32(0.08)`` was "expected a velocity quantity" where ``numpy.float64``
+    (a float) was taken, and ``numpy.bool_(True)`` no boolean."""
+    if type(value) in (list, tuple):  # a subclass of either, as it is
+        return type(value)(plain_number(item) for item in value)
+    return plain_number(value)
 
 
 def _checking(
