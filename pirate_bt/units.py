@@ -248,7 +248,8 @@ def plain_number(value: Any) -> Any:
         item = value.item()  # a NumPy bool is neither of the kinds below
         if isinstance(item, bool | int | float | str):
             return item
-        return value  # a 0-d array of something else (a date, an object) stays one
+        if isinstance(value, numpy.ndarray):  # its scalar (a long double), read below
+            value = value[()]
     if isinstance(value, bool | int | float | str):  # a subclass, as it is
         return value
     if isinstance(value, numbers.Integral):

@@ -43,3 +43,11 @@ def test_a_numpy_number_in_si_is_parsed_as_a_float_is() -> None:
 def test_a_numpy_number_out_of_range_is_still_refused_by_the_node() -> None:
     with pytest.raises(ValidationFailed, match=r"d: distance: .*out of range"):
         Drive.build("d", velocity=0.05, distance=np.float32(1e7))
+
+
+@pytest.mark.parametrize("value", [np.longdouble(0.5), np.array(np.longdouble(0.5))])
+def test_a_numpy_long_double_is_a_float(value: Any) -> None:
+    from pirate_bt.units import plain_number
+
+    assert type(plain_number(value)) is float
+    assert parse_quantity(value, "length", require_unit=False) == 0.5
