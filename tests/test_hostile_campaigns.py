@@ -222,9 +222,10 @@ def test_two_runs_of_one_name_are_refused(
         "name: h\nruns:\n  - {tree: straight, params: {distance: 0.2 m}}\n"
         "  - {tree: straight, network: riser, params: {distance: 0.2 m}}\n"
     )
+    # at the second run's own key (its name comes from its tree), not at 'runs:' (2:1)
     assert _refused(tmp_path, capsys, text) == (
-        "FILE:2:1: runs[0] and runs[1] are both named 'straight': give each run a 'name'"
-        " of its own (the report's groups are told apart by it)"
+        "FILE:4:6: runs[0] and runs[1] are both named 'straight': give each run a 'name'"
+        " of its own (the report's groups are told apart by it) (first at FILE:3:6)"
     )
     named = text.replace("{tree: straight, network", "{name: riser, tree: straight, network")
     assert len(expand(campaign_from_data(yaml.safe_load(named)))) == 2

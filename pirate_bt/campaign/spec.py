@@ -200,6 +200,13 @@ class RunItem(BaseModel):
             return self.name
         return self.navigator or Path(str(self.tree or self.route)).name.split(".")[0]
 
+    @property
+    def label_key(self) -> str:
+        """The key the run's :attr:`label` comes from: ``name``, else its kind's."""
+        if self.name:
+            return "name"
+        return "navigator" if self.navigator else "tree" if self.tree else "route"
+
 
 class SeedRange(BaseModel):
     """Seeds ``start .. start + count - 1``, each at most :data:`MAX_SEED`."""
@@ -358,20 +365,36 @@ class CampaignSpec(BaseModel):
         "failures", description="which runs keep a trace: failures (not success), all or none"
     )
 
-    @field_validator("runs")
-    @classmethod
-    def _distinct_names(cls, runs: list[RunItem]) -> list[RunItem]:
-        # The report tells groups apart by a run's name (its label): two runs of one
-        # name would be counted as one group.
+    @model_validator(mode="after")
+    def _cross(self, info: ValidationInfo) -> CampaignSpec:
+        context = info.context if isinstance(info.context, dict) else {}
+        problems = self.cross_check()
+        if problems and not context.get("defer_cross_checks"):
+            raise ValueError("; ".join(message for _path, message, _first in problems))
+        return self
+
+    def cross_check(self) -> list[tuple[tuple[str | int, ...], str, tuple[str | int, ...]]]:
+        """Rules that span the runs, each as ``(path, message, path of the first)``.
+
+        Two runs of one name: the report tells groups apart by a run's name (its label),
+        so they would be counted as one group. Each is placed at the later run's name,
+        or at the key its name comes from (its tree, route or navigator), not at
+        ``runs:``.
+        """
         first: dict[str, int] = {}
-        for i, run in enumerate(runs):
+        out: list[tuple[tuple[str | int, ...], str, tuple[str | int, ...]]] = []
+        for i, run in enumerate(self.runs):
             j = first.setdefault(run.label, i)
             if j != i:
-                raise ValueError(
-                    f"runs[{j}] and runs[{i}] are both named {run.label!r}: give each run"
-                    " a 'name' of its own (the report's groups are told apart by it)"
+                out.append(
+                    (
+                        ("runs", i, run.label_key),
+                        f"runs[{j}] and runs[{i}] are both named {run.label!r}: give each run"
+                        " a 'name' of its own (the report's groups are told apart by it)",
+                        ("runs", j, self.runs[j].label_key),
+                    )
                 )
-        return runs
+        return out
 
     @field_validator(*_LIMITS, mode="before")
     @classmethod
@@ -458,7 +481,9 @@ class CampaignSpec(BaseModel):
         return total
 
 
-_CONTEXT: dict[str, Any] = {}
+_CONTEXT: dict[str, Any] = {"defer_cross_checks": True}
+"""Rules spanning the runs (:meth:`CampaignSpec.cross_check`) are said where they
+are written: after validation, by the loaders."""
 
 
 def load_campaign(path: str | Path) -> CampaignSpec:
@@ -515,6 +540,9 @@ def campaign_from_data(
         spec = CampaignSpec.model_validate(dict(data), context=_CONTEXT)
     except ValidationError as exc:
         raise source.errors(validation_problems(exc, dict(data), CampaignSpec)) from None
+    problems = spec.cross_check()
+    if problems:  # the message names the first run: no file place to add
+        raise source.errors([(path, message) for path, message, _first in problems])
     return remember(spec, source)
 
 
