@@ -319,7 +319,7 @@ def test_placing_many_loader_errors_at_their_elements_is_not_quadratic(tmp_path:
     finally:
         sys.settrace(None)
     assert [str(e.location) for e in placed] == [str(xml)] * len(errors)
-    assert lines < 40 * len(errors)
+    assert lines < 45 * len(errors)  # a scan of every place would be over 2,000 each
 
 
 @pytest.mark.parametrize("declared", ["UTF8", "utf_8", "cp65001"])
