@@ -17,6 +17,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.api.options import plain_number
 from pirate_bt.campaign.spec import MAX_CASE_TIMEOUT_S
 from pirate_bt.errors import ArgumentTypeError, InputError, digit_count, said_of, shown
 
@@ -68,12 +69,21 @@ def check_callback(value: Any, name: str, argument: str) -> None:
 _TARGET = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*")
 
 
-def check_options(options: dict[str, Any]) -> None:
+def check_options(options: dict[str, Any]) -> dict[str, Any]:
     """Types and ranges of :func:`run_campaign`'s options, before anything is read.
+
+    A NumPy number or truth value is the Python one, as the rest of the API reads it
+    (:func:`~pirate_bt.api.options.plain_number`): ``workers=numpy.int64(2)`` was
+    refused as no whole number.
+
+    Returns:
+        ``options``, its numbers and flags as plain Python values (run with these).
 
     Raises:
         InputError: the first that is wrong, named.
     """
+    for name in ("workers", "max_cases", "resume", "progress"):
+        options[name] = plain_number(options[name])
     for name in ("workers", "max_cases"):
         value = options[name]
         if value is None and name == "workers":
@@ -106,6 +116,7 @@ def check_options(options: dict[str, Any]) -> None:
     executor = options["executor"]
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise InputError(f"executor: give a concurrent.futures executor, not {executor!r}"[:200])
+    return options
 
 
 def check_target(target: str, cluster: bool) -> None:
@@ -152,6 +163,7 @@ def case_timeout_s(value: str | float | None, name: str = "case_timeout") -> flo
 
 def _seconds(value: str | float, name: str) -> float:
     """A positive, finite duration given as seconds or a quantity (``"30 s"``)."""
+    value = plain_number(value)  # a NumPy number is seconds too
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
         raise InputError(f"{name}: give a duration such as '30 s', not {value!r}"[:200])
     if isinstance(value, (int, float)):

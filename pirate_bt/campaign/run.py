@@ -329,7 +329,7 @@ def run_campaign(
     call it under ``if __name__ == "__main__":``.
     """
     started = time.perf_counter()
-    check_options(
+    checked = check_options(
         {
             "workers": workers,
             "max_cases": max_cases,
@@ -346,6 +346,9 @@ def run_campaign(
             "executor": executor,
         }
     )
+    # as checked: a NumPy number or truth value as the Python one
+    workers, max_cases = checked["workers"], checked["max_cases"]
+    resume, progress = checked["resume"], checked["progress"]
     if workers is not None and workers < 1:
         raise InputError("workers must be at least 1")
     check_max_cases(max_cases)
