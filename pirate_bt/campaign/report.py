@@ -164,9 +164,23 @@ def _md_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+# What Markdown reads as markup in running text: raw HTML and entities (as entities),
+# links and images, code spans, emphasis (backslash-escaped). An '_' between two word
+# characters opens no emphasis (bend_3_drive): left as written, so names read as typed.
+_MD_HTML = {"&": "&amp;", "<": "&lt;", ">": "&gt;"}
+_MD_MARKUP = re.compile(r"[&<>\\`*\[\]]|(?<!\w)_|_(?!\w)")
+
+
+def _md_text(text: str) -> str:
+    """User-given text (a run's name, a reason, a title) as one line of Markdown that
+    renders as the text itself: a run named ``<script>...`` was a script element in the
+    rendered report.md (report.html escaped it), ``[x](javascript:...)`` a link."""
+    return _MD_MARKUP.sub(lambda m: _MD_HTML.get(m.group(), "\\" + m.group()), _md_line(text))
+
+
 def _md_cell(text: str) -> str:
     """One table cell: a '|' in a run's name (``name: a|b``) split the row's columns."""
-    return _md_line(text).replace("|", "\\|")
+    return _md_text(text).replace("|", "\\|")
 
 
 def _md_code(text: str) -> str:
@@ -360,19 +374,20 @@ def write_report(
     counters = _counters(ordered)
     counts = Counter(str(r.get("outcome")) for r in ordered)
     summary = ", ".join(f"{counts[k]} {k}" for k in ("success", "failed-safe", "error", "timeout"))
-    md = [f"# {title}", "", f"{len(ordered)} runs: {summary}.", ""]
+    md = [f"# {_md_text(title)}", "", f"{len(ordered)} runs: {summary}.", ""]
     if command:
         md += ["Reproduce with:", "", f"    {command}", ""]
     md += ["| " + " | ".join(table[0]) + " |", "|" + "---|" * len(table[0])]
     md += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in table[1:]]
     reasons, nodes = _top_reasons(groups), _top(groups, "nodes")
     md += ["", "## Most frequent failure reasons", ""]
-    md += [f"- {n} × {_md_line(text)}" for text, n in reasons] or ["- none"]
+    md += [f"- {n} × {_md_text(text)}" for text, n in reasons] or ["- none"]
     md += ["", "## Most frequent failing nodes", ""]
     md += [f"- {n} × {_md_code(text)}" for text, n in nodes] or ["- none"]
     md += ["", "## Counters over all runs", ""]
     md += ["| " + " | ".join(row) + " |" for row in counters[:1]]
-    md += ["|---|---|---|---|"] + ["| " + " | ".join(row) + " |" for row in counters[1:]]
+    md += ["|---|---|---|---|"]
+    md += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in counters[1:]]
     # a crashed case has no counters: "violations 0" did not say they were unknown
     unknown = sum(r.get("violations") is None for r in ordered)
     untold = (
@@ -386,8 +401,11 @@ def write_report(
         md += ["", "## Coverage over all runs", ""]
         md += ["Per node, as BehaviorTree.CPP's TreeObserver counts it (`Coverage`)."]
         for name, lines in coverage:
-            md += ["", f"### {name}", ""]
-            md += [line if line.startswith("- ") else f"{line}\n" for line in lines]
+            md += ["", f"### {_md_text(name)}", ""]
+            md += [
+                f"- {_md_text(line[2:])}" if line.startswith("- ") else f"{_md_text(line)}\n"
+                for line in lines
+            ]
     if plots:
         md += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     files.append(_replace(folder / "report.md", "\n".join(md) + "\n"))
