@@ -89,3 +89,18 @@ def test_a_rotation_that_follows_its_setpoint_is_not_stopped() -> None:
         port.values[port.rotation_channel] = port.setpoints["rotate"][1]  # it follows
         sup.tick()
     assert not sup.in_safe_state, sup.safe_state_reason
+
+
+def test_a_jammed_front_tilt_stops_naming_it() -> None:
+    # was: 'timeout: not done after 5 s (front tilt 0.0°)', the tilt motor's position
+    # loop pushing a jammed joint for five seconds (the front module's joints were not
+    # watched either)
+    result = pirate_bt.simulate_tree(
+        "straight",
+        network="straight",
+        params={"distance": "0.5 m"},
+        faults="motor_stall:front_tilt@0s+100s",
+        seed=0,
+    )
+    assert result.status == "failure"
+    assert result.why.startswith("joint_stalled: front_tilt does not move toward its setpoint")

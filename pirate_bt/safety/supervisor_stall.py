@@ -16,9 +16,10 @@ a joint stopped by the wall presses the wall), is stalled: the supervisor enters
 safe state naming it and lets that joint go (torque 0: its loop no longer pushes), a
 verdict of its own. A moving joint covers its tolerance in a few hundredths of a second
 (90°/s on the bundled robot); a setpoint is rate-limited to one tick's step, so a joint
-that follows reaches it by the next tick. The rotation is watched so too (from
-2026-12-01; before, a jammed rotate joint pushed on until the rotate step's ten-second
-timeout), read from its angle sensor, with no spring to press.
+that follows reaches it by the next tick. The rotation and the front module's tilt
+and camera joints are watched so too (from 2026-12-01; before, a jammed rotate joint
+pushed on until the rotate step's ten-second timeout, a jammed front tilt for five),
+each read from its angle sensor, with no spring to press.
 
 The wait starts only once the board is known to have the setpoint: a
 ``BULK_SETPOINTS`` is acknowledged by a later ``STATE``'s ``ack_seq``, and the link
@@ -40,7 +41,14 @@ from typing import TYPE_CHECKING
 
 from pirate_bt.errors import LinkError
 from pirate_bt.robot.commands import MotorCommand
-from pirate_bt.robot.description import ControlMode, Half, RobotDescription, SensorKind
+from pirate_bt.robot.description import (
+    ControlMode,
+    Half,
+    MotorFunction,
+    RobotDescription,
+    Role,
+    SensorKind,
+)
 from pirate_bt.robot.port import RobotPort
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import released_force_n, stale_channels
@@ -50,9 +58,16 @@ from pirate_bt.safety.verdict import Outcome, Reason, Source, Verdict
 
 __all__ = ["JOINT_STALL_S", "StallMixin"]
 
-_Joint = tuple[str, str, tuple[str, ...], bool]
+_Joint = tuple[str, str, tuple[str, ...], str]
 """A watched joint: its motor, its module, the channels that must be fresh to judge it,
-and whether it is the rotation (read from ``rotation_rad``, not ``joint_angle_rad``)."""
+and the ``RobotState`` field it is read from (``joint_angle_rad``: by its module)."""
+
+_FRONT_JOINTS = {
+    MotorFunction.TILT: "front_tilt_rad",
+    MotorFunction.CAMERA_TILT: "camera_tilt_rad",
+    MotorFunction.CAMERA_PAN: "camera_pan_rad",
+}
+"""The front module's position-mode joints and the state field each is read from."""
 
 log = logging.getLogger("pirate_bt.safety")
 
@@ -78,16 +93,23 @@ class StallMixin:
         def _record(self, verdict: Verdict) -> Verdict: ...
 
     def _stall_joints(self) -> list[_Joint]:
-        """``(motor, module, channels, rotation)`` of every joint watched: each bend joint (its
-        half's angle and spring channels) and the rotation (its angle channel)."""
+        """Every joint watched (:data:`_Joint`): each bend joint (its half's angle and
+        spring channels), the rotation and the front module's tilt and camera joints
+        (each its angle channel)."""
         joints: list[_Joint] | None = getattr(self, "_stall_list", None)
         if joints is None:
             joints = [
-                (self.robot.joint_motor(m.name).name, m.name, self._half_channels[half], False)
+                (
+                    self.robot.joint_motor(m.name).name,
+                    m.name,
+                    self._half_channels[half],
+                    "joint_angle_rad",
+                )
                 for half in Half
                 for m in self.robot.bend_modules(half)
             ]
             joints.extend(_rotation_joint(self.robot))
+            joints.extend(_front_joints(self.robot))
             self._stall_list = joints
             self._stall_since: dict[str, tuple[float, float, int]] = {}
             self._stall_let_go: set[str] = set()
@@ -106,7 +128,7 @@ class StallMixin:
         applied: Callable[[str], MotorCommand | None] | None = getattr(
             self._port, "setpoint_applied", None
         )
-        for motor, module, channels, rotation in joints:
+        for motor, module, channels, field in joints:
             setpoint = self._last_setpoint.get(motor)
             if setpoint is None or setpoint[0] is not ControlMode.POSITION:
                 since.pop(motor, None)
@@ -121,8 +143,8 @@ class StallMixin:
                     since.pop(motor, None)  # not yet known on the board: no wait
                     continue
                 target = held.value
-            if rotation:
-                angle, force = state.rotation_rad, None
+            if field != "joint_angle_rad":
+                angle, force = getattr(state, field), None
             else:
                 angle, force = state.joint_angle_rad.get(module), state.clamp_force_n.get(module)
             if (
@@ -185,11 +207,28 @@ class StallMixin:
 
 def _rotation_joint(robot: RobotDescription) -> list[_Joint]:
     """The rotation as a watched joint, where the robot has a rotate motor and a
-    rotation angle sensor: ``[(motor, module, (angle channel,), True)]``; else ``[]``."""
+    rotation angle sensor: ``[(motor, module, (angle channel,), "rotation_rad")]``."""
     try:
         module = robot.rotational_module().name
         motor = robot.rotate_motor().name
         channel = robot.sensor_of(module, SensorKind.ANGLE).name
     except (KeyError, StopIteration):
         return []
-    return [(motor, module, (channel,), True)]
+    return [(motor, module, (channel,), "rotation_rad")]
+
+
+def _front_joints(robot: RobotDescription) -> list[_Joint]:
+    """The front module's tilt and camera joints with a position mode, each read by the
+    angle sensor on its own board and slot (as ``RobotState`` reads them)."""
+    out: list[_Joint] = []
+    for board, motor in robot.motors():
+        field = _FRONT_JOINTS.get(motor.function)
+        if field is None or motor.modes.get(ControlMode.POSITION) is None:
+            continue
+        if robot.module(board.module).role is not Role.FRONT:
+            continue
+        for sensor in board.sensors:
+            if sensor.slot == motor.slot and sensor.kind is SensorKind.ANGLE:
+                out.append((motor.name, board.module, (sensor.name,), field))
+                break
+    return out
