@@ -67,7 +67,7 @@ from pirate_bt.errors import shown as said_briefly
 from pirate_bt.task.navigate_planner import call_within, raised_at, raised_on_purpose
 from pirate_bt.task.observation import Ahead, Belief, Felt, Observation, OffWall
 from pirate_bt.task.route import MAX_WAIT_S
-from pirate_bt.units import parse_quantity
+from pirate_bt.units import parse_quantity, plain_number
 
 __all__ = [
     "STEP_PABS",
@@ -171,7 +171,11 @@ class Step:
         pab: One of :data:`STEP_PABS` (``straight``, ``bend``, ``t-joint``, ``wait``;
             with no map also ``probe-turn``, ``probe-tee``, ``bend-back``,
             ``t-joint-back``).
-        params: Its parameters as given (``{"distance": "1 m"}``).
+        params: Its parameters as given (``{"distance": "1 m"}``), a NumPy scalar or
+            0-d array as the Python number, truth value or text it stands for
+            (``numpy.float32(0.3)`` a distance in metres, as ``0.3`` is: it was
+            recorded as the text ``"0.3"``, with no unit, and ``numpy.array(0.2)``
+            refused as *'0.2' needs a unit*).
     """
 
     pab: str
@@ -179,7 +183,7 @@ class Step:
 
     def __init__(self, pab: str, /, **params: Any) -> None:
         object.__setattr__(self, "pab", pab)
-        object.__setattr__(self, "params", dict(params))
+        object.__setattr__(self, "params", {k: plain_number(v) for k, v in params.items()})
 
     def __repr__(self) -> str:
         args = "".join(f", {_name(k)}={shown(v)}" for k, v in self.params.items())
