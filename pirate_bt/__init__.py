@@ -33,7 +33,7 @@ _EXPORTS: dict[str, str] = {
     # running trees and missions
     "simulate_tree": "pirate_bt.api.trees",
     "run_tree": "pirate_bt.api.trees",
-    "load_tree": "pirate_bt.api.running",
+    "load_tree": "pirate_bt.api.loading",
     "connect": "pirate_bt.api.connection",
     "Connection": "pirate_bt.api.connection",
     "plan_route": "pirate_bt.api.missions",
@@ -191,7 +191,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     )
     from pirate_bt.api.navigation import navigate
     from pirate_bt.api.results import RunResult
-    from pirate_bt.api.running import load_tree
+    from pirate_bt.api.loading import load_tree
     from pirate_bt.api.survey import SurveyResult, survey
     from pirate_bt.api.trees import run_tree, simulate_tree
     from pirate_bt.behaviours.base import BuildContext
