@@ -18,6 +18,7 @@ says why (:class:`~pirate_bt.api.results.RunResult`).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -270,26 +271,13 @@ def run_on(
     check_run_options(trace=trace, realtime=realtime, live=live, observe=observe)
     if trace is not None:
         check_trace(trace, inputs={"tree": tree})
-    if connection is not None:
-        connection.check_open()
-        with connection.one_run(), only_run("Connection.run"):
-            return _run_held(
-                connection,
-                tree,
-                params=params,
-                period_s=period_s,
-                max_time_s=max_time_s,
-                trace=trace,
-                realtime=realtime,
-                live=live,
-                observe=observe,
-                robot=connection.robot,
-                trace_meta=trace_meta,
-                count_from_open=count_from_open,
-            )
-    with only_run("a run"):
+    with contextlib.ExitStack() as held:
+        if connection is not None:
+            connection.check_open()
+            held.enter_context(connection.one_run())
+        held.enter_context(only_run("a run" if connection is None else "Connection.run"))
         return _run_held(
-            None,
+            connection,
             tree,
             params=params,
             period_s=period_s,
@@ -298,7 +286,7 @@ def run_on(
             realtime=realtime,
             live=live,
             observe=observe,
-            robot=robot,
+            robot=robot if connection is None else connection.robot,
             trace_meta=trace_meta,
             count_from_open=count_from_open,
         )
