@@ -356,7 +356,8 @@ class _FileReader:
             except ValidationError as exc:
                 if not blanked or isinstance(decl, dict):
                     for at_key, msg in validation_problems(exc, decl):
-                        msg = msg if _field(at_key) else f"blackboard key {shown(key)}: {msg}"
+                        own = _field(at_key) and at_key[0] != "type"  # a type's: and its key
+                        msg = msg if own else f"blackboard key {shown(key)}: {msg}"
                         self.error(doc, (*where, *at_key), msg)
                 self.board_unsure.add(key)
                 continue

@@ -12,6 +12,7 @@ from typing import Any
 
 from pirate_bt.treefile.params import ParamDecl
 from pirate_bt.treefile.registry import Registry, default_registry
+from pirate_bt.treefile.spec import BLACKBOARD_TYPES
 
 __all__ = ["tree_schema"]
 
@@ -120,7 +121,7 @@ def tree_schema(registry: Registry | None = None) -> dict[str, Any]:
                 "additionalProperties": {
                     "type": ["object", "null"],
                     "properties": {
-                        "type": {"type": "string"},
+                        "type": {"enum": list(BLACKBOARD_TYPES)},
                         "default": {},
                         "external": {"type": "boolean"},
                         "description": {"type": "string"},

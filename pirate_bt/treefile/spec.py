@@ -20,8 +20,10 @@ from pirate_bt.behaviours.base import NodeMixin
 from pirate_bt.errors import LocatedError, SourceLocation, UnitError, shown
 from pirate_bt.treefile.params import SI_UNITS
 from pirate_bt.units import parse_quantity
+from pirate_bt.yamlvalidate import close_matches
 
 __all__ = [
+    "BLACKBOARD_TYPES",
     "COMPOSITES",
     "MAX_TREE_DEPTH",
     "MAX_TREE_NODES",
@@ -50,6 +52,9 @@ _STRUCT_KEYS: Final[dict[str, frozenset[str]]] = {
 }
 _TOP_KEYS: Final = frozenset({"name", "description", "params", "blackboard", "root", "subtrees"})
 _SUBTREE_KEYS: Final = frozenset({"description", "params", "root"})
+BLACKBOARD_TYPES: Final = ("any", *SI_UNITS, "number", "integer", "boolean", "string")
+"""The types a blackboard key is declared with: ``any`` (the default), a quantity's
+(as a parameter's: ``length``, ``duration``, ...) or a plain one."""
 
 
 class BlackboardDecl(BaseModel):
@@ -63,6 +68,20 @@ class BlackboardDecl(BaseModel):
     default: Any = Field(None, description="value written before the first tick")
     external: bool = Field(False, description="written by planner code, not by the tree")
     description: str = ""
+
+    @field_validator("type")
+    @classmethod
+    def _known(cls, value: str) -> str:
+        """A type that exists: ``type: nope`` (or ``lenght``) was taken until 2026-12-01,
+        and its key's default and comparisons went unchecked."""
+        if value not in BLACKBOARD_TYPES:
+            close = close_matches(value, BLACKBOARD_TYPES, n=1, cutoff=0.6)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ValueError(
+                f"type: {shown(value)} is not a blackboard type (one of"
+                f" {', '.join(BLACKBOARD_TYPES)}){hint}"
+            )
+        return value
 
     @field_validator("default")
     @classmethod
