@@ -22,7 +22,14 @@ from typing import Any
 
 from pirate_bt.atomic import write_atomically
 from pirate_bt.cli import STDOUT, said_path, stdout_open, utf8_text
-from pirate_bt.errors import ConfigurationError, InputError, ValidationFailed, bytes_escaped
+from pirate_bt.errors import (
+    ConfigurationError,
+    InputError,
+    PirateError,
+    ValidationFailed,
+    bytes_escaped,
+    shown,
+)
 from pirate_bt.units import parse_quantity
 
 __all__ = ["configure", "run"]
@@ -197,6 +204,53 @@ def _write(text: str, output: Path | None) -> None:
     print(f"wrote {said_path(output)}")  # the path written, on stdout as every command says it
 
 
+def _load_map(source: Path, given: str) -> Any:
+    """The network MAP names; a file of another kind said to be one (a route was
+    *lab.route:6:1: YAML syntax error: did not find expected <document start>*, or
+    *a pipe network must be a mapping of keys*), with what to give instead."""
+    from pirate_bt.filekinds import KINDS
+    from pirate_bt.pipes import load_network
+
+    other = next(
+        (
+            kind
+            for kind in KINDS.values()
+            if kind.name != "network" and any(source.name.endswith(s) for s in kind.suffixes)
+        ),
+        None,
+    )
+    if other is None or other.name == "route":
+        try:
+            return load_network(source)
+        except ValidationFailed:
+            route = _as_route(source)
+            if route is None and other is None:
+                raise
+    else:
+        route = None
+    title = "route" if other is None else other.title
+    named = getattr(route, "network", None)
+    if named:
+        instead = (
+            f"give the network it is written for, {shown(named)} (its 'network' line), or"
+            " another network file (.yaml) or bundled name"
+        )
+    else:
+        instead = "give a network file (.yaml) or a bundled network's name"
+    raise InputError(f"{given}: a {title}, not a pipe network: {instead}")
+
+
+def _as_route(source: Path) -> Any:
+    """``source`` read as a route, or ``None`` when it is none."""
+    from pirate_bt.task.route import load_route
+
+    try:
+        route = load_route(source)
+    except PirateError:
+        return None
+    return route if route.steps or route.network else None
+
+
 def _bound_options(args: argparse.Namespace) -> str:
     """The options given that change the variant, as they would be typed again, so that
     the header's command writes the same file."""
@@ -211,7 +265,6 @@ def _bound_options(args: argparse.Namespace) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from pirate_bt.api.options import not_an_input
-    from pirate_bt.pipes import load_network
     from pirate_bt.pipes.asbuilt import insert_tee, network_yaml, perturb_network, remove_feature
     from pirate_bt.resources import find_file, missing
 
@@ -235,7 +288,7 @@ def run(args: argparse.Namespace) -> int:
             source = resolve_network_path(str(args.map))
         except FileNotFoundError as exc:
             raise InputError(str(exc)) from None
-    network = load_network(source)
+    network = _load_map(source, str(args.map))
     if args.output is not None:  # perturb br2.yaml -o br2.yaml replaced its input
         not_an_input(args.output, "-o", {"input network": source})
     try:
