@@ -253,7 +253,20 @@ class Network:
     Args:
         spec: The validated file contents.
         source: Where it was loaded from (for messages).
+
+    Two networks are equal when their specs are: the same pipe, wherever it was
+    loaded from (``source`` is not compared), so two loads of one file, a network
+    pickled and read back, and the plans and results that hold them compare equal. A
+    network is not hashable (its spec holds lists: it is not a value that cannot
+    change); key a dict by its ``name`` instead.
     """
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self) or not isinstance(other, Network):
+            return NotImplemented
+        return self is other or self.spec == other.spec
 
     def __init__(self, spec: NetworkSpec, source: str = "<network>") -> None:
         check_spec(spec, source)

@@ -98,7 +98,7 @@ class MissionResult:
     odometry_m: float
     sim: Mapping[str, float] = field(default_factory=dict)
     trace_path: Path | None = None
-    tree: Any = None
+    tree: Any = field(default=None, compare=False, repr=False)
     mismatch: str | None = None
     """The map disagreement that stopped the mission, whoever found it: the localiser
     (then :attr:`disagreement` holds its evidence) or a PAB's own sensing (a search
