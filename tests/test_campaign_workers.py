@@ -164,7 +164,9 @@ def test_crashes_and_hangs_stay_in_their_case_and_the_server_stays(helper: Path)
         "success", "error", "error", "error", "timeout", "success", "success"
     ]  # fmt: skip
     assert "boom in the case" in by["raise1"]["reason"]
-    assert by["crash2"]["reason"].startswith("case process died (exit status 7): dying now")
+    assert by["crash2"]["reason"].startswith(
+        "case process died (exit status 7) in run 'crash', seed 0: dying now"
+    )
     assert "killed by SIGSEGV" in by["segfault3"]["reason"]
     assert by["hang4"]["reason"] == f"killed after its {HANG_LIMIT_S:g} s wall-time limit"
     # Every case ran in a process forked from the same server: none of them ended it.

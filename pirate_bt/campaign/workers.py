@@ -53,6 +53,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 from pirate_bt.campaign.case import error_record, preload
+from pirate_bt.errors import shown
 
 if TYPE_CHECKING:
     from pirate_bt.campaign.child import Lines
@@ -389,9 +390,25 @@ def run_in_server(case: dict[str, Any], trace_dir: str | None, target: str) -> d
         status = f"killed by {signal.Signals(-reply.status).name}"
     else:
         status = f"exit status {reply.status}"
-    return error_record(
-        case, "error", f"case process died ({status}): {_last_line(reply.stderr)}", wall
+    said = f"case process died ({status}) in {_what_ran(case)}: {_last_line(reply.stderr)}"
+    return error_record(case, "error", said, wall)
+
+
+def _what_ran(case: dict[str, Any]) -> str:
+    """What the case ran, for the row of a case process that died: a plug-in navigator
+    that closed the process's files left only *OSError: [Errno 9] Bad file descriptor*,
+    naming nothing. Its run and seed, not its id: rows alike but for the seed count
+    as one reason in the report."""
+    what = next(
+        (
+            f"{key} {shown(Path(str(case[key])).name if key != 'navigator' else case[key])}"
+            for key in ("navigator", "tree", "route")
+            if case.get(key)
+        ),
+        None,
     )
+    run = f"run {shown(case.get('run'))}, seed {case.get('seed')}"
+    return f"{what} ({run})" if what else run
 
 
 # --- a worker of the local pool ---------------------------------------------------------
