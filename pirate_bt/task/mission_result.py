@@ -7,6 +7,7 @@ exports them as before.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -139,6 +140,23 @@ class MissionResult:
     """Set when closing the link, after the mission, could not make sure the robot
     stopped (its closing stop and the e-stop after it never acknowledged): the mission
     is then a failure, exit 3, whatever its PABs did, and :attr:`why` says so."""
+
+    def __repr__(self) -> str:
+        """A short summary (what ``print(result)`` shows): the outcome, its first cause
+        and the counts; the whole data is :meth:`as_dict` (the dataclass's own repr,
+        every sample and coverage record of the run, was some 70,000 characters)."""
+        outcomes = Counter(p.outcome for p in self.pabs)
+        tally = ", ".join(f"{n} {outcome}" for outcome, n in outcomes.items())
+        returned = "" if self.returned is None else f", returned={self.returned.status!r}"
+        truth = "" if self.truth_m is None else f", truth_m={self.truth_m:.3f}"
+        return (
+            f"{type(self).__name__}(route={self.plan.route.name!r}, status={self.status!r},"
+            f" why={self.why!r}, failing_node={self.failing_node!r},"
+            f" pabs={len(self.pabs)}" + (f" ({tally})" if tally else "") + ","
+            f" fixes={len(self.fixes)}, ticks={self.ticks},"
+            f" sim_time_s={self.sim_time_s:.2f}, belief_m={self.belief_m:.3f}{truth},"
+            f" safe_state={self.safe_state}{returned})"
+        )
 
     def __getstate__(self) -> object:
         """Pickled without the py_trees tree (its generators do not pickle): a result
