@@ -51,7 +51,7 @@ def test_command_line_numbers_are_finite_ascii(
     assert main(["run", str(tree), "--quiet", "--param", given]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
-    assert err.startswith("pirate-bt: --param:1:1: parameter ")
+    assert err.startswith(f"pirate-bt: --param {given}: parameter ")
     assert repr(given.partition("=")[2]) in err
 
 

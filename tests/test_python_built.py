@@ -202,7 +202,7 @@ def test_load_tree_params_origin(tmp_path: Path) -> None:
     tree.write_text(TREE)
     with pytest.raises(ValidationFailed) as exc:
         load_tree(tree, params={"roll": "9 mm"}, params_from_text=True, params_origin="--param")
-    assert str(_only(exc)).startswith("--param:1:1: parameter 'roll': '9 mm' is a length")
+    assert str(_only(exc)).startswith("--param roll=9 mm: parameter 'roll': '9 mm' is a length")
     where = SourceLocation("mission.yaml", 7, 3)
     with pytest.raises(ValidationFailed) as exc:
         load_tree(tree, params={"roll": "9 mm"}, params_from_text=True, params_origin=where)
@@ -213,7 +213,7 @@ def test_commands_keep_param_locations(tmp_path: Path, capsys: pytest.CaptureFix
     tree = tmp_path / "t.yaml"
     tree.write_text(TREE)
     assert main(["validate", "--param", "roll=9mm", str(tree)]) == 2
-    assert "--param:1:1: parameter 'roll': '9mm' is a length" in capsys.readouterr().err
+    assert "--param roll=9mm: parameter 'roll': '9mm' is a length" in capsys.readouterr().err
 
 
 def test_a_value_the_caller_gave_is_the_callers_problem_where_the_tree_uses_it(
@@ -254,7 +254,7 @@ def test_a_value_the_caller_gave_is_the_callers_problem_where_the_tree_uses_it(
     tree.write_text(TREE)
     assert main(["validate", "--param", "roll=900deg", str(tree)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("--param:1:1: parameter 'roll': rotate: angle: ")
+    assert err.startswith("--param roll=900deg: parameter 'roll': rotate: angle: ")
     assert err.endswith(f" (used at {tree}:3:34)\n")
 
 

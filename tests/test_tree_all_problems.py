@@ -296,7 +296,7 @@ def test_a_misspelt_value_given_is_said_before_the_parameter_it_leaves_out(
     assert main(["run", "straight", "--sim", "straight", "--param", "distanse=1 m"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1, lines
-    assert lines[0].startswith("pirate-bt: --param:1:1: unknown parameter 'distanse'")
+    assert lines[0].startswith("pirate-bt: --param distanse=1 m: unknown parameter 'distanse'")
     assert lines[0].endswith("; did you mean 'distance'?")
     # a name close to no parameter that is owed keeps both problems
     assert main(["run", "straight", "--sim", "straight", "--param", "speed=1 m/s"]) == 2

@@ -64,7 +64,8 @@ def test_the_command_line_runs_and_validates_an_xml_tree(
     assert capsys.readouterr().out.strip() == f"{straight_xml}: ok"
     # a parameter's error is the command line's, as for a YAML tree
     assert main([*run[:-2], "distance=banana"]) == 2
-    assert "--param:1:1: parameter 'distance': not a quantity: 'banana'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--param distance=banana: parameter 'distance': not a quantity: 'banana'" in err
 
 
 def test_a_bad_xml_tree_is_refused_at_its_element_before_anything_runs(

@@ -47,6 +47,7 @@ from pirate_bt.errors import (
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.treefile.checks import _check_blackboard, _check_conditions, _outcomes
 from pirate_bt.treefile.header import misspelt
+from pirate_bt.treefile.params import COMMAND_LINE, given_location
 from pirate_bt.treefile.reader import _Env, _Reader
 from pirate_bt.treefile.refused import read_tree_yaml, shows_blank
 from pirate_bt.treefile.registry import Registry, default_registry
@@ -147,8 +148,9 @@ def load_tree(
         use_examples: A parameter given no value and with no default takes its
             declared ``example`` (for checking and drawing a tree, never running it).
         params_origin: Where ``params`` came from, for their errors' locations: a
-            pseudo-file name (``"--param"`` for command-line options gives
-            ``--param:1:1``) or a :class:`~pirate_bt.errors.SourceLocation`.
+            pseudo-file name (``"--param"``, the command line's, places each value's
+            problem at the option as typed: ``--param roll=9mm: ...``) or a
+            :class:`~pirate_bt.errors.SourceLocation`.
             Default: the caller's file and line when ``load_tree`` is called, directly
             or through :mod:`pirate_bt.api`, from code outside ``pirate_bt``
             (``planner.py:12:1: parameter 'roll': ...``); else ``--param`` (the
@@ -223,11 +225,15 @@ def load_tree(
     params_misspelt = misspelt(data, "params", _TOP_KEYS)
     declared = reader.declared_params(doc, ("params",), data.get("params"), params_misspelt)
     given = dict(params or {})
-    given_loc = _params_location(params_origin) if given else SourceLocation("--param")
+    given_loc = _params_location(params_origin) if given else COMMAND_LINE
+
+    def given_at(name: str) -> SourceLocation:
+        return given_location(given_loc, name, given[name])  # --param d=1e999s, as typed
+
     values, unknown = reader.bind(
-        doc, ("params",), declared, given, lambda _n: given_loc, params_from_text, use_examples
+        doc, ("params",), declared, given, given_at, params_from_text, use_examples
     )
-    caller = {name: (name, given_loc) for name in given}
+    caller = {name: (name, given_at(name)) for name in given}
     env = _Env(doc, values, (doc.file,), caller, unknown=unknown, declared=declared.names)
     # None when a node could not be read: the checks of the whole tree need every node
     spec = reader.tree(env, (), data)

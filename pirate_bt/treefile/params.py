@@ -23,20 +23,24 @@ from __future__ import annotations
 import math
 import re
 import sys
+from dataclasses import dataclass
 from typing import Any, Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from pirate_bt.errors import UnitError, shown
+from pirate_bt.errors import SourceLocation, UnitError, bytes_escaped, shown
 from pirate_bt.units import check_magnitude, parse_quantity
 
 __all__ = [
+    "COMMAND_LINE",
     "PARAM_RE",
     "SI_UNITS",
+    "OptionAt",
     "ParamDecl",
     "ParamType",
     "chain_text",
     "coerce_param",
+    "given_location",
     "listed",
     "written_value",
 ]
@@ -96,6 +100,34 @@ class ParamDecl(BaseModel):
     description: str = Field("", description="what the parameter means")
 
 
+COMMAND_LINE: Final = SourceLocation("--param")
+"""Where the values of pirate-bt's ``--param`` options are given (the pseudo-file)."""
+
+
+@dataclass(frozen=True, slots=True)
+class OptionAt(SourceLocation):
+    """A value given on the command line, shown as typed: ``--param d=1e999s`` (until
+    2026-12-01 ``--param:1:1``, naming neither the option nor its value). ``file``
+    stays ``--param``, the pseudo-file of every command-line value."""
+
+    written: str = ""
+
+    def __str__(self) -> str:
+        text = self.written
+        if not text.isprintable():  # a line break given in a value: one line all the same
+            text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in bytes_escaped(text))
+        return text
+
+
+def given_location(origin: SourceLocation, name: str, value: Any) -> SourceLocation:
+    """Where the caller's value of ``name`` was given: the ``--param`` option that gave
+    it (:class:`OptionAt`) when ``origin`` is the command line, else ``origin``."""
+    if origin != COMMAND_LINE:
+        return origin
+    text = _cut(value) if isinstance(value, str) else shown(value)
+    return OptionAt(COMMAND_LINE.file, written=f"--param {_cut(str(name))}={text}")
+
+
 def coerce_param(
     decl: ParamDecl, value: Any, *, from_text: bool = False, units_required: bool = False
 ) -> Any:
@@ -116,6 +148,8 @@ def coerce_param(
         ValueError: the value does not fit the type.
     """
     kind = decl.type
+    if from_text and isinstance(value, str) and kind not in ("boolean", "string"):
+        _not_too_long(value)
     if kind in SI_UNITS:
         dimension, unit = SI_UNITS[kind]
         try:
@@ -138,6 +172,17 @@ def coerce_param(
     if kind == "string" and isinstance(value, str):
         return _choice(decl, value)
     raise ValueError(f"expected {'an' if kind == 'integer' else 'a'} {kind}, got {shown(value)}")
+
+
+def _not_too_long(text: str) -> None:
+    """Refuse a whole number of more digits than Python reads (4,300), in the words of a
+    file's (:mod:`pirate_bt.yamlfile`): ``--param n=`` and 5,000 digits was *expected a
+    finite number*, an angle's *needs a unit* and an integer's *expected an integer*."""
+    written = text.strip()
+    digits = len(written.lstrip("+-"))
+    limit = sys.get_int_max_str_digits()
+    if 0 < limit < digits and _INTEGER_TEXT.fullmatch(written):
+        raise ValueError(f"a number of {digits} digits is too long")
 
 
 def _finite(value: float, written: object = None) -> float:
