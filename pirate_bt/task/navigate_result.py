@@ -5,6 +5,7 @@ Split out of :mod:`pirate_bt.task.navigate` (the loop), which fills it in.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -99,6 +100,22 @@ class NavigationResult:
     """With no map: every time a bend joint swung off the wall during the last step
     run, oldest first (what ``obs.off_wall`` holds after a step; a failed step's too,
     though no navigator is asked after it): where a step stopped over an opening."""
+
+    def __repr__(self) -> str:
+        """A short summary (what ``print(result)`` shows), as a mission's result gives:
+        the outcome, its first cause and the counts; the whole data is :meth:`as_dict`
+        (the dataclass's own repr, every decision with its observation, grew by some
+        thousand characters a step)."""
+        outcomes = Counter(p.outcome for p in self.pabs)
+        tally = ", ".join(f"{n} {outcome}" for outcome, n in outcomes.items())
+        truth = "" if self.truth_m is None else f", truth_m={self.truth_m:.3f}"
+        return (
+            f"{type(self).__name__}(navigator={self.navigator!r}, status={self.status!r},"
+            f" why={self.why!r}, failing_node={self.failing_node!r}, steps={self.steps},"
+            f" pabs={len(self.pabs)}" + (f" ({tally})" if tally else "") + ","
+            f" ticks={self.ticks}, sim_time_s={self.sim_time_s:.2f},"
+            f" belief_m={self.belief_m:.3f}{truth}, safe_state={self.safe_state})"
+        )
 
     def __getstate__(self) -> object:
         """Pickled with a stand-in for an ``error`` that cannot be pickled and read back
