@@ -19,6 +19,7 @@ from pirate_bt.errors import (
     kind_of,
     shown,
 )
+from pirate_bt.units import plain_number
 
 __all__ = [
     "UnknownSegmentError",
@@ -62,7 +63,9 @@ def check_spec(spec: object, source: object) -> None:
 
 def distance_argument(s_m: object, option: str = "s_m") -> float:
     """``s_m`` as a distance in metres along a path: a real number, not ``nan``
-    (``inf`` is held at the path's end, as any distance beyond it)."""
+    (``inf`` is held at the path's end, as any distance beyond it); a 0-d NumPy array
+    is the number it holds, as a NumPy number is (it was refused, *not a ndarray*)."""
+    s_m = plain_number(s_m)
     if isinstance(s_m, bool) or not isinstance(s_m, numbers.Real):
         raise ArgumentTypeError(
             f"{option}: give a distance along the path in metres (a number), not {kind_of(s_m)}"
