@@ -184,6 +184,11 @@ class Path:
     choices: Mapping[str, TeeChoice] = field(default_factory=dict)
     _hint: list[int] = field(default_factory=lambda: [0], compare=False, repr=False)
 
+    def __hash__(self) -> int:
+        # a value, as frozen says: equal paths hash alike (the generated hash raised
+        # "unhashable type: 'dict'" on the choices)
+        return hash((self.pieces, tuple(sorted(self.choices.items()))))
+
     @property
     def length_m(self) -> float:
         return self.pieces[-1].end_m if self.pieces else 0.0
