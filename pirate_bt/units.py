@@ -397,11 +397,16 @@ def in_unit_of(value_si: float, written: object) -> str | None:
 def format_quantity(value_si: float, dimension: str, digits: int = 4) -> str:
     """Format an SI value for people, e.g. ``format_quantity(1.5708, "angle") == "90 deg"``.
 
+    A NumPy number or 0-d array is the number it holds, for ``value_si`` and ``digits``
+    alike (``numpy.float32(1.5708)`` was refused *give a number in SI units, not a
+    float32*).
+
     Raises:
         ArgumentValueError: an unknown dimension, or ``digits`` not from 0 to 17.
         ArgumentTypeError: ``value_si`` is no number.
     """
     _dimension(dimension)
+    value_si, digits = plain_number(value_si), plain_number(digits)
     if isinstance(value_si, bool) or not isinstance(value_si, int | float):
         raise ArgumentTypeError(f"value_si: give a number in SI units, not {kind_of(value_si)}")
     if isinstance(digits, bool) or not isinstance(digits, int) or not 0 <= digits <= 17:

@@ -51,3 +51,11 @@ def test_a_numpy_long_double_is_a_float(value: Any) -> None:
 
     assert type(plain_number(value)) is float
     assert parse_quantity(value, "length", require_unit=False) == 0.5
+
+
+@pytest.mark.parametrize("value", [np.float32(0.5), np.array(0.5), np.float16(0.5)])
+def test_format_quantity_takes_a_numpy_number_as_a_float(value: Any) -> None:
+    from pirate_bt.units import format_quantity
+
+    assert format_quantity(value, "length") == format_quantity(0.5, "length") == "0.5 m"
+    assert format_quantity(1.0, "length", digits=np.int64(3)) == "1 m"
