@@ -6,22 +6,76 @@ slope is at most 90°, so a ``max_unclamped_slope`` of 90° or more lets both ha
 in a vertical pipe; a bend plane is aligned at its roll or half a turn from it, so an
 ``alignment_tolerance`` of 90° or more counts every roll as aligned; a sensor whose
 readings stay fresh for longer than the host waits on a silent link is trusted when its
-board has stopped answering. :func:`policy_problems` finds those, each at its key, with
-the range accepted; :mod:`pirate_bt.robot.fitness` asks it with its other rules.
+board has stopped answering; a motor damaged by over-torque before the stalled-joint
+watch can see it stalled (:data:`JOINT_STALL_S`); a rate window longer than the host
+trusts a silent link, over which one command's step may be taken.
+:func:`policy_problems` finds those, each at its key, with the range accepted;
+:mod:`pirate_bt.robot.fitness` asks it with its other rules.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from pirate_bt.robot.workable import KeyPath, Workable
 
-__all__ = ["policy_problems"]
+__all__ = ["JOINT_STALL_S", "policy_problems"]
+
+JOINT_STALL_S: Final = 0.1
+"""How long (clock time) a joint may stay still short of its position setpoint before
+the protective layer's stalled-joint watch (:mod:`pirate_bt.safety.supervisor_stall`)
+counts it as stalled: two ticks at 20 Hz, well inside the 0.3 s a saturated motor
+takes to be damaged (``motion.over_torque_time`` of the bundled robot). Here, below
+the safety layer, so the robot description can be held to it."""
 
 
 def policy_problems(desc: Workable) -> list[tuple[KeyPath, str]]:
     """The policy values that cannot work, each as ``(path, message)``."""
-    return [*_angles(desc), *_forces(desc), *_freshness_limit(desc)]
+    return [
+        *_angles(desc),
+        *_forces(desc),
+        *_freshness_limit(desc),
+        *_over_torque(desc),
+        *_rate_window(desc),
+    ]
+
+
+def _over_torque(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """A stalled joint is let go after :data:`JOINT_STALL_S`: a motor damaged sooner
+    is damaged before the watch can act."""
+    over = desc.motion.over_torque_time
+    if over > JOINT_STALL_S + 1e-12:
+        return []
+    return [
+        (
+            ("motion", "over_torque_time"),
+            f"over_torque_time {_time(over)} is not longer than the {_time(JOINT_STALL_S)}"
+            " the stalled-joint watch waits before it lets a stalled joint go: a stalled"
+            f" motor would be damaged before it is seen; give a time above {_time(JOINT_STALL_S)}",
+        )
+    ]
+
+
+def _rate_window(desc: Workable) -> list[tuple[KeyPath, str]]:
+    """``safety.rate_window`` is the longest time one command's rate-limited step is
+    taken over (after a pause, or from the measured value when there is no last
+    setpoint). The host trusts what it knows of the robot for ``safety.max_link_silence``
+    at most; a longer window lets one command step a joint or a drive as far as its
+    limit allows over that longer time (a million seconds: any step at all), a rate
+    limit that holds nothing after a pause."""
+    window, silence = desc.safety.rate_window, desc.safety.max_link_silence
+    if window <= silence * (1 + 1e-9):
+        return []
+    return [
+        (
+            ("safety", "rate_window"),
+            f"rate_window {_time(window)} is longer than safety.max_link_silence"
+            f" {_time(silence)}: one command after a pause could step a joint or a drive"
+            f" as far as its rate limit allows over {_time(window)}, a limit that holds"
+            f" nothing; give a window above 0 s and at most {_time(silence)}",
+        )
+    ]
 
 
 def _deg(rad: float) -> str:

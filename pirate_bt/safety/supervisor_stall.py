@@ -49,6 +49,7 @@ from pirate_bt.robot.description import (
     Role,
     SensorKind,
 )
+from pirate_bt.robot.policy_fit import JOINT_STALL_S
 from pirate_bt.robot.port import RobotPort
 from pirate_bt.robot.state import RobotState
 from pirate_bt.safety.checks import released_force_n, stale_channels
@@ -70,11 +71,6 @@ _FRONT_JOINTS = {
 """The front module's position-mode joints and the state field each is read from."""
 
 log = logging.getLogger("pirate_bt.safety")
-
-JOINT_STALL_S = 0.1
-"""How long (clock time) a joint may stay still short of its position setpoint before
-it counts as stalled: two ticks at 20 Hz, well inside the 0.3 s a saturated motor
-takes to be damaged (``motion.over_torque_time`` of the bundled robot)."""
 
 
 class StallMixin:
