@@ -392,10 +392,14 @@ def check_runs(
     files: dict[tuple[str, str, str | None], str | None] = {}
     valid: set[tuple[str, Path]] = set()
     robots = loads if loads is not None else Loads()
+    located: dict[tuple[str, str, str | None], Path | None] = {}
+    networks: dict[Path, Any] = {}  # each truth's, to check where the robot is put in
+    put_in: set[tuple[Path, str | None]] = set()
     for case in cases:
         route = case.get("route")
         names = [("tree", case.get("tree"), None), ("route", route, None)]
         truth_kind = "map" if route else "network"
+        truth: Path | None = None
         names += [("network", case.get("network"), route), (truth_kind, case.get("map"), route)]
         names += [("robot", case.get("robot"), None)]
         for kind, name, near in names:  # a route before its network and map
@@ -404,6 +408,7 @@ def check_runs(
             file_key = (kind, str(name), near)
             if file_key not in files:
                 path, files[file_key] = find_input(kind, str(name), near)
+                located[file_key] = path
                 _note(read, path)
                 what = {"map": "network", "network": "network", "robot": "hardware"}.get(kind)
                 if path is not None and what is not None and (what, path) not in valid:
@@ -416,8 +421,15 @@ def check_runs(
                     valid.add((what, path))
                     if kind == "robot":  # loaded once: the checks below ask for it
                         robots.keep_robot(name, described)
+                    else:
+                        networks[path] = described
+            if kind == _truth_kind(case):
+                truth = located[file_key]
             if files[file_key] is not None:
                 raise ConfigurationError(f"run {case.get('run')!r}: {files[file_key]}")
+        if truth is not None and (truth, case.get("robot")) not in put_in:
+            put_in.add((truth, case.get("robot")))
+            _check_put_in(case, networks[truth], robots, spec, base)
         key = json.dumps(
             [
                 case.get("run"),
@@ -442,6 +454,34 @@ def check_runs(
         for name in more:
             _note(read, Path(name))
     return list(read)
+
+
+def _truth_kind(case: Case) -> str | None:
+    """The key of the case's file the simulator runs as the world, when it is not also
+    the map a plan is checked on (that one is refused at planning): a ``maps`` entry, a
+    tree's or a blind navigator's network."""
+    if case.get("map"):
+        return "map"
+    if case.get("tree") or (case.get("navigator") and case.get("blind")):
+        return "network"
+    return None
+
+
+def _check_put_in(
+    case: Case, network: Any, robots: Loads, spec: CampaignSpec | None, base: Path | None
+) -> None:
+    """Refuse a truth that puts the case's robot in across a bend or T-joint, at its
+    entry in the spec, as the simulator of each case would (an error row each)."""
+    from pirate_bt.sim.simulator import put_in_problem
+
+    problem = put_in_problem(network, robots.robot(case.get("robot")))
+    if problem is None:
+        return
+    entry = _entry(spec, base, case, _truth_kind(case) or "network")
+    message = f"run {case.get('run')!r}: {problem}"
+    if spec is None or entry is None:
+        raise ConfigurationError(message)
+    raise source_of(spec).error(entry, message)
 
 
 def _note(read: dict[Path, None], path: Path | None) -> None:

@@ -46,6 +46,7 @@ from pirate_bt.errors import (
     shown,
 )
 from pirate_bt.pipes import FaultSpec, Network, load_network
+from pirate_bt.pipes.path import PieceKind
 from pirate_bt.robot.description import RobotDescription
 from pirate_bt.sim.bridge import SimBridge
 from pirate_bt.sim.counters import SimCounters, SimEvent
@@ -53,7 +54,7 @@ from pirate_bt.sim.faults import FaultTargetError, format_fault, parse_fault
 from pirate_bt.sim.model import PipeRobotModel, SensorNoise, SimTruth
 from pirate_bt.yamlfile import load_yaml
 
-__all__ = ["SCHEME", "Simulator", "lookup"]
+__all__ = ["SCHEME", "Simulator", "lookup", "put_in_problem"]
 
 _log = logging.getLogger(__name__)
 
@@ -218,6 +219,46 @@ def _fault_place(network: Network, index: int, key: str = "target") -> str:
     return str(document.locator.locate(("faults", index, key)))
 
 
+_ACROSS = {PieceKind.BEND: "bend", PieceKind.TEE: "T-joint", PieceKind.TEE_TURN: "T-joint"}
+"""What the robot cannot be put in across (as the map side's ``task.start_check``)."""
+
+
+def put_in_problem(network: Network, robot: RobotDescription) -> str | None:
+    """Why ``network``'s start cannot take ``robot``, or ``None`` when it can: the robot,
+    put in with its front tip at the network's start position (default: its own
+    length), would lie across a bend or a T-joint (the first straight shorter than the
+    robot). The map side refuses such a map at planning (``task.start_check``); such a
+    *truth* was taken, and a mission on a good map failed on *belief and map disagree:
+    the pipe blocked the robot at 0.59 m ...*, a reason about the map. One line naming
+    the network, the piece and the length needed.
+    """
+    path = network.path({})
+    length_m = sum(module.length for module in robot.modules)
+    start = network.spec.start.position
+    front_m = min(max(start if start is not None else length_m, length_m), path.length_m)
+    rear_m = front_m - length_m
+    under = next(
+        (
+            piece
+            for piece in path.pieces
+            if piece.kind in _ACROSS
+            and piece.start_m < front_m - 1e-6
+            and piece.end_m > rear_m + 1e-6
+        ),
+        None,
+    )
+    if under is None:
+        return None
+    where = f" ({network.source})" if network.source not in ("<network>", network.name) else ""
+    return (
+        f"network {network.name!r}{where}: the robot ({length_m:.2f} m long) is put in with"
+        f" its front tip at {front_m:.2f} m, across the {_ACROSS[under.kind]}"
+        f" {under.segment!r} ({under.start_m:.2f}-{under.end_m:.2f} m): the simulated"
+        f" network needs a straight at least {length_m:.2f} m long before its first bend or"
+        " T-joint (or a start position with the whole robot past it)"
+    )
+
+
 class Simulator:
     """PIRATE in a pipe network behind a simulated PIRATEbay, on a shared clock.
 
@@ -233,7 +274,9 @@ class Simulator:
         start_m: Front-tip distance along the main line at the start.
 
     Raises:
-        ConfigurationError: a fault names something the robot lacks, or the name is taken.
+        ConfigurationError: a fault names something the robot lacks, or the name is taken;
+            the network's start puts the robot in across a bend or a T-joint (its
+            first straight shorter than the robot; not checked for a given ``start_m``).
         ValidationFailed: the network file does not validate.
     """
 
@@ -262,6 +305,9 @@ class Simulator:
         self.clock = clock if clock is not None else SimClock()
         self.seed = seed
         self.model = PipeRobotModel(robot, network, seed=seed, noise=noise, start_m=start_m)
+        problem = put_in_problem(network, robot) if start_m is None else None
+        if problem is not None:  # a start_m given is the caller's to choose
+            raise ConfigurationError(problem)
         self.bridge = SimBridge(self.model, start_s=self.clock.now())
         self.model.time_s = self.clock.now()
         self._lock = threading.RLock()
