@@ -59,3 +59,14 @@ def test_format_quantity_takes_a_numpy_number_as_a_float(value: Any) -> None:
 
     assert format_quantity(value, "length") == format_quantity(0.5, "length") == "0.5 m"
     assert format_quantity(1.0, "length", digits=np.int64(3)) == "1 m"
+
+
+def test_a_params_model_made_directly_takes_numpy_values_too() -> None:
+    from pirate_bt.behaviours.basic import RetryParams
+    from pirate_bt.behaviours.drive import DriveParams
+
+    params = DriveParams(velocity=np.float32(0.05), distance=0.1, reverse=np.bool_(True))
+    assert params.reverse is True
+    assert RetryParams(attempts=np.int64(3)).attempts == 3
+    node: Any = Drive("d", params, BuildContext())
+    assert node.params.reverse is True

@@ -78,6 +78,7 @@ from pydantic import (
     StrictInt,
     StrictStr,
     ValidationError,
+    model_validator,
 )
 
 from pirate_bt.clock import Clock, WallClock
@@ -138,9 +139,21 @@ the ticks below look at it only for a value that is not a ``Status``."""
 
 
 class NodeParams(BaseModel):
-    """Base of every node's parameter model: unknown keys are errors, values are frozen."""
+    """Base of every node's parameter model: unknown keys are errors, values are frozen.
+
+    A NumPy scalar or 0-d array given for a parameter is the Python value it stands
+    for, however the model is made (``DriveParams(reverse=numpy.bool_(True))`` was
+    refused *Input should be a valid boolean*, ``RetryParams(attempts=numpy.int64(3))``
+    *a valid integer*)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plain_values(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            return {key: _plain(value) for key, value in data.items()}
+        return data
 
 
 _BOUNDED: dict[str, Any] = {"magnitude_limits": True}
