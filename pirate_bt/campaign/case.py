@@ -270,11 +270,15 @@ def _as_built(case: dict[str, Any], drawing: Any, base: Path | None = None) -> A
     from pirate_bt.api.missions import load_network
     from pirate_bt.pipes import Network
     from pirate_bt.pipes.asbuilt import AsBuiltBounds, perturb_network
+    from pirate_bt.robot.loader import load_robot
 
     network = load_network(drawing, base=base)
     variant = case["as_built"]
+    # its robot put in on straight pipe, as in the drawing (a truth across a bend is refused)
+    robot = load_robot(case.get("robot"))
+    bounds = AsBuiltBounds(put_in_m=sum(module.length for module in robot.modules))
     spec = perturb_network(
-        network.spec, variant, AsBuiltBounds().scaled(float(case.get("as_built_scale", 1.0)))
+        network.spec, variant, bounds.scaled(float(case.get("as_built_scale", 1.0)))
     )
     return Network(spec, source=f"{network.name} as built #{variant}")
 

@@ -143,7 +143,8 @@ def _bounds(args: argparse.Namespace) -> Any:
     from pirate_bt.pipes.asbuilt import AsBuiltBounds
     from pirate_bt.robot.loader import load_robot
 
-    points = load_robot(args.robot).clamp.contact_angles
+    robot = load_robot(args.robot)
+    points = robot.clamp.contact_angles
     if not 0 < args.scale <= _MAX_SCALE:
         raise InputError(f"--scale must be a positive number, at most {_MAX_SCALE:g}")
     slope = _quantity(args.slope, "angle", "--slope")
@@ -160,6 +161,7 @@ def _bounds(args: argparse.Namespace) -> Any:
         diameter_fraction=_fraction(args.diameter, "--diameter"),
         diameter_min_m=points[0].diameter,
         diameter_max_m=points[-1].diameter,
+        put_in_m=sum(module.length for module in robot.modules),  # put in on straight pipe
     ).scaled(args.scale)
 
 

@@ -84,6 +84,7 @@ _FIELDS = (
     "diameter_fraction",
     "diameter_min_m",
     "diameter_max_m",
+    "put_in_m",
 )
 
 
@@ -98,6 +99,11 @@ class AsBuiltBounds:
         diameter_fraction: A diameter changes by at most this fraction ...
         diameter_min_m: ... and stays at least this (the smallest pipe the robot clamps)
         diameter_max_m: ... and at most this (the largest).
+        put_in_m: The pipe before the first bend or T-joint stays at least this long
+            where the drawing's is (give the robot's length: it is put in on straight
+            pipe, and the simulator refuses a truth that puts it in across one; 0,
+            the default: not kept). Only the straight just before that bend or
+            T-joint is lengthened, and only in a variant that needs it.
     """
 
     length_fraction: float = 0.10
@@ -106,6 +112,7 @@ class AsBuiltBounds:
     diameter_fraction: float = 0.05
     diameter_min_m: float = 0.051
     diameter_max_m: float = 0.120
+    put_in_m: float = 0.0
 
     def __post_init__(self) -> None:
         for name in _FIELDS:  # each a finite number (a NumPy one as its float)
@@ -118,7 +125,13 @@ class AsBuiltBounds:
             if not math.isfinite(value):  # nan was taken: every variant's lengths nan
                 raise ConfigurationError(f"as-built bounds: {name} {value!r} is not finite")
             object.__setattr__(self, name, float(value))
-        for name in ("length_fraction", "length_max_m", "slope_rad", "diameter_fraction"):
+        for name in (
+            "length_fraction",
+            "length_max_m",
+            "slope_rad",
+            "diameter_fraction",
+            "put_in_m",
+        ):
             if getattr(self, name) < 0:
                 raise ConfigurationError(f"as-built bounds: {name} must not be negative")
         if not self.diameter_min_m > 0:
@@ -160,6 +173,11 @@ class AsBuiltBounds:
             f" slopes ±{math.degrees(self.slope_rad):g} deg, diameters"
             f" ±{self.diameter_fraction * 100:g} % within"
             f" {self.diameter_min_m * 1000:g}-{self.diameter_max_m * 1000:g} mm"
+            + (
+                f", the first bend or T-joint at least {self.put_in_m:g} m in"
+                if self.put_in_m > 0
+                else ""
+            )
         )
 
 
@@ -334,8 +352,43 @@ def perturb_network(
             "segments": line(spec.segments, "main"),
         }
     )
+    variant = _put_in_kept(spec, variant, bounds.put_in_m)
     Network(variant)  # fail here, not in the simulator, on impossible geometry
     return variant
+
+
+_FEATURES = (PieceKind.BEND, PieceKind.TEE, PieceKind.TEE_TURN)
+
+
+def _first_feature_m(spec: NetworkSpec) -> float | None:
+    """How far along the main line its first bend or T-joint starts (None: it has none)."""
+    pieces = Network(spec).path({}).pieces
+    return next((piece.start_m for piece in pieces if piece.kind in _FEATURES), None)
+
+
+def _put_in_kept(drawing: NetworkSpec, variant: NetworkSpec, need_m: float) -> NetworkSpec:
+    """``variant`` with the straight just before its first bend or T-joint lengthened so
+    that the robot (``need_m`` long) is put in on straight pipe, as in the drawing: at
+    scale 10 one riser variant in four put it in across the foot bend, a truth the
+    simulator refuses. Unchanged when it need not be (and so byte-identical)."""
+    if need_m <= 0 or variant.start.position is not None:
+        return variant
+    first_m = _first_feature_m(variant)
+    drawn_m = _first_feature_m(drawing)
+    if first_m is None or first_m >= need_m or drawn_m is None or drawn_m < need_m:
+        return variant
+    segments = list(variant.segments)
+    before = next((i for i, seg in enumerate(segments) if isinstance(seg, BendSpec | TeeSpec)), 0)
+    last = next(
+        (i for i in range(before - 1, -1, -1) if isinstance(segments[i], StraightSpec)), None
+    )
+    if last is None:
+        return variant
+    seg = segments[last]
+    assert isinstance(seg, StraightSpec)
+    # a millimetre more: the file writes lengths to 0.1 mm, and reads back as long
+    segments[last] = seg.model_copy(update={"length": seg.length + need_m - first_m + 1e-3})
+    return variant.model_copy(update={"segments": segments})
 
 
 def _edit(
