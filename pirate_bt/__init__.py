@@ -181,6 +181,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.api.connection import Connection, connect
+    from pirate_bt.api.loading import load_tree
     from pirate_bt.api.missions import (
         load_network,
         load_route,
@@ -191,7 +192,6 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     )
     from pirate_bt.api.navigation import navigate
     from pirate_bt.api.results import RunResult
-    from pirate_bt.api.loading import load_tree
     from pirate_bt.api.survey import SurveyResult, survey
     from pirate_bt.api.trees import run_tree, simulate_tree
     from pirate_bt.behaviours.base import BuildContext

@@ -136,7 +136,7 @@ def _params_problems(
 ) -> InputError:
     """``exc``'s problems with a tree's parameters, placed where the spec gives them.
 
-    The tree loader places a parameter's problem at ``--param:1:1`` (the command
+    The tree loader places a parameter's problem at ``--param NAME=VALUE`` (the command
     line's option); in a campaign the parameter was written in ``runs[i].params``,
     at its own key when the problem names it. A problem of a YAML tree file itself
     stays where it is written, followed by the run's entry that named the tree

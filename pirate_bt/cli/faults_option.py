@@ -2,7 +2,7 @@
 
 The API names its ``faults=`` argument (``faults: unknown link fault 'bogus'``); on
 the command line every other bad input names its place as ``file:line:column``
-(``--param:1:1: ...``), so each item of the option is checked here on its own,
+(``--param d=1e999s: parameter 'd': ...``), so each item of the option is checked here on its own,
 before anything is read or connected, and its problem is placed at the item's
 column (``--faults:1:11: unknown link fault 'bogus' ...``). The API checks the
 same text again and finds nothing more.
