@@ -335,7 +335,7 @@ def test_a_second_ctrl_c_stops_a_campaign_waiting_for_its_cases(helper: Path) ->
     command = [sys.executable, "-c", STOPPED, str(Path(__file__).parent), str(helper / "out")]
     proc = subprocess.Popen(command, env=env, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 120  # generous: a loaded machine's start-up
+        deadline = time.monotonic() + 120
         while len(list(started.iterdir())) < 2 and time.monotonic() < deadline:
             time.sleep(0.05)
         cases = [int(p.name) for p in started.iterdir()]
@@ -348,7 +348,7 @@ def test_a_second_ctrl_c_stops_a_campaign_waiting_for_its_cases(helper: Path) ->
                 break
             except subprocess.TimeoutExpired:
                 continue
-        _, err = proc.communicate(timeout=120)  # (30 s ran out once beside 6 busy jobs)
+        _, err = proc.communicate(timeout=120)
     finally:
         proc.kill()
         proc.wait()
