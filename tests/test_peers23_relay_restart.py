@@ -12,14 +12,14 @@ import socket
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
 from typing import Any
 
-import py_trees
 import pytest
 
 zmq = pytest.importorskip("zmq")
 pytest.importorskip("msgpack")
+
+import test_peers23_groot2_replies  # noqa: E402
 
 from pirate_bt.interop import groot2_server  # noqa: E402
 from pirate_bt.interop.groot2_protocol import pack_request  # noqa: E402
@@ -29,18 +29,7 @@ from pirate_bt.interop.groot2_server import Groot2Server  # noqa: E402
 pytestmark = pytest.mark.xdist_group("real-time")
 
 
-@pytest.fixture
-def server() -> Iterator[Groot2Server]:
-    root = py_trees.composites.Sequence("root", memory=False)
-    root.add_children([py_trees.behaviours.Running("leaf")])
-    tree = py_trees.trees.BehaviourTree(root)
-    tree.setup()
-    made = Groot2Server(port=0)
-    made.serve(tree, name="restart")
-    try:
-        yield made
-    finally:
-        made.close()
+server = test_peers23_groot2_replies.server  # a served one-leaf tree, closed after: a fixture
 
 
 def _status(port: int, wait_ms: int) -> list[bytes] | None:

@@ -8,7 +8,7 @@ exports them as before.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -21,7 +21,14 @@ from pirate_bt.task.outcome import PabOutcome
 from pirate_bt.task.plan import MissionPlan
 from pirate_bt.trace.coverage import Coverage
 
-__all__ = ["Leg", "MissionResult", "Sample", "TimelineEntry"]
+__all__ = [
+    "Leg",
+    "MissionResult",
+    "Sample",
+    "TimelineEntry",
+    "belief_and_truth",
+    "pabs_counted",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,16 +152,12 @@ class MissionResult:
         """A short summary (what ``print(result)`` shows): the outcome, its first cause
         and the counts; the whole data is :meth:`as_dict` (the dataclass's own repr,
         every sample and coverage record of the run, was some 70,000 characters)."""
-        outcomes = Counter(p.outcome for p in self.pabs)
-        tally = ", ".join(f"{n} {outcome}" for outcome, n in outcomes.items())
         returned = "" if self.returned is None else f", returned={self.returned.status!r}"
-        truth = "" if self.truth_m is None else f", truth_m={self.truth_m:.3f}"
         return (
             f"{type(self).__name__}(route={self.plan.route.name!r}, status={self.status!r},"
             f" why={self.why!r}, failing_node={self.failing_node!r},"
-            f" pabs={len(self.pabs)}" + (f" ({tally})" if tally else "") + ","
-            f" fixes={len(self.fixes)}, ticks={self.ticks},"
-            f" sim_time_s={self.sim_time_s:.2f}, belief_m={self.belief_m:.3f}{truth},"
+            f" {pabs_counted(self.pabs)}, fixes={len(self.fixes)}, ticks={self.ticks},"
+            f" sim_time_s={self.sim_time_s:.2f}, {belief_and_truth(self.belief_m, self.truth_m)},"
             f" safe_state={self.safe_state}{returned})"
         )
 
@@ -289,3 +292,17 @@ class MissionResult:
             "coverage": self.coverage.as_dict() if self.coverage is not None else None,
             "returned": self.returned.as_dict() if self.returned is not None else None,
         }
+
+
+def pabs_counted(pabs: Sequence[Any]) -> str:
+    """``pabs=3 (2 success, 1 failed_safe)``: a result's PABs counted by outcome, for the
+    short reprs of a mission's and a navigation's result."""
+    outcomes = Counter(p.outcome for p in pabs)
+    tally = ", ".join(f"{n} {outcome}" for outcome, n in outcomes.items())
+    return f"pabs={len(pabs)}" + (f" ({tally})" if tally else "")
+
+
+def belief_and_truth(belief_m: float, truth_m: float | None) -> str:
+    """``belief_m=1.234, truth_m=1.240`` (the truth only where it is known)."""
+    truth = "" if truth_m is None else f", truth_m={truth_m:.3f}"
+    return f"belief_m={belief_m:.3f}{truth}"

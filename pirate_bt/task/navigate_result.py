@@ -5,7 +5,6 @@ Split out of :mod:`pirate_bt.task.navigate` (the loop), which fills it in.
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,6 +13,7 @@ from typing import Any
 from pirate_bt.errors import LinkError, portable_error, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
+from pirate_bt.task.mission_result import belief_and_truth, pabs_counted
 from pirate_bt.task.navigation import Decision, OffWall, Step
 from pirate_bt.task.outcome import PabOutcome, counted
 
@@ -106,15 +106,11 @@ class NavigationResult:
         the outcome, its first cause and the counts; the whole data is :meth:`as_dict`
         (the dataclass's own repr, every decision with its observation, grew by some
         thousand characters a step)."""
-        outcomes = Counter(p.outcome for p in self.pabs)
-        tally = ", ".join(f"{n} {outcome}" for outcome, n in outcomes.items())
-        truth = "" if self.truth_m is None else f", truth_m={self.truth_m:.3f}"
         return (
             f"{type(self).__name__}(navigator={self.navigator!r}, status={self.status!r},"
             f" why={self.why!r}, failing_node={self.failing_node!r}, steps={self.steps},"
-            f" pabs={len(self.pabs)}" + (f" ({tally})" if tally else "") + ","
-            f" ticks={self.ticks}, sim_time_s={self.sim_time_s:.2f},"
-            f" belief_m={self.belief_m:.3f}{truth}, safe_state={self.safe_state})"
+            f" {pabs_counted(self.pabs)}, ticks={self.ticks}, sim_time_s={self.sim_time_s:.2f},"
+            f" {belief_and_truth(self.belief_m, self.truth_m)}, safe_state={self.safe_state})"
         )
 
     def __getstate__(self) -> object:
