@@ -342,7 +342,7 @@ class _Messages:
             summary = reader.get_summary()
         except Exception:  # the mcap library's, a decompressor's, an OSError
             return None
-        if summary is None or not summary.chunk_indexes:
+        if summary is None or not summary.chunk_indexes or not _channels_repeated(summary):
             return None
         self.foreign = self.indexed = True
         return self._by_index(reader, summary)
@@ -401,6 +401,25 @@ class _Messages:
                 f"{path}: damaged after {number} message{'s' if number != 1 else ''}:"
                 f" {type(exc).__name__}: {exc}"
             ) from None
+
+
+def _channels_repeated(summary: Any) -> bool:
+    """Whether a summary repeats every channel of the file and every schema of those:
+    the ``mcap`` library's indexed reader takes them from there. The MCAP spec leaves
+    repeating them to the writer (the ``mcap`` library's ``Writer(repeat_channels=False)``,
+    other writers' options); until 2026-12-01 a valid file written so was refused as
+    *damaged after 0 messages: KeyError: 1*. Such a file is read as it comes (its
+    Channel and Schema records are in its data section)."""
+    channels = summary.channels
+    if not channels:
+        return False
+    statistics = summary.statistics
+    if statistics is not None and statistics.channel_count > len(channels):
+        return False
+    named = {channel for index in summary.chunk_indexes for channel in index.message_index_offsets}
+    if not named <= channels.keys():
+        return False
+    return all(c.schema_id == 0 or c.schema_id in summary.schemas for c in channels.values())
 
 
 _RENAMED = {b"{": ("a JSON Lines", ".jsonl"), b"\x1f\x8b": ("a gzip-compressed", ".jsonl.gz")}
