@@ -1,8 +1,9 @@
 """An MCAP trace written by another writer whose summary does not repeat its channels or
 schemas (the spec leaves that to the writer: the ``mcap`` library's
-``Writer(repeat_channels=False)``, ``repeat_schemas=False``) is read as the trace it
-holds. It was refused as *damaged after 0 messages: KeyError: 1*: the indexed reading
-took every channel from the summary."""
+``Writer(repeat_channels=False)``, ``repeat_schemas=False``, foxglove-sdk's
+``MCAPWriteOptions`` of the same names) is read as the trace it holds. It was refused
+as *damaged after 0 messages: KeyError: 1*: the indexed reading took every channel from
+the summary."""
 
 from __future__ import annotations
 
@@ -80,3 +81,38 @@ def test_a_summary_with_its_channels_is_still_read_by_its_index(
 ) -> None:
     """The neighbour: the usual file (channels and schemas repeated) reads the same."""
     assert read_mcap_records(_rewrite(records, tmp_path / "usual.mcap")) == records
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"repeat_channels": False},
+        {"repeat_schemas": False},
+        {"repeat_channels": False, "emit_message_indexes": False, "emit_statistics": False},
+    ],
+    ids=["channels", "schemas", "bare"],
+)
+def test_foxglove_sdk_s_file_without_its_channels_in_the_summary_reads_as_the_trace(
+    records: list[dict[str, Any]], tmp_path: Path, options: dict[str, bool]
+) -> None:
+    """The same written by foxglove-sdk, the other writer Foxglove's users record with."""
+    foxglove = pytest.importorskip("foxglove")
+    from foxglove.mcap import MCAPWriteOptions
+
+    path = tmp_path / "sdk.mcap"
+    context = foxglove.Context()
+    mapper = TopicMapper()
+    channels: dict[str, Any] = {}
+    write_options = MCAPWriteOptions(chunk_size=512, **options)
+    with foxglove.open_mcap(path, context=context, writer_options=write_options):
+        for record in records:
+            for message in mapper.messages(record):
+                if message.topic not in channels:
+                    schema = foxglove.Schema(name=message.topic, encoding="jsonschema", data=b"{}")
+                    channels[message.topic] = foxglove.Channel(
+                        message.topic, message_encoding="json", schema=schema, context=context
+                    )
+                channels[message.topic].log(
+                    encode_message(message.message), log_time=message.log_time_ns
+                )
+    assert read_mcap_records(path) == records
