@@ -182,6 +182,8 @@ def row_problem(row: Any) -> str | None:
         "sim_time_s",
         "wall_time_s",
         "distance_m",
+        "belief_m",
+        "truth_m",
         "drop",
         "corrupt",
         "dup",
@@ -301,6 +303,7 @@ def _navigator_case(case: dict[str, Any], trace: Path | None) -> dict[str, Any]:
     )
     body = _body(result, result.safe_state)
     body.update(steps=result.steps, distance_m=round(result.distance_m, 4))
+    body.update(_where(result))
     return body
 
 
@@ -324,7 +327,17 @@ def _route_case(case: dict[str, Any], output: Path | None) -> dict[str, Any]:
         output=output,
         **_options(case),
     )
-    return _body(result, result.safe_state)
+    return {**_body(result, result.safe_state), **_where(result)}
+
+
+def _where(result: Any) -> dict[str, Any]:
+    """Where a mission or a navigation ended, by the belief (along the map) and by the
+    truth (along the simulated pipe): a row says how far they parted, not only why."""
+    truth = result.truth_m
+    return {
+        "belief_m": round(float(result.belief_m), 4),
+        "truth_m": None if truth is None else round(float(truth), 4),
+    }
 
 
 def prepare() -> None:

@@ -32,12 +32,14 @@ CSV_COLUMNS = (
     "id", "index", "run", "tree", "route", "navigator", "blind", "network", "map", "as_built",
     "as_built_scale", "robot", "params", "sim_faults", "drop", "corrupt", "dup", "seed",
     "outcome", "reason", "failing_node", "sim_time_s", "wall_time_s", "ticks", "steps",
-    "distance_m", "violations", "damage", "refusals", "clips", "safe_states", "estops",
+    "distance_m", "belief_m", "truth_m", "violations", "damage", "refusals", "clips",
+    "safe_states", "estops",
     "retries", "link_failures", "crc_errors", "duplicates", "frames_dropped", "overruns",
     "violation_kinds", "damage_kinds", "trace",
 )  # fmt: skip
 """The columns of ``results.csv``: the case, its outcome and first cause, a navigator's
-steps and distance driven, and the run's counters
+steps and distance driven, where a mission or navigation ended by the belief and by the
+truth, and the run's counters
 (:class:`~pirate_bt.safety.tally.Counters`; the kinds as JSON objects)."""
 
 _COUNTERS = (
