@@ -93,6 +93,27 @@ def _beyond_reach(plan: MissionPlan, feature: str | None, at_m: float, reach_m: 
     return abs(opening_m - at_m) > reach_m + plan.robot_length_m
 
 
+def _mapped_tee_near(
+    result: MissionResult, at_m: float, reach_m: float
+) -> tuple[str, float] | None:
+    """A tee of the route's map not yet fixed on whose opening is within the matcher's
+    reach plus the robot's length of an opening felt at ``at_m``, as ``(id, opening_m)``:
+    that tee, nearer (or further) than drawn, not one the map lacks. A tee the route turns
+    into is one too: the localiser expects it as a turn, so its disagreement names none
+    (*no T-joint within ...*), and the mission re-planned through it straight, then
+    searched for it where it was drawn (a straight built half as long as drawn: the
+    robot crossed the tee it was to turn into and was blocked at the line's end)."""
+    plan = result.plan
+    fixed = {fix.feature for fix in result.fixes}
+    for piece in plan.path.pieces:
+        if piece.kind.value != "tee" or piece.segment in fixed:
+            continue
+        opening_m = (piece.start_m + piece.end_m) / 2
+        if abs(opening_m - at_m) <= reach_m + plan.robot_length_m:
+            return piece.segment, opening_m
+    return None
+
+
 def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     """Where a stop still leaves the route one clear meaning, the plan for the rest.
 
@@ -120,6 +141,19 @@ def replan_after(result: MissionResult) -> tuple[MissionPlan, str] | None:
     plan = result.plan
     if d.expected is not None and not _beyond_reach(plan, d.feature, d.sensed_at_m, d.window_m):
         return None  # the map's own tee, found nearer than drawn? no clear meaning
+    near = _mapped_tee_near(result, d.sensed_at_m, d.window_m)
+    if near is not None:  # the same, for a tee the route turns into
+        tee_id, opening_m = near
+        gap_m = opening_m - d.sensed_at_m
+        where = f"{gap_m:.2f} m further on" if gap_m >= 0 else f"{-gap_m:.2f} m behind it"
+        shorter = "shorter" if gap_m >= 0 else "longer"
+        result.replans.append(
+            f"not re-planned: the opening felt at {d.sensed_at_m:.2f} m (believed) may be the"
+            f" map's T-joint {tee_id!r}, drawn {where} (at {opening_m:.2f} m): is the pipe"
+            f" before it {shorter} than drawn? A T-joint the map does not have, so near"
+            " it, has no clear meaning"
+        )
+        return None
     robot = load_robot()
     if d.sensed_by not in {m.name for m in robot.bend_modules(Half.FRONT)}:
         return None
