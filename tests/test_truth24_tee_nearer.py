@@ -72,3 +72,16 @@ def test_the_command_line_exits_1_with_the_first_cause_and_the_tee(
     assert "Traceback" not in err
     assert "an opening was felt at 1.07 m" in err
     assert "may be the map's T-joint 'tee', drawn 0.97 m further on" in err
+
+
+def test_the_goal_navigator_stops_there_too_with_the_first_cause_first(
+    files: tuple[Path, Path, Path],
+) -> None:
+    _, drawn, built = files
+    result = pirate_bt.navigate("goal", sim=built, map=drawn, params={"segment": "branch"})
+    assert result.status == "failure" and result.safe_state
+    # was: 'map disagreement at 3.18 m (believed): the pipe blocked the robot, 0.23 m
+    # beyond where the PAB through what the map has as T-joint 'tee' was to leave it'
+    assert result.why.startswith("belief and map disagree: an opening was felt at 1.07 m")
+    assert result.truth_m is not None and result.truth_m < 2.5
+    assert result.sim["violations"] == 0
