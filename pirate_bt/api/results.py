@@ -66,6 +66,12 @@ class RunResult:
         close_error: Set when closing the link, after the run, could not make sure the
             robot stopped (its closing stop and the e-stop after it never acknowledged):
             the run is then a failure, exit 3, whatever the tree did, and ``why`` says so.
+        after_stop: What was done after a failed run left the robot in a steep pipe
+            with a half free (``None`` when nothing was): the free half clamped (*the
+            rear half, left free in a steep pipe (pitch 66°), was clamped: both halves
+            hold*), or why it could not be, plainly (*the robot may be unclamped in a
+            riser: only its front half held it ...: the link is down ...*). ``why``
+            still names the first cause.
 
     Example::
 
@@ -93,6 +99,7 @@ class RunResult:
     loop: LoopResult | None = field(default=None, repr=False)
     coverage: Coverage | None = field(default=None, repr=False)
     close_error: LinkError | None = None
+    after_stop: str | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -146,6 +153,7 @@ class RunResult:
             "trace": str(self.trace_path) if self.trace_path is not None else None,
             "counters": self.counters.as_dict(),
             "coverage": self.coverage.as_dict() if self.coverage is not None else None,
+            "after_stop": self.after_stop,
         }
 
 

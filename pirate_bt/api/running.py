@@ -388,6 +388,13 @@ def _run_held(
     elif supervisor is not None and (waiting := _unconfirmed(loop, supervisor)):
         why += waiting
     why += blocked_ticks(loop)
+    after_stop = None
+    if supervisor is not None and not loop.succeeded:
+        # a PAB stopped half-way may leave one half free in a riser: clamp it, as a
+        # mission and a navigation do (task.secure), or say plainly that it could not be
+        from pirate_bt.task.secure import hold_both
+
+        after_stop = hold_both(robot, supervisor, clock, period_s=period_s)
     return RunResult(
         tree=_name(checked),
         status=loop.outcome,
@@ -405,4 +412,5 @@ def _run_held(
         traceback=loop.traceback,
         loop=loop,
         coverage=coverage.coverage(),
+        after_stop=after_stop,
     )

@@ -284,6 +284,8 @@ def run(args: argparse.Namespace) -> int:
     if result.succeeded:
         print(result.summary())
         return 0
+    if result.after_stop is not None:  # as a mission's notes: before its last line
+        print(f"pirate-bt: after the stop, {result.after_stop}", file=sys.stderr)
     print(f"pirate-bt: {result.summary()}", file=sys.stderr)
     if result.stop is StopReason.EXCEPTION and result.traceback and args.debug:
         print(result.traceback, file=sys.stderr)

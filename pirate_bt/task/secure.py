@@ -49,20 +49,23 @@ def hold_both(
     from pirate_bt.treefile import load_tree
 
     state = supervisor.state()
-    if state is None or supervisor.estopped or supervisor.link_problem() is not None:
-        return None
-    if supervisor.tree_paused:  # an operator has the robot (MANUAL): theirs to hold
+    if state is None:
         return None
     pitch = state.imu_rad.get("pitch")
     if pitch is None or abs(pitch) <= robot.motion.max_unclamped_slope:
         return None
     halves = supervisor.half_states()
     free = [h for h in Half if halves.get(h) is not ClampState.CLAMPED]
+    where = f"in a steep pipe (pitch {math.degrees(pitch):.0f}°)"
+    unable = _cannot_clamp(supervisor)
+    if free and unable is not None:  # nothing may move it: say what holds it, plainly
+        note = _left_unheld(free, where, unable)
+        log.warning("after the stop: %s", note)
+        return note
     if len(free) != 1:
         return None
     reason = supervisor.safe_state_reason or "run ended without success"
     error = supervisor.safe_state_error
-    where = f"in a steep pipe (pitch {math.degrees(pitch):.0f}°)"
     supervisor.resume()  # a deliberate, checked clamp: the safe state never clamps
     try:
         loaded = load_tree(
@@ -90,3 +93,31 @@ def hold_both(
         note = f"the {free[0]} half, left free {where}, could not be clamped: {why}"
     log.warning("after the stop: %s", note)
     return note
+
+
+def _cannot_clamp(supervisor: Any) -> str | None:
+    """Why no clamp may be sent now (the link down, an e-stop, an operator in control),
+    or ``None``."""
+    problem = supervisor.link_problem()
+    if supervisor.estopped:
+        return "the robot is e-stopped (an e-stop keeps the clamps as they are)"
+    if problem is not None:
+        return f"the link is down ({problem.reason}: {problem.detail})"
+    if supervisor.tree_paused:  # an operator has the robot (MANUAL): theirs to hold
+        return "an operator holds the robot (manual mode)"
+    return None
+
+
+def _left_unheld(free: list[Half], where: str, why: str) -> str:
+    """The note for a robot left with a free half in a steep pipe that nothing may clamp
+    now: which half may still hold it (by its last readings), and why none was clamped."""
+    if len(free) == 2:
+        return (
+            f"the robot may be unclamped in a riser: no half held it {where} at the last"
+            f" reading, and none could be clamped: {why}"
+        )
+    other = Half.REAR if free[0] is Half.FRONT else Half.FRONT
+    return (
+        f"the robot may be unclamped in a riser: only its {other} half held it {where} at"
+        f" the last reading; the {free[0]} half, left free, could not be clamped: {why}"
+    )
