@@ -147,3 +147,32 @@ def test_a_link_lost_in_a_riser_says_the_robot_may_be_unclamped(models: list[Any
     )
     truth = models[-1].truth()  # the bridge keeps the clamps: the front half holds
     assert truth.halves[Half.FRONT].clamped and not truth.halves[Half.REAR].clamped
+
+
+def test_an_e_stop_in_a_riser_keeps_the_clamps_and_says_only_one_half_holds(
+    models: list[Any],
+) -> None:
+    def observe(runner: Any, connection: Any) -> None:
+        def post(_info: Any) -> None:
+            if connection.clock.now() >= AT_S and not connection.supervisor.estopped:
+                connection.supervisor.estop("operator pressed e-stop")
+
+        runner.add_post_tick(post)
+
+    result = pirate_bt.simulate_tree(
+        "bend",
+        network=network_from_data(RISER),
+        params={"roll": "90 deg"},
+        observe=observe,
+        max_time="60 s",
+    )
+    assert result.status == "failure"
+    assert result.after_stop is not None
+    assert result.after_stop.startswith(
+        "the robot may be unclamped in a riser: only its front half held it"
+    )
+    assert result.after_stop.endswith(
+        "the robot is e-stopped (an e-stop keeps the clamps as they are)"
+    )
+    truth = models[-1].truth()  # nothing moved after the e-stop: the front half holds
+    assert truth.halves[Half.FRONT].clamped and not truth.halves[Half.REAR].clamped
