@@ -131,17 +131,17 @@ def test_a_refused_entry_is_not_carried_by_the_next_bulk() -> None:
 
 
 def test_the_supervisors_stop_after_a_refusal_does_not_carry_it() -> None:
-    """The supervisor's path: send() without waiting, the NACK heard by poll(); the
-    next send() reports the refusal (LinkError) and the one after it is the stop."""
+    """The supervisor's path: send() without waiting, the NACK heard by poll(), which
+    reports the refusal (LinkError; the next send() did until 2026-12-01); the send
+    after it is the stop."""
     link, tap, _bridge, clock = connect()
     link.send_and_wait([MotorCommand("bend_1_drive", ControlMode.VELOCITY, 0.05)])
     tap.refuse = refuse_front_tilt
     link.send([MotorCommand("front_tilt", ControlMode.POSITION, 0.16)])
     clock.advance(0.01)
-    link.poll()
-    stop = [MotorCommand(d, ControlMode.VELOCITY, 0.0) for d in DRIVES]
     with pytest.raises(LinkError, match=r"refused \(BAD_MODE\)"):
-        link.send(stop)
+        link.poll()
+    stop = [MotorCommand(d, ControlMode.VELOCITY, 0.0) for d in DRIVES]
     link.send(stop)
     clock.advance(0.03)
     link.poll()

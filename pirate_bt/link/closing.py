@@ -18,7 +18,7 @@ from pirate_bt.errors import LinkError, ProtocolMismatch
 from pirate_bt.link.requests import Outcome, Request
 from pirate_bt.link.session import Session
 
-__all__ = ["EStopNotTaken", "estop_not_taken", "wait_for_estop"]
+__all__ = ["EStopNotTaken", "RequestsFailed", "estop_not_taken", "wait_for_estop"]
 
 
 class EStopNotTaken(LinkError):
@@ -26,6 +26,13 @@ class EStopNotTaken(LinkError):
     answered it ``STALE``, or acknowledged it, and its ``STATE`` frames show no latch:
     the robot was not stopped by it. A frame that fails the bridge's checks (a stray
     byte, a damaged length) is no command."""
+
+
+class RequestsFailed(LinkError):
+    """Requests the link sent were refused, answered ``STALE`` or never acknowledged (a
+    setpoint table sent again as often as it goes and still lost): raised by the next
+    ``send`` or, since 2026-12-01, the next ``poll`` (a supervisor's tick), whichever
+    comes first."""
 
 
 def estop_not_taken(request: Request) -> EStopNotTaken:

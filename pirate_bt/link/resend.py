@@ -82,6 +82,15 @@ class BulkResends:
         )
         return True
 
+    def waiting(self, session: Session, bulk: Request | None) -> bool:
+        """Whether ``bulk`` (the newest one sent) failed unanswered while the bridge's
+        watchdog is tripped, so is judged only once a ``STATE`` shows it hears the host
+        again (:meth:`due`): its failure is not yet to be reported."""
+        if bulk is None or bulk is self._judged or bulk.outcome is not Outcome.FAILED:
+            return False
+        stats = session.stats()
+        return stats.watchdog and stats.connected
+
     def sent(self, bulk: Request) -> None:
         """``bulk`` carries the table sent again."""
         self._resent = bulk

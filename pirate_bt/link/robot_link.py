@@ -24,7 +24,7 @@ from typing import Any
 
 from pirate_bt.errors import LinkError, LinkTimeout, ProtocolMismatch
 from pirate_bt.link.away import BoardsAway, not_answering
-from pirate_bt.link.closing import estop_not_taken, wait_for_estop
+from pirate_bt.link.closing import RequestsFailed, estop_not_taken, wait_for_estop
 from pirate_bt.link.codec import BridgeFlags, BulkSetpoints, CountersRequest
 from pirate_bt.link.deadman import Deadman
 from pirate_bt.link.health import (
@@ -108,6 +108,7 @@ class RobotLink:
             LinkLost: nothing valid heard for longer than the configured time.
             EStopNotTaken: an e-stop the bridge refused or never answered on every try,
                 and its STATEs show no latch (raised once).
+            RequestsFailed: a request given up (not a table that goes again).
         """
         if self.session.threaded:
             self.session.check_reader()
@@ -123,6 +124,8 @@ class RobotLink:
         estop = self.session.take_estop_not_taken()
         if estop is not None and not self.session.latch_reported:
             raise estop_not_taken(estop)  # once: the supervisor stops the drives
+        if not self._resends.waiting(self.session, self._last_bulk):
+            self._raise_failures()  # a request given up: said at once, not at a next send
 
     def state(self) -> RobotState | None:
         """The latest state snapshot, or ``None`` before the first state frame."""
@@ -358,7 +361,7 @@ class RobotLink:
                 if last.nack or last.outcome is Outcome.STALE
                 else self._one_way_hint(last.first_sent_s, last)
             )
-            raise LinkError(
+            raise RequestsFailed(
                 f"{len(failures)} earlier request(s) failed; last: {type(last.msg).__name__} "
                 f"seq {last.seq} {why} after {last.tries} tries{hint}"
             )

@@ -60,7 +60,7 @@ from pirate_bt.errors import (
     LinkError,
     ProtocolMismatch,
 )
-from pirate_bt.link.closing import EStopNotTaken
+from pirate_bt.link.closing import EStopNotTaken, RequestsFailed
 from pirate_bt.robot.description import (
     ControlMode,
     Half,
@@ -386,8 +386,11 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
                         self.apply(action)
                     except InputError as exc:  # the run goes on; the operator is told
                         log.error("operator input %s: %s", type(source).__name__, exc)
+            failed: RequestsFailed | None = None
             try:
                 self._port.poll()
+            except RequestsFailed as exc:
+                failed = exc  # said after the link's own problems (a bridge reset fails them)
             except LinkError as exc:
                 if not self.in_safe_state:
                     # a bridge of another layout or protocol still hears the host: the
@@ -422,6 +425,10 @@ class Supervisor(AuthorityMixin, DecisionMixin, HoldMixin, StallMixin):
                     return
                 # the link works: the protective hold below may still reach the boards
                 # that are not in fault (a clamp board in FAULT lets its half go limp)
+            if failed is not None and not self.in_safe_state:
+                # a request given up while the tree sent nothing (a long wait): until
+                # 2026-12-01 said only at the tree's next send, or never
+                self.safe_state(f"link error while sending: {failed}", error=failed)
             state = self._port.state()
             if state is None:
                 return
