@@ -31,6 +31,7 @@ from pirate_bt.link.codec import (
     NackCode,
 )
 from pirate_bt.link.framing import MAX_WIRE_BYTES, cobs_encode, crc16
+from pirate_bt.link.inbound import UNMATCHED_KEPT
 
 FRAMES: dict[str, Message] = {
     "state": state(40, ack_seq=3, flags=BridgeFlags.WATCHDOG),
@@ -190,3 +191,10 @@ def test_replays_jumps_wraps_and_answers_to_nothing_never_raise() -> None:
     wire.poll(0.001)
     assert wire.session.stats().connected
     assert wire.session.stats().failed == 0
+    # a flood of them is counted, and what the session keeps of them stays bounded
+    before = wire.session.stats().duplicates
+    for seq in range(1000, 3000):
+        wire.answer(Ack(seq, MsgType.SETPOINT, AckStatus.APPLIED))
+    wire.poll(0.001)
+    assert wire.session.stats().duplicates == before + 2000
+    assert wire.session.answers_unasked_since(0.0) == UNMATCHED_KEPT
