@@ -25,9 +25,10 @@ import numbers
 import operator
 import re
 import sys
-from typing import Annotated, Any, Final
+from typing import Annotated, Any, Final, Literal
 
 from pydantic import BeforeValidator, ValidationInfo, WithJsonSchema
+from pydantic_core import PydanticCustomError
 
 from pirate_bt.errors import ArgumentTypeError, ArgumentValueError, UnitError, kind_of
 
@@ -493,3 +494,30 @@ Torque = Annotated[float, *_q("torque")]
 Frequency = Annotated[float, *_q("frequency")]
 Current = Annotated[float, *_q("current")]
 Dimensionless = Annotated[float, *_q("dimensionless")]
+
+
+def _whole(value: Any) -> Any:
+    """A whole number of a file as written: text (``'20'``) or a boolean (``true``, a
+    plain ``yes``) is none, where pydantic's lax reading took ``'20'`` as 20 and ``yes``
+    as 1 (a board's ``id``, a ``slot``, a raw range, a ``schema_version``)."""
+    if isinstance(value, bool | str):
+        raise PydanticCustomError("int_type", "Input should be a valid integer")
+    return value
+
+
+def _flag(value: Any) -> Any:
+    """A yes/no of a file as written: ``true`` or ``false`` (a plain ``yes`` is read
+    as true by YAML), never text (``'off'``, which pydantic's lax reading took as false)
+    nor a number (``1``)."""
+    value = plain_number(value)
+    if not isinstance(value, bool):
+        raise PydanticCustomError("bool_type", "Input should be a valid boolean")
+    return value
+
+
+WholeNumber = Annotated[int, BeforeValidator(_whole)]
+"""An ``int`` field of a file: a whole number, never text nor a boolean."""
+Flag = Annotated[bool, BeforeValidator(_flag)]
+"""A ``bool`` field of a file: true or false, never text nor a number."""
+SchemaVersion = Annotated[Literal[1], BeforeValidator(_whole)]
+"""A file's ``schema_version``: 1, never ``true`` nor ``'1'``."""

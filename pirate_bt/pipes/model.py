@@ -30,7 +30,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from pirate_bt.units import Angle, Duration, Force, Length
+from pirate_bt.units import Angle, Duration, Force, Length, SchemaVersion
 
 __all__ = [
     "DIRECTION_ROLL_RAD",
@@ -218,7 +218,7 @@ def _dotted(path: tuple[str | int, ...]) -> str:
 class NetworkSpec(_Model):
     """A whole pipe network: defaults, the main line, and scheduled faults."""
 
-    schema_version: Literal[1] = 1
+    schema_version: SchemaVersion = 1
     name: str = Field(min_length=1)
     description: str = ""
     diameter: Length = Field(

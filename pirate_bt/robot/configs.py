@@ -20,10 +20,12 @@ from pirate_bt.units import (
     Current,
     Dimensionless,
     Duration,
+    Flag,
     Force,
     Length,
     Torque,
     Velocity,
+    WholeNumber,
 )
 
 __all__ = ["Band", "BridgeConfig", "ClampConfig", "ContactPoint", "MotionConfig", "SafetyConfig"]
@@ -76,7 +78,7 @@ class ClampConfig(_Model):
     front_clear_angle: Angle = Field(
         description="front tilt angle that moves the front module clear before a front clamp"
     )
-    assumption: bool = False
+    assumption: Flag = False
     """true when the values are not public"""
 
     @property
@@ -143,7 +145,7 @@ class MotionConfig(_Model):
         0.4, gt=0, description="torque a position-mode joint presses with when held by the wall"
     )
     slide_speed: Velocity = Field(0.2, gt=0, description="speed of an unclamped robot sliding")
-    assumption: bool = False
+    assumption: Flag = False
     """true when the values are not public"""
 
 
@@ -159,7 +161,7 @@ class SafetyConfig(_Model):
     max_link_silence: Duration = Field(
         0.5, gt=0, description="longest time without a valid frame before the link counts as lost"
     )
-    max_refusals: int = Field(
+    max_refusals: WholeNumber = Field(
         5, ge=1, description="consecutive refused tree commands that put the robot in safe state"
     )
     rate_window: Duration = Field(
@@ -183,7 +185,7 @@ class SafetyConfig(_Model):
 class BridgeConfig(_Model):
     """The PIRATEbay bridge and its serial line."""
 
-    baud: int = Field(115200, ge=1200, le=4_000_000)
+    baud: WholeNumber = Field(115200, ge=1200, le=4_000_000)
     """serial line speed (bit/s)"""
     # the bounds of the firmware's header (whole milliseconds, 1 ms .. 60 s); the host
     # waits reset_time on opening a port, so it is bounded too

@@ -26,7 +26,7 @@ import hashlib
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, fields
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import (
     Field,
@@ -76,6 +76,7 @@ from pirate_bt.robot.parts import (
     VelocityMax,
     _Model,
 )
+from pirate_bt.units import SchemaVersion
 
 __all__ = [
     "AccelerationMax",
@@ -163,7 +164,7 @@ class SetpointSlot:
 class RobotDescription(_Model):
     """A whole robot: modules front to rear, boards, and parameters."""
 
-    schema_version: Literal[1] = 1
+    schema_version: SchemaVersion = 1
     """version of this file format"""
     name: str = Field(min_length=1)
     """the robot's name"""

@@ -27,10 +27,12 @@ from pirate_bt.units import (
     Current,
     Dimensionless,
     Duration,
+    Flag,
     Force,
     Length,
     Torque,
     Velocity,
+    WholeNumber,
 )
 
 __all__ = [
@@ -133,7 +135,7 @@ class LimitPolicy(StrEnum):
 
 
 RawRange = Annotated[
-    tuple[int, int],
+    tuple[WholeNumber, WholeNumber],
     Field(description="[min, max] raw integer range on the wire (int16)"),
 ]
 
@@ -157,7 +159,7 @@ class Conversion(_Model):
 
     raw: RawRange
     """[min, max] raw integer range on the wire (int16)"""
-    zero_raw: int = Field(0, description="raw value that means zero")
+    zero_raw: WholeNumber = Field(0, description="raw value that means zero")
     per_raw: float = Field(description="SI value of one raw step, with its unit")
 
     _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
@@ -320,7 +322,7 @@ class Feedback(_Model):
 class Motor(_Model):
     """One motor on a board slot."""
 
-    slot: int = Field(ge=0, le=1, description="motor connector on the PICO board (0 or 1)")
+    slot: WholeNumber = Field(ge=0, le=1, description="motor connector on the PICO board (0 or 1)")
     name: Name
     """unique lower_snake_case name"""
     function: MotorFunction
@@ -331,7 +333,7 @@ class Motor(_Model):
     """hard limits enforced by the protective layer"""
     feedback: Feedback = Feedback()
     """readings the H-bridge reports back"""
-    assumption: bool = Field(False, description="true when the values are not public")
+    assumption: Flag = Field(False, description="true when the values are not public")
 
     @model_validator(mode="after")
     def _has_mode(self) -> Motor:
@@ -341,15 +343,15 @@ class Motor(_Model):
 
 
 class _Sensor(_Model):
-    slot: int = Field(ge=0, le=1, description="sensor connector on the PICO board (0 or 1)")
+    slot: WholeNumber = Field(ge=0, le=1, description="sensor connector on the PICO board (0 or 1)")
     name: Name
     """unique lower_snake_case name"""
     raw: RawRange
     """[min, max] raw integer range on the wire (int16)"""
-    zero_raw: int = 0
+    zero_raw: WholeNumber = 0
     """raw value that means zero"""
     period: Duration = Field(gt=0, description="expected time between fresh readings")
-    assumption: bool = False
+    assumption: Flag = False
     """true when the values are not public"""
 
     _raw_ok = field_validator("raw")(classmethod(lambda cls, v: _check_raw_range(v)))
@@ -441,7 +443,7 @@ Sensor = Annotated[AngleSensor | SpringSensor | ImuSensor, Field(discriminator="
 class Board(_Model):
     """A PICO board: up to two motors and two sensors, on one module."""
 
-    id: int = Field(ge=1, le=254, description="RS485 address of the board")
+    id: WholeNumber = Field(ge=1, le=254, description="RS485 address of the board")
     module: Name = Field(description="name of the module the board sits in")
     motors: list[Motor] = Field(default_factory=list, max_length=2)
     """motors on slots 0 and 1"""
@@ -462,5 +464,5 @@ class Module(_Model):
     length: Length = Field(gt=0, description="length along the pipe axis")
     wheel_radius: Length | None = Field(None, gt=0)
     """drive wheel radius (modules with wheels)"""
-    assumption: bool = False
+    assumption: Flag = False
     """true when the values are not public"""
