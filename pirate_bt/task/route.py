@@ -56,6 +56,7 @@ from pirate_bt.errors import (
     bytes_escaped,
     shown,
 )
+from pirate_bt.task.route_schema import route_schema
 from pirate_bt.units import parse_quantity, units_of
 
 
@@ -565,31 +566,3 @@ def load_route(path: str | Path) -> Route:
                 )
             ]
         ) from None
-
-
-def route_schema() -> dict[str, Any]:
-    """A JSON Schema for route files (``pirate-bt schema route``).
-
-    Routes are text, not YAML, so the schema describes one line: editors can
-    use its pattern, people its description.
-    """
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": "pirate_bt route (one line of a .route file)",
-        "description": (
-            "A route is plain text, one command per line; '#' starts a comment. Commands: "
-            "network NAME | forward DISTANCE [slowly] | forward to the end | "
-            "inspect DISTANCE [slowly] | back DISTANCE | at the bend turn [up|down|left|right] | "
-            "at the T-joint go left|right|up|down|straight | go to SEGMENT | pause DURATION | "
-            "return to start. See docs/routes.md."
-        ),
-        "type": "string",
-        "pattern": (r"^\s*(#.*|(network|forward|inspect|back|at|go|pause|wait|return)\b.*|)$"),
-        "examples": [
-            "forward 2.5 m",
-            "at the bend turn up",
-            "at the T-joint go left",
-            "inspect 1 m slowly",
-            "return to start",
-        ],
-    }
