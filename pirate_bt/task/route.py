@@ -43,6 +43,7 @@ from __future__ import annotations
 import difflib
 import enum
 import re
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -447,6 +448,23 @@ def _parse_line(
     raise line.error(f"unknown command '{first.raw}'{_suggest(verb, COMMAND_WORDS)}", first)
 
 
+def _hidden_character(line: str, commands: int) -> tuple[int, str] | None:
+    """The first character of ``line`` a terminal or an editor would not show as it is,
+    and why, if any: a control character but a tab anywhere (an ESC echoed in *unknown
+    unit 'm<ESC>[31m'* recoloured or cleared the operator's terminal), or a format
+    character (a zero-width space, a text-direction override) among the first
+    ``commands`` characters, the line before its comment."""
+    if line.isprintable():
+        return None
+    for index, c in enumerate(line):
+        category = unicodedata.category(c)
+        if (category == "Cc" and c != "\t") or (category == "Cf" and index < commands):
+            what = "a control character" if category == "Cc" else "an invisible character"
+            label = unicodedata.name(c, "") or repr(c)[1:-1]
+            return index, f"U+{ord(c):04X} {label} ({what}) is not allowed in a route"
+    return None
+
+
 def parse_route(text: str, source: str = "<route>", name: str | None = None) -> Route:
     """Parse route text.
 
@@ -486,6 +504,10 @@ def parse_route(text: str, source: str = "<route>", name: str | None = None) -> 
     text = text.removeprefix("\ufeff")  # a byte-order mark, as editors on Windows write
     for line_no, raw_line in enumerate(text.splitlines(), start=1):
         body = raw_line.split("#", 1)[0]
+        odd = _hidden_character(raw_line, len(body))
+        if odd is not None:
+            errors.append(LocatedError(odd[1], SourceLocation(source, line_no, odd[0] + 1)))
+            continue
         line = _Line(source, line_no, body)
         try:
             result = _parse_line(line, " ".join(body.split()))
