@@ -35,6 +35,7 @@ from pydantic import (
     model_validator,
 )
 
+from pirate_bt.robot.channels import ChannelSpec, SetpointSlot
 from pirate_bt.robot.configs import (
     Band,
     BridgeConfig,
@@ -137,28 +138,6 @@ def _unknown(kind: str, name: object, known: Iterable[object]) -> KeyError:
     """A lookup's miss, naming what the robot has."""
     have = ", ".join(str(k) for k in known) or "none"
     return KeyError(f"the robot has no {kind} {name!r} (it has: {have})")
-
-
-@dataclass(frozen=True, slots=True)
-class ChannelSpec:
-    """One int16 value in the state frame, in layout order."""
-
-    index: int
-    board: int
-    name: str
-    conversion: Conversion
-    dimension: str
-    period_s: float | None
-
-
-@dataclass(frozen=True, slots=True)
-class SetpointSlot:
-    """One motor in the bulk setpoint frame, in layout order."""
-
-    index: int
-    board: int
-    slot: int
-    motor: Motor
 
 
 class RobotDescription(_Model):
