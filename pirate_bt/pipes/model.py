@@ -30,6 +30,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from pirate_bt.robot.parts import Title
 from pirate_bt.units import Angle, Duration, Force, Length, SchemaVersion
 
 __all__ = [
@@ -219,7 +220,7 @@ class NetworkSpec(_Model):
     """A whole pipe network: defaults, the main line, and scheduled faults."""
 
     schema_version: SchemaVersion = 1
-    name: str = Field(min_length=1)
+    name: Title
     description: str = ""
     diameter: Length = Field(
         ge=0.04, le=0.2, description="internal diameter at the start of the main line"

@@ -71,6 +71,7 @@ from pirate_bt.robot.parts import (
     Sensor,
     SensorKind,
     SpringSensor,
+    Title,
     TorqueConversion,
     TorqueMax,
     VelocityConversion,
@@ -145,7 +146,7 @@ class RobotDescription(_Model):
 
     schema_version: SchemaVersion = 1
     """version of this file format"""
-    name: str = Field(min_length=1)
+    name: Title
     """the robot's name"""
     description: str = ""
     """free text"""

@@ -8,10 +8,12 @@ enums that name roles, halves, motor functions, control modes and sensor kinds.
 from __future__ import annotations
 
 import math
+import unicodedata
 from enum import StrEnum
 from typing import Annotated, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -62,6 +64,7 @@ __all__ = [
     "Sensor",
     "SensorKind",
     "SpringSensor",
+    "Title",
     "TorqueConversion",
     "TorqueMax",
     "VelocityConversion",
@@ -72,6 +75,23 @@ Name = Annotated[
     str,
     Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=40, description="lower_snake_case name"),
 ]
+
+
+def _shown_as_written(name: str) -> str:
+    """A robot's or a network's ``name`` that a terminal shows as it is: no control
+    character (a newline, an ESC that recoloured or cleared the terminal when
+    ``pirate-bt robot`` printed the name), no invisible or text-direction one."""
+    for c in name:
+        category = unicodedata.category(c)
+        if category in ("Cc", "Cf", "Cs"):
+            what = "a control character" if category != "Cf" else "an invisible character"
+            label = unicodedata.name(c, "") or repr(c)[1:-1]
+            raise ValueError(f"name: must not contain U+{ord(c):04X} {label} ({what})")
+    return name
+
+
+Title = Annotated[str, Field(min_length=1), AfterValidator(_shown_as_written)]
+"""A robot's or a network's ``name``: text a terminal and a report show as written."""
 
 
 class _Model(BaseModel):
