@@ -193,6 +193,9 @@ def _cruise(desc: Workable) -> list[tuple[KeyPath, str]]:
             if slowest is None or top < slowest[0]:
                 slowest = (top, motor.name)
     speed = desc.motion.nominal_speed
+    coarse = _coarse_drive(desc, speed)
+    if coarse:
+        return coarse
     if slowest is None or speed <= slowest[0] * (1 + 1e-9):
         return []
     return [
@@ -203,6 +206,28 @@ def _cruise(desc: Workable) -> list[tuple[KeyPath, str]]:
             " the nominal speed, and every one would be refused when it loads",
         )
     ]
+
+
+def _coarse_drive(desc: Workable, speed: float) -> list[tuple[KeyPath, str]]:
+    """The first drive whose velocity mode's raw step is so coarse that the nominal
+    speed is commanded as raw 0 (``per_raw: 1e306 mm/s``): such a robot validated, and
+    every drive stood still until its timeout."""
+    for b, board in enumerate(desc.boards):
+        for j, motor in enumerate(board.motors):
+            mode = motor.modes.velocity
+            if motor.function is not MotorFunction.DRIVE or mode is None:
+                continue
+            if mode.to_raw(speed) == mode.to_raw(0.0):
+                return [
+                    (
+                        ("boards", b, "motors", j, "modes", "velocity", "per_raw"),
+                        f"drive {motor.name!r}: one raw step of its velocity mode is"
+                        f" {abs(mode.per_raw) * 1000:.4g} mm/s, so nominal_speed"
+                        f" {_mm_s(speed)} mm/s is sent as no speed at all: every drive"
+                        " would stand still",
+                    )
+                ]
+    return []
 
 
 def _drive_feedback(desc: Workable) -> list[tuple[KeyPath, str]]:
