@@ -28,6 +28,7 @@ spec came from, so later checks can point at ``file:line:column``.
 from __future__ import annotations
 
 import os
+import unicodedata
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -112,8 +113,20 @@ _LIMITS = {
 
 
 def _printable(text: str) -> str:
-    if any(ord(c) < 32 or ord(c) == 127 for c in text):
-        raise ValueError("control characters (NUL, newline, tab, ...) are not allowed here")
+    """Text a terminal and the report show as written: no control character (C0, DEL
+    and, since 2026-12-01, C1: U+009B is an ESC [ to many terminals), no invisible or
+    text-direction one (a zero-width space, U+202E, which reversed a name shown)."""
+    if text.isprintable():
+        return text
+    for c in text:
+        category = unicodedata.category(c)
+        if category == "Cc":
+            raise ValueError("control characters (NUL, newline, tab, ...) are not allowed here")
+        if category == "Cf":
+            raise ValueError(
+                f"U+{ord(c):04X} {unicodedata.name(c, '')} (an invisible character) is not"
+                " allowed here"
+            )
     return text
 
 
