@@ -132,6 +132,20 @@ class CampaignResult:
             and self.damage == 0
         )
 
+    def __repr__(self) -> str:
+        """A short summary (what ``print(result)`` shows): the name, the cases by
+        outcome, the groups, violations, damage and where it was written; the rows
+        are in :attr:`rows` (the dataclass's own repr printed every row with its
+        coverage, some 2,000 characters a case: megabytes for a large campaign)."""
+        counts = ", ".join(f"{n} {outcome}" for outcome, n in self.counts.items() if n)
+        output = None if self.output is None else str(self.output)
+        return (
+            f"{type(self).__name__}(name={self.name!r}, cases={len(self.rows)}"
+            f" ({counts or 'none'}), groups={len(self.groups)}, violations={self.violations},"
+            f" damage={self.damage}, succeeded={self.succeeded}, output={output!r},"
+            f" executor={self.executor!r}, wall_s={self.wall_s:.2f})"
+        )
+
     def summary(self) -> str:
         """One line: ``N runs: S success, F failed safe, E error, T timeout``."""
         c = self.counts

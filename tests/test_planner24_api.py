@@ -1,0 +1,54 @@
+"""Planner scripts written from the docs alone (the twenty-fourth session's probe).
+
+What a planner met: ``print(campaign_result)`` printed every row with its coverage
+(megabytes for a large campaign); the map a navigator is handed, ``obs.map``, had a
+type no name of ``pirate_bt`` gave (a typed ``check_map`` needed ``pirate_bt.pipes``);
+and ``obs.map.path(obs.choices)``, the way taken so far, failed ``mypy --strict``
+(``Mapping[str, str]`` is not ``Mapping[str, Literal['straight', 'branch']]``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pirate_bt
+from pirate_bt.campaign.case import OUTCOMES
+from pirate_bt.campaign.stats import Counts
+
+
+def _row(index: int) -> dict[str, object]:
+    """A campaign row as big as a real one: its coverage lists every node."""
+    names = [f"node {n}" for n in range(60)]
+    return {
+        "id": f"{index:06d}-00000000",
+        "index": index,
+        "run": "s",
+        "outcome": "success" if index % 3 else "failed-safe",
+        "reason": "tree succeeded after 132 ticks",
+        "coverage": {"names": names, "counts": [[n, 132, 2, 1, 0, 0, 0] for n in range(60)]},
+    }
+
+
+def test_printing_a_campaign_result_is_one_short_line_not_every_row() -> None:
+    rows = tuple(_row(i) for i in range(300))
+    counts = dict.fromkeys(OUTCOMES, 0)
+    for row in rows:
+        counts[str(row["outcome"])] += 1
+    result = pirate_bt.CampaignResult(
+        name="mine",
+        rows=rows,
+        groups=(),
+        counts=Counts(counts),
+        violations=0,
+        damage=0,
+        output=Path("campaign-mine"),
+        report_path=Path("campaign-mine/report.md"),
+        files=(),
+        executor="2 local workers",
+        wall_s=12.5,
+    )
+    shown = repr(result)
+    assert "\n" not in shown and len(shown) < 400, shown[:500]  # was some 700,000 characters
+    assert shown.startswith("CampaignResult(name='mine', cases=300 (200 success, 100 failed-safe)")
+    assert "succeeded=False" in shown and "output='campaign-mine'" in shown
+    assert str(result) == shown
