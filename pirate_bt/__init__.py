@@ -40,6 +40,7 @@ _EXPORTS: dict[str, str] = {
     "simulate_mission": "pirate_bt.api.missions",
     "run_mission": "pirate_bt.api.missions",
     "load_network": "pirate_bt.api.missions",
+    "Network": "pirate_bt.pipes.network",
     "write_mission_outputs": "pirate_bt.api.mission_outputs",
     "run_campaign": "pirate_bt.campaign",
     # planner code in the loop
@@ -120,6 +121,7 @@ __all__ = [
     "MissionResult",
     "NavigationResult",
     "Navigator",
+    "Network",
     "Observation",
     "OffWall",
     "PabOutcome",
@@ -211,6 +213,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from pirate_bt.interop.groot2_server import Groot2Server, attach_groot2
     from pirate_bt.interop.mcap_trace import export_mcap
     from pirate_bt.interop.rosbag2 import export_rosbag2
+    from pirate_bt.pipes.network import Network
     from pirate_bt.render.tree import render_tree
     from pirate_bt.robot.loader import load_robot
     from pirate_bt.runner import StopReason

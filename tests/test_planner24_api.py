@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 import pirate_bt
 from pirate_bt.campaign.case import OUTCOMES
 from pirate_bt.campaign.stats import Counts
@@ -52,3 +54,33 @@ def test_printing_a_campaign_result_is_one_short_line_not_every_row() -> None:
     assert shown.startswith("CampaignResult(name='mine', cases=300 (200 success, 100 failed-safe)")
     assert "succeeded=False" in shown and "output='campaign-mine'" in shown
     assert str(result) == shown
+
+
+def test_the_map_a_navigator_is_given_is_a_pirate_bt_network() -> None:
+    network = pirate_bt.load_network("t-joint")
+    assert isinstance(network, pirate_bt.Network)
+    assert "Network" in pirate_bt.__all__ and "Network" in dir(pirate_bt)
+
+    # a check_map typed with it refuses a map as the docs say
+    class NeedsBranch:
+        def check_map(self, map: pirate_bt.Network | None) -> None:
+            if map is None or all("branch" not in p.segments for p in map.paths()):
+                raise ValueError("the map has no segment 'branch'")
+
+        def next_step(self, obs: pirate_bt.Observation) -> pirate_bt.Step | None:
+            return None
+
+    with pytest.raises(pirate_bt.InputError, match="NeedsBranch': the map has no segment"):
+        pirate_bt.navigate(NeedsBranch(), map="straight")
+
+
+def test_the_way_taken_so_far_is_a_path_of_the_map_for_a_type_checker_too() -> None:
+    # Observation.choices is a Mapping[str, str]; Network.path must take it as it is
+    # (as written: the package's annotations are strings, some of TYPE_CHECKING names)
+    assert pirate_bt.Observation.__annotations__["choices"] == "Mapping[str, str]"
+    assert pirate_bt.Network.path.__annotations__["choices"] == "Mapping[str, str] | None"
+    network = pirate_bt.load_network("t-joint")
+    assert "branch" in network.path({"tee": "branch"}).segments
+    # the value is still checked where the annotation no longer says it
+    with pytest.raises(pirate_bt.InputError, match="'left' is no way through a tee"):
+        network.path({"tee": "left"})

@@ -322,8 +322,12 @@ class Network:
         except (KeyError, TypeError):
             raise unknown_segment("segment", segment_id, list(self._segments)) from None
 
-    def path(self, choices: Mapping[str, TeeChoice] | None = None) -> Path:
+    def path(self, choices: Mapping[str, str] | None = None) -> Path:
         """The path taking ``choices`` at tees (``straight`` where not given).
+
+        ``choices`` maps a tee's id to ``"straight"`` or ``"branch"``, checked here:
+        a navigator's ``obs.choices`` (and a ``dict[str, str]`` of its own) is taken
+        as it is, also by a type checker.
 
         Raises:
             UnknownSegmentError: a choice names an unknown tee (an ``InputError`` and

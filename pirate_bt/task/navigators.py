@@ -84,7 +84,7 @@ shortened to fit (10 % of the leg and 0.3 m: where the last turn really ended)."
 
 
 def _way(network: Network, choices: Mapping[str, str]) -> Any:
-    return network.path(dict(choices))  # type: ignore[arg-type]
+    return network.path(dict(choices))
 
 
 _NO_RETURN = (

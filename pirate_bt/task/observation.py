@@ -189,7 +189,7 @@ class Observation:
         from pirate_bt.task.walker import branch_side
 
         here = self.belief.position_m
-        for piece in self.map.path(dict(self.choices)).pieces:  # type: ignore[arg-type]
+        for piece in self.map.path(dict(self.choices)).pieces:
             if piece.kind not in (PieceKind.BEND, PieceKind.TEE) or piece.start_m <= here + 1e-3:
                 continue
             side = direction_name(piece.roll_rad)
@@ -206,7 +206,7 @@ class Observation:
         without a map), along the way taken so far."""
         if self.map is None:
             return None
-        path = self.map.path(dict(self.choices))  # type: ignore[arg-type]
+        path = self.map.path(dict(self.choices))
         return float(path.length_m - self.belief.position_m)
 
     def to_json(self) -> dict[str, Any]:
