@@ -128,6 +128,9 @@ BLOCKS: dict[tuple[str, str], Run | Skip] = {
         expect=("03 bend right (bend) (line 5) bend success",)
     ),
     ("api.md", "logging.basicConfig"): Skip("it configures the test process's logging"),
+    ("api.md", "runner.add_post_tick(lambda info"): Run(
+        expect=("runner: success tree succeeded after 107 ticks\n", "success 111 111\n")
+    ),
     ("api.md", "mission.failed_pab.label"): Run(
         prefix="import pirate_bt",
         expect=(f"failure {STALL_WHY}", "03 bend right (bend) (line 5)\n", "True 1\n"),
