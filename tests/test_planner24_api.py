@@ -84,3 +84,13 @@ def test_the_way_taken_so_far_is_a_path_of_the_map_for_a_type_checker_too() -> N
     # the value is still checked where the annotation no longer says it
     with pytest.raises(pirate_bt.InputError, match="'left' is no way through a tee"):
         network.path({"tee": "left"})
+
+
+def test_printing_a_trace_read_back_says_what_run_it_holds(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    pirate_bt.simulate_tree("straight", params={"distance": "0.2 m"}, trace=path)
+    shown = repr(pirate_bt.read_trace(path))  # was <pirate_bt.trace.reader.Trace object at 0x...>
+    assert shown == (
+        f"Trace({str(path)!r}, tree='straight', outcome='success',"
+        " why='tree succeeded after 107 ticks', last_tick=111, duration_s=5.50, records=111)"
+    )

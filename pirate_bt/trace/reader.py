@@ -154,6 +154,17 @@ class Trace(TraceQueries):
         # frame_at's last replay: of which ticks, and how many of them
         self._replayed: tuple[list[TickRecord], _Replay, int, TickRecord | None] | None = None
 
+    def __repr__(self) -> str:
+        """A short summary (what ``print(trace)`` shows): the file, the tree, the
+        outcome and why, the ticks and seconds it covers (it showed the object's
+        address); the records are in :attr:`ticks`."""
+        cut = ", truncated" if self.truncated else ""
+        return (
+            f"{type(self).__name__}({str(self.path)!r}, tree={self.structure.name!r},"
+            f" outcome={self.outcome!r}, why={self.why!r}, last_tick={self.last_tick},"
+            f" duration_s={self.duration_s:.2f}, records={len(self.ticks)}{cut})"
+        )
+
     @property
     def last_tick(self) -> int:
         """The number of the last tick the run reached."""
