@@ -94,3 +94,9 @@ def test_printing_a_trace_read_back_says_what_run_it_holds(tmp_path: Path) -> No
         f"Trace({str(path)!r}, tree='straight', outcome='success',"
         " why='tree succeeded after 107 ticks', last_tick=111, duration_s=5.50, records=111)"
     )
+
+
+def test_a_network_counts_its_segments_and_tees_in_good_english() -> None:
+    # a survey's result showed Network('surveyed', 4 segments, 1 tees)
+    assert repr(pirate_bt.load_network("t-joint")) == "Network('t-joint', 4 segments, 1 tee)"
+    assert repr(pirate_bt.load_network("straight")) == "Network('straight', 1 segment, 0 tees)"

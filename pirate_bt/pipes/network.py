@@ -372,4 +372,8 @@ class Network:
         return sum(seen.values())
 
     def __repr__(self) -> str:
-        return f"Network({self.name!r}, {len(self._segments)} segments, {len(self._tees)} tees)"
+        segments, tees = len(self._segments), len(self._tees)
+        return (
+            f"Network({self.name!r}, {segments} segment{'' if segments == 1 else 's'},"
+            f" {tees} tee{'' if tees == 1 else 's'})"
+        )
