@@ -12,7 +12,8 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from pirate_bt.errors import REASON_LIMIT, cut_reason, portable_error
+from pirate_bt.error_chain import portable_chained
+from pirate_bt.errors import REASON_LIMIT, cut_reason
 
 __all__ = [
     "REASON_LIMIT",
@@ -117,7 +118,7 @@ class RunResult:
         # planner's node raised: one that cannot be read back goes as an
         # UnpicklableError of its type's name and message (as the API's RunResult)
         state = dict(self.__dict__)
-        state["error"] = portable_error(self.error)
+        state["error"] = portable_chained(self.error)
         return state
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from pirate_bt.error_chain import portable_chained
 from pirate_bt.errors import LinkError, UnpicklableError, portable_error
 from pirate_bt.runner import RunResult as LoopResult
 from pirate_bt.runner import StopReason
@@ -111,7 +112,7 @@ class RunResult:
         # an exception that cannot be pickled and read back (a class whose __init__
         # takes two arguments) broke the pool, the result that says why lost with it
         state = dict(self.__dict__)
-        error = portable_error(self.error)
+        error = portable_chained(self.error)
         if error is not self.error:
             state["error"] = error
             if self.loop is not None and self.loop.error is self.error:

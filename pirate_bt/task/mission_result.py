@@ -13,7 +13,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError, portable_error
+from pirate_bt.error_chain import portable_chained
+from pirate_bt.errors import LinkError
 from pirate_bt.runner import RunResult
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.localise import Disagreement, Fix
@@ -168,7 +169,7 @@ class MissionResult:
         state["tree"] = None
         # whatever a planner's node raised: one that cannot be pickled and read back (a
         # class whose __init__ takes two arguments) broke the pool, the result with it
-        error = portable_error(self.run.error)
+        error = portable_chained(self.run.error)
         if error is not self.run.error:
             state["run"] = replace(self.run, error=error)
         return state

@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.errors import LinkError, portable_error, said_of
+from pirate_bt.error_chain import portable_chained
+from pirate_bt.errors import LinkError, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
 from pirate_bt.task.mission_result import belief_and_truth, pabs_counted
@@ -118,7 +119,7 @@ class NavigationResult:
         (a navigator's own exception class whose ``__init__`` takes two arguments broke
         a process pool, and the result that says why with it)."""
         state = dict(self.__dict__)
-        state["error"] = portable_error(self.error)
+        state["error"] = portable_chained(self.error)
         return state
 
     @property
