@@ -11,11 +11,12 @@ pickles, for its error, and reads back as that error with its causes attached ag
 
 from __future__ import annotations
 
+from dataclasses import fields
 from typing import Any
 
 from pirate_bt.errors import portable_error
 
-__all__ = ["MAX_CAUSES", "portable_chained"]
+__all__ = ["MAX_CAUSES", "error_key", "hash_values", "portable_chained", "same_values"]
 
 MAX_CAUSES = 16
 """How many causes back a chain is kept (a cycle, or a runaway chain, stops there)."""
@@ -68,3 +69,40 @@ def _portable(error: object, seen: set[int]) -> object:
     else:
         kept_context = None if context is None or id(context) in seen else _portable(context, seen)
     return _Chained(portable, kept_cause, kept_context, error.__suppress_context__)
+
+
+def error_key(error: object, depth: int = MAX_CAUSES) -> object:
+    """What two errors are compared by in results that compare by value: the type, the
+    message and the causes; an exception compares by identity, so a result read back
+    in another process (a copy of its error) was not equal to its original."""
+    if not isinstance(error, BaseException) or depth <= 0:
+        return error
+    kind = type(error)
+    return (
+        f"{kind.__module__}.{kind.__qualname__}",
+        str(error),
+        error_key(error.__cause__, depth - 1),
+        None if error.__context__ is error.__cause__ else error_key(error.__context__, depth - 1),
+    )
+
+
+def same_values(one: Any, other: Any) -> bool:
+    """Whether two dataclass results of one type hold equal values, field by compared
+    field, their exceptions by :func:`error_key` (the dataclass's own ``__eq__`` compared
+    an exception by identity)."""
+    return all(
+        error_key(getattr(one, f.name)) == error_key(getattr(other, f.name))
+        for f in fields(one)
+        if f.compare
+    )
+
+
+def hash_values(one: Any) -> int:
+    """The hash that goes with :func:`same_values` (exceptions by :func:`error_key`)."""
+    return hash(
+        tuple(
+            error_key(getattr(one, f.name))
+            for f in fields(one)
+            if f.hash is not False and f.compare
+        )
+    )

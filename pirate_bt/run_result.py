@@ -12,7 +12,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from pirate_bt.error_chain import portable_chained
+from pirate_bt.error_chain import hash_values, portable_chained, same_values
 from pirate_bt.errors import REASON_LIMIT, cut_reason
 
 __all__ = [
@@ -112,6 +112,17 @@ class RunResult:
     @property
     def succeeded(self) -> bool:
         return self.outcome == "success"
+
+    def __eq__(self, other: object) -> bool:
+        """Equal values, an ``error`` by its type, message and causes
+        (:func:`~pirate_bt.error_chain.same_values`): one read back from another process
+        equals its original."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return same_values(self, other)
+
+    def __hash__(self) -> int:
+        return hash_values(self)
 
     def __getstate__(self) -> dict[str, Any]:
         # to another process (a pool's worker, with a RunInterrupted) whatever a

@@ -59,3 +59,21 @@ def test_a_tree_runs_error_read_back_keeps_what_it_was_raised_while_handling() -
     assert isinstance(back.error.__context__, ValueError)
     assert "invalid literal for int()" in str(back.error.__context__)
     assert back.loop is not None and back.loop.error is back.error  # one exception, as sent
+
+
+def test_a_result_with_an_error_read_back_equals_its_original() -> None:
+    # api.md: "one read back equals its original"; an exception compares by identity,
+    # so a result whose run ended on one was never equal to itself read back
+    navigation = pirate_bt.navigate(_Chained(), sim="straight")
+    assert _read_back(navigation) == navigation
+    assert copy.deepcopy(navigation) == navigation
+    with pirate_bt.connect("sim:straight") as robot:
+        run = robot.run(_Boom("boom"))
+    back = _read_back(run)
+    assert isinstance(back, pirate_bt.RunResult) and back.loop is not None
+    assert back == run and back.loop == run.loop
+    assert hash(back.loop) == hash(run.loop)  # the runner's result is hashable: alike
+    # an error of another message is another value
+    other = copy.deepcopy(navigation)
+    other.error = RuntimeError("another way")
+    assert other != navigation

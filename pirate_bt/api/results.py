@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.error_chain import portable_chained
+from pirate_bt.error_chain import portable_chained, same_values
 from pirate_bt.errors import LinkError, UnpicklableError, portable_error
 from pirate_bt.runner import RunResult as LoopResult
 from pirate_bt.runner import StopReason
@@ -106,6 +106,14 @@ class RunResult:
     def succeeded(self) -> bool:
         """True when the tree succeeded (``status == "success"``)."""
         return self.status == "success"
+
+    def __eq__(self, other: object) -> bool:
+        """Equal values, an ``error`` by its type, message and causes
+        (:func:`~pirate_bt.error_chain.same_values`): one read back from another process
+        equals its original."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return same_values(self, other)
 
     def __getstate__(self) -> dict[str, Any]:
         # to another process (a pool's worker, Dask) whatever a planner's node raised:

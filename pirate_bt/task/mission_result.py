@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.error_chain import portable_chained
+from pirate_bt.error_chain import portable_chained, same_values
 from pirate_bt.errors import LinkError
 from pirate_bt.runner import RunResult
 from pirate_bt.safety.tally import Counters
@@ -161,6 +161,14 @@ class MissionResult:
             f" sim_time_s={self.sim_time_s:.2f}, {belief_and_truth(self.belief_m, self.truth_m)},"
             f" safe_state={self.safe_state}{returned})"
         )
+
+    def __eq__(self, other: object) -> bool:
+        """Equal values, an ``error`` by its type, message and causes
+        (:func:`~pirate_bt.error_chain.same_values`): one read back from another process
+        equals its original."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return same_values(self, other)
 
     def __getstate__(self) -> object:
         """Pickled without the py_trees tree (its generators do not pickle): a result

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pirate_bt.error_chain import portable_chained
+from pirate_bt.error_chain import portable_chained, same_values
 from pirate_bt.errors import LinkError, said_of
 from pirate_bt.safety.tally import Counters
 from pirate_bt.task.mission import MissionResult
@@ -113,6 +113,14 @@ class NavigationResult:
             f" {pabs_counted(self.pabs)}, ticks={self.ticks}, sim_time_s={self.sim_time_s:.2f},"
             f" {belief_and_truth(self.belief_m, self.truth_m)}, safe_state={self.safe_state})"
         )
+
+    def __eq__(self, other: object) -> bool:
+        """Equal values, an ``error`` by its type, message and causes
+        (:func:`~pirate_bt.error_chain.same_values`): one read back from another process
+        equals its original."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return same_values(self, other)
 
     def __getstate__(self) -> object:
         """Pickled with a stand-in for an ``error`` that cannot be pickled and read back
