@@ -9,19 +9,20 @@ header with one line naming the file and line 1, exit code 2, no output file.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import importlib.util
 import json
-import subprocess
-import sys
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 import pirate_bt
+from pirate_bt.cli import main
 from pirate_bt.errors import LocatedError
 from pirate_bt.trace.header_check import tree_problem
 from pirate_bt.trace.reader import TraceFormatReader, read_trace
@@ -117,17 +118,29 @@ def _hostile(good: Path, folder: Path, name: str) -> Path:
     return _write(folder / f"{name}.jsonl", [header, *records[1:]])
 
 
-def _cli(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "pirate_bt", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=cwd,
-    )
+@dataclass
+class Ran:
+    """One command's exit code and what it wrote to stderr."""
+
+    returncode: int
+    stderr: str
 
 
-def _refused(result: subprocess.CompletedProcess[str], where: str, problem: str) -> None:
+@pytest.fixture
+def cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., Ran]:
+    """The command line in process (``pirate_bt.cli.main``): the same exit code and
+    stderr as ``python -m pirate_bt``, without an interpreter's start-up per call."""
+
+    def run(*args: str | Path, cwd: Path) -> Ran:
+        capsys.readouterr()
+        with contextlib.chdir(cwd):
+            code = main([str(a) for a in args])
+        return Ran(code, capsys.readouterr().err)
+
+    return run
+
+
+def _refused(result: Ran, where: str, problem: str) -> None:
     lines = result.stderr.splitlines()
     assert result.returncode == 2, result.stderr
     assert len(lines) == 1, result.stderr
@@ -156,17 +169,21 @@ def test_read_trace_names_file_line_1_and_the_problem(
 
 
 @pytest.mark.parametrize("name", sorted(HOSTILE))
-def test_validate_and_export_refuse_with_one_line(good: Path, tmp_path: Path, name: str) -> None:
+def test_validate_and_export_refuse_with_one_line(
+    good: Path, tmp_path: Path, name: str, cli: Callable[..., Ran]
+) -> None:
     path = _hostile(good, tmp_path, name)
     problem = HOSTILE[name][1]
-    _refused(_cli("validate", path, cwd=tmp_path), f"{path}:1:", problem)
+    _refused(cli("validate", path, cwd=tmp_path), f"{path}:1:", problem)
     out = tmp_path / "x.btlog"
-    _refused(_cli("trace", "export", path, "-o", out, cwd=tmp_path), f"{path}:1:", problem)
+    _refused(cli("trace", "export", path, "-o", out, cwd=tmp_path), f"{path}:1:", problem)
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]  # nothing written
 
 
 @pytest.mark.parametrize("name", ["own_child", "unknown_parent"])
-def test_the_reported_crashes_and_hangs_are_refusals(good: Path, tmp_path: Path, name: str) -> None:
+def test_the_reported_crashes_and_hangs_are_refusals(
+    good: Path, tmp_path: Path, name: str, cli: Callable[..., Ran]
+) -> None:
     path = _hostile(good, tmp_path, name)
     problem = HOSTILE[name][1]
     runs: list[tuple[str, ...]] = [("trace", "summary", str(path))]
@@ -176,19 +193,19 @@ def test_the_reported_crashes_and_hangs_are_refusals(good: Path, tmp_path: Path,
     if importlib.util.find_spec("rosbags") is not None:
         runs.append(("trace", "export", str(path), "-o", str(tmp_path / "x_bag/")))
     for args in runs:
-        _refused(_cli(*args, cwd=tmp_path), f"{path}:1:", problem)
+        _refused(cli(*args, cwd=tmp_path), f"{path}:1:", problem)
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
 
 
 def test_mcap_export_refuses_a_tick_without_n_as_btlog_export_does(
-    good: Path, tmp_path: Path
+    good: Path, tmp_path: Path, cli: Callable[..., Ran]
 ) -> None:
     pytest.importorskip("mcap")
     records = _lines(good)
     del records[1]["n"]
     path = _write(tmp_path / "non.jsonl", records)
     for out in ("x.btlog", "x.mcap"):
-        result = _cli("trace", "export", path, "-o", tmp_path / out, cwd=tmp_path)
+        result = cli("trace", "export", path, "-o", tmp_path / out, cwd=tmp_path)
         _refused(result, f"{path}:2:", "bad tick record: no n: a tick record holds its number n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["non.jsonl"]
 
