@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +11,7 @@ import pytest
 
 import pirate_bt
 from pirate_bt import Step
+from pirate_bt.cli import main
 from pirate_bt.pipes import PieceKind
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -20,10 +22,28 @@ def _pieces(network: pirate_bt.Network) -> list[tuple[str, float, float]]:
     return [(p.kind.value, p.length_m, p.roll_rad) for p in network.path({}).pieces]
 
 
+Survey = Callable[[str], tuple[pirate_bt.NavigationResult, Path]]
+
+
+@pytest.fixture(scope="module")
+def explored(tmp_path_factory: pytest.TempPathFactory) -> Survey:
+    """``navigate("explore")`` on a bundled network and the file it wrote, run once per
+    network for every test here that reads it (nothing changes either)."""
+    done: dict[str, tuple[pirate_bt.NavigationResult, Path]] = {}
+
+    def survey(name: str) -> tuple[pirate_bt.NavigationResult, Path]:
+        if name not in done:
+            out = tmp_path_factory.mktemp(f"explored-{name}") / "surveyed.yaml"
+            result = pirate_bt.navigate("explore", sim=name, params={"output": str(out)})
+            done[name] = (result, out)
+        return done[name]
+
+    return survey
+
+
 @pytest.mark.parametrize("name", ["bend-right", "riser"])
-def test_a_survey_finds_the_pipe_as_it_is(name: str, tmp_path: Path) -> None:
-    out = tmp_path / "surveyed.yaml"
-    result = pirate_bt.navigate("explore", sim=name, params={"output": str(out)})
+def test_a_survey_finds_the_pipe_as_it_is(name: str, explored: Survey) -> None:
+    result, out = explored(name)
     assert result.succeeded, result.why
     assert result.counters.violations == 0 and result.sim.get("damage", 0) == 0
     surveyed = pirate_bt.load_network(out)
@@ -37,9 +57,12 @@ def test_a_survey_finds_the_pipe_as_it_is(name: str, tmp_path: Path) -> None:
     assert surveyed.spec.diameter == pytest.approx(truth.spec.diameter, abs=0.001)
 
 
-def test_a_route_planned_on_the_surveyed_network_runs_on_the_real_one(tmp_path: Path) -> None:
-    out = tmp_path / "surveyed.yaml"
-    assert pirate_bt.navigate("explore", sim="bend-right", params={"output": str(out)}).succeeded
+def test_a_route_planned_on_the_surveyed_network_runs_on_the_real_one(
+    tmp_path: Path, explored: Survey
+) -> None:
+    result, surveyed = explored("bend-right")
+    assert result.succeeded, result.why
+    (tmp_path / "surveyed.yaml").write_bytes(surveyed.read_bytes())
     route = tmp_path / "bend.route"
     text = (ROOT / "scenarios" / "bend-right.route").read_text()
     route.write_text(text.replace("network bend-right", "network surveyed.yaml"))
@@ -232,18 +255,17 @@ def test_survey_writes_the_network_and_plans_on_it(tmp_path: Path) -> None:
     assert pirate_bt.load_network(out).name == "found"
 
 
-def test_the_survey_command_writes_the_file_or_says_why_not(tmp_path: Path) -> None:
-    import subprocess
-    import sys
-
+def test_the_survey_command_writes_the_file_or_says_why_not(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "s.yaml"
-    cmd = [sys.executable, "-m", "pirate_bt", "survey", "--sim", "straight", "--quiet"]
-    done = subprocess.run([*cmd, "-o", str(out)], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    assert "survey: SUCCESS" in done.stdout and "1 straight," in done.stdout
+    cmd = ["survey", "--sim", "straight", "--quiet"]
+    assert main([*cmd, "-o", str(out)]) == 0
+    done = capsys.readouterr()
+    assert "survey: SUCCESS" in done.out and "1 straight," in done.out, done.err
     assert pirate_bt.load_network(out).path({}).pieces[0].length_m > 1.0
-    bad = subprocess.run([*cmd, "-o", str(out), "--search", "-1 m"], capture_output=True, text=True)
-    assert bad.returncode == 2 and "search must be positive" in bad.stderr
+    assert main([*cmd, "-o", str(out), "--search", "-1 m"]) == 2
+    assert "search must be positive" in capsys.readouterr().err
 
 
 def test_a_survey_stopped_by_a_failed_step_keeps_what_it_surveyed(tmp_path: Path) -> None:
