@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 import pirate_bt
 from pirate_bt import Step
 from pirate_bt.errors import LinkError
@@ -40,12 +42,21 @@ def test_a_survey_that_loses_the_link_exits_3(tmp_path: Path) -> None:
 # -- F8: a survey that stops names what it did not survey, in the result and the file
 
 
+@pytest.fixture(scope="module")
+def stopped(tmp_path_factory: pytest.TempPathFactory) -> tuple[pirate_bt.SurveyResult, Path]:
+    """A survey of t-joint whose drive stalls in the main line after the tee (the tee's
+    branch never entered), and the file it wrote: run once for the two tests that read
+    it (the second extends a copy of the file)."""
+    out = tmp_path_factory.mktemp("stopped") / "s.yaml"
+    result = pirate_bt.survey(sim="t-joint", output=out, faults="motor_stall:bend_3_drive@60s+60s")
+    return result, out
+
+
 def test_a_stopped_survey_names_the_line_cut_short_and_the_branch_not_entered(
-    tmp_path: Path,
+    stopped: tuple[pirate_bt.SurveyResult, Path],
 ) -> None:
     # a drive stalls in the main line after the tee: the tee's branch was never entered
-    out = tmp_path / "s.yaml"
-    result = pirate_bt.survey(sim="t-joint", output=out, faults="motor_stall:bend_3_drive@60s+60s")
+    result, out = stopped
     assert not result.succeeded and result.exit_code == 1 and "stall" in result.why
     assert result.unexplored == [
         "the main line after tee-1: not surveyed to its end, the survey stopped in it",
@@ -64,9 +75,12 @@ def test_a_stopped_survey_names_the_line_cut_short_and_the_branch_not_entered(
 # -- F3: extending a stopped survey keeps what is still unsurveyed, and the stop
 
 
-def test_extending_a_stopped_survey_keeps_the_line_cut_short(tmp_path: Path) -> None:
+def test_extending_a_stopped_survey_keeps_the_line_cut_short(
+    tmp_path: Path, stopped: tuple[pirate_bt.SurveyResult, Path]
+) -> None:
+    first, surveyed = stopped
     out = tmp_path / "s.yaml"
-    first = pirate_bt.survey(sim="t-joint", output=out, faults="motor_stall:bend_3_drive@60s+60s")
+    out.write_bytes(surveyed.read_bytes())
     assert first.exit_code == 1 and len(first.unexplored) == 2
     second = pirate_bt.survey(sim="t-joint", output=out, extend=out)
     # tee-1's branch is surveyed now; the main line after tee-1 is not
