@@ -79,8 +79,14 @@ def test_a_small_ring_wraps_and_fills_and_the_records_are_the_same(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """4 kB of ring for 3000 ticks: frames wrap around its end, and the recorder waits for
-    the writer process to read (it gives space back only after a rest) many times over."""
+    the writer process to read (it gives space back only after a rest) many times over.
+
+    (CI on 2026-12-01 saw this fail with the ticks' pacing left to the machine: under
+    load some ticks went through the pipe and the ring went round 26 times, not 50.)"""
     monkeypatch.setattr(sink_ring, "CAPACITY", 4096)
+    # Every tick into the ring, however loaded the machine: a tick more than PAUSE_S
+    # after the one before goes through the pipe instead (and moves the ring on less).
+    monkeypatch.setattr(sink, "PAUSE_S", 10.0)
     waits: list[int] = []
     make_room = SinkProcess._make_room
 
